@@ -1,0 +1,7 @@
+"""``python -m rtsim``."""
+
+import sys
+
+from rtsim.cli import main
+
+sys.exit(main())

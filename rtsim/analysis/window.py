@@ -1,0 +1,87 @@
+"""The paper's lower bound on the processing window (Eqs 1, 2, 5–7, 10–11).
+
+Pure functions on numbers, times in ms, lengths in cm. See SPEC §2–§3.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+__all__ = [
+    "LASER_POINTS",
+    "e_hough",
+    "g_window",
+    "hp_utilization",
+    "w_eq7",
+    "w_eq11",
+    "w_sch",
+]
+
+#: Scan points of the laser rangefinder: 361 beams over 180°, 0.5° apart.
+LASER_POINTS = 361
+
+
+def e_hough(
+    n: int, r_H: float, e_cal: float, e_trans: float, k: float, points: float | None = None
+) -> float:
+    """Localization time, Eq 1: π·r_H²·n·e_cal + min(361, k·n)·e_trans.
+
+    ``points`` replaces the worst case min(361, k·n) with the scan points actually
+    counted (the simulation's view, SPEC §2).
+    """
+    pts = min(LASER_POINTS, k * n) if points is None else points
+    return math.pi * r_H**2 * n * e_cal + pts * e_trans
+
+
+def g_window(
+    n: int,
+    e_hough_ms: float,
+    e_scan: float,
+    e_estimate: float,
+    e_send: float,
+    e_recv: float,
+    delta_t: float,
+    e_sched: float,
+) -> float:
+    """Processing time of one window, Eq 5/6: e_scan + e_hough + n(e_recv+e_send+e_est) + Δt + e_sched."""
+    return e_scan + e_hough_ms + n * (e_recv + e_send + e_estimate) + delta_t + e_sched
+
+
+def hp_utilization(hp: Iterable[tuple[float, float]]) -> float:
+    """Σ_{T_hp} e_j/p_j over (e, p) pairs."""
+    return sum(e / p for e, p in hp)
+
+
+def w_eq7(g: float, hp: Iterable[tuple[float, float]]) -> float:
+    """Window-chain schedulability, Eq 7: w ≥ (g + Σ_hp e_j) / (1 − Σ_hp e_j/p_j).
+
+    Returns ``inf`` when T_hp alone saturates the CPU.
+    """
+    hp = list(hp)
+    u = hp_utilization(hp)
+    if u >= 1.0:
+        return math.inf
+    return (g + sum(e for e, _ in hp)) / (1.0 - u)
+
+
+def w_eq11(g: float, hp: Iterable[tuple[float, float]], lp_wcets: Iterable[float]) -> float:
+    """Command-task schedulability with p_cmd = 2w, Eq 11 (Eq 10 corrected: the last sum is over T_hp).
+
+    w ≥ (½ Σ_{T_lp ∪ T_hp} e_j + g) / (1 − Σ_hp e_j/p_j). With no T_lp task the bound is
+    vacuous and ``-inf`` is returned.
+    """
+    hp = list(hp)
+    lp = list(lp_wcets)
+    if not lp:
+        return -math.inf
+    u = hp_utilization(hp)
+    if u >= 1.0:
+        return math.inf
+    return (0.5 * (sum(lp) + sum(e for e, _ in hp)) + g) / (1.0 - u)
+
+
+def w_sch(g: float, hp: Iterable[tuple[float, float]], lp_wcets: Iterable[float]) -> float:
+    """The analytic lower bound w_sch = max(Eq 7, Eq 11) (SPEC §3)."""
+    hp = list(hp)
+    return max(w_eq7(g, hp), w_eq11(g, hp, lp_wcets))

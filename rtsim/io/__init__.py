@@ -1,0 +1,1 @@
+"""Files in and out: task sets, scenarios, atomic results, manifests."""

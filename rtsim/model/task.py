@@ -1,0 +1,140 @@
+"""Periodic tasks and the segments of a processing-window chain (specs, no engine).
+
+Times are in milliseconds. Priorities are integers; a smaller number is a higher priority.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Literal
+
+from rtsim.errors import TaskSetError
+
+__all__ = ["Task", "Segment", "SegmentKind", "OverloadPolicy", "OVERLOAD_POLICIES"]
+
+SegmentKind = Literal["compute", "suspend"]
+OverloadPolicy = Literal["finish-late", "abort", "skip"]
+OVERLOAD_POLICIES: tuple[str, ...] = ("finish-late", "abort", "skip")
+
+
+def check_time(where: str, field: str, value: object, *, allow_zero: bool = False) -> float:
+    """Return ``value`` as a float if it is a finite positive (or non-negative) number.
+
+    Raises :class:`TaskSetError` naming ``where`` and ``field`` otherwise.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise TaskSetError(f"{where}: {field} must be a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise TaskSetError(f"{where}: {field} must be finite, got {value!r}")
+    if v < 0 or (v == 0 and not allow_zero):
+        bound = "non-negative" if allow_zero else "positive"
+        raise TaskSetError(f"{where}: {field} must be {bound}, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One step of a job's chain.
+
+    A ``compute`` segment needs the CPU and can be preempted; a ``suspend`` segment (the
+    radio round trip Δt) leaves the CPU free, unless the simulator is told to count
+    suspensions as CPU time (the paper's suspension-oblivious view).
+
+    ``role`` names what the step does (``scan``, ``hough``, ``estimate``, ``send``,
+    ``radio``, ``recv``, ``sched`` for the paper's chain; anything for user chains) and
+    ``follower`` is the 1-based follower a per-follower step serves.
+    """
+
+    name: str
+    wcet: float
+    kind: SegmentKind = "compute"
+    bcet: float | None = None
+    role: str = ""
+    follower: int | None = None
+
+    def __post_init__(self) -> None:
+        where = f"segment '{self.name}'"
+        object.__setattr__(self, "wcet", check_time(where, "wcet", self.wcet, allow_zero=True))
+        if self.kind not in ("compute", "suspend"):
+            raise TaskSetError(f"{where}: kind must be 'compute' or 'suspend', got {self.kind!r}")
+        if self.bcet is not None:
+            bcet = check_time(where, "bcet", self.bcet, allow_zero=True)
+            if bcet > self.wcet:
+                raise TaskSetError(f"{where}: bcet {bcet:g} is above wcet {self.wcet:g}")
+            object.__setattr__(self, "bcet", bcet)
+
+
+@dataclass(frozen=True)
+class Task:
+    """A periodic task: validated, immutable.
+
+    ``period`` and ``deadline`` are in ms, or, when ``per_window`` is true, multiples of
+    the processing window w (the paper's command task has period 2w: ``period=2,
+    per_window=True``). ``deadline`` defaults to the period. ``segments`` is empty for
+    an ordinary task (one compute segment of ``wcet``); for a chain its compute and
+    suspension segments add up to ``wcet``.
+    """
+
+    name: str
+    wcet: float
+    period: float
+    deadline: float | None = None
+    priority: int = 0
+    offset: float = 0.0
+    bcet: float | None = None
+    per_window: bool = False
+    overload: OverloadPolicy = "finish-late"
+    segments: tuple[Segment, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise TaskSetError(f"task {self.name!r}: name must be a non-empty string")
+        where = f"task '{self.name}'"
+        set_ = object.__setattr__
+        set_(self, "wcet", check_time(where, "wcet", self.wcet))
+        set_(self, "period", check_time(where, "period", self.period))
+        deadline = self.period if self.deadline is None else self.deadline
+        set_(self, "deadline", check_time(where, "deadline", deadline))
+        if isinstance(self.priority, bool) or not isinstance(self.priority, int):
+            raise TaskSetError(f"{where}: priority must be an integer, got {self.priority!r}")
+        set_(self, "offset", check_time(where, "offset", self.offset, allow_zero=True))
+        if self.bcet is not None:
+            bcet = check_time(where, "bcet", self.bcet, allow_zero=True)
+            if bcet > self.wcet:
+                raise TaskSetError(f"{where}: bcet {bcet:g} is above wcet {self.wcet:g}")
+            set_(self, "bcet", bcet)
+        if self.overload not in OVERLOAD_POLICIES:
+            raise TaskSetError(
+                f"{where}: overload must be one of {', '.join(OVERLOAD_POLICIES)}, "
+                f"got {self.overload!r}"
+            )
+        if self.segments:
+            total = sum(s.wcet for s in self.segments)
+            if not math.isclose(total, self.wcet, rel_tol=1e-12, abs_tol=1e-12):
+                raise TaskSetError(
+                    f"{where}: segments add up to {total:g} ms but wcet is {self.wcet:g}"
+                )
+
+    @property
+    def utilization(self) -> float:
+        """e/p (only meaningful for a task whose period is in ms)."""
+        if self.per_window:
+            raise TaskSetError(f"task '{self.name}': period is relative to w; resolve it first")
+        return self.wcet / self.period
+
+    def at_window(self, w: float) -> Task:
+        """This task with its period and deadline in ms for window ``w`` (itself if fixed)."""
+        if not self.per_window:
+            return self
+        assert self.deadline is not None
+        return replace(
+            self, period=self.period * w, deadline=self.deadline * w, per_window=False
+        )
+
+    def chain(self) -> tuple[Segment, ...]:
+        """The task's segments: its own chain, or one compute segment of ``wcet``."""
+        if self.segments:
+            return self.segments
+        return (Segment(self.name, self.wcet, "compute", self.bcet, role=self.name),)

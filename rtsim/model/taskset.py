@@ -1,0 +1,102 @@
+"""Task sets: ordinary periodic tasks, optionally around one processing-window chain."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from rtsim.errors import TaskSetError
+from rtsim.model.task import Task
+from rtsim.model.window import WindowSpec
+
+__all__ = ["TaskSet"]
+
+
+@dataclass(frozen=True)
+class TaskSet:
+    """A validated, immutable task set, tasks sorted by priority (highest first).
+
+    With a ``window`` (the paper's T_w), the tasks above its priority form T_hp and those
+    below form T_lp; tasks with ``per_window`` periods follow w (the command task's 2w).
+    """
+
+    tasks: tuple[Task, ...]
+    name: str = ""
+    window: WindowSpec | None = None
+    assumptions: Mapping[str, str] = field(default_factory=dict)
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        tasks = tuple(sorted(self.tasks, key=lambda t: t.priority))
+        object.__setattr__(self, "tasks", tasks)
+        if not tasks and self.window is None:
+            raise TaskSetError("task set has no tasks")
+        names: dict[str, str] = {}
+        prios: dict[int, str] = {}
+        entries = [(t.name, t.priority) for t in tasks]
+        if self.window is not None:
+            entries.append((self.window.name, self.window.priority))
+        for nm, pr in entries:
+            if nm in names:
+                raise TaskSetError(f"task '{nm}': duplicate task name")
+            if pr in prios:
+                raise TaskSetError(
+                    f"task '{nm}': priority {pr} is already used by task '{prios[pr]}'"
+                )
+            names[nm] = nm
+            prios[pr] = nm
+        if self.window is None:
+            for t in tasks:
+                if t.per_window:
+                    raise TaskSetError(
+                        f"task '{t.name}': period is relative to w but the set has no [window]"
+                    )
+
+    # -- structure -------------------------------------------------------------------
+    @property
+    def hp(self) -> tuple[Task, ...]:
+        """T_hp: tasks above the window's priority (all tasks when there is no window)."""
+        if self.window is None:
+            return self.tasks
+        return tuple(t for t in self.tasks if t.priority < self.window.priority)
+
+    @property
+    def lp(self) -> tuple[Task, ...]:
+        """T_lp: tasks below the window's priority."""
+        if self.window is None:
+            return ()
+        return tuple(t for t in self.tasks if t.priority > self.window.priority)
+
+    def task(self, name: str) -> Task:
+        """The task called ``name``."""
+        for t in self.tasks:
+            if t.name == name:
+                return t
+        raise KeyError(name)
+
+    def with_window(self, **changes: Any) -> TaskSet:
+        """A copy whose window constants are changed (e.g. ``n=5, r_H=30``)."""
+        if self.window is None:
+            raise TaskSetError(f"task set '{self.name}' has no [window]")
+        return replace(self, window=self.window.with_(**changes))
+
+    def window_task(self, w: float, e_hough_ms: float | None = None) -> Task:
+        """The window chain as one task of period and deadline ``w`` and cost g (Eq 5)."""
+        if self.window is None:
+            raise TaskSetError(f"task set '{self.name}' has no [window]")
+        segs = self.window.segments(e_hough_ms)
+        return Task(
+            self.window.name,
+            wcet=sum(s.wcet for s in segs),
+            period=w,
+            priority=self.window.priority,
+            segments=segs,
+        )
+
+    def at_window(self, w: float, e_hough_ms: float | None = None) -> TaskSet:
+        """A plain task set for a fixed window ``w``: chain as one task, per-window periods resolved."""
+        if self.window is None:
+            return self
+        tasks = tuple(t.at_window(w) for t in self.tasks) + (self.window_task(w, e_hough_ms),)
+        return replace(self, tasks=tasks, window=None)

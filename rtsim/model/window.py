@@ -1,0 +1,80 @@
+"""The paper's processing-window job T_w as a spec: its constants and its segment chain (SPEC §1–§2)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, replace
+from typing import Any
+
+from rtsim.analysis.window import e_hough, g_window
+from rtsim.errors import TaskSetError
+from rtsim.model.task import Segment, check_time
+
+__all__ = ["WindowSpec"]
+
+
+@dataclass(frozen=True)
+class WindowSpec:
+    """Constants of the processing-window chain (times in ms, r_H in cm).
+
+    The chain, in order: scan → localization (Hough) → (estimate, send) per follower →
+    radio round trip Δt (a suspension) → receive per follower → scheduler cost e_sched.
+    """
+
+    n: int
+    r_H: float
+    e_cal: float
+    e_trans: float
+    k: float
+    e_scan: float
+    e_estimate: float
+    e_send: float
+    e_recv: float
+    delta_t: float
+    e_sched: float
+    priority: int
+    name: str = "window"
+
+    def __post_init__(self) -> None:
+        where = f"window '{self.name}'"
+        if isinstance(self.n, bool) or not isinstance(self.n, int) or self.n < 1:
+            raise TaskSetError(f"{where}: n must be a positive integer, got {self.n!r}")
+        if isinstance(self.priority, bool) or not isinstance(self.priority, int):
+            raise TaskSetError(f"{where}: priority must be an integer, got {self.priority!r}")
+        object.__setattr__(self, "r_H", check_time(where, "r_H", self.r_H))
+        object.__setattr__(self, "k", check_time(where, "k", self.k))
+        for field in ("e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv",
+                      "delta_t", "e_sched"):
+            value = check_time(where, field, getattr(self, field), allow_zero=True)
+            object.__setattr__(self, field, value)
+
+    def with_(self, **changes: Any) -> WindowSpec:
+        """A copy with some constants changed (validated again)."""
+        return replace(self, **changes)
+
+    def e_hough(self, points: float | None = None) -> float:
+        """Localization time, Eq 1 (worst case k·n points unless ``points`` is given)."""
+        return e_hough(self.n, self.r_H, self.e_cal, self.e_trans, self.k, points)
+
+    def g(self, e_hough_ms: float | None = None) -> float:
+        """Processing time of one window, Eq 5/6."""
+        eh = self.e_hough() if e_hough_ms is None else e_hough_ms
+        return g_window(self.n, eh, self.e_scan, self.e_estimate, self.e_send, self.e_recv,
+                        self.delta_t, self.e_sched)
+
+    def segments(self, e_hough_ms: float | None = None) -> tuple[Segment, ...]:
+        """The chain of one window job; its wcets add up to g (Eq 5)."""
+        eh = self.e_hough() if e_hough_ms is None else e_hough_ms
+        segs = [Segment("scan", self.e_scan, role="scan"),
+                Segment("hough", eh, role="hough")]
+        for i in range(1, self.n + 1):
+            segs.append(Segment(f"estimate[{i}]", self.e_estimate, role="estimate", follower=i))
+            segs.append(Segment(f"send[{i}]", self.e_send, role="send", follower=i))
+        segs.append(Segment("radio", self.delta_t, "suspend", role="radio"))
+        for i in range(1, self.n + 1):
+            segs.append(Segment(f"recv[{i}]", self.e_recv, role="recv", follower=i))
+        segs.append(Segment("sched", self.e_sched, role="sched"))
+        return tuple(segs)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain dict of the constants (for JSON and manifests)."""
+        return asdict(self)
