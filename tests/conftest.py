@@ -1,0 +1,34 @@
+"""Shared fixtures: the packaged paper task set and a writer for small TOML files."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from rtsim.io.taskset import load_taskset
+from rtsim.model.taskset import TaskSet
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture
+def paper_ts() -> TaskSet:
+    """The paper's Table 1 as packaged (``rtsim/data/barrel_robots.toml``)."""
+    return load_taskset()
+
+
+@pytest.fixture
+def tmp_toml(tmp_path: Path) -> Callable[..., Path]:
+    """Write ``text`` to ``tmp_path/<name>`` and return the path: ``tmp_toml(text, name=...)``."""
+
+    def write(text: str | bytes, name: str = "set.toml") -> Path:
+        path = tmp_path / name
+        if isinstance(text, bytes):
+            path.write_bytes(text)
+        else:
+            path.write_text(text, encoding="utf-8")
+        return path
+
+    return write
