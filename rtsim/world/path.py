@@ -1,0 +1,201 @@
+"""The leader's closed path, built from the paper's remote-control commands (SPEC §6).
+
+The remote-control station commands "move in a straight line, turn, turn direction, turn
+radius and desired speed" (the paper's §4). A path is a closed sequence of
+:class:`Straight` and :class:`Turn` segments from a start pose; the speed lives with the
+leader (:mod:`rtsim.world.leader`). Everything is a function of the arc length ``s`` (cm),
+so the leader's pose is exact whatever the time step: on a turn of signed curvature κ
+(+1/r left, −1/r right) starting at (x0, y0, h0),
+
+    h(s) = h0 + κ s,  x(s) = x0 + (sin h − sin h0)/κ,  y(s) = y0 − (cos h − cos h0)/κ.
+
+Lengths in cm, angles in rad; ``s`` beyond one lap wraps around.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from rtsim.errors import ScenarioError
+from rtsim.world._check import number, positive
+
+__all__ = ["Straight", "Turn", "Segment", "LeaderPath", "rounded_rectangle", "CLOSURE_TOL"]
+
+#: Largest gap (cm) between a closed path's end and its start.
+CLOSURE_TOL = 1e-6
+_HEADING_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class Straight:
+    """Drive straight for ``length`` cm."""
+
+    length: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "length", positive("straight", self.length))
+
+    @property
+    def kind(self) -> Literal["straight"]:
+        return "straight"
+
+    @property
+    def curvature(self) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class Turn:
+    """Turn ``direction`` ("left": counter-clockwise) on a ``radius`` cm circle by ``angle`` rad."""
+
+    direction: Literal["left", "right"]
+    radius: float
+    angle: float
+
+    def __post_init__(self) -> None:
+        if self.direction not in ("left", "right"):
+            raise ScenarioError(f"turn must be 'left' or 'right', got {self.direction!r}")
+        object.__setattr__(self, "radius", positive("radius", self.radius))
+        angle = number("angle", self.angle)
+        if angle <= 0:
+            raise ScenarioError(f"angle must be positive, got {self.angle!r}")
+        object.__setattr__(self, "angle", angle)
+
+    @property
+    def kind(self) -> Literal["turn"]:
+        return "turn"
+
+    @property
+    def length(self) -> float:
+        return self.radius * self.angle
+
+    @property
+    def curvature(self) -> float:
+        """Signed curvature κ (1/cm): +1/r for a left turn, −1/r for a right turn."""
+        return (1.0 if self.direction == "left" else -1.0) / self.radius
+
+
+Segment = Straight | Turn
+
+
+Pose = tuple[float, float, float]
+
+
+def _advance(pose: Pose, kappa: float, s: float) -> Pose:
+    """Pose after arc length ``s`` along curvature ``kappa`` from ``pose`` (exact)."""
+    x0, y0, h0 = pose
+    if kappa == 0.0:
+        return (x0 + s * math.cos(h0), y0 + s * math.sin(h0), h0)
+    h = h0 + kappa * s
+    return (x0 + (math.sin(h) - math.sin(h0)) / kappa, y0 - (math.cos(h) - math.cos(h0)) / kappa, h)
+
+
+class LeaderPath:
+    """A closed path of segments from a start pose (x, y, heading); immutable after construction.
+
+    Raises :class:`ScenarioError` if the path is empty or does not close: the end must be
+    within :data:`CLOSURE_TOL` cm of the start and the total turning a multiple of 2π.
+    """
+
+    def __init__(
+        self,
+        segments: tuple[Segment, ...] | list[Segment],
+        start: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    ) -> None:
+        segs = tuple(segments)
+        if not segs:
+            raise ScenarioError("path has no segments")
+        for k, seg in enumerate(segs):
+            if not isinstance(seg, Straight | Turn):
+                raise ScenarioError(f"path[{k}] is not a Straight or Turn: {seg!r}")
+        x0 = number("start.x", start[0])
+        y0 = number("start.y", start[1])
+        h0 = number("start.heading", start[2])
+        self._segments = segs
+        self._start = (x0, y0, h0)
+        self._kappa = tuple(seg.curvature for seg in segs)
+        poses = [self._start]
+        s0 = [0.0]
+        for seg, kappa in zip(segs, self._kappa, strict=True):
+            poses.append(_advance(poses[-1], kappa, seg.length))
+            s0.append(s0[-1] + seg.length)
+        self._poses = tuple(poses[:-1])
+        self._s0 = tuple(s0[:-1])
+        self._lap = s0[-1]
+        xe, ye, he = poses[-1]
+        gap = math.hypot(xe - x0, ye - y0)
+        turns = (he - h0) / (2 * math.pi)
+        if gap > CLOSURE_TOL or abs(turns - round(turns)) * 2 * math.pi > _HEADING_TOL:
+            raise ScenarioError(
+                f"path does not close: it ends at ({xe:.6g}, {ye:.6g}) heading "
+                f"{math.degrees(he):.6g} deg, {gap:.3g} cm from its start"
+            )
+
+    # -- structure -------------------------------------------------------------------
+    @property
+    def segments(self) -> tuple[Segment, ...]:
+        return self._segments
+
+    @property
+    def start(self) -> tuple[float, float, float]:
+        """Start pose (x cm, y cm, heading rad)."""
+        return self._start
+
+    @property
+    def lap_length(self) -> float:
+        """Arc length of one lap (cm)."""
+        return self._lap
+
+    def lap_time(self, speed: float) -> float:
+        """Seconds for one lap at ``speed`` cm/s."""
+        return self._lap / speed
+
+    def index(self, s: float) -> int:
+        """Index of the segment at arc length ``s`` (boundaries go to the next segment)."""
+        u = s % self._lap
+        return bisect.bisect_right(self._s0, u) - 1
+
+    # -- geometry at arc length s ----------------------------------------------------
+    def segment_at(self, s: float) -> tuple[Literal["straight", "turn"], float]:
+        """("straight" | "turn", signed curvature κ in 1/cm) at arc length ``s``."""
+        k = self.index(s)
+        return self._segments[k].kind, self._kappa[k]
+
+    def curvature(self, s: float) -> float:
+        """Signed curvature κ (1/cm) at arc length ``s``; the leader turns at ω_L = κ·V_L."""
+        return self._kappa[self.index(s)]
+
+    def pose(self, s: float) -> tuple[float, float, float]:
+        """Exact pose (x, y, heading) at arc length ``s``; heading is unwrapped within a lap."""
+        u = s % self._lap
+        k = bisect.bisect_right(self._s0, u) - 1
+        return _advance(self._poses[k], self._kappa[k], u - self._s0[k])
+
+    def __repr__(self) -> str:
+        return f"LeaderPath({len(self._segments)} segments, lap {self._lap:.6g} cm)"
+
+
+def rounded_rectangle(
+    length: float, width: float, radius: float, *, direction: Literal["left", "right"] = "left",
+    start: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> LeaderPath:
+    """Four straights and four 90° turns: straights of ``length`` and ``width`` cm (a straight
+    of 0 is left out, so ``width=0`` gives a stadium), turns of ``radius`` cm.
+
+    Driven counter-clockwise for ``direction="left"``. The default path shape of SPEC §6.
+    """
+    length = number("length", length)
+    width = number("width", width)
+    for key, val in (("length", length), ("width", width)):
+        if val < 0:
+            raise ScenarioError(f"{key} must be non-negative, got {val!r}")
+    turn = Turn(direction, radius, math.pi / 2)
+    segs: list[Segment] = []
+    for side in (length, width, length, width):
+        if side > 0:
+            segs.append(Straight(side))
+        segs.append(turn)
+    return LeaderPath(segs, start)
