@@ -1,0 +1,238 @@
+"""Leader–follower kinematics and the motion-and-sensing bounds (paper §3.2, SPEC §4, §6).
+
+Conventions (l-ψ kinematics, Desai/Das), all in the **leader's frame**:
+
+- ρ: distance from the leader's axle point to the follower's axle point (cm);
+- β: bearing of the follower, counter-clockwise from the leader's heading, in [0, 2π)
+  (trailing followers have β ∈ [π/2, 3π/2]);
+- θ = θ_L − θ_F: the leader's heading minus the follower's, in (−π, π];
+- V_L, V_F: speeds (cm/s); ω_L: the leader's turn rate (rad/s, positive = left turn).
+
+The rate functions and bounds accept Python/NumPy scalars (fast ``math`` path) or NumPy
+arrays (broadcast with ``numpy``). Every bound is returned in **milliseconds**: a bound such
+as r_H [cm] / |ρ̇| [cm/s] is in seconds and is multiplied by 1000. A zero denominator gives
+an infinite bound.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from rtsim.errors import InputError
+
+__all__ = [
+    "BOUND_KINDS",
+    "LocalizationKind",
+    "Thresholds",
+    "beta_dot",
+    "follower_msbs",
+    "formation_velocity",
+    "msb_bearing",
+    "msb_localization",
+    "msb_localization_full",
+    "msb_path_diversion",
+    "msb_separation",
+    "relative_state",
+    "rho_dot",
+    "slack",
+    "wrap_angle",
+    "wrap_positive",
+]
+
+#: The four motion-and-sensing bounds, in the order rtsim reports them.
+BOUND_KINDS: tuple[str, ...] = ("localization", "separation", "path_diversion", "bearing")
+
+LocalizationKind = Literal["radial", "full"]
+
+_TWO_PI = 2.0 * math.pi
+
+
+def _xp(*args: Any) -> Any:
+    """``numpy`` when any argument is a non-scalar array, else ``math`` (fast scalars)."""
+    for a in args:
+        if isinstance(a, np.ndarray) and a.ndim > 0:
+            return np
+    return math
+
+
+def wrap_angle(a: Any) -> Any:
+    """Wrap an angle (rad) to (−π, π]."""
+    if _xp(a) is np:
+        w = np.mod(a + math.pi, _TWO_PI) - math.pi
+        return np.where(w == -math.pi, math.pi, w)
+    w = math.fmod(float(a) + math.pi, _TWO_PI)
+    if w < 0.0:
+        w += _TWO_PI
+    w -= math.pi
+    return math.pi if w == -math.pi else w
+
+
+def wrap_positive(a: Any) -> Any:
+    """Wrap an angle (rad) to [0, 2π)."""
+    if _xp(a) is np:
+        w = np.mod(a, _TWO_PI)
+        return np.where(w >= _TWO_PI, 0.0, w)
+    w = math.fmod(float(a), _TWO_PI)
+    if w < 0.0:
+        w += _TWO_PI
+    return 0.0 if w >= _TWO_PI else w
+
+
+# --------------------------------------------------------------------------- rates
+
+
+def rho_dot(v_l: Any, v_f: Any, beta: Any, theta: Any) -> Any:
+    """Separation rate, Eq 17: ρ̇ = V_F cos(θ + β) − V_L cos β (cm/s)."""
+    xp = _xp(v_l, v_f, beta, theta)
+    return v_f * xp.cos(theta + beta) - v_l * xp.cos(beta)
+
+
+def beta_dot(v_l: Any, v_f: Any, beta: Any, theta: Any, rho: Any, omega_l: Any) -> Any:
+    """Bearing rate: β̇ = (V_L sin β − V_F sin(β + θ)) / ρ − ω_L (rad/s), SPEC §4."""
+    xp = _xp(v_l, v_f, beta, theta, rho, omega_l)
+    return (v_l * xp.sin(beta) - v_f * xp.sin(beta + theta)) / rho - omega_l
+
+
+def relative_state(
+    leader_pose: tuple[float, float, float], follower_pose: tuple[float, float, float]
+) -> tuple[float, float, float]:
+    """(ρ, β, θ) of a follower from world poses (x, y, heading) in cm, cm, rad.
+
+    β = atan2(Δy, Δx) − θ_L wrapped to [0, 2π); θ = θ_L − θ_F wrapped to (−π, π].
+    A follower on the leader's axle point (ρ = 0) gets β = 0.
+    """
+    xl, yl, hl = leader_pose
+    xf, yf, hf = follower_pose
+    dx, dy = xf - xl, yf - yl
+    rho = math.hypot(dx, dy)
+    beta = wrap_positive(math.atan2(dy, dx) - hl) if rho > 0.0 else 0.0
+    return rho, beta, wrap_angle(hl - hf)
+
+
+def formation_velocity(v_l: Any, omega_l: Any, rho: Any, beta: Any) -> tuple[Any, Any]:
+    """Steady-formation follower speed V_F and θ (SPEC §6).
+
+    In steady formation the follower moves with the leader's frame: its velocity is the
+    leader's velocity plus ω_L × r, r = ρ(cos β, sin β) its axle point in the leader's frame,
+    i.e. (V_L − ω_L ρ sin β, ω_L ρ cos β) in that frame. Hence
+    V_F = √(V_L² − 2 V_L ω_L ρ sin β + ω_L² ρ²) and θ = θ_L − θ_F = −atan2(ω_L ρ cos β,
+    V_L − ω_L ρ sin β) ∈ (−π, π] (θ = 0 when V_F = 0). With these, ρ̇ = β̇ = 0.
+    """
+    xp = _xp(v_l, omega_l, rho, beta)
+    vx = v_l - omega_l * rho * xp.sin(beta)
+    vy = omega_l * rho * xp.cos(beta)
+    v_f = xp.hypot(vx, vy)
+    return v_f, wrap_angle(-xp.atan2(vy, vx) if xp is math else -np.arctan2(vy, vx))
+
+
+# --------------------------------------------------------------------------- bounds
+
+
+def _ratio_ms(num: Any, den: Any) -> Any:
+    """1000·num/|den| (s → ms), ``inf`` where den == 0."""
+    if _xp(num, den) is np:
+        den = np.abs(np.asarray(den, dtype=float))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = np.where(den > 0.0, 1000.0 * np.asarray(num, dtype=float) / den, math.inf)
+        return out
+    d = abs(float(den))
+    return math.inf if d == 0.0 else 1000.0 * float(num) / d
+
+
+def msb_localization(rho_dot: Any, r_H: Any) -> Any:
+    """Localization bound, Eq 19 (the paper's radial form): w ≤ r_H / |ρ̇| (ms)."""
+    return _ratio_ms(r_H, rho_dot)
+
+
+def msb_localization_full(rho_dot: Any, beta_dot: Any, rho: Any, r_H: Any) -> Any:
+    """Full-displacement localization bound: w ≤ r_H / √(ρ̇² + ρ²β̇²) (ms), SPEC §4.
+
+    Eq 14→15 drops the tangential displacement ρ·Δβ; this bound keeps it.
+    """
+    xp = _xp(rho_dot, beta_dot, rho, r_H)
+    return _ratio_ms(r_H, xp.hypot(rho_dot, rho * beta_dot))
+
+
+def msb_separation(rho_dot: Any, T_rho: Any, rho_d: Any) -> Any:
+    """Separation bound, Eq 20: w ≤ T_ρ ρ_d / |ρ̇| (ms)."""
+    return _ratio_ms(T_rho * rho_d, rho_dot)
+
+
+def msb_path_diversion(v_f: Any, T_eps: Any, rho_d: Any) -> Any:
+    """Path-diversion bound, Eq 21: w ≤ T_ε ρ_d / V_F (ms)."""
+    return _ratio_ms(T_eps * rho_d, v_f)
+
+
+def msb_bearing(beta_dot: Any, T_beta: Any) -> Any:
+    """Bearing bound (implied by Eq 23; the paper's text lost it): w ≤ T_β / |β̇| (ms)."""
+    return _ratio_ms(T_beta, beta_dot)
+
+
+def slack(msb_min: float, w_sch: float) -> float:
+    """The paper's slack, Eq 22: t_slack = min MSB − w_sch (ms; negative when overloaded).
+
+    The ``slack`` column of ``windows.csv`` is the slack actually granted, max(0, w − w_sch),
+    which is 0 in the critical region; this function is the paper's signed quantity.
+    """
+    return msb_min - w_sch
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Thresholds of the four bounds (SPEC §4).
+
+    r_H: Hough window radius (cm, the paper takes r_F = 25); T_rho, T_eps: fractions of the
+    desired separation ρ_d; T_beta: bearing change per window (rad); localization:
+    ``"radial"`` (Eq 19, the paper's) or ``"full"`` (radial and tangential displacement).
+    """
+
+    r_H: float
+    T_rho: float
+    T_eps: float
+    T_beta: float
+    localization: LocalizationKind = "radial"
+
+    def __post_init__(self) -> None:
+        for name in ("r_H", "T_rho", "T_eps", "T_beta"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise InputError(f"Thresholds: {name} must be a number, got {value!r}")
+            if not (math.isfinite(value) and value > 0.0):
+                raise InputError(f"Thresholds: {name} must be positive and finite, got {value!r}")
+            object.__setattr__(self, name, float(value))
+        if self.localization not in ("radial", "full"):
+            raise InputError(
+                f"Thresholds: localization must be 'radial' or 'full', got {self.localization!r}"
+            )
+
+
+def follower_msbs(
+    v_l: float,
+    omega_l: float,
+    v_f: float,
+    rho: float,
+    beta: float,
+    theta: float,
+    rho_d: float,
+    thr: Thresholds,
+) -> dict[str, float]:
+    """The four bounds of one follower (ms), keyed as :data:`BOUND_KINDS`.
+
+    ``localization`` is Eq 19 or the full form, as ``thr.localization`` says.
+    """
+    rd = rho_dot(v_l, v_f, beta, theta)
+    bd = beta_dot(v_l, v_f, beta, theta, rho, omega_l)
+    if thr.localization == "radial":
+        loc = msb_localization(rd, thr.r_H)
+    else:
+        loc = msb_localization_full(rd, bd, rho, thr.r_H)
+    return {
+        "localization": loc,
+        "separation": msb_separation(rd, thr.T_rho, rho_d),
+        "path_diversion": msb_path_diversion(v_f, thr.T_eps, rho_d),
+        "bearing": msb_bearing(bd, thr.T_beta),
+    }
