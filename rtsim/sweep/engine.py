@@ -1,0 +1,321 @@
+"""Running a sweep: serially, on local processes or on a Dask cluster; resumable.
+
+Output directory ``DIR``:
+
+- ``DIR/points/<index>-<key>.json``: one file per finished point, written atomically as
+  soon as the point finishes (status ``ok`` or ``failed``, error, metrics, wall time);
+- ``DIR/manifest.json``: the sweep file's text, the resolved spec and its fingerprint,
+  the rtsim version and the command line;
+- ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``,
+  ``status``, ``error`` (empty when ok), then the metrics. Built from the point files only,
+  so serial, process and Dask runs (and resumed runs) give equal tables;
+- ``DIR/timings.csv``: wall-clock time, host and pid per point (not in the table).
+
+Running again skips the points that have a file. A sweep whose fingerprint (the resolved
+spec: kind, function, base file content, seed, combine, grid, options, metrics) differs
+from the one in ``DIR/manifest.json`` is refused unless ``restart=True``, which deletes the
+old results first. ``retry_failed=True`` recomputes the failed points.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from rtsim.errors import RtsimError, SweepError
+from rtsim.io.atomic import write_json, write_table
+from rtsim.io.manifest import write_manifest
+from rtsim.sweep.grid import Point, point_input, points
+from rtsim.sweep.point import RESERVED, execute_point, ignore_sigint
+from rtsim.sweep.spec import SweepSpec, load_sweep
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["run_sweep", "Sweep", "SweepOutcome", "SweepIncomplete"]
+
+Record = dict[str, Any]
+
+
+class SweepIncomplete(RtsimError):
+    """Some points could not be run (a worker died or the cluster was lost); rerun to retry."""
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """What a run did: the results table and how many points it computed, skipped, failed."""
+
+    table: pd.DataFrame
+    computed: int
+    skipped: int
+    failed: int
+    out_dir: Path
+
+
+def _read_json(path: Path) -> Record | None:
+    import json
+
+    try:
+        rec = json.loads(path.read_text("utf-8"))
+    except (OSError, ValueError):
+        return None
+    return rec if isinstance(rec, dict) and rec.get("status") in ("ok", "failed") else None
+
+
+class Sweep:
+    """One sweep bound to an output directory (see the module docstring)."""
+
+    def __init__(self, spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLike[str]):
+        self.spec = spec if isinstance(spec, SweepSpec) else load_sweep(spec)
+        self.out = Path(out_dir)
+        self.points = points(self.spec)
+        clash = [k for k, _ in self.spec.grid if k in RESERVED and k != "seed"]
+        if clash:
+            raise SweepError(f"{self.spec.source}: grid.{clash[0]}: name is reserved for a "
+                             "results column")
+
+    @property
+    def points_dir(self) -> Path:
+        return self.out / "points"
+
+    # -- the directory -----------------------------------------------------------------
+    def _prepare(self, restart: bool, argv: Sequence[str] | None) -> None:
+        import json
+
+        fp = self.spec.fingerprint()
+        manifest = self.out / "manifest.json"
+        if manifest.exists() and not restart:
+            try:
+                old = json.loads(manifest.read_text("utf-8")).get("fingerprint")
+            except (OSError, ValueError):
+                old = None
+            if old != fp:
+                raise SweepError(
+                    f"{self.out}: holds results of a different sweep than {self.spec.source} "
+                    "(the sweep file changed); use --restart to discard them, or another --out")
+        elif not restart and self.points_dir.is_dir() and any(self.points_dir.glob("*.json")):
+            raise SweepError(f"{self.out}: has point files but no manifest.json; use --restart "
+                             "to discard them, or another --out")
+        if restart:
+            shutil.rmtree(self.points_dir, ignore_errors=True)
+            for name in ("results.parquet", "timings.csv", "manifest.json"):
+                (self.out / name).unlink(missing_ok=True)
+        self.points_dir.mkdir(parents=True, exist_ok=True)
+        base = self.spec.base
+        write_manifest(
+            self.out, command="sweep", seed=self.spec.seed,
+            inputs={"sweep_file": self.spec.source, "base": None if base is None else base.path},
+            argv=None if argv is None else list(argv),
+            extra={"fingerprint": fp, "points": len(self.points),
+                   "sweep_text": self.spec.text, "spec": self.spec.resolved()},
+        )
+
+    def finished(self, retry_failed: bool = False) -> dict[int, Record]:
+        """The point records already on disk (failed ones left out with ``retry_failed``)."""
+        out = {}
+        for p in self.points:
+            rec = _read_json(self.points_dir / p.filename)
+            if rec is not None and not (retry_failed and rec["status"] == "failed"):
+                out[p.index] = rec
+        return out
+
+    # -- running -------------------------------------------------------------------------
+    def run(self, *, workers: int | None = None, dask: Any = None, progress: bool | None = None,
+            restart: bool = False, retry_failed: bool = False,
+            argv: Sequence[str] | None = None) -> SweepOutcome:
+        """Run the points not yet done, then write the results table and timings.
+
+        ``dask``: a scheduler address or a ``distributed.Client``. ``workers``: local
+        processes (default ``os.cpu_count()``; 1 runs in this process). ``progress``: a tqdm
+        bar on stderr (None: only when stderr is a terminal). Raises ``KeyboardInterrupt``
+        after stopping cleanly (finished points kept), :class:`SweepIncomplete` when points
+        were lost to dead workers.
+        """
+        self._prepare(restart, argv)
+        done = self.finished(retry_failed)
+        pending = [p for p in self.points if p.index not in done]
+        if progress is None:
+            progress = sys.stderr.isatty()
+        from tqdm import tqdm
+
+        failed_before = sum(1 for r in done.values() if r["status"] == "failed")
+        bar = tqdm(total=len(self.points), initial=len(done), desc="sweep", unit="pt",
+                   file=sys.stderr, disable=not progress, dynamic_ncols=True)
+        counts = {"computed": 0, "failed": failed_before, "lost": 0}
+        bar.set_postfix(failed=counts["failed"])
+
+        def on_result(p: Point, rec: Record | BaseException) -> None:
+            if isinstance(rec, BaseException):
+                counts["lost"] += 1
+                bar.write(f"rtsim: sweep point {p.index} lost: {type(rec).__name__}: {rec}",
+                          file=sys.stderr)
+                return
+            rec = {"index": p.index, "key": p.key, "params": p.params, "seed": p.seed, **rec}
+            write_json(self.points_dir / p.filename, rec)
+            counts["computed"] += 1
+            counts["failed"] += rec["status"] == "failed"
+            bar.set_postfix(failed=counts["failed"], refresh=False)
+            bar.update(1)
+
+        try:
+            if pending:
+                nworkers = os.cpu_count() or 1 if workers is None else int(workers)
+                if nworkers < 1:
+                    raise SweepError(f"--workers must be at least 1, got {workers}")
+                if dask is not None:
+                    self._run_dask(pending, dask, on_result)
+                elif nworkers == 1 or len(pending) == 1:
+                    self._run_serial(pending, on_result)
+                else:
+                    self._run_processes(pending, min(nworkers, len(pending)), on_result)
+        finally:
+            bar.close()
+        if counts["lost"]:
+            raise SweepIncomplete(f"{self.out}: {counts['lost']} points were not run (workers "
+                                  "lost); run the same command again to finish them")
+        table = self.write_results()
+        return SweepOutcome(table, counts["computed"], len(done), counts["failed"], self.out)
+
+    def _inputs(self, pending: Iterable[Point]) -> Iterable[tuple[Point, Any]]:
+        for p in pending:
+            yield p, point_input(self.spec, p)
+
+    def _run_serial(self, pending: list[Point], on_result: Callable[..., None]) -> None:
+        for p, pin in self._inputs(pending):
+            on_result(p, execute_point(pin, self.spec.metrics))
+
+    def _run_processes(self, pending: list[Point], nworkers: int,
+                       on_result: Callable[..., None]) -> None:
+        import multiprocessing
+
+        method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() \
+            else "spawn"
+        ex = ProcessPoolExecutor(max_workers=nworkers, initializer=ignore_sigint,
+                                 mp_context=multiprocessing.get_context(method))
+        todo = iter(self._inputs(pending))
+        inflight: dict[Future[Record], Point] = {}
+
+        def fill() -> None:
+            while len(inflight) < 2 * nworkers:
+                nxt = next(todo, None)
+                if nxt is None:
+                    return
+                inflight[ex.submit(execute_point, nxt[1], self.spec.metrics)] = nxt[0]
+
+        try:
+            fill()
+            while inflight:
+                finished, _ = wait(inflight, return_when=FIRST_COMPLETED)
+                for fut in sorted(finished, key=lambda f: inflight[f].index):
+                    p = inflight.pop(fut)
+                    exc = fut.exception()
+                    on_result(p, exc if exc is not None else fut.result())
+                fill()
+        except BaseException:
+            for proc in list(getattr(ex, "_processes", {}).values()):
+                proc.terminate()
+            ex.shutdown(wait=False, cancel_futures=True)
+            raise
+        ex.shutdown(wait=True)
+
+    def _run_dask(self, pending: list[Point], dask: Any, on_result: Callable[..., None]) -> None:
+        try:
+            from distributed import Client, as_completed
+        except ImportError:
+            raise SweepError("--dask needs the optional extra: pip install 'rtsim[dask]'") from None
+        own = isinstance(dask, str)
+        if own:
+            try:
+                client = Client(dask, timeout="20s")
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise SweepError(f"--dask {dask}: cannot connect to the scheduler: {exc}") from None
+        else:
+            client = dask
+        prefix = f"rtsim-sweep-{self.spec.fingerprint()[:10]}"
+        futures = []
+        try:
+            for p, pin in self._inputs(pending):
+                fut = client.submit(execute_point, pin, self.spec.metrics,
+                                    key=f"{prefix}-{p.index}", pure=False)
+                fut.rtsim_point = p
+                futures.append(fut)
+            for fut in as_completed(futures):
+                p = fut.rtsim_point
+                try:
+                    rec = fut.result()
+                except Exception as exc:  # noqa: BLE001 - a lost worker; the point stays pending
+                    rec = exc
+                on_result(p, rec)
+        except BaseException:
+            client.cancel(futures)
+            raise
+        finally:
+            if own:
+                client.close()
+
+    # -- results -------------------------------------------------------------------------
+    def table(self) -> pd.DataFrame:
+        """The results table from the point files (every point must have finished)."""
+        import pandas as pd
+
+        rows, metric_cols, seen = [], [], set()
+        param_cols = [k for k, _ in self.spec.grid if k != "seed"]
+        for p in self.points:
+            rec = _read_json(self.points_dir / p.filename)
+            if rec is None:
+                raise SweepIncomplete(f"{self.out}: point {p.index} has not finished")
+            for k in rec["metrics"]:
+                if k not in seen:
+                    seen.add(k)
+                    metric_cols.append(k)
+            row = {k: p.params[k] for k in param_cols}
+            row.update(seed=p.seed, status=rec["status"], error=rec["error"])
+            for k, v in rec["metrics"].items():
+                row[k if k not in row else f"metric.{k}"] = v
+            rows.append(row)
+        clash = [k for k in metric_cols if k in param_cols]
+        metric_cols = [f"metric.{k}" if k in clash else k for k in metric_cols]
+        cols = param_cols + ["seed", "status", "error"] + metric_cols
+        df = pd.DataFrame.from_records(rows, columns=cols)
+        df["seed"] = df["seed"].astype("int64")
+        return df
+
+    def timings(self) -> pd.DataFrame:
+        """Wall-clock time, host and pid per finished point."""
+        import pandas as pd
+
+        rows = []
+        for p in self.points:
+            rec = _read_json(self.points_dir / p.filename)
+            if rec is not None:
+                t = rec.get("timing", {})
+                rows.append({"index": p.index, "key": p.key, "status": rec["status"],
+                             "wall_s": t.get("wall_s"), "host": t.get("host"),
+                             "pid": t.get("pid")})
+        return pd.DataFrame(rows, columns=["index", "key", "status", "wall_s", "host", "pid"])
+
+    def write_results(self) -> pd.DataFrame:
+        """Write ``results.parquet`` and ``timings.csv``; return the table."""
+        df = self.table()
+        write_table(self.out / "results.parquet", df)
+        write_table(self.out / "timings.csv", self.timings())
+        return df
+
+
+def run_sweep(spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLike[str], *,
+              workers: int | None = None, dask: Any = None, progress: bool | None = False,
+              restart: bool = False, retry_failed: bool = False,
+              argv: Sequence[str] | None = None) -> pd.DataFrame:
+    """Run (or resume) a sweep into ``out_dir`` and return its results table.
+
+    Failed points are rows with ``status == "failed"``; they do not raise. See :class:`Sweep`.
+    """
+    return Sweep(spec, out_dir).run(workers=workers, dask=dask, progress=progress,
+                                    restart=restart, retry_failed=retry_failed,
+                                    argv=argv).table

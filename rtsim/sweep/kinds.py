@@ -1,0 +1,229 @@
+"""What runs at a sweep point: the registry of kinds.
+
+A kind is a function ``fn(point: PointInput) -> dict[str, scalar]`` returning flat, scalar,
+deterministic metrics (no wall-clock values). Each kind declares the options it accepts and
+the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metrics).
+
+=============  ================================================================  ===========
+kind           runs                                                              options
+=============  ================================================================  ===========
+``bounds``     ``rtsim.analysis.bounds.window_bounds(ts)``: e_hough, g, w_eq7,   --
+               w_eq11, w_sch, w_rta
+``analyze``    ``rtsim.analysis.rta.analyze(ts, w)``: schedulable, utilization,  window
+               ``wcrt.<task>`` (NaN above the deadline), ``schedulable.<task>``
+``simulate``   ``rtsim.sim.simulate(ts, horizon, seed=, exec_model=,            horizon,
+               suspension=, window=)``: per task ``max_response.<task>``,        exec,
+               ``mean_response.<task>``, ``misses.<task>``, ``jobs.<task>``;     suspension,
+               totals ``misses``, ``jobs``                                       window
+``scenario``   ``rtsim.coupling.run_scenario`` on ``rtsim.io.scenario``'s        mode,
+               parsed file: the run's scalar summary, flattened with dots        duration
+``call``       ``function(params, options, seed) -> dict`` named in the file     any
+=============  ================================================================  ===========
+
+A kind whose module is not installed fails its points with a clear error (the sweep goes
+on). Only the ``call`` kind runs user code; a kind registered at run time with
+:func:`register_kind` exists only in the process that registered it, so use ``call`` for
+anything that must also run on process or Dask workers.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from fnmatch import fnmatchcase
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from rtsim.model.taskset import TaskSet
+    from rtsim.sweep.spec import BaseFile
+
+__all__ = ["PointInput", "KindSpec", "KINDS", "register_kind", "apply_overrides"]
+
+
+def apply_overrides(data: dict[str, Any], overrides: tuple[tuple[tuple[str, ...], Any], ...]
+                    ) -> dict[str, Any]:
+    """Set each dotted path (tables by key, lists of tables by ``name`` or index) in ``data``."""
+    for path, value in overrides:
+        node: Any = data
+        for key in path[:-1]:
+            if isinstance(node, list):
+                named = [e for e in node if isinstance(e, dict) and e.get("name") == key]
+                node = named[0] if named else node[int(key)]
+            else:
+                node = node[key]
+        node[path[-1]] = value
+    return data
+
+
+@dataclass(frozen=True)
+class PointInput:
+    """Everything one point needs, picklable so that it can travel to any worker."""
+
+    index: int
+    kind: str
+    params: Mapping[str, Any]
+    options: Mapping[str, Any]
+    seed: int
+    base: BaseFile | None = None
+    overrides: tuple[tuple[tuple[str, ...], Any], ...] = ()
+    function: str | None = None
+
+    def base_data(self) -> dict[str, Any]:
+        """The base file's TOML dict with this point's overrides applied."""
+        if self.base is None:
+            raise RuntimeError("this sweep has no base file")
+        return apply_overrides(self.base.data(), self.overrides)
+
+    def taskset(self) -> TaskSet:
+        """The base task set with this point's overrides, through the normal loader."""
+        from rtsim.io.taskset import parse_taskset
+
+        assert self.base is not None
+        return parse_taskset(self.base_data(), self.base.source)
+
+
+@dataclass(frozen=True)
+class KindSpec:
+    """A kind: its function, the options it takes (and requires), the metrics it gives."""
+
+    name: str
+    fn: Callable[[PointInput], dict[str, Any]]
+    options: tuple[str, ...] = ()
+    required: tuple[str, ...] = ()
+    metrics: tuple[str, ...] | None = None  # None: not known in advance
+    doc: str = field(default="", compare=False)
+
+    def knows_metric(self, name: str) -> bool:
+        """Whether ``name`` (a name or a glob pattern) can be produced by this kind."""
+        if self.metrics is None:
+            return True
+        return any(name == p or fnmatchcase(name, p) for p in self.metrics)
+
+
+def _need(module: str, kind: str) -> ModuleType:
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        raise RuntimeError(
+            f"kind '{kind}' needs {module}, which is not available ({exc})"
+        ) from None
+
+
+def _num(v: Any) -> float:
+    return math.nan if v is None else float(v)
+
+
+def _bounds(p: PointInput) -> dict[str, Any]:
+    mod = _need("rtsim.analysis.bounds", "bounds")
+    wb = mod.window_bounds(p.taskset())
+    return {k: float(getattr(wb, k)) for k in ("e_hough", "g", "w_eq7", "w_eq11", "w_sch",
+                                               "w_rta")}
+
+
+def _analyze(p: PointInput) -> dict[str, Any]:
+    mod = _need("rtsim.analysis.rta", "analyze")
+    ts = p.taskset()
+    w = p.options.get("window")
+    a = mod.analyze(ts) if w is None else mod.analyze(ts, w=float(w))
+    out: dict[str, Any] = {"schedulable": bool(a.schedulable),
+                           "utilization": float(a.utilization)}
+    for t in a.tasks:
+        out[f"wcrt.{t.name}"] = _num(t.wcrt)
+    for t in a.tasks:
+        out[f"schedulable.{t.name}"] = bool(t.schedulable)
+    return out
+
+
+def _stat(obj: Any, name: str) -> Any:
+    return obj.get(name) if isinstance(obj, Mapping) else getattr(obj, name, None)
+
+
+def _simulate(p: PointInput) -> dict[str, Any]:
+    mod = _need("rtsim.sim", "simulate")
+    ts = p.taskset()
+    o = p.options
+    kwargs: dict[str, Any] = {"seed": p.seed, "exec_model": o.get("exec", "wcet"),
+                              "suspension": o.get("suspension", "cpu")}
+    if o.get("window") is not None:
+        kwargs["window"] = float(o["window"])
+    res = mod.simulate(ts, float(o["horizon"]), **kwargs)
+    stats = _task_stats(res)
+    out: dict[str, Any] = {}
+    for name, s in stats.items():
+        out[f"max_response.{name}"] = _num(_stat(s, "max_response"))
+        out[f"mean_response.{name}"] = _num(_stat(s, "mean_response"))
+        out[f"misses.{name}"] = int(_stat(s, "misses") or 0)
+        out[f"jobs.{name}"] = int(_stat(s, "jobs") or _stat(s, "completed") or 0)
+    out["misses"] = sum(v for k, v in out.items() if k.startswith("misses."))
+    out["jobs"] = sum(v for k, v in out.items() if k.startswith("jobs."))
+    return out
+
+
+def _task_stats(res: Any) -> dict[str, Any]:
+    """Per-task statistics of a SimResult as ``{task: stats}`` (mapping or list of records)."""
+    for attr in ("stats", "tasks", "task_stats"):
+        got = getattr(res, attr, None)
+        if callable(got):
+            got = got()
+        if isinstance(got, Mapping):
+            return dict(got)
+        if isinstance(got, list | tuple) and got:
+            return {str(_stat(s, "name") or _stat(s, "task")): s for s in got}
+    raise RuntimeError(f"kind 'simulate': cannot read per-task statistics from {type(res)}")
+
+
+def _flatten(obj: Any, prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    if isinstance(obj, Mapping):
+        for k, v in obj.items():
+            out.update(_flatten(v, f"{prefix}{k}."))
+    elif isinstance(obj, bool | int | float | str):
+        out[prefix[:-1]] = obj
+    return out
+
+
+def _scenario(p: PointInput) -> dict[str, Any]:
+    io = _need("rtsim.io.scenario", "scenario")
+    coupling = _need("rtsim.coupling", "scenario")
+    assert p.base is not None
+    parse = getattr(io, "parse_scenario", None)
+    run = getattr(coupling, "run_scenario", None)
+    if parse is None or run is None:
+        raise RuntimeError("kind 'scenario' needs rtsim.io.scenario.parse_scenario and "
+                           "rtsim.coupling.run_scenario; not wired yet")
+    scenario = parse(p.base_data(), p.base.source)
+    kwargs = {k: p.options[k] for k in ("mode", "duration") if k in p.options}
+    result = run(scenario, seed=p.seed, **kwargs)
+    summary = getattr(result, "summary", result)
+    return _flatten(summary() if callable(summary) else summary)
+
+
+def _call(p: PointInput) -> dict[str, Any]:
+    assert p.function is not None
+    mod, attr = p.function.split(":")
+    fn = getattr(importlib.import_module(mod), attr)
+    return fn(dict(p.params), dict(p.options), p.seed)
+
+
+KINDS: dict[str, KindSpec] = {}
+
+
+def register_kind(spec: KindSpec) -> None:
+    """Add (or replace) a kind in this process's registry."""
+    KINDS[spec.name] = spec
+
+
+register_kind(KindSpec("bounds", _bounds, metrics=("e_hough", "g", "w_eq7", "w_eq11", "w_sch",
+                                                   "w_rta")))
+register_kind(KindSpec("analyze", _analyze, options=("window",),
+                       metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*")))
+register_kind(KindSpec("simulate", _simulate,
+                       options=("horizon", "exec", "suspension", "window"),
+                       required=("horizon",),
+                       metrics=("max_response.*", "mean_response.*", "misses.*", "jobs.*",
+                                "misses", "jobs")))
+register_kind(KindSpec("scenario", _scenario, options=("mode", "duration")))
+register_kind(KindSpec("call", _call))

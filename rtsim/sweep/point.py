@@ -1,0 +1,84 @@
+"""Running one sweep point on any worker: the kind's metrics, or the error, as a record.
+
+Kept free of pandas and the engine so that process and Dask workers import little.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import socket
+import time
+from collections.abc import Mapping
+from fnmatch import fnmatchcase
+from typing import Any
+
+from rtsim.sweep.kinds import KINDS, PointInput
+
+__all__ = ["execute_point", "select_metrics", "RESERVED", "ignore_sigint"]
+
+#: Column names a metric may not take (grid names are checked by the engine).
+RESERVED = ("seed", "status", "error")
+
+
+def ignore_sigint() -> None:
+    """Worker-process initializer: Ctrl-C goes to the parent, which stops the workers."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _scalar(name: str, v: Any) -> Any:
+    if hasattr(v, "item") and not isinstance(v, bool | int | float | str):
+        v = v.item()  # numpy scalars
+    if v is None:
+        return math.nan
+    if not isinstance(v, bool | int | float | str):
+        raise TypeError(f"metric '{name}' is not a scalar: {type(v).__name__}")
+    return v
+
+
+def select_metrics(metrics: Mapping[str, Any], keep: tuple[str, ...] | None) -> dict[str, Any]:
+    """The metrics matching ``keep`` (names or glob patterns; None keeps all), in kind order.
+
+    A plain name in ``keep`` that the kind did not produce is an error.
+    """
+    if not isinstance(metrics, Mapping):
+        raise TypeError(f"a point must return a dict of metrics, got {type(metrics).__name__}")
+    out = {str(k): _scalar(str(k), v) for k, v in metrics.items()}
+    for k in out:
+        if k in RESERVED:
+            raise ValueError(f"metric name '{k}' is reserved for a results column")
+    if keep is None:
+        return out
+    for pat in keep:
+        if not any(c in pat for c in "*?[") and pat not in out:
+            raise KeyError(f"metric '{pat}' was not produced (got {', '.join(out) or 'none'})")
+    return {k: v for k, v in out.items() if any(fnmatchcase(k, p) for p in keep)}
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def execute_point(point: PointInput, keep: tuple[str, ...] | None = None) -> dict[str, Any]:
+    """Run ``point``'s kind; never raises for an ordinary exception (it is recorded).
+
+    Returns ``{"index", "status": "ok"|"failed", "error", "metrics", "timing"}``; ``error``
+    is one line (``ExceptionType: message``), empty when ok. Timings are wall-clock and are
+    kept out of the results table.
+    """
+    t0 = time.perf_counter()
+    try:
+        metrics = select_metrics(KINDS[point.kind].fn(point), keep)
+        status, error = "ok", ""
+    except Exception as exc:  # noqa: BLE001 - a failing point is recorded, the sweep goes on
+        metrics, status, error = {}, "failed", _one_line(exc)
+    return {
+        "index": point.index,
+        "status": status,
+        "error": error,
+        "metrics": metrics,
+        "timing": {"wall_s": time.perf_counter() - t0, "host": socket.gethostname(),
+                   "pid": os.getpid()},
+    }

@@ -1,0 +1,360 @@
+"""Sweep files (TOML): parsing and validation into a frozen :class:`SweepSpec`.
+
+Format::
+
+    [sweep]
+    kind = "simulate"               # analyze | bounds | simulate | scenario | call
+    base = "../../tasksets/barrel_robots.toml"  # relative to this file; omitted -> the
+                                    # packaged paper set (required for kind = "scenario")
+    seed = 1                        # the sweep's seed (default 0)
+    combine = "product"             # or "zip" (all grid lists of equal length)
+    metrics = ["w_sch", "max_response.*"]  # optional: metrics to keep (names or glob
+                                    # patterns; default all); unknown metric -> error
+    function = "pkg.module:func"    # kind = "call" only: func(params, options, seed) -> dict
+    [sweep.options]                 # fixed options for every point (kind-specific)
+    horizon = 10000
+    [grid]                          # one entry per swept parameter, in this order
+    n = "1..10"                     # inclusive range a..b[:step], a comma list "10,25,50",
+    r_H = [10, 25, 50]              # or a TOML list (use a list for text values)
+
+A grid name is resolved, in this order, as
+
+1. ``seed``: the point's seed itself (overrides the derived seed);
+2. an option of the kind (``horizon``, ``exec``, ``suspension``, ``window``, ``mode``,
+   ``duration`` ...), merged over ``[sweep.options]``;
+3. a dotted path into the base file's TOML tables: ``window.delta_t``,
+   ``tasks.command.wcet`` (entries of a list of tables are addressed by their ``name``,
+   or by a 0-based index), ``leader.speed``. Intermediate keys must exist; a new leaf key
+   may be added (e.g. ``tasks.command.bcet``) and the normal loader then checks it;
+4. a shortcut: a key of the base file's ``[window]`` table (``n``, ``r_H``, ``e_cal`` ...),
+   or a key at the top level of the base file.
+
+For ``kind = "call"`` every grid name is passed through as a parameter.
+Range strings give integers when every value is integral, else floats rounded to 12
+significant digits (so ``"0.1..0.3:0.1"`` gives 0.1, 0.2, 0.3).
+
+Any problem is a :class:`~rtsim.errors.SweepError` naming the file and the key.
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import importlib
+import json
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from rtsim.errors import InputError, SweepError
+from rtsim.io.ranges import parse_values
+from rtsim.sweep.kinds import KINDS
+
+__all__ = ["BaseFile", "SweepSpec", "load_sweep", "parse_sweep", "canonical_json", "Scalar"]
+
+Scalar = int | float | str | bool
+
+_TOP_KEYS = ("sweep", "grid")
+_SWEEP_KEYS = (
+    "kind", "base", "seed", "combine", "metrics", "options", "function", "name", "description",
+)
+_COMBINE = ("product", "zip")
+
+
+def canonical_json(obj: Any) -> str:
+    """Compact, key-sorted JSON: the text that seeds and fingerprints are hashed from."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=True)
+
+
+def _did_you_mean(word: str, choices: list[str] | tuple[str, ...]) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+@dataclass(frozen=True)
+class BaseFile:
+    """The base task-set or scenario file of a sweep: its path and its text.
+
+    The text travels with every point, so remote (Dask) workers need no shared disk.
+    """
+
+    path: str | None
+    text: str
+
+    @property
+    def source(self) -> str:
+        """The name the loaders use in error messages."""
+        return self.path or "barrel_robots.toml (packaged)"
+
+    @property
+    def sha256(self) -> str:
+        return hashlib.sha256(self.text.encode("utf-8")).hexdigest()
+
+    def data(self) -> dict[str, Any]:
+        """The parsed TOML dict (a fresh copy on every call)."""
+        return tomllib.loads(self.text)
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A validated sweep: what runs at each point, the grid, the seed and the metrics kept.
+
+    ``targets`` maps each grid name to ``("seed",)``, ``("option", name)``,
+    ``("path", key, key, ...)`` or ``("param", name)`` (kind ``call``).
+    """
+
+    source: str
+    text: str
+    kind: str
+    base: BaseFile | None
+    seed: int
+    combine: str
+    grid: tuple[tuple[str, tuple[Scalar, ...]], ...]
+    targets: Mapping[str, tuple[str, ...]]
+    options: Mapping[str, Any] = field(default_factory=dict)
+    metrics: tuple[str, ...] | None = None
+    function: str | None = None
+    name: str = ""
+
+    def resolved(self) -> dict[str, Any]:
+        """Everything that determines the points and their results (the fingerprint's input)."""
+        return {
+            "kind": self.kind,
+            "function": self.function,
+            "base": None if self.base is None else {"path": self.base.path,
+                                                     "sha256": self.base.sha256},
+            "seed": self.seed,
+            "combine": self.combine,
+            "grid": {k: list(v) for k, v in self.grid},
+            "targets": {k: list(v) for k, v in self.targets.items()},
+            "options": dict(self.options),
+            "metrics": None if self.metrics is None else list(self.metrics),
+        }
+
+    def fingerprint(self) -> str:
+        """sha256 of the resolved spec (base path excluded, base content included)."""
+        r = self.resolved()
+        if r["base"] is not None:
+            r["base"] = {"sha256": r["base"]["sha256"]}
+        return hashlib.sha256(canonical_json(r).encode("utf-8")).hexdigest()
+
+
+# -- grid values ----------------------------------------------------------------------
+def _tidy(v: float) -> int | float:
+    r = float(f"{v:.12g}")
+    return int(r) if r.is_integer() else r
+
+
+def _grid_values(src: str, name: str, raw: Any) -> tuple[Scalar, ...]:
+    where = f"{src}: grid.{name}"
+    if isinstance(raw, str):
+        try:
+            vals = parse_values(raw, where)
+        except InputError as exc:
+            raise SweepError(f"{exc} (use a TOML list for text values)") from None
+        if all(float(v).is_integer() for v in vals):
+            return tuple(int(v) for v in vals)
+        return tuple(_tidy(v) for v in vals)
+    if isinstance(raw, bool | int | float):
+        raw = [raw]
+    if not isinstance(raw, list):
+        raise SweepError(f"{where}: expected a list or a range string, got {type(raw).__name__}")
+    if not raw:
+        raise SweepError(f"{where}: empty list")
+    for v in raw:
+        if not isinstance(v, bool | int | float | str):
+            raise SweepError(f"{where}: values must be numbers, text or booleans, got {v!r}")
+        if isinstance(v, float) and not math.isfinite(v):
+            raise SweepError(f"{where}: value {v!r} is not finite")
+    return tuple(raw)
+
+
+# -- parameter resolution --------------------------------------------------------------
+def _walk(data: Any, keys: list[str], src: str, name: str, base: str) -> None:
+    """Check that dotted ``keys`` address a value (or a new leaf) in ``data``."""
+    node = data
+    for i, key in enumerate(keys):
+        last = i == len(keys) - 1
+        where = f"{src}: grid.{name}: unknown parameter path"
+        if isinstance(node, dict):
+            if key in node:
+                node = node[key]
+                continue
+            hint = _did_you_mean(key, [str(k) for k in node])
+            if last and not hint:
+                return  # a new leaf key: the loader validates it
+            raise SweepError(f"{where} (no key '{key}' in {base}{hint})")
+        if isinstance(node, list):
+            names = [e.get("name") for e in node if isinstance(e, dict)]
+            if key in names:
+                node = node[names.index(key)]
+                continue
+            if key.isdigit() and int(key) < len(node):
+                node = node[int(key)]
+                continue
+            hint = _did_you_mean(key, [str(n) for n in names if n is not None])
+            raise SweepError(f"{where} (no entry named '{key}' in {base}{hint})")
+        raise SweepError(f"{where} ('{'.'.join(keys[:i])}' in {base} is a value, not a table)")
+
+
+def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
+             data: dict[str, Any] | None) -> tuple[str, ...]:
+    if name == "seed":
+        return ("seed",)
+    if kind == "call":
+        return ("param", name)
+    spec = KINDS[kind]
+    if name in spec.options:
+        return ("option", name)
+    assert base is not None and data is not None
+    bname = Path(base.path).name if base.path else base.source
+    if "." in name:
+        keys = name.split(".")
+        _walk(data, keys, src, name, bname)
+        return ("path", *keys)
+    window = data.get("window")
+    if isinstance(window, dict) and name in window and name != "name":
+        return ("path", "window", name)
+    if name in data and not isinstance(data[name], dict | list):
+        return ("path", name)
+    choices = list(spec.options) + ["seed"]
+    if isinstance(window, dict):
+        choices += [k for k in window if k != "name"]
+    choices += [k for k, v in data.items() if not isinstance(v, dict | list)]
+    raise SweepError(
+        f"{src}: grid.{name}: unknown parameter (not an option of kind '{kind}', nor a key of "
+        f"{bname}){_did_you_mean(name, choices)}"
+    )
+
+
+# -- the file --------------------------------------------------------------------------
+def _check_keys(src: str, table: str, got: Mapping[str, Any], allowed: tuple[str, ...]) -> None:
+    for key in got:
+        if key not in allowed:
+            where = f"{table}.{key}" if table else key
+            raise SweepError(f"{src}: unknown key '{where}'{_did_you_mean(key, allowed)}")
+
+
+def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None:
+    if kind == "call" and raw is None:
+        return None
+    if raw is None:
+        if kind == "scenario":
+            raise SweepError(f"{src}: sweep.base: required for kind 'scenario'")
+        text = (resources.files("rtsim") / "data" / "barrel_robots.toml").read_text("utf-8")
+        return BaseFile(None, text)
+    if not isinstance(raw, str) or not raw:
+        raise SweepError(f"{src}: sweep.base: expected a file path, got {raw!r}")
+    path = (base_dir / raw).resolve()
+    try:
+        text = path.read_text("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SweepError(f"{src}: sweep.base: cannot read {path}: {exc}") from None
+    try:
+        tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepError(f"{src}: sweep.base: {path} is not valid TOML: {exc}") from None
+    return BaseFile(str(path), text)
+
+
+def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = ".",
+                text: str = "") -> SweepSpec:
+    """Validate a parsed sweep file; ``base_dir`` is where a relative ``base`` is found."""
+    src = source
+    _check_keys(src, "", data, _TOP_KEYS)
+    sw = data.get("sweep")
+    if not isinstance(sw, dict):
+        raise SweepError(f"{src}: missing [sweep] table")
+    _check_keys(src, "sweep", sw, _SWEEP_KEYS)
+    kind = sw.get("kind")
+    if kind is None:
+        raise SweepError(f"{src}: sweep.kind: missing (one of {', '.join(KINDS)})")
+    if kind not in KINDS:
+        raise SweepError(f"{src}: sweep.kind: unknown kind {kind!r} (one of "
+                         f"{', '.join(KINDS)}){_did_you_mean(str(kind), tuple(KINDS))}")
+    seed = sw.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
+        raise SweepError(f"{src}: sweep.seed: expected a non-negative integer, got {seed!r}")
+    combine = sw.get("combine", "product")
+    if combine not in _COMBINE:
+        raise SweepError(f"{src}: sweep.combine: expected 'product' or 'zip', got {combine!r}"
+                         f"{_did_you_mean(str(combine), _COMBINE)}")
+    function = sw.get("function")
+    if kind == "call":
+        if not isinstance(function, str) or function.count(":") != 1:
+            raise SweepError(f"{src}: sweep.function: kind 'call' needs "
+                             f"'package.module:function', got {function!r}")
+        mod, attr = function.split(":")
+        try:
+            fn = getattr(importlib.import_module(mod), attr)
+        except (ImportError, AttributeError) as exc:
+            raise SweepError(f"{src}: sweep.function: cannot import {function!r}: {exc}") from None
+        if not callable(fn):
+            raise SweepError(f"{src}: sweep.function: {function!r} is not callable")
+    elif function is not None:
+        raise SweepError(f"{src}: sweep.function: only for kind 'call', not {kind!r}")
+    kspec = KINDS[kind]
+    options = sw.get("options", {})
+    if not isinstance(options, dict):
+        raise SweepError(f"{src}: sweep.options: expected a table")
+    if kind != "call":
+        _check_keys(src, "sweep.options", options, kspec.options)
+    metrics = sw.get("metrics")
+    if metrics is not None:
+        if (not isinstance(metrics, list) or not metrics
+                or not all(isinstance(m, str) and m for m in metrics)):
+            raise SweepError(f"{src}: sweep.metrics: expected a non-empty list of names")
+        if kspec.metrics is not None:
+            for m in metrics:
+                if not kspec.knows_metric(m):
+                    raise SweepError(
+                        f"{src}: sweep.metrics: unknown metric {m!r} for kind '{kind}' "
+                        f"(known: {', '.join(kspec.metrics)})"
+                        f"{_did_you_mean(m, kspec.metrics)}")
+        metrics = tuple(metrics)
+    name = sw.get("name", "")
+    if not isinstance(name, str):
+        raise SweepError(f"{src}: sweep.name: expected text")
+
+    base = _load_base(src, kind, sw.get("base"), Path(base_dir))
+    bdata = base.data() if base is not None else None
+    grid_raw = data.get("grid")
+    if grid_raw is None or (isinstance(grid_raw, dict) and not grid_raw):
+        raise SweepError(f"{src}: grid: empty grid (give at least one parameter under [grid])")
+    if not isinstance(grid_raw, dict):
+        raise SweepError(f"{src}: grid: expected a table")
+    grid = tuple((str(k), _grid_values(src, str(k), v)) for k, v in grid_raw.items())
+    if kind != "call" and base is None:  # pragma: no cover - _load_base always gives one
+        raise SweepError(f"{src}: sweep.base: missing")
+    targets = {k: _resolve(src, k, kind, base, bdata) for k, _ in grid}
+    if combine == "zip":
+        lengths = {k: len(v) for k, v in grid}
+        if len(set(lengths.values())) > 1:
+            desc = ", ".join(f"{k}={n}" for k, n in lengths.items())
+            raise SweepError(f"{src}: grid: combine = 'zip' needs lists of equal length ({desc})")
+    swept_options = {k for k, t in targets.items() if t[0] == "option"}
+    for req in kspec.required:
+        if req not in options and req not in swept_options:
+            raise SweepError(f"{src}: sweep.options.{req}: required for kind '{kind}'")
+    return SweepSpec(
+        source=src, text=text, kind=kind, base=base, seed=seed, combine=combine, grid=grid,
+        targets=targets, options=dict(options), metrics=metrics, function=function, name=name,
+    )
+
+
+def load_sweep(path: str | Path) -> SweepSpec:
+    """Read and validate a sweep file."""
+    p = Path(path)
+    try:
+        text = p.read_text("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SweepError(f"{p}: cannot read sweep file: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepError(f"{p}: not valid TOML: {exc}") from None
+    return parse_sweep(data, str(p), p.resolve().parent, text)
