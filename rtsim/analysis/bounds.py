@@ -1,0 +1,225 @@
+"""Lower bounds on the processing window: the paper's w_sch and the exact w_rta (SPEC §3).
+
+- e_hough (Eq 1) and g (Eq 5/6) come from the window's constants.
+- Eq 7 (the chain) and Eq 11 (the command task, p = 2w; Eq 10 corrected) are sufficient
+  bounds from ⌈x⌉ ≤ x + 1. They are evaluated here in a general form that reduces to the
+  paper's formulas for its set (fixed-period T_hp, T_lp with period = deadline = 2w): for a
+  task i tested at t = min(D_i, p_i), a higher task j contributes ⌈t/p_j⌉ e_j with the
+  ceiling kept exact when both periods scale with w (the window itself: period w) or both are
+  fixed, and bounded by t/p_j + 1 otherwise. Eq 7 is that bound for the chain, Eq 11 its
+  maximum over T_lp. w_sch = max(Eq 7, Eq 11).
+- w_rta: the least w at which the exact analysis (:func:`rtsim.analysis.rta.analyze`, chain as
+  one task of cost g) finds every task schedulable.
+
+Why w_rta can be found by search: at a fixed t every period is non-decreasing in w, so each
+ceiling ⌈t/P_j(w)⌉ and hence the demand is non-increasing in w, while every deadline is
+non-decreasing in w; a job that meets its deadline at w therefore meets it at any w' > w, and
+the feasible windows form a ray [w_rta, ∞). Its left end is attained: the demand at fixed t
+is constant on intervals closed on the left, [t/(m c_j), t/((m−1) c_j)). So w_rta is either
+R/d_i (a deadline d_i·w meeting a response R) or a breakpoint R/(m·c_j) where a ceiling
+changes. :func:`w_rta` brackets it by bisection and then snaps to that closed form.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, analyze, response_time
+from rtsim.errors import TaskSetError
+from rtsim.model.task import Task
+
+if TYPE_CHECKING:
+    from rtsim.model.taskset import TaskSet
+
+__all__ = ["WindowBounds", "window_bounds", "w_rta", "w_sch_of", "w_eq7_of", "w_eq11_of"]
+
+#: Largest window w_rta searches (ms); beyond it the set is reported as never schedulable.
+W_MAX = 1e9
+
+
+def _need_window(ts: TaskSet) -> None:
+    if ts.window is None:
+        label = ts.source or ts.name or "task set"
+        raise TaskSetError(f"{label}: has no [window]; window bounds need a processing-window set")
+
+
+def _entries(ts: TaskSet) -> list[tuple[Task, bool]]:
+    """Every task in priority order with whether its period scales with w; chain at w = 1."""
+    assert ts.window is not None
+    chain = ts.window_task(1.0)
+    out = [(t, t.per_window) for t in ts.tasks] + [(chain, True)]
+    return sorted(out, key=lambda e: e[0].priority)
+
+
+def _sufficient(task: Task, scaled: bool, higher: Sequence[tuple[Task, bool]]) -> float:
+    """Least w passing the ⌈x⌉ ≤ x + 1 test for ``task`` at t = min(D, p) (module doc)."""
+    assert task.deadline is not None
+    d = min(task.deadline, task.period)  # in units of w when ``scaled``, else ms
+    const = task.wcet  # demand terms that do not depend on w
+    per_w = 0.0  # scaled task: demand ∝ w; fixed task: demand ∝ 1/w
+    for t, t_scaled in higher:
+        if scaled == t_scaled:  # both scale with w, or both fixed: exact ceiling
+            const += math.ceil(d / t.period - CEIL_TOL) * t.wcet
+        else:
+            const += t.wcet
+            per_w += t.wcet / t.period
+    if scaled:  # const + w·d·per_w ≤ d·w
+        return math.inf if per_w >= 1.0 else const / (d * (1.0 - per_w))
+    # fixed deadline d ms: const + (d/w)·per_w ≤ d
+    if const >= d:
+        return math.inf
+    return d * per_w / (d - const)
+
+
+def w_eq7_of(ts: TaskSet) -> float:
+    """Eq 7: the chain alone, w ≥ (g + Σ_hp e_j)/(1 − Σ_hp e_j/p_j) for fixed-period T_hp."""
+    _need_window(ts)
+    entries = _entries(ts)
+    i = next(k for k, (t, _) in enumerate(entries) if t.priority == ts.window.priority)
+    return _sufficient(*entries[i], entries[:i])
+
+
+def w_eq11_of(ts: TaskSet) -> float:
+    """Eq 11 over T_lp (``-inf`` without T_lp): (½Σ_{lp∪hp} e_j + g)/(1 − U_hp) for p = 2w."""
+    _need_window(ts)
+    entries = _entries(ts)
+    assert ts.window is not None
+    bounds = [_sufficient(t, s, entries[:k]) for k, (t, s) in enumerate(entries)
+              if t.priority > ts.window.priority]
+    return max(bounds, default=-math.inf)
+
+
+def w_sch_of(ts: TaskSet) -> float:
+    """The analytic lower bound w_sch = max(Eq 7, Eq 11) (SPEC §3); ``inf`` if none exists."""
+    return max(w_eq7_of(ts), w_eq11_of(ts))
+
+
+def _feasible(ts: TaskSet, w: float) -> bool:
+    return analyze(ts, w).schedulable
+
+
+def _snap(ts: TaskSet, hi: float) -> float:
+    """The exact left end of the feasible piece containing ``hi`` (module doc)."""
+    entries = _entries(ts)
+    resolved = ts.at_window(hi).tasks
+    scale = {t.name: (t.period, t.deadline) for t, s in entries if s}
+    best = 0.0
+    for i, task in enumerate(resolved):
+        r = response_time(task, resolved[:i])
+        assert r is not None and task.deadline is not None
+        if r > task.period + DEADLINE_TOL:  # several jobs in the busy period: keep hi
+            best = max(best, hi)
+            continue
+        cands = [r / scale[task.name][1]] if task.name in scale else []
+        for j in resolved[:i]:
+            if j.name in scale:
+                m = math.ceil(r / j.period - CEIL_TOL)
+                cands.append(r / (m * scale[j.name][0]))
+        best = max(best, *cands) if cands else best
+    return best
+
+
+def w_rta(ts: TaskSet) -> float:
+    """The least window w at which the exact analysis finds every task schedulable (ms).
+
+    ``inf`` when no w up to ``W_MAX`` is schedulable (e.g. T_hp alone is not). Exact up to
+    float rounding: the analysis passes at the result and fails 1e-6 ms below it.
+    """
+    _need_window(ts)
+    assert ts.window is not None
+    g = ts.window.g()
+    hi = max(g, 1e-6)
+    while not _feasible(ts, hi):
+        if hi >= W_MAX:
+            return math.inf
+        hi *= 2.0
+    lo = hi / 2.0 if hi > g else 0.0
+    while hi - lo > 1e-13 * hi:
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if _feasible(ts, mid):
+            hi = mid
+        else:
+            lo = mid
+    snapped = _snap(ts, hi)
+    if snapped > lo and _feasible(ts, snapped):
+        return snapped
+    return hi
+
+
+@dataclass(frozen=True)
+class WindowBounds:
+    """The window bounds of one set at one (n, r_H), with every input used (ms, cm).
+
+    ``inputs`` has n, r_H, e_cal, e_trans, k, e_scan, e_estimate, e_send, e_recv, delta_t,
+    e_sched, ``hp`` (``[{name, e, p}]``, ``per_window`` instead of ``p`` for a multiple of w)
+    and ``lp`` (``[{name, e, per_window}]``, or ``p`` in ms for a fixed period), each with
+    its ``priority`` and, where it differs from the period, its ``deadline``.
+    """
+
+    inputs: dict[str, Any] = field(repr=False)
+    e_hough: float
+    g: float
+    w_eq7: float
+    w_eq11: float
+    w_sch: float
+    w_rta: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready dict; infinite bounds (none exists, or no T_lp for Eq 11) become None."""
+
+        def fin(x: float) -> float | None:
+            return x if math.isfinite(x) else None
+
+        return {
+            "inputs": self.inputs,
+            "e_hough": fin(self.e_hough),
+            "g": fin(self.g),
+            "w_eq7": fin(self.w_eq7),
+            "w_eq11": fin(self.w_eq11),
+            "w_sch": fin(self.w_sch),
+            "w_rta": fin(self.w_rta),
+        }
+
+
+def _task_input(t: Task) -> dict[str, Any]:
+    out: dict[str, Any] = {"name": t.name, "e": t.wcet}
+    out["per_window" if t.per_window else "p"] = t.period
+    if t.deadline != t.period:
+        out["deadline"] = t.deadline
+    out["priority"] = t.priority
+    return out
+
+
+def window_bounds(ts: TaskSet, n: int | None = None, r_H: float | None = None) -> WindowBounds:
+    """e_hough, g, Eq 7, Eq 11, w_sch and w_rta for ``ts`` with n followers and radius r_H."""
+    _need_window(ts)
+    changes: dict[str, Any] = {}
+    if n is not None:
+        changes["n"] = n
+    if r_H is not None:
+        changes["r_H"] = r_H
+    if changes:
+        ts = ts.with_window(**changes)
+    win = ts.window
+    assert win is not None
+    inputs: dict[str, Any] = {k: getattr(win, k) for k in (
+        "n", "r_H", "e_cal", "e_trans", "k", "e_scan", "e_estimate", "e_send", "e_recv",
+        "delta_t", "e_sched")}
+    inputs["priority"] = win.priority
+    inputs["hp"] = [_task_input(t) for t in ts.hp]
+    inputs["lp"] = [_task_input(t) for t in ts.lp]
+    eq7, eq11 = w_eq7_of(ts), w_eq11_of(ts)
+    return WindowBounds(
+        inputs=inputs,
+        e_hough=win.e_hough(),
+        g=win.g(),
+        w_eq7=eq7,
+        w_eq11=eq11,
+        w_sch=max(eq7, eq11),
+        w_rta=w_rta(ts),
+    )
