@@ -69,16 +69,21 @@ def points(spec: SweepSpec) -> list[Point]:
 
 
 def point_input(spec: SweepSpec, point: Point) -> PointInput:
-    """What the point's kind receives: merged options, base-file overrides, the seed."""
+    """What the point's kind receives: merged options, base-file overrides, the seed.
+
+    ``[sweep.set]`` entries are applied first, then the point's grid values.
+    """
     options = dict(spec.options)
     overrides = []
     params = {k: v for k, v in point.params.items() if k != "seed"}
-    for name, value in params.items():
+    for name, value in [*spec.fixed, *params.items()]:
         target = spec.targets[name]
         if target[0] == "option":
             options[name] = value
         elif target[0] == "path":
             overrides.append((tuple(target[1:]), value))
+    if spec.kind == "call":
+        params = {**dict(spec.fixed), **params}
     return PointInput(index=point.index, kind=spec.kind, params=params, options=options,
                       seed=point.seed, base=spec.base, overrides=tuple(overrides),
                       function=spec.function)

@@ -4,21 +4,21 @@ A kind is a function ``fn(point: PointInput) -> dict[str, scalar]`` returning fl
 deterministic metrics (no wall-clock values). Each kind declares the options it accepts and
 the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metrics).
 
-=============  ================================================================  ===========
-kind           runs                                                              options
-=============  ================================================================  ===========
-``bounds``     ``rtsim.analysis.bounds.window_bounds(ts)``: e_hough, g, w_eq7,   --
-               w_eq11, w_sch, w_rta
-``analyze``    ``rtsim.analysis.rta.analyze(ts, w)``: schedulable, utilization,  window
-               ``wcrt.<task>`` (NaN above the deadline), ``schedulable.<task>``
-``simulate``   ``rtsim.sim.simulate(ts, horizon, seed=, exec_model=,            horizon,
-               suspension=, window=)``: per task ``max_response.<task>``,        exec,
-               ``mean_response.<task>``, ``misses.<task>``, ``jobs.<task>``;     suspension,
-               totals ``misses``, ``jobs``                                       window
-``scenario``   ``rtsim.coupling.run_scenario`` on ``rtsim.io.scenario``'s        mode,
-               parsed file: the run's scalar summary, flattened with dots        duration
-``call``       ``function(params, options, seed) -> dict`` named in the file     any
-=============  ================================================================  ===========
+- ``bounds`` — ``rtsim.analysis.bounds.window_bounds(ts)``: ``e_hough``, ``g``, ``w_eq7``,
+  ``w_eq11``, ``w_sch``, ``w_rta``. No options.
+- ``analyze`` — ``rtsim.analysis.rta.analyze(ts, w)``: ``schedulable``, ``utilization``,
+  ``wcrt.<task>`` (NaN once above the deadline), ``schedulable.<task>``. Option ``window``.
+- ``simulate`` — ``rtsim.sim.simulate(ts, horizon, seed=<point seed>, exec_model=exec,
+  suspension=, window=)``: ``w`` (the window used), per task ``max_response.<task>``,
+  ``mean_response.<task>``, ``misses.<task>``, ``jobs.<task>`` (completed jobs), totals
+  ``misses`` and ``jobs``. Options ``horizon`` (ms, required), ``exec`` (``wcet`` |
+  ``uniform``), ``suspension`` (``cpu`` | ``idle``), ``window`` (ms; default w_sch).
+- ``scenario`` — ``rtsim.coupling.run_scenario(parse_scenario(base with overrides),
+  seed=, mode=, duration=)``: the scalar entries of the run's summary, flattened with
+  dots. Options ``mode``, ``duration``. Until both modules exist its points fail with
+  "kind 'scenario' needs ...".
+- ``call`` — ``function(params, options, seed) -> dict`` named by ``sweep.function``
+  (``package.module:function``, importable on every worker): the extension point.
 
 A kind whose module is not installed fails its points with a clear error (the sweep goes
 on). Only the ``call`` kind runs user code; a kind registered at run time with
@@ -137,10 +137,6 @@ def _analyze(p: PointInput) -> dict[str, Any]:
     return out
 
 
-def _stat(obj: Any, name: str) -> Any:
-    return obj.get(name) if isinstance(obj, Mapping) else getattr(obj, name, None)
-
-
 def _simulate(p: PointInput) -> dict[str, Any]:
     mod = _need("rtsim.sim", "simulate")
     ts = p.taskset()
@@ -150,29 +146,17 @@ def _simulate(p: PointInput) -> dict[str, Any]:
     if o.get("window") is not None:
         kwargs["window"] = float(o["window"])
     res = mod.simulate(ts, float(o["horizon"]), **kwargs)
-    stats = _task_stats(res)
     out: dict[str, Any] = {}
-    for name, s in stats.items():
-        out[f"max_response.{name}"] = _num(_stat(s, "max_response"))
-        out[f"mean_response.{name}"] = _num(_stat(s, "mean_response"))
-        out[f"misses.{name}"] = int(_stat(s, "misses") or 0)
-        out[f"jobs.{name}"] = int(_stat(s, "jobs") or _stat(s, "completed") or 0)
-    out["misses"] = sum(v for k, v in out.items() if k.startswith("misses."))
-    out["jobs"] = sum(v for k, v in out.items() if k.startswith("jobs."))
+    if res.window is not None and "w" in res.window:
+        out["w"] = float(res.window["w"])
+    for name, s in res.tasks.items():
+        out[f"max_response.{name}"] = _num(s.max_response)
+        out[f"mean_response.{name}"] = _num(s.mean_response)
+        out[f"misses.{name}"] = int(s.misses)
+        out[f"jobs.{name}"] = int(s.completed)
+    out["misses"] = sum(int(s.misses) for s in res.tasks.values())
+    out["jobs"] = sum(int(s.completed) for s in res.tasks.values())
     return out
-
-
-def _task_stats(res: Any) -> dict[str, Any]:
-    """Per-task statistics of a SimResult as ``{task: stats}`` (mapping or list of records)."""
-    for attr in ("stats", "tasks", "task_stats"):
-        got = getattr(res, attr, None)
-        if callable(got):
-            got = got()
-        if isinstance(got, Mapping):
-            return dict(got)
-        if isinstance(got, list | tuple) and got:
-            return {str(_stat(s, "name") or _stat(s, "task")): s for s in got}
-    raise RuntimeError(f"kind 'simulate': cannot read per-task statistics from {type(res)}")
 
 
 def _flatten(obj: Any, prefix: str = "") -> dict[str, Any]:
@@ -223,7 +207,7 @@ register_kind(KindSpec("analyze", _analyze, options=("window",),
 register_kind(KindSpec("simulate", _simulate,
                        options=("horizon", "exec", "suspension", "window"),
                        required=("horizon",),
-                       metrics=("max_response.*", "mean_response.*", "misses.*", "jobs.*",
+                       metrics=("w", "max_response.*", "mean_response.*", "misses.*", "jobs.*",
                                 "misses", "jobs")))
 register_kind(KindSpec("scenario", _scenario, options=("mode", "duration")))
 register_kind(KindSpec("call", _call))

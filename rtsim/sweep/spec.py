@@ -13,6 +13,8 @@ Format::
     function = "pkg.module:func"    # kind = "call" only: func(params, options, seed) -> dict
     [sweep.options]                 # fixed options for every point (kind-specific)
     horizon = 10000
+    [sweep.set]                     # optional: fixed changes to the base file at every point
+    "tasks.command.bcet" = 10       # (names resolved like grid names; not results columns)
     [grid]                          # one entry per swept parameter, in this order
     n = "1..10"                     # inclusive range a..b[:step], a comma list "10,25,50",
     r_H = [10, 25, 50]              # or a TOML list (use a list for text values)
@@ -60,7 +62,8 @@ Scalar = int | float | str | bool
 
 _TOP_KEYS = ("sweep", "grid")
 _SWEEP_KEYS = (
-    "kind", "base", "seed", "combine", "metrics", "options", "function", "name", "description",
+    "kind", "base", "seed", "combine", "metrics", "options", "set", "function", "name",
+    "description",
 )
 _COMBINE = ("product", "zip")
 
@@ -70,8 +73,8 @@ def canonical_json(obj: Any) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=True)
 
 
-def _did_you_mean(word: str, choices: list[str] | tuple[str, ...]) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+def _did_you_mean(word: str, choices: list[str] | tuple[str, ...], cutoff: float = 0.6) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=cutoff)
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
@@ -104,7 +107,8 @@ class SweepSpec:
     """A validated sweep: what runs at each point, the grid, the seed and the metrics kept.
 
     ``targets`` maps each grid name to ``("seed",)``, ``("option", name)``,
-    ``("path", key, key, ...)`` or ``("param", name)`` (kind ``call``).
+    ``("path", key, key, ...)`` or ``("param", name)`` (kind ``call``), for the names of
+    ``grid`` and of ``fixed`` (the ``[sweep.set]`` table, applied before the grid).
     """
 
     source: str
@@ -119,6 +123,7 @@ class SweepSpec:
     metrics: tuple[str, ...] | None = None
     function: str | None = None
     name: str = ""
+    fixed: tuple[tuple[str, Any], ...] = ()
 
     def resolved(self) -> dict[str, Any]:
         """Everything that determines the points and their results (the fingerprint's input)."""
@@ -132,6 +137,7 @@ class SweepSpec:
             "grid": {k: list(v) for k, v in self.grid},
             "targets": {k: list(v) for k, v in self.targets.items()},
             "options": dict(self.options),
+            "set": {k: v for k, v in self.fixed},
             "metrics": None if self.metrics is None else list(self.metrics),
         }
 
@@ -174,19 +180,20 @@ def _grid_values(src: str, name: str, raw: Any) -> tuple[Scalar, ...]:
 
 
 # -- parameter resolution --------------------------------------------------------------
-def _walk(data: Any, keys: list[str], src: str, name: str, base: str) -> None:
+def _walk(data: Any, keys: list[str], src: str, name: str, base: str, table: str) -> None:
     """Check that dotted ``keys`` address a value (or a new leaf) in ``data``."""
     node = data
     for i, key in enumerate(keys):
         last = i == len(keys) - 1
-        where = f"{src}: grid.{name}: unknown parameter path"
+        where = f"{src}: {table}.{name}: unknown parameter path"
         if isinstance(node, dict):
             if key in node:
                 node = node[key]
                 continue
-            hint = _did_you_mean(key, [str(k) for k in node])
+            # a new leaf key is allowed (the loader validates it) unless it looks like a typo
+            hint = _did_you_mean(key, [str(k) for k in node], 0.8 if last else 0.6)
             if last and not hint:
-                return  # a new leaf key: the loader validates it
+                return
             raise SweepError(f"{where} (no key '{key}' in {base}{hint})")
         if isinstance(node, list):
             names = [e.get("name") for e in node if isinstance(e, dict)]
@@ -202,8 +209,10 @@ def _walk(data: Any, keys: list[str], src: str, name: str, base: str) -> None:
 
 
 def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
-             data: dict[str, Any] | None) -> tuple[str, ...]:
+             data: dict[str, Any] | None, table: str = "grid") -> tuple[str, ...]:
     if name == "seed":
+        if table != "grid":
+            raise SweepError(f"{src}: {table}.seed: give the sweep's seed as sweep.seed")
         return ("seed",)
     if kind == "call":
         return ("param", name)
@@ -214,7 +223,7 @@ def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
     bname = Path(base.path).name if base.path else base.source
     if "." in name:
         keys = name.split(".")
-        _walk(data, keys, src, name, bname)
+        _walk(data, keys, src, name, bname, table)
         return ("path", *keys)
     window = data.get("window")
     if isinstance(window, dict) and name in window and name != "name":
@@ -226,7 +235,7 @@ def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
         choices += [k for k in window if k != "name"]
     choices += [k for k, v in data.items() if not isinstance(v, dict | list)]
     raise SweepError(
-        f"{src}: grid.{name}: unknown parameter (not an option of kind '{kind}', nor a key of "
+        f"{src}: {table}.{name}: unknown parameter (not an option of kind '{kind}', nor a key of "
         f"{bname}){_did_you_mean(name, choices)}"
     )
 
@@ -330,19 +339,28 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
     grid = tuple((str(k), _grid_values(src, str(k), v)) for k, v in grid_raw.items())
     if kind != "call" and base is None:  # pragma: no cover - _load_base always gives one
         raise SweepError(f"{src}: sweep.base: missing")
-    targets = {k: _resolve(src, k, kind, base, bdata) for k, _ in grid}
+    fixed_raw = sw.get("set", {})
+    if not isinstance(fixed_raw, dict):
+        raise SweepError(f"{src}: sweep.set: expected a table")
+    fixed = tuple((str(k), v) for k, v in fixed_raw.items())
+    targets = {k: _resolve(src, k, kind, base, bdata, "sweep.set") for k, _ in fixed}
+    both = [k for k, _ in grid if k in targets]
+    if both:
+        raise SweepError(f"{src}: grid.{both[0]}: also given in sweep.set")
+    targets.update({k: _resolve(src, k, kind, base, bdata) for k, _ in grid})
     if combine == "zip":
         lengths = {k: len(v) for k, v in grid}
         if len(set(lengths.values())) > 1:
             desc = ", ".join(f"{k}={n}" for k, n in lengths.items())
             raise SweepError(f"{src}: grid: combine = 'zip' needs lists of equal length ({desc})")
-    swept_options = {k for k, t in targets.items() if t[0] == "option"}
+    swept_options = {k for k, t in targets.items() if t[0] == "option"}  # grid or set
     for req in kspec.required:
         if req not in options and req not in swept_options:
             raise SweepError(f"{src}: sweep.options.{req}: required for kind '{kind}'")
     return SweepSpec(
         source=src, text=text, kind=kind, base=base, seed=seed, combine=combine, grid=grid,
         targets=targets, options=dict(options), metrics=metrics, function=function, name=name,
+        fixed=fixed,
     )
 
 
