@@ -1,0 +1,36 @@
+"""Control: the adjustment algorithm of the processing window (paper §3.3, SPEC §5). Pure."""
+
+from rtsim.control.adjust import (
+    CAP_FACTOR,
+    FLOOR_FRAC,
+    FLOOR_W,
+    METHODS,
+    MODES,
+    Adjustment,
+    FollowerEstimate,
+    Predictor,
+    adjust,
+    decide,
+    predict_msbs,
+    predictor,
+)
+from rtsim.control.closed_forms import coupled_speed, paper_speed
+from rtsim.control.predict import min_bound
+
+__all__ = [
+    "CAP_FACTOR",
+    "FLOOR_FRAC",
+    "FLOOR_W",
+    "METHODS",
+    "MODES",
+    "Adjustment",
+    "FollowerEstimate",
+    "Predictor",
+    "adjust",
+    "coupled_speed",
+    "decide",
+    "min_bound",
+    "paper_speed",
+    "predict_msbs",
+    "predictor",
+]

@@ -1,0 +1,385 @@
+"""The adjustment algorithm (paper §3.3, SPEC §5) and the three window modes, as pure functions.
+
+Each window, from the leader's estimates of every follower, :func:`adjust`:
+
+1. predicts every follower's four bounds (ms) at the desired speed V_Ld, with the follower's
+   motion given by the *prediction model* (below); m = the smallest, and which one binds;
+2. if m ≥ w_sch: w = min(m, cap), V_L = V_Ld, slack = w − w_sch (Eq 22, capped);
+3. else (overload): w = w_sch, slack = 0, and V_L is the **largest** speed in (0, V_Ld] at
+   which every bound of every follower, predicted at that speed, is ≥ w_sch. Candidates:
+
+   * ``closed-form``: the paper's Eqs 23–26, corrected (:func:`~rtsim.control.closed_forms.
+     paper_speed`), with V_F, θ and ω_L at their estimates, for every bound violated at V_Ld
+     (the paper treats the one binding bound; with several violated, the smallest speed);
+   * ``coupled``: the coupled closed forms (:func:`~rtsim.control.closed_forms.coupled_speed`),
+     V_F = s·V_L, ω_L = κ·V_L, over every bound of every follower;
+   * ``numeric``: a scan of the model's min bound over (0, V_Ld] and bisection (below),
+     run only when no closed-form candidate passes the check.
+
+   Every candidate is checked by re-evaluating all followers with the model; the largest
+   passing one is taken (on a tie — within 1e-9 relative — the earlier in ``methods``). If it
+   is not maximal (the bound still holds 1e-6 above it) the numeric search refines it upward.
+   If no speed passes: ``feasible=False``, method ``floor``, V_L = floor_frac·V_Ld.
+
+Prediction models (``model``):
+
+* ``"formation"`` (default, SPEC §6): the follower moves with its formation slot — velocity =
+  leader velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
+  :func:`~rtsim.analysis.kinematics.formation_velocity`; the slot is (ρ_d, β_d) when
+  ``beta_d`` is given, else the estimated (ρ, β). The bounds are evaluated at the estimated
+  (ρ, β): a follower off its slot has ρ̇, β̇ ≠ 0, one on its slot only the path-diversion bound.
+  Every bound is ∝ 1/V_L, so the coupled form is exact and the feasible speeds are (0, V*].
+* ``"estimate"`` (the paper's view): V_F, θ and ω_L stay at the estimates whatever V_L is; the
+  corrected closed forms are then exact and each bound is an interval of speeds.
+* any callable ``(follower, v_l) -> (v_f, theta, omega_l)``.
+
+Numeric search: descending scan of ``scan_points`` equal steps of (0, V_Ld] and then 20
+halvings below the smallest step; the first passing point is refined by 60 bisections
+against the failing point above. Assumption: feasibility is monotone between neighbouring
+scan points (exact for the two built-in models, where the feasible set is an interval);
+a feasible island narrower than one step can be missed.
+
+Window cap: w = min(m, cap), default cap = 10·w_sch. The bounds are first-order motion
+predictions that ignore noise and disturbances, and infinite when a follower is still; a window
+ten times the schedulability bound keeps the open-loop time finite while never binding in the
+paper's scenarios (their bounds lie within 0.3–2·w_sch).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds, formation_velocity
+from rtsim.control.closed_forms import coupled_speed, paper_speed
+from rtsim.control.predict import (
+    FollowerEstimate,
+    Predictor,
+    check_number,
+    min_bound,
+    predict_msbs,
+    predictor,
+)
+
+__all__ = [
+    "CAP_FACTOR",
+    "FLOOR_FRAC",
+    "FLOOR_W",
+    "METHODS",
+    "MODES",
+    "Adjustment",
+    "FollowerEstimate",
+    "Predictor",
+    "adjust",
+    "decide",
+    "predict_msbs",
+    "predictor",
+]
+
+#: Default window cap as a multiple of w_sch.
+CAP_FACTOR = 10.0
+#: Default speed floor (fraction of V_Ld) when no speed restores the bounds.
+FLOOR_FRAC = 0.05
+#: Default smallest window (ms) of the ``min-msb`` mode.
+FLOOR_W = 1.0
+#: Methods that :func:`adjust` can report.
+METHODS: tuple[str, ...] = ("none", "closed-form", "coupled", "numeric", "floor")
+#: Window modes of :func:`decide`.
+MODES: tuple[str, ...] = ("adjust", "fixed-wsch", "min-msb")
+
+Mode = Literal["adjust", "fixed-wsch", "min-msb"]
+_CANDIDATES = ("closed-form", "coupled", "numeric")
+_TOL = 1e-9  # relative tolerance of "bound ≥ w_sch" and of ties
+
+
+@dataclass(frozen=True)
+class Adjustment:
+    """One window's decision.
+
+    w, slack (= max(0, w − w_sch), the slack granted), msb_min and margin (= msb_min − w_sch,
+    signed) are ms. msb_min, binding_* and msbs are predicted at the desired speed (what the
+    decision reacts to); msbs_after / msb_min_after at the chosen speed ``v_leader``.
+    binding_follower is 1-based (0 when no bound is finite). ``feasible``: msb_min_after ≥
+    w_sch (within 1e-9 relative). ``candidates``: the speed each method proposed (NaN if none).
+    """
+
+    mode: str
+    w: float
+    w_sch: float
+    slack: float
+    v_leader: float
+    v_leader_desired: float
+    msb_min: float
+    margin: float
+    binding_kind: str
+    binding_follower: int
+    method: str
+    feasible: bool
+    msbs: tuple[dict[str, float], ...]
+    msb_min_after: float
+    msbs_after: tuple[dict[str, float], ...]
+    candidates: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def binding(self) -> str:
+        """``kind:follower`` as in windows.csv, e.g. ``path_diversion:2``, or ``none``."""
+        return (
+            "none" if self.binding_follower == 0 else f"{self.binding_kind}:{self.binding_follower}"
+        )
+
+    @property
+    def critical(self) -> bool:
+        """Overload at the desired speed: min MSB < w_sch."""
+        return self.msb_min < self.w_sch
+
+
+def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
+    """Largest passing speed: scan ``grid`` (descending), bisect below the first failure."""
+    above: float | None = None
+    for v in grid:
+        if ok(v):
+            if above is None:
+                return v
+            lo, hi = v, above
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                if ok(mid):
+                    lo = mid
+                else:
+                    hi = mid
+                if hi - lo <= 1e-13 * hi:
+                    break
+            return lo
+        above = v
+    return None
+
+
+def adjust(
+    followers: Sequence[FollowerEstimate],
+    *,
+    v_ld: float,
+    w_sch: float,
+    thresholds: Thresholds,
+    omega_l: float = 0.0,
+    kappa: float = 0.0,
+    cap: float | None = None,
+    floor_frac: float = FLOOR_FRAC,
+    model: str | Predictor = "formation",
+    methods: Sequence[str] = _CANDIDATES,
+    scan_points: int = 64,
+) -> Adjustment:
+    """The adjustment algorithm (paper §3.3, SPEC §5); see the module docstring.
+
+    v_ld: desired leader speed (cm/s); w_sch (ms); omega_l: the leader's current turn rate
+    (rad/s, used by the paper's forms and the ``estimate`` model); kappa: path curvature (1/cm,
+    positive = left); cap: largest window (ms, default 10·w_sch); floor_frac: leader speed when
+    nothing works, as a fraction of v_ld; methods: allowed candidates in tie-break order.
+    """
+    where = "adjust"
+    v_ld = check_number(where, "v_ld", v_ld)
+    w_sch = check_number(where, "w_sch", w_sch)
+    omega_l = check_number(where, "omega_l", omega_l)
+    kappa = check_number(where, "kappa", kappa)
+    if v_ld < 0.0:
+        raise ValueError(f"{where}: v_ld must be non-negative, got {v_ld!r}")
+    if w_sch <= 0.0:
+        raise ValueError(f"{where}: w_sch must be positive, got {w_sch!r}")
+    cap = CAP_FACTOR * w_sch if cap is None else check_number(where, "cap", cap)
+    if cap < w_sch:
+        raise ValueError(f"{where}: cap must be at least w_sch={w_sch!r}, got {cap!r}")
+    if not 0.0 <= floor_frac <= 1.0:
+        raise ValueError(f"{where}: floor_frac must be in [0, 1], got {floor_frac!r}")
+    bad = [m for m in methods if m not in _CANDIDATES]
+    if bad or not methods:
+        raise ValueError(
+            f"{where}: methods must be a non-empty subset of {_CANDIDATES}, got {methods!r}"
+        )
+    if scan_points < 1:
+        raise ValueError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
+
+    predict = predictor(model, omega_l=omega_l, kappa=kappa)
+    msbs = predict_msbs(followers, v_ld, predict, thresholds)
+    m, kind, who = min_bound(msbs)
+    common = dict(
+        mode="adjust",
+        w_sch=w_sch,
+        v_leader_desired=v_ld,
+        msb_min=m,
+        margin=m - w_sch,
+        binding_kind=kind,
+        binding_follower=who,
+        msbs=tuple(msbs),
+    )
+    if m >= w_sch:
+        w = min(m, cap)
+        return Adjustment(
+            w=w,
+            slack=w - w_sch,
+            v_leader=v_ld,
+            method="none",
+            feasible=True,
+            msb_min_after=m,
+            msbs_after=tuple(msbs),
+            **common,
+        )
+
+    need = w_sch * (1.0 - _TOL)
+
+    def ok(v: float) -> bool:
+        return min_bound(predict_msbs(followers, v, predict, thresholds))[0] >= need
+
+    candidates: dict[str, float] = {k: math.nan for k in methods}
+    if "closed-form" in methods:
+        v = math.inf
+        for f, fm in zip(followers, msbs, strict=True):
+            for k in BOUND_KINDS:
+                if fm[k] < w_sch:
+                    hi = paper_speed(
+                        k,
+                        rho=f.rho,
+                        beta=f.beta,
+                        theta=f.theta,
+                        v_f=f.v_f,
+                        omega_l=omega_l,
+                        rho_d=f.rho_d,
+                        thr=thresholds,
+                        w=w_sch,
+                    )
+                    v = -math.inf if hi is None else min(v, hi)
+        candidates["closed-form"] = math.nan if v == -math.inf else min(v, v_ld)
+    if "coupled" in methods:
+        v = math.inf
+        for f in followers:
+            s, theta_f = formation_velocity(1.0, kappa, *f.slot)
+            for k in BOUND_KINDS:
+                v = min(
+                    v,
+                    coupled_speed(
+                        k,
+                        rho=f.rho,
+                        beta=f.beta,
+                        s=s,
+                        theta_f=theta_f,
+                        kappa=kappa,
+                        rho_d=f.rho_d,
+                        thr=thresholds,
+                        w=w_sch,
+                    ),
+                )
+        candidates["coupled"] = min(v, v_ld)
+
+    passing = [
+        (candidates[k], k)
+        for k in methods
+        if k != "numeric" and 0.0 < candidates[k] <= v_ld and ok(candidates[k])  # NaN fails
+    ]
+    best: float | None = None
+    method = "floor"
+    if passing:
+        top = max(v for v, _ in passing)
+        best, method = next((v, k) for v, k in passing if v >= top * (1.0 - _TOL))
+        probe = min(best * (1.0 + 1e-6), v_ld)
+        if "numeric" in methods and probe > best and ok(probe):  # not maximal: refine upward
+            step = (v_ld - best) / scan_points
+            grid = [v_ld - step * i for i in range(scan_points)] + [probe]
+            found = _largest(ok, grid)
+            if found is not None and found > best:
+                best, method = found, "numeric"
+                candidates["numeric"] = found
+    elif "numeric" in methods and v_ld > 0.0:
+        step = v_ld / scan_points
+        grid = [v_ld - step * i for i in range(scan_points)]
+        grid += [step * 0.5**j for j in range(1, 21)]
+        found = _largest(ok, grid)
+        if found is not None:
+            best, method = found, "numeric"
+            candidates["numeric"] = found
+    v_l = floor_frac * v_ld if best is None else best
+    after = predict_msbs(followers, v_l, predict, thresholds)
+    m_after = min_bound(after)[0]
+    return Adjustment(
+        w=w_sch,
+        slack=0.0,
+        v_leader=v_l,
+        method=method,
+        feasible=m_after >= need,
+        msb_min_after=m_after,
+        msbs_after=tuple(after),
+        candidates=candidates,
+        **common,
+    )
+
+
+def decide(
+    mode: str,
+    followers: Sequence[FollowerEstimate],
+    *,
+    v_ld: float,
+    w_sch: float,
+    thresholds: Thresholds,
+    omega_l: float = 0.0,
+    kappa: float = 0.0,
+    cap: float | None = None,
+    floor_frac: float = FLOOR_FRAC,
+    floor_w: float = FLOOR_W,
+    model: str | Predictor = "formation",
+    methods: Sequence[str] = _CANDIDATES,
+    scan_points: int = 64,
+) -> Adjustment:
+    """One window's decision in ``mode`` (issue 5's three modes).
+
+    - ``adjust``: :func:`adjust`;
+    - ``fixed-wsch``: w = w_sch, V_L = V_Ld always (the bounds may break in the world);
+    - ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld always (the schedule may
+      break); floor_w (ms, default 1) keeps a zero-or-tiny bound from making a zero window.
+
+    In the two baselines ``method`` is ``none``, ``feasible`` says whether min MSB ≥ w_sch, and
+    slack = max(0, w − w_sch).
+    """
+    if mode == "adjust":
+        return adjust(
+            followers,
+            v_ld=v_ld,
+            w_sch=w_sch,
+            thresholds=thresholds,
+            omega_l=omega_l,
+            kappa=kappa,
+            cap=cap,
+            floor_frac=floor_frac,
+            model=model,
+            methods=methods,
+            scan_points=scan_points,
+        )
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+    v_ld = check_number("decide", "v_ld", v_ld)
+    w_sch = check_number("decide", "w_sch", w_sch)
+    if w_sch <= 0.0:
+        raise ValueError(f"decide: w_sch must be positive, got {w_sch!r}")
+    cap = CAP_FACTOR * w_sch if cap is None else check_number("decide", "cap", cap)
+    floor_w = check_number("decide", "floor_w", floor_w)
+    if floor_w <= 0.0:
+        raise ValueError(f"decide: floor_w must be positive, got {floor_w!r}")
+    predict = predictor(model, omega_l=omega_l, kappa=kappa)
+    msbs = tuple(predict_msbs(followers, v_ld, predict, thresholds))
+    m, kind, who = min_bound(msbs)
+    w = w_sch if mode == "fixed-wsch" else min(max(m, floor_w), max(cap, floor_w))
+    return Adjustment(
+        mode=mode,
+        w=w,
+        w_sch=w_sch,
+        slack=max(0.0, w - w_sch),
+        v_leader=v_ld,
+        v_leader_desired=v_ld,
+        msb_min=m,
+        margin=m - w_sch,
+        binding_kind=kind,
+        binding_follower=who,
+        method="none",
+        feasible=m >= w_sch * (1.0 - _TOL),
+        msbs=msbs,
+        msb_min_after=m,
+        msbs_after=msbs,
+    )

@@ -1,0 +1,108 @@
+"""What the leader predicts a follower does as the leader's speed changes (SPEC §5, §6).
+
+A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_L):
+
+* ``"formation"`` (SPEC §6): the follower moves with its formation slot — velocity = leader
+  velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
+  :func:`~rtsim.analysis.kinematics.formation_velocity`; so V_F = s·V_L with s fixed by the
+  slot and κ, and θ is fixed. The bounds are evaluated at the *estimated* (ρ, β).
+* ``"estimate"`` (the paper's view): V_F, θ and ω_L stay at the estimates.
+* any callable with the :data:`Predictor` signature.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds, follower_msbs, formation_velocity
+
+__all__ = ["FollowerEstimate", "Predictor", "min_bound", "predict_msbs", "predictor"]
+
+
+def check_number(where: str, name: str, value: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValueError(f"{where}: {name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class FollowerEstimate:
+    """The leader's estimate of one follower (leader frame, SPEC §4).
+
+    rho (cm, > 0), beta (rad), theta = θ_L − θ_F (rad), v_f (cm/s, ≥ 0), rho_d: desired
+    separation (cm, > 0), beta_d: desired bearing (rad) or ``None``; the formation slot used by
+    the ``formation`` model is (rho_d, beta_d), or (rho, beta) when beta_d is ``None``.
+    """
+
+    rho: float
+    beta: float
+    theta: float
+    v_f: float
+    rho_d: float
+    beta_d: float | None = None
+
+    def __post_init__(self) -> None:
+        where = "FollowerEstimate"
+        for name in ("rho", "beta", "theta", "v_f", "rho_d"):
+            object.__setattr__(self, name, check_number(where, name, getattr(self, name)))
+        if self.beta_d is not None:
+            object.__setattr__(self, "beta_d", check_number(where, "beta_d", self.beta_d))
+        for name in ("rho", "rho_d"):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(f"{where}: {name} must be positive, got {getattr(self, name)!r}")
+        if self.v_f < 0.0:
+            raise ValueError(f"{where}: v_f must be non-negative, got {self.v_f!r}")
+
+    @property
+    def slot(self) -> tuple[float, float]:
+        """Formation slot (ρ, β) in the leader frame."""
+        if self.beta_d is None:
+            return self.rho, self.beta
+        return self.rho_d, self.beta_d
+
+
+#: (follower, leader speed) -> (V_F, θ, ω_L) predicted at that leader speed.
+Predictor = Callable[[FollowerEstimate, float], tuple[float, float, float]]
+
+
+def predictor(model: str | Predictor, *, omega_l: float, kappa: float) -> Predictor:
+    """The prediction model named ``model`` (``"formation"`` or ``"estimate"``), or ``model``."""
+    if callable(model):
+        return model
+    if model == "formation":
+        cache: dict[tuple[float, float], tuple[float, float]] = {}
+
+        def formation(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
+            slot = f.slot
+            if slot not in cache:
+                cache[slot] = formation_velocity(1.0, kappa, *slot)
+            s, theta_f = cache[slot]
+            return s * v_l, theta_f, kappa * v_l
+
+        return formation
+    if model == "estimate":
+        return lambda f, v_l: (f.v_f, f.theta, omega_l)
+    raise ValueError(f"model must be 'formation', 'estimate' or a callable, got {model!r}")
+
+
+def predict_msbs(
+    followers: Sequence[FollowerEstimate], v_l: float, predict: Predictor, thr: Thresholds
+) -> list[dict[str, float]]:
+    """Every follower's four bounds (ms) at leader speed ``v_l`` under ``predict``."""
+    out = []
+    for f in followers:
+        v_f, theta, omega_l = predict(f, v_l)
+        out.append(follower_msbs(v_l, omega_l, v_f, f.rho, f.beta, theta, f.rho_d, thr))
+    return out
+
+
+def min_bound(msbs: Sequence[Mapping[str, float]]) -> tuple[float, str, int]:
+    """(min bound, its kind, its 1-based follower); ("none", 0) when there is no finite one."""
+    best, kind, who = math.inf, "none", 0
+    for i, m in enumerate(msbs, start=1):
+        for k in BOUND_KINDS:
+            if m[k] < best:
+                best, kind, who = m[k], k, i
+    return best, kind, who
