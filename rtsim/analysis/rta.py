@@ -62,8 +62,10 @@ def response_time(task: Task, higher: Sequence[Task]) -> float | None:
     """Worst-case response time of ``task`` below the tasks ``higher`` (ms), exact.
 
     Returns ``None`` as soon as the iteration passes the task's deadline (the task is not
-    schedulable), and also if a level-i busy period has not closed after ``MAX_BUSY_JOBS``
-    jobs (only possible at a level-i utilization of exactly 1 with a huge hyperperiod).
+    schedulable); at once when D > p and the level-i utilization exceeds 1; and if a level-i
+    busy period has not closed after ``MAX_BUSY_JOBS`` jobs (only possible at a level-i
+    utilization of 1 up to rounding with a huge hyperperiod). Near utilization 1 a D > p
+    busy period can be long, and the analysis slow (seconds).
     """
     _check_resolved(task)
     for t in higher:
@@ -72,6 +74,8 @@ def response_time(task: Task, higher: Sequence[Task]) -> float | None:
     deadline = p if task.deadline is None else task.deadline
     limit = deadline + DEADLINE_TOL
     hp = [(t.wcet, t.period) for t in higher]
+    if deadline > p and e / p + math.fsum(ej / pj for ej, pj in hp) > 1.0 + 1e-12:
+        return None  # level-i work grows without bound: some job misses any deadline
     worst = 0.0
     w = e + math.fsum(ej for ej, _ in hp)  # job 0 starts from e + Σ e_j
     for q in range(MAX_BUSY_JOBS):
