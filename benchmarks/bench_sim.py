@@ -1,0 +1,115 @@
+"""Speed and memory of the virtual CPU (run by hand; not a test).
+
+    python benchmarks/bench_sim.py [--hours 1] [--no-memory]
+
+1. One simulated hour of the 3-task set (5, 40), (200, 250), (25, 500) (rate-monotonic) with
+   per-task statistics on and per-job records off: jobs per second of ``rtsim.sim.simulate``.
+2. In the same run, a bare event loop with a heap and no SimPy simulating the same set (the
+   speed of light for Python), and the ratio.
+3. Peak memory (ru_maxrss of a fresh subprocess) for 1 simulated second and 24 simulated hours
+   with per-job records off: it must not grow with the horizon.
+"""
+
+from __future__ import annotations
+
+import argparse
+import heapq
+import json
+import math
+import resource
+import subprocess
+import sys
+import time
+
+TASKS = ((5.0, 40.0), (200.0, 250.0), (25.0, 500.0))  # (wcet, period), priority = order
+
+
+def bare_loop(horizon: float) -> tuple[int, float]:
+    """Fixed-priority preemptive scheduling with a release heap; returns (jobs, max response)."""
+    releases = [(0.0, i) for i in range(len(TASKS))]
+    heapq.heapify(releases)
+    ready: list[tuple[int, float, float]] = []  # (priority, release, remaining)
+    now = 0.0
+    done = 0
+    worst = 0.0
+    k = [0] * len(TASKS)
+    while releases or ready:
+        nxt_rel = releases[0][0] if releases else math.inf
+        if ready:
+            prio, rel, rem = ready[0]
+            if now + rem <= nxt_rel:  # the running job completes first
+                heapq.heappop(ready)
+                now += rem
+                done += 1
+                worst = max(worst, now - rel)
+                continue
+            heapq.heapreplace(ready, (prio, rel, rem - (nxt_rel - now)))
+        now = nxt_rel
+        while releases and releases[0][0] <= now:
+            t, i = heapq.heappop(releases)
+            heapq.heappush(ready, (i, t, TASKS[i][0]))
+            k[i] += 1
+            nt = k[i] * TASKS[i][1]
+            if nt < horizon:
+                heapq.heappush(releases, (nt, i))
+    return done, worst
+
+
+def rtsim_run(horizon: float) -> int:
+    from rtsim.model.task import Task
+    from rtsim.sim import simulate
+
+    tasks = [Task(f"t{i}", e, p, priority=i + 1) for i, (e, p) in enumerate(TASKS)]
+    res = simulate(tasks, horizon)
+    return sum(s.completed for s in res.tasks.values())
+
+
+def peak_rss_mb(horizon: float) -> float:
+    """ru_maxrss (MB) of a fresh interpreter that simulates ``horizon`` ms."""
+    code = (f"import resource, sys; sys.path.insert(0, {sys.path[0]!r}); "
+            f"import bench_sim; bench_sim.rtsim_run({horizon!r}); "
+            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    return int(out.stdout.strip()) / 1024.0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--hours", type=float, default=1.0)
+    ap.add_argument("--no-memory", action="store_true")
+    args = ap.parse_args(argv)
+    horizon = args.hours * 3_600_000.0
+    rtsim_run(1000.0)  # imports and warm-up outside the timing
+
+    t = time.perf_counter()
+    n_bare, _ = bare_loop(horizon)
+    t_bare = time.perf_counter() - t
+    t = time.perf_counter()
+    n_sim = rtsim_run(horizon)
+    t_sim = time.perf_counter() - t
+    assert n_bare == n_sim, (n_bare, n_sim)
+
+    rows = [("bare heap loop", n_bare, t_bare), ("rtsim (SimPy CPU, stats on)", n_sim, t_sim)]
+    print(f"{args.hours:g} simulated hour(s) of (5,40),(200,250),(25,500); "
+          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB RSS so far")
+    print(f"{'simulator':32s} {'jobs':>9s} {'seconds':>8s} {'jobs/s':>10s}")
+    for name, n, secs in rows:
+        print(f"{name:32s} {n:9d} {secs:8.2f} {n / secs:10.0f}")
+    ratio = (n_bare / t_bare) / (n_sim / t_sim)
+    print(f"rtsim is {ratio:.2f}x slower than the bare loop (target: within 6x)")
+    result: dict[str, float] = {"bare_jobs_per_s": n_bare / t_bare,
+                                "rtsim_jobs_per_s": n_sim / t_sim, "ratio": ratio}
+    if not args.no_memory:
+        one_s = peak_rss_mb(1000.0)
+        day = peak_rss_mb(24 * 3_600_000.0)
+        print(f"{'peak RSS, 1 simulated second':32s} {one_s:9.1f} MB")
+        print(f"{'peak RSS, 24 simulated hours':32s} {day:9.1f} MB  "
+              f"(+{day - one_s:.1f} MB; target < 100 MB)")
+        result.update(peak_mb_1s=one_s, peak_mb_24h=day)
+    print(json.dumps(result))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,208 @@
+"""``rtsim simulate FILE --horizon H``: run a task set on the virtual CPU and report per task.
+
+Output files (``--jobs``, ``--trace``, ``--gantt``, ``--histogram``) are written atomically,
+and every directory that receives one also gets a ``manifest.json`` (rtsim version, seed,
+resolved inputs including the task set, command line, and the list of outputs written there).
+
+For a processing-window set (``[window]``), ``--followers``/``--hough-radius`` change n and
+r_H, the window is fixed at ``--window`` (default: the analytic w_sch), and the report puts
+the chain's simulated response times beside w_sch and w_rta.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+from rtsim.errors import InputError
+
+__all__ = ["register", "run"]
+
+_RANGE = re.compile(r"^\s*([-+0-9.eE]+)\s*\.\.\s*([-+0-9.eE]+)\s*$")
+
+
+def register(sub: Any) -> None:
+    """Add the ``simulate`` sub-command."""
+    p = sub.add_parser("simulate", help="simulate a task set on the virtual CPU",
+                       description=__doc__.splitlines()[0])
+    p.add_argument("file", help="task-set TOML file")
+    p.add_argument("--horizon", type=float, required=True,
+                   help="jobs released in [0, H) ms are simulated to completion")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--exec", dest="exec_model", choices=("wcet", "uniform"), default="wcet",
+                   help="execution times: wcet (default) or uniform in [bcet, wcet]")
+    p.add_argument("--suspension", choices=("cpu", "idle"), default="cpu",
+                   help="radio round trip: counted as CPU time (default) or CPU free")
+    p.add_argument("--overhead", type=float, default=0.0,
+                   help="context-switch overhead in ms (default 0)")
+    p.add_argument("--followers", type=int, help="n, for a processing-window set")
+    p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
+    p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
+    p.add_argument("--jobs", help="per-job records, .csv or .parquet")
+    p.add_argument("--trace", help="execution-interval trace, .csv or .parquet")
+    p.add_argument("--gantt", help="Gantt chart PNG (with --gantt-range A..B ms)")
+    p.add_argument("--gantt-range", help="time range of the Gantt chart, A..B in ms")
+    p.add_argument("--histogram", help="response-time histograms PNG, one panel per task")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def _gantt_range(text: str | None, horizon: float) -> tuple[float, float]:
+    if text is None:
+        return 0.0, min(horizon, 2000.0)
+    m = _RANGE.match(text)
+    try:
+        a, b = (float(m.group(1)), float(m.group(2))) if m else (math.nan, math.nan)
+    except ValueError:
+        a = b = math.nan
+    if not (math.isfinite(a) and math.isfinite(b) and b > a):
+        raise InputError(f"--gantt-range: expected A..B with A < B (ms), got {text!r}")
+    return a, b
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the sub-command (InputError is reported by the caller)."""
+    from rtsim.analysis.rta import analyze
+    from rtsim.io.atomic import dumps, write_table
+    from rtsim.io.manifest import write_manifest
+    from rtsim.io.taskset import load_taskset, taskset_to_dict
+    from rtsim.sim import simulate
+
+    if not (math.isfinite(args.horizon) and args.horizon > 0):
+        raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
+    ts = load_taskset(args.file)
+    changes: dict[str, Any] = {}
+    if args.followers is not None:
+        changes["n"] = args.followers
+    if args.hough_radius is not None:
+        changes["r_H"] = args.hough_radius
+    if changes or args.window is not None:
+        if ts.window is None:
+            raise InputError(f"{args.file}: has no [window]; --followers, --hough-radius and "
+                             f"--window apply to processing-window sets only")
+    if changes:
+        ts = ts.with_window(**changes)
+    bounds = None
+    if ts.window is not None:
+        from rtsim.analysis.bounds import window_bounds
+
+        bounds = window_bounds(ts)
+    want_jobs = bool(args.jobs or args.gantt)
+    res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,
+                   suspension=args.suspension, window=args.window,
+                   record_jobs=want_jobs, record_trace=bool(args.trace or args.gantt),
+                   overhead=args.overhead)
+    w = res.window["w"] if res.window else None
+    analysis = analyze(ts, w) if ts.window is not None else analyze(ts)
+    wcrt = {t.name: t.wcrt for t in analysis.tasks}
+    deadlines = {t.name: t.deadline for t in analysis.tasks}
+    report = res.to_json()
+    for entry in report["tasks"]:
+        entry["wcrt_analysis"] = wcrt.get(entry["name"])
+    if bounds is not None:
+        report["window"] = {**report.get("window", {}), **{
+            k: v for k, v in bounds.as_dict().items() if k != "inputs"}}
+        report["window"]["n"] = ts.window.n  # type: ignore[union-attr]
+        report["window"]["r_H"] = ts.window.r_H  # type: ignore[union-attr]
+
+    outputs: dict[Path, list[str]] = defaultdict(list)
+    if args.jobs:
+        write_table(args.jobs, res.jobs)
+        outputs[Path(args.jobs).resolve().parent].append(Path(args.jobs).name)
+    if args.trace:
+        write_table(args.trace, res.trace)
+        outputs[Path(args.trace).resolve().parent].append(Path(args.trace).name)
+    if args.gantt:
+        _save_gantt(res, args.gantt, _gantt_range(args.gantt_range, args.horizon))
+        outputs[Path(args.gantt).resolve().parent].append(Path(args.gantt).name)
+    if args.histogram:
+        _save_histograms(res, args.histogram, wcrt, deadlines, report.get("window"),
+                         ts.window.name if ts.window is not None else None)
+        outputs[Path(args.histogram).resolve().parent].append(Path(args.histogram).name)
+    inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
+              "suspension": args.suspension, "overhead": args.overhead,
+              "window": res.window, "taskset": taskset_to_dict(ts)}
+    for out_dir, names in outputs.items():
+        write_manifest(out_dir, command="simulate", seed=args.seed, inputs=inputs,
+                       argv=["rtsim", *sys.argv[1:]], extra={"outputs": names})
+
+    if args.json:
+        print(dumps(report))
+    else:
+        _print_table(report)
+    return 0
+
+
+def _fmt(x: Any) -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, float):
+        return f"{x:.3f}"
+    return str(x)
+
+
+def _print_table(report: dict[str, Any]) -> None:
+    win = report.get("window")
+    if win:
+        print(f"window: w = {_fmt(win.get('w'))} ms ({win.get('mode')}), "
+              f"w_sch = {_fmt(win.get('w_sch'))} ms, w_rta = {_fmt(win.get('w_rta'))} ms, "
+              f"n = {win.get('n')}, r_H = {_fmt(win.get('r_H'))} cm")
+    print(f"horizon {report['horizon']:g} ms, seed {report['seed']}, exec {report['exec_model']}, "
+          f"suspension {report['suspension']}")
+    cols = ("name", "released", "jobs", "aborted", "skipped", "misses", "max_response",
+            "mean_response", "wcrt_analysis", "max_backlog")
+    rows = [[_fmt(t.get(c)) for c in cols] for t in report["tasks"]]
+    widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
+    print("  ".join(c.ljust(widths[i]) for i, c in enumerate(cols)))
+    for r in rows:
+        print("  ".join(v.ljust(widths[i]) if i == 0 else v.rjust(widths[i])
+                        for i, v in enumerate(r)))
+
+
+def _save_gantt(res: Any, path: str, rng: tuple[float, float]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rtsim.io.atomic import atomic_path
+    from rtsim.plots.gantt import gantt
+
+    fig = gantt(res.trace, jobs=res.jobs, start=rng[0], end=rng[1],
+                tasks=list(res.tasks), title=f"schedule {rng[0]:g}..{rng[1]:g} ms")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+    plt.close(fig)
+
+
+def _save_histograms(res: Any, path: str, wcrt: dict[str, Any], deadlines: dict[str, Any],
+                     window: dict[str, Any] | None, window_name: str | None) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rtsim.io.atomic import atomic_path
+    from rtsim.plots.histogram import response_histogram
+
+    names = list(res.tasks)
+    fig, axes = plt.subplots(len(names), 1, figsize=(7, 3 * len(names)), squeeze=False)
+    for ax, name in zip(axes[:, 0], names, strict=True):
+        stats = res.tasks[name]
+        lines: dict[str, float | None] = {"WCRT (analysis)": wcrt.get(name),
+                                          "deadline": deadlines.get(name)}
+        if window and name == window_name:
+            lines.update({"w_sch": window.get("w_sch"), "w_rta": window.get("w_rta")})
+        if stats.histogram is None:
+            ax.set_title(f"{name}: no completed job")
+            continue
+        response_histogram(stats.histogram, lines=lines, ax=ax, title=name)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110)
+    plt.close(fig)

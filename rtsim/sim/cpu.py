@@ -1,0 +1,652 @@
+"""The virtual CPU: fixed-priority preemptive scheduling of job chains on one processor.
+
+Preemption mechanism (the only one in rtsim)
+--------------------------------------------
+The CPU *holds* a ``simpy.Environment`` and runs ONE SimPy process, the dispatcher. It owns
+three structures: a timer heap (releases, ends of idle suspensions, abort deadlines), a ready
+heap of eligible jobs keyed by (priority, job sequence), and the running job. At each instant
+it books the running job's progress, handles what is due, picks the highest-priority eligible
+job, and yields a single ``env.timeout`` until the earliest of "the running segment completes"
+and "the next timer". Preemption is therefore bookkeeping: the running job's remaining work is
+``end − now`` and it goes back into the ready heap; no SimPy process per job, no interrupts.
+
+Eligibility: jobs of one task run one at a time, first in, first out. A task's pending jobs
+(released, not finished, not aborted) wait in a FIFO; only its oldest is eligible. So under
+finish-late the backlog of a task is served in release order, and since priorities are unique
+per task the ready-heap key reduces to the task priority.
+
+Order of things at one instant t (the tie-break rules, tested in tests/test_sim_cpu.py)
+------------------------------------------------------------------------------------------
+1. The running segment, if its work ends at t (within 1e-9 ms), ends: segment-end hooks;
+   the job's next segment becomes current (an idle-mode suspension starts at once: start hooks,
+   its length is drawn, the job leaves the CPU); after the last segment the job *completes*
+   (finish = t, statistics, job-end hooks) and its task's next pending job becomes eligible.
+   So a completion at t comes before a release at t: the finishing job is never preempted.
+2. Timers due at t, in the order (time, rank, priority, sequence) with rank: end of an idle
+   suspension (the job is eligible again; segment-end hooks) < abort at deadline < release of
+   the window task < other releases. Releases of different tasks at t are handled in priority
+   order (release hooks run as each job is released); the window task first, so tasks whose
+   period is a multiple of w see the w chosen at t.
+3. Dispatch: the eligible job of highest priority gets the CPU; if it is not the running job,
+   the running job is preempted (its ``preemptions`` count grows, also when it was between two
+   segments). When a job gets the CPU and its current segment has not started, the segment
+   *starts*: segment-start hooks run, then the execution-time model is evaluated. A
+   zero-length segment ends at once and the instant is processed again from step 1.
+4. Wait until the running segment's work ends or the next timer, whichever is first.
+
+Hooks never see the dispatch decision of their own instant half-done: all hooks of steps 1–2
+run before the dispatch of step 3; start hooks run when the dispatched segment starts.
+
+Suspensions: ``suspension="cpu"`` runs a suspend segment like compute (it holds the CPU at
+the job's priority and can be preempted: the paper's suspension-oblivious view);
+``suspension="idle"`` frees the CPU for the segment's length and the job is not eligible
+meanwhile.
+
+Overload (``Task.overload``): ``finish-late`` keeps every job and reports the largest backlog;
+``abort`` removes a job that has not finished at its deadline (a miss); ``skip`` drops a
+release while the task still has a pending job (the skipped release is a miss and uses up a
+job index). Context-switch overhead (default 0): whenever the CPU starts running a job other
+than the one it ran last, it first spends ``overhead`` ms on that job's behalf (preemptible,
+charged again on every switch); the job's work starts after it.
+
+Times: releases are computed as ``offset + k·p`` for fixed periods (cumulative sums for
+provided periods), never by adding up timeouts, and the dispatcher records the exact target
+time of each wake-up.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+from collections import deque
+from collections.abc import Callable
+from typing import Any, Literal
+
+import numpy as np
+import simpy
+
+from rtsim.errors import InputError, RtsimError
+from rtsim.model.task import Segment, Task
+from rtsim.sim.execution import WCET, ExecSpec, resolve_exec_model, task_rngs
+from rtsim.sim.records import (
+    EPS,
+    ResponseHistogram,
+    SimResult,
+    TaskStats,
+    jobs_frame,
+    trace_frame,
+)
+
+__all__ = ["CPU", "Job", "HookEvent", "HOOK_EVENTS", "SegmentHook", "JobHook"]
+
+HookEvent = Literal["release", "segment_start", "segment_end", "job_end"]
+HOOK_EVENTS: tuple[str, ...] = ("release", "segment_start", "segment_end", "job_end")
+SegmentHook = Callable[["Job", Segment], None]
+JobHook = Callable[["Job"], None]
+PeriodProvider = Callable[[], float]
+
+_RESUME, _ABORT, _RELEASE_W, _RELEASE = 0, 1, 2, 3
+_INF = math.inf
+
+
+class Job:
+    """One job: read its fields in hooks; only the CPU changes them.
+
+    ``name`` is the task name, ``index`` counts releases from 0, ``release``/``deadline`` are
+    absolute (ms), ``period`` is the period in force at the release. ``segment`` is the
+    current segment, ``seg_exec`` its drawn execution time, ``start``/``finish`` are None until
+    they happen.
+    """
+
+    __slots__ = ("_st", "task", "name", "priority", "index", "release", "deadline", "period",
+                 "seq", "seg_index", "rem", "seg_start", "seg_exec", "start", "finish",
+                 "preemptions", "aborted", "executed")
+
+    def __init__(self, st: _TaskState, index: int, release: float, deadline: float,
+                 period: float, seq: int) -> None:
+        self._st = st
+        self.task: Task = st.task
+        self.name: str = st.name
+        self.priority: int = st.priority
+        self.index = index
+        self.release = release
+        self.deadline = deadline
+        self.period = period
+        self.seq = seq
+        self.seg_index = 0
+        self.rem: float | None = None
+        self.seg_start: float | None = None
+        self.seg_exec: float | None = None
+        self.start: float | None = None
+        self.finish: float | None = None
+        self.preemptions = 0
+        self.aborted = False
+        self.executed = 0.0
+
+    @property
+    def segment(self) -> Segment | None:
+        """The current segment (None once the job has completed)."""
+        segs = self._st.segs
+        return segs[self.seg_index] if self.seg_index < len(segs) else None
+
+    @property
+    def response(self) -> float | None:
+        """finish − release, once finished."""
+        return None if self.finish is None else self.finish - self.release
+
+    def __repr__(self) -> str:
+        return f"Job({self.name}#{self.index}, release={self.release:g})"
+
+
+class _TaskState:
+    """Per-task bookkeeping of the CPU (internal)."""
+
+    __slots__ = ("task", "name", "priority", "segs", "idle_kind", "offset", "period", "deadline",
+                 "provider", "per_window", "is_window", "rank", "k", "next_release", "pending",
+                 "stats", "rng", "exec_fns", "const_exec", "start_hooks", "end_hooks",
+                 "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start")
+
+    def __init__(self, task: Task, provider: PeriodProvider | None, is_window: bool) -> None:
+        self.task = task
+        self.name = task.name
+        self.priority = task.priority
+        self.segs: tuple[Segment, ...] = task.chain()
+        self.idle_kind: list[bool] = []
+        self.offset = task.offset
+        self.period = task.period
+        self.deadline: float = task.deadline  # type: ignore[assignment]
+        self.provider = provider
+        self.per_window = task.per_window
+        self.is_window = is_window
+        self.rank = _RELEASE_W if is_window else _RELEASE
+        self.k = 0
+        self.next_release = task.offset
+        self.pending: deque[Job] = deque()
+        self.stats = TaskStats(task.name, task.priority)
+        self.rng: np.random.Generator | None = None
+        self.exec_fns: list[Callable[..., float]] = []
+        self.const_exec: list[float | None] = []
+        self.start_hooks: list[list[SegmentHook]] = []
+        self.end_hooks: list[list[SegmentHook]] = []
+        self.release_hooks: list[JobHook] = []
+        self.job_end_hooks: list[JobHook] = []
+        self.policy = task.overload
+        self.simple = False  # one segment, constant time, no segment-end hooks
+        self.fast_release = False  # fixed period, finish-late, no release hooks
+        self.fast_start: float | None = None  # the constant time of a simple segment
+
+
+class CPU:
+    """One processor under fixed-priority preemptive scheduling (see the module docstring).
+
+    Usage: ``cpu = CPU(env)``; ``cpu.add_task(...)`` for each task; register hooks with
+    :meth:`on` and per-segment execution times with :meth:`set_exec_time`; ``cpu.start(H)``
+    returns the dispatcher process (run ``env.run(until=proc)``); ``cpu.result()``.
+    """
+
+    def __init__(
+        self,
+        env: simpy.Environment | None = None,
+        *,
+        suspension: Literal["cpu", "idle"] = "cpu",
+        exec_model: ExecSpec = "wcet",
+        seed: int | np.random.SeedSequence | np.random.Generator | None = 0,
+        overhead: float = 0.0,
+        record_jobs: bool = False,
+        record_trace: bool = False,
+        hist_bin: float | None = None,
+    ) -> None:
+        if suspension not in ("cpu", "idle"):
+            raise InputError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
+        if not (isinstance(overhead, int | float) and math.isfinite(overhead) and overhead >= 0):
+            raise InputError(f"overhead must be a non-negative number of ms, got {overhead!r}")
+        if hist_bin is not None and not (math.isfinite(hist_bin) and hist_bin > 0):
+            raise InputError(f"hist_bin must be a positive number of ms, got {hist_bin!r}")
+        self.env = simpy.Environment() if env is None else env
+        self.suspension = suspension
+        self.exec_model = resolve_exec_model(exec_model)
+        self.exec_model_name = exec_model if isinstance(exec_model, str) else \
+            str(getattr(exec_model, "name", getattr(exec_model, "__name__", "callable")))
+        self.seed = seed
+        self.overhead = float(overhead)
+        self.record_jobs = record_jobs
+        self.record_trace = record_trace
+        self.hist_bin = hist_bin
+        self._states: list[_TaskState] = []
+        self._by_name: dict[str, _TaskState] = {}
+        self._hooks: list[tuple[str, Callable[..., None], str | None, str | None, str | None]] = []
+        self._overrides: dict[tuple[str, str], Callable[..., float]] = {}
+        self._timers: list[tuple[Any, ...]] = []
+        self._ready: list[tuple[int, int, Job]] = []
+        self._seq = itertools.count()
+        self._job_rows: list[tuple[Any, ...]] = []
+        self._trace_rows: list[tuple[Any, ...]] = []
+        self._w: float | None = None
+        self._busy = 0.0
+        self._switches = 0
+        self._end_time = 0.0
+        self._t0 = 0.0
+        self._horizon: float | None = None
+        self.process: simpy.Process | None = None
+
+    # -- configuration -------------------------------------------------------------------
+    def add_task(self, task: Task, *, period_provider: PeriodProvider | None = None,
+                 window: bool = False) -> None:
+        """Add a periodic task.
+
+        ``period_provider()`` (optional) is called at each release and returns the period
+        that starts there (ms); the relative deadline keeps the task's deadline/period ratio.
+        ``window=True`` marks the processing-window task: the period of its latest release is
+        the *w in force*, and tasks with ``per_window=True`` take period and deadline as
+        multiples of it at their release.
+        """
+        if self.process is not None:
+            raise RtsimError("add_task: the CPU has already started")
+        if task.name in self._by_name:
+            raise InputError(f"task '{task.name}': duplicate task name")
+        for st in self._states:
+            if st.priority == task.priority:
+                raise InputError(f"task '{task.name}': priority {task.priority} is already "
+                                 f"used by task '{st.name}'")
+        if window and any(st.is_window for st in self._states):
+            raise InputError(f"task '{task.name}': only one window task is allowed")
+        if task.per_window and period_provider is not None:
+            raise InputError(f"task '{task.name}': a per-window task cannot have a provider")
+        st = _TaskState(task, period_provider, window)
+        self._states.append(st)
+        self._by_name[task.name] = st
+
+    def on(self, event: HookEvent, fn: Callable[..., None], *, task: str | None = None,
+           segment: str | None = None, role: str | None = None) -> None:
+        """Register a hook: ``fn(job, segment)`` for segment events, ``fn(job)`` for job events.
+
+        ``event``: ``release`` (after the job is created; not for skipped releases),
+        ``segment_start``, ``segment_end``, ``job_end`` (completion, or abort with
+        ``job.aborted``). Filters (None = any): task name, segment name, segment role.
+        Hooks run synchronously inside the dispatcher, in registration order; they must not
+        yield, and may read ``cpu.env.now`` and the job. See the module docstring for order.
+        """
+        if event not in HOOK_EVENTS:
+            raise InputError(f"hook event must be one of {', '.join(HOOK_EVENTS)}, "
+                             f"got {event!r}")
+        self._hooks.append((event, fn, task, segment, role))
+        if self.process is not None:
+            self._compile()
+
+    def set_exec_time(self, task: str, segment: str, fn: Callable[..., float]) -> None:
+        """Override the execution-time model for one segment: ``fn(job, segment, rng)``."""
+        self._overrides[(task, segment)] = fn
+        if self.process is not None:
+            self._compile()
+
+    @property
+    def window(self) -> float | None:
+        """The w in force: the period of the window task's latest release."""
+        return self._w
+
+    def state(self, name: str) -> TaskStats:
+        """Running statistics of task ``name``."""
+        return self._by_name[name].stats
+
+    def _compile(self) -> None:
+        rngs = task_rngs(self.seed, [st.name for st in self._states]) if self._states else {}
+        for st in self._states:
+            if st.rng is None:
+                st.rng = rngs[st.name]
+            st.idle_kind = [self.suspension == "idle" and s.kind == "suspend" for s in st.segs]
+            st.exec_fns, st.const_exec = [], []
+            for s in st.segs:
+                fn = self._overrides.get((st.name, s.name), self.exec_model)
+                st.exec_fns.append(fn)
+                st.const_exec.append(s.wcet if isinstance(fn, WCET) else None)
+            st.release_hooks, st.job_end_hooks = [], []
+            st.start_hooks = [[] for _ in st.segs]
+            st.end_hooks = [[] for _ in st.segs]
+            for event, fn, tname, sname, role in self._hooks:
+                if tname is not None and tname != st.name:
+                    continue
+                if event in ("release", "job_end"):
+                    if sname is None and role is None:
+                        (st.release_hooks if event == "release" else st.job_end_hooks).append(fn)
+                    continue
+                for i, s in enumerate(st.segs):
+                    if (sname is None or sname == s.name) and (role is None or role == s.role):
+                        (st.start_hooks if event == "segment_start" else st.end_hooks)[i].append(fn)
+            st.simple = len(st.segs) == 1 and not st.end_hooks[0] and not st.idle_kind[0]
+            st.fast_release = (st.provider is None and not st.per_window and not st.is_window
+                               and st.policy == "finish-late" and not st.release_hooks
+                               and not st.idle_kind[0])
+            st.fast_start = st.const_exec[0] if st.simple and not st.start_hooks[0] else None
+
+    # -- running -------------------------------------------------------------------------
+    def start(self, horizon: float) -> simpy.Process:
+        """Start the dispatcher: jobs released in [now, now + horizon) run to completion/abort."""
+        if self.process is not None:
+            raise RtsimError("the CPU has already started")
+        if not (isinstance(horizon, int | float) and math.isfinite(horizon) and horizon > 0):
+            raise InputError(f"horizon must be a positive number of ms, got {horizon!r}")
+        if not self._states:
+            raise InputError("the CPU has no tasks")
+        self._compile()
+        self._t0 = self.env.now
+        self._horizon = float(horizon)
+        end = self._t0 + self._horizon
+        for st in self._states:
+            st.next_release = self._t0 + st.offset
+            if st.next_release < end - EPS:
+                heapq.heappush(self._timers, (st.next_release, st.rank, st.priority,
+                                              next(self._seq), _RELEASE, st))
+        self.process = self.env.process(self._dispatcher(end))
+        return self.process
+
+    def _dispatcher(self, end: float) -> Any:
+        env = self.env
+        timers, ready = self._timers, self._ready
+        heappush, heappop = heapq.heappush, heapq.heappop
+        ovh = self.overhead
+        plain = not self.record_trace and ovh == 0.0  # no trace, no overhead: book inline
+        has_abort = any(st.policy == "abort" for st in self._states)
+        running: Job | None = None
+        last: Job | None = None
+        run_end = _INF
+        piece_start = work_start = now = env.now
+        while True:
+            # 1. the running segment ends?
+            if running is not None and running.rem is not None and run_end <= now + EPS:
+                if plain:
+                    worked = now - work_start
+                    running.executed += worked
+                    self._busy += worked
+                    running.rem = 0.0
+                else:
+                    self._close_piece(running, piece_start, work_start, now, done=True)
+                piece_start = work_start = now
+                if running._st.simple:
+                    self._complete(running, now)
+                    running = None
+                else:
+                    running = self._segment_done(running, now)
+                run_end = _INF
+            # 2. timers due
+            limit = now + EPS
+            while timers and timers[0][0] <= limit:
+                entry = heappop(timers)
+                kind = entry[4]
+                if kind == _RELEASE:
+                    self._release(entry[5], now, end)
+                elif kind == _RESUME:
+                    job = entry[5]
+                    if not job.aborted:
+                        self._resume(job, now)
+                else:
+                    job = entry[5]
+                    if job.finish is None and not job.aborted:
+                        if job is running:
+                            self._close_piece(job, piece_start, work_start, now, done=False)
+                            running, run_end = None, _INF
+                        self._abort(job, now)
+            # 3. dispatch
+            while has_abort and ready and ready[0][2].aborted:
+                heappop(ready)
+            if ready and (running is None or ready[0][0] < running.priority):
+                if running is not None:
+                    if running.rem is not None:
+                        self._close_piece(running, piece_start, work_start, now, done=False)
+                    running.preemptions += 1
+                    heappush(ready, (running.priority, running.seq, running))
+                running = heappop(ready)[2]
+                piece_start = work_start = now
+                if running is not last:
+                    self._switches += 1
+                    last = running
+                    work_start = now + ovh
+                if running.rem is not None:
+                    run_end = work_start + running.rem
+            if running is not None and running.rem is None:
+                c = running._st.fast_start
+                if c is not None:
+                    running.start = running.seg_start = now
+                    running.seg_exec = running.rem = c
+                else:
+                    self._start_segment(running, now)
+                run_end = work_start + running.rem  # type: ignore[operator]
+                if run_end <= now + EPS:
+                    continue
+            # 4. wait
+            target = run_end if running is not None else _INF
+            if timers and timers[0][0] < target:
+                target = timers[0][0]
+            if target == _INF:
+                self._end_time = now
+                return
+            yield env.timeout(target - now if target > now else 0.0)
+            now = target
+
+    # -- the steps (internal) ------------------------------------------------------------
+    def _close_piece(self, job: Job, piece_start: float, work_start: float, now: float,
+                     done: bool) -> None:
+        """Book the CPU time ``job`` got since it was dispatched (and trace it)."""
+        if self.record_trace and work_start > piece_start and now > piece_start:
+            self._trace_rows.append((job.name, job.index, "switch", "overhead", True,
+                                     piece_start, min(now, work_start)))
+        if work_start > piece_start:
+            self._busy += min(now, work_start) - piece_start
+        if now > work_start:
+            worked = now - work_start
+            job.executed += worked
+            self._busy += worked
+            if self.record_trace:
+                seg = job._st.segs[job.seg_index]
+                self._trace_rows.append((job.name, job.index, seg.name, seg.kind, True,
+                                         work_start, now))
+            if not done:
+                job.rem = job.rem - worked  # type: ignore[operator]
+        if done:
+            job.rem = 0.0
+
+    def _start_segment(self, job: Job, now: float) -> None:
+        st = job._st
+        i = job.seg_index
+        seg = st.segs[i]
+        if job.start is None:
+            job.start = now
+        job.seg_start = now
+        for h in st.start_hooks[i]:
+            h(job, seg)
+        c = st.const_exec[i]
+        if c is None:
+            c = st.exec_fns[i](job, seg, st.rng)
+            if not isinstance(c, int | float) or not math.isfinite(c) or c < 0:
+                raise RtsimError(f"task '{st.name}' segment '{seg.name}': execution time must "
+                                 f"be a non-negative number of ms, got {c!r}")
+            c = float(c)
+        job.seg_exec = c
+        job.rem = c
+
+    def _segment_done(self, job: Job, now: float) -> Job | None:
+        """End the current segment; return the job if it goes on to a CPU segment."""
+        st = job._st
+        seg = st.segs[job.seg_index]
+        for h in st.end_hooks[job.seg_index]:
+            h(job, seg)
+        job.seg_index += 1
+        job.rem = None
+        return self._continue(job, now)
+
+    def _continue(self, job: Job, now: float) -> Job | None:
+        """Move ``job`` to its current segment: complete it, suspend it, or return it."""
+        st = job._st
+        i = job.seg_index
+        if i >= len(st.segs):
+            self._complete(job, now)
+            return None
+        if st.idle_kind[i]:
+            self._start_segment(job, now)
+            heapq.heappush(self._timers, (now + job.rem, _RESUME, job.priority,  # type: ignore
+                                          next(self._seq), _RESUME, job))
+            return None
+        return job
+
+    def _resume(self, job: Job, now: float) -> None:
+        """An idle-mode suspension ends: trace it, then the job is eligible again."""
+        if self.record_trace:
+            seg = job._st.segs[job.seg_index]
+            self._trace_rows.append((job.name, job.index, seg.name, seg.kind, False,
+                                     job.seg_start, now))
+        job.rem = 0.0
+        nxt = self._segment_done(job, now)
+        if nxt is not None:
+            heapq.heappush(self._ready, (nxt.priority, nxt.seq, nxt))
+
+    def _eligible(self, job: Job, now: float) -> None:
+        """``job`` became the oldest pending job of its task."""
+        if job._st.idle_kind[0] and job.seg_index == 0 and job.rem is None:
+            if self._continue(job, now) is None:
+                return
+        heapq.heappush(self._ready, (job.priority, job.seq, job))
+
+    def _release(self, st: _TaskState, now: float, end: float) -> None:
+        if st.fast_release:  # the common case, inlined
+            k = st.k
+            st.k = k + 1
+            r = st.next_release
+            p = st.period
+            nxt = self._t0 + st.offset + (k + 1) * p
+            if nxt < end - EPS:
+                st.next_release = nxt
+                heapq.heappush(self._timers, (nxt, st.rank, st.priority, 0, _RELEASE, st))
+            job = Job(st, k, r, r + st.deadline, p, next(self._seq))
+            pending = st.pending
+            pending.append(job)
+            stats = st.stats
+            stats.released += 1
+            n = len(pending)
+            if n > stats.max_backlog:
+                stats.max_backlog = n
+            if n == 1:
+                heapq.heappush(self._ready, (st.priority, job.seq, job))
+            return
+        k = st.k
+        st.k = k + 1
+        r = st.next_release
+        if st.provider is not None:
+            p = st.provider()
+            if not isinstance(p, int | float) or not math.isfinite(p) or p <= 0:
+                raise RtsimError(f"task '{st.name}': period provider returned {p!r} at "
+                                 f"t={now:g} ms; need a positive number of ms")
+            p = float(p)
+            d = st.deadline / st.period * p
+            nxt = r + p
+        elif st.per_window:
+            w = self._w
+            if w is None:
+                raise RtsimError(f"task '{st.name}': released at t={now:g} ms before the "
+                                 f"first window release")
+            p, d = st.period * w, st.deadline * w
+            nxt = r + p
+        else:
+            p, d = st.period, st.deadline
+            nxt = self._t0 + st.offset + (k + 1) * p
+        if st.is_window:
+            self._w = p
+        if nxt < end - EPS:
+            st.next_release = nxt
+            heapq.heappush(self._timers, (nxt, st.rank, st.priority, next(self._seq),
+                                          _RELEASE, st))
+        stats = st.stats
+        if st.policy == "skip" and st.pending:
+            stats.skipped += 1
+            stats.misses += 1
+            if self.record_jobs:
+                self._job_rows.append((st.name, k, r, math.nan, math.nan, math.nan, r + d, p,
+                                       True, 0, False, True, 0.0))
+            return
+        job = Job(st, k, r, r + d, p, next(self._seq))
+        st.pending.append(job)
+        stats.released += 1
+        if len(st.pending) > stats.max_backlog:
+            stats.max_backlog = len(st.pending)
+        if st.policy == "abort":
+            heapq.heappush(self._timers, (r + d, _ABORT, st.priority, job.seq, _ABORT, job))
+        for h in st.release_hooks:
+            h(job)
+        if len(st.pending) == 1:
+            self._eligible(job, now)
+
+    def _record(self, job: Job, missed: bool) -> None:
+        resp = math.nan if job.finish is None else job.finish - job.release
+        self._job_rows.append((
+            job.name, job.index, job.release,
+            math.nan if job.start is None else job.start,
+            math.nan if job.finish is None else job.finish, resp, job.deadline, job.period,
+            missed, job.preemptions, job.aborted, False, job.executed))
+
+    def _complete(self, job: Job, now: float) -> None:
+        st = job._st
+        stats = st.stats
+        job.finish = now
+        resp = now - job.release
+        stats.completed += 1
+        stats.sum_response += resp
+        if stats.max_response is None or resp > stats.max_response:
+            stats.max_response = resp
+        missed = now > job.deadline + EPS
+        if missed:
+            stats.misses += 1
+        stats.preemptions += job.preemptions
+        hist = stats.histogram
+        if hist is None:
+            width = self.hist_bin or (job.deadline - job.release) / 100.0
+            hist = stats.histogram = ResponseHistogram(width)
+        i = int(resp / hist.bin_width)
+        counts = hist.counts
+        counts[i] = counts.get(i, 0) + 1
+        if self.record_jobs:
+            self._record(job, missed)
+        pending = st.pending
+        if pending[0] is job and not st.job_end_hooks:
+            pending.popleft()
+            if pending:
+                self._eligible(pending[0], now)
+        else:
+            self._retire(job, now)
+
+    def _abort(self, job: Job, now: float) -> None:
+        st = job._st
+        job.aborted = True
+        st.stats.aborted += 1
+        st.stats.misses += 1
+        st.stats.preemptions += job.preemptions
+        if self.record_jobs:
+            self._record(job, True)
+        self._retire(job, now)
+
+    def _retire(self, job: Job, now: float) -> None:
+        """Remove a finished or aborted job; its task's next pending job becomes eligible."""
+        st = job._st
+        head = st.pending[0] is job
+        st.pending.remove(job)
+        for h in st.job_end_hooks:
+            h(job)
+        if head and st.pending:
+            self._eligible(st.pending[0], now)
+
+    # -- results -------------------------------------------------------------------------
+    def result(self, window: dict[str, Any] | None = None) -> SimResult:
+        """Statistics (and job table / trace if recorded) of the run so far."""
+        return SimResult(
+            tasks={st.name: st.stats
+                   for st in sorted(self._states, key=lambda x: x.priority)},
+            horizon=self._horizon if self._horizon is not None else 0.0,
+            seed=self.seed,
+            suspension=self.suspension,
+            exec_model=self.exec_model_name,
+            overhead=self.overhead,
+            end_time=self._end_time,
+            busy_time=self._busy,
+            context_switches=self._switches,
+            window=window,
+            jobs=jobs_frame(self._job_rows) if self.record_jobs else None,
+            trace=trace_frame(self._trace_rows) if self.record_trace else None,
+        )

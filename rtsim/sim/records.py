@@ -1,0 +1,187 @@
+"""What a simulation run leaves behind: running per-task statistics, job records, the trace.
+
+Per-task statistics (:class:`TaskStats`) are updated as jobs finish and keep O(1) memory per
+task plus one counter per occupied histogram bin, so a long horizon runs in bounded memory
+when per-job records are off. Job records and the execution-interval trace are appended as
+plain tuples during the run and turned into DataFrames once, with the fixed column schemas
+:data:`JOB_COLUMNS` and :data:`TRACE_COLUMNS`.
+
+A job *misses* when it finishes later than its absolute deadline plus 1e-9 ms, is aborted at
+its deadline, or its release is skipped (SPEC conventions; §4 of the simulator issue).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "EPS",
+    "JOB_COLUMNS",
+    "TRACE_COLUMNS",
+    "ResponseHistogram",
+    "TaskStats",
+    "SimResult",
+]
+
+#: Time tolerance (ms): a finish later than deadline + EPS is a miss; events closer than EPS
+#: are simultaneous.
+EPS = 1e-9
+
+#: Columns of ``SimResult.jobs`` (one row per release; a skipped release has no start/finish).
+#: ``period`` is the period in force at the release (w for the window chain);
+#: ``exec_time`` is the CPU time the job received (suspensions included under
+#: ``suspension="cpu"``), ``preemptions`` how often it lost the CPU before finishing.
+JOB_COLUMNS: tuple[str, ...] = (
+    "task", "job", "release", "start", "finish", "response", "deadline", "period",
+    "missed", "preemptions", "aborted", "skipped", "exec_time",
+)
+
+#: Columns of ``SimResult.trace``: one row per stretch of one segment of one job.
+#: ``kind`` is ``compute``, ``suspend`` or ``overhead`` (context switch); ``on_cpu`` is false
+#: only for a suspension under ``suspension="idle"`` (the job waits, the CPU is free).
+TRACE_COLUMNS: tuple[str, ...] = ("task", "job", "segment", "kind", "on_cpu", "start", "end")
+
+
+@dataclass
+class ResponseHistogram:
+    """Response-time counts in bins of ``bin_width`` ms: bin i covers [i·w, (i+1)·w)."""
+
+    bin_width: float
+    counts: dict[int, int] = field(default_factory=dict)
+
+    def add(self, value: float) -> None:
+        """Count one response time."""
+        i = int(value / self.bin_width)
+        self.counts[i] = self.counts.get(i, 0) + 1
+
+    @property
+    def total(self) -> int:
+        """Number of values counted."""
+        return sum(self.counts.values())
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """(edges, counts) over the occupied range, as for ``numpy.histogram``."""
+        if not self.counts:
+            return np.array([0.0, self.bin_width]), np.zeros(1, dtype=np.int64)
+        lo, hi = min(self.counts), max(self.counts)
+        counts = np.array([self.counts.get(i, 0) for i in range(lo, hi + 1)], dtype=np.int64)
+        edges = np.arange(lo, hi + 2, dtype=float) * self.bin_width
+        return edges, counts
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON form: bin width and the sparse counts."""
+        return {"bin_width": self.bin_width,
+                "bins": {str(k): v for k, v in sorted(self.counts.items())}}
+
+
+@dataclass
+class TaskStats:
+    """Running statistics of one task over the jobs released in [0, H)."""
+
+    name: str
+    priority: int
+    released: int = 0
+    completed: int = 0
+    aborted: int = 0
+    skipped: int = 0
+    misses: int = 0
+    max_response: float | None = None
+    sum_response: float = 0.0
+    max_backlog: int = 0
+    preemptions: int = 0
+    histogram: ResponseHistogram | None = None
+
+    @property
+    def mean_response(self) -> float | None:
+        """Mean response time over completed jobs (late ones included)."""
+        return self.sum_response / self.completed if self.completed else None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON entry of ``rtsim simulate --json``: ``jobs`` = completed jobs."""
+        return {
+            "name": self.name,
+            "priority": self.priority,
+            "released": self.released,
+            "jobs": self.completed,
+            "aborted": self.aborted,
+            "skipped": self.skipped,
+            "max_response": self.max_response,
+            "mean_response": self.mean_response,
+            "misses": self.misses,
+            "max_backlog": self.max_backlog,
+            "preemptions": self.preemptions,
+        }
+
+
+def _finite_or_none(x: Any) -> Any:
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+@dataclass
+class SimResult:
+    """The outcome of one run: per-task stats, optional job table and trace, run facts."""
+
+    tasks: dict[str, TaskStats]
+    horizon: float
+    seed: Any
+    suspension: str
+    exec_model: str
+    overhead: float
+    end_time: float
+    busy_time: float
+    context_switches: int
+    window: dict[str, Any] | None = None
+    jobs: pd.DataFrame | None = None
+    trace: pd.DataFrame | None = None
+
+    @property
+    def misses(self) -> int:
+        """Deadline misses over all tasks."""
+        return sum(s.misses for s in self.tasks.values())
+
+    def stats_frame(self) -> pd.DataFrame:
+        """Per-task statistics as a DataFrame (one row per task, priority order)."""
+        return pd.DataFrame([s.as_dict() for s in self.tasks.values()])
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready dict with a ``tasks`` list (the ``--json`` output)."""
+        out: dict[str, Any] = {
+            "horizon": self.horizon,
+            "seed": self.seed if isinstance(self.seed, int | None) else str(self.seed),
+            "suspension": self.suspension,
+            "exec_model": self.exec_model,
+            "overhead": self.overhead,
+            "end_time": self.end_time,
+            "busy_time": self.busy_time,
+            "context_switches": self.context_switches,
+            "misses": self.misses,
+        }
+        if self.window is not None:
+            out["window"] = {k: _finite_or_none(v) for k, v in self.window.items()}
+        out["tasks"] = [s.as_dict() for s in self.tasks.values()]
+        return out
+
+
+def jobs_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
+    """Job records (tuples in :data:`JOB_COLUMNS` order) as a typed DataFrame."""
+    df = pd.DataFrame(rows, columns=list(JOB_COLUMNS))
+    return df.astype({"task": "string", "job": "int64", "release": "float64",
+                      "start": "float64", "finish": "float64", "response": "float64",
+                      "deadline": "float64", "period": "float64", "missed": "bool",
+                      "preemptions": "int64", "aborted": "bool", "skipped": "bool",
+                      "exec_time": "float64"})
+
+
+def trace_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
+    """Trace rows (tuples in :data:`TRACE_COLUMNS` order) as a typed DataFrame."""
+    df = pd.DataFrame(rows, columns=list(TRACE_COLUMNS))
+    return df.astype({"task": "string", "job": "int64", "segment": "string",
+                      "kind": "string", "on_cpu": "bool", "start": "float64",
+                      "end": "float64"})
