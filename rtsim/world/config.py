@@ -1,0 +1,81 @@
+"""The world's frozen configuration: path, leader speed, formation, followers, sensing, EKF,
+thresholds and integration step (built by :mod:`rtsim.io.scenario` or by hand)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from rtsim.analysis.kinematics import Thresholds
+from rtsim.errors import ScenarioError
+from rtsim.world._check import integer, positive
+from rtsim.world.ekf import EkfParams
+from rtsim.world.follower import FollowerParams
+from rtsim.world.formation import Formation
+from rtsim.world.path import LeaderPath
+
+__all__ = ["SensingParams", "WorldConfig", "DEFAULT_THRESHOLDS"]
+
+#: T_ρ = 0.01, T_ε = 0.025 (the prototype of SPEC §7), T_β = 5°, r_H = r_F = 25 cm.
+DEFAULT_THRESHOLDS = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=math.radians(5.0))
+
+
+@dataclass(frozen=True)
+class SensingParams:
+    """Laser and Hough parameters (r_H lives in the thresholds).
+
+    r_reacq: re-acquisition search radius (cm, ≥ r_H); position_noise: standard deviation
+    of each coordinate of a position fix (cm); min_points: beams a follower must return to
+    be found; max_range: laser range (cm).
+    """
+
+    r_reacq: float = 100.0
+    position_noise: float = 1.0
+    min_points: int = 3
+    max_range: float = 8000.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "r_reacq", positive("sensing.r_reacq", self.r_reacq))
+        if isinstance(self.position_noise, bool) or not isinstance(
+                self.position_noise, int | float) or not (0 <= self.position_noise < math.inf):
+            raise ScenarioError(
+                f"sensing.position_noise must be non-negative, got {self.position_noise!r}")
+        object.__setattr__(self, "position_noise", float(self.position_noise))
+        object.__setattr__(self, "min_points", integer("sensing.min_points", self.min_points,
+                                                        minimum=1))
+        object.__setattr__(self, "max_range", positive("sensing.max_range", self.max_range,
+                                                        allow_inf=True))
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """Everything the :class:`~rtsim.world.world.World` needs.
+
+    ``leader_speed`` is V_Ld (cm/s); ``start_s`` the leader's initial arc length (cm);
+    ``step_ms`` the largest integration step while a follower's speed is ramping (a held
+    command with a settled speed is integrated in one exact arc).
+    """
+
+    path: LeaderPath
+    leader_speed: float
+    formation: Formation
+    follower: FollowerParams = field(default_factory=FollowerParams)
+    sensing: SensingParams = field(default_factory=SensingParams)
+    ekf: EkfParams = field(default_factory=EkfParams)
+    thresholds: Thresholds = DEFAULT_THRESHOLDS
+    step_ms: float = 10.0
+    start_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "leader_speed", positive("leader.speed", self.leader_speed))
+        object.__setattr__(self, "step_ms", positive("world.step_ms", self.step_ms))
+        self.formation.check_spacing(self.follower.radius)
+        if self.sensing.r_reacq < self.thresholds.r_H:
+            raise ScenarioError(
+                f"sensing.r_reacq ({self.sensing.r_reacq:g}) must be >= r_H "
+                f"({self.thresholds.r_H:g})"
+            )
+
+    @property
+    def n(self) -> int:
+        return self.formation.n

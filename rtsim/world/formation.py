@@ -1,0 +1,90 @@
+"""Formation slots (ρ_d,i, β_d,i) of the followers in the leader's frame (SPEC §4, §6).
+
+β is counter-clockwise from the leader's heading, so trailing slots have β ∈ [90°, 270°].
+The default chevron for n followers: follower i (1-based) belongs to pair p = ⌈i/2⌉ at
+ρ_d = p·separation; odd followers sit at 180° + offset (right of the track), even ones at
+180° − offset (left) — a V behind the leader, the paper's two followers at 180° ± 15°.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rtsim.errors import ScenarioError
+from rtsim.world._check import integer, number, positive
+
+__all__ = ["Formation", "chevron"]
+
+
+@dataclass(frozen=True)
+class Formation:
+    """Desired separation ``rho_d`` (cm) and bearing ``beta_d`` (rad) of every follower.
+
+    Validated: ρ_d > 0, β_d ∈ [π/2, 3π/2] (followers trail inside the laser's view).
+    :meth:`check_spacing` rejects slots closer than 2·r_F to each other or to the leader.
+    """
+
+    rho_d: tuple[float, ...]
+    beta_d: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        rho = tuple(positive(f"formation.slot[{i + 1}].rho_d", r)
+                    for i, r in enumerate(self.rho_d))
+        beta = tuple(number(f"formation.slot[{i + 1}].beta_d", b)
+                     for i, b in enumerate(self.beta_d))
+        if not rho:
+            raise ScenarioError("formation has no followers")
+        if len(rho) != len(beta):
+            raise ScenarioError(f"formation: {len(rho)} rho_d but {len(beta)} beta_d")
+        for i, b in enumerate(beta):
+            if not (math.pi / 2 - 1e-12 <= b <= 1.5 * math.pi + 1e-12):
+                raise ScenarioError(
+                    f"formation.slot[{i + 1}].beta_d must be in [90, 270] deg (followers "
+                    f"trail the leader), got {math.degrees(b):.6g} deg"
+                )
+        object.__setattr__(self, "rho_d", rho)
+        object.__setattr__(self, "beta_d", beta)
+
+    @property
+    def n(self) -> int:
+        return len(self.rho_d)
+
+    def xy(self) -> NDArray[np.float64]:
+        """(n, 2) slot positions in the leader frame (cm)."""
+        r = np.asarray(self.rho_d)
+        b = np.asarray(self.beta_d)
+        return np.column_stack((r * np.cos(b), r * np.sin(b)))
+
+    def check_spacing(self, r_F: float) -> None:
+        """Raise :class:`ScenarioError` if slots (or a slot and the leader) are < 2 r_F apart."""
+        p = self.xy()
+        for i in range(self.n):
+            if self.rho_d[i] < 2 * r_F:
+                raise ScenarioError(
+                    f"formation.slot[{i + 1}] is {self.rho_d[i]:.6g} cm from the leader, "
+                    f"closer than 2*r_F = {2 * r_F:.6g} cm"
+                )
+            for j in range(i):
+                d = float(np.hypot(*(p[i] - p[j])))
+                if d < 2 * r_F:
+                    raise ScenarioError(
+                        f"formation: followers {j + 1} and {i + 1} are {d:.6g} cm apart, "
+                        f"closer than 2*r_F = {2 * r_F:.6g} cm (on top of each other)"
+                    )
+
+
+def chevron(n: int, separation: float, offset: float = math.radians(15)) -> Formation:
+    """The default V formation: pairs at 180° ± ``offset`` rad, pair p at p·``separation`` cm."""
+    n = integer("formation.followers", n, minimum=1)
+    sep = positive("formation.separation", separation)
+    off = number("formation.bearing_offset", offset)
+    if not 0 <= off <= math.pi / 2:
+        raise ScenarioError(f"formation.bearing_offset must be in [0, 90] deg, got "
+                            f"{math.degrees(off):.6g} deg")
+    rho = tuple(sep * ((i + 1) // 2) for i in range(1, n + 1))
+    beta = tuple(math.pi + (off if i % 2 == 1 else -off) for i in range(1, n + 1))
+    return Formation(rho, beta)

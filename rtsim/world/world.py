@@ -1,0 +1,399 @@
+"""The robot-group world: truth and the leader's estimates side by side (SPEC §6).
+
+Plain numpy + filterpy, no engine: whoever owns time calls, in simulated **milliseconds**,
+
+- :meth:`World.advance` to integrate the truth up to t (called by the others as needed);
+- :meth:`World.scan` at a window's scan: beams, position fixes, Hough windows, lost tracks,
+  and the observed bound violations since the previous scan (a :class:`Scan`);
+- :meth:`World.estimate` with that scan: the EKFs predict with the commands sent and
+  update with the fixes; the new estimates centre the next scan's Hough windows;
+- :meth:`World.command` at the end of follower i's send segment: l-ψ control on the
+  leader's estimate (propagated to t with the held command) and the leader's own pose, held
+  by the follower until the next command — a late window means stale commands;
+- :meth:`World.set_leader_speed` when the adjustment changes V_L.
+
+**Initial state** (t = 0): the leader at ``start_s`` on its path at V_Ld; each follower's axle
+exactly on its slot, moving in steady formation (speed and heading from
+:func:`~rtsim.analysis.kinematics.formation_velocity`, turn rate ω_L) and holding that
+command without noise; each estimate is the truth plus N(0, init_position_sd²) per
+coordinate and N(0, init_heading_sd²) on the heading. Followers are numbered from 1 in
+every method; arrays are indexed i − 1.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rtsim.analysis.kinematics import (
+    BOUND_KINDS,
+    formation_velocity,
+    relative_state,
+    wrap_angle,
+    wrap_positive,
+)
+from rtsim.errors import RtsimError
+from rtsim.world.config import WorldConfig
+from rtsim.world.ekf import FollowerEKF
+from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
+from rtsim.world.laser import count_beams
+from rtsim.world.leader import Leader
+from rtsim.world.localization import locate
+
+__all__ = ["World", "Scan"]
+
+Array = NDArray[np.float64]
+Pose = tuple[float, float, float]
+
+
+@dataclass(frozen=True, eq=False)
+class Scan:
+    """What one scan at ``t_ms`` saw; arrays have one row per follower (index i − 1).
+
+    points: beams returned by each follower (shadowing included); measured: position fixes in
+    the leader frame (truth + noise, cm); truth: true positions in the leader frame; centre:
+    Hough window centres; in_window / lost / reacquired: localization outcome; changes: the
+    truth's change since the previous scan (``displacement`` in the leader frame, ``d_rho``,
+    ``travel``, ``d_beta``; zeros at the first scan); violations: per bound kind (SPEC §6),
+    whether that change exceeded its threshold.
+    """
+
+    t_ms: float
+    leader_pose: Pose
+    points: NDArray[np.int64]
+    measured: Array
+    truth: Array
+    centre: Array
+    in_window: NDArray[np.bool_]
+    lost: NDArray[np.bool_]
+    reacquired: NDArray[np.bool_]
+    changes: Mapping[str, Array]
+    violations: Mapping[str, NDArray[np.bool_]]
+
+    @property
+    def n(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def total_points(self) -> int:
+        """Scan points returned by all followers (Eq 1's min(361, k·n), counted)."""
+        return int(self.points.sum())
+
+    @property
+    def n_lost(self) -> int:
+        """Followers lost at this scan (each re-acquisition is charged)."""
+        return int(self.lost.sum())
+
+    @property
+    def lost_followers(self) -> tuple[int, ...]:
+        """1-based numbers of the followers that need re-acquisition."""
+        return tuple(int(k) + 1 for k in np.flatnonzero(self.lost))
+
+
+def _ramp1(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
+    """Scalar speed ramp: (speed after dt, mean speed over dt)."""
+    if dt <= 0.0:
+        return v0, v0
+    dv = vc - v0
+    if a == math.inf or abs(dv) <= a * dt:
+        tau = 0.0 if a == math.inf else abs(dv) / a
+        return vc, ((v0 + vc) * 0.5 * tau + vc * (dt - tau)) / dt
+    v1 = v0 + math.copysign(a * dt, dv)
+    return v1, 0.5 * (v0 + v1)
+
+
+def _arc(pose: Pose, v: float, w: float, dt: float) -> Pose:
+    x, y, th = pose
+    dth = w * dt
+    c = v * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
+    m = th + 0.5 * dth
+    return x + c * math.cos(m), y + c * math.sin(m), th + dth
+
+
+class World:
+    """Leader, followers (truth), laser, Hough localization and one EKF per follower."""
+
+    def __init__(self, config: WorldConfig, rng: np.random.Generator) -> None:
+        self.config = config
+        self.rng = rng
+        self.leader = Leader(config.path, config.leader_speed, config.start_s)
+        form = config.formation
+        self._rho_d = np.asarray(form.rho_d)
+        self._beta_d = np.asarray(form.beta_d)
+        fp = config.follower
+        self._kappa_targets = self.leader.curvature
+        self._l_d, self._psi_d = control_targets(self._rho_d, self._beta_d, fp.control_offset,
+                                                 self._kappa_targets)
+        xl, yl, hl = self.leader.pose
+        v_l, w_l = self.leader.speed, self.leader.omega
+        slots = form.xy()
+        c, s = math.cos(hl), math.sin(hl)
+        x = xl + c * slots[:, 0] - s * slots[:, 1]
+        y = yl + s * slots[:, 0] + c * slots[:, 1]
+        v_f, theta = formation_velocity(v_l, w_l, self._rho_d, self._beta_d)
+        v_f = np.asarray(v_f, dtype=float)
+        th = hl - np.asarray(theta, dtype=float)
+        self.followers = FollowerGroup(x, y, th, v_f, fp)
+        self.followers.cmd_w[:] = w_l
+        self._t = 0.0
+        self._est_t = 0.0
+        ep = config.ekf
+        noise = rng.standard_normal((form.n, 3))
+        self._filters = [
+            FollowerEKF((x[k] + ep.init_position_sd * noise[k, 0],
+                         y[k] + ep.init_position_sd * noise[k, 1],
+                         th[k] + ep.init_heading_sd * noise[k, 2]), ep)
+            for k in range(form.n)
+        ]
+        self._vhat = [float(v) for v in v_f]
+        self._pieces: list[list[tuple[float, float, float]]] = [
+            [(0.0, float(v_f[k]), float(w_l))] for k in range(form.n)]
+        self._centre = self._to_leader(self.leader.pose, *self._estimated_xy())
+        self._prev: dict[str, Array] | None = None
+
+    # -- time ------------------------------------------------------------------------
+    @property
+    def t_ms(self) -> float:
+        """Current simulated time of the truth (ms)."""
+        return self._t
+
+    @property
+    def n(self) -> int:
+        return self.config.formation.n
+
+    def advance(self, t_ms: float) -> None:
+        """Integrate the truth to ``t_ms``: the leader exactly along its path, the followers
+        with their held commands in exact arcs, sub-stepped at ``step_ms`` while a wheel
+        speed is still ramping toward its command."""
+        if t_ms < self._t - 1e-9:
+            raise RtsimError(f"world cannot go back in time: {t_ms} ms < {self._t} ms")
+        remaining = (t_ms - self._t) / 1000.0
+        step = self.config.step_ms / 1000.0
+        fol = self.followers
+        while remaining > 1e-15:
+            h = min(step, remaining) if fol.ramping() else remaining
+            fol.step(h)
+            self.leader.advance(h)
+            remaining -= h
+        self._t = max(self._t, t_ms)
+
+    # -- leader ----------------------------------------------------------------------
+    @property
+    def leader_desired_speed(self) -> float:
+        return self.leader.desired_speed
+
+    @property
+    def leader_speed(self) -> float:
+        return self.leader.speed
+
+    def set_leader_speed(self, v: float) -> None:
+        """Set the leader's actual speed V_L ∈ [0, V_Ld] (from now on)."""
+        self.leader.set_speed(v)
+
+    @property
+    def leader_pose(self) -> Pose:
+        return self.leader.pose
+
+    @property
+    def leader_omega(self) -> float:
+        return self.leader.omega
+
+    def segment_at(self) -> tuple[Literal["straight", "turn"], float]:
+        """("straight" | "turn", signed curvature κ in 1/cm) of the leader's current segment."""
+        return self.leader.segment()
+
+    @property
+    def lap_length(self) -> float:
+        return self.config.path.lap_length
+
+    @property
+    def lap_time(self) -> float:
+        """Seconds per lap at the desired speed V_Ld."""
+        return self.config.path.lap_time(self.leader.desired_speed)
+
+    # -- estimates -------------------------------------------------------------------
+    @property
+    def filters(self) -> tuple[FollowerEKF, ...]:
+        """The leader's filters, one per follower (index i − 1)."""
+        return tuple(self._filters)
+
+    def _propagate(self, k: int, t_ms: float) -> tuple[Pose, float]:
+        """Estimate of follower index k at t_ms (mean only) and its expected speed."""
+        pose = self._filters[k].pose
+        v = self._vhat[k]
+        a = self.config.follower.max_accel
+        pieces = self._pieces[k]
+        for j, (t0, vc, w) in enumerate(pieces):
+            t1 = pieces[j + 1][0] if j + 1 < len(pieces) else t_ms
+            t1 = min(t1, t_ms)
+            if t1 <= t0:
+                continue
+            dt = (t1 - t0) / 1000.0
+            v, vm = _ramp1(v, vc, a, dt)
+            pose = _arc(pose, vm, w, dt)
+        return pose, v
+
+    def _estimated_xy(self) -> tuple[Array, Array]:
+        poses = [f.pose for f in self._filters]
+        return np.array([p[0] for p in poses]), np.array([p[1] for p in poses])
+
+    @staticmethod
+    def _to_leader(leader: Pose, x: Array, y: Array) -> Array:
+        xl, yl, hl = leader
+        c, s = math.cos(hl), math.sin(hl)
+        dx, dy = x - xl, y - yl
+        return np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+
+    def estimated_pose(self, i: int) -> Pose:
+        """The leader's estimate of follower i's pose (x, y, heading) now."""
+        return self._propagate(i - 1, self._t)[0]
+
+    # -- the scan --------------------------------------------------------------------
+    def scan(self, t_ms: float) -> Scan:
+        """Sample the truth at ``t_ms`` (advancing to it): beams, fixes, Hough windows,
+        lost tracks and re-acquisitions, and the violations observed since the last scan."""
+        self.advance(t_ms)
+        cfg = self.config
+        thr = cfg.thresholds
+        lp = self.leader.pose
+        fol = self.followers
+        truth = self._to_leader(lp, fol.x, fol.y)
+        points = count_beams(truth, cfg.follower.radius, cfg.sensing.max_range)
+        measured = truth + cfg.sensing.position_noise * self.rng.standard_normal(truth.shape)
+        centre = self._centre.copy()
+        in_w, lost, reacq = locate(measured, centre, points, thr.r_H, cfg.sensing.r_reacq,
+                                   cfg.sensing.min_points)
+        rho = np.hypot(truth[:, 0], truth[:, 1])
+        beta = wrap_positive(np.arctan2(truth[:, 1], truth[:, 0]))
+        odo = fol.odometer.copy()
+        prev = self._prev
+        if prev is None:
+            zero = np.zeros(self.n)
+            changes = {"displacement": zero, "d_rho": zero.copy(), "travel": zero.copy(),
+                       "d_beta": zero.copy()}
+        else:
+            changes = {
+                "displacement": np.hypot(*(truth - prev["truth"]).T),
+                "d_rho": np.abs(rho - prev["rho"]),
+                "travel": odo - prev["odo"],
+                "d_beta": np.abs(wrap_angle(beta - prev["beta"])),
+            }
+        limits = {
+            "localization": ("displacement", thr.r_H),
+            "separation": ("d_rho", thr.T_rho * self._rho_d),
+            "path_diversion": ("travel", thr.T_eps * self._rho_d),
+            "bearing": ("d_beta", thr.T_beta),
+        }
+        violations = {kind: changes[limits[kind][0]] > limits[kind][1] for kind in BOUND_KINDS}
+        self._prev = {"truth": truth, "rho": rho, "beta": beta, "odo": odo}
+        return Scan(t_ms, lp, points, measured, truth, centre, in_w, lost, reacq,
+                    changes, violations)
+
+    def estimate(self, scan: Scan) -> None:
+        """EKF predict (commands held since the last estimate) and update from ``scan``'s fixes;
+        the estimates at the scan become the next Hough window centres."""
+        t = scan.t_ms
+        if t < self._est_t:
+            raise RtsimError(f"scan at {t} ms is older than the estimates ({self._est_t} ms)")
+        a = self.config.follower.max_accel
+        xl, yl, hl = scan.leader_pose
+        c, s = math.cos(hl), math.sin(hl)
+        for k, f in enumerate(self._filters):
+            pieces = self._pieces[k]
+            v = self._vhat[k]
+            keep: list[tuple[float, float, float]] = []
+            for j, (t0, vc, w) in enumerate(pieces):
+                t1 = pieces[j + 1][0] if j + 1 < len(pieces) else t
+                if t0 >= t:
+                    keep.append((t0, vc, w))
+                    continue
+                t1 = min(t1, t)
+                dt = (t1 - t0) / 1000.0
+                v, vm = _ramp1(v, vc, a, dt)
+                f.predict(vm, w, dt)
+                if t1 >= t:
+                    keep.insert(0, (t, vc, w))
+            if len(keep) > 1 and keep[1][0] <= t:
+                keep.pop(0)  # a command sent exactly at the scan supersedes the held one
+            self._pieces[k] = keep or [(t, pieces[-1][1], pieces[-1][2])]
+            self._vhat[k] = v
+            mx, my = scan.measured[k]
+            z = (xl + c * mx - s * my, yl + s * mx + c * my)
+            if scan.in_window[k]:
+                f.update(z)
+            elif scan.reacquired[k]:
+                f.reset_position(z)
+        self._est_t = t
+        self._centre = self._to_leader(scan.leader_pose, *self._estimated_xy())
+
+    # -- commands --------------------------------------------------------------------
+    def command(self, i: int, t_ms: float) -> tuple[float, float]:
+        """Compute follower i's (speed, turn rate) by l-ψ control on the leader's estimate at
+        ``t_ms`` and apply it (with actuation noise) until the next command.
+
+        Returns the command sent (saturated, before the actuation noise).
+        """
+        self.advance(t_ms)
+        k = i - 1
+        if not 0 <= k < self.n:
+            raise IndexError(f"follower {i} does not exist (1..{self.n})")
+        (x, y, th), _ = self._propagate(k, t_ms)
+        ld = self.leader
+        kappa = ld.curvature
+        if kappa != self._kappa_targets:
+            self._l_d, self._psi_d = control_targets(
+                self._rho_d, self._beta_d, self.config.follower.control_offset, kappa)
+            self._kappa_targets = kappa
+        v, w = lpsi_command(ld.pose, ld.speed, ld.omega, np.array([x]), np.array([y]),
+                            np.array([th]), self._l_d[k:k + 1], self._psi_d[k:k + 1],
+                            self.config.follower)
+        vs, ws = self.followers.saturate(v, w)
+        cmd = (float(vs[0]), float(ws[0]))
+        pieces = self._pieces[k]
+        if pieces and pieces[-1][0] >= t_ms:
+            pieces.pop()
+        pieces.append((t_ms, cmd[0], cmd[1]))
+        self.followers.apply(k, cmd[0], cmd[1], self.rng)
+        return cmd
+
+    # -- relative states and snapshots -----------------------------------------------
+    def relative(self, i: int, source: Literal["truth", "estimate"] = "truth"
+                 ) -> tuple[float, float, float, float]:
+        """(ρ, β, θ, V_F) of follower i now, SPEC §4 conventions, from the truth or from the
+        leader's estimate (pose propagated to now, V_F the speed it expects)."""
+        k = i - 1
+        if not 0 <= k < self.n:
+            raise IndexError(f"follower {i} does not exist (1..{self.n})")
+        if source == "truth":
+            fol = self.followers
+            pose: Pose = (float(fol.x[k]), float(fol.y[k]), float(fol.th[k]))
+            v_f = float(fol.v[k])
+        elif source == "estimate":
+            pose, v_f = self._propagate(k, self._t)
+        else:
+            raise ValueError(f"source must be 'truth' or 'estimate', got {source!r}")
+        rho, beta, theta = relative_state(self.leader.pose, pose)
+        return rho, beta, theta, v_f
+
+    def state(self) -> dict[str, Any]:
+        """A plain snapshot: time, leader, true and estimated follower poses (lists)."""
+        ld = self.leader
+        xl, yl, hl = ld.pose
+        kind, kappa = ld.segment()
+        est = [self._propagate(k, self._t) for k in range(self.n)]
+        fol = self.followers
+        return {
+            "t_ms": self._t,
+            "leader": {"x": xl, "y": yl, "heading": hl, "s": ld.s, "speed": ld.speed,
+                       "desired_speed": ld.desired_speed, "omega": ld.omega,
+                       "segment": kind, "curvature": kappa},
+            "truth": {"x": fol.x.tolist(), "y": fol.y.tolist(), "heading": fol.th.tolist(),
+                      "speed": fol.v.tolist(), "odometer": fol.odometer.tolist()},
+            "estimate": {"x": [e[0][0] for e in est], "y": [e[0][1] for e in est],
+                         "heading": [e[0][2] for e in est], "speed": [e[1] for e in est]},
+        }
