@@ -1,0 +1,584 @@
+"""Figures of one scenario run, drawn from its ``windows.csv`` table (schema: notes/windows_schema).
+
+The paper's Figures 8-15 (paths, processing window and slack, effective bounds, leader speed),
+the operating space of its Figure 2 (w_sch ≤ w ≤ min MSB, critical region where min MSB < w_sch)
+and side-by-side comparisons of the three modes. Every function takes the windows DataFrame
+and returns a :class:`matplotlib.figure.Figure` built without pyplot; :func:`figure_data`
+returns the exact columns each figure plots, so a figure can be redrawn from CSV.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+
+from rtsim.errors import InputError
+from rtsim.io.atomic import atomic_path, write_table
+
+__all__ = [
+    "BOUND_KINDS",
+    "COLORS",
+    "SCENARIO_FIGURES",
+    "critical_spans",
+    "figure_data",
+    "followers",
+    "plot_bounds",
+    "plot_modes",
+    "plot_operating_space",
+    "plot_paths",
+    "plot_speed",
+    "plot_window_slack",
+    "save_figure",
+    "write_scenario_figures",
+]
+
+BOUND_KINDS: tuple[str, ...] = ("localization", "separation", "path_diversion", "bearing")
+
+# Okabe-Ito colour-blind-safe palette; one colour per quantity, the same in every figure.
+COLORS: dict[str, str] = {
+    "w_sch": "#000000",
+    "w": "#0072B2",
+    "slack": "#8C8C8C",
+    "msb_min": "#D55E00",
+    "localization": "#56B4E9",
+    "separation": "#E69F00",
+    "path_diversion": "#009E73",
+    "bearing": "#CC79A7",
+    "leader": "#000000",
+    "v_desired": "#000000",
+    "v_actual": "#0072B2",
+    "critical": "#D55E00",
+    "safe": "#009E73",
+    "turn": "#7F7F7F",
+    "miss": "#D55E00",
+}
+FOLLOWER_COLORS: tuple[str, ...] = (
+    "#0072B2", "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00", "#F0E442",
+)
+BOUNDS_CLIP = 4.0  # bounds figure: y-axis ends at most at this multiple of w_sch
+WINDOW_CLIP = 6.0  # window figure: the same for w (w is capped, but the cap may be large)
+DPI = 120
+
+_FOLLOWER_RE = re.compile(r"^f(\d+)_x$")
+
+
+# --- the table ---------------------------------------------------------------------------
+
+
+def followers(df: pd.DataFrame) -> list[int]:
+    """Follower numbers (1-based) found in the columns ``f{i}_x``, in numeric order."""
+    found = (_FOLLOWER_RE.match(str(c)) for c in df.columns)
+    return sorted(int(m.group(1)) for m in found if m)
+
+
+def _need(df: pd.DataFrame, cols: list[str], what: str) -> None:
+    missing = [c for c in cols if c not in df.columns]
+    if missing:
+        raise InputError(f"windows table: missing column {missing[0]!r} (needed for {what})")
+
+
+def _bool(s: pd.Series) -> np.ndarray:
+    """A boolean column as read from CSV (bool dtype, or 'True'/'False' text)."""
+    if s.dtype == bool:
+        return s.to_numpy()
+    text = s.astype(str).str.strip().str.lower()
+    return text.isin(("true", "1", "1.0")).to_numpy()
+
+
+def _floats(s: pd.Series) -> np.ndarray:
+    return pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+
+
+def _t_s(df: pd.DataFrame) -> np.ndarray:
+    return _floats(df["t"]) / 1000.0
+
+
+def _ends_s(df: pd.DataFrame) -> np.ndarray:
+    """End of each window in s: the next window's start; the last one ends at t + w."""
+    t = _t_s(df)
+    if len(t) == 0:
+        return t
+    last_w = _floats(df["w"])[-1] / 1000.0 if "w" in df.columns else 0.0
+    last = t[-1] + (last_w if np.isfinite(last_w) else 0.0)
+    return np.append(t[1:], last)
+
+
+def _spans(df: pd.DataFrame, mask: np.ndarray) -> list[tuple[float, float]]:
+    """Maximal runs of consecutive windows where ``mask`` holds, as (start, end) in s."""
+    t, ends = _t_s(df), _ends_s(df)
+    spans: list[tuple[float, float]] = []
+    start = None
+    for i, on in enumerate(mask):
+        if on and start is None:
+            start = i
+        if start is not None and (not on or i == len(mask) - 1):
+            stop = i if on else i - 1
+            spans.append((float(t[start]), float(ends[stop])))
+            start = None
+    return spans
+
+
+def critical_spans(df: pd.DataFrame) -> list[tuple[float, float]]:
+    """Time spans (s) of the critical region, min MSB < w_sch (runs of ``critical`` windows)."""
+    _need(df, ["t", "critical"], "the critical region")
+    return _spans(df, _bool(df["critical"]))
+
+
+def _kind_min(df: pd.DataFrame, kind: str, suffix: str = "_est") -> np.ndarray:
+    """Per window, the minimum over followers of one bound kind (inf when none is finite)."""
+    cols = [f"f{i}_msb_{kind}{suffix}" for i in followers(df)]
+    _need(df, cols, f"the {kind} bound")
+    if not cols:
+        return np.full(len(df), np.inf)
+    return np.min(np.column_stack([_floats(df[c]) for c in cols]), axis=1)
+
+
+def _violations(df: pd.DataFrame) -> int:
+    cols = [f"f{i}_viol_{k}" for i in followers(df) for k in BOUND_KINDS]
+    return int(sum(_bool(df[c]).sum() for c in cols if c in df.columns))
+
+
+def _counts(df: pd.DataFrame) -> str:
+    missed = int(_bool(df["missed"]).sum()) if "missed" in df.columns else 0
+    lost = int(_floats(df["tracks_lost"]).sum()) if "tracks_lost" in df.columns else 0
+    return f"misses {missed} · violations {_violations(df)} · lost tracks {lost}"
+
+
+def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
+    """The exact columns figure ``name`` plots, taken or derived from the windows table.
+
+    Columns named as in ``windows.csv`` carry its values unchanged (times stay in ms; the
+    figures divide by 1000). ``bound_<kind>`` is the minimum over followers of
+    ``f{i}_msb_<kind>_est``, the estimate the adjustment used. Infinite values stay ``inf``.
+    """
+    keys = ["window", "t"]
+    if name == "paths":
+        cols = keys + ["leader_x", "leader_y"]
+        for i in followers(df):
+            cols += [f"f{i}_x", f"f{i}_y", f"f{i}_x_est", f"f{i}_y_est"]
+        cols.append("critical")
+    elif name == "window_slack":
+        cols = keys + ["w", "slack", "w_sch", "missed", "critical"]
+    elif name == "bounds":
+        cols = keys + ["w", "w_sch", "critical"]
+    elif name == "speed":
+        cols = keys + ["v_leader_desired", "v_leader", "segment"]
+    elif name == "operating_space":
+        cols = keys + ["w", "w_sch", "msb_min", "critical"]
+    else:
+        raise InputError(f"figure_data: unknown figure {name!r} (known: {', '.join(_NAMES)})")
+    _need(df, cols, f"the {name} figure")
+    out = df.loc[:, cols].reset_index(drop=True)
+    if name == "bounds":
+        for kind in BOUND_KINDS:
+            out[f"bound_{kind}"] = _kind_min(df, kind)
+    return out
+
+
+# --- drawing helpers ---------------------------------------------------------------------
+
+
+def _new_figure(ax: Axes | None, size: tuple[float, float]) -> tuple[Figure, Axes, bool]:
+    if ax is not None:
+        return ax.figure, ax, False  # type: ignore[return-value]
+    fig = Figure(figsize=size, layout="constrained")
+    return fig, fig.add_subplot(), True
+
+
+def _finish(fig: Figure, ax: Axes, own: bool, title: str | None, legend: bool = True) -> Figure:
+    if title and own:
+        fig.suptitle(title)
+    elif title:
+        ax.set_title(title, loc="left")
+    if legend:
+        handles, labels = ax.get_legend_handles_labels()
+        if handles and own:
+            fig.legend(handles, labels, loc="outside lower center", ncols=min(len(handles), 3),
+                       fontsize="small", frameon=False)
+        elif handles:
+            ax.legend(fontsize="small")
+    return fig
+
+
+def _held(df: pd.DataFrame, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Window starts plus the last window's end, and ``y`` with its last value repeated.
+
+    A per-window value holds from the window's start to its end; drawn as steps-post over
+    these points, the last window gets its full width too (and a one-row table a segment).
+    """
+    t = _t_s(df)
+    if len(t) == 0:
+        return t, y
+    return np.append(t, _ends_s(df)[-1]), np.append(y, y[-1])
+
+
+def _step(ax: Axes, df: pd.DataFrame, y: np.ndarray, **kw: object) -> Line2D:
+    x, yy = _held(df, y)
+    (line,) = ax.plot(x, yy, drawstyle="steps-post", **kw)  # type: ignore[arg-type]
+    return line
+
+
+def _ylimit(values: list[np.ndarray], w_sch: np.ndarray, factor: float) -> float:
+    """Top of the y-axis (ms): a little above the finite data, at most ``factor`` × w_sch."""
+    finite = np.concatenate([v[np.isfinite(v)] for v in values] + [np.zeros(1)])
+    top = float(finite.max()) * 1.08
+    ref = w_sch[np.isfinite(w_sch) & (w_sch > 0)]
+    if ref.size:
+        r = float(ref.max())
+        top = min(max(top, 1.5 * r), factor * r)
+    return top if top > 0 else 1.0
+
+
+def _offscale(y: np.ndarray, top: float) -> np.ndarray:
+    """Values to draw: +inf becomes a point above the axes, so the line leaves at the top."""
+    return np.where(np.isposinf(y), 2.0 * top, y)
+
+
+def _note_clip(ax: Axes, values: list[np.ndarray], top: float) -> None:
+    if any(np.any(v > top) for v in values):
+        ax.set_title(f"off-scale above {top:.0f} ms (∞ = unbounded)", loc="right",
+                     fontsize="x-small", color="#555555")
+
+
+def _shade(ax: Axes, spans: list[tuple[float, float]], kind: str, label: str) -> None:
+    for k, (a, b) in enumerate(spans):
+        ax.axvspan(a, b, color=COLORS[kind], alpha=0.15, lw=0, gid=kind,
+                   label=label if k == 0 else None)
+
+
+def _time_axes(ax: Axes, df: pd.DataFrame, ylabel: str) -> None:
+    ax.set_xlabel("time t (s)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.3)
+    if len(df):
+        t, ends = _t_s(df), _ends_s(df)
+        if ends[-1] > t[0]:
+            ax.set_xlim(t[0], ends[-1])
+    else:
+        ax.text(0.5, 0.5, "no windows", transform=ax.transAxes, ha="center", va="center")
+
+
+def _wsch_line(ax: Axes, df: pd.DataFrame) -> None:
+    _step(ax, df, _floats(df["w_sch"]), color=COLORS["w_sch"], ls="--", lw=1.2,
+          label="$w_{sch}$")
+
+
+# --- drawers (one axes each; shared by the single figures and plot_modes) ---------------
+
+
+def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+    figure_data(df, "paths")  # validates the columns
+    crit = _bool(df["critical"])
+    lx, ly = _floats(df["leader_x"]), _floats(df["leader_y"])
+    ax.scatter(lx[crit], ly[crit], s=30, color=COLORS["critical"], alpha=0.5, lw=0,
+               gid="critical", label="critical windows (on leader path)", zorder=1)
+    ax.plot(lx, ly, color=COLORS["leader"], lw=1.4, label="leader", zorder=3)
+    for k, i in enumerate(followers(df)):
+        c = FOLLOWER_COLORS[k % len(FOLLOWER_COLORS)]
+        ax.plot(_floats(df[f"f{i}_x"]), _floats(df[f"f{i}_y"]), color=c, lw=1.2,
+                label=f"follower {i}", zorder=3)
+        ax.scatter(_floats(df[f"f{i}_x_est"]), _floats(df[f"f{i}_y_est"]), s=6, color=c,
+                   alpha=0.3, lw=0, gid="estimate", zorder=2,
+                   label="estimated follower positions" if k == 0 else None)
+        if len(df):
+            ax.plot(_floats(df[f"f{i}_x"])[0], _floats(df[f"f{i}_y"])[0], "o", color=c,
+                    mec="white", ms=7, zorder=4, gid="start")
+    if len(df):
+        ax.plot(lx[0], ly[0], "o", color=COLORS["leader"], mec="white", ms=7, zorder=4,
+                gid="start", label="start")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (cm)")
+    ax.set_ylabel("y (cm)")
+    ax.grid(True, alpha=0.3)
+
+
+def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+    figure_data(df, "window_slack")
+    t, w, slack = _t_s(df), _floats(df["w"]), _floats(df["slack"])
+    top = top if top is not None else _ylimit([w, slack], _floats(df["w_sch"]), WINDOW_CLIP)
+    _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
+    ax.fill_between(*_held(df, _offscale(slack, top)), step="post", color=COLORS["slack"],
+                    alpha=0.25, lw=0)
+    _step(ax, df, _offscale(slack, top), color=COLORS["slack"], lw=1.0,
+          label="slack $t_{slack}$ = max(0, w − $w_{sch}$)")
+    _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=1.5, label="processing window w")
+    _wsch_line(ax, df)
+    missed = _bool(df["missed"])
+    if missed.any():
+        ax.plot(t[missed], np.minimum(w[missed], top), "x", color=COLORS["miss"], ms=7,
+                mew=1.8, gid="miss", label=f"deadline miss ({int(missed.sum())})")
+    ax.set_ylim(0, top)
+    _note_clip(ax, [w, slack], top)
+    _time_axes(ax, df, "time (ms)")
+
+
+def _bounds_top(df: pd.DataFrame) -> float:
+    data = figure_data(df, "bounds")
+    values = [_floats(data[f"bound_{k}"]) for k in BOUND_KINDS] + [_floats(data["w"])]
+    return _ylimit(values, _floats(data["w_sch"]), BOUNDS_CLIP)
+
+
+def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+    data = figure_data(df, "bounds")
+    top = top if top is not None else _bounds_top(df)
+    _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
+    values = []
+    for kind in BOUND_KINDS:
+        y = _floats(data[f"bound_{kind}"])
+        values.append(y)
+        _step(ax, df, _offscale(y, top), color=COLORS[kind], lw=1.3,
+              label=f"{kind.replace('_', ' ')} MSB")
+    w = _floats(data["w"])
+    _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
+          label="processing window w")
+    _wsch_line(ax, df)
+    ax.set_ylim(0, top)
+    _note_clip(ax, values + [w], top)
+    _time_axes(ax, df, "bound on w (ms), min over followers")
+
+
+def _draw_speed(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+    figure_data(df, "speed")
+    turn = (df["segment"].astype(str).str.strip() == "turn").to_numpy()
+    _shade(ax, _spans(df, turn), "turn", "turn")
+    v_d, v = _floats(df["v_leader_desired"]), _floats(df["v_leader"])
+    _step(ax, df, v, color=COLORS["v_actual"], lw=1.5, label="actual $V_L$")
+    _step(ax, df, v_d, color=COLORS["v_desired"], ls="--", lw=1.2, zorder=3,
+          label="desired $V_{Ld}$")
+    ax.set_ylim(0, top if top is not None else _ylimit([v_d, v], np.zeros(0), 1.0))
+    _time_axes(ax, df, "leader speed (cm/s)")
+
+
+def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+    data = figure_data(df, "operating_space")
+    w_sch = _floats(data["w_sch"])
+    msb, w = _floats(data["msb_min"]), _floats(data["w"])
+    top = top if top is not None else _ylimit([msb, w], w_sch, BOUNDS_CLIP)
+    spans = critical_spans(df)
+    _shade(ax, spans, "critical", "critical (min MSB < $w_{sch}$)")
+    safe = msb >= w_sch
+    x, lo = _held(df, w_sch)  # zero height where critical, so runs keep their full width
+    ax.fill_between(x, lo, _held(df, np.where(safe, np.minimum(msb, top), w_sch))[1],
+                    step="post", color=COLORS["safe"], alpha=0.18, lw=0, gid="safe",
+                    label="safe operating area ($w_{sch}$ ≤ w ≤ min MSB)")
+    _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
+          label="processing window w")
+    _step(ax, df, _offscale(msb, top), color=COLORS["msb_min"], lw=1.5, label="min MSB")
+    _wsch_line(ax, df)
+    _label_runs(ax, df, safe, w_sch, np.minimum(msb, top), "safe operating area")
+    _label_runs(ax, df, ~safe, np.zeros_like(w_sch), w_sch, "critical")
+    ax.set_ylim(0, top)
+    _note_clip(ax, [msb, w], top)
+    _time_axes(ax, df, "processing window (ms)")
+
+
+def _label_runs(ax: Axes, df: pd.DataFrame, mask: np.ndarray, lo: np.ndarray,
+                hi: np.ndarray, text: str) -> None:
+    """Write ``text`` in the middle of the longest run of ``mask`` (if wide enough)."""
+    spans = _spans(df, mask)
+    if not spans or len(df) < 2:
+        return
+    a, b = max(spans, key=lambda s: s[1] - s[0])
+    total = _ends_s(df)[-1] - _t_s(df)[0]
+    if total <= 0 or (b - a) < 0.12 * total:
+        return
+    inside = (_t_s(df) >= a) & (_t_s(df) < b)
+    y = float(np.nanmedian((lo[inside] + hi[inside]) / 2))
+    ax.text((a + b) / 2, y, text, ha="center", va="center", fontsize="small",
+            style="italic", color="#333333")
+
+
+def _draw_plane(ax: Axes, df: pd.DataFrame, top: float) -> None:
+    """The (w_sch, min MSB) plane: points below the diagonal are critical."""
+    w_sch, msb = _floats(df["w_sch"]), _floats(df["msb_min"])
+    ax.fill_between([0, top], [0, top], 0, color=COLORS["critical"], alpha=0.15, lw=0)
+    ax.fill_between([0, top], [0, top], top, color=COLORS["safe"], alpha=0.12, lw=0)
+    ax.plot([0, top], [0, top], color="#333333", lw=1.0, label="min MSB = $w_{sch}$")
+    crit = msb < w_sch
+    y = np.minimum(msb, top * 0.98)
+    ax.scatter(w_sch[~crit], y[~crit], s=8, color=COLORS["w"], alpha=0.5, lw=0)
+    ax.scatter(w_sch[crit], y[crit], s=8, color=COLORS["critical"], alpha=0.7, lw=0,
+               gid="critical")
+    ax.text(0.95 * top, 0.08 * top, "critical", ha="right", fontsize="small", style="italic")
+    ax.text(0.05 * top, 0.92 * top, "safe", ha="left", va="top", fontsize="small",
+            style="italic")
+    ax.set_xlim(0, top)
+    ax.set_ylim(0, top)
+    ax.set_aspect("equal")
+    ax.set_xlabel("$w_{sch}$ (ms)")
+    ax.set_ylabel("min MSB (ms)")
+    ax.grid(True, alpha=0.3)
+
+
+# --- public figures ----------------------------------------------------------------------
+
+
+def plot_paths(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+    """Figs 8/12: the leader's and followers' true paths, estimates faint, critical windows."""
+    fig, ax, own = _new_figure(ax, (6.4, 6.0))
+    _draw_paths(ax, df)
+    return _finish(fig, ax, own, title)
+
+
+def plot_window_slack(df: pd.DataFrame, *, title: str | None = None,
+                      ax: Axes | None = None) -> Figure:
+    """Figs 9/13: the processing window w and the slack (Eq 22) over time, w_sch for reference."""
+    fig, ax, own = _new_figure(ax, (8.0, 4.2))
+    _draw_window(ax, df)
+    return _finish(fig, ax, own, title)
+
+
+def plot_bounds(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+    """Figs 10/14: w_sch, each MSB kind (min over followers, estimates) and w over time."""
+    fig, ax, own = _new_figure(ax, (8.0, 4.6))
+    _draw_bounds(ax, df)
+    return _finish(fig, ax, own, title)
+
+
+def plot_speed(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+    """Figs 11/15: the desired and actual leader speed over time, turns shaded."""
+    fig, ax, own = _new_figure(ax, (8.0, 3.8))
+    _draw_speed(ax, df)
+    return _finish(fig, ax, own, title)
+
+
+def plot_operating_space(df: pd.DataFrame, *, title: str | None = None,
+                         ax: Axes | None = None, plane: bool = True) -> Figure:
+    """Fig 2's operating space over time: w_sch ≤ w ≤ min MSB, the critical region shaded.
+
+    With ``plane`` (and no ``ax`` given) a second panel shows the (w_sch, min MSB) plane with
+    the diagonal min MSB = w_sch that separates the safe area from the critical region.
+    """
+    if ax is not None or not plane:
+        fig, ax, own = _new_figure(ax, (8.0, 4.2))
+        _draw_operating(ax, df)
+        return _finish(fig, ax, own, title)
+    fig = Figure(figsize=(10.5, 4.2), layout="constrained")
+    ax_t, ax_p = fig.subplots(1, 2, width_ratios=[3, 1.1])
+    data = figure_data(df, "operating_space")
+    top = _ylimit([_floats(data["msb_min"]), _floats(data["w"])], _floats(data["w_sch"]),
+                  BOUNDS_CLIP)
+    _draw_operating(ax_t, df, top)
+    _draw_plane(ax_p, df, top)
+    return _finish(fig, ax_t, True, title)
+
+
+_DRAWERS: dict[str, Callable[[Axes, pd.DataFrame, float | None], None]] = {
+    "paths": _draw_paths,
+    "window": _draw_window,
+    "window_slack": _draw_window,
+    "bounds": _draw_bounds,
+    "speed": _draw_speed,
+    "operating_space": _draw_operating,
+}
+
+
+def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
+               title: str | None = None) -> Figure:
+    """Side-by-side panels, one per mode (e.g. adjust, fixed-wsch, min-msb), shared axes.
+
+    ``kind`` is ``window``, ``bounds``, ``speed``, ``paths`` or ``operating_space``. Each
+    panel's title counts its window deadline misses, bound violations (window, follower pairs)
+    and lost tracks, from the table's columns.
+    """
+    if kind not in _DRAWERS:
+        raise InputError(f"plot_modes: unknown kind {kind!r} (known: {', '.join(_DRAWERS)})")
+    if not dfs:
+        raise InputError("plot_modes: no runs given")
+    top: float | None = None
+    if kind in ("window", "window_slack", "bounds", "operating_space"):
+        tops = []
+        for df in dfs.values():
+            if kind == "bounds":
+                tops.append(_bounds_top(df))
+            else:
+                cols = ["w", "slack"] if kind.startswith("window") else ["w", "msb_min"]
+                _need(df, cols + ["w_sch"], f"the {kind} figure")
+                clip = WINDOW_CLIP if kind.startswith("window") else BOUNDS_CLIP
+                tops.append(_ylimit([_floats(df[c]) for c in cols], _floats(df["w_sch"]), clip))
+        top = max(tops)
+    elif kind == "speed":
+        speeds = [_floats(df[c]) for df in dfs.values() for c in ("v_leader_desired", "v_leader")
+                  if c in df.columns]
+        top = _ylimit(speeds, np.zeros(0), 1.0)
+    n = len(dfs)
+    size = (4.6 * n, 4.6) if kind == "paths" else (4.4 * n, 3.8)
+    fig = Figure(figsize=size, layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, n, sharex=True, sharey=True, squeeze=False)[0])
+    for ax, (mode, df) in zip(axes, dfs.items(), strict=True):
+        _DRAWERS[kind](ax, df, top)
+        if kind == "paths":
+            ax.set_aspect("equal", adjustable="box")  # shared axes cannot adjust data limits
+        ax.set_title(f"{mode}\n{_counts(df)}", fontsize="small", loc="left")
+        if ax is not axes[0]:
+            ax.set_ylabel("")
+    handles: dict[str, object] = {}
+    for ax in axes:  # union of legend entries (a panel may lack misses or critical spans)
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(lab.split(" (")[0] if lab.startswith("deadline") else lab, h)
+    if handles:
+        fig.legend(list(handles.values()), list(handles), loc="outside lower center",
+                   ncols=min(len(handles), 4), fontsize="small", frameon=False)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+# --- files -------------------------------------------------------------------------------
+
+
+def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI) -> Path:
+    """Write ``fig`` as PNG atomically (temp file beside ``path``, then rename); close it."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=dpi)
+    if getattr(fig.canvas, "manager", None) is not None:  # made by pyplot: release it
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return path
+
+
+SCENARIO_FIGURES: dict[str, Callable[..., Figure]] = {
+    "paths": plot_paths,
+    "window_slack": plot_window_slack,
+    "bounds": plot_bounds,
+    "speed": plot_speed,
+    "operating_space": plot_operating_space,
+}
+_NAMES = tuple(SCENARIO_FIGURES)
+_TITLES = {
+    "paths": "Robots' paths",
+    "window_slack": "Processing window and slack time",
+    "bounds": "Effective processing-window bounds",
+    "speed": "Desired and actual leader speed",
+    "operating_space": "Operating space",
+}
+
+
+def write_scenario_figures(df: pd.DataFrame, out_dir: str | os.PathLike[str], prefix: str = "",
+                           *, label: str | None = None, data: bool = False,
+                           dpi: int = DPI) -> list[Path]:
+    """Write every figure of :data:`SCENARIO_FIGURES` as ``<prefix><stem>.png`` in ``out_dir``.
+
+    ``label`` (e.g. ``"Test 2, adjust"``) heads each title; with ``data`` each figure's
+    :func:`figure_data` is also written as ``<prefix><stem>.csv``. Returns the paths written.
+    """
+    out = Path(out_dir)
+    written: list[Path] = []
+    for stem, plot in SCENARIO_FIGURES.items():
+        title = f"{label}: {_TITLES[stem]}" if label else _TITLES[stem]
+        written.append(save_figure(plot(df, title=title), out / f"{prefix}{stem}.png", dpi=dpi))
+        if data:
+            csv = out / f"{prefix}{stem}.csv"
+            write_table(csv, figure_data(df, stem))
+            written.append(csv)
+    return written
