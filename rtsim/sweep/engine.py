@@ -194,10 +194,9 @@ class Sweep:
                        on_result: Callable[..., None]) -> None:
         import multiprocessing
 
-        method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() \
-            else "spawn"
+        # spawn: fresh workers that see this process's current sys.path and environment
         ex = ProcessPoolExecutor(max_workers=nworkers, initializer=ignore_sigint,
-                                 mp_context=multiprocessing.get_context(method))
+                                 mp_context=multiprocessing.get_context("spawn"))
         todo = iter(self._inputs(pending))
         inflight: dict[Future[Record], Point] = {}
 

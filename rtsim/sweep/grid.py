@@ -14,7 +14,6 @@ import itertools
 from dataclasses import dataclass
 from typing import Any
 
-from rtsim.errors import SweepError
 from rtsim.sweep.kinds import PointInput
 from rtsim.sweep.spec import SweepSpec, canonical_json
 
@@ -57,13 +56,7 @@ def points(spec: SweepSpec) -> list[Point]:
     out = []
     for i, combo in enumerate(combos):
         params = dict(zip(names, combo, strict=True))
-        if "seed" in params:
-            seed = params["seed"]
-            if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= _INT63:
-                raise SweepError(f"{spec.source}: grid.seed: expected non-negative integers, "
-                                 f"got {seed!r}")
-        else:
-            seed = point_seed(spec.seed, params)
+        seed = params["seed"] if "seed" in params else point_seed(spec.seed, params)
         out.append(Point(i, params, seed))
     return out
 

@@ -339,6 +339,9 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
     grid = tuple((str(k), _grid_values(src, str(k), v)) for k, v in grid_raw.items())
     if kind != "call" and base is None:  # pragma: no cover - _load_base always gives one
         raise SweepError(f"{src}: sweep.base: missing")
+    for v in dict(grid).get("seed", ()):
+        if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < 2**63:
+            raise SweepError(f"{src}: grid.seed: expected non-negative integers, got {v!r}")
     fixed_raw = sw.get("set", {})
     if not isinstance(fixed_raw, dict):
         raise SweepError(f"{src}: sweep.set: expected a table")

@@ -1,0 +1,46 @@
+"""Functions for ``kind = "call"`` sweeps in the sweep tests (importable by worker processes).
+
+Not a test module: the tests put this directory on ``PYTHONPATH`` for subprocesses.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+
+def _log(params: dict[str, Any]) -> None:
+    path = os.environ.get("RTSIM_SWEEP_TEST_LOG")
+    if path:
+        with open(path, "a", encoding="utf-8") as fh:
+            fh.write(f"{params['i']}\n")
+
+
+def slow(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str, Any]:
+    """Sleep, log the call (``$RTSIM_SWEEP_TEST_LOG``), return values derived from the inputs."""
+    time.sleep(float(options.get("sleep", 0.0)))
+    _log(params)
+    return {"double": 2 * params["i"], "draw": float(np.random.default_rng(seed).random())}
+
+
+def flaky(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str, Any]:
+    """Raise for ``i == options["fail_at"]``, else as :func:`slow`."""
+    if params["i"] == options["fail_at"]:
+        raise ValueError(f"point i={params['i']} is broken on purpose")
+    return slow(params, options, seed)
+
+
+def echo(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str, Any]:
+    """Return the parameters, the options and the seed as metrics."""
+    out: dict[str, Any] = {f"p.{k}": v for k, v in params.items()}
+    out.update({f"o.{k}": v for k, v in options.items()})
+    out["s"] = seed
+    return out
+
+
+def nested(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str, Any]:
+    """Not flat: a point must fail with a clear message."""
+    return {"a": {"b": 1}}
