@@ -59,7 +59,8 @@ def test_smoke_serial_processes_and_dask_give_equal_tables(
         (1, 10), (1, 25), (2, 10)]
     timings = pd.read_csv(tmp_path / "procs" / "timings.csv")
     assert list(timings["index"]) == list(range(len(procs)))
-    assert (timings["wall_s"] > 0).all()
+    assert (timings["wall_s"] > 0).all() and (timings["cpu_s"] > 0).all()
+    assert os.getpid() not in set(timings["pid"])  # worker processes, not this one
     assert not {"wall_s", "host", "pid"} & set(smoke_serial.columns)
 
 
@@ -139,6 +140,7 @@ def test_resume_computes_only_missing_points(tmp_path: Path,
     out = tmp_path / "out"
     first = Sweep(spec, out).run(workers=1)
     assert (first.computed, first.skipped, first.failed) == (7, 0, 0)
+    assert set(pd.read_csv(out / "timings.csv")["pid"]) == {os.getpid()}  # 1 = in-process
     assert sorted(int(x) for x in log.read_text().split()) == list(range(7))
     for f in sorted((out / "points").glob("*.json"))[2:5]:
         f.unlink()

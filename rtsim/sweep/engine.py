@@ -9,7 +9,7 @@ Output directory ``DIR``:
 - ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``,
   ``status``, ``error`` (empty when ok), then the metrics. Built from the point files only,
   so serial, process and Dask runs (and resumed runs) give equal tables;
-- ``DIR/timings.csv``: wall-clock time, host and pid per point (not in the table).
+- ``DIR/timings.csv``: wall-clock and CPU time, host and pid per point (not in the table).
 
 Running again skips the points that have a file. A sweep whose fingerprint (the resolved
 spec: kind, function, base file content, seed, combine, grid, options, metrics) differs
@@ -165,7 +165,7 @@ class Sweep:
 
         try:
             if pending:
-                nworkers = os.cpu_count() or 1 if workers is None else int(workers)
+                nworkers = (os.cpu_count() or 1) if workers is None else int(workers)
                 if nworkers < 1:
                     raise SweepError(f"--workers must be at least 1, got {workers}")
                 if dask is not None:
@@ -286,7 +286,7 @@ class Sweep:
         return df
 
     def timings(self) -> pd.DataFrame:
-        """Wall-clock time, host and pid per finished point."""
+        """Wall-clock and CPU time, host and pid per finished point."""
         import pandas as pd
 
         rows = []
@@ -295,9 +295,10 @@ class Sweep:
             if rec is not None:
                 t = rec.get("timing", {})
                 rows.append({"index": p.index, "key": p.key, "status": rec["status"],
-                             "wall_s": t.get("wall_s"), "host": t.get("host"),
-                             "pid": t.get("pid")})
-        return pd.DataFrame(rows, columns=["index", "key", "status", "wall_s", "host", "pid"])
+                             "wall_s": t.get("wall_s"), "cpu_s": t.get("cpu_s"),
+                             "host": t.get("host"), "pid": t.get("pid")})
+        return pd.DataFrame(rows, columns=["index", "key", "status", "wall_s", "cpu_s", "host",
+                                           "pid"])
 
     def write_results(self) -> pd.DataFrame:
         """Write ``results.parquet`` and ``timings.csv``; return the table."""
