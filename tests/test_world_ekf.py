@@ -9,6 +9,7 @@ import pytest
 
 from rtsim.world import EkfParams, FollowerEKF, SensingParams, World, WorldConfig, chevron
 from rtsim.world import rounded_rectangle as rr
+from rtsim.world.ekf import FastFollowerEKF
 
 HEADING_TOL_DEG = 2.0     # the stated threshold
 SETTLE_WINDOWS = 20       # reached within this many windows from a 10° initial error, and kept
@@ -46,13 +47,17 @@ def test_update_pulls_towards_measurement_and_shrinks_covariance() -> None:
     assert ekf.P[0, 0] == pytest.approx(p0 / 2)
 
 
-def _straight_run(noise: float, seed: int, windows: int = 120) -> list[float]:
+def _straight_run(noise: float, seed: int, backend: str = "fast", windows: int = 120
+                  ) -> list[float]:
     path = rr(20000, 0, 200)  # a 200 m straight first
-    cfg = WorldConfig(path, 25.0, chevron(2, 390), sensing=SensingParams(position_noise=noise))
+    cfg = WorldConfig(path, 25.0, chevron(2, 390), sensing=SensingParams(position_noise=noise),
+                      ekf=EkfParams(backend=backend))
     world = World(cfg, np.random.default_rng(seed))
     for f in world.filters:
-        f.kf.x[2, 0] += math.radians(10.0)
-        f.kf.P[2, 2] = math.radians(10.0) ** 2
+        x, y, th = f.pose
+        P = f.P.copy()
+        P[2, 2] = math.radians(10.0) ** 2
+        f.set_state((x, y, th + math.radians(10.0)), P)
     errs: list[float] = []
     t = 0.0
     for _ in range(windows):
@@ -70,10 +75,49 @@ def _straight_run(noise: float, seed: int, windows: int = 120) -> list[float]:
 
 
 @pytest.mark.parametrize("noise", [0.0, 1.0])
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_heading_converges_on_a_straight_run(noise: float, seed: int) -> None:
+@pytest.mark.parametrize(("seed", "backend"), [(0, "fast"), (1, "fast"), (2, "filterpy")])
+def test_heading_converges_on_a_straight_run(noise: float, seed: int, backend: str) -> None:
     """From a 10° heading error, with default actuation noise and position noise 0 or 1 cm,
-    the heading error falls below 2° within 20 windows (4.8 s) and stays there."""
-    errs = _straight_run(noise, seed)
+    the heading error falls below 2° within 20 windows (4.8 s) and stays there (120 windows)."""
+    errs = _straight_run(noise, seed, backend)
     assert errs[0] > 5.0                       # it did start far off
     assert max(errs[SETTLE_WINDOWS:]) < HEADING_TOL_DEG
+
+
+def test_fast_filter_equals_filterpy() -> None:
+    """The plain-float filter does filterpy's algebra: same states and covariances."""
+    rng = np.random.default_rng(5)
+    params = EkfParams(measurement_noise=1.5, speed_noise=0.8, turn_noise=0.01)
+    ref = FollowerEKF((3.0, -2.0, 0.4), params)
+    fast = FastFollowerEKF((3.0, -2.0, 0.4), params)
+    for step in range(60):
+        v, w, dt = 20 + 40 * rng.random(), rng.normal(0, 0.3), 0.05 + 0.3 * rng.random()
+        ref.predict(v, w, dt)
+        fast.predict(v, w, dt)
+        z = (ref.pose[0] + rng.normal(0, 2), ref.pose[1] + rng.normal(0, 2))
+        if step % 17 == 16:
+            ref.reset_position(z)
+            fast.reset_position(z)
+        else:
+            ref.update(z)
+            fast.update(z)
+        assert fast.pose == pytest.approx(ref.pose, abs=1e-9)
+        assert fast.P == pytest.approx(ref.P, abs=1e-9)
+
+
+def test_worlds_with_either_backend_agree() -> None:
+    def run(backend: str) -> dict:
+        cfg = WorldConfig(rr(600, 400, 200), 25.0, chevron(2, 390),
+                          ekf=EkfParams(backend=backend))
+        world = World(cfg, np.random.default_rng(11))
+        t = 0.0
+        for _ in range(300):
+            world.estimate(world.scan(t))
+            world.command(1, t + 110.0)
+            world.command(2, t + 113.0)
+            t += 240.0
+        return world.state()
+
+    a, b = run("fast"), run("filterpy")
+    assert a["estimate"]["x"] == pytest.approx(b["estimate"]["x"], abs=1e-6)
+    assert a["truth"]["heading"] == pytest.approx(b["truth"]["heading"], abs=1e-6)

@@ -67,6 +67,7 @@ def test_rho_dot_beta_dot_match_finite_differences_of_the_world() -> None:
         world.command(1, t + 1.0)
         world.command(2, t + 2.0)
         if window % 7 == 3:                  # shake follower 2: speed step and turn
+            world.advance(t + 2.0)
             world.followers.cmd_v[1] += 15.0
             world.followers.cmd_w[1] -= 0.2
         for probe in (40.0, 120.0, 200.0):
@@ -110,12 +111,12 @@ def test_steady_turn_follower_speed(v_l: float, r_t: float, rho_d: float, ratio:
     cfg = WorldConfig(path, v_l, chevron(2, rho_d), follower=quiet_follower(gain_rho=1.0,
                       gain_beta=1.0), sensing=QUIET_SENSING, ekf=QUIET_EKF)
     world = World(cfg, np.random.default_rng(0))
-    world.followers.x += 8.0                 # knock both followers out of formation
-    world.followers.y -= 5.0
-    world.followers.th += 0.05
-    for f, (x, y, th) in zip(world.filters, zip(world.followers.x, world.followers.y,
-                                               world.followers.th, strict=True), strict=True):
-        f.kf.x[:, 0] = (x, y, th)
+    fol = world.followers
+    for k, f in enumerate(world.filters):    # knock both followers out of formation
+        fol.x[k] += 8.0
+        fol.y[k] -= 5.0
+        fol.th[k] += 0.05
+        f.set_state(fol.pose(k), f.P)
     t = 0.0
     for _ in range(150):                     # 36 s of 240 ms windows
         scan = world.scan(t)

@@ -29,14 +29,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.world._check import non_negative, positive
-from rtsim.world.unicycle import arc_step, ramp
 
-__all__ = ["FollowerParams", "FollowerGroup", "lpsi_command", "control_targets"]
+__all__ = [
+    "FollowerParams", "FollowerGroup", "lpsi_command", "control_targets", "ramp1", "arc1",
+]
 
 Array = NDArray[np.float64]
 
@@ -94,35 +96,41 @@ def control_targets(
     return np.hypot(px, py), np.arctan2(py, px)
 
 
+def _mod(xp: Any, a: Any) -> Any:
+    return np.mod(a, 2 * math.pi) if xp is np else a % (2 * math.pi)
+
+
 def lpsi_command(
     leader: tuple[float, float, float],
     v_l: float,
     omega_l: float,
-    x: Array,
-    y: Array,
-    th: Array,
-    l_d: Array,
-    psi_d: Array,
+    x: Any,
+    y: Any,
+    th: Any,
+    l_d: Any,
+    psi_d: Any,
     p: FollowerParams,
-) -> tuple[Array, Array]:
-    """l-ψ control law (unsaturated): (v, ω) for followers at (x, y, θ), vectorised.
+) -> tuple[Any, Any]:
+    """l-ψ control law (unsaturated): (v, ω) for followers at (x, y, θ).
 
     ``leader`` is the leader's pose (x, y, heading), ``v_l`` its speed, ``omega_l`` its
     turn rate; (l_d, ψ_d) the control point's targets from :func:`control_targets`.
+    Floats use ``math`` (fast path for one follower); NumPy arrays are vectorised.
     """
+    xp: Any = np if isinstance(x, np.ndarray) else math
     xl, yl, hl = leader
     d = p.control_offset
     c, s = math.cos(hl), math.sin(hl)
-    cth, sth = np.cos(th), np.sin(th)
+    cth, sth = xp.cos(th), xp.sin(th)
     # control point in the leader frame
     wx = x + d * cth - xl
     wy = y + d * sth - yl
     rx = c * wx + s * wy
     ry = -s * wx + c * wy
-    ll = np.hypot(rx, ry)
-    psi = np.arctan2(ry, rx)
+    ll = xp.hypot(rx, ry)
+    psi = xp.atan2(ry, rx) if xp is math else np.arctan2(ry, rx)
     dl = p.gain_rho * (l_d - ll)
-    dpsi = p.gain_beta * (np.mod(psi_d - psi + math.pi, 2 * math.pi) - math.pi)
+    dpsi = p.gain_beta * (_mod(xp, psi_d - psi + math.pi) - math.pi)
     el_x, el_y = rx / ll, ry / ll
     # velocity of P in the leader frame: frame motion + wanted relative motion
     vx = v_l - omega_l * ry + dl * el_x - ll * dpsi * el_y
@@ -130,38 +138,60 @@ def lpsi_command(
     # to the world frame
     gx = c * vx - s * vy
     gy = s * vx + c * vy
-    v = gx * cth + gy * sth
-    w = (-gx * sth + gy * cth) / d
-    return v, w
+    return gx * cth + gy * sth, (-gx * sth + gy * cth) / d
+
+
+def ramp1(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
+    """Scalar speed ramp toward ``vc`` at most ``a`` cm/s²: (speed after dt, mean speed)."""
+    if dt <= 0.0:
+        return v0, v0
+    dv = vc - v0
+    if a == math.inf or abs(dv) <= a * dt:
+        tau = 0.0 if a == math.inf else abs(dv) / a
+        return vc, ((v0 + vc) * 0.5 * tau + vc * (dt - tau)) / dt
+    v1 = v0 + math.copysign(a * dt, dv)
+    return v1, 0.5 * (v0 + v1)
+
+
+def arc1(pose: tuple[float, float, float], v: float, w: float, dt: float
+         ) -> tuple[float, float, float]:
+    """Scalar exact arc (see :func:`rtsim.world.unicycle.arc_step`)."""
+    x, y, th = pose
+    dth = w * dt
+    c = v * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
+    m = th + 0.5 * dth
+    return x + c * math.cos(m), y + c * math.sin(m), th + dth
 
 
 class FollowerGroup:
     """The true state of n followers, integrated with held, noisy, limited commands.
 
-    Arrays (length n, index i−1 for follower i): ``x``, ``y``, ``th`` (unwrapped heading),
-    ``v`` (actual wheel speed), ``cmd_v``/``cmd_w`` (realised commands being held),
-    ``odometer`` (distance travelled, cm).
+    Per follower k = i − 1 (plain lists, each follower integrated lazily up to its own
+    time ``t[k]`` in ms): ``x``, ``y``, ``th`` (unwrapped heading), ``v`` (actual wheel
+    speed), ``cmd_v``/``cmd_w`` (realised commands being held), ``odometer`` (cm travelled).
     """
 
-    def __init__(self, x: Array, y: Array, th: Array, v: Array, params: FollowerParams) -> None:
+    def __init__(self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams,
+                 t_ms: float = 0.0) -> None:
         self.p = params
-        self.x = np.array(x, dtype=float)
-        self.y = np.array(y, dtype=float)
-        self.th = np.array(th, dtype=float)
-        self.v = np.array(v, dtype=float)
-        self.cmd_v = self.v.copy()
-        self.cmd_w = np.zeros_like(self.v)
-        self.odometer = np.zeros_like(self.v)
+        self.x = [float(a) for a in x]
+        self.y = [float(a) for a in y]
+        self.th = [float(a) for a in th]
+        self.v = [float(a) for a in v]
+        self.cmd_v = list(self.v)
+        self.cmd_w = [0.0] * len(self.x)
+        self.odometer = [0.0] * len(self.x)
+        self.t = [float(t_ms)] * len(self.x)
 
     @property
     def n(self) -> int:
-        return int(self.x.shape[0])
+        return len(self.x)
 
-    def saturate(self, v: Array | float, w: Array | float) -> tuple[Array, Array]:
+    def saturate(self, v: float, w: float) -> tuple[float, float]:
         """Clip a command to the speed and turn-rate limits."""
         p = self.p
-        return (np.clip(v, -p.max_speed, p.max_speed),
-                np.clip(w, -p.max_turn_rate, p.max_turn_rate))
+        return (min(max(v, -p.max_speed), p.max_speed),
+                min(max(w, -p.max_turn_rate), p.max_turn_rate))
 
     def apply(self, k: int, v: float, w: float, rng: np.random.Generator) -> tuple[float, float]:
         """Hold command (v, ω) for follower index ``k`` (0-based), with actuation noise.
@@ -170,18 +200,37 @@ class FollowerGroup:
         Returns the realised (v, ω).
         """
         nv, nw = rng.standard_normal(2)
-        sv, sw = self.saturate(v + self.p.speed_noise * nv, w + self.p.turn_noise * nw)
-        self.cmd_v[k] = float(sv)
-        self.cmd_w[k] = float(sw)
-        return float(sv), float(sw)
+        sv, sw = self.saturate(v + self.p.speed_noise * float(nv),
+                               w + self.p.turn_noise * float(nw))
+        self.cmd_v[k] = sv
+        self.cmd_w[k] = sw
+        return sv, sw
 
-    def ramping(self) -> bool:
-        """Whether any wheel speed still differs from its held command."""
-        return bool(np.any(self.v != self.cmd_v))
+    def pose(self, k: int) -> tuple[float, float, float]:
+        return self.x[k], self.y[k], self.th[k]
 
-    def step(self, dt: float) -> None:
-        """Integrate ``dt`` seconds: speed ramp (exact mean speed), then the exact arc."""
-        v1, vm = ramp(self.v, self.cmd_v, self.p.max_accel, dt)
-        self.x, self.y, self.th = arc_step(self.x, self.y, self.th, vm, self.cmd_w, dt)
-        self.odometer += np.abs(vm) * dt
-        self.v = v1
+    def advance(self, k: int, t_ms: float, step_ms: float) -> None:
+        """Integrate follower index ``k`` to ``t_ms``: the exact arc with the mean speed of the
+        acceleration ramp, in steps of at most ``step_ms`` while the speed is still ramping."""
+        t0 = self.t[k]
+        if t_ms <= t0:
+            return
+        a = self.p.max_accel
+        pose = (self.x[k], self.y[k], self.th[k])
+        v, vc, w = self.v[k], self.cmd_v[k], self.cmd_w[k]
+        odo = self.odometer[k]
+        while t_ms - t0 > 1e-12:
+            h = min(step_ms, t_ms - t0) if v != vc else t_ms - t0
+            dt = h / 1000.0
+            v, vm = ramp1(v, vc, a, dt)
+            pose = arc1(pose, vm, w, dt)
+            odo += abs(vm) * dt
+            t0 += h
+        self.x[k], self.y[k], self.th[k] = pose
+        self.v[k] = v
+        self.odometer[k] = odo
+        self.t[k] = t_ms
+
+    def advance_all(self, t_ms: float, step_ms: float) -> None:
+        for k in range(len(self.x)):
+            self.advance(k, t_ms, step_ms)

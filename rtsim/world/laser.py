@@ -27,6 +27,7 @@ __all__ = ["BEAM_BEARINGS", "BEAM_SPACING", "count_beams", "beam_owners", "max_p
 BEAM_SPACING = math.radians(0.5)
 #: Bearing of every beam in the leader frame (rad), 90° … 270°.
 BEAM_BEARINGS: NDArray[np.float64] = np.radians(90.0 + 0.5 * np.arange(LASER_POINTS))
+_FIRST = math.pi / 2
 _COS = np.cos(BEAM_BEARINGS)
 _SIN = np.sin(BEAM_BEARINGS)
 
@@ -58,10 +59,37 @@ def beam_owners(
 def count_beams(
     rel_xy: NDArray[np.float64], r_F: float, max_range: float = math.inf
 ) -> NDArray[np.int64]:
-    """Beams returned by each follower's disc, with shadowing: an (n,) integer array."""
+    """Beams returned by each follower's disc, with shadowing: an (n,) integer array.
+
+    Fast path: when no two discs' beam intervals overlap (no shadowing possible) and every
+    disc is wholly inside or beyond the range, each count is the number of beams within
+    arcsin(r_F/ρ) of the disc's bearing; otherwise :func:`beam_owners` resolves every beam.
+    """
     rel = np.asarray(rel_xy, dtype=float).reshape(-1, 2)
+    n = rel.shape[0]
+    spans: list[tuple[int, int, int]] = []
+    counts = [0] * n
+    for k, (x, y) in enumerate(rel.tolist()):
+        rho = math.hypot(x, y)
+        if rho <= r_F or (rho - r_F <= max_range < rho + r_F):
+            spans = []
+            break
+        if rho - r_F > max_range:
+            continue
+        alpha = math.asin(r_F / rho)
+        beta = math.atan2(y, x) % (2 * math.pi)
+        lo = max(0, math.ceil((beta - alpha - _FIRST) / BEAM_SPACING))
+        hi = min(LASER_POINTS - 1, math.floor((beta + alpha - _FIRST) / BEAM_SPACING))
+        if hi >= lo:
+            spans.append((lo, hi, k))
+    else:
+        spans.sort()
+        if all(spans[j][1] < spans[j + 1][0] for j in range(len(spans) - 1)):
+            for lo, hi, k in spans:
+                counts[k] = hi - lo + 1
+            return np.array(counts, dtype=np.int64)
     owners = beam_owners(rel, r_F, max_range)
-    return np.bincount(owners[owners >= 0], minlength=rel.shape[0]).astype(np.int64)
+    return np.bincount(owners[owners >= 0], minlength=n).astype(np.int64)
 
 
 def max_points(rho: float, r_F: float) -> int:

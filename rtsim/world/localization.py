@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from rtsim.analysis.window import LASER_POINTS
 
-__all__ = ["locate", "hough_time"]
+__all__ = ["locate", "locate_one", "hough_time"]
 
 
 class _ScanLike(Protocol):
@@ -38,6 +38,21 @@ class _ScanLike(Protocol):
     def n_lost(self) -> int: ...
 
 
+def locate_one(
+    measured: tuple[float, float],
+    centre: tuple[float, float],
+    points: int,
+    r_H: float,
+    r_reacq: float,
+    min_points: int,
+) -> tuple[bool, bool, bool]:
+    """(in_window, lost, reacquired) for one follower's fix and Hough window centre."""
+    dist = math.hypot(measured[0] - centre[0], measured[1] - centre[1])
+    visible = points >= min_points
+    in_window = visible and dist <= r_H
+    return in_window, not in_window, (not in_window) and visible and dist <= r_reacq
+
+
 def locate(
     measured: NDArray[np.float64],
     centre: NDArray[np.float64],
@@ -46,13 +61,12 @@ def locate(
     r_reacq: float,
     min_points: int,
 ) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
-    """(in_window, lost, reacquired) per follower from (n, 2) measured and centre positions."""
-    visible = points >= min_points
-    dist = np.hypot(measured[:, 0] - centre[:, 0], measured[:, 1] - centre[:, 1])
-    in_window = visible & (dist <= r_H)
-    lost = ~in_window
-    reacquired = lost & visible & (dist <= r_reacq)
-    return in_window, lost, reacquired
+    """:func:`locate_one` for (n, 2) arrays of fixes and centres: three (n,) bool arrays."""
+    rows = [locate_one(tuple(m), tuple(c), int(p), r_H, r_reacq, min_points)
+            for m, c, p in zip(measured.tolist(), centre.tolist(), points.tolist(),
+                               strict=True)]
+    out = np.array(rows, dtype=bool).reshape(-1, 3)
+    return out[:, 0], out[:, 1], out[:, 2]
 
 
 def hough_time(scan: _ScanLike, e_cal: float, e_trans: float, r_H: float, r_reacq: float) -> float:

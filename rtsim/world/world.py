@@ -31,19 +31,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.analysis.kinematics import (
-    BOUND_KINDS,
     formation_velocity,
     relative_state,
-    wrap_angle,
-    wrap_positive,
 )
 from rtsim.errors import RtsimError
 from rtsim.world.config import WorldConfig
-from rtsim.world.ekf import FollowerEKF
-from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
+from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
+from rtsim.world.follower import FollowerGroup, arc1, control_targets, lpsi_command, ramp1
 from rtsim.world.laser import count_beams
 from rtsim.world.leader import Leader
-from rtsim.world.localization import locate
+from rtsim.world.localization import locate_one
 
 __all__ = ["World", "Scan"]
 
@@ -95,26 +92,6 @@ class Scan:
         return tuple(int(k) + 1 for k in np.flatnonzero(self.lost))
 
 
-def _ramp1(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
-    """Scalar speed ramp: (speed after dt, mean speed over dt)."""
-    if dt <= 0.0:
-        return v0, v0
-    dv = vc - v0
-    if a == math.inf or abs(dv) <= a * dt:
-        tau = 0.0 if a == math.inf else abs(dv) / a
-        return vc, ((v0 + vc) * 0.5 * tau + vc * (dt - tau)) / dt
-    v1 = v0 + math.copysign(a * dt, dv)
-    return v1, 0.5 * (v0 + v1)
-
-
-def _arc(pose: Pose, v: float, w: float, dt: float) -> Pose:
-    x, y, th = pose
-    dth = w * dt
-    c = v * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
-    m = th + 0.5 * dth
-    return x + c * math.cos(m), y + c * math.sin(m), th + dth
-
-
 class World:
     """Leader, followers (truth), laser, Hough localization and one EKF per follower."""
 
@@ -139,13 +116,13 @@ class World:
         v_f = np.asarray(v_f, dtype=float)
         th = hl - np.asarray(theta, dtype=float)
         self.followers = FollowerGroup(x, y, th, v_f, fp)
-        self.followers.cmd_w[:] = w_l
+        self.followers.cmd_w = [float(w_l)] * form.n
         self._t = 0.0
         self._est_t = 0.0
         ep = config.ekf
         noise = rng.standard_normal((form.n, 3))
         self._filters = [
-            FollowerEKF((x[k] + ep.init_position_sd * noise[k, 0],
+            make_filter((x[k] + ep.init_position_sd * noise[k, 0],
                          y[k] + ep.init_position_sd * noise[k, 1],
                          th[k] + ep.init_heading_sd * noise[k, 2]), ep)
             for k in range(form.n)
@@ -154,7 +131,10 @@ class World:
         self._pieces: list[list[tuple[float, float, float]]] = [
             [(0.0, float(v_f[k]), float(w_l))] for k in range(form.n)]
         self._centre = self._to_leader(self.leader.pose, *self._estimated_xy())
-        self._prev: dict[str, Array] | None = None
+        self._prev: dict[str, Any] | None = None
+        thr = config.thresholds
+        self._sep_limit = thr.T_rho * self._rho_d
+        self._travel_limit = thr.T_eps * self._rho_d
 
     # -- time ------------------------------------------------------------------------
     @property
@@ -170,17 +150,15 @@ class World:
         """Integrate the truth to ``t_ms``: the leader exactly along its path, the followers
         with their held commands in exact arcs, sub-stepped at ``step_ms`` while a wheel
         speed is still ramping toward its command."""
+        self._advance_leader(t_ms)
+        self.followers.advance_all(t_ms, self.config.step_ms)
+
+    def _advance_leader(self, t_ms: float) -> None:
         if t_ms < self._t - 1e-9:
             raise RtsimError(f"world cannot go back in time: {t_ms} ms < {self._t} ms")
-        remaining = (t_ms - self._t) / 1000.0
-        step = self.config.step_ms / 1000.0
-        fol = self.followers
-        while remaining > 1e-15:
-            h = min(step, remaining) if fol.ramping() else remaining
-            fol.step(h)
-            self.leader.advance(h)
-            remaining -= h
-        self._t = max(self._t, t_ms)
+        if t_ms > self._t:
+            self.leader.advance((t_ms - self._t) / 1000.0)
+            self._t = t_ms
 
     # -- leader ----------------------------------------------------------------------
     @property
@@ -191,8 +169,10 @@ class World:
     def leader_speed(self) -> float:
         return self.leader.speed
 
-    def set_leader_speed(self, v: float) -> None:
-        """Set the leader's actual speed V_L ∈ [0, V_Ld] (from now on)."""
+    def set_leader_speed(self, v: float, t_ms: float | None = None) -> None:
+        """Set the leader's actual speed V_L ∈ [0, V_Ld] from ``t_ms`` (default: now)."""
+        if t_ms is not None:
+            self._advance_leader(t_ms)
         self.leader.set_speed(v)
 
     @property
@@ -218,7 +198,7 @@ class World:
 
     # -- estimates -------------------------------------------------------------------
     @property
-    def filters(self) -> tuple[FollowerEKF, ...]:
+    def filters(self) -> tuple[FollowerEKF | FastFollowerEKF, ...]:
         """The leader's filters, one per follower (index i − 1)."""
         return tuple(self._filters)
 
@@ -234,20 +214,20 @@ class World:
             if t1 <= t0:
                 continue
             dt = (t1 - t0) / 1000.0
-            v, vm = _ramp1(v, vc, a, dt)
-            pose = _arc(pose, vm, w, dt)
+            v, vm = ramp1(v, vc, a, dt)
+            pose = arc1(pose, vm, w, dt)
         return pose, v
 
-    def _estimated_xy(self) -> tuple[Array, Array]:
+    def _estimated_xy(self) -> tuple[list[float], list[float]]:
         poses = [f.pose for f in self._filters]
-        return np.array([p[0] for p in poses]), np.array([p[1] for p in poses])
+        return [p[0] for p in poses], [p[1] for p in poses]
 
     @staticmethod
-    def _to_leader(leader: Pose, x: Array, y: Array) -> Array:
+    def _to_leader(leader: Pose, x: list[float], y: list[float]) -> list[tuple[float, float]]:
         xl, yl, hl = leader
         c, s = math.cos(hl), math.sin(hl)
-        dx, dy = x - xl, y - yl
-        return np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+        return [(c * (a - xl) + s * (b - yl), -s * (a - xl) + c * (b - yl))
+                for a, b in zip(x, y, strict=True)]
 
     def estimated_pose(self, i: int) -> Pose:
         """The leader's estimate of follower i's pose (x, y, heading) now."""
@@ -260,39 +240,58 @@ class World:
         self.advance(t_ms)
         cfg = self.config
         thr = cfg.thresholds
+        sens = cfg.sensing
         lp = self.leader.pose
         fol = self.followers
-        truth = self._to_leader(lp, fol.x, fol.y)
-        points = count_beams(truth, cfg.follower.radius, cfg.sensing.max_range)
-        measured = truth + cfg.sensing.position_noise * self.rng.standard_normal(truth.shape)
-        centre = self._centre.copy()
-        in_w, lost, reacq = locate(measured, centre, points, thr.r_H, cfg.sensing.r_reacq,
-                                   cfg.sensing.min_points)
-        rho = np.hypot(truth[:, 0], truth[:, 1])
-        beta = wrap_positive(np.arctan2(truth[:, 1], truth[:, 0]))
-        odo = fol.odometer.copy()
+        n = self.n
+        truth_l = self._to_leader(lp, fol.x, fol.y)
+        truth = np.array(truth_l)
+        points = count_beams(truth, cfg.follower.radius, sens.max_range)
+        pts = points.tolist()
+        noise = (sens.position_noise * self.rng.standard_normal((n, 2))).tolist()
+        r_H, r_re, min_pts = thr.r_H, sens.r_reacq, sens.min_points
         prev = self._prev
-        if prev is None:
-            zero = np.zeros(self.n)
-            changes = {"displacement": zero, "d_rho": zero.copy(), "travel": zero.copy(),
-                       "d_beta": zero.copy()}
-        else:
-            changes = {
-                "displacement": np.hypot(*(truth - prev["truth"]).T),
-                "d_rho": np.abs(rho - prev["rho"]),
-                "travel": odo - prev["odo"],
-                "d_beta": np.abs(wrap_angle(beta - prev["beta"])),
-            }
-        limits = {
-            "localization": ("displacement", thr.r_H),
-            "separation": ("d_rho", thr.T_rho * self._rho_d),
-            "path_diversion": ("travel", thr.T_eps * self._rho_d),
-            "bearing": ("d_beta", thr.T_beta),
+        cols: dict[str, list[Any]] = {key: [] for key in (
+            "measured", "in_w", "lost", "reacq", "rho", "beta", "displacement", "d_rho",
+            "travel", "d_beta")}
+        for k in range(n):
+            tx, ty = truth_l[k]
+            mx, my = tx + noise[k][0], ty + noise[k][1]
+            in_w, lost, reacq = locate_one((mx, my), self._centre[k], pts[k], r_H, r_re,
+                                           min_pts)
+            cols["measured"].append((mx, my))
+            cols["in_w"].append(in_w)
+            cols["lost"].append(lost)
+            cols["reacq"].append(reacq)
+            rho = math.hypot(tx, ty)
+            beta = math.atan2(ty, tx) % (2 * math.pi)
+            cols["rho"].append(rho)
+            cols["beta"].append(beta)
+            if prev is None:
+                disp = d_rho = travel = d_beta = 0.0
+            else:
+                px, py = prev["truth"][k]
+                disp = math.hypot(tx - px, ty - py)
+                d_rho = abs(rho - prev["rho"][k])
+                travel = fol.odometer[k] - prev["odo"][k]
+                d_beta = abs(math.remainder(beta - prev["beta"][k], 2 * math.pi))
+            cols["displacement"].append(disp)
+            cols["d_rho"].append(d_rho)
+            cols["travel"].append(travel)
+            cols["d_beta"].append(d_beta)
+        changes = {key: np.array(cols[key]) for key in ("displacement", "d_rho", "travel",
+                                                         "d_beta")}
+        violations = {
+            "localization": changes["displacement"] > r_H,
+            "separation": changes["d_rho"] > self._sep_limit,
+            "path_diversion": changes["travel"] > self._travel_limit,
+            "bearing": changes["d_beta"] > thr.T_beta,
         }
-        violations = {kind: changes[limits[kind][0]] > limits[kind][1] for kind in BOUND_KINDS}
-        self._prev = {"truth": truth, "rho": rho, "beta": beta, "odo": odo}
-        return Scan(t_ms, lp, points, measured, truth, centre, in_w, lost, reacq,
-                    changes, violations)
+        self._prev = {"truth": truth_l, "rho": cols["rho"], "beta": cols["beta"],
+                      "odo": list(fol.odometer)}
+        return Scan(t_ms, lp, points, np.array(cols["measured"]), truth,
+                    np.array(self._centre), np.array(cols["in_w"]), np.array(cols["lost"]),
+                    np.array(cols["reacq"]), changes, violations)
 
     def estimate(self, scan: Scan) -> None:
         """EKF predict (commands held since the last estimate) and update from ``scan``'s fixes;
@@ -303,30 +302,31 @@ class World:
         a = self.config.follower.max_accel
         xl, yl, hl = scan.leader_pose
         c, s = math.cos(hl), math.sin(hl)
+        measured = scan.measured.tolist()
+        in_window = scan.in_window.tolist()
+        reacquired = scan.reacquired.tolist()
         for k, f in enumerate(self._filters):
             pieces = self._pieces[k]
             v = self._vhat[k]
+            last = len(pieces) - 1
             keep: list[tuple[float, float, float]] = []
             for j, (t0, vc, w) in enumerate(pieces):
-                t1 = pieces[j + 1][0] if j + 1 < len(pieces) else t
                 if t0 >= t:
                     keep.append((t0, vc, w))
                     continue
-                t1 = min(t1, t)
+                t1 = min(pieces[j + 1][0], t) if j < last else t
                 dt = (t1 - t0) / 1000.0
-                v, vm = _ramp1(v, vc, a, dt)
+                v, vm = ramp1(v, vc, a, dt)
                 f.predict(vm, w, dt)
-                if t1 >= t:
+                if t1 >= t and not (j < last and pieces[j + 1][0] <= t):
                     keep.insert(0, (t, vc, w))
-            if len(keep) > 1 and keep[1][0] <= t:
-                keep.pop(0)  # a command sent exactly at the scan supersedes the held one
             self._pieces[k] = keep or [(t, pieces[-1][1], pieces[-1][2])]
             self._vhat[k] = v
-            mx, my = scan.measured[k]
+            mx, my = measured[k]
             z = (xl + c * mx - s * my, yl + s * mx + c * my)
-            if scan.in_window[k]:
+            if in_window[k]:
                 f.update(z)
-            elif scan.reacquired[k]:
+            elif reacquired[k]:
                 f.reset_position(z)
         self._est_t = t
         self._centre = self._to_leader(scan.leader_pose, *self._estimated_xy())
@@ -338,10 +338,12 @@ class World:
 
         Returns the command sent (saturated, before the actuation noise).
         """
-        self.advance(t_ms)
         k = i - 1
         if not 0 <= k < self.n:
             raise IndexError(f"follower {i} does not exist (1..{self.n})")
+        self._advance_leader(t_ms)
+        fol = self.followers
+        fol.advance(k, t_ms, self.config.step_ms)
         (x, y, th), _ = self._propagate(k, t_ms)
         ld = self.leader
         kappa = ld.curvature
@@ -349,16 +351,14 @@ class World:
             self._l_d, self._psi_d = control_targets(
                 self._rho_d, self._beta_d, self.config.follower.control_offset, kappa)
             self._kappa_targets = kappa
-        v, w = lpsi_command(ld.pose, ld.speed, ld.omega, np.array([x]), np.array([y]),
-                            np.array([th]), self._l_d[k:k + 1], self._psi_d[k:k + 1],
-                            self.config.follower)
-        vs, ws = self.followers.saturate(v, w)
-        cmd = (float(vs[0]), float(ws[0]))
+        v, w = lpsi_command(ld.pose, ld.speed, ld.omega, x, y, th, float(self._l_d[k]),
+                            float(self._psi_d[k]), self.config.follower)
+        cmd = fol.saturate(v, w)
         pieces = self._pieces[k]
         if pieces and pieces[-1][0] >= t_ms:
             pieces.pop()
         pieces.append((t_ms, cmd[0], cmd[1]))
-        self.followers.apply(k, cmd[0], cmd[1], self.rng)
+        fol.apply(k, cmd[0], cmd[1], self.rng)
         return cmd
 
     # -- relative states and snapshots -----------------------------------------------
@@ -371,8 +371,9 @@ class World:
             raise IndexError(f"follower {i} does not exist (1..{self.n})")
         if source == "truth":
             fol = self.followers
-            pose: Pose = (float(fol.x[k]), float(fol.y[k]), float(fol.th[k]))
-            v_f = float(fol.v[k])
+            fol.advance(k, self._t, self.config.step_ms)
+            pose: Pose = fol.pose(k)
+            v_f = fol.v[k]
         elif source == "estimate":
             pose, v_f = self._propagate(k, self._t)
         else:
@@ -387,13 +388,14 @@ class World:
         kind, kappa = ld.segment()
         est = [self._propagate(k, self._t) for k in range(self.n)]
         fol = self.followers
+        fol.advance_all(self._t, self.config.step_ms)
         return {
             "t_ms": self._t,
             "leader": {"x": xl, "y": yl, "heading": hl, "s": ld.s, "speed": ld.speed,
                        "desired_speed": ld.desired_speed, "omega": ld.omega,
                        "segment": kind, "curvature": kappa},
-            "truth": {"x": fol.x.tolist(), "y": fol.y.tolist(), "heading": fol.th.tolist(),
-                      "speed": fol.v.tolist(), "odometer": fol.odometer.tolist()},
+            "truth": {"x": list(fol.x), "y": list(fol.y), "heading": list(fol.th),
+                      "speed": list(fol.v), "odometer": list(fol.odometer)},
             "estimate": {"x": [e[0][0] for e in est], "y": [e[0][1] for e in est],
                          "heading": [e[0][2] for e in est], "speed": [e[1] for e in est]},
         }
