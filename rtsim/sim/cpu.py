@@ -490,7 +490,7 @@ class CPU:
 
     def _resume(self, job: Job, now: float) -> None:
         """An idle-mode suspension ends: trace it, then the job is eligible again."""
-        if self.record_trace:
+        if self.record_trace and now > job.seg_start:  # type: ignore[operator]
             seg = job._st.segs[job.seg_index]
             self._trace_rows.append((job.name, job.index, seg.name, seg.kind, False,
                                      job.seg_start, now))
