@@ -149,9 +149,9 @@ def test_formation_validation() -> None:
     assert [round(math.degrees(b)) for b in f.beta_d] == [195, 165, 195, 165]
     with pytest.raises(ScenarioError, match=r"followers 1 and 2 .*\(on top of each other\)"):
         Formation((300.0, 300.0), (math.pi, math.pi + 0.1)).check_spacing(25)
-    with pytest.raises(ScenarioError, match=r"slot\[1\].beta_d must be in \[90, 270\]"):
+    with pytest.raises(ScenarioError, match=r"slot\[1\].beta_d: must be in \[90, 270\]"):
         Formation((300.0,), (0.5,))
-    with pytest.raises(ScenarioError, match=r"slot\[2\].rho_d must be positive"):
+    with pytest.raises(ScenarioError, match=r"slot\[2\].rho_d: must be positive"):
         Formation((300.0, -1.0), (math.pi, math.pi))
     with pytest.raises(ScenarioError, match="on top of each other"):
         WorldConfig(rounded_rectangle(100, 100, 50), 25.0, chevron(2, 60, 0.1))

@@ -86,12 +86,12 @@ def test_full_circle_and_figure_eight_close() -> None:
 @pytest.mark.parametrize(
     ("make", "match"),
     [
-        (lambda: Straight(-5), "straight must be positive"),
-        (lambda: Straight(0), "straight must be positive"),
-        (lambda: Turn("left", -200, 1.0), "radius must be positive"),
-        (lambda: Turn("left", 200, 0), "angle must be positive"),
-        (lambda: Turn("up", 200, 1.0), "turn must be 'left' or 'right'"),
-        (lambda: rounded_rectangle(-1, 0, 100), "length must be non-negative"),
+        (lambda: Straight(-5), "straight: must be positive"),
+        (lambda: Straight(0), "straight: must be positive"),
+        (lambda: Turn("left", -200, 1.0), "radius: must be positive"),
+        (lambda: Turn("left", 200, 0), "angle: must be positive"),
+        (lambda: Turn("up", 200, 1.0), "turn: must be .left. or .right."),
+        (lambda: rounded_rectangle(-1, 0, 100), "length: must be non-negative"),
     ],
 )
 def test_bad_segments(make, match: str) -> None:

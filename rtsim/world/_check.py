@@ -12,10 +12,10 @@ __all__ = ["number", "positive", "non_negative", "integer"]
 def number(key: str, value: object) -> float:
     """``value`` as a finite float, else ``ScenarioError("<key> must be a finite number, ...")``."""
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ScenarioError(f"{key} must be a number, got {value!r}")
+        raise ScenarioError(f"{key}: must be a number, got {value!r}")
     v = float(value)
     if not math.isfinite(v):
-        raise ScenarioError(f"{key} must be finite, got {value!r}")
+        raise ScenarioError(f"{key}: must be finite, got {value!r}")
     return v
 
 
@@ -25,7 +25,7 @@ def positive(key: str, value: object, *, allow_inf: bool = False) -> float:
         return value
     v = number(key, value)
     if v <= 0:
-        raise ScenarioError(f"{key} must be positive, got {value!r}")
+        raise ScenarioError(f"{key}: must be positive, got {value!r}")
     return v
 
 
@@ -33,12 +33,12 @@ def non_negative(key: str, value: object) -> float:
     """``value`` as a float ≥ 0."""
     v = number(key, value)
     if v < 0:
-        raise ScenarioError(f"{key} must be non-negative, got {value!r}")
+        raise ScenarioError(f"{key}: must be non-negative, got {value!r}")
     return v
 
 
 def integer(key: str, value: object, *, minimum: int = 0) -> int:
     """``value`` as an int ≥ ``minimum``."""
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise ScenarioError(f"{key} must be an integer >= {minimum}, got {value!r}")
+        raise ScenarioError(f"{key}: must be an integer >= {minimum}, got {value!r}")
     return int(value)

@@ -39,7 +39,7 @@ class SensingParams:
         if isinstance(self.position_noise, bool) or not isinstance(
                 self.position_noise, int | float) or not (0 <= self.position_noise < math.inf):
             raise ScenarioError(
-                f"sensing.position_noise must be non-negative, got {self.position_noise!r}")
+                f"sensing.position_noise: must be non-negative, got {self.position_noise!r}")
         object.__setattr__(self, "position_noise", float(self.position_noise))
         object.__setattr__(self, "min_points", integer("sensing.min_points", self.min_points,
                                                         minimum=1))
@@ -72,7 +72,7 @@ class WorldConfig:
         self.formation.check_spacing(self.follower.radius)
         if self.sensing.r_reacq < self.thresholds.r_H:
             raise ScenarioError(
-                f"sensing.r_reacq ({self.sensing.r_reacq:g}) must be >= r_H "
+                f"sensing.r_reacq: {self.sensing.r_reacq:g} must be >= r_H "
                 f"({self.thresholds.r_H:g})"
             )
 

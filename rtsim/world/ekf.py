@@ -68,7 +68,7 @@ class EkfParams:
 
     def __post_init__(self) -> None:
         if self.backend not in ("filterpy", "fast"):
-            raise ScenarioError(f"ekf.backend must be 'filterpy' or 'fast', got {self.backend!r}")
+            raise ScenarioError(f"ekf.backend: must be 'filterpy' or 'fast', got {self.backend!r}")
         for key in ("measurement_noise", "speed_noise", "turn_noise", "position_drift",
                     "heading_drift", "init_position_sd", "init_heading_sd"):
             object.__setattr__(self, key, non_negative(f"ekf.{key}", getattr(self, key)))

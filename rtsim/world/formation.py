@@ -43,7 +43,7 @@ class Formation:
         for i, b in enumerate(beta):
             if not (math.pi / 2 - 1e-12 <= b <= 1.5 * math.pi + 1e-12):
                 raise ScenarioError(
-                    f"formation.slot[{i + 1}].beta_d must be in [90, 270] deg (followers "
+                    f"formation.slot[{i + 1}].beta_d: must be in [90, 270] deg (followers "
                     f"trail the leader), got {math.degrees(b):.6g} deg"
                 )
         object.__setattr__(self, "rho_d", rho)
@@ -83,7 +83,7 @@ def chevron(n: int, separation: float, offset: float = math.radians(15)) -> Form
     sep = positive("formation.separation", separation)
     off = number("formation.bearing_offset", offset)
     if not 0 <= off <= math.pi / 2:
-        raise ScenarioError(f"formation.bearing_offset must be in [0, 90] deg, got "
+        raise ScenarioError(f"formation.bearing_offset: must be in [0, 90] deg, got "
                             f"{math.degrees(off):.6g} deg")
     rho = tuple(sep * ((i + 1) // 2) for i in range(1, n + 1))
     beta = tuple(math.pi + (off if i % 2 == 1 else -off) for i in range(1, n + 1))

@@ -57,11 +57,11 @@ class Turn:
 
     def __post_init__(self) -> None:
         if self.direction not in ("left", "right"):
-            raise ScenarioError(f"turn must be 'left' or 'right', got {self.direction!r}")
+            raise ScenarioError(f"turn: must be 'left' or 'right', got {self.direction!r}")
         object.__setattr__(self, "radius", positive("radius", self.radius))
         angle = number("angle", self.angle)
         if angle <= 0:
-            raise ScenarioError(f"angle must be positive, got {self.angle!r}")
+            raise ScenarioError(f"angle: must be positive, got {self.angle!r}")
         object.__setattr__(self, "angle", angle)
 
     @property
@@ -191,7 +191,7 @@ def rounded_rectangle(
     width = number("width", width)
     for key, val in (("length", length), ("width", width)):
         if val < 0:
-            raise ScenarioError(f"{key} must be non-negative, got {val!r}")
+            raise ScenarioError(f"{key}: must be non-negative, got {val!r}")
     turn = Turn(direction, radius, math.pi / 2)
     segs: list[Segment] = []
     for side in (length, width, length, width):

@@ -1,0 +1,373 @@
+"""Robot scenario files (TOML): the world, the task set it runs on, and every assumption.
+
+Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` and
+``adjust.cap``; every angular key is radians, or degrees when written with ``_deg``)::
+
+    name = "test1"
+    description = "Paper's Test 1: smooth turns"
+    taskset = "barrel_robots"          # the packaged set, or a file path relative to this file
+    duration = 200                     # simulated s (default: one lap at V_Ld, rounded up)
+
+    [leader]
+    speed = 25                         # V_Ld (cm/s)
+    start = {x = 0, y = 0, heading_deg = 0}
+    start_s = 0                        # optional: initial arc length along the path (cm)
+    path = [ {straight = 600}, {turn = "left", radius = 200, angle_deg = 90}, ... ]
+    # or instead of path:
+    shape = {kind = "rounded_rectangle", length = 600, width = 400, radius = 200,
+             direction = "left"}       # straights of length/width, four 90-degree turns
+
+    [formation]                        # the default chevron: pairs at 180 ± offset
+    followers = 2
+    separation = 390                   # rho_d of the first pair (cm)
+    bearing_offset_deg = 15
+    # or explicit slots instead of followers/separation/bearing_offset:
+    # [[formation.slot]]
+    # rho_d = 390
+    # beta_d_deg = 195
+
+    [follower]     radius, max_speed, max_accel, max_turn_rate(_deg), control_offset,
+                   gain_rho, gain_beta, speed_noise, turn_noise(_deg)
+    [sensing]      r_H, r_reacq, position_noise, min_points, max_range
+    [ekf]          measurement_noise, speed_noise, turn_noise(_deg), position_drift,
+                   heading_drift(_deg), init_position_sd, init_heading_sd(_deg), backend
+    [thresholds]   T_rho, T_eps, T_beta(_deg), localization = "radial" | "full"
+    [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed)
+    [world]        step_ms (integration step while a speed ramps)
+    [assumptions]  key = "reason"      # every value the paper does not give
+
+Every table but ``[leader]`` and ``[formation]`` is optional (defaults: the world's dataclasses).
+Unknown keys are errors with a did-you-mean; every problem is one
+:class:`~rtsim.errors.ScenarioError` line, ``<file>: <key>: <problem>``. The path must close.
+Initial state: see :class:`rtsim.world.World` (followers on their slots in steady formation,
+estimates = truth + N(0, init sd²)).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TypeVar
+
+from rtsim.analysis.kinematics import Thresholds
+from rtsim.errors import InputError, ScenarioError
+from rtsim.model.taskset import TaskSet
+from rtsim.world._check import non_negative, number, positive
+from rtsim.world.config import SensingParams, WorldConfig
+from rtsim.world.ekf import EkfParams
+from rtsim.world.follower import FollowerParams
+from rtsim.world.formation import Formation, chevron
+from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
+
+__all__ = ["AdjustConfig", "Scenario", "load_scenario", "parse_scenario", "PACKAGED_TASKSETS"]
+
+#: Task-set names that refer to the package's own files rather than to a path.
+PACKAGED_TASKSETS = ("barrel_robots",)
+
+T = TypeVar("T")
+
+TOP_KEYS = ("name", "description", "taskset", "duration", "leader", "formation", "follower",
+            "sensing", "ekf", "thresholds", "adjust", "world", "assumptions")
+_ANGLES: dict[str, tuple[str, ...]] = {
+    "leader": (), "start": ("heading",), "segment": ("angle",),
+    "formation": ("bearing_offset",), "slot": ("beta_d",),
+    "follower": ("max_turn_rate", "turn_noise"), "sensing": (),
+    "ekf": ("turn_noise", "heading_drift", "init_heading_sd"), "thresholds": ("T_beta",),
+}
+
+
+@dataclass(frozen=True)
+class AdjustConfig:
+    """Limits for the adjustment algorithm (semantics in :mod:`rtsim.control`).
+
+    cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s).
+    """
+
+    cap: float = math.inf
+    floor: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
+        object.__setattr__(self, "floor", non_negative("adjust.floor", self.floor))
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario: the world, the task set reference, duration and assumptions."""
+
+    name: str
+    world: WorldConfig
+    taskset: str = "barrel_robots"
+    duration: float = 0.0
+    description: str = ""
+    adjust: AdjustConfig = field(default_factory=AdjustConfig)
+    assumptions: Mapping[str, str] = field(default_factory=dict)
+    source: str | None = None
+
+    @property
+    def n(self) -> int:
+        return self.world.n
+
+    def load_taskset(self) -> TaskSet:
+        """The task set, with its window's n and r_H set to the scenario's (followers, r_H)."""
+        from rtsim.io.taskset import load_taskset
+
+        where = self.source or "<scenario>"
+        if self.taskset in PACKAGED_TASKSETS:
+            ts = load_taskset(None)
+        else:
+            ts = load_taskset(self.taskset)
+        if ts.window is None:
+            raise ScenarioError(f"{where}: taskset: '{self.taskset}' has no [window]")
+        return ts.with_window(n=self.n, r_H=self.world.thresholds.r_H)
+
+
+# --------------------------------------------------------------------------- parsing
+
+
+class _Table:
+    """A TOML table being consumed: values by key (angles: ``key`` rad or ``key_deg``)."""
+
+    def __init__(self, where: str, data: object, angles: tuple[str, ...] = ()) -> None:
+        if not isinstance(data, dict):
+            raise ScenarioError(f"{where}: must be a table, got {data!r}")
+        self.where = where
+        self.data = data
+        self.angles = angles
+        self.used: set[str] = set()
+
+    def has(self, key: str) -> bool:
+        return key in self.data or f"{key}_deg" in self.data
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """Raw value of ``key`` (degrees converted for angular keys), or ``default``."""
+        deg = f"{key}_deg"
+        if key in self.angles and deg in self.data:
+            if key in self.data:
+                raise ScenarioError(f"{self.where}: give {key} or {deg}, not both")
+            self.used.add(deg)
+            value = self.data[deg]
+            number(f"{self.where}.{deg}", value)
+            return math.radians(float(value))
+        if key in self.data:
+            self.used.add(key)
+            return self.data[key]
+        return default
+
+    def kwargs(self, keys: tuple[str, ...]) -> dict[str, Any]:
+        return {k: self.get(k) for k in keys if self.has(k)}
+
+    def finish(self, allowed: tuple[str, ...]) -> None:
+        """Raise for the first key not consumed, with the closest allowed key."""
+        names = tuple(allowed) + tuple(f"{a}_deg" for a in allowed if a in self.angles)
+        for key in self.data:
+            if key not in self.used:
+                close = difflib.get_close_matches(key, names, n=1, cutoff=0.6)
+                hint = (f" (did you mean '{close[0]}'?)" if close
+                        else f" (known keys: {', '.join(names)})")
+                raise ScenarioError(f"{self.where}: unknown key '{key}'{hint}")
+
+
+def _build(where: str, make: Callable[[], T]) -> T:
+    """Run a constructor; turn its validation error into ``<where>: <message>``."""
+    try:
+        return make()
+    except InputError as exc:
+        raise ScenarioError(f"{where}: {exc}") from None
+    except TypeError as exc:
+        raise ScenarioError(f"{where}: {exc}") from None
+
+
+def _segment(where: str, raw: object) -> Segment:
+    tab = _Table(where, raw, _ANGLES["segment"])
+    if tab.has("straight") and tab.has("turn"):
+        raise ScenarioError(f"{where}: a segment is either straight or turn, not both")
+    if tab.has("straight"):
+        length = tab.get("straight")
+        tab.finish(("straight",))
+        return _build(where, lambda: Straight(length))
+    if tab.has("turn"):
+        direction = tab.get("turn")
+        for req in ("radius", "angle"):
+            if not tab.has(req):
+                raise ScenarioError(f"{where}: {req}: missing (required for a turn)")
+        radius, angle = tab.get("radius"), tab.get("angle")
+        tab.finish(("turn", "radius", "angle"))
+        return _build(where, lambda: Turn(direction, radius, angle))
+    raise ScenarioError(
+        f"{where}: a segment needs 'straight = <cm>' or 'turn = \"left\"|\"right\"'")
+
+
+def _path(src: str, leader: _Table) -> LeaderPath:
+    start_tab = _Table(f"{src}: leader.start", leader.get("start", {}), _ANGLES["start"])
+    start = (start_tab.get("x", 0.0), start_tab.get("y", 0.0), start_tab.get("heading", 0.0))
+    start_tab.finish(("x", "y", "heading"))
+    if leader.has("path") == leader.has("shape"):
+        raise ScenarioError(f"{src}: leader: give exactly one of 'path' or 'shape'")
+    if leader.has("path"):
+        raw = leader.get("path")
+        if not isinstance(raw, list) or not raw:
+            raise ScenarioError(f"{src}: leader.path: must be a non-empty list of segments")
+        segs = [_segment(f"{src}: leader.path[{k + 1}]", r) for k, r in enumerate(raw)]
+        return _build(f"{src}: leader.path", lambda: LeaderPath(segs, start))
+    shape = _Table(f"{src}: leader.shape", leader.get("shape"))
+    kind = shape.get("kind")
+    if kind != "rounded_rectangle":
+        raise ScenarioError(f"{src}: leader.shape.kind: must be 'rounded_rectangle', got {kind!r}")
+    for req in ("length", "width", "radius"):
+        if not shape.has(req):
+            raise ScenarioError(f"{src}: leader.shape.{req}: missing (required)")
+    args = shape.kwargs(("length", "width", "radius"))
+    direction = shape.get("direction", "left")
+    shape.finish(("kind", "length", "width", "radius", "direction"))
+    return _build(f"{src}: leader.shape",
+                  lambda: rounded_rectangle(**args, direction=direction, start=start))
+
+
+def _formation(src: str, data: object) -> Formation:
+    tab = _Table(f"{src}: formation", data, _ANGLES["formation"])
+    if tab.has("slot"):
+        if tab.has("followers") or tab.has("separation") or tab.has("bearing_offset"):
+            raise ScenarioError(f"{src}: formation: give [[formation.slot]] or "
+                                "followers/separation/bearing_offset, not both")
+        slots = tab.get("slot")
+        if not isinstance(slots, list) or not slots:
+            raise ScenarioError(f"{src}: formation.slot: must be a list of tables")
+        rho, beta = [], []
+        for k, raw in enumerate(slots):
+            st = _Table(f"{src}: formation.slot[{k + 1}]", raw, _ANGLES["slot"])
+            for req in ("rho_d", "beta_d"):
+                if not st.has(req):
+                    raise ScenarioError(f"{st.where}: {req}: missing (required)")
+            rho.append(st.get("rho_d"))
+            beta.append(st.get("beta_d"))
+            st.finish(("rho_d", "beta_d"))
+        tab.finish(("slot",))
+        return _build(src, lambda: Formation(tuple(rho), tuple(beta)))
+    for req in ("followers", "separation"):
+        if not tab.has(req):
+            raise ScenarioError(f"{src}: formation.{req}: missing (required)")
+    args = tab.kwargs(("followers", "separation", "bearing_offset"))
+    tab.finish(("followers", "separation", "bearing_offset"))
+    return _build(src, lambda: chevron(args["followers"], args["separation"],
+                                       args.get("bearing_offset", math.radians(15))))
+
+
+def _section(src: str, data: Mapping[str, Any], name: str, keys: tuple[str, ...],
+             make: Callable[..., T]) -> T:
+    tab = _Table(f"{src}: {name}", data.get(name, {}), _ANGLES.get(name, ()))
+    args = tab.kwargs(keys)
+    tab.finish(keys)
+    return _build(src, lambda: make(**args))
+
+
+def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
+                   base: Path | None = None) -> Scenario:
+    """Validate a parsed TOML document; ``base`` resolves a relative task-set path."""
+    src = source
+    top = _Table(src, dict(data))
+    for key in ("leader", "formation"):
+        if not top.has(key):
+            raise ScenarioError(f"{src}: [{key}]: missing (required)")
+    name = top.get("name", Path(source).stem)
+    if not isinstance(name, str) or not name:
+        raise ScenarioError(f"{src}: name: must be a non-empty string, got {name!r}")
+    description = top.get("description", "")
+    if not isinstance(description, str):
+        raise ScenarioError(f"{src}: description: must be a string, got {description!r}")
+
+    leader = _Table(f"{src}: leader", top.get("leader"))
+    if not leader.has("speed"):
+        raise ScenarioError(f"{src}: leader.speed: missing (required)")
+    speed = _build(src, lambda: positive("leader.speed", leader.get("speed")))
+    path = _path(src, leader)
+    start_s = _build(src, lambda: non_negative("leader.start_s", leader.get("start_s", 0.0)))
+    leader.finish(("speed", "start", "start_s", "path", "shape"))
+
+    formation = _formation(src, top.get("formation"))
+    follower = _section(src, data, "follower", tuple(FollowerParams.__dataclass_fields__),
+                        FollowerParams)
+    top.get("follower")
+    sens = _Table(f"{src}: sensing", top.get("sensing", {}))
+    r_H = _build(src, lambda: positive("sensing.r_H", sens.get("r_H", 25.0)))
+    sens_args = sens.kwargs(tuple(SensingParams.__dataclass_fields__))
+    sens.finish(("r_H",) + tuple(SensingParams.__dataclass_fields__))
+    sensing = _build(src, lambda: SensingParams(**sens_args))
+    ekf = _section(src, data, "ekf", tuple(EkfParams.__dataclass_fields__), EkfParams)
+    top.get("ekf")
+
+    thr = _Table(f"{src}: thresholds", top.get("thresholds", {}), _ANGLES["thresholds"])
+    t_rho = thr.get("T_rho", 0.01)
+    t_eps = thr.get("T_eps", 0.025)
+    t_beta = thr.get("T_beta", math.radians(5.0))
+    loc = thr.get("localization", "radial")
+    thr.finish(("T_rho", "T_eps", "T_beta", "localization"))
+    for key, val in (("T_rho", t_rho), ("T_eps", t_eps), ("T_beta", t_beta)):
+        _build(src, lambda k=key, v=val: positive(f"thresholds.{k}", v))
+    if loc not in ("radial", "full"):
+        raise ScenarioError(f"{src}: thresholds.localization: must be 'radial' or 'full', "
+                            f"got {loc!r}")
+    thresholds = Thresholds(r_H=r_H, T_rho=t_rho, T_eps=t_eps, T_beta=t_beta, localization=loc)
+
+    adjust = _section(src, data, "adjust", ("cap", "floor"), AdjustConfig)
+    top.get("adjust")
+    wtab = _Table(f"{src}: world", top.get("world", {}))
+    step_ms = wtab.get("step_ms", 10.0)
+    wtab.finish(("step_ms",))
+
+    world = _build(src, lambda: WorldConfig(path, speed, formation, follower, sensing, ekf,
+                                            thresholds, step_ms, start_s))
+    if adjust.floor > speed:
+        raise ScenarioError(f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the "
+                            f"desired speed {speed:g} cm/s")
+
+    lap = path.lap_time(speed)
+    duration = top.get("duration", float(math.ceil(lap)))
+    duration = _build(src, lambda: positive("duration", duration))
+
+    taskset = top.get("taskset", "barrel_robots")
+    if not isinstance(taskset, str) or not taskset:
+        raise ScenarioError(f"{src}: taskset: must be a name or a path, got {taskset!r}")
+    if taskset not in PACKAGED_TASKSETS:
+        p = Path(taskset)
+        if not p.is_absolute() and base is not None:
+            p = base / p
+        if not p.is_file():
+            raise ScenarioError(f"{src}: taskset: file not found: {p}")
+        taskset = str(p)
+
+    assumptions_raw = top.get("assumptions", {})
+    if not isinstance(assumptions_raw, dict):
+        raise ScenarioError(f"{src}: [assumptions]: must be a table of key = \"reason\"")
+    assumptions: dict[str, str] = {}
+    for key, reason in assumptions_raw.items():
+        if not isinstance(reason, str) or not reason.strip():
+            raise ScenarioError(f"{src}: assumptions.{key}: must be a non-empty string "
+                                f"giving the reason, got {reason!r}")
+        assumptions[key] = reason
+    top.finish(TOP_KEYS)
+    return Scenario(name=name, world=world, taskset=taskset, duration=duration,
+                    description=description, adjust=adjust, assumptions=assumptions,
+                    source=source)
+
+
+def load_scenario(path: str | os.PathLike[str]) -> Scenario:
+    """Read and validate a scenario TOML file."""
+    p = Path(path)
+    src = p.name if p.name else str(p)
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{src}: not a text file (not UTF-8 at byte {exc.start})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{src}: malformed TOML: {exc}") from None
+    return parse_scenario(data, src, p.parent)
