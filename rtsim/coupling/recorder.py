@@ -1,0 +1,160 @@
+"""Per-window records of a coupled run, turned into the ``windows.csv`` table once.
+
+The schema is pinned in ``notes/windows_schema.md`` (other modules plot and validate against
+it): one row per processing window, window-level columns first, then per follower i (1-based)
+the truth at the scan (``f{i}_x`` … ``f{i}_msb_bearing``), the leader's estimate that the
+decision used (the same names with ``_est``), and the violations observed on the truth between
+this window's scan and the next (``f{i}_viol_*``) with ``f{i}_lost``. No empty cells:
+an unbounded value is ``inf``; booleans are ``True``/``False``.
+
+During the run the coupling fills one :class:`WindowRecord` per window (plain Python and small
+numpy arrays); :meth:`WindowRecorder.frame` builds the DataFrame in one pass with a fixed
+column order and dtypes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from rtsim.analysis.kinematics import BOUND_KINDS
+from rtsim.sim.records import EPS
+
+__all__ = [
+    "WINDOW_COLUMNS",
+    "FOLLOWER_FIELDS",
+    "VIOLATION_FIELDS",
+    "WindowRecord",
+    "WindowRecorder",
+    "window_columns",
+]
+
+#: Window-level columns, in order (notes/windows_schema.md).
+WINDOW_COLUMNS: tuple[str, ...] = (
+    "window", "t", "w", "deadline", "w_sch", "msb_min", "binding", "margin", "slack",
+    "v_leader_desired", "v_leader", "method", "feasible", "critical", "missed", "response",
+    "finish", "points", "hough_ms", "tracks_lost", "segment", "curvature", "leader_x",
+    "leader_y", "leader_heading",
+)
+#: Per-follower state columns (truth; the estimate adds ``_est``), in order.
+FOLLOWER_FIELDS: tuple[str, ...] = (
+    "x", "y", "heading", "rho", "beta", "theta", "v",
+    *(f"msb_{k}" for k in BOUND_KINDS),
+)
+#: Per-follower violation columns, in order (``lost`` last).
+VIOLATION_FIELDS: tuple[str, ...] = (*(f"viol_{k}" for k in BOUND_KINDS), "lost")
+
+
+def window_columns(n: int) -> list[str]:
+    """Every column of windows.csv for ``n`` followers, in order."""
+    cols = list(WINDOW_COLUMNS)
+    cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in FOLLOWER_FIELDS]
+    cols += [f"f{i}_{f}_est" for i in range(1, n + 1) for f in FOLLOWER_FIELDS]
+    cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in VIOLATION_FIELDS]
+    return cols
+
+
+@dataclass(slots=True)
+class WindowRecord:
+    """One window, filled in stages: at its release (the decision that governs it), at its
+    scan (truth, points, lost tracks), when the Hough time is known, at its completion
+    (``finish``), and at the next scan (``viol``).
+
+    ``truth`` and ``est`` are (n, 11) arrays in :data:`FOLLOWER_FIELDS` order; ``viol`` is an
+    (n, 4) bool array in :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order, ``lost`` (n,).
+    """
+
+    window: int
+    t: float
+    w: float
+    w_sch: float
+    msb_min: float
+    binding: str
+    v_leader_desired: float
+    v_leader: float
+    method: str
+    feasible: bool
+    segment: str
+    curvature: float
+    est: NDArray[np.float64]
+    points: int = 0
+    hough_ms: float = math.nan
+    tracks_lost: int = 0
+    leader: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    truth: NDArray[np.float64] | None = None
+    lost: NDArray[np.bool_] | None = None
+    viol: NDArray[np.bool_] | None = None
+    finish: float = math.nan
+    scan_t: float = math.nan
+
+    @property
+    def complete(self) -> bool:
+        """Finished, scanned, and its violation interval closed by a later observation."""
+        return not math.isnan(self.finish) and self.truth is not None and self.viol is not None
+
+
+@dataclass
+class WindowRecorder:
+    """Collects :class:`WindowRecord` s of ``n`` followers; :meth:`frame` builds the table."""
+
+    n: int
+    records: list[WindowRecord] = field(default_factory=list)
+
+    def add(self, rec: WindowRecord) -> WindowRecord:
+        self.records.append(rec)
+        return rec
+
+    def frame(self) -> pd.DataFrame:
+        """windows.csv as a DataFrame: complete records only (a window still running at the
+        end, or one whose violation interval never closed, is dropped)."""
+        recs = [r for r in self.records if r.complete]
+        cols = window_columns(self.n)
+        m = len(recs)
+        data: dict[str, object] = {}
+        t = np.array([r.t for r in recs], dtype=float)
+        w = np.array([r.w for r in recs], dtype=float)
+        w_sch = np.array([r.w_sch for r in recs], dtype=float)
+        msb = np.array([r.msb_min for r in recs], dtype=float)
+        finish = np.array([r.finish for r in recs], dtype=float)
+        leader = np.array([r.leader for r in recs], dtype=float).reshape(m, 3)
+        data["window"] = np.array([r.window for r in recs], dtype=np.int64)
+        data["t"] = t
+        data["w"] = w
+        data["deadline"] = t + w
+        data["w_sch"] = w_sch
+        data["msb_min"] = msb
+        data["binding"] = [r.binding for r in recs]
+        with np.errstate(invalid="ignore"):
+            data["margin"] = msb - w_sch
+        data["slack"] = np.maximum(0.0, w - w_sch)
+        data["v_leader_desired"] = np.array([r.v_leader_desired for r in recs], dtype=float)
+        data["v_leader"] = np.array([r.v_leader for r in recs], dtype=float)
+        data["method"] = [r.method for r in recs]
+        data["feasible"] = np.array([r.feasible for r in recs], dtype=bool)
+        data["critical"] = msb < w_sch
+        data["missed"] = finish > t + w + EPS
+        data["response"] = finish - t
+        data["finish"] = finish
+        data["points"] = np.array([r.points for r in recs], dtype=np.int64)
+        data["hough_ms"] = np.array([r.hough_ms for r in recs], dtype=float)
+        data["tracks_lost"] = np.array([r.tracks_lost for r in recs], dtype=np.int64)
+        data["segment"] = [r.segment for r in recs]
+        data["curvature"] = np.array([r.curvature for r in recs], dtype=float)
+        data["leader_x"], data["leader_y"], data["leader_heading"] = leader.T
+        k = len(FOLLOWER_FIELDS)
+        truth = np.array([r.truth for r in recs], dtype=float).reshape(m, self.n, k)
+        est = np.array([r.est for r in recs], dtype=float).reshape(m, self.n, k)
+        viol = np.array([r.viol for r in recs], dtype=bool).reshape(m, self.n, len(BOUND_KINDS))
+        lost = np.array([r.lost for r in recs], dtype=bool).reshape(m, self.n)
+        for i in range(self.n):
+            for j, f in enumerate(FOLLOWER_FIELDS):
+                data[f"f{i + 1}_{f}"] = truth[:, i, j]
+                data[f"f{i + 1}_{f}_est"] = est[:, i, j]
+            for j, kind in enumerate(BOUND_KINDS):
+                data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
+            data[f"f{i + 1}_lost"] = lost[:, i]
+        return pd.DataFrame({c: data[c] for c in cols}, columns=cols)

@@ -1,0 +1,477 @@
+"""Schedule and world in one SimPy run (issue 5 §1, SPEC §5–§7).
+
+One ``simpy.Environment`` holds the virtual :class:`~rtsim.sim.cpu.CPU` with the leader's
+task set: dead reckoning (T_hp), the processing-window chain T_w and the command task (T_lp,
+period 2w). The world (:class:`~rtsim.world.world.World`, no engine of its own) is driven
+from the CPU's hooks:
+
+- **release** of window k: it is governed by the latest decision — the w returned to the
+  CPU's period provider, the leader speed, the bounds; window k+1 is released at t_k + w_k
+  (back to back). The first window uses the scenario's initial values, w = w_sch and
+  V_L = V_Ld (method ``fixed``).
+- **scan starts**: the world is advanced to now and sampled (``World.scan``: beams,
+  position fixes, Hough windows, lost tracks, violations since the previous scan), and the
+  EKFs are updated with that scan (``World.estimate``).
+- **hough** runs for ``hough_time`` of that scan: Eq 1 with the beams actually counted plus
+  the re-acquisition cost of every lost track (so a lost track can make the window late).
+- **send[i] ends**: follower i's command (l-ψ on the leader's estimate) takes effect; a late
+  window therefore means stale commands.
+- **window job completes**: every follower's estimate (propagated to now) gives its
+  MSBs and :func:`rtsim.control.decide` in the run's mode sets the next w (and thereby T_lp's
+  2w) and the leader speed (``World.set_leader_speed``).
+
+The world is advanced lazily to the time of every hook (its own fixed step sub-steps a
+ramping wheel speed). Execution times: every fixed segment runs its WCET (``exec_model=
+"wcet"``, the default; ``"uniform"`` or any model of :mod:`rtsim.sim.execution` may be
+given); the radio round trip Δt is an idle suspension (``suspension="idle"``: the CPU is free,
+as on the real system). Overload: the window chain is ``finish-late``; a window that misses
+its deadline is recorded (``missed``), the next window is still released on time
+(t_k + w_k) and waits in the task's backlog until the late one completes, then scans — its
+scan, commands and decision come late too. A backlogged release is governed by the latest
+decision available at its release (that of the last *completed* window).
+
+Modes (:data:`rtsim.control.MODES`): ``adjust`` (the paper's algorithm), ``fixed-wsch``
+(w = w_sch, speed never lowered: the bounds break in the world), ``min-msb`` (w = min MSB
+even below w_sch, speed never lowered: the schedule breaks).
+
+Duration: an explicit ``duration_s`` (simulated seconds) is exact. By default the run covers
+the scenario's ``duration`` **and at least one lap**: it stops at the first window completion
+at or after that duration at which the leader has driven one lap plus the largest ρ_d (so the
+followers, which trail by ρ_d, leave the last turn too) — the leader is slowed in the turns,
+so a lap takes longer than at V_Ld — and at the latest after max(duration, 4 lap times at
+V_Ld), i.e. a leader slowed to ¼·V_Ld on average. ``summary['laps']`` and
+``summary['duration_s']`` say how far it got. A window still running at the stop is dropped.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import simpy
+
+from rtsim.analysis.bounds import window_bounds
+from rtsim.analysis.kinematics import BOUND_KINDS, follower_msbs, relative_state
+from rtsim.control import MODES, FollowerEstimate, decide
+from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder
+from rtsim.errors import InputError
+from rtsim.model.task import Segment
+from rtsim.model.taskset import TaskSet
+from rtsim.sim.cpu import Job
+from rtsim.sim.execution import ExecSpec
+from rtsim.sim.run import build_cpu
+from rtsim.world.config import WorldConfig
+from rtsim.world.localization import hough_time
+from rtsim.world.world import World
+
+__all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "summarize", "LAP_CAP_FACTOR"]
+
+#: With the default (one-lap) duration, the run stops at the latest after this many lap
+#: times at V_Ld.
+LAP_CAP_FACTOR = 4.0
+_NF = len(FOLLOWER_FIELDS)
+_ADJUST_KEYS = ("cap", "cap_factor", "floor_frac", "floor_w", "model", "methods", "scan_points")
+
+
+@dataclass(frozen=True)
+class ScenarioInputs:
+    """What a coupled run needs: the world, the leader's task set, and run options.
+
+    ``adjust``: options of :func:`rtsim.control.decide` (``cap`` in ms or ``cap_factor``
+    × w_sch, ``floor_frac``, ``floor_w``, ``model``, ``methods``, ``scan_points``).
+    ``duration_s``: default duration (simulated s), None = one lap. ``text``/``resolved``:
+    the scenario file's text and resolved values, for the manifest.
+    """
+
+    world: WorldConfig
+    taskset: TaskSet
+    name: str = ""
+    duration_s: float | None = None
+    adjust: Mapping[str, Any] = field(default_factory=dict)
+    source: str | None = None
+    text: str | None = None
+    resolved: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class ScenarioResult:
+    """A coupled run: ``windows`` (windows.csv), ``jobs`` (job records or None), ``summary``
+    (summary.json), ``timing`` (wall-clock seconds: ``setup_s``, ``simulation_s``)."""
+
+    windows: pd.DataFrame
+    jobs: pd.DataFrame | None
+    summary: dict[str, Any]
+    timing: dict[str, float]
+    inputs: ScenarioInputs
+
+
+def _inputs(scenario: Any, text: str | None = None) -> ScenarioInputs:
+    """Accept :class:`ScenarioInputs`, a path (loaded with :func:`rtsim.io.scenario.
+    load_scenario`), or a :class:`rtsim.io.scenario.Scenario`.
+
+    A Scenario's ``[adjust]`` maps to :func:`rtsim.control.decide`: ``cap`` (ms; ``inf`` →
+    decide's default, 10·w_sch) and ``floor`` (cm/s) → ``floor_frac`` = floor / V_Ld, which
+    is also the lowest speed the coupling ever sets.
+    """
+    if isinstance(scenario, ScenarioInputs):
+        return scenario
+    if isinstance(scenario, str | os.PathLike):
+        from rtsim.io.scenario import load_scenario
+
+        path = scenario
+        scenario = load_scenario(path)
+        if text is None:
+            with open(path, encoding="utf-8") as fh:
+                text = fh.read()
+    try:
+        world = scenario.world
+        ts = scenario.load_taskset() if hasattr(scenario, "load_taskset") else scenario.taskset
+    except AttributeError:
+        raise InputError(f"not a scenario: {type(scenario).__name__}") from None
+    adjust: dict[str, Any] = {}
+    cfg = getattr(scenario, "adjust", None)
+    if cfg is not None and not isinstance(cfg, Mapping):
+        if math.isfinite(cfg.cap):
+            adjust["cap"] = float(cfg.cap)
+        adjust["floor_frac"] = float(cfg.floor) / world.leader_speed
+    elif cfg:
+        adjust = dict(cfg)
+    duration = getattr(scenario, "duration", None)
+    return ScenarioInputs(
+        world=world, taskset=ts, name=str(getattr(scenario, "name", "") or ""),
+        duration_s=float(duration) if duration else None, adjust=adjust,
+        source=getattr(scenario, "source", None), text=text,
+        resolved=resolved(scenario, ts))
+
+
+def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
+    """The scenario's resolved values as plain JSON data (for the manifest)."""
+    from dataclasses import asdict, is_dataclass
+
+    from rtsim.io.taskset import taskset_to_dict
+
+    cfg: WorldConfig = scenario.world
+
+    def plain(obj: Any) -> Any:
+        return asdict(obj) if is_dataclass(obj) and not isinstance(obj, type) else obj
+
+    path = cfg.path
+    out: dict[str, Any] = {
+        "name": getattr(scenario, "name", ""),
+        "description": getattr(scenario, "description", ""),
+        "duration_s": getattr(scenario, "duration", None),
+        "leader": {"speed": cfg.leader_speed, "start_s": cfg.start_s,
+                   "start": list(path.start), "lap_length": path.lap_length,
+                   "lap_time_s": path.lap_time(cfg.leader_speed),
+                   "segments": [{"kind": s.kind, **plain(s)} for s in path.segments]},
+        "formation": {"rho_d": list(cfg.formation.rho_d), "beta_d": list(cfg.formation.beta_d)},
+        "follower": plain(cfg.follower),
+        "sensing": plain(cfg.sensing),
+        "ekf": plain(cfg.ekf),
+        "thresholds": plain(cfg.thresholds),
+        "step_ms": cfg.step_ms,
+        "adjust": plain(getattr(scenario, "adjust", {})),
+        "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),
+        "taskset": taskset_to_dict(ts),
+    }
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class _Decision:
+    w: float
+    v_leader: float
+    msb_min: float
+    binding: str
+    method: str
+    feasible: bool
+    est: np.ndarray
+
+
+class _Coupling:
+    """The run's state and the CPU hooks (internal; see the module docstring)."""
+
+    def __init__(self, inp: ScenarioInputs, mode: str, seed: int, exec_model: ExecSpec,
+                 record_jobs: bool, horizon_ms: float, stop_s: float | None,
+                 stop_ms: float = 0.0) -> None:
+        cfg = inp.world
+        ts = inp.taskset
+        if ts.window is None:
+            raise InputError(f"{inp.source or inp.name or 'scenario'}: the task set has no "
+                             f"[window]")
+        if ts.window.n != cfg.n:
+            ts = ts.with_window(n=cfg.n)
+        self.ts = ts
+        self.cfg = cfg
+        self.mode = mode
+        self.thr = cfg.thresholds
+        self.w_sch = window_bounds(ts).w_sch
+        if not math.isfinite(self.w_sch):
+            raise InputError(f"{inp.source or inp.name or 'scenario'}: w_sch is infinite")
+        opts = dict(inp.adjust)
+        unknown = sorted(set(opts) - set(_ADJUST_KEYS))
+        if unknown:
+            raise InputError(f"{inp.source or 'scenario'}: [adjust] has unknown key "
+                             f"'{unknown[0]}' (allowed: {', '.join(_ADJUST_KEYS)})")
+        cap_factor = opts.pop("cap_factor", None)
+        if cap_factor is not None and "cap" not in opts:
+            opts["cap"] = float(cap_factor) * self.w_sch
+        if "methods" in opts:
+            opts["methods"] = tuple(opts["methods"])
+        self.opts = opts
+        self.v_floor = float(opts.get("floor_frac", 0.0)) * cfg.leader_speed
+        ss = np.random.SeedSequence(seed)
+        world_ss, cpu_ss = ss.spawn(2)
+        self.world = World(cfg, np.random.default_rng(world_ss))
+        self.n = cfg.n
+        self.rho_d = [float(r) for r in cfg.formation.rho_d]
+        self.beta_d = [float(b) for b in cfg.formation.beta_d]
+        self.v_ld = cfg.leader_speed
+        self.env = simpy.Environment()
+        self.cpu, _ = build_cpu(ts, env=self.env, window=self._period, suspension="idle",
+                                exec_model=exec_model, seed=cpu_ss, record_jobs=record_jobs)
+        win = ts.window
+        self.wname = win.name
+        self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
+        cpu = self.cpu
+        cpu.on("release", self._on_release, task=win.name)
+        cpu.on("segment_start", self._on_scan, task=win.name, role="scan")
+        cpu.on("segment_end", self._on_send, task=win.name, role="send")
+        cpu.on("job_end", self._on_done, task=win.name)
+        cpu.set_exec_time(win.name, "hough", self._hough_exec)
+        self.rec = WindowRecorder(self.n)
+        self._open: dict[int, WindowRecord] = {}
+        self._last_scanned: WindowRecord | None = None
+        self._hough_ms = 0.0
+        self.horizon_ms = horizon_ms
+        self._s0 = self.world.leader.s
+        self._stop_s = stop_s  # arc length (cm) after which the run stops, or None
+        self._stop_ms = stop_ms  # ... but not before this time
+        self.stop = self.env.event()
+        thr = self.thr
+        rho_d = np.asarray(self.rho_d)
+        self._limits = (("localization", "displacement", thr.r_H),
+                        ("separation", "d_rho", thr.T_rho * rho_d),
+                        ("path_diversion", "travel", thr.T_eps * rho_d),
+                        ("bearing", "d_beta", thr.T_beta))
+        self.viol_max = {k: 0.0 for k in BOUND_KINDS}
+        first = self._estimates(0.0)
+        self.dec = _Decision(self.w_sch, self.v_ld, first.msb_min, first.binding, "fixed",
+                             first.msb_min >= self.w_sch, first.est)
+
+    # -- the decision ----------------------------------------------------------------
+    def _estimates(self, now: float) -> _Decision:
+        """Run the mode's decision on the leader's estimates at ``now``."""
+        world = self.world
+        world.advance(now)
+        lp = world.leader_pose
+        _, kappa = world.segment_at()
+        est = np.empty((self.n, _NF))
+        fols = []
+        for k in range(self.n):
+            pose = world.estimated_pose(k + 1)
+            _, _, _, v_f = world.relative(k + 1, "estimate")
+            rho, beta, theta = relative_state(lp, pose)
+            est[k, :7] = (pose[0], pose[1], pose[2], rho, beta, theta, v_f)
+            fols.append(FollowerEstimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
+                                         self.beta_d[k]))
+        adj = decide(self.mode, fols, v_ld=self.v_ld, w_sch=self.w_sch, thresholds=self.thr,
+                     omega_l=world.leader_omega, kappa=kappa, **self.opts)
+        v_l = max(adj.v_leader, self.v_floor)
+        for k, m in enumerate(adj.msbs):
+            est[k, 7:] = [m[b] for b in BOUND_KINDS]
+        return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
+                         adj.feasible and v_l == adj.v_leader, est)
+
+    # -- hooks -----------------------------------------------------------------------
+    def _period(self) -> float:
+        return self.dec.w
+
+    def _on_release(self, job: Job) -> None:
+        now = self.env.now
+        self.world.advance(now)
+        kind, kappa = self.world.segment_at()
+        d = self.dec
+        self._open[job.index] = self.rec.add(WindowRecord(
+            window=job.index, t=job.release, w=job.period, w_sch=self.w_sch,
+            msb_min=d.msb_min, binding=d.binding, v_leader_desired=self.v_ld,
+            v_leader=d.v_leader, method=d.method, feasible=d.feasible, segment=kind,
+            curvature=kappa, est=d.est))
+
+    def _on_scan(self, job: Job, seg: Segment) -> None:
+        now = self.env.now
+        world = self.world
+        rec = self._open[job.index]
+        scan = world.scan(now)
+        world.estimate(scan)
+        self._hough_ms = hough_time(scan, *self._hough_args)
+        rec.scan_t = now
+        rec.hough_ms = self._hough_ms
+        rec.points = scan.total_points
+        rec.tracks_lost = scan.n_lost
+        rec.lost = scan.lost.copy()
+        rec.leader = scan.leader_pose
+        rec.truth = self._truth(scan.leader_pose)
+        self._close(scan)
+        self._last_scanned = rec
+
+    def _close(self, scan: Any) -> None:
+        """Close the previous window's observation interval with ``scan``'s violations."""
+        last = self._last_scanned
+        if last is None:
+            return
+        last.viol = np.column_stack([scan.violations[k] for k in BOUND_KINDS])
+        ch = scan.changes
+        for kind, key, lim in self._limits:
+            r = float(np.max(ch[key] / lim))
+            if r > self.viol_max[kind]:
+                self.viol_max[kind] = r
+
+    def _truth(self, lp: tuple[float, float, float]) -> np.ndarray:
+        world = self.world
+        fol = world.followers
+        v_l, w_l = world.leader_speed, world.leader_omega
+        out = np.empty((self.n, _NF))
+        for k in range(self.n):
+            pose = (float(fol.x[k]), float(fol.y[k]), float(fol.th[k]))
+            rho, beta, theta = relative_state(lp, pose)
+            v_f = float(fol.v[k])
+            m = follower_msbs(v_l, w_l, v_f, rho, beta, theta, self.rho_d[k], self.thr)
+            out[k] = (*pose, rho, beta, theta, v_f, *(m[b] for b in BOUND_KINDS))
+        return out
+
+    def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
+        return self._hough_ms
+
+    def _on_send(self, job: Job, seg: Segment) -> None:
+        self.world.command(int(seg.follower), self.env.now)  # type: ignore[arg-type]
+
+    def _on_done(self, job: Job) -> None:
+        now = self.env.now
+        rec = self._open.pop(job.index)
+        rec.finish = now
+        self.dec = self._estimates(now)
+        self.world.set_leader_speed(self.dec.v_leader)
+        if self._stop_s is not None and not self.stop.triggered and now >= self._stop_ms \
+                and self.world.leader.s - self._s0 >= self._stop_s:
+            self.stop.succeed()
+
+    # -- running ---------------------------------------------------------------------
+    def run(self) -> None:
+        proc = self.cpu.start(self.horizon_ms)
+        if self._stop_s is None:
+            self.env.run(until=self.horizon_ms)
+        else:
+            self.env.run(until=self.stop | proc)
+        last = self._last_scanned
+        if last is not None and last.viol is None:  # close the last observation interval
+            self._close(self.world.scan(max(self.env.now, self.world.t_ms)))
+
+
+def summarize(df: pd.DataFrame, *, mode: str, w_sch: float, duration_s: float, seed: int,
+              scenario: str, n: int, extra: Mapping[str, Any] | None = None
+              ) -> dict[str, Any]:
+    """summary.json from windows.csv (notes/windows_schema.md) and run facts."""
+    w = df["w"].to_numpy(dtype=float)
+    crit = df["critical"].to_numpy(dtype=bool)
+    total_w = float(w.sum())
+    violations = {
+        k: int(sum(int(df[f"f{i}_viol_{k}"].sum()) for i in range(1, n + 1)))
+        for k in BOUND_KINDS
+    }
+    binding_critical: dict[str, int] = {}
+    for b in df.loc[crit, "binding"]:
+        kind = str(b).split(":")[0]
+        binding_critical[kind] = binding_critical.get(kind, 0) + 1
+    ratio = df["msb_min"].to_numpy(dtype=float) / df["w_sch"].to_numpy(dtype=float)
+    speed = df["v_leader"].to_numpy(dtype=float) / df["v_leader_desired"].to_numpy(dtype=float)
+    out: dict[str, Any] = {
+        "scenario": scenario,
+        "mode": mode,
+        "seed": seed,
+        "duration_s": duration_s,
+        "w_sch": w_sch,
+        "windows": int(len(df)),
+        "missed": int(df["missed"].sum()),
+        "tracks_lost": int(df["tracks_lost"].sum()),
+        "violations": violations,
+        "critical_share": float(w[crit].sum() / total_w) if total_w > 0 else 0.0,
+        "critical_windows": int(crit.sum()),
+        "methods": {str(k): int(v) for k, v in df["method"].value_counts().sort_index().items()},
+        "binding_critical": dict(sorted(binding_critical.items())),
+        "min_msb_over_wsch": float(ratio.min()) if len(df) else math.nan,
+        "min_speed_ratio": float(speed.min()) if len(df) else math.nan,
+        "infeasible": int((~df["feasible"].to_numpy(dtype=bool)).sum()),
+        "max_response": float(df["response"].max()) if len(df) else math.nan,
+    }
+    if extra:
+        out.update(extra)
+    return out
+
+
+def run_scenario(
+    scenario: Any,
+    *,
+    mode: str = "adjust",
+    duration_s: float | None = None,
+    seed: int = 0,
+    record_jobs: bool = True,
+    exec_model: ExecSpec = "wcet",
+    duration: float | None = None,
+    text: str | None = None,
+) -> ScenarioResult:
+    """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
+
+    mode: ``adjust`` | ``fixed-wsch`` | ``min-msb``; duration_s: simulated seconds (None: the
+    scenario's, else one lap — module docstring); ``duration`` is an alias (sweep kind);
+    seed: one seed for the world's noise and the CPU's execution-time draws; record_jobs:
+    keep the job table (``result.jobs``); exec_model: execution times of the fixed segments;
+    text: the scenario file's text (for the manifest; read from the path when one is given).
+    """
+    t0 = time.perf_counter()
+    if mode not in MODES:
+        raise InputError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+    if duration_s is None:
+        duration_s = duration
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+    inp = _inputs(scenario, text)
+    cfg = inp.world
+    stop_s: float | None = None
+    stop_ms = 0.0
+    if duration_s is None:
+        stop_s = cfg.path.lap_length + max(cfg.formation.rho_d)
+        stop_ms = 1000.0 * (inp.duration_s or 0.0)
+        horizon_ms = max(LAP_CAP_FACTOR * stop_s / cfg.leader_speed * 1000.0, stop_ms)
+    else:
+        if isinstance(duration_s, bool) or not isinstance(duration_s, int | float) or \
+                not (0 < duration_s < math.inf):
+            raise InputError(f"duration must be a positive number of seconds, got "
+                             f"{duration_s!r}")
+        horizon_ms = float(duration_s) * 1000.0
+    run = _Coupling(inp, mode, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms)
+    t1 = time.perf_counter()
+    run.run()
+    t2 = time.perf_counter()
+    df = run.rec.frame()
+    res = run.cpu.result()
+    world = run.world
+    extra = {
+        "laps": (world.leader.s - run._s0) / cfg.path.lap_length,
+        "max_backlog": int(res.tasks[run.wname].max_backlog),
+        "v_leader_desired": run.v_ld,
+        "n": run.n,
+        "max_violation_ratio": dict(run.viol_max),
+    }
+    summary = summarize(df, mode=mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
+                        seed=int(seed), scenario=inp.name, n=run.n, extra=extra)
+    t3 = time.perf_counter()
+    timing = {"setup_s": t1 - t0, "simulation_s": t2 - t1, "tables_s": t3 - t2}
+    return ScenarioResult(df, res.jobs, summary, timing, inp)
+
