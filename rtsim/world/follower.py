@@ -211,7 +211,9 @@ class FollowerGroup:
 
     def advance(self, k: int, t_ms: float, step_ms: float) -> None:
         """Integrate follower index ``k`` to ``t_ms``: the exact arc with the mean speed of the
-        acceleration ramp, in steps of at most ``step_ms`` while the speed is still ramping."""
+        acceleration ramp, in steps of at most ``step_ms`` while a ramp lasts longer than one
+        step (a shorter ramp is folded into one arc; the heading–speed coupling it ignores is
+        below 1e-3 cm for the speed changes of a command)."""
         t0 = self.t[k]
         if t_ms <= t0:
             return
@@ -220,7 +222,9 @@ class FollowerGroup:
         v, vc, w = self.v[k], self.cmd_v[k], self.cmd_w[k]
         odo = self.odometer[k]
         while t_ms - t0 > 1e-12:
-            h = min(step_ms, t_ms - t0) if v != vc else t_ms - t0
+            # one exact-mean arc once the ramp ends within a step; sub-steps while it lasts
+            short = v == vc or abs(vc - v) <= a * step_ms / 1000.0
+            h = t_ms - t0 if short else min(step_ms, t_ms - t0)
             dt = h / 1000.0
             v, vm = ramp1(v, vc, a, dt)
             pose = arc1(pose, vm, w, dt)

@@ -149,7 +149,7 @@ class World:
     def advance(self, t_ms: float) -> None:
         """Integrate the truth to ``t_ms``: the leader exactly along its path, the followers
         with their held commands in exact arcs, sub-stepped at ``step_ms`` while a wheel
-        speed is still ramping toward its command."""
+        speed ramps toward its command for longer than one step."""
         self._advance_leader(t_ms)
         self.followers.advance_all(t_ms, self.config.step_ms)
 
