@@ -1,0 +1,261 @@
+"""Schedule and world in one run: the paper's Test 1 and Test 2 in the three modes (issue 5).
+
+Each scenario runs once per module (module-scoped fixtures): adjust mode for one lap (the
+default duration), the two baselines on Test 2 for 45 s (the first turn starts at 26.7 s).
+Expected numbers come from SPEC §6 by hand, not from the code under test: in a steady turn
+the outer follower (β_d = 195°, left turns) moves at V_F = s·V_L with
+s = √(1 + x² + 2x·sin 15°), x = ρ_d / r_t, so its path-diversion bound is
+T_ε ρ_d / (s V_Ld) at V_Ld and the coupled speed that restores it at w_sch is
+V_L = T_ε ρ_d / (s w_sch).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rtsim.coupling import (
+    ScenarioInputs,
+    WindowRecord,
+    WindowRecorder,
+    run_scenario,
+    window_columns,
+)
+from rtsim.errors import InputError
+from rtsim.io.scenario import load_scenario
+
+SCEN = Path(__file__).resolve().parent.parent / "experiments" / "scenarios"
+TEST1, TEST2 = SCEN / "test1.toml", SCEN / "test2.toml"
+EPS = 1e-9
+
+
+def _outer_s(rho_d: float, r_t: float) -> float:
+    x = rho_d / r_t
+    return math.sqrt(1 + x * x + 2 * x * math.sin(math.radians(15)))
+
+
+@pytest.fixture(scope="module")
+def adj1():  # type: ignore[no-untyped-def]
+    return run_scenario(TEST1, mode="adjust", record_jobs=False)
+
+
+@pytest.fixture(scope="module")
+def adj2():  # type: ignore[no-untyped-def]
+    return run_scenario(TEST2, mode="adjust", record_jobs=False)
+
+
+@pytest.fixture(scope="module")
+def fixed2():  # type: ignore[no-untyped-def]
+    return run_scenario(TEST2, mode="fixed-wsch", duration_s=45, record_jobs=False)
+
+
+@pytest.fixture(scope="module")
+def minmsb2():  # type: ignore[no-untyped-def]
+    return run_scenario(TEST2, mode="min-msb", duration_s=45, record_jobs=False)
+
+
+@pytest.fixture(params=["adj1", "adj2"])
+def adj(request):  # type: ignore[no-untyped-def]
+    return request.getfixturevalue(request.param)
+
+
+# -- adjust mode on both tests ---------------------------------------------------------
+def test_adjust_covers_a_lap_without_misses_or_lost_tracks(adj) -> None:  # type: ignore[no-untyped-def]
+    s, df = adj.summary, adj.windows
+    assert s["laps"] >= 1.0
+    assert s["windows"] == len(df) > 100
+    assert s["missed"] == 0 and not df["missed"].any()
+    assert (df["finish"] <= df["deadline"] + EPS).all()
+    assert s["tracks_lost"] == 0 and df["tracks_lost"].sum() == 0
+    assert s["violations"]["localization"] == 0
+
+
+def test_adjust_window_never_below_wsch(adj) -> None:  # type: ignore[no-untyped-def]
+    df = adj.windows
+    assert (df["w"] >= df["w_sch"] * (1 - 1e-12)).all()
+    # w_sch of the paper's set with n = 2 (SPEC §3 ≈ 237 ms), constant
+    assert df["w_sch"].nunique() == 1 and df["w_sch"].iloc[0] == pytest.approx(237.4, abs=0.1)
+
+
+def test_adjust_window_is_min_msb_in_the_safe_region(adj) -> None:  # type: ignore[no-untyped-def]
+    df = adj.windows.iloc[1:]  # window 0 uses the initial values (w = w_sch)
+    cap = adj.inputs.adjust.get("cap", 10 * df["w_sch"].iloc[0])
+    safe = df[df["msb_min"] >= df["w_sch"]]
+    assert len(safe) > 50
+    np.testing.assert_allclose(safe["w"], np.minimum(safe["msb_min"], cap), rtol=1e-12)
+    np.testing.assert_allclose(safe["slack"], safe["w"] - safe["w_sch"], rtol=1e-12)
+    assert (safe["v_leader"] == safe["v_leader_desired"]).all()
+    assert (safe["margin"] >= 0).all()
+
+
+def test_adjust_critical_region_uses_wsch_and_slows_the_leader(adj) -> None:  # type: ignore[no-untyped-def]
+    df = adj.windows.iloc[1:]
+    crit = df[df["critical"]]
+    assert len(crit) > 10
+    assert (crit["msb_min"] < crit["w_sch"]).all()
+    assert (crit["w"] == crit["w_sch"]).all()
+    assert (crit["slack"] == 0).all()
+    assert (crit["v_leader"] < crit["v_leader_desired"]).all()
+    assert crit["feasible"].all()
+    assert set(crit["method"]) <= {"closed-form", "coupled", "numeric"}
+    # path diversion binds in the critical region (SPEC §7); the margin is signed
+    assert (crit["binding"].str.startswith("path_diversion")).mean() > 0.5
+    assert (crit["margin"] < 0).all()
+
+
+@pytest.mark.parametrize("fixture, rho_d, r_t, v_ld", [("adj1", 390, 200, 25),
+                                                      ("adj2", 325, 120, 30)])
+def test_adjust_depth_of_the_critical_region_by_hand(request, fixture, rho_d, r_t, v_ld) -> None:  # type: ignore[no-untyped-def]
+    res = request.getfixturevalue(fixture)
+    s = res.summary
+    thr = res.inputs.world.thresholds
+    s_out = _outer_s(rho_d, r_t)
+    msb_ms = 1000 * thr.T_eps * rho_d / (s_out * v_ld)
+    assert s["min_msb_over_wsch"] == pytest.approx(msb_ms / s["w_sch"], rel=1e-6)
+    v = 1000 * thr.T_eps * rho_d / (s_out * s["w_sch"])
+    assert s["min_speed_ratio"] == pytest.approx(v / v_ld, rel=1e-6)
+
+
+def test_test2_critical_regions_are_larger(adj1, adj2) -> None:  # type: ignore[no-untyped-def]
+    s1, s2 = adj1.summary, adj2.summary
+    assert s2["min_msb_over_wsch"] < s1["min_msb_over_wsch"] < 1
+    assert s2["min_speed_ratio"] < s1["min_speed_ratio"] < 1
+    assert s2["critical_share"] > s1["critical_share"] > 0
+    # the paper's qualitative levels (SPEC §7): about 0.6 and 0.3 of w_sch
+    assert 0.5 < s1["min_msb_over_wsch"] < 0.75 and 0.25 < s2["min_msb_over_wsch"] < 0.45
+
+
+def test_critical_regions_lie_in_or_just_after_turns(adj) -> None:  # type: ignore[no-untyped-def]
+    df = adj.windows
+    cfg = adj.inputs.world
+    after_ms = 1000 * max(cfg.formation.rho_d) / cfg.leader_speed
+    turn_t = df.loc[df["segment"] == "turn", "t"].to_numpy()
+    assert len(turn_t) > 0
+    for t in df.loc[df["critical"], "t"]:
+        near = turn_t[(turn_t <= t) & (turn_t >= t - after_ms)]
+        assert len(near) > 0, f"critical window at t={t} ms is not in or after a turn"
+    # and every straight window long after a turn is safe
+    assert df.loc[df["segment"] == "turn", "critical"].mean() > 0.9
+
+
+# -- baselines on Test 2 ---------------------------------------------------------------
+def test_fixed_wsch_breaks_the_bounds_in_the_world(fixed2) -> None:  # type: ignore[no-untyped-def]
+    df, s = fixed2.windows, fixed2.summary
+    assert (df["w"] == df["w_sch"]).all() and (df["v_leader"] == df["v_leader_desired"]).all()
+    assert df["critical"].any() and s["missed"] == 0
+    assert s["violations"]["path_diversion"] > 0
+    # in the steady turn the outer follower travels s·V_Ld·w_sch ≈ 2.7 × T_eps·ρ_d
+    thr = fixed2.inputs.world.thresholds
+    expect = _outer_s(325, 120) * 30 * s["w_sch"] / 1000 / (thr.T_eps * 325)
+    assert s["max_violation_ratio"]["path_diversion"] > 0.9 * expect > 2
+    crit = df[df["critical"]]
+    assert crit["f1_viol_path_diversion"].mean() > 0.5
+
+
+def test_min_msb_breaks_the_schedule(minmsb2) -> None:  # type: ignore[no-untyped-def]
+    df, s = minmsb2.windows, minmsb2.summary
+    assert (df["v_leader"] == df["v_leader_desired"]).all()
+    crit = df[df["critical"]].iloc[1:]
+    assert len(crit) > 0
+    assert (crit["w"] < crit["w_sch"]).all()
+    assert s["missed"] > 0 and df["missed"].sum() == s["missed"]
+    assert s["max_backlog"] > 1
+    missed = df[df["missed"]]
+    assert (missed["finish"] > missed["deadline"]).all()
+
+
+# -- determinism -----------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def short_runs():  # type: ignore[no-untyped-def]
+    sc = load_scenario(TEST2)
+    return [run_scenario(sc, duration_s=20, seed=s) for s in (7, 7, 8)]
+
+
+def test_same_seed_same_tables_and_summary(short_runs) -> None:  # type: ignore[no-untyped-def]
+    a, b, _ = short_runs
+    pd.testing.assert_frame_equal(a.windows, b.windows)
+    pd.testing.assert_frame_equal(a.jobs, b.jobs)
+    assert a.windows.to_csv(index=False) == b.windows.to_csv(index=False)
+    assert a.summary == b.summary
+
+
+def test_different_seed_different_windows(short_runs) -> None:  # type: ignore[no-untyped-def]
+    a, _, c = short_runs
+    assert not a.windows.equals(c.windows)
+    assert not np.allclose(a.windows["f1_x_est"], c.windows["f1_x_est"])
+
+
+def test_jobs_table_holds_the_schedule(short_runs) -> None:  # type: ignore[no-untyped-def]
+    r = short_runs[0]
+    jobs = r.jobs
+    assert set(jobs["task"]) == {"dead_reckoning", "window", "command"}
+    win = jobs[jobs["task"] == "window"].sort_values("job")
+    # back-to-back windows: release k+1 = release k + w_k, w_k the row's w
+    df = r.windows
+    np.testing.assert_allclose(win["release"].to_numpy()[: len(df)], df["t"], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(df["t"].to_numpy()[1:], (df["t"] + df["w"]).to_numpy()[:-1],
+                               atol=1e-6)
+    # the command task's period is 2w of the window in force at its release
+    cmd = jobs[jobs["task"] == "command"]
+    assert len(cmd) > 0
+    assert (cmd["period"] >= 2 * df["w_sch"].iloc[0] - 1e-9).all()
+    # the hough segment used the counted beams: e_hough = π r_H² n e_cal + P e_trans
+    ts = r.inputs.taskset.window
+    base = math.pi * ts.r_H ** 2 * 2 * ts.e_cal
+    np.testing.assert_allclose(df["hough_ms"], base + df["points"] * ts.e_trans, rtol=1e-12)
+    assert (df["points"] > 0).all() and (df["points"] < 2 * ts.k).all()
+
+
+# -- the table -------------------------------------------------------------------------
+def test_windows_schema_no_empty_cells(short_runs) -> None:  # type: ignore[no-untyped-def]
+    df = short_runs[0].windows
+    assert list(df.columns) == window_columns(2)
+    assert list(df.columns[:5]) == ["window", "t", "w", "deadline", "w_sch"]
+    text = df.to_csv(index=False)
+    assert ",," not in text and ",\n" not in text and "nan" not in text.lower()
+    assert "inf" in text  # separation/bearing bounds are unbounded on straights
+    back = pd.read_csv(pd.io.common.StringIO(text))
+    assert set(back["critical"].unique()) <= {True, False}
+    assert back["missed"].dtype == bool
+    assert (df["deadline"] == df["t"] + df["w"]).all()
+    assert (df["slack"] == np.maximum(0, df["w"] - df["w_sch"])).all()
+    assert df["method"].iloc[0] == "fixed"  # initial values
+    assert df["w"].iloc[0] == df["w_sch"].iloc[0]
+
+
+def test_recorder_drops_incomplete_windows() -> None:
+    rec = WindowRecorder(1)
+    est = np.zeros((1, 11))
+    for k in range(3):
+        r = rec.add(WindowRecord(k, 100.0 * k, 100.0, 90.0, 95.0, "separation:1", 30.0, 30.0,
+                                 "none", True, "straight", 0.0, est))
+        r.truth, r.lost = np.ones((1, 11)), np.zeros(1, bool)
+        if k < 2:
+            r.finish = 100.0 * k + 80.0 + 30 * k  # window 1 finishes at 210 > deadline 200
+        if k < 1:
+            r.viol = np.zeros((1, 4), bool)
+    rec.records[1].viol = np.array([[False, True, False, False]])
+    df = rec.frame()
+    assert list(df["window"]) == [0, 1]
+    assert list(df["missed"]) == [False, True]
+    assert list(df["response"]) == [80.0, 110.0]
+    assert list(df["critical"]) == [False, False]  # 95 >= 90
+    assert list(df["margin"]) == [5.0, 5.0]
+    assert list(df["f1_viol_separation"]) == [False, True]
+
+
+def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="mode must be one of"):
+        run_scenario(TEST2, mode="fastest")
+    with pytest.raises(InputError, match="duration must be a positive"):
+        run_scenario(TEST2, duration_s=-1)
+    with pytest.raises(InputError, match="no such|cannot read"):
+        run_scenario(tmp_path / "missing.toml")
+    sc = load_scenario(TEST2)
+    bad = ScenarioInputs(sc.world, sc.load_taskset(), adjust={"cpa": 3})
+    with pytest.raises(InputError, match=r"\[adjust\] has unknown key 'cpa'"):
+        run_scenario(bad, duration_s=1)
