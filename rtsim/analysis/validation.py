@@ -1,0 +1,280 @@
+"""Analytic-versus-simulated validation, the pure parts: bounds per task, the w_sim search,
+percentiles, the failure checker and the summary numbers (SPEC §3).
+
+No simulator here: the search takes the simulation as a predicate ``passes(w) -> bool``
+("no deadline miss at window w"), and the checker reads a results table.
+
+**w_sim search** (:func:`smallest_passing`). Feasibility in simulation need not be monotone in
+w (with idle suspensions and varying execution times the phasing against T_hp changes with
+w), so the search is bisection *plus a scan*:
+
+1. bracket: ``passes(lo)`` must be false and ``passes(hi)`` true (``hi`` is doubled, at most
+   ``max_doublings`` times, until it passes);
+2. bisect to ``tol`` (0.01 ms): ``w = hi`` is a passing window with a failing one within tol
+   below it;
+3. scan ``scan`` windows evenly spaced in (w, hi₀]; if one fails (a non-monotone spot), the
+   bracket restarts from it and step 2–3 repeat.
+
+The result is the least w, to ``tol``, above which none of the windows tried failed: the
+"threshold" definition of w_sim. ``nonmonotone`` counts the scan failures seen. With WCET
+execution, suspensions as CPU time and synchronous releases the simulation is the critical
+instant and feasibility is monotone (the argument of :mod:`rtsim.analysis.bounds`), so the
+scan never fires and w_sim lands within tol above w_rta.
+
+**Checks** (:func:`check_results`), on the tidy table of :mod:`rtsim.validate` (one row per
+configuration, task and mode): a simulated maximum response above the exact WCRT (the
+suspension-oblivious WCET analysis, which also bounds idle suspensions and execution times
+at or below WCET); a w_sim above w_rta + tol; w_sch below w_rta. Rows whose execution times
+broke the WCET assumption (``assumption_ok`` false: more beams counted than Eq 1's k·n) are
+not checked against the WCRT but reported as warnings.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from rtsim.analysis.rta import analyze
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from rtsim.model.taskset import TaskSet
+
+__all__ = [
+    "BOUND_TOL",
+    "SEARCH_TOL",
+    "PERCENTILES",
+    "TaskBounds",
+    "task_bounds",
+    "SearchResult",
+    "smallest_passing",
+    "percentiles",
+    "Failure",
+    "check_results",
+    "summarize",
+]
+
+#: A simulated response up to BOUND_TOL ms above its analytic bound is not a failure.
+BOUND_TOL = 1e-6
+#: Resolution of the w_sim search (ms).
+SEARCH_TOL = 0.01
+#: Percentiles reported for each task's response times.
+PERCENTILES: tuple[float, ...] = (50.0, 99.0, 99.9)
+
+
+@dataclass(frozen=True)
+class TaskBounds:
+    """One task's analytic lines (ms): exact WCRT at ``w`` (None: above the deadline), its
+    relative deadline at ``w``, and w_sch (None for a set without a window)."""
+
+    name: str
+    wcrt: float | None
+    deadline: float
+    w: float | None
+    w_sch: float | None
+    per_window: bool
+    is_window: bool
+
+    def lines(self) -> dict[str, float | None]:
+        """The vertical lines of a histogram: WCRT, deadline, and w_sch for w-related tasks."""
+        out: dict[str, float | None] = {"WCRT (exact RTA)": self.wcrt, "deadline": self.deadline}
+        if self.w_sch is not None and (self.is_window or self.per_window):
+            out["w_sch"] = self.w_sch
+        return out
+
+
+def task_bounds(ts: TaskSet, w: float | None = None) -> dict[str, TaskBounds]:
+    """Exact WCRT and deadline of every task of ``ts`` at window ``w`` (default w_sch).
+
+    For a set with a ``[window]`` the chain is one task of cost g (suspension-oblivious,
+    :func:`rtsim.analysis.rta.analyze`); w_sch is Eq 7/11.
+    """
+    w_sch: float | None = None
+    per_window: set[str] = set()
+    win_name: str | None = None
+    if ts.window is not None:
+        from rtsim.analysis.bounds import w_sch_of
+
+        w_sch = w_sch_of(ts)
+        w = w_sch if w is None else w
+        per_window = {t.name for t in ts.tasks if t.per_window}
+        win_name = ts.window.name
+    a = analyze(ts, w) if ts.window is not None else analyze(ts)
+    return {t.name: TaskBounds(t.name, t.wcrt, t.deadline, w, w_sch, t.name in per_window,
+                               t.name == win_name) for t in a.tasks}
+
+
+@dataclass(frozen=True)
+class SearchResult:
+    """Outcome of :func:`smallest_passing`: the window found and how it was found."""
+
+    w: float
+    lo: float
+    hi: float
+    evaluations: int
+    nonmonotone: int
+    hi_doublings: int
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def smallest_passing(
+    passes: Callable[[float], bool],
+    lo: float,
+    hi: float,
+    *,
+    tol: float = SEARCH_TOL,
+    scan: int = 10,
+    max_doublings: int = 8,
+) -> SearchResult:
+    """Least w (to ``tol``) above which ``passes`` held everywhere it was tried (module doc).
+
+    Raises ``ValueError`` when ``passes(lo)`` holds (no failing lower end) or no passing
+    upper end is found within ``max_doublings`` doublings of ``hi``.
+    """
+    if not (0 < lo < hi) or not math.isfinite(hi):
+        raise ValueError(f"smallest_passing: need 0 < lo < hi < inf, got lo={lo!r}, hi={hi!r}")
+    if tol <= 0:
+        raise ValueError(f"smallest_passing: tol must be positive, got {tol!r}")
+    evals = 0
+
+    def test(w: float) -> bool:
+        nonlocal evals
+        evals += 1
+        return bool(passes(w))
+
+    if test(lo):
+        raise ValueError(f"smallest_passing: the lower end w={lo:g} already passes")
+    doublings = 0
+    while not test(hi):
+        if doublings >= max_doublings:
+            raise ValueError(f"smallest_passing: no passing window up to w={hi:g}")
+        lo, hi = hi, 2.0 * hi
+        doublings += 1
+    top = hi
+    nonmono = 0
+    while True:
+        while hi - lo > tol:
+            mid = 0.5 * (lo + hi)
+            if test(mid):
+                hi = mid
+            else:
+                lo = mid
+        found = hi
+        bad = None
+        for x in np.linspace(found, top, scan + 1)[1:-1] if scan > 1 else ():
+            if not test(float(x)):
+                bad = float(x)
+        if bad is None:
+            return SearchResult(found, lo, top, evals, nonmono, doublings)
+        nonmono += 1
+        lo = bad
+        hi = top
+        for x in np.linspace(found, top, scan + 1)[1:]:  # the next passing grid point
+            if x > bad:
+                hi = float(x)
+                break
+
+
+def percentiles(values: Iterable[float], qs: Sequence[float] = PERCENTILES
+                ) -> dict[float, float]:
+    """Percentiles of the finite ``values`` (numpy's linear interpolation); NaN if none."""
+    arr = np.asarray(list(values) if not isinstance(values, np.ndarray) else values, dtype=float)
+    arr = arr[np.isfinite(arr)]
+    if arr.size == 0:
+        return {q: math.nan for q in qs}
+    vals = np.percentile(arr, list(qs))
+    return {q: float(v) for q, v in zip(qs, vals, strict=True)}
+
+
+@dataclass(frozen=True)
+class Failure:
+    """One flagged result: where (config, task, mode), which check, the value and the bound."""
+
+    config: str
+    task: str
+    mode: str
+    check: str
+    value: float
+    bound: float
+    severity: str = "failure"  # or "warning" (assumption broken, not checked)
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _f(x: Any) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return math.nan
+    return v
+
+
+def check_results(rows: pd.DataFrame | Iterable[Mapping[str, Any]], *,
+                  bound_tol: float = BOUND_TOL, search_tol: float = SEARCH_TOL
+                  ) -> list[Failure]:
+    """Every failure (and warning) in a validation table (columns: module doc of
+    :mod:`rtsim.validate.tidy`; missing columns are skipped).
+
+    Checks per row: ``sim_max > wcrt + bound_tol`` (finite WCRT; a warning instead when
+    ``assumption_ok`` is false); a task with no finite WCRT is not checked. Per paper
+    configuration and mode: ``w_sim > w_rta + search_tol`` and ``w_sch < w_rta − bound_tol``.
+    """
+    records = rows.to_dict("records") if hasattr(rows, "to_dict") else list(rows)
+    out: list[Failure] = []
+    seen: set[tuple[str, str]] = set()
+    for r in records:
+        config, task, mode = str(r.get("config", "")), str(r.get("task", "")), \
+            str(r.get("mode", ""))
+        sim, wcrt = _f(r.get("sim_max")), _f(r.get("wcrt"))
+        ok = r.get("assumption_ok", True)
+        ok = True if ok is None or (isinstance(ok, float) and math.isnan(ok)) else bool(ok)
+        if math.isfinite(sim) and math.isfinite(wcrt) and sim > wcrt + bound_tol:
+            out.append(Failure(config, task, mode, "response above WCRT", sim, wcrt,
+                               "failure" if ok else "warning"))
+        w_sim, w_rta, w_sch = _f(r.get("w_sim")), _f(r.get("w_rta")), _f(r.get("w_sch"))
+        key = (config, mode)
+        if key in seen:
+            continue
+        seen.add(key)
+        if math.isfinite(w_sim) and math.isfinite(w_rta) and w_sim > w_rta + search_tol:
+            out.append(Failure(config, "*", mode, "w_sim above w_rta", w_sim, w_rta,
+                               "failure" if ok else "warning"))
+        if math.isfinite(w_sch) and math.isfinite(w_rta) and w_sch < w_rta - bound_tol:
+            out.append(Failure(config, "*", mode, "w_sch below w_rta", w_sch, w_rta))
+    return out
+
+
+def _range(s: pd.Series) -> dict[str, float | None]:
+    v = s.astype(float)
+    v = v[np.isfinite(v)]
+    if v.empty:
+        return {"min": None, "median": None, "max": None}
+    return {"min": float(v.min()), "median": float(v.median()), "max": float(v.max())}
+
+
+def summarize(df: pd.DataFrame) -> dict[str, Any]:
+    """Headline numbers of a validation table: ranges (min, median, max) of the pessimism
+    ratios per source and mode, and the number of rows, configurations and failures."""
+    out: dict[str, Any] = {"rows": int(len(df))}
+    for (source, mode), g in df.groupby(["source", "mode"], sort=False):
+        key = f"{source}/{mode}"
+        per_cfg = g.drop_duplicates("config")
+        entry: dict[str, Any] = {"configs": int(per_cfg.shape[0])}
+        for col in ("w_sch_over_w_sim", "w_rta_over_w_sim"):
+            if col in g:
+                entry[col] = _range(per_cfg[col])
+        if "wcrt_over_sim_max" in g:
+            entry["wcrt_over_sim_max"] = _range(g["wcrt_over_sim_max"])
+        out[key] = entry
+    fails = check_results(df)
+    out["failures"] = sum(1 for f in fails if f.severity == "failure")
+    out["warnings"] = sum(1 for f in fails if f.severity == "warning")
+    return out

@@ -1,0 +1,92 @@
+"""Figures of the validation report (:mod:`rtsim.validate`), drawn from its table.
+
+- :func:`bounds_vs_n`: w_sch, w_rta and the two w_sim against n, one panel per r_H;
+- :func:`pessimism_heatmap`: w_sch / w_sim over (n, r_H), one panel per search mode.
+
+Each has a ``*_data`` companion returning the exact numbers drawn (written beside the PNG).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+__all__ = ["bounds_vs_n_data", "bounds_vs_n", "pessimism_data", "pessimism_heatmap"]
+
+_MODES = ("wcet-cpu", "counted-idle")
+
+
+def bounds_vs_n_data(df: pd.DataFrame) -> pd.DataFrame:
+    """One row per (r_H, n): w_sch, w_rta, w_sim_wcet_cpu, w_sim_counted_idle (ms)."""
+    paper = df[df["source"] == "paper"]
+    base = paper.drop_duplicates(["r_H", "n"])[["r_H", "n", "w_sch", "w_rta"]]
+    out = base.set_index(["r_H", "n"])
+    for mode in _MODES:
+        sub = paper[paper["mode"] == mode].drop_duplicates(["r_H", "n"])
+        out[f"w_sim_{mode.replace('-', '_')}"] = sub.set_index(["r_H", "n"])["w_sim"]
+    return out.reset_index().sort_values(["r_H", "n"], ignore_index=True)
+
+
+def bounds_vs_n(df: pd.DataFrame, r_H: Sequence[float] | None = None) -> Figure:
+    """w_sch, w_rta and w_sim (both searches) against n, one panel per r_H (ms)."""
+    import matplotlib.pyplot as plt
+
+    data = bounds_vs_n_data(df)
+    radii = sorted(data["r_H"].unique()) if r_H is None else list(r_H)
+    fig, axes = plt.subplots(1, len(radii), figsize=(3.2 * len(radii) + 1, 3.6),
+                             sharey=True, squeeze=False, layout="constrained")
+    styles = {"w_sch": ("w_sch (Eq 7/11)", "-", "o"), "w_rta": ("w_rta (exact RTA)", "--", "s"),
+              "w_sim_wcet_cpu": ("w_sim: WCET, Δt on CPU", ":", "^"),
+              "w_sim_counted_idle": ("w_sim: counted beams, Δt idle", "-.", "v")}
+    for ax, r in zip(axes[0], radii, strict=True):
+        sub = data[data["r_H"] == r]
+        for col, (label, ls, mk) in styles.items():
+            ax.plot(sub["n"], sub[col], ls=ls, marker=mk, ms=4, label=label)
+        ax.set_title(f"r_H = {r:g} cm")
+        ax.set_xlabel("followers n")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("window (ms)")
+    axes[0][-1].legend(fontsize="small", loc="upper left")
+    return fig
+
+
+def pessimism_data(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> pd.DataFrame:
+    """One row per (mode, r_H, n) with the ratio (default w_sch / w_sim)."""
+    paper = df[df["source"] == "paper"].drop_duplicates(["mode", "r_H", "n"])
+    return paper[["mode", "r_H", "n", ratio]].sort_values(["mode", "r_H", "n"],
+                                                         ignore_index=True)
+
+
+def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figure:
+    """Heat map of ``ratio`` over (n, r_H), one panel per search mode, values annotated."""
+    import matplotlib.pyplot as plt
+
+    data = pessimism_data(df, ratio)
+    modes = [m for m in _MODES if m in set(data["mode"])]
+    fig, axes = plt.subplots(1, len(modes), figsize=(5.2 * len(modes), 3.8), squeeze=False,
+                             layout="constrained")
+    vals = data[ratio].to_numpy(dtype=float)
+    vmin, vmax = float(np.nanmin(vals)), float(np.nanmax(vals))
+    if vmax - vmin < 1e-9:
+        vmin, vmax = vmin - 0.01, vmax + 0.01
+    im = None
+    for ax, mode in zip(axes[0], modes, strict=True):
+        grid = data[data["mode"] == mode].pivot(index="r_H", columns="n", values=ratio)
+        im = ax.imshow(grid.to_numpy(dtype=float), origin="lower", aspect="auto", cmap="viridis",
+                       vmin=vmin, vmax=vmax)
+        ax.set_xticks(range(grid.shape[1]), [f"{c:g}" for c in grid.columns])
+        ax.set_yticks(range(grid.shape[0]), [f"{r:g}" for r in grid.index])
+        ax.set_xlabel("followers n")
+        ax.set_ylabel("r_H (cm)")
+        ax.set_title(f"{ratio.replace('_over_', ' / ')} — {mode}")
+        if grid.size <= 80:
+            for (i, j), v in np.ndenumerate(grid.to_numpy(dtype=float)):
+                if np.isfinite(v):
+                    ax.text(j, i, f"{v:.4f}", ha="center", va="center", fontsize=7,
+                            color="w" if v < (vmin + vmax) / 2 else "k")
+    if im is not None:
+        fig.colorbar(im, ax=list(axes[0]), shrink=0.9)
+    return fig

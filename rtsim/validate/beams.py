@@ -1,0 +1,109 @@
+"""Beams counted per processing window, from a world run on Test 1 (SPEC §2, §6, §7).
+
+The world (:class:`rtsim.world.World`) is stepped at a *fixed* window w: at each window start
+t_j = j·w the leader scans (:meth:`World.scan`), updates its filters (:meth:`World.estimate`)
+and commands follower i at the end of its send segment as the WCET chain would without
+interference, t_j + e_scan + e_hough + i·(e_estimate + e_send). The counted points P_j of
+each scan give the localization segment's time by Eq 1 with counted points,
+
+    e_hough,j = π r_H² n e_cal + P_j e_trans,
+
+which the validation feeds to the window chain through a callable execution time, replayed
+by window index. Lost tracks are recorded but their re-acquisition cost is *not* added (it
+is outside the WCET model the analysis assumes); windows with more points than Eq 1's
+min(361, k·n) are counted as breaking the WCET assumption.
+
+Test 1 (the paper's §4.1): V_Ld = 25 cm/s, turn radius r_t = 2 m, separation ρ = 390 cm, the
+default chevron formation (pairs at 180° ± 15°). The paper gives no straight lengths; the
+default is a 10 m × 6 m rounded rectangle (one lap ≈ 178 s).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rtsim.analysis.window import LASER_POINTS
+from rtsim.model.window import WindowSpec
+
+__all__ = ["Test1", "BeamCounts", "count_window_beams", "world_config"]
+
+
+@dataclass(frozen=True)
+class Test1:
+    """The world of the paper's Test 1 (lengths cm, speed cm/s, angle rad)."""
+
+    speed: float = 25.0
+    turn_radius: float = 200.0
+    separation: float = 390.0
+    length: float = 1000.0
+    width: float = 600.0
+    bearing_offset: float = math.radians(15.0)
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def world_config(n: int, test: Test1 | None = None) -> Any:
+    """The :class:`~rtsim.world.WorldConfig` of Test 1 with n followers in the default chevron."""
+    from rtsim.world import WorldConfig, chevron, rounded_rectangle
+
+    t = Test1() if test is None else test
+    path = rounded_rectangle(t.length, t.width, t.turn_radius)
+    return WorldConfig(path, t.speed, chevron(n, t.separation, t.bearing_offset))
+
+
+@dataclass(frozen=True)
+class BeamCounts:
+    """Per-window scan results of a world run at fixed window ``w``.
+
+    ``points``: (windows, n) beams returned by each follower; ``lost``: tracks lost per window.
+    """
+
+    w: float
+    points: NDArray[np.int64]
+    lost: NDArray[np.int64]
+
+    @property
+    def windows(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def total(self) -> NDArray[np.int64]:
+        """Points per window, all followers."""
+        return self.points.sum(axis=1)
+
+    def hough_times(self, window: WindowSpec) -> NDArray[np.float64]:
+        """e_hough per window by Eq 1 with the counted points (ms)."""
+        return np.array([window.e_hough(points=float(p)) for p in self.total])
+
+    def beyond_wcet(self, window: WindowSpec) -> int:
+        """Windows whose counted points exceed Eq 1's min(361, k·n)."""
+        limit = min(LASER_POINTS, window.k * window.n)
+        return int((self.total > limit + 1e-9).sum())
+
+
+def count_window_beams(window: WindowSpec, w: float, windows: int, rng: np.random.Generator,
+                       test: Test1 | None = None) -> BeamCounts:
+    """Run the Test 1 world for ``windows`` windows of fixed length ``w`` (module doc)."""
+    from rtsim.world import World
+
+    n = window.n
+    world = World(world_config(n, test), rng)
+    step = window.e_estimate + window.e_send
+    send0 = window.e_scan + window.e_hough()
+    pts = np.zeros((windows, n), dtype=np.int64)
+    lost = np.zeros(windows, dtype=np.int64)
+    for j in range(windows):
+        t = j * w
+        scan = world.scan(t)
+        world.estimate(scan)
+        for i in range(1, n + 1):
+            world.command(i, t + send0 + i * step)
+        pts[j] = scan.points
+        lost[j] = scan.n_lost
+    return BeamCounts(w, pts, lost)

@@ -1,0 +1,221 @@
+"""The two sweep-point functions of the validation (``call`` kind: ``fn(params, options, seed)``).
+
+:func:`paper_point` — one (n, r_H) of the paper's task set:
+
+- analysis: e_hough, g, Eq 7, Eq 11, w_sch, w_rta, and each task's exact WCRT at w_sch;
+- beams: a Test 1 world run at the fixed window w_sch (:mod:`rtsim.validate.beams`);
+- two modes, each simulated at w = w_sch (response max and percentiles, with job records)
+  and searched for w_sim (:func:`rtsim.analysis.validation.smallest_passing`, every trial
+  a run of ``windows`` windows at a fixed w, releases synchronous at 0):
+
+  ``wcet-cpu``      every segment at its WCET, the radio round trip Δt as CPU time;
+  ``counted-idle``  the Hough segment from the counted beams (replayed by window index),
+                    the other segments at WCET, Δt leaves the CPU free.
+
+  The search brackets w between 0.999·(longest chain length g_j over the windows: the
+  chain job of that window needs at least g_j, so it misses), and max(w_sch, w_rta) + tol.
+  A trial run stops at its first miss.
+
+:func:`random_point` — one UUniFast set (no window): exact WCRT per task against the
+simulated maximum, ``wcet-sync`` (WCET, all released at 0, one hyperperiod: the critical
+instant, so schedulable tasks reach their WCRT exactly) and ``uniform-offsets`` (uniform in
+[bcet, wcet] with bcet = ``bcet_ratio``·wcet, random integer offsets, several hyperperiods).
+
+Metrics are flat: ``<name>`` for the configuration, ``<metric>.<mode>.<task>`` per task.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from rtsim.analysis.bounds import window_bounds
+from rtsim.analysis.validation import (
+    PERCENTILES,
+    SEARCH_TOL,
+    percentiles,
+    smallest_passing,
+    task_bounds,
+)
+from rtsim.model.taskset import TaskSet
+
+__all__ = ["paper_point", "random_point", "paper_taskset", "PAPER_MODES", "RANDOM_MODES",
+           "simulate_mode", "beam_counts_for", "random_taskset_for"]
+
+PAPER_MODES: tuple[str, ...] = ("wcet-cpu", "counted-idle")
+RANDOM_MODES: tuple[str, ...] = ("wcet-sync", "uniform-offsets")
+_QNAMES = {50.0: "p50", 99.0: "p99", 99.9: "p999"}
+
+
+def paper_taskset(options: Mapping[str, Any], n: int, r_H: float) -> TaskSet:
+    """The task set of the options (TOML text, default the packaged paper set) at (n, r_H)."""
+    from rtsim.io.taskset import load_taskset, parse_taskset
+
+    text = options.get("taskset_text")
+    ts = load_taskset() if not text else parse_taskset(
+        tomllib.loads(text), str(options.get("taskset_source", "taskset")))
+    return ts.with_window(n=int(n), r_H=float(r_H))
+
+
+def beam_counts_for(ts: TaskSet, w: float, windows: int, seed: int,
+                    options: Mapping[str, Any]) -> Any:
+    """The Test 1 beam counts of this configuration (see :mod:`rtsim.validate.beams`)."""
+    from rtsim.validate.beams import Test1, count_window_beams
+
+    assert ts.window is not None
+    test = Test1(**dict(options.get("world", {})))
+    return count_window_beams(ts.window, w, windows, np.random.default_rng(seed), test)
+
+
+class _Missed(Exception):
+    """Raised by the job-end hook of :func:`passes_at` to stop a run at its first miss."""
+
+
+def simulate_mode(ts: TaskSet, mode: str, w: float, windows: int,
+                  hough: np.ndarray | None, *, record_jobs: bool = False,
+                  stop_at_miss: bool = False) -> Any:
+    """One run of ``windows`` windows at fixed ``w`` in ``mode`` (a :class:`SimResult`).
+
+    ``stop_at_miss``: raise :class:`_Missed` from a job-end hook at the first deadline miss
+    (the search only needs to know whether one happens).
+    """
+    from rtsim.sim import EPS, build_cpu
+
+    assert ts.window is not None
+    suspension = "cpu" if mode == "wcet-cpu" else "idle"
+    cpu, info = build_cpu(ts, window=w, suspension=suspension, exec_model="wcet",
+                          record_jobs=record_jobs)
+    if mode == "counted-idle":
+        assert hough is not None
+        times = [float(x) for x in hough]
+
+        def counted(job: Any, segment: Any, rng: Any) -> float:
+            return times[job.index % len(times)]
+
+        cpu.set_exec_time(ts.window.name, "hough", counted)
+    if stop_at_miss:
+        def check(job: Any) -> None:
+            if job.aborted or (job.finish is not None and job.finish > job.deadline + EPS):
+                raise _Missed
+
+        cpu.on("job_end", check)
+    proc = cpu.start(windows * w)
+    cpu.env.run(until=proc)
+    return cpu.result(window=info)
+
+
+def _response_metrics(out: dict[str, Any], mode: str, res: Any) -> None:
+    jobs = res.jobs
+    for name, st in res.tasks.items():
+        resp = jobs.loc[jobs["task"] == name, "response"].to_numpy(dtype=float)
+        out[f"sim_max.{mode}.{name}"] = math.nan if st.max_response is None \
+            else float(st.max_response)
+        for q, v in percentiles(resp, PERCENTILES).items():
+            out[f"{_QNAMES[q]}.{mode}.{name}"] = v
+        out[f"jobs.{mode}.{name}"] = int(st.completed)
+        out[f"misses.{mode}.{name}"] = int(st.misses)
+
+
+def paper_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: int
+                ) -> dict[str, Any]:
+    """Validation metrics of one (n, r_H) of the paper's set (module doc)."""
+    n, r_H = int(params["n"]), float(params["r_H"])
+    windows = int(options.get("windows", 100))
+    scan = int(options.get("scan", 10))
+    tol = float(options.get("tol", SEARCH_TOL))
+    if windows < 1:
+        raise ValueError(f"windows must be at least 1, got {windows}")
+    ts = paper_taskset(options, n, r_H)
+    assert ts.window is not None
+    wb = window_bounds(ts)
+    out: dict[str, Any] = {k: float(getattr(wb, k)) for k in
+                           ("e_hough", "g", "w_eq7", "w_eq11", "w_sch", "w_rta")}
+    beams = beam_counts_for(ts, wb.w_sch, windows, seed, options)
+    hough = beams.hough_times(ts.window)
+    out.update(windows=windows, points_min=int(beams.total.min()),
+               points_max=int(beams.total.max()), points_mean=float(beams.total.mean()),
+               points_max_follower=int(beams.points.max()),
+               points_wcet=float(min(361, ts.window.k * n)), tracks_lost=int(beams.lost.sum()),
+               beyond_wcet=beams.beyond_wcet(ts.window),
+               hough_min=float(hough.min()), hough_max=float(hough.max()))
+    bounds = task_bounds(ts, wb.w_sch)
+    for name, b in bounds.items():
+        out[f"wcrt.{name}"] = math.nan if b.wcrt is None else float(b.wcrt)
+        out[f"deadline.{name}"] = float(b.deadline)
+    # every chain job needs at least its own length g_j: any w below the longest one misses
+    g_longest = {"wcet-cpu": ts.window.g(), "counted-idle": ts.window.g(float(hough.max()))}
+    for mode in PAPER_MODES:
+        res = simulate_mode(ts, mode, wb.w_sch, windows, hough, record_jobs=True)
+        _response_metrics(out, mode, res)
+
+        def passes(w: float, mode: str = mode) -> bool:
+            try:
+                return simulate_mode(ts, mode, w, windows, hough, stop_at_miss=True).misses == 0
+            except _Missed:
+                return False
+
+        hi = max(wb.w_sch, wb.w_rta) + tol
+        sr = smallest_passing(passes, 0.999 * g_longest[mode], hi, tol=tol, scan=scan)
+        out[f"w_sim.{mode}"] = sr.w
+        out[f"evaluations.{mode}"] = sr.evaluations
+        out[f"nonmonotone.{mode}"] = sr.nonmonotone
+        out[f"hi_doublings.{mode}"] = sr.hi_doublings
+    return out
+
+
+def _lcm(values: list[float]) -> float:
+    if all(float(v).is_integer() for v in values):
+        return float(math.lcm(*(int(v) for v in values)))
+    return math.inf
+
+
+def random_taskset_for(params: Mapping[str, Any], options: Mapping[str, Any], seed: int
+                       ) -> TaskSet:
+    """The random set of this point: size, utilization and periods drawn from ``seed``."""
+    from rtsim.model.generate import random_taskset
+
+    rng = np.random.default_rng(seed)
+    lo_n, hi_n = (int(x) for x in options.get("tasks", (2, 8)))
+    lo_u, hi_u = (float(x) for x in options.get("utilization", (0.5, 0.9)))
+    n = int(rng.integers(lo_n, hi_n + 1))
+    u = float(rng.uniform(lo_u, hi_u))
+    periods = str(options.get("periods", "10,20,25,40,50,100,200"))
+    df = tuple(float(x) for x in options.get("deadline_factor", (0.8, 1.0)))
+    return random_taskset(n, u, rng, periods, name=f"random-{params.get('set', 0)}",
+                          deadline_factor=(df[0], df[1]))
+
+
+def random_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: int
+                 ) -> dict[str, Any]:
+    """Validation metrics of one random task set (module doc)."""
+    from rtsim.sim import simulate
+
+    ts = random_taskset_for(params, options, seed)
+    hyper = _lcm([t.period for t in ts.tasks])
+    if not math.isfinite(hyper) or hyper > float(options.get("max_horizon", 1e5)):
+        hyper = float(options.get("max_horizon", 1e5))
+    out: dict[str, Any] = {"n_tasks": len(ts.tasks),
+                           "utilization": float(sum(t.wcet / t.period for t in ts.tasks)),
+                           "hyperperiod": hyper}
+    bounds = task_bounds(ts)
+    for name, b in bounds.items():
+        out[f"wcrt.{name}"] = math.nan if b.wcrt is None else float(b.wcrt)
+        out[f"deadline.{name}"] = float(b.deadline)
+    runs: dict[str, Callable[[], Any]] = {}
+    runs["wcet-sync"] = lambda: simulate(ts, hyper, seed=seed, record_jobs=True)
+    ratio = float(options.get("bcet_ratio", 0.5))
+    rng = np.random.default_rng([seed, 1])
+    varied = TaskSet(tuple(replace(t, bcet=ratio * t.wcet,
+                                   offset=float(rng.integers(0, max(1, int(t.period)))))
+                           for t in ts.tasks), name=ts.name)
+    reps = int(options.get("hyperperiods", 10))
+    runs["uniform-offsets"] = lambda: simulate(varied, reps * hyper, seed=seed,
+                                               exec_model="uniform", record_jobs=True)
+    for mode in RANDOM_MODES:
+        _response_metrics(out, mode, runs[mode]())
+    return out

@@ -1,0 +1,271 @@
+"""``rtsim validate``: the analytic-versus-simulated validation, end to end.
+
+Two sweeps run through the sweep engine (kind ``call``, so they run on local processes or a
+Dask cluster and resume when run again): the paper's set over the (n, r_H) grid
+(:func:`rtsim.validate.points.paper_point`) and random UUniFast sets
+(:func:`rtsim.validate.points.random_point`). Their rows become one validation table
+(:mod:`rtsim.validate.tidy`), which is checked (:func:`rtsim.analysis.validation.check_results`),
+summarised, drawn and written up.
+
+Output directory ``OUT``::
+
+    report.md            summary numbers, failures, figures, tables
+    validation.csv       the validation table (also results.parquet)
+    failures.csv         every flagged row (empty table when none)
+    summary.json         the headline numbers
+    figures/             bounds_vs_n.png/.csv, pessimism_wsch.png/.csv, pessimism_wrta.png/.csv
+    histograms/<config>/ per-task response-time histograms with the bounds (PNG + CSV)
+    sweeps/<name>/       the two sweeps (results.parquet, per-point files, manifests)
+    manifest.json
+
+Exit status (CLI): 1 when a failure is flagged or a sweep point failed, else 0.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from rtsim.analysis.validation import SEARCH_TOL, Failure, check_results, summarize
+
+__all__ = ["ValidationConfig", "QUICK", "FULL", "ValidationOutcome", "run_validation",
+           "paper_sweep_spec", "random_sweep_spec"]
+
+
+@dataclass(frozen=True)
+class ValidationConfig:
+    """What to validate: the (n, r_H) grid, windows per run, scan size, random sets."""
+
+    n: tuple[int, ...] = tuple(range(1, 11))
+    r_H: tuple[float, ...] = (10.0, 20.0, 30.0, 40.0, 50.0)
+    windows: int = 400
+    scan: int = 20
+    tol: float = SEARCH_TOL
+    random_sets: int = 30
+    hyperperiods: int = 10
+    seed: int = 1
+    name: str = "full"
+    histogram_configs: int = 2
+    taskset_path: str | None = None
+
+    def __post_init__(self) -> None:
+        from rtsim.errors import InputError
+
+        if not self.n or any(int(k) != k or k < 1 for k in self.n):
+            raise InputError(f"validate: n must be positive integers, got {self.n}")
+        if not self.r_H or any(not (math.isfinite(r) and r > 0) for r in self.r_H):
+            raise InputError(f"validate: r_H must be positive, got {self.r_H}")
+        if self.windows < 100:
+            raise InputError(f"validate: windows must be at least 100, got {self.windows}")
+        if self.random_sets < 0:
+            raise InputError(f"validate: random sets must be >= 0, got {self.random_sets}")
+
+
+FULL = ValidationConfig()
+QUICK = ValidationConfig(n=(1, 2, 4), r_H=(10.0, 30.0), windows=100, scan=6, random_sets=3,
+                         hyperperiods=5, name="quick", histogram_configs=1)
+
+
+@dataclass(frozen=True)
+class ValidationOutcome:
+    """The table, what was flagged, the summary, failed sweep points, and where it all is."""
+
+    table: pd.DataFrame
+    failures: list[Failure]
+    summary: dict[str, Any]
+    point_errors: list[str]
+    out_dir: Path
+    files: list[Path] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """No failure flagged and every sweep point ran."""
+        return not self.point_errors and not any(f.severity == "failure" for f in self.failures)
+
+
+def _taskset_options(cfg: ValidationConfig) -> dict[str, Any]:
+    if cfg.taskset_path is None:
+        return {}
+    from rtsim.io.taskset import load_taskset
+
+    ts = load_taskset(cfg.taskset_path)  # checked here: a bad file is an input error (exit 2)
+    if ts.window is None:
+        from rtsim.errors import TaskSetError
+
+        raise TaskSetError(f"{cfg.taskset_path}: has no [window]; validate needs a "
+                           f"processing-window set")
+    text = Path(cfg.taskset_path).read_text("utf-8")
+    return {"taskset_text": text, "taskset_source": str(cfg.taskset_path)}
+
+
+def paper_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: paper") -> Any:
+    """The sweep spec of the paper grid (kind ``call``)."""
+    from rtsim.sweep.spec import parse_sweep
+
+    options = {"windows": cfg.windows, "scan": cfg.scan, "tol": cfg.tol,
+               **_taskset_options(cfg)}
+    data = {"sweep": {"kind": "call", "function": "rtsim.validate.points:paper_point",
+                      "seed": cfg.seed, "options": options, "name": f"validate-{cfg.name}"},
+            "grid": {"n": [int(k) for k in cfg.n], "r_H": [float(r) for r in cfg.r_H]}}
+    return parse_sweep(data, source)
+
+
+def random_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: random") -> Any:
+    """The sweep spec of the random sets (kind ``call``)."""
+    from rtsim.sweep.spec import parse_sweep
+
+    data = {"sweep": {"kind": "call", "function": "rtsim.validate.points:random_point",
+                      "seed": cfg.seed, "options": {"hyperperiods": cfg.hyperperiods},
+                      "name": f"validate-random-{cfg.name}"},
+            "grid": {"set": list(range(cfg.random_sets))}}
+    return parse_sweep(data, source)
+
+
+def _run(spec: Any, out: Path, workers: int | None, dask: Any, progress: bool | None,
+         restart: bool, argv: Sequence[str] | None) -> pd.DataFrame:
+    from rtsim.sweep.engine import Sweep
+
+    return Sweep(spec, out).run(workers=workers, dask=dask, progress=progress, restart=restart,
+                                argv=argv).table
+
+
+def _histogram_configs(table: pd.DataFrame, k: int) -> list[tuple[int, float, int]]:
+    """(n, r_H, seed) of up to k paper configurations: n nearest 2 and r_H nearest 25 cm,
+    then the largest n at that r_H."""
+    paper = table[table["source"] == "paper"].drop_duplicates("config")
+    if paper.empty or k < 1:
+        return []
+    r = min(paper["r_H"].unique(), key=lambda x: (abs(x - 25.0), x))
+    at_r = paper[paper["r_H"] == r]
+    first = min(at_r["n"].unique(), key=lambda x: (abs(x - 2), x))
+    picks = [first]
+    if k > 1 and at_r["n"].max() != first:
+        picks.append(at_r["n"].max())
+    out = []
+    for n in picks:
+        row = at_r[at_r["n"] == n].iloc[0]
+        out.append((int(n), float(r), int(row["seed"])))
+    return out
+
+
+def _histograms(cfg: ValidationConfig, table: pd.DataFrame, out: Path) -> list[Path]:
+    """Re-run the chosen configurations at w_sch (same seeds) and draw their histograms."""
+    from rtsim.analysis.bounds import w_sch_of
+    from rtsim.analysis.validation import task_bounds
+    from rtsim.validate.histogram import JobSource, write_histograms
+    from rtsim.validate.points import PAPER_MODES, beam_counts_for, paper_taskset, simulate_mode
+
+    opts = _taskset_options(cfg)
+    written: list[Path] = []
+    for n, r_H, seed in _histogram_configs(table, cfg.histogram_configs):
+        ts = paper_taskset(opts, n, r_H)
+        assert ts.window is not None
+        w = w_sch_of(ts)
+        beams = beam_counts_for(ts, w, cfg.windows, seed, opts)
+        hough = beams.hough_times(ts.window)
+        bounds = task_bounds(ts, w)
+        d = out / "histograms" / f"n{n}-rH{r_H:g}"
+        for mode in PAPER_MODES:
+            res = simulate_mode(ts, mode, w, cfg.windows, hough, record_jobs=True)
+            src = JobSource(res.jobs, bounds, {"source": "validate", "n": n, "r_H": r_H,
+                                               "w": w, "mode": mode, "seed": seed,
+                                               "windows": cfg.windows})
+            written += write_histograms(src, d, suffix=f"-{mode}",
+                                        title=f"n={n}, r_H={r_H:g} cm, w=w_sch, {mode}",
+                                        manifest=False)
+        from rtsim.io.manifest import write_manifest
+
+        write_manifest(d, command="validate histograms", seed=seed,
+                       inputs={"n": n, "r_H": r_H, "w": w, "windows": cfg.windows,
+                               "modes": list(PAPER_MODES)},
+                       extra={"outputs": sorted(p.name for p in written if p.parent == d)})
+    return written
+
+
+def _figures(table: pd.DataFrame, out: Path) -> list[Path]:
+    import io
+
+    import matplotlib.pyplot as plt
+
+    from rtsim.io.atomic import write_bytes, write_table
+    from rtsim.plots.validation import (
+        bounds_vs_n,
+        bounds_vs_n_data,
+        pessimism_data,
+        pessimism_heatmap,
+    )
+
+    figs = out / "figures"
+    written: list[Path] = []
+    if (table["source"] == "paper").any():
+        jobs = [("bounds_vs_n", bounds_vs_n(table), bounds_vs_n_data(table)),
+                ("pessimism_wsch", pessimism_heatmap(table, "w_sch_over_w_sim"),
+                 pessimism_data(table, "w_sch_over_w_sim")),
+                ("pessimism_wrta", pessimism_heatmap(table, "w_rta_over_w_sim"),
+                 pessimism_data(table, "w_rta_over_w_sim"))]
+        for name, fig, data in jobs:
+            buf = io.BytesIO()
+            fig.savefig(buf, format="png", dpi=100)
+            plt.close(fig)
+            write_bytes(figs / f"{name}.png", buf.getvalue())
+            write_table(figs / f"{name}.csv", data)
+            written += [figs / f"{name}.png", figs / f"{name}.csv"]
+    return written
+
+
+def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = FULL, *,
+                   workers: int | None = None, dask: Any = None, progress: bool | None = False,
+                   restart: bool = False, argv: Sequence[str] | None = None
+                   ) -> ValidationOutcome:
+    """Run (or resume) both sweeps into ``out_dir`` and write the report (module doc)."""
+    from rtsim.io.atomic import write_json, write_table
+    from rtsim.io.manifest import write_manifest
+    from rtsim.validate.report import write_report
+    from rtsim.validate.tidy import COLUMNS, tidy_paper, tidy_random
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    suffix = "" if config.name == "full" else f"-{config.name}"
+    paper = _run(paper_sweep_spec(config), out / "sweeps" / f"paper{suffix}", workers, dask,
+                 progress, restart, argv)
+    parts = [tidy_paper(paper)]
+    errors = [f"paper n={r['n']}, r_H={r['r_H']}: {r['error']}"
+              for r in paper[paper["status"] == "failed"].to_dict("records")]
+    if config.random_sets:
+        rnd = _run(random_sweep_spec(config), out / "sweeps" / f"random{suffix}", workers,
+                   dask, progress, restart, argv)
+        parts.append(tidy_random(rnd))
+        errors += [f"random set {r['set']}: {r['error']}"
+                   for r in rnd[rnd["status"] == "failed"].to_dict("records")]
+    table = pd.concat([p for p in parts if not p.empty] or [parts[0]], ignore_index=True)
+    table = table.reindex(columns=list(COLUMNS))
+    failures = check_results(table)
+    summary = summarize(table) if not table.empty else {"rows": 0, "failures": 0}
+    summary["point_errors"] = len(errors)
+    files: list[Path] = []
+    write_table(out / "validation.csv", table)
+    write_table(out / "results.parquet", table)
+    fail_df = pd.DataFrame([f.as_dict() for f in failures],
+                           columns=["config", "task", "mode", "check", "value", "bound",
+                                    "severity"])
+    write_table(out / "failures.csv", fail_df)
+    write_json(out / "summary.json", summary)
+    files += [out / "validation.csv", out / "results.parquet", out / "failures.csv",
+              out / "summary.json"]
+    files += _figures(table, out)
+    files += _histograms(config, table, out)
+    outcome = ValidationOutcome(table, failures, summary, errors, out, files)
+    files.append(write_report(outcome, config))
+    write_manifest(out, command="validate", seed=config.seed,
+                   inputs={k: (list(v) if isinstance(v, tuple) else v)
+                           for k, v in asdict(config).items()},
+                   argv=None if argv is None else list(argv),
+                   extra={"outputs": sorted(str(p.relative_to(out)) for p in files),
+                          "ok": outcome.ok})
+    return replace(outcome, files=files)
