@@ -331,3 +331,24 @@ def test_cpu_rejects_duplicate_priorities_and_names():
         cpu.add_task(Task("a", 1, 4, priority=2))
     with pytest.raises(InputError, match="hook event must be"):
         cpu.on("finish", lambda j: None)
+
+
+def test_window_in_force_and_constrained_per_window_deadline():
+    # cmd: period 2w, deadline 1.5w; the CPU exposes the w in force to hooks
+    spec = WindowSpec(n=1, r_H=10, e_cal=0.0, e_trans=0.0, k=1, e_scan=5, e_estimate=1,
+                      e_send=1, e_recv=1, delta_t=2, e_sched=0, priority=1)
+    cmd = Task("cmd", 3, 2, deadline=1.5, per_window=True, priority=2)
+    from rtsim.sim import build_cpu
+
+    ws = iter([50.0, 60.0, 70.0, 80.0, 90.0])
+    cpu, info = build_cpu(TaskSet((cmd,), window=spec), window=lambda: next(ws),
+                          record_jobs=True)
+    seen = []
+    cpu.on("release", lambda j: seen.append((j.name, cpu.env.now, cpu.window)))
+    cpu.env.run(until=cpu.start(200))
+    assert info == {"mode": "dynamic"}
+    assert seen[:4] == [("window", 0, 50.0), ("cmd", 0, 50.0), ("window", 50, 60.0),
+                        ("cmd", 100, 60.0)]
+    c = _rows(cpu.result().jobs, "cmd")
+    assert list(c["deadline"] - c["release"]) == [75.0, 90.0]
+    assert cpu.stats("cmd").released == 2

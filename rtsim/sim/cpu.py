@@ -285,7 +285,7 @@ class CPU:
         """The w in force: the period of the window task's latest release."""
         return self._w
 
-    def state(self, name: str) -> TaskStats:
+    def stats(self, name: str) -> TaskStats:
         """Running statistics of task ``name``."""
         return self._by_name[name].stats
 
@@ -342,6 +342,7 @@ class CPU:
 
     def _dispatcher(self, end: float) -> Any:
         env = self.env
+        timeout = env.timeout
         timers, ready = self._timers, self._ready
         heappush, heappop = heapq.heappush, heapq.heappop
         ovh = self.overhead
@@ -420,7 +421,7 @@ class CPU:
             if target == _INF:
                 self._end_time = now
                 return
-            yield env.timeout(target - now if target > now else 0.0)
+            yield timeout(target - now if target > now else 0.0)
             now = target
 
     # -- the steps (internal) ------------------------------------------------------------
