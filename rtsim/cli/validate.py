@@ -35,6 +35,9 @@ def register(sub: Any) -> None:
                    help="discard earlier sweep results in DIR (needed when options changed)")
     p.add_argument("--taskset", default=None, metavar="FILE",
                    help="a processing-window task set (default: the paper's, packaged)")
+    p.add_argument("--scenario", default=None, metavar="FILE",
+                   help="the world whose beams are counted (default: "
+                   "experiments/scenarios/test1.toml); its formation gets n followers")
     p.add_argument("--followers", default=None, metavar="RANGE",
                    help="n values, e.g. 1..10 or 1,2,4 (overrides the grid)")
     p.add_argument("--hough-radius", default=None, metavar="RANGE",
@@ -69,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
         changes["seed"] = args.seed
     if args.taskset is not None:
         changes["taskset_path"] = args.taskset
+    if args.scenario is not None:
+        changes["scenario_path"] = args.scenario
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
     if changes:

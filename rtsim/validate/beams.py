@@ -13,9 +13,12 @@ by window index. Lost tracks are recorded but their re-acquisition cost is *not*
 is outside the WCET model the analysis assumes); windows with more points than Eq 1's
 min(361, k·n) are counted as breaking the WCET assumption.
 
-Test 1 (the paper's §4.1): V_Ld = 25 cm/s, turn radius r_t = 2 m, separation ρ = 390 cm, the
-default chevron formation (pairs at 180° ± 15°). The paper gives no straight lengths; the
-default is a 10 m × 6 m rounded rectangle (one lap ≈ 178 s).
+The world is Test 1 (the paper's §4.1: V_Ld = 25 cm/s, turn radius r_t = 2 m, separation
+ρ = 390 cm) read from its scenario file (``experiments/scenarios/test1.toml``, passed as text
+so that remote workers need no shared disk) with ``formation.followers`` set to n (the
+default chevron: pair p at p·ρ, 180° ± the file's offset) and ``sensing.r_H`` to the
+configuration's r_H (:func:`scenario_world`). Without a scenario file, :class:`Test1` builds
+the same numbers directly (10 m × 6 m rounded rectangle, default follower, sensing and EKF).
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from numpy.typing import NDArray
 from rtsim.analysis.window import LASER_POINTS
 from rtsim.model.window import WindowSpec
 
-__all__ = ["Test1", "BeamCounts", "count_window_beams", "world_config"]
+__all__ = ["Test1", "BeamCounts", "count_window_beams", "scenario_world", "world_config"]
 
 
 @dataclass(frozen=True)
@@ -46,6 +49,18 @@ class Test1:
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+
+def scenario_world(text: str, source: str, n: int, r_H: float) -> Any:
+    """The world of a scenario file's text with n followers and Hough radius r_H."""
+    import tomllib
+
+    from rtsim.io.scenario import parse_scenario
+
+    data = tomllib.loads(text)
+    data.setdefault("formation", {})["followers"] = int(n)
+    data.setdefault("sensing", {})["r_H"] = float(r_H)
+    return parse_scenario(data, source).world
 
 
 def world_config(n: int, test: Test1 | None = None) -> Any:
@@ -88,12 +103,16 @@ class BeamCounts:
 
 
 def count_window_beams(window: WindowSpec, w: float, windows: int, rng: np.random.Generator,
-                       test: Test1 | None = None) -> BeamCounts:
-    """Run the Test 1 world for ``windows`` windows of fixed length ``w`` (module doc)."""
+                       config: Any = None) -> BeamCounts:
+    """Run the world ``config`` (default: :func:`world_config` of :class:`Test1`, n from
+    ``window``) for ``windows`` windows of fixed length ``w`` (module doc)."""
     from rtsim.world import World
 
     n = window.n
-    world = World(world_config(n, test), rng)
+    cfg = world_config(n) if config is None else config
+    if cfg.n != n:
+        raise ValueError(f"world has {cfg.n} followers, the window {n}")
+    world = World(cfg, rng)
     step = window.e_estimate + window.e_send
     send0 = window.e_scan + window.e_hough()
     pts = np.zeros((windows, n), dtype=np.int64)

@@ -65,11 +65,16 @@ def paper_taskset(options: Mapping[str, Any], n: int, r_H: float) -> TaskSet:
 def beam_counts_for(ts: TaskSet, w: float, windows: int, seed: int,
                     options: Mapping[str, Any]) -> Any:
     """The Test 1 beam counts of this configuration (see :mod:`rtsim.validate.beams`)."""
-    from rtsim.validate.beams import Test1, count_window_beams
+    from rtsim.validate.beams import Test1, count_window_beams, scenario_world, world_config
 
     assert ts.window is not None
-    test = Test1(**dict(options.get("world", {})))
-    return count_window_beams(ts.window, w, windows, np.random.default_rng(seed), test)
+    n, r_H = ts.window.n, ts.window.r_H
+    text = options.get("scenario_text")
+    if text:
+        cfg = scenario_world(text, str(options.get("scenario_source", "scenario")), n, r_H)
+    else:
+        cfg = world_config(n, Test1(**dict(options.get("world", {}))))
+    return count_window_beams(ts.window, w, windows, np.random.default_rng(seed), cfg)
 
 
 class _Missed(Exception):

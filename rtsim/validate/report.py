@@ -116,6 +116,9 @@ def write_report(outcome: ValidationOutcome, config: ValidationConfig) -> Path:
 
     out = outcome.out_dir
     t = outcome.table
+    world = (f"scenario `{config.scenario_path}`" if config.scenario_path else
+             "Test 1, `experiments/scenarios/test1.toml`: V_Ld = 25 cm/s, r_t = 2 m, "
+             "ρ = 390 cm")
     lines = ["# rtsim validation report", "",
              f"rtsim {__version__}, `{config.name}` run: n ∈ {list(config.n)}, "
              f"r_H ∈ {[float(r) for r in config.r_H]} cm, {config.windows} windows per run, "
@@ -179,8 +182,9 @@ def write_report(outcome: ValidationOutcome, config: ValidationConfig) -> Path:
               f"released in [0, {config.windows}·w) run to completion. Mode `wcet-cpu`: every "
               "segment at its WCET, the radio round trip Δt holds the CPU. Mode "
               "`counted-idle`: the Hough segment takes π r_H² n e_cal + P_j e_trans with P_j "
-              "the beams counted at window j of a Test 1 world run (V_Ld = 25 cm/s, r_t = 2 m, "
-              "ρ = 390 cm, default chevron, fixed window w_sch, followers commanded every "
+              "the beams counted at window j of a world run (" + world + ", its formation "
+              "set to the default chevron with n followers and its Hough radius to r_H; fixed "
+              "window w_sch, each follower commanded at the end of its send segment every "
               "window), replayed by window index; Δt frees the CPU; re-acquisition costs of "
               "lost tracks are not added.",
               "- **w_sim**: bisection to the tolerance between 0.999 × the longest chain "

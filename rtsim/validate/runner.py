@@ -34,8 +34,8 @@ import pandas as pd
 
 from rtsim.analysis.validation import SEARCH_TOL, Failure, check_results, summarize
 
-__all__ = ["ValidationConfig", "QUICK", "FULL", "ValidationOutcome", "run_validation",
-           "paper_sweep_spec", "random_sweep_spec"]
+__all__ = ["ValidationConfig", "QUICK", "FULL", "DEFAULT_SCENARIO", "ValidationOutcome",
+           "run_validation", "paper_sweep_spec", "random_sweep_spec"]
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,7 @@ class ValidationConfig:
     name: str = "full"
     histogram_configs: int = 2
     taskset_path: str | None = None
+    scenario_path: str | None = None  # None: DEFAULT_SCENARIO if it exists, else Test1()
 
     def __post_init__(self) -> None:
         from rtsim.errors import InputError
@@ -66,6 +67,9 @@ class ValidationConfig:
         if self.random_sets < 0:
             raise InputError(f"validate: random sets must be >= 0, got {self.random_sets}")
 
+
+#: Test 1's scenario file in a source checkout (not installed with the package).
+DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "experiments" / "scenarios" / "test1.toml"
 
 FULL = ValidationConfig()
 QUICK = ValidationConfig(n=(1, 2, 4), r_H=(10.0, 30.0), windows=100, scan=6, random_sets=3,
@@ -89,9 +93,22 @@ class ValidationOutcome:
         return not self.point_errors and not any(f.severity == "failure" for f in self.failures)
 
 
+def _scenario_options(cfg: ValidationConfig) -> dict[str, Any]:
+    path = cfg.scenario_path
+    if path is None:
+        if not DEFAULT_SCENARIO.exists():
+            return {}
+        path = str(DEFAULT_SCENARIO)
+    from rtsim.io.scenario import load_scenario
+
+    load_scenario(path)  # checked here: a bad file is an input error (exit 2)
+    return {"scenario_text": Path(path).read_text("utf-8"), "scenario_source": str(path)}
+
+
 def _taskset_options(cfg: ValidationConfig) -> dict[str, Any]:
+    opts = _scenario_options(cfg)
     if cfg.taskset_path is None:
-        return {}
+        return opts
     from rtsim.io.taskset import load_taskset
 
     ts = load_taskset(cfg.taskset_path)  # checked here: a bad file is an input error (exit 2)
@@ -101,7 +118,7 @@ def _taskset_options(cfg: ValidationConfig) -> dict[str, Any]:
         raise TaskSetError(f"{cfg.taskset_path}: has no [window]; validate needs a "
                            f"processing-window set")
     text = Path(cfg.taskset_path).read_text("utf-8")
-    return {"taskset_text": text, "taskset_source": str(cfg.taskset_path)}
+    return {**opts, "taskset_text": text, "taskset_source": str(cfg.taskset_path)}
 
 
 def paper_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: paper") -> Any:
