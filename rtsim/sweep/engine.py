@@ -32,7 +32,8 @@ from rtsim.errors import RtsimError, SweepError
 from rtsim.io.atomic import write_json, write_table
 from rtsim.io.manifest import write_manifest
 from rtsim.sweep.grid import Point, point_input, points
-from rtsim.sweep.point import RESERVED, execute_point, ignore_sigint
+from rtsim.sweep.kinds import KINDS
+from rtsim.sweep.point import RESERVED, execute_point, worker_init
 from rtsim.sweep.spec import SweepSpec, load_sweep
 
 if TYPE_CHECKING:
@@ -66,6 +67,54 @@ def _read_json(path: Path) -> Record | None:
     except (OSError, ValueError):
         return None
     return rec if isinstance(rec, dict) and rec.get("status") in ("ok", "failed") else None
+
+
+def _start_method() -> str:
+    """``fork`` on Linux when this process has no other thread (fast: nothing to re-import;
+    the workers see the current ``sys.path`` and environment), else ``spawn``.
+
+    Forking a process with threads can deadlock, and macOS forbids it for system libraries.
+    """
+    import multiprocessing
+    import threading
+
+    if sys.platform == "linux" and threading.active_count() == 1 and \
+            "fork" in multiprocessing.get_all_start_methods():
+        return "fork"
+    return "spawn"
+
+
+class _Progress:
+    """The tqdm bar (points done, failures, time left) on stderr, created only when enabled
+    and only when opened: its monitor thread would make forking workers unsafe."""
+
+    def __init__(self, total: int, initial: int, failed: int, enabled: bool):
+        self.total, self.initial, self.failed, self.enabled = total, initial, failed, enabled
+        self.bar: Any = None
+
+    def open(self) -> None:
+        if self.enabled and self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=self.total, initial=self.initial, desc="sweep", unit="pt",
+                            file=sys.stderr, dynamic_ncols=True)
+            self.bar.set_postfix(failed=self.failed)
+
+    def advance(self, failed: int) -> None:
+        self.open()
+        if self.bar is not None:
+            self.bar.set_postfix(failed=failed, refresh=False)
+            self.bar.update(1)
+
+    def write(self, msg: str) -> None:
+        if self.bar is not None:
+            self.bar.write(msg, file=sys.stderr)
+        else:
+            print(msg, file=sys.stderr)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
 
 
 class Sweep:
@@ -142,26 +191,20 @@ class Sweep:
         pending = [p for p in self.points if p.index not in done]
         if progress is None:
             progress = sys.stderr.isatty()
-        from tqdm import tqdm
-
         failed_before = sum(1 for r in done.values() if r["status"] == "failed")
-        bar = tqdm(total=len(self.points), initial=len(done), desc="sweep", unit="pt",
-                   file=sys.stderr, disable=not progress, dynamic_ncols=True)
+        bar = _Progress(len(self.points), len(done), failed_before, bool(progress))
         counts = {"computed": 0, "failed": failed_before, "lost": 0}
-        bar.set_postfix(failed=counts["failed"])
 
         def on_result(p: Point, rec: Record | BaseException) -> None:
             if isinstance(rec, BaseException):
                 counts["lost"] += 1
-                bar.write(f"rtsim: sweep point {p.index} lost: {type(rec).__name__}: {rec}",
-                          file=sys.stderr)
+                bar.write(f"rtsim: sweep point {p.index} lost: {type(rec).__name__}: {rec}")
                 return
             rec = {"index": p.index, "key": p.key, "params": p.params, "seed": p.seed, **rec}
             write_json(self.points_dir / p.filename, rec)
             counts["computed"] += 1
             counts["failed"] += rec["status"] == "failed"
-            bar.set_postfix(failed=counts["failed"], refresh=False)
-            bar.update(1)
+            bar.advance(counts["failed"])
 
         try:
             if pending:
@@ -169,11 +212,14 @@ class Sweep:
                 if nworkers < 1:
                     raise SweepError(f"--workers must be at least 1, got {workers}")
                 if dask is not None:
+                    bar.open()
                     self._run_dask(pending, dask, on_result)
                 elif nworkers == 1 or len(pending) == 1:
+                    bar.open()
                     self._run_serial(pending, on_result)
-                else:
-                    self._run_processes(pending, min(nworkers, len(pending)), on_result)
+                else:  # the bar (a tqdm thread) opens once the workers are forked
+                    self._run_processes(pending, min(nworkers, len(pending)), on_result,
+                                        bar.open)
         finally:
             bar.close()
         if counts["lost"]:
@@ -191,12 +237,16 @@ class Sweep:
             on_result(p, execute_point(pin, self.spec.metrics))
 
     def _run_processes(self, pending: list[Point], nworkers: int,
-                       on_result: Callable[..., None]) -> None:
+                       on_result: Callable[..., None], started: Callable[[], None]) -> None:
         import multiprocessing
 
-        # spawn: fresh workers that see this process's current sys.path and environment
-        ex = ProcessPoolExecutor(max_workers=nworkers, initializer=ignore_sigint,
-                                 mp_context=multiprocessing.get_context("spawn"))
+        method = _start_method()
+        if method == "fork":
+            import pandas  # noqa: F401 - the results table needs it anyway
+
+            KINDS[self.spec.kind].preload()
+        ex = ProcessPoolExecutor(max_workers=nworkers, initializer=worker_init,
+                                 mp_context=multiprocessing.get_context(method))
         todo = iter(self._inputs(pending))
         inflight: dict[Future[Record], Point] = {}
 
@@ -209,6 +259,7 @@ class Sweep:
 
         try:
             fill()
+            started()
             while inflight:
                 finished, _ = wait(inflight, return_when=FIRST_COMPLETED)
                 for fut in sorted(finished, key=lambda f: inflight[f].index):

@@ -94,7 +94,16 @@ class KindSpec:
     options: tuple[str, ...] = ()
     required: tuple[str, ...] = ()
     metrics: tuple[str, ...] | None = None  # None: not known in advance
+    modules: tuple[str, ...] = ()  # imported before forking workers, so they inherit them
     doc: str = field(default="", compare=False)
+
+    def preload(self) -> None:
+        """Import :attr:`modules` now (best effort: a missing one fails at its points)."""
+        for name in self.modules:
+            try:
+                importlib.import_module(name)
+            except ImportError:
+                pass
 
     def knows_metric(self, name: str) -> bool:
         """Whether ``name`` (a name or a glob pattern) can be produced by this kind."""
@@ -200,14 +209,18 @@ def register_kind(spec: KindSpec) -> None:
     KINDS[spec.name] = spec
 
 
+_LOADER = ("rtsim.io.taskset",)
 register_kind(KindSpec("bounds", _bounds, metrics=("e_hough", "g", "w_eq7", "w_eq11", "w_sch",
-                                                   "w_rta")))
+                                                   "w_rta"),
+                       modules=(*_LOADER, "rtsim.analysis.bounds")))
 register_kind(KindSpec("analyze", _analyze, options=("window",),
-                       metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*")))
+                       metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*"),
+                       modules=(*_LOADER, "rtsim.analysis.rta")))
 register_kind(KindSpec("simulate", _simulate,
                        options=("horizon", "exec", "suspension", "window"),
-                       required=("horizon",),
+                       required=("horizon",), modules=(*_LOADER, "rtsim.sim"),
                        metrics=("w", "max_response.*", "mean_response.*", "misses.*", "jobs.*",
                                 "misses", "jobs")))
-register_kind(KindSpec("scenario", _scenario, options=("mode", "duration")))
+register_kind(KindSpec("scenario", _scenario, options=("mode", "duration"),
+                       modules=("rtsim.io.scenario", "rtsim.coupling")))
 register_kind(KindSpec("call", _call))

@@ -16,15 +16,17 @@ from typing import Any
 
 from rtsim.sweep.kinds import KINDS, PointInput
 
-__all__ = ["execute_point", "select_metrics", "RESERVED", "ignore_sigint"]
+__all__ = ["execute_point", "select_metrics", "RESERVED", "worker_init"]
 
 #: Column names a metric may not take (grid names are checked by the engine).
 RESERVED = ("seed", "status", "error")
 
 
-def ignore_sigint() -> None:
-    """Worker-process initializer: Ctrl-C goes to the parent, which stops the workers."""
+def worker_init() -> None:
+    """Worker-process initializer: Ctrl-C goes to the parent, which stops the workers
+    (SIGTERM); a SIGTERM handler inherited from the parent by ``fork`` is undone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _scalar(name: str, v: Any) -> Any:
