@@ -1,0 +1,67 @@
+"""Benchmark: one simulated hour of the paper's Test 2 (issue 5, "Speed").
+
+``python benchmarks/bench_scenario.py [--duration 3600] [--mode adjust] [--profile] [--out DIR]``
+
+Runs ``rtsim scenario experiments/scenarios/test2.toml --duration D --out DIR`` end to end
+(tables and figures included) and prints the wall time of the simulation loop alone
+(``timing.simulation_s`` of the manifest), the ratio simulated/wall (target ≥ 1000×), and the
+end-to-end time (``timing.total_s``). ``--profile`` runs the loop under cProfile instead and
+prints the 25 most expensive functions (no output files).
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import json
+import pstats
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from rtsim.cli import main as rtsim_main
+
+TEST2 = Path(__file__).resolve().parent.parent / "experiments" / "scenarios" / "test2.toml"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--duration", type=float, default=3600.0, help="simulated seconds")
+    ap.add_argument("--mode", default="adjust")
+    ap.add_argument("--scenario", default=str(TEST2))
+    ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--out", default=None, help="output directory (default: a temp dir)")
+    args = ap.parse_args(argv)
+    if args.profile:
+        from rtsim.coupling import run_scenario
+
+        prof = cProfile.Profile()
+        prof.enable()
+        res = run_scenario(args.scenario, mode=args.mode, duration_s=args.duration,
+                           record_jobs=False)
+        prof.disable()
+        pstats.Stats(prof).sort_stats("tottime").print_stats(25)
+        print(res.timing)
+        return 0
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_scenario_"))
+    t0 = time.perf_counter()
+    rc = rtsim_main(["scenario", args.scenario, "--mode", args.mode,
+                     "--duration", str(args.duration), "--out", str(out)])
+    wall = time.perf_counter() - t0
+    if rc != 0:
+        return rc
+    m = json.loads((out / "manifest.json").read_text())
+    s = json.loads((out / "summary.json").read_text())
+    t = m["timing"]
+    print(f"scenario {Path(args.scenario).name}, mode {args.mode}: {args.duration:g} s "
+          f"simulated, {s['windows']} windows")
+    print(f"simulation loop   {t['simulation_s']:8.2f} s  "
+          f"({args.duration / t['simulation_s']:7.0f}x real time)")
+    print(f"setup + tables    {t['setup_s'] + t['tables_s']:8.2f} s")
+    print(f"end to end        {t['total_s']:8.2f} s  (process wall {wall:.2f} s, out {out})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
