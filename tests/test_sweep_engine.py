@@ -228,3 +228,42 @@ def test_bad_workers_and_points_dir_without_manifest(tmp_path: Path) -> None:
     (tmp_path / "x" / "points" / "000000-abc.json").write_text("{}")
     with pytest.raises(SweepError, match="no manifest.json"):
         run_sweep(spec, tmp_path / "x", workers=1)
+
+
+def test_progress_bar_shows_done_and_failures_only_when_asked(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    spec = call_sweep(tmp_path, "flaky", n=4, options="fail_at = 1")
+    run_sweep(spec, tmp_path / "a", workers=1, progress=True)
+    err = capsys.readouterr().err
+    assert "4/4" in err and "failed=1" in err
+    run_sweep(spec, tmp_path / "b", workers=1, progress=False)
+    assert capsys.readouterr().err == ""
+    # The CLI: stderr is not a terminal here, so no bar; one summary line.
+    assert main(["sweep", str(spec), "--out", str(tmp_path / "c"), "--workers", "1"]) == 1
+    err = capsys.readouterr().err
+    assert "%|" not in err and "4 points (4 run now, 0 already done), 1 failed" in err
+
+
+def test_scenario_kind_matches_a_direct_coupled_run(tmp_path: Path) -> None:
+    import tomllib
+
+    from rtsim.coupling import run_scenario
+    from rtsim.io.scenario import parse_scenario
+
+    test1 = ROOT / "experiments" / "scenarios" / "test1.toml"
+    path = tmp_path / "sc.toml"
+    path.write_text(f'[sweep]\nkind = "scenario"\nbase = "{test1}"\n[sweep.options]\n'
+                    'duration = 3\nmode = "adjust"\n[grid]\n"leader.speed" = [20, 30]\n')
+    df = run_sweep(path, tmp_path / "out", workers=1)
+    assert list(df["status"]) == ["ok", "ok"]
+    row = df.iloc[1]
+    data = tomllib.loads(test1.read_text())
+    data["leader"]["speed"] = 30
+    direct = run_scenario(parse_scenario(data, str(test1), base=test1.parent), mode="adjust",
+                          duration_s=3.0, seed=int(row["seed"]), record_jobs=False).summary
+    assert row["v_leader_desired"] == 30 == direct["v_leader_desired"]
+    for key in ("windows", "missed", "w_sch", "min_msb_over_wsch", "max_response"):
+        assert row[key] == direct[key], key
+    for kind, count in direct["violations"].items():
+        assert row[f"violations.{kind}"] == count
+    assert df.loc[0, "v_leader_desired"] == 20

@@ -14,9 +14,10 @@ the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metr
   ``misses`` and ``jobs``. Options ``horizon`` (ms, required), ``exec`` (``wcet`` |
   ``uniform``), ``suspension`` (``cpu`` | ``idle``), ``window`` (ms; default w_sch).
 - ``scenario`` — ``rtsim.coupling.run_scenario(parse_scenario(base with overrides),
-  seed=, mode=, duration=)``: the scalar entries of the run's summary, flattened with
-  dots. Options ``mode``, ``duration``. Until both modules exist its points fail with
-  "kind 'scenario' needs ...".
+  seed=, mode=, duration_s=duration, exec_model=exec)``: the scalar entries of the run's
+  summary (summary.json without ``seed``), nested ones flattened with dots
+  (``violations.separation``, ``methods.coupled``). Options ``mode`` (``adjust`` |
+  ``fixed-wsch`` | ``min-msb``), ``duration`` (simulated s), ``exec``. Needs ``base``.
 - ``call`` — ``function(params, options, seed) -> dict`` named by ``sweep.function``
   (``package.module:function``, importable on every worker): the extension point.
 
@@ -33,6 +34,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
+from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
@@ -182,16 +184,19 @@ def _scenario(p: PointInput) -> dict[str, Any]:
     io = _need("rtsim.io.scenario", "scenario")
     coupling = _need("rtsim.coupling", "scenario")
     assert p.base is not None
-    parse = getattr(io, "parse_scenario", None)
-    run = getattr(coupling, "run_scenario", None)
-    if parse is None or run is None:
-        raise RuntimeError("kind 'scenario' needs rtsim.io.scenario.parse_scenario and "
-                           "rtsim.coupling.run_scenario; not wired yet")
-    scenario = parse(p.base_data(), p.base.source)
-    kwargs = {k: p.options[k] for k in ("mode", "duration") if k in p.options}
-    result = run(scenario, seed=p.seed, **kwargs)
-    summary = getattr(result, "summary", result)
-    return _flatten(summary() if callable(summary) else summary)
+    where = Path(p.base.path).parent if p.base.path else None
+    scenario = io.parse_scenario(p.base_data(), p.base.source, base=where)
+    o = p.options
+    kwargs: dict[str, Any] = {"seed": p.seed, "record_jobs": False}
+    if "mode" in o:
+        kwargs["mode"] = o["mode"]
+    if "duration" in o:
+        kwargs["duration_s"] = float(o["duration"])
+    if "exec" in o:
+        kwargs["exec_model"] = o["exec"]
+    summary = dict(coupling.run_scenario(scenario, **kwargs).summary)
+    summary.pop("seed", None)  # the point's seed is its own column
+    return _flatten(summary)
 
 
 def _call(p: PointInput) -> dict[str, Any]:
@@ -221,6 +226,6 @@ register_kind(KindSpec("simulate", _simulate,
                        required=("horizon",), modules=(*_LOADER, "rtsim.sim"),
                        metrics=("w", "max_response.*", "mean_response.*", "misses.*", "jobs.*",
                                 "misses", "jobs")))
-register_kind(KindSpec("scenario", _scenario, options=("mode", "duration"),
+register_kind(KindSpec("scenario", _scenario, options=("mode", "duration", "exec"),
                        modules=("rtsim.io.scenario", "rtsim.coupling")))
 register_kind(KindSpec("call", _call))
