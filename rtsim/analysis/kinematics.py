@@ -224,6 +224,20 @@ def follower_msbs(
 
     ``localization`` is Eq 19 or the full form, as ``thr.localization`` says.
     """
+    if _xp(v_l, omega_l, v_f, rho, beta, theta, rho_d) is math:  # scalar fast path, same ops
+        rd = v_f * math.cos(theta + beta) - v_l * math.cos(beta)
+        bd = (v_l * math.sin(beta) - v_f * math.sin(beta + theta)) / rho - omega_l
+        ard, abd, avf = abs(float(rd)), abs(float(bd)), abs(float(v_f))
+        if thr.localization == "radial":
+            loc = math.inf if ard == 0.0 else 1000.0 * thr.r_H / ard
+        else:
+            loc = msb_localization_full(rd, bd, rho, thr.r_H)
+        return {
+            "localization": loc,
+            "separation": math.inf if ard == 0.0 else 1000.0 * float(thr.T_rho * rho_d) / ard,
+            "path_diversion": math.inf if avf == 0.0 else 1000.0 * float(thr.T_eps * rho_d) / avf,
+            "bearing": math.inf if abd == 0.0 else 1000.0 * thr.T_beta / abd,
+        }
     rd = rho_dot(v_l, v_f, beta, theta)
     bd = beta_dot(v_l, v_f, beta, theta, rho, omega_l)
     if thr.localization == "radial":
