@@ -275,8 +275,9 @@ class _Coupling:
         est = np.empty((self.n, _NF))
         fols = []
         for k in range(self.n):
-            pose = world.estimated_pose(k + 1)
-            _, _, _, v_f = world.relative(k + 1, "estimate")
+            # the estimate propagated to now and its expected speed, in one pass (the same
+            # as World.estimated_pose(i) and World.relative(i, "estimate")[3])
+            pose, v_f = world._propagate(k, now)
             rho, beta, theta = relative_state(lp, pose)
             est[k, :7] = (pose[0], pose[1], pose[2], rho, beta, theta, v_f)
             fols.append(FollowerEstimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
