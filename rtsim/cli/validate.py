@@ -45,6 +45,9 @@ def register(sub: Any) -> None:
     p.add_argument("--windows", type=int, default=None,
                    help="windows per simulated run (at least 100)")
     p.add_argument("--random-sets", type=int, default=None, help="number of random task sets")
+    p.add_argument("--histograms", type=int, default=None, metavar="K",
+                   help="configurations to draw response-time histograms for (default 2, "
+                   "quick 1; 0 = none)")
     p.add_argument("--seed", type=int, default=None, help="the validation's seed (default 1)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=run)
@@ -64,6 +67,10 @@ def run(args: argparse.Namespace) -> int:
                                                               "--hough-radius"))
     if args.windows is not None:
         changes["windows"] = args.windows
+    if args.histograms is not None:
+        if args.histograms < 0:
+            raise InputError(f"--histograms must be >= 0, got {args.histograms}")
+        changes["histogram_configs"] = args.histograms
     if args.random_sets is not None:
         changes["random_sets"] = args.random_sets
     if args.seed is not None:
