@@ -615,6 +615,13 @@ class CPU:
 
     def _abort(self, job: Job, now: float) -> None:
         st = job._st
+        i = job.seg_index
+        if (self.record_trace and i < len(st.segs) and st.idle_kind[i] and job.rem is not None
+                and job.seg_start is not None and now > job.seg_start):
+            # aborted while suspended (idle mode): trace the partial suspension
+            seg = st.segs[i]
+            self._trace_rows.append((job.name, job.index, seg.name, seg.kind, False,
+                                     job.seg_start, now))
         job.aborted = True
         st.stats.aborted += 1
         st.stats.misses += 1
