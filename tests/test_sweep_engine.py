@@ -267,3 +267,14 @@ def test_scenario_kind_matches_a_direct_coupled_run(tmp_path: Path) -> None:
     for kind, count in direct["violations"].items():
         assert row[f"violations.{kind}"] == count
     assert df.loc[0, "v_leader_desired"] == 20
+
+
+def test_dask_without_the_extra_is_a_clear_error(tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    from rtsim.errors import SweepError
+
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import fails as if not installed
+    with pytest.raises(SweepError, match=r"pip install 'rtsim\[dask\]'"):
+        run_sweep(call_sweep(tmp_path, "slow", n=2), tmp_path / "o", dask="tcp://127.0.0.1:1")

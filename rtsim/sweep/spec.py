@@ -31,6 +31,10 @@ A grid name is resolved, in this order, as
 4. a shortcut: a key of the base file's ``[window]`` table (``n``, ``r_H``, ``e_cal`` ...),
    or a key at the top level of the base file.
 
+Overrides are applied to the parsed TOML dict, which then goes through the normal loader
+(:func:`rtsim.io.taskset.parse_taskset`, :func:`rtsim.io.scenario.parse_scenario`) at each
+point: a bad value (``n = 0``) fails that point, with the loader's message, not the sweep.
+A new leaf key that looks like a typo of an existing one (``delta_tt``) is refused here.
 For ``kind = "call"`` every grid name is passed through as a parameter.
 Range strings give integers when every value is integral, else floats rounded to 12
 significant digits (so ``"0.1..0.3:0.1"`` gives 0.1, 0.2, 0.3).
