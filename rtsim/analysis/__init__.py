@@ -4,6 +4,24 @@ Times in ms, lengths in cm. Each function cites the equation or theorem it imple
 """
 
 from rtsim.analysis.bounds import WindowBounds, w_eq7_of, w_eq11_of, w_rta, w_sch_of, window_bounds
+from rtsim.analysis.kinematics import (
+    BOUND_KINDS,
+    LocalizationKind,
+    Thresholds,
+    beta_dot,
+    follower_msbs,
+    formation_velocity,
+    msb_bearing,
+    msb_localization,
+    msb_localization_full,
+    msb_path_diversion,
+    msb_separation,
+    relative_state,
+    rho_dot,
+    slack,
+    wrap_angle,
+    wrap_positive,
+)
 from rtsim.analysis.rta import Analysis, TaskResult, analyze, response_time
 from rtsim.analysis.utilization import (
     hyperbolic,
@@ -22,8 +40,6 @@ from rtsim.analysis.window import (
     w_eq11,
     w_sch,
 )
-
-# --- kinematics / MSBs (SPEC §4): imports added here by the owner of rtsim/analysis/kinematics.py
 
 __all__ = [
     # window bounds (Eqs 1, 5-7, 10-11) and w_rta
@@ -52,5 +68,21 @@ __all__ = [
     "liu_layland_bound",
     "rm_implicit",
     "total_utilization",
-    # --- kinematics / MSBs (SPEC §4): names added here by the owner of kinematics.py
+    # kinematics and motion/sensing bounds (SPEC §4)
+    "BOUND_KINDS",
+    "LocalizationKind",
+    "Thresholds",
+    "beta_dot",
+    "follower_msbs",
+    "formation_velocity",
+    "msb_bearing",
+    "msb_localization",
+    "msb_localization_full",
+    "msb_path_diversion",
+    "msb_separation",
+    "relative_state",
+    "rho_dot",
+    "slack",
+    "wrap_angle",
+    "wrap_positive",
 ]
