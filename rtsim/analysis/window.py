@@ -44,7 +44,10 @@ def g_window(
     delta_t: float,
     e_sched: float,
 ) -> float:
-    """Processing time of one window, Eq 5/6: e_scan + e_hough + n(e_recv+e_send+e_est) + Δt + e_sched."""
+    """Processing time of one window, Eq 5/6.
+
+    g = e_scan + e_hough + n·(e_recv + e_send + e_estimate) + Δt + e_sched.
+    """
     return e_scan + e_hough_ms + n * (e_recv + e_send + e_estimate) + delta_t + e_sched
 
 
@@ -66,7 +69,9 @@ def w_eq7(g: float, hp: Iterable[tuple[float, float]]) -> float:
 
 
 def w_eq11(g: float, hp: Iterable[tuple[float, float]], lp_wcets: Iterable[float]) -> float:
-    """Command-task schedulability with p_cmd = 2w, Eq 11 (Eq 10 corrected: the last sum is over T_hp).
+    """Command-task schedulability with p_cmd = 2w, Eq 11.
+
+    (Eq 10 corrected: its last sum is over T_hp, not T_lp.)
 
     w ≥ (½ Σ_{T_lp ∪ T_hp} e_j + g) / (1 − Σ_hp e_j/p_j). With no T_lp task the bound is
     vacuous and ``-inf`` is returned.

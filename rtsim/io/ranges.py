@@ -1,4 +1,7 @@
-"""Parameter lists on the command line and in sweep files: ``5``, ``1..10``, ``10..50:10``, ``10,20,30``."""
+"""Parameter lists on the command line and in sweep files.
+
+Accepted: ``5``, ``1..10``, ``10..50:10``, ``10,20,30``.
+"""
 
 from __future__ import annotations
 

@@ -95,7 +95,10 @@ class TaskSet:
         )
 
     def at_window(self, w: float, e_hough_ms: float | None = None) -> TaskSet:
-        """A plain task set for a fixed window ``w``: chain as one task, per-window periods resolved."""
+        """A plain task set for a fixed window ``w``.
+
+        The chain becomes one task of cost g; per-window periods are resolved.
+        """
         if self.window is None:
             return self
         tasks = tuple(t.at_window(w) for t in self.tasks) + (self.window_task(w, e_hough_ms),)

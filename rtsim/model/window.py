@@ -1,4 +1,4 @@
-"""The paper's processing-window job T_w as a spec: its constants and its segment chain (SPEC §1–§2)."""
+"""The paper's processing-window job T_w as a spec: constants and segment chain (SPEC §1–§2)."""
 
 from __future__ import annotations
 
