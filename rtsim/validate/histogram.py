@@ -81,7 +81,16 @@ def _scenario_taskset(directory: Path, ts: TaskSet | None) -> TaskSet:
     from rtsim.io.taskset import load_taskset, parse_taskset
 
     inputs = _read_json(directory / "manifest.json").get("inputs", {})
-    data = inputs.get("taskset") if isinstance(inputs, dict) else None
+    inputs = inputs if isinstance(inputs, dict) else {}
+    text = inputs.get("scenario_text")
+    if isinstance(text, str) and text:  # rtsim scenario's manifest: the scenario's task set
+        import tomllib
+
+        from rtsim.io.scenario import parse_scenario
+
+        src = str(inputs.get("scenario_file") or directory / "manifest.json")
+        return parse_scenario(tomllib.loads(text), src, Path(src).parent).load_taskset()
+    data = inputs.get("taskset")
     if isinstance(data, dict) and ("tasks" in data or "window" in data):
         return parse_taskset(data, f"{directory / 'manifest.json'}: inputs.taskset")
     return load_taskset()
@@ -99,9 +108,10 @@ def _scenario_followers(directory: Path) -> int | None:
 def from_scenario_dir(directory: str | os.PathLike[str], ts: TaskSet | None = None, *,
                       n: int | None = None, r_H: float | None = None,
                       w: float | None = None) -> JobSource:
-    """The jobs of a scenario output directory; bounds from ``ts`` (default: the task set in
-    the directory's manifest, else the packaged paper set) at n (default: the followers in
-    ``windows.csv``), r_H and w (default: ``summary.json``'s w_sch, else w_sch)."""
+    """The jobs of a scenario output directory; bounds from ``ts`` (default: the scenario's
+    task set, from the scenario text in the directory's ``manifest.json``; else the packaged
+    paper set) at n (default: the followers in ``windows.csv``), r_H and w (default:
+    ``summary.json``'s w_sch, else w_sch)."""
     d = Path(directory)
     path = next((p for p in (d / "jobs.csv", d / "jobs.parquet") if p.exists()), None)
     if path is None:
@@ -233,6 +243,8 @@ def write_histograms(source: JobSource, out_dir: str | os.PathLike[str], *, bins
         for label, value in lines.items():
             brows.append((task, label, math.nan if value is None else float(value)))
         name = f"{title} — {task}" if title else task
+        if b is not None and b.w is not None and b.per_window | b.is_window:
+            name += f" (bounds at w = {b.w:.6g} ms)"
         fig = response_histogram(vals, lines=lines, bins=list(edges), title=name)
         path = out / f"histogram{suffix}-{_safe(task)}.png"
         import io
