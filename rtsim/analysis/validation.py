@@ -159,7 +159,7 @@ def smallest_passing(
         doublings += 1
     top = hi
     nonmono = 0
-    while True:
+    for _ in range(1000):  # each round ends above the last failure seen: it terminates
         while hi - lo > tol:
             mid = 0.5 * (lo + hi)
             if test(mid):
@@ -180,6 +180,7 @@ def smallest_passing(
             if x > bad:
                 hi = float(x)
                 break
+    raise ValueError("smallest_passing: no stable threshold after 1000 rounds")
 
 
 def percentiles(values: Iterable[float], qs: Sequence[float] = PERCENTILES
