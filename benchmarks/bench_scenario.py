@@ -58,6 +58,8 @@ def main(argv: list[str] | None = None) -> int:
           f"simulated, {s['windows']} windows")
     print(f"simulation loop   {t['simulation_s']:8.2f} s  "
           f"({args.duration / t['simulation_s']:7.0f}x real time)")
+    print(f"  (CPU time {t['simulation_cpu_s']:8.2f} s  "
+          f"({args.duration / t['simulation_cpu_s']:7.0f}x real time))")
     print(f"setup + tables    {t['setup_s'] + t['tables_s']:8.2f} s")
     print(f"end to end        {t['total_s']:8.2f} s  (process wall {wall:.2f} s, out {out})")
     return 0

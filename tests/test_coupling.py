@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from rtsim.analysis.kinematics import BOUND_KINDS
 from rtsim.coupling import (
     ScenarioInputs,
     WindowRecord,
@@ -237,8 +238,8 @@ def test_recorder_drops_incomplete_windows() -> None:
         if k < 2:
             r.finish = 100.0 * k + 80.0 + 30 * k  # window 1 finishes at 210 > deadline 200
         if k < 1:
-            r.viol = np.zeros((1, 4), bool)
-    rec.records[1].viol = np.array([[False, True, False, False]])
+            r.viol = {kind: np.zeros(1, bool) for kind in BOUND_KINDS}
+    rec.records[1].viol = {kind: np.array([kind == "separation"]) for kind in BOUND_KINDS}
     df = rec.frame()
     assert list(df["window"]) == [0, 1]
     assert list(df["missed"]) == [False, True]

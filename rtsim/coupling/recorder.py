@@ -15,7 +15,9 @@ column order and dtypes.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -64,8 +66,10 @@ class WindowRecord:
     scan (truth, points, lost tracks), when the Hough time is known, at its completion
     (``finish``), and at the next scan (``viol``).
 
-    ``truth`` and ``est`` are (n, 11) arrays in :data:`FOLLOWER_FIELDS` order; ``viol`` is an
-    (n, 4) bool array in :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order, ``lost`` (n,).
+    ``truth`` and ``est`` are n rows of 11 floats in :data:`FOLLOWER_FIELDS` order (tuples
+    or an (n, 11) array); ``viol`` maps each of :data:`~rtsim.analysis.kinematics.BOUND_KINDS`
+    to an (n,) bool array (``World.scan(...).violations``), ``changes`` the observed changes
+    (``Scan.changes``), ``lost`` is (n,) bool.
     """
 
     window: int
@@ -80,14 +84,15 @@ class WindowRecord:
     feasible: bool
     segment: str
     curvature: float
-    est: NDArray[np.float64]
+    est: Any
     points: int = 0
     hough_ms: float = math.nan
     tracks_lost: int = 0
     leader: tuple[float, float, float] = (math.nan, math.nan, math.nan)
-    truth: NDArray[np.float64] | None = None
+    truth: Any = None
     lost: NDArray[np.bool_] | None = None
-    viol: NDArray[np.bool_] | None = None
+    viol: Mapping[str, NDArray[np.bool_]] | None = None
+    changes: Mapping[str, NDArray[np.float64]] | None = None
     finish: float = math.nan
     scan_t: float = math.nan
 
@@ -148,7 +153,8 @@ class WindowRecorder:
         k = len(FOLLOWER_FIELDS)
         truth = np.array([r.truth for r in recs], dtype=float).reshape(m, self.n, k)
         est = np.array([r.est for r in recs], dtype=float).reshape(m, self.n, k)
-        viol = np.array([r.viol for r in recs], dtype=bool).reshape(m, self.n, len(BOUND_KINDS))
+        viol = np.array([[r.viol[k] for k in BOUND_KINDS] for r in recs],  # type: ignore[index]
+                        dtype=bool).reshape(m, len(BOUND_KINDS), self.n).transpose(0, 2, 1)
         lost = np.array([r.lost for r in recs], dtype=bool).reshape(m, self.n)
         for i in range(self.n):
             for j, f in enumerate(FOLLOWER_FIELDS):

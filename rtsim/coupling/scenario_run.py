@@ -102,7 +102,8 @@ class ScenarioInputs:
 @dataclass
 class ScenarioResult:
     """A coupled run: ``windows`` (windows.csv), ``jobs`` (job records or None), ``summary``
-    (summary.json), ``timing`` (wall-clock seconds: ``setup_s``, ``simulation_s``)."""
+    (summary.json), ``timing`` (seconds: wall ``setup_s``, ``simulation_s``, ``tables_s``, and
+    ``simulation_cpu_s``, the process CPU time of the loop — robust on a shared machine)."""
 
     windows: pd.DataFrame
     jobs: pd.DataFrame | None
@@ -191,7 +192,7 @@ class _Decision:
     binding: str
     method: str
     feasible: bool
-    est: np.ndarray
+    est: tuple[tuple[float, ...], ...]
 
 
 class _Coupling:
@@ -260,7 +261,6 @@ class _Coupling:
                         ("separation", "d_rho", thr.T_rho * rho_d),
                         ("path_diversion", "travel", thr.T_eps * rho_d),
                         ("bearing", "d_beta", thr.T_beta))
-        self.viol_max = {k: 0.0 for k in BOUND_KINDS}
         first = self._estimates(0.0)
         self.dec = _Decision(self.w_sch, self.v_ld, first.msb_min, first.binding, "fixed",
                              first.msb_min >= self.w_sch, first.est)
@@ -272,21 +272,21 @@ class _Coupling:
         world.advance(now)
         lp = world.leader_pose
         _, kappa = world.segment_at()
-        est = np.empty((self.n, _NF))
+        state = []
         fols = []
         for k in range(self.n):
             # the estimate propagated to now and its expected speed, in one pass (the same
             # as World.estimated_pose(i) and World.relative(i, "estimate")[3])
             pose, v_f = world._propagate(k, now)
             rho, beta, theta = relative_state(lp, pose)
-            est[k, :7] = (pose[0], pose[1], pose[2], rho, beta, theta, v_f)
+            state.append((*pose, rho, beta, theta, v_f))
             fols.append(FollowerEstimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
                                          self.beta_d[k]))
         adj = decide(self.mode, fols, v_ld=self.v_ld, w_sch=self.w_sch, thresholds=self.thr,
                      omega_l=world.leader_omega, kappa=kappa, **self.opts)
         v_l = max(adj.v_leader, self.v_floor)
-        for k, m in enumerate(adj.msbs):
-            est[k, 7:] = [m[b] for b in BOUND_KINDS]
+        est = tuple((*row, *(m[b] for b in BOUND_KINDS))
+                    for row, m in zip(state, adj.msbs, strict=True))
         return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
                          adj.feasible and v_l == adj.v_leader, est)
 
@@ -316,7 +316,7 @@ class _Coupling:
         rec.hough_ms = self._hough_ms
         rec.points = scan.total_points
         rec.tracks_lost = scan.n_lost
-        rec.lost = scan.lost.copy()
+        rec.lost = scan.lost
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
         self._close(scan)
@@ -327,25 +327,29 @@ class _Coupling:
         last = self._last_scanned
         if last is None:
             return
-        last.viol = np.column_stack([scan.violations[k] for k in BOUND_KINDS])
-        ch = scan.changes
-        for kind, key, lim in self._limits:
-            r = float(np.max(ch[key] / lim))
-            if r > self.viol_max[kind]:
-                self.viol_max[kind] = r
+        last.viol = scan.violations
+        last.changes = scan.changes
 
-    def _truth(self, lp: tuple[float, float, float]) -> np.ndarray:
+    def violation_ratios(self) -> dict[str, float]:
+        """Largest observed change / its threshold per bound kind, over the kept windows."""
+        recs = [r for r in self.rec.records if r.complete and r.changes is not None]
+        out = {}
+        for kind, key, lim in self._limits:
+            vals = [np.max(r.changes[key] / lim) for r in recs]  # type: ignore[index]
+            out[kind] = float(max(vals)) if vals else 0.0
+        return out
+
+    def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
         world = self.world
         fol = world.followers
         v_l, w_l = world.leader_speed, world.leader_omega
-        out = np.empty((self.n, _NF))
-        for k in range(self.n):
-            pose = (float(fol.x[k]), float(fol.y[k]), float(fol.th[k]))
-            rho, beta, theta = relative_state(lp, pose)
-            v_f = float(fol.v[k])
+        out = []
+        # the scan has just advanced every follower to now
+        for k, (x, y, th, v_f) in enumerate(zip(fol.x, fol.y, fol.th, fol.v, strict=True)):
+            rho, beta, theta = relative_state(lp, (x, y, th))
             m = follower_msbs(v_l, w_l, v_f, rho, beta, theta, self.rho_d[k], self.thr)
-            out[k] = (*pose, rho, beta, theta, v_f, *(m[b] for b in BOUND_KINDS))
-        return out
+            out.append((x, y, th, rho, beta, theta, v_f, *(m[b] for b in BOUND_KINDS)))
+        return tuple(out)
 
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms
@@ -457,9 +461,9 @@ def run_scenario(
                              f"{duration_s!r}")
         horizon_ms = float(duration_s) * 1000.0
     run = _Coupling(inp, mode, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms)
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     run.run()
-    t2 = time.perf_counter()
+    t2, c2 = time.perf_counter(), time.process_time()
     df = run.rec.frame()
     res = run.cpu.result()
     world = run.world
@@ -468,11 +472,12 @@ def run_scenario(
         "max_backlog": int(res.tasks[run.wname].max_backlog),
         "v_leader_desired": run.v_ld,
         "n": run.n,
-        "max_violation_ratio": dict(run.viol_max),
+        "max_violation_ratio": run.violation_ratios(),
     }
     summary = summarize(df, mode=mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
                         seed=int(seed), scenario=inp.name, n=run.n, extra=extra)
     t3 = time.perf_counter()
-    timing = {"setup_s": t1 - t0, "simulation_s": t2 - t1, "tables_s": t3 - t2}
+    timing = {"setup_s": t1 - t0, "simulation_s": t2 - t1, "simulation_cpu_s": c2 - c1,
+              "tables_s": t3 - t2}
     return ScenarioResult(df, res.jobs, summary, timing, inp)
 
