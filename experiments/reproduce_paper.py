@@ -1,0 +1,423 @@
+"""The paper's experiments reproduced: Test 1 and Test 2 in the three window modes (issue 7 §1).
+
+``python experiments/reproduce_paper.py [--out DIR] [--quick] [--seed N] [--duration S]
+[--workers N] [--docs DIR] [--quiet]``
+
+Runs ``experiments/scenarios/test1.toml`` and ``test2.toml`` in the modes ``adjust`` (the
+paper's algorithm), ``fixed-wsch`` and ``min-msb`` (SPEC §5) — six coupled runs, in parallel
+processes when ``--workers`` > 1. Every run uses the seed ``--seed``, so a run equals
+``rtsim scenario <test>.toml --mode <mode> --seed N [--duration S]`` and the three modes of a
+test see the same noise draws at the start; the results do not depend on the worker count.
+Duration: ``--duration`` (simulated s) for every run, else each scenario's default (at least
+one lap); ``--quick`` (CI): 60 s, which covers the leader's whole first turn in both tests
+(it enters it at 32 s in Test 1, 26.7 s in Test 2).
+
+Writes to ``--out`` (default ``results/paper``):
+
+- ``<test>/<mode>/``: ``windows.csv``, ``jobs.csv``, ``summary.json``, ``manifest.json`` (as
+  the ``rtsim scenario`` command writes them);
+- ``figures/``: the paper's Figures 8–15 from the adjust runs (``fig08_test1_paths`` …
+  ``fig15_test2_speed``), the operating space of its Figure 2 per test
+  (``fig02_<test>_operating_space``), and the three modes side by side
+  (``modes_<test>_{window,bounds,speed,paths}``); every PNG has its data beside it as CSV
+  (same stem; :func:`rtsim.plots.scenario.figure_data`, the modes' stacked with a ``mode``
+  column);
+- ``summary.csv`` / ``summary.md``: per test and mode, the counts and ratios of the run;
+- ``manifest.json``: rtsim version, seed, the scenario files' text, command line, timings.
+
+``--docs DIR`` also writes the README's figures there (PNG, 100 dpi): Figs 8–15, the two
+operating-space figures and the Test 2 mode comparison.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from rtsim.errors import InputError
+
+SCENARIOS = Path(__file__).resolve().parent / "scenarios"
+TESTS: tuple[str, ...] = ("test1", "test2")
+MODES: tuple[str, ...] = ("adjust", "fixed-wsch", "min-msb")
+TEST_LABELS = {"test1": "Test 1", "test2": "Test 2"}
+QUICK_DURATION_S = 60.0
+DEFAULT_OUT = "results/paper"
+DOCS_DPI = 100
+BOUND_KINDS: tuple[str, ...] = ("localization", "separation", "path_diversion", "bearing")
+
+#: The paper's figures drawn from the adjust runs: number → (test, figure name).
+PAPER_FIGURES: dict[int, tuple[str, str]] = {
+    8: ("test1", "paths"), 9: ("test1", "window_slack"), 10: ("test1", "bounds"),
+    11: ("test1", "speed"), 12: ("test2", "paths"), 13: ("test2", "window_slack"),
+    14: ("test2", "bounds"), 15: ("test2", "speed"),
+}
+#: Side-by-side mode figures: kind of :func:`rtsim.plots.scenario.plot_modes` → figure_data name.
+MODE_FIGURES: dict[str, str] = {
+    "window": "window_slack", "bounds": "bounds", "speed": "speed", "paths": "paths",
+}
+_TITLES = {
+    "paths": "robots' paths",
+    "window_slack": "processing window and slack time",
+    "bounds": "effective processing-window bounds",
+    "speed": "desired and actual leader speed",
+    "operating_space": "operating space (w_sch ≤ w ≤ min MSB)",
+}
+#: Figures also written with --docs (stems).
+DOCS_FIGURES: tuple[str, ...] = (
+    *(f"fig{n:02d}_{t}_{name}" for n, (t, name) in PAPER_FIGURES.items()),
+    "fig02_test1_operating_space", "fig02_test2_operating_space", "modes_test2_window",
+)
+
+SUMMARY_COLUMNS: tuple[str, ...] = (
+    "test", "mode", "seed", "duration_s", "laps", "w_sch", "windows", "missed", "tracks_lost",
+    *(f"viol_{k}" for k in BOUND_KINDS), "critical_share", "min_msb_over_wsch",
+    "min_speed_ratio", "methods", *(f"max_viol_ratio_{k}" for k in BOUND_KINDS),
+    "max_response", "wall_s",
+)
+
+
+def figure_stems() -> list[str]:
+    """Every figure stem the script writes in ``figures/`` (each as .png and .csv)."""
+    stems = [f"fig{n:02d}_{t}_{name}" for n, (t, name) in PAPER_FIGURES.items()]
+    stems += [f"fig02_{t}_operating_space" for t in TESTS]
+    stems += [f"modes_{t}_{kind}" for t in TESTS for kind in MODE_FIGURES]
+    return stems
+
+
+# --- one run ------------------------------------------------------------------------------
+
+
+def write_run(out: Path, res: Any, *, scenario_file: Path, mode: str, seed: int,
+              duration_s: float | None, argv: list[str], wall_s: float) -> list[str]:
+    """Write a run's directory as ``rtsim scenario --no-figures`` does (rtsim/cli/scenario.py).
+
+    The CLI has no writer function of its own, so this calls the same library functions with
+    the same manifest keys. Returns the names written.
+    """
+    from rtsim.io.atomic import write_json, write_table
+    from rtsim.io.manifest import write_manifest
+
+    out.mkdir(parents=True, exist_ok=True)
+    outputs = ["windows.csv", "jobs.csv", "summary.json"]
+    write_table(out / "windows.csv", res.windows)
+    if res.jobs is not None:
+        write_table(out / "jobs.csv", res.jobs)
+    else:
+        outputs.remove("jobs.csv")
+    write_json(out / "summary.json", res.summary)
+    timing = dict(res.timing)
+    timing["total_s"] = wall_s
+    inp = res.inputs
+    write_manifest(
+        out, command="scenario", seed=seed,
+        inputs={"scenario_file": str(scenario_file), "scenario_text": inp.text,
+                "scenario": inp.resolved, "mode": mode, "duration_s": duration_s,
+                "exec_model": "wcet"},
+        argv=argv, extra={"timing": timing, "outputs": [*outputs, "manifest.json"]},
+    )
+    return [*outputs, "manifest.json"]
+
+
+def run_one(spec: dict[str, Any]) -> dict[str, Any]:
+    """Run one (test, mode) and write ``spec['out']``; returns windows, summary and timing."""
+    from rtsim.coupling import run_scenario
+
+    t0 = time.perf_counter()
+    file = Path(spec["scenario_file"])
+    res = run_scenario(file, mode=spec["mode"], duration_s=spec["duration_s"],
+                       seed=spec["seed"], record_jobs=True)
+    argv = ["rtsim", "scenario", str(file), "--mode", spec["mode"], "--seed", str(spec["seed"])]
+    if spec["duration_s"] is not None:
+        argv += ["--duration", repr(spec["duration_s"])]
+    argv += ["--no-figures", "--out", str(spec["out"])]
+    written = write_run(Path(spec["out"]), res, scenario_file=file, mode=spec["mode"],
+                        seed=spec["seed"], duration_s=spec["duration_s"], argv=argv,
+                        wall_s=time.perf_counter() - t0)
+    timing = dict(res.timing)
+    timing["total_s"] = time.perf_counter() - t0
+    return {"test": spec["test"], "mode": spec["mode"], "windows": res.windows,
+            "summary": res.summary, "timing": timing, "written": written}
+
+
+def run_specs(out: Path, *, seed: int, duration_s: float | None,
+              scenarios: Path = SCENARIOS) -> list[dict[str, Any]]:
+    """The six runs: every test in every mode, each with its output directory."""
+    return [{"test": t, "mode": m, "seed": seed, "duration_s": duration_s,
+             "scenario_file": str(scenarios / f"{t}.toml"), "out": str(out / t / m)}
+            for t in TESTS for m in MODES]
+
+
+# --- figures ------------------------------------------------------------------------------
+
+
+def modes_data(dfs: dict[str, pd.DataFrame], name: str) -> pd.DataFrame:
+    """The data of a side-by-side figure: each mode's figure_data, stacked, ``mode`` first."""
+    from rtsim.plots.scenario import figure_data
+
+    parts = []
+    for mode, df in dfs.items():
+        part = figure_data(df, name)
+        part.insert(0, "mode", mode)
+        parts.append(part)
+    return pd.concat(parts, ignore_index=True)
+
+
+def figure_tasks(runs: dict[tuple[str, str], pd.DataFrame], fig_dir: Path,
+                 docs: Path | None) -> list[dict[str, Any]]:
+    """One task per figure: what to draw, from which run(s), and where to write it."""
+    tasks: list[dict[str, Any]] = []
+
+    def add(stem: str, kind: str, data: Any, title: str, name: str) -> None:
+        tasks.append({"stem": stem, "kind": kind, "data": data, "title": title, "name": name,
+                      "dir": str(fig_dir),
+                      "docs": str(docs) if docs is not None and stem in DOCS_FIGURES else None})
+
+    for n, (test, name) in PAPER_FIGURES.items():
+        add(f"fig{n:02d}_{test}_{name}", name, runs[(test, "adjust")],
+            f"Fig {n}. {TEST_LABELS[test]} (adjust): {_TITLES[name]}", name)
+    for test in TESTS:
+        add(f"fig02_{test}_operating_space", "operating_space", runs[(test, "adjust")],
+            f"Fig 2. {TEST_LABELS[test]} (adjust): {_TITLES['operating_space']}",
+            "operating_space")
+    for test in TESTS:
+        dfs = {m: runs[(test, m)] for m in MODES}
+        for kind, name in MODE_FIGURES.items():
+            add(f"modes_{test}_{kind}", f"modes:{kind}", dfs,
+                f"{TEST_LABELS[test]}: {_TITLES[name]}, three modes", name)
+    return tasks
+
+
+def draw(task: dict[str, Any]) -> list[str]:
+    """Draw one figure task; write PNG and CSV (and the docs PNG). Returns the paths."""
+    from rtsim.io.atomic import write_table
+    from rtsim.plots.scenario import SCENARIO_FIGURES, figure_data, plot_modes, save_figure
+
+    kind, name, data = task["kind"], task["name"], task["data"]
+    if kind.startswith("modes:"):
+        fig = plot_modes(data, kind.split(":", 1)[1], title=task["title"])
+        table = modes_data(data, name)
+    else:
+        fig = SCENARIO_FIGURES[kind](data, title=task["title"])
+        table = figure_data(data, name)
+    out = Path(task["dir"])
+    png, csv = out / f"{task['stem']}.png", out / f"{task['stem']}.csv"
+    save_figure(fig, png)
+    write_table(csv, table)
+    written = [str(png), str(csv)]
+    if task["docs"]:
+        written.append(str(save_figure(fig, Path(task["docs"]) / png.name, dpi=DOCS_DPI)))
+    return written
+
+
+# --- summary ------------------------------------------------------------------------------
+
+
+def summary_row(test: str, mode: str, summary: dict[str, Any], wall_s: float) -> dict[str, Any]:
+    """One row of summary.csv from a run's summary.json."""
+    row: dict[str, Any] = {
+        "test": test, "mode": mode, "seed": summary["seed"],
+        "duration_s": summary["duration_s"], "laps": summary.get("laps", math.nan),
+        "w_sch": summary["w_sch"], "windows": summary["windows"], "missed": summary["missed"],
+        "tracks_lost": summary["tracks_lost"],
+    }
+    for k in BOUND_KINDS:
+        row[f"viol_{k}"] = summary["violations"][k]
+    row.update(critical_share=summary["critical_share"],
+               min_msb_over_wsch=summary["min_msb_over_wsch"],
+               min_speed_ratio=summary["min_speed_ratio"],
+               methods=";".join(f"{k}={v}" for k, v in sorted(summary["methods"].items())))
+    ratios = summary.get("max_violation_ratio", {})
+    for k in BOUND_KINDS:
+        row[f"max_viol_ratio_{k}"] = ratios.get(k, math.nan)
+    row["max_response"] = summary.get("max_response", math.nan)
+    row["wall_s"] = wall_s
+    return row
+
+
+def summary_markdown(df: pd.DataFrame) -> str:
+    """The summary as a Markdown table (the README's)."""
+    head = ("| test | mode | sim. s | windows | misses | lost tracks | violations loc / sep / "
+            "path / bear | critical share | min MSB / w_sch | min V_L / V_Ld | max viol. ratio "
+            "sep / path | methods |")
+    lines = [head, "|" + "---|" * 12]
+    for r in df.itertuples(index=False):
+        lines.append(
+            f"| {TEST_LABELS.get(r.test, r.test)} | {r.mode} | {r.duration_s:.1f} | {r.windows} "
+            f"| {r.missed} | {r.tracks_lost} | {r.viol_localization} / {r.viol_separation} / "
+            f"{r.viol_path_diversion} / {r.viol_bearing} | {r.critical_share:.3f} | "
+            f"{r.min_msb_over_wsch:.3f} | {r.min_speed_ratio:.3f} | "
+            f"{r.max_viol_ratio_separation:.2f} / {r.max_viol_ratio_path_diversion:.2f} | "
+            f"{r.methods.replace(';', ', ')} |")
+    notes = (
+        "\nViolations count (window, follower) pairs whose truth, between this window's scan "
+        "and the next, broke a bound's threshold (r_H, T_ρ·ρ_d, T_ε·ρ_d, T_β); the max "
+        "violation ratio is the largest observed change over its threshold (>1: broken). "
+        "Critical share: the share of simulated time with min MSB (at V_Ld) < w_sch. "
+        "Methods: how each window's w and V_L were set (none: no overload; coupled / "
+        "closed-form / numeric: speed lowered; fixed: the first window, or a baseline mode).\n")
+    return "\n".join(lines) + "\n" + notes
+
+
+# --- driver -------------------------------------------------------------------------------
+
+
+def _pool_map(pool: ProcessPoolExecutor | None, fn: Callable[[Any], Any],
+              items: Iterable[Any]) -> Iterator[tuple[Any, Any]]:
+    """(item, fn(item)) in completion order; in this process when ``pool`` is None."""
+    items = list(items)
+    if pool is None:
+        for it in items:
+            yield it, fn(it)
+        return
+    futures = {pool.submit(fn, it): it for it in items}
+    for fut in as_completed(futures):
+        yield futures[fut], fut.result()
+
+
+def run_all(specs: list[dict[str, Any]], pool: ProcessPoolExecutor | None = None,
+            progress: Callable[[str], None] | None = None) -> dict[tuple[str, str], dict]:
+    """Run ``specs`` (see :func:`run_specs`); results keyed by (test, mode)."""
+    results: dict[tuple[str, str], dict[str, Any]] = {}
+    for k, (_, res) in enumerate(_pool_map(pool, run_one, specs), 1):
+        results[(res["test"], res["mode"])] = res
+        if progress is not None:
+            s = res["summary"]
+            progress(f"[{k}/{len(specs)}] {res['test']} {res['mode']}: "
+                     f"{s['duration_s']:.1f} s simulated, {s['windows']} windows, "
+                     f"missed {s['missed']}, tracks lost {s['tracks_lost']}, violations "
+                     f"{sum(s['violations'].values())}, min V_L/V_Ld "
+                     f"{s['min_speed_ratio']:.2f} ({res['timing']['total_s']:.1f} s)")
+    return results
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    if args.seed < 0:
+        raise InputError(f"--seed must be a non-negative integer, got {args.seed}")
+    if args.duration is not None and not (0 < args.duration < math.inf):
+        raise InputError(f"--duration must be a positive number of seconds, got "
+                         f"{args.duration!r}")
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers must be at least 1, got {args.workers}")
+    for opt, path in (("--out", args.out), ("--docs", args.docs)):
+        if path is not None and Path(path).exists() and not Path(path).is_dir():
+            raise InputError(f"{opt} {path}: exists and is not a directory")
+    for t in TESTS:
+        if not (SCENARIOS / f"{t}.toml").is_file():
+            raise InputError(f"{SCENARIOS / f'{t}.toml'}: scenario file not found")
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one-line :class:`InputError`s (exit 2 in main)."""
+
+    def error(self, message: str) -> Any:  # type: ignore[override]
+        raise InputError(message)
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The command line (module docstring); bad options raise :class:`InputError`."""
+    ap = _Parser(prog="reproduce_paper.py", description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                    help=f"output directory (default {DEFAULT_OUT})")
+    ap.add_argument("--quick", action="store_true",
+                    help=f"CI mode: {QUICK_DURATION_S:g} simulated s per run (one turn)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")
+    ap.add_argument("--duration", type=float, default=None, metavar="S",
+                    help="simulated seconds per run (default: each scenario's, at least one "
+                         "lap; --quick: 60)")
+    ap.add_argument("--workers", type=int, default=None, metavar="N",
+                    help="processes (default min(6, cpu count)); 1 runs in this process")
+    ap.add_argument("--docs", default=None, metavar="DIR",
+                    help="also write the README's figures (PNG, 100 dpi) to DIR")
+    ap.add_argument("--quiet", action="store_true", help="no progress lines, no table")
+    return ap.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the six scenarios, draw the figures, write the tables (module docstring)."""
+    t0 = time.perf_counter()
+    try:
+        args = parse_args(argv)
+        _check_args(args)
+        return _main(args, argv, t0)
+    except InputError as exc:
+        print(f"reproduce_paper: {exc}", file=sys.stderr)
+        return 2
+
+
+def _main(args: argparse.Namespace, argv: list[str] | None, t0: float) -> int:
+    from rtsim.io.atomic import write_table, write_text
+    from rtsim.io.manifest import write_manifest
+
+    out = Path(args.out)
+    docs = Path(args.docs) if args.docs is not None else None
+    duration = args.duration if args.duration is not None else \
+        (QUICK_DURATION_S if args.quick else None)
+    workers = args.workers if args.workers is not None else min(6, os.cpu_count() or 1)
+    specs = run_specs(out, seed=args.seed, duration_s=duration)
+
+    def progress(line: str) -> None:
+        if not args.quiet:
+            print(line, file=sys.stderr, flush=True)
+
+    pool = ProcessPoolExecutor(workers) if workers > 1 else None
+    try:
+        results = run_all(specs, pool, progress)
+        t_runs = time.perf_counter()
+        windows = {key: res["windows"] for key, res in results.items()}
+        fig_dir = out / "figures"
+        fig_dir.mkdir(parents=True, exist_ok=True)
+        if docs is not None:
+            docs.mkdir(parents=True, exist_ok=True)
+        written: list[str] = []
+        for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs)):
+            written += paths
+        progress(f"figures: {len(written)} files in {fig_dir} "
+                 f"({time.perf_counter() - t_runs:.1f} s)")
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    t_figs = time.perf_counter()
+
+    rows = [summary_row(t, m, results[(t, m)]["summary"], results[(t, m)]["timing"]["total_s"])
+            for t in TESTS for m in MODES]
+    table = pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
+    write_table(out / "summary.csv", table)
+    md = summary_markdown(table)
+    write_text(out / "summary.md", md)
+    runs_meta = [{"test": t, "mode": m, "seed": args.seed, "duration_s": duration,
+                  "out": str(Path(t) / m), "timing": results[(t, m)]["timing"]}
+                 for t in TESTS for m in MODES]
+    write_manifest(
+        out, command="experiments/reproduce_paper.py", seed=args.seed,
+        inputs={"quick": args.quick, "duration_s": duration, "workers": workers,
+                "tests": list(TESTS), "modes": list(MODES),
+                "scenarios": {t: {"file": str(SCENARIOS / f"{t}.toml"),
+                                  "text": (SCENARIOS / f"{t}.toml").read_text("utf-8")}
+                              for t in TESTS},
+                "docs": str(docs) if docs is not None else None},
+        argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
+        extra={"runs": runs_meta,
+               "timing": {"runs_s": t_runs - t0, "figures_s": t_figs - t_runs,
+                          "total_s": time.perf_counter() - t0},
+               "outputs": ["summary.csv", "summary.md", "manifest.json",
+                           *(f"figures/{s}.{e}" for s in figure_stems() for e in ("png", "csv")),
+                           *(f"{t}/{m}/{f}" for t in TESTS for m in MODES
+                             for f in results[(t, m)]["written"])]},
+    )
+    if not args.quiet:
+        print(md, end="")
+        print(f"-> {out} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
