@@ -18,7 +18,8 @@ The world is Test 1 (the paper's §4.1: V_Ld = 25 cm/s, turn radius r_t = 2 m, s
 so that remote workers need no shared disk) with ``formation.followers`` set to n (the
 default chevron: pair p at p·ρ, 180° ± the file's offset) and ``sensing.r_H`` to the
 configuration's r_H (:func:`scenario_world`). Without a scenario file, :class:`Test1` builds
-the same numbers directly (10 m × 6 m rounded rectangle, default follower, sensing and EKF).
+the same numbers directly (8 m × 4 m rounded rectangle as in test1.toml; default
+follower, sensing and EKF parameters, which differ from the file's).
 """
 
 from __future__ import annotations
@@ -43,8 +44,8 @@ class Test1:
     speed: float = 25.0
     turn_radius: float = 200.0
     separation: float = 390.0
-    length: float = 1000.0
-    width: float = 600.0
+    length: float = 800.0
+    width: float = 400.0
     bearing_offset: float = math.radians(15.0)
 
     def as_dict(self) -> dict[str, Any]:
