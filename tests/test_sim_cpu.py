@@ -352,3 +352,21 @@ def test_window_in_force_and_constrained_per_window_deadline():
     c = _rows(cpu.result().jobs, "cmd")
     assert list(c["deadline"] - c["release"]) == [75.0, 90.0]
     assert cpu.stats("cmd").released == 2
+
+
+def test_events_scheduled_by_hooks_run_at_their_instant():
+    # the dispatcher moves the clock itself only while nothing else is due: an event a hook
+    # triggers at t must still be processed at t, before the CPU's next instant
+    env = simpy.Environment()
+    cpu = CPU(env)
+    cpu.add_task(Task("t", 1, 20, priority=1))
+    seen = []
+
+    def on_end(job):
+        ev = env.event()
+        ev.callbacks.append(lambda _: seen.append((env.now, cpu.stats("t").completed)))
+        ev.succeed()
+
+    cpu.on("job_end", on_end)
+    env.run(until=cpu.start(100))
+    assert seen == [(1.0 + 20 * k, k + 1) for k in range(5)]

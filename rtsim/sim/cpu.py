@@ -9,6 +9,10 @@ it books the running job's progress, handles what is due, picks the highest-prio
 job, and yields a single ``env.timeout`` until the earliest of "the running segment completes"
 and "the next timer". Preemption is therefore bookkeeping: the running job's remaining work is
 ``end − now`` and it goes back into the ready heap; no SimPy process per job, no interrupts.
+When nothing else in the environment is scheduled before that wake-up (``env.peek()`` is
+later), the dispatcher moves the clock itself instead of the Timeout round trip — the same
+instants in the same order, without SimPy's per-event cost; any event another process (or a
+hook) schedules at or before the wake-up makes it yield as usual.
 
 Eligibility: jobs of one task run one at a time, first in, first out. A task's pending jobs
 (released, not finished, not aborted) wait in a FIFO; only its oldest is eligible. So under
@@ -348,6 +352,11 @@ class CPU:
         ovh = self.overhead
         plain = not self.record_trace and ovh == 0.0  # no trace, no overhead: book inline
         has_abort = any(st.policy == "abort" for st in self._states)
+        # Jump ahead without yielding when nothing else is scheduled before the wake-up
+        # (only on the plain Environment: a RealtimeEnvironment must pace every step).
+        jump = type(env) is simpy.Environment and isinstance(getattr(env, "_queue", None),
+                                                                 list)
+        queue: list[Any] = env._queue if jump else []  # type: ignore[attr-defined]
         running: Job | None = None
         last: Job | None = None
         run_end = _INF
@@ -421,6 +430,12 @@ class CPU:
             if target == _INF:
                 self._end_time = now
                 return
+            if jump and (not queue or target < queue[0][0]):
+                # nothing else in the environment is due up to target: move the clock
+                # there ourselves instead of a Timeout round trip through SimPy
+                env._now = target
+                now = target
+                continue
             yield timeout(target - now if target > now else 0.0)
             now = target
 
