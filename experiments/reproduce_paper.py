@@ -6,11 +6,14 @@
 Runs ``experiments/scenarios/test1.toml`` and ``test2.toml`` in the modes ``adjust`` (the
 paper's algorithm), ``fixed-wsch`` and ``min-msb`` (SPEC §5) — six coupled runs, in parallel
 processes when ``--workers`` > 1. Every run uses the seed ``--seed``, so a run equals
-``rtsim scenario <test>.toml --mode <mode> --seed N [--duration S]`` and the three modes of a
-test see the same noise draws at the start; the results do not depend on the worker count.
-Duration: ``--duration`` (simulated s) for every run, else each scenario's default (at least
-one lap); ``--quick`` (CI): 60 s, which covers the leader's whole first turn in both tests
-(it enters it at 32 s in Test 1, 26.7 s in Test 2).
+``rtsim scenario <test>.toml --mode <mode> --seed N [--duration S]`` (the command line is in
+its manifest) and the three modes of a test see the same noise draws at the start; the
+results do not depend on the worker count.
+Duration: ``--duration`` (simulated s) for every run; by default the adjust run takes its
+scenario's default (at least one lap; the leader is slowed in the turns, so this is the
+longest) and the two baselines then run exactly as long, so the three modes cover the same
+time; ``--quick`` (CI): 60 s, which covers the leader's whole first turn in both tests (it
+enters it at 32 s in Test 1, 26.7 s in Test 2).
 
 Writes to ``--out`` (default ``results/paper``):
 
@@ -69,7 +72,7 @@ _TITLES = {
     "window_slack": "processing window and slack time",
     "bounds": "effective processing-window bounds",
     "speed": "desired and actual leader speed",
-    "operating_space": "operating space (w_sch ≤ w ≤ min MSB)",
+    "operating_space": "operating space ($w_{sch}$ ≤ w ≤ min MSB)",
 }
 #: Figures also written with --docs (stems).
 DOCS_FIGURES: tuple[str, ...] = (
@@ -144,14 +147,21 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
                         wall_s=time.perf_counter() - t0)
     timing = dict(res.timing)
     timing["total_s"] = time.perf_counter() - t0
-    return {"test": spec["test"], "mode": spec["mode"], "windows": res.windows,
-            "summary": res.summary, "timing": timing, "written": written}
+    return {"test": spec["test"], "mode": spec["mode"], "duration_s": spec["duration_s"],
+            "windows": res.windows, "summary": res.summary, "timing": timing,
+            "written": written}
 
 
 def run_specs(out: Path, *, seed: int, duration_s: float | None,
               scenarios: Path = SCENARIOS) -> list[dict[str, Any]]:
-    """The six runs: every test in every mode, each with its output directory."""
+    """The six runs: every test in every mode, each with its output directory.
+
+    With ``duration_s`` None the adjust runs take the scenario's default (at least one lap)
+    and the baselines are marked ``match_adjust``: :func:`run_all` runs them as long as the
+    adjust run of their test, so the three modes cover the same simulated time.
+    """
     return [{"test": t, "mode": m, "seed": seed, "duration_s": duration_s,
+             "match_adjust": duration_s is None and m != "adjust",
              "scenario_file": str(scenarios / f"{t}.toml"), "out": str(out / t / m)}
             for t in TESTS for m in MODES]
 
@@ -285,17 +295,29 @@ def _pool_map(pool: ProcessPoolExecutor | None, fn: Callable[[Any], Any],
 
 def run_all(specs: list[dict[str, Any]], pool: ProcessPoolExecutor | None = None,
             progress: Callable[[str], None] | None = None) -> dict[tuple[str, str], dict]:
-    """Run ``specs`` (see :func:`run_specs`); results keyed by (test, mode)."""
+    """Run ``specs`` (see :func:`run_specs`); results keyed by (test, mode).
+
+    Specs marked ``match_adjust`` run after the others, with the duration their test's adjust
+    run reached (``summary['duration_s']``).
+    """
     results: dict[tuple[str, str], dict[str, Any]] = {}
-    for k, (_, res) in enumerate(_pool_map(pool, run_one, specs), 1):
-        results[(res["test"], res["mode"])] = res
-        if progress is not None:
-            s = res["summary"]
-            progress(f"[{k}/{len(specs)}] {res['test']} {res['mode']}: "
-                     f"{s['duration_s']:.1f} s simulated, {s['windows']} windows, "
-                     f"missed {s['missed']}, tracks lost {s['tracks_lost']}, violations "
-                     f"{sum(s['violations'].values())}, min V_L/V_Ld "
-                     f"{s['min_speed_ratio']:.2f} ({res['timing']['total_s']:.1f} s)")
+    first = [sp for sp in specs if not sp.get("match_adjust")]
+    later = [sp for sp in specs if sp.get("match_adjust")]
+    done = 0
+    for phase in (first, later):
+        if phase is later:
+            phase = [{**sp, "duration_s": results[(sp["test"], "adjust")]["summary"]
+                      ["duration_s"]} for sp in later]
+        for _, res in _pool_map(pool, run_one, phase):
+            done += 1
+            results[(res["test"], res["mode"])] = res
+            if progress is not None:
+                s = res["summary"]
+                progress(f"[{done}/{len(specs)}] {res['test']} {res['mode']}: "
+                         f"{s['duration_s']:.1f} s simulated, {s['windows']} windows, "
+                         f"missed {s['missed']}, tracks lost {s['tracks_lost']}, violations "
+                         f"{sum(s['violations'].values())}, min V_L/V_Ld "
+                         f"{s['min_speed_ratio']:.2f} ({res['timing']['total_s']:.1f} s)")
     return results
 
 
@@ -393,7 +415,8 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float) -> int:
     write_table(out / "summary.csv", table)
     md = summary_markdown(table)
     write_text(out / "summary.md", md)
-    runs_meta = [{"test": t, "mode": m, "seed": args.seed, "duration_s": duration,
+    runs_meta = [{"test": t, "mode": m, "seed": args.seed,
+                  "duration_s": results[(t, m)]["duration_s"],
                   "out": str(Path(t) / m), "timing": results[(t, m)]["timing"]}
                  for t in TESTS for m in MODES]
     write_manifest(

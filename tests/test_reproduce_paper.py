@@ -257,3 +257,16 @@ def test_out_that_is_a_file_is_refused(tmp_path: Path,
     f.write_text("x")
     assert rp.main(["--quick", "--out", str(f)]) == 2
     assert "not a directory" in capsys.readouterr().err
+
+
+def test_modes_figure_time_axis_covers_every_run(quick: tuple[Path, str]) -> None:
+    """plot_modes shares the time axis over the union of the runs, not the last run's."""
+    from rtsim.plots.scenario import plot_modes
+
+    out, _ = quick
+    df = pd.read_csv(out / "test1" / "adjust" / "windows.csv")
+    short = df.iloc[: len(df) // 2]
+    fig = plot_modes({"long": df, "short": short}, "window")
+    end = (df["t"].iloc[-1] + df["w"].iloc[-1]) / 1000.0
+    for ax in fig.axes[:2]:
+        assert ax.get_xlim() == pytest.approx((0.0, end), rel=1e-12)

@@ -520,6 +520,10 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
         ax.set_title(f"{mode}\n{_counts(df)}", fontsize="small", loc="left")
         if ax is not axes[0]:
             ax.set_ylabel("")
+    if kind != "paths":  # shared time axis: the union of the runs (each panel set its own)
+        spans = [(_t_s(df)[0], _ends_s(df)[-1]) for df in dfs.values() if len(df)]
+        if spans and max(b for _, b in spans) > min(a for a, _ in spans):
+            axes[0].set_xlim(min(a for a, _ in spans), max(b for _, b in spans))
     handles: dict[str, object] = {}
     for ax in axes:  # union of legend entries (a panel may lack misses or critical spans)
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
