@@ -229,7 +229,7 @@ def _path(src: str, leader: _Table) -> LeaderPath:
                   lambda: rounded_rectangle(**args, direction=direction, start=start))
 
 
-def _formation(src: str, data: object) -> Formation:
+def _formation(src: str, data: object, r_F: float) -> Formation:
     tab = _Table(f"{src}: formation", data, _ANGLES["formation"])
     if tab.has("slot"):
         if tab.has("followers") or tab.has("separation") or tab.has("bearing_offset"):
@@ -255,7 +255,7 @@ def _formation(src: str, data: object) -> Formation:
     args = tab.kwargs(("followers", "separation", "bearing_offset"))
     tab.finish(("followers", "separation", "bearing_offset"))
     return _build(src, lambda: chevron(args["followers"], args["separation"],
-                                       args.get("bearing_offset", math.radians(15))))
+                                       args.get("bearing_offset", math.radians(15)), r_F=r_F))
 
 
 def _section(src: str, data: Mapping[str, Any], name: str, keys: tuple[str, ...],
@@ -289,9 +289,9 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
     start_s = _build(src, lambda: non_negative("leader.start_s", leader.get("start_s", 0.0)))
     leader.finish(("speed", "start", "start_s", "path", "shape"))
 
-    formation = _formation(src, top.get("formation"))
     follower = _section(src, data, "follower", tuple(FollowerParams.__dataclass_fields__),
                         FollowerParams)
+    formation = _formation(src, top.get("formation"), follower.radius)
     top.get("follower")
     sens = _Table(f"{src}: sensing", top.get("sensing", {}))
     r_H = _build(src, lambda: positive("sensing.r_H", sens.get("r_H", 25.0)))

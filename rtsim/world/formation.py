@@ -2,8 +2,16 @@
 
 β is counter-clockwise from the leader's heading, so trailing slots have β ∈ [90°, 270°].
 The default chevron for n followers: follower i (1-based) belongs to pair p = ⌈i/2⌉ at
-ρ_d = p·separation; odd followers sit at 180° + offset (right of the track), even ones at
-180° − offset (left) — a V behind the leader, the paper's two followers at 180° ± 15°.
+ρ_d = p·separation; odd followers sit at 180° + offset_p (right of the track), even ones at
+180° − offset_p (left) — a V behind the leader, the paper's two followers at 180° ± 15°.
+
+offset_1 is the given offset (15°). Were every pair at the same offset, the followers of
+pair p ≥ 2 would sit exactly behind those of pair p − 1 on the laser's ray and be hidden
+from it (a nearer disc shadows a farther one, SPEC §6): every scan would lose their tracks.
+So each further pair turns outward just enough to be seen:
+offset_p = offset_{p−1} + arcsin(r_F/ρ_{p−1}) + arcsin(r_F/ρ_p) + gap (the two discs'
+angular half-widths plus a gap of 1°, two beams). For the paper's two followers nothing
+changes; ten followers at 390 cm spread to 180° ± 31.4°.
 """
 
 from __future__ import annotations
@@ -17,7 +25,7 @@ from numpy.typing import NDArray
 from rtsim.errors import ScenarioError
 from rtsim.world._check import integer, number, positive
 
-__all__ = ["Formation", "chevron"]
+__all__ = ["CHEVRON_GAP", "Formation", "chevron", "chevron_offsets"]
 
 
 @dataclass(frozen=True)
@@ -77,14 +85,45 @@ class Formation:
                     )
 
 
-def chevron(n: int, separation: float, offset: float = math.radians(15)) -> Formation:
-    """The default V formation: pairs at 180° ± ``offset`` rad, pair p at p·``separation`` cm."""
+#: Angular gap kept between the discs of consecutive chevron pairs (rad): two beams.
+CHEVRON_GAP = math.radians(1.0)
+
+
+def chevron_offsets(pairs: int, separation: float, offset: float, r_F: float,
+                    gap: float = CHEVRON_GAP) -> list[float]:
+    """Bearing offset of each pair (rad): ``offset`` for the first, then widened so that no
+    follower is hidden behind a nearer one (module docstring)."""
+    offs = [offset]
+    for p in range(2, pairs + 1):
+        near, far = (p - 1) * separation, p * separation
+        offs.append(offs[-1] + math.asin(min(1.0, r_F / near)) + math.asin(min(1.0, r_F / far))
+                    + gap)
+    return offs
+
+
+def chevron(n: int, separation: float, offset: float = math.radians(15), *,
+            r_F: float = 25.0, gap: float = CHEVRON_GAP) -> Formation:
+    """The default V formation: pair p at p·``separation`` cm and 180° ± offset_p.
+
+    offset_1 = ``offset``; further pairs turn outward so the laser sees every follower
+    (module docstring). Raises :class:`ScenarioError` if a pair would leave [90°, 270°].
+    """
     n = integer("formation.followers", n, minimum=1)
     sep = positive("formation.separation", separation)
     off = number("formation.bearing_offset", offset)
+    r_F = positive("follower.radius", r_F)
     if not 0 <= off <= math.pi / 2:
         raise ScenarioError(f"formation.bearing_offset: must be in [0, 90] deg, got "
                             f"{math.degrees(off):.6g} deg")
+    offs = chevron_offsets((n + 1) // 2, sep, off, r_F, gap)
+    if offs[-1] > math.pi / 2:
+        raise ScenarioError(
+            f"formation.followers: {n} followers do not fit a chevron at {sep:.6g} cm that "
+            f"keeps every follower in the laser's view (the last pair would need "
+            f"{math.degrees(offs[-1]):.4g} deg off the track, above 90); use a larger "
+            f"separation, a smaller bearing_offset, or [[formation.slot]]"
+        )
     rho = tuple(sep * ((i + 1) // 2) for i in range(1, n + 1))
-    beta = tuple(math.pi + (off if i % 2 == 1 else -off) for i in range(1, n + 1))
+    beta = tuple(math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
+                 for i in range(1, n + 1))
     return Formation(rho, beta)
