@@ -50,14 +50,30 @@ rp = _load()
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
-    """``--quick`` with two worker processes, in a subprocess: (out dir, stderr)."""
-    out = tmp_path_factory.mktemp("paper") / "quick"
-    env = {**os.environ, "MPLBACKEND": "Agg"}
-    proc = subprocess.run([sys.executable, str(SCRIPT), "--quick", "--out", str(out),
-                           "--workers", "2"], cwd=REPO, env=env, capture_output=True,
-                          text=True, timeout=240)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    return out, proc.stderr
+    """``--quick`` with two worker processes, in a subprocess: (out dir, stderr).
+
+    Run once per test session: under pytest-xdist the workers share the session's temporary
+    directory and the first one to take the lock runs the script for all of them.
+    """
+    import fcntl
+
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent  # the session's directory, shared by its workers
+    root = base / "reproduce_paper_quick"
+    root.mkdir(exist_ok=True)
+    out, done = root / "out", root / "done.json"
+    with open(root / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.exists():
+            env = {**os.environ, "MPLBACKEND": "Agg"}
+            proc = subprocess.run([sys.executable, str(SCRIPT), "--quick", "--out", str(out),
+                                   "--workers", "2"], cwd=REPO, env=env,
+                                  capture_output=True, text=True, timeout=240)
+            done.write_text(json.dumps({"rc": proc.returncode, "stderr": proc.stderr}))
+    result = json.loads(done.read_text())
+    assert result["rc"] == 0, result["stderr"][-3000:]
+    return out, result["stderr"]
 
 
 def _figures() -> list[tuple[str, str, str | None]]:

@@ -373,16 +373,17 @@ def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> Non
           label="processing window w")
     _step(ax, df, _offscale(msb, top), color=COLORS["msb_min"], lw=1.5, label="min MSB")
     _wsch_line(ax, df)
-    _label_runs(ax, df, safe, w_sch, np.minimum(msb, top), "safe operating area")
-    _label_runs(ax, df, ~safe, np.zeros_like(w_sch), w_sch, "critical")
+    _label_runs(ax, df, safe, w_sch, np.minimum(msb, top), "safe operating area", top)
+    _label_runs(ax, df, ~safe, np.zeros_like(w_sch), w_sch, "critical", top)
     ax.set_ylim(0, top)
     _note_clip(ax, [msb, w], top)
     _time_axes(ax, df, "processing window (ms)")
 
 
 def _label_runs(ax: Axes, df: pd.DataFrame, mask: np.ndarray, lo: np.ndarray,
-                hi: np.ndarray, text: str) -> None:
-    """Write ``text`` in the middle of the longest run of ``mask`` (if wide enough)."""
+                hi: np.ndarray, text: str, top: float) -> None:
+    """Write ``text`` in the middle of the longest run of ``mask`` (if wide enough); above
+    the band instead when it is thinner than 10% of the axis height ``top``."""
     spans = _spans(df, mask)
     if not spans or len(df) < 2:
         return
@@ -391,8 +392,10 @@ def _label_runs(ax: Axes, df: pd.DataFrame, mask: np.ndarray, lo: np.ndarray,
     if total <= 0 or (b - a) < 0.12 * total:
         return
     inside = (_t_s(df) >= a) & (_t_s(df) < b)
-    y = float(np.nanmedian((lo[inside] + hi[inside]) / 2))
-    ax.text((a + b) / 2, y, text, ha="center", va="center", fontsize="small",
+    y, va = float(np.nanmedian((lo[inside] + hi[inside]) / 2)), "center"
+    if float(np.nanmedian(hi[inside] - lo[inside])) < 0.1 * top:
+        y, va = float(np.nanmax(hi[inside])) + 0.02 * top, "bottom"
+    ax.text((a + b) / 2, y, text, ha="center", va=va, fontsize="small",
             style="italic", color="#333333")
 
 
@@ -517,7 +520,10 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
         _DRAWERS[kind](ax, df, top)
         if kind == "paths":
             ax.set_aspect("equal", adjustable="box")  # shared axes cannot adjust data limits
-        ax.set_title(f"{mode}\n{_counts(df)}", fontsize="small", loc="left")
+        note = ax.get_title(loc="right")  # the off-scale note would overlap the counts
+        ax.set_title("", loc="right")
+        ax.set_title(f"{mode}\n{_counts(df)}" + (f"\n{note}" if note else ""),
+                     fontsize="small", loc="left")
         if ax is not axes[0]:
             ax.set_ylabel("")
     if kind != "paths":  # shared time axis: the union of the runs (each panel set its own)
