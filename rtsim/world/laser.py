@@ -15,13 +15,15 @@ are not modelled.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.analysis.window import LASER_POINTS
 
-__all__ = ["BEAM_BEARINGS", "BEAM_SPACING", "count_beams", "beam_owners", "max_points"]
+__all__ = ["BEAM_BEARINGS", "BEAM_SPACING", "count_beams", "count_beams_xy", "beam_owners",
+           "max_points"]
 
 #: Angular spacing of the beams (rad): 0.5°.
 BEAM_SPACING = math.radians(0.5)
@@ -66,10 +68,18 @@ def count_beams(
     arcsin(r_F/ρ) of the disc's bearing; otherwise :func:`beam_owners` resolves every beam.
     """
     rel = np.asarray(rel_xy, dtype=float).reshape(-1, 2)
-    n = rel.shape[0]
+    return np.array(count_beams_xy(rel.tolist(), r_F, max_range), dtype=np.int64)
+
+
+def count_beams_xy(
+    rel_xy: Sequence[Sequence[float]], r_F: float, max_range: float = math.inf
+) -> list[int]:
+    """:func:`count_beams` on a list of (x, y) pairs (floats), returning a list of ints
+    (the world's per-scan path: no arrays unless a shadowing check needs every beam)."""
+    n = len(rel_xy)
     spans: list[tuple[int, int, int]] = []
     counts = [0] * n
-    for k, (x, y) in enumerate(rel.tolist()):
+    for k, (x, y) in enumerate(rel_xy):
         rho = math.hypot(x, y)
         if rho <= r_F or (rho - r_F <= max_range < rho + r_F):
             spans = []
@@ -87,9 +97,9 @@ def count_beams(
         if all(spans[j][1] < spans[j + 1][0] for j in range(len(spans) - 1)):
             for lo, hi, k in spans:
                 counts[k] = hi - lo + 1
-            return np.array(counts, dtype=np.int64)
-    owners = beam_owners(rel, r_F, max_range)
-    return np.bincount(owners[owners >= 0], minlength=n).astype(np.int64)
+            return counts
+    owners = beam_owners(np.array(rel_xy, dtype=float).reshape(-1, 2), r_F, max_range)
+    return [int(c) for c in np.bincount(owners[owners >= 0], minlength=n)]
 
 
 def max_points(rho: float, r_F: float) -> int:

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -38,9 +37,8 @@ from rtsim.errors import RtsimError
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
 from rtsim.world.follower import FollowerGroup, arc1, control_targets, lpsi_command, ramp1
-from rtsim.world.laser import count_beams
+from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
-from rtsim.world.localization import locate_one
 
 __all__ = ["World", "Scan"]
 
@@ -48,7 +46,15 @@ Array = NDArray[np.float64]
 Pose = tuple[float, float, float]
 
 
-@dataclass(frozen=True, eq=False)
+_ARRAY_FIELDS: tuple[tuple[str, Any], ...] = (
+    ("points", np.int64), ("measured", None), ("truth", None), ("centre", None),
+    ("in_window", None), ("lost", None), ("reacquired", None))
+
+
+def _as_list(x: Any) -> list[Any]:
+    return x if isinstance(x, list) else np.asarray(x).tolist()
+
+
 class Scan:
     """What one scan at ``t_ms`` saw; arrays have one row per follower (index i − 1).
 
@@ -58,38 +64,107 @@ class Scan:
     truth's change since the previous scan (``displacement`` in the leader frame, ``d_rho``,
     ``travel``, ``d_beta``; zeros at the first scan); violations: per bound kind (SPEC §6),
     whether that change exceeded its threshold.
+
+    Read-only. The world builds a scan from plain lists; each array (and each mapping of
+    arrays) is made on first access, so a caller that reads a few fields pays for those only.
     """
+
+    __slots__ = ("t_ms", "leader_pose", "_raw", "_arrays")
 
     t_ms: float
     leader_pose: Pose
-    points: NDArray[np.int64]
-    measured: Array
-    truth: Array
-    centre: Array
-    in_window: NDArray[np.bool_]
-    lost: NDArray[np.bool_]
-    reacquired: NDArray[np.bool_]
-    changes: Mapping[str, Array]
-    violations: Mapping[str, NDArray[np.bool_]]
+
+    def __init__(self, t_ms: float, leader_pose: Pose, points: Any, measured: Any, truth: Any,
+                 centre: Any, in_window: Any, lost: Any, reacquired: Any,
+                 changes: Mapping[str, Any], violations: Mapping[str, Any]) -> None:
+        object.__setattr__(self, "t_ms", t_ms)
+        object.__setattr__(self, "leader_pose", leader_pose)
+        object.__setattr__(self, "_raw", {
+            "points": points, "measured": measured, "truth": truth, "centre": centre,
+            "in_window": in_window, "lost": lost, "reacquired": reacquired,
+            "changes": changes, "violations": violations})
+        object.__setattr__(self, "_arrays", {})
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"Scan is read-only: cannot set {name!r}")
+
+    def _array(self, name: str, dtype: Any = None) -> Any:
+        arr = self._arrays.get(name)
+        if arr is None:
+            raw = self._raw[name]
+            if name in ("changes", "violations"):
+                arr = {k: np.array(v) for k, v in raw.items()}
+            elif isinstance(raw, np.ndarray):
+                arr = raw
+            else:
+                arr = np.array(raw) if dtype is None else np.array(raw, dtype=dtype)
+            self._arrays[name] = arr
+        return arr
+
+    def _list(self, name: str) -> Any:
+        """A field as plain lists (internal fast path; do not mutate)."""
+        raw = self._raw[name]
+        if name in ("changes", "violations"):
+            return {k: _as_list(v) for k, v in raw.items()}
+        return _as_list(raw)
+
+    @property
+    def points(self) -> NDArray[np.int64]:
+        return self._array("points", np.int64)  # type: ignore[no-any-return]
+
+    @property
+    def measured(self) -> Array:
+        return self._array("measured")  # type: ignore[no-any-return]
+
+    @property
+    def truth(self) -> Array:
+        return self._array("truth")  # type: ignore[no-any-return]
+
+    @property
+    def centre(self) -> Array:
+        return self._array("centre")  # type: ignore[no-any-return]
+
+    @property
+    def in_window(self) -> NDArray[np.bool_]:
+        return self._array("in_window")  # type: ignore[no-any-return]
+
+    @property
+    def lost(self) -> NDArray[np.bool_]:
+        return self._array("lost")  # type: ignore[no-any-return]
+
+    @property
+    def reacquired(self) -> NDArray[np.bool_]:
+        return self._array("reacquired")  # type: ignore[no-any-return]
+
+    @property
+    def changes(self) -> Mapping[str, Array]:
+        return self._array("changes")  # type: ignore[no-any-return]
+
+    @property
+    def violations(self) -> Mapping[str, NDArray[np.bool_]]:
+        return self._array("violations")  # type: ignore[no-any-return]
 
     @property
     def n(self) -> int:
-        return int(self.points.shape[0])
+        return len(self._raw["points"])
 
     @property
     def total_points(self) -> int:
         """Scan points returned by all followers (Eq 1's min(361, k·n), counted)."""
-        return int(self.points.sum())
+        return int(sum(_as_list(self._raw["points"])))
 
     @property
     def n_lost(self) -> int:
         """Followers lost at this scan (each re-acquisition is charged)."""
-        return int(self.lost.sum())
+        return int(sum(_as_list(self._raw["lost"])))
 
     @property
     def lost_followers(self) -> tuple[int, ...]:
         """1-based numbers of the followers that need re-acquisition."""
-        return tuple(int(k) + 1 for k in np.flatnonzero(self.lost))
+        return tuple(k + 1 for k, v in enumerate(_as_list(self._raw["lost"])) if v)
+
+    def __repr__(self) -> str:
+        return f"Scan(t_ms={self.t_ms!r}, n={self.n}, points={_as_list(self._raw['points'])})"
 
 
 class World:
@@ -135,6 +210,8 @@ class World:
         thr = config.thresholds
         self._sep_limit = thr.T_rho * self._rho_d
         self._travel_limit = thr.T_eps * self._rho_d
+        self._sep_limit_l: list[float] = self._sep_limit.tolist()
+        self._travel_limit_l: list[float] = self._travel_limit.tolist()
 
     # -- time ------------------------------------------------------------------------
     @property
@@ -245,53 +322,57 @@ class World:
         fol = self.followers
         n = self.n
         truth_l = self._to_leader(lp, fol.x, fol.y)
-        truth = np.array(truth_l)
-        points = count_beams(truth, cfg.follower.radius, sens.max_range)
-        pts = points.tolist()
-        noise = (sens.position_noise * self.rng.standard_normal((n, 2))).tolist()
+        pts = count_beams_xy(truth_l, cfg.follower.radius, sens.max_range)
+        z = self.rng.standard_normal(2 * n).tolist()  # = standard_normal((n, 2)), row-major
+        pn = sens.position_noise
         r_H, r_re, min_pts = thr.r_H, sens.r_reacq, sens.min_points
+        T_beta = thr.T_beta
+        sep_lim, trav_lim = self._sep_limit_l, self._travel_limit_l
         prev = self._prev
-        cols: dict[str, list[Any]] = {key: [] for key in (
-            "measured", "in_w", "lost", "reacq", "rho", "beta", "displacement", "d_rho",
-            "travel", "d_beta")}
+        centre = self._centre
+        odo = fol.odometer
+        two_pi = 2 * math.pi
+        measured, in_ws, losts, reacqs, rhos, betas = [], [], [], [], [], []
+        disps, d_rhos, travels, d_betas = [], [], [], []
+        v_loc, v_sep, v_path, v_bear = [], [], [], []
         for k in range(n):
             tx, ty = truth_l[k]
-            mx, my = tx + noise[k][0], ty + noise[k][1]
-            in_w, lost, reacq = locate_one((mx, my), self._centre[k], pts[k], r_H, r_re,
-                                           min_pts)
-            cols["measured"].append((mx, my))
-            cols["in_w"].append(in_w)
-            cols["lost"].append(lost)
-            cols["reacq"].append(reacq)
+            mx, my = tx + pn * z[2 * k], ty + pn * z[2 * k + 1]
+            # locate_one, inlined
+            cx, cy = centre[k]
+            dist = math.hypot(mx - cx, my - cy)
+            visible = pts[k] >= min_pts
+            in_w = visible and dist <= r_H
+            measured.append((mx, my))
+            in_ws.append(in_w)
+            losts.append(not in_w)
+            reacqs.append((not in_w) and visible and dist <= r_re)
             rho = math.hypot(tx, ty)
-            beta = math.atan2(ty, tx) % (2 * math.pi)
-            cols["rho"].append(rho)
-            cols["beta"].append(beta)
+            beta = math.atan2(ty, tx) % two_pi
+            rhos.append(rho)
+            betas.append(beta)
             if prev is None:
                 disp = d_rho = travel = d_beta = 0.0
             else:
                 px, py = prev["truth"][k]
                 disp = math.hypot(tx - px, ty - py)
                 d_rho = abs(rho - prev["rho"][k])
-                travel = fol.odometer[k] - prev["odo"][k]
-                d_beta = abs(math.remainder(beta - prev["beta"][k], 2 * math.pi))
-            cols["displacement"].append(disp)
-            cols["d_rho"].append(d_rho)
-            cols["travel"].append(travel)
-            cols["d_beta"].append(d_beta)
-        changes = {key: np.array(cols[key]) for key in ("displacement", "d_rho", "travel",
-                                                         "d_beta")}
-        violations = {
-            "localization": changes["displacement"] > r_H,
-            "separation": changes["d_rho"] > self._sep_limit,
-            "path_diversion": changes["travel"] > self._travel_limit,
-            "bearing": changes["d_beta"] > thr.T_beta,
-        }
-        self._prev = {"truth": truth_l, "rho": cols["rho"], "beta": cols["beta"],
-                      "odo": list(fol.odometer)}
-        return Scan(t_ms, lp, points, np.array(cols["measured"]), truth,
-                    np.array(self._centre), np.array(cols["in_w"]), np.array(cols["lost"]),
-                    np.array(cols["reacq"]), changes, violations)
+                travel = odo[k] - prev["odo"][k]
+                d_beta = abs(math.remainder(beta - prev["beta"][k], two_pi))
+            disps.append(disp)
+            d_rhos.append(d_rho)
+            travels.append(travel)
+            d_betas.append(d_beta)
+            v_loc.append(disp > r_H)
+            v_sep.append(d_rho > sep_lim[k])
+            v_path.append(travel > trav_lim[k])
+            v_bear.append(d_beta > T_beta)
+        changes = {"displacement": disps, "d_rho": d_rhos, "travel": travels, "d_beta": d_betas}
+        violations = {"localization": v_loc, "separation": v_sep, "path_diversion": v_path,
+                      "bearing": v_bear}
+        self._prev = {"truth": truth_l, "rho": rhos, "beta": betas, "odo": list(odo)}
+        return Scan(t_ms, lp, pts, measured, truth_l, list(centre), in_ws, losts, reacqs,
+                    changes, violations)
 
     def estimate(self, scan: Scan) -> None:
         """EKF predict (commands held since the last estimate) and update from ``scan``'s fixes;
@@ -302,9 +383,9 @@ class World:
         a = self.config.follower.max_accel
         xl, yl, hl = scan.leader_pose
         c, s = math.cos(hl), math.sin(hl)
-        measured = scan.measured.tolist()
-        in_window = scan.in_window.tolist()
-        reacquired = scan.reacquired.tolist()
+        measured = scan._list("measured")
+        in_window = scan._list("in_window")
+        reacquired = scan._list("reacquired")
         for k, f in enumerate(self._filters):
             pieces = self._pieces[k]
             v = self._vhat[k]
