@@ -38,6 +38,7 @@ __all__ = [
     "msb_separation",
     "relative_state",
     "rho_dot",
+    "scalar_msbs",
     "slack",
     "wrap_angle",
     "wrap_positive",
@@ -54,14 +55,14 @@ _TWO_PI = 2.0 * math.pi
 def _xp(*args: Any) -> Any:
     """``numpy`` when any argument is a non-scalar array, else ``math`` (fast scalars)."""
     for a in args:
-        if isinstance(a, np.ndarray) and a.ndim > 0:
+        if a.__class__ is not float and isinstance(a, np.ndarray) and a.ndim > 0:
             return np
     return math
 
 
 def wrap_angle(a: Any) -> Any:
     """Wrap an angle (rad) to (−π, π]."""
-    if _xp(a) is np:
+    if a.__class__ is not float and _xp(a) is np:
         w = np.mod(a + math.pi, _TWO_PI) - math.pi
         return np.where(w == -math.pi, math.pi, w)
     w = math.fmod(float(a) + math.pi, _TWO_PI)
@@ -73,7 +74,7 @@ def wrap_angle(a: Any) -> Any:
 
 def wrap_positive(a: Any) -> Any:
     """Wrap an angle (rad) to [0, 2π)."""
-    if _xp(a) is np:
+    if a.__class__ is not float and _xp(a) is np:
         w = np.mod(a, _TWO_PI)
         return np.where(w >= _TWO_PI, 0.0, w)
     w = math.fmod(float(a), _TWO_PI)
@@ -210,6 +211,33 @@ class Thresholds:
             )
 
 
+def scalar_msbs(
+    v_l: float,
+    omega_l: float,
+    v_f: float,
+    rho: float,
+    beta: float,
+    theta: float,
+    rho_d: float,
+    thr: Thresholds,
+) -> tuple[float, float, float, float]:
+    """:func:`follower_msbs` for scalars, as a tuple in :data:`BOUND_KINDS` order (the hot
+    path of the coupled run: no dict, no array checks; the same operations)."""
+    rd = v_f * math.cos(theta + beta) - v_l * math.cos(beta)
+    bd = (v_l * math.sin(beta) - v_f * math.sin(beta + theta)) / rho - omega_l
+    ard, abd, avf = abs(float(rd)), abs(float(bd)), abs(float(v_f))
+    if thr.localization == "radial":
+        loc = math.inf if ard == 0.0 else 1000.0 * thr.r_H / ard
+    else:
+        loc = msb_localization_full(rd, bd, rho, thr.r_H)
+    return (
+        loc,
+        math.inf if ard == 0.0 else 1000.0 * float(thr.T_rho * rho_d) / ard,
+        math.inf if avf == 0.0 else 1000.0 * float(thr.T_eps * rho_d) / avf,
+        math.inf if abd == 0.0 else 1000.0 * thr.T_beta / abd,
+    )
+
+
 def follower_msbs(
     v_l: float,
     omega_l: float,
@@ -225,19 +253,9 @@ def follower_msbs(
     ``localization`` is Eq 19 or the full form, as ``thr.localization`` says.
     """
     if _xp(v_l, omega_l, v_f, rho, beta, theta, rho_d) is math:  # scalar fast path, same ops
-        rd = v_f * math.cos(theta + beta) - v_l * math.cos(beta)
-        bd = (v_l * math.sin(beta) - v_f * math.sin(beta + theta)) / rho - omega_l
-        ard, abd, avf = abs(float(rd)), abs(float(bd)), abs(float(v_f))
-        if thr.localization == "radial":
-            loc = math.inf if ard == 0.0 else 1000.0 * thr.r_H / ard
-        else:
-            loc = msb_localization_full(rd, bd, rho, thr.r_H)
-        return {
-            "localization": loc,
-            "separation": math.inf if ard == 0.0 else 1000.0 * float(thr.T_rho * rho_d) / ard,
-            "path_diversion": math.inf if avf == 0.0 else 1000.0 * float(thr.T_eps * rho_d) / avf,
-            "bearing": math.inf if abd == 0.0 else 1000.0 * thr.T_beta / abd,
-        }
+        loc, sep, path, bear = scalar_msbs(v_l, omega_l, v_f, rho, beta, theta, rho_d, thr)
+        return {"localization": loc, "separation": sep, "path_diversion": path,
+                "bearing": bear}
     rd = rho_dot(v_l, v_f, beta, theta)
     bd = beta_dot(v_l, v_f, beta, theta, rho, omega_l)
     if thr.localization == "radial":

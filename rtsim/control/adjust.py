@@ -52,15 +52,17 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
-from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds, formation_velocity
+from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds
 from rtsim.control.closed_forms import coupled_speed, paper_speed
 from rtsim.control.predict import (
     FollowerEstimate,
     Predictor,
     check_number,
-    min_bound,
+    min_bound_rows,
+    predict_msb_rows,
     predict_msbs,
     predictor,
+    unit_formation,
 )
 
 __all__ = [
@@ -135,6 +137,11 @@ class Adjustment:
         return self.msb_min < self.w_sch
 
 
+def _as_dict(row: Sequence[float]) -> dict[str, float]:
+    return {"localization": row[0], "separation": row[1], "path_diversion": row[2],
+            "bearing": row[3]}
+
+
 def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
     """Largest passing speed: scan ``grid`` (descending), bisect below the first failure."""
     above: float | None = None
@@ -200,8 +207,9 @@ def adjust(
         raise ValueError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
 
     predict = predictor(model, omega_l=omega_l, kappa=kappa)
-    msbs = predict_msbs(followers, v_ld, predict, thresholds)
-    m, kind, who = min_bound(msbs)
+    rows = predict_msb_rows(followers, v_ld, predict, thresholds)
+    msbs = [_as_dict(r) for r in rows]
+    m, kind, who = min_bound_rows(rows)
     common = dict(
         mode="adjust",
         w_sch=w_sch,
@@ -228,14 +236,14 @@ def adjust(
     need = w_sch * (1.0 - _TOL)
 
     def ok(v: float) -> bool:
-        return min_bound(predict_msbs(followers, v, predict, thresholds))[0] >= need
+        return min_bound_rows(predict_msb_rows(followers, v, predict, thresholds))[0] >= need
 
     candidates: dict[str, float] = {k: math.nan for k in methods}
     if "closed-form" in methods:
         v = math.inf
-        for f, fm in zip(followers, msbs, strict=True):
-            for k in BOUND_KINDS:
-                if fm[k] < w_sch:
+        for f, fm in zip(followers, rows, strict=True):
+            for j, k in enumerate(BOUND_KINDS):
+                if fm[j] < w_sch:
                     hi = paper_speed(
                         k,
                         rho=f.rho,
@@ -252,7 +260,7 @@ def adjust(
     if "coupled" in methods:
         v = math.inf
         for f in followers:
-            s, theta_f = formation_velocity(1.0, kappa, *f.slot)
+            s, theta_f = unit_formation(kappa, *f.slot)
             for k in BOUND_KINDS:
                 v = min(
                     v,
@@ -297,8 +305,9 @@ def adjust(
             best, method = found, "numeric"
             candidates["numeric"] = found
     v_l = floor_frac * v_ld if best is None else best
-    after = predict_msbs(followers, v_l, predict, thresholds)
-    m_after = min_bound(after)[0]
+    after_rows = predict_msb_rows(followers, v_l, predict, thresholds)
+    after = [_as_dict(r) for r in after_rows]
+    m_after = min_bound_rows(after_rows)[0]
     return Adjustment(
         w=w_sch,
         slack=0.0,
@@ -363,8 +372,9 @@ def decide(
     if floor_w <= 0.0:
         raise ValueError(f"decide: floor_w must be positive, got {floor_w!r}")
     predict = predictor(model, omega_l=omega_l, kappa=kappa)
-    msbs = tuple(predict_msbs(followers, v_ld, predict, thresholds))
-    m, kind, who = min_bound(msbs)
+    rows = predict_msb_rows(followers, v_ld, predict, thresholds)
+    msbs = tuple(_as_dict(r) for r in rows)
+    m, kind, who = min_bound_rows(rows)
     w = w_sch if mode == "fixed-wsch" else min(max(m, floor_w), max(cap, floor_w))
     return Adjustment(
         mode=mode,

@@ -16,12 +16,30 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
-from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds, follower_msbs, formation_velocity
+from rtsim.analysis.kinematics import (
+    BOUND_KINDS,
+    Thresholds,
+    follower_msbs,
+    formation_velocity,
+    scalar_msbs,
+)
 
-__all__ = ["FollowerEstimate", "Predictor", "min_bound", "predict_msbs", "predictor"]
+__all__ = [
+    "FollowerEstimate",
+    "Predictor",
+    "min_bound",
+    "min_bound_rows",
+    "predict_msb_rows",
+    "predict_msbs",
+    "predictor",
+    "trusted_estimate",
+    "unit_formation",
+]
 
 
 def check_number(where: str, name: str, value: float) -> float:
+    if value.__class__ is float and value - value == 0.0:  # a finite float: the common case
+        return value
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise ValueError(f"{where}: {name} must be a finite number, got {value!r}")
     return float(value)
@@ -55,12 +73,41 @@ class FollowerEstimate:
         if self.v_f < 0.0:
             raise ValueError(f"{where}: v_f must be non-negative, got {self.v_f!r}")
 
+    @classmethod
+    def _trusted(cls, rho: float, beta: float, theta: float, v_f: float, rho_d: float,
+                 beta_d: float | None = None) -> FollowerEstimate:
+        """Construct without validation: only for values the caller has already checked
+        (finite floats, rho and rho_d > 0, v_f ≥ 0) — see :func:`trusted_estimate`."""
+        self = object.__new__(cls)
+        object.__setattr__(self, "rho", rho)
+        object.__setattr__(self, "beta", beta)
+        object.__setattr__(self, "theta", theta)
+        object.__setattr__(self, "v_f", v_f)
+        object.__setattr__(self, "rho_d", rho_d)
+        object.__setattr__(self, "beta_d", beta_d)
+        return self
+
     @property
     def slot(self) -> tuple[float, float]:
         """Formation slot (ρ, β) in the leader frame."""
         if self.beta_d is None:
             return self.rho, self.beta
         return self.rho_d, self.beta_d
+
+
+def trusted_estimate(rho: float, beta: float, theta: float, v_f: float, rho_d: float,
+                     beta_d: float | None = None) -> FollowerEstimate:
+    """``FollowerEstimate(...)``, skipping the validation when every value is a finite float
+    in range (the per-window path of a coupled run); otherwise the checked constructor, with
+    its errors."""
+    if (rho.__class__ is float and beta.__class__ is float and theta.__class__ is float
+            and v_f.__class__ is float and rho_d.__class__ is float
+            and (beta_d is None or (beta_d.__class__ is float and beta_d - beta_d == 0.0))
+            and rho > 0.0 and rho_d > 0.0 and v_f >= 0.0
+            and rho - rho == 0.0 and beta - beta == 0.0 and theta - theta == 0.0
+            and v_f - v_f == 0.0 and rho_d - rho_d == 0.0):
+        return FollowerEstimate._trusted(rho, beta, theta, v_f, rho_d, beta_d)
+    return FollowerEstimate(rho, beta, theta, v_f, rho_d, beta_d)
 
 
 #: (follower, leader speed) -> (V_F, θ, ω_L) predicted at that leader speed.
@@ -72,19 +119,30 @@ def predictor(model: str | Predictor, *, omega_l: float, kappa: float) -> Predic
     if callable(model):
         return model
     if model == "formation":
-        cache: dict[tuple[float, float], tuple[float, float]] = {}
 
         def formation(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
-            slot = f.slot
-            if slot not in cache:
-                cache[slot] = formation_velocity(1.0, kappa, *slot)
-            s, theta_f = cache[slot]
+            s, theta_f = unit_formation(kappa, *f.slot)
             return s * v_l, theta_f, kappa * v_l
 
         return formation
     if model == "estimate":
         return lambda f, v_l: (f.v_f, f.theta, omega_l)
     raise ValueError(f"model must be 'formation', 'estimate' or a callable, got {model!r}")
+
+
+_UNIT_FORMATION: dict[tuple[float, float, float, float], tuple[float, float]] = {}
+
+
+def unit_formation(kappa: float, rho: float, beta: float) -> tuple[float, float]:
+    """``formation_velocity(1.0, kappa, rho, beta)`` (V_F per unit V_L, θ), memoised: a pure
+    function of its arguments, evaluated once per (κ, slot)."""
+    key = (kappa, rho, beta, math.copysign(1.0, kappa))
+    out = _UNIT_FORMATION.get(key)
+    if out is None:
+        if len(_UNIT_FORMATION) >= 4096:
+            _UNIT_FORMATION.clear()
+        out = _UNIT_FORMATION[key] = formation_velocity(1.0, kappa, rho, beta)
+    return out
 
 
 def predict_msbs(
@@ -96,6 +154,32 @@ def predict_msbs(
         v_f, theta, omega_l = predict(f, v_l)
         out.append(follower_msbs(v_l, omega_l, v_f, f.rho, f.beta, theta, f.rho_d, thr))
     return out
+
+
+def predict_msb_rows(
+    followers: Sequence[FollowerEstimate], v_l: float, predict: Predictor, thr: Thresholds
+) -> list[tuple[float, float, float, float]]:
+    """:func:`predict_msbs` as tuples in :data:`BOUND_KINDS` order (same values, no dicts)."""
+    out = []
+    for f in followers:
+        v_f, theta, omega_l = predict(f, v_l)
+        if (v_l.__class__ is float and v_f.__class__ is float and theta.__class__ is float
+                and omega_l.__class__ is float):
+            out.append(scalar_msbs(v_l, omega_l, v_f, f.rho, f.beta, theta, f.rho_d, thr))
+        else:
+            m = follower_msbs(v_l, omega_l, v_f, f.rho, f.beta, theta, f.rho_d, thr)
+            out.append(tuple(m[k] for k in BOUND_KINDS))  # type: ignore[arg-type]
+    return out
+
+
+def min_bound_rows(rows: Sequence[Sequence[float]]) -> tuple[float, str, int]:
+    """:func:`min_bound` over rows in :data:`BOUND_KINDS` order."""
+    best, kind, who = math.inf, "none", 0
+    for i, m in enumerate(rows, start=1):
+        for j in range(4):
+            if m[j] < best:
+                best, kind, who = m[j], BOUND_KINDS[j], i
+    return best, kind, who
 
 
 def min_bound(msbs: Sequence[Mapping[str, float]]) -> tuple[float, str, int]:

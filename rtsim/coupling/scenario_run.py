@@ -57,8 +57,9 @@ import pandas as pd
 import simpy
 
 from rtsim.analysis.bounds import window_bounds
-from rtsim.analysis.kinematics import BOUND_KINDS, follower_msbs, relative_state
-from rtsim.control import MODES, FollowerEstimate, decide
+from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, scalar_msbs
+from rtsim.control import MODES, decide
+from rtsim.control.predict import trusted_estimate
 from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
@@ -280,7 +281,7 @@ class _Coupling:
             pose, v_f = world._propagate(k, now)
             rho, beta, theta = relative_state(lp, pose)
             state.append((*pose, rho, beta, theta, v_f))
-            fols.append(FollowerEstimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
+            fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
                                          self.beta_d[k]))
         adj = decide(self.mode, fols, v_ld=self.v_ld, w_sch=self.w_sch, thresholds=self.thr,
                      omega_l=world.leader_omega, kappa=kappa, **self.opts)
@@ -316,7 +317,7 @@ class _Coupling:
         rec.hough_ms = self._hough_ms
         rec.points = scan.total_points
         rec.tracks_lost = scan.n_lost
-        rec.lost = scan.lost
+        rec.lost = scan._list("lost")
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
         self._close(scan)
@@ -327,16 +328,20 @@ class _Coupling:
         last = self._last_scanned
         if last is None:
             return
-        last.viol = scan.violations
-        last.changes = scan.changes
+        last.viol = scan._list("violations")
+        last.changes = scan._list("changes")
 
     def violation_ratios(self) -> dict[str, float]:
         """Largest observed change / its threshold per bound kind, over the kept windows."""
         recs = [r for r in self.rec.records if r.complete and r.changes is not None]
         out = {}
         for kind, key, lim in self._limits:
-            vals = [np.max(r.changes[key] / lim) for r in recs]  # type: ignore[index]
-            out[kind] = float(max(vals)) if vals else 0.0
+            if not recs:
+                out[kind] = 0.0
+                continue
+            ch = np.array([r.changes[key] for r in recs], dtype=float)  # type: ignore[index]
+            vals = np.max(ch.reshape(len(recs), -1) / lim, axis=1).tolist()
+            out[kind] = float(max(vals))
         return out
 
     def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
@@ -347,8 +352,8 @@ class _Coupling:
         # the scan has just advanced every follower to now
         for k, (x, y, th, v_f) in enumerate(zip(fol.x, fol.y, fol.th, fol.v, strict=True)):
             rho, beta, theta = relative_state(lp, (x, y, th))
-            m = follower_msbs(v_l, w_l, v_f, rho, beta, theta, self.rho_d[k], self.thr)
-            out.append((x, y, th, rho, beta, theta, v_f, *(m[b] for b in BOUND_KINDS)))
+            m = scalar_msbs(v_l, w_l, v_f, rho, beta, theta, self.rho_d[k], self.thr)
+            out.append((x, y, th, rho, beta, theta, v_f, *m))
         return tuple(out)
 
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
