@@ -172,3 +172,17 @@ def test_relative_taskset_path(tmp_path: Path) -> None:
                             "ok.toml"))
     assert Path(s.taskset) == tmp_path / "sets" / "mine.toml"
     assert s.load_taskset().window.n == 2
+
+
+def test_packaged_scenarios_equal_the_experiment_files(tmp_path, monkeypatch) -> None:
+    """The paper's scenarios ship with rtsim (by name) and equal experiments/scenarios/."""
+    from pathlib import Path
+
+    from rtsim.io.scenario import PACKAGED_SCENARIOS, load_scenario, scenario_bytes
+
+    root = Path(__file__).resolve().parents[1]
+    monkeypatch.chdir(tmp_path)  # no file called test1 here: the name means the packaged one
+    for name in PACKAGED_SCENARIOS:
+        raw, _ = scenario_bytes(name)
+        assert raw == (root / "experiments" / "scenarios" / f"{name}.toml").read_bytes()
+        assert load_scenario(name).name == name

@@ -64,10 +64,13 @@ from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import Formation, chevron
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
-__all__ = ["AdjustConfig", "Scenario", "load_scenario", "parse_scenario", "PACKAGED_TASKSETS"]
+__all__ = ["AdjustConfig", "Scenario", "load_scenario", "parse_scenario", "scenario_bytes",
+           "PACKAGED_SCENARIOS", "PACKAGED_TASKSETS"]
 
 #: Task-set names that refer to the package's own files rather than to a path.
 PACKAGED_TASKSETS = ("barrel_robots",)
+#: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
+PACKAGED_SCENARIOS = ("test1", "test2")
 
 T = TypeVar("T")
 
@@ -356,14 +359,29 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
                     source=source)
 
 
-def load_scenario(path: str | os.PathLike[str]) -> Scenario:
-    """Read and validate a scenario TOML file."""
+def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
+    """The bytes of a scenario file, and its path.
+
+    ``path`` is a file, or the name of a packaged scenario (``test1``, ``test2``: the paper's
+    tests, shipped with rtsim as copies of ``experiments/scenarios/``) when no such file
+    exists.
+    """
     p = Path(path)
-    src = p.name if p.name else str(p)
+    if not p.exists() and str(path) in PACKAGED_SCENARIOS:
+        from importlib import resources
+
+        res = resources.files("rtsim") / "data" / "scenarios" / f"{path}.toml"
+        return res.read_bytes(), Path(f"{path}.toml")
     try:
-        raw = p.read_bytes()
+        return p.read_bytes(), p
     except OSError as exc:
         raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
+
+
+def load_scenario(path: str | os.PathLike[str]) -> Scenario:
+    """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``)."""
+    raw, p = scenario_bytes(path)
+    src = p.name if p.name else str(p)
     try:
         data = tomllib.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as exc:

@@ -68,7 +68,7 @@ class ValidationConfig:
             raise InputError(f"validate: random sets must be >= 0, got {self.random_sets}")
 
 
-#: Test 1's scenario file in a source checkout (not installed with the package).
+#: Test 1's scenario file in a source checkout (installed as the packaged scenario ``test1``).
 DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "experiments" / "scenarios" / "test1.toml"
 
 FULL = ValidationConfig()
@@ -94,15 +94,14 @@ class ValidationOutcome:
 
 
 def _scenario_options(cfg: ValidationConfig) -> dict[str, Any]:
+    from rtsim.io.scenario import load_scenario, scenario_bytes
+
     path = cfg.scenario_path
     if path is None:
-        if not DEFAULT_SCENARIO.exists():
-            return {}
-        path = str(DEFAULT_SCENARIO)
-    from rtsim.io.scenario import load_scenario
-
+        path = str(DEFAULT_SCENARIO) if DEFAULT_SCENARIO.exists() else "test1"  # packaged copy
     load_scenario(path)  # checked here: a bad file is an input error (exit 2)
-    return {"scenario_text": Path(path).read_text("utf-8"), "scenario_source": str(path)}
+    raw, p = scenario_bytes(path)
+    return {"scenario_text": raw.decode("utf-8"), "scenario_source": str(p)}
 
 
 def _taskset_options(cfg: ValidationConfig) -> dict[str, Any]:
