@@ -15,6 +15,11 @@ from typing import Any
 
 __all__ = ["atomic_path", "write_text", "write_bytes", "write_json", "write_table"]
 
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+#: Mode of written files: what ``open`` would give (mkstemp alone makes them owner-only).
+FILE_MODE = 0o666 & ~_UMASK
+
 
 @contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
@@ -23,6 +28,7 @@ def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
+    os.chmod(tmp, FILE_MODE)
     tmp_path = Path(tmp)
     try:
         yield tmp_path
