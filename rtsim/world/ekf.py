@@ -210,19 +210,31 @@ class FastFollowerEKF:
         self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
 
     def update(self, z: tuple[float, float]) -> None:
-        x, P, r = self.x, self._p, self.r
-        s00, s01, s11 = P[0][0] + r, P[0][1], P[1][1] + r
+        x, r = self.x, self.r
+        p0, p1, p2 = self._p
+        p00, p01, p02 = p0
+        p10, p11, p12 = p1
+        p20, p21, p22 = p2
+        s00, s01, s11 = p00 + r, p01, p11 + r
         det = s00 * s11 - s01 * s01
         i00, i01, i11 = s11 / det, -s01 / det, s00 / det
-        # K = P Hᵀ S⁻¹ (3×2)
-        K = [[P[j][0] * i00 + P[j][1] * i01, P[j][0] * i01 + P[j][1] * i11] for j in range(3)]
+        # K = P Hᵀ S⁻¹ (3×2), row j = (P[j][0] i00 + P[j][1] i01, P[j][0] i01 + P[j][1] i11)
+        k00, k01 = p00 * i00 + p01 * i01, p00 * i01 + p01 * i11
+        k10, k11 = p10 * i00 + p11 * i01, p10 * i01 + p11 * i11
+        k20, k21 = p20 * i00 + p21 * i01, p20 * i01 + p21 * i11
         y0, y1 = z[0] - x[0], z[1] - x[1]
-        for j in range(3):
-            x[j] += K[j][0] * y0 + K[j][1] * y1
+        x[0] += k00 * y0 + k01 * y1
+        x[1] += k10 * y0 + k11 * y1
+        x[2] += k20 * y0 + k21 * y1
         # P − K (H P): filterpy's Joseph form is the same matrix for this optimal gain
-        p0, p1 = P[0], P[1]
-        self._p = [[P[i][j] - K[i][0] * p0[j] - K[i][1] * p1[j] for j in range(3)]
-                   for i in range(3)]
+        self._p = [
+            [p00 - k00 * p00 - k01 * p10, p01 - k00 * p01 - k01 * p11,
+             p02 - k00 * p02 - k01 * p12],
+            [p10 - k10 * p00 - k11 * p10, p11 - k10 * p01 - k11 * p11,
+             p12 - k10 * p02 - k11 * p12],
+            [p20 - k20 * p00 - k21 * p10, p21 - k20 * p01 - k21 * p11,
+             p22 - k20 * p02 - k21 * p12],
+        ]
 
     def reset_position(self, z: tuple[float, float]) -> None:
         self.x[0], self.x[1] = float(z[0]), float(z[1])

@@ -199,9 +199,8 @@ class FollowerGroup:
         Two normal draws per call, always (reproducible whatever the noise level).
         Returns the realised (v, ω).
         """
-        nv, nw = rng.standard_normal(2)
-        sv, sw = self.saturate(v + self.p.speed_noise * float(nv),
-                               w + self.p.turn_noise * float(nw))
+        nv, nw = rng.standard_normal(2).tolist()
+        sv, sw = self.saturate(v + self.p.speed_noise * nv, w + self.p.turn_noise * nw)
         self.cmd_v[k] = sv
         self.cmd_w[k] = sw
         return sv, sw

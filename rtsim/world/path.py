@@ -116,6 +116,11 @@ class LeaderPath:
         h0 = number("start.heading", start[2])
         self._segments = segs
         self._start = (x0, y0, h0)
+        # memo of the last index / pose asked for (pure functions of s)
+        self._memo_s: float = math.nan
+        self._memo_k = 0
+        self._memo_pose_s: float = math.nan
+        self._memo_pose: tuple[float, float, float] = (math.nan, math.nan, math.nan)
         self._kappa = tuple(seg.curvature for seg in segs)
         poses = [self._start]
         s0 = [0.0]
@@ -155,8 +160,12 @@ class LeaderPath:
 
     def index(self, s: float) -> int:
         """Index of the segment at arc length ``s`` (boundaries go to the next segment)."""
+        if s == self._memo_s and s.__class__ is float:  # the leader asks about one s often
+            return self._memo_k
         u = s % self._lap
-        return bisect.bisect_right(self._s0, u) - 1
+        k = bisect.bisect_right(self._s0, u) - 1
+        self._memo_s, self._memo_k = s, k
+        return k
 
     # -- geometry at arc length s ----------------------------------------------------
     def segment_at(self, s: float) -> tuple[Literal["straight", "turn"], float]:
@@ -170,9 +179,13 @@ class LeaderPath:
 
     def pose(self, s: float) -> tuple[float, float, float]:
         """Exact pose (x, y, heading) at arc length ``s``; heading is unwrapped within a lap."""
+        if s == self._memo_pose_s and s.__class__ is float:
+            return self._memo_pose
         u = s % self._lap
         k = bisect.bisect_right(self._s0, u) - 1
-        return _advance(self._poses[k], self._kappa[k], u - self._s0[k])
+        pose = _advance(self._poses[k], self._kappa[k], u - self._s0[k])
+        self._memo_pose_s, self._memo_pose = s, pose
+        return pose
 
     def __repr__(self) -> str:
         return f"LeaderPath({len(self._segments)} segments, lap {self._lap:.6g} cm)"
