@@ -52,8 +52,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
-from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds
-from rtsim.control.closed_forms import coupled_speed, paper_speed
+from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds, scalar_msbs
+from rtsim.control.closed_forms import coupled_speeds, paper_speed
 from rtsim.control.predict import (
     FollowerEstimate,
     Predictor,
@@ -142,6 +142,44 @@ def _as_dict(row: Sequence[float]) -> dict[str, float]:
             "bearing": row[3]}
 
 
+def _rows_at(
+    followers: Sequence[FollowerEstimate],
+    predict: Predictor,
+    thresholds: Thresholds,
+    model: str | Predictor,
+    kappa: float,
+) -> Callable[[float], list[tuple[float, float, float, float]]]:
+    """v_l -> every follower's bounds at v_l (rows in BOUND_KINDS order), memoised per v_l.
+
+    For the built-in ``formation`` model the per-follower (s, θ_F) are looked up once; the
+    values are those of :func:`predict_msb_rows` with the same predictor.
+    """
+    memo: dict[float, list[tuple[float, float, float, float]]] = {}
+    pre: list[tuple[float, ...]] | None = None
+
+    def rows_at(v: float) -> list[tuple[float, float, float, float]]:
+        nonlocal pre
+        out = memo.get(v)
+        if out is not None:
+            return out
+        if memo and pre is None and model == "formation" and kappa.__class__ is float and all(
+                f.rho.__class__ is float and f.beta.__class__ is float
+                and f.rho_d.__class__ is float for f in followers):
+            # a search: look the per-follower (s, θ_F) up once
+            pre = [(f.rho, f.beta, f.rho_d, *unit_formation(kappa, *f.slot))
+                   for f in followers]
+        if pre is not None and v.__class__ is float:
+            wv = kappa * v
+            out = [scalar_msbs(v, wv, s * v, rho, beta, th, rho_d, thresholds)
+                   for rho, beta, rho_d, s, th in pre]
+        else:
+            out = predict_msb_rows(followers, v, predict, thresholds)
+        memo[v] = out
+        return out
+
+    return rows_at
+
+
 def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
     """Largest passing speed: scan ``grid`` (descending), bisect below the first failure."""
     above: float | None = None
@@ -207,7 +245,8 @@ def adjust(
         raise ValueError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
 
     predict = predictor(model, omega_l=omega_l, kappa=kappa)
-    rows = predict_msb_rows(followers, v_ld, predict, thresholds)
+    rows_at = _rows_at(followers, predict, thresholds, model, kappa)
+    rows = rows_at(v_ld)
     msbs = [_as_dict(r) for r in rows]
     m, kind, who = min_bound_rows(rows)
     common = dict(
@@ -236,7 +275,7 @@ def adjust(
     need = w_sch * (1.0 - _TOL)
 
     def ok(v: float) -> bool:
-        return min_bound_rows(predict_msb_rows(followers, v, predict, thresholds))[0] >= need
+        return min_bound_rows(rows_at(v))[0] >= need
 
     candidates: dict[str, float] = {k: math.nan for k in methods}
     if "closed-form" in methods:
@@ -261,21 +300,9 @@ def adjust(
         v = math.inf
         for f in followers:
             s, theta_f = unit_formation(kappa, *f.slot)
-            for k in BOUND_KINDS:
-                v = min(
-                    v,
-                    coupled_speed(
-                        k,
-                        rho=f.rho,
-                        beta=f.beta,
-                        s=s,
-                        theta_f=theta_f,
-                        kappa=kappa,
-                        rho_d=f.rho_d,
-                        thr=thresholds,
-                        w=w_sch,
-                    ),
-                )
+            for c in coupled_speeds(rho=f.rho, beta=f.beta, s=s, theta_f=theta_f, kappa=kappa,
+                                    rho_d=f.rho_d, thr=thresholds, w=w_sch):
+                v = min(v, c)
         candidates["coupled"] = min(v, v_ld)
 
     passing = [
@@ -305,7 +332,7 @@ def adjust(
             best, method = found, "numeric"
             candidates["numeric"] = found
     v_l = floor_frac * v_ld if best is None else best
-    after_rows = predict_msb_rows(followers, v_l, predict, thresholds)
+    after_rows = rows_at(v_l)
     after = [_as_dict(r) for r in after_rows]
     m_after = min_bound_rows(after_rows)[0]
     return Adjustment(

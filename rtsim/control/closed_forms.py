@@ -28,7 +28,7 @@ import math
 
 from rtsim.analysis.kinematics import Thresholds
 
-__all__ = ["coupled_speed", "paper_speed"]
+__all__ = ["coupled_speed", "coupled_speeds", "paper_speed"]
 
 
 def _check_w(w: float) -> float:
@@ -120,3 +120,31 @@ def coupled_speed(
     else:
         raise ValueError(f"unknown bound kind {kind!r}")
     return math.inf if den == 0.0 else num / (ws * den)
+
+
+def coupled_speeds(
+    *,
+    rho: float,
+    beta: float,
+    s: float,
+    theta_f: float,
+    kappa: float,
+    rho_d: float,
+    thr: Thresholds,
+    w: float,
+) -> tuple[float, float, float, float]:
+    """:func:`coupled_speed` for the four bounds at once, in ``BOUND_KINDS`` order
+    (localization, separation, path_diversion, bearing): the same values, one evaluation of
+    the shared terms."""
+    ws = _check_w(w)
+    a_rho = s * math.cos(beta + theta_f) - math.cos(beta)  # ρ̇ / V_L
+    a_beta = (math.sin(beta) - s * math.sin(beta + theta_f)) / rho - kappa  # β̇ / V_L
+    d_rho = abs(a_rho)
+    d_loc = d_rho if thr.localization == "radial" else math.hypot(a_rho, rho * a_beta)
+    d_beta = abs(a_beta)
+    return (
+        math.inf if d_loc == 0.0 else thr.r_H / (ws * d_loc),
+        math.inf if d_rho == 0.0 else thr.T_rho * rho_d / (ws * d_rho),
+        math.inf if s == 0.0 else thr.T_eps * rho_d / (ws * s),
+        math.inf if d_beta == 0.0 else thr.T_beta / (ws * d_beta),
+    )
