@@ -181,6 +181,8 @@ class World:
         self._kappa_targets = self.leader.curvature
         self._l_d, self._psi_d = control_targets(self._rho_d, self._beta_d, fp.control_offset,
                                                  self._kappa_targets)
+        self._targets_l: tuple[list[float], list[float]] = (self._l_d.tolist(),
+                                                             self._psi_d.tolist())
         xl, yl, hl = self.leader.pose
         v_l, w_l = self.leader.speed, self.leader.omega
         slots = form.xy()
@@ -432,8 +434,10 @@ class World:
             self._l_d, self._psi_d = control_targets(
                 self._rho_d, self._beta_d, self.config.follower.control_offset, kappa)
             self._kappa_targets = kappa
-        v, w = lpsi_command(ld.pose, ld.speed, ld.omega, x, y, th, float(self._l_d[k]),
-                            float(self._psi_d[k]), self.config.follower)
+            self._targets_l = (self._l_d.tolist(), self._psi_d.tolist())
+        l_d, psi_d = self._targets_l
+        v, w = lpsi_command(ld.pose, ld.speed, kappa * ld.speed, x, y, th, l_d[k], psi_d[k],
+                            self.config.follower)
         cmd = fol.saturate(v, w)
         pieces = self._pieces[k]
         if pieces and pieces[-1][0] >= t_ms:
