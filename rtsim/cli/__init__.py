@@ -41,13 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMANDS:
-        try:
-            module = importlib.import_module(f"rtsim.cli.{name}")
-        except ModuleNotFoundError as exc:  # a command still being built
-            if exc.name == f"rtsim.cli.{name}":
-                continue
-            raise
-        module.register(sub)
+        importlib.import_module(f"rtsim.cli.{name}").register(sub)
     return parser
 
 
