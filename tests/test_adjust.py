@@ -20,6 +20,8 @@ from rtsim.control import (
     coupled_speed,
     decide,
     paper_speed,
+    predict_msbs,
+    predictor,
 )
 
 DEG = math.pi / 180.0
@@ -470,3 +472,108 @@ def test_adjust_validated(kwargs, match):
 def test_unknown_mode():
     with pytest.raises(ValueError, match="mode"):
         decide("fast", [], v_ld=V_LD, w_sch=W_SCH, thresholds=Thresholds(25.0, 0.01, 0.025, 0.1))
+
+
+# ------------------------------------------------------------------ the hybrid model
+
+
+def _hybrid_by_hand(f: FollowerEstimate, v: float, v_now: float, kappa: float):
+    """u(V) = û + f(V) − f(V_now) written out from formation_velocity (leader frame)."""
+    def ff(vl: float) -> tuple[float, float]:
+        vf, th = formation_velocity(vl, kappa * vl, f.rho_d, f.beta_d)
+        return vf * math.cos(th), -vf * math.sin(th)
+
+    a, b = ff(v), ff(v_now)
+    ux = f.v_f * math.cos(f.theta) + a[0] - b[0]
+    uy = -f.v_f * math.sin(f.theta) + a[1] - b[1]
+    return ux, uy
+
+
+@pytest.mark.parametrize("kappa", [0.0, 1 / 200, -1 / 120])
+@pytest.mark.parametrize("beta_deg", [165.0, 195.0])
+def test_hybrid_without_correction_equals_formation(kappa, beta_deg):
+    # the follower moves exactly at its slot's feed-forward velocity at the current V_L = 17:
+    # no correction velocity, so hybrid = formation at every V_L
+    slot = beta_deg * DEG
+    v_now = 17.0
+    vf, th = formation_velocity(v_now, kappa * v_now, 390.0, slot)
+    f = FollowerEstimate(388.0, slot + 0.01, th, vf, 390.0, slot)
+    hyb = predictor("hybrid", omega_l=kappa * v_now, kappa=kappa, v_now=v_now)
+    form = predictor("formation", omega_l=kappa * v_now, kappa=kappa)
+    for v in (0.5, 9.0, 17.0, 25.0):
+        h, g = hyb(f, v), form(f, v)
+        assert h[0] == pytest.approx(g[0], rel=1e-12, abs=1e-12)
+        assert math.cos(h[1] - g[1]) == pytest.approx(1.0, abs=1e-12)
+        assert h[2] == g[2] == kappa * v
+
+
+def test_hybrid_equals_estimate_at_the_current_speed():
+    f = FollowerEstimate(380.0, 190 * DEG, 0.7, 31.0, 390.0, 195 * DEG)
+    hyb = predictor("hybrid", omega_l=0.1, kappa=1 / 200, v_now=20.0)
+    v_f, theta, omega = hyb(f, 20.0)
+    assert v_f == pytest.approx(31.0, rel=1e-12)
+    assert theta == pytest.approx(0.7, abs=1e-12)
+    assert omega == pytest.approx(20.0 / 200, rel=1e-12)
+
+
+def test_hybrid_rho_dot_is_eq17_on_the_summed_velocity_vector():
+    # by hand: ρ̇ = (u − v_L)·e_ρ in the leader frame (the leader frame's rotation moves the
+    # follower tangentially only), u = û + f(V) − f(V_now)
+    kappa, v_now, v = 1 / 200, 14.0, 22.0
+    f = FollowerEstimate(380.0, 192 * DEG, 0.9, 28.0, 390.0, 195 * DEG)
+    v_f, theta, omega = predictor("hybrid", omega_l=kappa * v_now, kappa=kappa,
+                                  v_now=v_now)(f, v)
+    ux, uy = _hybrid_by_hand(f, v, v_now, kappa)
+    assert v_f == pytest.approx(math.hypot(ux, uy), rel=1e-12)
+    er = (math.cos(f.beta), math.sin(f.beta))
+    by_hand = (ux - v) * er[0] + uy * er[1]
+    assert rho_dot(v, v_f, f.beta, theta) == pytest.approx(by_hand, rel=1e-12, abs=1e-12)
+    # and the separation bound the model gives is T_ρ ρ_d / |ρ̇| in ms
+    thr = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=5 * DEG)
+    m = predict_msbs([f], v, predictor("hybrid", omega_l=0.0, kappa=kappa, v_now=v_now), thr)
+    assert m[0]["separation"] == pytest.approx(1000 * 3.9 / abs(by_hand), rel=1e-12)
+
+
+def test_hybrid_correction_does_not_scale_with_the_leader():
+    # on a straight, a follower 6 cm/s faster than the leader at 20 cm/s, heading along it:
+    # hybrid predicts V_F = V_L + 6 at every V_L (the correction is held), formation V_F = V_L
+    f = FollowerEstimate(390.0, math.pi, 0.0, 26.0, 390.0, math.pi)
+    hyb = predictor("hybrid", omega_l=0.0, kappa=0.0, v_now=20.0)
+    for v in (3.0, 10.0, 25.0):
+        assert hyb(f, v)[0] == pytest.approx(v + 6.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("kappa", [1 / 200, -1 / 120])
+def test_hybrid_bound_holds_at_the_returned_speed(kappa):
+    # two followers off their slots with a correction velocity, mid-turn, leader at 0.6 V_Ld
+    v_now = 0.6 * V_LD
+    fs = []
+    for slot_deg, drho, dv in ((195.0, -4.0, 3.0), (165.0, 2.0, -2.0)):
+        slot = slot_deg * DEG
+        vf, th = formation_velocity(v_now, kappa * v_now, 390.0, slot)
+        fs.append(FollowerEstimate(390.0 + drho, slot + 0.02, th + 0.05, vf + dv, 390.0, slot))
+    thr = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=5 * DEG)
+    a = adjust(fs, v_ld=V_LD, w_sch=W_SCH, thresholds=thr, kappa=kappa,
+               omega_l=kappa * v_now, model="hybrid", v_now=v_now)
+    assert a.critical and a.feasible and 0 < a.v_leader < V_LD
+
+    def bounds(v):  # written here from the hand formula, not from the predictor
+        out = []
+        for f in fs:
+            ux, uy = _hybrid_by_hand(f, v, v_now, kappa)
+            vf, th = math.hypot(ux, uy), -math.atan2(uy, ux)
+            out.append(follower_msbs(v, kappa * v, vf, f.rho, f.beta, th, f.rho_d, thr))
+        return min(min(m.values()) for m in out)
+
+    assert bounds(a.v_leader) >= W_SCH * (1 - 1e-9)
+    assert bounds(a.v_leader * (1 + 1e-6)) < W_SCH  # the largest such speed
+    assert a.msb_min_after == pytest.approx(bounds(a.v_leader), rel=1e-9)
+
+
+def test_hybrid_needs_the_current_speed():
+    with pytest.raises(ValueError, match="v_now"):
+        predictor("hybrid", omega_l=0.0, kappa=0.0)
+    with pytest.raises(ValueError, match="v_now must be non-negative"):
+        predictor("hybrid", omega_l=0.0, kappa=0.0, v_now=-1.0)
+    with pytest.raises(ValueError, match="'hybrid'"):
+        predictor("hybird", omega_l=0.0, kappa=0.0)

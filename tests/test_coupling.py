@@ -260,3 +260,20 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
     bad = ScenarioInputs(sc.world, sc.load_taskset(), adjust={"cpa": 3})
     with pytest.raises(InputError, match=r"\[adjust\] has unknown key 'cpa'"):
         run_scenario(bad, duration_s=1)
+
+
+@pytest.mark.parametrize("model", ["hybrid", "estimate"])
+def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, model: str) -> None:
+    text = TEST2.read_text(encoding="utf-8").replace(
+        "[adjust]\n", f'[adjust]\nmodel = "{model}"\n', 1)
+    path = tmp_path / "t2.toml"
+    path.write_text(text, encoding="utf-8")
+    from rtsim.coupling.scenario_run import _inputs
+
+    assert _inputs(path).adjust["model"] == model
+    assert "model" not in _inputs(TEST2).adjust  # the default: formation
+    short = run_scenario(path, mode="adjust", duration_s=3, record_jobs=False)
+    base = run_scenario(TEST2, mode="adjust", duration_s=3, record_jobs=False)
+    # the same world and noise, a different prediction: the bounds differ after window 0
+    assert len(short.windows) > 5
+    assert not np.allclose(short.windows["msb_min"].iloc[1:], base.windows["msb_min"].iloc[1:])

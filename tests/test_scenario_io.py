@@ -62,7 +62,7 @@ def test_minimal_file_defaults(tmp_path: Path) -> None:
     assert s.world.path.lap_length == pytest.approx(lap)
     assert s.duration == math.ceil(lap / 25)
     assert s.world.follower.radius == 25 and s.world.thresholds.localization == "radial"
-    assert s.adjust.cap == math.inf and s.adjust.floor == 0
+    assert s.adjust.cap == math.inf and s.adjust.floor == 0 and s.adjust.model == "formation"
 
 
 def test_slots_shape_and_degrees(tmp_path: Path) -> None:
@@ -143,6 +143,12 @@ def test_bad_values_one_line(tmp_path: Path, old: str, new: str, match: str) -> 
         ("[ekf]\nbackend = \"gpu\"\n", r"^bad\.toml: ekf\.backend: must be 'filterpy' or 'fast'"),
         ("[adjust]\ncap = -1\n", r"^bad\.toml: adjust\.cap: must be positive"),
         ("[adjust]\nfloor = 40\n", r"^bad\.toml: adjust\.floor: 40 cm/s is above"),
+        ("[adjust]\nmodel = \"hybird\"\n",
+         r"^bad\.toml: adjust\.model: must be one of formation, estimate, hybrid, got "
+         r"'hybird' \(did you mean 'hybrid'\?\)$"),
+        ("[adjust]\nmodel = 3\n", r"^bad\.toml: adjust\.model: must be one of"),
+        ("[adjust]\nmodle = \"hybrid\"\n",
+         r"^bad\.toml: adjust: unknown key 'modle' \(did you mean 'model'\?\)$"),
         ("[assumptions]\nx = 3\n", r"^bad\.toml: assumptions\.x: must be a non-empty string"),
         ("[world]\nstep_ms = 0\n", r"^bad\.toml: world\.step_ms: must be positive"),
     ],

@@ -214,6 +214,7 @@ def adjust(
     model: str | Predictor = "formation",
     methods: Sequence[str] = _CANDIDATES,
     scan_points: int = 64,
+    v_now: float | None = None,
 ) -> Adjustment:
     """The adjustment algorithm (paper §3.3, SPEC §5); see the module docstring.
 
@@ -244,7 +245,7 @@ def adjust(
     if scan_points < 1:
         raise ValueError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
 
-    predict = predictor(model, omega_l=omega_l, kappa=kappa)
+    predict = predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
     rows_at = _rows_at(followers, predict, thresholds, model, kappa)
     rows = rows_at(v_ld)
     msbs = [_as_dict(r) for r in rows]
@@ -363,6 +364,7 @@ def decide(
     model: str | Predictor = "formation",
     methods: Sequence[str] = _CANDIDATES,
     scan_points: int = 64,
+    v_now: float | None = None,
 ) -> Adjustment:
     """One window's decision in ``mode`` (issue 5's three modes).
 
@@ -387,6 +389,7 @@ def decide(
             model=model,
             methods=methods,
             scan_points=scan_points,
+            v_now=v_now,
         )
     if mode not in MODES:
         raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
@@ -398,7 +401,7 @@ def decide(
     floor_w = check_number("decide", "floor_w", floor_w)
     if floor_w <= 0.0:
         raise ValueError(f"decide: floor_w must be positive, got {floor_w!r}")
-    predict = predictor(model, omega_l=omega_l, kappa=kappa)
+    predict = predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
     rows = predict_msb_rows(followers, v_ld, predict, thresholds)
     msbs = tuple(_as_dict(r) for r in rows)
     m, kind, who = min_bound_rows(rows)

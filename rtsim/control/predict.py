@@ -7,6 +7,13 @@ A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_
   :func:`~rtsim.analysis.kinematics.formation_velocity`; so V_F = s·V_L with s fixed by the
   slot and κ, and θ is fixed. The bounds are evaluated at the *estimated* (ρ, β).
 * ``"estimate"`` (the paper's view): V_F, θ and ω_L stay at the estimates.
+* ``"hybrid"``: the follower's estimated velocity vector, with its formation feed-forward
+  part following V_L: u(V_L) = û + f(V_L) − f(V_now), where û = V̂_F·(cos θ̂, −sin θ̂) is the
+  estimated velocity in the leader frame, f(V) = s·V·(cos θ_F, −sin θ_F) the slot's
+  feed-forward velocity (the ``formation`` model) and V_now the leader's current actual speed;
+  V_F = |u|, θ = −atan2(u_y, u_x), ω_L = κ·V_L. Equivalently: the formation velocity at V_L
+  plus the follower's current correction velocity û − f(V_now), held constant. It equals
+  ``"estimate"`` at V_L = V_now and ``"formation"`` when û = f(V_now).
 * any callable with the :data:`Predictor` signature.
 """
 
@@ -26,7 +33,9 @@ from rtsim.analysis.kinematics import (
 
 __all__ = [
     "FollowerEstimate",
+    "MODELS",
     "Predictor",
+    "hybrid_velocity",
     "min_bound",
     "min_bound_rows",
     "predict_msb_rows",
@@ -114,8 +123,16 @@ def trusted_estimate(rho: float, beta: float, theta: float, v_f: float, rho_d: f
 Predictor = Callable[[FollowerEstimate, float], tuple[float, float, float]]
 
 
-def predictor(model: str | Predictor, *, omega_l: float, kappa: float) -> Predictor:
-    """The prediction model named ``model`` (``"formation"`` or ``"estimate"``), or ``model``."""
+#: Names of the built-in prediction models.
+MODELS: tuple[str, ...] = ("formation", "estimate", "hybrid")
+
+
+def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
+              v_now: float | None = None) -> Predictor:
+    """The prediction model named ``model`` (one of :data:`MODELS`), or ``model``.
+
+    ``v_now``: the leader's current actual speed (cm/s), required by ``"hybrid"``.
+    """
     if callable(model):
         return model
     if model == "formation":
@@ -127,7 +144,30 @@ def predictor(model: str | Predictor, *, omega_l: float, kappa: float) -> Predic
         return formation
     if model == "estimate":
         return lambda f, v_l: (f.v_f, f.theta, omega_l)
-    raise ValueError(f"model must be 'formation', 'estimate' or a callable, got {model!r}")
+    if model == "hybrid":
+        if v_now is None:
+            raise ValueError("model 'hybrid' needs the leader's current speed v_now")
+        v0 = check_number("predictor", "v_now", v_now)
+        if v0 < 0.0:
+            raise ValueError(f"predictor: v_now must be non-negative, got {v_now!r}")
+
+        def hybrid(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
+            return hybrid_velocity(f, v_l, v0, kappa) + (kappa * v_l,)
+
+        return hybrid
+    raise ValueError(
+        f"model must be 'formation', 'estimate', 'hybrid' or a callable, got {model!r}")
+
+
+def hybrid_velocity(f: FollowerEstimate, v_l: float, v_now: float, kappa: float
+                    ) -> tuple[float, float]:
+    """(V_F, θ) of the ``hybrid`` model (module docstring) at leader speed ``v_l``."""
+    s, theta_f = unit_formation(kappa, *f.slot)
+    dv = s * (v_l - v_now)
+    ux = dv * math.cos(theta_f) + f.v_f * math.cos(f.theta)
+    uy = -dv * math.sin(theta_f) - f.v_f * math.sin(f.theta)
+    v_f = math.hypot(ux, uy)
+    return v_f, (-math.atan2(uy, ux) if v_f > 0.0 else f.theta)
 
 
 _UNIT_FORMATION: dict[tuple[float, float, float, float], tuple[float, float]] = {}

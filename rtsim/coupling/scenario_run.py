@@ -119,7 +119,9 @@ def _inputs(scenario: Any, text: str | None = None) -> ScenarioInputs:
 
     A Scenario's ``[adjust]`` maps to :func:`rtsim.control.decide`: ``cap`` (ms; ``inf`` →
     decide's default, 10·w_sch) and ``floor`` (cm/s) → ``floor_frac`` = floor / V_Ld, which
-    is also the lowest speed the coupling ever sets.
+    is also the lowest speed the coupling ever sets; ``model`` (when not the default
+    ``formation``) → ``model``. The leader's current actual speed is passed to every
+    decision as ``v_now`` (the ``hybrid`` model needs it).
     """
     if isinstance(scenario, ScenarioInputs):
         return scenario
@@ -142,6 +144,8 @@ def _inputs(scenario: Any, text: str | None = None) -> ScenarioInputs:
         if math.isfinite(cfg.cap):
             adjust["cap"] = float(cfg.cap)
         adjust["floor_frac"] = float(cfg.floor) / world.leader_speed
+        if getattr(cfg, "model", "formation") != "formation":
+            adjust["model"] = cfg.model
     elif cfg:
         adjust = dict(cfg)
     duration = getattr(scenario, "duration", None)
@@ -284,7 +288,8 @@ class _Coupling:
             fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
                                          self.beta_d[k]))
         adj = decide(self.mode, fols, v_ld=self.v_ld, w_sch=self.w_sch, thresholds=self.thr,
-                     omega_l=world.leader_omega, kappa=kappa, **self.opts)
+                     omega_l=world.leader_omega, kappa=kappa, v_now=world.leader_speed,
+                     **self.opts)
         v_l = max(adj.v_leader, self.v_floor)
         est = tuple((*row, *(m[b] for b in BOUND_KINDS))
                     for row, m in zip(state, adj.msbs, strict=True))

@@ -32,7 +32,8 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
     [ekf]          measurement_noise, speed_noise, turn_noise(_deg), position_drift,
                    heading_drift(_deg), init_position_sd, init_heading_sd(_deg), backend
     [thresholds]   T_rho, T_eps, T_beta(_deg), localization = "radial" | "full"
-    [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed)
+    [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed),
+                   model = "formation" | "estimate" | "hybrid" (rtsim.control.predict)
     [world]        step_ms (integration step while a speed ramps)
     [assumptions]  key = "reason"      # every value the paper does not give
 
@@ -88,15 +89,26 @@ _ANGLES: dict[str, tuple[str, ...]] = {
 class AdjustConfig:
     """Limits for the adjustment algorithm (semantics in :mod:`rtsim.control`).
 
-    cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s).
+    cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
+    model: the prediction model of :mod:`rtsim.control.predict` (``formation``, ``estimate``
+    or ``hybrid``).
     """
 
     cap: float = math.inf
     floor: float = 0.0
+    model: str = "formation"
 
     def __post_init__(self) -> None:
+        from rtsim.control.predict import MODELS
+
         object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
         object.__setattr__(self, "floor", non_negative("adjust.floor", self.floor))
+        if self.model not in MODELS:
+            close = (difflib.get_close_matches(self.model, MODELS, n=1, cutoff=0.6)
+                     if isinstance(self.model, str) else [])
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise ScenarioError(f"adjust.model: must be one of {', '.join(MODELS)}, got "
+                                f"{self.model!r}{hint}")
 
 
 @dataclass(frozen=True)
@@ -317,7 +329,7 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
                             f"got {loc!r}")
     thresholds = Thresholds(r_H=r_H, T_rho=t_rho, T_eps=t_eps, T_beta=t_beta, localization=loc)
 
-    adjust = _section(src, data, "adjust", ("cap", "floor"), AdjustConfig)
+    adjust = _section(src, data, "adjust", ("cap", "floor", "model"), AdjustConfig)
     top.get("adjust")
     wtab = _Table(f"{src}: world", top.get("world", {}))
     step_ms = wtab.get("step_ms", 10.0)
