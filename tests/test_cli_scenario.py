@@ -86,3 +86,20 @@ def test_unknown_mode_is_a_usage_error(tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["scenario", str(TEST2), "--mode", "fast", "--out", str(tmp_path)])
     assert exc.value.code == 2
+
+
+def test_packaged_scenario_by_name(tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """`rtsim scenario test1` runs the packaged copy and records its text in the manifest."""
+    import json
+    from pathlib import Path
+
+    from rtsim.cli import main
+
+    root = Path(__file__).resolve().parents[1]
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "run"
+    assert main(["scenario", "test1", "--duration", "3", "--no-figures", "--out", str(out)]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    text = (root / "experiments" / "scenarios" / "test1.toml").read_text()
+    assert manifest["inputs"]["scenario_text"] == text
+    assert (out / "windows.csv").stat().st_size > 0

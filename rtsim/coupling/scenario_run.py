@@ -126,13 +126,12 @@ def _inputs(scenario: Any, text: str | None = None) -> ScenarioInputs:
     if isinstance(scenario, ScenarioInputs):
         return scenario
     if isinstance(scenario, str | os.PathLike):
-        from rtsim.io.scenario import load_scenario
+        from rtsim.io.scenario import load_scenario, scenario_bytes
 
         path = scenario
-        scenario = load_scenario(path)
+        scenario = load_scenario(path)  # a file, or a packaged scenario by name ("test2")
         if text is None:
-            with open(path, encoding="utf-8") as fh:
-                text = fh.read()
+            text = scenario_bytes(path)[0].decode("utf-8")
     try:
         world = scenario.world
         ts = scenario.load_taskset() if hasattr(scenario, "load_taskset") else scenario.taskset
