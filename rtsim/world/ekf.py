@@ -31,10 +31,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
 from numpy.typing import NDArray
 
 from rtsim.errors import ScenarioError
@@ -83,18 +82,32 @@ def _hjac(x: NDArray[np.float64]) -> NDArray[np.float64]:
     return H_POSITION
 
 
-class _ArcEKF(ExtendedKalmanFilter):  # type: ignore[misc]
-    """filterpy's EKF with the unicycle arc as the state transition (u = (v, ω, dt))."""
+_ARC_EKF: type | None = None
 
-    def predict_x(self, u: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
-        v, w, dt = u
-        th = float(self.x[2, 0])
-        dth = w * dt
-        m = th + 0.5 * dth
-        c = v * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
-        self.x[0, 0] += c * math.cos(m)
-        self.x[1, 0] += c * math.sin(m)
-        self.x[2, 0] = th + dth
+
+def _arc_ekf_class() -> type:
+    """filterpy's EKF with the unicycle arc as the state transition (u = (v, ω, dt)).
+
+    Built on first use: filterpy (and the scipy it imports, ~1–3 s) is loaded only when a
+    filterpy-backend filter is created, not by ``import rtsim.world``.
+    """
+    global _ARC_EKF
+    if _ARC_EKF is None:
+        from filterpy.kalman import ExtendedKalmanFilter
+
+        class _ArcEKF(ExtendedKalmanFilter):  # type: ignore[misc]
+            def predict_x(self, u: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+                v, w, dt = u
+                th = float(self.x[2, 0])
+                dth = w * dt
+                m = th + 0.5 * dth
+                c = v * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
+                self.x[0, 0] += c * math.cos(m)
+                self.x[1, 0] += c * math.sin(m)
+                self.x[2, 0] = th + dth
+
+        _ARC_EKF = _ArcEKF
+    return _ARC_EKF
 
 
 class FollowerEKF:
@@ -102,7 +115,7 @@ class FollowerEKF:
 
     def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
         self.params = params
-        kf = _ArcEKF(dim_x=3, dim_z=2)
+        kf: Any = _arc_ekf_class()(dim_x=3, dim_z=2)
         kf.x = np.array([[pose[0]], [pose[1]], [pose[2]]], dtype=float)
         kf.P = np.diag([max(params.init_position_sd, 0.01) ** 2] * 2
                        + [max(params.init_heading_sd, 1e-4) ** 2])
