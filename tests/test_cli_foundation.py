@@ -191,3 +191,24 @@ def test_console_script_exit_code(tmp_path):
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr == (f"rtsim: {path}: task 'tau1': unknown key 'perod' "
                            "(did you mean 'period'?)\n")
+
+
+@pytest.mark.parametrize("argv", [
+    ["scenario", "test1", "--duration", "1", "--no-figures", "--out", "{file}"],
+    ["generate", "--tasks", "3", "--utilization", "0.5", "--count", "1", "--out", "{file}"],
+    ["simulate", "{taskset}", "--horizon", "100", "--jobs", "{file}/jobs.csv"],
+])
+def test_unwritable_output_is_one_line_exit_2(argv, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """An output path that is an existing file: one line naming it, exit 2, no traceback."""
+    from pathlib import Path
+
+    from rtsim.cli import main
+
+    blocker = tmp_path / "taken"
+    blocker.write_text("x")
+    taskset = Path(__file__).resolve().parents[1] / "tasksets" / "example.toml"
+    args = [a.format(file=blocker, taskset=taskset) for a in argv]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rtsim: ") and "taken" in err[0], err
+    assert blocker.read_text() == "x"

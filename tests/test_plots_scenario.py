@@ -1,4 +1,4 @@
-"""Scenario figures drawn from a synthetic windows table (schema: notes/windows_schema.md)."""
+"""Scenario figures drawn from a synthetic windows table (schema: docs/outputs.md)."""
 
 from __future__ import annotations
 

@@ -2,7 +2,8 @@
 
 Each sub-command lives in its own module ``rtsim.cli.<name>`` with a function
 ``register(subparsers)`` that adds its parser and sets ``func(args) -> int``.
-Input errors print one line, ``rtsim: <message>``, and exit 2; no traceback.
+Input errors, and files that cannot be read or written, print one line,
+``rtsim: <message>``, and exit 2; no traceback.
 """
 
 from __future__ import annotations
@@ -54,11 +55,15 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:
         print(f"rtsim: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into head, say
+        return 0
+    except OSError as exc:  # an output path that cannot be written, a full disk, ...
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"rtsim: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("rtsim: interrupted", file=sys.stderr)
         return 130
-    except BrokenPipeError:
-        return 0
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,7 +1,7 @@
 """``rtsim scenario FILE --out DIR``: run a robot scenario, schedule and world in one SimPy run.
 
 Writes to DIR: ``windows.csv`` (one row per processing window; schema in
-notes/windows_schema.md) and ``windows.parquet`` with ``--parquet``, ``jobs.csv`` (the job
+docs/outputs.md) and ``windows.parquet`` with ``--parquet``, ``jobs.csv`` (the job
 records of the schedule), ``summary.json``, the paper's figures as PNG (paths, window and
 slack, effective bounds, leader speed, and the operating space) unless ``--no-figures``, and
 ``manifest.json`` (rtsim version, seed, argv, the scenario file's text and resolved values,

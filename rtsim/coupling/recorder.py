@@ -1,6 +1,6 @@
 """Per-window records of a coupled run, turned into the ``windows.csv`` table once.
 
-The schema is pinned in ``notes/windows_schema.md`` (other modules plot and validate against
+The schema is pinned in ``docs/outputs.md`` (other modules plot and validate against
 it): one row per processing window, window-level columns first, then per follower i (1-based)
 the truth at the scan (``f{i}_x`` … ``f{i}_msb_bearing``), the leader's estimate that the
 decision used (the same names with ``_est``), and the violations observed on the truth between
@@ -35,7 +35,7 @@ __all__ = [
     "window_columns",
 ]
 
-#: Window-level columns, in order (notes/windows_schema.md).
+#: Window-level columns, in order (docs/outputs.md).
 WINDOW_COLUMNS: tuple[str, ...] = (
     "window", "t", "w", "deadline", "w_sch", "msb_min", "binding", "margin", "slack",
     "v_leader_desired", "v_leader", "method", "feasible", "critical", "missed", "response",

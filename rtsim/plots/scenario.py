@@ -1,4 +1,4 @@
-"""Figures of one scenario run, drawn from its ``windows.csv`` table (schema: notes/windows_schema).
+"""Figures of one scenario run, drawn from its ``windows.csv`` table (schema: docs/outputs.md).
 
 The paper's Figures 8-15 (paths, processing window and slack, effective bounds, leader speed),
 the operating space of its Figure 2 (w_sch ≤ w ≤ min MSB, critical region where min MSB < w_sch)
