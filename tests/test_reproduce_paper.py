@@ -178,6 +178,7 @@ def test_summary_recomputed_from_windows(quick: tuple[Path, str]) -> None:
         for k in KINDS:
             assert r[f"viol_{k}"] == int(df[f"f1_viol_{k}"].sum() + df[f"f2_viol_{k}"].sum())
             assert r[f"max_viol_ratio_{k}"] == summ["max_violation_ratio"][k]
+            assert r[f"viol5_{k}"] == summ["violations_beyond_5pct"][k] <= r[f"viol_{k}"]
         # windows are back to back: a critical window holds from its start to the next one's
         t = df["t"].to_numpy()
         held = np.append(np.diff(t), df["w"].iloc[-1])
