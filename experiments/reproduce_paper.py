@@ -84,6 +84,7 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     "test", "mode", "seed", "duration_s", "laps", "w_sch", "windows", "missed", "tracks_lost",
     *(f"viol_{k}" for k in BOUND_KINDS), "critical_share", "min_msb_over_wsch",
     "min_speed_ratio", "methods", *(f"max_viol_ratio_{k}" for k in BOUND_KINDS),
+    *(f"viol5_{k}" for k in BOUND_KINDS),
     "max_response", "wall_s",
 )
 
