@@ -233,3 +233,19 @@ def test_bad_sweep_file_on_the_cli(tmp_path: Path, capsys: pytest.CaptureFixture
 
 def test_helpers_on_path() -> None:
     assert str(HERE) in sys.path
+
+
+def test_packaged_base_by_name(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """`base = "test2"` (or "barrel_robots") names a file shipped with rtsim."""
+    from pathlib import Path
+
+    from rtsim.sweep import load_sweep
+
+    root = Path(__file__).resolve().parents[1]
+    f = tmp_path / "s.toml"
+    f.write_text('[sweep]\nkind = "scenario"\nbase = "test2"\n[grid]\n"leader.speed" = [20]\n')
+    spec = load_sweep(f)
+    assert spec.base.text == (root / "experiments" / "scenarios" / "test2.toml").read_text()
+    assert spec.base.source == "test2.toml (packaged)"
+    f.write_text('[sweep]\nkind = "bounds"\nbase = "barrel_robots"\n[grid]\nn = [1]\n')
+    assert load_sweep(f).base.text == (root / "tasksets" / "barrel_robots.toml").read_text()

@@ -5,7 +5,8 @@ Format::
     [sweep]
     kind = "simulate"               # analyze | bounds | simulate | scenario | call
     base = "../../tasksets/barrel_robots.toml"  # relative to this file; omitted -> the
-                                    # packaged paper set (required for kind = "scenario")
+                                    # packaged paper set (required for kind = "scenario");
+                                    # a packaged name ("barrel_robots", "test1", "test2") works
     seed = 1                        # the sweep's seed (default 0)
     combine = "product"             # or "zip" (all grid lists of equal length)
     metrics = ["w_sch", "max_response.*"]  # optional: metrics to keep (names or glob
@@ -91,11 +92,12 @@ class BaseFile:
 
     path: str | None
     text: str
+    packaged: str = "barrel_robots"
 
     @property
     def source(self) -> str:
         """The name the loaders use in error messages."""
-        return self.path or "barrel_robots.toml (packaged)"
+        return self.path or f"{self.packaged}.toml (packaged)"
 
     @property
     def sha256(self) -> str:
@@ -263,6 +265,13 @@ def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None
     if not isinstance(raw, str) or not raw:
         raise SweepError(f"{src}: sweep.base: expected a file path, got {raw!r}")
     path = (base_dir / raw).resolve()
+    from rtsim.io.scenario import PACKAGED_SCENARIOS, PACKAGED_TASKSETS
+
+    packaged = PACKAGED_SCENARIOS if kind == "scenario" else PACKAGED_TASKSETS
+    if not path.exists() and raw in packaged:  # a file shipped with rtsim, by name
+        sub = "scenarios/" if kind == "scenario" else ""
+        text = (resources.files("rtsim") / "data" / f"{sub}{raw}.toml").read_text("utf-8")
+        return BaseFile(None, text, raw)
     try:
         text = path.read_text("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
