@@ -249,3 +249,24 @@ def test_packaged_base_by_name(tmp_path) -> None:  # type: ignore[no-untyped-def
     assert spec.base.source == "test2.toml (packaged)"
     f.write_text('[sweep]\nkind = "bounds"\nbase = "barrel_robots"\n[grid]\nn = [1]\n')
     assert load_sweep(f).base.text == (root / "tasksets" / "barrel_robots.toml").read_text()
+
+
+@pytest.mark.parametrize("kind, table, match", [
+    ("simulate", '[sweep.options]\nhorizon = -5', r"sweep\.options\.horizon: must be a positive"),
+    ("simulate", '[sweep.options]\nhorizon = 100\nexec = "fast"',
+     r"sweep\.options\.exec: must be 'wcet' or 'uniform', got 'fast'"),
+    ("scenario", '[sweep.options]\nmode = "bogus"', r"sweep\.options\.mode: must be 'adjust'"),
+])
+def test_bad_option_values_are_bad_sweep_files(kind, table, match, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    from rtsim.cli import main
+
+    base = '"test2"' if kind == "scenario" else '"barrel_robots"'
+    grid = '"leader.speed" = [20]' if kind == "scenario" else "n = [1]"
+    f = tmp_path / "s.toml"
+    f.write_text(f'[sweep]\nkind = "{kind}"\nbase = {base}\n{table}\n[grid]\n{grid}\n')
+    assert main(["sweep", str(f), "--out", str(tmp_path / "o"), "--workers", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    import re
+    assert re.search(match, err[0]), err
+    assert not (tmp_path / "o").exists()

@@ -283,6 +283,29 @@ def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None
     return BaseFile(str(path), text)
 
 
+def _positive(v: Any) -> bool:
+    return not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v) and v > 0
+
+
+#: What each run option accepts (checked once when the sweep file is read, so a bad value
+#: is a bad sweep file — exit 2 — rather than a failure at every point).
+_OPTION_CHECKS: dict[str, tuple[Any, str]] = {
+    "horizon": (_positive, "a positive number of ms"),
+    "window": (lambda v: v is None or _positive(v), "a positive number of ms"),
+    "duration": (lambda v: v is None or _positive(v), "a positive number of seconds"),
+    "exec": (lambda v: v in ("wcet", "uniform"), "'wcet' or 'uniform'"),
+    "suspension": (lambda v: v in ("cpu", "idle"), "'cpu' or 'idle'"),
+    "mode": (lambda v: v in ("adjust", "fixed-wsch", "min-msb"),
+             "'adjust', 'fixed-wsch' or 'min-msb'"),
+}
+
+
+def _check_option(src: str, where: str, name: str, value: Any) -> None:
+    check = _OPTION_CHECKS.get(name)
+    if check is not None and not check[0](value):
+        raise SweepError(f"{src}: {where}: must be {check[1]}, got {value!r}")
+
+
 def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = ".",
                 text: str = "") -> SweepSpec:
     """Validate a parsed sweep file; ``base_dir`` is where a relative ``base`` is found."""
@@ -370,6 +393,16 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
             desc = ", ".join(f"{k}={n}" for k, n in lengths.items())
             raise SweepError(f"{src}: grid: combine = 'zip' needs lists of equal length ({desc})")
     swept_options = {k for k, t in targets.items() if t[0] == "option"}  # grid or set
+    if kind != "call":  # a call's options are its function's own business
+        for k, v in options.items():
+            _check_option(src, f"sweep.options.{k}", k, v)
+        for k, values in grid:
+            if k in swept_options:
+                for v in values:
+                    _check_option(src, f"grid.{k}", k, v)
+        for k, v in fixed:
+            if k in swept_options:
+                _check_option(src, f"sweep.set.{k}", k, v)
     for req in kspec.required:
         if req not in options and req not in swept_options:
             raise SweepError(f"{src}: sweep.options.{req}: required for kind '{kind}'")
