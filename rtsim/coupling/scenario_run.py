@@ -288,7 +288,7 @@ class _Coupling:
         for k in range(self.n):
             # the estimate propagated to now and its expected speed, in one pass (the same
             # as World.estimated_pose(i) and World.relative(i, "estimate")[3])
-            pose, v_f = world._propagate(k, now)
+            pose, v_f = world.estimate_at(k + 1, now)
             rho, beta, theta = relative_state(lp, pose)
             state.append((*pose, rho, beta, theta, v_f))
             fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
@@ -328,7 +328,7 @@ class _Coupling:
         rec.hough_ms = self._hough_ms
         rec.points = scan.total_points
         rec.tracks_lost = scan.n_lost
-        rec.lost = scan._list("lost")
+        rec.lost = scan.as_lists("lost")
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
         self._close(scan)
@@ -339,8 +339,8 @@ class _Coupling:
         last = self._last_scanned
         if last is None:
             return
-        last.viol = scan._list("violations")
-        last.changes = scan._list("changes")
+        last.viol = scan.as_lists("violations")
+        last.changes = scan.as_lists("changes")
 
     def violation_ratios(self, tolerance: float = VIOLATION_TOLERANCE
                          ) -> tuple[dict[str, float], dict[str, int]]:

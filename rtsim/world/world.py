@@ -101,8 +101,8 @@ class Scan:
             self._arrays[name] = arr
         return arr
 
-    def _list(self, name: str) -> Any:
-        """A field as plain lists (internal fast path; do not mutate)."""
+    def as_lists(self, name: str) -> Any:
+        """A field as plain lists, without making numpy arrays (a fast path; do not mutate)."""
         raw = self._raw[name]
         if name in ("changes", "violations"):
             return {k: _as_list(v) for k, v in raw.items()}
@@ -312,6 +312,11 @@ class World:
         """The leader's estimate of follower i's pose (x, y, heading) now."""
         return self._propagate(i - 1, self._t)[0]
 
+    def estimate_at(self, i: int, t_ms: float) -> tuple[Pose, float]:
+        """The leader's estimate of follower i (from 1) carried to ``t_ms`` with the commands
+        it holds: its pose (x, y, heading) and its expected speed (cm/s)."""
+        return self._propagate(i - 1, t_ms)
+
     # -- the scan --------------------------------------------------------------------
     def scan(self, t_ms: float) -> Scan:
         """Sample the truth at ``t_ms`` (advancing to it): beams, fixes, Hough windows,
@@ -385,9 +390,9 @@ class World:
         a = self.config.follower.max_accel
         xl, yl, hl = scan.leader_pose
         c, s = math.cos(hl), math.sin(hl)
-        measured = scan._list("measured")
-        in_window = scan._list("in_window")
-        reacquired = scan._list("reacquired")
+        measured = scan.as_lists("measured")
+        in_window = scan.as_lists("in_window")
+        reacquired = scan.as_lists("reacquired")
         for k, f in enumerate(self._filters):
             pieces = self._pieces[k]
             v = self._vhat[k]
