@@ -300,3 +300,42 @@ def test_cap_below_w_sch_is_an_input_error(tmp_path: Path) -> None:
     bad.write_text(text)
     with pytest.raises(InputError, match=r"adjust\.cap: 10 ms is below w_sch = 237\.4"):
         run_scenario(bad, duration_s=1)
+
+
+def test_decision_columns_recomputed_from_the_estimates(adj2) -> None:  # type: ignore[no-untyped-def]
+    """Every window's bounds, recomputed outside rtsim.control from its estimate columns:
+    V_F and θ of the steady formation at the follower's slot (SPEC §6) at V_Ld, ω_L = κ·V_Ld
+    (κ of this window's segment, or of the previous one when the decision was taken before a
+    segment boundary), then Eqs 17–21; msb_min is their minimum and `binding` its argmin."""
+    from rtsim.analysis.kinematics import follower_msbs, formation_velocity
+
+    df = adj2.windows
+    thr = adj2.inputs.world.thresholds
+    slots = adj2.inputs.world.formation
+    v_ld = float(df["v_leader_desired"].iloc[0])
+    prev_kappa = df["curvature"].shift(1).fillna(df["curvature"].iloc[0])
+
+    def recompute(row: pd.Series, kappa: float) -> dict[tuple[int, str], float]:
+        out = {}
+        for i, (rho_d, beta_d) in enumerate(zip(slots.rho_d, slots.beta_d, strict=True), 1):
+            v_f, theta = formation_velocity(v_ld, kappa * v_ld, rho_d, beta_d)
+            m = follower_msbs(v_ld, kappa * v_ld, v_f, row[f"f{i}_rho_est"],
+                              row[f"f{i}_beta_est"], theta, rho_d, thr)
+            out.update({(i, k): v for k, v in m.items()})
+        return out
+
+    def same(a: float, b: float) -> bool:
+        return a == b or abs(a - b) <= 1e-9 * max(1.0, abs(b))
+
+    for j, row in df.iloc[1:].iterrows():  # window 0 runs on the initial values
+        for kappa in (row["curvature"], prev_kappa[j]):
+            m = recompute(row, kappa)
+            if all(same(v, row[f"f{i}_msb_{k}_est"]) for (i, k), v in m.items()):
+                break
+        else:
+            raise AssertionError(f"window {j}: recorded bounds differ from the recomputation")
+        (i, k), low = min(m.items(), key=lambda kv: kv[1])
+        assert same(low, row["msb_min"]), j
+        if math.isfinite(low):
+            assert row["binding"] == f"{k}:{i}", (j, row["binding"])
+        assert row["critical"] == (low < row["w_sch"])
