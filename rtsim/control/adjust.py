@@ -64,6 +64,7 @@ from rtsim.control.predict import (
     predictor,
     unit_formation,
 )
+from rtsim.errors import InputError
 
 __all__ = [
     "CAP_FACTOR",
@@ -229,21 +230,21 @@ def adjust(
     omega_l = check_number(where, "omega_l", omega_l)
     kappa = check_number(where, "kappa", kappa)
     if v_ld < 0.0:
-        raise ValueError(f"{where}: v_ld must be non-negative, got {v_ld!r}")
+        raise InputError(f"{where}: v_ld must be non-negative, got {v_ld!r}")
     if w_sch <= 0.0:
-        raise ValueError(f"{where}: w_sch must be positive, got {w_sch!r}")
+        raise InputError(f"{where}: w_sch must be positive, got {w_sch!r}")
     cap = CAP_FACTOR * w_sch if cap is None else check_number(where, "cap", cap)
     if cap < w_sch:
-        raise ValueError(f"{where}: cap must be at least w_sch={w_sch!r}, got {cap!r}")
+        raise InputError(f"{where}: cap must be at least w_sch={w_sch!r}, got {cap!r}")
     if not 0.0 <= floor_frac <= 1.0:
-        raise ValueError(f"{where}: floor_frac must be in [0, 1], got {floor_frac!r}")
+        raise InputError(f"{where}: floor_frac must be in [0, 1], got {floor_frac!r}")
     bad = [m for m in methods if m not in _CANDIDATES]
     if bad or not methods:
-        raise ValueError(
+        raise InputError(
             f"{where}: methods must be a non-empty subset of {_CANDIDATES}, got {methods!r}"
         )
     if scan_points < 1:
-        raise ValueError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
+        raise InputError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
 
     predict = predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
     rows_at = _rows_at(followers, predict, thresholds, model, kappa)
@@ -392,15 +393,15 @@ def decide(
             v_now=v_now,
         )
     if mode not in MODES:
-        raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+        raise InputError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
     v_ld = check_number("decide", "v_ld", v_ld)
     w_sch = check_number("decide", "w_sch", w_sch)
     if w_sch <= 0.0:
-        raise ValueError(f"decide: w_sch must be positive, got {w_sch!r}")
+        raise InputError(f"decide: w_sch must be positive, got {w_sch!r}")
     cap = CAP_FACTOR * w_sch if cap is None else check_number("decide", "cap", cap)
     floor_w = check_number("decide", "floor_w", floor_w)
     if floor_w <= 0.0:
-        raise ValueError(f"decide: floor_w must be positive, got {floor_w!r}")
+        raise InputError(f"decide: floor_w must be positive, got {floor_w!r}")
     predict = predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
     rows = predict_msb_rows(followers, v_ld, predict, thresholds)
     msbs = tuple(_as_dict(r) for r in rows)

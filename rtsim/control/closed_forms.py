@@ -27,13 +27,14 @@ from __future__ import annotations
 import math
 
 from rtsim.analysis.kinematics import Thresholds
+from rtsim.errors import InputError
 
 __all__ = ["coupled_speed", "coupled_speeds", "paper_speed"]
 
 
 def _check_w(w: float) -> float:
     if not (math.isfinite(w) and w > 0.0):
-        raise ValueError(f"window w must be positive and finite (ms), got {w!r}")
+        raise InputError(f"window w must be positive and finite (ms), got {w!r}")
     return w / 1000.0
 
 
@@ -83,7 +84,7 @@ def paper_speed(
         if disc < 0.0:
             return None
         return -p + math.sqrt(disc)
-    raise ValueError(f"unknown bound kind {kind!r}")
+    raise InputError(f"unknown bound kind {kind!r}")
 
 
 def coupled_speed(
@@ -118,7 +119,7 @@ def coupled_speed(
         num = thr.r_H
         den = abs(a_rho) if thr.localization == "radial" else math.hypot(a_rho, rho * a_beta)
     else:
-        raise ValueError(f"unknown bound kind {kind!r}")
+        raise InputError(f"unknown bound kind {kind!r}")
     return math.inf if den == 0.0 else num / (ws * den)
 
 

@@ -30,6 +30,7 @@ from rtsim.analysis.kinematics import (
     formation_velocity,
     scalar_msbs,
 )
+from rtsim.errors import InputError
 
 __all__ = [
     "FollowerEstimate",
@@ -50,7 +51,7 @@ def check_number(where: str, name: str, value: float) -> float:
     if value.__class__ is float and value - value == 0.0:  # a finite float: the common case
         return value
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ValueError(f"{where}: {name} must be a finite number, got {value!r}")
+        raise InputError(f"{where}: {name} must be a finite number, got {value!r}")
     return float(value)
 
 
@@ -78,9 +79,9 @@ class FollowerEstimate:
             object.__setattr__(self, "beta_d", check_number(where, "beta_d", self.beta_d))
         for name in ("rho", "rho_d"):
             if getattr(self, name) <= 0.0:
-                raise ValueError(f"{where}: {name} must be positive, got {getattr(self, name)!r}")
+                raise InputError(f"{where}: {name} must be positive, got {getattr(self, name)!r}")
         if self.v_f < 0.0:
-            raise ValueError(f"{where}: v_f must be non-negative, got {self.v_f!r}")
+            raise InputError(f"{where}: v_f must be non-negative, got {self.v_f!r}")
 
     @classmethod
     def _trusted(cls, rho: float, beta: float, theta: float, v_f: float, rho_d: float,
@@ -146,16 +147,16 @@ def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
         return lambda f, v_l: (f.v_f, f.theta, omega_l)
     if model == "hybrid":
         if v_now is None:
-            raise ValueError("model 'hybrid' needs the leader's current speed v_now")
+            raise InputError("model 'hybrid' needs the leader's current speed v_now")
         v0 = check_number("predictor", "v_now", v_now)
         if v0 < 0.0:
-            raise ValueError(f"predictor: v_now must be non-negative, got {v_now!r}")
+            raise InputError(f"predictor: v_now must be non-negative, got {v_now!r}")
 
         def hybrid(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
             return hybrid_velocity(f, v_l, v0, kappa) + (kappa * v_l,)
 
         return hybrid
-    raise ValueError(
+    raise InputError(
         f"model must be 'formation', 'estimate', 'hybrid' or a callable, got {model!r}")
 
 
