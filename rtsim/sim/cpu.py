@@ -14,6 +14,15 @@ later), the dispatcher moves the clock itself instead of the Timeout round trip 
 instants in the same order, without SimPy's per-event cost; any event another process (or a
 hook) schedules at or before the wake-up makes it yield as usual.
 
+Inline jobs of the top task: when the highest-priority task is simple (one constant-time
+segment, fixed period, finish-late, no hooks) and a job of it is released while it has no
+backlog, and nothing happens while it runs (no timer in (t, t + c], no other SimPy event up to
+t + c) and the job that gets the CPU after it has already started its segment, the dispatcher
+books that job without a :class:`Job` object and in one step: the preemption at t, the
+completion at t + c and the dispatch at t + c, with the same float operations in the same
+order (so results, job records, hook calls and times are bit-identical; tests/test_sim_inline
+compares runs with the path on and off). Not with a trace, overhead or abort policies.
+
 Eligibility: jobs of one task run one at a time, first in, first out. A task's pending jobs
 (released, not finished, not aborted) wait in a FIFO; only its oldest is eligible. So under
 finish-late the backlog of a task is served in release order, and since priorities are unique
@@ -149,7 +158,8 @@ class _TaskState:
     __slots__ = ("task", "name", "priority", "segs", "idle_kind", "offset", "period", "deadline",
                  "provider", "per_window", "is_window", "rank", "k", "next_release", "pending",
                  "stats", "rng", "exec_fns", "const_exec", "start_hooks", "end_hooks",
-                 "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start")
+                 "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start",
+                 "fast_top")
 
     def __init__(self, task: Task, provider: PeriodProvider | None, is_window: bool) -> None:
         self.task = task
@@ -179,6 +189,7 @@ class _TaskState:
         self.simple = False  # one segment, constant time, no segment-end hooks
         self.fast_release = False  # fixed period, finish-late, no release hooks
         self.fast_start: float | None = None  # the constant time of a simple segment
+        self.fast_top = False  # highest priority, fast release and start, no hooks at all
 
 
 class CPU:
@@ -322,6 +333,10 @@ class CPU:
                                and st.policy == "finish-late" and not st.release_hooks
                                and not st.idle_kind[0])
             st.fast_start = st.const_exec[0] if st.simple and not st.start_hooks[0] else None
+        top = min(self._states, key=lambda x: x.priority, default=None)
+        for st in self._states:
+            st.fast_top = (st is top and st.fast_release and st.fast_start is not None
+                           and not st.job_end_hooks)
 
     # -- running -------------------------------------------------------------------------
     def start(self, horizon: float) -> simpy.Process:
@@ -357,6 +372,11 @@ class CPU:
         jump = type(env) is simpy.Environment and isinstance(getattr(env, "_queue", None),
                                                                  list)
         queue: list[Any] = env._queue if jump else []  # type: ignore[attr-defined]
+        # Inline jobs of the top task (see _inline_top): only without trace, overhead and
+        # aborts, and only when the clock can be moved without SimPy.
+        inline_ok = plain and jump and not has_abort
+        deferred: tuple[Any, ...] | None = None
+        t0 = self._t0
         running: Job | None = None
         last: Job | None = None
         run_end = _INF
@@ -384,7 +404,24 @@ class CPU:
                 entry = heappop(timers)
                 kind = entry[4]
                 if kind == _RELEASE:
-                    self._release(entry[5], now, end)
+                    st = entry[5]
+                    if st.fast_top and inline_ok and not st.pending:
+                        # _release's fast path, the Job itself deferred to the dispatch
+                        k = st.k
+                        st.k = k + 1
+                        r = st.next_release
+                        p = st.period
+                        nxt = t0 + st.offset + (k + 1) * p
+                        if nxt < end - EPS:
+                            st.next_release = nxt
+                            heappush(timers, (nxt, st.rank, st.priority, 0, _RELEASE, st))
+                        stats = st.stats
+                        stats.released += 1
+                        if stats.max_backlog < 1:
+                            stats.max_backlog = 1
+                        deferred = (st, k, r, p, next(self._seq))
+                    else:
+                        self._release(st, now, end)
                 elif kind == _RESUME:
                     job = entry[5]
                     if not job.aborted:
@@ -397,6 +434,49 @@ class CPU:
                             running, run_end = None, _INF
                         self._abort(job, now)
             # 3. dispatch
+            if deferred is not None:
+                st, k, r, p, seq = deferred
+                deferred = None
+                # The top task's job gets the CPU now and runs uninterrupted to f = now + c.
+                # If nothing happens in (now, f] (no timer, no other SimPy event) and the job
+                # that gets the CPU at f has already started its segment (so no hook runs at
+                # f), do both instants here with the same float operations, in the same
+                # order, as the dispatch at now and the completion at f would.
+                c = st.fast_start
+                f = now + c
+                nxt_job = running
+                from_ready = False
+                if ready and (running is None or ready[0][0] < running.priority):
+                    nxt_job = ready[0][2]
+                    from_ready = True
+                if (st.fast_top and f > now + EPS and timers and timers[0][0] > f + EPS
+                        and (not queue or queue[0][0] > f)
+                        and (nxt_job is None or nxt_job.rem is not None)):
+                    if running is not None:  # preempted at now
+                        if running.rem is not None and now > work_start:
+                            worked = now - work_start
+                            running.executed += worked
+                            self._busy += worked
+                            running.rem = running.rem - worked
+                        running.preemptions += 1
+                        if from_ready:
+                            heappush(ready, (running.priority, running.seq, running))
+                    if from_ready:
+                        heappop(ready)
+                    self._switches += 1
+                    self._inline_top(st, k, r, p, now, f)
+                    env._now = now = f  # the clock moves to f, as the wait would
+                    piece_start = work_start = f
+                    if nxt_job is not None:  # it gets the CPU at f
+                        self._switches += 1
+                        run_end = f + nxt_job.rem  # type: ignore[operator]
+                    else:
+                        run_end = _INF
+                    running = last = nxt_job
+                else:
+                    job = Job(st, k, r, r + st.deadline, p, seq)
+                    st.pending.append(job)
+                    heappush(ready, (st.priority, seq, job))
             while has_abort and ready and ready[0][2].aborted:
                 heappop(ready)
             if ready and (running is None or ready[0][0] < running.priority):
@@ -589,6 +669,35 @@ class CPU:
             h(job)
         if len(st.pending) == 1:
             self._eligible(job, now)
+
+    def _inline_top(self, st: _TaskState, k: int, r: float, p: float, start: float,
+                    f: float) -> None:
+        """Book job ``k`` of the top task, run alone from ``start`` to ``f``, without a Job.
+
+        The same float operations as the dispatcher's booking at f and :meth:`_complete`.
+        """
+        worked = f - start
+        self._busy += worked
+        stats = st.stats
+        resp = f - r
+        stats.completed += 1
+        stats.sum_response += resp
+        if stats.max_response is None or resp > stats.max_response:
+            stats.max_response = resp
+        deadline = r + st.deadline
+        missed = f > deadline + EPS
+        if missed:
+            stats.misses += 1
+        hist = stats.histogram
+        if hist is None:
+            width = self.hist_bin or (deadline - r) / 100.0
+            hist = stats.histogram = ResponseHistogram(width)
+        i = int(resp / hist.bin_width)
+        counts = hist.counts
+        counts[i] = counts.get(i, 0) + 1
+        if self.record_jobs:
+            self._job_rows.append((st.name, k, r, start, f, resp, deadline, p, missed, 0,
+                                   False, False, 0.0 + worked))
 
     def _record(self, job: Job, missed: bool) -> None:
         resp = math.nan if job.finish is None else job.finish - job.release
