@@ -159,7 +159,7 @@ class _TaskState:
                  "provider", "per_window", "is_window", "rank", "k", "next_release", "pending",
                  "stats", "rng", "exec_fns", "const_exec", "start_hooks", "end_hooks",
                  "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start",
-                 "fast_top")
+                 "fast_top", "seg_const", "plain_next")
 
     def __init__(self, task: Task, provider: PeriodProvider | None, is_window: bool) -> None:
         self.task = task
@@ -190,6 +190,8 @@ class _TaskState:
         self.fast_release = False  # fixed period, finish-late, no release hooks
         self.fast_start: float | None = None  # the constant time of a simple segment
         self.fast_top = False  # highest priority, fast release and start, no hooks at all
+        self.seg_const: list[float | None] = []  # constant time of segment i, no start hooks
+        self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
 
 
 class CPU:
@@ -333,6 +335,10 @@ class CPU:
                                and st.policy == "finish-late" and not st.release_hooks
                                and not st.idle_kind[0])
             st.fast_start = st.const_exec[0] if st.simple and not st.start_hooks[0] else None
+            st.seg_const = [None if st.start_hooks[i] else c
+                            for i, c in enumerate(st.const_exec)]
+            st.plain_next = [not st.end_hooks[i] and i + 1 < len(st.segs)
+                             and not st.idle_kind[i + 1] for i in range(len(st.segs))]
         top = min(self._states, key=lambda x: x.priority, default=None)
         for st in self._states:
             st.fast_top = (st is top and st.fast_release and st.fast_start is not None
@@ -392,9 +398,13 @@ class CPU:
                 else:
                     self._close_piece(running, piece_start, work_start, now, done=True)
                 piece_start = work_start = now
-                if running._st.simple:
+                st = running._st
+                if st.simple:
                     self._complete(running, now)
                     running = None
+                elif st.plain_next[running.seg_index]:  # _segment_done without a hook
+                    running.seg_index += 1
+                    running.rem = None
                 else:
                     running = self._segment_done(running, now)
                 run_end = _INF
@@ -494,9 +504,11 @@ class CPU:
                 if running.rem is not None:
                     run_end = work_start + running.rem
             if running is not None and running.rem is None:
-                c = running._st.fast_start
-                if c is not None:
-                    running.start = running.seg_start = now
+                c = running._st.seg_const[running.seg_index]
+                if c is not None:  # _start_segment without a hook or an exec-time call
+                    if running.start is None:
+                        running.start = now
+                    running.seg_start = now
                     running.seg_exec = running.rem = c
                 else:
                     self._start_segment(running, now)
