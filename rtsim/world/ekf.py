@@ -191,6 +191,9 @@ class FastFollowerEKF:
         self._p = [[sp, 0.0, 0.0], [0.0, sp, 0.0], [0.0, 0.0, max(params.init_heading_sd,
                                                                    1e-4) ** 2]]
         self.r = max(params.measurement_noise, 0.01) ** 2
+        # σ_v², σ_ω², q_p², q_θ² of _process, squared once
+        self._noise = (params.speed_noise ** 2, params.turn_noise ** 2,
+                       params.position_drift ** 2, params.heading_drift ** 2)
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -208,18 +211,28 @@ class FastFollowerEKF:
         if dt <= 0.0:
             return
         x = self.x
-        c, m, a, b, dth, q = _process(self.params, v, w, dt, x[2])
-        x[0] += c * math.cos(m)
-        x[1] += c * math.sin(m)
+        # _process inlined (the same expressions, cos m and sin m computed once)
+        dth = w * dt
+        m = x[2] + 0.5 * dth
+        sinc = math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0
+        c = v * dt * sinc
+        cm, sm = math.cos(m), math.sin(m)
+        a, b = -c * sm, c * cm
+        sv2, sw2, qp2, qh2 = self._noise
+        g00, g01 = dt * sinc * cm, 0.5 * dt * a
+        g10, g11 = dt * sinc * sm, 0.5 * dt * b
+        qp = dt * qp2
+        x[0] += c * cm
+        x[1] += c * sm
         x[2] += dth
         (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._p
-        # F P Fᵀ with F = I + a e0 e2ᵀ + b e1 e2ᵀ
-        n00 = p00 + 2 * a * p02 + a * a * p22 + q[0]
-        n01 = p01 + a * p12 + b * p02 + a * b * p22 + q[1]
-        n02 = p02 + a * p22 + q[2]
-        n11 = p11 + 2 * b * p12 + b * b * p22 + q[3]
-        n12 = p12 + b * p22 + q[4]
-        n22 = p22 + q[5]
+        # F P Fᵀ with F = I + a e0 e2ᵀ + b e1 e2ᵀ, plus Q (g21 = dt)
+        n00 = p00 + 2 * a * p02 + a * a * p22 + (g00 * g00 * sv2 + g01 * g01 * sw2 + qp)
+        n01 = p01 + a * p12 + b * p02 + a * b * p22 + (g00 * g10 * sv2 + g01 * g11 * sw2)
+        n02 = p02 + a * p22 + g01 * dt * sw2
+        n11 = p11 + 2 * b * p12 + b * b * p22 + (g10 * g10 * sv2 + g11 * g11 * sw2 + qp)
+        n12 = p12 + b * p22 + g11 * dt * sw2
+        n22 = p22 + (dt * dt * sw2 + dt * qh2)
         self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
 
     def update(self, z: tuple[float, float]) -> None:
