@@ -72,7 +72,6 @@ from __future__ import annotations
 import heapq
 import itertools
 import math
-from collections import deque
 from collections.abc import Callable
 from typing import Any, Literal
 
@@ -82,6 +81,7 @@ import simpy
 from rtsim.errors import InputError, RtsimError
 from rtsim.model.task import Segment, Task
 from rtsim.sim.execution import WCET, ExecSpec, resolve_exec_model, task_rngs
+from rtsim.sim.job import _ABORT, _RELEASE, _RESUME, Job, _TaskState
 from rtsim.sim.records import (
     EPS,
     ResponseHistogram,
@@ -99,99 +99,7 @@ SegmentHook = Callable[["Job", Segment], None]
 JobHook = Callable[["Job"], None]
 PeriodProvider = Callable[[], float]
 
-_RESUME, _ABORT, _RELEASE_W, _RELEASE = 0, 1, 2, 3
 _INF = math.inf
-
-
-class Job:
-    """One job: read its fields in hooks; only the CPU changes them.
-
-    ``name`` is the task name, ``index`` counts releases from 0, ``release``/``deadline`` are
-    absolute (ms), ``period`` is the period in force at the release. ``segment`` is the
-    current segment, ``seg_exec`` its drawn execution time, ``start``/``finish`` are None until
-    they happen.
-    """
-
-    __slots__ = ("_st", "task", "name", "priority", "index", "release", "deadline", "period",
-                 "seq", "seg_index", "rem", "seg_start", "seg_exec", "start", "finish",
-                 "preemptions", "aborted", "executed")
-
-    def __init__(self, st: _TaskState, index: int, release: float, deadline: float,
-                 period: float, seq: int) -> None:
-        self._st = st
-        self.task: Task = st.task
-        self.name: str = st.name
-        self.priority: int = st.priority
-        self.index = index
-        self.release = release
-        self.deadline = deadline
-        self.period = period
-        self.seq = seq
-        self.seg_index = 0
-        self.rem: float | None = None
-        self.seg_start: float | None = None
-        self.seg_exec: float | None = None
-        self.start: float | None = None
-        self.finish: float | None = None
-        self.preemptions = 0
-        self.aborted = False
-        self.executed = 0.0
-
-    @property
-    def segment(self) -> Segment | None:
-        """The current segment (None once the job has completed)."""
-        segs = self._st.segs
-        return segs[self.seg_index] if self.seg_index < len(segs) else None
-
-    @property
-    def response(self) -> float | None:
-        """finish − release, once finished."""
-        return None if self.finish is None else self.finish - self.release
-
-    def __repr__(self) -> str:
-        return f"Job({self.name}#{self.index}, release={self.release:g})"
-
-
-class _TaskState:
-    """Per-task bookkeeping of the CPU (internal)."""
-
-    __slots__ = ("task", "name", "priority", "segs", "idle_kind", "offset", "period", "deadline",
-                 "provider", "per_window", "is_window", "rank", "k", "next_release", "pending",
-                 "stats", "rng", "exec_fns", "const_exec", "start_hooks", "end_hooks",
-                 "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start",
-                 "fast_top", "seg_const", "plain_next")
-
-    def __init__(self, task: Task, provider: PeriodProvider | None, is_window: bool) -> None:
-        self.task = task
-        self.name = task.name
-        self.priority = task.priority
-        self.segs: tuple[Segment, ...] = task.chain()
-        self.idle_kind: list[bool] = []
-        self.offset = task.offset
-        self.period = task.period
-        self.deadline: float = task.deadline  # type: ignore[assignment]
-        self.provider = provider
-        self.per_window = task.per_window
-        self.is_window = is_window
-        self.rank = _RELEASE_W if is_window else _RELEASE
-        self.k = 0
-        self.next_release = task.offset
-        self.pending: deque[Job] = deque()
-        self.stats = TaskStats(task.name, task.priority)
-        self.rng: np.random.Generator | None = None
-        self.exec_fns: list[Callable[..., float]] = []
-        self.const_exec: list[float | None] = []
-        self.start_hooks: list[list[SegmentHook]] = []
-        self.end_hooks: list[list[SegmentHook]] = []
-        self.release_hooks: list[JobHook] = []
-        self.job_end_hooks: list[JobHook] = []
-        self.policy = task.overload
-        self.simple = False  # one segment, constant time, no segment-end hooks
-        self.fast_release = False  # fixed period, finish-late, no release hooks
-        self.fast_start: float | None = None  # the constant time of a simple segment
-        self.fast_top = False  # highest priority, fast release and start, no hooks at all
-        self.seg_const: list[float | None] = []  # constant time of segment i, no start hooks
-        self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
 
 
 class CPU:
