@@ -24,7 +24,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from rtsim.analysis.window import LASER_POINTS
+from rtsim.analysis.window import LASER_POINTS, e_hough
 
 __all__ = ["locate", "locate_one", "hough_time"]
 
@@ -72,5 +72,5 @@ def locate(
 def hough_time(scan: _ScanLike, e_cal: float, e_trans: float, r_H: float, r_reacq: float) -> float:
     """Localization segment time (ms) for ``scan``: Eq 1 with its counted points, plus a
     re-acquisition (π r_reacq² e_cal + 361 e_trans) per lost follower."""
-    base = math.pi * r_H**2 * scan.n * e_cal + scan.total_points * e_trans
+    base = e_hough(scan.n, r_H, e_cal, e_trans, k=0.0, points=scan.total_points)
     return base + scan.n_lost * (math.pi * r_reacq**2 * e_cal + LASER_POINTS * e_trans)
