@@ -50,9 +50,9 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, NamedTuple
 
-from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds, scalar_msbs
+from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds
 from rtsim.control.closed_forms import coupled_speeds, paper_speed
 from rtsim.control.predict import (
     FollowerEstimate,
@@ -73,10 +73,12 @@ __all__ = [
     "METHODS",
     "MODES",
     "Adjustment",
+    "Decision",
     "FollowerEstimate",
     "Predictor",
     "adjust",
     "decide",
+    "decide_rows",
     "predict_msbs",
     "predictor",
 ]
@@ -138,9 +140,83 @@ class Adjustment:
         return self.msb_min < self.w_sch
 
 
+class Decision(NamedTuple):
+    """A window's decision without the dicts of :class:`Adjustment` (:func:`decide_rows`).
+
+    ``rows``/``rows_after``: every follower's bounds (ms) in :data:`BOUND_KINDS` order at the
+    desired / the chosen speed; the other fields as in :class:`Adjustment`.
+    """
+
+    w: float
+    v_leader: float
+    msb_min: float
+    binding_kind: str
+    binding_follower: int
+    method: str
+    feasible: bool
+    rows: list[tuple[float, float, float, float]]
+    rows_after: list[tuple[float, float, float, float]]
+    msb_min_after: float
+    candidates: dict[str, float]
+
+    @property
+    def binding(self) -> str:
+        """``kind:follower`` as in windows.csv, or ``none``."""
+        return ("none" if self.binding_follower == 0
+                else f"{self.binding_kind}:{self.binding_follower}")
+
+
 def _as_dict(row: Sequence[float]) -> dict[str, float]:
     return {"localization": row[0], "separation": row[1], "path_diversion": row[2],
             "bearing": row[3]}
+
+
+def _formation_consts(
+    followers: Sequence[FollowerEstimate], thresholds: Thresholds, kappa: float
+) -> list[tuple[float, ...]] | None:
+    """Per-follower constants of the ``formation`` model's bounds, or None when the scalar
+    fast path does not apply (non-float values, ``full`` localization).
+
+    Each row: ρ, κ, s, cos(θ_F + β), cos β, sin β, sin(β + θ_F), and the numerators
+    1000·r_H, 1000·(T_ρ ρ_d), 1000·(T_ε ρ_d), 1000·T_β of :func:`scalar_msbs` (which computes
+    ``1000.0 * x / d`` as ``(1000.0 * x) / d``: the same floats).
+    """
+    if kappa.__class__ is not float or thresholds.localization != "radial":
+        return None
+    out = []
+    loc = 1000.0 * thresholds.r_H
+    bear = 1000.0 * thresholds.T_beta
+    for f in followers:
+        rho, beta, rho_d = f.rho, f.beta, f.rho_d
+        if not (rho.__class__ is float and beta.__class__ is float
+                and rho_d.__class__ is float):
+            return None
+        s, th = unit_formation(kappa, *f.slot)
+        if s.__class__ is not float or th.__class__ is not float:
+            return None
+        out.append((rho, kappa, s, math.cos(th + beta), math.cos(beta), math.sin(beta),
+                    math.sin(beta + th), loc, 1000.0 * float(thresholds.T_rho * rho_d),
+                    1000.0 * float(thresholds.T_eps * rho_d), bear))
+    return out
+
+
+def _formation_rows(pre: list[tuple[float, ...]], v: float
+                    ) -> list[tuple[float, float, float, float]]:
+    """:func:`scalar_msbs` of every follower under the ``formation`` model at leader speed
+    ``v`` (V_F = s·v, ω_L = κ·v), from :func:`_formation_consts`; the same operations."""
+    out = []
+    for rho, kappa, s, c_tb, c_b, s_b, s_bt, n_loc, n_sep, n_path, n_bear in pre:
+        v_f = s * v
+        rd = v_f * c_tb - v * c_b
+        bd = (v * s_b - v_f * s_bt) / rho - kappa * v
+        ard, abd, avf = abs(rd), abs(bd), abs(v_f)
+        out.append((
+            math.inf if ard == 0.0 else n_loc / ard,
+            math.inf if ard == 0.0 else n_sep / ard,
+            math.inf if avf == 0.0 else n_path / avf,
+            math.inf if abd == 0.0 else n_bear / abd,
+        ))
+    return out
 
 
 def _rows_at(
@@ -152,27 +228,19 @@ def _rows_at(
 ) -> Callable[[float], list[tuple[float, float, float, float]]]:
     """v_l -> every follower's bounds at v_l (rows in BOUND_KINDS order), memoised per v_l.
 
-    For the built-in ``formation`` model the per-follower (s, θ_F) are looked up once; the
-    values are those of :func:`predict_msb_rows` with the same predictor.
+    For the built-in ``formation`` model the per-follower constants are computed once
+    (:func:`_formation_consts`); the values are those of :func:`predict_msb_rows` with the
+    same predictor.
     """
     memo: dict[float, list[tuple[float, float, float, float]]] = {}
-    pre: list[tuple[float, ...]] | None = None
+    pre = _formation_consts(followers, thresholds, kappa) if model == "formation" else None
 
     def rows_at(v: float) -> list[tuple[float, float, float, float]]:
-        nonlocal pre
         out = memo.get(v)
         if out is not None:
             return out
-        if memo and pre is None and model == "formation" and kappa.__class__ is float and all(
-                f.rho.__class__ is float and f.beta.__class__ is float
-                and f.rho_d.__class__ is float for f in followers):
-            # a search: look the per-follower (s, θ_F) up once
-            pre = [(f.rho, f.beta, f.rho_d, *unit_formation(kappa, *f.slot))
-                   for f in followers]
         if pre is not None and v.__class__ is float:
-            wv = kappa * v
-            out = [scalar_msbs(v, wv, s * v, rho, beta, th, rho_d, thresholds)
-                   for rho, beta, rho_d, s, th in pre]
+            out = _formation_rows(pre, v)
         else:
             out = predict_msb_rows(followers, v, predict, thresholds)
         memo[v] = out
@@ -202,28 +270,21 @@ def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None
     return None
 
 
-def adjust(
+def _adjust_core(
     followers: Sequence[FollowerEstimate],
-    *,
     v_ld: float,
     w_sch: float,
     thresholds: Thresholds,
-    omega_l: float = 0.0,
-    kappa: float = 0.0,
-    cap: float | None = None,
-    floor_frac: float = FLOOR_FRAC,
-    model: str | Predictor = "formation",
-    methods: Sequence[str] = _CANDIDATES,
-    scan_points: int = 64,
-    v_now: float | None = None,
-) -> Adjustment:
-    """The adjustment algorithm (paper §3.3, SPEC §5); see the module docstring.
-
-    v_ld: desired leader speed (cm/s); w_sch (ms); omega_l: the leader's current turn rate
-    (rad/s, used by the paper's forms and the ``estimate`` model); kappa: path curvature (1/cm,
-    positive = left); cap: largest window (ms, default 10·w_sch); floor_frac: leader speed when
-    nothing works, as a fraction of v_ld; methods: allowed candidates in tie-break order.
-    """
+    omega_l: float,
+    kappa: float,
+    cap: float | None,
+    floor_frac: float,
+    model: str | Predictor,
+    methods: Sequence[str],
+    scan_points: int,
+    v_now: float | None,
+) -> Decision:
+    """:func:`adjust` as a :class:`Decision` (validation included)."""
     where = "adjust"
     v_ld = check_number(where, "v_ld", v_ld)
     w_sch = check_number(where, "w_sch", w_sch)
@@ -249,30 +310,9 @@ def adjust(
     predict = predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
     rows_at = _rows_at(followers, predict, thresholds, model, kappa)
     rows = rows_at(v_ld)
-    msbs = [_as_dict(r) for r in rows]
     m, kind, who = min_bound_rows(rows)
-    common = dict(
-        mode="adjust",
-        w_sch=w_sch,
-        v_leader_desired=v_ld,
-        msb_min=m,
-        margin=m - w_sch,
-        binding_kind=kind,
-        binding_follower=who,
-        msbs=tuple(msbs),
-    )
     if m >= w_sch:
-        w = min(m, cap)
-        return Adjustment(
-            w=w,
-            slack=w - w_sch,
-            v_leader=v_ld,
-            method="none",
-            feasible=True,
-            msb_min_after=m,
-            msbs_after=tuple(msbs),
-            **common,
-        )
+        return Decision(min(m, cap), v_ld, m, kind, who, "none", True, rows, rows, m, {})
 
     need = w_sch * (1.0 - _TOL)
 
@@ -335,18 +375,104 @@ def adjust(
             candidates["numeric"] = found
     v_l = floor_frac * v_ld if best is None else best
     after_rows = rows_at(v_l)
-    after = [_as_dict(r) for r in after_rows]
     m_after = min_bound_rows(after_rows)[0]
+    return Decision(w_sch, v_l, m, kind, who, method, m_after >= need, rows, after_rows,
+                    m_after, candidates)
+
+
+def adjust(
+    followers: Sequence[FollowerEstimate],
+    *,
+    v_ld: float,
+    w_sch: float,
+    thresholds: Thresholds,
+    omega_l: float = 0.0,
+    kappa: float = 0.0,
+    cap: float | None = None,
+    floor_frac: float = FLOOR_FRAC,
+    model: str | Predictor = "formation",
+    methods: Sequence[str] = _CANDIDATES,
+    scan_points: int = 64,
+    v_now: float | None = None,
+) -> Adjustment:
+    """The adjustment algorithm (paper §3.3, SPEC §5); see the module docstring.
+
+    v_ld: desired leader speed (cm/s); w_sch (ms); omega_l: the leader's current turn rate
+    (rad/s, used by the paper's forms and the ``estimate`` model); kappa: path curvature (1/cm,
+    positive = left); cap: largest window (ms, default 10·w_sch); floor_frac: leader speed when
+    nothing works, as a fraction of v_ld; methods: allowed candidates in tie-break order.
+    """
+    d = _adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap, floor_frac,
+                     model, methods, scan_points, v_now)
+    return _adjustment("adjust", d, float(w_sch), float(v_ld))
+
+
+def decide_rows(
+    mode: str,
+    followers: Sequence[FollowerEstimate],
+    *,
+    v_ld: float,
+    w_sch: float,
+    thresholds: Thresholds,
+    omega_l: float = 0.0,
+    kappa: float = 0.0,
+    cap: float | None = None,
+    floor_frac: float = FLOOR_FRAC,
+    floor_w: float = FLOOR_W,
+    model: str | Predictor = "formation",
+    methods: Sequence[str] = _CANDIDATES,
+    scan_points: int = 64,
+    v_now: float | None = None,
+) -> Decision:
+    """:func:`decide` as a lightweight :class:`Decision` (bounds as rows in
+    :data:`BOUND_KINDS` order, no dicts): the per-window path of a coupled run. The same
+    validation and values as :func:`decide`."""
+    if mode == "adjust":
+        return _adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap,
+                            floor_frac, model, methods, scan_points, v_now)
+    if mode not in MODES:
+        raise InputError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+    v_ld = check_number("decide", "v_ld", v_ld)
+    w_sch = check_number("decide", "w_sch", w_sch)
+    if w_sch <= 0.0:
+        raise InputError(f"decide: w_sch must be positive, got {w_sch!r}")
+    cap = CAP_FACTOR * w_sch if cap is None else check_number("decide", "cap", cap)
+    floor_w = check_number("decide", "floor_w", floor_w)
+    if floor_w <= 0.0:
+        raise InputError(f"decide: floor_w must be positive, got {floor_w!r}")
+    predict = predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
+    rows = _rows_at(followers, predict, thresholds, model, kappa)(v_ld)
+    m, kind, who = min_bound_rows(rows)
+    w = w_sch if mode == "fixed-wsch" else min(max(m, floor_w), max(cap, floor_w))
+    return Decision(w, v_ld, m, kind, who, "none", m >= w_sch * (1.0 - _TOL), rows, rows, m,
+                    {})
+
+
+def _adjustment(mode: str, d: Decision, w_sch: float, v_ld: float) -> Adjustment:
+    """The :class:`Adjustment` of a :class:`Decision`."""
+    msbs = tuple(_as_dict(r) for r in d.rows)
+    after = msbs if d.rows_after is d.rows else tuple(_as_dict(r) for r in d.rows_after)
+    if mode == "adjust":
+        slack = d.w - w_sch if d.method == "none" else 0.0
+    else:
+        slack = max(0.0, d.w - w_sch)
     return Adjustment(
-        w=w_sch,
-        slack=0.0,
-        v_leader=v_l,
-        method=method,
-        feasible=m_after >= need,
-        msb_min_after=m_after,
-        msbs_after=tuple(after),
-        candidates=candidates,
-        **common,
+        mode=mode,
+        w=d.w,
+        w_sch=w_sch,
+        slack=slack,
+        v_leader=d.v_leader,
+        v_leader_desired=v_ld,
+        msb_min=d.msb_min,
+        margin=d.msb_min - w_sch,
+        binding_kind=d.binding_kind,
+        binding_follower=d.binding_follower,
+        method=d.method,
+        feasible=d.feasible,
+        msbs=msbs,
+        msb_min_after=d.msb_min_after,
+        msbs_after=after,
+        candidates=d.candidates,
     )
 
 
@@ -377,50 +503,8 @@ def decide(
     In the two baselines ``method`` is ``none``, ``feasible`` says whether min MSB ≥ w_sch, and
     slack = max(0, w − w_sch).
     """
-    if mode == "adjust":
-        return adjust(
-            followers,
-            v_ld=v_ld,
-            w_sch=w_sch,
-            thresholds=thresholds,
-            omega_l=omega_l,
-            kappa=kappa,
-            cap=cap,
-            floor_frac=floor_frac,
-            model=model,
-            methods=methods,
-            scan_points=scan_points,
-            v_now=v_now,
-        )
-    if mode not in MODES:
-        raise InputError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
-    v_ld = check_number("decide", "v_ld", v_ld)
-    w_sch = check_number("decide", "w_sch", w_sch)
-    if w_sch <= 0.0:
-        raise InputError(f"decide: w_sch must be positive, got {w_sch!r}")
-    cap = CAP_FACTOR * w_sch if cap is None else check_number("decide", "cap", cap)
-    floor_w = check_number("decide", "floor_w", floor_w)
-    if floor_w <= 0.0:
-        raise InputError(f"decide: floor_w must be positive, got {floor_w!r}")
-    predict = predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
-    rows = predict_msb_rows(followers, v_ld, predict, thresholds)
-    msbs = tuple(_as_dict(r) for r in rows)
-    m, kind, who = min_bound_rows(rows)
-    w = w_sch if mode == "fixed-wsch" else min(max(m, floor_w), max(cap, floor_w))
-    return Adjustment(
-        mode=mode,
-        w=w,
-        w_sch=w_sch,
-        slack=max(0.0, w - w_sch),
-        v_leader=v_ld,
-        v_leader_desired=v_ld,
-        msb_min=m,
-        margin=m - w_sch,
-        binding_kind=kind,
-        binding_follower=who,
-        method="none",
-        feasible=m >= w_sch * (1.0 - _TOL),
-        msbs=msbs,
-        msb_min_after=m,
-        msbs_after=msbs,
-    )
+    d = decide_rows(mode, followers, v_ld=v_ld, w_sch=w_sch, thresholds=thresholds,
+                    omega_l=omega_l, kappa=kappa, cap=cap, floor_frac=floor_frac,
+                    floor_w=floor_w, model=model, methods=methods, scan_points=scan_points,
+                    v_now=v_now)
+    return _adjustment(mode, d, float(w_sch), float(v_ld))

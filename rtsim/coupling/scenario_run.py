@@ -58,7 +58,8 @@ import simpy
 
 from rtsim.analysis.bounds import window_bounds
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, scalar_msbs
-from rtsim.control import MODES, decide
+from rtsim.control import MODES
+from rtsim.control.adjust import decide_rows
 from rtsim.control.predict import trusted_estimate
 from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder
 from rtsim.errors import InputError
@@ -293,12 +294,11 @@ class _Coupling:
             state.append((*pose, rho, beta, theta, v_f))
             fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
                                          self.beta_d[k]))
-        adj = decide(self.mode, fols, v_ld=self.v_ld, w_sch=self.w_sch, thresholds=self.thr,
+        adj = decide_rows(self.mode, fols, v_ld=self.v_ld, w_sch=self.w_sch, thresholds=self.thr,
                      omega_l=world.leader_omega, kappa=kappa, v_now=world.leader_speed,
                      **self.opts)
         v_l = max(adj.v_leader, self.v_floor)
-        est = tuple((*row, *(m[b] for b in BOUND_KINDS))
-                    for row, m in zip(state, adj.msbs, strict=True))
+        est = tuple((*row, *m) for row, m in zip(state, adj.rows, strict=True))
         return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
                          adj.feasible and v_l == adj.v_leader, est)
 
