@@ -200,6 +200,11 @@ class FollowerGroup:
         Returns the realised (v, ω).
         """
         nv, nw = rng.standard_normal(2).tolist()
+        return self.apply_drawn(k, v, w, nv, nw)
+
+    def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float
+                    ) -> tuple[float, float]:
+        """:meth:`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
         sv, sw = self.saturate(v + self.p.speed_noise * nv, w + self.p.turn_noise * nw)
         self.cmd_v[k] = sv
         self.cmd_w[k] = sw

@@ -42,6 +42,9 @@ from rtsim.world.leader import Leader
 
 __all__ = ["World", "Scan"]
 
+#: Standard normals the world draws ahead from its generator at a time (:meth:`World._normals`).
+NORMAL_BLOCK = 512
+
 Array = NDArray[np.float64]
 Pose = tuple[float, float, float]
 
@@ -173,6 +176,8 @@ class World:
     def __init__(self, config: WorldConfig, rng: np.random.Generator) -> None:
         self.config = config
         self.rng = rng
+        self._z: list[float] = []  # standard normals drawn ahead from rng (see _normals)
+        self._zi = 0
         self.leader = Leader(config.path, config.leader_speed, config.start_s)
         form = config.formation
         self._rho_d = np.asarray(form.rho_d)
@@ -317,6 +322,20 @@ class World:
         it holds: its pose (x, y, heading) and its expected speed (cm/s)."""
         return self._propagate(i - 1, t_ms)
 
+    def _normals(self, m: int) -> list[float]:
+        """The next ``m`` standard normals of ``rng``'s stream, drawn ahead in blocks of
+        :data:`NORMAL_BLOCK` (one numpy call per block instead of per scan or command).
+        A Generator's ``standard_normal(N)`` is the concatenation of consecutive smaller
+        draws, so the world sees the same numbers; ``rng`` itself runs ahead by up to a
+        block."""
+        i = self._zi
+        j = i + m
+        if j > len(self._z):
+            self._z = self._z[i:] + self.rng.standard_normal(NORMAL_BLOCK).tolist()
+            i, j = 0, m
+        self._zi = j
+        return self._z[i:j]
+
     # -- the scan --------------------------------------------------------------------
     def scan(self, t_ms: float) -> Scan:
         """Sample the truth at ``t_ms`` (advancing to it): beams, fixes, Hough windows,
@@ -330,7 +349,7 @@ class World:
         n = self.n
         truth_l = self._to_leader(lp, fol.x, fol.y)
         pts = count_beams_xy(truth_l, cfg.follower.radius, sens.max_range)
-        z = self.rng.standard_normal(2 * n).tolist()  # = standard_normal((n, 2)), row-major
+        z = self._normals(2 * n)  # = standard_normal((n, 2)), row-major
         pn = sens.position_noise
         r_H, r_re, min_pts = thr.r_H, sens.r_reacq, sens.min_points
         T_beta = thr.T_beta
@@ -448,7 +467,8 @@ class World:
         if pieces and pieces[-1][0] >= t_ms:
             pieces.pop()
         pieces.append((t_ms, cmd[0], cmd[1]))
-        fol.apply(k, cmd[0], cmd[1], self.rng)
+        nv, nw = self._normals(2)
+        fol.apply_drawn(k, cmd[0], cmd[1], nv, nw)
         return cmd
 
     # -- relative states and snapshots -----------------------------------------------
