@@ -45,6 +45,7 @@ V_Ld), i.e. a leader slowed to ¼·V_Ld on average. ``summary['laps']`` and
 
 from __future__ import annotations
 
+import gc
 import math
 import os
 import time
@@ -391,10 +392,21 @@ class _Coupling:
     # -- running ---------------------------------------------------------------------
     def run(self) -> None:
         proc = self.cpu.start(self.horizon_ms)
-        if self._stop_s is None:
-            self.env.run(until=self.horizon_ms)
-        else:
-            self.env.run(until=self.stop | proc)
+        # Objects alive before the run (modules, pandas, matplotlib, ...) are moved out of
+        # the collector's reach while it runs: full collections then traverse only what the
+        # run allocates (gen-2 time in an hour of Test 2 after the CLI's imports: ~4% of the
+        # loop -> <1%). No effect on results; unfrozen afterwards unless already frozen.
+        frozen = gc.get_freeze_count() == 0
+        if frozen:
+            gc.freeze()
+        try:
+            if self._stop_s is None:
+                self.env.run(until=self.horizon_ms)
+            else:
+                self.env.run(until=self.stop | proc)
+        finally:
+            if frozen:
+                gc.unfreeze()
         last = self._last_scanned
         if last is not None and last.viol is None:  # close the last observation interval
             self._close(self.world.scan(max(self.env.now, self.world.t_ms)))
