@@ -51,7 +51,7 @@ import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -192,8 +192,7 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
     return out
 
 
-@dataclass(frozen=True, slots=True)
-class _Decision:
+class _Decision(NamedTuple):
     w: float
     v_leader: float
     msb_min: float
