@@ -221,10 +221,11 @@ def _formation_rows(pre: list[tuple[float, ...]], v: float
 
 def _rows_at(
     followers: Sequence[FollowerEstimate],
-    predict: Predictor,
+    predict: Predictor | None,
     thresholds: Thresholds,
     model: str | Predictor,
     kappa: float,
+    omega_l: float = 0.0,
 ) -> Callable[[float], list[tuple[float, float, float, float]]]:
     """v_l -> every follower's bounds at v_l (rows in BOUND_KINDS order), memoised per v_l.
 
@@ -242,6 +243,9 @@ def _rows_at(
         if pre is not None and v.__class__ is float:
             out = _formation_rows(pre, v)
         else:
+            nonlocal predict
+            if predict is None:  # the formation model's predictor, made when first needed
+                predict = predictor(model, omega_l=omega_l, kappa=kappa)
             out = predict_msb_rows(followers, v, predict, thresholds)
         memo[v] = out
         return out
@@ -307,8 +311,10 @@ def _adjust_core(
     if scan_points < 1:
         raise InputError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
 
-    predict = predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
-    rows_at = _rows_at(followers, predict, thresholds, model, kappa)
+    # the formation model's predictor (which cannot fail) is only made when needed
+    predict = (None if model == "formation"
+               else predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
+    rows_at = _rows_at(followers, predict, thresholds, model, kappa, omega_l)
     rows = rows_at(v_ld)
     m, kind, who = min_bound_rows(rows)
     if m >= w_sch:
@@ -440,8 +446,9 @@ def decide_rows(
     floor_w = check_number("decide", "floor_w", floor_w)
     if floor_w <= 0.0:
         raise InputError(f"decide: floor_w must be positive, got {floor_w!r}")
-    predict = predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
-    rows = _rows_at(followers, predict, thresholds, model, kappa)(v_ld)
+    predict = (None if model == "formation"
+               else predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
+    rows = _rows_at(followers, predict, thresholds, model, kappa, omega_l)(v_ld)
     m, kind, who = min_bound_rows(rows)
     w = w_sch if mode == "fixed-wsch" else min(max(m, floor_w), max(cap, floor_w))
     return Decision(w, v_ld, m, kind, who, "none", m >= w_sch * (1.0 - _TOL), rows, rows, m,
