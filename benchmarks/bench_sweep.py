@@ -41,7 +41,8 @@ r_H = [10, 20, 30, 40]
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--horizon", type=float, default=300_000.0, help="ms per point")
+    ap.add_argument("--horizon", type=float, default=1_500_000.0,
+                    help="ms simulated per point (default 25 min: ~0.8 s of work a point)")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
