@@ -189,6 +189,28 @@ def arc1(pose: tuple[float, float, float], v: float, w: float, dt: float
     return x + c * math.cos(m), y + c * math.sin(m), th + dth
 
 
+def ramp_arc(x: float, y: float, th: float, v: float, vc: float, w: float, a: float,
+             dt: float) -> tuple[float, float, float, float, float]:
+    """One step of a held command: :func:`ramp1` then :func:`arc1` at the ramp's mean speed,
+    in one call (the same expressions; the hot path of the truth and of the estimates).
+
+    Returns (x, y, heading, speed after dt, mean speed)."""
+    if dt <= 0.0:
+        vm = v
+    else:
+        dv = vc - v
+        if a == math.inf or abs(dv) <= a * dt:
+            tau = 0.0 if a == math.inf else abs(dv) / a
+            v, vm = vc, ((v + vc) * 0.5 * tau + vc * (dt - tau)) / dt
+        else:
+            v1 = v + math.copysign(a * dt, dv)
+            v, vm = v1, 0.5 * (v + v1)
+    dth = w * dt
+    c = vm * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
+    m = th + 0.5 * dth
+    return x + c * math.cos(m), y + c * math.sin(m), th + dth, v, vm
+
+
 class FollowerGroup:
     """The true state of n followers, integrated with held, noisy, limited commands.
 
@@ -252,27 +274,12 @@ class FollowerGroup:
         v, vc, w = self.v[k], self.cmd_v[k], self.cmd_w[k]
         odo = self.odometer[k]
         x, y, th = pose
-        inf = math.inf
         while t_ms - t0 > 1e-12:
             # one exact-mean arc once the ramp ends within a step; sub-steps while it lasts
             short = v == vc or abs(vc - v) <= a * step_ms / 1000.0
             h = t_ms - t0 if short else min(step_ms, t_ms - t0)
             dt = h / 1000.0
-            # v, vm = ramp1(v, vc, a, dt) and the arc1 step, inlined (same expressions)
-            if dt <= 0.0:
-                vm = v
-            else:
-                dv = vc - v
-                if a == inf or abs(dv) <= a * dt:
-                    tau = 0.0 if a == inf else abs(dv) / a
-                    v, vm = vc, ((v + vc) * 0.5 * tau + vc * (dt - tau)) / dt
-                else:
-                    v1 = v + math.copysign(a * dt, dv)
-                    v, vm = v1, 0.5 * (v + v1)
-            dth = w * dt
-            c = vm * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
-            m = th + 0.5 * dth
-            x, y, th = x + c * math.cos(m), y + c * math.sin(m), th + dth
+            x, y, th, v, vm = ramp_arc(x, y, th, v, vc, w, a, dt)
             odo += abs(vm) * dt
             t0 += h
         self.x[k], self.y[k], self.th[k] = x, y, th

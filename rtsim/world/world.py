@@ -36,7 +36,7 @@ from rtsim.analysis.kinematics import (
 from rtsim.errors import RtsimError
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
-from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command, ramp1
+from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command, ramp1, ramp_arc
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
 
@@ -293,26 +293,13 @@ class World:
         a = self.config.follower.max_accel
         pieces = self._pieces[k]
         n = len(pieces)
-        inf = math.inf
         x, y, th = pose
-        # ramp1 and arc1 inlined (the same expressions)
         for j, (t0, vc, w) in enumerate(pieces):
             t1 = pieces[j + 1][0] if j + 1 < n else t_ms
             t1 = min(t1, t_ms)
             if t1 <= t0:
                 continue
-            dt = (t1 - t0) / 1000.0
-            dv = vc - v
-            if a == inf or abs(dv) <= a * dt:
-                tau = 0.0 if a == inf else abs(dv) / a
-                v, vm = vc, ((v + vc) * 0.5 * tau + vc * (dt - tau)) / dt
-            else:
-                v1 = v + math.copysign(a * dt, dv)
-                v, vm = v1, 0.5 * (v + v1)
-            dth = w * dt
-            c = vm * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
-            m = th + 0.5 * dth
-            x, y, th = x + c * math.cos(m), y + c * math.sin(m), th + dth
+            x, y, th, v, _ = ramp_arc(x, y, th, v, vc, w, a, (t1 - t0) / 1000.0)
             pose = (x, y, th)
         return pose, v
 
