@@ -196,7 +196,11 @@ def test_w_rta_with_deadline_above_period(e, c, d):
     ts = TaskSet((base.task("hp0"), longer), window=base.window)
     rta = w_rta(ts)
     res = analyze(ts, rta)
-    assert res.schedulable and res.tasks[-1].wcrt > res.tasks[-1].period  # several jobs
+    # The lp job's response reaches its period (a busy period of one job closing exactly at
+    # the next release, or of several jobs). With a ceiling tolerance relative to the period
+    # (before the absolute 1e-9 ms), w_rta came out 6e-8 ms lower, where a second window job
+    # released 6e-8 ms before the lp job's finish was not counted: optimistic.
+    assert res.schedulable and res.tasks[-1].wcrt >= res.tasks[-1].period - 1e-9
     assert not analyze(ts, rta - 1e-6).schedulable
     assert analyze(ts, rta + 1.0).schedulable and rta <= w_sch_of(ts)
 

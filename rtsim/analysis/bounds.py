@@ -27,7 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, analyze, response_time
+from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, analyze, ceil_div, response_time
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Task
 
@@ -116,7 +116,7 @@ def _snap(ts: TaskSet, hi: float) -> float:
         cands = [r / scale[task.name][1]] if task.name in scale else []
         for j in resolved[:i]:
             if j.name in scale:
-                m = math.ceil(r / j.period - CEIL_TOL)
+                m = ceil_div(r + j.jitter, j.period)
                 cands.append(r / (m * scale[j.name][0]))
         best = max(best, *cands) if cands else best
     return best

@@ -14,9 +14,25 @@ fixed point of w_q = (q+1)·e_i + Σ_j ⌈w_q / p_j⌉ e_j, its response is w_q 
 busy period ends with the first job that finishes by the next release, w_q ≤ (q+1)·p_i.
 For D_i ≤ p_i that is job 0 alone, i.e. the recurrence above.
 
+Release jitter (Tindell, Burns & Wellings 1994; SPEC §8): job k of task i *arrives* at
+O_i + k·T_i and is released in [arrival, arrival + J_i]; deadlines and responses count from the
+arrival. A higher task j then puts ⌈(w + J_j)/T_j⌉ jobs into a window of length w, and
+
+    w_i(q) = (q+1)·C_i + Σ_{j∈hp(i)} ⌈(w_i(q) + J_j)/T_j⌉·C_j,   R_i = J_i + max_q (w_i(q) − q·T_i),
+
+over q = 0, 1, … until the first q with w_i(q) ≤ (q+1)·T_i − J_i (the level-i busy window
+closes). With J = 0 this is the recurrence above. Offsets are ignored (sound, pessimistic).
+
+Context-switch overhead o (SPEC §8, the simulator's ``overhead``): a higher task's job costs
+C_j + 2·o·s_j and a job of task i costs C_i + o·s_i, where s is the number of compute stretches
+of a job (segments separated by suspensions; 1 for an ordinary task).
+
 Numerics: R/p_j is often an integer up to float rounding (e.g. R = 3·p_j built from a sum),
-so ceilings are taken as ⌈x − 1e-9⌉; and a response within 1e-9 ms of the deadline counts as
-meeting it (SPEC: a job misses its deadline when it finishes later than D + 1e-9 ms).
+so ceilings are taken as ⌈(x − ε)/p⌉ with an *absolute* ε = 1e-9 ms, the simulator's
+coincidence window (a release within 1e-9 ms of a completion comes after it); a tolerance
+relative to x/p would be 1e-9·p in time, optimistic for large periods. A response within
+1e-9 ms of the deadline counts as meeting it (SPEC: a job misses its deadline when it
+finishes later than D + 1e-9 ms).
 
 A processing-window set is analysed at a fixed window w, its chain counted as one task of
 cost g, the radio round trip Δt included as if it used the CPU (suspension-oblivious, as the
@@ -37,9 +53,10 @@ from rtsim.model.task import Task
 if TYPE_CHECKING:  # the model package imports rtsim.analysis: no runtime import of it here
     from rtsim.model.taskset import TaskSet
 
-__all__ = ["Analysis", "TaskResult", "analyze", "response_time", "CEIL_TOL", "DEADLINE_TOL"]
+__all__ = ["Analysis", "TaskResult", "analyze", "busy_window", "ceil_div", "response_time",
+           "stretches", "CEIL_TOL", "DEADLINE_TOL"]
 
-#: ⌈x⌉ is computed as ⌈x − CEIL_TOL⌉ so that R/p = 3 + 4e-16 counts as 3.
+#: ⌈x/p⌉ is computed as ⌈(x − CEIL_TOL)/p⌉ (absolute, ms): R = 3·p + 4e-14 counts 3 jobs.
 CEIL_TOL = 1e-9
 #: A response time up to DEADLINE_TOL ms above the deadline still meets it.
 DEADLINE_TOL = 1e-9
@@ -47,8 +64,50 @@ DEADLINE_TOL = 1e-9
 MAX_BUSY_JOBS = 100_000
 
 
-def _ceil(x: float) -> int:
-    return math.ceil(x - CEIL_TOL)
+def ceil_div(x: float, p: float) -> int:
+    """⌈x/p⌉ for times x, p (ms), x taken CEIL_TOL ms lower (module doc: Numerics)."""
+    return math.ceil((x - CEIL_TOL) / p)
+
+
+def stretches(task: Task) -> int:
+    """Compute stretches of one job: runs of compute segments between suspensions (≥ 1)."""
+    n, inside = 0, False
+    for s in task.chain():
+        if s.kind == "compute":
+            if not inside:
+                n += 1
+            inside = True
+        else:
+            inside = False
+    return max(n, 1)
+
+
+def busy_window(c: float, t: float, j: float, d: float,
+                hp: Sequence[tuple[float, float, float]]) -> float | None:
+    """WCRT from arrival of a task (C, T, J, D) below ``hp`` = [(C_j, T_j, J_j)], or None.
+
+    The level-i busy window with release jitter and arbitrary deadlines (module doc;
+    Tindell, Burns & Wellings 1994). None once a response passes D (+ 1e-9 ms), at once when
+    the level-i utilization exceeds 1 and the window cannot close, or after MAX_BUSY_JOBS jobs.
+    """
+    limit = d + DEADLINE_TOL
+    if c / t + math.fsum(cj / tj for cj, tj, _ in hp) > 1.0 + 1e-12 and (d > t or j > 0):
+        return None  # level-i work grows without bound: some job misses any deadline
+    worst = 0.0
+    w = c + math.fsum(cj for cj, _, _ in hp)  # job 0 starts from C + Σ C_j
+    for q in range(MAX_BUSY_JOBS):
+        while True:
+            if j + w - q * t > limit:
+                return None
+            nxt = (q + 1) * c + math.fsum(ceil_div(w + jj, tj) * cj for cj, tj, jj in hp)
+            if nxt <= w:
+                break
+            w = nxt
+        worst = max(worst, j + w - q * t)
+        if w <= (q + 1) * t - j + DEADLINE_TOL:  # the busy window closes with job q
+            return worst
+        w += c  # job q+1 needs at least one more C
+    return None
 
 
 def _check_resolved(task: Task) -> None:
@@ -58,39 +117,26 @@ def _check_resolved(task: Task) -> None:
         )
 
 
-def response_time(task: Task, higher: Sequence[Task]) -> float | None:
-    """Worst-case response time of ``task`` below the tasks ``higher`` (ms), exact.
+def response_time(task: Task, higher: Sequence[Task], overhead: float = 0.0) -> float | None:
+    """Worst-case response time of ``task`` below the tasks ``higher`` (ms, from arrival).
 
-    Returns ``None`` as soon as the iteration passes the task's deadline (the task is not
-    schedulable); at once when D > p and the level-i utilization exceeds 1; and if a level-i
-    busy period has not closed after ``MAX_BUSY_JOBS`` jobs (only possible at a level-i
-    utilization of 1 up to rounding with a huge hyperperiod). Near utilization 1 a D > p
-    busy period can be long, and the analysis slow (seconds).
+    Exact for independent tasks without offsets (release jitter, arbitrary deadlines; see
+    :func:`busy_window`), with the context-switch ``overhead`` charged as in the module doc.
+    Returns ``None`` as soon as a response passes the task's deadline (not schedulable); at
+    once when the level-i utilization exceeds 1 and the busy window cannot close; and if a
+    level-i busy period has not closed after ``MAX_BUSY_JOBS`` jobs (only possible at a
+    level-i utilization of 1 up to rounding with a huge hyperperiod). Near utilization 1 a
+    D > p busy period can be long, and the analysis slow (seconds).
     """
     _check_resolved(task)
     for t in higher:
         _check_resolved(t)
-    e, p = task.wcet, task.period
-    deadline = p if task.deadline is None else task.deadline
-    limit = deadline + DEADLINE_TOL
-    hp = [(t.wcet, t.period) for t in higher]
-    if deadline > p and e / p + math.fsum(ej / pj for ej, pj in hp) > 1.0 + 1e-12:
-        return None  # level-i work grows without bound: some job misses any deadline
-    worst = 0.0
-    w = e + math.fsum(ej for ej, _ in hp)  # job 0 starts from e + Σ e_j
-    for q in range(MAX_BUSY_JOBS):
-        while True:
-            if w - q * p > limit:
-                return None
-            nxt = (q + 1) * e + math.fsum(_ceil(w / pj) * ej for ej, pj in hp)
-            if nxt <= w:
-                break
-            w = nxt
-        worst = max(worst, w - q * p)
-        if w <= (q + 1) * p + DEADLINE_TOL:  # the busy period closes with job q
-            return worst
-        w += e  # job q+1 needs at least one more e
-    return None
+    o = float(overhead)
+    deadline = task.period if task.deadline is None else task.deadline
+    c = task.wcet + o * stretches(task) if o else task.wcet
+    hp = [(t.wcet + 2.0 * o * stretches(t) if o else t.wcet, t.period, t.jitter)
+          for t in higher]
+    return busy_window(c, task.period, task.jitter, deadline, hp)
 
 
 @dataclass(frozen=True)
@@ -117,7 +163,9 @@ class Analysis:
 
     ``w`` is the processing window the set was analysed at (``None`` without a window).
     ``liu_layland`` and ``hyperbolic`` are ``False`` where those tests do not apply (see
-    :mod:`rtsim.analysis.utilization`); ``schedulable`` is the exact verdict.
+    :mod:`rtsim.analysis.utilization`); ``schedulable`` is the exact verdict. ``overhead`` is
+    the context-switch cost charged (ms); ``offsets_ignored`` says that some task has an
+    offset, which the analysis ignores (sound, possibly pessimistic).
     """
 
     tasks: tuple[TaskResult, ...]
@@ -127,6 +175,8 @@ class Analysis:
     schedulable: bool
     w: float | None = None
     name: str = ""
+    overhead: float = 0.0
+    offsets_ignored: bool = False
 
     @property
     def rm_implicit(self) -> bool:
@@ -156,17 +206,23 @@ class Analysis:
             "hyperbolic": self.hyperbolic,
             "hyperbolic_product": self.hyperbolic_product,
             "schedulable": self.schedulable,
+            "overhead": self.overhead,
+            "offsets_ignored": self.offsets_ignored,
         }
 
 
-def analyze(ts: TaskSet, w: float | None = None) -> Analysis:
-    """Exact response-time analysis of every task of ``ts``.
+def analyze(ts: TaskSet, w: float | None = None, *, overhead: float = 0.0) -> Analysis:
+    """Exact response-time analysis of every task of ``ts`` (with jitter, ``overhead`` in ms).
 
     A set with a ``[window]`` is analysed at window ``w`` (default: the analytic w_sch of
     :func:`rtsim.analysis.bounds.w_sch_of`), the chain as one task of cost g with period
     and deadline w, per-window periods resolved. ``w`` is an error for a set without one.
     """
     label = ts.source or ts.name or "task set"
+    if isinstance(overhead, bool) or not isinstance(overhead, int | float) or \
+            not math.isfinite(overhead) or overhead < 0:
+        raise TaskSetError(f"{label}: overhead must be a non-negative number of ms, "
+                           f"got {overhead!r}")
     if ts.window is None:
         if w is not None:
             raise TaskSetError(f"{label}: has no [window], so a window w does not apply")
@@ -184,7 +240,7 @@ def analyze(ts: TaskSet, w: float | None = None) -> Analysis:
         tasks = ts.at_window(w).tasks
     results = []
     for i, task in enumerate(tasks):
-        r = response_time(task, tasks[:i])
+        r = response_time(task, tasks[:i], overhead)
         assert task.deadline is not None
         results.append(TaskResult(task.name, task.priority, task.wcet, task.period,
                                   task.deadline, task.wcet / task.period, r, r is not None))
@@ -196,4 +252,6 @@ def analyze(ts: TaskSet, w: float | None = None) -> Analysis:
         schedulable=all(r.schedulable for r in results),
         w=w,
         name=ts.name,
+        overhead=float(overhead),
+        offsets_ignored=any(t.offset > 0 for t in tasks),
     )

@@ -40,6 +40,9 @@ def register(sub: Any) -> None:
                    help="radio round trip: counted as CPU time (default) or CPU free")
     p.add_argument("--overhead", type=float, default=0.0,
                    help="context-switch overhead in ms (default 0)")
+    p.add_argument("--jitter", choices=("random", "worst", "none"), default="random",
+                   help="release delays of tasks with a jitter: uniform in [0, J] (default), "
+                        "worst (the analysis' critical instant) or none")
     p.add_argument("--followers", type=int, help="n, for a processing-window set")
     p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
     p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
@@ -96,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,
                    suspension=args.suspension, window=args.window,
                    record_jobs=want_jobs, record_trace=bool(args.trace or args.gantt),
-                   overhead=args.overhead)
+                   overhead=args.overhead, jitter=args.jitter)
     w = res.window["w"] if res.window else None
     analysis = analyze(ts, w) if ts.window is not None else analyze(ts)
     wcrt = {t.name: t.wcrt for t in analysis.tasks}
@@ -125,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
                          ts.window.name if ts.window is not None else None)
         outputs[Path(args.histogram).resolve().parent].append(Path(args.histogram).name)
     inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
-              "suspension": args.suspension, "overhead": args.overhead,
+              "suspension": args.suspension, "overhead": args.overhead, "jitter": args.jitter,
               "window": res.window, "taskset": taskset_to_dict(ts)}
     for out_dir, names in outputs.items():
         write_manifest(out_dir, command="simulate", seed=args.seed, inputs=inputs,

@@ -10,6 +10,7 @@ The generic shape any user can write::
     deadline = 40               # optional, defaults to the period
     priority = 1                # optional; smaller = higher. Every task or none.
     offset = 0                  # optional, ms
+    jitter = 0                  # optional, ms: release up to J after the arrival (SPEC §8)
     bcet = 3                    # optional, for random execution-time models
     overload = "finish-late"    # optional: "finish-late", "abort" or "skip"
 
@@ -47,7 +48,8 @@ __all__ = ["load_taskset", "parse_taskset", "taskset_to_dict", "PACKAGED_TASKSET
 PACKAGED_TASKSET = "barrel_robots.toml"
 
 TOP_KEYS = ("name", "tasks", "window", "assumptions")
-TASK_KEYS = ("name", "wcet", "period", "deadline", "priority", "offset", "bcet", "overload")
+TASK_KEYS = ("name", "wcet", "period", "deadline", "priority", "offset", "bcet", "overload",
+             "jitter")
 TASK_REQUIRED = ("name", "wcet", "period")
 WINDOW_KEYS = ("name", "priority", "n", "r_H", "e_cal", "e_trans", "k", "e_scan",
                "e_estimate", "e_send", "e_recv", "delta_t", "e_sched")
@@ -169,6 +171,8 @@ def _parse_task(source: str, index: int, table: object,
         kw["priority"] = _integer(where, "priority", table["priority"])
     if "offset" in table:
         kw["offset"] = _number(where, "offset", table["offset"], positive=False)
+    if "jitter" in table:
+        kw["jitter"] = _number(where, "jitter", table["jitter"], positive=False)
     if "bcet" in table:
         bcet = _number(where, "bcet", table["bcet"], positive=False)
         if bcet > kw["wcet"]:
@@ -314,6 +318,8 @@ def taskset_to_dict(ts: TaskSet) -> dict[str, Any]:
             entry["period"], entry["deadline"] = t.period, t.deadline
         entry["priority"] = t.priority
         entry["offset"] = t.offset
+        if t.jitter:
+            entry["jitter"] = t.jitter
         if t.bcet is not None:
             entry["bcet"] = t.bcet
         entry["overload"] = t.overload

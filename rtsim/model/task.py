@@ -74,7 +74,9 @@ class Task:
     the processing window w (the paper's command task has period 2w: ``period=2,
     per_window=True``). ``deadline`` defaults to the period. ``segments`` is empty for
     an ordinary task (one compute segment of ``wcet``); for a chain its compute and
-    suspension segments add up to ``wcet``.
+    suspension segments add up to ``wcet``. ``jitter`` J (ms, SPEC §8): job k *arrives* at
+    offset + k·period and is released (ready) in [arrival, arrival + J]; its deadline and
+    response time count from the arrival.
     """
 
     name: str
@@ -87,6 +89,7 @@ class Task:
     per_window: bool = False
     overload: OverloadPolicy = "finish-late"
     segments: tuple[Segment, ...] = ()
+    jitter: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -100,6 +103,7 @@ class Task:
         if isinstance(self.priority, bool) or not isinstance(self.priority, int):
             raise TaskSetError(f"{where}: priority must be an integer, got {self.priority!r}")
         set_(self, "offset", check_time(where, "offset", self.offset, allow_zero=True))
+        set_(self, "jitter", check_time(where, "jitter", self.jitter, allow_zero=True))
         if self.bcet is not None:
             bcet = check_time(where, "bcet", self.bcet, allow_zero=True)
             if bcet > self.wcet:

@@ -62,6 +62,17 @@ job index). Context-switch overhead (default 0): whenever the CPU starts running
 than the one it ran last, it first spends ``overhead`` ms on that job's behalf (preemptible,
 charged again on every switch); the job's work starts after it.
 
+Release jitter (``Task.jitter`` J, SPEC §8): job k *arrives* at offset + k·p (the release
+timer above fires at the arrival: period providers, the w in force, skips and the backlog count
+go by arrivals) and is released — made eligible, release hooks run — after a delay in [0, J]
+drawn from the task's own jitter stream (:func:`~rtsim.sim.execution.jitter_rngs`), ordered
+at its instant as a release of its task. ``jitter="random"``: uniform in [0, J];
+``"worst"``: the analysis' critical instant — with t0 = max_j J_j, every task's arrivals are
+shifted by t0 − J_i and its first job is released J_i after arriving (all at t0), later jobs
+at their arrival; ``"none"``: released at arrival. Deadlines and responses count from the
+arrival. A task's jobs still run in arrival order: a job released before its predecessor
+waits for it. With J = 0 nothing of this runs (no draw, the same instants).
+
 Times: releases are computed as ``offset + k·p`` for fixed periods (cumulative sums for
 provided periods), never by adding up timeouts, and the dispatcher records the exact target
 time of each wake-up.
@@ -80,8 +91,8 @@ import simpy
 
 from rtsim.errors import InputError, RtsimError
 from rtsim.model.task import Segment, Task
-from rtsim.sim.execution import WCET, ExecSpec, resolve_exec_model, task_rngs
-from rtsim.sim.job import _ABORT, _RELEASE, _RESUME, Job, _TaskState
+from rtsim.sim.execution import WCET, ExecSpec, jitter_rngs, resolve_exec_model, task_rngs
+from rtsim.sim.job import _ABORT, _JREL, _RELEASE, _RESUME, Job, _TaskState
 from rtsim.sim.records import (
     EPS,
     ResponseHistogram,
@@ -91,13 +102,16 @@ from rtsim.sim.records import (
     trace_frame,
 )
 
-__all__ = ["CPU", "Job", "HookEvent", "HOOK_EVENTS", "SegmentHook", "JobHook"]
+__all__ = ["CPU", "Job", "HookEvent", "HOOK_EVENTS", "SegmentHook", "JobHook", "JitterMode",
+           "JITTER_MODES"]
 
 HookEvent = Literal["release", "segment_start", "segment_end", "job_end"]
 HOOK_EVENTS: tuple[str, ...] = ("release", "segment_start", "segment_end", "job_end")
 SegmentHook = Callable[["Job", Segment], None]
 JobHook = Callable[["Job"], None]
 PeriodProvider = Callable[[], float]
+JitterMode = Literal["random", "worst", "none"]
+JITTER_MODES: tuple[str, ...] = ("random", "worst", "none")
 
 _INF = math.inf
 
@@ -121,7 +135,10 @@ class CPU:
         record_jobs: bool = False,
         record_trace: bool = False,
         hist_bin: float | None = None,
+        jitter: JitterMode = "random",
     ) -> None:
+        if jitter not in JITTER_MODES:
+            raise InputError(f"jitter must be one of {', '.join(JITTER_MODES)}, got {jitter!r}")
         if suspension not in ("cpu", "idle"):
             raise InputError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
         if not (isinstance(overhead, int | float) and math.isfinite(overhead) and overhead >= 0):
@@ -138,6 +155,7 @@ class CPU:
         self.record_jobs = record_jobs
         self.record_trace = record_trace
         self.hist_bin = hist_bin
+        self.jitter = jitter
         self._states: list[_TaskState] = []
         self._by_name: dict[str, _TaskState] = {}
         self._hooks: list[tuple[str, Callable[..., None], str | None, str | None, str | None]] = []
@@ -216,9 +234,14 @@ class CPU:
 
     def _compile(self) -> None:
         rngs = task_rngs(self.seed, [st.name for st in self._states]) if self._states else {}
+        jittered = [st.name for st in self._states if st.task.jitter > 0]
+        jrngs = jitter_rngs(self.seed, jittered) if jittered and self.jitter == "random" else {}
         for st in self._states:
             if st.rng is None:
                 st.rng = rngs[st.name]
+            st.jitter = 0.0 if self.jitter == "none" else st.task.jitter
+            if st.jrng is None and st.name in jrngs:
+                st.jrng = jrngs[st.name]
             st.idle_kind = [self.suspension == "idle" and s.kind == "suspend" for s in st.segs]
             st.exec_fns, st.const_exec = [], []
             for s in st.segs:
@@ -241,7 +264,7 @@ class CPU:
             st.simple = len(st.segs) == 1 and not st.end_hooks[0] and not st.idle_kind[0]
             st.fast_release = (st.provider is None and not st.per_window and not st.is_window
                                and st.policy == "finish-late" and not st.release_hooks
-                               and not st.idle_kind[0])
+                               and not st.idle_kind[0] and st.jitter == 0.0)
             st.fast_start = st.const_exec[0] if st.simple and not st.start_hooks[0] else None
             st.seg_const = [None if st.start_hooks[i] else c
                             for i, c in enumerate(st.const_exec)]
@@ -265,6 +288,10 @@ class CPU:
         self._t0 = self.env.now
         self._horizon = float(horizon)
         end = self._t0 + self._horizon
+        if self.jitter == "worst":  # the critical instant: all first releases at t0 = max J
+            jmax = max(st.jitter for st in self._states)
+            for st in self._states:
+                st.offset = st.task.offset + (jmax - st.jitter)
         for st in self._states:
             st.next_release = self._t0 + st.offset
             if st.next_release < end - EPS:
@@ -344,6 +371,8 @@ class CPU:
                     job = entry[5]
                     if not job.aborted:
                         self._resume(job, now)
+                elif kind == _JREL:
+                    self._jittered_release(entry[5], now)
                 else:
                     job = entry[5]
                     if job.finish is None and not job.aborted:
@@ -516,7 +545,9 @@ class CPU:
             heapq.heappush(self._ready, (nxt.priority, nxt.seq, nxt))
 
     def _eligible(self, job: Job, now: float) -> None:
-        """``job`` became the oldest pending job of its task."""
+        """``job`` became the oldest pending job of its task (eligible once released)."""
+        if job.held:
+            return
         if job._st.idle_kind[0] and job.seg_index == 0 and job.rem is None:
             if self._continue(job, now) is None:
                 return
@@ -576,7 +607,10 @@ class CPU:
             stats.misses += 1
             if self.record_jobs:
                 self._job_rows.append((st.name, k, r, math.nan, math.nan, math.nan, r + d, p,
-                                       True, 0, False, True, 0.0))
+                                       True, 0, False, True, 0.0, r))
+            return
+        if st.jitter:
+            self._jittered(st, k, r, d, p, now)
             return
         job = Job(st, k, r, r + d, p, next(self._seq))
         st.pending.append(job)
@@ -588,6 +622,39 @@ class CPU:
         for h in st.release_hooks:
             h(job)
         if len(st.pending) == 1:
+            self._eligible(job, now)
+
+    def _jittered(self, st: _TaskState, k: int, r: float, d: float, p: float,
+                  now: float) -> None:
+        """Job ``k`` arrives at ``r`` and is released after its drawn delay (module doc)."""
+        if self.jitter == "worst":
+            delay = st.jitter if k == 0 else 0.0
+        else:
+            delay = float(st.jrng.uniform(0.0, st.jitter))  # type: ignore[union-attr]
+        job = Job(st, k, r + delay, r + d, p, next(self._seq), arrival=r)
+        stats = st.stats
+        st.pending.append(job)
+        stats.released += 1
+        if len(st.pending) > stats.max_backlog:
+            stats.max_backlog = len(st.pending)
+        if st.policy == "abort":
+            heapq.heappush(self._timers, (r + d, _ABORT, st.priority, job.seq, _ABORT, job))
+        if delay > 0.0:
+            job.held = True
+            heapq.heappush(self._timers, (r + delay, st.rank, st.priority, next(self._seq),
+                                          _JREL, job))
+        else:
+            self._jittered_release(job, now)
+
+    def _jittered_release(self, job: Job, now: float) -> None:
+        """A jittered job is released: release hooks; eligible if it is its task's oldest."""
+        if job.aborted:
+            return
+        job.held = False
+        st = job._st
+        for h in st.release_hooks:
+            h(job)
+        if st.pending and st.pending[0] is job:
             self._eligible(job, now)
 
     def _inline_top(self, st: _TaskState, k: int, r: float, p: float, start: float,
@@ -617,21 +684,21 @@ class CPU:
         counts[i] = counts.get(i, 0) + 1
         if self.record_jobs:
             self._job_rows.append((st.name, k, r, start, f, resp, deadline, p, missed, 0,
-                                   False, False, 0.0 + worked))
+                                   False, False, 0.0 + worked, r))
 
     def _record(self, job: Job, missed: bool) -> None:
-        resp = math.nan if job.finish is None else job.finish - job.release
+        resp = math.nan if job.finish is None else job.finish - job.arrival
         self._job_rows.append((
             job.name, job.index, job.release,
             math.nan if job.start is None else job.start,
             math.nan if job.finish is None else job.finish, resp, job.deadline, job.period,
-            missed, job.preemptions, job.aborted, False, job.executed))
+            missed, job.preemptions, job.aborted, False, job.executed, job.arrival))
 
     def _complete(self, job: Job, now: float) -> None:
         st = job._st
         stats = st.stats
         job.finish = now
-        resp = now - job.release
+        resp = now - job.arrival
         stats.completed += 1
         stats.sum_response += resp
         if stats.max_response is None or resp > stats.max_response:
@@ -642,7 +709,7 @@ class CPU:
         stats.preemptions += job.preemptions
         hist = stats.histogram
         if hist is None:
-            width = self.hist_bin or (job.deadline - job.release) / 100.0
+            width = self.hist_bin or (job.deadline - job.arrival) / 100.0
             hist = stats.histogram = ResponseHistogram(width)
         i = int(resp / hist.bin_width)
         counts = hist.counts
@@ -699,6 +766,7 @@ class CPU:
             busy_time=self._busy,
             context_switches=self._switches,
             window=window,
+            jitter=self.jitter,
             jobs=jobs_frame(self._job_rows) if self.record_jobs else None,
             trace=trace_frame(self._trace_rows) if self.record_trace else None,
         )

@@ -48,6 +48,7 @@ __all__ = [
     "resolve_exec_model",
     "base_seed_sequence",
     "task_rngs",
+    "jitter_rngs",
 ]
 
 
@@ -181,6 +182,20 @@ def base_seed_sequence(
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
     return np.random.SeedSequence(int(seed))
+
+
+def jitter_rngs(
+    seed: int | np.random.SeedSequence | np.random.Generator | None, names: Iterable[str]
+) -> dict[str, np.random.Generator]:
+    """One release-delay generator per task: spawn key (…, crc32(name), 1), a stream apart
+    from the task's execution-time generator, so jitter never reshuffles execution times."""
+    base = base_seed_sequence(seed)
+    out: dict[str, np.random.Generator] = {}
+    for name in names:
+        key = tuple(base.spawn_key) + (zlib.crc32(name.encode("utf-8")), 1)
+        child = np.random.SeedSequence(entropy=base.entropy, spawn_key=key)
+        out[name] = np.random.Generator(np.random.PCG64(child))
+    return out
 
 
 def task_rngs(

@@ -18,23 +18,27 @@ __all__ = ["Job"]
 
 #: Timer kinds, in their order at one instant (module docstring of rtsim.sim.cpu).
 _RESUME, _ABORT, _RELEASE_W, _RELEASE = 0, 1, 2, 3
+#: Timer kind of a jittered release (ordered by its task's release rank).
+_JREL = 4
 
 
 class Job:
     """One job: read its fields in hooks; only the CPU changes them.
 
-    ``name`` is the task name, ``index`` counts releases from 0, ``release``/``deadline`` are
-    absolute (ms), ``period`` is the period in force at the release. ``segment`` is the
-    current segment, ``seg_exec`` its drawn execution time, ``start``/``finish`` are None until
-    they happen.
+    ``name`` is the task name, ``index`` counts releases from 0, ``arrival``/``release``/
+    ``deadline`` are absolute (ms): the job arrives at offset + k·period, is released (ready)
+    up to the task's jitter later, and its deadline counts from the arrival; ``held`` while
+    arrived but not yet released. ``period`` is the period in force at the arrival.
+    ``segment`` is the current segment, ``seg_exec`` its drawn execution time,
+    ``start``/``finish`` are None until they happen.
     """
 
     __slots__ = ("_st", "task", "name", "priority", "index", "release", "deadline", "period",
                  "seq", "seg_index", "rem", "seg_start", "seg_exec", "start", "finish",
-                 "preemptions", "aborted", "executed")
+                 "preemptions", "aborted", "executed", "arrival", "held")
 
     def __init__(self, st: _TaskState, index: int, release: float, deadline: float,
-                 period: float, seq: int) -> None:
+                 period: float, seq: int, arrival: float | None = None) -> None:
         self._st = st
         self.task: Task = st.task
         self.name: str = st.name
@@ -53,6 +57,8 @@ class Job:
         self.preemptions = 0
         self.aborted = False
         self.executed = 0.0
+        self.arrival = release if arrival is None else arrival
+        self.held = False
 
     @property
     def segment(self) -> Segment | None:
@@ -62,8 +68,8 @@ class Job:
 
     @property
     def response(self) -> float | None:
-        """finish − release, once finished."""
-        return None if self.finish is None else self.finish - self.release
+        """finish − arrival, once finished."""
+        return None if self.finish is None else self.finish - self.arrival
 
     def __repr__(self) -> str:
         return f"Job({self.name}#{self.index}, release={self.release:g})"
@@ -76,7 +82,7 @@ class _TaskState:
                  "provider", "per_window", "is_window", "rank", "k", "next_release", "pending",
                  "stats", "rng", "exec_fns", "const_exec", "start_hooks", "end_hooks",
                  "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start",
-                 "fast_top", "seg_const", "plain_next")
+                 "fast_top", "seg_const", "plain_next", "jitter", "jrng")
 
     def __init__(self, task: Task, provider: PeriodProvider | None, is_window: bool) -> None:
         self.task = task
@@ -109,3 +115,5 @@ class _TaskState:
         self.fast_top = False  # highest priority, fast release and start, no hooks at all
         self.seg_const: list[float | None] = []  # constant time of segment i, no start hooks
         self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
+        self.jitter = 0.0  # release jitter in force (0 under jitter="none")
+        self.jrng: np.random.Generator | None = None  # release delays, own stream

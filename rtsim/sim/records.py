@@ -34,11 +34,13 @@ EPS = 1e-9
 
 #: Columns of ``SimResult.jobs`` (one row per release; a skipped release has no start/finish).
 #: ``period`` is the period in force at the release (w for the window chain);
-#: ``exec_time`` is the CPU time the job received (suspensions included under
+#: ``arrival`` is when the job arrived (offset + k·p), ``release`` when it became ready (up to
+#: the task's jitter later); ``response`` = finish − arrival and the deadline counts from the
+#: arrival. ``exec_time`` is the CPU time the job received (suspensions included under
 #: ``suspension="cpu"``), ``preemptions`` how often it lost the CPU before finishing.
 JOB_COLUMNS: tuple[str, ...] = (
     "task", "job", "release", "start", "finish", "response", "deadline", "period",
-    "missed", "preemptions", "aborted", "skipped", "exec_time",
+    "missed", "preemptions", "aborted", "skipped", "exec_time", "arrival",
 )
 
 #: Columns of ``SimResult.trace``: one row per stretch of one segment of one job.
@@ -140,6 +142,7 @@ class SimResult:
     window: dict[str, Any] | None = None
     jobs: pd.DataFrame | None = None
     trace: pd.DataFrame | None = None
+    jitter: str = "random"
 
     @property
     def misses(self) -> int:
@@ -158,6 +161,7 @@ class SimResult:
             "suspension": self.suspension,
             "exec_model": self.exec_model,
             "overhead": self.overhead,
+            "jitter": self.jitter,
             "end_time": self.end_time,
             "busy_time": self.busy_time,
             "context_switches": self.context_switches,
@@ -176,7 +180,7 @@ def jobs_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
                       "start": "float64", "finish": "float64", "response": "float64",
                       "deadline": "float64", "period": "float64", "missed": "bool",
                       "preemptions": "int64", "aborted": "bool", "skipped": "bool",
-                      "exec_time": "float64"})
+                      "exec_time": "float64", "arrival": "float64"})
 
 
 def trace_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:

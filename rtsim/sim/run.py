@@ -23,7 +23,7 @@ import simpy
 from rtsim.errors import InputError
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
-from rtsim.sim.cpu import CPU
+from rtsim.sim.cpu import CPU, JitterMode
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.records import SimResult
 
@@ -69,7 +69,7 @@ def build_cpu(
 
     Returns the CPU and the window description (None for a set without a window).
     ``cpu_kwargs`` go to :class:`CPU` (suspension, exec_model, seed, overhead, record_jobs,
-    record_trace, hist_bin).
+    record_trace, hist_bin, jitter).
     """
     ts = _as_taskset(ts)
     cpu = CPU(env, **cpu_kwargs)
@@ -98,15 +98,18 @@ def simulate(
     overhead: float = 0.0,
     hist_bin: float | None = None,
     env: simpy.Environment | None = None,
+    jitter: JitterMode = "random",
 ) -> SimResult:
     """Simulate ``ts`` for jobs released in [0, horizon) ms until they complete or abort.
 
     Example: ``simulate(load_taskset(), 60_000, window=250.0, record_jobs=True).jobs``.
+    ``jitter``: release delays of tasks with a jitter, ``random``/``worst``/``none``
+    (:mod:`rtsim.sim.cpu`).
     """
     cpu, info = build_cpu(ts, env=env, window=window, suspension=suspension,
                           exec_model=exec_model, seed=seed, overhead=overhead,
                           record_jobs=record_jobs, record_trace=record_trace,
-                          hist_bin=hist_bin)
+                          hist_bin=hist_bin, jitter=jitter)
     proc = cpu.start(horizon)
     cpu.env.run(until=proc)
     return cpu.result(window=info)
