@@ -211,14 +211,17 @@ class Analysis:
         }
 
 
-def analyze(ts: TaskSet, w: float | None = None, *, overhead: float = 0.0) -> Analysis:
-    """Exact response-time analysis of every task of ``ts`` (with jitter, ``overhead`` in ms).
+def analyze(ts: TaskSet, w: float | None = None, *, overhead: float | None = None) -> Analysis:
+    """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,
+    default the set's ``overhead``).
 
     A set with a ``[window]`` is analysed at window ``w`` (default: the analytic w_sch of
     :func:`rtsim.analysis.bounds.w_sch_of`), the chain as one task of cost g with period
     and deadline w, per-window periods resolved. ``w`` is an error for a set without one.
     """
     label = ts.source or ts.name or "task set"
+    if overhead is None:
+        overhead = ts.overhead
     if isinstance(overhead, bool) or not isinstance(overhead, int | float) or \
             not math.isfinite(overhead) or overhead < 0:
         raise TaskSetError(f"{label}: overhead must be a non-negative number of ms, "

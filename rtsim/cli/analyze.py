@@ -30,6 +30,9 @@ def register(sub: Any) -> None:
                    help="exit with status 1 when the set is not schedulable")
     p.add_argument("--window", metavar="W", default=None,
                    help="window w in ms for a [window] set (default: w_sch)")
+    p.add_argument("--overhead", metavar="O", type=float, default=None,
+                   help="context-switch cost in ms: 2·O per higher-priority segment start, O per "
+                        "own segment, as simulate --overhead (default: the file's, or 0)")
     p.set_defaults(func=run)
 
 
@@ -65,6 +68,12 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
             f"{t.deadline:>9.3f}  {t.utilization:>6.4f}  {_num(t.wcrt):>9}  "
             f"{'yes' if t.schedulable else 'NO'}"
         )
+    if res.overhead:
+        lines.append(f"context-switch overhead: {res.overhead:g} ms (2x per higher-priority "
+                     "segment start, 1x per own segment)")
+    if res.offsets_ignored:
+        lines.append("offsets: ignored (every task analysed as if released together; sound, "
+                     "possibly pessimistic)")
     n = len(res.tasks)
     lines += ["", f"total utilization: {res.utilization:.4f} ({n} task{'s' * (n != 1)})"]
     if res.rm_implicit:
@@ -100,7 +109,9 @@ def run(args: argparse.Namespace) -> int:
     ts = load_taskset(args.file)
     if w is not None and ts.window is None:
         raise InputError(f"{args.file}: --window: the task set has no [window]")
-    res = analyze(ts, w)
+    if args.overhead is not None and not (math.isfinite(args.overhead) and args.overhead >= 0):
+        raise InputError(f"--overhead: must be a non-negative number of ms, got {args.overhead:g}")
+    res = analyze(ts, w, overhead=args.overhead)
     w_from = None if ts.window is None else ("--window" if w is not None else "w_sch")
     if args.json:
         out = {"source": ts.source, "w_from": w_from, **res.as_dict()}

@@ -38,8 +38,8 @@ def register(sub: Any) -> None:
                    help="execution times: wcet (default) or uniform in [bcet, wcet]")
     p.add_argument("--suspension", choices=("cpu", "idle"), default="cpu",
                    help="radio round trip: counted as CPU time (default) or CPU free")
-    p.add_argument("--overhead", type=float, default=0.0,
-                   help="context-switch overhead in ms (default 0)")
+    p.add_argument("--overhead", type=float, default=None,
+                   help="context-switch overhead in ms (default: the file's overhead, or 0)")
     p.add_argument("--jitter", choices=("random", "worst", "none"), default="random",
                    help="release delays of tasks with a jitter: uniform in [0, J] (default), "
                         "worst (the analysis' critical instant) or none")
@@ -90,6 +90,9 @@ def run(args: argparse.Namespace) -> int:
                              f"--window apply to processing-window sets only")
     if changes:
         ts = ts.with_window(**changes)
+    overhead = ts.overhead if args.overhead is None else args.overhead
+    if not (math.isfinite(overhead) and overhead >= 0):
+        raise InputError(f"--overhead must be a non-negative number of ms, got {overhead:g}")
     bounds = None
     if ts.window is not None:
         from rtsim.analysis.bounds import window_bounds
@@ -99,9 +102,10 @@ def run(args: argparse.Namespace) -> int:
     res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,
                    suspension=args.suspension, window=args.window,
                    record_jobs=want_jobs, record_trace=bool(args.trace or args.gantt),
-                   overhead=args.overhead, jitter=args.jitter)
+                   overhead=overhead, jitter=args.jitter)
     w = res.window["w"] if res.window else None
-    analysis = analyze(ts, w) if ts.window is not None else analyze(ts)
+    analysis = analyze(ts, w, overhead=overhead) if ts.window is not None else \
+        analyze(ts, overhead=overhead)
     wcrt = {t.name: t.wcrt for t in analysis.tasks}
     deadlines = {t.name: t.deadline for t in analysis.tasks}
     report = res.to_json()
@@ -128,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
                          ts.window.name if ts.window is not None else None)
         outputs[Path(args.histogram).resolve().parent].append(Path(args.histogram).name)
     inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
-              "suspension": args.suspension, "overhead": args.overhead, "jitter": args.jitter,
+              "suspension": args.suspension, "overhead": overhead, "jitter": args.jitter,
               "window": res.window, "taskset": taskset_to_dict(ts)}
     for out_dir, names in outputs.items():
         write_manifest(out_dir, command="simulate", seed=args.seed, inputs=inputs,

@@ -3,6 +3,7 @@
 The generic shape any user can write::
 
     name = "example"            # optional
+    overhead = 0                # optional: context-switch cost in ms (analysis and simulation)
     [[tasks]]
     name = "tau1"
     wcet = 5                    # ms
@@ -47,7 +48,7 @@ __all__ = ["load_taskset", "parse_taskset", "taskset_to_dict", "PACKAGED_TASKSET
 #: The paper's Table 1, shipped inside the package (also ``tasksets/barrel_robots.toml``).
 PACKAGED_TASKSET = "barrel_robots.toml"
 
-TOP_KEYS = ("name", "tasks", "window", "assumptions")
+TOP_KEYS = ("name", "tasks", "window", "assumptions", "overhead")
 TASK_KEYS = ("name", "wcet", "period", "deadline", "priority", "offset", "bcet", "overload",
              "jitter")
 TASK_REQUIRED = ("name", "wcet", "period")
@@ -236,6 +237,7 @@ def parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
     if not isinstance(name, str):
         raise TaskSetError(f"{source}: name: must be a string, got {name!r}")
     window = _parse_window(source, data["window"]) if "window" in data else None
+    overhead = _number(source, "overhead", data.get("overhead", 0.0), positive=False)
     raw_tasks = data.get("tasks", [])
     if not isinstance(raw_tasks, list):
         raise TaskSetError(f"{source}: tasks: must be an array of tables ([[tasks]])")
@@ -260,7 +262,7 @@ def parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
     try:
         tasks = tuple(Task(**kw) for kw, _ in entries)
         return TaskSet(tasks, name=name, window=window, assumptions=dict(assumptions),
-                       source=source)
+                       source=source, overhead=overhead)
     except TaskSetError as exc:  # pragma: no cover - the checks above come first
         raise TaskSetError(f"{source}: {exc}") from None
 
@@ -325,6 +327,8 @@ def taskset_to_dict(ts: TaskSet) -> dict[str, Any]:
         entry["overload"] = t.overload
         tasks.append(entry)
     out: dict[str, Any] = {"name": ts.name, "tasks": tasks}
+    if ts.overhead:
+        out["overhead"] = ts.overhead
     if ts.window is not None:
         out["window"] = ts.window.as_dict()
     if ts.assumptions:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -19,6 +20,8 @@ class TaskSet:
 
     With a ``window`` (the paper's T_w), the tasks above its priority form T_hp and those
     below form T_lp; tasks with ``per_window`` periods follow w (the command task's 2w).
+    ``overhead`` is the context-switch cost (ms) that the analysis charges and the simulator
+    spends by default (SPEC §8).
     """
 
     tasks: tuple[Task, ...]
@@ -26,8 +29,14 @@ class TaskSet:
     window: WindowSpec | None = None
     assumptions: Mapping[str, str] = field(default_factory=dict)
     source: str | None = None
+    overhead: float = 0.0
 
     def __post_init__(self) -> None:
+        o = self.overhead
+        if isinstance(o, bool) or not isinstance(o, int | float) or not math.isfinite(o) \
+                or o < 0:
+            raise TaskSetError(f"overhead must be a non-negative number of ms, got {o!r}")
+        object.__setattr__(self, "overhead", float(o))
         tasks = tuple(sorted(self.tasks, key=lambda t: t.priority))
         object.__setattr__(self, "tasks", tasks)
         if not tasks and self.window is None:

@@ -95,7 +95,7 @@ def simulate(
     window: WindowArg = None,
     record_jobs: bool = False,
     record_trace: bool = False,
-    overhead: float = 0.0,
+    overhead: float | None = None,
     hist_bin: float | None = None,
     env: simpy.Environment | None = None,
     jitter: JitterMode = "random",
@@ -103,9 +103,12 @@ def simulate(
     """Simulate ``ts`` for jobs released in [0, horizon) ms until they complete or abort.
 
     Example: ``simulate(load_taskset(), 60_000, window=250.0, record_jobs=True).jobs``.
-    ``jitter``: release delays of tasks with a jitter, ``random``/``worst``/``none``
-    (:mod:`rtsim.sim.cpu`).
+    ``overhead`` defaults to the set's (0 for a list of tasks). ``jitter``: release delays
+    of tasks with a jitter, ``random``/``worst``/``none`` (:mod:`rtsim.sim.cpu`).
     """
+    ts = _as_taskset(ts)
+    if overhead is None:
+        overhead = ts.overhead
     cpu, info = build_cpu(ts, env=env, window=window, suspension=suspension,
                           exec_model=exec_model, seed=seed, overhead=overhead,
                           record_jobs=record_jobs, record_trace=record_trace,
