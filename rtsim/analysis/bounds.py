@@ -10,6 +10,8 @@
   maximum over T_lp. w_sch = max(Eq 7, Eq 11).
 - w_rta: the least w at which the exact analysis (:func:`rtsim.analysis.rta.analyze`, chain as
   one task of cost g) finds every task schedulable.
+- w_susp: the least w at which the suspension-aware analysis (Δt with the CPU idle,
+  :mod:`rtsim.analysis.suspension`) finds every task schedulable; w_susp ≤ w_rta.
 
 Why w_rta can be found by search: at a fixed t every period is non-decreasing in w, so each
 ceiling ⌈t/P_j(w)⌉ and hence the demand is non-increasing in w, while every deadline is
@@ -23,7 +25,7 @@ changes. :func:`w_rta` brackets it by bisection and then snaps to that closed fo
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -34,7 +36,8 @@ from rtsim.model.task import Task
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
 
-__all__ = ["WindowBounds", "window_bounds", "w_rta", "w_sch_of", "w_eq7_of", "w_eq11_of"]
+__all__ = ["WindowBounds", "window_bounds", "w_rta", "w_susp", "w_sch_of", "w_eq7_of",
+           "w_eq11_of"]
 
 #: Largest window w_rta searches (ms); beyond it the set is reported as never schedulable.
 W_MAX = 1e9
@@ -122,6 +125,28 @@ def _snap(ts: TaskSet, hi: float) -> float:
     return best
 
 
+def _bracket(ts: TaskSet, feasible: Callable[[float], bool]) -> tuple[float, float]:
+    """(lo, hi): infeasible at lo (or lo = 0), feasible at hi, hi − lo ≤ 1e-13·hi; hi = inf
+    when nothing up to W_MAX is feasible. Feasibility is monotone in w (module doc)."""
+    assert ts.window is not None
+    g = ts.window.g()
+    hi = max(g, 1e-6)
+    while not feasible(hi):
+        if hi >= W_MAX:
+            return math.inf, math.inf
+        hi *= 2.0
+    lo = hi / 2.0 if hi > g else 0.0
+    while hi - lo > 1e-13 * hi:
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if feasible(mid):
+            hi = mid
+        else:
+            lo = mid
+    return lo, hi
+
+
 def w_rta(ts: TaskSet) -> float:
     """The least window w at which the exact analysis finds every task schedulable (ms).
 
@@ -129,26 +154,66 @@ def w_rta(ts: TaskSet) -> float:
     float rounding: the analysis passes at the result and fails 1e-6 ms below it.
     """
     _need_window(ts)
-    assert ts.window is not None
-    g = ts.window.g()
-    hi = max(g, 1e-6)
-    while not _feasible(ts, hi):
-        if hi >= W_MAX:
-            return math.inf
-        hi *= 2.0
-    lo = hi / 2.0 if hi > g else 0.0
-    while hi - lo > 1e-13 * hi:
-        mid = 0.5 * (lo + hi)
-        if mid <= lo or mid >= hi:
-            break
-        if _feasible(ts, mid):
-            hi = mid
-        else:
-            lo = mid
+    lo, hi = _bracket(ts, lambda w: _feasible(ts, w))
+    if not math.isfinite(hi):
+        return math.inf
     snapped = _snap(ts, hi)
     if snapped > lo and _feasible(ts, snapped):
         return snapped
     return hi
+
+
+def w_susp(ts: TaskSet, overhead: float | None = None) -> float:
+    """The least window w at which the suspension-aware analysis accepts every task (ms).
+
+    Bisected like :func:`w_rta`, then checked against the closed forms where the verdict can
+    change (a scaled deadline d·w met by a bound R: R/d; a window-scaled higher task's ceiling
+    ⌈(R + J)/(m·c)⌉ stepping: (R + J)/(m·c), for its own jitter and for R_w − C_w): the
+    result is the least such candidate within 1e-8 ms of the bisection's end at which the
+    analysis passes, else that end (either way verified to pass).
+    ``inf`` when no w up to ``W_MAX`` passes.
+    """
+    from rtsim.analysis.suspension import compute_time, suspension_aware
+
+    _need_window(ts)
+
+    def feasible(w: float) -> bool:
+        return analyze(ts, w, overhead=overhead, suspension="idle").schedulable
+
+    lo, hi = _bracket(ts, feasible)
+    if not math.isfinite(hi):
+        return math.inf
+    o = ts.overhead if overhead is None else overhead
+    scale = {t.name: (t.period, t.deadline) for t, s in _entries(ts) if s}
+    resolved = ts.at_window(hi).tasks
+    bounds = suspension_aware(resolved, o)
+    cands: list[float] = []
+    for i, (task, b) in enumerate(zip(resolved, bounds, strict=True)):
+        for r in (b.oblivious, b.other):
+            if r is None:
+                continue
+            if task.name in scale:
+                cands.append(r / scale[task.name][1])
+            for k, j in enumerate(resolved[:i]):
+                if j.name not in scale:
+                    continue
+                jits = {j.jitter}
+                if bounds[k].wcrt is not None:
+                    jits.add(max(bounds[k].wcrt - compute_time(j), 0.0))
+                for jj in jits:
+                    m = ceil_div(r + jj, j.period)
+                    if m > 0:
+                        cands.append((r + jj) / (m * scale[j.name][0]))
+    # the closed form nearest the bisection's end (it can sit up to the 1e-9 ms deadline
+    # tolerance above hi, as w_rta's snap does)
+    best = hi
+    for c in sorted(set(cands)):
+        if lo < c <= hi + 1e-8 and feasible(c):
+            best = c
+            break
+    if not feasible(best):  # pragma: no cover - the bisection's hi passed
+        raise AssertionError(f"w_susp: the analysis fails at {best!r}")
+    return best
 
 
 @dataclass(frozen=True)
@@ -168,6 +233,7 @@ class WindowBounds:
     w_eq11: float
     w_sch: float
     w_rta: float
+    w_susp: float = math.nan
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict; infinite bounds (none exists, or no T_lp for Eq 11) become None."""
@@ -183,6 +249,7 @@ class WindowBounds:
             "w_eq11": fin(self.w_eq11),
             "w_sch": fin(self.w_sch),
             "w_rta": fin(self.w_rta),
+            "w_susp": fin(self.w_susp),
         }
 
 
@@ -196,7 +263,7 @@ def _task_input(t: Task) -> dict[str, Any]:
 
 
 def window_bounds(ts: TaskSet, n: int | None = None, r_H: float | None = None) -> WindowBounds:
-    """e_hough, g, Eq 7, Eq 11, w_sch and w_rta for ``ts`` with n followers and radius r_H."""
+    """e_hough, g, Eq 7, Eq 11, w_sch, w_rta and w_susp for ``ts`` (n followers, radius r_H)."""
     _need_window(ts)
     changes: dict[str, Any] = {}
     if n is not None:
@@ -222,4 +289,5 @@ def window_bounds(ts: TaskSet, n: int | None = None, r_H: float | None = None) -
         w_eq11=eq11,
         w_sch=max(eq7, eq11),
         w_rta=w_rta(ts),
+        w_susp=w_susp(ts),
     )

@@ -165,7 +165,9 @@ class Analysis:
     ``liu_layland`` and ``hyperbolic`` are ``False`` where those tests do not apply (see
     :mod:`rtsim.analysis.utilization`); ``schedulable`` is the exact verdict. ``overhead`` is
     the context-switch cost charged (ms); ``offsets_ignored`` says that some task has an
-    offset, which the analysis ignores (sound, possibly pessimistic).
+    offset, which the analysis ignores (sound, possibly pessimistic). ``suspension`` is
+    ``"cpu"`` (suspensions counted as computation) or ``"idle"`` (suspension-aware,
+    :mod:`rtsim.analysis.suspension`).
     """
 
     tasks: tuple[TaskResult, ...]
@@ -177,6 +179,7 @@ class Analysis:
     name: str = ""
     overhead: float = 0.0
     offsets_ignored: bool = False
+    suspension: str = "cpu"
 
     @property
     def rm_implicit(self) -> bool:
@@ -208,12 +211,16 @@ class Analysis:
             "schedulable": self.schedulable,
             "overhead": self.overhead,
             "offsets_ignored": self.offsets_ignored,
+            "suspension": self.suspension,
         }
 
 
-def analyze(ts: TaskSet, w: float | None = None, *, overhead: float | None = None) -> Analysis:
+def analyze(ts: TaskSet, w: float | None = None, *, overhead: float | None = None,
+            suspension: str = "cpu") -> Analysis:
     """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,
-    default the set's ``overhead``).
+    default the set's ``overhead``). ``suspension="idle"``: suspensions leave the CPU free and
+    each task takes the smaller of its sound suspension-aware bounds
+    (:func:`rtsim.analysis.suspension.suspension_aware`); ``"cpu"``: they count as computation.
 
     A set with a ``[window]`` is analysed at window ``w`` (default: the analytic w_sch of
     :func:`rtsim.analysis.bounds.w_sch_of`), the chain as one task of cost g with period
@@ -222,6 +229,8 @@ def analyze(ts: TaskSet, w: float | None = None, *, overhead: float | None = Non
     label = ts.source or ts.name or "task set"
     if overhead is None:
         overhead = ts.overhead
+    if suspension not in ("cpu", "idle"):
+        raise TaskSetError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
     if isinstance(overhead, bool) or not isinstance(overhead, int | float) or \
             not math.isfinite(overhead) or overhead < 0:
         raise TaskSetError(f"{label}: overhead must be a non-negative number of ms, "
@@ -242,8 +251,13 @@ def analyze(ts: TaskSet, w: float | None = None, *, overhead: float | None = Non
                 )
         tasks = ts.at_window(w).tasks
     results = []
+    aware = None
+    if suspension == "idle":
+        from rtsim.analysis.suspension import suspension_aware
+
+        aware = suspension_aware(tasks, overhead)
     for i, task in enumerate(tasks):
-        r = response_time(task, tasks[:i], overhead)
+        r = aware[i].wcrt if aware is not None else response_time(task, tasks[:i], overhead)
         assert task.deadline is not None
         results.append(TaskResult(task.name, task.priority, task.wcet, task.period,
                                   task.deadline, task.wcet / task.period, r, r is not None))
@@ -257,4 +271,5 @@ def analyze(ts: TaskSet, w: float | None = None, *, overhead: float | None = Non
         name=ts.name,
         overhead=float(overhead),
         offsets_ignored=any(t.offset > 0 for t in tasks),
+        suspension=suspension,
     )
