@@ -13,6 +13,9 @@ __all__ = [
     "e_hough",
     "g_window",
     "hp_utilization",
+    "k_geometric",
+    "BEAM_SPACING_DEG",
+    "R_F",
     "w_eq7",
     "w_eq11",
     "w_sch",
@@ -20,6 +23,29 @@ __all__ = [
 
 #: Scan points of the laser rangefinder: 361 beams over 180°, 0.5° apart.
 LASER_POINTS = 361
+#: Angular spacing of the beams (degrees).
+BEAM_SPACING_DEG = 0.5
+#: Radius of a follower's barrel (cm), SPEC §1.
+R_F = 25.0
+
+
+def k_geometric(rho_min: float, r_F: float = R_F, spacing_deg: float = BEAM_SPACING_DEG) -> int:
+    """The geometric k of Eq 1: most beams that can hit a disc of radius ``r_F`` (cm) whose
+    centre is at distance ρ ≥ ``rho_min`` (cm), beams ``spacing_deg`` apart (SPEC §2).
+
+    A beam hits the disc iff its angle to the centre's bearing is at most arcsin(r_F/ρ)
+    (tangent included), so the beams lie in a closed arc of width 2·arcsin(r_F/ρ), which
+    holds at most ⌊width/spacing⌋ + 1 of them; the width shrinks with ρ, so ρ = rho_min is
+    the worst case. Rounding is taken upward (1e-9 relative) so the count stays sound.
+    361 when rho_min ≤ r_F (the disc can cover the sensor).
+    """
+    if not (math.isfinite(rho_min) and rho_min > 0 and r_F > 0 and spacing_deg > 0):
+        raise ValueError(f"k_geometric: need positive rho_min, r_F, spacing, got "
+                         f"{rho_min!r}, {r_F!r}, {spacing_deg!r}")
+    if rho_min <= r_F:
+        return LASER_POINTS
+    width = 2.0 * math.asin(r_F / rho_min)
+    return min(LASER_POINTS, math.floor(width / math.radians(spacing_deg) * (1 + 1e-9)) + 1)
 
 
 def e_hough(

@@ -104,8 +104,8 @@ def run(args: argparse.Namespace) -> int:
                    record_jobs=want_jobs, record_trace=bool(args.trace or args.gantt),
                    overhead=overhead, jitter=args.jitter)
     w = res.window["w"] if res.window else None
-    analysis = analyze(ts, w, overhead=overhead) if ts.window is not None else \
-        analyze(ts, overhead=overhead)
+    analysis = analyze(ts, w, overhead=overhead, suspension=args.suspension) \
+        if ts.window is not None else analyze(ts, overhead=overhead, suspension=args.suspension)
     wcrt = {t.name: t.wcrt for t in analysis.tasks}
     deadlines = {t.name: t.deadline for t in analysis.tasks}
     report = res.to_json()

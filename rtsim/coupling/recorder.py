@@ -57,6 +57,7 @@ def window_columns(n: int) -> list[str]:
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in FOLLOWER_FIELDS]
     cols += [f"f{i}_{f}_est" for i in range(1, n + 1) for f in FOLLOWER_FIELDS]
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in VIOLATION_FIELDS]
+    cols.append("assumption_broken")  # the scan counted more than Eq 1's min(361, k·n)
     return cols
 
 
@@ -95,6 +96,7 @@ class WindowRecord:
     changes: Mapping[str, NDArray[np.float64]] | None = None
     finish: float = math.nan
     scan_t: float = math.nan
+    assumption_broken: bool = False
 
     @property
     def complete(self) -> bool:
@@ -163,4 +165,5 @@ class WindowRecorder:
             for j, kind in enumerate(BOUND_KINDS):
                 data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
             data[f"f{i + 1}_lost"] = lost[:, i]
+        data["assumption_broken"] = np.array([r.assumption_broken for r in recs], dtype=bool)
         return pd.DataFrame({c: data[c] for c in cols}, columns=cols)

@@ -252,6 +252,8 @@ class _Coupling:
         win = ts.window
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
+        # Eq 1's assumption: a scan counts at most min(361, k·n) points (checked per window)
+        self._points_assumed = min(361.0, win.k * win.n)
         cpu = self.cpu
         cpu.on("release", self._on_release, task=win.name)
         cpu.on("segment_start", self._on_scan, task=win.name, role="scan")
@@ -327,6 +329,7 @@ class _Coupling:
         rec.scan_t = now
         rec.hough_ms = self._hough_ms
         rec.points = scan.total_points
+        rec.assumption_broken = scan.total_points > self._points_assumed
         rec.tracks_lost = scan.n_lost
         rec.lost = scan.as_lists("lost")
         rec.leader = scan.leader_pose
@@ -437,6 +440,7 @@ def summarize(df: pd.DataFrame, *, mode: str, w_sch: float, duration_s: float, s
         "windows": int(len(df)),
         "missed": int(df["missed"].sum()),
         "tracks_lost": int(df["tracks_lost"].sum()),
+        "assumption_broken": int(df["assumption_broken"].sum()),
         "violations": violations,
         "critical_share": float(w[crit].sum() / total_w) if total_w > 0 else 0.0,
         "critical_windows": int(crit.sum()),

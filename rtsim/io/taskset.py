@@ -16,10 +16,12 @@ The generic shape any user can write::
     overload = "finish-late"    # optional: "finish-late", "abort" or "skip"
 
 plus, for the paper's processing-window sets, a ``[window]`` table (the chain T_w: see
-:class:`rtsim.model.window.WindowSpec`) and an ``[assumptions]`` table mapping each value the
-paper does not give to the reason for the value chosen. With no priorities, tasks are ordered
-deadline-monotonically (equal deadlines in file order) and numbered 1..N. With a ``[window]``,
-every task and the window must give a priority: T_hp and T_lp follow from them.
+:class:`rtsim.model.window.WindowSpec`; ``k = "geometric"`` with ``rho_min`` in cm takes the
+sound count of 0.5° beams that can hit a follower at distance ≥ rho_min, SPEC §2) and an
+``[assumptions]`` table mapping each value the paper does not give to the reason for the value
+chosen. With no priorities, tasks are ordered deadline-monotonically (equal deadlines in file
+order) and numbered 1..N. With a ``[window]``, every task and the window must give a priority:
+T_hp and T_lp follow from them.
 
 Every problem raises :class:`~rtsim.errors.TaskSetError` with one line,
 ``<file>: task '<name>': <field>: <problem>`` (``[[tasks]] #3`` when the name is missing).
@@ -38,6 +40,7 @@ from collections.abc import Mapping
 from importlib import resources
 from typing import Any
 
+from rtsim.analysis.window import k_geometric
 from rtsim.errors import TaskSetError
 from rtsim.model.task import OVERLOAD_POLICIES, Task
 from rtsim.model.taskset import TaskSet
@@ -53,7 +56,8 @@ TASK_KEYS = ("name", "wcet", "period", "deadline", "priority", "offset", "bcet",
              "jitter")
 TASK_REQUIRED = ("name", "wcet", "period")
 WINDOW_KEYS = ("name", "priority", "n", "r_H", "e_cal", "e_trans", "k", "e_scan",
-               "e_estimate", "e_send", "e_recv", "delta_t", "e_sched")
+               "e_estimate", "e_send", "e_recv", "delta_t", "e_sched", "rho_min", "k_value")
+_WINDOW_OPTIONAL = ("name", "rho_min", "k_value")
 _WINDOW_TIMES = ("e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv", "delta_t",
                  "e_sched")
 
@@ -116,7 +120,8 @@ def _parse_window(source: str, table: object) -> WindowSpec:
     where = f"{source}: [window]"
     if not isinstance(table, dict):
         raise TaskSetError(f"{where}: must be a table, got {table!r}")
-    _check_keys(where, table, WINDOW_KEYS, tuple(k for k in WINDOW_KEYS if k != "name"))
+    _check_keys(where, table, WINDOW_KEYS, tuple(k for k in WINDOW_KEYS
+                                                 if k not in _WINDOW_OPTIONAL))
     name = table.get("name", "window")
     if not isinstance(name, str) or not name:
         raise TaskSetError(f"{where}: name: must be a non-empty string, got {name!r}")
@@ -128,8 +133,24 @@ def _parse_window(source: str, table: object) -> WindowSpec:
         "n": n,
         "priority": _integer(where, "priority", table["priority"]),
         "r_H": _number(where, "r_H", table["r_H"]),
-        "k": _number(where, "k", table["k"]),
     }
+    if table["k"] == "geometric":
+        if "rho_min" not in table:
+            raise TaskSetError(f"{where}: rho_min: missing (required with k = \"geometric\": "
+                               "the least follower distance in cm)")
+        rho_min = _number(where, "rho_min", table["rho_min"])
+        values["k"] = float(k_geometric(rho_min))
+        values["rho_min"] = rho_min
+        if "k_value" in table and table["k_value"] != values["k"]:
+            raise TaskSetError(f"{where}: k_value: {table['k_value']!r} is not the geometric "
+                               f"count {values['k']:g} for rho_min = {rho_min:g} cm")
+    elif isinstance(table["k"], str):
+        raise TaskSetError(f"{where}: k: must be a number or \"geometric\", got {table['k']!r}")
+    else:
+        values["k"] = _number(where, "k", table["k"])
+        for key in ("rho_min", "k_value"):
+            if key in table:
+                raise TaskSetError(f"{where}: {key}: applies only with k = \"geometric\"")
     for key in _WINDOW_TIMES:
         values[key] = _number(where, key, table[key], positive=False)
     try:

@@ -18,6 +18,8 @@ class WindowSpec:
 
     The chain, in order: scan → localization (Hough) → (estimate, send) per follower →
     radio round trip Δt (a suspension) → receive per follower → scheduler cost e_sched.
+    ``rho_min`` (cm) is set when k is the geometric bound for followers at distance ≥ rho_min
+    (``k = "geometric"`` in a file; k then holds that count, SPEC §2).
     """
 
     n: int
@@ -33,6 +35,7 @@ class WindowSpec:
     e_sched: float
     priority: int
     name: str = "window"
+    rho_min: float | None = None
 
     def __post_init__(self) -> None:
         where = f"window '{self.name}'"
@@ -42,6 +45,8 @@ class WindowSpec:
             raise TaskSetError(f"{where}: priority must be an integer, got {self.priority!r}")
         object.__setattr__(self, "r_H", check_time(where, "r_H", self.r_H))
         object.__setattr__(self, "k", check_time(where, "k", self.k))
+        if self.rho_min is not None:
+            object.__setattr__(self, "rho_min", check_time(where, "rho_min", self.rho_min))
         for field in ("e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv",
                       "delta_t", "e_sched"):
             value = check_time(where, field, getattr(self, field), allow_zero=True)
@@ -76,5 +81,11 @@ class WindowSpec:
         return tuple(segs)
 
     def as_dict(self) -> dict[str, Any]:
-        """Plain dict of the constants (for JSON and manifests)."""
-        return asdict(self)
+        """Plain dict of the constants (for JSON and manifests); a geometric k is written as
+        ``k = "geometric"`` with its ``rho_min`` (and ``k_value``, the count it stands for)."""
+        out = asdict(self)
+        if self.rho_min is None:
+            del out["rho_min"]
+        else:
+            out["k_value"], out["k"] = out["k"], "geometric"
+        return out
