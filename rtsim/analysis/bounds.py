@@ -37,7 +37,10 @@ if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
 
 __all__ = ["WindowBounds", "window_bounds", "w_rta", "w_susp", "w_sch_of", "w_eq7_of",
-           "w_eq11_of"]
+           "w_eq11_of", "lower_bound", "LOWER_BOUNDS"]
+
+#: The window lower bounds an adjustment policy can use ([adjust] lower_bound).
+LOWER_BOUNDS: tuple[str, ...] = ("w_sch", "w_rta", "w_susp")
 
 #: Largest window w_rta searches (ms); beyond it the set is reported as never schedulable.
 W_MAX = 1e9
@@ -214,6 +217,27 @@ def w_susp(ts: TaskSet, overhead: float | None = None) -> float:
     if not feasible(best):  # pragma: no cover - the bisection's hi passed
         raise AssertionError(f"w_susp: the analysis fails at {best!r}")
     return best
+
+
+def lower_bound(ts: TaskSet, name: str, *, scheduler: str = "fp", suspension: str = "idle",
+                where: str = "lower_bound") -> float:
+    """The window lower bound ``name`` (:data:`LOWER_BOUNDS`) for a CPU run with ``scheduler``
+    and ``suspension``; a bound whose model does not match is an input error: all three are
+    fixed-priority analyses, and w_susp is sound only with Δt leaving the CPU idle."""
+    from rtsim.errors import InputError
+
+    if name not in LOWER_BOUNDS:
+        raise InputError(f"{where}: lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
+                         f"got {name!r}")
+    if scheduler != "fp":
+        raise InputError(f"{where}: lower_bound: {name} is a fixed-priority bound, but the "
+                         f"scheduler is {scheduler!r}")
+    if name == "w_susp" and suspension != "idle":
+        raise InputError(f"{where}: lower_bound: w_susp assumes the radio round trip leaves "
+                         f"the CPU idle, but suspension is {suspension!r}")
+    if name == "w_sch":
+        return w_sch_of(ts)
+    return w_rta(ts) if name == "w_rta" else w_susp(ts)
 
 
 @dataclass(frozen=True)

@@ -57,7 +57,7 @@ import numpy as np
 import pandas as pd
 import simpy
 
-from rtsim.analysis.bounds import window_bounds
+from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, scalar_msbs
 from rtsim.control import MODES
 from rtsim.control.adjust import decide_rows
@@ -81,7 +81,8 @@ VIOLATION_TOLERANCE = 0.05
 #: times at V_Ld.
 LAP_CAP_FACTOR = 4.0
 _NF = len(FOLLOWER_FIELDS)
-_ADJUST_KEYS = ("cap", "cap_factor", "floor_frac", "floor_w", "model", "methods", "scan_points")
+_ADJUST_KEYS = ("cap", "cap_factor", "floor_frac", "floor_w", "model", "methods", "scan_points",
+                "lower_bound")
 
 
 @dataclass(frozen=True)
@@ -149,6 +150,8 @@ def _inputs(scenario: Any, text: str | None = None) -> ScenarioInputs:
         adjust["floor_frac"] = float(cfg.floor) / world.leader_speed
         if getattr(cfg, "model", "formation") != "formation":
             adjust["model"] = cfg.model
+        if getattr(cfg, "lower_bound", "w_sch") != "w_sch":
+            adjust["lower_bound"] = cfg.lower_bound
     elif cfg:
         adjust = dict(cfg)
     duration = getattr(scenario, "duration", None)
@@ -219,10 +222,14 @@ class _Coupling:
         self.cfg = cfg
         self.mode = mode
         self.thr = cfg.thresholds
-        self.w_sch = window_bounds(ts).w_sch
-        if not math.isfinite(self.w_sch):
-            raise InputError(f"{inp.source or inp.name or 'scenario'}: w_sch is infinite")
         opts = dict(inp.adjust)
+        # the window's lower bound (w_sch unless [adjust] lower_bound says otherwise; the
+        # column and summary keep the name w_sch): the CPU below is FP with Δt idle
+        bound = opts.pop("lower_bound", "w_sch")
+        self.w_sch = lower_bound(ts, bound, scheduler="fp", suspension="idle",
+                                 where=f"{inp.source or inp.name or 'scenario'}: adjust")
+        if not math.isfinite(self.w_sch):
+            raise InputError(f"{inp.source or inp.name or 'scenario'}: {bound} is infinite")
         cap = opts.get("cap")
         if cap is not None and cap < self.w_sch:
             raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.cap: {cap:g} ms is "

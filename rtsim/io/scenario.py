@@ -91,14 +91,21 @@ class AdjustConfig:
 
     cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
     model: the prediction model of :mod:`rtsim.control.predict` (``formation``, ``estimate``
-    or ``hybrid``).
+    or ``hybrid``); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
+    ``w_rta`` (exact RTA) or ``w_susp`` (suspension-aware, Δt with the CPU idle).
     """
 
     cap: float = math.inf
     floor: float = 0.0
     model: str = "formation"
+    lower_bound: str = "w_sch"
 
     def __post_init__(self) -> None:
+        from rtsim.analysis.bounds import LOWER_BOUNDS
+
+        if self.lower_bound not in LOWER_BOUNDS:
+            raise ScenarioError(f"adjust.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
+                                f"got {self.lower_bound!r}")
         from rtsim.control.predict import MODELS
 
         object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
@@ -329,7 +336,8 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
                             f"got {loc!r}")
     thresholds = Thresholds(r_H=r_H, T_rho=t_rho, T_eps=t_eps, T_beta=t_beta, localization=loc)
 
-    adjust = _section(src, data, "adjust", ("cap", "floor", "model"), AdjustConfig)
+    adjust = _section(src, data, "adjust", ("cap", "floor", "model", "lower_bound"),
+                      AdjustConfig)
     top.get("adjust")
     wtab = _Table(f"{src}: world", top.get("world", {}))
     step_ms = wtab.get("step_ms", 10.0)

@@ -1,0 +1,75 @@
+"""[adjust] lower_bound: the window bound the robots use, and the experiment comparing them."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from rtsim.analysis.bounds import lower_bound, window_bounds
+from rtsim.coupling import run_scenario
+from rtsim.errors import InputError
+from rtsim.io.scenario import ScenarioError, load_scenario
+from rtsim.io.taskset import load_taskset
+
+ROOT = Path(__file__).resolve().parent.parent
+TEST2 = ROOT / "experiments" / "scenarios" / "test2.toml"
+
+
+def test_lower_bound_values_and_model_checks():
+    ts = load_taskset()
+    b = window_bounds(ts)
+    assert lower_bound(ts, "w_sch") == b.w_sch
+    assert lower_bound(ts, "w_rta") == b.w_rta
+    assert lower_bound(ts, "w_susp") == b.w_susp
+    with pytest.raises(InputError, match="w_susp assumes the radio round trip leaves the CPU"):
+        lower_bound(ts, "w_susp", suspension="cpu")
+    with pytest.raises(InputError, match="fixed-priority bound, but the scheduler is 'edf'"):
+        lower_bound(ts, "w_rta", scheduler="edf")
+    with pytest.raises(InputError, match="lower_bound: must be one of w_sch, w_rta, w_susp"):
+        lower_bound(ts, "w_min")
+
+
+def test_scenario_key(tmp_path):
+    text = TEST2.read_text()
+    assert text.count("[adjust]") == 1
+    f = tmp_path / "s.toml"
+    f.write_text(text.replace("[adjust]", '[adjust]\nlower_bound = "w_susp"'))
+    sc = load_scenario(f)
+    assert sc.adjust.lower_bound == "w_susp"
+    res = run_scenario(sc, duration_s=6, record_jobs=False)
+    assert res.summary["w_sch"] == window_bounds(load_taskset()).w_susp
+    assert res.summary["missed"] == 0
+    assert (res.windows["w"] >= res.summary["w_sch"]).all()
+    f.write_text(f.read_text().replace('"w_susp"', '"w_best"'))
+    with pytest.raises(ScenarioError, match="adjust.lower_bound: must be one of"):
+        load_scenario(f)
+
+
+def test_default_stays_w_sch_bit_identical():
+    sc = load_scenario(TEST2)
+    a = run_scenario(sc, duration_s=6, record_jobs=False)
+    b = run_scenario(replace(sc, adjust=replace(sc.adjust, lower_bound="w_sch")), duration_s=6,
+                     record_jobs=False)
+    pd.testing.assert_frame_equal(a.windows, b.windows)
+
+
+def test_experiment_quick(tmp_path):
+    spec = importlib.util.spec_from_file_location("lower_bounds",
+                                                  ROOT / "experiments" / "lower_bounds.py")
+    mod = importlib.util.module_from_spec(spec)
+    assert spec.loader is not None
+    spec.loader.exec_module(mod)
+    assert mod.main(["--quick", "--out", str(tmp_path)]) == 0
+    df = pd.read_csv(tmp_path / "lower_bounds.csv")
+    assert len(df) == 6 and set(df["lower_bound"]) == {"w_sch", "w_rta", "w_susp"}
+    for _, g in df.groupby("test"):
+        bounds = g.set_index("lower_bound")["bound_ms"]
+        assert bounds["w_susp"] < bounds["w_rta"] < bounds["w_sch"]
+    assert (df["missed"] == 0).all() and df["mean_speed_ratio"].between(0, 1).all()
+    assert (tmp_path / "manifest.json").exists() and (tmp_path / "lower_bounds.md").exists()
+    assert not math.isnan(df["lap_time_s"].iloc[0])
