@@ -149,7 +149,9 @@ def test_cli_resumes_and_exits_1_on_a_fabricated_exceedance(small, monkeypatch, 
     report = (copy / "report.md").read_text("utf-8")
     assert "**FAIL**" in report
     fails = pd.read_csv(copy / "failures.csv")
-    assert list(fails["check"]) == ["response above WCRT"]
+    # above the oblivious WCRT, so above the (smaller) suspension-aware one too
+    assert list(fails["check"]) == ["response above WCRT",
+                                    "response above the suspension-aware WCRT"]
 
 
 @pytest.mark.parametrize("argv, msg", [
@@ -215,3 +217,42 @@ def test_percentiles_match_sorted_values() -> None:
     assert got[99.0] == pytest.approx(990.01)
     assert got[99.9] == pytest.approx(999.001)
     assert all(math.isnan(x) for x in percentiles([]).values())
+
+
+def test_checker_orders_the_bounds_under_the_matching_model() -> None:
+    # w_sim ≤ w_susp ≤ w_rta ≤ w_sch, w_sim against w_susp only in counted-idle (Δt idle)
+    base = {"task": "t", "sim_max": 1.0, "wcrt": 2.0, "w_sch": 240.0, "w_rta": 235.0}
+    rows = [
+        {**base, "config": "ok", "mode": "counted-idle", "w_sim": 210.0, "w_susp": 217.0,
+         "w_susp_geo": 212.0},
+        {**base, "config": "cpu", "mode": "wcet-cpu", "w_sim": 234.99, "w_susp": 217.0},
+        {**base, "config": "low", "mode": "counted-idle", "w_sim": 218.0, "w_susp": 217.0},
+        {**base, "config": "brk", "mode": "counted-idle", "w_sim": 218.0, "w_susp": 217.0,
+         "assumption_ok": False},
+        {**base, "config": "geo", "mode": "counted-idle", "w_sim": 213.0, "w_susp": 217.0,
+         "w_susp_geo": 212.0},
+        {**base, "config": "geob", "mode": "counted-idle", "w_sim": 213.0, "w_susp": 217.0,
+         "w_susp_geo": 212.0, "geo_assumption_ok": False},
+        {**base, "config": "up", "mode": "wcet-cpu", "w_sim": 234.99, "w_susp": 236.0},
+    ]
+    got = check_results(rows)
+    assert got == [
+        Failure("low", "*", "counted-idle", "w_sim above w_susp", 218.0, 217.0),
+        Failure("brk", "*", "counted-idle", "w_sim above w_susp", 218.0, 217.0, "warning"),
+        Failure("geo", "*", "counted-idle", "w_sim above w_susp_geo", 213.0, 212.0),
+        Failure("geob", "*", "counted-idle", "w_sim above w_susp_geo", 213.0, 212.0,
+                "warning"),
+        Failure("up", "*", "wcet-cpu", "w_susp above w_rta", 236.0, 235.0),
+    ]
+
+
+def test_w_susp_columns_hold_on_the_small_grid(small) -> None:
+    rows = _paper(small, "counted-idle").drop_duplicates("config")
+    assert (rows["w_sim"] <= rows["w_susp"] + SEARCH_TOL).all()
+    assert (rows["w_susp"] < rows["w_rta"]).all() and (rows["w_rta"] < rows["w_sch"]).all()
+    assert (rows["w_susp_geo"] <= rows["w_susp"]).all() and (rows["k_geo"] == 20).all()
+    assert rows["w_susp_over_w_sim"].between(1.0, 1.1).all()
+    cpu = _paper(small, "wcet-cpu")
+    assert cpu["w_susp_over_w_sim"].isna().all()
+    rnd = small.table[small.table["source"] == "random"]
+    assert len(rnd) > 0

@@ -226,7 +226,11 @@ def check_results(rows: pd.DataFrame | Iterable[Mapping[str, Any]], *,
 
     Checks per row: ``sim_max > wcrt + bound_tol`` (finite WCRT; a warning instead when
     ``assumption_ok`` is false); a task with no finite WCRT is not checked. Per paper
-    configuration and mode: ``w_sim > w_rta + search_tol`` and ``w_sch < w_rta − bound_tol``.
+    configuration and mode: ``w_sim > w_rta + search_tol``, ``w_sch < w_rta − bound_tol``
+    and ``w_susp > w_rta + bound_tol``; in ``counted-idle`` (w_susp's model, Δt idle) also
+    ``w_sim > w_susp + search_tol`` and ``w_sim > w_susp_geo + search_tol`` (warnings where
+    the beams broke that bound's k: ``assumption_ok`` / ``geo_assumption_ok`` false). So
+    w_sim ≤ w_susp ≤ w_rta ≤ w_sch is checked under the matching model.
     """
     records = rows.to_dict("records") if hasattr(rows, "to_dict") else list(rows)
     out: list[Failure] = []
@@ -240,6 +244,11 @@ def check_results(rows: pd.DataFrame | Iterable[Mapping[str, Any]], *,
         if math.isfinite(sim) and math.isfinite(wcrt) and sim > wcrt + bound_tol:
             out.append(Failure(config, task, mode, "response above WCRT", sim, wcrt,
                                "failure" if ok else "warning"))
+        aware = _f(r.get("wcrt_susp"))
+        if mode == "counted-idle" and math.isfinite(sim) and math.isfinite(aware) \
+                and sim > aware + bound_tol:
+            out.append(Failure(config, task, mode, "response above the suspension-aware WCRT",
+                               sim, aware, "failure" if ok else "warning"))
         w_sim, w_rta, w_sch = _f(r.get("w_sim")), _f(r.get("w_rta")), _f(r.get("w_sch"))
         key = (config, mode)
         if key in seen:
@@ -250,6 +259,21 @@ def check_results(rows: pd.DataFrame | Iterable[Mapping[str, Any]], *,
                                "failure" if ok else "warning"))
         if math.isfinite(w_sch) and math.isfinite(w_rta) and w_sch < w_rta - bound_tol:
             out.append(Failure(config, "*", mode, "w_sch below w_rta", w_sch, w_rta))
+        w_susp = _f(r.get("w_susp"))
+        if math.isfinite(w_susp) and math.isfinite(w_rta) and w_susp > w_rta + bound_tol:
+            out.append(Failure(config, "*", mode, "w_susp above w_rta", w_susp, w_rta))
+        if mode != "counted-idle":  # w_susp's model: Δt with the CPU idle
+            continue
+        if math.isfinite(w_sim) and math.isfinite(w_susp) and w_sim > w_susp + search_tol:
+            out.append(Failure(config, "*", mode, "w_sim above w_susp", w_sim, w_susp,
+                               "failure" if ok else "warning"))
+        geo = _f(r.get("w_susp_geo"))
+        geo_ok = r.get("geo_assumption_ok", True)
+        geo_ok = True if geo_ok is None or (isinstance(geo_ok, float) and math.isnan(geo_ok)) \
+            else bool(geo_ok)
+        if math.isfinite(w_sim) and math.isfinite(geo) and w_sim > geo + search_tol:
+            out.append(Failure(config, "*", mode, "w_sim above w_susp_geo", w_sim, geo,
+                               "failure" if geo_ok else "warning"))
     return out
 
 
@@ -269,11 +293,14 @@ def summarize(df: pd.DataFrame) -> dict[str, Any]:
         key = f"{source}/{mode}"
         per_cfg = g.drop_duplicates("config")
         entry: dict[str, Any] = {"configs": int(per_cfg.shape[0])}
-        for col in ("w_sch_over_w_sim", "w_rta_over_w_sim"):
+        for col in ("w_sch_over_w_sim", "w_rta_over_w_sim", "w_susp_over_w_sim",
+                    "w_geo_over_w_sim"):
             if col in g:
                 entry[col] = _range(per_cfg[col])
         if "wcrt_over_sim_max" in g:
             entry["wcrt_over_sim_max"] = _range(g["wcrt_over_sim_max"])
+        if "wcrt_susp_over_sim_max" in g:
+            entry["wcrt_susp_over_sim_max"] = _range(g["wcrt_susp_over_sim_max"])
         out[key] = entry
     fails = check_results(df)
     out["failures"] = sum(1 for f in fails if f.severity == "failure")

@@ -2,7 +2,10 @@
 
 :func:`paper_point` — one (n, r_H) of the paper's task set:
 
-- analysis: e_hough, g, Eq 7, Eq 11, w_sch, w_rta, and each task's exact WCRT at w_sch;
+- analysis: e_hough, g, Eq 7, Eq 11, w_sch, w_rta, the suspension-aware w_susp, the geometric
+  window w_susp_geo (w_susp with k = the geometric count for followers at distance ≥
+  ``rho_min``, option, default 300 cm; ``beyond_geo`` counts the scans above its min(361, k·n))
+  and each task's exact WCRT at w_sch;
 - beams: a Test 1 world run at the fixed window w_sch (:mod:`rtsim.validate.beams`);
 - two modes, each simulated at w = w_sch (response max and percentiles, with job records)
   and searched for w_sim (:func:`rtsim.analysis.validation.smallest_passing`, every trial
@@ -17,9 +20,12 @@
   A trial run stops at its first miss.
 
 :func:`random_point` — one UUniFast set (no window): exact WCRT per task against the
-simulated maximum, ``wcet-sync`` (WCET, all released at 0, one hyperperiod: the critical
-instant, so schedulable tasks reach their WCRT exactly) and ``uniform-offsets`` (uniform in
-[bcet, wcet] with bcet = ``bcet_ratio``·wcet, random integer offsets, several hyperperiods).
+simulated maximum, ``wcet-sync`` (WCET, the critical instant of the jitter analysis —
+``jitter="worst"`` — over one hyperperiod, so schedulable constrained-deadline tasks reach
+their WCRT exactly) and ``uniform-offsets`` (uniform in [bcet, wcet] with bcet =
+``bcet_ratio``·wcet, random integer offsets, release delays uniform in [0, J], several
+hyperperiods). Every task gets a release jitter J uniform in [0, ``jitter``·T] (option,
+default 0.1; drawn from its own stream, so the sets are otherwise those without jitter).
 
 Metrics are flat: ``<name>`` for the configuration, ``<metric>.<mode>.<task>`` per task.
 """
@@ -34,7 +40,8 @@ from typing import Any
 
 import numpy as np
 
-from rtsim.analysis.bounds import window_bounds
+from rtsim.analysis.bounds import w_susp, window_bounds
+from rtsim.analysis.rta import analyze
 from rtsim.analysis.validation import (
     PERCENTILES,
     SEARCH_TOL,
@@ -42,6 +49,7 @@ from rtsim.analysis.validation import (
     smallest_passing,
     task_bounds,
 )
+from rtsim.analysis.window import k_geometric
 from rtsim.model.taskset import TaskSet
 
 __all__ = ["paper_point", "random_point", "paper_taskset", "PAPER_MODES", "RANDOM_MODES",
@@ -139,8 +147,15 @@ def paper_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: int
     assert ts.window is not None
     wb = window_bounds(ts)
     out: dict[str, Any] = {k: float(getattr(wb, k)) for k in
-                           ("e_hough", "g", "w_eq7", "w_eq11", "w_sch", "w_rta")}
+                           ("e_hough", "g", "w_eq7", "w_eq11", "w_sch", "w_rta", "w_susp")}
+    rho_min = float(options.get("rho_min", 300.0))
+    geo = ts.with_window(k=float(k_geometric(rho_min)), rho_min=rho_min)
+    assert geo.window is not None
+    out["rho_min"] = rho_min
+    out["k_geo"] = float(geo.window.k)
+    out["w_susp_geo"] = float(w_susp(geo))
     beams = beam_counts_for(ts, wb.w_sch, windows, seed, options)
+    out["beyond_geo"] = beams.beyond_wcet(geo.window)
     hough = beams.hough_times(ts.window)
     out.update(windows=windows, points_min=int(beams.total.min()),
                points_max=int(beams.total.max()), points_mean=float(beams.total.mean()),
@@ -152,6 +167,8 @@ def paper_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: int
     for name, b in bounds.items():
         out[f"wcrt.{name}"] = math.nan if b.wcrt is None else float(b.wcrt)
         out[f"deadline.{name}"] = float(b.deadline)
+    for t in analyze(ts, wb.w_sch, suspension="idle").tasks:  # Δt idle: counted-idle's model
+        out[f"wcrt_susp.{t.name}"] = math.nan if t.wcrt is None else float(t.wcrt)
     # every chain job needs at least its own length g_j: any w below the longest one misses
     g_longest = {"wcet-cpu": ts.window.g(), "counted-idle": ts.window.g(float(hough.max()))}
     for mode in PAPER_MODES:
@@ -201,6 +218,10 @@ def random_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: in
     from rtsim.sim import simulate
 
     ts = random_taskset_for(params, options, seed)
+    jit_rng = np.random.default_rng([seed, 2])  # its own stream: the sets stay the same
+    frac = float(options.get("jitter", 0.1))
+    ts = TaskSet(tuple(replace(t, jitter=round(float(jit_rng.uniform(0, frac * t.period)), 3))
+                       for t in ts.tasks), name=ts.name)
     hyper = _lcm([t.period for t in ts.tasks])
     if not math.isfinite(hyper) or hyper > float(options.get("max_horizon", 1e5)):
         hyper = float(options.get("max_horizon", 1e5))
@@ -212,11 +233,13 @@ def random_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: in
         out[f"wcrt.{name}"] = math.nan if b.wcrt is None else float(b.wcrt)
         out[f"deadline.{name}"] = float(b.deadline)
     runs: dict[str, Callable[[], Any]] = {}
-    runs["wcet-sync"] = lambda: simulate(ts, hyper, seed=seed, record_jobs=True)
+    runs["wcet-sync"] = lambda: simulate(ts, hyper, seed=seed, record_jobs=True,
+                                         jitter="worst")
     ratio = float(options.get("bcet_ratio", 0.5))
     rng = np.random.default_rng([seed, 1])
     varied = TaskSet(tuple(replace(t, bcet=ratio * t.wcet,
-                                   offset=float(rng.integers(0, max(1, int(t.period)))))
+                                   offset=float(rng.integers(0, max(1, int(t.period)))),
+                                   jitter=t.jitter)
                            for t in ts.tasks), name=ts.name)
     reps = int(options.get("hyperperiods", 10))
     runs["uniform-offsets"] = lambda: simulate(varied, reps * hyper, seed=seed,

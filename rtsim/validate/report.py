@@ -77,6 +77,12 @@ def _headline(outcome: ValidationOutcome) -> list[str]:
                          f"{_rng(e.get('w_sch_over_w_sim'))}; w_rta / w_sim = "
                          f"{_rng(e.get('w_rta_over_w_sim'))}; WCRT / simulated max at w_sch "
                          f"(all tasks) = {_rng(e.get('wcrt_over_sim_max'))}.")
+            if mode == "counted-idle" and e.get("w_susp_over_w_sim"):
+                lines.append(f"  Suspension-aware (Δt idle): w_susp / w_sim = "
+                             f"{_rng(e.get('w_susp_over_w_sim'))}; with the geometric k "
+                             f"(followers at ≥ rho_min): {_rng(e.get('w_geo_over_w_sim'))}; "
+                             f"suspension-aware WCRT / simulated max at w_sch (all tasks) = "
+                             f"{_rng(e.get('wcrt_susp_over_sim_max'))}.")
             sub = paper[paper["mode"] == mode]
             for task, g in sub.groupby("task", sort=False):
                 v = g["wcrt_over_sim_max"].astype(float)

@@ -13,7 +13,14 @@ Columns (ms unless noted; NaN where not applicable):
 - ratios: ``w_sch_over_w_sim``, ``w_rta_over_w_sim``, ``wcrt_over_sim_max``;
 - beams (paper): ``points_min``, ``points_max``, ``points_mean``, ``points_wcet``,
   ``tracks_lost``, ``beyond_wcet``; ``assumption_ok`` (false when counted beams exceeded
-  Eq 1's k·n in some window of a ``counted-idle`` run).
+  Eq 1's k·n in some window of a ``counted-idle`` run);
+- suspension-aware (paper): ``w_susp`` (Δt with the CPU idle), ``w_susp_over_w_sim`` and
+  ``w_geo_over_w_sim`` (``counted-idle`` rows only: the model they assume);
+  ``w_susp_geo`` (w_susp with the geometric ``k_geo`` for followers at ≥ ``rho_min`` cm),
+  ``beyond_geo`` (windows whose scan counted more than min(361, k_geo·n)),
+  ``geo_assumption_ok`` (false when beyond_geo > 0 in a ``counted-idle`` run);
+  ``wcrt_susp`` (the suspension-aware WCRT at w_sch) and ``wcrt_susp_over_sim_max``
+  (``counted-idle`` rows).
 """
 
 from __future__ import annotations
@@ -33,6 +40,8 @@ COLUMNS: tuple[str, ...] = (
     "w_sch_over_w_sim", "w_rta_over_w_sim", "wcrt_over_sim_max",
     "points_min", "points_max", "points_mean", "points_wcet", "tracks_lost", "beyond_wcet",
     "assumption_ok",
+    "w_susp", "w_susp_over_w_sim", "rho_min", "k_geo", "w_susp_geo", "w_geo_over_w_sim",
+    "beyond_geo", "geo_assumption_ok", "wcrt_susp", "wcrt_susp_over_sim_max",
 )
 _PER_TASK = ("sim_max", "p50", "p99", "p999", "jobs", "misses")
 
@@ -63,8 +72,13 @@ def _rows(row: dict[str, Any], modes: tuple[str, ...], base: dict[str, Any]) -> 
             r["w_sch_over_w_sim"] = _div(r.get("w_sch"), r["w_sim"])
             r["w_rta_over_w_sim"] = _div(r.get("w_rta"), r["w_sim"])
             r["wcrt_over_sim_max"] = _div(r["wcrt"], r["sim_max"])
-            if mode == "counted-idle":
+            if mode == "counted-idle":  # the model of w_susp: Δt with the CPU idle
+                r["w_susp_over_w_sim"] = _div(r.get("w_susp"), r["w_sim"])
+                r["w_geo_over_w_sim"] = _div(r.get("w_susp_geo"), r["w_sim"])
+                r["wcrt_susp"] = row.get(f"wcrt_susp.{task}", math.nan)
+                r["wcrt_susp_over_sim_max"] = _div(r["wcrt_susp"], r["sim_max"])
                 r["assumption_ok"] = int(row.get("beyond_wcet", 0) or 0) == 0
+                r["geo_assumption_ok"] = int(row.get("beyond_geo", 0) or 0) == 0
             out.append(r)
     return out
 
@@ -72,6 +86,7 @@ def _rows(row: dict[str, Any], modes: tuple[str, ...], base: dict[str, Any]) -> 
 def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
     df = pd.DataFrame.from_records(rows, columns=list(COLUMNS))
     df["assumption_ok"] = df["assumption_ok"].fillna(True).astype(bool)
+    df["geo_assumption_ok"] = df["geo_assumption_ok"].fillna(True).astype(bool)
     return df
 
 
@@ -83,10 +98,11 @@ def tidy_paper(results: pd.DataFrame) -> pd.DataFrame:
     for row in results[results["status"] == "ok"].to_dict("records"):
         base = {k: row.get(k, math.nan) for k in (
             "w_eq7", "w_eq11", "w_sch", "w_rta", "g", "points_min", "points_max",
-            "points_mean", "points_wcet", "tracks_lost", "beyond_wcet")}
+            "points_mean", "points_wcet", "tracks_lost", "beyond_wcet", "w_susp", "rho_min",
+            "k_geo", "w_susp_geo", "beyond_geo")}
         base.update(source="paper", config=f"n={int(row['n'])},r_H={float(row['r_H']):g}",
                     n=int(row["n"]), r_H=float(row["r_H"]), set=math.nan, seed=row["seed"],
-                    assumption_ok=True)
+                    assumption_ok=True, geo_assumption_ok=True)
         rows += _rows(row, PAPER_MODES, base)
     return _frame(rows)
 
@@ -99,6 +115,6 @@ def tidy_random(results: pd.DataFrame) -> pd.DataFrame:
     for row in results[results["status"] == "ok"].to_dict("records"):
         base = {"source": "random", "config": f"random-{int(row['set'])}", "n": math.nan,
                 "r_H": math.nan, "set": int(row["set"]), "seed": row["seed"],
-                "assumption_ok": True}
+                "assumption_ok": True, "geo_assumption_ok": True}
         rows += _rows(row, RANDOM_MODES, base)
     return _frame(rows)
