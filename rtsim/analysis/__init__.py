@@ -3,7 +3,17 @@
 Times in ms, lengths in cm. Each function cites the equation or theorem it implements.
 """
 
-from rtsim.analysis.bounds import WindowBounds, w_eq7_of, w_eq11_of, w_rta, w_sch_of, window_bounds
+from rtsim.analysis.bounds import (
+    LOWER_BOUNDS,
+    WindowBounds,
+    lower_bound,
+    w_eq7_of,
+    w_eq11_of,
+    w_rta,
+    w_sch_of,
+    w_susp,
+    window_bounds,
+)
 from rtsim.analysis.kinematics import (
     BOUND_KINDS,
     LocalizationKind,
@@ -22,7 +32,8 @@ from rtsim.analysis.kinematics import (
     wrap_angle,
     wrap_positive,
 )
-from rtsim.analysis.rta import Analysis, TaskResult, analyze, response_time
+from rtsim.analysis.rta import Analysis, TaskResult, analyze, busy_window, response_time
+from rtsim.analysis.suspension import SuspensionBound, suspension_aware
 from rtsim.analysis.utilization import (
     hyperbolic,
     hyperbolic_product,
@@ -36,6 +47,7 @@ from rtsim.analysis.window import (
     e_hough,
     g_window,
     hp_utilization,
+    k_geometric,
     w_eq7,
     w_eq11,
     w_sch,
@@ -48,6 +60,9 @@ __all__ = [
     "e_hough",
     "g_window",
     "hp_utilization",
+    "k_geometric",
+    "LOWER_BOUNDS",
+    "lower_bound",
     "w_eq7",
     "w_eq7_of",
     "w_eq11",
@@ -55,12 +70,17 @@ __all__ = [
     "w_rta",
     "w_sch",
     "w_sch_of",
+    "w_susp",
     "window_bounds",
     # exact response-time analysis
     "Analysis",
     "TaskResult",
     "analyze",
+    "busy_window",
     "response_time",
+    # suspension-aware bounds (SPEC §8)
+    "SuspensionBound",
+    "suspension_aware",
     # utilization tests
     "hyperbolic",
     "hyperbolic_product",
