@@ -200,13 +200,17 @@ def write_report(outcome: ValidationOutcome, config: ValidationConfig) -> Path:
               "spot) restarts the bisection above it. w_sim is the least window, to the "
               "tolerance, above which no tried window missed.",
               "- **Checks**: a simulated maximum above the WCRT (+1e-6 ms) is a failure; so is "
-              "w_sim above w_rta + tol, and w_sch below w_rta. Rows whose counted beams "
-              "exceeded Eq 1's k·n are warnings, not failures (the WCET assumption broke).",
+              "w_sim above w_rta + tol, and w_sch below w_rta. Under the model of the "
+              "suspension-aware analysis (`counted-idle`, Δt idle), also w_sim above w_susp "
+              "or the geometric w_susp + tol, w_susp above w_rta, and a simulated maximum "
+              "above the suspension-aware WCRT. Rows whose counted beams exceeded the "
+              "bound's k·n are warnings, not failures (the WCET assumption broke).",
               "- **Random sets**: UUniFast utilizations, periods from {10, 20, 25, 40, 50, "
               "100, 200} ms, constrained deadlines, deadline-monotonic priorities; `wcet-sync` "
-              "simulates one hyperperiod at WCET from a synchronous release (the critical "
-              "instant), `uniform-offsets` several hyperperiods with execution times uniform "
-              "in [wcet/2, wcet] and random offsets.", ""]
+              "simulates one hyperperiod at WCET from the critical instant (with release "
+              "jitter J ≤ 0.1·T per task: first releases together after J, later ones at "
+              "arrival), `uniform-offsets` several hyperperiods with execution times uniform "
+              "in [wcet/2, wcet], random offsets and release delays in [0, J].", ""]
     path = out / "report.md"
     write_text(path, "\n".join(lines))
     return path
