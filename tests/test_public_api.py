@@ -8,7 +8,7 @@ import pytest
 
 PACKAGES = ["rtsim", "rtsim.model", "rtsim.analysis", "rtsim.sim", "rtsim.world",
             "rtsim.control", "rtsim.coupling", "rtsim.sweep", "rtsim.plots", "rtsim.validate",
-            "rtsim.io"]
+            "rtsim.io", "rtsim.notebook", "rtsim.overrides"]
 
 
 @pytest.mark.parametrize("name", PACKAGES)
