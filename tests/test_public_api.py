@@ -8,7 +8,8 @@ import pytest
 
 PACKAGES = ["rtsim", "rtsim.model", "rtsim.analysis", "rtsim.sim", "rtsim.world",
             "rtsim.control", "rtsim.coupling", "rtsim.sweep", "rtsim.plots", "rtsim.validate",
-            "rtsim.io", "rtsim.notebook", "rtsim.overrides"]
+            "rtsim.io", "rtsim.notebook", "rtsim.overrides",
+            "rtsim.export"]
 
 
 @pytest.mark.parametrize("name", PACKAGES)

@@ -48,6 +48,8 @@ def register(sub: Any) -> None:
     p.add_argument("--gantt", help="Gantt chart PNG (with --gantt-range A..B ms)")
     p.add_argument("--gantt-range", help="time range of the Gantt chart, A..B in ms")
     p.add_argument("--histogram", help="response-time histograms PNG, one panel per task")
+    p.add_argument("--perfetto", metavar="FILE",
+                   help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
@@ -92,10 +94,11 @@ def run(args: argparse.Namespace) -> int:
         from rtsim.analysis.bounds import window_bounds
 
         bounds = window_bounds(ts)
-    want_jobs = bool(args.jobs or args.gantt)
+    want_jobs = bool(args.jobs or args.gantt or args.perfetto)
     res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,
                    suspension=args.suspension, window=args.window,
-                   record_jobs=want_jobs, record_trace=bool(args.trace or args.gantt),
+                   record_jobs=want_jobs,
+                   record_trace=bool(args.trace or args.gantt or args.perfetto),
                    overhead=args.overhead)
     w = res.window["w"] if res.window else None
     analysis = analyze(ts, w) if ts.window is not None else analyze(ts)
@@ -117,6 +120,12 @@ def run(args: argparse.Namespace) -> int:
     if args.trace:
         write_table(args.trace, res.trace)
         outputs[Path(args.trace).resolve().parent].append(Path(args.trace).name)
+    if args.perfetto:
+        from rtsim.export.perfetto import write_perfetto
+
+        write_perfetto(args.perfetto, res.jobs, res.trace, tasks=list(res.tasks),
+                       metadata={"command": "simulate", "file": str(args.file), "seed": args.seed})
+        outputs[Path(args.perfetto).resolve().parent].append(Path(args.perfetto).name)
     if args.gantt:
         _save_gantt(res, args.gantt, _gantt_range(args.gantt_range, args.horizon))
         outputs[Path(args.gantt).resolve().parent].append(Path(args.gantt).name)
