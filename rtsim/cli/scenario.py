@@ -99,8 +99,12 @@ def run(args: Any) -> int:
                 "scenario": inp.resolved, "mode": args.mode, "duration_s": args.duration,
                 "exec_model": args.exec_model},
         argv=["rtsim", *sys.argv[1:]],
-        extra={"timing": timing, "outputs": outputs},
+        extra={"timing": timing, "outputs": [*outputs, "report.html"]},
     )
+    from rtsim.report import write_run_report
+
+    label = res.inputs.name or Path(args.file).stem
+    write_run_report(out, title=f"rtsim scenario: {label}, {args.mode}")
     s = res.summary
     print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
           f"{s['windows']} windows: missed {s['missed']}, tracks lost {s['tracks_lost']}, "
