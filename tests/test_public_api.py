@@ -9,7 +9,7 @@ import pytest
 PACKAGES = ["rtsim", "rtsim.model", "rtsim.analysis", "rtsim.sim", "rtsim.world",
             "rtsim.control", "rtsim.coupling", "rtsim.sweep", "rtsim.plots", "rtsim.validate",
             "rtsim.io", "rtsim.notebook", "rtsim.overrides",
-            "rtsim.export"]
+            "rtsim.export", "rtsim.examples", "rtsim.report"]
 
 
 @pytest.mark.parametrize("name", PACKAGES)

@@ -26,6 +26,7 @@ COMMANDS: tuple[str, ...] = (
     "sweep",
     "validate",
     "histogram",
+    "examples",
 )
 
 

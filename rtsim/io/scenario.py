@@ -69,7 +69,7 @@ __all__ = ["AdjustConfig", "Scenario", "load_scenario", "parse_scenario", "scena
            "PACKAGED_SCENARIOS", "PACKAGED_TASKSETS"]
 
 #: Task-set names that refer to the package's own files rather than to a path.
-PACKAGED_TASKSETS = ("barrel_robots",)
+PACKAGED_TASKSETS = ("barrel_robots", "example")
 #: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
 PACKAGED_SCENARIOS = ("test1", "test2")
 
