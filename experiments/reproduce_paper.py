@@ -1,4 +1,4 @@
-"""The paper's experiments reproduced: Test 1 and Test 2 in the three window modes (issue 7 §1).
+"""The paper's experiments reproduced: Test 1 and Test 2 in the three window modes.
 
 ``python experiments/reproduce_paper.py [--out DIR] [--quick] [--seed N] [--duration S]
 [--workers N] [--docs DIR] [--quiet]``

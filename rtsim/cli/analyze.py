@@ -28,7 +28,7 @@ def register(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--check", action="store_true",
                    help="exit with status 1 when the set is not schedulable")
-    p.add_argument("--window", metavar="W", default=None,
+    p.add_argument("--window", metavar="MS", default=None,
                    help="window w in ms for a [window] set (default: w_sch)")
     p.set_defaults(func=run)
 

@@ -67,6 +67,20 @@ def _gantt_range(text: str | None, horizon: float) -> tuple[float, float]:
     return a, b
 
 
+def require_bcet(ts: Any, source: str) -> None:
+    """``--exec uniform`` draws in [bcet, wcet]: a task (other than the processing window,
+    whose Hough time varies anyway) with no bcet would silently run at its WCET."""
+    win = ts.window.name if ts.window is not None else None
+    for t in ts.tasks:
+        if t.name == win or t.bcet is not None:
+            continue
+        if t.segments and all(s.bcet is not None for s in t.segments):
+            continue
+        raise InputError(f"{source}: task '{t.name}': --exec uniform needs a bcet (times are "
+                         f"uniform in [bcet, wcet]); add bcet = ... to the task or use --exec "
+                         f"wcet")
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
     from rtsim.analysis.rta import analyze
@@ -89,6 +103,8 @@ def run(args: argparse.Namespace) -> int:
                              f"--window apply to processing-window sets only")
     if changes:
         ts = ts.with_window(**changes)
+    if args.exec_model == "uniform":
+        require_bcet(ts, str(args.file))
     bounds = None
     if ts.window is not None:
         from rtsim.analysis.bounds import window_bounds

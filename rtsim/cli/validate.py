@@ -46,7 +46,7 @@ def register(sub: Any) -> None:
     p.add_argument("--windows", type=int, default=None,
                    help="windows per simulated run (at least 100)")
     p.add_argument("--random-sets", type=int, default=None, help="number of random task sets")
-    p.add_argument("--histograms", type=int, default=None, metavar="K",
+    p.add_argument("--histograms", type=int, default=None, metavar="N",
                    help="configurations to draw response-time histograms for (default 2, "
                    "quick 1; 0 = none)")
     p.add_argument("--seed", type=int, default=None, help="the validation's seed (default 1)")
