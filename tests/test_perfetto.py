@@ -65,7 +65,7 @@ def _check_against_tables(doc: dict, jobs: pd.DataFrame, trace: pd.DataFrame) ->
 def test_simulate_perfetto_matches_jobs_and_trace(tmp_path, capsys) -> None:
     """Preemptions, a backlog (overlapping jobs of one task) and misses, all in the trace."""
     ts = tmp_path / "overload.toml"
-    ts.write_text('[[tasks]]\nname = "hi"\nwcet = 3\nperiod = 4\n'
+    ts.write_text('[[tasks]]\nname = "hi"\nwcet = 3\nperiod = 4\nbcet = 3\n'
                   '[[tasks]]\nname = "lo"\nwcet = 3\nperiod = 10\nbcet = 1\n', "utf-8")
     out = tmp_path / "t.json"
     rc = main(["simulate", str(ts), "--horizon", "200", "--exec", "uniform", "--json",
