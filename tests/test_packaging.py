@@ -82,3 +82,24 @@ def test_examples_work_by_name_and_a_local_file_wins(tmp_path: Path, monkeypatch
     assert '"schedulable": true' in capsys.readouterr().out
     (tmp_path / "example").write_text('[[tasks]]\nname = "mine"\nwcet = 1\nperiod = 9\n')
     assert [t.name for t in load_taskset("example").tasks] == ["mine"]
+
+
+def test_rtsim_reproduce_passes_every_option_of_the_module(capsys) -> None:
+    import re
+
+    from rtsim import reproduce
+    from rtsim.cli import build_parser
+    from rtsim.cli.reproduce import argv_for
+
+    args = build_parser().parse_args(["reproduce", "--out", "x", "--quick", "--seed", "3",
+                                      "--duration", "5", "--workers", "1", "--docs", "d",
+                                      "--quiet"])
+    got = vars(reproduce.parse_args(argv_for(args)))
+    assert got == {"out": "x", "quick": True, "seed": 3, "duration": 5.0, "workers": 1,
+                   "docs": "d", "quiet": True}
+    with pytest.raises(SystemExit):
+        reproduce.parse_args(["--help"])
+    module_opts = set(re.findall(r"--[a-z]+", capsys.readouterr().out)) - {"--help"}
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices["reproduce"]
+    cli_opts = {o for a in sub._actions for o in a.option_strings if o.startswith("--")}
+    assert module_opts == cli_opts - {"--help"}

@@ -18,7 +18,7 @@ import pandas as pd
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-SCRIPT = REPO / "experiments" / "reproduce_paper.py"
+SCRIPT = REPO / "rtsim" / "reproduce.py"
 TESTS = ("test1", "test2")
 MODES = ("adjust", "fixed-wsch", "min-msb")
 KINDS = ("localization", "separation", "path_diversion", "bearing")
@@ -37,12 +37,7 @@ PLOTTED = {
 
 
 def _load() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("reproduce_paper", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["reproduce_paper"] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    return importlib.import_module("rtsim.reproduce")
 
 
 rp = _load()
@@ -67,7 +62,8 @@ def quick(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not done.exists():
             env = {**os.environ, "MPLBACKEND": "Agg"}
-            proc = subprocess.run([sys.executable, str(SCRIPT), "--quick", "--out", str(out),
+            proc = subprocess.run([sys.executable, "-m", "rtsim", "reproduce", "--quick",
+                                   "--out", str(out),
                                    "--workers", "2"], cwd=REPO, env=env,
                                   capture_output=True, text=True, timeout=240)
             done.write_text(json.dumps({"rc": proc.returncode, "stderr": proc.stderr}))
@@ -242,7 +238,7 @@ def test_run_equals_rtsim_scenario(quick: tuple[Path, str], tmp_path: Path) -> N
     from rtsim.cli import main as rtsim_main
 
     out, _ = quick
-    file = REPO / "experiments" / "scenarios" / "test2.toml"
+    file = REPO / "rtsim" / "data" / "scenarios" / "test2.toml"  # what rtsim.reproduce runs
     assert rtsim_main(["scenario", str(file), "--mode", "min-msb", "--duration", "60",
                        "--seed", "0", "--no-figures", "--out", str(tmp_path)]) == 0
     for f in ("windows.csv", "jobs.csv", "summary.json"):

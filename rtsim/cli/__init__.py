@@ -30,6 +30,7 @@ COMMANDS: tuple[str, ...] = (
     "histogram",
     "examples",
     "animate",
+    "reproduce",
 )
 
 
