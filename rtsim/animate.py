@@ -240,7 +240,8 @@ def animate_run(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], *,
         gx.text(t1, y, " w", va="center", fontsize=8)
         gx.text(t1, y + 0.35, " w_sch", va="center", fontsize=8, color="tab:red")
         gx.set_xlim(t0, t1 + 0.08 * (t1 - t0))
-        if progress is not None and drawn.add(k) is None and len(drawn) <= len(frames):
+        if progress is not None and k not in drawn:  # FuncAnimation draws frame 0 twice
+            drawn.add(k)
             progress(len(drawn), len(frames))
         return []
 
