@@ -91,3 +91,20 @@ def test_figure_formatter_is_registered_in_an_ipython_shell() -> None:
         assert data["image/png"][:8] == b"\x89PNG\r\n\x1a\n"
     finally:
         InteractiveShell.clear_instance()
+
+
+def test_validation_outcome_repr(tmp_path) -> None:
+    import pandas as pd
+
+    from rtsim.analysis.validation import Failure
+    from rtsim.validate import ValidationOutcome
+
+    fail = Failure(config="n=6", task="window", mode="counted-idle", check="response",
+                   value=307.3, bound=305.5, severity="warning")
+    out = ValidationOutcome(pd.DataFrame({"n": [1, 2]}), [fail],
+                            {"rows": 2, "paper/wcet-cpu": {"w_sch_over_w_sim": {"min": 1.001}}},
+                            [], tmp_path)
+    assert repr(out) == (f"<ValidationOutcome ok=True, rows=2, failures=0, warnings=1, "
+                         f"point_errors=0, out_dir={tmp_path}>")
+    assert list(out.summary_frame().columns) == ["rows", "paper/wcet-cpu.w_sch_over_w_sim.min"]
+    assert "<code>ValidationOutcome</code>" in out._repr_html_()
