@@ -1,4 +1,6 @@
-"""Which window lower bound should the robots use? ``python experiments/lower_bounds.py [--quick]``
+"""Which window lower bound should the robots use?
+
+``python experiments/lower_bounds.py [--quick] [--out DIR]``
 
 Runs the paper's Test 1 and Test 2 (``adjust`` mode) with ``[adjust] lower_bound`` = w_sch
 (the paper's), w_rta (exact RTA) and w_susp (suspension-aware: Δt with the CPU idle, which is
@@ -76,7 +78,7 @@ def markdown(df: pd.DataFrame) -> str:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="20 simulated seconds per run")
-    p.add_argument("--out", help="output directory")
+    p.add_argument("--out", metavar="DIR", help="output directory")
     args = p.parse_args(argv)
     out = Path(args.out or ("out/lower_bounds-quick" if args.quick else "out/lower_bounds"))
     duration = 20.0 if args.quick else None

@@ -1,4 +1,4 @@
-"""How the paper's picture depends on the assumed thresholds T_ε, T_ρ, T_β (issue 5 §4).
+"""How the paper's picture depends on the assumed thresholds T_ε, T_ρ, T_β.
 
 ``python experiments/sensitivity.py [--quick] [--out DIR] [--workers N]``
 

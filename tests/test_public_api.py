@@ -8,7 +8,9 @@ import pytest
 
 PACKAGES = ["rtsim", "rtsim.model", "rtsim.analysis", "rtsim.sim", "rtsim.world",
             "rtsim.control", "rtsim.coupling", "rtsim.sweep", "rtsim.plots", "rtsim.validate",
-            "rtsim.io"]
+            "rtsim.io", "rtsim.notebook", "rtsim.overrides",
+            "rtsim.export", "rtsim.examples", "rtsim.report",
+            "rtsim.animate"]
 
 
 @pytest.mark.parametrize("name", PACKAGES)

@@ -49,7 +49,9 @@ def test_simulate_json_example(capsys):
 
 def test_simulate_writes_jobs_and_manifest(tmp_path, capsys):
     jobs = tmp_path / "out" / "jobs.csv"
-    assert main(["simulate", str(EXAMPLE), "--horizon", "1000", "--seed", "4",
+    ex = tmp_path / "example_bcet.toml"  # --exec uniform needs best cases
+    ex.write_text(EXAMPLE.read_text().replace("[[tasks]]\n", "[[tasks]]\nbcet = 1\n"))
+    assert main(["simulate", str(ex), "--horizon", "1000", "--seed", "4",
                  "--exec", "uniform", "--jobs", str(jobs)]) == 0
     text = capsys.readouterr().out
     assert "tau1" in text and "max_response" in text
@@ -158,3 +160,17 @@ def test_histogram_lines_and_running_histogram():
     fig = response_histogram(np.array([1.0, 2.0, np.nan]), lines={"deadline": 3.0}, bins=4)
     assert sum(p.get_height() for p in fig.axes[0].patches) == 2
     plt.close(fig)
+
+
+def test_exec_uniform_without_bcet_is_an_input_error(tmp_path, capsys):
+    """It used to run every job at its WCET, silently."""
+    out = tmp_path / "jobs.csv"
+    assert main(["simulate", str(EXAMPLE), "--horizon", "1000", "--exec", "uniform",
+                 "--jobs", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"rtsim: {EXAMPLE}: task 'tau1': --exec uniform needs a bcet (times are "
+                   "uniform in [bcet, wcet]); add bcet = ... to the task or use --exec wcet")
+    assert not out.exists()
+    assert main(["histogram", str(EXAMPLE), "--horizon", "1000", "--exec", "uniform",
+                 "--out", str(tmp_path / "h")]) == 2
+    assert "task 'tau1': --exec uniform needs a bcet" in capsys.readouterr().err

@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
+from typing import Any
 
 from rtsim.errors import InputError
 
-__all__ = ["main", "COMMANDS"]
+__all__ = ["main", "COMMANDS", "Parser", "plain"]
 
 #: Sub-commands, in the order ``rtsim --help`` lists them.
 COMMANDS: tuple[str, ...] = (
@@ -26,20 +28,78 @@ COMMANDS: tuple[str, ...] = (
     "sweep",
     "validate",
     "histogram",
+    "examples",
+    "animate",
+    "reproduce",
 )
+
+
+#: Metavariables of value options that do not name their own, by destination: one word per
+#: kind of value, the same in every sub-command.
+METAVARS: dict[str, str] = {
+    "horizon": "MS", "overhead": "MS", "window": "MS", "granularity": "MS", "seed": "N",
+    "followers": "N", "hough_radius": "CM", "tasks": "N", "count": "N", "windows": "N",
+    "random_sets": "N", "bins": "N", "utilization": "U", "periods": "SPEC",
+    "deadlines": "SPEC", "jobs": "FILE", "trace": "FILE", "gantt": "PNG",
+    "gantt_range": "A..B", "histogram": "PNG", "out": "DIR",
+}
+#: Help of options whose module gives none.
+HELPS: dict[str, str] = {
+    "exec_model": "execution times: wcet (default) or uniform in [bcet, wcet] (needs bcet)",
+    "suspension": "the radio round trip as CPU time (cpu, default) or with the CPU free (idle)",
+    "followers": "n, the number of followers, for a processing-window set",
+    "hough_radius": "r_H in cm, for a processing-window set",
+    "gantt_range": "time range of the Gantt chart, A..B in ms",
+    "histogram": "response-time histograms PNG, one panel per task",
+    "utilization": "total utilization (UUniFast-Discard above 1)",
+    "random_sets": "random task sets checked beside the paper's set",
+}
+
+
+def plain(text: str | None) -> str | None:
+    """Docstring markup removed for the terminal: ``code``, :func:`name` and a leading
+    ``rtsim CMD ...``: synopsis (usage already shows it)."""
+    if not text:
+        return text
+    text = re.sub(r"^``rtsim [^`]*``:?\s*", "", text)
+    text = re.sub(r":[a-z]+:`~?([^`]+)`", r"\1", text)
+    return text.replace("``", "")
+
+
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose texts are plain (:func:`plain`) and whose value options all
+    have a metavariable (:data:`METAVARS`) and a help text (:data:`HELPS`)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        desc = plain(kwargs.get("description"))
+        kwargs["description"] = desc[:1].upper() + desc[1:] if desc else desc
+        kwargs["epilog"] = plain(kwargs.get("epilog"))
+        super().__init__(*args, **kwargs)
+
+    def add_argument(self, *args: Any, **kwargs: Any) -> argparse.Action:  # type: ignore[override]
+        action = super().add_argument(*args, **kwargs)
+        takes_value = action.nargs != 0 and action.option_strings
+        if takes_value and action.metavar is None and action.choices is None:
+            action.metavar = METAVARS.get(action.dest)
+        if not action.option_strings and action.metavar is None:
+            action.metavar = action.dest.upper()  # positionals: FILE, DIR, ...
+        if action.help is None:
+            action.help = HELPS.get(action.dest)
+        action.help = plain(action.help) if action.help else action.help
+        return action
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every available sub-command registered."""
     from rtsim import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="rtsim",
         description="Real-time scheduling simulator for dynamic processing windows "
         "(Qadi, Goddard, Huang & Farritor).",
     )
     parser.add_argument("--version", action="version", version=f"rtsim {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
     for name in COMMANDS:
         importlib.import_module(f"rtsim.cli.{name}").register(sub)

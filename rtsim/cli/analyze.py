@@ -28,12 +28,12 @@ def register(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--check", action="store_true",
                    help="exit with status 1 when the set is not schedulable")
-    p.add_argument("--window", metavar="W", default=None,
+    p.add_argument("--window", metavar="MS", default=None,
                    help="window w in ms for a [window] set (default: w_sch)")
     p.add_argument("--suspension", choices=("cpu", "idle"), default="cpu",
                    help="radio round trip / suspensions: counted as CPU time (default, the "
                         "paper's) or CPU free (suspension-aware bounds, SPEC §8)")
-    p.add_argument("--overhead", metavar="O", type=float, default=None,
+    p.add_argument("--overhead", metavar="MS", type=float, default=None,
                    help="context-switch cost in ms: 2·O per higher-priority segment start, O per "
                         "own segment, as simulate --overhead (default: the file's, or 0)")
     p.set_defaults(func=run)

@@ -26,9 +26,9 @@ def register(sub: Any) -> None:
                        description=__doc__.splitlines()[0])
     p.add_argument("file", metavar="FILE", nargs="?", default=None,
                    help="task-set TOML file with a [window] (default: the paper's set)")
-    p.add_argument("--followers", metavar="N", default=None,
+    p.add_argument("--followers", metavar="RANGE", default=None,
                    help="n: a number, a list 1,2,5 or a range 1..10 (default: the file's)")
-    p.add_argument("--hough-radius", metavar="R", default=None,
+    p.add_argument("--hough-radius", metavar="RANGE", default=None,
                    help="r_H in cm: a number, a list or a range 10..50:10 (default: the file's)")
     p.add_argument("--json", action="store_true", help="print JSON (a list for several rows)")
     p.set_defaults(func=run)

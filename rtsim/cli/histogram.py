@@ -30,7 +30,7 @@ def register(sub: Any) -> None:
     p.add_argument("file", nargs="?", help="task-set TOML file to simulate")
     p.add_argument("--scenario", metavar="DIR", help="a scenario output directory (jobs.csv)")
     p.add_argument("--sweep", metavar="DIR", help="a simulate sweep's output directory")
-    p.add_argument("--point", type=int, metavar="I", help="the sweep point (0-based)")
+    p.add_argument("--point", type=int, metavar="N", help="the sweep point (0-based)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--bins", type=int, default=50, help="bins per histogram (default 50)")
     p.add_argument("--horizon", type=float, help="simulated ms (with FILE)")
@@ -77,6 +77,10 @@ def _source(args: argparse.Namespace) -> Any:
         ts = ts.with_window(**changes)
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed}")
+    if args.exec_model == "uniform":
+        from rtsim.cli.simulate import require_bcet
+
+        require_bcet(ts, str(args.file))
     kwargs: dict[str, Any] = {"seed": args.seed, "exec_model": args.exec_model,
                               "suspension": args.suspension}
     if args.window is not None:

@@ -40,6 +40,9 @@ def register(sub: Any) -> None:
                    help="execution times of the fixed segments (default wcet)")
     p.add_argument("--no-figures", action="store_true", help="do not draw the PNG figures")
     p.add_argument("--parquet", action="store_true", help="also write windows.parquet")
+    p.add_argument("--perfetto", metavar="FILE",
+                   help="also write the schedule as a Chrome/Perfetto trace (JSON; open in "
+                        "ui.perfetto.dev)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.set_defaults(func=run)
 
@@ -57,7 +60,8 @@ def run(args: Any) -> int:
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed!r}")
     res = run_scenario(Path(args.file), mode=args.mode, duration_s=args.duration, seed=args.seed,
-                       record_jobs=True, exec_model=args.exec_model)
+                       record_jobs=True, exec_model=args.exec_model,
+                       record_trace=bool(args.perfetto))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     outputs = ["windows.csv", "jobs.csv", "summary.json"]
@@ -68,6 +72,18 @@ def run(args: Any) -> int:
     if res.jobs is not None:
         write_table(out / "jobs.csv", res.jobs)
     write_json(out / "summary.json", res.summary)
+    if args.perfetto:
+        from rtsim.export.perfetto import write_perfetto
+
+        assert res.jobs is not None and res.trace is not None
+        write_perfetto(args.perfetto, res.jobs, res.trace, windows=res.windows,
+                       tasks=[t.name for t in sorted(res.inputs.taskset.tasks,
+                                                     key=lambda t: t.priority)],
+                       metadata={"command": "scenario", "scenario": res.summary["scenario"],
+                                 "mode": args.mode, "seed": args.seed})
+        p = Path(args.perfetto).resolve()
+        if p.parent == out.resolve():
+            outputs.append(p.name)
     if not args.no_figures:
         from rtsim.plots.scenario import write_scenario_figures
 
@@ -83,8 +99,12 @@ def run(args: Any) -> int:
                 "scenario": inp.resolved, "mode": args.mode, "duration_s": args.duration,
                 "exec_model": args.exec_model},
         argv=["rtsim", *sys.argv[1:]],
-        extra={"timing": timing, "outputs": outputs},
+        extra={"timing": timing, "outputs": [*outputs, "report.html"]},
     )
+    from rtsim.report import write_run_report
+
+    label = res.inputs.name or Path(args.file).stem
+    write_run_report(out, title=f"rtsim scenario: {label}, {args.mode}")
     s = res.summary
     print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
           f"{s['windows']} windows: missed {s['missed']}, tracks lost {s['tracks_lost']}, "

@@ -51,6 +51,8 @@ def register(sub: Any) -> None:
     p.add_argument("--gantt", help="Gantt chart PNG (with --gantt-range A..B ms)")
     p.add_argument("--gantt-range", help="time range of the Gantt chart, A..B in ms")
     p.add_argument("--histogram", help="response-time histograms PNG, one panel per task")
+    p.add_argument("--perfetto", metavar="FILE",
+                   help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
@@ -66,6 +68,20 @@ def _gantt_range(text: str | None, horizon: float) -> tuple[float, float]:
     if not (math.isfinite(a) and math.isfinite(b) and b > a):
         raise InputError(f"--gantt-range: expected A..B with A < B (ms), got {text!r}")
     return a, b
+
+
+def require_bcet(ts: Any, source: str) -> None:
+    """``--exec uniform`` draws in [bcet, wcet]: a task (other than the processing window,
+    whose Hough time varies anyway) with no bcet would silently run at its WCET."""
+    win = ts.window.name if ts.window is not None else None
+    for t in ts.tasks:
+        if t.name == win or t.bcet is not None:
+            continue
+        if t.segments and all(s.bcet is not None for s in t.segments):
+            continue
+        raise InputError(f"{source}: task '{t.name}': --exec uniform needs a bcet (times are "
+                         f"uniform in [bcet, wcet]); add bcet = ... to the task or use --exec "
+                         f"wcet")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -93,15 +109,18 @@ def run(args: argparse.Namespace) -> int:
     overhead = ts.overhead if args.overhead is None else args.overhead
     if not (math.isfinite(overhead) and overhead >= 0):
         raise InputError(f"--overhead must be a non-negative number of ms, got {overhead:g}")
+    if args.exec_model == "uniform":
+        require_bcet(ts, str(args.file))
     bounds = None
     if ts.window is not None:
         from rtsim.analysis.bounds import window_bounds
 
         bounds = window_bounds(ts)
-    want_jobs = bool(args.jobs or args.gantt)
+    want_jobs = bool(args.jobs or args.gantt or args.perfetto)
     res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,
                    suspension=args.suspension, window=args.window,
-                   record_jobs=want_jobs, record_trace=bool(args.trace or args.gantt),
+                   record_jobs=want_jobs,
+                   record_trace=bool(args.trace or args.gantt or args.perfetto),
                    overhead=overhead, jitter=args.jitter)
     w = res.window["w"] if res.window else None
     analysis = analyze(ts, w, overhead=overhead, suspension=args.suspension) \
@@ -124,6 +143,12 @@ def run(args: argparse.Namespace) -> int:
     if args.trace:
         write_table(args.trace, res.trace)
         outputs[Path(args.trace).resolve().parent].append(Path(args.trace).name)
+    if args.perfetto:
+        from rtsim.export.perfetto import write_perfetto
+
+        write_perfetto(args.perfetto, res.jobs, res.trace, tasks=list(res.tasks),
+                       metadata={"command": "simulate", "file": str(args.file), "seed": args.seed})
+        outputs[Path(args.perfetto).resolve().parent].append(Path(args.perfetto).name)
     if args.gantt:
         _save_gantt(res, args.gantt, _gantt_range(args.gantt_range, args.horizon))
         outputs[Path(args.gantt).resolve().parent].append(Path(args.gantt).name)

@@ -24,7 +24,7 @@ def register(subparsers: Any) -> None:
         description="Run every point of a sweep file; results go to DIR/results.parquet. "
         "Running the same command again resumes an interrupted sweep.",
     )
-    p.add_argument("spec", metavar="SPEC.toml", help="the sweep file")
+    p.add_argument("spec", metavar="FILE", help="the sweep file")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="local worker processes (default: the CPU count; 1 = in this process)")

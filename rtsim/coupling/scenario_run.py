@@ -66,6 +66,7 @@ from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorde
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
 from rtsim.model.taskset import TaskSet
+from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.run import build_cpu
@@ -105,20 +106,34 @@ class ScenarioInputs:
     resolved: Mapping[str, Any] = field(default_factory=dict)
 
 
-@dataclass
-class ScenarioResult:
+@dataclass(repr=False)
+class ScenarioResult(ResultDisplay):
     """A coupled run: ``windows`` (windows.csv), ``jobs`` (job records or None), ``summary``
     (summary.json), ``timing`` (seconds: wall ``setup_s``, ``simulation_s``, ``tables_s``, and
-    ``simulation_cpu_s``, the process CPU time of the loop — robust on a shared machine)."""
+    ``simulation_cpu_s``, the process CPU time of the loop — robust on a shared machine);
+    ``trace`` (the execution trace, with ``record_trace=True``)."""
 
     windows: pd.DataFrame
     jobs: pd.DataFrame | None
     summary: dict[str, Any]
     timing: dict[str, float]
     inputs: ScenarioInputs
+    trace: pd.DataFrame | None = None
+
+    def headline(self) -> dict[str, Any]:
+        """The run's headline facts (the short ``repr``)."""
+        s = self.summary
+        return {k: s.get(k) for k in ("scenario", "mode", "seed", "duration_s", "windows",
+                                       "missed", "tracks_lost", "critical_share",
+                                       "min_speed_ratio")}
+
+    def summary_frame(self) -> pd.DataFrame:
+        """summary.json as one row (nested keys dotted), so runs concatenate into a table."""
+        return pd.DataFrame([flatten(self.summary)])
 
 
-def _inputs(scenario: Any, text: str | None = None) -> ScenarioInputs:
+def _inputs(scenario: Any, text: str | None = None,
+            overrides: Mapping[str, Any] | None = None) -> ScenarioInputs:
     """Accept :class:`ScenarioInputs`, a path (loaded with :func:`rtsim.io.scenario.
     load_scenario`), or a :class:`rtsim.io.scenario.Scenario`.
 
@@ -128,13 +143,16 @@ def _inputs(scenario: Any, text: str | None = None) -> ScenarioInputs:
     ``formation``) → ``model``. The leader's current actual speed is passed to every
     decision as ``v_now`` (the ``hybrid`` model needs it).
     """
+    if overrides and not isinstance(scenario, str | os.PathLike):
+        raise InputError("overrides need a scenario file or a packaged scenario's name")
     if isinstance(scenario, ScenarioInputs):
         return scenario
     if isinstance(scenario, str | os.PathLike):
         from rtsim.io.scenario import load_scenario, scenario_bytes
 
         path = scenario
-        scenario = load_scenario(path)  # a file, or a packaged scenario by name ("test2")
+        # a file, or a packaged scenario by name ("test2")
+        scenario = load_scenario(path, overrides=overrides)
         if text is None:
             text = scenario_bytes(path)[0].decode("utf-8")
     try:
@@ -210,7 +228,7 @@ class _Coupling:
 
     def __init__(self, inp: ScenarioInputs, mode: str, seed: int, exec_model: ExecSpec,
                  record_jobs: bool, horizon_ms: float, stop_s: float | None,
-                 stop_ms: float = 0.0) -> None:
+                 stop_ms: float = 0.0, record_trace: bool = False) -> None:
         cfg = inp.world
         ts = inp.taskset
         if ts.window is None:
@@ -255,7 +273,8 @@ class _Coupling:
         self.v_ld = cfg.leader_speed
         self.env = simpy.Environment()
         self.cpu, _ = build_cpu(ts, env=self.env, window=self._period, suspension="idle",
-                                exec_model=exec_model, seed=cpu_ss, record_jobs=record_jobs)
+                                exec_model=exec_model, seed=cpu_ss, record_jobs=record_jobs,
+                                record_trace=record_trace)
         win = ts.window
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
@@ -473,6 +492,8 @@ def run_scenario(
     exec_model: ExecSpec = "wcet",
     duration: float | None = None,
     text: str | None = None,
+    record_trace: bool = False,
+    overrides: Mapping[str, Any] | None = None,
 ) -> ScenarioResult:
     """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
 
@@ -480,7 +501,10 @@ def run_scenario(
     scenario's, else one lap — module docstring); ``duration`` is an alias (sweep kind);
     seed: one seed for the world's noise and the CPU's execution-time draws; record_jobs:
     keep the job table (``result.jobs``); exec_model: execution times of the fixed segments;
-    text: the scenario file's text (for the manifest; read from the path when one is given).
+    text: the scenario file's text (for the manifest; read from the path when one is given);
+    record_trace: keep the execution trace (``result.trace``, for trace export); overrides:
+    dotted paths into the scenario file and their values, as in sweeps (``{"leader.speed":
+    20}``; only with a path or a packaged name; :func:`rtsim.io.scenario.load_scenario`).
     """
     t0 = time.perf_counter()
     if mode not in MODES:
@@ -489,7 +513,7 @@ def run_scenario(
         duration_s = duration
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
-    inp = _inputs(scenario, text)
+    inp = _inputs(scenario, text, overrides)
     cfg = inp.world
     stop_s: float | None = None
     stop_ms = 0.0
@@ -503,7 +527,8 @@ def run_scenario(
             raise InputError(f"duration must be a positive number of seconds, got "
                              f"{duration_s!r}")
         horizon_ms = float(duration_s) * 1000.0
-    run = _Coupling(inp, mode, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms)
+    run = _Coupling(inp, mode, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms,
+                    record_trace)
     t1, c1 = time.perf_counter(), time.process_time()
     run.run()
     t2, c2 = time.perf_counter(), time.process_time()
@@ -522,5 +547,5 @@ def run_scenario(
     t3 = time.perf_counter()
     timing = {"setup_s": t1 - t0, "simulation_s": t2 - t1, "simulation_cpu_s": c2 - c1,
               "tables_s": t3 - t2}
-    return ScenarioResult(df, res.jobs, summary, timing, inp)
+    return ScenarioResult(df, res.jobs, summary, timing, inp, res.trace)
 

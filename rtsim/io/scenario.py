@@ -69,7 +69,7 @@ __all__ = ["AdjustConfig", "Scenario", "load_scenario", "parse_scenario", "scena
            "PACKAGED_SCENARIOS", "PACKAGED_TASKSETS"]
 
 #: Task-set names that refer to the package's own files rather than to a path.
-PACKAGED_TASKSETS = ("barrel_robots",)
+PACKAGED_TASKSETS = ("barrel_robots", "example")
 #: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
 PACKAGED_SCENARIOS = ("test1", "test2")
 
@@ -398,8 +398,13 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
         raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
 
 
-def load_scenario(path: str | os.PathLike[str]) -> Scenario:
-    """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``)."""
+def load_scenario(path: str | os.PathLike[str],
+                  overrides: Mapping[str, Any] | None = None) -> Scenario:
+    """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``).
+
+    ``overrides``: dotted paths into the file and their new values, resolved and checked as a
+    sweep's (``{"leader.speed": 20, "formation.followers": 4}``; :mod:`rtsim.overrides`).
+    """
     raw, p = scenario_bytes(path)
     src = p.name if p.name else str(p)
     try:
@@ -408,4 +413,8 @@ def load_scenario(path: str | os.PathLike[str]) -> Scenario:
         raise ScenarioError(f"{src}: not a text file (not UTF-8 at byte {exc.start})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{src}: malformed TOML: {exc}") from None
+    if overrides:
+        from rtsim.overrides import apply_dotted_overrides
+
+        apply_dotted_overrides(data, overrides, src)
     return parse_scenario(data, src, p.parent)

@@ -292,6 +292,11 @@ def _read(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
     if path is None:
         res = resources.files("rtsim") / "data" / PACKAGED_TASKSET
         return res.read_bytes(), str(res)
+    from rtsim.examples import packaged_text
+
+    shipped = packaged_text(path, "taskset")  # a shipped example by name ("example")
+    if shipped is not None:
+        return shipped.encode("utf-8"), f"{os.fspath(path)}.toml (packaged)"
     source = os.fspath(path)
     try:
         with open(source, "rb") as fh:

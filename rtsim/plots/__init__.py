@@ -4,6 +4,7 @@
 Figs 2, 8–15 and the mode comparisons) for ``windows.csv`` tables; the validation figures.
 """
 
+from rtsim.notebook import enable_figure_display
 from rtsim.plots.gantt import gantt
 from rtsim.plots.histogram import response_histogram
 from rtsim.plots.scenario import (
@@ -19,6 +20,8 @@ from rtsim.plots.scenario import (
     write_scenario_figures,
 )
 from rtsim.plots.validation import bounds_vs_n, pessimism_heatmap
+
+enable_figure_display()  # a Figure returned as a notebook cell's value shows as a PNG
 
 __all__ = [
     "SCENARIO_FIGURES",

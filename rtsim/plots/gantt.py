@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import matplotlib
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
@@ -31,8 +32,6 @@ def gantt(
     Compute stretches are solid, CPU-counted suspensions hatched, idle suspensions (CPU free)
     outlined only, context-switch overhead grey.
     """
-    import matplotlib.pyplot as plt
-
     lo = float(trace["start"].min()) if start is None and len(trace) else (start or 0.0)
     hi = float(trace["end"].max()) if end is None and len(trace) else (end or lo + 1.0)
     if hi <= lo:
@@ -41,10 +40,11 @@ def gantt(
     if jobs is not None and tasks is None:
         names += [n for n in dict.fromkeys(jobs["task"]) if n not in names]
     if ax is None:
-        fig, ax = plt.subplots(figsize=(10, 0.6 * max(len(names), 1) + 1.2))
+        fig = Figure(figsize=(10, 0.6 * max(len(names), 1) + 1.2))
+        ax = fig.subplots()
     else:
         fig = ax.figure  # type: ignore[assignment]
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     rows = {n: i for i, n in enumerate(names)}
     view = trace[(trace["end"] > lo) & (trace["start"] < hi)]
     for rec in view.itertuples(index=False):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
+import matplotlib
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
@@ -34,10 +35,9 @@ def response_histogram(
     a ``None`` value (no finite bound) is left out of the plot but kept in the legend text.
     ``bins`` applies to raw data only (a ResponseHistogram has its own bins).
     """
-    import matplotlib.pyplot as plt
-
     if ax is None:
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig = Figure(figsize=(7, 4))
+        ax = fig.subplots()
     else:
         fig = ax.figure  # type: ignore[assignment]
     if isinstance(data, ResponseHistogram):
@@ -47,7 +47,7 @@ def response_histogram(
         values = np.asarray(data, dtype=float)
         values = values[np.isfinite(values)]
         ax.hist(values, bins=bins, alpha=0.6, label=f"simulated ({values.size} jobs)")
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, (label, x) in enumerate((lines or {}).items()):
         if x is None or not np.isfinite(x):
             ax.plot([], [], " ", label=f"{label}: none")

@@ -32,12 +32,10 @@ def bounds_vs_n_data(df: pd.DataFrame) -> pd.DataFrame:
 
 def bounds_vs_n(df: pd.DataFrame, r_H: Sequence[float] | None = None) -> Figure:
     """w_sch, w_rta and w_sim (both searches) against n, one panel per r_H (ms)."""
-    import matplotlib.pyplot as plt
-
     data = bounds_vs_n_data(df)
     radii = sorted(data["r_H"].unique()) if r_H is None else list(r_H)
-    fig, axes = plt.subplots(1, len(radii), figsize=(3.2 * len(radii) + 1, 3.6),
-                             sharey=True, squeeze=False, layout="constrained")
+    fig = Figure(figsize=(3.2 * len(radii) + 1, 3.6), layout="constrained")
+    axes = fig.subplots(1, len(radii), sharey=True, squeeze=False)
     styles = {"w_sch": ("w_sch (Eq 7/11)", "-", "o"), "w_rta": ("w_rta (exact RTA)", "--", "s"),
               "w_sim_wcet_cpu": ("w_sim: WCET, Δt on CPU", ":", "^"),
               "w_sim_counted_idle": ("w_sim: counted beams, Δt idle", "-.", "v")}
@@ -62,12 +60,10 @@ def pessimism_data(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> pd.Data
 
 def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figure:
     """Heat map of ``ratio`` over (n, r_H), one panel per search mode, values annotated."""
-    import matplotlib.pyplot as plt
-
     data = pessimism_data(df, ratio)
     modes = [m for m in _MODES if m in set(data["mode"])]
-    fig, axes = plt.subplots(1, len(modes), figsize=(5.2 * len(modes), 3.8), squeeze=False,
-                             layout="constrained")
+    fig = Figure(figsize=(5.2 * len(modes), 3.8), layout="constrained")
+    axes = fig.subplots(1, len(modes), squeeze=False)
     vals = data[ratio].to_numpy(dtype=float)
     vmin, vmax = float(np.nanmin(vals)), float(np.nanmax(vals))
     if vmax - vmin < 1e-9:

@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rtsim.notebook import ResultDisplay
+
 __all__ = [
     "EPS",
     "JOB_COLUMNS",
@@ -126,8 +128,8 @@ def _finite_or_none(x: Any) -> Any:
     return x
 
 
-@dataclass
-class SimResult:
+@dataclass(repr=False)
+class SimResult(ResultDisplay):
     """The outcome of one run: per-task stats, optional job table and trace, run facts."""
 
     tasks: dict[str, TaskStats]
@@ -148,6 +150,17 @@ class SimResult:
     def misses(self) -> int:
         """Deadline misses over all tasks."""
         return sum(s.misses for s in self.tasks.values())
+
+    def headline(self) -> dict[str, Any]:
+        """The run's headline facts (the short ``repr``)."""
+        return {"tasks": len(self.tasks), "horizon": self.horizon,
+                "jobs": sum(s.completed for s in self.tasks.values()),
+                "misses": self.misses, "busy_time": self.busy_time,
+                "suspension": self.suspension, "exec_model": self.exec_model}
+
+    def summary_frame(self) -> pd.DataFrame:
+        """Per-task statistics, one row per task (the same as :meth:`stats_frame`)."""
+        return self.stats_frame()
 
     def stats_frame(self) -> pd.DataFrame:
         """Per-task statistics as a DataFrame (one row per task, priority order)."""

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 from rtsim.errors import RtsimError, SweepError
 from rtsim.io.atomic import write_json, write_table
 from rtsim.io.manifest import write_manifest
+from rtsim.notebook import ResultDisplay
 from rtsim.sweep.grid import Point, point_input, points
 from rtsim.sweep.kinds import KINDS
 from rtsim.sweep.point import RESERVED, execute_point, worker_init
@@ -48,8 +49,8 @@ class SweepIncomplete(RtsimError):
     """Some points could not be run (a worker died or the cluster was lost); rerun to retry."""
 
 
-@dataclass(frozen=True)
-class SweepOutcome:
+@dataclass(frozen=True, repr=False)
+class SweepOutcome(ResultDisplay):
     """What a run did: the results table and how many points it computed, skipped, failed."""
 
     table: pd.DataFrame
@@ -57,6 +58,15 @@ class SweepOutcome:
     skipped: int
     failed: int
     out_dir: Path
+
+    def headline(self) -> dict[str, Any]:
+        """Points and where the results are (the short ``repr``)."""
+        return {"points": len(self.table), "computed": self.computed, "skipped": self.skipped,
+                "failed": self.failed, "out_dir": str(self.out_dir)}
+
+    def summary_frame(self) -> pd.DataFrame:
+        """The results table (one row per point)."""
+        return self.table
 
 
 def _read_json(path: Path) -> Record | None:
@@ -94,7 +104,7 @@ class _Progress:
 
     def open(self) -> None:
         if self.enabled and self.bar is None:
-            from tqdm import tqdm
+            from tqdm.auto import tqdm
 
             self.bar = tqdm(total=self.total, initial=self.initial, desc="sweep", unit="pt",
                             file=sys.stderr, dynamic_ncols=True)

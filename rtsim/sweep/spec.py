@@ -416,6 +416,15 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
 def load_sweep(path: str | Path) -> SweepSpec:
     """Read and validate a sweep file."""
     p = Path(path)
+    from rtsim.examples import packaged_text
+
+    shipped = packaged_text(path, "sweep")  # a shipped example by name ("smoke")
+    if shipped is not None:
+        try:
+            data = tomllib.loads(shipped)
+        except tomllib.TOMLDecodeError as exc:  # pragma: no cover - shipped files are valid
+            raise SweepError(f"{p}: not valid TOML: {exc}") from None
+        return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped)
     try:
         text = p.read_text("utf-8")
     except (OSError, UnicodeDecodeError) as exc:

@@ -33,6 +33,7 @@ from typing import Any
 import pandas as pd
 
 from rtsim.analysis.validation import SEARCH_TOL, Failure, check_results, summarize
+from rtsim.notebook import ResultDisplay, flatten
 
 __all__ = ["ValidationConfig", "QUICK", "FULL", "DEFAULT_SCENARIO", "ValidationOutcome",
            "run_validation", "paper_sweep_spec", "random_sweep_spec"]
@@ -76,8 +77,8 @@ QUICK = ValidationConfig(n=(1, 2, 4), r_H=(10.0, 30.0), windows=100, scan=6, ran
                          hyperperiods=5, name="quick", histogram_configs=1)
 
 
-@dataclass(frozen=True)
-class ValidationOutcome:
+@dataclass(frozen=True, repr=False)
+class ValidationOutcome(ResultDisplay):
     """The table, what was flagged, the summary, failed sweep points, and where it all is."""
 
     table: pd.DataFrame
@@ -91,6 +92,17 @@ class ValidationOutcome:
     def ok(self) -> bool:
         """No failure flagged and every sweep point ran."""
         return not self.point_errors and not any(f.severity == "failure" for f in self.failures)
+
+    def headline(self) -> dict[str, Any]:
+        """Verdict, size and where the report is (the short ``repr``)."""
+        return {"ok": self.ok, "rows": len(self.table),
+                "failures": sum(f.severity == "failure" for f in self.failures),
+                "warnings": sum(f.severity != "failure" for f in self.failures),
+                "point_errors": len(self.point_errors), "out_dir": str(self.out_dir)}
+
+    def summary_frame(self) -> pd.DataFrame:
+        """summary.json as one row (nested keys dotted)."""
+        return pd.DataFrame([flatten(self.summary)])
 
 
 def _scenario_options(cfg: ValidationConfig) -> dict[str, Any]:

@@ -1,4 +1,4 @@
-"""The paper's experiments reproduced: Test 1 and Test 2 in the three window modes (issue 7 §1).
+"""The paper's experiments reproduced: Test 1 and Test 2 in the three window modes.
 
 ``python experiments/reproduce_paper.py [--out DIR] [--quick] [--seed N] [--duration S]
 [--workers N] [--docs DIR] [--quiet]``
@@ -48,7 +48,7 @@ import pandas as pd
 
 from rtsim.errors import InputError
 
-SCENARIOS = Path(__file__).resolve().parent / "scenarios"
+SCENARIOS = Path(__file__).resolve().parent / "data" / "scenarios"  # = experiments/scenarios
 TESTS: tuple[str, ...] = ("test1", "test2")
 MODES: tuple[str, ...] = ("adjust", "fixed-wsch", "min-msb")
 TEST_LABELS = {"test1": "Test 1", "test2": "Test 2"}

@@ -1,0 +1,61 @@
+"""``rtsim reproduce [--quick] --out DIR``: the paper's Test 1 and Test 2 in the three window
+modes, with Figures 2 and 8-15, their data, a summary table and report.html.
+
+Runs :mod:`rtsim.reproduce` (the paper reproduction) and then writes ``report.html`` in DIR
+(the summary table, every figure, the data files, the manifest) and in each run directory
+DIR/<test>/<mode>/. ``--quick``: 60 simulated seconds per run (one turn), about 15 s.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+__all__ = ["register", "run"]
+
+
+def register(sub: Any) -> None:
+    """Add the ``reproduce`` sub-command (the options of :func:`rtsim.reproduce.parse_args`)."""
+    p = sub.add_parser("reproduce", help="reproduce the paper's experiments and figures",
+                       description=__doc__.splitlines()[0])
+    p.add_argument("--out", default="results/paper", metavar="DIR",
+                   help="output directory (default results/paper)")
+    p.add_argument("--quick", action="store_true",
+                   help="60 simulated seconds per run (one turn) instead of a lap")
+    p.add_argument("--seed", type=int, default=None, metavar="N",
+                   help="seed of every run (default 0)")
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS",
+                   help="simulated seconds per run (default: each scenario's, at least a lap)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="processes (default min(6, CPU count)); 1 runs in this process")
+    p.add_argument("--docs", default=None, metavar="DIR",
+                   help="also write the README's figures (PNG, 100 dpi) to DIR")
+    p.add_argument("--quiet", action="store_true", help="no progress lines, no table")
+    p.set_defaults(func=run)
+
+
+def argv_for(args: Any) -> list[str]:
+    """The command line of :func:`rtsim.reproduce.main` for these options."""
+    argv = ["--out", str(args.out)]
+    for opt in ("seed", "duration", "workers", "docs"):
+        value = getattr(args, opt)
+        if value is not None:
+            argv += [f"--{opt}", str(value)]
+    return argv + [f"--{flag}" for flag in ("quick", "quiet") if getattr(args, flag)]
+
+
+def run(args: Any) -> int:
+    """Run the reproduction, then write the reports."""
+    from rtsim.report import write_run_report
+    from rtsim.reproduce import MODES, TESTS, main
+
+    rc = main(argv_for(args))
+    if rc != 0:
+        return rc
+    out = Path(args.out)
+    write_run_report(out, title="rtsim reproduce: the paper's Tests 1 and 2")
+    for t in TESTS:
+        for m in MODES:
+            if (out / t / m / "summary.json").is_file():
+                write_run_report(out / t / m, title=f"rtsim reproduce: {t}, {m}")
+    return 0

@@ -1,0 +1,104 @@
+"""Notebook display: short reprs and HTML reprs of results, figures shown as cell values.
+
+- :class:`ResultDisplay` (a mixin of :class:`~rtsim.coupling.ScenarioResult`,
+  :class:`~rtsim.sim.SimResult`, :class:`~rtsim.sweep.SweepOutcome` and
+  :class:`~rtsim.validate.ValidationOutcome`): ``repr`` is one line of headline facts,
+  ``_repr_html_`` those facts and the ``summary_frame()`` table, so a result returned as a
+  cell's value shows its summary rather than thousands of characters of DataFrames.
+- :func:`enable_figure_display`: a matplotlib ``Figure`` returned as a cell's value is shown as
+  a PNG in any IPython kernel, with or without ``%matplotlib inline`` (rtsim's figures are
+  made without pyplot, so the inline backend never registers them). Called when
+  :mod:`rtsim.plots` is imported; does nothing outside IPython.
+"""
+
+from __future__ import annotations
+
+import html
+import io
+import math
+import sys
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["ResultDisplay", "enable_figure_display", "flatten", "figure_png"]
+
+#: Rows of a summary table shown in ``_repr_html_`` before it is cut.
+HTML_MAX_ROWS = 40
+
+
+def flatten(obj: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested mappings as one level with dotted keys (``violations.separation``)."""
+    out: dict[str, Any] = {}
+    for k, v in obj.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, Mapping):
+            out.update(flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, bool) or v is None:
+        return str(v)
+    if isinstance(v, float):
+        return "nan" if math.isnan(v) else f"{v:.4g}"
+    return str(v)
+
+
+class ResultDisplay:
+    """Mixin: one-line ``repr`` from :meth:`headline`, HTML from it and :meth:`summary_frame`.
+
+    A class using it is a ``@dataclass(repr=False)`` that defines ``headline()`` (an ordered
+    dict of a few scalar facts) and ``summary_frame()`` (a DataFrame).
+    """
+
+    def headline(self) -> dict[str, Any]:  # pragma: no cover - every result overrides it
+        raise NotImplementedError
+
+    def summary_frame(self) -> pd.DataFrame:  # pragma: no cover - every result overrides it
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        facts = ", ".join(f"{k}={_fmt(v)}" for k, v in self.headline().items())
+        return f"<{type(self).__name__} {facts}>"
+
+    def _repr_html_(self) -> str:
+        facts = " · ".join(f"<b>{html.escape(k)}</b> {html.escape(_fmt(v))}"
+                           for k, v in self.headline().items())
+        df = self.summary_frame()
+        table = df.to_html(max_rows=HTML_MAX_ROWS, float_format=lambda x: f"{x:.6g}",
+                           border=0, classes="rtsim-summary")
+        return (f"<div class='rtsim-result'><p><code>{type(self).__name__}</code>: {facts}</p>"
+                f"{table}</div>")
+
+
+def figure_png(fig: Any, dpi: int = 100) -> bytes:
+    """A matplotlib Figure as PNG bytes (works for figures made with or without pyplot)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    return buf.getvalue()
+
+
+def enable_figure_display() -> bool:
+    """Show a ``matplotlib.figure.Figure`` returned as a cell's value as a PNG.
+
+    Registers a PNG formatter for ``Figure`` with the running IPython shell (replacing the
+    inline backend's, which does the same, so a figure is never shown twice). Returns whether
+    an IPython shell was found.
+    """
+    if "IPython" not in sys.modules:
+        return False
+    try:
+        from IPython import get_ipython
+        from matplotlib.figure import Figure
+    except ImportError:  # pragma: no cover
+        return False
+    ip = get_ipython()
+    if ip is None:
+        return False
+    ip.display_formatter.formatters["image/png"].for_type(Figure, figure_png)
+    return True

@@ -1,0 +1,177 @@
+"""``report.html``: one self-contained page per run directory.
+
+:func:`write_run_report` reads what a run already wrote — ``summary.json`` (or
+``summary.csv``), ``manifest.json``, the PNG figures, the data files — and writes
+``report.html`` beside them: the summary table, the figures (embedded as base64 PNG, so the
+page is one file that can be mailed or archived), the assumptions table (the scenario's
+``[assumptions]``, from the manifest), links to the data files (relative, so the page works
+where the directory is) and the manifest itself. Used by ``rtsim scenario``, ``rtsim
+validate`` and ``rtsim reproduce``. Plain HTML and CSS: no script, no external resource.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["write_run_report", "render_run_report", "REPORT_NAME"]
+
+REPORT_NAME = "report.html"
+_DATA_SUFFIXES = (".csv", ".parquet", ".json", ".md", ".txt")
+_CSS = """
+body{font:14px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:2em auto;
+max-width:1100px;padding:0 1em;color:#222}
+h1{font-size:1.6em}h2{font-size:1.25em;border-bottom:1px solid #ddd;padding-bottom:.2em}
+table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.25em .6em;
+text-align:left;vertical-align:top}th{background:#f3f3f3}td.num{text-align:right;
+font-variant-numeric:tabular-nums}figure{margin:1em 0}img{max-width:100%;height:auto;
+border:1px solid #eee}figcaption{color:#555;font-size:.9em}pre{background:#f7f7f7;
+padding:.8em;overflow:auto;font-size:12px}.muted{color:#666}
+"""
+
+
+def _esc(v: Any) -> str:
+    return html.escape(str(v), quote=True)
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return "nan" if math.isnan(v) else f"{v:.6g}"
+    if v is None:
+        return "–"
+    return str(v)
+
+
+def _kv_table(rows: Mapping[str, Any], header: tuple[str, str] = ("key", "value")) -> str:
+    body = "".join(
+        f"<tr><th>{_esc(k)}</th><td class='{'num' if isinstance(v, int | float) else ''}'>"
+        f"{_esc(_fmt(v))}</td></tr>" for k, v in rows.items())
+    return f"<table><tr><th>{_esc(header[0])}</th><th>{_esc(header[1])}</th></tr>{body}</table>"
+
+
+def _frame_table(columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    head = "".join(f"<th>{_esc(c)}</th>" for c in columns)
+    body = "".join(
+        "<tr>" + "".join(f"<td class='{'num' if isinstance(v, int | float) else ''}'>"
+                         f"{_esc(_fmt(v))}</td>" for v in r) + "</tr>" for r in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _flatten(obj: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    from rtsim.notebook import flatten
+
+    return flatten(obj, prefix)
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text("utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def _summary_section(run_dir: Path) -> str:
+    summary = _read_json(run_dir / "summary.json")
+    if isinstance(summary, dict):
+        flat = {k: v for k, v in _flatten(summary).items() if not isinstance(v, list)}
+        return "<h2>Summary</h2>" + _kv_table(flat)
+    csv = run_dir / "summary.csv"
+    if csv.exists():
+        import pandas as pd
+
+        df = pd.read_csv(csv)
+        return "<h2>Summary</h2>" + _frame_table(
+            [str(c) for c in df.columns], df.astype(object).where(df.notna(), None).values)
+    return "<h2>Summary</h2><p class='muted'>No summary.json or summary.csv.</p>"
+
+
+def _assumptions(manifest: Any) -> dict[str, str]:
+    """Every ``assumptions`` table found in the manifest's inputs (key -> reason)."""
+    found: dict[str, str] = {}
+
+    def walk(node: Any, where: str) -> None:
+        if isinstance(node, dict):
+            for k, v in node.items():
+                if k == "assumptions" and isinstance(v, dict):
+                    for ak, av in v.items():
+                        found[f"{where}{ak}"] = str(av)
+                else:
+                    walk(v, f"{where}{k}: " if isinstance(v, dict) and where else where)
+        elif isinstance(node, list):
+            for e in node:
+                walk(e, where)
+
+    if isinstance(manifest, dict):
+        walk(manifest.get("inputs", {}), "")
+    return found
+
+
+def _png(path: Path) -> str:
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    return f"data:image/png;base64,{data}"
+
+
+def render_run_report(run_dir: str | os.PathLike[str], *, title: str | None = None,
+                      extra_html: str = "") -> str:
+    """The HTML text of ``run_dir``'s report (module docstring)."""
+    d = Path(run_dir)
+    manifest = _read_json(d / "manifest.json")
+    if title is None:
+        cmd = manifest.get("command", "run") if isinstance(manifest, dict) else "run"
+        title = f"rtsim {cmd}: {d.name}"
+    parts = [f"<h1>{_esc(title)}</h1>"]
+    if isinstance(manifest, dict):
+        parts.append(f"<p class='muted'>rtsim {_esc(manifest.get('rtsim_version', '?'))}, "
+                     f"seed {_esc(manifest.get('seed'))}, created "
+                     f"{_esc(manifest.get('created_utc', '?'))}; "
+                     f"<code>{_esc(' '.join(map(str, manifest.get('argv') or [])))}</code></p>")
+    parts.append(_summary_section(d))
+    if extra_html:
+        parts.append(extra_html)
+    pngs = sorted(p for p in d.rglob("*.png") if p.is_file())
+    if pngs:
+        parts.append("<h2>Figures</h2>")
+        for p in pngs:
+            rel = p.relative_to(d).as_posix()
+            parts.append(f"<figure><img src='{_png(p)}' alt='{_esc(rel)}'>"
+                         f"<figcaption>{_esc(rel)}</figcaption></figure>")
+    assumptions = _assumptions(manifest)
+    if assumptions:
+        parts.append("<h2>Assumptions</h2><p class='muted'>Values the paper does not give, "
+                     "each with its reason (the scenario's <code>[assumptions]</code>).</p>"
+                     + _kv_table(assumptions, ("key", "reason")))
+    data = sorted(p for p in d.rglob("*") if p.is_file() and p.suffix in _DATA_SUFFIXES
+                  and p.name != REPORT_NAME and "/points/" not in f"/{p.relative_to(d)}")
+    if data:
+        items = "".join(f"<li><a href='{_esc(p.relative_to(d).as_posix())}'>"
+                        f"{_esc(p.relative_to(d).as_posix())}</a> "
+                        f"<span class='muted'>({p.stat().st_size:,} bytes)</span></li>"
+                        for p in data)
+        parts.append(f"<h2>Data files</h2><ul>{items}</ul>")
+    if isinstance(manifest, dict):
+        shown = json.dumps(manifest, indent=2, ensure_ascii=False, default=str)
+        parts.append("<h2>Manifest</h2><details><summary>manifest.json</summary>"
+                     f"<pre>{_esc(shown)}</pre></details>")
+    body = "\n".join(parts)
+    return (f"<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
+            f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
+            f"<title>{_esc(title)}</title><style>{_CSS}</style></head>"
+            f"<body>\n{body}\n</body></html>\n")
+
+
+def write_run_report(run_dir: str | os.PathLike[str], *, title: str | None = None,
+                     extra_html: str = "") -> Path:
+    """Write ``run_dir/report.html`` atomically and return its path."""
+    from rtsim.io.atomic import atomic_path
+
+    target = Path(run_dir) / REPORT_NAME
+    text = render_run_report(run_dir, title=title, extra_html=extra_html)
+    with atomic_path(target) as tmp:
+        Path(tmp).write_text(text, "utf-8")
+    return target
