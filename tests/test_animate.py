@@ -69,6 +69,28 @@ def test_html_animation_of_a_range_and_the_reader(run60: Path, tmp_path: Path) -
     assert np.array_equal(view.estimate[:, 0, 1], windows["f1_y_est"].to_numpy())
 
 
+def test_mp4_renders_and_decodes_back_frame_by_frame(run60: Path, tmp_path: Path) -> None:
+    """The MP4 path for real: rendered through imageio-ffmpeg's ffmpeg (a test dependency),
+    then decoded by the same ffmpeg, which must find one frame per window in the range."""
+    import re
+    import subprocess
+
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    out = tmp_path / "run.mp4"
+    assert main(["animate", str(run60), "--out", str(out), "--start", "10", "--end", "12",
+                 "--fps", "5", "-q"]) == 0
+    windows = pd.read_csv(run60 / "windows.csv")
+    t = windows["t"] / 1000
+    frames = int(((t >= 10) & (t <= 12)).sum())
+    assert frames >= 5
+    proc = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-v", "info", "-i", str(out),
+                           "-f", "null", "-"], capture_output=True, text=True, check=True)
+    decoded = re.findall(r"frame=\s*(\d+)", proc.stderr)
+    assert decoded and int(decoded[-1]) == frames, proc.stderr[-500:]
+    assert "Video: h264" in proc.stderr or "Video: mpeg4" in proc.stderr, proc.stderr[-800:]
+    assert not list(tmp_path.glob("*.tmp*"))
+
+
 def test_animate_input_errors(run60: Path, tmp_path: Path, capsys, monkeypatch) -> None:
     assert main(["animate", str(tmp_path), "--out", str(tmp_path / "a.gif")]) == 2
     assert "not a scenario run directory (no windows.csv" in capsys.readouterr().err
