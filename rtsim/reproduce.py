@@ -1,7 +1,7 @@
 """The paper's experiments reproduced: Test 1 and Test 2 in the three window modes.
 
-``python experiments/reproduce_paper.py [--out DIR] [--quick] [--seed N] [--duration S]
-[--workers N] [--docs DIR] [--quiet]``
+``rtsim reproduce [--out DIR] [--quick] [--seed N] [--duration S] [--workers N] [--docs DIR]
+[--quiet]`` (or ``python -m rtsim.reproduce``)
 
 Runs ``experiments/scenarios/test1.toml`` and ``test2.toml`` in the modes ``adjust`` (the
 paper's algorithm), ``fixed-wsch`` and ``min-msb`` (SPEC §5) — six coupled runs, in parallel
@@ -352,7 +352,7 @@ class _Parser(argparse.ArgumentParser):
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """The command line (module docstring); bad options raise :class:`InputError`."""
-    ap = _Parser(prog="reproduce_paper.py", description=__doc__.splitlines()[0])
+    ap = _Parser(prog="rtsim reproduce", description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                     help=f"output directory (default {DEFAULT_OUT})")
     ap.add_argument("--quick", action="store_true",
@@ -377,7 +377,7 @@ def main(argv: list[str] | None = None) -> int:
         _check_args(args)
         return _main(args, argv, t0)
     except InputError as exc:
-        print(f"reproduce_paper: {exc}", file=sys.stderr)
+        print(f"rtsim reproduce: {exc}", file=sys.stderr)
         return 2
 
 
@@ -426,7 +426,7 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float) -> int:
                   "out": str(Path(t) / m), "timing": results[(t, m)]["timing"]}
                  for t in TESTS for m in MODES]
     write_manifest(
-        out, command="experiments/reproduce_paper.py", seed=args.seed,
+        out, command="rtsim reproduce", seed=args.seed,
         inputs={"quick": args.quick, "duration_s": duration, "workers": workers,
                 "tests": list(TESTS), "modes": list(MODES),
                 "scenarios": {t: {"file": str(SCENARIOS / f"{t}.toml"),

@@ -1,4 +1,4 @@
-"""``experiments/reproduce_paper.py``: quick mode writes every figure and CSV, the figure data
+"""``rtsim reproduce``: quick mode writes every figure and CSV, the figure data
 and the summary agree with the runs' windows.csv, the modes show what SPEC §5 says, and the
 results do not depend on the worker count."""
 
@@ -263,7 +263,7 @@ def test_bad_input_is_one_line_exit_2(argv: list[str], match: str, tmp_path: Pat
                                       capsys: pytest.CaptureFixture[str]) -> None:
     assert rp.main([*argv, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
-    assert len(err.strip().splitlines()) == 1 and match in err and "reproduce_paper:" in err
+    assert len(err.strip().splitlines()) == 1 and match in err and "rtsim reproduce:" in err
     assert not (tmp_path / "o").exists()
 
 

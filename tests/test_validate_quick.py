@@ -43,4 +43,7 @@ def test_quick_mode_writes_report_figures_and_csvs(tmp_path: Path) -> None:
         assert sel["w_sch"].iloc[0] / sel["w_sim"].iloc[0] == pytest.approx(
             r["w_sch_over_w_sim"], rel=1e-12)
     assert json.loads((out / "summary.json").read_text())["failures"] == 0
+    listed = json.loads((out / "manifest.json").read_text())["outputs"]
+    assert "report.html" in listed and "report.md" in listed
+    assert all((out / name).is_file() for name in listed), listed
     assert pd.read_csv(out / "failures.csv").empty

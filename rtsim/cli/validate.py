@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
 from rtsim.errors import InputError
@@ -90,11 +89,6 @@ def run(args: argparse.Namespace) -> int:
     outcome = run_validation(out, cfg, workers=args.workers, dask=args.dask,
                              progress=False if args.quiet else None, restart=args.restart,
                              argv=["rtsim", *sys.argv[1:]])
-    from rtsim.report import write_run_report
-
-    md = outcome.out_dir / "report.md"
-    write_run_report(outcome.out_dir, title=f"rtsim validate: {outcome.out_dir.name}",
-                     extra_html=_report_md_html(md))
     if not args.quiet:
         s = outcome.summary
         for key in ("paper/wcet-cpu", "paper/counted-idle"):
@@ -113,11 +107,3 @@ def run(args: argparse.Namespace) -> int:
               f"point(s) -> {outcome.out_dir / 'report.md'}", file=sys.stderr)
     return 0 if outcome.ok else 1
 
-
-def _report_md_html(md: Path) -> str:
-    """report.md shown as preformatted text in report.html."""
-    import html
-
-    if not md.exists():
-        return ""
-    return f"<h2>Findings (report.md)</h2><pre>{html.escape(md.read_text('utf-8'))}</pre>"

@@ -254,6 +254,7 @@ def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = F
     """Run (or resume) both sweeps into ``out_dir`` and write the report (module doc)."""
     from rtsim.io.atomic import write_json, write_table
     from rtsim.io.manifest import write_manifest
+    from rtsim.report import REPORT_NAME, write_run_report
     from rtsim.validate.report import write_report
     from rtsim.validate.tidy import COLUMNS, tidy_paper, tidy_random
 
@@ -290,10 +291,24 @@ def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = F
     files += _histograms(config, table, out)
     outcome = ValidationOutcome(table, failures, summary, errors, out, files)
     files.append(write_report(outcome, config))
+    html_path = out / REPORT_NAME
     write_manifest(out, command="validate", seed=config.seed,
                    inputs={k: (list(v) if isinstance(v, tuple) else v)
                            for k, v in asdict(config).items()},
                    argv=None if argv is None else list(argv),
-                   extra={"outputs": sorted(str(p.relative_to(out)) for p in files),
+                   extra={"outputs": sorted(str(p.relative_to(out))
+                                            for p in [*files, html_path]),
                           "ok": outcome.ok})
+    # report.html last: it embeds the manifest just written.
+    files.append(write_run_report(out, title=f"rtsim validate: {out.name}",
+                                  extra_html=_report_md_html(out / "report.md")))
     return replace(outcome, files=files)
+
+
+def _report_md_html(md: Path) -> str:
+    """report.md shown as preformatted text in report.html."""
+    import html
+
+    if not md.exists():
+        return ""
+    return f"<h2>Findings (report.md)</h2><pre>{html.escape(md.read_text('utf-8'))}</pre>"
