@@ -229,17 +229,22 @@ def test_windows_schema_no_empty_cells(short_runs) -> None:  # type: ignore[no-u
 
 
 def test_recorder_drops_incomplete_windows() -> None:
-    rec = WindowRecorder(1)
-    est = np.zeros((1, 11))
+    rec = WindowRecorder(1, ((25.0,), (3.9,), (9.75,), (0.1,)))
+    est = np.zeros((1, 7))
+    zero = {c: np.zeros(1) for c in ("displacement", "d_rho", "travel", "d_beta")}
     for k in range(3):
         r = rec.add(WindowRecord(k, 100.0 * k, 100.0, 90.0, 95.0, "separation:1", 30.0, 30.0,
-                                 "none", True, "straight", 0.0, est))
-        r.truth, r.lost = np.ones((1, 11)), np.zeros(1, bool)
+                                 30.0, "none", True, "straight", 0.0, est))
+        r.truth, r.lost = np.ones((1, 7)), np.zeros(1, bool)
         if k < 2:
             r.finish = 100.0 * k + 80.0 + 30 * k  # window 1 finishes at 210 > deadline 200
         if k < 1:
             r.viol = {kind: np.zeros(1, bool) for kind in BOUND_KINDS}
+            r.changes, r.pred, r.v_leader_max = zero, [(1e3, 2e3, 3e3, 4e3)], 30.0
     rec.records[1].viol = {kind: np.array([kind == "separation"]) for kind in BOUND_KINDS}
+    rec.records[1].changes = {"displacement": np.array([5.0]), "d_rho": np.array([5.0]),
+                              "travel": np.array([4.0]), "d_beta": np.array([0.0])}
+    rec.records[1].pred, rec.records[1].v_leader_max = [(1.0, 2.0, 3.0, 4.0)], 25.0
     df = rec.frame()
     assert list(df["window"]) == [0, 1]
     assert list(df["missed"]) == [False, True]
@@ -247,6 +252,13 @@ def test_recorder_drops_incomplete_windows() -> None:
     assert list(df["critical"]) == [False, False]  # 95 >= 90
     assert list(df["margin"]) == [5.0, 5.0]
     assert list(df["f1_viol_separation"]) == [False, True]
+    assert list(df["v_leader_max"]) == [30.0, 25.0]
+    assert list(df["f1_msb_bearing_pred"]) == [4e3, 4.0]
+    # threshold·w / change, inf where nothing changed: 25·100/5, 3.9·100/5, 9.75·100/4
+    assert list(df["f1_msb_localization_true"]) == [math.inf, 500.0]
+    assert df["f1_msb_separation_true"].iloc[1] == pytest.approx(78.0)
+    assert list(df["f1_msb_path_diversion_true"]) == [math.inf, 243.75]
+    assert list(df["f1_msb_bearing_true"]) == [math.inf, math.inf]
 
 
 def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
@@ -262,16 +274,16 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
         run_scenario(bad, duration_s=1)
 
 
-@pytest.mark.parametrize("model", ["hybrid", "estimate"])
+@pytest.mark.parametrize("model", ["hybrid", "paper"])
 def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, model: str) -> None:
     text = TEST2.read_text(encoding="utf-8").replace(
-        "[adjust]\n", f'[adjust]\nmodel = "{model}"\n', 1)
+        "[adjust]\n", f'[adjust]\npredictor = "{model}"\n', 1)
     path = tmp_path / "t2.toml"
     path.write_text(text, encoding="utf-8")
     from rtsim.coupling.scenario_run import _inputs
 
-    assert _inputs(path).adjust["model"] == model
-    assert "model" not in _inputs(TEST2).adjust  # the default: formation
+    assert _inputs(path).adjust["predictor"] == model
+    assert "predictor" not in _inputs(TEST2).adjust  # the default: formation
     short = run_scenario(path, mode="adjust", duration_s=3, record_jobs=False)
     base = run_scenario(TEST2, mode="adjust", duration_s=3, record_jobs=False)
     # the same world and noise, a different prediction: the bounds differ after window 0
@@ -303,7 +315,8 @@ def test_cap_below_w_sch_is_an_input_error(tmp_path: Path) -> None:
 
 
 def test_decision_columns_recomputed_from_the_estimates(adj2) -> None:  # type: ignore[no-untyped-def]
-    """Every window's bounds, recomputed outside rtsim.control from its estimate columns:
+    """Every window's bounds, recomputed outside rtsim.control from its estimate columns
+    (the `_pred` columns scaled to V_Ld):
     V_F and θ of the steady formation at the follower's slot (SPEC §6) at V_Ld, ω_L = κ·V_Ld
     (κ of this window's segment, or of the previous one when the decision was taken before a
     segment boundary), then Eqs 17–21; msb_min is their minimum and `binding` its argmin."""
@@ -328,9 +341,12 @@ def test_decision_columns_recomputed_from_the_estimates(adj2) -> None:  # type: 
         return a == b or abs(a - b) <= 1e-9 * max(1.0, abs(b))
 
     for j, row in df.iloc[1:].iterrows():  # window 0 runs on the initial values
+        # `_pred` is the prediction at the highest speed of the window, v_leader_max: with
+        # the formation model every bound ∝ 1/V_L, so scaled to V_Ld it is the recomputation
+        scale = row["v_leader_max"] / v_ld
         for kappa in (row["curvature"], prev_kappa[j]):
             m = recompute(row, kappa)
-            if all(same(v, row[f"f{i}_msb_{k}_est"]) for (i, k), v in m.items()):
+            if all(same(v, row[f"f{i}_msb_{k}_pred"] * scale) for (i, k), v in m.items()):
                 break
         else:
             raise AssertionError(f"window {j}: recorded bounds differ from the recomputation")

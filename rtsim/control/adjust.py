@@ -21,7 +21,7 @@ Each window, from the leader's estimates of every follower, :func:`adjust`:
    is not maximal (the bound still holds 1e-6 above it) the numeric search refines it upward.
    If no speed passes: ``feasible=False``, method ``floor``, V_L = floor_frac·V_Ld.
 
-Prediction models (``model``):
+Prediction models (``predictor``, :data:`~rtsim.control.predict.PREDICTORS`):
 
 * ``"formation"`` (default, SPEC §6): the follower moves with its formation slot — velocity =
   leader velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
@@ -29,8 +29,10 @@ Prediction models (``model``):
   ``beta_d`` is given, else the estimated (ρ, β). The bounds are evaluated at the estimated
   (ρ, β): a follower off its slot has ρ̇, β̇ ≠ 0, one on its slot only the path-diversion bound.
   Every bound is ∝ 1/V_L, so the coupled form is exact and the feasible speeds are (0, V*].
-* ``"estimate"`` (the paper's view): V_F, θ and ω_L stay at the estimates whatever V_L is; the
-  corrected closed forms are then exact and each bound is an interval of speeds.
+* ``"paper"`` (the paper's §3.3): Eq 17 and Eqs 19–21 on the EKF estimates — V̂_F, θ̂ and
+  ω_L stay at the estimates whatever V_L is; the corrected closed forms (Eqs 23–26) are then
+  exact and each bound is an interval of speeds;
+* ``"hybrid"``: :mod:`rtsim.control.predict`;
 * any callable ``(follower, v_l) -> (v_f, theta, omega_l)``.
 
 Numeric search: descending scan of ``scan_points`` equal steps of (0, V_Ld] and then 20
@@ -66,6 +68,8 @@ from rtsim.control.predict import (
 )
 from rtsim.errors import InputError
 
+_make_predictor = predictor  # the functions below take a ``predictor`` argument
+
 __all__ = [
     "CAP_FACTOR",
     "FLOOR_FRAC",
@@ -80,6 +84,7 @@ __all__ = [
     "decide",
     "decide_rows",
     "predict_msbs",
+    "predicted_rows",
     "predictor",
 ]
 
@@ -245,12 +250,31 @@ def _rows_at(
         else:
             nonlocal predict
             if predict is None:  # the formation model's predictor, made when first needed
-                predict = predictor(model, omega_l=omega_l, kappa=kappa)
+                predict = _make_predictor(model, omega_l=omega_l, kappa=kappa)
             out = predict_msb_rows(followers, v, predict, thresholds)
         memo[v] = out
         return out
 
     return rows_at
+
+
+def predicted_rows(
+    followers: Sequence[FollowerEstimate],
+    v_l: float,
+    *,
+    thresholds: Thresholds,
+    predictor: str | Predictor = "formation",
+    omega_l: float = 0.0,
+    kappa: float = 0.0,
+    v_now: float | None = None,
+) -> list[tuple[float, float, float, float]]:
+    """Every follower's four bounds (ms, :data:`BOUND_KINDS` order) at leader speed ``v_l``
+    under ``predictor``, from the same estimates and with the same arithmetic as the decision
+    (:func:`decide_rows`'s ``rows`` at ``v_l``): what the decision's belief says about a
+    window in which the leader drives at ``v_l`` (windows.csv ``f{i}_msb_{bound}_pred``)."""
+    predict = (None if predictor == "formation"
+               else _make_predictor(predictor, omega_l=omega_l, kappa=kappa, v_now=v_now))
+    return _rows_at(followers, predict, thresholds, predictor, kappa, omega_l)(v_l)
 
 
 def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
@@ -313,7 +337,7 @@ def _adjust_core(
 
     # the formation model's predictor (which cannot fail) is only made when needed
     predict = (None if model == "formation"
-               else predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
+               else _make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
     rows_at = _rows_at(followers, predict, thresholds, model, kappa, omega_l)
     rows = rows_at(v_ld)
     m, kind, who = min_bound_rows(rows)
@@ -396,7 +420,7 @@ def adjust(
     kappa: float = 0.0,
     cap: float | None = None,
     floor_frac: float = FLOOR_FRAC,
-    model: str | Predictor = "formation",
+    predictor: str | Predictor = "formation",
     methods: Sequence[str] = _CANDIDATES,
     scan_points: int = 64,
     v_now: float | None = None,
@@ -404,12 +428,12 @@ def adjust(
     """The adjustment algorithm (paper §3.3, SPEC §5); see the module docstring.
 
     v_ld: desired leader speed (cm/s); w_sch (ms); omega_l: the leader's current turn rate
-    (rad/s, used by the paper's forms and the ``estimate`` model); kappa: path curvature (1/cm,
+    (rad/s, used by the paper's forms and the ``paper`` predictor); kappa: path curvature (1/cm,
     positive = left); cap: largest window (ms, default 10·w_sch); floor_frac: leader speed when
     nothing works, as a fraction of v_ld; methods: allowed candidates in tie-break order.
     """
     d = _adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap, floor_frac,
-                     model, methods, scan_points, v_now)
+                     predictor, methods, scan_points, v_now)
     return _adjustment("adjust", d, float(w_sch), float(v_ld))
 
 
@@ -425,7 +449,7 @@ def decide_rows(
     cap: float | None = None,
     floor_frac: float = FLOOR_FRAC,
     floor_w: float = FLOOR_W,
-    model: str | Predictor = "formation",
+    predictor: str | Predictor = "formation",
     methods: Sequence[str] = _CANDIDATES,
     scan_points: int = 64,
     v_now: float | None = None,
@@ -435,7 +459,7 @@ def decide_rows(
     validation and values as :func:`decide`."""
     if mode == "adjust":
         return _adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap,
-                            floor_frac, model, methods, scan_points, v_now)
+                            floor_frac, predictor, methods, scan_points, v_now)
     if mode not in MODES:
         raise InputError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
     v_ld = check_number("decide", "v_ld", v_ld)
@@ -446,8 +470,9 @@ def decide_rows(
     floor_w = check_number("decide", "floor_w", floor_w)
     if floor_w <= 0.0:
         raise InputError(f"decide: floor_w must be positive, got {floor_w!r}")
+    model = predictor
     predict = (None if model == "formation"
-               else predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
+               else _make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
     rows = _rows_at(followers, predict, thresholds, model, kappa, omega_l)(v_ld)
     m, kind, who = min_bound_rows(rows)
     w = w_sch if mode == "fixed-wsch" else min(max(m, floor_w), max(cap, floor_w))
@@ -495,7 +520,7 @@ def decide(
     cap: float | None = None,
     floor_frac: float = FLOOR_FRAC,
     floor_w: float = FLOOR_W,
-    model: str | Predictor = "formation",
+    predictor: str | Predictor = "formation",
     methods: Sequence[str] = _CANDIDATES,
     scan_points: int = 64,
     v_now: float | None = None,
@@ -512,6 +537,7 @@ def decide(
     """
     d = decide_rows(mode, followers, v_ld=v_ld, w_sch=w_sch, thresholds=thresholds,
                     omega_l=omega_l, kappa=kappa, cap=cap, floor_frac=floor_frac,
-                    floor_w=floor_w, model=model, methods=methods, scan_points=scan_points,
+                    floor_w=floor_w, predictor=predictor, methods=methods,
+                    scan_points=scan_points,
                     v_now=v_now)
     return _adjustment(mode, d, float(w_sch), float(v_ld))
