@@ -1,4 +1,4 @@
-"""Which prediction model for Test 1 and Test 2? (issue 15 item 3)
+"""Which prediction model for Test 1 and Test 2?
 
 Runs both tests in adjust mode (one lap, seed 0) with each built-in predictor
 (:data:`rtsim.control.predict.PREDICTORS`) and prints one Markdown row per run: deadline

@@ -305,3 +305,41 @@ def test_pred_is_the_decision_at_the_leaders_highest_speed(run2) -> None:  # typ
             & (vmax == df["v_leader"].to_numpy()))
     if crit.any():
         assert (pred[crit].min(axis=1) >= df["w_sch"].to_numpy()[crit] * (1 - 1e-6)).all()
+
+
+# -- the hybrid predictor's fast path (Test 1/2's predictor) -------------------------------
+def test_hybrid_fast_path_is_bit_identical_to_the_predictor() -> None:
+    """The per-window path of the ``hybrid`` model (constants once per decision) gives the
+    same floats as the reference: :func:`predictor` + :func:`predict_msb_rows`."""
+    from rtsim.control.adjust import _hybrid_consts, _hybrid_rows
+    from rtsim.control.predict import predict_msb_rows
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        kappa = float(rng.choice([0.0, 1 / 200, -1 / 120, float(rng.uniform(-0.01, 0.01))]))
+        v_now = float(rng.uniform(0.0, 30.0))
+        fols = [FollowerEstimate(rho=float(rng.uniform(100, 500)),
+                                 beta=float(rng.uniform(0, 2 * math.pi)),
+                                 theta=float(rng.uniform(-1, 1)),
+                                 v_f=float(rng.choice([0.0, float(rng.uniform(0, 80))])),
+                                 rho_d=float(rng.uniform(100, 500)),
+                                 beta_d=float(rng.choice([math.radians(195), math.radians(165)])))
+                for _ in range(3)]
+        pre = _hybrid_consts(fols, THR, kappa, v_now)
+        assert pre is not None
+        ref = predictor("hybrid", omega_l=0.0, kappa=kappa, v_now=v_now)
+        for v in (0.0, v_now, float(rng.uniform(0, 30)), 30.0):
+            assert _hybrid_rows(pre, v, v_now, kappa) == predict_msb_rows(fols, v, ref, THR)
+    # not applicable: full localization, or a non-float speed
+    full = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=0.1, localization="full")
+    assert _hybrid_consts([F], full, 0.0, 10.0) is None
+    assert _hybrid_consts([F], THR, 0.0, None) is None
+    # and through adjust(): the same decision as with the reference predictor as a callable
+    f2 = [FollowerEstimate(rho=330.0, beta=math.radians(190), theta=0.4, v_f=70.0,
+                           rho_d=325.0, beta_d=math.radians(195))]
+    kw = dict(v_ld=30.0, w_sch=237.4, thresholds=THR, kappa=1 / 120, omega_l=0.25)
+    fast = adjust(f2, predictor="hybrid", v_now=30.0, **kw)
+    slow = adjust(f2, predictor=predictor("hybrid", omega_l=0.25, kappa=1 / 120, v_now=30.0),
+                  **kw)
+    assert fast.critical and fast.v_leader == slow.v_leader and fast.msbs == slow.msbs
+    assert fast.msbs_after == slow.msbs_after and fast.method == slow.method

@@ -224,6 +224,64 @@ def _formation_rows(pre: list[tuple[float, ...]], v: float
     return out
 
 
+def _hybrid_consts(
+    followers: Sequence[FollowerEstimate], thresholds: Thresholds, kappa: float,
+    v_now: float | None
+) -> list[tuple[float, ...]] | None:
+    """Per-follower constants of the ``hybrid`` model's bounds, or None when the scalar fast
+    path does not apply (non-float values, ``full`` localization).
+
+    Each row: ρ, β, θ̂, cos β, sin β, s, cos θ_F, sin θ_F, V̂_F cos θ̂, V̂_F sin θ̂ (the
+    terms of :func:`~rtsim.control.predict.hybrid_velocity`) and the numerators of
+    :func:`_formation_consts`.
+    """
+    if (kappa.__class__ is not float or v_now.__class__ is not float
+            or thresholds.localization != "radial"):
+        return None
+    out = []
+    loc = 1000.0 * thresholds.r_H
+    bear = 1000.0 * thresholds.T_beta
+    for f in followers:
+        rho, beta, theta, v_f, rho_d = f.rho, f.beta, f.theta, f.v_f, f.rho_d
+        if not (rho.__class__ is float and beta.__class__ is float and theta.__class__ is float
+                and v_f.__class__ is float and rho_d.__class__ is float):
+            return None
+        s, th = unit_formation(kappa, *f.slot)
+        if s.__class__ is not float or th.__class__ is not float:
+            return None
+        out.append((rho, beta, theta, math.cos(beta), math.sin(beta), s, math.cos(th),
+                    math.sin(th), v_f * math.cos(theta), v_f * math.sin(theta), loc,
+                    1000.0 * float(thresholds.T_rho * rho_d),
+                    1000.0 * float(thresholds.T_eps * rho_d), bear))
+    return out
+
+
+def _hybrid_rows(pre: list[tuple[float, ...]], v: float, v_now: float, kappa: float
+                 ) -> list[tuple[float, float, float, float]]:
+    """:func:`scalar_msbs` of every follower under the ``hybrid`` model at leader speed
+    ``v`` (:func:`~rtsim.control.predict.hybrid_velocity`, ω_L = κ·v), from
+    :func:`_hybrid_consts`; the same operations, so the same floats."""
+    out = []
+    omega = kappa * v
+    for (rho, beta, theta0, c_b, s_b, s, c_tf, s_tf, ux0, uy0, n_loc, n_sep, n_path,
+         n_bear) in pre:
+        dv = s * (v - v_now)
+        ux = dv * c_tf + ux0
+        uy = -dv * s_tf - uy0
+        v_f = math.hypot(ux, uy)
+        theta = -math.atan2(uy, ux) if v_f > 0.0 else theta0
+        rd = v_f * math.cos(theta + beta) - v * c_b
+        bd = (v * s_b - v_f * math.sin(beta + theta)) / rho - omega
+        ard, abd, avf = abs(rd), abs(bd), abs(v_f)
+        out.append((
+            math.inf if ard == 0.0 else n_loc / ard,
+            math.inf if ard == 0.0 else n_sep / ard,
+            math.inf if avf == 0.0 else n_path / avf,
+            math.inf if abd == 0.0 else n_bear / abd,
+        ))
+    return out
+
+
 def _rows_at(
     followers: Sequence[FollowerEstimate],
     predict: Predictor | None,
@@ -231,15 +289,18 @@ def _rows_at(
     model: str | Predictor,
     kappa: float,
     omega_l: float = 0.0,
+    v_now: float | None = None,
 ) -> Callable[[float], list[tuple[float, float, float, float]]]:
     """v_l -> every follower's bounds at v_l (rows in BOUND_KINDS order), memoised per v_l.
 
-    For the built-in ``formation`` model the per-follower constants are computed once
-    (:func:`_formation_consts`); the values are those of :func:`predict_msb_rows` with the
-    same predictor.
+    For the built-in ``formation`` and ``hybrid`` models the per-follower constants are
+    computed once (:func:`_formation_consts`, :func:`_hybrid_consts`); the values are those
+    of :func:`predict_msb_rows` with the same predictor (bit for bit, tested).
     """
     memo: dict[float, list[tuple[float, float, float, float]]] = {}
     pre = _formation_consts(followers, thresholds, kappa) if model == "formation" else None
+    hyb = (_hybrid_consts(followers, thresholds, kappa, v_now) if model == "hybrid"
+           else None)
 
     def rows_at(v: float) -> list[tuple[float, float, float, float]]:
         out = memo.get(v)
@@ -247,6 +308,8 @@ def _rows_at(
             return out
         if pre is not None and v.__class__ is float:
             out = _formation_rows(pre, v)
+        elif hyb is not None and v.__class__ is float:
+            out = _hybrid_rows(hyb, v, v_now, kappa)  # type: ignore[arg-type]
         else:
             nonlocal predict
             if predict is None:  # the formation model's predictor, made when first needed
@@ -274,7 +337,7 @@ def predicted_rows(
     window in which the leader drives at ``v_l`` (windows.csv ``f{i}_msb_{bound}_pred``)."""
     predict = (None if predictor == "formation"
                else _make_predictor(predictor, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    return _rows_at(followers, predict, thresholds, predictor, kappa, omega_l)(v_l)
+    return _rows_at(followers, predict, thresholds, predictor, kappa, omega_l, v_now)(v_l)
 
 
 def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
@@ -338,7 +401,7 @@ def _adjust_core(
     # the formation model's predictor (which cannot fail) is only made when needed
     predict = (None if model == "formation"
                else _make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    rows_at = _rows_at(followers, predict, thresholds, model, kappa, omega_l)
+    rows_at = _rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now)
     rows = rows_at(v_ld)
     m, kind, who = min_bound_rows(rows)
     if m >= w_sch:
@@ -473,7 +536,7 @@ def decide_rows(
     model = predictor
     predict = (None if model == "formation"
                else _make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    rows = _rows_at(followers, predict, thresholds, model, kappa, omega_l)(v_ld)
+    rows = _rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now)(v_ld)
     m, kind, who = min_bound_rows(rows)
     w = w_sch if mode == "fixed-wsch" else min(max(m, floor_w), max(cap, floor_w))
     return Decision(w, v_ld, m, kind, who, "none", m >= w_sch * (1.0 - _TOL), rows, rows, m,
