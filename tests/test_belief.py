@@ -343,3 +343,16 @@ def test_hybrid_fast_path_is_bit_identical_to_the_predictor() -> None:
                   **kw)
     assert fast.critical and fast.v_leader == slow.v_leader and fast.msbs == slow.msbs
     assert fast.msbs_after == slow.msbs_after and fast.method == slow.method
+
+
+def test_cli_names_the_file_and_the_renamed_key(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    from rtsim.cli import main
+
+    text = TEST2.read_text(encoding="utf-8").replace('predictor = "hybrid"', 'model = "hybrid"')
+    path = tmp_path / "old.toml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["scenario", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "old.toml: adjust: unknown key 'model' (renamed; did you mean 'predictor'?)" in err
+    assert err.count("\n") == 1
