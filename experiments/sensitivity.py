@@ -73,6 +73,8 @@ def run_point(p: dict[str, Any]) -> dict[str, Any]:
                binding_critical=";".join(f"{k}={v}" for k, v in s["binding_critical"].items()))
     for k, v in s["violations"].items():
         row[f"viol_{k}"] = v
+    row["viol5"] = sum(s["violations_beyond_5pct"].values())
+    row["max_viol_ratio"] = max(s["max_violation_ratio"].values())
     row["wall_s"] = time.perf_counter() - t0
     return row
 
@@ -84,19 +86,21 @@ def table(df: pd.DataFrame) -> str:
     fix = df[df["mode"] == "fixed-wsch"].set_index(keys)
     mm = df[df["mode"] == "min-msb"].set_index(keys)
     viol = [c for c in df.columns if c.startswith("viol_")]
-    lines = ["| test | T_ε | T_ρ | T_β (°) | critical share | min MSB/w_sch | min V_L/V_Ld | "
-             "adjust: misses / lost / violations | fixed-wsch: violations (path, sep) | "
-             "min-msb: misses |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| test | T_ε | T_ρ | T_β (°) | adjust: violations > 5 % / max ratio / misses / "
+             "lost (all violations) | critical share | min MSB/w_sch | min V_L/V_Ld | "
+             "binding (critical) | fixed-wsch: violations (path, sep) | min-msb: misses |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for key, a in adj.iterrows():
         f = fix.loc[key] if key in fix.index else None
         m = mm.loc[key] if key in mm.index else None
         fv = f"{int(f['viol_path_diversion'])}, {int(f['viol_separation'])}" if f is not None \
             else "–"
         lines.append(
-            f"| {key[0]} | {key[1]:g} | {key[2]:g} | {key[3]:g} | {a['critical_share']:.2f} | "
+            f"| {key[0]} | {key[1]:g} | {key[2]:g} | {key[3]:g} | {int(a['viol5'])} / "
+            f"{a['max_viol_ratio']:.2f} / {int(a['missed'])} / {int(a['tracks_lost'])} "
+            f"({int(sum(a[c] for c in viol))}) | {a['critical_share']:.2f} | "
             f"{a['min_msb_over_wsch']:.2f} | {a['min_speed_ratio']:.2f} | "
-            f"{int(a['missed'])} / {int(a['tracks_lost'])} / {int(sum(a[c] for c in viol))} | "
+            f"{str(a['binding_critical']).replace(';', ', ')} | "
             f"{fv} | {int(m['missed']) if m is not None else '–'} |")
     return "\n".join(lines) + "\n"
 

@@ -348,21 +348,21 @@ def test_infeasible_reports_and_slows_to_floor():
     # |ρ̇| ≤ T_ρ ρ_d / w_sch = 3.9/0.2374 = 16.4 needs V_L ≥ 43.6 > V_Ld.
     f = FollowerEstimate(390.0, math.pi, 0.0, 60.0, 390.0)
     thr = Thresholds(r_H=1e4, T_rho=0.01, T_eps=1e3, T_beta=1e3)
-    a = adjust([f], v_ld=V_LD, w_sch=W_SCH, thresholds=thr, model="estimate")
+    a = adjust([f], v_ld=V_LD, w_sch=W_SCH, thresholds=thr, predictor="paper")
     assert a.binding_kind == "separation"
     assert not a.feasible and a.method == "floor"
     assert a.v_leader == pytest.approx(0.05 * V_LD) and a.w == W_SCH and a.slack == 0.0
-    b = adjust([f], v_ld=V_LD, w_sch=W_SCH, thresholds=thr, model="estimate", floor_frac=0.2)
+    b = adjust([f], v_ld=V_LD, w_sch=W_SCH, thresholds=thr, predictor="paper", floor_frac=0.2)
     assert b.v_leader == pytest.approx(5.0)
     # the hand-computed lower end: only V_L ≥ 43.57 works, beyond V_Ld
     assert 60 - 3.9 / 0.2374 > V_LD
 
 
-def test_estimate_model_paper_form_is_exact():
+def test_paper_predictor_paper_form_is_exact():
     # V_F held at 10, β = 180°: |V_L − 10| ≤ 16.43 → largest V_L = 26.43 capped ... use tighter:
     f = FollowerEstimate(390.0, math.pi, 0.0, 10.0, 390.0)
     thr = Thresholds(r_H=1e4, T_rho=0.002, T_eps=1e3, T_beta=1e3)
-    a = adjust([f], v_ld=V_LD, w_sch=W_SCH, thresholds=thr, model="estimate")
+    a = adjust([f], v_ld=V_LD, w_sch=W_SCH, thresholds=thr, predictor="paper")
     assert a.method == "closed-form" and a.feasible
     assert a.v_leader == pytest.approx(10.0 + 0.78 / 0.2374, rel=1e-9)
 
@@ -387,7 +387,7 @@ def test_numeric_fallback_for_a_non_homogeneous_model():
     def model(fe, v):
         return v + 8.0, 0.0, 0.0
 
-    a = adjust([f], v_ld=V_LD, w_sch=W_SCH, thresholds=thr, model=model)
+    a = adjust([f], v_ld=V_LD, w_sch=W_SCH, thresholds=thr, predictor=model)
     assert a.method == "numeric" and a.feasible
     assert a.v_leader == pytest.approx(3.9 / 0.2374 - 8.0, rel=1e-8)
 
@@ -402,7 +402,7 @@ def test_numeric_scan_finds_a_feasible_interval_away_from_zero():
         v_ld=V_LD,
         w_sch=W_SCH,
         thresholds=thr,
-        model=lambda fe, v: (abs(2 * v - 30.0), 0.0, 0.0),
+        predictor=lambda fe, v: (abs(2 * v - 30.0), 0.0, 0.0),
     )
     assert a.method == "numeric"
     assert a.v_leader == pytest.approx((30 + 3.9 / 0.2374) / 2, rel=1e-8)
@@ -458,7 +458,7 @@ def test_follower_estimate_validated(kwargs, match):
         (dict(w_sch=0.0), "w_sch"),
         (dict(v_ld=-1.0), "v_ld"),
         (dict(floor_frac=2.0), "floor_frac"),
-        (dict(model="magic"), "model"),
+        (dict(predictor="magic"), "predictor"),
         (dict(methods=("guess",)), "methods"),
     ],
 )
@@ -554,7 +554,7 @@ def test_hybrid_bound_holds_at_the_returned_speed(kappa):
         fs.append(FollowerEstimate(390.0 + drho, slot + 0.02, th + 0.05, vf + dv, 390.0, slot))
     thr = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=5 * DEG)
     a = adjust(fs, v_ld=V_LD, w_sch=W_SCH, thresholds=thr, kappa=kappa,
-               omega_l=kappa * v_now, model="hybrid", v_now=v_now)
+               omega_l=kappa * v_now, predictor="hybrid", v_now=v_now)
     assert a.critical and a.feasible and 0 < a.v_leader < V_LD
 
     def bounds(v):  # written here from the hand formula, not from the predictor

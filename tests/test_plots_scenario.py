@@ -64,7 +64,8 @@ def make_windows(n: int = N, n_followers: int = 2) -> pd.DataFrame:
         "window": idx, "t": t, "w": w, "deadline": t + w, "w_sch": np.full(n, W_SCH),
         "msb_min": msb_min, "binding": np.where(crit, "path_diversion:2", "path_diversion:1"),
         "margin": msb_min - W_SCH, "slack": np.maximum(0.0, w - W_SCH),
-        "v_leader_desired": v_d, "v_leader": v, "method": np.where(crit, "coupled", "none"),
+        "v_leader_desired": v_d, "v_leader": v, "v_leader_target": v, "v_leader_max": v,
+        "method": np.where(crit, "coupled", "none"),
         "feasible": np.ones(n, bool), "critical": crit, "missed": np.isin(idx, MISSED),
         "response": np.full(n, 200.0), "finish": t + 200.0, "points": np.full(n, 40),
         "hough_ms": np.full(n, 30.0), "tracks_lost": np.zeros(n, int),
@@ -81,11 +82,17 @@ def make_windows(n: int = N, n_followers: int = 2) -> pd.DataFrame:
             cols[f"f{i}_beta{suffix}"] = np.full(n, np.pi)
             cols[f"f{i}_theta{suffix}"] = np.zeros(n)
             cols[f"f{i}_v{suffix}"] = v
-            scale = 1.0 if i == n_followers else 1.3  # the last follower binds
-            for kind, b in zip(BOUND_KINDS, (loc, sep, pd_bound, bear), strict=True):
-                cols[f"f{i}_msb_{kind}{suffix}"] = b * scale + (0.0 if suffix else 3.0)
+        scale = 1.0 if i == n_followers else 1.3  # the last follower binds
+        for kind, b in zip(BOUND_KINDS, (loc, sep, pd_bound, bear), strict=True):
+            cols[f"f{i}_msb_{kind}_pred"] = b * scale
+        viol = {kind: (idx % 97 == i) & (kind == "separation") for kind in BOUND_KINDS}
+        for kind, b in zip(BOUND_KINDS, (loc, sep, pd_bound, bear), strict=True):
+            # the truth: a little above the prediction (at least 1.2·w: unbroken), and 0.9·w
+            # where the window broke the bound
+            cols[f"f{i}_msb_{kind}_true"] = np.where(viol[kind], 0.9 * w,
+                                                     np.maximum(b * scale + 3.0, 1.2 * w))
         for kind in BOUND_KINDS:
-            cols[f"f{i}_viol_{kind}"] = (idx % 97 == i) & (kind == "separation")
+            cols[f"f{i}_viol_{kind}"] = viol[kind]
         cols[f"f{i}_lost"] = np.zeros(n, bool)
     return pd.DataFrame(cols)
 
@@ -136,8 +143,9 @@ def test_every_figure_is_a_figure_without_pyplot(df, plot, n_axes):
 def test_bounds_lines_per_kind_with_consistent_colours(df):
     ax = plot_bounds(df).axes[0]
     lines = labelled_lines(ax)
-    kinds = [lab for lab in lines if "MSB" in lab]
+    kinds = [lab for lab in lines if "MSB predicted" in lab]
     assert len(kinds) == 4
+    assert len([lab for lab in lines if "MSB true" in lab]) == 4
     for kind in BOUND_KINDS:
         (lab,) = [lab for lab in kinds if lab.startswith(kind.replace("_", " "))]
         assert matplotlib.colors.same_color(lines[lab].get_color(), COLORS[kind])
@@ -157,7 +165,13 @@ def test_bounds_plot_clips_infinite_values_and_notes_it(df):
     sep = next(ln for lab, ln in labelled_lines(ax).items() if lab.startswith("separation"))
     y = np.asarray(sep.get_ydata(), float)[:-1]  # the last point repeats the last window
     assert np.all(np.isfinite(y))  # inf drawn above the axes, not passed to the renderer
-    assert np.all(y[np.isinf(df["f2_msb_separation_est"])] > top)
+    assert np.all(y[np.isinf(df["f2_msb_separation_pred"])] > top)
+    # the truth beside it: dots per window, only those on the scale
+    (true,) = [ln for ln in ax.get_lines() if ln.get_gid() == "true_separation"]
+    t = np.minimum(df["f1_msb_separation_true"], df["f2_msb_separation_true"]).to_numpy()
+    np.testing.assert_allclose(true.get_ydata(), t[t <= top])
+    assert {f"pred_{k}" for k in BOUND_KINDS} | {f"true_{k}" for k in BOUND_KINDS} <= {
+        ln.get_gid() for ln in ax.get_lines()}
 
 
 def test_critical_shading_spans_match_critical_windows(df):
@@ -176,8 +190,9 @@ def test_speed_shades_turns_and_plots_both_speeds(df):
     lines = labelled_lines(ax)
     # steps over the window starts, plus the end of the last window (t + w) at its value
     v, t = df["v_leader"].to_numpy(), df["t"].to_numpy()
-    np.testing.assert_array_equal(lines["actual $V_L$"].get_ydata(), np.append(v, v[-1]))
-    np.testing.assert_allclose(lines["actual $V_L$"].get_xdata(),
+    np.testing.assert_array_equal(lines["actual $V_L$ (at t)"].get_ydata(), np.append(v, v[-1]))
+    assert [ln for ln in ax.get_lines() if ln.get_gid() == "target"]
+    np.testing.assert_allclose(lines["actual $V_L$ (at t)"].get_xdata(),
                                np.append(t, t[-1] + df["w"].iloc[-1]) / 1000)
 
 
@@ -210,9 +225,16 @@ def test_figure_data_is_the_table(df):
                 np.testing.assert_array_equal(data[col].to_numpy(), df[col].to_numpy())
     bounds = figure_data(df, "bounds")
     for kind in BOUND_KINDS:  # independent: the element-wise min of the two followers
-        a, b = df[f"f1_msb_{kind}_est"].to_numpy(), df[f"f2_msb_{kind}_est"].to_numpy()
-        np.testing.assert_array_equal(bounds[f"bound_{kind}"], np.where(a < b, a, b))
-    assert np.isinf(bounds["bound_localization"]).sum() == N - 10
+        for which in ("pred", "true"):
+            a = df[f"f1_msb_{kind}_{which}"].to_numpy()
+            b = df[f"f2_msb_{kind}_{which}"].to_numpy()
+            np.testing.assert_array_equal(bounds[f"bound_{kind}_{which}"], np.where(a < b, a, b))
+    assert np.isinf(bounds["bound_localization_pred"]).sum() == N - 10
+    space = figure_data(df, "operating_space")
+    for which in ("pred", "true"):
+        every = np.column_stack([df[f"f{i}_msb_{k}_{which}"] for i in (1, 2)
+                                 for k in BOUND_KINDS])
+        np.testing.assert_array_equal(space[f"msb_min_{which}"], every.min(axis=1))
     assert {"f2_x_est", "f2_y", "leader_x"} <= set(figure_data(df, "paths").columns)
 
 
@@ -261,16 +283,21 @@ def test_plot_modes_side_by_side(df, kind):
     worse = df.copy()
     worse["missed"] = worse["critical"]
     worse["f1_viol_bearing"] = True
+    worse["f1_msb_bearing_true"] = worse["w"] / 2.5  # every window broke it, 2.5-fold
     modes = {"adjust": df, "fixed-wsch": df, "min-msb": worse}
     fig = plot_modes(modes, kind=kind)
     assert len(fig.axes) == 3
     assert fig.axes[0].get_shared_y_axes().joined(fig.axes[0], fig.axes[2])
     for ax, (mode, d) in zip(fig.axes, modes.items(), strict=True):
-        viol = sum(int(d[c].sum()) for c in d.columns if "_viol_" in c)
+        ratio = np.column_stack([d["w"] / d[c] for c in d.columns if c.endswith("_true")])
         title = ax.get_title(loc="left")
         assert title.startswith(mode)
-        assert f"misses {int(d['missed'].sum())}" in title and f"violations {viol}" in title
-    assert "misses 37" in fig.axes[2].get_title(loc="left")
+        # violations beyond 5 % and the largest ratio lead, then misses and lost tracks
+        assert f"{mode}\nviolations > 5 % {int((ratio > 1.05).sum())} · max ratio " \
+               f"{ratio.max():.2f} · misses {int(d['missed'].sum())}" in title
+    assert "max ratio 2.50 · misses 37" in fig.axes[2].get_title(loc="left")
+    # separation broke at 1/0.9 = 1.11 in windows 1, 98, 195, 292 (f1) and 2, 99, 196, 293
+    assert "violations > 5 % 8 · max ratio 1.11" in fig.axes[0].get_title(loc="left")
 
 
 @pytest.mark.parametrize("case", ["one_row", "no_critical", "all_inf", "empty"])
@@ -322,7 +349,7 @@ def test_bad_input_names_the_problem(df):
         figure_data(df, "nope")
     with pytest.raises(InputError, match="missing column 'v_leader'"):
         plot_speed(df.drop(columns=["v_leader"]))
-    with pytest.raises(InputError, match="missing column 'f2_msb_bearing_est'"):
-        plot_bounds(df.drop(columns=["f2_msb_bearing_est"]))
+    with pytest.raises(InputError, match="missing column 'f2_msb_bearing_pred'"):
+        plot_bounds(df.drop(columns=["f2_msb_bearing_pred"]))
     with pytest.raises(InputError, match="unknown kind 'gantt'"):
         plot_modes({"a": df}, kind="gantt")

@@ -62,7 +62,7 @@ def test_minimal_file_defaults(tmp_path: Path) -> None:
     assert s.world.path.lap_length == pytest.approx(lap)
     assert s.duration == math.ceil(lap / 25)
     assert s.world.follower.radius == 25 and s.world.thresholds.localization == "radial"
-    assert s.adjust.cap == math.inf and s.adjust.floor == 0 and s.adjust.model == "formation"
+    assert s.adjust.cap == math.inf and s.adjust.floor == 0 and s.adjust.predictor == "formation"
 
 
 def test_slots_shape_and_degrees(tmp_path: Path) -> None:
@@ -143,12 +143,16 @@ def test_bad_values_one_line(tmp_path: Path, old: str, new: str, match: str) -> 
         ("[ekf]\nbackend = \"gpu\"\n", r"^bad\.toml: ekf\.backend: must be 'filterpy' or 'fast'"),
         ("[adjust]\ncap = -1\n", r"^bad\.toml: adjust\.cap: must be positive"),
         ("[adjust]\nfloor = 40\n", r"^bad\.toml: adjust\.floor: 40 cm/s is above"),
-        ("[adjust]\nmodel = \"hybird\"\n",
-         r"^bad\.toml: adjust\.model: must be one of formation, estimate, hybrid, got "
+        ("[adjust]\npredictor = \"hybird\"\n",
+         r"^bad\.toml: adjust\.predictor: must be one of paper, formation, hybrid, got "
          r"'hybird' \(did you mean 'hybrid'\?\)$"),
-        ("[adjust]\nmodel = 3\n", r"^bad\.toml: adjust\.model: must be one of"),
-        ("[adjust]\nmodle = \"hybrid\"\n",
-         r"^bad\.toml: adjust: unknown key 'modle' \(did you mean 'model'\?\)$"),
+        ("[adjust]\npredictor = 3\n", r"^bad\.toml: adjust\.predictor: must be one of"),
+        ("[adjust]\npredictr = \"hybrid\"\n",
+         r"^bad\.toml: adjust: unknown key 'predictr' \(did you mean 'predictor'\?\)$"),
+        ("[adjust]\nmodel = \"hybrid\"\n",
+         r"^bad\.toml: adjust: unknown key 'model' \(renamed; did you mean 'predictor'\?\)$"),
+        ("[adjust]\npredictor = \"estimate\"\n",
+         r"^bad\.toml: adjust\.predictor: .*'estimate' was renamed; did you mean 'paper'\?"),
         ("[assumptions]\nx = 3\n", r"^bad\.toml: assumptions\.x: must be a non-empty string"),
         ("[world]\nstep_ms = 0\n", r"^bad\.toml: world\.step_ms: must be positive"),
     ],

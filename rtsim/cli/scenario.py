@@ -107,8 +107,10 @@ def run(args: Any) -> int:
     write_run_report(out, title=f"rtsim scenario: {label}, {args.mode}")
     s = res.summary
     print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
-          f"{s['windows']} windows: missed {s['missed']}, tracks lost {s['tracks_lost']}, "
-          f"violations {sum(s['violations'].values())}, critical {s['critical_share']:.1%}, "
+          f"{s['windows']} windows: violations > 5 % "
+          f"{sum(s['violations_beyond_5pct'].values())} (max ratio "
+          f"{max(s['max_violation_ratio'].values()):.2f}), missed {s['missed']}, tracks lost "
+          f"{s['tracks_lost']}, critical {s['critical_share']:.1%}, "
           f"min MSB/w_sch {s['min_msb_over_wsch']:.3f}, min V_L/V_Ld "
           f"{s['min_speed_ratio']:.3f}  -> {out}")
     return 0

@@ -21,7 +21,7 @@ Each window, from the leader's estimates of every follower, :func:`adjust`:
    is not maximal (the bound still holds 1e-6 above it) the numeric search refines it upward.
    If no speed passes: ``feasible=False``, method ``floor``, V_L = floor_frac·V_Ld.
 
-Prediction models (``model``):
+Prediction models (``predictor``, :data:`~rtsim.control.predict.PREDICTORS`):
 
 * ``"formation"`` (default, SPEC §6): the follower moves with its formation slot — velocity =
   leader velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
@@ -29,8 +29,10 @@ Prediction models (``model``):
   ``beta_d`` is given, else the estimated (ρ, β). The bounds are evaluated at the estimated
   (ρ, β): a follower off its slot has ρ̇, β̇ ≠ 0, one on its slot only the path-diversion bound.
   Every bound is ∝ 1/V_L, so the coupled form is exact and the feasible speeds are (0, V*].
-* ``"estimate"`` (the paper's view): V_F, θ and ω_L stay at the estimates whatever V_L is; the
-  corrected closed forms are then exact and each bound is an interval of speeds.
+* ``"paper"`` (the paper's §3.3): Eq 17 and Eqs 19–21 on the EKF estimates — V̂_F, θ̂ and
+  ω_L stay at the estimates whatever V_L is; the corrected closed forms (Eqs 23–26) are then
+  exact and each bound is an interval of speeds;
+* ``"hybrid"``: :mod:`rtsim.control.predict`;
 * any callable ``(follower, v_l) -> (v_f, theta, omega_l)``.
 
 Numeric search: descending scan of ``scan_points`` equal steps of (0, V_Ld] and then 20
@@ -66,6 +68,8 @@ from rtsim.control.predict import (
 )
 from rtsim.errors import InputError
 
+_make_predictor = predictor  # the functions below take a ``predictor`` argument
+
 __all__ = [
     "CAP_FACTOR",
     "FLOOR_FRAC",
@@ -80,6 +84,7 @@ __all__ = [
     "decide",
     "decide_rows",
     "predict_msbs",
+    "predicted_rows",
     "predictor",
 ]
 
@@ -219,6 +224,64 @@ def _formation_rows(pre: list[tuple[float, ...]], v: float
     return out
 
 
+def _hybrid_consts(
+    followers: Sequence[FollowerEstimate], thresholds: Thresholds, kappa: float,
+    v_now: float | None
+) -> list[tuple[float, ...]] | None:
+    """Per-follower constants of the ``hybrid`` model's bounds, or None when the scalar fast
+    path does not apply (non-float values, ``full`` localization).
+
+    Each row: ρ, β, θ̂, cos β, sin β, s, cos θ_F, sin θ_F, V̂_F cos θ̂, V̂_F sin θ̂ (the
+    terms of :func:`~rtsim.control.predict.hybrid_velocity`) and the numerators of
+    :func:`_formation_consts`.
+    """
+    if (kappa.__class__ is not float or v_now.__class__ is not float
+            or thresholds.localization != "radial"):
+        return None
+    out = []
+    loc = 1000.0 * thresholds.r_H
+    bear = 1000.0 * thresholds.T_beta
+    for f in followers:
+        rho, beta, theta, v_f, rho_d = f.rho, f.beta, f.theta, f.v_f, f.rho_d
+        if not (rho.__class__ is float and beta.__class__ is float and theta.__class__ is float
+                and v_f.__class__ is float and rho_d.__class__ is float):
+            return None
+        s, th = unit_formation(kappa, *f.slot)
+        if s.__class__ is not float or th.__class__ is not float:
+            return None
+        out.append((rho, beta, theta, math.cos(beta), math.sin(beta), s, math.cos(th),
+                    math.sin(th), v_f * math.cos(theta), v_f * math.sin(theta), loc,
+                    1000.0 * float(thresholds.T_rho * rho_d),
+                    1000.0 * float(thresholds.T_eps * rho_d), bear))
+    return out
+
+
+def _hybrid_rows(pre: list[tuple[float, ...]], v: float, v_now: float, kappa: float
+                 ) -> list[tuple[float, float, float, float]]:
+    """:func:`scalar_msbs` of every follower under the ``hybrid`` model at leader speed
+    ``v`` (:func:`~rtsim.control.predict.hybrid_velocity`, ω_L = κ·v), from
+    :func:`_hybrid_consts`; the same operations, so the same floats."""
+    out = []
+    omega = kappa * v
+    for (rho, beta, theta0, c_b, s_b, s, c_tf, s_tf, ux0, uy0, n_loc, n_sep, n_path,
+         n_bear) in pre:
+        dv = s * (v - v_now)
+        ux = dv * c_tf + ux0
+        uy = -dv * s_tf - uy0
+        v_f = math.hypot(ux, uy)
+        theta = -math.atan2(uy, ux) if v_f > 0.0 else theta0
+        rd = v_f * math.cos(theta + beta) - v * c_b
+        bd = (v * s_b - v_f * math.sin(beta + theta)) / rho - omega
+        ard, abd, avf = abs(rd), abs(bd), abs(v_f)
+        out.append((
+            math.inf if ard == 0.0 else n_loc / ard,
+            math.inf if ard == 0.0 else n_sep / ard,
+            math.inf if avf == 0.0 else n_path / avf,
+            math.inf if abd == 0.0 else n_bear / abd,
+        ))
+    return out
+
+
 def _rows_at(
     followers: Sequence[FollowerEstimate],
     predict: Predictor | None,
@@ -226,15 +289,18 @@ def _rows_at(
     model: str | Predictor,
     kappa: float,
     omega_l: float = 0.0,
+    v_now: float | None = None,
 ) -> Callable[[float], list[tuple[float, float, float, float]]]:
     """v_l -> every follower's bounds at v_l (rows in BOUND_KINDS order), memoised per v_l.
 
-    For the built-in ``formation`` model the per-follower constants are computed once
-    (:func:`_formation_consts`); the values are those of :func:`predict_msb_rows` with the
-    same predictor.
+    For the built-in ``formation`` and ``hybrid`` models the per-follower constants are
+    computed once (:func:`_formation_consts`, :func:`_hybrid_consts`); the values are those
+    of :func:`predict_msb_rows` with the same predictor (bit for bit, tested).
     """
     memo: dict[float, list[tuple[float, float, float, float]]] = {}
     pre = _formation_consts(followers, thresholds, kappa) if model == "formation" else None
+    hyb = (_hybrid_consts(followers, thresholds, kappa, v_now) if model == "hybrid"
+           else None)
 
     def rows_at(v: float) -> list[tuple[float, float, float, float]]:
         out = memo.get(v)
@@ -242,15 +308,36 @@ def _rows_at(
             return out
         if pre is not None and v.__class__ is float:
             out = _formation_rows(pre, v)
+        elif hyb is not None and v.__class__ is float:
+            out = _hybrid_rows(hyb, v, v_now, kappa)  # type: ignore[arg-type]
         else:
             nonlocal predict
             if predict is None:  # the formation model's predictor, made when first needed
-                predict = predictor(model, omega_l=omega_l, kappa=kappa)
+                predict = _make_predictor(model, omega_l=omega_l, kappa=kappa)
             out = predict_msb_rows(followers, v, predict, thresholds)
         memo[v] = out
         return out
 
     return rows_at
+
+
+def predicted_rows(
+    followers: Sequence[FollowerEstimate],
+    v_l: float,
+    *,
+    thresholds: Thresholds,
+    predictor: str | Predictor = "formation",
+    omega_l: float = 0.0,
+    kappa: float = 0.0,
+    v_now: float | None = None,
+) -> list[tuple[float, float, float, float]]:
+    """Every follower's four bounds (ms, :data:`BOUND_KINDS` order) at leader speed ``v_l``
+    under ``predictor``, from the same estimates and with the same arithmetic as the decision
+    (:func:`decide_rows`'s ``rows`` at ``v_l``): what the decision's belief says about a
+    window in which the leader drives at ``v_l`` (windows.csv ``f{i}_msb_{bound}_pred``)."""
+    predict = (None if predictor == "formation"
+               else _make_predictor(predictor, omega_l=omega_l, kappa=kappa, v_now=v_now))
+    return _rows_at(followers, predict, thresholds, predictor, kappa, omega_l, v_now)(v_l)
 
 
 def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
@@ -313,8 +400,8 @@ def _adjust_core(
 
     # the formation model's predictor (which cannot fail) is only made when needed
     predict = (None if model == "formation"
-               else predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    rows_at = _rows_at(followers, predict, thresholds, model, kappa, omega_l)
+               else _make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
+    rows_at = _rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now)
     rows = rows_at(v_ld)
     m, kind, who = min_bound_rows(rows)
     if m >= w_sch:
@@ -396,7 +483,7 @@ def adjust(
     kappa: float = 0.0,
     cap: float | None = None,
     floor_frac: float = FLOOR_FRAC,
-    model: str | Predictor = "formation",
+    predictor: str | Predictor = "formation",
     methods: Sequence[str] = _CANDIDATES,
     scan_points: int = 64,
     v_now: float | None = None,
@@ -404,12 +491,12 @@ def adjust(
     """The adjustment algorithm (paper §3.3, SPEC §5); see the module docstring.
 
     v_ld: desired leader speed (cm/s); w_sch (ms); omega_l: the leader's current turn rate
-    (rad/s, used by the paper's forms and the ``estimate`` model); kappa: path curvature (1/cm,
+    (rad/s, used by the paper's forms and the ``paper`` predictor); kappa: path curvature (1/cm,
     positive = left); cap: largest window (ms, default 10·w_sch); floor_frac: leader speed when
     nothing works, as a fraction of v_ld; methods: allowed candidates in tie-break order.
     """
     d = _adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap, floor_frac,
-                     model, methods, scan_points, v_now)
+                     predictor, methods, scan_points, v_now)
     return _adjustment("adjust", d, float(w_sch), float(v_ld))
 
 
@@ -425,7 +512,7 @@ def decide_rows(
     cap: float | None = None,
     floor_frac: float = FLOOR_FRAC,
     floor_w: float = FLOOR_W,
-    model: str | Predictor = "formation",
+    predictor: str | Predictor = "formation",
     methods: Sequence[str] = _CANDIDATES,
     scan_points: int = 64,
     v_now: float | None = None,
@@ -435,7 +522,7 @@ def decide_rows(
     validation and values as :func:`decide`."""
     if mode == "adjust":
         return _adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap,
-                            floor_frac, model, methods, scan_points, v_now)
+                            floor_frac, predictor, methods, scan_points, v_now)
     if mode not in MODES:
         raise InputError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
     v_ld = check_number("decide", "v_ld", v_ld)
@@ -446,9 +533,10 @@ def decide_rows(
     floor_w = check_number("decide", "floor_w", floor_w)
     if floor_w <= 0.0:
         raise InputError(f"decide: floor_w must be positive, got {floor_w!r}")
+    model = predictor
     predict = (None if model == "formation"
-               else predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    rows = _rows_at(followers, predict, thresholds, model, kappa, omega_l)(v_ld)
+               else _make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
+    rows = _rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now)(v_ld)
     m, kind, who = min_bound_rows(rows)
     w = w_sch if mode == "fixed-wsch" else min(max(m, floor_w), max(cap, floor_w))
     return Decision(w, v_ld, m, kind, who, "none", m >= w_sch * (1.0 - _TOL), rows, rows, m,
@@ -495,7 +583,7 @@ def decide(
     cap: float | None = None,
     floor_frac: float = FLOOR_FRAC,
     floor_w: float = FLOOR_W,
-    model: str | Predictor = "formation",
+    predictor: str | Predictor = "formation",
     methods: Sequence[str] = _CANDIDATES,
     scan_points: int = 64,
     v_now: float | None = None,
@@ -512,6 +600,7 @@ def decide(
     """
     d = decide_rows(mode, followers, v_ld=v_ld, w_sch=w_sch, thresholds=thresholds,
                     omega_l=omega_l, kappa=kappa, cap=cap, floor_frac=floor_frac,
-                    floor_w=floor_w, model=model, methods=methods, scan_points=scan_points,
+                    floor_w=floor_w, predictor=predictor, methods=methods,
+                    scan_points=scan_points,
                     v_now=v_now)
     return _adjustment(mode, d, float(w_sch), float(v_ld))

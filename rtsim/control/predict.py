@@ -6,19 +6,23 @@ A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_
   velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
   :func:`~rtsim.analysis.kinematics.formation_velocity`; so V_F = s·V_L with s fixed by the
   slot and κ, and θ is fixed. The bounds are evaluated at the *estimated* (ρ, β).
-* ``"estimate"`` (the paper's view): V_F, θ and ω_L stay at the estimates.
+* ``"paper"`` (the paper's §3.3): Eq 17 and Eqs 19–21 evaluated on the EKF estimates —
+  V̂_F, θ̂ and ω_L stay at the estimates (and the bounds at the estimated ρ̂, β̂) whatever V_L
+  is, so the corrected closed forms of Eqs 23–26 (:func:`~rtsim.control.closed_forms.
+  paper_speed`) are exact for it.
 * ``"hybrid"``: the follower's estimated velocity vector, with its formation feed-forward
   part following V_L: u(V_L) = û + f(V_L) − f(V_now), where û = V̂_F·(cos θ̂, −sin θ̂) is the
   estimated velocity in the leader frame, f(V) = s·V·(cos θ_F, −sin θ_F) the slot's
   feed-forward velocity (the ``formation`` model) and V_now the leader's current actual speed;
   V_F = |u|, θ = −atan2(u_y, u_x), ω_L = κ·V_L. Equivalently: the formation velocity at V_L
   plus the follower's current correction velocity û − f(V_now), held constant. It equals
-  ``"estimate"`` at V_L = V_now and ``"formation"`` when û = f(V_now).
+  ``"paper"`` at V_L = V_now and ``"formation"`` when û = f(V_now).
 * any callable with the :data:`Predictor` signature.
 """
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -34,8 +38,10 @@ from rtsim.errors import InputError
 
 __all__ = [
     "FollowerEstimate",
-    "MODELS",
+    "PREDICTORS",
     "Predictor",
+    "RENAMED",
+    "check_predictor",
     "hybrid_velocity",
     "min_bound",
     "min_bound_rows",
@@ -124,13 +130,29 @@ def trusted_estimate(rho: float, beta: float, theta: float, v_f: float, rho_d: f
 Predictor = Callable[[FollowerEstimate, float], tuple[float, float, float]]
 
 
-#: Names of the built-in prediction models.
-MODELS: tuple[str, ...] = ("formation", "estimate", "hybrid")
+#: Names of the built-in prediction models (``[adjust] predictor`` of a scenario).
+PREDICTORS: tuple[str, ...] = ("paper", "formation", "hybrid")
+#: Old names, an input error naming their replacement.
+RENAMED: dict[str, str] = {"estimate": "paper"}
+
+
+def check_predictor(name: object, where: str = "predictor") -> str:
+    """``name`` if it is one of :data:`PREDICTORS`; else an :class:`InputError` with a
+    did-you-mean (old names such as ``estimate`` name their replacement)."""
+    if isinstance(name, str) and name in PREDICTORS:
+        return name
+    if isinstance(name, str) and name in RENAMED:
+        hint = f" ('{name}' was renamed; did you mean '{RENAMED[name]}'?)"
+    else:
+        close = (difflib.get_close_matches(name, PREDICTORS, n=1, cutoff=0.6)
+                 if isinstance(name, str) else [])
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+    raise InputError(f"{where}: must be one of {', '.join(PREDICTORS)}, got {name!r}{hint}")
 
 
 def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
               v_now: float | None = None) -> Predictor:
-    """The prediction model named ``model`` (one of :data:`MODELS`), or ``model``.
+    """The prediction model named ``model`` (one of :data:`PREDICTORS`), or ``model``.
 
     ``v_now``: the leader's current actual speed (cm/s), required by ``"hybrid"``.
     """
@@ -143,7 +165,7 @@ def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
             return s * v_l, theta_f, kappa * v_l
 
         return formation
-    if model == "estimate":
+    if model == "paper":
         return lambda f, v_l: (f.v_f, f.theta, omega_l)
     if model == "hybrid":
         if v_now is None:
@@ -156,8 +178,8 @@ def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
             return hybrid_velocity(f, v_l, v0, kappa) + (kappa * v_l,)
 
         return hybrid
-    raise InputError(
-        f"model must be 'formation', 'estimate', 'hybrid' or a callable, got {model!r}")
+    check_predictor(model)
+    raise AssertionError(model)  # pragma: no cover - check_predictor raised
 
 
 def hybrid_velocity(f: FollowerEstimate, v_l: float, v_now: float, kappa: float

@@ -2,10 +2,12 @@
 
 The schema is pinned in ``docs/outputs.md`` (other modules plot and validate against
 it): one row per processing window, window-level columns first, then per follower i (1-based)
-the truth at the scan (``f{i}_x`` … ``f{i}_msb_bearing``), the leader's estimate that the
-decision used (the same names with ``_est``), and the violations observed on the truth between
-this window's scan and the next (``f{i}_viol_*``) with ``f{i}_lost``. No empty cells:
-an unbounded value is ``inf``; booleans are ``True``/``False``.
+the truth at the scan (``f{i}_x`` … ``f{i}_v``), the leader's estimate that the decision used
+(the same names with ``_est``), every bound as the decision's belief and as the truth
+(``f{i}_msb_{bound}_pred``, ``f{i}_msb_{bound}_true``, :func:`true_bounds`), and the
+violations observed on the truth between this window's scan and the next (``f{i}_viol_*``)
+with ``f{i}_lost``. No empty cells: an unbounded value is ``inf``; booleans are
+``True``/``False``.
 
 During the run the coupling fills one :class:`WindowRecord` per window (plain Python and small
 numpy arrays); :meth:`WindowRecorder.frame` builds the DataFrame in one pass with a fixed
@@ -27,26 +29,33 @@ from rtsim.analysis.kinematics import BOUND_KINDS
 from rtsim.sim.records import EPS
 
 __all__ = [
+    "BOUND_FIELDS",
+    "CHANGE_KEYS",
     "WINDOW_COLUMNS",
     "FOLLOWER_FIELDS",
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
+    "true_bounds",
     "window_columns",
 ]
 
 #: Window-level columns, in order (docs/outputs.md).
 WINDOW_COLUMNS: tuple[str, ...] = (
     "window", "t", "w", "deadline", "w_sch", "msb_min", "binding", "margin", "slack",
-    "v_leader_desired", "v_leader", "method", "feasible", "critical", "missed", "response",
-    "finish", "points", "hough_ms", "tracks_lost", "segment", "curvature", "leader_x",
-    "leader_y", "leader_heading",
+    "v_leader_desired", "v_leader", "v_leader_target", "v_leader_max", "method", "feasible",
+    "critical", "missed", "response", "finish", "points", "hough_ms", "tracks_lost", "segment",
+    "curvature", "leader_x", "leader_y", "leader_heading",
 )
 #: Per-follower state columns (truth; the estimate adds ``_est``), in order.
-FOLLOWER_FIELDS: tuple[str, ...] = (
-    "x", "y", "heading", "rho", "beta", "theta", "v",
-    *(f"msb_{k}" for k in BOUND_KINDS),
-)
+FOLLOWER_FIELDS: tuple[str, ...] = ("x", "y", "heading", "rho", "beta", "theta", "v")
+#: Per-follower bound columns, in order: the decision's prediction, then the truth.
+BOUND_FIELDS: tuple[str, ...] = (*(f"msb_{k}_pred" for k in BOUND_KINDS),
+                                 *(f"msb_{k}_true" for k in BOUND_KINDS))
+#: The observed change (``Scan.changes`` key) that each bound kind limits, in
+#: :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order (SPEC §6): relative displacement (r_H),
+#: |Δρ| (T_ρ·ρ_d), distance travelled (T_ε·ρ_d), |Δβ| (T_β).
+CHANGE_KEYS: tuple[str, ...] = ("displacement", "d_rho", "travel", "d_beta")
 #: Per-follower violation columns, in order (``lost`` last).
 VIOLATION_FIELDS: tuple[str, ...] = (*(f"viol_{k}" for k in BOUND_KINDS), "lost")
 
@@ -56,9 +65,28 @@ def window_columns(n: int) -> list[str]:
     cols = list(WINDOW_COLUMNS)
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in FOLLOWER_FIELDS]
     cols += [f"f{i}_{f}_est" for i in range(1, n + 1) for f in FOLLOWER_FIELDS]
+    cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in BOUND_FIELDS]
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in VIOLATION_FIELDS]
     cols.append("assumption_broken")  # the scan counted more than Eq 1's min(361, k·n)
     return cols
+
+
+def true_bounds(w: NDArray[np.float64], change: NDArray[np.float64],
+                limit: NDArray[np.float64] | float) -> NDArray[np.float64]:
+    """The bound the truth showed over a window (ms): ``limit·w / change``, ``inf`` where
+    nothing changed.
+
+    ``change`` is what the world observed between the window's scan and the next (SPEC §6),
+    ``limit`` the bound's threshold (r_H, T_ρ·ρ_d, T_ε·ρ_d or T_β). It is the bound of
+    Eqs 19–21 (and the bearing bound) with the rate replaced by the window's average rate
+    change / w, so ``true < w`` exactly when ``change > limit``, i.e. when the window broke
+    the bound (the ``viol`` columns).
+    """
+    w = np.asarray(w, dtype=float)
+    change = np.asarray(change, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.where(change > 0.0, (np.asarray(limit, dtype=float) * w) / change, np.inf)
+    return out
 
 
 @dataclass(slots=True)
@@ -67,8 +95,10 @@ class WindowRecord:
     scan (truth, points, lost tracks), when the Hough time is known, at its completion
     (``finish``), and at the next scan (``viol``).
 
-    ``truth`` and ``est`` are n rows of 11 floats in :data:`FOLLOWER_FIELDS` order (tuples
-    or an (n, 11) array); ``viol`` maps each of :data:`~rtsim.analysis.kinematics.BOUND_KINDS`
+    ``truth`` and ``est`` are n rows of 7 floats in :data:`FOLLOWER_FIELDS` order (tuples
+    or an (n, 7) array); ``pred`` n rows of the decision's four bounds (ms, BOUND_KINDS
+    order) at ``v_leader_max``, the highest speed the leader had between this window's scan
+    and the next; ``viol`` maps each of :data:`~rtsim.analysis.kinematics.BOUND_KINDS`
     to an (n,) bool array (``World.scan(...).violations``), ``changes`` the observed changes
     (``Scan.changes``), ``lost`` is (n,) bool.
     """
@@ -81,6 +111,7 @@ class WindowRecord:
     binding: str
     v_leader_desired: float
     v_leader: float
+    v_leader_target: float
     method: str
     feasible: bool
     segment: str
@@ -94,6 +125,8 @@ class WindowRecord:
     lost: NDArray[np.bool_] | None = None
     viol: Mapping[str, NDArray[np.bool_]] | None = None
     changes: Mapping[str, NDArray[np.float64]] | None = None
+    v_leader_max: float = math.nan
+    pred: Any = None
     finish: float = math.nan
     scan_t: float = math.nan
     assumption_broken: bool = False
@@ -101,14 +134,20 @@ class WindowRecord:
     @property
     def complete(self) -> bool:
         """Finished, scanned, and its violation interval closed by a later observation."""
-        return not math.isnan(self.finish) and self.truth is not None and self.viol is not None
+        return (not math.isnan(self.finish) and self.truth is not None
+                and self.viol is not None and self.pred is not None)
 
 
 @dataclass
 class WindowRecorder:
-    """Collects :class:`WindowRecord` s of ``n`` followers; :meth:`frame` builds the table."""
+    """Collects :class:`WindowRecord` s of ``n`` followers; :meth:`frame` builds the table.
+
+    ``limits``: each bound kind's threshold per follower (n values, BOUND_KINDS order: r_H,
+    T_ρ·ρ_d,i, T_ε·ρ_d,i, T_β), for the ``_true`` columns (:func:`true_bounds`).
+    """
 
     n: int
+    limits: tuple[tuple[float, ...], ...]
     records: list[WindowRecord] = field(default_factory=list)
 
     def add(self, rec: WindowRecord) -> WindowRecord:
@@ -140,6 +179,8 @@ class WindowRecorder:
         data["slack"] = np.maximum(0.0, w - w_sch)
         data["v_leader_desired"] = np.array([r.v_leader_desired for r in recs], dtype=float)
         data["v_leader"] = np.array([r.v_leader for r in recs], dtype=float)
+        data["v_leader_target"] = np.array([r.v_leader_target for r in recs], dtype=float)
+        data["v_leader_max"] = np.array([r.v_leader_max for r in recs], dtype=float)
         data["method"] = [r.method for r in recs]
         data["feasible"] = np.array([r.feasible for r in recs], dtype=bool)
         data["critical"] = msb < w_sch
@@ -155,6 +196,11 @@ class WindowRecorder:
         k = len(FOLLOWER_FIELDS)
         truth = np.array([r.truth for r in recs], dtype=float).reshape(m, self.n, k)
         est = np.array([r.est for r in recs], dtype=float).reshape(m, self.n, k)
+        nb = len(BOUND_KINDS)
+        pred = np.array([r.pred for r in recs], dtype=float).reshape(m, self.n, nb)
+        changes = np.array(
+            [[r.changes[c] for c in CHANGE_KEYS] for r in recs],  # type: ignore[index]
+            dtype=float).reshape(m, nb, self.n).transpose(0, 2, 1)
         viol = np.array([[r.viol[k] for k in BOUND_KINDS] for r in recs],  # type: ignore[index]
                         dtype=bool).reshape(m, len(BOUND_KINDS), self.n).transpose(0, 2, 1)
         lost = np.array([r.lost for r in recs], dtype=bool).reshape(m, self.n)
@@ -162,6 +208,10 @@ class WindowRecorder:
             for j, f in enumerate(FOLLOWER_FIELDS):
                 data[f"f{i + 1}_{f}"] = truth[:, i, j]
                 data[f"f{i + 1}_{f}_est"] = est[:, i, j]
+            for j, kind in enumerate(BOUND_KINDS):
+                data[f"f{i + 1}_msb_{kind}_pred"] = pred[:, i, j]
+                data[f"f{i + 1}_msb_{kind}_true"] = true_bounds(w, changes[:, i, j],
+                                                                self.limits[j][i])
             for j, kind in enumerate(BOUND_KINDS):
                 data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
             data[f"f{i + 1}_lost"] = lost[:, i]

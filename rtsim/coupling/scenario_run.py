@@ -58,9 +58,9 @@ import pandas as pd
 import simpy
 
 from rtsim.analysis.bounds import lower_bound
-from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, scalar_msbs
+from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
 from rtsim.control import MODES
-from rtsim.control.adjust import decide_rows
+from rtsim.control.adjust import decide_rows, predicted_rows
 from rtsim.control.predict import trusted_estimate
 from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder
 from rtsim.errors import InputError
@@ -82,8 +82,8 @@ VIOLATION_TOLERANCE = 0.05
 #: times at V_Ld.
 LAP_CAP_FACTOR = 4.0
 _NF = len(FOLLOWER_FIELDS)
-_ADJUST_KEYS = ("cap", "cap_factor", "floor_frac", "floor_w", "model", "methods", "scan_points",
-                "lower_bound")
+_ADJUST_KEYS = ("cap", "cap_factor", "floor_frac", "floor_w", "predictor", "methods",
+                "scan_points", "lower_bound")
 
 
 @dataclass(frozen=True)
@@ -91,7 +91,8 @@ class ScenarioInputs:
     """What a coupled run needs: the world, the leader's task set, and run options.
 
     ``adjust``: options of :func:`rtsim.control.decide` (``cap`` in ms or ``cap_factor``
-    × w_sch, ``floor_frac``, ``floor_w``, ``model``, ``methods``, ``scan_points``).
+    × w_sch, ``floor_frac``, ``floor_w``, ``predictor``, ``methods``, ``scan_points``,
+    ``lower_bound``).
     ``duration_s``: default duration (simulated s), None = one lap. ``text``/``resolved``:
     the scenario file's text and resolved values, for the manifest.
     """
@@ -139,8 +140,8 @@ def _inputs(scenario: Any, text: str | None = None,
 
     A Scenario's ``[adjust]`` maps to :func:`rtsim.control.decide`: ``cap`` (ms; ``inf`` →
     decide's default, 10·w_sch) and ``floor`` (cm/s) → ``floor_frac`` = floor / V_Ld, which
-    is also the lowest speed the coupling ever sets; ``model`` (when not the default
-    ``formation``) → ``model``. The leader's current actual speed is passed to every
+    is also the lowest speed the coupling ever sets; ``predictor`` (when not the default
+    ``formation``) → ``predictor``. The leader's current actual speed is passed to every
     decision as ``v_now`` (the ``hybrid`` model needs it).
     """
     if overrides and not isinstance(scenario, str | os.PathLike):
@@ -166,8 +167,8 @@ def _inputs(scenario: Any, text: str | None = None,
         if math.isfinite(cfg.cap):
             adjust["cap"] = float(cfg.cap)
         adjust["floor_frac"] = float(cfg.floor) / world.leader_speed
-        if getattr(cfg, "model", "formation") != "formation":
-            adjust["model"] = cfg.model
+        if getattr(cfg, "predictor", "formation") != "formation":
+            adjust["predictor"] = cfg.predictor
         if getattr(cfg, "lower_bound", "w_sch") != "w_sch":
             adjust["lower_bound"] = cfg.lower_bound
     elif cfg:
@@ -221,6 +222,11 @@ class _Decision(NamedTuple):
     method: str
     feasible: bool
     est: tuple[tuple[float, ...], ...]
+    # the decision's belief, to evaluate its bounds at another leader speed (_pred columns):
+    # the followers' estimates, predictor options, and the rows it computed at two speeds
+    fols: tuple[Any, ...] = ()
+    kw: Mapping[str, Any] = {}
+    known: tuple[tuple[float, Any], ...] = ()
 
 
 class _Coupling:
@@ -254,6 +260,9 @@ class _Coupling:
                              f"below w_sch = {self.w_sch:.6g} ms (the window could never reach "
                              f"the schedulability bound)")
         unknown = sorted(set(opts) - set(_ADJUST_KEYS))
+        if "model" in unknown:
+            raise InputError(f"{inp.source or 'scenario'}: [adjust] has unknown key 'model' "
+                             f"(renamed; did you mean 'predictor'?)")
         if unknown:
             raise InputError(f"{inp.source or 'scenario'}: [adjust] has unknown key "
                              f"'{unknown[0]}' (allowed: {', '.join(_ADJUST_KEYS)})")
@@ -286,7 +295,13 @@ class _Coupling:
         cpu.on("segment_end", self._on_send, task=win.name, role="send")
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
-        self.rec = WindowRecorder(self.n)
+        thr = self.thr
+        self.rec = WindowRecorder(self.n, tuple(
+            tuple(float(x) for x in lim) for lim in (
+                [thr.r_H] * self.n, [thr.T_rho * r for r in self.rho_d],
+                [thr.T_eps * r for r in self.rho_d], [thr.T_beta] * self.n)))
+        self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
+        self._v_max = self._v_actual()  # highest leader speed since the last scan
         self._open: dict[int, WindowRecord] = {}
         self._last_scanned: WindowRecord | None = None
         self._hough_ms = 0.0
@@ -295,15 +310,14 @@ class _Coupling:
         self._stop_s = stop_s  # arc length (cm) after which the run stops, or None
         self._stop_ms = stop_ms  # ... but not before this time
         self.stop = self.env.event()
-        thr = self.thr
         rho_d = np.asarray(self.rho_d)
         self._limits = (("localization", "displacement", thr.r_H),
                         ("separation", "d_rho", thr.T_rho * rho_d),
                         ("path_diversion", "travel", thr.T_eps * rho_d),
                         ("bearing", "d_beta", thr.T_beta))
         first = self._estimates(0.0)
-        self.dec = _Decision(self.w_sch, self.v_ld, first.msb_min, first.binding, "fixed",
-                             first.msb_min >= self.w_sch, first.est)
+        self.dec = first._replace(w=self.w_sch, v_leader=self.v_ld, method="fixed",
+                                  feasible=first.msb_min >= self.w_sch, known=first.known[:1])
 
     # -- the decision ----------------------------------------------------------------
     def _estimates(self, now: float) -> _Decision:
@@ -313,7 +327,7 @@ class _Coupling:
         lp = world.leader_pose
         _, kappa = world.segment_at()
         state = []
-        fols = []
+        fols: list[Any] = []
         for k in range(self.n):
             # the estimate propagated to now and its expected speed, in one pass (the same
             # as World.estimated_pose(i) and World.relative(i, "estimate")[3])
@@ -322,13 +336,34 @@ class _Coupling:
             state.append((*pose, rho, beta, theta, v_f))
             fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
                                          self.beta_d[k]))
+        kw = {"omega_l": world.leader_omega, "kappa": kappa, "v_now": self._v_actual()}
         adj = decide_rows(self.mode, fols, v_ld=self.v_ld, w_sch=self.w_sch, thresholds=self.thr,
-                     omega_l=world.leader_omega, kappa=kappa, v_now=world.leader_speed,
-                     **self.opts)
+                          **kw, **self.opts)
         v_l = max(adj.v_leader, self.v_floor)
-        est = tuple((*row, *m) for row, m in zip(state, adj.rows, strict=True))
         return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
-                         adj.feasible and v_l == adj.v_leader, est)
+                         adj.feasible and v_l == adj.v_leader, tuple(state), tuple(fols), kw,
+                         ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)))
+
+    def _predicted(self, d: _Decision, v: float) -> Any:
+        """Decision ``d``'s bounds (rows) with the leader at speed ``v`` (the ``_pred``
+        columns): the rows it computed when ``v`` is one of its speeds, else its predictor
+        re-evaluated on its estimates."""
+        for speed, rows in d.known:
+            if speed == v:
+                return rows
+        pred = self.opts.get("predictor", "formation")
+        return predicted_rows(d.fols, v, thresholds=self.thr, predictor=pred, **d.kw)
+
+    # -- the leader's speed, as the world has it ---------------------------------------
+    # The only two places that read it: with leader dynamics (speed ramps toward a target)
+    # _v_target becomes the world's target speed; until then the world's speed is the target.
+    def _v_actual(self) -> float:
+        """The leader's actual speed now (cm/s)."""
+        return self.world.leader_speed
+
+    def _v_target(self) -> float:
+        """The leader's target speed, the last decision's (cm/s)."""
+        return self.world.leader_speed
 
     # -- hooks -----------------------------------------------------------------------
     def _period(self) -> float:
@@ -339,10 +374,12 @@ class _Coupling:
         self.world.advance(now)
         kind, kappa = self.world.segment_at()
         d = self.dec
+        self._decisions[job.index] = d
         self._open[job.index] = self.rec.add(WindowRecord(
             window=job.index, t=job.release, w=job.period, w_sch=self.w_sch,
             msb_min=d.msb_min, binding=d.binding, v_leader_desired=self.v_ld,
-            v_leader=d.v_leader, method=d.method, feasible=d.feasible, segment=kind,
+            v_leader=self._v_actual(), v_leader_target=self._v_target(), method=d.method,
+            feasible=d.feasible, segment=kind,
             curvature=kappa, est=d.est))
 
     def _on_scan(self, job: Job, seg: Segment) -> None:
@@ -362,6 +399,7 @@ class _Coupling:
         rec.truth = self._truth(scan.leader_pose)
         self._close(scan)
         self._last_scanned = rec
+        self._v_max = self._v_actual()
 
     def _close(self, scan: Any) -> None:
         """Close the previous window's observation interval with ``scan``'s violations."""
@@ -370,6 +408,10 @@ class _Coupling:
             return
         last.viol = scan.as_lists("violations")
         last.changes = scan.as_lists("changes")
+        # the bounds the window's decision predicts at the highest speed the leader had in
+        # the interval the changes span (the world has advanced to the scan)
+        last.v_leader_max = max(self._v_max, self._v_actual())
+        last.pred = self._predicted(self._decisions.pop(last.window), last.v_leader_max)
 
     def violation_ratios(self, tolerance: float = VIOLATION_TOLERANCE
                          ) -> tuple[dict[str, float], dict[str, int]]:
@@ -390,15 +432,11 @@ class _Coupling:
         return ratios, beyond
 
     def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
-        world = self.world
-        fol = world.followers
-        v_l, w_l = world.leader_speed, world.leader_omega
+        fol = self.world.followers
         out = []
         # the scan has just advanced every follower to now
-        for k, (x, y, th, v_f) in enumerate(zip(fol.x, fol.y, fol.th, fol.v, strict=True)):
-            rho, beta, theta = relative_state(lp, (x, y, th))
-            m = scalar_msbs(v_l, w_l, v_f, rho, beta, theta, self.rho_d[k], self.thr)
-            out.append((x, y, th, rho, beta, theta, v_f, *m))
+        for x, y, th, v_f in zip(fol.x, fol.y, fol.th, fol.v, strict=True):
+            out.append((x, y, th, *relative_state(lp, (x, y, th)), v_f))
         return tuple(out)
 
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
@@ -411,8 +449,10 @@ class _Coupling:
         now = self.env.now
         rec = self._open.pop(job.index)
         rec.finish = now
-        self.dec = self._estimates(now)
+        self.dec = self._estimates(now)  # advances the world to now
+        self._v_max = max(self._v_max, self._v_actual())
         self.world.set_leader_speed(self.dec.v_leader)
+        self._v_max = max(self._v_max, self._v_actual())
         if self._stop_s is not None and not self.stop.triggered and now >= self._stop_ms \
                 and self.world.leader.s - self._s0 >= self._stop_s:
             self.stop.succeed()
@@ -438,6 +478,18 @@ class _Coupling:
         last = self._last_scanned
         if last is not None and last.viol is None:  # close the last observation interval
             self._close(self.world.scan(max(self.env.now, self.world.t_ms)))
+
+
+def formation_model(cfg: WorldConfig) -> str:
+    """The followers' control law of ``cfg`` (summary.json ``formation_model``): the
+    formation's ``model`` when it has one, else ``l-psi`` (the only law before follow-the-
+    leader)."""
+    return str(getattr(cfg.formation, "model", "l-psi"))
+
+
+def _name(predictor: Any) -> str:
+    return predictor if isinstance(predictor, str) else getattr(predictor, "__name__",
+                                                                 "callable")
 
 
 def summarize(df: pd.DataFrame, *, mode: str, w_sch: float, duration_s: float, seed: int,
@@ -540,6 +592,8 @@ def run_scenario(
         "max_backlog": int(res.tasks[run.wname].max_backlog),
         "v_leader_desired": run.v_ld,
         "n": run.n,
+        "predictor": _name(run.opts.get("predictor", "formation")),
+        "formation_model": formation_model(cfg),
     }
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     summary = summarize(df, mode=mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,

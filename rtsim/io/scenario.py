@@ -33,7 +33,8 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
                    heading_drift(_deg), init_position_sd, init_heading_sd(_deg), backend
     [thresholds]   T_rho, T_eps, T_beta(_deg), localization = "radial" | "full"
     [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed),
-                   model = "formation" | "estimate" | "hybrid" (rtsim.control.predict)
+                   predictor = "paper" | "formation" | "hybrid" (rtsim.control.predict),
+                   lower_bound = "w_sch" | "w_rta" | "w_susp"
     [world]        step_ms (integration step while a speed ramps)
     [assumptions]  key = "reason"      # every value the paper does not give
 
@@ -90,14 +91,15 @@ class AdjustConfig:
     """Limits for the adjustment algorithm (semantics in :mod:`rtsim.control`).
 
     cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
-    model: the prediction model of :mod:`rtsim.control.predict` (``formation``, ``estimate``
-    or ``hybrid``); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
+    predictor: the prediction model of :mod:`rtsim.control.predict` (``paper``, ``formation``
+    or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
+    names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
     ``w_rta`` (exact RTA) or ``w_susp`` (suspension-aware, Δt with the CPU idle).
     """
 
     cap: float = math.inf
     floor: float = 0.0
-    model: str = "formation"
+    predictor: str = "formation"
     lower_bound: str = "w_sch"
 
     def __post_init__(self) -> None:
@@ -106,16 +108,14 @@ class AdjustConfig:
         if self.lower_bound not in LOWER_BOUNDS:
             raise ScenarioError(f"adjust.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
                                 f"got {self.lower_bound!r}")
-        from rtsim.control.predict import MODELS
+        from rtsim.control.predict import check_predictor
 
         object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
         object.__setattr__(self, "floor", non_negative("adjust.floor", self.floor))
-        if self.model not in MODELS:
-            close = (difflib.get_close_matches(self.model, MODELS, n=1, cutoff=0.6)
-                     if isinstance(self.model, str) else [])
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise ScenarioError(f"adjust.model: must be one of {', '.join(MODELS)}, got "
-                                f"{self.model!r}{hint}")
+        try:
+            check_predictor(self.predictor, "adjust.predictor")
+        except InputError as exc:
+            raise ScenarioError(str(exc)) from None
 
 
 @dataclass(frozen=True)
@@ -336,7 +336,10 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
                             f"got {loc!r}")
     thresholds = Thresholds(r_H=r_H, T_rho=t_rho, T_eps=t_eps, T_beta=t_beta, localization=loc)
 
-    adjust = _section(src, data, "adjust", ("cap", "floor", "model", "lower_bound"),
+    if isinstance(data.get("adjust"), Mapping) and "model" in data["adjust"]:
+        raise ScenarioError(f"{src}: adjust: unknown key 'model' (renamed; did you mean "
+                            f"'predictor'?)")
+    adjust = _section(src, data, "adjust", ("cap", "floor", "predictor", "lower_bound"),
                       AdjustConfig)
     top.get("adjust")
     wtab = _Table(f"{src}: world", top.get("world", {}))

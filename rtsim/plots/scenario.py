@@ -37,6 +37,7 @@ __all__ = [
     "plot_speed",
     "plot_window_slack",
     "save_figure",
+    "violation_ratios",
     "write_scenario_figures",
 ]
 
@@ -66,6 +67,7 @@ FOLLOWER_COLORS: tuple[str, ...] = (
 BOUNDS_CLIP = 4.0  # bounds figure: y-axis ends at most at this multiple of w_sch
 WINDOW_CLIP = 6.0  # window figure: the same for w (w is capped, but the cap may be large)
 DPI = 120
+VIOLATION_TOLERANCE = 0.05  # a broken bound counts beyond this relative overshoot
 
 _FOLLOWER_RE = re.compile(r"^f(\d+)_x$")
 
@@ -132,32 +134,48 @@ def critical_spans(df: pd.DataFrame) -> list[tuple[float, float]]:
     return _spans(df, _bool(df["critical"]))
 
 
-def _kind_min(df: pd.DataFrame, kind: str, suffix: str = "_est") -> np.ndarray:
-    """Per window, the minimum over followers of one bound kind (inf when none is finite)."""
-    cols = [f"f{i}_msb_{kind}{suffix}" for i in followers(df)]
+def _kind_min(df: pd.DataFrame, kind: str, which: str) -> np.ndarray:
+    """Per window, the minimum over followers of one bound kind's ``which`` (``pred`` or
+    ``true``) column (inf when none is finite)."""
+    cols = [f"f{i}_msb_{kind}_{which}" for i in followers(df)]
     _need(df, cols, f"the {kind} bound")
     if not cols:
         return np.full(len(df), np.inf)
     return np.min(np.column_stack([_floats(df[c]) for c in cols]), axis=1)
 
 
-def _violations(df: pd.DataFrame) -> int:
-    cols = [f"f{i}_viol_{k}" for i in followers(df) for k in BOUND_KINDS]
-    return int(sum(_bool(df[c]).sum() for c in cols if c in df.columns))
+def violation_ratios(df: pd.DataFrame) -> np.ndarray:
+    """Per (window, follower, bound) the observed change over its threshold, w / ``_true``
+    (> 1: the window broke the bound), as an (m, n·4) array (empty without ``_true``)."""
+    cols = [f"f{i}_msb_{k}_true" for i in followers(df) for k in BOUND_KINDS]
+    cols = [c for c in cols if c in df.columns]
+    if not cols or "w" not in df.columns:
+        return np.zeros((len(df), 0))
+    true = np.column_stack([_floats(df[c]) for c in cols])
+    return _floats(df["w"])[:, None] / true
 
 
 def _counts(df: pd.DataFrame) -> str:
+    """Panel headline: violations beyond 5 % and the largest violation ratio first, then
+    misses and lost tracks."""
     missed = int(_bool(df["missed"]).sum()) if "missed" in df.columns else 0
     lost = int(_floats(df["tracks_lost"]).sum()) if "tracks_lost" in df.columns else 0
-    return f"misses {missed} · violations {_violations(df)} · lost tracks {lost}"
+    r = violation_ratios(df)
+    beyond = int((r > 1.0 + VIOLATION_TOLERANCE).sum())
+    worst = float(r.max()) if r.size else 0.0
+    return (f"violations > 5 % {beyond} · max ratio {worst:.2f} · misses {missed} · "
+            f"lost tracks {lost}")
 
 
 def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
     """The exact columns figure ``name`` plots, taken or derived from the windows table.
 
     Columns named as in ``windows.csv`` carry its values unchanged (times stay in ms; the
-    figures divide by 1000). ``bound_<kind>`` is the minimum over followers of
-    ``f{i}_msb_<kind>_est``, the estimate the adjustment used. Infinite values stay ``inf``.
+    figures divide by 1000). ``bound_<kind>_pred`` / ``bound_<kind>_true`` are the minimum
+    over followers of ``f{i}_msb_<kind>_pred`` (the decision's prediction at the highest
+    speed the leader had in the window) and ``f{i}_msb_<kind>_true`` (what the world showed);
+    ``msb_min_pred`` / ``msb_min_true`` the minimum of those over the bound kinds (operating
+    space). Infinite values stay ``inf``.
     """
     keys = ["window", "t"]
     if name == "paths":
@@ -170,16 +188,21 @@ def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
     elif name == "bounds":
         cols = keys + ["w", "w_sch", "critical"]
     elif name == "speed":
-        cols = keys + ["v_leader_desired", "v_leader", "segment"]
+        cols = keys + ["v_leader_desired", "v_leader", "v_leader_target", "segment"]
     elif name == "operating_space":
         cols = keys + ["w", "w_sch", "msb_min", "critical"]
     else:
         raise InputError(f"figure_data: unknown figure {name!r} (known: {', '.join(_NAMES)})")
     _need(df, cols, f"the {name} figure")
     out = df.loc[:, cols].reset_index(drop=True)
-    if name == "bounds":
-        for kind in BOUND_KINDS:
-            out[f"bound_{kind}"] = _kind_min(df, kind)
+    if name in ("bounds", "operating_space"):
+        for which in ("pred", "true"):
+            mins = {kind: _kind_min(df, kind, which) for kind in BOUND_KINDS}
+            if name == "bounds":
+                for kind in BOUND_KINDS:
+                    out[f"bound_{kind}_{which}"] = mins[kind]
+            else:
+                out[f"msb_min_{which}"] = np.min(np.column_stack(list(mins.values())), axis=1)
     return out
 
 
@@ -322,7 +345,7 @@ def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
 
 def _bounds_top(df: pd.DataFrame) -> float:
     data = figure_data(df, "bounds")
-    values = [_floats(data[f"bound_{k}"]) for k in BOUND_KINDS] + [_floats(data["w"])]
+    values = [_floats(data[f"bound_{k}_pred"]) for k in BOUND_KINDS] + [_floats(data["w"])]
     return _ylimit(values, _floats(data["w_sch"]), BOUNDS_CLIP)
 
 
@@ -331,11 +354,17 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     top = top if top is not None else _bounds_top(df)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
     values = []
+    t = _t_s(df)
     for kind in BOUND_KINDS:
-        y = _floats(data[f"bound_{kind}"])
+        y = _floats(data[f"bound_{kind}_pred"])
         values.append(y)
-        _step(ax, df, _offscale(y, top), color=COLORS[kind], lw=1.3,
-              label=f"{kind.replace('_', ' ')} MSB")
+        _step(ax, df, _offscale(y, top), color=COLORS[kind], lw=1.3, gid=f"pred_{kind}",
+              label=f"{kind.replace('_', ' ')} MSB predicted")
+        yt = _floats(data[f"bound_{kind}_true"])
+        values.append(yt)
+        shown = yt <= top
+        ax.plot(t[shown], yt[shown], ".", color=COLORS[kind], ms=2.5, alpha=0.6,
+                gid=f"true_{kind}", label=f"{kind.replace('_', ' ')} MSB true")
     w = _floats(data["w"])
     _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
           label="processing window w")
@@ -343,6 +372,9 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     ax.set_ylim(0, top)
     _note_clip(ax, values + [w], top)
     _time_axes(ax, df, "bound on w (ms), min over followers")
+    ax.text(0.01, 0.01, "lines: predicted at the leader's highest speed in the window; "
+            "dots: threshold·w / true change", transform=ax.transAxes, fontsize="x-small",
+            color="#555555", va="bottom")
 
 
 def _draw_speed(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
@@ -350,7 +382,9 @@ def _draw_speed(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     turn = (df["segment"].astype(str).str.strip() == "turn").to_numpy()
     _shade(ax, _spans(df, turn), "turn", "turn")
     v_d, v = _floats(df["v_leader_desired"]), _floats(df["v_leader"])
-    _step(ax, df, v, color=COLORS["v_actual"], lw=1.5, label="actual $V_L$")
+    _step(ax, df, v, color=COLORS["v_actual"], lw=1.5, label="actual $V_L$ (at t)")
+    _step(ax, df, _floats(df["v_leader_target"]), color=COLORS["v_actual"], ls=":", lw=1.0,
+          gid="target", label="target (the decision's)")
     _step(ax, df, v_d, color=COLORS["v_desired"], ls="--", lw=1.2, zorder=3,
           label="desired $V_{Ld}$")
     ax.set_ylim(0, top if top is not None else _ylimit([v_d, v], np.zeros(0), 1.0))
@@ -371,12 +405,19 @@ def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> Non
                     label="safe operating area ($w_{sch}$ ≤ w ≤ min MSB)")
     _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
           label="processing window w")
-    _step(ax, df, _offscale(msb, top), color=COLORS["msb_min"], lw=1.5, label="min MSB")
+    _step(ax, df, _offscale(msb, top), color=COLORS["msb_min"], lw=1.5,
+          label="min MSB at $V_{Ld}$ (the decision's)")
+    pred, true = _floats(data["msb_min_pred"]), _floats(data["msb_min_true"])
+    _step(ax, df, _offscale(pred, top), color=COLORS["msb_min"], lw=1.0, ls=":",
+          gid="pred_min", label="min MSB predicted at the leader's speed")
+    shown = true <= top
+    ax.plot(_t_s(df)[shown], true[shown], ".", color="#333333", ms=2.5, alpha=0.6,
+            gid="true_min", label="min MSB true (threshold·w / change)")
     _wsch_line(ax, df)
     _label_runs(ax, df, safe, w_sch, np.minimum(msb, top), "safe operating area", top)
     _label_runs(ax, df, ~safe, np.zeros_like(w_sch), w_sch, "critical", top)
     ax.set_ylim(0, top)
-    _note_clip(ax, [msb, w], top)
+    _note_clip(ax, [msb, w, pred, true], top)
     _time_axes(ax, df, "processing window (ms)")
 
 
