@@ -1,0 +1,97 @@
+"""Tables written in chunks: CSV appends and Parquet row groups, so a long run's records
+never have to be in memory at once.
+
+A :class:`ChunkWriter` takes DataFrame chunks with one fixed schema and appends each to its
+files (``.csv``: the header once, then rows; ``.parquet``: one row group per chunk through
+``pyarrow.parquet.ParquetWriter``). The CSV bytes are exactly those of ``DataFrame.to_csv``
+on the whole table (pandas formats each value on its own: the shortest repr of a float,
+``True``/``False``, an empty cell for NaN); the Parquet file holds the same table and the
+same pandas dtypes as ``DataFrame.to_parquet``, in row groups.
+
+:func:`read_columns` reads columns back (floats exactly: ``float_precision="round_trip"``),
+for summaries and figures drawn after the run.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from rtsim.errors import InputError
+
+__all__ = ["ChunkWriter", "read_columns"]
+
+
+class ChunkWriter:
+    """Append DataFrame chunks to one or more files (``.csv`` / ``.parquet``).
+
+    ``paths``: where to write (the temporary paths of a staged output); ``empty``: a
+    zero-row DataFrame with the table's columns and dtypes, written if no chunk comes.
+    Call :meth:`write` per chunk and :meth:`close` once; ``rows`` counts what was written.
+    """
+
+    def __init__(self, paths: Sequence[str | os.PathLike[str]], empty: pd.DataFrame) -> None:
+        self.paths = [Path(p) for p in paths]
+        for p in self.paths:
+            if p.suffix.lower() not in (".csv", ".parquet"):
+                raise InputError(f"{p}: output must end in .csv or .parquet")
+        self.empty = empty
+        self.rows = 0
+        self.chunks = 0
+        self._parquet: dict[Path, Any] = {}
+        self._closed = False
+
+    def write(self, df: pd.DataFrame) -> None:
+        """Append one chunk (columns and dtypes as ``empty``)."""
+        if list(df.columns) != list(self.empty.columns):
+            raise ValueError("chunk columns differ from the table's")
+        for p in self.paths:
+            if p.suffix.lower() == ".csv":
+                with open(p, "w" if self.chunks == 0 else "a", encoding="utf-8",
+                          newline="") as fh:
+                    df.to_csv(fh, index=False, header=self.chunks == 0)
+            else:
+                self._write_parquet(p, df)
+        self.rows += len(df)
+        self.chunks += 1
+
+    def _write_parquet(self, p: Path, df: pd.DataFrame) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = pa.Table.from_pandas(df, preserve_index=False)
+        writer = self._parquet.get(p)
+        if writer is None:
+            # the schema of the whole table (pandas metadata without a per-chunk index)
+            schema = pa.Table.from_pandas(self.empty, preserve_index=False).schema
+            writer = pq.ParquetWriter(p, schema)
+            self._parquet[p] = writer
+        writer.write_table(table.cast(writer.schema))
+
+    def close(self) -> None:
+        """Finish the files (an empty table if no chunk was written) and fsync them."""
+        if self._closed:
+            return
+        if self.chunks == 0:
+            self.write(self.empty)
+        for w in self._parquet.values():
+            w.close()
+        for p in self.paths:
+            with open(p, "rb+") as fh:
+                os.fsync(fh.fileno())
+        self._closed = True
+
+
+def read_columns(path: str | os.PathLike[str], columns: Sequence[str] | None = None,
+                 dtypes: dict[str, Any] | None = None) -> pd.DataFrame:
+    """Columns of a CSV written by :class:`ChunkWriter` (floats exact), or of a Parquet file."""
+    p = Path(path)
+    cols = list(columns) if columns is not None else None
+    if p.suffix.lower() == ".parquet":
+        return pd.read_parquet(p, columns=cols)
+    return pd.read_csv(p, usecols=cols, float_precision="round_trip", dtype=dtypes,
+                       keep_default_na=False, na_values=[""])
