@@ -312,8 +312,9 @@ class FileSet:
             raise InputError(f"{option} {target}: is a directory; give a file name")
         try:
             target.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
-                                       dir=target.parent)
+            # the target's suffix kept last: writers choose the format by it
+            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.",
+                                       suffix=f".tmp{target.suffix}", dir=target.parent)
         except OSError as exc:
             raise InputError(f"{option} {target}: cannot write in {target.parent} "
                              f"({exc.strerror or exc})") from None
