@@ -8,8 +8,8 @@ on the whole table (pandas formats each value on its own: the shortest repr of a
 ``True``/``False``, an empty cell for NaN); the Parquet file holds the same table and the
 same pandas dtypes as ``DataFrame.to_parquet``, in row groups.
 
-:func:`read_columns` reads columns back (floats exactly: ``float_precision="round_trip"``),
-for summaries and figures drawn after the run.
+:func:`read_columns` reads columns back, floats exactly (pandas 3's default parser;
+``float_precision="round_trip"`` before), for summaries and figures drawn after the run.
 """
 
 from __future__ import annotations
@@ -25,16 +25,21 @@ from rtsim.errors import InputError
 
 __all__ = ["ChunkWriter", "read_columns"]
 
+#: pandas 3 parses floats exactly by default (and deprecates ``float_precision``).
+_PANDAS_3 = int(pd.__version__.split(".")[0]) >= 3
+
 
 class ChunkWriter:
     """Append DataFrame chunks to one or more files (``.csv`` / ``.parquet``).
 
     ``paths``: where to write (the temporary paths of a staged output); ``empty``: a
-    zero-row DataFrame with the table's columns and dtypes, written if no chunk comes.
+    zero-row DataFrame with the table's columns and dtypes, written if no chunk comes (None:
+    the producer sets :attr:`empty` before :meth:`close`).
     Call :meth:`write` per chunk and :meth:`close` once; ``rows`` counts what was written.
     """
 
-    def __init__(self, paths: Sequence[str | os.PathLike[str]], empty: pd.DataFrame) -> None:
+    def __init__(self, paths: Sequence[str | os.PathLike[str]],
+                 empty: pd.DataFrame | None) -> None:
         self.paths = [Path(p) for p in paths]
         for p in self.paths:
             if p.suffix.lower() not in (".csv", ".parquet"):
@@ -47,7 +52,7 @@ class ChunkWriter:
 
     def write(self, df: pd.DataFrame) -> None:
         """Append one chunk (columns and dtypes as ``empty``)."""
-        if list(df.columns) != list(self.empty.columns):
+        if self.empty is not None and list(df.columns) != list(self.empty.columns):
             raise ValueError("chunk columns differ from the table's")
         for p in self.paths:
             if p.suffix.lower() == ".csv":
@@ -66,9 +71,9 @@ class ChunkWriter:
         table = pa.Table.from_pandas(df, preserve_index=False)
         writer = self._parquet.get(p)
         if writer is None:
-            # the schema of the whole table (pandas metadata without a per-chunk index)
-            schema = pa.Table.from_pandas(self.empty, preserve_index=False).schema
-            writer = pq.ParquetWriter(p, schema)
+            # the first chunk's schema, as to_parquet infers it for the whole table (string
+            # columns held as objects have no type in an empty frame)
+            writer = pq.ParquetWriter(p, table.schema)
             self._parquet[p] = writer
         writer.write_table(table.cast(writer.schema))
 
@@ -77,6 +82,8 @@ class ChunkWriter:
         if self._closed:
             return
         if self.chunks == 0:
+            if self.empty is None:
+                raise ValueError("ChunkWriter.close: no chunk and no empty table")
             self.write(self.empty)
         for w in self._parquet.values():
             w.close()
@@ -84,6 +91,11 @@ class ChunkWriter:
             with open(p, "rb+") as fh:
                 os.fsync(fh.fileno())
         self._closed = True
+
+    def read(self, columns: Sequence[str] | None = None,
+             dtypes: dict[str, Any] | None = None) -> pd.DataFrame:
+        """Columns of the table written (after :meth:`close`), from its first file."""
+        return read_columns(self.paths[0], columns, dtypes)
 
 
 def read_columns(path: str | os.PathLike[str], columns: Sequence[str] | None = None,
@@ -93,5 +105,6 @@ def read_columns(path: str | os.PathLike[str], columns: Sequence[str] | None = N
     cols = list(columns) if columns is not None else None
     if p.suffix.lower() == ".parquet":
         return pd.read_parquet(p, columns=cols)
-    return pd.read_csv(p, usecols=cols, float_precision="round_trip", dtype=dtypes,
-                       keep_default_na=False, na_values=[""])
+    exact: dict[str, Any] = {} if _PANDAS_3 else {"float_precision": "round_trip"}
+    return pd.read_csv(p, usecols=cols, dtype=dtypes, keep_default_na=False, na_values=[""],
+                       **exact)

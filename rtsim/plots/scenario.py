@@ -152,6 +152,19 @@ def _counts(df: pd.DataFrame) -> str:
     return f"misses {missed} · violations {_violations(df)} · lost tracks {lost}"
 
 
+def figure_columns(n: int) -> list[str]:
+    """The columns of windows.csv that :func:`write_scenario_figures` draws (``n`` followers),
+    in table order — what a long run reads back instead of the whole table."""
+    from rtsim.coupling.recorder import window_columns
+
+    need = {"window", "t", "w", "slack", "w_sch", "missed", "critical", "msb_min",
+            "v_leader_desired", "v_leader", "segment", "leader_x", "leader_y"}
+    for i in range(1, n + 1):
+        need |= {f"f{i}_x", f"f{i}_y", f"f{i}_x_est", f"f{i}_y_est"}
+        need |= {f"f{i}_msb_{k}_est" for k in BOUND_KINDS}
+    return [c for c in window_columns(n) if c in need]
+
+
 def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
     """The exact columns figure ``name`` plots, taken or derived from the windows table.
 
