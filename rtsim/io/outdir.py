@@ -217,7 +217,7 @@ class StagedDir:
             os.mkdir(tmp)
         except OSError as exc:
             raise InputError(f"{option} {target}: cannot write in {parent} "
-                             f"({exc.strerror or exc})") from None
+                             f"({_why(parent, exc)})") from None
         self._fd = os.open(tmp, os.O_RDONLY)
         fcntl.flock(self._fd, fcntl.LOCK_EX)
         self.path = parent / name
@@ -263,6 +263,16 @@ class StagedDir:
 
     def __exit__(self, *exc: Any) -> None:
         self.abort()
+
+
+def _why(parent: Path, exc: OSError) -> str:
+    """The reason a directory could not be made in ``parent`` (a file on the way, say)."""
+    for p in (parent, *parent.parents):
+        if os.path.lexists(p):
+            if not p.is_dir():
+                return f"{p} is not a directory"
+            break
+    return exc.strerror or str(exc)
 
 
 def _fsync_dir(d: Path) -> None:
@@ -317,7 +327,7 @@ class FileSet:
                                        suffix=f".tmp{target.suffix}", dir=target.parent)
         except OSError as exc:
             raise InputError(f"{option} {target}: cannot write in {target.parent} "
-                             f"({exc.strerror or exc})") from None
+                             f"({_why(target.parent, exc)})") from None
         os.close(fd)
         os.chmod(tmp, FILE_MODE)
         self._files.append((target, Path(tmp)))
