@@ -154,3 +154,33 @@ def test_rowbuffer_chunks_equal_one_frame(n: int, chunk: int, seed: int) -> None
     if parts:
         pd.testing.assert_frame_equal(pd.concat(parts, ignore_index=True), whole)
     assert list(whole.columns) == list(JOB_COLUMNS)
+
+
+@settings(max_examples=40, deadline=None)
+@given(m=st.integers(1, 400), bucket=st.integers(1, 50), seed=st.integers(0, 10_000),
+       p_crit=st.floats(0.0, 1.0))
+def test_thin_rows_keeps_extremes_and_every_span(m: int, bucket: int, seed: int,
+                                                 p_crit: float) -> None:
+    """Long runs' figures draw a row selection: it keeps each bucket's extremes of every
+    plotted value, the first and last window, and the critical spans exactly."""
+    from rtsim.plots.scenario import critical_spans, thin_rows
+
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(100, 300, m))
+    w = rng.uniform(100, 400, m)
+    msb = np.where(rng.random(m) < 0.1, np.inf, rng.uniform(50, 600, m))
+    crit = rng.random(m) < p_crit
+    df = pd.DataFrame({"window": np.arange(m), "t": t, "w": w, "slack": np.maximum(0, w - 237),
+                       "w_sch": np.full(m, 237.0), "msb_min": msb, "critical": crit,
+                       "missed": rng.random(m) < 0.05, "v_leader": rng.uniform(5, 30, m),
+                       "f1_msb_separation_est": rng.uniform(0, 1e3, m)})
+    keep = thin_rows(df, bucket)
+    assert keep[0] and keep[-1]
+    for c in ("w", "slack", "msb_min", "v_leader", "f1_msb_separation_est"):
+        for b in range(0, m, bucket):
+            part = df[c].to_numpy()[b:b + bucket]
+            kept = part[keep[b:b + bucket]]
+            assert kept.max() == part.max() and kept.min() == part.min()
+    thin = df[keep].reset_index(drop=True)
+    assert critical_spans(thin) == critical_spans(df)
+    assert thin["missed"].sum() == df["missed"].sum()

@@ -82,7 +82,7 @@ def _write(args: Any, out: Path, target: Path, t0: float) -> Any:
     ``target``); returns the result."""
     from rtsim.coupling import run_scenario
     from rtsim.io.atomic import write_json, write_table
-    from rtsim.io.columns import ChunkWriter, read_columns
+    from rtsim.io.columns import ChunkWriter
     from rtsim.io.manifest import write_manifest
     from rtsim.sim.records import jobs_frame
 
@@ -116,10 +116,11 @@ def _write(args: Any, out: Path, target: Path, t0: float) -> Any:
         if perfetto.parent == out:
             outputs.append(perfetto.name)
     if not args.no_figures:
-        from rtsim.plots.scenario import figure_columns, write_scenario_figures
+        from rtsim.plots.scenario import write_scenario_figures
 
         label = f"{res.inputs.name or Path(args.file).stem}, {args.mode}"
-        df = read_columns(out / "windows.csv", figure_columns(int(res.summary["n"])))
+        df = _figure_table(out / "windows.csv", int(res.summary["n"]),
+                           int(res.summary["windows"]))
         paths = write_scenario_figures(df, out, label=label)
         del df
         outputs += [p.name for p in paths]
@@ -139,3 +140,21 @@ def _write(args: Any, out: Path, target: Path, t0: float) -> Any:
     label = res.inputs.name or Path(args.file).stem
     write_run_report(out, title=f"rtsim scenario: {label}, {args.mode}")
     return res
+
+
+def _figure_table(path: Path, n: int, rows: int) -> Any:
+    """The columns the figures draw, read back from windows.csv; above
+    :data:`~rtsim.plots.scenario.FIGURE_MAX_ROWS` windows only the rows
+    :func:`~rtsim.plots.scenario.thin_rows` keeps (read in bucket-aligned chunks)."""
+    import pandas as pd
+
+    from rtsim.io.columns import iter_columns, read_columns
+    from rtsim.plots.scenario import FIGURE_BUCKETS, FIGURE_MAX_ROWS, figure_columns, thin_rows
+
+    cols = figure_columns(n)
+    if rows <= FIGURE_MAX_ROWS:
+        return read_columns(path, cols)
+    bucket = -(-rows // FIGURE_BUCKETS)
+    parts = [chunk[thin_rows(chunk, bucket)]
+             for chunk in iter_columns(path, cols, chunk_rows=bucket * 64)]
+    return pd.concat(parts, ignore_index=True)

@@ -386,7 +386,8 @@ class _Coupling:
         beyond: dict[str, int] = {}
         for kind, _, _ in self._limits:
             parts = [p[kind] for p in (self._folded, left) if kind in p]
-            ratios[kind] = max((m for m, _ in parts), default=0.0)
+            # np.max: a NaN propagates as in one array over all records
+            ratios[kind] = float(np.max([m for m, _ in parts])) if parts else 0.0
             beyond[kind] = sum(c for _, c in parts)
         return ratios, beyond
 
@@ -408,7 +409,7 @@ class _Coupling:
         """The recorder's sink: fold the records' changes, then write their rows."""
         for kind, (m, c) in self._fold(records).items():
             m0, c0 = self._folded.get(kind, (m, 0))
-            self._folded[kind] = (max(m0, m), c0 + c)
+            self._folded[kind] = (float(np.max([m0, m])), c0 + c)
         sink.write(records_frame(records, self.n))
 
     def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:

@@ -15,7 +15,7 @@ same pandas dtypes as ``DataFrame.to_parquet``, in row groups.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +23,10 @@ import pandas as pd
 
 from rtsim.errors import InputError
 
-__all__ = ["ChunkWriter", "read_columns"]
+__all__ = ["ChunkWriter", "iter_columns", "read_columns"]
+
+#: Rows parsed at a time when a CSV is read back (the parser's buffers stay small).
+READ_ROWS = 65536
 
 #: pandas 3 parses floats exactly by default (and deprecates ``float_precision``).
 _PANDAS_3 = int(pd.__version__.split(".")[0]) >= 3
@@ -98,13 +101,26 @@ class ChunkWriter:
         return read_columns(self.paths[0], columns, dtypes)
 
 
+def iter_columns(path: str | os.PathLike[str], columns: Sequence[str] | None = None,
+                 chunk_rows: int = READ_ROWS, dtypes: dict[str, Any] | None = None
+                 ) -> Iterator[pd.DataFrame]:
+    """Columns of a CSV written by :class:`ChunkWriter` (floats exact), ``chunk_rows`` rows
+    at a time (row labels continue across chunks)."""
+    exact: dict[str, Any] = {} if _PANDAS_3 else {"float_precision": "round_trip"}
+    with pd.read_csv(Path(path), usecols=list(columns) if columns is not None else None,
+                     dtype=dtypes, keep_default_na=False, na_values=[""], chunksize=chunk_rows,
+                     **exact) as reader:
+        yield from reader
+
+
 def read_columns(path: str | os.PathLike[str], columns: Sequence[str] | None = None,
                  dtypes: dict[str, Any] | None = None) -> pd.DataFrame:
-    """Columns of a CSV written by :class:`ChunkWriter` (floats exact), or of a Parquet file."""
+    """Columns of a CSV written by :class:`ChunkWriter` (floats exact, parsed in chunks of
+    :data:`READ_ROWS` rows), or of a Parquet file."""
     p = Path(path)
-    cols = list(columns) if columns is not None else None
     if p.suffix.lower() == ".parquet":
-        return pd.read_parquet(p, columns=cols)
-    exact: dict[str, Any] = {} if _PANDAS_3 else {"float_precision": "round_trip"}
-    return pd.read_csv(p, usecols=cols, dtype=dtypes, keep_default_na=False, na_values=[""],
-                       **exact)
+        return pd.read_parquet(p, columns=list(columns) if columns is not None else None)
+    parts = list(iter_columns(p, columns, READ_ROWS, dtypes))
+    if len(parts) == 1:
+        return parts[0]
+    return pd.concat(parts, ignore_index=True)
