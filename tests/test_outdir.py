@@ -67,6 +67,20 @@ def test_stage_commit_swaps_in_and_leaves_nothing(tmp_path: Path) -> None:
         assert _staging(target) == []
 
 
+def test_two_runs_into_one_target_swap_one_after_the_other(tmp_path: Path) -> None:
+    target = tmp_path / "out"
+    a, b = stage(target), stage(target)  # both staged before either finishes
+    for st, name in ((a, "a.txt"), (b, "b.txt")):
+        (st.path / name).write_text(name)
+        (st.path / "manifest.json").write_text(json.dumps({"rtsim_version": "x",
+                                                           "outputs": [name]}))
+    a.commit()
+    assert sorted(p.name for p in target.iterdir()) == ["a.txt", "manifest.json"]
+    b.commit()
+    assert sorted(p.name for p in target.iterdir()) == ["b.txt", "manifest.json"]
+    assert _staging(target) == []
+
+
 def test_fallback_swap_without_exchange(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(outdir, "exchange", lambda a, b: False)
     target = tmp_path / "out"
