@@ -172,8 +172,20 @@ def test_refuses_the_working_directory_and_its_ancestors(tmp_path: Path,
             stage(t)
 
 
-def test_is_rtsim_output() -> None:
+def test_is_rtsim_output(tmp_path: Path) -> None:
     assert not is_rtsim_output(ROOT)  # a repository is nobody's output
+    d = tmp_path / "old_reproduce"
+    d.mkdir()
+    for name in ("summary.csv", "report.html", "test1"):
+        (d / name).mkdir() if name == "test1" else (d / name).write_text("x")
+    (d / "manifest.json").write_text(json.dumps(
+        {"rtsim_version": "0.1", "outputs": ["summary.csv", "test1/adjust/windows.csv"]}))
+    assert is_rtsim_output(d)  # earlier versions left report.html unlisted
+    (d / ".hidden").write_text("x")
+    assert not is_rtsim_output(d)
+    (d / ".hidden").unlink()
+    (d / "manifest.json").write_text(json.dumps({"outputs": ["summary.csv", "test1"]}))
+    assert not is_rtsim_output(d)  # not rtsim's manifest
 
 
 # --- the commands --------------------------------------------------------------------------

@@ -117,7 +117,9 @@ def _listed(manifest: Path) -> set[str] | None:
     outputs = data.get("outputs")
     if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
         return None
-    return {o.replace("\\", "/").split("/", 1)[0] for o in outputs} | {"manifest.json"}
+    # report.html: rtsim's own report, which earlier versions of rtsim reproduce left unlisted
+    return {o.replace("\\", "/").split("/", 1)[0] for o in outputs} | {"manifest.json",
+                                                                       "report.html"}
 
 
 def is_rtsim_output(path: str | os.PathLike[str]) -> bool:
