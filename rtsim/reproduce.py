@@ -143,7 +143,7 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
     argv = ["rtsim", "scenario", str(file), "--mode", spec["mode"], "--seed", str(spec["seed"])]
     if spec["duration_s"] is not None:
         argv += ["--duration", repr(spec["duration_s"])]
-    argv += ["--no-figures", "--out", str(spec["out"])]
+    argv += ["--no-figures", "--out", str(spec.get("shown_out", spec["out"]))]
     written = write_run(Path(spec["out"]), res, scenario_file=file, mode=spec["mode"],
                         seed=spec["seed"], duration_s=spec["duration_s"], argv=argv,
                         wall_s=time.perf_counter() - t0)
@@ -345,6 +345,11 @@ def _check_args(args: argparse.Namespace) -> None:
     for opt, path in (("--out", args.out), ("--docs", args.docs)):
         if path is not None and Path(path).exists() and not Path(path).is_dir():
             raise InputError(f"{opt} {path}: exists and is not a directory")
+    if args.docs is not None:
+        out, docs = Path(args.out).resolve(), Path(args.docs).resolve()
+        if docs == out or out in docs.parents:
+            raise InputError(f"--docs {args.docs}: is inside --out {args.out}, which is "
+                             f"replaced whole at the end; give a directory outside it")
     for t in TESTS:
         if not (SCENARIOS / f"{t}.toml").is_file():
             raise InputError(f"{SCENARIOS / f'{t}.toml'}: scenario file not found")
@@ -376,28 +381,42 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return ap.parse_args(argv)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run the six scenarios, draw the figures, write the tables (module docstring)."""
+def main(argv: list[str] | None = None, finish: Callable[[Path], None] | None = None) -> int:
+    """Run the six scenarios, draw the figures, write the tables (module docstring).
+
+    ``--out`` is written whole (:mod:`rtsim.io.outdir`): into a staging directory beside it,
+    checked before the runs start, swapped in at the end. ``finish`` (the CLI's report
+    writer) is called with the staging directory just before the swap; what it writes,
+    ``report.html`` at the top and in each run directory, is listed in the manifest.
+    """
     t0 = time.perf_counter()
     try:
         args = parse_args(argv)
         _check_args(args)
-        return _main(args, argv, t0)
+        from rtsim.io.outdir import stage
+
+        with stage(args.out) as staged:
+            rc = _main(args, argv, t0, staged.path, finish)
+            if rc == 0:
+                staged.commit()
+        return rc
     except InputError as exc:
         print(f"rtsim reproduce: {exc}", file=sys.stderr)
         return 2
 
 
-def _main(args: argparse.Namespace, argv: list[str] | None, t0: float) -> int:
+def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path,
+          finish: Callable[[Path], None] | None = None) -> int:
     from rtsim.io.atomic import write_table, write_text
     from rtsim.io.manifest import write_manifest
 
-    out = Path(args.out)
     docs = Path(args.docs) if args.docs is not None else None
     duration = args.duration if args.duration is not None else \
         (QUICK_DURATION_S if args.quick else None)
     workers = args.workers if args.workers is not None else min(6, os.cpu_count() or 1)
     specs = run_specs(out, seed=args.seed, duration_s=duration)
+    for sp in specs:  # the command lines in the run manifests name the real --out
+        sp["shown_out"] = str(Path(args.out) / sp["test"] / sp["mode"])
 
     def progress(line: str) -> None:
         if not args.quiet:
@@ -415,7 +434,7 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float) -> int:
         written: list[str] = []
         for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs)):
             written += paths
-        progress(f"figures: {len(written)} files in {fig_dir} "
+        progress(f"figures: {len(written)} files in {Path(args.out) / 'figures'} "
                  f"({time.perf_counter() - t_runs:.1f} s)")
     finally:
         if pool is not None:
@@ -447,11 +466,15 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float) -> int:
                "outputs": ["summary.csv", "summary.md", "manifest.json",
                            *(f"figures/{s}.{e}" for s in figure_stems() for e in ("png", "csv")),
                            *(f"{t}/{m}/{f}" for t in TESTS for m in MODES
-                             for f in results[(t, m)]["written"])]},
+                             for f in results[(t, m)]["written"]),
+                           *(["report.html", *(f"{t}/{m}/report.html" for t in TESTS
+                                               for m in MODES)] if finish else [])]},
     )
+    if finish is not None:
+        finish(out)
     if not args.quiet:
         print(md, end="")
-        print(f"-> {out} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
+        print(f"-> {args.out} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
     return 0
 
 

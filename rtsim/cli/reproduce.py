@@ -1,9 +1,10 @@
 """``rtsim reproduce [--quick] --out DIR``: the paper's Test 1 and Test 2 in the three window
 modes, with Figures 2 and 8-15, their data, a summary table and report.html.
 
-Runs :mod:`rtsim.reproduce` (the paper reproduction) and then writes ``report.html`` in DIR
+Runs :mod:`rtsim.reproduce` (the paper reproduction), which writes ``report.html`` in DIR
 (the summary table, every figure, the data files, the manifest) and in each run directory
-DIR/<test>/<mode>/. ``--quick``: 60 simulated seconds per run (one turn), about 15 s.
+DIR/<test>/<mode>/ before DIR is swapped in whole (:mod:`rtsim.io.outdir`).
+``--quick``: 60 simulated seconds per run (one turn), about 15 s.
 """
 
 from __future__ import annotations
@@ -49,13 +50,11 @@ def run(args: Any) -> int:
     from rtsim.report import write_run_report
     from rtsim.reproduce import MODES, TESTS, main
 
-    rc = main(argv_for(args))
-    if rc != 0:
-        return rc
-    out = Path(args.out)
-    write_run_report(out, title="rtsim reproduce: the paper's Tests 1 and 2")
-    for t in TESTS:
-        for m in MODES:
-            if (out / t / m / "summary.json").is_file():
-                write_run_report(out / t / m, title=f"rtsim reproduce: {t}, {m}")
-    return 0
+    def reports(out: Path) -> None:  # in the staging directory, before the swap
+        write_run_report(out, title="rtsim reproduce: the paper's Tests 1 and 2")
+        for t in TESTS:
+            for m in MODES:
+                if (out / t / m / "summary.json").is_file():
+                    write_run_report(out / t / m, title=f"rtsim reproduce: {t}, {m}")
+
+    return main(argv_for(args), finish=reports)

@@ -7,6 +7,14 @@ slack, effective bounds, leader speed, and the operating space) unless ``--no-fi
 ``manifest.json`` (rtsim version, seed, argv, the scenario file's text and resolved values,
 ``timing.simulation_s`` — the simulation loop alone — and ``timing.total_s``).
 
+DIR is written whole (:mod:`rtsim.io.outdir`): everything goes into a hidden staging
+directory beside it, checked writable before the simulation starts, which replaces DIR only
+at the end — a reader never sees files of two runs, an interrupted run leaves the earlier one
+as it was, and files of an earlier run that this one does not write do not survive. DIR must
+be new, empty or an earlier rtsim output. Windows and job records are written in chunks
+during the run, and the summary and figures are made from the columns read back, so memory
+stays flat on long runs.
+
 ``--duration`` is simulated seconds; by default the scenario's ``duration``, else one lap of
 the leader's path plus the followers' separation (see :mod:`rtsim.coupling.scenario_run`).
 """
@@ -50,45 +58,73 @@ def register(sub: Any) -> None:
 def run(args: Any) -> int:
     """Run the scenario and write DIR (see the module docstring)."""
     t0 = time.perf_counter()
-    from rtsim.coupling import run_scenario
-    from rtsim.io.atomic import write_json, write_table
-    from rtsim.io.manifest import write_manifest
+    from rtsim.io.outdir import stage
 
     if args.duration is not None and not (0 < args.duration < float("inf")):
         raise InputError(f"--duration must be a positive number of seconds, got "
                          f"{args.duration!r}")
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed!r}")
+    with stage(args.out) as staged:
+        res = _write(args, staged.path, Path(args.out), t0)
+        staged.commit()
+    s = res.summary
+    print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
+          f"{s['windows']} windows: violations > 5 % "
+          f"{sum(s['violations_beyond_5pct'].values())} (max ratio "
+          f"{max(s['max_violation_ratio'].values()):.2f}), missed {s['missed']}, tracks lost "
+          f"{s['tracks_lost']}, critical {s['critical_share']:.1%}, "
+          f"min MSB/w_sch {s['min_msb_over_wsch']:.3f}, min V_L/V_Ld "
+          f"{s['min_speed_ratio']:.3f}  -> {args.out}")
+    return 0
+
+
+def _write(args: Any, out: Path, target: Path, t0: float) -> Any:
+    """Run the scenario, writing every file into ``out`` (the staging directory of
+    ``target``); returns the result."""
+    from rtsim.coupling import run_scenario
+    from rtsim.io.atomic import write_json, write_table
+    from rtsim.io.columns import ChunkWriter
+    from rtsim.io.manifest import write_manifest
+    from rtsim.sim.records import jobs_frame
+
+    perfetto = Path(args.perfetto) if args.perfetto else None
+    if perfetto is not None and perfetto.resolve().parent == target.resolve():
+        perfetto = out / perfetto.name  # inside DIR: written with the run, listed
+    windows_files = [out / "windows.csv", *([out / "windows.parquet"] if args.parquet else [])]
+    windows = ChunkWriter(windows_files, None)
+    jobs = None if args.perfetto else ChunkWriter([out / "jobs.csv"], jobs_frame([]))
     res = run_scenario(Path(args.file), mode=args.mode, duration_s=args.duration, seed=args.seed,
                        record_jobs=True, exec_model=args.exec_model,
-                       record_trace=bool(args.perfetto))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+                       record_trace=bool(args.perfetto), window_sink=windows,
+                       job_sink=jobs.write if jobs is not None else None)
     outputs = ["windows.csv", "jobs.csv", "summary.json"]
-    write_table(out / "windows.csv", res.windows)
     if args.parquet:
-        write_table(out / "windows.parquet", res.windows)
         outputs.append("windows.parquet")
-    if res.jobs is not None:
+    if jobs is not None:
+        jobs.close()
+    elif res.jobs is not None:
         write_table(out / "jobs.csv", res.jobs)
     write_json(out / "summary.json", res.summary)
     if args.perfetto:
         from rtsim.export.perfetto import write_perfetto
 
-        assert res.jobs is not None and res.trace is not None
-        write_perfetto(args.perfetto, res.jobs, res.trace, windows=res.windows,
+        assert res.jobs is not None and res.trace is not None and perfetto is not None
+        write_perfetto(perfetto, res.jobs, res.trace, windows=windows.read(),
                        tasks=[t.name for t in sorted(res.inputs.taskset.tasks,
                                                      key=lambda t: t.priority)],
                        metadata={"command": "scenario", "scenario": res.summary["scenario"],
                                  "mode": args.mode, "seed": args.seed})
-        p = Path(args.perfetto).resolve()
-        if p.parent == out.resolve():
-            outputs.append(p.name)
+        if perfetto.parent == out:
+            outputs.append(perfetto.name)
     if not args.no_figures:
         from rtsim.plots.scenario import write_scenario_figures
 
         label = f"{res.inputs.name or Path(args.file).stem}, {args.mode}"
-        paths = write_scenario_figures(res.windows, out, label=label)
+        df = _figure_table(out / "windows.csv", int(res.summary["n"]),
+                           int(res.summary["windows"]))
+        paths = write_scenario_figures(df, out, label=label)
+        del df
         outputs += [p.name for p in paths]
     inp = res.inputs
     timing = dict(res.timing)
@@ -105,12 +141,22 @@ def run(args: Any) -> int:
 
     label = res.inputs.name or Path(args.file).stem
     write_run_report(out, title=f"rtsim scenario: {label}, {args.mode}")
-    s = res.summary
-    print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
-          f"{s['windows']} windows: violations > 5 % "
-          f"{sum(s['violations_beyond_5pct'].values())} (max ratio "
-          f"{max(s['max_violation_ratio'].values()):.2f}), missed {s['missed']}, tracks lost "
-          f"{s['tracks_lost']}, critical {s['critical_share']:.1%}, "
-          f"min MSB/w_sch {s['min_msb_over_wsch']:.3f}, min V_L/V_Ld "
-          f"{s['min_speed_ratio']:.3f}  -> {out}")
-    return 0
+    return res
+
+
+def _figure_table(path: Path, n: int, rows: int) -> Any:
+    """The columns the figures draw, read back from windows.csv; above
+    :data:`~rtsim.plots.scenario.FIGURE_MAX_ROWS` windows only the rows
+    :func:`~rtsim.plots.scenario.thin_rows` keeps (read in bucket-aligned chunks)."""
+    import pandas as pd
+
+    from rtsim.io.columns import iter_columns, read_columns
+    from rtsim.plots.scenario import FIGURE_BUCKETS, FIGURE_MAX_ROWS, figure_columns, thin_rows
+
+    cols = figure_columns(n)
+    if rows <= FIGURE_MAX_ROWS:
+        return read_columns(path, cols)
+    bucket = -(-rows // FIGURE_BUCKETS)
+    parts = [chunk[thin_rows(chunk, bucket)]
+             for chunk in iter_columns(path, cols, chunk_rows=bucket * 64)]
+    return pd.concat(parts, ignore_index=True)

@@ -1,8 +1,15 @@
 """``rtsim simulate FILE --horizon H``: run a task set on the virtual CPU and report per task.
 
-Output files (``--jobs``, ``--trace``, ``--gantt``, ``--histogram``) are written atomically,
-and every directory that receives one also gets a ``manifest.json`` (rtsim version, seed,
-resolved inputs including the task set, command line, and the list of outputs written there).
+Output files (``--jobs``, ``--trace``, ``--gantt``, ``--histogram``, ``--perfetto``) are
+written to temporary files beside their targets — made before the simulation starts, so an
+unwritable place is refused at once — and renamed in together at the end
+(:class:`rtsim.io.outdir.FileSet`). Every directory that receives one also gets a manifest
+(rtsim version, seed, resolved inputs including the task set, command line, and the list of
+outputs written there): ``manifest.json`` when the directory has none or has one of an
+earlier ``simulate`` whose files this run replaces all of, else ``<file>.manifest.json``
+beside each file, so another run's ``manifest.json`` (a scenario directory's, say) is never
+overwritten. ``--jobs`` alone streams the job records to the file in chunks (memory stays
+flat for any horizon); with ``--gantt`` or ``--perfetto`` they are kept in memory.
 
 For a processing-window set (``[window]``), ``--followers``/``--hough-radius`` change n and
 r_H, the window is fixed at ``--window`` (default: the analytic w_sch), and the report puts
@@ -86,11 +93,46 @@ def require_bcet(ts: Any, source: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
+    from rtsim.io.outdir import FileSet
+
+    with FileSet() as files:
+        rc = _run(args, files)
+        files.commit()
+    return rc
+
+
+def _manifest_names(names: dict[Path, list[str]]) -> dict[Path, list[str]]:
+    """Where each directory's manifest goes: {manifest path: outputs it lists} (see the
+    module docstring)."""
+    import json
+
+    out: dict[Path, list[str]] = {}
+    for d, files in names.items():
+        man = d / "manifest.json"
+        own = True
+        if man.exists():
+            try:
+                old = json.loads(man.read_text("utf-8"))
+                own = isinstance(old, dict) and old.get("command") == "simulate" and \
+                    set(old.get("outputs") or []) <= set(files)
+            except (OSError, ValueError):
+                own = False
+        if own:
+            out[man] = files
+        else:
+            for f in files:
+                out[d / f"{f}.manifest.json"] = [f]
+    return out
+
+
+def _run(args: argparse.Namespace, files: Any) -> int:
     from rtsim.analysis.rta import analyze
-    from rtsim.io.atomic import dumps, write_table
-    from rtsim.io.manifest import write_manifest
+    from rtsim.io.atomic import dumps, write_json, write_table
+    from rtsim.io.columns import ChunkWriter
+    from rtsim.io.manifest import build_manifest
     from rtsim.io.taskset import load_taskset, taskset_to_dict
     from rtsim.sim import simulate
+    from rtsim.sim.records import jobs_frame
 
     if not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
@@ -116,12 +158,23 @@ def run(args: argparse.Namespace) -> int:
         from rtsim.analysis.bounds import window_bounds
 
         bounds = window_bounds(ts)
+    rng = _gantt_range(args.gantt_range, args.horizon) if args.gantt else None
+    for opt in ("jobs", "trace"):
+        name = getattr(args, opt)
+        if name and Path(name).suffix.lower() not in (".csv", ".parquet"):
+            raise InputError(f"--{opt} {name}: output must end in .csv or .parquet")
+    # every output reserved (a temporary file beside it) before the simulation
+    tmp = {opt: files.add(getattr(args, opt), f"--{opt}")
+           for opt in ("jobs", "trace", "perfetto", "gantt", "histogram") if getattr(args, opt)}
     want_jobs = bool(args.jobs or args.gantt or args.perfetto)
+    stream = bool(args.jobs) and not (args.gantt or args.perfetto)
+    writer = ChunkWriter([tmp["jobs"]], jobs_frame([])) if stream else None
     res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,
                    suspension=args.suspension, window=args.window,
                    record_jobs=want_jobs,
                    record_trace=bool(args.trace or args.gantt or args.perfetto),
-                   overhead=overhead, jitter=args.jitter)
+                   overhead=overhead, jitter=args.jitter,
+                   job_sink=writer.write if writer is not None else None)
     w = res.window["w"] if res.window else None
     analysis = analyze(ts, w, overhead=overhead, suspension=args.suspension) \
         if ts.window is not None else analyze(ts, overhead=overhead, suspension=args.suspension)
@@ -137,31 +190,32 @@ def run(args: argparse.Namespace) -> int:
         report["window"]["r_H"] = ts.window.r_H  # type: ignore[union-attr]
 
     outputs: dict[Path, list[str]] = defaultdict(list)
-    if args.jobs:
-        write_table(args.jobs, res.jobs)
-        outputs[Path(args.jobs).resolve().parent].append(Path(args.jobs).name)
+    for opt in tmp:
+        outputs[Path(getattr(args, opt)).resolve().parent].append(Path(getattr(args, opt)).name)
+    if writer is not None:
+        writer.close()
+    elif args.jobs:
+        write_table(tmp["jobs"], res.jobs)
     if args.trace:
-        write_table(args.trace, res.trace)
-        outputs[Path(args.trace).resolve().parent].append(Path(args.trace).name)
+        write_table(tmp["trace"], res.trace)
     if args.perfetto:
         from rtsim.export.perfetto import write_perfetto
 
-        write_perfetto(args.perfetto, res.jobs, res.trace, tasks=list(res.tasks),
+        write_perfetto(tmp["perfetto"], res.jobs, res.trace, tasks=list(res.tasks),
                        metadata={"command": "simulate", "file": str(args.file), "seed": args.seed})
-        outputs[Path(args.perfetto).resolve().parent].append(Path(args.perfetto).name)
     if args.gantt:
-        _save_gantt(res, args.gantt, _gantt_range(args.gantt_range, args.horizon))
-        outputs[Path(args.gantt).resolve().parent].append(Path(args.gantt).name)
+        assert rng is not None
+        _save_gantt(res, tmp["gantt"], rng)
     if args.histogram:
-        _save_histograms(res, args.histogram, wcrt, deadlines, report.get("window"),
+        _save_histograms(res, tmp["histogram"], wcrt, deadlines, report.get("window"),
                          ts.window.name if ts.window is not None else None)
-        outputs[Path(args.histogram).resolve().parent].append(Path(args.histogram).name)
     inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
               "suspension": args.suspension, "overhead": overhead, "jitter": args.jitter,
               "window": res.window, "taskset": taskset_to_dict(ts)}
-    for out_dir, names in outputs.items():
-        write_manifest(out_dir, command="simulate", seed=args.seed, inputs=inputs,
-                       argv=["rtsim", *sys.argv[1:]], extra={"outputs": names})
+    for man, names in _manifest_names(outputs).items():
+        write_json(files.add(man, "--jobs/--trace/... manifest"),
+                   build_manifest(command="simulate", seed=args.seed, inputs=inputs,
+                                  argv=["rtsim", *sys.argv[1:]], extra={"outputs": names}))
 
     if args.json:
         print(dumps(report))

@@ -11,7 +11,10 @@ with ``f{i}_lost``. No empty cells: an unbounded value is ``inf``; booleans are
 
 During the run the coupling fills one :class:`WindowRecord` per window (plain Python and small
 numpy arrays); :meth:`WindowRecorder.frame` builds the DataFrame in one pass with a fixed
-column order and dtypes.
+column order and dtypes. With a ``sink``, every :data:`CHUNK_WINDOWS` windows the complete
+records at the front are handed to it and dropped (a record is complete once the next scan
+has closed its violation interval, and never changes after), so a long run keeps about two
+chunks of records in memory; :func:`records_frame` turns a chunk into its rows of the table.
 """
 
 from __future__ import annotations
@@ -31,14 +34,19 @@ from rtsim.sim.records import EPS
 __all__ = [
     "BOUND_FIELDS",
     "CHANGE_KEYS",
+    "CHUNK_WINDOWS",
     "WINDOW_COLUMNS",
     "FOLLOWER_FIELDS",
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
+    "records_frame",
     "true_bounds",
     "window_columns",
 ]
+
+#: Window records per chunk handed to a :class:`WindowRecorder`'s sink.
+CHUNK_WINDOWS = 1024
 
 #: Window-level columns, in order (docs/outputs.md).
 WINDOW_COLUMNS: tuple[str, ...] = (
@@ -144,76 +152,107 @@ class WindowRecorder:
 
     ``limits``: each bound kind's threshold per follower (n values, BOUND_KINDS order: r_H,
     T_ρ·ρ_d,i, T_ε·ρ_d,i, T_β), for the ``_true`` columns (:func:`true_bounds`).
+    ``sink``: a callable given lists of complete records, oldest first, during the run
+    (module docstring); :attr:`records` then holds only those not handed over yet.
     """
 
     n: int
     limits: tuple[tuple[float, ...], ...]
     records: list[WindowRecord] = field(default_factory=list)
+    sink: Any = None
+    chunk: int = field(default_factory=lambda: CHUNK_WINDOWS)
 
     def add(self, rec: WindowRecord) -> WindowRecord:
         self.records.append(rec)
+        if self.sink is not None and len(self.records) >= 2 * self.chunk \
+                and rec.window % self.chunk == 0:
+            self._flush_settled()
         return rec
+
+    def _flush_settled(self) -> None:
+        recs = self.records
+        i = 0
+        while i < len(recs) and recs[i].complete:
+            i += 1
+        if i:
+            done = recs[:i]
+            del recs[:i]
+            self.sink(done)
+
+    def flush(self) -> None:
+        """Hand every complete record left to the sink (the end of the run); an incomplete
+        one is dropped, as in :meth:`frame`."""
+        done = [r for r in self.records if r.complete]
+        self.records.clear()
+        if done and self.sink is not None:
+            self.sink(done)
 
     def frame(self) -> pd.DataFrame:
         """windows.csv as a DataFrame: complete records only (a window still running at the
         end, or one whose violation interval never closed, is dropped)."""
-        recs = [r for r in self.records if r.complete]
-        cols = window_columns(self.n)
-        m = len(recs)
-        data: dict[str, object] = {}
-        t = np.array([r.t for r in recs], dtype=float)
-        w = np.array([r.w for r in recs], dtype=float)
-        w_sch = np.array([r.w_sch for r in recs], dtype=float)
-        msb = np.array([r.msb_min for r in recs], dtype=float)
-        finish = np.array([r.finish for r in recs], dtype=float)
-        leader = np.array([r.leader for r in recs], dtype=float).reshape(m, 3)
-        data["window"] = np.array([r.window for r in recs], dtype=np.int64)
-        data["t"] = t
-        data["w"] = w
-        data["deadline"] = t + w
-        data["w_sch"] = w_sch
-        data["msb_min"] = msb
-        data["binding"] = [r.binding for r in recs]
-        with np.errstate(invalid="ignore"):
-            data["margin"] = msb - w_sch
-        data["slack"] = np.maximum(0.0, w - w_sch)
-        data["v_leader_desired"] = np.array([r.v_leader_desired for r in recs], dtype=float)
-        data["v_leader"] = np.array([r.v_leader for r in recs], dtype=float)
-        data["v_leader_target"] = np.array([r.v_leader_target for r in recs], dtype=float)
-        data["v_leader_max"] = np.array([r.v_leader_max for r in recs], dtype=float)
-        data["method"] = [r.method for r in recs]
-        data["feasible"] = np.array([r.feasible for r in recs], dtype=bool)
-        data["critical"] = msb < w_sch
-        data["missed"] = finish > t + w + EPS
-        data["response"] = finish - t
-        data["finish"] = finish
-        data["points"] = np.array([r.points for r in recs], dtype=np.int64)
-        data["hough_ms"] = np.array([r.hough_ms for r in recs], dtype=float)
-        data["tracks_lost"] = np.array([r.tracks_lost for r in recs], dtype=np.int64)
-        data["segment"] = [r.segment for r in recs]
-        data["curvature"] = np.array([r.curvature for r in recs], dtype=float)
-        data["leader_x"], data["leader_y"], data["leader_heading"] = leader.T
-        k = len(FOLLOWER_FIELDS)
-        truth = np.array([r.truth for r in recs], dtype=float).reshape(m, self.n, k)
-        est = np.array([r.est for r in recs], dtype=float).reshape(m, self.n, k)
-        nb = len(BOUND_KINDS)
-        pred = np.array([r.pred for r in recs], dtype=float).reshape(m, self.n, nb)
-        changes = np.array(
-            [[r.changes[c] for c in CHANGE_KEYS] for r in recs],  # type: ignore[index]
-            dtype=float).reshape(m, nb, self.n).transpose(0, 2, 1)
-        viol = np.array([[r.viol[k] for k in BOUND_KINDS] for r in recs],  # type: ignore[index]
-                        dtype=bool).reshape(m, len(BOUND_KINDS), self.n).transpose(0, 2, 1)
-        lost = np.array([r.lost for r in recs], dtype=bool).reshape(m, self.n)
-        for i in range(self.n):
-            for j, f in enumerate(FOLLOWER_FIELDS):
-                data[f"f{i + 1}_{f}"] = truth[:, i, j]
-                data[f"f{i + 1}_{f}_est"] = est[:, i, j]
-            for j, kind in enumerate(BOUND_KINDS):
-                data[f"f{i + 1}_msb_{kind}_pred"] = pred[:, i, j]
-                data[f"f{i + 1}_msb_{kind}_true"] = true_bounds(w, changes[:, i, j],
-                                                                self.limits[j][i])
-            for j, kind in enumerate(BOUND_KINDS):
-                data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
-            data[f"f{i + 1}_lost"] = lost[:, i]
-        data["assumption_broken"] = np.array([r.assumption_broken for r in recs], dtype=bool)
-        return pd.DataFrame({c: data[c] for c in cols}, columns=cols)
+        return records_frame([r for r in self.records if r.complete], self.n, self.limits)
+
+
+def records_frame(recs: list[WindowRecord], n: int,
+                  limits: tuple[tuple[float, ...], ...]) -> pd.DataFrame:
+    """The rows of windows.csv for complete records ``recs`` of ``n`` followers (``limits``
+    as :class:`WindowRecorder`'s)."""
+    cols = window_columns(n)
+    m = len(recs)
+    data: dict[str, object] = {}
+    t = np.array([r.t for r in recs], dtype=float)
+    w = np.array([r.w for r in recs], dtype=float)
+    w_sch = np.array([r.w_sch for r in recs], dtype=float)
+    msb = np.array([r.msb_min for r in recs], dtype=float)
+    finish = np.array([r.finish for r in recs], dtype=float)
+    leader = np.array([r.leader for r in recs], dtype=float).reshape(m, 3)
+    data["window"] = np.array([r.window for r in recs], dtype=np.int64)
+    data["t"] = t
+    data["w"] = w
+    data["deadline"] = t + w
+    data["w_sch"] = w_sch
+    data["msb_min"] = msb
+    data["binding"] = [r.binding for r in recs]
+    with np.errstate(invalid="ignore"):
+        data["margin"] = msb - w_sch
+    data["slack"] = np.maximum(0.0, w - w_sch)
+    data["v_leader_desired"] = np.array([r.v_leader_desired for r in recs], dtype=float)
+    data["v_leader"] = np.array([r.v_leader for r in recs], dtype=float)
+    data["v_leader_target"] = np.array([r.v_leader_target for r in recs], dtype=float)
+    data["v_leader_max"] = np.array([r.v_leader_max for r in recs], dtype=float)
+    data["method"] = [r.method for r in recs]
+    data["feasible"] = np.array([r.feasible for r in recs], dtype=bool)
+    data["critical"] = msb < w_sch
+    data["missed"] = finish > t + w + EPS
+    data["response"] = finish - t
+    data["finish"] = finish
+    data["points"] = np.array([r.points for r in recs], dtype=np.int64)
+    data["hough_ms"] = np.array([r.hough_ms for r in recs], dtype=float)
+    data["tracks_lost"] = np.array([r.tracks_lost for r in recs], dtype=np.int64)
+    data["segment"] = [r.segment for r in recs]
+    data["curvature"] = np.array([r.curvature for r in recs], dtype=float)
+    data["leader_x"], data["leader_y"], data["leader_heading"] = leader.T
+    k = len(FOLLOWER_FIELDS)
+    truth = np.array([r.truth for r in recs], dtype=float).reshape(m, n, k)
+    est = np.array([r.est for r in recs], dtype=float).reshape(m, n, k)
+    nb = len(BOUND_KINDS)
+    pred = np.array([r.pred for r in recs], dtype=float).reshape(m, n, nb)
+    changes = np.array(
+        [[r.changes[c] for c in CHANGE_KEYS] for r in recs],  # type: ignore[index]
+        dtype=float).reshape(m, nb, n).transpose(0, 2, 1)
+    viol = np.array([[r.viol[k] for k in BOUND_KINDS] for r in recs],  # type: ignore[index]
+                    dtype=bool).reshape(m, len(BOUND_KINDS), n).transpose(0, 2, 1)
+    lost = np.array([r.lost for r in recs], dtype=bool).reshape(m, n)
+    for i in range(n):
+        for j, f in enumerate(FOLLOWER_FIELDS):
+            data[f"f{i + 1}_{f}"] = truth[:, i, j]
+            data[f"f{i + 1}_{f}_est"] = est[:, i, j]
+        for j, kind in enumerate(BOUND_KINDS):
+            data[f"f{i + 1}_msb_{kind}_pred"] = pred[:, i, j]
+            data[f"f{i + 1}_msb_{kind}_true"] = true_bounds(w, changes[:, i, j],
+                                                            limits[j][i])
+        for j, kind in enumerate(BOUND_KINDS):
+            data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
+        data[f"f{i + 1}_lost"] = lost[:, i]
+    data["assumption_broken"] = np.array([r.assumption_broken for r in recs], dtype=bool)
+    return pd.DataFrame({c: data[c] for c in cols}, columns=cols)

@@ -62,7 +62,7 @@ from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
 from rtsim.control import MODES
 from rtsim.control.adjust import decide_rows, predicted_rows
 from rtsim.control.predict import trusted_estimate
-from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder
+from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder, records_frame
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
 from rtsim.model.taskset import TaskSet
@@ -110,11 +110,12 @@ class ScenarioInputs:
 @dataclass(repr=False)
 class ScenarioResult(ResultDisplay):
     """A coupled run: ``windows`` (windows.csv), ``jobs`` (job records or None), ``summary``
-    (summary.json), ``timing`` (seconds: wall ``setup_s``, ``simulation_s``, ``tables_s``, and
+    (summary.json; ``windows`` is None when they were streamed to a ``window_sink``),
+    ``timing`` (seconds: wall ``setup_s``, ``simulation_s``, ``tables_s``, and
     ``simulation_cpu_s``, the process CPU time of the loop — robust on a shared machine);
     ``trace`` (the execution trace, with ``record_trace=True``)."""
 
-    windows: pd.DataFrame
+    windows: pd.DataFrame | None
     jobs: pd.DataFrame | None
     summary: dict[str, Any]
     timing: dict[str, float]
@@ -234,7 +235,8 @@ class _Coupling:
 
     def __init__(self, inp: ScenarioInputs, mode: str, seed: int, exec_model: ExecSpec,
                  record_jobs: bool, horizon_ms: float, stop_s: float | None,
-                 stop_ms: float = 0.0, record_trace: bool = False) -> None:
+                 stop_ms: float = 0.0, record_trace: bool = False,
+                 job_sink: Any = None) -> None:
         cfg = inp.world
         ts = inp.taskset
         if ts.window is None:
@@ -283,7 +285,7 @@ class _Coupling:
         self.env = simpy.Environment()
         self.cpu, _ = build_cpu(ts, env=self.env, window=self._period, suspension="idle",
                                 exec_model=exec_model, seed=cpu_ss, record_jobs=record_jobs,
-                                record_trace=record_trace)
+                                record_trace=record_trace, job_sink=job_sink)
         win = ts.window
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
@@ -302,6 +304,7 @@ class _Coupling:
                 [thr.T_eps * r for r in self.rho_d], [thr.T_beta] * self.n)))
         self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
         self._v_max = self._v_actual()  # highest leader speed since the last scan
+        self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
         self._open: dict[int, WindowRecord] = {}
         self._last_scanned: WindowRecord | None = None
         self._hough_ms = 0.0
@@ -418,18 +421,38 @@ class _Coupling:
         """Per bound kind over the kept windows: the largest observed change / its threshold,
         and the (window, follower) pairs whose change exceeds the threshold by more than
         ``tolerance`` (a violation count that leaves out overshoots of a few per cent)."""
-        recs = [r for r in self.rec.records if r.complete and r.changes is not None]
+        if self._folded and tolerance != VIOLATION_TOLERANCE:
+            raise ValueError("records were handed over: only the default tolerance is known")
+        left = self._fold(self.rec.records, tolerance)
         ratios: dict[str, float] = {}
         beyond: dict[str, int] = {}
+        for kind, _, _ in self._limits:
+            parts = [p[kind] for p in (self._folded, left) if kind in p]
+            # np.max: a NaN propagates as in one array over all records
+            ratios[kind] = float(np.max([m for m, _ in parts])) if parts else 0.0
+            beyond[kind] = sum(c for _, c in parts)
+        return ratios, beyond
+
+    def _fold(self, records: list[WindowRecord], tolerance: float = VIOLATION_TOLERANCE
+              ) -> dict[str, tuple[float, int]]:
+        """Per bound kind, (largest change / threshold, changes beyond ``tolerance``) over the
+        complete ``records`` (none: an empty dict)."""
+        recs = [r for r in records if r.complete and r.changes is not None]
+        out: dict[str, tuple[float, int]] = {}
+        if not recs:
+            return out
         for kind, key, lim in self._limits:
-            if not recs:
-                ratios[kind], beyond[kind] = 0.0, 0
-                continue
             ch = np.array([r.changes[key] for r in recs], dtype=float)  # type: ignore[index]
             ratio = ch.reshape(len(recs), -1) / lim
-            ratios[kind] = float(ratio.max())
-            beyond[kind] = int((ratio > 1.0 + tolerance).sum())
-        return ratios, beyond
+            out[kind] = (float(ratio.max()), int((ratio > 1.0 + tolerance).sum()))
+        return out
+
+    def hand_over(self, records: list[WindowRecord], sink: Any) -> None:
+        """The recorder's sink: fold the records' changes, then write their rows."""
+        for kind, (m, c) in self._fold(records).items():
+            m0, c0 = self._folded.get(kind, (m, 0))
+            self._folded[kind] = (float(np.max([m0, m])), c0 + c)
+        sink.write(records_frame(records, self.n, self.rec.limits))
 
     def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
         fol = self.world.followers
@@ -492,6 +515,13 @@ def _name(predictor: Any) -> str:
                                                                  "callable")
 
 
+def summary_columns(n: int) -> list[str]:
+    """The columns of windows.csv that :func:`summarize` reads (``n`` followers)."""
+    return ["w", "w_sch", "msb_min", "binding", "critical", "missed", "tracks_lost",
+            "assumption_broken", "method", "v_leader", "v_leader_desired", "feasible",
+            "response", *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS)]
+
+
 def summarize(df: pd.DataFrame, *, mode: str, w_sch: float, duration_s: float, seed: int,
               scenario: str, n: int, extra: Mapping[str, Any] | None = None
               ) -> dict[str, Any]:
@@ -546,6 +576,8 @@ def run_scenario(
     text: str | None = None,
     record_trace: bool = False,
     overrides: Mapping[str, Any] | None = None,
+    window_sink: Any = None,
+    job_sink: Any = None,
 ) -> ScenarioResult:
     """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
 
@@ -556,7 +588,11 @@ def run_scenario(
     text: the scenario file's text (for the manifest; read from the path when one is given);
     record_trace: keep the execution trace (``result.trace``, for trace export); overrides:
     dotted paths into the scenario file and their values, as in sweeps (``{"leader.speed":
-    20}``; only with a path or a packaged name; :func:`rtsim.io.scenario.load_scenario`).
+    20}``; only with a path or a packaged name; :func:`rtsim.io.scenario.load_scenario`);
+    window_sink: a :class:`rtsim.io.columns.ChunkWriter` of windows.csv — the window rows
+    are written in chunks during the run, the summary is computed from the columns read
+    back, and ``result.windows`` is None; job_sink: a callable given the job records in
+    chunks (``result.jobs`` is then None). With both, memory stays flat on long runs.
     """
     t0 = time.perf_counter()
     if mode not in MODES:
@@ -580,11 +616,20 @@ def run_scenario(
                              f"{duration_s!r}")
         horizon_ms = float(duration_s) * 1000.0
     run = _Coupling(inp, mode, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms,
-                    record_trace)
+                    record_trace, job_sink)
+    if window_sink is not None:
+        run.rec.sink = lambda recs: run.hand_over(recs, window_sink)
+        if window_sink.empty is None:
+            window_sink.empty = records_frame([], run.n, run.rec.limits)
     t1, c1 = time.perf_counter(), time.process_time()
     run.run()
     t2, c2 = time.perf_counter(), time.process_time()
-    df = run.rec.frame()
+    if window_sink is None:
+        df = run.rec.frame()
+    else:
+        run.rec.flush()
+        window_sink.close()
+        df = window_sink.read(summary_columns(run.n))
     res = run.cpu.result()
     world = run.world
     extra = {
@@ -601,5 +646,6 @@ def run_scenario(
     t3 = time.perf_counter()
     timing = {"setup_s": t1 - t0, "simulation_s": t2 - t1, "simulation_cpu_s": c2 - c1,
               "tables_s": t3 - t2}
-    return ScenarioResult(df, res.jobs, summary, timing, inp, res.trace)
+    return ScenarioResult(df if window_sink is None else None, res.jobs, summary, timing, inp,
+                          res.trace)
 

@@ -167,6 +167,65 @@ def _counts(df: pd.DataFrame) -> str:
             f"lost tracks {lost}")
 
 
+def figure_columns(n: int) -> list[str]:
+    """The columns of windows.csv that :func:`write_scenario_figures` draws (``n`` followers),
+    in table order — what a long run reads back instead of the whole table."""
+    from rtsim.coupling.recorder import window_columns
+
+    need = {"window", "t", "w", "slack", "w_sch", "missed", "critical", "msb_min",
+            "v_leader_desired", "v_leader", "v_leader_target", "segment", "leader_x",
+            "leader_y"}
+    for i in range(1, n + 1):
+        need |= {f"f{i}_x", f"f{i}_y", f"f{i}_x_est", f"f{i}_y_est"}
+        need |= {f"f{i}_msb_{k}_{which}" for k in BOUND_KINDS for which in ("pred", "true")}
+    return [c for c in window_columns(n) if c in need]
+
+
+#: A run with more windows than this is drawn from a selection of rows (:func:`thin_rows`).
+FIGURE_MAX_ROWS = 20_000
+#: Buckets of consecutive windows :func:`thin_rows` keeps extremes of.
+FIGURE_BUCKETS = 1_000
+
+
+def thin_rows(df: pd.DataFrame, bucket: int) -> np.ndarray:
+    """Which rows to draw of a long windows table (a boolean mask): per ``bucket``
+    consecutive windows the first and last and, for every plotted value (w, slack, w_sch,
+    min MSB, leader speed and target, each follower's predicted and true bounds), the rows of
+    its smallest and largest value; both rows of every change of ``critical`` (so the shaded
+    regions are exact) and every missed window (each is marked and counted). A figure of
+    ~1000 pixels cannot show more; its lines and extremes are those of the whole table."""
+    m = len(df)
+    keep = np.zeros(m, dtype=bool)
+    if m == 0:
+        return keep
+    bucket = max(1, int(bucket))
+    nb = -(-m // bucket)
+    starts = np.arange(nb) * bucket
+    keep[starts] = True
+    keep[np.minimum(starts + bucket, m) - 1] = True
+    if "critical" in df.columns:
+        f = _bool(df["critical"])
+        ch = np.flatnonzero(f[1:] != f[:-1])
+        keep[ch] = True
+        keep[ch + 1] = True
+    if "missed" in df.columns:
+        keep |= _bool(df["missed"])
+    guarded = [c for c in df.columns
+               if c in ("w", "slack", "w_sch", "msb_min", "v_leader", "v_leader_target")
+               or (str(c).startswith("f") and "_msb_" in str(c)
+                   and str(c).endswith(("_pred", "_true")))]
+    pad = nb * bucket - m
+    for c in guarded:
+        v = _floats(df[c])
+        nan = np.isnan(v)
+        lo = np.pad(np.where(nan, np.inf, v), (0, pad), constant_values=np.inf)
+        hi = np.pad(np.where(nan, -np.inf, v), (0, pad), constant_values=-np.inf)
+        for pos in (lo.reshape(nb, bucket).argmin(axis=1), hi.reshape(nb, bucket).argmax(axis=1)):
+            idx = starts + pos
+            keep[idx[idx < m]] = True
+    return keep
+
+
 def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
     """The exact columns figure ``name`` plots, taken or derived from the windows table.
 

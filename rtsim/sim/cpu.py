@@ -96,6 +96,7 @@ from rtsim.sim.job import _ABORT, _JREL, _RELEASE, _RESUME, Job, _TaskState
 from rtsim.sim.records import (
     EPS,
     ResponseHistogram,
+    RowBuffer,
     SimResult,
     TaskStats,
     jobs_frame,
@@ -136,6 +137,7 @@ class CPU:
         record_trace: bool = False,
         hist_bin: float | None = None,
         jitter: JitterMode = "random",
+        job_sink: Callable[[Any], None] | None = None,
     ) -> None:
         if jitter not in JITTER_MODES:
             raise InputError(f"jitter must be one of {', '.join(JITTER_MODES)}, got {jitter!r}")
@@ -152,7 +154,8 @@ class CPU:
             str(getattr(exec_model, "name", getattr(exec_model, "__name__", "callable")))
         self.seed = seed
         self.overhead = float(overhead)
-        self.record_jobs = record_jobs
+        self.record_jobs = record_jobs or job_sink is not None
+        self.job_sink = job_sink  # job records go there in chunks (records.RowBuffer)
         self.record_trace = record_trace
         self.hist_bin = hist_bin
         self.jitter = jitter
@@ -163,7 +166,7 @@ class CPU:
         self._timers: list[tuple[Any, ...]] = []
         self._ready: list[tuple[int, int, Job]] = []
         self._seq = itertools.count()
-        self._job_rows: list[tuple[Any, ...]] = []
+        self._job_rows: list[tuple[Any, ...]] = RowBuffer(jobs_frame, job_sink)
         self._trace_rows: list[tuple[Any, ...]] = []
         self._w: float | None = None
         self._busy = 0.0
@@ -753,7 +756,9 @@ class CPU:
 
     # -- results -------------------------------------------------------------------------
     def result(self, window: dict[str, Any] | None = None) -> SimResult:
-        """Statistics (and job table / trace if recorded) of the run so far."""
+        """Statistics (and job table / trace if recorded) of the run so far; with a job sink
+        the records left are flushed to it and ``jobs`` is None."""
+        self._job_rows.flush()  # type: ignore[attr-defined]
         return SimResult(
             tasks={st.name: st.stats
                    for st in sorted(self._states, key=lambda x: x.priority)},
@@ -767,6 +772,7 @@ class CPU:
             context_switches=self._switches,
             window=window,
             jitter=self.jitter,
-            jobs=jobs_frame(self._job_rows) if self.record_jobs else None,
+            jobs=self._job_rows.frame()  # type: ignore[attr-defined]
+            if self.record_jobs and self.job_sink is None else None,
             trace=trace_frame(self._trace_rows) if self.record_trace else None,
         )

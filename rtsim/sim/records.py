@@ -2,9 +2,12 @@
 
 Per-task statistics (:class:`TaskStats`) are updated as jobs finish and keep O(1) memory per
 task plus one counter per occupied histogram bin, so a long horizon runs in bounded memory
-when per-job records are off. Job records and the execution-interval trace are appended as
-plain tuples during the run and turned into DataFrames once, with the fixed column schemas
-:data:`JOB_COLUMNS` and :data:`TRACE_COLUMNS`.
+when per-job records are off. Job records are appended as plain tuples to a
+:class:`RowBuffer`, which turns every :data:`CHUNK_ROWS` of them into a typed column chunk —
+kept in memory (about 4x smaller than the tuples) or handed to a sink that writes it out
+(``rtsim simulate --jobs``, ``rtsim scenario``: memory stays flat however long the run);
+the execution-interval trace is kept as tuples and turned into a DataFrame once. The column
+schemas are fixed: :data:`JOB_COLUMNS` and :data:`TRACE_COLUMNS`.
 
 A job *misses* when it finishes later than its absolute deadline plus 1e-9 ms, is aborted at
 its deadline, or its release is skipped (SPEC conventions; §4 of the simulator issue).
@@ -22,8 +25,10 @@ import pandas as pd
 from rtsim.notebook import ResultDisplay
 
 __all__ = [
+    "CHUNK_ROWS",
     "EPS",
     "JOB_COLUMNS",
+    "RowBuffer",
     "TRACE_COLUMNS",
     "ResponseHistogram",
     "TaskStats",
@@ -33,6 +38,9 @@ __all__ = [
 #: Time tolerance (ms): a finish later than deadline + EPS is a miss; events closer than EPS
 #: are simultaneous.
 EPS = 1e-9
+
+#: Job records per column chunk of a :class:`RowBuffer`.
+CHUNK_ROWS = 8192
 
 #: Columns of ``SimResult.jobs`` (one row per release; a skipped release has no start/finish).
 #: ``period`` is the period in force at the release (w for the window chain);
@@ -184,6 +192,51 @@ class SimResult(ResultDisplay):
             out["window"] = {k: _finite_or_none(v) for k, v in self.window.items()}
         out["tasks"] = [s.as_dict() for s in self.tasks.values()]
         return out
+
+
+class RowBuffer(list):  # type: ignore[type-arg]
+    """Job records as tuples, turned into a column chunk every ``chunk_rows`` rows.
+
+    A list (the CPU appends to it as to a list) whose rows are converted by ``to_frame``
+    (:func:`jobs_frame`) and passed to ``sink`` (a callable taking a DataFrame), or kept in
+    :attr:`chunks` when there is no sink. :meth:`frame` returns the whole table (no sink);
+    :meth:`flush` hands over what is left.
+    """
+
+    def __init__(self, to_frame: Any, sink: Any = None, chunk_rows: int | None = None) -> None:
+        super().__init__()
+        self.to_frame = to_frame
+        self.sink = sink
+        self.chunk_rows = int(chunk_rows or CHUNK_ROWS)
+        self.chunks: list[pd.DataFrame] = []
+        self.flushed = 0
+
+    def append(self, row: tuple[Any, ...]) -> None:  # type: ignore[override]
+        """Add one record (a tuple in column order)."""
+        super().append(row)
+        if len(self) >= self.chunk_rows:
+            self.flush()
+
+    def flush(self) -> None:
+        """Turn the rows held into a chunk (to the sink, or kept); an empty buffer is a no-op."""
+        if not len(self):
+            return
+        df = self.to_frame(self)
+        self.flushed += len(self)
+        self.clear()
+        if self.sink is not None:
+            self.sink(df)
+        else:
+            self.chunks.append(df)
+
+    def frame(self) -> pd.DataFrame:
+        """Every record kept (without a sink) as one DataFrame."""
+        self.flush()
+        if not self.chunks:
+            return self.to_frame([])
+        if len(self.chunks) == 1:
+            return self.chunks[0]
+        return pd.concat(self.chunks, ignore_index=True)
 
 
 def jobs_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:

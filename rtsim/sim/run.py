@@ -69,7 +69,7 @@ def build_cpu(
 
     Returns the CPU and the window description (None for a set without a window).
     ``cpu_kwargs`` go to :class:`CPU` (suspension, exec_model, seed, overhead, record_jobs,
-    record_trace, hist_bin, jitter).
+    record_trace, hist_bin, jitter, job_sink).
     """
     ts = _as_taskset(ts)
     cpu = CPU(env, **cpu_kwargs)
@@ -99,12 +99,16 @@ def simulate(
     hist_bin: float | None = None,
     env: simpy.Environment | None = None,
     jitter: JitterMode = "random",
+    job_sink: Callable[[Any], None] | None = None,
 ) -> SimResult:
     """Simulate ``ts`` for jobs released in [0, horizon) ms until they complete or abort.
 
     Example: ``simulate(load_taskset(), 60_000, window=250.0, record_jobs=True).jobs``.
     ``overhead`` defaults to the set's (0 for a list of tasks). ``jitter``: release delays
     of tasks with a jitter, ``random``/``worst``/``none`` (:mod:`rtsim.sim.cpu`).
+    ``job_sink``: a callable that receives the job records as DataFrame chunks during the
+    run (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
+    long horizon (:class:`rtsim.sim.records.RowBuffer`).
     """
     ts = _as_taskset(ts)
     if overhead is None:
@@ -112,7 +116,7 @@ def simulate(
     cpu, info = build_cpu(ts, env=env, window=window, suspension=suspension,
                           exec_model=exec_model, seed=seed, overhead=overhead,
                           record_jobs=record_jobs, record_trace=record_trace,
-                          hist_bin=hist_bin, jitter=jitter)
+                          hist_bin=hist_bin, jitter=jitter, job_sink=job_sink)
     proc = cpu.start(horizon)
     cpu.env.run(until=proc)
     return cpu.result(window=info)

@@ -1,0 +1,102 @@
+"""Peak memory of long runs against short ones (issue 13 item 5; run by hand, not a test).
+
+    python benchmarks/bench_memory.py [--sim-hours 24] [--scenario-hours 6] [--short-min 10]
+                                      [--only simulate|scenario] [--json]
+
+Each run is a fresh interpreter (``rtsim.cli.main`` in a child process) whose peak resident
+set size (``ru_maxrss``) is reported:
+
+1. ``rtsim simulate tasksets/example.toml --jobs FILE.csv`` for ``--short-min`` minutes and
+   for ``--sim-hours`` hours of simulated time (every job record written to the file);
+2. ``rtsim scenario experiments/scenarios/test2.toml --parquet --out DIR`` — every output:
+   windows.csv, windows.parquet, jobs.csv, the five figures, report.html — for
+   ``--short-min`` minutes and ``--scenario-hours`` hours.
+
+Target: the long run's peak within 100 MB of the short run's (records are kept as column
+chunks and flushed to the output as they come; summaries and figures read columns back).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+TARGET_MB = 100.0
+
+_CHILD = """
+import resource, sys, time
+from rtsim.cli import main
+t0 = time.perf_counter()
+rc = main(sys.argv[1:])
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+print("BENCH", rc, peak, time.perf_counter() - t0)
+"""
+
+
+def peak_mb(argv: list[str]) -> tuple[float, float]:
+    """(peak RSS in MB, wall seconds) of ``rtsim <argv>`` in a fresh interpreter."""
+    proc = subprocess.run([sys.executable, "-c", _CHILD, *argv], cwd=ROOT, text=True,
+                          capture_output=True, check=False)
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("BENCH ")]
+    if proc.returncode != 0 or not lines:
+        raise SystemExit(f"rtsim {' '.join(argv)} failed:\n{proc.stderr[-2000:]}")
+    _, rc, peak, wall = lines[-1].split()
+    if rc != "0":
+        raise SystemExit(f"rtsim {' '.join(argv)} exited {rc}:\n{proc.stderr[-2000:]}")
+    return float(peak), float(wall)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sim-hours", type=float, default=24.0)
+    ap.add_argument("--scenario-hours", type=float, default=6.0)
+    ap.add_argument("--short-min", type=float, default=10.0)
+    ap.add_argument("--only", choices=("simulate", "scenario"), default=None)
+    ap.add_argument("--json", action="store_true", help="also print one JSON line")
+    args = ap.parse_args()
+    results: dict[str, dict[str, float]] = {}
+    with tempfile.TemporaryDirectory(prefix="bench_memory_") as tmp:
+        d = Path(tmp)
+        if args.only in (None, "simulate"):
+            row = {}
+            for label, ms in (("short", args.short_min * 60_000),
+                              ("long", args.sim_hours * 3_600_000)):
+                peak, wall = peak_mb(["simulate", "tasksets/example.toml", "--horizon",
+                                      repr(ms), "--jobs", str(d / f"jobs_{label}.csv")])
+                rows = sum(1 for _ in open(d / f"jobs_{label}.csv", "rb")) - 1
+                row.update({f"{label}_mb": peak, f"{label}_s": wall, f"{label}_rows": rows})
+            results[f"simulate --jobs {args.sim_hours:g} h vs {args.short_min:g} min"] = row
+        if args.only in (None, "scenario"):
+            row = {}
+            for label, s in (("short", args.short_min * 60), ("long", args.scenario_hours * 3600)):
+                out = d / f"scen_{label}"
+                peak, wall = peak_mb(["scenario", "experiments/scenarios/test2.toml",
+                                      "--duration", repr(s), "--parquet", "--out", str(out)])
+                rows = sum(1 for _ in open(out / "windows.csv", "rb")) - 1
+                row.update({f"{label}_mb": peak, f"{label}_s": wall, f"{label}_rows": rows})
+            results[f"scenario test2, every output, {args.scenario_hours:g} h vs "
+                    f"{args.short_min:g} min"] = row
+    print(f"{'run':58s} {'short MB':>9s} {'long MB':>9s} {'delta':>8s}  rows (long)   verdict")
+    ok = True
+    for name, r in results.items():
+        delta = r["long_mb"] - r["short_mb"]
+        good = delta <= TARGET_MB
+        ok &= good
+        print(f"{name:58s} {r['short_mb']:9.1f} {r['long_mb']:9.1f} {delta:+8.1f}  "
+              f"{int(r['long_rows']):>11d}   {'ok' if good else 'MISSED'} "
+              f"(target +{TARGET_MB:g} MB; long run {r['long_s']:.0f} s)")
+        r["delta_mb"] = delta
+    if args.json:
+        print(json.dumps({"when": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                          "results": results}))
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
