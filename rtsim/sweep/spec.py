@@ -101,7 +101,14 @@ class BaseFile:
 
     @property
     def sha256(self) -> str:
+        """sha256 of the file's text."""
         return hashlib.sha256(self.text.encode("utf-8")).hexdigest()
+
+    @property
+    def data_sha256(self) -> str:
+        """sha256 of the parsed content (canonical JSON): comments and layout do not count."""
+        text = json.dumps(self.data(), sort_keys=True, separators=(",", ":"), default=str)
+        return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
     def data(self) -> dict[str, Any]:
         """The parsed TOML dict (a fresh copy on every call)."""
@@ -137,7 +144,8 @@ class SweepSpec:
             "kind": self.kind,
             "function": self.function,
             "base": None if self.base is None else {"path": self.base.path,
-                                                     "sha256": self.base.sha256},
+                                                     "sha256": self.base.sha256,
+                                                     "data_sha256": self.base.data_sha256},
             "seed": self.seed,
             "combine": self.combine,
             "grid": {k: list(v) for k, v in self.grid},
@@ -148,10 +156,11 @@ class SweepSpec:
         }
 
     def fingerprint(self) -> str:
-        """sha256 of the resolved spec (base path excluded, base content included)."""
+        """sha256 of the resolved spec (base path excluded; the base file's parsed content
+        included, so a change to its comments or layout alone keeps the fingerprint)."""
         r = self.resolved()
         if r["base"] is not None:
-            r["base"] = {"sha256": r["base"]["sha256"]}
+            r["base"] = {"data_sha256": r["base"]["data_sha256"]}
         return hashlib.sha256(canonical_json(r).encode("utf-8")).hexdigest()
 
 
@@ -182,7 +191,22 @@ def _grid_values(src: str, name: str, raw: Any) -> tuple[Scalar, ...]:
             raise SweepError(f"{where}: values must be numbers, text or booleans, got {v!r}")
         if isinstance(v, float) and not math.isfinite(v):
             raise SweepError(f"{where}: value {v!r} is not finite")
+        if isinstance(v, int) and not isinstance(v, bool) and not -2**63 <= v < 2**63:
+            raise SweepError(f"{where}: value {v!r} does not fit a 64-bit integer column")
+    kinds = {_value_type(v) for v in raw}
+    if len(kinds) > 1:
+        first = _value_type(raw[0])
+        odd = next(v for v in raw if _value_type(v) != first)
+        raise SweepError(f"{where}: values must all be of one type (a results column has one), "
+                         f"got {first} {raw[0]!r} and {_value_type(odd)} {odd!r}")
     return tuple(raw)
+
+
+def _value_type(v: Any) -> str:
+    """The column type of a grid value: ``bool``, ``number`` (int or float) or ``text``."""
+    if isinstance(v, bool):
+        return "bool"
+    return "number" if isinstance(v, int | float) else "text"
 
 
 # -- parameter resolution --------------------------------------------------------------
