@@ -44,6 +44,9 @@ def register(sub: Any) -> None:
                    help="also write the schedule as a Chrome/Perfetto trace (JSON; open in "
                         "ui.perfetto.dev)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--force", action="store_true",
+                   help="run even above the work limits (2e6 windows, 2e8 world steps x "
+                        "followers)")
     p.set_defaults(func=run)
 
 
@@ -59,6 +62,12 @@ def run(args: Any) -> int:
                          f"{args.duration!r}")
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed!r}")
+    from rtsim.io.scenario import load_scenario
+    from rtsim.io.work import check_scenario
+
+    where = (f"--duration {args.duration:g}" if args.duration is not None
+             else f"{args.file}: duration")
+    check_scenario(load_scenario(args.file), args.duration, where, force=args.force)
     res = run_scenario(Path(args.file), mode=args.mode, duration_s=args.duration, seed=args.seed,
                        record_jobs=True, exec_model=args.exec_model,
                        record_trace=bool(args.perfetto))
@@ -71,7 +80,9 @@ def run(args: Any) -> int:
         outputs.append("windows.parquet")
     if res.jobs is not None:
         write_table(out / "jobs.csv", res.jobs)
-    write_json(out / "summary.json", res.summary)
+    from rtsim.io.summary import summary_json
+
+    write_json(out / "summary.json", summary_json(res.summary))
     if args.perfetto:
         from rtsim.export.perfetto import write_perfetto
 

@@ -182,7 +182,8 @@ def _inputs(scenario: Any, text: str | None = None,
 
 
 def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
-    """The scenario's resolved values as plain JSON data (for the manifest)."""
+    """The scenario's resolved values as plain JSON data (for the manifest); a limit that is
+    not set (``inf``: follower.max_turn_rate, sensing.max_range, adjust.cap) is null."""
     from dataclasses import asdict, is_dataclass
 
     from rtsim.io.taskset import taskset_to_dict
@@ -211,7 +212,9 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),
         "taskset": taskset_to_dict(ts),
     }
-    return out
+    from rtsim.io.atomic import inf_as_null
+
+    return inf_as_null(out)
 
 
 class _Decision(NamedTuple):

@@ -6,6 +6,7 @@ An interrupted run never leaves a half-written result behind.
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from collections.abc import Callable, Iterator
@@ -14,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["atomic_path", "write_text", "write_bytes", "write_json", "write_table", "dumps",
-           "NonFiniteJSON"]
+           "NonFiniteJSON", "inf_as_null"]
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
@@ -90,6 +91,18 @@ def _path_of(obj: Any, path: str = "") -> str | None:
             if found:
                 return found
     return None
+
+
+def inf_as_null(obj: Any) -> Any:
+    """``obj`` with every infinite float replaced by None, for fields whose documentation
+    says that null means "no limit" (a NaN is left alone: it still raises)."""
+    if isinstance(obj, float) and obj in (math.inf, -math.inf):
+        return None
+    if isinstance(obj, dict):
+        return {k: inf_as_null(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [inf_as_null(v) for v in obj]
+    return obj
 
 
 def dumps(obj: Any, indent: int | None = 2) -> str:

@@ -30,7 +30,7 @@ from rtsim._numbers import is_real
 from rtsim.errors import InputError
 
 __all__ = ["Range", "REGISTRY", "register", "check", "check_tree", "strict",
-           "UnregisteredKey", "render_markdown"]
+           "UnregisteredKey", "render_markdown", "read_input", "MAX_INPUT_BYTES"]
 
 
 class UnregisteredKey(RuntimeError):
@@ -106,7 +106,8 @@ def check(key: str, value: Any, where: str, error: type[InputError] = InputError
     v = float(value)
     if not r.admits(v):
         unit = f" {r.unit}" if r.unit else ""
-        raise error(f"{where}: {value!r}{unit} is outside {r.text()} ({r.why})")
+        shown = f"{v:.6g}" if not float(v).is_integer() or abs(v) >= 1e16 else f"{int(v)}"
+        raise error(f"{where}: {shown}{unit} is outside {r.text()} ({r.why})")
 
 
 def _leaves(data: Any, key: str, where: str) -> Iterator[tuple[str, Any, str]]:
@@ -137,6 +138,22 @@ def check_tree(kind: str, data: Mapping[str, Any], source: str,
             key, value = key[:-4], _m.radians(float(value)) if _m.isfinite(value) else value
             where += " (in radians)"
         check(f"{kind}: {key}", value, f"{source}: {where}", error)
+
+
+#: The largest input file rtsim reads (task sets, scenarios, sweep files are a few kB).
+MAX_INPUT_BYTES = 16 * 1024 * 1024
+
+
+def read_input(path: str | os.PathLike[str], what: str,
+               max_bytes: int = MAX_INPUT_BYTES) -> bytes:
+    """The bytes of input file ``path``, read at most ``max_bytes`` + 1 of them: a larger
+    file (or an endless one, ``/dev/zero``) is an InputError naming it. OSError passes."""
+    with open(path, "rb") as fh:
+        data = fh.read(max_bytes + 1)
+    if len(data) > max_bytes:
+        raise InputError(f"{os.fspath(path)}: larger than {max_bytes // (1024 * 1024)} MiB; "
+                         f"not a {what} file")
+    return data
 
 
 def render_markdown() -> str:

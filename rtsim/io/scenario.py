@@ -427,8 +427,10 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
 
         res = resources.files("rtsim") / "data" / "scenarios" / f"{path}.toml"
         return res.read_bytes(), Path(f"{path}.toml")
+    from rtsim.io.limits import read_input
+
     try:
-        return p.read_bytes(), p
+        return read_input(p, "scenario"), p
     except OSError as exc:
         raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
 

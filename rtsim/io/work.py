@@ -59,3 +59,46 @@ def check_work(kind: str, amount: float, where: str, *, force: bool = False) -> 
         raise TooMuchWork(f"{where}: about {amount:.3g} {_WHAT[kind]}, above the limit of "
                           f"{limit:.3g}; use --force to run it anyway")
     return amount
+
+
+def simulate_jobs(ts: object, horizon_ms: float, w: float | None) -> float:
+    """Jobs released in [0, horizon): Σ horizon / period, periods in ms at window ``w``
+    (a processing-window set's per-window periods and its chain need ``w``)."""
+    from rtsim.model.taskset import TaskSet
+
+    assert isinstance(ts, TaskSet)
+    tasks = ts.at_window(w).tasks if ts.window is not None and w is not None else ts.tasks
+    total = 0.0
+    for t in tasks:
+        if t.per_window:
+            continue
+        total += math.ceil(horizon_ms / t.period) if horizon_ms / t.period < 1e300 else math.inf
+    return total
+
+
+def check_simulate(ts: object, horizon_ms: float, w: float | None, where: str, *,
+                   force: bool = False) -> None:
+    """Refuse a simulation of more than ``LIMITS["jobs"]`` jobs (``where``: the horizon's
+    name, e.g. ``--horizon 1e+15``)."""
+    check_work("jobs", simulate_jobs(ts, horizon_ms, w), where, force=force)
+
+
+def check_scenario(scenario: object, duration_s: float | None, where: str, *,
+                   force: bool = False) -> None:
+    """Refuse a coupled run of more than ``LIMITS["windows"]`` windows (duration over the
+    chain's processing time g, below which no window can be) or ``LIMITS["world_steps"]``
+    world steps × followers (duration over ``world.step_ms``, times n)."""
+    from rtsim.coupling.scenario_run import LAP_CAP_FACTOR
+    from rtsim.io.scenario import Scenario
+
+    assert isinstance(scenario, Scenario)
+    cfg = scenario.world
+    if duration_s is None:
+        lap_s = (cfg.path.lap_length + max(cfg.formation.rho_d)) / cfg.leader_speed
+        duration_s = max(scenario.duration, LAP_CAP_FACTOR * lap_s)
+    ms = 1000.0 * duration_s
+    win = scenario.load_taskset().window
+    assert win is not None
+    g = win.g()
+    check_work("windows", ms / g if g > 0 else math.inf, where, force=force)
+    check_work("world_steps", ms / cfg.step_ms * cfg.n, where, force=force)

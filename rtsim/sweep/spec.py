@@ -296,8 +296,10 @@ def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None
         sub = "scenarios/" if kind == "scenario" else ""
         text = (resources.files("rtsim") / "data" / f"{sub}{raw}.toml").read_text("utf-8")
         return BaseFile(None, text, raw)
+    from rtsim.io.limits import read_input
+
     try:
-        text = path.read_text("utf-8")
+        text = read_input(path, "task-set or scenario").decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise SweepError(f"{src}: sweep.base: cannot read {path}: {exc}") from None
     try:
@@ -328,6 +330,10 @@ def _check_option(src: str, where: str, name: str, value: Any) -> None:
     check = _OPTION_CHECKS.get(name)
     if check is not None and not check[0](value):
         raise SweepError(f"{src}: {where}: must be {check[1]}, got {value!r}")
+    if name in ("horizon", "window", "duration") and value is not None:
+        from rtsim.io.limits import check as check_range
+
+        check_range(f"option: --{name}", value, f"{src}: {where}", SweepError)
 
 
 def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = ".",
@@ -449,8 +455,10 @@ def load_sweep(path: str | Path) -> SweepSpec:
         except tomllib.TOMLDecodeError as exc:  # pragma: no cover - shipped files are valid
             raise SweepError(f"{p}: not valid TOML: {exc}") from None
         return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped)
+    from rtsim.io.limits import read_input
+
     try:
-        text = p.read_text("utf-8")
+        text = read_input(p, "sweep").decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise SweepError(f"{p}: cannot read sweep file: {exc}") from None
     try:
