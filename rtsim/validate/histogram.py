@@ -218,7 +218,7 @@ def _safe(name: str) -> str:
     ``_``, ``.`` and ``-``; else those kept, the rest ``_``, and 8 hex digits of the name's
     sha256, so that ``a/b``, ``a:b`` and ``a_b`` get three files."""
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
-    if safe == name and not name.startswith("."):
+    if safe == name:
         return name
     import hashlib
 
