@@ -26,7 +26,7 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from rtsim._numbers import is_real
+from rtsim._numbers import is_int, is_real
 from rtsim.errors import InputError
 
 __all__ = ["Range", "REGISTRY", "register", "check", "check_tree", "strict",
@@ -89,11 +89,13 @@ def strict() -> bool:
     return os.environ.get("RTSIM_STRICT_RANGES", "") not in ("", "0")
 
 
-def check(key: str, value: Any, where: str, error: type[InputError] = InputError) -> None:
+def check(key: str, value: Any, where: str, error: type[InputError] = InputError,
+          magnitude_only: bool = False) -> None:
     """Refuse ``value`` of ``key`` outside its range: an InputError ``<where>: <problem>``.
 
     Not a number: nothing to check here (the parser says what it expects). An unregistered
-    key passes, except in strict mode.
+    key passes, except in strict mode. ``magnitude_only``: only a value above the range, or
+    positive and below it, is refused (a sign or a zero is left to the parser's message).
     """
     if not is_real(value):
         return
@@ -104,9 +106,11 @@ def check(key: str, value: Any, where: str, error: type[InputError] = InputError
                                   "rtsim/io/limits.py (one line)")
         return
     v = float(value)
+    if magnitude_only and not (v > r.hi or 0 < v < r.lo):
+        return
     if not r.admits(v):
         unit = f" {r.unit}" if r.unit else ""
-        shown = f"{v:.6g}" if not float(v).is_integer() or abs(v) >= 1e16 else f"{int(v)}"
+        shown = str(int(value)) if is_int(value) else f"{v:.6g}"
         raise error(f"{where}: {shown}{unit} is outside {r.text()} ({r.why})")
 
 
@@ -123,21 +127,24 @@ def _leaves(data: Any, key: str, where: str) -> Iterator[tuple[str, Any, str]]:
 
 
 def check_tree(kind: str, data: Mapping[str, Any], source: str,
-               skip: tuple[str, ...] = ()) -> None:
+               skip: tuple[str, ...] = (), magnitude_only: bool = False) -> None:
     """Check every numeric leaf of a parsed file (``kind``: ``taskset`` or ``scenario``)
-    against ``<kind>: <dotted key>``; ``skip``: top-level tables not checked here."""
+    against ``<kind>: <dotted key>``; ``skip``: top-level tables not checked here;
+    ``magnitude_only`` as in :func:`check`."""
     import math as _m
 
     from rtsim.errors import ScenarioError, TaskSetError
 
     error = {"taskset": TaskSetError, "scenario": ScenarioError}.get(kind, InputError)
+    if not isinstance(data, Mapping):
+        return
     for key, value, where in _leaves(data, "", ""):
         if key.split(".")[0] in skip or isinstance(value, bool) or not is_real(value):
             continue
         if key.endswith("_deg"):
             key, value = key[:-4], _m.radians(float(value)) if _m.isfinite(value) else value
             where += " (in radians)"
-        check(f"{kind}: {key}", value, f"{source}: {where}", error)
+        check(f"{kind}: {key}", value, f"{source}: {where}", error, magnitude_only)
 
 
 #: The largest input file rtsim reads (task sets, scenarios, sweep files are a few kB).

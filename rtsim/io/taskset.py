@@ -255,7 +255,8 @@ def parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
 
     try:
         ts = _parse_taskset(data, source)
-    except InputError:
+    except InputError:  # caused by a value far out of range? then say that
+        limits.check_tree("taskset", data, source, skip=("assumptions",), magnitude_only=True)
         raise
     except (ArithmeticError, ValueError):  # an extreme value broke a computation: say which
         limits.check_tree("taskset", data, source, skip=("assumptions",))

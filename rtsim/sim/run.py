@@ -116,6 +116,8 @@ def simulate(
     ts = _as_taskset(ts)
     if overhead is None:
         overhead = ts.overhead
+    horizon = float(horizon) if is_real(horizon) else horizon  # numpy scalars too
+    overhead = float(overhead) if is_real(overhead) else overhead
     cpu, info = build_cpu(ts, env=env, window=window, suspension=suspension,
                           exec_model=exec_model, seed=seed, overhead=overhead,
                           record_jobs=record_jobs, record_trace=record_trace,
