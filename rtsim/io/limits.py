@@ -94,19 +94,20 @@ def check(key: str, value: Any, where: str, error: type[InputError] = InputError
     """Refuse ``value`` of ``key`` outside its range: an InputError ``<where>: <problem>``.
 
     Not a number: nothing to check here (the parser says what it expects). An unregistered
-    key passes, except in strict mode. ``magnitude_only``: only a value above the range, or
-    positive and below it, is refused (a sign or a zero is left to the parser's message).
+    key passes, except in strict mode. ``magnitude_only``: only a finite value above the
+    range, or positive and below it, is refused (a sign, a zero, an infinity or an unknown
+    key is left to the parser's message).
     """
     if not is_real(value):
         return
     r = REGISTRY.get(key)
     if r is None:
-        if strict():
+        if strict() and not magnitude_only:  # (an unknown key: the parser's error stands)
             raise UnregisteredKey(f"{key}: numeric input without a range; register it in "
                                   "rtsim/io/limits.py (one line)")
         return
     v = float(value)
-    if magnitude_only and not (v > r.hi or 0 < v < r.lo):
+    if magnitude_only and not (r.hi < v < math.inf or 0 < v < r.lo):
         return
     if not r.admits(v):
         unit = f" {r.unit}" if r.unit else ""
@@ -156,7 +157,12 @@ def read_input(path: str | os.PathLike[str], what: str,
     """The bytes of input file ``path``, read at most ``max_bytes`` + 1 of them: a larger
     file (or an endless one, ``/dev/zero``) is an InputError naming it. OSError passes."""
     with open(path, "rb") as fh:
-        data = fh.read(max_bytes + 1)
+        return too_large(fh.read(max_bytes + 1), path, what, max_bytes)
+
+
+def too_large(data: bytes, path: str | os.PathLike[str], what: str,
+              max_bytes: int = MAX_INPUT_BYTES) -> bytes:
+    """``data`` (read with a limit of ``max_bytes`` + 1), or an InputError if it is over."""
     if len(data) > max_bytes:
         raise InputError(f"{os.fspath(path)}: larger than {max_bytes // (1024 * 1024)} MiB; "
                          f"not a {what} file")

@@ -38,7 +38,9 @@ point: a bad value (``n = 0``) fails that point, with the loader's message, not 
 A new leaf key that looks like a typo of an existing one (``delta_tt``) is refused here.
 For ``kind = "call"`` every grid name is passed through as a parameter.
 Range strings give integers when every value is integral, else floats rounded to 12
-significant digits (so ``"0.1..0.3:0.1"`` gives 0.1, 0.2, 0.3).
+significant digits (so ``"0.1..0.3:0.1"`` gives 0.1, 0.2, 0.3). The values of one grid
+entry are all of one type — numbers (ints and floats), text or booleans — since each is a
+results column; integers must fit 64 bits.
 
 Any problem is a :class:`~rtsim.errors.SweepError` naming the file and the key.
 """
