@@ -276,3 +276,51 @@ def test_sweep_option_out_of_range_is_refused_at_load(tmp_path: Path) -> None:
     with pytest.raises(InputError, match=r"s.toml: sweep.options.horizon: 1e\+15 ms is "
                                          r"outside"):
         load_sweep(spec)
+
+
+def test_an_error_raised_inside_a_run_names_the_scenario_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import rtsim.coupling
+
+    def fails(*args: object, **kwargs: object) -> None:
+        raise InputError("FollowerEstimate: rho must be positive, got 0.0")
+
+    monkeypatch.setattr(rtsim.coupling, "run_scenario", fails)
+    assert main(["scenario", "test1", "--out", str(tmp_path / "o"), "--no-figures"]) == 2
+    err = capsys.readouterr().err
+    assert err == ("rtsim: test1.toml: during the run (seed 0): FollowerEstimate: rho must be "
+                   "positive, got 0.0\n")
+
+
+_SIM_OPTIONS = ["--horizon", "--seed", "--overhead", "--followers", "--hough-radius",
+                "--window"]
+
+
+@settings(max_examples=60, deadline=None)
+@given(option=st.sampled_from(_SIM_OPTIONS), exponent=st.integers(1, 300),
+       below=st.booleans())
+def test_a_simulate_option_out_of_range_exits_2_naming_it(option: str, exponent: int,
+                                                          below: bool) -> None:
+    import contextlib
+    import io
+
+    r = REGISTRY[f"option: {option}"]
+    integer = option in ("--seed", "--followers")
+    if below:
+        value: float = r.lo - 10.0 ** exponent if r.lo <= 0 else r.lo / 10.0 ** exponent
+    else:
+        value = r.hi + 10.0 ** min(exponent, 300) * max(abs(r.hi), 1.0) \
+            if r.hi * 10.0 ** exponent < 1e308 else 1e308
+    if value == r.hi or (below and value == r.lo):
+        return
+    text = str(int(value)) if integer else repr(value)
+    if integer and int(value) == value and r.admits(int(value)):
+        return
+    err = io.StringIO()
+    argv = ["simulate", str(ROOT / "tasksets" / "barrel_robots.toml"), "--horizon", "100",
+            f"{option}={text}"]  # (= so that a negative value is not read as an option)
+    with contextlib.redirect_stderr(err):
+        code = main(argv)
+    assert code == 2, (argv, err.getvalue())
+    assert err.getvalue().count("\n") == 1 and option in err.getvalue(), err.getvalue()

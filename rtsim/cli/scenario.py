@@ -67,10 +67,17 @@ def run(args: Any) -> int:
 
     where = (f"--duration {args.duration:g}" if args.duration is not None
              else f"{args.file}: duration")
-    check_scenario(load_scenario(args.file), args.duration, where, force=args.force)
-    res = run_scenario(Path(args.file), mode=args.mode, duration_s=args.duration, seed=args.seed,
-                       record_jobs=True, exec_model=args.exec_model,
-                       record_trace=bool(args.perfetto))
+    scenario = load_scenario(args.file)
+    check_scenario(scenario, args.duration, where, force=args.force)
+    try:
+        res = run_scenario(Path(args.file), mode=args.mode, duration_s=args.duration,
+                           seed=args.seed, record_jobs=True, exec_model=args.exec_model,
+                           record_trace=bool(args.perfetto))
+    except InputError as exc:  # raised inside the run (an estimate, a state): name the file
+        src = scenario.source or str(args.file)
+        if str(exc).startswith(src):
+            raise
+        raise type(exc)(f"{src}: during the run (seed {args.seed}): {exc}") from None
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     outputs = ["windows.csv", "jobs.csv", "summary.json"]
