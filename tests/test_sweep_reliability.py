@@ -344,3 +344,12 @@ def test_histogram_names_are_distinct_for_distinct_task_names(names: list[str]) 
 
     safe = [_safe(n) for n in names]
     assert len(set(safe)) == len(names)
+
+
+def test_validate_locks_its_output_directory(tmp_path: Path) -> None:
+    from rtsim.validate.runner import QUICK, run_validation
+
+    with lock_directory(tmp_path / "v", ["rtsim", "validate", "first"]):
+        with pytest.raises(DirectoryLocked, match="command: rtsim validate first"):
+            run_validation(tmp_path / "v", QUICK, workers=1)
+    assert not (tmp_path / "v" / "sweeps").exists()
