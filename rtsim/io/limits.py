@@ -58,7 +58,8 @@ class Range:
         hi = ")" if self.hi_open else "]"
         extra = " or inf" if self.inf else ""
         unit = f" {self.unit}" if self.unit else ""
-        return f"{lo}{self.lo:g}, {self.hi:g}{hi}{unit}{extra}"
+        kind = " (integer)" if self.integer else ""
+        return f"{lo}{self.lo:g}, {self.hi:g}{hi}{unit}{extra}{kind}"
 
     def admits(self, value: float) -> bool:
         if self.inf and value == math.inf:
@@ -132,8 +133,6 @@ def check_tree(kind: str, data: Mapping[str, Any], source: str,
     """Check every numeric leaf of a parsed file (``kind``: ``taskset`` or ``scenario``)
     against ``<kind>: <dotted key>``; ``skip``: top-level tables not checked here;
     ``magnitude_only`` as in :func:`check`."""
-    import math as _m
-
     from rtsim.errors import ScenarioError, TaskSetError
 
     error = {"taskset": TaskSetError, "scenario": ScenarioError}.get(kind, InputError)
@@ -143,7 +142,7 @@ def check_tree(kind: str, data: Mapping[str, Any], source: str,
         if key.split(".")[0] in skip or isinstance(value, bool) or not is_real(value):
             continue
         if key.endswith("_deg"):
-            key, value = key[:-4], _m.radians(float(value)) if _m.isfinite(value) else value
+            key, value = key[:-4], math.radians(float(value)) if math.isfinite(value) else value
             where += " (in radians)"
         check(f"{kind}: {key}", value, f"{source}: {where}", error, magnitude_only)
 

@@ -4,6 +4,8 @@ Output directory ``DIR``:
 
 - ``DIR/points/<index>-<key>.json``: one file per finished point, written atomically as
   soon as the point finishes (status ``ok`` or ``failed``, error, metrics, wall time);
+  strict JSON: a non-finite metric is null there, its value under ``nonfinite``
+  (:mod:`rtsim.sweep.table`);
 - ``DIR/manifest.json``: the sweep file's text, the resolved spec and its fingerprint,
   the rtsim version and the command line;
 - ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``,
