@@ -113,3 +113,8 @@ def test_public_functions_refuse_other_things_with_an_input_error(fn: object,
 def test_a_missing_file_names_the_file() -> None:
     with pytest.raises(TaskSetError, match="nope.toml: no such file"):
         analyze("nope.toml")
+
+
+def test_simulate_refuses_a_horizon_out_of_range_at_once() -> None:
+    with pytest.raises(InputError, match=r"simulate: horizon: 1e\+15 ms is outside"):
+        simulate(load_taskset(PAPER), 1e15)

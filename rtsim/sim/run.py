@@ -117,6 +117,9 @@ def simulate(
     if overhead is None:
         overhead = ts.overhead
     horizon = float(horizon) if is_real(horizon) else horizon  # numpy scalars too
+    from rtsim.io.limits import check
+
+    check("option: --horizon", horizon, "simulate: horizon", magnitude_only=True)  # <= 11.6 d
     overhead = float(overhead) if is_real(overhead) else overhead
     cpu, info = build_cpu(ts, env=env, window=window, suspension=suspension,
                           exec_model=exec_model, seed=seed, overhead=overhead,
