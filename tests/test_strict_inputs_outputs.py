@@ -118,3 +118,10 @@ def test_a_missing_file_names_the_file() -> None:
 def test_simulate_refuses_a_horizon_out_of_range_at_once() -> None:
     with pytest.raises(InputError, match=r"simulate: horizon: 1e\+15 ms is outside"):
         simulate(load_taskset(PAPER), 1e15)
+
+
+@pytest.mark.parametrize(("changes", "key"), [({"r_H": 1e154}, "r_H"), ({"n": 10**6}, "n"),
+                                              ({"n": np.int64(10**6)}, "n")])
+def test_window_changes_out_of_range_name_the_key(changes: dict[str, float], key: str) -> None:
+    with pytest.raises(TaskSetError, match=rf"window 'window': {key}: .* is outside"):
+        window_bounds(load_taskset(PAPER), **changes)  # type: ignore[arg-type]
