@@ -201,6 +201,8 @@ def test_a_worker_that_dies_once_has_its_point_rerun(tmp_path: Path) -> None:
     df = run_sweep(_die_sweep(tmp_path, 3, tmp_path / "died"), tmp_path / "o", workers=2)
     assert (df["status"] == "ok").all() and (tmp_path / "died").exists()
     assert df["double"].tolist() == [0, 2, 4, 6, 8, 10]
+    rec = json.loads(next((tmp_path / "o" / "points").glob("000003-*.json")).read_text())
+    assert rec["attempts"] == 2  # the rerun is recorded
 
 
 def test_cli_prints_no_traceback_when_a_worker_dies(tmp_path: Path) -> None:

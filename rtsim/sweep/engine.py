@@ -5,7 +5,7 @@ Output directory ``DIR``:
 - ``DIR/points/<index>-<key>.json``: one file per finished point, written atomically as
   soon as the point finishes (status ``ok`` or ``failed``, error, metrics, wall time);
   strict JSON: a non-finite metric is null there, its value under ``nonfinite``
-  (:mod:`rtsim.sweep.table`);
+  (:mod:`rtsim.sweep.table`); ``attempts`` when the point was rerun after its worker died;
 - ``DIR/manifest.json``: the sweep file's text, the resolved spec and its fingerprint,
   the rtsim version and the command line;
 - ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``,
@@ -370,8 +370,13 @@ class Sweep:
                             on_result(item[0], died(item[0], exc))
                         else:
                             retry.append(item)
+                    elif exc is not None:
+                        on_result(item[0], exc)
                     else:
-                        on_result(item[0], exc if exc is not None else fut.result())
+                        rec = fut.result()
+                        if attempts[item[0].index] > 1:  # rerun after its worker died
+                            rec["attempts"] = attempts[item[0].index]
+                        on_result(item[0], rec)
                 if broken:
                     for fut in list(inflight):  # the whole pool is gone: all of them failed
                         item = inflight.pop(fut)
