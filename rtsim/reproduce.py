@@ -118,7 +118,9 @@ def write_run(out: Path, res: Any, *, scenario_file: Path, mode: str, seed: int,
         write_table(out / "jobs.csv", res.jobs)
     else:
         outputs.remove("jobs.csv")
-    write_json(out / "summary.json", res.summary)
+    from rtsim.io.summary import summary_json
+
+    write_json(out / "summary.json", summary_json(res.summary))
     timing = dict(res.timing)
     timing["total_s"] = wall_s
     inp = res.inputs

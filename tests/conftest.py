@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -11,6 +12,9 @@ from rtsim.io.taskset import load_taskset
 from rtsim.model.taskset import TaskSet
 
 REPO = Path(__file__).resolve().parent.parent
+
+#: A numeric input key without a registered range fails the tests (rtsim.io.limits).
+os.environ["RTSIM_STRICT_RANGES"] = "1"
 
 
 @pytest.fixture

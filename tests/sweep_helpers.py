@@ -44,3 +44,42 @@ def echo(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str
 def nested(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str, Any]:
     """Not flat: a point must fail with a clear message."""
     return {"a": {"b": 1}}
+
+
+def odd(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str, Any]:
+    """Metrics that break a results table unless checked, chosen by ``params["case"]``."""
+    case = params["case"]
+    if case == "big":
+        return {"x": 2**64}
+    if case == "clash":
+        return {1: 1.0, "1": 2.0}
+    if case == "text":
+        return {"x": "seven"}
+    if case == "bool":
+        return {"x": True}
+    if case == "numpy":
+        return {"x": np.int64(7), "y": np.float32(0.5), "z": np.bool_(True)}
+    if case == "inf":
+        return {"x": float("inf"), "y": float("-inf"), "z": float("nan")}
+    if case == "renamed":  # "case" is the grid column: metric.case twice in the table
+        return {"case": 1, "metric.case": 2}
+    if case == "shadow":
+        return {"case": 1}
+    if case == "array":
+        return {"x": np.arange(3)}
+    return {"x": 1.5}
+
+
+def die(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str, Any]:
+    """Kill this worker (SIGKILL) at ``i == options["die_at"]``; with ``options["once"]``
+    (a file path) only the first time (the file marks it)."""
+    import signal
+
+    if params["i"] == options["die_at"]:
+        once = options.get("once")
+        if not once or not os.path.exists(once):
+            if once:
+                open(once, "w").close()
+            os.kill(os.getpid(), signal.SIGKILL)
+    time.sleep(float(options.get("sleep", 0.0)))
+    return {"double": 2 * params["i"]}

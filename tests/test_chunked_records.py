@@ -87,6 +87,7 @@ def test_scenario_windows_and_jobs_in_chunks_are_byte_identical(
     here because the world and the recorder's columns change with other issues."""
     from rtsim.coupling import run_scenario
     from rtsim.io.atomic import write_json, write_table
+    from rtsim.io.summary import summary_json
 
     out = tmp_path / mode
     assert main(["scenario", str(TEST2), "--mode", mode, "--duration", "300", "--seed", "1",
@@ -97,7 +98,7 @@ def test_scenario_windows_and_jobs_in_chunks_are_byte_identical(
     ref.mkdir()
     write_table(ref / "windows.csv", plain.windows)
     write_table(ref / "jobs.csv", plain.jobs)
-    write_json(ref / "summary.json", plain.summary)
+    write_json(ref / "summary.json", summary_json(plain.summary))
     for f in ("windows.csv", "jobs.csv", "summary.json"):
         assert (out / f).read_bytes() == (ref / f).read_bytes(), f
     back = pd.read_parquet(out / "windows.parquet")

@@ -157,7 +157,7 @@ def test_cli_resumes_and_exits_1_on_a_fabricated_exceedance(small, monkeypatch, 
 @pytest.mark.parametrize("argv, msg", [
     (["--windows", "50"], "windows must be at least 100"),
     (["--followers", "0"], "n must be positive"),
-    (["--workers", "0"], "--workers must be at least 1"),
+    (["--workers", "0"], "--workers: 0 processes is outside"),
 ])
 def test_cli_bad_input_exits_2(argv: list[str], msg: str, tmp_path: Path, capsys) -> None:
     assert main(["validate", "--quick", "--out", str(tmp_path), *argv]) == 2

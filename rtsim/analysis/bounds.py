@@ -25,6 +25,7 @@ changes. :func:`w_rta` brackets it by bisection and then snaps to that closed fo
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -44,6 +45,17 @@ LOWER_BOUNDS: tuple[str, ...] = ("w_sch", "w_rta", "w_susp")
 
 #: Largest window w_rta searches (ms); beyond it the set is reported as never schedulable.
 W_MAX = 1e9
+
+
+def _taskset(ts: TaskSet | str | os.PathLike[str], function: str) -> TaskSet:
+    """A path becomes the task set it names; anything but a TaskSet is an InputError."""
+    from rtsim.model.taskset import TaskSet
+
+    if isinstance(ts, TaskSet):
+        return ts
+    from rtsim.io.taskset import as_taskset
+
+    return as_taskset(ts, function)
 
 
 def _need_window(ts: TaskSet) -> None:
@@ -98,8 +110,9 @@ def w_eq11_of(ts: TaskSet) -> float:
     return max(bounds, default=-math.inf)
 
 
-def w_sch_of(ts: TaskSet) -> float:
+def w_sch_of(ts: TaskSet | str | os.PathLike[str]) -> float:
     """The analytic lower bound w_sch = max(Eq 7, Eq 11) (SPEC §3); ``inf`` if none exists."""
+    ts = _taskset(ts, "w_sch_of")
     return max(w_eq7_of(ts), w_eq11_of(ts))
 
 
@@ -150,12 +163,13 @@ def _bracket(ts: TaskSet, feasible: Callable[[float], bool]) -> tuple[float, flo
     return lo, hi
 
 
-def w_rta(ts: TaskSet) -> float:
+def w_rta(ts: TaskSet | str | os.PathLike[str]) -> float:
     """The least window w at which the exact analysis finds every task schedulable (ms).
 
     ``inf`` when no w up to ``W_MAX`` is schedulable (e.g. T_hp alone is not). Exact up to
     float rounding: the analysis passes at the result and fails 1e-6 ms below it.
     """
+    ts = _taskset(ts, "w_rta")
     _need_window(ts)
     lo, hi = _bracket(ts, lambda w: _feasible(ts, w))
     if not math.isfinite(hi):
@@ -166,7 +180,7 @@ def w_rta(ts: TaskSet) -> float:
     return hi
 
 
-def w_susp(ts: TaskSet, overhead: float | None = None) -> float:
+def w_susp(ts: TaskSet | str | os.PathLike[str], overhead: float | None = None) -> float:
     """The least window w at which the suspension-aware analysis accepts every task (ms).
 
     Bisected like :func:`w_rta`, then checked against the closed forms where the verdict can
@@ -178,6 +192,7 @@ def w_susp(ts: TaskSet, overhead: float | None = None) -> float:
     """
     from rtsim.analysis.suspension import compute_time, suspension_aware
 
+    ts = _taskset(ts, "w_susp")
     _need_window(ts)
 
     def feasible(w: float) -> bool:
@@ -286,8 +301,11 @@ def _task_input(t: Task) -> dict[str, Any]:
     return out
 
 
-def window_bounds(ts: TaskSet, n: int | None = None, r_H: float | None = None) -> WindowBounds:
-    """e_hough, g, Eq 7, Eq 11, w_sch, w_rta and w_susp for ``ts`` (n followers, radius r_H)."""
+def window_bounds(ts: TaskSet | str | os.PathLike[str], n: int | None = None,
+                  r_H: float | None = None) -> WindowBounds:
+    """e_hough, g, Eq 7, Eq 11, w_sch, w_rta and w_susp for ``ts`` (a TaskSet or the path of
+    a task-set file; n followers, radius r_H)."""
+    ts = _taskset(ts, "window_bounds")
     _need_window(ts)
     changes: dict[str, Any] = {}
     if n is not None:

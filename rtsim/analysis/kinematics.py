@@ -22,6 +22,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from rtsim._numbers import is_real
 from rtsim.errors import InputError
 
 __all__ = [
@@ -200,7 +201,7 @@ class Thresholds:
     def __post_init__(self) -> None:
         for name in ("r_H", "T_rho", "T_eps", "T_beta"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
+            if not is_real(value):
                 raise InputError(f"Thresholds: {name} must be a number, got {value!r}")
             if not (math.isfinite(value) and value > 0.0):
                 raise InputError(f"Thresholds: {name} must be positive and finite, got {value!r}")

@@ -42,10 +42,12 @@ paper does); see :meth:`rtsim.model.taskset.TaskSet.at_window`.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
+from rtsim._numbers import is_real
 from rtsim.analysis import utilization as util
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Task
@@ -215,7 +217,8 @@ class Analysis:
         }
 
 
-def analyze(ts: TaskSet, w: float | None = None, *, overhead: float | None = None,
+def analyze(ts: TaskSet | str | os.PathLike[str], w: float | None = None, *,
+            overhead: float | None = None,
             suspension: str = "cpu") -> Analysis:
     """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,
     default the set's ``overhead``). ``suspension="idle"``: suspensions leave the CPU free and
@@ -226,12 +229,18 @@ def analyze(ts: TaskSet, w: float | None = None, *, overhead: float | None = Non
     :func:`rtsim.analysis.bounds.w_sch_of`), the chain as one task of cost g with period
     and deadline w, per-window periods resolved. ``w`` is an error for a set without one.
     """
+    from rtsim.model.taskset import TaskSet
+
+    if not isinstance(ts, TaskSet):
+        from rtsim.io.taskset import as_taskset
+
+        ts = as_taskset(ts, "analyze")
     label = ts.source or ts.name or "task set"
     if overhead is None:
         overhead = ts.overhead
     if suspension not in ("cpu", "idle"):
         raise TaskSetError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
-    if isinstance(overhead, bool) or not isinstance(overhead, int | float) or \
+    if not is_real(overhead) or \
             not math.isfinite(overhead) or overhead < 0:
         raise TaskSetError(f"{label}: overhead must be a non-negative number of ms, "
                            f"got {overhead!r}")

@@ -106,11 +106,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def numeric_options(parser: argparse.ArgumentParser,
+                    command: str) -> list[argparse.Action]:
+    """The options of sub-command ``command`` that take an int or a float."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return [a for a in sub.choices[command]._actions
+            if a.option_strings and a.type in (int, float)]
+
+
+def check_option_ranges(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse a numeric option outside its range (:mod:`rtsim.io.limits`), naming it."""
+    from rtsim.io import limits
+
+    for action in numeric_options(parser, args.command):
+        value = getattr(args, action.dest, None)
+        if value is not None:
+            name = max(action.option_strings, key=len)
+            limits.check(f"option: {name}", value, name)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``rtsim`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        check_option_ranges(parser, args)
         return int(args.func(args) or 0)
     except InputError as exc:
         print(f"rtsim: {exc}", file=sys.stderr)

@@ -48,6 +48,9 @@ def _window(text: str | None) -> float | None:
         raise InputError(f"--window: cannot parse {text!r} as a number of ms") from None
     if not (math.isfinite(w) and w > 0):
         raise InputError(f"--window: must be a positive number of ms, got {text!r}")
+    from rtsim.io.limits import check
+
+    check("option: --window", w, "--window")
     return w
 
 

@@ -50,6 +50,12 @@ def _values(args: argparse.Namespace, n0: int, r0: float) -> tuple[list[int], li
         if r <= 0:
             raise InputError(
                 f"--hough-radius: must be positive (cm), got {r:g} in {args.hough_radius!r}")
+    from rtsim.io.limits import check
+
+    for n in ns:
+        check("option: --followers", n, "--followers")
+    for r in rs:
+        check("option: --hough-radius", r, "--hough-radius")
     return ns, rs
 
 

@@ -52,6 +52,9 @@ def register(sub: Any) -> None:
                    help="also write the schedule as a Chrome/Perfetto trace (JSON; open in "
                         "ui.perfetto.dev)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--force", action="store_true",
+                   help="run even above the work limits (2e6 windows, 2e8 world steps x "
+                        "followers)")
     p.set_defaults(func=run)
 
 
@@ -65,8 +68,15 @@ def run(args: Any) -> int:
                          f"{args.duration!r}")
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed!r}")
+    from rtsim.io.scenario import load_scenario
+    from rtsim.io.work import check_scenario
+
+    where = (f"--duration {args.duration:g}" if args.duration is not None
+             else f"{args.file}: duration")
+    scenario = load_scenario(args.file)
+    check_scenario(scenario, args.duration, where, force=args.force)
     with stage(args.out) as staged:
-        res = _write(args, staged.path, Path(args.out), t0)
+        res = _write(args, staged.path, Path(args.out), t0, scenario.source or str(args.file))
         staged.commit()
     s = res.summary
     print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
@@ -79,9 +89,9 @@ def run(args: Any) -> int:
     return 0
 
 
-def _write(args: Any, out: Path, target: Path, t0: float) -> Any:
-    """Run the scenario, writing every file into ``out`` (the staging directory of
-    ``target``); returns the result."""
+def _write(args: Any, out: Path, target: Path, t0: float, src: str) -> Any:
+    """Run the scenario (file ``src``), writing every file into ``out`` (the staging
+    directory of ``target``); returns the result."""
     from rtsim.coupling import run_scenario
     from rtsim.io.atomic import write_json, write_table
     from rtsim.io.columns import ChunkWriter
@@ -94,10 +104,15 @@ def _write(args: Any, out: Path, target: Path, t0: float) -> Any:
     windows_files = [out / "windows.csv", *([out / "windows.parquet"] if args.parquet else [])]
     windows = ChunkWriter(windows_files, None)
     jobs = None if args.perfetto else ChunkWriter([out / "jobs.csv"], jobs_frame([]))
-    res = run_scenario(Path(args.file), mode=args.mode, duration_s=args.duration, seed=args.seed,
-                       record_jobs=True, exec_model=args.exec_model,
-                       record_trace=bool(args.perfetto), window_sink=windows,
-                       job_sink=jobs.write if jobs is not None else None)
+    try:
+        res = run_scenario(Path(args.file), mode=args.mode, duration_s=args.duration,
+                           seed=args.seed, record_jobs=True, exec_model=args.exec_model,
+                           record_trace=bool(args.perfetto), window_sink=windows,
+                           job_sink=jobs.write if jobs is not None else None)
+    except InputError as exc:  # raised inside the run (an estimate, a state): name the file
+        if str(exc).startswith(src):
+            raise
+        raise type(exc)(f"{src}: during the run (seed {args.seed}): {exc}") from None
     outputs = ["windows.csv", "jobs.csv", "summary.json"]
     if args.parquet:
         outputs.append("windows.parquet")
@@ -105,7 +120,9 @@ def _write(args: Any, out: Path, target: Path, t0: float) -> Any:
         jobs.close()
     elif res.jobs is not None:
         write_table(out / "jobs.csv", res.jobs)
-    write_json(out / "summary.json", res.summary)
+    from rtsim.io.summary import summary_json
+
+    write_json(out / "summary.json", summary_json(res.summary))
     if args.perfetto:
         from rtsim.export.perfetto import write_perfetto
 

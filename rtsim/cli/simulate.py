@@ -61,6 +61,8 @@ def register(sub: Any) -> None:
     p.add_argument("--perfetto", metavar="FILE",
                    help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--force", action="store_true",
+                   help="run even when the horizon gives more than 5e7 jobs")
     p.set_defaults(func=run)
 
 
@@ -158,6 +160,11 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         from rtsim.analysis.bounds import window_bounds
 
         bounds = window_bounds(ts)
+    from rtsim.io.work import check_simulate
+
+    w_est = args.window if args.window is not None else (
+        bounds.w_sch if bounds is not None else None)
+    check_simulate(ts, args.horizon, w_est, f"--horizon {args.horizon:g}", force=args.force)
     rng = _gantt_range(args.gantt_range, args.horizon) if args.gantt else None
     for opt in ("jobs", "trace"):
         name = getattr(args, opt)

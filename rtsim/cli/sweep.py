@@ -1,7 +1,8 @@
-"""``rtsim sweep SPEC.toml --out DIR [--workers N] [--dask ADDRESS] [--restart] [--quiet]``.
+"""``rtsim sweep SPEC.toml --out DIR [--workers N] [--dask ADDRESS] [--restart] [--force]``.
 
 Exit status: 0 when every point is ok, 1 when any point failed (or workers were lost),
-2 for a bad sweep file or a changed sweep file without ``--restart``, 130 on Ctrl-C or
+2 for a bad sweep file, a changed sweep file without ``--restart``, a grid above the size
+limit without ``--force`` or an output directory another sweep is using, 130 on Ctrl-C or
 SIGTERM (finished points are kept; the same command resumes).
 """
 
@@ -35,6 +36,8 @@ def register(subparsers: Any) -> None:
                    help="discard the results already in DIR (needed when the sweep file changed)")
     p.add_argument("--retry-failed", action="store_true",
                    help="recompute the points that failed in an earlier run")
+    p.add_argument("--force", action="store_true",
+                   help="run a grid above the size limit (1e5 points)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=run)
 
@@ -47,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the sweep; see the module docstring for the exit status."""
     from rtsim.sweep.engine import Sweep, SweepIncomplete
 
-    sweep = Sweep(args.spec, args.out)
+    sweep = Sweep(args.spec, args.out, force=args.force)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         outcome = sweep.run(workers=args.workers, dask=args.dask,

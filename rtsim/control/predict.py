@@ -27,6 +27,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
+from rtsim._numbers import is_real
 from rtsim.analysis.kinematics import (
     BOUND_KINDS,
     Thresholds,
@@ -56,7 +57,7 @@ __all__ = [
 def check_number(where: str, name: str, value: float) -> float:
     if value.__class__ is float and value - value == 0.0:  # a finite float: the common case
         return value
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+    if not is_real(value) or not math.isfinite(value):
         raise InputError(f"{where}: {name} must be a finite number, got {value!r}")
     return float(value)
 

@@ -57,6 +57,7 @@ import numpy as np
 import pandas as pd
 import simpy
 
+from rtsim._numbers import is_int, is_real
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
 from rtsim.control import MODES
@@ -183,7 +184,8 @@ def _inputs(scenario: Any, text: str | None = None,
 
 
 def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
-    """The scenario's resolved values as plain JSON data (for the manifest)."""
+    """The scenario's resolved values as plain JSON data (for the manifest); a limit that is
+    not set (``inf``: follower.max_turn_rate, sensing.max_range, adjust.cap) is null."""
     from dataclasses import asdict, is_dataclass
 
     from rtsim.io.taskset import taskset_to_dict
@@ -212,7 +214,9 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),
         "taskset": taskset_to_dict(ts),
     }
-    return out
+    from rtsim.io.atomic import inf_as_null
+
+    return inf_as_null(out)
 
 
 class _Decision(NamedTuple):
@@ -599,7 +603,7 @@ def run_scenario(
         raise InputError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
     if duration_s is None:
         duration_s = duration
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+    if not is_int(seed) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
     inp = _inputs(scenario, text, overrides)
     cfg = inp.world
@@ -610,7 +614,7 @@ def run_scenario(
         stop_ms = 1000.0 * (inp.duration_s or 0.0)
         horizon_ms = max(LAP_CAP_FACTOR * stop_s / cfg.leader_speed * 1000.0, stop_ms)
     else:
-        if isinstance(duration_s, bool) or not isinstance(duration_s, int | float) or \
+        if not is_real(duration_s) or \
                 not (0 < duration_s < math.inf):
             raise InputError(f"duration must be a positive number of seconds, got "
                              f"{duration_s!r}")

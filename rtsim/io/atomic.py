@@ -6,6 +6,7 @@ An interrupted run never leaves a half-written result behind.
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from collections.abc import Callable, Iterator
@@ -13,7 +14,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_path", "write_text", "write_bytes", "write_json", "write_table"]
+__all__ = ["atomic_path", "write_text", "write_bytes", "write_json", "write_table", "dumps",
+           "NonFiniteJSON", "inf_as_null"]
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
@@ -68,9 +70,58 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"not JSON serializable: {type(obj).__name__}")
 
 
+class NonFiniteJSON(ValueError):
+    """A NaN or infinite number reached a JSON writer (strict JSON has no such numbers)."""
+
+
+def _path_of(obj: Any, path: str = "") -> str | None:
+    """The JSON path (``a.b[2]``) of the first non-finite float in ``obj``, or None."""
+    import math
+
+    if isinstance(obj, float):
+        return None if math.isfinite(obj) else (path or "<value>")
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            found = _path_of(v, f"{path}.{k}" if path else str(k))
+            if found:
+                return found
+    if isinstance(obj, list | tuple):
+        for i, v in enumerate(obj):
+            found = _path_of(v, f"{path}[{i}]")
+            if found:
+                return found
+    return None
+
+
+def inf_as_null(obj: Any) -> Any:
+    """``obj`` with every infinite float replaced by None, for fields whose documentation
+    says that null means "no limit" (a NaN is left alone: it still raises)."""
+    if isinstance(obj, float) and obj in (math.inf, -math.inf):
+        return None
+    if isinstance(obj, dict):
+        return {k: inf_as_null(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [inf_as_null(v) for v in obj]
+    return obj
+
+
 def dumps(obj: Any, indent: int | None = 2) -> str:
-    """JSON text with numpy scalars handled; non-finite floats as JSON ``Infinity``/``NaN``."""
-    return json.dumps(obj, indent=indent, default=_json_default, sort_keys=False)
+    """Strict JSON text (RFC 8259) with numpy scalars handled.
+
+    A NaN or infinite float raises :class:`NonFiniteJSON` naming its path: each writer
+    turns such a value into ``null`` where its field's documentation says what null means
+    there (``wcrt``: above the deadline; ``lap_time_s``: no lap; see docs/outputs.md).
+    """
+    try:
+        return json.dumps(obj, indent=indent, default=_json_default, sort_keys=False,
+                          allow_nan=False)
+    except ValueError as exc:
+        if "JSON compliant" not in str(exc):
+            raise
+        plain = json.loads(json.dumps(obj, default=_json_default, allow_nan=True))
+        raise NonFiniteJSON(f"non-finite number at {_path_of(plain)} (strict JSON has none; "
+                            "write null where the field's documentation says what it means)"
+                            ) from None
 
 
 def write_json(target: str | os.PathLike[str], obj: Any) -> None:

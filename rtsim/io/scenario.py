@@ -290,7 +290,43 @@ def _section(src: str, data: Mapping[str, Any], name: str, keys: tuple[str, ...]
 
 def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
                    base: Path | None = None) -> Scenario:
-    """Validate a parsed TOML document; ``base`` resolves a relative task-set path."""
+    """Validate a parsed TOML document; ``base`` resolves a relative task-set path.
+
+    Every number is then checked against its range (:mod:`rtsim.io.limits`), and the
+    combinations that would run but mean nothing are refused (:func:`_sense`).
+    """
+    from rtsim.io import limits
+
+    try:
+        scenario = _parse_scenario(data, source, base)
+    except InputError:  # caused by a value far out of range? then say that
+        limits.check_tree("scenario", data, source, skip=("assumptions",), magnitude_only=True)
+        raise
+    except (ArithmeticError, ValueError):  # an extreme value broke a computation: say which
+        limits.check_tree("scenario", data, source, skip=("assumptions",))
+        raise
+    limits.check_tree("scenario", data, source, skip=("assumptions",))
+    _sense(scenario, source)
+    return scenario
+
+
+def _sense(sc: Scenario, src: str) -> None:
+    """Refuse a scenario that would run but give nonsense: a leader starting beyond its
+    path's length (its arc length would swamp each step: the leader stands still) and a
+    leader faster than the followers can drive (they fall behind from the first window)."""
+    world = sc.world
+    length = world.path.lap_length
+    if world.start_s > length:
+        raise ScenarioError(f"{src}: leader.start_s: {world.start_s:g} cm is beyond the path's "
+                            f"length {length:g} cm (give a position within one lap)")
+    vmax = world.follower.max_speed
+    if world.leader_speed > vmax:
+        raise ScenarioError(f"{src}: leader.speed: {world.leader_speed:g} cm/s is above "
+                            f"follower.max_speed {vmax:g} cm/s: the followers cannot keep up")
+
+
+def _parse_scenario(data: Mapping[str, Any], source: str,
+                    base: Path | None) -> Scenario:
     src = source
     top = _Table(src, dict(data))
     for key in ("leader", "formation"):
@@ -395,8 +431,10 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
 
         res = resources.files("rtsim") / "data" / "scenarios" / f"{path}.toml"
         return res.read_bytes(), Path(f"{path}.toml")
+    from rtsim.io.limits import read_input
+
     try:
-        return p.read_bytes(), p
+        return read_input(p, "scenario"), p
     except OSError as exc:
         raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
 

@@ -40,13 +40,14 @@ from collections.abc import Mapping
 from importlib import resources
 from typing import Any
 
+from rtsim._numbers import is_int, is_real
 from rtsim.analysis.window import k_geometric
-from rtsim.errors import TaskSetError
+from rtsim.errors import InputError, TaskSetError
 from rtsim.model.task import OVERLOAD_POLICIES, Task
 from rtsim.model.taskset import TaskSet
 from rtsim.model.window import WindowSpec
 
-__all__ = ["load_taskset", "parse_taskset", "taskset_to_dict", "PACKAGED_TASKSET"]
+__all__ = ["load_taskset", "parse_taskset", "taskset_to_dict", "as_taskset", "PACKAGED_TASKSET"]
 
 #: The paper's Table 1, shipped inside the package (also ``tasksets/barrel_robots.toml``).
 PACKAGED_TASKSET = "barrel_robots.toml"
@@ -83,7 +84,7 @@ def _check_keys(where: str, table: Mapping[str, Any], allowed: tuple[str, ...],
 
 def _number(where: str, field: str, value: object, *, positive: bool = True) -> float:
     """A finite number: positive, or non-negative when ``positive`` is false."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_real(value):
         raise TaskSetError(f"{where}: {field}: must be a number, got {value!r}")
     v = float(value)
     if not math.isfinite(v):
@@ -97,9 +98,9 @@ def _number(where: str, field: str, value: object, *, positive: bool = True) -> 
 
 
 def _integer(where: str, field: str, value: object) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
+    if not is_int(value):
         raise TaskSetError(f"{where}: {field}: must be an integer, got {value!r}")
-    return value
+    return int(value)
 
 
 def _time_or_multiple(where: str, field: str, value: object) -> tuple[float, bool]:
@@ -247,8 +248,24 @@ def _assign_priorities(source: str, entries: list[tuple[dict[str, Any], str]],
 def parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
     """Validate a task-set table (as :func:`tomllib.loads` returns it) and build the TaskSet.
 
-    ``source`` names the file in error messages and is kept as ``TaskSet.source``.
+    ``source`` names the file in error messages and is kept as ``TaskSet.source``. Every
+    number is then checked against its range (:mod:`rtsim.io.limits`).
     """
+    from rtsim.io import limits
+
+    try:
+        ts = _parse_taskset(data, source)
+    except InputError:  # caused by a value far out of range? then say that
+        limits.check_tree("taskset", data, source, skip=("assumptions",), magnitude_only=True)
+        raise
+    except (ArithmeticError, ValueError):  # an extreme value broke a computation: say which
+        limits.check_tree("taskset", data, source, skip=("assumptions",))
+        raise
+    limits.check_tree("taskset", data, source, skip=("assumptions",))
+    return ts
+
+
+def _parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
     if not isinstance(data, dict):
         raise TaskSetError(f"{source}: must be a table of keys, got {type(data).__name__}")
     for key in data:
@@ -298,9 +315,11 @@ def _read(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
     if shipped is not None:
         return shipped.encode("utf-8"), f"{os.fspath(path)}.toml (packaged)"
     source = os.fspath(path)
+    from rtsim.io.limits import MAX_INPUT_BYTES, too_large
+
     try:
         with open(source, "rb") as fh:
-            return fh.read(), source
+            return too_large(fh.read(MAX_INPUT_BYTES + 1), source, "task-set"), source
     except FileNotFoundError:
         raise TaskSetError(f"{source}: no such file") from None
     except IsADirectoryError:
@@ -323,6 +342,18 @@ def load_taskset(path: str | os.PathLike[str] | None = None) -> TaskSet:
     except tomllib.TOMLDecodeError as exc:
         raise TaskSetError(f"{source}: malformed TOML: {exc}") from None
     return parse_taskset(data, source)
+
+
+def as_taskset(ts: object, function: str) -> TaskSet:
+    """``ts`` as a :class:`TaskSet`: itself, or the task-set file a path names (str or
+    ``os.PathLike``, read with :func:`load_taskset`). Anything else raises
+    :class:`~rtsim.errors.TaskSetError` naming ``function`` (never an AttributeError)."""
+    if isinstance(ts, TaskSet):
+        return ts
+    if isinstance(ts, str | os.PathLike):
+        return load_taskset(ts)
+    raise TaskSetError(f"{function}: expected a TaskSet or the path of a task-set file, "
+                       f"got {type(ts).__name__}")
 
 
 def _multiple(x: float) -> str:

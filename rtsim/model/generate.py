@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rtsim._numbers import is_int, is_real
 from rtsim.errors import InputError
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
@@ -34,9 +35,9 @@ __all__ = [
 
 def uunifast(n: int, u: float, rng: np.random.Generator) -> np.ndarray:
     """n utilizations summing to ``u``, uniform on the simplex (UUniFast)."""
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+    if not is_int(n) or n < 1:
         raise InputError(f"uunifast: n must be a positive integer, got {n!r}")
-    if not (isinstance(u, int | float) and math.isfinite(u) and u > 0):
+    if not (is_real(u) and math.isfinite(u) and u > 0):
         raise InputError(f"uunifast: utilization must be positive, got {u!r}")
     out = np.empty(n)
     remaining = float(u)

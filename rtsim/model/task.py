@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Literal
 
+from rtsim._numbers import is_int, is_real
 from rtsim.errors import TaskSetError
 
 __all__ = ["Task", "Segment", "SegmentKind", "OverloadPolicy", "OVERLOAD_POLICIES"]
@@ -23,7 +24,7 @@ def check_time(where: str, field: str, value: object, *, allow_zero: bool = Fals
 
     Raises :class:`TaskSetError` naming ``where`` and ``field`` otherwise.
     """
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_real(value):
         raise TaskSetError(f"{where}: {field} must be a number, got {value!r}")
     v = float(value)
     if not math.isfinite(v):
@@ -100,8 +101,9 @@ class Task:
         set_(self, "period", check_time(where, "period", self.period))
         deadline = self.period if self.deadline is None else self.deadline
         set_(self, "deadline", check_time(where, "deadline", deadline))
-        if isinstance(self.priority, bool) or not isinstance(self.priority, int):
+        if not is_int(self.priority):
             raise TaskSetError(f"{where}: priority must be an integer, got {self.priority!r}")
+        set_(self, "priority", int(self.priority))
         set_(self, "offset", check_time(where, "offset", self.offset, allow_zero=True))
         set_(self, "jitter", check_time(where, "jitter", self.jitter, allow_zero=True))
         if self.bcet is not None:

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from rtsim._numbers import is_real
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Task
 from rtsim.model.window import WindowSpec
@@ -33,7 +34,7 @@ class TaskSet:
 
     def __post_init__(self) -> None:
         o = self.overhead
-        if isinstance(o, bool) or not isinstance(o, int | float) or not math.isfinite(o) \
+        if not is_real(o) or not math.isfinite(o) \
                 or o < 0:
             raise TaskSetError(f"overhead must be a non-negative number of ms, got {o!r}")
         object.__setattr__(self, "overhead", float(o))

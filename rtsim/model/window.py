@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
+from rtsim._numbers import is_int
 from rtsim.analysis.window import e_hough, g_window
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Segment, check_time
@@ -39,11 +40,18 @@ class WindowSpec:
 
     def __post_init__(self) -> None:
         where = f"window '{self.name}'"
-        if isinstance(self.n, bool) or not isinstance(self.n, int) or self.n < 1:
+        if not is_int(self.n) or self.n < 1:
             raise TaskSetError(f"{where}: n must be a positive integer, got {self.n!r}")
-        if isinstance(self.priority, bool) or not isinstance(self.priority, int):
+        if not is_int(self.priority):
             raise TaskSetError(f"{where}: priority must be an integer, got {self.priority!r}")
+        object.__setattr__(self, "n", int(self.n))
+        object.__setattr__(self, "priority", int(self.priority))
         object.__setattr__(self, "r_H", check_time(where, "r_H", self.r_H))
+        from rtsim.io.limits import check
+
+        for field in ("n", "r_H"):  # the keys a caller changes (with_window, --followers)
+            check(f"taskset: window.{field}", getattr(self, field), f"{where}: {field}",
+                  TaskSetError)
         object.__setattr__(self, "k", check_time(where, "k", self.k))
         if self.rho_min is not None:
             object.__setattr__(self, "rho_min", check_time(where, "rho_min", self.rho_min))

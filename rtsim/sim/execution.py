@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import numpy as np
 
+from rtsim._numbers import is_int
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
 
@@ -179,7 +180,7 @@ def base_seed_sequence(
         return np.random.SeedSequence((hi << 64) | lo)
     if seed is None:
         seed = 0
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+    if not is_int(seed) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
     return np.random.SeedSequence(int(seed))
 

@@ -14,12 +14,14 @@ their release.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
 import numpy as np
 import simpy
 
+from rtsim._numbers import is_real
 from rtsim.errors import InputError
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
@@ -33,9 +35,14 @@ __all__ = ["simulate", "build_cpu", "resolve_window", "WindowArg"]
 WindowArg = float | Callable[[], float] | None
 
 
-def _as_taskset(ts: TaskSet | Sequence[Task]) -> TaskSet:
-    if isinstance(ts, TaskSet):
-        return ts
+def _as_taskset(ts: TaskSet | Sequence[Task] | str | os.PathLike[str]) -> TaskSet:
+    from rtsim.io.taskset import as_taskset
+
+    if isinstance(ts, TaskSet | str | os.PathLike):
+        return as_taskset(ts, "simulate")
+    if not isinstance(ts, Sequence) or not all(isinstance(t, Task) for t in ts):
+        raise InputError(f"simulate: expected a TaskSet, a list of Tasks or the path of a "
+                         f"task-set file, got {type(ts).__name__}")
     return TaskSet(tuple(ts))
 
 
@@ -51,7 +58,7 @@ def resolve_window(ts: TaskSet, window: WindowArg) -> tuple[Callable[[], float],
         return (lambda: w), {"mode": "w_sch", "w": w}
     if callable(window):
         return window, {"mode": "dynamic"}
-    if isinstance(window, bool) or not isinstance(window, int | float) or \
+    if not is_real(window) or \
             not math.isfinite(window) or window <= 0:
         raise InputError(f"window must be a positive number of ms, got {window!r}")
     w = float(window)
@@ -86,7 +93,7 @@ def build_cpu(
 
 
 def simulate(
-    ts: TaskSet | Sequence[Task],
+    ts: TaskSet | Sequence[Task] | str | os.PathLike[str],
     horizon: float,
     *,
     seed: int | np.random.SeedSequence | np.random.Generator | None = 0,
@@ -113,6 +120,11 @@ def simulate(
     ts = _as_taskset(ts)
     if overhead is None:
         overhead = ts.overhead
+    horizon = float(horizon) if is_real(horizon) else horizon  # numpy scalars too
+    from rtsim.io.limits import check
+
+    check("option: --horizon", horizon, "simulate: horizon", magnitude_only=True)  # <= 11.6 d
+    overhead = float(overhead) if is_real(overhead) else overhead
     cpu, info = build_cpu(ts, env=env, window=window, suspension=suspension,
                           exec_model=exec_model, seed=seed, overhead=overhead,
                           record_jobs=record_jobs, record_trace=record_trace,

@@ -4,12 +4,21 @@ Output directory ``DIR``:
 
 - ``DIR/points/<index>-<key>.json``: one file per finished point, written atomically as
   soon as the point finishes (status ``ok`` or ``failed``, error, metrics, wall time);
+  strict JSON: a non-finite metric is null there, its value under ``nonfinite``
+  (:mod:`rtsim.sweep.table`); ``attempts`` when the point was rerun after its worker died;
 - ``DIR/manifest.json``: the sweep file's text, the resolved spec and its fingerprint,
   the rtsim version and the command line;
 - ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``,
   ``status``, ``error`` (empty when ok), then the metrics. Built from the point files only,
   so serial, process and Dask runs (and resumed runs) give equal tables;
 - ``DIR/timings.csv``: wall-clock and CPU time, host and pid per point (not in the table).
+
+While a sweep runs, ``DIR`` is locked (:mod:`rtsim.io.lock`): a second sweep into it exits
+2 naming the holder. A worker process that dies (killed, out of memory) takes down the
+points it was running: each is run again once, alone, and recorded as failed if its worker
+dies again; the sweep goes on. Workers exit when the sweep's process dies. A grid of more
+than ``LIMITS["grid"]`` points (:mod:`rtsim.io.work`) is refused before any point is made
+unless ``force=True``.
 
 Running again skips the points that have a file. A sweep whose fingerprint (the resolved
 spec: kind, function, base file content, seed, combine, grid, options, metrics) differs
@@ -19,23 +28,28 @@ old results first. ``retry_failed=True`` recomputes the failed points.
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rtsim.errors import RtsimError, SweepError
 from rtsim.io.atomic import write_json, write_table
+from rtsim.io.lock import lock_directory
 from rtsim.io.manifest import write_manifest
+from rtsim.io.work import check_work
 from rtsim.notebook import ResultDisplay
 from rtsim.sweep.grid import Point, point_input, points
 from rtsim.sweep.kinds import KINDS
 from rtsim.sweep.point import RESERVED, execute_point, worker_init
 from rtsim.sweep.spec import SweepSpec, load_sweep
+from rtsim.sweep.table import build_table, encode_metrics
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -67,6 +81,32 @@ class SweepOutcome(ResultDisplay):
     def summary_frame(self) -> pd.DataFrame:
         """The results table (one row per point)."""
         return self.table
+
+
+#: Times a point is started on a process pool whose worker then dies, before it is
+#: recorded as failed (the second run is alone on a fresh pool, so it is the culprit).
+MAX_ATTEMPTS = 2
+
+
+def grid_size(spec: SweepSpec) -> int:
+    """The number of points of ``spec``'s grid, computed without making them."""
+    lengths = [len(v) for _, v in spec.grid]
+    if spec.combine == "zip":
+        return min(lengths, default=0)
+    return math.prod(lengths)
+
+
+def check_workers(workers: Any) -> int | None:
+    """``workers`` as an int >= 1 (None: the default); anything else is an InputError."""
+    import numbers
+
+    if workers is None:
+        return None
+    if isinstance(workers, bool) or not isinstance(workers, numbers.Integral):
+        raise SweepError(f"workers: must be an integer >= 1, got {workers!r}")
+    if int(workers) < 1:
+        raise SweepError(f"--workers must be at least 1, got {workers}")
+    return int(workers)
 
 
 def _read_json(path: Path) -> Record | None:
@@ -130,9 +170,11 @@ class _Progress:
 class Sweep:
     """One sweep bound to an output directory (see the module docstring)."""
 
-    def __init__(self, spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLike[str]):
+    def __init__(self, spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLike[str],
+                 *, force: bool = False):
         self.spec = spec if isinstance(spec, SweepSpec) else load_sweep(spec)
         self.out = Path(out_dir)
+        check_work("grid", grid_size(self.spec), f"{self.spec.source}: grid", force=force)
         self.points = points(self.spec)
         clash = [k for k, _ in self.spec.grid if k in RESERVED and k != "seed"]
         if clash:
@@ -151,9 +193,13 @@ class Sweep:
         manifest = self.out / "manifest.json"
         if manifest.exists() and not restart:
             try:
-                old = json.loads(manifest.read_text("utf-8")).get("fingerprint")
-            except (OSError, ValueError):
-                old = None
+                old = json.loads(manifest.read_text("utf-8"))["fingerprint"]
+            except (OSError, ValueError, KeyError, TypeError) as exc:
+                why = exc.strerror if isinstance(exc, OSError) else (
+                    "no fingerprint" if isinstance(exc, KeyError | TypeError) else "not JSON")
+                raise SweepError(f"{manifest}: corrupt or unreadable ({why}); use --restart "
+                                 "to discard the results in this directory, or another --out"
+                                 ) from None
             if old != fp:
                 raise SweepError(
                     f"{self.out}: holds results of a different sweep than {self.spec.source} "
@@ -196,6 +242,13 @@ class Sweep:
         after stopping cleanly (finished points kept), :class:`SweepIncomplete` when points
         were lost to dead workers.
         """
+        nworkers = check_workers(workers)
+        with lock_directory(self.out, argv):
+            return self._run_locked(nworkers, dask, progress, restart, retry_failed, argv)
+
+    def _run_locked(self, workers: int | None, dask: Any, progress: bool | None,
+                    restart: bool, retry_failed: bool,
+                    argv: Sequence[str] | None) -> SweepOutcome:
         self._prepare(restart, argv)
         done = self.finished(retry_failed)
         pending = [p for p in self.points if p.index not in done]
@@ -211,6 +264,9 @@ class Sweep:
                 bar.write(f"rtsim: sweep point {p.index} lost: {type(rec).__name__}: {rec}")
                 return
             rec = {"index": p.index, "key": p.key, "params": p.params, "seed": p.seed, **rec}
+            rec["metrics"], nonfinite = encode_metrics(rec["metrics"])
+            if nonfinite:
+                rec["nonfinite"] = nonfinite
             write_json(self.points_dir / p.filename, rec)
             counts["computed"] += 1
             counts["failed"] += rec["status"] == "failed"
@@ -218,9 +274,7 @@ class Sweep:
 
         try:
             if pending:
-                nworkers = (os.cpu_count() or 1) if workers is None else int(workers)
-                if nworkers < 1:
-                    raise SweepError(f"--workers must be at least 1, got {workers}")
+                nworkers = (os.cpu_count() or 1) if workers is None else workers
                 if dask is not None:
                     bar.open()
                     self._run_dask(pending, dask, on_result)
@@ -248,6 +302,10 @@ class Sweep:
 
     def _run_processes(self, pending: list[Point], nworkers: int,
                        on_result: Callable[..., None], started: Callable[[], None]) -> None:
+        """Run ``pending`` on a process pool. A dead worker breaks the pool: a fresh one
+        takes over, and the points that were running are started again one at a time (each
+        alone, so a point that kills its worker again is known: it is recorded as failed
+        after :data:`MAX_ATTEMPTS` starts)."""
         import multiprocessing
 
         method = _start_method()
@@ -255,27 +313,81 @@ class Sweep:
             import pandas  # noqa: F401 - the results table needs it anyway
 
             KINDS[self.spec.kind].preload()
-        ex = ProcessPoolExecutor(max_workers=nworkers, initializer=worker_init,
-                                 mp_context=multiprocessing.get_context(method))
+        ctx = multiprocessing.get_context(method)
+
+        def pool() -> ProcessPoolExecutor:
+            return ProcessPoolExecutor(max_workers=nworkers, initializer=worker_init,
+                                       initargs=(os.getpid(),), mp_context=ctx)
+
+        ex = pool()
         todo = iter(self._inputs(pending))
-        inflight: dict[Future[Record], Point] = {}
+        retry: list[tuple[Point, Any]] = []  # points whose worker died, run alone
+        attempts: dict[int, int] = {}
+        inflight: dict[Future[Record], tuple[Point, Any]] = {}
+        state = {"broken": False}
+
+        def submit(item: tuple[Point, Any]) -> None:
+            try:
+                fut = ex.submit(execute_point, item[1], self.spec.metrics)
+            except BrokenProcessPool:  # a worker died since the last wait
+                state["broken"] = True
+                retry.append(item)
+                return
+            attempts[item[0].index] = attempts.get(item[0].index, 0) + 1
+            inflight[fut] = item
 
         def fill() -> None:
+            if state["broken"]:
+                return
+            if retry:
+                if not inflight:
+                    submit(retry.pop(0))
+                return
             while len(inflight) < 2 * nworkers:
                 nxt = next(todo, None)
                 if nxt is None:
                     return
-                inflight[ex.submit(execute_point, nxt[1], self.spec.metrics)] = nxt[0]
+                submit(nxt)
+
+        def died(p: Point, exc: BaseException) -> Record:
+            return {"index": p.index, "status": "failed",
+                    "error": f"WorkerDied: the worker process running this point died "
+                             f"{attempts[p.index]} times ({type(exc).__name__})",
+                    "metrics": {}, "timing": {}}
 
         try:
             fill()
             started()
-            while inflight:
-                finished, _ = wait(inflight, return_when=FIRST_COMPLETED)
-                for fut in sorted(finished, key=lambda f: inflight[f].index):
-                    p = inflight.pop(fut)
+            while inflight or retry:
+                finished = wait(inflight, return_when=FIRST_COMPLETED)[0] if inflight else set()
+                broken = state["broken"]
+                for fut in sorted(finished, key=lambda f: inflight[f][0].index):
+                    item = inflight.pop(fut)
                     exc = fut.exception()
-                    on_result(p, exc if exc is not None else fut.result())
+                    if isinstance(exc, BrokenProcessPool):
+                        broken = True
+                        if attempts[item[0].index] >= MAX_ATTEMPTS:
+                            on_result(item[0], died(item[0], exc))
+                        else:
+                            retry.append(item)
+                    elif exc is not None:
+                        on_result(item[0], exc)
+                    else:
+                        rec = fut.result()
+                        if attempts[item[0].index] > 1:  # rerun after its worker died
+                            rec["attempts"] = attempts[item[0].index]
+                        on_result(item[0], rec)
+                if broken:
+                    for fut in list(inflight):  # the whole pool is gone: all of them failed
+                        item = inflight.pop(fut)
+                        if attempts[item[0].index] >= MAX_ATTEMPTS:
+                            on_result(item[0], died(item[0], BrokenProcessPool()))
+                        else:
+                            retry.append(item)
+                    retry.sort(key=lambda it: it[0].index)
+                    ex.shutdown(wait=True, cancel_futures=True)
+                    ex = pool()
+                    state["broken"] = False
                 fill()
         except BaseException:
             for proc in list(getattr(ex, "_processes", {}).values()):
@@ -321,30 +433,16 @@ class Sweep:
 
     # -- results -------------------------------------------------------------------------
     def table(self) -> pd.DataFrame:
-        """The results table from the point files (every point must have finished)."""
-        import pandas as pd
-
-        rows, metric_cols, seen = [], [], set()
-        param_cols = [k for k, _ in self.spec.grid if k != "seed"]
+        """The results table from the point files (every point must have finished); always
+        writable (:func:`rtsim.sweep.table.build_table`)."""
+        recs: dict[int, Record] = {}
         for p in self.points:
             rec = _read_json(self.points_dir / p.filename)
             if rec is None:
                 raise SweepIncomplete(f"{self.out}: point {p.index} has not finished")
-            for k in rec["metrics"]:
-                if k not in seen:
-                    seen.add(k)
-                    metric_cols.append(k)
-            row = {k: p.params[k] for k in param_cols}
-            row.update(seed=p.seed, status=rec["status"], error=rec["error"])
-            for k, v in rec["metrics"].items():
-                row[k if k not in row else f"metric.{k}"] = v
-            rows.append(row)
-        clash = [k for k in metric_cols if k in param_cols]
-        metric_cols = [f"metric.{k}" if k in clash else k for k in metric_cols]
-        cols = param_cols + ["seed", "status", "error"] + metric_cols
-        df = pd.DataFrame.from_records(rows, columns=cols)
-        df["seed"] = df["seed"].astype("int64")
-        return df
+            recs[p.index] = rec
+        param_cols = [k for k, _ in self.spec.grid if k != "seed"]
+        return build_table(self.points, lambda p: recs[p.index], param_cols)
 
     def timings(self) -> pd.DataFrame:
         """Wall-clock and CPU time, host and pid per finished point."""
@@ -372,11 +470,12 @@ class Sweep:
 def run_sweep(spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLike[str], *,
               workers: int | None = None, dask: Any = None, progress: bool | None = False,
               restart: bool = False, retry_failed: bool = False,
-              argv: Sequence[str] | None = None) -> pd.DataFrame:
+              argv: Sequence[str] | None = None, force: bool = False) -> pd.DataFrame:
     """Run (or resume) a sweep into ``out_dir`` and return its results table.
 
-    Failed points are rows with ``status == "failed"``; they do not raise. See :class:`Sweep`.
+    Failed points are rows with ``status == "failed"``; they do not raise. ``force`` runs a
+    grid above the size limit. See :class:`Sweep`.
     """
-    return Sweep(spec, out_dir).run(workers=workers, dask=dask, progress=progress,
+    return Sweep(spec, out_dir, force=force).run(workers=workers, dask=dask, progress=progress,
                                     restart=restart, retry_failed=retry_failed,
                                     argv=argv).table

@@ -156,6 +156,14 @@ def _simulate(p: PointInput) -> dict[str, Any]:
                               "suspension": o.get("suspension", "cpu")}
     if o.get("window") is not None:
         kwargs["window"] = float(o["window"])
+    from rtsim.io.work import check_simulate
+
+    w_est = kwargs.get("window")
+    if w_est is None and ts.window is not None:
+        from rtsim.analysis.bounds import w_sch_of
+
+        w_est = w_sch_of(ts)
+    check_simulate(ts, float(o["horizon"]), w_est, f"sweep.options.horizon {o['horizon']}")
     res = mod.simulate(ts, float(o["horizon"]), **kwargs)
     out: dict[str, Any] = {}
     if res.window is not None and "w" in res.window:
@@ -194,6 +202,9 @@ def _scenario(p: PointInput) -> dict[str, Any]:
         kwargs["duration_s"] = float(o["duration"])
     if "exec" in o:
         kwargs["exec_model"] = o["exec"]
+    from rtsim.io.work import check_scenario
+
+    check_scenario(scenario, kwargs.get("duration_s"), f"{p.base.source}: duration")
     summary = dict(coupling.run_scenario(scenario, **kwargs).summary)
     summary.pop("seed", None)  # the point's seed is its own column
     return _flatten(summary)

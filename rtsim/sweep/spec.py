@@ -38,7 +38,9 @@ point: a bad value (``n = 0``) fails that point, with the loader's message, not 
 A new leaf key that looks like a typo of an existing one (``delta_tt``) is refused here.
 For ``kind = "call"`` every grid name is passed through as a parameter.
 Range strings give integers when every value is integral, else floats rounded to 12
-significant digits (so ``"0.1..0.3:0.1"`` gives 0.1, 0.2, 0.3).
+significant digits (so ``"0.1..0.3:0.1"`` gives 0.1, 0.2, 0.3). The values of one grid
+entry are all of one type — numbers (ints and floats), text or booleans — since each is a
+results column; integers must fit 64 bits.
 
 Any problem is a :class:`~rtsim.errors.SweepError` naming the file and the key.
 """
@@ -101,7 +103,14 @@ class BaseFile:
 
     @property
     def sha256(self) -> str:
+        """sha256 of the file's text."""
         return hashlib.sha256(self.text.encode("utf-8")).hexdigest()
+
+    @property
+    def data_sha256(self) -> str:
+        """sha256 of the parsed content (canonical JSON): comments and layout do not count."""
+        text = json.dumps(self.data(), sort_keys=True, separators=(",", ":"), default=str)
+        return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
     def data(self) -> dict[str, Any]:
         """The parsed TOML dict (a fresh copy on every call)."""
@@ -137,7 +146,8 @@ class SweepSpec:
             "kind": self.kind,
             "function": self.function,
             "base": None if self.base is None else {"path": self.base.path,
-                                                     "sha256": self.base.sha256},
+                                                     "sha256": self.base.sha256,
+                                                     "data_sha256": self.base.data_sha256},
             "seed": self.seed,
             "combine": self.combine,
             "grid": {k: list(v) for k, v in self.grid},
@@ -148,10 +158,11 @@ class SweepSpec:
         }
 
     def fingerprint(self) -> str:
-        """sha256 of the resolved spec (base path excluded, base content included)."""
+        """sha256 of the resolved spec (base path excluded; the base file's parsed content
+        included, so a change to its comments or layout alone keeps the fingerprint)."""
         r = self.resolved()
         if r["base"] is not None:
-            r["base"] = {"sha256": r["base"]["sha256"]}
+            r["base"] = {"data_sha256": r["base"]["data_sha256"]}
         return hashlib.sha256(canonical_json(r).encode("utf-8")).hexdigest()
 
 
@@ -182,7 +193,22 @@ def _grid_values(src: str, name: str, raw: Any) -> tuple[Scalar, ...]:
             raise SweepError(f"{where}: values must be numbers, text or booleans, got {v!r}")
         if isinstance(v, float) and not math.isfinite(v):
             raise SweepError(f"{where}: value {v!r} is not finite")
+        if isinstance(v, int) and not isinstance(v, bool) and not -2**63 <= v < 2**63:
+            raise SweepError(f"{where}: value {v!r} does not fit a 64-bit integer column")
+    kinds = {_value_type(v) for v in raw}
+    if len(kinds) > 1:
+        first = _value_type(raw[0])
+        odd = next(v for v in raw if _value_type(v) != first)
+        raise SweepError(f"{where}: values must all be of one type (a results column has one), "
+                         f"got {first} {raw[0]!r} and {_value_type(odd)} {odd!r}")
     return tuple(raw)
+
+
+def _value_type(v: Any) -> str:
+    """The column type of a grid value: ``bool``, ``number`` (int or float) or ``text``."""
+    if isinstance(v, bool):
+        return "bool"
+    return "number" if isinstance(v, int | float) else "text"
 
 
 # -- parameter resolution --------------------------------------------------------------
@@ -272,8 +298,10 @@ def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None
         sub = "scenarios/" if kind == "scenario" else ""
         text = (resources.files("rtsim") / "data" / f"{sub}{raw}.toml").read_text("utf-8")
         return BaseFile(None, text, raw)
+    from rtsim.io.limits import read_input
+
     try:
-        text = path.read_text("utf-8")
+        text = read_input(path, "task-set or scenario").decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise SweepError(f"{src}: sweep.base: cannot read {path}: {exc}") from None
     try:
@@ -304,6 +332,10 @@ def _check_option(src: str, where: str, name: str, value: Any) -> None:
     check = _OPTION_CHECKS.get(name)
     if check is not None and not check[0](value):
         raise SweepError(f"{src}: {where}: must be {check[1]}, got {value!r}")
+    if name in ("horizon", "window", "duration") and value is not None:
+        from rtsim.io.limits import check as check_range
+
+        check_range(f"option: --{name}", value, f"{src}: {where}", SweepError)
 
 
 def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = ".",
@@ -425,8 +457,10 @@ def load_sweep(path: str | Path) -> SweepSpec:
         except tomllib.TOMLDecodeError as exc:  # pragma: no cover - shipped files are valid
             raise SweepError(f"{p}: not valid TOML: {exc}") from None
         return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped)
+    from rtsim.io.limits import read_input
+
     try:
-        text = p.read_text("utf-8")
+        text = read_input(p, "sweep").decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise SweepError(f"{p}: cannot read sweep file: {exc}") from None
     try:

@@ -10,6 +10,8 @@ Sources (each returns a :class:`JobSource`: the job table, the bounds per task, 
   file recorded in its ``manifest.json`` (the same point seed, so the same run).
 
 :func:`write_histograms` writes, into one directory: ``histogram-<task>.png`` per task
+(a task name with other characters than letters, digits, ``_ . -`` gets them as ``_`` and
+a hash of its name: ``histogram-a_b-c14cddc0.png`` for ``a/b``)
 (:func:`rtsim.plots.histogram.response_histogram` with vertical lines for the exact WCRT,
 the deadline and, for the window chain and tasks whose period follows w, w_sch),
 ``histogram.csv`` (task, bin, lo, hi, count), ``bounds.csv`` (task, line, value) and
@@ -212,7 +214,15 @@ def histogram_table(jobs: pd.DataFrame, bins: int = 50,
 
 
 def _safe(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+    """A file-name part for task ``name``: the name itself when it has only letters, digits,
+    ``_``, ``.`` and ``-``; else those kept, the rest ``_``, and 8 hex digits of the name's
+    sha256, so that ``a/b``, ``a:b`` and ``a_b`` get three files."""
+    safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+    if safe == name:
+        return name
+    import hashlib
+
+    return f"{safe}-{hashlib.sha256(name.encode('utf-8')).hexdigest()[:8]}"
 
 
 def write_histograms(source: JobSource, out_dir: str | os.PathLike[str], *, bins: int = 50,

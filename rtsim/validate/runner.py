@@ -251,7 +251,20 @@ def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = F
                    workers: int | None = None, dask: Any = None, progress: bool | None = False,
                    restart: bool = False, argv: Sequence[str] | None = None
                    ) -> ValidationOutcome:
-    """Run (or resume) both sweeps into ``out_dir`` and write the report (module doc)."""
+    """Run (or resume) both sweeps into ``out_dir`` and write the report (module doc).
+
+    ``out_dir`` is locked while it runs (:mod:`rtsim.io.lock`): a second validation into it
+    is refused, naming the holder."""
+    from rtsim.io.lock import lock_directory
+
+    with lock_directory(out_dir, argv):
+        return _run_validation(out_dir, config, workers=workers, dask=dask, progress=progress,
+                               restart=restart, argv=argv)
+
+
+def _run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig, *,
+                    workers: int | None, dask: Any, progress: bool | None, restart: bool,
+                    argv: Sequence[str] | None) -> ValidationOutcome:
     from rtsim.io.atomic import write_json, write_table
     from rtsim.io.manifest import write_manifest
     from rtsim.report import REPORT_NAME, write_run_report

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from rtsim._numbers import is_int, is_real
 from rtsim.errors import ScenarioError
 
 __all__ = ["number", "positive", "non_negative", "integer"]
@@ -11,7 +12,7 @@ __all__ = ["number", "positive", "non_negative", "integer"]
 
 def number(key: str, value: object) -> float:
     """``value`` as a finite float, else ``ScenarioError("<key> must be a finite number, ...")``."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_real(value):
         raise ScenarioError(f"{key}: must be a number, got {value!r}")
     v = float(value)
     if not math.isfinite(v):
@@ -39,6 +40,6 @@ def non_negative(key: str, value: object) -> float:
 
 def integer(key: str, value: object, *, minimum: int = 0) -> int:
     """``value`` as an int ≥ ``minimum``."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+    if not is_int(value) or value < minimum:
         raise ScenarioError(f"{key}: must be an integer >= {minimum}, got {value!r}")
     return int(value)
