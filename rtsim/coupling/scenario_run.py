@@ -197,10 +197,12 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "description": getattr(scenario, "description", ""),
         "duration_s": getattr(scenario, "duration", None),
         "leader": {"speed": cfg.leader_speed, "start_s": cfg.start_s,
+                   "accel_max": cfg.leader_accel_max, "decel_max": cfg.leader_decel_max,
                    "start": list(path.start), "lap_length": path.lap_length,
                    "lap_time_s": path.lap_time(cfg.leader_speed),
                    "segments": [{"kind": s.kind, **plain(s)} for s in path.segments]},
-        "formation": {"rho_d": list(cfg.formation.rho_d), "beta_d": list(cfg.formation.beta_d)},
+        "formation": {"model": cfg.formation.model, "rho_d": list(cfg.formation.rho_d),
+                      "beta_d": list(cfg.formation.beta_d)},
         "follower": plain(cfg.follower),
         "sensing": plain(cfg.sensing),
         "ekf": plain(cfg.ekf),
@@ -540,6 +542,9 @@ def run_scenario(
         "max_backlog": int(res.tasks[run.wname].max_backlog),
         "v_leader_desired": run.v_ld,
         "n": run.n,
+        "leader_accel_max": cfg.leader_accel_max,
+        "leader_decel_max": cfg.leader_decel_max,
+        "formation_model": cfg.formation.model,
     }
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     summary = summarize(df, mode=mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
