@@ -48,6 +48,8 @@ __all__ = ["TraceFollower", "FTL_STEP"]
 #: Bracketing step (cm) of the search for the reference point along the trace.
 FTL_STEP = 10.0
 _BISECT = 40
+_NEWTON = 8
+_NEWTON_REACH = 50.0
 _SCALE_MIN = 0.05
 
 
@@ -112,12 +114,29 @@ class TraceFollower:
         """The first s ≤ ``s_l`` behind ``leader_xy`` with |P_k(s) − leader_xy| = ``rho``."""
         xl, yl = leader_xy
         rho2 = rho * rho
+        s = self._s_ref[k]
+        if s is not None and s <= s_l:
+            # Newton steps from the last reference (it moves a few cm per command); the
+            # bracketing search below when they do not converge quickly on this branch
+            s_n = s
+            for _ in range(_NEWTON):
+                x, y, h = self.point(k, s_n)
+                dx, dy = x - xl, y - yl
+                dg = 2.0 * (dx * math.cos(h) + dy * math.sin(h)) * self.scale(k, s_n)
+                if dg > -1e-6 * rho:
+                    break
+                step = (dx * dx + dy * dy - rho2) / dg
+                s_n -= step
+                if abs(s_n - s) > _NEWTON_REACH or s_n > s_l:
+                    break
+                if abs(step) < 1e-9:
+                    self._s_ref[k] = s_n
+                    return s_n
 
         def g(s: float) -> float:
             x, y, _ = self.point(k, s)
             return (x - xl) ** 2 + (y - yl) ** 2 - rho2
 
-        s = self._s_ref[k]
         limit = int(self.path.lap_length / FTL_STEP) + 2
         if s is None or s > s_l:
             s = s_l
