@@ -14,8 +14,8 @@ from the CPU's hooks:
   EKFs are updated with that scan (``World.estimate``).
 - **hough** runs for ``hough_time`` of that scan: Eq 1 with the beams actually counted plus
   the re-acquisition cost of every lost track (so a lost track can make the window late).
-- **send[i] ends**: follower i's command (l-ψ on the leader's estimate) takes effect; a late
-  window therefore means stale commands.
+- **send[i] ends**: follower i's command (the formation model's control law on the leader's
+  estimate) takes effect; a late window therefore means stale commands.
 - **window job completes**: every follower's estimate (propagated to now) gives its
   MSBs and :func:`rtsim.control.decide` in the run's mode sets the next w (and thereby T_lp's
   2w) and the leader speed (``World.set_leader_speed``).
