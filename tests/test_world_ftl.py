@@ -129,15 +129,23 @@ def test_line_keeps_every_follower_visible_on_straights(n: int, sep: float) -> N
 
 def _trace_error(world: World, k: int) -> tuple[float, str]:
     """Signed distance of follower index k from its offset trace, and the kind of the trace
-    segment it is beside (from the controller's own projection: independent enough, as the
-    distance is recomputed from the path's geometry here)."""
+    segment it is beside: the nearest of the path's points sampled every 0.5 cm within 1 m of
+    the controller's last projection (read only), recomputed from the path's geometry."""
     ftl = world._ftl
     assert ftl is not None
+    path = world.config.path
     x, y = world.followers.x[k], world.followers.y[k]
-    s = ftl.project(k, x, y, ftl._s_f[k] or 0.0)
-    px, py, h = world.config.path.pose(s)
+    o = ftl.lateral[k]
+    centre = ftl._s_f[k] or 0.0
+    best = (math.inf, 0.0)
+    for s in np.arange(centre - 100.0, centre + 100.0, 0.5):
+        px, py, h = path.pose(float(s))
+        d = math.hypot(x - (px - o * math.sin(h)), y - (py + o * math.cos(h)))
+        if d < best[0]:
+            best = (d, float(s))
+    px, py, h = path.pose(best[1])
     lat = -(x - px) * math.sin(h) + (y - py) * math.cos(h)
-    return lat - ftl.lateral[k], world.config.path.segment_at(s)[0]
+    return lat - o, path.segment_at(best[1])[0]
 
 
 @pytest.mark.parametrize("name", ["test1", "test2"])
