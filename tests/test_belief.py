@@ -192,7 +192,7 @@ def run2(request, tmp_path_factory):  # type: ignore[no-untyped-def]
 def test_summary_records_predictor_and_formation_model(run2) -> None:  # type: ignore[no-untyped-def]
     s = run2.summary
     assert s["predictor"] in ("paper", "formation")
-    assert s["formation_model"] == str(getattr(run2.inputs.world.formation, "model", "l-psi"))
+    assert s["formation_model"] == run2.inputs.world.formation.model
 
 
 def test_no_old_bound_columns_left(run2) -> None:  # type: ignore[no-untyped-def]

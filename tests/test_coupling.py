@@ -7,6 +7,11 @@ the outer follower (β_d = 195°, left turns) moves at V_F = s·V_L with
 s = √(1 + x² + 2x·sin 15°), x = ρ_d / r_t, so its path-diversion bound is
 T_ε ρ_d / (s V_Ld) at V_Ld and the coupled speed that restores it at w_sch is
 V_L = T_ε ρ_d / (s w_sch).
+
+Those by-hand numbers are the l-ψ chevron's with an instant leader speed, so these runs pin
+``formation.model = "l-psi"`` and infinite leader ramps (:data:`LPSI`); the scenarios' own
+world (follow-the-leader, ramped leader speed) is checked in tests/test_world_ftl.py and by
+the runs of the packaged scenarios at the end of this file.
 """
 
 from __future__ import annotations
@@ -32,6 +37,8 @@ from rtsim.io.scenario import load_scenario
 SCEN = Path(__file__).resolve().parent.parent / "experiments" / "scenarios"
 TEST1, TEST2 = SCEN / "test1.toml", SCEN / "test2.toml"
 EPS = 1e-9
+#: The world these by-hand tests were written for: l-ψ chevron, leader speed steps.
+LPSI = {"formation.model": "l-psi", "leader.accel_max": math.inf, "leader.decel_max": math.inf}
 
 
 def _outer_s(rho_d: float, r_t: float) -> float:
@@ -46,12 +53,12 @@ FORMATION = {"adjust.predictor": "formation"}
 
 @pytest.fixture(scope="module")
 def adj1():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST1, mode="adjust", record_jobs=False, overrides=FORMATION)
+    return run_scenario(TEST1, mode="adjust", record_jobs=False, overrides={**LPSI, **FORMATION})
 
 
 @pytest.fixture(scope="module")
 def adj2():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST2, mode="adjust", record_jobs=False, overrides=FORMATION)
+    return run_scenario(TEST2, mode="adjust", record_jobs=False, overrides={**LPSI, **FORMATION})
 
 
 @pytest.mark.parametrize("path", [TEST1, TEST2])
@@ -63,17 +70,19 @@ def test_default_predictor_of_the_tests_is_hybrid_without_misses_or_lost_tracks(
     s = r.summary
     assert s["predictor"] == "hybrid" and s["laps"] >= 1.0
     assert s["missed"] == 0 and s["tracks_lost"] == 0
-    assert s["formation_model"] == str(getattr(r.inputs.world.formation, "model", "l-psi"))
+    assert s["formation_model"] == r.inputs.world.formation.model == "follow-the-leader"
 
 
 @pytest.fixture(scope="module")
 def fixed2():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST2, mode="fixed-wsch", duration_s=45, record_jobs=False)
+    return run_scenario(TEST2, mode="fixed-wsch", duration_s=45, record_jobs=False,
+                        overrides=LPSI)
 
 
 @pytest.fixture(scope="module")
 def minmsb2():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST2, mode="min-msb", duration_s=45, record_jobs=False)
+    return run_scenario(TEST2, mode="min-msb", duration_s=45, record_jobs=False,
+                        overrides=LPSI)
 
 
 @pytest.fixture(params=["adj1", "adj2"])

@@ -14,8 +14,8 @@ from the CPU's hooks:
   EKFs are updated with that scan (``World.estimate``).
 - **hough** runs for ``hough_time`` of that scan: Eq 1 with the beams actually counted plus
   the re-acquisition cost of every lost track (so a lost track can make the window late).
-- **send[i] ends**: follower i's command (l-ψ on the leader's estimate) takes effect; a late
-  window therefore means stale commands.
+- **send[i] ends**: follower i's command (the formation model's control law on the leader's
+  estimate) takes effect; a late window therefore means stale commands.
 - **window job completes**: every follower's estimate (propagated to now) gives its
   MSBs and :func:`rtsim.control.decide` in the run's mode sets the next w (and thereby T_lp's
   2w) and the leader speed (``World.set_leader_speed``).
@@ -201,10 +201,12 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "description": getattr(scenario, "description", ""),
         "duration_s": getattr(scenario, "duration", None),
         "leader": {"speed": cfg.leader_speed, "start_s": cfg.start_s,
+                   "accel_max": cfg.leader_accel_max, "decel_max": cfg.leader_decel_max,
                    "start": list(path.start), "lap_length": path.lap_length,
                    "lap_time_s": path.lap_time(cfg.leader_speed),
                    "segments": [{"kind": s.kind, **plain(s)} for s in path.segments]},
-        "formation": {"rho_d": list(cfg.formation.rho_d), "beta_d": list(cfg.formation.beta_d)},
+        "formation": {"model": cfg.formation.model, "rho_d": list(cfg.formation.rho_d),
+                      "beta_d": list(cfg.formation.beta_d)},
         "follower": plain(cfg.follower),
         "sensing": plain(cfg.sensing),
         "ekf": plain(cfg.ekf),
@@ -363,14 +365,14 @@ class _Coupling:
 
     # -- the leader's speed, as the world has it ---------------------------------------
     # The only two places that read it: with leader dynamics (speed ramps toward a target)
-    # _v_target becomes the world's target speed; until then the world's speed is the target.
     def _v_actual(self) -> float:
         """The leader's actual speed now (cm/s)."""
         return self.world.leader_speed
 
     def _v_target(self) -> float:
-        """The leader's target speed, the last decision's (cm/s)."""
-        return self.world.leader_speed
+        """The leader's target speed, the last decision's (cm/s); the leader ramps toward it
+        within its accel_max / decel_max."""
+        return self.world.leader_target_speed
 
     # -- hooks -----------------------------------------------------------------------
     def _period(self) -> float:
@@ -508,10 +510,9 @@ class _Coupling:
 
 
 def formation_model(cfg: WorldConfig) -> str:
-    """The followers' control law of ``cfg`` (summary.json ``formation_model``): the
-    formation's ``model`` when it has one, else ``l-psi`` (the only law before follow-the-
-    leader)."""
-    return str(getattr(cfg.formation, "model", "l-psi"))
+    """The followers' control law of ``cfg`` (summary.json ``formation_model``):
+    ``follow-the-leader`` or ``l-psi``."""
+    return str(cfg.formation.model)
 
 
 def _name(predictor: Any) -> str:
@@ -643,6 +644,8 @@ def run_scenario(
         "n": run.n,
         "predictor": _name(run.opts.get("predictor", "formation")),
         "formation_model": formation_model(cfg),
+        "leader_accel_max": cfg.leader_accel_max,
+        "leader_decel_max": cfg.leader_decel_max,
     }
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     summary = summarize(df, mode=mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,

@@ -234,6 +234,9 @@ register(_SC + "leader.path.angle", 0, _ANGLE, "rad", "up to ten full turns", lo
 for _k in ("length", "width"):
     register(_SC + f"leader.shape.{_k}", 0, _CM_MAX, "cm", "at most 100 km")
 register(_SC + "leader.shape.radius", 1, _CM_MAX, "cm", "as a path turn's radius")
+for _k in ("accel_max", "decel_max"):
+    register(_SC + f"leader.{_k}", 0, 1e5, "cm/s²", "at most 100 g; inf: the speed steps",
+             lo_open=True, inf=True)
 register(_SC + "formation.followers", 1, 1000, "followers", "as window.n", integer=True)
 register(_SC + "formation.separation", 0, 1e5, "cm", "at most 1 km (the laser sees 80 m)",
          lo_open=True)
@@ -249,6 +252,8 @@ register(_SC + "follower.control_offset", 0, 1e3, "cm", "a control point within 
          lo_open=True)
 for _k in ("gain_rho", "gain_beta"):
     register(_SC + f"follower.{_k}", 0, 1e3, "1/s", "a controller gain", lo_open=True)
+register(_SC + "follower.lookahead", 0, 1e4, "cm", "pure pursuit's look-ahead, within 100 m",
+         lo_open=True)
 register(_SC + "follower.speed_noise", 0, 1e3, "cm/s", "a noise standard deviation")
 register(_SC + "follower.turn_noise", 0, 100, "rad/s", "a noise standard deviation")
 register(_SC + "sensing.r_H", 0, 1e4, "cm", "as window.r_H", lo_open=True)

@@ -12,13 +12,19 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
     speed = 25                         # V_Ld (cm/s)
     start = {x = 0, y = 0, heading_deg = 0}
     start_s = 0                        # optional: initial arc length along the path (cm)
+    accel_max = 30                     # optional: speed ramp up (cm/s^2; default inf = a step)
+    decel_max = 30                     # optional: speed ramp down (cm/s^2; default inf)
     path = [ {straight = 600}, {turn = "left", radius = 200, angle_deg = 90}, ... ]
     # or instead of path:
     shape = {kind = "rounded_rectangle", length = 600, width = 400, radius = 200,
              direction = "left"}       # straights of length/width, four 90-degree turns
 
-    [formation]                        # the default chevron: pairs at 180 ± offset
-    followers = 2
+    [formation]
+    model = "follow-the-leader"        # or "l-psi" (the default): how followers are controlled
+    followers = 2                      # l-psi: the chevron, pairs at 180 ± offset widening
+                                       # outward; follow-the-leader: the line (rank p at
+                                       # p*separation, 180 ± offset tucked inward), the
+                                       # place each follower holds on straights
     separation = 390                   # rho_d of the first pair (cm)
     bearing_offset_deg = 15
     # or explicit slots instead of followers/separation/bearing_offset:
@@ -27,7 +33,7 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
     # beta_d_deg = 195
 
     [follower]     radius, max_speed, max_accel, max_turn_rate(_deg), control_offset,
-                   gain_rho, gain_beta, speed_noise, turn_noise(_deg)
+                   gain_rho, gain_beta, speed_noise, turn_noise(_deg), lookahead
     [sensing]      r_H, r_reacq, position_noise, min_points, max_range
     [ekf]          measurement_noise, speed_noise, turn_noise(_deg), position_drift,
                    heading_drift(_deg), init_position_sd, init_heading_sd(_deg), backend
@@ -63,7 +69,7 @@ from rtsim.world._check import non_negative, number, positive
 from rtsim.world.config import SensingParams, WorldConfig
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
-from rtsim.world.formation import Formation, chevron
+from rtsim.world.formation import FORMATION_MODELS, Formation, chevron, in_line
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
 __all__ = ["AdjustConfig", "Scenario", "load_scenario", "parse_scenario", "scenario_bytes",
@@ -253,6 +259,13 @@ def _path(src: str, leader: _Table) -> LeaderPath:
 
 def _formation(src: str, data: object, r_F: float) -> Formation:
     tab = _Table(f"{src}: formation", data, _ANGLES["formation"])
+    model = tab.get("model", "l-psi")
+    if model not in FORMATION_MODELS:
+        close = (difflib.get_close_matches(model, FORMATION_MODELS, n=1, cutoff=0.5)
+                 if isinstance(model, str) else [])
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        raise ScenarioError(f"{src}: formation.model: must be one of "
+                            f"{', '.join(FORMATION_MODELS)}, got {model!r}{hint}")
     if tab.has("slot"):
         if tab.has("followers") or tab.has("separation") or tab.has("bearing_offset"):
             raise ScenarioError(f"{src}: formation: give [[formation.slot]] or "
@@ -269,15 +282,16 @@ def _formation(src: str, data: object, r_F: float) -> Formation:
             rho.append(st.get("rho_d"))
             beta.append(st.get("beta_d"))
             st.finish(("rho_d", "beta_d"))
-        tab.finish(("slot",))
-        return _build(src, lambda: Formation(tuple(rho), tuple(beta)))
+        tab.finish(("slot", "model"))
+        return _build(src, lambda: Formation(tuple(rho), tuple(beta), model))
     for req in ("followers", "separation"):
         if not tab.has(req):
             raise ScenarioError(f"{src}: formation.{req}: missing (required)")
     args = tab.kwargs(("followers", "separation", "bearing_offset"))
-    tab.finish(("followers", "separation", "bearing_offset"))
-    return _build(src, lambda: chevron(args["followers"], args["separation"],
-                                       args.get("bearing_offset", math.radians(15)), r_F=r_F))
+    tab.finish(("followers", "separation", "bearing_offset", "model"))
+    place = in_line if model == "follow-the-leader" else chevron
+    return _build(src, lambda: place(args["followers"], args["separation"],
+                                     args.get("bearing_offset", math.radians(15)), r_F=r_F))
 
 
 def _section(src: str, data: Mapping[str, Any], name: str, keys: tuple[str, ...],
@@ -345,7 +359,10 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     speed = _build(src, lambda: positive("leader.speed", leader.get("speed")))
     path = _path(src, leader)
     start_s = _build(src, lambda: non_negative("leader.start_s", leader.get("start_s", 0.0)))
-    leader.finish(("speed", "start", "start_s", "path", "shape"))
+    ramps = {f"leader_{key}": _build(src, lambda key=key: positive(
+        f"leader.{key}", leader.get(key, math.inf), allow_inf=True))
+        for key in ("accel_max", "decel_max")}
+    leader.finish(("speed", "start", "start_s", "accel_max", "decel_max", "path", "shape"))
 
     follower = _section(src, data, "follower", tuple(FollowerParams.__dataclass_fields__),
                         FollowerParams)
@@ -383,7 +400,7 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     wtab.finish(("step_ms",))
 
     world = _build(src, lambda: WorldConfig(path, speed, formation, follower, sensing, ekf,
-                                            thresholds, step_ms, start_s))
+                                            thresholds, step_ms, start_s, **ramps))
     if adjust.floor > speed:
         raise ScenarioError(f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the "
                             f"desired speed {speed:g} cm/s")

@@ -11,15 +11,22 @@ each scan give the localization segment's time by Eq 1 with counted points,
 which the validation feeds to the window chain through a callable execution time, replayed
 by window index. Lost tracks are recorded but their re-acquisition cost is *not* added (it
 is outside the WCET model the analysis assumes); windows with more points than Eq 1's
-min(361, k·n) are counted as breaking the WCET assumption.
+min(361, k·n) are counted as breaking the WCET assumption. A lost track whose follower
+returned fewer than ``sensing.min_points`` beams (hidden behind a nearer follower, outside the
+laser's half-plane or beyond ``max_range``) is the sensor's limit and counted apart
+(``lost_sensor``); every other lost track is a follower that moved more than r_H in the
+leader's frame within one window (the localization bound broken at this fixed window and
+V_Ld: in Test 1's geometry a follower far behind the turning leader sweeps ρ·ω_L·w, 24 cm at
+ρ = 780 cm and w = 250 ms).
 
 The world is Test 1 (the paper's §4.1: V_Ld = 25 cm/s, turn radius r_t = 2 m, separation
 ρ = 390 cm) read from its scenario file (``experiments/scenarios/test1.toml``, passed as text
 so that remote workers need no shared disk) with ``formation.followers`` set to n (the
-default chevron: pair p at p·ρ, 180° ± the file's offset) and ``sensing.r_H`` to the
+file's model's default placement: for follow-the-leader, rank p at p·ρ, 180° ± φ_p on
+straights, :func:`rtsim.world.formation.in_line`) and ``sensing.r_H`` to the
 configuration's r_H (:func:`scenario_world`). Without a scenario file, :class:`Test1` builds
-the same numbers directly (8 m × 4 m rounded rectangle as in test1.toml; default
-follower, sensing and EKF parameters, which differ from the file's).
+the same numbers directly (8 m × 4 m rounded rectangle as in test1.toml, follow-the-leader
+in line; default follower, sensing and EKF parameters, which differ from the file's).
 """
 
 from __future__ import annotations
@@ -65,24 +72,35 @@ def scenario_world(text: str, source: str, n: int, r_H: float) -> Any:
 
 
 def world_config(n: int, test: Test1 | None = None) -> Any:
-    """The :class:`~rtsim.world.WorldConfig` of Test 1 with n followers in the default chevron."""
-    from rtsim.world import WorldConfig, chevron, rounded_rectangle
+    """The :class:`~rtsim.world.WorldConfig` of Test 1 with n follow-the-leader followers in
+    the default line (:func:`~rtsim.world.formation.in_line`)."""
+    from rtsim.world import WorldConfig, rounded_rectangle
+    from rtsim.world.formation import in_line
 
     t = Test1() if test is None else test
     path = rounded_rectangle(t.length, t.width, t.turn_radius)
-    return WorldConfig(path, t.speed, chevron(n, t.separation, t.bearing_offset))
+    return WorldConfig(path, t.speed, in_line(n, t.separation, t.bearing_offset))
 
 
 @dataclass(frozen=True)
 class BeamCounts:
     """Per-window scan results of a world run at fixed window ``w``.
 
-    ``points``: (windows, n) beams returned by each follower; ``lost``: tracks lost per window.
+    ``points``: (windows, n) beams returned by each follower; ``lost``: tracks lost per window;
+    ``lost_sensor``: those of them whose follower returned fewer than ``min_points`` beams
+    (the sensor's limit, module doc).
     """
 
     w: float
     points: NDArray[np.int64]
     lost: NDArray[np.int64]
+    lost_sensor: NDArray[np.int64] | None = None
+
+    @property
+    def lost_moved(self) -> int:
+        """Lost tracks whose follower returned enough beams (it moved more than r_H)."""
+        hidden = 0 if self.lost_sensor is None else int(self.lost_sensor.sum())
+        return int(self.lost.sum()) - hidden
 
     @property
     def windows(self) -> int:
@@ -118,6 +136,8 @@ def count_window_beams(window: WindowSpec, w: float, windows: int, rng: np.rando
     send0 = window.e_scan + window.e_hough()
     pts = np.zeros((windows, n), dtype=np.int64)
     lost = np.zeros(windows, dtype=np.int64)
+    hidden = np.zeros(windows, dtype=np.int64)
+    min_points = cfg.sensing.min_points
     for j in range(windows):
         t = j * w
         scan = world.scan(t)
@@ -126,4 +146,5 @@ def count_window_beams(window: WindowSpec, w: float, windows: int, rng: np.rando
             world.command(i, t + send0 + i * step)
         pts[j] = scan.points
         lost[j] = scan.n_lost
-    return BeamCounts(w, pts, lost)
+        hidden[j] = int((scan.lost & (scan.points < min_points)).sum())
+    return BeamCounts(w, pts, lost, hidden)

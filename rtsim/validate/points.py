@@ -161,6 +161,7 @@ def paper_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: int
                points_max=int(beams.total.max()), points_mean=float(beams.total.mean()),
                points_max_follower=int(beams.points.max()),
                points_wcet=float(min(361, ts.window.k * n)), tracks_lost=int(beams.lost.sum()),
+               tracks_lost_sensor=int(beams.lost.sum()) - beams.lost_moved,
                beyond_wcet=beams.beyond_wcet(ts.window),
                hough_min=float(hough.min()), hough_max=float(hough.max()))
     bounds = task_bounds(ts, wb.w_sch)

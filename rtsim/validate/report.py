@@ -101,7 +101,14 @@ def _headline(outcome: ValidationOutcome) -> list[str]:
                      f"min(361, k·n) = {_fmt(float(cfg['points_wcet'].min()))} – "
                      f"{_fmt(float(cfg['points_wcet'].max()))}); windows beyond that: "
                      f"{int(cfg['beyond_wcet'].sum())}; tracks lost in the world runs: "
-                     f"{int(cfg['tracks_lost'].sum())}.")
+                     f"{int(cfg['tracks_lost'].sum())}, of which "
+                     f"{int(cfg['tracks_lost_sensor'].fillna(0).sum())} the sensor's limit "
+                     "(the follower returned fewer than min_points beams: hidden behind a "
+                     "nearer follower in a turn, or out of the laser's view) and the rest "
+                     "followers that moved more than r_H in the leader's frame within one "
+                     "window (far behind the turning leader at a fixed w_sch and V_Ld: the "
+                     "localization bound broken, which the adjustment would prevent by "
+                     "slowing the leader).")
     rnd = t[t["source"] == "random"]
     if not rnd.empty:
         for mode in ("wcet-sync", "uniform-offsets"):
@@ -188,8 +195,8 @@ def write_report(outcome: ValidationOutcome, config: ValidationConfig) -> Path:
               f"released in [0, {config.windows}·w) run to completion. Mode `wcet-cpu`: every "
               "segment at its WCET, the radio round trip Δt holds the CPU. Mode "
               "`counted-idle`: the Hough segment takes π r_H² n e_cal + P_j e_trans with P_j "
-              "the beams counted at window j of a world run (" + world + ", its formation "
-              "set to the default chevron with n followers and its Hough radius to r_H; fixed "
+              "the beams counted at window j of a world run (" + world + ", with n followers "
+              "placed by its formation model's default and its Hough radius set to r_H; fixed "
               "window w_sch, each follower commanded at the end of its send segment every "
               "window), replayed by window index; Δt frees the CPU; re-acquisition costs of "
               "lost tracks are not added.",

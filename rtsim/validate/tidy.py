@@ -12,8 +12,9 @@ Columns (ms unless noted; NaN where not applicable):
 - search (paper): ``w_sim``, ``evaluations``, ``nonmonotone``;
 - ratios: ``w_sch_over_w_sim``, ``w_rta_over_w_sim``, ``wcrt_over_sim_max``;
 - beams (paper): ``points_min``, ``points_max``, ``points_mean``, ``points_wcet``,
-  ``tracks_lost``, ``beyond_wcet``; ``assumption_ok`` (false when counted beams exceeded
-  Eq 1's k·n in some window of a ``counted-idle`` run);
+  ``tracks_lost``, ``tracks_lost_sensor`` (those whose follower returned fewer than
+  ``min_points`` beams: the sensor's limit), ``beyond_wcet``; ``assumption_ok`` (false
+  when counted beams exceeded Eq 1's k·n in some window of a ``counted-idle`` run);
 - suspension-aware (paper): ``w_susp`` (Δt with the CPU idle), ``w_susp_over_w_sim`` and
   ``w_geo_over_w_sim`` (``counted-idle`` rows only: the model they assume);
   ``w_susp_geo`` (w_susp with the geometric ``k_geo`` for followers at ≥ ``rho_min`` cm),
@@ -38,8 +39,8 @@ COLUMNS: tuple[str, ...] = (
     "sim_max", "p50", "p99", "p999", "jobs", "misses",
     "w_sim", "evaluations", "nonmonotone",
     "w_sch_over_w_sim", "w_rta_over_w_sim", "wcrt_over_sim_max",
-    "points_min", "points_max", "points_mean", "points_wcet", "tracks_lost", "beyond_wcet",
-    "assumption_ok",
+    "points_min", "points_max", "points_mean", "points_wcet", "tracks_lost",
+    "tracks_lost_sensor", "beyond_wcet", "assumption_ok",
     "w_susp", "w_susp_over_w_sim", "rho_min", "k_geo", "w_susp_geo", "w_geo_over_w_sim",
     "beyond_geo", "geo_assumption_ok", "wcrt_susp", "wcrt_susp_over_sim_max",
 )
@@ -98,7 +99,8 @@ def tidy_paper(results: pd.DataFrame) -> pd.DataFrame:
     for row in results[results["status"] == "ok"].to_dict("records"):
         base = {k: row.get(k, math.nan) for k in (
             "w_eq7", "w_eq11", "w_sch", "w_rta", "g", "points_min", "points_max",
-            "points_mean", "points_wcet", "tracks_lost", "beyond_wcet", "w_susp", "rho_min",
+            "points_mean", "points_wcet", "tracks_lost", "tracks_lost_sensor", "beyond_wcet",
+            "w_susp", "rho_min",
             "k_geo", "w_susp_geo", "beyond_geo")}
         base.update(source="paper", config=f"n={int(row['n'])},r_H={float(row['r_H']):g}",
                     n=int(row["n"]), r_H=float(row["r_H"]), set=math.nan, seed=row["seed"],

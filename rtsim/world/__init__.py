@@ -1,4 +1,5 @@
-"""The robot-group world: leader path, l-ψ followers, laser, Hough localization, EKFs.
+"""The robot-group world: leader path and speed ramps, follow-the-leader or l-ψ followers,
+laser, Hough localization, EKFs.
 
 Plain numpy and filterpy, no simulation engine: the owner of time steps it (SPEC §6).
 """

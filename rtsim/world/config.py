@@ -53,7 +53,10 @@ class WorldConfig:
 
     ``leader_speed`` is V_Ld (cm/s); ``start_s`` the leader's initial arc length (cm);
     ``step_ms`` the largest integration step while a follower's speed is ramping (a held
-    command with a settled speed is integrated in one exact arc).
+    command with a settled speed is integrated in one exact arc); ``leader_accel_max`` and
+    ``leader_decel_max`` (cm/s², ``inf`` = a step) the leader's speed ramp
+    (:class:`~rtsim.world.leader.Leader`). The followers' controller is
+    ``formation.model`` (``"l-psi"`` or ``"follow-the-leader"``).
     """
 
     path: LeaderPath
@@ -65,9 +68,14 @@ class WorldConfig:
     thresholds: Thresholds = DEFAULT_THRESHOLDS
     step_ms: float = 10.0
     start_s: float = 0.0
+    leader_accel_max: float = math.inf
+    leader_decel_max: float = math.inf
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "leader_speed", positive("leader.speed", self.leader_speed))
+        for key in ("accel_max", "decel_max"):
+            object.__setattr__(self, f"leader_{key}", positive(
+                f"leader.{key}", getattr(self, f"leader_{key}"), allow_inf=True))
         object.__setattr__(self, "step_ms", positive("world.step_ms", self.step_ms))
         self.formation.check_spacing(self.follower.radius)
         if self.sensing.r_reacq < self.thresholds.r_H:

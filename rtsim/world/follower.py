@@ -49,7 +49,9 @@ class FollowerParams:
 
     radius r_F (cm); max_speed (cm/s); max_accel (cm/s²); max_turn_rate (rad/s, inf = none);
     control_offset d (cm, > 0); gain_rho k_ρ and gain_beta k_β (1/s); speed_noise (cm/s) and
-    turn_noise (rad/s): standard deviations of the actuation error per command.
+    turn_noise (rad/s): standard deviations of the actuation error per command; lookahead ℓ
+    (cm): pure pursuit's look-ahead along the trace in follow-the-leader
+    (:mod:`rtsim.world.ftl`, which also uses gain_rho on the along-track separation error).
 
     The offset d must not be too small for the command hold w: the control point's heading
     loop has time constant d/V_F, and a command held for w overshoots (and the formation
@@ -66,9 +68,11 @@ class FollowerParams:
     gain_beta: float = 0.5
     speed_noise: float = 0.5
     turn_noise: float = 0.005
+    lookahead: float = 40.0
 
     def __post_init__(self) -> None:
-        for key in ("radius", "max_speed", "control_offset", "gain_rho", "gain_beta"):
+        for key in ("radius", "max_speed", "control_offset", "gain_rho", "gain_beta",
+                    "lookahead"):
             object.__setattr__(self, key, positive(f"follower.{key}", getattr(self, key)))
         for key in ("max_accel", "max_turn_rate"):
             object.__setattr__(self, key, positive(f"follower.{key}", getattr(self, key),

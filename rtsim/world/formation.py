@@ -12,10 +12,24 @@ So each further pair turns outward just enough to be seen:
 offset_p = offset_{p−1} + arcsin(r_F/ρ_{p−1}) + arcsin(r_F/ρ_p) + gap (the two discs'
 angular half-widths plus a gap of 1°, two beams). For the paper's two followers nothing
 changes; ten followers at 390 cm spread to 180° ± 31.4°.
+
+**Follow-the-leader** (the paper's followers, its reference [12]; SPEC §6) uses the same
+slots as the place each follower holds *on straights*: follower i tracks the leader's trace
+at lateral offset o_i = ρ_d,i·sin β_d,i (cm, positive to the left of the trace), at Euclidean
+distance ρ_d,i from the leader (:mod:`rtsim.world.ftl`). Its default line, :func:`in_line`,
+keeps the ranks of the chevron (pair p at p·separation, odd followers right, even left) but
+*tucks* each further rank inside the one before it instead of widening outward:
+φ_p = φ_{p−1} − arcsin(r_F/ρ_{p−1}) − arcsin(r_F/ρ_p) − gap, so every follower stays visible
+on straights with lateral offsets of at most about 1.5 m (ten followers at 390 cm: 118, 150,
+143, 106 and 42 cm from the trace) where the widening chevron would need 10 m. φ_1 is the
+given offset (15°: the paper's two followers at 180° ± 15°, 101 cm either side of the trace
+at 390 cm), raised just enough when the last rank would otherwise come closer than its own
+half-width plus half the gap to the trace (and so to its partner on the other side).
 """
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import dataclass
 
@@ -25,7 +39,11 @@ from numpy.typing import NDArray
 from rtsim.errors import ScenarioError
 from rtsim.world._check import integer, number, positive
 
-__all__ = ["CHEVRON_GAP", "Formation", "chevron", "chevron_offsets"]
+__all__ = ["CHEVRON_GAP", "FORMATION_MODELS", "Formation", "chevron", "chevron_offsets", "in_line",
+           "in_line_offsets"]
+
+#: How followers are controlled: l-ψ on rigid slots, or follow-the-leader on the trace.
+FORMATION_MODELS: tuple[str, ...] = ("follow-the-leader", "l-psi")
 
 
 @dataclass(frozen=True)
@@ -38,8 +56,15 @@ class Formation:
 
     rho_d: tuple[float, ...]
     beta_d: tuple[float, ...]
+    model: str = "l-psi"
 
     def __post_init__(self) -> None:
+        if self.model not in FORMATION_MODELS:
+            close = (difflib.get_close_matches(self.model, FORMATION_MODELS, n=1, cutoff=0.5)
+                     if isinstance(self.model, str) else [])
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise ScenarioError(f"formation.model: must be one of "
+                                f"{', '.join(FORMATION_MODELS)}, got {self.model!r}{hint}")
         rho = tuple(positive(f"formation.slot[{i + 1}].rho_d", r)
                     for i, r in enumerate(self.rho_d))
         beta = tuple(number(f"formation.slot[{i + 1}].beta_d", b)
@@ -60,6 +85,12 @@ class Formation:
     @property
     def n(self) -> int:
         return len(self.rho_d)
+
+    @property
+    def lateral(self) -> tuple[float, ...]:
+        """Each follower's lateral offset from the leader's trace on straights, ρ_d·sin β_d
+        (cm, positive to the left): its place in follow-the-leader."""
+        return tuple(r * math.sin(b) for r, b in zip(self.rho_d, self.beta_d, strict=True))
 
     def xy(self) -> NDArray[np.float64]:
         """(n, 2) slot positions in the leader frame (cm)."""
@@ -127,3 +158,44 @@ def chevron(n: int, separation: float, offset: float = math.radians(15), *,
     beta = tuple(math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
                  for i in range(1, n + 1))
     return Formation(rho, beta)
+
+
+def in_line_offsets(pairs: int, separation: float, offset: float, r_F: float,
+                    gap: float = CHEVRON_GAP) -> list[float]:
+    """Bearing offset of each rank (rad) in follow-the-leader's line: rank p at p·separation,
+    each rank tucked inside the one before it (module docstring)."""
+    rho = [p * separation for p in range(1, pairs + 1)]
+    half = [math.asin(min(1.0, r_F / r)) for r in rho]
+    step = [half[p - 1] + half[p] + gap for p in range(1, pairs)]
+    first = max(offset, half[-1] + 0.5 * gap + sum(step))
+    offs = [first]
+    for d in step:
+        offs.append(offs[-1] - d)
+    return offs
+
+
+def in_line(n: int, separation: float, offset: float = math.radians(15), *,
+            r_F: float = 25.0, gap: float = CHEVRON_GAP) -> Formation:
+    """Follow-the-leader's default line: rank p at p·``separation`` cm, its two followers at
+    180° ± φ_p on straights (odd right, even left), φ_p from :func:`in_line_offsets`.
+
+    Raises :class:`ScenarioError` if the first rank would need more than 90°.
+    """
+    n = integer("formation.followers", n, minimum=1)
+    sep = positive("formation.separation", separation)
+    off = number("formation.bearing_offset", offset)
+    r_F = positive("follower.radius", r_F)
+    if not 0 <= off <= math.pi / 2:
+        raise ScenarioError(f"formation.bearing_offset: must be in [0, 90] deg, got "
+                            f"{math.degrees(off):.6g} deg")
+    offs = in_line_offsets((n + 1) // 2, sep, off, r_F, gap)
+    if offs[0] > math.pi / 2:
+        raise ScenarioError(
+            f"formation.followers: {n} followers do not fit a line at {sep:.6g} cm that keeps "
+            f"every follower in the laser's view (the first rank would need "
+            f"{math.degrees(offs[0]):.4g} deg off the track, above 90); use a larger "
+            f"separation or [[formation.slot]]")
+    rho = tuple(sep * ((i + 1) // 2) for i in range(1, n + 1))
+    beta = tuple(math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
+                 for i in range(1, n + 1))
+    return Formation(rho, beta, "follow-the-leader")

@@ -1,13 +1,21 @@
 """The leader: a unicycle driving its closed path at an adjustable speed (SPEC §5, §6).
 
-The leader's state is its arc length ``s`` along the path and its actual speed V_L; its pose
-is the path's exact pose at ``s``, so advancing is exact whatever the step. The actual speed
-may be lowered below the desired speed V_Ld (the adjustment algorithm does so) and raised
-back to it; it changes instantly (the paper's leader has no acceleration limit).
+The leader's state is its arc length ``s`` along the path, its actual speed V_L and the
+target speed it is driving toward; its pose is the path's exact pose at ``s``, so advancing
+is exact whatever the step. The adjustment algorithm sets the **target** (at most the
+desired speed V_Ld); the actual speed ramps toward it at ``accel_max`` cm/s² when speeding
+up and ``decel_max`` cm/s² when slowing down, as a real robot's speed controller does
+(SPEC §6). With both limits infinite (the default of a :class:`Leader` built by hand) the
+speed steps at once, the paper's idealisation. Over a step of dt seconds the arc length is
+the exact integral of that ramp-then-hold profile:
+
+    τ = |V_t − V_0| / a,   s += (V_0 + V_t)/2 · min(τ, dt) + V_t · max(0, dt − τ)   (τ ≤ dt)
+    s += V_0 dt ± a dt²/2                                                          (τ > dt)
 """
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 from rtsim.errors import InputError
@@ -18,25 +26,55 @@ __all__ = ["Leader"]
 
 
 class Leader:
-    """Leader on ``path`` with desired speed ``desired_speed`` (cm/s), starting at ``s0`` cm."""
+    """Leader on ``path`` with desired speed ``desired_speed`` (cm/s), starting at ``s0`` cm,
+    its speed ramping toward the target at most ``accel_max`` / ``decel_max`` cm/s²."""
 
-    def __init__(self, path: LeaderPath, desired_speed: float, s0: float = 0.0) -> None:
+    def __init__(self, path: LeaderPath, desired_speed: float, s0: float = 0.0, *,
+                 accel_max: float = math.inf, decel_max: float = math.inf) -> None:
         self.path = path
         self.desired_speed = positive("leader.speed", desired_speed)
+        self.accel_max = positive("leader.accel_max", accel_max, allow_inf=True)
+        self.decel_max = positive("leader.decel_max", decel_max, allow_inf=True)
         self.speed = self.desired_speed
+        self.target_speed = self.desired_speed
         self.s = float(s0)
 
     def set_speed(self, v: float) -> None:
-        """Set the actual speed, 0 ≤ v ≤ V_Ld (a tiny rounding excess is clipped)."""
+        """Set the target speed, 0 ≤ v ≤ V_Ld (a tiny rounding excess is clipped); the actual
+        speed ramps toward it (at once when the limit in that direction is infinite)."""
         if not (0.0 <= v <= self.desired_speed * (1 + 1e-9)):
             raise InputError(
                 f"leader speed must be in [0, {self.desired_speed:g}] cm/s, got {v!r}"
             )
-        self.speed = min(float(v), self.desired_speed)
+        self.target_speed = min(float(v), self.desired_speed)
+        a = self.accel_max if self.target_speed > self.speed else self.decel_max
+        if a == math.inf:
+            self.speed = self.target_speed
 
     def advance(self, dt: float) -> None:
-        """Drive ``dt`` seconds at the current speed (exact along the path)."""
-        self.s += self.speed * dt
+        """Drive ``dt`` seconds, the speed ramping toward the target (exact along the path)."""
+        v0, vt = self.speed, self.target_speed
+        if v0 == vt or dt <= 0.0:
+            self.s += v0 * dt
+            return
+        a = self.accel_max if vt > v0 else self.decel_max
+        tau = abs(vt - v0) / a
+        if tau <= dt:
+            self.s += 0.5 * (v0 + vt) * tau + vt * (dt - tau)
+            self.speed = vt
+        else:
+            v1 = v0 + math.copysign(a * dt, vt - v0)
+            self.s += 0.5 * (v0 + v1) * dt
+            self.speed = v1
+
+    def speed_after(self, dt: float) -> float:
+        """The actual speed ``dt`` seconds from now if the target does not change."""
+        v0, vt = self.speed, self.target_speed
+        if v0 == vt:
+            return v0
+        a = self.accel_max if vt > v0 else self.decel_max
+        step = a * dt
+        return vt if abs(vt - v0) <= step else v0 + math.copysign(step, vt - v0)
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -49,7 +87,7 @@ class Leader:
 
     @property
     def omega(self) -> float:
-        """Turn rate ω_L = κ·V_L (rad/s)."""
+        """Turn rate ω_L = κ·V_L (rad/s), at the actual speed."""
         return self.path.curvature(self.s) * self.speed
 
     def segment(self) -> tuple[Literal["straight", "turn"], float]:

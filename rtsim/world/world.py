@@ -7,16 +7,23 @@ Plain numpy + filterpy, no engine: whoever owns time calls, in simulated **milli
   and the observed bound violations since the previous scan (a :class:`Scan`);
 - :meth:`World.estimate` with that scan: the EKFs predict with the commands sent and
   update with the fixes; the new estimates centre the next scan's Hough windows;
-- :meth:`World.command` at the end of follower i's send segment: l-ψ control on the
-  leader's estimate (propagated to t with the held command) and the leader's own pose, held
-  by the follower until the next command — a late window means stale commands;
-- :meth:`World.set_leader_speed` when the adjustment changes V_L.
+- :meth:`World.command` at the end of follower i's send segment: l-ψ control
+  (``formation.model = "l-psi"``) or follow-the-leader (``"follow-the-leader"``,
+  :mod:`rtsim.world.ftl`) on the leader's estimate (propagated to t with the held command)
+  and the leader's own pose, held by the follower until the next command — a late window
+  means stale commands;
+- :meth:`World.set_leader_speed` when the adjustment changes V_L: it sets the leader's
+  target speed, toward which its actual speed ramps (``leader_accel_max``,
+  ``leader_decel_max``); :attr:`World.leader_speed` is the actual speed,
+  :attr:`World.leader_target_speed` the target.
 
-**Initial state** (t = 0): the leader at ``start_s`` on its path at V_Ld; each follower's axle
-exactly on its slot, moving in steady formation (speed and heading from
-:func:`~rtsim.analysis.kinematics.formation_velocity`, turn rate ω_L) and holding that
-command without noise; each estimate is the truth plus N(0, init_position_sd²) per
-coordinate and N(0, init_heading_sd²) on the heading. Followers are numbered from 1 in
+**Initial state** (t = 0): the leader at ``start_s`` on its path at V_Ld; each l-ψ
+follower's axle exactly on its slot, moving in steady formation (speed and heading from
+:func:`~rtsim.analysis.kinematics.formation_velocity`, turn rate ω_L); each
+follow-the-leader follower on its reference point of the trace, heading along it at the
+reference's speed (turn rate 0); each holding that command without noise; each estimate
+is the truth plus N(0, init_position_sd²) per coordinate and N(0, init_heading_sd²) on
+the heading. Followers are numbered from 1 in
 every method; arrays are indexed i − 1.
 """
 
@@ -37,6 +44,7 @@ from rtsim.errors import RtsimError
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
 from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command, ramp1, ramp_arc
+from rtsim.world.ftl import TraceFollower
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
 
@@ -178,7 +186,9 @@ class World:
         self.rng = rng
         self._z: list[float] = []  # standard normals drawn ahead from rng (see _normals)
         self._zi = 0
-        self.leader = Leader(config.path, config.leader_speed, config.start_s)
+        self.leader = Leader(config.path, config.leader_speed, config.start_s,
+                             accel_max=config.leader_accel_max,
+                             decel_max=config.leader_decel_max)
         form = config.formation
         self._rho_d = np.asarray(form.rho_d)
         self._beta_d = np.asarray(form.beta_d)
@@ -194,11 +204,21 @@ class World:
         c, s = math.cos(hl), math.sin(hl)
         x = xl + c * slots[:, 0] - s * slots[:, 1]
         y = yl + s * slots[:, 0] + c * slots[:, 1]
-        v_f, theta = formation_velocity(v_l, w_l, self._rho_d, self._beta_d)
-        v_f = np.asarray(v_f, dtype=float)
-        th = hl - np.asarray(theta, dtype=float)
+        self._ftl: TraceFollower | None = None
+        if form.model == "follow-the-leader":
+            self._ftl = TraceFollower(config.path, form.rho_d, form.lateral, fp.gain_rho,
+                                      fp.lookahead)
+            init = np.array([self._ftl.initial(k, self.leader.s, (xl, yl, hl), v_l)
+                             for k in range(form.n)], dtype=float).reshape(form.n, 4)
+            x, y, th, v_f = init.T
+            w0 = 0.0
+        else:
+            v_f, theta = formation_velocity(v_l, w_l, self._rho_d, self._beta_d)
+            v_f = np.asarray(v_f, dtype=float)
+            th = hl - np.asarray(theta, dtype=float)
+            w0 = float(w_l)
         self.followers = FollowerGroup(x, y, th, v_f, fp)
-        self.followers.cmd_w = [float(w_l)] * form.n
+        self.followers.cmd_w = [w0] * form.n
         self._t = 0.0
         self._est_t = 0.0
         ep = config.ekf
@@ -211,7 +231,7 @@ class World:
         ]
         self._vhat = [float(v) for v in v_f]
         self._pieces: list[list[tuple[float, float, float]]] = [
-            [(0.0, float(v_f[k]), float(w_l))] for k in range(form.n)]
+            [(0.0, float(v_f[k]), w0)] for k in range(form.n)]
         self._centre = self._to_leader(self.leader.pose, *self._estimated_xy())
         self._prev: dict[str, Any] | None = None
         thr = config.thresholds
@@ -251,10 +271,17 @@ class World:
 
     @property
     def leader_speed(self) -> float:
+        """The leader's actual speed V_L now (cm/s)."""
         return self.leader.speed
 
+    @property
+    def leader_target_speed(self) -> float:
+        """The speed the leader is ramping toward (cm/s): the last :meth:`set_leader_speed`."""
+        return self.leader.target_speed
+
     def set_leader_speed(self, v: float, t_ms: float | None = None) -> None:
-        """Set the leader's actual speed V_L ∈ [0, V_Ld] from ``t_ms`` (default: now)."""
+        """Set the leader's target speed ∈ [0, V_Ld] from ``t_ms`` (default: now); its actual
+        speed ramps toward it at most ``leader_accel_max`` / ``leader_decel_max``."""
         if t_ms is not None:
             self._advance_leader(t_ms)
         self.leader.set_speed(v)
@@ -441,8 +468,8 @@ class World:
 
     # -- commands --------------------------------------------------------------------
     def command(self, i: int, t_ms: float) -> tuple[float, float]:
-        """Compute follower i's (speed, turn rate) by l-ψ control on the leader's estimate at
-        ``t_ms`` and apply it (with actuation noise) until the next command.
+        """Compute follower i's (speed, turn rate) by l-ψ or follow-the-leader control on the
+        leader's estimate at ``t_ms`` and apply it (with actuation noise) until the next command.
 
         Returns the command sent (saturated, before the actuation noise).
         """
@@ -454,6 +481,9 @@ class World:
         fol.advance(k, t_ms, self.config.step_ms)
         (x, y, th), _ = self._propagate(k, t_ms)
         ld = self.leader
+        if self._ftl is not None:
+            v, w = self._ftl.command(k, ld.s, ld.pose, ld.speed, x, y, th)
+            return self._hold(k, t_ms, fol.saturate(v, w))
         kappa = ld.curvature
         if kappa != self._kappa_targets:
             self._l_d, self._psi_d = control_targets(
@@ -463,7 +493,11 @@ class World:
         l_d, psi_d = self._targets_l
         v, w = lpsi_command(ld.pose, ld.speed, kappa * ld.speed, x, y, th, l_d[k], psi_d[k],
                             self.config.follower)
-        cmd = fol.saturate(v, w)
+        return self._hold(k, t_ms, fol.saturate(v, w))
+
+    def _hold(self, k: int, t_ms: float, cmd: tuple[float, float]) -> tuple[float, float]:
+        """Record follower index k's command for the estimates and apply it with noise."""
+        fol = self.followers
         pieces = self._pieces[k]
         if pieces and pieces[-1][0] >= t_ms:
             pieces.pop()
@@ -503,7 +537,8 @@ class World:
         return {
             "t_ms": self._t,
             "leader": {"x": xl, "y": yl, "heading": hl, "s": ld.s, "speed": ld.speed,
-                       "desired_speed": ld.desired_speed, "omega": ld.omega,
+                       "target_speed": ld.target_speed, "desired_speed": ld.desired_speed,
+                       "omega": ld.omega,
                        "segment": kind, "curvature": kappa},
             "truth": {"x": list(fol.x), "y": list(fol.y), "heading": list(fol.th),
                       "speed": list(fol.v), "odometer": list(fol.odometer)},
