@@ -18,6 +18,8 @@ import time
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import rtsim.io.outdir as outdir
 from rtsim.cli import main
@@ -56,13 +58,13 @@ def _whole(d: Path) -> dict:
 def test_stage_commit_swaps_in_and_leaves_nothing(tmp_path: Path) -> None:
     target = tmp_path / "out"
     for k in range(3):  # new, then replacing an earlier output twice
-        with stage(target) as st:
-            assert st.path.parent == tmp_path and st.path.name.startswith(".out.rtsim-")
+        with stage(target) as staged:
+            assert staged.path.parent == tmp_path and staged.path.name.startswith(".out.rtsim-")
             assert not (target / f"f{k}.txt").exists()
-            (st.path / f"f{k}.txt").write_text(str(k))
-            (st.path / "manifest.json").write_text(json.dumps(
+            (staged.path / f"f{k}.txt").write_text(str(k))
+            (staged.path / "manifest.json").write_text(json.dumps(
                 {"rtsim_version": "x", "outputs": [f"f{k}.txt"]}))
-            st.commit()
+            staged.commit()
         assert sorted(p.name for p in target.iterdir()) == sorted(["manifest.json", f"f{k}.txt"])
         assert _staging(target) == []
 
@@ -70,9 +72,9 @@ def test_stage_commit_swaps_in_and_leaves_nothing(tmp_path: Path) -> None:
 def test_two_runs_into_one_target_swap_one_after_the_other(tmp_path: Path) -> None:
     target = tmp_path / "out"
     a, b = stage(target), stage(target)  # both staged before either finishes
-    for st, name in ((a, "a.txt"), (b, "b.txt")):
-        (st.path / name).write_text(name)
-        (st.path / "manifest.json").write_text(json.dumps({"rtsim_version": "x",
+    for staged, name in ((a, "a.txt"), (b, "b.txt")):
+        (staged.path / name).write_text(name)
+        (staged.path / "manifest.json").write_text(json.dumps({"rtsim_version": "x",
                                                            "outputs": [name]}))
     a.commit()
     assert sorted(p.name for p in target.iterdir()) == ["a.txt", "manifest.json"]
@@ -88,9 +90,9 @@ def test_fallback_swap_without_exchange(tmp_path: Path, monkeypatch: pytest.Monk
     (target / "old.txt").write_text("old")
     (target / "manifest.json").write_text(json.dumps({"rtsim_version": "x",
                                                       "outputs": ["old.txt"]}))
-    with stage(target) as st:
-        (st.path / "new.txt").write_text("new")
-        st.commit()
+    with stage(target) as staged:
+        (staged.path / "new.txt").write_text("new")
+        staged.commit()
     assert sorted(p.name for p in target.iterdir()) == ["new.txt"]
     assert _staging(target) == []
 
@@ -98,8 +100,8 @@ def test_fallback_swap_without_exchange(tmp_path: Path, monkeypatch: pytest.Monk
 def test_abort_leaves_the_target_alone(tmp_path: Path) -> None:
     target = tmp_path / "out"
     target.mkdir()
-    with pytest.raises(RuntimeError), stage(target) as st:
-        (st.path / "half.csv").write_text("x")
+    with pytest.raises(RuntimeError), stage(target) as staged:
+        (staged.path / "half.csv").write_text("x")
         raise RuntimeError("killed")
     assert list(target.iterdir()) == [] and _staging(target) == []
 
@@ -313,3 +315,39 @@ def test_kill_minus_9_never_leaves_a_mixed_directory(tmp_path: Path) -> None:
     assert _whole(out)["seed"] == 1 and _digest(out) == digests[1]
     assert _staging(out) == []  # the leftovers of every killed run are gone
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+_NAMES = st.sampled_from(["windows.csv", "jobs.csv", "paths.png", ".hidden", "notes.txt",
+                          "sub", "report.html", "summary.json"])
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(present=st.sets(_NAMES, max_size=6), listed=st.sets(_NAMES, max_size=6),
+       manifest=st.sampled_from(["rtsim", "foreign", "none", "corrupt"]))
+def test_only_an_earlier_rtsim_output_is_replaced(tmp_path_factory: pytest.TempPathFactory,
+                                                  present: set[str], listed: set[str],
+                                                  manifest: str) -> None:
+    """Random directory contents: stage() accepts exactly the empty directory and the one
+    whose rtsim manifest lists every entry (report.html aside); a refused one is untouched."""
+    target = tmp_path_factory.mktemp("h") / "out"
+    target.mkdir()
+    for name in present:
+        (target / name).mkdir() if name == "sub" else (target / name).write_text(name)
+    if manifest != "none":
+        body = {"rtsim": {"rtsim_version": "1", "outputs": sorted(listed)},
+                "foreign": {"outputs": sorted(listed)}}.get(manifest)
+        (target / "manifest.json").write_text(json.dumps(body) if body else "{")
+    entries = {p.name for p in target.iterdir()}
+    ok = not entries or (manifest == "rtsim" and
+                         entries <= listed | {"manifest.json", "report.html"})
+    if ok:
+        with stage(target) as staged:
+            (staged.path / "new.txt").write_text("new")
+            staged.commit()
+        assert [p.name for p in target.iterdir()] == ["new.txt"]
+    else:
+        with pytest.raises(InputError, match="not an earlier rtsim output"):
+            stage(target)
+        assert {p.name for p in target.iterdir()} == entries
+    assert _staging(target) == []
