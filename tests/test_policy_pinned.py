@@ -167,3 +167,10 @@ FP_DIGEST = "412929b5757c6d9e"
 
 def test_fp_is_bit_identical_to_before_the_policy_interface():
     assert fp_digest() == FP_DIGEST
+
+
+def test_fp_by_name_and_by_instance_is_the_same_schedule():
+    from rtsim.sim import FixedPriority
+
+    assert fp_digest(scheduler="fp") == FP_DIGEST
+    assert fp_digest(scheduler=FixedPriority()) == FP_DIGEST

@@ -43,6 +43,10 @@ def register(sub: Any) -> None:
     p.add_argument("--jitter", choices=("random", "worst", "none"), default="random",
                    help="release delays of tasks with a jitter: uniform in [0, J] (default), "
                         "worst (the analysis' critical instant) or none")
+    p.add_argument("--scheduler",
+                   help="the CPU's scheduling policy: fp (fixed priority) or edf (earliest "
+                        "deadline first), or package.module:Name (default: the file's "
+                        "[scheduler] policy, else fp)")
     p.add_argument("--followers", type=int, help="n, for a processing-window set")
     p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
     p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
@@ -111,6 +115,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--overhead must be a non-negative number of ms, got {overhead:g}")
     if args.exec_model == "uniform":
         require_bcet(ts, str(args.file))
+    scheduler = ts.scheduler
+    if args.scheduler is not None:
+        from rtsim.model.policy import resolve_policy
+
+        resolve_policy(args.scheduler, where="--scheduler")
+        scheduler = args.scheduler
     bounds = None
     if ts.window is not None:
         from rtsim.analysis.bounds import window_bounds
@@ -121,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
                    suspension=args.suspension, window=args.window,
                    record_jobs=want_jobs,
                    record_trace=bool(args.trace or args.gantt or args.perfetto),
-                   overhead=overhead, jitter=args.jitter)
+                   overhead=overhead, jitter=args.jitter, scheduler=scheduler)
     w = res.window["w"] if res.window else None
     analysis = analyze(ts, w, overhead=overhead, suspension=args.suspension) \
         if ts.window is not None else analyze(ts, overhead=overhead, suspension=args.suspension)
@@ -158,6 +168,7 @@ def run(args: argparse.Namespace) -> int:
         outputs[Path(args.histogram).resolve().parent].append(Path(args.histogram).name)
     inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
               "suspension": args.suspension, "overhead": overhead, "jitter": args.jitter,
+              "scheduler": scheduler,
               "window": res.window, "taskset": taskset_to_dict(ts)}
     for out_dir, names in outputs.items():
         write_manifest(out_dir, command="simulate", seed=args.seed, inputs=inputs,
@@ -185,7 +196,7 @@ def _print_table(report: dict[str, Any]) -> None:
               f"w_sch = {_fmt(win.get('w_sch'))} ms, w_rta = {_fmt(win.get('w_rta'))} ms, "
               f"n = {win.get('n')}, r_H = {_fmt(win.get('r_H'))} cm")
     print(f"horizon {report['horizon']:g} ms, seed {report['seed']}, exec {report['exec_model']}, "
-          f"suspension {report['suspension']}")
+          f"suspension {report['suspension']}, scheduler {report['scheduler']}")
     cols = ("name", "released", "jobs", "aborted", "skipped", "misses", "max_response",
             "mean_response", "wcrt_analysis", "max_backlog")
     rows = [[_fmt(t.get(c)) for c in cols] for t in report["tasks"]]

@@ -21,6 +21,7 @@ import numpy as np
 import simpy
 
 from rtsim.errors import InputError
+from rtsim.model.policy import PolicySpec
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU, JitterMode
@@ -69,9 +70,10 @@ def build_cpu(
 
     Returns the CPU and the window description (None for a set without a window).
     ``cpu_kwargs`` go to :class:`CPU` (suspension, exec_model, seed, overhead, record_jobs,
-    record_trace, hist_bin, jitter).
+    record_trace, hist_bin, jitter, scheduler; the scheduler defaults to the set's).
     """
     ts = _as_taskset(ts)
+    cpu_kwargs.setdefault("scheduler", ts.scheduler)
     cpu = CPU(env, **cpu_kwargs)
     info: dict[str, Any] | None = None
     if ts.window is not None:
@@ -99,20 +101,25 @@ def simulate(
     hist_bin: float | None = None,
     env: simpy.Environment | None = None,
     jitter: JitterMode = "random",
+    scheduler: PolicySpec | None = None,
 ) -> SimResult:
     """Simulate ``ts`` for jobs released in [0, horizon) ms until they complete or abort.
 
     Example: ``simulate(load_taskset(), 60_000, window=250.0, record_jobs=True).jobs``.
     ``overhead`` defaults to the set's (0 for a list of tasks). ``jitter``: release delays
     of tasks with a jitter, ``random``/``worst``/``none`` (:mod:`rtsim.sim.cpu`).
+    ``scheduler``: the scheduling policy (:mod:`rtsim.model.policy`), default the set's
+    (``[scheduler] policy``; ``fp`` for a list of tasks).
     """
     ts = _as_taskset(ts)
     if overhead is None:
         overhead = ts.overhead
+    if scheduler is None:
+        scheduler = ts.scheduler
     cpu, info = build_cpu(ts, env=env, window=window, suspension=suspension,
                           exec_model=exec_model, seed=seed, overhead=overhead,
                           record_jobs=record_jobs, record_trace=record_trace,
-                          hist_bin=hist_bin, jitter=jitter)
+                          hist_bin=hist_bin, jitter=jitter, scheduler=scheduler)
     proc = cpu.start(horizon)
     cpu.env.run(until=proc)
     return cpu.result(window=info)
