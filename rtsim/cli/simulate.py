@@ -133,9 +133,17 @@ def run(args: argparse.Namespace) -> int:
                    record_trace=bool(args.trace or args.gantt or args.perfetto),
                    overhead=overhead, jitter=args.jitter, scheduler=scheduler)
     w = res.window["w"] if res.window else None
-    analysis = analyze(ts, w, overhead=overhead, suspension=args.suspension) \
-        if ts.window is not None else analyze(ts, overhead=overhead, suspension=args.suspension)
-    wcrt = {t.name: t.wcrt for t in analysis.tasks}
+    # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own)
+    name = scheduler if isinstance(scheduler, str) else ""
+    if name == "edf":
+        from rtsim.analysis.edf import analyze_edf as analyze_with
+    else:
+        analyze_with = analyze  # type: ignore[assignment]
+    analysis = analyze_with(ts, w, overhead=overhead, suspension=args.suspension) \
+        if ts.window is not None else analyze_with(ts, overhead=overhead,
+                                                   suspension=args.suspension)
+    known = name in ("fp", "edf")
+    wcrt = {t.name: t.wcrt if known else None for t in analysis.tasks}
     deadlines = {t.name: t.deadline for t in analysis.tasks}
     report = res.to_json()
     for entry in report["tasks"]:
@@ -194,6 +202,7 @@ def _print_table(report: dict[str, Any]) -> None:
     if win:
         print(f"window: w = {_fmt(win.get('w'))} ms ({win.get('mode')}), "
               f"w_sch = {_fmt(win.get('w_sch'))} ms, w_rta = {_fmt(win.get('w_rta'))} ms, "
+              f"w_edf = {_fmt(win.get('w_edf'))} ms, "
               f"n = {win.get('n')}, r_H = {_fmt(win.get('r_H'))} cm")
     print(f"horizon {report['horizon']:g} ms, seed {report['seed']}, exec {report['exec_model']}, "
           f"suspension {report['suspension']}, scheduler {report['scheduler']}")
