@@ -214,3 +214,30 @@ def test_cpu_object_takes_a_policy_and_hooks_run_under_edf():
     cpu.env.run(until=cpu.start(14))
     assert seen[:4] == [("a", 0, 2.0), ("b", 0, 6.0), ("a", 1, 8.0), ("b", 1, 12.0)]
     assert cpu.result().scheduler == "edf"
+
+
+def test_the_docs_example_is_a_one_file_policy(tmp_path, monkeypatch, capsys):
+    """docs/scheduling.md's example, written to a file as it stands, used by path."""
+    import re
+    import sys
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "scheduling.md").read_text()
+    code = re.search(r"```python\n(# my_policies.py\n.+?)```", doc, flags=re.S).group(1)
+    (tmp_path / "my_policies.py").write_text(code)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        ts = tmp_path / "s.toml"
+        ts.write_text('[scheduler]\npolicy = "my_policies:NonPreemptiveFP"\n'
+                      '[[tasks]]\nname = "hi"\nwcet = 1\nperiod = 5\noffset = 1\npriority = 1\n'
+                      '[[tasks]]\nname = "lo"\nwcet = 3\nperiod = 10\npriority = 2\n')
+        jobs = tmp_path / "jobs.csv"
+        assert main(["simulate", str(ts), "--horizon", "6", "--jobs", str(jobs)]) == 0
+        df = pd.read_csv(jobs).sort_values("start")
+        assert list(zip(df["task"], df["start"], df["finish"], strict=True)) == \
+            [("lo", 0.0, 3.0), ("hi", 3.0, 4.0)]
+        assert "scheduler np-fp" in capsys.readouterr().out
+        assert "np-fp" in POLICIES  # the decorator registered it on import
+    finally:
+        POLICIES.pop("np-fp", None)
+        sys.modules.pop("my_policies", None)
