@@ -46,14 +46,14 @@ def test_every_numeric_key_of_the_parsers_has_a_range() -> None:
     keys = [f"taskset: tasks.{k}" for k in TASK_KEYS if k not in ("name", "overload")]
     keys += [f"taskset: window.{k}" for k in WINDOW_KEYS if k != "name"]
     keys += [f"taskset: {k}" for k in TOP_KEYS if k not in ("name", "tasks", "window",
-                                                            "assumptions")]
+                                                            "assumptions", "scheduler")]
     for table, cls in (("follower", FollowerParams), ("ekf", EkfParams),
                        ("sensing", SensingParams)):
         names = _numeric_fields(cls)
         assert names, cls
         keys += [f"scenario: {table}.{k}" for k in names]
     keys += [f"scenario: {k}" for k in (
-        "duration", "leader.speed", "leader.start_s", "leader.start.x", "leader.start.y",
+        "duration", "leader.speed", "leader.accel_max", "leader.decel_max", "leader.start_s", "leader.start.x", "leader.start.y",
         "leader.start.heading", "leader.path.straight", "leader.path.radius",
         "leader.path.angle", "leader.shape.length", "leader.shape.width",
         "leader.shape.radius", "formation.followers", "formation.separation",

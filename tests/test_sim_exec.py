@@ -17,7 +17,8 @@ def test_public_api_is_pinned():
         "CPU", "EPS", "Empirical", "ExecModel", "HOOK_EVENTS", "HookEvent", "JOB_COLUMNS",
         "Job", "ResponseHistogram", "SimResult", "TRACE_COLUMNS", "TaskStats", "Uniform",
         "WCET", "build_cpu", "resolve_exec_model", "resolve_window", "simulate",
-        "task_rngs"])
+        "task_rngs", "EarliestDeadlineFirst", "FixedPriority", "POLICIES", "SCHEDULERS",
+        "SchedulingPolicy", "register_policy", "resolve_policy"])
     for name in rtsim.sim.__all__:
         assert hasattr(rtsim.sim, name)
 

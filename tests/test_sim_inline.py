@@ -68,9 +68,10 @@ def specs(draw: st.DrawFn) -> Spec:
                 probes)
 
 
-def run(spec: Spec, inline: bool) -> dict[str, Any]:
+def run(spec: Spec, inline: bool, scheduler: str = "fp") -> dict[str, Any]:
     env = simpy.Environment()
-    cpu = CPU(env, suspension=spec.mode, record_jobs=True)  # type: ignore[arg-type]
+    cpu = CPU(env, suspension=spec.mode, record_jobs=True,  # type: ignore[arg-type]
+              scheduler=scheduler)
     cpu.add_task(spec.top)
     if spec.window is not None:
         cyc = itertools.cycle(spec.periods)
@@ -144,6 +145,15 @@ def test_inline_top_jobs_are_unobservable(spec: Spec) -> None:
     assert_same(run(spec, inline=True), run(spec, inline=False))
 
 
+@settings(max_examples=100, deadline=None)
+@given(specs())
+def test_inline_top_jobs_are_unobservable_under_edf(spec: Spec) -> None:
+    """Under EDF the top task's job is booked inline only when it comes first (its deadline,
+    then creation order) and preempts; the job after it is the first of the others."""
+    assert_same(run(spec, inline=True, scheduler="edf"),
+                run(spec, inline=False, scheduler="edf"))
+
+
 def test_inline_path_is_taken_and_exact(monkeypatch: pytest.MonkeyPatch) -> None:
     calls = []
     orig = CPU._inline_top
@@ -168,6 +178,14 @@ def test_inline_path_is_taken_and_exact(monkeypatch: pytest.MonkeyPatch) -> None
     top = a["jobs"][a["jobs"]["task"] == "top"]
     assert len(top) == 125
     assert n_inline > len(top) // 2  # most dead-reckoning jobs run inline
+    # under EDF too, where the dead-reckoning job comes first (its deadline is 40 ms away)
+    calls.clear()
+    a = run(spec, inline=True, scheduler="edf")
+    n_edf = len(calls)
+    b = run(spec, inline=False, scheduler="edf")
+    assert len(calls) == n_edf
+    assert_same(a, b)
+    assert n_edf > 10
     # hand check: job 1 is released at 40 and runs 40..45 alone (the scan runs 0+5..111)
     row = top[top["job"] == 1].iloc[0]
     assert (row["start"], row["finish"], row["response"], row["exec_time"]) == \

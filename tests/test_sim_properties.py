@@ -54,8 +54,12 @@ def specs(draw: st.DrawFn) -> Spec:
                 draw(st.sampled_from(["cpu", "idle"])))
 
 
-def check_schedule(spec: Spec, jobs, trace) -> None:  # noqa: C901 - one checker, read top-down
-    """Assert the five properties of the issue over the trace (independent of the CPU)."""
+def check_schedule(spec: Spec, jobs, trace,  # noqa: C901 - one checker, read top-down
+                   scheduler: str = "fp") -> None:
+    """Assert the five properties of the issue over the trace (independent of the CPU).
+
+    Property 2 by ``scheduler``: ``fp`` runs the ready job of the highest priority, ``edf``
+    one of the earliest absolute deadline."""
     prio = {t.name: t.priority for t in spec.tasks}
     task_of = {t.name: t for t in spec.tasks}
     rows = list(trace.itertuples(index=False))
@@ -86,7 +90,7 @@ def check_schedule(spec: Spec, jobs, trace) -> None:  # noqa: C901 - one checker
             continue
         end = j.deadline if j.aborted else j.finish
         info[(j.task, j.job)] = {"release": j.release, "end": end, "aborted": j.aborted,
-                                 "cpu": {}, "susp": [], "pieces": []}
+                                 "cpu": {}, "susp": [], "pieces": [], "deadline": j.deadline}
     for r in on_cpu:
         d = info[(r.task, r.job)]
         d["cpu"][r.segment] = d["cpu"].get(r.segment, 0.0) + (r.end - r.start)
@@ -168,7 +172,11 @@ def check_schedule(spec: Spec, jobs, trace) -> None:  # noqa: C901 - one checker
         assert len(running) == 1, (m, ready)
         r = running[0]
         assert (r.task, r.job) in ready, (m, r, ready)
-        assert prio[r.task] == min(prio[t] for t, _ in ready), (m, r, ready)
+        if scheduler == "edf":
+            assert info[(r.task, r.job)]["deadline"] == min(info[k]["deadline"]
+                                                            for k in ready), (m, r, ready)
+        else:
+            assert prio[r.task] == min(prio[t] for t, _ in ready), (m, r, ready)
 
 
 @settings(max_examples=60, deadline=None)
@@ -188,6 +196,22 @@ def test_schedule_properties(spec: Spec) -> None:
         assert s.aborted == int(mine["aborted"].sum())
         assert s.misses == int(mine["missed"].sum())
         assert s.completed == int(mine["finish"].notna().sum())
+
+
+@settings(max_examples=60, deadline=None)
+@given(specs(), st.lists(st.sampled_from([0.5, 0.8, 1.0, 1.0, 1.5, 2.5]), min_size=4,
+                         max_size=4))
+def test_schedule_properties_under_edf(spec: Spec, factors: list[float]) -> None:
+    """The same checker with EDF's rule: the running job has the earliest deadline of the
+    ready jobs (constrained, implicit and arbitrary deadlines; overload policies)."""
+    spec.tasks = [Task(t.name, t.wcet, t.period, t.period * f, priority=t.priority,
+                       offset=t.offset, segments=t.segments, overload=t.overload)
+                  for t, f in zip(spec.tasks, factors, strict=False)]
+    res = simulate(spec.tasks, spec.horizon, suspension=spec.mode, scheduler="edf",
+                   exec_model=lambda job, seg, rng: spec.exec_time(job.name, job.index,
+                                                                   seg.name),
+                   record_jobs=True, record_trace=True)
+    check_schedule(spec, res.jobs, res.trace, scheduler="edf")
 
 
 def test_checker_catches_a_broken_trace() -> None:

@@ -256,3 +256,14 @@ def test_w_susp_columns_hold_on_the_small_grid(small) -> None:
     assert cpu["w_susp_over_w_sim"].isna().all()
     rnd = small.table[small.table["source"] == "random"]
     assert len(rnd) > 0
+
+
+def test_edf_checks_flag_w_sim_above_w_edf_and_w_edf_above_w_rta():
+    from rtsim.analysis.validation import check_results
+
+    base = {"source": "paper", "task": "window", "w_sch": 237.4, "w_rta": 235.2, "mode": "edf-cpu"}
+    rows = [{**base, "config": "ok", "w_sim": 234.5, "w_edf": 234.545},
+            {**base, "config": "hi", "w_sim": 234.6, "w_edf": 234.545},
+            {**base, "config": "bad", "w_sim": 230.0, "w_edf": 235.3}]
+    fails = {(f.config, f.check) for f in check_results(rows)}
+    assert fails == {("hi", "w_sim above w_edf"), ("bad", "w_edf above w_rta")}

@@ -26,7 +26,7 @@ def test_quick_mode_writes_report_figures_and_csvs(tmp_path: Path) -> None:
     for name in ("report.md", "validation.csv", "results.parquet", "failures.csv",
                  "summary.json", "manifest.json"):
         assert (out / name).is_file(), name
-    for fig in ("bounds_vs_n", "pessimism_wsch", "pessimism_wrta"):
+    for fig in ("bounds_vs_n", "pessimism_wsch", "pessimism_wrta", "scheduler_bounds"):
         assert (out / "figures" / f"{fig}.png").stat().st_size > 1000
         assert (out / "figures" / f"{fig}.csv").is_file()
     hists = list(out.glob("histograms/*/histogram-*.png"))
@@ -47,3 +47,14 @@ def test_quick_mode_writes_report_figures_and_csvs(tmp_path: Path) -> None:
     assert "report.html" in listed and "report.md" in listed
     assert all((out / name).is_file() for name in listed), listed
     assert pd.read_csv(out / "failures.csv").empty
+    # EDF: the edf-cpu search lands at or below w_edf (to the search tolerance), w_edf is at
+    # or below w_rta, and the scheduler table covers n = 1..10 × r_H = 10..50
+    edf = paper[paper["mode"] == "edf-cpu"].drop_duplicates("config")
+    assert len(edf) == 6
+    assert (edf["w_sim"] <= edf["w_edf"] + 0.01).all() and (edf["w_edf"] <= edf["w_rta"]).all()
+    assert (edf["w_edf_over_w_sim"] == edf["w_edf"] / edf["w_sim"]).all()
+    sched = pd.read_csv(out / "figures" / "scheduler_bounds.csv")
+    assert len(sched) == 50 and set(sched["n"]) == set(range(1, 11))
+    assert (sched["w_edf"] <= sched["w_rta"]).all() and (sched["w_rta"] <= sched["w_sch"]).all()
+    report = (out / "report.md").read_text()
+    assert "## The window under EDF: w_sch, w_rta and w_edf (ms)" in report

@@ -4,9 +4,11 @@ Times in ms, lengths in cm. Each function cites the equation or theorem it imple
 """
 
 from rtsim.analysis.bounds import (
+    BOUND_SCHEDULER,
     LOWER_BOUNDS,
     WindowBounds,
     lower_bound,
+    w_edf,
     w_eq7_of,
     w_eq11_of,
     w_rta,
@@ -14,6 +16,7 @@ from rtsim.analysis.bounds import (
     w_susp,
     window_bounds,
 )
+from rtsim.analysis.edf import EdfAnalysis, EdfTaskResult, analyze_edf, demand, qpa, spuri_wcrt
 from rtsim.analysis.kinematics import (
     BOUND_KINDS,
     LocalizationKind,
@@ -71,6 +74,8 @@ __all__ = [
     "w_sch",
     "w_sch_of",
     "w_susp",
+    "w_edf",
+    "BOUND_SCHEDULER",
     "window_bounds",
     # exact response-time analysis
     "Analysis",
@@ -78,6 +83,13 @@ __all__ = [
     "analyze",
     "busy_window",
     "response_time",
+    # EDF: processor-demand criterion (QPA), Spuri's bound (SPEC §8)
+    "EdfAnalysis",
+    "EdfTaskResult",
+    "analyze_edf",
+    "demand",
+    "qpa",
+    "spuri_wcrt",
     # suspension-aware bounds (SPEC §8)
     "SuspensionBound",
     "suspension_aware",

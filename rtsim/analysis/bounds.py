@@ -12,6 +12,10 @@
   one task of cost g) finds every task schedulable.
 - w_susp: the least w at which the suspension-aware analysis (Δt with the CPU idle,
   :mod:`rtsim.analysis.suspension`) finds every task schedulable; w_susp ≤ w_rta.
+- w_edf: the least w at which the EDF processor-demand criterion (:mod:`rtsim.analysis.edf`,
+  Δt counted as CPU time: suspension-oblivious, sound with the CPU idle too) accepts the set
+  (the CPU running EDF). With Δt as CPU time EDF is optimal, so w_edf ≤ w_rta; with the CPU
+  idle during Δt it is a comparison, not a floor (Ridouard, Richard & Cottet 2004).
 
 Why w_rta can be found by search: at a fixed t every period is non-decreasing in w, so each
 ceiling ⌈t/P_j(w)⌉ and hence the demand is non-increasing in w, while every deadline is
@@ -37,11 +41,13 @@ from rtsim.model.task import Task
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
 
-__all__ = ["WindowBounds", "window_bounds", "w_rta", "w_susp", "w_sch_of", "w_eq7_of",
-           "w_eq11_of", "lower_bound", "LOWER_BOUNDS"]
+__all__ = ["WindowBounds", "window_bounds", "w_rta", "w_susp", "w_edf", "w_sch_of", "w_eq7_of",
+           "w_eq11_of", "lower_bound", "LOWER_BOUNDS", "BOUND_SCHEDULER"]
 
 #: The window lower bounds an adjustment policy can use ([adjust] lower_bound).
-LOWER_BOUNDS: tuple[str, ...] = ("w_sch", "w_rta", "w_susp")
+LOWER_BOUNDS: tuple[str, ...] = ("w_sch", "w_rta", "w_susp", "w_edf")
+#: The scheduler each lower bound assumes.
+BOUND_SCHEDULER: dict[str, str] = {"w_sch": "fp", "w_rta": "fp", "w_susp": "fp", "w_edf": "edf"}
 
 #: Largest window w_rta searches (ms); beyond it the set is reported as never schedulable.
 W_MAX = 1e9
@@ -234,24 +240,80 @@ def w_susp(ts: TaskSet | str | os.PathLike[str], overhead: float | None = None) 
     return best
 
 
+def w_edf(ts: TaskSet, overhead: float | None = None) -> float:
+    """The least window w at which the EDF demand criterion accepts the set (ms; module doc).
+
+    Feasibility is monotone in w (every period and deadline is non-decreasing in w, so each
+    ⌊(t + J − D)/T⌋ and h(t) are non-increasing), so the result is bisected like
+    :func:`w_rta` to 1e-13 relative and checked: the criterion passes at the result and fails
+    just below it. Where U(w) = 1 binds (implicit deadlines, as the paper's set) the result
+    is the closed form w = Σ_scaled(C/c)/(1 − U_fixed), to the ulp: the least float at which
+    the criterion, taking U as computed, passes. ``inf`` when no w up to ``W_MAX`` passes.
+    """
+    from rtsim.analysis.edf import edf_tasks, qpa
+
+    _need_window(ts)
+    o = ts.overhead if overhead is None else overhead
+
+    def feasible(w: float) -> bool:
+        return qpa(edf_tasks(ts.at_window(w).tasks, o)).schedulable
+
+    lo, hi = _bracket(ts, feasible)
+    if not math.isfinite(hi):
+        return math.inf
+    # the closed form where U(w) = 1 binds (U_fixed + Σ_scaled (C/c)/w = 1), moved by a few
+    # ulps to the least float at which the criterion (U as computed) passes
+    fixed = [t for t, s in _entries(ts) if not s]
+    scaled = [t for t, s in _entries(ts) if s]
+    u_fixed = math.fsum(_edf_c(t, o) / t.period for t in fixed)
+    if u_fixed < 1.0:
+        cand = math.fsum(_edf_c(t, o) / t.period for t in scaled) / (1.0 - u_fixed)
+        for _ in range(64):
+            if cand > hi:
+                break
+            if lo < cand and feasible(cand):
+                hi = cand
+                for _ in range(64):
+                    below = math.nextafter(hi, 0.0)
+                    if below <= lo or not feasible(below):
+                        break
+                    hi = below
+                break
+            cand = math.nextafter(cand, math.inf)
+    if not feasible(hi):  # pragma: no cover - the bisection's hi passed
+        raise AssertionError(f"w_edf: the EDF analysis fails at {hi!r}")
+    return hi
+
+
+def _edf_c(task: Task, overhead: float) -> float:
+    """A task's C in the EDF analysis: WCET (suspensions included) + 2·o per stretch."""
+    from rtsim.analysis.rta import stretches
+
+    return task.wcet + 2.0 * overhead * stretches(task) if overhead else task.wcet
+
+
 def lower_bound(ts: TaskSet, name: str, *, scheduler: str = "fp", suspension: str = "idle",
                 where: str = "lower_bound") -> float:
     """The window lower bound ``name`` (:data:`LOWER_BOUNDS`) for a CPU run with ``scheduler``
-    and ``suspension``; a bound whose model does not match is an input error: all three are
-    fixed-priority analyses, and w_susp is sound only with Δt leaving the CPU idle."""
+    and ``suspension``; a bound whose model does not match is an input error: w_sch, w_rta and
+    w_susp are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only with Δt
+    leaving the CPU idle."""
     from rtsim.errors import InputError
 
     if name not in LOWER_BOUNDS:
         raise InputError(f"{where}: lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
                          f"got {name!r}")
-    if scheduler != "fp":
-        raise InputError(f"{where}: lower_bound: {name} is a fixed-priority bound, but the "
+    if scheduler != BOUND_SCHEDULER[name]:
+        kind = "a fixed-priority" if BOUND_SCHEDULER[name] == "fp" else "an EDF"
+        raise InputError(f"{where}: lower_bound: {name} is {kind} bound, but the "
                          f"scheduler is {scheduler!r}")
     if name == "w_susp" and suspension != "idle":
         raise InputError(f"{where}: lower_bound: w_susp assumes the radio round trip leaves "
                          f"the CPU idle, but suspension is {suspension!r}")
     if name == "w_sch":
         return w_sch_of(ts)
+    if name == "w_edf":
+        return w_edf(ts)
     return w_rta(ts) if name == "w_rta" else w_susp(ts)
 
 
@@ -273,6 +335,7 @@ class WindowBounds:
     w_sch: float
     w_rta: float
     w_susp: float = math.nan
+    w_edf: float = math.nan
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict; infinite bounds (none exists, or no T_lp for Eq 11) become None."""
@@ -289,6 +352,7 @@ class WindowBounds:
             "w_sch": fin(self.w_sch),
             "w_rta": fin(self.w_rta),
             "w_susp": fin(self.w_susp),
+            "w_edf": fin(self.w_edf),
         }
 
 
@@ -303,8 +367,8 @@ def _task_input(t: Task) -> dict[str, Any]:
 
 def window_bounds(ts: TaskSet | str | os.PathLike[str], n: int | None = None,
                   r_H: float | None = None) -> WindowBounds:
-    """e_hough, g, Eq 7, Eq 11, w_sch, w_rta and w_susp for ``ts`` (a TaskSet or the path of
-    a task-set file; n followers, radius r_H)."""
+    """e_hough, g, Eq 7, Eq 11, w_sch, w_rta, w_susp and w_edf for ``ts`` (a TaskSet or the
+    path of a task-set file; n followers, radius r_H)."""
     ts = _taskset(ts, "window_bounds")
     _need_window(ts)
     changes: dict[str, Any] = {}
@@ -332,4 +396,5 @@ def window_bounds(ts: TaskSet | str | os.PathLike[str], n: int | None = None,
         w_sch=max(eq7, eq11),
         w_rta=w_rta(ts),
         w_susp=w_susp(ts),
+        w_edf=w_edf(ts),
     )

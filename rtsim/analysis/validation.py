@@ -230,7 +230,9 @@ def check_results(rows: pd.DataFrame | Iterable[Mapping[str, Any]], *,
     and ``w_susp > w_rta + bound_tol``; in ``counted-idle`` (w_susp's model, Δt idle) also
     ``w_sim > w_susp + search_tol`` and ``w_sim > w_susp_geo + search_tol`` (warnings where
     the beams broke that bound's k: ``assumption_ok`` / ``geo_assumption_ok`` false). So
-    w_sim ≤ w_susp ≤ w_rta ≤ w_sch is checked under the matching model.
+    w_sim ≤ w_susp ≤ w_rta ≤ w_sch is checked under the matching model. In ``edf-cpu`` (the
+    CPU under EDF, Δt as CPU time): ``w_sim > w_edf + search_tol`` and
+    ``w_edf > w_rta + bound_tol`` (EDF is optimal there), so w_sim ≤ w_edf ≤ w_rta.
     """
     records = rows.to_dict("records") if hasattr(rows, "to_dict") else list(rows)
     out: list[Failure] = []
@@ -262,6 +264,12 @@ def check_results(rows: pd.DataFrame | Iterable[Mapping[str, Any]], *,
         w_susp = _f(r.get("w_susp"))
         if math.isfinite(w_susp) and math.isfinite(w_rta) and w_susp > w_rta + bound_tol:
             out.append(Failure(config, "*", mode, "w_susp above w_rta", w_susp, w_rta))
+        if mode == "edf-cpu":  # w_edf's model: the CPU under EDF, Δt as CPU time
+            w_edf = _f(r.get("w_edf"))
+            if math.isfinite(w_sim) and math.isfinite(w_edf) and w_sim > w_edf + search_tol:
+                out.append(Failure(config, "*", mode, "w_sim above w_edf", w_sim, w_edf))
+            if math.isfinite(w_edf) and math.isfinite(w_rta) and w_edf > w_rta + bound_tol:
+                out.append(Failure(config, "*", mode, "w_edf above w_rta", w_edf, w_rta))
         if mode != "counted-idle":  # w_susp's model: Δt with the CPU idle
             continue
         if math.isfinite(w_sim) and math.isfinite(w_susp) and w_sim > w_susp + search_tol:
@@ -294,7 +302,7 @@ def summarize(df: pd.DataFrame) -> dict[str, Any]:
         per_cfg = g.drop_duplicates("config")
         entry: dict[str, Any] = {"configs": int(per_cfg.shape[0])}
         for col in ("w_sch_over_w_sim", "w_rta_over_w_sim", "w_susp_over_w_sim",
-                    "w_geo_over_w_sim"):
+                    "w_geo_over_w_sim", "w_edf_over_w_sim"):
             if col in g:
                 entry[col] = _range(per_cfg[col])
         if "wcrt_over_sim_max" in g:

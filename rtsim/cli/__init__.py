@@ -41,7 +41,7 @@ METAVARS: dict[str, str] = {
     "followers": "N", "hough_radius": "CM", "tasks": "N", "count": "N", "windows": "N",
     "random_sets": "N", "bins": "N", "utilization": "U", "periods": "SPEC",
     "deadlines": "SPEC", "jobs": "FILE", "trace": "FILE", "gantt": "PNG",
-    "gantt_range": "A..B", "histogram": "PNG", "out": "DIR",
+    "gantt_range": "A..B", "histogram": "PNG", "out": "DIR", "scheduler": "NAME",
 }
 #: Help of options whose module gives none.
 HELPS: dict[str, str] = {

@@ -1,4 +1,4 @@
-"""``rtsim analyze FILE [--json] [--check] [--window W]``: exact response-time analysis.
+"""``rtsim analyze FILE [--json] [--check] [--window W] [--scheduler fp|edf]``: schedulability.
 
 Per task: priority, wcet, period, deadline, utilization, worst-case response time (exact,
 fixed-point iteration) and the verdict; then the total utilization, the Liu–Layland and
@@ -6,6 +6,10 @@ hyperbolic tests, and the verdict for the set. A processing-window set is analys
 ``--window`` (default: the analytic w_sch), its chain counted as one task of cost g with the
 radio round trip as CPU time. The exit status is 0 whatever the verdict; with ``--check`` it
 is 1 when the set is not schedulable.
+
+``--scheduler edf`` (or ``[scheduler] policy = "edf"`` in the file): the EDF analysis instead
+(rtsim.analysis.edf): the processor-demand criterion by QPA decides for the whole set, and
+each task gets Spuri's (1996) response-time bound; suspensions count as CPU time.
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ from typing import Any
 
 from rtsim.errors import InputError
 
-__all__ = ["register", "run", "format_analysis", "json_safe"]
+__all__ = ["register", "run", "format_analysis", "format_edf", "json_safe"]
 
 
 def register(sub: Any) -> None:
@@ -36,6 +40,9 @@ def register(sub: Any) -> None:
     p.add_argument("--overhead", metavar="MS", type=float, default=None,
                    help="context-switch cost in ms: 2·O per higher-priority segment start, O per "
                         "own segment, as simulate --overhead (default: the file's, or 0)")
+    p.add_argument("--scheduler", choices=("fp", "edf"), default=None,
+                   help="fixed priority (exact response-time analysis) or EDF (demand "
+                        "criterion and Spuri's bound); default: the file's [scheduler] policy")
     p.set_defaults(func=run)
 
 
@@ -98,6 +105,40 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
     return "\n".join(lines)
 
 
+def format_edf(res: Any, source: str, w_from: str | None) -> str:
+    """The readable report of an :class:`~rtsim.analysis.edf.EdfAnalysis`."""
+    lines = [f"task set: {res.name or '(unnamed)'}  ({source}), scheduler: EDF"]
+    if res.w is not None:
+        lines.append(f"window: w = {res.w:.3f} ms ({w_from}); the chain is one task of cost g, "
+                     "radio round trip counted as CPU time (suspension-oblivious)")
+    width = max(4, *(len(t.name) for t in res.tasks))
+    head = (f"{'task':<{width}}  {'wcet':>9}  {'period':>9}  {'deadline':>9}  {'jitter':>7}  "
+            f"{'util':>6}  {'WCRT':>9}  meets D")
+    lines += ["", head, "-" * len(head)]
+    for t in res.tasks:
+        lines.append(
+            f"{t.name:<{width}}  {t.wcet:>9.3f}  {t.period:>9.3f}  {t.deadline:>9.3f}  "
+            f"{t.jitter:>7.3f}  {t.utilization:>6.4f}  {_num(t.wcrt):>9}  "
+            f"{'yes' if t.schedulable else 'NO'}")
+    lines.append("WCRT: Spuri's (1996) response-time bound under EDF, from arrival")
+    if res.overhead:
+        lines.append(f"context-switch overhead: {res.overhead:g} ms (2x per compute stretch "
+                     "of every job)")
+    if res.offsets_ignored:
+        lines.append("offsets: ignored (sound, possibly pessimistic)")
+    lines += ["", f"total utilization: {res.utilization:.4f}"]
+    if res.limit is None:
+        lines.append(f"processor demand: decided by utilization ({res.limit_kind})")
+    else:
+        lines.append(f"processor demand h(t) <= t checked by QPA up to L = {res.limit:.3f} ms "
+                     f"({res.limit_kind}; {res.qpa_steps} steps)")
+    if res.failed_at is not None:
+        lines.append(f"demand exceeds the time at t = {res.failed_at:.3f} ms")
+    lines.append(f"schedulable (processor-demand criterion, the whole set): "
+                 f"{'yes' if res.schedulable else 'NO'}")
+    return "\n".join(lines)
+
+
 def json_safe(obj: Any) -> Any:
     """Replace non-finite floats by None so the JSON has no NaN/Infinity tokens."""
     if isinstance(obj, float) and not math.isfinite(obj):
@@ -120,11 +161,23 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{args.file}: --window: the task set has no [window]")
     if args.overhead is not None and not (math.isfinite(args.overhead) and args.overhead >= 0):
         raise InputError(f"--overhead: must be a non-negative number of ms, got {args.overhead:g}")
-    res = analyze(ts, w, overhead=args.overhead, suspension=args.suspension)
+    scheduler = args.scheduler if args.scheduler is not None else ts.scheduler
+    if scheduler not in ("fp", "edf"):
+        raise InputError(f"{args.file}: [scheduler] policy {scheduler!r} has no analysis; "
+                         f"use --scheduler fp or edf")
     w_from = None if ts.window is None else ("--window" if w is not None else "w_sch")
+    if scheduler == "edf":
+        from rtsim.analysis.edf import analyze_edf
+
+        res: Any = analyze_edf(ts, w, overhead=args.overhead, suspension=args.suspension)
+        text = format_edf(res, str(ts.source), w_from)
+    else:
+        res = analyze(ts, w, overhead=args.overhead, suspension=args.suspension)
+        text = format_analysis(res, str(ts.source), w_from)
     if args.json:
-        out = {"source": ts.source, "w_from": w_from, **res.as_dict()}
+        out = {"source": ts.source, "w_from": w_from, "scheduler": scheduler,
+               **res.as_dict()}
         print(json.dumps(json_safe(out), indent=2, allow_nan=False))
     else:
-        print(format_analysis(res, str(ts.source), w_from))
+        print(text)
     return 1 if args.check and not res.schedulable else 0

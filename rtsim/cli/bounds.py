@@ -1,7 +1,8 @@
 """``rtsim bounds [FILE] [--followers N] [--hough-radius R] [--json]``: the window bounds.
 
-Prints e_hough (Eq 1), g (Eq 5/6), Eq 7, Eq 11, w_sch = max(Eq 7, Eq 11), the exact w_rta
-and the suspension-aware w_susp (Δt with the CPU idle, SPEC §8).
+Prints e_hough (Eq 1), g (Eq 5/6), Eq 7, Eq 11, w_sch = max(Eq 7, Eq 11), the exact w_rta,
+the suspension-aware w_susp (Δt with the CPU idle, SPEC §8) and w_edf (the CPU under EDF:
+the processor-demand criterion, Δt as CPU time).
 FILE defaults to the paper's task set; n and r_H default to the file's. Both options also take
 lists and inclusive ranges (``1..10``, ``10..50:10``, ``10,20,30``): one row per combination.
 ``--json`` prints one object (a list of them with lists or ranges) that echoes every input.
@@ -90,14 +91,15 @@ def run(args: argparse.Namespace) -> int:
             ("w_sch", b.w_sch, "max(Eq 7, Eq 11), the paper's bound"),
             ("w_rta", b.w_rta, "exact response-time analysis; 'none': never schedulable"),
             ("w_susp", b.w_susp, "suspension-aware analysis, Δt with the CPU idle"),
+            ("w_edf", b.w_edf, "EDF processor-demand criterion, Δt as CPU time"),
         ]:
             print(f"{label:<8} {_cell(value):>10} ms   {note}")
         return 0
     head = (f"{'n':>4} {'r_H':>7} {'e_hough':>9} {'g':>9} {'Eq 7':>9} {'Eq 11':>9} "
-            f"{'w_sch':>9} {'w_rta':>9} {'w_susp':>9}")
+            f"{'w_sch':>9} {'w_rta':>9} {'w_susp':>9} {'w_edf':>9}")
     print(f"times in ms, r_H in cm\n\n{head}\n{'-' * len(head)}")
     for b in rows:
         print(f"{b.inputs['n']:>4} {b.inputs['r_H']:>7g} {_cell(b.e_hough):>9} {_cell(b.g):>9} "
               f"{_cell(b.w_eq7):>9} {_cell(b.w_eq11):>9} {_cell(b.w_sch):>9} "
-              f"{_cell(b.w_rta):>9} {_cell(b.w_susp):>9}")
+              f"{_cell(b.w_rta):>9} {_cell(b.w_susp):>9} {_cell(b.w_edf):>9}")
     return 0

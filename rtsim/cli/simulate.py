@@ -50,6 +50,10 @@ def register(sub: Any) -> None:
     p.add_argument("--jitter", choices=("random", "worst", "none"), default="random",
                    help="release delays of tasks with a jitter: uniform in [0, J] (default), "
                         "worst (the analysis' critical instant) or none")
+    p.add_argument("--scheduler",
+                   help="the CPU's scheduling policy: fp (fixed priority) or edf (earliest "
+                        "deadline first), or package.module:Name (default: the file's "
+                        "[scheduler] policy, else fp)")
     p.add_argument("--followers", type=int, help="n, for a processing-window set")
     p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
     p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
@@ -155,6 +159,12 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         raise InputError(f"--overhead must be a non-negative number of ms, got {overhead:g}")
     if args.exec_model == "uniform":
         require_bcet(ts, str(args.file))
+    scheduler = ts.scheduler
+    if args.scheduler is not None:
+        from rtsim.model.policy import resolve_policy
+
+        resolve_policy(args.scheduler, where="--scheduler")
+        scheduler = args.scheduler
     bounds = None
     if ts.window is not None:
         from rtsim.analysis.bounds import window_bounds
@@ -180,12 +190,20 @@ def _run(args: argparse.Namespace, files: Any) -> int:
                    suspension=args.suspension, window=args.window,
                    record_jobs=want_jobs,
                    record_trace=bool(args.trace or args.gantt or args.perfetto),
-                   overhead=overhead, jitter=args.jitter,
+                   overhead=overhead, jitter=args.jitter, scheduler=scheduler,
                    job_sink=writer.write if writer is not None else None)
     w = res.window["w"] if res.window else None
-    analysis = analyze(ts, w, overhead=overhead, suspension=args.suspension) \
-        if ts.window is not None else analyze(ts, overhead=overhead, suspension=args.suspension)
-    wcrt = {t.name: t.wcrt for t in analysis.tasks}
+    # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own)
+    name = scheduler if isinstance(scheduler, str) else ""
+    if name == "edf":
+        from rtsim.analysis.edf import analyze_edf as analyze_with
+    else:
+        analyze_with = analyze  # type: ignore[assignment]
+    analysis = analyze_with(ts, w, overhead=overhead, suspension=args.suspension) \
+        if ts.window is not None else analyze_with(ts, overhead=overhead,
+                                                   suspension=args.suspension)
+    known = name in ("fp", "edf")
+    wcrt = {t.name: t.wcrt if known else None for t in analysis.tasks}
     deadlines = {t.name: t.deadline for t in analysis.tasks}
     report = res.to_json()
     for entry in report["tasks"]:
@@ -218,6 +236,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
                          ts.window.name if ts.window is not None else None)
     inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
               "suspension": args.suspension, "overhead": overhead, "jitter": args.jitter,
+              "scheduler": scheduler,
               "window": res.window, "taskset": taskset_to_dict(ts)}
     for man, names in _manifest_names(outputs).items():
         write_json(files.add(man, "--jobs/--trace/... manifest"),
@@ -244,9 +263,10 @@ def _print_table(report: dict[str, Any]) -> None:
     if win:
         print(f"window: w = {_fmt(win.get('w'))} ms ({win.get('mode')}), "
               f"w_sch = {_fmt(win.get('w_sch'))} ms, w_rta = {_fmt(win.get('w_rta'))} ms, "
+              f"w_edf = {_fmt(win.get('w_edf'))} ms, "
               f"n = {win.get('n')}, r_H = {_fmt(win.get('r_H'))} cm")
     print(f"horizon {report['horizon']:g} ms, seed {report['seed']}, exec {report['exec_model']}, "
-          f"suspension {report['suspension']}")
+          f"suspension {report['suspension']}, scheduler {report['scheduler']}")
     cols = ("name", "released", "jobs", "aborted", "skipped", "misses", "max_response",
             "mean_response", "wcrt_analysis", "max_backlog")
     rows = [[_fmt(t.get(c)) for c in cols] for t in report["tasks"]]

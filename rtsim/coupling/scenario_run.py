@@ -256,9 +256,10 @@ class _Coupling:
         self.thr = cfg.thresholds
         opts = dict(inp.adjust)
         # the window's lower bound (w_sch unless [adjust] lower_bound says otherwise; the
-        # column and summary keep the name w_sch): the CPU below is FP with Δt idle
+        # column and summary keep the name w_sch): the CPU below runs the set's scheduler
+        # ([scheduler] policy, fp by default) with Δt idle
         bound = opts.pop("lower_bound", "w_sch")
-        self.w_sch = lower_bound(ts, bound, scheduler="fp", suspension="idle",
+        self.w_sch = lower_bound(ts, bound, scheduler=ts.scheduler, suspension="idle",
                                  where=f"{inp.source or inp.name or 'scenario'}: adjust")
         if not math.isfinite(self.w_sch):
             raise InputError(f"{inp.source or inp.name or 'scenario'}: {bound} is infinite")

@@ -83,7 +83,7 @@ PACKAGED_SCENARIOS = ("test1", "test2")
 T = TypeVar("T")
 
 TOP_KEYS = ("name", "description", "taskset", "duration", "leader", "formation", "follower",
-            "sensing", "ekf", "thresholds", "adjust", "world", "assumptions")
+            "sensing", "ekf", "thresholds", "adjust", "world", "assumptions", "scheduler")
 _ANGLES: dict[str, tuple[str, ...]] = {
     "leader": (), "start": ("heading",), "segment": ("angle",),
     "formation": ("bearing_offset",), "slot": ("beta_d",),
@@ -100,7 +100,8 @@ class AdjustConfig:
     predictor: the prediction model of :mod:`rtsim.control.predict` (``paper``, ``formation``
     or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
     names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
-    ``w_rta`` (exact RTA) or ``w_susp`` (suspension-aware, Δt with the CPU idle).
+    ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle) or ``w_edf``
+    (the EDF demand criterion; needs ``[scheduler] policy = "edf"``).
     """
 
     cap: float = math.inf
@@ -126,7 +127,10 @@ class AdjustConfig:
 
 @dataclass(frozen=True)
 class Scenario:
-    """A validated scenario: the world, the task set reference, duration and assumptions."""
+    """A validated scenario: the world, the task set reference, duration and assumptions.
+
+    ``scheduler``: the leader CPU's scheduling policy from ``[scheduler] policy`` (None: the
+    task set's, ``fp`` unless its file says otherwise)."""
 
     name: str
     world: WorldConfig
@@ -136,6 +140,7 @@ class Scenario:
     adjust: AdjustConfig = field(default_factory=AdjustConfig)
     assumptions: Mapping[str, str] = field(default_factory=dict)
     source: str | None = None
+    scheduler: str | None = None
 
     @property
     def n(self) -> int:
@@ -152,7 +157,12 @@ class Scenario:
             ts = load_taskset(self.taskset)
         if ts.window is None:
             raise ScenarioError(f"{where}: taskset: '{self.taskset}' has no [window]")
-        return ts.with_window(n=self.n, r_H=self.world.thresholds.r_H)
+        ts = ts.with_window(n=self.n, r_H=self.world.thresholds.r_H)
+        if self.scheduler is not None and self.scheduler != ts.scheduler:
+            from dataclasses import replace as _replace
+
+            ts = _replace(ts, scheduler=self.scheduler)
+        return ts
 
 
 # --------------------------------------------------------------------------- parsing
@@ -395,6 +405,14 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     adjust = _section(src, data, "adjust", ("cap", "floor", "predictor", "lower_bound"),
                       AdjustConfig)
     top.get("adjust")
+    scheduler = _scheduler(src, top.get("scheduler"))
+    if scheduler is not None:
+        from rtsim.analysis.bounds import BOUND_SCHEDULER
+
+        need = BOUND_SCHEDULER[adjust.lower_bound]
+        if scheduler in ("fp", "edf") and need != scheduler:
+            raise ScenarioError(f"{src}: adjust.lower_bound: {adjust.lower_bound} assumes the "
+                                f"{need} scheduler, but [scheduler] policy is {scheduler!r}")
     wtab = _Table(f"{src}: world", top.get("world", {}))
     step_ms = wtab.get("step_ms", 10.0)
     wtab.finish(("step_ms",))
@@ -432,7 +450,26 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     top.finish(TOP_KEYS)
     return Scenario(name=name, world=world, taskset=taskset, duration=duration,
                     description=description, adjust=adjust, assumptions=assumptions,
-                    source=source)
+                    source=source, scheduler=scheduler)
+
+
+def _scheduler(src: str, table: object) -> str | None:
+    """``[scheduler] policy`` (None when the scenario has no [scheduler] table)."""
+    if table is None:
+        return None
+    from rtsim.errors import InputError
+    from rtsim.model.policy import resolve_policy
+
+    tab = _Table(f"{src}: scheduler", table)
+    policy = tab.get("policy", "fp")
+    tab.finish(("policy",))
+    if not isinstance(policy, str) or not policy:
+        raise ScenarioError(f"{src}: scheduler.policy: must be a policy name, got {policy!r}")
+    try:
+        resolve_policy(policy, where=f"{src}: scheduler.policy")
+    except InputError as exc:
+        raise ScenarioError(str(exc)) from None
+    return policy
 
 
 def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:

@@ -4,6 +4,9 @@ The generic shape any user can write::
 
     name = "example"            # optional
     overhead = 0                # optional: context-switch cost in ms (analysis and simulation)
+    [scheduler]                 # optional
+    policy = "fp"               # the CPU's scheduling policy: "fp" (default), "edf", or a
+                                # registered name / "package.module:Name" (model.policy)
     [[tasks]]
     name = "tau1"
     wcet = 5                    # ms
@@ -52,7 +55,8 @@ __all__ = ["load_taskset", "parse_taskset", "taskset_to_dict", "as_taskset", "PA
 #: The paper's Table 1, shipped inside the package (also ``tasksets/barrel_robots.toml``).
 PACKAGED_TASKSET = "barrel_robots.toml"
 
-TOP_KEYS = ("name", "tasks", "window", "assumptions", "overhead")
+TOP_KEYS = ("name", "tasks", "window", "assumptions", "overhead", "scheduler")
+SCHEDULER_KEYS = ("policy",)
 TASK_KEYS = ("name", "wcet", "period", "deadline", "priority", "offset", "bcet", "overload",
              "jitter")
 TASK_REQUIRED = ("name", "wcet", "period")
@@ -245,6 +249,24 @@ def _assign_priorities(source: str, entries: list[tuple[dict[str, Any], str]],
         seen[prio] = label
 
 
+def _parse_scheduler(source: str, table: object) -> str:
+    """``[scheduler] policy``: a registered policy name or ``package.module:Name``."""
+    from rtsim.model.policy import resolve_policy
+
+    where = f"{source}: [scheduler]"
+    if not isinstance(table, dict):
+        raise TaskSetError(f"{where}: must be a table (policy = \"fp\" or \"edf\")")
+    _check_keys(where, table, SCHEDULER_KEYS, ())
+    policy = table.get("policy", "fp")
+    if not isinstance(policy, str) or not policy:
+        raise TaskSetError(f"{where}: policy: must be a policy name, got {policy!r}")
+    try:
+        resolve_policy(policy, where=f"{where}: policy")
+    except InputError as exc:
+        raise TaskSetError(str(exc)) from None
+    return policy
+
+
 def parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
     """Validate a task-set table (as :func:`tomllib.loads` returns it) and build the TaskSet.
 
@@ -276,6 +298,7 @@ def _parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
         raise TaskSetError(f"{source}: name: must be a string, got {name!r}")
     window = _parse_window(source, data["window"]) if "window" in data else None
     overhead = _number(source, "overhead", data.get("overhead", 0.0), positive=False)
+    scheduler = _parse_scheduler(source, data.get("scheduler", {}))
     raw_tasks = data.get("tasks", [])
     if not isinstance(raw_tasks, list):
         raise TaskSetError(f"{source}: tasks: must be an array of tables ([[tasks]])")
@@ -300,7 +323,7 @@ def _parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
     try:
         tasks = tuple(Task(**kw) for kw, _ in entries)
         return TaskSet(tasks, name=name, window=window, assumptions=dict(assumptions),
-                       source=source, overhead=overhead)
+                       source=source, overhead=overhead, scheduler=scheduler)
     except TaskSetError as exc:  # pragma: no cover - the checks above come first
         raise TaskSetError(f"{source}: {exc}") from None
 
@@ -386,6 +409,8 @@ def taskset_to_dict(ts: TaskSet) -> dict[str, Any]:
     out: dict[str, Any] = {"name": ts.name, "tasks": tasks}
     if ts.overhead:
         out["overhead"] = ts.overhead
+    if ts.scheduler != "fp":
+        out["scheduler"] = {"policy": ts.scheduler}
     if ts.window is not None:
         out["window"] = ts.window.as_dict()
     if ts.assumptions:

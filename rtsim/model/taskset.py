@@ -22,7 +22,9 @@ class TaskSet:
     With a ``window`` (the paper's T_w), the tasks above its priority form T_hp and those
     below form T_lp; tasks with ``per_window`` periods follow w (the command task's 2w).
     ``overhead`` is the context-switch cost (ms) that the analysis charges and the simulator
-    spends by default (SPEC §8).
+    spends by default (SPEC §8). ``scheduler`` names the CPU's scheduling policy that the
+    simulator uses by default (``fp``, ``edf``, or any policy of :mod:`rtsim.model.policy`);
+    priorities are required either way (under EDF they only break ties).
     """
 
     tasks: tuple[Task, ...]
@@ -31,8 +33,11 @@ class TaskSet:
     assumptions: Mapping[str, str] = field(default_factory=dict)
     source: str | None = None
     overhead: float = 0.0
+    scheduler: str = "fp"
 
     def __post_init__(self) -> None:
+        if not isinstance(self.scheduler, str) or not self.scheduler:
+            raise TaskSetError(f"scheduler must be a policy name, got {self.scheduler!r}")
         o = self.overhead
         if not is_real(o) or not math.isfinite(o) \
                 or o < 0:

@@ -1,7 +1,9 @@
 """Figures of the validation report (:mod:`rtsim.validate`), drawn from its table.
 
 - :func:`bounds_vs_n`: w_sch, w_rta and the two w_sim against n, one panel per r_H;
-- :func:`pessimism_heatmap`: w_sch / w_sim over (n, r_H), one panel per search mode.
+- :func:`pessimism_heatmap`: w_sch / w_sim over (n, r_H), one panel per search mode;
+- :func:`scheduler_bounds`: the paper set's w_sch, w_rta and w_edf against n, per r_H (from
+  the analytic table of :func:`rtsim.validate.runner.scheduler_table`).
 
 Each has a ``*_data`` companion returning the exact numbers drawn (written beside the PNG).
 """
@@ -14,7 +16,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-__all__ = ["bounds_vs_n_data", "bounds_vs_n", "pessimism_data", "pessimism_heatmap"]
+__all__ = ["bounds_vs_n_data", "bounds_vs_n", "pessimism_data", "pessimism_heatmap",
+           "scheduler_bounds"]
 
 _MODES = ("wcet-cpu", "counted-idle")
 
@@ -85,4 +88,36 @@ def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figu
                             color="w" if v < (vmin + vmax) / 2 else "k")
     if im is not None:
         fig.colorbar(im, ax=list(axes[0]), shrink=0.9)
+    return fig
+
+
+def scheduler_bounds(table: pd.DataFrame) -> Figure:
+    """w_sch, w_rta (fixed priority) and w_edf (EDF) against n, one panel per r_H (ms), with
+    the relative gain 1 − w_edf/w_rta on a second axis. ``table``: columns n, r_H, w_sch,
+    w_rta, w_edf."""
+    radii = sorted(table["r_H"].unique())
+    fig = Figure(figsize=(3.0 * len(radii) + 1, 3.6), layout="constrained")
+    axes = fig.subplots(1, len(radii), sharey=True, squeeze=False)
+    styles = {"w_sch": ("w_sch (Eq 7/11, FP)", "-", "o"),
+              "w_rta": ("w_rta (exact RTA, FP)", "--", "s"),
+              "w_edf": ("w_edf (EDF demand)", ":", "^")}
+    for ax, r in zip(axes[0], radii, strict=True):
+        sub = table[table["r_H"] == r].sort_values("n")
+        for col, (label, ls, mk) in styles.items():
+            ax.plot(sub["n"], sub[col], ls=ls, marker=mk, ms=4, label=label)
+        gain = ax.twinx()
+        gain.bar(sub["n"], 100 * (1 - sub["w_edf"] / sub["w_rta"]), color="0.8", alpha=0.5,
+                 width=0.5, zorder=0)
+        gain.set_ylim(0, 5)
+        if r == radii[-1]:
+            gain.set_ylabel("1 − w_edf / w_rta (%)")
+        else:
+            gain.set_yticklabels([])
+        ax.set_zorder(gain.get_zorder() + 1)
+        ax.patch.set_visible(False)
+        ax.set_title(f"r_H = {r:g} cm")
+        ax.set_xlabel("followers n")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("window (ms)")
+    axes[0][0].legend(fontsize="small", loc="upper left")
     return fig

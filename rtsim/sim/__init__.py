@@ -1,10 +1,19 @@
-"""The SimPy virtual CPU: fixed-priority preemptive scheduling of job chains.
+"""The SimPy virtual CPU: preemptive scheduling of job chains by a policy (fp, edf, yours).
 
 ``simulate(ts, horizon, ...)`` is the entry point; :class:`CPU` is the lower-level object a
 coupling layer drives inside its own SimPy environment (hooks at segment boundaries,
 per-segment execution-time callables, dynamic windows).
 """
 
+from rtsim.model.policy import (
+    POLICIES,
+    SCHEDULERS,
+    EarliestDeadlineFirst,
+    FixedPriority,
+    SchedulingPolicy,
+    register_policy,
+    resolve_policy,
+)
 from rtsim.sim.cpu import CPU, HOOK_EVENTS, HookEvent, Job
 from rtsim.sim.execution import (
     WCET,
@@ -27,6 +36,11 @@ from rtsim.sim.run import build_cpu, resolve_window, simulate
 __all__ = [
     "CPU",
     "EPS",
+    "EarliestDeadlineFirst",
+    "FixedPriority",
+    "POLICIES",
+    "SCHEDULERS",
+    "SchedulingPolicy",
     "Empirical",
     "ExecModel",
     "HOOK_EVENTS",
@@ -40,6 +54,8 @@ __all__ = [
     "Uniform",
     "WCET",
     "build_cpu",
+    "register_policy",
+    "resolve_policy",
     "resolve_exec_model",
     "resolve_window",
     "simulate",

@@ -1,18 +1,23 @@
-"""The virtual CPU: fixed-priority preemptive scheduling of job chains on one processor.
+"""The virtual CPU: preemptive scheduling of job chains on one processor, by a policy.
 
 Preemption mechanism (the only one in rtsim)
 --------------------------------------------
 The CPU *holds* a ``simpy.Environment`` and runs ONE SimPy process, the dispatcher. It owns
 three structures: a timer heap (releases, ends of idle suspensions, abort deadlines), a ready
-heap of eligible jobs keyed by (priority, job sequence), and the running job. At each instant
-it books the running job's progress, handles what is due, picks the highest-priority eligible
-job, and yields a single ``env.timeout`` until the earliest of "the running segment completes"
+heap of eligible jobs keyed by the scheduling policy's (key, tie) — (priority, job sequence)
+under ``fp``, (absolute deadline, job sequence) under ``edf`` (:mod:`rtsim.model.policy`) —
+and the running job. At each instant it books the running job's progress, handles what is
+due, gives the CPU to the first eligible job if the policy says it preempts the running one,
+and yields a single ``env.timeout`` until the earliest of "the running segment completes"
 and "the next timer". Preemption is therefore bookkeeping: the running job's remaining work is
 ``end − now`` and it goes back into the ready heap; no SimPy process per job, no interrupts.
 When nothing else in the environment is scheduled before that wake-up (``env.peek()`` is
 later), the dispatcher moves the clock itself instead of the Timeout round trip — the same
 instants in the same order, without SimPy's per-event cost; any event another process (or a
-hook) schedules at or before the wake-up makes it yield as usual.
+hook) schedules at or before the wake-up makes it yield as usual. This is the one place that
+touches SimPy internals: it reads ``env._queue`` (the public ``env.peek()`` is the same read
+behind a method call, measurably slower per step) and writes ``env._now`` (SimPy has no public
+way to move the clock without an event); both only on a plain ``simpy.Environment``.
 
 Inline jobs of the top task: when the highest-priority task is simple (one constant-time
 segment, fixed period, finish-late, no hooks) and a job of it is released while it has no
@@ -21,12 +26,16 @@ t + c) and the job that gets the CPU after it has already started its segment, t
 books that job without a :class:`Job` object and in one step: the preemption at t, the
 completion at t + c and the dispatch at t + c, with the same float operations in the same
 order (so results, job records, hook calls and times are bit-identical; tests/test_sim_inline
-compares runs with the path on and off). Not with a trace, overhead or abort policies.
+compares runs with the path on and off). Not with a trace, overhead or abort policies, and
+only under a policy that preempts by key (:mod:`rtsim.model.policy`); under one whose top
+task does not always come first (``edf``), only when the job comes first in the ready order and
+preempts the running job, and the job after it at t + c is the first of the others in the
+order (key, tie).
 
 Eligibility: jobs of one task run one at a time, first in, first out. A task's pending jobs
 (released, not finished, not aborted) wait in a FIFO; only its oldest is eligible. So under
-finish-late the backlog of a task is served in release order, and since priorities are unique
-per task the ready-heap key reduces to the task priority.
+finish-late the backlog of a task is served in release order, and the ready heap holds at
+most one job per task.
 
 Order of things at one instant t (the tie-break rules, tested in tests/test_sim_cpu.py)
 ------------------------------------------------------------------------------------------
@@ -40,18 +49,21 @@ Order of things at one instant t (the tie-break rules, tested in tests/test_sim_
    the window task < other releases. Releases of different tasks at t are handled in priority
    order (release hooks run as each job is released); the window task first, so tasks whose
    period is a multiple of w see the w chosen at t.
-3. Dispatch: the eligible job of highest priority gets the CPU; if it is not the running job,
-   the running job is preempted (its ``preemptions`` count grows, also when it was between two
-   segments). When a job gets the CPU and its current segment has not started, the segment
-   *starts*: segment-start hooks run, then the execution-time model is evaluated. A
-   zero-length segment ends at once and the instant is processed again from step 1.
+3. Dispatch: the first eligible job in the policy's order gets the CPU if nothing runs or the
+   policy's preemption test says it preempts the running job (``fp``: a higher priority;
+   ``edf``: a strictly earlier deadline); then the running job is preempted (its
+   ``preemptions`` count grows, also when it was between two segments). When a job gets the
+   CPU and its current segment has not started, the segment *starts*: segment-start hooks
+   run, then the execution-time model is evaluated. A zero-length segment ends at once and
+   the instant is processed again from step 1.
 4. Wait until the running segment's work ends or the next timer, whichever is first.
 
 Hooks never see the dispatch decision of their own instant half-done: all hooks of steps 1–2
 run before the dispatch of step 3; start hooks run when the dispatched segment starts.
 
 Suspensions: ``suspension="cpu"`` runs a suspend segment like compute (it holds the CPU at
-the job's priority and can be preempted: the paper's suspension-oblivious view);
+the job's place in the policy's order and can be preempted: the paper's
+suspension-oblivious view);
 ``suspension="idle"`` frees the CPU for the segment's length and the job is not eligible
 meanwhile.
 
@@ -90,6 +102,7 @@ import numpy as np
 import simpy
 
 from rtsim.errors import InputError, RtsimError
+from rtsim.model.policy import PolicySpec, SchedulingPolicy, resolve_policy
 from rtsim.model.task import Segment, Task
 from rtsim.sim.execution import WCET, ExecSpec, jitter_rngs, resolve_exec_model, task_rngs
 from rtsim.sim.job import _ABORT, _JREL, _RELEASE, _RESUME, Job, _TaskState
@@ -118,7 +131,9 @@ _INF = math.inf
 
 
 class CPU:
-    """One processor under fixed-priority preemptive scheduling (see the module docstring).
+    """One processor under a scheduling policy, ``scheduler``: ``"fp"``, ``"edf"``, another
+    registered name, ``"package.module:Name"`` or a
+    :class:`~rtsim.model.policy.SchedulingPolicy` (the module docstring; :mod:`rtsim.model.policy`).
 
     Usage: ``cpu = CPU(env)``; ``cpu.add_task(...)`` for each task; register hooks with
     :meth:`on` and per-segment execution times with :meth:`set_exec_time`; ``cpu.start(H)``
@@ -138,7 +153,11 @@ class CPU:
         hist_bin: float | None = None,
         jitter: JitterMode = "random",
         job_sink: Callable[[Any], None] | None = None,
+        scheduler: PolicySpec = "fp",
     ) -> None:
+        self.policy: SchedulingPolicy = resolve_policy(scheduler)
+        # preemption by "strictly smaller key" (the base class's test): evaluated inline
+        self._by_key = type(self.policy).preempts is SchedulingPolicy.preempts
         if jitter not in JITTER_MODES:
             raise InputError(f"jitter must be one of {', '.join(JITTER_MODES)}, got {jitter!r}")
         if suspension not in ("cpu", "idle"):
@@ -164,7 +183,7 @@ class CPU:
         self._hooks: list[tuple[str, Callable[..., None], str | None, str | None, str | None]] = []
         self._overrides: dict[tuple[str, str], Callable[..., float]] = {}
         self._timers: list[tuple[Any, ...]] = []
-        self._ready: list[tuple[int, int, Job]] = []
+        self._ready: list[tuple[Any, Any, Job]] = []  # (job.key, job.tie, job)
         self._seq = itertools.count()
         self._job_rows: list[tuple[Any, ...]] = RowBuffer(jobs_frame, job_sink)
         self._trace_rows: list[tuple[Any, ...]] = []
@@ -240,6 +259,7 @@ class CPU:
         jittered = [st.name for st in self._states if st.task.jitter > 0]
         jrngs = jitter_rngs(self.seed, jittered) if jittered and self.jitter == "random" else {}
         for st in self._states:
+            st.order = self.policy.order
             if st.rng is None:
                 st.rng = rngs[st.name]
             st.jitter = 0.0 if self.jitter == "none" else st.task.jitter
@@ -276,7 +296,7 @@ class CPU:
         top = min(self._states, key=lambda x: x.priority, default=None)
         for st in self._states:
             st.fast_top = (st is top and st.fast_release and st.fast_start is not None
-                           and not st.job_end_hooks)
+                           and not st.job_end_hooks and self._by_key)
 
     # -- running -------------------------------------------------------------------------
     def start(self, horizon: float) -> simpy.Process:
@@ -319,6 +339,10 @@ class CPU:
         # Inline jobs of the top task (see _inline_top): only without trace, overhead and
         # aborts, and only when the clock can be moved without SimPy.
         inline_ok = plain and jump and not has_abort
+        # the policy's preemption test, inline when it is the default "strictly smaller key"
+        preempts = self.policy.preempts
+        by_key = self._by_key
+        top_first = self.policy.top_task_first
         deferred: tuple[Any, ...] | None = None
         t0 = self._t0
         running: Job | None = None
@@ -387,19 +411,30 @@ class CPU:
             if deferred is not None:
                 st, k, r, p, seq = deferred
                 deferred = None
-                # The top task's job gets the CPU now and runs uninterrupted to f = now + c.
+                # The top task's job gets the CPU now (under fp always; under another policy
+                # if it comes first in the ready order and preempts the running job) and runs
+                # uninterrupted to f = now + c.
                 # If nothing happens in (now, f] (no timer, no other SimPy event) and the job
                 # that gets the CPU at f has already started its segment (so no hook runs at
                 # f), do both instants here with the same float operations, in the same
                 # order, as the dispatch at now and the completion at f would.
                 c = st.fast_start
                 f = now + c
-                nxt_job = running
+                job = None
+                wins = True
+                if not top_first:
+                    job = Job(st, k, r, r + st.deadline, p, seq)
+                    jk = job.key
+                    wins = ((running is None or jk < running.key) and (
+                        not ready or jk < ready[0][0]
+                        or (jk == ready[0][0] and job.tie < ready[0][1])))
+                nxt_job = running  # the first in the ready order after it, at f
                 from_ready = False
-                if ready and (running is None or ready[0][0] < running.priority):
+                if ready and (running is None or ready[0][0] < running.key or (
+                        ready[0][0] == running.key and ready[0][1] < running.tie)):
                     nxt_job = ready[0][2]
                     from_ready = True
-                if (st.fast_top and f > now + EPS and timers and timers[0][0] > f + EPS
+                if (wins and f > now + EPS and timers and timers[0][0] > f + EPS
                         and (not queue or queue[0][0] > f)
                         and (nxt_job is None or nxt_job.rem is not None)):
                     if running is not None:  # preempted at now
@@ -410,7 +445,7 @@ class CPU:
                             running.rem = running.rem - worked
                         running.preemptions += 1
                         if from_ready:
-                            heappush(ready, (running.priority, running.seq, running))
+                            heappush(ready, (running.key, running.tie, running))
                     if from_ready:
                         heappop(ready)
                     self._switches += 1
@@ -424,17 +459,19 @@ class CPU:
                         run_end = _INF
                     running = last = nxt_job
                 else:
-                    job = Job(st, k, r, r + st.deadline, p, seq)
+                    if job is None:
+                        job = Job(st, k, r, r + st.deadline, p, seq)
                     st.pending.append(job)
-                    heappush(ready, (st.priority, seq, job))
+                    heappush(ready, (job.key, job.tie, job))
             while has_abort and ready and ready[0][2].aborted:
                 heappop(ready)
-            if ready and (running is None or ready[0][0] < running.priority):
+            if ready and (running is None or (ready[0][0] < running.key if by_key
+                                              else preempts(ready[0][0], running))):
                 if running is not None:
                     if running.rem is not None:
                         self._close_piece(running, piece_start, work_start, now, done=False)
                     running.preemptions += 1
-                    heappush(ready, (running.priority, running.seq, running))
+                    heappush(ready, (running.key, running.tie, running))
                 running = heappop(ready)[2]
                 piece_start = work_start = now
                 if running is not last:
@@ -545,7 +582,7 @@ class CPU:
         job.rem = 0.0
         nxt = self._segment_done(job, now)
         if nxt is not None:
-            heapq.heappush(self._ready, (nxt.priority, nxt.seq, nxt))
+            heapq.heappush(self._ready, (nxt.key, nxt.tie, nxt))
 
     def _eligible(self, job: Job, now: float) -> None:
         """``job`` became the oldest pending job of its task (eligible once released)."""
@@ -554,7 +591,7 @@ class CPU:
         if job._st.idle_kind[0] and job.seg_index == 0 and job.rem is None:
             if self._continue(job, now) is None:
                 return
-        heapq.heappush(self._ready, (job.priority, job.seq, job))
+        heapq.heappush(self._ready, (job.key, job.tie, job))
 
     def _release(self, st: _TaskState, now: float, end: float) -> None:
         if st.fast_release:  # the common case, inlined
@@ -575,7 +612,7 @@ class CPU:
             if n > stats.max_backlog:
                 stats.max_backlog = n
             if n == 1:
-                heapq.heappush(self._ready, (st.priority, job.seq, job))
+                heapq.heappush(self._ready, (job.key, job.tie, job))
             return
         k = st.k
         st.k = k + 1
@@ -772,6 +809,7 @@ class CPU:
             context_switches=self._switches,
             window=window,
             jitter=self.jitter,
+            scheduler=self.policy.name or type(self.policy).__name__,
             jobs=self._job_rows.frame()  # type: ignore[attr-defined]
             if self.record_jobs and self.job_sink is None else None,
             trace=trace_frame(self._trace_rows) if self.record_trace else None,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,12 +30,13 @@ class Job:
     up to the task's jitter later, and its deadline counts from the arrival; ``held`` while
     arrived but not yet released. ``period`` is the period in force at the arrival.
     ``segment`` is the current segment, ``seg_exec`` its drawn execution time,
-    ``start``/``finish`` are None until they happen.
+    ``start``/``finish`` are None until they happen. ``key``/``tie``: its place in the ready
+    queue, set by the CPU's scheduling policy (:mod:`rtsim.model.policy`) at creation.
     """
 
     __slots__ = ("_st", "task", "name", "priority", "index", "release", "deadline", "period",
                  "seq", "seg_index", "rem", "seg_start", "seg_exec", "start", "finish",
-                 "preemptions", "aborted", "executed", "arrival", "held")
+                 "preemptions", "aborted", "executed", "arrival", "held", "key", "tie")
 
     def __init__(self, st: _TaskState, index: int, release: float, deadline: float,
                  period: float, seq: int, arrival: float | None = None) -> None:
@@ -59,6 +60,7 @@ class Job:
         self.executed = 0.0
         self.arrival = release if arrival is None else arrival
         self.held = False
+        self.key, self.tie = st.order(self)
 
     @property
     def segment(self) -> Segment | None:
@@ -82,7 +84,7 @@ class _TaskState:
                  "provider", "per_window", "is_window", "rank", "k", "next_release", "pending",
                  "stats", "rng", "exec_fns", "const_exec", "start_hooks", "end_hooks",
                  "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start",
-                 "fast_top", "seg_const", "plain_next", "jitter", "jrng")
+                 "fast_top", "seg_const", "plain_next", "jitter", "jrng", "order")
 
     def __init__(self, task: Task, provider: PeriodProvider | None, is_window: bool) -> None:
         self.task = task
@@ -117,3 +119,8 @@ class _TaskState:
         self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
         self.jitter = 0.0  # release jitter in force (0 under jitter="none")
         self.jrng: np.random.Generator | None = None  # release delays, own stream
+        self.order: Callable[[Job], tuple[Any, Any]] = _unset_order  # the policy's (key, tie)
+
+
+def _unset_order(job: Job) -> tuple[Any, Any]:
+    raise RuntimeError("a job was created before the CPU resolved its scheduling policy")

@@ -153,6 +153,7 @@ class SimResult(ResultDisplay):
     jobs: pd.DataFrame | None = None
     trace: pd.DataFrame | None = None
     jitter: str = "random"
+    scheduler: str = "fp"
 
     @property
     def misses(self) -> int:
@@ -183,6 +184,7 @@ class SimResult(ResultDisplay):
             "exec_model": self.exec_model,
             "overhead": self.overhead,
             "jitter": self.jitter,
+            "scheduler": self.scheduler,
             "end_time": self.end_time,
             "busy_time": self.busy_time,
             "context_switches": self.context_switches,

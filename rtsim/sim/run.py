@@ -23,6 +23,7 @@ import simpy
 
 from rtsim._numbers import is_real
 from rtsim.errors import InputError
+from rtsim.model.policy import PolicySpec
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU, JitterMode
@@ -76,9 +77,10 @@ def build_cpu(
 
     Returns the CPU and the window description (None for a set without a window).
     ``cpu_kwargs`` go to :class:`CPU` (suspension, exec_model, seed, overhead, record_jobs,
-    record_trace, hist_bin, jitter, job_sink).
+    record_trace, hist_bin, jitter, job_sink, scheduler; the scheduler defaults to the set's).
     """
     ts = _as_taskset(ts)
+    cpu_kwargs.setdefault("scheduler", ts.scheduler)
     cpu = CPU(env, **cpu_kwargs)
     info: dict[str, Any] | None = None
     if ts.window is not None:
@@ -107,6 +109,7 @@ def simulate(
     env: simpy.Environment | None = None,
     jitter: JitterMode = "random",
     job_sink: Callable[[Any], None] | None = None,
+    scheduler: PolicySpec | None = None,
 ) -> SimResult:
     """Simulate ``ts`` for jobs released in [0, horizon) ms until they complete or abort.
 
@@ -116,6 +119,8 @@ def simulate(
     ``job_sink``: a callable that receives the job records as DataFrame chunks during the
     run (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
     long horizon (:class:`rtsim.sim.records.RowBuffer`).
+    ``scheduler``: the scheduling policy (:mod:`rtsim.model.policy`), default the set's
+    (``[scheduler] policy``; ``fp`` for a list of tasks).
     """
     ts = _as_taskset(ts)
     if overhead is None:
@@ -125,10 +130,13 @@ def simulate(
 
     check("option: --horizon", horizon, "simulate: horizon", magnitude_only=True)  # <= 11.6 d
     overhead = float(overhead) if is_real(overhead) else overhead
+    if scheduler is None:
+        scheduler = ts.scheduler
     cpu, info = build_cpu(ts, env=env, window=window, suspension=suspension,
                           exec_model=exec_model, seed=seed, overhead=overhead,
                           record_jobs=record_jobs, record_trace=record_trace,
-                          hist_bin=hist_bin, jitter=jitter, job_sink=job_sink)
+                          hist_bin=hist_bin, jitter=jitter, job_sink=job_sink,
+                          scheduler=scheduler)
     proc = cpu.start(horizon)
     cpu.env.run(until=proc)
     return cpu.result(window=info)

@@ -5,19 +5,23 @@ deterministic metrics (no wall-clock values). Each kind declares the options it 
 the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metrics).
 
 - ``bounds`` — ``rtsim.analysis.bounds.window_bounds(ts)``: ``e_hough``, ``g``, ``w_eq7``,
-  ``w_eq11``, ``w_sch``, ``w_rta``. No options.
+  ``w_eq11``, ``w_sch``, ``w_rta``, ``w_susp``, ``w_edf``. No options.
 - ``analyze`` — ``rtsim.analysis.rta.analyze(ts, w)``: ``schedulable``, ``utilization``,
-  ``wcrt.<task>`` (NaN once above the deadline), ``schedulable.<task>``. Option ``window``.
+  ``wcrt.<task>`` (NaN once above the deadline), ``schedulable.<task>``. Options ``window``
+  and ``scheduler`` (``fp`` | ``edf``: ``rtsim.analysis.edf.analyze_edf``, the demand
+  criterion's verdict and Spuri's bounds; default the set's ``[scheduler] policy``).
 - ``simulate`` — ``rtsim.sim.simulate(ts, horizon, seed=<point seed>, exec_model=exec,
   suspension=, window=)``: ``w`` (the window used), per task ``max_response.<task>``,
   ``mean_response.<task>``, ``misses.<task>``, ``jobs.<task>`` (completed jobs), totals
   ``misses`` and ``jobs``. Options ``horizon`` (ms, required), ``exec`` (``wcet`` |
-  ``uniform``), ``suspension`` (``cpu`` | ``idle``), ``window`` (ms; default w_sch).
+  ``uniform``), ``suspension`` (``cpu`` | ``idle``), ``window`` (ms; default w_sch),
+  ``scheduler`` (``fp`` | ``edf``; default the set's).
 - ``scenario`` — ``rtsim.coupling.run_scenario(parse_scenario(base with overrides),
   seed=, mode=, duration_s=duration, exec_model=exec)``: the scalar entries of the run's
   summary (summary.json without ``seed``), nested ones flattened with dots
   (``violations.separation``, ``methods.coupled``). Options ``mode`` (``adjust`` |
-  ``fixed-wsch`` | ``min-msb``), ``duration`` (simulated s), ``exec``. Needs ``base``.
+  ``fixed-wsch`` | ``min-msb``), ``duration`` (simulated s), ``exec``, ``scheduler`` (the
+  leader CPU's policy, as ``[scheduler] policy`` in the file). Needs ``base``.
 - ``call`` — ``function(params, options, seed) -> dict`` named by ``sweep.function``
   (``package.module:function``, importable on every worker): the extension point.
 
@@ -131,14 +135,17 @@ def _bounds(p: PointInput) -> dict[str, Any]:
     mod = _need("rtsim.analysis.bounds", "bounds")
     wb = mod.window_bounds(p.taskset())
     return {k: float(getattr(wb, k)) for k in ("e_hough", "g", "w_eq7", "w_eq11", "w_sch",
-                                               "w_rta")}
+                                               "w_rta", "w_susp", "w_edf")}
 
 
 def _analyze(p: PointInput) -> dict[str, Any]:
-    mod = _need("rtsim.analysis.rta", "analyze")
     ts = p.taskset()
+    if p.options.get("scheduler", ts.scheduler) == "edf":
+        fn = _need("rtsim.analysis.edf", "analyze").analyze_edf
+    else:
+        fn = _need("rtsim.analysis.rta", "analyze").analyze
     w = p.options.get("window")
-    a = mod.analyze(ts) if w is None else mod.analyze(ts, w=float(w))
+    a = fn(ts) if w is None else fn(ts, w=float(w))
     out: dict[str, Any] = {"schedulable": bool(a.schedulable),
                            "utilization": float(a.utilization)}
     for t in a.tasks:
@@ -164,6 +171,8 @@ def _simulate(p: PointInput) -> dict[str, Any]:
 
         w_est = w_sch_of(ts)
     check_simulate(ts, float(o["horizon"]), w_est, f"sweep.options.horizon {o['horizon']}")
+    if "scheduler" in o:
+        kwargs["scheduler"] = o["scheduler"]
     res = mod.simulate(ts, float(o["horizon"]), **kwargs)
     out: dict[str, Any] = {}
     if res.window is not None and "w" in res.window:
@@ -193,8 +202,11 @@ def _scenario(p: PointInput) -> dict[str, Any]:
     coupling = _need("rtsim.coupling", "scenario")
     assert p.base is not None
     where = Path(p.base.path).parent if p.base.path else None
-    scenario = io.parse_scenario(p.base_data(), p.base.source, base=where)
+    data = p.base_data()
     o = p.options
+    if "scheduler" in o:
+        data.setdefault("scheduler", {})["policy"] = o["scheduler"]
+    scenario = io.parse_scenario(data, p.base.source, base=where)
     kwargs: dict[str, Any] = {"seed": p.seed, "record_jobs": False}
     if "mode" in o:
         kwargs["mode"] = o["mode"]
@@ -227,16 +239,16 @@ def register_kind(spec: KindSpec) -> None:
 
 _LOADER = ("rtsim.io.taskset",)
 register_kind(KindSpec("bounds", _bounds, metrics=("e_hough", "g", "w_eq7", "w_eq11", "w_sch",
-                                                   "w_rta"),
+                                                   "w_rta", "w_susp", "w_edf"),
                        modules=(*_LOADER, "rtsim.analysis.bounds")))
-register_kind(KindSpec("analyze", _analyze, options=("window",),
+register_kind(KindSpec("analyze", _analyze, options=("window", "scheduler"),
                        metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*"),
                        modules=(*_LOADER, "rtsim.analysis.rta")))
 register_kind(KindSpec("simulate", _simulate,
-                       options=("horizon", "exec", "suspension", "window"),
+                       options=("horizon", "exec", "suspension", "window", "scheduler"),
                        required=("horizon",), modules=(*_LOADER, "rtsim.sim"),
                        metrics=("w", "max_response.*", "mean_response.*", "misses.*", "jobs.*",
                                 "misses", "jobs")))
-register_kind(KindSpec("scenario", _scenario, options=("mode", "duration", "exec"),
+register_kind(KindSpec("scenario", _scenario, options=("mode", "duration", "exec", "scheduler"),
                        modules=("rtsim.io.scenario", "rtsim.coupling")))
 register_kind(KindSpec("call", _call))

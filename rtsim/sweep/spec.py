@@ -24,7 +24,7 @@ A grid name is resolved, in this order, as
 
 1. ``seed``: the point's seed itself (overrides the derived seed);
 2. an option of the kind (``horizon``, ``exec``, ``suspension``, ``window``, ``mode``,
-   ``duration`` ...), merged over ``[sweep.options]``;
+   ``duration``, ``scheduler`` ...), merged over ``[sweep.options]``;
 3. a dotted path into the base file's TOML tables: ``window.delta_t``,
    ``tasks.command.wcet`` (entries of a list of tables are addressed by their ``name``,
    or by a 0-based index), ``leader.speed``. Intermediate keys must exist; a new leaf key
@@ -325,6 +325,7 @@ _OPTION_CHECKS: dict[str, tuple[Any, str]] = {
     "suspension": (lambda v: v in ("cpu", "idle"), "'cpu' or 'idle'"),
     "mode": (lambda v: v in ("adjust", "fixed-wsch", "min-msb"),
              "'adjust', 'fixed-wsch' or 'min-msb'"),
+    "scheduler": (lambda v: v in ("fp", "edf"), "'fp' or 'edf'"),
 }
 
 

@@ -13,7 +13,10 @@
 
   ``wcet-cpu``      every segment at its WCET, the radio round trip Δt as CPU time;
   ``counted-idle``  the Hough segment from the counted beams (replayed by window index),
-                    the other segments at WCET, Δt leaves the CPU free.
+                    the other segments at WCET, Δt leaves the CPU free;
+  ``edf-cpu``       as ``wcet-cpu`` with the CPU under EDF: its w_sim is checked against
+                    w_edf (the EDF demand criterion) and its responses against Spuri's
+                    bounds (``wcrt_edf.<task>`` at w_sch).
 
   The search brackets w between 0.999·(longest chain length g_j over the windows: the
   chain job of that window needs at least g_j, so it misses), and max(w_sch, w_rta) + tol.
@@ -41,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from rtsim.analysis.bounds import w_susp, window_bounds
+from rtsim.analysis.edf import analyze_edf
 from rtsim.analysis.rta import analyze
 from rtsim.analysis.validation import (
     PERCENTILES,
@@ -53,9 +57,11 @@ from rtsim.analysis.window import k_geometric
 from rtsim.model.taskset import TaskSet
 
 __all__ = ["paper_point", "random_point", "paper_taskset", "PAPER_MODES", "RANDOM_MODES",
-           "simulate_mode", "beam_counts_for", "random_taskset_for"]
+           "FP_MODES", "simulate_mode", "beam_counts_for", "random_taskset_for"]
 
-PAPER_MODES: tuple[str, ...] = ("wcet-cpu", "counted-idle")
+#: The fixed-priority modes (their histograms are drawn against the FP bounds).
+FP_MODES: tuple[str, ...] = ("wcet-cpu", "counted-idle")
+PAPER_MODES: tuple[str, ...] = (*FP_MODES, "edf-cpu")
 RANDOM_MODES: tuple[str, ...] = ("wcet-sync", "uniform-offsets")
 _QNAMES = {50.0: "p50", 99.0: "p99", 99.9: "p999"}
 
@@ -100,9 +106,10 @@ def simulate_mode(ts: TaskSet, mode: str, w: float, windows: int,
     from rtsim.sim import EPS, build_cpu
 
     assert ts.window is not None
-    suspension = "cpu" if mode == "wcet-cpu" else "idle"
+    suspension = "idle" if mode == "counted-idle" else "cpu"
     cpu, info = build_cpu(ts, window=w, suspension=suspension, exec_model="wcet",
-                          record_jobs=record_jobs)
+                          record_jobs=record_jobs,
+                          scheduler="edf" if mode == "edf-cpu" else "fp")
     if mode == "counted-idle":
         assert hough is not None
         times = [float(x) for x in hough]
@@ -147,7 +154,8 @@ def paper_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: int
     assert ts.window is not None
     wb = window_bounds(ts)
     out: dict[str, Any] = {k: float(getattr(wb, k)) for k in
-                           ("e_hough", "g", "w_eq7", "w_eq11", "w_sch", "w_rta", "w_susp")}
+                           ("e_hough", "g", "w_eq7", "w_eq11", "w_sch", "w_rta", "w_susp",
+                            "w_edf")}
     rho_min = float(options.get("rho_min", 300.0))
     geo = ts.with_window(k=float(k_geometric(rho_min)), rho_min=rho_min)
     assert geo.window is not None
@@ -170,8 +178,11 @@ def paper_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: int
         out[f"deadline.{name}"] = float(b.deadline)
     for t in analyze(ts, wb.w_sch, suspension="idle").tasks:  # Δt idle: counted-idle's model
         out[f"wcrt_susp.{t.name}"] = math.nan if t.wcrt is None else float(t.wcrt)
+    for t in analyze_edf(ts, wb.w_sch).tasks:  # Spuri's bounds: edf-cpu's model
+        out[f"wcrt_edf.{t.name}"] = math.nan if t.wcrt is None else float(t.wcrt)
     # every chain job needs at least its own length g_j: any w below the longest one misses
-    g_longest = {"wcet-cpu": ts.window.g(), "counted-idle": ts.window.g(float(hough.max()))}
+    g_longest = {"wcet-cpu": ts.window.g(), "counted-idle": ts.window.g(float(hough.max())),
+                 "edf-cpu": ts.window.g()}
     for mode in PAPER_MODES:
         res = simulate_mode(ts, mode, wb.w_sch, windows, hough, record_jobs=True)
         _response_metrics(out, mode, res)

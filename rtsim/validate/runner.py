@@ -13,7 +13,9 @@ Output directory ``OUT``::
     validation.csv       the validation table (also results.parquet)
     failures.csv         every flagged row (empty table when none)
     summary.json         the headline numbers
-    figures/             bounds_vs_n.png/.csv, pessimism_wsch.png/.csv, pessimism_wrta.png/.csv
+    figures/             bounds_vs_n.png/.csv, pessimism_wsch.png/.csv, pessimism_wrta.png/.csv,
+                         scheduler_bounds.png/.csv (the paper set's w_sch, w_rta, w_edf for
+                         n = 1..10, r_H = 10..50: :func:`scheduler_table`)
     histograms/<config>/ per-task response-time histograms with the bounds (PNG + CSV)
     sweeps/<name>/       the two sweeps (results.parquet, per-point files, manifests)
     manifest.json
@@ -36,7 +38,7 @@ from rtsim.analysis.validation import SEARCH_TOL, Failure, check_results, summar
 from rtsim.notebook import ResultDisplay, flatten
 
 __all__ = ["ValidationConfig", "QUICK", "FULL", "DEFAULT_SCENARIO", "ValidationOutcome",
-           "run_validation", "paper_sweep_spec", "random_sweep_spec"]
+           "run_validation", "paper_sweep_spec", "random_sweep_spec", "scheduler_table"]
 
 
 @dataclass(frozen=True)
@@ -187,7 +189,8 @@ def _histograms(cfg: ValidationConfig, table: pd.DataFrame, out: Path) -> list[P
     from rtsim.analysis.bounds import w_sch_of
     from rtsim.analysis.validation import task_bounds
     from rtsim.validate.histogram import JobSource, write_histograms
-    from rtsim.validate.points import PAPER_MODES, beam_counts_for, paper_taskset, simulate_mode
+    from rtsim.validate.points import FP_MODES as PAPER_MODES  # the FP bounds are drawn
+    from rtsim.validate.points import beam_counts_for, paper_taskset, simulate_mode
 
     opts = _taskset_options(cfg)
     written: list[Path] = []
@@ -216,7 +219,27 @@ def _histograms(cfg: ValidationConfig, table: pd.DataFrame, out: Path) -> list[P
     return written
 
 
-def _figures(table: pd.DataFrame, out: Path) -> list[Path]:
+def scheduler_table(cfg: ValidationConfig, n: Sequence[int] = tuple(range(1, 11)),
+                    r_H: Sequence[float] = (10.0, 20.0, 30.0, 40.0, 50.0)) -> pd.DataFrame:
+    """The analytic table of the task set's window bounds under both schedulers: n, r_H,
+    w_sch, w_rta (fixed priority), w_edf (EDF), and the gains w_rta/w_sch and w_edf/w_rta
+    (all with Δt counted as CPU time; whatever the run's grid)."""
+    from rtsim.analysis.bounds import w_edf, w_rta, w_sch_of
+    from rtsim.validate.points import paper_taskset
+
+    opts = _taskset_options(cfg)
+    rows = []
+    for r in r_H:
+        for k in n:
+            ts = paper_taskset(opts, k, r)
+            sch, rta, edf = w_sch_of(ts), w_rta(ts), w_edf(ts)
+            rows.append({"n": k, "r_H": float(r), "w_sch": sch, "w_rta": rta, "w_edf": edf,
+                         "w_rta_over_w_sch": rta / sch, "w_edf_over_w_rta": edf / rta})
+    return pd.DataFrame(rows)
+
+
+def _figures(table: pd.DataFrame, out: Path,
+             sched: pd.DataFrame | None = None) -> list[Path]:
     import io
 
     import matplotlib.pyplot as plt
@@ -227,6 +250,7 @@ def _figures(table: pd.DataFrame, out: Path) -> list[Path]:
         bounds_vs_n_data,
         pessimism_data,
         pessimism_heatmap,
+        scheduler_bounds,
     )
 
     figs = out / "figures"
@@ -244,6 +268,14 @@ def _figures(table: pd.DataFrame, out: Path) -> list[Path]:
             write_bytes(figs / f"{name}.png", buf.getvalue())
             write_table(figs / f"{name}.csv", data)
             written += [figs / f"{name}.png", figs / f"{name}.csv"]
+    if sched is not None:
+        buf = io.BytesIO()
+        fig = scheduler_bounds(sched)
+        fig.savefig(buf, format="png", dpi=100)
+        plt.close(fig)
+        write_bytes(figs / "scheduler_bounds.png", buf.getvalue())
+        write_table(figs / "scheduler_bounds.csv", sched)
+        written += [figs / "scheduler_bounds.png", figs / "scheduler_bounds.csv"]
     return written
 
 
@@ -300,10 +332,11 @@ def _run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig, *
     write_json(out / "summary.json", summary)
     files += [out / "validation.csv", out / "results.parquet", out / "failures.csv",
               out / "summary.json"]
-    files += _figures(table, out)
+    sched = scheduler_table(config)
+    files += _figures(table, out, sched)
     files += _histograms(config, table, out)
     outcome = ValidationOutcome(table, failures, summary, errors, out, files)
-    files.append(write_report(outcome, config))
+    files.append(write_report(outcome, config, sched))
     html_path = out / REPORT_NAME
     write_manifest(out, command="validate", seed=config.seed,
                    inputs={k: (list(v) if isinstance(v, tuple) else v)

@@ -21,7 +21,9 @@ Columns (ms unless noted; NaN where not applicable):
   ``beyond_geo`` (windows whose scan counted more than min(361, k_geo·n)),
   ``geo_assumption_ok`` (false when beyond_geo > 0 in a ``counted-idle`` run);
   ``wcrt_susp`` (the suspension-aware WCRT at w_sch) and ``wcrt_susp_over_sim_max``
-  (``counted-idle`` rows).
+  (``counted-idle`` rows);
+- EDF (paper): ``w_edf`` (the EDF demand criterion, Δt as CPU time) and
+  ``w_edf_over_w_sim`` (``edf-cpu`` rows, whose ``wcrt`` is Spuri's bound at w_sch).
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ COLUMNS: tuple[str, ...] = (
     "tracks_lost_sensor", "beyond_wcet", "assumption_ok",
     "w_susp", "w_susp_over_w_sim", "rho_min", "k_geo", "w_susp_geo", "w_geo_over_w_sim",
     "beyond_geo", "geo_assumption_ok", "wcrt_susp", "wcrt_susp_over_sim_max",
+    "w_edf", "w_edf_over_w_sim",
 )
 _PER_TASK = ("sim_max", "p50", "p99", "p999", "jobs", "misses")
 
@@ -64,7 +67,8 @@ def _rows(row: dict[str, Any], modes: tuple[str, ...], base: dict[str, Any]) -> 
     for mode in modes:
         for task in _tasks(row):
             r = dict(base)
-            r.update(mode=mode, task=task, wcrt=row.get(f"wcrt.{task}", math.nan),
+            wcrt_key = f"wcrt_edf.{task}" if mode == "edf-cpu" else f"wcrt.{task}"
+            r.update(mode=mode, task=task, wcrt=row.get(wcrt_key, math.nan),
                      deadline=row.get(f"deadline.{task}", math.nan))
             for m in _PER_TASK:
                 r[m] = row.get(f"{m}.{mode}.{task}", math.nan)
@@ -73,6 +77,8 @@ def _rows(row: dict[str, Any], modes: tuple[str, ...], base: dict[str, Any]) -> 
             r["w_sch_over_w_sim"] = _div(r.get("w_sch"), r["w_sim"])
             r["w_rta_over_w_sim"] = _div(r.get("w_rta"), r["w_sim"])
             r["wcrt_over_sim_max"] = _div(r["wcrt"], r["sim_max"])
+            if mode == "edf-cpu":
+                r["w_edf_over_w_sim"] = _div(r.get("w_edf"), r["w_sim"])
             if mode == "counted-idle":  # the model of w_susp: Δt with the CPU idle
                 r["w_susp_over_w_sim"] = _div(r.get("w_susp"), r["w_sim"])
                 r["w_geo_over_w_sim"] = _div(r.get("w_susp_geo"), r["w_sim"])
@@ -100,8 +106,7 @@ def tidy_paper(results: pd.DataFrame) -> pd.DataFrame:
         base = {k: row.get(k, math.nan) for k in (
             "w_eq7", "w_eq11", "w_sch", "w_rta", "g", "points_min", "points_max",
             "points_mean", "points_wcet", "tracks_lost", "tracks_lost_sensor", "beyond_wcet",
-            "w_susp", "rho_min",
-            "k_geo", "w_susp_geo", "beyond_geo")}
+            "w_susp", "rho_min", "k_geo", "w_susp_geo", "beyond_geo", "w_edf")}
         base.update(source="paper", config=f"n={int(row['n'])},r_H={float(row['r_H']):g}",
                     n=int(row["n"]), r_H=float(row["r_H"]), set=math.nan, seed=row["seed"],
                     assumption_ok=True, geo_assumption_ok=True)

@@ -1,0 +1,358 @@
+"""EDF on one processor: the processor-demand criterion (with QPA) and Spuri's response times.
+
+Tasks are (C, T, D, J): WCET, period (minimum inter-arrival), relative deadline (arbitrary:
+above, at or below T) and release jitter, in ms; job k of a task arrives at k·T (sporadic: at
+least T apart), is released up to J later, and its deadline is arrival + D (SPEC §8).
+
+**Demand bound** (Baruah, Rosier & Howell 1990; with release jitter, Spuri 1996 and Zhang &
+Burns 2009 §6): the work of jobs released in [0, t] and due by t is at most
+
+    h(t) = Σ_i max(0, ⌊(t + J_i − D_i)/T_i⌋ + 1)·C_i,
+
+and preemptive EDF meets every deadline iff U = Σ C_i/T_i ≤ 1 and h(t) ≤ t for every
+deadline point t = k·T_i + D_i − J_i (k ≥ 0) up to a limit L. U > 1 is unschedulable at once;
+when every D_i − J_i ≥ T_i, U ≤ 1 suffices (h(t) ≤ Σ ⌊t/T_i⌋·C_i ≤ U·t: Liu & Layland 1973
+for D = T), with no point to check.
+
+**The limit L** (Zhang & Burns 2009, Theorems 2–3 with D_i − J_i for D_i): if U < 1,
+L_a = max(max_i (D_i − J_i), Σ_i (T_i − D_i + J_i)·U_i / (1 − U)); always the synchronous
+busy period L_b, the least fixed point of L = Σ_i ⌈(L + J_i)/T_i⌉·C_i from L = Σ C_i. L is
+min(L_a, L_b) (L_b alone when U = 1). With U = 1 and jitter L_b does not close; then, since
+h(t + H) = h(t) + H for t ≥ max_i (D_i − J_i) (H the hyperperiod), checking up to
+max_i (D_i − J_i) + H decides; periods that are not whole ms have no H here and such a set is
+reported unschedulable (pessimistic).
+
+**QPA** (Zhang & Burns 2009, Theorem 5, the Quick Processor-demand Analysis): t = the largest
+deadline point below L; while h(t) ≤ t and h(t) > d_min: t = h(t) if h(t) < t, else the
+largest deadline point below t; schedulable iff h(t) ≤ d_min (d_min = min_i (D_i − J_i)).
+It visits few points instead of all deadlines up to L.
+
+**Spuri's response-time bound** (Spuri 1996, "Analysis of deadline scheduled real-time
+systems", INRIA RR-2772, Theorem 2; jitter as in its §4 and Palencia & González Harbour
+2003): for the job of task i arriving at a in a deadline busy period starting at 0 (other
+tasks released at 0 as early as they can, i.e. arriving at −J_j, then every T_j), with
+absolute deadline d = a + D_i,
+
+    L_i(a) = W_i(a, L_i(a)) + (⌊(a + J_i)/T_i⌋ + 1)·C_i,
+    W_i(a, t) = Σ_{j≠i, D_j − J_j ≤ a + D_i}
+                min(⌈(t + J_j)/T_j⌉, ⌊(a + D_i − D_j + J_j)/T_j⌋ + 1)·C_j,
+    R_i = max(C_i + J_i, max_a (L_i(a) − a)),
+
+over a ∈ A = {k·T_j + D_j − J_j − D_i} ∪ {k·T_i − J_i}, −J_i ≤ a ≤ L_b − C_i (between two
+such points L_i is constant and L_i(a) − a falls). Jobs with a deadline equal to d count as
+interfering (ties can go against the analysed job). With J = 0 this is Spuri's theorem
+exactly.
+
+**Self-suspension** (the window's radio round trip Δt with the CPU idle): EDF is not optimal
+for self-suspending tasks (Ridouard, Richard & Cottet 2004), and the only treatment used here
+is the one the survey of Chen et al. (Real-Time Systems 55, 2019) confirms sound for EDF:
+suspension-oblivious, Δt counted as computation (C includes it). No tighter EDF suspension
+analysis is used. **Overhead** o: each job is charged 2·o per compute stretch (its own switch
+in, and the resumption of the job it preempted; under EDF a preemption happens only when a
+job starts a stretch).
+
+Numerics as :mod:`rtsim.analysis.rta`: ceilings ⌈(x − ε)/p⌉ and floors ⌊(x + ε)/p⌋ with an
+absolute ε = 1e-9 ms (both count a job whose boundary is within ε: sound), and h(t) ≤ t
+within 1e-9 ms.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any
+
+from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, ceil_div, stretches
+from rtsim.errors import TaskSetError
+from rtsim.model.task import Task
+
+if TYPE_CHECKING:
+    from rtsim.model.taskset import TaskSet
+
+__all__ = ["EdfTask", "EdfTaskResult", "EdfAnalysis", "demand", "utilization", "limit_la",
+           "busy_period", "deadline_points", "qpa", "spuri_wcrt", "analyze_edf", "edf_tasks",
+           "MAX_STEPS"]
+
+#: (C, T, D, J) in ms.
+EdfTask = tuple[float, float, float, float]
+#: Fixed-point and QPA steps before giving up (a pathological set near U = 1).
+MAX_STEPS = 200_000
+#: Steps of the synchronous busy period before it is taken as not closing (at U = 1 it
+#: closes at the hyperperiod, which need not exist for periods that are floats).
+MAX_BUSY_STEPS = 100_000
+
+
+def floor_div(x: float, p: float) -> int:
+    """⌊x/p⌋ for times (ms), x taken CEIL_TOL ms higher (a boundary within 1e-9 ms counts)."""
+    return math.floor((x + CEIL_TOL) / p)
+
+
+def utilization(tasks: Sequence[EdfTask]) -> float:
+    """U = Σ C_i/T_i."""
+    return math.fsum(c / t for c, t, _, _ in tasks)
+
+
+def demand(t: float, tasks: Sequence[EdfTask]) -> float:
+    """h(t) = Σ_i max(0, ⌊(t + J_i − D_i)/T_i⌋ + 1)·C_i (module doc)."""
+    return math.fsum(max(0, floor_div(t + j - d, p) + 1) * c for c, p, d, j in tasks)
+
+
+def limit_la(tasks: Sequence[EdfTask]) -> float:
+    """L_a = max(max_i (D_i − J_i), Σ (T_i − D_i + J_i)·U_i/(1 − U)), for U < 1 (else inf)."""
+    u = utilization(tasks)
+    if u >= 1.0:
+        return math.inf
+    s = math.fsum((p - d + j) * c / p for c, p, d, j in tasks)
+    return max(max(d - j for _, _, d, j in tasks), s / (1.0 - u))
+
+
+def busy_period(tasks: Sequence[EdfTask], cap: float = math.inf) -> float | None:
+    """L_b: least L = Σ ⌈(L + J_i)/T_i⌉·C_i from Σ C_i (the synchronous busy period with
+    jitter); None if it does not close (U > 1, or U = 1 with jitter) within MAX_STEPS, or
+    passes ``cap``."""
+    if utilization(tasks) > 1.0:
+        return None
+    w = math.fsum(c for c, _, _, _ in tasks)
+    for _ in range(MAX_BUSY_STEPS):
+        if w > cap:
+            return None
+        nxt = math.fsum(ceil_div(w + j, p) * c for c, p, _, j in tasks)
+        if nxt <= w + CEIL_TOL:
+            return w
+        w = nxt
+    return None
+
+
+def _point_below(t: float, tasks: Sequence[EdfTask]) -> float:
+    """The largest deadline point k·T_i + D_i − J_i strictly below t (−inf if none)."""
+    best = -math.inf
+    for _, p, d, j in tasks:
+        base = d - j
+        if base >= t - CEIL_TOL:
+            continue
+        k = ceil_div(t - base, p) - 1
+        best = max(best, base + k * p)
+    return best
+
+
+def deadline_points(tasks: Sequence[EdfTask], limit: float) -> list[float]:
+    """Every deadline point k·T_i + D_i − J_i ≤ ``limit``, sorted, duplicates removed."""
+    pts: set[float] = set()
+    for _, p, d, j in tasks:
+        base = d - j
+        k = 0
+        while base + k * p <= limit + CEIL_TOL:
+            pts.add(base + k * p)
+            k += 1
+    return sorted(pts)
+
+
+@dataclass(frozen=True)
+class QpaResult:
+    """The demand criterion's verdict, the limit it used, and the point that failed."""
+
+    schedulable: bool
+    limit: float | None
+    limit_kind: str
+    failed_at: float | None
+    steps: int
+
+
+def _hyperperiod(tasks: Sequence[EdfTask]) -> float | None:
+    """The least common multiple of the periods if they are whole ms (else None)."""
+    if not all(float(p).is_integer() and p < 1e9 for _, p, _, _ in tasks):
+        return None
+    return float(math.lcm(*(int(p) for _, p, _, _ in tasks)))
+
+
+def qpa(tasks: Sequence[EdfTask]) -> QpaResult:
+    """The processor-demand criterion by QPA (module doc): U > 1 fails at once; else checks
+    h(t) ≤ t at the deadline points below L = min(L_a, L_b)."""
+    u = utilization(tasks)
+    if u > 1.0:  # as computed (math.fsum): a set at U = 1 that rounds above fails (safe)
+        return QpaResult(False, None, "U > 1", None, 0)
+    if any(d - j <= 0 for _, _, d, j in tasks):  # a job due before it can be released
+        t = min(d - j for _, _, d, j in tasks)
+        return QpaResult(False, None, "D - J <= 0", t, 0)
+    if all(d - j >= p for _, p, d, j in tasks):
+        # h(t) ≤ Σ ⌊t/T_i⌋·C_i ≤ U·t ≤ t (Liu & Layland 1973 for D = T): no point to check
+        return QpaResult(True, None, "U <= 1, D - J >= T", None, 0)
+    la = limit_la(tasks)
+    lb = busy_period(tasks, cap=la)  # only needed where it is below L_a
+    cands = [(x, k) for x, k in ((la, "L_a"), (lb, "L_b")) if x is not None
+             and math.isfinite(x)]
+    if not cands:  # U = 1 and the busy period does not close (jitter): one hyperperiod
+        hyper = _hyperperiod(tasks)
+        if hyper is None:
+            return QpaResult(False, None, "U = 1, no hyperperiod", None, 0)
+        cands = [(max(d - j for _, _, d, j in tasks) + hyper, "max(D - J) + H")]
+    limit, kind = min(cands)
+    limit = float(limit)
+    d_min = min(d - j for _, _, d, j in tasks)
+    # deadline points strictly below L (a deadline at L itself: Zhang & Burns check d < L;
+    # checking d ≤ L as well costs one point and is never less safe)
+    t = _point_below(limit + 2 * CEIL_TOL, tasks)
+    if not math.isfinite(t):  # no deadline point up to L
+        return QpaResult(True, limit, kind, None, 0)
+    steps = 0
+    h = demand(t, tasks)
+    while h <= t + DEADLINE_TOL and h > d_min + DEADLINE_TOL:
+        steps += 1
+        if steps > MAX_STEPS:  # pragma: no cover - QPA converges in far fewer steps
+            return QpaResult(False, limit, kind, t, steps)
+        t = h if h < t - DEADLINE_TOL else _point_below(t, tasks)
+        h = demand(t, tasks)
+    if h <= d_min + DEADLINE_TOL and h <= t + DEADLINE_TOL:
+        return QpaResult(True, limit, kind, None, steps)
+    return QpaResult(False, limit, kind, t, steps)
+
+
+def spuri_wcrt(i: int, tasks: Sequence[EdfTask]) -> float | None:
+    """Spuri's worst-case response time of task ``tasks[i]`` under EDF (module doc), from
+    arrival; None when the synchronous busy period does not close (U > 1, or U = 1 with
+    jitter: the search over arrivals has no end)."""
+    lb = busy_period(tasks)
+    if lb is None:
+        return None
+    ci, ti, di, ji = tasks[i]
+    hi = lb - ci
+    cands: set[float] = set()
+    for k, (_, p, d, j) in enumerate(tasks):
+        base = (-ji) if k == i else d - j - di
+        if base < -ji:
+            m = ceil_div(-ji - base, p)  # first k·T + base ≥ −J_i
+            base += m * p
+        a = base
+        while a <= hi + CEIL_TOL:
+            cands.add(a)
+            a += p
+    if not cands:
+        cands.add(-ji)
+    worst = ci + ji
+    others = [x for k, x in enumerate(tasks) if k != i]
+    for a in sorted(cands):
+        dl = a + di
+        own = (floor_div(a + ji, ti) + 1) * ci
+        inter = [(c, p, floor_div(dl - d + j, p) + 1, j) for c, p, d, j in others
+                 if d - j <= dl + CEIL_TOL]
+        t = own + math.fsum(c for c, _, _, _ in inter)
+        for _ in range(MAX_STEPS):
+            nxt = own + math.fsum(min(ceil_div(t + j, p), cap) * c for c, p, cap, j in inter)
+            if nxt <= t + CEIL_TOL:
+                break
+            t = nxt
+        else:  # pragma: no cover - bounded by the busy period
+            return None
+        worst = max(worst, t - a)
+    return worst
+
+
+def edf_tasks(tasks: Sequence[Task], overhead: float = 0.0) -> list[EdfTask]:
+    """(C, T, D, J) of resolved tasks; C includes suspensions (suspension-oblivious) and
+    2·o per compute stretch (module doc)."""
+    o = float(overhead)
+    out = []
+    for t in tasks:
+        if t.per_window:
+            raise TaskSetError(f"task '{t.name}': period is a multiple of w; resolve it with "
+                               f"at_window(w) first")
+        assert t.deadline is not None
+        c = t.wcet + 2.0 * o * stretches(t) if o else t.wcet
+        out.append((c, t.period, t.deadline, t.jitter))
+    return out
+
+
+@dataclass(frozen=True)
+class EdfTaskResult:
+    """One task under EDF: its parameters at the analysed window and Spuri's WCRT (ms)."""
+
+    name: str
+    priority: int
+    wcet: float
+    period: float
+    deadline: float
+    jitter: float
+    utilization: float
+    wcrt: float | None
+    schedulable: bool
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain dict."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class EdfAnalysis:
+    """The EDF analysis of a task set: the demand criterion's verdict for the whole set
+    (``schedulable``, with ``limit``/``limit_kind`` and the deadline point that failed) and
+    Spuri's bound per task. ``suspension`` is recorded; suspensions always count as
+    computation here (module doc)."""
+
+    tasks: tuple[EdfTaskResult, ...]
+    utilization: float
+    schedulable: bool
+    limit: float | None
+    limit_kind: str
+    failed_at: float | None
+    qpa_steps: int
+    w: float | None = None
+    name: str = ""
+    overhead: float = 0.0
+    offsets_ignored: bool = False
+    suspension: str = "cpu"
+    scheduler: str = "edf"
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {"name": self.name, "scheduler": self.scheduler, "w": self.w,
+                "tasks": [t.as_dict() for t in self.tasks], "utilization": self.utilization,
+                "schedulable": self.schedulable, "limit": self.limit,
+                "limit_kind": self.limit_kind, "failed_at": self.failed_at,
+                "qpa_steps": self.qpa_steps, "overhead": self.overhead,
+                "offsets_ignored": self.offsets_ignored, "suspension": self.suspension}
+
+
+def analyze_edf(ts: TaskSet, w: float | None = None, *, overhead: float | None = None,
+                suspension: str = "cpu") -> EdfAnalysis:
+    """The EDF analysis of ``ts`` (at window ``w`` for a processing-window set: default the
+    analytic w_sch, as :func:`rtsim.analysis.rta.analyze`). ``overhead`` defaults to the
+    set's; ``suspension`` ("cpu" or "idle") is recorded, the analysis is
+    suspension-oblivious either way (sound for both)."""
+    label = ts.source or ts.name or "task set"
+    if overhead is None:
+        overhead = ts.overhead
+    if suspension not in ("cpu", "idle"):
+        raise TaskSetError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
+    if isinstance(overhead, bool) or not isinstance(overhead, int | float) or \
+            not math.isfinite(overhead) or overhead < 0:
+        raise TaskSetError(f"{label}: overhead must be a non-negative number of ms, "
+                           f"got {overhead!r}")
+    if ts.window is None:
+        if w is not None:
+            raise TaskSetError(f"{label}: has no [window], so a window w does not apply")
+        tasks = ts.tasks
+    else:
+        if w is None:
+            from rtsim.analysis.bounds import w_sch_of
+
+            w = w_sch_of(ts)
+            if not math.isfinite(w):
+                raise TaskSetError(f"{label}: the analytic bound w_sch is infinite; choose a "
+                                   f"window w explicitly")
+        tasks = ts.at_window(w).tasks
+    et = edf_tasks(tasks, overhead)
+    verdict = qpa(et)
+    results = []
+    for i, task in enumerate(tasks):
+        r = spuri_wcrt(i, et)
+        assert task.deadline is not None
+        ok = r is not None and r <= task.deadline + DEADLINE_TOL
+        results.append(EdfTaskResult(task.name, task.priority, task.wcet, task.period,
+                                     task.deadline, task.jitter, task.wcet / task.period,
+                                     r, ok))
+    return EdfAnalysis(tasks=tuple(results), utilization=utilization(et),
+                       schedulable=verdict.schedulable, limit=verdict.limit,
+                       limit_kind=verdict.limit_kind, failed_at=verdict.failed_at,
+                       qpa_steps=verdict.steps, w=w, name=ts.name, overhead=float(overhead),
+                       offsets_ignored=any(t.offset > 0 for t in tasks), suspension=suspension)
