@@ -53,7 +53,8 @@ def test_every_numeric_key_of_the_parsers_has_a_range() -> None:
         assert names, cls
         keys += [f"scenario: {table}.{k}" for k in names]
     keys += [f"scenario: {k}" for k in (
-        "duration", "leader.speed", "leader.accel_max", "leader.decel_max", "leader.start_s", "leader.start.x", "leader.start.y",
+        "duration", "leader.speed", "leader.accel_max", "leader.decel_max", "leader.start_s",
+        "leader.start.x", "leader.start.y",
         "leader.start.heading", "leader.path.straight", "leader.path.radius",
         "leader.path.angle", "leader.shape.length", "leader.shape.width",
         "leader.shape.radius", "formation.followers", "formation.separation",
