@@ -319,28 +319,9 @@ def analyze_edf(ts: TaskSet, w: float | None = None, *, overhead: float | None =
     analytic w_sch, as :func:`rtsim.analysis.rta.analyze`). ``overhead`` defaults to the
     set's; ``suspension`` ("cpu" or "idle") is recorded, the analysis is
     suspension-oblivious either way (sound for both)."""
-    label = ts.source or ts.name or "task set"
-    if overhead is None:
-        overhead = ts.overhead
-    if suspension not in ("cpu", "idle"):
-        raise TaskSetError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
-    if isinstance(overhead, bool) or not isinstance(overhead, int | float) or \
-            not math.isfinite(overhead) or overhead < 0:
-        raise TaskSetError(f"{label}: overhead must be a non-negative number of ms, "
-                           f"got {overhead!r}")
-    if ts.window is None:
-        if w is not None:
-            raise TaskSetError(f"{label}: has no [window], so a window w does not apply")
-        tasks = ts.tasks
-    else:
-        if w is None:
-            from rtsim.analysis.bounds import w_sch_of
+    from rtsim.analysis.rta import analysis_inputs
 
-            w = w_sch_of(ts)
-            if not math.isfinite(w):
-                raise TaskSetError(f"{label}: the analytic bound w_sch is infinite; choose a "
-                                   f"window w explicitly")
-        tasks = ts.at_window(w).tasks
+    ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze_edf")
     et = edf_tasks(tasks, overhead)
     verdict = qpa(et)
     results = []

@@ -55,8 +55,8 @@ from rtsim.model.task import Task
 if TYPE_CHECKING:  # the model package imports rtsim.analysis: no runtime import of it here
     from rtsim.model.taskset import TaskSet
 
-__all__ = ["Analysis", "TaskResult", "analyze", "busy_window", "ceil_div", "response_time",
-           "stretches", "CEIL_TOL", "DEADLINE_TOL"]
+__all__ = ["Analysis", "TaskResult", "analyze", "analysis_inputs", "busy_window", "ceil_div",
+           "response_time", "stretches", "CEIL_TOL", "DEADLINE_TOL"]
 
 #: ⌈x/p⌉ is computed as ⌈(x − CEIL_TOL)/p⌉ (absolute, ms): R = 3·p + 4e-14 counts 3 jobs.
 CEIL_TOL = 1e-9
@@ -217,24 +217,18 @@ class Analysis:
         }
 
 
-def analyze(ts: TaskSet | str | os.PathLike[str], w: float | None = None, *,
-            overhead: float | None = None,
-            suspension: str = "cpu") -> Analysis:
-    """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,
-    default the set's ``overhead``). ``suspension="idle"``: suspensions leave the CPU free and
-    each task takes the smaller of its sound suspension-aware bounds
-    (:func:`rtsim.analysis.suspension.suspension_aware`); ``"cpu"``: they count as computation.
-
-    A set with a ``[window]`` is analysed at window ``w`` (default: the analytic w_sch of
-    :func:`rtsim.analysis.bounds.w_sch_of`), the chain as one task of cost g with period
-    and deadline w, per-window periods resolved. ``w`` is an error for a set without one.
-    """
+def analysis_inputs(ts: TaskSet | str | os.PathLike[str], w: float | None,
+                    overhead: float | None, suspension: str, caller: str
+                    ) -> tuple[TaskSet, float | None, float, tuple[Task, ...]]:
+    """The checked inputs of an analysis of ``ts`` (a TaskSet or a task-set path): the set,
+    the window w (default the analytic w_sch for a set with a ``[window]``), the overhead
+    (default the set's) and the tasks to analyse (the window chain as one task at w)."""
     from rtsim.model.taskset import TaskSet
 
     if not isinstance(ts, TaskSet):
         from rtsim.io.taskset import as_taskset
 
-        ts = as_taskset(ts, "analyze")
+        ts = as_taskset(ts, caller)
     label = ts.source or ts.name or "task set"
     if overhead is None:
         overhead = ts.overhead
@@ -259,6 +253,22 @@ def analyze(ts: TaskSet | str | os.PathLike[str], w: float | None = None, *,
                     "choose a window w explicitly"
                 )
         tasks = ts.at_window(w).tasks
+    return ts, w, overhead, tuple(tasks)
+
+
+def analyze(ts: TaskSet | str | os.PathLike[str], w: float | None = None, *,
+            overhead: float | None = None,
+            suspension: str = "cpu") -> Analysis:
+    """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,
+    default the set's ``overhead``). ``suspension="idle"``: suspensions leave the CPU free and
+    each task takes the smaller of its sound suspension-aware bounds
+    (:func:`rtsim.analysis.suspension.suspension_aware`); ``"cpu"``: they count as computation.
+
+    A set with a ``[window]`` is analysed at window ``w`` (default: the analytic w_sch of
+    :func:`rtsim.analysis.bounds.w_sch_of`), the chain as one task of cost g with period
+    and deadline w, per-window periods resolved. ``w`` is an error for a set without one.
+    """
+    ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze")
     results = []
     aware = None
     if suspension == "idle":
