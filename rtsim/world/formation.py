@@ -132,13 +132,9 @@ def chevron_offsets(pairs: int, separation: float, offset: float, r_F: float,
     return offs
 
 
-def chevron(n: int, separation: float, offset: float = math.radians(15), *,
-            r_F: float = 25.0, gap: float = CHEVRON_GAP) -> Formation:
-    """The default V formation: pair p at p·``separation`` cm and 180° ± offset_p.
-
-    offset_1 = ``offset``; further pairs turn outward so the laser sees every follower
-    (module docstring). Raises :class:`ScenarioError` if a pair would leave [90°, 270°].
-    """
+def _pair_args(n: int, separation: float, offset: float, r_F: float
+               ) -> tuple[int, float, float, float]:
+    """The checked arguments of :func:`chevron` and :func:`in_line` (offset in [0, 90°])."""
     n = integer("formation.followers", n, minimum=1)
     sep = positive("formation.separation", separation)
     off = number("formation.bearing_offset", offset)
@@ -146,6 +142,17 @@ def chevron(n: int, separation: float, offset: float = math.radians(15), *,
     if not 0 <= off <= math.pi / 2:
         raise ScenarioError(f"formation.bearing_offset: must be in [0, 90] deg, got "
                             f"{math.degrees(off):.6g} deg")
+    return n, sep, off, r_F
+
+
+def chevron(n: int, separation: float, offset: float = math.radians(15), *,
+            r_F: float = 25.0, gap: float = CHEVRON_GAP) -> Formation:
+    """The default V formation: pair p at p·``separation`` cm and 180° ± offset_p.
+
+    offset_1 = ``offset``; further pairs turn outward so the laser sees every follower
+    (module docstring). Raises :class:`ScenarioError` if a pair would leave [90°, 270°].
+    """
+    n, sep, off, r_F = _pair_args(n, separation, offset, r_F)
     offs = chevron_offsets((n + 1) // 2, sep, off, r_F, gap)
     if offs[-1] > math.pi / 2:
         raise ScenarioError(
@@ -181,13 +188,7 @@ def in_line(n: int, separation: float, offset: float = math.radians(15), *,
 
     Raises :class:`ScenarioError` if the first rank would need more than 90°.
     """
-    n = integer("formation.followers", n, minimum=1)
-    sep = positive("formation.separation", separation)
-    off = number("formation.bearing_offset", offset)
-    r_F = positive("follower.radius", r_F)
-    if not 0 <= off <= math.pi / 2:
-        raise ScenarioError(f"formation.bearing_offset: must be in [0, 90] deg, got "
-                            f"{math.degrees(off):.6g} deg")
+    n, sep, off, r_F = _pair_args(n, separation, offset, r_F)
     offs = in_line_offsets((n + 1) // 2, sep, off, r_F, gap)
     if offs[0] > math.pi / 2:
         raise ScenarioError(
