@@ -185,7 +185,7 @@ class CPU:
         self._timers: list[tuple[Any, ...]] = []
         self._ready: list[tuple[Any, Any, Job]] = []  # (job.key, job.tie, job)
         self._seq = itertools.count()
-        self._job_rows: list[tuple[Any, ...]] = RowBuffer(jobs_frame, job_sink)
+        self._job_rows = RowBuffer(jobs_frame, job_sink)
         self._trace_rows: list[tuple[Any, ...]] = []
         self._w: float | None = None
         self._busy = 0.0
@@ -795,7 +795,7 @@ class CPU:
     def result(self, window: dict[str, Any] | None = None) -> SimResult:
         """Statistics (and job table / trace if recorded) of the run so far; with a job sink
         the records left are flushed to it and ``jobs`` is None."""
-        self._job_rows.flush()  # type: ignore[attr-defined]
+        self._job_rows.flush()
         return SimResult(
             tasks={st.name: st.stats
                    for st in sorted(self._states, key=lambda x: x.priority)},
@@ -810,7 +810,7 @@ class CPU:
             window=window,
             jitter=self.jitter,
             scheduler=self.policy.name or type(self.policy).__name__,
-            jobs=self._job_rows.frame()  # type: ignore[attr-defined]
+            jobs=self._job_rows.frame()
             if self.record_jobs and self.job_sink is None else None,
             trace=trace_frame(self._trace_rows) if self.record_trace else None,
         )
