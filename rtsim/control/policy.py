@@ -48,7 +48,7 @@ from rtsim.control.adjust import (
 from rtsim.control.predict import FollowerEstimate, Predictor, check_number, min_bound_rows
 from rtsim.errors import InputError
 
-__all__ = ["COMMON_KEYS", "POLICIES", "Policy", "PolicyInput", "adjust_options",
+__all__ = ["COMMON_KEYS", "POLICIES", "Decision", "Policy", "PolicyInput", "adjust_options",
            "make_policy", "policy_class", "register_policy"]
 
 #: ``[adjust]`` keys every policy understands (options of the decision, ScenarioInputs.adjust).
