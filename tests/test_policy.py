@@ -211,7 +211,7 @@ def test_cli_policy(tmp_path: Path) -> None:
                str(tmp_path / "x"))
     assert bad.returncode == 2
     assert bad.stderr.strip().splitlines() == [
-        "rtsim: --policy: must be one of adjust, fixed-wsch, min-msb, margin or "
+        "rtsim: --policy: must be one of adjust, fixed-wsch, min-msb, margin, lookahead or "
         "'package.module:Name', got 'margn' (did you mean 'margin'?)"]
     both = _cli("scenario", str(PIN / "pin1.toml"), "--policy", "margin", "--mode", "adjust",
                 "--out", str(tmp_path / "y"))
@@ -238,3 +238,81 @@ def test_margin_cuts_windows_beyond_5pct_on_test1() -> None:
         counts[pol] = total
     assert counts["adjust"] > 0
     assert counts["margin"] < 0.5 * counts["adjust"]
+
+
+# -- lookahead: the same follower; on a turn of curvature κ the formation model moves it with
+# its slot, V_F = V_L·√(1 + (ρ_d κ)²) (the slot 100 cm behind turns with ω_L = κ·V_L), ρ̇ = β̇ = 0;
+# κ = 0.0075: √(1 + 0.75²) = 1.25, so the path bound in the turn is 2500 / (1.25·V) = 2000 / V.
+KAPPA = 0.0075
+
+
+@pytest.mark.parametrize(
+    ("dist", "decel", "w", "v", "method"),
+    [
+        # w_sch = 90: here 2500/25 = 100 ≥ 90 (w = 100 at 25); the turn's safe speed is
+        # 2000/90 = 22.222. Horizon 25·2·0.09 = 4.5 cm (+ 25²/(2·decel)).
+        (40.0, math.inf, 100.0, 25.0, "none"),               # beyond the horizon
+        (3.0, math.inf, 100.0, 25.0, "none"),                # after this window (25·0.1 = 2.5 cm)
+        # within this window: slow to 22.222 now; the window reaches 2.22 cm ≥ 2 into the
+        # turn, where the bound at 22.222 is 2000/22.222 = 90: w = max(90, min(100, 90))
+        (2.0, math.inf, 90.0, 2000.0 / 90.0, "lookahead"),
+        # decel 10 cm/s²: brake from √(22.222² + 2·10·(5 − 2.5)) = 23.3206 over 2.5 cm
+        (5.0, 10.0, 100.0, math.sqrt((2000.0 / 90.0) ** 2 + 50.0), "lookahead"),
+        # far enough to brake from 25: √(493.83 + 2·10·17.5) = 29.05 > 25
+        (20.0, 10.0, 100.0, 25.0, "none"),
+    ],
+)
+def test_lookahead_by_hand(dist: float, decel: float, w: float, v: float, method: str) -> None:
+    pol = POLICIES["lookahead"]()
+    d = pol.decide(_ctx(90.0, ahead=((dist, KAPPA), (dist + 500.0, 0.0)), decel_max=decel,
+                        v_now=25.0))
+    assert d.w == pytest.approx(w, rel=1e-9)
+    assert d.v_leader == pytest.approx(v, rel=1e-9)
+    assert d.method == method
+    if method == "lookahead":  # the bounds after are those here at the new speed
+        assert d.msb_min_after == pytest.approx(2500.0 / v, rel=1e-9)
+
+
+def test_lookahead_without_a_path_is_margin() -> None:
+    for w_sch in (80.0, 120.0):
+        assert (make_policy("lookahead", {"margin": 0.2}).decide(_ctx(w_sch))
+                == MarginPolicy(0.2).decide(_ctx(w_sch)))
+
+
+class Recorder:
+    """Records what the coupling gives a policy that asks for the path."""
+
+    params: ClassVar[dict[str, Any]] = {}
+    needs_path: ClassVar[bool] = True
+    seen: ClassVar[list[PolicyInput]] = []
+
+    def decide(self, ctx: PolicyInput) -> Decision:
+        Recorder.seen.append(ctx)
+        return POLICIES["adjust"]().decide(ctx)
+
+
+def test_the_coupling_gives_the_leaders_upcoming_commands() -> None:
+    Recorder.seen.clear()
+    res = run_scenario(PIN / "pin1.toml", duration_s=3.0, seed=0,
+                       policy=f"{__name__}:Recorder")
+    sc = load_scenario(PIN / "pin1.toml")
+    path = sc.world.path
+    segs = path.segments
+    assert len(Recorder.seen) >= len(res.windows) > 3
+    for ctx in Recorder.seen:
+        assert ctx.accel_max == sc.world.leader_accel_max
+        assert ctx.decel_max == sc.world.leader_decel_max
+        assert len(ctx.ahead) == len(segs)
+        dists = [a for a, _ in ctx.ahead]
+        assert all(b > a for a, b in zip(dists, dists[1:], strict=False))
+    # the first decision (t = 0): the leader at start_s on segment k; the next command starts
+    # at the sum of the lengths up to k + 1
+    first = Recorder.seen[0]
+    s0 = float(sc.world.start_s)
+    k = path.index(s0)
+    end_k = sum(g.length for g in segs[: k + 1])
+    assert first.ahead[0][0] == pytest.approx(end_k - s0 % path.lap_length, abs=1e-9)
+    assert [c for _, c in first.ahead] == [segs[(k + j) % len(segs)].curvature
+                                            for j in range(1, len(segs) + 1)]
+    assert first.ahead[1][0] - first.ahead[0][0] == pytest.approx(
+        segs[(k + 1) % len(segs)].length)

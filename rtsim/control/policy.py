@@ -27,8 +27,10 @@ is validated in one place, :func:`adjust_options`.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import importlib
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Protocol, runtime_checkable
@@ -64,7 +66,11 @@ class PolicyInput:
     omega_l: its turn rate; kappa: the path's curvature where it is; v_now: its actual speed;
     cap: the largest window (None: CAP_FACTOR·w_sch); floor_frac: its speed when nothing
     restores the bounds, as a fraction of v_ld; floor_w: the smallest window of ``min-msb``;
-    predictor, methods, scan_points: as in :func:`rtsim.control.adjust.adjust`.
+    predictor, methods, scan_points: as in :func:`rtsim.control.adjust.adjust`; ahead: the
+    leader's known upcoming path commands as (distance from here to the command's start in
+    cm, its curvature in 1/cm), nearest first (filled for a policy whose class sets
+    ``needs_path = True``, else empty); accel_max, decel_max: the leader's speed ramp limits
+    (cm/s², ``inf`` = the speed steps).
     """
 
     followers: Sequence[FollowerEstimate]
@@ -80,6 +86,9 @@ class PolicyInput:
     predictor: str | Predictor = "formation"
     methods: Sequence[str] = _CANDIDATES
     scan_points: int = 64
+    ahead: tuple[tuple[float, float], ...] = ()
+    accel_max: float = math.inf
+    decel_max: float = math.inf
 
 
 @runtime_checkable
@@ -277,3 +286,88 @@ class MarginPolicy:
                          ctx.methods, ctx.scan_points, ctx.v_now)
         w = ctx.w_sch if d.method != "none" else max(ctx.w_sch, min(keep * d.msb_min, cap))
         return d._replace(w=w)
+
+
+@register_policy("lookahead")
+class LookaheadPolicy:
+    """The margin policy, made safe ahead of time along the leader's known path commands.
+
+    1. d = :class:`MarginPolicy` (``margin`` μ, default 0) on the current command (κ here).
+    2. For every upcoming command j at distance D_j within the horizon
+       H = V·(windows·w_sch / 1000) + V² / (2·decel_max) (V = the leader's actual speed), the
+       safe speed there, v_j = the margin policy's speed with κ = κ_j, ω_L = κ_j·V and the
+       ``formation`` predictor (SPEC §6: each follower moving with its slot on command j,
+       from its estimated ρ, β — the followers' motion there is not yet observed); and the
+       highest speed from which the leader can still brake to v_j
+       before D_j once the next decision comes (one window later, after V·w/1000 cm):
+       v_j* = √(v_j² + 2·decel_max·max(0, D_j − V·w/1000)) (uniform deceleration), which is
+       v_j itself when the command starts within the window; with ``decel_max`` = inf (the
+       speed steps) v_j* = v_j within the window and ∞ beyond it.
+    3. Speed target V_L = min(d's speed, min_j v_j*): it slows before a turn so that the
+       speed is safe when the turn begins, and since the commands within reach of the window
+       count as well as the current one, it speeds up after a turn only when the bounds over
+       the window ahead allow.
+    4. w = max(w_sch, min(d's w, (1 − μ)·min bound at V_L, formation predictor, on every
+       command that starts within the window, V_L·w/1000 cm)): a window that reaches into a
+       turn is no longer than the bound in the turn.
+
+    ``method`` is ``lookahead`` when step 3 lowered the speed, else d's. Own keys: ``margin``
+    (μ in [0, 1), default 0) and ``windows`` (the horizon in windows of w_sch, ≥ 1, default 2).
+    """
+
+    params: ClassVar[Mapping[str, Any]] = {"margin": 0.0, "windows": 2.0}
+    #: the coupling fills PolicyInput.ahead, accel_max and decel_max for this policy
+    needs_path: ClassVar[bool] = True
+
+    def __init__(self, margin: float = 0.0, windows: float = 2.0) -> None:
+        self.base = MarginPolicy(margin)
+        windows = check_number("windows", "windows", windows)
+        if not 1.0 <= windows <= 100.0:
+            raise InputError(f"windows: must be in [1, 100], got {windows!r}")
+        self.windows = windows
+
+    def decide(self, ctx: PolicyInput) -> Decision:
+        d = self.base.decide(ctx)
+        keep = 1.0 - self.base.margin
+        v_now = ctx.v_ld if ctx.v_now is None else ctx.v_now
+        a_d = float(ctx.decel_max)
+        if not a_d > 0.0:
+            raise InputError(f"lookahead: decel_max must be positive or inf, got {a_d!r}")
+        brake = 0.0 if math.isinf(a_d) else v_now * v_now / (2.0 * a_d)
+        horizon = v_now * self.windows * ctx.w_sch / 1000.0 + brake
+        reach = v_now * d.w / 1000.0  # covered before the next decision
+        v_l = d.v_leader
+        for dist, kappa in ctx.ahead:
+            if dist > horizon:
+                break
+            there = self.base.decide(dataclasses.replace(ctx, kappa=kappa,
+                                                         omega_l=kappa * v_now,
+                                                         predictor="formation"))
+            v_safe = max(there.v_leader, ctx.floor_frac * ctx.v_ld)
+            gap = max(0.0, dist - reach)
+            if math.isinf(a_d):  # the speed steps: the next decision can still lower it
+                v_ok = v_safe if gap == 0.0 else math.inf
+            else:
+                v_ok = math.sqrt(v_safe * v_safe + 2.0 * a_d * gap)
+            v_l = min(v_l, v_ok)
+        if v_l >= d.v_leader:
+            d_out = d
+        else:
+            rows_after = _rows_at(ctx.followers, None if ctx.predictor == "formation" else
+                                  _make_predictor(ctx.predictor, omega_l=ctx.omega_l,
+                                                  kappa=ctx.kappa, v_now=ctx.v_now),
+                                  ctx.thresholds, ctx.predictor, ctx.kappa, ctx.omega_l,
+                                  ctx.v_now)(v_l)
+            m_after = min_bound_rows(rows_after)[0]
+            d_out = d._replace(v_leader=v_l, method="lookahead", rows_after=rows_after,
+                               msb_min_after=m_after,
+                               feasible=keep * m_after >= ctx.w_sch * (1.0 - _TOL))
+        w = d_out.w
+        window_reach = v_l * w / 1000.0
+        for dist, kappa in ctx.ahead:
+            if dist > window_reach:
+                break
+            rows = _rows_at(ctx.followers, None, ctx.thresholds, "formation", kappa,
+                            kappa * v_now, ctx.v_now)(v_l)
+            w = max(ctx.w_sch, min(w, keep * min_bound_rows(rows)[0]))
+        return d_out if w == d_out.w else d_out._replace(w=w)

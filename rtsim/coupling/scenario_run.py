@@ -269,6 +269,14 @@ class _Coupling:
                              f"the schedulability bound)")
         # run_scenario(policy=/mode=) overrides the file's [adjust] policy
         self.policy, opts = adjust_options(opts, f"{inp.source or 'scenario'}: adjust", mode)
+        if getattr(self.policy, "needs_path", False):  # the leader's known path commands
+            segs = cfg.path.segments
+            starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
+            self._path = (tuple(float(x) for x in starts), tuple(g.curvature for g in segs))
+            opts["accel_max"] = cfg.leader_accel_max
+            opts["decel_max"] = cfg.leader_decel_max
+        else:
+            self._path = None
         self.mode = str(self.policy.name)
         cap_factor = opts.pop("cap_factor", None)
         if cap_factor is not None and "cap" not in opts:
@@ -342,12 +350,30 @@ class _Coupling:
             fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
                                          self.beta_d[k]))
         kw = {"omega_l": world.leader_omega, "kappa": kappa, "v_now": self._v_actual()}
+        ahead = () if self._path is None else self._ahead()
         adj = self.policy.decide(PolicyInput(fols, v_ld=self.v_ld, w_sch=self.w_sch,
-                                             thresholds=self.thr, **kw, **self.opts))
+                                             thresholds=self.thr, **kw, **self.opts,
+                                             ahead=ahead))
         v_l = max(adj.v_leader, self.v_floor)
         return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
                          adj.feasible and v_l == adj.v_leader, tuple(state), tuple(fols), kw,
                          ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)))
+
+    def _ahead(self) -> tuple[tuple[float, float], ...]:
+        """The leader's next path commands, one lap ahead: (distance to its start in cm, its
+        curvature in 1/cm), nearest first (PolicyInput.ahead)."""
+        starts, kappas = self._path  # type: ignore[misc]
+        lap = starts[-1]
+        u = self.world.leader.s % lap
+        k = self.cfg.path.index(self.world.leader.s)
+        n = len(kappas)
+        out = []
+        base = starts[k + 1] - u
+        for j in range(1, n + 1):
+            kk = (k + j) % n
+            out.append((base, kappas[kk]))
+            base += starts[kk + 1] - starts[kk]
+        return tuple(out)
 
     def _predicted(self, d: _Decision, v: float) -> Any:
         """Decision ``d``'s bounds (rows) with the leader at speed ``v`` (the ``_pred``
