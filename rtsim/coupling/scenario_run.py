@@ -30,9 +30,11 @@ its deadline is recorded (``missed``), the next window is still released on time
 scan, commands and decision come late too. A backlogged release is governed by the latest
 decision available at its release (that of the last *completed* window).
 
-Modes (:data:`rtsim.control.MODES`): ``adjust`` (the paper's algorithm), ``fixed-wsch``
-(w = w_sch, speed never lowered: the bounds break in the world), ``min-msb`` (w = min MSB
-even below w_sch, speed never lowered: the schedule breaks).
+Policies (:mod:`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
+``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
+break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
+schedule breaks), ``margin``, ``lookahead`` or a user's ``package.module:Name``. Each window's
+decision is the policy's ``decide`` on a :class:`~rtsim.control.policy.PolicyInput`.
 
 Duration: an explicit ``duration_s`` (simulated seconds) is exact. By default the run covers
 the scenario's ``duration`` **and at least one lap**: it stops at the first window completion
@@ -91,7 +93,8 @@ class ScenarioInputs:
 
     ``adjust``: options of :func:`rtsim.control.decide` (``cap`` in ms or ``cap_factor``
     × w_sch, ``floor_frac``, ``floor_w``, ``predictor``, ``methods``, ``scan_points``,
-    ``lower_bound``).
+    ``lower_bound``), ``policy`` and the policy's own keys; validated by
+    :func:`rtsim.control.policy.adjust_options`.
     ``duration_s``: default duration (simulated s), None = one lap. ``text``/``resolved``:
     the scenario file's text and resolved values, for the manifest.
     """
