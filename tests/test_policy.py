@@ -316,3 +316,16 @@ def test_the_coupling_gives_the_leaders_upcoming_commands() -> None:
                                             for j in range(1, len(segs) + 1)]
     assert first.ahead[1][0] - first.ahead[0][0] == pytest.approx(
         segs[(k + 1) % len(segs)].length)
+
+
+def test_a_sweep_runs_policies_by_mode(tmp_path: Path) -> None:
+    import pandas as pd
+
+    f = tmp_path / "s.toml"
+    f.write_text(f'[sweep]\nkind = "scenario"\nbase = "{PIN / "pin1.toml"}"\n'
+                 '[sweep.options]\nduration = 2\n'
+                 '[grid]\nmode = ["adjust", "margin", "lookahead"]\n')
+    proc = _cli("sweep", str(f), "--out", str(tmp_path / "out"))
+    assert proc.returncode == 0, proc.stderr
+    df = pd.read_parquet(tmp_path / "out" / "results.parquet")
+    assert list(df["policy"]) == ["adjust", "margin", "lookahead"]
