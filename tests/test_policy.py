@@ -329,3 +329,37 @@ def test_a_sweep_runs_policies_by_mode(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     df = pd.read_parquet(tmp_path / "out" / "results.parquet")
     assert list(df["policy"]) == ["adjust", "margin", "lookahead"]
+
+
+def test_policies_experiment_quick(tmp_path: Path) -> None:
+    """experiments/policies.py --quick: every policy case, a row per run, the summary equal to
+    the runs' aggregation recomputed here, the Markdown table, the figure and the manifest."""
+    import importlib.util
+    import json
+
+    import pandas as pd
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("policies_exp",
+                                                  root / "experiments" / "policies.py")
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.main(["--quick", "--out", str(tmp_path)]) == 0
+    runs = pd.read_csv(tmp_path / "policies.csv")
+    summ = pd.read_csv(tmp_path / "policies_summary.csv")
+    labels = [label for label, _ in mod.POLICY_CASES]
+    assert len(runs) == 2 * len(labels) and list(summ["policy"][: len(labels)]) == labels
+    for r in summ.itertuples(index=False):
+        sel = runs[(runs["test"] == r.test) & (runs["policy"] == r.policy)]
+        assert r.viol5 == sum(int(sel[f"viol5_{k}"].sum()) for k in
+                              ("localization", "separation", "path_diversion", "bearing"))
+        assert r.max_ratio_path_diversion == sel["max_ratio_path_diversion"].max()
+    # the paper's policy never misses; fixed-wsch never slows the leader
+    assert (runs[runs["policy"] == "adjust"]["missed"] == 0).all()
+    assert (runs[runs["policy"] == "fixed-wsch"]["min_speed_ratio"] == 1.0).all()
+    text = (tmp_path / "policies.md").read_text()
+    assert text.count("\n") == 2 + len(summ)
+    assert (tmp_path / "pareto.png").stat().st_size > 1000
+    man = json.loads((tmp_path / "manifest.json").read_text())
+    assert man["inputs"]["quick"] is True
