@@ -290,7 +290,7 @@ def test_recorder_drops_incomplete_windows() -> None:
 
 
 def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match="mode must be one of"):
+    with pytest.raises(InputError, match="mode: must be one of"):
         run_scenario(TEST2, mode="fastest")
     with pytest.raises(InputError, match="duration must be a positive"):
         run_scenario(TEST2, duration_s=-1)
@@ -298,7 +298,8 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
         run_scenario(tmp_path / "missing.toml")
     sc = load_scenario(TEST2)
     bad = ScenarioInputs(sc.world, sc.load_taskset(), adjust={"cpa": 3})
-    with pytest.raises(InputError, match=r"\[adjust\] has unknown key 'cpa'"):
+    with pytest.raises(InputError, match=r"^scenario: adjust: unknown key 'cpa' "
+                                         r"\(did you mean 'cap'\?\)$"):
         run_scenario(bad, duration_s=1)
 
 

@@ -255,7 +255,9 @@ def test_packaged_base_by_name(tmp_path) -> None:  # type: ignore[no-untyped-def
     ("simulate", '[sweep.options]\nhorizon = -5', r"sweep\.options\.horizon: must be a positive"),
     ("simulate", '[sweep.options]\nhorizon = 100\nexec = "fast"',
      r"sweep\.options\.exec: must be 'wcet' or 'uniform', got 'fast'"),
-    ("scenario", '[sweep.options]\nmode = "bogus"', r"sweep\.options\.mode: must be 'adjust'"),
+    ("scenario", '[sweep.options]\nmode = "bogus"',
+     r"sweep\.options\.mode: must be a registered adjustment policy "
+     r"\(adjust, .*lookahead\) or 'package\.module:Name', got 'bogus'"),
 ])
 def test_bad_option_values_are_bad_sweep_files(kind, table, match, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     from rtsim.cli import main

@@ -38,9 +38,14 @@ def register(sub: Any) -> None:
     p = sub.add_parser("scenario", help="run a robot-group scenario (schedule + world)",
                        description=__doc__.splitlines()[0])
     p.add_argument("file", help="scenario TOML file")
-    p.add_argument("--mode", choices=MODES, default="adjust",
-                   help="adjust (the paper's algorithm, default), fixed-wsch (w = w_sch, speed "
-                        "never lowered) or min-msb (w = min MSB, speed never lowered)")
+    p.add_argument("--policy", default=None, metavar="NAME",
+                   help="adjustment policy, overriding the file's [adjust] policy: adjust (the "
+                        "paper's algorithm, the default), fixed-wsch, min-msb, margin, or "
+                        "package.module:Name (README: Adjustment policies)")
+    p.add_argument("--mode", choices=MODES, default=None,
+                   help="alias of --policy: adjust (the paper's algorithm), fixed-wsch (w = "
+                        "w_sch, speed never lowered) or min-msb (w = min MSB, speed never "
+                        "lowered)")
     p.add_argument("--duration", type=float, default=None, metavar="SECONDS",
                    help="simulated seconds (default: the scenario's, else one lap)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
@@ -73,10 +78,20 @@ def run(args: Any) -> int:
 
     where = (f"--duration {args.duration:g}" if args.duration is not None
              else f"{args.file}: duration")
+    if args.mode is not None and args.policy is not None and args.mode != args.policy:
+        raise InputError(f"--mode is an alias of --policy: give one, got --mode {args.mode} "
+                         f"and --policy {args.policy}")
+    if args.policy is not None:
+        from rtsim.control.policy import policy_class
+
+        policy_class(args.policy, "--policy")
     scenario = load_scenario(args.file)
+    override = args.policy if args.policy is not None else args.mode
+    args.mode = override if override is not None else scenario.adjust.policy
     check_scenario(scenario, args.duration, where, force=args.force)
     with stage(args.out) as staged:
-        res = _write(args, staged.path, Path(args.out), t0, scenario.source or str(args.file))
+        res = _write(args, staged.path, Path(args.out), t0, scenario.source or str(args.file),
+                     override)
         staged.commit()
     s = res.summary
     print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
@@ -89,7 +104,8 @@ def run(args: Any) -> int:
     return 0
 
 
-def _write(args: Any, out: Path, target: Path, t0: float, src: str) -> Any:
+def _write(args: Any, out: Path, target: Path, t0: float, src: str,
+           override: str | None) -> Any:
     """Run the scenario (file ``src``), writing every file into ``out`` (the staging
     directory of ``target``); returns the result."""
     from rtsim.coupling import run_scenario
@@ -105,7 +121,7 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str) -> Any:
     windows = ChunkWriter(windows_files, None)
     jobs = None if args.perfetto else ChunkWriter([out / "jobs.csv"], jobs_frame([]))
     try:
-        res = run_scenario(Path(args.file), mode=args.mode, duration_s=args.duration,
+        res = run_scenario(Path(args.file), policy=override, duration_s=args.duration,
                            seed=args.seed, record_jobs=True, exec_model=args.exec_model,
                            record_trace=bool(args.perfetto), window_sink=windows,
                            job_sink=jobs.write if jobs is not None else None)

@@ -15,6 +15,7 @@ from rtsim.control.adjust import (
     predictor,
 )
 from rtsim.control.closed_forms import coupled_speed, paper_speed
+from rtsim.control.policy import POLICIES, Decision, Policy, PolicyInput, register_policy
 from rtsim.control.predict import min_bound
 
 __all__ = [
@@ -23,8 +24,12 @@ __all__ = [
     "FLOOR_W",
     "METHODS",
     "MODES",
+    "POLICIES",
     "Adjustment",
+    "Decision",
     "FollowerEstimate",
+    "Policy",
+    "PolicyInput",
     "Predictor",
     "adjust",
     "coupled_speed",
@@ -33,4 +38,5 @@ __all__ = [
     "paper_speed",
     "predict_msbs",
     "predictor",
+    "register_policy",
 ]

@@ -52,7 +52,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds
 from rtsim.control.closed_forms import coupled_speeds, paper_speed
@@ -500,47 +500,15 @@ def adjust(
     return _adjustment("adjust", d, float(w_sch), float(v_ld))
 
 
-def decide_rows(
-    mode: str,
-    followers: Sequence[FollowerEstimate],
-    *,
-    v_ld: float,
-    w_sch: float,
-    thresholds: Thresholds,
-    omega_l: float = 0.0,
-    kappa: float = 0.0,
-    cap: float | None = None,
-    floor_frac: float = FLOOR_FRAC,
-    floor_w: float = FLOOR_W,
-    predictor: str | Predictor = "formation",
-    methods: Sequence[str] = _CANDIDATES,
-    scan_points: int = 64,
-    v_now: float | None = None,
-) -> Decision:
-    """:func:`decide` as a lightweight :class:`Decision` (bounds as rows in
-    :data:`BOUND_KINDS` order, no dicts): the per-window path of a coupled run. The same
-    validation and values as :func:`decide`."""
-    if mode == "adjust":
-        return _adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap,
-                            floor_frac, predictor, methods, scan_points, v_now)
-    if mode not in MODES:
-        raise InputError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
-    v_ld = check_number("decide", "v_ld", v_ld)
-    w_sch = check_number("decide", "w_sch", w_sch)
-    if w_sch <= 0.0:
-        raise InputError(f"decide: w_sch must be positive, got {w_sch!r}")
-    cap = CAP_FACTOR * w_sch if cap is None else check_number("decide", "cap", cap)
-    floor_w = check_number("decide", "floor_w", floor_w)
-    if floor_w <= 0.0:
-        raise InputError(f"decide: floor_w must be positive, got {floor_w!r}")
-    model = predictor
-    predict = (None if model == "formation"
-               else _make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    rows = _rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now)(v_ld)
-    m, kind, who = min_bound_rows(rows)
-    w = w_sch if mode == "fixed-wsch" else min(max(m, floor_w), max(cap, floor_w))
-    return Decision(w, v_ld, m, kind, who, "none", m >= w_sch * (1.0 - _TOL), rows, rows, m,
-                    {})
+def decide_rows(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Decision:
+    """:func:`decide` as the lightweight :class:`Decision` (bounds as rows in
+    :data:`BOUND_KINDS` order, no dicts): the registered policy ``mode``
+    (:mod:`rtsim.control.policy`) on a :class:`~rtsim.control.policy.PolicyInput` made of
+    ``followers`` and ``options`` (its fields: v_ld, w_sch, thresholds, omega_l, kappa, cap,
+    floor_frac, floor_w, predictor, methods, scan_points, v_now)."""
+    from rtsim.control.policy import PolicyInput, policy_class
+
+    return policy_class(mode, "mode")().decide(PolicyInput(followers, **options))
 
 
 def _adjustment(mode: str, d: Decision, w_sch: float, v_ld: float) -> Adjustment:
@@ -571,24 +539,9 @@ def _adjustment(mode: str, d: Decision, w_sch: float, v_ld: float) -> Adjustment
     )
 
 
-def decide(
-    mode: str,
-    followers: Sequence[FollowerEstimate],
-    *,
-    v_ld: float,
-    w_sch: float,
-    thresholds: Thresholds,
-    omega_l: float = 0.0,
-    kappa: float = 0.0,
-    cap: float | None = None,
-    floor_frac: float = FLOOR_FRAC,
-    floor_w: float = FLOOR_W,
-    predictor: str | Predictor = "formation",
-    methods: Sequence[str] = _CANDIDATES,
-    scan_points: int = 64,
-    v_now: float | None = None,
-) -> Adjustment:
-    """One window's decision in ``mode`` (issue 5's three modes).
+def decide(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Adjustment:
+    """One window's decision by the registered policy ``mode`` (:mod:`rtsim.control.policy`;
+    ``options`` as in :func:`decide_rows`), e.g. issue 5's three modes:
 
     - ``adjust``: :func:`adjust`;
     - ``fixed-wsch``: w = w_sch, V_L = V_Ld always (the bounds may break in the world);
@@ -598,9 +551,5 @@ def decide(
     In the two baselines ``method`` is ``none``, ``feasible`` says whether min MSB ≥ w_sch, and
     slack = max(0, w − w_sch).
     """
-    d = decide_rows(mode, followers, v_ld=v_ld, w_sch=w_sch, thresholds=thresholds,
-                    omega_l=omega_l, kappa=kappa, cap=cap, floor_frac=floor_frac,
-                    floor_w=floor_w, predictor=predictor, methods=methods,
-                    scan_points=scan_points,
-                    v_now=v_now)
-    return _adjustment(mode, d, float(w_sch), float(v_ld))
+    d = decide_rows(mode, followers, **options)
+    return _adjustment(mode, d, float(options["w_sch"]), float(options["v_ld"]))

@@ -30,9 +30,11 @@ its deadline is recorded (``missed``), the next window is still released on time
 scan, commands and decision come late too. A backlogged release is governed by the latest
 decision available at its release (that of the last *completed* window).
 
-Modes (:data:`rtsim.control.MODES`): ``adjust`` (the paper's algorithm), ``fixed-wsch``
-(w = w_sch, speed never lowered: the bounds break in the world), ``min-msb`` (w = min MSB
-even below w_sch, speed never lowered: the schedule breaks).
+Policies (:mod:`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
+``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
+break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
+schedule breaks), ``margin``, ``lookahead`` or a user's ``package.module:Name``. Each window's
+decision is the policy's ``decide`` on a :class:`~rtsim.control.policy.PolicyInput`.
 
 Duration: an explicit ``duration_s`` (simulated seconds) is exact. By default the run covers
 the scenario's ``duration`` **and at least one lap**: it stops at the first window completion
@@ -60,8 +62,8 @@ import simpy
 from rtsim._numbers import is_int, is_real
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
-from rtsim.control import MODES
-from rtsim.control.adjust import decide_rows, predicted_rows
+from rtsim.control.adjust import predicted_rows
+from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder, records_frame
 from rtsim.errors import InputError
@@ -83,8 +85,6 @@ VIOLATION_TOLERANCE = 0.05
 #: times at V_Ld.
 LAP_CAP_FACTOR = 4.0
 _NF = len(FOLLOWER_FIELDS)
-_ADJUST_KEYS = ("cap", "cap_factor", "floor_frac", "floor_w", "predictor", "methods",
-                "scan_points", "lower_bound")
 
 
 @dataclass(frozen=True)
@@ -93,7 +93,8 @@ class ScenarioInputs:
 
     ``adjust``: options of :func:`rtsim.control.decide` (``cap`` in ms or ``cap_factor``
     × w_sch, ``floor_frac``, ``floor_w``, ``predictor``, ``methods``, ``scan_points``,
-    ``lower_bound``).
+    ``lower_bound``), ``policy`` and the policy's own keys; validated by
+    :func:`rtsim.control.policy.adjust_options`.
     ``duration_s``: default duration (simulated s), None = one lap. ``text``/``resolved``:
     the scenario file's text and resolved values, for the manifest.
     """
@@ -173,6 +174,9 @@ def _inputs(scenario: Any, text: str | None = None,
             adjust["predictor"] = cfg.predictor
         if getattr(cfg, "lower_bound", "w_sch") != "w_sch":
             adjust["lower_bound"] = cfg.lower_bound
+        if getattr(cfg, "policy", "adjust") != "adjust":
+            adjust["policy"] = cfg.policy
+        adjust.update(getattr(cfg, "params", {}))
     elif cfg:
         adjust = dict(cfg)
     duration = getattr(scenario, "duration", None)
@@ -239,7 +243,7 @@ class _Decision(NamedTuple):
 class _Coupling:
     """The run's state and the CPU hooks (internal; see the module docstring)."""
 
-    def __init__(self, inp: ScenarioInputs, mode: str, seed: int, exec_model: ExecSpec,
+    def __init__(self, inp: ScenarioInputs, mode: str | None, seed: int, exec_model: ExecSpec,
                  record_jobs: bool, horizon_ms: float, stop_s: float | None,
                  stop_ms: float = 0.0, record_trace: bool = False,
                  job_sink: Any = None) -> None:
@@ -252,7 +256,6 @@ class _Coupling:
             ts = ts.with_window(n=cfg.n)
         self.ts = ts
         self.cfg = cfg
-        self.mode = mode
         self.thr = cfg.thresholds
         opts = dict(inp.adjust)
         # the window's lower bound (w_sch unless [adjust] lower_bound says otherwise; the
@@ -268,13 +271,17 @@ class _Coupling:
             raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.cap: {cap:g} ms is "
                              f"below w_sch = {self.w_sch:.6g} ms (the window could never reach "
                              f"the schedulability bound)")
-        unknown = sorted(set(opts) - set(_ADJUST_KEYS))
-        if "model" in unknown:
-            raise InputError(f"{inp.source or 'scenario'}: [adjust] has unknown key 'model' "
-                             f"(renamed; did you mean 'predictor'?)")
-        if unknown:
-            raise InputError(f"{inp.source or 'scenario'}: [adjust] has unknown key "
-                             f"'{unknown[0]}' (allowed: {', '.join(_ADJUST_KEYS)})")
+        # run_scenario(policy=/mode=) overrides the file's [adjust] policy
+        self.policy, opts = adjust_options(opts, f"{inp.source or 'scenario'}: adjust", mode)
+        if getattr(self.policy, "needs_path", False):  # the leader's known path commands
+            segs = cfg.path.segments
+            starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
+            self._path = (tuple(float(x) for x in starts), tuple(g.curvature for g in segs))
+            opts["accel_max"] = cfg.leader_accel_max
+            opts["decel_max"] = cfg.leader_decel_max
+        else:
+            self._path = None
+        self.mode = str(self.policy.name)
         cap_factor = opts.pop("cap_factor", None)
         if cap_factor is not None and "cap" not in opts:
             opts["cap"] = float(cap_factor) * self.w_sch
@@ -347,12 +354,30 @@ class _Coupling:
             fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
                                          self.beta_d[k]))
         kw = {"omega_l": world.leader_omega, "kappa": kappa, "v_now": self._v_actual()}
-        adj = decide_rows(self.mode, fols, v_ld=self.v_ld, w_sch=self.w_sch, thresholds=self.thr,
-                          **kw, **self.opts)
+        ahead = () if self._path is None else self._ahead()
+        adj = self.policy.decide(PolicyInput(fols, v_ld=self.v_ld, w_sch=self.w_sch,
+                                             thresholds=self.thr, **kw, **self.opts,
+                                             ahead=ahead))
         v_l = max(adj.v_leader, self.v_floor)
         return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
                          adj.feasible and v_l == adj.v_leader, tuple(state), tuple(fols), kw,
                          ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)))
+
+    def _ahead(self) -> tuple[tuple[float, float], ...]:
+        """The leader's next path commands, one lap ahead: (distance to its start in cm, its
+        curvature in 1/cm), nearest first (PolicyInput.ahead)."""
+        starts, kappas = self._path  # type: ignore[misc]
+        lap = starts[-1]
+        u = self.world.leader.s % lap
+        k = self.cfg.path.index(self.world.leader.s)
+        n = len(kappas)
+        out = []
+        base = starts[k + 1] - u
+        for j in range(1, n + 1):
+            kk = (k + j) % n
+            out.append((base, kappas[kk]))
+            base += starts[kk + 1] - starts[kk]
+        return tuple(out)
 
     def _predicted(self, d: _Decision, v: float) -> Any:
         """Decision ``d``'s bounds (rows) with the leader at speed ``v`` (the ``_pred``
@@ -573,7 +598,7 @@ def summarize(df: pd.DataFrame, *, mode: str, w_sch: float, duration_s: float, s
 def run_scenario(
     scenario: Any,
     *,
-    mode: str = "adjust",
+    mode: str | None = None,
     duration_s: float | None = None,
     seed: int = 0,
     record_jobs: bool = True,
@@ -584,11 +609,16 @@ def run_scenario(
     overrides: Mapping[str, Any] | None = None,
     window_sink: Any = None,
     job_sink: Any = None,
+    policy: str | None = None,
 ) -> ScenarioResult:
     """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
 
-    mode: ``adjust`` | ``fixed-wsch`` | ``min-msb``; duration_s: simulated seconds (None: the
-    scenario's, else one lap — module docstring); ``duration`` is an alias (sweep kind);
+    policy: a registered adjustment policy (:data:`rtsim.control.policy.POLICIES`: ``adjust``,
+    the paper's algorithm, ``fixed-wsch``, ``min-msb``, ``margin``, …) or
+    ``"package.module:Name"``; it overrides the scenario's ``[adjust] policy`` (default
+    ``adjust``); mode: an alias of policy (issue 5's three modes); duration_s: simulated
+    seconds (None: the scenario's, else one lap — module docstring); ``duration`` is an
+    alias (sweep kind);
     seed: one seed for the world's noise and the CPU's execution-time draws; record_jobs:
     keep the job table (``result.jobs``); exec_model: execution times of the fixed segments;
     text: the scenario file's text (for the manifest; read from the path when one is given);
@@ -601,8 +631,14 @@ def run_scenario(
     chunks (``result.jobs`` is then None). With both, memory stays flat on long runs.
     """
     t0 = time.perf_counter()
-    if mode not in MODES:
-        raise InputError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+    if mode is not None and policy is not None and mode != policy:
+        raise InputError(f"mode is an alias of policy: give one, got mode={mode!r} and "
+                         f"policy={policy!r}")
+    if policy is None and mode is not None:
+        policy_class(mode, "mode")
+        policy = mode
+    elif policy is not None:
+        policy_class(policy, "policy")
     if duration_s is None:
         duration_s = duration
     if not is_int(seed) or seed < 0:
@@ -621,7 +657,7 @@ def run_scenario(
             raise InputError(f"duration must be a positive number of seconds, got "
                              f"{duration_s!r}")
         horizon_ms = float(duration_s) * 1000.0
-    run = _Coupling(inp, mode, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms,
+    run = _Coupling(inp, policy, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms,
                     record_trace, job_sink)
     if window_sink is not None:
         run.rec.sink = lambda recs: run.hand_over(recs, window_sink)
@@ -643,13 +679,14 @@ def run_scenario(
         "max_backlog": int(res.tasks[run.wname].max_backlog),
         "v_leader_desired": run.v_ld,
         "n": run.n,
+        "policy": run.mode,
         "predictor": _name(run.opts.get("predictor", "formation")),
         "formation_model": formation_model(cfg),
         "leader_accel_max": cfg.leader_accel_max,
         "leader_decel_max": cfg.leader_decel_max,
     }
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
-    summary = summarize(df, mode=mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
+    summary = summarize(df, mode=run.mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
                         seed=int(seed), scenario=inp.name, n=run.n, extra=extra)
     t3 = time.perf_counter()
     timing = {"setup_s": t1 - t0, "simulation_s": t2 - t1, "simulation_cpu_s": c2 - c1,

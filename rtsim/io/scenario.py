@@ -108,6 +108,8 @@ class AdjustConfig:
     floor: float = 0.0
     predictor: str = "formation"
     lower_bound: str = "w_sch"
+    policy: str = "adjust"
+    params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         from rtsim.analysis.bounds import LOWER_BOUNDS
@@ -119,8 +121,12 @@ class AdjustConfig:
 
         object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
         object.__setattr__(self, "floor", non_negative("adjust.floor", self.floor))
+        from rtsim.control.policy import make_policy
+
         try:
             check_predictor(self.predictor, "adjust.predictor")
+            make_policy(self.policy, self.params, "adjust",
+                        ("cap", "floor", "predictor", "lower_bound", "policy"))
         except InputError as exc:
             raise ScenarioError(str(exc)) from None
 
@@ -312,6 +318,20 @@ def _section(src: str, data: Mapping[str, Any], name: str, keys: tuple[str, ...]
     return _build(src, lambda: make(**args))
 
 
+_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy")
+
+
+def _adjust_section(src: str, data: Mapping[str, Any]) -> AdjustConfig:
+    """``[adjust]``: the common keys, and the selected policy's own keys
+    (:mod:`rtsim.control.policy`; validated there, with a did-you-mean)."""
+    raw = data.get("adjust", {})
+    tab = _Table(f"{src}: adjust", raw, ())
+    args = tab.kwargs(_ADJUST_KEYS)
+    if isinstance(raw, Mapping):
+        args["params"] = {k: v for k, v in raw.items() if k not in _ADJUST_KEYS}
+    return _build(src, lambda: AdjustConfig(**args))
+
+
 def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
                    base: Path | None = None) -> Scenario:
     """Validate a parsed TOML document; ``base`` resolves a relative task-set path.
@@ -402,8 +422,7 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     if isinstance(data.get("adjust"), Mapping) and "model" in data["adjust"]:
         raise ScenarioError(f"{src}: adjust: unknown key 'model' (renamed; did you mean "
                             f"'predictor'?)")
-    adjust = _section(src, data, "adjust", ("cap", "floor", "predictor", "lower_bound"),
-                      AdjustConfig)
+    adjust = _adjust_section(src, data)
     top.get("adjust")
     scheduler = _scheduler(src, top.get("scheduler"))
     if scheduler is not None:

@@ -323,10 +323,18 @@ _OPTION_CHECKS: dict[str, tuple[Any, str]] = {
     "duration": (lambda v: v is None or _positive(v), "a positive number of seconds"),
     "exec": (lambda v: v in ("wcet", "uniform"), "'wcet' or 'uniform'"),
     "suspension": (lambda v: v in ("cpu", "idle"), "'cpu' or 'idle'"),
-    "mode": (lambda v: v in ("adjust", "fixed-wsch", "min-msb"),
-             "'adjust', 'fixed-wsch' or 'min-msb'"),
+    "mode": (lambda v: _is_policy(v),
+             "a registered adjustment policy (adjust, fixed-wsch, min-msb, margin, lookahead) "
+             "or 'package.module:Name'"),
     "scheduler": (lambda v: v in ("fp", "edf"), "'fp' or 'edf'"),
 }
+
+
+def _is_policy(v: Any) -> bool:
+    """A scenario run's ``mode`` (alias of policy): a registered name or ``module:Name``."""
+    from rtsim.control.policy import POLICIES
+
+    return isinstance(v, str) and (v in POLICIES or ":" in v)
 
 
 def _check_option(src: str, where: str, name: str, value: Any) -> None:

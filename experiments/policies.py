@@ -1,0 +1,158 @@
+"""Which adjustment policy keeps the robots inside their bounds, and at what cost in speed?
+
+Runs Test 1 and Test 2 with n = 2 and n = 4 followers, seeds 0–4, and every policy of
+:data:`POLICY_CASES` (the registered policies, ``margin`` and ``lookahead`` also with the
+file's keys shown in the label), one lap each (the runs' default duration), and writes per
+(test, n, policy), over the seeds:
+
+* misses, lost tracks (sums); windows beyond 5 % per bound (sums) and in all;
+* the largest violation ratio per bound (max);
+* lap time (mean of duration_s / laps: the run's time per lap driven, s);
+* mean and minimum V_L / V_Ld over the windows; critical share (mean); mean slack (ms).
+
+Outputs in DIR: ``policies.csv`` (one row per run), ``policies_summary.csv`` and
+``policies.md`` (the table above), ``pareto.png`` (windows beyond 5 % against lap time, one
+marker per policy and test), ``manifest.json``.
+
+    python experiments/policies.py [--quick] [--out DIR]
+
+``--quick``: n = 2, seed 0, 20 simulated seconds (the test suite runs it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from rtsim.analysis.kinematics import BOUND_KINDS
+from rtsim.coupling import run_scenario
+from rtsim.io.atomic import write_table, write_text
+from rtsim.io.manifest import write_manifest
+
+#: (label, [adjust] overrides): every registered built-in policy, margin and lookahead at
+#: their defaults and combined.
+POLICY_CASES: tuple[tuple[str, dict[str, Any]], ...] = (
+    ("adjust", {"adjust.policy": "adjust"}),
+    ("fixed-wsch", {"adjust.policy": "fixed-wsch"}),
+    ("min-msb", {"adjust.policy": "min-msb"}),
+    ("margin 0.1", {"adjust.policy": "margin", "adjust.margin": 0.1}),
+    ("lookahead", {"adjust.policy": "lookahead"}),
+    ("lookahead + margin 0.1", {"adjust.policy": "lookahead", "adjust.margin": 0.1}),
+)
+TESTS = ("test1", "test2")
+
+
+def run_one(test: str, n: int, label: str, overrides: dict[str, Any], seed: int,
+            duration: float | None) -> dict[str, Any]:
+    """One run's numbers (a row of policies.csv)."""
+    t0 = time.perf_counter()
+    res = run_scenario(test, seed=seed, duration_s=duration, record_jobs=False,
+                       overrides={**overrides, "formation.followers": n})
+    s = res.summary
+    df = res.windows
+    speed = df["v_leader"].to_numpy(float) / df["v_leader_desired"].to_numpy(float)
+    return {
+        "test": test, "n": n, "policy": label, "seed": seed, "missed": s["missed"],
+        "tracks_lost": s["tracks_lost"],
+        **{f"viol5_{k}": s["violations_beyond_5pct"][k] for k in BOUND_KINDS},
+        **{f"max_ratio_{k}": s["max_violation_ratio"][k] for k in BOUND_KINDS},
+        "lap_s": s["duration_s"] / s["laps"] if s["laps"] > 0 else np.nan,
+        "mean_speed_ratio": float(speed.mean()), "min_speed_ratio": float(speed.min()),
+        "critical_share": s["critical_share"], "mean_slack_ms": float(df["slack"].mean()),
+        "wall_s": time.perf_counter() - t0,
+    }
+
+
+def summarize(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per (test, n, policy) over the seeds (module docstring). Pure."""
+    agg: dict[str, Any] = {"seed": "count", "missed": "sum", "tracks_lost": "sum",
+                           **{f"viol5_{k}": "sum" for k in BOUND_KINDS},
+                           **{f"max_ratio_{k}": "max" for k in BOUND_KINDS},
+                           "lap_s": "mean", "mean_speed_ratio": "mean",
+                           "min_speed_ratio": "min", "critical_share": "mean",
+                           "mean_slack_ms": "mean"}
+    out = runs.groupby(["test", "n", "policy"], sort=False).agg(agg).reset_index()
+    out = out.rename(columns={"seed": "seeds"})
+    out["viol5"] = out[[f"viol5_{k}" for k in BOUND_KINDS]].sum(axis=1)
+    return out
+
+
+def markdown(df: pd.DataFrame) -> str:
+    """The summary as a Markdown table."""
+    lines = ["| test | n | policy | seeds | misses | lost | windows > 5 % (loc/sep/path/bear) "
+             "| max ratio (loc/sep/path/bear) | lap (s) | V_L/V_Ld mean, min | critical "
+             "| slack (ms) |", "|" + "---|" * 12]
+    for r in df.to_dict("records"):
+        v5 = "/".join(str(int(r[f"viol5_{k}"])) for k in BOUND_KINDS)
+        mx = "/".join(f"{r[f'max_ratio_{k}']:.2f}" for k in BOUND_KINDS)
+        lines.append(f"| {r['test']} | {r['n']} | {r['policy']} | {r['seeds']} | "
+                     f"{r['missed']} | {r['tracks_lost']} | {r['viol5']} ({v5}) | {mx} | "
+                     f"{r['lap_s']:.1f} | {r['mean_speed_ratio']:.3f}, "
+                     f"{r['min_speed_ratio']:.3f} | {r['critical_share']:.3f} | "
+                     f"{r['mean_slack_ms']:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def pareto(df: pd.DataFrame, path: Path) -> None:
+    """Windows beyond 5 % against lap time, one marker per policy and test (n = 2 rows)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rtsim.io.atomic import atomic_path
+
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    markers = {"test1": "o", "test2": "s"}
+    for i, (label, _) in enumerate(POLICY_CASES):
+        for test, mk in markers.items():
+            sel = df[(df["policy"] == label) & (df["test"] == test) & (df["n"] == df["n"].min())]
+            if len(sel):
+                ax.scatter(sel["lap_s"], sel["viol5"], marker=mk, color=f"C{i}",
+                           label=f"{label} ({test})", gid=f"{label}:{test}")
+    ax.set_xlabel("lap time (s)")
+    ax.set_ylabel("windows beyond 5 % (all bounds, summed over seeds)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true", help="n = 2, seed 0, 20 simulated s")
+    p.add_argument("--out", metavar="DIR", help="output directory")
+    args = p.parse_args(argv)
+    out = Path(args.out or ("out/policies-quick" if args.quick else "out/policies"))
+    ns = (2,) if args.quick else (2, 4)
+    seeds = (0,) if args.quick else (0, 1, 2, 3, 4)
+    duration = 20.0 if args.quick else None
+    runs = pd.DataFrame([run_one(t, n, label, ov, seed, duration)
+                         for t in TESTS for n in ns for label, ov in POLICY_CASES
+                         for seed in seeds])
+    summary = summarize(runs)
+    out.mkdir(parents=True, exist_ok=True)
+    write_table(out / "policies.csv", runs)
+    write_table(out / "policies_summary.csv", summary)
+    write_text(out / "policies.md", markdown(summary))
+    pareto(summary, out / "pareto.png")
+    write_manifest(out, command="experiments/policies.py", seed=0,
+                   inputs={"quick": args.quick, "duration_s": duration, "tests": list(TESTS),
+                           "n": list(ns), "seeds": list(seeds),
+                           "policies": {k: v for k, v in POLICY_CASES}},
+                   argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
+                   extra={"outputs": ["policies.csv", "policies_summary.csv", "policies.md",
+                                      "pareto.png"]})
+    print(markdown(summary), end="")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,373 @@
+"""Adjustment policies: what sets each window's w and the leader's speed target (issue 10).
+
+A policy is an object with one method, ``decide(ctx: PolicyInput) -> Decision``: from what
+the leader knows when a window completes (:class:`PolicyInput`: its estimates of every
+follower, the window's lower bound ``w_sch``, the desired speed, its own turn rate and the
+path's curvature, its actual speed, the scenario's limits) it returns the one decision type,
+:class:`~rtsim.control.adjust.Decision` (w, leader speed target, binding bound, method,
+predicted bounds at the desired and at the chosen speed).
+
+Policies are registered by name (:data:`POLICIES`, :func:`register_policy`), as sweep kinds
+are. A scenario selects one with ``[adjust] policy = "NAME"`` or ``"package.module:Name"`` (a
+user's own class, loaded by :func:`policy_class`); ``rtsim scenario … --policy NAME``
+overrides the file; ``--mode`` is an alias. The registered policies:
+
+* ``adjust``: the paper's algorithm (§3.3, SPEC §5; :func:`rtsim.control.adjust.adjust`);
+* ``fixed-wsch``: w = w_sch, V_L = V_Ld (the bounds may break in the world);
+* ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld (the schedule may break);
+* ``margin``: the paper's algorithm against the bounds shrunk by a margin μ (key ``margin``):
+  w = max(w_sch, (1 − μ)·min MSB) (capped), and in overload the largest speed at which every
+  bound is ≥ w_sch / (1 − μ), i.e. (1 − μ)·bound ≥ w_sch.
+
+A policy's own keys in ``[adjust]`` are its class's :attr:`Policy.params` (name → default);
+its constructor receives them as keyword arguments and validates them (an
+:class:`~rtsim.errors.InputError` whose message starts with the key). Every ``[adjust]`` key
+is validated in one place, :func:`adjust_options`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import importlib
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar, Protocol, runtime_checkable
+
+from rtsim.analysis.kinematics import Thresholds
+from rtsim.control.adjust import (
+    _CANDIDATES,
+    _TOL,
+    CAP_FACTOR,
+    FLOOR_FRAC,
+    FLOOR_W,
+    Decision,
+    _adjust_core,
+    _make_predictor,
+    _rows_at,
+)
+from rtsim.control.predict import FollowerEstimate, Predictor, check_number, min_bound_rows
+from rtsim.errors import InputError
+
+__all__ = ["COMMON_KEYS", "POLICIES", "Decision", "Policy", "PolicyInput", "adjust_options",
+           "make_policy", "policy_class", "register_policy"]
+
+#: ``[adjust]`` keys every policy understands (options of the decision, ScenarioInputs.adjust).
+COMMON_KEYS: tuple[str, ...] = ("policy", "cap", "cap_factor", "floor_frac", "floor_w",
+                                "predictor", "methods", "scan_points", "lower_bound")
+
+
+@dataclass(frozen=True, slots=True)
+class PolicyInput:
+    """What the leader knows when a window completes (units: cm/s, ms, rad/s, 1/cm).
+
+    followers: its estimates; v_ld: the desired speed; w_sch: the window's lower bound;
+    omega_l: its turn rate; kappa: the path's curvature where it is; v_now: its actual speed;
+    cap: the largest window (None: CAP_FACTOR·w_sch); floor_frac: its speed when nothing
+    restores the bounds, as a fraction of v_ld; floor_w: the smallest window of ``min-msb``;
+    predictor, methods, scan_points: as in :func:`rtsim.control.adjust.adjust`; ahead: the
+    leader's known upcoming path commands as (distance from here to the command's start in
+    cm, its curvature in 1/cm), nearest first (filled for a policy whose class sets
+    ``needs_path = True``, else empty); accel_max, decel_max: the leader's speed ramp limits
+    (cm/s², ``inf`` = the speed steps).
+    """
+
+    followers: Sequence[FollowerEstimate]
+    v_ld: float
+    w_sch: float
+    thresholds: Thresholds
+    omega_l: float = 0.0
+    kappa: float = 0.0
+    v_now: float | None = None
+    cap: float | None = None
+    floor_frac: float = FLOOR_FRAC
+    floor_w: float = FLOOR_W
+    predictor: str | Predictor = "formation"
+    methods: Sequence[str] = _CANDIDATES
+    scan_points: int = 64
+    ahead: tuple[tuple[float, float], ...] = ()
+    accel_max: float = math.inf
+    decel_max: float = math.inf
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """An adjustment policy: ``decide`` maps a :class:`PolicyInput` to a
+    :class:`~rtsim.control.adjust.Decision`. ``params``: its own ``[adjust]`` keys and their
+    defaults (its constructor takes them as keyword arguments)."""
+
+    name: ClassVar[str]
+    params: ClassVar[Mapping[str, Any]]
+
+    def decide(self, ctx: PolicyInput) -> Decision: ...
+
+
+#: Registered policies by name.
+POLICIES: dict[str, type] = {}
+
+
+def register_policy(name: str) -> Callable[[type], type]:
+    """Class decorator: register a policy class under ``name`` (sets ``cls.name``)."""
+
+    def deco(cls: type) -> type:
+        if name in POLICIES and POLICIES[name] is not cls:
+            raise ValueError(f"policy {name!r} is already registered")
+        cls.name = name  # type: ignore[attr-defined]
+        if not hasattr(cls, "params"):
+            cls.params = {}  # type: ignore[attr-defined]
+        POLICIES[name] = cls
+        return cls
+
+    return deco
+
+
+def policy_class(spec: object, where: str = "policy") -> type:
+    """The policy class named ``spec``: a registered name or ``"package.module:Name"``.
+    An unknown name is an :class:`InputError` with a did-you-mean."""
+    if isinstance(spec, str) and spec in POLICIES:
+        return POLICIES[spec]
+    if isinstance(spec, str) and ":" in spec:
+        mod, _, attr = spec.partition(":")
+        try:
+            cls = getattr(importlib.import_module(mod), attr)
+        except (ImportError, AttributeError) as exc:
+            raise InputError(f"{where}: cannot load {spec!r} ({exc})") from None
+        if not isinstance(cls, type) or not callable(getattr(cls, "decide", None)):
+            raise InputError(f"{where}: {spec!r} is not a policy class (it needs a method "
+                             f"decide(ctx) -> Decision)")
+        if not hasattr(cls, "params"):
+            cls.params = {}
+        if not hasattr(cls, "name"):
+            cls.name = spec
+        return cls
+    close = (difflib.get_close_matches(spec, list(POLICIES), n=1, cutoff=0.5)
+             if isinstance(spec, str) else [])
+    hint = f" (did you mean '{close[0]}'?)" if close else ""
+    raise InputError(f"{where}: must be one of {', '.join(POLICIES)} or 'package.module:Name', "
+                     f"got {spec!r}{hint}")
+
+
+def make_policy(spec: object, params: Mapping[str, Any] | None = None,
+                where: str = "adjust", common: tuple[str, ...] = COMMON_KEYS) -> Any:
+    """An instance of :func:`policy_class` ``(spec)`` with its own keys ``params``; a key it
+    does not know is an :class:`InputError` with a did-you-mean (among ``common`` and its
+    own keys)."""
+    cls = policy_class(spec, f"{where}.policy")
+    params = dict(params or {})
+    known = tuple(cls.params)  # type: ignore[attr-defined]
+    for key in params:
+        if key not in known:
+            names = tuple(common) + known
+            close = difflib.get_close_matches(key, names, n=1, cutoff=0.6)
+            owner = [n for n, c in POLICIES.items() if key in c.params]  # type: ignore[attr-defined]
+            hint = (f" (did you mean '{close[0]}'?)" if close
+                    else f" (a key of policy '{owner[0]}', not of "
+                         f"'{cls.name}')" if owner  # type: ignore[attr-defined]
+                    else f" (known keys: {', '.join(names)})")
+            raise InputError(f"{where}: unknown key '{key}'{hint}")
+    try:
+        return cls(**params)
+    except InputError as exc:
+        raise InputError(f"{where}.{exc}") from None
+
+
+def adjust_options(opts: Mapping[str, Any], where: str = "adjust",
+                   override: str | None = None) -> tuple[Any, dict[str, Any]]:
+    """Validate an ``[adjust]`` mapping (ScenarioInputs.adjust): the policy (key ``policy``,
+    default ``adjust``) made with its own keys, and the common options (:data:`COMMON_KEYS`
+    without ``policy``) as a dict. The old key ``model`` names its replacement.
+
+    ``override`` (``--policy``): a policy that replaces the mapping's; the mapping's keys of
+    its own policy that the new one does not know are then dropped (``--policy adjust`` on a
+    file written for ``margin``), after they were validated with their own policy."""
+    if "model" in opts:
+        raise InputError(f"{where}: unknown key 'model' (renamed; did you mean 'predictor'?)")
+    spec = opts.get("policy", "adjust")
+    common = {k: v for k, v in opts.items() if k in COMMON_KEYS and k != "policy"}
+    own = {k: v for k, v in opts.items() if k not in COMMON_KEYS}
+    if override is not None and override != spec:
+        make_policy(spec, own, where)
+        spec = override
+        known = policy_class(spec, f"{where}.policy").params  # type: ignore[attr-defined]
+        own = {k: v for k, v in own.items() if k in known}
+    return make_policy(spec, own, where), common
+
+
+def _check(ctx: PolicyInput, where: str) -> float:
+    """Validate the numbers every baseline needs; returns the cap (ms)."""
+    v_ld = check_number(where, "v_ld", ctx.v_ld)
+    w_sch = check_number(where, "w_sch", ctx.w_sch)
+    if w_sch <= 0.0:
+        raise InputError(f"{where}: w_sch must be positive, got {w_sch!r}")
+    del v_ld
+    return CAP_FACTOR * w_sch if ctx.cap is None else check_number(where, "cap", ctx.cap)
+
+
+def _rows_at_vld(ctx: PolicyInput) -> list[tuple[float, float, float, float]]:
+    model = ctx.predictor
+    predict = (None if model == "formation"
+               else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
+                                    v_now=ctx.v_now))
+    return _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
+                    ctx.v_now)(ctx.v_ld)
+
+
+@register_policy("adjust")
+class PaperPolicy:
+    """The paper's adjustment algorithm (§3.3, Eqs 22–26; :func:`rtsim.control.adjust.adjust`):
+    w = min(min MSB, cap) at V_Ld when min MSB ≥ w_sch, else w = w_sch and the largest speed
+    at which every predicted bound is ≥ w_sch."""
+
+    params: ClassVar[Mapping[str, Any]] = {}
+
+    def decide(self, ctx: PolicyInput) -> Decision:
+        return _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch, ctx.thresholds, ctx.omega_l,
+                            ctx.kappa, ctx.cap, ctx.floor_frac, ctx.predictor, ctx.methods,
+                            ctx.scan_points, ctx.v_now)
+
+
+@register_policy("fixed-wsch")
+class FixedWschPolicy:
+    """w = w_sch, V_L = V_Ld always; ``feasible``: min MSB ≥ w_sch."""
+
+    params: ClassVar[Mapping[str, Any]] = {}
+
+    def decide(self, ctx: PolicyInput) -> Decision:
+        _check(ctx, "decide")
+        rows = _rows_at_vld(ctx)
+        m, kind, who = min_bound_rows(rows)
+        return Decision(ctx.w_sch, ctx.v_ld, m, kind, who, "none",
+                        m >= ctx.w_sch * (1.0 - _TOL), rows, rows, m, {})
+
+
+@register_policy("min-msb")
+class MinMsbPolicy:
+    """w = min(max(min MSB, floor_w), max(cap, floor_w)), V_L = V_Ld always."""
+
+    params: ClassVar[Mapping[str, Any]] = {}
+
+    def decide(self, ctx: PolicyInput) -> Decision:
+        cap = _check(ctx, "decide")
+        floor_w = check_number("decide", "floor_w", ctx.floor_w)
+        if floor_w <= 0.0:
+            raise InputError(f"decide: floor_w must be positive, got {floor_w!r}")
+        rows = _rows_at_vld(ctx)
+        m, kind, who = min_bound_rows(rows)
+        w = min(max(m, floor_w), max(cap, floor_w))
+        return Decision(w, ctx.v_ld, m, kind, who, "none", m >= ctx.w_sch * (1.0 - _TOL), rows,
+                        rows, m, {})
+
+
+@register_policy("margin")
+class MarginPolicy:
+    """The paper's algorithm with every predicted bound shrunk by the factor (1 − μ):
+
+    w = max(w_sch, min((1 − μ)·min MSB, cap)) with min MSB predicted at V_Ld; when
+    (1 − μ)·min MSB < w_sch (overload) w = w_sch and V_L is the largest speed at which
+    (1 − μ)·(every bound) ≥ w_sch, found by :func:`~rtsim.control.adjust.adjust` against the
+    raised lower bound w_sch / (1 − μ) (and the cap / (1 − μ)). μ = 0 is the paper's policy.
+    ``feasible``: (1 − μ)·min MSB at the chosen speed ≥ w_sch.
+    """
+
+    params: ClassVar[Mapping[str, Any]] = {"margin": 0.1}
+
+    def __init__(self, margin: float = 0.1) -> None:
+        margin = check_number("margin", "margin", margin)
+        if not 0.0 <= margin < 1.0:
+            raise InputError(f"margin: must be in [0, 1), got {margin!r}")
+        self.margin = margin
+
+    def decide(self, ctx: PolicyInput) -> Decision:
+        keep = 1.0 - self.margin
+        cap = _check(ctx, "margin")
+        d = _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch / keep, ctx.thresholds,
+                         ctx.omega_l, ctx.kappa, cap / keep, ctx.floor_frac, ctx.predictor,
+                         ctx.methods, ctx.scan_points, ctx.v_now)
+        w = ctx.w_sch if d.method != "none" else max(ctx.w_sch, min(keep * d.msb_min, cap))
+        return d._replace(w=w)
+
+
+@register_policy("lookahead")
+class LookaheadPolicy:
+    """The margin policy, made safe ahead of time along the leader's known path commands.
+
+    1. d = :class:`MarginPolicy` (``margin`` μ, default 0) on the current command (κ here).
+    2. For every upcoming command j at distance D_j within the horizon
+       H = V·(windows·w_sch / 1000) + V² / (2·decel_max) (V = the leader's actual speed), the
+       safe speed there, v_j = the margin policy's speed with κ = κ_j, ω_L = κ_j·V and the
+       ``formation`` predictor (SPEC §6: each follower moving with its slot on command j,
+       from its estimated ρ, β — the followers' motion there is not yet observed); and the
+       highest speed from which the leader can still brake to v_j
+       before D_j once the next decision comes (one window later, after V·w/1000 cm):
+       v_j* = √(v_j² + 2·decel_max·max(0, D_j − V·w/1000)) (uniform deceleration), which is
+       v_j itself when the command starts within the window; with ``decel_max`` = inf (the
+       speed steps) v_j* = v_j within the window and ∞ beyond it.
+    3. Speed target V_L = min(d's speed, min_j v_j*): it slows before a turn so that the
+       speed is safe when the turn begins, and since the commands within reach of the window
+       count as well as the current one, it speeds up after a turn only when the bounds over
+       the window ahead allow.
+    4. w = max(w_sch, min(d's w, (1 − μ)·min bound at V_L, formation predictor, on every
+       command that starts within the window, V_L·w/1000 cm)): a window that reaches into a
+       turn is no longer than the bound in the turn.
+
+    ``method`` is ``lookahead`` when step 3 lowered the speed, else d's. Own keys: ``margin``
+    (μ in [0, 1), default 0) and ``windows`` (the horizon in windows of w_sch, ≥ 1, default 2).
+    """
+
+    params: ClassVar[Mapping[str, Any]] = {"margin": 0.0, "windows": 2.0}
+    #: the coupling fills PolicyInput.ahead, accel_max and decel_max for this policy
+    needs_path: ClassVar[bool] = True
+
+    def __init__(self, margin: float = 0.0, windows: float = 2.0) -> None:
+        self.base = MarginPolicy(margin)
+        windows = check_number("windows", "windows", windows)
+        if not 1.0 <= windows <= 100.0:
+            raise InputError(f"windows: must be in [1, 100], got {windows!r}")
+        self.windows = windows
+
+    def decide(self, ctx: PolicyInput) -> Decision:
+        d = self.base.decide(ctx)
+        keep = 1.0 - self.base.margin
+        v_now = ctx.v_ld if ctx.v_now is None else ctx.v_now
+        a_d = float(ctx.decel_max)
+        if not a_d > 0.0:
+            raise InputError(f"lookahead: decel_max must be positive or inf, got {a_d!r}")
+        brake = 0.0 if math.isinf(a_d) else v_now * v_now / (2.0 * a_d)
+        horizon = v_now * self.windows * ctx.w_sch / 1000.0 + brake
+        reach = v_now * d.w / 1000.0  # covered before the next decision
+        v_l = d.v_leader
+        for dist, kappa in ctx.ahead:
+            if dist > horizon:
+                break
+            there = self.base.decide(dataclasses.replace(ctx, kappa=kappa,
+                                                         omega_l=kappa * v_now,
+                                                         predictor="formation"))
+            v_safe = max(there.v_leader, ctx.floor_frac * ctx.v_ld)
+            gap = max(0.0, dist - reach)
+            if math.isinf(a_d):  # the speed steps: the next decision can still lower it
+                v_ok = v_safe if gap == 0.0 else math.inf
+            else:
+                v_ok = math.sqrt(v_safe * v_safe + 2.0 * a_d * gap)
+            v_l = min(v_l, v_ok)
+        if v_l >= d.v_leader:
+            d_out = d
+        else:
+            rows_after = _rows_at(ctx.followers, None if ctx.predictor == "formation" else
+                                  _make_predictor(ctx.predictor, omega_l=ctx.omega_l,
+                                                  kappa=ctx.kappa, v_now=ctx.v_now),
+                                  ctx.thresholds, ctx.predictor, ctx.kappa, ctx.omega_l,
+                                  ctx.v_now)(v_l)
+            m_after = min_bound_rows(rows_after)[0]
+            d_out = d._replace(v_leader=v_l, method="lookahead", rows_after=rows_after,
+                               msb_min_after=m_after,
+                               feasible=keep * m_after >= ctx.w_sch * (1.0 - _TOL))
+        w = d_out.w
+        window_reach = v_l * w / 1000.0
+        for dist, kappa in ctx.ahead:
+            if dist > window_reach:
+                break
+            rows = _rows_at(ctx.followers, None, ctx.thresholds, "formation", kappa,
+                            kappa * v_now, ctx.v_now)(v_l)
+            w = max(ctx.w_sch, min(w, keep * min_bound_rows(rows)[0]))
+        return d_out if w == d_out.w else d_out._replace(w=w)
