@@ -323,10 +323,21 @@ def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, mod
         # the same world and noise, a different prediction: the bounds differ after window 0
         assert not np.allclose(a, b)
     else:
-        # hybrid = paper at the leader's current speed (rtsim.control.predict), and the
-        # leader drives at V_Ld on this first straight: the same bounds at V_Ld
-        assert (base.windows["v_leader"] == base.windows["v_leader_desired"]).all()
-        np.testing.assert_array_equal(a, b)
+        # hybrid = paper at the leader's current speed (rtsim.control.predict): while the
+        # leader drives at V_Ld the two decide the same bounds. With follow-the-leader the
+        # followers start 325 cm back on the trace, i.e. in the turn before the leader's first
+        # straight; the outer follower leaves it faster than V_Ld (24 -> 36 cm/s in 1.6 s,
+        # truth and estimate agree) and really breaks path diversion at w_sch (its _true
+        # drops below w_sch), so the leader is slowed there: compare the windows before.
+        bw = base.windows
+        slow = np.nonzero((bw["v_leader_max"] < bw["v_leader_desired"]).to_numpy())[0]
+        k = int(slow[0]) if len(slow) else len(bw)
+        assert k >= 5
+        assert (bw["v_leader"].iloc[:k] == bw["v_leader_desired"].iloc[:k]).all()
+        np.testing.assert_array_equal(a.iloc[:k - 1], b.iloc[:k - 1])
+        if len(slow):  # the slow-down is the world's, not the prediction's
+            true = bw[[f"f{i}_msb_path_diversion_true" for i in (1, 2)]].min(axis=1)
+            assert (true.iloc[:k + 1] < bw["w_sch"].iloc[:k + 1]).any()
 
 
 def test_violations_beyond_tolerance(adj2, fixed2) -> None:  # type: ignore[no-untyped-def]
