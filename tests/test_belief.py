@@ -392,7 +392,7 @@ def test_cli_names_the_file_and_the_renamed_key(tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
     from rtsim.cli import main
 
-    text = TEST2.read_text(encoding="utf-8").replace('predictor = "hybrid"', 'model = "hybrid"')
+    text = TEST2.read_text(encoding="utf-8").replace('predictor = "paper"', 'model = "paper"')
     path = tmp_path / "old.toml"
     path.write_text(text, encoding="utf-8")
     assert main(["scenario", str(path), "--out", str(tmp_path / "out")]) == 2

@@ -47,7 +47,7 @@ def _outer_s(rho_d: float, r_t: float) -> float:
 
 
 # The hand derivations below are the formation predictor's (SPEC §6): these runs use it; the
-# tests' own predictor (hybrid, chosen by evidence) runs in test_default_predictor_*.
+# tests' own predictor (paper, chosen by evidence) runs in test_default_predictor_*.
 FORMATION = {"adjust.predictor": "formation"}
 
 
@@ -62,13 +62,13 @@ def adj2():  # type: ignore[no-untyped-def]
 
 
 @pytest.mark.parametrize("path", [TEST1, TEST2])
-def test_default_predictor_of_the_tests_is_hybrid_without_misses_or_lost_tracks(
+def test_default_predictor_of_the_tests_is_paper_without_misses_or_lost_tracks(
         path: Path) -> None:
-    """Test 1 and Test 2 as shipped (hybrid, README's evidence): a lap in adjust mode with
+    """Test 1 and Test 2 as shipped (paper, README's evidence): a lap in adjust mode with
     no deadline miss and no lost track, the predictor and the followers' law recorded."""
     r = run_scenario(path, mode="adjust", record_jobs=False)
     s = r.summary
-    assert s["predictor"] == "hybrid" and s["laps"] >= 1.0
+    assert s["predictor"] == "paper" and s["laps"] >= 1.0
     assert s["missed"] == 0 and s["tracks_lost"] == 0
     assert s["formation_model"] == r.inputs.world.formation.model == "follow-the-leader"
 
@@ -245,7 +245,7 @@ def test_windows_schema_no_empty_cells(short_runs, adj2) -> None:  # type: ignor
     text = df.to_csv(index=False)
     assert ",," not in text and ",\n" not in text and "nan" not in text.lower()
     # with the formation predictor the separation/bearing bounds are unbounded on straights
-    # (the hybrid one of the shipped Test 2 sees the followers' corrections: finite)
+    # (the paper one of the shipped Test 2 sees the followers' corrections: finite)
     assert "inf" in adj2.windows.to_csv(index=False)
     back = pd.read_csv(pd.io.common.StringIO(text))
     assert set(back["critical"].unique()) <= {True, False}
@@ -302,21 +302,21 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
         run_scenario(bad, duration_s=1)
 
 
-@pytest.mark.parametrize("model", ["formation", "paper"])
+@pytest.mark.parametrize("model", ["formation", "hybrid"])
 def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, model: str) -> None:
     text = TEST2.read_text(encoding="utf-8")
-    assert text.count('predictor = "hybrid"') == 1
-    text = text.replace('predictor = "hybrid"', f'predictor = "{model}"')
+    assert text.count('predictor = "paper"') == 1
+    text = text.replace('predictor = "paper"', f'predictor = "{model}"')
     path = tmp_path / "t2.toml"
     path.write_text(text, encoding="utf-8")
     from rtsim.coupling.scenario_run import _inputs
 
     # formation is the library's default and is not passed on
     assert _inputs(path).adjust.get("predictor", "formation") == model
-    assert _inputs(TEST2).adjust["predictor"] == "hybrid"  # the tests' choice
+    assert _inputs(TEST2).adjust["predictor"] == "paper"  # the tests' choice
     short = run_scenario(path, mode="adjust", duration_s=3, record_jobs=False)
     base = run_scenario(TEST2, mode="adjust", duration_s=3, record_jobs=False)
-    assert short.summary["predictor"] == model and base.summary["predictor"] == "hybrid"
+    assert short.summary["predictor"] == model and base.summary["predictor"] == "paper"
     assert len(short.windows) > 5
     a, b = short.windows["msb_min"].iloc[1:], base.windows["msb_min"].iloc[1:]
     if model == "formation":
