@@ -189,6 +189,19 @@ def run2(request, tmp_path_factory):  # type: ignore[no-untyped-def]
     return run_scenario(path, mode="adjust", duration_s=40, record_jobs=False)
 
 
+@pytest.fixture(scope="module", params=["paper", "formation"])
+def run2_instant(request, tmp_path_factory):  # type: ignore[no-untyped-def]
+    """The same 40 s with an instant leader (``accel_max = decel_max = inf``, the paper's
+    speed step): the speed is piecewise constant and changes only at a decision."""
+    text = TEST2.read_text(encoding="utf-8")
+    text = "\n".join(line for line in text.splitlines() if not line.startswith("predictor"))
+    path = tmp_path_factory.mktemp("belief_instant") / "t2.toml"
+    path.write_text(text.replace("[adjust]\n", f'[adjust]\npredictor = "{request.param}"\n',
+                                 1), encoding="utf-8")
+    return run_scenario(path, mode="adjust", duration_s=40, record_jobs=False,
+                        overrides={"leader.accel_max": math.inf, "leader.decel_max": math.inf})
+
+
 def test_summary_records_predictor_and_formation_model(run2) -> None:  # type: ignore[no-untyped-def]
     s = run2.summary
     assert s["predictor"] in ("paper", "formation")
@@ -255,11 +268,41 @@ def test_true_below_w_exactly_when_the_window_broke_the_bound(run2) -> None:  # 
         assert ratio == pytest.approx(s["max_violation_ratio"][k], rel=1e-9)
 
 
-def test_pred_is_the_decision_at_the_leaders_highest_speed(run2) -> None:  # type: ignore[no-untyped-def]
+def test_pred_with_ramps_lies_between_the_scans_speeds_and_v_ld(run2) -> None:  # type: ignore[no-untyped-def]
+    """With leader dynamics (Test 2's ramps) the speed changes between decisions. v_leader_max
+    is the highest speed between scans k and k+1; ``v_leader`` is the speed at the release
+    t_k, which precedes scan k. So v_leader_max[k] >= v_leader[k+1] (release k+1 lies
+    between the scans), v_leader_max[k] >= v_leader[k] less what the leader can shed between
+    t_k and scan k (at most decel_max·response, the scan precedes the job's end; a speed
+    that rose in that gap counts in full), and never above V_Ld. `_pred` is the decision's
+    predictor at v_leader_max: at V_Ld its minimum is msb_min, and with the formation
+    predictor (every bound ∝ 1/V_L) `_pred`·v_leader_max/V_Ld is msb_min."""
+    df = run2.windows
+    world = run2.inputs.world
+    assert world.leader_accel_max < math.inf  # the ramps are on
+    v, vmax = df["v_leader"].to_numpy(), df["v_leader_max"].to_numpy()
+    v_ld = df["v_leader_desired"].to_numpy()
+    assert (vmax <= v_ld * (1 + 1e-12)).all()
+    assert (vmax[:-1] >= v[1:]).all()
+    shed = world.leader_decel_max * df["response"].to_numpy() / 1000.0
+    assert (vmax >= v - shed - 1e-9).all()
+    assert (vmax >= v).mean() > 0.9  # ... and mostly the release's speed or more
+    assert (df["v_leader_target"] != df["v_leader"]).any()  # the leader ramps to its target
+    pred = np.column_stack([df[f"f{i}_msb_{k}_pred"] for i in (1, 2) for k in BOUND_KINDS])
+    at_ld = vmax == v_ld
+    np.testing.assert_array_equal(pred[at_ld].min(axis=1), df["msb_min"].to_numpy()[at_ld])
+    assert (~at_ld).sum() > 5  # the leader was slowed in the turn
+    if run2.summary["predictor"] == "formation":
+        np.testing.assert_allclose(pred.min(axis=1) * vmax / v_ld, df["msb_min"], rtol=1e-9)
+
+
+def test_pred_is_the_decision_at_the_leaders_highest_speed(run2_instant) -> None:  # type: ignore[no-untyped-def]
     """`_pred` is the decision's predictor on its estimates at v_leader_max. Without leader
     dynamics the speed is piecewise constant and changes only at a decision, so the highest
     speed between scans k and k+1 is max(V_L at t_k, V_L at t_{k+1}); with the formation
     predictor every bound ∝ 1/V_L, so `_pred`·v_leader_max is the same at every speed."""
+    run2 = run2_instant
+    assert run2.inputs.world.leader_accel_max == math.inf
     df = run2.windows
     v, vmax = df["v_leader"].to_numpy(), df["v_leader_max"].to_numpy()
     v_ld = df["v_leader_desired"].to_numpy()
@@ -349,7 +392,7 @@ def test_cli_names_the_file_and_the_renamed_key(tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
     from rtsim.cli import main
 
-    text = TEST2.read_text(encoding="utf-8").replace('predictor = "hybrid"', 'model = "hybrid"')
+    text = TEST2.read_text(encoding="utf-8").replace('predictor = "paper"', 'model = "paper"')
     path = tmp_path / "old.toml"
     path.write_text(text, encoding="utf-8")
     assert main(["scenario", str(path), "--out", str(tmp_path / "out")]) == 2

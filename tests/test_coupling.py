@@ -47,7 +47,7 @@ def _outer_s(rho_d: float, r_t: float) -> float:
 
 
 # The hand derivations below are the formation predictor's (SPEC §6): these runs use it; the
-# tests' own predictor (hybrid, chosen by evidence) runs in test_default_predictor_*.
+# tests' own predictor (paper, chosen by evidence) runs in test_default_predictor_*.
 FORMATION = {"adjust.predictor": "formation"}
 
 
@@ -62,13 +62,13 @@ def adj2():  # type: ignore[no-untyped-def]
 
 
 @pytest.mark.parametrize("path", [TEST1, TEST2])
-def test_default_predictor_of_the_tests_is_hybrid_without_misses_or_lost_tracks(
+def test_default_predictor_of_the_tests_is_paper_without_misses_or_lost_tracks(
         path: Path) -> None:
-    """Test 1 and Test 2 as shipped (hybrid, README's evidence): a lap in adjust mode with
+    """Test 1 and Test 2 as shipped (paper, README's evidence): a lap in adjust mode with
     no deadline miss and no lost track, the predictor and the followers' law recorded."""
     r = run_scenario(path, mode="adjust", record_jobs=False)
     s = r.summary
-    assert s["predictor"] == "hybrid" and s["laps"] >= 1.0
+    assert s["predictor"] == "paper" and s["laps"] >= 1.0
     assert s["missed"] == 0 and s["tracks_lost"] == 0
     assert s["formation_model"] == r.inputs.world.formation.model == "follow-the-leader"
 
@@ -245,7 +245,7 @@ def test_windows_schema_no_empty_cells(short_runs, adj2) -> None:  # type: ignor
     text = df.to_csv(index=False)
     assert ",," not in text and ",\n" not in text and "nan" not in text.lower()
     # with the formation predictor the separation/bearing bounds are unbounded on straights
-    # (the hybrid one of the shipped Test 2 sees the followers' corrections: finite)
+    # (the paper one of the shipped Test 2 sees the followers' corrections: finite)
     assert "inf" in adj2.windows.to_csv(index=False)
     back = pd.read_csv(pd.io.common.StringIO(text))
     assert set(back["critical"].unique()) <= {True, False}
@@ -303,31 +303,42 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
         run_scenario(bad, duration_s=1)
 
 
-@pytest.mark.parametrize("model", ["formation", "paper"])
+@pytest.mark.parametrize("model", ["formation", "hybrid"])
 def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, model: str) -> None:
     text = TEST2.read_text(encoding="utf-8")
-    assert text.count('predictor = "hybrid"') == 1
-    text = text.replace('predictor = "hybrid"', f'predictor = "{model}"')
+    assert text.count('predictor = "paper"') == 1
+    text = text.replace('predictor = "paper"', f'predictor = "{model}"')
     path = tmp_path / "t2.toml"
     path.write_text(text, encoding="utf-8")
     from rtsim.coupling.scenario_run import _inputs
 
     # formation is the library's default and is not passed on
     assert _inputs(path).adjust.get("predictor", "formation") == model
-    assert _inputs(TEST2).adjust["predictor"] == "hybrid"  # the tests' choice
+    assert _inputs(TEST2).adjust["predictor"] == "paper"  # the tests' choice
     short = run_scenario(path, mode="adjust", duration_s=3, record_jobs=False)
     base = run_scenario(TEST2, mode="adjust", duration_s=3, record_jobs=False)
-    assert short.summary["predictor"] == model and base.summary["predictor"] == "hybrid"
+    assert short.summary["predictor"] == model and base.summary["predictor"] == "paper"
     assert len(short.windows) > 5
     a, b = short.windows["msb_min"].iloc[1:], base.windows["msb_min"].iloc[1:]
     if model == "formation":
         # the same world and noise, a different prediction: the bounds differ after window 0
         assert not np.allclose(a, b)
     else:
-        # hybrid = paper at the leader's current speed (rtsim.control.predict), and the
-        # leader drives at V_Ld on this first straight: the same bounds at V_Ld
-        assert (base.windows["v_leader"] == base.windows["v_leader_desired"]).all()
-        np.testing.assert_array_equal(a, b)
+        # hybrid = paper at the leader's current speed (rtsim.control.predict): while the
+        # leader drives at V_Ld the two decide the same bounds. With follow-the-leader the
+        # followers start 325 cm back on the trace, i.e. in the turn before the leader's first
+        # straight; the outer follower leaves it faster than V_Ld (24 -> 36 cm/s in 1.6 s,
+        # truth and estimate agree) and really breaks path diversion at w_sch (its _true
+        # drops below w_sch), so the leader is slowed there: compare the windows before.
+        bw = base.windows
+        slow = np.nonzero((bw["v_leader_max"] < bw["v_leader_desired"]).to_numpy())[0]
+        k = int(slow[0]) if len(slow) else len(bw)
+        assert k >= 5
+        assert (bw["v_leader"].iloc[:k] == bw["v_leader_desired"].iloc[:k]).all()
+        np.testing.assert_array_equal(a.iloc[:k - 1], b.iloc[:k - 1])
+        if len(slow):  # the slow-down is the world's, not the prediction's
+            true = bw[[f"f{i}_msb_path_diversion_true" for i in (1, 2)]].min(axis=1)
+            assert (true.iloc[:k + 1] < bw["w_sch"].iloc[:k + 1]).any()
 
 
 def test_violations_beyond_tolerance(adj2, fixed2) -> None:  # type: ignore[no-untyped-def]

@@ -167,7 +167,7 @@ def test_figure_data_agree_with_runs(quick: tuple[Path, str], stem: str, name: s
 def test_bounds_data_has_infinite_values(quick: tuple[Path, str], tmp_path: Path) -> None:
     """The unbounded (inf) MSBs survive into the figure data as ``inf``: in the formation
     predictor's runs a follower on its slot has ρ̇ = 0 on straights (the shipped tests'
-    hybrid predictor sees the followers' corrections, finite; the CSV round trip of inf is
+    paper predictor sees the followers' corrections, finite; the CSV round trip of inf is
     also tested on a table by construction in test_plots_scenario)."""
     from rtsim.coupling import run_scenario
     from rtsim.plots.scenario import figure_data
@@ -222,7 +222,7 @@ def test_summary_recomputed_from_windows(quick: tuple[Path, str]) -> None:
 def test_quick_modes_show_spec_section_5(quick: tuple[Path, str]) -> None:
     """adjust: no misses, no lost tracks, w ≥ w_sch, the leader slowed exactly in the critical
     windows; fixed-wsch: w = w_sch at V_Ld, no misses, motion bounds broken in the world;
-    min-msb: w below w_sch there, deadlines missed."""
+    min-msb: w below w_sch there, deadlines missed (Test 2)."""
     out, _ = quick
     table = pd.read_csv(out / "summary.csv").set_index(["test", "mode"])
     for t in TESTS:
@@ -232,26 +232,38 @@ def test_quick_modes_show_spec_section_5(quick: tuple[Path, str]) -> None:
         assert table.loc[(t, "adjust"), "tracks_lost"] == 0
         assert (a["w"] >= a["w_sch"]).all()
         crit = a["critical"].to_numpy()
-        slowed = (a["v_leader"] < a["v_leader_desired"]).to_numpy()
-        assert (slowed[1:] == crit[1:]).all()  # window 0 has the initial values
+        # the decision's target is below V_Ld exactly in the critical windows (window 0 has
+        # the initial values); the actual speed ramps toward it within the leader's limits
+        slowed = (a["v_leader_target"] < a["v_leader_desired"]).to_numpy()
+        assert (slowed[1:] == crit[1:]).all()
+        assert (a["v_leader"] <= a["v_leader_desired"]).all()
         assert (a.loc[crit, "w"] == a.loc[crit, "w_sch"]).all()
         f = pd.read_csv(out / t / "fixed-wsch" / "windows.csv")
         assert (f["w"] == f["w_sch"]).all() and (f["v_leader"] == f["v_leader_desired"]).all()
         assert not f["missed"].any()
         viol = f[[f"f{i}_viol_{k}" for i in (1, 2) for k in KINDS]].any(axis=1)
-        # With follow-the-leader followers (issue 15) the bounds break in the world at w_sch
-        # and V_Ld, but not inside the windows the formation predictor calls critical (it
-        # predicts the rigid chevron's 2.4-3.1 V_L in turns, which these followers do not
-        # drive); l-psi followers broke them there (tests/test_coupling.py pins that world).
-        # (nor does adjust keep path diversion below fixed-wsch's now: it widens the windows
-        # on straights to the predicted bound, and these followers speed up after a turn
-        # beyond what that predictor expects; tests/test_coupling.py::
-        # test_violations_beyond_tolerance keeps the comparison for l-psi)
-        assert viol.any()
+        # at w_sch and V_Ld the world breaks the bounds inside the windows the predictor
+        # (the tests' paper predictor) calls critical: nearly all of them
+        fcrit = f["critical"].to_numpy(dtype=bool)
+        assert fcrit.any() and (viol[fcrit]).mean() >= 0.8
+        # the adjustment breaks the bounds beyond 5 % less often than never slowing down
+        assert table.loc[(t, "adjust"), "viol5"] < table.loc[(t, "fixed-wsch"), "viol5"]
         m = pd.read_csv(out / t / "min-msb" / "windows.csv")
         assert (m.loc[m["critical"], "w"] < m.loc[m["critical"], "w_sch"]).all()
-        assert m["missed"].sum() > 0 and table.loc[(t, "min-msb"), "missed"] > 0
         assert table.loc[(t, "min-msb"), "min_speed_ratio"] == 1.0
+    # Test 2: adjust also keeps the largest path-diversion break below fixed-wsch's, and
+    # min-msb's short windows miss deadlines. Test 1's turns are mild at V_Ld (min MSB
+    # 0.93·w_sch in the baselines): min-msb's windows are only 7 % short and none is missed,
+    # and adjust's largest path-diversion ratio (1.20) is above fixed-wsch's (1.10): after its
+    # slow-down at a turn exit the followers catch up faster than V_Ld (README's claims).
+    a2, f2 = (pd.read_csv(out / "test2" / m / "windows.csv") for m in ("adjust", "fixed-wsch"))
+
+    def worst(df: pd.DataFrame) -> float:
+        return max(float((df["w"] / df[f"f{i}_msb_path_diversion_true"]).max()) for i in (1, 2))
+
+    assert worst(a2) < worst(f2)
+    assert table.loc[("test2", "min-msb"), "missed"] > 0
+    assert table.loc[("test1", "min-msb"), "min_msb_over_wsch"] > 0.9
 
 
 def test_one_worker_gives_identical_files(quick: tuple[Path, str], tmp_path: Path) -> None:
