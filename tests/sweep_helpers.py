@@ -19,8 +19,21 @@ def _log(params: dict[str, Any]) -> None:
             fh.write(f"{params['i']}\n")
 
 
+#: Points with i >= GATE_FROM wait for the file ``$RTSIM_SWEEP_TEST_GATE`` (when set) to exist.
+GATE_FROM = 4
+
+
 def slow(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str, Any]:
-    """Sleep, log the call (``$RTSIM_SWEEP_TEST_LOG``), return values derived from the inputs."""
+    """Sleep, log the call (``$RTSIM_SWEEP_TEST_LOG``), return values derived from the inputs.
+
+    With ``$RTSIM_SWEEP_TEST_GATE`` set, points from :data:`GATE_FROM` on first wait (up to
+    60 s) for that file: a sweep interrupted in a test cannot have finished on a loaded
+    machine before the signal arrives."""
+    gate = os.environ.get("RTSIM_SWEEP_TEST_GATE")
+    if gate and params["i"] >= GATE_FROM:
+        deadline = time.monotonic() + 60
+        while not os.path.exists(gate) and time.monotonic() < deadline:
+            time.sleep(0.01)
     time.sleep(float(options.get("sleep", 0.0)))
     _log(params)
     return {"double": 2 * params["i"], "draw": float(np.random.default_rng(seed).random())}

@@ -22,6 +22,9 @@ def _env(log: Path) -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(HERE), *filter(None, [env.get("PYTHONPATH")])])
     env["RTSIM_SWEEP_TEST_LOG"] = str(log)
+    # points from sweep_helpers.GATE_FROM on wait for this file: the first run cannot finish
+    # before it is interrupted, however loaded the machine; the rerun finds it
+    env["RTSIM_SWEEP_TEST_GATE"] = str(log.parent / "gate")
     return env
 
 
@@ -85,6 +88,7 @@ def test_interrupted_sweep_resumes_without_recomputing(
     assert _calls(log1) == calls_at_exit
 
     log2 = tmp_path / "run2.log"
+    (tmp_path / "gate").touch()
     rerun = subprocess.run(cmd, env=_env(log2), capture_output=True, timeout=120)
     assert rerun.returncode == 0, rerun.stderr
     recomputed = set(_calls(log2))
