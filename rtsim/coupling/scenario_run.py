@@ -281,6 +281,10 @@ class _Coupling:
             opts["decel_max"] = cfg.leader_decel_max
         else:
             self._path = None
+        self._noise = bool(getattr(self.policy, "needs_noise", False))
+        if self._noise:  # the followers' actuation noise (PolicyInput.speed_noise, turn_noise)
+            opts["speed_noise"] = cfg.follower.speed_noise
+            opts["turn_noise"] = cfg.follower.turn_noise
         self.mode = str(self.policy.name)
         cap_factor = opts.pop("cap_factor", None)
         if cap_factor is not None and "cap" not in opts:
@@ -355,13 +359,24 @@ class _Coupling:
                                          self.beta_d[k]))
         kw = {"omega_l": world.leader_omega, "kappa": kappa, "v_now": self._v_actual()}
         ahead = () if self._path is None else self._ahead()
+        extra = {"pose_sd": self._pose_sd()} if self._noise else {}
         adj = self.policy.decide(PolicyInput(fols, v_ld=self.v_ld, w_sch=self.w_sch,
                                              thresholds=self.thr, **kw, **self.opts,
-                                             ahead=ahead))
+                                             ahead=ahead, **extra))
         v_l = max(adj.v_leader, self.v_floor)
         return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
                          adj.feasible and v_l == adj.v_leader, tuple(state), tuple(fols), kw,
                          ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)))
+
+    def _pose_sd(self) -> tuple[tuple[float, float], ...]:
+        """Per follower (σ_p, σ_θ) from the leader's EKF covariance at its last update:
+        σ_p = √((P_xx + P_yy)/2) cm, σ_θ = √P_θθ rad (PolicyInput.pose_sd)."""
+        out = []
+        for f in self.world.filters:
+            p = f.P
+            out.append((math.sqrt(max(0.5 * (float(p[0, 0]) + float(p[1, 1])), 0.0)),
+                        math.sqrt(max(float(p[2, 2]), 0.0))))
+        return tuple(out)
 
     def _ahead(self) -> tuple[tuple[float, float], ...]:
         """The leader's next path commands, one lap ahead: (distance to its start in cm, its
