@@ -33,8 +33,9 @@ decision available at its release (that of the last *completed* window).
 Policies (:mod:`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
 ``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
 break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
-schedule breaks), ``margin``, ``lookahead`` or a user's ``package.module:Name``. Each window's
-decision is the policy's ``decide`` on a :class:`~rtsim.control.policy.PolicyInput`.
+schedule breaks), ``margin``, ``lookahead``, ``noise-aware``, ``safe`` or a user's
+``package.module:Name``. Each window's decision is the policy's ``decide`` on a
+:class:`~rtsim.control.policy.PolicyInput`.
 
 Duration: an explicit ``duration_s`` (simulated seconds) is exact. By default the run covers
 the scenario's ``duration`` **and at least one lap**: it stops at the first window completion
