@@ -15,6 +15,9 @@ overrides the file; ``--mode`` is an alias. The registered policies:
 * ``adjust``: the paper's algorithm (§3.3, SPEC §5; :func:`rtsim.control.adjust.adjust`);
 * ``fixed-wsch``: w = w_sch, V_L = V_Ld (the bounds may break in the world);
 * ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld (the schedule may break);
+* ``lookahead``: margin, made safe ahead of time along the leader's known path commands;
+* ``noise-aware``: the bounds with the predicted V_F, |ρ̇| and |β̇| padded by z·σ (key ``z``);
+* ``safe``: lookahead on top of noise-aware with a margin (keys ``margin``, ``z``, ``windows``);
 * ``margin``: the paper's algorithm against the bounds shrunk by a margin μ (key ``margin``):
   w = max(w_sch, (1 − μ)·min MSB) (capped), and in overload the largest speed at which every
   bound is ≥ w_sch / (1 − μ), i.e. (1 − μ)·bound ≥ w_sch.
@@ -44,6 +47,7 @@ from rtsim.control.adjust import (
     FLOOR_W,
     Decision,
     _adjust_core,
+    _largest,
     _make_predictor,
     _rows_at,
 )
@@ -70,7 +74,10 @@ class PolicyInput:
     leader's known upcoming path commands as (distance from here to the command's start in
     cm, its curvature in 1/cm), nearest first (filled for a policy whose class sets
     ``needs_path = True``, else empty); accel_max, decel_max: the leader's speed ramp limits
-    (cm/s², ``inf`` = the speed steps).
+    (cm/s², ``inf`` = the speed steps); speed_noise σ_v (cm/s), turn_noise σ_ω (rad/s): the
+    followers' actuation noise per command; pose_sd: per follower (σ_p cm, σ_θ rad) from the
+    leader's EKF covariance P, σ_p = √((P_xx + P_yy)/2), σ_θ = √P_θθ (these three are filled
+    for a policy whose class sets ``needs_noise = True``, else 0 / empty).
     """
 
     followers: Sequence[FollowerEstimate]
@@ -89,6 +96,9 @@ class PolicyInput:
     ahead: tuple[tuple[float, float], ...] = ()
     accel_max: float = math.inf
     decel_max: float = math.inf
+    speed_noise: float = 0.0
+    turn_noise: float = 0.0
+    pose_sd: tuple[tuple[float, float], ...] = ()
 
 
 @runtime_checkable
@@ -320,7 +330,7 @@ class LookaheadPolicy:
     needs_path: ClassVar[bool] = True
 
     def __init__(self, margin: float = 0.0, windows: float = 2.0) -> None:
-        self.base = MarginPolicy(margin)
+        self.base: Any = MarginPolicy(margin)
         windows = check_number("windows", "windows", windows)
         if not 1.0 <= windows <= 100.0:
             raise InputError(f"windows: must be in [1, 100], got {windows!r}")
@@ -371,3 +381,133 @@ class LookaheadPolicy:
                             kappa * v_now, ctx.v_now)(v_l)
             w = max(ctx.w_sch, min(w, keep * min_bound_rows(rows)[0]))
         return d_out if w == d_out.w else d_out._replace(w=w)
+
+
+def pad_rows(rows: Sequence[tuple[float, float, float, float]],
+             followers: Sequence[FollowerEstimate], ctx: PolicyInput, v: float, z: float
+             ) -> list[tuple[float, float, float, float]]:
+    """Every follower's bounds at leader speed ``v`` with the predicted rates padded by z·σ.
+
+    From the unpadded ``rows`` (any predictor) the predicted rates are recovered as
+    |V_F| = 1000·T_ε·ρ_d / MSB_path, |ρ̇| = 1000·T_ρ·ρ_d / MSB_sep, |β̇| = 1000·T_β / MSB_bear
+    (SPEC §5's bounds, an infinite bound = a zero rate). With T = w_sch / 1000 s, follower i's
+    σ_β = σ_p / ρ and σ_θ² = σ_θ,EKF² + (σ_ω·T)² (its heading drifts by the turn noise over
+    one window), first-order propagation of ρ̇ = V_F cos(θ_F + β) − V_L cos β and
+    β̇ = (V_L sin β − V_F sin(β + θ_F)) / ρ − ω_L with independent errors, bounded by
+    |cos|, |sin| ≤ 1:
+
+        S = √(σ_v² + (V_F·σ_θ)² + ((V_L + V_F)·σ_β)²),
+        σ_VF = σ_v,  σ_ρ̇ = S,  σ_β̇ = S / ρ,
+
+    and the padded bounds are 1000·r_H / (|ρ̇| + z·S) (radial localization), 1000·T_ρ·ρ_d /
+    (|ρ̇| + z·S), 1000·T_ε·ρ_d / (|V_F| + z·σ_v), 1000·T_β / (|β̇| + z·S/ρ). z = 0 gives
+    ``rows`` back unchanged (the same floats)."""
+    if z == 0.0:
+        return list(rows)
+    thr = ctx.thresholds
+    t_s = ctx.w_sch / 1000.0
+    sv = float(ctx.speed_noise)
+    out = []
+    for i, (f, row) in enumerate(zip(followers, rows, strict=True)):
+        sp, sth = ctx.pose_sd[i] if i < len(ctx.pose_sd) else (0.0, 0.0)
+        n_loc, n_sep = 1000.0 * thr.r_H, 1000.0 * thr.T_rho * f.rho_d
+        n_path, n_bear = 1000.0 * thr.T_eps * f.rho_d, 1000.0 * thr.T_beta
+        rd = 0.0 if math.isinf(row[1]) else n_sep / row[1]
+        vf = 0.0 if math.isinf(row[2]) else n_path / row[2]
+        bd = 0.0 if math.isinf(row[3]) else n_bear / row[3]
+        s_th2 = sth * sth + (ctx.turn_noise * t_s) ** 2
+        s_beta = sp / f.rho
+        big_s = math.sqrt(sv * sv + vf * vf * s_th2 + ((v + vf) * s_beta) ** 2)
+
+        def div(n: float, d: float) -> float:
+            return math.inf if d == 0.0 else n / d
+
+        if thr.localization == "radial":
+            loc = div(n_loc, rd + z * big_s)
+        else:  # the full model's bound shrinks by the separation bound's factor
+            loc = row[0] if rd + z * big_s == 0.0 else (
+                row[0] * rd / (rd + z * big_s) if rd > 0.0 else row[0])
+        out.append((loc, div(n_sep, rd + z * big_s), div(n_path, vf + z * sv),
+                    div(n_bear, bd + z * big_s / f.rho)))
+    return out
+
+
+@register_policy("noise-aware")
+class NoiseAwarePolicy:
+    """The paper's algorithm against bounds whose predicted V_F, |ρ̇| and |β̇| are padded by
+    z·σ (:func:`pad_rows`; σ from the followers' actuation noise and the leader's EKF
+    covariance), optionally with a margin μ:
+
+    with m(v) = min over followers and bounds of the padded bounds at leader speed v,
+    w = max(w_sch, min((1 − μ)·m(V_Ld), cap)) when (1 − μ)·m(V_Ld) ≥ w_sch; else w = w_sch and
+    V_L = the largest speed with (1 − μ)·m(V_L) ≥ w_sch (scan of ``scan_points`` speeds below
+    V_Ld, bisected; method ``numeric``), or floor_frac·V_Ld when none has (method ``floor``).
+    Own keys: ``z`` (the padding in standard deviations, in [0, 10], default 2) and
+    ``margin`` (μ in [0, 1), default 0). z = 0 with μ = 0 is the paper's decision at V_Ld.
+    """
+
+    params: ClassVar[Mapping[str, Any]] = {"z": 2.0, "margin": 0.0}
+    #: the coupling fills PolicyInput.speed_noise, turn_noise and pose_sd for this policy
+    needs_noise: ClassVar[bool] = True
+
+    def __init__(self, z: float = 2.0, margin: float = 0.0) -> None:
+        z = check_number("z", "z", z)
+        if not 0.0 <= z <= 10.0:
+            raise InputError(f"z: must be in [0, 10], got {z!r}")
+        self.z = z
+        self.margin = MarginPolicy(margin).margin
+
+    def decide(self, ctx: PolicyInput) -> Decision:
+        cap = _check(ctx, "noise-aware")
+        keep = 1.0 - self.margin
+        model = ctx.predictor
+        predict = (None if model == "formation"
+                   else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
+                                        v_now=ctx.v_now))
+        raw = _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
+                       ctx.v_now)
+        memo: dict[float, list[tuple[float, float, float, float]]] = {}
+
+        def rows_at(v: float) -> list[tuple[float, float, float, float]]:
+            if v not in memo:
+                memo[v] = pad_rows(raw(v), ctx.followers, ctx, v, self.z)
+            return memo[v]
+
+        rows = rows_at(ctx.v_ld)
+        m, kind, who = min_bound_rows(rows)
+        if keep * m >= ctx.w_sch:
+            return Decision(max(ctx.w_sch, min(keep * m, cap)), ctx.v_ld, m, kind, who, "none",
+                            True, rows, rows, m, {})
+        need = ctx.w_sch * (1.0 - _TOL)
+
+        def ok(v: float) -> bool:
+            return keep * min_bound_rows(rows_at(v))[0] >= need
+
+        found = None
+        if ctx.v_ld > 0.0:
+            step = ctx.v_ld / ctx.scan_points
+            grid = [ctx.v_ld - step * i for i in range(ctx.scan_points)]
+            grid += [step * 0.5**j for j in range(1, 21)]
+            found = _largest(ok, grid)
+        v_l = ctx.floor_frac * ctx.v_ld if found is None else found
+        after = rows_at(v_l)
+        m_after = min_bound_rows(after)[0]
+        return Decision(ctx.w_sch, v_l, m, kind, who, "floor" if found is None else "numeric",
+                        keep * m_after >= need, rows, after, m_after,
+                        {"numeric": math.nan if found is None else found})
+
+
+@register_policy("safe")
+class SafePolicy(LookaheadPolicy):
+    """:class:`LookaheadPolicy` on top of :class:`NoiseAwarePolicy`: the current command's and
+    every upcoming command's decision are the noise-aware one (padding z·σ, margin μ), the
+    leader slows ahead of turns as in ``lookahead``. Own keys: ``margin`` (default 0.1),
+    ``z`` (default 1) and ``windows`` (default 2)."""
+
+    params: ClassVar[Mapping[str, Any]] = {"margin": 0.1, "z": 1.0, "windows": 2.0}
+    needs_path: ClassVar[bool] = True
+    needs_noise: ClassVar[bool] = True
+
+    def __init__(self, margin: float = 0.1, z: float = 1.0, windows: float = 2.0) -> None:
+        super().__init__(margin, windows)
+        self.base = NoiseAwarePolicy(z, margin)

@@ -33,8 +33,9 @@ decision available at its release (that of the last *completed* window).
 Policies (:mod:`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
 ``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
 break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
-schedule breaks), ``margin``, ``lookahead`` or a user's ``package.module:Name``. Each window's
-decision is the policy's ``decide`` on a :class:`~rtsim.control.policy.PolicyInput`.
+schedule breaks), ``margin``, ``lookahead``, ``noise-aware``, ``safe`` or a user's
+``package.module:Name``. Each window's decision is the policy's ``decide`` on a
+:class:`~rtsim.control.policy.PolicyInput`.
 
 Duration: an explicit ``duration_s`` (simulated seconds) is exact. By default the run covers
 the scenario's ``duration`` **and at least one lap**: it stops at the first window completion
@@ -42,7 +43,10 @@ at or after that duration at which the leader has driven one lap plus the larges
 followers, which trail by ρ_d, leave the last turn too) — the leader is slowed in the turns,
 so a lap takes longer than at V_Ld — and at the latest after max(duration, 4 lap times at
 V_Ld), i.e. a leader slowed to ¼·V_Ld on average. ``summary['laps']`` and
-``summary['duration_s']`` say how far it got. A window still running at the stop is dropped.
+``summary['duration_s']`` say how far it got; ``summary['lap_time_s']`` is the simulated
+time at which the leader first completed its lap (interpolated between the two window
+completions around it), or None with ``summary['lap_time_note']`` saying why (the cap, or
+a ``duration_s`` shorter than the lap). A window still running at the stop is dropped.
 """
 
 from __future__ import annotations
@@ -281,6 +285,10 @@ class _Coupling:
             opts["decel_max"] = cfg.leader_decel_max
         else:
             self._path = None
+        self._noise = bool(getattr(self.policy, "needs_noise", False))
+        if self._noise:  # the followers' actuation noise (PolicyInput.speed_noise, turn_noise)
+            opts["speed_noise"] = cfg.follower.speed_noise
+            opts["turn_noise"] = cfg.follower.turn_noise
         self.mode = str(self.policy.name)
         cap_factor = opts.pop("cap_factor", None)
         if cap_factor is not None and "cap" not in opts:
@@ -327,6 +335,11 @@ class _Coupling:
         self._stop_s = stop_s  # arc length (cm) after which the run stops, or None
         self._stop_ms = stop_ms  # ... but not before this time
         self.stop = self.env.event()
+        # the leader's first lap: (time ms, distance cm) at the last window completion before
+        # it, then the interpolated completion time (ms)
+        self._lap_cm = float(cfg.path.lap_length)
+        self._lap_prev = (0.0, 0.0)
+        self.lap_ms: float | None = None
         rho_d = np.asarray(self.rho_d)
         self._limits = (("localization", "displacement", thr.r_H),
                         ("separation", "d_rho", thr.T_rho * rho_d),
@@ -355,13 +368,24 @@ class _Coupling:
                                          self.beta_d[k]))
         kw = {"omega_l": world.leader_omega, "kappa": kappa, "v_now": self._v_actual()}
         ahead = () if self._path is None else self._ahead()
+        extra = {"pose_sd": self._pose_sd()} if self._noise else {}
         adj = self.policy.decide(PolicyInput(fols, v_ld=self.v_ld, w_sch=self.w_sch,
                                              thresholds=self.thr, **kw, **self.opts,
-                                             ahead=ahead))
+                                             ahead=ahead, **extra))
         v_l = max(adj.v_leader, self.v_floor)
         return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
                          adj.feasible and v_l == adj.v_leader, tuple(state), tuple(fols), kw,
                          ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)))
+
+    def _pose_sd(self) -> tuple[tuple[float, float], ...]:
+        """Per follower (σ_p, σ_θ) from the leader's EKF covariance at its last update:
+        σ_p = √((P_xx + P_yy)/2) cm, σ_θ = √P_θθ rad (PolicyInput.pose_sd)."""
+        out = []
+        for f in self.world.filters:
+            p = f.P
+            out.append((math.sqrt(max(0.5 * (float(p[0, 0]) + float(p[1, 1])), 0.0)),
+                        math.sqrt(max(float(p[2, 2]), 0.0))))
+        return tuple(out)
 
     def _ahead(self) -> tuple[tuple[float, float], ...]:
         """The leader's next path commands, one lap ahead: (distance to its start in cm, its
@@ -508,9 +532,21 @@ class _Coupling:
         self._v_max = max(self._v_max, self._v_actual())
         self.world.set_leader_speed(self.dec.v_leader)
         self._v_max = max(self._v_max, self._v_actual())
+        if self.lap_ms is None:
+            self._lap_check(now)
         if self._stop_s is not None and not self.stop.triggered and now >= self._stop_ms \
                 and self.world.leader.s - self._s0 >= self._stop_s:
             self.stop.succeed()
+
+    def _lap_check(self, now: float) -> None:
+        """Record the leader's first lap completion (``lap_ms``): linear interpolation of
+        its distance driven between the two window completions around it."""
+        d = self.world.leader.s - self._s0
+        if d < self._lap_cm:
+            self._lap_prev = (now, d)
+            return
+        t0, d0 = self._lap_prev
+        self.lap_ms = t0 + (now - t0) * (self._lap_cm - d0) / (d - d0) if d > d0 else now
 
     # -- running ---------------------------------------------------------------------
     def run(self) -> None:
@@ -680,11 +716,18 @@ def run_scenario(
         "v_leader_desired": run.v_ld,
         "n": run.n,
         "policy": run.mode,
+        "lap_time_s": None if run.lap_ms is None else run.lap_ms / 1000.0,
         "predictor": _name(run.opts.get("predictor", "formation")),
         "formation_model": formation_model(cfg),
         "leader_accel_max": cfg.leader_accel_max,
         "leader_decel_max": cfg.leader_decel_max,
     }
+    if run.lap_ms is None:  # why there is no lap time
+        extra["lap_time_note"] = (
+            f"the leader did not complete its lap within the cap of {LAP_CAP_FACTOR:g} lap "
+            f"times at V_Ld ({horizon_ms / 1000.0:.6g} s)" if stop_s is not None else
+            f"the run's duration ({float(duration_s):g} s) ended before the leader completed "
+            f"its lap")
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     summary = summarize(df, mode=run.mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
                         seed=int(seed), scenario=inp.name, n=run.n, extra=extra)

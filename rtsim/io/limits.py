@@ -275,9 +275,11 @@ register(_SC + "thresholds.T_beta", 0, math.pi, "rad", "a bearing error below 18
 register(_SC + "adjust.cap", 0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)
 register(_SC + "adjust.floor", 0, 1000, "cm/s", "as leader.speed")
 register(_SC + "adjust.margin", 0, 1, "", "the share μ of each predicted bound kept in reserve "
-         "(policies margin, lookahead)", hi_open=True)
-register(_SC + "adjust.windows", 1, 100, "windows", "policy lookahead's horizon, in windows of "
-         "w_sch")
+         "(policies margin, lookahead, noise-aware, safe)", hi_open=True)
+register(_SC + "adjust.windows", 1, 100, "windows", "policies lookahead and safe: the "
+         "horizon, in windows of w_sch")
+register(_SC + "adjust.z", 0, 10, "σ", "policies noise-aware and safe: the padding of the "
+         "predicted V_F, |ρ̇|, |β̇| in standard deviations")
 register(_SC + "world.step_ms", 1e-3, 1e4, "ms", "1 µs to 10 s per integration step")
 
 _OP = "option: "
