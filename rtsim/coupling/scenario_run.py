@@ -41,8 +41,8 @@ Duration: an explicit ``duration_s`` (simulated seconds) is exact. By default th
 the scenario's ``duration`` **and at least one lap**: it stops at the first window completion
 at or after that duration at which the leader has driven one lap plus the largest ρ_d (so the
 followers, which trail by ρ_d, leave the last turn too) — the leader is slowed in the turns,
-so a lap takes longer than at V_Ld — and at the latest after max(duration, 4 lap times at
-V_Ld), i.e. a leader slowed to ¼·V_Ld on average. ``summary['laps']`` and
+so a lap takes longer than at V_Ld — and at the latest after max(duration, 3 lap times at
+V_Ld), i.e. a leader slowed to ⅓·V_Ld on average. ``summary['laps']`` and
 ``summary['duration_s']`` say how far it got; ``summary['lap_time_s']`` is the simulated
 time at which the leader first completed its lap (interpolated between the two window
 completions around it), or None with ``summary['lap_time_note']`` saying why (the cap, or
@@ -87,7 +87,7 @@ __all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "summarize", "LAP
 VIOLATION_TOLERANCE = 0.05
 #: With the default (one-lap) duration, the run stops at the latest after this many lap
 #: times at V_Ld.
-LAP_CAP_FACTOR = 4.0
+LAP_CAP_FACTOR = 3.0
 _NF = len(FOLLOWER_FIELDS)
 
 
