@@ -22,14 +22,16 @@ from __future__ import annotations
 import math
 import os
 import sys
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from rtsim._numbers import is_int, is_real
 from rtsim.errors import InputError
 
-__all__ = ["Range", "REGISTRY", "register", "check", "check_tree", "strict",
+T = TypeVar("T")
+
+__all__ = ["Range", "REGISTRY", "register", "check", "check_tree", "parse_checked", "strict",
            "UnregisteredKey", "render_markdown", "read_input", "MAX_INPUT_BYTES"]
 
 
@@ -145,6 +147,24 @@ def check_tree(kind: str, data: Mapping[str, Any], source: str,
             key, value = key[:-4], math.radians(float(value)) if math.isfinite(value) else value
             where += " (in radians)"
         check(f"{kind}: {key}", value, f"{source}: {where}", error, magnitude_only)
+
+
+def parse_checked(kind: str, parse: Callable[[], T], data: Mapping[str, Any], source: str,
+                  skip: tuple[str, ...] = ("assumptions",)) -> T:
+    """``parse()`` of a file's parsed ``data``, then every number checked (:func:`check_tree`).
+    When the parse fails because a value is far out of range (an InputError), or an extreme
+    value broke a computation (ArithmeticError, ValueError), the range error is raised
+    instead, naming the key."""
+    try:
+        out = parse()
+    except InputError:  # caused by a value far out of range? then say that
+        check_tree(kind, data, source, skip=skip, magnitude_only=True)
+        raise
+    except (ArithmeticError, ValueError):  # an extreme value broke a computation: say which
+        check_tree(kind, data, source, skip=skip)
+        raise
+    check_tree(kind, data, source, skip=skip)
+    return out
 
 
 #: The largest input file rtsim reads (task sets, scenarios, sweep files are a few kB).

@@ -341,15 +341,8 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
     """
     from rtsim.io import limits
 
-    try:
-        scenario = _parse_scenario(data, source, base)
-    except InputError:  # caused by a value far out of range? then say that
-        limits.check_tree("scenario", data, source, skip=("assumptions",), magnitude_only=True)
-        raise
-    except (ArithmeticError, ValueError):  # an extreme value broke a computation: say which
-        limits.check_tree("scenario", data, source, skip=("assumptions",))
-        raise
-    limits.check_tree("scenario", data, source, skip=("assumptions",))
+    scenario = limits.parse_checked("scenario", lambda: _parse_scenario(data, source, base),
+                                    data, source)
     _sense(scenario, source)
     return scenario
 

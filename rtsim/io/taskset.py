@@ -275,16 +275,7 @@ def parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
     """
     from rtsim.io import limits
 
-    try:
-        ts = _parse_taskset(data, source)
-    except InputError:  # caused by a value far out of range? then say that
-        limits.check_tree("taskset", data, source, skip=("assumptions",), magnitude_only=True)
-        raise
-    except (ArithmeticError, ValueError):  # an extreme value broke a computation: say which
-        limits.check_tree("taskset", data, source, skip=("assumptions",))
-        raise
-    limits.check_tree("taskset", data, source, skip=("assumptions",))
-    return ts
+    return limits.parse_checked("taskset", lambda: _parse_taskset(data, source), data, source)
 
 
 def _parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
