@@ -319,11 +319,6 @@ class _Coupling:
         cpu.on("segment_end", self._on_send, task=win.name, role="send")
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
-        thr = self.thr
-        self.rec = WindowRecorder(self.n, tuple(
-            tuple(float(x) for x in lim) for lim in (
-                [thr.r_H] * self.n, [thr.T_rho * r for r in self.rho_d],
-                [thr.T_eps * r for r in self.rho_d], [thr.T_beta] * self.n)))
         self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
         self._v_max = self._v_actual()  # highest leader speed since the last scan
         self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
@@ -341,10 +336,14 @@ class _Coupling:
         self._lap_prev = (0.0, 0.0)
         self.lap_ms: float | None = None
         rho_d = np.asarray(self.rho_d)
+        thr = self.thr
         self._limits = (("localization", "displacement", thr.r_H),
                         ("separation", "d_rho", thr.T_rho * rho_d),
                         ("path_diversion", "travel", thr.T_eps * rho_d),
                         ("bearing", "d_beta", thr.T_beta))
+        # the same thresholds per follower, for the recorder's _true columns
+        self.rec = WindowRecorder(self.n, tuple(
+            tuple(float(x) for x in np.broadcast_to(lim, self.n)) for _, _, lim in self._limits))
         first = self._estimates(0.0)
         self.dec = first._replace(w=self.w_sch, v_leader=self.v_ld, method="fixed",
                                   feasible=first.msb_min >= self.w_sch, known=first.known[:1])
