@@ -1,12 +1,9 @@
 """Dotted-path overrides of a scenario or task-set file, for the library (notebooks).
 
 ``load_scenario("test2", overrides={"leader.speed": 20, "formation.followers": 4})`` changes
-the parsed TOML document before it goes through the normal loader, exactly as a sweep's
-``[sweep.set]`` and ``[grid]`` entries do: the same path resolution (tables by key, lists of
-tables by ``name`` or 0-based index, shortcuts for ``[window]`` and top-level keys), the same
-typo check, the same :func:`rtsim.sweep.kinds.apply_overrides`, and the loader's own
-validation of the changed values — so a notebook and a sweep accept and refuse the same
-paths with the same messages (:mod:`rtsim.sweep.spec`).
+the parsed TOML document before it is validated, with the paths a sweep's ``[sweep.set]`` and
+``[grid]`` use and ``--set KEY=VALUE`` on the command line takes: one implementation,
+:mod:`rtsim.config.dotted`, kept here under its old name.
 """
 
 from __future__ import annotations
@@ -14,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from rtsim.config.dotted import apply_overrides
 from rtsim.errors import InputError
 
 __all__ = ["apply_dotted_overrides"]
@@ -21,27 +19,8 @@ __all__ = ["apply_dotted_overrides"]
 
 def apply_dotted_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: str,
                            kind: str = "scenario") -> dict[str, Any]:
-    """Apply ``overrides`` (dotted path -> value) to the TOML dict ``data`` in place.
-
-    ``kind``: ``scenario`` or ``simulate`` (a task-set file); decides which names are run
-    options of a sweep, which are refused here (pass them as arguments instead).
-    Raises :class:`~rtsim.errors.SweepError` (an InputError) naming ``source`` and the path.
-    """
-    from rtsim.sweep.kinds import KINDS, apply_overrides
-    from rtsim.sweep.spec import BaseFile, _resolve
-
-    if not isinstance(overrides, Mapping):
-        raise InputError(f"{source}: overrides: expected a mapping of dotted paths to values, "
-                         f"got {type(overrides).__name__}")
-    base = BaseFile(source, "")
-    paths = []
-    for name, value in overrides.items():
-        if not isinstance(name, str) or not name:
-            raise InputError(f"{source}: overrides: keys must be dotted paths, got {name!r}")
-        target = _resolve(source, name, kind, base, data, table="overrides")
-        if target[0] != "path":
-            opts = ", ".join(KINDS[kind].options)
-            raise InputError(f"{source}: overrides.{name}: a run option ({opts}), not a key of "
-                             f"the file: pass it as an argument")
-        paths.append((tuple(target[1:]), value))
-    return apply_overrides(data, tuple(paths))
+    """Apply ``overrides`` (dotted path -> value) to the TOML dict ``data`` in place
+    (``kind``: ``scenario`` or ``simulate``, a task-set file: no difference any more)."""
+    del kind
+    return apply_overrides(data, overrides, source, InputError,
+                           options=("mode", "policy", "seed", "exec", "duration_s"))

@@ -29,6 +29,7 @@ COMMANDS: tuple[str, ...] = (
     "validate",
     "histogram",
     "examples",
+    "schema",
     "animate",
     "reproduce",
 )
@@ -132,8 +133,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         check_option_ranges(parser, args)
         return int(args.func(args) or 0)
-    except InputError as exc:
-        print(f"rtsim: {exc}", file=sys.stderr)
+    except InputError as exc:  # one line per problem (a file may have several)
+        for line in str(exc).split("\n"):
+            print(f"rtsim: {line}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into head, say
         return 0

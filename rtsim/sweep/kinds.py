@@ -51,17 +51,11 @@ __all__ = ["PointInput", "KindSpec", "KINDS", "register_kind", "apply_overrides"
 
 def apply_overrides(data: dict[str, Any], overrides: tuple[tuple[tuple[str, ...], Any], ...]
                     ) -> dict[str, Any]:
-    """Set each dotted path (tables by key, lists of tables by ``name`` or index) in ``data``."""
-    for path, value in overrides:
-        node: Any = data
-        for key in path[:-1]:
-            if isinstance(node, list):
-                named = [e for e in node if isinstance(e, dict) and e.get("name") == key]
-                node = named[0] if named else node[int(key)]
-            else:
-                node = node[key]
-        node[path[-1]] = value
-    return data
+    """Set each dotted path (tables by key, lists of tables by ``name`` or index) in ``data``
+    (:func:`rtsim.config.dotted.apply_paths`)."""
+    from rtsim.config.dotted import apply_paths
+
+    return apply_paths(data, overrides)
 
 
 @dataclass(frozen=True)

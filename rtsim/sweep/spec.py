@@ -47,7 +47,6 @@ Any problem is a :class:`~rtsim.errors.SweepError` naming the file and the key.
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import importlib
 import json
@@ -59,6 +58,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from rtsim._suggest import did_you_mean
+from rtsim.config.dotted import resolve, shortcuts
 from rtsim.errors import InputError, SweepError
 from rtsim.io.ranges import parse_values
 from rtsim.sweep.kinds import KINDS
@@ -78,11 +79,6 @@ _COMBINE = ("product", "zip")
 def canonical_json(obj: Any) -> str:
     """Compact, key-sorted JSON: the text that seeds and fingerprints are hashed from."""
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=True)
-
-
-def _did_you_mean(word: str, choices: list[str] | tuple[str, ...], cutoff: float = 0.6) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=cutoff)
-    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 @dataclass(frozen=True)
@@ -212,34 +208,6 @@ def _value_type(v: Any) -> str:
 
 
 # -- parameter resolution --------------------------------------------------------------
-def _walk(data: Any, keys: list[str], src: str, name: str, base: str, table: str) -> None:
-    """Check that dotted ``keys`` address a value (or a new leaf) in ``data``."""
-    node = data
-    for i, key in enumerate(keys):
-        last = i == len(keys) - 1
-        where = f"{src}: {table}.{name}: unknown parameter path"
-        if isinstance(node, dict):
-            if key in node:
-                node = node[key]
-                continue
-            # a new leaf key is allowed (the loader validates it) unless it looks like a typo
-            hint = _did_you_mean(key, [str(k) for k in node], 0.8 if last else 0.6)
-            if last and not hint:
-                return
-            raise SweepError(f"{where} (no key '{key}' in {base}{hint})")
-        if isinstance(node, list):
-            names = [e.get("name") for e in node if isinstance(e, dict)]
-            if key in names:
-                node = node[names.index(key)]
-                continue
-            if key.isdigit() and int(key) < len(node):
-                node = node[int(key)]
-                continue
-            hint = _did_you_mean(key, [str(n) for n in names if n is not None])
-            raise SweepError(f"{where} (no entry named '{key}' in {base}{hint})")
-        raise SweepError(f"{where} ('{'.'.join(keys[:i])}' in {base} is a value, not a table)")
-
-
 def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
              data: dict[str, Any] | None, table: str = "grid") -> tuple[str, ...]:
     if name == "seed":
@@ -253,22 +221,13 @@ def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
         return ("option", name)
     assert base is not None and data is not None
     bname = Path(base.path).name if base.path else base.source
-    if "." in name:
-        keys = name.split(".")
-        _walk(data, keys, src, name, bname, table)
-        return ("path", *keys)
-    window = data.get("window")
-    if isinstance(window, dict) and name in window and name != "name":
-        return ("path", "window", name)
-    if name in data and not isinstance(data[name], dict | list):
-        return ("path", name)
-    choices = list(spec.options) + ["seed"]
-    if isinstance(window, dict):
-        choices += [k for k in window if k != "name"]
-    choices += [k for k, v in data.items() if not isinstance(v, dict | list)]
+    path = resolve(data, name, f"{src}: {table}.{name}", bname, SweepError)
+    if path is not None:
+        return ("path", *path)
+    choices = list(spec.options) + ["seed"] + shortcuts(data)
     raise SweepError(
         f"{src}: {table}.{name}: unknown parameter (not an option of kind '{kind}', nor a key of "
-        f"{bname}){_did_you_mean(name, choices)}"
+        f"{bname}){did_you_mean(name, choices)}"
     )
 
 
@@ -277,7 +236,7 @@ def _check_keys(src: str, table: str, got: Mapping[str, Any], allowed: tuple[str
     for key in got:
         if key not in allowed:
             where = f"{table}.{key}" if table else key
-            raise SweepError(f"{src}: unknown key '{where}'{_did_you_mean(key, allowed)}")
+            raise SweepError(f"{src}: unknown key '{where}'{did_you_mean(key, allowed)}")
 
 
 def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None:
@@ -361,14 +320,14 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
         raise SweepError(f"{src}: sweep.kind: missing (one of {', '.join(KINDS)})")
     if kind not in KINDS:
         raise SweepError(f"{src}: sweep.kind: unknown kind {kind!r} (one of "
-                         f"{', '.join(KINDS)}){_did_you_mean(str(kind), tuple(KINDS))}")
+                         f"{', '.join(KINDS)}){did_you_mean(str(kind), tuple(KINDS))}")
     seed = sw.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
         raise SweepError(f"{src}: sweep.seed: expected a non-negative integer, got {seed!r}")
     combine = sw.get("combine", "product")
     if combine not in _COMBINE:
         raise SweepError(f"{src}: sweep.combine: expected 'product' or 'zip', got {combine!r}"
-                         f"{_did_you_mean(str(combine), _COMBINE)}")
+                         f"{did_you_mean(str(combine), _COMBINE)}")
     function = sw.get("function")
     if kind == "call":
         if not isinstance(function, str) or function.count(":") != 1:
@@ -400,7 +359,7 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
                     raise SweepError(
                         f"{src}: sweep.metrics: unknown metric {m!r} for kind '{kind}' "
                         f"(known: {', '.join(kspec.metrics)})"
-                        f"{_did_you_mean(m, kspec.metrics)}")
+                        f"{did_you_mean(m, kspec.metrics)}")
         metrics = tuple(metrics)
     name = sw.get("name", "")
     if not isinstance(name, str):
