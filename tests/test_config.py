@@ -182,3 +182,76 @@ def test_parse_assignment() -> None:
     for bad in ("novalue", "=3", "x=[1,"):
         with pytest.raises(InputError, match="--set"):
             parse_assignment(bad)
+
+
+# -- --set on the command line ------------------------------------------------------------
+def test_scenario_set_runs_and_is_recorded_as_given(tmp_path: Path) -> None:
+    out = tmp_path / "o"
+    assert main(["scenario", "test2", "--set", "formation.followers=4", "--set",
+                 "leader.speed=25", "--duration", "2", "--no-figures", "--out", str(out)]) == 0
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["inputs"]["set"] == ["formation.followers=4", "leader.speed=25"]
+    scen = man["inputs"]["scenario"]
+    assert len(scen["formation"]["rho_d"]) == 4 and scen["leader"]["speed"] == 25
+    assert scen["taskset"]["window"]["n"] == 4  # the follower count has one source
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["n"] == 4
+
+
+@pytest.mark.parametrize(("argv", "line"), [
+    (["scenario", "test2", "--set", "formation.followers=four", "--out", "{out}"],
+     "rtsim: test2.toml: formation.followers: must be an integer, got 'four'"),
+    (["scenario", "test2", "--set", "leader.sped=3", "--out", "{out}"],
+     "rtsim: test2.toml: overrides.leader.sped: unknown parameter path (no key 'sped' in "
+     "test2.toml (did you mean 'speed'?))"),
+    (["analyze", "barrel_robots.toml", "--set", "window.n=0"],
+     "rtsim: {ts}: [window]: n: must be an integer >= 1, got 0"),
+    (["simulate", "barrel_robots.toml", "--horizon", "100", "--set", "novalue"],
+     "rtsim: --set 'novalue': expected KEY=VALUE (a dotted key such as "
+     "formation.followers=4)"),
+])
+def test_a_bad_set_exits_2_with_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                         argv: list[str], line: str) -> None:
+    ts = str(ROOT / "tasksets" / "barrel_robots.toml")
+    argv = [ts if a == "barrel_robots.toml" else str(tmp_path / "o") if a == "{out}" else a
+            for a in argv]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == line.replace("{ts}", ts) + "\n"
+
+
+def test_analyze_and_simulate_set(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    ts = str(ROOT / "tasksets" / "barrel_robots.toml")
+    assert main(["analyze", ts, "--json", "--set", "n=3"]) == 0
+    with_set = json.loads(capsys.readouterr().out)
+    from rtsim.analysis.bounds import window_bounds
+
+    want = window_bounds(load_taskset(ts).with_window(n=3)).w_sch
+    assert with_set["w"] == want
+    jobs = tmp_path / "jobs.csv"
+    assert main(["simulate", ts, "--horizon", "500", "--set", "tasks.command.wcet=20",
+                 "--jobs", str(jobs)]) == 0
+    man = json.loads((tmp_path / "manifest.json").read_text())
+    assert man["inputs"]["set"] == ["tasks.command.wcet=20"]
+    assert {t["name"]: t["wcet"] for t in man["inputs"]["taskset"]["tasks"]}["command"] == 20
+
+
+def test_sweep_set_applies_at_every_point(tmp_path: Path) -> None:
+    from rtsim.sweep.spec import load_sweep
+
+    spec = load_sweep("smoke", set_=["window.delta_t=50", "tasks.command.bcet=12"])
+    fixed = dict(spec.fixed)
+    assert fixed["window.delta_t"] == 50 and fixed["tasks.command.bcet"] == 12
+    assert spec.resolved()["set_args"] == ["window.delta_t=50", "tasks.command.bcet=12"]
+    assert "set_args" not in load_sweep("smoke").resolved()  # old fingerprints unchanged
+
+
+def test_reproduce_passes_set_through() -> None:
+    import argparse
+
+    from rtsim.cli.reproduce import argv_for
+    from rtsim.reproduce import parse_args
+
+    ns = argparse.Namespace(out="o", seed=None, duration=None, workers=None, docs=None,
+                            quick=True, quiet=False, set=["leader.speed=20"])
+    argv = argv_for(ns)
+    assert parse_args(argv).set == ["leader.speed=20"]

@@ -30,6 +30,9 @@ def register(sub: Any) -> None:
                        description=__doc__.splitlines()[0])
     p.add_argument("file", metavar="FILE", help="task-set TOML file")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    from rtsim.cli._set import add_set_option
+
+    add_set_option(p)
     p.add_argument("--check", action="store_true",
                    help="exit with status 1 when the set is not schedulable")
     p.add_argument("--window", metavar="MS", default=None,
@@ -153,10 +156,11 @@ def json_safe(obj: Any) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
     from rtsim.analysis.rta import analyze
+    from rtsim.cli._set import set_overrides
     from rtsim.io.taskset import load_taskset
 
     w = _window(args.window)
-    ts = load_taskset(args.file)
+    ts = load_taskset(args.file, overrides=set_overrides(args))
     if w is not None and ts.window is None:
         raise InputError(f"{args.file}: --window: the task set has no [window]")
     if args.overhead is not None and not (math.isfinite(args.overhead) and args.overhead >= 0):

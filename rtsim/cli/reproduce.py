@@ -32,6 +32,10 @@ def register(sub: Any) -> None:
     p.add_argument("--docs", default=None, metavar="DIR",
                    help="also write the README's figures (PNG, 100 dpi) to DIR")
     p.add_argument("--quiet", action="store_true", help="no progress lines, no table")
+    from rtsim.cli._set import add_set_option
+
+    add_set_option(p, help="change a key of both scenarios (Test 1 and Test 2): a dotted path, "
+                   "the value read as TOML; repeatable")
     p.set_defaults(func=run)
 
 
@@ -42,6 +46,7 @@ def argv_for(args: Any) -> list[str]:
         value = getattr(args, opt)
         if value is not None:
             argv += [f"--{opt}", str(value)]
+    argv += [a for s in getattr(args, "set", None) or [] for a in ("--set", s)]
     return argv + [f"--{flag}" for flag in ("quick", "quiet") if getattr(args, flag)]
 
 

@@ -65,6 +65,9 @@ def register(sub: Any) -> None:
     p.add_argument("--perfetto", metavar="FILE",
                    help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    from rtsim.cli._set import add_set_option
+
+    add_set_option(p)
     p.add_argument("--force", action="store_true",
                    help="run even when the horizon gives more than 5e7 jobs")
     p.set_defaults(func=run)
@@ -142,7 +145,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
 
     if not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
-    ts = load_taskset(args.file)
+    from rtsim.cli._set import set_overrides, set_strings
+
+    ts = load_taskset(args.file, overrides=set_overrides(args))
     changes: dict[str, Any] = {}
     if args.followers is not None:
         changes["n"] = args.followers
@@ -237,7 +242,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
               "suspension": args.suspension, "overhead": overhead, "jitter": args.jitter,
               "scheduler": scheduler,
-              "window": res.window, "taskset": taskset_to_dict(ts)}
+              "window": res.window, "taskset": taskset_to_dict(ts), "set": set_strings(args)}
     for man, names in _manifest_names(outputs).items():
         write_json(files.add(man, "--jobs/--trace/... manifest"),
                    build_manifest(command="simulate", seed=args.seed, inputs=inputs,

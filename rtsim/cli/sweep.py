@@ -39,6 +39,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--force", action="store_true",
                    help="run a grid above the size limit (1e5 points)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
+    from rtsim.cli._set import add_set_option
+
+    add_set_option(p, help="change a key of the sweep's base file at every point, as "
+                   "[sweep.set] does (over it): a dotted path, the value read as TOML; "
+                   "repeatable")
     p.set_defaults(func=run)
 
 
@@ -48,9 +53,11 @@ def _sigterm(signum: int, frame: FrameType | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep; see the module docstring for the exit status."""
+    from rtsim.cli._set import set_strings
     from rtsim.sweep.engine import Sweep, SweepIncomplete
+    from rtsim.sweep.spec import load_sweep
 
-    sweep = Sweep(args.spec, args.out, force=args.force)
+    sweep = Sweep(load_sweep(args.spec, set_=set_strings(args)), args.out, force=args.force)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         outcome = sweep.run(workers=args.workers, dask=args.dask,

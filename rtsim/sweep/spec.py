@@ -135,6 +135,7 @@ class SweepSpec:
     function: str | None = None
     name: str = ""
     fixed: tuple[tuple[str, Any], ...] = ()
+    set_args: tuple[str, ...] = ()  # the command line's --set KEY=VALUE, as given
 
     def resolved(self) -> dict[str, Any]:
         """Everything that determines the points and their results (the fingerprint's input)."""
@@ -150,6 +151,7 @@ class SweepSpec:
             "targets": {k: list(v) for k, v in self.targets.items()},
             "options": dict(self.options),
             "set": {k: v for k, v in self.fixed},
+            **({"set_args": list(self.set_args)} if self.set_args else {}),
             "metrics": None if self.metrics is None else list(self.metrics),
         }
 
@@ -307,7 +309,7 @@ def _check_option(src: str, where: str, name: str, value: Any) -> None:
 
 
 def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = ".",
-                text: str = "") -> SweepSpec:
+                text: str = "", set_: tuple[str, ...] = ()) -> SweepSpec:
     """Validate a parsed sweep file; ``base_dir`` is where a relative ``base`` is found."""
     src = source
     _check_keys(src, "", data, _TOP_KEYS)
@@ -381,8 +383,15 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
     fixed_raw = sw.get("set", {})
     if not isinstance(fixed_raw, dict):
         raise SweepError(f"{src}: sweep.set: expected a table")
+    targets = {str(k): _resolve(src, str(k), kind, base, bdata, "sweep.set") for k in fixed_raw}
+    fixed_raw = dict(fixed_raw)
+    if set_:  # --set KEY=VALUE: as [sweep.set], over it
+        from rtsim.config.dotted import parse_assignment
+
+        for key, value in (parse_assignment(t, SweepError) for t in set_):
+            targets[key] = _resolve(src, key, kind, base, bdata, "--set")
+            fixed_raw[key] = value
     fixed = tuple((str(k), v) for k, v in fixed_raw.items())
-    targets = {k: _resolve(src, k, kind, base, bdata, "sweep.set") for k, _ in fixed}
     both = [k for k, _ in grid if k in targets]
     if both:
         raise SweepError(f"{src}: grid.{both[0]}: also given in sweep.set")
@@ -409,12 +418,14 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
     return SweepSpec(
         source=src, text=text, kind=kind, base=base, seed=seed, combine=combine, grid=grid,
         targets=targets, options=dict(options), metrics=metrics, function=function, name=name,
-        fixed=fixed,
+        fixed=fixed, set_args=tuple(set_),
     )
 
 
-def load_sweep(path: str | Path) -> SweepSpec:
-    """Read and validate a sweep file."""
+def load_sweep(path: str | Path, set_: list[str] | tuple[str, ...] = ()) -> SweepSpec:
+    """Read and validate a sweep file; ``set_``: ``KEY=VALUE`` changes of the base file at
+    every point (the command line's ``--set``, applied over ``[sweep.set]``)."""
+    set_ = tuple(set_)
     p = Path(path)
     from rtsim.examples import packaged_text
 
@@ -424,7 +435,7 @@ def load_sweep(path: str | Path) -> SweepSpec:
             data = tomllib.loads(shipped)
         except tomllib.TOMLDecodeError as exc:  # pragma: no cover - shipped files are valid
             raise SweepError(f"{p}: not valid TOML: {exc}") from None
-        return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped)
+        return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped, set_)
     from rtsim.io.limits import read_input
 
     try:
@@ -435,4 +446,4 @@ def load_sweep(path: str | Path) -> SweepSpec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{p}: not valid TOML: {exc}") from None
-    return parse_sweep(data, str(p), p.resolve().parent, text)
+    return parse_sweep(data, str(p), p.resolve().parent, text, set_)
