@@ -41,6 +41,8 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
     [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed),
                    predictor = "paper" | "formation" | "hybrid" (rtsim.control.predict),
                    lower_bound = "w_sch" | "w_rta" | "w_susp"
+    [localization] centre = "previous" | "predicted", search = "always" | "visible"
+                   (where the Hough windows are centred; which lost followers are searched for)
     [world]        step_ms (integration step while a speed ramps)
     [assumptions]  key = "reason"      # every value the paper does not give
 
@@ -66,7 +68,7 @@ from rtsim.analysis.kinematics import Thresholds
 from rtsim.errors import InputError, ScenarioError
 from rtsim.model.taskset import TaskSet
 from rtsim.world._check import non_negative, number, positive
-from rtsim.world.config import SensingParams, WorldConfig
+from rtsim.world.config import LocalizationParams, SensingParams, WorldConfig
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import FORMATION_MODELS, Formation, chevron, in_line
@@ -83,7 +85,8 @@ PACKAGED_SCENARIOS = ("test1", "test2")
 T = TypeVar("T")
 
 TOP_KEYS = ("name", "description", "taskset", "duration", "leader", "formation", "follower",
-            "sensing", "ekf", "thresholds", "adjust", "world", "assumptions", "scheduler")
+            "sensing", "ekf", "thresholds", "adjust", "world", "assumptions", "scheduler",
+            "localization")
 _ANGLES: dict[str, tuple[str, ...]] = {
     "leader": (), "start": ("heading",), "segment": ("angle",),
     "formation": ("bearing_offset",), "slot": ("beta_d",),
@@ -429,8 +432,12 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     step_ms = wtab.get("step_ms", 10.0)
     wtab.finish(("step_ms",))
 
+    localization = _section(src, data, "localization",
+                            tuple(LocalizationParams.__dataclass_fields__), LocalizationParams)
+    top.get("localization")
     world = _build(src, lambda: WorldConfig(path, speed, formation, follower, sensing, ekf,
-                                            thresholds, step_ms, start_s, **ramps))
+                                            thresholds, step_ms, start_s, **ramps,
+                                            localization=localization))
     if adjust.floor > speed:
         raise ScenarioError(f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the "
                             f"desired speed {speed:g} cm/s")
