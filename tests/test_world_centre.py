@@ -77,7 +77,8 @@ def test_predicted_keeps_a_far_follower_through_a_turn_entry() -> None:
         runs[c] = scan
     # hand-computed: the leader on its circle, the follower straight on at v_f
     psi = v * w_ms / 1000.0 / radius
-    leader = (800.0 + radius * math.sin(psi), radius * (1.0 - math.cos(psi)), psi)  # turn at x = 800
+    # the turn starts at x = 800
+    leader = (800.0 + radius * math.sin(psi), radius * (1.0 - math.cos(psi)), psi)
     follower = (x0 + v_f * math.cos(th0), y0 + v_f * math.sin(th0))
     rel1 = to_frame(leader, *follower)
     moved = math.hypot(rel1[0] - rel0[0], rel1[1] - rel0[1])
@@ -123,9 +124,9 @@ def test_lost_causes_by_hand() -> None:
 def test_coupled_run_records_lost_tracks_by_cause() -> None:
     """Four followers in a frozen Test 2's in-line formation lose tracks in its first turn: the
     causes sum to tracks_lost, per window and in summary.json."""
-    from rtsim.coupling.scenario_run import run_scenario
-
     from pathlib import Path
+
+    from rtsim.coupling.scenario_run import run_scenario
 
     pin2 = Path(__file__).parent / "data" / "policy_pin" / "pin2.toml"  # a frozen Test 2
     res = run_scenario(pin2, overrides={"formation.followers": 4}, duration_s=45.0,
@@ -139,3 +140,38 @@ def test_coupled_run_records_lost_tracks_by_cause() -> None:
     assert set(s["tracks_lost_by_cause"]) == {"outside_window", "occluded", "out_of_range"}
     assert s["searches"] == s["tracks_lost"]  # search = "always" searches every lost track
     assert s["reacquisitions"] == int(df["reacquisitions"].sum()) <= s["searches"]
+
+
+def test_predicted_localization_bound_by_hand() -> None:
+    """k(2√2σ_fix + (Vσ_θ + σ_v)w + ½Vσ_ω w²) = r_H solved for w: with σ_fix = 1 cm,
+    σ_θ = 2°, σ_v = 0.5 cm/s, σ_ω = 0.3°/s, V = 150 cm/s, k = 3 and r_H = 25 cm."""
+    from rtsim.analysis.kinematics import msb_localization_predicted
+
+    a = 0.5 * 150 * math.radians(0.3)
+    b = 150 * math.radians(2.0) + 0.5
+    c = 25 / 3 - 2 * math.sqrt(2)
+    w = (-b + math.sqrt(b * b + 4 * a * c)) / (2 * a)
+    got = msb_localization_predicted(25.0, fix_sd=1.0, heading_sd=math.radians(2.0),
+                                     speed_sd=0.5, turn_sd=math.radians(0.3), v_max=150.0)
+    assert got == pytest.approx(1000 * w) and 900 < got < 910
+    # the residual at that w is exactly r_H
+    assert 3 * (2 * math.sqrt(2) + b * w + a * w * w) == pytest.approx(25.0)
+    assert msb_localization_predicted(8.0, fix_sd=1.0, heading_sd=0.0, speed_sd=0.0,
+                                      turn_sd=0.0, v_max=150.0) == 0.0
+
+
+def test_shipped_choices_leave_two_followers_unchanged() -> None:
+    """Test 2 with two followers: the predicted centre, the visible-only search and the fan
+    change nothing (no track is lost, and the fan's pair is the line's); the predicted
+    localization bound changes only its own column (it never binds)."""
+    from rtsim.coupling.recorder import LOCALIZATION_COLUMNS
+    from rtsim.coupling.scenario_run import run_scenario
+
+    old = {"localization.centre": "previous", "localization.search": "always",
+           "formation.layout": "line", "thresholds.localization": "radial"}
+    new = run_scenario("test2", duration_s=40.0, record_jobs=False).windows
+    was = run_scenario("test2", duration_s=40.0, record_jobs=False, overrides=old).windows
+    drop = [*LOCALIZATION_COLUMNS, "f1_msb_localization_pred", "f2_msb_localization_pred"]
+    assert new.drop(columns=drop).equals(was.drop(columns=drop))
+    assert (new["f1_msb_localization_pred"] > 900).all()
+    assert not new["binding"].str.startswith("localization").any()

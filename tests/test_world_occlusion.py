@@ -46,3 +46,36 @@ def test_share_matches_a_constructed_turn(radius: float, hidden: bool) -> None:
     assert share.occluded[0] == 0.0 and share.out_of_range[0] == 0.0
     assert share.occluded[2] == (1.0 if hidden else 0.0)
     assert share.out_of_range[2] == 0.0
+
+
+def test_fan_bearings_by_hand() -> None:
+    """Ten followers at 390 cm: the pair at 195° and 165°, then steps of 2·asin(25/390) + 1°
+    = 8.35° on the right (outer for a counter-clockwise path); all at ρ_d."""
+    from rtsim.world.formation import fan, fan_bearings
+
+    step = 2 * math.degrees(math.asin(25 / 390)) + 1.0
+    got = [math.degrees(b) for b in fan_bearings(10, 390.0, math.radians(15), 25.0)]
+    want = [195.0, 165.0] + [195.0 + k * step for k in range(1, 9)]
+    assert got == pytest.approx(want)
+    f = fan(10, 390.0)
+    assert f.rho_d == (390.0,) * 10 and f.model == "follow-the-leader"
+    # the pair is the paper's (and the line's) for two followers
+    assert fan(2, 390.0).beta_d == pytest.approx(in_line(2, 390.0).beta_d)
+    # at 325 cm the right side holds 8 (the 9th step would reach 273.6° > 270° − 4.4°):
+    # the tenth goes inside, one step beyond 165°
+    step325 = 2 * math.degrees(math.asin(25 / 325)) + 1.0
+    b325 = [math.degrees(b) for b in fan_bearings(10, 325.0, math.radians(15), 25.0)]
+    assert b325[-1] == pytest.approx(165.0 - step325)
+    assert max(b325) == pytest.approx(195.0 + 7 * step325)
+
+
+def test_fan_is_seen_on_both_test_paths() -> None:
+    """The fan of ten followers on Test 1's path: no follower hidden or out of the laser's
+    view at any sample of the lap (the line's further ranks are, 8-16 % of the lap)."""
+    from rtsim.world.formation import fan
+
+    path = rr(800, 400, 200)
+    share = occlusion_share(path, fan(10, 390.0), 25.0, step=12.0)
+    assert share.worst == 0.0
+    line = occlusion_share(path, in_line(4, 390.0), 25.0, step=12.0)
+    assert line.worst > 0.05
