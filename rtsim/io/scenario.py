@@ -40,6 +40,7 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
     [ekf]          measurement_noise, speed_noise, turn_noise(_deg), position_drift,
                    heading_drift(_deg), init_position_sd, init_heading_sd(_deg), backend
     [thresholds]   T_rho, T_eps, T_beta(_deg), localization = "radial" | "full" | "predicted"
+                   (default: "predicted" with [localization] centre = "predicted", else "radial")
     [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed),
                    predictor = "paper" | "formation" | "hybrid" (rtsim.control.predict),
                    lower_bound = "w_sch" | "w_rta" | "w_susp"
@@ -328,13 +329,10 @@ def _formation(src: str, data: object, r_F: float, path: LeaderPath) -> Formatio
                             f"{', '.join(FORMATION_LAYOUTS)}, got {layout!r}")
     offset = args.get("bearing_offset", math.radians(15))
     if layout == "fan":
-        if model != "follow-the-leader":
-            raise ScenarioError(f"{src}: formation.layout: 'fan' needs model = "
-                                f"'follow-the-leader' (l-psi holds rigid slots)")
         segs = path.segments
         outer = outer_side([g.curvature for g in segs], [g.length for g in segs])
         return _build(src, lambda: fan(args["followers"], args["separation"], offset, r_F=r_F,
-                                       outer=outer))
+                                       outer=outer, model=model))
     place = in_line if model == "follow-the-leader" else chevron
     return _build(src, lambda: place(args["followers"], args["separation"], offset, r_F=r_F))
 
@@ -446,7 +444,11 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     t_rho = thr.get("T_rho", 0.01)
     t_eps = thr.get("T_eps", 0.025)
     t_beta = thr.get("T_beta", math.radians(5.0))
-    loc = thr.get("localization", "radial")
+    # the decision's localization bound: by default the one that matches the window's
+    # centre (Eq 19 for the previous position, the residual bound for the predicted one)
+    centre = data.get("localization", {}).get("centre", "previous") \
+        if isinstance(data.get("localization"), Mapping) else "previous"
+    loc = thr.get("localization", "predicted" if centre == "predicted" else "radial")
     thr.finish(("T_rho", "T_eps", "T_beta", "localization"))
     for key, val in (("T_rho", t_rho), ("T_eps", t_eps), ("T_beta", t_beta)):
         _build(src, lambda k=key, v=val: positive(f"thresholds.{k}", v))

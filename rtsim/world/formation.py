@@ -264,10 +264,12 @@ def fan_bearings(n: int, separation: float, offset: float, r_F: float, outer: in
 
 
 def fan(n: int, separation: float, offset: float = math.radians(15), *, r_F: float = 25.0,
-        outer: int = -1, gap: float = CHEVRON_GAP) -> Formation:
+        outer: int = -1, gap: float = CHEVRON_GAP, model: str = "follow-the-leader"
+        ) -> Formation:
     """The fan: every follower at ρ_d = ``separation`` cm, bearings from :func:`fan_bearings`
-    (follow-the-leader). Raises :class:`ScenarioError` when a follower would leave the
-    laser's view (a bearing outside [90°, 270°] by its disc's half-width)."""
+    (``model``: follow-the-leader holds them on straights, l-ψ as rigid slots). Raises
+    :class:`ScenarioError` when a follower would leave the laser's view (a bearing outside
+    [90°, 270°] by its disc's half-width)."""
     n, sep, off, r_F = _pair_args(n, separation, offset, r_F)
     if outer not in (-1, 1):
         raise ValueError(f"outer must be -1 (right) or 1 (left), got {outer!r}")
@@ -280,4 +282,4 @@ def fan(n: int, separation: float, offset: float = math.radians(15), *, r_F: flo
                 f"follower {i + 1} would need {math.degrees(b):.4g} deg, outside the laser's "
                 f"view; use a larger separation, a smaller bearing_offset, or "
                 f"[[formation.slot]]")
-    return Formation(tuple([sep] * n), tuple(bearings), "follow-the-leader")
+    return Formation(tuple([sep] * n), tuple(bearings), model)
