@@ -78,6 +78,16 @@ class PolicyInput:
     followers' actuation noise per command; pose_sd: per follower (σ_p cm, σ_θ rad) from the
     leader's EKF covariance P, σ_p = √((P_xx + P_yy)/2), σ_θ = √P_θθ (these three are filled
     for a policy whose class sets ``needs_noise = True``, else 0 / empty).
+
+    rollout: **the command-aware rollout hook** (:class:`rtsim.control.rollout.Rollout`),
+    filled by a coupled run with follow-the-leader followers when the predictor is
+    ``commands`` or the policy's class sets ``needs_rollout = True`` (else None):
+    ``rollout.rows(v)`` — every follower's four bounds (ms) in the window this decision
+    governs if the leader's target speed is ``v``, from the leader's own ramp and the
+    commands it will send (:mod:`rtsim.control.rollout`); ``rollout.rows(v, w)`` for a window
+    of ``w`` ms; ``rollout.changes(v, windows)`` — the predicted changes (displacement,
+    |Δρ|, distance, |Δβ|) per follower in each of several consecutive windows;
+    ``rollout.bounds(changes, w)`` turns one window's changes into bounds.
     """
 
     followers: Sequence[FollowerEstimate]
@@ -99,6 +109,7 @@ class PolicyInput:
     speed_noise: float = 0.0
     turn_noise: float = 0.0
     pose_sd: tuple[tuple[float, float], ...] = ()
+    rollout: Any = None
 
 
 @runtime_checkable
@@ -220,7 +231,7 @@ def _rows_at_vld(ctx: PolicyInput) -> list[tuple[float, float, float, float]]:
                else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
                                     v_now=ctx.v_now))
     return _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
-                    ctx.v_now)(ctx.v_ld)
+                    ctx.v_now, ctx.rollout)(ctx.v_ld)
 
 
 @register_policy("adjust")
@@ -234,7 +245,7 @@ class PaperPolicy:
     def decide(self, ctx: PolicyInput) -> Decision:
         return _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch, ctx.thresholds, ctx.omega_l,
                             ctx.kappa, ctx.cap, ctx.floor_frac, ctx.predictor, ctx.methods,
-                            ctx.scan_points, ctx.v_now)
+                            ctx.scan_points, ctx.v_now, ctx.rollout)
 
 
 @register_policy("fixed-wsch")
@@ -293,7 +304,7 @@ class MarginPolicy:
         cap = _check(ctx, "margin")
         d = _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch / keep, ctx.thresholds,
                          ctx.omega_l, ctx.kappa, cap / keep, ctx.floor_frac, ctx.predictor,
-                         ctx.methods, ctx.scan_points, ctx.v_now)
+                         ctx.methods, ctx.scan_points, ctx.v_now, ctx.rollout)
         w = ctx.w_sch if d.method != "none" else max(ctx.w_sch, min(keep * d.msb_min, cap))
         return d._replace(w=w)
 
@@ -367,7 +378,7 @@ class LookaheadPolicy:
                                   _make_predictor(ctx.predictor, omega_l=ctx.omega_l,
                                                   kappa=ctx.kappa, v_now=ctx.v_now),
                                   ctx.thresholds, ctx.predictor, ctx.kappa, ctx.omega_l,
-                                  ctx.v_now)(v_l)
+                                  ctx.v_now, ctx.rollout)(v_l)
             m_after = min_bound_rows(rows_after)[0]
             d_out = d._replace(v_leader=v_l, method="lookahead", rows_after=rows_after,
                                msb_min_after=m_after,
@@ -465,7 +476,7 @@ class NoiseAwarePolicy:
                    else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
                                         v_now=ctx.v_now))
         raw = _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
-                       ctx.v_now)
+                       ctx.v_now, ctx.rollout)
         memo: dict[float, list[tuple[float, float, float, float]]] = {}
 
         def rows_at(v: float) -> list[tuple[float, float, float, float]]:

@@ -69,6 +69,7 @@ from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
+from rtsim.control.rollout import Rollout, RolloutState
 from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder, records_frame
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
@@ -290,6 +291,10 @@ class _Coupling:
             opts["speed_noise"] = cfg.follower.speed_noise
             opts["turn_noise"] = cfg.follower.turn_noise
         self.mode = str(self.policy.name)
+        # the command-aware rollout (PolicyInput.rollout): the predictor "commands", or a
+        # policy that asks for it
+        self._rollout = (opts.get("predictor") == "commands"
+                         or bool(getattr(self.policy, "needs_rollout", False)))
         cap_factor = opts.pop("cap_factor", None)
         if cap_factor is not None and "cap" not in opts:
             opts["cap"] = float(cap_factor) * self.w_sch
@@ -300,6 +305,10 @@ class _Coupling:
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
+        if self._rollout and self.world.follow_law is None:
+            raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.predictor: "
+                             f"'commands' (and a policy that plays the commands ahead) needs "
+                             f"formation.model = 'follow-the-leader'")
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
@@ -344,13 +353,46 @@ class _Coupling:
         # the same thresholds per follower, for the recorder's _true columns
         self.rec = WindowRecorder(self.n, tuple(
             tuple(float(x) for x in np.broadcast_to(lim, self.n)) for _, _, lim in self._limits))
+        # each follower's send, ms after its window's scan (measured in the last window; the
+        # chain's nominal offsets until then)
+        self._send_offsets = self._nominal_offsets(ts)
         first = self._estimates(0.0)
         self.dec = first._replace(w=self.w_sch, v_leader=self.v_ld, method="fixed",
                                   feasible=first.msb_min >= self.w_sch, known=first.known[:1])
 
     # -- the decision ----------------------------------------------------------------
-    def _estimates(self, now: float) -> _Decision:
-        """Run the mode's decision on the leader's estimates at ``now``."""
+    def _nominal_offsets(self, ts: TaskSet) -> list[float]:
+        """Each follower's send, ms after the scan starts, with the chain's WCETs and the
+        Hough time of Eq 1 at its assumed points (before any window has run)."""
+        out: list[float] = []
+        t = 0.0
+        for seg in ts.window.segments():  # type: ignore[union-attr]
+            t += seg.wcet
+            if seg.role == "send":
+                out.append(t)
+        return out[:self.n] + [out[-1] if out else 0.0] * (self.n - len(out))
+
+    def _rollout_state(self, now: float, next_scan: float) -> Any:
+        """What the leader knows for its rollout at ``now`` (:class:`RolloutState`)."""
+        world = self.world
+        ld = world.leader
+        poses, speeds, held = [], [], []
+        for i in range(1, self.n + 1):
+            pose, v = world.estimate_at(i, now)
+            poses.append(pose)
+            speeds.append(v)
+            held.append(world.held_command(i))
+        cfg = self.cfg
+        return Rollout(RolloutState(
+            cfg.path, world.follow_law, cfg.follower, cfg.step_ms, now, ld.s, ld.speed,
+            self.v_ld, cfg.leader_accel_max, cfg.leader_decel_max, tuple(poses),
+            tuple(speeds), tuple(held), tuple(() for _ in range(self.n)),
+            max(now, next_scan), tuple(self._send_offsets), self.thr, tuple(self.rho_d),
+            self.w_sch))
+
+    def _estimates(self, now: float, next_scan: float | None = None) -> _Decision:
+        """Run the mode's decision on the leader's estimates at ``now``; ``next_scan``: when
+        the window it governs scans (for the rollout; default now)."""
         world = self.world
         world.advance(now)
         lp = world.leader_pose
@@ -367,11 +409,15 @@ class _Coupling:
                                          self.beta_d[k]))
         kw = {"omega_l": world.leader_omega, "kappa": kappa, "v_now": self._v_actual()}
         ahead = () if self._path is None else self._ahead()
-        extra = {"pose_sd": self._pose_sd()} if self._noise else {}
+        extra: dict[str, Any] = {"pose_sd": self._pose_sd()} if self._noise else {}
+        if self._rollout:
+            extra["rollout"] = self._rollout_state(now, now if next_scan is None else next_scan)
         adj = self.policy.decide(PolicyInput(fols, v_ld=self.v_ld, w_sch=self.w_sch,
                                              thresholds=self.thr, **kw, **self.opts,
                                              ahead=ahead, **extra))
         v_l = max(adj.v_leader, self.v_floor)
+        if self._rollout:  # the _pred columns evaluate the same rollout
+            kw = {**kw, "rollout": extra["rollout"]}
         return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
                          adj.feasible and v_l == adj.v_leader, tuple(state), tuple(fols), kw,
                          ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)))
@@ -521,13 +567,18 @@ class _Coupling:
         return self._hough_ms
 
     def _on_send(self, job: Job, seg: Segment) -> None:
-        self.world.command(int(seg.follower), self.env.now)  # type: ignore[arg-type]
+        now = self.env.now
+        i = int(seg.follower)  # type: ignore[arg-type]
+        self.world.command(i, now)
+        scan_t = self._open[job.index].scan_t
+        if scan_t == scan_t and 1 <= i <= self.n:  # (NaN before the scan)
+            self._send_offsets[i - 1] = now - scan_t
 
     def _on_done(self, job: Job) -> None:
         now = self.env.now
         rec = self._open.pop(job.index)
         rec.finish = now
-        self.dec = self._estimates(now)  # advances the world to now
+        self.dec = self._estimates(now, job.release + job.period)  # advances the world
         self._v_max = max(self._v_max, self._v_actual())
         self.world.set_leader_speed(self.dec.v_leader)
         self._v_max = max(self._v_max, self._v_actual())
