@@ -84,6 +84,10 @@ from rtsim.world.world import World
 
 __all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "summarize", "LAP_CAP_FACTOR"]
 
+#: Where in its window the decision is taken (``[adjust] decide``): at the window job's end,
+#: after the radio round trip (the paper's chain: scan, Hough, estimate, send, receive,
+#: schedule), or at the start of the first send, so its speed leaves with the commands.
+DECIDE: tuple[str, ...] = ("end", "before-send")
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
 #: With the default (one-lap) duration, the run stops at the latest after this many lap
@@ -181,6 +185,8 @@ def _inputs(scenario: Any, text: str | None = None,
             adjust["lower_bound"] = cfg.lower_bound
         if getattr(cfg, "policy", "adjust") != "adjust":
             adjust["policy"] = cfg.policy
+        if getattr(cfg, "decide", "end") != "end":
+            adjust["decide"] = cfg.decide
         adjust.update(getattr(cfg, "params", {}))
     elif cfg:
         adjust = dict(cfg)
@@ -295,6 +301,15 @@ class _Coupling:
         # policy that asks for it
         self._rollout = (opts.get("predictor") == "commands"
                          or bool(getattr(self.policy, "needs_rollout", False)))
+        if self._rollout:  # a policy on the rollout predicts with it
+            opts["predictor"] = "commands"
+        # when in the window the decision is taken: at the job's end (after the radio round
+        # trip, the paper's chain) or just before the first send (its speed leaves with the
+        # commands)
+        self.decide_at = str(opts.pop("decide", "end"))
+        if self.decide_at not in DECIDE:
+            raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.decide: must be "
+                             f"one of {', '.join(DECIDE)}, got {self.decide_at!r}")
         cap_factor = opts.pop("cap_factor", None)
         if cap_factor is not None and "cap" not in opts:
             opts["cap"] = float(cap_factor) * self.w_sch
@@ -326,6 +341,9 @@ class _Coupling:
         cpu.on("release", self._on_release, task=win.name)
         cpu.on("segment_start", self._on_scan, task=win.name, role="scan")
         cpu.on("segment_end", self._on_send, task=win.name, role="send")
+        if self.decide_at == "before-send":
+            cpu.on("segment_start", self._on_send_start, task=win.name, role="send")
+        self._e_send = float(win.e_send)
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
         self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
@@ -372,7 +390,7 @@ class _Coupling:
                 out.append(t)
         return out[:self.n] + [out[-1] if out else 0.0] * (self.n - len(out))
 
-    def _rollout_state(self, now: float, next_scan: float) -> Any:
+    def _rollout_state(self, now: float, next_scan: float, pending: bool = False) -> Any:
         """What the leader knows for its rollout at ``now`` (:class:`RolloutState`)."""
         world = self.world
         ld = world.leader
@@ -386,9 +404,15 @@ class _Coupling:
         return Rollout(RolloutState(
             cfg.path, world.follow_law, cfg.follower, cfg.step_ms, now, ld.s, ld.speed,
             self.v_ld, cfg.leader_accel_max, cfg.leader_decel_max, tuple(poses),
-            tuple(speeds), tuple(held), tuple(() for _ in range(self.n)),
+            tuple(speeds), tuple(held), self._pending(now) if pending else ((),) * self.n,
             max(now, next_scan), tuple(self._send_offsets), self.thr, tuple(self.rho_d),
             self.w_sch))
+
+    def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
+        """The current window's sends still to come at its first send's start (``now``):
+        follower i's at now + e_send + (its offset − the first's), the last window's spacing."""
+        offs = self._send_offsets
+        return tuple((now + self._e_send + (o - offs[0]),) for o in offs)
 
     def _estimates(self, now: float, next_scan: float | None = None) -> _Decision:
         """Run the mode's decision on the leader's estimates at ``now``; ``next_scan``: when
@@ -411,7 +435,8 @@ class _Coupling:
         ahead = () if self._path is None else self._ahead()
         extra: dict[str, Any] = {"pose_sd": self._pose_sd()} if self._noise else {}
         if self._rollout:
-            extra["rollout"] = self._rollout_state(now, now if next_scan is None else next_scan)
+            extra["rollout"] = self._rollout_state(now, now if next_scan is None else next_scan,
+                                                   self.decide_at == "before-send" and now > 0)
         adj = self.policy.decide(PolicyInput(fols, v_ld=self.v_ld, w_sch=self.w_sch,
                                              thresholds=self.thr, **kw, **self.opts,
                                              ahead=ahead, **extra))
@@ -574,14 +599,28 @@ class _Coupling:
         if scan_t == scan_t and 1 <= i <= self.n:  # (NaN before the scan)
             self._send_offsets[i - 1] = now - scan_t
 
-    def _on_done(self, job: Job) -> None:
+    def _decide(self, job: Job) -> None:
+        """The decision on the estimates now; it governs the next window (released at
+        job.release + job.period) and sets the leader's target at once."""
         now = self.env.now
-        rec = self._open.pop(job.index)
-        rec.finish = now
         self.dec = self._estimates(now, job.release + job.period)  # advances the world
         self._v_max = max(self._v_max, self._v_actual())
         self.world.set_leader_speed(self.dec.v_leader)
         self._v_max = max(self._v_max, self._v_actual())
+
+    def _on_send_start(self, job: Job, seg: Segment) -> None:
+        if seg.follower == 1:  # adjust.decide = "before-send": before the first send
+            self._decide(job)
+
+    def _on_done(self, job: Job) -> None:
+        now = self.env.now
+        rec = self._open.pop(job.index)
+        rec.finish = now
+        if self.decide_at == "end":
+            self._decide(job)
+        else:
+            self.world.advance(now)
+            self._v_max = max(self._v_max, self._v_actual())
         if self.lap_ms is None:
             self._lap_check(now)
         if self._stop_s is not None and not self.stop.triggered and now >= self._stop_ms \
