@@ -70,6 +70,7 @@ from rtsim.control.adjust import predicted_rows
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
+from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder, records_frame
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
@@ -326,6 +327,7 @@ class _Coupling:
                              f"formation.model = 'follow-the-leader'")
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
+        self.phys = PhysicalLog(self.n, self.rho_d, cfg.follower.radius, self.world.follow_law)
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
         self.v_ld = cfg.leader_speed
         self.env = simpy.Environment()
@@ -526,6 +528,8 @@ class _Coupling:
         rec.lost = scan.as_lists("lost")
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
+        fol = world.followers  # (the scan advanced every follower to now)
+        self.phys.add(scan.leader_pose, fol.x, fol.y)
         self._close(scan)
         self._last_scanned = rec
         self._v_max = self._v_actual()
@@ -818,6 +822,8 @@ def run_scenario(
             f"the run's duration ({float(duration_s):g} s) ended before the leader completed "
             f"its lap")
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
+    world.followers.advance_all(world.t_ms, cfg.step_ms)
+    extra.update(run.phys.summary(world.leader.s - run._s0, list(world.followers.odometer)))
     summary = summarize(df, mode=run.mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
                         seed=int(seed), scenario=inp.name, n=run.n, extra=extra)
     t3 = time.perf_counter()
