@@ -136,6 +136,13 @@ def run_one(task: tuple[str, int, float, int, float | None]) -> dict[str, Any]:
         "critical_share": s["critical_share"], "min_speed_ratio": s["min_speed_ratio"],
         "max_response": s["max_response"], "wall_s": time.perf_counter() - t0,
     })
+    # the physical outcomes, where the run reports them
+    if "collisions" in s:
+        cross = s.get("cross_track_cm") or {}
+        dist = s.get("min_robot_distance_cm")
+        row.update({"collisions": s["collisions"],
+                    "min_robot_distance_cm": np.nan if dist is None else dist,
+                    "cross_track_max_cm": cross.get("max", np.nan)})
     return row
 
 
@@ -170,6 +177,10 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
                            **{f"lost_{c}": "sum" for c in CAUSES}, "searches": "sum",
                            "lap_s": "mean", "critical_share": "mean",
                            "min_speed_ratio": "min", "w_sch": "first"}
+    for col, how in (("collisions", "sum"), ("min_robot_distance_cm", "min"),
+                     ("cross_track_max_cm", "max")):
+        if col in ok:
+            agg[col] = how
     out = ok.groupby(["test", "n", "r_H"], sort=True).agg(agg).reset_index()
     out = out.rename(columns={"seed": "seeds"})
     extra = pd.DataFrame([reasons(t, int(n), float(r)) for t, n, r in
@@ -179,9 +190,12 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
 
 def markdown(df: pd.DataFrame) -> str:
     """The summary as a Markdown table."""
+    phys = "collisions" in df
     lines = ["| test | n | r_H (cm) | seeds | misses | lost (window/occl./range) | searches "
              "| lap (s) | critical | min V_L/V_Ld | w_sch (ms) | w_sch / path bound | "
-             "beams at ρ_d | width (cm) | turn speed (cm/s) |", "|" + "---|" * 15]
+             "beams at ρ_d | width (cm) | turn speed (cm/s) |"
+             + (" collisions | min distance (cm) |" if phys else ""),
+             "|" + "---|" * (17 if phys else 15)]
     for r in df.to_dict("records"):
         by = "/".join(str(int(r[f"lost_{c}"])) for c in CAUSES)
         lines.append(f"| {r['test']} | {r['n']} | {r['r_H']:g} | {r['seeds']} | "
@@ -189,7 +203,9 @@ def markdown(df: pd.DataFrame) -> str:
                      f"{r['lap_s']:.1f} | {r['critical_share']:.2f} | "
                      f"{r['min_speed_ratio']:.2f} | {r['w_sch']:.0f} | "
                      f"{r['wsch_over_path']:.2f} | {r['beams']:.0f} | {r['width_cm']:.0f} | "
-                     f"{r['turn_speed']:.0f} |")
+                     f"{r['turn_speed']:.0f} |"
+                     + (f" {int(r['collisions'])} | {r['min_robot_distance_cm']:.0f} |"
+                        if phys else ""))
     return "\n".join(lines) + "\n"
 
 
