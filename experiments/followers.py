@@ -57,23 +57,19 @@ GOAL_NS, GOAL_R, GOAL_SEEDS = tuple(range(1, 7)), 25.0, (3, 4)
 CAUSES = ("outside_window", "occluded", "out_of_range")
 
 
+def _choice(centre: str, search: str, layout: str, bound: str) -> dict[str, Any]:
+    return {"localization.centre": centre, "localization.search": search,
+            "formation.layout": layout, "thresholds.localization": bound}
+
+
 #: (label, overrides): the modelling choices --choices compares
 CHOICES: tuple[tuple[str, dict[str, Any]], ...] = (
     ("original (previous, always, line, Eq 19)",
-     {"localization.centre": "previous", "localization.search": "always",
-      "formation.layout": "line", "thresholds.localization": "radial"}),
-    ("previous + full bound",
-     {"localization.centre": "previous", "localization.search": "always",
-      "formation.layout": "line", "thresholds.localization": "full"}),
-    ("predicted centre",
-     {"localization.centre": "predicted", "localization.search": "always",
-      "formation.layout": "line", "thresholds.localization": "predicted"}),
-    ("visible search",
-     {"localization.centre": "previous", "localization.search": "visible",
-      "formation.layout": "line", "thresholds.localization": "radial"}),
-    ("fan",
-     {"localization.centre": "previous", "localization.search": "always",
-      "formation.layout": "fan", "thresholds.localization": "radial"}),
+     _choice("previous", "always", "line", "radial")),
+    ("previous + full bound", _choice("previous", "always", "line", "full")),
+    ("predicted centre", _choice("predicted", "always", "line", "predicted")),
+    ("visible search", _choice("previous", "visible", "line", "radial")),
+    ("fan", _choice("previous", "always", "fan", "radial")),
     ("shipped (predicted, visible, fan)", {}),
 )
 

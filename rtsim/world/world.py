@@ -6,7 +6,9 @@ Plain numpy + filterpy, no engine: whoever owns time calls, in simulated **milli
 - :meth:`World.scan` at a window's scan: beams, position fixes, Hough windows, lost tracks,
   and the observed bound violations since the previous scan (a :class:`Scan`);
 - :meth:`World.estimate` with that scan: the EKFs predict with the commands sent and
-  update with the fixes; the new estimates centre the next scan's Hough windows;
+  update with the fixes; the new estimates centre the next scan's Hough windows (as they
+  are, ``[localization] centre = "previous"``, or carried over the window with the commands
+  held and seen from the leader's pose then, ``"predicted"``);
 - :meth:`World.command` at the end of follower i's send segment: l-ψ control
   (``formation.model = "l-psi"``) or follow-the-leader (``"follow-the-leader"``,
   :mod:`rtsim.world.ftl`) on the leader's estimate (propagated to t with the held command)
@@ -481,7 +483,8 @@ class World:
 
     def estimate(self, scan: Scan) -> None:
         """EKF predict (commands held since the last estimate) and update from ``scan``'s fixes;
-        the estimates at the scan become the next Hough window centres."""
+        the estimates at the scan centre the next Hough windows (``previous``) or are
+        carried from there (``predicted``)."""
         t = scan.t_ms
         if t < self._est_t:
             raise RtsimError(f"scan at {t} ms is older than the estimates ({self._est_t} ms)")
