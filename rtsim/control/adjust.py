@@ -1,4 +1,5 @@
-"""The adjustment algorithm (paper §3.3, SPEC §5) and the three window modes, as pure functions.
+"""The adjustment algorithm (paper §3.3, docs/model/adjustment.md) and the three window modes, as
+pure functions.
 
 Each window, from the leader's estimates of every follower, :func:`adjust`:
 
@@ -23,7 +24,8 @@ Each window, from the leader's estimates of every follower, :func:`adjust`:
 
 Prediction models (``predictor``, :data:`~rtsim.control.predict.PREDICTORS`):
 
-* ``"formation"`` (default, SPEC §6): the follower moves with its formation slot — velocity =
+* ``"formation"`` (default, docs/model/world.md): the follower moves with its formation slot —
+  velocity =
   leader velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
   :func:`~rtsim.analysis.kinematics.formation_velocity`; the slot is (ρ_d, β_d) when
   ``beta_d`` is given, else the estimated (ρ, β). The bounds are evaluated at the estimated
@@ -488,7 +490,7 @@ def adjust(
     scan_points: int = 64,
     v_now: float | None = None,
 ) -> Adjustment:
-    """The adjustment algorithm (paper §3.3, SPEC §5); see the module docstring.
+    """The adjustment algorithm (paper §3.3, docs/model/adjustment.md); see the module docstring.
 
     v_ld: desired leader speed (cm/s); w_sch (ms); omega_l: the leader's current turn rate
     (rad/s, used by the paper's forms and the ``paper`` predictor); kappa: path curvature (1/cm,
@@ -541,7 +543,7 @@ def _adjustment(mode: str, d: Decision, w_sch: float, v_ld: float) -> Adjustment
 
 def decide(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Adjustment:
     """One window's decision by the registered policy ``mode`` (:mod:`rtsim.control.policy`;
-    ``options`` as in :func:`decide_rows`), e.g. issue 5's three modes:
+    ``options`` as in :func:`decide_rows`), e.g. the reproduction's three modes:
 
     - ``adjust``: :func:`adjust`;
     - ``fixed-wsch``: w = w_sch, V_L = V_Ld always (the bounds may break in the world);

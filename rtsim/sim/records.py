@@ -10,7 +10,7 @@ the execution-interval trace is kept as tuples and turned into a DataFrame once.
 schemas are fixed: :data:`JOB_COLUMNS` and :data:`TRACE_COLUMNS`.
 
 A job *misses* when it finishes later than its absolute deadline plus 1e-9 ms, is aborted at
-its deadline, or its release is skipped (SPEC conventions; §4 of the simulator issue).
+its deadline, or its release is skipped (docs/model/index.md, units and conventions).
 """
 
 from __future__ import annotations
