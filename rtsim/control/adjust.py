@@ -542,7 +542,8 @@ def paper_infeasible(followers: Sequence[FollowerEstimate], v_ld: float, w_sch: 
     """True when, under the ``paper`` model, no leader speed in (0, V_Ld] keeps every bound
     ≥ w_sch, decided exactly without a grid.
 
-    With V̂_F, θ̂ and ω_L held, each bound is n / |c0 + c1·V| (SPEC §5, Eqs 17, 19–21):
+    With V̂_F, θ̂ and ω_L held, each bound is n / |c0 + c1·V| (Eqs 17, 19–21;
+    docs/model/adjustment.md):
     localization and separation with ρ̇ = V̂_F cos(θ̂ + β) − V cos β, bearing with
     β̇ = (V sin β − V̂_F sin(β + θ̂))/ρ − ω_L, and path diversion n / V̂_F (no V). The bound
     is ≥ w_sch exactly when |c0 + c1·V| ≤ K = n / w_sch: an interval of V (all V or none when
