@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 
 import pytest
 import simpy
@@ -13,7 +14,7 @@ from rtsim.cli import main
 from rtsim.io.taskset import load_taskset
 from rtsim.model.task import Task
 from rtsim.sim import CPU, simulate
-from rtsim.sim.cpu import REL_TOL
+from rtsim.sim.cpu import coincidence
 from rtsim.sim.records import EPS
 
 W_RTA = 235.22699081698724  # w_rta of tasksets/barrel_robots.toml (the command's R = D)
@@ -47,7 +48,8 @@ def test_a_constant_window_releases_at_exactly_k_times_w():
     assert all(r == k * w for k, r in enumerate(win))
     # the 2w task's arrivals are the window's even arrivals, bit for bit
     assert all(r == win[2 * j] for j, r in enumerate(cmd))
-    drift = max(abs(r - s) for r, s in zip(win, itertools.accumulate([0.0] + [w] * len(win))))
+    summed = itertools.accumulate([0.0] + [w] * (len(win) - 1))
+    drift = max(abs(r - s) for r, s in zip(win, summed, strict=True))
     assert drift > 1e-7  # what adding up periods would have given
 
 
@@ -61,9 +63,12 @@ def test_a_window_stream_restarts_its_count_when_w_changes():
     assert win[6:] == [b + k * 251.3 for k in range(1, len(win) - 5)]
 
 
-def test_coincidence_window_is_absolute_then_relative():
-    assert REL_TOL * 1e3 < EPS  # a short run keeps the absolute 1e-9 ms
-    assert 2.0 ** -27 < 1e8 * REL_TOL < 1e-6  # above the double spacing at 1e8 ms, far below µs
+def test_coincidence_window_is_absolute_then_sixteen_ulps():
+    assert coincidence(0.0)[0] == coincidence(5e5)[0] == EPS  # runs up to 8.7 min: 1e-9 ms
+    for t in (6e5, 3.6e6, 1e8, 1e9):
+        tol, until = coincidence(t)
+        assert tol == 16 * math.ulp(t) > EPS and until > t and coincidence(until)[0] == 2 * tol
+    assert coincidence(1e8)[0] < 3e-7  # far below anything physical
 
 
 def test_reproducer_of_release_drift_runs_clean_for_ten_hours(capsys: pytest.CaptureFixture[str]):

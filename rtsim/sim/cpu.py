@@ -131,13 +131,18 @@ JitterMode = Literal["random", "worst", "none"]
 JITTER_MODES: tuple[str, ...] = ("random", "worst", "none")
 
 _INF = math.inf
-#: Relative coincidence window (docs/time.md): at time t two instants within
-#: max(EPS, t·REL_TOL) ms are one instant, a finish within it of the deadline meets it. Doubles
-#: near t are 2^(⌊log2 t⌋ − 52) ms apart, so from t = 2^25 ms (9.3 h) on an absolute 1e-9 ms
-#: cannot be resolved; REL_TOL is 8–16 of those spacings.
-REL_TOL = 2.0 ** -48
-#: Below this time the absolute EPS is the larger (t·REL_TOL < EPS up to about 4.7 minutes).
-_REL_FROM = EPS / REL_TOL
+#: Doubles near t are ulp(t) = 2^(⌊log2 t⌋ − 52) ms apart, so beyond about 2^22 ms an absolute
+#: 1e-9 ms cannot be resolved. The coincidence window at t (docs/time.md) is
+#: max(EPS, ULPS·ulp(t)): two instants closer than it are one, a finish within it after the
+#: deadline meets it. EPS is the larger up to t = 2^19 ms (8.7 minutes).
+ULPS = 16
+
+
+def coincidence(t: float) -> tuple[float, float]:
+    """(the coincidence window at time ``t``, the time from which it is larger): the window
+    is constant over [2^(e−1), 2^e), the binade of t."""
+    _, e = math.frexp(t)  # 2^(e−1) ≤ t < 2^e
+    return max(EPS, math.ldexp(float(ULPS), e - 53)), math.ldexp(1.0, e)
 
 
 class CPU:
@@ -202,6 +207,7 @@ class CPU:
         self._switches = 0
         self._end_time = 0.0
         self._lag = 0.0  # the dispatcher's now_lag while it calls _segment_done
+        self._tol = EPS  # the coincidence window at the dispatcher's now
         self._t0 = 0.0
         self._horizon: float | None = None
         self.process: simpy.Process | None = None
@@ -356,7 +362,6 @@ class CPU:
         top_first = self.policy.top_task_first
         deferred: tuple[Any, ...] | None = None
         t0 = self._t0
-        rel_from = _REL_FROM
         running: Job | None = None
         last: Job | None = None
         run_end = _INF
@@ -367,8 +372,12 @@ class CPU:
         # timer (releases are exact: module doc, Times).
         now_lag = work_lag = run_lag = 0.0
         piece_start = work_start = now = env.now
+        tol, tol_next = coincidence(now)
+        self._tol = tol
         while True:
-            tol = now * REL_TOL if now > rel_from else EPS  # the coincidence window at now
+            if now >= tol_next:  # the clock entered the next binade: a wider window
+                tol, tol_next = coincidence(now)
+                self._tol = tol
             # 1. the running segment ends?
             if running is not None and running.rem is not None and run_end <= now + tol:
                 if plain:
@@ -477,7 +486,9 @@ class CPU:
                     self._inline_top(st, k, r, p, now, f)
                     env._now = now = f  # the clock moves to f, as the wait would
                     now_lag = work_lag = f_lag
-                    tol = now * REL_TOL if now > rel_from else EPS
+                    if now >= tol_next:
+                        tol, tol_next = coincidence(now)
+                        self._tol = tol
                     piece_start = work_start = f
                     if nxt_job is not None:  # it gets the CPU at f
                         self._switches += 1
@@ -765,7 +776,7 @@ class CPU:
         if stats.max_response is None or resp > stats.max_response:
             stats.max_response = resp
         deadline = r + st.deadline
-        missed = f > deadline + (f * REL_TOL if f > _REL_FROM else EPS)
+        missed = f > deadline + self._tol
         if missed:
             stats.misses += 1
         hist = stats.histogram
@@ -796,7 +807,7 @@ class CPU:
         stats.sum_response += resp
         if stats.max_response is None or resp > stats.max_response:
             stats.max_response = resp
-        missed = now > job.deadline + (now * REL_TOL if now > _REL_FROM else EPS)
+        missed = now > job.deadline + self._tol
         if missed:
             stats.misses += 1
         stats.preemptions += job.preemptions

@@ -10,7 +10,7 @@ the execution-interval trace is kept as tuples and turned into a DataFrame once.
 schemas are fixed: :data:`JOB_COLUMNS` and :data:`TRACE_COLUMNS`.
 
 A job *misses* when it finishes later than its absolute deadline plus the coincidence window
-(1e-9 ms, or t·2^-48 ms at a time t past about 4.7 minutes, where doubles are coarser:
+(1e-9 ms, or 16 units in the last place of t from t = 2^19 ms on, where doubles are coarser:
 docs/time.md), is aborted at its deadline, or its release is skipped.
 """
 
@@ -37,7 +37,7 @@ __all__ = [
 ]
 
 #: Time tolerance (ms): a finish later than deadline + EPS is a miss; events closer than EPS
-#: are simultaneous (from t = EPS / cpu.REL_TOL on, t·REL_TOL instead: docs/time.md).
+#: are simultaneous (from t = 2^19 ms on, 16 ulps of t instead: cpu.coincidence, docs/time.md).
 EPS = 1e-9
 
 #: Job records per column chunk of a :class:`RowBuffer`.
