@@ -19,16 +19,34 @@ from typing import Annotated, Any, ClassVar, TypeVar
 from pydantic import ConfigDict, Field, model_validator
 
 from rtsim.analysis.bounds import LOWER_BOUNDS
-from rtsim.analysis.kinematics import Thresholds
+from rtsim.analysis.kinematics import (
+    LOCALIZATION_KINDS,
+    Thresholds,
+    msb_localization_predicted,
+)
 from rtsim.config.fields import Table, choice, integer, number, problem, text
 from rtsim.control.predict import PREDICTORS, RENAMED
 from rtsim.errors import InputError, ScenarioError
 from rtsim.model.taskset import TaskSet
 from rtsim.world._check import non_negative, positive
-from rtsim.world.config import SensingParams, WorldConfig
+from rtsim.world.config import (
+    CENTRES,
+    SEARCHES,
+    LocalizationParams,
+    SensingParams,
+    WorldConfig,
+)
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
-from rtsim.world.formation import FORMATION_MODELS, Formation, chevron, in_line
+from rtsim.world.formation import (
+    FORMATION_LAYOUTS,
+    FORMATION_MODELS,
+    Formation,
+    chevron,
+    fan,
+    in_line,
+    outer_side,
+)
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
 __all__ = ["AdjustConfig", "Scenario", "ScenarioFile", "parse_scenario", "PACKAGED_SCENARIOS",
@@ -36,6 +54,10 @@ __all__ = ["AdjustConfig", "Scenario", "ScenarioFile", "parse_scenario", "PACKAG
 
 #: Task-set names that refer to the package's own files rather than to a path.
 PACKAGED_TASKSETS = ("barrel_robots", "example")
+#: When in its window the adjustment decides: after the radio round trip, or before sending.
+DECIDE: tuple[str, ...] = ("end", "before-send")
+#: The common keys of ``[adjust]`` (the rest are the policy's own).
+_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide")
 #: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
 PACKAGED_SCENARIOS = ("test1", "test2")
 
@@ -52,7 +74,8 @@ class AdjustConfig:
     or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
     names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
     ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle) or ``w_edf``
-    (the EDF demand criterion; needs ``[scheduler] policy = "edf"``).
+    (the EDF demand criterion; needs ``[scheduler] policy = "edf"``); decide: when in its
+    window the decision is taken, ``end`` (after the radio round trip) or ``before-send``.
     """
 
     cap: float = math.inf
@@ -60,12 +83,16 @@ class AdjustConfig:
     predictor: str = "formation"
     lower_bound: str = "w_sch"
     policy: str = "adjust"
+    decide: str = "end"
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.lower_bound not in LOWER_BOUNDS:
             raise ScenarioError(f"adjust.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
                                 f"got {self.lower_bound!r}")
+        if self.decide not in DECIDE:
+            raise ScenarioError(f"adjust.decide: must be one of end, before-send, got "
+                                f"{self.decide!r}")
         from rtsim.control.predict import check_predictor
 
         object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
@@ -75,7 +102,7 @@ class AdjustConfig:
         try:
             check_predictor(self.predictor, "adjust.predictor")
             make_policy(self.policy, self.params, "adjust",
-                        ("cap", "floor", "predictor", "lower_bound", "policy"))
+                        _ADJUST_KEYS)
         except InputError as exc:
             raise ScenarioError(str(exc)) from None
 
@@ -264,6 +291,7 @@ class SlotModel(_Angles):
 
 class FormationModel(_Angles):
     model: Annotated[str, choice(FORMATION_MODELS)] = "l-psi"
+    layout: Annotated[str, choice(FORMATION_LAYOUTS)] = "line"
     followers: Annotated[int, integer(1, 1000, "followers", "as window.n")] | None = None
     separation: Annotated[float, number(0, 1e5, "cm", "at most 1 km (the laser sees 80 m)",
                                         lo_open=True)] | None = None
@@ -277,7 +305,7 @@ class FormationModel(_Angles):
         pattern = (self.followers, self.separation, self.bearing_offset,
                    self.bearing_offset_deg)
         if self.slot is not None:
-            if any(v is not None for v in pattern):
+            if any(v is not None for v in pattern) or self.layout != "line":
                 raise problem("give [[formation.slot]] or followers/separation/bearing_offset, "
                               "not both")
             return self
@@ -350,10 +378,15 @@ class ThresholdsModel(_Angles):
                                     lo_open=True)] | None = None
     T_beta_deg: Annotated[float, _angle(0, math.pi, "a bearing error below 180°", deg=True,
                                         lo_open=True)] | None = None
-    localization: Annotated[str, choice(("radial", "full"))] = "radial"
+    localization: Annotated[str, choice(LOCALIZATION_KINDS)] | None = None
 
 
-_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy")
+class LocalizationModel(Table):
+    """``[localization]``: where the Hough windows are centred, which lost followers are
+    searched for."""
+
+    centre: Annotated[str, choice(CENTRES)] = "previous"
+    search: Annotated[str, choice(SEARCHES)] = "always"
 
 
 class AdjustModel(Table):
@@ -368,6 +401,7 @@ class AdjustModel(Table):
     predictor: Annotated[str, choice(PREDICTORS, renamed=RENAMED)] | None = None
     lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
     policy: Annotated[str, text(what="a policy name")] | None = None
+    decide: Annotated[str, choice(DECIDE)] | None = None
     margin: Annotated[float, number(0, 1, "", "the share μ of each predicted bound kept in "
                                     "reserve (policies margin, lookahead, noise-aware, safe)",
                                     hi_open=True)] | None = None
@@ -402,6 +436,7 @@ class ScenarioFile(Table):
     thresholds: ThresholdsModel = Field(default_factory=ThresholdsModel)
     adjust: AdjustModel = Field(default_factory=AdjustModel)
     world: WorldModel = Field(default_factory=WorldModel)
+    localization: LocalizationModel = Field(default_factory=LocalizationModel)
     assumptions: dict[str, Annotated[str, text(what="a non-empty string giving the "
                                                     "reason")]] = Field(default_factory=dict)
     scheduler: SchedulerModel | None = None
@@ -466,14 +501,18 @@ def _attempt_raise(where: str, make: Callable[[], T]) -> T:
         raise ScenarioError(f"{where}: {exc}") from None
 
 
-def _formation(f: FormationModel, r_F: float) -> Formation:
+def _formation(f: FormationModel, r_F: float, path: LeaderPath) -> Formation:
     if f.slot is not None:
         rho = tuple(s.rho_d for s in f.slot)
         beta = tuple(s.radians("beta_d") for s in f.slot)
         return Formation(rho, beta, f.model)
+    offset = f.radians("bearing_offset", math.radians(15))
+    if f.layout == "fan":
+        segs = path.segments
+        outer = outer_side([g.curvature for g in segs], [g.length for g in segs])
+        return fan(f.followers, f.separation, offset, r_F=r_F, outer=outer, model=f.model)
     place = in_line if f.model == "follow-the-leader" else chevron
-    return place(f.followers, f.separation, f.radians("bearing_offset", math.radians(15)),
-                 r_F=r_F)
+    return place(f.followers, f.separation, offset, r_F=r_F)
 
 
 def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[str],
@@ -485,16 +524,32 @@ def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[s
     formation = None
     if follower is not None:
         r_F = follower.radius
-        formation = _attempt(errors, src, lambda: _formation(m.formation, r_F))
+        formation = (None if path is None else
+                     _attempt(errors, src, lambda: _formation(m.formation, r_F, path)))
     sensing = _attempt(errors, src, lambda: SensingParams(**{
         k: getattr(m.sensing, k) for k in SensingParams.__dataclass_fields__
         if getattr(m.sensing, k) is not None}))
     ekf = _attempt(errors, src, lambda: EkfParams(**m.ekf.given(
         tuple(EkfParams.__dataclass_fields__))))
     th = m.thresholds
-    thresholds = Thresholds(r_H=float(m.sensing.r_H), T_rho=th.T_rho, T_eps=th.T_eps,
+    # the decision's localization bound: by default the one that matches the window's
+    # centre (Eq 19 for the previous position, the residual bound for the predicted one)
+    centre = m.localization.centre
+    loc = th.localization or ("predicted" if centre == "predicted" else "radial")
+    predicted_ms = math.inf
+    r_H = float(m.sensing.r_H)
+    if loc == "predicted" and follower is not None and sensing is not None and ekf is not None:
+        bound = _attempt(errors, "", lambda: _predicted_bound(src, r_H, follower, sensing, ekf))
+        predicted_ms = math.inf if bound is None else bound
+    if loc == "predicted" and centre != "predicted":
+        errors.append(f"{src}: thresholds.localization: 'predicted' bounds what a predicted "
+                      f"window centre leaves; set [localization] centre = 'predicted' (it is "
+                      f"{centre!r})")
+    thresholds = Thresholds(r_H=r_H, T_rho=th.T_rho, T_eps=th.T_eps,
                             T_beta=th.radians("T_beta", math.radians(5.0)),
-                            localization=th.localization)  # type: ignore[arg-type]
+                            localization=loc, predicted_ms=predicted_ms)  # type: ignore[arg-type]
+    localization = LocalizationParams(centre=m.localization.centre,
+                                      search=m.localization.search)
     adj = m.adjust
     args: dict[str, Any] = {k: getattr(adj, k) for k in _ADJUST_KEYS
                             if getattr(adj, k) is not None}
@@ -534,7 +589,7 @@ def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[s
     world = _attempt(errors, src, lambda: WorldConfig(
         path, speed, formation, follower, sensing, ekf, thresholds, m.world.step_ms,
         float(m.leader.start_s), leader_accel_max=float(m.leader.accel_max),
-        leader_decel_max=float(m.leader.decel_max)))
+        leader_decel_max=float(m.leader.decel_max), localization=localization))
     if world is None:
         return None
     errors += _sense(world, src)
@@ -549,6 +604,20 @@ def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[s
                     taskset=taskset, duration=duration, description=m.description,
                     adjust=adjust, assumptions=dict(m.assumptions), source=src,
                     scheduler=scheduler, task_set=task_set)
+
+
+def _predicted_bound(src: str, r_H: float, follower: FollowerParams, sensing: SensingParams,
+                     ekf: EkfParams) -> float:
+    """The decision's localization bound for a window centred at the predicted position
+    (:func:`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
+    the fix noise, the EKF's initial heading error, the actuation noise, at the followers'
+    top speed, 3 standard deviations; the leader knows its own motion (no error)."""
+    if not math.isfinite(follower.max_speed):
+        raise ScenarioError(f"{src}: thresholds.localization: 'predicted' needs a finite "
+                            f"follower.max_speed (the bound carries the heading error at it)")
+    return msb_localization_predicted(
+        r_H, fix_sd=sensing.position_noise, heading_sd=ekf.init_heading_sd,
+        speed_sd=follower.speed_noise, turn_sd=follower.turn_noise, v_max=follower.max_speed)
 
 
 def _sense(world: WorldConfig, src: str) -> list[str]:

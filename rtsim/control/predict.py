@@ -1,8 +1,10 @@
-"""What the leader predicts a follower does as the leader's speed changes (SPEC §5, §6).
+"""What the leader predicts a follower does as the leader's speed changes
+(docs/model/adjustment.md, docs/model/world.md).
 
 A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_L):
 
-* ``"formation"`` (SPEC §6): the follower moves with its formation slot — velocity = leader
+* ``"formation"`` (docs/model/world.md): the follower moves with its formation slot — velocity =
+  leader
   velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
   :func:`~rtsim.analysis.kinematics.formation_velocity`; so V_F = s·V_L with s fixed by the
   slot and κ, and θ is fixed. The bounds are evaluated at the *estimated* (ρ, β).
@@ -17,6 +19,10 @@ A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_
   V_F = |u|, θ = −atan2(u_y, u_x), ω_L = κ·V_L. Equivalently: the formation velocity at V_L
   plus the follower's current correction velocity û − f(V_now), held constant. It equals
   ``"paper"`` at V_L = V_now and ``"formation"`` when û = f(V_now).
+* ``"commands"``: the leader plays its own motion and the followers' commands forward
+  (:mod:`rtsim.control.rollout`): the bounds come from the predicted changes over the window,
+  not from a (V_F, θ, ω_L) per follower, so it needs the rollout of a coupled run
+  (:attr:`rtsim.control.policy.PolicyInput.rollout`);
 * any callable with the :data:`Predictor` signature.
 """
 
@@ -64,7 +70,7 @@ def check_number(where: str, name: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class FollowerEstimate:
-    """The leader's estimate of one follower (leader frame, SPEC §4).
+    """The leader's estimate of one follower (leader frame, docs/model/upper-bounds.md).
 
     rho (cm, > 0), beta (rad), theta = θ_L − θ_F (rad), v_f (cm/s, ≥ 0), rho_d: desired
     separation (cm, > 0), beta_d: desired bearing (rad) or ``None``; the formation slot used by
@@ -132,7 +138,7 @@ Predictor = Callable[[FollowerEstimate, float], tuple[float, float, float]]
 
 
 #: Names of the built-in prediction models (``[adjust] predictor`` of a scenario).
-PREDICTORS: tuple[str, ...] = ("paper", "formation", "hybrid")
+PREDICTORS: tuple[str, ...] = ("paper", "formation", "hybrid", "commands")
 #: Old names, an input error naming their replacement.
 RENAMED: dict[str, str] = {"estimate": "paper"}
 
@@ -179,8 +185,17 @@ def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
             return hybrid_velocity(f, v_l, v0, kappa) + (kappa * v_l,)
 
         return hybrid
+    if model == "commands":
+        return _needs_rollout
     check_predictor(model)
     raise AssertionError(model)  # pragma: no cover - check_predictor raised
+
+
+def _needs_rollout(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
+    """The ``commands`` model has no per-follower form: its bounds come from the leader's
+    rollout (:mod:`rtsim.control.rollout`), which the decision receives separately."""
+    raise InputError("predictor 'commands' needs the leader's rollout (PolicyInput.rollout; "
+                     "a coupled run with follow-the-leader followers fills it)")
 
 
 def hybrid_velocity(f: FollowerEstimate, v_l: float, v_now: float, kappa: float

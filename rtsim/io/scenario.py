@@ -1,6 +1,6 @@
 """Robot scenario files (TOML): the world, the task set it runs on, and every assumption.
 
-Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` and
+Shape (units as in docs/model/index.md: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` and
 ``adjust.cap``; every angular key is radians, or degrees when written with ``_deg``)::
 
     name = "test1"
@@ -27,6 +27,8 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
                                        # place each follower holds on straights
     separation = 390                   # rho_d of the first pair (cm)
     bearing_offset_deg = 15
+    layout = "line"                    # or "fan" (follow-the-leader): every follower at
+                                       # rho_d, bearings fanned out (rtsim.world.formation)
     # or explicit slots instead of followers/separation/bearing_offset:
     # [[formation.slot]]
     # rho_d = 390
@@ -37,10 +39,14 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
     [sensing]      r_H, r_reacq, position_noise, min_points, max_range
     [ekf]          measurement_noise, speed_noise, turn_noise(_deg), position_drift,
                    heading_drift(_deg), init_position_sd, init_heading_sd(_deg), backend
-    [thresholds]   T_rho, T_eps, T_beta(_deg), localization = "radial" | "full"
+    [thresholds]   T_rho, T_eps, T_beta(_deg), localization = "radial" | "full" | "predicted"
+                   (default: "predicted" with [localization] centre = "predicted", else "radial")
     [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed),
-                   predictor = "paper" | "formation" | "hybrid" (rtsim.control.predict),
-                   lower_bound = "w_sch" | "w_rta" | "w_susp"
+                   predictor = "paper" | "formation" | "hybrid" | "commands"
+                   (rtsim.control.predict), lower_bound = "w_sch" | "w_rta" | "w_susp",
+                   decide = "end" | "before-send" (when in the window the decision is taken)
+    [localization] centre = "previous" | "predicted", search = "always" | "visible"
+                   (where the Hough windows are centred; which lost followers are searched for)
     [world]        step_ms (integration step while a speed ramps)
     [assumptions]  key = "reason"      # every value the paper does not give
 
