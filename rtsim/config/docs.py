@@ -56,7 +56,8 @@ def ranges() -> dict[str, Range]:
     for kind, model in (("taskset", TaskSetFile), ("scenario", ScenarioFile)):
         found: dict[str, Range] = {}
         _walk(model, "", found)
-        out.update({f"{kind}: {k}": r for k, r in sorted(found.items())})
+        out.update({f"{kind}: {k}": replace(r, key=f"{kind}: {k}")
+                    for k, r in sorted(found.items())})
     return out
 
 
