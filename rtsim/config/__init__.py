@@ -2,38 +2,13 @@
 loader that reads, applies overrides and validates them (every error at once).
 
 Layer: above model, analysis, world, sim and control (it builds their runtime objects once
-from a valid file), below coupling. Names load their module on first use.
+from a valid file), below coupling. The modules:
+
+- :mod:`rtsim.config.fields` — numbers with range and unit, choices, names (the metadata);
+- :mod:`rtsim.config.taskset`, :mod:`rtsim.config.scenario`, :mod:`rtsim.config.sweep` —
+  the models, and the runtime objects built from them;
+- :mod:`rtsim.config.load` — read → TOML → overrides → validate (``load_taskset``,
+  ``load_scenario``); :mod:`rtsim.config.errors` — the one-line messages;
+- :mod:`rtsim.config.dotted` — dotted paths (``--set``, ``overrides=``, sweep grids);
+- :mod:`rtsim.config.schema`, :mod:`rtsim.config.docs` — JSON Schemas and the ranges page.
 """
-
-from __future__ import annotations
-
-import importlib
-from typing import Any
-
-_WHERE = {
-    "load_taskset": "load",
-    "parse_taskset": "load",
-    "load_scenario": "load",
-    "scenario_bytes": "load",
-    "parse_scenario": "scenario",
-    "Scenario": "scenario",
-    "AdjustConfig": "scenario",
-    "ScenarioFile": "scenario",
-    "TaskSetFile": "taskset",
-    "SweepFile": "sweep",
-    "json_schema": "schema",
-    "apply_overrides": "dotted",
-    "parse_assignment": "dotted",
-}
-
-__all__ = sorted(_WHERE)
-
-
-def __getattr__(name: str) -> Any:
-    if name in _WHERE:
-        return getattr(importlib.import_module(f"rtsim.config.{_WHERE[name]}"), name)
-    raise AttributeError(f"module 'rtsim.config' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
