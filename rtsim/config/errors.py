@@ -13,17 +13,9 @@ from pydantic import BaseModel, ValidationError
 from rtsim._suggest import close_match, did_you_mean
 from rtsim.errors import InputError
 
-__all__ = ["ConfigError", "error_lines", "raise_errors", "Loc"]
+__all__ = ["error_lines", "raise_errors", "model_at", "keys_of", "Loc"]
 
 Loc = tuple[int | str, ...]
-
-
-class ConfigError(InputError):
-    """Every problem of one input, one line each (``lines``); ``str()`` joins them."""
-
-    def __init__(self, lines: Sequence[str]) -> None:
-        self.lines = tuple(lines)
-        super().__init__("\n".join(self.lines))
 
 
 def _model_of(annotation: Any) -> type[BaseModel] | None:
