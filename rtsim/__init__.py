@@ -11,8 +11,21 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
+from typing import Any
+
 from rtsim.errors import InputError, RtsimError, ScenarioError, SweepError, TaskSetError
-from rtsim.model import Segment, Task, TaskSet, WindowSpec
+
+_MODEL = ("Segment", "Task", "TaskSet", "WindowSpec")
+
+
+def __getattr__(name: str) -> Any:
+    """The model's classes, imported on first use (the command line starts without numpy,
+    so that it handles Ctrl-C and SIGTERM from its first instant)."""
+    if name in _MODEL:
+        import rtsim.model
+
+        return getattr(rtsim.model, name)
+    raise AttributeError(f"module 'rtsim' has no attribute {name!r}")
 
 __all__ = [
     "__version__",

@@ -397,13 +397,13 @@ def main(argv: list[str] | None = None, finish: Callable[[Path], None] | None = 
         _check_args(args)
         from rtsim.io.outdir import stage
 
-        with stage(args.out) as staged:
+        with stage(args.out, command="reproduce") as staged:
             rc = _main(args, argv, t0, staged.path, finish)
             if rc == 0:
                 staged.commit()
         return rc
     except InputError as exc:
-        print(f"rtsim reproduce: {exc}", file=sys.stderr)
+        print(f"rtsim: {exc}", file=sys.stderr)
         return 2
 
 

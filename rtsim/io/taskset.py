@@ -353,9 +353,12 @@ def load_taskset(path: str | os.PathLike[str] | None = None) -> TaskSet:
         raise TaskSetError(f"{source}: not a text file (not UTF-8 at byte {exc.start})") from None
     try:
         data = tomllib.loads(text)
+        return parse_taskset(data, source)
     except tomllib.TOMLDecodeError as exc:
         raise TaskSetError(f"{source}: malformed TOML: {exc}") from None
-    return parse_taskset(data, source)
+    except RecursionError:
+        raise TaskSetError(f"{source}: nested too deeply to read (tables or arrays within "
+                           f"each other hundreds of levels deep)") from None
 
 
 def as_taskset(ts: object, function: str) -> TaskSet:
