@@ -407,6 +407,9 @@ def stage(target: str | os.PathLike[str], *, option: str = "--out",
     return StagedDir(target, option, command)
 
 
+#: Commands whose outputs are single files in a shared directory (its ``manifest.json``
+#: lists their files); every other command owns its whole output directory.
+FILE_COMMANDS = ("simulate", "animate")
 #: Name of a file set's staging directory beside its files: ``.rtsim-files-<token>``.
 FILES_MARK = ".rtsim-files-"
 
@@ -476,7 +479,7 @@ class FileSet:
                 raise InputError(f"{option} {shown}: is also the file of {opt}; give each "
                                  f"output its own file")
         other = owner(target.parent)
-        if other is not None and other != self.command and \
+        if other is not None and other not in FILE_COMMANDS and \
                 not target.name.endswith(".manifest.json"):
             raise InputError(f"{option} {shown}: is inside the output directory of `rtsim "
                              f"{other}` ({os.fsdecode(target.parent)}); give a file elsewhere")
