@@ -163,10 +163,8 @@ class Scenario:
         from rtsim.io.taskset import load_taskset
 
         where = self.source or "<scenario>"
-        if self.taskset in PACKAGED_TASKSETS:
-            ts = load_taskset(None)
-        else:
-            ts = load_taskset(self.taskset)
+        # a packaged set by its own name ("example" is the generic set, not the paper's)
+        ts = load_taskset(None if self.taskset == "barrel_robots" else self.taskset)
         if ts.window is None:
             raise ScenarioError(f"{where}: taskset: '{self.taskset}' has no [window]")
         ts = ts.with_window(n=self.n, r_H=self.world.thresholds.r_H)

@@ -331,11 +331,10 @@ def _read(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
     if shipped is not None:
         return shipped.encode("utf-8"), f"{os.fspath(path)}.toml (packaged)"
     source = os.fspath(path)
-    from rtsim.io.limits import MAX_INPUT_BYTES, too_large
+    from rtsim.io.limits import read_input
 
     try:
-        with open(source, "rb") as fh:
-            return too_large(fh.read(MAX_INPUT_BYTES + 1), source, "task-set"), source
+        return read_input(source, "task-set"), source
     except FileNotFoundError:
         raise TaskSetError(f"{source}: no such file") from None
     except IsADirectoryError:
