@@ -68,9 +68,9 @@ def test_a_scenario_with_several_mistakes_reports_them_all(tmp_path: Path) -> No
     with pytest.raises(ScenarioError) as info:
         load_scenario(p)
     lines = str(info.value).split("\n")
-    assert "s.toml: leader.speed: must be positive, got -30" in lines
-    assert "s.toml: formation.followers: must be an integer, got 'four'" in lines
-    assert "s.toml: world: unknown key 'step_mss' (did you mean 'step_ms'?)" in lines
+    assert f"{p}: leader.speed: must be positive, got -30" in lines
+    assert f"{p}: formation.followers: must be an integer, got 'four'" in lines
+    assert f"{p}: world: unknown key 'step_mss' (did you mean 'step_ms'?)" in lines
     assert len(lines) == 3
 
 

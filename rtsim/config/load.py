@@ -19,7 +19,6 @@ from pydantic import BaseModel, ValidationError
 from rtsim.config.dotted import apply_overrides
 from rtsim.config.errors import Loc, error_lines, raise_errors
 from rtsim.errors import InputError, ScenarioError, TaskSetError
-from rtsim.io.limits import MAX_INPUT_BYTES, too_large
 
 __all__ = ["validate", "parse_toml", "load_taskset", "parse_taskset", "taskset_bytes",
            "PACKAGED_TASKSET"]
@@ -57,6 +56,9 @@ def parse_toml(raw: bytes, source: str, error: type[InputError]) -> dict[str, An
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{source}: malformed TOML: {exc}") from None
+    except RecursionError:
+        raise error(f"{source}: nested too deeply to read (tables or arrays within each other "
+                    f"hundreds of levels deep)") from None
 
 
 def with_overrides(data: dict[str, Any], overrides: Mapping[str, Any] | None, source: str,
@@ -81,9 +83,10 @@ def taskset_bytes(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
     if shipped is not None:
         return shipped.encode("utf-8"), f"{os.fspath(path)}.toml (packaged)"
     source = os.fspath(path)
+    from rtsim.io.limits import read_input
+
     try:
-        with open(source, "rb") as fh:
-            return too_large(fh.read(MAX_INPUT_BYTES + 1), source, "task-set"), source
+        return read_input(source, "task-set"), source
     except FileNotFoundError:
         raise TaskSetError(f"{source}: no such file") from None
     except IsADirectoryError:
@@ -150,6 +153,6 @@ def load_scenario(path: str | os.PathLike[str],
     from rtsim.config.scenario import parse_scenario
 
     raw, p = scenario_bytes(path)
-    src = p.name if p.name else str(p)
+    src = str(p)  # the full path in every message
     data = parse_toml(raw, src, ScenarioError)
     return parse_scenario(with_overrides(data, overrides, src, ScenarioError), src, p.parent)
