@@ -816,7 +816,7 @@ def run_scenario(
                              f"{duration_s!r}")
         from rtsim.io.limits import check
 
-        check("scenario: duration", duration_s, "run_scenario: duration_s")
+        check("option: --duration", duration_s, "run_scenario: duration_s")
         horizon_ms = float(duration_s) * 1000.0
     win = inp.taskset.window
     check_coupled(horizon_ms, win.g() if win is not None else 0.0, cfg.step_ms, cfg.n,
