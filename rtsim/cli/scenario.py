@@ -167,8 +167,6 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
                            int(res.summary["windows"]))
         from rtsim.plots.scenario import DPI
 
-        if args.dpi is not None and not 50 <= args.dpi <= 1200:
-            raise InputError(f"--dpi must be between 50 and 1200, got {args.dpi}")
         paths = write_scenario_figures(df, out, label=label, fmt=args.fig_format,
                                        dpi=args.dpi or DPI)
         del df
