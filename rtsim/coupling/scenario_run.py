@@ -69,7 +69,13 @@ from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
-from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder, records_frame
+from rtsim.coupling.recorder import (
+    FOLLOWER_FIELDS,
+    WindowRecord,
+    WindowRecorder,
+    records_columns,
+    records_frame,
+)
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
 from rtsim.model.taskset import TaskSet
@@ -507,7 +513,10 @@ class _Coupling:
         for kind, (m, c) in self._fold(records).items():
             m0, c0 = self._folded.get(kind, (m, 0))
             self._folded[kind] = (float(np.max([m0, m])), c0 + c)
-        sink.write(records_frame(records, self.n, self.rec.limits))
+        if hasattr(sink, "write_columns"):  # a ChunkWriter: no DataFrame for the CSV
+            sink.write_columns(records_columns(records, self.n, self.rec.limits))
+        else:
+            sink.write(records_frame(records, self.n, self.rec.limits))
 
     def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
         fol = self.world.followers
@@ -663,7 +672,8 @@ def run_scenario(
     window_sink: a :class:`rtsim.io.columns.ChunkWriter` of windows.csv — the window rows
     are written in chunks during the run, the summary is computed from the columns read
     back, and ``result.windows`` is None; job_sink: a callable given the job records in
-    chunks (``result.jobs`` is then None). With both, memory stays flat on long runs.
+    chunks, or a ChunkWriter of jobs.csv (``result.jobs`` is then None). With both, memory
+    stays flat on long runs.
     """
     t0 = time.perf_counter()
     if mode is not None and policy is not None and mode != policy:
