@@ -41,7 +41,8 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
     [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed),
                    predictor = "paper" | "formation" | "hybrid" (rtsim.control.predict),
                    lower_bound = "w_sch" | "w_rta" | "w_susp"
-    [world]        step_ms (integration step while a speed ramps)
+    [world]        step_ms (integration step while a speed ramps), backend ("python",
+                   "compiled" or "filterpy"; default compiled where numba is installed)
     [assumptions]  key = "reason"      # every value the paper does not give
 
 Every table but ``[leader]`` and ``[formation]`` is optional (defaults: the world's dataclasses).
@@ -427,10 +428,12 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
                                 f"{need} scheduler, but [scheduler] policy is {scheduler!r}")
     wtab = _Table(f"{src}: world", top.get("world", {}))
     step_ms = wtab.get("step_ms", 10.0)
-    wtab.finish(("step_ms",))
+    backend = wtab.get("backend", None)
+    wtab.finish(("step_ms", "backend"))
 
     world = _build(src, lambda: WorldConfig(path, speed, formation, follower, sensing, ekf,
-                                            thresholds, step_ms, start_s, **ramps))
+                                            thresholds, step_ms, start_s, **ramps,
+                                            backend=backend))
     if adjust.floor > speed:
         raise ScenarioError(f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the "
                             f"desired speed {speed:g} cm/s")

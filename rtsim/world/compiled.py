@@ -1,0 +1,414 @@
+"""The world's arithmetic compiled with numba: the ``compiled`` backend (``[world] backend``).
+
+The Python classes stay the reference; the classes here are subclasses that hand the same
+expressions, in the same order, to compiled kernels, so the results are bit for bit the
+Python ones (tests run both paths and compare whole runs):
+
+- :class:`CompiledFollowerGroup`: a follower's held command integrated to a time (the
+  exact arcs and speed-ramp sub-steps of :meth:`FollowerGroup.advance`) in one call;
+- :class:`CompiledFollowerEKF`: the EKF's predict and update (:class:`FastFollowerEKF`'s
+  float algebra);
+- :class:`CompiledTraceFollower`: the follow-the-leader reference search, projection and
+  control law (:class:`TraceFollower.command`) in one call per command.
+
+Only the operations whose compiled result is the interpreter's are compiled: + − × ÷,
+``sqrt``, ``sin``, ``cos``, ``abs``, ``copysign`` and ``%`` (numba calls the same C library
+for the functions and follows Python's rules for ``%``). ``math.hypot`` is not among them —
+CPython computes it with its own algorithm — so a kernel leaves it to Python: the FTL kernel
+returns the pieces of its last step, and where its one comparison against a hypot would be
+decided within 1e-12 of the boundary it hands the whole command back to Python.
+
+numba is imported on first use (:func:`available`); kernels are compiled once per machine
+and cached on disk (``cache=True``), so a later process loads them in milliseconds.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from rtsim.world.ekf import EkfParams, FastFollowerEKF
+from rtsim.world.follower import FollowerGroup, FollowerParams
+from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP, TraceFollower
+from rtsim.world.path import LeaderPath
+
+__all__ = ["CompiledFollowerEKF", "CompiledFollowerGroup", "CompiledTraceFollower",
+           "available", "kernels"]
+
+_KERNELS: Any = None
+_AVAILABLE: bool | None = None
+
+
+def available() -> bool:
+    """Whether numba can be imported (the compiled backend can run)."""
+    global _AVAILABLE
+    if _AVAILABLE is None:
+        try:
+            import numba  # noqa: F401
+        except Exception:  # ImportError, or a numba that does not fit this numpy
+            _AVAILABLE = False
+        else:
+            _AVAILABLE = True
+    return _AVAILABLE
+
+
+# -- the kernels, as plain Python (numba compiles them; the names are what they call) ---------
+
+def _advance_follower(x: float, y: float, th: float, v: float, vc: float, w: float, a: float,
+                      odo: float, t0: float, t_ms: float, step_ms: float
+                      ) -> tuple[float, float, float, float, float]:
+    """FollowerGroup.advance's loop with ramp_arc inlined: (x, y, θ, v, odometer)."""
+    inf = math.inf
+    while t_ms - t0 > 1e-12:
+        short = v == vc or abs(vc - v) <= a * step_ms / 1000.0
+        h = t_ms - t0 if short else min(step_ms, t_ms - t0)
+        dt = h / 1000.0
+        if dt <= 0.0:
+            vm = v
+        else:
+            dv = vc - v
+            if a == inf or abs(dv) <= a * dt:
+                tau = 0.0 if a == inf else abs(dv) / a
+                vm = ((v + vc) * 0.5 * tau + vc * (dt - tau)) / dt
+                v = vc
+            else:
+                v1 = v + math.copysign(a * dt, dv)
+                vm = 0.5 * (v + v1)
+                v = v1
+        dth = w * dt
+        c = vm * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
+        m = th + 0.5 * dth
+        x, y, th = x + c * math.cos(m), y + c * math.sin(m), th + dth
+        odo += abs(vm) * dt
+        t0 += h
+    return x, y, th, v, odo
+
+
+def _ekf_predict(x0: float, x1: float, x2: float, p00: float, p01: float, p02: float,
+                 p11: float, p12: float, p22: float, v: float, w: float, dt: float,
+                 sv2: float, sw2: float, qp2: float, qh2: float
+                 ) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """FastFollowerEKF.predict: (x, y, θ, P00, P01, P02, P11, P12, P22)."""
+    dth = w * dt
+    m = x2 + 0.5 * dth
+    sinc = math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0
+    c = v * dt * sinc
+    cm, sm = math.cos(m), math.sin(m)
+    a, b = -c * sm, c * cm
+    g00, g01 = dt * sinc * cm, 0.5 * dt * a
+    g10, g11 = dt * sinc * sm, 0.5 * dt * b
+    qp = dt * qp2
+    x0 += c * cm
+    x1 += c * sm
+    x2 += dth
+    n00 = p00 + 2 * a * p02 + a * a * p22 + (g00 * g00 * sv2 + g01 * g01 * sw2 + qp)
+    n01 = p01 + a * p12 + b * p02 + a * b * p22 + (g00 * g10 * sv2 + g01 * g11 * sw2)
+    n02 = p02 + a * p22 + g01 * dt * sw2
+    n11 = p11 + 2 * b * p12 + b * b * p22 + (g10 * g10 * sv2 + g11 * g11 * sw2 + qp)
+    n12 = p12 + b * p22 + g11 * dt * sw2
+    n22 = p22 + (dt * dt * sw2 + dt * qh2)
+    return x0, x1, x2, n00, n01, n02, n11, n12, n22
+
+
+def _ekf_update(x0: float, x1: float, x2: float, p00: float, p01: float, p02: float,
+                p10: float, p11: float, p12: float, p20: float, p21: float, p22: float,
+                r: float, z0: float, z1: float) -> tuple[float, ...]:
+    """FastFollowerEKF.update: (x, y, θ, then P row by row, 9 entries)."""
+    s00, s01, s11 = p00 + r, p01, p11 + r
+    det = s00 * s11 - s01 * s01
+    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+    k00, k01 = p00 * i00 + p01 * i01, p00 * i01 + p01 * i11
+    k10, k11 = p10 * i00 + p11 * i01, p10 * i01 + p11 * i11
+    k20, k21 = p20 * i00 + p21 * i01, p20 * i01 + p21 * i11
+    y0, y1 = z0 - x0, z1 - x1
+    x0 += k00 * y0 + k01 * y1
+    x1 += k10 * y0 + k11 * y1
+    x2 += k20 * y0 + k21 * y1
+    return (x0, x1, x2,
+            p00 - k00 * p00 - k01 * p10, p01 - k00 * p01 - k01 * p11,
+            p02 - k00 * p02 - k01 * p12,
+            p10 - k10 * p00 - k11 * p10, p11 - k10 * p01 - k11 * p11,
+            p12 - k10 * p02 - k11 * p12,
+            p20 - k20 * p00 - k21 * p10, p21 - k20 * p01 - k21 * p11,
+            p22 - k20 * p02 - k21 * p12)
+
+
+def _index(s0: Any, lap: float, s: float) -> tuple[int, float]:
+    """LeaderPath's segment index at arc length s (bisect_right − 1) and u = s mod lap."""
+    u = s % lap
+    lo, hi = 0, s0.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if u < s0[mid]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo - 1, u
+
+
+def _point(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float
+           ) -> tuple[float, float, float]:
+    """TraceFollower.point: LeaderPath.pose(s) moved ``o`` to the left."""
+    k, u = _index(s0, lap, s)
+    x0, y0, h0 = poses[k, 0], poses[k, 1], poses[k, 2]
+    kap = kappa[k]
+    ds = u - s0[k]
+    if kap == 0.0:
+        x, y, h = x0 + ds * math.cos(h0), y0 + ds * math.sin(h0), h0
+    else:
+        h = h0 + kap * ds
+        x = x0 + (math.sin(h) - math.sin(h0)) / kap
+        y = y0 - (math.cos(h) - math.cos(h0)) / kap
+    return x - o * math.sin(h), y + o * math.cos(h), h
+
+
+def _scale(s0: Any, kappa: Any, lap: float, o: float, s: float) -> float:
+    k, _ = _index(s0, lap, s)
+    return max(_SCALE_MIN, 1.0 - kappa[k] * o)
+
+
+def _gap(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, xl: float,
+         yl: float, rho2: float) -> float:
+    x, y, _ = _point(s0, poses, kappa, lap, o, s)
+    return (x - xl) ** 2 + (y - yl) ** 2 - rho2
+
+
+def _search(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, s_l: float,
+            xl: float, yl: float, rho: float) -> float:
+    """TraceFollower._search (``s`` the last reference, NaN for none); returns s_ref."""
+    rho2 = rho * rho
+    if not math.isnan(s) and s <= s_l:
+        s_n = s
+        for _ in range(_NEWTON):
+            x, y, h = _point(s0, poses, kappa, lap, o, s_n)
+            dx, dy = x - xl, y - yl
+            dg = 2.0 * (dx * math.cos(h) + dy * math.sin(h)) * _scale(s0, kappa, lap, o, s_n)
+            if dg > -1e-6 * rho:
+                break
+            step = (dx * dx + dy * dy - rho2) / dg
+            s_n -= step
+            if abs(s_n - s) > _NEWTON_REACH or s_n > s_l:
+                break
+            if abs(step) < 1e-9:
+                return s_n
+    limit = int(lap / FTL_STEP) + 2
+    if math.isnan(s) or s > s_l:
+        s = s_l
+    lo = hi = s
+    if _gap(s0, poses, kappa, lap, o, s, xl, yl, rho2) > 0.0:
+        lo = s
+        for _ in range(limit):
+            hi = min(lo + FTL_STEP, s_l)
+            if _gap(s0, poses, kappa, lap, o, hi, xl, yl, rho2) <= 0.0 or hi >= s_l:
+                break
+            lo = hi
+    else:
+        hi = s
+        for _ in range(limit):
+            lo = hi - FTL_STEP
+            if _gap(s0, poses, kappa, lap, o, lo, xl, yl, rho2) > 0.0:
+                break
+            hi = lo
+    for _ in range(_BISECT):
+        mid = 0.5 * (lo + hi)
+        if _gap(s0, poses, kappa, lap, o, mid, xl, yl, rho2) > 0.0:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < 1e-7:
+            break
+    return 0.5 * (lo + hi)
+
+
+def _ftl_command(s0: Any, poses: Any, kappa: Any, lap: float, lateral: Any, ahead: Any,
+                 spacing: Any, s_ref: Any, s_f: Any, gain: float, lookahead: float, k: int,
+                 s_l: float, xl: float, yl: float, hl: float, v_l: float, x: float, y: float,
+                 th: float) -> tuple[int, float, float, float]:
+    """TraceFollower.command up to its last hypot: (status, v, dx, dy) with status 1 when
+    done (``s_ref``/``s_f`` updated in place), 0 when a speed comparison was too close to
+    call without CPython's hypot (nothing updated: the caller runs the Python command)."""
+    # the chain of followers whose references this one's depends on, leader first
+    chain = np.empty(ahead.shape[0] + 1, dtype=np.int64)
+    m = 0
+    j = k
+    while j >= 0:
+        chain[m] = j
+        m += 1
+        j = ahead[j]
+    new_ref = s_ref.copy()
+    s_t, tx, ty, th_t, v_t = s_l, xl, yl, hl, v_l
+    for c in range(m - 1, -1, -1):
+        q = chain[c]
+        o = lateral[q]
+        sr = _search(s0, poses, kappa, lap, o, new_ref[q], s_t, tx, ty, spacing[q])
+        new_ref[q] = sr
+        # _speed
+        px, py, hp = _point(s0, poses, kappa, lap, o, sr)
+        dx, dy = tx - px, ty - py
+        den = dx * math.cos(hp) + dy * math.sin(hp)
+        norm = math.sqrt(dx * dx + dy * dy)
+        if abs(den - 0.1 * norm) <= 1e-12 * norm:
+            return 0, 0.0, 0.0, 0.0
+        if den <= 0.1 * norm:
+            v_ref = v_t
+        else:
+            v_ref = v_t * (dx * math.cos(th_t) + dy * math.sin(th_t)) / den
+        if c > 0:  # the next follower in the chain follows this one's reference point
+            tx, ty, th_t = _point(s0, poses, kappa, lap, o, sr)
+            s_t, v_t = sr, v_ref
+    o = lateral[k]
+    # project
+    sf = s_f[k]
+    if math.isnan(sf):
+        sf = new_ref[k]
+    for _ in range(6):
+        px, py, h = _point(s0, poses, kappa, lap, o, sf)
+        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / _scale(s0, kappa, lap, o, sf)
+        sf += ds
+        if abs(ds) < 1e-3:
+            break
+    v = max(0.0, v_ref + gain * (new_ref[k] - sf) * _scale(s0, kappa, lap, o, sf))
+    gx, gy, _ = _point(s0, poses, kappa, lap, o, min(sf + lookahead, s_l))
+    for q in range(s_ref.shape[0]):
+        s_ref[q] = new_ref[q]
+    s_f[k] = sf
+    return 1, v, gx - x, gy - y
+
+
+def kernels() -> Any:
+    """The compiled kernels (a namespace), compiled or loaded from numba's cache once per
+    process."""
+    global _KERNELS
+    if _KERNELS is None:
+        import types
+
+        import numba
+
+        jit = numba.njit(cache=True, nogil=True)
+        ns = types.SimpleNamespace()
+        glob = globals()
+        # helpers first: the kernels that call them find the compiled ones by name
+        for name in ("_index", "_point", "_scale", "_gap", "_search"):
+            glob[name] = jit(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
+        for name in ("_advance_follower", "_ekf_predict", "_ekf_update", "_ftl_command"):
+            setattr(ns, name.lstrip("_"), jit(glob[name]))
+        _warm(ns)
+        _KERNELS = ns
+    return _KERNELS
+
+
+def _warm(ns: Any) -> None:
+    """Call every kernel once on dummy values, so that compiling it (the first time on a
+    machine) or loading it from numba's cache happens when the world is built, not inside
+    the first window."""
+    ns.advance_follower(0.0, 0.0, 0.0, 1.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
+    ns.ekf_predict(*([1.0] * 16))
+    ns.ekf_update(*([1.0] * 15))
+    one = np.zeros(1)
+    ns.ftl_command(np.zeros(1), np.zeros((1, 3)), np.zeros(1), 100.0, one, np.full(1, -1),
+                   np.ones(1), np.full(1, math.nan), np.full(1, math.nan), 0.5, 10.0, 0, 50.0,
+                   50.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+
+
+# -- the classes the compiled backend builds -------------------------------------------------
+
+class CompiledFollowerGroup(FollowerGroup):
+    """:class:`FollowerGroup` whose :meth:`advance` runs compiled."""
+
+    def __init__(self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams,
+                 t_ms: float = 0.0) -> None:
+        super().__init__(x, y, th, v, params, t_ms)
+        self._advance_kernel = kernels().advance_follower
+
+    def advance(self, k: int, t_ms: float, step_ms: float) -> None:
+        t0 = self.t[k]
+        if t_ms <= t0:
+            return
+        (self.x[k], self.y[k], self.th[k], self.v[k], self.odometer[k]) = self._advance_kernel(
+            self.x[k], self.y[k], self.th[k], self.v[k], self.cmd_v[k], self.cmd_w[k],
+            self.p.max_accel, self.odometer[k], t0, t_ms, step_ms)
+        self.t[k] = t_ms
+
+
+class CompiledFollowerEKF(FastFollowerEKF):
+    """:class:`FastFollowerEKF` whose predict and update run compiled."""
+
+    def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
+        super().__init__(pose, params)
+        ker = kernels()
+        self._predict_kernel = ker.ekf_predict
+        self._update_kernel = ker.ekf_update
+
+    def predict(self, v: float, w: float, dt: float) -> None:
+        if dt <= 0.0:
+            return
+        x = self.x
+        (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._p
+        x[0], x[1], x[2], n00, n01, n02, n11, n12, n22 = self._predict_kernel(
+            x[0], x[1], x[2], p00, p01, p02, p11, p12, p22, v, w, dt, *self._noise)
+        self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
+
+    def update(self, z: tuple[float, float]) -> None:
+        x = self.x
+        (p00, p01, p02), (p10, p11, p12), (p20, p21, p22) = self._p
+        r = self._update_kernel(x[0], x[1], x[2], p00, p01, p02, p10, p11, p12, p20, p21, p22,
+                                self.r, float(z[0]), float(z[1]))
+        x[0], x[1], x[2] = r[0], r[1], r[2]
+        self._p = [[r[3], r[4], r[5]], [r[6], r[7], r[8]], [r[9], r[10], r[11]]]
+
+
+class CompiledTraceFollower(TraceFollower):
+    """:class:`TraceFollower` whose :meth:`command` runs compiled (the Python one when the
+    kernel cannot decide a comparison exactly: module docstring)."""
+
+    def __init__(self, path: LeaderPath, rho_d: Any, lateral: Any, gain: float,
+                 lookahead: float) -> None:
+        super().__init__(path, rho_d, lateral, gain, lookahead)
+        self._kernel = kernels().ftl_command
+        self._s0 = np.array(path._s0, dtype=float)
+        self._poses = np.array(path._poses, dtype=float).reshape(-1, 3)
+        self._kappa = np.array(path._kappa, dtype=float)
+        self._lateral = np.array(self.lateral, dtype=float)
+        self._ahead = np.array(self.ahead, dtype=np.int64)
+        self._spacing = np.array(self.spacing, dtype=float)
+        self._from_lists()
+        self.fallbacks = 0  # commands handed back to Python
+
+    # the last references and projections live in two arrays (NaN: none yet); the lists of
+    # the Python class are filled from them whenever a Python method runs
+    def _to_lists(self) -> None:
+        self._s_ref = [None if math.isnan(s) else s for s in self._sr.tolist()]
+        self._s_f = [None if math.isnan(s) else s for s in self._sf.tolist()]
+
+    def _from_lists(self) -> None:
+        nan = math.nan
+        self._sr = np.array([nan if s is None else s for s in self._s_ref], dtype=float)
+        self._sf = np.array([nan if s is None else s for s in self._s_f], dtype=float)
+
+    def initial(self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
+                ) -> tuple[float, float, float, float]:
+        self._to_lists()
+        out = super().initial(k, s_l, leader, v_l)
+        self._from_lists()
+        return out
+
+    def command(self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float,
+                x: float, y: float, th: float) -> tuple[float, float]:
+        xl, yl, hl = leader
+        done, v, dx, dy = self._kernel(
+            self._s0, self._poses, self._kappa, self.path.lap_length, self._lateral,
+            self._ahead, self._spacing, self._sr, self._sf, self.gain, self.lookahead, k, s_l,
+            xl, yl, hl, v_l, x, y, th)
+        if not done:
+            self.fallbacks += 1
+            self._to_lists()
+            out = super().command(k, s_l, leader, v_l, x, y, th)
+            self._from_lists()
+            return out
+        dist = math.hypot(dx, dy)
+        if dist < 1e-9:
+            return v, 0.0
+        alpha = math.atan2(dy, dx) - th
+        return v, v * 2.0 * math.sin(alpha) / dist
