@@ -13,6 +13,7 @@ from rtsim.coupling.scenario_run import (
     ScenarioInputs,
     ScenarioResult,
     run_scenario,
+    scenario_inputs,
     summarize,
 )
 
@@ -26,6 +27,7 @@ __all__ = [
     "WindowRecord",
     "WindowRecorder",
     "run_scenario",
+    "scenario_inputs",
     "summarize",
     "window_columns",
 ]
