@@ -376,8 +376,9 @@ class CompiledTraceFollower(TraceFollower):
         self._from_lists()
         self.fallbacks = 0  # commands handed back to Python
 
-    # the last references and projections live in two arrays (NaN: none yet); the lists of
-    # the Python class are filled from them whenever a Python method runs
+    # the last references and projections live in two arrays (NaN: none yet) that the
+    # kernel updates; the Python class's lists are kept equal to them after every command
+    # (a copy of the law, or a Python method, sees the same state)
     def _to_lists(self) -> None:
         self._s_ref = [None if math.isnan(s) else s for s in self._sr.tolist()]
         self._s_f = [None if math.isnan(s) else s for s in self._sf.tolist()]
@@ -407,6 +408,7 @@ class CompiledTraceFollower(TraceFollower):
             out = super().command(k, s_l, leader, v_l, x, y, th)
             self._from_lists()
             return out
+        self._to_lists()
         dist = math.hypot(dx, dy)
         if dist < 1e-9:
             return v, 0.0
