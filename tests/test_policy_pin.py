@@ -5,8 +5,8 @@ same world").
 The digests were recorded on main at 63334eb, before ``rtsim.control.policy`` existed, from
 frozen copies of Test 1 and Test 2 (``tests/data/policy_pin``; copies, so that retuning the
 shipped scenarios does not move the pin): 20 simulated s, seed 1, each mode. windows.csv is
-hashed as written by ``DataFrame.to_csv``; summary.json without the new ``policy``,
-``lap_time_s`` and ``lap_time_note`` keys.
+hashed as written by ``DataFrame.to_csv``; summary.json without the keys added since
+(``policy``, ``lap_time_s``, ``lap_time_note`` and the physical outcomes: ``NEW_KEYS``).
 """
 
 from __future__ import annotations
@@ -31,10 +31,15 @@ DIGESTS = {
 }
 
 
+#: summary.json keys added after the pin was recorded (the pin ignores them): the policy, the
+#: lap time, and the physical outcomes (rtsim.coupling.physical)
+NEW_KEYS = ("policy", "lap_time_s", "lap_time_note", "cross_track_cm", "separation_error_cm",
+            "min_robot_distance_cm", "collisions", "distance_cm", "per_follower")
+
+
 def _digest(res) -> tuple[str, str]:  # type: ignore[no-untyped-def]
     csv = res.windows.to_csv(index=False).encode()
-    s = {k: v for k, v in res.summary.items()
-         if k not in ("policy", "lap_time_s", "lap_time_note")}
+    s = {k: v for k, v in res.summary.items() if k not in NEW_KEYS}
     js = json.dumps(s, sort_keys=True, default=str).encode()
     return hashlib.sha256(csv).hexdigest()[:16], hashlib.sha256(js).hexdigest()[:16]
 

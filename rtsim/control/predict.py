@@ -17,6 +17,10 @@ A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_
   V_F = |u|, θ = −atan2(u_y, u_x), ω_L = κ·V_L. Equivalently: the formation velocity at V_L
   plus the follower's current correction velocity û − f(V_now), held constant. It equals
   ``"paper"`` at V_L = V_now and ``"formation"`` when û = f(V_now).
+* ``"commands"``: the leader plays its own motion and the followers' commands forward
+  (:mod:`rtsim.control.rollout`): the bounds come from the predicted changes over the window,
+  not from a (V_F, θ, ω_L) per follower, so it needs the rollout of a coupled run
+  (:attr:`rtsim.control.policy.PolicyInput.rollout`);
 * any callable with the :data:`Predictor` signature.
 """
 
@@ -132,7 +136,7 @@ Predictor = Callable[[FollowerEstimate, float], tuple[float, float, float]]
 
 
 #: Names of the built-in prediction models (``[adjust] predictor`` of a scenario).
-PREDICTORS: tuple[str, ...] = ("paper", "formation", "hybrid")
+PREDICTORS: tuple[str, ...] = ("paper", "formation", "hybrid", "commands")
 #: Old names, an input error naming their replacement.
 RENAMED: dict[str, str] = {"estimate": "paper"}
 
@@ -179,8 +183,17 @@ def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
             return hybrid_velocity(f, v_l, v0, kappa) + (kappa * v_l,)
 
         return hybrid
+    if model == "commands":
+        return _needs_rollout
     check_predictor(model)
     raise AssertionError(model)  # pragma: no cover - check_predictor raised
+
+
+def _needs_rollout(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
+    """The ``commands`` model has no per-follower form: its bounds come from the leader's
+    rollout (:mod:`rtsim.control.rollout`), which the decision receives separately."""
+    raise InputError("predictor 'commands' needs the leader's rollout (PolicyInput.rollout; "
+                     "a coupled run with follow-the-leader followers fills it)")
 
 
 def hybrid_velocity(f: FollowerEstimate, v_l: float, v_now: float, kappa: float
