@@ -201,10 +201,43 @@ def test_second_process_loads_kernels_from_the_cache() -> None:
             "from rtsim.world import compiled\n"
             "run_scenario('test2', duration_s=5, overrides={'world.backend': 'compiled'})\n"
             "k = compiled.kernels()\n"
-            "print(sum(len(getattr(k, n).stats.cache_misses) for n in vars(k)),"
-            " sum(len(getattr(k, n).stats.cache_hits) for n in vars(k)))\n")
+            "ds = [d for d in vars(k).values() if hasattr(d, 'stats')]\n"
+            "print(sum(len(d.stats.cache_misses) for d in ds),"
+            " sum(len(d.stats.cache_hits) for d in ds))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=ROOT)
     misses, hits = map(int, out.stdout.split())
     assert misses == 0 and hits >= 4
     assert math.isfinite(hits)
+
+
+PLAN = {"adjust.policy": "plan", "adjust.predictor": "commands"}
+
+
+@needs_numba
+def test_compiled_hypot_is_the_interpreters() -> None:
+    """The rollout kernel computes hypot itself, as CPython does (checked at load too)."""
+    ker = compiled.kernels()
+    assert ker.exact_hypot
+    rng = np.random.default_rng(17)
+    pts = rng.uniform(-2000, 2000, (20000, 2)) * 10.0 ** rng.integers(-3, 4, (20000, 1))
+    assert all(ker.hypot(x, y) == math.hypot(x, y) for x, y in pts.tolist())
+
+
+@needs_numba
+@pytest.mark.parametrize("scenario", ["test1", "test2"])
+def test_rollout_policy_bit_identical(scenario: str) -> None:
+    """The plan policy on the command-aware rollout: the compiled rollout (one kernel per
+    rollout) gives the Python one's decisions and tables."""
+    py = _run(scenario, "python", duration_s=60, seed=3, overrides=PLAN)
+    co = _run(scenario, "compiled", duration_s=60, seed=3, overrides=PLAN)
+    _same_run(py, co)
+
+
+@needs_numba
+def test_rollout_falls_back_without_an_exact_hypot(monkeypatch: pytest.MonkeyPatch) -> None:
+    ker = compiled.kernels()
+    py = _run("test2", "python", duration_s=20, seed=1, overrides=PLAN, record_jobs=False)
+    monkeypatch.setattr(ker, "exact_hypot", False)
+    co = _run("test2", "compiled", duration_s=20, seed=1, overrides=PLAN, record_jobs=False)
+    _same_run(py, co)

@@ -420,7 +420,7 @@ class _Coupling:
             self.v_ld, cfg.leader_accel_max, cfg.leader_decel_max, tuple(poses),
             tuple(speeds), tuple(held), self._pending(now) if pending else ((),) * self.n,
             max(now, next_scan), tuple(self._send_offsets), self.thr, tuple(self.rho_d),
-            self.w_sch))
+            self.w_sch, type(world.followers)))
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
         """The current window's sends still to come at its first send's start (``now``):

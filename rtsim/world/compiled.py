@@ -277,6 +277,194 @@ def _ftl_command(s0: Any, poses: Any, kappa: Any, lap: float, lateral: Any, ahea
     return 1, v, gx - x, gy - y
 
 
+def _dl_mul(x: float, y: float) -> tuple[float, float]:
+    """x·y and its exact rounding error (Dekker's product with Veltkamp's split)."""
+    z = x * y
+    c = 134217729.0 * x  # 2^27 + 1
+    xh = c - (c - x)
+    xl = x - xh
+    c = 134217729.0 * y
+    yh = c - (c - y)
+    yl = y - yh
+    return z, ((xh * yh - z) + xh * yl + xl * yh) + xl * yl
+
+
+def _hypot_core(ax: float, ay: float, mx: float) -> float:
+    _, e = math.frexp(mx)
+    scale = math.ldexp(1.0, -e)
+    csum, frac1, frac2 = 1.0, 0.0, 0.0
+    for v in (ax, ay):
+        v *= scale
+        hi, lo = _dl_mul(v, v)
+        t = csum + hi
+        frac2 += (csum - t) + hi
+        csum = t
+        frac1 += lo
+    h = math.sqrt(csum - 1.0 + (frac1 + frac2))
+    hi, lo = _dl_mul(-h, h)
+    t = csum + hi
+    frac2 += (csum - t) + hi
+    csum = t
+    frac1 += lo
+    v = csum - 1.0 + (frac1 + frac2)
+    h += v / (2.0 * h)
+    return h / scale
+
+
+def _hypot(x: float, y: float) -> float:
+    """CPython's ``math.hypot`` of two coordinates (its vector_norm: scaled by a power of
+    two, the squares summed with their exact errors, a square root and one differential
+    correction); :func:`kernels` checks it against ``math.hypot`` before a kernel uses it."""
+    ax, ay = abs(x), abs(y)
+    if math.isnan(ax) or math.isnan(ay):
+        return math.nan
+    mx = ax if ax > ay else ay
+    if math.isinf(mx) or mx == 0.0:
+        return mx
+    _, e = math.frexp(mx)
+    if e < -1021:  # subnormal: CPython divides by DBL_MIN first
+        dmin = 2.2250738585072014e-308
+        return dmin * _hypot_core(ax / dmin, ay / dmin, mx / dmin)
+    return _hypot_core(ax, ay, mx)
+
+
+def _pose(s0: Any, poses: Any, kappa: Any, lap: float, s: float
+          ) -> tuple[float, float, float]:
+    """LeaderPath.pose(s)."""
+    k, u = _index(s0, lap, s)
+    x0, y0, h0 = poses[k, 0], poses[k, 1], poses[k, 2]
+    kap = kappa[k]
+    ds = u - s0[k]
+    if kap == 0.0:
+        return x0 + ds * math.cos(h0), y0 + ds * math.sin(h0), h0
+    h = h0 + kap * ds
+    return x0 + (math.sin(h) - math.sin(h0)) / kap, y0 - (math.cos(h) - math.cos(h0)) / kap, h
+
+
+def _clip(v: float, lim: float) -> float:
+    """min(max(v, −lim), lim) with Python's choice among equal values."""
+    lo = -lim
+    m = v
+    if lo > m:
+        m = lo
+    if lim < m:
+        m = lim
+    return m
+
+
+def _ftl_exact(s0: Any, poses: Any, kappa: Any, lap: float, lateral: Any, ahead: Any,
+               spacing: Any, s_ref: Any, s_f: Any, gain: float, lookahead: float, k: int,
+               s_l: float, xl: float, yl: float, hl: float, v_l: float, x: float, y: float,
+               th: float) -> tuple[float, float]:
+    """TraceFollower.command whole (with :func:`_hypot`): (v, ω); updates s_ref, s_f."""
+    chain = np.empty(ahead.shape[0] + 1, dtype=np.int64)
+    m = 0
+    j = k
+    while j >= 0:
+        chain[m] = j
+        m += 1
+        j = ahead[j]
+    s_t, tx, ty, th_t, v_t = s_l, xl, yl, hl, v_l
+    v_ref = v_l
+    for c in range(m - 1, -1, -1):
+        q = chain[c]
+        o = lateral[q]
+        sr = _search(s0, poses, kappa, lap, o, s_ref[q], s_t, tx, ty, spacing[q])
+        s_ref[q] = sr
+        px, py, hp = _point(s0, poses, kappa, lap, o, sr)
+        dx, dy = tx - px, ty - py
+        den = dx * math.cos(hp) + dy * math.sin(hp)
+        if den <= 0.1 * _hypot(dx, dy):
+            v_ref = v_t
+        else:
+            v_ref = v_t * (dx * math.cos(th_t) + dy * math.sin(th_t)) / den
+        if c > 0:
+            tx, ty, th_t = _point(s0, poses, kappa, lap, o, sr)
+            s_t, v_t = sr, v_ref
+    o = lateral[k]
+    sf = s_f[k]
+    if math.isnan(sf):
+        sf = s_ref[k]
+    for _ in range(6):
+        px, py, h = _point(s0, poses, kappa, lap, o, sf)
+        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / _scale(s0, kappa, lap, o, sf)
+        sf += ds
+        if abs(ds) < 1e-3:
+            break
+    s_f[k] = sf
+    v = v_ref + gain * (s_ref[k] - sf) * _scale(s0, kappa, lap, o, sf)
+    if not v > 0.0:
+        v = 0.0
+    ahead_s = sf + lookahead
+    if s_l < ahead_s:
+        ahead_s = s_l
+    gx, gy, _ = _point(s0, poses, kappa, lap, o, ahead_s)
+    dx, dy = gx - x, gy - y
+    dist = _hypot(dx, dy)
+    if dist < 1e-9:
+        return v, 0.0
+    alpha = math.atan2(dy, dx) - th
+    return v, v * 2.0 * math.sin(alpha) / dist
+
+
+def _rollout(s0: Any, poses: Any, kappa: Any, lap: float, leader_s: float, v0: float,
+             vt: float, accel_max: float, decel_max: float, x: Any, y: Any, th: Any,
+             v: Any, cmd_v: Any, cmd_w: Any, odo: Any, t_f: Any, max_accel: float,
+             max_speed: float, max_turn: float, speed_noise: float, turn_noise: float,
+             step_ms: float, lateral: Any, ahead: Any, spacing: Any, s_ref: Any, s_f: Any,
+             gain: float, lookahead: float, ev_t: Any, ev_kind: Any, ev_k: Any, t_now: float,
+             out: Any) -> None:
+    """Rollout._run's event loop: the leader's ramp, the followers' held commands, the
+    follow-the-leader commands at the sends (no noise), and at each scan every follower's
+    position in the leader frame and odometer (``out[scan, follower]``); the arrays of the
+    group and the law are updated in place."""
+    n = x.shape[0]
+    t_leader = t_now
+    s_l = leader_s
+    scan = 0
+    for e in range(ev_t.shape[0]):
+        t = ev_t[e]
+        if t > t_leader:
+            dt = (t - t_leader) / 1000.0
+            if v0 == vt or dt <= 0.0:
+                s_l += v0 * dt
+            else:
+                a = accel_max if vt > v0 else decel_max
+                tau = abs(vt - v0) / a
+                if tau <= dt:
+                    s_l += 0.5 * (v0 + vt) * tau + vt * (dt - tau)
+                    v0 = vt
+                else:
+                    v1 = v0 + math.copysign(a * dt, vt - v0)
+                    s_l += 0.5 * (v0 + v1) * dt
+                    v0 = v1
+            t_leader = t
+        lo_k = ev_k[e] if ev_kind[e] == 0 else 0
+        hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
+        for k in range(lo_k, hi_k):
+            if t > t_f[k]:
+                x[k], y[k], th[k], v[k], odo[k] = _advance_follower(
+                    x[k], y[k], th[k], v[k], cmd_v[k], cmd_w[k], max_accel, odo[k], t_f[k],
+                    t, step_ms)
+                t_f[k] = t
+        xl, yl, hl = _pose(s0, poses, kappa, lap, s_l)
+        if ev_kind[e] == 0:
+            k = ev_k[e]
+            vc, wc = _ftl_exact(s0, poses, kappa, lap, lateral, ahead, spacing, s_ref, s_f,
+                                gain, lookahead, k, s_l, xl, yl, hl, v0, x[k], y[k], th[k])
+            vc, wc = _clip(vc, max_speed), _clip(wc, max_turn)
+            cmd_v[k] = _clip(vc + speed_noise * 0.0, max_speed)
+            cmd_w[k] = _clip(wc + turn_noise * 0.0, max_turn)
+            continue
+        c, s = math.cos(hl), math.sin(hl)
+        for i in range(n):
+            dx, dy = x[i] - xl, y[i] - yl
+            out[scan, i, 0] = c * dx + s * dy
+            out[scan, i, 1] = -s * dx + c * dy
+            out[scan, i, 2] = odo[i]
+        scan += 1
+
+
 def kernels() -> Any:
     """The compiled kernels (a namespace), compiled or loaded from numba's cache once per
     process."""
@@ -290,13 +478,30 @@ def kernels() -> Any:
         ns = types.SimpleNamespace()
         glob = globals()
         # helpers first: the kernels that call them find the compiled ones by name
-        for name in ("_index", "_point", "_scale", "_gap", "_search"):
+        for name in ("_index", "_point", "_scale", "_gap", "_search", "_dl_mul", "_hypot_core",
+                     "_hypot",
+                     "_pose", "_clip", "_advance_follower", "_ftl_exact"):
             glob[name] = jit(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
-        for name in ("_advance_follower", "_ekf_predict", "_ekf_update", "_ftl_command"):
-            setattr(ns, name.lstrip("_"), jit(glob[name]))
+        for name in ("_advance_follower", "_ekf_predict", "_ekf_update", "_ftl_command",
+                     "_rollout", "_hypot"):
+            fn = glob[name]
+            setattr(ns, name.lstrip("_"), fn if hasattr(fn, "py_func") else jit(fn))
         _warm(ns)
+        ns.exact_hypot = _hypot_matches(ns.hypot)
         _KERNELS = ns
     return _KERNELS
+
+
+def _hypot_matches(fn: Any, count: int = 20000) -> bool:
+    """Whether the compiled hypot gives this interpreter's ``math.hypot`` bit for bit on
+    ``count`` random pairs over the whole exponent range and the edge cases (a kernel that
+    needs a hypot is only used when it does)."""
+    rng = np.random.default_rng(20261124)
+    a = rng.standard_normal((count, 2)) * 10.0 ** rng.integers(-30, 30, (count, 2))
+    edge = [(0.0, 0.0), (0.0, -3.0), (3.0, 4.0), (1e-320, 3e-321), (1e308, 1e308),
+            (5e-324, 0.0), (1.0, 1e-17), (-0.0, 2.5), (325.0, 325.0)]
+    pairs = [*edge, *map(tuple, a.tolist())]
+    return all(fn(x, y) == math.hypot(x, y) for x, y in pairs)
 
 
 def _warm(ns: Any) -> None:
@@ -375,6 +580,50 @@ class CompiledTraceFollower(TraceFollower):
         self._spacing = np.array(self.spacing, dtype=float)
         self._from_lists()
         self.fallbacks = 0  # commands handed back to Python
+
+    def clone(self) -> CompiledTraceFollower:
+        """A copy with its own search starts, compiled too (:meth:`TraceFollower.clone`)."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new._s_ref = list(self._s_ref)
+        new._s_f = list(self._s_f)
+        new._sr = self._sr.copy()
+        new._sf = self._sf.copy()
+        new.fallbacks = 0
+        return new
+
+    def roll(self, leader: Any, state: Any, events: list[tuple[float, int, int]],
+             scans: int) -> list[list[tuple[float, float, float, float, float]]] | None:
+        """:meth:`rtsim.control.rollout.Rollout._run`'s event loop in one kernel call, on this
+        law (a clone: its search starts move) and a group started from ``state``; returns
+        the samples at the scans (per follower: x, y in the leader frame, ρ, β, odometer), or
+        None when the compiled hypot is not this interpreter's (the caller runs Python)."""
+        ker = kernels()
+        if not ker.exact_hypot:
+            return None
+        p = state.params
+        n = len(state.poses)
+        pose = np.array(state.poses, dtype=float).reshape(n, 3)
+        x, y, th = pose[:, 0].copy(), pose[:, 1].copy(), pose[:, 2].copy()
+        v = np.array(state.speeds, dtype=float)
+        held = np.array(state.held, dtype=float).reshape(n, 2)
+        cmd_v, cmd_w = held[:, 0].copy(), held[:, 1].copy()
+        odo = np.zeros(n)
+        t_f = np.full(n, float(state.t_now))
+        ev = np.array([e[0] for e in events], dtype=float)
+        kind = np.array([e[1] for e in events], dtype=np.int64)
+        who = np.array([e[2] for e in events], dtype=np.int64)
+        out = np.zeros((scans, n, 3))
+        ker.rollout(self._s0, self._poses, self._kappa, self.path.lap_length, leader.s,
+                    leader.speed, leader.target_speed, leader.accel_max, leader.decel_max,
+                    x, y, th, v, cmd_v, cmd_w, odo, t_f, p.max_accel, p.max_speed,
+                    p.max_turn_rate, p.speed_noise, p.turn_noise, float(state.step_ms),
+                    self._lateral, self._ahead, self._spacing, self._sr, self._sf, self.gain,
+                    self.lookahead, ev, kind, who, float(state.t_now), out)
+        self._to_lists()
+        two_pi = 2.0 * math.pi
+        return [[(tx, ty, math.hypot(tx, ty), math.atan2(ty, tx) % two_pi, od)
+                 for tx, ty, od in row] for row in out.tolist()]
 
     # the last references and projections live in two arrays (NaN: none yet) that the
     # kernel updates; the Python class's lists are kept equal to them after every command
