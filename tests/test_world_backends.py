@@ -241,3 +241,28 @@ def test_rollout_falls_back_without_an_exact_hypot(monkeypatch: pytest.MonkeyPat
     monkeypatch.setattr(ker, "exact_hypot", False)
     co = _run("test2", "compiled", duration_s=20, seed=1, overrides=PLAN, record_jobs=False)
     _same_run(py, co)
+
+
+@needs_numba
+def test_a_users_python_predictor_runs_on_the_compiled_world() -> None:
+    """The decision stays Python: a user's own predictor is called on either backend, with
+    the same results."""
+    from dataclasses import replace
+
+    from rtsim.coupling import scenario_inputs
+
+    calls = []
+
+    def mine(f: Any, v_l: float) -> tuple[float, float, float]:
+        calls.append(v_l)
+        return f.v_f, f.theta, 0.0
+
+    out = {}
+    for backend in ("python", "compiled"):
+        sc = load_scenario("test2", overrides={"world.backend": backend})
+        inp = scenario_inputs(sc)
+        inp = replace(inp, adjust={**inp.adjust, "predictor": mine})
+        n0 = len(calls)
+        out[backend] = run_scenario(inp, duration_s=40, seed=2)
+        assert len(calls) > n0  # the user's predictor made the decisions
+    _same_run(out["python"], out["compiled"])
