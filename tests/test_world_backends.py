@@ -266,3 +266,38 @@ def test_a_users_python_predictor_runs_on_the_compiled_world() -> None:
         out[backend] = run_scenario(inp, duration_s=40, seed=2)
         assert len(calls) > n0  # the user's predictor made the decisions
     _same_run(out["python"], out["compiled"])
+
+
+@needs_numba
+@pytest.mark.parametrize("policy", ["adjust", "margin", "noise-aware"])
+def test_compiled_paper_search_bit_identical(policy: str) -> None:
+    """The paper predictor's speed search runs compiled on the compiled world (Test 2's
+    predictor): the same decisions, the same name in the summary."""
+    from rtsim.control.compiled import PaperSearch
+
+    py = _run("test2", "python", duration_s=150, seed=4, policy=policy, record_jobs=False)
+    co = _run("test2", "compiled", duration_s=150, seed=4, policy=policy, record_jobs=False)
+    _same_run(py, co)
+    assert co.summary["predictor"] == "paper" and co.summary["critical_windows"] > 20
+    rng = np.random.default_rng(8)
+    from rtsim.analysis.kinematics import Thresholds
+    from rtsim.control.adjust import _largest
+    from rtsim.control.predict import min_bound_rows, predict_msb_rows, trusted_estimate
+
+    thr = Thresholds(25.0, 0.005, 0.025, math.radians(5))
+    ps = PaperSearch()
+    for _ in range(300):
+        fols = [trusted_estimate(float(rng.uniform(200, 400)), float(rng.uniform(2.5, 3.8)),
+                                 float(rng.normal(0, 0.3)), float(rng.uniform(0, 40)), 325.0)
+                for _ in range(int(rng.integers(1, 4)))]
+        om, need = float(rng.normal(0, 0.2)), float(rng.uniform(100, 400))
+        grid = [30.0 - 30.0 / 64 * i for i in range(64)] + [30.0 / 64 * 0.5**j
+                                                             for j in range(1, 21)]
+
+        def ok(v: float, fols: Any = fols, om: float = om, need: float = need) -> bool:
+            rows = predict_msb_rows(fols, v, lambda f, _v: (f.v_f, f.theta, om), thr)
+            return min_bound_rows(rows)[0] >= need
+
+        a, b = _largest(ok, grid), ps.largest(fols, om, thr, need, grid)
+        assert (a is None and b is None) or (a is not None and b is not None
+                                             and a.hex() == b.hex())

@@ -333,6 +333,11 @@ class _Coupling:
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
+        if (self.world.backend == "compiled" and type(opts.get("predictor")) is str
+                and opts["predictor"] == "paper" and self.thr.localization == "radial"):
+            from rtsim.control.compiled import PaperSearch  # the same speeds, compiled
+
+            opts["predictor"] = PaperSearch()
         if self._rollout and self.world.follow_law is None:
             raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.predictor: "
                              f"'commands' (and a policy that plays the commands ahead) needs "
