@@ -186,7 +186,9 @@ def test_backend_switch_and_alias() -> None:
 
 
 def test_compiled_without_numba_is_an_error(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(compiled, "_AVAILABLE", False)
+    import rtsim.world.kernels as kernels_module
+
+    monkeypatch.setattr(kernels_module, "_AVAILABLE", False)
     assert load_scenario("test2").world.resolved_backend() == "python"
     sc = load_scenario("test2", overrides={"world.backend": "compiled"})
     with pytest.raises(ScenarioError, match="needs numba"):
