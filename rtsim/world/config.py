@@ -21,7 +21,7 @@ __all__ = ["SensingParams", "WorldConfig", "DEFAULT_THRESHOLDS", "WORLD_BACKENDS
 #: (the Python world with filterpy's EKF; ``[ekf] backend = "filterpy"`` is its older name).
 WORLD_BACKENDS: tuple[str, ...] = ("python", "compiled", "filterpy")
 
-#: T_ρ = 0.01, T_ε = 0.025 (the prototype of SPEC §7), T_β = 5°, r_H = r_F = 25 cm.
+#: T_ρ = 0.01, T_ε = 0.025 (an earlier prototype of this world), T_β = 5°, r_H = r_F = 25 cm.
 DEFAULT_THRESHOLDS = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=math.radians(5.0))
 
 
