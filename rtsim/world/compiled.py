@@ -12,11 +12,11 @@ Python ones (tests run both paths and compare whole runs):
   control law (:class:`TraceFollower.command`) in one call per command.
 
 Only the operations whose compiled result is the interpreter's are compiled: + − × ÷,
-``sqrt``, ``sin``, ``cos``, ``abs``, ``copysign`` and ``%`` (numba calls the same C library
-for the functions and follows Python's rules for ``%``). ``math.hypot`` is not among them —
-CPython computes it with its own algorithm — so a kernel leaves it to Python: the FTL kernel
-returns the pieces of its last step, and where its one comparison against a hypot would be
-decided within 1e-12 of the boundary it hands the whole command back to Python.
+``sqrt``, ``sin``, ``cos``, ``atan2``, ``abs``, ``copysign`` and ``%`` (numba calls the same C
+library for the functions and follows Python's rules for ``%``). CPython computes
+``math.hypot`` with an algorithm of its own; the kernels carry that algorithm
+(:func:`rtsim.world.kernels._hypot`), checked against ``math.hypot`` when they load — where
+this interpreter disagrees, the controller and the rollout run in Python instead.
 
 numba is imported on first use (:func:`available`); kernels are compiled once per machine
 and cached on disk (``cache=True``), so a later process loads them in milliseconds.
@@ -92,7 +92,6 @@ class CompiledTraceFollower(TraceFollower):
     def __init__(self, path: LeaderPath, rho_d: Any, lateral: Any, gain: float,
                  lookahead: float) -> None:
         super().__init__(path, rho_d, lateral, gain, lookahead)
-        self._kernel = kernels().ftl_command
         self._s0 = np.array(path._s0, dtype=float)
         self._poses = np.array(path._poses, dtype=float).reshape(-1, 3)
         self._kappa = np.array(path._kappa, dtype=float)
@@ -167,20 +166,15 @@ class CompiledTraceFollower(TraceFollower):
 
     def command(self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float,
                 x: float, y: float, th: float) -> tuple[float, float]:
-        xl, yl, hl = leader
-        done, v, dx, dy = self._kernel(
-            self._s0, self._poses, self._kappa, self.path.lap_length, self._lateral,
-            self._ahead, self._spacing, self._sr, self._sf, self.gain, self.lookahead, k, s_l,
-            xl, yl, hl, v_l, x, y, th)
-        if not done:
+        ker = kernels()
+        if not ker.exact_hypot:  # this interpreter's hypot is not the kernels': Python
             self.fallbacks += 1
-            self._to_lists()
             out = super().command(k, s_l, leader, v_l, x, y, th)
             self._from_lists()
             return out
+        xl, yl, hl = leader
+        out = ker.ftl_exact(self._s0, self._poses, self._kappa, self.path.lap_length,
+                            self._lateral, self._ahead, self._spacing, self._sr, self._sf,
+                            self.gain, self.lookahead, k, s_l, xl, yl, hl, v_l, x, y, th)
         self._to_lists()
-        dist = math.hypot(dx, dy)
-        if dist < 1e-9:
-            return v, 0.0
-        alpha = math.atan2(dy, dx) - th
-        return v, v * 2.0 * math.sin(alpha) / dist
+        return out  # type: ignore[no-any-return]

@@ -132,16 +132,7 @@ def _index(s0: Any, lap: float, s: float) -> tuple[int, float]:
 def _point(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float
            ) -> tuple[float, float, float]:
     """TraceFollower.point: LeaderPath.pose(s) moved ``o`` to the left."""
-    k, u = _index(s0, lap, s)
-    x0, y0, h0 = poses[k, 0], poses[k, 1], poses[k, 2]
-    kap = kappa[k]
-    ds = u - s0[k]
-    if kap == 0.0:
-        x, y, h = x0 + ds * math.cos(h0), y0 + ds * math.sin(h0), h0
-    else:
-        h = h0 + kap * ds
-        x = x0 + (math.sin(h) - math.sin(h0)) / kap
-        y = y0 - (math.cos(h) - math.cos(h0)) / kap
+    x, y, h = _pose(s0, poses, kappa, lap, s)
     return x - o * math.sin(h), y + o * math.cos(h), h
 
 
@@ -201,61 +192,6 @@ def _search(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, s_l
         if hi - lo < 1e-7:
             break
     return 0.5 * (lo + hi)
-
-
-def _ftl_command(s0: Any, poses: Any, kappa: Any, lap: float, lateral: Any, ahead: Any,
-                 spacing: Any, s_ref: Any, s_f: Any, gain: float, lookahead: float, k: int,
-                 s_l: float, xl: float, yl: float, hl: float, v_l: float, x: float, y: float,
-                 th: float) -> tuple[int, float, float, float]:
-    """TraceFollower.command up to its last hypot: (status, v, dx, dy) with status 1 when
-    done (``s_ref``/``s_f`` updated in place), 0 when a speed comparison was too close to
-    call without CPython's hypot (nothing updated: the caller runs the Python command)."""
-    # the chain of followers whose references this one's depends on, leader first
-    chain = np.empty(ahead.shape[0] + 1, dtype=np.int64)
-    m = 0
-    j = k
-    while j >= 0:
-        chain[m] = j
-        m += 1
-        j = ahead[j]
-    new_ref = s_ref.copy()
-    s_t, tx, ty, th_t, v_t = s_l, xl, yl, hl, v_l
-    for c in range(m - 1, -1, -1):
-        q = chain[c]
-        o = lateral[q]
-        sr = _search(s0, poses, kappa, lap, o, new_ref[q], s_t, tx, ty, spacing[q])
-        new_ref[q] = sr
-        # _speed
-        px, py, hp = _point(s0, poses, kappa, lap, o, sr)
-        dx, dy = tx - px, ty - py
-        den = dx * math.cos(hp) + dy * math.sin(hp)
-        norm = math.sqrt(dx * dx + dy * dy)
-        if abs(den - 0.1 * norm) <= 1e-12 * norm:
-            return 0, 0.0, 0.0, 0.0
-        if den <= 0.1 * norm:
-            v_ref = v_t
-        else:
-            v_ref = v_t * (dx * math.cos(th_t) + dy * math.sin(th_t)) / den
-        if c > 0:  # the next follower in the chain follows this one's reference point
-            tx, ty, th_t = _point(s0, poses, kappa, lap, o, sr)
-            s_t, v_t = sr, v_ref
-    o = lateral[k]
-    # project
-    sf = s_f[k]
-    if math.isnan(sf):
-        sf = new_ref[k]
-    for _ in range(6):
-        px, py, h = _point(s0, poses, kappa, lap, o, sf)
-        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / _scale(s0, kappa, lap, o, sf)
-        sf += ds
-        if abs(ds) < 1e-3:
-            break
-    v = max(0.0, v_ref + gain * (new_ref[k] - sf) * _scale(s0, kappa, lap, o, sf))
-    gx, gy, _ = _point(s0, poses, kappa, lap, o, min(sf + lookahead, s_l))
-    for q in range(s_ref.shape[0]):
-        s_ref[q] = new_ref[q]
-    s_f[k] = sf
-    return 1, v, gx - x, gy - y
 
 
 def _dl_mul(x: float, y: float) -> tuple[float, float]:
@@ -459,11 +395,10 @@ def kernels() -> Any:
         ns = types.SimpleNamespace()
         glob = globals()
         # helpers first: the kernels that call them find the compiled ones by name
-        for name in ("_index", "_point", "_scale", "_gap", "_search", "_dl_mul", "_hypot_core",
-                     "_hypot",
-                     "_pose", "_clip", "_advance_follower", "_ftl_exact"):
+        for name in ("_index", "_pose", "_point", "_scale", "_gap", "_search", "_dl_mul",
+                     "_hypot_core", "_hypot", "_clip", "_advance_follower", "_ftl_exact"):
             glob[name] = jit(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
-        for name in ("_advance_follower", "_ekf_predict", "_ekf_update", "_ftl_command",
+        for name in ("_advance_follower", "_ekf_predict", "_ekf_update", "_ftl_exact",
                      "_rollout", "_hypot"):
             fn = glob[name]
             setattr(ns, name.lstrip("_"), fn if hasattr(fn, "py_func") else jit(fn))
@@ -493,6 +428,6 @@ def _warm(ns: Any) -> None:
     ns.ekf_predict(*([1.0] * 16))
     ns.ekf_update(*([1.0] * 15))
     one = np.zeros(1)
-    ns.ftl_command(np.zeros(1), np.zeros((1, 3)), np.zeros(1), 100.0, one, np.full(1, -1),
-                   np.ones(1), np.full(1, math.nan), np.full(1, math.nan), 0.5, 10.0, 0, 50.0,
-                   50.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+    ns.ftl_exact(np.zeros(1), np.zeros((1, 3)), np.zeros(1), 100.0, one, np.full(1, -1),
+                 np.ones(1), np.full(1, math.nan), np.full(1, math.nan), 0.5, 10.0, 0, 50.0,
+                 50.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
