@@ -73,6 +73,7 @@ from rtsim.control.rollout import Rollout, RolloutState
 from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.recorder import (
     FOLLOWER_FIELDS,
+    LOCALIZATION_COLUMNS,
     WindowRecord,
     WindowRecorder,
     records_columns,
@@ -86,7 +87,7 @@ from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.run import build_cpu
 from rtsim.world.config import WorldConfig
-from rtsim.world.localization import hough_time
+from rtsim.world.localization import LOST_CAUSES, hough_time
 from rtsim.world.world import World
 
 __all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "scenario_inputs", "summarize",
@@ -239,6 +240,7 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "sensing": plain(cfg.sensing),
         "ekf": plain(cfg.ekf),
         "thresholds": plain(cfg.thresholds),
+        "localization": plain(cfg.localization),
         "step_ms": cfg.step_ms,
         "adjust": plain(getattr(scenario, "adjust", {})),
         "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),
@@ -542,6 +544,10 @@ class _Coupling:
         rec.points = scan.total_points
         rec.assumption_broken = scan.total_points > self._points_assumed
         rec.tracks_lost = scan.n_lost
+        if rec.tracks_lost:
+            rec.lost_by_cause = tuple(scan.lost_by_cause().values())
+            rec.searches = scan.n_searched
+            rec.reacquisitions = scan.n_reacquired
         rec.lost = scan.as_lists("lost")
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
@@ -699,7 +705,13 @@ def summary_columns(n: int) -> list[str]:
     """The columns of windows.csv that :func:`summarize` reads (``n`` followers)."""
     return ["w", "w_sch", "msb_min", "binding", "critical", "missed", "tracks_lost",
             "assumption_broken", "method", "v_leader", "v_leader_desired", "feasible",
-            "response", *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS)]
+            "response", *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS),
+            *LOCALIZATION_COLUMNS]
+
+
+def _total(df: pd.DataFrame | Mapping[str, Any], col: str) -> int:
+    """Sum of an integer column of windows.csv (0 when a table from before it lacks it)."""
+    return int(np.asarray(df[col], dtype=np.int64).sum()) if col in df else 0
 
 
 def summarize(df: pd.DataFrame | Mapping[str, Any], *, mode: str, w_sch: float,
@@ -751,6 +763,10 @@ def summarize(df: pd.DataFrame | Mapping[str, Any], *, mode: str, w_sch: float,
         "min_speed_ratio": float(speed.min()) if rows else math.nan,
         "infeasible": int((~col("feasible", bool)).sum()),
         "max_response": float(kept.max()) if kept.size else math.nan,
+        # lost tracks by cause (they sum to tracks_lost), searches charged, re-acquisitions
+        "tracks_lost_by_cause": {c: _total(df, f"tracks_lost_{c}") for c in LOST_CAUSES},
+        "searches": _total(df, "searches"),
+        "reacquisitions": _total(df, "reacquisitions"),
     }
     if extra:
         out.update(extra)
