@@ -246,6 +246,10 @@ register(_TS + "window.rho_min", 25, 1e5, "cm", "beyond the follower radius r_F 
          "within 1 km", lo_open=True)
 for _k in ("e_scan", "e_estimate", "e_send", "e_recv", "delta_t", "e_sched"):
     register(_TS + f"window.{_k}", 0, 1e7, "ms", "a chain step of at most 2.8 h")
+register(_TS + "window.offset", 0, _MS_MAX, "ms", "as a task's offset: the first window "
+         "arrives then; per-window tasks count their offsets from it")
+register(_TS + "window.jitter", 0, _MS_MAX, "ms", "as a task's jitter: each window job is "
+         "released up to J after its arrival")
 
 _SC = "scenario: "
 register(_SC + "duration", 0, 1e6, "s", "up to 11.6 simulated days", lo_open=True)
