@@ -32,6 +32,7 @@ from rtsim.world._check import non_negative, positive
 from rtsim.world.config import (
     CENTRES,
     SEARCHES,
+    WORLD_BACKENDS,
     LocalizationParams,
     SensingParams,
     WorldConfig,
@@ -415,6 +416,7 @@ class AdjustModel(Table):
 class WorldModel(Table):
     step_ms: Annotated[float, number(1e-3, 1e4, "ms", "1 µs to 10 s per integration step")] \
         = 10.0
+    backend: Annotated[str, choice(WORLD_BACKENDS)] | None = None
 
 
 class SchedulerModel(Table):
@@ -590,7 +592,8 @@ def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[s
     world = _attempt(errors, src, lambda: WorldConfig(
         path, speed, formation, follower, sensing, ekf, thresholds, m.world.step_ms,
         float(m.leader.start_s), leader_accel_max=float(m.leader.accel_max),
-        leader_decel_max=float(m.leader.decel_max), localization=localization))
+        leader_decel_max=float(m.leader.decel_max), localization=localization,
+        backend=m.world.backend))
     if world is None:
         return None
     errors += _sense(world, src)

@@ -113,6 +113,11 @@ class WindowModel(Table):
     rho_min: Annotated[float, number(25, 1e5, "cm", "beyond the follower radius r_F = 25 cm, "
                                    "within 1 km", lo_open=True)] | None = None
     k_value: Annotated[float, number(0, 361, "points", "as k", lo_open=True)] | None = None
+    offset: Annotated[float, number(0, _MS_MAX, "ms", "as a task's offset: the first window "
+                                    "arrives then; per-window tasks count their offsets from "
+                                    "it")] | None = None
+    jitter: Annotated[float, number(0, _MS_MAX, "ms", "as a task's jitter: each window job is "
+                                    "released up to J after its arrival")] | None = None
 
 
 class SchedulerModel(Table):
@@ -252,6 +257,9 @@ def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:
     for key in ("e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv", "delta_t",
                 "e_sched"):
         values[key] = float(getattr(w, key))
+    for key in ("jitter", "offset"):  # the window's release jitter and first arrival (ms)
+        if getattr(w, key) is not None:
+            values[key] = float(getattr(w, key))
     return WindowSpec(**values), []
 
 

@@ -154,7 +154,7 @@ def policy_class(spec: object, where: str = "policy") -> type:
         mod, _, attr = spec.partition(":")
         try:
             cls = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError) as exc:
+        except (ImportError, AttributeError, ValueError, TypeError) as exc:
             raise InputError(f"{where}: cannot load {spec!r} ({exc})") from None
         if not isinstance(cls, type) or not callable(getattr(cls, "decide", None)):
             raise InputError(f"{where}: {spec!r} is not a policy class (it needs a method "

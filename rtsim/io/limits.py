@@ -163,6 +163,7 @@ register(_OP + "--point", 0, 1e5, "", "a point index (a grid has at most 1e5 poi
          integer=True)
 register(_OP + "--histograms", 0, 1e4, "", "histogram sets written", integer=True)
 register(_OP + "--bins", 1, 1e5, "bins", "histogram bins", integer=True)
+register(_OP + "--dpi", 50, 1200, "dots/inch", "resolution of PNG figures", integer=True)
 register(_OP + "--fps", 1, 240, "frames/s", "an animation frame rate", integer=True)
 register(_OP + "--every", 1, 1e6, "windows", "one frame per this many windows", integer=True)
 register(_OP + "--start", 0, 1e6, "s", "as --duration")

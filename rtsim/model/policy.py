@@ -147,7 +147,7 @@ def resolve_policy(spec: PolicySpec, where: str = "scheduler") -> SchedulingPoli
         mod, _, attr = spec.partition(":")
         try:
             obj = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError) as exc:
+        except (ImportError, AttributeError, ValueError, TypeError) as exc:
             raise InputError(f"{where}: cannot load policy {spec!r}: {exc}") from None
         if isinstance(obj, type) and issubclass(obj, SchedulingPolicy):
             if obj.order is SchedulingPolicy.order:  # the base itself, or a class without it

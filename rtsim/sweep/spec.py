@@ -340,7 +340,7 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
         mod, attr = function.split(":")
         try:
             fn = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError) as exc:
+        except (ImportError, AttributeError, ValueError, TypeError) as exc:
             raise SweepError(f"{src}: sweep.function: cannot import {function!r}: {exc}") from None
         if not callable(fn):
             raise SweepError(f"{src}: sweep.function: {function!r} is not callable")
