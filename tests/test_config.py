@@ -252,6 +252,7 @@ def test_reproduce_passes_set_through() -> None:
     from rtsim.reproduce import parse_args
 
     ns = argparse.Namespace(out="o", seed=None, duration=None, workers=None, docs=None,
-                            quick=True, quiet=False, set=["leader.speed=20"])
+                            quick=True, quiet=False, force=False,
+                            set=["leader.speed=20"])
     argv = argv_for(ns)
     assert parse_args(argv).set == ["leader.speed=20"]
