@@ -141,7 +141,8 @@ class ScenarioResult(ResultDisplay):
 
 
 def _inputs(scenario: Any, text: str | None = None,
-            overrides: Mapping[str, Any] | None = None) -> ScenarioInputs:
+            overrides: Mapping[str, Any] | None = None,
+            allow_code: bool | None = None) -> ScenarioInputs:
     """Accept :class:`ScenarioInputs`, a path (loaded with :func:`rtsim.io.scenario.
     load_scenario`), or a :class:`rtsim.io.scenario.Scenario`.
 
@@ -160,7 +161,7 @@ def _inputs(scenario: Any, text: str | None = None,
 
         path = scenario
         # a file, or a packaged scenario by name ("test2")
-        scenario = load_scenario(path, overrides=overrides)
+        scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
         if text is None:
             text = scenario_bytes(path)[0].decode("utf-8")
     try:
@@ -645,6 +646,7 @@ def run_scenario(
     window_sink: Any = None,
     job_sink: Any = None,
     policy: str | None = None,
+    allow_code: bool | None = None,
 ) -> ScenarioResult:
     """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
 
@@ -664,6 +666,8 @@ def run_scenario(
     are written in chunks during the run, the summary is computed from the columns read
     back, and ``result.windows`` is None; job_sink: a callable given the job records in
     chunks (``result.jobs`` is then None). With both, memory stays flat on long runs.
+    allow_code: a scenario file (or its task set) may name code, ``module:Name``
+    (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
     """
     t0 = time.perf_counter()
     if mode is not None and policy is not None and mode != policy:
@@ -678,7 +682,7 @@ def run_scenario(
         duration_s = duration
     if not is_int(seed) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
-    inp = _inputs(scenario, text, overrides)
+    inp = _inputs(scenario, text, overrides, allow_code)
     cfg = inp.world
     stop_s: float | None = None
     stop_ms = 0.0

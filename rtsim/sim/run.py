@@ -23,11 +23,11 @@ import simpy
 
 from rtsim._numbers import is_real
 from rtsim.errors import InputError
-from rtsim.model.policy import PolicySpec
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU, JitterMode
 from rtsim.sim.execution import ExecSpec
+from rtsim.sim.policy import PolicySpec
 from rtsim.sim.records import SimResult
 
 __all__ = ["simulate", "build_cpu", "resolve_window", "WindowArg"]
@@ -119,7 +119,7 @@ def simulate(
     ``job_sink``: a callable that receives the job records as DataFrame chunks during the
     run (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
     long horizon (:class:`rtsim.sim.records.RowBuffer`).
-    ``scheduler``: the scheduling policy (:mod:`rtsim.model.policy`), default the set's
+    ``scheduler``: the scheduling policy (:mod:`rtsim.sim.policy`), default the set's
     (``[scheduler] policy``; ``fp`` for a list of tasks).
     """
     ts = _as_taskset(ts)
