@@ -60,7 +60,7 @@ HELPS: dict[str, str] = {
 
 #: Sub-commands that read task-set, scenario or sweep files (they take ``--allow-code``).
 READS_INPUT_FILES: tuple[str, ...] = ("analyze", "bounds", "simulate", "generate", "scenario",
-                                      "sweep", "validate", "histogram", "reproduce")
+                                      "sweep", "validate", "histogram")
 
 
 def plain(text: str | None) -> str | None:
