@@ -7,7 +7,9 @@ was ever finite has an infinite ``min_msb_over_wsch``. In the file those are ``n
 - ``min_msb_over_wsch``: null when no window finished, or when every motion and sensing
   bound was infinite (nothing limited the window);
 - ``min_speed_ratio``, ``max_response``: null when no window finished;
-- ``max_violation_ratio.<kind>``: null when that kind was never measured.
+- ``max_violation_ratio.<kind>``: null when that kind was never measured;
+- ``leader_accel_max``, ``leader_decel_max``: null when the limit is infinite (the
+  scenario left it out or wrote ``inf``: the leader's speed steps at once).
 
 Any other non-finite value is a bug and raises (:class:`rtsim.io.atomic.NonFiniteJSON`).
 """
@@ -21,7 +23,8 @@ from typing import Any
 __all__ = ["NULLABLE", "summary_json"]
 
 #: Top-level summary fields (and tables of fields) that are null when not finite.
-NULLABLE = ("min_msb_over_wsch", "min_speed_ratio", "max_response", "max_violation_ratio")
+NULLABLE = ("min_msb_over_wsch", "min_speed_ratio", "max_response", "max_violation_ratio",
+            "leader_accel_max", "leader_decel_max")
 
 
 def _null(v: Any) -> Any:
