@@ -9,7 +9,14 @@ file's keys shown in the label), one lap each (the runs' default duration), and 
 * the largest violation ratio per bound (max);
 * lap time (mean of summary.json ``lap_time_s``: simulated s until the leader first
   completes its lap; NaN for a run that did not);
-* mean and minimum V_L / V_Ld over the windows; critical share (mean); mean slack (ms).
+* mean and minimum V_L / V_Ld over the windows; critical share (mean); mean slack (ms);
+* windows at the floor speed (method ``floor``, sum);
+* lap time / fixed-wsch's lap time on the same seed (the largest over the seeds) and whether
+  the goal holds: no window beyond 5 %, no miss, no lost track, lap ratio ≤ LAP_GOAL;
+* physical outcomes (summary.json, cm): cross-track and separation error p95 (largest over
+  the seeds), the smallest robot distance, collisions (sum).
+
+Every run covers one lap (equal distance), so policies are compared per lap.
 
 Outputs in DIR: ``policies.csv`` (one row per run), ``policies_summary.csv`` and
 ``policies.md`` (the table above), ``pareto.png`` (windows beyond 5 % against lap time, one
@@ -38,17 +45,28 @@ from rtsim.io.manifest import write_manifest
 
 #: (label, [adjust] overrides): every registered built-in policy, margin and lookahead at
 #: their defaults and combined, noise-aware at z = 2 and safe at its defaults (margin 0.1,
-#: z = 1, windows 2).
+#: z = 1, windows 2), all with the paper's predictor; the paper's algorithm on the
+#: command-aware rollout (predictor commands); plan at 1, 2 and 3 windows, and at 2 windows
+#: deciding before the sends.
+_PAPER = {"adjust.predictor": "paper"}
 POLICY_CASES: tuple[tuple[str, dict[str, Any]], ...] = (
-    ("adjust", {"adjust.policy": "adjust"}),
-    ("fixed-wsch", {"adjust.policy": "fixed-wsch"}),
-    ("min-msb", {"adjust.policy": "min-msb"}),
-    ("margin 0.1", {"adjust.policy": "margin", "adjust.margin": 0.1}),
-    ("lookahead", {"adjust.policy": "lookahead"}),
-    ("lookahead + margin 0.1", {"adjust.policy": "lookahead", "adjust.margin": 0.1}),
-    ("noise-aware z 2", {"adjust.policy": "noise-aware", "adjust.z": 2.0}),
-    ("safe", {"adjust.policy": "safe"}),
+    ("adjust", {"adjust.policy": "adjust", **_PAPER}),
+    ("fixed-wsch", {"adjust.policy": "fixed-wsch", **_PAPER}),
+    ("min-msb", {"adjust.policy": "min-msb", **_PAPER}),
+    ("margin 0.1", {"adjust.policy": "margin", "adjust.margin": 0.1, **_PAPER}),
+    ("lookahead", {"adjust.policy": "lookahead", **_PAPER}),
+    ("lookahead + margin 0.1", {"adjust.policy": "lookahead", "adjust.margin": 0.1, **_PAPER}),
+    ("noise-aware z 2", {"adjust.policy": "noise-aware", "adjust.z": 2.0, **_PAPER}),
+    ("safe", {"adjust.policy": "safe", **_PAPER}),
+    ("adjust, commands", {"adjust.policy": "adjust", "adjust.predictor": "commands"}),
+    ("plan 1", {"adjust.policy": "plan", "adjust.windows": 1}),
+    ("plan 2", {"adjust.policy": "plan", "adjust.windows": 2}),
+    ("plan 3", {"adjust.policy": "plan", "adjust.windows": 3}),
+    ("plan 2, before-send", {"adjust.policy": "plan", "adjust.windows": 2,
+                             "adjust.decide": "before-send"}),
 )
+#: The goal: lap time at most this multiple of fixed-wsch's (which never slows), same seed.
+LAP_GOAL = 1.10
 TESTS = ("test1", "test2")
 
 
@@ -69,7 +87,11 @@ def run_one(test: str, n: int, label: str, overrides: dict[str, Any], seed: int,
         "lap_s": np.nan if s["lap_time_s"] is None else s["lap_time_s"],
         "mean_speed_ratio": float(speed.mean()), "min_speed_ratio": float(speed.min()),
         "critical_share": s["critical_share"], "mean_slack_ms": float(df["slack"].mean()),
-        "wall_s": time.perf_counter() - t0,
+        "floor_windows": int((df["method"] == "floor").sum()),
+        **{f"{key}_{q}": np.nan if s[key] is None else s[key][q]
+           for key in ("cross_track_cm", "separation_error_cm") for q in ("p95", "max")},
+        "min_robot_distance_cm": s["min_robot_distance_cm"], "collisions": s["collisions"],
+        "laps": s["laps"], "wall_s": time.perf_counter() - t0,
     }
 
 
@@ -81,32 +103,47 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
                            "lap_s": "mean", "mean_speed_ratio": "mean",
                            "min_speed_ratio": "min", "critical_share": "mean",
                            "mean_slack_ms": "mean"}
+    agg.update({"floor_windows": "sum", "cross_track_cm_p95": "max",
+                "cross_track_cm_max": "max", "separation_error_cm_p95": "max",
+                "separation_error_cm_max": "max", "min_robot_distance_cm": "min",
+                "collisions": "sum", "lap_ratio": "max"})
+    runs = runs.copy()
+    ref = runs[runs["policy"] == "fixed-wsch"].set_index(["test", "n", "seed"])["lap_s"]
+    keys = list(zip(runs["test"], runs["n"], runs["seed"], strict=True))
+    runs["lap_ratio"] = [lap / ref.get(k, np.nan) for lap, k in
+                         zip(runs["lap_s"], keys, strict=True)]
     out = runs.groupby(["test", "n", "policy"], sort=False).agg(agg).reset_index()
     out = out.rename(columns={"seed": "seeds"})
     out["viol5"] = out[[f"viol5_{k}" for k in BOUND_KINDS]].sum(axis=1)
+    out["goal"] = ((out["viol5"] == 0) & (out["missed"] == 0) & (out["tracks_lost"] == 0)
+                   & (out["lap_ratio"] <= LAP_GOAL))
     return out
 
 
 def markdown(df: pd.DataFrame) -> str:
-    """The summary as a Markdown table."""
+    """The summary as a Markdown table (lap ratio: the largest over the seeds of lap time /
+    fixed-wsch's on the same seed; cross-track and separation error: the largest p95 over the
+    seeds, cm; min distance: the smallest, cm)."""
     lines = ["| test | n | policy | seeds | misses | lost | windows > 5 % (loc/sep/path/bear) "
-             "| max ratio (loc/sep/path/bear) | lap (s) | V_L/V_Ld mean, min | critical "
-             "| slack (ms) |", "|" + "---|" * 12]
+             "| max ratio (loc/sep/path/bear) | floor | lap (s) | lap / fixed-wsch (max) "
+             "| goal | cross-track p95 (cm) | sep. error p95 (cm) | min distance (cm) "
+             "| collisions |", "|" + "---|" * 16]
     for r in df.to_dict("records"):
         v5 = "/".join(str(int(r[f"viol5_{k}"])) for k in BOUND_KINDS)
         mx = "/".join(f"{r[f'max_ratio_{k}']:.2f}" for k in BOUND_KINDS)
         lines.append(f"| {r['test']} | {r['n']} | {r['policy']} | {r['seeds']} | "
                      f"{r['missed']} | {r['tracks_lost']} | {r['viol5']} ({v5}) | {mx} | "
-                     f"{r['lap_s']:.1f} | {r['mean_speed_ratio']:.3f}, "
-                     f"{r['min_speed_ratio']:.3f} | {r['critical_share']:.3f} | "
-                     f"{r['mean_slack_ms']:.1f} |")
+                     f"{r['floor_windows']} | {r['lap_s']:.1f} | {r['lap_ratio']:.3f} | "
+                     f"{'yes' if r['goal'] else 'no'} | {r['cross_track_cm_p95']:.1f} | "
+                     f"{r['separation_error_cm_p95']:.1f} | "
+                     f"{r['min_robot_distance_cm']:.0f} | {r['collisions']} |")
     return "\n".join(lines) + "\n"
 
 
 def pareto(df: pd.DataFrame, path: Path) -> None:
-    """Windows beyond 5 % against lap time, one marker per policy and test (the smallest n's
-    rows), with the goal's lap-time limit (1.15 × the paper's policy) per test; a cross marks a
-    policy and test with misses or lost tracks."""
+    """Windows beyond 5 % against lap time (per lap: equal distance), one marker per policy
+    and test (the smallest n's rows), with the goal's lap-time limit (LAP_GOAL × fixed-wsch's
+    lap) per test; a cross marks a policy and test with misses or lost tracks."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -114,7 +151,7 @@ def pareto(df: pd.DataFrame, path: Path) -> None:
 
     from rtsim.io.atomic import atomic_path
 
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    fig, ax = plt.subplots(figsize=(7.5, 5.0))
     markers = {"test1": "o", "test2": "s"}
     for i, (label, _) in enumerate(POLICY_CASES):
         for test, mk in markers.items():
@@ -128,12 +165,12 @@ def pareto(df: pd.DataFrame, path: Path) -> None:
         ax.scatter(bad["lap_s"], bad["viol5"], marker="x", color="black", s=90,
                    label="with misses or lost tracks")
     for test, ls in (("test1", ":"), ("test2", "--")):
-        ref = df[(df["policy"] == "adjust") & (df["test"] == test) & (df["n"] == n_min)]
+        ref = df[(df["policy"] == "fixed-wsch") & (df["test"] == test) & (df["n"] == n_min)]
         if len(ref) and np.isfinite(ref["lap_s"].iloc[0]):
-            ax.axvline(1.15 * float(ref["lap_s"].iloc[0]), color="grey", ls=ls, lw=0.8,
-                       label=f"1.15 × adjust's lap ({test})")
+            ax.axvline(LAP_GOAL * float(ref["lap_s"].iloc[0]), color="grey", ls=ls, lw=0.8,
+                       label=f"{LAP_GOAL:.2f} × fixed-wsch's lap ({test})")
     ax.set_title(f"n = {n_min}, seeds summed", fontsize=9)
-    ax.set_xlabel("lap time (s)")
+    ax.set_xlabel("lap time (s, one lap: equal distance)")
     ax.set_ylabel("windows beyond 5 % (all bounds, summed over seeds)")
     ax.legend(fontsize=7)
     fig.tight_layout()

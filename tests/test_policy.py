@@ -215,7 +215,7 @@ def test_cli_policy(tmp_path: Path) -> None:
     assert bad.returncode == 2
     assert bad.stderr.strip().splitlines() == [
         "rtsim: --policy: must be one of adjust, fixed-wsch, min-msb, margin, lookahead, "
-        "noise-aware, safe or "
+        "noise-aware, safe, plan or "
         "'package.module:Name', got 'margn' (did you mean 'margin'?)"]
     both = _cli("scenario", str(PIN / "pin1.toml"), "--policy", "margin", "--mode", "adjust",
                 "--out", str(tmp_path / "y"))

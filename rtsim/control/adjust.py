@@ -95,7 +95,7 @@ FLOOR_FRAC = 0.05
 #: Default smallest window (ms) of the ``min-msb`` mode.
 FLOOR_W = 1.0
 #: Methods that :func:`adjust` can report.
-METHODS: tuple[str, ...] = ("none", "closed-form", "coupled", "numeric", "floor")
+METHODS: tuple[str, ...] = ("none", "closed-form", "coupled", "numeric", "floor", "best")
 #: Window modes of :func:`decide`.
 MODES: tuple[str, ...] = ("adjust", "fixed-wsch", "min-msb")
 
@@ -290,13 +290,19 @@ def _rows_at(
     kappa: float,
     omega_l: float = 0.0,
     v_now: float | None = None,
+    rollout: Any = None,
 ) -> Callable[[float], list[tuple[float, float, float, float]]]:
     """v_l -> every follower's bounds at v_l (rows in BOUND_KINDS order), memoised per v_l.
 
     For the built-in ``formation`` and ``hybrid`` models the per-follower constants are
     computed once (:func:`_formation_consts`, :func:`_hybrid_consts`); the values are those
-    of :func:`predict_msb_rows` with the same predictor (bit for bit, tested).
+    of :func:`predict_msb_rows` with the same predictor (bit for bit, tested). The
+    ``commands`` model's rows are ``rollout.rows(v_l)`` (:mod:`rtsim.control.rollout`).
     """
+    if model == "commands":
+        if rollout is None:
+            predict(None, 0.0)  # type: ignore[arg-type,misc]  # raises: no rollout
+        return rollout.rows  # type: ignore[no-any-return]
     memo: dict[float, list[tuple[float, float, float, float]]] = {}
     pre = _formation_consts(followers, thresholds, kappa) if model == "formation" else None
     hyb = (_hybrid_consts(followers, thresholds, kappa, v_now) if model == "hybrid"
@@ -330,6 +336,7 @@ def predicted_rows(
     omega_l: float = 0.0,
     kappa: float = 0.0,
     v_now: float | None = None,
+    rollout: Any = None,
 ) -> list[tuple[float, float, float, float]]:
     """Every follower's four bounds (ms, :data:`BOUND_KINDS` order) at leader speed ``v_l``
     under ``predictor``, from the same estimates and with the same arithmetic as the decision
@@ -337,7 +344,8 @@ def predicted_rows(
     window in which the leader drives at ``v_l`` (windows.csv ``f{i}_msb_{bound}_pred``)."""
     predict = (None if predictor == "formation"
                else _make_predictor(predictor, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    return _rows_at(followers, predict, thresholds, predictor, kappa, omega_l, v_now)(v_l)
+    return _rows_at(followers, predict, thresholds, predictor, kappa, omega_l, v_now,
+                    rollout)(v_l)
 
 
 def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
@@ -374,6 +382,7 @@ def _adjust_core(
     methods: Sequence[str],
     scan_points: int,
     v_now: float | None,
+    rollout: Any = None,
 ) -> Decision:
     """:func:`adjust` as a :class:`Decision` (validation included)."""
     where = "adjust"
@@ -401,13 +410,20 @@ def _adjust_core(
     # the formation model's predictor (which cannot fail) is only made when needed
     predict = (None if model == "formation"
                else _make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    rows_at = _rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now)
+    rows_at = _rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now, rollout)
     rows = rows_at(v_ld)
     m, kind, who = min_bound_rows(rows)
     if m >= w_sch:
         return Decision(min(m, cap), v_ld, m, kind, who, "none", True, rows, rows, m, {})
 
     need = w_sch * (1.0 - _TOL)
+    if model == "commands":
+        v_l, method, found = search_rollout(lambda v: min_bound_rows(rows_at(v))[0], v_ld,
+                                            need, floor_frac * v_ld)
+        after_rows = rows_at(v_l)
+        m_after = min_bound_rows(after_rows)[0]
+        return Decision(w_sch, v_l, m, kind, who, method, m_after >= need, rows, after_rows,
+                        m_after, {"numeric": found})
 
     def ok(v: float) -> bool:
         return min_bound_rows(rows_at(v))[0] >= need
@@ -458,7 +474,11 @@ def _adjust_core(
             if found is not None and found > best:
                 best, method = found, "numeric"
                 candidates["numeric"] = found
-    elif "numeric" in methods and v_ld > 0.0:
+    elif "numeric" in methods and v_ld > 0.0 and not (
+            model == "paper" and thresholds.localization == "radial"
+            and paper_infeasible(followers, v_ld, w_sch, thresholds, omega_l)):
+        # (an exactly empty intersection of the paper model's intervals skips the grid,
+        # which would find nothing: the same decision without ~86 evaluations)
         step = v_ld / scan_points
         grid = [v_ld - step * i for i in range(scan_points)]
         grid += [step * 0.5**j for j in range(1, 21)]
@@ -471,6 +491,86 @@ def _adjust_core(
     m_after = min_bound_rows(after_rows)[0]
     return Decision(w_sch, v_l, m, kind, who, method, m_after >= need, rows, after_rows,
                     m_after, candidates)
+
+
+#: Bracket of the ``commands`` search: a descending scan of this many equal steps of (0, V_Ld]
+ROLLOUT_GRID = 8
+#: ... then bisection until the bracket is this fraction of V_Ld wide.
+ROLLOUT_TOL = 0.005
+
+
+def search_rollout(m: Callable[[float], float], v_ld: float, need: float, v_floor: float
+                   ) -> tuple[float, str, float]:
+    """The largest leader speed in (0, V_Ld) whose predicted min bound ``m(v)`` is ≥ ``need``,
+    for a predictor without a closed form (the ``commands`` rollout).
+
+    Bracket: the speeds V_Ld·(1 − j/:data:`ROLLOUT_GRID`), j = 1 … GRID − 1, descending
+    (V_Ld itself has failed); the first that passes is refined by bisection against the
+    failing one above it until the bracket is :data:`ROLLOUT_TOL`·V_Ld wide (≤ 7 + 5 = 12
+    evaluations of ``m``; the passing end is returned, so the result is feasible and at most
+    0.5 % of V_Ld below the boundary if feasibility is monotone within that step). Method
+    ``numeric``. When no speed of the scan passes: the scanned speed (or ``v_floor``) with the
+    largest min bound — the least-bad window, the larger speed on a tie — method ``best``
+    (not ``floor``: the leader does not drop to its floor when braking harder does not help,
+    which the rollout can tell because it plays the leader's ramp). Returns (speed, method,
+    the found speed or NaN).
+    """
+    above = v_ld
+    best_v, best_m = v_floor, m(v_floor) if v_floor > 0.0 else -math.inf
+    for j in range(1, ROLLOUT_GRID):
+        v = v_ld * (1.0 - j / ROLLOUT_GRID)
+        mv = m(v)
+        if mv >= need:
+            lo, hi = v, above
+            while hi - lo > ROLLOUT_TOL * v_ld:
+                mid = 0.5 * (lo + hi)
+                if m(mid) >= need:
+                    lo = mid
+                else:
+                    hi = mid
+            return lo, "numeric", lo
+        if mv > best_m:
+            best_v, best_m = v, mv
+        above = v
+    return best_v, "best", math.nan
+
+
+def paper_infeasible(followers: Sequence[FollowerEstimate], v_ld: float, w_sch: float,
+                     thr: Thresholds, omega_l: float) -> bool:
+    """True when, under the ``paper`` model, no leader speed in (0, V_Ld] keeps every bound
+    ≥ w_sch, decided exactly without a grid.
+
+    With V̂_F, θ̂ and ω_L held, each bound is n / |c0 + c1·V| (SPEC §5, Eqs 17, 19–21):
+    localization and separation with ρ̇ = V̂_F cos(θ̂ + β) − V cos β, bearing with
+    β̇ = (V sin β − V̂_F sin(β + θ̂))/ρ − ω_L, and path diversion n / V̂_F (no V). The bound
+    is ≥ w_sch exactly when |c0 + c1·V| ≤ K = n / w_sch: an interval of V (all V or none when
+    c1 = 0). The intersection of every follower's intervals with (0, V_Ld] is empty → True.
+
+    Conservative so that the grid search it replaces would also find nothing: it answers
+    True only when the intersection is empty by more than 1e-6·(1 + V_Ld) (far above the
+    rounding of the grid's own evaluations, whose check allows 1e-9 relative), and only for
+    the ``radial`` localization bound.
+    """
+    lo, hi = 0.0, v_ld
+    k_scale = 1000.0 / (w_sch * (1.0 - _TOL))
+    slack = 1e-6 * (1.0 + v_ld)
+    for f in followers:
+        cb, sb = math.cos(f.beta), math.sin(f.beta)
+        rho_dot0 = f.v_f * math.cos(f.theta + f.beta)
+        beta_dot0 = -f.v_f * math.sin(f.beta + f.theta) / f.rho - omega_l
+        k_sep = min(thr.r_H, thr.T_rho * f.rho_d) * k_scale
+        k_path = thr.T_eps * f.rho_d * k_scale
+        k_bear = thr.T_beta * k_scale
+        if f.v_f > k_path + slack:
+            return True  # path diversion: no V helps
+        for c0, c1, k in ((rho_dot0, -cb, k_sep), (beta_dot0, sb / f.rho, k_bear)):
+            if c1 == 0.0:
+                if abs(c0) > k + slack:
+                    return True
+                continue
+            a, b = (-k - c0) / c1, (k - c0) / c1
+            lo, hi = max(lo, min(a, b)), min(hi, max(a, b))
+    return hi < lo - slack
 
 
 def adjust(

@@ -20,6 +20,7 @@ named in a file loads only when the user allows it, :mod:`rtsim.registry`); ``rt
 * ``lookahead``: margin, made safe ahead of time along the leader's known path commands;
 * ``noise-aware``: the bounds with the predicted V_F, |ρ̇| and |β̇| padded by z·σ (key ``z``);
 * ``safe``: lookahead on top of noise-aware with a margin (keys ``margin``, ``z``, ``windows``);
+* ``plan``: several windows ahead on the command-aware rollout (keys ``windows``, ``margin``);
 * ``margin``: the paper's algorithm against the bounds shrunk by a margin μ (key ``margin``):
   w = max(w_sch, (1 − μ)·min MSB) (capped), and in overload the largest speed at which every
   bound is ≥ w_sch / (1 − μ), i.e. (1 − μ)·bound ≥ w_sch.
@@ -61,7 +62,7 @@ __all__ = ["ADJUSTMENT_POLICIES", "COMMON_KEYS", "POLICIES", "Decision", "Policy
 
 #: ``[adjust]`` keys every policy understands (options of the decision, ScenarioInputs.adjust).
 COMMON_KEYS: tuple[str, ...] = ("policy", "cap", "cap_factor", "floor_frac", "floor_w",
-                                "predictor", "methods", "scan_points", "lower_bound")
+                                "predictor", "methods", "scan_points", "lower_bound", "decide")
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,6 +81,16 @@ class PolicyInput:
     followers' actuation noise per command; pose_sd: per follower (σ_p cm, σ_θ rad) from the
     leader's EKF covariance P, σ_p = √((P_xx + P_yy)/2), σ_θ = √P_θθ (these three are filled
     for a policy whose class sets ``needs_noise = True``, else 0 / empty).
+
+    rollout: **the command-aware rollout hook** (:class:`rtsim.control.rollout.Rollout`),
+    filled by a coupled run with follow-the-leader followers when the predictor is
+    ``commands`` or the policy's class sets ``needs_rollout = True`` (else None):
+    ``rollout.rows(v)`` — every follower's four bounds (ms) in the window this decision
+    governs if the leader's target speed is ``v``, from the leader's own ramp and the
+    commands it will send (:mod:`rtsim.control.rollout`); ``rollout.rows(v, w)`` for a window
+    of ``w`` ms; ``rollout.changes(v, windows)`` — the predicted changes (displacement,
+    |Δρ|, distance, |Δβ|) per follower in each of several consecutive windows;
+    ``rollout.bounds(changes, w)`` turns one window's changes into bounds.
     """
 
     followers: Sequence[FollowerEstimate]
@@ -101,6 +112,7 @@ class PolicyInput:
     speed_noise: float = 0.0
     turn_noise: float = 0.0
     pose_sd: tuple[tuple[float, float], ...] = ()
+    rollout: Any = None
 
 
 @runtime_checkable
@@ -223,7 +235,7 @@ def _rows_at_vld(ctx: PolicyInput) -> list[tuple[float, float, float, float]]:
                else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
                                     v_now=ctx.v_now))
     return _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
-                    ctx.v_now)(ctx.v_ld)
+                    ctx.v_now, ctx.rollout)(ctx.v_ld)
 
 
 @register_adjustment_policy("adjust")
@@ -237,7 +249,7 @@ class PaperPolicy:
     def decide(self, ctx: PolicyInput) -> Decision:
         return _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch, ctx.thresholds, ctx.omega_l,
                             ctx.kappa, ctx.cap, ctx.floor_frac, ctx.predictor, ctx.methods,
-                            ctx.scan_points, ctx.v_now)
+                            ctx.scan_points, ctx.v_now, ctx.rollout)
 
 
 @register_adjustment_policy("fixed-wsch")
@@ -296,7 +308,7 @@ class MarginPolicy:
         cap = _check(ctx, "margin")
         d = _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch / keep, ctx.thresholds,
                          ctx.omega_l, ctx.kappa, cap / keep, ctx.floor_frac, ctx.predictor,
-                         ctx.methods, ctx.scan_points, ctx.v_now)
+                         ctx.methods, ctx.scan_points, ctx.v_now, ctx.rollout)
         w = ctx.w_sch if d.method != "none" else max(ctx.w_sch, min(keep * d.msb_min, cap))
         return d._replace(w=w)
 
@@ -370,7 +382,7 @@ class LookaheadPolicy:
                                   _make_predictor(ctx.predictor, omega_l=ctx.omega_l,
                                                   kappa=ctx.kappa, v_now=ctx.v_now),
                                   ctx.thresholds, ctx.predictor, ctx.kappa, ctx.omega_l,
-                                  ctx.v_now)(v_l)
+                                  ctx.v_now, ctx.rollout)(v_l)
             m_after = min_bound_rows(rows_after)[0]
             d_out = d._replace(v_leader=v_l, method="lookahead", rows_after=rows_after,
                                msb_min_after=m_after,
@@ -468,7 +480,7 @@ class NoiseAwarePolicy:
                    else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
                                         v_now=ctx.v_now))
         raw = _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
-                       ctx.v_now)
+                       ctx.v_now, ctx.rollout)
         memo: dict[float, list[tuple[float, float, float, float]]] = {}
 
         def rows_at(v: float) -> list[tuple[float, float, float, float]]:
@@ -514,3 +526,75 @@ class SafePolicy(LookaheadPolicy):
     def __init__(self, margin: float = 0.1, z: float = 1.0, windows: float = 2.0) -> None:
         super().__init__(margin, windows)
         self.base = NoiseAwarePolicy(z, margin)
+
+
+@register_policy("plan")
+class PlanPolicy:
+    """Several windows ahead on the command-aware rollout (:attr:`PolicyInput.rollout`).
+
+    For a candidate target speed V the rollout plays the leader (its path commands ahead and
+    its ramp limits, so a slow-down costs the braking it needs) and every follower under the
+    commands it will be sent, over ``windows`` windows of w_sch from the scan of the window
+    this decision governs. m(V) = the smallest bound of every follower in every one of those
+    windows (rollout bounds L·w / predicted change). The run's predictor is ``commands`` (the
+    bounds recorded as the decision's belief are the rollout's).
+
+    * m(V_Ld) ≥ w_sch / (1 − μ): V_L = V_Ld and w = max(w_sch, min((1 − μ)·m₁, cap)), with m₁
+      the first window's smallest bound at V_Ld, checked once more by a rollout of a first
+      window of that length (shrunk by its own worst change ratio if a change would exceed
+      its threshold, never below w_sch);
+    * else w = w_sch and V_L = the largest V with (1 − μ)·m(V) ≥ w_sch
+      (:func:`~rtsim.control.adjust.search_rollout`: bracket on 8 speeds, bisect to 0.5 % of
+      V_Ld, method ``numeric``), or, when none has, the scanned speed with the largest m
+      (method ``best``).
+
+    The window's bound, ``msb_min`` and the rows are those of the first window (the window
+    the decision governs). A constant target over the horizon is a conservative plan: the
+    leader slows for the worst window ahead now, and speeds up only when the whole horizon
+    allows. Own keys: ``windows`` (horizon, integer 1–20, default 3) and ``margin``
+    (μ in [0, 1), default 0).
+    """
+
+    params: ClassVar[Mapping[str, Any]] = {"windows": 3, "margin": 0.0}
+    #: the coupling fills PolicyInput.rollout for this policy
+    needs_rollout: ClassVar[bool] = True
+
+    def __init__(self, windows: float = 3, margin: float = 0.0) -> None:
+        windows = check_number("windows", "windows", windows)
+        if not (1 <= windows <= 20 and windows == int(windows)):
+            raise InputError(f"windows: must be an integer in [1, 20], got {windows!r}")
+        self.windows = int(windows)
+        self.margin = MarginPolicy(margin).margin
+
+    def decide(self, ctx: PolicyInput) -> Decision:
+        from rtsim.control.adjust import search_rollout
+
+        cap = _check(ctx, "plan")
+        ro = ctx.rollout
+        if ro is None:
+            raise InputError("plan: needs the leader's rollout (PolicyInput.rollout), which a "
+                             "coupled run with follow-the-leader followers fills")
+        keep = 1.0 - self.margin
+        lengths = (ctx.w_sch,) * self.windows
+        need = ctx.w_sch * (1.0 - _TOL)
+
+        def worst(v: float) -> float:
+            per = ro.changes(v, lengths)
+            return min(min_bound_rows(ro.bounds(c, ctx.w_sch))[0] for c in per)
+
+        rows = ro.rows(ctx.v_ld)
+        m1, kind, who = min_bound_rows(rows)
+        if keep * worst(ctx.v_ld) >= need:
+            w = max(ctx.w_sch, min(keep * m1, cap))
+            if w > ctx.w_sch:  # the longer first window, checked by its own rollout
+                r_w = ro.rows(ctx.v_ld, w)
+                m_w = min_bound_rows(r_w)[0]
+                if keep * m_w < w:
+                    w = max(ctx.w_sch, keep * m_w)
+            return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})
+        v_l, method, found = search_rollout(lambda v: keep * worst(v), ctx.v_ld, need,
+                                            ctx.floor_frac * ctx.v_ld)
+        after = ro.rows(v_l)
+        m_after = min_bound_rows(after)[0]
+        return Decision(ctx.w_sch, v_l, m1, kind, who, method, keep * worst(v_l) >= need,
+                        rows, after, m_after, {"numeric": found})

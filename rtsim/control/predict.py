@@ -17,6 +17,10 @@ A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_
   V_F = |u|, θ = −atan2(u_y, u_x), ω_L = κ·V_L. Equivalently: the formation velocity at V_L
   plus the follower's current correction velocity û − f(V_now), held constant. It equals
   ``"paper"`` at V_L = V_now and ``"formation"`` when û = f(V_now).
+* ``"commands"``: the leader plays its own motion and the followers' commands forward
+  (:mod:`rtsim.control.rollout`): the bounds come from the predicted changes over the window,
+  not from a (V_F, θ, ω_L) per follower, so it needs the rollout of a coupled run
+  (:attr:`rtsim.control.policy.PolicyInput.rollout`);
 * any callable with the :data:`Predictor` signature.
 """
 
@@ -176,6 +180,7 @@ PREDICTORS: Registry[PredictorFactory] = Registry("prediction model", "rtsim.pre
 PREDICTORS.register("paper", _paper)
 PREDICTORS.register("formation", _formation)
 PREDICTORS.register("hybrid", _hybrid)
+PREDICTORS.register("commands", lambda **_: _needs_rollout)
 #: Old names, an input error naming their replacement.
 RENAMED: dict[str, str] = {"estimate": "paper"}
 
@@ -204,6 +209,13 @@ def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
         check_predictor(model)
         factory = PREDICTORS.resolve(model, "predictor")
     return factory(omega_l=omega_l, kappa=kappa, v_now=v_now)
+
+
+def _needs_rollout(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
+    """The ``commands`` model has no per-follower form: its bounds come from the leader's
+    rollout (:mod:`rtsim.control.rollout`), which the decision receives separately."""
+    raise InputError("predictor 'commands' needs the leader's rollout (PolicyInput.rollout; "
+                     "a coupled run with follow-the-leader followers fills it)")
 
 
 def hybrid_velocity(f: FollowerEstimate, v_l: float, v_now: float, kappa: float

@@ -69,6 +69,8 @@ from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
+from rtsim.control.rollout import Rollout, RolloutState
+from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder, records_frame
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
@@ -83,6 +85,10 @@ from rtsim.world.world import World
 
 __all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "summarize", "LAP_CAP_FACTOR"]
 
+#: Where in its window the decision is taken (``[adjust] decide``): at the window job's end,
+#: after the radio round trip (the paper's chain: scan, Hough, estimate, send, receive,
+#: schedule), or at the start of the first send, so its speed leaves with the commands.
+DECIDE: tuple[str, ...] = ("end", "before-send")
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
 #: With the default (one-lap) duration, the run stops at the latest after this many lap
@@ -181,6 +187,8 @@ def _inputs(scenario: Any, text: str | None = None,
             adjust["lower_bound"] = cfg.lower_bound
         if getattr(cfg, "policy", "adjust") != "adjust":
             adjust["policy"] = cfg.policy
+        if getattr(cfg, "decide", "end") != "end":
+            adjust["decide"] = cfg.decide
         adjust.update(getattr(cfg, "params", {}))
     elif cfg:
         adjust = dict(cfg)
@@ -291,6 +299,19 @@ class _Coupling:
             opts["speed_noise"] = cfg.follower.speed_noise
             opts["turn_noise"] = cfg.follower.turn_noise
         self.mode = str(self.policy.name)
+        # the command-aware rollout (PolicyInput.rollout): the predictor "commands", or a
+        # policy that asks for it
+        self._rollout = (opts.get("predictor") == "commands"
+                         or bool(getattr(self.policy, "needs_rollout", False)))
+        if self._rollout:  # a policy on the rollout predicts with it
+            opts["predictor"] = "commands"
+        # when in the window the decision is taken: at the job's end (after the radio round
+        # trip, the paper's chain) or just before the first send (its speed leaves with the
+        # commands)
+        self.decide_at = str(opts.pop("decide", "end"))
+        if self.decide_at not in DECIDE:
+            raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.decide: must be "
+                             f"one of {', '.join(DECIDE)}, got {self.decide_at!r}")
         cap_factor = opts.pop("cap_factor", None)
         if cap_factor is not None and "cap" not in opts:
             opts["cap"] = float(cap_factor) * self.w_sch
@@ -301,8 +322,13 @@ class _Coupling:
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
+        if self._rollout and self.world.follow_law is None:
+            raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.predictor: "
+                             f"'commands' (and a policy that plays the commands ahead) needs "
+                             f"formation.model = 'follow-the-leader'")
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
+        self.phys = PhysicalLog(self.n, self.rho_d, cfg.follower.radius, self.world.follow_law)
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
         self.v_ld = cfg.leader_speed
         self.env = simpy.Environment()
@@ -318,6 +344,9 @@ class _Coupling:
         cpu.on("release", self._on_release, task=win.name)
         cpu.on("segment_start", self._on_scan, task=win.name, role="scan")
         cpu.on("segment_end", self._on_send, task=win.name, role="send")
+        if self.decide_at == "before-send":
+            cpu.on("segment_start", self._on_send_start, task=win.name, role="send")
+        self._e_send = float(win.e_send)
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
         self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
@@ -345,13 +374,52 @@ class _Coupling:
         # the same thresholds per follower, for the recorder's _true columns
         self.rec = WindowRecorder(self.n, tuple(
             tuple(float(x) for x in np.broadcast_to(lim, self.n)) for _, _, lim in self._limits))
+        # each follower's send, ms after its window's scan (measured in the last window; the
+        # chain's nominal offsets until then)
+        self._send_offsets = self._nominal_offsets(ts)
         first = self._estimates(0.0)
         self.dec = first._replace(w=self.w_sch, v_leader=self.v_ld, method="fixed",
                                   feasible=first.msb_min >= self.w_sch, known=first.known[:1])
 
     # -- the decision ----------------------------------------------------------------
-    def _estimates(self, now: float) -> _Decision:
-        """Run the mode's decision on the leader's estimates at ``now``."""
+    def _nominal_offsets(self, ts: TaskSet) -> list[float]:
+        """Each follower's send, ms after the scan starts, with the chain's WCETs and the
+        Hough time of Eq 1 at its assumed points (before any window has run)."""
+        out: list[float] = []
+        t = 0.0
+        for seg in ts.window.segments():  # type: ignore[union-attr]
+            t += seg.wcet
+            if seg.role == "send":
+                out.append(t)
+        return out[:self.n] + [out[-1] if out else 0.0] * (self.n - len(out))
+
+    def _rollout_state(self, now: float, next_scan: float, pending: bool = False) -> Any:
+        """What the leader knows for its rollout at ``now`` (:class:`RolloutState`)."""
+        world = self.world
+        ld = world.leader
+        poses, speeds, held = [], [], []
+        for i in range(1, self.n + 1):
+            pose, v = world.estimate_at(i, now)
+            poses.append(pose)
+            speeds.append(v)
+            held.append(world.held_command(i))
+        cfg = self.cfg
+        return Rollout(RolloutState(
+            cfg.path, world.follow_law, cfg.follower, cfg.step_ms, now, ld.s, ld.speed,
+            self.v_ld, cfg.leader_accel_max, cfg.leader_decel_max, tuple(poses),
+            tuple(speeds), tuple(held), self._pending(now) if pending else ((),) * self.n,
+            max(now, next_scan), tuple(self._send_offsets), self.thr, tuple(self.rho_d),
+            self.w_sch))
+
+    def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
+        """The current window's sends still to come at its first send's start (``now``):
+        follower i's at now + e_send + (its offset − the first's), the last window's spacing."""
+        offs = self._send_offsets
+        return tuple((now + self._e_send + (o - offs[0]),) for o in offs)
+
+    def _estimates(self, now: float, next_scan: float | None = None) -> _Decision:
+        """Run the mode's decision on the leader's estimates at ``now``; ``next_scan``: when
+        the window it governs scans (for the rollout; default now)."""
         world = self.world
         world.advance(now)
         lp = world.leader_pose
@@ -368,11 +436,16 @@ class _Coupling:
                                          self.beta_d[k]))
         kw = {"omega_l": world.leader_omega, "kappa": kappa, "v_now": self._v_actual()}
         ahead = () if self._path is None else self._ahead()
-        extra = {"pose_sd": self._pose_sd()} if self._noise else {}
+        extra: dict[str, Any] = {"pose_sd": self._pose_sd()} if self._noise else {}
+        if self._rollout:
+            extra["rollout"] = self._rollout_state(now, now if next_scan is None else next_scan,
+                                                   self.decide_at == "before-send" and now > 0)
         adj = self.policy.decide(PolicyInput(fols, v_ld=self.v_ld, w_sch=self.w_sch,
                                              thresholds=self.thr, **kw, **self.opts,
                                              ahead=ahead, **extra))
         v_l = max(adj.v_leader, self.v_floor)
+        if self._rollout:  # the _pred columns evaluate the same rollout
+            kw = {**kw, "rollout": extra["rollout"]}
         return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
                          adj.feasible and v_l == adj.v_leader, tuple(state), tuple(fols), kw,
                          ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)))
@@ -456,6 +529,8 @@ class _Coupling:
         rec.lost = scan.as_lists("lost")
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
+        fol = world.followers  # (the scan advanced every follower to now)
+        self.phys.add(scan.leader_pose, fol.x, fol.y)
         self._close(scan)
         self._last_scanned = rec
         self._v_max = self._v_actual()
@@ -522,16 +597,35 @@ class _Coupling:
         return self._hough_ms
 
     def _on_send(self, job: Job, seg: Segment) -> None:
-        self.world.command(int(seg.follower), self.env.now)  # type: ignore[arg-type]
+        now = self.env.now
+        i = int(seg.follower)  # type: ignore[arg-type]
+        self.world.command(i, now)
+        scan_t = self._open[job.index].scan_t
+        if scan_t == scan_t and 1 <= i <= self.n:  # (NaN before the scan)
+            self._send_offsets[i - 1] = now - scan_t
+
+    def _decide(self, job: Job) -> None:
+        """The decision on the estimates now; it governs the next window (released at
+        job.release + job.period) and sets the leader's target at once."""
+        now = self.env.now
+        self.dec = self._estimates(now, job.release + job.period)  # advances the world
+        self._v_max = max(self._v_max, self._v_actual())
+        self.world.set_leader_speed(self.dec.v_leader)
+        self._v_max = max(self._v_max, self._v_actual())
+
+    def _on_send_start(self, job: Job, seg: Segment) -> None:
+        if seg.follower == 1:  # adjust.decide = "before-send": before the first send
+            self._decide(job)
 
     def _on_done(self, job: Job) -> None:
         now = self.env.now
         rec = self._open.pop(job.index)
         rec.finish = now
-        self.dec = self._estimates(now)  # advances the world to now
-        self._v_max = max(self._v_max, self._v_actual())
-        self.world.set_leader_speed(self.dec.v_leader)
-        self._v_max = max(self._v_max, self._v_actual())
+        if self.decide_at == "end":
+            self._decide(job)
+        else:
+            self.world.advance(now)
+            self._v_max = max(self._v_max, self._v_actual())
         if self.lap_ms is None:
             self._lap_check(now)
         if self._stop_s is not None and not self.stop.triggered and now >= self._stop_ms \
@@ -732,6 +826,8 @@ def run_scenario(
             f"the run's duration ({float(duration_s):g} s) ended before the leader completed "
             f"its lap")
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
+    world.followers.advance_all(world.t_ms, cfg.step_ms)
+    extra.update(run.phys.summary(world.leader.s - run._s0, list(world.followers.odometer)))
     summary = summarize(df, mode=run.mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
                         seed=int(seed), scenario=inp.name, n=run.n, extra=extra)
     t3 = time.perf_counter()

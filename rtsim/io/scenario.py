@@ -39,8 +39,9 @@ Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` an
                    heading_drift(_deg), init_position_sd, init_heading_sd(_deg), backend
     [thresholds]   T_rho, T_eps, T_beta(_deg), localization = "radial" | "full"
     [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed),
-                   predictor = "paper" | "formation" | "hybrid" (rtsim.control.predict),
-                   lower_bound = "w_sch" | "w_rta" | "w_susp"
+                   predictor = "paper" | "formation" | "hybrid" | "commands"
+                   (rtsim.control.predict), lower_bound = "w_sch" | "w_rta" | "w_susp",
+                   decide = "end" | "before-send" (when in the window the decision is taken)
     [world]        step_ms (integration step while a speed ramps)
     [assumptions]  key = "reason"      # every value the paper does not give
 
@@ -101,7 +102,8 @@ class AdjustConfig:
     or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
     names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
     ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle) or ``w_edf``
-    (the EDF demand criterion; needs ``[scheduler] policy = "edf"``).
+    (the EDF demand criterion; needs ``[scheduler] policy = "edf"``); decide: when in its
+    window the decision is taken, ``end`` (after the radio round trip) or ``before-send``.
     """
 
     cap: float = math.inf
@@ -109,6 +111,7 @@ class AdjustConfig:
     predictor: str = "formation"
     lower_bound: str = "w_sch"
     policy: str = "adjust"
+    decide: str = "end"
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -117,6 +120,9 @@ class AdjustConfig:
         if self.lower_bound not in LOWER_BOUNDS:
             raise ScenarioError(f"adjust.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
                                 f"got {self.lower_bound!r}")
+        if self.decide not in ("end", "before-send"):
+            raise ScenarioError(f"adjust.decide: must be one of end, before-send, got "
+                                f"{self.decide!r}")
         from rtsim.control.predict import check_predictor
 
         object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
@@ -126,7 +132,7 @@ class AdjustConfig:
         try:
             check_predictor(self.predictor, "adjust.predictor")
             make_policy(self.policy, self.params, "adjust",
-                        ("cap", "floor", "predictor", "lower_bound", "policy"))
+                        ("cap", "floor", "predictor", "lower_bound", "policy", "decide"))
         except InputError as exc:
             raise ScenarioError(str(exc)) from None
 
@@ -315,7 +321,7 @@ def _section(src: str, data: Mapping[str, Any], name: str, keys: tuple[str, ...]
     return _build(src, lambda: make(**args))
 
 
-_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy")
+_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide")
 
 
 def _adjust_section(src: str, data: Mapping[str, Any]) -> AdjustConfig:

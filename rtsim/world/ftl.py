@@ -84,6 +84,15 @@ class TraceFollower:
         self._s_ref: list[float | None] = [None] * len(self.rho_d)
         self._s_f: list[float | None] = [None] * len(self.rho_d)
 
+    def clone(self) -> TraceFollower:
+        """A copy with its own search starts (a rollout plays commands ahead on it without
+        moving this law's)."""
+        new = object.__new__(TraceFollower)
+        new.__dict__.update(self.__dict__)
+        new._s_ref = list(self._s_ref)
+        new._s_f = list(self._s_f)
+        return new
+
     # -- geometry --------------------------------------------------------------------
     def point(self, k: int, s: float) -> tuple[float, float, float]:
         """P_k(s) and the heading there: (x, y, heading) of follower index k's offset curve."""

@@ -507,6 +507,18 @@ class World:
         fol.apply_drawn(k, cmd[0], cmd[1], nv, nw)
         return cmd
 
+    @property
+    def follow_law(self) -> TraceFollower | None:
+        """The follow-the-leader law the commands use (None for l-ψ); read it, do not drive
+        it (:meth:`TraceFollower.clone` for a copy to play commands ahead on)."""
+        return self._ftl
+
+    def held_command(self, i: int) -> tuple[float, float]:
+        """The command (speed, turn rate) the leader last sent follower i, as its estimate
+        holds it (before the actuation noise)."""
+        _, v, w = self._pieces[i - 1][-1]
+        return v, w
+
     # -- relative states and snapshots -----------------------------------------------
     def relative(self, i: int, source: Literal["truth", "estimate"] = "truth"
                  ) -> tuple[float, float, float, float]:

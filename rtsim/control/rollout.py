@@ -1,0 +1,195 @@
+"""The command-aware rollout: the leader predicts the followers from the commands it will send.
+
+The leader radios every follower its command, and it knows the law that computes it
+(follow-the-leader, :mod:`rtsim.world.ftl`). So instead of holding the followers' estimated
+velocities while its own speed changes (the ``paper`` predictor), it can play the next
+windows forward: for a candidate target speed V it runs
+
+* **itself**: the path from its arc length and actual speed now, the speed ramping toward V
+  within its ``accel_max`` / ``decel_max`` (:class:`~rtsim.world.leader.Leader`, the world's
+  own class);
+* **every follower**: from the leader's estimate now (pose, expected speed, the command it
+  holds), holding that command until its next send, then at each send time the command the
+  law computes from the leader's state at that moment and the follower's predicted pose
+  (:meth:`~rtsim.world.ftl.TraceFollower.command`, the world's own controller, on a clone of
+  the leader's law state), saturated and integrated exactly as the world integrates a held
+  command (:class:`~rtsim.world.follower.FollowerGroup`), **without** actuation noise — the
+  leader's best guess, never the truth;
+
+and samples, at the scans that open and close each window, the changes the world checks
+(SPEC §6): the follower's displacement in the leader frame, |Δρ|, the distance it drove, and
+|Δβ|. A window of length w whose change is c against threshold L has the bound
+
+    MSB = L·w / c   (ms; ∞ when c = 0),
+
+the bound of Eqs 19–21 with the rate replaced by the window's average predicted rate — the
+same form as the ``_true`` columns of windows.csv, so MSB ≥ w exactly when the predicted
+change stays within its threshold.
+
+**Timing.** The rollout starts at the decision (``t_now``). Sends still to come in the current
+window (a decision taken before the sends) are at ``pending`` times; each later window j
+opens with its scan at ``next_scan + Σ_{i<j} w_i`` and follower k's command is sent
+``send_offsets[k]`` ms after that scan (the offsets measured in the current window). The
+leader's new target takes effect at ``t_now``.
+
+Used by the ``commands`` predictor of the adjustment (:func:`rtsim.control.adjust.adjust`) and
+by policies through :attr:`rtsim.control.policy.PolicyInput.rollout`: ``ctx.rollout.rows(v)``
+are the four bounds of every follower in the window the decision governs if the leader's
+target is ``v``; ``ctx.rollout.changes(v, windows)`` the predicted changes in several windows.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+from rtsim.analysis.kinematics import Thresholds
+from rtsim.world.follower import FollowerGroup, FollowerParams
+from rtsim.world.ftl import TraceFollower
+from rtsim.world.leader import Leader
+from rtsim.world.path import LeaderPath
+
+__all__ = ["Rollout", "RolloutState", "Changes"]
+
+#: Per follower, the four predicted changes of one window: (displacement in the leader frame
+#: cm, |Δρ| cm, distance driven cm, |Δβ| rad), in BOUND_KINDS order.
+Changes = tuple[float, float, float, float]
+
+_TWO_PI = 2.0 * math.pi
+
+
+@dataclass(frozen=True)
+class RolloutState:
+    """What the leader knows at its decision (ms, cm, cm/s, rad).
+
+    path, law: its path and its follow-the-leader law (cloned per rollout, so the caller's
+    is never changed); params: the followers' limits (max speed, acceleration, turn rate;
+    the noise fields are ignored); step_ms: the integration step of a ramping wheel speed;
+    t_now: the decision's time; leader_s, leader_speed: its arc length and actual speed;
+    v_ld: its desired speed; accel_max, decel_max: its ramp limits; poses, speeds, held:
+    per follower the estimate (x, y, heading), its expected speed and the command (v, ω) it
+    holds; pending: per follower the sends still to come in the current window (ms); next_scan:
+    the scan that opens the window the decision governs; send_offsets: per follower, its send
+    after a window's scan; thresholds, rho_d: the bounds' thresholds; w_sch: the window
+    length of windows after the first.
+    """
+
+    path: LeaderPath
+    law: TraceFollower
+    params: FollowerParams
+    step_ms: float
+    t_now: float
+    leader_s: float
+    leader_speed: float
+    v_ld: float
+    accel_max: float
+    decel_max: float
+    poses: tuple[tuple[float, float, float], ...]
+    speeds: tuple[float, ...]
+    held: tuple[tuple[float, float], ...]
+    pending: tuple[tuple[float, ...], ...]
+    next_scan: float
+    send_offsets: tuple[float, ...]
+    thresholds: Thresholds
+    rho_d: tuple[float, ...]
+    w_sch: float
+
+
+@dataclass
+class Rollout:
+    """Rollouts from one :class:`RolloutState`, memoised per (target, windows).
+
+    ``count``: the rollouts actually run (one per distinct (target, windows)).
+    """
+
+    state: RolloutState
+    count: int = 0
+    _memo: dict[tuple[float, tuple[float, ...]], list[list[Changes]]] = field(
+        default_factory=dict, repr=False)
+
+    def changes(self, v: float, windows: Sequence[float]) -> list[list[Changes]]:
+        """The predicted changes per window (lengths ``windows``, ms, the first opening at
+        ``next_scan``) and per follower, with the leader's target ``v`` from now on."""
+        key = (float(v), tuple(float(w) for w in windows))
+        out = self._memo.get(key)
+        if out is None:
+            out = self._memo[key] = self._run(key[0], key[1])
+            self.count += 1
+        return out
+
+    def rows(self, v: float, w: float | None = None
+             ) -> list[tuple[float, float, float, float]]:
+        """Every follower's four bounds (ms, BOUND_KINDS order) in the window of length ``w``
+        (default w_sch) that the decision governs, with the leader's target ``v``."""
+        w = self.state.w_sch if w is None else float(w)
+        return self.bounds(self.changes(v, (w,))[0], w)
+
+    def bounds(self, changes: Sequence[Changes], w: float
+               ) -> list[tuple[float, float, float, float]]:
+        """The bounds L·w / c of one window's ``changes`` (module docstring)."""
+        thr = self.state.thresholds
+        out = []
+        for c, rho_d in zip(changes, self.state.rho_d, strict=True):
+            lims = (thr.r_H, thr.T_rho * rho_d, thr.T_eps * rho_d, thr.T_beta)
+            out.append(tuple(math.inf if ci <= 0.0 else lim * w / ci
+                             for ci, lim in zip(c, lims, strict=True)))
+        return out  # type: ignore[return-value]
+
+    def _run(self, v: float, windows: tuple[float, ...]) -> list[list[Changes]]:
+        st = self.state
+        ld = Leader(st.path, st.v_ld, st.leader_s, accel_max=st.accel_max,
+                    decel_max=st.decel_max)
+        ld.speed = st.leader_speed
+        ld.target_speed = st.leader_speed
+        ld.set_speed(min(max(v, 0.0), st.v_ld))
+        n = len(st.poses)
+        group = FollowerGroup([p[0] for p in st.poses], [p[1] for p in st.poses],
+                              [p[2] for p in st.poses], st.speeds, st.params, st.t_now)
+        group.cmd_v = [h[0] for h in st.held]
+        group.cmd_w = [h[1] for h in st.held]
+        law = st.law.clone()
+        # the scans and the sends, in time order (a send before a scan at the same time)
+        scans = [st.next_scan]
+        for w in windows:
+            scans.append(scans[-1] + w)
+        events: list[tuple[float, int, int]] = []
+        for k in range(n):
+            for t in st.pending[k]:
+                if st.t_now <= t < scans[-1]:
+                    events.append((t, 0, k))
+            for s0 in scans[:-1]:
+                t = s0 + st.send_offsets[k]
+                if t < scans[-1]:
+                    events.append((t, 0, k))
+        events += [(t, 1, j) for j, t in enumerate(scans)]
+        events.sort()
+        t_leader = st.t_now
+        samples: list[list[tuple[float, float, float, float, float]]] = []
+        for t, kind, k in events:
+            if t > t_leader:
+                ld.advance((t - t_leader) / 1000.0)
+                t_leader = t
+            if kind == 0:
+                group.advance(k, t, st.step_ms)
+                cmd = law.command(k, ld.s, ld.pose, ld.speed, group.x[k], group.y[k],
+                                  group.th[k])
+                v_c, w_c = group.saturate(*cmd)
+                group.apply_drawn(k, v_c, w_c, 0.0, 0.0)
+                continue
+            group.advance_all(t, st.step_ms)
+            xl, yl, hl = ld.pose
+            c, s = math.cos(hl), math.sin(hl)
+            row = []
+            for i in range(n):
+                dx, dy = group.x[i] - xl, group.y[i] - yl
+                tx, ty = c * dx + s * dy, -s * dx + c * dy
+                row.append((tx, ty, math.hypot(tx, ty), math.atan2(ty, tx) % _TWO_PI,
+                            group.odometer[i]))
+            samples.append(row)
+        out = []
+        for a, b in zip(samples, samples[1:], strict=False):
+            out.append([(math.hypot(q[0] - p[0], q[1] - p[1]), abs(q[2] - p[2]), q[4] - p[4],
+                         abs(math.remainder(q[3] - p[3], _TWO_PI)))
+                        for p, q in zip(a, b, strict=True)])
+        return out

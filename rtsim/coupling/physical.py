@@ -1,0 +1,92 @@
+"""Physical outcomes of a coupled run, in centimetres (summary.json, docs/outputs.md).
+
+The bounds of the paper are per-window conventions (a follower "violates" path diversion when
+it drives more than T_ε·ρ_d in one window — a speed cap, not a departure from the path). What
+a user of a robot group asks is physical: how far did the followers stray from the path, how
+well did they keep their separation, how close did robots come, did any collide, how far did
+they get. Sampled on the truth at every scan (every window, ~0.24 s here):
+
+* ``cross_track_cm``: a follower's distance from its place on the trace — the leader's trace
+  (the path it drove) shifted sideways by the follower's lateral offset, the curve its
+  follow-the-leader law tracks (:meth:`rtsim.world.ftl.TraceFollower.project`); ``None``
+  with l-ψ followers, which track a slot, not the trace;
+* ``separation_error_cm``: |ρ − ρ_d|, ρ the follower's true distance to the leader;
+* ``min_robot_distance_cm``: the closest any two robots' centres came (leader included);
+* ``collisions``: scans at which some two robots' centres were closer than the sum of their
+  radii (every robot has the follower radius r_F: the paper's barrels);
+* ``distance_cm``: the distance each robot drove over the run.
+
+Per run: p95 and max over every follower's samples; per follower in ``per_follower``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from rtsim.world.ftl import TraceFollower
+
+__all__ = ["PhysicalLog"]
+
+
+class PhysicalLog:
+    """Accumulates the physical outcomes at each scan (module docstring)."""
+
+    def __init__(self, n: int, rho_d: list[float], radius: float,
+                 law: TraceFollower | None, guesses: list[float] | None = None) -> None:
+        self.n = n
+        self.rho_d = rho_d
+        self.radius = float(radius)
+        self._law = None if law is None else law.clone()  # its own projection starts
+        self._guess = guesses
+        self.cross: list[list[float]] = [[] for _ in range(n)]
+        self.sep: list[list[float]] = [[] for _ in range(n)]
+        self.min_dist = math.inf
+        self.collisions = 0
+
+    def add(self, leader: tuple[float, float, float], xs: list[float], ys: list[float]) -> None:
+        """One scan: the leader's pose and the followers' true positions (cm)."""
+        xl, yl, _ = leader
+        pts = [(xl, yl), *zip(xs, ys, strict=True)]
+        law = self._law
+        for k in range(self.n):
+            x, y = xs[k], ys[k]
+            self.sep[k].append(abs(math.hypot(x - xl, y - yl) - self.rho_d[k]))
+            if law is not None:
+                s = law.project(k, x, y, 0.0 if self._guess is None else self._guess[k])
+                px, py, _ = law.point(k, s)
+                self.cross[k].append(math.hypot(x - px, y - py))
+        close = math.inf
+        for a in range(len(pts)):
+            for b in range(a + 1, len(pts)):
+                close = min(close, math.hypot(pts[a][0] - pts[b][0], pts[a][1] - pts[b][1]))
+        self.min_dist = min(self.min_dist, close)
+        self.collisions += close < 2.0 * self.radius
+
+    @staticmethod
+    def _stats(values: list[float]) -> dict[str, float] | None:
+        if not values:
+            return None
+        arr = np.asarray(values, dtype=float)
+        return {"p95": float(np.percentile(arr, 95)), "max": float(arr.max())}
+
+    def summary(self, leader_cm: float, follower_cm: list[float]) -> dict[str, Any]:
+        """The summary.json keys (module docstring); ``leader_cm``, ``follower_cm``: the
+        distance each robot drove."""
+        every_cross = [c for per in self.cross for c in per]
+        every_sep = [c for per in self.sep for c in per]
+        return {
+            "cross_track_cm": self._stats(every_cross),
+            "separation_error_cm": self._stats(every_sep),
+            "min_robot_distance_cm": None if math.isinf(self.min_dist) else self.min_dist,
+            "collisions": int(self.collisions),
+            "distance_cm": {"leader": float(leader_cm),
+                            "followers": [float(d) for d in follower_cm]},
+            "per_follower": [
+                {"cross_track_cm": self._stats(self.cross[k]),
+                 "separation_error_cm": self._stats(self.sep[k]),
+                 "distance_cm": float(follower_cm[k])}
+                for k in range(self.n)],
+        }
