@@ -1,9 +1,11 @@
-"""Closed forms for the leader speed that makes one bound hold at w_sch (paper §3.3, SPEC §5).
+"""Closed forms for the leader speed that makes one bound hold at w_sch (paper §3.3,
+docs/model/adjustment.md).
 
 Two families, each returning the **largest** leader speed V_L at which one bound of one
 follower is at least the window w (ms):
 
-- :func:`paper_speed` — the paper's Eqs 23–26 with SPEC §5's corrections. V_F, θ and ω_L are
+- :func:`paper_speed` — the paper's Eqs 23–26 as corrected in docs/model/slips.md. V_F, θ and ω_L
+  are
   held at the leader's estimates while V_L changes (the paper's assumption):
   * bearing (Eq 23): β̇ = (V sin β − V_F sin(β+θ))/ρ − ω_L is affine in V, and |β̇| ≤ T_β/w
     is an interval whose upper end is (ρ(ω_L + T_β/w) + V_F sin(β+θ))/sin β when sin β > 0
@@ -74,6 +76,8 @@ def paper_speed(
         return _affine_upper(a0, -cb, thr.T_rho * rho_d / ws)
     if kind == "localization":
         limit = thr.r_H / ws
+        if thr.localization == "predicted":  # no speed of the leader moves it
+            return math.inf if thr.predicted_ms >= 1000.0 * ws else None
         if thr.localization == "radial":  # Eq 25 with cos(β+θ)
             return _affine_upper(a0, -cb, limit)
         # full: (ρ̇, ρβ̇) = (a0, b0) + V(−cos β, sin β), a unit direction in V
@@ -99,7 +103,8 @@ def coupled_speed(
     thr: Thresholds,
     w: float,
 ) -> float:
-    """Coupled closed form (SPEC §5): the V_L at which bound ``kind`` equals ``w`` (ms).
+    """Coupled closed form (docs/model/adjustment.md): the V_L at which bound ``kind`` equals ``w``
+    (ms).
 
     ``s`` = V_F/V_L and ``theta_f`` come from the formation (see
     :func:`rtsim.analysis.kinematics.formation_velocity` at V_L = 1, ω_L = κ); every bound is
@@ -116,6 +121,8 @@ def coupled_speed(
     elif kind == "separation":
         num, den = thr.T_rho * rho_d, abs(a_rho)
     elif kind == "localization":
+        if thr.localization == "predicted":  # independent of V_L
+            return math.inf if thr.predicted_ms >= 1000.0 * ws else 0.0
         num = thr.r_H
         den = abs(a_rho) if thr.localization == "radial" else math.hypot(a_rho, rho * a_beta)
     else:
@@ -143,8 +150,12 @@ def coupled_speeds(
     d_rho = abs(a_rho)
     d_loc = d_rho if thr.localization == "radial" else math.hypot(a_rho, rho * a_beta)
     d_beta = abs(a_beta)
+    if thr.localization == "predicted":  # independent of V_L
+        v_loc = math.inf if thr.predicted_ms >= 1000.0 * ws else 0.0
+    else:
+        v_loc = math.inf if d_loc == 0.0 else thr.r_H / (ws * d_loc)
     return (
-        math.inf if d_loc == 0.0 else thr.r_H / (ws * d_loc),
+        v_loc,
         math.inf if d_rho == 0.0 else thr.T_rho * rho_d / (ws * d_rho),
         math.inf if s == 0.0 else thr.T_eps * rho_d / (ws * s),
         math.inf if d_beta == 0.0 else thr.T_beta / (ws * d_beta),

@@ -37,6 +37,7 @@ __all__ = [
     "CHUNK_WINDOWS",
     "WINDOW_COLUMNS",
     "FOLLOWER_FIELDS",
+    "LOCALIZATION_COLUMNS",
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
@@ -55,13 +56,19 @@ WINDOW_COLUMNS: tuple[str, ...] = (
     "critical", "missed", "response", "finish", "points", "hough_ms", "tracks_lost", "segment",
     "curvature", "leader_x", "leader_y", "leader_heading",
 )
+#: Lost tracks by cause (``tracks_lost`` is their sum), the searches charged and the
+#: followers they re-acquired: the last columns of windows.csv.
+LOCALIZATION_COLUMNS: tuple[str, ...] = (
+    "tracks_lost_outside_window", "tracks_lost_occluded", "tracks_lost_out_of_range",
+    "searches", "reacquisitions")
 #: Per-follower state columns (truth; the estimate adds ``_est``), in order.
 FOLLOWER_FIELDS: tuple[str, ...] = ("x", "y", "heading", "rho", "beta", "theta", "v")
 #: Per-follower bound columns, in order: the decision's prediction, then the truth.
 BOUND_FIELDS: tuple[str, ...] = (*(f"msb_{k}_pred" for k in BOUND_KINDS),
                                  *(f"msb_{k}_true" for k in BOUND_KINDS))
 #: The observed change (``Scan.changes`` key) that each bound kind limits, in
-#: :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order (SPEC §6): relative displacement (r_H),
+#: :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order (docs/model/world.md): relative
+# displacement (r_H),
 #: |Δρ| (T_ρ·ρ_d), distance travelled (T_ε·ρ_d), |Δβ| (T_β).
 CHANGE_KEYS: tuple[str, ...] = ("displacement", "d_rho", "travel", "d_beta")
 #: Per-follower violation columns, in order (``lost`` last).
@@ -76,6 +83,7 @@ def window_columns(n: int) -> list[str]:
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in BOUND_FIELDS]
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in VIOLATION_FIELDS]
     cols.append("assumption_broken")  # the scan counted more than Eq 1's min(361, k·n)
+    cols += list(LOCALIZATION_COLUMNS)
     return cols
 
 
@@ -84,7 +92,8 @@ def true_bounds(w: NDArray[np.float64], change: NDArray[np.float64],
     """The bound the truth showed over a window (ms): ``limit·w / change``, ``inf`` where
     nothing changed.
 
-    ``change`` is what the world observed between the window's scan and the next (SPEC §6),
+    ``change`` is what the world observed between the window's scan and the next
+    (docs/model/world.md),
     ``limit`` the bound's threshold (r_H, T_ρ·ρ_d, T_ε·ρ_d or T_β). It is the bound of
     Eqs 19–21 (and the bearing bound) with the rate replaced by the window's average rate
     change / w, so ``true < w`` exactly when ``change > limit``, i.e. when the window broke
@@ -138,6 +147,9 @@ class WindowRecord:
     finish: float = math.nan
     scan_t: float = math.nan
     assumption_broken: bool = False
+    lost_by_cause: tuple[int, ...] = (0, 0, 0)
+    searches: int = 0
+    reacquisitions: int = 0
 
     @property
     def complete(self) -> bool:
@@ -255,4 +267,9 @@ def records_frame(recs: list[WindowRecord], n: int,
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
         data[f"f{i + 1}_lost"] = lost[:, i]
     data["assumption_broken"] = np.array([r.assumption_broken for r in recs], dtype=bool)
+    causes = np.array([r.lost_by_cause for r in recs], dtype=np.int64).reshape(m, 3)
+    for j, col in enumerate(LOCALIZATION_COLUMNS[:3]):
+        data[col] = causes[:, j]
+    data["searches"] = np.array([r.searches for r in recs], dtype=np.int64)
+    data["reacquisitions"] = np.array([r.reacquisitions for r in recs], dtype=np.int64)
     return pd.DataFrame({c: data[c] for c in cols}, columns=cols)
