@@ -136,6 +136,9 @@ P = TypeVar("P", bound=type[SchedulingPolicy])
 
 def _policy_class(obj: Any, spec: str, where: str) -> type[SchedulingPolicy]:
     if isinstance(obj, type) and issubclass(obj, SchedulingPolicy):
+        if obj.order is SchedulingPolicy.order:  # the base itself, or a class without it
+            raise InputError(f"{where} does not implement order(job); give a subclass of "
+                             f"SchedulingPolicy that does")
         return obj
     raise InputError(f"{where} is not a SchedulingPolicy subclass")
 
