@@ -21,7 +21,11 @@ ROOT = Path(__file__).resolve().parents[1] / "rtsim"
 #: Layers, bottom up: a module may import modules of its own layer or below. The first
 #: matching prefix decides (most specific first).
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("base", ("rtsim._version", "rtsim.errors", "rtsim._numbers", "rtsim.registry")),
+    # helpers every layer may use: errors, numbers, the plug-in registry, the range table and
+    # work limits (data checked by every layer), the notebook display mixin
+    ("base", ("rtsim._version", "rtsim.errors", "rtsim._numbers", "rtsim._suggest",
+              "rtsim.registry", "rtsim.io.limits", "rtsim.io.ranges", "rtsim.io.work",
+              "rtsim.notebook")),
     ("model", ("rtsim.model",)),
     ("analysis", ("rtsim.analysis",)),
     ("world / sim / control", ("rtsim.world", "rtsim.sim", "rtsim.control")),
@@ -32,7 +36,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("validate / reproduce", ("rtsim.validate", "rtsim.reproduce", "rtsim.report",
                               "rtsim.notebook")),
     ("cli", ("rtsim.cli",)),
-    ("facade", ("rtsim.__main__",)),
+    ("facade", ("rtsim.__main__", "rtsim._facade")),
 )
 
 

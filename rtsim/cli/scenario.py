@@ -73,8 +73,8 @@ def run(args: Any) -> int:
                          f"{args.duration!r}")
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed!r}")
+    from rtsim.coupling.duration import check_scenario
     from rtsim.io.scenario import load_scenario
-    from rtsim.io.work import check_scenario
 
     where = (f"--duration {args.duration:g}" if args.duration is not None
              else f"{args.file}: duration")

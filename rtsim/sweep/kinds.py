@@ -221,7 +221,7 @@ def _scenario(p: PointInput) -> dict[str, Any]:
         kwargs["duration_s"] = float(o["duration"])
     if "exec" in o:
         kwargs["exec_model"] = o["exec"]
-    from rtsim.io.work import check_scenario
+    from rtsim.coupling.duration import check_scenario
 
     check_scenario(scenario, kwargs.get("duration_s"), f"{p.base.source}: duration")
     summary = dict(coupling.run_scenario(scenario, **kwargs).summary)
