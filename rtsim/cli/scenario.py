@@ -164,8 +164,7 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
         res = run_scenario(Path(args.file), policy=override, duration_s=args.duration,
                            seed=args.seed, record_jobs=True, exec_model=args.exec_model,
                            record_trace=bool(args.perfetto), window_sink=windows,
-                           job_sink=jobs.write if jobs is not None else None,
-                           force=args.force)
+                           job_sink=jobs, force=args.force)
     except InputError as exc:  # raised inside the run (an estimate, a state): name the file
         if str(exc).startswith(src):
             raise

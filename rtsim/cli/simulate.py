@@ -199,7 +199,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
                    record_jobs=want_jobs,
                    record_trace=bool(args.trace or args.gantt or args.perfetto),
                    overhead=overhead, jitter=args.jitter, scheduler=scheduler,
-                   job_sink=writer.write if writer is not None else None, force=args.force)
+                   job_sink=writer, force=args.force)
     w = res.window["w"] if res.window else None
     # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own:
     # the deadlines still come from the fixed-priority analysis's table)

@@ -128,7 +128,7 @@ def simulate(
     hist_bin: float | None = None,
     env: simpy.Environment | None = None,
     jitter: JitterMode = "random",
-    job_sink: Callable[[Any], None] | None = None,
+    job_sink: Callable[[Any], None] | Any = None,
     scheduler: PolicySpec | None = None,
     force: bool = False,
 ) -> SimResult:
@@ -138,7 +138,8 @@ def simulate(
     ``overhead`` defaults to the set's (0 for a list of tasks). ``jitter``: release delays
     of tasks with a jitter, ``random``/``worst``/``none`` (:mod:`rtsim.sim.cpu`).
     ``job_sink``: a callable that receives the job records as DataFrame chunks during the
-    run (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
+    run, or a :class:`rtsim.io.columns.ChunkWriter` that formats them without a DataFrame
+    (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
     long horizon (:class:`rtsim.sim.records.RowBuffer`).
     ``scheduler``: the scheduling policy (:mod:`rtsim.sim.policy`), default the set's
     (``[scheduler] policy``; ``fp`` for a list of tasks).
