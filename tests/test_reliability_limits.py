@@ -145,3 +145,13 @@ def test_reproduce_workers_exit_when_the_parent_is_killed(tmp_path: Path) -> Non
 
     assert clean_leftovers(out)  # the killed run's staging directory, lock free
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("spec", [":", ".x:Y"])
+def test_malformed_policy_strings_are_one_line(spec: str,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    for argv in (["simulate", str(EXAMPLE), "--horizon", "100", "--scheduler", spec],
+                 ["scenario", "test2", "--duration", "1", "--policy", spec, "--out", "o"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("rtsim: ") and spec in err

@@ -175,3 +175,20 @@ def test_shipped_choices_leave_two_followers_unchanged() -> None:
     assert new.drop(columns=drop).equals(was.drop(columns=drop))
     assert (new["f1_msb_localization_pred"] > 900).all()
     assert not new["binding"].str.startswith("localization").any()
+
+
+def test_predicted_bound_in_the_follower_bounds() -> None:
+    """With localization = "predicted" every follower's localization bound is the constant
+    predicted_ms, for scalars and arrays alike; the other three bounds are unchanged."""
+    from rtsim.analysis.kinematics import Thresholds, follower_msbs
+
+    pred = Thresholds(25.0, 0.005, 0.025, 0.1, "predicted", predicted_ms=903.0)
+    radial = Thresholds(25.0, 0.005, 0.025, 0.1)
+    args = (25.0, 0.05, 27.0, 390.0, math.radians(195), 0.02, 390.0)
+    a, b = follower_msbs(*args, pred), follower_msbs(*args, radial)
+    assert a["localization"] == 903.0 and b["localization"] != 903.0
+    assert {k: a[k] for k in a if k != "localization"} == \
+        {k: b[k] for k in b if k != "localization"}
+    rho = np.array([380.0, 390.0, 400.0])
+    arr = follower_msbs(25.0, 0.05, 27.0, rho, math.radians(195), 0.02, 390.0, pred)
+    assert arr["localization"].tolist() == [903.0] * 3

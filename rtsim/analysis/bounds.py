@@ -8,7 +8,9 @@
   task i tested at t = min(D_i, p_i), a higher task j contributes ⌈t/p_j⌉ e_j with the
   ceiling kept exact when both periods scale with w (the window itself: period w) or both are
   fixed, and bounded by t/p_j + 1 otherwise. Eq 7 is that bound for the chain, Eq 11 its
-  maximum over T_lp. w_sch = max(Eq 7, Eq 11).
+  maximum over T_lp. w_sch = max(Eq 7, Eq 11). Release jitter (the paper has none; a task's
+  or the window's ``jitter``) shortens a task's own time to D − J and adds ⌈J_j/P_j⌉ jobs
+  of each jittered higher task (``_sufficient``).
 - w_rta: the least w at which the exact analysis (:func:`rtsim.analysis.rta.analyze`, chain as
   one task of cost g) finds every task schedulable.
 - w_susp: the least w at which the suspension-aware analysis (Δt with the CPU idle,
@@ -81,9 +83,9 @@ def _snap(ts: TaskSet, hi: float) -> float:
             continue
         cands = [r / scale[task.name][1]] if task.name in scale else []
         for j in resolved[:i]:
-            if j.name in scale:
+            if j.name in scale:  # ⌈(R + J_j)/(m·c_j·w)⌉ steps at w = (R + J_j)/(m·c_j)
                 m = ceil_div(r + j.jitter, j.period)
-                cands.append(r / (m * scale[j.name][0]))
+                cands.append((r + j.jitter) / (m * scale[j.name][0]))
         best = max(best, *cands) if cands else best
     return best
 
@@ -319,6 +321,9 @@ def window_bounds(ts: TaskSet, n: int | None = None,
         "n", "r_H", "e_cal", "e_trans", "k", "e_scan", "e_estimate", "e_send", "e_recv",
         "delta_t", "e_sched")}
     inputs["priority"] = win.priority
+    for key in ("jitter", "offset"):
+        if getattr(win, key):
+            inputs[key] = getattr(win, key)
     inputs["hp"] = [_task_input(t) for t in ts.hp]
     inputs["lp"] = [_task_input(t) for t in ts.lp]
     eq7, eq11 = w_eq7_of(ts), w_eq11_of(ts)

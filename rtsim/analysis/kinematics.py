@@ -298,10 +298,12 @@ def follower_msbs(
                 "bearing": bear}
     rd = rho_dot(v_l, v_f, beta, theta)
     bd = beta_dot(v_l, v_f, beta, theta, rho, omega_l)
+    loc: Any
     if thr.localization == "radial":
         loc = msb_localization(rd, thr.r_H)
     elif thr.localization == "predicted":
-        loc = np.full(np.shape(rd), thr.predicted_ms) if np.ndim(rd) else thr.predicted_ms
+        shape = np.broadcast(rd, bd, rho).shape  # the shape the full bound would have
+        loc = np.full(shape, thr.predicted_ms) if shape else thr.predicted_ms
     else:
         loc = msb_localization_full(rd, bd, rho, thr.r_H)
     return {

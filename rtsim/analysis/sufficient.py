@@ -51,7 +51,14 @@ def _entries(ts: TaskSet) -> list[tuple[Task, bool]]:
 
 
 def _sufficient(task: Task, scaled: bool, higher: Sequence[tuple[Task, bool]]) -> float:
-    """Least w passing the ⌈x⌉ ≤ x + 1 test for ``task`` at t = min(D, p) (module doc)."""
+    """Least w passing the ⌈x⌉ ≤ x + 1 test for ``task`` at t = min(D, p) (module doc).
+
+    Release jitter (ms, also on tasks whose period scales with w): the task's own J shortens
+    the time its job has, t = D − J; a higher task's J_j adds at most ⌈J_j/P_j⌉ jobs, since
+    ⌈(t + J_j)/P_j⌉ ≤ ⌈t/P_j⌉ + ⌈J_j/P_j⌉ and ⌈t/P_j⌉ ≤ ⌈min(D, p)/P_j⌉. For a period that
+    scales with w, P_j is taken at the jitter-free result w0 ≤ w (so ⌈J_j/P_j(w)⌉ is at most
+    the count used). With no jitter this is the paper's form exactly.
+    """
     assert task.deadline is not None
     d = min(task.deadline, task.period)  # in units of w when ``scaled``, else ms
     const = task.wcet  # demand terms that do not depend on w
@@ -62,12 +69,24 @@ def _sufficient(task: Task, scaled: bool, higher: Sequence[tuple[Task, bool]]) -
         else:
             const += t.wcet
             per_w += t.wcet / t.period
-    if scaled:  # const + w·d·per_w ≤ d·w
-        return math.inf if per_w >= 1.0 else const / (d * (1.0 - per_w))
-    # fixed deadline d ms: const + (d/w)·per_w ≤ d
-    if const >= d:
+
+    def solve(const: float, own_j: float) -> float:
+        if scaled:  # const + w·d·per_w ≤ d·w − J
+            return math.inf if per_w >= 1.0 else (const + own_j) / (d * (1.0 - per_w))
+        # fixed deadline d ms: const + (d/w)·per_w ≤ d − J
+        if const >= d - own_j:
+            return math.inf
+        return d * per_w / (d - own_j - const)
+
+    w0 = solve(const, 0.0)
+    jittered = [(t, s) for t, s in higher if t.jitter > 0]
+    if not jittered and task.jitter == 0:
+        return w0
+    if not math.isfinite(w0):
         return math.inf
-    return d * per_w / (d - const)
+    extra = math.fsum(math.ceil(t.jitter / (t.period * w0 if s else t.period) - CEIL_TOL)
+                      * t.wcet for t, s in jittered)
+    return solve(const + extra, task.jitter)
 
 
 def w_eq7_of(ts: TaskSet) -> float:

@@ -434,6 +434,14 @@ def adjust_core(
     def ok(v: float) -> bool:
         return min_bound_rows(rows_at(v))[0] >= need
 
+    # the paper model's search compiled (rtsim.control.compiled.PaperSearch: the same speed)
+    fast = getattr(model, "largest", None) if thresholds.localization == "radial" else None
+
+    def search(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
+        if fast is None:
+            return largest(ok, grid)
+        return fast(followers, omega_l, thresholds, need, grid)  # type: ignore[no-any-return]
+
     candidates: dict[str, float] = {k: math.nan for k in methods}
     if "closed-form" in methods:
         v = math.inf
@@ -476,7 +484,7 @@ def adjust_core(
         if "numeric" in methods and probe > best and ok(probe):  # not maximal: refine upward
             step = (v_ld - best) / scan_points
             grid = [v_ld - step * i for i in range(scan_points)] + [probe]
-            found = largest(ok, grid)
+            found = search(ok, grid)
             if found is not None and found > best:
                 best, method = found, "numeric"
                 candidates["numeric"] = found
@@ -488,7 +496,7 @@ def adjust_core(
         step = v_ld / scan_points
         grid = [v_ld - step * i for i in range(scan_points)]
         grid += [step * 0.5**j for j in range(1, 21)]
-        found = largest(ok, grid)
+        found = search(ok, grid)
         if found is not None:
             best, method = found, "numeric"
             candidates["numeric"] = found

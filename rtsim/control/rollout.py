@@ -73,7 +73,8 @@ class RolloutState:
     holds; pending: per follower the sends still to come in the current window (ms); next_scan:
     the scan that opens the window the decision governs; send_offsets: per follower, its send
     after a window's scan; thresholds, rho_d: the bounds' thresholds; w_sch: the window
-    length of windows after the first.
+    length of windows after the first; group: the class that integrates the followers (the
+    world's own, so that a compiled world rolls out compiled: the same numbers).
     """
 
     path: LeaderPath
@@ -95,6 +96,7 @@ class RolloutState:
     thresholds: Thresholds
     rho_d: tuple[float, ...]
     w_sch: float
+    group: type[FollowerGroup] = FollowerGroup
 
 
 @dataclass
@@ -148,10 +150,6 @@ class Rollout:
         ld.target_speed = st.leader_speed
         ld.set_speed(min(max(v, 0.0), st.v_ld))
         n = len(st.poses)
-        group = FollowerGroup([p[0] for p in st.poses], [p[1] for p in st.poses],
-                              [p[2] for p in st.poses], st.speeds, st.params, st.t_now)
-        group.cmd_v = [h[0] for h in st.held]
-        group.cmd_w = [h[1] for h in st.held]
         law = st.law.clone()
         # the scans and the sends, in time order (a send before a scan at the same time)
         scans = [st.next_scan]
@@ -168,29 +166,39 @@ class Rollout:
                     events.append((t, 0, k))
         events += [(t, 1, j) for j, t in enumerate(scans)]
         events.sort()
-        t_leader = st.t_now
-        samples: list[list[tuple[float, float, float, float, float]]] = []
-        for t, kind, k in events:
-            if t > t_leader:
-                ld.advance((t - t_leader) / 1000.0)
-                t_leader = t
-            if kind == 0:
-                group.advance(k, t, st.step_ms)
-                cmd = law.command(k, ld.s, ld.pose, ld.speed, group.x[k], group.y[k],
-                                  group.th[k])
-                v_c, w_c = group.saturate(*cmd)
-                group.apply_drawn(k, v_c, w_c, 0.0, 0.0)
-                continue
-            group.advance_all(t, st.step_ms)
-            xl, yl, hl = ld.pose
-            c, s = math.cos(hl), math.sin(hl)
-            row = []
-            for i in range(n):
-                dx, dy = group.x[i] - xl, group.y[i] - yl
-                tx, ty = c * dx + s * dy, -s * dx + c * dy
-                row.append((tx, ty, math.hypot(tx, ty), math.atan2(ty, tx) % _TWO_PI,
-                            group.odometer[i]))
-            samples.append(row)
+        # a compiled law (the world's compiled backend) plays the loop below in one call,
+        # with the same numbers; None: play it here
+        roll = getattr(law, "roll", None)
+        samples: list[list[tuple[float, float, float, float, float]]] | None = (
+            None if roll is None else roll(ld, st, events, len(scans)))
+        if samples is None:
+            samples = []
+            group = st.group([p[0] for p in st.poses], [p[1] for p in st.poses],
+                             [p[2] for p in st.poses], st.speeds, st.params, st.t_now)
+            group.cmd_v = [h[0] for h in st.held]
+            group.cmd_w = [h[1] for h in st.held]
+            t_leader = st.t_now
+            for t, kind, k in events:
+                if t > t_leader:
+                    ld.advance((t - t_leader) / 1000.0)
+                    t_leader = t
+                if kind == 0:
+                    group.advance(k, t, st.step_ms)
+                    cmd = law.command(k, ld.s, ld.pose, ld.speed, group.x[k], group.y[k],
+                                      group.th[k])
+                    v_c, w_c = group.saturate(*cmd)
+                    group.apply_drawn(k, v_c, w_c, 0.0, 0.0)
+                    continue
+                group.advance_all(t, st.step_ms)
+                xl, yl, hl = ld.pose
+                c, s = math.cos(hl), math.sin(hl)
+                row = []
+                for i in range(n):
+                    dx, dy = group.x[i] - xl, group.y[i] - yl
+                    tx, ty = c * dx + s * dy, -s * dx + c * dy
+                    row.append((tx, ty, math.hypot(tx, ty), math.atan2(ty, tx) % _TWO_PI,
+                                group.odometer[i]))
+                samples.append(row)
         out = []
         for a, b in zip(samples, samples[1:], strict=False):
             out.append([(math.hypot(q[0] - p[0], q[1] - p[1]), abs(q[2] - p[2]), q[4] - p[4],

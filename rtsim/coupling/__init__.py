@@ -14,6 +14,7 @@ from rtsim.coupling.scenario_run import (
     ScenarioInputs,
     ScenarioResult,
     run_scenario,
+    scenario_inputs,
     summarize,
 )
 
@@ -27,6 +28,7 @@ __all__ = [
     "WindowRecord",
     "WindowRecorder",
     "run_scenario",
+    "scenario_inputs",
     "summarize",
     "window_columns",
 ]

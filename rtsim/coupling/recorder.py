@@ -41,6 +41,7 @@ __all__ = [
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
+    "records_columns",
     "records_frame",
     "true_bounds",
     "window_columns",
@@ -209,6 +210,15 @@ def records_frame(recs: list[WindowRecord], n: int,
                   limits: tuple[tuple[float, ...], ...]) -> pd.DataFrame:
     """The rows of windows.csv for complete records ``recs`` of ``n`` followers (``limits``
     as :class:`WindowRecorder`'s)."""
+    data = records_columns(recs, n, limits)
+    return pd.DataFrame(data, columns=list(data))
+
+
+def records_columns(recs: list[WindowRecord], n: int,
+                    limits: tuple[tuple[float, ...], ...]) -> dict[str, Any]:
+    """The columns of windows.csv (name -> array or list, in order) for complete records
+    ``recs``: what :func:`records_frame` holds, without the DataFrame (a writer's
+    :meth:`~rtsim.io.columns.ChunkWriter.write_columns` formats them directly)."""
     cols = window_columns(n)
     m = len(recs)
     data: dict[str, object] = {}
@@ -272,4 +282,4 @@ def records_frame(recs: list[WindowRecord], n: int,
         data[col] = causes[:, j]
     data["searches"] = np.array([r.searches for r in recs], dtype=np.int64)
     data["reacquisitions"] = np.array([r.reacquisitions for r in recs], dtype=np.int64)
-    return pd.DataFrame({c: data[c] for c in cols}, columns=cols)
+    return {c: data[c] for c in cols}

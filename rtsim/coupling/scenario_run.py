@@ -78,6 +78,7 @@ from rtsim.coupling.recorder import (
     LOCALIZATION_COLUMNS,
     WindowRecord,
     WindowRecorder,
+    records_columns,
     records_frame,
 )
 from rtsim.errors import InputError
@@ -91,7 +92,8 @@ from rtsim.world.config import WorldConfig
 from rtsim.world.localization import LOST_CAUSES, hough_time
 from rtsim.world.world import World
 
-__all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "summarize", "LAP_CAP_FACTOR"]
+__all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "scenario_inputs", "summarize",
+           "LAP_CAP_FACTOR"]
 
 #: Where in its window the decision is taken (``[adjust] decide``): at the window job's end,
 #: after the radio round trip (the paper's chain: scan, Hough, estimate, send, receive,
@@ -151,11 +153,13 @@ class ScenarioResult(ResultDisplay):
         return pd.DataFrame([flatten(self.summary)])
 
 
-def _inputs(scenario: Any, text: str | None = None,
-            overrides: Mapping[str, Any] | None = None,
-            allow_code: bool | None = None) -> ScenarioInputs:
-    """Accept :class:`ScenarioInputs`, a path (loaded with :func:`rtsim.io.scenario.
-    load_scenario`), or a :class:`rtsim.io.scenario.Scenario`.
+def scenario_inputs(scenario: Any, text: str | None = None,
+                    overrides: Mapping[str, Any] | None = None,
+                    allow_code: bool | None = None) -> ScenarioInputs:
+    """What :func:`run_scenario` runs, prepared once (the world, the task set loaded, the
+    resolved values): a caller that runs the same scenario many times (a sweep's worker)
+    can keep it and pass it back. Accept :class:`ScenarioInputs`, a path (loaded with
+    :func:`rtsim.io.scenario.load_scenario`), or a :class:`rtsim.io.scenario.Scenario`.
 
     A Scenario's ``[adjust]`` maps to :func:`rtsim.control.decide`: ``cap`` (ms; ``inf`` →
     decide's default, 10·w_sch) and ``floor`` (cm/s) → ``floor_frac`` = floor / V_Ld, which
@@ -203,6 +207,9 @@ def _inputs(scenario: Any, text: str | None = None,
         duration_s=float(duration) if duration else None, adjust=adjust,
         source=getattr(scenario, "source", None), text=text,
         resolved=resolved(scenario, ts))
+
+
+_inputs = scenario_inputs
 
 
 def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
@@ -328,6 +335,11 @@ class _Coupling:
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
+        if (self.world.backend == "compiled" and type(opts.get("predictor")) is str
+                and opts["predictor"] == "paper" and self.thr.localization == "radial"):
+            from rtsim.control.compiled import PaperSearch  # the same speeds, compiled
+
+            opts["predictor"] = PaperSearch()
         if self._rollout and self.world.follow_law is None:
             raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.predictor: "
                              f"'commands' (and a policy that plays the commands ahead) needs "
@@ -415,7 +427,7 @@ class _Coupling:
             self.v_ld, cfg.leader_accel_max, cfg.leader_decel_max, tuple(poses),
             tuple(speeds), tuple(held), self._pending(now) if pending else ((),) * self.n,
             max(now, next_scan), tuple(self._send_offsets), self.thr, tuple(self.rho_d),
-            self.w_sch))
+            self.w_sch, type(world.followers)))
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
         """The current window's sends still to come at its first send's start (``now``):
@@ -593,7 +605,10 @@ class _Coupling:
         for kind, (m, c) in self._fold(records).items():
             m0, c0 = self._folded.get(kind, (m, 0))
             self._folded[kind] = (float(np.max([m0, m])), c0 + c)
-        sink.write(records_frame(records, self.n, self.rec.limits))
+        if hasattr(sink, "write_columns"):  # a ChunkWriter: no DataFrame for the CSV
+            sink.write_columns(records_columns(records, self.n, self.rec.limits))
+        else:
+            sink.write(records_frame(records, self.n, self.rec.limits))
 
     def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
         fol = self.world.followers
@@ -694,47 +709,60 @@ def summary_columns(n: int) -> list[str]:
             *LOCALIZATION_COLUMNS]
 
 
-def _total(df: pd.DataFrame, col: str) -> int:
+def _total(df: pd.DataFrame | Mapping[str, Any], col: str) -> int:
     """Sum of an integer column of windows.csv (0 when a table from before it lacks it)."""
-    return int(df[col].sum()) if col in df else 0
+    return int(np.asarray(df[col], dtype=np.int64).sum()) if col in df else 0
 
 
-def summarize(df: pd.DataFrame, *, mode: str, w_sch: float, duration_s: float, seed: int,
-              scenario: str, n: int, extra: Mapping[str, Any] | None = None
-              ) -> dict[str, Any]:
-    """summary.json from windows.csv (docs/outputs.md) and run facts."""
-    w = df["w"].to_numpy(dtype=float)
-    crit = df["critical"].to_numpy(dtype=bool)
+def summarize(df: pd.DataFrame | Mapping[str, Any], *, mode: str, w_sch: float,
+              duration_s: float, seed: int, scenario: str, n: int,
+              extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """summary.json from windows.csv (docs/outputs.md) and run facts. ``df``: the table, or
+    its columns (name -> array or list, as :func:`~rtsim.coupling.recorder.records_columns`
+    gives them): the summary is computed from arrays either way."""
+
+    def col(name: str, dtype: Any = float) -> Any:
+        return np.asarray(df[name], dtype=dtype)
+
+    w = col("w")
+    rows = len(w)
+    crit = col("critical", bool)
     total_w = float(w.sum())
     violations = {
-        k: int(sum(int(df[f"f{i}_viol_{k}"].sum()) for i in range(1, n + 1)))
+        k: int(sum(int(col(f"f{i}_viol_{k}", bool).sum()) for i in range(1, n + 1)))
         for k in BOUND_KINDS
     }
     binding_critical: dict[str, int] = {}
-    for b in df.loc[crit, "binding"]:
+    for b in col("binding", object)[crit].tolist():
         kind = str(b).split(":")[0]
         binding_critical[kind] = binding_critical.get(kind, 0) + 1
-    ratio = df["msb_min"].to_numpy(dtype=float) / df["w_sch"].to_numpy(dtype=float)
-    speed = df["v_leader"].to_numpy(dtype=float) / df["v_leader_desired"].to_numpy(dtype=float)
+    methods: dict[str, int] = {}
+    for m in col("method", object).tolist():
+        methods[str(m)] = methods.get(str(m), 0) + 1
+    ratio = col("msb_min") / col("w_sch")
+    speed = col("v_leader") / col("v_leader_desired")
+    response = col("response")
+    with np.errstate(invalid="ignore"):  # the table's max skips NaN (none in practice)
+        kept = response[~np.isnan(response)]
     out: dict[str, Any] = {
         "scenario": scenario,
         "mode": mode,
         "seed": seed,
         "duration_s": duration_s,
         "w_sch": w_sch,
-        "windows": int(len(df)),
-        "missed": int(df["missed"].sum()),
-        "tracks_lost": int(df["tracks_lost"].sum()),
-        "assumption_broken": int(df["assumption_broken"].sum()),
+        "windows": int(rows),
+        "missed": int(col("missed", bool).sum()),
+        "tracks_lost": int(col("tracks_lost", np.int64).sum()),
+        "assumption_broken": int(col("assumption_broken", bool).sum()),
         "violations": violations,
         "critical_share": float(w[crit].sum() / total_w) if total_w > 0 else 0.0,
         "critical_windows": int(crit.sum()),
-        "methods": {str(k): int(v) for k, v in df["method"].value_counts().sort_index().items()},
+        "methods": dict(sorted(methods.items())),
         "binding_critical": dict(sorted(binding_critical.items())),
-        "min_msb_over_wsch": float(ratio.min()) if len(df) else math.nan,
-        "min_speed_ratio": float(speed.min()) if len(df) else math.nan,
-        "infeasible": int((~df["feasible"].to_numpy(dtype=bool)).sum()),
-        "max_response": float(df["response"].max()) if len(df) else math.nan,
+        "min_msb_over_wsch": float(ratio.min()) if rows else math.nan,
+        "min_speed_ratio": float(speed.min()) if rows else math.nan,
+        "infeasible": int((~col("feasible", bool)).sum()),
+        "max_response": float(kept.max()) if kept.size else math.nan,
         # lost tracks by cause (they sum to tracks_lost), searches charged, re-acquisitions
         "tracks_lost_by_cause": {c: _total(df, f"tracks_lost_{c}") for c in LOST_CAUSES},
         "searches": _total(df, "searches"),
@@ -762,6 +790,7 @@ def run_scenario(
     policy: str | None = None,
     allow_code: bool | None = None,
     force: bool = False,
+    windows: bool = True,
 ) -> ScenarioResult:
     """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
 
@@ -781,7 +810,9 @@ def run_scenario(
     window_sink: a :class:`rtsim.io.columns.ChunkWriter` of windows.csv — the window rows
     are written in chunks during the run, the summary is computed from the columns read
     back, and ``result.windows`` is None; job_sink: a callable given the job records in
-    chunks (``result.jobs`` is then None). With both, memory stays flat on long runs.
+    chunks, or a ChunkWriter of jobs.csv (``result.jobs`` is then None). With both, memory
+    stays flat on long runs. windows: False leaves ``result.windows`` None (the summary is
+    computed from the records' columns either way; what a sweep point needs).
     allow_code: a scenario file (or its task set) may name code, ``module:Name``
     (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
     The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
@@ -804,7 +835,7 @@ def run_scenario(
     from rtsim.io.work import check_coupled, check_seed
 
     check_seed(seed, "run_scenario: seed")
-    inp = _inputs(scenario, text, overrides, allow_code)
+    inp = scenario_inputs(scenario, text, overrides, allow_code)
     cfg = inp.world
     if duration_s is not None:
         if not is_real(duration_s) or \
@@ -828,12 +859,15 @@ def run_scenario(
     t1, c1 = time.perf_counter(), time.process_time()
     run.run()
     t2, c2 = time.perf_counter(), time.process_time()
+    table: Any
     if window_sink is None:
-        df = run.rec.frame()
+        table = records_columns([r for r in run.rec.records if r.complete], run.n,
+                                run.rec.limits)
+        df = pd.DataFrame(table, columns=list(table)) if windows else None
     else:
         run.rec.flush()
         window_sink.close()
-        df = window_sink.read(summary_columns(run.n))
+        df = table = window_sink.read(summary_columns(run.n))
     res = run.cpu.result()
     world = run.world
     extra = {
@@ -858,7 +892,7 @@ def run_scenario(
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     world.followers.advance_all(world.t_ms, cfg.step_ms)
     extra.update(run.phys.summary(world.leader.s - run._s0, list(world.followers.odometer)))
-    summary = summarize(df, mode=run.mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
+    summary = summarize(table, mode=run.mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
                         seed=int(seed), scenario=inp.name, n=run.n, extra=extra)
     t3 = time.perf_counter()
     timing = {"setup_s": t1 - t0, "simulation_s": t2 - t1, "simulation_cpu_s": c2 - c1,

@@ -10,26 +10,134 @@ same pandas dtypes as ``DataFrame.to_parquet``, in row groups.
 
 :func:`read_columns` reads columns back, floats exactly (pandas 3's default parser;
 ``float_precision="round_trip"`` before), for summaries and figures drawn after the run.
+
+CSV chunks are formatted by :func:`csv_text`, not by pandas: each column is turned into
+strings at once (a float by ``repr``, which is what pandas writes — numpy's ``str`` of a
+float64 is the same shortest round-trip form —, NaN and None as empty cells, a string
+quoted only when it holds a comma, a quote or a line break, as the ``csv`` module's
+QUOTE_MINIMAL does) and the rows joined, which gives the bytes of ``to_csv`` several times
+faster. A producer that has its chunk as columns (:meth:`ChunkWriter.write_columns`) or as
+row tuples (:meth:`ChunkWriter.write_rows`) skips the DataFrame altogether; a column type
+the formatter does not know (categoricals, dates, ...) is written by pandas.
 """
 
 from __future__ import annotations
 
+import io
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from rtsim.errors import InputError
 
-__all__ = ["ChunkWriter", "iter_columns", "read_columns"]
+__all__ = ["ChunkWriter", "csv_text", "iter_columns", "read_columns"]
 
 #: Rows parsed at a time when a CSV is read back (the parser's buffers stay small).
 READ_ROWS = 65536
 
 #: pandas 3 parses floats exactly by default (and deprecates ``float_precision``).
 _PANDAS_3 = int(pd.__version__.split(".")[0]) >= 3
+
+
+
+def _special_chars() -> frozenset[str]:
+    """The characters that make the csv module quote a field as pandas calls it (QUOTE_MINIMAL,
+    lineterminator os.linesep); asked of the module, since it changed between Pythons (a
+    lone carriage return is quoted from 3.12 on)."""
+    import csv
+
+    found = set()
+    for c in map(chr, range(128)):
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator=os.linesep, quoting=csv.QUOTE_MINIMAL).writerow([c, "a"])
+        if buf.getvalue().startswith('"'):
+            found.add(c)
+    return frozenset(found)
+
+
+#: Characters that make the csv module (QUOTE_MINIMAL) quote a field.
+_SPECIAL = _special_chars()
+_BOOL_TEXT = {True: "True", False: "False"}
+
+
+def column_kind(dtype: Any) -> str | None:
+    """How :func:`csv_text` formats a column of ``dtype``: ``f`` float64, ``i`` int64,
+    ``b`` bool, ``s`` strings (``string``, ``str`` or object holding str / None / NaN), or
+    None (pandas formats it)."""
+    if dtype == np.float64:
+        return "f"
+    if dtype == np.int64:
+        return "i"
+    if dtype == np.bool_:
+        return "b"
+    if dtype == np.object_ or pd.api.types.is_string_dtype(dtype):
+        return "s"
+    return None
+
+
+def _quote(v: str) -> str:
+    if _SPECIAL.isdisjoint(v):
+        return v
+    if '"' in v:
+        v = v.replace('"', '""')
+    return f'"{v}"'
+
+
+def _texts(values: Any, kind: str) -> list[str] | None:
+    """One column as the strings ``to_csv`` writes (None: a value :func:`csv_text` does not
+    format exactly as pandas, e.g. a number in a string column)."""
+    if kind == "f":
+        a = np.asarray(values, dtype=np.float64)
+        out = list(map(repr, a.tolist()))
+        nan = np.isnan(a)
+        if nan.any():
+            for i in np.flatnonzero(nan).tolist():
+                out[i] = ""
+        return out
+    if kind == "i":
+        return list(map(str, np.asarray(values, dtype=np.int64).tolist()))
+    if kind == "b":
+        return list(map(_BOOL_TEXT.__getitem__, np.asarray(values, dtype=bool).tolist()))
+    vals = values.tolist() if isinstance(values, np.ndarray) else list(values)
+    out = []
+    for v in vals:
+        if type(v) is str:
+            out.append(v)
+        elif v is None or v is pd.NA or (type(v) is float and v != v):
+            out.append("")
+        else:
+            return None
+    if not _SPECIAL.isdisjoint("".join(out)):
+        out = [_quote(v) for v in out]
+    return out
+
+
+def csv_text(columns: Sequence[Any], kinds: Sequence[str], header: Sequence[str] | None = None
+             ) -> str | None:
+    """The rows (and ``header``, when given) of ``DataFrame.to_csv(index=False)`` for
+    ``columns`` (equal-length sequences or arrays, one per column) of :func:`column_kind`
+    ``kinds``; None when a value is not one the fast path formats exactly (the caller then
+    uses pandas)."""
+    sep = os.linesep
+    if len(columns) < 2:  # a lone empty field is quoted by the csv module: leave it to pandas
+        return None
+    texts = []
+    for values, kind in zip(columns, kinds, strict=True):
+        t = _texts(values, kind)
+        if t is None:
+            return None
+        texts.append(t)
+    lines = list(map(",".join, zip(*texts, strict=True)))
+    if header is not None:
+        lines.insert(0, ",".join(_quote(str(h)) for h in header))
+    if not lines:
+        return ""
+    lines.append("")
+    return sep.join(lines)
 
 
 class ChunkWriter:
@@ -52,19 +160,76 @@ class ChunkWriter:
         self.chunks = 0
         self._parquet: dict[Path, Any] = {}
         self._closed = False
+        self._kind_cache: list[str | None] | None = None
 
     def write(self, df: pd.DataFrame) -> None:
         """Append one chunk (columns and dtypes as ``empty``)."""
         if self.empty is not None and list(df.columns) != list(self.empty.columns):
             raise ValueError("chunk columns differ from the table's")
+        self._append(df, lambda: [df[c].to_numpy() for c in df.columns],
+                     [column_kind(t) for t in df.dtypes], len(df))
+
+    def write_columns(self, columns: Mapping[str, Any]) -> None:
+        """Append one chunk given as columns (name -> numpy array, or a list of strings, in
+        ``empty``'s order): the same file as :meth:`write` of ``DataFrame(columns)``, without
+        building that frame for a CSV."""
+        names = self._names(columns)
+        rows = len(next(iter(columns.values()))) if names else 0
+        kinds = [column_kind(v.dtype) if isinstance(v, np.ndarray) else "s"
+                 for v in columns.values()]
+        self._append(lambda: pd.DataFrame(columns, columns=names),
+                     lambda: [columns[c] for c in names], kinds, rows)
+
+    def write_rows(self, rows: Sequence[tuple[Any, ...]]) -> None:
+        """Append one chunk given as row tuples in ``empty``'s column order: the same file
+        as :meth:`write` of ``DataFrame(rows).astype(empty.dtypes)``."""
+        assert self.empty is not None, "ChunkWriter.write_rows needs the empty table"
+        names = list(self.empty.columns)
+        dtypes = dict(self.empty.dtypes)
+        self._append(lambda: pd.DataFrame(list(rows), columns=names).astype(dtypes),
+                     lambda: list(zip(*rows, strict=True)) if rows else [()] * len(names),
+                     self._kinds(), len(rows))
+
+    def _names(self, columns: Mapping[str, Any]) -> list[str]:
+        if self.empty is None:
+            raise ValueError("ChunkWriter: the empty table (the schema) is not set")
+        names = list(self.empty.columns)
+        if list(columns) != names:
+            raise ValueError("chunk columns differ from the table's")
+        return names
+
+    def _kinds(self) -> list[str | None]:
+        if self._kind_cache is None:
+            assert self.empty is not None
+            self._kind_cache = [column_kind(t) for t in self.empty.dtypes]
+        return self._kind_cache
+
+    def _append(self, frame: Any, columns: Any, kinds: list[str | None], rows: int) -> None:
+        """Write one chunk: ``frame`` a DataFrame or a function making it (pandas' CSV path,
+        Parquet), ``columns`` a function giving the columns for :func:`csv_text`."""
+        df = frame if isinstance(frame, pd.DataFrame) else None
+        text: str | None = None
+        tried = None in kinds
         for p in self.paths:
             if p.suffix.lower() == ".csv":
+                if not tried:
+                    tried = True
+                    header = list(self.empty.columns if df is None else df.columns) \
+                        if self.chunks == 0 else None  # type: ignore[union-attr]
+                    text = csv_text(columns(), kinds, header)  # type: ignore[arg-type]
                 with open(p, "w" if self.chunks == 0 else "a", encoding="utf-8",
                           newline="") as fh:
-                    df.to_csv(fh, index=False, header=self.chunks == 0)
+                    if text is not None:
+                        fh.write(text)
+                    else:
+                        if df is None:
+                            df = frame()
+                        df.to_csv(fh, index=False, header=self.chunks == 0)
             else:
+                if df is None:
+                    df = frame()
                 self._write_parquet(p, df)
-        self.rows += len(df)
+        self.rows += rows
         self.chunks += 1
 
     def _write_parquet(self, p: Path, df: pd.DataFrame) -> None:

@@ -47,7 +47,8 @@ Shape (units as in docs/model/index.md: cm, cm/s, s for ``duration``, ms for ``w
                    decide = "end" | "before-send" (when in the window the decision is taken)
     [localization] centre = "previous" | "predicted", search = "always" | "visible"
                    (where the Hough windows are centred; which lost followers are searched for)
-    [world]        step_ms (integration step while a speed ramps)
+    [world]        step_ms (integration step while a speed ramps), backend ("python",
+                   "compiled" or "filterpy"; default compiled where numba is installed)
     [assumptions]  key = "reason"      # every value the paper does not give
 
 Every table but ``[leader]`` and ``[formation]`` is optional (defaults: the world's dataclasses).
@@ -487,7 +488,8 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
                                 f"{scheduler!r}")
     wtab = _Table(f"{src}: world", top.get("world", {}))
     step_ms = wtab.get("step_ms", 10.0)
-    wtab.finish(("step_ms",))
+    backend = wtab.get("backend", None)
+    wtab.finish(("step_ms", "backend"))
 
     localization = _section(src, data, "localization",
                             tuple(LocalizationParams.__dataclass_fields__), LocalizationParams)
@@ -498,7 +500,7 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
                             f"'predicted' (it is {localization.centre!r})")
     world = _build(src, lambda: WorldConfig(path, speed, formation, follower, sensing, ekf,
                                             thresholds, step_ms, start_s, **ramps,
-                                            localization=localization))
+                                            localization=localization, backend=backend))
     if adjust.floor > speed:
         raise ScenarioError(f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the "
                             f"desired speed {speed:g} cm/s")

@@ -201,7 +201,8 @@ class RowBuffer(list):  # type: ignore[type-arg]
     """Job records as tuples, turned into a column chunk every ``chunk_rows`` rows.
 
     A list (the CPU appends to it as to a list) whose rows are converted by ``to_frame``
-    (:func:`jobs_frame`) and passed to ``sink`` (a callable taking a DataFrame), or kept in
+    (:func:`jobs_frame`) and passed to ``sink`` (a callable taking a DataFrame, or an
+    object with ``write_rows`` given the tuples: :meth:`flush`), or kept in
     :attr:`chunks` when there is no sink. :meth:`frame` returns the whole table (no sink);
     :meth:`flush` hands over what is left.
     """
@@ -221,11 +222,18 @@ class RowBuffer(list):  # type: ignore[type-arg]
             self.flush()
 
     def flush(self) -> None:
-        """Turn the rows held into a chunk (to the sink, or kept); an empty buffer is a no-op."""
+        """Turn the rows held into a chunk (to the sink, or kept); an empty buffer is a no-op.
+        A sink with a ``write_rows`` method (:class:`rtsim.io.columns.ChunkWriter`) is given
+        the row tuples themselves: it formats them as columns, without a DataFrame."""
         if not len(self):
             return
-        df = self.to_frame(self)
         self.flushed += len(self)
+        write_rows = getattr(self.sink, "write_rows", None)
+        if write_rows is not None:
+            write_rows(self)
+            self.clear()
+            return
+        df = self.to_frame(self)
         self.clear()
         if self.sink is not None:
             self.sink(df)

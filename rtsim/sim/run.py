@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -108,6 +109,9 @@ def build_cpu(
         raise InputError(f"{ts.source or ts.name or 'task set'}: has no [window], so a "
                          f"window does not apply")
     for task in ts.tasks:
+        if task.per_window and ts.window is not None and ts.window.offset:
+            # a per-window task counts its offset from the window stream's first arrival
+            task = replace(task, offset=task.offset + ts.window.offset)
         cpu.add_task(task)
     return cpu, info
 
@@ -126,7 +130,7 @@ def simulate(
     hist_bin: float | None = None,
     env: simpy.Environment | None = None,
     jitter: JitterMode = "random",
-    job_sink: Callable[[Any], None] | None = None,
+    job_sink: Callable[[Any], None] | Any = None,
     scheduler: PolicySpec | None = None,
     force: bool = False,
 ) -> SimResult:
@@ -136,7 +140,8 @@ def simulate(
     ``overhead`` defaults to the set's (0 for a list of tasks). ``jitter``: release delays
     of tasks with a jitter, ``random``/``worst``/``none`` (:mod:`rtsim.sim.cpu`).
     ``job_sink``: a callable that receives the job records as DataFrame chunks during the
-    run (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
+    run, or a :class:`rtsim.io.columns.ChunkWriter` that formats them without a DataFrame
+    (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
     long horizon (:class:`rtsim.sim.records.RowBuffer`).
     ``scheduler``: the scheduling policy (:mod:`rtsim.sim.policy`), default the set's
     (``[scheduler] policy``; ``fp`` for a list of tasks).

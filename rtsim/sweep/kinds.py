@@ -22,7 +22,10 @@ the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metr
   summary (summary.json without ``seed``), nested ones flattened with dots
   (``violations.separation``, ``methods.coupled``). Options ``mode`` (``adjust`` |
   ``fixed-wsch`` | ``min-msb``), ``duration`` (simulated s), ``exec``, ``scheduler`` (the
-  leader CPU's policy, as ``[scheduler] policy`` in the file). Needs ``base``.
+  leader CPU's policy, as ``[scheduler] policy`` in the file). Needs ``base``. A worker
+  parses and prepares each distinct scenario content once and keeps it (points differing
+  only in seed or options reuse it); the summary is computed from the window records'
+  columns, without a window table.
 - ``call`` — ``function(params, options, seed) -> dict`` named by ``sweep.function``
   (``package.module:function``, importable on every worker): the extension point.
 
@@ -34,8 +37,11 @@ anything that must also run on process or Dask workers.
 
 from __future__ import annotations
 
+import hashlib
 import importlib
+import json
 import math
+from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
@@ -44,6 +50,7 @@ from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 from rtsim.errors import InputError
+from rtsim.overrides import RUN_OPTIONS, apply_overrides
 from rtsim.registry import Registry
 
 if TYPE_CHECKING:
@@ -53,19 +60,9 @@ if TYPE_CHECKING:
 __all__ = ["PointInput", "KindSpec", "KINDS", "register_kind", "apply_overrides"]
 
 
-def apply_overrides(data: dict[str, Any], overrides: tuple[tuple[tuple[str, ...], Any], ...]
-                    ) -> dict[str, Any]:
-    """Set each dotted path (tables by key, lists of tables by ``name`` or index) in ``data``."""
-    for path, value in overrides:
-        node: Any = data
-        for key in path[:-1]:
-            if isinstance(node, list):
-                named = [e for e in node if isinstance(e, dict) and e.get("name") == key]
-                node = named[0] if named else node[int(key)]
-            else:
-                node = node[key]
-        node[path[-1]] = value
-    return data
+def canonical_json(obj: Any) -> str:
+    """Compact, key-sorted JSON: the text that seeds and fingerprints are hashed from."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=True)
 
 
 @dataclass(frozen=True)
@@ -204,8 +201,34 @@ def _flatten(obj: Any, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-def _scenario(p: PointInput) -> dict[str, Any]:
+#: Prepared scenarios a worker keeps (:func:`_prepared`), most recent last.
+_PREPARED: OrderedDict[str, tuple[Any, Any]] = OrderedDict()
+_PREPARED_MAX = 16
+
+
+def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[Any, Any]:
+    """(Scenario, ScenarioInputs) of ``data``, parsed and prepared once per worker process
+    for each distinct content (points that differ only in seed or run options — mode,
+    duration — share them): the key is the base file's name, its folder and the canonical
+    JSON of the data with the point's overrides applied."""
+    assert p.base is not None
+    key = hashlib.sha256("\0".join((p.base.source, str(where), canonical_json(data)))
+                         .encode()).hexdigest()
+    hit = _PREPARED.get(key)
+    if hit is not None:
+        _PREPARED.move_to_end(key)
+        return hit
     io = _need("rtsim.io.scenario", "scenario")
+    coupling = _need("rtsim.coupling", "scenario")
+    scenario = io.parse_scenario(data, p.base.source, base=where, allow_code=p.allow_code)
+    hit = (scenario, coupling.scenario_inputs(scenario))
+    _PREPARED[key] = hit
+    if len(_PREPARED) > _PREPARED_MAX:
+        _PREPARED.popitem(last=False)
+    return hit
+
+
+def _scenario(p: PointInput) -> dict[str, Any]:
     coupling = _need("rtsim.coupling", "scenario")
     assert p.base is not None
     where = Path(p.base.path).parent if p.base.path else None
@@ -213,8 +236,8 @@ def _scenario(p: PointInput) -> dict[str, Any]:
     o = p.options
     if "scheduler" in o:
         data.setdefault("scheduler", {})["policy"] = o["scheduler"]
-    scenario = io.parse_scenario(data, p.base.source, base=where, allow_code=p.allow_code)
-    kwargs: dict[str, Any] = {"seed": p.seed, "record_jobs": False}
+    scenario, inputs = _prepared(p, data, where)
+    kwargs: dict[str, Any] = {"seed": p.seed, "record_jobs": False, "windows": False}
     if "mode" in o:
         kwargs["mode"] = o["mode"]
     if "duration" in o:
@@ -224,7 +247,7 @@ def _scenario(p: PointInput) -> dict[str, Any]:
     from rtsim.coupling.duration import check_scenario
 
     check_scenario(scenario, kwargs.get("duration_s"), f"{p.base.source}: duration")
-    summary = dict(coupling.run_scenario(scenario, **kwargs).summary)
+    summary = dict(coupling.run_scenario(inputs, **kwargs).summary)
     summary.pop("seed", None)  # the point's seed is its own column
     return _flatten(summary)
 
@@ -260,10 +283,10 @@ register_kind(KindSpec("analyze", _analyze, options=("window", "scheduler"),
                        metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*"),
                        modules=(*_LOADER, "rtsim.sim.policy")))
 register_kind(KindSpec("simulate", _simulate,
-                       options=("horizon", "exec", "suspension", "window", "scheduler"),
+                       options=RUN_OPTIONS["simulate"],
                        required=("horizon",), modules=(*_LOADER, "rtsim.sim"),
                        metrics=("w", "max_response.*", "mean_response.*", "misses.*", "jobs.*",
                                 "misses", "jobs")))
-register_kind(KindSpec("scenario", _scenario, options=("mode", "duration", "exec", "scheduler"),
+register_kind(KindSpec("scenario", _scenario, options=RUN_OPTIONS["scenario"],
                        modules=("rtsim.io.scenario", "rtsim.coupling")))
 register_kind(KindSpec("call", _call))

@@ -15,7 +15,12 @@ from rtsim.world.formation import Formation
 from rtsim.world.path import LeaderPath
 
 __all__ = ["CENTRES", "LocalizationParams", "SEARCHES", "SensingParams", "WorldConfig",
-           "DEFAULT_THRESHOLDS"]
+           "DEFAULT_THRESHOLDS", "WORLD_BACKENDS"]
+
+#: ``[world] backend``: ``python`` (the reference: plain floats), ``compiled`` (the same
+#: arithmetic compiled with numba, bit for bit; :mod:`rtsim.world.compiled`), ``filterpy``
+#: (the Python world with filterpy's EKF; ``[ekf] backend = "filterpy"`` is its older name).
+WORLD_BACKENDS: tuple[str, ...] = ("python", "compiled", "filterpy")
 
 #: T_ρ = 0.01, T_ε = 0.025 (an earlier prototype of this world), T_β = 5°, r_H = r_F = 25 cm.
 DEFAULT_THRESHOLDS = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=math.radians(5.0))
@@ -88,7 +93,8 @@ class WorldConfig:
     ``leader_decel_max`` (cm/s², ``inf`` = a step) the leader's speed ramp
     (:class:`~rtsim.world.leader.Leader`). The followers' controller is
     ``formation.model`` (``"l-psi"`` or ``"follow-the-leader"``); ``localization`` where the
-    Hough windows are centred and when a lost follower is searched for.
+    Hough windows are centred and when a lost follower is searched for. ``backend``: one of
+    :data:`WORLD_BACKENDS`, None = :meth:`resolved_backend`'s default.
     """
 
     path: LeaderPath
@@ -103,8 +109,15 @@ class WorldConfig:
     leader_accel_max: float = math.inf
     leader_decel_max: float = math.inf
     localization: LocalizationParams = field(default_factory=LocalizationParams)
+    backend: str | None = None
 
     def __post_init__(self) -> None:
+        if self.backend is not None and self.backend not in WORLD_BACKENDS:
+            raise ScenarioError(f"world.backend: must be one of {', '.join(WORLD_BACKENDS)}, "
+                                f"got {self.backend!r}")
+        if self.ekf.backend == "filterpy" and self.backend not in (None, "filterpy"):
+            raise ScenarioError(f"world.backend: {self.backend!r} contradicts ekf.backend = "
+                                f"'filterpy' (an alias of world.backend = 'filterpy')")
         object.__setattr__(self, "leader_speed", positive("leader.speed", self.leader_speed))
         for key in ("accel_max", "decel_max"):
             object.__setattr__(self, f"leader_{key}", positive(
@@ -120,3 +133,19 @@ class WorldConfig:
     @property
     def n(self) -> int:
         return self.formation.n
+
+    def resolved_backend(self) -> str:
+        """The backend a run uses: ``backend`` when set; else ``filterpy`` when
+        ``ekf.backend`` says so (its older name), else ``compiled`` where numba can be
+        imported and ``python`` where it cannot. An explicit ``compiled`` without numba is
+        an error."""
+        from rtsim.world import compiled
+
+        if self.backend is None:
+            if self.ekf.backend == "filterpy":
+                return "filterpy"
+            return "compiled" if compiled.available() else "python"
+        if self.backend == "compiled" and not compiled.available():
+            raise ScenarioError("world.backend: 'compiled' needs numba, which cannot be "
+                                "imported here (install it, or use backend = 'python')")
+        return self.backend

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -243,10 +244,18 @@ class World:
         c, s = math.cos(hl), math.sin(hl)
         x = xl + c * slots[:, 0] - s * slots[:, 1]
         y = yl + s * slots[:, 0] + c * slots[:, 1]
+        self.backend = config.resolved_backend()
+        fast = self.backend == "compiled"
+        if fast:
+            from rtsim.world.compiled import (
+                CompiledFollowerEKF,
+                CompiledFollowerGroup,
+                CompiledTraceFollower,
+            )
         self._ftl: TraceFollower | None = None
         if follower_model(form.model).on_trace:
-            self._ftl = TraceFollower(config.path, form.rho_d, form.lateral, fp.gain_rho,
-                                      fp.lookahead)
+            ftl = CompiledTraceFollower if fast else TraceFollower
+            self._ftl = ftl(config.path, form.rho_d, form.lateral, fp.gain_rho, fp.lookahead)
             init = np.array([self._ftl.initial(k, self.leader.s, (xl, yl, hl), v_l)
                              for k in range(form.n)], dtype=float).reshape(form.n, 4)
             x, y, th, v_f = init.T
@@ -256,18 +265,19 @@ class World:
             v_f = np.asarray(v_f, dtype=float)
             th = hl - np.asarray(theta, dtype=float)
             w0 = float(w_l)
-        self.followers = FollowerGroup(x, y, th, v_f, fp)
+        self.followers = (CompiledFollowerGroup if fast else FollowerGroup)(x, y, th, v_f, fp)
         self.followers.cmd_w = [w0] * form.n
         self._t = 0.0
         self._est_t = 0.0
         ep = config.ekf
+        if self.backend == "filterpy" and ep.backend != "filterpy":
+            ep = replace(ep, backend="filterpy")
         noise = rng.standard_normal((form.n, 3))
-        self._filters = [
-            make_filter((x[k] + ep.init_position_sd * noise[k, 0],
-                         y[k] + ep.init_position_sd * noise[k, 1],
-                         th[k] + ep.init_heading_sd * noise[k, 2]), ep)
-            for k in range(form.n)
-        ]
+        init = [(x[k] + ep.init_position_sd * noise[k, 0],
+                 y[k] + ep.init_position_sd * noise[k, 1],
+                 th[k] + ep.init_heading_sd * noise[k, 2]) for k in range(form.n)]
+        self._filters = [CompiledFollowerEKF(p, ep) if fast else make_filter(p, ep)
+                         for p in init]
         self._vhat = [float(v) for v in v_f]
         self._pieces: list[list[tuple[float, float, float]]] = [
             [(0.0, float(v_f[k]), w0)] for k in range(form.n)]

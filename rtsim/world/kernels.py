@@ -1,0 +1,433 @@
+"""The world's numba kernels, as plain Python: each is the expressions of the Python code it
+replaces, in the same order (:mod:`rtsim.world.compiled` for the classes that call them and
+why the results are bit for bit the Python ones).
+
+:func:`kernels` compiles them (or loads them from numba's cache) once per process; numba is
+imported only then. The helpers are rebound to their compiled versions at that moment, so
+that the kernels calling them are compiled against compiled code.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
+
+__all__ = ["available", "kernels"]
+
+_KERNELS: Any = None
+_AVAILABLE: bool | None = None
+
+
+def available() -> bool:
+    """Whether numba can be imported (the compiled backend can run)."""
+    global _AVAILABLE
+    if _AVAILABLE is None:
+        try:
+            import numba  # noqa: F401
+        except Exception:  # ImportError, or a numba that does not fit this numpy
+            _AVAILABLE = False
+        else:
+            _AVAILABLE = True
+    return _AVAILABLE
+
+
+# -- the kernels, as plain Python (numba compiles them; the names are what they call) ---------
+
+def _advance_follower(x: float, y: float, th: float, v: float, vc: float, w: float, a: float,
+                      odo: float, t0: float, t_ms: float, step_ms: float
+                      ) -> tuple[float, float, float, float, float]:
+    """FollowerGroup.advance's loop with ramp_arc inlined: (x, y, θ, v, odometer)."""
+    inf = math.inf
+    while t_ms - t0 > 1e-12:
+        short = v == vc or abs(vc - v) <= a * step_ms / 1000.0
+        h = t_ms - t0 if short else min(step_ms, t_ms - t0)
+        dt = h / 1000.0
+        if dt <= 0.0:
+            vm = v
+        else:
+            dv = vc - v
+            if a == inf or abs(dv) <= a * dt:
+                tau = 0.0 if a == inf else abs(dv) / a
+                vm = ((v + vc) * 0.5 * tau + vc * (dt - tau)) / dt
+                v = vc
+            else:
+                v1 = v + math.copysign(a * dt, dv)
+                vm = 0.5 * (v + v1)
+                v = v1
+        dth = w * dt
+        c = vm * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
+        m = th + 0.5 * dth
+        x, y, th = x + c * math.cos(m), y + c * math.sin(m), th + dth
+        odo += abs(vm) * dt
+        t0 += h
+    return x, y, th, v, odo
+
+
+def _ekf_predict(x0: float, x1: float, x2: float, p00: float, p01: float, p02: float,
+                 p11: float, p12: float, p22: float, v: float, w: float, dt: float,
+                 sv2: float, sw2: float, qp2: float, qh2: float
+                 ) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """FastFollowerEKF.predict: (x, y, θ, P00, P01, P02, P11, P12, P22)."""
+    dth = w * dt
+    m = x2 + 0.5 * dth
+    sinc = math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0
+    c = v * dt * sinc
+    cm, sm = math.cos(m), math.sin(m)
+    a, b = -c * sm, c * cm
+    g00, g01 = dt * sinc * cm, 0.5 * dt * a
+    g10, g11 = dt * sinc * sm, 0.5 * dt * b
+    qp = dt * qp2
+    x0 += c * cm
+    x1 += c * sm
+    x2 += dth
+    n00 = p00 + 2 * a * p02 + a * a * p22 + (g00 * g00 * sv2 + g01 * g01 * sw2 + qp)
+    n01 = p01 + a * p12 + b * p02 + a * b * p22 + (g00 * g10 * sv2 + g01 * g11 * sw2)
+    n02 = p02 + a * p22 + g01 * dt * sw2
+    n11 = p11 + 2 * b * p12 + b * b * p22 + (g10 * g10 * sv2 + g11 * g11 * sw2 + qp)
+    n12 = p12 + b * p22 + g11 * dt * sw2
+    n22 = p22 + (dt * dt * sw2 + dt * qh2)
+    return x0, x1, x2, n00, n01, n02, n11, n12, n22
+
+
+def _ekf_update(x0: float, x1: float, x2: float, p00: float, p01: float, p02: float,
+                p10: float, p11: float, p12: float, p20: float, p21: float, p22: float,
+                r: float, z0: float, z1: float) -> tuple[float, ...]:
+    """FastFollowerEKF.update: (x, y, θ, then P row by row, 9 entries)."""
+    s00, s01, s11 = p00 + r, p01, p11 + r
+    det = s00 * s11 - s01 * s01
+    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+    k00, k01 = p00 * i00 + p01 * i01, p00 * i01 + p01 * i11
+    k10, k11 = p10 * i00 + p11 * i01, p10 * i01 + p11 * i11
+    k20, k21 = p20 * i00 + p21 * i01, p20 * i01 + p21 * i11
+    y0, y1 = z0 - x0, z1 - x1
+    x0 += k00 * y0 + k01 * y1
+    x1 += k10 * y0 + k11 * y1
+    x2 += k20 * y0 + k21 * y1
+    return (x0, x1, x2,
+            p00 - k00 * p00 - k01 * p10, p01 - k00 * p01 - k01 * p11,
+            p02 - k00 * p02 - k01 * p12,
+            p10 - k10 * p00 - k11 * p10, p11 - k10 * p01 - k11 * p11,
+            p12 - k10 * p02 - k11 * p12,
+            p20 - k20 * p00 - k21 * p10, p21 - k20 * p01 - k21 * p11,
+            p22 - k20 * p02 - k21 * p12)
+
+
+def _index(s0: Any, lap: float, s: float) -> tuple[int, float]:
+    """LeaderPath's segment index at arc length s (bisect_right − 1) and u = s mod lap."""
+    u = s % lap
+    lo, hi = 0, s0.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if u < s0[mid]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo - 1, u
+
+
+def _point(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float
+           ) -> tuple[float, float, float]:
+    """TraceFollower.point: LeaderPath.pose(s) moved ``o`` to the left."""
+    x, y, h = _pose(s0, poses, kappa, lap, s)
+    return x - o * math.sin(h), y + o * math.cos(h), h
+
+
+def _scale(s0: Any, kappa: Any, lap: float, o: float, s: float) -> float:
+    k, _ = _index(s0, lap, s)
+    return max(_SCALE_MIN, 1.0 - kappa[k] * o)
+
+
+def _gap(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, xl: float,
+         yl: float, rho2: float) -> float:
+    x, y, _ = _point(s0, poses, kappa, lap, o, s)
+    return (x - xl) ** 2 + (y - yl) ** 2 - rho2
+
+
+def _search(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, s_l: float,
+            xl: float, yl: float, rho: float) -> float:
+    """TraceFollower._search (``s`` the last reference, NaN for none); returns s_ref."""
+    rho2 = rho * rho
+    if not math.isnan(s) and s <= s_l:
+        s_n = s
+        for _ in range(_NEWTON):
+            x, y, h = _point(s0, poses, kappa, lap, o, s_n)
+            dx, dy = x - xl, y - yl
+            dg = 2.0 * (dx * math.cos(h) + dy * math.sin(h)) * _scale(s0, kappa, lap, o, s_n)
+            if dg > -1e-6 * rho:
+                break
+            step = (dx * dx + dy * dy - rho2) / dg
+            s_n -= step
+            if abs(s_n - s) > _NEWTON_REACH or s_n > s_l:
+                break
+            if abs(step) < 1e-9:
+                return s_n
+    limit = int(lap / FTL_STEP) + 2
+    if math.isnan(s) or s > s_l:
+        s = s_l
+    lo = hi = s
+    if _gap(s0, poses, kappa, lap, o, s, xl, yl, rho2) > 0.0:
+        lo = s
+        for _ in range(limit):
+            hi = min(lo + FTL_STEP, s_l)
+            if _gap(s0, poses, kappa, lap, o, hi, xl, yl, rho2) <= 0.0 or hi >= s_l:
+                break
+            lo = hi
+    else:
+        hi = s
+        for _ in range(limit):
+            lo = hi - FTL_STEP
+            if _gap(s0, poses, kappa, lap, o, lo, xl, yl, rho2) > 0.0:
+                break
+            hi = lo
+    for _ in range(_BISECT):
+        mid = 0.5 * (lo + hi)
+        if _gap(s0, poses, kappa, lap, o, mid, xl, yl, rho2) > 0.0:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < 1e-7:
+            break
+    return 0.5 * (lo + hi)
+
+
+def _dl_mul(x: float, y: float) -> tuple[float, float]:
+    """x·y and its exact rounding error (Dekker's product with Veltkamp's split)."""
+    z = x * y
+    c = 134217729.0 * x  # 2^27 + 1
+    xh = c - (c - x)
+    xl = x - xh
+    c = 134217729.0 * y
+    yh = c - (c - y)
+    yl = y - yh
+    return z, ((xh * yh - z) + xh * yl + xl * yh) + xl * yl
+
+
+def _hypot_core(ax: float, ay: float, mx: float) -> float:
+    _, e = math.frexp(mx)
+    scale = math.ldexp(1.0, -e)
+    csum, frac1, frac2 = 1.0, 0.0, 0.0
+    for v in (ax, ay):
+        v *= scale
+        hi, lo = _dl_mul(v, v)
+        t = csum + hi
+        frac2 += (csum - t) + hi
+        csum = t
+        frac1 += lo
+    h = math.sqrt(csum - 1.0 + (frac1 + frac2))
+    hi, lo = _dl_mul(-h, h)
+    t = csum + hi
+    frac2 += (csum - t) + hi
+    csum = t
+    frac1 += lo
+    v = csum - 1.0 + (frac1 + frac2)
+    h += v / (2.0 * h)
+    return h / scale
+
+
+def _hypot(x: float, y: float) -> float:
+    """CPython's ``math.hypot`` of two coordinates (its vector_norm: scaled by a power of
+    two, the squares summed with their exact errors, a square root and one differential
+    correction); :func:`kernels` checks it against ``math.hypot`` before a kernel uses it."""
+    ax, ay = abs(x), abs(y)
+    if math.isnan(ax) or math.isnan(ay):
+        return math.nan
+    mx = ax if ax > ay else ay
+    if math.isinf(mx) or mx == 0.0:
+        return mx
+    _, e = math.frexp(mx)
+    if e < -1021:  # subnormal: CPython divides by DBL_MIN first
+        dmin = 2.2250738585072014e-308
+        return dmin * _hypot_core(ax / dmin, ay / dmin, mx / dmin)
+    return _hypot_core(ax, ay, mx)
+
+
+def _pose(s0: Any, poses: Any, kappa: Any, lap: float, s: float
+          ) -> tuple[float, float, float]:
+    """LeaderPath.pose(s)."""
+    k, u = _index(s0, lap, s)
+    x0, y0, h0 = poses[k, 0], poses[k, 1], poses[k, 2]
+    kap = kappa[k]
+    ds = u - s0[k]
+    if kap == 0.0:
+        return x0 + ds * math.cos(h0), y0 + ds * math.sin(h0), h0
+    h = h0 + kap * ds
+    return x0 + (math.sin(h) - math.sin(h0)) / kap, y0 - (math.cos(h) - math.cos(h0)) / kap, h
+
+
+def _clip(v: float, lim: float) -> float:
+    """min(max(v, −lim), lim) with Python's choice among equal values."""
+    lo = -lim
+    m = v
+    if lo > m:
+        m = lo
+    if lim < m:
+        m = lim
+    return m
+
+
+def _ftl_exact(s0: Any, poses: Any, kappa: Any, lap: float, lateral: Any, ahead: Any,
+               spacing: Any, s_ref: Any, s_f: Any, gain: float, lookahead: float, k: int,
+               s_l: float, xl: float, yl: float, hl: float, v_l: float, x: float, y: float,
+               th: float) -> tuple[float, float]:
+    """TraceFollower.command whole (with :func:`_hypot`): (v, ω); updates s_ref, s_f."""
+    chain = np.empty(ahead.shape[0] + 1, dtype=np.int64)
+    m = 0
+    j = k
+    while j >= 0:
+        chain[m] = j
+        m += 1
+        j = ahead[j]
+    s_t, tx, ty, th_t, v_t = s_l, xl, yl, hl, v_l
+    v_ref = v_l
+    for c in range(m - 1, -1, -1):
+        q = chain[c]
+        o = lateral[q]
+        sr = _search(s0, poses, kappa, lap, o, s_ref[q], s_t, tx, ty, spacing[q])
+        s_ref[q] = sr
+        px, py, hp = _point(s0, poses, kappa, lap, o, sr)
+        dx, dy = tx - px, ty - py
+        den = dx * math.cos(hp) + dy * math.sin(hp)
+        if den <= 0.1 * _hypot(dx, dy):
+            v_ref = v_t
+        else:
+            v_ref = v_t * (dx * math.cos(th_t) + dy * math.sin(th_t)) / den
+        if c > 0:
+            tx, ty, th_t = _point(s0, poses, kappa, lap, o, sr)
+            s_t, v_t = sr, v_ref
+    o = lateral[k]
+    sf = s_f[k]
+    if math.isnan(sf):
+        sf = s_ref[k]
+    for _ in range(6):
+        px, py, h = _point(s0, poses, kappa, lap, o, sf)
+        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / _scale(s0, kappa, lap, o, sf)
+        sf += ds
+        if abs(ds) < 1e-3:
+            break
+    s_f[k] = sf
+    v = v_ref + gain * (s_ref[k] - sf) * _scale(s0, kappa, lap, o, sf)
+    if not v > 0.0:
+        v = 0.0
+    ahead_s = sf + lookahead
+    if s_l < ahead_s:
+        ahead_s = s_l
+    gx, gy, _ = _point(s0, poses, kappa, lap, o, ahead_s)
+    dx, dy = gx - x, gy - y
+    dist = _hypot(dx, dy)
+    if dist < 1e-9:
+        return v, 0.0
+    alpha = math.atan2(dy, dx) - th
+    return v, v * 2.0 * math.sin(alpha) / dist
+
+
+def _rollout(s0: Any, poses: Any, kappa: Any, lap: float, leader_s: float, v0: float,
+             vt: float, accel_max: float, decel_max: float, x: Any, y: Any, th: Any,
+             v: Any, cmd_v: Any, cmd_w: Any, odo: Any, t_f: Any, max_accel: float,
+             max_speed: float, max_turn: float, speed_noise: float, turn_noise: float,
+             step_ms: float, lateral: Any, ahead: Any, spacing: Any, s_ref: Any, s_f: Any,
+             gain: float, lookahead: float, ev_t: Any, ev_kind: Any, ev_k: Any, t_now: float,
+             out: Any) -> None:
+    """Rollout._run's event loop: the leader's ramp, the followers' held commands, the
+    follow-the-leader commands at the sends (no noise), and at each scan every follower's
+    position in the leader frame and odometer (``out[scan, follower]``); the arrays of the
+    group and the law are updated in place."""
+    n = x.shape[0]
+    t_leader = t_now
+    s_l = leader_s
+    scan = 0
+    for e in range(ev_t.shape[0]):
+        t = ev_t[e]
+        if t > t_leader:
+            dt = (t - t_leader) / 1000.0
+            if v0 == vt or dt <= 0.0:
+                s_l += v0 * dt
+            else:
+                a = accel_max if vt > v0 else decel_max
+                tau = abs(vt - v0) / a
+                if tau <= dt:
+                    s_l += 0.5 * (v0 + vt) * tau + vt * (dt - tau)
+                    v0 = vt
+                else:
+                    v1 = v0 + math.copysign(a * dt, vt - v0)
+                    s_l += 0.5 * (v0 + v1) * dt
+                    v0 = v1
+            t_leader = t
+        lo_k = ev_k[e] if ev_kind[e] == 0 else 0
+        hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
+        for k in range(lo_k, hi_k):
+            if t > t_f[k]:
+                x[k], y[k], th[k], v[k], odo[k] = _advance_follower(
+                    x[k], y[k], th[k], v[k], cmd_v[k], cmd_w[k], max_accel, odo[k], t_f[k],
+                    t, step_ms)
+                t_f[k] = t
+        xl, yl, hl = _pose(s0, poses, kappa, lap, s_l)
+        if ev_kind[e] == 0:
+            k = ev_k[e]
+            vc, wc = _ftl_exact(s0, poses, kappa, lap, lateral, ahead, spacing, s_ref, s_f,
+                                gain, lookahead, k, s_l, xl, yl, hl, v0, x[k], y[k], th[k])
+            vc, wc = _clip(vc, max_speed), _clip(wc, max_turn)
+            cmd_v[k] = _clip(vc + speed_noise * 0.0, max_speed)
+            cmd_w[k] = _clip(wc + turn_noise * 0.0, max_turn)
+            continue
+        c, s = math.cos(hl), math.sin(hl)
+        for i in range(n):
+            dx, dy = x[i] - xl, y[i] - yl
+            out[scan, i, 0] = c * dx + s * dy
+            out[scan, i, 1] = -s * dx + c * dy
+            out[scan, i, 2] = odo[i]
+        scan += 1
+
+
+def kernels() -> Any:
+    """The compiled kernels (a namespace), compiled or loaded from numba's cache once per
+    process."""
+    global _KERNELS
+    if _KERNELS is None:
+        import types
+
+        import numba
+
+        jit = numba.njit(cache=True, nogil=True)
+        ns = types.SimpleNamespace()
+        glob = globals()
+        # helpers first: the kernels that call them find the compiled ones by name
+        for name in ("_index", "_pose", "_point", "_scale", "_gap", "_search", "_dl_mul",
+                     "_hypot_core", "_hypot", "_clip", "_advance_follower", "_ftl_exact"):
+            glob[name] = jit(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
+        for name in ("_advance_follower", "_ekf_predict", "_ekf_update", "_ftl_exact",
+                     "_rollout", "_hypot"):
+            fn = glob[name]
+            setattr(ns, name.lstrip("_"), fn if hasattr(fn, "py_func") else jit(fn))
+        _warm(ns)
+        ns.exact_hypot = _hypot_matches(ns.hypot)
+        _KERNELS = ns
+    return _KERNELS
+
+
+def _hypot_matches(fn: Any, count: int = 20000) -> bool:
+    """Whether the compiled hypot gives this interpreter's ``math.hypot`` bit for bit on
+    ``count`` random pairs over the whole exponent range and the edge cases (a kernel that
+    needs a hypot is only used when it does)."""
+    rng = np.random.default_rng(20261124)
+    a = rng.standard_normal((count, 2)) * 10.0 ** rng.integers(-30, 30, (count, 2))
+    edge = [(0.0, 0.0), (0.0, -3.0), (3.0, 4.0), (1e-320, 3e-321), (1e308, 1e308),
+            (5e-324, 0.0), (1.0, 1e-17), (-0.0, 2.5), (325.0, 325.0)]
+    pairs = [*edge, *map(tuple, a.tolist())]
+    return all(fn(x, y) == math.hypot(x, y) for x, y in pairs)
+
+
+def _warm(ns: Any) -> None:
+    """Call every kernel once on dummy values, so that compiling it (the first time on a
+    machine) or loading it from numba's cache happens when the world is built, not inside
+    the first window."""
+    ns.advance_follower(0.0, 0.0, 0.0, 1.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
+    ns.ekf_predict(*([1.0] * 16))
+    ns.ekf_update(*([1.0] * 15))
+    one = np.zeros(1)
+    ns.ftl_exact(np.zeros(1), np.zeros((1, 3)), np.zeros(1), 100.0, one, np.full(1, -1),
+                 np.ones(1), np.full(1, math.nan), np.full(1, math.nan), 0.5, 10.0, 0, 50.0,
+                 50.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
