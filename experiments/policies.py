@@ -22,7 +22,7 @@ Outputs in DIR: ``policies.csv`` (one row per run), ``policies_summary.csv`` and
 ``policies.md`` (the table above), ``pareto.png`` (windows beyond 5 % against lap time, one
 marker per policy and test), ``manifest.json``.
 
-    python experiments/policies.py [--quick] [--out DIR]
+    python experiments/policies.py [--quick] [--out DIR] [--followers 2,4]
 
 ``--quick``: n = 2, seed 0, 20 simulated seconds (the test suite runs it).
 """
@@ -183,9 +183,13 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="n = 2, seed 0, 20 simulated s")
     p.add_argument("--out", metavar="DIR", help="output directory")
+    p.add_argument("--followers", metavar="N[,N...]", default=None,
+                   help="follower counts (default 2,4; --quick: 2)")
     args = p.parse_args(argv)
     out = Path(args.out or ("out/policies-quick" if args.quick else "out/policies"))
     ns = (2,) if args.quick else (2, 4)
+    if args.followers:
+        ns = tuple(int(x) for x in args.followers.split(","))
     seeds = (0,) if args.quick else (0, 1, 2, 3, 4)
     duration = 20.0 if args.quick else None
     runs = pd.DataFrame([run_one(t, n, label, ov, seed, duration)

@@ -141,3 +141,35 @@ def test_paper_infeasible_is_exact_against_brute_force() -> None:
         empty += not ok
         agree += says == (not ok)
     assert empty > 15 and agree >= 147
+
+
+def test_a_users_policy_gets_the_rollout() -> None:
+    """The documented hook: a policy class with ``needs_rollout = True`` receives
+    ``PolicyInput.rollout`` in a coupled run, and its rows at V_Ld are the ``commands``
+    predictor's (the decision of the paper's algorithm on the rollout)."""
+    from rtsim.control.adjust import Decision
+    from rtsim.control.policy import POLICIES, PaperPolicy, register_policy
+    from rtsim.control.predict import min_bound_rows
+    from rtsim.coupling import run_scenario
+
+    seen = []
+
+    class Probe:
+        params: dict = {}
+        needs_rollout = True
+
+        def decide(self, ctx):  # type: ignore[no-untyped-def]
+            rows = ctx.rollout.rows(ctx.v_ld)
+            d = PaperPolicy().decide(ctx)  # the paper's algorithm with predictor commands
+            seen.append((ctx.predictor, rows == d.rows, ctx.rollout.count >= 1))
+            m = min_bound_rows(rows)[0]
+            return Decision(ctx.w_sch, ctx.v_ld, m, "none", 0, "none", True, rows, rows, m, {})
+
+    register_policy("probe-rollout")(Probe)
+    try:
+        res = run_scenario("test2", policy="probe-rollout", duration_s=5.0, seed=0,
+                           record_jobs=False)
+    finally:
+        POLICIES.pop("probe-rollout")
+    assert seen and all(p == "commands" and same and ran for p, same, ran in seen)
+    assert res.summary["predictor"] == "commands"
