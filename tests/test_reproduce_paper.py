@@ -189,7 +189,7 @@ def test_bounds_data_has_infinite_values(quick: tuple[Path, str], tmp_path: Path
     assert (fig["bound_localization_pred"] == "inf").any()
     # and the reproduction's own figure data says inf exactly where its windows do
     out, _ = quick
-    fig = pd.read_csv(out / "figures" / "fig10_test1_bounds.csv", dtype=str)
+    fig = pd.read_csv(out / "figures" / "fig10_test1_bounds_detail.csv", dtype=str)
     win = _windows_str(out, "test1", "adjust")
     for kind in KINDS:
         both = (win[f"f1_msb_{kind}_pred"] == "inf") & (win[f"f2_msb_{kind}_pred"] == "inf")
