@@ -33,9 +33,8 @@ OFFSETS = (130.0, 136.0)
 TOL_CM, TOL_RAD = 0.05, 5e-4  # each follower's send after its window's scan (ms)
 
 
-def _quiet_world(name: str, start_s: float) -> World:
-    sc = load_scenario(name, overrides={**QUIET, "leader.start_s": start_s}
-                       if start_s else QUIET)
+def _quiet_world(name: str, model: str = "follow-the-leader") -> World:
+    sc = load_scenario(name, overrides={**QUIET, "formation.model": model})
     return World(sc.world, np.random.default_rng(1))
 
 
@@ -45,14 +44,16 @@ def _window(world: World, t: float, w: float) -> None:
         world.command(i, t + off)
 
 
-@pytest.mark.parametrize(("name", "v_target", "windows"), [
-    ("test2", 12.0, 12),   # braking hard into the followers' first turn
-    ("test2", 30.0, 40),   # holding V_Ld through it
-    ("test1", 18.0, 60),
+@pytest.mark.parametrize(("name", "v_target", "windows", "model"), [
+    ("test2", 12.0, 12, "follow-the-leader"),   # braking hard into the followers' first turn
+    ("test2", 30.0, 40, "follow-the-leader"),   # holding V_Ld through it
+    ("test1", 18.0, 60, "follow-the-leader"),
+    ("test2", 15.0, 115, "l-psi"),              # the l-ψ law, the leader in its first turn
 ])
-def test_rollout_matches_the_world(name: str, v_target: float, windows: int) -> None:
+def test_rollout_matches_the_world(name: str, v_target: float, windows: int,
+                                   model: str) -> None:
     w = 237.0
-    world = _quiet_world(name, 0.0)
+    world = _quiet_world(name, model)
     for j in range(windows):  # drive some windows, then decide at 210 ms into the last
         _window(world, j * w, w)
     t_d = (windows - 1) * w + 210.0
@@ -67,7 +68,7 @@ def test_rollout_matches_the_world(name: str, v_target: float, windows: int) -> 
         held=tuple((fol.cmd_v[k], fol.cmd_w[k]) for k in range(world.n)),
         pending=((), ()), next_scan=windows * w, send_offsets=OFFSETS,
         thresholds=world.config.thresholds, rho_d=tuple(world.config.formation.rho_d),
-        w_sch=w)
+        w_sch=w, beta_d=tuple(world.config.formation.beta_d))
     ro = Rollout(state)
     ahead = [w, w, w]
     pred = ro.changes(v_target, ahead)
