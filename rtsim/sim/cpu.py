@@ -85,9 +85,12 @@ at their arrival; ``"none"``: released at arrival. Deadlines and responses count
 arrival. A task's jobs still run in arrival order: a job released before its predecessor
 waits for it. With J = 0 nothing of this runs (no draw, the same instants).
 
-Times: releases are computed as ``offset + k·p`` for fixed periods (cumulative sums for
-provided periods), never by adding up timeouts, and the dispatcher records the exact target
-time of each wake-up.
+Times (docs/time.md): every periodic stream's arrivals are computed from its start, never by
+adding up periods: ``t0 + offset + k·p`` for a fixed period; for a period decided at each
+arrival (the window task's provider, per-window tasks' multiples of w) ``a + (k − k_a)·p`` from
+the arrival a = the stream's k_a-th, where the period last changed — so a window held at one w
+releases at exactly t0 + k·w, and a per-window task with period 2w at exactly the window's
+even releases. The dispatcher records the exact target time of each wake-up.
 """
 
 from __future__ import annotations
@@ -128,6 +131,18 @@ JitterMode = Literal["random", "worst", "none"]
 JITTER_MODES: tuple[str, ...] = ("random", "worst", "none")
 
 _INF = math.inf
+#: Doubles near t are ulp(t) = 2^(⌊log2 t⌋ − 52) ms apart, so beyond about 2^22 ms an absolute
+#: 1e-9 ms cannot be resolved. The coincidence window at t (docs/time.md) is
+#: max(EPS, ULPS·ulp(t)): two instants closer than it are one, a finish within it after the
+#: deadline meets it. EPS is the larger up to t = 2^19 ms (8.7 minutes).
+ULPS = 16
+
+
+def coincidence(t: float) -> tuple[float, float]:
+    """(the coincidence window at time ``t``, the time from which it is larger): the window
+    is constant over [2^(e−1), 2^e), the binade of t."""
+    _, e = math.frexp(t)  # 2^(e−1) ≤ t < 2^e
+    return max(EPS, math.ldexp(float(ULPS), e - 53)), math.ldexp(1.0, e)
 
 
 class CPU:
@@ -191,6 +206,8 @@ class CPU:
         self._busy = 0.0
         self._switches = 0
         self._end_time = 0.0
+        self._lag = 0.0  # the dispatcher's now_lag while it calls _segment_done
+        self._tol = EPS  # the coincidence window at the dispatcher's now
         self._t0 = 0.0
         self._horizon: float | None = None
         self.process: simpy.Process | None = None
@@ -348,10 +365,21 @@ class CPU:
         running: Job | None = None
         last: Job | None = None
         run_end = _INF
+        # Compensated time (docs/time.md): the exact instant is now + now_lag, the exact end
+        # of the running segment run_end + run_lag, its work started at work_start + work_lag.
+        # A lag is the rounding error of a segment's end (Knuth's TwoSum); it is carried into
+        # the next segment so that a busy period never accumulates rounding, and is 0 at a
+        # timer (releases are exact: module doc, Times).
+        now_lag = work_lag = run_lag = 0.0
         piece_start = work_start = now = env.now
+        tol, tol_next = coincidence(now)
+        self._tol = tol
         while True:
+            if now >= tol_next:  # the clock entered the next binade: a wider window
+                tol, tol_next = coincidence(now)
+                self._tol = tol
             # 1. the running segment ends?
-            if running is not None and running.rem is not None and run_end <= now + EPS:
+            if running is not None and running.rem is not None and run_end <= now + tol:
                 if plain:
                     worked = now - work_start
                     running.executed += worked
@@ -368,10 +396,13 @@ class CPU:
                     running.seg_index += 1
                     running.rem = None
                 else:
+                    self._lag = now_lag
                     running = self._segment_done(running, now)
+                    self._lag = 0.0
                 run_end = _INF
+                work_lag = now_lag
             # 2. timers due
-            limit = now + EPS
+            limit = now + tol
             while timers and timers[0][0] <= limit:
                 entry = heappop(timers)
                 kind = entry[4]
@@ -419,7 +450,10 @@ class CPU:
                 # f), do both instants here with the same float operations, in the same
                 # order, as the dispatch at now and the completion at f would.
                 c = st.fast_start
-                f = now + c
+                x = c + now_lag
+                f = now + x
+                y = f - now
+                f_lag = (now - (f - y)) + (x - y)
                 job = None
                 wins = True
                 if not top_first:
@@ -434,7 +468,7 @@ class CPU:
                         ready[0][0] == running.key and ready[0][1] < running.tie)):
                     nxt_job = ready[0][2]
                     from_ready = True
-                if (wins and f > now + EPS and timers and timers[0][0] > f + EPS
+                if (wins and f > now + tol and timers and timers[0][0] > f + tol
                         and (not queue or queue[0][0] > f)
                         and (nxt_job is None or nxt_job.rem is not None)):
                     if running is not None:  # preempted at now
@@ -442,7 +476,7 @@ class CPU:
                             worked = now - work_start
                             running.executed += worked
                             self._busy += worked
-                            running.rem = running.rem - worked
+                            running.rem = running.rem - worked - (now_lag - work_lag)
                         running.preemptions += 1
                         if from_ready:
                             heappush(ready, (running.key, running.tie, running))
@@ -451,10 +485,17 @@ class CPU:
                     self._switches += 1
                     self._inline_top(st, k, r, p, now, f)
                     env._now = now = f  # the clock moves to f, as the wait would
+                    now_lag = work_lag = f_lag
+                    if now >= tol_next:
+                        tol, tol_next = coincidence(now)
+                        self._tol = tol
                     piece_start = work_start = f
                     if nxt_job is not None:  # it gets the CPU at f
                         self._switches += 1
-                        run_end = f + nxt_job.rem  # type: ignore[operator]
+                        x = nxt_job.rem + f_lag  # type: ignore[operator]
+                        run_end = f + x
+                        y = run_end - f
+                        run_lag = (f - (run_end - y)) + (x - y)
                     else:
                         run_end = _INF
                     running = last = nxt_job
@@ -470,16 +511,22 @@ class CPU:
                 if running is not None:
                     if running.rem is not None:
                         self._close_piece(running, piece_start, work_start, now, done=False)
+                        if now > work_start:
+                            running.rem -= now_lag - work_lag
                     running.preemptions += 1
                     heappush(ready, (running.key, running.tie, running))
                 running = heappop(ready)[2]
                 piece_start = work_start = now
+                work_lag = now_lag
                 if running is not last:
                     self._switches += 1
                     last = running
                     work_start = now + ovh
                 if running.rem is not None:
-                    run_end = work_start + running.rem
+                    x = running.rem + work_lag
+                    run_end = work_start + x
+                    y = run_end - work_start
+                    run_lag = (work_start - (run_end - y)) + (x - y)
             if running is not None and running.rem is None:
                 c = running._st.seg_const[running.seg_index]
                 if c is not None:  # _start_segment without a hook or an exec-time call
@@ -489,13 +536,18 @@ class CPU:
                     running.seg_exec = running.rem = c
                 else:
                     self._start_segment(running, now)
-                run_end = work_start + running.rem  # type: ignore[operator]
-                if run_end <= now + EPS:
+                x = running.rem + work_lag  # type: ignore[operator]
+                run_end = work_start + x
+                y = run_end - work_start
+                run_lag = (work_start - (run_end - y)) + (x - y)
+                if run_end <= now + tol:
                     continue
             # 4. wait
             target = run_end if running is not None else _INF
+            now_lag = run_lag
             if timers and timers[0][0] < target:
                 target = timers[0][0]
+                now_lag = 0.0
             if target == _INF:
                 self._end_time = now
                 return
@@ -568,8 +620,8 @@ class CPU:
             return None
         if st.idle_kind[i]:
             self._start_segment(job, now)
-            heapq.heappush(self._timers, (now + job.rem, _RESUME, job.priority,  # type: ignore
-                                          next(self._seq), _RESUME, job))
+            heapq.heappush(self._timers, (now + (job.rem + self._lag),  # type: ignore[operator]
+                                          _RESUME, job.priority, next(self._seq), _RESUME, job))
             return None
         return job
 
@@ -624,14 +676,14 @@ class CPU:
                                  f"t={now:g} ms; need a positive number of ms")
             p = float(p)
             d = st.deadline / st.period * p
-            nxt = r + p
+            nxt = self._stream_next(st, k, r, p)
         elif st.per_window:
             w = self._w
             if w is None:
                 raise RtsimError(f"task '{st.name}': released at t={now:g} ms before the "
                                  f"first window release")
             p, d = st.period * w, st.deadline * w
-            nxt = r + p
+            nxt = self._stream_next(st, k, r, p)
         else:
             p, d = st.period, st.deadline
             nxt = self._t0 + st.offset + (k + 1) * p
@@ -663,6 +715,18 @@ class CPU:
             h(job)
         if len(st.pending) == 1:
             self._eligible(job, now)
+
+    @staticmethod
+    def _stream_next(st: _TaskState, k: int, r: float, p: float) -> float:
+        """The arrival after job ``k`` (arrived at ``r``) of a stream whose period ``p`` is
+        decided at each arrival: anchor + (k + 1 − k_anchor)·p, the stream restarting
+        (anchor = r, k_anchor = k) whenever p differs from the period in force. A constant
+        period therefore gives t0 + k·p exactly, never a running sum (module doc: Times)."""
+        if p != st.stream_p:
+            st.stream_p = p
+            st.stream_t = r
+            st.stream_k = k
+        return st.stream_t + (k + 1 - st.stream_k) * p
 
     def _jittered(self, st: _TaskState, k: int, r: float, d: float, p: float,
                   now: float) -> None:
@@ -712,7 +776,7 @@ class CPU:
         if stats.max_response is None or resp > stats.max_response:
             stats.max_response = resp
         deadline = r + st.deadline
-        missed = f > deadline + EPS
+        missed = f > deadline + self._tol
         if missed:
             stats.misses += 1
         hist = stats.histogram
@@ -743,7 +807,7 @@ class CPU:
         stats.sum_response += resp
         if stats.max_response is None or resp > stats.max_response:
             stats.max_response = resp
-        missed = now > job.deadline + EPS
+        missed = now > job.deadline + self._tol
         if missed:
             stats.misses += 1
         stats.preemptions += job.preemptions

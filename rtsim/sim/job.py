@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -84,7 +85,8 @@ class _TaskState:
                  "provider", "per_window", "is_window", "rank", "k", "next_release", "pending",
                  "stats", "rng", "exec_fns", "const_exec", "start_hooks", "end_hooks",
                  "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start",
-                 "fast_top", "seg_const", "plain_next", "jitter", "jrng", "order")
+                 "fast_top", "seg_const", "plain_next", "jitter", "jrng", "order", "stream_t",
+                 "stream_k", "stream_p")
 
     def __init__(self, task: Task, provider: PeriodProvider | None, is_window: bool) -> None:
         self.task = task
@@ -120,6 +122,11 @@ class _TaskState:
         self.jitter = 0.0  # release jitter in force (0 under jitter="none")
         self.jrng: np.random.Generator | None = None  # release delays, own stream
         self.order: Callable[[Job], tuple[Any, Any]] = _unset_order  # the policy's (key, tie)
+        # a provided or per-window period: the arrival (and its index) where the period in
+        # force, stream_p, started (cpu.CPU._stream_next)
+        self.stream_t = 0.0
+        self.stream_k = 0
+        self.stream_p = math.nan
 
 
 def _unset_order(job: Job) -> tuple[Any, Any]:

@@ -9,8 +9,9 @@ kept in memory (about 4x smaller than the tuples) or handed to a sink that write
 the execution-interval trace is kept as tuples and turned into a DataFrame once. The column
 schemas are fixed: :data:`JOB_COLUMNS` and :data:`TRACE_COLUMNS`.
 
-A job *misses* when it finishes later than its absolute deadline plus 1e-9 ms, is aborted at
-its deadline, or its release is skipped (SPEC conventions; §4 of the simulator issue).
+A job *misses* when it finishes later than its absolute deadline plus the coincidence window
+(1e-9 ms, or 16 units in the last place of t from t = 2^19 ms on, where doubles are coarser:
+docs/time.md), is aborted at its deadline, or its release is skipped.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ __all__ = [
 ]
 
 #: Time tolerance (ms): a finish later than deadline + EPS is a miss; events closer than EPS
-#: are simultaneous.
+#: are simultaneous (from t = 2^19 ms on, 16 ulps of t instead: cpu.coincidence, docs/time.md).
 EPS = 1e-9
 
 #: Job records per column chunk of a :class:`RowBuffer`.
