@@ -1,4 +1,4 @@
-"""Peak memory of long runs against short ones (issue 13 item 5; run by hand, not a test).
+"""Peak memory of long runs against short ones (run by hand, not a test).
 
     python benchmarks/bench_memory.py [--sim-hours 24] [--scenario-hours 6] [--short-min 10]
                                       [--only simulate|scenario] [--json]

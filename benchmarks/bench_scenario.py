@@ -1,4 +1,4 @@
-"""Benchmark: one simulated hour of the paper's Test 2 (issue 5, "Speed").
+"""Benchmark: one simulated hour of the paper's Test 2 (the project's speed target).
 
 ``python benchmarks/bench_scenario.py [--duration 3600] [--mode adjust] [--profile] [--out DIR]
 [--backends fast,filterpy] [--repeat 3]``
@@ -10,7 +10,7 @@ end-to-end time (``timing.total_s``). ``--profile`` runs the loop under cProfile
 prints the 25 most expensive functions (no output files).
 
 Then, for each EKF backend of ``--backends`` (``fast``: plain floats, the scenarios' default;
-``filterpy``: one filterpy ExtendedKalmanFilter per follower, SPEC's reference), it runs the
+``filterpy``: one filterpy ExtendedKalmanFilter per follower, the reference), it runs the
 loop ``--repeat`` times with job records on (as the CLI does), each run in a fresh
 interpreter, and prints a table of the best CPU time of the loop
 (``timing.simulation_cpu_s``: robust on a shared machine), µs per window and the ratio

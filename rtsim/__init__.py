@@ -2,9 +2,23 @@
 
 The first case is Qadi, Goddard, Huang & Farritor, "Using Dynamic Processing Windows for
 Robot Group Control". Times are in ms, lengths in cm, speeds in cm/s, angles in radians.
+
+The top level is a facade over the subpackages; the entry points load on first use, so
+``import rtsim`` stays light:
+
+- :func:`run_scenario` (``rtsim.coupling``): one coupled robot run, schedule and world;
+- :func:`load_scenario` (``rtsim.io``): a scenario file, or a shipped one by name, with
+  dotted overrides;
+- :func:`simulate` (``rtsim.sim``): a task set on the virtual CPU;
+- :func:`analyze` (``rtsim.analysis``): exact response-time analysis of a task set;
+- :func:`load_taskset`, :func:`window_bounds`: a task-set file, the window's bounds.
 """
 
+from __future__ import annotations
+
+import importlib
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
 try:
     __version__ = version("rtsim")
@@ -13,6 +27,22 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 
 from rtsim.errors import InputError, RtsimError, ScenarioError, SweepError, TaskSetError
 from rtsim.model import Segment, Task, TaskSet, WindowSpec
+
+if TYPE_CHECKING:  # pragma: no cover
+    from rtsim.analysis import analyze, window_bounds
+    from rtsim.coupling import run_scenario
+    from rtsim.io import load_scenario, load_taskset
+    from rtsim.sim import simulate
+
+#: The entry points the facade loads on first use, by the subpackage that defines them.
+_LAZY: dict[str, str] = {
+    "run_scenario": "rtsim.coupling",
+    "load_scenario": "rtsim.io",
+    "load_taskset": "rtsim.io",
+    "simulate": "rtsim.sim",
+    "analyze": "rtsim.analysis",
+    "window_bounds": "rtsim.analysis",
+}
 
 __all__ = [
     "__version__",
@@ -25,4 +55,22 @@ __all__ = [
     "Task",
     "TaskSet",
     "WindowSpec",
+    "analyze",
+    "load_scenario",
+    "load_taskset",
+    "run_scenario",
+    "simulate",
+    "window_bounds",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'rtsim' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

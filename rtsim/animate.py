@@ -35,7 +35,7 @@ from rtsim.errors import InputError
 __all__ = ["WindowView", "window_view", "load_run", "animate_run", "FORMATS", "BEAM_STEP"]
 
 FORMATS = (".gif", ".html", ".mp4")
-#: The laser's angular resolution (SPEC: 361 beams over 180°).
+#: The laser's angular resolution (361 beams over 180°, docs/model/index.md).
 BEAM_STEP = math.radians(0.5)
 
 

@@ -4,7 +4,8 @@
 [--quiet]`` (or ``python -m rtsim.reproduce``)
 
 Runs ``experiments/scenarios/test1.toml`` and ``test2.toml`` in the modes ``adjust`` (the
-paper's algorithm), ``fixed-wsch`` and ``min-msb`` (SPEC §5) — six coupled runs, in parallel
+paper's algorithm), ``fixed-wsch`` and ``min-msb`` (docs/model/adjustment.md) — six coupled runs,
+in parallel
 processes when ``--workers`` > 1. Every run uses the seed ``--seed``, so a run equals
 ``rtsim scenario <test>.toml --mode <mode> --seed N [--duration S]`` (the command line is in
 its manifest) and the three modes of a test see the same noise draws at the start; the
@@ -30,7 +31,7 @@ Writes to ``--out`` (default ``results/paper``):
 - ``summary.csv`` / ``summary.md``: per test and mode, the counts and ratios of the run;
 - ``manifest.json``: rtsim version, seed, the scenario files' text, command line, timings.
 
-``--docs DIR`` also writes the README's figures there (PNG, 100 dpi): Figs 8–15, the two
+``--docs DIR`` also writes the documentation's figures there (PNG, 100 dpi): Figs 8–15, the two
 operating-space figures and the Test 2 mode comparison.
 """
 
@@ -275,7 +276,7 @@ def summary_row(test: str, mode: str, summary: dict[str, Any], wall_s: float) ->
 
 
 def summary_markdown(df: pd.DataFrame) -> str:
-    """The summary as a Markdown table (the README's)."""
+    """The summary as a Markdown table (as in docs/results.md)."""
     head = ("| test | mode | violations > 5 % loc / sep / path / bear | max violation ratio "
             "loc / sep / path / bear | misses | lost tracks | sim. s | windows | all violations "
             "| critical share | min MSB / w_sch | min V_L / V_Ld | methods |")
@@ -388,7 +389,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--workers", type=int, default=None, metavar="N",
                     help="processes (default min(6, cpu count)); 1 runs in this process")
     ap.add_argument("--docs", default=None, metavar="DIR",
-                    help="also write the README's figures (PNG, 100 dpi) to DIR")
+                    help="also write the documentation's figures (PNG, 100 dpi) to DIR")
     ap.add_argument("--quiet", action="store_true", help="no progress lines, no table")
     return ap.parse_args(argv)
 

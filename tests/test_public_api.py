@@ -28,7 +28,31 @@ def test_top_level_namespace_is_pinned() -> None:
     assert sorted(rtsim.__all__) == sorted([
         "__version__", "InputError", "RtsimError", "ScenarioError", "SweepError",
         "TaskSetError", "Segment", "Task", "TaskSet", "WindowSpec",
+        "analyze", "load_scenario", "load_taskset", "run_scenario", "simulate", "window_bounds",
     ])
+
+
+def test_top_level_entry_points_are_the_subpackages_and_load_lazily() -> None:
+    """``rtsim.run_scenario`` and friends are the subpackages' own functions, and importing
+    rtsim alone loads neither SimPy nor the coupling."""
+    import subprocess
+    import sys
+
+    import rtsim
+    from rtsim.analysis import analyze
+    from rtsim.coupling import run_scenario
+    from rtsim.io import load_scenario
+    from rtsim.sim import simulate
+
+    assert rtsim.run_scenario is run_scenario and rtsim.load_scenario is load_scenario
+    assert rtsim.simulate is simulate and rtsim.analyze is analyze
+    assert "run_scenario" in dir(rtsim)
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        rtsim.nope  # noqa: B018
+    code = "import sys, rtsim; print('simpy' in sys.modules, 'rtsim.coupling' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "False False"
 
 
 def test_subpackage_entry_points_are_exported() -> None:

@@ -83,14 +83,14 @@ __all__ = [
     "analyze",
     "busy_window",
     "response_time",
-    # EDF: processor-demand criterion (QPA), Spuri's bound (SPEC §8)
+    # EDF: processor-demand criterion (QPA), Spuri's bound (docs/model/beyond.md)
     "EdfAnalysis",
     "EdfTaskResult",
     "analyze_edf",
     "demand",
     "qpa",
     "spuri_wcrt",
-    # suspension-aware bounds (SPEC §8)
+    # suspension-aware bounds (docs/model/beyond.md)
     "SuspensionBound",
     "suspension_aware",
     # utilization tests
@@ -100,7 +100,7 @@ __all__ = [
     "liu_layland_bound",
     "rm_implicit",
     "total_utilization",
-    # kinematics and motion/sensing bounds (SPEC §4)
+    # kinematics and motion/sensing bounds (docs/model/upper-bounds.md)
     "BOUND_KINDS",
     "LocalizationKind",
     "Thresholds",

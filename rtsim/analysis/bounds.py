@@ -1,4 +1,5 @@
-"""Lower bounds on the processing window: the paper's w_sch and the exact w_rta (SPEC §3).
+"""Lower bounds on the processing window: the paper's w_sch and the exact w_rta
+(docs/model/lower-bound.md).
 
 - e_hough (Eq 1) and g (Eq 5/6) come from the window's constants.
 - Eq 7 (the chain) and Eq 11 (the command task, p = 2w; Eq 10 corrected) are sufficient
@@ -117,7 +118,8 @@ def w_eq11_of(ts: TaskSet) -> float:
 
 
 def w_sch_of(ts: TaskSet | str | os.PathLike[str]) -> float:
-    """The analytic lower bound w_sch = max(Eq 7, Eq 11) (SPEC §3); ``inf`` if none exists."""
+    """The analytic lower bound w_sch = max(Eq 7, Eq 11) (docs/model/lower-bound.md); ``inf`` if
+    none exists."""
     ts = _taskset(ts, "w_sch_of")
     return max(w_eq7_of(ts), w_eq11_of(ts))
 

@@ -2,7 +2,7 @@
 
 Tasks are (C, T, D, J): WCET, period (minimum inter-arrival), relative deadline (arbitrary:
 above, at or below T) and release jitter, in ms; job k of a task arrives at k·T (sporadic: at
-least T apart), is released up to J later, and its deadline is arrival + D (SPEC §8).
+least T apart), is released up to J later, and its deadline is arrival + D (docs/model/beyond.md).
 
 **Demand bound** (Baruah, Rosier & Howell 1990; with release jitter, Spuri 1996 and Zhang &
 Burns 2009 §6): the work of jobs released in [0, t] and due by t is at most

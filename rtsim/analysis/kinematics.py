@@ -1,4 +1,5 @@
-"""Leader–follower kinematics and the motion-and-sensing bounds (paper §3.2, SPEC §4, §6).
+"""Leader–follower kinematics and the motion-and-sensing bounds (paper §3.2,
+docs/model/upper-bounds.md, docs/model/world.md).
 
 Conventions (l-ψ kinematics, Desai/Das), all in the **leader's frame**:
 
@@ -94,7 +95,8 @@ def rho_dot(v_l: Any, v_f: Any, beta: Any, theta: Any) -> Any:
 
 
 def beta_dot(v_l: Any, v_f: Any, beta: Any, theta: Any, rho: Any, omega_l: Any) -> Any:
-    """Bearing rate: β̇ = (V_L sin β − V_F sin(β + θ)) / ρ − ω_L (rad/s), SPEC §4."""
+    """Bearing rate: β̇ = (V_L sin β − V_F sin(β + θ)) / ρ − ω_L (rad/s),
+    docs/model/upper-bounds.md."""
     xp = _xp(v_l, v_f, beta, theta, rho, omega_l)
     return (v_l * xp.sin(beta) - v_f * xp.sin(beta + theta)) / rho - omega_l
 
@@ -116,7 +118,7 @@ def relative_state(
 
 
 def formation_velocity(v_l: Any, omega_l: Any, rho: Any, beta: Any) -> tuple[Any, Any]:
-    """Steady-formation follower speed V_F and θ (SPEC §6).
+    """Steady-formation follower speed V_F and θ (docs/model/world.md).
 
     In steady formation the follower moves with the leader's frame: its velocity is the
     leader's velocity plus ω_L × r, r = ρ(cos β, sin β) its axle point in the leader's frame,
@@ -151,7 +153,8 @@ def msb_localization(rho_dot: Any, r_H: Any) -> Any:
 
 
 def msb_localization_full(rho_dot: Any, beta_dot: Any, rho: Any, r_H: Any) -> Any:
-    """Full-displacement localization bound: w ≤ r_H / √(ρ̇² + ρ²β̇²) (ms), SPEC §4.
+    """Full-displacement localization bound: w ≤ r_H / √(ρ̇² + ρ²β̇²) (ms),
+    docs/model/upper-bounds.md.
 
     Eq 14→15 drops the tangential displacement ρ·Δβ; this bound keeps it.
     """
@@ -185,7 +188,7 @@ def slack(msb_min: float, w_sch: float) -> float:
 
 @dataclass(frozen=True)
 class Thresholds:
-    """Thresholds of the four bounds (SPEC §4).
+    """Thresholds of the four bounds (docs/model/upper-bounds.md).
 
     r_H: Hough window radius (cm, the paper takes r_F = 25); T_rho, T_eps: fractions of the
     desired separation ρ_d; T_beta: bearing change per window (rad); localization:

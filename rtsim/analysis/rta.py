@@ -14,7 +14,7 @@ fixed point of w_q = (q+1)·e_i + Σ_j ⌈w_q / p_j⌉ e_j, its response is w_q 
 busy period ends with the first job that finishes by the next release, w_q ≤ (q+1)·p_i.
 For D_i ≤ p_i that is job 0 alone, i.e. the recurrence above.
 
-Release jitter (Tindell, Burns & Wellings 1994; SPEC §8): job k of task i *arrives* at
+Release jitter (Tindell, Burns & Wellings 1994; docs/model/beyond.md): job k of task i *arrives* at
 O_i + k·T_i and is released in [arrival, arrival + J_i]; deadlines and responses count from the
 arrival. A higher task j then puts ⌈(w + J_j)/T_j⌉ jobs into a window of length w, and
 
@@ -23,7 +23,8 @@ arrival. A higher task j then puts ⌈(w + J_j)/T_j⌉ jobs into a window of len
 over q = 0, 1, … until the first q with w_i(q) ≤ (q+1)·T_i − J_i (the level-i busy window
 closes). With J = 0 this is the recurrence above. Offsets are ignored (sound, pessimistic).
 
-Context-switch overhead o (SPEC §8, the simulator's ``overhead``): a higher task's job costs
+Context-switch overhead o (docs/model/beyond.md, the simulator's ``overhead``): a higher task's job
+costs
 C_j + 2·o·s_j and a job of task i costs C_i + o·s_i, where s is the number of compute stretches
 of a job (segments separated by suspensions; 1 for an ordinary task).
 
@@ -31,7 +32,7 @@ Numerics: R/p_j is often an integer up to float rounding (e.g. R = 3·p_j built 
 so ceilings are taken as ⌈(x − ε)/p⌉ with an *absolute* ε = 1e-9 ms, the simulator's
 coincidence window (a release within 1e-9 ms of a completion comes after it); a tolerance
 relative to x/p would be 1e-9·p in time, optimistic for large periods. A response within
-1e-9 ms of the deadline counts as meeting it (SPEC: a job misses its deadline when it
+1e-9 ms of the deadline counts as meeting it (docs/model/index.md: a job misses its deadline when it
 finishes later than D + 1e-9 ms).
 
 A processing-window set is analysed at a fixed window w, its chain counted as one task of

@@ -2,7 +2,7 @@
 
 Only treatments that the survey of Chen, Nelissen, Huang, Yang, Kim, Brandenburg, Bril et al.,
 "Many suspensions, many problems: a review of self-suspending tasks in real-time systems",
-Real-Time Systems 55 (2019), confirms sound are used (SPEC §8):
+Real-Time Systems 55 (2019), confirms sound are used (docs/model/beyond.md):
 
 (a) **suspension-oblivious**: every suspension counted as computation (the paper's Eqs 7/11 and
     :func:`rtsim.analysis.rta.response_time`); sound for every task, suspending or not.

@@ -1,5 +1,5 @@
 """Analytic-versus-simulated validation, the pure parts: bounds per task, the w_sim search,
-percentiles, the failure checker and the summary numbers (SPEC §3).
+percentiles, the failure checker and the summary numbers (docs/model/lower-bound.md).
 
 No simulator here: the search takes the simulation as a predicate ``passes(w) -> bool``
 ("no deadline miss at window w"), and the checker reads a results table.

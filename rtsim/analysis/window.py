@@ -1,6 +1,6 @@
 """The paper's lower bound on the processing window (Eqs 1, 2, 5–7, 10–11).
 
-Pure functions on numbers, times in ms, lengths in cm. See SPEC §2–§3.
+Pure functions on numbers, times in ms, lengths in cm. See docs/model/lower-bound.md.
 """
 
 from __future__ import annotations
@@ -25,13 +25,14 @@ __all__ = [
 LASER_POINTS = 361
 #: Angular spacing of the beams (degrees).
 BEAM_SPACING_DEG = 0.5
-#: Radius of a follower's barrel (cm), SPEC §1.
+#: Radius of a follower's barrel (cm), docs/model/index.md.
 R_F = 25.0
 
 
 def k_geometric(rho_min: float, r_F: float = R_F, spacing_deg: float = BEAM_SPACING_DEG) -> int:
     """The geometric k of Eq 1: most beams that can hit a disc of radius ``r_F`` (cm) whose
-    centre is at distance ρ ≥ ``rho_min`` (cm), beams ``spacing_deg`` apart (SPEC §2).
+    centre is at distance ρ ≥ ``rho_min`` (cm), beams ``spacing_deg`` apart
+    (docs/model/lower-bound.md).
 
     A beam hits the disc iff its angle to the centre's bearing is at most arcsin(r_F/ρ)
     (tangent included), so the beams lie in a closed arc of width 2·arcsin(r_F/ρ), which
@@ -54,7 +55,7 @@ def e_hough(
     """Localization time, Eq 1: π·r_H²·n·e_cal + min(361, k·n)·e_trans.
 
     ``points`` replaces the worst case min(361, k·n) with the scan points actually
-    counted (the simulation's view, SPEC §2).
+    counted (the simulation's view, docs/model/lower-bound.md).
     """
     pts = min(LASER_POINTS, k * n) if points is None else points
     return math.pi * r_H**2 * n * e_cal + pts * e_trans
@@ -113,6 +114,6 @@ def w_eq11(g: float, hp: Iterable[tuple[float, float]], lp_wcets: Iterable[float
 
 
 def w_sch(g: float, hp: Iterable[tuple[float, float]], lp_wcets: Iterable[float]) -> float:
-    """The analytic lower bound w_sch = max(Eq 7, Eq 11) (SPEC §3)."""
+    """The analytic lower bound w_sch = max(Eq 7, Eq 11) (docs/model/lower-bound.md)."""
     hp = list(hp)
     return max(w_eq7(g, hp), w_eq11(g, hp, lp_wcets))

@@ -36,7 +36,7 @@ def register(sub: Any) -> None:
                    help="window w in ms for a [window] set (default: w_sch)")
     p.add_argument("--suspension", choices=("cpu", "idle"), default="cpu",
                    help="radio round trip / suspensions: counted as CPU time (default, the "
-                        "paper's) or CPU free (suspension-aware bounds, SPEC §8)")
+                        "paper's) or CPU free (suspension-aware bounds, docs/model/beyond.md)")
     p.add_argument("--overhead", metavar="MS", type=float, default=None,
                    help="context-switch cost in ms: 2·O per higher-priority segment start, O per "
                         "own segment, as simulate --overhead (default: the file's, or 0)")

@@ -1,7 +1,8 @@
 """``rtsim bounds [FILE] [--followers N] [--hough-radius R] [--json]``: the window bounds.
 
 Prints e_hough (Eq 1), g (Eq 5/6), Eq 7, Eq 11, w_sch = max(Eq 7, Eq 11), the exact w_rta,
-the suspension-aware w_susp (Δt with the CPU idle, SPEC §8) and w_edf (the CPU under EDF:
+the suspension-aware w_susp (Δt with the CPU idle, docs/model/beyond.md) and w_edf (the CPU under
+EDF:
 the processor-demand criterion, Δt as CPU time).
 FILE defaults to the paper's task set; n and r_H default to the file's. Both options also take
 lists and inclusive ranges (``1..10``, ``10..50:10``, ``10,20,30``): one row per combination.

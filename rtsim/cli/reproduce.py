@@ -30,7 +30,7 @@ def register(sub: Any) -> None:
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="processes (default min(6, CPU count)); 1 runs in this process")
     p.add_argument("--docs", default=None, metavar="DIR",
-                   help="also write the README's figures (PNG, 100 dpi) to DIR")
+                   help="also write the documentation's figures (PNG, 100 dpi) to DIR")
     p.add_argument("--quiet", action="store_true", help="no progress lines, no table")
     p.set_defaults(func=run)
 

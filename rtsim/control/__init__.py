@@ -1,4 +1,5 @@
-"""Control: the adjustment algorithm of the processing window (paper §3.3, SPEC §5). Pure."""
+"""Control: the adjustment algorithm of the processing window (paper §3.3,
+docs/model/adjustment.md). Pure."""
 
 from rtsim.control.adjust import (
     CAP_FACTOR,

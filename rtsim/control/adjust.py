@@ -1,4 +1,5 @@
-"""The adjustment algorithm (paper §3.3, SPEC §5) and the three window modes, as pure functions.
+"""The adjustment algorithm (paper §3.3, docs/model/adjustment.md) and the three window modes, as
+pure functions.
 
 Each window, from the leader's estimates of every follower, :func:`adjust`:
 
@@ -23,7 +24,8 @@ Each window, from the leader's estimates of every follower, :func:`adjust`:
 
 Prediction models (``predictor``, :data:`~rtsim.control.predict.PREDICTORS`):
 
-* ``"formation"`` (default, SPEC §6): the follower moves with its formation slot — velocity =
+* ``"formation"`` (default, docs/model/world.md): the follower moves with its formation slot —
+  velocity =
   leader velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
   :func:`~rtsim.analysis.kinematics.formation_velocity`; the slot is (ρ_d, β_d) when
   ``beta_d`` is given, else the estimated (ρ, β). The bounds are evaluated at the estimated
@@ -540,7 +542,8 @@ def paper_infeasible(followers: Sequence[FollowerEstimate], v_ld: float, w_sch: 
     """True when, under the ``paper`` model, no leader speed in (0, V_Ld] keeps every bound
     ≥ w_sch, decided exactly without a grid.
 
-    With V̂_F, θ̂ and ω_L held, each bound is n / |c0 + c1·V| (SPEC §5, Eqs 17, 19–21):
+    With V̂_F, θ̂ and ω_L held, each bound is n / |c0 + c1·V| (Eqs 17, 19–21;
+    docs/model/adjustment.md):
     localization and separation with ρ̇ = V̂_F cos(θ̂ + β) − V cos β, bearing with
     β̇ = (V sin β − V̂_F sin(β + θ̂))/ρ − ω_L, and path diversion n / V̂_F (no V). The bound
     is ≥ w_sch exactly when |c0 + c1·V| ≤ K = n / w_sch: an interval of V (all V or none when
@@ -588,7 +591,7 @@ def adjust(
     scan_points: int = 64,
     v_now: float | None = None,
 ) -> Adjustment:
-    """The adjustment algorithm (paper §3.3, SPEC §5); see the module docstring.
+    """The adjustment algorithm (paper §3.3, docs/model/adjustment.md); see the module docstring.
 
     v_ld: desired leader speed (cm/s); w_sch (ms); omega_l: the leader's current turn rate
     (rad/s, used by the paper's forms and the ``paper`` predictor); kappa: path curvature (1/cm,
@@ -641,7 +644,7 @@ def _adjustment(mode: str, d: Decision, w_sch: float, v_ld: float) -> Adjustment
 
 def decide(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Adjustment:
     """One window's decision by the registered policy ``mode`` (:mod:`rtsim.control.policy`;
-    ``options`` as in :func:`decide_rows`), e.g. issue 5's three modes:
+    ``options`` as in :func:`decide_rows`), e.g. the reproduction's three modes:
 
     - ``adjust``: :func:`adjust`;
     - ``fixed-wsch``: w = w_sch, V_L = V_Ld always (the bounds may break in the world);

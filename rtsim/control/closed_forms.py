@@ -1,9 +1,11 @@
-"""Closed forms for the leader speed that makes one bound hold at w_sch (paper §3.3, SPEC §5).
+"""Closed forms for the leader speed that makes one bound hold at w_sch (paper §3.3,
+docs/model/adjustment.md).
 
 Two families, each returning the **largest** leader speed V_L at which one bound of one
 follower is at least the window w (ms):
 
-- :func:`paper_speed` — the paper's Eqs 23–26 with SPEC §5's corrections. V_F, θ and ω_L are
+- :func:`paper_speed` — the paper's Eqs 23–26 as corrected in docs/model/slips.md. V_F, θ and ω_L
+  are
   held at the leader's estimates while V_L changes (the paper's assumption):
   * bearing (Eq 23): β̇ = (V sin β − V_F sin(β+θ))/ρ − ω_L is affine in V, and |β̇| ≤ T_β/w
     is an interval whose upper end is (ρ(ω_L + T_β/w) + V_F sin(β+θ))/sin β when sin β > 0
@@ -99,7 +101,8 @@ def coupled_speed(
     thr: Thresholds,
     w: float,
 ) -> float:
-    """Coupled closed form (SPEC §5): the V_L at which bound ``kind`` equals ``w`` (ms).
+    """Coupled closed form (docs/model/adjustment.md): the V_L at which bound ``kind`` equals ``w``
+    (ms).
 
     ``s`` = V_F/V_L and ``theta_f`` come from the formation (see
     :func:`rtsim.analysis.kinematics.formation_velocity` at V_L = 1, ω_L = κ); every bound is

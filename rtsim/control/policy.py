@@ -1,4 +1,4 @@
-"""Adjustment policies: what sets each window's w and the leader's speed target (issue 10).
+"""Adjustment policies: what sets each window's w and the leader's speed target .
 
 A policy is an object with one method, ``decide(ctx: PolicyInput) -> Decision``: from what
 the leader knows when a window completes (:class:`PolicyInput`: its estimates of every
@@ -12,7 +12,8 @@ are. A scenario selects one with ``[adjust] policy = "NAME"`` or ``"package.modu
 user's own class, loaded by :func:`policy_class`); ``rtsim scenario … --policy NAME``
 overrides the file; ``--mode`` is an alias. The registered policies:
 
-* ``adjust``: the paper's algorithm (§3.3, SPEC §5; :func:`rtsim.control.adjust.adjust`);
+* ``adjust``: the paper's algorithm (§3.3, docs/model/adjustment.md;
+  :func:`rtsim.control.adjust.adjust`);
 * ``fixed-wsch``: w = w_sch, V_L = V_Ld (the bounds may break in the world);
 * ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld (the schedule may break);
 * ``lookahead``: margin, made safe ahead of time along the leader's known path commands;
@@ -318,7 +319,8 @@ class LookaheadPolicy:
     2. For every upcoming command j at distance D_j within the horizon
        H = V·(windows·w_sch / 1000) + V² / (2·decel_max) (V = the leader's actual speed), the
        safe speed there, v_j = the margin policy's speed with κ = κ_j, ω_L = κ_j·V and the
-       ``formation`` predictor (SPEC §6: each follower moving with its slot on command j,
+       ``formation`` predictor (docs/model/world.md: each follower moving with its slot on command
+       j,
        from its estimated ρ, β — the followers' motion there is not yet observed); and the
        highest speed from which the leader can still brake to v_j
        before D_j once the next decision comes (one window later, after V·w/1000 cm):
@@ -402,7 +404,8 @@ def pad_rows(rows: Sequence[tuple[float, float, float, float]],
 
     From the unpadded ``rows`` (any predictor) the predicted rates are recovered as
     |V_F| = 1000·T_ε·ρ_d / MSB_path, |ρ̇| = 1000·T_ρ·ρ_d / MSB_sep, |β̇| = 1000·T_β / MSB_bear
-    (SPEC §5's bounds, an infinite bound = a zero rate). With T = w_sch / 1000 s, follower i's
+    (docs/model/adjustment.md's bounds, an infinite bound = a zero rate). With T = w_sch / 1000 s,
+    follower i's
     σ_β = σ_p / ρ and σ_θ² = σ_θ,EKF² + (σ_ω·T)² (its heading drifts by the turn noise over
     one window), first-order propagation of ρ̇ = V_F cos(θ_F + β) − V_L cos β and
     β̇ = (V_L sin β − V_F sin(β + θ_F)) / ρ − ω_L with independent errors, bounded by

@@ -1,8 +1,10 @@
-"""What the leader predicts a follower does as the leader's speed changes (SPEC §5, §6).
+"""What the leader predicts a follower does as the leader's speed changes
+(docs/model/adjustment.md, docs/model/world.md).
 
 A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_L):
 
-* ``"formation"`` (SPEC §6): the follower moves with its formation slot — velocity = leader
+* ``"formation"`` (docs/model/world.md): the follower moves with its formation slot — velocity =
+  leader
   velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
   :func:`~rtsim.analysis.kinematics.formation_velocity`; so V_F = s·V_L with s fixed by the
   slot and κ, and θ is fixed. The bounds are evaluated at the *estimated* (ρ, β).
@@ -68,7 +70,7 @@ def check_number(where: str, name: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class FollowerEstimate:
-    """The leader's estimate of one follower (leader frame, SPEC §4).
+    """The leader's estimate of one follower (leader frame, docs/model/upper-bounds.md).
 
     rho (cm, > 0), beta (rad), theta = θ_L − θ_F (rad), v_f (cm/s, ≥ 0), rho_d: desired
     separation (cm, > 0), beta_d: desired bearing (rad) or ``None``; the formation slot used by

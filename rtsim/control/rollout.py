@@ -18,7 +18,8 @@ windows forward: for a candidate target speed V it runs
   leader's best guess, never the truth;
 
 and samples, at the scans that open and close each window, the changes the world checks
-(SPEC §6): the follower's displacement in the leader frame, |Δρ|, the distance it drove, and
+(docs/model/world.md): the
+follower's displacement in the leader frame, |Δρ|, the distance it drove, and
 |Δβ|. A window of length w whose change is c against threshold L has the bound
 
     MSB = L·w / c   (ms; ∞ when c = 0),

@@ -1,4 +1,5 @@
-"""Where the schedule and the world meet: one SimPy run (issue 5, SPEC §5–§7)."""
+"""Where the schedule and the world meet: one SimPy run (docs/model/adjustment.md,
+docs/model/world.md)."""
 
 from rtsim.coupling.recorder import (
     FOLLOWER_FIELDS,

@@ -61,7 +61,8 @@ FOLLOWER_FIELDS: tuple[str, ...] = ("x", "y", "heading", "rho", "beta", "theta",
 BOUND_FIELDS: tuple[str, ...] = (*(f"msb_{k}_pred" for k in BOUND_KINDS),
                                  *(f"msb_{k}_true" for k in BOUND_KINDS))
 #: The observed change (``Scan.changes`` key) that each bound kind limits, in
-#: :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order (SPEC §6): relative displacement (r_H),
+#: :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order (docs/model/world.md): relative
+# displacement (r_H),
 #: |Δρ| (T_ρ·ρ_d), distance travelled (T_ε·ρ_d), |Δβ| (T_β).
 CHANGE_KEYS: tuple[str, ...] = ("displacement", "d_rho", "travel", "d_beta")
 #: Per-follower violation columns, in order (``lost`` last).
@@ -84,7 +85,8 @@ def true_bounds(w: NDArray[np.float64], change: NDArray[np.float64],
     """The bound the truth showed over a window (ms): ``limit·w / change``, ``inf`` where
     nothing changed.
 
-    ``change`` is what the world observed between the window's scan and the next (SPEC §6),
+    ``change`` is what the world observed between the window's scan and the next
+    (docs/model/world.md),
     ``limit`` the bound's threshold (r_H, T_ρ·ρ_d, T_ε·ρ_d or T_β). It is the bound of
     Eqs 19–21 (and the bearing bound) with the rate replaced by the window's average rate
     change / w, so ``true < w`` exactly when ``change > limit``, i.e. when the window broke

@@ -1,4 +1,4 @@
-"""Schedule and world in one SimPy run (issue 5 §1, SPEC §5–§7).
+"""Schedule and world in one SimPy run (docs/model/adjustment.md, docs/model/world.md).
 
 One ``simpy.Environment`` holds the virtual :class:`~rtsim.sim.cpu.CPU` with the leader's
 task set: dead reckoning (T_hp), the processing-window chain T_w and the command task (T_lp,
@@ -741,7 +741,8 @@ def run_scenario(
     policy: a registered adjustment policy (:data:`rtsim.control.policy.POLICIES`: ``adjust``,
     the paper's algorithm, ``fixed-wsch``, ``min-msb``, ``margin``, …) or
     ``"package.module:Name"``; it overrides the scenario's ``[adjust] policy`` (default
-    ``adjust``); mode: an alias of policy (issue 5's three modes); duration_s: simulated
+    ``adjust``); mode: an alias of policy (the three modes of the paper's reproduction);
+    duration_s: simulated
     seconds (None: the scenario's, else one lap — module docstring); ``duration`` is an
     alias (sweep kind);
     seed: one seed for the world's noise and the CPU's execution-time draws; record_jobs:

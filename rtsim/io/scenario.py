@@ -1,6 +1,6 @@
 """Robot scenario files (TOML): the world, the task set it runs on, and every assumption.
 
-Shape (units per SPEC: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` and
+Shape (units as in docs/model/index.md: cm, cm/s, s for ``duration``, ms for ``world.step_ms`` and
 ``adjust.cap``; every angular key is radians, or degrees when written with ``_deg``)::
 
     name = "test1"

@@ -14,13 +14,15 @@ The generic shape any user can write::
     deadline = 40               # optional, defaults to the period
     priority = 1                # optional; smaller = higher. Every task or none.
     offset = 0                  # optional, ms
-    jitter = 0                  # optional, ms: release up to J after the arrival (SPEC §8)
+    jitter = 0                  # optional, ms: release up to J after the arrival
+    (docs/model/beyond.md)
     bcet = 3                    # optional, for random execution-time models
     overload = "finish-late"    # optional: "finish-late", "abort" or "skip"
 
 plus, for the paper's processing-window sets, a ``[window]`` table (the chain T_w: see
 :class:`rtsim.model.window.WindowSpec`; ``k = "geometric"`` with ``rho_min`` in cm takes the
-sound count of 0.5° beams that can hit a follower at distance ≥ rho_min, SPEC §2) and an
+sound count of 0.5° beams that can hit a follower at distance ≥ rho_min, docs/model/lower-bound.md)
+and an
 ``[assumptions]`` table mapping each value the paper does not give to the reason for the value
 chosen. With no priorities, tasks are ordered deadline-monotonically (equal deadlines in file
 order) and numbered 1..N. With a ``[window]``, every task and the window must give a priority:

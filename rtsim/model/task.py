@@ -75,7 +75,8 @@ class Task:
     the processing window w (the paper's command task has period 2w: ``period=2,
     per_window=True``). ``deadline`` defaults to the period. ``segments`` is empty for
     an ordinary task (one compute segment of ``wcet``); for a chain its compute and
-    suspension segments add up to ``wcet``. ``jitter`` J (ms, SPEC §8): job k *arrives* at
+    suspension segments add up to ``wcet``. ``jitter`` J (ms, docs/model/beyond.md): job k
+    *arrives* at
     offset + k·period and is released (ready) in [arrival, arrival + J]; its deadline and
     response time count from the arrival.
     """

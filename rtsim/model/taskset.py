@@ -22,7 +22,8 @@ class TaskSet:
     With a ``window`` (the paper's T_w), the tasks above its priority form T_hp and those
     below form T_lp; tasks with ``per_window`` periods follow w (the command task's 2w).
     ``overhead`` is the context-switch cost (ms) that the analysis charges and the simulator
-    spends by default (SPEC §8). ``scheduler`` names the CPU's scheduling policy that the
+    spends by default (docs/model/beyond.md). ``scheduler`` names the CPU's scheduling policy that
+    the
     simulator uses by default (``fp``, ``edf``, or any policy of :mod:`rtsim.model.policy`);
     priorities are required either way (under EDF they only break ties).
     """

@@ -1,4 +1,5 @@
-"""The paper's processing-window job T_w as a spec: constants and segment chain (SPEC §1–§2)."""
+"""The paper's processing-window job T_w as a spec: constants and segment chain
+(docs/model/index.md, docs/model/lower-bound.md)."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ class WindowSpec:
     The chain, in order: scan → localization (Hough) → (estimate, send) per follower →
     radio round trip Δt (a suspension) → receive per follower → scheduler cost e_sched.
     ``rho_min`` (cm) is set when k is the geometric bound for followers at distance ≥ rho_min
-    (``k = "geometric"`` in a file; k then holds that count, SPEC §2).
+    (``k = "geometric"`` in a file; k then holds that count, docs/model/lower-bound.md).
     """
 
     n: int

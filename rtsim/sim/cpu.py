@@ -74,7 +74,8 @@ job index). Context-switch overhead (default 0): whenever the CPU starts running
 than the one it ran last, it first spends ``overhead`` ms on that job's behalf (preemptible,
 charged again on every switch); the job's work starts after it.
 
-Release jitter (``Task.jitter`` J, SPEC §8): job k *arrives* at offset + k·p (the release
+Release jitter (``Task.jitter`` J, docs/model/beyond.md): job k *arrives* at offset + k·p (the
+release
 timer above fires at the arrival: period providers, the w in force, skips and the backlog count
 go by arrivals) and is released — made eligible, release hooks run — after a delay in [0, J]
 drawn from the task's own jitter stream (:func:`~rtsim.sim.execution.jitter_rngs`), ordered

@@ -1,7 +1,8 @@
 """Execution-time models: how long a segment of a job runs, decided when the segment starts.
 
 A model is any callable ``model(job, segment, rng) -> float`` (ms). The virtual CPU calls it
-once per segment, at the instant the segment starts (SPEC §2: e_hough is known only once the
+once per segment, at the instant the segment starts (docs/model/lower-bound.md: e_hough is known
+only once the
 scan has counted its points), with the task's own random generator.
 
 Models shipped here:

@@ -6,7 +6,8 @@ it); :func:`simulate` builds, runs to completion and returns the :class:`SimResu
 
 For a set with a ``[window]`` the chain T_w becomes the window task (``ts.window_task``),
 whose period and deadline are the w in force: ``window`` is a float (fixed w), a callable
-(a period provider called at each window release) or None (the analytic w_sch, SPEC §3).
+(a period provider called at each window release) or None (the analytic w_sch,
+docs/model/lower-bound.md).
 Tasks with a per-window period (the command task's 2w) take multiples of the w in force at
 their release.
 """

@@ -1,4 +1,5 @@
-"""Beams counted per processing window, from a world run on Test 1 (SPEC §2, §6, §7).
+"""Beams counted per processing window, from a world run on Test 1 (docs/model/lower-bound.md,
+docs/model/world.md, docs/model/assumptions.md).
 
 The world (:class:`rtsim.world.World`) is stepped at a *fixed* window w: at each window start
 t_j = j·w the leader scans (:meth:`World.scan`), updates its filters (:meth:`World.estimate`)

@@ -1,7 +1,7 @@
 """The robot-group world: leader path and speed ramps, follow-the-leader or l-ψ followers,
 laser, Hough localization, EKFs.
 
-Plain numpy and filterpy, no simulation engine: the owner of time steps it (SPEC §6).
+Plain numpy and filterpy, no simulation engine: the owner of time steps it (docs/model/world.md).
 """
 
 from rtsim.world.config import DEFAULT_THRESHOLDS, SensingParams, WorldConfig

@@ -16,7 +16,7 @@ from rtsim.world.path import LeaderPath
 
 __all__ = ["SensingParams", "WorldConfig", "DEFAULT_THRESHOLDS"]
 
-#: T_ρ = 0.01, T_ε = 0.025 (the prototype of SPEC §7), T_β = 5°, r_H = r_F = 25 cm.
+#: T_ρ = 0.01, T_ε = 0.025 (an earlier prototype of this world), T_β = 5°, r_H = r_F = 25 cm.
 DEFAULT_THRESHOLDS = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=math.radians(5.0))
 
 

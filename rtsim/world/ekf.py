@@ -1,4 +1,5 @@
-"""One filterpy ``ExtendedKalmanFilter`` per follower: pose (x, y, θ) in the world frame (SPEC §6).
+"""One filterpy ``ExtendedKalmanFilter`` per follower: pose (x, y, θ) in the world frame
+(docs/model/world.md).
 
 **Predict** with the follower's unicycle model and the command the leader sent, held over
 the interval (the leader knows the acceleration limit, so the speed used is the mean of

@@ -1,5 +1,5 @@
 """Followers: unicycles with speed, acceleration and turn-rate limits and actuation noise,
-held in formation by l-ψ (separation–bearing) control (SPEC §6).
+held in formation by l-ψ (separation–bearing) control (docs/model/world.md).
 
 **Controller** (Desai, Ostrowski & Kumar 1998; Das et al. 2002). The controlled point P sits
 ``d`` ahead of the follower's axle, P = (x + d cos θ_F, y + d sin θ_F). With l, ψ the
@@ -13,14 +13,15 @@ frame's own motion (V_L, 0) + ω_L × r_P, is turned into the world frame and in
 Ṗ = v (cos θ, sin θ) + d ω (−sin θ, cos θ):  v = Ṗ·(cos θ, sin θ),  ω = Ṗ·(−sin θ, cos θ)/d.
 Without saturation or noise the closed loop is exactly the one above.
 
-The slot (ρ_d, β_d) is the **axle** position the formulas of SPEC §4 use; the control
+The slot (ρ_d, β_d) is the **axle** position the formulas of docs/model/upper-bounds.md use; the
+control
 point's target is that slot moved ``d`` along the follower's steady-formation heading for
 the leader's current path curvature κ (which the leader knows), so that the axle sits
 exactly at (ρ_d, β_d) on straights and in steady turns.
 
 **Actuation.** A command (v, ω) is saturated (|v| ≤ max_speed, |ω| ≤ max_turn_rate), then
 realised with noise drawn once per command, v + N(0, speed_noise²), ω + N(0, turn_noise²),
-and held until the next command (SPEC §6: followers have no sensors of their own). The
+and held until the next command (docs/model/world.md: followers have no sensors of their own). The
 wheel speed follows the realised command at most ``max_accel`` cm/s²; the turn rate is
 immediate. Drawing the noise per command keeps the truth independent of the step size.
 """
@@ -87,7 +88,8 @@ def control_targets(
     """(l_d, ψ_d) of the control point for axle slots (ρ_d, β_d) on a path of curvature κ.
 
     In steady formation the follower's heading relative to the leader is the direction of
-    its velocity, (1 − κ ρ sin β, κ ρ cos β) per unit V_L (SPEC §6), so the control point
+    its velocity, (1 − κ ρ sin β, κ ρ cos β) per unit V_L (docs/model/world.md), so the control
+    point
     sits ``d`` along that direction from the slot; then the axle itself is on (ρ_d, β_d),
     on straights (direction (1, 0)) and in steady turns alike.
     """

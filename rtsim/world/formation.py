@@ -1,4 +1,5 @@
-"""Formation slots (ρ_d,i, β_d,i) of the followers in the leader's frame (SPEC §4, §6).
+"""Formation slots (ρ_d,i, β_d,i) of the followers in the leader's frame
+(docs/model/upper-bounds.md, docs/model/world.md).
 
 β is counter-clockwise from the leader's heading, so trailing slots have β ∈ [90°, 270°].
 The default chevron for n followers: follower i (1-based) belongs to pair p = ⌈i/2⌉ at
@@ -7,13 +8,14 @@ The default chevron for n followers: follower i (1-based) belongs to pair p = �
 
 offset_1 is the given offset (15°). Were every pair at the same offset, the followers of
 pair p ≥ 2 would sit exactly behind those of pair p − 1 on the laser's ray and be hidden
-from it (a nearer disc shadows a farther one, SPEC §6): every scan would lose their tracks.
+from it (a nearer disc shadows a farther one, docs/model/world.md): every scan would lose their
+tracks.
 So each further pair turns outward just enough to be seen:
 offset_p = offset_{p−1} + arcsin(r_F/ρ_{p−1}) + arcsin(r_F/ρ_p) + gap (the two discs'
 angular half-widths plus a gap of 1°, two beams). For the paper's two followers nothing
 changes; ten followers at 390 cm spread to 180° ± 31.4°.
 
-**Follow-the-leader** (the paper's followers, its reference [12]; SPEC §6) uses the same
+**Follow-the-leader** (the paper's followers, its reference [12]; docs/model/world.md) uses the same
 slots as the place each follower holds *on straights*: follower i tracks the leader's trace
 at lateral offset o_i = ρ_d,i·sin β_d,i (cm, positive to the left of the trace), at Euclidean
 distance ρ_d,i from the leader (:mod:`rtsim.world.ftl`). Its default line, :func:`in_line`,

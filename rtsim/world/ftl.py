@@ -1,4 +1,4 @@
-"""Follow-the-leader control: each follower tracks the path the leader drove (SPEC §6).
+"""Follow-the-leader control: each follower tracks the path the leader drove (docs/model/world.md).
 
 The paper's barrel robots "follow behind the leader" (its reference [12], Huang's thesis
 *Localization and Follow-The-Leader Control*). Here follower i tracks the leader's trace —
@@ -11,7 +11,8 @@ path) — shifted sideways by the follower's lateral offset o_i (cm, positive le
 an offset curve whose local scale is 1 − κ(s)·o_i (κ the path's signed curvature).
 
 **Place in line.** A follower of the first rank holds the Euclidean separation ρ_d,i to the
-leader that the bounds of SPEC §4 are written in: its reference is the first point P_i(s_ref)
+leader that the bounds of docs/model/upper-bounds.md are written in: its reference is the first
+point P_i(s_ref)
 of its offset trace behind the leader with |P_i(s_ref) − L| = ρ_d,i. A follower of a further
 rank follows, the same way, the reference of the follower ahead of it on its side (index
 i − 2), at the Euclidean distance between their places on straights (|slot_i − slot_{i−2}|),

@@ -1,4 +1,5 @@
-"""The leader's laser rangefinder: which of the 361 backward beams hit which follower (SPEC §1, §2).
+"""The leader's laser rangefinder: which of the 361 backward beams hit which follower
+(docs/model/index.md, docs/model/lower-bound.md).
 
 361 beams over 180°, 0.5° apart, facing backward: beam j has bearing 90° + 0.5°·j in the
 leader's frame (counter-clockwise from the heading, the same convention as β), so the
@@ -6,7 +7,8 @@ scan covers the left side (90°), straight behind (180°) and the right side (27
 laser sits at the leader's reference point (the origin of its frame).
 
 A beam of bearing φ hits the disc of radius r_F centred at (ρ, β) when its angular
-distance to β is at most arcsin(r_F/ρ) (SPEC §2), at range ρ cos(φ−β) − √(r_F² − ρ² sin²(φ−β)).
+distance to β is at most arcsin(r_F/ρ) (docs/model/lower-bound.md), at range ρ cos(φ−β) − √(r_F² −
+ρ² sin²(φ−β)).
 Each beam returns only its nearest hit, so a nearer follower shadows a farther one.
 Only follower returns are counted (the paper's k points per follower); walls and clutter
 are not modelled.

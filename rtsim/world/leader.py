@@ -1,11 +1,13 @@
-"""The leader: a unicycle driving its closed path at an adjustable speed (SPEC §5, §6).
+"""The leader: a unicycle driving its closed path at an adjustable speed (docs/model/adjustment.md,
+docs/model/world.md).
 
 The leader's state is its arc length ``s`` along the path, its actual speed V_L and the
 target speed it is driving toward; its pose is the path's exact pose at ``s``, so advancing
 is exact whatever the step. The adjustment algorithm sets the **target** (at most the
 desired speed V_Ld); the actual speed ramps toward it at ``accel_max`` cm/s² when speeding
 up and ``decel_max`` cm/s² when slowing down, as a real robot's speed controller does
-(SPEC §6). With both limits infinite (the default of a :class:`Leader` built by hand) the
+(docs/model/world.md). With both limits infinite (the default of a :class:`Leader` built by hand)
+the
 speed steps at once, the paper's idealisation. Over a step of dt seconds the arc length is
 the exact integral of that ramp-then-hold profile:
 

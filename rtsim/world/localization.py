@@ -1,4 +1,5 @@
-"""Hough-window localization: window check, lost tracks, re-acquisition, and its cost (SPEC §2, §6).
+"""Hough-window localization: window check, lost tracks, re-acquisition, and its cost
+(docs/model/lower-bound.md, docs/model/world.md).
 
 At a scan the leader measures each follower's position in its own frame (true position plus
 noise). The Hough transform for follower i searches a window of radius r_H centred on the

@@ -1,4 +1,4 @@
-"""The leader's closed path, built from the paper's remote-control commands (SPEC §6).
+"""The leader's closed path, built from the paper's remote-control commands (docs/model/world.md).
 
 The remote-control station commands "move in a straight line, turn, turn direction, turn
 radius and desired speed" (the paper's §4). A path is a closed sequence of
@@ -198,7 +198,8 @@ def rounded_rectangle(
     """Four straights and four 90° turns: straights of ``length`` and ``width`` cm (a straight
     of 0 is left out, so ``width=0`` gives a stadium), turns of ``radius`` cm.
 
-    Driven counter-clockwise for ``direction="left"``. The default path shape of SPEC §6.
+    Driven counter-clockwise for ``direction="left"``. The default path shape of
+    docs/model/world.md.
     """
     length = number("length", length)
     width = number("width", width)

@@ -1,4 +1,4 @@
-"""The robot-group world: truth and the leader's estimates side by side (SPEC §6).
+"""The robot-group world: truth and the leader's estimates side by side (docs/model/world.md).
 
 Plain numpy + filterpy, no engine: whoever owns time calls, in simulated **milliseconds**,
 
@@ -73,7 +73,8 @@ class Scan:
     the leader frame (truth + noise, cm); truth: true positions in the leader frame; centre:
     Hough window centres; in_window / lost / reacquired: localization outcome; changes: the
     truth's change since the previous scan (``displacement`` in the leader frame, ``d_rho``,
-    ``travel``, ``d_beta``; zeros at the first scan); violations: per bound kind (SPEC §6),
+    ``travel``, ``d_beta``; zeros at the first scan); violations: per bound kind
+    (docs/model/world.md),
     whether that change exceeded its threshold.
 
     Read-only. The world builds a scan from plain lists; each array (and each mapping of
@@ -521,7 +522,8 @@ class World:
     # -- relative states and snapshots -----------------------------------------------
     def relative(self, i: int, source: Literal["truth", "estimate"] = "truth"
                  ) -> tuple[float, float, float, float]:
-        """(ρ, β, θ, V_F) of follower i now, SPEC §4 conventions, from the truth or from the
+        """(ρ, β, θ, V_F) of follower i now, docs/model/upper-bounds.md conventions, from the truth
+        or from the
         leader's estimate (pose propagated to now, V_F the speed it expects)."""
         k = i - 1
         if not 0 <= k < self.n:

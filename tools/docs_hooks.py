@@ -1,0 +1,54 @@
+"""MkDocs hooks for rtsim's site (mkdocs.yml ``hooks:``).
+
+Every page under docs/ is in the site's navigation: a page that mkdocs.yml's ``nav`` does not
+list is appended under "More", titled by its first heading, so a page added by anyone is never
+an orphan (the nav is kept tidy by hand; this is the safety net).
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+SKIP_DIRS = {"figures", "_hooks"}
+
+
+def _listed(nav: Any) -> set[str]:
+    out: set[str] = set()
+    if isinstance(nav, str):
+        out.add(nav)
+    elif isinstance(nav, list):
+        for item in nav:
+            out |= _listed(item)
+    elif isinstance(nav, dict):
+        for value in nav.values():
+            out |= _listed(value)
+    return out
+
+
+def _title(path: Path) -> str:
+    if path.suffix == ".md":
+        for line in path.read_text(encoding="utf-8").splitlines():
+            m = re.match(r"#\s+(.+)", line)
+            if m:
+                return m.group(1).strip()
+    return path.stem.replace("_", " ").replace("-", " ").capitalize()
+
+
+def on_config(config: Any, **_: Any) -> Any:
+    docs = Path(config["docs_dir"])
+    nav = config.get("nav")
+    if not nav:
+        return config
+    listed = _listed(nav)
+    extra = []
+    for path in sorted(docs.rglob("*")):
+        rel = path.relative_to(docs).as_posix()
+        if (path.suffix not in (".md", ".ipynb") or rel in listed
+                or SKIP_DIRS & set(rel.split("/")[:-1])):
+            continue
+        extra.append({_title(path): rel})
+    if extra:
+        nav.append({"More": extra})
+    return config
