@@ -40,7 +40,11 @@ TEST1, TEST2 = SCEN / "test1.toml", SCEN / "test2.toml"
 EPS = 1e-9
 #: The world these by-hand tests were written for: l-ψ chevron, leader speed steps.
 LPSI = {"formation.model": "l-psi", "leader.accel_max": math.inf, "leader.decel_max": math.inf,
-        "adjust.predictor": "paper"}  # (the files' predictor when these tests were written)
+        # the paper's localization (window at the previous position, Eq 19, every lost
+        # track searched for) and the line's chevron; the files' predictor when these tests
+        # were written
+        "localization.centre": "previous", "localization.search": "always",
+        "formation.layout": "line", "adjust.predictor": "paper"}
 
 
 def _outer_s(rho_d: float, r_t: float) -> float:

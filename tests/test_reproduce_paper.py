@@ -181,7 +181,8 @@ def test_bounds_data_has_infinite_values(quick: tuple[Path, str], tmp_path: Path
     from rtsim.plots.scenario import figure_data
 
     res = run_scenario("test1", mode="adjust", duration_s=10, record_jobs=False,
-                       overrides={"adjust.predictor": "formation"})
+                       overrides={"adjust.predictor": "formation",
+                                  "thresholds.localization": "radial"})  # Eq 19: r_H/|ρ̇|
     data = figure_data(res.windows, "bounds")
     path = tmp_path / "formation_bounds.csv"
     data.to_csv(path, index=False)

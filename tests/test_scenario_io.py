@@ -139,7 +139,7 @@ def test_bad_values_one_line(tmp_path: Path, old: str, new: str, match: str) -> 
         ("[thresholds]\nT_beta = 0.1\nT_beta_deg = 5\n",
          r"^bad\.toml: thresholds: give T_beta or T_beta_deg, not both$"),
         ("[thresholds]\nlocalization = \"round\"\n",
-         r"thresholds\.localization: must be 'radial' or 'full'"),
+         r"thresholds\.localization: must be one of 'radial', 'full', 'predicted'"),
         ("[ekf]\nbackend = \"gpu\"\n", r"^bad\.toml: ekf\.backend: must be 'filterpy' or 'fast'"),
         ("[adjust]\ncap = -1\n", r"^bad\.toml: adjust\.cap: must be positive"),
         ("[adjust]\nfloor = 40\n", r"^bad\.toml: adjust\.floor: 40 cm/s is above"),

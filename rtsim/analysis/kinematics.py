@@ -36,6 +36,7 @@ __all__ = [
     "msb_bearing",
     "msb_localization",
     "msb_localization_full",
+    "msb_localization_predicted",
     "msb_path_diversion",
     "msb_separation",
     "relative_state",
@@ -49,7 +50,10 @@ __all__ = [
 #: The four motion-and-sensing bounds, in the order rtsim reports them.
 BOUND_KINDS: tuple[str, ...] = ("localization", "separation", "path_diversion", "bearing")
 
-LocalizationKind = Literal["radial", "full"]
+LocalizationKind = Literal["radial", "full", "predicted"]
+#: The decision's localization bound: Eq 19 (radial), the full displacement, or the bound on
+#: what a predicted window centre leaves (:func:`msb_localization_predicted`).
+LOCALIZATION_KINDS: tuple[str, ...] = ("radial", "full", "predicted")
 
 _TWO_PI = 2.0 * math.pi
 
@@ -162,6 +166,30 @@ def msb_localization_full(rho_dot: Any, beta_dot: Any, rho: Any, r_H: Any) -> An
     return _ratio_ms(r_H, xp.hypot(rho_dot, rho * beta_dot))
 
 
+def msb_localization_predicted(r_H: float, *, fix_sd: float, heading_sd: float,
+                               speed_sd: float, turn_sd: float, v_max: float, k: float = 3.0,
+                               leader_error: float = 0.0) -> float:
+    """The localization bound when the Hough window is centred at the follower's predicted
+    position (ms; docs/localization.md): the largest w with
+
+        k·(√2·σ_fix + √2·σ_fix + V·σ_θ·w + σ_v·w + ½·V·σ_ω·w²) + e_L ≤ r_H,
+
+    the follower's departure from its predicted motion — the estimate's position error at
+    the last scan (about one fix's, √2·σ_fix as a 2-D radius), its heading error carried
+    over the window at speed V = ``v_max``, the actuation errors σ_v (speed) and σ_ω (turn
+    rate) held over the window — plus this scan's fix error, each at ``k`` standard
+    deviations, and ``leader_error`` (cm), the leader's own dead-reckoning error over the
+    window. 0 when even w = 0 leaves no room (r_H too small for the noise)."""
+    room = (r_H - leader_error) / k - 2.0 * math.sqrt(2.0) * fix_sd
+    if room <= 0.0:
+        return 0.0
+    a = 0.5 * v_max * turn_sd
+    b = v_max * heading_sd + speed_sd
+    if a == 0.0:
+        return math.inf if b == 0.0 else 1000.0 * room / b
+    return 1000.0 * (-b + math.sqrt(b * b + 4.0 * a * room)) / (2.0 * a)
+
+
 def msb_separation(rho_dot: Any, T_rho: Any, rho_d: Any) -> Any:
     """Separation bound, Eq 20: w ≤ T_ρ ρ_d / |ρ̇| (ms)."""
     return _ratio_ms(T_rho * rho_d, rho_dot)
@@ -192,7 +220,8 @@ class Thresholds:
 
     r_H: Hough window radius (cm, the paper takes r_F = 25); T_rho, T_eps: fractions of the
     desired separation ρ_d; T_beta: bearing change per window (rad); localization:
-    ``"radial"`` (Eq 19, the paper's) or ``"full"`` (radial and tangential displacement).
+    ``"radial"`` (Eq 19, the paper's), ``"full"`` (radial and tangential displacement) or
+    ``"predicted"`` (``predicted_ms``, the bound a predicted window centre leaves).
     """
 
     r_H: float
@@ -200,6 +229,9 @@ class Thresholds:
     T_eps: float
     T_beta: float
     localization: LocalizationKind = "radial"
+    #: with ``localization = "predicted"``: the bound (ms) on what the predicted window
+    #: centre leaves (:func:`msb_localization_predicted`), the same for every follower
+    predicted_ms: float = math.inf
 
     def __post_init__(self) -> None:
         for name in ("r_H", "T_rho", "T_eps", "T_beta"):
@@ -209,10 +241,12 @@ class Thresholds:
             if not (math.isfinite(value) and value > 0.0):
                 raise InputError(f"Thresholds: {name} must be positive and finite, got {value!r}")
             object.__setattr__(self, name, float(value))
-        if self.localization not in ("radial", "full"):
-            raise InputError(
-                f"Thresholds: localization must be 'radial' or 'full', got {self.localization!r}"
-            )
+        if self.localization not in LOCALIZATION_KINDS:
+            raise InputError(f"Thresholds: localization must be one of "
+                             f"{', '.join(LOCALIZATION_KINDS)}, got {self.localization!r}")
+        if not (is_real(self.predicted_ms) and self.predicted_ms >= 0.0):
+            raise InputError(f"Thresholds: predicted_ms must be a non-negative number, got "
+                             f"{self.predicted_ms!r}")
 
 
 def scalar_msbs(
@@ -232,6 +266,8 @@ def scalar_msbs(
     ard, abd, avf = abs(float(rd)), abs(float(bd)), abs(float(v_f))
     if thr.localization == "radial":
         loc = math.inf if ard == 0.0 else 1000.0 * thr.r_H / ard
+    elif thr.localization == "predicted":
+        loc = thr.predicted_ms
     else:
         loc = msb_localization_full(rd, bd, rho, thr.r_H)
     return (
@@ -264,6 +300,8 @@ def follower_msbs(
     bd = beta_dot(v_l, v_f, beta, theta, rho, omega_l)
     if thr.localization == "radial":
         loc = msb_localization(rd, thr.r_H)
+    elif thr.localization == "predicted":
+        loc = np.full(np.shape(rd), thr.predicted_ms) if np.ndim(rd) else thr.predicted_ms
     else:
         loc = msb_localization_full(rd, bd, rho, thr.r_H)
     return {

@@ -76,6 +76,8 @@ def paper_speed(
         return _affine_upper(a0, -cb, thr.T_rho * rho_d / ws)
     if kind == "localization":
         limit = thr.r_H / ws
+        if thr.localization == "predicted":  # no speed of the leader moves it
+            return math.inf if thr.predicted_ms >= 1000.0 * ws else None
         if thr.localization == "radial":  # Eq 25 with cos(β+θ)
             return _affine_upper(a0, -cb, limit)
         # full: (ρ̇, ρβ̇) = (a0, b0) + V(−cos β, sin β), a unit direction in V
@@ -119,6 +121,8 @@ def coupled_speed(
     elif kind == "separation":
         num, den = thr.T_rho * rho_d, abs(a_rho)
     elif kind == "localization":
+        if thr.localization == "predicted":  # independent of V_L
+            return math.inf if thr.predicted_ms >= 1000.0 * ws else 0.0
         num = thr.r_H
         den = abs(a_rho) if thr.localization == "radial" else math.hypot(a_rho, rho * a_beta)
     else:
@@ -146,8 +150,12 @@ def coupled_speeds(
     d_rho = abs(a_rho)
     d_loc = d_rho if thr.localization == "radial" else math.hypot(a_rho, rho * a_beta)
     d_beta = abs(a_beta)
+    if thr.localization == "predicted":  # independent of V_L
+        v_loc = math.inf if thr.predicted_ms >= 1000.0 * ws else 0.0
+    else:
+        v_loc = math.inf if d_loc == 0.0 else thr.r_H / (ws * d_loc)
     return (
-        math.inf if d_loc == 0.0 else thr.r_H / (ws * d_loc),
+        v_loc,
         math.inf if d_rho == 0.0 else thr.T_rho * rho_d / (ws * d_rho),
         math.inf if s == 0.0 else thr.T_eps * rho_d / (ws * s),
         math.inf if d_beta == 0.0 else thr.T_beta / (ws * d_beta),

@@ -439,6 +439,8 @@ def pad_rows(rows: Sequence[tuple[float, float, float, float]],
 
         if thr.localization == "radial":
             loc = div(n_loc, rd + z * big_s)
+        elif thr.localization == "predicted":  # the noise is already in the bound
+            loc = row[0]
         else:  # the full model's bound shrinks by the separation bound's factor
             loc = row[0] if rd + z * big_s == 0.0 else (
                 row[0] * rd / (rd + z * big_s) if rd > 0.0 else row[0])

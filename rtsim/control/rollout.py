@@ -140,8 +140,11 @@ class Rollout:
         out = []
         for c, rho_d in zip(changes, self.state.rho_d, strict=True):
             lims = (thr.r_H, thr.T_rho * rho_d, thr.T_eps * rho_d, thr.T_beta)
-            out.append(tuple(math.inf if ci <= 0.0 else lim * w / ci
-                             for ci, lim in zip(c, lims, strict=True)))
+            row = tuple(math.inf if ci <= 0.0 else lim * w / ci
+                        for ci, lim in zip(c, lims, strict=True))
+            if thr.localization == "predicted":  # the window follows the predicted motion:
+                row = (thr.predicted_ms, *row[1:])  # what is left is the residual's bound
+            out.append(row)
         return out  # type: ignore[return-value]
 
     def _run(self, v: float, windows: tuple[float, ...]) -> list[list[Changes]]:

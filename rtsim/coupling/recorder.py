@@ -37,6 +37,7 @@ __all__ = [
     "CHUNK_WINDOWS",
     "WINDOW_COLUMNS",
     "FOLLOWER_FIELDS",
+    "LOCALIZATION_COLUMNS",
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
@@ -55,6 +56,11 @@ WINDOW_COLUMNS: tuple[str, ...] = (
     "critical", "missed", "response", "finish", "points", "hough_ms", "tracks_lost", "segment",
     "curvature", "leader_x", "leader_y", "leader_heading",
 )
+#: Lost tracks by cause (``tracks_lost`` is their sum), the searches charged and the
+#: followers they re-acquired: the last columns of windows.csv.
+LOCALIZATION_COLUMNS: tuple[str, ...] = (
+    "tracks_lost_outside_window", "tracks_lost_occluded", "tracks_lost_out_of_range",
+    "searches", "reacquisitions")
 #: Per-follower state columns (truth; the estimate adds ``_est``), in order.
 FOLLOWER_FIELDS: tuple[str, ...] = ("x", "y", "heading", "rho", "beta", "theta", "v")
 #: Per-follower bound columns, in order: the decision's prediction, then the truth.
@@ -77,6 +83,7 @@ def window_columns(n: int) -> list[str]:
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in BOUND_FIELDS]
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in VIOLATION_FIELDS]
     cols.append("assumption_broken")  # the scan counted more than Eq 1's min(361, k·n)
+    cols += list(LOCALIZATION_COLUMNS)
     return cols
 
 
@@ -140,6 +147,9 @@ class WindowRecord:
     finish: float = math.nan
     scan_t: float = math.nan
     assumption_broken: bool = False
+    lost_by_cause: tuple[int, ...] = (0, 0, 0)
+    searches: int = 0
+    reacquisitions: int = 0
 
     @property
     def complete(self) -> bool:
@@ -257,4 +267,9 @@ def records_frame(recs: list[WindowRecord], n: int,
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
         data[f"f{i + 1}_lost"] = lost[:, i]
     data["assumption_broken"] = np.array([r.assumption_broken for r in recs], dtype=bool)
+    causes = np.array([r.lost_by_cause for r in recs], dtype=np.int64).reshape(m, 3)
+    for j, col in enumerate(LOCALIZATION_COLUMNS[:3]):
+        data[col] = causes[:, j]
+    data["searches"] = np.array([r.searches for r in recs], dtype=np.int64)
+    data["reacquisitions"] = np.array([r.reacquisitions for r in recs], dtype=np.int64)
     return pd.DataFrame({c: data[c] for c in cols}, columns=cols)

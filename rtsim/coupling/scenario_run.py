@@ -71,7 +71,13 @@ from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
 from rtsim.coupling.physical import PhysicalLog
-from rtsim.coupling.recorder import FOLLOWER_FIELDS, WindowRecord, WindowRecorder, records_frame
+from rtsim.coupling.recorder import (
+    FOLLOWER_FIELDS,
+    LOCALIZATION_COLUMNS,
+    WindowRecord,
+    WindowRecorder,
+    records_frame,
+)
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
 from rtsim.model.taskset import TaskSet
@@ -80,7 +86,7 @@ from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.run import build_cpu
 from rtsim.world.config import WorldConfig
-from rtsim.world.localization import hough_time
+from rtsim.world.localization import LOST_CAUSES, hough_time
 from rtsim.world.world import World
 
 __all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "summarize", "LAP_CAP_FACTOR"]
@@ -227,6 +233,7 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "sensing": plain(cfg.sensing),
         "ekf": plain(cfg.ekf),
         "thresholds": plain(cfg.thresholds),
+        "localization": plain(cfg.localization),
         "step_ms": cfg.step_ms,
         "adjust": plain(getattr(scenario, "adjust", {})),
         "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),
@@ -521,6 +528,10 @@ class _Coupling:
         rec.points = scan.total_points
         rec.assumption_broken = scan.total_points > self._points_assumed
         rec.tracks_lost = scan.n_lost
+        if rec.tracks_lost:
+            rec.lost_by_cause = tuple(scan.lost_by_cause().values())
+            rec.searches = scan.n_searched
+            rec.reacquisitions = scan.n_reacquired
         rec.lost = scan.as_lists("lost")
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
@@ -675,7 +686,13 @@ def summary_columns(n: int) -> list[str]:
     """The columns of windows.csv that :func:`summarize` reads (``n`` followers)."""
     return ["w", "w_sch", "msb_min", "binding", "critical", "missed", "tracks_lost",
             "assumption_broken", "method", "v_leader", "v_leader_desired", "feasible",
-            "response", *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS)]
+            "response", *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS),
+            *LOCALIZATION_COLUMNS]
+
+
+def _total(df: pd.DataFrame, col: str) -> int:
+    """Sum of an integer column of windows.csv (0 when a table from before it lacks it)."""
+    return int(df[col].sum()) if col in df else 0
 
 
 def summarize(df: pd.DataFrame, *, mode: str, w_sch: float, duration_s: float, seed: int,
@@ -714,6 +731,10 @@ def summarize(df: pd.DataFrame, *, mode: str, w_sch: float, duration_s: float, s
         "min_speed_ratio": float(speed.min()) if len(df) else math.nan,
         "infeasible": int((~df["feasible"].to_numpy(dtype=bool)).sum()),
         "max_response": float(df["response"].max()) if len(df) else math.nan,
+        # lost tracks by cause (they sum to tracks_lost), searches charged, re-acquisitions
+        "tracks_lost_by_cause": {c: _total(df, f"tracks_lost_{c}") for c in LOST_CAUSES},
+        "searches": _total(df, "searches"),
+        "reacquisitions": _total(df, "reacquisitions"),
     }
     if extra:
         out.update(extra)

@@ -27,6 +27,8 @@ Shape (units as in docs/model/index.md: cm, cm/s, s for ``duration``, ms for ``w
                                        # place each follower holds on straights
     separation = 390                   # rho_d of the first pair (cm)
     bearing_offset_deg = 15
+    layout = "line"                    # or "fan" (follow-the-leader): every follower at
+                                       # rho_d, bearings fanned out (rtsim.world.formation)
     # or explicit slots instead of followers/separation/bearing_offset:
     # [[formation.slot]]
     # rho_d = 390
@@ -37,11 +39,14 @@ Shape (units as in docs/model/index.md: cm, cm/s, s for ``duration``, ms for ``w
     [sensing]      r_H, r_reacq, position_noise, min_points, max_range
     [ekf]          measurement_noise, speed_noise, turn_noise(_deg), position_drift,
                    heading_drift(_deg), init_position_sd, init_heading_sd(_deg), backend
-    [thresholds]   T_rho, T_eps, T_beta(_deg), localization = "radial" | "full"
+    [thresholds]   T_rho, T_eps, T_beta(_deg), localization = "radial" | "full" | "predicted"
+                   (default: "predicted" with [localization] centre = "predicted", else "radial")
     [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed),
                    predictor = "paper" | "formation" | "hybrid" | "commands"
                    (rtsim.control.predict), lower_bound = "w_sch" | "w_rta" | "w_susp",
                    decide = "end" | "before-send" (when in the window the decision is taken)
+    [localization] centre = "previous" | "predicted", search = "always" | "visible"
+                   (where the Hough windows are centred; which lost followers are searched for)
     [world]        step_ms (integration step while a speed ramps)
     [assumptions]  key = "reason"      # every value the paper does not give
 
@@ -63,14 +68,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
-from rtsim.analysis.kinematics import Thresholds
+from rtsim.analysis.kinematics import (
+    LOCALIZATION_KINDS,
+    Thresholds,
+    msb_localization_predicted,
+)
 from rtsim.errors import InputError, ScenarioError
 from rtsim.model.taskset import TaskSet
 from rtsim.world._check import non_negative, number, positive
-from rtsim.world.config import SensingParams, WorldConfig
+from rtsim.world.config import LocalizationParams, SensingParams, WorldConfig
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
-from rtsim.world.formation import FORMATION_MODELS, Formation, chevron, in_line
+from rtsim.world.formation import (
+    FORMATION_LAYOUTS,
+    FORMATION_MODELS,
+    Formation,
+    chevron,
+    fan,
+    in_line,
+    outer_side,
+)
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
 __all__ = ["AdjustConfig", "Scenario", "load_scenario", "parse_scenario", "scenario_bytes",
@@ -84,7 +101,8 @@ PACKAGED_SCENARIOS = ("test1", "test2")
 T = TypeVar("T")
 
 TOP_KEYS = ("name", "description", "taskset", "duration", "leader", "formation", "follower",
-            "sensing", "ekf", "thresholds", "adjust", "world", "assumptions", "scheduler")
+            "sensing", "ekf", "thresholds", "adjust", "world", "assumptions", "scheduler",
+            "localization")
 _ANGLES: dict[str, tuple[str, ...]] = {
     "leader": (), "start": ("heading",), "segment": ("angle",),
     "formation": ("bearing_offset",), "slot": ("beta_d",),
@@ -279,7 +297,7 @@ def _path(src: str, leader: _Table) -> LeaderPath:
                   lambda: rounded_rectangle(**args, direction=direction, start=start))
 
 
-def _formation(src: str, data: object, r_F: float) -> Formation:
+def _formation(src: str, data: object, r_F: float, path: LeaderPath) -> Formation:
     tab = _Table(f"{src}: formation", data, _ANGLES["formation"])
     model = tab.get("model", "l-psi")
     if model not in FORMATION_MODELS:
@@ -310,10 +328,19 @@ def _formation(src: str, data: object, r_F: float) -> Formation:
         if not tab.has(req):
             raise ScenarioError(f"{src}: formation.{req}: missing (required)")
     args = tab.kwargs(("followers", "separation", "bearing_offset"))
-    tab.finish(("followers", "separation", "bearing_offset", "model"))
+    layout = tab.get("layout", "line")
+    tab.finish(("followers", "separation", "bearing_offset", "model", "layout"))
+    if layout not in FORMATION_LAYOUTS:
+        raise ScenarioError(f"{src}: formation.layout: must be one of "
+                            f"{', '.join(FORMATION_LAYOUTS)}, got {layout!r}")
+    offset = args.get("bearing_offset", math.radians(15))
+    if layout == "fan":
+        segs = path.segments
+        outer = outer_side([g.curvature for g in segs], [g.length for g in segs])
+        return _build(src, lambda: fan(args["followers"], args["separation"], offset, r_F=r_F,
+                                       outer=outer, model=model))
     place = in_line if model == "follow-the-leader" else chevron
-    return _build(src, lambda: place(args["followers"], args["separation"],
-                                     args.get("bearing_offset", math.radians(15)), r_F=r_F))
+    return _build(src, lambda: place(args["followers"], args["separation"], offset, r_F=r_F))
 
 
 def _section(src: str, data: Mapping[str, Any], name: str, keys: tuple[str, ...],
@@ -368,6 +395,20 @@ def _sense(sc: Scenario, src: str) -> None:
                             f"follower.max_speed {vmax:g} cm/s: the followers cannot keep up")
 
 
+def _predicted_bound(src: str, r_H: float, follower: FollowerParams, sensing: SensingParams,
+                     ekf: EkfParams) -> float:
+    """The decision's localization bound for a window centred at the predicted position
+    (:func:`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
+    the fix noise, the EKF's initial heading error, the actuation noise, at the followers'
+    top speed, 3 standard deviations; the leader knows its own motion (no error)."""
+    if not math.isfinite(follower.max_speed):
+        raise ScenarioError(f"{src}: thresholds.localization: 'predicted' needs a finite "
+                            f"follower.max_speed (the bound carries the heading error at it)")
+    return msb_localization_predicted(
+        r_H, fix_sd=sensing.position_noise, heading_sd=ekf.init_heading_sd,
+        speed_sd=follower.speed_noise, turn_sd=follower.turn_noise, v_max=follower.max_speed)
+
+
 def _parse_scenario(data: Mapping[str, Any], source: str,
                     base: Path | None) -> Scenario:
     src = source
@@ -395,7 +436,7 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
 
     follower = _section(src, data, "follower", tuple(FollowerParams.__dataclass_fields__),
                         FollowerParams)
-    formation = _formation(src, top.get("formation"), follower.radius)
+    formation = _formation(src, top.get("formation"), follower.radius, path)
     top.get("follower")
     sens = _Table(f"{src}: sensing", top.get("sensing", {}))
     r_H = _build(src, lambda: positive("sensing.r_H", sens.get("r_H", 25.0)))
@@ -409,14 +450,22 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     t_rho = thr.get("T_rho", 0.01)
     t_eps = thr.get("T_eps", 0.025)
     t_beta = thr.get("T_beta", math.radians(5.0))
-    loc = thr.get("localization", "radial")
+    # the decision's localization bound: by default the one that matches the window's
+    # centre (Eq 19 for the previous position, the residual bound for the predicted one)
+    centre = data.get("localization", {}).get("centre", "previous") \
+        if isinstance(data.get("localization"), Mapping) else "previous"
+    loc = thr.get("localization", "predicted" if centre == "predicted" else "radial")
     thr.finish(("T_rho", "T_eps", "T_beta", "localization"))
     for key, val in (("T_rho", t_rho), ("T_eps", t_eps), ("T_beta", t_beta)):
         _build(src, lambda k=key, v=val: positive(f"thresholds.{k}", v))
-    if loc not in ("radial", "full"):
-        raise ScenarioError(f"{src}: thresholds.localization: must be 'radial' or 'full', "
-                            f"got {loc!r}")
-    thresholds = Thresholds(r_H=r_H, T_rho=t_rho, T_eps=t_eps, T_beta=t_beta, localization=loc)
+    if loc not in LOCALIZATION_KINDS:
+        raise ScenarioError(f"{src}: thresholds.localization: must be one of "
+                            f"{', '.join(repr(k) for k in LOCALIZATION_KINDS)}, got {loc!r}")
+    predicted_ms = math.inf
+    if loc == "predicted":
+        predicted_ms = _predicted_bound(src, r_H, follower, sensing, ekf)
+    thresholds = Thresholds(r_H=r_H, T_rho=t_rho, T_eps=t_eps, T_beta=t_beta, localization=loc,
+                            predicted_ms=predicted_ms)
 
     if isinstance(data.get("adjust"), Mapping) and "model" in data["adjust"]:
         raise ScenarioError(f"{src}: adjust: unknown key 'model' (renamed; did you mean "
@@ -435,8 +484,16 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     step_ms = wtab.get("step_ms", 10.0)
     wtab.finish(("step_ms",))
 
+    localization = _section(src, data, "localization",
+                            tuple(LocalizationParams.__dataclass_fields__), LocalizationParams)
+    top.get("localization")
+    if loc == "predicted" and localization.centre != "predicted":
+        raise ScenarioError(f"{src}: thresholds.localization: 'predicted' bounds what a "
+                            f"predicted window centre leaves; set [localization] centre = "
+                            f"'predicted' (it is {localization.centre!r})")
     world = _build(src, lambda: WorldConfig(path, speed, formation, follower, sensing, ekf,
-                                            thresholds, step_ms, start_s, **ramps))
+                                            thresholds, step_ms, start_s, **ramps,
+                                            localization=localization))
     if adjust.floor > speed:
         raise ScenarioError(f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the "
                             f"desired speed {speed:g} cm/s")

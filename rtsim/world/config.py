@@ -14,7 +14,8 @@ from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import Formation
 from rtsim.world.path import LeaderPath
 
-__all__ = ["SensingParams", "WorldConfig", "DEFAULT_THRESHOLDS"]
+__all__ = ["CENTRES", "LocalizationParams", "SEARCHES", "SensingParams", "WorldConfig",
+           "DEFAULT_THRESHOLDS"]
 
 #: T_ρ = 0.01, T_ε = 0.025 (an earlier prototype of this world), T_β = 5°, r_H = r_F = 25 cm.
 DEFAULT_THRESHOLDS = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=math.radians(5.0))
@@ -47,6 +48,36 @@ class SensingParams:
                                                         allow_inf=True))
 
 
+#: Where the Hough window is centred (:mod:`rtsim.world.localization`).
+CENTRES: tuple[str, ...] = ("previous", "predicted")
+#: When a lost follower is searched for (:mod:`rtsim.world.localization`).
+SEARCHES: tuple[str, ...] = ("always", "visible")
+
+
+@dataclass(frozen=True)
+class LocalizationParams:
+    """How the leader looks for each follower in a scan (:mod:`rtsim.world.localization`).
+
+    centre: ``"previous"`` — the window is centred at the follower's previous position
+    relative to the leader (the leader's estimate at the previous scan, in the leader's frame
+    at that scan; the paper's Fig 5); ``"predicted"`` — at the estimate carried over the
+    window with the command the follower holds, in the leader's frame at the new scan (the
+    leader knows its own motion). search: ``"always"`` — every lost follower costs a
+    full-scan search; ``"visible"`` — only those the leader expects, from its own prediction
+    of every follower, to return at least ``min_points`` beams.
+    """
+
+    centre: str = "previous"
+    search: str = "always"
+
+    def __post_init__(self) -> None:
+        for key, allowed in (("centre", CENTRES), ("search", SEARCHES)):
+            value = getattr(self, key)
+            if value not in allowed:
+                raise ScenarioError(f"localization.{key}: must be one of "
+                                    f"{', '.join(repr(a) for a in allowed)}, got {value!r}")
+
+
 @dataclass(frozen=True)
 class WorldConfig:
     """Everything the :class:`~rtsim.world.world.World` needs.
@@ -56,7 +87,8 @@ class WorldConfig:
     command with a settled speed is integrated in one exact arc); ``leader_accel_max`` and
     ``leader_decel_max`` (cm/s², ``inf`` = a step) the leader's speed ramp
     (:class:`~rtsim.world.leader.Leader`). The followers' controller is
-    ``formation.model`` (``"l-psi"`` or ``"follow-the-leader"``).
+    ``formation.model`` (``"l-psi"`` or ``"follow-the-leader"``); ``localization`` where the
+    Hough windows are centred and when a lost follower is searched for.
     """
 
     path: LeaderPath
@@ -70,6 +102,7 @@ class WorldConfig:
     start_s: float = 0.0
     leader_accel_max: float = math.inf
     leader_decel_max: float = math.inf
+    localization: LocalizationParams = field(default_factory=LocalizationParams)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "leader_speed", positive("leader.speed", self.leader_speed))

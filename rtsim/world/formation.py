@@ -27,12 +27,29 @@ on straights with lateral offsets of at most about 1.5 m (ten followers at 390 c
 given offset (15°: the paper's two followers at 180° ± 15°, 101 cm either side of the trace
 at 390 cm), raised just enough when the last rank would otherwise come closer than its own
 half-width plus half the gap to the trace (and so to its partner on the other side).
+
+**The fan** (:func:`fan`, ``formation.layout = "fan"``) keeps every follower at the same
+distance ρ_d from the leader — the paper gives one ρ_d for its followers — and spreads their
+bearings: the paper's pair at 180° ± offset, then each further follower one disc width plus
+the gap further out, φ_{k+1} = φ_k + 2·arcsin(r_F/ρ_d) + gap, on the *outer* side of the
+path's turns (the right for a path driven counter-clockwise) until that side is full, then on
+the inner side. Why: in a turn, a follower's bearing swings toward the inside of the turn by
+about its depth behind the leader over twice the turn radius, so followers at different
+depths cross each other's rays (the line's further ranks hide behind the first in 8-19 % of a
+lap's windows) and far ones swing out of the laser's backward half-plane (a U-turn puts a
+follower 8 m back beside the leader); at one depth they swing alike and none hides another.
+The inner side holds only the pair's follower: an inner follower swings toward the leader's
+side (below 90°, out of the laser's field) in every turn, and an inner offset wider than the
+turn radius has no trace to follow. The price is speed: an outer follower o cm off the trace
+drives (1 + o/R) times the leader's speed in a turn of radius R. Ten followers at 390 cm:
+bearings 165° and 195° to 262°, at most 386 cm right of the trace on straights.
 """
 
 from __future__ import annotations
 
 import difflib
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,11 +58,18 @@ from numpy.typing import NDArray
 from rtsim.errors import ScenarioError
 from rtsim.world._check import integer, number, positive
 
-__all__ = ["CHEVRON_GAP", "FORMATION_MODELS", "Formation", "chevron", "chevron_offsets", "in_line",
-           "in_line_offsets"]
+__all__ = ["CHEVRON_GAP", "FAN_INNER", "FORMATION_LAYOUTS", "FORMATION_MODELS", "Formation",
+           "chevron", "chevron_offsets", "fan", "fan_bearings", "in_line", "in_line_offsets",
+           "outer_side"]
 
 #: How followers are controlled: l-ψ on rigid slots, or follow-the-leader on the trace.
 FORMATION_MODELS: tuple[str, ...] = ("follow-the-leader", "l-psi")
+#: How ``followers``/``separation``/``bearing_offset`` place them: ``line`` (the chevron for
+#: l-ψ, :func:`in_line` for follow-the-leader) or ``fan`` (:func:`fan`).
+FORMATION_LAYOUTS: tuple[str, ...] = ("line", "fan")
+#: Followers the fan places on the inner side of the path's turns before the outer side is
+#: full (the pair's one included).
+FAN_INNER = 1
 
 
 @dataclass(frozen=True)
@@ -202,3 +226,62 @@ def in_line(n: int, separation: float, offset: float = math.radians(15), *,
     beta = tuple(math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
                  for i in range(1, n + 1))
     return Formation(rho, beta, "follow-the-leader")
+
+
+def outer_side(curvatures: Sequence[float], lengths: Sequence[float]) -> int:
+    """+1 (left) or −1 (right): the outer side of a path's turns, opposite to the way its
+    turning adds up (a counter-clockwise path turns left: its outer side is the right)."""
+    total = sum(k * ell for k, ell in zip(curvatures, lengths, strict=True))
+    return 1 if total < 0 else -1
+
+
+def fan_bearings(n: int, separation: float, offset: float, r_F: float, outer: int = -1,
+                 gap: float = CHEVRON_GAP) -> list[float]:
+    """Bearings (rad) of the fan's followers (module docstring): follower 1 at 180° + offset
+    on the right, 2 at 180° − offset on the left, then each further follower one step
+    (2·arcsin(r_F/ρ_d) + gap) beyond the last on the outer side (``outer``: −1 right, +1
+    left) while the inner side holds :data:`FAN_INNER`, and on the inner side once the outer
+    one is full (the next bearing would put the disc outside [90°, 270°]). A follower that
+    fits neither side gets the outer side's next bearing (:func:`fan` refuses it)."""
+    step = 2.0 * math.asin(min(1.0, r_F / separation)) + gap
+    half = math.asin(min(1.0, r_F / separation))
+    right, left = math.pi + offset, math.pi - offset
+    bearings = [right, left][:n]
+    inner_count = 1
+    last = {-1: right, 1: left}
+
+    def fits(b: float) -> bool:
+        return math.pi / 2 + half <= b <= 1.5 * math.pi - half
+
+    for _ in range(2, n):
+        nxt = {side: last[side] + (step if side < 0 else -step) for side in (-1, 1)}
+        side = outer
+        if inner_count < FAN_INNER or (not fits(nxt[outer]) and fits(nxt[-outer])):
+            side = -outer
+        if side != outer:
+            inner_count += 1
+        last[side] = nxt[side]
+        bearings.append(last[side])
+    return bearings
+
+
+def fan(n: int, separation: float, offset: float = math.radians(15), *, r_F: float = 25.0,
+        outer: int = -1, gap: float = CHEVRON_GAP, model: str = "follow-the-leader"
+        ) -> Formation:
+    """The fan: every follower at ρ_d = ``separation`` cm, bearings from :func:`fan_bearings`
+    (``model``: follow-the-leader holds them on straights, l-ψ as rigid slots). Raises
+    :class:`ScenarioError` when a follower would leave the laser's view (a bearing outside
+    [90°, 270°] by its disc's half-width)."""
+    n, sep, off, r_F = _pair_args(n, separation, offset, r_F)
+    if outer not in (-1, 1):
+        raise ValueError(f"outer must be -1 (right) or 1 (left), got {outer!r}")
+    bearings = fan_bearings(n, sep, off, r_F, outer, gap)
+    half = math.asin(min(1.0, r_F / sep))
+    for i, b in enumerate(bearings):
+        if not math.pi / 2 + half <= b <= 1.5 * math.pi - half:
+            raise ScenarioError(
+                f"formation.followers: {n} followers do not fit a fan at {sep:.6g} cm: "
+                f"follower {i + 1} would need {math.degrees(b):.4g} deg, outside the laser's "
+                f"view; use a larger separation, a smaller bearing_offset, or "
+                f"[[formation.slot]]")
+    return Formation(tuple([sep] * n), tuple(bearings), model)

@@ -2,19 +2,35 @@
 (docs/model/lower-bound.md, docs/model/world.md).
 
 At a scan the leader measures each follower's position in its own frame (true position plus
-noise). The Hough transform for follower i searches a window of radius r_H centred on the
-follower's estimated position in the leader frame at the previous scan (the paper's Fig 5).
+noise). The Hough transform for follower i searches a window of radius r_H around a centre
+chosen by ``[localization] centre`` (:class:`~rtsim.world.config.LocalizationParams`):
+
+- ``previous`` (the default; the paper's Fig 5): the follower's previous position relative to
+  the leader — the leader's estimate at the previous scan, in the leader's frame at that scan.
+  Whatever the follower and the leader moved since is left to the window (ρ·Δβ of a far
+  follower behind a turning leader, ρ̇·w along the ray).
+- ``predicted``: the estimate carried to the new scan with the command the follower holds,
+  in the leader's frame at the new scan (the leader knows its own motion). What is left to the
+  window is the follower's departure from its predicted motion (docs/localization.md).
+
 The fix counts when the follower returned at least ``min_points`` beams and the measured
-centre lies within r_H of the window centre. Otherwise the track is **lost**: the event is
-recorded and the leader re-runs the Hough transform over the full scan, with an accumulator
-for a search window of radius r_reacq around the same centre; the follower is
-**re-acquired** when it is visible and within r_reacq.
+centre lies within r_H of the window centre. Otherwise the track is **lost**, for one of
+:data:`LOST_CAUSES` (:func:`lost_cause`). A lost follower is **searched for** — the Hough
+transform re-run over the full scan with an accumulator for a window of radius r_reacq around
+the same centre — always (``[localization] search = "always"``, the default) or only when the
+leader, from its own prediction of every follower, expects it to return at least
+``min_points`` beams (``"visible"``: a search for a follower hidden from the laser finds
+nothing and only delays the window). A searched follower is **re-acquired** when it is
+visible and within r_reacq.
 
-Cost (Eq 1 with counted points, plus the re-acquisitions):
+Cost (Eq 1 with counted points, plus the searches):
 
-    e_hough = π r_H² n e_cal + P e_trans + L (π r_reacq² e_cal + 361 e_trans),
+    e_hough = π r_H² n e_cal + P e_trans + S (π r_reacq² e_cal + 361 e_trans),
 
-P = scan points returned by the followers, L = lost followers in this scan.
+P = scan points returned by the followers, S = searches at this scan (the lost followers
+with ``always``). The analysis's e_hough (Eq 1, k points per follower) has no search term:
+a window with a search exceeds the execution time the analysis assumed, and windows.csv
+counts its searches.
 """
 
 from __future__ import annotations
@@ -26,8 +42,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.analysis.window import LASER_POINTS, e_hough
+from rtsim.world.laser import count_beams_xy
 
-__all__ = ["locate", "locate_one", "hough_time"]
+__all__ = ["LOST_CAUSES", "locate", "locate_one", "lost_cause", "hough_time"]
+
+#: Why a track is lost: the fix fell outside the Hough window; the follower returned too few
+#: beams although the laser could reach it alone (hidden by a nearer follower, or its disc
+#: covers too few beams); no beam reaches it (beyond the laser's range or outside its field).
+LOST_CAUSES: tuple[str, ...] = ("outside_window", "occluded", "out_of_range")
 
 
 class _ScanLike(Protocol):
@@ -37,6 +59,8 @@ class _ScanLike(Protocol):
     def total_points(self) -> int: ...
     @property
     def n_lost(self) -> int: ...
+    @property
+    def n_searched(self) -> int: ...
 
 
 def locate_one(
@@ -52,6 +76,18 @@ def locate_one(
     visible = points >= min_points
     in_window = visible and dist <= r_H
     return in_window, not in_window, (not in_window) and visible and dist <= r_reacq
+
+
+def lost_cause(visible: bool, rel_xy: tuple[float, float], r_F: float, max_range: float,
+               min_points: int) -> str:
+    """The cause (:data:`LOST_CAUSES`) of a lost track: ``visible`` (at least ``min_points``
+    beams returned) means the fix fell outside the window; otherwise the follower at
+    ``rel_xy`` (leader frame, cm) alone would return no beam (``out_of_range``) or some
+    (``occluded``: hidden by another follower or too few beams)."""
+    if visible:
+        return "outside_window"
+    alone = count_beams_xy([rel_xy], r_F, max_range)[0]
+    return "occluded" if alone > 0 else "out_of_range"
 
 
 def locate(
@@ -72,6 +108,6 @@ def locate(
 
 def hough_time(scan: _ScanLike, e_cal: float, e_trans: float, r_H: float, r_reacq: float) -> float:
     """Localization segment time (ms) for ``scan``: Eq 1 with its counted points, plus a
-    re-acquisition (π r_reacq² e_cal + 361 e_trans) per lost follower."""
+    search (π r_reacq² e_cal + 361 e_trans) per lost follower searched for."""
     base = e_hough(scan.n, r_H, e_cal, e_trans, k=0.0, points=scan.total_points)
-    return base + scan.n_lost * (math.pi * r_reacq**2 * e_cal + LASER_POINTS * e_trans)
+    return base + scan.n_searched * (math.pi * r_reacq**2 * e_cal + LASER_POINTS * e_trans)

@@ -6,7 +6,9 @@ Plain numpy + filterpy, no engine: whoever owns time calls, in simulated **milli
 - :meth:`World.scan` at a window's scan: beams, position fixes, Hough windows, lost tracks,
   and the observed bound violations since the previous scan (a :class:`Scan`);
 - :meth:`World.estimate` with that scan: the EKFs predict with the commands sent and
-  update with the fixes; the new estimates centre the next scan's Hough windows;
+  update with the fixes; the new estimates centre the next scan's Hough windows (as they
+  are, ``[localization] centre = "previous"``, or carried over the window with the commands
+  held and seen from the leader's pose then, ``"predicted"``);
 - :meth:`World.command` at the end of follower i's send segment: l-ψ control
   (``formation.model = "l-psi"``) or follow-the-leader (``"follow-the-leader"``,
   :mod:`rtsim.world.ftl`) on the leader's estimate (propagated to t with the held command)
@@ -47,6 +49,7 @@ from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command, r
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
+from rtsim.world.localization import LOST_CAUSES, lost_cause
 
 __all__ = ["World", "Scan"]
 
@@ -59,7 +62,7 @@ Pose = tuple[float, float, float]
 
 _ARRAY_FIELDS: tuple[tuple[str, Any], ...] = (
     ("points", np.int64), ("measured", None), ("truth", None), ("centre", None),
-    ("in_window", None), ("lost", None), ("reacquired", None))
+    ("in_window", None), ("lost", None), ("reacquired", None), ("searched", None))
 
 
 def _as_list(x: Any) -> list[Any]:
@@ -88,13 +91,19 @@ class Scan:
 
     def __init__(self, t_ms: float, leader_pose: Pose, points: Any, measured: Any, truth: Any,
                  centre: Any, in_window: Any, lost: Any, reacquired: Any,
-                 changes: Mapping[str, Any], violations: Mapping[str, Any]) -> None:
+                 changes: Mapping[str, Any], violations: Mapping[str, Any],
+                 searched: Any = None, cause: Any = None) -> None:
         object.__setattr__(self, "t_ms", t_ms)
         object.__setattr__(self, "leader_pose", leader_pose)
+        if searched is None:  # every lost follower searched for (the default search)
+            searched = lost
+        if cause is None:
+            cause = ["" if not v else "outside_window" for v in _as_list(lost)]
         object.__setattr__(self, "_raw", {
             "points": points, "measured": measured, "truth": truth, "centre": centre,
             "in_window": in_window, "lost": lost, "reacquired": reacquired,
-            "changes": changes, "violations": violations})
+            "changes": changes, "violations": violations, "searched": searched,
+            "cause": cause})
         object.__setattr__(self, "_arrays", {})
 
     def __setattr__(self, name: str, value: Any) -> None:
@@ -169,6 +178,34 @@ class Scan:
     def n_lost(self) -> int:
         """Followers lost at this scan (each re-acquisition is charged)."""
         return int(sum(_as_list(self._raw["lost"])))
+
+    @property
+    def searched(self) -> NDArray[np.bool_]:
+        """Lost followers the leader searched for (a full-scan search each)."""
+        return self._array("searched")  # type: ignore[no-any-return]
+
+    @property
+    def cause(self) -> tuple[str, ...]:
+        """Why each follower's track was lost (:data:`LOST_CAUSES`; "" when it was not)."""
+        return tuple(self._raw["cause"])
+
+    @property
+    def n_searched(self) -> int:
+        """Searches charged at this scan (:func:`~rtsim.world.localization.hough_time`)."""
+        return int(sum(_as_list(self._raw["searched"])))
+
+    @property
+    def n_reacquired(self) -> int:
+        """Lost followers found again by their search."""
+        return int(sum(_as_list(self._raw["reacquired"])))
+
+    def lost_by_cause(self) -> dict[str, int]:
+        """Lost tracks per cause, every cause of :data:`LOST_CAUSES` present (0 if none)."""
+        out = dict.fromkeys(LOST_CAUSES, 0)
+        for c in self._raw["cause"]:
+            if c:
+                out[c] += 1
+        return out
 
     @property
     def lost_followers(self) -> tuple[int, ...]:
@@ -387,7 +424,19 @@ class World:
         centre = self._centre
         odo = fol.odometer
         two_pi = 2 * math.pi
+        loc = cfg.localization
+        if loc.centre == "predicted":
+            # the estimates carried to the scan with the commands held, in the leader's
+            # frame now (the leader knows its own motion; never the followers' truth)
+            poses = [self._propagate(k, t_ms)[0] for k in range(n)]
+            centre = self._to_leader(lp, [p[0] for p in poses], [p[1] for p in poses])
+        r_F = cfg.follower.radius
+        expected: list[int] | None = None
+        if loc.search == "visible":  # the beams the leader expects from its own prediction
+            expected = count_beams_xy(centre, r_F, sens.max_range)
         measured, in_ws, losts, reacqs, rhos, betas = [], [], [], [], [], []
+        searched: list[bool] = []
+        causes: list[str] = []
         disps, d_rhos, travels, d_betas = [], [], [], []
         v_loc, v_sep, v_path, v_bear = [], [], [], []
         for k in range(n):
@@ -401,7 +450,11 @@ class World:
             measured.append((mx, my))
             in_ws.append(in_w)
             losts.append(not in_w)
-            reacqs.append((not in_w) and visible and dist <= r_re)
+            search = not in_w and (expected is None or expected[k] >= min_pts)
+            searched.append(search)
+            reacqs.append(search and visible and dist <= r_re)
+            causes.append("" if in_w else lost_cause(visible, truth_l[k], r_F, sens.max_range,
+                                                     min_pts))
             rho = math.hypot(tx, ty)
             beta = math.atan2(ty, tx) % two_pi
             rhos.append(rho)
@@ -427,11 +480,12 @@ class World:
                       "bearing": v_bear}
         self._prev = {"truth": truth_l, "rho": rhos, "beta": betas, "odo": list(odo)}
         return Scan(t_ms, lp, pts, measured, truth_l, list(centre), in_ws, losts, reacqs,
-                    changes, violations)
+                    changes, violations, searched, causes)
 
     def estimate(self, scan: Scan) -> None:
         """EKF predict (commands held since the last estimate) and update from ``scan``'s fixes;
-        the estimates at the scan become the next Hough window centres."""
+        the estimates at the scan centre the next Hough windows (``previous``) or are
+        carried from there (``predicted``)."""
         t = scan.t_ms
         if t < self._est_t:
             raise RtsimError(f"scan at {t} ms is older than the estimates ({self._est_t} ms)")
