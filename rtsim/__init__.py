@@ -26,16 +26,20 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
 from rtsim.errors import InputError, RtsimError, ScenarioError, SweepError, TaskSetError
-from rtsim.model import Segment, Task, TaskSet, WindowSpec
 
 if TYPE_CHECKING:  # pragma: no cover
     from rtsim.analysis import analyze, window_bounds
     from rtsim.coupling import run_scenario
     from rtsim.io import load_scenario, load_taskset
+    from rtsim.model import Segment, Task, TaskSet, WindowSpec
     from rtsim.sim import simulate
 
 #: The entry points the facade loads on first use, by the subpackage that defines them.
+#: (The model's classes too: the command line starts without numpy, so that it handles
+#: Ctrl-C and SIGTERM from its first instant.)
 _LAZY: dict[str, str] = {
+    "Segment": "rtsim.model", "Task": "rtsim.model", "TaskSet": "rtsim.model",
+    "WindowSpec": "rtsim.model",
     "run_scenario": "rtsim.coupling",
     "load_scenario": "rtsim.io",
     "load_taskset": "rtsim.io",

@@ -76,18 +76,37 @@ def window_view(df: pd.DataFrame) -> WindowView:
                       truth, est)
 
 
+#: What animate reads from a scenario run directory.
+RUN_FILES = ("windows.csv", "jobs.csv", "manifest.json", "summary.json")
+
+
 def load_run(run_dir: str | os.PathLike[str]) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
-    """windows.csv, jobs.csv and manifest.json of a scenario run directory."""
+    """windows.csv, jobs.csv and manifest.json of a scenario run directory.
+
+    The run must be whole: windows.csv has as many rows as ``summary.json`` counts windows
+    (a truncated or edited table is refused), and at least one window.
+    """
     d = Path(run_dir)
-    for name in ("windows.csv", "jobs.csv", "manifest.json"):
+    for name in RUN_FILES:
         if not (d / name).is_file():
             raise InputError(f"{d}: not a scenario run directory (no {name}; "
                              f"rtsim scenario writes one)")
     try:
         manifest = json.loads((d / "manifest.json").read_text("utf-8"))
-        return pd.read_csv(d / "windows.csv"), pd.read_csv(d / "jobs.csv"), manifest
-    except (ValueError, OSError) as exc:
-        raise InputError(f"{d}: cannot read the run: {exc}") from None
+        summary = json.loads((d / "summary.json").read_text("utf-8"))
+        windows, jobs = pd.read_csv(d / "windows.csv"), pd.read_csv(d / "jobs.csv")
+    except (ValueError, OSError, RecursionError) as exc:
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{d}: cannot read the run: {why}") from None
+    count = summary.get("windows") if isinstance(summary, dict) else None
+    if not isinstance(count, int):
+        raise InputError(f"{d / 'summary.json'}: no window count; not a scenario run's summary")
+    if count == 0:
+        raise InputError(f"{d}: the run has no processing window; nothing to animate")
+    if len(windows) != count or windows.iloc[-1].isna().all():
+        raise InputError(f"{d / 'windows.csv'}: {len(windows)} rows where summary.json counts "
+                         f"{count} windows (truncated or edited); run rtsim scenario again")
+    return windows, jobs, manifest
 
 
 def _geometry(manifest: dict) -> tuple[float, float]:
@@ -126,14 +145,30 @@ def animate_run(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], *,
     import matplotlib
 
     matplotlib.use("Agg", force=False)
+    from rtsim.io.outdir import FileSet, sidecar
+
+    out = Path(out)
+    if out.suffix.lower() not in FORMATS:
+        raise InputError(f"{out}: --out must end in {', '.join(FORMATS)}")
+    with FileSet("animate", inputs=tuple(Path(run_dir) / n for n in RUN_FILES)) as files:
+        files.check(out, "--out")
+        files.check(sidecar(out), "--out")
+        _animate(run_dir, out, files, start_s=start_s, end_s=end_s, fps=fps, every=every,
+                 progress=progress, dpi=dpi)
+        files.commit()
+    return out
+
+
+def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
+             start_s: float | None, end_s: float | None, fps: int, every: int,
+             progress: Callable[[int, int], Any] | None, dpi: int) -> None:
+    """Render into the staging area of ``files`` (see :func:`animate_run`)."""
+    import matplotlib
     from matplotlib import animation
     from matplotlib.collections import LineCollection
     from matplotlib.figure import Figure
     from matplotlib.patches import Circle
 
-    out = Path(out)
-    if out.suffix.lower() not in FORMATS:
-        raise InputError(f"{out}: --out must end in {', '.join(FORMATS)}")
     if not (isinstance(fps, int) and 1 <= fps <= 60):
         raise InputError(f"--fps must be an integer in 1..60, got {fps!r}")
     if isinstance(every, bool) or not isinstance(every, int) or every < 1:
@@ -247,22 +282,21 @@ def animate_run(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], *,
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps,
                                    blit=False, repeat=False)
-    from rtsim.io.atomic import atomic_path
-
     suffix = out.suffix.lower()
-    with atomic_path(out) as tmp:
-        tmp_file = Path(f"{tmp}{suffix}")  # the writers pick the format by the suffix
-        try:
-            if suffix == ".gif":
-                anim.save(tmp_file, writer=animation.PillowWriter(fps=fps), dpi=dpi)
-            elif suffix == ".mp4":
-                matplotlib.rcParams["animation.ffmpeg_path"] = ffmpeg
-                anim.save(tmp_file, writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
-            else:
-                fig.set_dpi(dpi)
-                tmp_file.write_text(anim.to_jshtml(fps=fps, default_mode="once"), "utf-8")
-            os.replace(tmp_file, tmp)
-        finally:
-            if tmp_file.exists():
-                tmp_file.unlink()
-    return out
+    tmp_file = files.add(out, "--out")  # staged under out's own name: the writers pick the
+    if suffix == ".gif":                # format by the suffix
+        anim.save(tmp_file, writer=animation.PillowWriter(fps=fps), dpi=dpi)
+    elif suffix == ".mp4":
+        matplotlib.rcParams["animation.ffmpeg_path"] = ffmpeg
+        anim.save(tmp_file, writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
+    else:
+        fig.set_dpi(dpi)
+        tmp_file.write_text(anim.to_jshtml(fps=fps, default_mode="once"), "utf-8")
+    from rtsim.io.atomic import write_json
+    from rtsim.io.manifest import build_manifest
+    from rtsim.io.outdir import sidecar
+
+    write_json(files.add(sidecar(out), "--out"), build_manifest(
+        command="animate", seed=None, extra={"outputs": [out.name]},
+        inputs={"run_dir": str(run_dir), "start_s": start_s, "end_s": end_s, "fps": fps,
+                "every": every}))

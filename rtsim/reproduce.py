@@ -408,13 +408,13 @@ def main(argv: list[str] | None = None, finish: Callable[[Path], None] | None = 
         _check_args(args)
         from rtsim.io.outdir import stage
 
-        with stage(args.out) as staged:
+        with stage(args.out, command="reproduce") as staged:
             rc = _main(args, argv, t0, staged.path, finish)
             if rc == 0:
                 staged.commit()
         return rc
     except InputError as exc:
-        print(f"rtsim reproduce: {exc}", file=sys.stderr)
+        print(f"rtsim: {exc}", file=sys.stderr)
         return 2
 
 
@@ -435,7 +435,12 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
         if not args.quiet:
             print(line, file=sys.stderr, flush=True)
 
-    pool = ProcessPoolExecutor(workers) if workers > 1 else None
+    from rtsim.sweep.point import worker_init
+
+    # workers ignore Ctrl-C (the parent stops them) and exit when the parent dies, even by
+    # kill -9, releasing the staging directory's lock that a fork inherits
+    pool = ProcessPoolExecutor(workers, initializer=worker_init,
+                               initargs=(os.getpid(),)) if workers > 1 else None
     try:
         results = run_all(specs, pool, progress)
         t_runs = time.perf_counter()

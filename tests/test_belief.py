@@ -151,12 +151,12 @@ def test_old_predictor_names_are_input_errors() -> None:
 
 
 @pytest.mark.parametrize("snippet, message", [
-    ('model = "formation"', r"^t\.toml: adjust: unknown key 'model' \(renamed; did you mean "
+    ('model = "formation"', r"^.*/t\.toml: adjust: unknown key 'model' \(renamed; did you mean "
                             r"'predictor'\?\)$"),
-    ('predictor = "estimate"', r"^t\.toml: adjust\.predictor: must be one of paper, formation, "
+    ('predictor = "estimate"', r"^.*/t\.toml: adjust\.predictor: must be one of paper, formation, "
                                r"hybrid, commands, got 'estimate' \('estimate' was renamed; "
                                r"did you mean 'paper'\?\)$"),
-    ('predictor = "hybird"', r"^t\.toml: adjust\.predictor: .* \(did you mean 'hybrid'\?\)$"),
+    ('predictor = "hybird"', r"^.*/t\.toml: adjust\.predictor: .* \(did you mean 'hybrid'\?\)$"),
 ])
 def test_old_scenario_keys_are_errors_with_did_you_mean(tmp_path: Path, snippet: str,
                                                         message: str) -> None:

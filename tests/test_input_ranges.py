@@ -197,7 +197,7 @@ def test_extreme_and_nonsense_scenarios_exit_2_with_one_line(
     path = _scenario_file(tmp_path, **{old: new})
     assert main(["scenario", str(path), "--out", str(tmp_path / "o"), "--no-figures"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("rtsim: s.toml: "), err
+    assert err.count("\n") == 1 and err.startswith(f"rtsim: {path}: "), err
     assert key in err, err
 
 

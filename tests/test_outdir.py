@@ -247,14 +247,23 @@ def test_simulate_files_reserved_before_and_renamed_together(tmp_path: Path, cap
     assert list(tmp_path.iterdir()) == []  # neither the jobs nor a temporary file
 
 
-def test_simulate_never_overwrites_another_runs_manifest(tmp_path: Path) -> None:
+def test_simulate_never_writes_into_another_runs_directory(tmp_path: Path, capsys) -> None:
     out = tmp_path / "run"
     assert _scenario(out, "--no-figures") == 0
-    before = (out / "manifest.json").read_bytes()
+    before = sorted((p.name, p.read_bytes()) for p in out.iterdir())
+    for name in ("sim_jobs.csv", "jobs.csv"):
+        assert main(["simulate", str(EXAMPLE), "--horizon", "1000",
+                     "--jobs", str(out / name)]) == 2
+        assert "output directory of `rtsim scenario`" in capsys.readouterr().err
+    assert sorted((p.name, p.read_bytes()) for p in out.iterdir()) == before
+    # beside a user's own files: a manifest of its own beside the file
+    user = tmp_path / "user"
+    user.mkdir()
+    (user / "manifest.json").write_text("{}")
     assert main(["simulate", str(EXAMPLE), "--horizon", "1000",
-                 "--jobs", str(out / "sim_jobs.csv")]) == 0
-    assert (out / "manifest.json").read_bytes() == before
-    side = json.loads((out / "sim_jobs.csv.manifest.json").read_text())
+                 "--jobs", str(user / "sim_jobs.csv")]) == 0
+    assert (user / "manifest.json").read_text() == "{}"
+    side = json.loads((user / "sim_jobs.csv.manifest.json").read_text())
     assert side["command"] == "simulate" and side["outputs"] == ["sim_jobs.csv"]
     # a directory of its own: manifest.json, replaced by a rerun writing the same files
     own = tmp_path / "own"

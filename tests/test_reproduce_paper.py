@@ -315,7 +315,7 @@ def test_bad_input_is_one_line_exit_2(argv: list[str], match: str, tmp_path: Pat
                                       capsys: pytest.CaptureFixture[str]) -> None:
     assert rp.main([*argv, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
-    assert len(err.strip().splitlines()) == 1 and match in err and "rtsim reproduce:" in err
+    assert len(err.strip().splitlines()) == 1 and match in err and err.startswith("rtsim: ")
     assert not (tmp_path / "o").exists()
 
 

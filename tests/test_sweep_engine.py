@@ -225,7 +225,7 @@ def test_bad_workers_and_points_dir_without_manifest(tmp_path: Path) -> None:
     with pytest.raises(SweepError, match="at least 1"):
         run_sweep(spec, tmp_path / "w", workers=0)
     (tmp_path / "x" / "points").mkdir(parents=True)
-    (tmp_path / "x" / "points" / "000000-abc.json").write_text("{}")
+    (tmp_path / "x" / "points" / "000000-0123456789ab.json").write_text("{}")
     with pytest.raises(SweepError, match="no manifest.json"):
         run_sweep(spec, tmp_path / "x", workers=1)
 

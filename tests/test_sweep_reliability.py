@@ -310,9 +310,13 @@ def test_a_corrupt_manifest_is_reported_as_such(tmp_path: Path) -> None:
                   '[grid]\ni = "1..2"\n')
     run_sweep(spec, tmp_path / "o", workers=1)
     (tmp_path / "o" / "manifest.json").write_text('{"fingerprint": "ab', encoding="utf-8")
-    with pytest.raises(SweepError, match=r"manifest.json: corrupt .*--restart") as exc:
-        run_sweep(spec, tmp_path / "o", workers=1)
-    assert "sweep file changed" not in str(exc.value)
+    for restart in (False, True):  # not provably the sweep's: never removed, even by restart
+        with pytest.raises(InputError, match=r"manifest.json that is not rtsim's") as exc:
+            run_sweep(spec, tmp_path / "o", workers=1, restart=restart)
+        assert "sweep file changed" not in str(exc.value)
+    assert (tmp_path / "o" / "manifest.json").read_text("utf-8") == '{"fingerprint": "ab'
+    for name in ("manifest.json", "results.parquet", "timings.csv"):
+        (tmp_path / "o" / name).unlink()  # the user removes what is not provably rtsim's
     assert len(run_sweep(spec, tmp_path / "o", workers=1, restart=True)) == 2
 
 

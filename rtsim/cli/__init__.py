@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import re
 import sys
 from typing import Any
@@ -125,25 +126,80 @@ def check_option_ranges(parser: argparse.ArgumentParser, args: argparse.Namespac
             limits.check(f"option: {name}", value, name)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C's KeyboardInterrupt so that every output being written
+    is cleaned up the same way (staging directories and files removed)."""
+
+
+def _terminate(signum: int, frame: Any) -> None:
+    raise Terminated
+
+
+def _signals() -> Any:
+    """Route SIGTERM through :class:`Terminated` (in the main thread); returns the previous
+    handler (None when it could not be set)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, _terminate)
+
+
+def _streams() -> None:
+    """Paths that are not UTF-8 (bytes the file system gave as surrogates) print as
+    escapes instead of raising UnicodeEncodeError."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            try:
+                reconfigure(errors="backslashreplace")
+            except (ValueError, OSError):  # pragma: no cover - a detached stream
+                pass
+
+
+def one_line(text: object) -> str:
+    """A message as one line: line breaks and other control characters (in a task name,
+    say) escaped, so that it can never split the error or fake a second ``rtsim:`` line."""
+    s = str(text)
+    if s.isprintable():
+        return s
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in s)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``rtsim`` console script."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    import signal
+
+    previous = None
     try:
+        previous = _signals()
+        _streams()
+        parser = build_parser()
+        args = parser.parse_args(argv)
         check_option_ranges(parser, args)
         return int(args.func(args) or 0)
     except InputError as exc:
-        print(f"rtsim: {exc}", file=sys.stderr)
+        print(f"rtsim: {one_line(exc)}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into head, say
         return 0
     except OSError as exc:  # an output path that cannot be written, a full disk, ...
-        where = f"{exc.filename}: " if exc.filename else ""
-        print(f"rtsim: {where}{exc.strerror or exc}", file=sys.stderr)
+        where = f"{os.fsdecode(exc.filename)}: " if exc.filename else ""
+        print(f"rtsim: {one_line(where)}{one_line(exc.strerror or exc)}", file=sys.stderr)
         return 2
+    except RecursionError:  # a deeply nested input (TOML, JSON) read by a library
+        print("rtsim: an input is nested too deeply to read", file=sys.stderr)
+        return 2
+    except Terminated:
+        print("rtsim: terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("rtsim: interrupted", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

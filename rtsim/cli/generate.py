@@ -91,12 +91,8 @@ def _deadline_factor(text: str) -> tuple[float, float]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the sets and the manifest; print the directory."""
-    import sys
-
-    from rtsim.io.atomic import write_text
-    from rtsim.io.manifest import write_manifest
-    from rtsim.model.generate import PeriodSpec, parse_periods, random_taskset
+    """Write the sets and the manifest (a whole directory); print the directory."""
+    from rtsim.model.generate import PeriodSpec, parse_periods
 
     if args.tasks < 1:
         raise InputError(f"--tasks must be at least 1, got {args.tasks}")
@@ -112,7 +108,24 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--granularity must be positive, got {args.granularity:g}")
         spec = PeriodSpec(spec.lo, spec.hi, spec.choices, args.granularity)
     factor = _deadline_factor(args.deadlines)
-    out = Path(args.out)
+    from rtsim.io.outdir import stage
+
+    with stage(args.out, command="generate") as staged:
+        files = _write_sets(args, staged.path, spec, factor)
+        staged.commit()
+    print(f"wrote {len(files)} task set(s) to {args.out}")
+    return 0
+
+
+def _write_sets(args: argparse.Namespace, out: Path, spec: Any,
+                factor: tuple[float, float]) -> list[str]:
+    """Write the sets and the manifest into ``out`` (the staging directory)."""
+    import sys
+
+    from rtsim.io.atomic import write_text
+    from rtsim.io.manifest import write_manifest
+    from rtsim.model.generate import random_taskset
+
     children = np.random.SeedSequence(args.seed).spawn(args.count)
     files = []
     for i, child in enumerate(children):
@@ -129,5 +142,4 @@ def run(args: argparse.Namespace) -> int:
                            "periods": args.periods, "granularity": args.granularity,
                            "deadlines": args.deadlines, "count": args.count},
                    argv=["rtsim", *sys.argv[1:]], extra={"outputs": files})
-    print(f"wrote {len(files)} task set(s) to {out}")
-    return 0
+    return files

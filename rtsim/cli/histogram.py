@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
 from rtsim.errors import InputError
@@ -91,9 +92,16 @@ def _source(args: argparse.Namespace) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Write the histograms; print the files written."""
+    from rtsim.io.outdir import stage
     from rtsim.validate.histogram import write_histograms
 
-    src = _source(args)
-    for p in write_histograms(src, args.out, bins=args.bins, argv=["rtsim", *sys.argv[1:]]):
-        print(p)
+    if args.bins < 1:
+        raise InputError(f"--bins must be at least 1, got {args.bins}")
+    with stage(args.out, command="histogram") as staged:
+        src = _source(args)
+        written = write_histograms(src, staged.path, bins=args.bins,
+                                   argv=["rtsim", *sys.argv[1:]])
+        staged.commit()
+    for p in written:
+        print(Path(args.out) / p.name)
     return 0

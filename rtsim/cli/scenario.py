@@ -89,10 +89,16 @@ def run(args: Any) -> int:
     override = args.policy if args.policy is not None else args.mode
     args.mode = override if override is not None else scenario.adjust.policy
     check_scenario(scenario, args.duration, where, force=args.force)
-    with stage(args.out) as staged:
+    from rtsim.io.outdir import FileSet
+
+    inputs = (args.file, scenario.taskset)  # (a packaged set's name is no path here)
+    with stage(args.out, command="scenario") as staged, \
+            FileSet("scenario", inputs=inputs) as files:
+        perfetto = _perfetto_target(args, staged.path, Path(args.out), files)
         res = _write(args, staged.path, Path(args.out), t0, scenario.source or str(args.file),
-                     override)
+                     override, perfetto)
         staged.commit()
+        files.commit()
     s = res.summary
     print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
           f"{s['windows']} windows: violations > 5 % "
@@ -104,8 +110,37 @@ def run(args: Any) -> int:
     return 0
 
 
+def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | None:
+    """Where ``--perfetto`` is written: inside DIR, in the staging directory (listed with
+    the run); elsewhere, checked and staged in ``files`` with a manifest of its own."""
+    if not args.perfetto:
+        return None
+    perfetto = Path(args.perfetto)
+    if perfetto.resolve().is_relative_to(target.resolve()) and \
+            perfetto.resolve().parent != target.resolve():
+        raise InputError(f"--perfetto {args.perfetto}: is inside a subdirectory of --out, "
+                         f"which the run replaces; give it in --out itself or elsewhere")
+    if perfetto.resolve().parent == target.resolve():
+        if perfetto.name in ("manifest.json", "summary.json", "windows.csv", "jobs.csv",
+                             "windows.parquet", "report.html"):
+            raise InputError(f"--perfetto {args.perfetto}: is also a file of --out; give "
+                             f"each output its own file")
+        return out / perfetto.name
+    from rtsim.io.outdir import sidecar
+
+    files.check(sidecar(perfetto), "--perfetto")
+    staged = files.add(perfetto, "--perfetto")
+    from rtsim.io.atomic import write_json
+    from rtsim.io.manifest import build_manifest
+
+    write_json(files.add(sidecar(perfetto), "--perfetto"), build_manifest(
+        command="scenario", seed=args.seed, inputs={"scenario_file": str(args.file)},
+        extra={"outputs": [perfetto.name]}))
+    return staged
+
+
 def _write(args: Any, out: Path, target: Path, t0: float, src: str,
-           override: str | None) -> Any:
+           override: str | None, perfetto: Path | None) -> Any:
     """Run the scenario (file ``src``), writing every file into ``out`` (the staging
     directory of ``target``); returns the result."""
     from rtsim.coupling import run_scenario
@@ -113,10 +148,6 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
     from rtsim.io.columns import ChunkWriter
     from rtsim.io.manifest import write_manifest
     from rtsim.sim.records import jobs_frame
-
-    perfetto = Path(args.perfetto) if args.perfetto else None
-    if perfetto is not None and perfetto.resolve().parent == target.resolve():
-        perfetto = out / perfetto.name  # inside DIR: written with the run, listed
     windows_files = [out / "windows.csv", *([out / "windows.parquet"] if args.parquet else [])]
     windows = ChunkWriter(windows_files, None)
     jobs = None if args.perfetto else ChunkWriter([out / "jobs.csv"], jobs_frame([]))
@@ -124,7 +155,8 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
         res = run_scenario(Path(args.file), policy=override, duration_s=args.duration,
                            seed=args.seed, record_jobs=True, exec_model=args.exec_model,
                            record_trace=bool(args.perfetto), window_sink=windows,
-                           job_sink=jobs.write if jobs is not None else None)
+                           job_sink=jobs.write if jobs is not None else None,
+                           force=args.force)
     except InputError as exc:  # raised inside the run (an estimate, a state): name the file
         if str(exc).startswith(src):
             raise

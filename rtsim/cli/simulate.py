@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
     from rtsim.io.outdir import FileSet
 
-    with FileSet() as files:
+    with FileSet("simulate", inputs=(args.file,)) as files:
         rc = _run(args, files)
         files.commit()
     return rc
@@ -111,6 +111,8 @@ def _manifest_names(names: dict[Path, list[str]]) -> dict[Path, list[str]]:
     """Where each directory's manifest goes: {manifest path: outputs it lists} (see the
     module docstring)."""
     import json
+
+    from rtsim.io.outdir import sidecar
 
     out: dict[Path, list[str]] = {}
     for d, files in names.items():
@@ -127,7 +129,7 @@ def _manifest_names(names: dict[Path, list[str]]) -> dict[Path, list[str]]:
             out[man] = files
         else:
             for f in files:
-                out[d / f"{f}.manifest.json"] = [f]
+                out[sidecar(d / f)] = [f]
     return out
 
 
@@ -191,7 +193,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
                    record_jobs=want_jobs,
                    record_trace=bool(args.trace or args.gantt or args.perfetto),
                    overhead=overhead, jitter=args.jitter, scheduler=scheduler,
-                   job_sink=writer.write if writer is not None else None)
+                   job_sink=writer.write if writer is not None else None, force=args.force)
     w = res.window["w"] if res.window else None
     # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own)
     name = scheduler if isinstance(scheduler, str) else ""

@@ -756,6 +756,7 @@ def run_scenario(
     window_sink: Any = None,
     job_sink: Any = None,
     policy: str | None = None,
+    force: bool = False,
 ) -> ScenarioResult:
     """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
 
@@ -776,6 +777,9 @@ def run_scenario(
     are written in chunks during the run, the summary is computed from the columns read
     back, and ``result.windows`` is None; job_sink: a callable given the job records in
     chunks (``result.jobs`` is then None). With both, memory stays flat on long runs.
+    The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
+    range, 2e6 windows, 2e8 world steps × followers, the seed's range); ``force=True`` is
+    ``--force``.
     """
     t0 = time.perf_counter()
     if mode is not None and policy is not None and mode != policy:
@@ -790,6 +794,9 @@ def run_scenario(
         duration_s = duration
     if not is_int(seed) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+    from rtsim.io.work import check_coupled, check_seed
+
+    check_seed(seed, "run_scenario: seed")
     inp = _inputs(scenario, text, overrides)
     cfg = inp.world
     stop_s: float | None = None
@@ -803,7 +810,13 @@ def run_scenario(
                 not (0 < duration_s < math.inf):
             raise InputError(f"duration must be a positive number of seconds, got "
                              f"{duration_s!r}")
+        from rtsim.io.limits import check
+
+        check("scenario: duration", duration_s, "run_scenario: duration_s")
         horizon_ms = float(duration_s) * 1000.0
+    win = inp.taskset.window
+    check_coupled(horizon_ms, win.g() if win is not None else 0.0, cfg.step_ms, cfg.n,
+                  f"run_scenario: duration {horizon_ms / 1000.0:g} s", force=force)
     run = _Coupling(inp, policy, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms,
                     record_trace, job_sink)
     if window_sink is not None:

@@ -174,8 +174,17 @@ MAX_INPUT_BYTES = 16 * 1024 * 1024
 def read_input(path: str | os.PathLike[str], what: str,
                max_bytes: int = MAX_INPUT_BYTES) -> bytes:
     """The bytes of input file ``path``, read at most ``max_bytes`` + 1 of them: a larger
-    file (or an endless one, ``/dev/zero``) is an InputError naming it. OSError passes."""
-    with open(path, "rb") as fh:
+    file (or an endless one, ``/dev/zero``) is an InputError naming it, and so is a FIFO or
+    a socket (opened without waiting for a writer: reading one would block). OSError
+    passes."""
+    import stat
+
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0)
+    with open(path, "rb", opener=lambda p, _: os.open(p, flags)) as fh:
+        mode = os.fstat(fh.fileno()).st_mode
+        if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
+            raise InputError(f"{os.fspath(path)}: a FIFO or socket, not a {what} file; give "
+                             f"a regular file")
         return too_large(fh.read(max_bytes + 1), path, what, max_bytes)
 
 

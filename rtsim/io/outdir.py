@@ -21,7 +21,12 @@ The target is checked before anything is computed (:func:`stage`): its parent mu
 writable (the staging directory is made there at once), it must not be the working
 directory or one of its ancestors, not a symlink, not a file, and when it exists and is not
 empty it must be an earlier rtsim output — a ``manifest.json`` whose ``outputs`` list
-names every entry — so a user's own directory is never replaced. Each refusal is an
+names every entry — so a user's own directory is never replaced — and, given the
+command, not another command's output (``generate`` never replaces a scenario's run).
+Names of up to 255 bytes work: a long name is cut and hashed in the staging names
+(:func:`stem`). Commands that work in place and resume (``sweep``, ``validate``) check
+their directory with :func:`check_resumable`; single files (``simulate``'s, ``animate``'s,
+``--perfetto``) go through :class:`FileSet`. Each refusal is an
 :class:`~rtsim.errors.InputError` (one line, exit 2 on the command line) naming the option.
 
 The flock helpers here are local to this module (a sweep-wide lock lives elsewhere).
@@ -47,7 +52,7 @@ from typing import Any
 from rtsim.errors import InputError
 
 __all__ = ["StagedDir", "FileSet", "stage", "clean_leftovers", "is_rtsim_output",
-           "STAGING_MARK"]
+           "STAGING_MARK", "FILES_MARK", "check_resumable", "owner", "stem", "sidecar"]
 
 #: Infix of staging directories: ``.NAME.rtsim-<token>`` beside the target NAME.
 STAGING_MARK = ".rtsim-"
@@ -55,6 +60,30 @@ _NEW = ".new"  # suffix while a staging directory is being made (before its lock
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 _OLD_AGE_S = 60.0  # a ".new" directory older than this belongs to a killed run
+
+
+#: Longest target name used whole in a staging name (a name is at most 255 bytes; the
+#: staging prefix and suffix add about 30): longer names are cut and a hash appended.
+_NAME_MAX_WHOLE = 180
+
+
+def stem(name: str) -> str:
+    """``name`` as it appears in the hidden staging names beside it: whole when short, else
+    cut and followed by a hash of the whole (so 225- to 255-byte names still work)."""
+    if len(os.fsencode(name)) <= _NAME_MAX_WHOLE:
+        return name
+    import hashlib
+
+    digest = hashlib.sha256(os.fsencode(name)).hexdigest()[:16]
+    cut = os.fsencode(name)[:100].decode("utf-8", "ignore")
+    return f"{cut}~{digest}"
+
+
+def sidecar(target: str | os.PathLike[str]) -> Path:
+    """The manifest of a single output file, beside it: ``NAME.manifest.json`` (a long
+    NAME cut as in :func:`stem`)."""
+    t = Path(target)
+    return t.with_name(f"{stem(t.name)}.manifest.json")
 
 
 def _libc_renameat2() -> Any:
@@ -110,7 +139,7 @@ def _listed(manifest: Path) -> set[str] | None:
     """The top-level names a manifest's ``outputs`` lists (None: not an rtsim manifest)."""
     try:
         data = json.loads(manifest.read_text("utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
         return None
     if not isinstance(data, dict) or "rtsim_version" not in data:
         return None
@@ -120,6 +149,21 @@ def _listed(manifest: Path) -> set[str] | None:
     # report.html: rtsim's own report, which earlier versions of rtsim reproduce left unlisted
     return {o.replace("\\", "/").split("/", 1)[0] for o in outputs} | {"manifest.json",
                                                                        "report.html"}
+
+
+def owner(path: str | os.PathLike[str]) -> str | None:
+    """The command (``scenario``, ``sweep``, ...) named by rtsim's ``manifest.json`` at
+    ``path`` (a directory's, or a file's own ``NAME.manifest.json``), or None."""
+    p = Path(path)
+    man = p / "manifest.json" if p.is_dir() else p
+    try:
+        data = json.loads(man.read_text("utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+        return None
+    if not isinstance(data, dict) or "rtsim_version" not in data:
+        return None
+    command = data.get("command")
+    return command.removeprefix("rtsim ") if isinstance(command, str) else None
 
 
 def is_rtsim_output(path: str | os.PathLike[str]) -> bool:
@@ -136,7 +180,7 @@ def is_rtsim_output(path: str | os.PathLike[str]) -> bool:
 
 
 def _staging_dirs(target: Path) -> list[Path]:
-    prefix = f".{target.name}{STAGING_MARK}"
+    prefix = f".{stem(target.name)}{STAGING_MARK}"
     try:
         return [p for p in target.parent.iterdir() if p.name.startswith(prefix)]
     except OSError:
@@ -181,8 +225,9 @@ def _clean_one(p: Path, target: Path, removed: list[Path]) -> None:
         return
 
 
-def _check_target(target: Path, option: str) -> None:
-    """Refuse a target that must not be replaced (module docstring)."""
+def _check_place(target: Path, option: str) -> None:
+    """Refuse a directory target that is a symlink, the working directory (or contains it)
+    or a file."""
     if target.is_symlink():
         raise InputError(f"{option} {target}: is a symlink; give the directory itself")
     resolved = target.resolve()
@@ -190,13 +235,57 @@ def _check_target(target: Path, option: str) -> None:
     if resolved == cwd or resolved in cwd.parents:
         raise InputError(f"{option} {target}: is the working directory or contains it; "
                          f"give a new or an earlier output directory")
+    if target.exists() and not target.is_dir():
+        raise InputError(f"{option} {target}: exists and is not a directory")
+
+
+def _other_command(target: Path, option: str, command: str | None) -> None:
+    """Refuse a directory that another command's manifest claims."""
+    other = owner(target) if command is not None else None
+    if other is not None and other != command.removeprefix("rtsim "):  # type: ignore[union-attr]
+        raise InputError(f"{option} {target}: is the output directory of `rtsim {other}`; it "
+                         f"is left alone — give a new directory")
+
+
+def _check_target(target: Path, option: str, command: str | None = None) -> None:
+    """Refuse a target that must not be replaced (module docstring)."""
+    _check_place(target, option)
     if target.exists():
-        if not target.is_dir():
-            raise InputError(f"{option} {target}: exists and is not a directory")
         if not is_rtsim_output(target):
             raise InputError(f"{option} {target}: not empty and not an earlier rtsim output "
                              f"(its manifest.json must list every entry); it is left alone — "
                              f"give a new directory")
+        _other_command(target, option, command)
+
+
+def check_resumable(target: str | os.PathLike[str], command: str, made: set[str], *,
+                    before_manifest: set[str] = frozenset(),  # type: ignore[assignment]
+                    option: str = "--out") -> None:
+    """Check the directory of a resumable command (``sweep``, ``validate``), which works in
+    place: new, empty, or holding only what ``command`` makes.
+
+    With ``command``'s own ``manifest.json`` there, every entry must be one of ``made``;
+    without one, one of ``before_manifest`` (what the command writes before its manifest).
+    Another command's directory and a user's files are refused (InputError naming the
+    entry), so nothing the command did not make is ever overwritten or removed.
+    """
+    from rtsim.io.lock import LOCK_NAME
+
+    target = Path(target)
+    _check_place(target, option)
+    if not target.is_dir():
+        return
+    _other_command(target, option, command)
+    own = owner(target) is not None
+    if not own and (target / "manifest.json").exists():
+        raise InputError(f"{option} {target}: has a manifest.json that is not rtsim's (a "
+                         f"user's file, or corrupt); it is left alone — remove it yourself or "
+                         f"give a new directory")
+    allowed = (made if own else set(before_manifest)) | {LOCK_NAME, "manifest.json"}
+    for entry in sorted(e.name for e in target.iterdir()):
+        if entry not in allowed:
+            raise InputError(f"{option} {target}: holds {entry!r}, which `rtsim {command}` did "
+                             f"not make; it is left alone — give a new directory")
 
 
 class StagedDir:
@@ -206,25 +295,15 @@ class StagedDir:
     :meth:`abort` removes it. As a context manager it aborts unless committed.
     """
 
-    def __init__(self, target: Path, option: str) -> None:
+    def __init__(self, target: Path, option: str, command: str | None = None) -> None:
         self.target = target
         self.option = option
+        self.command = command
         self.committed = False
         parent = target.parent
         token = f"{os.getpid()}-{secrets.token_hex(4)}"
-        name = f".{target.name}{STAGING_MARK}{token}"
-        tmp = parent / (name + _NEW)
-        try:
-            parent.mkdir(parents=True, exist_ok=True)
-            os.mkdir(tmp)
-        except OSError as exc:
-            raise InputError(f"{option} {target}: cannot write in {parent} "
-                             f"({_why(parent, exc)})") from None
-        self._fd = os.open(tmp, os.O_RDONLY)
-        fcntl.flock(self._fd, fcntl.LOCK_EX)
-        self.path = parent / name
-        os.rename(tmp, self.path)
-        # mkdir gives 0o777 & ~umask already; nothing to change
+        name = f".{stem(target.name)}{STAGING_MARK}{token}"
+        self.path, self._fd = _locked_dir(parent, name, option, target)
 
     def commit(self) -> Path:
         """Swap the staged directory in as the target (atomic on Linux); returns the target."""
@@ -232,7 +311,7 @@ class StagedDir:
             return self.target
         target, staged = self.target, self.path
         with _flock(target.parent):
-            _check_target(target, self.option)  # again: it may have changed meanwhile
+            _check_target(target, self.option, self.command)  # again: it may have changed meanwhile
             if not os.path.lexists(target):
                 os.rename(staged, target)
                 old = None
@@ -267,6 +346,31 @@ class StagedDir:
         self.abort()
 
 
+def _locked_dir(parent: Path, name: str, option: str, target: Path) -> tuple[Path, int]:
+    """Make the hidden directory ``parent/name`` holding its flock (made as ``name.new``
+    first, so that a cleanup never takes it for a killed run's); returns it and the lock's
+    descriptor."""
+    tmp = parent / (name + _NEW)
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        os.mkdir(tmp)
+    except OSError as exc:
+        raise InputError(f"{option} {target}: cannot write in {parent} "
+                         f"({_why(parent, exc)})") from None
+    fd = -1
+    try:
+        fd = os.open(tmp, os.O_RDONLY)
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        os.rename(tmp, parent / name)
+    except BaseException:  # Ctrl-C or SIGTERM right here: leave nothing
+        shutil.rmtree(tmp, ignore_errors=True)
+        if fd >= 0:
+            os.close(fd)
+        raise
+    # mkdir gives 0o777 & ~umask already; nothing to change
+    return parent / name, fd
+
+
 def _why(parent: Path, exc: OSError) -> str:
     """The reason a directory could not be made in ``parent`` (a file on the way, say)."""
     for p in (parent, *parent.parents):
@@ -286,69 +390,146 @@ def _fsync_dir(d: Path) -> None:
             os.close(fd)
 
 
-def stage(target: str | os.PathLike[str], *, option: str = "--out") -> StagedDir:
+def stage(target: str | os.PathLike[str], *, option: str = "--out",
+          command: str | None = None) -> StagedDir:
     """Check ``target`` and make its staging directory (before any work is done).
 
     Raises :class:`InputError` naming ``option`` for a target that must not be replaced or
-    whose parent is not writable. Staging directories of killed runs are removed first.
+    whose parent is not writable, and (with ``command``) another command's directory.
+    Staging directories of killed runs are removed first.
     """
     target = Path(target)
     if str(target) in ("", "."):
         target = Path(".")
-    _check_target(target, option)
+    _check_target(target, option, command)
     target = Path(os.path.abspath(target))
     clean_leftovers(target)
-    return StagedDir(target, option)
+    return StagedDir(target, option, command)
+
+
+#: Commands whose outputs are single files in a shared directory (its ``manifest.json``
+#: lists their files); every other command owns its whole output directory.
+FILE_COMMANDS = ("simulate", "animate")
+#: Name of a file set's staging directory beside its files: ``.rtsim-files-<token>``.
+FILES_MARK = ".rtsim-files-"
+
+
+def _clean_file_staging(parent: Path) -> None:
+    """Remove the file-staging directories of killed runs in ``parent`` (unlocked ones)."""
+    try:
+        found = [p for p in parent.iterdir() if p.name.startswith(FILES_MARK)]
+    except OSError:
+        return
+    removed: list[Path] = []
+    for p in sorted(found):
+        _clean_one(p, p, removed)
+
+
+def _same(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.abspath(a) == os.path.abspath(b)
 
 
 class FileSet:
-    """Several output files of one run, each written to a temporary file beside its target
-    and all renamed in at :meth:`commit` (so a failed run leaves none of its files).
+    """Several output files of one run of ``command``, each written into a hidden staging
+    directory beside its target (``.rtsim-files-<token>``, locked while the run lives) and
+    all renamed in at :meth:`commit`: a failed, interrupted or killed run leaves none of its
+    files (a killed run's staging directory is removed by the next run writing there).
 
-    :meth:`add` makes the temporary file at once (the target's directory is checked
-    writable before the simulation). Each file is replaced atomically; the set is renamed
-    in file by file (single files have no directory to swap).
+    :meth:`add` checks each target before any work: not a directory, not one of the run's
+    ``inputs``, not given twice, not inside another command's output directory, and — when
+    it exists — a file rtsim ``command`` wrote (listed by a ``manifest.json`` of that
+    command beside it, or its own ``NAME.manifest.json``). Each refusal is one InputError
+    line naming the option. Each file is replaced atomically; the set is renamed in file by
+    file (single files have no directory to swap).
     """
 
-    def __init__(self) -> None:
-        self._files: list[tuple[Path, Path]] = []
+    def __init__(self, command: str = "simulate",
+                 inputs: tuple[str | os.PathLike[str], ...] = ()) -> None:
+        self.command = command
+        self.inputs = [Path(i) for i in inputs]
+        self._files: list[tuple[Path, Path, str]] = []
+        self._dirs: dict[Path, tuple[Path, int]] = {}
+
+    def _made_here(self, target: Path) -> bool:
+        """Whether ``target`` (existing) is a file this command wrote."""
+        if target.name == "manifest.json" or target.name.endswith(".manifest.json"):
+            return owner(target) == self.command
+        own = sidecar(target)
+        if owner(own) == self.command:
+            return True
+        listed = _listed(target.parent / "manifest.json")
+        return (owner(target.parent) == self.command and listed is not None
+                and target.name in listed)
+
+    def check(self, target: str | os.PathLike[str], option: str) -> Path:
+        """Refuse ``target`` as :meth:`add` does, without reserving it; returns it."""
+        target = Path(target)
+        shown = os.fsdecode(target)
+        if target.is_dir():
+            raise InputError(f"{option} {shown}: is a directory; give a file name")
+        for i in self.inputs:
+            if _same(target, i):
+                raise InputError(f"{option} {shown}: is an input of this run; give another "
+                                 f"file name")
+        for t, _, opt in self._files:
+            if _same(target, t):
+                raise InputError(f"{option} {shown}: is also the file of {opt}; give each "
+                                 f"output its own file")
+        other = owner(target.parent)
+        if other is not None and other not in FILE_COMMANDS and \
+                not target.name.endswith(".manifest.json"):
+            raise InputError(f"{option} {shown}: is inside the output directory of `rtsim "
+                             f"{other}` ({os.fsdecode(target.parent)}); give a file elsewhere")
+        if os.path.lexists(target) and not self._made_here(target):
+            raise InputError(f"{option} {shown}: exists and was not written by `rtsim "
+                             f"{self.command}`; it is left alone — remove it or give another "
+                             f"name")
+        return target
 
     def add(self, target: str | os.PathLike[str], option: str) -> Path:
-        """Reserve ``target``; returns the temporary path to write instead."""
-        import tempfile
-
+        """Check and reserve ``target``; returns the staging path to write instead."""
         from rtsim.io.atomic import FILE_MODE
 
-        target = Path(target)
-        if target.is_dir():
-            raise InputError(f"{option} {target}: is a directory; give a file name")
+        target = self.check(target, option)
+        parent = Path(os.path.abspath(target.parent))
+        if parent not in self._dirs:
+            if parent.is_dir():
+                _clean_file_staging(parent)
+            name = f"{FILES_MARK}{os.getpid()}-{secrets.token_hex(4)}"
+            self._dirs[parent] = _locked_dir(parent, name, option, target)
+        staged = self._dirs[parent][0] / target.name
         try:
-            target.parent.mkdir(parents=True, exist_ok=True)
-            # the target's suffix kept last: writers choose the format by it
-            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.",
-                                       suffix=f".tmp{target.suffix}", dir=target.parent)
+            fd = os.open(staged, os.O_WRONLY | os.O_CREAT | os.O_EXCL, FILE_MODE)
         except OSError as exc:
-            raise InputError(f"{option} {target}: cannot write in {target.parent} "
-                             f"({_why(target.parent, exc)})") from None
+            raise InputError(f"{option} {os.fsdecode(target)}: cannot write in "
+                             f"{os.fsdecode(parent)} ({_why(parent, exc)})") from None
         os.close(fd)
-        os.chmod(tmp, FILE_MODE)
-        self._files.append((target, Path(tmp)))
-        return Path(tmp)
+        os.chmod(staged, FILE_MODE)
+        self._files.append((target, staged, option))
+        return staged
 
     def commit(self) -> list[Path]:
         """Rename every file in; returns the targets."""
-        for target, tmp in self._files:
-            os.replace(tmp, target)
-        done = [t for t, _ in self._files]
+        for target, staged, _ in self._files:
+            os.replace(staged, target)
+        done = [t for t, _, _ in self._files]
         self._files = []
+        self._release()
         return done
 
     def abort(self) -> None:
-        """Remove the temporary files."""
-        for _, tmp in self._files:
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
+        """Remove the staged files."""
         self._files = []
+        self._release()
+
+    def _release(self) -> None:
+        for d, fd in self._dirs.values():
+            shutil.rmtree(d, ignore_errors=True)
+            os.close(fd)
+        self._dirs = {}
 
     def __enter__(self) -> FileSet:
         return self

@@ -181,10 +181,8 @@ class Scenario:
         from rtsim.io.taskset import load_taskset
 
         where = self.source or "<scenario>"
-        if self.taskset in PACKAGED_TASKSETS:
-            ts = load_taskset(None)
-        else:
-            ts = load_taskset(self.taskset)
+        # a packaged set by its own name ("example" is the generic set, not the paper's)
+        ts = load_taskset(None if self.taskset == "barrel_robots" else self.taskset)
         if ts.window is None:
             raise ScenarioError(f"{where}: taskset: '{self.taskset}' has no [window]")
         ts = ts.with_window(n=self.n, r_H=self.world.thresholds.r_H)
@@ -576,15 +574,18 @@ def load_scenario(path: str | os.PathLike[str],
     sweep's (``{"leader.speed": 20, "formation.followers": 4}``; :mod:`rtsim.overrides`).
     """
     raw, p = scenario_bytes(path)
-    src = p.name if p.name else str(p)
+    src = str(p)  # the full path in every message
     try:
         data = tomllib.loads(raw.decode("utf-8"))
+        if overrides:
+            from rtsim.overrides import apply_dotted_overrides
+
+            apply_dotted_overrides(data, overrides, src)
+        return parse_scenario(data, src, p.parent)
     except UnicodeDecodeError as exc:
         raise ScenarioError(f"{src}: not a text file (not UTF-8 at byte {exc.start})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{src}: malformed TOML: {exc}") from None
-    if overrides:
-        from rtsim.overrides import apply_dotted_overrides
-
-        apply_dotted_overrides(data, overrides, src)
-    return parse_scenario(data, src, p.parent)
+    except RecursionError:
+        raise ScenarioError(f"{src}: nested too deeply to read (tables or arrays within each "
+                            f"other hundreds of levels deep)") from None

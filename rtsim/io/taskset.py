@@ -331,11 +331,10 @@ def _read(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
     if shipped is not None:
         return shipped.encode("utf-8"), f"{os.fspath(path)}.toml (packaged)"
     source = os.fspath(path)
-    from rtsim.io.limits import MAX_INPUT_BYTES, too_large
+    from rtsim.io.limits import read_input
 
     try:
-        with open(source, "rb") as fh:
-            return too_large(fh.read(MAX_INPUT_BYTES + 1), source, "task-set"), source
+        return read_input(source, "task-set"), source
     except FileNotFoundError:
         raise TaskSetError(f"{source}: no such file") from None
     except IsADirectoryError:
@@ -355,9 +354,12 @@ def load_taskset(path: str | os.PathLike[str] | None = None) -> TaskSet:
         raise TaskSetError(f"{source}: not a text file (not UTF-8 at byte {exc.start})") from None
     try:
         data = tomllib.loads(text)
+        return parse_taskset(data, source)
     except tomllib.TOMLDecodeError as exc:
         raise TaskSetError(f"{source}: malformed TOML: {exc}") from None
-    return parse_taskset(data, source)
+    except RecursionError:
+        raise TaskSetError(f"{source}: nested too deeply to read (tables or arrays within "
+                           f"each other hundreds of levels deep)") from None
 
 
 def as_taskset(ts: object, function: str) -> TaskSet:

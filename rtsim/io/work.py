@@ -14,7 +14,14 @@ estimate            limit      what is counted
 ``world_steps``     2e8        world integration steps × followers: duration /
                                step_ms × n
 ``grid``            1e5        points of a sweep grid (product or zip of its lists)
+``backlog``         1e6        jobs waiting at once on an overloaded CPU (utilization
+                               above 1 at the window): every job of a finish-late
+                               task released over the horizon (about 0.7 KB each)
 ==================  =========  =====================================================
+
+The library applies the same limits through the same functions: ``simulate``,
+``run_scenario`` and ``run_sweep`` take ``force=True`` as the command line takes
+``--force``, and refuse an out-of-range seed as ``--seed`` does.
 """
 
 from __future__ import annotations
@@ -23,7 +30,8 @@ import math
 
 from rtsim.errors import InputError
 
-__all__ = ["LIMITS", "TooMuchWork", "check_work"]
+__all__ = ["LIMITS", "TooMuchWork", "check_work", "check_simulate", "check_scenario",
+           "check_coupled", "check_seed", "simulate_backlog"]
 
 #: The largest amount of each kind of work a command does without ``--force``.
 LIMITS: dict[str, float] = {
@@ -31,6 +39,7 @@ LIMITS: dict[str, float] = {
     "windows": 2e6,
     "world_steps": 2e8,
     "grid": 1e5,
+    "backlog": 1e6,
 }
 
 _WHAT = {
@@ -38,6 +47,8 @@ _WHAT = {
     "windows": "processing windows",
     "world_steps": "world steps x followers",
     "grid": "grid points",
+    "backlog": "jobs waiting at once (the CPU is overloaded: finish-late jobs pile up in "
+               "memory)",
 }
 
 
@@ -57,7 +68,7 @@ def check_work(kind: str, amount: float, where: str, *, force: bool = False) -> 
         raise TooMuchWork(f"{where}: the run would never finish ({_WHAT[kind]}: {amount})")
     if amount > limit and not force:
         raise TooMuchWork(f"{where}: about {amount:.3g} {_WHAT[kind]}, above the limit of "
-                          f"{limit:.3g}; use --force to run it anyway")
+                          f"{limit:.3g}; use --force (force=True in Python) to run it anyway")
     return amount
 
 
@@ -81,6 +92,46 @@ def check_simulate(ts: object, horizon_ms: float, w: float | None, where: str, *
     """Refuse a simulation of more than ``LIMITS["jobs"]`` jobs (``where``: the horizon's
     name, e.g. ``--horizon 1e+15``)."""
     check_work("jobs", simulate_jobs(ts, horizon_ms, w), where, force=force)
+    check_work("backlog", simulate_backlog(ts, horizon_ms, w), where, force=force)
+
+
+def simulate_backlog(ts: object, horizon_ms: float, w: float | None) -> float:
+    """Jobs that may wait at once: 0 when the utilization at window ``w`` is at most 1;
+    above 1, every job of a ``finish-late`` task released over the horizon (an upper
+    bound: such jobs are never dropped, so an overloaded CPU queues them — ``skip`` and
+    ``abort`` tasks bound their own backlog by their overload policy)."""
+    from rtsim.model.taskset import TaskSet
+
+    assert isinstance(ts, TaskSet)
+    if ts.window is not None and w is None:
+        return 0.0  # the window is chosen by the run (w_sch or above: schedulable)
+    tasks = ts.at_window(w).tasks if ts.window is not None else ts.tasks
+    plain = [t for t in tasks if not t.per_window]
+    if sum(t.wcet / t.period for t in plain) <= 1.0:
+        return 0.0
+    return float(sum(math.ceil(horizon_ms / t.period) if horizon_ms / t.period < 1e300
+                     else math.inf for t in plain if t.overload == "finish-late"))
+
+
+def check_seed(seed: object, where: str) -> None:
+    """Refuse an integer seed outside the CLI's ``--seed`` range (non-negative, 63 bits)."""
+    from rtsim._numbers import is_int
+    from rtsim.io import limits
+
+    if isinstance(seed, bool) or (is_int(seed) and not 0 <= int(seed) < 2**63):  # type: ignore[call-overload]
+        raise InputError(f"{where}: {seed!r} is outside [0, 2**63 - 1] (a non-negative "
+                         f"63-bit integer)")
+    if is_int(seed):
+        limits.check("option: --seed", seed, where)
+
+
+def check_coupled(duration_ms: float, g_ms: float, step_ms: float, n: int, where: str, *,
+                  force: bool = False) -> None:
+    """Refuse a coupled run of more than ``LIMITS["windows"]`` windows (duration over the
+    chain's processing time g, below which no window can be) or ``LIMITS["world_steps"]``
+    world steps × followers (duration over the world step, times n)."""
+    check_work("windows", duration_ms / g_ms if g_ms > 0 else math.inf, where, force=force)
+    check_work("world_steps", duration_ms / step_ms * n, where, force=force)
 
 
 def check_scenario(scenario: object, duration_s: float | None, where: str, *,
@@ -96,9 +147,6 @@ def check_scenario(scenario: object, duration_s: float | None, where: str, *,
     if duration_s is None:
         lap_s = (cfg.path.lap_length + max(cfg.formation.rho_d)) / cfg.leader_speed
         duration_s = max(scenario.duration, LAP_CAP_FACTOR * lap_s)
-    ms = 1000.0 * duration_s
     win = scenario.load_taskset().window
     assert win is not None
-    g = win.g()
-    check_work("windows", ms / g if g > 0 else math.inf, where, force=force)
-    check_work("world_steps", ms / cfg.step_ms * cfg.n, where, force=force)
+    check_coupled(1000.0 * duration_s, win.g(), cfg.step_ms, cfg.n, where, force=force)

@@ -150,6 +150,9 @@ def resolve_policy(spec: PolicySpec, where: str = "scheduler") -> SchedulingPoli
         except (ImportError, AttributeError) as exc:
             raise InputError(f"{where}: cannot load policy {spec!r}: {exc}") from None
         if isinstance(obj, type) and issubclass(obj, SchedulingPolicy):
+            if obj.order is SchedulingPolicy.order:  # the base itself, or a class without it
+                raise InputError(f"{where}: {spec!r} does not implement order(job); give a "
+                                 f"subclass of SchedulingPolicy that does")
             return obj()
         raise InputError(f"{where}: {spec!r} is not a SchedulingPolicy subclass")
     raise InputError(f"{where}: unknown scheduling policy {spec!r} (registered: "

@@ -48,6 +48,21 @@ def _as_taskset(ts: TaskSet | Sequence[Task] | str | os.PathLike[str]) -> TaskSe
     return TaskSet(tuple(ts))
 
 
+def _window_estimate(ts: TaskSet, window: WindowArg) -> float | None:
+    """The window a run of ``ts`` would use, for the work estimate (None: unknown)."""
+    if ts.window is None:
+        return None
+    if is_real(window):
+        return float(window)  # type: ignore[arg-type]
+    try:
+        from rtsim.analysis.bounds import window_bounds
+
+        w = window_bounds(ts).w_sch
+    except (InputError, ValueError, ArithmeticError):
+        return None
+    return w if math.isfinite(w) and w > 0 else None
+
+
 def resolve_window(ts: TaskSet, window: WindowArg) -> tuple[Callable[[], float], dict[str, Any]]:
     """The window provider for ``ts`` and a description of it (for results and manifests)."""
     if window is None:
@@ -111,6 +126,7 @@ def simulate(
     jitter: JitterMode = "random",
     job_sink: Callable[[Any], None] | None = None,
     scheduler: PolicySpec | None = None,
+    force: bool = False,
 ) -> SimResult:
     """Simulate ``ts`` for jobs released in [0, horizon) ms until they complete or abort.
 
@@ -122,6 +138,9 @@ def simulate(
     long horizon (:class:`rtsim.sim.records.RowBuffer`).
     ``scheduler``: the scheduling policy (:mod:`rtsim.model.policy`), default the set's
     (``[scheduler] policy``; ``fp`` for a list of tasks).
+    The work limits of the command line apply (:mod:`rtsim.io.work`: at most 5e7 jobs, and
+    1e6 jobs waiting at once on an overloaded CPU); ``force=True`` is ``--force``. A seed
+    outside [0, 2**63) is refused as ``--seed`` is.
     """
     ts = _as_taskset(ts)
     if overhead is None:
@@ -130,6 +149,12 @@ def simulate(
     from rtsim.io.limits import check
 
     check("option: --horizon", horizon, "simulate: horizon", magnitude_only=True)  # <= 11.6 d
+    from rtsim.io.work import check_seed, check_simulate
+
+    check_seed(seed, "simulate: seed")
+    if is_real(horizon) and horizon > 0:
+        check_simulate(ts, horizon, _window_estimate(ts, window), f"simulate: horizon {horizon:g}",
+                       force=force)
     overhead = float(overhead) if is_real(overhead) else overhead
     if scheduler is None:
         scheduler = ts.scheduler

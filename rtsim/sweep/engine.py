@@ -3,7 +3,9 @@
 Output directory ``DIR``:
 
 - ``DIR/points/<index>-<key>.json``: one file per finished point, written atomically as
-  soon as the point finishes (status ``ok`` or ``failed``, error, metrics, wall time);
+  soon as the point finishes (status ``ok`` or ``failed``, error, metrics, wall time,
+  and a ``checksum``: the SHA-256 of the rest; a file that does not match it, edited or
+  corrupt, is not taken on resume: its point is run again);
   strict JSON: a non-finite metric is null there, its value under ``nonfinite``
   (:mod:`rtsim.sweep.table`); ``attempts`` when the point was rerun after its worker died;
 - ``DIR/manifest.json``: the sweep file's text, the resolved spec and its fingerprint,
@@ -23,14 +25,16 @@ unless ``force=True``.
 Running again skips the points that have a file. A sweep whose fingerprint (the resolved
 spec: kind, function, base file content, seed, combine, grid, options, metrics) differs
 from the one in ``DIR/manifest.json`` is refused unless ``restart=True``, which deletes the
-old results first. ``retry_failed=True`` recomputes the failed points.
+old results first — only what a sweep made: a ``DIR`` holding anything else (another
+command's output, a user's file) is refused before anything is done
+(:func:`rtsim.io.outdir.check_resumable`). ``retry_failed=True`` recomputes the failed
+points.
 """
 
 from __future__ import annotations
 
 import math
 import os
-import shutil
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -57,6 +61,11 @@ if TYPE_CHECKING:
 __all__ = ["run_sweep", "Sweep", "SweepOutcome", "SweepIncomplete"]
 
 Record = dict[str, Any]
+#: What a sweep makes in its directory (the lock file aside), and in ``points/``: point
+#: files ``<index>-<key>.json`` and the temporary files of their atomic writes.
+MADE = {"points", "manifest.json", "results.parquet", "timings.csv"}
+POINT_FILE = r"[0-9]{6,}-[0-9a-f]{12}\.json"
+POINT_TMP = r"\.[0-9]{6,}-[0-9a-f]{12}\.json\..*\.tmp"
 
 
 class SweepIncomplete(RtsimError):
@@ -109,14 +118,34 @@ def check_workers(workers: Any) -> int | None:
     return int(workers)
 
 
-def _read_json(path: Path) -> Record | None:
+def _checksum(rec: Record) -> str:
+    """SHA-256 of a point record (without its ``checksum``) as canonical JSON."""
+    import hashlib
+    import json
+
+    from rtsim.io.atomic import dumps
+    from rtsim.sweep.spec import canonical_json
+
+    plain = json.loads(dumps({k: v for k, v in rec.items() if k != "checksum"}, indent=None))
+    return hashlib.sha256(canonical_json(plain).encode("utf-8")).hexdigest()
+
+
+def _read_json(path: Path, point: Point | None = None) -> Record | None:
+    """A finished point's record, or None when the file is missing, unreadable, of another
+    point, or does not match its checksum (edited or corrupt: the point is run again)."""
     import json
 
     try:
         rec = json.loads(path.read_text("utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return None
-    return rec if isinstance(rec, dict) and rec.get("status") in ("ok", "failed") else None
+    if not isinstance(rec, dict) or rec.get("status") not in ("ok", "failed"):
+        return None
+    if rec.get("checksum") != _checksum(rec):
+        return None
+    if point is not None and (rec.get("index") != point.index or rec.get("key") != point.key):
+        return None
+    return {k: v for k, v in rec.items() if k != "checksum"}
 
 
 def _start_method() -> str:
@@ -186,8 +215,25 @@ class Sweep:
         return self.out / "points"
 
     # -- the directory -----------------------------------------------------------------
+    def check_out(self) -> None:
+        """Refuse an output directory holding anything a sweep does not make (another
+        command's directory, a user's ``results.parquet``, a stranger in ``points/``)."""
+        import re
+
+        from rtsim.io.outdir import check_resumable
+
+        check_resumable(self.out, "sweep", MADE, before_manifest={"points"})
+        if self.points_dir.is_dir():
+            for f in sorted(self.points_dir.iterdir()):
+                if not (re.fullmatch(POINT_FILE, f.name) or re.fullmatch(POINT_TMP, f.name)):
+                    raise SweepError(f"{self.out}: points/ holds {f.name!r}, which the sweep did "
+                                     "not make; it is left alone — give a new --out")
+
     def _prepare(self, restart: bool, argv: Sequence[str] | None) -> None:
         import json
+        import re
+
+        self.check_out()  # again, under the lock
 
         fp = self.spec.fingerprint()
         manifest = self.out / "manifest.json"
@@ -207,8 +253,11 @@ class Sweep:
         elif not restart and self.points_dir.is_dir() and any(self.points_dir.glob("*.json")):
             raise SweepError(f"{self.out}: has point files but no manifest.json; use --restart "
                              "to discard them, or another --out")
-        if restart:
-            shutil.rmtree(self.points_dir, ignore_errors=True)
+        if restart:  # only what a sweep made (check_out made sure of it)
+            if self.points_dir.is_dir():
+                for f in self.points_dir.iterdir():
+                    if re.fullmatch(POINT_FILE, f.name) or re.fullmatch(POINT_TMP, f.name):
+                        f.unlink(missing_ok=True)
             for name in ("results.parquet", "timings.csv", "manifest.json"):
                 (self.out / name).unlink(missing_ok=True)
         self.points_dir.mkdir(parents=True, exist_ok=True)
@@ -225,7 +274,7 @@ class Sweep:
         """The point records already on disk (failed ones left out with ``retry_failed``)."""
         out = {}
         for p in self.points:
-            rec = _read_json(self.points_dir / p.filename)
+            rec = _read_json(self.points_dir / p.filename, p)
             if rec is not None and not (retry_failed and rec["status"] == "failed"):
                 out[p.index] = rec
         return out
@@ -243,6 +292,7 @@ class Sweep:
         were lost to dead workers.
         """
         nworkers = check_workers(workers)
+        self.check_out()
         with lock_directory(self.out, argv):
             return self._run_locked(nworkers, dask, progress, restart, retry_failed, argv)
 
@@ -267,6 +317,7 @@ class Sweep:
             rec["metrics"], nonfinite = encode_metrics(rec["metrics"])
             if nonfinite:
                 rec["nonfinite"] = nonfinite
+            rec["checksum"] = _checksum(rec)
             write_json(self.points_dir / p.filename, rec)
             counts["computed"] += 1
             counts["failed"] += rec["status"] == "failed"
@@ -437,7 +488,7 @@ class Sweep:
         writable (:func:`rtsim.sweep.table.build_table`)."""
         recs: dict[int, Record] = {}
         for p in self.points:
-            rec = _read_json(self.points_dir / p.filename)
+            rec = _read_json(self.points_dir / p.filename, p)
             if rec is None:
                 raise SweepIncomplete(f"{self.out}: point {p.index} has not finished")
             recs[p.index] = rec
@@ -450,7 +501,7 @@ class Sweep:
 
         rows = []
         for p in self.points:
-            rec = _read_json(self.points_dir / p.filename)
+            rec = _read_json(self.points_dir / p.filename, p)
             if rec is not None:
                 t = rec.get("timing", {})
                 rows.append({"index": p.index, "key": p.key, "status": rec["status"],

@@ -306,6 +306,8 @@ def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None
         raise SweepError(f"{src}: sweep.base: cannot read {path}: {exc}") from None
     try:
         tomllib.loads(text)
+    except RecursionError:
+        raise SweepError(f"{src}: sweep.base: {path} is nested too deeply to read") from None
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{src}: sweep.base: {path} is not valid TOML: {exc}") from None
     return BaseFile(str(path), text)
@@ -474,6 +476,9 @@ def load_sweep(path: str | Path) -> SweepSpec:
         raise SweepError(f"{p}: cannot read sweep file: {exc}") from None
     try:
         data = tomllib.loads(text)
+        return parse_sweep(data, str(p), p.resolve().parent, text)
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{p}: not valid TOML: {exc}") from None
-    return parse_sweep(data, str(p), p.resolve().parent, text)
+    except RecursionError:
+        raise SweepError(f"{p}: nested too deeply to read (tables or arrays within each other "
+                         f"hundreds of levels deep)") from None

@@ -279,6 +279,11 @@ def _figures(table: pd.DataFrame, out: Path,
     return written
 
 
+#: What validate makes in its directory (the lock file aside).
+MADE = {"sweeps", "validation.csv", "results.parquet", "failures.csv", "summary.json",
+        "figures", "histograms", "report.md", "report.html", "manifest.json"}
+
+
 def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = FULL, *,
                    workers: int | None = None, dask: Any = None, progress: bool | None = False,
                    restart: bool = False, argv: Sequence[str] | None = None
@@ -286,10 +291,16 @@ def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = F
     """Run (or resume) both sweeps into ``out_dir`` and write the report (module doc).
 
     ``out_dir`` is locked while it runs (:mod:`rtsim.io.lock`): a second validation into it
-    is refused, naming the holder."""
+    is refused, naming the holder. A directory holding anything validate does not make
+    (another command's output, a user's file) is refused before anything is done; a new
+    directory is claimed at once by a ``manifest.json`` of ``validate`` (rewritten at the
+    end), so a resumed run knows it."""
     from rtsim.io.lock import lock_directory
+    from rtsim.io.outdir import check_resumable
 
+    check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"})
     with lock_directory(out_dir, argv):
+        check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"})
         return _run_validation(out_dir, config, workers=workers, dask=dask, progress=progress,
                                restart=restart, argv=argv)
 
@@ -305,6 +316,10 @@ def _run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig, *
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    inputs = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(config).items()}
+    if not (out / "manifest.json").exists():  # claim the directory (see run_validation)
+        write_manifest(out, command="validate", seed=config.seed, inputs=inputs,
+                       argv=None if argv is None else list(argv), extra={"outputs": []})
     suffix = "" if config.name == "full" else f"-{config.name}"
     paper = _run(paper_sweep_spec(config), out / "sweeps" / f"paper{suffix}", workers, dask,
                  progress, restart, argv)
@@ -338,9 +353,7 @@ def _run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig, *
     outcome = ValidationOutcome(table, failures, summary, errors, out, files)
     files.append(write_report(outcome, config, sched))
     html_path = out / REPORT_NAME
-    write_manifest(out, command="validate", seed=config.seed,
-                   inputs={k: (list(v) if isinstance(v, tuple) else v)
-                           for k, v in asdict(config).items()},
+    write_manifest(out, command="validate", seed=config.seed, inputs=inputs,
                    argv=None if argv is None else list(argv),
                    extra={"outputs": sorted(str(p.relative_to(out))
                                             for p in [*files, html_path]),
