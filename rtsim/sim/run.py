@@ -151,8 +151,9 @@ def simulate(
     check("option: --horizon", horizon, "simulate: horizon", magnitude_only=True)  # <= 11.6 d
     from rtsim.io.work import check_seed, check_simulate
 
-    check_seed(seed, "simulate: seed")
-    if is_real(horizon) and horizon > 0:
+    if isinstance(seed, int) and seed >= 0:  # (a negative seed: build_cpu's message)
+        check_seed(seed, "simulate: seed")
+    if is_real(horizon) and 0 < horizon < math.inf:  # (others: build_cpu's message)
         check_simulate(ts, horizon, _window_estimate(ts, window), f"simulate: horizon {horizon:g}",
                        force=force)
     overhead = float(overhead) if is_real(overhead) else overhead
