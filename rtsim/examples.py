@@ -9,6 +9,7 @@ name               kind        what
 ``test2``          scenario    the paper's Test 2 (= ``experiments/scenarios/test2.toml``)
 ``smoke``          sweep       10 points over n and r_H (= ``experiments/sweeps/smoke.toml``,
                                with its base given by name)
+``quickstart``     notebook    the quickstart notebook (= ``examples/quickstart.ipynb``)
 =================  ==========  ==========================================================
 
 A name is used only when no file of that name exists, so a local file always wins:
@@ -60,6 +61,8 @@ EXAMPLES: dict[str, Example] = {e.name: e for e in (
             "the paper's Test 2: V_Ld 30 cm/s, sharper turns (1.2 m)"),
     Example("smoke", "sweep", "sweeps/smoke.toml",
             "a 10-point simulate sweep over n = 1..5 and r_H = 10, 25 cm"),
+    Example("quickstart", "notebook", "notebooks/quickstart.ipynb",
+            "the quickstart notebook: a run, a plot, a sweep, a histogram"),
 )}
 
 

@@ -112,9 +112,13 @@ def _assumptions(manifest: Any) -> dict[str, str]:
     return found
 
 
+_MIME = {".png": "image/png", ".svg": "image/svg+xml"}
+
+
 def _png(path: Path) -> str:
+    """``path`` (a PNG or an SVG figure) as a data URL."""
     data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return f"data:image/png;base64,{data}"
+    return f"data:{_MIME[path.suffix]};base64,{data}"
 
 
 def render_run_report(run_dir: str | os.PathLike[str], *, title: str | None = None,
@@ -134,7 +138,7 @@ def render_run_report(run_dir: str | os.PathLike[str], *, title: str | None = No
     parts.append(_summary_section(d))
     if extra_html:
         parts.append(extra_html)
-    pngs = sorted(p for p in d.rglob("*.png") if p.is_file())
+    pngs = sorted(p for p in d.rglob("*") if p.is_file() and p.suffix in _MIME)
     if pngs:
         parts.append("<h2>Figures</h2>")
         for p in pngs:

@@ -390,7 +390,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="processes (default min(6, cpu count)); 1 runs in this process")
     ap.add_argument("--docs", default=None, metavar="DIR",
                     help="also write the documentation's figures (PNG, 100 dpi) to DIR")
-    ap.add_argument("--quiet", action="store_true", help="no progress lines, no table")
+    ap.add_argument("--quiet", "-q", action="store_true", help="no progress lines, no table")
+    ap.add_argument("--force", action="store_true",
+                    help="run even when --duration looks like a mistake of unit (over 6 "
+                         "simulated hours)")
     return ap.parse_args(argv)
 
 

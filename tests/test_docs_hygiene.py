@@ -26,7 +26,8 @@ def _hits(text: str) -> list[str]:
 
 
 def _files() -> list[Path]:
-    out = [ROOT / "README.md", ROOT / "mkdocs.yml", ROOT / "CITATION.cff"]
+    out = [ROOT / "README.md", ROOT / "README.pypi.md", ROOT / "mkdocs.yml",
+           ROOT / "CITATION.cff"]
     out += sorted((ROOT / "docs").rglob("*.md"))
     out += sorted((ROOT / "rtsim").rglob("*.py"))
     out += sorted((ROOT / "rtsim" / "data").rglob("*.toml"))

@@ -219,3 +219,33 @@ def test_analyze_edf_on_task_sets():
     assert chain.wcet == paper.window.g()
     with pytest.raises(Exception, match="has no \\[window\\]"):
         analyze_edf(ts, 100.0)
+
+
+def test_per_task_bounds_agree_with_the_set_verdict_at_u_equal_1():
+    """Where Spuri's search does not close and the demand criterion accepts the set, the
+    deadline is the bound (``bound = "deadline"``); the simulator agrees."""
+    paper = load_taskset("tasksets/barrel_robots.toml")
+    w_edf = 234.54513236227112  # U = 1: the synchronous busy period never closes
+    res = analyze_edf(paper, w_edf)
+    assert res.schedulable
+    assert all(t.bound == "deadline" and t.wcrt == t.deadline and t.schedulable
+               for t in res.tasks)
+    sim = simulate(paper, 200 * w_edf, window=w_edf, scheduler="edf")
+    assert sim.misses == 0
+    for t in res.tasks:
+        assert sim.tasks[t.name].max_response <= t.wcrt + 1e-9
+    # an integer set at U = 1 with jitter: the demand check over one hyperperiod passes,
+    # Spuri's search has no end; the worst-case jitter pattern stays within D
+    ts = TaskSet((Task("a", 2, 4, priority=1, jitter=1.0), Task("b", 2, 4, priority=2)))
+    res = analyze_edf(ts)
+    assert res.schedulable and busy_period([(2, 4, 4, 1.0), (2, 4, 4, 0.0)]) is None
+    assert [t.bound for t in res.tasks] == ["deadline", "deadline"]
+    for mode in ("worst", "random", "none"):
+        sim = simulate(list(ts.tasks), 400.0, scheduler="edf", jitter=mode, seed=1)
+        assert sim.misses == 0
+    # below U = 1 Spuri's bound stays; an unschedulable set with no bound says so
+    below = analyze_edf(TaskSet((Task("a", 2, 5, priority=2), Task("b", 4, 7, priority=1))))
+    assert {t.bound for t in below.tasks} == {"spuri"}
+    over = analyze_edf(TaskSet((Task("a", 3, 5, priority=1), Task("b", 3, 5, priority=2))))
+    assert not over.schedulable
+    assert [(t.wcrt, t.bound, t.schedulable) for t in over.tasks] == [(None, "none", False)] * 2

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import tomllib
@@ -18,7 +19,8 @@ ROOT = Path(__file__).resolve().parents[1]
 ORIGINALS = {"barrel_robots": "tasksets/barrel_robots.toml", "example": "tasksets/example.toml",
              "test1": "experiments/scenarios/test1.toml",
              "test2": "experiments/scenarios/test2.toml",
-             "smoke": "experiments/sweeps/smoke.toml"}
+             "smoke": "experiments/sweeps/smoke.toml",
+             "quickstart": "examples/quickstart.ipynb"}
 
 
 def test_pyproject_license_is_spdx_with_a_license_file() -> None:
@@ -96,10 +98,29 @@ def test_rtsim_reproduce_passes_every_option_of_the_module(capsys) -> None:
                                       "--quiet"])
     got = vars(reproduce.parse_args(argv_for(args)))
     assert got == {"out": "x", "quick": True, "seed": 3, "duration": 5.0, "workers": 1,
-                   "docs": "d", "quiet": True}
+                   "docs": "d", "quiet": True, "force": False}
     with pytest.raises(SystemExit):
         reproduce.parse_args(["--help"])
     module_opts = set(re.findall(r"--[a-z]+", capsys.readouterr().out)) - {"--help"}
     sub = next(a for a in build_parser()._actions if a.dest == "command").choices["reproduce"]
     cli_opts = {o for a in sub._actions for o in a.option_strings if o.startswith("--")}
     assert module_opts == cli_opts - {"--help"}
+
+
+def test_classifiers_claim_what_ci_tests() -> None:
+    """CI runs Python 3.11 on Linux: the classifiers claim that and no more."""
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text("utf-8"))["project"]
+    versions = {c.rsplit(" :: ", 1)[1] for c in meta["classifiers"]
+                if c.startswith("Programming Language :: Python :: 3.")}
+    assert versions == {"3.11"}
+    assert "Operating System :: OS Independent" not in meta["classifiers"]
+    assert "Operating System :: POSIX :: Linux" in meta["classifiers"]
+
+
+def test_long_description_has_no_relative_links() -> None:
+    """The package index shows the readme without the repository beside it."""
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text("utf-8"))["project"]
+    readme = meta["readme"] if isinstance(meta["readme"], str) else meta["readme"]["file"]
+    text = (ROOT / readme).read_text("utf-8")
+    links = re.findall(r"\]\(([^)\s]+)\)", text)
+    assert all(link.startswith(("https://", "http://", "#")) for link in links), links

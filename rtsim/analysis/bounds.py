@@ -8,7 +8,9 @@
   task i tested at t = min(D_i, p_i), a higher task j contributes ⌈t/p_j⌉ e_j with the
   ceiling kept exact when both periods scale with w (the window itself: period w) or both are
   fixed, and bounded by t/p_j + 1 otherwise. Eq 7 is that bound for the chain, Eq 11 its
-  maximum over T_lp. w_sch = max(Eq 7, Eq 11).
+  maximum over T_lp. w_sch = max(Eq 7, Eq 11). Release jitter (the paper has none; a task's
+  or the window's ``jitter``) shortens a task's own time to D − J and adds ⌈J_j/P_j⌉ jobs
+  of each jittered higher task (``_sufficient``).
 - w_rta: the least w at which the exact analysis (:func:`rtsim.analysis.rta.analyze`, chain as
   one task of cost g) finds every task schedulable.
 - w_susp: the least w at which the suspension-aware analysis (Δt with the CPU idle,
@@ -80,7 +82,14 @@ def _entries(ts: TaskSet) -> list[tuple[Task, bool]]:
 
 
 def _sufficient(task: Task, scaled: bool, higher: Sequence[tuple[Task, bool]]) -> float:
-    """Least w passing the ⌈x⌉ ≤ x + 1 test for ``task`` at t = min(D, p) (module doc)."""
+    """Least w passing the ⌈x⌉ ≤ x + 1 test for ``task`` at t = min(D, p) (module doc).
+
+    Release jitter (ms, also on tasks whose period scales with w): the task's own J shortens
+    the time its job has, t = D − J; a higher task's J_j adds at most ⌈J_j/P_j⌉ jobs, since
+    ⌈(t + J_j)/P_j⌉ ≤ ⌈t/P_j⌉ + ⌈J_j/P_j⌉ and ⌈t/P_j⌉ ≤ ⌈min(D, p)/P_j⌉. For a period that
+    scales with w, P_j is taken at the jitter-free result w0 ≤ w (so ⌈J_j/P_j(w)⌉ is at most
+    the count used). With no jitter this is the paper's form exactly.
+    """
     assert task.deadline is not None
     d = min(task.deadline, task.period)  # in units of w when ``scaled``, else ms
     const = task.wcet  # demand terms that do not depend on w
@@ -91,12 +100,24 @@ def _sufficient(task: Task, scaled: bool, higher: Sequence[tuple[Task, bool]]) -
         else:
             const += t.wcet
             per_w += t.wcet / t.period
-    if scaled:  # const + w·d·per_w ≤ d·w
-        return math.inf if per_w >= 1.0 else const / (d * (1.0 - per_w))
-    # fixed deadline d ms: const + (d/w)·per_w ≤ d
-    if const >= d:
+
+    def solve(const: float, own_j: float) -> float:
+        if scaled:  # const + w·d·per_w ≤ d·w − J
+            return math.inf if per_w >= 1.0 else (const + own_j) / (d * (1.0 - per_w))
+        # fixed deadline d ms: const + (d/w)·per_w ≤ d − J
+        if const >= d - own_j:
+            return math.inf
+        return d * per_w / (d - own_j - const)
+
+    w0 = solve(const, 0.0)
+    jittered = [(t, s) for t, s in higher if t.jitter > 0]
+    if not jittered and task.jitter == 0:
+        return w0
+    if not math.isfinite(w0):
         return math.inf
-    return d * per_w / (d - const)
+    extra = math.fsum(math.ceil(t.jitter / (t.period * w0 if s else t.period) - CEIL_TOL)
+                      * t.wcet for t, s in jittered)
+    return solve(const + extra, task.jitter)
 
 
 def w_eq7_of(ts: TaskSet) -> float:
@@ -142,9 +163,9 @@ def _snap(ts: TaskSet, hi: float) -> float:
             continue
         cands = [r / scale[task.name][1]] if task.name in scale else []
         for j in resolved[:i]:
-            if j.name in scale:
+            if j.name in scale:  # ⌈(R + J_j)/(m·c_j·w)⌉ steps at w = (R + J_j)/(m·c_j)
                 m = ceil_div(r + j.jitter, j.period)
-                cands.append(r / (m * scale[j.name][0]))
+                cands.append((r + j.jitter) / (m * scale[j.name][0]))
         best = max(best, *cands) if cands else best
     return best
 
@@ -386,6 +407,9 @@ def window_bounds(ts: TaskSet | str | os.PathLike[str], n: int | None = None,
         "n", "r_H", "e_cal", "e_trans", "k", "e_scan", "e_estimate", "e_send", "e_recv",
         "delta_t", "e_sched")}
     inputs["priority"] = win.priority
+    for key in ("jitter", "offset"):
+        if getattr(win, key):
+            inputs[key] = getattr(win, key)
     inputs["hp"] = [_task_input(t) for t in ts.hp]
     inputs["lp"] = [_task_input(t) for t in ts.lp]
     eq7, eq11 = w_eq7_of(ts), w_eq11_of(ts)

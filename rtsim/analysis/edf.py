@@ -43,6 +43,12 @@ such points L_i is constant and L_i(a) − a falls). Jobs with a deadline equal 
 interfering (ties can go against the analysed job). With J = 0 this is Spuri's theorem
 exactly.
 
+**Where Spuri's search does not close** (U = 1 with jitter, or periods without a common
+multiple, so the synchronous busy period is unbounded) and the demand criterion accepts the
+set, every job meets its deadline, so D is a valid bound: :func:`analyze_edf` reports it with
+``bound = "deadline"`` (``"spuri"`` where Spuri's bound is used). When the criterion fails
+and the search does not close, there is no bound (``"none"``).
+
 **Self-suspension** (the window's radio round trip Δt with the CPU idle): EDF is not optimal
 for self-suspending tasks (Ridouard, Richard & Cottet 2004), and the only treatment used here
 is the one the survey of Chen et al. (Real-Time Systems 55, 2019) confirms sound for EDF:
@@ -265,7 +271,14 @@ def edf_tasks(tasks: Sequence[Task], overhead: float = 0.0) -> list[EdfTask]:
 
 @dataclass(frozen=True)
 class EdfTaskResult:
-    """One task under EDF: its parameters at the analysed window and Spuri's WCRT (ms)."""
+    """One task under EDF: its parameters at the analysed window and its WCRT bound (ms).
+
+    ``bound`` says which bound ``wcrt`` is: ``"spuri"`` (Spuri's response-time bound),
+    ``"deadline"`` (the relative deadline D: the demand criterion accepts the set, so every
+    job meets its deadline, but Spuri's search does not close — the synchronous busy period is
+    unbounded at U = 1 with jitter or with periods that have no common multiple) or ``"none"``
+    (no bound: ``wcrt`` is None).
+    """
 
     name: str
     priority: int
@@ -276,6 +289,7 @@ class EdfTaskResult:
     utilization: float
     wcrt: float | None
     schedulable: bool
+    bound: str = "spuri"
 
     def as_dict(self) -> dict[str, Any]:
         """Plain dict."""
@@ -328,10 +342,14 @@ def analyze_edf(ts: TaskSet, w: float | None = None, *, overhead: float | None =
     for i, task in enumerate(tasks):
         r = spuri_wcrt(i, et)
         assert task.deadline is not None
+        kind = "spuri" if r is not None else "none"
+        if verdict.schedulable and (r is None or r > task.deadline):
+            # the demand criterion is exact: every job meets its deadline, so R <= D
+            r, kind = task.deadline, "deadline"
         ok = r is not None and r <= task.deadline + DEADLINE_TOL
         results.append(EdfTaskResult(task.name, task.priority, task.wcet, task.period,
                                      task.deadline, task.jitter, task.wcet / task.period,
-                                     r, ok))
+                                     r, ok, kind))
     return EdfAnalysis(tasks=tuple(results), utilization=utilization(et),
                        schedulable=verdict.schedulable, limit=verdict.limit,
                        limit_kind=verdict.limit_kind, failed_at=verdict.failed_at,

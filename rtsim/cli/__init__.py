@@ -9,11 +9,12 @@ Input errors, and files that cannot be read or written, print one line,
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 import os
 import re
 import sys
-from typing import Any
+from typing import Any, NoReturn
 
 from rtsim.errors import InputError
 
@@ -72,6 +73,7 @@ class Parser(argparse.ArgumentParser):
     have a metavariable (:data:`METAVARS`) and a help text (:data:`HELPS`)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)  # --hor is not --horizon: say so instead
         desc = plain(kwargs.get("description"))
         kwargs["description"] = desc[:1].upper() + desc[1:] if desc else desc
         kwargs["epilog"] = plain(kwargs.get("epilog"))
@@ -88,6 +90,21 @@ class Parser(argparse.ArgumentParser):
             action.help = HELPS.get(action.dest)
         action.help = plain(action.help) if action.help else action.help
         return action
+
+    def option_strings(self) -> list[str]:
+        """Every option this parser knows (``--out``, ``-q``, ...)."""
+        return [o for a in self._actions for o in a.option_strings]
+
+    def error(self, message: str) -> NoReturn:
+        """One line on stderr, exit 2: the problem, a did-you-mean where one fits, and where
+        the options are listed (the usage is printed by ``--help`` only)."""
+        m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if m:
+            choices = re.findall(r"'([^']*)'", m.group(2))
+            close = difflib.get_close_matches(m.group(1), choices, n=1, cutoff=0.5)
+            if close:
+                message += f" (did you mean '{close[0]}'?)"
+        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -124,6 +141,52 @@ def check_option_ranges(parser: argparse.ArgumentParser, args: argparse.Namespac
         if value is not None:
             name = max(action.option_strings, key=len)
             limits.check(f"option: {name}", value, name)
+
+
+def suggest(token: str, options: list[str]) -> str | None:
+    """The option ``token`` was probably meant as: one it abbreviates, else the closest."""
+    name = token.split("=", 1)[0]
+    longs = [o for o in options if o.startswith("--")]
+    prefixed = [o for o in longs if o.startswith(name)] if name.startswith("--") else []
+    if len(prefixed) == 1:
+        return prefixed[0]
+    close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
+    return close[0] if close else None
+
+
+def unknown_arguments(parser: argparse.ArgumentParser, command: str | None,
+                      extra: list[str]) -> str:
+    """The one-line error for arguments no option took: the first unknown option with a
+    did-you-mean, else the first stray value."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    p = sub.choices.get(command) if command else parser
+    prog = p.prog if p is not None else "rtsim"
+    options = p.option_strings() if isinstance(p, Parser) else []
+    for token in extra:
+        if token.startswith("-") and len(token) > 1:
+            hint = suggest(token, options)
+            tail = f" (did you mean {hint}?)" if hint else ""
+            return f"{prog}: unknown option {token.split('=', 1)[0]}{tail} (see {prog} --help)"
+    return f"{prog}: unexpected argument {extra[0]!r} (see {prog} --help)"
+
+
+def _unknown_before_parsing(parser: argparse.ArgumentParser, argv: list[str]) -> str | None:
+    """An unknown option is reported before argparse's own checks (which would otherwise
+    complain first about a required option that the misspelt one was meant to be)."""
+    command = next((a for a in argv if a in COMMANDS), None)
+    if command is None:
+        return None
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    known = set(sub.choices[command].option_strings())
+    after = argv[argv.index(command) + 1:]
+    if "--" in after:
+        after = after[:after.index("--")]
+    for token in after:
+        name = token.split("=", 1)[0]
+        if (token.startswith("-") and len(token) > 1 and name not in known
+                and not re.fullmatch(r"-[\d.].*", token)):
+            return unknown_arguments(parser, command, [token])
+    return None
 
 
 class Terminated(KeyboardInterrupt):
@@ -176,7 +239,16 @@ def main(argv: list[str] | None = None) -> int:
         previous = _signals()
         _streams()
         parser = build_parser()
-        args = parser.parse_args(argv)
+        argv = sys.argv[1:] if argv is None else list(argv)
+        early = _unknown_before_parsing(parser, argv)
+        if early:
+            print(one_line(early), file=sys.stderr)
+            return 2
+        args, extra = parser.parse_known_args(argv)
+        if extra:
+            print(one_line(unknown_arguments(parser, getattr(args, "command", None), extra)),
+                  file=sys.stderr)
+            return 2
         check_option_ranges(parser, args)
         return int(args.func(args) or 0)
     except InputError as exc:

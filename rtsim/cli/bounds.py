@@ -33,6 +33,8 @@ def register(sub: Any) -> None:
     p.add_argument("--hough-radius", metavar="RANGE", default=None,
                    help="r_H in cm: a number, a list or a range 10..50:10 (default: the file's)")
     p.add_argument("--json", action="store_true", help="print JSON (a list for several rows)")
+    p.add_argument("--force", action="store_true",
+                   help="run even when a value looks like a mistake of unit")
     p.set_defaults(func=run)
 
 
@@ -52,8 +54,10 @@ def _values(args: argparse.Namespace, n0: int, r0: float) -> tuple[list[int], li
         if r <= 0:
             raise InputError(
                 f"--hough-radius: must be positive (cm), got {r:g} in {args.hough_radius!r}")
+    from rtsim.cli.plausible import check_hough_radius
     from rtsim.io.limits import check
 
+    check_hough_radius(args, rs)
     for n in ns:
         check("option: --followers", n, "--followers")
     for r in rs:

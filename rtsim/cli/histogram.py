@@ -43,6 +43,8 @@ def register(sub: Any) -> None:
     p.add_argument("--followers", type=int, help="n, for a processing-window set")
     p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
     p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
+    p.add_argument("--force", action="store_true",
+                   help="run even when a value looks like a mistake of unit")
     p.set_defaults(func=run)
 
 
@@ -76,6 +78,15 @@ def _source(args: argparse.Namespace) -> Any:
                          f"--window apply to processing-window sets only")
     if changes:
         ts = ts.with_window(**changes)
+    from rtsim.cli.plausible import check_horizon, check_hough_radius
+
+    if args.hough_radius is not None:
+        check_hough_radius(args, [args.hough_radius])
+    if ts.window is not None:
+        from rtsim.analysis.bounds import window_bounds
+
+        w = args.window if args.window is not None else window_bounds(ts).w_sch
+        check_horizon(args, args.horizon, w)
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed}")
     if args.exec_model == "uniform":

@@ -31,7 +31,10 @@ def register(sub: Any) -> None:
                    help="processes (default min(6, CPU count)); 1 runs in this process")
     p.add_argument("--docs", default=None, metavar="DIR",
                    help="also write the documentation's figures (PNG, 100 dpi) to DIR")
-    p.add_argument("--quiet", action="store_true", help="no progress lines, no table")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress lines, no table")
+    p.add_argument("--force", action="store_true",
+                   help="run even when --duration looks like a mistake of unit (over 6 "
+                        "simulated hours)")
     p.set_defaults(func=run)
 
 
@@ -42,12 +45,15 @@ def argv_for(args: Any) -> list[str]:
         value = getattr(args, opt)
         if value is not None:
             argv += [f"--{opt}", str(value)]
-    return argv + [f"--{flag}" for flag in ("quick", "quiet") if getattr(args, flag)]
+    return argv + [f"--{flag}" for flag in ("quick", "quiet", "force") if getattr(args, flag)]
 
 
 def run(args: Any) -> int:
     """Run the reproduction, then write the reports."""
+    from rtsim.cli.plausible import check_duration
     from rtsim.report import write_run_report
+
+    check_duration(args, args.duration)
     from rtsim.reproduce import MODES, TESTS, main
 
     def reports(out: Path) -> None:  # in the staging directory, before the swap

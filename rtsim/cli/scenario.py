@@ -38,10 +38,12 @@ def register(sub: Any) -> None:
     p = sub.add_parser("scenario", help="run a robot-group scenario (schedule + world)",
                        description=__doc__.splitlines()[0])
     p.add_argument("file", help="scenario TOML file")
+    from rtsim.control.policy import POLICIES
+
     p.add_argument("--policy", default=None, metavar="NAME",
-                   help="adjustment policy, overriding the file's [adjust] policy: adjust (the "
-                        "paper's algorithm, the default), fixed-wsch, min-msb, margin, or "
-                        "package.module:Name (README: Adjustment policies)")
+                   help="adjustment policy, overriding the file's [adjust] policy: "
+                        f"{', '.join(POLICIES)} (adjust, the paper's algorithm, is the "
+                        "default), or package.module:Name (docs/adjustment.md)")
     p.add_argument("--mode", choices=MODES, default=None,
                    help="alias of --policy: adjust (the paper's algorithm), fixed-wsch (w = "
                         "w_sch, speed never lowered) or min-msb (w = min MSB, speed never "
@@ -53,13 +55,17 @@ def register(sub: Any) -> None:
                    help="execution times of the fixed segments (default wcet)")
     p.add_argument("--no-figures", action="store_true", help="do not draw the PNG figures")
     p.add_argument("--parquet", action="store_true", help="also write windows.parquet")
+    p.add_argument("--format", dest="fig_format", choices=("png", "svg", "pdf"), default="png",
+                   help="file format of the figures (default png; svg and pdf are vector)")
+    p.add_argument("--dpi", type=int, default=None, metavar="N",
+                   help="resolution of PNG figures (default 120)")
     p.add_argument("--perfetto", metavar="FILE",
                    help="also write the schedule as a Chrome/Perfetto trace (JSON; open in "
                         "ui.perfetto.dev)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--force", action="store_true",
                    help="run even above the work limits (2e6 windows, 2e8 world steps x "
-                        "followers)")
+                        "followers), or a duration over 6 simulated hours")
     p.set_defaults(func=run)
 
 
@@ -73,6 +79,9 @@ def run(args: Any) -> int:
                          f"{args.duration!r}")
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed!r}")
+    from rtsim.cli.plausible import check_duration
+
+    check_duration(args, args.duration)
     from rtsim.io.scenario import load_scenario
     from rtsim.io.work import check_scenario
 
@@ -188,7 +197,10 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
         label = f"{res.inputs.name or Path(args.file).stem}, {args.mode}"
         df = _figure_table(out / "windows.csv", int(res.summary["n"]),
                            int(res.summary["windows"]))
-        paths = write_scenario_figures(df, out, label=label)
+        from rtsim.plots.scenario import DPI
+
+        paths = write_scenario_figures(df, out, label=label, fmt=args.fig_format,
+                                       dpi=args.dpi or DPI)
         del df
         outputs += [p.name for p in paths]
     inp = res.inputs

@@ -66,7 +66,8 @@ def register(sub: Any) -> None:
                    help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--force", action="store_true",
-                   help="run even when the horizon gives more than 5e7 jobs")
+                   help="run even when the horizon gives more than 5e7 jobs, or looks like a "
+                        "mistake of unit (shorter than one window)")
     p.set_defaults(func=run)
 
 
@@ -176,6 +177,11 @@ def _run(args: argparse.Namespace, files: Any) -> int:
 
     w_est = args.window if args.window is not None else (
         bounds.w_sch if bounds is not None else None)
+    from rtsim.cli.plausible import check_horizon, check_hough_radius
+
+    if args.hough_radius is not None:
+        check_hough_radius(args, [args.hough_radius])
+    check_horizon(args, args.horizon, w_est)
     check_simulate(ts, args.horizon, w_est, f"--horizon {args.horizon:g}", force=args.force)
     rng = _gantt_range(args.gantt_range, args.horizon) if args.gantt else None
     for opt in ("jobs", "trace"):

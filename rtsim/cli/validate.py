@@ -50,6 +50,9 @@ def register(sub: Any) -> None:
                    "quick 1; 0 = none)")
     p.add_argument("--seed", type=int, default=None, help="the validation's seed (default 1)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
+    p.add_argument("--force", action="store_true",
+                   help="run even when a value looks like a mistake of unit")
+
     p.set_defaults(func=run)
 
 
@@ -65,6 +68,9 @@ def run(args: argparse.Namespace) -> int:
     if args.hough_radius is not None:
         changes["r_H"] = tuple(float(x) for x in parse_values(args.hough_radius,
                                                               "--hough-radius"))
+        from rtsim.cli.plausible import check_hough_radius
+
+        check_hough_radius(args, changes["r_H"])
     if args.windows is not None:
         changes["windows"] = args.windows
     if args.histograms is not None:
@@ -95,15 +101,14 @@ def run(args: argparse.Namespace) -> int:
             e = s.get(key)
             if e and e.get("w_sch_over_w_sim", {}).get("min") is not None:
                 r = e["w_sch_over_w_sim"]
-                print(f"rtsim: validate: {key}: w_sch/w_sim {r['min']:.4f}..{r['max']:.4f}",
-                      file=sys.stderr)
+                print(f"{key}: w_sch/w_sim {r['min']:.4f}..{r['max']:.4f}")
         fails = [f for f in outcome.failures if f.severity == "failure"]
         for f in fails[:5]:
-            print(f"rtsim: FAILURE {f.config} {f.task} {f.mode}: {f.check}: "
-                  f"{f.value:.6g} > {f.bound:.6g}", file=sys.stderr)
+            print(f"FAILURE {f.config} {f.task} {f.mode}: {f.check}: "
+                  f"{f.value:.6g} > {f.bound:.6g}")
         for e in outcome.point_errors[:5]:
-            print(f"rtsim: failed point: {e}", file=sys.stderr)
-        print(f"rtsim: validate: {len(fails)} failure(s), {len(outcome.point_errors)} failed "
-              f"point(s) -> {outcome.out_dir / 'report.md'}", file=sys.stderr)
+            print(f"failed point: {e}")
+        print(f"{len(fails)} failure(s), {len(outcome.point_errors)} failed "
+              f"point(s) -> {outcome.out_dir / 'report.md'}")
     return 0 if outcome.ok else 1
 

@@ -246,6 +246,10 @@ register(_TS + "window.rho_min", 25, 1e5, "cm", "beyond the follower radius r_F 
          "within 1 km", lo_open=True)
 for _k in ("e_scan", "e_estimate", "e_send", "e_recv", "delta_t", "e_sched"):
     register(_TS + f"window.{_k}", 0, 1e7, "ms", "a chain step of at most 2.8 h")
+register(_TS + "window.offset", 0, _MS_MAX, "ms", "as a task's offset: the first window "
+         "arrives then; per-window tasks count their offsets from it")
+register(_TS + "window.jitter", 0, _MS_MAX, "ms", "as a task's jitter: each window job is "
+         "released up to J after its arrival")
 
 _SC = "scenario: "
 register(_SC + "duration", 0, 1e6, "s", "up to 11.6 simulated days", lo_open=True)
@@ -331,6 +335,7 @@ register(_OP + "--point", 0, 1e5, "", "a point index (a grid has at most 1e5 poi
          integer=True)
 register(_OP + "--histograms", 0, 1e4, "", "histogram sets written", integer=True)
 register(_OP + "--bins", 1, 1e5, "bins", "histogram bins", integer=True)
+register(_OP + "--dpi", 50, 1200, "dots/inch", "resolution of PNG figures", integer=True)
 register(_OP + "--fps", 1, 240, "frames/s", "an animation frame rate", integer=True)
 register(_OP + "--every", 1, 1e6, "windows", "one frame per this many windows", integer=True)
 register(_OP + "--start", 0, 1e6, "s", "as --duration")

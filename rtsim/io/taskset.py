@@ -63,8 +63,9 @@ TASK_KEYS = ("name", "wcet", "period", "deadline", "priority", "offset", "bcet",
              "jitter")
 TASK_REQUIRED = ("name", "wcet", "period")
 WINDOW_KEYS = ("name", "priority", "n", "r_H", "e_cal", "e_trans", "k", "e_scan",
-               "e_estimate", "e_send", "e_recv", "delta_t", "e_sched", "rho_min", "k_value")
-_WINDOW_OPTIONAL = ("name", "rho_min", "k_value")
+               "e_estimate", "e_send", "e_recv", "delta_t", "e_sched", "rho_min", "k_value",
+               "jitter", "offset")
+_WINDOW_OPTIONAL = ("name", "rho_min", "k_value", "jitter", "offset")
 _WINDOW_TIMES = ("e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv", "delta_t",
                  "e_sched")
 
@@ -160,6 +161,9 @@ def _parse_window(source: str, table: object) -> WindowSpec:
                 raise TaskSetError(f"{where}: {key}: applies only with k = \"geometric\"")
     for key in _WINDOW_TIMES:
         values[key] = _number(where, key, table[key], positive=False)
+    for key in ("jitter", "offset"):  # the window's release jitter and first arrival (ms)
+        if key in table:
+            values[key] = _number(where, key, table[key], positive=False)
     try:
         return WindowSpec(**values)
     except TaskSetError as exc:  # pragma: no cover - everything is checked above

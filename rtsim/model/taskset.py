@@ -98,7 +98,8 @@ class TaskSet:
         return replace(self, window=self.window.with_(**changes))
 
     def window_task(self, w: float, e_hough_ms: float | None = None) -> Task:
-        """The window chain as one task of period and deadline ``w`` and cost g (Eq 5)."""
+        """The window chain as one task of period and deadline ``w`` and cost g (Eq 5), with
+        the window's jitter and offset."""
         if self.window is None:
             raise TaskSetError(f"task set '{self.name}' has no [window]")
         segs = self.window.segments(e_hough_ms)
@@ -108,6 +109,8 @@ class TaskSet:
             period=w,
             priority=self.window.priority,
             segments=segs,
+            jitter=self.window.jitter,
+            offset=self.window.offset,
         )
 
     def at_window(self, w: float, e_hough_ms: float | None = None) -> TaskSet:

@@ -22,6 +22,11 @@ class WindowSpec:
     radio round trip Δt (a suspension) → receive per follower → scheduler cost e_sched.
     ``rho_min`` (cm) is set when k is the geometric bound for followers at distance ≥ rho_min
     (``k = "geometric"`` in a file; k then holds that count, docs/model/lower-bound.md).
+    ``jitter`` and ``offset`` (ms) are the window task's release jitter and first arrival,
+    as for any task (:class:`~rtsim.model.task.Task`): window job k arrives at
+    offset + (the sum of the windows before it) and is released up to ``jitter`` later; its
+    deadline (one window) counts from the arrival. Tasks with per-window periods count their
+    offsets from the window's.
     """
 
     n: int
@@ -38,6 +43,8 @@ class WindowSpec:
     priority: int
     name: str = "window"
     rho_min: float | None = None
+    jitter: float = 0.0
+    offset: float = 0.0
 
     def __post_init__(self) -> None:
         where = f"window '{self.name}'"
@@ -57,7 +64,7 @@ class WindowSpec:
         if self.rho_min is not None:
             object.__setattr__(self, "rho_min", check_time(where, "rho_min", self.rho_min))
         for field in ("e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv",
-                      "delta_t", "e_sched"):
+                      "delta_t", "e_sched", "jitter", "offset"):
             value = check_time(where, field, getattr(self, field), allow_zero=True)
             object.__setattr__(self, field, value)
 
@@ -93,6 +100,9 @@ class WindowSpec:
         """Plain dict of the constants (for JSON and manifests); a geometric k is written as
         ``k = "geometric"`` with its ``rho_min`` (and ``k_value``, the count it stands for)."""
         out = asdict(self)
+        for key in ("jitter", "offset"):  # written only when set (files from before stay)
+            if not out[key]:
+                del out[key]
         if self.rho_min is None:
             del out["rho_min"]
         else:

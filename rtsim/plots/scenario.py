@@ -714,11 +714,24 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
 # --- files -------------------------------------------------------------------------------
 
 
+#: The file formats every command that draws offers (``--format``): raster PNG, or vector
+#: SVG and PDF for papers (fonts kept as text in SVG, embedded as Type 42 in PDF).
+FIGURE_FORMATS: tuple[str, ...] = ("png", "svg", "pdf")
+
+
 def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI) -> Path:
-    """Write ``fig`` as PNG atomically (temp file beside ``path``, then rename); close it."""
+    """Write ``fig`` atomically (temp file beside ``path``, then rename) in the format its
+    suffix names (:data:`FIGURE_FORMATS`; ``dpi`` for PNG); close it."""
     path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=dpi)
+    fmt = path.suffix.lstrip(".").lower() or "png"
+    if fmt not in FIGURE_FORMATS:
+        raise ValueError(f"figure format must be one of {', '.join(FIGURE_FORMATS)}, got {fmt!r}")
+    import matplotlib
+
+    with atomic_path(path) as tmp, matplotlib.rc_context({"svg.fonttype": "none",
+                                                          "pdf.fonttype": 42}):
+        fig.savefig(tmp, format=fmt, dpi=dpi,
+                    metadata={"Date": None} if fmt in ("svg", "pdf") else None)
     if getattr(fig.canvas, "manager", None) is not None:  # made by pyplot: release it
         import matplotlib.pyplot as plt
 
@@ -747,7 +760,7 @@ _TITLES = {
 
 def write_scenario_figures(df: pd.DataFrame, out_dir: str | os.PathLike[str], prefix: str = "",
                            *, label: str | None = None, data: bool = False,
-                           dpi: int = DPI) -> list[Path]:
+                           dpi: int = DPI, fmt: str = "png") -> list[Path]:
     """Write every figure of :data:`SCENARIO_FIGURES` as ``<prefix><stem>.png`` in ``out_dir``.
 
     ``label`` (e.g. ``"Test 2, adjust"``) heads each title; with ``data`` each figure's
@@ -757,7 +770,8 @@ def write_scenario_figures(df: pd.DataFrame, out_dir: str | os.PathLike[str], pr
     written: list[Path] = []
     for stem, plot in SCENARIO_FIGURES.items():
         title = f"{label}: {_TITLES[stem]}" if label else _TITLES[stem]
-        written.append(save_figure(plot(df, title=title), out / f"{prefix}{stem}.png", dpi=dpi))
+        written.append(save_figure(plot(df, title=title), out / f"{prefix}{stem}.{fmt}",
+                                   dpi=dpi))
         if data:
             csv = out / f"{prefix}{stem}.csv"
             write_table(csv, figure_data(df, stem))

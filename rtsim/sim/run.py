@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -106,6 +107,9 @@ def build_cpu(
         raise InputError(f"{ts.source or ts.name or 'task set'}: has no [window], so a "
                          f"window does not apply")
     for task in ts.tasks:
+        if task.per_window and ts.window is not None and ts.window.offset:
+            # a per-window task counts its offset from the window stream's first arrival
+            task = replace(task, offset=task.offset + ts.window.offset)
         cpu.add_task(task)
     return cpu, info
 
