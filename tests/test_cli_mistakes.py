@@ -117,5 +117,5 @@ def test_scenario_writes_svg_figures(tmp_path: Path, capsys: pytest.CaptureFixtu
     for p in out.glob("*.svg"):
         assert p.read_text("utf-8").lstrip().startswith("<?xml") and "<svg" in p.read_text()
     report = (out / "report.html").read_text("utf-8")
-    assert report.count("data:image/svg+xml;base64,") == 5  # the report embeds them
+    assert report.count("data:image/svg+xml;base64,") == len(SCENARIO_FIGURES)  # embedded
     capsys.readouterr()
