@@ -93,7 +93,7 @@ def run(args: Any) -> int:
     if args.policy is not None:
         from rtsim.control.policy import policy_class
 
-        policy_class(args.policy, "--policy")
+        policy_class(args.policy, "--policy", allow_code=True)
     scenario = load_scenario(args.file)
     override = args.policy if args.policy is not None else args.mode
     args.mode = override if override is not None else scenario.adjust.policy

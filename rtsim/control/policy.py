@@ -7,10 +7,12 @@ path's curvature, its actual speed, the scenario's limits) it returns the one de
 :class:`~rtsim.control.adjust.Decision` (w, leader speed target, binding bound, method,
 predicted bounds at the desired and at the chosen speed).
 
-Policies are registered by name (:data:`POLICIES`, :func:`register_policy`), as sweep kinds
-are. A scenario selects one with ``[adjust] policy = "NAME"`` or ``"package.module:Name"`` (a
-user's own class, loaded by :func:`policy_class`); ``rtsim scenario … --policy NAME``
-overrides the file; ``--mode`` is an alias. The registered policies:
+Policies are registered by name (:data:`ADJUSTMENT_POLICIES`, a
+:class:`~rtsim.registry.Registry`; :func:`register_adjustment_policy`), or installed as entry
+points of the group ``rtsim.policies``. A scenario selects one with ``[adjust] policy =
+"NAME"`` or ``"package.module:Name"`` (a user's own class, loaded by :func:`policy_class`; code
+named in a file loads only when the user allows it, :mod:`rtsim.registry`); ``rtsim scenario …
+--policy NAME`` overrides the file; ``--mode`` is an alias. The registered policies:
 
 * ``adjust``: the paper's algorithm (§3.3, docs/model/adjustment.md;
   :func:`rtsim.control.adjust.adjust`);
@@ -33,8 +35,6 @@ is validated in one place, :func:`adjust_options`.
 from __future__ import annotations
 
 import dataclasses
-import difflib
-import importlib
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -55,9 +55,11 @@ from rtsim.control.adjust import (
 )
 from rtsim.control.predict import FollowerEstimate, Predictor, check_number, min_bound_rows
 from rtsim.errors import InputError
+from rtsim.registry import Registry, did_you_mean
 
-__all__ = ["COMMON_KEYS", "POLICIES", "Decision", "Policy", "PolicyInput", "adjust_options",
-           "make_policy", "policy_class", "register_policy"]
+__all__ = ["ADJUSTMENT_POLICIES", "COMMON_KEYS", "POLICIES", "Decision", "Policy",
+           "PolicyInput", "adjust_options", "make_policy", "policy_class",
+           "register_adjustment_policy", "register_policy"]
 
 #: ``[adjust]`` keys every policy understands (options of the decision, ScenarioInputs.adjust).
 COMMON_KEYS: tuple[str, ...] = ("policy", "cap", "cap_factor", "floor_frac", "floor_w",
@@ -126,49 +128,50 @@ class Policy(Protocol):
     def decide(self, ctx: PolicyInput) -> Decision: ...
 
 
-#: Registered policies by name.
-POLICIES: dict[str, type] = {}
+def _policy_class(cls: Any, spec: str, where: str) -> type:
+    """A loaded class as a policy class (``params`` default ``{}``), or an InputError."""
+    if not isinstance(cls, type) or not callable(getattr(cls, "decide", None)):
+        raise InputError(f"{where} is not a policy class (it needs a method "
+                         f"decide(ctx) -> Decision)")
+    if not hasattr(cls, "params"):
+        cls.params = {}  # type: ignore[attr-defined]
+    if not hasattr(cls, "name"):
+        cls.name = spec  # type: ignore[attr-defined]
+    return cls
 
 
-def register_policy(name: str) -> Callable[[type], type]:
+#: Registered adjustment policies by name (entry-point group ``rtsim.policies``).
+ADJUSTMENT_POLICIES: Registry[type] = Registry("adjustment policy", "rtsim.policies",
+                                               _policy_class)
+
+
+def register_adjustment_policy(name: str) -> Callable[[type], type]:
     """Class decorator: register a policy class under ``name`` (sets ``cls.name``)."""
 
     def deco(cls: type) -> type:
-        if name in POLICIES and POLICIES[name] is not cls:
+        if name in ADJUSTMENT_POLICIES and ADJUSTMENT_POLICIES[name] is not cls:
             raise ValueError(f"policy {name!r} is already registered")
         cls.name = name  # type: ignore[attr-defined]
         if not hasattr(cls, "params"):
             cls.params = {}  # type: ignore[attr-defined]
-        POLICIES[name] = cls
+        ADJUSTMENT_POLICIES.register(name, cls)
         return cls
 
     return deco
 
 
-def policy_class(spec: object, where: str = "policy") -> type:
-    """The policy class named ``spec``: a registered name or ``"package.module:Name"``.
-    An unknown name is an :class:`InputError` with a did-you-mean."""
-    if isinstance(spec, str) and spec in POLICIES:
-        return POLICIES[spec]
-    if isinstance(spec, str) and ":" in spec:
-        mod, _, attr = spec.partition(":")
-        try:
-            cls = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError, ValueError, TypeError) as exc:
-            raise InputError(f"{where}: cannot load {spec!r} ({exc})") from None
-        if not isinstance(cls, type) or not callable(getattr(cls, "decide", None)):
-            raise InputError(f"{where}: {spec!r} is not a policy class (it needs a method "
-                             f"decide(ctx) -> Decision)")
-        if not hasattr(cls, "params"):
-            cls.params = {}
-        if not hasattr(cls, "name"):
-            cls.name = spec
-        return cls
-    close = (difflib.get_close_matches(spec, list(POLICIES), n=1, cutoff=0.5)
-             if isinstance(spec, str) else [])
-    hint = f" (did you mean '{close[0]}'?)" if close else ""
-    raise InputError(f"{where}: must be one of {', '.join(POLICIES)} or 'package.module:Name', "
-                     f"got {spec!r}{hint}")
+#: Old names, kept for code that uses them: :data:`ADJUSTMENT_POLICIES`,
+#: :func:`register_adjustment_policy`.
+POLICIES = ADJUSTMENT_POLICIES
+register_policy = register_adjustment_policy
+
+
+def policy_class(spec: object, where: str = "policy", *,
+                 allow_code: bool | None = None) -> type:
+    """The policy class named ``spec``: a registered name, an entry point or
+    ``"package.module:Name"`` (code: :func:`rtsim.registry.load_code`). An unknown name is an
+    :class:`InputError` with a did-you-mean."""
+    return ADJUSTMENT_POLICIES.resolve(spec, where, allow_code=allow_code)  # type: ignore[arg-type]
 
 
 def make_policy(spec: object, params: Mapping[str, Any] | None = None,
@@ -182,9 +185,9 @@ def make_policy(spec: object, params: Mapping[str, Any] | None = None,
     for key in params:
         if key not in known:
             names = tuple(common) + known
-            close = difflib.get_close_matches(key, names, n=1, cutoff=0.6)
+            close = did_you_mean(key, names)
             owner = [n for n, c in POLICIES.items() if key in c.params]  # type: ignore[attr-defined]
-            hint = (f" (did you mean '{close[0]}'?)" if close
+            hint = (close if close
                     else f" (a key of policy '{owner[0]}', not of "
                          f"'{cls.name}')" if owner  # type: ignore[attr-defined]
                     else f" (known keys: {', '.join(names)})")
@@ -236,7 +239,7 @@ def _rows_at_vld(ctx: PolicyInput) -> list[tuple[float, float, float, float]]:
                     ctx.v_now, ctx.rollout)(ctx.v_ld)
 
 
-@register_policy("adjust")
+@register_adjustment_policy("adjust")
 class PaperPolicy:
     """The paper's adjustment algorithm (§3.3, Eqs 22–26; :func:`rtsim.control.adjust.adjust`):
     w = min(min MSB, cap) at V_Ld when min MSB ≥ w_sch, else w = w_sch and the largest speed
@@ -250,7 +253,7 @@ class PaperPolicy:
                             ctx.scan_points, ctx.v_now, ctx.rollout)
 
 
-@register_policy("fixed-wsch")
+@register_adjustment_policy("fixed-wsch")
 class FixedWschPolicy:
     """w = w_sch, V_L = V_Ld always; ``feasible``: min MSB ≥ w_sch."""
 
@@ -264,7 +267,7 @@ class FixedWschPolicy:
                         m >= ctx.w_sch * (1.0 - _TOL), rows, rows, m, {})
 
 
-@register_policy("min-msb")
+@register_adjustment_policy("min-msb")
 class MinMsbPolicy:
     """w = min(max(min MSB, floor_w), max(cap, floor_w)), V_L = V_Ld always."""
 
@@ -282,7 +285,7 @@ class MinMsbPolicy:
                         rows, m, {})
 
 
-@register_policy("margin")
+@register_adjustment_policy("margin")
 class MarginPolicy:
     """The paper's algorithm with every predicted bound shrunk by the factor (1 − μ):
 
@@ -311,7 +314,7 @@ class MarginPolicy:
         return d._replace(w=w)
 
 
-@register_policy("lookahead")
+@register_adjustment_policy("lookahead")
 class LookaheadPolicy:
     """The margin policy, made safe ahead of time along the leader's known path commands.
 
@@ -449,7 +452,7 @@ def pad_rows(rows: Sequence[tuple[float, float, float, float]],
     return out
 
 
-@register_policy("noise-aware")
+@register_adjustment_policy("noise-aware")
 class NoiseAwarePolicy:
     """The paper's algorithm against bounds whose predicted V_F, |ρ̇| and |β̇| are padded by
     z·σ (:func:`pad_rows`; σ from the followers' actuation noise and the leader's EKF
@@ -514,7 +517,7 @@ class NoiseAwarePolicy:
                         {"numeric": math.nan if found is None else found})
 
 
-@register_policy("safe")
+@register_adjustment_policy("safe")
 class SafePolicy(LookaheadPolicy):
     """:class:`LookaheadPolicy` on top of :class:`NoiseAwarePolicy`: the current command's and
     every upcoming command's decision are the noise-aware one (padding z·σ, margin μ), the

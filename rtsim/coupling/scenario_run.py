@@ -155,7 +155,8 @@ class ScenarioResult(ResultDisplay):
 
 
 def scenario_inputs(scenario: Any, text: str | None = None,
-                    overrides: Mapping[str, Any] | None = None) -> ScenarioInputs:
+                    overrides: Mapping[str, Any] | None = None,
+                    allow_code: bool | None = None) -> ScenarioInputs:
     """What :func:`run_scenario` runs, prepared once (the world, the task set loaded, the
     resolved values): a caller that runs the same scenario many times (a sweep's worker)
     can keep it and pass it back. Accept :class:`ScenarioInputs`, a path (loaded with
@@ -176,7 +177,7 @@ def scenario_inputs(scenario: Any, text: str | None = None,
 
         path = scenario
         # a file, or a packaged scenario by name ("test2")
-        scenario = load_scenario(path, overrides=overrides)
+        scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
         if text is None:
             text = scenario_bytes(path)[0].decode("utf-8")
     try:
@@ -784,6 +785,7 @@ def run_scenario(
     window_sink: Any = None,
     job_sink: Any = None,
     policy: str | None = None,
+    allow_code: bool | None = None,
     force: bool = False,
     windows: bool = True,
 ) -> ScenarioResult:
@@ -808,6 +810,8 @@ def run_scenario(
     chunks, or a ChunkWriter of jobs.csv (``result.jobs`` is then None). With both, memory
     stays flat on long runs. windows: False leaves ``result.windows`` None (the summary is
     computed from the records' columns either way; what a sweep point needs).
+    allow_code: a scenario file (or its task set) may name code, ``module:Name``
+    (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
     The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
     range, 2e6 windows, 2e8 world steps × followers, the seed's range); ``force=True`` is
     ``--force``.
@@ -828,7 +832,7 @@ def run_scenario(
     from rtsim.io.work import check_coupled, check_seed
 
     check_seed(seed, "run_scenario: seed")
-    inp = _inputs(scenario, text, overrides)
+    inp = scenario_inputs(scenario, text, overrides, allow_code)
     cfg = inp.world
     stop_s: float | None = None
     stop_ms = 0.0

@@ -65,7 +65,7 @@ import math
 import os
 import tomllib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -82,11 +82,9 @@ from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import (
     FORMATION_LAYOUTS,
-    FORMATION_MODELS,
     Formation,
-    chevron,
     fan,
-    in_line,
+    follower_model,
     outer_side,
 )
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
@@ -172,6 +170,8 @@ class Scenario:
     assumptions: Mapping[str, str] = field(default_factory=dict)
     source: str | None = None
     scheduler: str | None = None
+    #: the file may name code (``module:Name``), also in its task set (the user opted in)
+    allow_code: bool = field(default=False, compare=False)
 
     @property
     def n(self) -> int:
@@ -183,7 +183,8 @@ class Scenario:
 
         where = self.source or "<scenario>"
         # a packaged set by its own name ("example" is the generic set, not the paper's)
-        ts = load_taskset(None if self.taskset == "barrel_robots" else self.taskset)
+        ts = load_taskset(None if self.taskset == "barrel_robots" else self.taskset,
+                          allow_code=self.allow_code)
         if ts.window is None:
             raise ScenarioError(f"{where}: taskset: '{self.taskset}' has no [window]")
         ts = ts.with_window(n=self.n, r_H=self.world.thresholds.r_H)
@@ -299,12 +300,7 @@ def _path(src: str, leader: _Table) -> LeaderPath:
 def _formation(src: str, data: object, r_F: float, path: LeaderPath) -> Formation:
     tab = _Table(f"{src}: formation", data, _ANGLES["formation"])
     model = tab.get("model", "l-psi")
-    if model not in FORMATION_MODELS:
-        close = (difflib.get_close_matches(model, FORMATION_MODELS, n=1, cutoff=0.5)
-                 if isinstance(model, str) else [])
-        hint = f" (did you mean '{close[0]}'?)" if close else ""
-        raise ScenarioError(f"{src}: formation.model: must be one of "
-                            f"{', '.join(FORMATION_MODELS)}, got {model!r}{hint}")
+    follower = follower_model(model, f"{src}: formation.model")
     if tab.has("slot"):
         if tab.has("followers") or tab.has("separation") or tab.has("bearing_offset"):
             raise ScenarioError(f"{src}: formation: give [[formation.slot]] or "
@@ -338,7 +334,7 @@ def _formation(src: str, data: object, r_F: float, path: LeaderPath) -> Formatio
         outer = outer_side([g.curvature for g in segs], [g.length for g in segs])
         return _build(src, lambda: fan(args["followers"], args["separation"], offset, r_F=r_F,
                                        outer=outer, model=model))
-    place = in_line if model == "follow-the-leader" else chevron
+    place = follower.place
     return _build(src, lambda: place(args["followers"], args["separation"], offset, r_F=r_F))
 
 
@@ -365,17 +361,25 @@ def _adjust_section(src: str, data: Mapping[str, Any]) -> AdjustConfig:
 
 
 def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
-                   base: Path | None = None) -> Scenario:
+                   base: Path | None = None, *, allow_code: bool | None = None) -> Scenario:
     """Validate a parsed TOML document; ``base`` resolves a relative task-set path.
 
     Every number is then checked against its range (:mod:`rtsim.io.limits`), and the
-    combinations that would run but mean nothing are refused (:func:`_sense`).
+    combinations that would run but mean nothing are refused (:func:`_sense`). A policy named
+    ``module:Name`` (``[adjust] policy``, ``[scheduler] policy``, the task set's) is code: it
+    loads only with ``allow_code=True`` (:func:`rtsim.registry.reading_input`).
     """
     from rtsim.io import limits
+    from rtsim.registry import file_allows_code, reading_input
 
-    scenario = limits.parse_checked("scenario", lambda: _parse_scenario(data, source, base),
-                                    data, source)
-    _sense(scenario, source)
+    allow = file_allows_code(allow_code)
+    with reading_input(allow):
+        scenario = limits.parse_checked("scenario",
+                                        lambda: _parse_scenario(data, source, base), data,
+                                        source)
+        if allow:
+            scenario = replace(scenario, allow_code=True)
+        _sense(scenario, source)
     return scenario
 
 
@@ -473,12 +477,15 @@ def _parse_scenario(data: Mapping[str, Any], source: str,
     top.get("adjust")
     scheduler = _scheduler(src, top.get("scheduler"))
     if scheduler is not None:
-        from rtsim.analysis.bounds import BOUND_SCHEDULER
+        from rtsim.sim.policy import SCHEDULERS
 
-        need = BOUND_SCHEDULER[adjust.lower_bound]
-        if scheduler in ("fp", "edf") and need != scheduler:
+        policy = SCHEDULERS.get(scheduler)  # its registry entry names the bounds that hold
+        if policy is not None and policy.lower_bounds \
+                and adjust.lower_bound not in policy.lower_bounds:
+            need = [n for n, c in SCHEDULERS.items() if adjust.lower_bound in c.lower_bounds]
             raise ScenarioError(f"{src}: adjust.lower_bound: {adjust.lower_bound} assumes the "
-                                f"{need} scheduler, but [scheduler] policy is {scheduler!r}")
+                                f"{' or '.join(need)} scheduler, but [scheduler] policy is "
+                                f"{scheduler!r}")
     wtab = _Table(f"{src}: world", top.get("world", {}))
     step_ms = wtab.get("step_ms", 10.0)
     backend = wtab.get("backend", None)
@@ -533,7 +540,7 @@ def _scheduler(src: str, table: object) -> str | None:
     if table is None:
         return None
     from rtsim.errors import InputError
-    from rtsim.model.policy import resolve_policy
+    from rtsim.sim.policy import resolve_policy
 
     tab = _Table(f"{src}: scheduler", table)
     policy = tab.get("policy", "fp")
@@ -569,11 +576,13 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
 
 
 def load_scenario(path: str | os.PathLike[str],
-                  overrides: Mapping[str, Any] | None = None) -> Scenario:
+                  overrides: Mapping[str, Any] | None = None, *,
+                  allow_code: bool | None = None) -> Scenario:
     """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``).
 
     ``overrides``: dotted paths into the file and their new values, resolved and checked as a
     sweep's (``{"leader.speed": 20, "formation.followers": 4}``; :mod:`rtsim.overrides`).
+    ``allow_code``: as :func:`parse_scenario`.
     """
     raw, p = scenario_bytes(path)
     src = str(p)  # the full path in every message
@@ -583,7 +592,7 @@ def load_scenario(path: str | os.PathLike[str],
             from rtsim.overrides import apply_dotted_overrides
 
             apply_dotted_overrides(data, overrides, src)
-        return parse_scenario(data, src, p.parent)
+        return parse_scenario(data, src, p.parent, allow_code=allow_code)
     except UnicodeDecodeError as exc:
         raise ScenarioError(f"{src}: not a text file (not UTF-8 at byte {exc.start})") from None
     except tomllib.TOMLDecodeError as exc:

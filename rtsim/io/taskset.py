@@ -6,7 +6,7 @@ The generic shape any user can write::
     overhead = 0                # optional: context-switch cost in ms (analysis and simulation)
     [scheduler]                 # optional
     policy = "fp"               # the CPU's scheduling policy: "fp" (default), "edf", or a
-                                # registered name / "package.module:Name" (model.policy)
+                                # registered name / "package.module:Name" (sim.policy)
     [[tasks]]
     name = "tau1"
     wcet = 5                    # ms
@@ -257,7 +257,7 @@ def _assign_priorities(source: str, entries: list[tuple[dict[str, Any], str]],
 
 def _parse_scheduler(source: str, table: object) -> str:
     """``[scheduler] policy``: a registered policy name or ``package.module:Name``."""
-    from rtsim.model.policy import resolve_policy
+    from rtsim.sim.policy import resolve_policy
 
     where = f"{source}: [scheduler]"
     if not isinstance(table, dict):
@@ -273,15 +273,21 @@ def _parse_scheduler(source: str, table: object) -> str:
     return policy
 
 
-def parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
+def parse_taskset(data: dict[str, Any], source: str, *,
+                  allow_code: bool | None = None) -> TaskSet:
     """Validate a task-set table (as :func:`tomllib.loads` returns it) and build the TaskSet.
 
     ``source`` names the file in error messages and is kept as ``TaskSet.source``. Every
-    number is then checked against its range (:mod:`rtsim.io.limits`).
+    number is then checked against its range (:mod:`rtsim.io.limits`). A ``[scheduler]
+    policy`` of the form ``module:Name`` is code: it loads only with ``allow_code=True``
+    (:func:`rtsim.registry.reading_input`).
     """
     from rtsim.io import limits
+    from rtsim.registry import reading_input
 
-    return limits.parse_checked("taskset", lambda: _parse_taskset(data, source), data, source)
+    with reading_input(allow_code):
+        return limits.parse_checked("taskset", lambda: _parse_taskset(data, source), data,
+                                    source)
 
 
 def _parse_taskset(data: dict[str, Any], source: str) -> TaskSet:
@@ -347,8 +353,10 @@ def _read(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
         raise TaskSetError(f"{source}: cannot read: {exc.strerror or exc}") from None
 
 
-def load_taskset(path: str | os.PathLike[str] | None = None) -> TaskSet:
-    """Read a TOML task-set file (``None``: the packaged paper set, Table 1)."""
+def load_taskset(path: str | os.PathLike[str] | None = None, *,
+                 allow_code: bool | None = None) -> TaskSet:
+    """Read a TOML task-set file (``None``: the packaged paper set, Table 1); ``allow_code``:
+    as :func:`parse_taskset`."""
     raw, source = _read(path)
     if b"\x00" in raw:
         raise TaskSetError(f"{source}: not a text file (contains NUL bytes)")
@@ -358,7 +366,7 @@ def load_taskset(path: str | os.PathLike[str] | None = None) -> TaskSet:
         raise TaskSetError(f"{source}: not a text file (not UTF-8 at byte {exc.start})") from None
     try:
         data = tomllib.loads(text)
-        return parse_taskset(data, source)
+        return parse_taskset(data, source, allow_code=allow_code)
     except tomllib.TOMLDecodeError as exc:
         raise TaskSetError(f"{source}: malformed TOML: {exc}") from None
     except RecursionError:

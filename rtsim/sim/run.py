@@ -25,11 +25,11 @@ import simpy
 
 from rtsim._numbers import is_real
 from rtsim.errors import InputError
-from rtsim.model.policy import PolicySpec
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU, JitterMode
 from rtsim.sim.execution import ExecSpec
+from rtsim.sim.policy import PolicySpec
 from rtsim.sim.records import SimResult
 
 __all__ = ["simulate", "build_cpu", "resolve_window", "WindowArg"]
@@ -141,7 +141,7 @@ def simulate(
     run, or a :class:`rtsim.io.columns.ChunkWriter` that formats them without a DataFrame
     (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
     long horizon (:class:`rtsim.sim.records.RowBuffer`).
-    ``scheduler``: the scheduling policy (:mod:`rtsim.model.policy`), default the set's
+    ``scheduler``: the scheduling policy (:mod:`rtsim.sim.policy`), default the set's
     (``[scheduler] policy``; ``fp`` for a list of tasks).
     The work limits of the command line apply (:mod:`rtsim.io.work`: at most 5e7 jobs, and
     1e6 jobs waiting at once on an overloaded CPU); ``force=True`` is ``--force``. A seed

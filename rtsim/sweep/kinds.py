@@ -8,8 +8,9 @@ the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metr
   ``w_eq11``, ``w_sch``, ``w_rta``, ``w_susp``, ``w_edf``. No options.
 - ``analyze`` — ``rtsim.analysis.rta.analyze(ts, w)``: ``schedulable``, ``utilization``,
   ``wcrt.<task>`` (NaN once above the deadline), ``schedulable.<task>``. Options ``window``
-  and ``scheduler`` (``fp`` | ``edf``: ``rtsim.analysis.edf.analyze_edf``, the demand
-  criterion's verdict and Spuri's bounds; default the set's ``[scheduler] policy``).
+  and ``scheduler`` (a scheduling policy with an analysis: ``fp``, or ``edf``:
+  ``rtsim.analysis.edf.analyze_edf``, the demand criterion's verdict and Spuri's bounds;
+  default the set's ``[scheduler] policy``).
 - ``simulate`` — ``rtsim.sim.simulate(ts, horizon, seed=<point seed>, exec_model=exec,
   suspension=, window=)``: ``w`` (the window used), per task ``max_response.<task>``,
   ``mean_response.<task>``, ``misses.<task>``, ``jobs.<task>`` (completed jobs), totals
@@ -47,6 +48,9 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
+from rtsim.errors import InputError
+from rtsim.registry import Registry
+
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
     from rtsim.sweep.spec import BaseFile
@@ -81,6 +85,8 @@ class PointInput:
     base: BaseFile | None = None
     overrides: tuple[tuple[tuple[str, ...], Any], ...] = ()
     function: str | None = None
+    #: the sweep's reader allowed code named in its files (:mod:`rtsim.registry`)
+    allow_code: bool = False
 
     def base_data(self) -> dict[str, Any]:
         """The base file's TOML dict with this point's overrides applied."""
@@ -93,7 +99,7 @@ class PointInput:
         from rtsim.io.taskset import parse_taskset
 
         assert self.base is not None
-        return parse_taskset(self.base_data(), self.base.source)
+        return parse_taskset(self.base_data(), self.base.source, allow_code=self.allow_code)
 
 
 @dataclass(frozen=True)
@@ -145,10 +151,11 @@ def _bounds(p: PointInput) -> dict[str, Any]:
 
 def _analyze(p: PointInput) -> dict[str, Any]:
     ts = p.taskset()
-    if p.options.get("scheduler", ts.scheduler) == "edf":
-        fn = _need("rtsim.analysis.edf", "analyze").analyze_edf
-    else:
-        fn = _need("rtsim.analysis.rta", "analyze").analyze
+    policies = _need("rtsim.sim.policy", "analyze")
+    name = p.options.get("scheduler", ts.scheduler)
+    fn = policies.SCHEDULERS.resolve(name, "scheduler", allow_code=p.allow_code).analysis
+    if fn is None:
+        raise InputError(f"scheduler: the scheduling policy {name!r} has no analysis")
     w = p.options.get("window")
     a = fn(ts) if w is None else fn(ts, w=float(w))
     out: dict[str, Any] = {"schedulable": bool(a.schedulable),
@@ -223,7 +230,7 @@ def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[
         return hit
     io = _need("rtsim.io.scenario", "scenario")
     coupling = _need("rtsim.coupling", "scenario")
-    scenario = io.parse_scenario(data, p.base.source, base=where)
+    scenario = io.parse_scenario(data, p.base.source, base=where, allow_code=p.allow_code)
     hit = (scenario, coupling.scenario_inputs(scenario))
     _PREPARED[key] = hit
     if len(_PREPARED) > _PREPARED_MAX:
@@ -256,18 +263,26 @@ def _scenario(p: PointInput) -> dict[str, Any]:
 
 
 def _call(p: PointInput) -> dict[str, Any]:
+    from rtsim.registry import load_code
+
     assert p.function is not None
-    mod, attr = p.function.split(":")
-    fn = getattr(importlib.import_module(mod), attr)
+    fn = load_code(p.function, "sweep.function", allow_code=p.allow_code)
     return fn(dict(p.params), dict(p.options), p.seed)
 
 
-KINDS: dict[str, KindSpec] = {}
+def _kind_spec(obj: Any, spec: str, where: str) -> KindSpec:
+    if isinstance(obj, KindSpec):
+        return obj
+    raise InputError(f"{where} is not a KindSpec")
+
+
+#: The sweep kinds by name (entry-point group ``rtsim.sweep_kinds``, each a :class:`KindSpec`).
+KINDS: Registry[KindSpec] = Registry("sweep kind", "rtsim.sweep_kinds", _kind_spec)
 
 
 def register_kind(spec: KindSpec) -> None:
     """Add (or replace) a kind in this process's registry."""
-    KINDS[spec.name] = spec
+    KINDS.register(spec.name, spec)
 
 
 _LOADER = ("rtsim.io.taskset",)
@@ -276,7 +291,7 @@ register_kind(KindSpec("bounds", _bounds, metrics=("e_hough", "g", "w_eq7", "w_e
                        modules=(*_LOADER, "rtsim.analysis.bounds")))
 register_kind(KindSpec("analyze", _analyze, options=("window", "scheduler"),
                        metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*"),
-                       modules=(*_LOADER, "rtsim.analysis.rta")))
+                       modules=(*_LOADER, "rtsim.sim.policy")))
 register_kind(KindSpec("simulate", _simulate,
                        options=("horizon", "exec", "suspension", "window", "scheduler"),
                        required=("horizon",), modules=(*_LOADER, "rtsim.sim"),
