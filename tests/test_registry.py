@@ -6,6 +6,7 @@ passed in the API is that opt-in."""
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -118,6 +119,7 @@ def test_a_scenario_file_names_code_only_with_allow_code(tmp_path: Path) -> None
     text = scenario_bytes("test2")[0].decode()
     (tmp_path / "evil.py").write_text(EVIL)
     f = tmp_path / "s.toml"
+    text = re.sub(r'(?m)^policy = "[^"]*"', "", text)  # the shipped [adjust] policy, if any
     f.write_text(text.replace("[adjust]", '[adjust]\npolicy = "evil:P"', 1))
     assert "evil:P" in f.read_text()
     try:

@@ -559,15 +559,15 @@ class PlanPolicy:
     The window's bound, ``msb_min`` and the rows are those of the first window (the window
     the decision governs). A constant target over the horizon is a conservative plan: the
     leader slows for the worst window ahead now, and speeds up only when the whole horizon
-    allows. Own keys: ``windows`` (horizon, integer 1–20, default 3) and ``margin``
+    allows. Own keys: ``windows`` (horizon, integer 1–20, default 2) and ``margin``
     (μ in [0, 1), default 0).
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"windows": 3, "margin": 0.0}
+    params: ClassVar[Mapping[str, Any]] = {"windows": 2, "margin": 0.0}
     #: the coupling fills PolicyInput.rollout for this policy
     needs_rollout: ClassVar[bool] = True
 
-    def __init__(self, windows: float = 3, margin: float = 0.0) -> None:
+    def __init__(self, windows: float = 2, margin: float = 0.0) -> None:
         windows = check_number("windows", "windows", windows)
         if not (1 <= windows <= 20 and windows == int(windows)):
             raise InputError(f"windows: must be an integer in [1, 20], got {windows!r}")

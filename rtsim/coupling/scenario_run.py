@@ -340,10 +340,6 @@ class _Coupling:
             from rtsim.control.compiled import PaperSearch  # the same speeds, compiled
 
             opts["predictor"] = PaperSearch()
-        if self._rollout and self.world.follow_law is None:
-            raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.predictor: "
-                             f"'commands' (and a policy that plays the commands ahead) needs "
-                             f"formation.model = 'follow-the-leader'")
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
         self.phys = PhysicalLog(self.n, self.rho_d, cfg.follower.radius, self.world.follow_law)
@@ -427,7 +423,7 @@ class _Coupling:
             self.v_ld, cfg.leader_accel_max, cfg.leader_decel_max, tuple(poses),
             tuple(speeds), tuple(held), self._pending(now) if pending else ((),) * self.n,
             max(now, next_scan), tuple(self._send_offsets), self.thr, tuple(self.rho_d),
-            self.w_sch, type(world.followers)))
+            self.w_sch, type(world.followers), tuple(self.beta_d)))
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
         """The current window's sends still to come at its first send's start (``now``):
