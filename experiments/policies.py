@@ -22,7 +22,8 @@ Outputs in DIR: ``policies.csv`` (one row per run), ``policies_summary.csv`` and
 ``policies.md`` (the table above), ``pareto.png`` (windows beyond 5 % against lap time, one
 marker per policy and test), ``manifest.json``.
 
-    python experiments/policies.py [--quick] [--out DIR]
+    python experiments/policies.py [--quick] [--out DIR] [--followers 2,4]
+    python experiments/policies.py --figures docs/figures   # the shipped defaults' figures
 
 ``--quick``: n = 2, seed 0, 20 simulated seconds (the test suite runs it).
 """
@@ -151,13 +152,14 @@ def pareto(df: pd.DataFrame, path: Path) -> None:
 
     from rtsim.io.atomic import atomic_path
 
-    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    fig, ax = plt.subplots(figsize=(10.0, 5.0))
+    colors = plt.get_cmap("tab20").colors
     markers = {"test1": "o", "test2": "s"}
     for i, (label, _) in enumerate(POLICY_CASES):
         for test, mk in markers.items():
             sel = df[(df["policy"] == label) & (df["test"] == test) & (df["n"] == df["n"].min())]
             if len(sel):
-                ax.scatter(sel["lap_s"], sel["viol5"], marker=mk, color=f"C{i}",
+                ax.scatter(sel["lap_s"], sel["viol5"], marker=mk, color=colors[i % 20],
                            label=f"{label} ({test})", gid=f"{label}:{test}")
     n_min = df["n"].min()
     bad = df[(df["n"] == n_min) & ((df["missed"] > 0) | (df["tracks_lost"] > 0))]
@@ -172,20 +174,46 @@ def pareto(df: pd.DataFrame, path: Path) -> None:
     ax.set_title(f"n = {n_min}, seeds summed", fontsize=9)
     ax.set_xlabel("lap time (s, one lap: equal distance)")
     ax.set_ylabel("windows beyond 5 % (all bounds, summed over seeds)")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), ncols=1)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=110)
     plt.close(fig)
 
 
+def default_figures(out: Path) -> list[Path]:
+    """The shipped Test 1 / Test 2 (their own policy, seed 0, one lap): leader speed (target
+    and actual), min MSB against w_sch and the paths, as ``default_<test>_<figure>.png``."""
+    from rtsim.plots.scenario import plot_msb, plot_paths, plot_speed, save_figure
+
+    written = []
+    for test in TESTS:
+        res = run_scenario(test, seed=0, record_jobs=False)
+        label = f"{test}, policy {res.summary['policy']}, seed 0"
+        for name, plot in (("speed", plot_speed), ("msb", plot_msb), ("paths", plot_paths)):
+            written.append(save_figure(plot(res.windows, title=label),
+                                       out / f"default_{test}_{name}.png", dpi=100))
+    return written
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="n = 2, seed 0, 20 simulated s")
     p.add_argument("--out", metavar="DIR", help="output directory")
+    p.add_argument("--followers", metavar="N[,N...]", default=None,
+                   help="follower counts (default 2,4; --quick: 2)")
+    p.add_argument("--figures", metavar="DIR",
+                   help="only draw the shipped Test 1/2's speed, min-MSB and path figures "
+                        "(seed 0) into DIR")
     args = p.parse_args(argv)
+    if args.figures:
+        for path in default_figures(Path(args.figures)):
+            print(path)
+        return 0
     out = Path(args.out or ("out/policies-quick" if args.quick else "out/policies"))
     ns = (2,) if args.quick else (2, 4)
+    if args.followers:
+        ns = tuple(int(x) for x in args.followers.split(","))
     seeds = (0,) if args.quick else (0, 1, 2, 3, 4)
     duration = 20.0 if args.quick else None
     runs = pd.DataFrame([run_one(t, n, label, ov, seed, duration)

@@ -21,7 +21,9 @@ Writes to ``--out`` (default ``results/paper``):
 - ``<test>/<mode>/``: ``windows.csv``, ``jobs.csv``, ``summary.json``, ``manifest.json`` (as
   the ``rtsim scenario`` command writes them);
 - ``figures/``: the paper's Figures 8–15 from the adjust runs (``fig08_test1_paths`` …
-  ``fig15_test2_speed``), the operating space of its Figure 2 per test
+  ``fig15_test2_speed``; Figs 10/14 the minimum MSB against w_sch as the paper draws it,
+  with the per-kind detail beside them as ``fig10_test1_bounds_detail`` and
+  ``fig14_test2_bounds_detail``), the operating space of its Figure 2 per test
   (``fig02_<test>_operating_space``), and the three modes side by side
   (``modes_<test>_{window,bounds,speed,paths}``); every PNG has its data beside it as CSV
   (same stem; :func:`rtsim.plots.scenario.figure_data`, the modes' stacked with a ``mode``
@@ -60,10 +62,12 @@ BOUND_KINDS: tuple[str, ...] = ("localization", "separation", "path_diversion", 
 
 #: The paper's figures drawn from the adjust runs: number → (test, figure name).
 PAPER_FIGURES: dict[int, tuple[str, str]] = {
-    8: ("test1", "paths"), 9: ("test1", "window_slack"), 10: ("test1", "bounds"),
+    8: ("test1", "paths"), 9: ("test1", "window_slack"), 10: ("test1", "msb"),
     11: ("test1", "speed"), 12: ("test2", "paths"), 13: ("test2", "window_slack"),
-    14: ("test2", "bounds"), 15: ("test2", "speed"),
+    14: ("test2", "msb"), 15: ("test2", "speed"),
 }
+#: The per-follower, per-kind detail beside Figs 10/14: number → (test, figure name).
+DETAIL_FIGURES: dict[int, tuple[str, str]] = {10: ("test1", "bounds"), 14: ("test2", "bounds")}
 #: Side-by-side mode figures: kind of :func:`rtsim.plots.scenario.plot_modes` → figure_data name.
 MODE_FIGURES: dict[str, str] = {
     "window": "window_slack", "bounds": "bounds", "speed": "speed", "paths": "paths",
@@ -71,13 +75,15 @@ MODE_FIGURES: dict[str, str] = {
 _TITLES = {
     "paths": "robots' paths",
     "window_slack": "processing window and slack time",
-    "bounds": "effective processing-window bounds",
+    "bounds": "effective processing-window bounds per kind (min over followers)",
+    "msb": "min MSB at $V_{Ld}$ (predicted, true) against $w_{sch}$",
     "speed": "desired and actual leader speed",
     "operating_space": "operating space ($w_{sch}$ ≤ w ≤ min MSB)",
 }
 #: Figures also written with --docs (stems).
 DOCS_FIGURES: tuple[str, ...] = (
     *(f"fig{n:02d}_{t}_{name}" for n, (t, name) in PAPER_FIGURES.items()),
+    *(f"fig{n:02d}_{t}_{name}_detail" for n, (t, name) in DETAIL_FIGURES.items()),
     "fig02_test1_operating_space", "fig02_test2_operating_space", "modes_test2_window",
 )
 
@@ -94,6 +100,7 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
 def figure_stems() -> list[str]:
     """Every figure stem the script writes in ``figures/`` (each as .png and .csv)."""
     stems = [f"fig{n:02d}_{t}_{name}" for n, (t, name) in PAPER_FIGURES.items()]
+    stems += [f"fig{n:02d}_{t}_{name}_detail" for n, (t, name) in DETAIL_FIGURES.items()]
     stems += [f"fig02_{t}_operating_space" for t in TESTS]
     stems += [f"modes_{t}_{kind}" for t in TESTS for kind in MODE_FIGURES]
     return stems
@@ -205,6 +212,9 @@ def figure_tasks(runs: dict[tuple[str, str], pd.DataFrame], fig_dir: Path,
     for n, (test, name) in PAPER_FIGURES.items():
         add(f"fig{n:02d}_{test}_{name}", name, runs[(test, "adjust")],
             f"Fig {n}. {TEST_LABELS[test]} (adjust): {_TITLES[name]}", name)
+    for n, (test, name) in DETAIL_FIGURES.items():
+        add(f"fig{n:02d}_{test}_{name}_detail", name, runs[(test, "adjust")],
+            f"Fig {n}, detail. {TEST_LABELS[test]} (adjust): {_TITLES[name]}", name)
     for test in TESTS:
         add(f"fig02_{test}_operating_space", "operating_space", runs[(test, "adjust")],
             f"Fig 2. {TEST_LABELS[test]} (adjust): {_TITLES['operating_space']}",

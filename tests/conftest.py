@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -15,6 +15,16 @@ REPO = Path(__file__).resolve().parent.parent
 
 #: A numeric input key without a registered range fails the tests (rtsim.io.limits).
 os.environ["RTSIM_STRICT_RANGES"] = "1"
+
+
+@pytest.fixture
+def allow_code() -> Iterator[None]:
+    """Input files read in the test may name code (``module:Name``), as with ``--allow-code``:
+    for tests whose sweep files name their helper functions (tests/sweep_helpers.py)."""
+    from rtsim.registry import opted_in
+
+    with opted_in():
+        yield
 
 
 @pytest.fixture

@@ -110,11 +110,12 @@ def test_scenario_writes_svg_figures(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert main(["scenario", "test1", "--duration", "5", "--format", "svg", "--out",
                  str(out)]) == 0
     svgs = sorted(p.name for p in out.glob("*.svg"))
-    assert svgs == ["bounds.svg", "operating_space.svg", "paths.svg", "speed.svg",
-                    "window_slack.svg"]
+    from rtsim.plots.scenario import SCENARIO_FIGURES
+
+    assert svgs == sorted(f"{stem}.svg" for stem in SCENARIO_FIGURES)
     assert not list(out.glob("*.png"))
     for p in out.glob("*.svg"):
         assert p.read_text("utf-8").lstrip().startswith("<?xml") and "<svg" in p.read_text()
     report = (out / "report.html").read_text("utf-8")
-    assert report.count("data:image/svg+xml;base64,") == 5  # the report embeds them
+    assert report.count("data:image/svg+xml;base64,") == len(SCENARIO_FIGURES)  # embedded
     capsys.readouterr()

@@ -116,5 +116,5 @@ def test_scenario_under_edf_with_w_edf(tmp_path, monkeypatch):
     with pytest.raises(InputError, match="w_edf is an EDF bound, but the scheduler is 'fp'"):
         run_scenario(load_scenario(f), duration_s=1)
     f.write_text(text.replace("[adjust]", '[scheduler]\npolicy = "edd"\n\n[adjust]'))
-    with pytest.raises(ScenarioError, match="scheduler.policy: unknown scheduling policy"):
+    with pytest.raises(ScenarioError, match="scheduler.policy: must be one of fp, edf"):
         load_scenario(f)

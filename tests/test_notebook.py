@@ -48,7 +48,7 @@ def test_run_scenario_with_overrides_equals_the_edited_file(tmp_path) -> None:
 def test_scenario_result_repr_is_short_and_html_has_the_summary() -> None:
     r = run_scenario("test1", duration_s=3, record_jobs=False)
     text = repr(r)
-    assert text.startswith("<ScenarioResult scenario=test1, mode=adjust") and len(text) < 300
+    assert text.startswith("<ScenarioResult scenario=test1, mode=plan") and len(text) < 300
     df = r.summary_frame()
     assert len(df) == 1 and df.loc[0, "windows"] == r.summary["windows"]
     assert df.loc[0, "violations.separation"] == r.summary["violations"]["separation"]

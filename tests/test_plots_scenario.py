@@ -26,6 +26,7 @@ from rtsim.plots.scenario import (  # noqa: E402
     followers,
     plot_bounds,
     plot_modes,
+    plot_msb,
     plot_operating_space,
     plot_paths,
     plot_speed,
@@ -206,14 +207,34 @@ def test_window_figure_marks_misses_and_slack(df):
     np.testing.assert_allclose(slack.get_ydata()[:-1], np.maximum(0, df["w"] - W_SCH))
 
 
-def test_paths_highlight_critical_windows_on_leader_path(df):
+def test_paths_highlight_critical_windows_at_the_binding_follower(df):
     ax = plot_paths(df).axes[0]
     assert ax.get_aspect() == 1.0
     (crit,) = [c for c in ax.collections if c.get_gid() == "critical"]
     sel = df["critical"].to_numpy()
+    # every critical window of the table binds on follower 2 ("path_diversion:2")
+    np.testing.assert_allclose(crit.get_offsets(), df.loc[sel, ["f2_x", "f2_y"]])
+    # without a binding column: the leader's position
+    ax = plot_paths(df.drop(columns=["binding"])).axes[0]
+    (crit,) = [c for c in ax.collections if c.get_gid() == "critical"]
     np.testing.assert_allclose(crit.get_offsets(), df.loc[sel, ["leader_x", "leader_y"]])
     assert len([c for c in ax.collections if c.get_gid() == "estimate"]) == 2
     assert len([ln for ln in ax.get_lines() if ln.get_gid() == "start"]) == 3
+
+
+def test_msb_figure_is_the_papers_picture(df):
+    """Figs 10/14: min MSB predicted at V_Ld (msb_min) as a step line, the true minimum over
+    every follower and kind as dots, and in critical windows a marker per binding kind."""
+    ax = plot_msb(df).axes[0]
+    (pred,) = [ln for ln in ax.get_lines() if ln.get_gid() == "msb_pred"]
+    np.testing.assert_allclose(np.asarray(pred.get_ydata(), float)[:-1], df["msb_min"])
+    (true,) = [ln for ln in ax.get_lines() if ln.get_gid() == "msb_true"]
+    every = np.column_stack([df[f"f{i}_msb_{k}_true"] for i in (1, 2) for k in BOUND_KINDS])
+    m = every.min(axis=1)
+    np.testing.assert_allclose(true.get_ydata(), m[m <= ax.get_ylim()[1]])
+    (bind,) = [ln for ln in ax.get_lines() if ln.get_gid() == "binding_path_diversion"]
+    assert len(bind.get_xdata()) == int(df["critical"].sum())
+    assert "(37)" in bind.get_label()
 
 
 def test_figure_data_is_the_table(df):

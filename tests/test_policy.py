@@ -19,12 +19,13 @@ import pytest
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control import FollowerEstimate, decide
-from rtsim.control.adjust import Decision, decide_rows
+from rtsim.control.adjust import Decision
 from rtsim.control.policy import (
     POLICIES,
     MarginPolicy,
     PolicyInput,
     adjust_options,
+    decide_rows,
     make_policy,
     policy_class,
 )
@@ -190,7 +191,10 @@ def test_a_users_policy_loads_by_module_and_name(tmp_path: Path,
     # a plug-in policy's own [adjust] keys are passed to it (it checks them itself)
     spec = f"{__name__}:HalfSpeed"
     path = _file(tmp_path, f'policy = "{spec}"\nshare = 0.4')
-    res = run_scenario(path, duration_s=5.0, seed=0)
+    with pytest.raises(InputError, match=r"adjust\.policy: .* names Python code, which an "
+                                         r"input file loads only when asked: pass --allow-code"):
+        run_scenario(path, duration_s=5.0, seed=0)  # a file names code: refused
+    res = run_scenario(path, duration_s=5.0, seed=0, allow_code=True)
     df = res.windows.iloc[1:]
     assert set(df["method"]) == {"half"}
     assert list(df["v_leader_target"]) == pytest.approx([10.0] * len(df))

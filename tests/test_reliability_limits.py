@@ -101,7 +101,7 @@ def test_a_name_with_a_newline_stays_on_one_line(tmp_path: Path,
 
 def test_an_abstract_scheduler_is_refused_up_front(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["simulate", str(EXAMPLE), "--horizon", "100", "--scheduler",
-                 "rtsim.model.policy:SchedulingPolicy"]) == 2
+                 "rtsim.sim.policy:SchedulingPolicy"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "does not implement order" in err
 

@@ -65,7 +65,9 @@ def test_scenario_report_renders_in_chromium(tmp_path: Path) -> None:
         assert part in text, part
     _self_contained(report)
     pngs = sorted(out.glob("*.png"))
-    assert len(pngs) == 5
+    from rtsim.plots.scenario import SCENARIO_FIGURES
+
+    assert len(pngs) == len(SCENARIO_FIGURES)
     _check_in_browser(report, len(pngs))
 
 

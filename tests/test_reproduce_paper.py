@@ -25,15 +25,17 @@ MODES = ("adjust", "fixed-wsch", "min-msb")
 # before, only with float_precision="round_trip" (pandas 2.1 was one ulp off here)
 EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
 KINDS = ("localization", "separation", "path_diversion", "bearing")
-PAPER = {8: ("test1", "paths"), 9: ("test1", "window_slack"), 10: ("test1", "bounds"),
+PAPER = {8: ("test1", "paths"), 9: ("test1", "window_slack"), 10: ("test1", "msb"),
          11: ("test1", "speed"), 12: ("test2", "paths"), 13: ("test2", "window_slack"),
-         14: ("test2", "bounds"), 15: ("test2", "speed")}
+         14: ("test2", "msb"), 15: ("test2", "speed")}
+DETAIL = {10: ("test1", "bounds"), 14: ("test2", "bounds")}
 MODE_KINDS = {"window": "window_slack", "bounds": "bounds", "speed": "speed", "paths": "paths"}
 # the columns each figure plots (from the windows.csv schema), besides window and t
 PLOTTED = {
     "paths": ["leader_x", "leader_y", "f1_x", "f1_y", "f2_x", "f2_y", "critical"],
     "window_slack": ["w", "slack", "w_sch", "missed", "critical"],
     "bounds": ["w", "w_sch", "critical"],
+    "msb": ["w", "w_sch", "msb_min", "binding", "critical"],
     "speed": ["v_leader_desired", "v_leader", "v_leader_target", "segment"],
     "operating_space": ["w", "w_sch", "msb_min", "critical"],
 }
@@ -79,6 +81,7 @@ def _figures() -> list[tuple[str, str, str | None]]:
     """(stem, figure_data name, test of a single-run figure or None for a modes figure)."""
     out: list[tuple[str, str, str | None]] = [
         (f"fig{n:02d}_{t}_{name}", name, t) for n, (t, name) in PAPER.items()]
+    out += [(f"fig{n:02d}_{t}_{name}_detail", name, t) for n, (t, name) in DETAIL.items()]
     out += [(f"fig02_{t}_operating_space", "operating_space", t) for t in TESTS]
     out += [(f"modes_{t}_{k}", name, None) for t in TESTS for k, name in MODE_KINDS.items()]
     return out
@@ -93,7 +96,7 @@ def test_quick_writes_every_file(quick: tuple[Path, str]) -> None:
 
     out, stderr = quick
     stems = [s for s, _, _ in _figures()]
-    assert len(stems) == 18
+    assert len(stems) == 20
     assert sorted(stems) == sorted(rp.figure_stems())
     for stem in stems:
         png = out / "figures" / f"{stem}.png"
@@ -158,6 +161,11 @@ def test_figure_data_agree_with_runs(quick: tuple[Path, str], stem: str, name: s
                 if name == "operating_space":
                     got = [float(v) for v in part[f"msb_min_{which}"]]
                     assert got == [min(v) for v in zip(*every, strict=True)], (stem, which)
+        if name == "msb":  # the true minimum over every follower and kind
+            every = [[float(v) for v in win[f"f{i}_msb_{kind}_true"]] for i in (1, 2)
+                     for kind in KINDS]
+            got = [float(v) for v in part["msb_min_true"]]
+            assert got == [min(v) for v in zip(*every, strict=True)], stem
         if name == "paths":
             for i in (1, 2):
                 for c in (f"f{i}_x_est", f"f{i}_y_est"):
@@ -182,7 +190,7 @@ def test_bounds_data_has_infinite_values(quick: tuple[Path, str], tmp_path: Path
     assert (fig["bound_localization_pred"] == "inf").any()
     # and the reproduction's own figure data says inf exactly where its windows do
     out, _ = quick
-    fig = pd.read_csv(out / "figures" / "fig10_test1_bounds.csv", dtype=str)
+    fig = pd.read_csv(out / "figures" / "fig10_test1_bounds_detail.csv", dtype=str)
     win = _windows_str(out, "test1", "adjust")
     for kind in KINDS:
         both = (win[f"f1_msb_{kind}_pred"] == "inf") & (win[f"f2_msb_{kind}_pred"] == "inf")

@@ -33,9 +33,8 @@ OFFSETS = (130.0, 136.0)
 TOL_CM, TOL_RAD = 0.05, 5e-4  # each follower's send after its window's scan (ms)
 
 
-def _quiet_world(name: str, start_s: float) -> World:
-    sc = load_scenario(name, overrides={**QUIET, "leader.start_s": start_s}
-                       if start_s else QUIET)
+def _quiet_world(name: str, model: str = "follow-the-leader") -> World:
+    sc = load_scenario(name, overrides={**QUIET, "formation.model": model})
     return World(sc.world, np.random.default_rng(1))
 
 
@@ -45,14 +44,16 @@ def _window(world: World, t: float, w: float) -> None:
         world.command(i, t + off)
 
 
-@pytest.mark.parametrize(("name", "v_target", "windows"), [
-    ("test2", 12.0, 12),   # braking hard into the followers' first turn
-    ("test2", 30.0, 40),   # holding V_Ld through it
-    ("test1", 18.0, 60),
+@pytest.mark.parametrize(("name", "v_target", "windows", "model"), [
+    ("test2", 12.0, 12, "follow-the-leader"),   # braking hard into the followers' first turn
+    ("test2", 30.0, 40, "follow-the-leader"),   # holding V_Ld through it
+    ("test1", 18.0, 60, "follow-the-leader"),
+    ("test2", 15.0, 115, "l-psi"),              # the l-ψ law, the leader in its first turn
 ])
-def test_rollout_matches_the_world(name: str, v_target: float, windows: int) -> None:
+def test_rollout_matches_the_world(name: str, v_target: float, windows: int,
+                                   model: str) -> None:
     w = 237.0
-    world = _quiet_world(name, 0.0)
+    world = _quiet_world(name, model)
     for j in range(windows):  # drive some windows, then decide at 210 ms into the last
         _window(world, j * w, w)
     t_d = (windows - 1) * w + 210.0
@@ -67,7 +68,7 @@ def test_rollout_matches_the_world(name: str, v_target: float, windows: int) -> 
         held=tuple((fol.cmd_v[k], fol.cmd_w[k]) for k in range(world.n)),
         pending=((), ()), next_scan=windows * w, send_offsets=OFFSETS,
         thresholds=world.config.thresholds, rho_d=tuple(world.config.formation.rho_d),
-        w_sch=w)
+        w_sch=w, beta_d=tuple(world.config.formation.beta_d))
     ro = Rollout(state)
     ahead = [w, w, w]
     pred = ro.changes(v_target, ahead)
@@ -141,3 +142,35 @@ def test_paper_infeasible_is_exact_against_brute_force() -> None:
         empty += not ok
         agree += says == (not ok)
     assert empty > 15 and agree >= 147
+
+
+def test_a_users_policy_gets_the_rollout() -> None:
+    """The documented hook: a policy class with ``needs_rollout = True`` receives
+    ``PolicyInput.rollout`` in a coupled run, and its rows at V_Ld are the ``commands``
+    predictor's (the decision of the paper's algorithm on the rollout)."""
+    from rtsim.control.adjust import Decision
+    from rtsim.control.policy import POLICIES, PaperPolicy, register_policy
+    from rtsim.control.predict import min_bound_rows
+    from rtsim.coupling import run_scenario
+
+    seen = []
+
+    class Probe:
+        params: dict = {}
+        needs_rollout = True
+
+        def decide(self, ctx):  # type: ignore[no-untyped-def]
+            rows = ctx.rollout.rows(ctx.v_ld)
+            d = PaperPolicy().decide(ctx)  # the paper's algorithm with predictor commands
+            seen.append((ctx.predictor, rows == d.rows, ctx.rollout.count >= 1))
+            m = min_bound_rows(rows)[0]
+            return Decision(ctx.w_sch, ctx.v_ld, m, "none", 0, "none", True, rows, rows, m, {})
+
+    register_policy("probe-rollout")(Probe)
+    try:
+        res = run_scenario("test2", policy="probe-rollout", duration_s=5.0, seed=0,
+                           record_jobs=False)
+    finally:
+        POLICIES.pop("probe-rollout")
+    assert seen and all(p == "commands" and same and ran for p, same, ran in seen)
+    assert res.summary["predictor"] == "commands"

@@ -144,7 +144,8 @@ def test_bad_values_one_line(tmp_path: Path, old: str, new: str, match: str) -> 
         ("[adjust]\ncap = -1\n", r"^.*bad\.toml: adjust\.cap: must be positive"),
         ("[adjust]\nfloor = 40\n", r"^.*bad\.toml: adjust\.floor: 40 cm/s is above"),
         ("[adjust]\npredictor = \"hybird\"\n",
-         r"^.*bad\.toml: adjust\.predictor: must be one of paper, formation, hybrid, commands, got "
+         r"^.*bad\.toml: adjust\.predictor: must be one of paper, formation, hybrid, commands or "
+         r"'package\.module:Name', got "
          r"'hybird' \(did you mean 'hybrid'\?\)$"),
         ("[adjust]\npredictor = 3\n", r"^.*bad\.toml: adjust\.predictor: must be one of"),
         ("[adjust]\npredictr = \"hybrid\"\n",

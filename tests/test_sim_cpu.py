@@ -301,7 +301,7 @@ def test_to_json_has_the_cli_keys():
     ("kwargs", "match"),
     [({"suspension": "nap"}, "suspension must be"),
      ({"overhead": -1.0}, "overhead must be"),
-     ({"exec_model": "gauss"}, "exec model must be one of"),
+     ({"exec_model": "gauss"}, "exec model: must be one of"),
      ({"seed": -3}, "seed must be")],
 )
 def test_bad_arguments(kwargs, match):

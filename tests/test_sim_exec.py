@@ -18,7 +18,8 @@ def test_public_api_is_pinned():
         "Job", "ResponseHistogram", "SimResult", "TRACE_COLUMNS", "TaskStats", "Uniform",
         "WCET", "build_cpu", "resolve_exec_model", "resolve_window", "simulate",
         "task_rngs", "EarliestDeadlineFirst", "FixedPriority", "POLICIES", "SCHEDULERS",
-        "SchedulingPolicy", "register_policy", "resolve_policy"])
+        "SchedulingPolicy", "register_policy", "resolve_policy", "register_scheduler",
+        "resolve_scheduler"])
     for name in rtsim.sim.__all__:
         assert hasattr(rtsim.sim, name)
 

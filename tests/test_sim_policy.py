@@ -14,7 +14,9 @@ import pytest
 from rtsim.cli import main
 from rtsim.errors import InputError, TaskSetError
 from rtsim.io.taskset import load_taskset, parse_taskset, taskset_to_dict
-from rtsim.model.policy import (
+from rtsim.model.task import Segment, Task
+from rtsim.sim import CPU, simulate
+from rtsim.sim.policy import (
     POLICIES,
     EarliestDeadlineFirst,
     FixedPriority,
@@ -22,8 +24,6 @@ from rtsim.model.policy import (
     register_policy,
     resolve_policy,
 )
-from rtsim.model.task import Segment, Task
-from rtsim.sim import CPU, simulate
 
 
 class NonPreemptiveFP(FixedPriority):
@@ -57,13 +57,14 @@ def test_registry_and_resolution(np_fp):
     assert isinstance(resolve_policy("test_sim_policy:NonPreemptiveFP"), NonPreemptiveFP)
     pol = EarliestDeadlineFirst()
     assert resolve_policy(pol) is pol
-    with pytest.raises(InputError, match=r"--scheduler: unknown scheduling policy 'edd' "
-                                         r"\(registered: edf, fp, np-fp"):
+    with pytest.raises(InputError, match=r"--scheduler: must be one of fp, edf, np-fp or "
+                                         r"'package.module:Name', got 'edd' "
+                                         r"\(did you mean 'edf'\?\)"):
         resolve_policy("edd", where="--scheduler")
-    with pytest.raises(InputError, match="cannot load policy 'nosuchmod:X'"):
+    with pytest.raises(InputError, match="cannot load 'nosuchmod:X'"):
         resolve_policy("nosuchmod:X")
     with pytest.raises(InputError, match="is not a SchedulingPolicy subclass"):
-        resolve_policy("rtsim.model.policy:POLICIES")
+        resolve_policy("rtsim.sim.policy:SCHEDULERS")
     with pytest.raises(TypeError, match="name must be a non-empty string"):
         register_policy(type("Nameless", (SchedulingPolicy,), {}))
 
@@ -175,8 +176,8 @@ def test_taskset_file_scheduler_key(tmp_path):
     assert parse_taskset(d, "again").scheduler == "edf"
     assert "scheduler" not in taskset_to_dict(load_taskset())  # fp: not written
     for bad, match in ((
-            '[scheduler]\npolicy = "edd"\n', r"s.toml: \[scheduler\]: policy: unknown "
-                                             r"scheduling policy 'edd'"),
+            '[scheduler]\npolicy = "edd"\n', r"s.toml: \[scheduler\]: policy: must be one "
+                                             r"of fp, edf or .*, got 'edd'"),
             ('[scheduler]\npolcy = "edf"\n', r"s.toml: \[scheduler\]: unknown key 'polcy' "
                                              r"\(did you mean 'policy'\?\)"),
             ('scheduler = "edf"\n', r"s.toml: \[scheduler\]: must be a table"),
@@ -202,7 +203,7 @@ def test_cli_scheduler_option(tmp_path, capsys):
     assert main(["simulate", str(f), "--horizon", "35", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["scheduler"] == "fp"
     assert main(["simulate", str(f), "--horizon", "35", "--scheduler", "edd"]) == 2
-    assert "--scheduler: unknown scheduling policy 'edd'" in capsys.readouterr().err
+    assert "--scheduler: must be one of fp, edf" in capsys.readouterr().err
 
 
 def test_cpu_object_takes_a_policy_and_hooks_run_under_edf():
@@ -232,7 +233,10 @@ def test_the_docs_example_is_a_one_file_policy(tmp_path, monkeypatch, capsys):
                       '[[tasks]]\nname = "hi"\nwcet = 1\nperiod = 5\noffset = 1\npriority = 1\n'
                       '[[tasks]]\nname = "lo"\nwcet = 3\nperiod = 10\npriority = 2\n')
         jobs = tmp_path / "jobs.csv"
-        assert main(["simulate", str(ts), "--horizon", "6", "--jobs", str(jobs)]) == 0
+        assert main(["simulate", str(ts), "--horizon", "6", "--jobs", str(jobs)]) == 2
+        assert "--allow-code" in capsys.readouterr().err  # a file names code: refused
+        assert main(["simulate", str(ts), "--horizon", "6", "--jobs", str(jobs),
+                     "--allow-code"]) == 0
         df = pd.read_csv(jobs).sort_values("start")
         assert list(zip(df["task"], df["start"], df["finish"], strict=True)) == \
             [("lo", 0.0, 3.0), ("hi", 3.0, 4.0)]

@@ -14,6 +14,9 @@ from rtsim.io.taskset import load_taskset, parse_taskset
 from rtsim.sweep import KindSpec, Sweep, load_sweep, parse_sweep, register_kind, run_sweep
 from rtsim.sweep.kinds import KINDS, _need
 
+# the sweep files here name their helper functions (code): the user opts in
+pytestmark = pytest.mark.usefixtures("allow_code")
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 SMOKE = ROOT / "experiments" / "sweeps" / "smoke.toml"

@@ -14,6 +14,9 @@ import pytest
 
 from rtsim.sweep import run_sweep
 
+# the sweep files here name their helper functions (code): the user opts in
+pytestmark = pytest.mark.usefixtures("allow_code")
+
 HERE = Path(__file__).resolve().parent
 N = 8
 
@@ -44,7 +47,7 @@ def sweep_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def reference(sweep_file: Path, tmp_path_factory: pytest.TempPathFactory) -> pd.DataFrame:
     sys.path.insert(0, str(HERE))
     try:
-        return run_sweep(sweep_file, tmp_path_factory.mktemp("ref"), workers=1)
+        return run_sweep(sweep_file, tmp_path_factory.mktemp("ref"), workers=1, allow_code=True)
     finally:
         sys.path.remove(str(HERE))
 
@@ -57,7 +60,8 @@ def test_interrupted_sweep_resumes_without_recomputing(
         tmp_path: Path, sweep_file: Path, reference: pd.DataFrame,
         workers: str, sig: signal.Signals, group: bool) -> None:
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "rtsim", "sweep", str(sweep_file), "--out", str(out),
+    cmd = [sys.executable, "-m", "rtsim", "sweep", "--allow-code",
+                            str(sweep_file), "--out", str(out),
            "--workers", workers]
     log1 = tmp_path / "run1.log"
     proc = subprocess.Popen(cmd, env=_env(log1), stdout=subprocess.PIPE,

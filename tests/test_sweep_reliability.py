@@ -25,6 +25,9 @@ from rtsim.io.work import LIMITS, TooMuchWork
 from rtsim.sweep import Sweep, load_sweep, run_sweep
 from rtsim.sweep.engine import grid_size
 
+# the sweep files here name their helper functions (code): the user opts in
+pytestmark = pytest.mark.usefixtures("allow_code")
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 
@@ -207,7 +210,8 @@ def test_a_worker_that_dies_once_has_its_point_rerun(tmp_path: Path) -> None:
 
 def test_cli_prints_no_traceback_when_a_worker_dies(tmp_path: Path) -> None:
     spec = _die_sweep(tmp_path, 1, None, n=8)
-    r = subprocess.run([sys.executable, "-m", "rtsim", "sweep", str(spec), "--out",
+    r = subprocess.run([sys.executable, "-m", "rtsim", "sweep", "--allow-code",
+                            str(spec), "--out",
                         str(tmp_path / "o"), "--workers", "2", "--quiet"],
                        capture_output=True, text=True, env=os.environ | {
                            "PYTHONPATH": str(HERE)}, timeout=120)
@@ -242,7 +246,8 @@ def _alive(pid: int) -> bool:
 def test_workers_exit_when_the_sweep_process_is_killed(tmp_path: Path) -> None:
     spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:slow"\n'
                   '[sweep.options]\nsleep = 0.5\n[grid]\ni = "0..40"\n')
-    proc = subprocess.Popen([sys.executable, "-m", "rtsim", "sweep", str(spec), "--out",
+    proc = subprocess.Popen([sys.executable, "-m", "rtsim", "sweep", "--allow-code",
+                            str(spec), "--out",
                              str(tmp_path / "o"), "--workers", "2", "--quiet"],
                             env=os.environ | {"PYTHONPATH": str(HERE)},
                             stderr=subprocess.DEVNULL)
@@ -288,14 +293,16 @@ def test_the_lock_dies_with_its_holder_and_a_second_cli_run_exits_2(tmp_path: Pa
         "    time.sleep(60)\n")], stdout=subprocess.PIPE, text=True)
     try:
         assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
-        r = subprocess.run([sys.executable, "-m", "rtsim", "sweep", str(spec), "--out",
+        r = subprocess.run([sys.executable, "-m", "rtsim", "sweep", "--allow-code",
+                            str(spec), "--out",
                             str(out), "--workers", "1", "--quiet"], capture_output=True,
                            text=True, env=os.environ | {"PYTHONPATH": str(HERE)}, timeout=60)
         assert r.returncode == 2
         assert f"in use by pid {holder.pid}" in r.stderr and r.stderr.count("\n") == 1
         holder.send_signal(signal.SIGKILL)
         holder.wait(timeout=10)
-        r = subprocess.run([sys.executable, "-m", "rtsim", "sweep", str(spec), "--out",
+        r = subprocess.run([sys.executable, "-m", "rtsim", "sweep", "--allow-code",
+                            str(spec), "--out",
                             str(out), "--workers", "1", "--quiet"], capture_output=True,
                            text=True, env=os.environ | {"PYTHONPATH": str(HERE)}, timeout=60)
         assert r.returncode == 0, r.stderr

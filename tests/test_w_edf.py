@@ -147,5 +147,6 @@ def test_sweep_option_scheduler(tmp_path):
     sw.write_text(sw.read_text().replace('["fp", "edf"]', '["fp", "rm"]'))
     from rtsim.errors import SweepError
 
-    with pytest.raises(SweepError, match="scheduler: must be 'fp' or 'edf'"):
+    with pytest.raises(SweepError, match="scheduler: must be one of fp, edf or "
+                                         "'package.module:Name', got 'rm'"):
         run_sweep(sw, tmp_path / "out2")

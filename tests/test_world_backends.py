@@ -214,6 +214,7 @@ def test_second_process_loads_kernels_from_the_cache() -> None:
 
 
 PLAN = {"adjust.policy": "plan", "adjust.predictor": "commands"}
+PAPER = {"adjust.policy": "adjust", "adjust.predictor": "paper"}  # the paper's own search
 
 
 @needs_numba
@@ -261,7 +262,7 @@ def test_a_users_python_predictor_runs_on_the_compiled_world() -> None:
 
     out = {}
     for backend in ("python", "compiled"):
-        sc = load_scenario("test2", overrides={"world.backend": backend})
+        sc = load_scenario("test2", overrides={**PAPER, "world.backend": backend})
         inp = scenario_inputs(sc)
         inp = replace(inp, adjust={**inp.adjust, "predictor": mine})
         n0 = len(calls)
@@ -277,8 +278,11 @@ def test_compiled_paper_search_bit_identical(policy: str) -> None:
     predictor): the same decisions, the same name in the summary."""
     from rtsim.control.compiled import PaperSearch
 
-    py = _run("test2", "python", duration_s=150, seed=4, policy=policy, record_jobs=False)
-    co = _run("test2", "compiled", duration_s=150, seed=4, policy=policy, record_jobs=False)
+    paper = {"adjust.predictor": "paper"}
+    py = _run("test2", "python", duration_s=150, seed=4, policy=policy, record_jobs=False,
+              overrides=paper)
+    co = _run("test2", "compiled", duration_s=150, seed=4, policy=policy, record_jobs=False,
+              overrides=paper)
     _same_run(py, co)
     assert co.summary["predictor"] == "paper" and co.summary["critical_windows"] > 20
     rng = np.random.default_rng(8)

@@ -105,9 +105,9 @@ def test_paper_tests_use_follow_the_leader(name: str) -> None:
 
 
 def test_formation_model_typo_is_an_error_with_a_hint() -> None:
-    with pytest.raises(ScenarioError, match=r"test1.toml: formation.model: must be "
-                                            r"'follow-the-leader' or 'l-psi', got "
-                                            r"'follow-the-lead' "
+    with pytest.raises(ScenarioError, match=r"test1.toml: formation.model: must be one of "
+                                            r"follow-the-leader, l-psi or 'package\.module:Name', "
+                                            r"got 'follow-the-lead' "
                                             r"\(did you mean 'follow-the-leader'\?\)"):
         load_scenario("test1", overrides={"formation.model": "follow-the-lead"})
 

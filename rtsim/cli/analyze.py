@@ -43,9 +43,10 @@ def register(sub: Any) -> None:
     p.add_argument("--overhead", metavar="MS", type=float, default=None,
                    help="context-switch cost in ms: 2·O per higher-priority segment start, O per "
                         "own segment, as simulate --overhead (default: the file's, or 0)")
-    p.add_argument("--scheduler", choices=("fp", "edf"), default=None,
-                   help="fixed priority (exact response-time analysis) or EDF (demand "
-                        "criterion and Spuri's bound); default: the file's [scheduler] policy")
+    p.add_argument("--scheduler", metavar="NAME", default=None,
+                   help="a scheduling policy with an analysis: fp (exact response-time "
+                        "analysis) or edf (demand criterion and Spuri's bound); default: the "
+                        "file's [scheduler] policy")
     p.set_defaults(func=run)
 
 
@@ -157,9 +158,10 @@ def json_safe(obj: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
-    from rtsim.analysis.rta import analyze
+    from rtsim.analysis.edf import EdfAnalysis
     from rtsim.cli._set import set_overrides
     from rtsim.io.taskset import load_taskset
+    from rtsim.sim.policy import SCHEDULERS
 
     w = _window(args.window)
     ts = load_taskset(args.file, overrides=set_overrides(args))
@@ -167,18 +169,21 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{args.file}: --window: the task set has no [window]")
     if args.overhead is not None and not (math.isfinite(args.overhead) and args.overhead >= 0):
         raise InputError(f"--overhead: must be a non-negative number of ms, got {args.overhead:g}")
-    scheduler = args.scheduler if args.scheduler is not None else ts.scheduler
-    if scheduler not in ("fp", "edf"):
+    if args.scheduler is not None:
+        scheduler = args.scheduler
+        policy = SCHEDULERS.resolve(scheduler, "--scheduler", allow_code=True)
+    else:
+        scheduler = ts.scheduler
+        policy = SCHEDULERS.resolve(scheduler, f"{args.file}: [scheduler] policy")
+    if policy.analysis is None:
+        with_analysis = ", ".join(n for n, c in SCHEDULERS.items() if c.analysis is not None)
         raise InputError(f"{args.file}: [scheduler] policy {scheduler!r} has no analysis; "
-                         f"use --scheduler fp or edf")
+                         f"use --scheduler with one of {with_analysis}")
     w_from = None if ts.window is None else ("--window" if w is not None else "w_sch")
-    if scheduler == "edf":
-        from rtsim.analysis.edf import analyze_edf
-
-        res: Any = analyze_edf(ts, w, overhead=args.overhead, suspension=args.suspension)
+    res: Any = policy.analysis(ts, w, overhead=args.overhead, suspension=args.suspension)
+    if isinstance(res, EdfAnalysis):
         text = format_edf(res, str(ts.source), w_from)
     else:
-        res = analyze(ts, w, overhead=args.overhead, suspension=args.suspension)
         text = format_analysis(res, str(ts.source), w_from)
     if args.json:
         out = {"source": ts.source, "w_from": w_from, "scheduler": scheduler,

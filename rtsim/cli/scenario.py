@@ -85,8 +85,8 @@ def run(args: Any) -> int:
     from rtsim.cli.plausible import check_duration
 
     check_duration(args, args.duration)
+    from rtsim.coupling.duration import check_scenario
     from rtsim.io.scenario import load_scenario
-    from rtsim.io.work import check_scenario
 
     where = (f"--duration {args.duration:g}" if args.duration is not None
              else f"{args.file}: duration")
@@ -96,7 +96,7 @@ def run(args: Any) -> int:
     if args.policy is not None:
         from rtsim.control.policy import policy_class
 
-        policy_class(args.policy, "--policy")
+        policy_class(args.policy, "--policy", allow_code=True)
     from rtsim.cli._set import set_overrides
 
     scenario = load_scenario(args.file, overrides=set_overrides(args))

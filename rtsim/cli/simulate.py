@@ -169,9 +169,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         require_bcet(ts, str(args.file))
     scheduler = ts.scheduler
     if args.scheduler is not None:
-        from rtsim.model.policy import resolve_policy
+        from rtsim.sim.policy import resolve_policy
 
-        resolve_policy(args.scheduler, where="--scheduler")
+        resolve_policy(args.scheduler, where="--scheduler", allow_code=True)
         scheduler = args.scheduler
     bounds = None
     if ts.window is not None:
@@ -206,16 +206,17 @@ def _run(args: argparse.Namespace, files: Any) -> int:
                    overhead=overhead, jitter=args.jitter, scheduler=scheduler,
                    job_sink=writer, force=args.force)
     w = res.window["w"] if res.window else None
-    # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own)
-    name = scheduler if isinstance(scheduler, str) else ""
-    if name == "edf":
-        from rtsim.analysis.edf import analyze_edf as analyze_with
-    else:
-        analyze_with = analyze  # type: ignore[assignment]
+    # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own:
+    # the deadlines still come from the fixed-priority analysis's table)
+    from rtsim.sim.policy import resolve_scheduler
+
+    analyze_with = resolve_scheduler(scheduler).analysis
+    known = analyze_with is not None
+    if analyze_with is None:
+        analyze_with = analyze
     analysis = analyze_with(ts, w, overhead=overhead, suspension=args.suspension) \
         if ts.window is not None else analyze_with(ts, overhead=overhead,
                                                    suspension=args.suspension)
-    known = name in ("fp", "edf")
     wcrt = {t.name: t.wcrt if known else None for t in analysis.tasks}
     deadlines = {t.name: t.deadline for t in analysis.tasks}
     report = res.to_json()

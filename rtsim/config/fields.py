@@ -25,10 +25,13 @@ from pydantic_core import PydanticCustomError, core_schema
 
 from rtsim._numbers import is_int, is_real
 from rtsim._suggest import did_you_mean
+from rtsim.errors import InputError
 from rtsim.io.limits import Range
+from rtsim.registry import Registry
 
-__all__ = ["Table", "Leaf", "number", "integer", "choice", "text", "problem", "Range",
-           "range_of"]
+__all__ = ["Table", "Leaf", "number", "integer", "choice", "plugin", "text", "problem",
+           "Range", "range_of"]
+
 
 class Table(BaseModel):
     """A TOML table: unknown keys are errors, nothing is coerced, frozen once valid."""
@@ -143,6 +146,30 @@ def choice(values: Sequence[str], *, renamed: Mapping[str, str] | None = None) -
         raise problem(f"must be {shown}, got {value!r}{did_you_mean(value, names)}")
 
     return Leaf(check, {"type": "string", "enum": list(names)})
+
+
+def plugin(registry: Registry[Any], *, renamed: Mapping[str, str] | None = None) -> Leaf:
+    """The name of a plug-in of ``registry`` (:mod:`rtsim.registry`): a registered name, an
+    installed entry point, or ``package.module:Name`` (code: only when the reader allows it),
+    resolved while the file is validated; ``renamed``: old names and their new ones.
+
+    Its JSON Schema is a string, with the built-in names as ``examples`` (an installed
+    plug-in or a ``module:Name`` is valid too, so they are no ``enum``)."""
+
+    def check(value: Any) -> Any:
+        if renamed and isinstance(value, str) and value in renamed:
+            raise problem(f"must be one of {', '.join(registry)}, got {value!r} ('{value}' "
+                          f"was renamed; did you mean '{renamed[value]}'?)")
+        try:
+            registry.resolve(value, "")
+        except InputError as exc:
+            raise problem(str(exc).removeprefix(": ")) from None
+        return value
+
+    schema = {"type": "string", "minLength": 1, "examples": list(registry),
+              "description": f"a {registry.kind}: {', '.join(registry)}, an installed plug-in "
+                             f"or 'package.module:Name'"}
+    return Leaf(check, schema)
 
 
 def text(*, nonempty: bool = True, what: str = "a non-empty string") -> Leaf:

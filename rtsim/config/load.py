@@ -11,14 +11,13 @@ import os
 import tomllib
 from collections.abc import Callable, Mapping
 from importlib import resources
-from pathlib import Path
 from typing import Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
 from rtsim.config.dotted import apply_overrides
 from rtsim.config.errors import Loc, error_lines, raise_errors
-from rtsim.errors import InputError, ScenarioError, TaskSetError
+from rtsim.errors import InputError, TaskSetError
 
 __all__ = ["validate", "parse_toml", "load_taskset", "parse_taskset", "taskset_bytes",
            "PACKAGED_TASKSET"]
@@ -95,64 +94,36 @@ def taskset_bytes(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
         raise TaskSetError(f"{source}: cannot read: {exc.strerror or exc}") from None
 
 
-def parse_taskset(data: Mapping[str, Any], source: str) -> Any:
+def parse_taskset(data: Mapping[str, Any], source: str, *,
+                  allow_code: bool | None = None) -> Any:
     """Validate a task-set table (as :func:`tomllib.loads` returns it) and build the TaskSet;
-    ``source`` names the file in error messages and is kept as ``TaskSet.source``."""
+    ``source`` names the file in error messages and is kept as ``TaskSet.source``. A
+    ``[scheduler] policy`` of the form ``module:Name`` is code: it loads only with
+    ``allow_code=True`` or the user's opt-in (:func:`rtsim.registry.reading_input`)."""
     from rtsim.config.taskset import (
         TaskSetFile,
         build_taskset,
         taskset_special,
         taskset_where,
     )
+    from rtsim.registry import reading_input
 
-    model = validate(TaskSetFile, data, source, TaskSetError, taskset_where(data),
-                     taskset_special)
-    ts, errors = build_taskset(model, source)
+    with reading_input(allow_code):
+        model = validate(TaskSetFile, data, source, TaskSetError, taskset_where(data),
+                         taskset_special)
+        ts, errors = build_taskset(model, source)
     raise_errors([f"{source}: {e}" for e in errors], TaskSetError)
     assert ts is not None
     return ts
 
 
 def load_taskset(path: str | os.PathLike[str] | None = None,
-                 overrides: Mapping[str, Any] | None = None) -> Any:
+                 overrides: Mapping[str, Any] | None = None, *,
+                 allow_code: bool | None = None) -> Any:
     """Read a TOML task-set file (``None``: the packaged paper set, Table 1); ``overrides``:
-    dotted paths and their values (:mod:`rtsim.config.dotted`)."""
+    dotted paths and their values (:mod:`rtsim.config.dotted`); ``allow_code``: as
+    :func:`parse_taskset`."""
     raw, source = taskset_bytes(path)
     data = parse_toml(raw, source, TaskSetError)
-    return parse_taskset(with_overrides(data, overrides, source, TaskSetError), source)
-
-
-# -------------------------------------------------------------------------- scenarios
-def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
-    """The bytes of a scenario file, and its path.
-
-    ``path`` is a file, or the name of a packaged scenario (``test1``, ``test2``: the paper's
-    tests, shipped with rtsim as copies of ``experiments/scenarios/``) when no such file
-    exists.
-    """
-    from rtsim.config.scenario import PACKAGED_SCENARIOS
-    from rtsim.io.limits import read_input
-
-    p = Path(path)
-    if not p.exists() and str(path) in PACKAGED_SCENARIOS:
-        res = resources.files("rtsim") / "data" / "scenarios" / f"{path}.toml"
-        return res.read_bytes(), Path(f"{path}.toml")
-    try:
-        return read_input(p, "scenario"), p
-    except OSError as exc:
-        raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
-
-
-def load_scenario(path: str | os.PathLike[str],
-                  overrides: Mapping[str, Any] | None = None) -> Any:
-    """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``).
-
-    ``overrides``: dotted paths into the file and their new values, resolved as a sweep's
-    (``{"leader.speed": 20, "formation.followers": 4}``; :mod:`rtsim.config.dotted`).
-    """
-    from rtsim.config.scenario import parse_scenario
-
-    raw, p = scenario_bytes(path)
-    src = str(p)  # the full path in every message
-    data = parse_toml(raw, src, ScenarioError)
-    return parse_scenario(with_overrides(data, overrides, src, ScenarioError), src, p.parent)
+    return parse_taskset(with_overrides(data, overrides, source, TaskSetError), source,
+                         allow_code=allow_code)

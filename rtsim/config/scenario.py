@@ -10,9 +10,11 @@ for the file format.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from functools import partial
+from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, TypeVar
 
@@ -24,7 +26,8 @@ from rtsim.analysis.kinematics import (
     Thresholds,
     msb_localization_predicted,
 )
-from rtsim.config.fields import Table, choice, integer, number, problem, text
+from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
+from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
 from rtsim.control.predict import PREDICTORS, RENAMED
 from rtsim.errors import InputError, ScenarioError
 from rtsim.model.taskset import TaskSet
@@ -40,18 +43,17 @@ from rtsim.world.config import (
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import (
+    FOLLOWER_MODELS,
     FORMATION_LAYOUTS,
-    FORMATION_MODELS,
     Formation,
-    chevron,
     fan,
-    in_line,
+    follower_model,
     outer_side,
 )
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
-__all__ = ["AdjustConfig", "Scenario", "ScenarioFile", "parse_scenario", "PACKAGED_SCENARIOS",
-           "PACKAGED_TASKSETS"]
+__all__ = ["AdjustConfig", "Scenario", "ScenarioFile", "load_scenario", "parse_scenario",
+           "scenario_bytes", "PACKAGED_SCENARIOS", "PACKAGED_TASKSETS"]
 
 #: Task-set names that refer to the package's own files rather than to a path.
 PACKAGED_TASKSETS = ("barrel_robots", "example")
@@ -128,6 +130,8 @@ class Scenario:
     source: str | None = None
     scheduler: str | None = None
     task_set: TaskSet | None = field(default=None, compare=False, repr=False)
+    #: the file may name code (``module:Name``), also in its task set (the user opted in)
+    allow_code: bool = field(default=False, compare=False)
 
     @property
     def n(self) -> int:
@@ -138,16 +142,15 @@ class Scenario:
         and the scenario's ``[scheduler]``; the file is read once, when the scenario is
         loaded (``task_set``), or here for a scenario made by hand."""
         where = self.source or "<scenario>"
-        ts = self.task_set if self.task_set is not None else _read_taskset(self.taskset, where)
+        ts = self.task_set if self.task_set is not None else _read_taskset(
+            self.taskset, where, self.allow_code)
         return _fit(ts, self.world, self.scheduler)
 
 
-def _read_taskset(name: str, where: str) -> TaskSet:
+def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> TaskSet:
     """The task-set file ``name`` (a packaged name or a path), which must have a [window]."""
-    from rtsim.config.load import load_taskset
-
     # a packaged set by its own name ("example" is the generic set, not the paper's)
-    ts = load_taskset(None if name == "barrel_robots" else name)
+    ts = load_taskset(None if name == "barrel_robots" else name, allow_code=allow_code)
     if ts.window is None:
         raise ScenarioError(f"{where}: taskset: '{name}' has no [window]")
     return ts
@@ -292,7 +295,7 @@ class SlotModel(_Angles):
 
 
 class FormationModel(_Angles):
-    model: Annotated[str, choice(FORMATION_MODELS)] = "l-psi"
+    model: Annotated[str, plugin(FOLLOWER_MODELS)] = "l-psi"
     layout: Annotated[str, choice(FORMATION_LAYOUTS)] = "line"
     followers: Annotated[int, integer(1, 1000, "followers", "as window.n")] | None = None
     separation: Annotated[float, number(0, 1e5, "cm", "at most 1 km (the laser sees 80 m)",
@@ -400,7 +403,7 @@ class AdjustModel(Table):
     cap: Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] \
         | None = None
     floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] | None = None
-    predictor: Annotated[str, choice(PREDICTORS, renamed=RENAMED)] | None = None
+    predictor: Annotated[str, plugin(PREDICTORS, renamed=RENAMED)] | None = None
     lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
     policy: Annotated[str, text(what="a policy name")] | None = None
     decide: Annotated[str, choice(DECIDE)] | None = None
@@ -447,11 +450,24 @@ class ScenarioFile(Table):
 
 # -------------------------------------------------------------------------- building
 def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
-                   base: Path | None = None) -> Scenario:
+                   base: Path | None = None, *, allow_code: bool | None = None) -> Scenario:
     """Validate a parsed TOML document and build the scenario; ``base`` resolves a relative
-    task-set path. Every problem of the file is reported at once."""
+    task-set path. Every problem of the file is reported at once.
+
+    A plug-in named ``module:Name`` (``[adjust] policy``, ``predictor``, ``[formation]
+    model``, ``[scheduler] policy``, the task set's) is code: it loads only with
+    ``allow_code=True`` or the user's opt-in (:func:`rtsim.registry.reading_input`).
+    """
+    from rtsim.registry import file_allows_code, reading_input
+
+    allow = file_allows_code(allow_code)
+    with reading_input(allow):
+        scenario = _parse_scenario(data, source, base)
+    return replace(scenario, allow_code=True) if allow else scenario
+
+
+def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> Scenario:
     from rtsim.config.errors import raise_errors
-    from rtsim.config.load import validate
 
     if isinstance(data, Mapping) and isinstance(data.get("adjust"), Mapping) \
             and "model" in data["adjust"]:
@@ -514,7 +530,7 @@ def _formation(f: FormationModel, r_F: float, path: LeaderPath) -> Formation:
         segs = path.segments
         outer = outer_side([g.curvature for g in segs], [g.length for g in segs])
         return fan(f.followers, f.separation, offset, r_F=r_F, outer=outer, model=f.model)
-    place = in_line if f.model == "follow-the-leader" else chevron
+    place = follower_model(f.model, "formation.model").place
     return place(f.followers, f.separation, offset, r_F=r_F)
 
 
@@ -562,19 +578,20 @@ def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[s
     adjust = _attempt(errors, src, lambda: AdjustConfig(**args))
     scheduler = m.scheduler.policy if m.scheduler is not None else None
     if scheduler is not None:
-        from rtsim.model.policy import resolve_policy
+        from rtsim.sim.policy import SCHEDULERS
 
+        policy = None
         try:
-            resolve_policy(scheduler, where=f"{src}: scheduler.policy")
+            policy = SCHEDULERS.resolve(scheduler, f"{src}: scheduler.policy")
         except InputError as exc:
             errors.append(str(exc))
-        if adjust is not None:
-            from rtsim.analysis.bounds import BOUND_SCHEDULER
-
-            need = BOUND_SCHEDULER[adjust.lower_bound]
-            if scheduler in ("fp", "edf") and need != scheduler:
-                errors.append(f"{src}: adjust.lower_bound: {adjust.lower_bound} assumes the "
-                              f"{need} scheduler, but [scheduler] policy is {scheduler!r}")
+        # the scheduler's registry entry names the lower bounds that hold under it
+        if adjust is not None and policy is not None and policy.lower_bounds \
+                and adjust.lower_bound not in policy.lower_bounds:
+            need = [n for n, c in SCHEDULERS.items() if adjust.lower_bound in c.lower_bounds]
+            errors.append(f"{src}: adjust.lower_bound: {adjust.lower_bound} assumes the "
+                          f"{' or '.join(need)} scheduler, but [scheduler] policy is "
+                          f"{scheduler!r}")
     if adjust is not None and adjust.floor > speed:
         errors.append(f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the desired speed "
                       f"{speed:g} cm/s")
@@ -638,3 +655,39 @@ def _sense(world: WorldConfig, src: str) -> list[str]:
         out.append(f"{src}: leader.speed: {world.leader_speed:g} cm/s is above "
                    f"follower.max_speed {vmax:g} cm/s: the followers cannot keep up")
     return out
+
+
+# -------------------------------------------------------------------------- loading
+def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
+    """The bytes of a scenario file, and its path.
+
+    ``path`` is a file, or the name of a packaged scenario (``test1``, ``test2``: the paper's
+    tests, shipped with rtsim as copies of ``experiments/scenarios/``) when no such file
+    exists.
+    """
+    from rtsim.io.limits import read_input
+
+    p = Path(path)
+    if not p.exists() and str(path) in PACKAGED_SCENARIOS:
+        res = resources.files("rtsim") / "data" / "scenarios" / f"{path}.toml"
+        return res.read_bytes(), Path(f"{path}.toml")
+    try:
+        return read_input(p, "scenario"), p
+    except OSError as exc:
+        raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
+
+
+def load_scenario(path: str | os.PathLike[str],
+                  overrides: Mapping[str, Any] | None = None, *,
+                  allow_code: bool | None = None) -> Scenario:
+    """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``).
+
+    ``overrides``: dotted paths into the file and their new values, resolved as a sweep's
+    (``{"leader.speed": 20, "formation.followers": 4}``; :mod:`rtsim.config.dotted`).
+    ``allow_code``: as :func:`parse_scenario`.
+    """
+    raw, p = scenario_bytes(path)
+    src = str(p)  # the full path in every message
+    data = parse_toml(raw, src, ScenarioError)
+    return parse_scenario(with_overrides(data, overrides, src, ScenarioError), src, p.parent,
+                          allow_code=allow_code)

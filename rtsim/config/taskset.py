@@ -183,7 +183,7 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         window, errs = _window(model.window)
         errors += errs
     if model.scheduler is not None:
-        from rtsim.model.policy import resolve_policy
+        from rtsim.sim.policy import resolve_policy
 
         try:
             resolve_policy(model.scheduler.policy, where=f"{source}: [scheduler]: policy")

@@ -7,10 +7,12 @@ path's curvature, its actual speed, the scenario's limits) it returns the one de
 :class:`~rtsim.control.adjust.Decision` (w, leader speed target, binding bound, method,
 predicted bounds at the desired and at the chosen speed).
 
-Policies are registered by name (:data:`POLICIES`, :func:`register_policy`), as sweep kinds
-are. A scenario selects one with ``[adjust] policy = "NAME"`` or ``"package.module:Name"`` (a
-user's own class, loaded by :func:`policy_class`); ``rtsim scenario … --policy NAME``
-overrides the file; ``--mode`` is an alias. The registered policies:
+Policies are registered by name (:data:`ADJUSTMENT_POLICIES`, a
+:class:`~rtsim.registry.Registry`; :func:`register_adjustment_policy`), or installed as entry
+points of the group ``rtsim.policies``. A scenario selects one with ``[adjust] policy =
+"NAME"`` or ``"package.module:Name"`` (a user's own class, loaded by :func:`policy_class`; code
+named in a file loads only when the user allows it, :mod:`rtsim.registry`); ``rtsim scenario …
+--policy NAME`` overrides the file; ``--mode`` is an alias. The registered policies:
 
 * ``adjust``: the paper's algorithm (§3.3, docs/model/adjustment.md;
   :func:`rtsim.control.adjust.adjust`);
@@ -33,8 +35,6 @@ is validated in one place, :func:`adjust_options`.
 from __future__ import annotations
 
 import dataclasses
-import difflib
-import importlib
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -42,22 +42,27 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import (
-    _CANDIDATES,
-    _TOL,
+    CANDIDATES,
     CAP_FACTOR,
     FLOOR_FRAC,
     FLOOR_W,
+    TOL,
+    Adjustment,
     Decision,
-    _adjust_core,
-    _largest,
-    _make_predictor,
-    _rows_at,
+    adjust_core,
+    adjustment_of,
+    bound_rows_at,
+    largest,
+    make_predictor,
 )
 from rtsim.control.predict import FollowerEstimate, Predictor, check_number, min_bound_rows
 from rtsim.errors import InputError
+from rtsim.registry import Registry, did_you_mean
 
-__all__ = ["COMMON_KEYS", "POLICIES", "Decision", "Policy", "PolicyInput", "adjust_options",
-           "make_policy", "policy_class", "register_policy"]
+__all__ = ["ADJUSTMENT_POLICIES", "COMMON_KEYS", "POLICIES", "Decision", "Policy", "decide",
+           "decide_rows",
+           "PolicyInput", "adjust_options", "make_policy", "policy_class",
+           "register_adjustment_policy", "register_policy"]
 
 #: ``[adjust]`` keys every policy understands (options of the decision, ScenarioInputs.adjust).
 COMMON_KEYS: tuple[str, ...] = ("policy", "cap", "cap_factor", "floor_frac", "floor_w",
@@ -103,7 +108,7 @@ class PolicyInput:
     floor_frac: float = FLOOR_FRAC
     floor_w: float = FLOOR_W
     predictor: str | Predictor = "formation"
-    methods: Sequence[str] = _CANDIDATES
+    methods: Sequence[str] = CANDIDATES
     scan_points: int = 64
     ahead: tuple[tuple[float, float], ...] = ()
     accel_max: float = math.inf
@@ -126,49 +131,50 @@ class Policy(Protocol):
     def decide(self, ctx: PolicyInput) -> Decision: ...
 
 
-#: Registered policies by name.
-POLICIES: dict[str, type] = {}
+def _policy_class(cls: Any, spec: str, where: str) -> type:
+    """A loaded class as a policy class (``params`` default ``{}``), or an InputError."""
+    if not isinstance(cls, type) or not callable(getattr(cls, "decide", None)):
+        raise InputError(f"{where} is not a policy class (it needs a method "
+                         f"decide(ctx) -> Decision)")
+    if not hasattr(cls, "params"):
+        cls.params = {}  # type: ignore[attr-defined]
+    if not hasattr(cls, "name"):
+        cls.name = spec  # type: ignore[attr-defined]
+    return cls
 
 
-def register_policy(name: str) -> Callable[[type], type]:
+#: Registered adjustment policies by name (entry-point group ``rtsim.policies``).
+ADJUSTMENT_POLICIES: Registry[type] = Registry("adjustment policy", "rtsim.policies",
+                                               _policy_class)
+
+
+def register_adjustment_policy(name: str) -> Callable[[type], type]:
     """Class decorator: register a policy class under ``name`` (sets ``cls.name``)."""
 
     def deco(cls: type) -> type:
-        if name in POLICIES and POLICIES[name] is not cls:
+        if name in ADJUSTMENT_POLICIES and ADJUSTMENT_POLICIES[name] is not cls:
             raise ValueError(f"policy {name!r} is already registered")
         cls.name = name  # type: ignore[attr-defined]
         if not hasattr(cls, "params"):
             cls.params = {}  # type: ignore[attr-defined]
-        POLICIES[name] = cls
+        ADJUSTMENT_POLICIES.register(name, cls)
         return cls
 
     return deco
 
 
-def policy_class(spec: object, where: str = "policy") -> type:
-    """The policy class named ``spec``: a registered name or ``"package.module:Name"``.
-    An unknown name is an :class:`InputError` with a did-you-mean."""
-    if isinstance(spec, str) and spec in POLICIES:
-        return POLICIES[spec]
-    if isinstance(spec, str) and ":" in spec:
-        mod, _, attr = spec.partition(":")
-        try:
-            cls = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError, ValueError, TypeError) as exc:
-            raise InputError(f"{where}: cannot load {spec!r} ({exc})") from None
-        if not isinstance(cls, type) or not callable(getattr(cls, "decide", None)):
-            raise InputError(f"{where}: {spec!r} is not a policy class (it needs a method "
-                             f"decide(ctx) -> Decision)")
-        if not hasattr(cls, "params"):
-            cls.params = {}
-        if not hasattr(cls, "name"):
-            cls.name = spec
-        return cls
-    close = (difflib.get_close_matches(spec, list(POLICIES), n=1, cutoff=0.5)
-             if isinstance(spec, str) else [])
-    hint = f" (did you mean '{close[0]}'?)" if close else ""
-    raise InputError(f"{where}: must be one of {', '.join(POLICIES)} or 'package.module:Name', "
-                     f"got {spec!r}{hint}")
+#: Old names, kept for code that uses them: :data:`ADJUSTMENT_POLICIES`,
+#: :func:`register_adjustment_policy`.
+POLICIES = ADJUSTMENT_POLICIES
+register_policy = register_adjustment_policy
+
+
+def policy_class(spec: object, where: str = "policy", *,
+                 allow_code: bool | None = None) -> type:
+    """The policy class named ``spec``: a registered name, an entry point or
+    ``"package.module:Name"`` (code: :func:`rtsim.registry.load_code`). An unknown name is an
+    :class:`InputError` with a did-you-mean."""
+    return ADJUSTMENT_POLICIES.resolve(spec, where, allow_code=allow_code)  # type: ignore[arg-type]
 
 
 def make_policy(spec: object, params: Mapping[str, Any] | None = None,
@@ -182,9 +188,9 @@ def make_policy(spec: object, params: Mapping[str, Any] | None = None,
     for key in params:
         if key not in known:
             names = tuple(common) + known
-            close = difflib.get_close_matches(key, names, n=1, cutoff=0.6)
+            close = did_you_mean(key, names)
             owner = [n for n, c in POLICIES.items() if key in c.params]  # type: ignore[attr-defined]
-            hint = (f" (did you mean '{close[0]}'?)" if close
+            hint = (close if close
                     else f" (a key of policy '{owner[0]}', not of "
                          f"'{cls.name}')" if owner  # type: ignore[attr-defined]
                     else f" (known keys: {', '.join(names)})")
@@ -230,13 +236,13 @@ def _check(ctx: PolicyInput, where: str) -> float:
 def _rows_at_vld(ctx: PolicyInput) -> list[tuple[float, float, float, float]]:
     model = ctx.predictor
     predict = (None if model == "formation"
-               else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
+               else make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
                                     v_now=ctx.v_now))
-    return _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
+    return bound_rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
                     ctx.v_now, ctx.rollout)(ctx.v_ld)
 
 
-@register_policy("adjust")
+@register_adjustment_policy("adjust")
 class PaperPolicy:
     """The paper's adjustment algorithm (§3.3, Eqs 22–26; :func:`rtsim.control.adjust.adjust`):
     w = min(min MSB, cap) at V_Ld when min MSB ≥ w_sch, else w = w_sch and the largest speed
@@ -245,12 +251,12 @@ class PaperPolicy:
     params: ClassVar[Mapping[str, Any]] = {}
 
     def decide(self, ctx: PolicyInput) -> Decision:
-        return _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch, ctx.thresholds, ctx.omega_l,
+        return adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch, ctx.thresholds, ctx.omega_l,
                             ctx.kappa, ctx.cap, ctx.floor_frac, ctx.predictor, ctx.methods,
                             ctx.scan_points, ctx.v_now, ctx.rollout)
 
 
-@register_policy("fixed-wsch")
+@register_adjustment_policy("fixed-wsch")
 class FixedWschPolicy:
     """w = w_sch, V_L = V_Ld always; ``feasible``: min MSB ≥ w_sch."""
 
@@ -261,10 +267,10 @@ class FixedWschPolicy:
         rows = _rows_at_vld(ctx)
         m, kind, who = min_bound_rows(rows)
         return Decision(ctx.w_sch, ctx.v_ld, m, kind, who, "none",
-                        m >= ctx.w_sch * (1.0 - _TOL), rows, rows, m, {})
+                        m >= ctx.w_sch * (1.0 - TOL), rows, rows, m, {})
 
 
-@register_policy("min-msb")
+@register_adjustment_policy("min-msb")
 class MinMsbPolicy:
     """w = min(max(min MSB, floor_w), max(cap, floor_w)), V_L = V_Ld always."""
 
@@ -278,11 +284,11 @@ class MinMsbPolicy:
         rows = _rows_at_vld(ctx)
         m, kind, who = min_bound_rows(rows)
         w = min(max(m, floor_w), max(cap, floor_w))
-        return Decision(w, ctx.v_ld, m, kind, who, "none", m >= ctx.w_sch * (1.0 - _TOL), rows,
+        return Decision(w, ctx.v_ld, m, kind, who, "none", m >= ctx.w_sch * (1.0 - TOL), rows,
                         rows, m, {})
 
 
-@register_policy("margin")
+@register_adjustment_policy("margin")
 class MarginPolicy:
     """The paper's algorithm with every predicted bound shrunk by the factor (1 − μ):
 
@@ -304,14 +310,14 @@ class MarginPolicy:
     def decide(self, ctx: PolicyInput) -> Decision:
         keep = 1.0 - self.margin
         cap = _check(ctx, "margin")
-        d = _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch / keep, ctx.thresholds,
+        d = adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch / keep, ctx.thresholds,
                          ctx.omega_l, ctx.kappa, cap / keep, ctx.floor_frac, ctx.predictor,
                          ctx.methods, ctx.scan_points, ctx.v_now, ctx.rollout)
         w = ctx.w_sch if d.method != "none" else max(ctx.w_sch, min(keep * d.msb_min, cap))
         return d._replace(w=w)
 
 
-@register_policy("lookahead")
+@register_adjustment_policy("lookahead")
 class LookaheadPolicy:
     """The margin policy, made safe ahead of time along the leader's known path commands.
 
@@ -377,21 +383,21 @@ class LookaheadPolicy:
         if v_l >= d.v_leader:
             d_out = d
         else:
-            rows_after = _rows_at(ctx.followers, None if ctx.predictor == "formation" else
-                                  _make_predictor(ctx.predictor, omega_l=ctx.omega_l,
+            rows_after = bound_rows_at(ctx.followers, None if ctx.predictor == "formation" else
+                                  make_predictor(ctx.predictor, omega_l=ctx.omega_l,
                                                   kappa=ctx.kappa, v_now=ctx.v_now),
                                   ctx.thresholds, ctx.predictor, ctx.kappa, ctx.omega_l,
                                   ctx.v_now, ctx.rollout)(v_l)
             m_after = min_bound_rows(rows_after)[0]
             d_out = d._replace(v_leader=v_l, method="lookahead", rows_after=rows_after,
                                msb_min_after=m_after,
-                               feasible=keep * m_after >= ctx.w_sch * (1.0 - _TOL))
+                               feasible=keep * m_after >= ctx.w_sch * (1.0 - TOL))
         w = d_out.w
         window_reach = v_l * w / 1000.0
         for dist, kappa in ctx.ahead:
             if dist > window_reach:
                 break
-            rows = _rows_at(ctx.followers, None, ctx.thresholds, "formation", kappa,
+            rows = bound_rows_at(ctx.followers, None, ctx.thresholds, "formation", kappa,
                             kappa * v_now, ctx.v_now)(v_l)
             w = max(ctx.w_sch, min(w, keep * min_bound_rows(rows)[0]))
         return d_out if w == d_out.w else d_out._replace(w=w)
@@ -449,7 +455,7 @@ def pad_rows(rows: Sequence[tuple[float, float, float, float]],
     return out
 
 
-@register_policy("noise-aware")
+@register_adjustment_policy("noise-aware")
 class NoiseAwarePolicy:
     """The paper's algorithm against bounds whose predicted V_F, |ρ̇| and |β̇| are padded by
     z·σ (:func:`pad_rows`; σ from the followers' actuation noise and the leader's EKF
@@ -479,9 +485,9 @@ class NoiseAwarePolicy:
         keep = 1.0 - self.margin
         model = ctx.predictor
         predict = (None if model == "formation"
-                   else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
+                   else make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
                                         v_now=ctx.v_now))
-        raw = _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
+        raw = bound_rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
                        ctx.v_now, ctx.rollout)
         memo: dict[float, list[tuple[float, float, float, float]]] = {}
 
@@ -495,7 +501,7 @@ class NoiseAwarePolicy:
         if keep * m >= ctx.w_sch:
             return Decision(max(ctx.w_sch, min(keep * m, cap)), ctx.v_ld, m, kind, who, "none",
                             True, rows, rows, m, {})
-        need = ctx.w_sch * (1.0 - _TOL)
+        need = ctx.w_sch * (1.0 - TOL)
 
         def ok(v: float) -> bool:
             return keep * min_bound_rows(rows_at(v))[0] >= need
@@ -505,7 +511,7 @@ class NoiseAwarePolicy:
             step = ctx.v_ld / ctx.scan_points
             grid = [ctx.v_ld - step * i for i in range(ctx.scan_points)]
             grid += [step * 0.5**j for j in range(1, 21)]
-            found = _largest(ok, grid)
+            found = largest(ok, grid)
         v_l = ctx.floor_frac * ctx.v_ld if found is None else found
         after = rows_at(v_l)
         m_after = min_bound_rows(after)[0]
@@ -514,7 +520,7 @@ class NoiseAwarePolicy:
                         {"numeric": math.nan if found is None else found})
 
 
-@register_policy("safe")
+@register_adjustment_policy("safe")
 class SafePolicy(LookaheadPolicy):
     """:class:`LookaheadPolicy` on top of :class:`NoiseAwarePolicy`: the current command's and
     every upcoming command's decision are the noise-aware one (padding z·σ, margin μ), the
@@ -553,15 +559,15 @@ class PlanPolicy:
     The window's bound, ``msb_min`` and the rows are those of the first window (the window
     the decision governs). A constant target over the horizon is a conservative plan: the
     leader slows for the worst window ahead now, and speeds up only when the whole horizon
-    allows. Own keys: ``windows`` (horizon, integer 1–20, default 3) and ``margin``
+    allows. Own keys: ``windows`` (horizon, integer 1–20, default 2) and ``margin``
     (μ in [0, 1), default 0).
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"windows": 3, "margin": 0.0}
+    params: ClassVar[Mapping[str, Any]] = {"windows": 2, "margin": 0.0}
     #: the coupling fills PolicyInput.rollout for this policy
     needs_rollout: ClassVar[bool] = True
 
-    def __init__(self, windows: float = 3, margin: float = 0.0) -> None:
+    def __init__(self, windows: float = 2, margin: float = 0.0) -> None:
         windows = check_number("windows", "windows", windows)
         if not (1 <= windows <= 20 and windows == int(windows)):
             raise InputError(f"windows: must be an integer in [1, 20], got {windows!r}")
@@ -578,7 +584,7 @@ class PlanPolicy:
                              "coupled run with follow-the-leader followers fills")
         keep = 1.0 - self.margin
         lengths = (ctx.w_sch,) * self.windows
-        need = ctx.w_sch * (1.0 - _TOL)
+        need = ctx.w_sch * (1.0 - TOL)
 
         def worst(v: float) -> float:
             per = ro.changes(v, lengths)
@@ -600,3 +606,28 @@ class PlanPolicy:
         m_after = min_bound_rows(after)[0]
         return Decision(ctx.w_sch, v_l, m1, kind, who, method, keep * worst(v_l) >= need,
                         rows, after, m_after, {"numeric": found})
+
+
+def decide_rows(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Decision:
+    """:func:`decide` as the lightweight :class:`Decision` (bounds as rows in
+    :data:`BOUND_KINDS` order, no dicts): the registered policy ``mode``
+    (:mod:`rtsim.control.policy`) on a :class:`~rtsim.control.policy.PolicyInput` made of
+    ``followers`` and ``options`` (its fields: v_ld, w_sch, thresholds, omega_l, kappa, cap,
+    floor_frac, floor_w, predictor, methods, scan_points, v_now)."""
+    return policy_class(mode, "mode")().decide(PolicyInput(followers, **options))
+
+
+def decide(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Adjustment:
+    """One window's decision by the registered policy ``mode`` (:mod:`rtsim.control.policy`;
+    ``options`` as in :func:`decide_rows`), e.g. the reproduction's three modes:
+
+    - ``adjust``: :func:`adjust`;
+    - ``fixed-wsch``: w = w_sch, V_L = V_Ld always (the bounds may break in the world);
+    - ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld always (the schedule may
+      break); floor_w (ms, default 1) keeps a zero-or-tiny bound from making a zero window.
+
+    In the two baselines ``method`` is ``none``, ``feasible`` says whether min MSB ≥ w_sch, and
+    slack = max(0, w − w_sch).
+    """
+    d = decide_rows(mode, followers, **options)
+    return adjustment_of(mode, d, float(options["w_sch"]), float(options["v_ld"]))

@@ -28,10 +28,10 @@ A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from rtsim._numbers import is_real
 from rtsim.analysis.kinematics import (
@@ -42,6 +42,7 @@ from rtsim.analysis.kinematics import (
     scalar_msbs,
 )
 from rtsim.errors import InputError
+from rtsim.registry import Registry
 
 __all__ = [
     "FollowerEstimate",
@@ -137,58 +138,79 @@ def trusted_estimate(rho: float, beta: float, theta: float, v_f: float, rho_d: f
 Predictor = Callable[[FollowerEstimate, float], tuple[float, float, float]]
 
 
-#: Names of the built-in prediction models (``[adjust] predictor`` of a scenario).
-PREDICTORS: tuple[str, ...] = ("paper", "formation", "hybrid", "commands")
+#: A prediction model's factory: ``factory(omega_l=, kappa=, v_now=)`` gives the predictor of
+#: one decision (the leader's turn rate, the path's curvature, its current speed).
+PredictorFactory = Callable[..., Predictor]
+
+
+def _formation(*, omega_l: float, kappa: float, v_now: float | None = None) -> Predictor:
+    def formation(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
+        s, theta_f = unit_formation(kappa, *f.slot)
+        return s * v_l, theta_f, kappa * v_l
+
+    return formation
+
+
+def _paper(*, omega_l: float, kappa: float, v_now: float | None = None) -> Predictor:
+    return lambda f, v_l: (f.v_f, f.theta, omega_l)
+
+
+def _hybrid(*, omega_l: float, kappa: float, v_now: float | None = None) -> Predictor:
+    if v_now is None:
+        raise InputError("model 'hybrid' needs the leader's current speed v_now")
+    v0 = check_number("predictor", "v_now", v_now)
+    if v0 < 0.0:
+        raise InputError(f"predictor: v_now must be non-negative, got {v_now!r}")
+
+    def hybrid(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
+        return hybrid_velocity(f, v_l, v0, kappa) + (kappa * v_l,)
+
+    return hybrid
+
+
+def _factory(obj: Any, spec: str, where: str) -> PredictorFactory:
+    if not callable(obj):
+        raise InputError(f"{where} is not a predictor factory (a callable "
+                         f"factory(omega_l=, kappa=, v_now=) -> predictor)")
+    return obj  # type: ignore[no-any-return]
+
+
+#: The prediction models (``[adjust] predictor`` of a scenario) by name, each a factory
+#: (entry-point group ``rtsim.predictors``).
+PREDICTORS: Registry[PredictorFactory] = Registry("prediction model", "rtsim.predictors",
+                                                  _factory)
+PREDICTORS.register("paper", _paper)
+PREDICTORS.register("formation", _formation)
+PREDICTORS.register("hybrid", _hybrid)
+PREDICTORS.register("commands", lambda **_: _needs_rollout)
 #: Old names, an input error naming their replacement.
 RENAMED: dict[str, str] = {"estimate": "paper"}
 
 
 def check_predictor(name: object, where: str = "predictor") -> str:
-    """``name`` if it is one of :data:`PREDICTORS`; else an :class:`InputError` with a
-    did-you-mean (old names such as ``estimate`` name their replacement)."""
-    if isinstance(name, str) and name in PREDICTORS:
-        return name
+    """``name`` if it names a prediction model (:data:`PREDICTORS`); else an
+    :class:`InputError` with a did-you-mean (old names such as ``estimate`` name their
+    replacement)."""
     if isinstance(name, str) and name in RENAMED:
-        hint = f" ('{name}' was renamed; did you mean '{RENAMED[name]}'?)"
-    else:
-        close = (difflib.get_close_matches(name, PREDICTORS, n=1, cutoff=0.6)
-                 if isinstance(name, str) else [])
-        hint = f" (did you mean '{close[0]}'?)" if close else ""
-    raise InputError(f"{where}: must be one of {', '.join(PREDICTORS)}, got {name!r}{hint}")
+        raise InputError(f"{where}: must be one of {', '.join(PREDICTORS)}, got {name!r} "
+                         f"('{name}' was renamed; did you mean '{RENAMED[name]}'?)")
+    PREDICTORS.resolve(name, where)  # type: ignore[arg-type]
+    return name  # type: ignore[return-value]
 
 
 def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
               v_now: float | None = None) -> Predictor:
-    """The prediction model named ``model`` (one of :data:`PREDICTORS`), or ``model``.
+    """The prediction model named ``model`` (:data:`PREDICTORS`), or ``model``.
 
     ``v_now``: the leader's current actual speed (cm/s), required by ``"hybrid"``.
     """
     if callable(model):
         return model
-    if model == "formation":
-
-        def formation(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
-            s, theta_f = unit_formation(kappa, *f.slot)
-            return s * v_l, theta_f, kappa * v_l
-
-        return formation
-    if model == "paper":
-        return lambda f, v_l: (f.v_f, f.theta, omega_l)
-    if model == "hybrid":
-        if v_now is None:
-            raise InputError("model 'hybrid' needs the leader's current speed v_now")
-        v0 = check_number("predictor", "v_now", v_now)
-        if v0 < 0.0:
-            raise InputError(f"predictor: v_now must be non-negative, got {v_now!r}")
-
-        def hybrid(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
-            return hybrid_velocity(f, v_l, v0, kappa) + (kappa * v_l,)
-
-        return hybrid
-    if model == "commands":
-        return _needs_rollout
-    check_predictor(model)
-    raise AssertionError(model)  # pragma: no cover - check_predictor raised
+    factory = PREDICTORS.get(model)
+    if factory is None:  # an entry point, code, or an error naming the model
+        check_predictor(model)
+        factory = PREDICTORS.resolve(model, "predictor")
+    return factory(omega_l=omega_l, kappa=kappa, v_now=v_now)
 
 
 def _needs_rollout(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:

@@ -1,7 +1,8 @@
 """The command-aware rollout: the leader predicts the followers from the commands it will send.
 
 The leader radios every follower its command, and it knows the law that computes it
-(follow-the-leader, :mod:`rtsim.world.ftl`). So instead of holding the followers' estimated
+(follow-the-leader, :mod:`rtsim.world.ftl`, or l-ψ, :func:`~rtsim.world.follower.
+lpsi_command`). So instead of holding the followers' estimated
 velocities while its own speed changes (the ``paper`` predictor), it can play the next
 windows forward: for a candidate target speed V it runs
 
@@ -44,9 +45,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
-from rtsim.world.follower import FollowerGroup, FollowerParams
+from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.leader import Leader
 from rtsim.world.path import LeaderPath
@@ -65,8 +69,10 @@ class RolloutState:
     """What the leader knows at its decision (ms, cm, cm/s, rad).
 
     path, law: its path and its follow-the-leader law (cloned per rollout, so the caller's
-    is never changed); params: the followers' limits (max speed, acceleration, turn rate;
-    the noise fields are ignored); step_ms: the integration step of a ramping wheel speed;
+    is never changed), or None for l-ψ followers (then their slots ``rho_d``, ``beta_d`` and
+    :func:`~rtsim.world.follower.lpsi_command`, as the world commands them); params: the
+    followers' limits (max speed, acceleration, turn rate; the noise fields are ignored);
+    step_ms: the integration step of a ramping wheel speed;
     t_now: the decision's time; leader_s, leader_speed: its arc length and actual speed;
     v_ld: its desired speed; accel_max, decel_max: its ramp limits; poses, speeds, held:
     per follower the estimate (x, y, heading), its expected speed and the command (v, ω) it
@@ -78,7 +84,7 @@ class RolloutState:
     """
 
     path: LeaderPath
-    law: TraceFollower
+    law: TraceFollower | None
     params: FollowerParams
     step_ms: float
     t_now: float
@@ -97,6 +103,7 @@ class RolloutState:
     rho_d: tuple[float, ...]
     w_sch: float
     group: type[FollowerGroup] = FollowerGroup
+    beta_d: tuple[float, ...] = ()
 
 
 @dataclass
@@ -150,7 +157,8 @@ class Rollout:
         ld.target_speed = st.leader_speed
         ld.set_speed(min(max(v, 0.0), st.v_ld))
         n = len(st.poses)
-        law = st.law.clone()
+        law = None if st.law is None else st.law.clone()
+        targets: dict[float, tuple[Any, Any]] = {}  # l-ψ: control targets per curvature
         # the scans and the sends, in time order (a send before a scan at the same time)
         scans = [st.next_scan]
         for w in windows:
@@ -184,8 +192,19 @@ class Rollout:
                     t_leader = t
                 if kind == 0:
                     group.advance(k, t, st.step_ms)
-                    cmd = law.command(k, ld.s, ld.pose, ld.speed, group.x[k], group.y[k],
-                                      group.th[k])
+                    if law is not None:
+                        cmd = law.command(k, ld.s, ld.pose, ld.speed, group.x[k], group.y[k],
+                                          group.th[k])
+                    else:
+                        kappa = ld.curvature
+                        if kappa not in targets:
+                            targets[kappa] = control_targets(
+                                np.asarray(st.rho_d), np.asarray(st.beta_d),
+                                st.params.control_offset, kappa)
+                        l_d, psi_d = targets[kappa]
+                        cmd = lpsi_command(ld.pose, ld.speed, kappa * ld.speed, group.x[k],
+                                           group.y[k], group.th[k], float(l_d[k]),
+                                           float(psi_d[k]), st.params)
                     v_c, w_c = group.saturate(*cmd)
                     group.apply_drawn(k, v_c, w_c, 0.0, 0.0)
                     continue

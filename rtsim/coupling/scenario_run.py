@@ -63,6 +63,7 @@ import numpy as np
 import pandas as pd
 import simpy
 
+import rtsim.coupling.duration as run_duration
 from rtsim._numbers import is_int, is_real
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
@@ -70,6 +71,7 @@ from rtsim.control.adjust import predicted_rows
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
+from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
 from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.recorder import (
     FOLLOWER_FIELDS,
@@ -99,9 +101,6 @@ __all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "scenario_inputs"
 DECIDE: tuple[str, ...] = ("end", "before-send")
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
-#: With the default (one-lap) duration, the run stops at the latest after this many lap
-#: times at V_Ld.
-LAP_CAP_FACTOR = 3.0
 _NF = len(FOLLOWER_FIELDS)
 
 
@@ -155,7 +154,8 @@ class ScenarioResult(ResultDisplay):
 
 
 def scenario_inputs(scenario: Any, text: str | None = None,
-                    overrides: Mapping[str, Any] | None = None) -> ScenarioInputs:
+                    overrides: Mapping[str, Any] | None = None,
+                    allow_code: bool | None = None) -> ScenarioInputs:
     """What :func:`run_scenario` runs, prepared once (the world, the task set loaded, the
     resolved values): a caller that runs the same scenario many times (a sweep's worker)
     can keep it and pass it back. Accept :class:`ScenarioInputs`, a path (loaded with
@@ -176,7 +176,7 @@ def scenario_inputs(scenario: Any, text: str | None = None,
 
         path = scenario
         # a file, or a packaged scenario by name ("test2")
-        scenario = load_scenario(path, overrides=overrides)
+        scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
         if text is None:
             text = scenario_bytes(path)[0].decode("utf-8")
     try:
@@ -340,10 +340,6 @@ class _Coupling:
             from rtsim.control.compiled import PaperSearch  # the same speeds, compiled
 
             opts["predictor"] = PaperSearch()
-        if self._rollout and self.world.follow_law is None:
-            raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.predictor: "
-                             f"'commands' (and a policy that plays the commands ahead) needs "
-                             f"formation.model = 'follow-the-leader'")
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
         self.phys = PhysicalLog(self.n, self.rho_d, cfg.follower.radius, self.world.follow_law)
@@ -427,7 +423,7 @@ class _Coupling:
             self.v_ld, cfg.leader_accel_max, cfg.leader_decel_max, tuple(poses),
             tuple(speeds), tuple(held), self._pending(now) if pending else ((),) * self.n,
             max(now, next_scan), tuple(self._send_offsets), self.thr, tuple(self.rho_d),
-            self.w_sch, type(world.followers)))
+            self.w_sch, type(world.followers), tuple(self.beta_d)))
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
         """The current window's sends still to come at its first send's start (``now``):
@@ -788,6 +784,7 @@ def run_scenario(
     window_sink: Any = None,
     job_sink: Any = None,
     policy: str | None = None,
+    allow_code: bool | None = None,
     force: bool = False,
     windows: bool = True,
 ) -> ScenarioResult:
@@ -812,6 +809,8 @@ def run_scenario(
     chunks, or a ChunkWriter of jobs.csv (``result.jobs`` is then None). With both, memory
     stays flat on long runs. windows: False leaves ``result.windows`` None (the summary is
     computed from the records' columns either way; what a sweep point needs).
+    allow_code: a scenario file (or its task set) may name code, ``module:Name``
+    (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
     The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
     range, 2e6 windows, 2e8 world steps × followers, the seed's range); ``force=True`` is
     ``--force``.
@@ -832,15 +831,9 @@ def run_scenario(
     from rtsim.io.work import check_coupled, check_seed
 
     check_seed(seed, "run_scenario: seed")
-    inp = _inputs(scenario, text, overrides)
+    inp = scenario_inputs(scenario, text, overrides, allow_code)
     cfg = inp.world
-    stop_s: float | None = None
-    stop_ms = 0.0
-    if duration_s is None:
-        stop_s = cfg.path.lap_length + max(cfg.formation.rho_d)
-        stop_ms = 1000.0 * (inp.duration_s or 0.0)
-        horizon_ms = max(LAP_CAP_FACTOR * stop_s / cfg.leader_speed * 1000.0, stop_ms)
-    else:
+    if duration_s is not None:
         if not is_real(duration_s) or \
                 not (0 < duration_s < math.inf):
             raise InputError(f"duration must be a positive number of seconds, got "
@@ -848,7 +841,8 @@ def run_scenario(
         from rtsim.io.limits import check
 
         check("option: --duration", duration_s, "run_scenario: duration_s")
-        horizon_ms = float(duration_s) * 1000.0
+    length = run_length(cfg, duration_s, inp.duration_s)
+    horizon_ms, stop_s, stop_ms = length.horizon_ms, length.stop_s, length.stop_ms
     win = inp.taskset.window
     check_coupled(horizon_ms, win.g() if win is not None else 0.0, cfg.step_ms, cfg.n,
                   f"run_scenario: duration {horizon_ms / 1000.0:g} s", force=force)
@@ -886,8 +880,9 @@ def run_scenario(
     }
     if run.lap_ms is None:  # why there is no lap time
         extra["lap_time_note"] = (
-            f"the leader did not complete its lap within the cap of {LAP_CAP_FACTOR:g} lap "
-            f"times at V_Ld ({horizon_ms / 1000.0:.6g} s)" if stop_s is not None else
+            f"the leader did not complete its lap within the cap of "
+            f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
+            if stop_s is not None else
             f"the run's duration ({float(duration_s):g} s) ended before the leader completed "
             f"its lap")
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()

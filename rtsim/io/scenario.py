@@ -61,13 +61,14 @@ estimates = truth + N(0, init sd²)).
 
 from __future__ import annotations
 
-from rtsim.config.load import load_scenario, scenario_bytes
 from rtsim.config.scenario import (
     PACKAGED_SCENARIOS,
     PACKAGED_TASKSETS,
     AdjustConfig,
     Scenario,
+    load_scenario,
     parse_scenario,
+    scenario_bytes,
 )
 from rtsim.errors import ScenarioError  # noqa: F401  (re-exported: older imports)
 

@@ -6,7 +6,7 @@ The generic shape any user can write::
     overhead = 0                # optional: context-switch cost in ms (analysis and simulation)
     [scheduler]                 # optional
     policy = "fp"               # the CPU's scheduling policy: "fp" (default), "edf", or a
-                                # registered name / "package.module:Name" (model.policy)
+                                # registered name / "package.module:Name" (sim.policy)
     [[tasks]]
     name = "tau1"
     wcet = 5                    # ms

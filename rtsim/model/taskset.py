@@ -24,7 +24,7 @@ class TaskSet:
     ``overhead`` is the context-switch cost (ms) that the analysis charges and the simulator
     spends by default (docs/model/beyond.md). ``scheduler`` names the CPU's scheduling policy that
     the
-    simulator uses by default (``fp``, ``edf``, or any policy of :mod:`rtsim.model.policy`);
+    simulator uses by default (``fp``, ``edf``, or any policy of :mod:`rtsim.sim.policy`);
     priorities are required either way (under EDF they only break ties).
     """
 

@@ -29,9 +29,11 @@ __all__ = [
     "SCENARIO_FIGURES",
     "critical_spans",
     "figure_data",
+    "binding_xy",
     "followers",
     "plot_bounds",
     "plot_modes",
+    "plot_msb",
     "plot_operating_space",
     "plot_paths",
     "plot_speed",
@@ -172,7 +174,7 @@ def figure_columns(n: int) -> list[str]:
     in table order — what a long run reads back instead of the whole table."""
     from rtsim.coupling.recorder import window_columns
 
-    need = {"window", "t", "w", "slack", "w_sch", "missed", "critical", "msb_min",
+    need = {"window", "t", "w", "slack", "w_sch", "missed", "critical", "msb_min", "binding",
             "v_leader_desired", "v_leader", "v_leader_target", "segment", "leader_x",
             "leader_y"}
     for i in range(1, n + 1):
@@ -242,10 +244,14 @@ def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
         for i in followers(df):
             cols += [f"f{i}_x", f"f{i}_y", f"f{i}_x_est", f"f{i}_y_est"]
         cols.append("critical")
+        if "binding" in df.columns:
+            cols.append("binding")
     elif name == "window_slack":
         cols = keys + ["w", "slack", "w_sch", "missed", "critical"]
     elif name == "bounds":
         cols = keys + ["w", "w_sch", "critical"]
+    elif name == "msb":
+        cols = keys + ["w", "w_sch", "msb_min", "binding", "critical"]
     elif name == "speed":
         cols = keys + ["v_leader_desired", "v_leader", "v_leader_target", "segment"]
     elif name == "operating_space":
@@ -254,6 +260,9 @@ def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
         raise InputError(f"figure_data: unknown figure {name!r} (known: {', '.join(_NAMES)})")
     _need(df, cols, f"the {name} figure")
     out = df.loc[:, cols].reset_index(drop=True)
+    if name == "msb":
+        out["msb_min_true"] = np.min(np.column_stack(
+            [_kind_min(df, kind, "true") for kind in BOUND_KINDS]), axis=1)
     if name in ("bounds", "operating_space"):
         for which in ("pred", "true"):
             mins = {kind: _kind_min(df, kind, which) for kind in BOUND_KINDS}
@@ -356,12 +365,30 @@ def _wsch_line(ax: Axes, df: pd.DataFrame) -> None:
 # --- drawers (one axes each; shared by the single figures and plot_modes) ---------------
 
 
+def binding_xy(df: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Per window, the true position of the follower whose bound binds (``binding`` =
+    ``kind:i``); the leader's where no follower binds or the table has no ``binding``."""
+    x, y = _floats(df["leader_x"]).copy(), _floats(df["leader_y"]).copy()
+    if "binding" not in df.columns:
+        return x, y
+    who = df["binding"].astype(str).str.rsplit(":", n=1).str[-1]
+    num = pd.to_numeric(who, errors="coerce").to_numpy()
+    for i in followers(df):
+        sel = num == i
+        if sel.any():
+            x[sel] = _floats(df[f"f{i}_x"])[sel]
+            y[sel] = _floats(df[f"f{i}_y"])[sel]
+    return x, y
+
+
 def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     figure_data(df, "paths")  # validates the columns
     crit = _bool(df["critical"])
     lx, ly = _floats(df["leader_x"]), _floats(df["leader_y"])
-    ax.scatter(lx[crit], ly[crit], s=30, color=COLORS["critical"], alpha=0.5, lw=0,
-               gid="critical", label="critical windows (on leader path)", zorder=1)
+    bx, by = binding_xy(df)
+    where = "at the binding follower" if "binding" in df.columns else "on leader path"
+    ax.scatter(bx[crit], by[crit], s=30, color=COLORS["critical"], alpha=0.5, lw=0,
+               gid="critical", label=f"critical windows ({where})", zorder=1)
     ax.plot(lx, ly, color=COLORS["leader"], lw=1.4, label="leader", zorder=3)
     for k, i in enumerate(followers(df)):
         c = FOLLOWER_COLORS[k % len(FOLLOWER_COLORS)]
@@ -434,6 +461,35 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     ax.text(0.01, 0.01, "lines: predicted at the leader's highest speed in the window; "
             "dots: threshold·w / true change", transform=ax.transAxes, fontsize="x-small",
             color="#555555", va="bottom")
+
+
+def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+    data = figure_data(df, "msb")
+    w_sch = _floats(data["w_sch"])
+    pred, true = _floats(data["msb_min"]), _floats(data["msb_min_true"])
+    w = _floats(data["w"])
+    top = top if top is not None else _ylimit([pred, w], w_sch, BOUNDS_CLIP)
+    _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
+    t = _t_s(df)
+    _step(ax, df, _offscale(pred, top), color=COLORS["msb_min"], lw=1.5, gid="msb_pred",
+          label="min MSB at $V_{Ld}$, predicted")
+    shown = true <= top
+    ax.plot(t[shown], true[shown], ".", color=COLORS["msb_min"], ms=2.5, alpha=0.5,
+            gid="msb_true", label="min MSB, true (threshold·w / change, at the speed driven)")
+    _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
+          label="processing window w")
+    _wsch_line(ax, df)
+    crit = _bool(df["critical"])
+    kinds = data["binding"].astype(str).str.split(":").str[0].to_numpy()
+    for kind in BOUND_KINDS:
+        sel = crit & (kinds == kind) & (pred <= top)
+        if sel.any():
+            ax.plot(t[sel], pred[sel], "o", ms=3.5, color=COLORS[kind], mec="none",
+                    gid=f"binding_{kind}",
+                    label=f"binding: {kind.replace('_', ' ')} ({int(sel.sum())})")
+    ax.set_ylim(0, top)
+    _note_clip(ax, [pred, w], top)
+    _time_axes(ax, df, "min MSB (ms)")
 
 
 def _draw_speed(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
@@ -525,7 +581,8 @@ def _draw_plane(ax: Axes, df: pd.DataFrame, top: float) -> None:
 
 
 def plot_paths(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
-    """Figs 8/12: the leader's and followers' true paths, estimates faint, critical windows."""
+    """Figs 8/12: the leader's and followers' true paths, estimates faint, critical windows
+    drawn where the binding follower was (:func:`binding_xy`)."""
     fig, ax, own = _new_figure(ax, (6.4, 6.0))
     _draw_paths(ax, df)
     return _finish(fig, ax, own, title)
@@ -540,9 +597,20 @@ def plot_window_slack(df: pd.DataFrame, *, title: str | None = None,
 
 
 def plot_bounds(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
-    """Figs 10/14: w_sch, each MSB kind (min over followers, estimates) and w over time."""
+    """The per-kind detail of Figs 10/14 (:func:`plot_msb` is the paper's picture): w_sch,
+    each MSB kind (min over followers, estimates) and w over time."""
     fig, ax, own = _new_figure(ax, (8.0, 4.6))
     _draw_bounds(ax, df)
+    return _finish(fig, ax, own, title)
+
+
+def plot_msb(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+    """Figs 10/14 as the paper draws them: the minimum MSB over every follower and bound,
+    predicted at the desired speed V_Ld (the decision's ``msb_min``) and as the truth showed
+    it, against w_sch and w; in the critical windows a marker coloured by the binding bound.
+    The per-kind detail is :func:`plot_bounds`."""
+    fig, ax, own = _new_figure(ax, (10.5, 4.2))
+    _draw_msb(ax, df)
     return _finish(fig, ax, own, title)
 
 
@@ -579,6 +647,7 @@ _DRAWERS: dict[str, Callable[[Axes, pd.DataFrame, float | None], None]] = {
     "window": _draw_window,
     "window_slack": _draw_window,
     "bounds": _draw_bounds,
+    "msb": _draw_msb,
     "speed": _draw_speed,
     "operating_space": _draw_operating,
 }
@@ -674,6 +743,7 @@ SCENARIO_FIGURES: dict[str, Callable[..., Figure]] = {
     "paths": plot_paths,
     "window_slack": plot_window_slack,
     "bounds": plot_bounds,
+    "msb": plot_msb,
     "speed": plot_speed,
     "operating_space": plot_operating_space,
 }
@@ -681,7 +751,8 @@ _NAMES = tuple(SCENARIO_FIGURES)
 _TITLES = {
     "paths": "Robots' paths",
     "window_slack": "Processing window and slack time",
-    "bounds": "Effective processing-window bounds",
+    "bounds": "Effective processing-window bounds, per kind",
+    "msb": "Minimum MSB against the schedulability bound",
     "speed": "Desired and actual leader speed",
     "operating_space": "Operating space",
 }

@@ -5,15 +5,6 @@ coupling layer drives inside its own SimPy environment (hooks at segment boundar
 per-segment execution-time callables, dynamic windows).
 """
 
-from rtsim.model.policy import (
-    POLICIES,
-    SCHEDULERS,
-    EarliestDeadlineFirst,
-    FixedPriority,
-    SchedulingPolicy,
-    register_policy,
-    resolve_policy,
-)
 from rtsim.sim.cpu import CPU, HOOK_EVENTS, HookEvent, Job
 from rtsim.sim.execution import (
     WCET,
@@ -22,6 +13,17 @@ from rtsim.sim.execution import (
     Uniform,
     resolve_exec_model,
     task_rngs,
+)
+from rtsim.sim.policy import (
+    POLICIES,
+    SCHEDULERS,
+    EarliestDeadlineFirst,
+    FixedPriority,
+    SchedulingPolicy,
+    register_policy,
+    register_scheduler,
+    resolve_policy,
+    resolve_scheduler,
 )
 from rtsim.sim.records import (
     EPS,
@@ -55,7 +57,9 @@ __all__ = [
     "WCET",
     "build_cpu",
     "register_policy",
+    "register_scheduler",
     "resolve_policy",
+    "resolve_scheduler",
     "resolve_exec_model",
     "resolve_window",
     "simulate",

@@ -5,7 +5,7 @@ Preemption mechanism (the only one in rtsim)
 The CPU *holds* a ``simpy.Environment`` and runs ONE SimPy process, the dispatcher. It owns
 three structures: a timer heap (releases, ends of idle suspensions, abort deadlines), a ready
 heap of eligible jobs keyed by the scheduling policy's (key, tie) — (priority, job sequence)
-under ``fp``, (absolute deadline, job sequence) under ``edf`` (:mod:`rtsim.model.policy`) —
+under ``fp``, (absolute deadline, job sequence) under ``edf`` (:mod:`rtsim.sim.policy`) —
 and the running job. At each instant it books the running job's progress, handles what is
 due, gives the CPU to the first eligible job if the policy says it preempts the running one,
 and yields a single ``env.timeout`` until the earliest of "the running segment completes"
@@ -27,7 +27,7 @@ books that job without a :class:`Job` object and in one step: the preemption at 
 completion at t + c and the dispatch at t + c, with the same float operations in the same
 order (so results, job records, hook calls and times are bit-identical; tests/test_sim_inline
 compares runs with the path on and off). Not with a trace, overhead or abort policies, and
-only under a policy that preempts by key (:mod:`rtsim.model.policy`); under one whose top
+only under a policy that preempts by key (:mod:`rtsim.sim.policy`); under one whose top
 task does not always come first (``edf``), only when the job comes first in the ready order and
 preempts the running job, and the job after it at t + c is the first of the others in the
 order (key, tie).
@@ -106,10 +106,10 @@ import numpy as np
 import simpy
 
 from rtsim.errors import InputError, RtsimError
-from rtsim.model.policy import PolicySpec, SchedulingPolicy, resolve_policy
 from rtsim.model.task import Segment, Task
 from rtsim.sim.execution import WCET, ExecSpec, jitter_rngs, resolve_exec_model, task_rngs
 from rtsim.sim.job import _ABORT, _JREL, _RELEASE, _RESUME, Job, _TaskState
+from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_policy
 from rtsim.sim.records import (
     EPS,
     ResponseHistogram,
@@ -149,7 +149,7 @@ def coincidence(t: float) -> tuple[float, float]:
 class CPU:
     """One processor under a scheduling policy, ``scheduler``: ``"fp"``, ``"edf"``, another
     registered name, ``"package.module:Name"`` or a
-    :class:`~rtsim.model.policy.SchedulingPolicy` (the module docstring; :mod:`rtsim.model.policy`).
+    :class:`~rtsim.sim.policy.SchedulingPolicy` (the module docstring; :mod:`rtsim.sim.policy`).
 
     Usage: ``cpu = CPU(env)``; ``cpu.add_task(...)`` for each task; register hooks with
     :meth:`on` and per-segment execution times with :meth:`set_exec_time`; ``cpu.start(H)``

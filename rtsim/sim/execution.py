@@ -37,11 +37,13 @@ import numpy as np
 from rtsim._numbers import is_int
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
+from rtsim.registry import Registry
 
 if TYPE_CHECKING:
     from rtsim.sim.cpu import Job
 
 __all__ = [
+    "EXEC_MODELS",
     "ExecModel",
     "ExecSpec",
     "WCET",
@@ -158,13 +160,29 @@ class Empirical:
         return values[int(rng.integers(len(values)))]
 
 
-def resolve_exec_model(spec: ExecSpec) -> Callable[..., float]:
-    """A model from a name (``wcet``, ``uniform``) or a callable (returned as is)."""
+def _exec_model(obj: Any, spec: str, where: str) -> Callable[..., float]:
+    """A loaded model: a class is instantiated; the result must be callable."""
+    model = obj() if isinstance(obj, type) else obj
+    if not callable(model):
+        raise InputError(f"{where} is not an execution-time model (a callable "
+                         f"model(job, segment, rng) -> ms)")
+    return model  # type: ignore[no-any-return]
+
+
+#: The execution-time models by name (entry-point group ``rtsim.exec_models``; an entry point
+#: names a model, or a class whose instances are models).
+EXEC_MODELS: Registry[Callable[..., float]] = Registry("execution-time model",
+                                                       "rtsim.exec_models", _exec_model)
+EXEC_MODELS.register("wcet", WCET())
+EXEC_MODELS.register("uniform", Uniform())
+
+
+def resolve_exec_model(spec: ExecSpec, *, allow_code: bool | None = None
+                       ) -> Callable[..., float]:
+    """A model from a name (``wcet``, ``uniform``, an entry point, ``package.module:Name``) or
+    a callable (returned as is)."""
     if isinstance(spec, str):
-        named: dict[str, Callable[..., float]] = {"wcet": WCET(), "uniform": Uniform()}
-        if spec not in named:
-            raise InputError(f"exec model must be one of {', '.join(named)}, got {spec!r}")
-        return named[spec]
+        return EXEC_MODELS.resolve(spec, "exec model", allow_code=allow_code)
     if not callable(spec):
         raise InputError(f"exec model must be a name or a callable, got {spec!r}")
     return spec

@@ -32,7 +32,7 @@ class Job:
     arrived but not yet released. ``period`` is the period in force at the arrival.
     ``segment`` is the current segment, ``seg_exec`` its drawn execution time,
     ``start``/``finish`` are None until they happen. ``key``/``tie``: its place in the ready
-    queue, set by the CPU's scheduling policy (:mod:`rtsim.model.policy`) at creation.
+    queue, set by the CPU's scheduling policy (:mod:`rtsim.sim.policy`) at creation.
     """
 
     __slots__ = ("_st", "task", "name", "priority", "index", "release", "deadline", "period",

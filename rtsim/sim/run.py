@@ -25,11 +25,11 @@ import simpy
 
 from rtsim._numbers import is_real
 from rtsim.errors import InputError
-from rtsim.model.policy import PolicySpec
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU, JitterMode
 from rtsim.sim.execution import ExecSpec
+from rtsim.sim.policy import PolicySpec
 from rtsim.sim.records import SimResult
 
 __all__ = ["simulate", "build_cpu", "resolve_window", "WindowArg"]
@@ -38,8 +38,10 @@ __all__ = ["simulate", "build_cpu", "resolve_window", "WindowArg"]
 WindowArg = float | Callable[[], float] | None
 
 
-def _as_taskset(ts: TaskSet | Sequence[Task] | str | os.PathLike[str]) -> TaskSet:
-    from rtsim.io.taskset import as_taskset
+def _as_taskset(ts: TaskSet | Sequence[Task]) -> TaskSet:
+    """A TaskSet, or one of a list of tasks; a file is read above the simulator
+    (:func:`rtsim.load_taskset`, or the facade's :func:`rtsim.simulate`, which takes a path)."""
+    from rtsim.analysis.sufficient import as_taskset
 
     if isinstance(ts, TaskSet | str | os.PathLike):
         return as_taskset(ts, "simulate")
@@ -115,7 +117,7 @@ def build_cpu(
 
 
 def simulate(
-    ts: TaskSet | Sequence[Task] | str | os.PathLike[str],
+    ts: TaskSet | Sequence[Task],
     horizon: float,
     *,
     seed: int | np.random.SeedSequence | np.random.Generator | None = 0,
@@ -141,7 +143,7 @@ def simulate(
     run, or a :class:`rtsim.io.columns.ChunkWriter` that formats them without a DataFrame
     (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
     long horizon (:class:`rtsim.sim.records.RowBuffer`).
-    ``scheduler``: the scheduling policy (:mod:`rtsim.model.policy`), default the set's
+    ``scheduler``: the scheduling policy (:mod:`rtsim.sim.policy`), default the set's
     (``[scheduler] policy``; ``fp`` for a list of tasks).
     The work limits of the command line apply (:mod:`rtsim.io.work`: at most 5e7 jobs, and
     1e6 jobs waiting at once on an overloaded CPU); ``force=True`` is ``--force``. A seed

@@ -200,8 +200,9 @@ class Sweep:
     """One sweep bound to an output directory (see the module docstring)."""
 
     def __init__(self, spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLike[str],
-                 *, force: bool = False):
-        self.spec = spec if isinstance(spec, SweepSpec) else load_sweep(spec)
+                 *, force: bool = False, allow_code: bool | None = None):
+        self.spec = (spec if isinstance(spec, SweepSpec)
+                     else load_sweep(spec, allow_code=allow_code))
         self.out = Path(out_dir)
         check_work("grid", grid_size(self.spec), f"{self.spec.source}: grid", force=force)
         self.points = points(self.spec)
@@ -363,7 +364,7 @@ class Sweep:
         if method == "fork":
             import pandas  # noqa: F401 - the results table needs it anyway
 
-            KINDS[self.spec.kind].preload()
+            KINDS.resolve(self.spec.kind, "sweep.kind").preload()
         ctx = multiprocessing.get_context(method)
 
         def pool() -> ProcessPoolExecutor:
@@ -521,12 +522,14 @@ class Sweep:
 def run_sweep(spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLike[str], *,
               workers: int | None = None, dask: Any = None, progress: bool | None = False,
               restart: bool = False, retry_failed: bool = False,
-              argv: Sequence[str] | None = None, force: bool = False) -> pd.DataFrame:
+              argv: Sequence[str] | None = None, force: bool = False,
+              allow_code: bool | None = None) -> pd.DataFrame:
     """Run (or resume) a sweep into ``out_dir`` and return its results table.
 
     Failed points are rows with ``status == "failed"``; they do not raise. ``force`` runs a
-    grid above the size limit. See :class:`Sweep`.
+    grid above the size limit; ``allow_code``: the sweep file and its base may name Python
+    code (``package.module:Name``, :mod:`rtsim.registry`). See :class:`Sweep`.
     """
-    return Sweep(spec, out_dir, force=force).run(workers=workers, dask=dask, progress=progress,
-                                    restart=restart, retry_failed=retry_failed,
-                                    argv=argv).table
+    sweep = Sweep(spec, out_dir, force=force, allow_code=allow_code)
+    return sweep.run(workers=workers, dask=dask, progress=progress, restart=restart,
+                     retry_failed=retry_failed, argv=argv).table

@@ -79,4 +79,4 @@ def point_input(spec: SweepSpec, point: Point) -> PointInput:
         params = {**dict(spec.fixed), **params}
     return PointInput(index=point.index, kind=spec.kind, params=params, options=options,
                       seed=point.seed, base=spec.base, overrides=tuple(overrides),
-                      function=spec.function)
+                      function=spec.function, allow_code=spec.allow_code)

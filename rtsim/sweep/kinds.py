@@ -8,8 +8,9 @@ the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metr
   ``w_eq11``, ``w_sch``, ``w_rta``, ``w_susp``, ``w_edf``. No options.
 - ``analyze`` — ``rtsim.analysis.rta.analyze(ts, w)``: ``schedulable``, ``utilization``,
   ``wcrt.<task>`` (NaN once above the deadline), ``schedulable.<task>``. Options ``window``
-  and ``scheduler`` (``fp`` | ``edf``: ``rtsim.analysis.edf.analyze_edf``, the demand
-  criterion's verdict and Spuri's bounds; default the set's ``[scheduler] policy``).
+  and ``scheduler`` (a scheduling policy with an analysis: ``fp``, or ``edf``:
+  ``rtsim.analysis.edf.analyze_edf``, the demand criterion's verdict and Spuri's bounds;
+  default the set's ``[scheduler] policy``).
 - ``simulate`` — ``rtsim.sim.simulate(ts, horizon, seed=<point seed>, exec_model=exec,
   suspension=, window=)``: ``w`` (the window used), per task ``max_response.<task>``,
   ``mean_response.<task>``, ``misses.<task>``, ``jobs.<task>`` (completed jobs), totals
@@ -38,6 +39,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import json
 import math
 from collections import OrderedDict
 from collections.abc import Callable, Mapping
@@ -47,6 +49,10 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
+from rtsim.errors import InputError
+from rtsim.overrides import RUN_OPTIONS, apply_overrides
+from rtsim.registry import Registry
+
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
     from rtsim.sweep.spec import BaseFile
@@ -54,13 +60,9 @@ if TYPE_CHECKING:
 __all__ = ["PointInput", "KindSpec", "KINDS", "register_kind", "apply_overrides"]
 
 
-def apply_overrides(data: dict[str, Any], overrides: tuple[tuple[tuple[str, ...], Any], ...]
-                    ) -> dict[str, Any]:
-    """Set each dotted path (tables by key, lists of tables by ``name`` or index) in ``data``
-    (:func:`rtsim.config.dotted.apply_paths`)."""
-    from rtsim.config.dotted import apply_paths
-
-    return apply_paths(data, overrides)
+def canonical_json(obj: Any) -> str:
+    """Compact, key-sorted JSON: the text that seeds and fingerprints are hashed from."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=True)
 
 
 @dataclass(frozen=True)
@@ -75,6 +77,8 @@ class PointInput:
     base: BaseFile | None = None
     overrides: tuple[tuple[tuple[str, ...], Any], ...] = ()
     function: str | None = None
+    #: the sweep's reader allowed code named in its files (:mod:`rtsim.registry`)
+    allow_code: bool = False
 
     def base_data(self) -> dict[str, Any]:
         """The base file's TOML dict with this point's overrides applied."""
@@ -87,7 +91,7 @@ class PointInput:
         from rtsim.io.taskset import parse_taskset
 
         assert self.base is not None
-        return parse_taskset(self.base_data(), self.base.source)
+        return parse_taskset(self.base_data(), self.base.source, allow_code=self.allow_code)
 
 
 @dataclass(frozen=True)
@@ -139,10 +143,11 @@ def _bounds(p: PointInput) -> dict[str, Any]:
 
 def _analyze(p: PointInput) -> dict[str, Any]:
     ts = p.taskset()
-    if p.options.get("scheduler", ts.scheduler) == "edf":
-        fn = _need("rtsim.analysis.edf", "analyze").analyze_edf
-    else:
-        fn = _need("rtsim.analysis.rta", "analyze").analyze
+    policies = _need("rtsim.sim.policy", "analyze")
+    name = p.options.get("scheduler", ts.scheduler)
+    fn = policies.SCHEDULERS.resolve(name, "scheduler", allow_code=p.allow_code).analysis
+    if fn is None:
+        raise InputError(f"scheduler: the scheduling policy {name!r} has no analysis")
     w = p.options.get("window")
     a = fn(ts) if w is None else fn(ts, w=float(w))
     out: dict[str, Any] = {"schedulable": bool(a.schedulable),
@@ -206,8 +211,6 @@ def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[
     for each distinct content (points that differ only in seed or run options — mode,
     duration — share them): the key is the base file's name, its folder and the canonical
     JSON of the data with the point's overrides applied."""
-    from rtsim.sweep.spec import canonical_json
-
     assert p.base is not None
     key = hashlib.sha256("\0".join((p.base.source, str(where), canonical_json(data)))
                          .encode()).hexdigest()
@@ -217,7 +220,7 @@ def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[
         return hit
     io = _need("rtsim.io.scenario", "scenario")
     coupling = _need("rtsim.coupling", "scenario")
-    scenario = io.parse_scenario(data, p.base.source, base=where)
+    scenario = io.parse_scenario(data, p.base.source, base=where, allow_code=p.allow_code)
     hit = (scenario, coupling.scenario_inputs(scenario))
     _PREPARED[key] = hit
     if len(_PREPARED) > _PREPARED_MAX:
@@ -241,7 +244,7 @@ def _scenario(p: PointInput) -> dict[str, Any]:
         kwargs["duration_s"] = float(o["duration"])
     if "exec" in o:
         kwargs["exec_model"] = o["exec"]
-    from rtsim.io.work import check_scenario
+    from rtsim.coupling.duration import check_scenario
 
     check_scenario(scenario, kwargs.get("duration_s"), f"{p.base.source}: duration")
     summary = dict(coupling.run_scenario(inputs, **kwargs).summary)
@@ -250,18 +253,26 @@ def _scenario(p: PointInput) -> dict[str, Any]:
 
 
 def _call(p: PointInput) -> dict[str, Any]:
+    from rtsim.registry import load_code
+
     assert p.function is not None
-    mod, attr = p.function.split(":")
-    fn = getattr(importlib.import_module(mod), attr)
+    fn = load_code(p.function, "sweep.function", allow_code=p.allow_code)
     return fn(dict(p.params), dict(p.options), p.seed)
 
 
-KINDS: dict[str, KindSpec] = {}
+def _kind_spec(obj: Any, spec: str, where: str) -> KindSpec:
+    if isinstance(obj, KindSpec):
+        return obj
+    raise InputError(f"{where} is not a KindSpec")
+
+
+#: The sweep kinds by name (entry-point group ``rtsim.sweep_kinds``, each a :class:`KindSpec`).
+KINDS: Registry[KindSpec] = Registry("sweep kind", "rtsim.sweep_kinds", _kind_spec)
 
 
 def register_kind(spec: KindSpec) -> None:
     """Add (or replace) a kind in this process's registry."""
-    KINDS[spec.name] = spec
+    KINDS.register(spec.name, spec)
 
 
 _LOADER = ("rtsim.io.taskset",)
@@ -270,12 +281,12 @@ register_kind(KindSpec("bounds", _bounds, metrics=("e_hough", "g", "w_eq7", "w_e
                        modules=(*_LOADER, "rtsim.analysis.bounds")))
 register_kind(KindSpec("analyze", _analyze, options=("window", "scheduler"),
                        metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*"),
-                       modules=(*_LOADER, "rtsim.analysis.rta")))
+                       modules=(*_LOADER, "rtsim.sim.policy")))
 register_kind(KindSpec("simulate", _simulate,
-                       options=("horizon", "exec", "suspension", "window", "scheduler"),
+                       options=RUN_OPTIONS["simulate"],
                        required=("horizon",), modules=(*_LOADER, "rtsim.sim"),
                        metrics=("w", "max_response.*", "mean_response.*", "misses.*", "jobs.*",
                                 "misses", "jobs")))
-register_kind(KindSpec("scenario", _scenario, options=("mode", "duration", "exec", "scheduler"),
+register_kind(KindSpec("scenario", _scenario, options=RUN_OPTIONS["scenario"],
                        modules=("rtsim.io.scenario", "rtsim.coupling")))
 register_kind(KindSpec("call", _call))

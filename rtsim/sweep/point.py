@@ -111,7 +111,7 @@ def execute_point(point: PointInput, keep: tuple[str, ...] | None = None) -> dic
     """
     t0, c0 = time.perf_counter(), time.process_time()
     try:
-        metrics = select_metrics(KINDS[point.kind].fn(point), keep)
+        metrics = select_metrics(KINDS.resolve(point.kind, "sweep.kind").fn(point), keep)
         status, error = "ok", ""
     except Exception as exc:  # noqa: BLE001 - a failing point is recorded, the sweep goes on
         metrics, status, error = {}, "failed", _one_line(exc)

@@ -48,12 +48,11 @@ Any problem is a :class:`~rtsim.errors.SweepError` naming the file and the key.
 from __future__ import annotations
 
 import hashlib
-import importlib
 import json
 import math
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -62,7 +61,7 @@ from rtsim._suggest import did_you_mean
 from rtsim.config.dotted import resolve, shortcuts
 from rtsim.errors import InputError, SweepError
 from rtsim.io.ranges import parse_values
-from rtsim.sweep.kinds import KINDS
+from rtsim.sweep.kinds import KINDS, canonical_json
 
 __all__ = ["BaseFile", "SweepSpec", "load_sweep", "parse_sweep", "canonical_json", "Scalar"]
 
@@ -74,11 +73,6 @@ _SWEEP_KEYS = (
     "description",
 )
 _COMBINE = ("product", "zip")
-
-
-def canonical_json(obj: Any) -> str:
-    """Compact, key-sorted JSON: the text that seeds and fingerprints are hashed from."""
-    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=True)
 
 
 @dataclass(frozen=True)
@@ -136,6 +130,8 @@ class SweepSpec:
     name: str = ""
     fixed: tuple[tuple[str, Any], ...] = ()
     set_args: tuple[str, ...] = ()  # the command line's --set KEY=VALUE, as given
+    #: the sweep's reader allowed code named in its files (not part of the fingerprint)
+    allow_code: bool = field(default=False, compare=False)
 
     def resolved(self) -> dict[str, Any]:
         """Everything that determines the points and their results (the fingerprint's input)."""
@@ -218,7 +214,7 @@ def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
         return ("seed",)
     if kind == "call":
         return ("param", name)
-    spec = KINDS[kind]
+    spec = KINDS.resolve(kind, f"{src}: sweep.kind")
     if name in spec.options:
         return ("option", name)
     assert base is not None and data is not None
@@ -286,21 +282,31 @@ _OPTION_CHECKS: dict[str, tuple[Any, str]] = {
     "duration": (lambda v: v is None or _positive(v), "a positive number of seconds"),
     "exec": (lambda v: v in ("wcet", "uniform"), "'wcet' or 'uniform'"),
     "suspension": (lambda v: v in ("cpu", "idle"), "'cpu' or 'idle'"),
-    "mode": (lambda v: _is_policy(v),
-             "a registered adjustment policy (adjust, fixed-wsch, min-msb, margin, lookahead) "
-             "or 'package.module:Name'"),
-    "scheduler": (lambda v: v in ("fp", "edf"), "'fp' or 'edf'"),
 }
 
 
-def _is_policy(v: Any) -> bool:
-    """A scenario run's ``mode`` (alias of policy): a registered name or ``module:Name``."""
-    from rtsim.control.policy import POLICIES
+def _registered(name: str) -> Any:
+    """The registry a plug-in option resolves in (``mode``: adjustment policies,
+    ``scheduler``: scheduling policies), or None."""
+    if name == "mode":
+        from rtsim.control.policy import ADJUSTMENT_POLICIES
 
-    return isinstance(v, str) and (v in POLICIES or ":" in v)
+        return ADJUSTMENT_POLICIES
+    if name == "scheduler":
+        from rtsim.sim.policy import SCHEDULERS
+
+        return SCHEDULERS
+    return None
 
 
 def _check_option(src: str, where: str, name: str, value: Any) -> None:
+    registry = _registered(name)
+    if registry is not None:  # a name, or code only when the sweep's reader allows it
+        try:
+            registry.resolve(value, f"{src}: {where}")
+        except InputError as exc:
+            raise SweepError(str(exc)) from None
+        return
     check = _OPTION_CHECKS.get(name)
     if check is not None and not check[0](value):
         raise SweepError(f"{src}: {where}: must be {check[1]}, got {value!r}")
@@ -311,8 +317,25 @@ def _check_option(src: str, where: str, name: str, value: Any) -> None:
 
 
 def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = ".",
-                text: str = "", set_: tuple[str, ...] = ()) -> SweepSpec:
-    """Validate a parsed sweep file; ``base_dir`` is where a relative ``base`` is found."""
+                text: str = "", set_: tuple[str, ...] = (), *,
+                allow_code: bool | None = None) -> SweepSpec:
+    """Validate a parsed sweep file; ``base_dir`` is where a relative ``base`` is found;
+    ``set_``: ``KEY=VALUE`` changes of the base file at every point (the command line's
+    ``--set``, applied over ``[sweep.set]``).
+
+    ``allow_code``: the file (its ``function``, a ``mode`` or ``scheduler``, its base file) may
+    name Python code as ``package.module:Name`` (:mod:`rtsim.registry`); default: only when
+    the user opted in."""
+    from rtsim.registry import file_allows_code, reading_input
+
+    allow = file_allows_code(allow_code)
+    with reading_input(allow):
+        spec = _parse_sweep(data, source, Path(base_dir), text, tuple(set_))
+    return replace(spec, allow_code=allow) if allow else spec
+
+
+def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str,
+                 set_: tuple[str, ...]) -> SweepSpec:
     src = source
     _check_keys(src, "", data, _TOP_KEYS)
     sw = data.get("sweep")
@@ -322,7 +345,7 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
     kind = sw.get("kind")
     if kind is None:
         raise SweepError(f"{src}: sweep.kind: missing (one of {', '.join(KINDS)})")
-    if kind not in KINDS:
+    if not KINDS.contains(kind):
         raise SweepError(f"{src}: sweep.kind: unknown kind {kind!r} (one of "
                          f"{', '.join(KINDS)}){did_you_mean(str(kind), tuple(KINDS))}")
     seed = sw.get("seed", 0)
@@ -337,16 +360,17 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
         if not isinstance(function, str) or function.count(":") != 1:
             raise SweepError(f"{src}: sweep.function: kind 'call' needs "
                              f"'package.module:function', got {function!r}")
-        mod, attr = function.split(":")
+        from rtsim.registry import load_code
+
         try:
-            fn = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError, ValueError, TypeError) as exc:
-            raise SweepError(f"{src}: sweep.function: cannot import {function!r}: {exc}") from None
+            fn = load_code(function, f"{src}: sweep.function")
+        except InputError as exc:
+            raise SweepError(str(exc)) from None
         if not callable(fn):
             raise SweepError(f"{src}: sweep.function: {function!r} is not callable")
     elif function is not None:
         raise SweepError(f"{src}: sweep.function: only for kind 'call', not {kind!r}")
-    kspec = KINDS[kind]
+    kspec = KINDS.resolve(kind, f"{src}: sweep.kind")
     options = sw.get("options", {})
     if not isinstance(options, dict):
         raise SweepError(f"{src}: sweep.options: expected a table")
@@ -424,9 +448,11 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
     )
 
 
-def load_sweep(path: str | Path, set_: list[str] | tuple[str, ...] = ()) -> SweepSpec:
+def load_sweep(path: str | Path, set_: list[str] | tuple[str, ...] = (), *,
+               allow_code: bool | None = None) -> SweepSpec:
     """Read and validate a sweep file; ``set_``: ``KEY=VALUE`` changes of the base file at
-    every point (the command line's ``--set``, applied over ``[sweep.set]``)."""
+    every point (the command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``:
+    as :func:`parse_sweep`."""
     set_ = tuple(set_)
     p = Path(path)
     from rtsim.examples import packaged_text
@@ -437,7 +463,8 @@ def load_sweep(path: str | Path, set_: list[str] | tuple[str, ...] = ()) -> Swee
             data = tomllib.loads(shipped)
         except tomllib.TOMLDecodeError as exc:  # pragma: no cover - shipped files are valid
             raise SweepError(f"{p}: not valid TOML: {exc}") from None
-        return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped, set_)
+        return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped, set_,
+                           allow_code=allow_code)
     from rtsim.io.limits import read_input
 
     try:
@@ -446,7 +473,8 @@ def load_sweep(path: str | Path, set_: list[str] | tuple[str, ...] = ()) -> Swee
         raise SweepError(f"{p}: cannot read sweep file: {exc}") from None
     try:
         data = tomllib.loads(text)
-        return parse_sweep(data, str(p), p.resolve().parent, text, set_)
+        return parse_sweep(data, str(p), p.resolve().parent, text, set_,
+                           allow_code=allow_code)
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{p}: not valid TOML: {exc}") from None
     except RecursionError:

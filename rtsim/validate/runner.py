@@ -143,7 +143,7 @@ def paper_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: paper
     data = {"sweep": {"kind": "call", "function": "rtsim.validate.points:paper_point",
                       "seed": cfg.seed, "options": options, "name": f"validate-{cfg.name}"},
             "grid": {"n": [int(k) for k in cfg.n], "r_H": [float(r) for r in cfg.r_H]}}
-    return parse_sweep(data, source)
+    return parse_sweep(data, source, allow_code=True)  # rtsim's own function, not a file's
 
 
 def random_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: random") -> Any:
@@ -154,7 +154,7 @@ def random_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: rand
                       "seed": cfg.seed, "options": {"hyperperiods": cfg.hyperperiods},
                       "name": f"validate-random-{cfg.name}"},
             "grid": {"set": list(range(cfg.random_sets))}}
-    return parse_sweep(data, source)
+    return parse_sweep(data, source, allow_code=True)  # rtsim's own function, not a file's
 
 
 def _run(spec: Any, out: Path, workers: int | None, dask: Any, progress: bool | None,

@@ -47,23 +47,22 @@ bearings 165° and 195° to 262°, at most 386 cm right of the trace on straight
 
 from __future__ import annotations
 
-import difflib
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from rtsim.errors import ScenarioError
+from rtsim.errors import InputError, ScenarioError
+from rtsim.registry import Registry
 from rtsim.world._check import integer, number, positive
 
-__all__ = ["CHEVRON_GAP", "FAN_INNER", "FORMATION_LAYOUTS", "FORMATION_MODELS", "Formation",
-           "chevron", "chevron_offsets", "fan", "fan_bearings", "in_line", "in_line_offsets",
-           "outer_side"]
+__all__ = ["CHEVRON_GAP", "FAN_INNER", "FOLLOWER_MODELS", "FORMATION_LAYOUTS",
+           "FORMATION_MODELS", "FollowerModel", "Formation", "chevron", "chevron_offsets", "fan",
+           "fan_bearings", "in_line", "in_line_offsets", "outer_side"]
 
-#: How followers are controlled: l-ψ on rigid slots, or follow-the-leader on the trace.
-FORMATION_MODELS: tuple[str, ...] = ("follow-the-leader", "l-psi")
 #: How ``followers``/``separation``/``bearing_offset`` place them: ``line`` (the chevron for
 #: l-ψ, :func:`in_line` for follow-the-leader) or ``fan`` (:func:`fan`).
 FORMATION_LAYOUTS: tuple[str, ...] = ("line", "fan")
@@ -85,12 +84,7 @@ class Formation:
     model: str = "l-psi"
 
     def __post_init__(self) -> None:
-        if self.model not in FORMATION_MODELS:
-            close = (difflib.get_close_matches(self.model, FORMATION_MODELS, n=1, cutoff=0.5)
-                     if isinstance(self.model, str) else [])
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise ScenarioError(f"formation.model: must be one of "
-                                f"{', '.join(FORMATION_MODELS)}, got {self.model!r}{hint}")
+        follower_model(self.model, "formation.model")
         rho = tuple(positive(f"formation.slot[{i + 1}].rho_d", r)
                     for i, r in enumerate(self.rho_d))
         beta = tuple(number(f"formation.slot[{i + 1}].beta_d", b)
@@ -226,6 +220,44 @@ def in_line(n: int, separation: float, offset: float = math.radians(15), *,
     beta = tuple(math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
                  for i in range(1, n + 1))
     return Formation(rho, beta, "follow-the-leader")
+
+
+@dataclass(frozen=True)
+class FollowerModel:
+    """How followers are controlled: ``on_trace`` (follow-the-leader: each follower tracks the
+    leader's trace at its lateral offset, :mod:`rtsim.world.ftl`) or rigid slots (l-ψ), and
+    ``place(n, separation, offset, *, r_F)``, the default slots of n followers (a
+    :class:`Formation`) for a scenario that gives ``followers`` and ``separation``."""
+
+    name: str
+    place: Callable[..., Formation]
+    on_trace: bool
+
+
+def _follower_model(obj: Any, spec: str, where: str) -> FollowerModel:
+    if isinstance(obj, FollowerModel):
+        return obj
+    raise InputError(f"{where} is not a FollowerModel")
+
+
+#: The follower models by name (``[formation] model``; entry-point group ``rtsim.followers``).
+FOLLOWER_MODELS: Registry[FollowerModel] = Registry("follower model", "rtsim.followers",
+                                                    _follower_model)
+FOLLOWER_MODELS.register("follow-the-leader",
+                         FollowerModel("follow-the-leader", in_line, on_trace=True))
+FOLLOWER_MODELS.register("l-psi", FollowerModel("l-psi", chevron, on_trace=False))
+#: The old name of :data:`FOLLOWER_MODELS` (it iterates over the names).
+FORMATION_MODELS = FOLLOWER_MODELS
+
+
+def follower_model(name: object, where: str = "formation.model") -> FollowerModel:
+    """The follower model ``name`` names; an unknown one is a :class:`ScenarioError`."""
+    try:
+        return FOLLOWER_MODELS.resolve(name, where)  # type: ignore[arg-type]
+    except ScenarioError:
+        raise
+    except InputError as exc:
+        raise ScenarioError(str(exc)) from None
 
 
 def outer_side(curvatures: Sequence[float], lengths: Sequence[float]) -> int:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from rtsim.world.formation import Formation
+from rtsim.world.formation import Formation, follower_model
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.path import LeaderPath
@@ -53,7 +53,7 @@ def occlusion_share(path: LeaderPath, formation: Formation, r_F: float, *,
     length = path.lap_length if length is None else float(length)
     n = formation.n
     ftl = None
-    if formation.model == "follow-the-leader":
+    if follower_model(formation.model).on_trace:
         ftl = TraceFollower(path, formation.rho_d, formation.lateral, 0.0, 1.0)
     slots = formation.xy().tolist()
     m = max(1, int(math.floor(length / step)) + 1)

@@ -47,6 +47,7 @@ from rtsim.errors import RtsimError
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
 from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command, ramp1, ramp_arc
+from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
@@ -252,7 +253,7 @@ class World:
                 CompiledTraceFollower,
             )
         self._ftl: TraceFollower | None = None
-        if form.model == "follow-the-leader":
+        if follower_model(form.model).on_trace:
             ftl = CompiledTraceFollower if fast else TraceFollower
             self._ftl = ftl(config.path, form.rho_d, form.lateral, fp.gain_rho, fp.lookahead)
             init = np.array([self._ftl.initial(k, self.leader.s, (xl, yl, hl), v_l)

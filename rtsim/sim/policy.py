@@ -1,7 +1,6 @@
 """Scheduling policies of the virtual CPU: the ready queue's order and the preemption test.
 
-A policy is a specification (no engine, no SimPy: task-set files are checked against the
-registry without loading the simulator); :mod:`rtsim.sim.cpu` applies it. The engine owns
+A policy is a specification (no engine, no SimPy); :mod:`rtsim.sim.cpu` applies it. The engine owns
 time, the policy owns the order (as SimPy's ``PriorityResource`` changes only
 its queue's sort key). The dispatcher of :mod:`rtsim.sim.cpu` keeps one ready heap of eligible
 jobs (a task's oldest pending job, once released and not suspended), each entry
@@ -17,8 +16,13 @@ jobs (a task's oldest pending job, once released and not suspended), each entry
   only then books jobs of the top task inline (:mod:`rtsim.sim.cpu`), checking that such a
   job comes first unless ``top_task_first`` promises it.
 
-Registered policies (:data:`POLICIES`, by name; ``"package.module:Name"`` for a class of
-one's own, see :func:`resolve_policy`):
+Registered policies (:data:`SCHEDULERS`, a :class:`~rtsim.registry.Registry`: by name, by an
+installed entry point of the group ``rtsim.schedulers``, or ``"package.module:Name"`` for a class
+of one's own, see :func:`resolve_scheduler`). Each entry carries its analysis
+(:attr:`SchedulingPolicy.analysis`, for ``rtsim analyze`` and the simulator's report) and the
+window lower bounds that hold under it (:attr:`SchedulingPolicy.lower_bounds`, for
+``[adjust] lower_bound``); a policy of one's own has neither unless it sets them (a subclass
+does not inherit them: the analysis of preemptive FP says nothing of a non-preemptive one):
 
 - ``fp``: fixed-priority preemptive. key = the task's priority (smaller = higher), tie = the
   job's creation sequence. ``top_task_first``: a job of the highest-priority task with no
@@ -34,9 +38,9 @@ one's own, see :func:`resolve_policy`):
 
 A third policy is one class in one file (docs/scheduling.md shows a non-preemptive FP)::
 
-    from rtsim.model.policy import FixedPriority, register_policy
+    from rtsim.sim.policy import FixedPriority, register_scheduler
 
-    @register_policy
+    @register_scheduler
     class NonPreemptiveFP(FixedPriority):
         name = "np-fp"
 
@@ -46,16 +50,20 @@ A third policy is one class in one file (docs/scheduling.md shows a non-preempti
 
 from __future__ import annotations
 
-import importlib
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
+from rtsim.analysis.edf import analyze_edf
+from rtsim.analysis.rta import analyze
 from rtsim.errors import InputError
+from rtsim.registry import Registry
 
 if TYPE_CHECKING:
     from rtsim.sim.job import Job
 
-__all__ = ["SchedulingPolicy", "FixedPriority", "EarliestDeadlineFirst", "POLICIES",
-           "SCHEDULERS", "register_policy", "resolve_policy", "PolicySpec"]
+__all__ = ["SchedulingPolicy", "FixedPriority", "EarliestDeadlineFirst", "SCHEDULERS",
+           "register_scheduler", "resolve_scheduler", "PolicySpec", "POLICIES",
+           "register_policy", "resolve_policy"]
 
 
 class SchedulingPolicy:
@@ -71,6 +79,20 @@ class SchedulingPolicy:
     #: a job of the highest-priority task always comes first and preempts (true of ``fp``
     #: only): the dispatcher's inline top-task path skips its check
     top_task_first: ClassVar[bool] = False
+    #: the analysis of a task set under this policy, ``analysis(ts, w=None, *, overhead=None,
+    #: suspension="cpu")`` returning a result with ``schedulable`` and per-task ``wcrt``; None:
+    #: no analysis (not inherited)
+    analysis: ClassVar[Callable[..., Any] | None] = None
+    #: the window lower bounds (``[adjust] lower_bound``) that hold under this policy, the
+    #: first its default (not inherited)
+    lower_bounds: ClassVar[tuple[str, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "analysis" not in cls.__dict__:
+            cls.analysis = None
+        if "lower_bounds" not in cls.__dict__:
+            cls.lower_bounds = ()
 
     def order(self, job: Job) -> tuple[Any, Any]:
         """``(key, tie)`` of a newly created job: its place in the ready heap."""
@@ -89,6 +111,8 @@ class FixedPriority(SchedulingPolicy):
 
     name = "fp"
     top_task_first = True
+    analysis = staticmethod(analyze)
+    lower_bounds = ("w_sch", "w_rta", "w_susp")
 
     def order(self, job: Job) -> tuple[int, int]:
         """(priority, sequence): the task priority; jobs of one task are FIFO anyway."""
@@ -99,6 +123,8 @@ class EarliestDeadlineFirst(SchedulingPolicy):
     """Preemptive EDF: key = absolute deadline, tie = job creation order (module doc)."""
 
     name = "edf"
+    analysis = staticmethod(analyze_edf)
+    lower_bounds = ("w_edf",)
 
     def order(self, job: Job) -> tuple[float, int]:
         """(deadline, sequence): arrival order, then the release order of one instant."""
@@ -107,53 +133,54 @@ class EarliestDeadlineFirst(SchedulingPolicy):
 
 P = TypeVar("P", bound=type[SchedulingPolicy])
 
-#: The registered policies by name.
-POLICIES: dict[str, type[SchedulingPolicy]] = {}
+
+def _policy_class(obj: Any, spec: str, where: str) -> type[SchedulingPolicy]:
+    if isinstance(obj, type) and issubclass(obj, SchedulingPolicy):
+        if obj.order is SchedulingPolicy.order:  # the base itself, or a class without it
+            raise InputError(f"{where} does not implement order(job); give a subclass of "
+                             f"SchedulingPolicy that does")
+        return obj
+    raise InputError(f"{where} is not a SchedulingPolicy subclass")
 
 
-def register_policy(cls: P) -> P:
+#: The registered scheduling policies by name (a :class:`~rtsim.registry.Registry` of classes;
+#: entry-point group ``rtsim.schedulers``).
+SCHEDULERS: Registry[type[SchedulingPolicy]] = Registry(
+    "scheduling policy", "rtsim.schedulers", _policy_class)
+
+
+def register_scheduler(cls: P) -> P:
     """Register a policy class under its ``name`` (usable as a decorator); replaces one of
     the same name."""
     if not (isinstance(cls, type) and issubclass(cls, SchedulingPolicy)):
-        raise TypeError(f"register_policy: need a SchedulingPolicy subclass, got {cls!r}")
+        raise TypeError(f"register_scheduler: need a SchedulingPolicy subclass, got {cls!r}")
     if not isinstance(cls.name, str) or not cls.name:
-        raise TypeError(f"register_policy: {cls.__name__}.name must be a non-empty string")
-    POLICIES[cls.name] = cls
+        raise TypeError(f"register_scheduler: {cls.__name__}.name must be a non-empty string")
+    SCHEDULERS.register(cls.name, cls)
     return cls
 
 
-register_policy(FixedPriority)
-register_policy(EarliestDeadlineFirst)
+register_scheduler(FixedPriority)
+register_scheduler(EarliestDeadlineFirst)
 
-#: The names of the built-in policies (the command line's documented choices).
-SCHEDULERS: tuple[str, ...] = ("fp", "edf")
-
-#: What :func:`resolve_policy` accepts.
+#: What :func:`resolve_scheduler` accepts.
 PolicySpec = str | SchedulingPolicy | type[SchedulingPolicy]
 
 
-def resolve_policy(spec: PolicySpec, where: str = "scheduler") -> SchedulingPolicy:
-    """A policy instance from a registered name, ``"package.module:Name"``, a class or an
-    instance; an unknown name is an :class:`InputError` naming ``where``."""
+def resolve_scheduler(spec: PolicySpec, where: str = "scheduler", *,
+                      allow_code: bool | None = None) -> SchedulingPolicy:
+    """A policy instance from a registered name, an entry point, ``"package.module:Name"``
+    (code: :func:`rtsim.registry.load_code`), a class or an instance; an unknown name is an
+    :class:`InputError` naming ``where``."""
     if isinstance(spec, SchedulingPolicy):
         return spec
     if isinstance(spec, type) and issubclass(spec, SchedulingPolicy):
         return spec()
-    if not isinstance(spec, str):
-        raise InputError(f"{where}: must be a policy name, got {spec!r}")
-    if spec in POLICIES:
-        return POLICIES[spec]()
-    if ":" in spec:
-        mod, _, attr = spec.partition(":")
-        try:
-            obj = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError, ValueError, TypeError) as exc:
-            raise InputError(f"{where}: cannot load policy {spec!r}: {exc}") from None
-        if isinstance(obj, type) and issubclass(obj, SchedulingPolicy):
-            if obj.order is SchedulingPolicy.order:  # the base itself, or a class without it
-                raise InputError(f"{where}: {spec!r} does not implement order(job); give a "
-                                 f"subclass of SchedulingPolicy that does")
-            return obj()
-        raise InputError(f"{where}: {spec!r} is not a SchedulingPolicy subclass")
-    raise InputError(f"{where}: unknown scheduling policy {spec!r} (registered: "
-                     f"{', '.join(sorted(POLICIES))}; or package.module:Name)")
+    return SCHEDULERS.resolve(spec, where, allow_code=allow_code)()
+
+
+#: Deprecated aliases (the CPU's policies were once called "policies", as adjustment policies
+#: still are): use :data:`SCHEDULERS`, :func:`register_scheduler`, :func:`resolve_scheduler`.
+POLICIES = SCHEDULERS
+register_policy = register_scheduler
+resolve_policy = resolve_scheduler
