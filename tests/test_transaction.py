@@ -7,7 +7,9 @@ import itertools
 import json
 import math
 import random
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,6 +28,8 @@ from rtsim.cli import main
 from rtsim.io.taskset import load_taskset
 from rtsim.model.task import Segment, Task
 from rtsim.sim import build_cpu
+
+sys.path.insert(0, str(Path(__file__).parent))
 
 
 # -- an exact discrete simulator --------------------------------------------------------------
@@ -346,3 +350,44 @@ def test_analyze_json_has_the_transaction_bound(capsys):
     assert main(["analyze", "tasksets/barrel_robots.toml", "--scheduler", "edf", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert all("wcrt_transaction" not in t for t in out["tasks"])
+
+
+@pytest.mark.parametrize("overhead", [0.0, 0.2])
+def test_random_window_sets_simulated_within_the_transaction_bound(overhead):
+    # random window chains (Δt idle), T_hp, and per-window tasks of 1, 1.5, 2, 3, 4 windows:
+    # at the least window the analysis accepts (and above it) runs with other phases of the
+    # fixed-period tasks and Δt anywhere in [0, Δt] never pass a task's transaction bound
+    from test_bounds import random_window_sets
+
+    rng = np.random.default_rng(5)
+    checked = 0
+    for ts in random_window_sets(seed=9, count=8):
+        w0 = w_txn(ts, overhead=overhead)
+        if not math.isfinite(w0):
+            continue
+        for w in (w0, 1.2 * w0):
+            bound = transaction_bounds(ts, w, overhead=overhead)
+            assert all(r is not None for r in bound.values())
+            for k in range(2):
+                moved = replace(
+                    ts,
+                    tasks=tuple(
+                        replace(t, offset=float(rng.uniform(0, t.period)))
+                        if not t.per_window
+                        else t
+                        for t in ts.tasks
+                    ),
+                )
+                cpu, _ = build_cpu(moved, window=w, suspension="idle", seed=k, overhead=overhead)
+                if k:
+                    cpu.set_exec_time(
+                        "window", "radio", lambda job, seg, r: float(r.uniform(0, seg.wcet))
+                    )
+                cpu.env.run(until=cpu.start(16 * w))
+                res = cpu.result()
+                assert res.misses == 0
+                for name, r in bound.items():
+                    got = res.tasks[name].max_response
+                    assert got is None or got <= r + 1e-9, (name, got, r, w)
+            checked += 1
+    assert checked >= 10
