@@ -94,10 +94,12 @@ def build_cpu(
 
     Returns the CPU and the window description (None for a set without a window).
     ``cpu_kwargs`` go to :class:`CPU` (suspension, exec_model, seed, overhead, record_jobs,
-    record_trace, hist_bin, jitter, job_sink, scheduler; the scheduler defaults to the set's).
+    record_trace, hist_bin, jitter, job_sink, scheduler, resources; the scheduler and the
+    resource protocol default to the set's).
     """
     ts = _as_taskset(ts)
     cpu_kwargs.setdefault("scheduler", ts.scheduler)
+    cpu_kwargs.setdefault("resources", ts.resources)
     cpu = CPU(env, **cpu_kwargs)
     info: dict[str, Any] | None = None
     if ts.window is not None:
