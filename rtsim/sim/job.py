@@ -39,6 +39,7 @@ class Job:
                  "seq", "seg_index", "rem", "seg_start", "seg_exec", "start", "finish",
                  "preemptions", "aborted", "executed", "arrival", "held", "key", "tie",
                  "blocked")  # blocked: set only by a CPU with critical sections
+    blocked: float  # time spent blocked (ms); unset until the job first is (critical sections)
 
     def __init__(self, st: _TaskState, index: int, release: float, deadline: float,
                  period: float, seq: int, arrival: float | None = None) -> None:
