@@ -69,7 +69,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
-from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, ceil_div, stretches
+from rtsim.analysis.common import CEIL_TOL, DEADLINE_TOL, ceil_div, stretches
+from rtsim.analysis.rta import analysis_inputs
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Task
 
@@ -378,7 +379,6 @@ def analyze_edf(ts: TaskSet, w: float | None = None, *, overhead: float | None =
     ``suspension="idle"`` a job can be blocked once per compute stretch; this analysis
     charges it once and refuses a set whose tasks with sections or below them suspend."""
     from rtsim.analysis.blocking import check_protocol, edf_blocking
-    from rtsim.analysis.rta import analysis_inputs
 
     ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze_edf")
     et = edf_tasks(tasks, overhead)
