@@ -394,3 +394,27 @@ def test_idle_suspension_blocks_once_per_stretch() -> None:
     assert list(blocked["segment"]) == ["blocked by lo1 on R", "blocked by lo2 on R"]
     # the suspension-oblivious analysis (suspension = "cpu") charges B once: 4 + 3 = 7
     assert analyze(ts2).tasks[0].wcrt == 7.0
+
+
+def test_window_bounds_count_blocking() -> None:
+    """The window bounds that rest on the exact analyses grow with a lower task's section;
+    the offset-based (transaction) bound has no blocking term and does not apply."""
+    from dataclasses import replace
+
+    from rtsim.analysis.bounds import w_edf, w_rta
+    from rtsim.analysis.transaction import transaction_bounds
+    from rtsim.io.taskset import load_taskset
+
+    ts = load_taskset(None)
+    assert ts.window is not None
+    low = max(ts.tasks, key=lambda t: t.priority)  # below the window
+    hp = min(ts.tasks, key=lambda t: t.priority)
+    assert low.priority > ts.window.priority
+    cs = (CS("bus", 0.0, min(low.wcet, 20.0)),)
+    tasks = tuple(replace(t, critical_sections=cs) if t is low else t for t in ts.tasks)
+    shared = replace(ts, tasks=tuple(
+        replace(t, critical_sections=(CS("bus", 0.0, min(t.wcet, 1.0)),)) if t is hp else t
+        for t in tasks))
+    for bound in (w_rta, w_edf):
+        assert bound(shared) > bound(ts)
+    assert all(r is None for r in transaction_bounds(shared, 300.0).values())

@@ -102,7 +102,7 @@ def _segment_response(c: float, hp: Sequence[tuple[float, float, float]],
 
 
 def _unified(task: Task, higher: Sequence[Task], done: Sequence[SuspensionBound],
-             o: float, b: float = 0.0) -> float | None:
+             o: float, blk: float = 0.0) -> float | None:
     """Bound (d) of ``task`` below ``higher`` (module doc), None where it does not apply."""
     from rtsim.analysis.unified import HigherTask, unified_bound
 
@@ -115,7 +115,7 @@ def _unified(task: Task, higher: Sequence[Task], done: Sequence[SuspensionBound]
                              b.wcrt))
     c = compute_time(task)
     d = task.period if task.deadline is None else task.deadline
-    return unified_bound(c + (o + b) * stretches(task), task.wcet - c, task.period, d,
+    return unified_bound(c + (o + blk) * stretches(task), task.wcet - c, task.period, d,
                          task.jitter, hp)
 
 
