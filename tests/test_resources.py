@@ -412,9 +412,13 @@ def test_window_bounds_count_blocking() -> None:
     assert low.priority > ts.window.priority
     cs = (CS("bus", 0.0, min(low.wcet, 20.0)),)
     tasks = tuple(replace(t, critical_sections=cs) if t is low else t for t in ts.tasks)
-    shared = replace(ts, tasks=tuple(
-        replace(t, critical_sections=(CS("bus", 0.0, min(t.wcet, 1.0)),)) if t is hp else t
-        for t in tasks))
+    shared = replace(
+        ts,
+        tasks=tuple(
+            replace(t, critical_sections=(CS("bus", 0.0, min(t.wcet, 1.0)),)) if t is hp else t
+            for t in tasks
+        ),
+    )
     for bound in (w_rta, w_edf):
         assert bound(shared) > bound(ts)
     assert all(r is None for r in transaction_bounds(shared, 300.0).values())
