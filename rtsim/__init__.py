@@ -25,7 +25,14 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
-from rtsim.errors import InputError, RtsimError, ScenarioError, SweepError, TaskSetError
+from rtsim.errors import (
+    InputError,
+    OverrideError,
+    RtsimError,
+    ScenarioError,
+    SweepError,
+    TaskSetError,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from rtsim.analysis import analyze, window_bounds
@@ -51,6 +58,7 @@ _LAZY: dict[str, str] = {
 __all__ = [
     "__version__",
     "InputError",
+    "OverrideError",
     "RtsimError",
     "ScenarioError",
     "SweepError",

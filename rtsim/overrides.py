@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from rtsim.errors import InputError
+from rtsim.errors import OverrideError
 
 __all__ = ["apply_dotted_overrides"]
 
@@ -25,23 +25,28 @@ def apply_dotted_overrides(data: dict[str, Any], overrides: Mapping[str, Any], s
 
     ``kind``: ``scenario`` or ``simulate`` (a task-set file); decides which names are run
     options of a sweep, which are refused here (pass them as arguments instead).
-    Raises :class:`~rtsim.errors.SweepError` (an InputError) naming ``source`` and the path.
+    Raises :class:`~rtsim.errors.OverrideError` (an InputError) naming ``source`` and the
+    path; a value the file's loader refuses is the loader's error (a ScenarioError, ...).
     """
+    from rtsim.errors import SweepError
     from rtsim.sweep.kinds import KINDS, apply_overrides
     from rtsim.sweep.spec import BaseFile, _resolve
 
     if not isinstance(overrides, Mapping):
-        raise InputError(f"{source}: overrides: expected a mapping of dotted paths to values, "
+        raise OverrideError(f"{source}: overrides: expected a mapping of dotted paths to values, "
                          f"got {type(overrides).__name__}")
     base = BaseFile(source, "")
     paths = []
     for name, value in overrides.items():
         if not isinstance(name, str) or not name:
-            raise InputError(f"{source}: overrides: keys must be dotted paths, got {name!r}")
-        target = _resolve(source, name, kind, base, data, table="overrides")
+            raise OverrideError(f"{source}: overrides: keys must be dotted paths, got {name!r}")
+        try:  # the sweep's path resolution, its errors renamed for what the user did
+            target = _resolve(source, name, kind, base, data, table="overrides")
+        except SweepError as exc:
+            raise OverrideError(str(exc)) from None
         if target[0] != "path":
             opts = ", ".join(KINDS[kind].options)
-            raise InputError(f"{source}: overrides.{name}: a run option ({opts}), not a key of "
+            raise OverrideError(f"{source}: overrides.{name}: a run option ({opts}), not a key of "
                              f"the file: pass it as an argument")
         paths.append((tuple(target[1:]), value))
     return apply_overrides(data, tuple(paths))

@@ -49,9 +49,13 @@ def register(sub: Any) -> None:
                    help="configurations to draw response-time histograms for (default 2, "
                    "quick 1; 0 = none)")
     p.add_argument("--seed", type=int, default=None, help="the validation's seed (default 1)")
-    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
     p.add_argument("--force", action="store_true",
                    help="run even when a value looks like a mistake of unit")
+    from rtsim.cli.common import add_figure_options, add_json, add_quiet
+
+    add_figure_options(p, default_dpi=100)  # rtsim.validate.runner.DPI (not imported: slow)
+    add_json(p, "print summary.json (and the failures) as one JSON object")
+    add_quiet(p, "no progress bar, no summary")
 
     p.set_defaults(func=run)
 
@@ -92,10 +96,22 @@ def run(args: argparse.Namespace) -> int:
     if changes:
         cfg = replace(cfg, **changes)
     out = args.out or ("out/validate-quick" if args.quick else "out/validate")
+    from rtsim.cli.common import figure_format, progress_enabled
+    from rtsim.validate.runner import DPI
+
     outcome = run_validation(out, cfg, workers=args.workers, dask=args.dask,
-                             progress=False if args.quiet else None, restart=args.restart,
-                             argv=["rtsim", *sys.argv[1:]])
-    if not args.quiet:
+                             progress=progress_enabled(args), restart=args.restart,
+                             argv=["rtsim", *sys.argv[1:]], fig_format=figure_format(args),
+                             dpi=args.dpi or DPI)
+    if args.json:
+        from rtsim.cli.analyze import json_safe
+        from rtsim.io.atomic import dumps
+
+        print(dumps(json_safe({
+            "ok": outcome.ok, "out": str(outcome.out_dir), "summary": outcome.summary,
+            "failures": [f.as_dict() for f in outcome.failures],
+            "point_errors": list(outcome.point_errors)})))
+    elif not args.quiet:
         s = outcome.summary
         for key in ("paper/wcet-cpu", "paper/counted-idle"):
             e = s.get(key)

@@ -719,11 +719,13 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
 FIGURE_FORMATS: tuple[str, ...] = ("png", "svg", "pdf")
 
 
-def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI) -> Path:
-    """Write ``fig`` atomically (temp file beside ``path``, then rename) in the format its
-    suffix names (:data:`FIGURE_FORMATS`; ``dpi`` for PNG); close it."""
+def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI,
+                fmt: str | None = None) -> Path:
+    """Write ``fig`` atomically (temp file beside ``path``, then rename) in format ``fmt``
+    (:data:`FIGURE_FORMATS`; default: the one ``path``'s suffix names; ``dpi`` for PNG);
+    close it."""
     path = Path(path)
-    fmt = path.suffix.lstrip(".").lower() or "png"
+    fmt = (fmt or path.suffix.lstrip(".") or "png").lower()
     if fmt not in FIGURE_FORMATS:
         raise ValueError(f"figure format must be one of {', '.join(FIGURE_FORMATS)}, got {fmt!r}")
     import matplotlib
