@@ -79,6 +79,7 @@ def gantt(
     ax.set_ylim(len(names) - 0.5, -0.6)
     ax.set_yticks(range(len(names)), names)
     ax.set_xlabel("time (ms)")
+    ax.set_ylabel("task")
     ax.grid(axis="x", alpha=0.3)
     if title:
         ax.set_title(title)
