@@ -22,6 +22,7 @@ from matplotlib.lines import Line2D
 
 from rtsim.errors import InputError
 from rtsim.io.atomic import atomic_path, write_table
+from rtsim.plots.figure import new_figure
 
 __all__ = [
     "BOUND_KINDS",
@@ -283,7 +284,7 @@ def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
 def _new_figure(ax: Axes | None, size: tuple[float, float]) -> tuple[Figure, Axes, bool]:
     if ax is not None:
         return ax.figure, ax, False  # type: ignore[return-value]
-    fig = Figure(figsize=size, layout="constrained")
+    fig = new_figure(figsize=size, layout="constrained")
     return fig, fig.add_subplot(), True
 
 
@@ -637,7 +638,7 @@ def plot_operating_space(df: pd.DataFrame, *, title: str | None = None,
         fig, ax, own = _new_figure(ax, (8.0, 4.2))
         _draw_operating(ax, df)
         return _finish(fig, ax, own, title)
-    fig = Figure(figsize=(9.5, 4.2), layout="constrained")
+    fig = new_figure(figsize=(9.5, 4.2), layout="constrained")
     ax_t, ax_p = fig.subplots(1, 2, width_ratios=[3, 1.1])
     data = figure_data(df, "operating_space")
     top = _ylimit([_floats(data["msb_min"]), _floats(data["w"])], _floats(data["w_sch"]),
@@ -688,7 +689,7 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
         top = _ylimit(speeds, np.zeros(0), 1.0)
     n = len(dfs)
     size = (3.2 * n, 3.9) if kind == "paths" else (3.2 * n, 3.4)
-    fig = Figure(figsize=size, layout="constrained")
+    fig = new_figure(figsize=size, layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, n, sharex=True, sharey=True, squeeze=False)[0])
     for ax, (mode, df) in zip(axes, dfs.items(), strict=True):
         _DRAWERS[kind](ax, df, top)

@@ -16,6 +16,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from rtsim.plots.figure import new_figure
+
 __all__ = ["bounds_vs_n_data", "bounds_vs_n", "pessimism_data", "pessimism_heatmap",
            "scheduler_bounds"]
 
@@ -29,7 +31,7 @@ def _panels(count: int, width: float, height: float) -> tuple[Figure, list]:
     ``width`` x ``height`` in; panels left over in the last row are hidden."""
     cols = min(count, _COLUMNS)
     rows = -(-count // cols)
-    fig = Figure(figsize=(width * cols + 0.4, height * rows + 0.7), layout="constrained")
+    fig = new_figure(figsize=(width * cols + 0.4, height * rows + 0.7), layout="constrained")
     grid = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False)
     axes = list(grid.flat)
     for ax in axes[count:]:
@@ -89,7 +91,7 @@ def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figu
     """Heat map of ``ratio`` over (n, r_H), one panel per search mode, values annotated."""
     data = pessimism_data(df, ratio)
     modes = [m for m in _MODES if m in set(data["mode"])]
-    fig = Figure(figsize=(3.7 * len(modes) + 0.8, 3.4), layout="constrained")
+    fig = new_figure(figsize=(3.7 * len(modes) + 0.8, 3.4), layout="constrained")
     axes = fig.subplots(1, len(modes), squeeze=False)
     vals = data[ratio].to_numpy(dtype=float)
     vmin, vmax = float(np.nanmin(vals)), float(np.nanmax(vals))
