@@ -6,17 +6,17 @@
   ``_repr_html_`` those facts and the ``summary_frame()`` table, so a result returned as a
   cell's value shows its summary rather than thousands of characters of DataFrames.
 - :func:`enable_figure_display`: a matplotlib ``Figure`` returned as a cell's value is shown as
-  a PNG in any IPython kernel, with or without ``%matplotlib inline`` (rtsim's figures are
-  made without pyplot, so the inline backend never registers them). Called when
-  :mod:`rtsim.plots` is imported; does nothing outside IPython.
+  a PNG in any IPython kernel, with or without ``%matplotlib inline``, once: with the inline
+  backend rtsim's figures are pyplot figures (:mod:`rtsim.plots.figure`), shown at the end
+  of the cell or on ``plt.show()`` too, and a figure shown as the cell's value is closed so
+  that the backend does not show it again. Called when :mod:`rtsim.plots` is imported; does
+  nothing outside IPython.
 """
 
 from __future__ import annotations
 
 import html
-import io
 import math
-import sys
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -76,29 +76,17 @@ class ResultDisplay:
                 f"{table}</div>")
 
 
-def figure_png(fig: Any, dpi: int = 100) -> bytes:
-    """A matplotlib Figure as PNG bytes (works for figures made with or without pyplot)."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
-    return buf.getvalue()
-
-
 def enable_figure_display() -> bool:
-    """Show a ``matplotlib.figure.Figure`` returned as a cell's value as a PNG.
+    """Show a ``matplotlib.figure.Figure`` returned as a cell's value as a PNG, once
+    (:func:`rtsim.plots.figure.enable_figure_display`). Returns whether an IPython shell was
+    found."""
+    from rtsim.plots.figure import enable_figure_display as enable
 
-    Registers a PNG formatter for ``Figure`` with the running IPython shell (replacing the
-    inline backend's, which does the same, so a figure is never shown twice). Returns whether
-    an IPython shell was found.
-    """
-    if "IPython" not in sys.modules:
-        return False
-    try:
-        from IPython import get_ipython
-        from matplotlib.figure import Figure
-    except ImportError:  # pragma: no cover
-        return False
-    ip = get_ipython()
-    if ip is None:
-        return False
-    ip.display_formatter.formatters["image/png"].for_type(Figure, figure_png)
-    return True
+    return enable()
+
+
+def figure_png(fig: Any, dpi: int = 100) -> bytes:
+    """A matplotlib Figure as PNG bytes (:func:`rtsim.plots.figure.figure_png`)."""
+    from rtsim.plots.figure import figure_png as png
+
+    return png(fig, dpi)

@@ -224,19 +224,24 @@ def figure_tasks(runs: dict[tuple[str, str], pd.DataFrame], fig_dir: Path,
     return tasks
 
 
+def make_figure(task: dict[str, Any]) -> tuple[Any, pd.DataFrame]:
+    """The figure of one figure task (:func:`figure_tasks`) and the data it draws."""
+    from rtsim.plots.scenario import SCENARIO_FIGURES, figure_data, plot_modes
+
+    kind, name, data = task["kind"], task["name"], task["data"]
+    if kind.startswith("modes:"):
+        return plot_modes(data, kind.split(":", 1)[1], title=task["title"]), \
+            modes_data(data, name)
+    return SCENARIO_FIGURES[kind](data, title=task["title"]), figure_data(data, name)
+
+
 def draw(task: dict[str, Any]) -> list[str]:
     """Draw one figure task; write the figure and CSV (and the docs PNG). Returns the
     paths."""
     from rtsim.io.atomic import write_table
-    from rtsim.plots.scenario import SCENARIO_FIGURES, figure_data, plot_modes, save_figure
+    from rtsim.plots.scenario import save_figure
 
-    kind, name, data = task["kind"], task["name"], task["data"]
-    if kind.startswith("modes:"):
-        fig = plot_modes(data, kind.split(":", 1)[1], title=task["title"])
-        table = modes_data(data, name)
-    else:
-        fig = SCENARIO_FIGURES[kind](data, title=task["title"])
-        table = figure_data(data, name)
+    fig, table = make_figure(task)
     out = Path(task["dir"])
     fmt = task.get("fmt", "png")
     path, csv = out / f"{task['stem']}.{fmt}", out / f"{task['stem']}.csv"

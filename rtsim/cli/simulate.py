@@ -305,22 +305,36 @@ def _print_table(report: dict[str, Any]) -> None:
                         for i, v in enumerate(r)))
 
 
-def _save_gantt(res: Any, path: str, rng: tuple[float, float], fmt: str, dpi: int) -> None:
+def gantt_figure(res: Any, rng: tuple[float, float]) -> Any:
+    """The ``--gantt`` figure of a run (its trace and jobs) over ``rng`` (ms)."""
     from rtsim.plots.gantt import gantt
+
+    return gantt(res.trace, jobs=res.jobs, start=rng[0], end=rng[1],
+                 tasks=list(res.tasks), title=f"schedule {rng[0]:g}..{rng[1]:g} ms")
+
+
+def _save_gantt(res: Any, path: str, rng: tuple[float, float], fmt: str, dpi: int) -> None:
     from rtsim.plots.scenario import save_figure
 
-    fig = gantt(res.trace, jobs=res.jobs, start=rng[0], end=rng[1],
-                tasks=list(res.tasks), title=f"schedule {rng[0]:g}..{rng[1]:g} ms")
-    save_figure(fig, path, dpi=dpi, fmt=fmt)
+    save_figure(gantt_figure(res, rng), path, dpi=dpi, fmt=fmt)
 
 
 def _save_histograms(res: Any, path: str, wcrt: dict[str, Any], deadlines: dict[str, Any],
                      window: dict[str, Any] | None, window_name: str | None,
                      fmt: str, dpi: int) -> None:
+    from rtsim.plots.scenario import save_figure
+
+    save_figure(histogram_figure(res, wcrt, deadlines, window, window_name), path, dpi=dpi,
+                fmt=fmt)
+
+
+def histogram_figure(res: Any, wcrt: dict[str, Any], deadlines: dict[str, Any],
+                     window: dict[str, Any] | None, window_name: str | None) -> Any:
+    """The ``--histogram`` figure: one panel per task of the run, its analytic WCRT and
+    deadline drawn in (and w_sch, w_rta on the window's)."""
     from matplotlib.figure import Figure
 
     from rtsim.plots.histogram import response_histogram
-    from rtsim.plots.scenario import save_figure
 
     names = list(res.tasks)
     fig = Figure(figsize=(7, 3 * len(names)), layout="constrained")
@@ -335,4 +349,4 @@ def _save_histograms(res: Any, path: str, wcrt: dict[str, Any], deadlines: dict[
             ax.set_title(f"{name}: no completed job")
             continue
         response_histogram(stats.histogram, lines=lines, ax=ax, title=name)
-    save_figure(fig, path, dpi=dpi, fmt=fmt)
+    return fig

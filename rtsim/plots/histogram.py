@@ -13,6 +13,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from rtsim.plots.figure import new_figure
 from rtsim.sim.records import ResponseHistogram
 
 __all__ = ["response_histogram"]
@@ -37,7 +38,7 @@ def response_histogram(
     """
     own = ax is None
     if ax is None:
-        fig = Figure(figsize=(7, 4))
+        fig = new_figure(figsize=(7, 4))
         ax = fig.subplots()
     else:
         fig = ax.figure  # type: ignore[assignment]
