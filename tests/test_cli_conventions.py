@@ -36,6 +36,9 @@ def test_every_command_has_the_shared_options(command: str) -> None:
     assert "-q" in opts and "--quiet" in opts
     assert "--json" in opts  # every command prints a result
     assert ("--out" in opts) == (command in WRITES)
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices[command]
+    out = [a for a in sub._actions if "--out" in a.option_strings]
+    assert all(a.required for a in out)  # where results go is always said, never a default
     assert ("--format" in opts and "--dpi" in opts) == (command in DRAWS)
 
 

@@ -19,8 +19,8 @@ def register(sub: Any) -> None:
     """Add the ``reproduce`` sub-command (the options of :func:`rtsim.reproduce.parse_args`)."""
     p = sub.add_parser("reproduce", help="reproduce the paper's experiments and figures",
                        description=__doc__.splitlines()[0])
-    p.add_argument("--out", default="results/paper", metavar="DIR",
-                   help="output directory (default results/paper)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output directory (the README's: results/paper)")
     p.add_argument("--quick", action="store_true",
                    help="60 simulated seconds per run (one turn) instead of a lap")
     p.add_argument("--seed", type=int, default=None, metavar="N",

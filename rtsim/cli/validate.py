@@ -1,4 +1,4 @@
-"""``rtsim validate [--quick] [--out DIR] [--workers N] [--dask ADDRESS]``: analysis vs simulation.
+"""``rtsim validate [--quick] --out DIR [--workers N] [--dask ADDRESS]``: analysis vs simulation.
 
 Runs :func:`rtsim.validate.run_validation`: the paper's set over n and r_H (w_sch, w_rta,
 w_sim searched twice, response times at w_sch against the exact WCRT) and random UUniFast
@@ -25,8 +25,8 @@ def register(sub: Any) -> None:
                        description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true",
                    help="small grid: n in {1,2,4}, r_H in {10,30}, 100 windows, 3 random sets")
-    p.add_argument("--out", default=None, metavar="DIR",
-                   help="output directory (default out/validate, or out/validate-quick)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output directory (resumed when run again)")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="local worker processes (default: the CPU count; 1 = in this process)")
     p.add_argument("--dask", default=None, metavar="ADDRESS",
@@ -95,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
     if changes:
         cfg = replace(cfg, **changes)
-    out = args.out or ("out/validate-quick" if args.quick else "out/validate")
+    out = args.out
     from rtsim.cli.common import figure_format, progress_enabled
     from rtsim.validate.runner import DPI
 
