@@ -127,15 +127,11 @@ def test_simulate_figures_take_their_format_from_the_file_or_format(
     assert (
         main(
             [
-                "simulate",
-                "example",
-                "--horizon",
-                "2000",
-                "--gantt",
+                *"simulate example --horizon 2000 --gantt".split(),
                 str(g),
-                "--histogram",
+                *"--histogram".split(),
                 str(h),
-                "-q",
+                *"-q".split(),
             ]
         )
         == 0
@@ -145,15 +141,9 @@ def test_simulate_figures_take_their_format_from_the_file_or_format(
     assert (
         main(
             [
-                "simulate",
-                "example",
-                "--horizon",
-                "2000",
-                "--gantt",
+                *"simulate example --horizon 2000 --gantt".split(),
                 str(plain),
-                "--format",
-                "pdf",
-                "-q",
+                *"--format pdf -q".split(),
             ]
         )
         == 0
@@ -170,14 +160,9 @@ def test_simulate_figures_take_their_format_from_the_file_or_format(
     assert (
         main(
             [
-                "simulate",
-                "example",
-                "--horizon",
-                "2000",
-                "--gantt",
+                *"simulate example --horizon 2000 --gantt".split(),
                 str(tmp_path / "c.png"),
-                "--format",
-                "svg",
+                *"--format svg".split(),
             ]
         )
         == 2
@@ -194,15 +179,9 @@ def test_histogram_writes_the_format_asked_for(
     assert (
         main(
             [
-                "histogram",
-                "example",
-                "--horizon",
-                "2000",
-                "--format",
-                "svg",
-                "--out",
+                *"histogram example --horizon 2000 --format svg --out".split(),
                 str(out),
-                "--json",
+                *"--json".split(),
             ]
         )
         == 0
@@ -236,16 +215,9 @@ def test_reproduce_writes_svg_figures_and_json(
     assert (
         main(
             [
-                "reproduce",
-                "--duration",
-                "4",
-                "--workers",
-                "1",
-                "--format",
-                "svg",
-                "--out",
+                *"reproduce --duration 4 --workers 1 --format svg --out".split(),
                 str(out),
-                "--json",
+                *"--json".split(),
             ]
         )
         == 0
@@ -270,23 +242,10 @@ def test_validate_writes_pdf_figures_and_json(
     assert (
         main(
             [
-                "validate",
-                "--quick",
-                "--followers",
-                "1",
-                "--hough-radius",
-                "25",
-                "--random-sets",
-                "0",
-                "--histograms",
-                "1",
-                "--workers",
-                "1",
-                "--format",
-                "pdf",
-                "--out",
+                *"validate --quick --followers 1 --hough-radius 25 --random-sets 0".split(),
+                *"--histograms 1 --workers 1 --format pdf --out".split(),
                 str(out),
-                "--json",
+                *"--json".split(),
             ]
         )
         == 0
