@@ -53,7 +53,7 @@ def register(sub: Any) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--exec", dest="exec_model", choices=("wcet", "uniform"), default="wcet",
                    help="execution times of the fixed segments (default wcet)")
-    p.add_argument("--no-figures", action="store_true", help="do not draw the PNG figures")
+    p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     p.add_argument("--parquet", action="store_true", help="also write windows.parquet")
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
