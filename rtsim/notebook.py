@@ -7,7 +7,7 @@
   cell's value shows its summary rather than thousands of characters of DataFrames.
 - :func:`enable_figure_display`: a matplotlib ``Figure`` returned as a cell's value is shown as
   a PNG in any IPython kernel, with or without ``%matplotlib inline``, once: with the inline
-  backend rtsim's figures are pyplot figures (:mod:`rtsim.plots.figure`), shown at the end
+  backend rtsim's figures are pyplot figures (``rtsim.plots.figure``), shown at the end
   of the cell or on ``plt.show()`` too, and a figure shown as the cell's value is closed so
   that the backend does not show it again. Called when :mod:`rtsim.plots` is imported; does
   nothing outside IPython.
@@ -16,7 +16,9 @@
 from __future__ import annotations
 
 import html
+import io
 import math
+import sys
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -76,17 +78,39 @@ class ResultDisplay:
                 f"{table}</div>")
 
 
-def enable_figure_display() -> bool:
-    """Show a ``matplotlib.figure.Figure`` returned as a cell's value as a PNG, once
-    (:func:`rtsim.plots.figure.enable_figure_display`). Returns whether an IPython shell was
-    found."""
-    from rtsim.plots.figure import enable_figure_display as enable
-
-    return enable()
-
-
 def figure_png(fig: Any, dpi: int = 100) -> bytes:
-    """A matplotlib Figure as PNG bytes (:func:`rtsim.plots.figure.figure_png`)."""
-    from rtsim.plots.figure import figure_png as png
+    """A matplotlib Figure as PNG bytes (works for figures made with or without pyplot)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    return buf.getvalue()
 
-    return png(fig, dpi)
+
+def show_once(fig: Any) -> bytes:
+    """The PNG of a figure IPython shows; a pyplot figure is then closed, so that the inline
+    backend does not show it a second time at the end of the cell."""
+    png = figure_png(fig)
+    if getattr(fig.canvas, "manager", None) is not None and "matplotlib.pyplot" in sys.modules:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return png
+
+
+def enable_figure_display() -> bool:
+    """Show a ``matplotlib.figure.Figure`` returned as a cell's value (or given to
+    ``display``) as a PNG, once: registers :func:`show_once` as the running IPython shell's
+    PNG formatter of ``Figure``. Returns whether an IPython shell was found (nothing is done
+    outside IPython)."""
+    if "IPython" not in sys.modules:
+        return False
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover
+        return False
+    ip = get_ipython()
+    if ip is None:
+        return False
+    from matplotlib.figure import Figure
+
+    ip.display_formatter.formatters["image/png"].for_type(Figure, show_once)
+    return True

@@ -4,7 +4,7 @@
 Figs 2, 8–15 and the mode comparisons) for ``windows.csv`` tables; the validation figures.
 """
 
-from rtsim.plots.figure import enable_figure_display
+from rtsim.notebook import enable_figure_display
 from rtsim.plots.gantt import gantt
 from rtsim.plots.histogram import response_histogram
 from rtsim.plots.scenario import (
