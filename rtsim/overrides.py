@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from rtsim.errors import InputError, SweepError
+from rtsim.errors import OverrideError, SweepError
 from rtsim.registry import did_you_mean
 
 __all__ = ["RUN_OPTIONS", "apply_dotted_overrides", "apply_overrides", "resolve_path",
@@ -100,23 +100,28 @@ def apply_dotted_overrides(data: dict[str, Any], overrides: Mapping[str, Any], s
 
     ``kind``: ``scenario`` or ``simulate`` (a task-set file); decides which names are run
     options of a sweep, which are refused here (pass them as arguments instead).
-    Raises :class:`~rtsim.errors.SweepError` (an InputError) naming ``source`` and the path.
+    Raises :class:`~rtsim.errors.OverrideError` (an InputError) naming ``source`` and the
+    path; a value the file's loader refuses is the loader's error (a ScenarioError, ...).
     """
     if not isinstance(overrides, Mapping):
-        raise InputError(f"{source}: overrides: expected a mapping of dotted paths to values, "
+        raise OverrideError(f"{source}: overrides: expected a mapping of dotted paths to values, "
                          f"got {type(overrides).__name__}")
     options = RUN_OPTIONS[kind]
     paths = []
     for name, value in overrides.items():
         if not isinstance(name, str) or not name:
-            raise InputError(f"{source}: overrides: keys must be dotted paths, got {name!r}")
+            raise OverrideError(f"{source}: overrides: keys must be dotted paths, got {name!r}")
         if name == "seed":
-            raise SweepError(f"{source}: overrides.seed: give the sweep's seed as sweep.seed")
+            raise OverrideError(f"{source}: overrides.seed: a run option (the seed), not a key "
+                                f"of the file: pass it as an argument")
         if name in options:
-            raise InputError(f"{source}: overrides.{name}: a run option "
+            raise OverrideError(f"{source}: overrides.{name}: a run option "
                              f"({', '.join(options)}), not a key of the file: pass it as an "
                              f"argument")
         bname = Path(source).name or source
-        paths.append((resolve_path(source, name, data, bname, "overrides", kind, options)[1:],
-                      value))
+        try:  # the sweep's path resolution, its errors named for what the user did
+            target = resolve_path(source, name, data, bname, "overrides", kind, options)
+        except SweepError as exc:
+            raise OverrideError(str(exc)) from None
+        paths.append((target[1:], value))
     return apply_overrides(data, tuple(paths))

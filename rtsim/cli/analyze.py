@@ -30,7 +30,10 @@ def register(sub: Any) -> None:
     p = sub.add_parser("analyze", help="exact response-time analysis of a task set",
                        description=__doc__.splitlines()[0])
     p.add_argument("file", metavar="FILE", help="task-set TOML file")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    from rtsim.cli.common import add_json, add_quiet
+
+    add_json(p)
+    add_quiet(p, "print nothing (the exit status with --check)")
     p.add_argument("--check", action="store_true",
                    help="exit with status 1 when the set is not schedulable")
     p.add_argument("--window", metavar="MS", default=None,
@@ -225,6 +228,6 @@ def run(args: argparse.Namespace) -> int:
             for entry in out["tasks"]:
                 entry["wcrt_transaction"] = txn.get(entry["name"])
         print(json.dumps(json_safe(out), indent=2, allow_nan=False))
-    else:
+    elif not args.quiet:
         print(text)
     return 1 if args.check and not res.schedulable else 0
