@@ -158,8 +158,10 @@ def test_the_schema_refuses_what_the_loader_refuses(edit: tuple[str, str], value
 
 
 # -- overrides ---------------------------------------------------------------------------
-def test_overrides_are_scenario_errors_named_for_what_the_user_did() -> None:
-    with pytest.raises(ScenarioError, match=r"^test2\.toml: overrides\.leader\.sped: unknown "
+def test_overrides_are_errors_named_for_what_the_user_did() -> None:
+    from rtsim.errors import OverrideError
+
+    with pytest.raises(OverrideError, match=r"^test2\.toml: overrides\.leader\.sped: unknown "
                                             r"parameter path .*did you mean 'speed'"):
         load_scenario("test2", overrides={"leader.sped": 3})
     with pytest.raises(ScenarioError, match=r"^test2\.toml: formation\.followers: must be an "
@@ -246,13 +248,11 @@ def test_sweep_set_applies_at_every_point(tmp_path: Path) -> None:
 
 
 def test_reproduce_passes_set_through() -> None:
-    import argparse
-
+    from rtsim.cli import build_parser
     from rtsim.cli.reproduce import argv_for
     from rtsim.reproduce import parse_args
 
-    ns = argparse.Namespace(out="o", seed=None, duration=None, workers=None, docs=None,
-                            quick=True, quiet=False, force=False,
-                            set=["leader.speed=20"])
+    ns = build_parser().parse_args(["reproduce", "--quick", "--out", "o", "--set",
+                                    "leader.speed=20"])
     argv = argv_for(ns)
     assert parse_args(argv).set == ["leader.speed=20"]
