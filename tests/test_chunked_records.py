@@ -171,7 +171,7 @@ def test_thin_rows_keeps_extremes_and_every_span(m: int, bucket: int, seed: int,
                                                  p_crit: float) -> None:
     """Long runs' figures draw a row selection: it keeps each bucket's extremes of every
     plotted value, the first and last window, and the critical spans exactly."""
-    from rtsim.plots.scenario import critical_spans, thin_rows
+    from rtsim.plots.scenario_data import critical_spans, thin_rows
 
     rng = np.random.default_rng(seed)
     t = np.cumsum(rng.uniform(100, 300, m))
