@@ -28,7 +28,7 @@ from rtsim.analysis.kinematics import (
 )
 from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
 from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
-from rtsim.control.predict import PREDICTORS, RENAMED
+from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError
 from rtsim.model.taskset import TaskSet
 from rtsim.world._check import non_negative, positive
@@ -403,7 +403,7 @@ class AdjustModel(Table):
     cap: Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] \
         | None = None
     floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] | None = None
-    predictor: Annotated[str, plugin(PREDICTORS, renamed=RENAMED)] | None = None
+    predictor: Annotated[str, plugin(PREDICTORS)] | None = None
     lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
     policy: Annotated[str, text(what="a policy name")] | None = None
     decide: Annotated[str, choice(DECIDE)] | None = None
