@@ -29,7 +29,7 @@ from rtsim.errors import InputError
 from rtsim.io.limits import Range
 from rtsim.registry import Registry
 
-__all__ = ["Table", "Leaf", "number", "integer", "choice", "plugin", "text", "problem",
+__all__ = ["Table", "Leaf", "number", "ranged", "integer", "choice", "plugin", "text", "problem",
            "Range", "range_of"]
 
 
@@ -123,6 +123,13 @@ def number(lo: float, hi: float, unit: str, why: str, *, lo_open: bool = False,
     if inf:
         schema["inf"] = "inf (TOML) is also accepted: none"
     return Leaf(_check_number(r, deg), schema, r)
+
+
+def ranged(r: Range) -> Leaf:
+    """A number in the registered range ``r`` (:mod:`rtsim.io.limits`: a key that a lower
+    layer checks too, with the same range)."""
+    return number(r.lo, r.hi, r.unit, r.why, lo_open=r.lo_open, hi_open=r.hi_open, inf=r.inf,
+                  integer=r.integer)
 
 
 def integer(lo: float, hi: float, unit: str, why: str) -> Leaf:

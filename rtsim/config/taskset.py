@@ -16,8 +16,18 @@ from typing import Annotated, Any
 from pydantic import Field
 
 from rtsim.config.errors import Loc
-from rtsim.config.fields import Leaf, Table, _check_number, choice, integer, number, problem, text
-from rtsim.io.limits import Range
+from rtsim.config.fields import (
+    Leaf,
+    Table,
+    _check_number,
+    choice,
+    integer,
+    number,
+    problem,
+    ranged,
+    text,
+)
+from rtsim.io.limits import WINDOW_N, WINDOW_R_H, Range
 from rtsim.model.task import OVERLOAD_POLICIES, Task
 from rtsim.model.taskset import TaskSet
 from rtsim.model.window import WindowSpec
@@ -97,10 +107,8 @@ class WindowModel(Table):
 
     name: Annotated[str, text()] = "window"
     priority: Annotated[int, integer(-1e9, 1e9, "", "an integer rank")]
-    n: Annotated[int, integer(1, 1000, "followers",
-                              "the laser (361 beams) cannot tell more followers apart")]
-    r_H: Annotated[float, number(0, 1e4, "cm", "a Hough window of at most 100 m (the laser's "
-                                "range is 80 m)", lo_open=True)]
+    n: Annotated[int, ranged(WINDOW_N)]
+    r_H: Annotated[float, ranged(WINDOW_R_H)]
     e_cal: Annotated[float, number(0, 1e3, "ms", "per accumulator cell")]
     e_trans: Annotated[float, number(0, 1e3, "ms", "per scan point")]
     k: Annotated[float | str, _K]

@@ -24,7 +24,7 @@ from rtsim._numbers import is_int, is_real
 from rtsim.errors import InputError
 
 __all__ = ["Range", "REGISTRY", "register", "check", "strict", "UnregisteredKey", "read_input",
-           "too_large", "MAX_INPUT_BYTES"]
+           "too_large", "MAX_INPUT_BYTES", "WINDOW_N", "WINDOW_R_H"]
 
 
 class UnregisteredKey(RuntimeError):
@@ -168,5 +168,13 @@ register(_OP + "--fps", 1, 240, "frames/s", "an animation frame rate", integer=T
 register(_OP + "--every", 1, 1e6, "windows", "one frame per this many windows", integer=True)
 register(_OP + "--start", 0, 1e6, "s", "as --duration")
 register(_OP + "--end", 0, 1e6, "s", "as --duration")
+
+# The two keys of a task set's [window] that callers change on a built task set
+# (TaskSet.with_window, window_bounds(n=, r_H=), a scenario's follower count): the model's
+# WindowSpec checks them itself, and the task-set file's model takes its ranges from here.
+WINDOW_N = register("taskset: window.n", 1, 1000, "followers",
+                    "the laser (361 beams) cannot tell more followers apart", integer=True)
+WINDOW_R_H = register("taskset: window.r_H", 0, 1e4, "cm", "a Hough window of at most 100 m "
+                      "(the laser's range is 80 m)", lo_open=True)
 
 

@@ -89,6 +89,11 @@ class WindowSpec:
         object.__setattr__(self, "n", int(self.n))
         object.__setattr__(self, "priority", int(self.priority))
         object.__setattr__(self, "r_H", check_time(where, "r_H", self.r_H))
+        from rtsim.io.limits import check
+
+        for field in ("n", "r_H"):  # the keys a caller changes (with_window, --followers)
+            check(f"taskset: window.{field}", getattr(self, field), f"{where}: {field}",
+                  TaskSetError)
         object.__setattr__(self, "k", check_time(where, "k", self.k))
         if self.rho_min is not None:
             object.__setattr__(self, "rho_min", check_time(where, "rho_min", self.rho_min))
