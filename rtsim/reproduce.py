@@ -287,6 +287,7 @@ def summary_markdown(df: pd.DataFrame) -> str:
             "loc / sep / path / bear | misses | lost tracks | sim. s | windows | all violations "
             "| critical share | min MSB / w_sch | min V_L / V_Ld | methods |")
     lines = [head, "|" + "---|" * 13]
+    r: Any  # a row (its fields typed by the columns, not by pandas)
     for r in df.itertuples(index=False):
         lines.append(
             f"| {TEST_LABELS.get(r.test, r.test)} | {r.mode} | {r.viol5_localization} / "

@@ -252,6 +252,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     if args.perfetto:
         from rtsim.export.perfetto import write_perfetto
 
+        assert res.jobs is not None and res.trace is not None  # (recorded for --perfetto)
         write_perfetto(tmp["perfetto"], res.jobs, res.trace, tasks=list(res.tasks),
                        metadata={"command": "simulate", "file": str(args.file), "seed": args.seed})
     if args.gantt:

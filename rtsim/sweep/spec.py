@@ -50,6 +50,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -372,7 +373,7 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
     )
 
 
-def load_sweep(path: str | Path, set_: list[str] | tuple[str, ...] = (), *,
+def load_sweep(path: str | os.PathLike[str], set_: list[str] | tuple[str, ...] = (), *,
                allow_code: bool | None = None) -> SweepSpec:
     """Read and validate a sweep file; ``set_``: ``KEY=VALUE`` changes of the base file at
     every point (the command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``:
