@@ -245,14 +245,15 @@ def test_sweep_set_applies_at_every_point(tmp_path: Path) -> None:
     assert "set_args" not in load_sweep("smoke").resolved()  # old fingerprints unchanged
 
 
-def test_reproduce_passes_set_through() -> None:
-    import argparse
+def test_reproduce_parses_once_and_passes_set_through(monkeypatch: pytest.MonkeyPatch
+                                                      ) -> None:
+    """``rtsim reproduce`` hands its parsed options to :func:`rtsim.reproduce.run` (no second
+    parser, no command line rebuilt from them)."""
+    import rtsim.reproduce as rp
 
-    from rtsim.cli.reproduce import argv_for
-    from rtsim.reproduce import parse_args
-
-    ns = argparse.Namespace(out="o", seed=None, duration=None, workers=None, docs=None,
-                            quick=True, quiet=False, force=False,
-                            set=["leader.speed=20"])
-    argv = argv_for(ns)
-    assert parse_args(argv).set == ["leader.speed=20"]
+    seen = []
+    monkeypatch.setattr(rp, "parse_args", lambda argv: pytest.fail("parsed twice"))
+    monkeypatch.setattr(rp, "run", lambda args, **kw: seen.append(args) or 0)
+    assert main(["reproduce", "--quick", "--out", "o", "--set", "leader.speed=20"]) == 0
+    assert [(a.set, a.quick, a.out, a.seed) for a in seen] == [(["leader.speed=20"], True,
+                                                                 "o", 0)]

@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
     from rtsim.model.window import WindowSpec
 
-__all__ = ["as_taskset", "w_eq7_of", "w_eq11_of", "w_sch_of"]
+__all__ = ["as_taskset", "w_eq7_of", "w_eq11_of", "w_sch_of", "window_or_w_sch"]
 
 
 def as_taskset(ts: object, function: str) -> TaskSet:
@@ -114,3 +114,17 @@ def w_sch_of(ts: TaskSet) -> float:
     none exists."""
     ts = as_taskset(ts, "w_sch_of")
     return max(w_eq7_of(ts), w_eq11_of(ts))
+
+
+def window_or_w_sch(ts: TaskSet, w: float | None = None) -> float:
+    """The window a processing-window set is analysed or simulated at: ``w`` when given, else
+    the analytic bound w_sch (the one place that decides it). An infinite w_sch is a
+    :class:`~rtsim.errors.TaskSetError`: T_hp saturates the CPU, a window must be given."""
+    if w is not None:
+        return w
+    w_sch = w_sch_of(ts)
+    if not math.isfinite(w_sch):
+        label = ts.source or ts.name or "task set"
+        raise TaskSetError(f"{label}: the analytic bound w_sch is infinite (T_hp saturates the "
+                           f"CPU); choose a window w explicitly")
+    return w_sch
