@@ -4,7 +4,9 @@
 the parsed TOML document before it is validated, with the paths a sweep's ``[sweep.set]`` and
 ``[grid]`` use and ``--set KEY=VALUE`` on the command line takes: one implementation,
 :mod:`rtsim.config.dotted`, kept here under its old names, and the run options of the sweep
-kinds that have a base file (names that are arguments, not keys of the file).
+kinds that have a base file (names that are arguments, not keys of the file). A path that
+names no key of the file, or a run option, is an :class:`~rtsim.errors.OverrideError`; a value
+the file's model refuses is the loader's error (a ScenarioError, ...).
 """
 
 from __future__ import annotations
@@ -14,15 +16,17 @@ from typing import Any
 
 from rtsim.config.dotted import apply_overrides as _apply_mapping
 from rtsim.config.dotted import apply_paths
-from rtsim.errors import InputError
+from rtsim.errors import OverrideError
 
-__all__ = ["RUN_OPTIONS", "apply_dotted_overrides", "apply_overrides"]
+__all__ = ["RUN_OPTIONS", "LIBRARY_OPTIONS", "apply_dotted_overrides", "apply_overrides"]
 
 #: The run options (not keys of the file) of the sweep kinds that have a base file.
 RUN_OPTIONS: dict[str, tuple[str, ...]] = {
     "simulate": ("horizon", "exec", "suspension", "window", "scheduler"),
     "scenario": ("mode", "duration", "exec", "scheduler"),
 }
+#: The names an ``overrides=`` mapping refuses: arguments of the library's functions.
+LIBRARY_OPTIONS: tuple[str, ...] = ("mode", "policy", "seed", "exec", "duration_s")
 
 #: Set each resolved path (a tuple of keys) in a TOML dict: a sweep point's overrides.
 apply_overrides = apply_paths
@@ -33,5 +37,4 @@ def apply_dotted_overrides(data: dict[str, Any], overrides: Mapping[str, Any], s
     """Apply ``overrides`` (dotted path -> value) to the TOML dict ``data`` in place
     (``kind``: ``scenario`` or ``simulate``, a task-set file: no difference any more)."""
     del kind
-    return _apply_mapping(data, overrides, source, InputError,
-                          options=("mode", "policy", "seed", "exec", "duration_s"))
+    return _apply_mapping(data, overrides, source, OverrideError, options=LIBRARY_OPTIONS)

@@ -99,7 +99,8 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
 
 
 def figure_stems() -> list[str]:
-    """Every figure stem the script writes in ``figures/`` (each as .png and .csv)."""
+    """Every figure stem the script writes in ``figures/`` (each as .png — or the ``--format``
+    — and .csv)."""
     stems = [f"fig{n:02d}_{t}_{name}" for n, (t, name) in PAPER_FIGURES.items()]
     stems += [f"fig{n:02d}_{t}_{name}_detail" for n, (t, name) in DETAIL_FIGURES.items()]
     stems += [f"fig02_{t}_operating_space" for t in TESTS]
@@ -203,13 +204,15 @@ def modes_data(dfs: dict[str, pd.DataFrame], name: str) -> pd.DataFrame:
 
 
 def figure_tasks(runs: dict[tuple[str, str], pd.DataFrame], fig_dir: Path,
-                 docs: Path | None) -> list[dict[str, Any]]:
-    """One task per figure: what to draw, from which run(s), and where to write it."""
+                 docs: Path | None, fmt: str = "png",
+                 dpi: int | None = None) -> list[dict[str, Any]]:
+    """One task per figure: what to draw, from which run(s), and where to write it (in
+    format ``fmt`` at ``dpi``; the docs' copies are always PNG at :data:`DOCS_DPI`)."""
     tasks: list[dict[str, Any]] = []
 
     def add(stem: str, kind: str, data: Any, title: str, name: str) -> None:
         tasks.append({"stem": stem, "kind": kind, "data": data, "title": title, "name": name,
-                      "dir": str(fig_dir),
+                      "dir": str(fig_dir), "fmt": fmt, "dpi": dpi,
                       "docs": str(docs) if docs is not None and stem in DOCS_FIGURES else None})
 
     for n, (test, name) in PAPER_FIGURES.items():
@@ -230,25 +233,35 @@ def figure_tasks(runs: dict[tuple[str, str], pd.DataFrame], fig_dir: Path,
     return tasks
 
 
-def draw(task: dict[str, Any]) -> list[str]:
-    """Draw one figure task; write PNG and CSV (and the docs PNG). Returns the paths."""
-    from rtsim.io.atomic import write_table
-    from rtsim.plots.scenario import SCENARIO_FIGURES, figure_data, plot_modes, save_figure
+def make_figure(task: dict[str, Any]) -> tuple[Any, pd.DataFrame]:
+    """The figure of one figure task (:func:`figure_tasks`) and the data it draws."""
+    from rtsim.plots.scenario import SCENARIO_FIGURES, figure_data, plot_modes
 
     kind, name, data = task["kind"], task["name"], task["data"]
     if kind.startswith("modes:"):
-        fig = plot_modes(data, kind.split(":", 1)[1], title=task["title"])
-        table = modes_data(data, name)
-    else:
-        fig = SCENARIO_FIGURES[kind](data, title=task["title"])
-        table = figure_data(data, name)
+        return plot_modes(data, kind.split(":", 1)[1], title=task["title"]), \
+            modes_data(data, name)
+    return SCENARIO_FIGURES[kind](data, title=task["title"]), figure_data(data, name)
+
+
+def draw(task: dict[str, Any]) -> list[str]:
+    """Draw one figure task; write the figure and CSV (and the docs PNG). Returns the
+    paths."""
+    from rtsim.io.atomic import write_table
+    from rtsim.plots.scenario import save_figure
+
+    fig, table = make_figure(task)
     out = Path(task["dir"])
-    png, csv = out / f"{task['stem']}.png", out / f"{task['stem']}.csv"
-    save_figure(fig, png)
+    fmt = task.get("fmt", "png")
+    path, csv = out / f"{task['stem']}.{fmt}", out / f"{task['stem']}.csv"
+    from rtsim.plots.scenario import DPI
+
+    save_figure(fig, path, dpi=task.get("dpi") or DPI)
     write_table(csv, table)
-    written = [str(png), str(csv)]
+    written = [str(path), str(csv)]
     if task["docs"]:
-        written.append(str(save_figure(fig, Path(task["docs"]) / png.name, dpi=DOCS_DPI)))
+        written.append(str(save_figure(fig, Path(task["docs"]) / f"{task['stem']}.png",
+                                       dpi=DOCS_DPI)))
     return written
 
 
@@ -397,11 +410,16 @@ class _Parser(argparse.ArgumentParser):
         raise InputError(message)
 
 
-def add_options(ap: Any) -> None:
+def add_options(ap: Any, *, out_required: bool = False) -> None:
     """Add the options (module docstring) to the parser ``ap``: the one definition used by
-    ``python -m rtsim.reproduce`` and by ``rtsim reproduce``."""
-    ap.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                    help=f"output directory (default {DEFAULT_OUT})")
+    ``python -m rtsim.reproduce`` and by ``rtsim reproduce`` (``out_required``: ``--out``
+    has no default, as on every command of the ``rtsim`` program that writes)."""
+    if out_required:
+        ap.add_argument("--out", required=True, metavar="DIR",
+                        help=f"output directory (the README's: {DEFAULT_OUT})")
+    else:
+        ap.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                        help=f"output directory (default {DEFAULT_OUT})")
     ap.add_argument("--quick", action="store_true",
                     help=f"CI mode: {QUICK_DURATION_S:g} simulated s per run (one turn)")
     ap.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")
@@ -412,7 +430,14 @@ def add_options(ap: Any) -> None:
                     help="processes (default min(6, cpu count)); 1 runs in this process")
     ap.add_argument("--docs", default=None, metavar="DIR",
                     help="also write the documentation's figures (PNG, 100 dpi) to DIR")
-    ap.add_argument("--quiet", "-q", action="store_true", help="no progress lines, no table")
+    ap.add_argument("--quiet", "-q", action="store_true",
+                    help="no progress bar or lines, no table")
+    ap.add_argument("--format", dest="fig_format", choices=("png", "svg", "pdf"),
+                    default=None, help="file format of the figures (default png)")
+    ap.add_argument("--dpi", type=int, default=None,
+                    help="resolution of PNG figures in dots per inch (default 120)")
+    ap.add_argument("--json", action="store_true",
+                    help="print the summary table as one JSON object instead of Markdown")
     ap.add_argument("--force", action="store_true",
                     help="run even when --duration looks like a mistake of unit (over 6 "
                          "simulated hours)")
@@ -478,9 +503,23 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
     for sp in specs:  # the command lines in the run manifests name the real --out
         sp["shown_out"] = str(Path(args.out) / sp["test"] / sp["mode"])
 
-    def progress(line: str) -> None:
-        if not args.quiet:
+    from rtsim.sim.progress import progress_bar
+
+    fmt = args.fig_format or "png"
+    tasks_total = len(specs) + len(figure_stems())
+    bar = progress_bar(args, total=tasks_total, desc="reproduce", unit="step")
+
+    def say(line: str) -> None:  # a progress line (above the bar when there is one)
+        if args.quiet:
+            return
+        if bar.disable:
             print(line, file=sys.stderr, flush=True)
+        else:
+            bar.write(line, file=sys.stderr)
+
+    def run_done(line: str) -> None:
+        bar.update(1)
+        say(line)
 
     from rtsim.sweep.point import worker_init
 
@@ -489,7 +528,7 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
     pool = ProcessPoolExecutor(workers, initializer=worker_init,
                                initargs=(os.getpid(),)) if workers > 1 else None
     try:
-        results = run_all(specs, pool, progress)
+        results = run_all(specs, pool, run_done)
         t_runs = time.perf_counter()
         windows = {key: res["windows"] for key, res in results.items()}
         fig_dir = out / "figures"
@@ -497,11 +536,14 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
         if docs is not None:
             docs.mkdir(parents=True, exist_ok=True)
         written: list[str] = []
-        for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs)):
+        for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs, fmt,
+                                                           args.dpi)):
             written += paths
-        progress(f"figures: {len(written)} files in {Path(args.out) / 'figures'} "
+            bar.update(1)
+        say(f"figures: {len(written)} files in {Path(args.out) / 'figures'} "
                  f"({time.perf_counter() - t_runs:.1f} s)")
     finally:
+        bar.close()
         if pool is not None:
             pool.shutdown()
     t_figs = time.perf_counter()
@@ -531,7 +573,7 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
                "timing": {"runs_s": t_runs - t0, "figures_s": t_figs - t_runs,
                           "total_s": time.perf_counter() - t0},
                "outputs": ["summary.csv", "summary.md", "manifest.json",
-                           *(f"figures/{s}.{e}" for s in figure_stems() for e in ("png", "csv")),
+                           *(f"figures/{s}.{e}" for s in figure_stems() for e in (fmt, "csv")),
                            *(f"{t}/{m}/{f}" for t in TESTS for m in MODES
                              for f in results[(t, m)]["written"]),
                            *(["report.html", *(f"{t}/{m}/report.html" for t in TESTS
@@ -539,8 +581,15 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
     )
     if finish is not None:
         finish(out)
-    if not args.quiet:
+    if args.json:
+        from rtsim.io.atomic import dumps
+
+        finite = table.replace([math.inf, -math.inf], math.nan).astype(object)
+        records = finite.where(finite.notna(), None).to_dict("records")  # NaN, inf: null
+        print(dumps({"out": str(args.out), "runs": records}))
+    elif not args.quiet:
         print(md, end="")
+    if not args.quiet:
         print(f"-> {args.out} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
     return 0
 

@@ -158,8 +158,10 @@ def test_the_schema_refuses_what_the_loader_refuses(edit: tuple[str, str], value
 
 
 # -- overrides ---------------------------------------------------------------------------
-def test_overrides_are_scenario_errors_named_for_what_the_user_did() -> None:
-    with pytest.raises(ScenarioError, match=r"^test2\.toml: overrides\.leader\.sped: unknown "
+def test_overrides_are_errors_named_for_what_the_user_did() -> None:
+    from rtsim.errors import OverrideError
+
+    with pytest.raises(OverrideError, match=r"^test2\.toml: overrides\.leader\.sped: unknown "
                                             r"parameter path .*did you mean 'speed'"):
         load_scenario("test2", overrides={"leader.sped": 3})
     with pytest.raises(ScenarioError, match=r"^test2\.toml: formation\.followers: must be an "

@@ -22,7 +22,7 @@ def register(sub: Any) -> None:
 
     p = sub.add_parser("reproduce", help="reproduce the paper's experiments and figures",
                        description=__doc__.splitlines()[0])
-    add_options(p)
+    add_options(p, out_required=True)
     p.set_defaults(func=run)
 
 

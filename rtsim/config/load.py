@@ -17,7 +17,7 @@ from pydantic import BaseModel, ValidationError
 
 from rtsim.config.dotted import apply_overrides
 from rtsim.config.errors import Loc, error_lines, raise_errors
-from rtsim.errors import InputError, TaskSetError
+from rtsim.errors import InputError, OverrideError, TaskSetError
 
 __all__ = ["validate", "parse_toml", "load_taskset", "parse_taskset", "taskset_bytes",
            "PACKAGED_TASKSET"]
@@ -60,11 +60,11 @@ def parse_toml(raw: bytes, source: str, error: type[InputError]) -> dict[str, An
                     f"hundreds of levels deep)") from None
 
 
-def with_overrides(data: dict[str, Any], overrides: Mapping[str, Any] | None, source: str,
-                   error: type[InputError]) -> dict[str, Any]:
+def with_overrides(data: dict[str, Any], overrides: Mapping[str, Any] | None,
+                   source: str) -> dict[str, Any]:
     """``data`` with the dotted ``overrides`` applied (:mod:`rtsim.config.dotted`)."""
-    if overrides:
-        apply_overrides(data, overrides, source, error,
+    if overrides:  # a path that names no key, or a run option: an OverrideError
+        apply_overrides(data, overrides, source, OverrideError,
                         options=("mode", "policy", "seed", "exec", "duration_s"))
     return data
 
@@ -125,5 +125,5 @@ def load_taskset(path: str | os.PathLike[str] | None = None,
     :func:`parse_taskset`."""
     raw, source = taskset_bytes(path)
     data = parse_toml(raw, source, TaskSetError)
-    return parse_taskset(with_overrides(data, overrides, source, TaskSetError), source,
+    return parse_taskset(with_overrides(data, overrides, source), source,
                          allow_code=allow_code)

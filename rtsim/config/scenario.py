@@ -692,5 +692,5 @@ def load_scenario(path: str | os.PathLike[str],
     raw, p = scenario_bytes(path)
     src = str(p)  # the full path in every message
     data = parse_toml(raw, src, ScenarioError)
-    return parse_scenario(with_overrides(data, overrides, src, ScenarioError), src, p.parent,
+    return parse_scenario(with_overrides(data, overrides, src), src, p.parent,
                           allow_code=allow_code)
