@@ -21,6 +21,10 @@ def register(sub: Any) -> None:
     p = sub.add_parser("schema", help="print the JSON Schema of task-set, scenario or sweep "
                                       "files", description=__doc__.splitlines()[0])
     p.add_argument("kind", choices=KINDS, help="the kind of file: " + ", ".join(KINDS))
+    from rtsim.cli.common import add_json, add_quiet
+
+    add_json(p, "print the schema (one JSON object, with or without this option)")
+    add_quiet(p, "print nothing (only check that the kind exists)")
     p.set_defaults(func=run)
 
 
@@ -28,5 +32,6 @@ def run(args: Any) -> int:
     """Print the schema to stdout."""
     from rtsim.config.schema import schema_text
 
-    sys.stdout.write(schema_text(args.kind))
+    if args.json or not args.quiet:
+        sys.stdout.write(schema_text(args.kind))
     return 0
