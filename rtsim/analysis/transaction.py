@@ -411,13 +411,16 @@ def transaction_bounds(
     shifts: Mapping[str, float] | None = None,
 ) -> dict[str, float | None]:
     """Offset-based WCRT of every task of ``ts`` at window ``w`` (ms from arrival; None where
-    it passes the task's deadline or the analysis does not apply), fixed priority.
-    ``shifts``: as for :func:`transactions_of` (a simulation whose releases put per-window
-    tasks' arrivals elsewhere than their offsets from the window's, e.g. jitter "worst",
-    which moves every task's arrivals by the largest jitter less its own)."""
+    it passes the task's deadline or the analysis does not apply, as for a set with
+    critical sections), fixed priority. ``shifts``: as for :func:`transactions_of` (a
+    simulation whose releases put per-window tasks' arrivals elsewhere than their offsets
+    from the window's, e.g. jitter "worst", which moves every task's arrivals by the largest
+    jitter less its own)."""
     from rtsim.analysis.rta import analyze
 
     o = ts.overhead if overhead is None else overhead
+    if ts.has_sections:  # the offset-based analysis has no blocking term: it does not apply
+        return {t.name: None for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}
     txs = transactions_of(ts, w, shifts)
     known = {t.name: t.wcrt for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}
     raw = analyze_transactions(txs, overhead=o, suspension=suspension, known=known)
