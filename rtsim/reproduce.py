@@ -111,7 +111,8 @@ def figure_stems() -> list[str]:
 
 
 def write_run(out: Path, res: Any, *, scenario_file: Path, mode: str, seed: int,
-              duration_s: float | None, argv: list[str], wall_s: float) -> list[str]:
+              duration_s: float | None, argv: list[str], wall_s: float,
+              set_: list[str] | None = None) -> list[str]:
     """Write a run's directory as ``rtsim scenario --no-figures`` does (rtsim/cli/scenario.py).
 
     The CLI has no writer function of its own, so this calls the same library functions with
@@ -137,7 +138,7 @@ def write_run(out: Path, res: Any, *, scenario_file: Path, mode: str, seed: int,
         out, command="scenario", seed=seed,
         inputs={"scenario_file": str(scenario_file), "scenario_text": inp.text,
                 "scenario": inp.resolved, "mode": mode, "duration_s": duration_s,
-                "exec_model": "wcet"},
+                "exec_model": "wcet", "set": list(set_ or [])},
         argv=argv, extra={"timing": timing, "outputs": [*outputs, "manifest.json"]},
     )
     return [*outputs, "manifest.json"]
@@ -149,15 +150,18 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
 
     t0 = time.perf_counter()
     file = Path(spec["scenario_file"])
+    set_ = list(spec.get("set") or [])
     res = run_scenario(file, mode=spec["mode"], duration_s=spec["duration_s"],
-                       seed=spec["seed"], record_jobs=True)
+                       seed=spec["seed"], record_jobs=True,
+                       overrides=_overrides(set_) or None)
     argv = ["rtsim", "scenario", str(file), "--mode", spec["mode"], "--seed", str(spec["seed"])]
+    argv += [a for s in set_ for a in ("--set", s)]
     if spec["duration_s"] is not None:
         argv += ["--duration", repr(spec["duration_s"])]
     argv += ["--no-figures", "--out", str(spec.get("shown_out", spec["out"]))]
     written = write_run(Path(spec["out"]), res, scenario_file=file, mode=spec["mode"],
                         seed=spec["seed"], duration_s=spec["duration_s"], argv=argv,
-                        wall_s=time.perf_counter() - t0)
+                        wall_s=time.perf_counter() - t0, set_=set_)
     timing = dict(res.timing)
     timing["total_s"] = time.perf_counter() - t0
     return {"test": spec["test"], "mode": spec["mode"], "duration_s": spec["duration_s"],
@@ -166,7 +170,8 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
 
 
 def run_specs(out: Path, *, seed: int, duration_s: float | None,
-              scenarios: Path = SCENARIOS) -> list[dict[str, Any]]:
+              scenarios: Path = SCENARIOS, set_: list[str] | None = None
+              ) -> list[dict[str, Any]]:
     """The six runs: every test in every mode, each with its output directory.
 
     With ``duration_s`` None the adjust runs take the scenario's default (at least one lap)
@@ -175,7 +180,8 @@ def run_specs(out: Path, *, seed: int, duration_s: float | None,
     """
     return [{"test": t, "mode": m, "seed": seed, "duration_s": duration_s,
              "match_adjust": duration_s is None and m != "adjust",
-             "scenario_file": str(scenarios / f"{t}.toml"), "out": str(out / t / m)}
+             "scenario_file": str(scenarios / f"{t}.toml"), "out": str(out / t / m),
+             "set": list(set_ or [])}
             for t in TESTS for m in MODES]
 
 
@@ -379,6 +385,18 @@ def _check_args(args: argparse.Namespace) -> None:
     for t in TESTS:
         if not (SCENARIOS / f"{t}.toml").is_file():
             raise InputError(f"{SCENARIOS / f'{t}.toml'}: scenario file not found")
+    if args.set:  # checked before any run, by the scenario model
+        from rtsim.io.scenario import load_scenario
+
+        for t in TESTS:
+            load_scenario(SCENARIOS / f"{t}.toml", overrides=_overrides(args.set))
+
+
+def _overrides(strings: list[str]) -> dict[str, Any]:
+    """``--set KEY=VALUE`` strings as dotted path -> value."""
+    from rtsim.config.dotted import parse_assignment
+
+    return dict(parse_assignment(s) for s in strings)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -414,6 +432,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--force", action="store_true",
                     help="run even when --duration looks like a mistake of unit (over 6 "
                          "simulated hours)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="change a key of both scenarios (a dotted path, the value read as "
+                         "TOML); repeatable")
     return ap.parse_args(argv)
 
 
@@ -450,7 +471,7 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
     duration = args.duration if args.duration is not None else \
         (QUICK_DURATION_S if args.quick else None)
     workers = args.workers if args.workers is not None else min(6, os.cpu_count() or 1)
-    specs = run_specs(out, seed=args.seed, duration_s=duration)
+    specs = run_specs(out, seed=args.seed, duration_s=duration, set_=args.set)
     for sp in specs:  # the command lines in the run manifests name the real --out
         sp["shown_out"] = str(Path(args.out) / sp["test"] / sp["mode"])
 
@@ -516,7 +537,7 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
                 "scenarios": {t: {"file": str(SCENARIOS / f"{t}.toml"),
                                   "text": (SCENARIOS / f"{t}.toml").read_text("utf-8")}
                               for t in TESTS},
-                "docs": str(docs) if docs is not None else None},
+                "docs": str(docs) if docs is not None else None, "set": list(args.set)},
         argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
         extra={"runs": runs_meta,
                "timing": {"runs_s": t_runs - t0, "figures_s": t_figs - t_runs,

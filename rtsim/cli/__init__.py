@@ -31,6 +31,7 @@ COMMANDS: tuple[str, ...] = (
     "validate",
     "histogram",
     "examples",
+    "schema",
     "animate",
     "reproduce",
 )
@@ -266,8 +267,9 @@ def main(argv: list[str] | None = None) -> int:
             with opted_in():
                 return int(args.func(args) or 0)
         return int(args.func(args) or 0)
-    except InputError as exc:
-        print(f"rtsim: {one_line(exc)}", file=sys.stderr)
+    except InputError as exc:  # one line per problem (a file may have several)
+        for line in getattr(exc, "lines", None) or (str(exc),):
+            print(f"rtsim: {one_line(line)}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into head, say
         return 0

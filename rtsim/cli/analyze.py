@@ -30,10 +30,12 @@ def register(sub: Any) -> None:
     p = sub.add_parser("analyze", help="exact response-time analysis of a task set",
                        description=__doc__.splitlines()[0])
     p.add_argument("file", metavar="FILE", help="task-set TOML file")
+    from rtsim.cli._set import add_set_option
     from rtsim.cli.common import add_json, add_quiet
 
     add_json(p)
     add_quiet(p, "print nothing (the exit status with --check)")
+    add_set_option(p)
     p.add_argument("--check", action="store_true",
                    help="exit with status 1 when the set is not schedulable")
     p.add_argument("--window", metavar="MS", default=None,
@@ -188,11 +190,12 @@ def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
     from rtsim.analysis.edf import EdfAnalysis
     from rtsim.analysis.rta import analyze
+    from rtsim.cli._set import set_overrides
     from rtsim.io.taskset import load_taskset
     from rtsim.sim.policy import SCHEDULERS
 
     w = _window(args.window)
-    ts = load_taskset(args.file)
+    ts = load_taskset(args.file, overrides=set_overrides(args))
     if w is not None and ts.window is None:
         raise InputError(f"{args.file}: --window: the task set has no [window]")
     if args.overhead is not None and not (math.isfinite(args.overhead) and args.overhead >= 0):

@@ -34,11 +34,14 @@ def register(sub: Any) -> None:
     p.add_argument("--force", action="store_true",
                    help="run even when --duration looks like a mistake of unit (over 6 "
                         "simulated hours)")
+    from rtsim.cli._set import add_set_option
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
     add_figure_options(p, default_dpi=120)  # rtsim.plots.scenario.DPI
     add_json(p, "print the summary table as one JSON object instead of Markdown")
     add_quiet(p, "no progress bar or lines, no table")
+    add_set_option(p, help="change a key of both scenarios (Test 1 and Test 2): a dotted path, "
+                   "the value read as TOML; repeatable")
     p.set_defaults(func=run)
 
 
@@ -50,6 +53,7 @@ def argv_for(args: Any) -> list[str]:
         value = getattr(args, dest)
         if value is not None:
             argv += [f"--{opt}", str(value)]
+    argv += [a for s in getattr(args, "set", None) or [] for a in ("--set", s)]
     return argv + [f"--{flag}" for flag in ("quick", "quiet", "force", "json")
                    if getattr(args, flag)]
 

@@ -62,6 +62,9 @@ def register(sub: Any) -> None:
                    help="also write the schedule as a Chrome/Perfetto trace (JSON; open in "
                         "ui.perfetto.dev)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    from rtsim.cli._set import add_set_option
+
+    add_set_option(p)
     p.add_argument("--force", action="store_true",
                    help="run even above the work limits (2e6 windows, 2e8 world steps x "
                         "followers), or a duration over 6 simulated hours")
@@ -95,7 +98,9 @@ def run(args: Any) -> int:
         from rtsim.control.policy import policy_class
 
         policy_class(args.policy, "--policy", allow_code=True)
-    scenario = load_scenario(args.file)
+    from rtsim.cli._set import set_overrides
+
+    scenario = load_scenario(args.file, overrides=set_overrides(args))
     override = args.policy if args.policy is not None else args.mode
     args.mode = override if override is not None else scenario.adjust.policy
     check_scenario(scenario, args.duration, where, force=args.force)
@@ -161,6 +166,7 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
            override: str | None, perfetto: Path | None) -> Any:
     """Run the scenario (file ``src``), writing every file into ``out`` (the staging
     directory of ``target``); returns the result."""
+    from rtsim.cli._set import set_overrides, set_strings
     from rtsim.coupling import run_scenario
     from rtsim.io.atomic import write_json, write_table
     from rtsim.io.columns import ChunkWriter
@@ -177,6 +183,7 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
                                seed=args.seed, record_jobs=True, exec_model=args.exec_model,
                                record_trace=bool(args.perfetto), window_sink=windows,
                                job_sink=jobs, force=args.force,
+                               overrides=set_overrides(args) or None,
                                progress=bar if bar.enabled else None)
     except InputError as exc:  # raised inside the run (an estimate, a state): name the file
         if str(exc).startswith(src):
@@ -222,7 +229,7 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
         out, command="scenario", seed=args.seed,
         inputs={"scenario_file": str(args.file), "scenario_text": inp.text,
                 "scenario": inp.resolved, "mode": args.mode, "duration_s": args.duration,
-                "exec_model": args.exec_model},
+                "exec_model": args.exec_model, "set": set_strings(args)},
         argv=["rtsim", *sys.argv[1:]],
         extra={"timing": timing, "outputs": [*outputs, "report.html"]},
     )

@@ -69,12 +69,14 @@ def register(sub: Any) -> None:
                                        "per task")
     p.add_argument("--perfetto", metavar="FILE",
                    help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)")
+    from rtsim.cli._set import add_set_option
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
     add_figure_options(p, default_dpi=GANTT_DPI, what="--gantt and --histogram figures",
                        default="the file's suffix, else png")
     add_json(p)
     add_quiet(p, "no progress bar, no table")
+    add_set_option(p)
     p.add_argument("--force", action="store_true",
                    help="run even when the horizon gives more than 5e7 jobs, or looks like a "
                         "mistake of unit (shorter than one window)")
@@ -155,7 +157,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
 
     if not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
-    ts = load_taskset(args.file)
+    from rtsim.cli._set import set_overrides, set_strings
+
+    ts = load_taskset(args.file, overrides=set_overrides(args))
     changes: dict[str, Any] = {}
     if args.followers is not None:
         changes["n"] = args.followers
@@ -277,7 +281,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
               "suspension": args.suspension, "overhead": overhead, "jitter": args.jitter,
               "scheduler": scheduler,
-              "window": res.window, "taskset": taskset_to_dict(ts)}
+              "window": res.window, "taskset": taskset_to_dict(ts), "set": set_strings(args)}
     for man, names in _manifest_names(outputs).items():
         write_json(files.add(man, "--jobs/--trace/... manifest"),
                    build_manifest(command="simulate", seed=args.seed, inputs=inputs,

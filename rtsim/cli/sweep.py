@@ -38,10 +38,14 @@ def register(subparsers: Any) -> None:
                    help="recompute the points that failed in an earlier run")
     p.add_argument("--force", action="store_true",
                    help="run a grid above the size limit (1e5 points)")
+    from rtsim.cli._set import add_set_option
     from rtsim.cli.common import add_json, add_quiet
 
     add_json(p, "print the summary (points run, skipped, failed) as one JSON object")
     add_quiet(p, "no progress bar, no summary")
+    add_set_option(p, help="change a key of the sweep's base file at every point, as "
+                   "[sweep.set] does (over it): a dotted path, the value read as TOML; "
+                   "repeatable")
     p.set_defaults(func=run)
 
 
@@ -51,10 +55,12 @@ def _sigterm(signum: int, frame: FrameType | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep; see the module docstring for the exit status."""
+    from rtsim.cli._set import set_strings
     from rtsim.cli.common import progress_enabled
     from rtsim.sweep.engine import Sweep, SweepIncomplete
+    from rtsim.sweep.spec import load_sweep
 
-    sweep = Sweep(args.spec, args.out, force=args.force)
+    sweep = Sweep(load_sweep(args.spec, set_=set_strings(args)), args.out, force=args.force)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         outcome = sweep.run(workers=args.workers, dask=args.dask,

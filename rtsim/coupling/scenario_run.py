@@ -862,7 +862,7 @@ def run_scenario(
                              f"{duration_s!r}")
         from rtsim.io.limits import check
 
-        check("scenario: duration", duration_s, "run_scenario: duration_s")
+        check("option: --duration", duration_s, "run_scenario: duration_s")
     length = run_length(cfg, duration_s, inp.duration_s)
     horizon_ms, stop_s, stop_ms = length.horizon_ms, length.stop_s, length.stop_ms
     win = inp.taskset.window
