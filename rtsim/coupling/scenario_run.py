@@ -187,7 +187,8 @@ class _Coupling:
         if getattr(self.policy, "needs_path", False):  # the leader's known path commands
             segs = cfg.path.segments
             starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
-            self._path = (tuple(float(x) for x in starts), tuple(g.curvature for g in segs))
+            self._path: tuple[tuple[float, ...], tuple[float, ...]] | None = (
+                tuple(float(x) for x in starts), tuple(g.curvature for g in segs))
             opts["accel_max"] = cfg.leader_accel_max
             opts["decel_max"] = cfg.leader_decel_max
         else:
@@ -235,6 +236,7 @@ class _Coupling:
                                 exec_model=exec_model, seed=cpu_ss, record_jobs=record_jobs,
                                 record_trace=record_trace, job_sink=job_sink)
         win = ts.window
+        assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
         # Eq 1's assumption: a scan counts at most min(361, k·n) points (checked per window)
@@ -333,7 +335,8 @@ class _Coupling:
             state.append((*pose, rho, beta, theta, v_f))
             fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
                                          self.beta_d[k]))
-        kw = {"omega_l": world.leader_omega, "kappa": kappa, "v_now": self._v_actual()}
+        kw: dict[str, Any] = {"omega_l": world.leader_omega, "kappa": kappa,
+                              "v_now": self._v_actual()}
         ahead = () if self._path is None else self._ahead()
         extra: dict[str, Any] = {"pose_sd": self._pose_sd()} if self._noise else {}
         if self._rollout:
@@ -476,7 +479,8 @@ class _Coupling:
         if not recs:
             return out
         for kind, key, lim in self._limits:
-            ch = np.array([r.changes[key] for r in recs], dtype=float)  # type: ignore[index]
+            ch = np.array([r.changes[key] for r in recs],  # type: ignore[index]
+                          dtype=np.float64)
             ratio = ch.reshape(len(recs), -1) / lim
             out[kind] = (float(ratio.max()), int((ratio > 1.0 + tolerance).sum()))
         return out
@@ -711,7 +715,8 @@ def run_scenario(
             f"the leader did not complete its lap within the cap of "
             f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
             if stop_s is not None else
-            f"the run's duration ({float(duration_s):g} s) ended before the leader completed "
+            f"the run's duration ({float(duration_s or 0.0):g} s) ended before the leader "
+            f"completed "
             f"its lap")
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     world.followers.advance_all(world.t_ms, cfg.step_ms)

@@ -8,6 +8,7 @@ and absolute deadlines (down ticks; red when missed) are drawn too.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import matplotlib
 import pandas as pd
@@ -49,6 +50,7 @@ def gantt(
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     rows = {n: i for i, n in enumerate(names)}
     view = trace[(trace["end"] > lo) & (trace["start"] < hi)]
+    rec: Any  # a row (its fields typed by the columns, not by pandas)
     for rec in view.itertuples(index=False):
         if rec.task not in rows:
             continue

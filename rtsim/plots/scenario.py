@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -492,7 +493,7 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
         spans = [(times_s(df)[0], ends_s(df)[-1]) for df in dfs.values() if len(df)]
         if spans and max(b for _, b in spans) > min(a for a, _ in spans):
             axes[0].set_xlim(min(a for a, _ in spans), max(b for _, b in spans))
-    handles: dict[str, object] = {}
+    handles: dict[str, Any] = {}
     for ax in axes:  # union of legend entries (a panel may lack misses or critical spans)
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(lab.split(" (")[0] if lab.startswith("deadline") else lab, h)
