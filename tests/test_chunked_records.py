@@ -139,6 +139,7 @@ def _rows(n: int, seed: int) -> list[tuple[object, ...]]:
     return out
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(n=st.integers(0, 300), chunk=st.integers(1, 64), seed=st.integers(0, 10_000))
 def test_rowbuffer_chunks_equal_one_frame(n: int, chunk: int, seed: int) -> None:
