@@ -1,7 +1,7 @@
 """Options every sub-command shares, added one way: ``-q/--quiet``, ``--json``, ``--out``,
 ``--format``/``--dpi``; and the progress bar.
 
-The conventions they keep (tests/test_cli_conventions.py checks them per command):
+The conventions they keep (tests/cli/test_conventions.py checks them per command):
 
 - results go to standard output (a table, a summary line, the files written, or one JSON
   object with ``--json``), diagnostics to standard error (progress, notes, errors);

@@ -37,7 +37,7 @@ Eligibility: jobs of one task run one at a time, first in, first out. A task's p
 finish-late the backlog of a task is served in release order, and the ready heap holds at
 most one job per task.
 
-Order of things at one instant t (the tie-break rules, tested in tests/test_sim_cpu.py)
+Order of things at one instant t (the tie-break rules, tested in tests/sim/test_cpu.py)
 ------------------------------------------------------------------------------------------
 1. The running segment, if its work ends at t (within 1e-9 ms), ends: segment-end hooks;
    the job's next segment becomes current (an idle-mode suspension starts at once: start hooks,

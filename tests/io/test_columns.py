@@ -1,0 +1,142 @@
+"""The column CSV writer gives the bytes of ``DataFrame.to_csv(index=False)`` (the writer that
+rtsim's tables were written with before), on random tables and on the runs' own outputs.
+
+pandas is the independent reference here: every case formats the same table both ways.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rtsim.io.columns import ChunkWriter, column_kind, csv_text
+from rtsim.sim.records import JOB_COLUMNS, RowBuffer, jobs_frame
+
+ROOT = Path(__file__).resolve().parents[2]
+
+#: Floats pandas and repr might disagree on if the writer were wrong: signed zero, the
+#: exponent thresholds of the short form (1e16, 1e-5), subnormals, the extremes, NaN, inf.
+EDGE = [0.0, -0.0, 1e16, 9999999999999998.0, 1e15, 1e-4, 1e-5, 0.0001234, 5e-324, -5e-324,
+        2.2250738585072014e-308, 1.7976931348623157e308, -1.7976931348623157e308, math.inf,
+        -math.inf, math.nan, 0.1, 1 / 3, 100.0, 1e22, 123456789012345678.0, -1.5e-7]
+
+floats = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.sampled_from(EDGE))
+texts = st.one_of(st.none(), st.text(alphabet=st.sampled_from('ab ,"\n\r;x:é'), max_size=6))
+
+
+def _pandas(df: pd.DataFrame) -> str:
+    return df.to_csv(index=False)
+
+
+def _ours(df: pd.DataFrame) -> str | None:
+    return csv_text([df[c].to_numpy() for c in df.columns],
+                    [column_kind(t) for t in df.dtypes], list(df.columns))
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data(), m=st.integers(0, 40))
+def test_random_tables_give_pandas_bytes(data: st.DataObject, m: int) -> None:
+    f = data.draw(st.lists(floats, min_size=m, max_size=m))
+    i = data.draw(st.lists(st.integers(-2**63, 2**63 - 1), min_size=m, max_size=m))
+    b = data.draw(st.lists(st.booleans(), min_size=m, max_size=m))
+    s = data.draw(st.lists(texts, min_size=m, max_size=m))
+    o = data.draw(st.lists(texts, min_size=m, max_size=m))
+    df = pd.DataFrame({"f": np.array(f, dtype=float), "i": np.array(i, dtype=np.int64),
+                       "b": np.array(b, dtype=bool), "s": pd.array(s, dtype="string"),
+                       "o": pd.Series(o, dtype=object), 'with,"comma': np.array(f)})
+    assert [column_kind(t) for t in df.dtypes] == ["f", "i", "b", "s", "s", "f"]
+    assert _ours(df) == _pandas(df)
+
+
+def test_edge_floats_one_by_one() -> None:
+    df = pd.DataFrame({"x": np.array(EDGE), "y": -np.array(EDGE)})
+    text = _ours(df)
+    assert text == _pandas(df)
+    assert text is not None
+    lines = text.splitlines()
+    assert lines[1:3] == ["0.0,-0.0", "-0.0,0.0"]  # the sign of zero kept
+    assert lines[1 + EDGE.index(1e16)] == "1e+16,-1e+16"
+    assert lines[1 + EDGE.index(1e-5)] == "1e-05,-1e-05"
+    nan_row = 1 + next(k for k, x in enumerate(EDGE) if x != x)
+    assert lines[nan_row] == ","  # NaN is an empty cell, not 'nan'
+    assert "nan" not in text
+
+
+def test_values_the_fast_path_does_not_know_go_to_pandas(tmp_path: Path) -> None:
+    """Numbers in an object column, categoricals, a single column: pandas writes them."""
+    for df in (pd.DataFrame({"a": [1.5, "x"], "b": [1, 2]}),
+               pd.DataFrame({"a": pd.Categorical(["u", "v"]), "b": [1.0, 2.0]}),
+               pd.DataFrame({"a": ["", "x"]})):
+        w = ChunkWriter([tmp_path / "t.csv"], None)
+        w.write(df)
+        w.write(df)
+        w.close()
+        assert (tmp_path / "t.csv").read_text() == _pandas(pd.concat([df, df]))
+
+
+def _job_rows(n: int, seed: int) -> list[tuple[object, ...]]:
+    rng = np.random.default_rng(seed)
+    out = []
+    for k in range(n):
+        r = float(rng.uniform(-1e3, 1e9)) * 10.0 ** int(rng.integers(-8, 8))
+        skipped = bool(rng.random() < 0.2)
+        f = math.nan if skipped else r + float(rng.exponential(10))
+        out.append((f"t{k % 3}", k, r, f, f, f - r, r + 50.0, 50.0, skipped or f > r + 50,
+                    int(rng.integers(0, 4)), False, skipped, -0.0 if k % 5 == 0 else 1.0, r))
+    return out
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 10_000])
+def test_job_rows_streamed_as_tuples_equal_the_frame(tmp_path: Path, chunk: int) -> None:
+    """A RowBuffer whose sink is a ChunkWriter hands it tuples: the CSV and the Parquet are
+    those of the whole jobs_frame written by pandas."""
+    rows = _job_rows(150, 3)
+    w = ChunkWriter([tmp_path / "j.csv", tmp_path / "j.parquet"], jobs_frame([]))
+    buf = RowBuffer(jobs_frame, w, chunk_rows=chunk)
+    for r in rows:
+        buf.append(r)
+    buf.flush()
+    w.close()
+    whole = jobs_frame(rows)
+    assert (tmp_path / "j.csv").read_text() == _pandas(whole)
+    back = pd.read_parquet(tmp_path / "j.parquet")
+    pd.testing.assert_frame_equal(back, whole)
+    assert pq.ParquetFile(tmp_path / "j.parquet").num_row_groups == -(-150 // chunk)
+    assert list(whole.columns) == list(JOB_COLUMNS)
+
+
+def test_empty_tables(tmp_path: Path) -> None:
+    w = ChunkWriter([tmp_path / "j.csv"], jobs_frame([]))
+    w.close()
+    assert (tmp_path / "j.csv").read_text() == _pandas(jobs_frame([]))
+    w = ChunkWriter([tmp_path / "k.csv"], jobs_frame([]))
+    w.write_rows([])
+    w.close()
+    assert (tmp_path / "k.csv").read_text() == _pandas(jobs_frame([]))
+
+
+@pytest.mark.parametrize("scenario", ["test1", "test2"])
+def test_scenario_windows_as_columns_equal_pandas(scenario: str) -> None:
+    """Test 1 and Test 2's window table, formatted from its columns, is pandas' CSV of it."""
+    from rtsim.coupling import run_scenario
+    from rtsim.coupling.recorder import records_columns
+
+    res = run_scenario(scenario, duration_s=120, seed=2, record_jobs=True)
+    assert res.windows is not None and res.jobs is not None
+    buf = io.StringIO()
+    res.windows.to_csv(buf, index=False)
+    cols = records_columns([], 2, ((0.0,) * 2,) * 4)  # the schema: arrays or lists of str
+    df = res.windows
+    kinds = [column_kind(df[c].dtype) if isinstance(cols[c], np.ndarray) else "s"
+             for c in df.columns]
+    assert csv_text([df[c].to_numpy() for c in df.columns], kinds, list(df.columns)) \
+        == buf.getvalue()
+    assert _ours(res.jobs) == _pandas(res.jobs)

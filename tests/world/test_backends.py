@@ -1,0 +1,309 @@
+"""The world's ``compiled`` backend gives the ``python`` backend's results bit for bit.
+
+The Python classes are the reference (their own tests check them against hand derivations
+and filterpy); here every compiled kernel is compared with the Python code it replaces, on
+random inputs, and whole coupled runs (Test 1, Test 2, the frozen pin scenarios, random
+variations) are compared byte for byte: windows.csv, jobs.csv and the summary.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from rtsim.coupling import run_scenario
+from rtsim.errors import ScenarioError
+from rtsim.io.scenario import load_scenario
+from rtsim.world import compiled
+from rtsim.world.ekf import EkfParams, FastFollowerEKF
+from rtsim.world.follower import FollowerGroup, FollowerParams
+from rtsim.world.ftl import TraceFollower
+from rtsim.world.path import rounded_rectangle
+from rtsim.world.world import World
+
+ROOT = Path(__file__).resolve().parents[2]
+PIN = ROOT / "tests" / "data" / "policy_pin"
+
+needs_numba = pytest.mark.skipif(not compiled.available(), reason="numba is not importable")
+BACKENDS = ["python", pytest.param("compiled", marks=needs_numba), "filterpy"]
+
+
+def _bits(x: Any) -> Any:
+    if isinstance(x, float):
+        return x.hex()
+    if isinstance(x, list | tuple):
+        return [_bits(v) for v in x]
+    return x
+
+
+def _run(scenario: Any, backend: str, **kw: Any) -> Any:
+    over = dict(kw.pop("overrides", {}))
+    over["world.backend"] = backend
+    return run_scenario(scenario, overrides=over, **kw)
+
+
+def _same_run(a: Any, b: Any) -> None:
+    assert a.windows.to_csv(index=False) == b.windows.to_csv(index=False)
+    if a.jobs is not None:
+        assert a.jobs.to_csv(index=False) == b.jobs.to_csv(index=False)
+    assert json.dumps(a.summary, sort_keys=True, default=str) == \
+        json.dumps(b.summary, sort_keys=True, default=str)
+
+
+@needs_numba
+@pytest.mark.parametrize("scenario", ["test1", "test2"])
+def test_shipped_scenarios_bit_identical(scenario: str) -> None:
+    py = _run(scenario, "python", duration_s=150, seed=5)
+    co = _run(scenario, "compiled", duration_s=150, seed=5)
+    _same_run(py, co)
+
+
+@needs_numba
+@pytest.mark.parametrize("pin", ["pin1", "pin2"])
+@pytest.mark.parametrize("mode", ["adjust", "min-msb"])
+def test_pin_scenarios_bit_identical(pin: str, mode: str) -> None:
+    py = _run(PIN / f"{pin}.toml", "python", mode=mode, duration_s=20.0, seed=1)
+    co = _run(PIN / f"{pin}.toml", "compiled", mode=mode, duration_s=20.0, seed=1)
+    _same_run(py, co)
+
+
+@needs_numba
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_random_variations_bit_identical(seed: int) -> None:
+    """Followers, formation model, speeds, noise and ramps drawn at random."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 5))
+    over = {
+        "formation.followers": n,
+        "formation.model": str(rng.choice(["follow-the-leader", "l-psi"])),
+        "leader.speed": float(rng.uniform(10, 40)),
+        "follower.max_accel": float(rng.uniform(20, 300)),
+        "follower.speed_noise": float(rng.uniform(0, 3)),
+        "sensing.position_noise": float(rng.uniform(0.2, 4)),
+        "world.step_ms": float(rng.choice([2.5, 10.0, 40.0])),
+    }
+    py = _run("test2", "python", duration_s=60, seed=seed, overrides=over, record_jobs=False)
+    co = _run("test2", "compiled", duration_s=60, seed=seed, overrides=over, record_jobs=False)
+    _same_run(py, co)
+
+
+@needs_numba
+def test_follower_advance_kernel() -> None:
+    rng = np.random.default_rng(7)
+    p = FollowerParams(max_accel=80.0)
+    for _ in range(200):
+        n = 3
+        args = (rng.uniform(-500, 500, n), rng.uniform(-500, 500, n), rng.uniform(-7, 7, n),
+                rng.uniform(0, 60, n))
+        a, b = FollowerGroup(*args, p), compiled.CompiledFollowerGroup(*args, p)
+        for g in (a, b):
+            g.cmd_v = [float(v) for v in rng.uniform(-20, 80, n)] if g is a else list(a.cmd_v)
+            g.cmd_w = [float(v) for v in rng.uniform(-0.5, 0.5, n)] if g is a else list(a.cmd_w)
+        t = float(rng.uniform(0, 400))
+        step = float(rng.choice([1.0, 10.0, 33.3]))
+        a.advance_all(t, step)
+        b.advance_all(t, step)
+        for field in ("x", "y", "th", "v", "odometer", "t"):
+            assert _bits(getattr(a, field)) == _bits(getattr(b, field)), field
+
+
+@needs_numba
+def test_ekf_kernels() -> None:
+    rng = np.random.default_rng(11)
+    params = EkfParams(speed_noise=0.7, turn_noise=0.01, position_drift=0.3)
+    for _ in range(100):
+        pose = tuple(float(v) for v in rng.uniform(-300, 300, 3))
+        a, b = FastFollowerEKF(pose, params), compiled.CompiledFollowerEKF(pose, params)
+        for _ in range(5):
+            v, w, dt = float(rng.uniform(-10, 50)), float(rng.uniform(-1, 1)), \
+                float(rng.choice([0.0, rng.uniform(0.01, 0.5)]))
+            if rng.random() < 0.2:
+                w = 0.0
+            a.predict(v, w, dt)
+            b.predict(v, w, dt)
+            z = (pose[0] + float(rng.normal(0, 5)), pose[1] + float(rng.normal(0, 5)))
+            a.update(z)
+            b.update(z)
+            assert _bits(a.x) == _bits(b.x)
+            assert _bits(a._p) == _bits(b._p)
+
+
+@needs_numba
+def test_ftl_command_kernel() -> None:
+    """TraceFollower.command and the compiled one, from the same states, on random leader
+    positions along the path: the same command and the same remembered arc lengths."""
+    rng = np.random.default_rng(3)
+    path = rounded_rectangle(800, 400, 120)
+    rho, lat = [325.0, 325.0, 500.0, 520.0], [80.0, -80.0, 80.0, -60.0]
+    a = TraceFollower(path, rho, lat, 0.5, 40.0)
+    b = compiled.CompiledTraceFollower(path, rho, lat, 0.5, 40.0)
+    s_l = 1000.0
+    for k in range(4):
+        assert _bits(a.initial(k, s_l, path.pose(s_l), 30.0)) == \
+            _bits(b.initial(k, s_l, path.pose(s_l), 30.0))
+    for _ in range(300):
+        s_l += float(rng.uniform(0, 40))
+        leader = path.pose(s_l)
+        k = int(rng.integers(0, 4))
+        x, y, h = a.point(k, a._s_ref[k] if a._s_ref[k] is not None else s_l)
+        x, y, h = x + float(rng.normal(0, 5)), y + float(rng.normal(0, 5)), \
+            h + float(rng.normal(0, 0.05))
+        v_l = float(rng.uniform(0, 35))
+        assert _bits(a.command(k, s_l, leader, v_l, x, y, h)) == \
+            _bits(b.command(k, s_l, leader, v_l, x, y, h))
+        b._to_lists()
+        assert _bits(a._s_ref) == _bits(b._s_ref) and _bits(a._s_f) == _bits(b._s_f)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_each_backend_runs_the_world(backend: str) -> None:
+    """Every backend builds its world and runs Test 2 for a few windows (CI runs all)."""
+    sc = load_scenario("test2", overrides={"world.backend": backend})
+    w = World(sc.world, np.random.default_rng(0))
+    assert w.backend == backend
+    res = _run("test2", backend, duration_s=10, seed=0)
+    assert res.summary["windows"] > 30
+
+
+def test_backend_switch_and_alias() -> None:
+    assert load_scenario("test2").world.resolved_backend() == \
+        ("compiled" if compiled.available() else "python")
+    sc = load_scenario("test2", overrides={"ekf.backend": "filterpy"})
+    assert sc.world.resolved_backend() == "filterpy"
+    w = World(sc.world, np.random.default_rng(0))
+    assert type(w.filters[0]).__name__ == "FollowerEKF"
+    with pytest.raises(ScenarioError, match="world.backend: 'python' contradicts ekf.backend"):
+        load_scenario("test2", overrides={"ekf.backend": "filterpy", "world.backend": "python"})
+    with pytest.raises(ScenarioError, match="world.backend: must be one of"):
+        load_scenario("test2", overrides={"world.backend": "fast"})
+
+
+def test_compiled_without_numba_is_an_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    import rtsim.world.kernels as kernels_module
+
+    monkeypatch.setattr(kernels_module, "_AVAILABLE", False)
+    assert load_scenario("test2").world.resolved_backend() == "python"
+    sc = load_scenario("test2", overrides={"world.backend": "compiled"})
+    with pytest.raises(ScenarioError, match="needs numba"):
+        sc.world.resolved_backend()
+
+
+@needs_numba
+def test_second_process_loads_kernels_from_the_cache() -> None:
+    """After one run has compiled the kernels, a fresh interpreter compiles nothing."""
+    _run("test2", "compiled", duration_s=5, seed=0)
+    code = ("from rtsim.coupling import run_scenario\n"
+            "from rtsim.world import compiled\n"
+            "run_scenario('test2', duration_s=5, overrides={'world.backend': 'compiled'})\n"
+            "k = compiled.kernels()\n"
+            "ds = [d for d in vars(k).values() if hasattr(d, 'stats')]\n"
+            "print(sum(len(d.stats.cache_misses) for d in ds),"
+            " sum(len(d.stats.cache_hits) for d in ds))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT)
+    misses, hits = map(int, out.stdout.split())
+    assert misses == 0 and hits >= 4
+    assert math.isfinite(hits)
+
+
+PLAN = {"adjust.policy": "plan", "adjust.predictor": "commands"}
+PAPER = {"adjust.policy": "adjust", "adjust.predictor": "paper"}  # the paper's own search
+
+
+@needs_numba
+def test_compiled_hypot_is_the_interpreters() -> None:
+    """The rollout kernel computes hypot itself, as CPython does (checked at load too)."""
+    ker = compiled.kernels()
+    assert ker.exact_hypot
+    rng = np.random.default_rng(17)
+    pts = rng.uniform(-2000, 2000, (20000, 2)) * 10.0 ** rng.integers(-3, 4, (20000, 1))
+    assert all(ker.hypot(x, y) == math.hypot(x, y) for x, y in pts.tolist())
+
+
+@needs_numba
+@pytest.mark.parametrize("scenario", ["test1", "test2"])
+def test_rollout_policy_bit_identical(scenario: str) -> None:
+    """The plan policy on the command-aware rollout: the compiled rollout (one kernel per
+    rollout) gives the Python one's decisions and tables."""
+    py = _run(scenario, "python", duration_s=60, seed=3, overrides=PLAN)
+    co = _run(scenario, "compiled", duration_s=60, seed=3, overrides=PLAN)
+    _same_run(py, co)
+
+
+@needs_numba
+def test_rollout_falls_back_without_an_exact_hypot(monkeypatch: pytest.MonkeyPatch) -> None:
+    ker = compiled.kernels()
+    py = _run("test2", "python", duration_s=20, seed=1, overrides=PLAN, record_jobs=False)
+    monkeypatch.setattr(ker, "exact_hypot", False)
+    co = _run("test2", "compiled", duration_s=20, seed=1, overrides=PLAN, record_jobs=False)
+    _same_run(py, co)
+
+
+@needs_numba
+def test_a_users_python_predictor_runs_on_the_compiled_world() -> None:
+    """The decision stays Python: a user's own predictor is called on either backend, with
+    the same results."""
+    from dataclasses import replace
+
+    from rtsim.coupling import scenario_inputs
+
+    calls = []
+
+    def mine(f: Any, v_l: float) -> tuple[float, float, float]:
+        calls.append(v_l)
+        return f.v_f, f.theta, 0.0
+
+    out = {}
+    for backend in ("python", "compiled"):
+        sc = load_scenario("test2", overrides={**PAPER, "world.backend": backend})
+        inp = scenario_inputs(sc)
+        inp = replace(inp, adjust={**inp.adjust, "predictor": mine})
+        n0 = len(calls)
+        out[backend] = run_scenario(inp, duration_s=40, seed=2)
+        assert len(calls) > n0  # the user's predictor made the decisions
+    _same_run(out["python"], out["compiled"])
+
+
+@needs_numba
+@pytest.mark.parametrize("policy", ["adjust", "margin", "noise-aware"])
+def test_compiled_paper_search_bit_identical(policy: str) -> None:
+    """The paper predictor's speed search runs compiled on the compiled world (Test 2's
+    predictor): the same decisions, the same name in the summary."""
+    from rtsim.control.compiled import PaperSearch
+
+    paper = {"adjust.predictor": "paper"}
+    py = _run("test2", "python", duration_s=150, seed=4, policy=policy, record_jobs=False,
+              overrides=paper)
+    co = _run("test2", "compiled", duration_s=150, seed=4, policy=policy, record_jobs=False,
+              overrides=paper)
+    _same_run(py, co)
+    assert co.summary["predictor"] == "paper" and co.summary["critical_windows"] > 20
+    rng = np.random.default_rng(8)
+    from rtsim.analysis.kinematics import Thresholds
+    from rtsim.control.adjust import largest as _largest
+    from rtsim.control.predict import min_bound_rows, predict_msb_rows, trusted_estimate
+
+    thr = Thresholds(25.0, 0.005, 0.025, math.radians(5))
+    ps = PaperSearch()
+    for _ in range(300):
+        fols = [trusted_estimate(float(rng.uniform(200, 400)), float(rng.uniform(2.5, 3.8)),
+                                 float(rng.normal(0, 0.3)), float(rng.uniform(0, 40)), 325.0)
+                for _ in range(int(rng.integers(1, 4)))]
+        om, need = float(rng.normal(0, 0.2)), float(rng.uniform(100, 400))
+        grid = [30.0 - 30.0 / 64 * i for i in range(64)] + [30.0 / 64 * 0.5**j
+                                                             for j in range(1, 21)]
+
+        def ok(v: float, fols: Any = fols, om: float = om, need: float = need) -> bool:
+            rows = predict_msb_rows(fols, v, lambda f, _v: (f.v_f, f.theta, om), thr)
+            return min_bound_rows(rows)[0] >= need
+
+        a, b = _largest(ok, grid), ps.largest(fols, om, thr, need, grid)
+        assert (a is None and b is None) or (a is not None and b is not None
+                                             and a.hex() == b.hex())
