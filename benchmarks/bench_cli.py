@@ -32,16 +32,35 @@ def one_run(scenario: str, duration: float, extra: list[str] | None = None) -> d
     out = Path(tempfile.mkdtemp(prefix="bench_cli_"))
     try:
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "rtsim", "scenario", scenario, "--duration",
-                        str(duration), "--no-figures", "--out", str(out / "run"),
-                        *(extra or [])], check=True, capture_output=True)
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "rtsim",
+                "scenario",
+                scenario,
+                "--duration",
+                str(duration),
+                "--no-figures",
+                "--out",
+                str(out / "run"),
+                *(extra or []),
+            ],
+            check=True,
+            capture_output=True,
+        )
         wall = time.perf_counter() - t0
         timing = json.loads((out / "run" / "manifest.json").read_text())["timing"]
         windows = json.loads((out / "run" / "summary.json").read_text())["windows"]
     finally:
         shutil.rmtree(out, ignore_errors=True)
-    return {"loop_s": timing["simulation_s"], "loop_cpu_s": timing["simulation_cpu_s"],
-            "total_s": timing["total_s"], "process_s": wall, "windows": int(windows)}
+    return {
+        "loop_s": timing["simulation_s"],
+        "loop_cpu_s": timing["simulation_cpu_s"],
+        "total_s": timing["total_s"],
+        "process_s": wall,
+        "windows": int(windows),
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -53,22 +72,36 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     m = print_machine()
     runs = [one_run(args.scenario, args.duration) for _ in range(args.repeat)]
-    best = {k: min(r[k] for r in runs) for k in ("loop_s", "loop_cpu_s", "total_s",
-                                                  "process_s")}
+    best = {k: min(r[k] for r in runs) for k in ("loop_s", "loop_cpu_s", "total_s", "process_s")}
     windows = runs[0]["windows"]
     d = args.duration
-    print(f"rtsim scenario {args.scenario} --duration {d:g} --no-figures: {windows} windows, "
-          f"best of {args.repeat}")
-    print(f"loop wall  {best['loop_s']:7.2f} s  {d / best['loop_s']:7.0f}x real time  "
-          f"{1e6 * best['loop_s'] / windows:6.0f} us/window")
-    print(f"loop CPU   {best['loop_cpu_s']:7.2f} s  {d / best['loop_cpu_s']:7.0f}x real time  "
-          f"{1e6 * best['loop_cpu_s'] / windows:6.0f} us/window   (target >= {TARGET:g}x)")
+    print(
+        f"rtsim scenario {args.scenario} --duration {d:g} --no-figures: {windows} windows, "
+        f"best of {args.repeat}"
+    )
+    print(
+        f"loop wall  {best['loop_s']:7.2f} s  {d / best['loop_s']:7.0f}x real time  "
+        f"{1e6 * best['loop_s'] / windows:6.0f} us/window"
+    )
+    print(
+        f"loop CPU   {best['loop_cpu_s']:7.2f} s  {d / best['loop_cpu_s']:7.0f}x real time  "
+        f"{1e6 * best['loop_cpu_s'] / windows:6.0f} us/window   (target >= {TARGET:g}x)"
+    )
     print(f"command    {best['total_s']:7.2f} s  (process {best['process_s']:.2f} s)")
     if args.json:
-        print(json.dumps({"machine": m, "duration_s": d, "windows": windows,
-                          "repeat": args.repeat, **best,
-                          "x_real_time": d / best["loop_s"],
-                          "x_real_time_cpu": d / best["loop_cpu_s"]}))
+        print(
+            json.dumps(
+                {
+                    "machine": m,
+                    "duration_s": d,
+                    "windows": windows,
+                    "repeat": args.repeat,
+                    **best,
+                    "x_real_time": d / best["loop_s"],
+                    "x_real_time_cpu": d / best["loop_cpu_s"],
+                }
+            )
+        )
     return 0
 
 

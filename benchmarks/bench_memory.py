@@ -41,8 +41,9 @@ print("BENCH", rc, peak, time.perf_counter() - t0)
 
 def peak_mb(argv: list[str]) -> tuple[float, float]:
     """(peak RSS in MB, wall seconds) of ``rtsim <argv>`` in a fresh interpreter."""
-    proc = subprocess.run([sys.executable, "-c", _CHILD, *argv], cwd=ROOT, text=True,
-                          capture_output=True, check=False)
+    proc = subprocess.run(
+        [sys.executable, "-c", _CHILD, *argv], cwd=ROOT, text=True, capture_output=True, check=False
+    )
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("BENCH ")]
     if proc.returncode != 0 or not lines:
         raise SystemExit(f"rtsim {' '.join(argv)} failed:\n{proc.stderr[-2000:]}")
@@ -65,10 +66,20 @@ def main() -> int:
         d = Path(tmp)
         if args.only in (None, "simulate"):
             row = {}
-            for label, ms in (("short", args.short_min * 60_000),
-                              ("long", args.sim_hours * 3_600_000)):
-                peak, wall = peak_mb(["simulate", "tasksets/example.toml", "--horizon",
-                                      repr(ms), "--jobs", str(d / f"jobs_{label}.csv")])
+            for label, ms in (
+                ("short", args.short_min * 60_000),
+                ("long", args.sim_hours * 3_600_000),
+            ):
+                peak, wall = peak_mb(
+                    [
+                        "simulate",
+                        "tasksets/example.toml",
+                        "--horizon",
+                        repr(ms),
+                        "--jobs",
+                        str(d / f"jobs_{label}.csv"),
+                    ]
+                )
                 rows = sum(1 for _ in open(d / f"jobs_{label}.csv", "rb")) - 1
                 row.update({f"{label}_mb": peak, f"{label}_s": wall, f"{label}_rows": rows})
             results[f"simulate --jobs {args.sim_hours:g} h vs {args.short_min:g} min"] = row
@@ -76,25 +87,40 @@ def main() -> int:
             row = {}
             for label, s in (("short", args.short_min * 60), ("long", args.scenario_hours * 3600)):
                 out = d / f"scen_{label}"
-                peak, wall = peak_mb(["scenario", "experiments/scenarios/test2.toml",
-                                      "--duration", repr(s), "--parquet", "--out", str(out)])
+                peak, wall = peak_mb(
+                    [
+                        "scenario",
+                        "experiments/scenarios/test2.toml",
+                        "--duration",
+                        repr(s),
+                        "--parquet",
+                        "--out",
+                        str(out),
+                    ]
+                )
                 rows = sum(1 for _ in open(out / "windows.csv", "rb")) - 1
                 row.update({f"{label}_mb": peak, f"{label}_s": wall, f"{label}_rows": rows})
-            results[f"scenario test2, every output, {args.scenario_hours:g} h vs "
-                    f"{args.short_min:g} min"] = row
+            results[
+                f"scenario test2, every output, {args.scenario_hours:g} h vs {args.short_min:g} min"
+            ] = row
     print(f"{'run':58s} {'short MB':>9s} {'long MB':>9s} {'delta':>8s}  rows (long)   verdict")
     ok = True
     for name, r in results.items():
         delta = r["long_mb"] - r["short_mb"]
         good = delta <= TARGET_MB
         ok &= good
-        print(f"{name:58s} {r['short_mb']:9.1f} {r['long_mb']:9.1f} {delta:+8.1f}  "
-              f"{int(r['long_rows']):>11d}   {'ok' if good else 'MISSED'} "
-              f"(target +{TARGET_MB:g} MB; long run {r['long_s']:.0f} s)")
+        print(
+            f"{name:58s} {r['short_mb']:9.1f} {r['long_mb']:9.1f} {delta:+8.1f}  "
+            f"{int(r['long_rows']):>11d}   {'ok' if good else 'MISSED'} "
+            f"(target +{TARGET_MB:g} MB; long run {r['long_s']:.0f} s)"
+        )
         r["delta_mb"] = delta
     if args.json:
-        print(json.dumps({"when": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-                          "results": results}))
+        print(
+            json.dumps(
+                {"when": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "results": results}
+            )
+        )
     return 0 if ok else 1
 
 

@@ -41,8 +41,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenario", default=str(TEST2))
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--out", default=None, help="output directory (default: a temp dir)")
-    ap.add_argument("--backends", default="fast,filterpy",
-                    help="EKF backends to time in the table (comma-separated; '' = none)")
+    ap.add_argument(
+        "--backends",
+        default="fast,filterpy",
+        help="EKF backends to time in the table (comma-separated; '' = none)",
+    )
     ap.add_argument("--repeat", type=int, default=3, help="best of this many loop runs")
     args = ap.parse_args(argv)
     if args.profile:
@@ -50,28 +53,45 @@ def main(argv: list[str] | None = None) -> int:
 
         prof = cProfile.Profile()
         prof.enable()
-        res = run_scenario(args.scenario, mode=args.mode, duration_s=args.duration,
-                           record_jobs=False)
+        res = run_scenario(
+            args.scenario, mode=args.mode, duration_s=args.duration, record_jobs=False
+        )
         prof.disable()
         pstats.Stats(prof).sort_stats("tottime").print_stats(25)
         print(res.timing)
         return 0
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_scenario_"))
     t0 = time.perf_counter()
-    rc = rtsim_main(["scenario", args.scenario, "--mode", args.mode,
-                     "--duration", str(args.duration), "--out", str(out)])
+    rc = rtsim_main(
+        [
+            "scenario",
+            args.scenario,
+            "--mode",
+            args.mode,
+            "--duration",
+            str(args.duration),
+            "--out",
+            str(out),
+        ]
+    )
     wall = time.perf_counter() - t0
     if rc != 0:
         return rc
     m = json.loads((out / "manifest.json").read_text())
     s = json.loads((out / "summary.json").read_text())
     t = m["timing"]
-    print(f"scenario {Path(args.scenario).name}, mode {args.mode}: {args.duration:g} s "
-          f"simulated, {s['windows']} windows")
-    print(f"simulation loop   {t['simulation_s']:8.2f} s  "
-          f"({args.duration / t['simulation_s']:7.0f}x real time)")
-    print(f"  (CPU time {t['simulation_cpu_s']:8.2f} s  "
-          f"({args.duration / t['simulation_cpu_s']:7.0f}x real time))")
+    print(
+        f"scenario {Path(args.scenario).name}, mode {args.mode}: {args.duration:g} s "
+        f"simulated, {s['windows']} windows"
+    )
+    print(
+        f"simulation loop   {t['simulation_s']:8.2f} s  "
+        f"({args.duration / t['simulation_s']:7.0f}x real time)"
+    )
+    print(
+        f"  (CPU time {t['simulation_cpu_s']:8.2f} s  "
+        f"({args.duration / t['simulation_cpu_s']:7.0f}x real time))"
+    )
     print(f"setup + tables    {t['setup_s'] + t['tables_s']:8.2f} s")
     print(f"end to end        {t['total_s']:8.2f} s  (process wall {wall:.2f} s, out {out})")
     backends = [b for b in args.backends.split(",") if b]
@@ -98,14 +118,19 @@ def loop_cpu(scenario: str, mode: str, duration: float, backend: str) -> tuple[f
     """(CPU s of the loop, windows) of one run in a fresh interpreter, as the CLI runs it
     (an interpreter that has already made figures holds ~10x more objects, and the garbage
     collector's full passes over them slow the loop by up to ~25 %)."""
-    out = subprocess.run([sys.executable, "-c", _LOOP_CODE, scenario, mode, str(duration),
-                          backend], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", _LOOP_CODE, scenario, mode, str(duration), backend],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     cpu_s, windows = json.loads(out.stdout.strip().splitlines()[-1])
     return float(cpu_s), int(windows)
 
 
-def backend_table(scenario: str, mode: str, duration: float, backends: list[str],
-                  repeat: int) -> str:
+def backend_table(
+    scenario: str, mode: str, duration: float, backends: list[str], repeat: int
+) -> str:
     """Best-of-``repeat`` CPU time of the loop per EKF backend (fresh interpreter per run,
     backends alternated), as a text table."""
     best = {b: float("inf") for b in backends}
@@ -114,8 +139,10 @@ def backend_table(scenario: str, mode: str, duration: float, backends: list[str]
         for backend in backends:
             cpu_s, windows[backend] = loop_cpu(scenario, mode, duration, backend)
             best[backend] = min(best[backend], cpu_s)
-    lines = [f"{'EKF backend':12s} {'windows':>8s} {'loop CPU s':>11s} {'us/window':>10s} "
-             f"{'x real time':>12s}  (best of {repeat}, job records on)"]
+    lines = [
+        f"{'EKF backend':12s} {'windows':>8s} {'loop CPU s':>11s} {'us/window':>10s} "
+        f"{'x real time':>12s}  (best of {repeat}, job records on)"
+    ]
     for backend in backends:
         b, w = best[backend], windows[backend]
         lines.append(f"{backend:12s} {w:8d} {b:11.2f} {1e6 * b / w:10.0f} {duration / b:12.0f}")

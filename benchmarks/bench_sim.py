@@ -72,11 +72,12 @@ def rtsim_run(horizon: float, scheduler: str = "fp") -> int:
 
 def peak_rss_mb(horizon: float) -> float:
     """ru_maxrss (MB) of a fresh interpreter that simulates ``horizon`` ms."""
-    code = (f"import resource, sys; sys.path.insert(0, {sys.path[0]!r}); "
-            f"import bench_sim; bench_sim.rtsim_run({horizon!r}); "
-            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True)
+    code = (
+        f"import resource, sys; sys.path.insert(0, {sys.path[0]!r}); "
+        f"import bench_sim; bench_sim.rtsim_run({horizon!r}); "
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return int(out.stdout.strip()) / 1024.0
 
 
@@ -105,10 +106,15 @@ def main(argv: list[str] | None = None) -> int:
         t_edf = min(t_edf, time.process_time() - t)
     assert n_bare == n_sim == n_edf, (n_bare, n_sim, n_edf)
 
-    rows = [("bare heap loop", n_bare, t_bare), ("rtsim fp (SimPy CPU, stats on)", n_sim, t_sim),
-            ("rtsim edf (SimPy CPU, stats on)", n_edf, t_edf)]
-    print(f"{args.hours:g} simulated hour(s) of (5,40),(200,250),(25,500); "
-          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB RSS so far")
+    rows = [
+        ("bare heap loop", n_bare, t_bare),
+        ("rtsim fp (SimPy CPU, stats on)", n_sim, t_sim),
+        ("rtsim edf (SimPy CPU, stats on)", n_edf, t_edf),
+    ]
+    print(
+        f"{args.hours:g} simulated hour(s) of (5,40),(200,250),(25,500); "
+        f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB RSS so far"
+    )
     print(f"{'simulator':32s} {'jobs':>9s} {'CPU s':>8s} {'jobs/s':>10s}  (best of {args.repeat})")
     for name, n, secs in rows:
         print(f"{name:32s} {n:9d} {secs:8.2f} {n / secs:10.0f}")
@@ -116,16 +122,23 @@ def main(argv: list[str] | None = None) -> int:
     print(f"rtsim is {ratio:.2f}x slower than the bare loop (target: within 2x)")
     edf_ratio = t_edf / t_sim
     print(f"edf takes {edf_ratio:.2f}x the time of fp (target: within 1.5x)")
-    result: dict[str, Any] = {"bare_jobs_per_s": n_bare / t_bare,
-                                "rtsim_jobs_per_s": n_sim / t_sim, "ratio": ratio,
-                                "edf_jobs_per_s": n_edf / t_edf, "edf_over_fp": edf_ratio,
-                                "repeat": args.repeat, "machine": machine}
+    result: dict[str, Any] = {
+        "bare_jobs_per_s": n_bare / t_bare,
+        "rtsim_jobs_per_s": n_sim / t_sim,
+        "ratio": ratio,
+        "edf_jobs_per_s": n_edf / t_edf,
+        "edf_over_fp": edf_ratio,
+        "repeat": args.repeat,
+        "machine": machine,
+    }
     if not args.no_memory:
         one_s = peak_rss_mb(1000.0)
         day = peak_rss_mb(24 * 3_600_000.0)
         print(f"{'peak RSS, 1 simulated second':32s} {one_s:9.1f} MB")
-        print(f"{'peak RSS, 24 simulated hours':32s} {day:9.1f} MB  "
-              f"(+{day - one_s:.1f} MB; target < 100 MB)")
+        print(
+            f"{'peak RSS, 24 simulated hours':32s} {day:9.1f} MB  "
+            f"(+{day - one_s:.1f} MB; target < 100 MB)"
+        )
         result.update(peak_mb_1s=one_s, peak_mb_24h=day)
     print(json.dumps(result))
     return 0

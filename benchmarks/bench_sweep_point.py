@@ -38,13 +38,26 @@ def main(argv: list[str] | None = None) -> int:
         times.append(time.process_time() - t)
     best, med = min(times), statistics.median(times)
     w = int(res.summary["windows"])
-    print(f"run_scenario({args.scenario!r}, record_jobs=False): one lap, {w} windows, "
-          f"{res.summary['duration_s']:.1f} s simulated")
-    print(f"CPU per point: best {1e3 * best:.1f} ms, median {1e3 * med:.1f} ms of "
-          f"{args.repeat} ({1e6 * best / w:.0f} us/window; target <= {TARGET_MS:g} ms)")
+    print(
+        f"run_scenario({args.scenario!r}, record_jobs=False): one lap, {w} windows, "
+        f"{res.summary['duration_s']:.1f} s simulated"
+    )
+    print(
+        f"CPU per point: best {1e3 * best:.1f} ms, median {1e3 * med:.1f} ms of "
+        f"{args.repeat} ({1e6 * best / w:.0f} us/window; target <= {TARGET_MS:g} ms)"
+    )
     if args.json:
-        print(json.dumps({"machine": m, "windows": w, "repeat": args.repeat,
-                          "best_ms": 1e3 * best, "median_ms": 1e3 * med}))
+        print(
+            json.dumps(
+                {
+                    "machine": m,
+                    "windows": w,
+                    "repeat": args.repeat,
+                    "best_ms": 1e3 * best,
+                    "median_ms": 1e3 * med,
+                }
+            )
+        )
     return 0
 
 

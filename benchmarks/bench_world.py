@@ -18,8 +18,7 @@ import numpy as np
 from rtsim.world import World, WorldConfig, chevron, rounded_rectangle
 
 
-def per_window_us(n: int, windows: int, w_ms: float = 240.0, cpu: bool = False
-                  ) -> dict[str, float]:
+def per_window_us(n: int, windows: int, w_ms: float = 240.0, cpu: bool = False) -> dict[str, float]:
     cfg = WorldConfig(rounded_rectangle(600, 400, 200), 25.0, chevron(n, 390))
     world = World(cfg, np.random.default_rng(0))
     parts = {"advance+scan": 0.0, "estimate": 0.0, "commands": 0.0}
@@ -52,16 +51,22 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="best of this many runs per n")
     args = ap.parse_args()
     per_window_us(2, 50)  # warm-up
-    print(f"{'n':>3} {'total us':>9} {'adv+scan':>9} {'estimate':>9} {'commands':>9} "
-          f"{'us/follower':>11}")
+    print(
+        f"{'n':>3} {'total us':>9} {'adv+scan':>9} {'estimate':>9} {'commands':>9} "
+        f"{'us/follower':>11}"
+    )
     prev: tuple[int, float] | None = None
     for n in args.n:
-        runs = [per_window_us(n, max(50, args.windows // max(1, n // 5)), args.w, args.cpu)
-                for _ in range(max(1, args.repeat))]
+        runs = [
+            per_window_us(n, max(50, args.windows // max(1, n // 5)), args.w, args.cpu)
+            for _ in range(max(1, args.repeat))
+        ]
         r = min(runs, key=lambda x: x["total"])
         growth = "" if prev is None else f"{(r['total'] - prev[1]) / (n - prev[0]):11.1f}"
-        print(f"{n:>3} {r['total']:9.1f} {r['advance+scan']:9.1f} {r['estimate']:9.1f} "
-              f"{r['commands']:9.1f} {growth}")
+        print(
+            f"{n:>3} {r['total']:9.1f} {r['advance+scan']:9.1f} {r['estimate']:9.1f} "
+            f"{r['commands']:9.1f} {growth}"
+        )
         prev = (n, r["total"])
 
 

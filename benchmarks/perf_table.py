@@ -31,8 +31,9 @@ START, END = "<!-- perf-table:start -->", "<!-- perf-table:end -->"
 
 
 def _bench(script: str, *args: str) -> dict[str, Any]:
-    out = subprocess.run([sys.executable, str(HERE / script), *args], check=True,
-                         capture_output=True, text=True).stdout
+    out = subprocess.run(
+        [sys.executable, str(HERE / script), *args], check=True, capture_output=True, text=True
+    ).stdout
     print(out, end="")
     return json.loads(out.strip().splitlines()[-1])
 
@@ -42,15 +43,23 @@ def reproduce_s() -> float:
     out = Path(tempfile.mkdtemp(prefix="perf_reproduce_"))
     try:
         t = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "rtsim", "reproduce", "--out", str(out / "r")],
-                       check=True, capture_output=True)
+        subprocess.run(
+            [sys.executable, "-m", "rtsim", "reproduce", "--out", str(out / "r")],
+            check=True,
+            capture_output=True,
+        )
         return time.perf_counter() - t
     finally:
         shutil.rmtree(out, ignore_errors=True)
 
 
-def table(cli: dict[str, Any], point: dict[str, Any], sim: dict[str, Any],
-          repro: float | None, m: dict[str, Any]) -> str:
+def table(
+    cli: dict[str, Any],
+    point: dict[str, Any],
+    sim: dict[str, Any],
+    repro: float | None,
+    m: dict[str, Any],
+) -> str:
     """The Markdown table (and the line naming machine and date)."""
     yes = {True: "met", False: "**not met**"}
     rows = [
@@ -73,11 +82,15 @@ def table(cli: dict[str, Any], point: dict[str, Any], sim: dict[str, Any],
         f"{sim['edf_over_fp']:.2f}× FP's time | ≤ 2× | {yes[sim['ratio'] <= 2]} |",
     ]
     if repro is not None:
-        rows.append(f"| `rtsim reproduce --out DIR` (wall, one run) | {repro:.1f} s | ≤ 15 s | "
-                    f"{yes[repro <= 15]} |")
-    head = (f"Measured {m['date']} on {m['cpu']} ({m['cores']} cores, load {m['load']}), "
-            f"Python {m['python']}, numpy {m['numpy']}, pandas {m['pandas']}, numba "
-            f"{m['numba']}; best of {cli['repeat']} (sweep point: of {point['repeat']}).")
+        rows.append(
+            f"| `rtsim reproduce --out DIR` (wall, one run) | {repro:.1f} s | ≤ 15 s | "
+            f"{yes[repro <= 15]} |"
+        )
+    head = (
+        f"Measured {m['date']} on {m['cpu']} ({m['cores']} cores, load {m['load']}), "
+        f"Python {m['python']}, numpy {m['numpy']}, pandas {m['pandas']}, numba "
+        f"{m['numba']}; best of {cli['repeat']} (sweep point: of {point['repeat']})."
+    )
     return head + "\n\n" + "\n".join(rows)
 
 
@@ -96,8 +109,12 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     if args.write:
         doc = DOC.read_text(encoding="utf-8")
-        new, count = re.subn(re.escape(START) + ".*?" + re.escape(END),
-                             lambda _: f"{START}\n{text}\n{END}", doc, flags=re.S)
+        new, count = re.subn(
+            re.escape(START) + ".*?" + re.escape(END),
+            lambda _: f"{START}\n{text}\n{END}",
+            doc,
+            flags=re.S,
+        )
         if count != 1:
             print(f"{DOC}: the markers {START} ... {END} were not found", file=sys.stderr)
             return 2

@@ -58,14 +58,17 @@ CAUSES = ("outside_window", "occluded", "out_of_range")
 
 
 def _choice(centre: str, search: str, layout: str, bound: str) -> dict[str, Any]:
-    return {"localization.centre": centre, "localization.search": search,
-            "formation.layout": layout, "thresholds.localization": bound}
+    return {
+        "localization.centre": centre,
+        "localization.search": search,
+        "formation.layout": layout,
+        "thresholds.localization": bound,
+    }
 
 
 #: (label, overrides): the modelling choices --choices compares
 CHOICES: tuple[tuple[str, dict[str, Any]], ...] = (
-    ("original (previous, always, line, Eq 19)",
-     _choice("previous", "always", "line", "radial")),
+    ("original (previous, always, line, Eq 19)", _choice("previous", "always", "line", "radial")),
     ("previous + full bound", _choice("previous", "always", "line", "full")),
     ("predicted centre", _choice("predicted", "always", "line", "predicted")),
     ("visible search", _choice("previous", "visible", "line", "radial")),
@@ -80,22 +83,34 @@ def run_choice(task: tuple[str, int, str]) -> dict[str, Any]:
     ov = dict(CHOICES)[label]
     res = run_scenario(test, record_jobs=False, overrides={**ov, "formation.followers": n})
     s, df = res.summary, res.windows
-    return {"test": test, "n": n, "choice": label, "missed": s["missed"],
-            "tracks_lost": s["tracks_lost"],
-            **{f"lost_{c}": s["tracks_lost_by_cause"][c] for c in CAUSES},
-            "searches": s["searches"], "mean_w": float(df["w"].mean()),
-            "lap_s": np.nan if s["lap_time_s"] is None else s["lap_time_s"],
-            "critical_share": s["critical_share"], "max_response": s["max_response"]}
+    return {
+        "test": test,
+        "n": n,
+        "choice": label,
+        "missed": s["missed"],
+        "tracks_lost": s["tracks_lost"],
+        **{f"lost_{c}": s["tracks_lost_by_cause"][c] for c in CAUSES},
+        "searches": s["searches"],
+        "mean_w": float(df["w"].mean()),
+        "lap_s": np.nan if s["lap_time_s"] is None else s["lap_time_s"],
+        "critical_share": s["critical_share"],
+        "max_response": s["max_response"],
+    }
 
 
 def choices_markdown(df: pd.DataFrame) -> str:
-    lines = ["| test | n | choice | misses | lost (window/occl./range) | searches | mean w (ms) "
-             "| lap (s) | critical |", "|" + "---|" * 9]
+    lines = [
+        "| test | n | choice | misses | lost (window/occl./range) | searches | mean w (ms) "
+        "| lap (s) | critical |",
+        "|" + "---|" * 9,
+    ]
     for r in df.to_dict("records"):
         by = "/".join(str(int(r[f"lost_{c}"])) for c in CAUSES)
-        lines.append(f"| {r['test']} | {r['n']} | {r['choice']} | {r['missed']} | "
-                     f"{r['tracks_lost']} ({by}) | {r['searches']} | {r['mean_w']:.0f} | "
-                     f"{r['lap_s']:.1f} | {r['critical_share']:.2f} |")
+        lines.append(
+            f"| {r['test']} | {r['n']} | {r['choice']} | {r['missed']} | "
+            f"{r['tracks_lost']} ({by}) | {r['searches']} | {r['mean_w']:.0f} | "
+            f"{r['lap_s']:.1f} | {r['critical_share']:.2f} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -104,10 +119,15 @@ def tasks(quick: bool) -> list[tuple[str, int, float, int, float | None]]:
     if quick:
         return [(t, n, 25.0, 0, 15.0) for t in TESTS for n in (2, 3)]
     # the goal's runs first (n = 1..6 at r_H = 25 cm, seeds 0-4), then the rest of the grid
-    out = [(t, n, GOAL_R, s, None) for t in TESTS for n in GOAL_NS
-           for s in (*SEEDS, *GOAL_SEEDS)]
-    out += [(t, n, r, s, None) for t in TESTS for n in NS for r in RADII for s in SEEDS
-            if (t, n, r, s, None) not in out]
+    out = [(t, n, GOAL_R, s, None) for t in TESTS for n in GOAL_NS for s in (*SEEDS, *GOAL_SEEDS)]
+    out += [
+        (t, n, r, s, None)
+        for t in TESTS
+        for n in NS
+        for r in RADII
+        for s in SEEDS
+        if (t, n, r, s, None) not in out
+    ]
     return out
 
 
@@ -118,27 +138,43 @@ def run_one(task: tuple[str, int, float, int, float | None]) -> dict[str, Any]:
     t0 = time.perf_counter()
     row: dict[str, Any] = {"test": test, "n": n, "r_H": r_H, "seed": seed, "error": ""}
     try:
-        res = run_scenario(test, seed=seed, duration_s=duration, record_jobs=False,
-                           overrides={"formation.followers": n, "sensing.r_H": r_H})
+        res = run_scenario(
+            test,
+            seed=seed,
+            duration_s=duration,
+            record_jobs=False,
+            overrides={"formation.followers": n, "sensing.r_H": r_H},
+        )
     except Exception as exc:  # noqa: BLE001 - a refused scenario is a result of the sweep
         row["error"] = str(exc)
         return row
     s = res.summary
-    row.update({
-        "missed": s["missed"], "tracks_lost": s["tracks_lost"],
-        **{f"lost_{c}": s["tracks_lost_by_cause"][c] for c in CAUSES},
-        "searches": s["searches"], "windows": s["windows"], "w_sch": s["w_sch"],
-        "lap_s": np.nan if s["lap_time_s"] is None else s["lap_time_s"],
-        "critical_share": s["critical_share"], "min_speed_ratio": s["min_speed_ratio"],
-        "max_response": s["max_response"], "wall_s": time.perf_counter() - t0,
-    })
+    row.update(
+        {
+            "missed": s["missed"],
+            "tracks_lost": s["tracks_lost"],
+            **{f"lost_{c}": s["tracks_lost_by_cause"][c] for c in CAUSES},
+            "searches": s["searches"],
+            "windows": s["windows"],
+            "w_sch": s["w_sch"],
+            "lap_s": np.nan if s["lap_time_s"] is None else s["lap_time_s"],
+            "critical_share": s["critical_share"],
+            "min_speed_ratio": s["min_speed_ratio"],
+            "max_response": s["max_response"],
+            "wall_s": time.perf_counter() - t0,
+        }
+    )
     # the physical outcomes, where the run reports them
     if "collisions" in s:
         cross = s.get("cross_track_cm") or {}
         dist = s.get("min_robot_distance_cm")
-        row.update({"collisions": s["collisions"],
-                    "min_robot_distance_cm": np.nan if dist is None else dist,
-                    "cross_track_max_cm": cross.get("max", np.nan)})
+        row.update(
+            {
+                "collisions": s["collisions"],
+                "min_robot_distance_cm": np.nan if dist is None else dist,
+                "cross_track_max_cm": cross.get("max", np.nan),
+            }
+        )
     return row
 
 
@@ -150,8 +186,12 @@ def reasons(test: str, n: int, r_H: float) -> dict[str, float]:
     try:
         sc = load_scenario(test, overrides={"formation.followers": n, "sensing.r_H": r_H})
     except Exception:  # noqa: BLE001 - the formation does not fit
-        return {"wsch_over_path": math.nan, "beams": math.nan, "width_cm": math.nan,
-                "turn_speed": math.nan}
+        return {
+            "wsch_over_path": math.nan,
+            "beams": math.nan,
+            "width_cm": math.nan,
+            "turn_speed": math.nan,
+        }
     from rtsim.analysis.bounds import window_bounds
 
     w = sc.world
@@ -161,47 +201,68 @@ def reasons(test: str, n: int, r_H: float) -> dict[str, float]:
     path_ms = 1000.0 * w.thresholds.T_eps * rho_d / v
     radius = min(1.0 / abs(g.curvature) for g in w.path.segments if g.curvature != 0.0)
     width = max(abs(o) for o in w.formation.lateral)
-    return {"wsch_over_path": w_sch / path_ms, "beams": max_points(rho_d, w.follower.radius),
-            "width_cm": width, "turn_speed": (1.0 + width / radius) * v}
+    return {
+        "wsch_over_path": w_sch / path_ms,
+        "beams": max_points(rho_d, w.follower.radius),
+        "width_cm": width,
+        "turn_speed": (1.0 + width / radius) * v,
+    }
 
 
 def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     """Per (test, n, r_H) over the seeds that ran (module docstring). Pure but for
     :func:`reasons`."""
     ok = runs[runs["error"] == ""]
-    agg: dict[str, Any] = {"seed": "count", "missed": "sum", "tracks_lost": "sum",
-                           **{f"lost_{c}": "sum" for c in CAUSES}, "searches": "sum",
-                           "lap_s": "mean", "critical_share": "mean",
-                           "min_speed_ratio": "min", "w_sch": "first"}
-    for col, how in (("collisions", "sum"), ("min_robot_distance_cm", "min"),
-                     ("cross_track_max_cm", "max")):
+    agg: dict[str, Any] = {
+        "seed": "count",
+        "missed": "sum",
+        "tracks_lost": "sum",
+        **{f"lost_{c}": "sum" for c in CAUSES},
+        "searches": "sum",
+        "lap_s": "mean",
+        "critical_share": "mean",
+        "min_speed_ratio": "min",
+        "w_sch": "first",
+    }
+    for col, how in (
+        ("collisions", "sum"),
+        ("min_robot_distance_cm", "min"),
+        ("cross_track_max_cm", "max"),
+    ):
         if col in ok:
             agg[col] = how
     out = ok.groupby(["test", "n", "r_H"], sort=True).agg(agg).reset_index()
     out = out.rename(columns={"seed": "seeds"})
-    extra = pd.DataFrame([reasons(t, int(n), float(r)) for t, n, r in
-                          out[["test", "n", "r_H"]].itertuples(index=False)])
+    extra = pd.DataFrame(
+        [
+            reasons(t, int(n), float(r))
+            for t, n, r in out[["test", "n", "r_H"]].itertuples(index=False)
+        ]
+    )
     return pd.concat([out, extra], axis=1)
 
 
 def markdown(df: pd.DataFrame) -> str:
     """The summary as a Markdown table."""
     phys = "collisions" in df
-    lines = ["| test | n | r_H (cm) | seeds | misses | lost (window/occl./range) | searches "
-             "| lap (s) | critical | min V_L/V_Ld | w_sch (ms) | w_sch / path bound | "
-             "beams at ρ_d | width (cm) | turn speed (cm/s) |"
-             + (" collisions | min distance (cm) |" if phys else ""),
-             "|" + "---|" * (17 if phys else 15)]
+    lines = [
+        "| test | n | r_H (cm) | seeds | misses | lost (window/occl./range) | searches "
+        "| lap (s) | critical | min V_L/V_Ld | w_sch (ms) | w_sch / path bound | "
+        "beams at ρ_d | width (cm) | turn speed (cm/s) |"
+        + (" collisions | min distance (cm) |" if phys else ""),
+        "|" + "---|" * (17 if phys else 15),
+    ]
     for r in df.to_dict("records"):
         by = "/".join(str(int(r[f"lost_{c}"])) for c in CAUSES)
-        lines.append(f"| {r['test']} | {r['n']} | {r['r_H']:g} | {r['seeds']} | "
-                     f"{r['missed']} | {r['tracks_lost']} ({by}) | {r['searches']} | "
-                     f"{r['lap_s']:.1f} | {r['critical_share']:.2f} | "
-                     f"{r['min_speed_ratio']:.2f} | {r['w_sch']:.0f} | "
-                     f"{r['wsch_over_path']:.2f} | {r['beams']:.0f} | {r['width_cm']:.0f} | "
-                     f"{r['turn_speed']:.0f} |"
-                     + (f" {int(r['collisions'])} | {r['min_robot_distance_cm']:.0f} |"
-                        if phys else ""))
+        lines.append(
+            f"| {r['test']} | {r['n']} | {r['r_H']:g} | {r['seeds']} | "
+            f"{r['missed']} | {r['tracks_lost']} ({by}) | {r['searches']} | "
+            f"{r['lap_s']:.1f} | {r['critical_share']:.2f} | "
+            f"{r['min_speed_ratio']:.2f} | {r['w_sch']:.0f} | "
+            f"{r['wsch_over_path']:.2f} | {r['beams']:.0f} | {r['width_cm']:.0f} | "
+            f"{r['turn_speed']:.0f} |"
+            + (f" {int(r['collisions'])} | {r['min_robot_distance_cm']:.0f} |" if phys else "")
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -216,16 +277,17 @@ def figure(df: pd.DataFrame, path: Path) -> None:
     from rtsim.io.atomic import atomic_path
 
     tests = sorted(df["test"].unique())
-    fig, axes = plt.subplots(2, len(tests), figsize=(5.5 * len(tests), 6.5), squeeze=False,
-                             sharex=True)
+    fig, axes = plt.subplots(
+        2, len(tests), figsize=(5.5 * len(tests), 6.5), squeeze=False, sharex=True
+    )
     for j, test in enumerate(tests):
         for i, r in enumerate(sorted(df["r_H"].unique())):
             sel = df[(df["test"] == test) & (df["r_H"] == r)].sort_values("n")
             bad = (sel["missed"] + sel["tracks_lost"]).to_numpy(float)
-            axes[0][j].plot(sel["n"], bad + 1.0, marker="o", color=f"C{i}",
-                            label=f"r_H = {r:g} cm")
-            axes[1][j].plot(sel["n"], sel["lap_s"], marker="o", color=f"C{i}",
-                            label=f"r_H = {r:g} cm")
+            axes[0][j].plot(sel["n"], bad + 1.0, marker="o", color=f"C{i}", label=f"r_H = {r:g} cm")
+            axes[1][j].plot(
+                sel["n"], sel["lap_s"], marker="o", color=f"C{i}", label=f"r_H = {r:g} cm"
+            )
         axes[0][j].set_yscale("log")
         axes[0][j].set_title(test, fontsize=10)
         axes[0][j].set_ylabel("1 + misses + lost tracks (seeds summed)")
@@ -240,12 +302,18 @@ def figure(df: pd.DataFrame, path: Path) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true",
-                   help="n = 2, 3, r_H = 25 cm, seed 0, 15 simulated s, in this process")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="n = 2, 3, r_H = 25 cm, seed 0, 15 simulated s, in this process",
+    )
     p.add_argument("--out", metavar="DIR", help="output directory")
     p.add_argument("--workers", type=int, default=2, help="processes (default 2)")
-    p.add_argument("--choices", action="store_true",
-                   help="compare the modelling choices instead (n = 2, 4, 6, seed 0)")
+    p.add_argument(
+        "--choices",
+        action="store_true",
+        help="compare the modelling choices instead (n = 2, 4, 6, seed 0)",
+    )
     args = p.parse_args(argv)
     if args.choices:
         out = Path(args.out or "out/followers-choices")
@@ -274,8 +342,9 @@ def main(argv: list[str] | None = None) -> int:
         with ProcessPoolExecutor(args.workers) as ex:
             for row in ex.map(run_one, left, chunksize=1):
                 rows.append(row)
-                pd.DataFrame([row]).to_csv(partial, mode="a", index=False,
-                                           header=not partial.exists())
+                pd.DataFrame([row]).to_csv(
+                    partial, mode="a", index=False, header=not partial.exists()
+                )
     runs = pd.DataFrame(rows)
     runs["error"] = runs["error"].fillna("").astype(str)
     summary = summarize(runs)
@@ -283,12 +352,16 @@ def main(argv: list[str] | None = None) -> int:
     write_table(out / "followers_summary.csv", summary)
     write_text(out / "followers.md", markdown(summary))
     figure(summary, out / "followers.png")
-    write_manifest(out, command="experiments/followers.py", seed=0,
-                   inputs={"quick": args.quick, "tests": list(TESTS),
-                           "runs": [list(t) for t in todo]},
-                   argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
-                   extra={"outputs": ["followers.csv", "followers_summary.csv", "followers.md",
-                                      "followers.png"]})
+    write_manifest(
+        out,
+        command="experiments/followers.py",
+        seed=0,
+        inputs={"quick": args.quick, "tests": list(TESTS), "runs": [list(t) for t in todo]},
+        argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
+        extra={
+            "outputs": ["followers.csv", "followers_summary.csv", "followers.md", "followers.png"]
+        },
+    )
     print(markdown(summary), end="")
     return 0
 

@@ -39,8 +39,7 @@ TESTS = {"Test 1": SCENARIOS / "test1.toml", "Test 2": SCENARIOS / "test2.toml"}
 def run_one(label: str, path: Path, bound: str, duration_s: float | None) -> dict[str, Any]:
     """One scenario with one lower bound: the row of the table."""
     sc = load_scenario(path)
-    sc = replace(sc, adjust=replace(sc.adjust, lower_bound=bound),
-                 scheduler=BOUND_SCHEDULER[bound])
+    sc = replace(sc, adjust=replace(sc.adjust, lower_bound=bound), scheduler=BOUND_SCHEDULER[bound])
     res = run_scenario(sc, duration_s=duration_s, record_jobs=False)
     df, s = res.windows, res.summary
     w = df["w"].to_numpy(dtype=float)
@@ -74,8 +73,9 @@ def markdown(df: pd.DataFrame) -> str:
     cols = list(df.columns)
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for row in df.itertuples(index=False):
-        lines.append("| " + " | ".join(f"{v:.3f}" if isinstance(v, float) else str(v)
-                                       for v in row) + " |")
+        lines.append(
+            "| " + " | ".join(f"{v:.3f}" if isinstance(v, float) else str(v) for v in row) + " |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -86,17 +86,27 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     out = Path(args.out or ("out/lower_bounds-quick" if args.quick else "out/lower_bounds"))
     duration = 20.0 if args.quick else None
-    rows = [run_one(label, path, bound, duration)
-            for label, path in TESTS.items() for bound in LOWER_BOUNDS]
+    rows = [
+        run_one(label, path, bound, duration)
+        for label, path in TESTS.items()
+        for bound in LOWER_BOUNDS
+    ]
     df = table(rows)
     out.mkdir(parents=True, exist_ok=True)
     write_table(out / "lower_bounds.csv", df)
     write_text(out / "lower_bounds.md", markdown(df))
-    write_manifest(out, command="experiments/lower_bounds.py", seed=0,
-                   inputs={"quick": args.quick, "duration_s": duration,
-                           "scenarios": {k: str(v) for k, v in TESTS.items()}},
-                   argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
-                   extra={"outputs": ["lower_bounds.csv", "lower_bounds.md"]})
+    write_manifest(
+        out,
+        command="experiments/lower_bounds.py",
+        seed=0,
+        inputs={
+            "quick": args.quick,
+            "duration_s": duration,
+            "scenarios": {k: str(v) for k, v in TESTS.items()},
+        },
+        argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
+        extra={"outputs": ["lower_bounds.csv", "lower_bounds.md"]},
+    )
     print(markdown(df), end="")
     return 0
 

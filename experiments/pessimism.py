@@ -53,29 +53,41 @@ def row(n: int) -> dict[str, float]:
     b = window_bounds(ts)
     sim = w_sim(ts, b.w_sch)
     wt = w_txn(ts)
-    return {"n": n, "w_sch": b.w_sch, "w_rta": b.w_rta, "w_susp": b.w_susp, "w_edf": b.w_edf,
-            "w_txn": wt, "w_sim": sim, "w_sch/w_sim": b.w_sch / sim,
-            "w_rta/w_sim": b.w_rta / sim, "w_susp/w_sim": b.w_susp / sim,
-            "w_txn/w_sim": wt / sim}
+    return {
+        "n": n,
+        "w_sch": b.w_sch,
+        "w_rta": b.w_rta,
+        "w_susp": b.w_susp,
+        "w_edf": b.w_edf,
+        "w_txn": wt,
+        "w_sim": sim,
+        "w_sch/w_sim": b.w_sch / sim,
+        "w_rta/w_sim": b.w_rta / sim,
+        "w_susp/w_sim": b.w_susp / sim,
+        "w_txn/w_sim": wt / sim,
+    }
 
 
 def markdown(df: pd.DataFrame) -> str:
-    head = ("| n | w_sch | w_rta | w_susp | w_edf | w_txn | w_sim (simulated) | w_sch / w_sim | "
-            "w_rta / w_sim | w_susp / w_sim | w_txn / w_sim |")
+    head = (
+        "| n | w_sch | w_rta | w_susp | w_edf | w_txn | w_sim (simulated) | w_sch / w_sim | "
+        "w_rta / w_sim | w_susp / w_sim | w_txn / w_sim |"
+    )
     lines = [head, "|" + "---|" * 11]
     for r in df.to_dict("records"):
-        lines.append(f"| {r['n']} | {r['w_sch']:.2f} | {r['w_rta']:.2f} | {r['w_susp']:.2f} | "
-                     f"{r['w_edf']:.2f} | {r['w_txn']:.2f} | {r['w_sim']:.2f} | "
-                     f"{r['w_sch/w_sim']:.3f} | {r['w_rta/w_sim']:.3f} | "
-                     f"{r['w_susp/w_sim']:.3f} | {r['w_txn/w_sim']:.3f} |")
+        lines.append(
+            f"| {r['n']} | {r['w_sch']:.2f} | {r['w_rta']:.2f} | {r['w_susp']:.2f} | "
+            f"{r['w_edf']:.2f} | {r['w_txn']:.2f} | {r['w_sim']:.2f} | "
+            f"{r['w_sch/w_sim']:.3f} | {r['w_rta/w_sim']:.3f} | "
+            f"{r['w_susp/w_sim']:.3f} | {r['w_txn/w_sim']:.3f} |"
+        )
     return "\n".join(lines) + "\n"
 
 
 def compact(df: pd.DataFrame) -> str:
     """The same bounds with n across (the README's short table)."""
     cols = ["w_sch", "w_rta", "w_susp", "w_edf", "w_txn", "w_sim"]
-    lines = ["| ms | " + " | ".join(f"n={n}" for n in df["n"]) + " |",
-             "|---|" + "---|" * len(df)]
+    lines = ["| ms | " + " | ".join(f"n={n}" for n in df["n"]) + " |", "|---|" + "---|" * len(df)]
     for c in cols:
         lines.append(f"| {c} | " + " | ".join(f"{v:.1f}" for v in df[c]) + " |")
     return "\n".join(lines) + "\n"
@@ -93,8 +105,12 @@ def main(argv: list[str] | None = None) -> int:
     write_table(args.out / "pessimism.csv", df)
     write_text(args.out / "pessimism.md", markdown(df))
     write_text(args.out / "pessimism_compact.md", compact(df))
-    write_manifest(args.out, command="experiments/pessimism.py", seed=None,
-                   inputs={"n": list(ns), "taskset": str(TASKSET), "windows": WINDOWS})
+    write_manifest(
+        args.out,
+        command="experiments/pessimism.py",
+        seed=None,
+        inputs={"n": list(ns), "taskset": str(TASKSET), "windows": WINDOWS},
+    )
     print(markdown(df))
     print(compact(df))
     return 0

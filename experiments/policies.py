@@ -63,61 +63,99 @@ POLICY_CASES: tuple[tuple[str, dict[str, Any]], ...] = (
     ("plan 1", {"adjust.policy": "plan", "adjust.windows": 1}),
     ("plan 2", {"adjust.policy": "plan", "adjust.windows": 2}),
     ("plan 3", {"adjust.policy": "plan", "adjust.windows": 3}),
-    ("plan 2, before-send", {"adjust.policy": "plan", "adjust.windows": 2,
-                             "adjust.decide": "before-send"}),
+    (
+        "plan 2, before-send",
+        {"adjust.policy": "plan", "adjust.windows": 2, "adjust.decide": "before-send"},
+    ),
 )
 #: The goal: lap time at most this multiple of fixed-wsch's (which never slows), same seed.
 LAP_GOAL = 1.10
 TESTS = ("test1", "test2")
 
 
-def run_one(test: str, n: int, label: str, overrides: dict[str, Any], seed: int,
-            duration: float | None) -> dict[str, Any]:
+def run_one(
+    test: str, n: int, label: str, overrides: dict[str, Any], seed: int, duration: float | None
+) -> dict[str, Any]:
     """One run's numbers (a row of policies.csv)."""
     t0 = time.perf_counter()
-    res = run_scenario(test, seed=seed, duration_s=duration, record_jobs=False,
-                       overrides={**overrides, "formation.followers": n})
+    res = run_scenario(
+        test,
+        seed=seed,
+        duration_s=duration,
+        record_jobs=False,
+        overrides={**overrides, "formation.followers": n},
+    )
     s = res.summary
     df = res.windows
     speed = df["v_leader"].to_numpy(float) / df["v_leader_desired"].to_numpy(float)
     return {
-        "test": test, "n": n, "policy": label, "seed": seed, "missed": s["missed"],
+        "test": test,
+        "n": n,
+        "policy": label,
+        "seed": seed,
+        "missed": s["missed"],
         "tracks_lost": s["tracks_lost"],
         **{f"viol5_{k}": s["violations_beyond_5pct"][k] for k in BOUND_KINDS},
         **{f"max_ratio_{k}": s["max_violation_ratio"][k] for k in BOUND_KINDS},
         "lap_s": np.nan if s["lap_time_s"] is None else s["lap_time_s"],
-        "mean_speed_ratio": float(speed.mean()), "min_speed_ratio": float(speed.min()),
-        "critical_share": s["critical_share"], "mean_slack_ms": float(df["slack"].mean()),
+        "mean_speed_ratio": float(speed.mean()),
+        "min_speed_ratio": float(speed.min()),
+        "critical_share": s["critical_share"],
+        "mean_slack_ms": float(df["slack"].mean()),
         "floor_windows": int((df["method"] == "floor").sum()),
-        **{f"{key}_{q}": np.nan if s[key] is None else s[key][q]
-           for key in ("cross_track_cm", "separation_error_cm") for q in ("p95", "max")},
-        "min_robot_distance_cm": s["min_robot_distance_cm"], "collisions": s["collisions"],
-        "laps": s["laps"], "wall_s": time.perf_counter() - t0,
+        **{
+            f"{key}_{q}": np.nan if s[key] is None else s[key][q]
+            for key in ("cross_track_cm", "separation_error_cm")
+            for q in ("p95", "max")
+        },
+        "min_robot_distance_cm": s["min_robot_distance_cm"],
+        "collisions": s["collisions"],
+        "laps": s["laps"],
+        "wall_s": time.perf_counter() - t0,
     }
 
 
 def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     """Per (test, n, policy) over the seeds (module docstring). Pure."""
-    agg: dict[str, Any] = {"seed": "count", "missed": "sum", "tracks_lost": "sum",
-                           **{f"viol5_{k}": "sum" for k in BOUND_KINDS},
-                           **{f"max_ratio_{k}": "max" for k in BOUND_KINDS},
-                           "lap_s": "mean", "mean_speed_ratio": "mean",
-                           "min_speed_ratio": "min", "critical_share": "mean",
-                           "mean_slack_ms": "mean"}
-    agg.update({"floor_windows": "sum", "cross_track_cm_p95": "max",
-                "cross_track_cm_max": "max", "separation_error_cm_p95": "max",
-                "separation_error_cm_max": "max", "min_robot_distance_cm": "min",
-                "collisions": "sum", "lap_ratio": "max"})
+    agg: dict[str, Any] = {
+        "seed": "count",
+        "missed": "sum",
+        "tracks_lost": "sum",
+        **{f"viol5_{k}": "sum" for k in BOUND_KINDS},
+        **{f"max_ratio_{k}": "max" for k in BOUND_KINDS},
+        "lap_s": "mean",
+        "mean_speed_ratio": "mean",
+        "min_speed_ratio": "min",
+        "critical_share": "mean",
+        "mean_slack_ms": "mean",
+    }
+    agg.update(
+        {
+            "floor_windows": "sum",
+            "cross_track_cm_p95": "max",
+            "cross_track_cm_max": "max",
+            "separation_error_cm_p95": "max",
+            "separation_error_cm_max": "max",
+            "min_robot_distance_cm": "min",
+            "collisions": "sum",
+            "lap_ratio": "max",
+        }
+    )
     runs = runs.copy()
     ref = runs[runs["policy"] == "fixed-wsch"].set_index(["test", "n", "seed"])["lap_s"]
     keys = list(zip(runs["test"], runs["n"], runs["seed"], strict=True))
-    runs["lap_ratio"] = [lap / ref.get(k, np.nan) for lap, k in
-                         zip(runs["lap_s"], keys, strict=True)]
+    runs["lap_ratio"] = [
+        lap / ref.get(k, np.nan) for lap, k in zip(runs["lap_s"], keys, strict=True)
+    ]
     out = runs.groupby(["test", "n", "policy"], sort=False).agg(agg).reset_index()
     out = out.rename(columns={"seed": "seeds"})
     out["viol5"] = out[[f"viol5_{k}" for k in BOUND_KINDS]].sum(axis=1)
-    out["goal"] = ((out["viol5"] == 0) & (out["missed"] == 0) & (out["tracks_lost"] == 0)
-                   & (out["lap_ratio"] <= LAP_GOAL))
+    out["goal"] = (
+        (out["viol5"] == 0)
+        & (out["missed"] == 0)
+        & (out["tracks_lost"] == 0)
+        & (out["lap_ratio"] <= LAP_GOAL)
+    )
     return out
 
 
@@ -125,19 +163,24 @@ def markdown(df: pd.DataFrame) -> str:
     """The summary as a Markdown table (lap ratio: the largest over the seeds of lap time /
     fixed-wsch's on the same seed; cross-track and separation error: the largest p95 over the
     seeds, cm; min distance: the smallest, cm)."""
-    lines = ["| test | n | policy | seeds | misses | lost | windows > 5 % (loc/sep/path/bear) "
-             "| max ratio (loc/sep/path/bear) | floor | lap (s) | lap / fixed-wsch (max) "
-             "| goal | cross-track p95 (cm) | sep. error p95 (cm) | min distance (cm) "
-             "| collisions |", "|" + "---|" * 16]
+    lines = [
+        "| test | n | policy | seeds | misses | lost | windows > 5 % (loc/sep/path/bear) "
+        "| max ratio (loc/sep/path/bear) | floor | lap (s) | lap / fixed-wsch (max) "
+        "| goal | cross-track p95 (cm) | sep. error p95 (cm) | min distance (cm) "
+        "| collisions |",
+        "|" + "---|" * 16,
+    ]
     for r in df.to_dict("records"):
         v5 = "/".join(str(int(r[f"viol5_{k}"])) for k in BOUND_KINDS)
         mx = "/".join(f"{r[f'max_ratio_{k}']:.2f}" for k in BOUND_KINDS)
-        lines.append(f"| {r['test']} | {r['n']} | {r['policy']} | {r['seeds']} | "
-                     f"{r['missed']} | {r['tracks_lost']} | {r['viol5']} ({v5}) | {mx} | "
-                     f"{r['floor_windows']} | {r['lap_s']:.1f} | {r['lap_ratio']:.3f} | "
-                     f"{'yes' if r['goal'] else 'no'} | {r['cross_track_cm_p95']:.1f} | "
-                     f"{r['separation_error_cm_p95']:.1f} | "
-                     f"{r['min_robot_distance_cm']:.0f} | {r['collisions']} |")
+        lines.append(
+            f"| {r['test']} | {r['n']} | {r['policy']} | {r['seeds']} | "
+            f"{r['missed']} | {r['tracks_lost']} | {r['viol5']} ({v5}) | {mx} | "
+            f"{r['floor_windows']} | {r['lap_s']:.1f} | {r['lap_ratio']:.3f} | "
+            f"{'yes' if r['goal'] else 'no'} | {r['cross_track_cm_p95']:.1f} | "
+            f"{r['separation_error_cm_p95']:.1f} | "
+            f"{r['min_robot_distance_cm']:.0f} | {r['collisions']} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -159,18 +202,35 @@ def pareto(df: pd.DataFrame, path: Path) -> None:
         for test, mk in markers.items():
             sel = df[(df["policy"] == label) & (df["test"] == test) & (df["n"] == df["n"].min())]
             if len(sel):
-                ax.scatter(sel["lap_s"], sel["viol5"], marker=mk, color=colors[i % 20],
-                           label=f"{label} ({test})", gid=f"{label}:{test}")
+                ax.scatter(
+                    sel["lap_s"],
+                    sel["viol5"],
+                    marker=mk,
+                    color=colors[i % 20],
+                    label=f"{label} ({test})",
+                    gid=f"{label}:{test}",
+                )
     n_min = df["n"].min()
     bad = df[(df["n"] == n_min) & ((df["missed"] > 0) | (df["tracks_lost"] > 0))]
     if len(bad):
-        ax.scatter(bad["lap_s"], bad["viol5"], marker="x", color="black", s=90,
-                   label="with misses or lost tracks")
+        ax.scatter(
+            bad["lap_s"],
+            bad["viol5"],
+            marker="x",
+            color="black",
+            s=90,
+            label="with misses or lost tracks",
+        )
     for test, ls in (("test1", ":"), ("test2", "--")):
         ref = df[(df["policy"] == "fixed-wsch") & (df["test"] == test) & (df["n"] == n_min)]
         if len(ref) and np.isfinite(ref["lap_s"].iloc[0]):
-            ax.axvline(LAP_GOAL * float(ref["lap_s"].iloc[0]), color="grey", ls=ls, lw=0.8,
-                       label=f"{LAP_GOAL:.2f} × fixed-wsch's lap ({test})")
+            ax.axvline(
+                LAP_GOAL * float(ref["lap_s"].iloc[0]),
+                color="grey",
+                ls=ls,
+                lw=0.8,
+                label=f"{LAP_GOAL:.2f} × fixed-wsch's lap ({test})",
+            )
     ax.set_title(f"n = {n_min}, seeds summed", fontsize=9)
     ax.set_xlabel("lap time (s, one lap: equal distance)")
     ax.set_ylabel("windows beyond 5 % (all bounds, summed over seeds)")
@@ -191,8 +251,11 @@ def default_figures(out: Path) -> list[Path]:
         res = run_scenario(test, seed=0, record_jobs=False)
         label = f"{test}, policy {res.summary['policy']}, seed 0"
         for name, plot in (("speed", plot_speed), ("msb", plot_msb), ("paths", plot_paths)):
-            written.append(save_figure(plot(res.windows, title=label),
-                                       out / f"default_{test}_{name}.png", dpi=100))
+            written.append(
+                save_figure(
+                    plot(res.windows, title=label), out / f"default_{test}_{name}.png", dpi=100
+                )
+            )
     return written
 
 
@@ -200,11 +263,17 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="n = 2, seed 0, 20 simulated s")
     p.add_argument("--out", metavar="DIR", help="output directory")
-    p.add_argument("--followers", metavar="N[,N...]", default=None,
-                   help="follower counts (default 2,4; --quick: 2)")
-    p.add_argument("--figures", metavar="DIR",
-                   help="only draw the shipped Test 1/2's speed, min-MSB and path figures "
-                        "(seed 0) into DIR")
+    p.add_argument(
+        "--followers",
+        metavar="N[,N...]",
+        default=None,
+        help="follower counts (default 2,4; --quick: 2)",
+    )
+    p.add_argument(
+        "--figures",
+        metavar="DIR",
+        help="only draw the shipped Test 1/2's speed, min-MSB and path figures (seed 0) into DIR",
+    )
     args = p.parse_args(argv)
     if args.figures:
         for path in default_figures(Path(args.figures)):
@@ -216,22 +285,36 @@ def main(argv: list[str] | None = None) -> int:
         ns = tuple(int(x) for x in args.followers.split(","))
     seeds = (0,) if args.quick else (0, 1, 2, 3, 4)
     duration = 20.0 if args.quick else None
-    runs = pd.DataFrame([run_one(t, n, label, ov, seed, duration)
-                         for t in TESTS for n in ns for label, ov in POLICY_CASES
-                         for seed in seeds])
+    runs = pd.DataFrame(
+        [
+            run_one(t, n, label, ov, seed, duration)
+            for t in TESTS
+            for n in ns
+            for label, ov in POLICY_CASES
+            for seed in seeds
+        ]
+    )
     summary = summarize(runs)
     out.mkdir(parents=True, exist_ok=True)
     write_table(out / "policies.csv", runs)
     write_table(out / "policies_summary.csv", summary)
     write_text(out / "policies.md", markdown(summary))
     pareto(summary, out / "pareto.png")
-    write_manifest(out, command="experiments/policies.py", seed=0,
-                   inputs={"quick": args.quick, "duration_s": duration, "tests": list(TESTS),
-                           "n": list(ns), "seeds": list(seeds),
-                           "policies": {k: v for k, v in POLICY_CASES}},
-                   argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
-                   extra={"outputs": ["policies.csv", "policies_summary.csv", "policies.md",
-                                      "pareto.png"]})
+    write_manifest(
+        out,
+        command="experiments/policies.py",
+        seed=0,
+        inputs={
+            "quick": args.quick,
+            "duration_s": duration,
+            "tests": list(TESTS),
+            "n": list(ns),
+            "seeds": list(seeds),
+            "policies": {k: v for k, v in POLICY_CASES},
+        },
+        argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
+        extra={"outputs": ["policies.csv", "policies_summary.csv", "policies.md", "pareto.png"]},
+    )
     print(markdown(summary), end="")
     return 0
 

@@ -42,8 +42,16 @@ def points(quick: bool) -> list[dict[str, Any]]:
     if quick:
         for t_eps in (0.025, 0.05):
             for mode in MODES if t_eps == 0.025 else ("adjust",):
-                out.append(dict(test="test2", mode=mode, T_eps=t_eps, T_rho=0.01,
-                                T_beta_deg=5.0, duration=32.0))
+                out.append(
+                    dict(
+                        test="test2",
+                        mode=mode,
+                        T_eps=t_eps,
+                        T_rho=0.01,
+                        T_beta_deg=5.0,
+                        duration=32.0,
+                    )
+                )
         return out
     grid = [(e, r, 5.0) for e in (0.0125, 0.025, 0.05) for r in (0.005, 0.01, 0.02)]
     grid += [(0.025, 0.01, 2.5), (0.025, 0.01, 10.0)]
@@ -51,26 +59,44 @@ def points(quick: bool) -> list[dict[str, Any]]:
         for t_eps, t_rho, t_beta in grid:
             for mode in MODES:
                 dur = None if mode == "adjust" else (45.0 if test == "test1" else 40.0)
-                out.append(dict(test=test, mode=mode, T_eps=t_eps, T_rho=t_rho,
-                                T_beta_deg=t_beta, duration=dur))
+                out.append(
+                    dict(
+                        test=test,
+                        mode=mode,
+                        T_eps=t_eps,
+                        T_rho=t_rho,
+                        T_beta_deg=t_beta,
+                        duration=dur,
+                    )
+                )
     return out
 
 
 def run_point(p: dict[str, Any]) -> dict[str, Any]:
     """One run; returns the point and the summary's scalars."""
     sc = load_scenario(SCEN / f"{p['test']}.toml")
-    thr = replace(sc.world.thresholds, T_eps=p["T_eps"], T_rho=p["T_rho"],
-                  T_beta=math.radians(p["T_beta_deg"]))
+    thr = replace(
+        sc.world.thresholds,
+        T_eps=p["T_eps"],
+        T_rho=p["T_rho"],
+        T_beta=math.radians(p["T_beta_deg"]),
+    )
     sc = replace(sc, world=replace(sc.world, thresholds=thr))
     t0 = time.perf_counter()
     res = run_scenario(sc, mode=p["mode"], duration_s=p["duration"], seed=0, record_jobs=False)
     s = res.summary
     row = {k: v for k, v in p.items() if k != "duration"}
-    row.update(duration_s=s["duration_s"], laps=s["laps"], windows=s["windows"],
-               missed=s["missed"], tracks_lost=s["tracks_lost"],
-               critical_share=s["critical_share"], min_msb_over_wsch=s["min_msb_over_wsch"],
-               min_speed_ratio=s["min_speed_ratio"],
-               binding_critical=";".join(f"{k}={v}" for k, v in s["binding_critical"].items()))
+    row.update(
+        duration_s=s["duration_s"],
+        laps=s["laps"],
+        windows=s["windows"],
+        missed=s["missed"],
+        tracks_lost=s["tracks_lost"],
+        critical_share=s["critical_share"],
+        min_msb_over_wsch=s["min_msb_over_wsch"],
+        min_speed_ratio=s["min_speed_ratio"],
+        binding_critical=";".join(f"{k}={v}" for k, v in s["binding_critical"].items()),
+    )
     for k, v in s["violations"].items():
         row[f"viol_{k}"] = v
     row["viol5"] = sum(s["violations_beyond_5pct"].values())
@@ -86,22 +112,28 @@ def table(df: pd.DataFrame) -> str:
     fix = df[df["mode"] == "fixed-wsch"].set_index(keys)
     mm = df[df["mode"] == "min-msb"].set_index(keys)
     viol = [c for c in df.columns if c.startswith("viol_")]
-    lines = ["| test | T_ε | T_ρ | T_β (°) | adjust: violations > 5 % / max ratio / misses / "
-             "lost (all violations) | critical share | min MSB/w_sch | min V_L/V_Ld | "
-             "binding (critical) | fixed-wsch: violations (path, sep) | min-msb: misses |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| test | T_ε | T_ρ | T_β (°) | adjust: violations > 5 % / max ratio / misses / "
+        "lost (all violations) | critical share | min MSB/w_sch | min V_L/V_Ld | "
+        "binding (critical) | fixed-wsch: violations (path, sep) | min-msb: misses |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for key, a in adj.iterrows():
         f = fix.loc[key] if key in fix.index else None
         m = mm.loc[key] if key in mm.index else None
-        fv = f"{int(f['viol_path_diversion'])}, {int(f['viol_separation'])}" if f is not None \
+        fv = (
+            f"{int(f['viol_path_diversion'])}, {int(f['viol_separation'])}"
+            if f is not None
             else "–"
+        )
         lines.append(
             f"| {key[0]} | {key[1]:g} | {key[2]:g} | {key[3]:g} | {int(a['viol5'])} / "
             f"{a['max_viol_ratio']:.2f} / {int(a['missed'])} / {int(a['tracks_lost'])} "
             f"({int(sum(a[c] for c in viol))}) | {a['critical_share']:.2f} | "
             f"{a['min_msb_over_wsch']:.2f} | {a['min_speed_ratio']:.2f} | "
             f"{str(a['binding_critical']).replace(';', ', ')} | "
-            f"{fv} | {int(m['missed']) if m is not None else '–'} |")
+            f"{fv} | {int(m['missed']) if m is not None else '–'} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -150,13 +182,21 @@ def main(argv: list[str] | None = None) -> int:
     md = table(df)
     write_text(out / "sensitivity.md", md)
     figure(df, out / "sensitivity.png")
-    write_manifest(out, command="experiments/sensitivity.py", seed=0,
-                   inputs={"points": pts, "scenarios": [str(SCEN / "test1.toml"),
-                                                        str(SCEN / "test2.toml")],
-                           "quick": args.quick},
-                   argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
-                   extra={"timing": {"total_s": time.perf_counter() - t0},
-                          "outputs": ["sensitivity.csv", "sensitivity.md", "sensitivity.png"]})
+    write_manifest(
+        out,
+        command="experiments/sensitivity.py",
+        seed=0,
+        inputs={
+            "points": pts,
+            "scenarios": [str(SCEN / "test1.toml"), str(SCEN / "test2.toml")],
+            "quick": args.quick,
+        },
+        argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
+        extra={
+            "timing": {"total_s": time.perf_counter() - t0},
+            "outputs": ["sensitivity.csv", "sensitivity.md", "sensitivity.png"],
+        },
+    )
     print(md, end="")
     return 0
 

@@ -40,7 +40,9 @@ if TYPE_CHECKING:  # pragma: no cover
 #: (The model's classes too: the command line starts without numpy, so that it handles
 #: Ctrl-C and SIGTERM from its first instant.)
 _LAZY: dict[str, str] = {
-    "Segment": "rtsim.model", "Task": "rtsim.model", "TaskSet": "rtsim.model",
+    "Segment": "rtsim.model",
+    "Task": "rtsim.model",
+    "TaskSet": "rtsim.model",
     "WindowSpec": "rtsim.model",
     "run_scenario": "rtsim.coupling",
     "load_scenario": "rtsim.io",

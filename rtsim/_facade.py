@@ -43,4 +43,5 @@ def simulate(ts: Any, *args: Any, **kwargs: Any) -> Any:
 for _f in (analyze, window_bounds, simulate):
     _f.__doc__ = (_f.__doc__ or "") + (
         f"\n\n    At the top level (``rtsim.{_f.__name__}``), ``ts`` may also be the path of a "
-        f"task-set file or the name of a packaged set.")
+        f"task-set file or the name of a packaged set."
+    )

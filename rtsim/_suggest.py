@@ -36,8 +36,7 @@ def _allowed(word: str) -> int:
     return 1 if len(word) <= 4 else 2 if len(word) <= 8 else 3
 
 
-def close_match(word: object, choices: Iterable[object], ratio: float | None = None
-                ) -> str | None:
+def close_match(word: object, choices: Iterable[object], ratio: float | None = None) -> str | None:
     """The known name ``word`` most likely means, or None.
 
     ``ratio``: instead of the rule above, :mod:`difflib`'s similarity ratio at least this
@@ -55,13 +54,18 @@ def close_match(word: object, choices: Iterable[object], ratio: float | None = N
         starts = [n for n in names if n.startswith(word)]
         if len(starts) == 1:
             return starts[0]
-    best = min(names, key=lambda n: (_edits(word, n), -difflib.SequenceMatcher(
-        None, word, n).ratio()))
+    best = min(
+        names, key=lambda n: (_edits(word, n), -difflib.SequenceMatcher(None, word, n).ratio())
+    )
     return best if _edits(word, best) <= _allowed(word) else None
 
 
-def did_you_mean(word: object, choices: Iterable[object], ratio: float | None = None,
-                 renamed: Mapping[str, str] | None = None) -> str:
+def did_you_mean(
+    word: object,
+    choices: Iterable[object],
+    ratio: float | None = None,
+    renamed: Mapping[str, str] | None = None,
+) -> str:
     """`` (did you mean 'x'?)`` for :func:`close_match`, or ``""``; ``renamed``: old names and
     their new ones (`` ('estimate' was renamed; did you mean 'paper'?)``)."""
     if renamed and isinstance(word, str) and word in renamed:

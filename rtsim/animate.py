@@ -66,14 +66,31 @@ def window_view(df: pd.DataFrame) -> WindowView:
     def arr(col: str) -> np.ndarray:
         return df[col].to_numpy(dtype=float)
 
-    truth = np.stack([np.stack([arr(f"f{i}_x"), arr(f"f{i}_y")], axis=-1)
-                      for i in range(1, n + 1)], axis=1) if n else np.zeros((len(df), 0, 2))
-    est = np.stack([np.stack([arr(f"f{i}_x_est"), arr(f"f{i}_y_est")], axis=-1)
-                    for i in range(1, n + 1)], axis=1) if n else np.zeros((len(df), 0, 2))
-    return WindowView(arr("t"), arr("w"), arr("w_sch"), df["critical"].to_numpy(dtype=bool),
-                      arr("v_leader"),
-                      np.stack([arr("leader_x"), arr("leader_y"), arr("leader_heading")], -1),
-                      truth, est)
+    truth = (
+        np.stack(
+            [np.stack([arr(f"f{i}_x"), arr(f"f{i}_y")], axis=-1) for i in range(1, n + 1)], axis=1
+        )
+        if n
+        else np.zeros((len(df), 0, 2))
+    )
+    est = (
+        np.stack(
+            [np.stack([arr(f"f{i}_x_est"), arr(f"f{i}_y_est")], axis=-1) for i in range(1, n + 1)],
+            axis=1,
+        )
+        if n
+        else np.zeros((len(df), 0, 2))
+    )
+    return WindowView(
+        arr("t"),
+        arr("w"),
+        arr("w_sch"),
+        df["critical"].to_numpy(dtype=bool),
+        arr("v_leader"),
+        np.stack([arr("leader_x"), arr("leader_y"), arr("leader_heading")], -1),
+        truth,
+        est,
+    )
 
 
 #: What animate reads from a scenario run directory.
@@ -89,8 +106,9 @@ def load_run(run_dir: str | os.PathLike[str]) -> tuple[pd.DataFrame, pd.DataFram
     d = Path(run_dir)
     for name in RUN_FILES:
         if not (d / name).is_file():
-            raise InputError(f"{d}: not a scenario run directory (no {name}; "
-                             f"rtsim scenario writes one)")
+            raise InputError(
+                f"{d}: not a scenario run directory (no {name}; rtsim scenario writes one)"
+            )
     try:
         manifest = json.loads((d / "manifest.json").read_text("utf-8"))
         summary = json.loads((d / "summary.json").read_text("utf-8"))
@@ -104,8 +122,10 @@ def load_run(run_dir: str | os.PathLike[str]) -> tuple[pd.DataFrame, pd.DataFram
     if count == 0:
         raise InputError(f"{d}: the run has no processing window; nothing to animate")
     if len(windows) != count or windows.iloc[-1].isna().all():
-        raise InputError(f"{d / 'windows.csv'}: {len(windows)} rows where summary.json counts "
-                         f"{count} windows (truncated or edited); run rtsim scenario again")
+        raise InputError(
+            f"{d / 'windows.csv'}: {len(windows)} rows where summary.json counts "
+            f"{count} windows (truncated or edited); run rtsim scenario again"
+        )
     return windows, jobs, manifest
 
 
@@ -127,15 +147,23 @@ def hit_beams(leader: np.ndarray, pos: np.ndarray, radius: float) -> np.ndarray:
         return np.zeros(0)
     bearing = math.atan2(dy, dx) - leader[2]
     half = math.asin(radius / d)
-    k = np.arange(math.ceil((bearing - half) / BEAM_STEP),
-                  math.floor((bearing + half) / BEAM_STEP) + 1)
+    k = np.arange(
+        math.ceil((bearing - half) / BEAM_STEP), math.floor((bearing + half) / BEAM_STEP) + 1
+    )
     return leader[2] + k * BEAM_STEP
 
 
-def animate_run(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], *,
-                start_s: float | None = None, end_s: float | None = None, fps: int = 10,
-                every: int = 1, progress: Callable[[int, int], Any] | None = None,
-                dpi: int = 80) -> Path:
+def animate_run(
+    run_dir: str | os.PathLike[str],
+    out: str | os.PathLike[str],
+    *,
+    start_s: float | None = None,
+    end_s: float | None = None,
+    fps: int = 10,
+    every: int = 1,
+    progress: Callable[[int, int], Any] | None = None,
+    dpi: int = 80,
+) -> Path:
     """Render ``run_dir`` to ``out`` (module docstring); returns the path written.
 
     ``start_s`` / ``end_s``: simulated seconds (default: the whole run); one frame per window,
@@ -153,15 +181,33 @@ def animate_run(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], *,
     with FileSet("animate", inputs=tuple(Path(run_dir) / n for n in RUN_FILES)) as files:
         files.check(out, "--out")
         files.check(sidecar(out), "--out")
-        _animate(run_dir, out, files, start_s=start_s, end_s=end_s, fps=fps, every=every,
-                 progress=progress, dpi=dpi)
+        _animate(
+            run_dir,
+            out,
+            files,
+            start_s=start_s,
+            end_s=end_s,
+            fps=fps,
+            every=every,
+            progress=progress,
+            dpi=dpi,
+        )
         files.commit()
     return out
 
 
-def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
-             start_s: float | None, end_s: float | None, fps: int, every: int,
-             progress: Callable[[int, int], Any] | None, dpi: int) -> None:
+def _animate(
+    run_dir: str | os.PathLike[str],
+    out: Path,
+    files: Any,
+    *,
+    start_s: float | None,
+    end_s: float | None,
+    fps: int,
+    every: int,
+    progress: Callable[[int, int], Any] | None,
+    dpi: int,
+) -> None:
     """Render into the staging area of ``files`` (see :func:`animate_run`)."""
     import matplotlib
     from matplotlib import animation
@@ -182,8 +228,10 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
 
                 ffmpeg = imageio_ffmpeg.get_ffmpeg_exe()
             except (ImportError, RuntimeError):
-                raise InputError(f"{out}: MP4 needs ffmpeg (install it, or pip install "
-                                 f"imageio-ffmpeg); .gif and .html need nothing more") from None
+                raise InputError(
+                    f"{out}: MP4 needs ffmpeg (install it, or pip install "
+                    f"imageio-ffmpeg); .gif and .html need nothing more"
+                ) from None
     windows, jobs, manifest = load_run(run_dir)
     view = window_view(windows)
     t_s = view.t / 1000.0
@@ -193,15 +241,18 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
         raise InputError(f"--start {start_s} must be before --end {end_s}")
     frames = np.flatnonzero((t_s >= lo) & (t_s <= hi))[::every]
     if not len(frames):
-        raise InputError(f"{run_dir}: no window between {start_s} and {end_s} s "
-                         f"(the run covers {t_s[0]:.1f}..{t_s[-1]:.1f} s)")
+        raise InputError(
+            f"{run_dir}: no window between {start_s} and {end_s} s "
+            f"(the run covers {t_s[0]:.1f}..{t_s[-1]:.1f} s)"
+        )
     radius, r_h = _geometry(manifest)
     tasks = list(dict.fromkeys(jobs["task"].astype(str)))
     jobs = jobs[jobs["start"].notna()]
 
     fig = Figure(figsize=(8, 7.2))
-    gs = fig.add_gridspec(2, 1, height_ratios=(3.2, 1), left=0.17, right=0.97, top=0.90,
-                          bottom=0.07, hspace=0.22)
+    gs = fig.add_gridspec(
+        2, 1, height_ratios=(3.2, 1), left=0.17, right=0.97, top=0.90, bottom=0.07, hspace=0.22
+    )
     ax = fig.add_subplot(gs[0])
     gx = fig.add_subplot(gs[1])
     # a view that follows the group: centred on it, as large as its largest extent
@@ -214,16 +265,29 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
     ax.plot(view.leader[:, 0], view.leader[:, 1], color="0.85", lw=1, zorder=0)
     beams = LineCollection([], colors="tab:orange", linewidths=0.4, alpha=0.6, zorder=1)
     ax.add_collection(beams)
-    leader_dot, = ax.plot([], [], "k^", ms=9, zorder=4, label="leader")
+    (leader_dot,) = ax.plot([], [], "k^", ms=9, zorder=4, label="leader")
     truth_dots = ax.scatter([], [], s=60, c="tab:blue", zorder=3, label="followers (truth)")
-    est_dots = ax.scatter([], [], s=60, facecolors="none", edgecolors="tab:green", zorder=3,
-                          label="leader's estimates")
+    est_dots = ax.scatter(
+        [],
+        [],
+        s=60,
+        facecolors="none",
+        edgecolors="tab:green",
+        zorder=3,
+        label="leader's estimates",
+    )
     hough = [Circle((0, 0), r_h, fill=False, lw=1.2, ls="--", zorder=2) for _ in range(view.n)]
     for c in hough:
         ax.add_patch(c)
     # above the map, never over the robots (the view follows them anywhere in it)
-    fig.legend(handles=[leader_dot, truth_dots, est_dots], loc="upper center", ncols=3,
-               fontsize=8, frameon=False, bbox_to_anchor=(0.57, 1.0))
+    fig.legend(
+        handles=[leader_dot, truth_dots, est_dots],
+        loc="upper center",
+        ncols=3,
+        fontsize=8,
+        frameon=False,
+        bbox_to_anchor=(0.57, 1.0),
+    )
     title = ax.set_title("", fontsize=10)
 
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -232,8 +296,11 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
     gx.invert_yaxis()
     gx.set_xlabel("time (ms)")
     row = {t: i for i, t in enumerate(tasks)}
-    job_t, job_s, job_f = (jobs["task"].astype(str).to_numpy(), jobs["start"].to_numpy(float),
-                           jobs["finish"].to_numpy(float))
+    job_t, job_s, job_f = (
+        jobs["task"].astype(str).to_numpy(),
+        jobs["start"].to_numpy(float),
+        jobs["finish"].to_numpy(float),
+    )
 
     drawn: set[int] = set()
 
@@ -249,15 +316,18 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
         for j in range(view.n):
             for a in hit_beams(lead, view.truth[i, j], radius):
                 d = math.hypot(*(view.truth[i, j] - lead[:2]))
-                segs.append([(lead[0], lead[1]),
-                             (lead[0] + d * math.cos(a), lead[1] + d * math.sin(a))])
+                segs.append(
+                    [(lead[0], lead[1]), (lead[0] + d * math.cos(a), lead[1] + d * math.sin(a))]
+                )
         beams.set_segments(segs)
         for j, c in enumerate(hough):
             c.center = tuple(view.estimate[i, j])
             c.set_edgecolor("tab:red" if view.critical[i] else "tab:green")
         crit = ", critical" if view.critical[i] else ""
-        title.set_text(f"window {i}, t = {t_s[i]:.2f} s: V_L = {view.v_leader[i]:.1f} cm/s, "
-                       f"w = {view.w[i]:.1f} ms, w_sch = {view.w_sch[i]:.1f} ms{crit}")
+        title.set_text(
+            f"window {i}, t = {t_s[i]:.2f} s: V_L = {view.v_leader[i]:.1f} cm/s, "
+            f"w = {view.w[i]:.1f} ms, w_sch = {view.w_sch[i]:.1f} ms{crit}"
+        )
         title.set_color("tab:red" if view.critical[i] else "black")
         # the schedule strip: previous and current window
         for artist in [*gx.collections, *gx.patches, *gx.lines, *gx.texts]:
@@ -266,13 +336,20 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
         t1 = view.t[i] + max(view.w[i], view.w_sch[i]) * 1.05
         sel = (job_f >= t0) & (job_s <= t1)
         for tk, s, f in zip(job_t[sel], job_s[sel], job_f[sel], strict=True):
-            gx.broken_barh([(s, f - s)], (row[tk] - 0.35, 0.7),
-                           facecolors=colors[row[tk] % len(colors)])
+            gx.broken_barh(
+                [(s, f - s)], (row[tk] - 0.35, 0.7), facecolors=colors[row[tk] % len(colors)]
+            )
         y = len(tasks) - 0.1
         for r in ((i - 1,) if i > 0 else ()) + (i,):
             gx.hlines(y, view.t[r], view.t[r] + view.w[r], colors="k", lw=2)
-            gx.hlines(y + 0.35, view.t[r], view.t[r] + view.w_sch[r], colors="tab:red", lw=2,
-                      linestyles=":")
+            gx.hlines(
+                y + 0.35,
+                view.t[r],
+                view.t[r] + view.w_sch[r],
+                colors="tab:red",
+                lw=2,
+                linestyles=":",
+            )
             gx.axvline(view.t[r], color="0.5", lw=0.8)
         gx.text(t1, y, " w", va="center", fontsize=8)
         gx.text(t1, y + 0.35, " w_sch", va="center", fontsize=8, color="tab:red")
@@ -282,11 +359,12 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
             progress(len(drawn), len(frames))
         return []
 
-    anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps,
-                                   blit=False, repeat=False)
+    anim = animation.FuncAnimation(
+        fig, draw, frames=len(frames), interval=1000 / fps, blit=False, repeat=False
+    )
     suffix = out.suffix.lower()
     tmp_file = files.add(out, "--out")  # staged under out's own name: the writers pick the
-    if suffix == ".gif":                # format by the suffix
+    if suffix == ".gif":  # format by the suffix
         anim.save(tmp_file, writer=animation.PillowWriter(fps=fps), dpi=dpi)
     elif suffix == ".mp4":
         matplotlib.rcParams["animation.ffmpeg_path"] = ffmpeg
@@ -298,7 +376,18 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
     from rtsim.io.manifest import build_manifest
     from rtsim.io.outdir import sidecar
 
-    write_json(files.add(sidecar(out), "--out"), build_manifest(
-        command="animate", seed=None, extra={"outputs": [out.name]},
-        inputs={"run_dir": str(run_dir), "start_s": start_s, "end_s": end_s, "fps": fps,
-                "every": every}))
+    write_json(
+        files.add(sidecar(out), "--out"),
+        build_manifest(
+            command="animate",
+            seed=None,
+            extra={"outputs": [out.name]},
+            inputs={
+                "run_dir": str(run_dir),
+                "start_s": start_s,
+                "end_s": end_s,
+                "fps": fps,
+                "every": every,
+            },
+        ),
+    )

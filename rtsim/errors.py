@@ -6,8 +6,14 @@ and the problem; the command line prints it as ``rtsim: <message>`` and exits 2.
 
 from __future__ import annotations
 
-__all__ = ["RtsimError", "InputError", "TaskSetError", "ScenarioError", "SweepError",
-           "OverrideError"]
+__all__ = [
+    "RtsimError",
+    "InputError",
+    "TaskSetError",
+    "ScenarioError",
+    "SweepError",
+    "OverrideError",
+]
 
 
 class RtsimError(Exception):

@@ -50,20 +50,47 @@ class Example:
         return self.file().read_text("utf-8")
 
 
-EXAMPLES: dict[str, Example] = {e.name: e for e in (
-    Example("barrel_robots", "taskset", "barrel_robots.toml",
-            "the paper's Table 1: dead reckoning, the processing window, the command task"),
-    Example("example", "taskset", "example.toml",
-            "a generic rate-monotonic set: (5, 40), (200, 250), (25, 500)"),
-    Example("test1", "scenario", "scenarios/test1.toml",
-            "the paper's Test 1: V_Ld 25 cm/s, turns of 2 m radius, two followers"),
-    Example("test2", "scenario", "scenarios/test2.toml",
-            "the paper's Test 2: V_Ld 30 cm/s, sharper turns (1.2 m)"),
-    Example("smoke", "sweep", "sweeps/smoke.toml",
-            "a 10-point simulate sweep over n = 1..5 and r_H = 10, 25 cm"),
-    Example("quickstart", "notebook", "notebooks/quickstart.ipynb",
-            "the quickstart notebook: a run, a plot, a sweep, a histogram"),
-)}
+EXAMPLES: dict[str, Example] = {
+    e.name: e
+    for e in (
+        Example(
+            "barrel_robots",
+            "taskset",
+            "barrel_robots.toml",
+            "the paper's Table 1: dead reckoning, the processing window, the command task",
+        ),
+        Example(
+            "example",
+            "taskset",
+            "example.toml",
+            "a generic rate-monotonic set: (5, 40), (200, 250), (25, 500)",
+        ),
+        Example(
+            "test1",
+            "scenario",
+            "scenarios/test1.toml",
+            "the paper's Test 1: V_Ld 25 cm/s, turns of 2 m radius, two followers",
+        ),
+        Example(
+            "test2",
+            "scenario",
+            "scenarios/test2.toml",
+            "the paper's Test 2: V_Ld 30 cm/s, sharper turns (1.2 m)",
+        ),
+        Example(
+            "smoke",
+            "sweep",
+            "sweeps/smoke.toml",
+            "a 10-point simulate sweep over n = 1..5 and r_H = 10, 25 cm",
+        ),
+        Example(
+            "quickstart",
+            "notebook",
+            "notebooks/quickstart.ipynb",
+            "the quickstart notebook: a run, a plot, a sweep, a histogram",
+        ),
+    )
+}
 
 
 def example(name: str) -> Example:

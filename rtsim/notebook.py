@@ -69,13 +69,20 @@ class ResultDisplay:
         return f"<{type(self).__name__} {facts}>"
 
     def _repr_html_(self) -> str:
-        facts = " · ".join(f"<b>{html.escape(k)}</b> {html.escape(_fmt(v))}"
-                           for k, v in self.headline().items())
+        facts = " · ".join(
+            f"<b>{html.escape(k)}</b> {html.escape(_fmt(v))}" for k, v in self.headline().items()
+        )
         df = self.summary_frame()
-        table = df.to_html(max_rows=HTML_MAX_ROWS, float_format=lambda x: f"{x:.6g}",
-                           border=0, classes="rtsim-summary")
-        return (f"<div class='rtsim-result'><p><code>{type(self).__name__}</code>: {facts}</p>"
-                f"{table}</div>")
+        table = df.to_html(
+            max_rows=HTML_MAX_ROWS,
+            float_format=lambda x: f"{x:.6g}",
+            border=0,
+            classes="rtsim-summary",
+        )
+        return (
+            f"<div class='rtsim-result'><p><code>{type(self).__name__}</code>: {facts}</p>"
+            f"{table}</div>"
+        )
 
 
 def figure_png(fig: Any, dpi: int = 100) -> bytes:

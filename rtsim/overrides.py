@@ -32,8 +32,9 @@ LIBRARY_OPTIONS: tuple[str, ...] = ("mode", "policy", "seed", "exec", "duration_
 apply_overrides = apply_paths
 
 
-def apply_dotted_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: str,
-                           kind: str = "scenario") -> dict[str, Any]:
+def apply_dotted_overrides(
+    data: dict[str, Any], overrides: Mapping[str, Any], source: str, kind: str = "scenario"
+) -> dict[str, Any]:
     """Apply ``overrides`` (dotted path -> value) to the TOML dict ``data`` in place
     (``kind``: ``scenario`` or ``simulate``, a task-set file: no difference any more)."""
     del kind

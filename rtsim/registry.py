@@ -38,8 +38,16 @@ from typing import Any, Generic, TypeVar
 from rtsim._suggest import did_you_mean
 from rtsim.errors import InputError
 
-__all__ = ["Registry", "code_allowed", "did_you_mean", "file_allows_code", "is_code_spec",
-           "load_code", "opted_in", "reading_input"]
+__all__ = [
+    "Registry",
+    "code_allowed",
+    "did_you_mean",
+    "file_allows_code",
+    "is_code_spec",
+    "load_code",
+    "opted_in",
+    "reading_input",
+]
 
 T = TypeVar("T")
 
@@ -112,8 +120,10 @@ def load_code(spec: str, where: str, *, allow_code: bool | None = None) -> Any:
         raise InputError(f"{where}: {spec!r} is not 'package.module:Name'")
     allowed = code_allowed() if allow_code is None else allow_code
     if not allowed:
-        raise InputError(f"{where}: {spec!r} names Python code, which an input file loads "
-                         f"only when asked: {OPT_IN}")
+        raise InputError(
+            f"{where}: {spec!r} names Python code, which an input file loads "
+            f"only when asked: {OPT_IN}"
+        )
     mod, _, attr = spec.partition(":")
     cwd = os.getcwd()
     if cwd not in sys.path and "" not in sys.path:
@@ -136,9 +146,13 @@ class Registry(MutableMapping[str, T], Generic[T]):
     entry point or from code (``spec`` the name it was loaded by), raising
     :class:`InputError`."""
 
-    def __init__(self, kind: str, group: str,
-                 check: Callable[[Any, str, str], T] | None = None,
-                 renamed: Mapping[str, str] | None = None) -> None:
+    def __init__(
+        self,
+        kind: str,
+        group: str,
+        check: Callable[[Any, str, str], T] | None = None,
+        renamed: Mapping[str, str] | None = None,
+    ) -> None:
         self.kind = kind
         self.group = group
         self._check = check
@@ -182,8 +196,9 @@ class Registry(MutableMapping[str, T], Generic[T]):
     def known(self) -> list[str]:
         """Registered names, then installed entry points' names."""
         names = list(self._items)
-        names += [ep.name for ep in metadata.entry_points(group=self.group)
-                  if ep.name not in self._items]
+        names += [
+            ep.name for ep in metadata.entry_points(group=self.group) if ep.name not in self._items
+        ]
         return names
 
     def contains(self, name: object) -> bool:
@@ -206,9 +221,11 @@ class Registry(MutableMapping[str, T], Generic[T]):
             self._items[spec] = value
             return value
         known = self.known()
-        raise InputError(f"{where}: must be one of {', '.join(known)} or "
-                         f"'package.module:Name', got {spec!r}"
-                         f"{did_you_mean(spec, known, renamed=self.renamed)}")
+        raise InputError(
+            f"{where}: must be one of {', '.join(known)} or "
+            f"'package.module:Name', got {spec!r}"
+            f"{did_you_mean(spec, known, renamed=self.renamed)}"
+        )
 
     def _checked(self, obj: Any, spec: str, where: str) -> T:
         if self._check is None:

@@ -51,15 +51,23 @@ def _fmt(v: Any) -> str:
 def _kv_table(rows: Mapping[str, Any], header: tuple[str, str] = ("key", "value")) -> str:
     body = "".join(
         f"<tr><th>{_esc(k)}</th><td class='{'num' if isinstance(v, int | float) else ''}'>"
-        f"{_esc(_fmt(v))}</td></tr>" for k, v in rows.items())
+        f"{_esc(_fmt(v))}</td></tr>"
+        for k, v in rows.items()
+    )
     return f"<table><tr><th>{_esc(header[0])}</th><th>{_esc(header[1])}</th></tr>{body}</table>"
 
 
 def _frame_table(columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
     head = "".join(f"<th>{_esc(c)}</th>" for c in columns)
     body = "".join(
-        "<tr>" + "".join(f"<td class='{'num' if isinstance(v, int | float) else ''}'>"
-                         f"{_esc(_fmt(v))}</td>" for v in r) + "</tr>" for r in rows)
+        "<tr>"
+        + "".join(
+            f"<td class='{'num' if isinstance(v, int | float) else ''}'>{_esc(_fmt(v))}</td>"
+            for v in r
+        )
+        + "</tr>"
+        for r in rows
+    )
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
@@ -87,8 +95,8 @@ def _summary_section(run_dir: Path) -> str:
 
         df = pd.read_csv(csv)
         return "<h2>Summary</h2>" + _frame_table(
-            [str(c) for c in df.columns],
-            df.astype(object).where(df.notna(), None).values.tolist())
+            [str(c) for c in df.columns], df.astype(object).where(df.notna(), None).values.tolist()
+        )
     return "<h2>Summary</h2><p class='muted'>No summary.json or summary.csv.</p>"
 
 
@@ -122,8 +130,9 @@ def _png(path: Path) -> str:
     return f"data:{_MIME[path.suffix]};base64,{data}"
 
 
-def render_run_report(run_dir: str | os.PathLike[str], *, title: str | None = None,
-                      extra_html: str = "") -> str:
+def render_run_report(
+    run_dir: str | os.PathLike[str], *, title: str | None = None, extra_html: str = ""
+) -> str:
     """The HTML text of ``run_dir``'s report (module docstring)."""
     d = Path(run_dir)
     manifest = _read_json(d / "manifest.json")
@@ -132,10 +141,12 @@ def render_run_report(run_dir: str | os.PathLike[str], *, title: str | None = No
         title = f"rtsim {cmd}: {d.name}"
     parts = [f"<h1>{_esc(title)}</h1>"]
     if isinstance(manifest, dict):
-        parts.append(f"<p class='muted'>rtsim {_esc(manifest.get('rtsim_version', '?'))}, "
-                     f"seed {_esc(manifest.get('seed'))}, created "
-                     f"{_esc(manifest.get('created_utc', '?'))}; "
-                     f"<code>{_esc(' '.join(map(str, manifest.get('argv') or [])))}</code></p>")
+        parts.append(
+            f"<p class='muted'>rtsim {_esc(manifest.get('rtsim_version', '?'))}, "
+            f"seed {_esc(manifest.get('seed'))}, created "
+            f"{_esc(manifest.get('created_utc', '?'))}; "
+            f"<code>{_esc(' '.join(map(str, manifest.get('argv') or [])))}</code></p>"
+        )
     parts.append(_summary_section(d))
     if extra_html:
         parts.append(extra_html)
@@ -144,34 +155,51 @@ def render_run_report(run_dir: str | os.PathLike[str], *, title: str | None = No
         parts.append("<h2>Figures</h2>")
         for p in pngs:
             rel = p.relative_to(d).as_posix()
-            parts.append(f"<figure><img src='{_png(p)}' alt='{_esc(rel)}'>"
-                         f"<figcaption>{_esc(rel)}</figcaption></figure>")
+            parts.append(
+                f"<figure><img src='{_png(p)}' alt='{_esc(rel)}'>"
+                f"<figcaption>{_esc(rel)}</figcaption></figure>"
+            )
     assumptions = _assumptions(manifest)
     if assumptions:
-        parts.append("<h2>Assumptions</h2><p class='muted'>Values the paper does not give, "
-                     "each with its reason (the scenario's <code>[assumptions]</code>).</p>"
-                     + _kv_table(assumptions, ("key", "reason")))
-    data = sorted(p for p in d.rglob("*") if p.is_file() and p.suffix in _DATA_SUFFIXES
-                  and p.name != REPORT_NAME and "/points/" not in f"/{p.relative_to(d)}")
+        parts.append(
+            "<h2>Assumptions</h2><p class='muted'>Values the paper does not give, "
+            "each with its reason (the scenario's <code>[assumptions]</code>).</p>"
+            + _kv_table(assumptions, ("key", "reason"))
+        )
+    data = sorted(
+        p
+        for p in d.rglob("*")
+        if p.is_file()
+        and p.suffix in _DATA_SUFFIXES
+        and p.name != REPORT_NAME
+        and "/points/" not in f"/{p.relative_to(d)}"
+    )
     if data:
-        items = "".join(f"<li><a href='{_esc(p.relative_to(d).as_posix())}'>"
-                        f"{_esc(p.relative_to(d).as_posix())}</a> "
-                        f"<span class='muted'>({p.stat().st_size:,} bytes)</span></li>"
-                        for p in data)
+        items = "".join(
+            f"<li><a href='{_esc(p.relative_to(d).as_posix())}'>"
+            f"{_esc(p.relative_to(d).as_posix())}</a> "
+            f"<span class='muted'>({p.stat().st_size:,} bytes)</span></li>"
+            for p in data
+        )
         parts.append(f"<h2>Data files</h2><ul>{items}</ul>")
     if isinstance(manifest, dict):
         shown = json.dumps(manifest, indent=2, ensure_ascii=False, default=str)
-        parts.append("<h2>Manifest</h2><details><summary>manifest.json</summary>"
-                     f"<pre>{_esc(shown)}</pre></details>")
+        parts.append(
+            "<h2>Manifest</h2><details><summary>manifest.json</summary>"
+            f"<pre>{_esc(shown)}</pre></details>"
+        )
     body = "\n".join(parts)
-    return (f"<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
-            f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
-            f"<title>{_esc(title)}</title><style>{_CSS}</style></head>"
-            f"<body>\n{body}\n</body></html>\n")
+    return (
+        f"<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
+        f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
+        f"<title>{_esc(title)}</title><style>{_CSS}</style></head>"
+        f"<body>\n{body}\n</body></html>\n"
+    )
 
 
-def write_run_report(run_dir: str | os.PathLike[str], *, title: str | None = None,
-                     extra_html: str = "") -> Path:
+def write_run_report(
+    run_dir: str | os.PathLike[str], *, title: str | None = None, extra_html: str = ""
+) -> Path:
     """Write ``run_dir/report.html`` atomically and return its path."""
     from rtsim.io.atomic import atomic_path
 

@@ -63,15 +63,23 @@ BOUND_KINDS: tuple[str, ...] = ("localization", "separation", "path_diversion", 
 
 #: The paper's figures drawn from the adjust runs: number → (test, figure name).
 PAPER_FIGURES: dict[int, tuple[str, str]] = {
-    8: ("test1", "paths"), 9: ("test1", "window_slack"), 10: ("test1", "msb"),
-    11: ("test1", "speed"), 12: ("test2", "paths"), 13: ("test2", "window_slack"),
-    14: ("test2", "msb"), 15: ("test2", "speed"),
+    8: ("test1", "paths"),
+    9: ("test1", "window_slack"),
+    10: ("test1", "msb"),
+    11: ("test1", "speed"),
+    12: ("test2", "paths"),
+    13: ("test2", "window_slack"),
+    14: ("test2", "msb"),
+    15: ("test2", "speed"),
 }
 #: The per-follower, per-kind detail beside Figs 10/14: number → (test, figure name).
 DETAIL_FIGURES: dict[int, tuple[str, str]] = {10: ("test1", "bounds"), 14: ("test2", "bounds")}
 #: Side-by-side mode figures: kind of :func:`rtsim.plots.scenario.plot_modes` → figure_data name.
 MODE_FIGURES: dict[str, str] = {
-    "window": "window_slack", "bounds": "bounds", "speed": "speed", "paths": "paths",
+    "window": "window_slack",
+    "bounds": "bounds",
+    "speed": "speed",
+    "paths": "paths",
 }
 _TITLES = {
     "paths": "robots' paths",
@@ -85,16 +93,34 @@ _TITLES = {
 DOCS_FIGURES: tuple[str, ...] = (
     *(f"fig{n:02d}_{t}_{name}" for n, (t, name) in PAPER_FIGURES.items()),
     *(f"fig{n:02d}_{t}_{name}_detail" for n, (t, name) in DETAIL_FIGURES.items()),
-    "fig02_test1_operating_space", "fig02_test2_operating_space", "modes_test2_window",
+    "fig02_test1_operating_space",
+    "fig02_test2_operating_space",
+    "modes_test2_window",
 )
 
 SUMMARY_COLUMNS: tuple[str, ...] = (
-    "test", "mode", "viol5", "max_viol_ratio", "missed", "tracks_lost",
-    *(f"viol5_{k}" for k in BOUND_KINDS), *(f"max_viol_ratio_{k}" for k in BOUND_KINDS),
-    "seed", "duration_s", "laps", "w_sch", "windows",
-    *(f"viol_{k}" for k in BOUND_KINDS), "critical_share", "min_msb_over_wsch",
-    "min_speed_ratio", "methods", "predictor", "formation_model",
-    "max_response", "wall_s",
+    "test",
+    "mode",
+    "viol5",
+    "max_viol_ratio",
+    "missed",
+    "tracks_lost",
+    *(f"viol5_{k}" for k in BOUND_KINDS),
+    *(f"max_viol_ratio_{k}" for k in BOUND_KINDS),
+    "seed",
+    "duration_s",
+    "laps",
+    "w_sch",
+    "windows",
+    *(f"viol_{k}" for k in BOUND_KINDS),
+    "critical_share",
+    "min_msb_over_wsch",
+    "min_speed_ratio",
+    "methods",
+    "predictor",
+    "formation_model",
+    "max_response",
+    "wall_s",
 )
 
 
@@ -111,9 +137,18 @@ def figure_stems() -> list[str]:
 # --- one run ------------------------------------------------------------------------------
 
 
-def write_run(out: Path, res: Any, *, scenario_file: Path, mode: str, seed: int,
-              duration_s: float | None, argv: list[str], wall_s: float,
-              set_: list[str] | None = None) -> list[str]:
+def write_run(
+    out: Path,
+    res: Any,
+    *,
+    scenario_file: Path,
+    mode: str,
+    seed: int,
+    duration_s: float | None,
+    argv: list[str],
+    wall_s: float,
+    set_: list[str] | None = None,
+) -> list[str]:
     """Write a run's directory as ``rtsim scenario --no-figures`` does (rtsim/cli/scenario.py).
 
     The CLI has no writer function of its own, so this calls the same library functions with
@@ -136,11 +171,20 @@ def write_run(out: Path, res: Any, *, scenario_file: Path, mode: str, seed: int,
     timing["total_s"] = wall_s
     inp = res.inputs
     write_manifest(
-        out, command="scenario", seed=seed,
-        inputs={"scenario_file": str(scenario_file), "scenario_text": inp.text,
-                "scenario": inp.resolved, "mode": mode, "duration_s": duration_s,
-                "exec_model": "wcet", "set": list(set_ or [])},
-        argv=argv, extra={"timing": timing, "outputs": [*outputs, "manifest.json"]},
+        out,
+        command="scenario",
+        seed=seed,
+        inputs={
+            "scenario_file": str(scenario_file),
+            "scenario_text": inp.text,
+            "scenario": inp.resolved,
+            "mode": mode,
+            "duration_s": duration_s,
+            "exec_model": "wcet",
+            "set": list(set_ or []),
+        },
+        argv=argv,
+        extra={"timing": timing, "outputs": [*outputs, "manifest.json"]},
     )
     return [*outputs, "manifest.json"]
 
@@ -152,38 +196,71 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
     t0 = time.perf_counter()
     file = Path(spec["scenario_file"])
     set_ = list(spec.get("set") or [])
-    res = run_scenario(file, mode=spec["mode"], duration_s=spec["duration_s"],
-                       seed=spec["seed"], record_jobs=True,
-                       overrides=_overrides(set_) or None)
+    res = run_scenario(
+        file,
+        mode=spec["mode"],
+        duration_s=spec["duration_s"],
+        seed=spec["seed"],
+        record_jobs=True,
+        overrides=_overrides(set_) or None,
+    )
     argv = ["rtsim", "scenario", str(file), "--mode", spec["mode"], "--seed", str(spec["seed"])]
     argv += [a for s in set_ for a in ("--set", s)]
     if spec["duration_s"] is not None:
         argv += ["--duration", repr(spec["duration_s"])]
     argv += ["--no-figures", "--out", str(spec.get("shown_out", spec["out"]))]
-    written = write_run(Path(spec["out"]), res, scenario_file=file, mode=spec["mode"],
-                        seed=spec["seed"], duration_s=spec["duration_s"], argv=argv,
-                        wall_s=time.perf_counter() - t0, set_=set_)
+    written = write_run(
+        Path(spec["out"]),
+        res,
+        scenario_file=file,
+        mode=spec["mode"],
+        seed=spec["seed"],
+        duration_s=spec["duration_s"],
+        argv=argv,
+        wall_s=time.perf_counter() - t0,
+        set_=set_,
+    )
     timing = dict(res.timing)
     timing["total_s"] = time.perf_counter() - t0
-    return {"test": spec["test"], "mode": spec["mode"], "duration_s": spec["duration_s"],
-            "windows": res.windows, "summary": res.summary, "timing": timing,
-            "written": written}
+    return {
+        "test": spec["test"],
+        "mode": spec["mode"],
+        "duration_s": spec["duration_s"],
+        "windows": res.windows,
+        "summary": res.summary,
+        "timing": timing,
+        "written": written,
+    }
 
 
-def run_specs(out: Path, *, seed: int, duration_s: float | None,
-              scenarios: Path = SCENARIOS, set_: list[str] | None = None
-              ) -> list[dict[str, Any]]:
+def run_specs(
+    out: Path,
+    *,
+    seed: int,
+    duration_s: float | None,
+    scenarios: Path = SCENARIOS,
+    set_: list[str] | None = None,
+) -> list[dict[str, Any]]:
     """The six runs: every test in every mode, each with its output directory.
 
     With ``duration_s`` None the adjust runs take the scenario's default (at least one lap)
     and the baselines are marked ``match_adjust``: :func:`run_all` runs them as long as the
     adjust run of their test, so the three modes cover the same simulated time.
     """
-    return [{"test": t, "mode": m, "seed": seed, "duration_s": duration_s,
-             "match_adjust": duration_s is None and m != "adjust",
-             "scenario_file": str(scenarios / f"{t}.toml"), "out": str(out / t / m),
-             "set": list(set_ or [])}
-            for t in TESTS for m in MODES]
+    return [
+        {
+            "test": t,
+            "mode": m,
+            "seed": seed,
+            "duration_s": duration_s,
+            "match_adjust": duration_s is None and m != "adjust",
+            "scenario_file": str(scenarios / f"{t}.toml"),
+            "out": str(out / t / m),
+            "set": list(set_ or []),
+        }
+        for t in TESTS
+        for m in MODES
+    ]
 
 
 # --- figures ------------------------------------------------------------------------------
@@ -203,33 +280,66 @@ def modes_data(dfs: dict[str, pd.DataFrame], name: str) -> pd.DataFrame:
     return pd.concat(parts, ignore_index=True)
 
 
-def figure_tasks(runs: dict[tuple[str, str], pd.DataFrame], fig_dir: Path,
-                 docs: Path | None, fmt: str = "png",
-                 dpi: int | None = None) -> list[dict[str, Any]]:
+def figure_tasks(
+    runs: dict[tuple[str, str], pd.DataFrame],
+    fig_dir: Path,
+    docs: Path | None,
+    fmt: str = "png",
+    dpi: int | None = None,
+) -> list[dict[str, Any]]:
     """One task per figure: what to draw, from which run(s), and where to write it (in
     format ``fmt`` at ``dpi``; the docs' copies are always PNG at :data:`DOCS_DPI`)."""
     tasks: list[dict[str, Any]] = []
 
     def add(stem: str, kind: str, data: Any, title: str, name: str) -> None:
-        tasks.append({"stem": stem, "kind": kind, "data": data, "title": title, "name": name,
-                      "dir": str(fig_dir), "fmt": fmt, "dpi": dpi,
-                      "docs": str(docs) if docs is not None and stem in DOCS_FIGURES else None})
+        tasks.append(
+            {
+                "stem": stem,
+                "kind": kind,
+                "data": data,
+                "title": title,
+                "name": name,
+                "dir": str(fig_dir),
+                "fmt": fmt,
+                "dpi": dpi,
+                "docs": str(docs) if docs is not None and stem in DOCS_FIGURES else None,
+            }
+        )
 
     for n, (test, name) in PAPER_FIGURES.items():
-        add(f"fig{n:02d}_{test}_{name}", name, runs[(test, "adjust")],
-            f"Fig {n}. {TEST_LABELS[test]} (adjust): {_TITLES[name]}", name)
+        add(
+            f"fig{n:02d}_{test}_{name}",
+            name,
+            runs[(test, "adjust")],
+            f"Fig {n}. {TEST_LABELS[test]} (adjust): {_TITLES[name]}",
+            name,
+        )
     for n, (test, name) in DETAIL_FIGURES.items():
-        add(f"fig{n:02d}_{test}_{name}_detail", name, runs[(test, "adjust")],
-            f"Fig {n}, detail. {TEST_LABELS[test]} (adjust): {_TITLES[name]}", name)
+        add(
+            f"fig{n:02d}_{test}_{name}_detail",
+            name,
+            runs[(test, "adjust")],
+            f"Fig {n}, detail. {TEST_LABELS[test]} (adjust): {_TITLES[name]}",
+            name,
+        )
     for test in TESTS:
-        add(f"fig02_{test}_operating_space", "operating_space", runs[(test, "adjust")],
+        add(
+            f"fig02_{test}_operating_space",
+            "operating_space",
+            runs[(test, "adjust")],
             f"Fig 2. {TEST_LABELS[test]} (adjust): {_TITLES['operating_space']}",
-            "operating_space")
+            "operating_space",
+        )
     for test in TESTS:
         dfs = {m: runs[(test, m)] for m in MODES}
         for kind, name in MODE_FIGURES.items():
-            add(f"modes_{test}_{kind}", f"modes:{kind}", dfs,
-                f"{TEST_LABELS[test]}: {_TITLES[name]}, three modes", name)
+            add(
+                f"modes_{test}_{kind}",
+                f"modes:{kind}",
+                dfs,
+                f"{TEST_LABELS[test]}: {_TITLES[name]}, three modes",
+                name,
+            )
     return tasks
 
 
@@ -239,8 +349,7 @@ def make_figure(task: dict[str, Any]) -> tuple[Any, pd.DataFrame]:
 
     kind, name, data = task["kind"], task["name"], task["data"]
     if kind.startswith("modes:"):
-        return plot_modes(data, kind.split(":", 1)[1], title=task["title"]), \
-            modes_data(data, name)
+        return plot_modes(data, kind.split(":", 1)[1], title=task["title"]), modes_data(data, name)
     return SCENARIO_FIGURES[kind](data, title=task["title"]), figure_data(data, name)
 
 
@@ -260,8 +369,9 @@ def draw(task: dict[str, Any]) -> list[str]:
     write_table(csv, table)
     written = [str(path), str(csv)]
     if task["docs"]:
-        written.append(str(save_figure(fig, Path(task["docs"]) / f"{task['stem']}.png",
-                                       dpi=DOCS_DPI)))
+        written.append(
+            str(save_figure(fig, Path(task["docs"]) / f"{task['stem']}.png", dpi=DOCS_DPI))
+        )
     return written
 
 
@@ -271,17 +381,24 @@ def draw(task: dict[str, Any]) -> list[str]:
 def summary_row(test: str, mode: str, summary: dict[str, Any], wall_s: float) -> dict[str, Any]:
     """One row of summary.csv from a run's summary.json."""
     row: dict[str, Any] = {
-        "test": test, "mode": mode, "seed": summary["seed"],
-        "duration_s": summary["duration_s"], "laps": summary.get("laps", math.nan),
-        "w_sch": summary["w_sch"], "windows": summary["windows"], "missed": summary["missed"],
+        "test": test,
+        "mode": mode,
+        "seed": summary["seed"],
+        "duration_s": summary["duration_s"],
+        "laps": summary.get("laps", math.nan),
+        "w_sch": summary["w_sch"],
+        "windows": summary["windows"],
+        "missed": summary["missed"],
         "tracks_lost": summary["tracks_lost"],
     }
     for k in BOUND_KINDS:
         row[f"viol_{k}"] = summary["violations"][k]
-    row.update(critical_share=summary["critical_share"],
-               min_msb_over_wsch=summary["min_msb_over_wsch"],
-               min_speed_ratio=summary["min_speed_ratio"],
-               methods=";".join(f"{k}={v}" for k, v in sorted(summary["methods"].items())))
+    row.update(
+        critical_share=summary["critical_share"],
+        min_msb_over_wsch=summary["min_msb_over_wsch"],
+        min_speed_ratio=summary["min_speed_ratio"],
+        methods=";".join(f"{k}={v}" for k, v in sorted(summary["methods"].items())),
+    )
     ratios = summary.get("max_violation_ratio", {})
     beyond = summary.get("violations_beyond_5pct", {})
     for k in BOUND_KINDS:
@@ -299,9 +416,11 @@ def summary_row(test: str, mode: str, summary: dict[str, Any], wall_s: float) ->
 
 def summary_markdown(df: pd.DataFrame) -> str:
     """The summary as a Markdown table (as in docs/results.md)."""
-    head = ("| test | mode | violations > 5 % loc / sep / path / bear | max violation ratio "
-            "loc / sep / path / bear | misses | lost tracks | sim. s | windows | all violations "
-            "| critical share | min MSB / w_sch | min V_L / V_Ld | methods |")
+    head = (
+        "| test | mode | violations > 5 % loc / sep / path / bear | max violation ratio "
+        "loc / sep / path / bear | misses | lost tracks | sim. s | windows | all violations "
+        "| critical share | min MSB / w_sch | min V_L / V_Ld | methods |"
+    )
     lines = [head, "|" + "---|" * 13]
     r: Any  # a row (its fields typed by the columns, not by pandas)
     for r in df.itertuples(index=False):
@@ -313,7 +432,8 @@ def summary_markdown(df: pd.DataFrame) -> str:
             f"{r.missed} | {r.tracks_lost} | {r.duration_s:.1f} | {r.windows} | "
             f"{r.viol_localization + r.viol_separation + r.viol_path_diversion + r.viol_bearing}"
             f" | {r.critical_share:.3f} | {r.min_msb_over_wsch:.3f} | {r.min_speed_ratio:.3f} | "
-            f"{r.methods.replace(';', ', ')} |")
+            f"{r.methods.replace(';', ', ')} |"
+        )
     notes = (
         "\nViolations > 5 % count (window, follower) pairs whose truth, between this window's "
         "scan and the next, broke a bound's threshold (r_H, T_ρ·ρ_d, T_ε·ρ_d, T_β) by more "
@@ -321,15 +441,17 @@ def summary_markdown(df: pd.DataFrame) -> str:
         "violation ratio is the largest observed change over its threshold (>1: broken). "
         "Critical share: the share of simulated time with min MSB (at V_Ld) < w_sch. "
         "Methods: how each window's w and V_L were set (none: no overload; coupled / "
-        "closed-form / numeric: speed lowered; fixed: the first window, or a baseline mode).\n")
+        "closed-form / numeric: speed lowered; fixed: the first window, or a baseline mode).\n"
+    )
     return "\n".join(lines) + "\n" + notes
 
 
 # --- driver -------------------------------------------------------------------------------
 
 
-def _pool_map(pool: ProcessPoolExecutor | None, fn: Callable[[Any], Any],
-              items: Iterable[Any]) -> Iterator[tuple[Any, Any]]:
+def _pool_map(
+    pool: ProcessPoolExecutor | None, fn: Callable[[Any], Any], items: Iterable[Any]
+) -> Iterator[tuple[Any, Any]]:
     """(item, fn(item)) in completion order; in this process when ``pool`` is None."""
     items = list(items)
     if pool is None:
@@ -341,8 +463,11 @@ def _pool_map(pool: ProcessPoolExecutor | None, fn: Callable[[Any], Any],
         yield futures[fut], fut.result()
 
 
-def run_all(specs: list[dict[str, Any]], pool: ProcessPoolExecutor | None = None,
-            progress: Callable[[str], None] | None = None) -> dict[tuple[str, str], dict]:
+def run_all(
+    specs: list[dict[str, Any]],
+    pool: ProcessPoolExecutor | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> dict[tuple[str, str], dict]:
     """Run ``specs`` (see :func:`run_specs`); results keyed by (test, mode).
 
     Specs marked ``match_adjust`` run after the others, with the duration their test's adjust
@@ -354,19 +479,23 @@ def run_all(specs: list[dict[str, Any]], pool: ProcessPoolExecutor | None = None
     done = 0
     for phase in (first, later):
         if phase is later:
-            phase = [{**sp, "duration_s": results[(sp["test"], "adjust")]["summary"]
-                      ["duration_s"]} for sp in later]
+            phase = [
+                {**sp, "duration_s": results[(sp["test"], "adjust")]["summary"]["duration_s"]}
+                for sp in later
+            ]
         for _, res in _pool_map(pool, run_one, phase):
             done += 1
             results[(res["test"], res["mode"])] = res
             if progress is not None:
                 s = res["summary"]
-                progress(f"[{done}/{len(specs)}] {res['test']} {res['mode']}: "
-                         f"{s['duration_s']:.1f} s simulated, {s['windows']} windows, "
-                         f"violations > 5 % {sum(s['violations_beyond_5pct'].values())} "
-                         f"(max ratio {max(s['max_violation_ratio'].values()):.2f}), "
-                         f"missed {s['missed']}, tracks lost {s['tracks_lost']}, min V_L/V_Ld "
-                         f"{s['min_speed_ratio']:.2f} ({res['timing']['total_s']:.1f} s)")
+                progress(
+                    f"[{done}/{len(specs)}] {res['test']} {res['mode']}: "
+                    f"{s['duration_s']:.1f} s simulated, {s['windows']} windows, "
+                    f"violations > 5 % {sum(s['violations_beyond_5pct'].values())} "
+                    f"(max ratio {max(s['max_violation_ratio'].values()):.2f}), "
+                    f"missed {s['missed']}, tracks lost {s['tracks_lost']}, min V_L/V_Ld "
+                    f"{s['min_speed_ratio']:.2f} ({res['timing']['total_s']:.1f} s)"
+                )
     return results
 
 
@@ -374,8 +503,7 @@ def _check_args(args: argparse.Namespace) -> None:
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed}")
     if args.duration is not None and not (0 < args.duration < math.inf):
-        raise InputError(f"--duration must be a positive number of seconds, got "
-                         f"{args.duration!r}")
+        raise InputError(f"--duration must be a positive number of seconds, got {args.duration!r}")
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
     for opt, path in (("--out", args.out), ("--docs", args.docs)):
@@ -384,8 +512,10 @@ def _check_args(args: argparse.Namespace) -> None:
     if args.docs is not None:
         out, docs = Path(args.out).resolve(), Path(args.docs).resolve()
         if docs == out or out in docs.parents:
-            raise InputError(f"--docs {args.docs}: is inside --out {args.out}, which is "
-                             f"replaced whole at the end; give a directory outside it")
+            raise InputError(
+                f"--docs {args.docs}: is inside --out {args.out}, which is "
+                f"replaced whole at the end; give a directory outside it"
+            )
     for t in TESTS:
         if not (SCENARIOS / f"{t}.toml").is_file():
             raise InputError(f"{SCENARIOS / f'{t}.toml'}: scenario file not found")
@@ -415,35 +545,76 @@ def add_options(ap: Any, *, out_required: bool = False) -> None:
     ``python -m rtsim.reproduce`` and by ``rtsim reproduce`` (``out_required``: ``--out``
     has no default, as on every command of the ``rtsim`` program that writes)."""
     if out_required:
-        ap.add_argument("--out", required=True, metavar="DIR",
-                        help=f"output directory (the README's: {DEFAULT_OUT})")
+        ap.add_argument(
+            "--out",
+            required=True,
+            metavar="DIR",
+            help=f"output directory (the README's: {DEFAULT_OUT})",
+        )
     else:
-        ap.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                        help=f"output directory (default {DEFAULT_OUT})")
-    ap.add_argument("--quick", action="store_true",
-                    help=f"CI mode: {QUICK_DURATION_S:g} simulated s per run (one turn)")
+        ap.add_argument(
+            "--out",
+            default=DEFAULT_OUT,
+            metavar="DIR",
+            help=f"output directory (default {DEFAULT_OUT})",
+        )
+    ap.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"CI mode: {QUICK_DURATION_S:g} simulated s per run (one turn)",
+    )
     ap.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")
-    ap.add_argument("--duration", type=float, default=None, metavar="S",
-                    help="simulated seconds per run (default: each scenario's, at least one "
-                         "lap; --quick: 60)")
-    ap.add_argument("--workers", type=int, default=None, metavar="N",
-                    help="processes (default min(6, cpu count)); 1 runs in this process")
-    ap.add_argument("--docs", default=None, metavar="DIR",
-                    help="also write the documentation's figures (PNG, 100 dpi) to DIR")
-    ap.add_argument("--quiet", "-q", action="store_true",
-                    help="no progress bar or lines, no table")
-    ap.add_argument("--format", dest="fig_format", choices=("png", "svg", "pdf"),
-                    default=None, help="file format of the figures (default png)")
-    ap.add_argument("--dpi", type=int, default=None,
-                    help="resolution of PNG figures in dots per inch (default 120)")
-    ap.add_argument("--json", action="store_true",
-                    help="print the summary table as one JSON object instead of Markdown")
-    ap.add_argument("--force", action="store_true",
-                    help="run even when --duration looks like a mistake of unit (over 6 "
-                         "simulated hours)")
-    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="change a key of both scenarios (a dotted path, the value read as "
-                         "TOML); repeatable")
+    ap.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        metavar="S",
+        help="simulated seconds per run (default: each scenario's, at least one lap; --quick: 60)",
+    )
+    ap.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="processes (default min(6, cpu count)); 1 runs in this process",
+    )
+    ap.add_argument(
+        "--docs",
+        default=None,
+        metavar="DIR",
+        help="also write the documentation's figures (PNG, 100 dpi) to DIR",
+    )
+    ap.add_argument("--quiet", "-q", action="store_true", help="no progress bar or lines, no table")
+    ap.add_argument(
+        "--format",
+        dest="fig_format",
+        choices=("png", "svg", "pdf"),
+        default=None,
+        help="file format of the figures (default png)",
+    )
+    ap.add_argument(
+        "--dpi",
+        type=int,
+        default=None,
+        help="resolution of PNG figures in dots per inch (default 120)",
+    )
+    ap.add_argument(
+        "--json",
+        action="store_true",
+        help="print the summary table as one JSON object instead of Markdown",
+    )
+    ap.add_argument(
+        "--force",
+        action="store_true",
+        help="run even when --duration looks like a mistake of unit (over 6 simulated hours)",
+    )
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="change a key of both scenarios (a dotted path, the value read as TOML); repeatable",
+    )
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -464,8 +635,13 @@ def main(argv: list[str] | None = None, finish: Callable[[Path], None] | None = 
     return run(args, finish=finish, argv=argv, t0=t0)
 
 
-def run(args: argparse.Namespace, *, finish: Callable[[Path], None] | None = None,
-        argv: list[str] | None = None, t0: float | None = None) -> int:
+def run(
+    args: argparse.Namespace,
+    *,
+    finish: Callable[[Path], None] | None = None,
+    argv: list[str] | None = None,
+    t0: float | None = None,
+) -> int:
     """Run the six scenarios, draw the figures, write the tables (module docstring), for the
     parsed options ``args`` (:func:`add_options`); returns the exit status.
 
@@ -490,14 +666,20 @@ def run(args: argparse.Namespace, *, finish: Callable[[Path], None] | None = Non
         return 2
 
 
-def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path,
-          finish: Callable[[Path], None] | None = None) -> int:
+def _main(
+    args: argparse.Namespace,
+    argv: list[str] | None,
+    t0: float,
+    out: Path,
+    finish: Callable[[Path], None] | None = None,
+) -> int:
     from rtsim.io.atomic import write_table, write_text
     from rtsim.io.manifest import write_manifest
 
     docs = Path(args.docs) if args.docs is not None else None
-    duration = args.duration if args.duration is not None else \
-        (QUICK_DURATION_S if args.quick else None)
+    duration = (
+        args.duration if args.duration is not None else (QUICK_DURATION_S if args.quick else None)
+    )
     workers = args.workers if args.workers is not None else min(6, os.cpu_count() or 1)
     specs = run_specs(out, seed=args.seed, duration_s=duration, set_=args.set)
     for sp in specs:  # the command lines in the run manifests name the real --out
@@ -525,8 +707,11 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
 
     # workers ignore Ctrl-C (the parent stops them) and exit when the parent dies, even by
     # kill -9, releasing the staging directory's lock that a fork inherits
-    pool = ProcessPoolExecutor(workers, initializer=worker_init,
-                               initargs=(os.getpid(),)) if workers > 1 else None
+    pool = (
+        ProcessPoolExecutor(workers, initializer=worker_init, initargs=(os.getpid(),))
+        if workers > 1
+        else None
+    )
     try:
         results = run_all(specs, pool, run_done)
         t_runs = time.perf_counter()
@@ -536,48 +721,83 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
         if docs is not None:
             docs.mkdir(parents=True, exist_ok=True)
         written: list[str] = []
-        for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs, fmt,
-                                                           args.dpi)):
+        for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs, fmt, args.dpi)):
             written += paths
             bar.update(1)
-        say(f"figures: {len(written)} files in {Path(args.out) / 'figures'} "
-                 f"({time.perf_counter() - t_runs:.1f} s)")
+        say(
+            f"figures: {len(written)} files in {Path(args.out) / 'figures'} "
+            f"({time.perf_counter() - t_runs:.1f} s)"
+        )
     finally:
         bar.close()
         if pool is not None:
             pool.shutdown()
     t_figs = time.perf_counter()
 
-    rows = [summary_row(t, m, results[(t, m)]["summary"], results[(t, m)]["timing"]["total_s"])
-            for t in TESTS for m in MODES]
+    rows = [
+        summary_row(t, m, results[(t, m)]["summary"], results[(t, m)]["timing"]["total_s"])
+        for t in TESTS
+        for m in MODES
+    ]
     import pandas as pd
 
     table = pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
     write_table(out / "summary.csv", table)
     md = summary_markdown(table)
     write_text(out / "summary.md", md)
-    runs_meta = [{"test": t, "mode": m, "seed": args.seed,
-                  "duration_s": results[(t, m)]["duration_s"],
-                  "out": str(Path(t) / m), "timing": results[(t, m)]["timing"]}
-                 for t in TESTS for m in MODES]
+    runs_meta = [
+        {
+            "test": t,
+            "mode": m,
+            "seed": args.seed,
+            "duration_s": results[(t, m)]["duration_s"],
+            "out": str(Path(t) / m),
+            "timing": results[(t, m)]["timing"],
+        }
+        for t in TESTS
+        for m in MODES
+    ]
     write_manifest(
-        out, command="rtsim reproduce", seed=args.seed,
-        inputs={"quick": args.quick, "duration_s": duration, "workers": workers,
-                "tests": list(TESTS), "modes": list(MODES),
-                "scenarios": {t: {"file": str(SCENARIOS / f"{t}.toml"),
-                                  "text": (SCENARIOS / f"{t}.toml").read_text("utf-8")}
-                              for t in TESTS},
-                "docs": str(docs) if docs is not None else None, "set": list(args.set)},
+        out,
+        command="rtsim reproduce",
+        seed=args.seed,
+        inputs={
+            "quick": args.quick,
+            "duration_s": duration,
+            "workers": workers,
+            "tests": list(TESTS),
+            "modes": list(MODES),
+            "scenarios": {
+                t: {
+                    "file": str(SCENARIOS / f"{t}.toml"),
+                    "text": (SCENARIOS / f"{t}.toml").read_text("utf-8"),
+                }
+                for t in TESTS
+            },
+            "docs": str(docs) if docs is not None else None,
+            "set": list(args.set),
+        },
         argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
-        extra={"runs": runs_meta,
-               "timing": {"runs_s": t_runs - t0, "figures_s": t_figs - t_runs,
-                          "total_s": time.perf_counter() - t0},
-               "outputs": ["summary.csv", "summary.md", "manifest.json",
-                           *(f"figures/{s}.{e}" for s in figure_stems() for e in (fmt, "csv")),
-                           *(f"{t}/{m}/{f}" for t in TESTS for m in MODES
-                             for f in results[(t, m)]["written"]),
-                           *(["report.html", *(f"{t}/{m}/report.html" for t in TESTS
-                                               for m in MODES)] if finish else [])]},
+        extra={
+            "runs": runs_meta,
+            "timing": {
+                "runs_s": t_runs - t0,
+                "figures_s": t_figs - t_runs,
+                "total_s": time.perf_counter() - t0,
+            },
+            "outputs": [
+                "summary.csv",
+                "summary.md",
+                "manifest.json",
+                *(f"figures/{s}.{e}" for s in figure_stems() for e in (fmt, "csv")),
+                *(f"{t}/{m}/{f}" for t in TESTS for m in MODES for f in results[(t, m)]["written"]),
+                *(
+                    ["report.html", *(f"{t}/{m}/report.html" for t in TESTS for m in MODES)]
+                    if finish
+                    else []
+                ),
+            ],
+        },
     )
     if finish is not None:
         finish(out)

@@ -19,9 +19,18 @@ from typing import Any
 
 __all__ = ["find_chromium", "load_page", "PageResult", "FLAGS"]
 
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--hide-scrollbars", "--mute-audio"]
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--hide-scrollbars",
+    "--mute-audio",
+]
 
 
 def find_chromium() -> str | None:
@@ -54,10 +63,21 @@ class _Pipe:
             os.dup2(w_out, 4)
 
         self.proc = subprocess.Popen(
-            [exe, *FLAGS, f"--user-data-dir={profile}", "--remote-debugging-pipe",
-             "--window-size=1280,1600", "about:blank"],
-            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            preexec_fn=child_fds, pass_fds=(3, 4), close_fds=True)
+            [
+                exe,
+                *FLAGS,
+                f"--user-data-dir={profile}",
+                "--remote-debugging-pipe",
+                "--window-size=1280,1600",
+                "about:blank",
+            ],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            preexec_fn=child_fds,
+            pass_fds=(3, 4),
+            close_fds=True,
+        )
         os.close(r_cmd)
         os.close(w_out)
         self.w, self.r = w_cmd, r_out
@@ -65,8 +85,13 @@ class _Pipe:
         self.next_id = 0
         self.events: list[dict[str, Any]] = []
 
-    def send(self, method: str, params: dict | None = None, session: str | None = None,
-             timeout: float = 60.0) -> dict[str, Any]:
+    def send(
+        self,
+        method: str,
+        params: dict | None = None,
+        session: str | None = None,
+        timeout: float = 60.0,
+    ) -> dict[str, Any]:
         self.next_id += 1
         msg: dict[str, Any] = {"id": self.next_id, "method": method, "params": params or {}}
         if session:
@@ -151,8 +176,9 @@ def load_page(url: str, exe: str | None = None) -> PageResult:
         try:
             targets = pipe.send("Target.getTargets")["targetInfos"]
             page = next(t for t in targets if t["type"] == "page")
-            sid = pipe.send("Target.attachToTarget",
-                            {"targetId": page["targetId"], "flatten": True})["sessionId"]
+            sid = pipe.send(
+                "Target.attachToTarget", {"targetId": page["targetId"], "flatten": True}
+            )["sessionId"]
             for domain in ("Page", "Runtime", "Log", "Network"):
                 pipe.send(f"{domain}.enable", session=sid)
             pipe.events.clear()
@@ -160,14 +186,17 @@ def load_page(url: str, exe: str | None = None) -> PageResult:
             pipe.wait_event("Page.loadEventFired")
 
             def evaluate(expr: str) -> Any:
-                return pipe.send("Runtime.evaluate", {"expression": expr, "returnByValue": True},
-                                 session=sid)["result"]["value"]
+                return pipe.send(
+                    "Runtime.evaluate", {"expression": expr, "returnByValue": True}, session=sid
+                )["result"]["value"]
 
             imgs = json.loads(evaluate(_IMAGES_JS))
             title = evaluate("document.title")
-            shot = pipe.send("Page.captureScreenshot",
-                             {"format": "png", "captureBeyondViewport": True}, session=sid)
-            return PageResult(imgs, _errors(pipe.events), base64.b64decode(shot["data"]),
-                              title)
+            shot = pipe.send(
+                "Page.captureScreenshot",
+                {"format": "png", "captureBeyondViewport": True},
+                session=sid,
+            )
+            return PageResult(imgs, _errors(pipe.events), base64.b64decode(shot["data"]), title)
         finally:
             pipe.close()

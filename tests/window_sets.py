@@ -10,11 +10,24 @@ from rtsim.model.taskset import TaskSet
 from rtsim.model.window import WindowSpec
 
 
-def window_set(hp: list[tuple[float, float]], lp: list[tuple[float, float | str]],
-               n: int = 2, **win) -> TaskSet:
+def window_set(
+    hp: list[tuple[float, float]], lp: list[tuple[float, float | str]], n: int = 2, **win
+) -> TaskSet:
     """hp: (e, p ms); lp: (e, p) with p a number (ms) or 'c' for c·w."""
-    spec = dict(n=n, r_H=25, e_cal=0.001, e_trans=0.1, k=34, e_scan=106, e_estimate=1,
-                e_send=2, e_recv=1, delta_t=67, e_sched=1, priority=100)
+    spec = dict(
+        n=n,
+        r_H=25,
+        e_cal=0.001,
+        e_trans=0.1,
+        k=34,
+        e_scan=106,
+        e_estimate=1,
+        e_send=2,
+        e_recv=1,
+        delta_t=67,
+        e_sched=1,
+        priority=100,
+    )
     spec.update(win)
     tasks = [Task(f"hp{i}", e, p, priority=i) for i, (e, p) in enumerate(hp)]
     for i, (e, p) in enumerate(lp):
@@ -27,8 +40,10 @@ def random_window_sets(seed: int, count: int):
     rng = np.random.default_rng(seed)
     made = 0
     while made < count:
-        hp = [(float(rng.integers(1, 15)), float(rng.integers(20, 120)))
-              for _ in range(int(rng.integers(0, 3)))]
+        hp = [
+            (float(rng.integers(1, 15)), float(rng.integers(20, 120)))
+            for _ in range(int(rng.integers(0, 3)))
+        ]
         lp: list[tuple[float, float | str]] = []
         for _ in range(int(rng.integers(0, 4))):
             e = float(rng.integers(1, 40))

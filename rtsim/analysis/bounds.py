@@ -53,8 +53,19 @@ from rtsim.model.task import Task
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
 
-__all__ = ["WindowBounds", "window_bounds", "w_rta", "w_susp", "w_edf", "w_sch_of", "w_eq7_of",
-           "w_eq11_of", "lower_bound", "LOWER_BOUNDS", "BOUND_SCHEDULER"]
+__all__ = [
+    "WindowBounds",
+    "window_bounds",
+    "w_rta",
+    "w_susp",
+    "w_edf",
+    "w_sch_of",
+    "w_eq7_of",
+    "w_eq11_of",
+    "lower_bound",
+    "LOWER_BOUNDS",
+    "BOUND_SCHEDULER",
+]
 
 #: The window lower bounds an adjustment policy can use ([adjust] lower_bound).
 LOWER_BOUNDS: tuple[str, ...] = ("w_sch", "w_rta", "w_susp", "w_edf")
@@ -245,8 +256,14 @@ def _edf_c(task: Task, overhead: float) -> float:
     return task.wcet + 2.0 * overhead * stretches(task) if overhead else task.wcet
 
 
-def lower_bound(ts: TaskSet, name: str, *, scheduler: str = "fp", suspension: str = "idle",
-                where: str = "lower_bound") -> float:
+def lower_bound(
+    ts: TaskSet,
+    name: str,
+    *,
+    scheduler: str = "fp",
+    suspension: str = "idle",
+    where: str = "lower_bound",
+) -> float:
     """The window lower bound ``name`` (:data:`LOWER_BOUNDS`) for a CPU run with ``scheduler``
     and ``suspension``; a bound whose model does not match is an input error: w_sch, w_rta and
     w_susp are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only with Δt
@@ -254,15 +271,19 @@ def lower_bound(ts: TaskSet, name: str, *, scheduler: str = "fp", suspension: st
     from rtsim.errors import InputError
 
     if name not in LOWER_BOUNDS:
-        raise InputError(f"{where}: lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
-                         f"got {name!r}")
+        raise InputError(
+            f"{where}: lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, got {name!r}"
+        )
     if scheduler != BOUND_SCHEDULER[name]:
         kind = "a fixed-priority" if BOUND_SCHEDULER[name] == "fp" else "an EDF"
-        raise InputError(f"{where}: lower_bound: {name} is {kind} bound, but the "
-                         f"scheduler is {scheduler!r}")
+        raise InputError(
+            f"{where}: lower_bound: {name} is {kind} bound, but the scheduler is {scheduler!r}"
+        )
     if name == "w_susp" and suspension != "idle":
-        raise InputError(f"{where}: lower_bound: w_susp assumes the radio round trip leaves "
-                         f"the CPU idle, but suspension is {suspension!r}")
+        raise InputError(
+            f"{where}: lower_bound: w_susp assumes the radio round trip leaves "
+            f"the CPU idle, but suspension is {suspension!r}"
+        )
     if name == "w_sch":
         return w_sch_of(ts)
     if name == "w_edf":
@@ -318,8 +339,7 @@ def _task_input(t: Task) -> dict[str, Any]:
     return out
 
 
-def window_bounds(ts: TaskSet, n: int | None = None,
-                  r_H: float | None = None) -> WindowBounds:
+def window_bounds(ts: TaskSet, n: int | None = None, r_H: float | None = None) -> WindowBounds:
     """e_hough, g, Eq 7, Eq 11, w_sch, w_rta, w_susp and w_edf for ``ts`` (a TaskSet or the
     path of a task-set file; n followers, radius r_H)."""
     ts = as_taskset(ts, "window_bounds")
@@ -333,9 +353,22 @@ def window_bounds(ts: TaskSet, n: int | None = None,
         ts = ts.with_window(**changes)
     win = ts.window
     assert win is not None
-    inputs: dict[str, Any] = {k: getattr(win, k) for k in (
-        "n", "r_H", "e_cal", "e_trans", "k", "e_scan", "e_estimate", "e_send", "e_recv",
-        "delta_t", "e_sched")}
+    inputs: dict[str, Any] = {
+        k: getattr(win, k)
+        for k in (
+            "n",
+            "r_H",
+            "e_cal",
+            "e_trans",
+            "k",
+            "e_scan",
+            "e_estimate",
+            "e_send",
+            "e_recv",
+            "delta_t",
+            "e_sched",
+        )
+    }
     inputs["priority"] = win.priority
     for key in ("jitter", "offset"):
         if getattr(win, key):

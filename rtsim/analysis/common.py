@@ -37,9 +37,14 @@ def stretches(task: Task) -> int:
     return max(n, 1)
 
 
-def busy_window(c: float, t: float, j: float, d: float,
-                hp: Sequence[tuple[float, float, float]], blocking: float = 0.0
-                ) -> float | None:
+def busy_window(
+    c: float,
+    t: float,
+    j: float,
+    d: float,
+    hp: Sequence[tuple[float, float, float]],
+    blocking: float = 0.0,
+) -> float | None:
     """WCRT from arrival of a task (C, T, J, D) below ``hp`` = [(C_j, T_j, J_j)], or None.
 
     The level-i busy window with release jitter and arbitrary deadlines (module doc;

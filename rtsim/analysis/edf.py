@@ -77,9 +77,21 @@ from rtsim.model.task import Task
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
 
-__all__ = ["EdfTask", "EdfTaskResult", "EdfAnalysis", "demand", "utilization", "limit_la",
-           "busy_period", "deadline_points", "qpa", "spuri_wcrt", "analyze_edf", "edf_tasks",
-           "MAX_STEPS"]
+__all__ = [
+    "EdfTask",
+    "EdfTaskResult",
+    "EdfAnalysis",
+    "demand",
+    "utilization",
+    "limit_la",
+    "busy_period",
+    "deadline_points",
+    "qpa",
+    "spuri_wcrt",
+    "analyze_edf",
+    "edf_tasks",
+    "MAX_STEPS",
+]
 
 #: (C, T, D, J) in ms.
 EdfTask = tuple[float, float, float, float]
@@ -114,8 +126,9 @@ def limit_la(tasks: Sequence[EdfTask]) -> float:
     return max(max(d - j for _, _, d, j in tasks), s / (1.0 - u))
 
 
-def busy_period(tasks: Sequence[EdfTask], cap: float = math.inf,
-                extra: float = 0.0) -> float | None:
+def busy_period(
+    tasks: Sequence[EdfTask], cap: float = math.inf, extra: float = 0.0
+) -> float | None:
     """L_b: least L = Σ ⌈(L + J_i)/T_i⌉·C_i from Σ C_i (the synchronous busy period with
     jitter); None if it does not close (U > 1, or U = 1 with jitter) within MAX_STEPS, or
     passes ``cap``. ``extra``: work added once (a blocking section)."""
@@ -192,8 +205,7 @@ def qpa(tasks: Sequence[EdfTask]) -> QpaResult:
         return QpaResult(True, None, "U <= 1, D - J >= T", None, 0)
     la = limit_la(tasks)
     lb = busy_period(tasks, cap=la)  # only needed where it is below L_a
-    cands = [(x, k) for x, k in ((la, "L_a"), (lb, "L_b")) if x is not None
-             and math.isfinite(x)]
+    cands = [(x, k) for x, k in ((la, "L_a"), (lb, "L_b")) if x is not None and math.isfinite(x)]
     if not cands:  # U = 1 and the busy period does not close (jitter): one hyperperiod
         hyper = _hyperperiod(tasks)
         if hyper is None:
@@ -220,14 +232,16 @@ def qpa(tasks: Sequence[EdfTask]) -> QpaResult:
     return QpaResult(False, limit, kind, t, steps)
 
 
-def blocking_check(tasks: Sequence[EdfTask], blocking: Callable[[float], float]
-                   ) -> float | None:
+def blocking_check(tasks: Sequence[EdfTask], blocking: Callable[[float], float]) -> float | None:
     """Baker's SRP condition beside the demand criterion: the first deadline point t with
     h(t) + B(t) > t (None: none). Points only below the largest t where B(t) > 0 matter
     (beyond it the plain criterion decides); B is non-increasing in t."""
     top = max((d for _, _, d, _ in tasks), default=0.0)
-    if blocking(0.0) <= 0.0 and blocking(top) <= 0.0 and \
-            all(blocking(d - j) <= 0.0 for _, _, d, j in tasks):
+    if (
+        blocking(0.0) <= 0.0
+        and blocking(top) <= 0.0
+        and all(blocking(d - j) <= 0.0 for _, _, d, j in tasks)
+    ):
         return None
     steps = 0
     for t in deadline_points(tasks, top):
@@ -242,8 +256,9 @@ def blocking_check(tasks: Sequence[EdfTask], blocking: Callable[[float], float]
     return None
 
 
-def spuri_wcrt(i: int, tasks: Sequence[EdfTask],
-               blocking: Callable[[float], float] | None = None) -> float | None:
+def spuri_wcrt(
+    i: int, tasks: Sequence[EdfTask], blocking: Callable[[float], float] | None = None
+) -> float | None:
     """Spuri's worst-case response time of task ``tasks[i]`` under EDF (module doc), from
     arrival; None when the synchronous busy period does not close (U > 1, or U = 1 with
     jitter: the search over arrivals has no end). ``blocking``: B(t) of
@@ -275,8 +290,11 @@ def spuri_wcrt(i: int, tasks: Sequence[EdfTask],
         own = (floor_div(a + ji, ti) + 1) * ci
         if blocking is not None:
             own += blocking(dl)
-        inter = [(c, p, floor_div(dl - d + j, p) + 1, j) for c, p, d, j in others
-                 if d - j <= dl + CEIL_TOL]
+        inter = [
+            (c, p, floor_div(dl - d + j, p) + 1, j)
+            for c, p, d, j in others
+            if d - j <= dl + CEIL_TOL
+        ]
         t = own + math.fsum(c for c, _, _, _ in inter)
         for _ in range(MAX_STEPS):
             nxt = own + math.fsum(min(ceil_div(t + j, p), cap) * c for c, p, cap, j in inter)
@@ -296,8 +314,9 @@ def edf_tasks(tasks: Sequence[Task], overhead: float = 0.0) -> list[EdfTask]:
     out = []
     for t in tasks:
         if t.per_window:
-            raise TaskSetError(f"task '{t.name}': period is a multiple of w; resolve it with "
-                               f"at_window(w) first")
+            raise TaskSetError(
+                f"task '{t.name}': period is a multiple of w; resolve it with at_window(w) first"
+            )
         assert t.deadline is not None
         c = t.wcet + 2.0 * o * stretches(t) if o else t.wcet
         out.append((c, t.period, t.deadline, t.jitter))
@@ -356,17 +375,32 @@ class EdfAnalysis:
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
-        return {"name": self.name, "scheduler": self.scheduler, "w": self.w,
-                "tasks": [t.as_dict() for t in self.tasks], "utilization": self.utilization,
-                "schedulable": self.schedulable, "limit": self.limit,
-                "limit_kind": self.limit_kind, "failed_at": self.failed_at,
-                "qpa_steps": self.qpa_steps, "overhead": self.overhead,
-                "offsets_ignored": self.offsets_ignored, "suspension": self.suspension,
-                "resources": self.resources}
+        return {
+            "name": self.name,
+            "scheduler": self.scheduler,
+            "w": self.w,
+            "tasks": [t.as_dict() for t in self.tasks],
+            "utilization": self.utilization,
+            "schedulable": self.schedulable,
+            "limit": self.limit,
+            "limit_kind": self.limit_kind,
+            "failed_at": self.failed_at,
+            "qpa_steps": self.qpa_steps,
+            "overhead": self.overhead,
+            "offsets_ignored": self.offsets_ignored,
+            "suspension": self.suspension,
+            "resources": self.resources,
+        }
 
 
-def analyze_edf(ts: TaskSet, w: float | None = None, *, overhead: float | None = None,
-                suspension: str = "cpu", resources: str | None = None) -> EdfAnalysis:
+def analyze_edf(
+    ts: TaskSet,
+    w: float | None = None,
+    *,
+    overhead: float | None = None,
+    suspension: str = "cpu",
+    resources: str | None = None,
+) -> EdfAnalysis:
     """The EDF analysis of ``ts`` (at window ``w`` for a processing-window set: default the
     analytic w_sch, as :func:`rtsim.analysis.rta.analyze`). ``overhead`` defaults to the
     set's; ``suspension`` ("cpu" or "idle") is recorded, the analysis is
@@ -382,23 +416,28 @@ def analyze_edf(ts: TaskSet, w: float | None = None, *, overhead: float | None =
 
     ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze_edf")
     et = edf_tasks(tasks, overhead)
-    protocol = ts.resource_protocol("edf") if resources is None or not ts.has_sections \
-        else resources
+    protocol = (
+        ts.resource_protocol("edf") if resources is None or not ts.has_sections else resources
+    )
     blocking = None
     if protocol is not None:
-        check_protocol(protocol, "edf", f"{ts.source or ts.name or 'task set'}: "
-                                          f"[scheduler] resources")
+        check_protocol(
+            protocol, "edf", f"{ts.source or ts.name or 'task set'}: [scheduler] resources"
+        )
         if suspension == "idle" and any(stretches(t) > 1 for t in tasks):
-            raise TaskSetError(f"{ts.source or ts.name or 'task set'}: critical sections "
-                               f"under edf with suspensions that leave the CPU idle have no "
-                               f"analysis here; use suspension \"cpu\"")
+            raise TaskSetError(
+                f"{ts.source or ts.name or 'task set'}: critical sections "
+                f"under edf with suspensions that leave the CPU idle have no "
+                f'analysis here; use suspension "cpu"'
+            )
         blocking = edf_blocking(tasks, protocol)
     verdict = qpa(et)
     if blocking is not None and verdict.schedulable:
         failed = blocking_check(et, blocking)
         if failed is not None:
-            verdict = QpaResult(False, verdict.limit, verdict.limit_kind + " + B(t)", failed,
-                                verdict.steps)
+            verdict = QpaResult(
+                False, verdict.limit, verdict.limit_kind + " + B(t)", failed, verdict.steps
+            )
     results = []
     for i, task in enumerate(tasks):
         r = spuri_wcrt(i, et, blocking)
@@ -409,12 +448,33 @@ def analyze_edf(ts: TaskSet, w: float | None = None, *, overhead: float | None =
             r, kind = task.deadline, "deadline"
         ok = r is not None and r <= task.deadline + DEADLINE_TOL
         b = 0.0 if blocking is None else blocking(task.deadline - task.jitter)
-        results.append(EdfTaskResult(task.name, task.priority, task.wcet, task.period,
-                                     task.deadline, task.jitter, task.wcet / task.period,
-                                     r, ok, kind, b))
-    return EdfAnalysis(tasks=tuple(results), utilization=utilization(et),
-                       schedulable=verdict.schedulable, limit=verdict.limit,
-                       limit_kind=verdict.limit_kind, failed_at=verdict.failed_at,
-                       qpa_steps=verdict.steps, w=w, name=ts.name, overhead=float(overhead),
-                       offsets_ignored=any(t.offset > 0 for t in tasks), suspension=suspension,
-                       resources=protocol)
+        results.append(
+            EdfTaskResult(
+                task.name,
+                task.priority,
+                task.wcet,
+                task.period,
+                task.deadline,
+                task.jitter,
+                task.wcet / task.period,
+                r,
+                ok,
+                kind,
+                b,
+            )
+        )
+    return EdfAnalysis(
+        tasks=tuple(results),
+        utilization=utilization(et),
+        schedulable=verdict.schedulable,
+        limit=verdict.limit,
+        limit_kind=verdict.limit_kind,
+        failed_at=verdict.failed_at,
+        qpa_steps=verdict.steps,
+        w=w,
+        name=ts.name,
+        overhead=float(overhead),
+        offsets_ignored=any(t.offset > 0 for t in tasks),
+        suspension=suspension,
+        resources=protocol,
+    )

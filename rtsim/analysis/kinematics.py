@@ -166,9 +166,17 @@ def msb_localization_full(rho_dot: Any, beta_dot: Any, rho: Any, r_H: Any) -> An
     return _ratio_ms(r_H, xp.hypot(rho_dot, rho * beta_dot))
 
 
-def msb_localization_predicted(r_H: float, *, fix_sd: float, heading_sd: float,
-                               speed_sd: float, turn_sd: float, v_max: float, k: float = 3.0,
-                               leader_error: float = 0.0) -> float:
+def msb_localization_predicted(
+    r_H: float,
+    *,
+    fix_sd: float,
+    heading_sd: float,
+    speed_sd: float,
+    turn_sd: float,
+    v_max: float,
+    k: float = 3.0,
+    leader_error: float = 0.0,
+) -> float:
     """The localization bound when the Hough window is centred at the follower's predicted
     position (ms; docs/localization.md): the largest w with
 
@@ -242,11 +250,14 @@ class Thresholds:
                 raise InputError(f"Thresholds: {name} must be positive and finite, got {value!r}")
             object.__setattr__(self, name, float(value))
         if self.localization not in LOCALIZATION_KINDS:
-            raise InputError(f"Thresholds: localization must be one of "
-                             f"{', '.join(LOCALIZATION_KINDS)}, got {self.localization!r}")
+            raise InputError(
+                f"Thresholds: localization must be one of "
+                f"{', '.join(LOCALIZATION_KINDS)}, got {self.localization!r}"
+            )
         if not (is_real(self.predicted_ms) and self.predicted_ms >= 0.0):
-            raise InputError(f"Thresholds: predicted_ms must be a non-negative number, got "
-                             f"{self.predicted_ms!r}")
+            raise InputError(
+                f"Thresholds: predicted_ms must be a non-negative number, got {self.predicted_ms!r}"
+            )
 
 
 def scalar_msbs(
@@ -294,8 +305,7 @@ def follower_msbs(
     """
     if _xp(v_l, omega_l, v_f, rho, beta, theta, rho_d) is math:  # scalar fast path, same ops
         s_loc, sep, path, bear = scalar_msbs(v_l, omega_l, v_f, rho, beta, theta, rho_d, thr)
-        return {"localization": s_loc, "separation": sep, "path_diversion": path,
-                "bearing": bear}
+        return {"localization": s_loc, "separation": sep, "path_diversion": path, "bearing": bear}
     rd = rho_dot(v_l, v_f, beta, theta)
     bd = beta_dot(v_l, v_f, beta, theta, rho, omega_l)
     loc: Any

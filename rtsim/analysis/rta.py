@@ -63,8 +63,19 @@ from rtsim.model.task import Task
 if TYPE_CHECKING:  # the model package imports rtsim.analysis: no runtime import of it here
     from rtsim.model.taskset import TaskSet
 
-__all__ = ["Analysis", "TaskResult", "analyze", "analysis_inputs", "busy_window", "ceil_div",
-           "response_time", "stretches", "CEIL_TOL", "DEADLINE_TOL"]
+__all__ = [
+    "Analysis",
+    "TaskResult",
+    "analyze",
+    "analysis_inputs",
+    "busy_window",
+    "ceil_div",
+    "response_time",
+    "stretches",
+    "CEIL_TOL",
+    "DEADLINE_TOL",
+]
+
 
 def _check_resolved(task: Task) -> None:
     if task.per_window:
@@ -73,8 +84,9 @@ def _check_resolved(task: Task) -> None:
         )
 
 
-def response_time(task: Task, higher: Sequence[Task], overhead: float = 0.0,
-                  blocking: float = 0.0) -> float | None:
+def response_time(
+    task: Task, higher: Sequence[Task], overhead: float = 0.0, blocking: float = 0.0
+) -> float | None:
     """Worst-case response time of ``task`` below the tasks ``higher`` (ms, from arrival).
 
     Exact for independent tasks without offsets (release jitter, arbitrary deadlines; see
@@ -92,8 +104,7 @@ def response_time(task: Task, higher: Sequence[Task], overhead: float = 0.0,
     o = float(overhead)
     deadline = task.period if task.deadline is None else task.deadline
     c = task.wcet + o * stretches(task) if o else task.wcet
-    hp = [(t.wcet + 2.0 * o * stretches(t) if o else t.wcet, t.period, t.jitter)
-          for t in higher]
+    hp = [(t.wcet + 2.0 * o * stretches(t) if o else t.wcet, t.period, t.jitter) for t in higher]
     return busy_window(c, task.period, task.jitter, deadline, hp, blocking)
 
 
@@ -177,9 +188,9 @@ class Analysis:
         }
 
 
-def analysis_inputs(ts: TaskSet, w: float | None,
-                    overhead: float | None, suspension: str, caller: str
-                    ) -> tuple[TaskSet, float | None, float, tuple[Task, ...]]:
+def analysis_inputs(
+    ts: TaskSet, w: float | None, overhead: float | None, suspension: str, caller: str
+) -> tuple[TaskSet, float | None, float, tuple[Task, ...]]:
     """The checked inputs of an analysis of ``ts`` (a TaskSet or a task-set path): the set,
     the window w (default the analytic w_sch for a set with a ``[window]``), the overhead
     (default the set's) and the tasks to analyse (the window chain as one task at w)."""
@@ -189,10 +200,10 @@ def analysis_inputs(ts: TaskSet, w: float | None,
         overhead = ts.overhead
     if suspension not in ("cpu", "idle"):
         raise TaskSetError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
-    if not is_real(overhead) or \
-            not math.isfinite(overhead) or overhead < 0:
-        raise TaskSetError(f"{label}: overhead must be a non-negative number of ms, "
-                           f"got {overhead!r}")
+    if not is_real(overhead) or not math.isfinite(overhead) or overhead < 0:
+        raise TaskSetError(
+            f"{label}: overhead must be a non-negative number of ms, got {overhead!r}"
+        )
     if ts.window is None:
         if w is not None:
             raise TaskSetError(f"{label}: has no [window], so a window w does not apply")
@@ -203,9 +214,14 @@ def analysis_inputs(ts: TaskSet, w: float | None,
     return ts, w, overhead, tuple(tasks)
 
 
-def analyze(ts: TaskSet, w: float | None = None, *,
-            overhead: float | None = None,
-            suspension: str = "cpu", resources: str | None = None) -> Analysis:
+def analyze(
+    ts: TaskSet,
+    w: float | None = None,
+    *,
+    overhead: float | None = None,
+    suspension: str = "cpu",
+    resources: str | None = None,
+) -> Analysis:
     """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,
     default the set's ``overhead``). ``suspension="idle"``: suspensions leave the CPU free and
     each task takes the smaller of its sound suspension-aware bounds
@@ -223,11 +239,11 @@ def analyze(ts: TaskSet, w: float | None = None, *,
     from rtsim.analysis.blocking import check_protocol, fp_blocking
 
     ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze")
-    protocol = ts.resource_protocol("fp") if resources is None or not ts.has_sections \
-        else resources
+    protocol = ts.resource_protocol("fp") if resources is None or not ts.has_sections else resources
     if protocol is not None:
-        check_protocol(protocol, "fp", f"{ts.source or ts.name or 'task set'}: "
-                                          f"[scheduler] resources")
+        check_protocol(
+            protocol, "fp", f"{ts.source or ts.name or 'task set'}: [scheduler] resources"
+        )
     block = fp_blocking(tasks, protocol)
     results = []
     aware = None
@@ -236,12 +252,25 @@ def analyze(ts: TaskSet, w: float | None = None, *,
 
         aware = suspension_aware(tasks, overhead, block if protocol else None)
     for i, task in enumerate(tasks):
-        r = aware[i].wcrt if aware is not None else \
-            response_time(task, tasks[:i], overhead, block[i])
+        r = (
+            aware[i].wcrt
+            if aware is not None
+            else response_time(task, tasks[:i], overhead, block[i])
+        )
         assert task.deadline is not None
-        results.append(TaskResult(task.name, task.priority, task.wcet, task.period,
-                                  task.deadline, task.wcet / task.period, r, r is not None,
-                                  block[i]))
+        results.append(
+            TaskResult(
+                task.name,
+                task.priority,
+                task.wcet,
+                task.period,
+                task.deadline,
+                task.wcet / task.period,
+                r,
+                r is not None,
+                block[i],
+            )
+        )
     return Analysis(
         tasks=tuple(results),
         utilization=util.total_utilization(tasks),

@@ -31,10 +31,13 @@ def as_taskset(ts: object, function: str) -> TaskSet:
     if isinstance(ts, TaskSet):
         return ts
     if isinstance(ts, str | os.PathLike):
-        raise TaskSetError(f"{function}: expected a TaskSet, got the path {os.fspath(ts)!r} "
-                           f"(read the file with rtsim.load_taskset)")
-    raise TaskSetError(f"{function}: expected a TaskSet or the path of a task-set file, "
-                       f"got {type(ts).__name__}")
+        raise TaskSetError(
+            f"{function}: expected a TaskSet, got the path {os.fspath(ts)!r} "
+            f"(read the file with rtsim.load_taskset)"
+        )
+    raise TaskSetError(
+        f"{function}: expected a TaskSet or the path of a task-set file, got {type(ts).__name__}"
+    )
 
 
 def _need_window(ts: TaskSet) -> WindowSpec:
@@ -86,8 +89,10 @@ def _sufficient(task: Task, scaled: bool, higher: Sequence[tuple[Task, bool]]) -
         return w0
     if not math.isfinite(w0):
         return math.inf
-    extra = math.fsum(math.ceil(t.jitter / (t.period * w0 if s else t.period) - CEIL_TOL)
-                      * t.wcet for t, s in jittered)
+    extra = math.fsum(
+        math.ceil(t.jitter / (t.period * w0 if s else t.period) - CEIL_TOL) * t.wcet
+        for t, s in jittered
+    )
     return solve(const + extra, task.jitter)
 
 
@@ -104,8 +109,11 @@ def w_eq11_of(ts: TaskSet) -> float:
     _need_window(ts)
     entries = _entries(ts)
     assert ts.window is not None
-    bounds = [_sufficient(t, s, entries[:k]) for k, (t, s) in enumerate(entries)
-              if t.priority > ts.window.priority]
+    bounds = [
+        _sufficient(t, s, entries[:k])
+        for k, (t, s) in enumerate(entries)
+        if t.priority > ts.window.priority
+    ]
     return max(bounds, default=-math.inf)
 
 
@@ -125,6 +133,8 @@ def window_or_w_sch(ts: TaskSet, w: float | None = None) -> float:
     w_sch = w_sch_of(ts)
     if not math.isfinite(w_sch):
         label = ts.source or ts.name or "task set"
-        raise TaskSetError(f"{label}: the analytic bound w_sch is infinite (T_hp saturates the "
-                           f"CPU); choose a window w explicitly")
+        raise TaskSetError(
+            f"{label}: the analytic bound w_sch is infinite (T_hp saturates the "
+            f"CPU); choose a window w explicitly"
+        )
     return w_sch

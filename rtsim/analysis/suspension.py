@@ -87,8 +87,9 @@ def _compute_runs(task: Task) -> tuple[list[float], float]:
     return runs or [0.0], susp
 
 
-def _segment_response(c: float, hp: Sequence[tuple[float, float, float]],
-                      limit: float) -> float | None:
+def _segment_response(
+    c: float, hp: Sequence[tuple[float, float, float]], limit: float
+) -> float | None:
     """Least w = c + Σ ⌈(w + J_j)/T_j⌉ C_j (one segment, critical instant), None past limit."""
     w = c + math.fsum(cj for cj, _, _ in hp)
     for _ in range(_MAX_STEPS):
@@ -101,8 +102,9 @@ def _segment_response(c: float, hp: Sequence[tuple[float, float, float]],
     return None
 
 
-def _unified(task: Task, higher: Sequence[Task], done: Sequence[SuspensionBound],
-             o: float, blk: float = 0.0) -> float | None:
+def _unified(
+    task: Task, higher: Sequence[Task], done: Sequence[SuspensionBound], o: float, blk: float = 0.0
+) -> float | None:
     """Bound (d) of ``task`` below ``higher`` (module doc), None where it does not apply."""
     from rtsim.analysis.unified import HigherTask, unified_bound
 
@@ -111,16 +113,17 @@ def _unified(task: Task, higher: Sequence[Task], done: Sequence[SuspensionBound]
         if b.wcrt is None:
             return None
         c = compute_time(t)
-        hp.append(HigherTask(c, c + 2.0 * o * stretches(t), t.wcet - c, t.period, t.jitter,
-                             b.wcrt))
+        hp.append(HigherTask(c, c + 2.0 * o * stretches(t), t.wcet - c, t.period, t.jitter, b.wcrt))
     c = compute_time(task)
     d = task.period if task.deadline is None else task.deadline
-    return unified_bound(c + (o + blk) * stretches(task), task.wcet - c, task.period, d,
-                         task.jitter, hp)
+    return unified_bound(
+        c + (o + blk) * stretches(task), task.wcet - c, task.period, d, task.jitter, hp
+    )
 
 
-def suspension_aware(tasks: Sequence[Task], overhead: float = 0.0,
-                     blocking: Sequence[float] | None = None) -> list[SuspensionBound]:
+def suspension_aware(
+    tasks: Sequence[Task], overhead: float = 0.0, blocking: Sequence[float] | None = None
+) -> list[SuspensionBound]:
     """Bounds of every task of a resolved set, highest priority first (module doc).
 
     ``blocking``: each task's blocking term B (in the order of ``tasks``,
@@ -168,6 +171,7 @@ def suspension_aware(tasks: Sequence[Task], overhead: float = 0.0,
                 other = busy_window(own, task.period, task.jitter, d, hp)
         unified = _unified(task, higher, out, o, block[i]) if hp_susp else None
         bounds = [b for b in (obl, other, unified) if b is not None]
-        out.append(SuspensionBound(task.name, min(bounds) if bounds else None, obl, other,
-                                   kind, unified))
+        out.append(
+            SuspensionBound(task.name, min(bounds) if bounds else None, obl, other, kind, unified)
+        )
     return out

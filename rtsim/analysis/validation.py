@@ -105,8 +105,12 @@ def task_bounds(ts: TaskSet, w: float | None = None) -> dict[str, TaskBounds]:
         per_window = {t.name for t in ts.tasks if t.per_window}
         win_name = ts.window.name
     a = analyze(ts, w) if ts.window is not None else analyze(ts)
-    return {t.name: TaskBounds(t.name, t.wcrt, t.deadline, w, w_sch, t.name in per_window,
-                               t.name == win_name) for t in a.tasks}
+    return {
+        t.name: TaskBounds(
+            t.name, t.wcrt, t.deadline, w, w_sch, t.name in per_window, t.name == win_name
+        )
+        for t in a.tasks
+    }
 
 
 @dataclass(frozen=True)
@@ -183,8 +187,7 @@ def smallest_passing(
     raise ValueError("smallest_passing: no stable threshold after 1000 rounds")
 
 
-def percentiles(values: Iterable[float], qs: Sequence[float] = PERCENTILES
-                ) -> dict[float, float]:
+def percentiles(values: Iterable[float], qs: Sequence[float] = PERCENTILES) -> dict[float, float]:
     """Percentiles of the finite ``values`` (numpy's linear interpolation); NaN if none."""
     arr = np.asarray(list(values) if not isinstance(values, np.ndarray) else values, dtype=float)
     arr = arr[np.isfinite(arr)]
@@ -218,9 +221,12 @@ def _f(x: Any) -> float:
     return v
 
 
-def check_results(rows: pd.DataFrame | Iterable[Mapping[str, Any]], *,
-                  bound_tol: float = BOUND_TOL, search_tol: float = SEARCH_TOL
-                  ) -> list[Failure]:
+def check_results(
+    rows: pd.DataFrame | Iterable[Mapping[str, Any]],
+    *,
+    bound_tol: float = BOUND_TOL,
+    search_tol: float = SEARCH_TOL,
+) -> list[Failure]:
     """Every failure (and warning) in a validation table (columns: module doc of
     :mod:`rtsim.validate.tidy`; missing columns are skipped).
 
@@ -238,27 +244,61 @@ def check_results(rows: pd.DataFrame | Iterable[Mapping[str, Any]], *,
     out: list[Failure] = []
     seen: set[tuple[str, str]] = set()
     for r in records:
-        config, task, mode = str(r.get("config", "")), str(r.get("task", "")), \
-            str(r.get("mode", ""))
+        config, task, mode = (
+            str(r.get("config", "")),
+            str(r.get("task", "")),
+            str(r.get("mode", "")),
+        )
         sim, wcrt = _f(r.get("sim_max")), _f(r.get("wcrt"))
         ok = r.get("assumption_ok", True)
         ok = True if ok is None or (isinstance(ok, float) and math.isnan(ok)) else bool(ok)
         if math.isfinite(sim) and math.isfinite(wcrt) and sim > wcrt + bound_tol:
-            out.append(Failure(config, task, mode, "response above WCRT", sim, wcrt,
-                               "failure" if ok else "warning"))
+            out.append(
+                Failure(
+                    config,
+                    task,
+                    mode,
+                    "response above WCRT",
+                    sim,
+                    wcrt,
+                    "failure" if ok else "warning",
+                )
+            )
         aware = _f(r.get("wcrt_susp"))
-        if mode == "counted-idle" and math.isfinite(sim) and math.isfinite(aware) \
-                and sim > aware + bound_tol:
-            out.append(Failure(config, task, mode, "response above the suspension-aware WCRT",
-                               sim, aware, "failure" if ok else "warning"))
+        if (
+            mode == "counted-idle"
+            and math.isfinite(sim)
+            and math.isfinite(aware)
+            and sim > aware + bound_tol
+        ):
+            out.append(
+                Failure(
+                    config,
+                    task,
+                    mode,
+                    "response above the suspension-aware WCRT",
+                    sim,
+                    aware,
+                    "failure" if ok else "warning",
+                )
+            )
         w_sim, w_rta, w_sch = _f(r.get("w_sim")), _f(r.get("w_rta")), _f(r.get("w_sch"))
         key = (config, mode)
         if key in seen:
             continue
         seen.add(key)
         if math.isfinite(w_sim) and math.isfinite(w_rta) and w_sim > w_rta + search_tol:
-            out.append(Failure(config, "*", mode, "w_sim above w_rta", w_sim, w_rta,
-                               "failure" if ok else "warning"))
+            out.append(
+                Failure(
+                    config,
+                    "*",
+                    mode,
+                    "w_sim above w_rta",
+                    w_sim,
+                    w_rta,
+                    "failure" if ok else "warning",
+                )
+            )
         if math.isfinite(w_sch) and math.isfinite(w_rta) and w_sch < w_rta - bound_tol:
             out.append(Failure(config, "*", mode, "w_sch below w_rta", w_sch, w_rta))
         w_susp = _f(r.get("w_susp"))
@@ -273,15 +313,36 @@ def check_results(rows: pd.DataFrame | Iterable[Mapping[str, Any]], *,
         if mode != "counted-idle":  # w_susp's model: Δt with the CPU idle
             continue
         if math.isfinite(w_sim) and math.isfinite(w_susp) and w_sim > w_susp + search_tol:
-            out.append(Failure(config, "*", mode, "w_sim above w_susp", w_sim, w_susp,
-                               "failure" if ok else "warning"))
+            out.append(
+                Failure(
+                    config,
+                    "*",
+                    mode,
+                    "w_sim above w_susp",
+                    w_sim,
+                    w_susp,
+                    "failure" if ok else "warning",
+                )
+            )
         geo = _f(r.get("w_susp_geo"))
         geo_ok = r.get("geo_assumption_ok", True)
-        geo_ok = True if geo_ok is None or (isinstance(geo_ok, float) and math.isnan(geo_ok)) \
+        geo_ok = (
+            True
+            if geo_ok is None or (isinstance(geo_ok, float) and math.isnan(geo_ok))
             else bool(geo_ok)
+        )
         if math.isfinite(w_sim) and math.isfinite(geo) and w_sim > geo + search_tol:
-            out.append(Failure(config, "*", mode, "w_sim above w_susp_geo", w_sim, geo,
-                               "failure" if geo_ok else "warning"))
+            out.append(
+                Failure(
+                    config,
+                    "*",
+                    mode,
+                    "w_sim above w_susp_geo",
+                    w_sim,
+                    geo,
+                    "failure" if geo_ok else "warning",
+                )
+            )
     return out
 
 
@@ -301,8 +362,13 @@ def summarize(df: pd.DataFrame) -> dict[str, Any]:
         key = f"{source}/{mode}"
         per_cfg = g.drop_duplicates("config")
         entry: dict[str, Any] = {"configs": int(per_cfg.shape[0])}
-        for col in ("w_sch_over_w_sim", "w_rta_over_w_sim", "w_susp_over_w_sim",
-                    "w_geo_over_w_sim", "w_edf_over_w_sim"):
+        for col in (
+            "w_sch_over_w_sim",
+            "w_rta_over_w_sim",
+            "w_susp_over_w_sim",
+            "w_geo_over_w_sim",
+            "w_edf_over_w_sim",
+        ):
             if col in g:
                 entry[col] = _range(per_cfg[col])
         if "wcrt_over_sim_max" in g:

@@ -41,8 +41,10 @@ def k_geometric(rho_min: float, r_F: float = R_F, spacing_deg: float = BEAM_SPAC
     361 when rho_min ≤ r_F (the disc can cover the sensor).
     """
     if not (math.isfinite(rho_min) and rho_min > 0 and r_F > 0 and spacing_deg > 0):
-        raise ValueError(f"k_geometric: need positive rho_min, r_F, spacing, got "
-                         f"{rho_min!r}, {r_F!r}, {spacing_deg!r}")
+        raise ValueError(
+            f"k_geometric: need positive rho_min, r_F, spacing, got "
+            f"{rho_min!r}, {r_F!r}, {spacing_deg!r}"
+        )
     if rho_min <= r_F:
         return LASER_POINTS
     width = 2.0 * math.asin(r_F / rho_min)

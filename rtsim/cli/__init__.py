@@ -40,11 +40,28 @@ COMMANDS: tuple[str, ...] = (
 #: Metavariables of value options that do not name their own, by destination: one word per
 #: kind of value, the same in every sub-command.
 METAVARS: dict[str, str] = {
-    "horizon": "MS", "overhead": "MS", "window": "MS", "granularity": "MS", "seed": "N",
-    "followers": "N", "hough_radius": "CM", "tasks": "N", "count": "N", "windows": "N",
-    "random_sets": "N", "bins": "N", "utilization": "U", "periods": "SPEC",
-    "deadlines": "SPEC", "jobs": "FILE", "trace": "FILE", "gantt": "FILE",
-    "gantt_range": "A..B", "histogram": "FILE", "out": "DIR", "scheduler": "NAME",
+    "horizon": "MS",
+    "overhead": "MS",
+    "window": "MS",
+    "granularity": "MS",
+    "seed": "N",
+    "followers": "N",
+    "hough_radius": "CM",
+    "tasks": "N",
+    "count": "N",
+    "windows": "N",
+    "random_sets": "N",
+    "bins": "N",
+    "utilization": "U",
+    "periods": "SPEC",
+    "deadlines": "SPEC",
+    "jobs": "FILE",
+    "trace": "FILE",
+    "gantt": "FILE",
+    "gantt_range": "A..B",
+    "histogram": "FILE",
+    "out": "DIR",
+    "scheduler": "NAME",
     "dpi": "N",
 }
 #: Help of options whose module gives none.
@@ -58,13 +75,21 @@ HELPS: dict[str, str] = {
     "utilization": "total utilization (UUniFast-Discard above 1)",
     "random_sets": "random task sets checked beside the paper's set",
     "allow_code": "let the input files load Python code they name as package.module:Name "
-                  "([scheduler] policy, [adjust] policy, a sweep's function); without it such "
-                  "a name is refused and its module never imported",
+    "([scheduler] policy, [adjust] policy, a sweep's function); without it such "
+    "a name is refused and its module never imported",
 }
 
 #: Sub-commands that read task-set, scenario or sweep files (they take ``--allow-code``).
-READS_INPUT_FILES: tuple[str, ...] = ("analyze", "bounds", "simulate", "generate", "scenario",
-                                      "sweep", "validate", "histogram")
+READS_INPUT_FILES: tuple[str, ...] = (
+    "analyze",
+    "bounds",
+    "simulate",
+    "generate",
+    "scenario",
+    "sweep",
+    "validate",
+    "histogram",
+)
 
 
 def plain(text: str | None) -> str | None:
@@ -133,12 +158,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def numeric_options(parser: argparse.ArgumentParser,
-                    command: str) -> list[argparse.Action]:
+def numeric_options(parser: argparse.ArgumentParser, command: str) -> list[argparse.Action]:
     """The options of sub-command ``command`` that take an int or a float."""
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    return [a for a in sub.choices[command]._actions
-            if a.option_strings and a.type in (int, float)]
+    return [a for a in sub.choices[command]._actions if a.option_strings and a.type in (int, float)]
 
 
 def check_option_ranges(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
@@ -162,8 +185,9 @@ def suggest(token: str, options: list[str]) -> str | None:
     return close_match(name, options)
 
 
-def unknown_arguments(parser: argparse.ArgumentParser, command: str | None,
-                      extra: list[str]) -> str:
+def unknown_arguments(
+    parser: argparse.ArgumentParser, command: str | None, extra: list[str]
+) -> str:
     """The one-line error for arguments no option took: the first unknown option with a
     did-you-mean, else the first stray value."""
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
@@ -186,13 +210,17 @@ def _unknown_before_parsing(parser: argparse.ArgumentParser, argv: list[str]) ->
         return None
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     known = set(sub.choices[command].option_strings())
-    after = argv[argv.index(command) + 1:]
+    after = argv[argv.index(command) + 1 :]
     if "--" in after:
-        after = after[:after.index("--")]
+        after = after[: after.index("--")]
     for token in after:
         name = token.split("=", 1)[0]
-        if (token.startswith("-") and len(token) > 1 and name not in known
-                and not re.fullmatch(r"-[\d.].*", token)):
+        if (
+            token.startswith("-")
+            and len(token) > 1
+            and name not in known
+            and not re.fullmatch(r"-[\d.].*", token)
+        ):
             return unknown_arguments(parser, command, [token])
     return None
 
@@ -256,8 +284,10 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         args, extra = parser.parse_known_args(argv)
         if extra:
-            print(one_line(unknown_arguments(parser, getattr(args, "command", None), extra)),
-                  file=sys.stderr)
+            print(
+                one_line(unknown_arguments(parser, getattr(args, "command", None), extra)),
+                file=sys.stderr,
+            )
             return 2
         check_option_ranges(parser, args)
         if getattr(args, "allow_code", False):

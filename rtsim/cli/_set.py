@@ -13,14 +13,17 @@ from typing import Any
 
 __all__ = ["add_set_option", "set_overrides", "set_strings"]
 
-HELP = ("change a key of the input file: a dotted path as in a sweep's grid, the value read as "
-        "TOML (a bare word as text); repeatable, e.g. --set formation.followers=4")
+HELP = (
+    "change a key of the input file: a dotted path as in a sweep's grid, the value read as "
+    "TOML (a bare word as text); repeatable, e.g. --set formation.followers=4"
+)
 
 
 def add_set_option(parser: Any, help: str = HELP) -> None:
     """Add ``--set KEY=VALUE`` (repeatable) to ``parser``."""
-    parser.add_argument("--set", dest="set", action="append", default=[],
-                        metavar="KEY=VALUE", help=help)
+    parser.add_argument(
+        "--set", dest="set", action="append", default=[], metavar="KEY=VALUE", help=help
+    )
 
 
 def set_strings(args: Any) -> list[str]:

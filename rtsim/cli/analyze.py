@@ -21,14 +21,16 @@ from typing import Any
 
 from rtsim.errors import InputError
 
-__all__ = ["register", "run", "format_analysis", "format_edf", "format_transaction",
-           "json_safe"]
+__all__ = ["register", "run", "format_analysis", "format_edf", "format_transaction", "json_safe"]
 
 
 def register(sub: Any) -> None:
     """Add the ``analyze`` sub-command."""
-    p = sub.add_parser("analyze", help="exact response-time analysis of a task set",
-                       description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "analyze",
+        help="exact response-time analysis of a task set",
+        description=__doc__.splitlines()[0],
+    )
     p.add_argument("file", metavar="FILE", help="task-set TOML file")
     from rtsim.cli._set import add_set_option
     from rtsim.cli.common import add_json, add_quiet
@@ -36,20 +38,38 @@ def register(sub: Any) -> None:
     add_json(p)
     add_quiet(p, "print nothing (the exit status with --check)")
     add_set_option(p)
-    p.add_argument("--check", action="store_true",
-                   help="exit with status 1 when the set is not schedulable")
-    p.add_argument("--window", metavar="MS", default=None,
-                   help="window w in ms for a [window] set (default: w_sch)")
-    p.add_argument("--suspension", choices=("cpu", "idle"), default="cpu",
-                   help="radio round trip / suspensions: counted as CPU time (default, the "
-                        "paper's) or CPU free (suspension-aware bounds, docs/model/beyond.md)")
-    p.add_argument("--overhead", metavar="MS", type=float, default=None,
-                   help="context-switch cost in ms: 2·O per higher-priority segment start, O per "
-                        "own segment, as simulate --overhead (default: the file's, or 0)")
-    p.add_argument("--scheduler", metavar="NAME", default=None,
-                   help="a scheduling policy with an analysis: fp (exact response-time "
-                        "analysis) or edf (demand criterion and Spuri's bound); default: the "
-                        "file's [scheduler] policy")
+    p.add_argument(
+        "--check", action="store_true", help="exit with status 1 when the set is not schedulable"
+    )
+    p.add_argument(
+        "--window",
+        metavar="MS",
+        default=None,
+        help="window w in ms for a [window] set (default: w_sch)",
+    )
+    p.add_argument(
+        "--suspension",
+        choices=("cpu", "idle"),
+        default="cpu",
+        help="radio round trip / suspensions: counted as CPU time (default, the "
+        "paper's) or CPU free (suspension-aware bounds, docs/model/beyond.md)",
+    )
+    p.add_argument(
+        "--overhead",
+        metavar="MS",
+        type=float,
+        default=None,
+        help="context-switch cost in ms: 2·O per higher-priority segment start, O per "
+        "own segment, as simulate --overhead (default: the file's, or 0)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="NAME",
+        default=None,
+        help="a scheduling policy with an analysis: fp (exact response-time "
+        "analysis) or edf (demand criterion and Spuri's bound); default: the "
+        "file's [scheduler] policy",
+    )
     p.set_defaults(func=run)
 
 
@@ -74,11 +94,11 @@ def _num(x: float | None, digits: int = 3) -> str:
 
 _RESOURCES = {
     "pcp": "blocking: immediate priority ceiling protocol (one section of a lower task whose "
-           "resource's ceiling reaches the task), included in the WCRT",
+    "resource's ceiling reaches the task), included in the WCRT",
     "srp": "blocking: stack resource policy (one section of a lower-level task whose "
-           "resource's ceiling reaches the task), included in the WCRT",
+    "resource's ceiling reaches the task), included in the WCRT",
     "npr": "blocking: non-preemptive critical sections (the longest section of a lower task), "
-           "included in the WCRT",
+    "included in the WCRT",
 }
 
 
@@ -86,43 +106,61 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
     """The readable report of an :class:`~rtsim.analysis.rta.Analysis`."""
     lines = [f"task set: {res.name or '(unnamed)'}  ({source})"]
     if res.w is not None:
-        how = ("radio round trip counted as CPU time" if res.suspension == "cpu" else
-               "radio round trip with the CPU idle (suspension-aware: each task the smaller "
-               "of its sound bounds)")
-        lines.append(f"window: w = {res.w:.3f} ms ({w_from}); the chain is one task of cost g, "
-                     + how)
+        how = (
+            "radio round trip counted as CPU time"
+            if res.suspension == "cpu"
+            else "radio round trip with the CPU idle (suspension-aware: each task the smaller "
+            "of its sound bounds)"
+        )
+        lines.append(
+            f"window: w = {res.w:.3f} ms ({w_from}); the chain is one task of cost g, " + how
+        )
     width = max(4, *(len(t.name) for t in res.tasks))
     blk = getattr(res, "resources", None) is not None
-    head = (f"{'prio':>5}  {'task':<{width}}  {'wcet':>9}  {'period':>9}  {'deadline':>9}  "
-            f"{'util':>6}  " + (f"{'blocking':>9}  " if blk else "") + f"{'WCRT':>9}  schedulable")
+    head = (
+        f"{'prio':>5}  {'task':<{width}}  {'wcet':>9}  {'period':>9}  {'deadline':>9}  "
+        f"{'util':>6}  " + (f"{'blocking':>9}  " if blk else "") + f"{'WCRT':>9}  schedulable"
+    )
     lines += ["", head, "-" * len(head)]
     for t in res.tasks:
         lines.append(
             f"{t.priority:>5}  {t.name:<{width}}  {t.wcet:>9.3f}  {t.period:>9.3f}  "
             f"{t.deadline:>9.3f}  {t.utilization:>6.4f}  "
-            + (f"{t.blocking:>9.3f}  " if blk else "") + f"{_num(t.wcrt):>9}  "
+            + (f"{t.blocking:>9.3f}  " if blk else "")
+            + f"{_num(t.wcrt):>9}  "
             f"{'yes' if t.schedulable else 'NO'}"
         )
     if blk:
         lines.append(_RESOURCES[res.resources])
     if res.overhead:
-        lines.append(f"context-switch overhead: {res.overhead:g} ms (2x per higher-priority "
-                     "segment start, 1x per own segment)")
+        lines.append(
+            f"context-switch overhead: {res.overhead:g} ms (2x per higher-priority "
+            "segment start, 1x per own segment)"
+        )
     if res.offsets_ignored:
-        lines.append("offsets: ignored (every task analysed as if released together; sound, "
-                     "possibly pessimistic)")
+        lines.append(
+            "offsets: ignored (every task analysed as if released together; sound, "
+            "possibly pessimistic)"
+        )
     n = len(res.tasks)
     lines += ["", f"total utilization: {res.utilization:.4f} ({n} task{'s' * (n != 1)})"]
     if res.rm_implicit:
-        lines.append(f"Liu-Layland: U <= n(2^(1/n) - 1) = {res.liu_layland_bound:.4f}: "
-                     f"{'passes' if res.liu_layland else 'not proven'}")
-        lines.append(f"hyperbolic: prod(U_i + 1) = {res.hyperbolic_product:.4f} <= 2: "
-                     f"{'passes' if res.hyperbolic else 'not proven'}")
+        lines.append(
+            f"Liu-Layland: U <= n(2^(1/n) - 1) = {res.liu_layland_bound:.4f}: "
+            f"{'passes' if res.liu_layland else 'not proven'}"
+        )
+        lines.append(
+            f"hyperbolic: prod(U_i + 1) = {res.hyperbolic_product:.4f} <= 2: "
+            f"{'passes' if res.hyperbolic else 'not proven'}"
+        )
     else:
-        lines.append("Liu-Layland, hyperbolic: do not apply (need implicit deadlines and "
-                     "rate-monotonic priorities)")
-    lines.append(f"schedulable (exact response-time analysis): "
-                 f"{'yes' if res.schedulable else 'NO'}")
+        lines.append(
+            "Liu-Layland, hyperbolic: do not apply (need implicit deadlines and "
+            "rate-monotonic priorities)"
+        )
+    lines.append(
+        f"schedulable (exact response-time analysis): {'yes' if res.schedulable else 'NO'}"
+    )
     return "\n".join(lines)
 
 
@@ -130,13 +168,18 @@ def format_edf(res: Any, source: str, w_from: str | None) -> str:
     """The readable report of an :class:`~rtsim.analysis.edf.EdfAnalysis`."""
     lines = [f"task set: {res.name or '(unnamed)'}  ({source}), scheduler: EDF"]
     if res.w is not None:
-        lines.append(f"window: w = {res.w:.3f} ms ({w_from}); the chain is one task of cost g, "
-                     "radio round trip counted as CPU time (suspension-oblivious)")
+        lines.append(
+            f"window: w = {res.w:.3f} ms ({w_from}); the chain is one task of cost g, "
+            "radio round trip counted as CPU time (suspension-oblivious)"
+        )
     width = max(4, *(len(t.name) for t in res.tasks))
     blk = getattr(res, "resources", None) is not None
-    head = (f"{'task':<{width}}  {'wcet':>9}  {'period':>9}  {'deadline':>9}  {'jitter':>7}  "
-            f"{'util':>6}  " + (f"{'blocking':>9}  " if blk else "")
-            + f"{'WCRT':>9}  {'bound':>8}  meets D")
+    head = (
+        f"{'task':<{width}}  {'wcet':>9}  {'period':>9}  {'deadline':>9}  {'jitter':>7}  "
+        f"{'util':>6}  "
+        + (f"{'blocking':>9}  " if blk else "")
+        + f"{'WCRT':>9}  {'bound':>8}  meets D"
+    )
     lines += ["", head, "-" * len(head)]
     for t in res.tasks:
         lines.append(
@@ -144,27 +187,35 @@ def format_edf(res: Any, source: str, w_from: str | None) -> str:
             f"{t.jitter:>7.3f}  {t.utilization:>6.4f}  "
             + (f"{t.blocking:>9.3f}  " if blk else "")
             + f"{_num(t.wcrt):>9}  {t.bound:>8}  "
-            f"{'yes' if t.schedulable else 'NO'}")
+            f"{'yes' if t.schedulable else 'NO'}"
+        )
     if blk:
         lines.append(_RESOURCES[res.resources] + "; the demand test adds Baker's B(t)")
-    lines.append("WCRT: Spuri's (1996) response-time bound under EDF, from arrival (bound: "
-                 "spuri); where his search does not close and the demand criterion accepts "
-                 "the set, the deadline D (bound: deadline)")
+    lines.append(
+        "WCRT: Spuri's (1996) response-time bound under EDF, from arrival (bound: "
+        "spuri); where his search does not close and the demand criterion accepts "
+        "the set, the deadline D (bound: deadline)"
+    )
     if res.overhead:
-        lines.append(f"context-switch overhead: {res.overhead:g} ms (2x per compute stretch "
-                     "of every job)")
+        lines.append(
+            f"context-switch overhead: {res.overhead:g} ms (2x per compute stretch of every job)"
+        )
     if res.offsets_ignored:
         lines.append("offsets: ignored (sound, possibly pessimistic)")
     lines += ["", f"total utilization: {res.utilization:.4f}"]
     if res.limit is None:
         lines.append(f"processor demand: decided by utilization ({res.limit_kind})")
     else:
-        lines.append(f"processor demand h(t) <= t checked by QPA up to L = {res.limit:.3f} ms "
-                     f"({res.limit_kind}; {res.qpa_steps} steps)")
+        lines.append(
+            f"processor demand h(t) <= t checked by QPA up to L = {res.limit:.3f} ms "
+            f"({res.limit_kind}; {res.qpa_steps} steps)"
+        )
     if res.failed_at is not None:
         lines.append(f"demand exceeds the time at t = {res.failed_at:.3f} ms")
-    lines.append(f"schedulable (processor-demand criterion, the whole set): "
-                 f"{'yes' if res.schedulable else 'NO'}")
+    lines.append(
+        f"schedulable (processor-demand criterion, the whole set): "
+        f"{'yes' if res.schedulable else 'NO'}"
+    )
     return "\n".join(lines)
 
 
@@ -208,8 +259,10 @@ def run(args: argparse.Namespace) -> int:
         policy = SCHEDULERS.resolve(scheduler, f"{args.file}: [scheduler] policy")
     if policy.analysis is None:
         with_analysis = ", ".join(n for n, c in SCHEDULERS.items() if c.analysis is not None)
-        raise InputError(f"{args.file}: [scheduler] policy {scheduler!r} has no analysis; "
-                         f"use --scheduler with one of {with_analysis}")
+        raise InputError(
+            f"{args.file}: [scheduler] policy {scheduler!r} has no analysis; "
+            f"use --scheduler with one of {with_analysis}"
+        )
     w_from = None if ts.window is None else ("--window" if w is not None else "w_sch")
     res: Any = policy.analysis(ts, w, overhead=args.overhead, suspension=args.suspension)
     txn: dict[str, float | None] | None = None
@@ -220,13 +273,11 @@ def run(args: argparse.Namespace) -> int:
         if policy.analysis is analyze and not ts.has_sections:  # FP: the offset-based bound
             from rtsim.analysis.transaction import transaction_bounds
 
-            txn = transaction_bounds(ts, res.w, overhead=res.overhead,
-                                     suspension=args.suspension)
+            txn = transaction_bounds(ts, res.w, overhead=res.overhead, suspension=args.suspension)
             head, _, last = text.rpartition("\n")  # before the verdict line
             text = f"{head}\n{format_transaction(txn)}\n{last}"
     if args.json:
-        out = {"source": ts.source, "w_from": w_from, "scheduler": scheduler,
-               **res.as_dict()}
+        out = {"source": ts.source, "w_from": w_from, "scheduler": scheduler, **res.as_dict()}
         if txn is not None:
             for entry in out["tasks"]:
                 entry["wcrt_transaction"] = txn.get(entry["name"])

@@ -16,23 +16,55 @@ __all__ = ["register", "run"]
 
 def register(sub: Any) -> None:
     """Add the ``animate`` sub-command."""
-    p = sub.add_parser("animate", help="animate a scenario run (robots, laser, schedule)",
-                       description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "animate",
+        help="animate a scenario run (robots, laser, schedule)",
+        description=__doc__.splitlines()[0],
+    )
     p.add_argument("run_dir", metavar="DIR", help="an output directory of rtsim scenario")
-    p.add_argument("--out", required=True, metavar="FILE",
-                   help="the animation: .gif, .mp4 or .html (by the suffix)")
-    p.add_argument("--start", type=float, default=None, metavar="SECONDS",
-                   help="first simulated second shown (default: the run's start)")
-    p.add_argument("--end", type=float, default=None, metavar="SECONDS",
-                   help="last simulated second shown (default: the run's end)")
-    p.add_argument("--fps", type=int, default=10, metavar="N",
-                   help="frames (windows) per second of animation (default 10)")
-    p.add_argument("--every", type=int, default=1, metavar="N",
-                   help="draw every N-th window only (default 1: every window)")
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="FILE",
+        help="the animation: .gif, .mp4 or .html (by the suffix)",
+    )
+    p.add_argument(
+        "--start",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="first simulated second shown (default: the run's start)",
+    )
+    p.add_argument(
+        "--end",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="last simulated second shown (default: the run's end)",
+    )
+    p.add_argument(
+        "--fps",
+        type=int,
+        default=10,
+        metavar="N",
+        help="frames (windows) per second of animation (default 10)",
+    )
+    p.add_argument(
+        "--every",
+        type=int,
+        default=1,
+        metavar="N",
+        help="draw every N-th window only (default 1: every window)",
+    )
     from rtsim.cli.common import ANIMATION_FORMATS, add_figure_options, add_json, add_quiet
 
-    add_figure_options(p, default_dpi=80, formats=ANIMATION_FORMATS,  # rtsim.animate's
-                       what="animation", default="the suffix of --out")
+    add_figure_options(
+        p,
+        default_dpi=80,
+        formats=ANIMATION_FORMATS,  # rtsim.animate's
+        what="animation",
+        default="the suffix of --out",
+    )
     add_json(p, "print the file written as one JSON object")
     add_quiet(p, "no progress bar, no name of the file written")
     p.set_defaults(func=run)
@@ -57,9 +89,16 @@ def run(args: Any) -> int:
         bar.update(1)
 
     try:
-        path = animate_run(args.run_dir, args.out, start_s=args.start, end_s=args.end,
-                           fps=args.fps, every=args.every, progress=progress,
-                           dpi=args.dpi or 80)
+        path = animate_run(
+            args.run_dir,
+            args.out,
+            start_s=args.start,
+            end_s=args.end,
+            fps=args.fps,
+            every=args.every,
+            progress=progress,
+            dpi=args.dpi or 80,
+        )
     finally:
         if bar is not None:
             bar.close()

@@ -24,20 +24,37 @@ __all__ = ["register", "run"]
 
 def register(sub: Any) -> None:
     """Add the ``bounds`` sub-command."""
-    p = sub.add_parser("bounds", help="the paper's window bounds w_sch and the exact w_rta",
-                       description=__doc__.splitlines()[0])
-    p.add_argument("file", metavar="FILE", nargs="?", default=None,
-                   help="task-set TOML file with a [window] (default: the paper's set)")
-    p.add_argument("--followers", metavar="RANGE", default=None,
-                   help="n: a number, a list 1,2,5 or a range 1..10 (default: the file's)")
-    p.add_argument("--hough-radius", metavar="RANGE", default=None,
-                   help="r_H in cm: a number, a list or a range 10..50:10 (default: the file's)")
+    p = sub.add_parser(
+        "bounds",
+        help="the paper's window bounds w_sch and the exact w_rta",
+        description=__doc__.splitlines()[0],
+    )
+    p.add_argument(
+        "file",
+        metavar="FILE",
+        nargs="?",
+        default=None,
+        help="task-set TOML file with a [window] (default: the paper's set)",
+    )
+    p.add_argument(
+        "--followers",
+        metavar="RANGE",
+        default=None,
+        help="n: a number, a list 1,2,5 or a range 1..10 (default: the file's)",
+    )
+    p.add_argument(
+        "--hough-radius",
+        metavar="RANGE",
+        default=None,
+        help="r_H in cm: a number, a list or a range 10..50:10 (default: the file's)",
+    )
     from rtsim.cli.common import add_json, add_quiet
 
     add_json(p, "print JSON (a list for several rows)")
     add_quiet(p, "print nothing (a check of the inputs)")
-    p.add_argument("--force", action="store_true",
-                   help="run even when a value looks like a mistake of unit")
+    p.add_argument(
+        "--force", action="store_true", help="run even when a value looks like a mistake of unit"
+    )
     p.set_defaults(func=run)
 
 
@@ -56,7 +73,8 @@ def _values(args: argparse.Namespace, n0: int, r0: float) -> tuple[list[int], li
     for r in rs:
         if r <= 0:
             raise InputError(
-                f"--hough-radius: must be positive (cm), got {r:g} in {args.hough_radius!r}")
+                f"--hough-radius: must be positive (cm), got {r:g} in {args.hough_radius!r}"
+            )
     from rtsim.cli.plausible import check_hough_radius
     from rtsim.io.limits import check
 
@@ -105,11 +123,15 @@ def run(args: argparse.Namespace) -> int:
         ]:
             print(f"{label:<8} {_cell(value):>10} ms   {note}")
         return 0
-    head = (f"{'n':>4} {'r_H':>7} {'e_hough':>9} {'g':>9} {'Eq 7':>9} {'Eq 11':>9} "
-            f"{'w_sch':>9} {'w_rta':>9} {'w_susp':>9} {'w_edf':>9}")
+    head = (
+        f"{'n':>4} {'r_H':>7} {'e_hough':>9} {'g':>9} {'Eq 7':>9} {'Eq 11':>9} "
+        f"{'w_sch':>9} {'w_rta':>9} {'w_susp':>9} {'w_edf':>9}"
+    )
     print(f"times in ms, r_H in cm\n\n{head}\n{'-' * len(head)}")
     for b in rows:
-        print(f"{b.inputs['n']:>4} {b.inputs['r_H']:>7g} {_cell(b.e_hough):>9} {_cell(b.g):>9} "
-              f"{_cell(b.w_eq7):>9} {_cell(b.w_eq11):>9} {_cell(b.w_sch):>9} "
-              f"{_cell(b.w_rta):>9} {_cell(b.w_susp):>9} {_cell(b.w_edf):>9}")
+        print(
+            f"{b.inputs['n']:>4} {b.inputs['r_H']:>7g} {_cell(b.e_hough):>9} {_cell(b.g):>9} "
+            f"{_cell(b.w_eq7):>9} {_cell(b.w_eq11):>9} {_cell(b.w_sch):>9} "
+            f"{_cell(b.w_rta):>9} {_cell(b.w_susp):>9} {_cell(b.w_edf):>9}"
+        )
     return 0

@@ -14,8 +14,11 @@ __all__ = ["register", "run"]
 
 def register(sub: Any) -> None:
     """Add the ``examples`` sub-command."""
-    p = sub.add_parser("examples", help="list the shipped example files, or print one",
-                       description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "examples",
+        help="list the shipped example files, or print one",
+        description=__doc__.splitlines()[0],
+    )
     p.add_argument("name", nargs="?", metavar="NAME", help="print this example's file")
     from rtsim.cli.common import add_json, add_quiet
 
@@ -35,8 +38,11 @@ def run(args: Any) -> int:
             d = {"name": ex.name, "kind": ex.kind, "summary": ex.summary}
             return {**d, "text": ex.text()} if text else d
 
-        obj: Any = entry(example(args.name), True) if args.name else \
-            [entry(ex, False) for ex in EXAMPLES.values()]
+        obj: Any = (
+            entry(example(args.name), True)
+            if args.name
+            else [entry(ex, False) for ex in EXAMPLES.values()]
+        )
         print(json.dumps(obj, indent=2))
         return 0
     if args.quiet:

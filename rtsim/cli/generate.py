@@ -25,17 +25,32 @@ __all__ = ["register", "run", "taskset_toml"]
 
 def register(sub: Any) -> None:
     """Add the ``generate`` sub-command."""
-    p = sub.add_parser("generate", help="write random task-set files (UUniFast)",
-                       description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "generate",
+        help="write random task-set files (UUniFast)",
+        description=__doc__.splitlines()[0],
+    )
     p.add_argument("--tasks", type=int, required=True, help="tasks per set")
-    p.add_argument("--utilization", type=float, required=True,
-                   help="total utilization (UUniFast-Discard above 1)")
-    p.add_argument("--periods", default="loguniform:10..1000",
-                   help="loguniform:LO..HI or a list 10,20,40 (ms)")
-    p.add_argument("--granularity", type=float, default=None,
-                   help="round log-uniform periods to a multiple of this (ms)")
-    p.add_argument("--deadlines", default="implicit",
-                   help="implicit (default) or constrained:A..B, D uniform in [A·p, B·p]")
+    p.add_argument(
+        "--utilization",
+        type=float,
+        required=True,
+        help="total utilization (UUniFast-Discard above 1)",
+    )
+    p.add_argument(
+        "--periods", default="loguniform:10..1000", help="loguniform:LO..HI or a list 10,20,40 (ms)"
+    )
+    p.add_argument(
+        "--granularity",
+        type=float,
+        default=None,
+        help="round log-uniform periods to a multiple of this (ms)",
+    )
+    p.add_argument(
+        "--deadlines",
+        default="implicit",
+        help="implicit (default) or constrained:A..B, D uniform in [A·p, B·p]",
+    )
     p.add_argument("--count", type=int, default=1, help="number of sets")
     p.add_argument("--seed", type=int, default=0, help="random seed")
     p.add_argument("--out", required=True, help="output directory")
@@ -66,10 +81,15 @@ def taskset_toml(ts: TaskSet, comment: str = "") -> str:
     lines = [f"# {line}" for line in comment.splitlines()]
     lines.append(f"name = {_toml_value(ts.name)}")
     for t in ts.tasks:
-        lines += ["", "[[tasks]]", f"name = {_toml_value(t.name)}",
-                  f"wcet = {_toml_value(t.wcet)}", f"period = {_toml_value(t.period)}",
-                  f"deadline = {_toml_value(t.deadline)}",
-                  f"priority = {_toml_value(t.priority)}"]
+        lines += [
+            "",
+            "[[tasks]]",
+            f"name = {_toml_value(t.name)}",
+            f"wcet = {_toml_value(t.wcet)}",
+            f"period = {_toml_value(t.period)}",
+            f"deadline = {_toml_value(t.deadline)}",
+            f"priority = {_toml_value(t.priority)}",
+        ]
         if t.offset:
             lines.append(f"offset = {_toml_value(t.offset)}")
         if t.bcet is not None:
@@ -90,8 +110,9 @@ def _deadline_factor(text: str) -> tuple[float, float]:
             fa = fb = math.nan
         if 0 < fa <= fb <= 1:
             return (fa, fb)
-    raise InputError(f"--deadlines: expected implicit or constrained:A..B with "
-                     f"0 < A <= B <= 1, got {text!r}")
+    raise InputError(
+        f"--deadlines: expected implicit or constrained:A..B with 0 < A <= B <= 1, got {text!r}"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -126,8 +147,9 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_sets(args: argparse.Namespace, out: Path, spec: Any,
-                factor: tuple[float, float]) -> list[str]:
+def _write_sets(
+    args: argparse.Namespace, out: Path, spec: Any, factor: tuple[float, float]
+) -> list[str]:
     """Write the sets and the manifest into ``out`` (the staging directory)."""
     import sys
 
@@ -139,16 +161,32 @@ def _write_sets(args: argparse.Namespace, out: Path, spec: Any,
     files = []
     for i, child in enumerate(children):
         rng = np.random.default_rng(child)
-        ts = random_taskset(args.tasks, args.utilization, rng, spec, name=f"set_{i:04d}",
-                            deadline_factor=factor)
+        ts = random_taskset(
+            args.tasks, args.utilization, rng, spec, name=f"set_{i:04d}", deadline_factor=factor
+        )
         name = f"set_{i:04d}.toml"
-        write_text(out / name, taskset_toml(
-            ts, f"rtsim generate: UUniFast U={args.utilization:g}, periods {args.periods}, "
-                f"seed {args.seed}, set {i}"))
+        write_text(
+            out / name,
+            taskset_toml(
+                ts,
+                f"rtsim generate: UUniFast U={args.utilization:g}, periods {args.periods}, "
+                f"seed {args.seed}, set {i}",
+            ),
+        )
         files.append(name)
-    write_manifest(out, command="generate", seed=args.seed,
-                   inputs={"tasks": args.tasks, "utilization": args.utilization,
-                           "periods": args.periods, "granularity": args.granularity,
-                           "deadlines": args.deadlines, "count": args.count},
-                   argv=["rtsim", *sys.argv[1:]], extra={"outputs": files})
+    write_manifest(
+        out,
+        command="generate",
+        seed=args.seed,
+        inputs={
+            "tasks": args.tasks,
+            "utilization": args.utilization,
+            "periods": args.periods,
+            "granularity": args.granularity,
+            "deadlines": args.deadlines,
+            "count": args.count,
+        },
+        argv=["rtsim", *sys.argv[1:]],
+        extra={"outputs": files},
+    )
     return files

@@ -27,8 +27,11 @@ __all__ = ["register", "run"]
 
 def register(sub: Any) -> None:
     """Add the ``histogram`` sub-command."""
-    p = sub.add_parser("histogram", help="response-time histograms with the analytic bounds",
-                       description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "histogram",
+        help="response-time histograms with the analytic bounds",
+        description=__doc__.splitlines()[0],
+    )
     p.add_argument("file", nargs="?", help="task-set TOML file to simulate")
     p.add_argument("--scenario", metavar="DIR", help="a scenario output directory (jobs.csv)")
     p.add_argument("--sweep", metavar="DIR", help="a simulate sweep's output directory")
@@ -37,15 +40,25 @@ def register(sub: Any) -> None:
     p.add_argument("--bins", type=int, default=50, help="bins per histogram (default 50)")
     p.add_argument("--horizon", type=float, help="simulated ms (with FILE)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--exec", dest="exec_model", choices=("wcet", "uniform"), default="wcet",
-                   help="execution times: wcet (default) or uniform in [bcet, wcet]")
-    p.add_argument("--suspension", choices=("cpu", "idle"), default="cpu",
-                   help="radio round trip: CPU time (default) or CPU free")
+    p.add_argument(
+        "--exec",
+        dest="exec_model",
+        choices=("wcet", "uniform"),
+        default="wcet",
+        help="execution times: wcet (default) or uniform in [bcet, wcet]",
+    )
+    p.add_argument(
+        "--suspension",
+        choices=("cpu", "idle"),
+        default="cpu",
+        help="radio round trip: CPU time (default) or CPU free",
+    )
     p.add_argument("--followers", type=int, help="n, for a processing-window set")
     p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
     p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
-    p.add_argument("--force", action="store_true",
-                   help="run even when a value looks like a mistake of unit")
+    p.add_argument(
+        "--force", action="store_true", help="run even when a value looks like a mistake of unit"
+    )
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
     add_figure_options(p, default_dpi=100, what="histograms")  # rtsim.validate.histogram.DPI
@@ -67,8 +80,9 @@ def _source(args: argparse.Namespace) -> Any:
     if args.point is not None:
         raise InputError("histogram: --point applies to --sweep only")
     if args.scenario is not None:
-        return from_scenario_dir(args.scenario, n=args.followers, r_H=args.hough_radius,
-                                 w=args.window)
+        return from_scenario_dir(
+            args.scenario, n=args.followers, r_H=args.hough_radius, w=args.window
+        )
     from rtsim.io.taskset import load_taskset
 
     if args.horizon is None or not (math.isfinite(args.horizon) and args.horizon > 0):
@@ -80,8 +94,10 @@ def _source(args: argparse.Namespace) -> Any:
     if args.hough_radius is not None:
         changes["r_H"] = args.hough_radius
     if (changes or args.window is not None) and ts.window is None:
-        raise InputError(f"{args.file}: has no [window]; --followers, --hough-radius and "
-                         f"--window apply to processing-window sets only")
+        raise InputError(
+            f"{args.file}: has no [window]; --followers, --hough-radius and "
+            f"--window apply to processing-window sets only"
+        )
     if changes:
         ts = ts.with_window(**changes)
     from rtsim.cli.plausible import check_horizon, check_hough_radius
@@ -99,8 +115,11 @@ def _source(args: argparse.Namespace) -> Any:
         from rtsim.cli.simulate import require_bcet
 
         require_bcet(ts, str(args.file))
-    kwargs: dict[str, Any] = {"seed": args.seed, "exec_model": args.exec_model,
-                              "suspension": args.suspension}
+    kwargs: dict[str, Any] = {
+        "seed": args.seed,
+        "exec_model": args.exec_model,
+        "suspension": args.suspension,
+    }
     if args.window is not None:
         kwargs["window"] = args.window
     src = from_simulation(ts, args.horizon, **kwargs)
@@ -120,9 +139,14 @@ def run(args: argparse.Namespace) -> int:
     fmt = figure_format(args)
     with stage(args.out, command="histogram") as staged:
         src = _source(args)
-        written = write_histograms(src, staged.path, bins=args.bins,
-                                   argv=["rtsim", *sys.argv[1:]], fmt=fmt,
-                                   dpi=args.dpi or DPI)
+        written = write_histograms(
+            src,
+            staged.path,
+            bins=args.bins,
+            argv=["rtsim", *sys.argv[1:]],
+            fmt=fmt,
+            dpi=args.dpi or DPI,
+        )
         staged.commit()
     files = [str(Path(args.out) / p.name) for p in written]
     if args.json:

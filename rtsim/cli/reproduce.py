@@ -20,8 +20,11 @@ def register(sub: Any) -> None:
     defined once for this command and ``python -m rtsim.reproduce``)."""
     from rtsim.reproduce import add_options
 
-    p = sub.add_parser("reproduce", help="reproduce the paper's experiments and figures",
-                       description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "reproduce",
+        help="reproduce the paper's experiments and figures",
+        description=__doc__.splitlines()[0],
+    )
     add_options(p, out_required=True)
     p.set_defaults(func=run)
 

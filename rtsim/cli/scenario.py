@@ -35,39 +35,65 @@ MODES = ("adjust", "fixed-wsch", "min-msb")
 
 def register(sub: Any) -> None:
     """Add the ``scenario`` sub-command."""
-    p = sub.add_parser("scenario", help="run a robot-group scenario (schedule + world)",
-                       description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "scenario",
+        help="run a robot-group scenario (schedule + world)",
+        description=__doc__.splitlines()[0],
+    )
     p.add_argument("file", help="scenario TOML file")
     from rtsim.control.policy import POLICIES
 
-    p.add_argument("--policy", default=None, metavar="NAME",
-                   help="adjustment policy, overriding the file's [adjust] policy: "
-                        f"{', '.join(POLICIES)} (adjust, the paper's algorithm, is the "
-                        "default), or package.module:Name (docs/adjustment.md)")
-    p.add_argument("--mode", choices=MODES, default=None,
-                   help="alias of --policy: adjust (the paper's algorithm), fixed-wsch (w = "
-                        "w_sch, speed never lowered) or min-msb (w = min MSB, speed never "
-                        "lowered)")
-    p.add_argument("--duration", type=float, default=None, metavar="SECONDS",
-                   help="simulated seconds (default: the scenario's, else one lap)")
+    p.add_argument(
+        "--policy",
+        default=None,
+        metavar="NAME",
+        help="adjustment policy, overriding the file's [adjust] policy: "
+        f"{', '.join(POLICIES)} (adjust, the paper's algorithm, is the "
+        "default), or package.module:Name (docs/adjustment.md)",
+    )
+    p.add_argument(
+        "--mode",
+        choices=MODES,
+        default=None,
+        help="alias of --policy: adjust (the paper's algorithm), fixed-wsch (w = "
+        "w_sch, speed never lowered) or min-msb (w = min MSB, speed never "
+        "lowered)",
+    )
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="simulated seconds (default: the scenario's, else one lap)",
+    )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--exec", dest="exec_model", choices=("wcet", "uniform"), default="wcet",
-                   help="execution times of the fixed segments (default wcet)")
+    p.add_argument(
+        "--exec",
+        dest="exec_model",
+        choices=("wcet", "uniform"),
+        default="wcet",
+        help="execution times of the fixed segments (default wcet)",
+    )
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     p.add_argument("--parquet", action="store_true", help="also write windows.parquet")
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
     add_figure_options(p, default_dpi=120)  # rtsim.plots.scenario.DPI (not imported: slow)
-    p.add_argument("--perfetto", metavar="FILE",
-                   help="also write the schedule as a Chrome/Perfetto trace (JSON; open in "
-                        "ui.perfetto.dev)")
+    p.add_argument(
+        "--perfetto",
+        metavar="FILE",
+        help="also write the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)",
+    )
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     from rtsim.cli._set import add_set_option
 
     add_set_option(p)
-    p.add_argument("--force", action="store_true",
-                   help="run even above the work limits (2e6 windows, 2e8 world steps x "
-                        "followers), or a duration over 6 simulated hours")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="run even above the work limits (2e6 windows, 2e8 world steps x "
+        "followers), or a duration over 6 simulated hours",
+    )
     add_json(p, "print summary.json on stdout instead of the summary line")
     add_quiet(p, "no progress bar, no summary line")
     p.set_defaults(func=run)
@@ -79,8 +105,7 @@ def run(args: Any) -> int:
     from rtsim.io.outdir import stage
 
     if args.duration is not None and not (0 < args.duration < float("inf")):
-        raise InputError(f"--duration must be a positive number of seconds, got "
-                         f"{args.duration!r}")
+        raise InputError(f"--duration must be a positive number of seconds, got {args.duration!r}")
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed!r}")
     from rtsim.cli.plausible import check_duration
@@ -89,11 +114,14 @@ def run(args: Any) -> int:
     from rtsim.coupling.duration import check_scenario
     from rtsim.io.scenario import load_scenario
 
-    where = (f"--duration {args.duration:g}" if args.duration is not None
-             else f"{args.file}: duration")
+    where = (
+        f"--duration {args.duration:g}" if args.duration is not None else f"{args.file}: duration"
+    )
     if args.mode is not None and args.policy is not None and args.mode != args.policy:
-        raise InputError(f"--mode is an alias of --policy: give one, got --mode {args.mode} "
-                         f"and --policy {args.policy}")
+        raise InputError(
+            f"--mode is an alias of --policy: give one, got --mode {args.mode} "
+            f"and --policy {args.policy}"
+        )
     if args.policy is not None:
         from rtsim.control.policy import policy_class
 
@@ -107,11 +135,17 @@ def run(args: Any) -> int:
     from rtsim.io.outdir import FileSet
 
     inputs = (args.file, scenario.taskset)  # (a packaged set's name is no path here)
-    with stage(args.out, command="scenario") as staged, \
-            FileSet("scenario", inputs=inputs) as files:
+    with stage(args.out, command="scenario") as staged, FileSet("scenario", inputs=inputs) as files:
         perfetto = _perfetto_target(args, staged.path, Path(args.out), files)
-        res = _write(args, staged.path, Path(args.out), t0, scenario.source or str(args.file),
-                     override, perfetto)
+        res = _write(
+            args,
+            staged.path,
+            Path(args.out),
+            t0,
+            scenario.source or str(args.file),
+            override,
+            perfetto,
+        )
         staged.commit()
         files.commit()
     s = res.summary
@@ -123,13 +157,15 @@ def run(args: Any) -> int:
         return 0
     if args.quiet:
         return 0
-    print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
-          f"{s['windows']} windows: violations > 5 % "
-          f"{sum(s['violations_beyond_5pct'].values())} (max ratio "
-          f"{max(s['max_violation_ratio'].values()):.2f}), missed {s['missed']}, tracks lost "
-          f"{s['tracks_lost']}, critical {s['critical_share']:.1%}, "
-          f"min MSB/w_sch {s['min_msb_over_wsch']:.3f}, min V_L/V_Ld "
-          f"{s['min_speed_ratio']:.3f}  -> {args.out}")
+    print(
+        f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
+        f"{s['windows']} windows: violations > 5 % "
+        f"{sum(s['violations_beyond_5pct'].values())} (max ratio "
+        f"{max(s['max_violation_ratio'].values()):.2f}), missed {s['missed']}, tracks lost "
+        f"{s['tracks_lost']}, critical {s['critical_share']:.1%}, "
+        f"min MSB/w_sch {s['min_msb_over_wsch']:.3f}, min V_L/V_Ld "
+        f"{s['min_speed_ratio']:.3f}  -> {args.out}"
+    )
     return 0
 
 
@@ -139,15 +175,27 @@ def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | N
     if not args.perfetto:
         return None
     perfetto = Path(args.perfetto)
-    if perfetto.resolve().is_relative_to(target.resolve()) and \
-            perfetto.resolve().parent != target.resolve():
-        raise InputError(f"--perfetto {args.perfetto}: is inside a subdirectory of --out, "
-                         f"which the run replaces; give it in --out itself or elsewhere")
+    if (
+        perfetto.resolve().is_relative_to(target.resolve())
+        and perfetto.resolve().parent != target.resolve()
+    ):
+        raise InputError(
+            f"--perfetto {args.perfetto}: is inside a subdirectory of --out, "
+            f"which the run replaces; give it in --out itself or elsewhere"
+        )
     if perfetto.resolve().parent == target.resolve():
-        if perfetto.name in ("manifest.json", "summary.json", "windows.csv", "jobs.csv",
-                             "windows.parquet", "report.html"):
-            raise InputError(f"--perfetto {args.perfetto}: is also a file of --out; give "
-                             f"each output its own file")
+        if perfetto.name in (
+            "manifest.json",
+            "summary.json",
+            "windows.csv",
+            "jobs.csv",
+            "windows.parquet",
+            "report.html",
+        ):
+            raise InputError(
+                f"--perfetto {args.perfetto}: is also a file of --out; give "
+                f"each output its own file"
+            )
         return out / perfetto.name
     from rtsim.io.outdir import sidecar
 
@@ -156,14 +204,27 @@ def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | N
     from rtsim.io.atomic import write_json
     from rtsim.io.manifest import build_manifest
 
-    write_json(files.add(sidecar(perfetto), "--perfetto"), build_manifest(
-        command="scenario", seed=args.seed, inputs={"scenario_file": str(args.file)},
-        extra={"outputs": [perfetto.name]}))
+    write_json(
+        files.add(sidecar(perfetto), "--perfetto"),
+        build_manifest(
+            command="scenario",
+            seed=args.seed,
+            inputs={"scenario_file": str(args.file)},
+            extra={"outputs": [perfetto.name]},
+        ),
+    )
     return staged
 
 
-def _write(args: Any, out: Path, target: Path, t0: float, src: str,
-           override: str | None, perfetto: Path | None) -> Any:
+def _write(
+    args: Any,
+    out: Path,
+    target: Path,
+    t0: float,
+    src: str,
+    override: str | None,
+    perfetto: Path | None,
+) -> Any:
     """Run the scenario (file ``src``), writing every file into ``out`` (the staging
     directory of ``target``); returns the result."""
     from rtsim.cli._set import set_overrides, set_strings
@@ -172,6 +233,7 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
     from rtsim.io.columns import ChunkWriter
     from rtsim.io.manifest import write_manifest
     from rtsim.sim.records import jobs_frame
+
     windows_files = [out / "windows.csv", *([out / "windows.parquet"] if args.parquet else [])]
     windows = ChunkWriter(windows_files, None)
     jobs = None if args.perfetto else ChunkWriter([out / "jobs.csv"], jobs_frame([]))
@@ -179,12 +241,20 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
 
     try:
         with simulation_bar(args, "scenario") as bar:
-            res = run_scenario(Path(args.file), policy=override, duration_s=args.duration,
-                               seed=args.seed, record_jobs=True, exec_model=args.exec_model,
-                               record_trace=bool(args.perfetto), window_sink=windows,
-                               job_sink=jobs, force=args.force,
-                               overrides=set_overrides(args) or None,
-                               progress=bar if bar.enabled else None)
+            res = run_scenario(
+                Path(args.file),
+                policy=override,
+                duration_s=args.duration,
+                seed=args.seed,
+                record_jobs=True,
+                exec_model=args.exec_model,
+                record_trace=bool(args.perfetto),
+                window_sink=windows,
+                job_sink=jobs,
+                force=args.force,
+                overrides=set_overrides(args) or None,
+                progress=bar if bar.enabled else None,
+            )
     except InputError as exc:  # raised inside the run (an estimate, a state): name the file
         if str(exc).startswith(src):
             raise
@@ -203,33 +273,49 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
         from rtsim.export.perfetto import write_perfetto
 
         assert res.jobs is not None and res.trace is not None and perfetto is not None
-        write_perfetto(perfetto, res.jobs, res.trace, windows=windows.read(),
-                       tasks=[t.name for t in sorted(res.inputs.taskset.tasks,
-                                                     key=lambda t: t.priority)],
-                       metadata={"command": "scenario", "scenario": res.summary["scenario"],
-                                 "mode": args.mode, "seed": args.seed})
+        write_perfetto(
+            perfetto,
+            res.jobs,
+            res.trace,
+            windows=windows.read(),
+            tasks=[t.name for t in sorted(res.inputs.taskset.tasks, key=lambda t: t.priority)],
+            metadata={
+                "command": "scenario",
+                "scenario": res.summary["scenario"],
+                "mode": args.mode,
+                "seed": args.seed,
+            },
+        )
         if perfetto.parent == out:
             outputs.append(perfetto.name)
     if not args.no_figures:
         from rtsim.plots.scenario import write_scenario_figures
 
         label = f"{res.inputs.name or Path(args.file).stem}, {args.mode}"
-        df = _figure_table(out / "windows.csv", int(res.summary["n"]),
-                           int(res.summary["windows"]))
+        df = _figure_table(out / "windows.csv", int(res.summary["n"]), int(res.summary["windows"]))
         from rtsim.plots.scenario import DPI
 
-        paths = write_scenario_figures(df, out, label=label, fmt=args.fig_format or "png",
-                                       dpi=args.dpi or DPI)
+        paths = write_scenario_figures(
+            df, out, label=label, fmt=args.fig_format or "png", dpi=args.dpi or DPI
+        )
         del df
         outputs += [p.name for p in paths]
     inp = res.inputs
     timing = dict(res.timing)
     timing["total_s"] = time.perf_counter() - t0
     write_manifest(
-        out, command="scenario", seed=args.seed,
-        inputs={"scenario_file": str(args.file), "scenario_text": inp.text,
-                "scenario": inp.resolved, "mode": args.mode, "duration_s": args.duration,
-                "exec_model": args.exec_model, "set": set_strings(args)},
+        out,
+        command="scenario",
+        seed=args.seed,
+        inputs={
+            "scenario_file": str(args.file),
+            "scenario_text": inp.text,
+            "scenario": inp.resolved,
+            "mode": args.mode,
+            "duration_s": args.duration,
+            "exec_model": args.exec_model,
+            "set": set_strings(args),
+        },
         argv=["rtsim", *sys.argv[1:]],
         extra={"timing": timing, "outputs": [*outputs, "report.html"]},
     )
@@ -253,6 +339,8 @@ def _figure_table(path: Path, n: int, rows: int) -> Any:
     if rows <= FIGURE_MAX_ROWS:
         return read_columns(path, cols)
     bucket = -(-rows // FIGURE_BUCKETS)
-    parts = [chunk[thin_rows(chunk, bucket)]
-             for chunk in iter_columns(path, cols, chunk_rows=bucket * 64)]
+    parts = [
+        chunk[thin_rows(chunk, bucket)]
+        for chunk in iter_columns(path, cols, chunk_rows=bucket * 64)
+    ]
     return pd.concat(parts, ignore_index=True)

@@ -18,8 +18,11 @@ def register(sub: Any) -> None:
     """Add the ``schema`` sub-command."""
     from rtsim.config.schema import KINDS
 
-    p = sub.add_parser("schema", help="print the JSON Schema of task-set, scenario or sweep "
-                                      "files", description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "schema",
+        help="print the JSON Schema of task-set, scenario or sweep files",
+        description=__doc__.splitlines()[0],
+    )
     p.add_argument("kind", choices=KINDS, help="the kind of file: " + ", ".join(KINDS))
     from rtsim.cli.common import add_json, add_quiet
 

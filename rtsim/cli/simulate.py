@@ -38,48 +38,84 @@ _RANGE = re.compile(r"^\s*([-+0-9.eE]+)\s*\.\.\s*([-+0-9.eE]+)\s*$")
 
 def register(sub: Any) -> None:
     """Add the ``simulate`` sub-command."""
-    p = sub.add_parser("simulate", help="simulate a task set on the virtual CPU",
-                       description=__doc__.splitlines()[0])
+    p = sub.add_parser(
+        "simulate",
+        help="simulate a task set on the virtual CPU",
+        description=__doc__.splitlines()[0],
+    )
     p.add_argument("file", help="task-set TOML file")
-    p.add_argument("--horizon", type=float, required=True,
-                   help="jobs released in [0, H) ms are simulated to completion")
+    p.add_argument(
+        "--horizon",
+        type=float,
+        required=True,
+        help="jobs released in [0, H) ms are simulated to completion",
+    )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--exec", dest="exec_model", choices=("wcet", "uniform"), default="wcet",
-                   help="execution times: wcet (default) or uniform in [bcet, wcet]")
-    p.add_argument("--suspension", choices=("cpu", "idle"), default="cpu",
-                   help="radio round trip: counted as CPU time (default) or CPU free")
-    p.add_argument("--overhead", type=float, default=None,
-                   help="context-switch overhead in ms (default: the file's overhead, or 0)")
-    p.add_argument("--jitter", choices=("random", "worst", "none"), default="random",
-                   help="release delays of tasks with a jitter: uniform in [0, J] (default), "
-                        "worst (the analysis' critical instant) or none")
-    p.add_argument("--scheduler",
-                   help="the CPU's scheduling policy: fp (fixed priority) or edf (earliest "
-                        "deadline first), or package.module:Name (default: the file's "
-                        "[scheduler] policy, else fp)")
+    p.add_argument(
+        "--exec",
+        dest="exec_model",
+        choices=("wcet", "uniform"),
+        default="wcet",
+        help="execution times: wcet (default) or uniform in [bcet, wcet]",
+    )
+    p.add_argument(
+        "--suspension",
+        choices=("cpu", "idle"),
+        default="cpu",
+        help="radio round trip: counted as CPU time (default) or CPU free",
+    )
+    p.add_argument(
+        "--overhead",
+        type=float,
+        default=None,
+        help="context-switch overhead in ms (default: the file's overhead, or 0)",
+    )
+    p.add_argument(
+        "--jitter",
+        choices=("random", "worst", "none"),
+        default="random",
+        help="release delays of tasks with a jitter: uniform in [0, J] (default), "
+        "worst (the analysis' critical instant) or none",
+    )
+    p.add_argument(
+        "--scheduler",
+        help="the CPU's scheduling policy: fp (fixed priority) or edf (earliest "
+        "deadline first), or package.module:Name (default: the file's "
+        "[scheduler] policy, else fp)",
+    )
     p.add_argument("--followers", type=int, help="n, for a processing-window set")
     p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
     p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
     p.add_argument("--jobs", help="per-job records, .csv or .parquet")
     p.add_argument("--trace", help="execution-interval trace, .csv or .parquet")
-    p.add_argument("--gantt", help="Gantt chart, .png, .svg or .pdf (with --gantt-range A..B "
-                                   "ms)")
+    p.add_argument("--gantt", help="Gantt chart, .png, .svg or .pdf (with --gantt-range A..B ms)")
     p.add_argument("--gantt-range", help="time range of the Gantt chart, A..B in ms")
-    p.add_argument("--histogram", help="response-time histograms, .png, .svg or .pdf, one panel "
-                                       "per task")
-    p.add_argument("--perfetto", metavar="FILE",
-                   help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)")
+    p.add_argument(
+        "--histogram", help="response-time histograms, .png, .svg or .pdf, one panel per task"
+    )
+    p.add_argument(
+        "--perfetto",
+        metavar="FILE",
+        help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)",
+    )
     from rtsim.cli._set import add_set_option
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
-    add_figure_options(p, default_dpi=GANTT_DPI, what="--gantt and --histogram figures",
-                       default="the file's suffix, else png")
+    add_figure_options(
+        p,
+        default_dpi=GANTT_DPI,
+        what="--gantt and --histogram figures",
+        default="the file's suffix, else png",
+    )
     add_json(p)
     add_quiet(p, "no progress bar, no table")
     add_set_option(p)
-    p.add_argument("--force", action="store_true",
-                   help="run even when the horizon gives more than 5e7 jobs, or looks like a "
-                        "mistake of unit (shorter than one window)")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="run even when the horizon gives more than 5e7 jobs, or looks like a "
+        "mistake of unit (shorter than one window)",
+    )
     p.set_defaults(func=run)
 
 
@@ -105,9 +141,11 @@ def require_bcet(ts: Any, source: str) -> None:
             continue
         if t.segments and all(s.bcet is not None for s in t.segments):
             continue
-        raise InputError(f"{source}: task '{t.name}': --exec uniform needs a bcet (times are "
-                         f"uniform in [bcet, wcet]); add bcet = ... to the task or use --exec "
-                         f"wcet")
+        raise InputError(
+            f"{source}: task '{t.name}': --exec uniform needs a bcet (times are "
+            f"uniform in [bcet, wcet]); add bcet = ... to the task or use --exec "
+            f"wcet"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -134,8 +172,11 @@ def _manifest_names(names: dict[Path, list[str]]) -> dict[Path, list[str]]:
         if man.exists():
             try:
                 old = json.loads(man.read_text("utf-8"))
-                own = isinstance(old, dict) and old.get("command") == "simulate" and \
-                    set(old.get("outputs") or []) <= set(files)
+                own = (
+                    isinstance(old, dict)
+                    and old.get("command") == "simulate"
+                    and set(old.get("outputs") or []) <= set(files)
+                )
             except (OSError, ValueError):
                 own = False
         if own:
@@ -167,8 +208,10 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         changes["r_H"] = args.hough_radius
     if changes or args.window is not None:
         if ts.window is None:
-            raise InputError(f"{args.file}: has no [window]; --followers, --hough-radius and "
-                             f"--window apply to processing-window sets only")
+            raise InputError(
+                f"{args.file}: has no [window]; --followers, --hough-radius and "
+                f"--window apply to processing-window sets only"
+            )
     if changes:
         ts = ts.with_window(**changes)
     overhead = ts.overhead if args.overhead is None else args.overhead
@@ -189,8 +232,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         bounds = window_bounds(ts)
     from rtsim.io.work import check_simulate
 
-    w_est = args.window if args.window is not None else (
-        bounds.w_sch if bounds is not None else None)
+    w_est = (
+        args.window if args.window is not None else (bounds.w_sch if bounds is not None else None)
+    )
     from rtsim.cli.plausible import check_horizon, check_hough_radius
 
     if args.hough_radius is not None:
@@ -204,24 +248,39 @@ def _run(args: argparse.Namespace, files: Any) -> int:
             raise InputError(f"--{opt} {name}: output must end in .csv or .parquet")
     from rtsim.cli.common import figure_format
 
-    formats = {opt: figure_format(args, getattr(args, opt), f"--{opt}")
-               for opt in ("gantt", "histogram") if getattr(args, opt)}
+    formats = {
+        opt: figure_format(args, getattr(args, opt), f"--{opt}")
+        for opt in ("gantt", "histogram")
+        if getattr(args, opt)
+    }
     # every output reserved (a temporary file beside it) before the simulation
-    tmp = {opt: files.add(getattr(args, opt), f"--{opt}")
-           for opt in ("jobs", "trace", "perfetto", "gantt", "histogram") if getattr(args, opt)}
+    tmp = {
+        opt: files.add(getattr(args, opt), f"--{opt}")
+        for opt in ("jobs", "trace", "perfetto", "gantt", "histogram")
+        if getattr(args, opt)
+    }
     want_jobs = bool(args.jobs or args.gantt or args.perfetto)
     stream = bool(args.jobs) and not (args.gantt or args.perfetto)
     writer = ChunkWriter([tmp["jobs"]], jobs_frame([])) if stream else None
     from rtsim.cli.common import simulation_bar
 
     with simulation_bar(args, "simulate") as bar:
-        res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,
-                       suspension=args.suspension, window=args.window,
-                       record_jobs=want_jobs,
-                       record_trace=bool(args.trace or args.gantt or args.perfetto),
-                       overhead=overhead, jitter=args.jitter, scheduler=scheduler,
-                       job_sink=writer, force=args.force,
-                       progress=bar if bar.enabled else None)
+        res = simulate(
+            ts,
+            args.horizon,
+            seed=args.seed,
+            exec_model=args.exec_model,
+            suspension=args.suspension,
+            window=args.window,
+            record_jobs=want_jobs,
+            record_trace=bool(args.trace or args.gantt or args.perfetto),
+            overhead=overhead,
+            jitter=args.jitter,
+            scheduler=scheduler,
+            job_sink=writer,
+            force=args.force,
+            progress=bar if bar.enabled else None,
+        )
     w = res.window["w"] if res.window else None
     # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own:
     # the deadlines still come from the fixed-priority analysis's table)
@@ -231,9 +290,11 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     known = analyze_with is not None
     if analyze_with is None:
         analyze_with = analyze
-    analysis = analyze_with(ts, w, overhead=overhead, suspension=args.suspension) \
-        if ts.window is not None else analyze_with(ts, overhead=overhead,
-                                                   suspension=args.suspension)
+    analysis = (
+        analyze_with(ts, w, overhead=overhead, suspension=args.suspension)
+        if ts.window is not None
+        else analyze_with(ts, overhead=overhead, suspension=args.suspension)
+    )
     wcrt = {t.name: t.wcrt if known else None for t in analysis.tasks}
     deadlines = {t.name: t.deadline for t in analysis.tasks}
     # the offset-based (transaction) bound, for fixed priority at a fixed window; the
@@ -247,8 +308,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         shifts = None
         if args.jitter == "worst" and ts.window is not None:
             shifts = {t.name: ts.window.jitter - t.jitter for t in ts.tasks if t.per_window}
-        txn = transaction_bounds(ts, w, overhead=overhead, suspension=args.suspension,
-                                 shifts=shifts)
+        txn = transaction_bounds(
+            ts, w, overhead=overhead, suspension=args.suspension, shifts=shifts
+        )
         for name, r in txn.items():
             old = wcrt.get(name)
             if r is not None and (old is None or r < old):
@@ -258,8 +320,10 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         entry["wcrt_analysis"] = wcrt.get(entry["name"])
         entry["wcrt_transaction"] = txn.get(entry["name"])
     if bounds is not None:
-        report["window"] = {**report.get("window", {}), **{
-            k: v for k, v in bounds.as_dict().items() if k != "inputs"}}
+        report["window"] = {
+            **report.get("window", {}),
+            **{k: v for k, v in bounds.as_dict().items() if k != "inputs"},
+        }
         report["window"]["n"] = ts.window.n  # type: ignore[union-attr]
         report["window"]["r_H"] = ts.window.r_H  # type: ignore[union-attr]
 
@@ -276,23 +340,50 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         from rtsim.export.perfetto import write_perfetto
 
         assert res.jobs is not None and res.trace is not None  # (recorded for --perfetto)
-        write_perfetto(tmp["perfetto"], res.jobs, res.trace, tasks=list(res.tasks),
-                       metadata={"command": "simulate", "file": str(args.file), "seed": args.seed})
+        write_perfetto(
+            tmp["perfetto"],
+            res.jobs,
+            res.trace,
+            tasks=list(res.tasks),
+            metadata={"command": "simulate", "file": str(args.file), "seed": args.seed},
+        )
     if args.gantt:
         assert rng is not None
         _save_gantt(res, tmp["gantt"], rng, formats["gantt"], args.dpi or GANTT_DPI)
     if args.histogram:
-        _save_histograms(res, tmp["histogram"], wcrt, deadlines, report.get("window"),
-                         ts.window.name if ts.window is not None else None,
-                         formats["histogram"], args.dpi or HISTOGRAM_DPI)
-    inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
-              "suspension": args.suspension, "overhead": overhead, "jitter": args.jitter,
-              "scheduler": scheduler,
-              "window": res.window, "taskset": taskset_to_dict(ts), "set": set_strings(args)}
+        _save_histograms(
+            res,
+            tmp["histogram"],
+            wcrt,
+            deadlines,
+            report.get("window"),
+            ts.window.name if ts.window is not None else None,
+            formats["histogram"],
+            args.dpi or HISTOGRAM_DPI,
+        )
+    inputs = {
+        "file": str(args.file),
+        "horizon": args.horizon,
+        "exec": args.exec_model,
+        "suspension": args.suspension,
+        "overhead": overhead,
+        "jitter": args.jitter,
+        "scheduler": scheduler,
+        "window": res.window,
+        "taskset": taskset_to_dict(ts),
+        "set": set_strings(args),
+    }
     for man, names in _manifest_names(outputs).items():
-        write_json(files.add(man, "--jobs/--trace/... manifest"),
-                   build_manifest(command="simulate", seed=args.seed, inputs=inputs,
-                                  argv=["rtsim", *sys.argv[1:]], extra={"outputs": names}))
+        write_json(
+            files.add(man, "--jobs/--trace/... manifest"),
+            build_manifest(
+                command="simulate",
+                seed=args.seed,
+                inputs=inputs,
+                argv=["rtsim", *sys.argv[1:]],
+                extra={"outputs": names},
+            ),
+        )
 
     if args.json:
         print(dumps(report))
@@ -312,28 +403,49 @@ def _fmt(x: Any) -> str:
 def _print_table(report: dict[str, Any]) -> None:
     win = report.get("window")
     if win:
-        print(f"window: w = {_fmt(win.get('w'))} ms ({win.get('mode')}), "
-              f"w_sch = {_fmt(win.get('w_sch'))} ms, w_rta = {_fmt(win.get('w_rta'))} ms, "
-              f"w_edf = {_fmt(win.get('w_edf'))} ms, "
-              f"n = {win.get('n')}, r_H = {_fmt(win.get('r_H'))} cm")
-    print(f"horizon {report['horizon']:g} ms, seed {report['seed']}, exec {report['exec_model']}, "
-          f"suspension {report['suspension']}, scheduler {report['scheduler']}")
-    cols = ("name", "released", "jobs", "aborted", "skipped", "misses", "max_response",
-            "mean_response", "wcrt_analysis", "max_backlog")
+        print(
+            f"window: w = {_fmt(win.get('w'))} ms ({win.get('mode')}), "
+            f"w_sch = {_fmt(win.get('w_sch'))} ms, w_rta = {_fmt(win.get('w_rta'))} ms, "
+            f"w_edf = {_fmt(win.get('w_edf'))} ms, "
+            f"n = {win.get('n')}, r_H = {_fmt(win.get('r_H'))} cm"
+        )
+    print(
+        f"horizon {report['horizon']:g} ms, seed {report['seed']}, exec {report['exec_model']}, "
+        f"suspension {report['suspension']}, scheduler {report['scheduler']}"
+    )
+    cols = (
+        "name",
+        "released",
+        "jobs",
+        "aborted",
+        "skipped",
+        "misses",
+        "max_response",
+        "mean_response",
+        "wcrt_analysis",
+        "max_backlog",
+    )
     rows = [[_fmt(t.get(c)) for c in cols] for t in report["tasks"]]
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     print("  ".join(c.ljust(widths[i]) for i, c in enumerate(cols)))
     for r in rows:
-        print("  ".join(v.ljust(widths[i]) if i == 0 else v.rjust(widths[i])
-                        for i, v in enumerate(r)))
+        print(
+            "  ".join(v.ljust(widths[i]) if i == 0 else v.rjust(widths[i]) for i, v in enumerate(r))
+        )
 
 
 def gantt_figure(res: Any, rng: tuple[float, float]) -> Any:
     """The ``--gantt`` figure of a run (its trace and jobs) over ``rng`` (ms)."""
     from rtsim.plots.gantt import gantt
 
-    return gantt(res.trace, jobs=res.jobs, start=rng[0], end=rng[1],
-                 tasks=list(res.tasks), title=f"schedule {rng[0]:g}..{rng[1]:g} ms")
+    return gantt(
+        res.trace,
+        jobs=res.jobs,
+        start=rng[0],
+        end=rng[1],
+        tasks=list(res.tasks),
+        title=f"schedule {rng[0]:g}..{rng[1]:g} ms",
+    )
 
 
 def _save_gantt(res: Any, path: str, rng: tuple[float, float], fmt: str, dpi: int) -> None:
@@ -342,17 +454,28 @@ def _save_gantt(res: Any, path: str, rng: tuple[float, float], fmt: str, dpi: in
     save_figure(gantt_figure(res, rng), path, dpi=dpi, fmt=fmt)
 
 
-def _save_histograms(res: Any, path: str, wcrt: dict[str, Any], deadlines: dict[str, Any],
-                     window: dict[str, Any] | None, window_name: str | None,
-                     fmt: str, dpi: int) -> None:
+def _save_histograms(
+    res: Any,
+    path: str,
+    wcrt: dict[str, Any],
+    deadlines: dict[str, Any],
+    window: dict[str, Any] | None,
+    window_name: str | None,
+    fmt: str,
+    dpi: int,
+) -> None:
     from rtsim.plots.scenario import save_figure
 
-    save_figure(histogram_figure(res, wcrt, deadlines, window, window_name), path, dpi=dpi,
-                fmt=fmt)
+    save_figure(histogram_figure(res, wcrt, deadlines, window, window_name), path, dpi=dpi, fmt=fmt)
 
 
-def histogram_figure(res: Any, wcrt: dict[str, Any], deadlines: dict[str, Any],
-                     window: dict[str, Any] | None, window_name: str | None) -> Any:
+def histogram_figure(
+    res: Any,
+    wcrt: dict[str, Any],
+    deadlines: dict[str, Any],
+    window: dict[str, Any] | None,
+    window_name: str | None,
+) -> Any:
     """The ``--histogram`` figure: one panel per task of the run, its analytic WCRT and
     deadline drawn in (and w_sch, w_rta on the window's)."""
     from matplotlib.figure import Figure
@@ -364,8 +487,10 @@ def histogram_figure(res: Any, wcrt: dict[str, Any], deadlines: dict[str, Any],
     axes = fig.subplots(len(names), 1, squeeze=False)
     for ax, name in zip(axes[:, 0], names, strict=True):
         stats = res.tasks[name]
-        lines: dict[str, float | None] = {"WCRT (analysis)": wcrt.get(name),
-                                          "deadline": deadlines.get(name)}
+        lines: dict[str, float | None] = {
+            "WCRT (analysis)": wcrt.get(name),
+            "deadline": deadlines.get(name),
+        }
         if window and name == window_name:
             lines.update({"w_sch": window.get("w_sch"), "w_rta": window.get("w_rta")})
         if stats.histogram is None:

@@ -27,25 +27,44 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("spec", metavar="FILE", help="the sweep file")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
-    p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="local worker processes (default: the CPU count; 1 = in this process)")
-    p.add_argument("--dask", default=None, metavar="ADDRESS",
-                   help="run the points on an existing dask.distributed scheduler "
-                   "(needs the extra rtsim[dask])")
-    p.add_argument("--restart", action="store_true",
-                   help="discard the results already in DIR (needed when the sweep file changed)")
-    p.add_argument("--retry-failed", action="store_true",
-                   help="recompute the points that failed in an earlier run")
-    p.add_argument("--force", action="store_true",
-                   help="run a grid above the size limit (1e5 points)")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="local worker processes (default: the CPU count; 1 = in this process)",
+    )
+    p.add_argument(
+        "--dask",
+        default=None,
+        metavar="ADDRESS",
+        help="run the points on an existing dask.distributed scheduler "
+        "(needs the extra rtsim[dask])",
+    )
+    p.add_argument(
+        "--restart",
+        action="store_true",
+        help="discard the results already in DIR (needed when the sweep file changed)",
+    )
+    p.add_argument(
+        "--retry-failed",
+        action="store_true",
+        help="recompute the points that failed in an earlier run",
+    )
+    p.add_argument(
+        "--force", action="store_true", help="run a grid above the size limit (1e5 points)"
+    )
     from rtsim.cli._set import add_set_option
     from rtsim.cli.common import add_json, add_quiet
 
     add_json(p, "print the summary (points run, skipped, failed) as one JSON object")
     add_quiet(p, "no progress bar, no summary")
-    add_set_option(p, help="change a key of the sweep's base file at every point, as "
-                   "[sweep.set] does (over it): a dotted path, the value read as TOML; "
-                   "repeatable")
+    add_set_option(
+        p,
+        help="change a key of the sweep's base file at every point, as "
+        "[sweep.set] does (over it): a dotted path, the value read as TOML; "
+        "repeatable",
+    )
     p.set_defaults(func=run)
 
 
@@ -63,9 +82,14 @@ def run(args: argparse.Namespace) -> int:
     sweep = Sweep(load_sweep(args.spec, set_=set_strings(args)), args.out, force=args.force)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
-        outcome = sweep.run(workers=args.workers, dask=args.dask,
-                            progress=progress_enabled(args), restart=args.restart,
-                            retry_failed=args.retry_failed, argv=sys.argv)
+        outcome = sweep.run(
+            workers=args.workers,
+            dask=args.dask,
+            progress=progress_enabled(args),
+            restart=args.restart,
+            retry_failed=args.retry_failed,
+            argv=sys.argv,
+        )
     except SweepIncomplete as exc:
         print(f"rtsim: {exc}", file=sys.stderr)
         return 1
@@ -77,12 +101,23 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         from rtsim.io.atomic import dumps
 
-        print(dumps({"points": len(df), "computed": outcome.computed,
-                     "skipped": outcome.skipped, "failed": failed, "results": str(results),
-                     "errors": [str(e) for e in df.loc[df["status"] == "failed", "error"]]}))
+        print(
+            dumps(
+                {
+                    "points": len(df),
+                    "computed": outcome.computed,
+                    "skipped": outcome.skipped,
+                    "failed": failed,
+                    "results": str(results),
+                    "errors": [str(e) for e in df.loc[df["status"] == "failed", "error"]],
+                }
+            )
+        )
     elif not args.quiet:
-        print(f"sweep: {len(df)} points ({outcome.computed} run now, {outcome.skipped} "
-              f"already done), {failed} failed -> {results}")
+        print(
+            f"sweep: {len(df)} points ({outcome.computed} run now, {outcome.skipped} "
+            f"already done), {failed} failed -> {results}"
+        )
     if not args.quiet:
         for err in df.loc[df["status"] == "failed", "error"].head(3):
             print(f"rtsim: failed point: {err}", file=sys.stderr)

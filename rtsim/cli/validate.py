@@ -21,36 +21,77 @@ __all__ = ["register", "run"]
 
 def register(sub: Any) -> None:
     """Add the ``validate`` sub-command."""
-    p = sub.add_parser("validate", help="validate the analysis against the simulator",
-                       description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true",
-                   help="small grid: n in {1,2,4}, r_H in {10,30}, 100 windows, 3 random sets")
-    p.add_argument("--out", required=True, metavar="DIR",
-                   help="output directory (resumed when run again)")
-    p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="local worker processes (default: the CPU count; 1 = in this process)")
-    p.add_argument("--dask", default=None, metavar="ADDRESS",
-                   help="run the points on an existing dask.distributed scheduler")
-    p.add_argument("--restart", action="store_true",
-                   help="discard earlier sweep results in DIR (needed when options changed)")
-    p.add_argument("--taskset", default=None, metavar="FILE",
-                   help="a processing-window task set (default: the paper's, packaged)")
-    p.add_argument("--scenario", default=None, metavar="FILE",
-                   help="the world whose beams are counted (default: "
-                   "experiments/scenarios/test1.toml); its formation gets n followers")
-    p.add_argument("--followers", default=None, metavar="RANGE",
-                   help="n values, e.g. 1..10 or 1,2,4 (overrides the grid)")
-    p.add_argument("--hough-radius", default=None, metavar="RANGE",
-                   help="r_H values in cm, e.g. 10..50:10 (overrides the grid)")
-    p.add_argument("--windows", type=int, default=None,
-                   help="windows per simulated run (at least 100)")
+    p = sub.add_parser(
+        "validate",
+        help="validate the analysis against the simulator",
+        description=__doc__.splitlines()[0],
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="small grid: n in {1,2,4}, r_H in {10,30}, 100 windows, 3 random sets",
+    )
+    p.add_argument(
+        "--out", required=True, metavar="DIR", help="output directory (resumed when run again)"
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="local worker processes (default: the CPU count; 1 = in this process)",
+    )
+    p.add_argument(
+        "--dask",
+        default=None,
+        metavar="ADDRESS",
+        help="run the points on an existing dask.distributed scheduler",
+    )
+    p.add_argument(
+        "--restart",
+        action="store_true",
+        help="discard earlier sweep results in DIR (needed when options changed)",
+    )
+    p.add_argument(
+        "--taskset",
+        default=None,
+        metavar="FILE",
+        help="a processing-window task set (default: the paper's, packaged)",
+    )
+    p.add_argument(
+        "--scenario",
+        default=None,
+        metavar="FILE",
+        help="the world whose beams are counted (default: "
+        "experiments/scenarios/test1.toml); its formation gets n followers",
+    )
+    p.add_argument(
+        "--followers",
+        default=None,
+        metavar="RANGE",
+        help="n values, e.g. 1..10 or 1,2,4 (overrides the grid)",
+    )
+    p.add_argument(
+        "--hough-radius",
+        default=None,
+        metavar="RANGE",
+        help="r_H values in cm, e.g. 10..50:10 (overrides the grid)",
+    )
+    p.add_argument(
+        "--windows", type=int, default=None, help="windows per simulated run (at least 100)"
+    )
     p.add_argument("--random-sets", type=int, default=None, help="number of random task sets")
-    p.add_argument("--histograms", type=int, default=None, metavar="N",
-                   help="configurations to draw response-time histograms for (default 2, "
-                   "quick 1; 0 = none)")
+    p.add_argument(
+        "--histograms",
+        type=int,
+        default=None,
+        metavar="N",
+        help="configurations to draw response-time histograms for (default 2, quick 1; 0 = none)",
+    )
     p.add_argument("--seed", type=int, default=None, help="the validation's seed (default 1)")
-    p.add_argument("--force", action="store_true",
-                   help="run even when a value looks like a mistake of unit")
+    p.add_argument(
+        "--force", action="store_true", help="run even when a value looks like a mistake of unit"
+    )
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
     add_figure_options(p, default_dpi=100)  # rtsim.validate.runner.DPI (not imported: slow)
@@ -70,8 +111,7 @@ def run(args: argparse.Namespace) -> int:
     if args.followers is not None:
         changes["n"] = tuple(parse_int_values(args.followers, "--followers"))
     if args.hough_radius is not None:
-        changes["r_H"] = tuple(float(x) for x in parse_values(args.hough_radius,
-                                                              "--hough-radius"))
+        changes["r_H"] = tuple(float(x) for x in parse_values(args.hough_radius, "--hough-radius"))
         from rtsim.cli.plausible import check_hough_radius
 
         check_hough_radius(args, changes["r_H"])
@@ -99,18 +139,34 @@ def run(args: argparse.Namespace) -> int:
     from rtsim.cli.common import figure_format, progress_enabled
     from rtsim.validate.runner import DPI
 
-    outcome = run_validation(out, cfg, workers=args.workers, dask=args.dask,
-                             progress=progress_enabled(args), restart=args.restart,
-                             argv=["rtsim", *sys.argv[1:]], fig_format=figure_format(args),
-                             dpi=args.dpi or DPI)
+    outcome = run_validation(
+        out,
+        cfg,
+        workers=args.workers,
+        dask=args.dask,
+        progress=progress_enabled(args),
+        restart=args.restart,
+        argv=["rtsim", *sys.argv[1:]],
+        fig_format=figure_format(args),
+        dpi=args.dpi or DPI,
+    )
     if args.json:
         from rtsim.cli.analyze import json_safe
         from rtsim.io.atomic import dumps
 
-        print(dumps(json_safe({
-            "ok": outcome.ok, "out": str(outcome.out_dir), "summary": outcome.summary,
-            "failures": [f.as_dict() for f in outcome.failures],
-            "point_errors": list(outcome.point_errors)})))
+        print(
+            dumps(
+                json_safe(
+                    {
+                        "ok": outcome.ok,
+                        "out": str(outcome.out_dir),
+                        "summary": outcome.summary,
+                        "failures": [f.as_dict() for f in outcome.failures],
+                        "point_errors": list(outcome.point_errors),
+                    }
+                )
+            )
+        )
     elif not args.quiet:
         s = outcome.summary
         for key in ("paper/wcet-cpu", "paper/counted-idle"):
@@ -120,11 +176,11 @@ def run(args: argparse.Namespace) -> int:
                 print(f"{key}: w_sch/w_sim {r['min']:.4f}..{r['max']:.4f}")
         fails = [f for f in outcome.failures if f.severity == "failure"]
         for f in fails[:5]:
-            print(f"FAILURE {f.config} {f.task} {f.mode}: {f.check}: "
-                  f"{f.value:.6g} > {f.bound:.6g}")
+            print(f"FAILURE {f.config} {f.task} {f.mode}: {f.check}: {f.value:.6g} > {f.bound:.6g}")
         for e in outcome.point_errors[:5]:
             print(f"failed point: {e}")
-        print(f"{len(fails)} failure(s), {len(outcome.point_errors)} failed "
-              f"point(s) -> {outcome.out_dir / 'report.md'}")
+        print(
+            f"{len(fails)} failure(s), {len(outcome.point_errors)} failed "
+            f"point(s) -> {outcome.out_dir / 'report.md'}"
+        )
     return 0 if outcome.ok else 1
-

@@ -50,8 +50,9 @@ def _walk(data: Any, keys: list[str], where: str, base: str, error: type[InputEr
         raise error(f"{where} ('{'.'.join(keys[:i])}' in {base} is a value, not a table)")
 
 
-def resolve(data: Mapping[str, Any], name: str, where: str, base: str,
-            error: type[InputError] = InputError) -> Path | None:
+def resolve(
+    data: Mapping[str, Any], name: str, where: str, base: str, error: type[InputError] = InputError
+) -> Path | None:
     """The path ``name`` addresses in ``data`` (None: a plain name that is no shortcut).
 
     ``where`` prefixes an error (``<file>: grid.<name>``); ``base`` names the file in it.
@@ -91,9 +92,14 @@ def apply_paths(data: dict[str, Any], paths: Iterable[tuple[Path, Any]]) -> dict
     return data
 
 
-def apply_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: str,
-                    error: type[InputError] = InputError, table: str = "overrides",
-                    options: Iterable[str] = ()) -> dict[str, Any]:
+def apply_overrides(
+    data: dict[str, Any],
+    overrides: Mapping[str, Any],
+    source: str,
+    error: type[InputError] = InputError,
+    table: str = "overrides",
+    options: Iterable[str] = (),
+) -> dict[str, Any]:
     """Apply ``overrides`` (dotted name → value) to the TOML dict ``data`` in place.
 
     ``options``: names that are run options rather than keys of the file (an error that says
@@ -101,8 +107,10 @@ def apply_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: 
     ``<table>.<name>``.
     """
     if not isinstance(overrides, Mapping):
-        raise error(f"{source}: {table}: expected a mapping of dotted paths to values, "
-                    f"got {type(overrides).__name__}")
+        raise error(
+            f"{source}: {table}: expected a mapping of dotted paths to values, "
+            f"got {type(overrides).__name__}"
+        )
     options = tuple(options)
     paths = []
     for name, value in overrides.items():
@@ -110,25 +118,31 @@ def apply_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: 
             raise error(f"{source}: {table}: keys must be dotted paths, got {name!r}")
         where = f"{source}: {table}.{name}"
         if name in options:
-            raise error(f"{where}: a run option ({', '.join(options)}), not a key of the "
-                        "file: pass it as an argument")
+            raise error(
+                f"{where}: a run option ({', '.join(options)}), not a key of the "
+                "file: pass it as an argument"
+            )
         path = resolve(data, name, where, source, error)
         if path is None:
-            raise error(f"{where}: unknown parameter (not a key of {source})"
-                        f"{did_you_mean(name, shortcuts(data))}")
+            raise error(
+                f"{where}: unknown parameter (not a key of {source})"
+                f"{did_you_mean(name, shortcuts(data))}"
+            )
         paths.append((path, value))
     return apply_paths(data, paths)
 
 
-def parse_assignment(text: str, error: type[InputError] = InputError,
-                     flag: str = "--set") -> tuple[str, Any]:
+def parse_assignment(
+    text: str, error: type[InputError] = InputError, flag: str = "--set"
+) -> tuple[str, Any]:
     """``KEY=VALUE`` → (key, value): the value read as a TOML value (``4``, ``2.5``, ``true``,
     ``"text"``, ``[1, 2]``, ``inf``), a bare word as a string (``left``)."""
     key, sep, raw = text.partition("=")
     key = key.strip()
     if not sep or not key:
-        raise error(f"{flag} {text!r}: expected KEY=VALUE (a dotted key such as "
-                    "formation.followers=4)")
+        raise error(
+            f"{flag} {text!r}: expected KEY=VALUE (a dotted key such as formation.followers=4)"
+        )
     raw = raw.strip()
     try:
         value = tomllib.loads(f"v = {raw}")["v"]

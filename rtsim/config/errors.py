@@ -110,9 +110,13 @@ def _plain_where(loc: Loc) -> str:
     return out
 
 
-def error_lines(exc: ValidationError, root: type[BaseModel], source: str,
-                where: Callable[[Loc], str] = _plain_where,
-                special: Callable[[Loc, str], str | None] | None = None) -> list[str]:
+def error_lines(
+    exc: ValidationError,
+    root: type[BaseModel],
+    source: str,
+    where: Callable[[Loc], str] = _plain_where,
+    special: Callable[[Loc, str], str | None] | None = None,
+) -> list[str]:
     """One line per error of ``exc``: ``<source>: <where>: <problem>`` (no ``<where>`` for
     the file itself). ``where`` renders a location; ``special`` may rewrite a problem."""
     lines: list[str] = []

@@ -29,15 +29,25 @@ from rtsim.errors import InputError
 from rtsim.io.limits import Range
 from rtsim.registry import Registry
 
-__all__ = ["Table", "Leaf", "number", "ranged", "integer", "choice", "plugin", "text", "problem",
-           "Range", "range_of"]
+__all__ = [
+    "Table",
+    "Leaf",
+    "number",
+    "ranged",
+    "integer",
+    "choice",
+    "plugin",
+    "text",
+    "problem",
+    "Range",
+    "range_of",
+]
 
 
 class Table(BaseModel):
     """A TOML table: unknown keys are errors, nothing is coerced, frozen once valid."""
 
-    model_config = ConfigDict(strict=True, extra="forbid", frozen=True,
-                              validate_default=False)
+    model_config = ConfigDict(strict=True, extra="forbid", frozen=True, validate_default=False)
 
 
 def problem(message: str) -> PydanticCustomError:
@@ -93,24 +103,36 @@ class Leaf:
     """Field metadata that validates a TOML value itself (strictly, keeping its type) and
     gives its JSON Schema: ``Annotated[float, number(...)]``."""
 
-    def __init__(self, check: Callable[[Any], Any], schema: dict[str, Any],
-                 rng: Range | None = None) -> None:
+    def __init__(
+        self, check: Callable[[Any], Any], schema: dict[str, Any], rng: Range | None = None
+    ) -> None:
         self.check = check
         self.schema = schema
         self.range = rng
 
-    def __get_pydantic_core_schema__(self, source: Any, handler: GetCoreSchemaHandler
-                                     ) -> core_schema.CoreSchema:
+    def __get_pydantic_core_schema__(
+        self, source: Any, handler: GetCoreSchemaHandler
+    ) -> core_schema.CoreSchema:
         return core_schema.no_info_plain_validator_function(self.check)
 
-    def __get_pydantic_json_schema__(self, schema: core_schema.CoreSchema,
-                                     handler: GetJsonSchemaHandler) -> dict[str, Any]:
+    def __get_pydantic_json_schema__(
+        self, schema: core_schema.CoreSchema, handler: GetJsonSchemaHandler
+    ) -> dict[str, Any]:
         return dict(self.schema)
 
 
-def number(lo: float, hi: float, unit: str, why: str, *, lo_open: bool = False,
-           hi_open: bool = False, inf: bool = False, integer: bool = False,
-           deg: bool = False) -> Leaf:
+def number(
+    lo: float,
+    hi: float,
+    unit: str,
+    why: str,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    inf: bool = False,
+    integer: bool = False,
+    deg: bool = False,
+) -> Leaf:
     """A number between ``lo`` and ``hi`` (in ``unit``; ``inf`` also accepted when ``inf``).
 
     ``deg``: the key is the ``_deg`` twin of an angle whose range (``lo``, ``hi``) is in
@@ -128,8 +150,16 @@ def number(lo: float, hi: float, unit: str, why: str, *, lo_open: bool = False,
 def ranged(r: Range) -> Leaf:
     """A number in the registered range ``r`` (:mod:`rtsim.io.limits`: a key that a lower
     layer checks too, with the same range)."""
-    return number(r.lo, r.hi, r.unit, r.why, lo_open=r.lo_open, hi_open=r.hi_open, inf=r.inf,
-                  integer=r.integer)
+    return number(
+        r.lo,
+        r.hi,
+        r.unit,
+        r.why,
+        lo_open=r.lo_open,
+        hi_open=r.hi_open,
+        inf=r.inf,
+        integer=r.integer,
+    )
 
 
 def integer(lo: float, hi: float, unit: str, why: str) -> Leaf:
@@ -141,14 +171,16 @@ def choice(values: Sequence[str], *, renamed: Mapping[str, str] | None = None) -
     """One of ``values`` (a string), with a did-you-mean; ``renamed``: old names and their
     new ones (an old name is an error naming its replacement)."""
     names = tuple(values)
-    shown = " or ".join(f"'{v}'" for v in names) if len(names) == 2 else (
-        "one of " + ", ".join(names))
+    shown = (
+        " or ".join(f"'{v}'" for v in names) if len(names) == 2 else ("one of " + ", ".join(names))
+    )
 
     def check(value: Any) -> Any:
         if isinstance(value, str) and value in names:
             return value
-        raise problem(f"must be {shown}, got {value!r}"
-                      f"{did_you_mean(value, names, renamed=renamed)}")
+        raise problem(
+            f"must be {shown}, got {value!r}{did_you_mean(value, names, renamed=renamed)}"
+        )
 
     return Leaf(check, {"type": "string", "enum": list(names)})
 
@@ -169,9 +201,13 @@ def plugin(registry: Registry[Any]) -> Leaf:
             raise problem(str(exc).removeprefix(": ")) from None
         return value
 
-    schema = {"type": "string", "minLength": 1, "examples": list(registry),
-              "description": f"a {registry.kind}: {', '.join(registry)}, an installed plug-in "
-                             f"or 'package.module:Name'"}
+    schema = {
+        "type": "string",
+        "minLength": 1,
+        "examples": list(registry),
+        "description": f"a {registry.kind}: {', '.join(registry)}, an installed plug-in "
+        f"or 'package.module:Name'",
+    }
     return Leaf(check, schema)
 
 

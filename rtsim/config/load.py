@@ -19,8 +19,14 @@ from rtsim.config.dotted import apply_overrides
 from rtsim.config.errors import Loc, error_lines, raise_errors
 from rtsim.errors import InputError, OverrideError, TaskSetError
 
-__all__ = ["validate", "parse_toml", "load_taskset", "parse_taskset", "taskset_bytes",
-           "PACKAGED_TASKSET"]
+__all__ = [
+    "validate",
+    "parse_toml",
+    "load_taskset",
+    "parse_taskset",
+    "taskset_bytes",
+    "PACKAGED_TASKSET",
+]
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -28,9 +34,14 @@ M = TypeVar("M", bound=BaseModel)
 PACKAGED_TASKSET = "barrel_robots.toml"
 
 
-def validate(model: type[M], data: Any, source: str, error: type[InputError],
-             where: Callable[[Loc], str] | None = None,
-             special: Callable[[Loc, str], str | None] | None = None) -> M:
+def validate(
+    model: type[M],
+    data: Any,
+    source: str,
+    error: type[InputError],
+    where: Callable[[Loc], str] | None = None,
+    special: Callable[[Loc, str], str | None] | None = None,
+) -> M:
     """``data`` validated by ``model``, or ``error`` with every problem, one line each."""
     if not isinstance(data, Mapping):
         raise error(f"{source}: must be a table of keys, got {type(data).__name__}")
@@ -56,16 +67,24 @@ def parse_toml(raw: bytes, source: str, error: type[InputError]) -> dict[str, An
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{source}: malformed TOML: {exc}") from None
     except RecursionError:
-        raise error(f"{source}: nested too deeply to read (tables or arrays within each other "
-                    f"hundreds of levels deep)") from None
+        raise error(
+            f"{source}: nested too deeply to read (tables or arrays within each other "
+            f"hundreds of levels deep)"
+        ) from None
 
 
-def with_overrides(data: dict[str, Any], overrides: Mapping[str, Any] | None,
-                   source: str) -> dict[str, Any]:
+def with_overrides(
+    data: dict[str, Any], overrides: Mapping[str, Any] | None, source: str
+) -> dict[str, Any]:
     """``data`` with the dotted ``overrides`` applied (:mod:`rtsim.config.dotted`)."""
     if overrides:  # a path that names no key, or a run option: an OverrideError
-        apply_overrides(data, overrides, source, OverrideError,
-                        options=("mode", "policy", "seed", "exec", "duration_s"))
+        apply_overrides(
+            data,
+            overrides,
+            source,
+            OverrideError,
+            options=("mode", "policy", "seed", "exec", "duration_s"),
+        )
     return data
 
 
@@ -94,8 +113,7 @@ def taskset_bytes(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
         raise TaskSetError(f"{source}: cannot read: {exc.strerror or exc}") from None
 
 
-def parse_taskset(data: Mapping[str, Any], source: str, *,
-                  allow_code: bool | None = None) -> Any:
+def parse_taskset(data: Mapping[str, Any], source: str, *, allow_code: bool | None = None) -> Any:
     """Validate a task-set table (as :func:`tomllib.loads` returns it) and build the TaskSet;
     ``source`` names the file in error messages and is kept as ``TaskSet.source``. A
     ``[scheduler] policy`` of the form ``module:Name`` is code: it loads only with
@@ -109,21 +127,24 @@ def parse_taskset(data: Mapping[str, Any], source: str, *,
     from rtsim.registry import reading_input
 
     with reading_input(allow_code):
-        model = validate(TaskSetFile, data, source, TaskSetError, taskset_where(data),
-                         taskset_special)
+        model = validate(
+            TaskSetFile, data, source, TaskSetError, taskset_where(data), taskset_special
+        )
         ts, errors = build_taskset(model, source)
     raise_errors([f"{source}: {e}" for e in errors], TaskSetError)
     assert ts is not None
     return ts
 
 
-def load_taskset(path: str | os.PathLike[str] | None = None,
-                 overrides: Mapping[str, Any] | None = None, *,
-                 allow_code: bool | None = None) -> Any:
+def load_taskset(
+    path: str | os.PathLike[str] | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    allow_code: bool | None = None,
+) -> Any:
     """Read a TOML task-set file (``None``: the packaged paper set, Table 1); ``overrides``:
     dotted paths and their values (:mod:`rtsim.config.dotted`); ``allow_code``: as
     :func:`parse_taskset`."""
     raw, source = taskset_bytes(path)
     data = parse_toml(raw, source, TaskSetError)
-    return parse_taskset(with_overrides(data, overrides, source), source,
-                         allow_code=allow_code)
+    return parse_taskset(with_overrides(data, overrides, source), source, allow_code=allow_code)

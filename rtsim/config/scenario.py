@@ -52,8 +52,16 @@ from rtsim.world.formation import (
 )
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
-__all__ = ["AdjustConfig", "Scenario", "ScenarioFile", "load_scenario", "parse_scenario",
-           "scenario_bytes", "PACKAGED_SCENARIOS", "PACKAGED_TASKSETS"]
+__all__ = [
+    "AdjustConfig",
+    "Scenario",
+    "ScenarioFile",
+    "load_scenario",
+    "parse_scenario",
+    "scenario_bytes",
+    "PACKAGED_SCENARIOS",
+    "PACKAGED_TASKSETS",
+]
 
 #: Task-set names that refer to the package's own files rather than to a path.
 PACKAGED_TASKSETS = ("barrel_robots", "example")
@@ -92,11 +100,14 @@ class AdjustConfig:
 
     def __post_init__(self) -> None:
         if self.lower_bound not in LOWER_BOUNDS:
-            raise ScenarioError(f"adjust.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
-                                f"got {self.lower_bound!r}")
+            raise ScenarioError(
+                f"adjust.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
+                f"got {self.lower_bound!r}"
+            )
         if self.decide not in DECIDE:
-            raise ScenarioError(f"adjust.decide: must be one of end, before-send, got "
-                                f"{self.decide!r}")
+            raise ScenarioError(
+                f"adjust.decide: must be one of end, before-send, got {self.decide!r}"
+            )
         from rtsim.control.predict import check_predictor
 
         object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
@@ -105,8 +116,7 @@ class AdjustConfig:
 
         try:
             check_predictor(self.predictor, "adjust.predictor")
-            make_policy(self.policy, self.params, "adjust",
-                        _ADJUST_KEYS)
+            make_policy(self.policy, self.params, "adjust", _ADJUST_KEYS)
         except InputError as exc:
             raise ScenarioError(str(exc)) from None
 
@@ -143,8 +153,11 @@ class Scenario:
         and the scenario's ``[scheduler]``; the file is read once, when the scenario is
         loaded (``task_set``), or here for a scenario made by hand."""
         where = self.source or "<scenario>"
-        ts = self.task_set if self.task_set is not None else _read_taskset(
-            self.taskset, where, self.allow_code)
+        ts = (
+            self.task_set
+            if self.task_set is not None
+            else _read_taskset(self.taskset, where, self.allow_code)
+        )
         return _fit(ts, self.world, self.scheduler)
 
 
@@ -173,8 +186,15 @@ _MS_MAX = 1e9
 _ANGLE = 20 * math.pi
 
 
-def _angle(lo: float, hi: float, why: str, deg: bool = False, lo_open: bool = False,
-           unit: str = "rad", inf: bool = False) -> Any:
+def _angle(
+    lo: float,
+    hi: float,
+    why: str,
+    deg: bool = False,
+    lo_open: bool = False,
+    unit: str = "rad",
+    inf: bool = False,
+) -> Any:
     return number(lo, hi, unit, why, deg=deg, lo_open=lo_open, inf=inf)
 
 
@@ -230,15 +250,22 @@ class StartModel(_Angles):
 class SegmentModel(_Angles):
     """One entry of ``leader.path``: ``{straight = <cm>}`` or ``{turn = "left", radius, angle}``."""
 
-    straight: Annotated[float, number(0, _CM_MAX, "cm", "a straight of at most 100 km",
-                                      lo_open=True)] | None = None
+    straight: (
+        Annotated[float, number(0, _CM_MAX, "cm", "a straight of at most 100 km", lo_open=True)]
+        | None
+    ) = None
     turn: Annotated[Side, choice(("left", "right"))] | None = None
-    radius: Annotated[float, number(1, _CM_MAX, "cm", "a turn tighter than 1 cm is a spin in "
-                                    "place, not an arc")] | None = None
-    angle: Annotated[float, _angle(0, _ANGLE, "up to ten full turns", lo_open=True)] | None \
-        = None
-    angle_deg: Annotated[float, _angle(0, _ANGLE, "up to ten full turns", deg=True,
-                                       lo_open=True)] | None = None
+    radius: (
+        Annotated[
+            float,
+            number(1, _CM_MAX, "cm", "a turn tighter than 1 cm is a spin in place, not an arc"),
+        ]
+        | None
+    ) = None
+    angle: Annotated[float, _angle(0, _ANGLE, "up to ten full turns", lo_open=True)] | None = None
+    angle_deg: (
+        Annotated[float, _angle(0, _ANGLE, "up to ten full turns", deg=True, lo_open=True)] | None
+    ) = None
 
     @model_validator(mode="after")
     def _kind(self) -> Any:
@@ -269,15 +296,19 @@ _RAMP = "at most 100 g; inf: the speed steps"
 
 
 class LeaderModel(Table):
-    speed: Annotated[float, number(0, 1000, "cm/s", "a ground robot at most 10 m/s",
-                                   lo_open=True)]
+    speed: Annotated[float, number(0, 1000, "cm/s", "a ground robot at most 10 m/s", lo_open=True)]
     start: StartModel = Field(default_factory=StartModel)
-    start_s: Annotated[float, number(0, _CM_MAX, "cm", "a position along the path (within one "
-                                     "lap, checked against the path's length)")] = 0.0
-    accel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] \
-        = math.inf
-    decel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] \
-        = math.inf
+    start_s: Annotated[
+        float,
+        number(
+            0,
+            _CM_MAX,
+            "cm",
+            "a position along the path (within one lap, checked against the path's length)",
+        ),
+    ] = 0.0
+    accel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
+    decel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
     path: list[SegmentModel] | None = Field(default=None, min_length=1)
     shape: ShapeModel | None = None
 
@@ -299,21 +330,24 @@ class FormationModel(_Angles):
     model: Annotated[str, plugin(FOLLOWER_MODELS)] = "l-psi"
     layout: Annotated[str, choice(FORMATION_LAYOUTS)] = "line"
     followers: Annotated[int, integer(1, 1000, "followers", "as window.n")] | None = None
-    separation: Annotated[float, number(0, 1e5, "cm", "at most 1 km (the laser sees 80 m)",
-                                        lo_open=True)] | None = None
+    separation: (
+        Annotated[float, number(0, 1e5, "cm", "at most 1 km (the laser sees 80 m)", lo_open=True)]
+        | None
+    ) = None
     bearing_offset: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle")] | None = None
-    bearing_offset_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle", deg=True)] | None \
-        = None
+    bearing_offset_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle", deg=True)] | None = (
+        None
+    )
     slot: list[SlotModel] | None = Field(default=None, min_length=1)
 
     @model_validator(mode="after")
     def _slots_or_pattern(self) -> Any:
-        pattern = (self.followers, self.separation, self.bearing_offset,
-                   self.bearing_offset_deg)
+        pattern = (self.followers, self.separation, self.bearing_offset, self.bearing_offset_deg)
         if self.slot is not None:
             if any(v is not None for v in pattern) or self.layout != "line":
-                raise problem("give [[formation.slot]] or followers/separation/bearing_offset, "
-                              "not both")
+                raise problem(
+                    "give [[formation.slot]] or followers/separation/bearing_offset, not both"
+                )
             return self
         for req in ("followers", "separation"):
             if getattr(self, req) is None:
@@ -325,46 +359,62 @@ _NOISE = "a noise standard deviation"
 
 
 class FollowerModel(_Angles):
-    radius: Annotated[float, number(0, 1e3, "cm", "a robot of at most 10 m", lo_open=True)] \
-        | None = None
-    max_speed: Annotated[float, number(0, 1000, "cm/s", "as leader.speed", lo_open=True)] \
-        | None = None
-    max_accel: Annotated[float, number(0, 1e5, "cm/s²", "at most 100 g", lo_open=True)] \
-        | None = None
-    max_turn_rate: Annotated[float, _angle(0, 1e3, "inf: no limit", lo_open=True,
-                                           unit="rad/s", inf=True)] | None = None
-    max_turn_rate_deg: Annotated[float, _angle(0, 1e3, "inf: no limit", deg=True, lo_open=True,
-                                               unit="rad/s", inf=True)] | None = None
-    control_offset: Annotated[float, number(0, 1e3, "cm", "a control point within 10 m",
-                                            lo_open=True)] | None = None
-    gain_rho: Annotated[float, number(0, 1e3, "1/s", "a controller gain", lo_open=True)] \
-        | None = None
-    gain_beta: Annotated[float, number(0, 1e3, "1/s", "a controller gain", lo_open=True)] \
-        | None = None
-    lookahead: Annotated[float, number(0, 1e4, "cm", "pure pursuit's look-ahead, within "
-                                       "100 m", lo_open=True)] | None = None
+    radius: (
+        Annotated[float, number(0, 1e3, "cm", "a robot of at most 10 m", lo_open=True)] | None
+    ) = None
+    max_speed: Annotated[float, number(0, 1000, "cm/s", "as leader.speed", lo_open=True)] | None = (
+        None
+    )
+    max_accel: Annotated[float, number(0, 1e5, "cm/s²", "at most 100 g", lo_open=True)] | None = (
+        None
+    )
+    max_turn_rate: (
+        Annotated[float, _angle(0, 1e3, "inf: no limit", lo_open=True, unit="rad/s", inf=True)]
+        | None
+    ) = None
+    max_turn_rate_deg: (
+        Annotated[
+            float, _angle(0, 1e3, "inf: no limit", deg=True, lo_open=True, unit="rad/s", inf=True)
+        ]
+        | None
+    ) = None
+    control_offset: (
+        Annotated[float, number(0, 1e3, "cm", "a control point within 10 m", lo_open=True)] | None
+    ) = None
+    gain_rho: Annotated[float, number(0, 1e3, "1/s", "a controller gain", lo_open=True)] | None = (
+        None
+    )
+    gain_beta: Annotated[float, number(0, 1e3, "1/s", "a controller gain", lo_open=True)] | None = (
+        None
+    )
+    lookahead: (
+        Annotated[
+            float, number(0, 1e4, "cm", "pure pursuit's look-ahead, within 100 m", lo_open=True)
+        ]
+        | None
+    ) = None
     speed_noise: Annotated[float, number(0, 1e3, "cm/s", _NOISE)] | None = None
     turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
-    turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None \
-        = None
+    turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None = None
 
 
 class SensingModel(Table):
     r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = 25.0
-    r_reacq: Annotated[float, number(0, 1e5, "cm", "a search radius within 1 km",
-                                     lo_open=True)] | None = None
+    r_reacq: (
+        Annotated[float, number(0, 1e5, "cm", "a search radius within 1 km", lo_open=True)] | None
+    ) = None
     position_noise: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
     min_points: Annotated[int, integer(1, 361, "points", "at most the 361 beams")] | None = None
-    max_range: Annotated[float, number(0, 1e7, "cm", "inf: unlimited", lo_open=True,
-                                       inf=True)] | None = None
+    max_range: (
+        Annotated[float, number(0, 1e7, "cm", "inf: unlimited", lo_open=True, inf=True)] | None
+    ) = None
 
 
 class EkfModel(_Angles):
     measurement_noise: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
     speed_noise: Annotated[float, number(0, 1e4, "cm/s", _NOISE)] | None = None
     turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
-    turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None \
-        = None
+    turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None = None
     position_drift: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
     heading_drift: Annotated[float, _angle(0, 100, _NOISE)] | None = None
     heading_drift_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True)] | None = None
@@ -380,10 +430,13 @@ _FRACTION = "a fraction of the desired separation"
 class ThresholdsModel(_Angles):
     T_rho: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.01
     T_eps: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.025
-    T_beta: Annotated[float, _angle(0, math.pi, "a bearing error below 180°",
-                                    lo_open=True)] | None = None
-    T_beta_deg: Annotated[float, _angle(0, math.pi, "a bearing error below 180°", deg=True,
-                                        lo_open=True)] | None = None
+    T_beta: (
+        Annotated[float, _angle(0, math.pi, "a bearing error below 180°", lo_open=True)] | None
+    ) = None
+    T_beta_deg: (
+        Annotated[float, _angle(0, math.pi, "a bearing error below 180°", deg=True, lo_open=True)]
+        | None
+    ) = None
     localization: Annotated[str, choice(LOCALIZATION_KINDS)] | None = None
 
 
@@ -401,25 +454,54 @@ class AdjustModel(Table):
 
     model_config = ConfigDict(strict=True, extra="allow", frozen=True, validate_default=False)
 
-    cap: Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] \
-        | None = None
+    cap: (
+        Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] | None
+    ) = None
     floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] | None = None
     predictor: Annotated[str, plugin(PREDICTORS)] | None = None
     lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
     policy: Annotated[str, text(what="a policy name")] | None = None
     decide: Annotated[str, choice(DECIDE)] | None = None
-    margin: Annotated[float, number(0, 1, "", "the share μ of each predicted bound kept in "
-                                    "reserve (policies margin, lookahead, noise-aware, safe)",
-                                    hi_open=True)] | None = None
-    windows: Annotated[float, number(1, 100, "windows", "policies lookahead and safe: the "
-                                     "horizon, in windows of w_sch")] | None = None
-    z: Annotated[float, number(0, 10, "σ", "policies noise-aware and safe: the padding of the "
-                               "predicted V_F, |ρ̇|, |β̇| in standard deviations")] | None = None
+    margin: (
+        Annotated[
+            float,
+            number(
+                0,
+                1,
+                "",
+                "the share μ of each predicted bound kept in "
+                "reserve (policies margin, lookahead, noise-aware, safe)",
+                hi_open=True,
+            ),
+        ]
+        | None
+    ) = None
+    windows: (
+        Annotated[
+            float,
+            number(
+                1, 100, "windows", "policies lookahead and safe: the horizon, in windows of w_sch"
+            ),
+        ]
+        | None
+    ) = None
+    z: (
+        Annotated[
+            float,
+            number(
+                0,
+                10,
+                "σ",
+                "policies noise-aware and safe: the padding of the "
+                "predicted V_F, |ρ̇|, |β̇| in standard deviations",
+            ),
+        ]
+        | None
+    ) = None
 
 
 class WorldModel(Table):
-    step_ms: Annotated[float, number(1e-3, 1e4, "ms", "1 µs to 10 s per integration step")] \
-        = 10.0
+    step_ms: Annotated[float, number(1e-3, 1e4, "ms", "1 µs to 10 s per integration step")] = 10.0
     backend: Annotated[str, choice(WORLD_BACKENDS)] | None = None
 
 
@@ -433,8 +515,9 @@ class ScenarioFile(Table):
     name: Annotated[str, text()] | None = None
     description: Annotated[str, text(nonempty=False, what="a string")] = ""
     taskset: Annotated[str, text(what="a name or a path")] = "barrel_robots"
-    duration: Annotated[float, number(0, 1e6, "s", "up to 11.6 simulated days",
-                                      lo_open=True)] | None = None
+    duration: (
+        Annotated[float, number(0, 1e6, "s", "up to 11.6 simulated days", lo_open=True)] | None
+    ) = None
     leader: LeaderModel
     formation: FormationModel
     follower: FollowerModel = Field(default_factory=FollowerModel)
@@ -444,14 +527,20 @@ class ScenarioFile(Table):
     adjust: AdjustModel = Field(default_factory=AdjustModel)
     world: WorldModel = Field(default_factory=WorldModel)
     localization: LocalizationModel = Field(default_factory=LocalizationModel)
-    assumptions: dict[str, Annotated[str, text(what="a non-empty string giving the "
-                                                    "reason")]] = Field(default_factory=dict)
+    assumptions: dict[str, Annotated[str, text(what="a non-empty string giving the reason")]] = (
+        Field(default_factory=dict)
+    )
     scheduler: SchedulerModel | None = None
 
 
 # -------------------------------------------------------------------------- building
-def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
-                   base: Path | None = None, *, allow_code: bool | None = None) -> Scenario:
+def parse_scenario(
+    data: Mapping[str, Any],
+    source: str = "<scenario>",
+    base: Path | None = None,
+    *,
+    allow_code: bool | None = None,
+) -> Scenario:
     """Validate a parsed TOML document and build the scenario; ``base`` resolves a relative
     task-set path. Every problem of the file is reported at once.
 
@@ -470,17 +559,22 @@ def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
 def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> Scenario:
     from rtsim.config.errors import raise_errors
 
-    if isinstance(data, Mapping) and isinstance(data.get("adjust"), Mapping) \
-            and "model" in data["adjust"]:
-        raise ScenarioError(f"{source}: adjust: unknown key 'model' (renamed; did you mean "
-                            f"'predictor'?)")
+    if (
+        isinstance(data, Mapping)
+        and isinstance(data.get("adjust"), Mapping)
+        and "model" in data["adjust"]
+    ):
+        raise ScenarioError(
+            f"{source}: adjust: unknown key 'model' (renamed; did you mean 'predictor'?)"
+        )
     model = validate(ScenarioFile, data, source, ScenarioError)
     errors: list[str] = []
     raw_adjust = data.get("adjust")
     order = list(raw_adjust) if isinstance(raw_adjust, Mapping) else []
     scenario = _build_scenario(model, source, base, errors, order)
-    raise_errors([e if e.startswith(f"{source}: ") else f"{source}: {e}" for e in errors],
-                 ScenarioError)
+    raise_errors(
+        [e if e.startswith(f"{source}: ") else f"{source}: {e}" for e in errors], ScenarioError
+    )
     assert scenario is not None
     return scenario
 
@@ -511,8 +605,12 @@ def _path(src: str, leader: LeaderModel) -> LeaderPath:
         return _attempt_raise(f"{src}: leader.path", lambda: LeaderPath(segs, start))
     shape = leader.shape
     assert shape is not None
-    return _attempt_raise(f"{src}: leader.shape", lambda: rounded_rectangle(
-        shape.length, shape.width, shape.radius, direction=shape.direction, start=start))
+    return _attempt_raise(
+        f"{src}: leader.shape",
+        lambda: rounded_rectangle(
+            shape.length, shape.width, shape.radius, direction=shape.direction, start=start
+        ),
+    )
 
 
 def _attempt_raise(where: str, make: Callable[[], T]) -> T:
@@ -537,22 +635,38 @@ def _formation(f: FormationModel, r_F: float, path: LeaderPath) -> Formation:
     return place(f.followers, f.separation, offset, r_F=r_F)
 
 
-def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[str],
-                    adjust_order: list[str]) -> Scenario | None:
+def _build_scenario(
+    m: ScenarioFile, src: str, base: Path | None, errors: list[str], adjust_order: list[str]
+) -> Scenario | None:
     speed = float(m.leader.speed)
     path = _attempt(errors, "", lambda: _path(src, m.leader))
-    follower = _attempt(errors, src, lambda: FollowerParams(**m.follower.given(
-        tuple(FollowerParams.__dataclass_fields__))))
+    follower = _attempt(
+        errors,
+        src,
+        lambda: FollowerParams(**m.follower.given(tuple(FollowerParams.__dataclass_fields__))),
+    )
     formation = None
     if follower is not None:
         r_F = follower.radius
-        formation = (None if path is None else
-                     _attempt(errors, src, lambda: _formation(m.formation, r_F, path)))
-    sensing = _attempt(errors, src, lambda: SensingParams(**{
-        k: getattr(m.sensing, k) for k in SensingParams.__dataclass_fields__
-        if getattr(m.sensing, k) is not None}))
-    ekf = _attempt(errors, src, lambda: EkfParams(**m.ekf.given(
-        tuple(EkfParams.__dataclass_fields__))))
+        formation = (
+            None
+            if path is None
+            else _attempt(errors, src, lambda: _formation(m.formation, r_F, path))
+        )
+    sensing = _attempt(
+        errors,
+        src,
+        lambda: SensingParams(
+            **{
+                k: getattr(m.sensing, k)
+                for k in SensingParams.__dataclass_fields__
+                if getattr(m.sensing, k) is not None
+            }
+        ),
+    )
+    ekf = _attempt(
+        errors, src, lambda: EkfParams(**m.ekf.given(tuple(EkfParams.__dataclass_fields__)))
+    )
     th = m.thresholds
     # the decision's localization bound: by default the one that matches the window's
     # centre (Eq 19 for the previous position, the residual bound for the predicted one)
@@ -564,17 +678,22 @@ def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[s
         bound = _attempt(errors, "", lambda: _predicted_bound(src, r_H, follower, sensing, ekf))
         predicted_ms = math.inf if bound is None else bound
     if loc == "predicted" and centre != "predicted":
-        errors.append(f"{src}: thresholds.localization: 'predicted' bounds what a predicted "
-                      f"window centre leaves; set [localization] centre = 'predicted' (it is "
-                      f"{centre!r})")
-    thresholds = Thresholds(r_H=r_H, T_rho=th.T_rho, T_eps=th.T_eps,
-                            T_beta=th.radians("T_beta", math.radians(5.0)),
-                            localization=loc, predicted_ms=predicted_ms)  # type: ignore[arg-type]
-    localization = LocalizationParams(centre=m.localization.centre,
-                                      search=m.localization.search)
+        errors.append(
+            f"{src}: thresholds.localization: 'predicted' bounds what a predicted "
+            f"window centre leaves; set [localization] centre = 'predicted' (it is "
+            f"{centre!r})"
+        )
+    thresholds = Thresholds(
+        r_H=r_H,
+        T_rho=th.T_rho,
+        T_eps=th.T_eps,
+        T_beta=th.radians("T_beta", math.radians(5.0)),
+        localization=loc,
+        predicted_ms=predicted_ms,
+    )  # type: ignore[arg-type]
+    localization = LocalizationParams(centre=m.localization.centre, search=m.localization.search)
     adj = m.adjust
-    args: dict[str, Any] = {k: getattr(adj, k) for k in _ADJUST_KEYS
-                            if getattr(adj, k) is not None}
+    args: dict[str, Any] = {k: getattr(adj, k) for k in _ADJUST_KEYS if getattr(adj, k) is not None}
     own = {k: getattr(adj, k) for k in ("margin", "windows", "z") if getattr(adj, k) is not None}
     own.update(adj.model_extra or {})
     args["params"] = {k: own[k] for k in adjust_order if k in own}  # in the file's order
@@ -589,15 +708,22 @@ def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[s
         except InputError as exc:
             errors.append(str(exc))
         # the scheduler's registry entry names the lower bounds that hold under it
-        if adjust is not None and policy is not None and policy.lower_bounds \
-                and adjust.lower_bound not in policy.lower_bounds:
+        if (
+            adjust is not None
+            and policy is not None
+            and policy.lower_bounds
+            and adjust.lower_bound not in policy.lower_bounds
+        ):
             need = [n for n, c in SCHEDULERS.items() if adjust.lower_bound in c.lower_bounds]
-            errors.append(f"{src}: adjust.lower_bound: {adjust.lower_bound} assumes the "
-                          f"{' or '.join(need)} scheduler, but [scheduler] policy is "
-                          f"{scheduler!r}")
+            errors.append(
+                f"{src}: adjust.lower_bound: {adjust.lower_bound} assumes the "
+                f"{' or '.join(need)} scheduler, but [scheduler] policy is "
+                f"{scheduler!r}"
+            )
     if adjust is not None and adjust.floor > speed:
-        errors.append(f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the desired speed "
-                      f"{speed:g} cm/s")
+        errors.append(
+            f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the desired speed {speed:g} cm/s"
+        )
     taskset = m.taskset
     if taskset not in PACKAGED_TASKSETS:
         p = Path(taskset)
@@ -606,42 +732,79 @@ def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[s
         if not p.is_file():
             errors.append(f"{src}: taskset: file not found: {p}")
         taskset = str(p)
-    if path is None or formation is None or follower is None or sensing is None \
-            or ekf is None or adjust is None:
+    if (
+        path is None
+        or formation is None
+        or follower is None
+        or sensing is None
+        or ekf is None
+        or adjust is None
+    ):
         return None
-    world = _attempt(errors, src, lambda: WorldConfig(
-        path, speed, formation, follower, sensing, ekf, thresholds, m.world.step_ms,
-        float(m.leader.start_s), leader_accel_max=float(m.leader.accel_max),
-        leader_decel_max=float(m.leader.decel_max), localization=localization,
-        backend=m.world.backend))
+    world = _attempt(
+        errors,
+        src,
+        lambda: WorldConfig(
+            path,
+            speed,
+            formation,
+            follower,
+            sensing,
+            ekf,
+            thresholds,
+            m.world.step_ms,
+            float(m.leader.start_s),
+            leader_accel_max=float(m.leader.accel_max),
+            leader_decel_max=float(m.leader.decel_max),
+            localization=localization,
+            backend=m.world.backend,
+        ),
+    )
     if world is None:
         return None
     errors += _sense(world, src)
-    duration = float(m.duration) if m.duration is not None else float(
-        math.ceil(path.lap_time(speed)))
+    duration = (
+        float(m.duration) if m.duration is not None else float(math.ceil(path.lap_time(speed)))
+    )
     if errors:
         return None
     task_set = _attempt(errors, "", lambda: _read_taskset(taskset, src))
     if task_set is None:
         return None
-    return Scenario(name=m.name if m.name is not None else Path(src).stem, world=world,
-                    taskset=taskset, duration=duration, description=m.description,
-                    adjust=adjust, assumptions=dict(m.assumptions), source=src,
-                    scheduler=scheduler, task_set=task_set)
+    return Scenario(
+        name=m.name if m.name is not None else Path(src).stem,
+        world=world,
+        taskset=taskset,
+        duration=duration,
+        description=m.description,
+        adjust=adjust,
+        assumptions=dict(m.assumptions),
+        source=src,
+        scheduler=scheduler,
+        task_set=task_set,
+    )
 
 
-def _predicted_bound(src: str, r_H: float, follower: FollowerParams, sensing: SensingParams,
-                     ekf: EkfParams) -> float:
+def _predicted_bound(
+    src: str, r_H: float, follower: FollowerParams, sensing: SensingParams, ekf: EkfParams
+) -> float:
     """The decision's localization bound for a window centred at the predicted position
     (:func:`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
     the fix noise, the EKF's initial heading error, the actuation noise, at the followers'
     top speed, 3 standard deviations; the leader knows its own motion (no error)."""
     if not math.isfinite(follower.max_speed):
-        raise ScenarioError(f"{src}: thresholds.localization: 'predicted' needs a finite "
-                            f"follower.max_speed (the bound carries the heading error at it)")
+        raise ScenarioError(
+            f"{src}: thresholds.localization: 'predicted' needs a finite "
+            f"follower.max_speed (the bound carries the heading error at it)"
+        )
     return msb_localization_predicted(
-        r_H, fix_sd=sensing.position_noise, heading_sd=ekf.init_heading_sd,
-        speed_sd=follower.speed_noise, turn_sd=follower.turn_noise, v_max=follower.max_speed)
+        r_H,
+        fix_sd=sensing.position_noise,
+        heading_sd=ekf.init_heading_sd,
+        speed_sd=follower.speed_noise,
+        turn_sd=follower.turn_noise,
+        v_max=follower.max_speed,
+    )
 
 
 def _sense(world: WorldConfig, src: str) -> list[str]:
@@ -651,12 +814,16 @@ def _sense(world: WorldConfig, src: str) -> list[str]:
     out = []
     length = world.path.lap_length
     if world.start_s > length:
-        out.append(f"{src}: leader.start_s: {world.start_s:g} cm is beyond the path's length "
-                   f"{length:g} cm (give a position within one lap)")
+        out.append(
+            f"{src}: leader.start_s: {world.start_s:g} cm is beyond the path's length "
+            f"{length:g} cm (give a position within one lap)"
+        )
     vmax = world.follower.max_speed
     if world.leader_speed > vmax:
-        out.append(f"{src}: leader.speed: {world.leader_speed:g} cm/s is above "
-                   f"follower.max_speed {vmax:g} cm/s: the followers cannot keep up")
+        out.append(
+            f"{src}: leader.speed: {world.leader_speed:g} cm/s is above "
+            f"follower.max_speed {vmax:g} cm/s: the followers cannot keep up"
+        )
     return out
 
 
@@ -680,9 +847,12 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
         raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
 
 
-def load_scenario(path: str | os.PathLike[str],
-                  overrides: Mapping[str, Any] | None = None, *,
-                  allow_code: bool | None = None) -> Scenario:
+def load_scenario(
+    path: str | os.PathLike[str],
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    allow_code: bool | None = None,
+) -> Scenario:
     """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``).
 
     ``overrides``: dotted paths into the file and their new values, resolved as a sweep's
@@ -692,5 +862,6 @@ def load_scenario(path: str | os.PathLike[str],
     raw, p = scenario_bytes(path)
     src = str(p)  # the full path in every message
     data = parse_toml(raw, src, ScenarioError)
-    return parse_scenario(with_overrides(data, overrides, src), src, p.parent,
-                          allow_code=allow_code)
+    return parse_scenario(
+        with_overrides(data, overrides, src), src, p.parent, allow_code=allow_code
+    )

@@ -51,8 +51,10 @@ def _tidy(node: Any) -> Any:
             out = {**kept[0], **out}
         else:
             out["anyOf"] = kept
-    if "default" in out and (out["default"] is None or (
-            isinstance(out["default"], float) and not math.isfinite(out["default"]))):
+    if "default" in out and (
+        out["default"] is None
+        or (isinstance(out["default"], float) and not math.isfinite(out["default"]))
+    ):
         del out["default"]
     return out
 
@@ -60,8 +62,11 @@ def _tidy(node: Any) -> Any:
 def json_schema(kind: str) -> dict[str, Any]:
     """The JSON Schema of a ``kind`` file (``taskset``, ``scenario`` or ``sweep``)."""
     schema = _tidy(_model(kind).model_json_schema())
-    return {"$schema": "https://json-schema.org/draft/2020-12/schema",
-            **schema, "title": _TITLES[kind]}
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        **schema,
+        "title": _TITLES[kind],
+    }
 
 
 def schema_text(kind: str) -> str:

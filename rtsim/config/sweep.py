@@ -46,8 +46,9 @@ def grid_values(raw: Any) -> tuple[Scalar, ...]:
         try:
             vals = parse_values(raw, "")
         except InputError as exc:
-            raise problem(f"{str(exc).removeprefix(': ')} (use a TOML list for text "
-                          f"values)") from None
+            raise problem(
+                f"{str(exc).removeprefix(': ')} (use a TOML list for text values)"
+            ) from None
         if all(float(v).is_integer() for v in vals):
             return tuple(int(v) for v in vals)
         return tuple(_tidy(v) for v in vals)
@@ -62,21 +63,25 @@ def grid_values(raw: Any) -> tuple[Scalar, ...]:
             raise problem(f"values must be numbers, text or booleans, got {v!r}")
         if isinstance(v, float) and not math.isfinite(v):
             raise problem(f"value {v!r} is not finite")
-        if isinstance(v, int) and not isinstance(v, bool) and not -2**63 <= v < 2**63:
+        if isinstance(v, int) and not isinstance(v, bool) and not -(2**63) <= v < 2**63:
             raise problem(f"value {v!r} does not fit a 64-bit integer column")
     kinds = {_value_type(v) for v in raw}
     if len(kinds) > 1:
         first = _value_type(raw[0])
         odd = next(v for v in raw if _value_type(v) != first)
-        raise problem(f"values must all be of one type (a results column has one), got "
-                      f"{first} {raw[0]!r} and {_value_type(odd)} {odd!r}")
+        raise problem(
+            f"values must all be of one type (a results column has one), got "
+            f"{first} {raw[0]!r} and {_value_type(odd)} {odd!r}"
+        )
     return tuple(raw)
 
 
 _SCALAR = [{"type": "number"}, {"type": "string"}, {"type": "boolean"}]
 #: A grid entry (:func:`grid_values`): validated and expanded to a tuple of its values.
-GRID_VALUE = Leaf(grid_values, {"anyOf": [*_SCALAR, {"type": "array", "minItems": 1,
-                                                      "items": {"anyOf": _SCALAR}}]})
+GRID_VALUE = Leaf(
+    grid_values,
+    {"anyOf": [*_SCALAR, {"type": "array", "minItems": 1, "items": {"anyOf": _SCALAR}}]},
+)
 
 
 class SweepTable(Table):

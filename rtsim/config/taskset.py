@@ -33,8 +33,14 @@ from rtsim.model.task import OVERLOAD_POLICIES, RESOURCE_PROTOCOLS, CriticalSect
 from rtsim.model.taskset import TaskSet
 from rtsim.model.window import WindowSpec
 
-__all__ = ["TaskSetFile", "TaskModel", "WindowModel", "SchedulerModel", "build_taskset",
-           "taskset_where"]
+__all__ = [
+    "TaskSetFile",
+    "TaskModel",
+    "WindowModel",
+    "SchedulerModel",
+    "build_taskset",
+    "taskset_where",
+]
 
 _MS_MAX = 1e9  # ms: 11.6 days, beyond any run rtsim is made for
 _W_MULTIPLE = re.compile(r"^\s*(\d+(?:\.\d*)?|\.\d+)?\s*w\s*$")
@@ -49,16 +55,22 @@ def _time_or_multiple(lo: float, why: str) -> Leaf:
         if isinstance(value, str):
             m = _W_MULTIPLE.match(value)
             if not m:
-                raise problem(f"must be a number (ms) or a multiple of the window such as "
-                              f"\"2w\", got {value!r}")
+                raise problem(
+                    f'must be a number (ms) or a multiple of the window such as "2w", got {value!r}'
+                )
             if m.group(1) and float(m.group(1)) <= 0:
                 raise problem(f"must be positive, got {value!r}")
             return value
         return check_ms(value)
 
-    schema = {"anyOf": [{"type": "number", "minimum": lo, "maximum": _MS_MAX},
-                        {"type": "string", "pattern": _W_MULTIPLE.pattern}],
-              "unit": "ms", "why": why}
+    schema = {
+        "anyOf": [
+            {"type": "number", "minimum": lo, "maximum": _MS_MAX},
+            {"type": "string", "pattern": _W_MULTIPLE.pattern},
+        ],
+        "unit": "ms",
+        "why": why,
+    }
     return Leaf(check, schema, r)
 
 
@@ -76,10 +88,25 @@ class SectionModel(Table):
     (docs/resources.md)."""
 
     resource: Annotated[str, text(what="a resource name")]
-    start: Annotated[float, number(0, 1e7, "ms", "the execution a job has consumed when the "
-                                   "section begins (within the wcet)")]
-    length: Annotated[float, number(0, 1e7, "ms", "the execution that holds the resource "
-                                    "(within what is left of the wcet)", lo_open=True)]
+    start: Annotated[
+        float,
+        number(
+            0,
+            1e7,
+            "ms",
+            "the execution a job has consumed when the section begins (within the wcet)",
+        ),
+    ]
+    length: Annotated[
+        float,
+        number(
+            0,
+            1e7,
+            "ms",
+            "the execution that holds the resource (within what is left of the wcet)",
+            lo_open=True,
+        ),
+    ]
 
 
 class TaskModel(Table):
@@ -90,8 +117,9 @@ class TaskModel(Table):
     period: Annotated[float | str, _time_or_multiple(1e-3, "1 µs (a timer tick) to 11.6 days")]
     deadline: Annotated[float | str, _time_or_multiple(1e-3, "as the period")] | None = None
     priority: Annotated[int, integer(-1e9, 1e9, "", "an integer rank")] | None = None
-    offset: Annotated[float, number(0, _MS_MAX, "ms", "within 11.6 days of the start")] | None \
-        = None
+    offset: Annotated[float, number(0, _MS_MAX, "ms", "within 11.6 days of the start")] | None = (
+        None
+    )
     jitter: Annotated[float, number(0, _MS_MAX, "ms", "as the offset")] | None = None
     bcet: Annotated[float, number(0, 1e7, "ms", "at most 2.8 h of CPU per job")] | None = None
     overload: Annotated[str, choice(OVERLOAD_POLICIES)] | None = None
@@ -106,13 +134,22 @@ def _k(value: Any) -> Any:
     if value == "geometric":
         return value
     if isinstance(value, str):
-        raise problem(f"must be a number or \"geometric\", got {value!r}")
+        raise problem(f'must be a number or "geometric", got {value!r}')
     return _K_RANGE.check(value)
 
 
-_K = Leaf(_k, {"anyOf": [{k: v for k, v in _K_RANGE.schema.items() if k not in ("unit", "why")},
-                         {"type": "string", "enum": ["geometric"]}],
-               "unit": "points", "why": _K_RANGE.schema["why"]}, _K_RANGE.range)
+_K = Leaf(
+    _k,
+    {
+        "anyOf": [
+            {k: v for k, v in _K_RANGE.schema.items() if k not in ("unit", "why")},
+            {"type": "string", "enum": ["geometric"]},
+        ],
+        "unit": "points",
+        "why": _K_RANGE.schema["why"],
+    },
+    _K_RANGE.range,
+)
 
 
 class WindowModel(Table):
@@ -131,14 +168,42 @@ class WindowModel(Table):
     e_recv: Annotated[float, number(0, 1e7, "ms", _CHAIN)]
     delta_t: Annotated[float, number(0, 1e7, "ms", _CHAIN)]
     e_sched: Annotated[float, number(0, 1e7, "ms", _CHAIN)]
-    rho_min: Annotated[float, number(25, 1e5, "cm", "beyond the follower radius r_F = 25 cm, "
-                                   "within 1 km", lo_open=True)] | None = None
+    rho_min: (
+        Annotated[
+            float,
+            number(
+                25, 1e5, "cm", "beyond the follower radius r_F = 25 cm, within 1 km", lo_open=True
+            ),
+        ]
+        | None
+    ) = None
     k_value: Annotated[float, number(0, 361, "points", "as k", lo_open=True)] | None = None
-    offset: Annotated[float, number(0, _MS_MAX, "ms", "as a task's offset: the first window "
-                                    "arrives then; per-window tasks count their offsets from "
-                                    "it")] | None = None
-    jitter: Annotated[float, number(0, _MS_MAX, "ms", "as a task's jitter: each window job is "
-                                    "released up to J after its arrival")] | None = None
+    offset: (
+        Annotated[
+            float,
+            number(
+                0,
+                _MS_MAX,
+                "ms",
+                "as a task's offset: the first window "
+                "arrives then; per-window tasks count their offsets from "
+                "it",
+            ),
+        ]
+        | None
+    ) = None
+    jitter: (
+        Annotated[
+            float,
+            number(
+                0,
+                _MS_MAX,
+                "ms",
+                "as a task's jitter: each window job is released up to J after its arrival",
+            ),
+        ]
+        | None
+    ) = None
 
 
 class SchedulerModel(Table):
@@ -219,12 +284,16 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         if t.deadline is not None:
             deadline, d_window = per_window(t.deadline)
             if d_window != kw["per_window"]:
-                errors.append(f"{label}: deadline: {t.deadline!r} and period {t.period!r} must "
-                              "both be in ms or both be multiples of w")
+                errors.append(
+                    f"{label}: deadline: {t.deadline!r} and period {t.period!r} must "
+                    "both be in ms or both be multiples of w"
+                )
             kw["deadline"] = deadline
         if kw["per_window"] and model.window is None:
-            errors.append(f"{label}: period: {t.period!r} is a multiple of the window w, but "
-                          "the file has no [window] table")
+            errors.append(
+                f"{label}: period: {t.period!r} is a multiple of the window w, but "
+                "the file has no [window] table"
+            )
         if t.priority is not None:
             kw["priority"] = int(t.priority)
         if t.offset is not None:
@@ -233,15 +302,15 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
             kw["jitter"] = float(t.jitter)
         if t.bcet is not None:
             if t.bcet > t.wcet:
-                errors.append(f"{label}: bcet: {float(t.bcet):g} is above wcet "
-                              f"{float(t.wcet):g}")
+                errors.append(f"{label}: bcet: {float(t.bcet):g} is above wcet {float(t.wcet):g}")
             kw["bcet"] = float(t.bcet)
         if t.overload is not None:
             kw["overload"] = t.overload
         if t.critical_sections:
             kw["critical_sections"] = tuple(
                 CriticalSection(c.resource, float(c.start), float(c.length))
-                for c in t.critical_sections)
+                for c in t.critical_sections
+            )
         entries.append((kw, label))
     names: dict[str, int] = {} if model.window is None else {model.window.name: 0}
     for i, (kw, label) in enumerate(entries, start=1):
@@ -269,39 +338,63 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         except Exception:  # an unknown policy: reported above
             levels = "priority"
         if levels == "deadline":
-            errors.append(f"[scheduler]: resources: pcp needs fixed priorities; under "
-                          f"{model.scheduler.policy} use srp or npr")
+            errors.append(
+                f"[scheduler]: resources: pcp needs fixed priorities; under "
+                f"{model.scheduler.policy} use srp or npr"
+            )
     if errors:
         return None, errors
     tasks = tuple(tasks_l)
-    return TaskSet(tasks, name=model.name, window=window, assumptions=dict(model.assumptions),
-                   source=source, overhead=float(model.overhead),
-                   scheduler=model.scheduler.policy if model.scheduler else "fp",
-                   resources=model.scheduler.resources if model.scheduler else None), []
+    return TaskSet(
+        tasks,
+        name=model.name,
+        window=window,
+        assumptions=dict(model.assumptions),
+        source=source,
+        overhead=float(model.overhead),
+        scheduler=model.scheduler.policy if model.scheduler else "fp",
+        resources=model.scheduler.resources if model.scheduler else None,
+    ), []
 
 
 def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:
     where = "[window]"
-    values: dict[str, Any] = {"name": w.name, "n": int(w.n), "priority": int(w.priority),
-                              "r_H": float(w.r_H)}
+    values: dict[str, Any] = {
+        "name": w.name,
+        "n": int(w.n),
+        "priority": int(w.priority),
+        "r_H": float(w.r_H),
+    }
     if w.k == "geometric":
         from rtsim.analysis.window import k_geometric
 
         if w.rho_min is None:
-            return None, [f"{where}: rho_min: missing (required with k = \"geometric\": the "
-                          "least follower distance in cm)"]
+            return None, [
+                f'{where}: rho_min: missing (required with k = "geometric": the '
+                "least follower distance in cm)"
+            ]
         values["k"] = float(k_geometric(float(w.rho_min)))
         values["rho_min"] = float(w.rho_min)
         if w.k_value is not None and w.k_value != values["k"]:
-            return None, [f"{where}: k_value: {w.k_value!r} is not the geometric count "
-                          f"{values['k']:g} for rho_min = {float(w.rho_min):g} cm"]
+            return None, [
+                f"{where}: k_value: {w.k_value!r} is not the geometric count "
+                f"{values['k']:g} for rho_min = {float(w.rho_min):g} cm"
+            ]
     else:
         values["k"] = float(w.k)
         for key in ("rho_min", "k_value"):
             if getattr(w, key) is not None:
-                return None, [f"{where}: {key}: applies only with k = \"geometric\""]
-    for key in ("e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv", "delta_t",
-                "e_sched"):
+                return None, [f'{where}: {key}: applies only with k = "geometric"']
+    for key in (
+        "e_cal",
+        "e_trans",
+        "e_scan",
+        "e_estimate",
+        "e_send",
+        "e_recv",
+        "delta_t",
+        "e_sched",
+    ):
         values[key] = float(getattr(w, key))
     for key in ("jitter", "offset"):  # the window's release jitter and first arrival (ms)
         if getattr(w, key) is not None:
@@ -309,20 +402,27 @@ def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:
     return WindowSpec(**values), []
 
 
-def _assign_priorities(entries: list[tuple[dict[str, Any], str]],
-                       window: WindowModel | None) -> list[str]:
+def _assign_priorities(
+    entries: list[tuple[dict[str, Any], str]], window: WindowModel | None
+) -> list[str]:
     """Every task gives a priority or none does; none → deadline-monotonic, ties in file order."""
     given = [label for kw, label in entries if "priority" in kw]
     if given and len(given) != len(entries):
         missing = next(label for kw, label in entries if "priority" not in kw)
-        return [f"{missing}: priority: missing, but {given[0]} gives one (give every task a "
-                "priority, or none for deadline-monotonic order)"]
+        return [
+            f"{missing}: priority: missing, but {given[0]} gives one (give every task a "
+            "priority, or none for deadline-monotonic order)"
+        ]
     if not given:
         if window is not None and entries:
-            return [f"{entries[0][1]}: priority: missing (required when the file has a "
-                    "[window]: it places each task above or below the window)"]
-        order = sorted(range(len(entries)), key=lambda i: (
-            entries[i][0].get("deadline", entries[i][0]["period"]), i))
+            return [
+                f"{entries[0][1]}: priority: missing (required when the file has a "
+                "[window]: it places each task above or below the window)"
+            ]
+        order = sorted(
+            range(len(entries)),
+            key=lambda i: (entries[i][0].get("deadline", entries[i][0]["period"]), i),
+        )
         for rank, i in enumerate(order, start=1):
             entries[i][0]["priority"] = rank
         return []

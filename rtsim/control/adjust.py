@@ -173,13 +173,18 @@ class Decision(NamedTuple):
     @property
     def binding(self) -> str:
         """``kind:follower`` as in windows.csv, or ``none``."""
-        return ("none" if self.binding_follower == 0
-                else f"{self.binding_kind}:{self.binding_follower}")
+        return (
+            "none" if self.binding_follower == 0 else f"{self.binding_kind}:{self.binding_follower}"
+        )
 
 
 def _as_dict(row: Sequence[float]) -> dict[str, float]:
-    return {"localization": row[0], "separation": row[1], "path_diversion": row[2],
-            "bearing": row[3]}
+    return {
+        "localization": row[0],
+        "separation": row[1],
+        "path_diversion": row[2],
+        "bearing": row[3],
+    }
 
 
 def _formation_consts(
@@ -199,20 +204,32 @@ def _formation_consts(
     bear = 1000.0 * thresholds.T_beta
     for f in followers:
         rho, beta, rho_d = f.rho, f.beta, f.rho_d
-        if not (rho.__class__ is float and beta.__class__ is float
-                and rho_d.__class__ is float):
+        if not (rho.__class__ is float and beta.__class__ is float and rho_d.__class__ is float):
             return None
         s, th = unit_formation(kappa, *f.slot)
         if s.__class__ is not float or th.__class__ is not float:
             return None
-        out.append((rho, kappa, s, math.cos(th + beta), math.cos(beta), math.sin(beta),
-                    math.sin(beta + th), loc, 1000.0 * float(thresholds.T_rho * rho_d),
-                    1000.0 * float(thresholds.T_eps * rho_d), bear))
+        out.append(
+            (
+                rho,
+                kappa,
+                s,
+                math.cos(th + beta),
+                math.cos(beta),
+                math.sin(beta),
+                math.sin(beta + th),
+                loc,
+                1000.0 * float(thresholds.T_rho * rho_d),
+                1000.0 * float(thresholds.T_eps * rho_d),
+                bear,
+            )
+        )
     return out
 
 
-def _formation_rows(pre: list[tuple[float, ...]], v: float
-                    ) -> list[tuple[float, float, float, float]]:
+def _formation_rows(
+    pre: list[tuple[float, ...]], v: float
+) -> list[tuple[float, float, float, float]]:
     """:func:`scalar_msbs` of every follower under the ``formation`` model at leader speed
     ``v`` (V_F = s·v, ω_L = κ·v), from :func:`_formation_consts`; the same operations."""
     out = []
@@ -221,18 +238,19 @@ def _formation_rows(pre: list[tuple[float, ...]], v: float
         rd = v_f * c_tb - v * c_b
         bd = (v * s_b - v_f * s_bt) / rho - kappa * v
         ard, abd, avf = abs(rd), abs(bd), abs(v_f)
-        out.append((
-            math.inf if ard == 0.0 else n_loc / ard,
-            math.inf if ard == 0.0 else n_sep / ard,
-            math.inf if avf == 0.0 else n_path / avf,
-            math.inf if abd == 0.0 else n_bear / abd,
-        ))
+        out.append(
+            (
+                math.inf if ard == 0.0 else n_loc / ard,
+                math.inf if ard == 0.0 else n_sep / ard,
+                math.inf if avf == 0.0 else n_path / avf,
+                math.inf if abd == 0.0 else n_bear / abd,
+            )
+        )
     return out
 
 
 def _hybrid_consts(
-    followers: Sequence[FollowerEstimate], thresholds: Thresholds, kappa: float,
-    v_now: float | None
+    followers: Sequence[FollowerEstimate], thresholds: Thresholds, kappa: float, v_now: float | None
 ) -> list[tuple[float, ...]] | None:
     """Per-follower constants of the ``hybrid`` model's bounds, or None when the scalar fast
     path does not apply (non-float values, ``full`` localization).
@@ -241,36 +259,58 @@ def _hybrid_consts(
     terms of :func:`~rtsim.control.predict.hybrid_velocity`) and the numerators of
     :func:`_formation_consts`.
     """
-    if (kappa.__class__ is not float or v_now.__class__ is not float
-            or thresholds.localization != "radial"):
+    if (
+        kappa.__class__ is not float
+        or v_now.__class__ is not float
+        or thresholds.localization != "radial"
+    ):
         return None
     out: list[tuple[float, ...]] = []
     loc = 1000.0 * thresholds.r_H
     bear = 1000.0 * thresholds.T_beta
     for f in followers:
         rho, beta, theta, v_f, rho_d = f.rho, f.beta, f.theta, f.v_f, f.rho_d
-        if not (rho.__class__ is float and beta.__class__ is float and theta.__class__ is float
-                and v_f.__class__ is float and rho_d.__class__ is float):
+        if not (
+            rho.__class__ is float
+            and beta.__class__ is float
+            and theta.__class__ is float
+            and v_f.__class__ is float
+            and rho_d.__class__ is float
+        ):
             return None
         s, th = unit_formation(kappa, *f.slot)
         if s.__class__ is not float or th.__class__ is not float:
             return None
-        out.append((rho, beta, theta, math.cos(beta), math.sin(beta), s, math.cos(th),
-                    math.sin(th), v_f * math.cos(theta), v_f * math.sin(theta), loc,
-                    1000.0 * float(thresholds.T_rho * rho_d),
-                    1000.0 * float(thresholds.T_eps * rho_d), bear))
+        out.append(
+            (
+                rho,
+                beta,
+                theta,
+                math.cos(beta),
+                math.sin(beta),
+                s,
+                math.cos(th),
+                math.sin(th),
+                v_f * math.cos(theta),
+                v_f * math.sin(theta),
+                loc,
+                1000.0 * float(thresholds.T_rho * rho_d),
+                1000.0 * float(thresholds.T_eps * rho_d),
+                bear,
+            )
+        )
     return out
 
 
-def _hybrid_rows(pre: list[tuple[float, ...]], v: float, v_now: float, kappa: float
-                 ) -> list[tuple[float, float, float, float]]:
+def _hybrid_rows(
+    pre: list[tuple[float, ...]], v: float, v_now: float, kappa: float
+) -> list[tuple[float, float, float, float]]:
     """:func:`scalar_msbs` of every follower under the ``hybrid`` model at leader speed
     ``v`` (:func:`~rtsim.control.predict.hybrid_velocity`, ω_L = κ·v), from
     :func:`_hybrid_consts`; the same operations, so the same floats."""
     out = []
     omega = kappa * v
-    for (rho, beta, theta0, c_b, s_b, s, c_tf, s_tf, ux0, uy0, n_loc, n_sep, n_path,
-         n_bear) in pre:
+    for rho, beta, theta0, c_b, s_b, s, c_tf, s_tf, ux0, uy0, n_loc, n_sep, n_path, n_bear in pre:
         dv = s * (v - v_now)
         ux = dv * c_tf + ux0
         uy = -dv * s_tf - uy0
@@ -279,12 +319,14 @@ def _hybrid_rows(pre: list[tuple[float, ...]], v: float, v_now: float, kappa: fl
         rd = v_f * math.cos(theta + beta) - v * c_b
         bd = (v * s_b - v_f * math.sin(beta + theta)) / rho - omega
         ard, abd, avf = abs(rd), abs(bd), abs(v_f)
-        out.append((
-            math.inf if ard == 0.0 else n_loc / ard,
-            math.inf if ard == 0.0 else n_sep / ard,
-            math.inf if avf == 0.0 else n_path / avf,
-            math.inf if abd == 0.0 else n_bear / abd,
-        ))
+        out.append(
+            (
+                math.inf if ard == 0.0 else n_loc / ard,
+                math.inf if ard == 0.0 else n_sep / ard,
+                math.inf if avf == 0.0 else n_path / avf,
+                math.inf if abd == 0.0 else n_bear / abd,
+            )
+        )
     return out
 
 
@@ -311,8 +353,7 @@ def bound_rows_at(
         return rollout.rows  # type: ignore[no-any-return]
     memo: dict[float, list[tuple[float, float, float, float]]] = {}
     pre = _formation_consts(followers, thresholds, kappa) if model == "formation" else None
-    hyb = (_hybrid_consts(followers, thresholds, kappa, v_now) if model == "hybrid"
-           else None)
+    hyb = _hybrid_consts(followers, thresholds, kappa, v_now) if model == "hybrid" else None
 
     def rows_at(v: float) -> list[tuple[float, float, float, float]]:
         out = memo.get(v)
@@ -348,10 +389,14 @@ def predicted_rows(
     under ``predictor``, from the same estimates and with the same arithmetic as the decision
     (:func:`decide_rows`'s ``rows`` at ``v_l``): what the decision's belief says about a
     window in which the leader drives at ``v_l`` (windows.csv ``f{i}_msb_{bound}_pred``)."""
-    predict = (None if predictor == "formation"
-               else make_predictor(predictor, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    return bound_rows_at(followers, predict, thresholds, predictor, kappa, omega_l, v_now,
-                    rollout)(v_l)
+    predict = (
+        None
+        if predictor == "formation"
+        else make_predictor(predictor, omega_l=omega_l, kappa=kappa, v_now=v_now)
+    )
+    return bound_rows_at(followers, predict, thresholds, predictor, kappa, omega_l, v_now, rollout)(
+        v_l
+    )
 
 
 def largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
@@ -414,8 +459,11 @@ def adjust_core(
         raise InputError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
 
     # the formation model's predictor (which cannot fail) is only made when needed
-    predict = (None if model == "formation"
-               else make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
+    predict = (
+        None
+        if model == "formation"
+        else make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now)
+    )
     rows_at = bound_rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now, rollout)
     rows = rows_at(v_ld)
     m, kind, who = min_bound_rows(rows)
@@ -424,12 +472,24 @@ def adjust_core(
 
     need = w_sch * (1.0 - TOL)
     if model == "commands":
-        v_l, method, found = search_rollout(lambda v: min_bound_rows(rows_at(v))[0], v_ld,
-                                            need, floor_frac * v_ld)
+        v_l, method, found = search_rollout(
+            lambda v: min_bound_rows(rows_at(v))[0], v_ld, need, floor_frac * v_ld
+        )
         after_rows = rows_at(v_l)
         m_after = min_bound_rows(after_rows)[0]
-        return Decision(w_sch, v_l, m, kind, who, method, m_after >= need, rows, after_rows,
-                        m_after, {"numeric": found})
+        return Decision(
+            w_sch,
+            v_l,
+            m,
+            kind,
+            who,
+            method,
+            m_after >= need,
+            rows,
+            after_rows,
+            m_after,
+            {"numeric": found},
+        )
 
     def ok(v: float) -> bool:
         return min_bound_rows(rows_at(v))[0] >= need
@@ -465,8 +525,16 @@ def adjust_core(
         v = math.inf
         for f in followers:
             s, theta_f = unit_formation(kappa, *f.slot)
-            for c in coupled_speeds(rho=f.rho, beta=f.beta, s=s, theta_f=theta_f, kappa=kappa,
-                                    rho_d=f.rho_d, thr=thresholds, w=w_sch):
+            for c in coupled_speeds(
+                rho=f.rho,
+                beta=f.beta,
+                s=s,
+                theta_f=theta_f,
+                kappa=kappa,
+                rho_d=f.rho_d,
+                thr=thresholds,
+                w=w_sch,
+            ):
                 v = min(v, c)
         candidates["coupled"] = min(v, v_ld)
 
@@ -488,9 +556,15 @@ def adjust_core(
             if hit is not None and hit > best:
                 best, method = hit, "numeric"
                 candidates["numeric"] = hit
-    elif "numeric" in methods and v_ld > 0.0 and not (
-            model == "paper" and thresholds.localization == "radial"
-            and paper_infeasible(followers, v_ld, w_sch, thresholds, omega_l)):
+    elif (
+        "numeric" in methods
+        and v_ld > 0.0
+        and not (
+            model == "paper"
+            and thresholds.localization == "radial"
+            and paper_infeasible(followers, v_ld, w_sch, thresholds, omega_l)
+        )
+    ):
         # (an exactly empty intersection of the paper model's intervals skips the grid,
         # which would find nothing: the same decision without ~86 evaluations)
         step = v_ld / scan_points
@@ -503,8 +577,9 @@ def adjust_core(
     v_l = floor_frac * v_ld if best is None else best
     after_rows = rows_at(v_l)
     m_after = min_bound_rows(after_rows)[0]
-    return Decision(w_sch, v_l, m, kind, who, method, m_after >= need, rows, after_rows,
-                    m_after, candidates)
+    return Decision(
+        w_sch, v_l, m, kind, who, method, m_after >= need, rows, after_rows, m_after, candidates
+    )
 
 
 #: Bracket of the ``commands`` search: a descending scan of this many equal steps of (0, V_Ld]
@@ -513,8 +588,9 @@ ROLLOUT_GRID = 8
 ROLLOUT_TOL = 0.005
 
 
-def search_rollout(m: Callable[[float], float], v_ld: float, need: float, v_floor: float
-                   ) -> tuple[float, str, float]:
+def search_rollout(
+    m: Callable[[float], float], v_ld: float, need: float, v_floor: float
+) -> tuple[float, str, float]:
     """The largest leader speed in (0, V_Ld) whose predicted min bound ``m(v)`` is ≥ ``need``,
     for a predictor without a closed form (the ``commands`` rollout).
 
@@ -549,8 +625,13 @@ def search_rollout(m: Callable[[float], float], v_ld: float, need: float, v_floo
     return best_v, "best", math.nan
 
 
-def paper_infeasible(followers: Sequence[FollowerEstimate], v_ld: float, w_sch: float,
-                     thr: Thresholds, omega_l: float) -> bool:
+def paper_infeasible(
+    followers: Sequence[FollowerEstimate],
+    v_ld: float,
+    w_sch: float,
+    thr: Thresholds,
+    omega_l: float,
+) -> bool:
     """True when, under the ``paper`` model, no leader speed in (0, V_Ld] keeps every bound
     ≥ w_sch, decided exactly without a grid.
 
@@ -610,8 +691,20 @@ def adjust(
     positive = left); cap: largest window (ms, default 10·w_sch); floor_frac: leader speed when
     nothing works, as a fraction of v_ld; methods: allowed candidates in tie-break order.
     """
-    d = adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap, floor_frac,
-                     predictor, methods, scan_points, v_now)
+    d = adjust_core(
+        followers,
+        v_ld,
+        w_sch,
+        thresholds,
+        omega_l,
+        kappa,
+        cap,
+        floor_frac,
+        predictor,
+        methods,
+        scan_points,
+        v_now,
+    )
     return adjustment_of("adjust", d, float(w_sch), float(v_ld))
 
 

@@ -28,8 +28,20 @@ __all__ = ["PaperSearch"]
 _KERNEL: Any = None
 
 
-def _passes(v: float, rho: Any, beta: Any, theta: Any, v_f: Any, rho_d: Any, omega_l: float,
-            r_H: float, T_rho: float, T_eps: float, T_beta: float, need: float) -> bool:
+def _passes(
+    v: float,
+    rho: Any,
+    beta: Any,
+    theta: Any,
+    v_f: Any,
+    rho_d: Any,
+    omega_l: float,
+    r_H: float,
+    T_rho: float,
+    T_eps: float,
+    T_beta: float,
+    need: float,
+) -> bool:
     """min over followers and bounds (scalar_msbs at leader speed v) >= need."""
     inf = math.inf
     best = inf
@@ -52,9 +64,20 @@ def _passes(v: float, rho: Any, beta: Any, theta: Any, v_f: Any, rho_d: Any, ome
     return best >= need
 
 
-def _largest_paper(grid: Any, rho: Any, beta: Any, theta: Any, v_f: Any, rho_d: Any,
-                   omega_l: float, r_H: float, T_rho: float, T_eps: float, T_beta: float,
-                   need: float) -> tuple[bool, float]:
+def _largest_paper(
+    grid: Any,
+    rho: Any,
+    beta: Any,
+    theta: Any,
+    v_f: Any,
+    rho_d: Any,
+    omega_l: float,
+    r_H: float,
+    T_rho: float,
+    T_eps: float,
+    T_beta: float,
+    need: float,
+) -> tuple[bool, float]:
     """adjust.largest with the paper model's predicate: (found, speed)."""
     have_above = False
     above = 0.0
@@ -66,8 +89,9 @@ def _largest_paper(grid: Any, rho: Any, beta: Any, theta: Any, v_f: Any, rho_d: 
             lo, hi = v, above
             for _ in range(60):
                 mid = 0.5 * (lo + hi)
-                if _passes(mid, rho, beta, theta, v_f, rho_d, omega_l, r_H, T_rho, T_eps,
-                           T_beta, need):
+                if _passes(
+                    mid, rho, beta, theta, v_f, rho_d, omega_l, r_H, T_rho, T_eps, T_beta, need
+                ):
                     lo = mid
                 else:
                     hi = mid
@@ -100,10 +124,17 @@ class PaperSearch(str):
     def __init__(self) -> None:
         self._kernel = _kernel()
         self.largest(  # compile, or load from numba's cache, now rather than in a window
-            [], 0.0, Thresholds(1.0, 1.0, 1.0, 1.0), 1.0, [1.0])
+            [], 0.0, Thresholds(1.0, 1.0, 1.0, 1.0), 1.0, [1.0]
+        )
 
-    def largest(self, followers: Sequence[Any], omega_l: float, thr: Thresholds,
-                need: float, grid: Sequence[float]) -> float | None:
+    def largest(
+        self,
+        followers: Sequence[Any],
+        omega_l: float,
+        thr: Thresholds,
+        need: float,
+        grid: Sequence[float],
+    ) -> float | None:
         """:func:`rtsim.control.adjust.largest` over ``grid`` with the paper model's
         predicate (radial localization) for ``followers``; None when no speed passes."""
         rho = np.array([f.rho for f in followers], dtype=float)
@@ -111,9 +142,20 @@ class PaperSearch(str):
         theta = np.array([f.theta for f in followers], dtype=float)
         v_f = np.array([f.v_f for f in followers], dtype=float)
         rho_d = np.array([f.rho_d for f in followers], dtype=float)
-        found, v = self._kernel(np.array(grid, dtype=float), rho, beta, theta, v_f, rho_d,
-                                float(omega_l), thr.r_H, thr.T_rho, thr.T_eps, thr.T_beta,
-                                float(need))
+        found, v = self._kernel(
+            np.array(grid, dtype=float),
+            rho,
+            beta,
+            theta,
+            v_f,
+            rho_d,
+            float(omega_l),
+            thr.r_H,
+            thr.T_rho,
+            thr.T_eps,
+            thr.T_beta,
+            float(need),
+        )
         return v if found else None
 
     def __reduce__(self) -> Any:  # pickles as the plain name

@@ -60,14 +60,35 @@ from rtsim.control.predict import FollowerEstimate, Predictor, check_number, min
 from rtsim.errors import InputError
 from rtsim.registry import Registry
 
-__all__ = ["ADJUSTMENT_POLICIES", "COMMON_KEYS", "POLICIES", "Decision", "Policy", "decide",
-           "decide_rows",
-           "PolicyInput", "adjust_options", "make_policy", "policy_class",
-           "register_adjustment_policy", "register_policy"]
+__all__ = [
+    "ADJUSTMENT_POLICIES",
+    "COMMON_KEYS",
+    "POLICIES",
+    "Decision",
+    "Policy",
+    "decide",
+    "decide_rows",
+    "PolicyInput",
+    "adjust_options",
+    "make_policy",
+    "policy_class",
+    "register_adjustment_policy",
+    "register_policy",
+]
 
 #: ``[adjust]`` keys every policy understands (options of the decision, ScenarioInputs.adjust).
-COMMON_KEYS: tuple[str, ...] = ("policy", "cap", "cap_factor", "floor_frac", "floor_w",
-                                "predictor", "methods", "scan_points", "lower_bound", "decide")
+COMMON_KEYS: tuple[str, ...] = (
+    "policy",
+    "cap",
+    "cap_factor",
+    "floor_frac",
+    "floor_w",
+    "predictor",
+    "methods",
+    "scan_points",
+    "lower_bound",
+    "decide",
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -135,8 +156,9 @@ class Policy(Protocol):
 def _policy_class(cls: Any, spec: str, where: str) -> type:
     """A loaded class as a policy class (``params`` default ``{}``), or an InputError."""
     if not isinstance(cls, type) or not callable(getattr(cls, "decide", None)):
-        raise InputError(f"{where} is not a policy class (it needs a method "
-                         f"decide(ctx) -> Decision)")
+        raise InputError(
+            f"{where} is not a policy class (it needs a method decide(ctx) -> Decision)"
+        )
     if not hasattr(cls, "params"):
         cls.params = {}  # type: ignore[attr-defined]
     if not hasattr(cls, "name"):
@@ -145,8 +167,7 @@ def _policy_class(cls: Any, spec: str, where: str) -> type:
 
 
 #: Registered adjustment policies by name (entry-point group ``rtsim.policies``).
-ADJUSTMENT_POLICIES: Registry[type] = Registry("adjustment policy", "rtsim.policies",
-                                               _policy_class)
+ADJUSTMENT_POLICIES: Registry[type] = Registry("adjustment policy", "rtsim.policies", _policy_class)
 
 
 def register_adjustment_policy(name: str) -> Callable[[type], type]:
@@ -170,16 +191,19 @@ POLICIES = ADJUSTMENT_POLICIES
 register_policy = register_adjustment_policy
 
 
-def policy_class(spec: object, where: str = "policy", *,
-                 allow_code: bool | None = None) -> type:
+def policy_class(spec: object, where: str = "policy", *, allow_code: bool | None = None) -> type:
     """The policy class named ``spec``: a registered name, an entry point or
     ``"package.module:Name"`` (code: :func:`rtsim.registry.load_code`). An unknown name is an
     :class:`InputError` with a did-you-mean."""
     return ADJUSTMENT_POLICIES.resolve(spec, where, allow_code=allow_code)  # type: ignore[arg-type]
 
 
-def make_policy(spec: object, params: Mapping[str, Any] | None = None,
-                where: str = "adjust", common: tuple[str, ...] = COMMON_KEYS) -> Any:
+def make_policy(
+    spec: object,
+    params: Mapping[str, Any] | None = None,
+    where: str = "adjust",
+    common: tuple[str, ...] = COMMON_KEYS,
+) -> Any:
     """An instance of :func:`policy_class` ``(spec)`` with its own keys ``params``; a key it
     does not know is an :class:`InputError` with a did-you-mean (among ``common`` and its
     own keys)."""
@@ -191,10 +215,13 @@ def make_policy(spec: object, params: Mapping[str, Any] | None = None,
             names = tuple(common) + known
             close = did_you_mean(key, names)
             owner = [n for n, c in POLICIES.items() if key in c.params]  # type: ignore[attr-defined]
-            hint = (close if close
-                    else f" (a key of policy '{owner[0]}', not of "
-                         f"'{cls.name}')" if owner  # type: ignore[attr-defined]
-                    else f" (known keys: {', '.join(names)})")
+            hint = (
+                close
+                if close
+                else f" (a key of policy '{owner[0]}', not of '{cls.name}')"
+                if owner  # type: ignore[attr-defined]
+                else f" (known keys: {', '.join(names)})"
+            )
             raise InputError(f"{where}: unknown key '{key}'{hint}")
     try:
         return cls(**params)
@@ -202,8 +229,9 @@ def make_policy(spec: object, params: Mapping[str, Any] | None = None,
         raise InputError(f"{where}.{exc}") from None
 
 
-def adjust_options(opts: Mapping[str, Any], where: str = "adjust",
-                   override: str | None = None) -> tuple[Any, dict[str, Any]]:
+def adjust_options(
+    opts: Mapping[str, Any], where: str = "adjust", override: str | None = None
+) -> tuple[Any, dict[str, Any]]:
     """Validate an ``[adjust]`` mapping (ScenarioInputs.adjust): the policy (key ``policy``,
     default ``adjust``) made with its own keys, and the common options (:data:`COMMON_KEYS`
     without ``policy``) as a dict. The old key ``model`` names its replacement.
@@ -236,11 +264,21 @@ def _check(ctx: PolicyInput, where: str) -> float:
 
 def _rows_at_vld(ctx: PolicyInput) -> list[tuple[float, float, float, float]]:
     model = ctx.predictor
-    predict = (None if model == "formation"
-               else make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
-                                    v_now=ctx.v_now))
-    return bound_rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
-                    ctx.v_now, ctx.rollout)(ctx.v_ld)
+    predict = (
+        None
+        if model == "formation"
+        else make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa, v_now=ctx.v_now)
+    )
+    return bound_rows_at(
+        ctx.followers,
+        predict,
+        ctx.thresholds,
+        model,
+        ctx.kappa,
+        ctx.omega_l,
+        ctx.v_now,
+        ctx.rollout,
+    )(ctx.v_ld)
 
 
 @register_adjustment_policy("adjust")
@@ -252,9 +290,21 @@ class PaperPolicy:
     params: ClassVar[Mapping[str, Any]] = {}
 
     def decide(self, ctx: PolicyInput) -> Decision:
-        return adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch, ctx.thresholds, ctx.omega_l,
-                            ctx.kappa, ctx.cap, ctx.floor_frac, ctx.predictor, ctx.methods,
-                            ctx.scan_points, ctx.v_now, ctx.rollout)
+        return adjust_core(
+            ctx.followers,
+            ctx.v_ld,
+            ctx.w_sch,
+            ctx.thresholds,
+            ctx.omega_l,
+            ctx.kappa,
+            ctx.cap,
+            ctx.floor_frac,
+            ctx.predictor,
+            ctx.methods,
+            ctx.scan_points,
+            ctx.v_now,
+            ctx.rollout,
+        )
 
 
 @register_adjustment_policy("fixed-wsch")
@@ -267,8 +317,19 @@ class FixedWschPolicy:
         _check(ctx, "decide")
         rows = _rows_at_vld(ctx)
         m, kind, who = min_bound_rows(rows)
-        return Decision(ctx.w_sch, ctx.v_ld, m, kind, who, "none",
-                        m >= ctx.w_sch * (1.0 - TOL), rows, rows, m, {})
+        return Decision(
+            ctx.w_sch,
+            ctx.v_ld,
+            m,
+            kind,
+            who,
+            "none",
+            m >= ctx.w_sch * (1.0 - TOL),
+            rows,
+            rows,
+            m,
+            {},
+        )
 
 
 @register_adjustment_policy("min-msb")
@@ -285,8 +346,9 @@ class MinMsbPolicy:
         rows = _rows_at_vld(ctx)
         m, kind, who = min_bound_rows(rows)
         w = min(max(m, floor_w), max(cap, floor_w))
-        return Decision(w, ctx.v_ld, m, kind, who, "none", m >= ctx.w_sch * (1.0 - TOL), rows,
-                        rows, m, {})
+        return Decision(
+            w, ctx.v_ld, m, kind, who, "none", m >= ctx.w_sch * (1.0 - TOL), rows, rows, m, {}
+        )
 
 
 @register_adjustment_policy("margin")
@@ -311,9 +373,21 @@ class MarginPolicy:
     def decide(self, ctx: PolicyInput) -> Decision:
         keep = 1.0 - self.margin
         cap = _check(ctx, "margin")
-        d = adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch / keep, ctx.thresholds,
-                         ctx.omega_l, ctx.kappa, cap / keep, ctx.floor_frac, ctx.predictor,
-                         ctx.methods, ctx.scan_points, ctx.v_now, ctx.rollout)
+        d = adjust_core(
+            ctx.followers,
+            ctx.v_ld,
+            ctx.w_sch / keep,
+            ctx.thresholds,
+            ctx.omega_l,
+            ctx.kappa,
+            cap / keep,
+            ctx.floor_frac,
+            ctx.predictor,
+            ctx.methods,
+            ctx.scan_points,
+            ctx.v_now,
+            ctx.rollout,
+        )
         w = ctx.w_sch if d.method != "none" else max(ctx.w_sch, min(keep * d.msb_min, cap))
         return d._replace(w=w)
 
@@ -371,9 +445,9 @@ class LookaheadPolicy:
         for dist, kappa in ctx.ahead:
             if dist > horizon:
                 break
-            there = self.base.decide(dataclasses.replace(ctx, kappa=kappa,
-                                                         omega_l=kappa * v_now,
-                                                         predictor="formation"))
+            there = self.base.decide(
+                dataclasses.replace(ctx, kappa=kappa, omega_l=kappa * v_now, predictor="formation")
+            )
             v_safe = max(there.v_leader, ctx.floor_frac * ctx.v_ld)
             gap = max(0.0, dist - reach)
             if math.isinf(a_d):  # the speed steps: the next decision can still lower it
@@ -384,29 +458,47 @@ class LookaheadPolicy:
         if v_l >= d.v_leader:
             d_out = d
         else:
-            rows_after = bound_rows_at(ctx.followers, None if ctx.predictor == "formation" else
-                                  make_predictor(ctx.predictor, omega_l=ctx.omega_l,
-                                                  kappa=ctx.kappa, v_now=ctx.v_now),
-                                  ctx.thresholds, ctx.predictor, ctx.kappa, ctx.omega_l,
-                                  ctx.v_now, ctx.rollout)(v_l)
+            rows_after = bound_rows_at(
+                ctx.followers,
+                None
+                if ctx.predictor == "formation"
+                else make_predictor(
+                    ctx.predictor, omega_l=ctx.omega_l, kappa=ctx.kappa, v_now=ctx.v_now
+                ),
+                ctx.thresholds,
+                ctx.predictor,
+                ctx.kappa,
+                ctx.omega_l,
+                ctx.v_now,
+                ctx.rollout,
+            )(v_l)
             m_after = min_bound_rows(rows_after)[0]
-            d_out = d._replace(v_leader=v_l, method="lookahead", rows_after=rows_after,
-                               msb_min_after=m_after,
-                               feasible=keep * m_after >= ctx.w_sch * (1.0 - TOL))
+            d_out = d._replace(
+                v_leader=v_l,
+                method="lookahead",
+                rows_after=rows_after,
+                msb_min_after=m_after,
+                feasible=keep * m_after >= ctx.w_sch * (1.0 - TOL),
+            )
         w = d_out.w
         window_reach = v_l * w / 1000.0
         for dist, kappa in ctx.ahead:
             if dist > window_reach:
                 break
-            rows = bound_rows_at(ctx.followers, None, ctx.thresholds, "formation", kappa,
-                            kappa * v_now, ctx.v_now)(v_l)
+            rows = bound_rows_at(
+                ctx.followers, None, ctx.thresholds, "formation", kappa, kappa * v_now, ctx.v_now
+            )(v_l)
             w = max(ctx.w_sch, min(w, keep * min_bound_rows(rows)[0]))
         return d_out if w == d_out.w else d_out._replace(w=w)
 
 
-def pad_rows(rows: Sequence[tuple[float, float, float, float]],
-             followers: Sequence[FollowerEstimate], ctx: PolicyInput, v: float, z: float
-             ) -> list[tuple[float, float, float, float]]:
+def pad_rows(
+    rows: Sequence[tuple[float, float, float, float]],
+    followers: Sequence[FollowerEstimate],
+    ctx: PolicyInput,
+    v: float,
+    z: float,
+) -> list[tuple[float, float, float, float]]:
     """Every follower's bounds at leader speed ``v`` with the predicted rates padded by z·σ.
 
     From the unpadded ``rows`` (any predictor) the predicted rates are recovered as
@@ -449,10 +541,19 @@ def pad_rows(rows: Sequence[tuple[float, float, float, float]],
         elif thr.localization == "predicted":  # the noise is already in the bound
             loc = row[0]
         else:  # the full model's bound shrinks by the separation bound's factor
-            loc = row[0] if rd + z * big_s == 0.0 else (
-                row[0] * rd / (rd + z * big_s) if rd > 0.0 else row[0])
-        out.append((loc, div(n_sep, rd + z * big_s), div(n_path, vf + z * sv),
-                    div(n_bear, bd + z * big_s / f.rho)))
+            loc = (
+                row[0]
+                if rd + z * big_s == 0.0
+                else (row[0] * rd / (rd + z * big_s) if rd > 0.0 else row[0])
+            )
+        out.append(
+            (
+                loc,
+                div(n_sep, rd + z * big_s),
+                div(n_path, vf + z * sv),
+                div(n_bear, bd + z * big_s / f.rho),
+            )
+        )
     return out
 
 
@@ -485,11 +586,21 @@ class NoiseAwarePolicy:
         cap = _check(ctx, "noise-aware")
         keep = 1.0 - self.margin
         model = ctx.predictor
-        predict = (None if model == "formation"
-                   else make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
-                                        v_now=ctx.v_now))
-        raw = bound_rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
-                       ctx.v_now, ctx.rollout)
+        predict = (
+            None
+            if model == "formation"
+            else make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa, v_now=ctx.v_now)
+        )
+        raw = bound_rows_at(
+            ctx.followers,
+            predict,
+            ctx.thresholds,
+            model,
+            ctx.kappa,
+            ctx.omega_l,
+            ctx.v_now,
+            ctx.rollout,
+        )
         memo: dict[float, list[tuple[float, float, float, float]]] = {}
 
         def rows_at(v: float) -> list[tuple[float, float, float, float]]:
@@ -500,8 +611,19 @@ class NoiseAwarePolicy:
         rows = rows_at(ctx.v_ld)
         m, kind, who = min_bound_rows(rows)
         if keep * m >= ctx.w_sch:
-            return Decision(max(ctx.w_sch, min(keep * m, cap)), ctx.v_ld, m, kind, who, "none",
-                            True, rows, rows, m, {})
+            return Decision(
+                max(ctx.w_sch, min(keep * m, cap)),
+                ctx.v_ld,
+                m,
+                kind,
+                who,
+                "none",
+                True,
+                rows,
+                rows,
+                m,
+                {},
+            )
         need = ctx.w_sch * (1.0 - TOL)
 
         def ok(v: float) -> bool:
@@ -516,9 +638,19 @@ class NoiseAwarePolicy:
         v_l = ctx.floor_frac * ctx.v_ld if found is None else found
         after = rows_at(v_l)
         m_after = min_bound_rows(after)[0]
-        return Decision(ctx.w_sch, v_l, m, kind, who, "floor" if found is None else "numeric",
-                        keep * m_after >= need, rows, after, m_after,
-                        {"numeric": math.nan if found is None else found})
+        return Decision(
+            ctx.w_sch,
+            v_l,
+            m,
+            kind,
+            who,
+            "floor" if found is None else "numeric",
+            keep * m_after >= need,
+            rows,
+            after,
+            m_after,
+            {"numeric": math.nan if found is None else found},
+        )
 
 
 @register_adjustment_policy("safe")
@@ -581,8 +713,10 @@ class PlanPolicy:
         cap = _check(ctx, "plan")
         ro = ctx.rollout
         if ro is None:
-            raise InputError("plan: needs the leader's rollout (PolicyInput.rollout), which a "
-                             "coupled run with follow-the-leader followers fills")
+            raise InputError(
+                "plan: needs the leader's rollout (PolicyInput.rollout), which a "
+                "coupled run with follow-the-leader followers fills"
+            )
         keep = 1.0 - self.margin
         lengths = (ctx.w_sch,) * self.windows
         need = ctx.w_sch * (1.0 - TOL)
@@ -601,12 +735,24 @@ class PlanPolicy:
                 if keep * m_w < w:
                     w = max(ctx.w_sch, keep * m_w)
             return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})
-        v_l, method, found = search_rollout(lambda v: keep * worst(v), ctx.v_ld, need,
-                                            ctx.floor_frac * ctx.v_ld)
+        v_l, method, found = search_rollout(
+            lambda v: keep * worst(v), ctx.v_ld, need, ctx.floor_frac * ctx.v_ld
+        )
         after = ro.rows(v_l)
         m_after = min_bound_rows(after)[0]
-        return Decision(ctx.w_sch, v_l, m1, kind, who, method, keep * worst(v_l) >= need,
-                        rows, after, m_after, {"numeric": found})
+        return Decision(
+            ctx.w_sch,
+            v_l,
+            m1,
+            kind,
+            who,
+            method,
+            keep * worst(v_l) >= need,
+            rows,
+            after,
+            m_after,
+            {"numeric": found},
+        )
 
 
 def decide_rows(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Decision:

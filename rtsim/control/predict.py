@@ -98,8 +98,15 @@ class FollowerEstimate:
             raise InputError(f"{where}: v_f must be non-negative, got {self.v_f!r}")
 
     @classmethod
-    def _trusted(cls, rho: float, beta: float, theta: float, v_f: float, rho_d: float,
-                 beta_d: float | None = None) -> FollowerEstimate:
+    def _trusted(
+        cls,
+        rho: float,
+        beta: float,
+        theta: float,
+        v_f: float,
+        rho_d: float,
+        beta_d: float | None = None,
+    ) -> FollowerEstimate:
         """Construct without validation: only for values the caller has already checked
         (finite floats, rho and rho_d > 0, v_f ≥ 0) — see :func:`trusted_estimate`."""
         self = object.__new__(cls)
@@ -119,17 +126,28 @@ class FollowerEstimate:
         return self.rho_d, self.beta_d
 
 
-def trusted_estimate(rho: float, beta: float, theta: float, v_f: float, rho_d: float,
-                     beta_d: float | None = None) -> FollowerEstimate:
+def trusted_estimate(
+    rho: float, beta: float, theta: float, v_f: float, rho_d: float, beta_d: float | None = None
+) -> FollowerEstimate:
     """``FollowerEstimate(...)``, skipping the validation when every value is a finite float
     in range (the per-window path of a coupled run); otherwise the checked constructor, with
     its errors."""
-    if (rho.__class__ is float and beta.__class__ is float and theta.__class__ is float
-            and v_f.__class__ is float and rho_d.__class__ is float
-            and (beta_d is None or (beta_d.__class__ is float and beta_d - beta_d == 0.0))
-            and rho > 0.0 and rho_d > 0.0 and v_f >= 0.0
-            and rho - rho == 0.0 and beta - beta == 0.0 and theta - theta == 0.0
-            and v_f - v_f == 0.0 and rho_d - rho_d == 0.0):
+    if (
+        rho.__class__ is float
+        and beta.__class__ is float
+        and theta.__class__ is float
+        and v_f.__class__ is float
+        and rho_d.__class__ is float
+        and (beta_d is None or (beta_d.__class__ is float and beta_d - beta_d == 0.0))
+        and rho > 0.0
+        and rho_d > 0.0
+        and v_f >= 0.0
+        and rho - rho == 0.0
+        and beta - beta == 0.0
+        and theta - theta == 0.0
+        and v_f - v_f == 0.0
+        and rho_d - rho_d == 0.0
+    ):
         return FollowerEstimate._trusted(rho, beta, theta, v_f, rho_d, beta_d)
     return FollowerEstimate(rho, beta, theta, v_f, rho_d, beta_d)
 
@@ -170,15 +188,18 @@ def _hybrid(*, omega_l: float, kappa: float, v_now: float | None = None) -> Pred
 
 def _factory(obj: Any, spec: str, where: str) -> PredictorFactory:
     if not callable(obj):
-        raise InputError(f"{where} is not a predictor factory (a callable "
-                         f"factory(omega_l=, kappa=, v_now=) -> predictor)")
+        raise InputError(
+            f"{where} is not a predictor factory (a callable "
+            f"factory(omega_l=, kappa=, v_now=) -> predictor)"
+        )
     return obj  # type: ignore[no-any-return]
 
 
 #: The prediction models (``[adjust] predictor`` of a scenario) by name, each a factory
 #: (entry-point group ``rtsim.predictors``).
-PREDICTORS: Registry[PredictorFactory] = Registry("prediction model", "rtsim.predictors",
-                                                  _factory, renamed={"estimate": "paper"})
+PREDICTORS: Registry[PredictorFactory] = Registry(
+    "prediction model", "rtsim.predictors", _factory, renamed={"estimate": "paper"}
+)
 PREDICTORS.register("paper", _paper)
 PREDICTORS.register("formation", _formation)
 PREDICTORS.register("hybrid", _hybrid)
@@ -195,8 +216,9 @@ def check_predictor(name: object, where: str = "predictor") -> str:
     return name  # type: ignore[return-value]
 
 
-def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
-              v_now: float | None = None) -> Predictor:
+def predictor(
+    model: str | Predictor, *, omega_l: float, kappa: float, v_now: float | None = None
+) -> Predictor:
     """The prediction model named ``model`` (:data:`PREDICTORS`), or ``model``.
 
     ``v_now``: the leader's current actual speed (cm/s), required by ``"hybrid"``.
@@ -213,12 +235,15 @@ def predictor(model: str | Predictor, *, omega_l: float, kappa: float,
 def _needs_rollout(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
     """The ``commands`` model has no per-follower form: its bounds come from the leader's
     rollout (:mod:`rtsim.control.rollout`), which the decision receives separately."""
-    raise InputError("predictor 'commands' needs the leader's rollout (PolicyInput.rollout; "
-                     "a coupled run with follow-the-leader followers fills it)")
+    raise InputError(
+        "predictor 'commands' needs the leader's rollout (PolicyInput.rollout; "
+        "a coupled run with follow-the-leader followers fills it)"
+    )
 
 
-def hybrid_velocity(f: FollowerEstimate, v_l: float, v_now: float, kappa: float
-                    ) -> tuple[float, float]:
+def hybrid_velocity(
+    f: FollowerEstimate, v_l: float, v_now: float, kappa: float
+) -> tuple[float, float]:
     """(V_F, θ) of the ``hybrid`` model (module docstring) at leader speed ``v_l``."""
     s, theta_f = unit_formation(kappa, *f.slot)
     dv = s * (v_l - v_now)
@@ -261,8 +286,12 @@ def predict_msb_rows(
     out = []
     for f in followers:
         v_f, theta, omega_l = predict(f, v_l)
-        if (v_l.__class__ is float and v_f.__class__ is float and theta.__class__ is float
-                and omega_l.__class__ is float):
+        if (
+            v_l.__class__ is float
+            and v_f.__class__ is float
+            and theta.__class__ is float
+            and omega_l.__class__ is float
+        ):
             out.append(scalar_msbs(v_l, omega_l, v_f, f.rho, f.beta, theta, f.rho_d, thr))
         else:
             m = follower_msbs(v_l, omega_l, v_f, f.rho, f.beta, theta, f.rho_d, thr)

@@ -116,7 +116,8 @@ class Rollout:
     state: RolloutState
     count: int = 0
     _memo: dict[tuple[float, tuple[float, ...]], list[list[Changes]]] = field(
-        default_factory=dict, repr=False)
+        default_factory=dict, repr=False
+    )
 
     def changes(self, v: float, windows: Sequence[float]) -> list[list[Changes]]:
         """The predicted changes per window (lengths ``windows``, ms, the first opening at
@@ -128,22 +129,23 @@ class Rollout:
             self.count += 1
         return out
 
-    def rows(self, v: float, w: float | None = None
-             ) -> list[tuple[float, float, float, float]]:
+    def rows(self, v: float, w: float | None = None) -> list[tuple[float, float, float, float]]:
         """Every follower's four bounds (ms, BOUND_KINDS order) in the window of length ``w``
         (default w_sch) that the decision governs, with the leader's target ``v``."""
         w = self.state.w_sch if w is None else float(w)
         return self.bounds(self.changes(v, (w,))[0], w)
 
-    def bounds(self, changes: Sequence[Changes], w: float
-               ) -> list[tuple[float, float, float, float]]:
+    def bounds(
+        self, changes: Sequence[Changes], w: float
+    ) -> list[tuple[float, float, float, float]]:
         """The bounds L·w / c of one window's ``changes`` (module docstring)."""
         thr = self.state.thresholds
         out = []
         for c, rho_d in zip(changes, self.state.rho_d, strict=True):
             lims = (thr.r_H, thr.T_rho * rho_d, thr.T_eps * rho_d, thr.T_beta)
-            row = tuple(math.inf if ci <= 0.0 else lim * w / ci
-                        for ci, lim in zip(c, lims, strict=True))
+            row = tuple(
+                math.inf if ci <= 0.0 else lim * w / ci for ci, lim in zip(c, lims, strict=True)
+            )
             if thr.localization == "predicted":  # the window follows the predicted motion:
                 row = (thr.predicted_ms, *row[1:])  # what is left is the residual's bound
             out.append(row)
@@ -151,8 +153,7 @@ class Rollout:
 
     def _run(self, v: float, windows: tuple[float, ...]) -> list[list[Changes]]:
         st = self.state
-        ld = Leader(st.path, st.v_ld, st.leader_s, accel_max=st.accel_max,
-                    decel_max=st.decel_max)
+        ld = Leader(st.path, st.v_ld, st.leader_s, accel_max=st.accel_max, decel_max=st.decel_max)
         ld.speed = st.leader_speed
         ld.target_speed = st.leader_speed
         ld.set_speed(min(max(v, 0.0), st.v_ld))
@@ -178,11 +179,18 @@ class Rollout:
         # with the same numbers; None: play it here
         roll = getattr(law, "roll", None)
         samples: list[list[tuple[float, float, float, float, float]]] | None = (
-            None if roll is None else roll(ld, st, events, len(scans)))
+            None if roll is None else roll(ld, st, events, len(scans))
+        )
         if samples is None:
             samples = []
-            group = st.group([p[0] for p in st.poses], [p[1] for p in st.poses],
-                             [p[2] for p in st.poses], st.speeds, st.params, st.t_now)
+            group = st.group(
+                [p[0] for p in st.poses],
+                [p[1] for p in st.poses],
+                [p[2] for p in st.poses],
+                st.speeds,
+                st.params,
+                st.t_now,
+            )
             group.cmd_v = [h[0] for h in st.held]
             group.cmd_w = [h[1] for h in st.held]
             t_leader = st.t_now
@@ -193,18 +201,30 @@ class Rollout:
                 if kind == 0:
                     group.advance(k, t, st.step_ms)
                     if law is not None:
-                        cmd = law.command(k, ld.s, ld.pose, ld.speed, group.x[k], group.y[k],
-                                          group.th[k])
+                        cmd = law.command(
+                            k, ld.s, ld.pose, ld.speed, group.x[k], group.y[k], group.th[k]
+                        )
                     else:
                         kappa = ld.curvature
                         if kappa not in targets:
                             targets[kappa] = control_targets(
-                                np.asarray(st.rho_d), np.asarray(st.beta_d),
-                                st.params.control_offset, kappa)
+                                np.asarray(st.rho_d),
+                                np.asarray(st.beta_d),
+                                st.params.control_offset,
+                                kappa,
+                            )
                         l_d, psi_d = targets[kappa]
-                        cmd = lpsi_command(ld.pose, ld.speed, kappa * ld.speed, group.x[k],
-                                           group.y[k], group.th[k], float(l_d[k]),
-                                           float(psi_d[k]), st.params)
+                        cmd = lpsi_command(
+                            ld.pose,
+                            ld.speed,
+                            kappa * ld.speed,
+                            group.x[k],
+                            group.y[k],
+                            group.th[k],
+                            float(l_d[k]),
+                            float(psi_d[k]),
+                            st.params,
+                        )
                     v_c, w_c = group.saturate(*cmd)
                     group.apply_drawn(k, v_c, w_c, 0.0, 0.0)
                     continue
@@ -215,12 +235,27 @@ class Rollout:
                 for i in range(n):
                     dx, dy = group.x[i] - xl, group.y[i] - yl
                     tx, ty = c * dx + s * dy, -s * dx + c * dy
-                    row.append((tx, ty, math.hypot(tx, ty), math.atan2(ty, tx) % _TWO_PI,
-                                group.odometer[i]))
+                    row.append(
+                        (
+                            tx,
+                            ty,
+                            math.hypot(tx, ty),
+                            math.atan2(ty, tx) % _TWO_PI,
+                            group.odometer[i],
+                        )
+                    )
                 samples.append(row)
         out = []
         for a, b in zip(samples, samples[1:], strict=False):
-            out.append([(math.hypot(q[0] - p[0], q[1] - p[1]), abs(q[2] - p[2]), q[4] - p[4],
-                         abs(math.remainder(q[3] - p[3], _TWO_PI)))
-                        for p, q in zip(a, b, strict=True)])
+            out.append(
+                [
+                    (
+                        math.hypot(q[0] - p[0], q[1] - p[1]),
+                        abs(q[2] - p[2]),
+                        q[4] - p[4],
+                        abs(math.remainder(q[3] - p[3], _TWO_PI)),
+                    )
+                    for p, q in zip(a, b, strict=True)
+                ]
+            )
         return out

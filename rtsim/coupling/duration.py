@@ -33,8 +33,9 @@ class RunLength:
     stop_ms: float = 0.0
 
 
-def run_length(world: WorldConfig, duration_s: float | None,
-               file_duration_s: float | None) -> RunLength:
+def run_length(
+    world: WorldConfig, duration_s: float | None, file_duration_s: float | None
+) -> RunLength:
     """The run's length (module doc): ``duration_s`` as asked (s), or the lap rule with the
     scenario file's ``file_duration_s`` (s, None or 0: none)."""
     if duration_s is not None:
@@ -45,8 +46,9 @@ def run_length(world: WorldConfig, duration_s: float | None,
     return RunLength(horizon_ms, stop_s, stop_ms)
 
 
-def check_scenario(scenario: Any, duration_s: float | None, where: str, *,
-                   force: bool = False) -> None:
+def check_scenario(
+    scenario: Any, duration_s: float | None, where: str, *, force: bool = False
+) -> None:
     """Refuse a coupled run of ``scenario`` (an :class:`rtsim.io.scenario.Scenario`) above the
     work limits (:func:`rtsim.io.work.check_coupled`: windows over the chain's processing time
     g, world steps × followers), its length from :func:`run_length`."""

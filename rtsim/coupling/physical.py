@@ -34,8 +34,14 @@ __all__ = ["PhysicalLog"]
 class PhysicalLog:
     """Accumulates the physical outcomes at each scan (module docstring)."""
 
-    def __init__(self, n: int, rho_d: list[float], radius: float,
-                 law: TraceFollower | None, guesses: list[float] | None = None) -> None:
+    def __init__(
+        self,
+        n: int,
+        rho_d: list[float],
+        radius: float,
+        law: TraceFollower | None,
+        guesses: list[float] | None = None,
+    ) -> None:
         self.n = n
         self.rho_d = rho_d
         self.radius = float(radius)
@@ -82,11 +88,16 @@ class PhysicalLog:
             "separation_error_cm": self._stats(every_sep),
             "min_robot_distance_cm": None if math.isinf(self.min_dist) else self.min_dist,
             "collisions": int(self.collisions),
-            "distance_cm": {"leader": float(leader_cm),
-                            "followers": [float(d) for d in follower_cm]},
+            "distance_cm": {
+                "leader": float(leader_cm),
+                "followers": [float(d) for d in follower_cm],
+            },
             "per_follower": [
-                {"cross_track_cm": self._stats(self.cross[k]),
-                 "separation_error_cm": self._stats(self.sep[k]),
-                 "distance_cm": float(follower_cm[k])}
-                for k in range(self.n)],
+                {
+                    "cross_track_cm": self._stats(self.cross[k]),
+                    "separation_error_cm": self._stats(self.sep[k]),
+                    "distance_cm": float(follower_cm[k]),
+                }
+                for k in range(self.n)
+            ],
         }

@@ -52,21 +52,50 @@ CHUNK_WINDOWS = 1024
 
 #: Window-level columns, in order (docs/outputs.md).
 WINDOW_COLUMNS: tuple[str, ...] = (
-    "window", "t", "w", "deadline", "w_sch", "msb_min", "binding", "margin", "slack",
-    "v_leader_desired", "v_leader", "v_leader_target", "v_leader_max", "method", "feasible",
-    "critical", "missed", "response", "finish", "points", "hough_ms", "tracks_lost", "segment",
-    "curvature", "leader_x", "leader_y", "leader_heading",
+    "window",
+    "t",
+    "w",
+    "deadline",
+    "w_sch",
+    "msb_min",
+    "binding",
+    "margin",
+    "slack",
+    "v_leader_desired",
+    "v_leader",
+    "v_leader_target",
+    "v_leader_max",
+    "method",
+    "feasible",
+    "critical",
+    "missed",
+    "response",
+    "finish",
+    "points",
+    "hough_ms",
+    "tracks_lost",
+    "segment",
+    "curvature",
+    "leader_x",
+    "leader_y",
+    "leader_heading",
 )
 #: Lost tracks by cause (``tracks_lost`` is their sum), the searches charged and the
 #: followers they re-acquired: the last columns of windows.csv.
 LOCALIZATION_COLUMNS: tuple[str, ...] = (
-    "tracks_lost_outside_window", "tracks_lost_occluded", "tracks_lost_out_of_range",
-    "searches", "reacquisitions")
+    "tracks_lost_outside_window",
+    "tracks_lost_occluded",
+    "tracks_lost_out_of_range",
+    "searches",
+    "reacquisitions",
+)
 #: Per-follower state columns (truth; the estimate adds ``_est``), in order.
 FOLLOWER_FIELDS: tuple[str, ...] = ("x", "y", "heading", "rho", "beta", "theta", "v")
 #: Per-follower bound columns, in order: the decision's prediction, then the truth.
-BOUND_FIELDS: tuple[str, ...] = (*(f"msb_{k}_pred" for k in BOUND_KINDS),
-                                 *(f"msb_{k}_true" for k in BOUND_KINDS))
+BOUND_FIELDS: tuple[str, ...] = (
+    *(f"msb_{k}_pred" for k in BOUND_KINDS),
+    *(f"msb_{k}_true" for k in BOUND_KINDS),
+)
 #: The observed change (``Scan.changes`` key) that each bound kind limits, in
 #: :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order (docs/model/world.md): relative
 # displacement (r_H),
@@ -88,8 +117,9 @@ def window_columns(n: int) -> list[str]:
     return cols
 
 
-def true_bounds(w: NDArray[np.float64], change: NDArray[np.float64],
-                limit: NDArray[np.float64] | float) -> NDArray[np.float64]:
+def true_bounds(
+    w: NDArray[np.float64], change: NDArray[np.float64], limit: NDArray[np.float64] | float
+) -> NDArray[np.float64]:
     """The bound the truth showed over a window (ms): ``limit·w / change``, ``inf`` where
     nothing changed.
 
@@ -155,8 +185,12 @@ class WindowRecord:
     @property
     def complete(self) -> bool:
         """Finished, scanned, and its violation interval closed by a later observation."""
-        return (not math.isnan(self.finish) and self.truth is not None
-                and self.viol is not None and self.pred is not None)
+        return (
+            not math.isnan(self.finish)
+            and self.truth is not None
+            and self.viol is not None
+            and self.pred is not None
+        )
 
 
 @dataclass
@@ -177,8 +211,11 @@ class WindowRecorder:
 
     def add(self, rec: WindowRecord) -> WindowRecord:
         self.records.append(rec)
-        if self.sink is not None and len(self.records) >= 2 * self.chunk \
-                and rec.window % self.chunk == 0:
+        if (
+            self.sink is not None
+            and len(self.records) >= 2 * self.chunk
+            and rec.window % self.chunk == 0
+        ):
             self._flush_settled()
         return rec
 
@@ -206,16 +243,18 @@ class WindowRecorder:
         return records_frame([r for r in self.records if r.complete], self.n, self.limits)
 
 
-def records_frame(recs: list[WindowRecord], n: int,
-                  limits: tuple[tuple[float, ...], ...]) -> pd.DataFrame:
+def records_frame(
+    recs: list[WindowRecord], n: int, limits: tuple[tuple[float, ...], ...]
+) -> pd.DataFrame:
     """The rows of windows.csv for complete records ``recs`` of ``n`` followers (``limits``
     as :class:`WindowRecorder`'s)."""
     data = records_columns(recs, n, limits)
     return pd.DataFrame(data, columns=list(data))
 
 
-def records_columns(recs: list[WindowRecord], n: int,
-                    limits: tuple[tuple[float, ...], ...]) -> dict[str, Any]:
+def records_columns(
+    recs: list[WindowRecord], n: int, limits: tuple[tuple[float, ...], ...]
+) -> dict[str, Any]:
     """The columns of windows.csv (name -> array or list, in order) for complete records
     ``recs``: what :func:`records_frame` holds, without the DataFrame (a writer's
     :meth:`~rtsim.io.columns.ChunkWriter.write_columns` formats them directly)."""
@@ -259,11 +298,22 @@ def records_columns(recs: list[WindowRecord], n: int,
     est = np.array([r.est for r in recs], dtype=float).reshape(m, n, k)
     nb = len(BOUND_KINDS)
     pred = np.array([r.pred for r in recs], dtype=float).reshape(m, n, nb)
-    changes = np.array(
-        [[r.changes[c] for c in CHANGE_KEYS] for r in recs],  # type: ignore[index]
-        dtype=np.float64).reshape(m, nb, n).transpose(0, 2, 1)
-    viol = np.array([[r.viol[k] for k in BOUND_KINDS] for r in recs],  # type: ignore[index]
-                    dtype=np.bool_).reshape(m, len(BOUND_KINDS), n).transpose(0, 2, 1)
+    changes = (
+        np.array(
+            [[r.changes[c] for c in CHANGE_KEYS] for r in recs],  # type: ignore[index]
+            dtype=np.float64,
+        )
+        .reshape(m, nb, n)
+        .transpose(0, 2, 1)
+    )
+    viol = (
+        np.array(
+            [[r.viol[k] for k in BOUND_KINDS] for r in recs],  # type: ignore[index]
+            dtype=np.bool_,
+        )
+        .reshape(m, len(BOUND_KINDS), n)
+        .transpose(0, 2, 1)
+    )
     lost = np.array([r.lost for r in recs], dtype=bool).reshape(m, n)
     for i in range(n):
         for j, f in enumerate(FOLLOWER_FIELDS):
@@ -271,8 +321,7 @@ def records_columns(recs: list[WindowRecord], n: int,
             data[f"f{i + 1}_{f}_est"] = est[:, i, j]
         for j, kind in enumerate(BOUND_KINDS):
             data[f"f{i + 1}_msb_{kind}_pred"] = pred[:, i, j]
-            data[f"f{i + 1}_msb_{kind}_true"] = true_bounds(w, changes[:, i, j],
-                                                            limits[j][i])
+            data[f"f{i + 1}_msb_{kind}_true"] = true_bounds(w, changes[:, i, j], limits[j][i])
         for j, kind in enumerate(BOUND_KINDS):
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
         data[f"f{i + 1}_lost"] = lost[:, i]

@@ -97,8 +97,14 @@ from rtsim.sim.run import build_cpu
 from rtsim.world.localization import hough_time
 from rtsim.world.world import World
 
-__all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "scenario_inputs", "summarize",
-           "LAP_CAP_FACTOR"]
+__all__ = [
+    "ScenarioInputs",
+    "ScenarioResult",
+    "run_scenario",
+    "scenario_inputs",
+    "summarize",
+    "LAP_CAP_FACTOR",
+]
 
 #: Where in its window the decision is taken (``[adjust] decide``): at the window job's end,
 #: after the radio round trip (the paper's chain: scan, Hough, estimate, send, receive,
@@ -127,9 +133,20 @@ class ScenarioResult(ResultDisplay):
     def headline(self) -> dict[str, Any]:
         """The run's headline facts (the short ``repr``)."""
         s = self.summary
-        return {k: s.get(k) for k in ("scenario", "mode", "seed", "duration_s", "windows",
-                                       "missed", "tracks_lost", "critical_share",
-                                       "min_speed_ratio")}
+        return {
+            k: s.get(k)
+            for k in (
+                "scenario",
+                "mode",
+                "seed",
+                "duration_s",
+                "windows",
+                "missed",
+                "tracks_lost",
+                "critical_share",
+                "min_speed_ratio",
+            )
+        }
 
     def summary_frame(self) -> pd.DataFrame:
         """summary.json as one row (nested keys dotted), so runs concatenate into a table."""
@@ -154,15 +171,25 @@ class _Decision(NamedTuple):
 class _Coupling:
     """The run's state and the CPU hooks (internal; see the module docstring)."""
 
-    def __init__(self, inp: ScenarioInputs, mode: str | None, seed: int, exec_model: ExecSpec,
-                 record_jobs: bool, horizon_ms: float, stop_s: float | None,
-                 stop_ms: float = 0.0, record_trace: bool = False,
-                 job_sink: Any = None) -> None:
+    def __init__(
+        self,
+        inp: ScenarioInputs,
+        mode: str | None,
+        seed: int,
+        exec_model: ExecSpec,
+        record_jobs: bool,
+        horizon_ms: float,
+        stop_s: float | None,
+        stop_ms: float = 0.0,
+        record_trace: bool = False,
+        job_sink: Any = None,
+    ) -> None:
         cfg = inp.world
         ts = inp.taskset
         if ts.window is None:
-            raise InputError(f"{inp.source or inp.name or 'scenario'}: the task set has no "
-                             f"[window]")
+            raise InputError(
+                f"{inp.source or inp.name or 'scenario'}: the task set has no [window]"
+            )
         if ts.window.n != cfg.n:
             ts = ts.with_window(n=cfg.n)
         self.ts = ts
@@ -173,22 +200,31 @@ class _Coupling:
         # column and summary keep the name w_sch): the CPU below runs the set's scheduler
         # ([scheduler] policy, fp by default) with Δt idle
         bound = opts.pop("lower_bound", "w_sch")
-        self.w_sch = lower_bound(ts, bound, scheduler=ts.scheduler, suspension="idle",
-                                 where=f"{inp.source or inp.name or 'scenario'}: adjust")
+        self.w_sch = lower_bound(
+            ts,
+            bound,
+            scheduler=ts.scheduler,
+            suspension="idle",
+            where=f"{inp.source or inp.name or 'scenario'}: adjust",
+        )
         if not math.isfinite(self.w_sch):
             raise InputError(f"{inp.source or inp.name or 'scenario'}: {bound} is infinite")
         cap = opts.get("cap")
         if cap is not None and cap < self.w_sch:
-            raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.cap: {cap:g} ms is "
-                             f"below w_sch = {self.w_sch:.6g} ms (the window could never reach "
-                             f"the schedulability bound)")
+            raise InputError(
+                f"{inp.source or inp.name or 'scenario'}: adjust.cap: {cap:g} ms is "
+                f"below w_sch = {self.w_sch:.6g} ms (the window could never reach "
+                f"the schedulability bound)"
+            )
         # run_scenario(policy=/mode=) overrides the file's [adjust] policy
         self.policy, opts = adjust_options(opts, f"{inp.source or 'scenario'}: adjust", mode)
         if getattr(self.policy, "needs_path", False):  # the leader's known path commands
             segs = cfg.path.segments
             starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
             self._path: tuple[tuple[float, ...], tuple[float, ...]] | None = (
-                tuple(float(x) for x in starts), tuple(g.curvature for g in segs))
+                tuple(float(x) for x in starts),
+                tuple(g.curvature for g in segs),
+            )
             opts["accel_max"] = cfg.leader_accel_max
             opts["decel_max"] = cfg.leader_decel_max
         else:
@@ -200,8 +236,9 @@ class _Coupling:
         self.mode = str(self.policy.name)
         # the command-aware rollout (PolicyInput.rollout): the predictor "commands", or a
         # policy that asks for it
-        self._rollout = (opts.get("predictor") == "commands"
-                         or bool(getattr(self.policy, "needs_rollout", False)))
+        self._rollout = opts.get("predictor") == "commands" or bool(
+            getattr(self.policy, "needs_rollout", False)
+        )
         if self._rollout:  # a policy on the rollout predicts with it
             opts["predictor"] = "commands"
         # when in the window the decision is taken: at the job's end (after the radio round
@@ -209,8 +246,10 @@ class _Coupling:
         # commands)
         self.decide_at = str(opts.pop("decide", "end"))
         if self.decide_at not in DECIDE:
-            raise InputError(f"{inp.source or inp.name or 'scenario'}: adjust.decide: must be "
-                             f"one of {', '.join(DECIDE)}, got {self.decide_at!r}")
+            raise InputError(
+                f"{inp.source or inp.name or 'scenario'}: adjust.decide: must be "
+                f"one of {', '.join(DECIDE)}, got {self.decide_at!r}"
+            )
         cap_factor = opts.pop("cap_factor", None)
         if cap_factor is not None and "cap" not in opts:
             opts["cap"] = float(cap_factor) * self.w_sch
@@ -221,8 +260,12 @@ class _Coupling:
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
-        if (self.world.backend == "compiled" and type(opts.get("predictor")) is str
-                and opts["predictor"] == "paper" and self.thr.localization == "radial"):
+        if (
+            self.world.backend == "compiled"
+            and type(opts.get("predictor")) is str
+            and opts["predictor"] == "paper"
+            and self.thr.localization == "radial"
+        ):
             from rtsim.control.compiled import PaperSearch  # the same speeds, compiled
 
             opts["predictor"] = PaperSearch()
@@ -232,9 +275,17 @@ class _Coupling:
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
         self.v_ld = cfg.leader_speed
         self.env = simpy.Environment()
-        self.cpu, _ = build_cpu(ts, env=self.env, window=self._period, suspension="idle",
-                                exec_model=exec_model, seed=cpu_ss, record_jobs=record_jobs,
-                                record_trace=record_trace, job_sink=job_sink)
+        self.cpu, _ = build_cpu(
+            ts,
+            env=self.env,
+            window=self._period,
+            suspension="idle",
+            exec_model=exec_model,
+            seed=cpu_ss,
+            record_jobs=record_jobs,
+            record_trace=record_trace,
+            job_sink=job_sink,
+        )
         win = ts.window
         assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
@@ -268,19 +319,30 @@ class _Coupling:
         self.lap_ms: float | None = None
         rho_d = np.asarray(self.rho_d)
         thr = self.thr
-        self._limits = (("localization", "displacement", thr.r_H),
-                        ("separation", "d_rho", thr.T_rho * rho_d),
-                        ("path_diversion", "travel", thr.T_eps * rho_d),
-                        ("bearing", "d_beta", thr.T_beta))
+        self._limits = (
+            ("localization", "displacement", thr.r_H),
+            ("separation", "d_rho", thr.T_rho * rho_d),
+            ("path_diversion", "travel", thr.T_eps * rho_d),
+            ("bearing", "d_beta", thr.T_beta),
+        )
         # the same thresholds per follower, for the recorder's _true columns
-        self.rec = WindowRecorder(self.n, tuple(
-            tuple(float(x) for x in np.broadcast_to(lim, self.n)) for _, _, lim in self._limits))
+        self.rec = WindowRecorder(
+            self.n,
+            tuple(
+                tuple(float(x) for x in np.broadcast_to(lim, self.n)) for _, _, lim in self._limits
+            ),
+        )
         # each follower's send, ms after its window's scan (measured in the last window; the
         # chain's nominal offsets until then)
         self._send_offsets = self._nominal_offsets(ts)
         first = self._estimates(0.0)
-        self.dec = first._replace(w=self.w_sch, v_leader=self.v_ld, method="fixed",
-                                  feasible=first.msb_min >= self.w_sch, known=first.known[:1])
+        self.dec = first._replace(
+            w=self.w_sch,
+            v_leader=self.v_ld,
+            method="fixed",
+            feasible=first.msb_min >= self.w_sch,
+            known=first.known[:1],
+        )
 
     # -- the decision ----------------------------------------------------------------
     def _nominal_offsets(self, ts: TaskSet) -> list[float]:
@@ -292,7 +354,7 @@ class _Coupling:
             t += seg.wcet
             if seg.role == "send":
                 out.append(t)
-        return out[:self.n] + [out[-1] if out else 0.0] * (self.n - len(out))
+        return out[: self.n] + [out[-1] if out else 0.0] * (self.n - len(out))
 
     def _rollout_state(self, now: float, next_scan: float, pending: bool = False) -> Any:
         """What the leader knows for its rollout at ``now`` (:class:`RolloutState`)."""
@@ -305,12 +367,31 @@ class _Coupling:
             speeds.append(v)
             held.append(world.held_command(i))
         cfg = self.cfg
-        return Rollout(RolloutState(
-            cfg.path, world.follow_law, cfg.follower, cfg.step_ms, now, ld.s, ld.speed,
-            self.v_ld, cfg.leader_accel_max, cfg.leader_decel_max, tuple(poses),
-            tuple(speeds), tuple(held), self._pending(now) if pending else ((),) * self.n,
-            max(now, next_scan), tuple(self._send_offsets), self.thr, tuple(self.rho_d),
-            self.w_sch, type(world.followers), tuple(self.beta_d)))
+        return Rollout(
+            RolloutState(
+                cfg.path,
+                world.follow_law,
+                cfg.follower,
+                cfg.step_ms,
+                now,
+                ld.s,
+                ld.speed,
+                self.v_ld,
+                cfg.leader_accel_max,
+                cfg.leader_decel_max,
+                tuple(poses),
+                tuple(speeds),
+                tuple(held),
+                self._pending(now) if pending else ((),) * self.n,
+                max(now, next_scan),
+                tuple(self._send_offsets),
+                self.thr,
+                tuple(self.rho_d),
+                self.w_sch,
+                type(world.followers),
+                tuple(self.beta_d),
+            )
+        )
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
         """The current window's sends still to come at its first send's start (``now``):
@@ -333,24 +414,49 @@ class _Coupling:
             pose, v_f = world.estimate_at(k + 1, now)
             rho, beta, theta = relative_state(lp, pose)
             state.append((*pose, rho, beta, theta, v_f))
-            fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
-                                         self.beta_d[k]))
-        kw: dict[str, Any] = {"omega_l": world.leader_omega, "kappa": kappa,
-                              "v_now": self._v_actual()}
+            fols.append(
+                trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k], self.beta_d[k])
+            )
+        kw: dict[str, Any] = {
+            "omega_l": world.leader_omega,
+            "kappa": kappa,
+            "v_now": self._v_actual(),
+        }
         ahead = () if self._path is None else self._ahead()
         extra: dict[str, Any] = {"pose_sd": self._pose_sd()} if self._noise else {}
         if self._rollout:
-            extra["rollout"] = self._rollout_state(now, now if next_scan is None else next_scan,
-                                                   self.decide_at == "before-send" and now > 0)
-        adj = self.policy.decide(PolicyInput(fols, v_ld=self.v_ld, w_sch=self.w_sch,
-                                             thresholds=self.thr, **kw, **self.opts,
-                                             ahead=ahead, **extra))
+            extra["rollout"] = self._rollout_state(
+                now,
+                now if next_scan is None else next_scan,
+                self.decide_at == "before-send" and now > 0,
+            )
+        adj = self.policy.decide(
+            PolicyInput(
+                fols,
+                v_ld=self.v_ld,
+                w_sch=self.w_sch,
+                thresholds=self.thr,
+                **kw,
+                **self.opts,
+                ahead=ahead,
+                **extra,
+            )
+        )
         v_l = max(adj.v_leader, self.v_floor)
         if self._rollout:  # the _pred columns evaluate the same rollout
             kw = {**kw, "rollout": extra["rollout"]}
-        return _Decision(adj.w, v_l, adj.msb_min, adj.binding, adj.method,
-                         adj.feasible and v_l == adj.v_leader, tuple(state), tuple(fols), kw,
-                         ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)))
+        return _Decision(
+            adj.w,
+            v_l,
+            adj.msb_min,
+            adj.binding,
+            adj.method,
+            adj.feasible and v_l == adj.v_leader,
+            tuple(state),
+            tuple(fols),
+            kw,
+            ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
+        )
 
     def _pose_sd(self) -> tuple[tuple[float, float], ...]:
         """Per follower (σ_p, σ_θ) from the leader's EKF covariance at its last update:
@@ -358,8 +464,12 @@ class _Coupling:
         out = []
         for f in self.world.filters:
             p = f.P
-            out.append((math.sqrt(max(0.5 * (float(p[0, 0]) + float(p[1, 1])), 0.0)),
-                        math.sqrt(max(float(p[2, 2]), 0.0))))
+            out.append(
+                (
+                    math.sqrt(max(0.5 * (float(p[0, 0]) + float(p[1, 1])), 0.0)),
+                    math.sqrt(max(float(p[2, 2]), 0.0)),
+                )
+            )
         return tuple(out)
 
     def _ahead(self) -> tuple[tuple[float, float], ...]:
@@ -409,12 +519,24 @@ class _Coupling:
         kind, kappa = self.world.segment_at()
         d = self.dec
         self._decisions[job.index] = d
-        self._open[job.index] = self.rec.add(WindowRecord(
-            window=job.index, t=job.release, w=job.period, w_sch=self.w_sch,
-            msb_min=d.msb_min, binding=d.binding, v_leader_desired=self.v_ld,
-            v_leader=self._v_actual(), v_leader_target=self._v_target(), method=d.method,
-            feasible=d.feasible, segment=kind,
-            curvature=kappa, est=d.est))
+        self._open[job.index] = self.rec.add(
+            WindowRecord(
+                window=job.index,
+                t=job.release,
+                w=job.period,
+                w_sch=self.w_sch,
+                msb_min=d.msb_min,
+                binding=d.binding,
+                v_leader_desired=self.v_ld,
+                v_leader=self._v_actual(),
+                v_leader_target=self._v_target(),
+                method=d.method,
+                feasible=d.feasible,
+                segment=kind,
+                curvature=kappa,
+                est=d.est,
+            )
+        )
 
     def _on_scan(self, job: Job, seg: Segment) -> None:
         now = self.env.now
@@ -453,8 +575,9 @@ class _Coupling:
         last.v_leader_max = max(self._v_max, self._v_actual())
         last.pred = self._predicted(self._decisions.pop(last.window), last.v_leader_max)
 
-    def violation_ratios(self, tolerance: float = VIOLATION_TOLERANCE
-                         ) -> tuple[dict[str, float], dict[str, int]]:
+    def violation_ratios(
+        self, tolerance: float = VIOLATION_TOLERANCE
+    ) -> tuple[dict[str, float], dict[str, int]]:
         """Per bound kind over the kept windows: the largest observed change / its threshold,
         and the (window, follower) pairs whose change exceeds the threshold by more than
         ``tolerance`` (a violation count that leaves out overshoots of a few per cent)."""
@@ -470,8 +593,9 @@ class _Coupling:
             beyond[kind] = sum(c for _, c in parts)
         return ratios, beyond
 
-    def _fold(self, records: list[WindowRecord], tolerance: float = VIOLATION_TOLERANCE
-              ) -> dict[str, tuple[float, int]]:
+    def _fold(
+        self, records: list[WindowRecord], tolerance: float = VIOLATION_TOLERANCE
+    ) -> dict[str, tuple[float, int]]:
         """Per bound kind, (largest change / threshold, changes beyond ``tolerance``) over the
         complete ``records`` (none: an empty dict)."""
         recs = [r for r in records if r.complete and r.changes is not None]
@@ -479,8 +603,10 @@ class _Coupling:
         if not recs:
             return out
         for kind, key, lim in self._limits:
-            ch = np.array([r.changes[key] for r in recs],  # type: ignore[index]
-                          dtype=np.float64)
+            ch = np.array(
+                [r.changes[key] for r in recs],  # type: ignore[index]
+                dtype=np.float64,
+            )
             ratio = ch.reshape(len(recs), -1) / lim
             out[kind] = (float(ratio.max()), int((ratio > 1.0 + tolerance).sum()))
         return out
@@ -538,8 +664,12 @@ class _Coupling:
             self._v_max = max(self._v_max, self._v_actual())
         if self.lap_ms is None:
             self._lap_check(now)
-        if self._stop_s is not None and not self.stop.triggered and now >= self._stop_ms \
-                and self.world.leader.s - self._s0 >= self._stop_s:
+        if (
+            self._stop_s is not None
+            and not self.stop.triggered
+            and now >= self._stop_ms
+            and self.world.leader.s - self._s0 >= self._stop_s
+        ):
             self.stop.succeed()
 
     def _lap_check(self, now: float) -> None:
@@ -645,8 +775,9 @@ def run_scenario(
     """
     t0 = time.perf_counter()
     if mode is not None and policy is not None and mode != policy:
-        raise InputError(f"mode is an alias of policy: give one, got mode={mode!r} and "
-                         f"policy={policy!r}")
+        raise InputError(
+            f"mode is an alias of policy: give one, got mode={mode!r} and policy={policy!r}"
+        )
     if policy is None and mode is not None:
         policy_class(mode, "mode")
         policy = mode
@@ -662,20 +793,34 @@ def run_scenario(
     inp = scenario_inputs(scenario, text, overrides, allow_code)
     cfg = inp.world
     if duration_s is not None:
-        if not is_real(duration_s) or \
-                not (0 < duration_s < math.inf):
-            raise InputError(f"duration must be a positive number of seconds, got "
-                             f"{duration_s!r}")
+        if not is_real(duration_s) or not (0 < duration_s < math.inf):
+            raise InputError(f"duration must be a positive number of seconds, got {duration_s!r}")
         from rtsim.io.limits import check
 
         check("option: --duration", duration_s, "run_scenario: duration_s")
     length = run_length(cfg, duration_s, inp.duration_s)
     horizon_ms, stop_s, stop_ms = length.horizon_ms, length.stop_s, length.stop_ms
     win = inp.taskset.window
-    check_coupled(horizon_ms, win.g() if win is not None else 0.0, cfg.step_ms, cfg.n,
-                  f"run_scenario: duration {horizon_ms / 1000.0:g} s", force=force)
-    run = _Coupling(inp, policy, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms,
-                    record_trace, job_sink)
+    check_coupled(
+        horizon_ms,
+        win.g() if win is not None else 0.0,
+        cfg.step_ms,
+        cfg.n,
+        f"run_scenario: duration {horizon_ms / 1000.0:g} s",
+        force=force,
+    )
+    run = _Coupling(
+        inp,
+        policy,
+        int(seed),
+        exec_model,
+        record_jobs,
+        horizon_ms,
+        stop_s,
+        stop_ms,
+        record_trace,
+        job_sink,
+    )
     if window_sink is not None:
         run.rec.sink = lambda recs: run.hand_over(recs, window_sink)
         if window_sink.empty is None:
@@ -689,8 +834,7 @@ def run_scenario(
     t2, c2 = time.perf_counter(), time.process_time()
     table: Any
     if window_sink is None:
-        table = records_columns([r for r in run.rec.records if r.complete], run.n,
-                                run.rec.limits)
+        table = records_columns([r for r in run.rec.records if r.complete], run.n, run.rec.limits)
         df = pd.DataFrame(table, columns=list(table)) if windows else None
     else:
         run.rec.flush()
@@ -714,18 +858,31 @@ def run_scenario(
         extra["lap_time_note"] = (
             f"the leader did not complete its lap within the cap of "
             f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
-            if stop_s is not None else
-            f"the run's duration ({float(duration_s or 0.0):g} s) ended before the leader "
+            if stop_s is not None
+            else f"the run's duration ({float(duration_s or 0.0):g} s) ended before the leader "
             f"completed "
-            f"its lap")
+            f"its lap"
+        )
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     world.followers.advance_all(world.t_ms, cfg.step_ms)
     extra.update(run.phys.summary(world.leader.s - run._s0, list(world.followers.odometer)))
-    summary = summarize(table, mode=run.mode, w_sch=run.w_sch, duration_s=run.env.now / 1000.0,
-                        seed=int(seed), scenario=inp.name, n=run.n, extra=extra)
+    summary = summarize(
+        table,
+        mode=run.mode,
+        w_sch=run.w_sch,
+        duration_s=run.env.now / 1000.0,
+        seed=int(seed),
+        scenario=inp.name,
+        n=run.n,
+        extra=extra,
+    )
     t3 = time.perf_counter()
-    timing = {"setup_s": t1 - t0, "simulation_s": t2 - t1, "simulation_cpu_s": c2 - c1,
-              "tables_s": t3 - t2}
-    return ScenarioResult(df if window_sink is None else None, res.jobs, summary, timing, inp,
-                          res.trace)
-
+    timing = {
+        "setup_s": t1 - t0,
+        "simulation_s": t2 - t1,
+        "simulation_cpu_s": c2 - c1,
+        "tables_s": t3 - t2,
+    }
+    return ScenarioResult(
+        df if window_sink is None else None, res.jobs, summary, timing, inp, res.trace
+    )

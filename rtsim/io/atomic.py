@@ -14,8 +14,16 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_path", "write_text", "write_bytes", "write_json", "write_table", "dumps",
-           "NonFiniteJSON", "inf_as_null"]
+__all__ = [
+    "atomic_path",
+    "write_text",
+    "write_bytes",
+    "write_json",
+    "write_table",
+    "dumps",
+    "NonFiniteJSON",
+    "inf_as_null",
+]
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
@@ -113,15 +121,17 @@ def dumps(obj: Any, indent: int | None = 2) -> str:
     there (``wcrt``: above the deadline; ``lap_time_s``: no lap; see docs/outputs.md).
     """
     try:
-        return json.dumps(obj, indent=indent, default=_json_default, sort_keys=False,
-                          allow_nan=False)
+        return json.dumps(
+            obj, indent=indent, default=_json_default, sort_keys=False, allow_nan=False
+        )
     except ValueError as exc:
         if "JSON compliant" not in str(exc):
             raise
         plain = json.loads(json.dumps(obj, default=_json_default, allow_nan=True))
-        raise NonFiniteJSON(f"non-finite number at {_path_of(plain)} (strict JSON has none; "
-                            "write null where the field's documentation says what it means)"
-                            ) from None
+        raise NonFiniteJSON(
+            f"non-finite number at {_path_of(plain)} (strict JSON has none; "
+            "write null where the field's documentation says what it means)"
+        ) from None
 
 
 def write_json(target: str | os.PathLike[str], obj: Any) -> None:

@@ -43,7 +43,6 @@ READ_ROWS = 65536
 _PANDAS_3 = int(pd.__version__.split(".")[0]) >= 3
 
 
-
 def _special_chars() -> frozenset[str]:
     """The characters that make the csv module quote a field as pandas calls it (QUOTE_MINIMAL,
     lineterminator os.linesep); asked of the module, since it changed between Pythons (a
@@ -116,8 +115,9 @@ def _texts(values: Any, kind: str) -> list[str] | None:
     return out
 
 
-def csv_text(columns: Sequence[Any], kinds: Sequence[str], header: Sequence[str] | None = None
-             ) -> str | None:
+def csv_text(
+    columns: Sequence[Any], kinds: Sequence[str], header: Sequence[str] | None = None
+) -> str | None:
     """The rows (and ``header``, when given) of ``DataFrame.to_csv(index=False)`` for
     ``columns`` (equal-length sequences or arrays, one per column) of :func:`column_kind`
     ``kinds``; None when a value is not one the fast path formats exactly (the caller then
@@ -149,8 +149,7 @@ class ChunkWriter:
     Call :meth:`write` per chunk and :meth:`close` once; ``rows`` counts what was written.
     """
 
-    def __init__(self, paths: Sequence[str | os.PathLike[str]],
-                 empty: pd.DataFrame | None) -> None:
+    def __init__(self, paths: Sequence[str | os.PathLike[str]], empty: pd.DataFrame | None) -> None:
         self.paths = [Path(p) for p in paths]
         for p in self.paths:
             if p.suffix.lower() not in (".csv", ".parquet"):
@@ -166,8 +165,12 @@ class ChunkWriter:
         """Append one chunk (columns and dtypes as ``empty``)."""
         if self.empty is not None and list(df.columns) != list(self.empty.columns):
             raise ValueError("chunk columns differ from the table's")
-        self._append(df, lambda: [df[c].to_numpy() for c in df.columns],
-                     [column_kind(t) for t in df.dtypes], len(df))
+        self._append(
+            df,
+            lambda: [df[c].to_numpy() for c in df.columns],
+            [column_kind(t) for t in df.dtypes],
+            len(df),
+        )
 
     def write_columns(self, columns: Mapping[str, Any]) -> None:
         """Append one chunk given as columns (name -> numpy array, or a list of strings, in
@@ -175,10 +178,15 @@ class ChunkWriter:
         building that frame for a CSV."""
         names = self._names(columns)
         rows = len(next(iter(columns.values()))) if names else 0
-        kinds = [column_kind(v.dtype) if isinstance(v, np.ndarray) else "s"
-                 for v in columns.values()]
-        self._append(lambda: pd.DataFrame(columns, columns=names),
-                     lambda: [columns[c] for c in names], kinds, rows)
+        kinds = [
+            column_kind(v.dtype) if isinstance(v, np.ndarray) else "s" for v in columns.values()
+        ]
+        self._append(
+            lambda: pd.DataFrame(columns, columns=names),
+            lambda: [columns[c] for c in names],
+            kinds,
+            rows,
+        )
 
     def write_rows(self, rows: Sequence[tuple[Any, ...]]) -> None:
         """Append one chunk given as row tuples in ``empty``'s column order: the same file
@@ -186,9 +194,12 @@ class ChunkWriter:
         assert self.empty is not None, "ChunkWriter.write_rows needs the empty table"
         names = list(self.empty.columns)
         dtypes = dict(self.empty.dtypes)
-        self._append(lambda: pd.DataFrame(list(rows), columns=names).astype(dtypes),
-                     lambda: list(zip(*rows, strict=True)) if rows else [()] * len(names),
-                     self._kinds(), len(rows))
+        self._append(
+            lambda: pd.DataFrame(list(rows), columns=names).astype(dtypes),
+            lambda: list(zip(*rows, strict=True)) if rows else [()] * len(names),
+            self._kinds(),
+            len(rows),
+        )
 
     def _names(self, columns: Mapping[str, Any]) -> list[str]:
         if self.empty is None:
@@ -220,8 +231,7 @@ class ChunkWriter:
                         assert table is not None  # (the empty table, or the frame written)
                         header = list(table.columns)
                     text = csv_text(columns(), kinds, header)  # type: ignore[arg-type]
-                with open(p, "w" if self.chunks == 0 else "a", encoding="utf-8",
-                          newline="") as fh:
+                with open(p, "w" if self.chunks == 0 else "a", encoding="utf-8", newline="") as fh:
                     if text is not None:
                         fh.write(text)
                     else:
@@ -263,26 +273,39 @@ class ChunkWriter:
                 os.fsync(fh.fileno())
         self._closed = True
 
-    def read(self, columns: Sequence[str] | None = None,
-             dtypes: dict[str, Any] | None = None) -> pd.DataFrame:
+    def read(
+        self, columns: Sequence[str] | None = None, dtypes: dict[str, Any] | None = None
+    ) -> pd.DataFrame:
         """Columns of the table written (after :meth:`close`), from its first file."""
         return read_columns(self.paths[0], columns, dtypes)
 
 
-def iter_columns(path: str | os.PathLike[str], columns: Sequence[str] | None = None,
-                 chunk_rows: int = READ_ROWS, dtypes: dict[str, Any] | None = None
-                 ) -> Iterator[pd.DataFrame]:
+def iter_columns(
+    path: str | os.PathLike[str],
+    columns: Sequence[str] | None = None,
+    chunk_rows: int = READ_ROWS,
+    dtypes: dict[str, Any] | None = None,
+) -> Iterator[pd.DataFrame]:
     """Columns of a CSV written by :class:`ChunkWriter` (floats exact), ``chunk_rows`` rows
     at a time (row labels continue across chunks)."""
     exact: dict[str, Any] = {} if _PANDAS_3 else {"float_precision": "round_trip"}
-    with pd.read_csv(Path(path), usecols=list(columns) if columns is not None else None,
-                     dtype=dtypes, keep_default_na=False, na_values=[""], chunksize=chunk_rows,
-                     **exact) as reader:
+    with pd.read_csv(
+        Path(path),
+        usecols=list(columns) if columns is not None else None,
+        dtype=dtypes,
+        keep_default_na=False,
+        na_values=[""],
+        chunksize=chunk_rows,
+        **exact,
+    ) as reader:
         yield from reader
 
 
-def read_columns(path: str | os.PathLike[str], columns: Sequence[str] | None = None,
-                 dtypes: dict[str, Any] | None = None) -> pd.DataFrame:
+def read_columns(
+    path: str | os.PathLike[str],
+    columns: Sequence[str] | None = None,
+    dtypes: dict[str, Any] | None = None,
+) -> pd.DataFrame:
     """Columns of a CSV written by :class:`ChunkWriter` (floats exact, parsed in chunks of
     :data:`READ_ROWS` rows), or of a Parquet file."""
     p = Path(path)

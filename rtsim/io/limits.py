@@ -23,8 +23,19 @@ from typing import Any
 from rtsim._numbers import is_int, is_real
 from rtsim.errors import InputError
 
-__all__ = ["Range", "REGISTRY", "register", "check", "strict", "UnregisteredKey", "read_input",
-           "too_large", "MAX_INPUT_BYTES", "WINDOW_N", "WINDOW_R_H"]
+__all__ = [
+    "Range",
+    "REGISTRY",
+    "register",
+    "check",
+    "strict",
+    "UnregisteredKey",
+    "read_input",
+    "too_large",
+    "MAX_INPUT_BYTES",
+    "WINDOW_N",
+    "WINDOW_R_H",
+]
 
 
 class UnregisteredKey(RuntimeError):
@@ -69,8 +80,18 @@ class Range:
 REGISTRY: dict[str, Range] = {}
 
 
-def register(key: str, lo: float, hi: float, unit: str, why: str, *, lo_open: bool = False,
-             hi_open: bool = False, inf: bool = False, integer: bool = False) -> Range:
+def register(
+    key: str,
+    lo: float,
+    hi: float,
+    unit: str,
+    why: str,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    inf: bool = False,
+    integer: bool = False,
+) -> Range:
     """Add (or replace) the range of ``key``; both ends must be finite."""
     if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
         raise ValueError(f"{key}: a range needs finite lo <= hi, got {lo}, {hi}")
@@ -84,8 +105,13 @@ def strict() -> bool:
     return os.environ.get("RTSIM_STRICT_RANGES", "") not in ("", "0")
 
 
-def check(key: str, value: Any, where: str, error: type[InputError] = InputError,
-          magnitude_only: bool = False) -> None:
+def check(
+    key: str,
+    value: Any,
+    where: str,
+    error: type[InputError] = InputError,
+    magnitude_only: bool = False,
+) -> None:
     """Refuse ``value`` of ``key`` outside its range: an InputError ``<where>: <problem>``.
 
     Not a number: nothing to check here (the parser says what it expects). An unregistered
@@ -98,8 +124,10 @@ def check(key: str, value: Any, where: str, error: type[InputError] = InputError
     r = REGISTRY.get(key)
     if r is None:
         if strict() and not magnitude_only:  # (an unknown key: the parser's error stands)
-            raise UnregisteredKey(f"{key}: numeric input without a range; register it in "
-                                  "rtsim/io/limits.py (one line)")
+            raise UnregisteredKey(
+                f"{key}: numeric input without a range; register it in "
+                "rtsim/io/limits.py (one line)"
+            )
         return
     v = float(value)
     if magnitude_only and not (r.hi < v < math.inf or 0 < v < r.lo):
@@ -114,8 +142,7 @@ def check(key: str, value: Any, where: str, error: type[InputError] = InputError
 MAX_INPUT_BYTES = 16 * 1024 * 1024
 
 
-def read_input(path: str | os.PathLike[str], what: str,
-               max_bytes: int = MAX_INPUT_BYTES) -> bytes:
+def read_input(path: str | os.PathLike[str], what: str, max_bytes: int = MAX_INPUT_BYTES) -> bytes:
     """The bytes of input file ``path``, read at most ``max_bytes`` + 1 of them: a larger
     file (or an endless one, ``/dev/zero``) is an InputError naming it, and so is a FIFO or
     a socket (opened without waiting for a writer: reading one would block). OSError
@@ -126,17 +153,20 @@ def read_input(path: str | os.PathLike[str], what: str,
     with open(path, "rb", opener=lambda p, _: os.open(p, flags)) as fh:
         mode = os.fstat(fh.fileno()).st_mode
         if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
-            raise InputError(f"{os.fspath(path)}: a FIFO or socket, not a {what} file; give "
-                             f"a regular file")
+            raise InputError(
+                f"{os.fspath(path)}: a FIFO or socket, not a {what} file; give a regular file"
+            )
         return too_large(fh.read(max_bytes + 1), path, what, max_bytes)
 
 
-def too_large(data: bytes, path: str | os.PathLike[str], what: str,
-              max_bytes: int = MAX_INPUT_BYTES) -> bytes:
+def too_large(
+    data: bytes, path: str | os.PathLike[str], what: str, max_bytes: int = MAX_INPUT_BYTES
+) -> bytes:
     """``data`` (read with a limit of ``max_bytes`` + 1), or an InputError if it is over."""
     if len(data) > max_bytes:
-        raise InputError(f"{os.fspath(path)}: larger than {max_bytes // (1024 * 1024)} MiB; "
-                         f"not a {what} file")
+        raise InputError(
+            f"{os.fspath(path)}: larger than {max_bytes // (1024 * 1024)} MiB; not a {what} file"
+        )
     return data
 
 
@@ -154,13 +184,13 @@ register(_OP + "--duration", 0, 1e6, "s", "as the scenario key duration", lo_ope
 register(_OP + "--seed", 0, 2**63 - 1, "", "a non-negative 63-bit integer", integer=True)
 register(_OP + "--workers", 1, 4096, "processes", "local worker processes", integer=True)
 register(_OP + "--windows", 1, 2e6, "windows", "as the work limit on windows", integer=True)
-register(_OP + "--utilization", 0, 100, "", "total utilization (above 1 on purpose only)",
-         lo_open=True)
+register(
+    _OP + "--utilization", 0, 100, "", "total utilization (above 1 on purpose only)", lo_open=True
+)
 register(_OP + "--tasks", 1, 1e4, "tasks", "tasks per generated set", integer=True)
 register(_OP + "--count", 1, 1e6, "sets", "generated task sets", integer=True)
 register(_OP + "--random-sets", 0, 1e6, "sets", "random sets checked", integer=True)
-register(_OP + "--point", 0, 1e5, "", "a point index (a grid has at most 1e5 points)",
-         integer=True)
+register(_OP + "--point", 0, 1e5, "", "a point index (a grid has at most 1e5 points)", integer=True)
 register(_OP + "--histograms", 0, 1e4, "", "histogram sets written", integer=True)
 register(_OP + "--bins", 1, 1e5, "bins", "histogram bins", integer=True)
 register(_OP + "--dpi", 50, 1200, "dots/inch", "resolution of PNG figures", integer=True)
@@ -172,9 +202,19 @@ register(_OP + "--end", 0, 1e6, "s", "as --duration")
 # The two keys of a task set's [window] that callers change on a built task set
 # (TaskSet.with_window, window_bounds(n=, r_H=), a scenario's follower count): the model's
 # WindowSpec checks them itself, and the task-set file's model takes its ranges from here.
-WINDOW_N = register("taskset: window.n", 1, 1000, "followers",
-                    "the laser (361 beams) cannot tell more followers apart", integer=True)
-WINDOW_R_H = register("taskset: window.r_H", 0, 1e4, "cm", "a Hough window of at most 100 m "
-                      "(the laser's range is 80 m)", lo_open=True)
-
-
+WINDOW_N = register(
+    "taskset: window.n",
+    1,
+    1000,
+    "followers",
+    "the laser (361 beams) cannot tell more followers apart",
+    integer=True,
+)
+WINDOW_R_H = register(
+    "taskset: window.r_H",
+    0,
+    1e4,
+    "cm",
+    "a Hough window of at most 100 m (the laser's range is 80 m)",
+    lo_open=True,
+)

@@ -46,13 +46,15 @@ def _describe(directory: Path) -> str:
         return "another rtsim run"
     argv = info.get("argv")
     cmd = (" ".join(str(a) for a in argv) if isinstance(argv, list) else "") or "?"
-    return (f"pid {info.get('pid')} on {info.get('host')} (command: {cmd}; since "
-            f"{info.get('since')})")
+    return (
+        f"pid {info.get('pid')} on {info.get('host')} (command: {cmd}; since {info.get('since')})"
+    )
 
 
 @contextmanager
-def lock_directory(directory: str | os.PathLike[str],
-                   argv: Sequence[str] | None = None) -> Iterator[Path]:
+def lock_directory(
+    directory: str | os.PathLike[str], argv: Sequence[str] | None = None
+) -> Iterator[Path]:
     """Hold ``directory``'s lock for the ``with`` block (the directory is created).
 
     Raises :class:`DirectoryLocked` at once, naming the holder, when another process holds
@@ -72,11 +74,15 @@ def lock_directory(directory: str | os.PathLike[str],
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            raise DirectoryLocked(f"{d}: in use by {_describe(d)}; wait for it to finish or "
-                                  "use another --out") from None
-        info = {"pid": os.getpid(), "host": socket.gethostname(),
-                "argv": list(sys.argv if argv is None else argv),
-                "since": datetime.now(UTC).isoformat(timespec="seconds")}
+            raise DirectoryLocked(
+                f"{d}: in use by {_describe(d)}; wait for it to finish or use another --out"
+            ) from None
+        info = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "argv": list(sys.argv if argv is None else argv),
+            "since": datetime.now(UTC).isoformat(timespec="seconds"),
+        }
         os.ftruncate(fd, 0)
         os.pwrite(fd, (json.dumps(info) + "\n").encode("utf-8"), 0)
         yield path

@@ -51,8 +51,19 @@ from typing import Any
 
 from rtsim.errors import InputError
 
-__all__ = ["StagedDir", "FileSet", "stage", "clean_leftovers", "is_rtsim_output",
-           "STAGING_MARK", "FILES_MARK", "check_resumable", "owner", "stem", "sidecar"]
+__all__ = [
+    "StagedDir",
+    "FileSet",
+    "stage",
+    "clean_leftovers",
+    "is_rtsim_output",
+    "STAGING_MARK",
+    "FILES_MARK",
+    "check_resumable",
+    "owner",
+    "stem",
+    "sidecar",
+]
 
 #: Infix of staging directories: ``.NAME.rtsim-<token>`` beside the target NAME.
 STAGING_MARK = ".rtsim-"
@@ -94,8 +105,7 @@ def _libc_renameat2() -> Any:
         fn = libc.renameat2
     except (OSError, AttributeError):
         return None
-    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
-                   ctypes.c_uint]
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
     fn.restype = ctypes.c_int
     return fn
 
@@ -147,8 +157,10 @@ def _listed(manifest: Path) -> set[str] | None:
     if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
         return None
     # report.html: rtsim's own report, which earlier versions of rtsim reproduce left unlisted
-    return {o.replace("\\", "/").split("/", 1)[0] for o in outputs} | {"manifest.json",
-                                                                       "report.html"}
+    return {o.replace("\\", "/").split("/", 1)[0] for o in outputs} | {
+        "manifest.json",
+        "report.html",
+    }
 
 
 def owner(path: str | os.PathLike[str]) -> str | None:
@@ -233,8 +245,10 @@ def _check_place(target: Path, option: str) -> None:
     resolved = target.resolve()
     cwd = Path.cwd().resolve()
     if resolved == cwd or resolved in cwd.parents:
-        raise InputError(f"{option} {target}: is the working directory or contains it; "
-                         f"give a new or an earlier output directory")
+        raise InputError(
+            f"{option} {target}: is the working directory or contains it; "
+            f"give a new or an earlier output directory"
+        )
     if target.exists() and not target.is_dir():
         raise InputError(f"{option} {target}: exists and is not a directory")
 
@@ -243,8 +257,10 @@ def _other_command(target: Path, option: str, command: str | None) -> None:
     """Refuse a directory that another command's manifest claims."""
     other = owner(target) if command is not None else None
     if other is not None and other != command.removeprefix("rtsim "):  # type: ignore[union-attr]
-        raise InputError(f"{option} {target}: is the output directory of `rtsim {other}`; it "
-                         f"is left alone — give a new directory")
+        raise InputError(
+            f"{option} {target}: is the output directory of `rtsim {other}`; it "
+            f"is left alone — give a new directory"
+        )
 
 
 def _check_target(target: Path, option: str, command: str | None = None) -> None:
@@ -252,15 +268,22 @@ def _check_target(target: Path, option: str, command: str | None = None) -> None
     _check_place(target, option)
     if target.exists():
         if not is_rtsim_output(target):
-            raise InputError(f"{option} {target}: not empty and not an earlier rtsim output "
-                             f"(its manifest.json must list every entry); it is left alone — "
-                             f"give a new directory")
+            raise InputError(
+                f"{option} {target}: not empty and not an earlier rtsim output "
+                f"(its manifest.json must list every entry); it is left alone — "
+                f"give a new directory"
+            )
         _other_command(target, option, command)
 
 
-def check_resumable(target: str | os.PathLike[str], command: str, made: set[str], *,
-                    before_manifest: set[str] = frozenset(),  # type: ignore[assignment]
-                    option: str = "--out") -> None:
+def check_resumable(
+    target: str | os.PathLike[str],
+    command: str,
+    made: set[str],
+    *,
+    before_manifest: set[str] = frozenset(),  # type: ignore[assignment]
+    option: str = "--out",
+) -> None:
     """Check the directory of a resumable command (``sweep``, ``validate``), which works in
     place: new, empty, or holding only what ``command`` makes.
 
@@ -278,14 +301,18 @@ def check_resumable(target: str | os.PathLike[str], command: str, made: set[str]
     _other_command(target, option, command)
     own = owner(target) is not None
     if not own and (target / "manifest.json").exists():
-        raise InputError(f"{option} {target}: has a manifest.json that is not rtsim's (a "
-                         f"user's file, or corrupt); it is left alone — remove it yourself or "
-                         f"give a new directory")
+        raise InputError(
+            f"{option} {target}: has a manifest.json that is not rtsim's (a "
+            f"user's file, or corrupt); it is left alone — remove it yourself or "
+            f"give a new directory"
+        )
     allowed = (made if own else set(before_manifest)) | {LOCK_NAME, "manifest.json"}
     for entry in sorted(e.name for e in target.iterdir()):
         if entry not in allowed:
-            raise InputError(f"{option} {target}: holds {entry!r}, which `rtsim {command}` did "
-                             f"not make; it is left alone — give a new directory")
+            raise InputError(
+                f"{option} {target}: holds {entry!r}, which `rtsim {command}` did "
+                f"not make; it is left alone — give a new directory"
+            )
 
 
 class StagedDir:
@@ -355,8 +382,9 @@ def _locked_dir(parent: Path, name: str, option: str, target: Path) -> tuple[Pat
         parent.mkdir(parents=True, exist_ok=True)
         os.mkdir(tmp)
     except OSError as exc:
-        raise InputError(f"{option} {target}: cannot write in {parent} "
-                         f"({_why(parent, exc)})") from None
+        raise InputError(
+            f"{option} {target}: cannot write in {parent} ({_why(parent, exc)})"
+        ) from None
     fd = -1
     try:
         fd = os.open(tmp, os.O_RDONLY)
@@ -390,8 +418,9 @@ def _fsync_dir(d: Path) -> None:
             os.close(fd)
 
 
-def stage(target: str | os.PathLike[str], *, option: str = "--out",
-          command: str | None = None) -> StagedDir:
+def stage(
+    target: str | os.PathLike[str], *, option: str = "--out", command: str | None = None
+) -> StagedDir:
     """Check ``target`` and make its staging directory (before any work is done).
 
     Raises :class:`InputError` naming ``option`` for a target that must not be replaced or
@@ -446,8 +475,9 @@ class FileSet:
     file (single files have no directory to swap).
     """
 
-    def __init__(self, command: str = "simulate",
-                 inputs: tuple[str | os.PathLike[str], ...] = ()) -> None:
+    def __init__(
+        self, command: str = "simulate", inputs: tuple[str | os.PathLike[str], ...] = ()
+    ) -> None:
         self.command = command
         self.inputs = [Path(i) for i in inputs]
         self._files: list[tuple[Path, Path, str]] = []
@@ -461,8 +491,7 @@ class FileSet:
         if owner(own) == self.command:
             return True
         listed = _listed(target.parent / "manifest.json")
-        return (owner(target.parent) == self.command and listed is not None
-                and target.name in listed)
+        return owner(target.parent) == self.command and listed is not None and target.name in listed
 
     def check(self, target: str | os.PathLike[str], option: str) -> Path:
         """Refuse ``target`` as :meth:`add` does, without reserving it; returns it."""
@@ -472,21 +501,30 @@ class FileSet:
             raise InputError(f"{option} {shown}: is a directory; give a file name")
         for i in self.inputs:
             if _same(target, i):
-                raise InputError(f"{option} {shown}: is an input of this run; give another "
-                                 f"file name")
+                raise InputError(
+                    f"{option} {shown}: is an input of this run; give another file name"
+                )
         for t, _, opt in self._files:
             if _same(target, t):
-                raise InputError(f"{option} {shown}: is also the file of {opt}; give each "
-                                 f"output its own file")
+                raise InputError(
+                    f"{option} {shown}: is also the file of {opt}; give each output its own file"
+                )
         other = owner(target.parent)
-        if other is not None and other not in FILE_COMMANDS and \
-                not target.name.endswith(".manifest.json"):
-            raise InputError(f"{option} {shown}: is inside the output directory of `rtsim "
-                             f"{other}` ({os.fsdecode(target.parent)}); give a file elsewhere")
+        if (
+            other is not None
+            and other not in FILE_COMMANDS
+            and not target.name.endswith(".manifest.json")
+        ):
+            raise InputError(
+                f"{option} {shown}: is inside the output directory of `rtsim "
+                f"{other}` ({os.fsdecode(target.parent)}); give a file elsewhere"
+            )
         if os.path.lexists(target) and not self._made_here(target):
-            raise InputError(f"{option} {shown}: exists and was not written by `rtsim "
-                             f"{self.command}`; it is left alone — remove it or give another "
-                             f"name")
+            raise InputError(
+                f"{option} {shown}: exists and was not written by `rtsim "
+                f"{self.command}`; it is left alone — remove it or give another "
+                f"name"
+            )
         return target
 
     def add(self, target: str | os.PathLike[str], option: str) -> Path:
@@ -504,8 +542,10 @@ class FileSet:
         try:
             fd = os.open(staged, os.O_WRONLY | os.O_CREAT | os.O_EXCL, FILE_MODE)
         except OSError as exc:
-            raise InputError(f"{option} {os.fsdecode(target)}: cannot write in "
-                             f"{os.fsdecode(parent)} ({_why(parent, exc)})") from None
+            raise InputError(
+                f"{option} {os.fsdecode(target)}: cannot write in "
+                f"{os.fsdecode(parent)} ({_why(parent, exc)})"
+            ) from None
         os.close(fd)
         os.chmod(staged, FILE_MODE)
         self._files.append((target, staged, option))

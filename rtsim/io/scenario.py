@@ -72,5 +72,12 @@ from rtsim.config.scenario import (
 )
 from rtsim.errors import ScenarioError  # noqa: F401  (re-exported: older imports)
 
-__all__ = ["AdjustConfig", "Scenario", "load_scenario", "parse_scenario", "scenario_bytes",
-           "PACKAGED_SCENARIOS", "PACKAGED_TASKSETS"]
+__all__ = [
+    "AdjustConfig",
+    "Scenario",
+    "load_scenario",
+    "parse_scenario",
+    "scenario_bytes",
+    "PACKAGED_SCENARIOS",
+    "PACKAGED_TASKSETS",
+]

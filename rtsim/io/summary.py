@@ -23,8 +23,14 @@ from typing import Any
 __all__ = ["NULLABLE", "summary_json"]
 
 #: Top-level summary fields (and tables of fields) that are null when not finite.
-NULLABLE = ("min_msb_over_wsch", "min_speed_ratio", "max_response", "max_violation_ratio",
-            "leader_accel_max", "leader_decel_max")
+NULLABLE = (
+    "min_msb_over_wsch",
+    "min_speed_ratio",
+    "max_response",
+    "max_violation_ratio",
+    "leader_accel_max",
+    "leader_decel_max",
+)
 
 
 def _null(v: Any) -> Any:

@@ -56,8 +56,9 @@ def as_taskset(ts: object, function: str) -> TaskSet:
         return ts
     if isinstance(ts, str | os.PathLike):
         return load_taskset(ts)
-    raise TaskSetError(f"{function}: expected a TaskSet or the path of a task-set file, "
-                       f"got {type(ts).__name__}")
+    raise TaskSetError(
+        f"{function}: expected a TaskSet or the path of a task-set file, got {type(ts).__name__}"
+    )
 
 
 def _multiple(x: float) -> str:
@@ -89,7 +90,8 @@ def taskset_to_dict(ts: TaskSet) -> dict[str, Any]:
         if t.critical_sections:
             entry["critical_sections"] = [
                 {"resource": c.resource, "start": c.start, "length": c.length}
-                for c in t.critical_sections]
+                for c in t.critical_sections
+            ]
         tasks.append(entry)
     out: dict[str, Any] = {"name": ts.name, "tasks": tasks}
     if ts.overhead:

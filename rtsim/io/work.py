@@ -34,8 +34,15 @@ from typing import Any
 
 from rtsim.errors import InputError
 
-__all__ = ["LIMITS", "TooMuchWork", "check_work", "check_simulate", "check_coupled",
-           "check_seed", "simulate_backlog"]
+__all__ = [
+    "LIMITS",
+    "TooMuchWork",
+    "check_work",
+    "check_simulate",
+    "check_coupled",
+    "check_seed",
+    "simulate_backlog",
+]
 
 #: The largest amount of each kind of work a command does without ``--force``.
 LIMITS: dict[str, float] = {
@@ -51,8 +58,7 @@ _WHAT = {
     "windows": "processing windows",
     "world_steps": "world steps x followers",
     "grid": "grid points",
-    "backlog": "jobs waiting at once (the CPU is overloaded: finish-late jobs pile up in "
-               "memory)",
+    "backlog": "jobs waiting at once (the CPU is overloaded: finish-late jobs pile up in memory)",
 }
 
 
@@ -71,8 +77,10 @@ def check_work(kind: str, amount: float, where: str, *, force: bool = False) -> 
     if not math.isfinite(amount):
         raise TooMuchWork(f"{where}: the run would never finish ({_WHAT[kind]}: {amount})")
     if amount > limit and not force:
-        raise TooMuchWork(f"{where}: about {amount:.3g} {_WHAT[kind]}, above the limit of "
-                          f"{limit:.3g}; use --force (force=True in Python) to run it anyway")
+        raise TooMuchWork(
+            f"{where}: about {amount:.3g} {_WHAT[kind]}, above the limit of "
+            f"{limit:.3g}; use --force (force=True in Python) to run it anyway"
+        )
     return amount
 
 
@@ -88,8 +96,9 @@ def simulate_jobs(ts: Any, horizon_ms: float, w: float | None) -> float:
     return total
 
 
-def check_simulate(ts: Any, horizon_ms: float, w: float | None, where: str, *,
-                   force: bool = False) -> None:
+def check_simulate(
+    ts: Any, horizon_ms: float, w: float | None, where: str, *, force: bool = False
+) -> None:
     """Refuse a simulation of more than ``LIMITS["jobs"]`` jobs (``where``: the horizon's
     name, e.g. ``--horizon 1e+15``)."""
     check_work("jobs", simulate_jobs(ts, horizon_ms, w), where, force=force)
@@ -107,8 +116,13 @@ def simulate_backlog(ts: Any, horizon_ms: float, w: float | None) -> float:
     plain = [t for t in tasks if not t.per_window]
     if sum(t.wcet / t.period for t in plain) <= 1.0:
         return 0.0
-    return float(sum(math.ceil(horizon_ms / t.period) if horizon_ms / t.period < 1e300
-                     else math.inf for t in plain if t.overload == "finish-late"))
+    return float(
+        sum(
+            math.ceil(horizon_ms / t.period) if horizon_ms / t.period < 1e300 else math.inf
+            for t in plain
+            if t.overload == "finish-late"
+        )
+    )
 
 
 def check_seed(seed: object, where: str) -> None:
@@ -117,14 +131,16 @@ def check_seed(seed: object, where: str) -> None:
     from rtsim.io import limits
 
     if isinstance(seed, bool) or (is_int(seed) and not 0 <= int(seed) < 2**63):  # type: ignore[call-overload]
-        raise InputError(f"{where}: {seed!r} is outside [0, 2**63 - 1] (a non-negative "
-                         f"63-bit integer)")
+        raise InputError(
+            f"{where}: {seed!r} is outside [0, 2**63 - 1] (a non-negative 63-bit integer)"
+        )
     if is_int(seed):
         limits.check("option: --seed", seed, where)
 
 
-def check_coupled(duration_ms: float, g_ms: float, step_ms: float, n: int, where: str, *,
-                  force: bool = False) -> None:
+def check_coupled(
+    duration_ms: float, g_ms: float, step_ms: float, n: int, where: str, *, force: bool = False
+) -> None:
     """Refuse a coupled run of more than ``LIMITS["windows"]`` windows (duration over the
     chain's processing time g, below which no window can be) or ``LIMITS["world_steps"]``
     world steps × followers (duration over the world step, times n)."""

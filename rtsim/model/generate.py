@@ -59,8 +59,9 @@ def uunifast_discard(
         us = uunifast(n, u, rng)
         if np.all(us <= 1.0):
             return us
-    raise InputError(f"uunifast-discard: no vector with every u_i <= 1 after {max_tries} "
-                     f"tries (n={n}, U={u:g})")
+    raise InputError(
+        f"uunifast-discard: no vector with every u_i <= 1 after {max_tries} tries (n={n}, U={u:g})"
+    )
 
 
 @dataclass(frozen=True)
@@ -134,7 +135,8 @@ def random_taskset(
         d = p if a == b == 1 else float(rng.uniform(max(a * p, e), max(b * p, e)))
         rows.append((d, p, i, e))
     order = sorted(rows)
-    tasks = [Task(f"tau{k + 1}", e, p, deadline=d, priority=k + 1)
-             for k, (d, p, _, e) in enumerate(order)]
+    tasks = [
+        Task(f"tau{k + 1}", e, p, deadline=d, priority=k + 1)
+        for k, (d, p, _, e) in enumerate(order)
+    ]
     return TaskSet(tuple(tasks), name=name)
-

@@ -12,8 +12,16 @@ from typing import Literal
 from rtsim._numbers import is_int, is_real
 from rtsim.errors import TaskSetError
 
-__all__ = ["Task", "Segment", "SegmentKind", "OverloadPolicy", "OVERLOAD_POLICIES",
-           "CriticalSection", "RESOURCE_PROTOCOLS", "ResourceProtocol"]
+__all__ = [
+    "Task",
+    "Segment",
+    "SegmentKind",
+    "OverloadPolicy",
+    "OVERLOAD_POLICIES",
+    "CriticalSection",
+    "RESOURCE_PROTOCOLS",
+    "ResourceProtocol",
+]
 
 SegmentKind = Literal["compute", "suspend"]
 OverloadPolicy = Literal["finish-late", "abort", "skip"]
@@ -68,8 +76,9 @@ class Segment:
             raise TaskSetError(f"{where}: kind must be 'compute' or 'suspend', got {self.kind!r}")
         if self.resource is not None:
             if not isinstance(self.resource, str) or not self.resource:
-                raise TaskSetError(f"{where}: resource must be a non-empty string, "
-                                   f"got {self.resource!r}")
+                raise TaskSetError(
+                    f"{where}: resource must be a non-empty string, got {self.resource!r}"
+                )
             if self.kind != "compute":
                 raise TaskSetError(f"{where}: a suspension cannot hold a resource")
         if self.bcet is not None:
@@ -95,11 +104,11 @@ class CriticalSection:
 
     def __post_init__(self) -> None:
         if not isinstance(self.resource, str) or not self.resource.strip():
-            raise TaskSetError(f"critical section: resource: must be a non-empty string, "
-                               f"got {self.resource!r}")
+            raise TaskSetError(
+                f"critical section: resource: must be a non-empty string, got {self.resource!r}"
+            )
         where = f"critical section on '{self.resource}'"
-        object.__setattr__(self, "start", check_time(where, "start", self.start,
-                                                     allow_zero=True))
+        object.__setattr__(self, "start", check_time(where, "start", self.start, allow_zero=True))
         object.__setattr__(self, "length", check_time(where, "length", self.length))
 
     @property
@@ -172,27 +181,33 @@ class Task:
         secs = tuple(self.critical_sections)
         object.__setattr__(self, "critical_sections", secs)
         if self.segments:
-            raise TaskSetError(f"{where}: critical_sections: only for a task without its own "
-                               f"segments (mark a chain's segments with a resource instead)")
+            raise TaskSetError(
+                f"{where}: critical_sections: only for a task without its own "
+                f"segments (mark a chain's segments with a resource instead)"
+            )
         prev: CriticalSection | None = None
         for cs in secs:
             if not isinstance(cs, CriticalSection):
-                raise TaskSetError(f"{where}: critical_sections: need CriticalSection "
-                                   f"entries, got {cs!r}")
+                raise TaskSetError(
+                    f"{where}: critical_sections: need CriticalSection entries, got {cs!r}"
+                )
             if cs.start >= self.wcet:
                 raise TaskSetError(
                     f"{where}: critical_sections: the section on '{cs.resource}' starts at "
                     f"{cs.start:g} ms of execution, but the wcet is {self.wcet:g} ms (no "
-                    f"execution left)")
+                    f"execution left)"
+                )
             if cs.end > self.wcet * (1 + 1e-12):
                 raise TaskSetError(
                     f"{where}: critical_sections: the section on '{cs.resource}' ends at "
-                    f"{cs.end:g} ms of execution, beyond the wcet {self.wcet:g} ms")
+                    f"{cs.end:g} ms of execution, beyond the wcet {self.wcet:g} ms"
+                )
             if prev is not None and cs.start < prev.end * (1 - 1e-12):
                 raise TaskSetError(
                     f"{where}: critical_sections: the section on '{cs.resource}' (from "
                     f"{cs.start:g} ms) overlaps the one on '{prev.resource}' (to "
-                    f"{prev.end:g} ms): give them in order, not overlapping")
+                    f"{prev.end:g} ms): give them in order, not overlapping"
+                )
             prev = cs
 
     @property
@@ -207,9 +222,7 @@ class Task:
         if not self.per_window:
             return self
         assert self.deadline is not None
-        return replace(
-            self, period=self.period * w, deadline=self.deadline * w, per_window=False
-        )
+        return replace(self, period=self.period * w, deadline=self.deadline * w, per_window=False)
 
     def chain(self) -> tuple[Segment, ...]:
         """The task's segments: its own chain, or one compute segment of ``wcet``."""
@@ -229,16 +242,18 @@ class Task:
         def piece(name: str, length: float, resource: str | None) -> None:
             length = max(length, 0.0)
             bcet = None if ratio is None else length * ratio
-            segs.append(Segment(name, length, "compute", bcet, role=self.name,
-                                resource=resource))
+            segs.append(Segment(name, length, "compute", bcet, role=self.name, resource=resource))
 
         at = 0.0
         for cs in self.critical_sections:
             if cs.start > at:
                 piece(self.name, cs.start - at, None)
             end = min(cs.end, self.wcet)
-            piece(f"{self.name}[{cs.resource}]",
-                  cs.length if cs.end <= self.wcet else end - cs.start, cs.resource)
+            piece(
+                f"{self.name}[{cs.resource}]",
+                cs.length if cs.end <= self.wcet else end - cs.start,
+                cs.resource,
+            )
             at = end
         if at < self.wcet:
             piece(self.name, self.wcet - at, None)

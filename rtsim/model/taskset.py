@@ -43,11 +43,11 @@ class TaskSet:
         if not isinstance(self.scheduler, str) or not self.scheduler:
             raise TaskSetError(f"scheduler must be a policy name, got {self.scheduler!r}")
         if self.resources is not None and self.resources not in RESOURCE_PROTOCOLS:
-            raise TaskSetError(f"resources must be one of {', '.join(RESOURCE_PROTOCOLS)}, "
-                               f"got {self.resources!r}")
+            raise TaskSetError(
+                f"resources must be one of {', '.join(RESOURCE_PROTOCOLS)}, got {self.resources!r}"
+            )
         o = self.overhead
-        if not is_real(o) or not math.isfinite(o) \
-                or o < 0:
+        if not is_real(o) or not math.isfinite(o) or o < 0:
             raise TaskSetError(f"overhead must be a non-negative number of ms, got {o!r}")
         object.__setattr__(self, "overhead", float(o))
         tasks = tuple(sorted(self.tasks, key=lambda t: t.priority))

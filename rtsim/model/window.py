@@ -92,13 +92,24 @@ class WindowSpec:
         from rtsim.io.limits import check
 
         for field in ("n", "r_H"):  # the keys a caller changes (with_window, --followers)
-            check(f"taskset: window.{field}", getattr(self, field), f"{where}: {field}",
-                  TaskSetError)
+            check(
+                f"taskset: window.{field}", getattr(self, field), f"{where}: {field}", TaskSetError
+            )
         object.__setattr__(self, "k", check_time(where, "k", self.k))
         if self.rho_min is not None:
             object.__setattr__(self, "rho_min", check_time(where, "rho_min", self.rho_min))
-        for field in ("e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv",
-                      "delta_t", "e_sched", "jitter", "offset"):
+        for field in (
+            "e_cal",
+            "e_trans",
+            "e_scan",
+            "e_estimate",
+            "e_send",
+            "e_recv",
+            "delta_t",
+            "e_sched",
+            "jitter",
+            "offset",
+        ):
             value = check_time(where, field, getattr(self, field), allow_zero=True)
             object.__setattr__(self, field, value)
 
@@ -113,14 +124,21 @@ class WindowSpec:
     def g(self, e_hough_ms: float | None = None) -> float:
         """Processing time of one window, Eq 5/6."""
         eh = self.e_hough() if e_hough_ms is None else e_hough_ms
-        return g_window(self.n, eh, self.e_scan, self.e_estimate, self.e_send, self.e_recv,
-                        self.delta_t, self.e_sched)
+        return g_window(
+            self.n,
+            eh,
+            self.e_scan,
+            self.e_estimate,
+            self.e_send,
+            self.e_recv,
+            self.delta_t,
+            self.e_sched,
+        )
 
     def segments(self, e_hough_ms: float | None = None) -> tuple[Segment, ...]:
         """The chain of one window job; its wcets add up to g (Eq 5)."""
         eh = self.e_hough() if e_hough_ms is None else e_hough_ms
-        segs = [Segment("scan", self.e_scan, role="scan"),
-                Segment("hough", eh, role="hough")]
+        segs = [Segment("scan", self.e_scan, role="scan"), Segment("hough", eh, role="hough")]
         for i in range(1, self.n + 1):
             segs.append(Segment(f"estimate[{i}]", self.e_estimate, role="estimate", follower=i))
             segs.append(Segment(f"send[{i}]", self.e_send, role="send", follower=i))

@@ -62,8 +62,9 @@ def gantt(
         elif not rec.on_cpu:
             ax.broken_barh([(s, e - s)], (y - 0.2, 0.4), facecolors="none", edgecolors=color)
         elif rec.kind == "suspend":
-            ax.broken_barh([(s, e - s)], (y - 0.35, 0.7), facecolors="white",
-                           edgecolors=color, hatch="//")
+            ax.broken_barh(
+                [(s, e - s)], (y - 0.35, 0.7), facecolors="white", edgecolors=color, hatch="//"
+            )
         else:
             ax.broken_barh([(s, e - s)], (y - 0.35, 0.7), facecolors=color)
     if jobs is not None:
@@ -71,14 +72,22 @@ def gantt(
         for rec in jv.itertuples(index=False):
             if rec.task in rows:
                 y = rows[rec.task]
-                ax.annotate("", (rec.release, y + 0.1), (rec.release, y + 0.5),
-                            arrowprops={"arrowstyle": "->", "lw": 0.8})
+                ax.annotate(
+                    "",
+                    (rec.release, y + 0.1),
+                    (rec.release, y + 0.5),
+                    arrowprops={"arrowstyle": "->", "lw": 0.8},
+                )
         dv = jobs[(jobs["deadline"] >= lo) & (jobs["deadline"] <= hi)]
         for rec in dv.itertuples(index=False):
             if rec.task in rows:
                 y = rows[rec.task]
-                ax.plot([rec.deadline] * 2, [y - 0.5, y - 0.1],
-                        color="red" if rec.missed else "0.3", lw=1.0)
+                ax.plot(
+                    [rec.deadline] * 2,
+                    [y - 0.5, y - 0.1],
+                    color="red" if rec.missed else "0.3",
+                    lw=1.0,
+                )
     ax.set_xlim(lo, hi)
     ax.set_ylim(len(names) - 0.5, -0.6)
     ax.set_yticks(range(len(names)), names)

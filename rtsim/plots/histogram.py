@@ -54,13 +54,23 @@ def response_histogram(
         if x is None or not np.isfinite(x):
             ax.plot([], [], " ", label=f"{label}: none")
             continue
-        ax.axvline(x, color=colors[(i + 1) % len(colors)],
-                   ls=_LINE_STYLES[i % len(_LINE_STYLES)], lw=1.5, label=f"{label} = {x:.6g}")
+        ax.axvline(
+            x,
+            color=colors[(i + 1) % len(colors)],
+            ls=_LINE_STYLES[i % len(_LINE_STYLES)],
+            lw=1.5,
+            label=f"{label} = {x:.6g}",
+        )
     ax.set_xlabel(xlabel)
     ax.set_ylabel("jobs (count)")
     # beside the axes, never over the bars or the lines
-    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0),
-              borderaxespad=0.0, frameon=False)
+    ax.legend(
+        fontsize="small",
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        borderaxespad=0.0,
+        frameon=False,
+    )
     if title:
         ax.set_title(title)
     if own:

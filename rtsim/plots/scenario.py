@@ -77,14 +77,23 @@ COLORS: dict[str, str] = {
     "miss": "#D55E00",
 }
 FOLLOWER_COLORS: tuple[str, ...] = (
-    "#0072B2", "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00", "#F0E442",
+    "#0072B2",
+    "#E69F00",
+    "#009E73",
+    "#CC79A7",
+    "#56B4E9",
+    "#D55E00",
+    "#F0E442",
 )
 BOUNDS_CLIP = 4.0  # bounds figure: y-axis ends at most at this multiple of w_sch
 WINDOW_CLIP = 6.0  # window figure: the same for w (w is capped, but the cap may be large)
 DPI = 120
 #: What the lines and dots of the bounds figures are (their legend's title).
-BOUNDS_NOTE = ("lines: predicted at the leader's highest speed in the window; "
-               "dots: threshold·w / true change")
+BOUNDS_NOTE = (
+    "lines: predicted at the leader's highest speed in the window; dots: threshold·w / true change"
+)
+
+
 def _new_figure(ax: Axes | None, size: tuple[float, float]) -> tuple[Figure, Axes, bool]:
     if ax is not None:
         return ax.figure, ax, False  # type: ignore[return-value]
@@ -92,8 +101,14 @@ def _new_figure(ax: Axes | None, size: tuple[float, float]) -> tuple[Figure, Axe
     return fig, fig.add_subplot(), True
 
 
-def _finish(fig: Figure, ax: Axes, own: bool, title: str | None, legend: bool = True,
-            note: str | None = None) -> Figure:
+def _finish(
+    fig: Figure,
+    ax: Axes,
+    own: bool,
+    title: str | None,
+    legend: bool = True,
+    note: str | None = None,
+) -> Figure:
     """Title the figure; its legend below the axes, off the data (``note``: the legend's
     title, what its entries mean). In an axes given by the caller the legend goes where
     matplotlib finds room."""
@@ -104,9 +119,16 @@ def _finish(fig: Figure, ax: Axes, own: bool, title: str | None, legend: bool = 
     if legend:
         handles, labels = ax.get_legend_handles_labels()
         if handles and own:
-            fig.legend(handles, labels, loc="outside lower center", ncols=min(len(handles), 3),
-                       fontsize="small", frameon=False, title=note,
-                       title_fontsize="small")
+            fig.legend(
+                handles,
+                labels,
+                loc="outside lower center",
+                ncols=min(len(handles), 3),
+                fontsize="small",
+                frameon=False,
+                title=note,
+                title_fontsize="small",
+            )
         elif handles:
             ax.legend(fontsize="small")
     return fig
@@ -148,14 +170,19 @@ def _offscale(y: np.ndarray, top: float) -> np.ndarray:
 
 def _note_clip(ax: Axes, values: list[np.ndarray], top: float) -> None:
     if any(np.any(v > top) for v in values):
-        ax.set_title(f"off-scale above {top:.0f} ms (∞ = unbounded)", loc="right",
-                     fontsize="small", color="#555555")
+        ax.set_title(
+            f"off-scale above {top:.0f} ms (∞ = unbounded)",
+            loc="right",
+            fontsize="small",
+            color="#555555",
+        )
 
 
 def _shade(ax: Axes, spans: list[tuple[float, float]], kind: str, label: str) -> None:
     for k, (a, b) in enumerate(spans):
-        ax.axvspan(a, b, color=COLORS[kind], alpha=0.15, lw=0, gid=kind,
-                   label=label if k == 0 else None)
+        ax.axvspan(
+            a, b, color=COLORS[kind], alpha=0.15, lw=0, gid=kind, label=label if k == 0 else None
+        )
 
 
 def _time_axes(ax: Axes, df: pd.DataFrame, ylabel: str) -> None:
@@ -171,8 +198,7 @@ def _time_axes(ax: Axes, df: pd.DataFrame, ylabel: str) -> None:
 
 
 def _wsch_line(ax: Axes, df: pd.DataFrame) -> None:
-    _step(ax, df, as_floats(df["w_sch"]), color=COLORS["w_sch"], ls="--", lw=1.2,
-          label="$w_{sch}$")
+    _step(ax, df, as_floats(df["w_sch"]), color=COLORS["w_sch"], ls="--", lw=1.2, label="$w_{sch}$")
 
 
 # --- drawers (one axes each; shared by the single figures and plot_modes) ---------------
@@ -184,22 +210,62 @@ def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     lx, ly = as_floats(df["leader_x"]), as_floats(df["leader_y"])
     bx, by = binding_xy(df)
     where = "at the binding follower" if "binding" in df.columns else "on leader path"
-    ax.scatter(bx[crit], by[crit], s=30, color=COLORS["critical"], alpha=0.5, lw=0,
-               gid="critical", label=f"critical windows ({where})", zorder=1)
+    ax.scatter(
+        bx[crit],
+        by[crit],
+        s=30,
+        color=COLORS["critical"],
+        alpha=0.5,
+        lw=0,
+        gid="critical",
+        label=f"critical windows ({where})",
+        zorder=1,
+    )
     ax.plot(lx, ly, color=COLORS["leader"], lw=1.4, label="leader", zorder=3)
     for k, i in enumerate(followers(df)):
         c = FOLLOWER_COLORS[k % len(FOLLOWER_COLORS)]
-        ax.plot(as_floats(df[f"f{i}_x"]), as_floats(df[f"f{i}_y"]), color=c, lw=1.2,
-                label=f"follower {i}", zorder=3)
-        ax.scatter(as_floats(df[f"f{i}_x_est"]), as_floats(df[f"f{i}_y_est"]), s=6, color=c,
-                   alpha=0.3, lw=0, gid="estimate", zorder=2,
-                   label="estimated follower positions" if k == 0 else None)
+        ax.plot(
+            as_floats(df[f"f{i}_x"]),
+            as_floats(df[f"f{i}_y"]),
+            color=c,
+            lw=1.2,
+            label=f"follower {i}",
+            zorder=3,
+        )
+        ax.scatter(
+            as_floats(df[f"f{i}_x_est"]),
+            as_floats(df[f"f{i}_y_est"]),
+            s=6,
+            color=c,
+            alpha=0.3,
+            lw=0,
+            gid="estimate",
+            zorder=2,
+            label="estimated follower positions" if k == 0 else None,
+        )
         if len(df):
-            ax.plot(as_floats(df[f"f{i}_x"])[0], as_floats(df[f"f{i}_y"])[0], "o", color=c,
-                    mec="white", ms=7, zorder=4, gid="start")
+            ax.plot(
+                as_floats(df[f"f{i}_x"])[0],
+                as_floats(df[f"f{i}_y"])[0],
+                "o",
+                color=c,
+                mec="white",
+                ms=7,
+                zorder=4,
+                gid="start",
+            )
     if len(df):
-        ax.plot(lx[0], ly[0], "o", color=COLORS["leader"], mec="white", ms=7, zorder=4,
-                gid="start", label="start")
+        ax.plot(
+            lx[0],
+            ly[0],
+            "o",
+            color=COLORS["leader"],
+            mec="white",
+            ms=7,
+            zorder=4,
+            gid="start",
+            label="start",
+        )
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (cm)")
     ax.set_ylabel("y (cm)")
@@ -211,16 +277,31 @@ def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     t, w, slack = times_s(df), as_floats(df["w"]), as_floats(df["slack"])
     top = top if top is not None else _ylimit([w, slack], as_floats(df["w_sch"]), WINDOW_CLIP)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
-    ax.fill_between(*_held(df, _offscale(slack, top)), step="post", color=COLORS["slack"],
-                    alpha=0.25, lw=0)
-    _step(ax, df, _offscale(slack, top), color=COLORS["slack"], lw=1.0,
-          label="slack $t_{slack}$ = max(0, w − $w_{sch}$)")
+    ax.fill_between(
+        *_held(df, _offscale(slack, top)), step="post", color=COLORS["slack"], alpha=0.25, lw=0
+    )
+    _step(
+        ax,
+        df,
+        _offscale(slack, top),
+        color=COLORS["slack"],
+        lw=1.0,
+        label="slack $t_{slack}$ = max(0, w − $w_{sch}$)",
+    )
     _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=1.5, label="processing window w")
     _wsch_line(ax, df)
     missed = as_bool(df["missed"])
     if missed.any():
-        ax.plot(t[missed], np.minimum(w[missed], top), "x", color=COLORS["miss"], ms=7,
-                mew=1.8, gid="miss", label=f"deadline miss ({int(missed.sum())})")
+        ax.plot(
+            t[missed],
+            np.minimum(w[missed], top),
+            "x",
+            color=COLORS["miss"],
+            ms=7,
+            mew=1.8,
+            gid="miss",
+            label=f"deadline miss ({int(missed.sum())})",
+        )
     ax.set_ylim(0, top)
     _note_clip(ax, [w, slack], top)
     _time_axes(ax, df, "time (ms)")
@@ -241,16 +322,39 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     for kind in BOUND_KINDS:
         y = as_floats(data[f"bound_{kind}_pred"])
         values.append(y)
-        _step(ax, df, _offscale(y, top), color=COLORS[kind], lw=1.3, gid=f"pred_{kind}",
-              label=f"{kind.replace('_', ' ')} MSB predicted")
+        _step(
+            ax,
+            df,
+            _offscale(y, top),
+            color=COLORS[kind],
+            lw=1.3,
+            gid=f"pred_{kind}",
+            label=f"{kind.replace('_', ' ')} MSB predicted",
+        )
         yt = as_floats(data[f"bound_{kind}_true"])
         values.append(yt)
         shown = yt <= top
-        ax.plot(t[shown], yt[shown], ".", color=COLORS[kind], ms=2.5, alpha=0.6,
-                gid=f"true_{kind}", label=f"{kind.replace('_', ' ')} MSB true")
+        ax.plot(
+            t[shown],
+            yt[shown],
+            ".",
+            color=COLORS[kind],
+            ms=2.5,
+            alpha=0.6,
+            gid=f"true_{kind}",
+            label=f"{kind.replace('_', ' ')} MSB true",
+        )
     w = as_floats(data["w"])
-    _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
-          label="processing window w")
+    _step(
+        ax,
+        df,
+        _offscale(w, top),
+        color=COLORS["w"],
+        lw=4.0,
+        alpha=0.3,
+        zorder=1.8,
+        label="processing window w",
+    )
     _wsch_line(ax, df)
     ax.set_ylim(0, top)
     _note_clip(ax, values + [w], top)
@@ -265,22 +369,52 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     top = top if top is not None else _ylimit([pred, w], w_sch, BOUNDS_CLIP)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
     t = times_s(df)
-    _step(ax, df, _offscale(pred, top), color=COLORS["msb_min"], lw=1.5, gid="msb_pred",
-          label="min MSB at $V_{Ld}$, predicted")
+    _step(
+        ax,
+        df,
+        _offscale(pred, top),
+        color=COLORS["msb_min"],
+        lw=1.5,
+        gid="msb_pred",
+        label="min MSB at $V_{Ld}$, predicted",
+    )
     shown = true <= top
-    ax.plot(t[shown], true[shown], ".", color=COLORS["msb_min"], ms=2.5, alpha=0.5,
-            gid="msb_true", label="min MSB, true (threshold·w / change, at the speed driven)")
-    _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
-          label="processing window w")
+    ax.plot(
+        t[shown],
+        true[shown],
+        ".",
+        color=COLORS["msb_min"],
+        ms=2.5,
+        alpha=0.5,
+        gid="msb_true",
+        label="min MSB, true (threshold·w / change, at the speed driven)",
+    )
+    _step(
+        ax,
+        df,
+        _offscale(w, top),
+        color=COLORS["w"],
+        lw=4.0,
+        alpha=0.3,
+        zorder=1.8,
+        label="processing window w",
+    )
     _wsch_line(ax, df)
     crit = as_bool(df["critical"])
     kinds = data["binding"].astype(str).str.split(":").str[0].to_numpy()
     for kind in BOUND_KINDS:
         sel = crit & (kinds == kind) & (pred <= top)
         if sel.any():
-            ax.plot(t[sel], pred[sel], "o", ms=3.5, color=COLORS[kind], mec="none",
-                    gid=f"binding_{kind}",
-                    label=f"binding: {kind.replace('_', ' ')} ({int(sel.sum())})")
+            ax.plot(
+                t[sel],
+                pred[sel],
+                "o",
+                ms=3.5,
+                color=COLORS[kind],
+                mec="none",
+                gid=f"binding_{kind}",
+                label=f"binding: {kind.replace('_', ' ')} ({int(sel.sum())})",
+            )
     ax.set_ylim(0, top)
     _note_clip(ax, [pred, w], top)
     _time_axes(ax, df, "min MSB (ms)")
@@ -292,10 +426,19 @@ def _draw_speed(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     _shade(ax, spans_of(df, turn), "turn", "turn")
     v_d, v = as_floats(df["v_leader_desired"]), as_floats(df["v_leader"])
     _step(ax, df, v, color=COLORS["v_actual"], lw=1.5, label="actual $V_L$ (at t)")
-    _step(ax, df, as_floats(df["v_leader_target"]), color=COLORS["v_actual"], ls=":", lw=1.0,
-          gid="target", label="target (the decision's)")
-    _step(ax, df, v_d, color=COLORS["v_desired"], ls="--", lw=1.2, zorder=3,
-          label="desired $V_{Ld}$")
+    _step(
+        ax,
+        df,
+        as_floats(df["v_leader_target"]),
+        color=COLORS["v_actual"],
+        ls=":",
+        lw=1.0,
+        gid="target",
+        label="target (the decision's)",
+    )
+    _step(
+        ax, df, v_d, color=COLORS["v_desired"], ls="--", lw=1.2, zorder=3, label="desired $V_{Ld}$"
+    )
     ax.set_ylim(0, top if top is not None else _ylimit([v_d, v], np.zeros(0), 1.0))
     _time_axes(ax, df, "leader speed (cm/s)")
 
@@ -309,19 +452,57 @@ def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> Non
     _shade(ax, spans, "critical", "critical (min MSB < $w_{sch}$)")
     safe = msb >= w_sch
     x, lo = _held(df, w_sch)  # zero height where critical, so runs keep their full width
-    ax.fill_between(x, lo, _held(df, np.where(safe, np.minimum(msb, top), w_sch))[1],
-                    step="post", color=COLORS["safe"], alpha=0.18, lw=0, gid="safe",
-                    label="safe operating area ($w_{sch}$ ≤ w ≤ min MSB)")
-    _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
-          label="processing window w")
-    _step(ax, df, _offscale(msb, top), color=COLORS["msb_min"], lw=1.5,
-          label="min MSB at $V_{Ld}$ (the decision's)")
+    ax.fill_between(
+        x,
+        lo,
+        _held(df, np.where(safe, np.minimum(msb, top), w_sch))[1],
+        step="post",
+        color=COLORS["safe"],
+        alpha=0.18,
+        lw=0,
+        gid="safe",
+        label="safe operating area ($w_{sch}$ ≤ w ≤ min MSB)",
+    )
+    _step(
+        ax,
+        df,
+        _offscale(w, top),
+        color=COLORS["w"],
+        lw=4.0,
+        alpha=0.3,
+        zorder=1.8,
+        label="processing window w",
+    )
+    _step(
+        ax,
+        df,
+        _offscale(msb, top),
+        color=COLORS["msb_min"],
+        lw=1.5,
+        label="min MSB at $V_{Ld}$ (the decision's)",
+    )
     pred, true = as_floats(data["msb_min_pred"]), as_floats(data["msb_min_true"])
-    _step(ax, df, _offscale(pred, top), color=COLORS["msb_min"], lw=1.0, ls=":",
-          gid="pred_min", label="min MSB predicted at the leader's speed")
+    _step(
+        ax,
+        df,
+        _offscale(pred, top),
+        color=COLORS["msb_min"],
+        lw=1.0,
+        ls=":",
+        gid="pred_min",
+        label="min MSB predicted at the leader's speed",
+    )
     shown = true <= top
-    ax.plot(times_s(df)[shown], true[shown], ".", color="#333333", ms=2.5, alpha=0.6,
-            gid="true_min", label="min MSB true (threshold·w / change)")
+    ax.plot(
+        times_s(df)[shown],
+        true[shown],
+        ".",
+        color="#333333",
+        ms=2.5,
+        alpha=0.6,
+        gid="true_min",
+        label="min MSB true (threshold·w / change)",
+    )
     _wsch_line(ax, df)
     _label_runs(ax, df, safe, w_sch, np.minimum(msb, top), "safe operating area", top)
     _label_runs(ax, df, ~safe, np.zeros_like(w_sch), w_sch, "critical", top)
@@ -330,8 +511,15 @@ def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> Non
     _time_axes(ax, df, "processing window (ms)")
 
 
-def _label_runs(ax: Axes, df: pd.DataFrame, mask: np.ndarray, lo: np.ndarray,
-                hi: np.ndarray, text: str, top: float) -> None:
+def _label_runs(
+    ax: Axes,
+    df: pd.DataFrame,
+    mask: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    text: str,
+    top: float,
+) -> None:
     """Write ``text`` in the middle of the longest run of ``mask`` (if wide enough); above
     the band instead when it is thinner than 10% of the axis height ``top``."""
     spans = spans_of(df, mask)
@@ -345,8 +533,9 @@ def _label_runs(ax: Axes, df: pd.DataFrame, mask: np.ndarray, lo: np.ndarray,
     y, va = float(np.nanmedian((lo[inside] + hi[inside]) / 2)), "center"
     if float(np.nanmedian(hi[inside] - lo[inside])) < 0.1 * top:
         y, va = float(np.nanmax(hi[inside])) + 0.02 * top, "bottom"
-    ax.text((a + b) / 2, y, text, ha="center", va=va, fontsize="small",
-            style="italic", color="#333333")
+    ax.text(
+        (a + b) / 2, y, text, ha="center", va=va, fontsize="small", style="italic", color="#333333"
+    )
 
 
 def _draw_plane(ax: Axes, df: pd.DataFrame, top: float) -> None:
@@ -358,11 +547,9 @@ def _draw_plane(ax: Axes, df: pd.DataFrame, top: float) -> None:
     crit = msb < w_sch
     y = np.minimum(msb, top * 0.98)
     ax.scatter(w_sch[~crit], y[~crit], s=8, color=COLORS["w"], alpha=0.5, lw=0)
-    ax.scatter(w_sch[crit], y[crit], s=8, color=COLORS["critical"], alpha=0.7, lw=0,
-               gid="critical")
+    ax.scatter(w_sch[crit], y[crit], s=8, color=COLORS["critical"], alpha=0.7, lw=0, gid="critical")
     ax.text(0.95 * top, 0.08 * top, "critical", ha="right", fontsize="small", style="italic")
-    ax.text(0.05 * top, 0.92 * top, "safe", ha="left", va="top", fontsize="small",
-            style="italic")
+    ax.text(0.05 * top, 0.92 * top, "safe", ha="left", va="top", fontsize="small", style="italic")
     ax.set_xlim(0, top)
     ax.set_ylim(0, top)
     ax.set_aspect("equal")
@@ -382,8 +569,9 @@ def plot_paths(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = 
     return _finish(fig, ax, own, title)
 
 
-def plot_window_slack(df: pd.DataFrame, *, title: str | None = None,
-                      ax: Axes | None = None) -> Figure:
+def plot_window_slack(
+    df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None
+) -> Figure:
     """Figs 9/13: the processing window w and the slack (Eq 22) over time, w_sch for reference."""
     fig, ax, own = _new_figure(ax, (8.0, 4.2))
     _draw_window(ax, df)
@@ -415,8 +603,9 @@ def plot_speed(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = 
     return _finish(fig, ax, own, title)
 
 
-def plot_operating_space(df: pd.DataFrame, *, title: str | None = None,
-                         ax: Axes | None = None, plane: bool = True) -> Figure:
+def plot_operating_space(
+    df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None, plane: bool = True
+) -> Figure:
     """Fig 2's operating space over time: w_sch ≤ w ≤ min MSB, the critical region shaded.
 
     With ``plane`` (and no ``ax`` given) a second panel shows the (w_sch, min MSB) plane with
@@ -429,8 +618,9 @@ def plot_operating_space(df: pd.DataFrame, *, title: str | None = None,
     fig = new_figure(figsize=(9.5, 4.2), layout="constrained")
     ax_t, ax_p = fig.subplots(1, 2, width_ratios=[3, 1.1])
     data = figure_data(df, "operating_space")
-    top = _ylimit([as_floats(data["msb_min"]), as_floats(data["w"])], as_floats(data["w_sch"]),
-                  BOUNDS_CLIP)
+    top = _ylimit(
+        [as_floats(data["msb_min"]), as_floats(data["w"])], as_floats(data["w_sch"]), BOUNDS_CLIP
+    )
     _draw_operating(ax_t, df, top)
     _draw_plane(ax_p, df, top)
     return _finish(fig, ax_t, True, title)
@@ -447,8 +637,9 @@ _DRAWERS: dict[str, Callable[[Axes, pd.DataFrame, float | None], None]] = {
 }
 
 
-def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
-               title: str | None = None) -> Figure:
+def plot_modes(
+    dfs: Mapping[str, pd.DataFrame], kind: str = "window", *, title: str | None = None
+) -> Figure:
     """Side-by-side panels, one per mode (e.g. adjust, fixed-wsch, min-msb), shared axes.
 
     ``kind`` is ``window``, ``bounds``, ``speed``, ``paths`` or ``operating_space``. Each
@@ -472,8 +663,12 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
                 tops.append(_ylimit([as_floats(df[c]) for c in cols], as_floats(df["w_sch"]), clip))
         top = max(tops)
     elif kind == "speed":
-        speeds = [as_floats(df[c]) for df in dfs.values() for c in ("v_leader_desired", "v_leader")
-                  if c in df.columns]
+        speeds = [
+            as_floats(df[c])
+            for df in dfs.values()
+            for c in ("v_leader_desired", "v_leader")
+            if c in df.columns
+        ]
         top = _ylimit(speeds, np.zeros(0), 1.0)
     n = len(dfs)
     size = (3.2 * n, 3.9) if kind == "paths" else (3.2 * n, 3.4)
@@ -485,8 +680,11 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
             ax.set_aspect("equal", adjustable="box")  # shared axes cannot adjust data limits
         note = ax.get_title(loc="right")  # the off-scale note would overlap the counts
         ax.set_title("", loc="right")
-        ax.set_title(f"{mode}\n{headline_counts(df)}" + (f"\n{note}" if note else ""),
-                     fontsize="small", loc="left")
+        ax.set_title(
+            f"{mode}\n{headline_counts(df)}" + (f"\n{note}" if note else ""),
+            fontsize="small",
+            loc="left",
+        )
         if ax is not axes[0]:
             ax.set_ylabel("")
     if kind != "paths":  # shared time axis: the union of the runs (each panel set its own)
@@ -498,9 +696,16 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(lab.split(" (")[0] if lab.startswith("deadline") else lab, h)
     if handles:
-        fig.legend(list(handles.values()), list(handles), loc="outside lower center",
-                   ncols=min(len(handles), 3), fontsize="small", frameon=False,
-                   title=BOUNDS_NOTE if kind == "bounds" else None, title_fontsize="small")
+        fig.legend(
+            list(handles.values()),
+            list(handles),
+            loc="outside lower center",
+            ncols=min(len(handles), 3),
+            fontsize="small",
+            frameon=False,
+            title=BOUNDS_NOTE if kind == "bounds" else None,
+            title_fontsize="small",
+        )
     if title:
         fig.suptitle(title)
     return fig
@@ -514,8 +719,9 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
 FIGURE_FORMATS: tuple[str, ...] = ("png", "svg", "pdf")
 
 
-def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI,
-                fmt: str | None = None) -> Path:
+def save_figure(
+    fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI, fmt: str | None = None
+) -> Path:
     """Write ``fig`` atomically (temp file beside ``path``, then rename) in format ``fmt``
     (:data:`FIGURE_FORMATS`; default: the one ``path``'s suffix names; ``dpi`` for PNG);
     close it."""
@@ -525,10 +731,13 @@ def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI,
         raise ValueError(f"figure format must be one of {', '.join(FIGURE_FORMATS)}, got {fmt!r}")
     import matplotlib
 
-    with atomic_path(path) as tmp, matplotlib.rc_context({"svg.fonttype": "none",
-                                                          "pdf.fonttype": 42}):
-        fig.savefig(tmp, format=fmt, dpi=dpi,
-                    metadata={"Date": None} if fmt in ("svg", "pdf") else None)
+    with (
+        atomic_path(path) as tmp,
+        matplotlib.rc_context({"svg.fonttype": "none", "pdf.fonttype": 42}),
+    ):
+        fig.savefig(
+            tmp, format=fmt, dpi=dpi, metadata={"Date": None} if fmt in ("svg", "pdf") else None
+        )
     if getattr(fig.canvas, "manager", None) is not None:  # made by pyplot: release it
         import matplotlib.pyplot as plt
 
@@ -555,9 +764,16 @@ _TITLES = {
 }
 
 
-def write_scenario_figures(df: pd.DataFrame, out_dir: str | os.PathLike[str], prefix: str = "",
-                           *, label: str | None = None, data: bool = False,
-                           dpi: int = DPI, fmt: str = "png") -> list[Path]:
+def write_scenario_figures(
+    df: pd.DataFrame,
+    out_dir: str | os.PathLike[str],
+    prefix: str = "",
+    *,
+    label: str | None = None,
+    data: bool = False,
+    dpi: int = DPI,
+    fmt: str = "png",
+) -> list[Path]:
     """Write every figure of :data:`SCENARIO_FIGURES` as ``<prefix><stem>.png`` in ``out_dir``.
 
     ``label`` (e.g. ``"Test 2, adjust"``) heads each title; with ``data`` each figure's
@@ -567,8 +783,7 @@ def write_scenario_figures(df: pd.DataFrame, out_dir: str | os.PathLike[str], pr
     written: list[Path] = []
     for stem, plot in SCENARIO_FIGURES.items():
         title = f"{label}: {_TITLES[stem]}" if label else _TITLES[stem]
-        written.append(save_figure(plot(df, title=title), out / f"{prefix}{stem}.{fmt}",
-                                   dpi=dpi))
+        written.append(save_figure(plot(df, title=title), out / f"{prefix}{stem}.{fmt}", dpi=dpi))
         if data:
             csv = out / f"{prefix}{stem}.csv"
             write_table(csv, figure_data(df, stem))

@@ -18,8 +18,13 @@ from matplotlib.figure import Figure
 
 from rtsim.plots.figure import new_figure
 
-__all__ = ["bounds_vs_n_data", "bounds_vs_n", "pessimism_data", "pessimism_heatmap",
-           "scheduler_bounds"]
+__all__ = [
+    "bounds_vs_n_data",
+    "bounds_vs_n",
+    "pessimism_data",
+    "pessimism_heatmap",
+    "scheduler_bounds",
+]
 
 _MODES = ("wcet-cpu", "counted-idle")
 #: Panels per row of the figures with one panel per r_H.
@@ -44,8 +49,14 @@ def _panels(count: int, width: float, height: float) -> tuple[Figure, list]:
 def _legend_below(fig: Figure, ax: object) -> None:
     """The panels' common legend below them, off the data."""
     handles, labels = ax.get_legend_handles_labels()  # type: ignore[attr-defined]
-    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(handles), 2),
-               fontsize="small", frameon=False)
+    fig.legend(
+        handles,
+        labels,
+        loc="outside lower center",
+        ncols=min(len(handles), 2),
+        fontsize="small",
+        frameon=False,
+    )
 
 
 def bounds_vs_n_data(df: pd.DataFrame) -> pd.DataFrame:
@@ -64,9 +75,12 @@ def bounds_vs_n(df: pd.DataFrame, r_H: Sequence[float] | None = None) -> Figure:
     data = bounds_vs_n_data(df)
     radii = sorted(data["r_H"].unique()) if r_H is None else list(r_H)
     fig, axes = _panels(len(radii), 2.3, 2.0)
-    styles = {"w_sch": ("w_sch (Eq 7/11)", "-", "o"), "w_rta": ("w_rta (exact RTA)", "--", "s"),
-              "w_sim_wcet_cpu": ("w_sim: WCET, Δt on CPU", ":", "^"),
-              "w_sim_counted_idle": ("w_sim: counted beams, Δt idle", "-.", "v")}
+    styles = {
+        "w_sch": ("w_sch (Eq 7/11)", "-", "o"),
+        "w_rta": ("w_rta (exact RTA)", "--", "s"),
+        "w_sim_wcet_cpu": ("w_sim: WCET, Δt on CPU", ":", "^"),
+        "w_sim_counted_idle": ("w_sim: counted beams, Δt idle", "-.", "v"),
+    }
     for k, (ax, r) in enumerate(zip(axes, radii, strict=True)):
         sub = data[data["r_H"] == r]
         for col, (label, ls, mk) in styles.items():
@@ -83,8 +97,7 @@ def bounds_vs_n(df: pd.DataFrame, r_H: Sequence[float] | None = None) -> Figure:
 def pessimism_data(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> pd.DataFrame:
     """One row per (mode, r_H, n) with the ratio (default w_sch / w_sim)."""
     paper = df[df["source"] == "paper"].drop_duplicates(["mode", "r_H", "n"])
-    return paper[["mode", "r_H", "n", ratio]].sort_values(["mode", "r_H", "n"],
-                                                         ignore_index=True)
+    return paper[["mode", "r_H", "n", ratio]].sort_values(["mode", "r_H", "n"], ignore_index=True)
 
 
 def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figure:
@@ -100,8 +113,14 @@ def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figu
     im = None
     for ax, mode in zip(axes[0], modes, strict=True):
         grid = data[data["mode"] == mode].pivot(index="r_H", columns="n", values=ratio)
-        im = ax.imshow(grid.to_numpy(dtype=float), origin="lower", aspect="auto", cmap="viridis",
-                       vmin=vmin, vmax=vmax)
+        im = ax.imshow(
+            grid.to_numpy(dtype=float),
+            origin="lower",
+            aspect="auto",
+            cmap="viridis",
+            vmin=vmin,
+            vmax=vmax,
+        )
         ax.set_xticks(range(grid.shape[1]), [f"{c:g}" for c in grid.columns])
         ax.set_yticks(range(grid.shape[0]), [f"{r:g}" for r in grid.index])
         ax.set_xlabel("followers n (count)")
@@ -110,8 +129,15 @@ def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figu
         if grid.size <= 80:
             for (i, j), v in np.ndenumerate(grid.to_numpy(dtype=float)):
                 if np.isfinite(v):
-                    ax.text(j, i, f"{v:.3f}", ha="center", va="center", fontsize=7,
-                            color="w" if v < (vmin + vmax) / 2 else "k")
+                    ax.text(
+                        j,
+                        i,
+                        f"{v:.3f}",
+                        ha="center",
+                        va="center",
+                        fontsize=7,
+                        color="w" if v < (vmin + vmax) / 2 else "k",
+                    )
     if im is not None:
         bar = fig.colorbar(im, ax=list(axes[0]), shrink=0.9)
         bar.set_label(f"{ratio.replace('_over_', ' / ')} (ratio)")
@@ -124,18 +150,25 @@ def scheduler_bounds(table: pd.DataFrame) -> Figure:
     w_rta, w_edf."""
     radii = sorted(table["r_H"].unique())
     fig, axes = _panels(len(radii), 2.3, 2.0)
-    styles = {"w_sch": ("w_sch (Eq 7/11, FP)", "-", "o"),
-              "w_rta": ("w_rta (exact RTA, FP)", "--", "s"),
-              "w_edf": ("w_edf (EDF demand)", ":", "^")}
-    last_in_row = {min(k + _COLUMNS - 1 - k % _COLUMNS, len(radii) - 1)
-                   for k in range(len(radii))}
+    styles = {
+        "w_sch": ("w_sch (Eq 7/11, FP)", "-", "o"),
+        "w_rta": ("w_rta (exact RTA, FP)", "--", "s"),
+        "w_edf": ("w_edf (EDF demand)", ":", "^"),
+    }
+    last_in_row = {min(k + _COLUMNS - 1 - k % _COLUMNS, len(radii) - 1) for k in range(len(radii))}
     for k, (ax, r) in enumerate(zip(axes, radii, strict=True)):
         sub = table[table["r_H"] == r].sort_values("n")
         for col, (label, ls, mk) in styles.items():
             ax.plot(sub["n"], sub[col], ls=ls, marker=mk, ms=4, label=label)
         gain = ax.twinx()
-        gain.bar(sub["n"], 100 * (1 - sub["w_edf"] / sub["w_rta"]), color="0.8", alpha=0.5,
-                 width=0.5, zorder=0)
+        gain.bar(
+            sub["n"],
+            100 * (1 - sub["w_edf"] / sub["w_rta"]),
+            color="0.8",
+            alpha=0.5,
+            width=0.5,
+            zorder=0,
+        )
         gain.set_ylim(0, 5)
         if k in last_in_row:
             gain.set_ylabel("1 − w_edf / w_rta (%)")

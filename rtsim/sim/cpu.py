@@ -136,8 +136,16 @@ from rtsim.sim.records import (
     trace_frame,
 )
 
-__all__ = ["CPU", "Job", "HookEvent", "HOOK_EVENTS", "SegmentHook", "JobHook", "JitterMode",
-           "JITTER_MODES"]
+__all__ = [
+    "CPU",
+    "Job",
+    "HookEvent",
+    "HOOK_EVENTS",
+    "SegmentHook",
+    "JobHook",
+    "JitterMode",
+    "JITTER_MODES",
+]
 
 HookEvent = Literal["release", "segment_start", "segment_end", "job_end"]
 HOOK_EVENTS: tuple[str, ...] = ("release", "segment_start", "segment_end", "job_end")
@@ -190,8 +198,9 @@ class CPU:
     ) -> None:
         self.policy: SchedulingPolicy = resolve_policy(scheduler)
         if resources is not None and resources not in RESOURCE_PROTOCOLS:
-            raise InputError(f"resources must be one of {', '.join(RESOURCE_PROTOCOLS)}, "
-                             f"got {resources!r}")
+            raise InputError(
+                f"resources must be one of {', '.join(RESOURCE_PROTOCOLS)}, got {resources!r}"
+            )
         #: the resource protocol asked for (None: the policy's default, module doc)
         self.resources = resources
         # preemption by "strictly smaller key" (the base class's test): evaluated inline
@@ -207,8 +216,11 @@ class CPU:
         self.env = simpy.Environment() if env is None else env
         self.suspension = suspension
         self.exec_model = resolve_exec_model(exec_model)
-        self.exec_model_name = exec_model if isinstance(exec_model, str) else \
-            str(getattr(exec_model, "name", getattr(exec_model, "__name__", "callable")))
+        self.exec_model_name = (
+            exec_model
+            if isinstance(exec_model, str)
+            else str(getattr(exec_model, "name", getattr(exec_model, "__name__", "callable")))
+        )
         self.seed = seed
         self.overhead = float(overhead)
         self.record_jobs = record_jobs or job_sink is not None
@@ -246,8 +258,9 @@ class CPU:
         self.blocking: dict[str, float] = {}
 
     # -- configuration -------------------------------------------------------------------
-    def add_task(self, task: Task, *, period_provider: PeriodProvider | None = None,
-                 window: bool = False) -> None:
+    def add_task(
+        self, task: Task, *, period_provider: PeriodProvider | None = None, window: bool = False
+    ) -> None:
         """Add a periodic task.
 
         ``period_provider()`` (optional) is called at each release and returns the period
@@ -262,8 +275,10 @@ class CPU:
             raise InputError(f"task '{task.name}': duplicate task name")
         for st in self._states:
             if st.priority == task.priority:
-                raise InputError(f"task '{task.name}': priority {task.priority} is already "
-                                 f"used by task '{st.name}'")
+                raise InputError(
+                    f"task '{task.name}': priority {task.priority} is already "
+                    f"used by task '{st.name}'"
+                )
         if window and any(st.is_window for st in self._states):
             raise InputError(f"task '{task.name}': only one window task is allowed")
         if task.per_window and period_provider is not None:
@@ -272,8 +287,15 @@ class CPU:
         self._states.append(st)
         self._by_name[task.name] = st
 
-    def on(self, event: HookEvent, fn: Callable[..., None], *, task: str | None = None,
-           segment: str | None = None, role: str | None = None) -> None:
+    def on(
+        self,
+        event: HookEvent,
+        fn: Callable[..., None],
+        *,
+        task: str | None = None,
+        segment: str | None = None,
+        role: str | None = None,
+    ) -> None:
         """Register a hook: ``fn(job, segment)`` for segment events, ``fn(job)`` for job events.
 
         ``event``: ``release`` (after the job is created; not for skipped releases),
@@ -283,8 +305,7 @@ class CPU:
         yield, and may read ``cpu.env.now`` and the job. See the module docstring for order.
         """
         if event not in HOOK_EVENTS:
-            raise InputError(f"hook event must be one of {', '.join(HOOK_EVENTS)}, "
-                             f"got {event!r}")
+            raise InputError(f"hook event must be one of {', '.join(HOOK_EVENTS)}, got {event!r}")
         self._hooks.append((event, fn, task, segment, role))
         if self.process is not None:
             self._compile()
@@ -329,26 +350,38 @@ class CPU:
                     continue
                 if event in ("release", "job_end"):
                     if sname is None and role is None:
-                        (st.release_hooks if event == "release" else st.job_end_hooks).append(
-                            hook)
+                        (st.release_hooks if event == "release" else st.job_end_hooks).append(hook)
                     continue
                 for i, s in enumerate(st.segs):
                     if (sname is None or sname == s.name) and (role is None or role == s.role):
                         (st.start_hooks if event == "segment_start" else st.end_hooks)[i].append(
-                            hook)
+                            hook
+                        )
             st.simple = len(st.segs) == 1 and not st.end_hooks[0] and not st.idle_kind[0]
-            st.fast_release = (st.provider is None and not st.per_window and not st.is_window
-                               and st.policy == "finish-late" and not st.release_hooks
-                               and not st.idle_kind[0] and st.jitter == 0.0)
+            st.fast_release = (
+                st.provider is None
+                and not st.per_window
+                and not st.is_window
+                and st.policy == "finish-late"
+                and not st.release_hooks
+                and not st.idle_kind[0]
+                and st.jitter == 0.0
+            )
             st.fast_start = st.const_exec[0] if st.simple and not st.start_hooks[0] else None
-            st.seg_const = [None if st.start_hooks[i] else c
-                            for i, c in enumerate(st.const_exec)]
-            st.plain_next = [not st.end_hooks[i] and i + 1 < len(st.segs)
-                             and not st.idle_kind[i + 1] for i in range(len(st.segs))]
+            st.seg_const = [None if st.start_hooks[i] else c for i, c in enumerate(st.const_exec)]
+            st.plain_next = [
+                not st.end_hooks[i] and i + 1 < len(st.segs) and not st.idle_kind[i + 1]
+                for i in range(len(st.segs))
+            ]
         top = min(self._states, key=lambda x: x.priority, default=None)
         for st in self._states:
-            st.fast_top = (st is top and st.fast_release and st.fast_start is not None
-                           and not st.job_end_hooks and self._by_key)
+            st.fast_top = (
+                st is top
+                and st.fast_release
+                and st.fast_start is not None
+                and not st.job_end_hooks
+                and self._by_key
+            )
         self._compile_resources()
 
     def _compile_resources(self) -> None:
@@ -366,8 +399,10 @@ class CPU:
         by = self._level_by
         protocol = self.resources or ("srp" if by == "deadline" else "pcp")
         if protocol == "pcp" and by == "deadline":
-            raise InputError(f"resources: pcp needs fixed priorities; under "
-                             f"{self.policy.name or type(self.policy).__name__} use srp or npr")
+            raise InputError(
+                f"resources: pcp needs fixed priorities; under "
+                f"{self.policy.name or type(self.policy).__name__} use srp or npr"
+            )
         self.protocol = protocol
         for r, sts in users.items():
             if protocol == "npr":
@@ -375,11 +410,12 @@ class CPU:
                 continue
             lv = []
             for st in sts:
-                if by == "deadline" and (st.provider is not None or st.per_window
-                                         or st.is_window):
-                    raise InputError(f"task '{st.name}': a critical section under a "
-                                     f"deadline-ordered policy needs a deadline in ms (not "
-                                     f"one that follows the window)")
+                if by == "deadline" and (st.provider is not None or st.per_window or st.is_window):
+                    raise InputError(
+                        f"task '{st.name}': a critical section under a "
+                        f"deadline-ordered policy needs a deadline in ms (not "
+                        f"one that follows the window)"
+                    )
                 lv.append(-float(st.deadline) if by == "deadline" else -float(st.priority))
             self._ceil[r] = max(lv)
         for st in self._states:
@@ -405,8 +441,10 @@ class CPU:
         r = job._st.res[job.seg_index]
         assert r is not None
         if r in self._locked:  # the ceiling rule makes this impossible
-            raise RtsimError(f"task '{job.name}': resource '{r}' is held by "
-                             f"'{self._locked[r].name}' (a ceiling violation)")
+            raise RtsimError(
+                f"task '{job.name}': resource '{r}' is held by "
+                f"'{self._locked[r].name}' (a ceiling violation)"
+            )
         self._locked[r] = job
         self._holding[job] = (r, self._ceil[r])
 
@@ -433,9 +471,13 @@ class CPU:
                 break
             skipped.append(heapq.heappop(ready))
         cand = ready[0][2] if ready else None
-        if cand is not None and running is not None and not (
-                cand.key < running.key if self._by_key else self.policy.preempts(cand.key,
-                                                                                 running)):
+        if (
+            cand is not None
+            and running is not None
+            and not (
+                cand.key < running.key if self._by_key else self.policy.preempts(cand.key, running)
+            )
+        ):
             cand = None
         if cand is not None:
             heapq.heappop(ready)
@@ -443,8 +485,9 @@ class CPU:
             heapq.heappush(ready, e)
         run = cand if cand is not None else running
         blocked = self._blocked
-        now_blocked = [e[2] for e in skipped
-                       if run is not None and (e[0], e[1]) < (run.key, run.tie)]
+        now_blocked = [
+            e[2] for e in skipped if run is not None and (e[0], e[1]) < (run.key, run.tie)
+        ]
         for job in [j for j in blocked if j not in now_blocked]:
             self._unblock(job, now)
         if now_blocked:
@@ -465,8 +508,7 @@ class CPU:
             if total > self.blocking.get(job.name, 0.0):
                 self.blocking[job.name] = total
             if self.record_trace:
-                self._trace_rows.append((job.name, job.index, what, "blocked", False,
-                                         since, now))
+                self._trace_rows.append((job.name, job.index, what, "blocked", False, since, now))
 
     # -- running -------------------------------------------------------------------------
     def start(self, horizon: float) -> simpy.Process:
@@ -488,8 +530,10 @@ class CPU:
         for st in self._states:
             st.next_release = self._t0 + st.offset
             if st.next_release < end - EPS:
-                heapq.heappush(self._timers, (st.next_release, st.rank, st.priority,
-                                              next(self._seq), _RELEASE, st))
+                heapq.heappush(
+                    self._timers,
+                    (st.next_release, st.rank, st.priority, next(self._seq), _RELEASE, st),
+                )
         self.process = self.env.process(self._dispatcher(end))
         return self.process
 
@@ -503,8 +547,7 @@ class CPU:
         has_abort = any(st.policy == "abort" for st in self._states)
         # Jump ahead without yielding when nothing else is scheduled before the wake-up
         # (only on the plain Environment: a RealtimeEnvironment must pace every step).
-        jump = type(env) is simpy.Environment and isinstance(getattr(env, "_queue", None),
-                                                                 list)
+        jump = type(env) is simpy.Environment and isinstance(getattr(env, "_queue", None), list)
         queue: list[Any] = env._queue if jump else []  # type: ignore[attr-defined]
         # Inline jobs of the top task (see _inline_top): only without trace, overhead and
         # aborts, and only when the clock can be moved without SimPy.
@@ -616,18 +659,28 @@ class CPU:
                 if not top_first:
                     job = Job(st, k, r, r + st.deadline, p, seq)
                     jk = job.key
-                    wins = ((running is None or jk < running.key) and (
-                        not ready or jk < ready[0][0]
-                        or (jk == ready[0][0] and job.tie < ready[0][1])))
+                    wins = (running is None or jk < running.key) and (
+                        not ready
+                        or jk < ready[0][0]
+                        or (jk == ready[0][0] and job.tie < ready[0][1])
+                    )
                 nxt_job = running  # the first in the ready order after it, at f
                 from_ready = False
-                if ready and (running is None or ready[0][0] < running.key or (
-                        ready[0][0] == running.key and ready[0][1] < running.tie)):
+                if ready and (
+                    running is None
+                    or ready[0][0] < running.key
+                    or (ready[0][0] == running.key and ready[0][1] < running.tie)
+                ):
                     nxt_job = ready[0][2]
                     from_ready = True
-                if (wins and f > now + tol and timers and timers[0][0] > f + tol
-                        and (not queue or queue[0][0] > f)
-                        and (nxt_job is None or nxt_job.rem is not None)):
+                if (
+                    wins
+                    and f > now + tol
+                    and timers
+                    and timers[0][0] > f + tol
+                    and (not queue or queue[0][0] > f)
+                    and (nxt_job is None or nxt_job.rem is not None)
+                ):
                     if running is not None:  # preempted at now
                         if running.rem is not None and now > work_start:
                             worked = now - work_start
@@ -668,8 +721,7 @@ class CPU:
                 if cand is not None:
                     if running is not None:
                         if running.rem is not None:
-                            self._close_piece(running, piece_start, work_start, now,
-                                              done=False)
+                            self._close_piece(running, piece_start, work_start, now, done=False)
                             if now > work_start:
                                 running.rem -= now_lag - work_lag
                         running.preemptions += 1
@@ -686,13 +738,22 @@ class CPU:
                         run_end = work_start + x
                         y = run_end - work_start
                         run_lag = (work_start - (run_end - y)) + (x - y)
-                if (running is not None and running.rem is None
-                        and running._st.res[running.seg_index] is not None):
+                if (
+                    running is not None
+                    and running.rem is None
+                    and running._st.res[running.seg_index] is not None
+                ):
                     self._lock(running)
             while has_abort and ready and ready[0][2].aborted:
                 heappop(ready)
-            if not res and ready and (running is None or (
-                    ready[0][0] < running.key if by_key else preempts(ready[0][0], running))):
+            if (
+                not res
+                and ready
+                and (
+                    running is None
+                    or (ready[0][0] < running.key if by_key else preempts(ready[0][0], running))
+                )
+            ):
                 if running is not None:
                     if running.rem is not None:
                         self._close_piece(running, piece_start, work_start, now, done=False)
@@ -746,12 +807,14 @@ class CPU:
             now = target
 
     # -- the steps (internal) ------------------------------------------------------------
-    def _close_piece(self, job: Job, piece_start: float, work_start: float, now: float,
-                     done: bool) -> None:
+    def _close_piece(
+        self, job: Job, piece_start: float, work_start: float, now: float, done: bool
+    ) -> None:
         """Book the CPU time ``job`` got since it was dispatched (and trace it)."""
         if self.record_trace and work_start > piece_start and now > piece_start:
-            self._trace_rows.append((job.name, job.index, "switch", "overhead", True,
-                                     piece_start, min(now, work_start)))
+            self._trace_rows.append(
+                (job.name, job.index, "switch", "overhead", True, piece_start, min(now, work_start))
+            )
         if work_start > piece_start:
             self._busy += min(now, work_start) - piece_start
         if now > work_start:
@@ -760,8 +823,9 @@ class CPU:
             self._busy += worked
             if self.record_trace:
                 seg = job._st.segs[job.seg_index]
-                self._trace_rows.append((job.name, job.index, seg.name, seg.kind, True,
-                                         work_start, now))
+                self._trace_rows.append(
+                    (job.name, job.index, seg.name, seg.kind, True, work_start, now)
+                )
             if not done:
                 job.rem = job.rem - worked  # type: ignore[operator]
         if done:
@@ -780,8 +844,10 @@ class CPU:
         if c is None:
             c = st.exec_fns[i](job, seg, st.rng)
             if not isinstance(c, int | float) or not math.isfinite(c) or c < 0:
-                raise RtsimError(f"task '{st.name}' segment '{seg.name}': execution time must "
-                                 f"be a non-negative number of ms, got {c!r}")
+                raise RtsimError(
+                    f"task '{st.name}' segment '{seg.name}': execution time must "
+                    f"be a non-negative number of ms, got {c!r}"
+                )
             c = float(c)
         job.seg_exec = c
         job.rem = c
@@ -805,8 +871,17 @@ class CPU:
             return None
         if st.idle_kind[i]:
             self._start_segment(job, now)
-            heapq.heappush(self._timers, (now + (job.rem + self._lag),  # type: ignore[operator]
-                                          _RESUME, job.priority, next(self._seq), _RESUME, job))
+            heapq.heappush(
+                self._timers,
+                (
+                    now + (job.rem + self._lag),  # type: ignore[operator]
+                    _RESUME,
+                    job.priority,
+                    next(self._seq),
+                    _RESUME,
+                    job,
+                ),
+            )
             return None
         return job
 
@@ -814,8 +889,9 @@ class CPU:
         """An idle-mode suspension ends: trace it, then the job is eligible again."""
         if self.record_trace and now > job.seg_start:  # type: ignore[operator]
             seg = job._st.segs[job.seg_index]
-            self._trace_rows.append((job.name, job.index, seg.name, seg.kind, False,
-                                     job.seg_start, now))
+            self._trace_rows.append(
+                (job.name, job.index, seg.name, seg.kind, False, job.seg_start, now)
+            )
         job.rem = 0.0
         nxt = self._segment_done(job, now)
         if nxt is not None:
@@ -857,16 +933,19 @@ class CPU:
         if st.provider is not None:
             p = st.provider()
             if not isinstance(p, int | float) or not math.isfinite(p) or p <= 0:
-                raise RtsimError(f"task '{st.name}': period provider returned {p!r} at "
-                                 f"t={now:g} ms; need a positive number of ms")
+                raise RtsimError(
+                    f"task '{st.name}': period provider returned {p!r} at "
+                    f"t={now:g} ms; need a positive number of ms"
+                )
             p = float(p)
             d = st.deadline / st.period * p
             nxt = self._stream_next(st, k, r, p)
         elif st.per_window:
             w = self._w
             if w is None:
-                raise RtsimError(f"task '{st.name}': released at t={now:g} ms before the "
-                                 f"first window release")
+                raise RtsimError(
+                    f"task '{st.name}': released at t={now:g} ms before the first window release"
+                )
             p, d = st.period * w, st.deadline * w
             nxt = self._stream_next(st, k, r, p)
         else:
@@ -876,15 +955,30 @@ class CPU:
             self._w = p
         if nxt < end - EPS:
             st.next_release = nxt
-            heapq.heappush(self._timers, (nxt, st.rank, st.priority, next(self._seq),
-                                          _RELEASE, st))
+            heapq.heappush(self._timers, (nxt, st.rank, st.priority, next(self._seq), _RELEASE, st))
         stats = st.stats
         if st.policy == "skip" and st.pending:
             stats.skipped += 1
             stats.misses += 1
             if self.record_jobs:
-                self._job_rows.append((st.name, k, r, math.nan, math.nan, math.nan, r + d, p,
-                                       True, 0, False, True, 0.0, r))
+                self._job_rows.append(
+                    (
+                        st.name,
+                        k,
+                        r,
+                        math.nan,
+                        math.nan,
+                        math.nan,
+                        r + d,
+                        p,
+                        True,
+                        0,
+                        False,
+                        True,
+                        0.0,
+                        r,
+                    )
+                )
             return
         if st.jitter:
             self._jittered(st, k, r, d, p, now)
@@ -913,8 +1007,7 @@ class CPU:
             st.stream_k = k
         return st.stream_t + (k + 1 - st.stream_k) * p
 
-    def _jittered(self, st: _TaskState, k: int, r: float, d: float, p: float,
-                  now: float) -> None:
+    def _jittered(self, st: _TaskState, k: int, r: float, d: float, p: float, now: float) -> None:
         """Job ``k`` arrives at ``r`` and is released after its drawn delay (module doc)."""
         if self.jitter == "worst":
             delay = st.jitter if k == 0 else 0.0
@@ -930,8 +1023,9 @@ class CPU:
             heapq.heappush(self._timers, (r + d, _ABORT, st.priority, job.seq, _ABORT, job))
         if delay > 0.0:
             job.held = True
-            heapq.heappush(self._timers, (r + delay, st.rank, st.priority, next(self._seq),
-                                          _JREL, job))
+            heapq.heappush(
+                self._timers, (r + delay, st.rank, st.priority, next(self._seq), _JREL, job)
+            )
         else:
             self._jittered_release(job, now)
 
@@ -946,8 +1040,9 @@ class CPU:
         if st.pending and st.pending[0] is job:
             self._eligible(job, now)
 
-    def _inline_top(self, st: _TaskState, k: int, r: float, p: float, start: float,
-                    f: float) -> None:
+    def _inline_top(
+        self, st: _TaskState, k: int, r: float, p: float, start: float, f: float
+    ) -> None:
         """Book job ``k`` of the top task, run alone from ``start`` to ``f``, without a Job.
 
         The same float operations as the dispatcher's booking at f and :meth:`_complete`.
@@ -972,16 +1067,45 @@ class CPU:
         counts = hist.counts
         counts[i] = counts.get(i, 0) + 1
         if self.record_jobs:
-            self._job_rows.append((st.name, k, r, start, f, resp, deadline, p, missed, 0,
-                                   False, False, 0.0 + worked, r))
+            self._job_rows.append(
+                (
+                    st.name,
+                    k,
+                    r,
+                    start,
+                    f,
+                    resp,
+                    deadline,
+                    p,
+                    missed,
+                    0,
+                    False,
+                    False,
+                    0.0 + worked,
+                    r,
+                )
+            )
 
     def _record(self, job: Job, missed: bool) -> None:
         resp = math.nan if job.finish is None else job.finish - job.arrival
-        self._job_rows.append((
-            job.name, job.index, job.release,
-            math.nan if job.start is None else job.start,
-            math.nan if job.finish is None else job.finish, resp, job.deadline, job.period,
-            missed, job.preemptions, job.aborted, False, job.executed, job.arrival))
+        self._job_rows.append(
+            (
+                job.name,
+                job.index,
+                job.release,
+                math.nan if job.start is None else job.start,
+                math.nan if job.finish is None else job.finish,
+                resp,
+                job.deadline,
+                job.period,
+                missed,
+                job.preemptions,
+                job.aborted,
+                False,
+                job.executed,
+                job.arrival,
+            )
+        )
 
     def _complete(self, job: Job, now: float) -> None:
         st = job._st
@@ -1016,12 +1140,19 @@ class CPU:
     def _abort(self, job: Job, now: float) -> None:
         st = job._st
         i = job.seg_index
-        if (self.record_trace and i < len(st.segs) and st.idle_kind[i] and job.rem is not None
-                and job.seg_start is not None and now > job.seg_start):
+        if (
+            self.record_trace
+            and i < len(st.segs)
+            and st.idle_kind[i]
+            and job.rem is not None
+            and job.seg_start is not None
+            and now > job.seg_start
+        ):
             # aborted while suspended (idle mode): trace the partial suspension
             seg = st.segs[i]
-            self._trace_rows.append((job.name, job.index, seg.name, seg.kind, False,
-                                     job.seg_start, now))
+            self._trace_rows.append(
+                (job.name, job.index, seg.name, seg.kind, False, job.seg_start, now)
+            )
         if self._res_on:
             self._unlock(job)
             if job in self._blocked:
@@ -1050,8 +1181,7 @@ class CPU:
         the records left are flushed to it and ``jobs`` is None."""
         self._job_rows.flush()
         return SimResult(
-            tasks={st.name: st.stats
-                   for st in sorted(self._states, key=lambda x: x.priority)},
+            tasks={st.name: st.stats for st in sorted(self._states, key=lambda x: x.priority)},
             horizon=self._horizon if self._horizon is not None else 0.0,
             seed=self.seed,
             suspension=self.suspension,
@@ -1065,7 +1195,6 @@ class CPU:
             scheduler=self.policy.name or type(self.policy).__name__,
             resources=self.protocol,
             blocking=dict(self.blocking) if self.protocol is not None else None,
-            jobs=self._job_rows.frame()
-            if self.record_jobs and self.job_sink is None else None,
+            jobs=self._job_rows.frame() if self.record_jobs and self.job_sink is None else None,
             trace=trace_frame(self._trace_rows) if self.record_trace else None,
         )

@@ -110,8 +110,9 @@ class Empirical:
 
     def __post_init__(self) -> None:
         if self.mode not in ("replay", "bootstrap"):
-            raise InputError(f"empirical exec model: mode must be replay or bootstrap, "
-                             f"got {self.mode!r}")
+            raise InputError(
+                f"empirical exec model: mode must be replay or bootstrap, got {self.mode!r}"
+            )
         for key, values in self.samples.items():
             if not values:
                 raise InputError(f"empirical exec model: no samples for {key}")
@@ -132,24 +133,33 @@ class Empirical:
             raise InputError(f"{path}: cannot read execution times: {exc}") from None
         for col in ("task", "exec_time"):
             if col not in df.columns:
-                raise InputError(f"{path}: missing column '{col}' (need task, [segment,] "
-                                 f"exec_time)")
+                raise InputError(
+                    f"{path}: missing column '{col}' (need task, [segment,] exec_time)"
+                )
         segs: Iterable[Any] = df["segment"] if "segment" in df.columns else [None] * len(df)
         samples: dict[tuple[str, str], list[float]] = {}
-        for row, (task, seg, value) in enumerate(zip(df["task"], segs, df["exec_time"],
-                                                     strict=True)):
+        for row, (task, seg, value) in enumerate(
+            zip(df["task"], segs, df["exec_time"], strict=True)
+        ):
             try:
                 v = float(value)
             except (TypeError, ValueError):
                 v = math.nan
             if not math.isfinite(v) or v < 0:
-                raise InputError(f"{path}: row {row + 2}: exec_time must be a non-negative "
-                                 f"number, got {value!r}")
-            seg_name = str(task) if seg is None or (isinstance(seg, float) and math.isnan(seg)) \
-                or seg == "" else str(seg)
+                raise InputError(
+                    f"{path}: row {row + 2}: exec_time must be a non-negative number, got {value!r}"
+                )
+            seg_name = (
+                str(task)
+                if seg is None or (isinstance(seg, float) and math.isnan(seg)) or seg == ""
+                else str(seg)
+            )
             samples.setdefault((str(task), seg_name), []).append(v)
-        return cls({k: tuple(v) for k, v in samples.items()}, mode,
-                   WCET() if fallback is None else fallback)
+        return cls(
+            {k: tuple(v) for k, v in samples.items()},
+            mode,
+            WCET() if fallback is None else fallback,
+        )
 
     def __call__(self, job: Job, segment: Segment, rng: np.random.Generator) -> float:
         values = self.samples.get((job.name, segment.name))
@@ -164,21 +174,22 @@ def _exec_model(obj: Any, spec: str, where: str) -> Callable[..., float]:
     """A loaded model: a class is instantiated; the result must be callable."""
     model = obj() if isinstance(obj, type) else obj
     if not callable(model):
-        raise InputError(f"{where} is not an execution-time model (a callable "
-                         f"model(job, segment, rng) -> ms)")
+        raise InputError(
+            f"{where} is not an execution-time model (a callable model(job, segment, rng) -> ms)"
+        )
     return model  # type: ignore[no-any-return]
 
 
 #: The execution-time models by name (entry-point group ``rtsim.exec_models``; an entry point
 #: names a model, or a class whose instances are models).
-EXEC_MODELS: Registry[Callable[..., float]] = Registry("execution-time model",
-                                                       "rtsim.exec_models", _exec_model)
+EXEC_MODELS: Registry[Callable[..., float]] = Registry(
+    "execution-time model", "rtsim.exec_models", _exec_model
+)
 EXEC_MODELS.register("wcet", WCET())
 EXEC_MODELS.register("uniform", Uniform())
 
 
-def resolve_exec_model(spec: ExecSpec, *, allow_code: bool | None = None
-                       ) -> Callable[..., float]:
+def resolve_exec_model(spec: ExecSpec, *, allow_code: bool | None = None) -> Callable[..., float]:
     """A model from a name (``wcet``, ``uniform``, an entry point, ``package.module:Name``) or
     a callable (returned as is)."""
     if isinstance(spec, str):

@@ -35,14 +35,43 @@ class Job:
     queue, set by the CPU's scheduling policy (:mod:`rtsim.sim.policy`) at creation.
     """
 
-    __slots__ = ("_st", "task", "name", "priority", "index", "release", "deadline", "period",
-                 "seq", "seg_index", "rem", "seg_start", "seg_exec", "start", "finish",
-                 "preemptions", "aborted", "executed", "arrival", "held", "key", "tie",
-                 "blocked")  # blocked: set only by a CPU with critical sections
+    __slots__ = (
+        "_st",
+        "task",
+        "name",
+        "priority",
+        "index",
+        "release",
+        "deadline",
+        "period",
+        "seq",
+        "seg_index",
+        "rem",
+        "seg_start",
+        "seg_exec",
+        "start",
+        "finish",
+        "preemptions",
+        "aborted",
+        "executed",
+        "arrival",
+        "held",
+        "key",
+        "tie",
+        "blocked",
+    )  # blocked: set only by a CPU with critical sections
     blocked: float  # time spent blocked (ms); unset until the job first is (critical sections)
 
-    def __init__(self, st: _TaskState, index: int, release: float, deadline: float,
-                 period: float, seq: int, arrival: float | None = None) -> None:
+    def __init__(
+        self,
+        st: _TaskState,
+        index: int,
+        release: float,
+        deadline: float,
+        period: float,
+        seq: int,
+        arrival: float | None = None,
+    ) -> None:
         self._st = st
         self.task: Task = st.task
         self.name: str = st.name
@@ -83,12 +112,45 @@ class Job:
 class _TaskState:
     """Per-task bookkeeping of the CPU (internal)."""
 
-    __slots__ = ("task", "name", "priority", "segs", "idle_kind", "offset", "period", "deadline",
-                 "provider", "per_window", "is_window", "rank", "k", "next_release", "pending",
-                 "stats", "rng", "exec_fns", "const_exec", "start_hooks", "end_hooks",
-                 "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start",
-                 "fast_top", "seg_const", "plain_next", "jitter", "jrng", "order", "stream_t",
-                 "stream_k", "stream_p", "res")
+    __slots__ = (
+        "task",
+        "name",
+        "priority",
+        "segs",
+        "idle_kind",
+        "offset",
+        "period",
+        "deadline",
+        "provider",
+        "per_window",
+        "is_window",
+        "rank",
+        "k",
+        "next_release",
+        "pending",
+        "stats",
+        "rng",
+        "exec_fns",
+        "const_exec",
+        "start_hooks",
+        "end_hooks",
+        "release_hooks",
+        "job_end_hooks",
+        "policy",
+        "simple",
+        "fast_release",
+        "fast_start",
+        "fast_top",
+        "seg_const",
+        "plain_next",
+        "jitter",
+        "jrng",
+        "order",
+        "stream_t",
+        "stream_k",
+        "stream_p",
+        "res",
+    )
 
     def __init__(self, task: Task, provider: PeriodProvider | None, is_window: bool) -> None:
         self.task = task

@@ -61,9 +61,18 @@ from rtsim.registry import Registry
 if TYPE_CHECKING:
     from rtsim.sim.job import Job
 
-__all__ = ["SchedulingPolicy", "FixedPriority", "EarliestDeadlineFirst", "SCHEDULERS",
-           "register_scheduler", "resolve_scheduler", "PolicySpec", "POLICIES",
-           "register_policy", "resolve_policy"]
+__all__ = [
+    "SchedulingPolicy",
+    "FixedPriority",
+    "EarliestDeadlineFirst",
+    "SCHEDULERS",
+    "register_scheduler",
+    "resolve_scheduler",
+    "PolicySpec",
+    "POLICIES",
+    "register_policy",
+    "resolve_policy",
+]
 
 
 class SchedulingPolicy:
@@ -142,8 +151,10 @@ P = TypeVar("P", bound=type[SchedulingPolicy])
 def _policy_class(obj: Any, spec: str, where: str) -> type[SchedulingPolicy]:
     if isinstance(obj, type) and issubclass(obj, SchedulingPolicy):
         if obj.order is SchedulingPolicy.order:  # the base itself, or a class without it
-            raise InputError(f"{where} does not implement order(job); give a subclass of "
-                             f"SchedulingPolicy that does")
+            raise InputError(
+                f"{where} does not implement order(job); give a subclass of "
+                f"SchedulingPolicy that does"
+            )
         return obj
     raise InputError(f"{where} is not a SchedulingPolicy subclass")
 
@@ -151,7 +162,8 @@ def _policy_class(obj: Any, spec: str, where: str) -> type[SchedulingPolicy]:
 #: The registered scheduling policies by name (a :class:`~rtsim.registry.Registry` of classes;
 #: entry-point group ``rtsim.schedulers``).
 SCHEDULERS: Registry[type[SchedulingPolicy]] = Registry(
-    "scheduling policy", "rtsim.schedulers", _policy_class)
+    "scheduling policy", "rtsim.schedulers", _policy_class
+)
 
 
 def register_scheduler(cls: P) -> P:
@@ -172,8 +184,9 @@ register_scheduler(EarliestDeadlineFirst)
 PolicySpec = str | SchedulingPolicy | type[SchedulingPolicy]
 
 
-def resolve_scheduler(spec: PolicySpec, where: str = "scheduler", *,
-                      allow_code: bool | None = None) -> SchedulingPolicy:
+def resolve_scheduler(
+    spec: PolicySpec, where: str = "scheduler", *, allow_code: bool | None = None
+) -> SchedulingPolicy:
     """A policy instance from a registered name, an entry point, ``"package.module:Name"``
     (code: :func:`rtsim.registry.load_code`), a class or an instance; an unknown name is an
     :class:`InputError` naming ``where``."""

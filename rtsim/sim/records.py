@@ -50,8 +50,20 @@ CHUNK_ROWS = 8192
 #: arrival. ``exec_time`` is the CPU time the job received (suspensions included under
 #: ``suspension="cpu"``), ``preemptions`` how often it lost the CPU before finishing.
 JOB_COLUMNS: tuple[str, ...] = (
-    "task", "job", "release", "start", "finish", "response", "deadline", "period",
-    "missed", "preemptions", "aborted", "skipped", "exec_time", "arrival",
+    "task",
+    "job",
+    "release",
+    "start",
+    "finish",
+    "response",
+    "deadline",
+    "period",
+    "missed",
+    "preemptions",
+    "aborted",
+    "skipped",
+    "exec_time",
+    "arrival",
 )
 
 #: Columns of ``SimResult.trace``: one row per stretch of one segment of one job.
@@ -88,8 +100,10 @@ class ResponseHistogram:
 
     def as_dict(self) -> dict[str, Any]:
         """JSON form: bin width and the sparse counts."""
-        return {"bin_width": self.bin_width,
-                "bins": {str(k): v for k, v in sorted(self.counts.items())}}
+        return {
+            "bin_width": self.bin_width,
+            "bins": {str(k): v for k, v in sorted(self.counts.items())},
+        }
 
 
 @dataclass
@@ -165,10 +179,15 @@ class SimResult(ResultDisplay):
 
     def headline(self) -> dict[str, Any]:
         """The run's headline facts (the short ``repr``)."""
-        return {"tasks": len(self.tasks), "horizon": self.horizon,
-                "jobs": sum(s.completed for s in self.tasks.values()),
-                "misses": self.misses, "busy_time": self.busy_time,
-                "suspension": self.suspension, "exec_model": self.exec_model}
+        return {
+            "tasks": len(self.tasks),
+            "horizon": self.horizon,
+            "jobs": sum(s.completed for s in self.tasks.values()),
+            "misses": self.misses,
+            "busy_time": self.busy_time,
+            "suspension": self.suspension,
+            "exec_model": self.exec_model,
+        }
 
     def summary_frame(self) -> pd.DataFrame:
         """Per-task statistics, one row per task (the same as :meth:`stats_frame`)."""
@@ -259,16 +278,37 @@ class RowBuffer(list):  # type: ignore[type-arg]
 def jobs_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
     """Job records (tuples in :data:`JOB_COLUMNS` order) as a typed DataFrame."""
     df = pd.DataFrame(rows, columns=list(JOB_COLUMNS))
-    return df.astype({"task": "string", "job": "int64", "release": "float64",
-                      "start": "float64", "finish": "float64", "response": "float64",
-                      "deadline": "float64", "period": "float64", "missed": "bool",
-                      "preemptions": "int64", "aborted": "bool", "skipped": "bool",
-                      "exec_time": "float64", "arrival": "float64"})
+    return df.astype(
+        {
+            "task": "string",
+            "job": "int64",
+            "release": "float64",
+            "start": "float64",
+            "finish": "float64",
+            "response": "float64",
+            "deadline": "float64",
+            "period": "float64",
+            "missed": "bool",
+            "preemptions": "int64",
+            "aborted": "bool",
+            "skipped": "bool",
+            "exec_time": "float64",
+            "arrival": "float64",
+        }
+    )
 
 
 def trace_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
     """Trace rows (tuples in :data:`TRACE_COLUMNS` order) as a typed DataFrame."""
     df = pd.DataFrame(rows, columns=list(TRACE_COLUMNS))
-    return df.astype({"task": "string", "job": "int64", "segment": "string",
-                      "kind": "string", "on_cpu": "bool", "start": "float64",
-                      "end": "float64"})
+    return df.astype(
+        {
+            "task": "string",
+            "job": "int64",
+            "segment": "string",
+            "kind": "string",
+            "on_cpu": "bool",
+            "start": "float64",
+            "end": "float64",
+        }
+    )

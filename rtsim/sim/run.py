@@ -47,8 +47,10 @@ def _as_taskset(ts: TaskSet | Sequence[Task]) -> TaskSet:
     if isinstance(ts, TaskSet | str | os.PathLike):
         return as_taskset(ts, "simulate")
     if not isinstance(ts, Sequence) or not all(isinstance(t, Task) for t in ts):
-        raise InputError(f"simulate: expected a TaskSet, a list of Tasks or the path of a "
-                         f"task-set file, got {type(ts).__name__}")
+        raise InputError(
+            f"simulate: expected a TaskSet, a list of Tasks or the path of a "
+            f"task-set file, got {type(ts).__name__}"
+        )
     return TaskSet(tuple(ts))
 
 
@@ -76,8 +78,7 @@ def resolve_window(ts: TaskSet, window: WindowArg) -> tuple[Callable[[], float],
         return (lambda: w), {"mode": "w_sch", "w": w}
     if callable(window):
         return window, {"mode": "dynamic"}
-    if not is_real(window) or \
-            not math.isfinite(window) or window <= 0:
+    if not is_real(window) or not math.isfinite(window) or window <= 0:
         raise InputError(f"window must be a positive number of ms, got {window!r}")
     w = float(window)
     return (lambda: w), {"mode": "fixed", "w": w}
@@ -106,8 +107,9 @@ def build_cpu(
         provider, info = resolve_window(ts, window)
         cpu.add_task(ts.window_task(1.0), period_provider=provider, window=True)
     elif window is not None:
-        raise InputError(f"{ts.source or ts.name or 'task set'}: has no [window], so a "
-                         f"window does not apply")
+        raise InputError(
+            f"{ts.source or ts.name or 'task set'}: has no [window], so a window does not apply"
+        )
     for task in ts.tasks:
         if task.per_window and ts.window is not None and ts.window.offset:
             # a per-window task counts its offset from the window stream's first arrival
@@ -163,16 +165,27 @@ def simulate(
     if isinstance(seed, int) and seed >= 0:  # (a negative seed: build_cpu's message)
         check_seed(seed, "simulate: seed")
     if is_real(horizon) and 0 < horizon < math.inf:  # (others: build_cpu's message)
-        check_simulate(ts, horizon, _window_estimate(ts, window), f"simulate: horizon {horizon:g}",
-                       force=force)
+        check_simulate(
+            ts, horizon, _window_estimate(ts, window), f"simulate: horizon {horizon:g}", force=force
+        )
     overhead = float(overhead) if is_real(overhead) else overhead
     if scheduler is None:
         scheduler = ts.scheduler
-    cpu, info = build_cpu(ts, env=env, window=window, suspension=suspension,
-                          exec_model=exec_model, seed=seed, overhead=overhead,
-                          record_jobs=record_jobs, record_trace=record_trace,
-                          hist_bin=hist_bin, jitter=jitter, job_sink=job_sink,
-                          scheduler=scheduler)
+    cpu, info = build_cpu(
+        ts,
+        env=env,
+        window=window,
+        suspension=suspension,
+        exec_model=exec_model,
+        seed=seed,
+        overhead=overhead,
+        record_jobs=record_jobs,
+        record_trace=record_trace,
+        hist_bin=hist_bin,
+        jitter=jitter,
+        job_sink=job_sink,
+        scheduler=scheduler,
+    )
     proc = cpu.start(horizon)
     if progress is not None and is_real(horizon) and 0 < horizon < math.inf:
         from rtsim.sim.progress import TICKS, start_ticker

@@ -84,8 +84,13 @@ class SweepOutcome(ResultDisplay):
 
     def headline(self) -> dict[str, Any]:
         """Points and where the results are (the short ``repr``)."""
-        return {"points": len(self.table), "computed": self.computed, "skipped": self.skipped,
-                "failed": self.failed, "out_dir": str(self.out_dir)}
+        return {
+            "points": len(self.table),
+            "computed": self.computed,
+            "skipped": self.skipped,
+            "failed": self.failed,
+            "out_dir": str(self.out_dir),
+        }
 
     def summary_frame(self) -> pd.DataFrame:
         """The results table (one row per point)."""
@@ -157,8 +162,11 @@ def _start_method() -> str:
     import multiprocessing
     import threading
 
-    if sys.platform == "linux" and threading.active_count() == 1 and \
-            "fork" in multiprocessing.get_all_start_methods():
+    if (
+        sys.platform == "linux"
+        and threading.active_count() == 1
+        and "fork" in multiprocessing.get_all_start_methods()
+    ):
         return "fork"
     return "spawn"
 
@@ -175,8 +183,14 @@ class _Progress:
         if self.enabled and self.bar is None:
             from tqdm.auto import tqdm
 
-            self.bar = tqdm(total=self.total, initial=self.initial, desc="sweep", unit="pt",
-                            file=sys.stderr, dynamic_ncols=True)
+            self.bar = tqdm(
+                total=self.total,
+                initial=self.initial,
+                desc="sweep",
+                unit="pt",
+                file=sys.stderr,
+                dynamic_ncols=True,
+            )
             self.bar.set_postfix(failed=self.failed)
 
     def advance(self, failed: int) -> None:
@@ -199,17 +213,23 @@ class _Progress:
 class Sweep:
     """One sweep bound to an output directory (see the module docstring)."""
 
-    def __init__(self, spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLike[str],
-                 *, force: bool = False, allow_code: bool | None = None):
-        self.spec = (spec if isinstance(spec, SweepSpec)
-                     else load_sweep(spec, allow_code=allow_code))
+    def __init__(
+        self,
+        spec: SweepSpec | str | os.PathLike[str],
+        out_dir: str | os.PathLike[str],
+        *,
+        force: bool = False,
+        allow_code: bool | None = None,
+    ):
+        self.spec = spec if isinstance(spec, SweepSpec) else load_sweep(spec, allow_code=allow_code)
         self.out = Path(out_dir)
         check_work("grid", grid_size(self.spec), f"{self.spec.source}: grid", force=force)
         self.points = points(self.spec)
         clash = [k for k, _ in self.spec.grid if k in RESERVED and k != "seed"]
         if clash:
-            raise SweepError(f"{self.spec.source}: grid.{clash[0]}: name is reserved for a "
-                             "results column")
+            raise SweepError(
+                f"{self.spec.source}: grid.{clash[0]}: name is reserved for a results column"
+            )
 
     @property
     def points_dir(self) -> Path:
@@ -227,8 +247,10 @@ class Sweep:
         if self.points_dir.is_dir():
             for f in sorted(self.points_dir.iterdir()):
                 if not (re.fullmatch(POINT_FILE, f.name) or re.fullmatch(POINT_TMP, f.name)):
-                    raise SweepError(f"{self.out}: points/ holds {f.name!r}, which the sweep did "
-                                     "not make; it is left alone — give a new --out")
+                    raise SweepError(
+                        f"{self.out}: points/ holds {f.name!r}, which the sweep did "
+                        "not make; it is left alone — give a new --out"
+                    )
 
     def _prepare(self, restart: bool, argv: Sequence[str] | None) -> None:
         import json
@@ -242,18 +264,25 @@ class Sweep:
             try:
                 old = json.loads(manifest.read_text("utf-8"))["fingerprint"]
             except (OSError, ValueError, KeyError, TypeError) as exc:
-                why = exc.strerror if isinstance(exc, OSError) else (
-                    "no fingerprint" if isinstance(exc, KeyError | TypeError) else "not JSON")
-                raise SweepError(f"{manifest}: corrupt or unreadable ({why}); use --restart "
-                                 "to discard the results in this directory, or another --out"
-                                 ) from None
+                why = (
+                    exc.strerror
+                    if isinstance(exc, OSError)
+                    else ("no fingerprint" if isinstance(exc, KeyError | TypeError) else "not JSON")
+                )
+                raise SweepError(
+                    f"{manifest}: corrupt or unreadable ({why}); use --restart "
+                    "to discard the results in this directory, or another --out"
+                ) from None
             if old != fp:
                 raise SweepError(
                     f"{self.out}: holds results of a different sweep than {self.spec.source} "
-                    "(the sweep file changed); use --restart to discard them, or another --out")
+                    "(the sweep file changed); use --restart to discard them, or another --out"
+                )
         elif not restart and self.points_dir.is_dir() and any(self.points_dir.glob("*.json")):
-            raise SweepError(f"{self.out}: has point files but no manifest.json; use --restart "
-                             "to discard them, or another --out")
+            raise SweepError(
+                f"{self.out}: has point files but no manifest.json; use --restart "
+                "to discard them, or another --out"
+            )
         if restart:  # only what a sweep made (check_out made sure of it)
             if self.points_dir.is_dir():
                 for f in self.points_dir.iterdir():
@@ -264,11 +293,17 @@ class Sweep:
         self.points_dir.mkdir(parents=True, exist_ok=True)
         base = self.spec.base
         write_manifest(
-            self.out, command="sweep", seed=self.spec.seed,
+            self.out,
+            command="sweep",
+            seed=self.spec.seed,
             inputs={"sweep_file": self.spec.source, "base": None if base is None else base.path},
             argv=None if argv is None else list(argv),
-            extra={"fingerprint": fp, "points": len(self.points),
-                   "sweep_text": self.spec.text, "spec": self.spec.resolved()},
+            extra={
+                "fingerprint": fp,
+                "points": len(self.points),
+                "sweep_text": self.spec.text,
+                "spec": self.spec.resolved(),
+            },
         )
 
     def finished(self, retry_failed: bool = False) -> dict[int, Record]:
@@ -281,9 +316,16 @@ class Sweep:
         return out
 
     # -- running -------------------------------------------------------------------------
-    def run(self, *, workers: int | None = None, dask: Any = None, progress: bool | None = None,
-            restart: bool = False, retry_failed: bool = False,
-            argv: Sequence[str] | None = None) -> SweepOutcome:
+    def run(
+        self,
+        *,
+        workers: int | None = None,
+        dask: Any = None,
+        progress: bool | None = None,
+        restart: bool = False,
+        retry_failed: bool = False,
+        argv: Sequence[str] | None = None,
+    ) -> SweepOutcome:
         """Run the points not yet done, then write the results table and timings.
 
         ``dask``: a scheduler address or a ``distributed.Client``. ``workers``: local
@@ -297,9 +339,15 @@ class Sweep:
         with lock_directory(self.out, argv):
             return self._run_locked(nworkers, dask, progress, restart, retry_failed, argv)
 
-    def _run_locked(self, workers: int | None, dask: Any, progress: bool | None,
-                    restart: bool, retry_failed: bool,
-                    argv: Sequence[str] | None) -> SweepOutcome:
+    def _run_locked(
+        self,
+        workers: int | None,
+        dask: Any,
+        progress: bool | None,
+        restart: bool,
+        retry_failed: bool,
+        argv: Sequence[str] | None,
+    ) -> SweepOutcome:
         self._prepare(restart, argv)
         done = self.finished(retry_failed)
         pending = [p for p in self.points if p.index not in done]
@@ -334,13 +382,14 @@ class Sweep:
                     bar.open()
                     self._run_serial(pending, on_result)
                 else:  # the bar (a tqdm thread) opens once the workers are forked
-                    self._run_processes(pending, min(nworkers, len(pending)), on_result,
-                                        bar.open)
+                    self._run_processes(pending, min(nworkers, len(pending)), on_result, bar.open)
         finally:
             bar.close()
         if counts["lost"]:
-            raise SweepIncomplete(f"{self.out}: {counts['lost']} points were not run (workers "
-                                  "lost); run the same command again to finish them")
+            raise SweepIncomplete(
+                f"{self.out}: {counts['lost']} points were not run (workers "
+                "lost); run the same command again to finish them"
+            )
         table = self.write_results()
         return SweepOutcome(table, counts["computed"], len(done), counts["failed"], self.out)
 
@@ -352,8 +401,13 @@ class Sweep:
         for p, pin in self._inputs(pending):
             on_result(p, execute_point(pin, self.spec.metrics))
 
-    def _run_processes(self, pending: list[Point], nworkers: int,
-                       on_result: Callable[..., None], started: Callable[[], None]) -> None:
+    def _run_processes(
+        self,
+        pending: list[Point],
+        nworkers: int,
+        on_result: Callable[..., None],
+        started: Callable[[], None],
+    ) -> None:
         """Run ``pending`` on a process pool. A dead worker breaks the pool: a fresh one
         takes over, and the points that were running are started again one at a time (each
         alone, so a point that kills its worker again is known: it is recorded as failed
@@ -368,8 +422,12 @@ class Sweep:
         ctx = multiprocessing.get_context(method)
 
         def pool() -> ProcessPoolExecutor:
-            return ProcessPoolExecutor(max_workers=nworkers, initializer=worker_init,
-                                       initargs=(os.getpid(),), mp_context=ctx)
+            return ProcessPoolExecutor(
+                max_workers=nworkers,
+                initializer=worker_init,
+                initargs=(os.getpid(),),
+                mp_context=ctx,
+            )
 
         ex = pool()
         todo = iter(self._inputs(pending))
@@ -402,10 +460,14 @@ class Sweep:
                 submit(nxt)
 
         def died(p: Point, exc: BaseException) -> Record:
-            return {"index": p.index, "status": "failed",
-                    "error": f"WorkerDied: the worker process running this point died "
-                             f"{attempts[p.index]} times ({type(exc).__name__})",
-                    "metrics": {}, "timing": {}}
+            return {
+                "index": p.index,
+                "status": "failed",
+                "error": f"WorkerDied: the worker process running this point died "
+                f"{attempts[p.index]} times ({type(exc).__name__})",
+                "metrics": {},
+                "timing": {},
+            }
 
         try:
             fill()
@@ -466,8 +528,9 @@ class Sweep:
         point_of = {}  # each future's point, by the future's key
         try:
             for p, pin in self._inputs(pending):
-                fut = client.submit(execute_point, pin, self.spec.metrics,
-                                    key=f"{prefix}-{p.index}", pure=False)
+                fut = client.submit(
+                    execute_point, pin, self.spec.metrics, key=f"{prefix}-{p.index}", pure=False
+                )
                 point_of[fut.key] = p
                 futures.append(fut)
             for fut in as_completed(futures):
@@ -506,11 +569,20 @@ class Sweep:
             rec = _read_json(self.points_dir / p.filename, p)
             if rec is not None:
                 t = rec.get("timing", {})
-                rows.append({"index": p.index, "key": p.key, "status": rec["status"],
-                             "wall_s": t.get("wall_s"), "cpu_s": t.get("cpu_s"),
-                             "host": t.get("host"), "pid": t.get("pid")})
-        return pd.DataFrame(rows, columns=["index", "key", "status", "wall_s", "cpu_s", "host",
-                                           "pid"])
+                rows.append(
+                    {
+                        "index": p.index,
+                        "key": p.key,
+                        "status": rec["status"],
+                        "wall_s": t.get("wall_s"),
+                        "cpu_s": t.get("cpu_s"),
+                        "host": t.get("host"),
+                        "pid": t.get("pid"),
+                    }
+                )
+        return pd.DataFrame(
+            rows, columns=["index", "key", "status", "wall_s", "cpu_s", "host", "pid"]
+        )
 
     def write_results(self) -> pd.DataFrame:
         """Write ``results.parquet`` and ``timings.csv``; return the table."""
@@ -520,11 +592,19 @@ class Sweep:
         return df
 
 
-def run_sweep(spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLike[str], *,
-              workers: int | None = None, dask: Any = None, progress: bool | None = False,
-              restart: bool = False, retry_failed: bool = False,
-              argv: Sequence[str] | None = None, force: bool = False,
-              allow_code: bool | None = None) -> pd.DataFrame:
+def run_sweep(
+    spec: SweepSpec | str | os.PathLike[str],
+    out_dir: str | os.PathLike[str],
+    *,
+    workers: int | None = None,
+    dask: Any = None,
+    progress: bool | None = False,
+    restart: bool = False,
+    retry_failed: bool = False,
+    argv: Sequence[str] | None = None,
+    force: bool = False,
+    allow_code: bool | None = None,
+) -> pd.DataFrame:
     """Run (or resume) a sweep into ``out_dir`` and return its results table.
 
     Failed points are rows with ``status == "failed"``; they do not raise. ``force`` runs a
@@ -532,5 +612,11 @@ def run_sweep(spec: SweepSpec | str | os.PathLike[str], out_dir: str | os.PathLi
     code (``package.module:Name``, :mod:`rtsim.registry`). See :class:`Sweep`.
     """
     sweep = Sweep(spec, out_dir, force=force, allow_code=allow_code)
-    return sweep.run(workers=workers, dask=dask, progress=progress, restart=restart,
-                     retry_failed=retry_failed, argv=argv).table
+    return sweep.run(
+        workers=workers,
+        dask=dask,
+        progress=progress,
+        restart=restart,
+        retry_failed=retry_failed,
+        argv=argv,
+    ).table

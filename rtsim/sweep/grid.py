@@ -77,6 +77,14 @@ def point_input(spec: SweepSpec, point: Point) -> PointInput:
             overrides.append((tuple(target[1:]), value))
     if spec.kind == "call":
         params = {**dict(spec.fixed), **params}
-    return PointInput(index=point.index, kind=spec.kind, params=params, options=options,
-                      seed=point.seed, base=spec.base, overrides=tuple(overrides),
-                      function=spec.function, allow_code=spec.allow_code)
+    return PointInput(
+        index=point.index,
+        kind=spec.kind,
+        params=params,
+        options=options,
+        seed=point.seed,
+        base=spec.base,
+        overrides=tuple(overrides),
+        function=spec.function,
+        allow_code=spec.allow_code,
+    )

@@ -137,8 +137,10 @@ def _num(v: Any) -> float:
 def _bounds(p: PointInput) -> dict[str, Any]:
     mod = _need("rtsim.analysis.bounds", "bounds")
     wb = mod.window_bounds(p.taskset())
-    return {k: float(getattr(wb, k)) for k in ("e_hough", "g", "w_eq7", "w_eq11", "w_sch",
-                                               "w_rta", "w_susp", "w_edf")}
+    return {
+        k: float(getattr(wb, k))
+        for k in ("e_hough", "g", "w_eq7", "w_eq11", "w_sch", "w_rta", "w_susp", "w_edf")
+    }
 
 
 def _analyze(p: PointInput) -> dict[str, Any]:
@@ -150,8 +152,7 @@ def _analyze(p: PointInput) -> dict[str, Any]:
         raise InputError(f"scheduler: the scheduling policy {name!r} has no analysis")
     w = p.options.get("window")
     a = fn(ts) if w is None else fn(ts, w=float(w))
-    out: dict[str, Any] = {"schedulable": bool(a.schedulable),
-                           "utilization": float(a.utilization)}
+    out: dict[str, Any] = {"schedulable": bool(a.schedulable), "utilization": float(a.utilization)}
     for t in a.tasks:
         out[f"wcrt.{t.name}"] = _num(t.wcrt)
     for t in a.tasks:
@@ -163,8 +164,11 @@ def _simulate(p: PointInput) -> dict[str, Any]:
     mod = _need("rtsim.sim", "simulate")
     ts = p.taskset()
     o = p.options
-    kwargs: dict[str, Any] = {"seed": p.seed, "exec_model": o.get("exec", "wcet"),
-                              "suspension": o.get("suspension", "cpu")}
+    kwargs: dict[str, Any] = {
+        "seed": p.seed,
+        "exec_model": o.get("exec", "wcet"),
+        "suspension": o.get("suspension", "cpu"),
+    }
     if o.get("window") is not None:
         kwargs["window"] = float(o["window"])
     from rtsim.io.work import check_simulate
@@ -212,8 +216,9 @@ def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[
     duration — share them): the key is the base file's name, its folder and the canonical
     JSON of the data with the point's overrides applied."""
     assert p.base is not None
-    key = hashlib.sha256("\0".join((p.base.source, str(where), canonical_json(data)))
-                         .encode()).hexdigest()
+    key = hashlib.sha256(
+        "\0".join((p.base.source, str(where), canonical_json(data))).encode()
+    ).hexdigest()
     hit = _PREPARED.get(key)
     if hit is not None:
         _PREPARED.move_to_end(key)
@@ -276,17 +281,39 @@ def register_kind(spec: KindSpec) -> None:
 
 
 _LOADER = ("rtsim.io.taskset",)
-register_kind(KindSpec("bounds", _bounds, metrics=("e_hough", "g", "w_eq7", "w_eq11", "w_sch",
-                                                   "w_rta", "w_susp", "w_edf"),
-                       modules=(*_LOADER, "rtsim.analysis.bounds")))
-register_kind(KindSpec("analyze", _analyze, options=("window", "scheduler"),
-                       metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*"),
-                       modules=(*_LOADER, "rtsim.sim.policy")))
-register_kind(KindSpec("simulate", _simulate,
-                       options=RUN_OPTIONS["simulate"],
-                       required=("horizon",), modules=(*_LOADER, "rtsim.sim"),
-                       metrics=("w", "max_response.*", "mean_response.*", "misses.*", "jobs.*",
-                                "misses", "jobs")))
-register_kind(KindSpec("scenario", _scenario, options=RUN_OPTIONS["scenario"],
-                       modules=("rtsim.io.scenario", "rtsim.coupling")))
+register_kind(
+    KindSpec(
+        "bounds",
+        _bounds,
+        metrics=("e_hough", "g", "w_eq7", "w_eq11", "w_sch", "w_rta", "w_susp", "w_edf"),
+        modules=(*_LOADER, "rtsim.analysis.bounds"),
+    )
+)
+register_kind(
+    KindSpec(
+        "analyze",
+        _analyze,
+        options=("window", "scheduler"),
+        metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*"),
+        modules=(*_LOADER, "rtsim.sim.policy"),
+    )
+)
+register_kind(
+    KindSpec(
+        "simulate",
+        _simulate,
+        options=RUN_OPTIONS["simulate"],
+        required=("horizon",),
+        modules=(*_LOADER, "rtsim.sim"),
+        metrics=("w", "max_response.*", "mean_response.*", "misses.*", "jobs.*", "misses", "jobs"),
+    )
+)
+register_kind(
+    KindSpec(
+        "scenario",
+        _scenario,
+        options=RUN_OPTIONS["scenario"],
+        modules=("rtsim.io.scenario", "rtsim.coupling"),
+    )
+)
 register_kind(KindSpec("call", _call))

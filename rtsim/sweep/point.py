@@ -120,6 +120,10 @@ def execute_point(point: PointInput, keep: tuple[str, ...] | None = None) -> dic
         "status": status,
         "error": error,
         "metrics": metrics,
-        "timing": {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
-                   "host": socket.gethostname(), "pid": os.getpid()},
+        "timing": {
+            "wall_s": time.perf_counter() - t0,
+            "cpu_s": time.process_time() - c0,
+            "host": socket.gethostname(),
+            "pid": os.getpid(),
+        },
     }

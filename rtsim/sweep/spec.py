@@ -67,8 +67,6 @@ from rtsim.sweep.kinds import KINDS, canonical_json
 __all__ = ["BaseFile", "SweepSpec", "load_sweep", "parse_sweep", "canonical_json", "Scalar"]
 
 
-
-
 @dataclass(frozen=True)
 class BaseFile:
     """The base task-set or scenario file of a sweep: its path and its text.
@@ -132,9 +130,13 @@ class SweepSpec:
         return {
             "kind": self.kind,
             "function": self.function,
-            "base": None if self.base is None else {"path": self.base.path,
-                                                     "sha256": self.base.sha256,
-                                                     "data_sha256": self.base.data_sha256},
+            "base": None
+            if self.base is None
+            else {
+                "path": self.base.path,
+                "sha256": self.base.sha256,
+                "data_sha256": self.base.data_sha256,
+            },
             "seed": self.seed,
             "combine": self.combine,
             "grid": {k: list(v) for k, v in self.grid},
@@ -155,8 +157,14 @@ class SweepSpec:
 
 
 # -- parameter resolution --------------------------------------------------------------
-def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
-             data: dict[str, Any] | None, table: str = "grid") -> tuple[str, ...]:
+def _resolve(
+    src: str,
+    name: str,
+    kind: str,
+    base: BaseFile | None,
+    data: dict[str, Any] | None,
+    table: str = "grid",
+) -> tuple[str, ...]:
     if name == "seed":
         if table != "grid":
             raise SweepError(f"{src}: {table}.seed: give the sweep's seed as sweep.seed")
@@ -266,9 +274,15 @@ def _check_option(src: str, where: str, name: str, value: Any) -> None:
         check_range(f"option: --{name}", value, f"{src}: {where}", SweepError)
 
 
-def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = ".",
-                text: str = "", set_: tuple[str, ...] = (), *,
-                allow_code: bool | None = None) -> SweepSpec:
+def parse_sweep(
+    data: Mapping[str, Any],
+    source: str,
+    base_dir: str | Path = ".",
+    text: str = "",
+    set_: tuple[str, ...] = (),
+    *,
+    allow_code: bool | None = None,
+) -> SweepSpec:
     """Validate a parsed sweep file; ``base_dir`` is where a relative ``base`` is found;
     ``set_``: ``KEY=VALUE`` changes of the base file at every point (the command line's
     ``--set``, applied over ``[sweep.set]``).
@@ -284,8 +298,9 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
     return replace(spec, allow_code=allow) if allow else spec
 
 
-def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str,
-                 set_: tuple[str, ...]) -> SweepSpec:
+def _parse_sweep(
+    data: Mapping[str, Any], source: str, base_dir: Path, text: str, set_: tuple[str, ...]
+) -> SweepSpec:
     src = source
     from rtsim.config.load import validate
     from rtsim.config.sweep import SweepFile, sweep_special
@@ -294,13 +309,17 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
     sw = model.sweep
     kind = sw.kind
     if not KINDS.contains(kind):
-        raise SweepError(f"{src}: sweep.kind: unknown kind {kind!r} (one of "
-                         f"{', '.join(KINDS)}){did_you_mean(kind, tuple(KINDS))}")
+        raise SweepError(
+            f"{src}: sweep.kind: unknown kind {kind!r} (one of "
+            f"{', '.join(KINDS)}){did_you_mean(kind, tuple(KINDS))}"
+        )
     seed, combine, function = sw.seed, sw.combine, sw.function
     if kind == "call":
         if function is None or function.count(":") != 1:
-            raise SweepError(f"{src}: sweep.function: kind 'call' needs "
-                             f"'package.module:function', got {function!r}")
+            raise SweepError(
+                f"{src}: sweep.function: kind 'call' needs "
+                f"'package.module:function', got {function!r}"
+            )
         from rtsim.registry import load_code
 
         try:
@@ -322,7 +341,8 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
                 raise SweepError(
                     f"{src}: sweep.metrics: unknown metric {m!r} for kind '{kind}' "
                     f"(known: {', '.join(kspec.metrics)})"
-                    f"{did_you_mean(m, kspec.metrics)}")
+                    f"{did_you_mean(m, kspec.metrics)}"
+                )
     name = sw.name
 
     base = _load_base(src, kind, sw.base, Path(base_dir))
@@ -367,14 +387,29 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
         if req not in options and req not in swept_options:
             raise SweepError(f"{src}: sweep.options.{req}: required for kind '{kind}'")
     return SweepSpec(
-        source=src, text=text, kind=kind, base=base, seed=seed, combine=combine, grid=grid,
-        targets=targets, options=dict(options), metrics=metrics, function=function, name=name,
-        fixed=fixed, set_args=tuple(set_),
+        source=src,
+        text=text,
+        kind=kind,
+        base=base,
+        seed=seed,
+        combine=combine,
+        grid=grid,
+        targets=targets,
+        options=dict(options),
+        metrics=metrics,
+        function=function,
+        name=name,
+        fixed=fixed,
+        set_args=tuple(set_),
     )
 
 
-def load_sweep(path: str | os.PathLike[str], set_: list[str] | tuple[str, ...] = (), *,
-               allow_code: bool | None = None) -> SweepSpec:
+def load_sweep(
+    path: str | os.PathLike[str],
+    set_: list[str] | tuple[str, ...] = (),
+    *,
+    allow_code: bool | None = None,
+) -> SweepSpec:
     """Read and validate a sweep file; ``set_``: ``KEY=VALUE`` changes of the base file at
     every point (the command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``:
     as :func:`parse_sweep`."""
@@ -388,8 +423,9 @@ def load_sweep(path: str | os.PathLike[str], set_: list[str] | tuple[str, ...] =
             data = tomllib.loads(shipped)
         except tomllib.TOMLDecodeError as exc:  # pragma: no cover - shipped files are valid
             raise SweepError(f"{p}: not valid TOML: {exc}") from None
-        return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped, set_,
-                           allow_code=allow_code)
+        return parse_sweep(
+            data, f"{p}.toml (packaged)", Path.cwd(), shipped, set_, allow_code=allow_code
+        )
     from rtsim.io.limits import read_input
 
     try:
@@ -398,10 +434,11 @@ def load_sweep(path: str | os.PathLike[str], set_: list[str] | tuple[str, ...] =
         raise SweepError(f"{p}: cannot read sweep file: {exc}") from None
     try:
         data = tomllib.loads(text)
-        return parse_sweep(data, str(p), p.resolve().parent, text, set_,
-                           allow_code=allow_code)
+        return parse_sweep(data, str(p), p.resolve().parent, text, set_, allow_code=allow_code)
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{p}: not valid TOML: {exc}") from None
     except RecursionError:
-        raise SweepError(f"{p}: nested too deeply to read (tables or arrays within each other "
-                         f"hundreds of levels deep)") from None
+        raise SweepError(
+            f"{p}: nested too deeply to read (tables or arrays within each other "
+            f"hundreds of levels deep)"
+        ) from None

@@ -56,8 +56,9 @@ def value_type(v: Any) -> str | None:
     return "text"
 
 
-def build_table(order: Sequence[Any], record: Callable[[Any], Mapping[str, Any]],
-                param_cols: Sequence[str]) -> pd.DataFrame:
+def build_table(
+    order: Sequence[Any], record: Callable[[Any], Mapping[str, Any]], param_cols: Sequence[str]
+) -> pd.DataFrame:
     """The results table: one row per point of ``order`` (objects with ``params`` and
     ``seed``), ``record(point)`` its finished record. See the module docstring."""
     import pandas as pd
@@ -76,8 +77,10 @@ def build_table(order: Sequence[Any], record: Callable[[Any], Mapping[str, Any]]
         for k, v in metrics.items():
             col = f"metric.{k}" if k in params else k
             if col in named or col in params or col in ("seed", "status", "error"):
-                error = (f"ValueError: metric '{k}' clashes with another column "
-                         f"'{col}' of the results table")
+                error = (
+                    f"ValueError: metric '{k}' clashes with another column "
+                    f"'{col}' of the results table"
+                )
                 break
             named[col] = v
         if not error:
@@ -85,8 +88,10 @@ def build_table(order: Sequence[Any], record: Callable[[Any], Mapping[str, Any]]
                 t = value_type(v)
                 seen = col_type.get(col)
                 if t is not None and seen is not None and seen[0] != t:
-                    error = (f"TypeError: metric '{col}' is {t} ({v!r}) but {seen[0]} at point "
-                             f"{seen[1]} (one type per results column)")
+                    error = (
+                        f"TypeError: metric '{col}' is {t} ({v!r}) but {seen[0]} at point "
+                        f"{seen[1]} (one type per results column)"
+                    )
                     break
         if error:
             row.update(status="failed", error=error)

@@ -122,8 +122,9 @@ class BeamCounts:
         return int((self.total > limit + 1e-9).sum())
 
 
-def count_window_beams(window: WindowSpec, w: float, windows: int, rng: np.random.Generator,
-                       config: Any = None) -> BeamCounts:
+def count_window_beams(
+    window: WindowSpec, w: float, windows: int, rng: np.random.Generator, config: Any = None
+) -> BeamCounts:
     """Run the world ``config`` (default: :func:`world_config` of :class:`Test1`, n from
     ``window``) for ``windows`` windows of fixed length ``w`` (module doc)."""
     from rtsim.world import World

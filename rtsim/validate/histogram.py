@@ -43,8 +43,15 @@ from rtsim.model.taskset import TaskSet
 #: Resolution (dots per inch) of the PNG histograms.
 DPI = 100
 
-__all__ = ["JobSource", "from_simulation", "from_scenario_dir", "from_sweep_point",
-           "histogram_table", "write_histograms", "HISTOGRAM_COLUMNS"]
+__all__ = [
+    "JobSource",
+    "from_simulation",
+    "from_scenario_dir",
+    "from_sweep_point",
+    "histogram_table",
+    "write_histograms",
+    "HISTOGRAM_COLUMNS",
+]
 
 HISTOGRAM_COLUMNS: tuple[str, ...] = ("task", "bin", "lo", "hi", "count")
 _JOB_COLS = ("task", "response")
@@ -67,10 +74,15 @@ def from_simulation(ts: TaskSet, horizon: float, **simulate_kwargs: Any) -> JobS
     res = simulate(ts, horizon, **simulate_kwargs)
     assert res.jobs is not None  # (record_jobs)
     w = res.window["w"] if res.window and "w" in res.window else None
-    info = {"source": "simulation", "horizon": horizon, "window": res.window,
-            **{k: v for k, v in simulate_kwargs.items() if isinstance(v, str | int | float)}}
-    return JobSource(res.jobs, task_bounds(ts, w) if ts.window is not None else task_bounds(ts),
-                     info)
+    info = {
+        "source": "simulation",
+        "horizon": horizon,
+        "window": res.window,
+        **{k: v for k, v in simulate_kwargs.items() if isinstance(v, str | int | float)},
+    }
+    return JobSource(
+        res.jobs, task_bounds(ts, w) if ts.window is not None else task_bounds(ts), info
+    )
 
 
 def _read_json(path: Path) -> dict[str, Any]:
@@ -111,9 +123,14 @@ def _scenario_followers(directory: Path) -> int | None:
     return max(nums) if nums else None
 
 
-def from_scenario_dir(directory: str | os.PathLike[str], ts: TaskSet | None = None, *,
-                      n: int | None = None, r_H: float | None = None,
-                      w: float | None = None) -> JobSource:
+def from_scenario_dir(
+    directory: str | os.PathLike[str],
+    ts: TaskSet | None = None,
+    *,
+    n: int | None = None,
+    r_H: float | None = None,
+    w: float | None = None,
+) -> JobSource:
     """The jobs of a scenario output directory; bounds from ``ts`` (default: the scenario's
     task set, from the scenario text in the directory's ``manifest.json``; else the packaged
     paper set) at n (default: the followers in ``windows.csv``), r_H and w (default:
@@ -121,8 +138,9 @@ def from_scenario_dir(directory: str | os.PathLike[str], ts: TaskSet | None = No
     d = Path(directory)
     path = next((p for p in (d / "jobs.csv", d / "jobs.parquet") if p.exists()), None)
     if path is None:
-        raise InputError(f"{d}: no jobs.csv or jobs.parquet (the job table of rtsim scenario "
-                         f"--out DIR)")
+        raise InputError(
+            f"{d}: no jobs.csv or jobs.parquet (the job table of rtsim scenario --out DIR)"
+        )
     try:
         jobs = pd.read_csv(path) if path.suffix == ".csv" else pd.read_parquet(path)
     except (OSError, ValueError) as exc:
@@ -143,8 +161,9 @@ def from_scenario_dir(directory: str | os.PathLike[str], ts: TaskSet | None = No
         v = _read_json(d / "summary.json").get("w_sch")
         w = float(v) if isinstance(v, int | float) and math.isfinite(v) else None
     bounds = task_bounds(ts, w) if ts.window is not None else task_bounds(ts)
-    return JobSource(jobs, bounds, {"source": "scenario", "dir": str(d), "w": w,
-                                    "n": changes.get("n")})
+    return JobSource(
+        jobs, bounds, {"source": "scenario", "dir": str(d), "w": w, "n": changes.get("n")}
+    )
 
 
 def from_sweep_point(directory: str | os.PathLike[str], index: int) -> JobSource:
@@ -166,24 +185,37 @@ def from_sweep_point(directory: str | os.PathLike[str], index: int) -> JobSource
         raise InputError(f"{d}: not a sweep directory (no manifest.json with the sweep file)")
     spec = parse_sweep(tomllib.loads(text), src, Path(src).resolve().parent, text)
     if fp is not None and spec.fingerprint() != fp:
-        raise InputError(f"{d}: the sweep's base file changed since the sweep ran; "
-                         f"cannot re-run point {index} as it was")
+        raise InputError(
+            f"{d}: the sweep's base file changed since the sweep ran; "
+            f"cannot re-run point {index} as it was"
+        )
     if spec.kind != "simulate":
-        raise InputError(f"{d}: histograms need a 'simulate' sweep, this one is "
-                         f"'{spec.kind}'")
+        raise InputError(f"{d}: histograms need a 'simulate' sweep, this one is '{spec.kind}'")
     pts = points(spec)
     if not 0 <= index < len(pts):
         raise InputError(f"{d}: --point {index} out of range (0..{len(pts) - 1})")
     pin = point_input(spec, pts[index])
     ts = pin.taskset()
     o = pin.options
-    kwargs: dict[str, Any] = {"seed": pin.seed, "exec_model": o.get("exec", "wcet"),
-                              "suspension": o.get("suspension", "cpu")}
+    kwargs: dict[str, Any] = {
+        "seed": pin.seed,
+        "exec_model": o.get("exec", "wcet"),
+        "suspension": o.get("suspension", "cpu"),
+    }
     if o.get("window") is not None:
         kwargs["window"] = float(o["window"])
     src_ = from_simulation(ts, float(o["horizon"]), **kwargs)
-    return JobSource(src_.jobs, src_.bounds, {**src_.info, "source": "sweep", "dir": str(d),
-                                              "point": index, "params": dict(pts[index].params)})
+    return JobSource(
+        src_.jobs,
+        src_.bounds,
+        {
+            **src_.info,
+            "source": "sweep",
+            "dir": str(d),
+            "point": index,
+            "params": dict(pts[index].params),
+        },
+    )
 
 
 def _edges(values: np.ndarray, bins: int, extra: Sequence[float] = ()) -> np.ndarray:
@@ -199,8 +231,9 @@ def _edges(values: np.ndarray, bins: int, extra: Sequence[float] = ()) -> np.nda
     return np.histogram_bin_edges(values, bins=bins, range=(lo, hi))
 
 
-def histogram_table(jobs: pd.DataFrame, bins: int = 50,
-                    bounds: Mapping[str, TaskBounds] | None = None) -> pd.DataFrame:
+def histogram_table(
+    jobs: pd.DataFrame, bins: int = 50, bounds: Mapping[str, TaskBounds] | None = None
+) -> pd.DataFrame:
     """Per-task histogram of the finite response times: task, bin, lo, hi, count.
 
     Bins span from the least response to the largest response or bound line of the task."""
@@ -212,8 +245,9 @@ def histogram_table(jobs: pd.DataFrame, bins: int = 50,
         extra = [x for x in b.lines().values() if x is not None] if b is not None else []
         edges = _edges(v, bins, extra)
         counts, _ = np.histogram(v, bins=edges)
-        rows += [(task, i, float(edges[i]), float(edges[i + 1]), int(c))
-                 for i, c in enumerate(counts)]
+        rows += [
+            (task, i, float(edges[i]), float(edges[i + 1]), int(c)) for i, c in enumerate(counts)
+        ]
     return pd.DataFrame(rows, columns=list(HISTOGRAM_COLUMNS))
 
 
@@ -229,9 +263,18 @@ def _safe(name: str) -> str:
     return f"{safe}-{hashlib.sha256(name.encode('utf-8')).hexdigest()[:8]}"
 
 
-def write_histograms(source: JobSource, out_dir: str | os.PathLike[str], *, bins: int = 50,
-                     suffix: str = "", title: str = "", argv: Sequence[str] | None = None,
-                     manifest: bool = True, fmt: str = "png", dpi: int = DPI) -> list[Path]:
+def write_histograms(
+    source: JobSource,
+    out_dir: str | os.PathLike[str],
+    *,
+    bins: int = 50,
+    suffix: str = "",
+    title: str = "",
+    argv: Sequence[str] | None = None,
+    manifest: bool = True,
+    fmt: str = "png",
+    dpi: int = DPI,
+) -> list[Path]:
     """Write the figures (``fmt``: png, svg or pdf; ``dpi`` for PNG), ``histogram<suffix>.csv``,
     ``bounds<suffix>.csv`` (and manifest.json) into ``out_dir``; return the paths written
     (module doc)."""
@@ -260,15 +303,21 @@ def write_histograms(source: JobSource, out_dir: str | os.PathLike[str], *, bins
         if b is not None and b.w is not None and b.per_window | b.is_window:
             name += f" (bounds at w = {b.w:.6g} ms)"
         fig = response_histogram(vals, lines=lines, bins=list(edges), title=name)
-        written.append(save_figure(fig, out / f"histogram{suffix}-{_safe(task)}.{fmt}",
-                                   dpi=dpi, fmt=fmt))
+        written.append(
+            save_figure(fig, out / f"histogram{suffix}-{_safe(task)}.{fmt}", dpi=dpi, fmt=fmt)
+        )
     csv = out / f"histogram{suffix}.csv"
     write_table(csv, table)
     bcsv = out / f"bounds{suffix}.csv"
     write_table(bcsv, pd.DataFrame(brows, columns=["task", "line", "value"]))
     written += [csv, bcsv]
     if manifest:
-        write_manifest(out, command="histogram", seed=source.info.get("seed"),  # type: ignore[arg-type]
-                       inputs=dict(source.info), argv=None if argv is None else list(argv),
-                       extra={"outputs": [p.name for p in written]})
+        write_manifest(
+            out,
+            command="histogram",
+            seed=source.info.get("seed"),  # type: ignore[arg-type]
+            inputs=dict(source.info),
+            argv=None if argv is None else list(argv),
+            extra={"outputs": [p.name for p in written]},
+        )
     return written

@@ -40,8 +40,17 @@ from rtsim.notebook import ResultDisplay, flatten
 #: Resolution (dots per inch) of the PNG figures.
 DPI = 100
 
-__all__ = ["ValidationConfig", "QUICK", "FULL", "DEFAULT_SCENARIO", "ValidationOutcome",
-           "run_validation", "paper_sweep_spec", "random_sweep_spec", "scheduler_table"]
+__all__ = [
+    "ValidationConfig",
+    "QUICK",
+    "FULL",
+    "DEFAULT_SCENARIO",
+    "ValidationOutcome",
+    "run_validation",
+    "paper_sweep_spec",
+    "random_sweep_spec",
+    "scheduler_table",
+]
 
 
 @dataclass(frozen=True)
@@ -78,8 +87,16 @@ class ValidationConfig:
 DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "experiments" / "scenarios" / "test1.toml"
 
 FULL = ValidationConfig()
-QUICK = ValidationConfig(n=(1, 2, 4), r_H=(10.0, 30.0), windows=100, scan=6, random_sets=3,
-                         hyperperiods=5, name="quick", histogram_configs=1)
+QUICK = ValidationConfig(
+    n=(1, 2, 4),
+    r_H=(10.0, 30.0),
+    windows=100,
+    scan=6,
+    random_sets=3,
+    hyperperiods=5,
+    name="quick",
+    histogram_configs=1,
+)
 
 
 @dataclass(frozen=True, repr=False)
@@ -100,10 +117,14 @@ class ValidationOutcome(ResultDisplay):
 
     def headline(self) -> dict[str, Any]:
         """Verdict, size and where the report is (the short ``repr``)."""
-        return {"ok": self.ok, "rows": len(self.table),
-                "failures": sum(f.severity == "failure" for f in self.failures),
-                "warnings": sum(f.severity != "failure" for f in self.failures),
-                "point_errors": len(self.point_errors), "out_dir": str(self.out_dir)}
+        return {
+            "ok": self.ok,
+            "rows": len(self.table),
+            "failures": sum(f.severity == "failure" for f in self.failures),
+            "warnings": sum(f.severity != "failure" for f in self.failures),
+            "point_errors": len(self.point_errors),
+            "out_dir": str(self.out_dir),
+        }
 
     def summary_frame(self) -> pd.DataFrame:
         """summary.json as one row (nested keys dotted)."""
@@ -131,8 +152,9 @@ def _taskset_options(cfg: ValidationConfig) -> dict[str, Any]:
     if ts.window is None:
         from rtsim.errors import TaskSetError
 
-        raise TaskSetError(f"{cfg.taskset_path}: has no [window]; validate needs a "
-                           f"processing-window set")
+        raise TaskSetError(
+            f"{cfg.taskset_path}: has no [window]; validate needs a processing-window set"
+        )
     text = Path(cfg.taskset_path).read_text("utf-8")
     return {**opts, "taskset_text": text, "taskset_source": str(cfg.taskset_path)}
 
@@ -141,11 +163,17 @@ def paper_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: paper
     """The sweep spec of the paper grid (kind ``call``)."""
     from rtsim.sweep.spec import parse_sweep
 
-    options = {"windows": cfg.windows, "scan": cfg.scan, "tol": cfg.tol,
-               **_taskset_options(cfg)}
-    data = {"sweep": {"kind": "call", "function": "rtsim.validate.points:paper_point",
-                      "seed": cfg.seed, "options": options, "name": f"validate-{cfg.name}"},
-            "grid": {"n": [int(k) for k in cfg.n], "r_H": [float(r) for r in cfg.r_H]}}
+    options = {"windows": cfg.windows, "scan": cfg.scan, "tol": cfg.tol, **_taskset_options(cfg)}
+    data = {
+        "sweep": {
+            "kind": "call",
+            "function": "rtsim.validate.points:paper_point",
+            "seed": cfg.seed,
+            "options": options,
+            "name": f"validate-{cfg.name}",
+        },
+        "grid": {"n": [int(k) for k in cfg.n], "r_H": [float(r) for r in cfg.r_H]},
+    }
     return parse_sweep(data, source, allow_code=True)  # rtsim's own function, not a file's
 
 
@@ -153,19 +181,35 @@ def random_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: rand
     """The sweep spec of the random sets (kind ``call``)."""
     from rtsim.sweep.spec import parse_sweep
 
-    data = {"sweep": {"kind": "call", "function": "rtsim.validate.points:random_point",
-                      "seed": cfg.seed, "options": {"hyperperiods": cfg.hyperperiods},
-                      "name": f"validate-random-{cfg.name}"},
-            "grid": {"set": list(range(cfg.random_sets))}}
+    data = {
+        "sweep": {
+            "kind": "call",
+            "function": "rtsim.validate.points:random_point",
+            "seed": cfg.seed,
+            "options": {"hyperperiods": cfg.hyperperiods},
+            "name": f"validate-random-{cfg.name}",
+        },
+        "grid": {"set": list(range(cfg.random_sets))},
+    }
     return parse_sweep(data, source, allow_code=True)  # rtsim's own function, not a file's
 
 
-def _run(spec: Any, out: Path, workers: int | None, dask: Any, progress: bool | None,
-         restart: bool, argv: Sequence[str] | None) -> pd.DataFrame:
+def _run(
+    spec: Any,
+    out: Path,
+    workers: int | None,
+    dask: Any,
+    progress: bool | None,
+    restart: bool,
+    argv: Sequence[str] | None,
+) -> pd.DataFrame:
     from rtsim.sweep.engine import Sweep
 
-    return Sweep(spec, out).run(workers=workers, dask=dask, progress=progress, restart=restart,
-                                argv=argv).table
+    return (
+        Sweep(spec, out)
+        .run(workers=workers, dask=dask, progress=progress, restart=restart, argv=argv)
+        .table
+    )
 
 
 def _histogram_configs(table: pd.DataFrame, k: int) -> list[tuple[int, float, int]]:
@@ -187,8 +231,9 @@ def _histogram_configs(table: pd.DataFrame, k: int) -> list[tuple[int, float, in
     return out
 
 
-def _histograms(cfg: ValidationConfig, table: pd.DataFrame, out: Path, fmt: str = "png",
-                dpi: int = DPI) -> list[Path]:
+def _histograms(
+    cfg: ValidationConfig, table: pd.DataFrame, out: Path, fmt: str = "png", dpi: int = DPI
+) -> list[Path]:
     """Re-run the chosen configurations at w_sch (same seeds) and draw their histograms."""
     from rtsim.analysis.bounds import w_sch_of
     from rtsim.analysis.validation import task_bounds
@@ -208,23 +253,45 @@ def _histograms(cfg: ValidationConfig, table: pd.DataFrame, out: Path, fmt: str 
         d = out / "histograms" / f"n{n}-rH{r_H:g}"
         for mode in PAPER_MODES:
             res = simulate_mode(ts, mode, w, cfg.windows, hough, record_jobs=True)
-            src = JobSource(res.jobs, bounds, {"source": "validate", "n": n, "r_H": r_H,
-                                               "w": w, "mode": mode, "seed": seed,
-                                               "windows": cfg.windows})
-            written += write_histograms(src, d, suffix=f"-{mode}",
-                                        title=f"n={n}, r_H={r_H:g} cm, w=w_sch, {mode}",
-                                        manifest=False, fmt=fmt, dpi=dpi)
+            src = JobSource(
+                res.jobs,
+                bounds,
+                {
+                    "source": "validate",
+                    "n": n,
+                    "r_H": r_H,
+                    "w": w,
+                    "mode": mode,
+                    "seed": seed,
+                    "windows": cfg.windows,
+                },
+            )
+            written += write_histograms(
+                src,
+                d,
+                suffix=f"-{mode}",
+                title=f"n={n}, r_H={r_H:g} cm, w=w_sch, {mode}",
+                manifest=False,
+                fmt=fmt,
+                dpi=dpi,
+            )
         from rtsim.io.manifest import write_manifest
 
-        write_manifest(d, command="validate histograms", seed=seed,
-                       inputs={"n": n, "r_H": r_H, "w": w, "windows": cfg.windows,
-                               "modes": list(PAPER_MODES)},
-                       extra={"outputs": sorted(p.name for p in written if p.parent == d)})
+        write_manifest(
+            d,
+            command="validate histograms",
+            seed=seed,
+            inputs={"n": n, "r_H": r_H, "w": w, "windows": cfg.windows, "modes": list(PAPER_MODES)},
+            extra={"outputs": sorted(p.name for p in written if p.parent == d)},
+        )
     return written
 
 
-def scheduler_table(cfg: ValidationConfig, n: Sequence[int] = tuple(range(1, 11)),
-                    r_H: Sequence[float] = (10.0, 20.0, 30.0, 40.0, 50.0)) -> pd.DataFrame:
+def scheduler_table(
+    cfg: ValidationConfig,
+    n: Sequence[int] = tuple(range(1, 11)),
+    r_H: Sequence[float] = (10.0, 20.0, 30.0, 40.0, 50.0),
+) -> pd.DataFrame:
     """The analytic table of the task set's window bounds under both schedulers: n, r_H,
     w_sch, w_rta (fixed priority), w_edf (EDF), and the gains w_rta/w_sch and w_edf/w_rta
     (all with Δt counted as CPU time; whatever the run's grid)."""
@@ -237,13 +304,27 @@ def scheduler_table(cfg: ValidationConfig, n: Sequence[int] = tuple(range(1, 11)
         for k in n:
             ts = paper_taskset(opts, k, r)
             sch, rta, edf = w_sch_of(ts), w_rta(ts), w_edf(ts)
-            rows.append({"n": k, "r_H": float(r), "w_sch": sch, "w_rta": rta, "w_edf": edf,
-                         "w_rta_over_w_sch": rta / sch, "w_edf_over_w_rta": edf / rta})
+            rows.append(
+                {
+                    "n": k,
+                    "r_H": float(r),
+                    "w_sch": sch,
+                    "w_rta": rta,
+                    "w_edf": edf,
+                    "w_rta_over_w_sch": rta / sch,
+                    "w_edf_over_w_rta": edf / rta,
+                }
+            )
     return pd.DataFrame(rows)
 
 
-def _figures(table: pd.DataFrame, out: Path, sched: pd.DataFrame | None = None,
-             fmt: str = "png", dpi: int = DPI) -> list[Path]:
+def _figures(
+    table: pd.DataFrame,
+    out: Path,
+    sched: pd.DataFrame | None = None,
+    fmt: str = "png",
+    dpi: int = DPI,
+) -> list[Path]:
     from rtsim.io.atomic import write_table
     from rtsim.plots.scenario import save_figure
     from rtsim.plots.validation import (
@@ -257,32 +338,59 @@ def _figures(table: pd.DataFrame, out: Path, sched: pd.DataFrame | None = None,
     figs = out / "figures"
     written: list[Path] = []
     if (table["source"] == "paper").any():
-        jobs = [("bounds_vs_n", bounds_vs_n(table), bounds_vs_n_data(table)),
-                ("pessimism_wsch", pessimism_heatmap(table, "w_sch_over_w_sim"),
-                 pessimism_data(table, "w_sch_over_w_sim")),
-                ("pessimism_wrta", pessimism_heatmap(table, "w_rta_over_w_sim"),
-                 pessimism_data(table, "w_rta_over_w_sim"))]
+        jobs = [
+            ("bounds_vs_n", bounds_vs_n(table), bounds_vs_n_data(table)),
+            (
+                "pessimism_wsch",
+                pessimism_heatmap(table, "w_sch_over_w_sim"),
+                pessimism_data(table, "w_sch_over_w_sim"),
+            ),
+            (
+                "pessimism_wrta",
+                pessimism_heatmap(table, "w_rta_over_w_sim"),
+                pessimism_data(table, "w_rta_over_w_sim"),
+            ),
+        ]
         for name, fig, data in jobs:
             written.append(save_figure(fig, figs / f"{name}.{fmt}", dpi=dpi, fmt=fmt))
             write_table(figs / f"{name}.csv", data)
             written.append(figs / f"{name}.csv")
     if sched is not None:
-        written.append(save_figure(scheduler_bounds(sched), figs / f"scheduler_bounds.{fmt}",
-                                   dpi=dpi, fmt=fmt))
+        written.append(
+            save_figure(scheduler_bounds(sched), figs / f"scheduler_bounds.{fmt}", dpi=dpi, fmt=fmt)
+        )
         write_table(figs / "scheduler_bounds.csv", sched)
         written.append(figs / "scheduler_bounds.csv")
     return written
 
 
 #: What validate makes in its directory (the lock file aside).
-MADE = {"sweeps", "validation.csv", "results.parquet", "failures.csv", "summary.json",
-        "figures", "histograms", "report.md", "report.html", "manifest.json"}
+MADE = {
+    "sweeps",
+    "validation.csv",
+    "results.parquet",
+    "failures.csv",
+    "summary.json",
+    "figures",
+    "histograms",
+    "report.md",
+    "report.html",
+    "manifest.json",
+}
 
 
-def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = FULL, *,
-                   workers: int | None = None, dask: Any = None, progress: bool | None = False,
-                   restart: bool = False, argv: Sequence[str] | None = None,
-                   fig_format: str = "png", dpi: int = DPI) -> ValidationOutcome:
+def run_validation(
+    out_dir: str | os.PathLike[str],
+    config: ValidationConfig = FULL,
+    *,
+    workers: int | None = None,
+    dask: Any = None,
+    progress: bool | None = False,
+    restart: bool = False,
+    argv: Sequence[str] | None = None,
+    fig_format: str = "png",
+    dpi: int = DPI,
+) -> ValidationOutcome:
     """Run (or resume) both sweeps into ``out_dir`` and write the report (module doc).
     ``fig_format``: the figures' file format (png, svg or pdf; ``dpi`` for PNG).
 
@@ -297,14 +405,31 @@ def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = F
     check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"})
     with lock_directory(out_dir, argv):
         check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"})
-        return _run_validation(out_dir, config, workers=workers, dask=dask, progress=progress,
-                               restart=restart, argv=argv, fig_format=fig_format, dpi=dpi)
+        return _run_validation(
+            out_dir,
+            config,
+            workers=workers,
+            dask=dask,
+            progress=progress,
+            restart=restart,
+            argv=argv,
+            fig_format=fig_format,
+            dpi=dpi,
+        )
 
 
-def _run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig, *,
-                    workers: int | None, dask: Any, progress: bool | None, restart: bool,
-                    argv: Sequence[str] | None, fig_format: str = "png",
-                    dpi: int = DPI) -> ValidationOutcome:
+def _run_validation(
+    out_dir: str | os.PathLike[str],
+    config: ValidationConfig,
+    *,
+    workers: int | None,
+    dask: Any,
+    progress: bool | None,
+    restart: bool,
+    argv: Sequence[str] | None,
+    fig_format: str = "png",
+    dpi: int = DPI,
+) -> ValidationOutcome:
     from rtsim.io.atomic import write_json, write_table
     from rtsim.io.manifest import write_manifest
     from rtsim.report import REPORT_NAME, write_run_report
@@ -315,20 +440,44 @@ def _run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig, *
     out.mkdir(parents=True, exist_ok=True)
     inputs = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(config).items()}
     if not (out / "manifest.json").exists():  # claim the directory (see run_validation)
-        write_manifest(out, command="validate", seed=config.seed, inputs=inputs,
-                       argv=None if argv is None else list(argv), extra={"outputs": []})
+        write_manifest(
+            out,
+            command="validate",
+            seed=config.seed,
+            inputs=inputs,
+            argv=None if argv is None else list(argv),
+            extra={"outputs": []},
+        )
     suffix = "" if config.name == "full" else f"-{config.name}"
-    paper = _run(paper_sweep_spec(config), out / "sweeps" / f"paper{suffix}", workers, dask,
-                 progress, restart, argv)
+    paper = _run(
+        paper_sweep_spec(config),
+        out / "sweeps" / f"paper{suffix}",
+        workers,
+        dask,
+        progress,
+        restart,
+        argv,
+    )
     parts = [tidy_paper(paper)]
-    errors = [f"paper n={r['n']}, r_H={r['r_H']}: {r['error']}"
-              for r in paper[paper["status"] == "failed"].to_dict("records")]
+    errors = [
+        f"paper n={r['n']}, r_H={r['r_H']}: {r['error']}"
+        for r in paper[paper["status"] == "failed"].to_dict("records")
+    ]
     if config.random_sets:
-        rnd = _run(random_sweep_spec(config), out / "sweeps" / f"random{suffix}", workers,
-                   dask, progress, restart, argv)
+        rnd = _run(
+            random_sweep_spec(config),
+            out / "sweeps" / f"random{suffix}",
+            workers,
+            dask,
+            progress,
+            restart,
+            argv,
+        )
         parts.append(tidy_random(rnd))
-        errors += [f"random set {r['set']}: {r['error']}"
-                   for r in rnd[rnd["status"] == "failed"].to_dict("records")]
+        errors += [
+            f"random set {r['set']}: {r['error']}"
+            for r in rnd[rnd["status"] == "failed"].to_dict("records")
+        ]
     table = pd.concat([p for p in parts if not p.empty] or [parts[0]], ignore_index=True)
     table = table.reindex(columns=list(COLUMNS))
     failures = check_results(table)
@@ -337,27 +486,41 @@ def _run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig, *
     files: list[Path] = []
     write_table(out / "validation.csv", table)
     write_table(out / "results.parquet", table)
-    fail_df = pd.DataFrame([f.as_dict() for f in failures],
-                           columns=["config", "task", "mode", "check", "value", "bound",
-                                    "severity"])
+    fail_df = pd.DataFrame(
+        [f.as_dict() for f in failures],
+        columns=["config", "task", "mode", "check", "value", "bound", "severity"],
+    )
     write_table(out / "failures.csv", fail_df)
     write_json(out / "summary.json", summary)
-    files += [out / "validation.csv", out / "results.parquet", out / "failures.csv",
-              out / "summary.json"]
+    files += [
+        out / "validation.csv",
+        out / "results.parquet",
+        out / "failures.csv",
+        out / "summary.json",
+    ]
     sched = scheduler_table(config)
     files += _figures(table, out, sched, fig_format, dpi)
     files += _histograms(config, table, out, fig_format, dpi)
     outcome = ValidationOutcome(table, failures, summary, errors, out, files)
     files.append(write_report(outcome, config, sched))
     html_path = out / REPORT_NAME
-    write_manifest(out, command="validate", seed=config.seed, inputs=inputs,
-                   argv=None if argv is None else list(argv),
-                   extra={"outputs": sorted(str(p.relative_to(out))
-                                            for p in [*files, html_path]),
-                          "ok": outcome.ok})
+    write_manifest(
+        out,
+        command="validate",
+        seed=config.seed,
+        inputs=inputs,
+        argv=None if argv is None else list(argv),
+        extra={
+            "outputs": sorted(str(p.relative_to(out)) for p in [*files, html_path]),
+            "ok": outcome.ok,
+        },
+    )
     # report.html last: it embeds the manifest just written.
-    files.append(write_run_report(out, title=f"rtsim validate: {out.name}",
-                                  extra_html=_report_md_html(out / "report.md")))
+    files.append(
+        write_run_report(
+            out, title=f"rtsim validate: {out.name}", extra_html=_report_md_html(out / "report.md")
+        )
+    )
     return replace(outcome, files=files)
 
 

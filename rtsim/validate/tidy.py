@@ -37,16 +37,53 @@ import pandas as pd
 __all__ = ["COLUMNS", "tidy_paper", "tidy_random"]
 
 COLUMNS: tuple[str, ...] = (
-    "source", "config", "n", "r_H", "set", "seed", "mode", "task",
-    "w_eq7", "w_eq11", "w_sch", "w_rta", "g", "wcrt", "deadline",
-    "sim_max", "p50", "p99", "p999", "jobs", "misses",
-    "w_sim", "evaluations", "nonmonotone",
-    "w_sch_over_w_sim", "w_rta_over_w_sim", "wcrt_over_sim_max",
-    "points_min", "points_max", "points_mean", "points_wcet", "tracks_lost",
-    "tracks_lost_sensor", "beyond_wcet", "assumption_ok",
-    "w_susp", "w_susp_over_w_sim", "rho_min", "k_geo", "w_susp_geo", "w_geo_over_w_sim",
-    "beyond_geo", "geo_assumption_ok", "wcrt_susp", "wcrt_susp_over_sim_max",
-    "w_edf", "w_edf_over_w_sim",
+    "source",
+    "config",
+    "n",
+    "r_H",
+    "set",
+    "seed",
+    "mode",
+    "task",
+    "w_eq7",
+    "w_eq11",
+    "w_sch",
+    "w_rta",
+    "g",
+    "wcrt",
+    "deadline",
+    "sim_max",
+    "p50",
+    "p99",
+    "p999",
+    "jobs",
+    "misses",
+    "w_sim",
+    "evaluations",
+    "nonmonotone",
+    "w_sch_over_w_sim",
+    "w_rta_over_w_sim",
+    "wcrt_over_sim_max",
+    "points_min",
+    "points_max",
+    "points_mean",
+    "points_wcet",
+    "tracks_lost",
+    "tracks_lost_sensor",
+    "beyond_wcet",
+    "assumption_ok",
+    "w_susp",
+    "w_susp_over_w_sim",
+    "rho_min",
+    "k_geo",
+    "w_susp_geo",
+    "w_geo_over_w_sim",
+    "beyond_geo",
+    "geo_assumption_ok",
+    "wcrt_susp",
+    "wcrt_susp_over_sim_max",
+    "w_edf",
+    "w_edf_over_w_sim",
 )
 _PER_TASK = ("sim_max", "p50", "p99", "p999", "jobs", "misses")
 
@@ -69,8 +106,12 @@ def _rows(row: Mapping[Any, Any], modes: tuple[str, ...], base: dict[str, Any]) 
         for task in _tasks(row):
             r = dict(base)
             wcrt_key = f"wcrt_edf.{task}" if mode == "edf-cpu" else f"wcrt.{task}"
-            r.update(mode=mode, task=task, wcrt=row.get(wcrt_key, math.nan),
-                     deadline=row.get(f"deadline.{task}", math.nan))
+            r.update(
+                mode=mode,
+                task=task,
+                wcrt=row.get(wcrt_key, math.nan),
+                deadline=row.get(f"deadline.{task}", math.nan),
+            )
             for m in _PER_TASK:
                 r[m] = row.get(f"{m}.{mode}.{task}", math.nan)
             for m in ("w_sim", "evaluations", "nonmonotone"):
@@ -104,13 +145,39 @@ def tidy_paper(results: pd.DataFrame) -> pd.DataFrame:
 
     rows: list[dict[str, Any]] = []
     for row in results[results["status"] == "ok"].to_dict("records"):
-        base = {k: row.get(k, math.nan) for k in (
-            "w_eq7", "w_eq11", "w_sch", "w_rta", "g", "points_min", "points_max",
-            "points_mean", "points_wcet", "tracks_lost", "tracks_lost_sensor", "beyond_wcet",
-            "w_susp", "rho_min", "k_geo", "w_susp_geo", "beyond_geo", "w_edf")}
-        base.update(source="paper", config=f"n={int(row['n'])},r_H={float(row['r_H']):g}",
-                    n=int(row["n"]), r_H=float(row["r_H"]), set=math.nan, seed=row["seed"],
-                    assumption_ok=True, geo_assumption_ok=True)
+        base = {
+            k: row.get(k, math.nan)
+            for k in (
+                "w_eq7",
+                "w_eq11",
+                "w_sch",
+                "w_rta",
+                "g",
+                "points_min",
+                "points_max",
+                "points_mean",
+                "points_wcet",
+                "tracks_lost",
+                "tracks_lost_sensor",
+                "beyond_wcet",
+                "w_susp",
+                "rho_min",
+                "k_geo",
+                "w_susp_geo",
+                "beyond_geo",
+                "w_edf",
+            )
+        }
+        base.update(
+            source="paper",
+            config=f"n={int(row['n'])},r_H={float(row['r_H']):g}",
+            n=int(row["n"]),
+            r_H=float(row["r_H"]),
+            set=math.nan,
+            seed=row["seed"],
+            assumption_ok=True,
+            geo_assumption_ok=True,
+        )
         rows += _rows(row, PAPER_MODES, base)
     return _frame(rows)
 
@@ -121,8 +188,15 @@ def tidy_random(results: pd.DataFrame) -> pd.DataFrame:
 
     rows: list[dict[str, Any]] = []
     for row in results[results["status"] == "ok"].to_dict("records"):
-        base = {"source": "random", "config": f"random-{int(row['set'])}", "n": math.nan,
-                "r_H": math.nan, "set": int(row["set"]), "seed": row["seed"],
-                "assumption_ok": True, "geo_assumption_ok": True}
+        base = {
+            "source": "random",
+            "config": f"random-{int(row['set'])}",
+            "n": math.nan,
+            "r_H": math.nan,
+            "set": int(row["set"]),
+            "seed": row["seed"],
+            "assumption_ok": True,
+            "geo_assumption_ok": True,
+        }
         rows += _rows(row, RANDOM_MODES, base)
     return _frame(rows)

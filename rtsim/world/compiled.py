@@ -35,16 +35,23 @@ from rtsim.world.ftl import TraceFollower
 from rtsim.world.kernels import available, kernels
 from rtsim.world.path import LeaderPath
 
-__all__ = ["CompiledFollowerEKF", "CompiledFollowerGroup", "CompiledTraceFollower",
-           "available", "kernels"]
+__all__ = [
+    "CompiledFollowerEKF",
+    "CompiledFollowerGroup",
+    "CompiledTraceFollower",
+    "available",
+    "kernels",
+]
 
 # -- the classes the compiled backend builds -------------------------------------------------
+
 
 class CompiledFollowerGroup(FollowerGroup):
     """:class:`FollowerGroup` whose :meth:`advance` runs compiled."""
 
-    def __init__(self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams,
-                 t_ms: float = 0.0) -> None:
+    def __init__(
+        self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
+    ) -> None:
         super().__init__(x, y, th, v, params, t_ms)
         self._advance_kernel = kernels().advance_follower
 
@@ -53,8 +60,18 @@ class CompiledFollowerGroup(FollowerGroup):
         if t_ms <= t0:
             return
         (self.x[k], self.y[k], self.th[k], self.v[k], self.odometer[k]) = self._advance_kernel(
-            self.x[k], self.y[k], self.th[k], self.v[k], self.cmd_v[k], self.cmd_w[k],
-            self.p.max_accel, self.odometer[k], t0, t_ms, step_ms)
+            self.x[k],
+            self.y[k],
+            self.th[k],
+            self.v[k],
+            self.cmd_v[k],
+            self.cmd_w[k],
+            self.p.max_accel,
+            self.odometer[k],
+            t0,
+            t_ms,
+            step_ms,
+        )
         self.t[k] = t_ms
 
 
@@ -73,14 +90,30 @@ class CompiledFollowerEKF(FastFollowerEKF):
         x = self.x
         (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._p
         x[0], x[1], x[2], n00, n01, n02, n11, n12, n22 = self._predict_kernel(
-            x[0], x[1], x[2], p00, p01, p02, p11, p12, p22, v, w, dt, *self._noise)
+            x[0], x[1], x[2], p00, p01, p02, p11, p12, p22, v, w, dt, *self._noise
+        )
         self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
 
     def update(self, z: tuple[float, float]) -> None:
         x = self.x
         (p00, p01, p02), (p10, p11, p12), (p20, p21, p22) = self._p
-        r = self._update_kernel(x[0], x[1], x[2], p00, p01, p02, p10, p11, p12, p20, p21, p22,
-                                self.r, float(z[0]), float(z[1]))
+        r = self._update_kernel(
+            x[0],
+            x[1],
+            x[2],
+            p00,
+            p01,
+            p02,
+            p10,
+            p11,
+            p12,
+            p20,
+            p21,
+            p22,
+            self.r,
+            float(z[0]),
+            float(z[1]),
+        )
         x[0], x[1], x[2] = r[0], r[1], r[2]
         self._p = [[r[3], r[4], r[5]], [r[6], r[7], r[8]], [r[9], r[10], r[11]]]
 
@@ -89,8 +122,9 @@ class CompiledTraceFollower(TraceFollower):
     """:class:`TraceFollower` whose :meth:`command` runs compiled (the Python one when the
     kernel cannot decide a comparison exactly: module docstring)."""
 
-    def __init__(self, path: LeaderPath, rho_d: Any, lateral: Any, gain: float,
-                 lookahead: float) -> None:
+    def __init__(
+        self, path: LeaderPath, rho_d: Any, lateral: Any, gain: float, lookahead: float
+    ) -> None:
         super().__init__(path, rho_d, lateral, gain, lookahead)
         self._s0 = np.array(path._s0, dtype=float)
         self._poses = np.array(path._poses, dtype=float).reshape(-1, 3)
@@ -112,8 +146,9 @@ class CompiledTraceFollower(TraceFollower):
         new.fallbacks = 0
         return new
 
-    def roll(self, leader: Any, state: Any, events: list[tuple[float, int, int]],
-             scans: int) -> list[list[tuple[float, float, float, float, float]]] | None:
+    def roll(
+        self, leader: Any, state: Any, events: list[tuple[float, int, int]], scans: int
+    ) -> list[list[tuple[float, float, float, float, float]]] | None:
         """:meth:`rtsim.control.rollout.Rollout._run`'s event loop in one kernel call, on this
         law (a clone: its search starts move) and a group started from ``state``; returns
         the samples at the scans (per follower: x, y in the leader frame, ρ, β, odometer), or
@@ -134,16 +169,49 @@ class CompiledTraceFollower(TraceFollower):
         kind = np.array([e[1] for e in events], dtype=np.int64)
         who = np.array([e[2] for e in events], dtype=np.int64)
         out = np.zeros((scans, n, 3))
-        ker.rollout(self._s0, self._poses, self._kappa, self.path.lap_length, leader.s,
-                    leader.speed, leader.target_speed, leader.accel_max, leader.decel_max,
-                    x, y, th, v, cmd_v, cmd_w, odo, t_f, p.max_accel, p.max_speed,
-                    p.max_turn_rate, p.speed_noise, p.turn_noise, float(state.step_ms),
-                    self._lateral, self._ahead, self._spacing, self._sr, self._sf, self.gain,
-                    self.lookahead, ev, kind, who, float(state.t_now), out)
+        ker.rollout(
+            self._s0,
+            self._poses,
+            self._kappa,
+            self.path.lap_length,
+            leader.s,
+            leader.speed,
+            leader.target_speed,
+            leader.accel_max,
+            leader.decel_max,
+            x,
+            y,
+            th,
+            v,
+            cmd_v,
+            cmd_w,
+            odo,
+            t_f,
+            p.max_accel,
+            p.max_speed,
+            p.max_turn_rate,
+            p.speed_noise,
+            p.turn_noise,
+            float(state.step_ms),
+            self._lateral,
+            self._ahead,
+            self._spacing,
+            self._sr,
+            self._sf,
+            self.gain,
+            self.lookahead,
+            ev,
+            kind,
+            who,
+            float(state.t_now),
+            out,
+        )
         self._to_lists()
         two_pi = 2.0 * math.pi
-        return [[(tx, ty, math.hypot(tx, ty), math.atan2(ty, tx) % two_pi, od)
-                 for tx, ty, od in row] for row in out.tolist()]
+        return [
+            [(tx, ty, math.hypot(tx, ty), math.atan2(ty, tx) % two_pi, od) for tx, ty, od in row]
+            for row in out.tolist()
+        ]
 
     # the last references and projections live in two arrays (NaN: none yet) that the
     # kernel updates; the Python class's lists are kept equal to them after every command
@@ -157,15 +225,24 @@ class CompiledTraceFollower(TraceFollower):
         self._sr = np.array([nan if s is None else s for s in self._s_ref], dtype=float)
         self._sf = np.array([nan if s is None else s for s in self._s_f], dtype=float)
 
-    def initial(self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
-                ) -> tuple[float, float, float, float]:
+    def initial(
+        self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
+    ) -> tuple[float, float, float, float]:
         self._to_lists()
         out = super().initial(k, s_l, leader, v_l)
         self._from_lists()
         return out
 
-    def command(self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float,
-                x: float, y: float, th: float) -> tuple[float, float]:
+    def command(
+        self,
+        k: int,
+        s_l: float,
+        leader: tuple[float, float, float],
+        v_l: float,
+        x: float,
+        y: float,
+        th: float,
+    ) -> tuple[float, float]:
         ker = kernels()
         if not ker.exact_hypot:  # this interpreter's hypot is not the kernels': Python
             self.fallbacks += 1
@@ -173,8 +250,27 @@ class CompiledTraceFollower(TraceFollower):
             self._from_lists()
             return out
         xl, yl, hl = leader
-        out = ker.ftl_exact(self._s0, self._poses, self._kappa, self.path.lap_length,
-                            self._lateral, self._ahead, self._spacing, self._sr, self._sf,
-                            self.gain, self.lookahead, k, s_l, xl, yl, hl, v_l, x, y, th)
+        out = ker.ftl_exact(
+            self._s0,
+            self._poses,
+            self._kappa,
+            self.path.lap_length,
+            self._lateral,
+            self._ahead,
+            self._spacing,
+            self._sr,
+            self._sf,
+            self.gain,
+            self.lookahead,
+            k,
+            s_l,
+            xl,
+            yl,
+            hl,
+            v_l,
+            x,
+            y,
+            th,
+        )
         self._to_lists()
         return out  # type: ignore[no-any-return]

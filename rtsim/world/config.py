@@ -14,8 +14,15 @@ from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import Formation
 from rtsim.world.path import LeaderPath
 
-__all__ = ["CENTRES", "LocalizationParams", "SEARCHES", "SensingParams", "WorldConfig",
-           "DEFAULT_THRESHOLDS", "WORLD_BACKENDS"]
+__all__ = [
+    "CENTRES",
+    "LocalizationParams",
+    "SEARCHES",
+    "SensingParams",
+    "WorldConfig",
+    "DEFAULT_THRESHOLDS",
+    "WORLD_BACKENDS",
+]
 
 #: ``[world] backend``: ``python`` (the reference: plain floats), ``compiled`` (the same
 #: arithmetic compiled with numba, bit for bit; :mod:`rtsim.world.compiled`), ``filterpy``
@@ -42,15 +49,21 @@ class SensingParams:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "r_reacq", positive("sensing.r_reacq", self.r_reacq))
-        if isinstance(self.position_noise, bool) or not isinstance(
-                self.position_noise, int | float) or not (0 <= self.position_noise < math.inf):
+        if (
+            isinstance(self.position_noise, bool)
+            or not isinstance(self.position_noise, int | float)
+            or not (0 <= self.position_noise < math.inf)
+        ):
             raise ScenarioError(
-                f"sensing.position_noise: must be non-negative, got {self.position_noise!r}")
+                f"sensing.position_noise: must be non-negative, got {self.position_noise!r}"
+            )
         object.__setattr__(self, "position_noise", float(self.position_noise))
-        object.__setattr__(self, "min_points", integer("sensing.min_points", self.min_points,
-                                                        minimum=1))
-        object.__setattr__(self, "max_range", positive("sensing.max_range", self.max_range,
-                                                        allow_inf=True))
+        object.__setattr__(
+            self, "min_points", integer("sensing.min_points", self.min_points, minimum=1)
+        )
+        object.__setattr__(
+            self, "max_range", positive("sensing.max_range", self.max_range, allow_inf=True)
+        )
 
 
 #: Where the Hough window is centred (:mod:`rtsim.world.localization`).
@@ -79,8 +92,10 @@ class LocalizationParams:
         for key, allowed in (("centre", CENTRES), ("search", SEARCHES)):
             value = getattr(self, key)
             if value not in allowed:
-                raise ScenarioError(f"localization.{key}: must be one of "
-                                    f"{', '.join(repr(a) for a in allowed)}, got {value!r}")
+                raise ScenarioError(
+                    f"localization.{key}: must be one of "
+                    f"{', '.join(repr(a) for a in allowed)}, got {value!r}"
+                )
 
 
 @dataclass(frozen=True)
@@ -113,15 +128,21 @@ class WorldConfig:
 
     def __post_init__(self) -> None:
         if self.backend is not None and self.backend not in WORLD_BACKENDS:
-            raise ScenarioError(f"world.backend: must be one of {', '.join(WORLD_BACKENDS)}, "
-                                f"got {self.backend!r}")
+            raise ScenarioError(
+                f"world.backend: must be one of {', '.join(WORLD_BACKENDS)}, got {self.backend!r}"
+            )
         if self.ekf.backend == "filterpy" and self.backend not in (None, "filterpy"):
-            raise ScenarioError(f"world.backend: {self.backend!r} contradicts ekf.backend = "
-                                f"'filterpy' (an alias of world.backend = 'filterpy')")
+            raise ScenarioError(
+                f"world.backend: {self.backend!r} contradicts ekf.backend = "
+                f"'filterpy' (an alias of world.backend = 'filterpy')"
+            )
         object.__setattr__(self, "leader_speed", positive("leader.speed", self.leader_speed))
         for key in ("accel_max", "decel_max"):
-            object.__setattr__(self, f"leader_{key}", positive(
-                f"leader.{key}", getattr(self, f"leader_{key}"), allow_inf=True))
+            object.__setattr__(
+                self,
+                f"leader_{key}",
+                positive(f"leader.{key}", getattr(self, f"leader_{key}"), allow_inf=True),
+            )
         object.__setattr__(self, "step_ms", positive("world.step_ms", self.step_ms))
         self.formation.check_spacing(self.follower.radius)
         if self.sensing.r_reacq < self.thresholds.r_H:
@@ -146,6 +167,8 @@ class WorldConfig:
                 return "filterpy"
             return "compiled" if compiled.available() else "python"
         if self.backend == "compiled" and not compiled.available():
-            raise ScenarioError("world.backend: 'compiled' needs numba, which cannot be "
-                                "imported here (install it, or use backend = 'python')")
+            raise ScenarioError(
+                "world.backend: 'compiled' needs numba, which cannot be "
+                "imported here (install it, or use backend = 'python')"
+            )
         return self.backend

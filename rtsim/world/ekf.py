@@ -69,8 +69,15 @@ class EkfParams:
     def __post_init__(self) -> None:
         if self.backend not in ("filterpy", "fast"):
             raise ScenarioError(f"ekf.backend: must be 'filterpy' or 'fast', got {self.backend!r}")
-        for key in ("measurement_noise", "speed_noise", "turn_noise", "position_drift",
-                    "heading_drift", "init_position_sd", "init_heading_sd"):
+        for key in (
+            "measurement_noise",
+            "speed_noise",
+            "turn_noise",
+            "position_drift",
+            "heading_drift",
+            "init_position_sd",
+            "init_heading_sd",
+        ):
             object.__setattr__(self, key, non_negative(f"ekf.{key}", getattr(self, key)))
         positive("ekf.measurement_noise", max(self.measurement_noise, 0.01))
 
@@ -118,8 +125,9 @@ class FollowerEKF:
         self.params = params
         kf: Any = _arc_ekf_class()(dim_x=3, dim_z=2)
         kf.x = np.array([[pose[0]], [pose[1]], [pose[2]]], dtype=float)
-        kf.P = np.diag([max(params.init_position_sd, 0.01) ** 2] * 2
-                       + [max(params.init_heading_sd, 1e-4) ** 2])
+        kf.P = np.diag(
+            [max(params.init_position_sd, 0.01) ** 2] * 2 + [max(params.init_heading_sd, 1e-4) ** 2]
+        )
         kf.R = np.eye(2) * max(params.measurement_noise, 0.01) ** 2
         self.kf = kf
 
@@ -159,26 +167,29 @@ class FollowerEKF:
         P[0:2, 0:2] = self.kf.R
 
 
-def _process(p: EkfParams, v: float, w: float, dt: float, th: float
-             ) -> tuple[float, float, float, float, float, tuple[float, ...]]:
+def _process(
+    p: EkfParams, v: float, w: float, dt: float, th: float
+) -> tuple[float, float, float, float, float, tuple[float, ...]]:
     """(c, m, a, b, dth, Q entries q00 q01 q02 q11 q12 q22) for one predict."""
     dth = w * dt
     m = th + 0.5 * dth
     sinc = math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0
     c = v * dt * sinc
     cm, sm = math.cos(m), math.sin(m)
-    a, b = -c * sm, c * cm                   # F[0,2], F[1,2]
-    sv2, sw2 = p.speed_noise ** 2, p.turn_noise ** 2
+    a, b = -c * sm, c * cm  # F[0,2], F[1,2]
+    sv2, sw2 = p.speed_noise**2, p.turn_noise**2
     g00, g01 = dt * sinc * cm, 0.5 * dt * a
     g10, g11 = dt * sinc * sm, 0.5 * dt * b
     g21 = dt
-    qp, qh = dt * p.position_drift ** 2, dt * p.heading_drift ** 2
-    q = (g00 * g00 * sv2 + g01 * g01 * sw2 + qp,
-         g00 * g10 * sv2 + g01 * g11 * sw2,
-         g01 * g21 * sw2,
-         g10 * g10 * sv2 + g11 * g11 * sw2 + qp,
-         g11 * g21 * sw2,
-         g21 * g21 * sw2 + qh)
+    qp, qh = dt * p.position_drift**2, dt * p.heading_drift**2
+    q = (
+        g00 * g00 * sv2 + g01 * g01 * sw2 + qp,
+        g00 * g10 * sv2 + g01 * g11 * sw2,
+        g01 * g21 * sw2,
+        g10 * g10 * sv2 + g11 * g11 * sw2 + qp,
+        g11 * g21 * sw2,
+        g21 * g21 * sw2 + qh,
+    )
     return c, m, a, b, dth, q
 
 
@@ -189,12 +200,19 @@ class FastFollowerEKF:
         self.params = params
         self.x = [float(pose[0]), float(pose[1]), float(pose[2])]
         sp = max(params.init_position_sd, 0.01) ** 2
-        self._p = [[sp, 0.0, 0.0], [0.0, sp, 0.0], [0.0, 0.0, max(params.init_heading_sd,
-                                                                   1e-4) ** 2]]
+        self._p = [
+            [sp, 0.0, 0.0],
+            [0.0, sp, 0.0],
+            [0.0, 0.0, max(params.init_heading_sd, 1e-4) ** 2],
+        ]
         self.r = max(params.measurement_noise, 0.01) ** 2
         # σ_v², σ_ω², q_p², q_θ² of _process, squared once
-        self._noise = (params.speed_noise ** 2, params.turn_noise ** 2,
-                       params.position_drift ** 2, params.heading_drift ** 2)
+        self._noise = (
+            params.speed_noise**2,
+            params.turn_noise**2,
+            params.position_drift**2,
+            params.heading_drift**2,
+        )
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -255,12 +273,9 @@ class FastFollowerEKF:
         x[2] += k20 * y0 + k21 * y1
         # P − K (H P): filterpy's Joseph form is the same matrix for this optimal gain
         self._p = [
-            [p00 - k00 * p00 - k01 * p10, p01 - k00 * p01 - k01 * p11,
-             p02 - k00 * p02 - k01 * p12],
-            [p10 - k10 * p00 - k11 * p10, p11 - k10 * p01 - k11 * p11,
-             p12 - k10 * p02 - k11 * p12],
-            [p20 - k20 * p00 - k21 * p10, p21 - k20 * p01 - k21 * p11,
-             p22 - k20 * p02 - k21 * p12],
+            [p00 - k00 * p00 - k01 * p10, p01 - k00 * p01 - k01 * p11, p02 - k00 * p02 - k01 * p12],
+            [p10 - k10 * p00 - k11 * p10, p11 - k10 * p01 - k11 * p11, p12 - k10 * p02 - k11 * p12],
+            [p20 - k20 * p00 - k21 * p10, p21 - k20 * p01 - k21 * p11, p22 - k20 * p02 - k21 * p12],
         ]
 
     def reset_position(self, z: tuple[float, float]) -> None:
@@ -273,8 +288,9 @@ class FastFollowerEKF:
         P[0][0] = P[1][1] = self.r
 
 
-def make_filter(pose: tuple[float, float, float], params: EkfParams
-                ) -> FollowerEKF | FastFollowerEKF:
+def make_filter(
+    pose: tuple[float, float, float], params: EkfParams
+) -> FollowerEKF | FastFollowerEKF:
     """The filter ``params.backend`` names."""
     if params.backend == "filterpy":
         return FollowerEKF(pose, params)

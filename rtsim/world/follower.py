@@ -38,7 +38,12 @@ from numpy.typing import NDArray
 from rtsim.world._check import non_negative, positive
 
 __all__ = [
-    "FollowerParams", "FollowerGroup", "lpsi_command", "control_targets", "ramp1", "arc1",
+    "FollowerParams",
+    "FollowerGroup",
+    "lpsi_command",
+    "control_targets",
+    "ramp1",
+    "arc1",
 ]
 
 Array = NDArray[np.float64]
@@ -72,12 +77,12 @@ class FollowerParams:
     lookahead: float = 40.0
 
     def __post_init__(self) -> None:
-        for key in ("radius", "max_speed", "control_offset", "gain_rho", "gain_beta",
-                    "lookahead"):
+        for key in ("radius", "max_speed", "control_offset", "gain_rho", "gain_beta", "lookahead"):
             object.__setattr__(self, key, positive(f"follower.{key}", getattr(self, key)))
         for key in ("max_accel", "max_turn_rate"):
-            object.__setattr__(self, key, positive(f"follower.{key}", getattr(self, key),
-                                                   allow_inf=True))
+            object.__setattr__(
+                self, key, positive(f"follower.{key}", getattr(self, key), allow_inf=True)
+            )
         for key in ("speed_noise", "turn_noise"):
             object.__setattr__(self, key, non_negative(f"follower.{key}", getattr(self, key)))
 
@@ -149,9 +154,17 @@ def lpsi_command(
     return gx * cth + gy * sth, (-gx * sth + gy * cth) / d
 
 
-def _lpsi1(leader: tuple[float, float, float], v_l: float, omega_l: float, x: float,
-           y: float, th: float, l_d: float, psi_d: float, p: FollowerParams
-           ) -> tuple[float, float]:
+def _lpsi1(
+    leader: tuple[float, float, float],
+    v_l: float,
+    omega_l: float,
+    x: float,
+    y: float,
+    th: float,
+    l_d: float,
+    psi_d: float,
+    p: FollowerParams,
+) -> tuple[float, float]:
     """:func:`lpsi_command` for one follower given as floats (the same expressions)."""
     xl, yl, hl = leader
     d = p.control_offset
@@ -185,8 +198,9 @@ def ramp1(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
     return v1, 0.5 * (v0 + v1)
 
 
-def arc1(pose: tuple[float, float, float], v: float, w: float, dt: float
-         ) -> tuple[float, float, float]:
+def arc1(
+    pose: tuple[float, float, float], v: float, w: float, dt: float
+) -> tuple[float, float, float]:
     """Scalar exact arc (see :func:`rtsim.world.unicycle.arc_step`)."""
     x, y, th = pose
     dth = w * dt
@@ -195,8 +209,9 @@ def arc1(pose: tuple[float, float, float], v: float, w: float, dt: float
     return x + c * math.cos(m), y + c * math.sin(m), th + dth
 
 
-def ramp_arc(x: float, y: float, th: float, v: float, vc: float, w: float, a: float,
-             dt: float) -> tuple[float, float, float, float, float]:
+def ramp_arc(
+    x: float, y: float, th: float, v: float, vc: float, w: float, a: float, dt: float
+) -> tuple[float, float, float, float, float]:
     """One step of a held command: :func:`ramp1` then :func:`arc1` at the ramp's mean speed,
     in one call (the same expressions; the hot path of the truth and of the estimates).
 
@@ -225,8 +240,9 @@ class FollowerGroup:
     speed), ``cmd_v``/``cmd_w`` (realised commands being held), ``odometer`` (cm travelled).
     """
 
-    def __init__(self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams,
-                 t_ms: float = 0.0) -> None:
+    def __init__(
+        self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
+    ) -> None:
         self.p = params
         self.x = [float(a) for a in x]
         self.y = [float(a) for a in y]
@@ -244,8 +260,10 @@ class FollowerGroup:
     def saturate(self, v: float, w: float) -> tuple[float, float]:
         """Clip a command to the speed and turn-rate limits."""
         p = self.p
-        return (min(max(v, -p.max_speed), p.max_speed),
-                min(max(w, -p.max_turn_rate), p.max_turn_rate))
+        return (
+            min(max(v, -p.max_speed), p.max_speed),
+            min(max(w, -p.max_turn_rate), p.max_turn_rate),
+        )
 
     def apply(self, k: int, v: float, w: float, rng: np.random.Generator) -> tuple[float, float]:
         """Hold command (v, ω) for follower index ``k`` (0-based), with actuation noise.
@@ -256,8 +274,7 @@ class FollowerGroup:
         nv, nw = rng.standard_normal(2).tolist()
         return self.apply_drawn(k, v, w, nv, nw)
 
-    def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float
-                    ) -> tuple[float, float]:
+    def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
         """:meth:`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
         sv, sw = self.saturate(v + self.p.speed_noise * nv, w + self.p.turn_noise * nw)
         self.cmd_v[k] = sv

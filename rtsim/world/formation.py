@@ -59,9 +59,22 @@ from rtsim.errors import InputError, ScenarioError
 from rtsim.registry import Registry
 from rtsim.world._check import integer, number, positive
 
-__all__ = ["CHEVRON_GAP", "FAN_INNER", "FOLLOWER_MODELS", "FORMATION_LAYOUTS",
-           "FORMATION_MODELS", "FollowerModel", "Formation", "chevron", "chevron_offsets", "fan",
-           "fan_bearings", "in_line", "in_line_offsets", "outer_side"]
+__all__ = [
+    "CHEVRON_GAP",
+    "FAN_INNER",
+    "FOLLOWER_MODELS",
+    "FORMATION_LAYOUTS",
+    "FORMATION_MODELS",
+    "FollowerModel",
+    "Formation",
+    "chevron",
+    "chevron_offsets",
+    "fan",
+    "fan_bearings",
+    "in_line",
+    "in_line_offsets",
+    "outer_side",
+]
 
 #: How ``followers``/``separation``/``bearing_offset`` place them: ``line`` (the chevron for
 #: l-ψ, :func:`in_line` for follow-the-leader) or ``fan`` (:func:`fan`).
@@ -85,10 +98,10 @@ class Formation:
 
     def __post_init__(self) -> None:
         follower_model(self.model, "formation.model")
-        rho = tuple(positive(f"formation.slot[{i + 1}].rho_d", r)
-                    for i, r in enumerate(self.rho_d))
-        beta = tuple(number(f"formation.slot[{i + 1}].beta_d", b)
-                     for i, b in enumerate(self.beta_d))
+        rho = tuple(positive(f"formation.slot[{i + 1}].rho_d", r) for i, r in enumerate(self.rho_d))
+        beta = tuple(
+            number(f"formation.slot[{i + 1}].beta_d", b) for i, b in enumerate(self.beta_d)
+        )
         if not rho:
             raise ScenarioError("formation has no followers")
         if len(rho) != len(beta):
@@ -140,33 +153,43 @@ class Formation:
 CHEVRON_GAP = math.radians(1.0)
 
 
-def chevron_offsets(pairs: int, separation: float, offset: float, r_F: float,
-                    gap: float = CHEVRON_GAP) -> list[float]:
+def chevron_offsets(
+    pairs: int, separation: float, offset: float, r_F: float, gap: float = CHEVRON_GAP
+) -> list[float]:
     """Bearing offset of each pair (rad): ``offset`` for the first, then widened so that no
     follower is hidden behind a nearer one (module docstring)."""
     offs = [offset]
     for p in range(2, pairs + 1):
         near, far = (p - 1) * separation, p * separation
-        offs.append(offs[-1] + math.asin(min(1.0, r_F / near)) + math.asin(min(1.0, r_F / far))
-                    + gap)
+        offs.append(
+            offs[-1] + math.asin(min(1.0, r_F / near)) + math.asin(min(1.0, r_F / far)) + gap
+        )
     return offs
 
 
-def _pair_args(n: int, separation: float, offset: float, r_F: float
-               ) -> tuple[int, float, float, float]:
+def _pair_args(
+    n: int, separation: float, offset: float, r_F: float
+) -> tuple[int, float, float, float]:
     """The checked arguments of :func:`chevron` and :func:`in_line` (offset in [0, 90°])."""
     n = integer("formation.followers", n, minimum=1)
     sep = positive("formation.separation", separation)
     off = number("formation.bearing_offset", offset)
     r_F = positive("follower.radius", r_F)
     if not 0 <= off <= math.pi / 2:
-        raise ScenarioError(f"formation.bearing_offset: must be in [0, 90] deg, got "
-                            f"{math.degrees(off):.6g} deg")
+        raise ScenarioError(
+            f"formation.bearing_offset: must be in [0, 90] deg, got {math.degrees(off):.6g} deg"
+        )
     return n, sep, off, r_F
 
 
-def chevron(n: int, separation: float, offset: float = math.radians(15), *,
-            r_F: float = 25.0, gap: float = CHEVRON_GAP) -> Formation:
+def chevron(
+    n: int,
+    separation: float,
+    offset: float = math.radians(15),
+    *,
+    r_F: float = 25.0,
+    gap: float = CHEVRON_GAP,
+) -> Formation:
     """The default V formation: pair p at p·``separation`` cm and 180° ± offset_p.
 
     offset_1 = ``offset``; further pairs turn outward so the laser sees every follower
@@ -182,13 +205,16 @@ def chevron(n: int, separation: float, offset: float = math.radians(15), *,
             f"separation, a smaller bearing_offset, or [[formation.slot]]"
         )
     rho = tuple(sep * ((i + 1) // 2) for i in range(1, n + 1))
-    beta = tuple(math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
-                 for i in range(1, n + 1))
+    beta = tuple(
+        math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
+        for i in range(1, n + 1)
+    )
     return Formation(rho, beta)
 
 
-def in_line_offsets(pairs: int, separation: float, offset: float, r_F: float,
-                    gap: float = CHEVRON_GAP) -> list[float]:
+def in_line_offsets(
+    pairs: int, separation: float, offset: float, r_F: float, gap: float = CHEVRON_GAP
+) -> list[float]:
     """Bearing offset of each rank (rad) in follow-the-leader's line: rank p at p·separation,
     each rank tucked inside the one before it (module docstring)."""
     rho = [p * separation for p in range(1, pairs + 1)]
@@ -201,8 +227,14 @@ def in_line_offsets(pairs: int, separation: float, offset: float, r_F: float,
     return offs
 
 
-def in_line(n: int, separation: float, offset: float = math.radians(15), *,
-            r_F: float = 25.0, gap: float = CHEVRON_GAP) -> Formation:
+def in_line(
+    n: int,
+    separation: float,
+    offset: float = math.radians(15),
+    *,
+    r_F: float = 25.0,
+    gap: float = CHEVRON_GAP,
+) -> Formation:
     """Follow-the-leader's default line: rank p at p·``separation`` cm, its two followers at
     180° ± φ_p on straights (odd right, even left), φ_p from :func:`in_line_offsets`.
 
@@ -215,10 +247,13 @@ def in_line(n: int, separation: float, offset: float = math.radians(15), *,
             f"formation.followers: {n} followers do not fit a line at {sep:.6g} cm that keeps "
             f"every follower in the laser's view (the first rank would need "
             f"{math.degrees(offs[0]):.4g} deg off the track, above 90); use a larger "
-            f"separation or [[formation.slot]]")
+            f"separation or [[formation.slot]]"
+        )
     rho = tuple(sep * ((i + 1) // 2) for i in range(1, n + 1))
-    beta = tuple(math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
-                 for i in range(1, n + 1))
+    beta = tuple(
+        math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
+        for i in range(1, n + 1)
+    )
     return Formation(rho, beta, "follow-the-leader")
 
 
@@ -241,10 +276,12 @@ def _follower_model(obj: Any, spec: str, where: str) -> FollowerModel:
 
 
 #: The follower models by name (``[formation] model``; entry-point group ``rtsim.followers``).
-FOLLOWER_MODELS: Registry[FollowerModel] = Registry("follower model", "rtsim.followers",
-                                                    _follower_model)
-FOLLOWER_MODELS.register("follow-the-leader",
-                         FollowerModel("follow-the-leader", in_line, on_trace=True))
+FOLLOWER_MODELS: Registry[FollowerModel] = Registry(
+    "follower model", "rtsim.followers", _follower_model
+)
+FOLLOWER_MODELS.register(
+    "follow-the-leader", FollowerModel("follow-the-leader", in_line, on_trace=True)
+)
 FOLLOWER_MODELS.register("l-psi", FollowerModel("l-psi", chevron, on_trace=False))
 #: The old name of :data:`FOLLOWER_MODELS` (it iterates over the names).
 FORMATION_MODELS = FOLLOWER_MODELS
@@ -267,8 +304,9 @@ def outer_side(curvatures: Sequence[float], lengths: Sequence[float]) -> int:
     return 1 if total < 0 else -1
 
 
-def fan_bearings(n: int, separation: float, offset: float, r_F: float, outer: int = -1,
-                 gap: float = CHEVRON_GAP) -> list[float]:
+def fan_bearings(
+    n: int, separation: float, offset: float, r_F: float, outer: int = -1, gap: float = CHEVRON_GAP
+) -> list[float]:
     """Bearings (rad) of the fan's followers (module docstring): follower 1 at 180° + offset
     on the right, 2 at 180° − offset on the left, then each further follower one step
     (2·arcsin(r_F/ρ_d) + gap) beyond the last on the outer side (``outer``: −1 right, +1
@@ -297,9 +335,16 @@ def fan_bearings(n: int, separation: float, offset: float, r_F: float, outer: in
     return bearings
 
 
-def fan(n: int, separation: float, offset: float = math.radians(15), *, r_F: float = 25.0,
-        outer: int = -1, gap: float = CHEVRON_GAP, model: str = "follow-the-leader"
-        ) -> Formation:
+def fan(
+    n: int,
+    separation: float,
+    offset: float = math.radians(15),
+    *,
+    r_F: float = 25.0,
+    outer: int = -1,
+    gap: float = CHEVRON_GAP,
+    model: str = "follow-the-leader",
+) -> Formation:
     """The fan: every follower at ρ_d = ``separation`` cm, bearings from :func:`fan_bearings`
     (``model``: follow-the-leader holds them on straights, l-ψ as rigid slots). Raises
     :class:`ScenarioError` when a follower would leave the laser's view (a bearing outside
@@ -315,5 +360,6 @@ def fan(n: int, separation: float, offset: float = math.radians(15), *, r_F: flo
                 f"formation.followers: {n} followers do not fit a fan at {sep:.6g} cm: "
                 f"follower {i + 1} would need {math.degrees(b):.4g} deg, outside the laser's "
                 f"view; use a larger separation, a smaller bearing_offset, or "
-                f"[[formation.slot]]")
+                f"[[formation.slot]]"
+            )
     return Formation(tuple([sep] * n), tuple(bearings), model)

@@ -62,8 +62,14 @@ class TraceFollower:
     reference and projection arc lengths (searches start there).
     """
 
-    def __init__(self, path: LeaderPath, rho_d: Sequence[float], lateral: Sequence[float],
-                 gain: float, lookahead: float) -> None:
+    def __init__(
+        self,
+        path: LeaderPath,
+        rho_d: Sequence[float],
+        lateral: Sequence[float],
+        gain: float,
+        lookahead: float,
+    ) -> None:
         self.path = path
         self.rho_d = [float(r) for r in rho_d]
         self.lateral = [float(o) for o in lateral]
@@ -105,8 +111,9 @@ class TraceFollower:
         """1 − κ(s)·o_k: the offset curve's length per unit of trace (floored at 0.05)."""
         return max(_SCALE_MIN, 1.0 - self.path.curvature(s) * self.lateral[k])
 
-    def reference(self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
-                  ) -> tuple[float, float]:
+    def reference(
+        self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
+    ) -> tuple[float, float]:
         """(s_ref, V_ref) of follower index k for the leader at arc length ``s_l``, pose
         ``leader``, speed ``v_l``: the first point of its offset trace behind the point it
         follows at its spacing (module docstring), and that point's speed (FTL-1)."""
@@ -119,8 +126,7 @@ class TraceFollower:
         s_ref = self._search(k, s_t, target[:2], self.spacing[k])
         return s_ref, self._speed(k, s_ref, target, v_t)
 
-    def _search(self, k: int, s_l: float, leader_xy: tuple[float, float], rho: float
-                ) -> float:
+    def _search(self, k: int, s_l: float, leader_xy: tuple[float, float], rho: float) -> float:
         """The first s ≤ ``s_l`` behind ``leader_xy`` with |P_k(s) − leader_xy| = ``rho``."""
         xl, yl = leader_xy
         rho2 = rho * rho
@@ -176,8 +182,7 @@ class TraceFollower:
         self._s_ref[k] = s_ref
         return s_ref
 
-    def _speed(self, k: int, s_ref: float, leader: tuple[float, float, float],
-               v_l: float) -> float:
+    def _speed(self, k: int, s_ref: float, leader: tuple[float, float, float], v_l: float) -> float:
         """V_ref by (FTL-1); V_T where the reference's tangent is nearly across the line."""
         xl, yl, hl = leader
         px, py, hp = self.point(k, s_ref)
@@ -203,16 +208,25 @@ class TraceFollower:
         return s
 
     # -- the controller --------------------------------------------------------------
-    def initial(self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
-                ) -> tuple[float, float, float, float]:
+    def initial(
+        self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
+    ) -> tuple[float, float, float, float]:
         """(x, y, heading, speed) of follower index k on its reference, moving with it."""
         s_ref, v_ref = self.reference(k, s_l, leader, v_l)
         x, y, h = self.point(k, s_ref)
         self._s_f[k] = s_ref
         return x, y, h, v_ref
 
-    def command(self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float,
-                x: float, y: float, th: float) -> tuple[float, float]:
+    def command(
+        self,
+        k: int,
+        s_l: float,
+        leader: tuple[float, float, float],
+        v_l: float,
+        x: float,
+        y: float,
+        th: float,
+    ) -> tuple[float, float]:
         """(v, ω) for follower index k at (x, y, θ) (the leader's estimate), unsaturated."""
         s_ref, v_ref = self.reference(k, s_l, leader, v_l)
         s_f = self.project(k, x, y, s_ref)

@@ -37,9 +37,20 @@ def available() -> bool:
 
 # -- the kernels, as plain Python (numba compiles them; the names are what they call) ---------
 
-def _advance_follower(x: float, y: float, th: float, v: float, vc: float, w: float, a: float,
-                      odo: float, t0: float, t_ms: float, step_ms: float
-                      ) -> tuple[float, float, float, float, float]:
+
+def _advance_follower(
+    x: float,
+    y: float,
+    th: float,
+    v: float,
+    vc: float,
+    w: float,
+    a: float,
+    odo: float,
+    t0: float,
+    t_ms: float,
+    step_ms: float,
+) -> tuple[float, float, float, float, float]:
     """FollowerGroup.advance's loop with ramp_arc inlined: (x, y, θ, v, odometer)."""
     inf = math.inf
     while t_ms - t0 > 1e-12:
@@ -67,10 +78,24 @@ def _advance_follower(x: float, y: float, th: float, v: float, vc: float, w: flo
     return x, y, th, v, odo
 
 
-def _ekf_predict(x0: float, x1: float, x2: float, p00: float, p01: float, p02: float,
-                 p11: float, p12: float, p22: float, v: float, w: float, dt: float,
-                 sv2: float, sw2: float, qp2: float, qh2: float
-                 ) -> tuple[float, float, float, float, float, float, float, float, float]:
+def _ekf_predict(
+    x0: float,
+    x1: float,
+    x2: float,
+    p00: float,
+    p01: float,
+    p02: float,
+    p11: float,
+    p12: float,
+    p22: float,
+    v: float,
+    w: float,
+    dt: float,
+    sv2: float,
+    sw2: float,
+    qp2: float,
+    qh2: float,
+) -> tuple[float, float, float, float, float, float, float, float, float]:
     """FastFollowerEKF.predict: (x, y, θ, P00, P01, P02, P11, P12, P22)."""
     dth = w * dt
     m = x2 + 0.5 * dth
@@ -93,9 +118,23 @@ def _ekf_predict(x0: float, x1: float, x2: float, p00: float, p01: float, p02: f
     return x0, x1, x2, n00, n01, n02, n11, n12, n22
 
 
-def _ekf_update(x0: float, x1: float, x2: float, p00: float, p01: float, p02: float,
-                p10: float, p11: float, p12: float, p20: float, p21: float, p22: float,
-                r: float, z0: float, z1: float) -> tuple[float, ...]:
+def _ekf_update(
+    x0: float,
+    x1: float,
+    x2: float,
+    p00: float,
+    p01: float,
+    p02: float,
+    p10: float,
+    p11: float,
+    p12: float,
+    p20: float,
+    p21: float,
+    p22: float,
+    r: float,
+    z0: float,
+    z1: float,
+) -> tuple[float, ...]:
     """FastFollowerEKF.update: (x, y, θ, then P row by row, 9 entries)."""
     s00, s01, s11 = p00 + r, p01, p11 + r
     det = s00 * s11 - s01 * s01
@@ -107,13 +146,20 @@ def _ekf_update(x0: float, x1: float, x2: float, p00: float, p01: float, p02: fl
     x0 += k00 * y0 + k01 * y1
     x1 += k10 * y0 + k11 * y1
     x2 += k20 * y0 + k21 * y1
-    return (x0, x1, x2,
-            p00 - k00 * p00 - k01 * p10, p01 - k00 * p01 - k01 * p11,
-            p02 - k00 * p02 - k01 * p12,
-            p10 - k10 * p00 - k11 * p10, p11 - k10 * p01 - k11 * p11,
-            p12 - k10 * p02 - k11 * p12,
-            p20 - k20 * p00 - k21 * p10, p21 - k20 * p01 - k21 * p11,
-            p22 - k20 * p02 - k21 * p12)
+    return (
+        x0,
+        x1,
+        x2,
+        p00 - k00 * p00 - k01 * p10,
+        p01 - k00 * p01 - k01 * p11,
+        p02 - k00 * p02 - k01 * p12,
+        p10 - k10 * p00 - k11 * p10,
+        p11 - k10 * p01 - k11 * p11,
+        p12 - k10 * p02 - k11 * p12,
+        p20 - k20 * p00 - k21 * p10,
+        p21 - k20 * p01 - k21 * p11,
+        p22 - k20 * p02 - k21 * p12,
+    )
 
 
 def _index(s0: Any, lap: float, s: float) -> tuple[int, float]:
@@ -129,8 +175,9 @@ def _index(s0: Any, lap: float, s: float) -> tuple[int, float]:
     return lo - 1, u
 
 
-def _point(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float
-           ) -> tuple[float, float, float]:
+def _point(
+    s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float
+) -> tuple[float, float, float]:
     """TraceFollower.point: LeaderPath.pose(s) moved ``o`` to the left."""
     x, y, h = _pose(s0, poses, kappa, lap, s)
     return x - o * math.sin(h), y + o * math.cos(h), h
@@ -141,14 +188,33 @@ def _scale(s0: Any, kappa: Any, lap: float, o: float, s: float) -> float:
     return max(_SCALE_MIN, 1.0 - kappa[k] * o)
 
 
-def _gap(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, xl: float,
-         yl: float, rho2: float) -> float:
+def _gap(
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lap: float,
+    o: float,
+    s: float,
+    xl: float,
+    yl: float,
+    rho2: float,
+) -> float:
     x, y, _ = _point(s0, poses, kappa, lap, o, s)
     return (x - xl) ** 2 + (y - yl) ** 2 - rho2
 
 
-def _search(s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, s_l: float,
-            xl: float, yl: float, rho: float) -> float:
+def _search(
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lap: float,
+    o: float,
+    s: float,
+    s_l: float,
+    xl: float,
+    yl: float,
+    rho: float,
+) -> float:
     """TraceFollower._search (``s`` the last reference, NaN for none); returns s_ref."""
     rho2 = rho * rho
     if not math.isnan(s) and s <= s_l:
@@ -245,8 +311,7 @@ def _hypot(x: float, y: float) -> float:
     return _hypot_core(ax, ay, mx)
 
 
-def _pose(s0: Any, poses: Any, kappa: Any, lap: float, s: float
-          ) -> tuple[float, float, float]:
+def _pose(s0: Any, poses: Any, kappa: Any, lap: float, s: float) -> tuple[float, float, float]:
     """LeaderPath.pose(s)."""
     k, u = _index(s0, lap, s)
     x0, y0, h0 = poses[k, 0], poses[k, 1], poses[k, 2]
@@ -269,10 +334,28 @@ def _clip(v: float, lim: float) -> float:
     return m
 
 
-def _ftl_exact(s0: Any, poses: Any, kappa: Any, lap: float, lateral: Any, ahead: Any,
-               spacing: Any, s_ref: Any, s_f: Any, gain: float, lookahead: float, k: int,
-               s_l: float, xl: float, yl: float, hl: float, v_l: float, x: float, y: float,
-               th: float) -> tuple[float, float]:
+def _ftl_exact(
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lap: float,
+    lateral: Any,
+    ahead: Any,
+    spacing: Any,
+    s_ref: Any,
+    s_f: Any,
+    gain: float,
+    lookahead: float,
+    k: int,
+    s_l: float,
+    xl: float,
+    yl: float,
+    hl: float,
+    v_l: float,
+    x: float,
+    y: float,
+    th: float,
+) -> tuple[float, float]:
     """TraceFollower.command whole (with :func:`_hypot`): (v, ω); updates s_ref, s_f."""
     chain = np.empty(ahead.shape[0] + 1, dtype=np.int64)
     m = 0
@@ -324,13 +407,43 @@ def _ftl_exact(s0: Any, poses: Any, kappa: Any, lap: float, lateral: Any, ahead:
     return v, v * 2.0 * math.sin(alpha) / dist
 
 
-def _rollout(s0: Any, poses: Any, kappa: Any, lap: float, leader_s: float, v0: float,
-             vt: float, accel_max: float, decel_max: float, x: Any, y: Any, th: Any,
-             v: Any, cmd_v: Any, cmd_w: Any, odo: Any, t_f: Any, max_accel: float,
-             max_speed: float, max_turn: float, speed_noise: float, turn_noise: float,
-             step_ms: float, lateral: Any, ahead: Any, spacing: Any, s_ref: Any, s_f: Any,
-             gain: float, lookahead: float, ev_t: Any, ev_kind: Any, ev_k: Any, t_now: float,
-             out: Any) -> None:
+def _rollout(
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lap: float,
+    leader_s: float,
+    v0: float,
+    vt: float,
+    accel_max: float,
+    decel_max: float,
+    x: Any,
+    y: Any,
+    th: Any,
+    v: Any,
+    cmd_v: Any,
+    cmd_w: Any,
+    odo: Any,
+    t_f: Any,
+    max_accel: float,
+    max_speed: float,
+    max_turn: float,
+    speed_noise: float,
+    turn_noise: float,
+    step_ms: float,
+    lateral: Any,
+    ahead: Any,
+    spacing: Any,
+    s_ref: Any,
+    s_f: Any,
+    gain: float,
+    lookahead: float,
+    ev_t: Any,
+    ev_kind: Any,
+    ev_k: Any,
+    t_now: float,
+    out: Any,
+) -> None:
     """Rollout._run's event loop: the leader's ramp, the followers' held commands, the
     follow-the-leader commands at the sends (no noise), and at each scan every follower's
     position in the leader frame and odometer (``out[scan, follower]``); the arrays of the
@@ -361,14 +474,44 @@ def _rollout(s0: Any, poses: Any, kappa: Any, lap: float, leader_s: float, v0: f
         for k in range(lo_k, hi_k):
             if t > t_f[k]:
                 x[k], y[k], th[k], v[k], odo[k] = _advance_follower(
-                    x[k], y[k], th[k], v[k], cmd_v[k], cmd_w[k], max_accel, odo[k], t_f[k],
-                    t, step_ms)
+                    x[k],
+                    y[k],
+                    th[k],
+                    v[k],
+                    cmd_v[k],
+                    cmd_w[k],
+                    max_accel,
+                    odo[k],
+                    t_f[k],
+                    t,
+                    step_ms,
+                )
                 t_f[k] = t
         xl, yl, hl = _pose(s0, poses, kappa, lap, s_l)
         if ev_kind[e] == 0:
             k = ev_k[e]
-            vc, wc = _ftl_exact(s0, poses, kappa, lap, lateral, ahead, spacing, s_ref, s_f,
-                                gain, lookahead, k, s_l, xl, yl, hl, v0, x[k], y[k], th[k])
+            vc, wc = _ftl_exact(
+                s0,
+                poses,
+                kappa,
+                lap,
+                lateral,
+                ahead,
+                spacing,
+                s_ref,
+                s_f,
+                gain,
+                lookahead,
+                k,
+                s_l,
+                xl,
+                yl,
+                hl,
+                v0,
+                x[k],
+                y[k],
+                th[k],
+            )
             vc, wc = _clip(vc, max_speed), _clip(wc, max_turn)
             cmd_v[k] = _clip(vc + speed_noise * 0.0, max_speed)
             cmd_w[k] = _clip(wc + turn_noise * 0.0, max_turn)
@@ -395,11 +538,29 @@ def kernels() -> Any:
         ns = types.SimpleNamespace()
         glob = globals()
         # helpers first: the kernels that call them find the compiled ones by name
-        for name in ("_index", "_pose", "_point", "_scale", "_gap", "_search", "_dl_mul",
-                     "_hypot_core", "_hypot", "_clip", "_advance_follower", "_ftl_exact"):
+        for name in (
+            "_index",
+            "_pose",
+            "_point",
+            "_scale",
+            "_gap",
+            "_search",
+            "_dl_mul",
+            "_hypot_core",
+            "_hypot",
+            "_clip",
+            "_advance_follower",
+            "_ftl_exact",
+        ):
             glob[name] = jit(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
-        for name in ("_advance_follower", "_ekf_predict", "_ekf_update", "_ftl_exact",
-                     "_rollout", "_hypot"):
+        for name in (
+            "_advance_follower",
+            "_ekf_predict",
+            "_ekf_update",
+            "_ftl_exact",
+            "_rollout",
+            "_hypot",
+        ):
             fn = glob[name]
             setattr(ns, name.lstrip("_"), fn if hasattr(fn, "py_func") else jit(fn))
         _warm(ns)
@@ -414,8 +575,17 @@ def _hypot_matches(fn: Any, count: int = 20000) -> bool:
     needs a hypot is only used when it does)."""
     rng = np.random.default_rng(20261124)
     a = rng.standard_normal((count, 2)) * 10.0 ** rng.integers(-30, 30, (count, 2))
-    edge = [(0.0, 0.0), (0.0, -3.0), (3.0, 4.0), (1e-320, 3e-321), (1e308, 1e308),
-            (5e-324, 0.0), (1.0, 1e-17), (-0.0, 2.5), (325.0, 325.0)]
+    edge = [
+        (0.0, 0.0),
+        (0.0, -3.0),
+        (3.0, 4.0),
+        (1e-320, 3e-321),
+        (1e308, 1e308),
+        (5e-324, 0.0),
+        (1.0, 1e-17),
+        (-0.0, 2.5),
+        (325.0, 325.0),
+    ]
     pairs = [*edge, *map(tuple, a.tolist())]
     return all(fn(x, y) == math.hypot(x, y) for x, y in pairs)
 
@@ -428,6 +598,25 @@ def _warm(ns: Any) -> None:
     ns.ekf_predict(*([1.0] * 16))
     ns.ekf_update(*([1.0] * 15))
     one = np.zeros(1)
-    ns.ftl_exact(np.zeros(1), np.zeros((1, 3)), np.zeros(1), 100.0, one, np.full(1, -1),
-                 np.ones(1), np.full(1, math.nan), np.full(1, math.nan), 0.5, 10.0, 0, 50.0,
-                 50.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+    ns.ftl_exact(
+        np.zeros(1),
+        np.zeros((1, 3)),
+        np.zeros(1),
+        100.0,
+        one,
+        np.full(1, -1),
+        np.ones(1),
+        np.full(1, math.nan),
+        np.full(1, math.nan),
+        0.5,
+        10.0,
+        0,
+        50.0,
+        50.0,
+        0.0,
+        0.0,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+    )

@@ -24,8 +24,14 @@ from numpy.typing import NDArray
 
 from rtsim.analysis.window import LASER_POINTS
 
-__all__ = ["BEAM_BEARINGS", "BEAM_SPACING", "count_beams", "count_beams_xy", "beam_owners",
-           "max_points"]
+__all__ = [
+    "BEAM_BEARINGS",
+    "BEAM_SPACING",
+    "count_beams",
+    "count_beams_xy",
+    "beam_owners",
+    "max_points",
+]
 
 #: Angular spacing of the beams (rad): 0.5°.
 BEAM_SPACING = math.radians(0.5)
@@ -48,8 +54,8 @@ def beam_owners(
         return np.full(LASER_POINTS, -1, dtype=np.intp)
     x = rel[:, 0:1]
     y = rel[:, 1:2]
-    proj = x * _COS + y * _SIN                  # (n, 361) distance along the beam to the foot
-    perp = x * _SIN - y * _COS                  # signed distance of the centre from the beam
+    proj = x * _COS + y * _SIN  # (n, 361) distance along the beam to the foot
+    perp = x * _SIN - y * _COS  # signed distance of the centre from the beam
     half2 = r_F * r_F - perp * perp
     hit = (half2 >= 0.0) & (proj > 0.0)
     rng = np.where(hit, proj - np.sqrt(np.where(hit, half2, 0.0)), np.inf)

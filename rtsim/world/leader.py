@@ -31,8 +31,15 @@ class Leader:
     """Leader on ``path`` with desired speed ``desired_speed`` (cm/s), starting at ``s0`` cm,
     its speed ramping toward the target at most ``accel_max`` / ``decel_max`` cm/s²."""
 
-    def __init__(self, path: LeaderPath, desired_speed: float, s0: float = 0.0, *,
-                 accel_max: float = math.inf, decel_max: float = math.inf) -> None:
+    def __init__(
+        self,
+        path: LeaderPath,
+        desired_speed: float,
+        s0: float = 0.0,
+        *,
+        accel_max: float = math.inf,
+        decel_max: float = math.inf,
+    ) -> None:
         self.path = path
         self.desired_speed = positive("leader.speed", desired_speed)
         self.accel_max = positive("leader.accel_max", accel_max, allow_inf=True)
@@ -45,9 +52,7 @@ class Leader:
         """Set the target speed, 0 ≤ v ≤ V_Ld (a tiny rounding excess is clipped); the actual
         speed ramps toward it (at once when the limit in that direction is infinite)."""
         if not (0.0 <= v <= self.desired_speed * (1 + 1e-9)):
-            raise InputError(
-                f"leader speed must be in [0, {self.desired_speed:g}] cm/s, got {v!r}"
-            )
+            raise InputError(f"leader speed must be in [0, {self.desired_speed:g}] cm/s, got {v!r}")
         self.target_speed = min(float(v), self.desired_speed)
         a = self.accel_max if self.target_speed > self.speed else self.decel_max
         if a == math.inf:

@@ -78,8 +78,9 @@ def locate_one(
     return in_window, not in_window, (not in_window) and visible and dist <= r_reacq
 
 
-def lost_cause(visible: bool, rel_xy: tuple[float, float], r_F: float, max_range: float,
-               min_points: int) -> str:
+def lost_cause(
+    visible: bool, rel_xy: tuple[float, float], r_F: float, max_range: float, min_points: int
+) -> str:
     """The cause (:data:`LOST_CAUSES`) of a lost track: ``visible`` (at least ``min_points``
     beams returned) means the fix fell outside the window; otherwise the follower at
     ``rel_xy`` (leader frame, cm) alone would return no beam (``out_of_range``) or some
@@ -99,9 +100,10 @@ def locate(
     min_points: int,
 ) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
     """:func:`locate_one` for (n, 2) arrays of fixes and centres: three (n,) bool arrays."""
-    rows = [locate_one(tuple(m), tuple(c), int(p), r_H, r_reacq, min_points)
-            for m, c, p in zip(measured.tolist(), centre.tolist(), points.tolist(),
-                               strict=True)]
+    rows = [
+        locate_one(tuple(m), tuple(c), int(p), r_H, r_reacq, min_points)
+        for m, c, p in zip(measured.tolist(), centre.tolist(), points.tolist(), strict=True)
+    ]
     out = np.array(rows, dtype=bool).reshape(-1, 3)
     return out[:, 0], out[:, 1], out[:, 2]
 

@@ -43,9 +43,17 @@ class OcclusionShare:
         return max(a + b for a, b in zip(self.occluded, self.out_of_range, strict=True))
 
 
-def occlusion_share(path: LeaderPath, formation: Formation, r_F: float, *,
-                    step: float = 6.0, start_s: float = 0.0, length: float | None = None,
-                    min_points: int = 3, max_range: float = math.inf) -> OcclusionShare:
+def occlusion_share(
+    path: LeaderPath,
+    formation: Formation,
+    r_F: float,
+    *,
+    step: float = 6.0,
+    start_s: float = 0.0,
+    length: float | None = None,
+    min_points: int = 3,
+    max_range: float = math.inf,
+) -> OcclusionShare:
     """The occlusion share of ``formation`` over ``length`` cm of ``path`` (default one lap)
     from the leader's arc length ``start_s``, sampled every ``step`` cm (module docstring)."""
     if not step > 0:

@@ -192,7 +192,11 @@ class LeaderPath:
 
 
 def rounded_rectangle(
-    length: float, width: float, radius: float, *, direction: Literal["left", "right"] = "left",
+    length: float,
+    width: float,
+    radius: float,
+    *,
+    direction: Literal["left", "right"] = "left",
     start: tuple[float, float, float] = (0.0, 0.0, 0.0),
 ) -> LeaderPath:
     """Four straights and four 90° turns: straights of ``length`` and ``width`` cm (a straight

@@ -42,9 +42,9 @@ def ramp(v0: Array, vc: Array, a_max: float, dt: float) -> tuple[Array, Array]:
     if not np.isfinite(a_max):
         return vc.copy(), vc.copy()
     dv = vc - v0
-    tau = np.abs(dv) / a_max                          # time to reach the command
+    tau = np.abs(dv) / a_max  # time to reach the command
     reach = tau <= dt
     v1 = np.where(reach, vc, v0 + np.sign(dv) * (a_max * dt))
-    t_r = np.minimum(tau, dt)                         # ramp (v0 → v1), then hold vc
+    t_r = np.minimum(tau, dt)  # ramp (v0 → v1), then hold vc
     mean = ((v0 + v1) * 0.5 * t_r + np.where(reach, vc * (dt - t_r), 0.0)) / dt
     return v1, mean

@@ -70,18 +70,25 @@ class World:
         self.rng = rng
         self._z: list[float] = []  # standard normals drawn ahead from rng (see _normals)
         self._zi = 0
-        self.leader = Leader(config.path, config.leader_speed, config.start_s,
-                             accel_max=config.leader_accel_max,
-                             decel_max=config.leader_decel_max)
+        self.leader = Leader(
+            config.path,
+            config.leader_speed,
+            config.start_s,
+            accel_max=config.leader_accel_max,
+            decel_max=config.leader_decel_max,
+        )
         form = config.formation
         self._rho_d = np.asarray(form.rho_d)
         self._beta_d = np.asarray(form.beta_d)
         fp = config.follower
         self._kappa_targets = self.leader.curvature
-        self._l_d, self._psi_d = control_targets(self._rho_d, self._beta_d, fp.control_offset,
-                                                 self._kappa_targets)
-        self._targets_l: tuple[list[float], list[float]] = (self._l_d.tolist(),
-                                                             self._psi_d.tolist())
+        self._l_d, self._psi_d = control_targets(
+            self._rho_d, self._beta_d, fp.control_offset, self._kappa_targets
+        )
+        self._targets_l: tuple[list[float], list[float]] = (
+            self._l_d.tolist(),
+            self._psi_d.tolist(),
+        )
         xl, yl, hl = self.leader.pose
         v_l, w_l = self.leader.speed, self.leader.omega
         slots = form.xy()
@@ -100,8 +107,10 @@ class World:
         if follower_model(form.model).on_trace:
             ftl = CompiledTraceFollower if fast else TraceFollower
             self._ftl = ftl(config.path, form.rho_d, form.lateral, fp.gain_rho, fp.lookahead)
-            init = np.array([self._ftl.initial(k, self.leader.s, (xl, yl, hl), v_l)
-                             for k in range(form.n)], dtype=float).reshape(form.n, 4)
+            init = np.array(
+                [self._ftl.initial(k, self.leader.s, (xl, yl, hl), v_l) for k in range(form.n)],
+                dtype=float,
+            ).reshape(form.n, 4)
             x, y, th, v_f = init.T
             w0 = 0.0
         else:
@@ -117,14 +126,21 @@ class World:
         if self.backend == "filterpy" and ep.backend != "filterpy":
             ep = replace(ep, backend="filterpy")
         noise = rng.standard_normal((form.n, 3))
-        poses = [(x[k] + ep.init_position_sd * noise[k, 0],
-                  y[k] + ep.init_position_sd * noise[k, 1],
-                  th[k] + ep.init_heading_sd * noise[k, 2]) for k in range(form.n)]
-        self._filters = [CompiledFollowerEKF(pose, ep) if fast else make_filter(pose, ep)
-                         for pose in poses]
+        poses = [
+            (
+                x[k] + ep.init_position_sd * noise[k, 0],
+                y[k] + ep.init_position_sd * noise[k, 1],
+                th[k] + ep.init_heading_sd * noise[k, 2],
+            )
+            for k in range(form.n)
+        ]
+        self._filters = [
+            CompiledFollowerEKF(pose, ep) if fast else make_filter(pose, ep) for pose in poses
+        ]
         self._vhat = [float(v) for v in v_f]
         self._pieces: list[list[tuple[float, float, float]]] = [
-            [(0.0, float(v_f[k]), w0)] for k in range(form.n)]
+            [(0.0, float(v_f[k]), w0)] for k in range(form.n)
+        ]
         self._centre = self._to_leader(self.leader.pose, *self._estimated_xy())
         self._prev: dict[str, Any] | None = None
         thr = config.thresholds
@@ -231,8 +247,10 @@ class World:
     def _to_leader(leader: Pose, x: list[float], y: list[float]) -> list[tuple[float, float]]:
         xl, yl, hl = leader
         c, s = math.cos(hl), math.sin(hl)
-        return [(c * (a - xl) + s * (b - yl), -s * (a - xl) + c * (b - yl))
-                for a, b in zip(x, y, strict=True)]
+        return [
+            (c * (a - xl) + s * (b - yl), -s * (a - xl) + c * (b - yl))
+            for a, b in zip(x, y, strict=True)
+        ]
 
     def estimated_pose(self, i: int) -> Pose:
         """The leader's estimate of follower i's pose (x, y, heading) now."""
@@ -308,8 +326,9 @@ class World:
             search = not in_w and (expected is None or expected[k] >= min_pts)
             searched.append(search)
             reacqs.append(search and visible and dist <= r_re)
-            causes.append("" if in_w else lost_cause(visible, truth_l[k], r_F, sens.max_range,
-                                                     min_pts))
+            causes.append(
+                "" if in_w else lost_cause(visible, truth_l[k], r_F, sens.max_range, min_pts)
+            )
             rho = math.hypot(tx, ty)
             beta = math.atan2(ty, tx) % two_pi
             rhos.append(rho)
@@ -331,11 +350,28 @@ class World:
             v_path.append(travel > trav_lim[k])
             v_bear.append(d_beta > T_beta)
         changes = {"displacement": disps, "d_rho": d_rhos, "travel": travels, "d_beta": d_betas}
-        violations = {"localization": v_loc, "separation": v_sep, "path_diversion": v_path,
-                      "bearing": v_bear}
+        violations = {
+            "localization": v_loc,
+            "separation": v_sep,
+            "path_diversion": v_path,
+            "bearing": v_bear,
+        }
         self._prev = {"truth": truth_l, "rho": rhos, "beta": betas, "odo": list(odo)}
-        return Scan(t_ms, lp, pts, measured, truth_l, list(centre), in_ws, losts, reacqs,
-                    changes, violations, searched, causes)
+        return Scan(
+            t_ms,
+            lp,
+            pts,
+            measured,
+            truth_l,
+            list(centre),
+            in_ws,
+            losts,
+            reacqs,
+            changes,
+            violations,
+            searched,
+            causes,
+        )
 
     def estimate(self, scan: Scan) -> None:
         """EKF predict (commands held since the last estimate) and update from ``scan``'s fixes;
@@ -397,12 +433,14 @@ class World:
         kappa = ld.curvature
         if kappa != self._kappa_targets:
             self._l_d, self._psi_d = control_targets(
-                self._rho_d, self._beta_d, self.config.follower.control_offset, kappa)
+                self._rho_d, self._beta_d, self.config.follower.control_offset, kappa
+            )
             self._kappa_targets = kappa
             self._targets_l = (self._l_d.tolist(), self._psi_d.tolist())
         l_d, psi_d = self._targets_l
-        v, w = lpsi_command(ld.pose, ld.speed, kappa * ld.speed, x, y, th, l_d[k], psi_d[k],
-                            self.config.follower)
+        v, w = lpsi_command(
+            ld.pose, ld.speed, kappa * ld.speed, x, y, th, l_d[k], psi_d[k], self.config.follower
+        )
         return self._hold(k, t_ms, fol.saturate(v, w))
 
     def _hold(self, k: int, t_ms: float, cmd: tuple[float, float]) -> tuple[float, float]:
@@ -429,8 +467,9 @@ class World:
         return v, w
 
     # -- relative states and snapshots -----------------------------------------------
-    def relative(self, i: int, source: Literal["truth", "estimate"] = "truth"
-                 ) -> tuple[float, float, float, float]:
+    def relative(
+        self, i: int, source: Literal["truth", "estimate"] = "truth"
+    ) -> tuple[float, float, float, float]:
         """(ρ, β, θ, V_F) of follower i now, docs/model/upper-bounds.md conventions, from the truth
         or from the
         leader's estimate (pose propagated to now, V_F the speed it expects)."""
@@ -459,12 +498,29 @@ class World:
         fol.advance_all(self._t, self.config.step_ms)
         return {
             "t_ms": self._t,
-            "leader": {"x": xl, "y": yl, "heading": hl, "s": ld.s, "speed": ld.speed,
-                       "target_speed": ld.target_speed, "desired_speed": ld.desired_speed,
-                       "omega": ld.omega,
-                       "segment": kind, "curvature": kappa},
-            "truth": {"x": list(fol.x), "y": list(fol.y), "heading": list(fol.th),
-                      "speed": list(fol.v), "odometer": list(fol.odometer)},
-            "estimate": {"x": [e[0][0] for e in est], "y": [e[0][1] for e in est],
-                         "heading": [e[0][2] for e in est], "speed": [e[1] for e in est]},
+            "leader": {
+                "x": xl,
+                "y": yl,
+                "heading": hl,
+                "s": ld.s,
+                "speed": ld.speed,
+                "target_speed": ld.target_speed,
+                "desired_speed": ld.desired_speed,
+                "omega": ld.omega,
+                "segment": kind,
+                "curvature": kappa,
+            },
+            "truth": {
+                "x": list(fol.x),
+                "y": list(fol.y),
+                "heading": list(fol.th),
+                "speed": list(fol.v),
+                "odometer": list(fol.odometer),
+            },
+            "estimate": {
+                "x": [e[0][0] for e in est],
+                "y": [e[0][1] for e in est],
+                "heading": [e[0][2] for e in est],
+                "speed": [e[1] for e in est],
+            },
         }

@@ -36,8 +36,13 @@ def test_paper_numbers_by_hand(paper_ts):
     n, r_h = 2, 25
     assert (c["n"], c["r_H"]) == (n, r_h)
     e_hough = math.pi * r_h**2 * n * c["e_cal"] + min(361, c["k"] * n) * c["e_trans"]
-    g = (c["e_scan"] + e_hough + n * (c["e_recv"] + c["e_send"] + c["e_estimate"])
-         + c["delta_t"] + c["e_sched"])
+    g = (
+        c["e_scan"]
+        + e_hough
+        + n * (c["e_recv"] + c["e_send"] + c["e_estimate"])
+        + c["delta_t"]
+        + c["e_sched"]
+    )
     dr = next(t for t in raw["tasks"] if t["name"] == "dead_reckoning")
     cmd = next(t for t in raw["tasks"] if t["name"] == "command")
     u = dr["wcet"] / dr["period"]
@@ -49,7 +54,11 @@ def test_paper_numbers_by_hand(paper_ts):
     r_cmd = hand_rta(cmd["wcet"] + 2 * g, [(dr["wcet"], dr["period"])])
     rta = max(r_chain, r_cmd / 2)
     assert (round(g, 3), round(eq7, 2), round(eq11, 2), round(rta, 2)) == (
-        192.727, 225.97, 237.40, 235.23)
+        192.727,
+        225.97,
+        237.40,
+        235.23,
+    )
 
     b = window_bounds(paper_ts, n=2, r_H=25)
     assert b.e_hough == pytest.approx(e_hough, rel=1e-12)
@@ -62,18 +71,38 @@ def test_paper_numbers_by_hand(paper_ts):
 
 def test_inputs_echo_everything(paper_ts):
     d = window_bounds(paper_ts, n=3, r_H=30).as_dict()
-    keys = {"n", "r_H", "e_cal", "e_trans", "k", "e_scan", "e_estimate", "e_send", "e_recv",
-            "delta_t", "e_sched", "hp", "lp"}
+    keys = {
+        "n",
+        "r_H",
+        "e_cal",
+        "e_trans",
+        "k",
+        "e_scan",
+        "e_estimate",
+        "e_send",
+        "e_recv",
+        "delta_t",
+        "e_sched",
+        "hp",
+        "lp",
+    }
     assert keys <= set(d["inputs"])
     assert (d["inputs"]["n"], d["inputs"]["r_H"]) == (3, 30)
     assert d["inputs"]["hp"] == [{"name": "dead_reckoning", "e": 5.0, "p": 40.0, "priority": 1}]
-    assert d["inputs"]["lp"] == [{"name": "command", "e": 25.0, "per_window": 2.0,
-                                  "priority": 3}]
+    assert d["inputs"]["lp"] == [{"name": "command", "e": 25.0, "per_window": 2.0, "priority": 3}]
     # Recompute from the echo alone with the module of Eq 1-11 functions.
     i = d["inputs"]
     eh = eqs.e_hough(i["n"], i["r_H"], i["e_cal"], i["e_trans"], i["k"])
-    g = eqs.g_window(i["n"], eh, i["e_scan"], i["e_estimate"], i["e_send"], i["e_recv"],
-                     i["delta_t"], i["e_sched"])
+    g = eqs.g_window(
+        i["n"],
+        eh,
+        i["e_scan"],
+        i["e_estimate"],
+        i["e_send"],
+        i["e_recv"],
+        i["delta_t"],
+        i["e_sched"],
+    )
     hp = [(t["e"], t["p"]) for t in i["hp"]]
     assert d["g"] == pytest.approx(g)
     assert d["w_sch"] == pytest.approx(eqs.w_sch(g, hp, [t["e"] for t in i["lp"]]))

@@ -54,8 +54,9 @@ def test_demand_and_limits_by_hand():
     assert r.schedulable and r.limit is None
 
 
-def _random_sets(seed: int, count: int, *, jitter: bool, kind: str, umin: float = 0.5,
-                 umax: float = 1.0):
+def _random_sets(
+    seed: int, count: int, *, jitter: bool, kind: str, umin: float = 0.5, umax: float = 1.0
+):
     rng = np.random.default_rng(seed)
     out = []
     while len(out) < count:
@@ -85,15 +86,19 @@ def _all_points(tasks):
     la, lb = limit_la(tasks), busy_period(tasks)
     lims = [x for x in (la, lb) if x is not None and math.isfinite(x)]
     # U = 1 with jitter: h(t + H) = h(t) + H beyond max(D − J)
-    limit = min(lims) if lims else max(d - j for _, _, d, j in tasks) + math.lcm(
-        *(int(p) for _, p, _, _ in tasks))
+    limit = (
+        min(lims)
+        if lims
+        else max(d - j for _, _, d, j in tasks) + math.lcm(*(int(p) for _, p, _, _ in tasks))
+    )
     return all(demand(t, tasks) <= t + 1e-9 for t in deadline_points(tasks, limit))
 
 
 @pytest.mark.parametrize("kind", ["implicit", "constrained", "arbitrary"])
 def test_qpa_equals_checking_every_deadline_point(kind):
-    sets = _random_sets(1, 150, jitter=True, kind=kind) + \
-        _random_sets(2, 150, jitter=False, kind=kind)
+    sets = _random_sets(1, 150, jitter=True, kind=kind) + _random_sets(
+        2, 150, jitter=False, kind=kind
+    )
     verdicts = [qpa(ts).schedulable for ts in sets]
     assert verdicts == [_all_points(ts) for ts in sets]
     if kind != "implicit":
@@ -164,19 +169,26 @@ def test_spuri_by_hand():
 def test_spuri_agrees_with_the_demand_verdict(kind):
     # without jitter both are exact: every bound within its deadline iff the set passes
     for ts in _random_sets(7, 80, jitter=False, kind=kind):
-        ok = all((r := spuri_wcrt(i, ts)) is not None and r <= ts[i][2] + 1e-9
-                 for i in range(len(ts)))
+        ok = all(
+            (r := spuri_wcrt(i, ts)) is not None and r <= ts[i][2] + 1e-9 for i in range(len(ts))
+        )
         assert ok == qpa(ts).schedulable, ts
 
 
 def _sim_tasks(ts):
-    return [Task(f"t{k}", c, p, d, priority=k + 1, jitter=j)
-            for k, (c, p, d, j) in enumerate(ts)]
+    return [Task(f"t{k}", c, p, d, priority=k + 1, jitter=j) for k, (c, p, d, j) in enumerate(ts)]
 
 
-@pytest.mark.parametrize("kind,jitter", [("implicit", False), ("constrained", False),
-                                         ("arbitrary", False), ("constrained", True),
-                                         ("arbitrary", True)])
+@pytest.mark.parametrize(
+    "kind,jitter",
+    [
+        ("implicit", False),
+        ("constrained", False),
+        ("arbitrary", False),
+        ("constrained", True),
+        ("arbitrary", True),
+    ],
+)
 def test_simulation_under_edf_matches_the_demand_criterion(kind, jitter):
     """Schedulable iff no miss from a synchronous release (with jitter: the common-instant
     pattern, each first job released J_i after arriving at t0 − J_i), over the hyperperiod
@@ -187,8 +199,9 @@ def test_simulation_under_edf_matches_the_demand_criterion(kind, jitter):
         hyper = math.lcm(*(int(p) for _, p, _, _ in ts))
         lb = busy_period(ts) or 0.0
         horizon = max(hyper, lb) + max(d for _, _, d, _ in ts) + max(p for _, p, _, _ in ts)
-        res = simulate(_sim_tasks(ts), horizon, scheduler="edf",
-                       jitter="worst" if jitter else "none")
+        res = simulate(
+            _sim_tasks(ts), horizon, scheduler="edf", jitter="worst" if jitter else "none"
+        )
         verdict = qpa(ts).schedulable
         assert (res.misses == 0) == verdict, (ts, res.misses)
         agree[verdict] += 1
@@ -228,8 +241,7 @@ def test_per_task_bounds_agree_with_the_set_verdict_at_u_equal_1():
     w_edf = 234.54513236227112  # U = 1: the synchronous busy period never closes
     res = analyze_edf(paper, w_edf)
     assert res.schedulable
-    assert all(t.bound == "deadline" and t.wcrt == t.deadline and t.schedulable
-               for t in res.tasks)
+    assert all(t.bound == "deadline" and t.wcrt == t.deadline and t.schedulable for t in res.tasks)
     sim = simulate(paper, 200 * w_edf, window=w_edf, scheduler="edf")
     assert sim.misses == 0
     for t in res.tasks:

@@ -39,8 +39,9 @@ def test_hand_worked_arbitrary_deadline():
 
 
 # -- brute force --------------------------------------------------------------------------
-def brute_max_response(tasks: list[tuple[int, int, int]], phases: list[int],
-                       delays: list[list[int]], horizon: int) -> int:
+def brute_max_response(
+    tasks: list[tuple[int, int, int]], phases: list[int], delays: list[list[int]], horizon: int
+) -> int:
     """Largest response (from arrival) of the last task, unit-step FP scheduler.
 
     tasks: (C, T, J) in priority order; job k of task i arrives at phases[i] + k·T_i and is
@@ -74,8 +75,10 @@ def random_integer_sets(seed: int, count: int):
     rng = np.random.default_rng(seed)
     made = 0
     while made < count:
-        ts = [(int(rng.integers(1, 3)), int(rng.integers(3, 7)), int(rng.integers(0, 3)))
-              for _ in range(3)]
+        ts = [
+            (int(rng.integers(1, 3)), int(rng.integers(3, 7)), int(rng.integers(0, 3)))
+            for _ in range(3)
+        ]
         if sum(c / t for c, t, _ in ts) <= 0.95:
             made += 1
             yield ts
@@ -95,8 +98,9 @@ def test_against_brute_force(seed):
         for ph1, ph2 in itertools.product(range(t1), range(t2)):
             for d1, d2, d0 in itertools.product(range(j1 + 1), range(j2 + 1), range(j + 1)):
                 for l1, l2, l0 in itertools.product({0, j1}, {0, j2}, {0, j}):
-                    got = brute_max_response(tasks, [ph1, ph2, t0 - j],
-                                             [[d1, l1], [d2, l2], [d0, l0]], 40)
+                    got = brute_max_response(
+                        tasks, [ph1, ph2, t0 - j], [[d1, l1], [d2, l2], [d0, l0]], 40
+                    )
                     worst = max(worst, got)
                     assert got <= r + 1e-9, (tasks, ph1, ph2, d1, d2, d0, got, r)
         assert worst == r, (tasks, worst, r)
@@ -104,9 +108,11 @@ def test_against_brute_force(seed):
 
 # -- the simulator ------------------------------------------------------------------------
 def test_worst_reaches_analysis_and_random_stays_below():
-    tasks = [Task("a", 1.5, 6.0, priority=1, jitter=2.0),
-             Task("b", 2.25, 9.0, priority=2, jitter=1.0),
-             Task("c", 3.0, 20.0, 18.0, priority=3, jitter=4.0)]
+    tasks = [
+        Task("a", 1.5, 6.0, priority=1, jitter=2.0),
+        Task("b", 2.25, 9.0, priority=2, jitter=1.0),
+        Task("c", 3.0, 20.0, 18.0, priority=3, jitter=4.0),
+    ]
     ana = analyze(TaskSet(tuple(tasks)))
     assert ana.schedulable
     worst = simulate(tasks, 400.0, jitter="worst")
@@ -125,10 +131,15 @@ def test_worst_reaches_analysis_and_random_stays_below():
 
 
 def test_zero_jitter_is_bit_identical_in_every_mode():
-    tasks = [Task("a", 1.5, 6.0, priority=1), Task("b", 2.25, 9.0, priority=2, bcet=1.0),
-             Task("c", 3.0, 20.0, priority=3, offset=1.0, bcet=0.5)]
-    runs = [simulate(tasks, 500.0, jitter=m, exec_model="uniform", seed=4, record_jobs=True)
-            for m in ("random", "worst", "none")]
+    tasks = [
+        Task("a", 1.5, 6.0, priority=1),
+        Task("b", 2.25, 9.0, priority=2, bcet=1.0),
+        Task("c", 3.0, 20.0, priority=3, offset=1.0, bcet=0.5),
+    ]
+    runs = [
+        simulate(tasks, 500.0, jitter=m, exec_model="uniform", seed=4, record_jobs=True)
+        for m in ("random", "worst", "none")
+    ]
     for r in runs[1:]:
         assert r.jobs.equals(runs[0].jobs)
     assert (runs[0].jobs["arrival"] == runs[0].jobs["release"]).all()
@@ -136,8 +147,10 @@ def test_zero_jitter_is_bit_identical_in_every_mode():
 
 def test_jitter_keeps_execution_draws_and_is_seeded():
     base = [Task("a", 2.0, 6.0, priority=1, bcet=0.5), Task("b", 2.0, 9.0, priority=2, bcet=1.0)]
-    jit = [Task("a", 2.0, 6.0, priority=1, bcet=0.5, jitter=1.5),
-           Task("b", 2.0, 9.0, priority=2, bcet=1.0)]
+    jit = [
+        Task("a", 2.0, 6.0, priority=1, bcet=0.5, jitter=1.5),
+        Task("b", 2.0, 9.0, priority=2, bcet=1.0),
+    ]
     a = simulate(base, 300.0, exec_model="uniform", seed=7, record_jobs=True).jobs
     b = simulate(jit, 300.0, exec_model="uniform", seed=7, record_jobs=True).jobs
     c = simulate(jit, 300.0, exec_model="uniform", seed=7, record_jobs=True).jobs
@@ -176,8 +189,10 @@ def test_cli_simulate_jitter_worst(tmp_path, capsys):
     from rtsim.cli import main
 
     f = tmp_path / "j.toml"
-    f.write_text('[[tasks]]\nname = "h"\nwcet = 2\nperiod = 5\njitter = 1\n'
-                 '[[tasks]]\nname = "l"\nwcet = 4\nperiod = 7\ndeadline = 30\njitter = 2\n')
+    f.write_text(
+        '[[tasks]]\nname = "h"\nwcet = 2\nperiod = 5\njitter = 1\n'
+        '[[tasks]]\nname = "l"\nwcet = 4\nperiod = 7\ndeadline = 30\njitter = 2\n'
+    )
     assert main(["simulate", str(f), "--horizon", "200", "--jitter", "worst", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     got = {t["name"]: (t["max_response"], t["wcrt_analysis"]) for t in out["tasks"]}

@@ -30,8 +30,7 @@ def test_lower_bound_values_and_model_checks():
         lower_bound(ts, "w_susp", suspension="cpu")
     with pytest.raises(InputError, match="fixed-priority bound, but the scheduler is 'edf'"):
         lower_bound(ts, "w_rta", scheduler="edf")
-    with pytest.raises(InputError, match="lower_bound: must be one of w_sch, w_rta, w_susp, "
-                                         "w_edf"):
+    with pytest.raises(InputError, match="lower_bound: must be one of w_sch, w_rta, w_susp, w_edf"):
         lower_bound(ts, "w_min")
     assert lower_bound(ts, "w_edf", scheduler="edf") == b.w_edf
     assert lower_bound(ts, "w_edf", scheduler="edf", suspension="cpu") == b.w_edf
@@ -58,14 +57,16 @@ def test_scenario_key(tmp_path):
 def test_default_stays_w_sch_bit_identical():
     sc = load_scenario(TEST2)
     a = run_scenario(sc, duration_s=6, record_jobs=False)
-    b = run_scenario(replace(sc, adjust=replace(sc.adjust, lower_bound="w_sch")), duration_s=6,
-                     record_jobs=False)
+    b = run_scenario(
+        replace(sc, adjust=replace(sc.adjust, lower_bound="w_sch")), duration_s=6, record_jobs=False
+    )
     pd.testing.assert_frame_equal(a.windows, b.windows)
 
 
 def test_experiment_quick(tmp_path):
-    spec = importlib.util.spec_from_file_location("lower_bounds",
-                                                  ROOT / "experiments" / "lower_bounds.py")
+    spec = importlib.util.spec_from_file_location(
+        "lower_bounds", ROOT / "experiments" / "lower_bounds.py"
+    )
     mod = importlib.util.module_from_spec(spec)
     assert spec.loader is not None
     spec.loader.exec_module(mod)
@@ -96,8 +97,9 @@ def test_scenario_under_edf_with_w_edf(tmp_path, monkeypatch):
     monkeypatch.setattr(CPU, "__init__", spy)
     text = TEST2.read_text()
     f = tmp_path / "s.toml"
-    f.write_text(text.replace("[adjust]", '[scheduler]\npolicy = "edf"\n\n[adjust]\n'
-                                          'lower_bound = "w_edf"'))
+    f.write_text(
+        text.replace("[adjust]", '[scheduler]\npolicy = "edf"\n\n[adjust]\nlower_bound = "w_edf"')
+    )
     sc = load_scenario(f)
     assert sc.scheduler == "edf" and sc.load_taskset().scheduler == "edf"
     res = run_scenario(sc, duration_s=6, record_jobs=True)
@@ -107,10 +109,14 @@ def test_scenario_under_edf_with_w_edf(tmp_path, monkeypatch):
     assert policies == ["edf"]  # the leader's CPU ran EDF
     assert res.inputs.resolved["taskset"]["scheduler"] == {"policy": "edf"}
     # a bound of the other scheduler is a one-line error naming the file and key
-    f.write_text(text.replace("[adjust]", '[scheduler]\npolicy = "edf"\n\n[adjust]\n'
-                                          'lower_bound = "w_rta"'))
-    with pytest.raises(ScenarioError, match=r"s.toml: adjust.lower_bound: w_rta assumes the "
-                                            r"fp scheduler, but \[scheduler\] policy is 'edf'"):
+    f.write_text(
+        text.replace("[adjust]", '[scheduler]\npolicy = "edf"\n\n[adjust]\nlower_bound = "w_rta"')
+    )
+    with pytest.raises(
+        ScenarioError,
+        match=r"s.toml: adjust.lower_bound: w_rta assumes the "
+        r"fp scheduler, but \[scheduler\] policy is 'edf'",
+    ):
         load_scenario(f)
     f.write_text(text.replace("[adjust]", '[adjust]\nlower_bound = "w_edf"'))
     with pytest.raises(InputError, match="w_edf is an EDF bound, but the scheduler is 'fp'"):

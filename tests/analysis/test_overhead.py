@@ -38,16 +38,33 @@ def overhead_sets(draw: st.DrawFn) -> tuple[list[Task], float, str, str]:
     n = draw(st.integers(2, 4))
     tasks = []
     for k in range(n):
-        segs = tuple(Segment(f"s{i}", draw(st.sampled_from([0.25, 0.5, 1.0, 1.5, 3.0])),
-                             draw(st.sampled_from(["compute", "compute", "suspend"])))
-                     for i in range(draw(st.integers(1, 3))))
+        segs = tuple(
+            Segment(
+                f"s{i}",
+                draw(st.sampled_from([0.25, 0.5, 1.0, 1.5, 3.0])),
+                draw(st.sampled_from(["compute", "compute", "suspend"])),
+            )
+            for i in range(draw(st.integers(1, 3)))
+        )
         period = float(draw(st.integers(8, 60)))
-        tasks.append(Task(f"t{k}", sum(s.wcet for s in segs), period, priority=k + 1,
-                          offset=draw(st.sampled_from([0.0, 0.0, period / 3])),
-                          jitter=draw(st.sampled_from([0.0, 0.0, 1.0, 2.5])), segments=segs))
+        tasks.append(
+            Task(
+                f"t{k}",
+                sum(s.wcet for s in segs),
+                period,
+                priority=k + 1,
+                offset=draw(st.sampled_from([0.0, 0.0, period / 3])),
+                jitter=draw(st.sampled_from([0.0, 0.0, 1.0, 2.5])),
+                segments=segs,
+            )
+        )
     o = draw(st.sampled_from([0.0, 0.05, 0.2, 0.5]))
-    return tasks, o, draw(st.sampled_from(["cpu", "idle"])), draw(st.sampled_from(
-        ["worst", "random"]))
+    return (
+        tasks,
+        o,
+        draw(st.sampled_from(["cpu", "idle"])),
+        draw(st.sampled_from(["worst", "random"])),
+    )
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -72,8 +89,10 @@ def test_analysis_without_overhead_can_be_optimistic():
 
 def test_file_key_and_cli(tmp_path, capsys):
     f = tmp_path / "o.toml"
-    f.write_text('overhead = 0.5\n[[tasks]]\nname = "h"\nwcet = 1\nperiod = 5\n'
-                 '[[tasks]]\nname = "l"\nwcet = 3\nperiod = 20\noffset = 2\n')
+    f.write_text(
+        'overhead = 0.5\n[[tasks]]\nname = "h"\nwcet = 1\nperiod = 5\n'
+        '[[tasks]]\nname = "l"\nwcet = 3\nperiod = 20\noffset = 2\n'
+    )
     assert load_taskset(f).overhead == 0.5
     assert main(["analyze", str(f), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -87,5 +106,4 @@ def test_file_key_and_cli(tmp_path, capsys):
     assert sim["overhead"] == 0.5 and sim["tasks"][1]["wcrt_analysis"] == 7.5
     assert main(["analyze", str(f), "--overhead", "-1"]) == 2
     with pytest.raises(TaskSetError, match="x.toml: overhead: must be non-negative"):
-        parse_taskset({"overhead": -1, "tasks": [{"name": "a", "wcet": 1, "period": 2}]},
-                      "x.toml")
+        parse_taskset({"overhead": -1, "tasks": [{"name": "a", "wcet": 1, "period": 2}]}, "x.toml")

@@ -25,8 +25,10 @@ from rtsim.model.taskset import TaskSet
 
 def mk(specs: list[tuple[float, ...]]) -> list[Task]:
     """Tasks from (e, p[, d]) in priority order."""
-    return [Task(f"t{i}", s[0], s[1], s[2] if len(s) > 2 else None, priority=i)
-            for i, s in enumerate(specs, start=1)]
+    return [
+        Task(f"t{i}", s[0], s[1], s[2] if len(s) > 2 else None, priority=i)
+        for i, s in enumerate(specs, start=1)
+    ]
 
 
 def test_worked_example():
@@ -119,8 +121,7 @@ def test_arbitrary_deadlines_match_unit_schedule():
     for _ in range(300):
         n = int(rng.integers(2, 5))
         periods = [int(p) for p in rng.integers(2, 13, size=n)]
-        specs = [(int(rng.integers(1, p + 1)), p, int(rng.integers(1, 3 * p + 1)))
-                 for p in periods]
+        specs = [(int(rng.integers(1, p + 1)), p, int(rng.integers(1, 3 * p + 1))) for p in periods]
         if sum(e / p for e, p, _ in specs) > 1:
             continue
         tasks = mk(specs)
@@ -177,11 +178,11 @@ def test_liu_layland_bound_values():
 @pytest.mark.parametrize(
     "specs,ll,hb",
     [
-        ([(5, 10), (3, 10)], True, True),          # U = 0.8 ≤ 0.828; 1.5·1.3 = 1.95
-        ([(6, 10), (5, 20)], False, True),         # U = 0.85 > 0.828; 1.6·1.25 = 2.0
-        ([(6, 10), (6, 20)], False, False),        # 1.6·1.3 = 2.08
-        ([(1, 20), (1, 10)], False, False),        # not rate-monotonic: tests do not apply
-        ([(1, 10, 5), (1, 20)], False, False),     # constrained deadline: do not apply
+        ([(5, 10), (3, 10)], True, True),  # U = 0.8 ≤ 0.828; 1.5·1.3 = 1.95
+        ([(6, 10), (5, 20)], False, True),  # U = 0.85 > 0.828; 1.6·1.25 = 2.0
+        ([(6, 10), (6, 20)], False, False),  # 1.6·1.3 = 2.08
+        ([(1, 20), (1, 10)], False, False),  # not rate-monotonic: tests do not apply
+        ([(1, 10, 5), (1, 20)], False, False),  # constrained deadline: do not apply
     ],
 )
 def test_utilization_tests(specs, ll, hb):
@@ -197,13 +198,26 @@ def test_analysis_dict_shape(paper_ts):
     for t in d["tasks"]:
         assert {"name", "priority", "wcet", "period", "deadline", "wcrt", "schedulable"} <= set(t)
     assert d["hyperbolic_product"] == pytest.approx(
-        math.prod(t["utilization"] + 1 for t in d["tasks"]))
+        math.prod(t["utilization"] + 1 for t in d["tasks"])
+    )
     assert hyperbolic_product(mk([(1, 2)])) == 1.5
 
 
 def test_public_api():
-    names = {"Analysis", "TaskResult", "analyze", "response_time", "liu_layland", "hyperbolic",
-             "WindowBounds", "window_bounds", "w_rta", "e_hough", "g_window", "w_sch"}
+    names = {
+        "Analysis",
+        "TaskResult",
+        "analyze",
+        "response_time",
+        "liu_layland",
+        "hyperbolic",
+        "WindowBounds",
+        "window_bounds",
+        "w_rta",
+        "e_hough",
+        "g_window",
+        "w_sch",
+    }
     assert names <= set(analysis.__all__)
     for name in analysis.__all__:
         assert hasattr(analysis, name), name
@@ -234,8 +248,7 @@ def test_monotone_in_higher_priority_load(hp, e, data):
 
 
 @settings(max_examples=100, deadline=None)
-@given(st.lists(task_st, max_size=5), st.integers(1, 50), st.integers(0, 50),
-       st.integers(50, 5000))
+@given(st.lists(task_st, max_size=5), st.integers(1, 50), st.integers(0, 50), st.integers(50, 5000))
 def test_monotone_in_own_wcet(hp, e, extra, d):
     assert wcrt(e + extra, hp, d) >= wcrt(e, hp, d)
     r = wcrt(e, hp, d)

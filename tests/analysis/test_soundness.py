@@ -38,8 +38,7 @@ def boundary_sets(draw: st.DrawFn) -> list[Task]:
     # each task's deadline on its boundary: its WCRT when that fits in the period
     out: list[Task] = []
     for t in tasks:
-        r = response_time(Task(t.name, t.wcet, t.period, 1e9, t.priority, jitter=t.jitter),
-                          out)
+        r = response_time(Task(t.name, t.wcet, t.period, 1e9, t.priority, jitter=t.jitter), out)
         d = r if r is not None and r <= t.period else t.period
         out.append(Task(t.name, t.wcet, t.period, d, t.priority, jitter=t.jitter))
     return out
@@ -68,8 +67,10 @@ def test_boundary_both_directions(tasks):
     a = ana.tasks[i]
     if a.schedulable and a.wcrt == tasks[i].deadline and a.wcrt > 1e-5:
         t = tasks[i]
-        tighter = [*tasks[:i], Task(t.name, t.wcet, t.period, a.wcrt - 1e-6, t.priority,
-                                    jitter=t.jitter)]
+        tighter = [
+            *tasks[:i],
+            Task(t.name, t.wcet, t.period, a.wcrt - 1e-6, t.priority, jitter=t.jitter),
+        ]
         assert not analyze(TaskSet(tuple(tighter))).schedulable
         assert simulate(tighter, horizon, jitter="worst").tasks[t.name].misses >= 1
 

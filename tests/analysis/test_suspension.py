@@ -33,11 +33,17 @@ def test_hand_worked_segmented_and_jitter():
     # Oblivious: R_s = 27 + ⌈R/10⌉ → 30. Segmented: (4 + 1) + 20 + (3 + 1) = 29.
     # lo, oblivious: 10 + 27⌈R/100⌉ + ⌈R/10⌉ → 41, 42, 42. Jitter (C = 7, J = 29 − 7 = 22):
     # 10 + 7⌈(R + 22)/100⌉ + ⌈R/10⌉ → 19.
-    tasks = [Task("hp", 1, 10, priority=1), Task("s", 27, 100, priority=2, segments=SUSP),
-             Task("lo", 10, 200, priority=3)]
+    tasks = [
+        Task("hp", 1, 10, priority=1),
+        Task("s", 27, 100, priority=2, segments=SUSP),
+        Task("lo", 10, 200, priority=3),
+    ]
     b = suspension_aware(tasks)
     assert [(x.oblivious, x.other, x.kind, x.wcrt) for x in b] == [
-        (1.0, None, "", 1.0), (30.0, 29.0, "segmented", 29.0), (42.0, 19.0, "jitter", 19.0)]
+        (1.0, None, "", 1.0),
+        (30.0, 29.0, "segmented", 29.0),
+        (42.0, 19.0, "jitter", 19.0),
+    ]
     idle = analyze(TaskSet(tuple(tasks)), suspension="idle")
     assert [t.wcrt for t in idle.tasks] == [1.0, 29.0, 19.0]
     assert [t.wcrt for t in analyze(TaskSet(tuple(tasks))).tasks] == [1.0, 30.0, 42.0]
@@ -49,8 +55,11 @@ def test_jitter_form_can_lose_to_the_oblivious_one():
     # J = 30 − 20 = 10): 44 + 20⌈(R + 10)/100⌉ + 3⌈R/10⌉ → 85, 91, 114, 120, 120: it pulls in
     # a second job of s. A short suspension makes the jitter form the worse one.
     segs = (Segment("a", 10.0), Segment("r", 1.0, "suspend"), Segment("b", 10.0))
-    tasks = [Task("hp", 3, 10, priority=1), Task("s", 21, 100, priority=2, segments=segs),
-             Task("lo", 44, 400, priority=3)]
+    tasks = [
+        Task("hp", 3, 10, priority=1),
+        Task("s", 21, 100, priority=2, segments=segs),
+        Task("lo", 44, 400, priority=3),
+    ]
     b = suspension_aware(tasks)
     assert (b[1].oblivious, b[1].other, b[1].wcrt) == (30.0, 33.0, 30.0)
     # The unified bound (Chen, Nelissen & Huang 2016), both higher tasks' suspension as
@@ -64,31 +73,50 @@ def suspending_sets(draw: st.DrawFn) -> list[Task]:
     n = draw(st.integers(2, 4))
     out = []
     for k in range(n):
-        segs = tuple(Segment(f"s{i}", draw(st.sampled_from([0.5, 1.0, 2.0, 4.0, 7.5])),
-                             draw(st.sampled_from(["compute", "compute", "suspend"])))
-                     for i in range(draw(st.integers(1, 3))))
+        segs = tuple(
+            Segment(
+                f"s{i}",
+                draw(st.sampled_from([0.5, 1.0, 2.0, 4.0, 7.5])),
+                draw(st.sampled_from(["compute", "compute", "suspend"])),
+            )
+            for i in range(draw(st.integers(1, 3)))
+        )
         period = float(draw(st.integers(10, 80)))
-        out.append(Task(f"t{k}", sum(s.wcet for s in segs), period, priority=k + 1,
-                        offset=draw(st.sampled_from([0.0, 0.0, period / 4])),
-                        jitter=draw(st.sampled_from([0.0, 0.0, 1.5])), segments=segs))
+        out.append(
+            Task(
+                f"t{k}",
+                sum(s.wcet for s in segs),
+                period,
+                priority=k + 1,
+                offset=draw(st.sampled_from([0.0, 0.0, period / 4])),
+                jitter=draw(st.sampled_from([0.0, 0.0, 1.5])),
+                segments=segs,
+            )
+        )
     return out
 
 
 def _shorter_suspensions(rng_seed: int):
     def fn(job, seg, rng):
         return float(rng.uniform(0.0, seg.wcet)) if seg.kind == "suspend" else seg.wcet
+
     return fn
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(suspending_sets(), st.sampled_from(["worst", "random"]), st.booleans(),
-       st.sampled_from([0.0, 0.1]))
+@given(
+    suspending_sets(),
+    st.sampled_from(["worst", "random"]),
+    st.booleans(),
+    st.sampled_from([0.0, 0.1]),
+)
 def test_idle_simulation_within_suspension_aware_bounds(tasks, jitter, vary, o):
     ana = analyze(TaskSet(tuple(tasks)), suspension="idle", overhead=o)
     obl = analyze(TaskSet(tuple(tasks)), overhead=o)
     exec_model = _shorter_suspensions(0) if vary else "wcet"
-    res = simulate(tasks, 800.0, suspension="idle", jitter=jitter, exec_model=exec_model,
-                   seed=5, overhead=o)
+    res = simulate(
+        tasks, 800.0, suspension="idle", jitter=jitter, exec_model=exec_model, seed=5, overhead=o
+    )
     for a, b in zip(ana.tasks, obl.tasks, strict=True):
         if b.wcrt is not None:  # the aware bound is never above the oblivious one
             assert a.wcrt is not None and a.wcrt <= b.wcrt
@@ -123,8 +151,20 @@ def test_paper_set_w_susp_values_and_json(capsys):
     assert main(["bounds", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["w_susp"] == b.w_susp and out["w_susp"] < out["w_rta"] < out["w_sch"]
-    assert main(["analyze", "--suspension", "idle", "--window", str(b.w_susp), "--check",
-                 str(Path(ts.source))]) == 0
+    assert (
+        main(
+            [
+                "analyze",
+                "--suspension",
+                "idle",
+                "--window",
+                str(b.w_susp),
+                "--check",
+                str(Path(ts.source)),
+            ]
+        )
+        == 0
+    )
     assert main(["analyze", "--window", str(b.w_susp), "--check", str(Path(ts.source))]) == 1
 
 
@@ -144,8 +184,12 @@ def test_paper_set_at_w_susp_misses_nothing_over_400_windows():
     assert _paper_run(ts, w, vary=False, seed=0) == 0
     rng = np.random.default_rng(11)
     for seed in range(3):  # Δt in [0, 67] ms and random offsets of the other tasks
-        moved = TaskSet(tuple(replace(t, offset=float(rng.uniform(0, 40.0))) for t in ts.tasks),
-                        name=ts.name, window=ts.window, source=ts.source)
+        moved = TaskSet(
+            tuple(replace(t, offset=float(rng.uniform(0, 40.0))) for t in ts.tasks),
+            name=ts.name,
+            window=ts.window,
+            source=ts.source,
+        )
         assert _paper_run(moved, w, vary=True, seed=seed) == 0
     # and just below w_susp the idle analysis no longer accepts the set (it is tight)
     assert not analyze(ts, w - 1e-6, suspension="idle").schedulable
@@ -155,14 +199,27 @@ def test_suspending_task_below_a_suspending_task_by_hand():
     # s1: 2 → 4 suspended → 1, period 10 (R = 7); s2: 3 → 2 suspended → 2, period 30.
     # Oblivious: 7 + 7⌈R/10⌉ → 14, 21, 28, 28. Unified, s1 as jitter R − C = 4 (or as
     # computation with Q = 4, the same here): 7 + 3⌈(R + 4)/10⌉ → 10, 13, 13.
-    s1 = Task("s1", 7, 10, priority=1, segments=(Segment("a", 2.0), Segment("r", 4.0, "suspend"),
-                                                  Segment("b", 1.0)))
-    s2 = Task("s2", 7, 30, priority=2, segments=(Segment("a", 3.0), Segment("r", 2.0, "suspend"),
-                                                  Segment("b", 2.0)))
+    s1 = Task(
+        "s1",
+        7,
+        10,
+        priority=1,
+        segments=(Segment("a", 2.0), Segment("r", 4.0, "suspend"), Segment("b", 1.0)),
+    )
+    s2 = Task(
+        "s2",
+        7,
+        30,
+        priority=2,
+        segments=(Segment("a", 3.0), Segment("r", 2.0, "suspend"), Segment("b", 2.0)),
+    )
     b = suspension_aware([s1, s2])
     assert (b[1].oblivious, b[1].other, b[1].unified, b[1].wcrt) == (28.0, None, 13.0, 13.0)
-    worst = max(brute_suspending([s1, s2], phases, full)["s2"]
-                for phases in itertools.product(range(10), [0]) for full in (True, False))
+    worst = max(
+        brute_suspending([s1, s2], phases, full)["s2"]
+        for phases in itertools.product(range(10), [0])
+        for full in (True, False)
+    )
     assert 10 <= worst <= 13
 
 
@@ -172,13 +229,15 @@ def brute_suspending(tasks: list[Task], phases, full: bool) -> dict[str, int]:
     between 0 and it; the largest response per task over three hyperperiods."""
     from test_transaction import Job, Transaction, brute
 
-    txs = [Transaction(t.period, (Job(t.name, t.priority, 0, 0, t.period, t.period,
-                                      t.chain()),)) for t in tasks]
+    txs = [
+        Transaction(t.period, (Job(t.name, t.priority, 0, 0, t.period, t.period, t.chain()),))
+        for t in tasks
+    ]
     hyper = math.lcm(*(int(t.period) for t in tasks))
 
     def choose(i, n, job):
-        return 0, [int(s.wcet) if s.kind == "compute" or full or n % 2 else 0
-                   for s in job.segments]
+        return 0, [int(s.wcet) if s.kind == "compute" or full or n % 2 else 0 for s in job.segments]
+
     return brute(txs, list(phases), choose, 3 * hyper)
 
 
@@ -188,11 +247,14 @@ def small_suspending_sets(draw: st.DrawFn) -> list[Task]:
     for k in range(draw(st.integers(2, 3))):
         segs = [Segment("a", float(draw(st.integers(1, 3))))]
         if draw(st.booleans()) or k == 0:
-            segs += [Segment("r", float(draw(st.integers(1, 4))), "suspend"),
-                     Segment("b", float(draw(st.integers(1, 2))))]
+            segs += [
+                Segment("r", float(draw(st.integers(1, 4))), "suspend"),
+                Segment("b", float(draw(st.integers(1, 2)))),
+            ]
         period = float(draw(st.sampled_from([6, 8, 12, 24])))
-        out.append(Task(f"t{k}", sum(s.wcet for s in segs), period, priority=k + 1,
-                        segments=tuple(segs)))
+        out.append(
+            Task(f"t{k}", sum(s.wcet for s in segs), period, priority=k + 1, segments=tuple(segs))
+        )
     return out
 
 

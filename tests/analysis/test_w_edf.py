@@ -67,9 +67,13 @@ def test_constrained_deadline_set_is_bisected_and_checked():
     # h(w) = g + 25 + 5·⌊w/40⌋ ≤ w, with ⌊w/40⌋ = 6 near w = 248: w ≥ g + 55
     base = load_taskset()
     cmd = base.task("command")
-    ts = TaskSet((base.task("dead_reckoning"),
-                  Task("command", cmd.wcet, 2.0, 0.8, priority=cmd.priority, per_window=True)),
-                 window=base.window)
+    ts = TaskSet(
+        (
+            base.task("dead_reckoning"),
+            Task("command", cmd.wcet, 2.0, 0.8, priority=cmd.priority, per_window=True),
+        ),
+        window=base.window,
+    )
     w = w_edf(ts)
     g = ts.window.g()
     assert w == pytest.approx(g + 55.0, abs=2e-9)  # the criterion's 1e-9 ms tolerance
@@ -100,16 +104,19 @@ def test_bounds_json_and_table(capsys):
 
 def test_analyze_cli_under_edf(tmp_path, capsys):
     f = tmp_path / "s.toml"
-    f.write_text('[[tasks]]\nname = "a"\nwcet = 2\nperiod = 5\ndeadline = 4\n'
-                 '[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\ndeadline = 6\n')
+    f.write_text(
+        '[[tasks]]\nname = "a"\nwcet = 2\nperiod = 5\ndeadline = 4\n'
+        '[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\ndeadline = 6\n'
+    )
     assert main(["analyze", str(f), "--scheduler", "edf", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["scheduler"] == "edf" and d["schedulable"] and d["limit_kind"] == "L_b"
     assert [t["wcrt"] for t in d["tasks"]] == [4.0, 6.0]  # a arriving at 2: b (d 6) first
     assert main(["analyze", str(f), "--scheduler", "edf"]) == 0
     text = capsys.readouterr().out
-    assert "Spuri" in text and "schedulable (processor-demand criterion, the whole set): yes" \
-        in text
+    assert (
+        "Spuri" in text and "schedulable (processor-demand criterion, the whole set): yes" in text
+    )
     # under FP (a above b) b misses: FP and EDF disagree, and --check says so
     assert main(["analyze", str(f), "--check"]) == 1
     capsys.readouterr()
@@ -134,12 +141,15 @@ def test_sweep_option_scheduler(tmp_path):
     from rtsim.sweep import run_sweep
 
     ts = tmp_path / "t.toml"
-    ts.write_text('[[tasks]]\nname = "a"\nwcet = 2\nperiod = 5\n'
-                  '[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\n')
+    ts.write_text(
+        '[[tasks]]\nname = "a"\nwcet = 2\nperiod = 5\n[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\n'
+    )
     sw = tmp_path / "s.toml"
-    sw.write_text(f'[sweep]\nkind = "simulate"\nbase = "{ts}"\n'
-                  '[sweep.options]\nhorizon = 350\n'
-                  '[grid]\nscheduler = ["fp", "edf"]\n')
+    sw.write_text(
+        f'[sweep]\nkind = "simulate"\nbase = "{ts}"\n'
+        "[sweep.options]\nhorizon = 350\n"
+        '[grid]\nscheduler = ["fp", "edf"]\n'
+    )
     res = run_sweep(sw, tmp_path / "out")
     df = res.frame if hasattr(res, "frame") else res
     rows = {r["scheduler"]: r for r in df.to_dict("records")}
@@ -147,6 +157,7 @@ def test_sweep_option_scheduler(tmp_path):
     sw.write_text(sw.read_text().replace('["fp", "edf"]', '["fp", "rm"]'))
     from rtsim.errors import SweepError
 
-    with pytest.raises(SweepError, match="scheduler: must be one of fp, edf or "
-                                         "'package.module:Name', got 'rm'"):
+    with pytest.raises(
+        SweepError, match="scheduler: must be one of fp, edf or 'package.module:Name', got 'rm'"
+    ):
         run_sweep(sw, tmp_path / "out2")

@@ -17,8 +17,15 @@ from rtsim.config.docs import ranges
 
 TEST2 = Path(__file__).resolve().parents[2] / "rtsim" / "data" / "scenarios" / "test2.toml"
 #: What a scenario cannot leave out (the rest has a documented default).
-REQUIRED = {("name",), ("taskset",), ("leader", "speed"), ("leader", "shape"),
-            ("leader", "start"), ("formation", "followers"), ("formation", "separation")}
+REQUIRED = {
+    ("name",),
+    ("taskset",),
+    ("leader", "speed"),
+    ("leader", "shape"),
+    ("leader", "start"),
+    ("formation", "followers"),
+    ("formation", "separation"),
+}
 
 
 def _leaves(tree: dict[str, Any], prefix: tuple[str, ...] = ()) -> list[tuple[str, ...]]:
@@ -51,8 +58,11 @@ def _toml(tree: dict[str, Any], prefix: str = "") -> str:
             return "{" + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + "}"
         return json.dumps(v)
 
-    flat = [f"{k} = {value(v)}" for k, v in tree.items() if not isinstance(v, dict)
-            or k in ("shape", "start")]
+    flat = [
+        f"{k} = {value(v)}"
+        for k, v in tree.items()
+        if not isinstance(v, dict) or k in ("shape", "start")
+    ]
     text = "\n".join(flat) + "\n"
     for k, v in tree.items():
         if isinstance(v, dict) and k not in ("shape", "start"):
@@ -65,8 +75,9 @@ def _run(tmp_path: Path, tree: dict[str, Any], tag: str) -> dict[str, Any]:
     src = tmp_path / f"{tag}.toml"
     src.write_text(_toml(tree), "utf-8")
     out = tmp_path / f"out-{tag}"
-    assert main(["scenario", str(src), "--duration", "1", "--no-figures",
-                 "--out", str(out)]) == 0, tag
+    assert (
+        main(["scenario", str(src), "--duration", "1", "--no-figures", "--out", str(out)]) == 0
+    ), tag
 
     def refuse(c: str) -> None:
         raise AssertionError(f"{tag}: {c} in summary.json")
@@ -76,8 +87,11 @@ def _run(tmp_path: Path, tree: dict[str, Any], tag: str) -> dict[str, Any]:
 
 BASE = tomllib.loads(TEST2.read_text("utf-8"))
 OPTIONAL = [k for k in _leaves(BASE) if k not in REQUIRED]
-INF_KEYS = sorted(r.key.removeprefix("scenario: ") for r in ranges().values()
-                  if r.inf and r.key.startswith("scenario: "))
+INF_KEYS = sorted(
+    r.key.removeprefix("scenario: ")
+    for r in ranges().values()
+    if r.inf and r.key.startswith("scenario: ")
+)
 
 
 def test_every_default_at_once(tmp_path: Path) -> None:

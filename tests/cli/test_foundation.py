@@ -21,8 +21,10 @@ PAPER = str(REPO / "tasksets" / "barrel_robots.toml")
 
 def strict_json(text: str):
     """json.loads that refuses NaN / Infinity tokens."""
+
     def bad(token: str):
         raise AssertionError(f"non-finite JSON token {token}")
+
     return json.loads(text, parse_constant=bad)
 
 
@@ -35,8 +37,11 @@ def run(capsys, *argv: str) -> tuple[int, str, str]:
 def test_analyze_table(capsys):
     rc, out, err = run(capsys, "analyze", EXAMPLE)
     assert rc == 0 and err == ""
-    rows = {line.split()[1]: line.split() for line in out.splitlines()
-            if line.split() and line.split()[0].isdigit()}
+    rows = {
+        line.split()[1]: line.split()
+        for line in out.splitlines()
+        if line.split() and line.split()[0].isdigit()
+    }
     assert rows["tau1"][6] == "5.000" and rows["tau2"][6] == "230.000"
     assert rows["tau3"][6] == "490.000" and all(r[7] == "yes" for r in rows.values())
     assert "Liu-Layland" in out and "hyperbolic" in out
@@ -64,8 +69,9 @@ def test_analyze_json_shape(capsys):
     assert d["tasks"][1]["wcrt"] == pytest.approx(d["tasks"][1]["wcet"] + 30)
 
 
-OVERLOADED = ('[[tasks]]\nname = "a"\nwcet = 6\nperiod = 10\n'
-              '[[tasks]]\nname = "b"\nwcet = 6\nperiod = 12\n')
+OVERLOADED = (
+    '[[tasks]]\nname = "a"\nwcet = 6\nperiod = 10\n[[tasks]]\nname = "b"\nwcet = 6\nperiod = 12\n'
+)
 
 
 def test_check_exit_status(capsys, tmp_toml):
@@ -82,8 +88,21 @@ def test_bounds_default_single(capsys):
     d = strict_json(out)
     want = window_bounds(load_taskset()).as_dict()
     assert d == json.loads(json.dumps(want))
-    assert {"n", "r_H", "e_cal", "e_trans", "k", "e_scan", "e_estimate", "e_send", "e_recv",
-            "delta_t", "e_sched", "hp", "lp"} <= set(d["inputs"])
+    assert {
+        "n",
+        "r_H",
+        "e_cal",
+        "e_trans",
+        "k",
+        "e_scan",
+        "e_estimate",
+        "e_send",
+        "e_recv",
+        "delta_t",
+        "e_sched",
+        "hp",
+        "lp",
+    } <= set(d["inputs"])
     assert {"e_hough", "g", "w_eq7", "w_eq11", "w_sch", "w_rta"} <= set(d)
     assert d["inputs"]["hp"][0] == {"name": "dead_reckoning", "e": 5, "p": 40, "priority": 1}
     rc, out, _ = run(capsys, "bounds")
@@ -91,12 +110,19 @@ def test_bounds_default_single(capsys):
 
 
 def test_bounds_lists_and_ranges(capsys):
-    rc, out, _ = run(capsys, "bounds", PAPER, "--followers", "1..3", "--hough-radius", "10,20",
-                     "--json")
+    rc, out, _ = run(
+        capsys, "bounds", PAPER, "--followers", "1..3", "--hough-radius", "10,20", "--json"
+    )
     assert rc == 0
     rows = strict_json(out)
     assert [(r["inputs"]["n"], r["inputs"]["r_H"]) for r in rows] == [
-        (1, 10), (1, 20), (2, 10), (2, 20), (3, 10), (3, 20)]
+        (1, 10),
+        (1, 20),
+        (2, 10),
+        (2, 20),
+        (3, 10),
+        (3, 20),
+    ]
     ts = load_taskset(PAPER)
     for r in rows:
         b = window_bounds(ts, n=r["inputs"]["n"], r_H=r["inputs"]["r_H"])
@@ -152,12 +178,18 @@ BAD_FILES = [
     (BASE + "wcet = 1\nperiod = 40\ndeadline = -4\n", "tau1", "deadline: must be positive"),
     (BASE + 'wcet = "fast"\nperiod = 40\n', "tau1", "wcet: must be a number"),
     (BASE + "wcet = 3\nperiod = 40\nbcet = 5\n", "tau1", "bcet: 5 is above wcet 3"),
-    (BASE + "wcet = 3\nperiod = 40\n" + BASE + "wcet = 1\nperiod = 9\n", "tau1",
-     "name: duplicate"),
-    (BASE + "wcet = 3\nperiod = 40\npriority = 1\n[[tasks]]\nname = \"b\"\nwcet = 1\n"
-     "period = 9\npriority = 1\n", "b", "priority: 1 is already used by task 'tau1'"),
-    (BASE + "wcet = 3\nperiod = 40\npriority = 1\n[[tasks]]\nname = \"b\"\nwcet = 1\n"
-     "period = 9\n", "b", "priority: missing, but task 'tau1' gives one"),
+    (BASE + "wcet = 3\nperiod = 40\n" + BASE + "wcet = 1\nperiod = 9\n", "tau1", "name: duplicate"),
+    (
+        BASE + 'wcet = 3\nperiod = 40\npriority = 1\n[[tasks]]\nname = "b"\nwcet = 1\n'
+        "period = 9\npriority = 1\n",
+        "b",
+        "priority: 1 is already used by task 'tau1'",
+    ),
+    (
+        BASE + 'wcet = 3\nperiod = 40\npriority = 1\n[[tasks]]\nname = "b"\nwcet = 1\nperiod = 9\n',
+        "b",
+        "priority: missing, but task 'tau1' gives one",
+    ),
     ('name = "nothing"\n', None, "no [[tasks]]"),
 ]
 
@@ -186,18 +218,21 @@ def test_console_script_exit_code(tmp_path):
     cmd = [script] if script else [sys.executable, "-m", "rtsim"]
     path = tmp_path / "typo.toml"
     path.write_text(BASE + "wcet = 5\nperod = 40\n")
-    proc = subprocess.run([*cmd, "analyze", str(path)], capture_output=True, text=True,
-                          timeout=60)
+    proc = subprocess.run([*cmd, "analyze", str(path)], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2 and proc.stdout == ""
-    assert proc.stderr == (f"rtsim: {path}: task 'tau1': unknown key 'perod' "
-                           "(did you mean 'period'?)\n")
+    assert proc.stderr == (
+        f"rtsim: {path}: task 'tau1': unknown key 'perod' (did you mean 'period'?)\n"
+    )
 
 
-@pytest.mark.parametrize("argv", [
-    ["scenario", "test1", "--duration", "1", "--no-figures", "--out", "{file}"],
-    ["generate", "--tasks", "3", "--utilization", "0.5", "--count", "1", "--out", "{file}"],
-    ["simulate", "{taskset}", "--horizon", "100", "--jobs", "{file}/jobs.csv"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["scenario", "test1", "--duration", "1", "--no-figures", "--out", "{file}"],
+        ["generate", "--tasks", "3", "--utilization", "0.5", "--count", "1", "--out", "{file}"],
+        ["simulate", "{taskset}", "--horizon", "100", "--jobs", "{file}/jobs.csv"],
+    ],
+)
 def test_unwritable_output_is_one_line_exit_2(argv, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     """An output path that is an existing file: one line naming it, exit 2, no traceback."""
     from pathlib import Path

@@ -13,8 +13,23 @@ import pytest
 from rtsim.cli import COMMANDS, build_parser
 
 ROOT = Path(__file__).resolve().parents[2]
-VOCABULARY = {"FILE", "DIR", "N", "MS", "CM", "U", "SPEC", "RANGE", "A..B", "PNG", "ADDRESS",
-              "SECONDS", "NAME", "S", "KEY=VALUE"}
+VOCABULARY = {
+    "FILE",
+    "DIR",
+    "N",
+    "MS",
+    "CM",
+    "U",
+    "SPEC",
+    "RANGE",
+    "A..B",
+    "PNG",
+    "ADDRESS",
+    "SECONDS",
+    "NAME",
+    "S",
+    "KEY=VALUE",
+}
 MARKUP = re.compile(r"``|:(?:func|mod|class|data|meth):|\bissue \d|\bissues? #?\d")
 
 
@@ -43,7 +58,11 @@ def test_metavars_come_from_one_vocabulary(command: str) -> None:
 
 @pytest.mark.parametrize("script", sorted(p.name for p in (ROOT / "experiments").glob("*.py")))
 def test_experiment_scripts_help_is_plain(script: str) -> None:
-    proc = subprocess.run([sys.executable, str(ROOT / "experiments" / script), "--help"],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "experiments" / script), "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     assert not MARKUP.search(proc.stdout), MARKUP.search(proc.stdout)

@@ -33,8 +33,10 @@ def test_library_refuses_what_the_cli_refuses() -> None:
         run_scenario("test2", duration_s=1e6)
     with pytest.raises(TooMuchWork, match=r"1e\+12 jobs"):
         simulate([Task(name="a", wcet=1e-6, period=1e-3)], 1e9)
-    for call in (lambda: simulate([Task(name="a", wcet=1, period=10)], 100, seed=2**80),
-                 lambda: run_scenario("test2", duration_s=1, seed=2**80)):
+    for call in (
+        lambda: simulate([Task(name="a", wcet=1, period=10)], 100, seed=2**80),
+        lambda: run_scenario("test2", duration_s=1, seed=2**80),
+    ):
         with pytest.raises(InputError, match=r"outside \[0, 2\*\*63 - 1\]"):
             call()
 
@@ -65,8 +67,10 @@ def test_the_overload_backlog_is_counted(capsys: pytest.CaptureFixture[str]) -> 
     assert work.simulate_backlog(ts, 1e7, None) == 0  # at w_sch: schedulable
     from rtsim.model import TaskSet
 
-    under = [Task(name="a", wcet=1, period=10, priority=1, overload="skip"),
-             Task(name="b", wcet=10, period=10, priority=2)]
+    under = [
+        Task(name="a", wcet=1, period=10, priority=1, overload="skip"),
+        Task(name="b", wcet=10, period=10, priority=2),
+    ]
     assert work.simulate_backlog(load_taskset(EXAMPLE), 1e6, None) == 0
     assert work.simulate_backlog(TaskSet(tuple(under)), 100.0, None) == 10  # b's jobs only
 
@@ -84,14 +88,19 @@ def test_example_taskset_in_a_scenario_is_not_the_papers(tmp_path: Path) -> None
 def test_a_fifo_input_is_refused_at_once(tmp_path: Path) -> None:
     fifo = tmp_path / "set.toml"
     os.mkfifo(fifo)
-    proc = subprocess.run([sys.executable, "-m", "rtsim", "analyze", str(fifo)],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "rtsim", "analyze", str(fifo)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2 and "FIFO" in proc.stderr
     assert proc.stderr.count("\n") == 1
 
 
-def test_a_name_with_a_newline_stays_on_one_line(tmp_path: Path,
-                                                 capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_name_with_a_newline_stays_on_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     p = tmp_path / "t.toml"
     p.write_text('[[tasks]]\nname = "a\\nrtsim: fake"\nwcet = 1\nperiod = 10\n', "utf-8")
     assert main(["simulate", str(p), "--horizon", "100", "--exec", "uniform"]) == 2
@@ -100,8 +109,19 @@ def test_a_name_with_a_newline_stays_on_one_line(tmp_path: Path,
 
 
 def test_an_abstract_scheduler_is_refused_up_front(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["simulate", str(EXAMPLE), "--horizon", "100", "--scheduler",
-                 "rtsim.sim.policy:SchedulingPolicy"]) == 2
+    assert (
+        main(
+            [
+                "simulate",
+                str(EXAMPLE),
+                "--horizon",
+                "100",
+                "--scheduler",
+                "rtsim.sim.policy:SchedulingPolicy",
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "does not implement order" in err
 
@@ -127,9 +147,22 @@ def test_reproduce_workers_exit_when_the_parent_is_killed(tmp_path: Path) -> Non
     """kill -9 of ``reproduce --workers 2``: its workers exit (releasing the staging
     directory's lock), and the next run's cleanup leaves no stray file."""
     out = tmp_path / "paper"
-    proc = subprocess.Popen([sys.executable, "-m", "rtsim", "reproduce", "--quick",
-                             "--workers", "2", "--quiet", "--out", str(out)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rtsim",
+            "reproduce",
+            "--quick",
+            "--workers",
+            "2",
+            "--quiet",
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     deadline = time.monotonic() + 120
     while len(kids := _children(proc.pid)) < 2:
         assert proc.poll() is None and time.monotonic() < deadline
@@ -148,10 +181,13 @@ def test_reproduce_workers_exit_when_the_parent_is_killed(tmp_path: Path) -> Non
 
 
 @pytest.mark.parametrize("spec", [":", ".x:Y"])
-def test_malformed_policy_strings_are_one_line(spec: str,
-                                               capsys: pytest.CaptureFixture[str]) -> None:
-    for argv in (["simulate", str(EXAMPLE), "--horizon", "100", "--scheduler", spec],
-                 ["scenario", "test2", "--duration", "1", "--policy", spec, "--out", "o"]):
+def test_malformed_policy_strings_are_one_line(
+    spec: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for argv in (
+        ["simulate", str(EXAMPLE), "--horizon", "100", "--scheduler", spec],
+        ["scenario", "test2", "--duration", "1", "--policy", spec, "--out", "o"],
+    ):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and err.startswith("rtsim: ") and spec in err

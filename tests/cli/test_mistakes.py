@@ -25,24 +25,30 @@ def _one_line_error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
     return lines[0]
 
 
-@pytest.mark.parametrize(("argv", "expected"), [
-    (["scenario", "test2", "--duraton", "60", "--out", "OUT"],
-     "unknown option --duraton (did you mean --duration?)"),
-    (["simulate", PAPER, "--hor", "100"], "unknown option --hor (did you mean --horizon?)"),
-    (["analyze", "example", "--jsn"], "unknown option --jsn (did you mean --json?)"),
-    (["reproduce", "--quik", "--out", "OUT"], "unknown option --quik (did you mean --quick?)"),
-])
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (
+            ["scenario", "test2", "--duraton", "60", "--out", "OUT"],
+            "unknown option --duraton (did you mean --duration?)",
+        ),
+        (["simulate", PAPER, "--hor", "100"], "unknown option --hor (did you mean --horizon?)"),
+        (["analyze", "example", "--jsn"], "unknown option --jsn (did you mean --json?)"),
+        (["reproduce", "--quik", "--out", "OUT"], "unknown option --quik (did you mean --quick?)"),
+    ],
+)
 def test_unknown_and_abbreviated_options_get_a_did_you_mean(
-        capsys: pytest.CaptureFixture[str], tmp_path: Path, argv: list[str],
-        expected: str) -> None:
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, argv: list[str], expected: str
+) -> None:
     argv = [str(tmp_path / "o") if a == "OUT" else a for a in argv]
     line = _one_line_error(capsys, argv)
     assert expected in line
     assert not (tmp_path / "o").exists()
 
 
-def test_an_invalid_choice_gets_a_did_you_mean(capsys: pytest.CaptureFixture[str],
-                                               tmp_path: Path) -> None:
+def test_an_invalid_choice_gets_a_did_you_mean(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["scenario", "test2", "--mode", "adjsut", "--out", str(tmp_path / "o")])
     assert exc.value.code == 2
@@ -50,22 +56,37 @@ def test_an_invalid_choice_gets_a_did_you_mean(capsys: pytest.CaptureFixture[str
     assert len(err) == 1 and "did you mean 'adjust'?" in err[0] and "usage" not in err[0]
 
 
-@pytest.mark.parametrize(("argv", "unit", "fix"), [
-    (["simulate", PAPER, "--horizon", "60"], "--horizon is in ms", "60000 ms"),
-    (["histogram", PAPER, "--horizon", "60", "--out", "OUT"], "--horizon is in ms", "60000 ms"),
-    (["bounds", "--hough-radius", "0.25"], "--hough-radius is in cm", "25 cm"),
-    (["simulate", PAPER, "--horizon", "60000", "--hough-radius", "0.3"],
-     "--hough-radius is in cm", "30 cm"),
-    (["scenario", "test2", "--duration", "60000", "--out", "OUT"],
-     "--duration is in simulated seconds", "60 s"),
-    (["reproduce", "--duration", "60000", "--out", "OUT"],
-     "--duration is in simulated seconds", "60 s"),
-    (["validate", "--quick", "--hough-radius", "0.1,0.3", "--out", "OUT"],
-     "--hough-radius is in cm", "10 cm"),
-])
+@pytest.mark.parametrize(
+    ("argv", "unit", "fix"),
+    [
+        (["simulate", PAPER, "--horizon", "60"], "--horizon is in ms", "60000 ms"),
+        (["histogram", PAPER, "--horizon", "60", "--out", "OUT"], "--horizon is in ms", "60000 ms"),
+        (["bounds", "--hough-radius", "0.25"], "--hough-radius is in cm", "25 cm"),
+        (
+            ["simulate", PAPER, "--horizon", "60000", "--hough-radius", "0.3"],
+            "--hough-radius is in cm",
+            "30 cm",
+        ),
+        (
+            ["scenario", "test2", "--duration", "60000", "--out", "OUT"],
+            "--duration is in simulated seconds",
+            "60 s",
+        ),
+        (
+            ["reproduce", "--duration", "60000", "--out", "OUT"],
+            "--duration is in simulated seconds",
+            "60 s",
+        ),
+        (
+            ["validate", "--quick", "--hough-radius", "0.1,0.3", "--out", "OUT"],
+            "--hough-radius is in cm",
+            "10 cm",
+        ),
+    ],
+)
 def test_implausible_values_are_refused_with_the_unit(
-        capsys: pytest.CaptureFixture[str], tmp_path: Path, argv: list[str], unit: str,
-        fix: str) -> None:
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, argv: list[str], unit: str, fix: str
+) -> None:
     argv = [str(tmp_path / "o") if a == "OUT" else a for a in argv]
     line = _one_line_error(capsys, argv)
     assert unit in line and f"did you mean {fix}" in line and "--force" in line
@@ -107,8 +128,7 @@ def test_policy_help_lists_every_registered_policy() -> None:
 
 def test_scenario_writes_svg_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "svg"
-    assert main(["scenario", "test1", "--duration", "5", "--format", "svg", "--out",
-                 str(out)]) == 0
+    assert main(["scenario", "test1", "--duration", "5", "--format", "svg", "--out", str(out)]) == 0
     svgs = sorted(p.name for p in out.glob("*.svg"))
     from rtsim.plots.scenario import SCENARIO_FIGURES
 

@@ -27,9 +27,18 @@ def outs(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 
 def test_writes_the_issue_files(outs: list[Path]) -> None:
     d = outs[2]
-    for name in ("windows.csv", "windows.parquet", "jobs.csv", "summary.json", "manifest.json",
-                 "paths.png", "window_slack.png", "bounds.png", "speed.png",
-                 "operating_space.png"):
+    for name in (
+        "windows.csv",
+        "windows.parquet",
+        "jobs.csv",
+        "summary.json",
+        "manifest.json",
+        "paths.png",
+        "window_slack.png",
+        "bounds.png",
+        "speed.png",
+        "operating_space.png",
+    ):
         assert (d / name).is_file() and (d / name).stat().st_size > 0, name
     assert not (outs[0] / "paths.png").exists()
     assert not (outs[0] / "windows.parquet").exists()
@@ -39,12 +48,22 @@ def test_writes_the_issue_files(outs: list[Path]) -> None:
     assert len(csv) == len(pq) > 0
     summary = json.loads((d / "summary.json").read_text())
     assert summary["mode"] == "fixed-wsch" and summary["windows"] == len(csv)
-    for key in ("windows", "missed", "tracks_lost", "violations", "critical_share", "methods",
-                "min_msb_over_wsch", "min_speed_ratio", "w_sch", "duration_s", "seed",
-                "scenario"):
+    for key in (
+        "windows",
+        "missed",
+        "tracks_lost",
+        "violations",
+        "critical_share",
+        "methods",
+        "min_msb_over_wsch",
+        "min_speed_ratio",
+        "w_sch",
+        "duration_s",
+        "seed",
+        "scenario",
+    ):
         assert key in summary
-    assert set(summary["violations"]) == {"localization", "separation", "path_diversion",
-                                          "bearing"}
+    assert set(summary["violations"]) == {"localization", "separation", "path_diversion", "bearing"}
     assert summary["duration_s"] == pytest.approx(12.0)
 
 
@@ -66,13 +85,17 @@ def test_same_seed_identical_files(outs: list[Path]) -> None:
     assert "created_utc" in m0  # wall-clock lives only in the manifest
 
 
-@pytest.mark.parametrize("argv, match", [
-    (["scenario", "nope.toml", "--out", "{tmp}"], "nope.toml"),
-    (["scenario", str(TEST2), "--duration", "-3", "--out", "{tmp}"], "--duration"),
-    (["scenario", "{bad}", "--out", "{tmp}"], "speed"),
-])
-def test_bad_input_one_line_exit_2(argv: list[str], match: str, tmp_path: Path,
-                                   capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        (["scenario", "nope.toml", "--out", "{tmp}"], "nope.toml"),
+        (["scenario", str(TEST2), "--duration", "-3", "--out", "{tmp}"], "--duration"),
+        (["scenario", "{bad}", "--out", "{tmp}"], "speed"),
+    ],
+)
+def test_bad_input_one_line_exit_2(
+    argv: list[str], match: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text(TEST2.read_text().replace("speed = 30", "speed = -30"))
     args = [a.replace("{tmp}", str(tmp_path / "o")).replace("{bad}", str(bad)) for a in argv]

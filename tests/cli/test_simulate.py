@@ -51,8 +51,23 @@ def test_simulate_writes_jobs_and_manifest(tmp_path, capsys):
     jobs = tmp_path / "out" / "jobs.csv"
     ex = tmp_path / "example_bcet.toml"  # --exec uniform needs best cases
     ex.write_text(EXAMPLE.read_text().replace("[[tasks]]\n", "[[tasks]]\nbcet = 1\n"))
-    assert main(["simulate", str(ex), "--horizon", "1000", "--seed", "4",
-                 "--exec", "uniform", "--jobs", str(jobs)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                str(ex),
+                "--horizon",
+                "1000",
+                "--seed",
+                "4",
+                "--exec",
+                "uniform",
+                "--jobs",
+                str(jobs),
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "tau1" in text and "max_response" in text
     df = pd.read_csv(jobs)
@@ -70,9 +85,29 @@ def test_simulate_parquet_trace_and_figures(tmp_path, capsys):
     tr = tmp_path / "figs" / "trace.csv"
     g = tmp_path / "figs" / "gantt.png"
     h = tmp_path / "figs" / "hist.png"
-    assert main(["simulate", str(PAPER), "--horizon", "3000", "--suspension", "idle",
-                 "--jobs", str(pq), "--trace", str(tr), "--gantt", str(g),
-                 "--gantt-range", "0..600", "--histogram", str(h)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                str(PAPER),
+                "--horizon",
+                "3000",
+                "--suspension",
+                "idle",
+                "--jobs",
+                str(pq),
+                "--trace",
+                str(tr),
+                "--gantt",
+                str(g),
+                "--gantt-range",
+                "0..600",
+                "--histogram",
+                str(h),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     assert len(pd.read_parquet(pq)) > 0
     trace = pd.read_csv(tr)
@@ -81,12 +116,27 @@ def test_simulate_parquet_trace_and_figures(tmp_path, capsys):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert (tmp_path / "manifest.json").exists()
     assert json.loads((tmp_path / "figs" / "manifest.json").read_text())["outputs"] == [
-        "trace.csv", "gantt.png", "hist.png"]
+        "trace.csv",
+        "gantt.png",
+        "hist.png",
+    ]
 
 
 def test_simulate_paper_set_reports_window_bounds(capsys):
-    out = _json(capsys, ["simulate", str(PAPER), "--horizon", "5000", "--followers", "3",
-                         "--hough-radius", "25", "--json"])
+    out = _json(
+        capsys,
+        [
+            "simulate",
+            str(PAPER),
+            "--horizon",
+            "5000",
+            "--followers",
+            "3",
+            "--hough-radius",
+            "25",
+            "--json",
+        ],
+    )
     win = out["window"]
     assert win["n"] == 3 and win["r_H"] == 25.0
     assert win["mode"] == "w_sch" and win["w"] == pytest.approx(win["w_sch"])
@@ -94,8 +144,9 @@ def test_simulate_paper_set_reports_window_bounds(capsys):
     chain = next(t for t in out["tasks"] if t["name"] == "window")
     assert chain["max_response"] == pytest.approx(chain["wcrt_analysis"], abs=1e-9)
     assert out["misses"] == 0
-    text_out = main(["simulate", str(PAPER), "--horizon", "5000", "--window",
-                     str(win["w_rta"] - 1)])
+    text_out = main(
+        ["simulate", str(PAPER), "--horizon", "5000", "--window", str(win["w_rta"] - 1)]
+    )
     assert text_out == 0
     text = capsys.readouterr().out
     assert "w_sch" in text and "w_rta" in text
@@ -103,9 +154,11 @@ def test_simulate_paper_set_reports_window_bounds(capsys):
 
 @pytest.mark.parametrize(
     ("extra", "match"),
-    [(["--window", "300"], "has no \\[window\\]"),
-     (["--gantt", "x.png", "--gantt-range", "5..1"], "--gantt-range"),
-     (["--jobs", "out.txt"], "must end in .csv or .parquet")],
+    [
+        (["--window", "300"], "has no \\[window\\]"),
+        (["--gantt", "x.png", "--gantt-range", "5..1"], "--gantt-range"),
+        (["--jobs", "out.txt"], "must end in .csv or .parquet"),
+    ],
 )
 def test_simulate_input_errors_exit_2(tmp_path, capsys, extra, match):
     argv = ["simulate", str(EXAMPLE), "--horizon", "100"]
@@ -131,8 +184,12 @@ def test_plots_public_api():
 
 
 def test_gantt_draws_one_bar_per_trace_row_in_range():
-    res = simulate([Task("hi", 2, 5, priority=1), Task("lo", 4, 10, priority=2)], 20,
-                   record_jobs=True, record_trace=True)
+    res = simulate(
+        [Task("hi", 2, 5, priority=1), Task("lo", 4, 10, priority=2)],
+        20,
+        record_jobs=True,
+        record_trace=True,
+    )
     fig = gantt(res.trace, jobs=res.jobs, start=0, end=10)
     ax = fig.axes[0]
     in_range = res.trace[(res.trace["end"] > 0) & (res.trace["start"] < 10)]
@@ -149,8 +206,7 @@ def test_histogram_lines_and_running_histogram():
         hist.add(v)
     edges, counts = hist.arrays()
     assert list(edges) == [3.0, 4.0, 5.0, 6.0] and list(counts) == [2, 0, 1]
-    fig = response_histogram(hist, lines={"WCRT (analysis)": 6.0, "deadline": 8.0,
-                                          "w_sch": None})
+    fig = response_histogram(hist, lines={"WCRT (analysis)": 6.0, "deadline": 8.0, "w_sch": None})
     ax = fig.axes[0]
     xs = sorted(line.get_xdata()[0] for line in ax.lines if len(line.get_xdata()))
     assert xs == [6.0, 8.0]
@@ -165,12 +221,31 @@ def test_histogram_lines_and_running_histogram():
 def test_exec_uniform_without_bcet_is_an_input_error(tmp_path, capsys):
     """It used to run every job at its WCET, silently."""
     out = tmp_path / "jobs.csv"
-    assert main(["simulate", str(EXAMPLE), "--horizon", "1000", "--exec", "uniform",
-                 "--jobs", str(out)]) == 2
+    assert (
+        main(
+            ["simulate", str(EXAMPLE), "--horizon", "1000", "--exec", "uniform", "--jobs", str(out)]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
-    assert err == (f"rtsim: {EXAMPLE}: task 'tau1': --exec uniform needs a bcet (times are "
-                   "uniform in [bcet, wcet]); add bcet = ... to the task or use --exec wcet")
+    assert err == (
+        f"rtsim: {EXAMPLE}: task 'tau1': --exec uniform needs a bcet (times are "
+        "uniform in [bcet, wcet]); add bcet = ... to the task or use --exec wcet"
+    )
     assert not out.exists()
-    assert main(["histogram", str(EXAMPLE), "--horizon", "1000", "--exec", "uniform",
-                 "--out", str(tmp_path / "h")]) == 2
+    assert (
+        main(
+            [
+                "histogram",
+                str(EXAMPLE),
+                "--horizon",
+                "1000",
+                "--exec",
+                "uniform",
+                "--out",
+                str(tmp_path / "h"),
+            ]
+        )
+        == 2
+    )
     assert "task 'tau1': --exec uniform needs a bcet" in capsys.readouterr().err

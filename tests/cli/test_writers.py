@@ -40,35 +40,52 @@ def _refused(capsys: pytest.CaptureFixture[str], argv: list[str], words: str) ->
     assert words in err, err
 
 
-@pytest.mark.parametrize("argv", [
-    ["validate", "--quick", "--out", "{d}"],
-    ["histogram", str(EXAMPLE), "--horizon", "100", "--out", "{d}"],
-    ["histogram", "--scenario", "{d}", "--out", "{d}"],
-    ["generate", "--tasks", "3", "--utilization", "0.5", "--out", "{d}"],
-    ["sweep", str(ROOT / "experiments" / "sweeps" / "thresholds_test1.toml"), "--out", "{d}"],
-    ["sweep", str(ROOT / "experiments" / "sweeps" / "thresholds_test1.toml"), "--restart",
-     "--out", "{d}"],
-    ["simulate", str(EXAMPLE), "--horizon", "100", "--jobs", "{d}/jobs.csv"],
-    ["simulate", str(EXAMPLE), "--horizon", "100", "--perfetto", "{d}/p.json"],
-    ["animate", "{d}", "--out", "{d}/a.gif"],
-], ids=lambda a: " ".join(a[:2] + a[-2:-1]))
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["validate", "--quick", "--out", "{d}"],
+        ["histogram", str(EXAMPLE), "--horizon", "100", "--out", "{d}"],
+        ["histogram", "--scenario", "{d}", "--out", "{d}"],
+        ["generate", "--tasks", "3", "--utilization", "0.5", "--out", "{d}"],
+        ["sweep", str(ROOT / "experiments" / "sweeps" / "thresholds_test1.toml"), "--out", "{d}"],
+        [
+            "sweep",
+            str(ROOT / "experiments" / "sweeps" / "thresholds_test1.toml"),
+            "--restart",
+            "--out",
+            "{d}",
+        ],
+        ["simulate", str(EXAMPLE), "--horizon", "100", "--jobs", "{d}/jobs.csv"],
+        ["simulate", str(EXAMPLE), "--horizon", "100", "--perfetto", "{d}/p.json"],
+        ["animate", "{d}", "--out", "{d}/a.gif"],
+    ],
+    ids=lambda a: " ".join(a[:2] + a[-2:-1]),
+)
 def test_another_commands_directory_is_left_alone(
-        scenario_dir: Path, capsys: pytest.CaptureFixture[str], argv: list[str]) -> None:
+    scenario_dir: Path, capsys: pytest.CaptureFixture[str], argv: list[str]
+) -> None:
     before = _snapshot(scenario_dir)
     _refused(capsys, [a.replace("{d}", str(scenario_dir)) for a in argv], "rtsim scenario")
     assert _snapshot(scenario_dir) == before
     assert not [p for p in scenario_dir.parent.iterdir() if p.name.startswith(".")]
 
 
-def test_a_users_file_is_never_overwritten(tmp_path: Path,
-                                           capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_users_file_is_never_overwritten(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     mine = tmp_path / "mine.csv"
     mine.write_text("my data\n")
     for opt in ("--jobs", "--trace"):
-        _refused(capsys, ["simulate", str(EXAMPLE), "--horizon", "100", opt, str(mine)],
-                 "was not written by `rtsim simulate`")
-    _refused(capsys, ["simulate", str(EXAMPLE), "--horizon", "100", "--perfetto",
-                      str(tmp_path / "mine.csv")], "left alone")
+        _refused(
+            capsys,
+            ["simulate", str(EXAMPLE), "--horizon", "100", opt, str(mine)],
+            "was not written by `rtsim simulate`",
+        )
+    _refused(
+        capsys,
+        ["simulate", str(EXAMPLE), "--horizon", "100", "--perfetto", str(tmp_path / "mine.csv")],
+        "left alone",
+    )
     assert mine.read_text() == "my data\n"
     # a sweep directory holding a user's results.parquet: refused, even with --restart
     d = tmp_path / "sw"
@@ -81,38 +98,67 @@ def test_a_users_file_is_never_overwritten(tmp_path: Path,
     assert sorted(p.name for p in d.iterdir()) == ["results.parquet"]
 
 
-def test_inputs_and_two_outputs_on_one_path(tmp_path: Path,
-                                            capsys: pytest.CaptureFixture[str]) -> None:
+def test_inputs_and_two_outputs_on_one_path(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     ts = tmp_path / "ex.toml"
     ts.write_bytes(EXAMPLE.read_bytes())
-    _refused(capsys, ["simulate", str(ts), "--horizon", "100", "--perfetto", str(ts)],
-             "is an input of this run")
+    _refused(
+        capsys,
+        ["simulate", str(ts), "--horizon", "100", "--perfetto", str(ts)],
+        "is an input of this run",
+    )
     assert ts.read_bytes() == EXAMPLE.read_bytes()
     x = tmp_path / "x.csv"
-    _refused(capsys, ["simulate", str(ts), "--horizon", "100", "--jobs", str(x), "--trace",
-                      str(x)], "give each output its own file")
+    _refused(
+        capsys,
+        ["simulate", str(ts), "--horizon", "100", "--jobs", str(x), "--trace", str(x)],
+        "give each output its own file",
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ex.toml"]
 
 
 def test_simulate_reruns_into_its_own_files(tmp_path: Path) -> None:
     for horizon in ("100", "200"):
-        assert main(["simulate", str(EXAMPLE), "--horizon", horizon, "--jobs",
-                     str(tmp_path / "j.csv"), "--perfetto", str(tmp_path / "p.json")]) == 0
+        assert (
+            main(
+                [
+                    "simulate",
+                    str(EXAMPLE),
+                    "--horizon",
+                    horizon,
+                    "--jobs",
+                    str(tmp_path / "j.csv"),
+                    "--perfetto",
+                    str(tmp_path / "p.json"),
+                ]
+            )
+            == 0
+        )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["j.csv", "manifest.json", "p.json"]
 
 
 def test_generate_writes_a_whole_directory(tmp_path: Path) -> None:
     out = tmp_path / "sets"
-    assert main(["generate", "--tasks", "3", "--utilization", "0.5", "--count", "3",
-                 "--out", str(out)]) == 0
-    assert main(["generate", "--tasks", "3", "--utilization", "0.5", "--count", "1",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            ["generate", "--tasks", "3", "--utilization", "0.5", "--count", "3", "--out", str(out)]
+        )
+        == 0
+    )
+    assert (
+        main(
+            ["generate", "--tasks", "3", "--utilization", "0.5", "--count", "1", "--out", str(out)]
+        )
+        == 0
+    )
     assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "set_0000.toml"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sets"]
 
 
-def test_sweep_restart_removes_only_the_sweeps_files(tmp_path: Path,
-                                                     capsys: pytest.CaptureFixture[str]) -> None:
+def test_sweep_restart_removes_only_the_sweeps_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     spec = tmp_path / "s.toml"
     spec.write_text('[sweep]\nkind = "bounds"\nbase = "set.toml"\n[grid]\nn = "1..2"\n')
     (tmp_path / "set.toml").write_bytes(BARREL.read_bytes())
@@ -122,8 +168,7 @@ def test_sweep_restart_removes_only_the_sweeps_files(tmp_path: Path,
     _refused(capsys, ["sweep", str(spec), "--out", str(out), "--restart", "-q"], "notes.txt")
     assert (out / "points" / "notes.txt").read_text() == "mine"
     (out / "points" / "notes.txt").unlink()
-    assert main(["sweep", str(spec), "--out", str(out), "--restart", "--workers", "1",
-                 "-q"]) == 0
+    assert main(["sweep", str(spec), "--out", str(out), "--restart", "--workers", "1", "-q"]) == 0
 
 
 def test_a_tampered_point_file_is_not_taken_on_resume(tmp_path: Path) -> None:
@@ -145,14 +190,19 @@ def test_a_tampered_point_file_is_not_taken_on_resume(tmp_path: Path) -> None:
 
 
 def _spawn(args: list[str], cwd: Path) -> subprocess.Popen[bytes]:
-    return subprocess.Popen([sys.executable, "-m", "rtsim", *args], cwd=cwd,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    return subprocess.Popen(
+        [sys.executable, "-m", "rtsim", *args],
+        cwd=cwd,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
 
 
 def _wait_for_staging(d: Path, proc: subprocess.Popen[bytes]) -> None:
     deadline = time.monotonic() + 60
-    while not any(p.name.startswith(".rtsim-files-") and (p / "jobs.csv").exists()
-                  for p in d.iterdir()):
+    while not any(
+        p.name.startswith(".rtsim-files-") and (p / "jobs.csv").exists() for p in d.iterdir()
+    ):
         assert proc.poll() is None and time.monotonic() < deadline
         time.sleep(0.05)
 
@@ -172,8 +222,10 @@ def test_simulate_sigterm_and_kill_leave_nothing(tmp_path: Path) -> None:
     proc.kill()
     proc.wait()
     assert [p.name[:13] for p in tmp_path.iterdir()] == [".rtsim-files-"]
-    assert main(["simulate", str(EXAMPLE), "--horizon", "100", "--jobs",
-                 str(tmp_path / "jobs.csv")]) == 0
+    assert (
+        main(["simulate", str(EXAMPLE), "--horizon", "100", "--jobs", str(tmp_path / "jobs.csv")])
+        == 0
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.csv", "manifest.json"]
 
 
@@ -181,18 +233,36 @@ def test_long_output_names_work(tmp_path: Path) -> None:
     """Names of 225 to 255 bytes: the staging names beside them stay within the limit."""
     for n in (225, 255):
         name = "d" * n
-        assert main(["generate", "--tasks", "2", "--utilization", "0.3",
-                     "--out", str(tmp_path / name)]) == 0
+        assert (
+            main(
+                ["generate", "--tasks", "2", "--utilization", "0.3", "--out", str(tmp_path / name)]
+            )
+            == 0
+        )
         f = "j" * (n - 4) + ".csv"
-        assert main(["simulate", str(EXAMPLE), "--horizon", "100", "--jobs",
-                     str(tmp_path / f)]) == 0
+        assert (
+            main(["simulate", str(EXAMPLE), "--horizon", "100", "--jobs", str(tmp_path / f)]) == 0
+        )
         assert (tmp_path / name / "manifest.json").is_file() and (tmp_path / f).is_file()
 
 
 def test_non_utf8_out_is_one_line(tmp_path: Path) -> None:
     out = os.fsencode(tmp_path) + b"/\xff\xfe"
-    proc = subprocess.run([sys.executable, "-m", "rtsim", "generate", "--tasks", "2",
-                           "--utilization", "0.3", "--out", out], capture_output=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "rtsim",
+            "generate",
+            "--tasks",
+            "2",
+            "--utilization",
+            "0.3",
+            "--out",
+            out,
+        ],
+        capture_output=True,
+    )
     assert proc.returncode == 0, proc.stderr
     assert b"Traceback" not in proc.stderr
     assert os.path.isdir(out)

@@ -479,6 +479,7 @@ def test_unknown_mode():
 
 def _hybrid_by_hand(f: FollowerEstimate, v: float, v_now: float, kappa: float):
     """u(V) = û + f(V) − f(V_now) written out from formation_velocity (leader frame)."""
+
     def ff(vl: float) -> tuple[float, float]:
         vf, th = formation_velocity(vl, kappa * vl, f.rho_d, f.beta_d)
         return vf * math.cos(th), -vf * math.sin(th)
@@ -521,8 +522,7 @@ def test_hybrid_rho_dot_is_eq17_on_the_summed_velocity_vector():
     # follower tangentially only), u = û + f(V) − f(V_now)
     kappa, v_now, v = 1 / 200, 14.0, 22.0
     f = FollowerEstimate(380.0, 192 * DEG, 0.9, 28.0, 390.0, 195 * DEG)
-    v_f, theta, omega = predictor("hybrid", omega_l=kappa * v_now, kappa=kappa,
-                                  v_now=v_now)(f, v)
+    v_f, theta, omega = predictor("hybrid", omega_l=kappa * v_now, kappa=kappa, v_now=v_now)(f, v)
     ux, uy = _hybrid_by_hand(f, v, v_now, kappa)
     assert v_f == pytest.approx(math.hypot(ux, uy), rel=1e-12)
     er = (math.cos(f.beta), math.sin(f.beta))
@@ -553,8 +553,16 @@ def test_hybrid_bound_holds_at_the_returned_speed(kappa):
         vf, th = formation_velocity(v_now, kappa * v_now, 390.0, slot)
         fs.append(FollowerEstimate(390.0 + drho, slot + 0.02, th + 0.05, vf + dv, 390.0, slot))
     thr = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=5 * DEG)
-    a = adjust(fs, v_ld=V_LD, w_sch=W_SCH, thresholds=thr, kappa=kappa,
-               omega_l=kappa * v_now, predictor="hybrid", v_now=v_now)
+    a = adjust(
+        fs,
+        v_ld=V_LD,
+        w_sch=W_SCH,
+        thresholds=thr,
+        kappa=kappa,
+        omega_l=kappa * v_now,
+        predictor="hybrid",
+        v_now=v_now,
+    )
     assert a.critical and a.feasible and 0 < a.v_leader < V_LD
 
     def bounds(v):  # written here from the hand formula, not from the predictor

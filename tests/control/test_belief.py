@@ -39,13 +39,22 @@ from rtsim.io.scenario import load_scenario
 SCEN = Path(__file__).resolve().parents[2] / "experiments" / "scenarios"
 TEST2 = SCEN / "test2.toml"
 THR = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=math.radians(5.0))
-F = FollowerEstimate(rho=390.0, beta=math.radians(195), theta=math.radians(10), v_f=30.0,
-                     rho_d=390.0)
+F = FollowerEstimate(
+    rho=390.0, beta=math.radians(195), theta=math.radians(10), v_f=30.0, rho_d=390.0
+)
 HAND = {  # ms, by hand (module docstring)
-    25.0: {"localization": 8220.74, "separation": 1282.44, "path_diversion": 325.0,
-           "bearing": 1037.87},
-    15.0: {"localization": 1968.45, "separation": 307.078, "path_diversion": 325.0,
-           "bearing": 1126.81},
+    25.0: {
+        "localization": 8220.74,
+        "separation": 1282.44,
+        "path_diversion": 325.0,
+        "bearing": 1037.87,
+    },
+    15.0: {
+        "localization": 1968.45,
+        "separation": 307.078,
+        "path_diversion": 325.0,
+        "bearing": 1126.81,
+    },
 }
 
 
@@ -58,8 +67,9 @@ def test_paper_predictor_matches_hand_values(v_l: float) -> None:
     rows = predicted_rows([F], v_l, thresholds=THR, predictor="paper", omega_l=0.1)
     assert rows[0] == tuple(got[k] for k in BOUND_KINDS)
     # what decide() reports at V_Ld is the same evaluation
-    d = decide("fixed-wsch", [F], v_ld=v_l, w_sch=200.0, thresholds=THR, omega_l=0.1,
-               predictor="paper")
+    d = decide(
+        "fixed-wsch", [F], v_ld=v_l, w_sch=200.0, thresholds=THR, omega_l=0.1, predictor="paper"
+    )
     assert d.msbs[0] == got
 
 
@@ -72,11 +82,12 @@ def _relative(lead: tuple[float, float, float], fol: tuple[float, float]) -> tup
 
 
 @pytest.mark.parametrize("v_l", [25.0, 15.0, 5.0])
-@pytest.mark.parametrize("beta_deg, theta_deg, omega", [(195, 10, 0.1), (160, -20, -0.05),
-                                                        (240, 35, 0.2)])
-def test_paper_predictor_rates_agree_with_finite_differences(v_l: float, beta_deg: float,
-                                                             theta_deg: float,
-                                                             omega: float) -> None:
+@pytest.mark.parametrize(
+    "beta_deg, theta_deg, omega", [(195, 10, 0.1), (160, -20, -0.05), (240, 35, 0.2)]
+)
+def test_paper_predictor_rates_agree_with_finite_differences(
+    v_l: float, beta_deg: float, theta_deg: float, omega: float
+) -> None:
     """Move the leader (V_L, ω_L) and the follower (V̂_F, heading θ_L − θ) for ±1 ms and
     difference ρ and β: the rates behind the predicted bounds (|ρ̇| = r_H / localization
     bound, |β̇| = T_β / bearing bound) are those of the motion, at every candidate speed."""
@@ -93,8 +104,11 @@ def test_paper_predictor_rates_agree_with_finite_differences(v_l: float, beta_de
         # the leader turns at ω: to first order its position is the straight one
         if omega:
             r = v_l / omega
-            lead = (r * (math.sin(0.3 + omega * t) - math.sin(0.3)),
-                    -r * (math.cos(0.3 + omega * t) - math.cos(0.3)), 0.3 + omega * t)
+            lead = (
+                r * (math.sin(0.3 + omega * t) - math.sin(0.3)),
+                -r * (math.cos(0.3 + omega * t) - math.cos(0.3)),
+                0.3 + omega * t,
+            )
         fol = (fol0[0] + v_f * t * math.cos(th_f), fol0[1] + v_f * t * math.sin(th_f))
         return _relative(lead, fol)
 
@@ -102,10 +116,8 @@ def test_paper_predictor_rates_agree_with_finite_differences(v_l: float, beta_de
     rho_dot = (r2 - r1) / (2 * h)
     beta_dot = math.remainder(b2 - b1, 2 * math.pi) / (2 * h)
     assert abs(_relative(lead0, fol0)[0] - rho) < 1e-9
-    assert 1000 * THR.r_H / got["localization"] == pytest.approx(abs(rho_dot), rel=1e-5,
-                                                                abs=1e-6)
-    assert 1000 * THR.T_beta / got["bearing"] == pytest.approx(abs(beta_dot), rel=1e-5,
-                                                              abs=1e-8)
+    assert 1000 * THR.r_H / got["localization"] == pytest.approx(abs(rho_dot), rel=1e-5, abs=1e-6)
+    assert 1000 * THR.T_beta / got["bearing"] == pytest.approx(abs(beta_dot), rel=1e-5, abs=1e-8)
     assert got["path_diversion"] == pytest.approx(1000 * THR.T_eps * 300.0 / v_f)
 
 
@@ -115,8 +127,9 @@ def test_paper_predictor_adjustment_solves_eq24_by_hand() -> None:
     −9.65926 + 24.62019 = 14.96093 cm/s: 3.9 / 14.96093 = 260.68 ms). Eq 24 (with cos(β+θ),
     SPEC §5): V_L = (V_F cos(β+θ) − T_ρ ρ_d / w)/cos β = (−9.65926 − 13)/(−0.984808) =
     23.00881 cm/s, at which the bound is exactly w_sch."""
-    f = FollowerEstimate(rho=390.0, beta=math.radians(190), theta=math.radians(5), v_f=10.0,
-                         rho_d=390.0)
+    f = FollowerEstimate(
+        rho=390.0, beta=math.radians(190), theta=math.radians(5), v_f=10.0, rho_d=390.0
+    )
     a = adjust([f], v_ld=25.0, w_sch=300.0, thresholds=THR, predictor="paper")
     assert a.msb_min == pytest.approx(260.68, rel=1e-4)
     assert a.binding == "separation:1"
@@ -130,10 +143,10 @@ def test_paper_predictor_adjustment_solves_eq24_by_hand() -> None:
 
 def test_paper_predictor_numeric_fallback_when_closed_forms_are_off() -> None:
     """Without the closed forms the numeric search finds the same speed (SPEC §5 fallback)."""
-    f = FollowerEstimate(rho=390.0, beta=math.radians(190), theta=math.radians(5), v_f=10.0,
-                         rho_d=390.0)
-    a = adjust([f], v_ld=25.0, w_sch=300.0, thresholds=THR, predictor="paper",
-               methods=("numeric",))
+    f = FollowerEstimate(
+        rho=390.0, beta=math.radians(190), theta=math.radians(5), v_f=10.0, rho_d=390.0
+    )
+    a = adjust([f], v_ld=25.0, w_sch=300.0, thresholds=THR, predictor="paper", methods=("numeric",))
     assert a.method == "numeric"
     assert a.v_leader == pytest.approx(23.00881, rel=1e-6)
 
@@ -150,17 +163,30 @@ def test_old_predictor_names_are_input_errors() -> None:
         adjust([F], v_ld=25.0, w_sch=200.0, thresholds=THR, model="paper")  # type: ignore[call-arg]
 
 
-@pytest.mark.parametrize("snippet, message", [
-    ('model = "formation"', r"^.*/t\.toml: adjust: unknown key 'model' \(renamed; did you mean "
-                            r"'predictor'\?\)$"),
-    ('predictor = "estimate"', r"^.*/t\.toml: adjust\.predictor: must be one of paper, formation, "
-                               r"hybrid, commands or 'package\.module:Name', got 'estimate' "
-                               r"\('estimate' was renamed; "
-                               r"did you mean 'paper'\?\)$"),
-    ('predictor = "hybird"', r"^.*/t\.toml: adjust\.predictor: .* \(did you mean 'hybrid'\?\)$"),
-])
-def test_old_scenario_keys_are_errors_with_did_you_mean(tmp_path: Path, snippet: str,
-                                                        message: str) -> None:
+@pytest.mark.parametrize(
+    "snippet, message",
+    [
+        (
+            'model = "formation"',
+            r"^.*/t\.toml: adjust: unknown key 'model' \(renamed; did you mean "
+            r"'predictor'\?\)$",
+        ),
+        (
+            'predictor = "estimate"',
+            r"^.*/t\.toml: adjust\.predictor: must be one of paper, formation, "
+            r"hybrid, commands or 'package\.module:Name', got 'estimate' "
+            r"\('estimate' was renamed; "
+            r"did you mean 'paper'\?\)$",
+        ),
+        (
+            'predictor = "hybird"',
+            r"^.*/t\.toml: adjust\.predictor: .* \(did you mean 'hybrid'\?\)$",
+        ),
+    ],
+)
+def test_old_scenario_keys_are_errors_with_did_you_mean(
+    tmp_path: Path, snippet: str, message: str
+) -> None:
     text = TEST2.read_text(encoding="utf-8")
     text = "\n".join(line for line in text.splitlines() if not line.startswith("predictor"))
     path = tmp_path / "t.toml"
@@ -174,8 +200,11 @@ def test_old_adjust_key_in_inputs_is_an_error() -> None:
 
     sc = load_scenario(TEST2)
     bad = ScenarioInputs(sc.world, sc.load_taskset(), adjust={"model": "paper"})
-    with pytest.raises(InputError, match=r"unknown key 'model' \(renamed; did you mean "
-                                         r"'predictor'\?\)"):
+    with pytest.raises(
+        InputError,
+        match=r"unknown key 'model' \(renamed; did you mean "
+        r"'predictor'\?\)",
+    ):
         run_scenario(bad, duration_s=1)
 
 
@@ -186,8 +215,10 @@ def run2(request, tmp_path_factory):  # type: ignore[no-untyped-def]
     text = TEST2.read_text(encoding="utf-8")
     text = "\n".join(line for line in text.splitlines() if not line.startswith("predictor"))
     path = tmp_path_factory.mktemp("belief") / "t2.toml"
-    path.write_text(text.replace("[adjust]\n", f'[adjust]\npredictor = "{request.param}"\n',
-                                 1), encoding="utf-8")
+    path.write_text(
+        text.replace("[adjust]\n", f'[adjust]\npredictor = "{request.param}"\n', 1),
+        encoding="utf-8",
+    )
     return run_scenario(path, mode="adjust", duration_s=40, record_jobs=False)
 
 
@@ -198,10 +229,17 @@ def run2_instant(request, tmp_path_factory):  # type: ignore[no-untyped-def]
     text = TEST2.read_text(encoding="utf-8")
     text = "\n".join(line for line in text.splitlines() if not line.startswith("predictor"))
     path = tmp_path_factory.mktemp("belief_instant") / "t2.toml"
-    path.write_text(text.replace("[adjust]\n", f'[adjust]\npredictor = "{request.param}"\n',
-                                 1), encoding="utf-8")
-    return run_scenario(path, mode="adjust", duration_s=40, record_jobs=False,
-                        overrides={"leader.accel_max": math.inf, "leader.decel_max": math.inf})
+    path.write_text(
+        text.replace("[adjust]\n", f'[adjust]\npredictor = "{request.param}"\n', 1),
+        encoding="utf-8",
+    )
+    return run_scenario(
+        path,
+        mode="adjust",
+        duration_s=40,
+        record_jobs=False,
+        overrides={"leader.accel_max": math.inf, "leader.decel_max": math.inf},
+    )
 
 
 def test_summary_records_predictor_and_formation_model(run2) -> None:  # type: ignore[no-untyped-def]
@@ -243,9 +281,11 @@ def test_true_bounds_recomputed_from_recorded_poses(run2) -> None:  # type: igno
         d_rho = np.abs(np.diff(rho))
         d_beta = np.abs(np.angle(np.exp(1j * np.diff(beta))))
         chord = np.hypot(np.diff(df[f"f{i}_x"].to_numpy()), np.diff(df[f"f{i}_y"].to_numpy()))
-        expect = {"localization": thr.r_H * w / disp,
-                  "separation": thr.T_rho * rho_d[i - 1] * w / d_rho,
-                  "bearing": thr.T_beta * w / d_beta}
+        expect = {
+            "localization": thr.r_H * w / disp,
+            "separation": thr.T_rho * rho_d[i - 1] * w / d_rho,
+            "bearing": thr.T_beta * w / d_beta,
+        }
         for k, e in expect.items():
             got = df[f"f{i}_msb_{k}_true"].to_numpy()[:-1]
             np.testing.assert_allclose(got, e, rtol=1e-6, err_msg=f"f{i} {k}")
@@ -335,19 +375,31 @@ def test_pred_is_the_decision_at_the_leaders_highest_speed(run2_instant) -> None
             for kappa in (kap[j], kap[j - 1]):
                 ok = True
                 for i in (1, 2):
-                    m = follower_msbs(vmax[j], kappa * v[j - 1], max(row[f"f{i}_v_est"], 0.0),
-                                      row[f"f{i}_rho_est"], row[f"f{i}_beta_est"],
-                                      row[f"f{i}_theta_est"], rho_d[i - 1], thr)
-                    ok &= all(math.isclose(m[k], row[f"f{i}_msb_{k}_pred"], rel_tol=1e-9)
-                              for k in BOUND_KINDS)
+                    m = follower_msbs(
+                        vmax[j],
+                        kappa * v[j - 1],
+                        max(row[f"f{i}_v_est"], 0.0),
+                        row[f"f{i}_rho_est"],
+                        row[f"f{i}_beta_est"],
+                        row[f"f{i}_theta_est"],
+                        rho_d[i - 1],
+                        thr,
+                    )
+                    ok &= all(
+                        math.isclose(m[k], row[f"f{i}_msb_{k}_pred"], rel_tol=1e-9)
+                        for k in BOUND_KINDS
+                    )
                 if ok:
                     break
             else:
                 raise AssertionError(f"window {j}: _pred differs from Eqs 17-21 on the estimates")
     # in the critical windows where a speed restored the bounds (feasible) and the leader
     # drove at it all along, the decision's prediction holds w_sch there
-    crit = (df["critical"].to_numpy(dtype=bool) & df["feasible"].to_numpy(dtype=bool)
-            & (vmax == df["v_leader"].to_numpy()))
+    crit = (
+        df["critical"].to_numpy(dtype=bool)
+        & df["feasible"].to_numpy(dtype=bool)
+        & (vmax == df["v_leader"].to_numpy())
+    )
     if crit.any():
         assert (pred[crit].min(axis=1) >= df["w_sch"].to_numpy()[crit] * (1 - 1e-6)).all()
 
@@ -363,13 +415,17 @@ def test_hybrid_fast_path_is_bit_identical_to_the_predictor() -> None:
     for _ in range(200):
         kappa = float(rng.choice([0.0, 1 / 200, -1 / 120, float(rng.uniform(-0.01, 0.01))]))
         v_now = float(rng.uniform(0.0, 30.0))
-        fols = [FollowerEstimate(rho=float(rng.uniform(100, 500)),
-                                 beta=float(rng.uniform(0, 2 * math.pi)),
-                                 theta=float(rng.uniform(-1, 1)),
-                                 v_f=float(rng.choice([0.0, float(rng.uniform(0, 80))])),
-                                 rho_d=float(rng.uniform(100, 500)),
-                                 beta_d=float(rng.choice([math.radians(195), math.radians(165)])))
-                for _ in range(3)]
+        fols = [
+            FollowerEstimate(
+                rho=float(rng.uniform(100, 500)),
+                beta=float(rng.uniform(0, 2 * math.pi)),
+                theta=float(rng.uniform(-1, 1)),
+                v_f=float(rng.choice([0.0, float(rng.uniform(0, 80))])),
+                rho_d=float(rng.uniform(100, 500)),
+                beta_d=float(rng.choice([math.radians(195), math.radians(165)])),
+            )
+            for _ in range(3)
+        ]
         pre = _hybrid_consts(fols, THR, kappa, v_now)
         assert pre is not None
         ref = predictor("hybrid", omega_l=0.0, kappa=kappa, v_now=v_now)
@@ -380,22 +436,35 @@ def test_hybrid_fast_path_is_bit_identical_to_the_predictor() -> None:
     assert _hybrid_consts([F], full, 0.0, 10.0) is None
     assert _hybrid_consts([F], THR, 0.0, None) is None
     # and through adjust(): the same decision as with the reference predictor as a callable
-    f2 = [FollowerEstimate(rho=330.0, beta=math.radians(190), theta=0.4, v_f=70.0,
-                           rho_d=325.0, beta_d=math.radians(195))]
+    f2 = [
+        FollowerEstimate(
+            rho=330.0,
+            beta=math.radians(190),
+            theta=0.4,
+            v_f=70.0,
+            rho_d=325.0,
+            beta_d=math.radians(195),
+        )
+    ]
     kw = dict(v_ld=30.0, w_sch=237.4, thresholds=THR, kappa=1 / 120, omega_l=0.25)
     fast = adjust(f2, predictor="hybrid", v_now=30.0, **kw)
-    slow = adjust(f2, predictor=predictor("hybrid", omega_l=0.25, kappa=1 / 120, v_now=30.0),
-                  **kw)
+    slow = adjust(f2, predictor=predictor("hybrid", omega_l=0.25, kappa=1 / 120, v_now=30.0), **kw)
     assert fast.critical and fast.v_leader == slow.v_leader and fast.msbs == slow.msbs
     assert fast.msbs_after == slow.msbs_after and fast.method == slow.method
 
 
-def test_cli_names_the_file_and_the_renamed_key(tmp_path: Path,
-                                                capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_names_the_file_and_the_renamed_key(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from rtsim.cli import main
 
-    text = re.sub(r'^predictor = "\w+"', 'model = "paper"', TEST2.read_text(encoding="utf-8"),
-                  count=1, flags=re.MULTILINE)
+    text = re.sub(
+        r'^predictor = "\w+"',
+        'model = "paper"',
+        TEST2.read_text(encoding="utf-8"),
+        count=1,
+        flags=re.MULTILINE,
+    )
     assert 'model = "paper"' in text
     path = tmp_path / "old.toml"
     path.write_text(text, encoding="utf-8")

@@ -35,8 +35,7 @@ from rtsim.io.scenario import ScenarioError, load_scenario
 
 PIN = Path(__file__).parents[1] / "data" / "policy_pin"
 THR = Thresholds(r_H=1.0, T_rho=0.01, T_eps=0.025, T_beta=0.1, localization="radial")
-F = FollowerEstimate(rho=100.0, beta=math.pi, theta=0.0, v_f=25.0, rho_d=100.0,
-                     beta_d=math.pi)
+F = FollowerEstimate(rho=100.0, beta=math.pi, theta=0.0, v_f=25.0, rho_d=100.0, beta_d=math.pi)
 
 
 def _ctx(w_sch: float, **kw: Any) -> PolicyInput:
@@ -63,8 +62,9 @@ def test_the_case_has_one_finite_bound_of_2500_over_v() -> None:
         ("min-msb", 80.0, 100.0, 25.0, "none"),
     ],
 )
-def test_registered_policies_by_hand(policy: str, w_sch: float, w: float, v: float,
-                                     method: str) -> None:
+def test_registered_policies_by_hand(
+    policy: str, w_sch: float, w: float, v: float, method: str
+) -> None:
     d = POLICIES[policy]().decide(_ctx(w_sch))
     assert isinstance(d, Decision)
     assert d.w == pytest.approx(w, rel=1e-9)
@@ -98,26 +98,37 @@ def test_margin_by_hand(mu: float, w_sch: float, w: float, v: float) -> None:
 
 def test_margin_zero_is_the_papers_policy() -> None:
     for w_sch in (60.0, 100.0, 120.0, 300.0):
-        assert (MarginPolicy(margin=0.0).decide(_ctx(w_sch))
-                == POLICIES["adjust"]().decide(_ctx(w_sch)))
+        assert MarginPolicy(margin=0.0).decide(_ctx(w_sch)) == POLICIES["adjust"]().decide(
+            _ctx(w_sch)
+        )
 
 
 def test_decide_runs_the_registered_policies() -> None:
     a = decide("margin", [F], v_ld=25.0, w_sch=80.0, thresholds=THR)
     assert a.w == pytest.approx(90.0) and a.mode == "margin"
-    assert decide_rows("adjust", [F], v_ld=25.0, w_sch=120.0, thresholds=THR).v_leader \
-        == pytest.approx(2500.0 / 120.0)
+    assert decide_rows(
+        "adjust", [F], v_ld=25.0, w_sch=120.0, thresholds=THR
+    ).v_leader == pytest.approx(2500.0 / 120.0)
 
 
 def test_bad_names_and_keys_are_one_line_errors_with_did_you_mean() -> None:
-    with pytest.raises(InputError, match=r"^policy: must be one of adjust, .*margin.* "
-                                         r"got 'margn' \(did you mean 'margin'\?\)$"):
+    with pytest.raises(
+        InputError,
+        match=r"^policy: must be one of adjust, .*margin.* "
+        r"got 'margn' \(did you mean 'margin'\?\)$",
+    ):
         policy_class("margn")
-    with pytest.raises(InputError, match=r"^adjust: unknown key 'margn' \(did you mean "
-                                         r"'margin'\?\)$"):
+    with pytest.raises(
+        InputError,
+        match=r"^adjust: unknown key 'margn' \(did you mean "
+        r"'margin'\?\)$",
+    ):
         make_policy("margin", {"margn": 0.1})
-    with pytest.raises(InputError, match=r"^adjust: unknown key 'margin' \(a key of policy "
-                                         r"'margin', not of 'adjust'\)$"):
+    with pytest.raises(
+        InputError,
+        match=r"^adjust: unknown key 'margin' \(a key of policy "
+        r"'margin', not of 'adjust'\)$",
+    ):
         adjust_options({"margin": 0.1})
     with pytest.raises(InputError, match=r"^adjust\.margin: must be in \[0, 1\), got 1\.0$"):
         make_policy("margin", {"margin": 1.0})
@@ -138,14 +149,26 @@ def _file(tmp_path: Path, extra: str, name: str = "t1.toml") -> Path:
 @pytest.mark.parametrize(
     ("extra", "match"),
     [
-        ('policy = "margn"', r"^.*/bad\.toml: adjust\.policy: must be one of .* got 'margn' "
-                             r"\(did you mean 'margin'\?\)$"),
-        ('policy = "margin"\nmargn = 0.1', r"^.*/bad\.toml: adjust: unknown key 'margn' "
-                                           r"\(did you mean 'margin'\?\)$"),
-        ("margin = 0.1", r"^.*/bad\.toml: adjust: unknown key 'margin' \(a key of policy "
-                         r"'margin', not of 'adjust'\)$"),
-        ('policy = "margin"\nmargin = 1.5', r"^.*/bad\.toml: adjust\.margin: 1\.5 is outside "
-                                            r"\[0, 1\)"),
+        (
+            'policy = "margn"',
+            r"^.*/bad\.toml: adjust\.policy: must be one of .* got 'margn' "
+            r"\(did you mean 'margin'\?\)$",
+        ),
+        (
+            'policy = "margin"\nmargn = 0.1',
+            r"^.*/bad\.toml: adjust: unknown key 'margn' "
+            r"\(did you mean 'margin'\?\)$",
+        ),
+        (
+            "margin = 0.1",
+            r"^.*/bad\.toml: adjust: unknown key 'margin' \(a key of policy "
+            r"'margin', not of 'adjust'\)$",
+        ),
+        (
+            'policy = "margin"\nmargin = 1.5',
+            r"^.*/bad\.toml: adjust\.margin: 1\.5 is outside "
+            r"\[0, 1\)",
+        ),
     ],
 )
 def test_bad_files_are_one_line_errors(tmp_path: Path, extra: str, match: str) -> None:
@@ -160,8 +183,10 @@ def test_policy_from_the_file_and_the_override(tmp_path: Path) -> None:
     assert res.summary["policy"] == res.summary["mode"] == "margin"
     # the file's margin reaches the decision: every window is (1 − μ)·min MSB or w_sch
     df = res.windows.iloc[1:]
-    expect = [max(ws, min(0.8 * m, 1000.0)) if meth == "none" else ws
-              for m, ws, meth in zip(df["msb_min"], df["w_sch"], df["method"], strict=True)]
+    expect = [
+        max(ws, min(0.8 * m, 1000.0)) if meth == "none" else ws
+        for m, ws, meth in zip(df["msb_min"], df["w_sch"], df["method"], strict=True)
+    ]
     assert list(df["w"]) == pytest.approx(expect, rel=1e-12)
     over = run_scenario(path, duration_s=5.0, seed=0, policy="adjust")
     assert over.summary["policy"] == "adjust"
@@ -186,13 +211,17 @@ class HalfSpeed:
         return d._replace(v_leader=self.share * ctx.v_ld, method="half")
 
 
-def test_a_users_policy_loads_by_module_and_name(tmp_path: Path,
-                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_users_policy_loads_by_module_and_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     # a plug-in policy's own [adjust] keys are passed to it (it checks them itself)
     spec = f"{__name__}:HalfSpeed"
     path = _file(tmp_path, f'policy = "{spec}"\nshare = 0.4')
-    with pytest.raises(InputError, match=r"adjust\.policy: .* names Python code, which an "
-                                         r"input file loads only when asked: pass --allow-code"):
+    with pytest.raises(
+        InputError,
+        match=r"adjust\.policy: .* names Python code, which an "
+        r"input file loads only when asked: pass --allow-code",
+    ):
         run_scenario(path, duration_s=5.0, seed=0)  # a file names code: refused
     res = run_scenario(path, duration_s=5.0, seed=0, allow_code=True)
     df = res.windows.iloc[1:]
@@ -202,24 +231,44 @@ def test_a_users_policy_loads_by_module_and_name(tmp_path: Path,
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "rtsim", *args], capture_output=True,
-                          text=True, check=False)
+    return subprocess.run(
+        [sys.executable, "-m", "rtsim", *args], capture_output=True, text=True, check=False
+    )
 
 
 @pytest.mark.slow
 def test_cli_policy(tmp_path: Path) -> None:
-    bad = _cli("scenario", str(PIN / "pin1.toml"), "--policy", "margn", "--out",
-               str(tmp_path / "x"))
+    bad = _cli(
+        "scenario", str(PIN / "pin1.toml"), "--policy", "margn", "--out", str(tmp_path / "x")
+    )
     assert bad.returncode == 2
     assert bad.stderr.strip().splitlines() == [
         "rtsim: --policy: must be one of adjust, fixed-wsch, min-msb, margin, lookahead, "
         "noise-aware, safe, plan or "
-        "'package.module:Name', got 'margn' (did you mean 'margin'?)"]
-    both = _cli("scenario", str(PIN / "pin1.toml"), "--policy", "margin", "--mode", "adjust",
-                "--out", str(tmp_path / "y"))
+        "'package.module:Name', got 'margn' (did you mean 'margin'?)"
+    ]
+    both = _cli(
+        "scenario",
+        str(PIN / "pin1.toml"),
+        "--policy",
+        "margin",
+        "--mode",
+        "adjust",
+        "--out",
+        str(tmp_path / "y"),
+    )
     assert both.returncode == 2 and "alias" in both.stderr
-    ok = _cli("scenario", str(PIN / "pin1.toml"), "--policy", "margin", "--duration", "3",
-              "--no-figures", "--out", str(tmp_path / "z"))
+    ok = _cli(
+        "scenario",
+        str(PIN / "pin1.toml"),
+        "--policy",
+        "margin",
+        "--duration",
+        "3",
+        "--no-figures",
+        "--out",
+        str(tmp_path / "z"),
+    )
     assert ok.returncode == 0, ok.stderr
     assert "[margin]" in ok.stdout
     assert '"policy": "margin"' in (tmp_path / "z" / "summary.json").read_text()
@@ -233,8 +282,9 @@ def test_margin_cuts_windows_beyond_5pct_on_test1() -> None:
     for pol in ("adjust", "margin"):
         total = 0
         for seed in (0, 1, 2):
-            s = run_scenario(PIN / "pin1.toml", duration_s=60.0, seed=seed, policy=pol,
-                             record_jobs=False).summary
+            s = run_scenario(
+                PIN / "pin1.toml", duration_s=60.0, seed=seed, policy=pol, record_jobs=False
+            ).summary
             assert s["missed"] == 0 and s["tracks_lost"] == 0
             total += sum(s["violations_beyond_5pct"].values())
         counts[pol] = total
@@ -253,8 +303,8 @@ KAPPA = 0.0075
     [
         # w_sch = 90: here 2500/25 = 100 ≥ 90 (w = 100 at 25); the turn's safe speed is
         # 2000/90 = 22.222. Horizon 25·2·0.09 = 4.5 cm (+ 25²/(2·decel)).
-        (40.0, math.inf, 100.0, 25.0, "none"),               # beyond the horizon
-        (3.0, math.inf, 100.0, 25.0, "none"),                # after this window (25·0.1 = 2.5 cm)
+        (40.0, math.inf, 100.0, 25.0, "none"),  # beyond the horizon
+        (3.0, math.inf, 100.0, 25.0, "none"),  # after this window (25·0.1 = 2.5 cm)
         # within this window: slow to 22.222 now; the window reaches 2.22 cm ≥ 2 into the
         # turn, where the bound at 22.222 is 2000/22.222 = 90: w = max(90, min(100, 90))
         (2.0, math.inf, 90.0, 2000.0 / 90.0, "lookahead"),
@@ -266,8 +316,9 @@ KAPPA = 0.0075
 )
 def test_lookahead_by_hand(dist: float, decel: float, w: float, v: float, method: str) -> None:
     pol = POLICIES["lookahead"]()
-    d = pol.decide(_ctx(90.0, ahead=((dist, KAPPA), (dist + 500.0, 0.0)), decel_max=decel,
-                        v_now=25.0))
+    d = pol.decide(
+        _ctx(90.0, ahead=((dist, KAPPA), (dist + 500.0, 0.0)), decel_max=decel, v_now=25.0)
+    )
     assert d.w == pytest.approx(w, rel=1e-9)
     assert d.v_leader == pytest.approx(v, rel=1e-9)
     assert d.method == method
@@ -277,8 +328,9 @@ def test_lookahead_by_hand(dist: float, decel: float, w: float, v: float, method
 
 def test_lookahead_without_a_path_is_margin() -> None:
     for w_sch in (80.0, 120.0):
-        assert (make_policy("lookahead", {"margin": 0.2}).decide(_ctx(w_sch))
-                == MarginPolicy(0.2).decide(_ctx(w_sch)))
+        assert make_policy("lookahead", {"margin": 0.2}).decide(_ctx(w_sch)) == MarginPolicy(
+            0.2
+        ).decide(_ctx(w_sch))
 
 
 class Recorder:
@@ -295,8 +347,7 @@ class Recorder:
 
 def test_the_coupling_gives_the_leaders_upcoming_commands() -> None:
     Recorder.seen.clear()
-    res = run_scenario(PIN / "pin1.toml", duration_s=3.0, seed=0,
-                       policy=f"{__name__}:Recorder")
+    res = run_scenario(PIN / "pin1.toml", duration_s=3.0, seed=0, policy=f"{__name__}:Recorder")
     sc = load_scenario(PIN / "pin1.toml")
     path = sc.world.path
     segs = path.segments
@@ -314,19 +365,21 @@ def test_the_coupling_gives_the_leaders_upcoming_commands() -> None:
     k = path.index(s0)
     end_k = sum(g.length for g in segs[: k + 1])
     assert first.ahead[0][0] == pytest.approx(end_k - s0 % path.lap_length, abs=1e-9)
-    assert [c for _, c in first.ahead] == [segs[(k + j) % len(segs)].curvature
-                                            for j in range(1, len(segs) + 1)]
-    assert first.ahead[1][0] - first.ahead[0][0] == pytest.approx(
-        segs[(k + 1) % len(segs)].length)
+    assert [c for _, c in first.ahead] == [
+        segs[(k + j) % len(segs)].curvature for j in range(1, len(segs) + 1)
+    ]
+    assert first.ahead[1][0] - first.ahead[0][0] == pytest.approx(segs[(k + 1) % len(segs)].length)
 
 
 def test_a_sweep_runs_policies_by_mode(tmp_path: Path) -> None:
     import pandas as pd
 
     f = tmp_path / "s.toml"
-    f.write_text(f'[sweep]\nkind = "scenario"\nbase = "{PIN / "pin1.toml"}"\n'
-                 '[sweep.options]\nduration = 2\n'
-                 '[grid]\nmode = ["adjust", "margin", "lookahead"]\n')
+    f.write_text(
+        f'[sweep]\nkind = "scenario"\nbase = "{PIN / "pin1.toml"}"\n'
+        "[sweep.options]\nduration = 2\n"
+        '[grid]\nmode = ["adjust", "margin", "lookahead"]\n'
+    )
     proc = _cli("sweep", str(f), "--out", str(tmp_path / "out"))
     assert proc.returncode == 0, proc.stderr
     df = pd.read_parquet(tmp_path / "out" / "results.parquet")
@@ -342,8 +395,9 @@ def test_policies_experiment_quick(tmp_path: Path) -> None:
     import pandas as pd
 
     root = Path(__file__).resolve().parents[2]
-    spec = importlib.util.spec_from_file_location("policies_exp",
-                                                  root / "experiments" / "policies.py")
+    spec = importlib.util.spec_from_file_location(
+        "policies_exp", root / "experiments" / "policies.py"
+    )
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -354,8 +408,10 @@ def test_policies_experiment_quick(tmp_path: Path) -> None:
     assert len(runs) == 2 * len(labels) and list(summ["policy"][: len(labels)]) == labels
     for r in summ.itertuples(index=False):
         sel = runs[(runs["test"] == r.test) & (runs["policy"] == r.policy)]
-        assert r.viol5 == sum(int(sel[f"viol5_{k}"].sum()) for k in
-                              ("localization", "separation", "path_diversion", "bearing"))
+        assert r.viol5 == sum(
+            int(sel[f"viol5_{k}"].sum())
+            for k in ("localization", "separation", "path_diversion", "bearing")
+        )
         assert r.max_ratio_path_diversion == sel["max_ratio_path_diversion"].max()
     # the paper's policy never misses; fixed-wsch never slows the leader
     assert (runs[runs["policy"] == "adjust"]["missed"] == 0).all()

@@ -35,8 +35,7 @@ from rtsim.io.scenario import ScenarioError, load_scenario
 
 PIN = Path(__file__).parents[1] / "data" / "policy_pin"
 THR = Thresholds(r_H=1.0, T_rho=0.01, T_eps=0.025, T_beta=0.1, localization="radial")
-F = FollowerEstimate(rho=100.0, beta=math.pi, theta=0.0, v_f=25.0, rho_d=100.0,
-                     beta_d=math.pi)
+F = FollowerEstimate(rho=100.0, beta=math.pi, theta=0.0, v_f=25.0, rho_d=100.0, beta_d=math.pi)
 NOISE = {"speed_noise": 0.5, "turn_noise": 0.0, "pose_sd": ((1.0, 0.0),)}
 
 
@@ -91,11 +90,14 @@ def test_z_zero_is_the_papers_decision_at_vld() -> None:
 
 def test_safe_without_a_path_is_noise_aware_with_its_margin() -> None:
     for w_sch in (80.0, 120.0):
-        assert (make_policy("safe", {"margin": 0.1, "z": 1.0}).decide(_ctx(w_sch))
-                == NoiseAwarePolicy(z=1.0, margin=0.1).decide(_ctx(w_sch)))
+        assert make_policy("safe", {"margin": 0.1, "z": 1.0}).decide(
+            _ctx(w_sch)
+        ) == NoiseAwarePolicy(z=1.0, margin=0.1).decide(_ctx(w_sch))
     # with z = 0 it is lookahead + margin
-    assert (make_policy("safe", {"z": 0.0, "margin": 0.1}).decide(_ctx(80.0)).w
-            == MarginPolicy(0.1).decide(_ctx(80.0)).w)
+    assert (
+        make_policy("safe", {"z": 0.0, "margin": 0.1}).decide(_ctx(80.0)).w
+        == MarginPolicy(0.1).decide(_ctx(80.0)).w
+    )
 
 
 def test_bad_z_is_a_one_line_error(tmp_path: Path) -> None:
@@ -103,10 +105,12 @@ def test_bad_z_is_a_one_line_error(tmp_path: Path) -> None:
         make_policy("noise-aware", {"z": 11.0})
     text = (PIN / "pin1.toml").read_text(encoding="utf-8")
     bad = tmp_path / "bad.toml"
-    bad.write_text(text.replace("[adjust]\n", '[adjust]\npolicy = "noise-aware"\nz = -1\n'),
-                   encoding="utf-8")
-    with pytest.raises(ScenarioError,
-                       match=r"^.*/bad\.toml: adjust\.z: must be non-negative, got -1$"):
+    bad.write_text(
+        text.replace("[adjust]\n", '[adjust]\npolicy = "noise-aware"\nz = -1\n'), encoding="utf-8"
+    )
+    with pytest.raises(
+        ScenarioError, match=r"^.*/bad\.toml: adjust\.z: must be non-negative, got -1$"
+    ):
         load_scenario(bad)
 
 
@@ -124,8 +128,7 @@ class NoiseRecorder:
 
 def test_the_coupling_gives_the_noise_and_the_ekf_spread() -> None:
     NoiseRecorder.seen.clear()
-    run_scenario(PIN / "pin1.toml", duration_s=2.0, seed=0,
-                 policy=f"{__name__}:NoiseRecorder")
+    run_scenario(PIN / "pin1.toml", duration_s=2.0, seed=0, policy=f"{__name__}:NoiseRecorder")
     sc = load_scenario(PIN / "pin1.toml")
     assert NoiseRecorder.seen
     for ctx in NoiseRecorder.seen:
@@ -137,8 +140,10 @@ def test_the_coupling_gives_the_noise_and_the_ekf_spread() -> None:
 
 def test_noise_aware_and_safe_run_from_a_file(tmp_path: Path) -> None:
     text = (PIN / "pin1.toml").read_text(encoding="utf-8")
-    for extra, name in (('policy = "noise-aware"\nz = 2', "noise-aware"),
-                        ('policy = "safe"\nz = 1\nmargin = 0.1', "safe")):
+    for extra, name in (
+        ('policy = "noise-aware"\nz = 2', "noise-aware"),
+        ('policy = "safe"\nz = 1\nmargin = 0.1', "safe"),
+    ):
         f = tmp_path / f"{name}.toml"
         f.write_text(text.replace("[adjust]\n", f"[adjust]\n{extra}\n"), encoding="utf-8")
         res = run_scenario(f, duration_s=3.0, seed=0)

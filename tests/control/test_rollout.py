@@ -26,9 +26,13 @@ from rtsim.control.rollout import Rollout, RolloutState
 from rtsim.io.scenario import load_scenario
 from rtsim.world import World
 
-QUIET = {"follower.speed_noise": 0.0, "follower.turn_noise_deg": 0.0,
-         "sensing.position_noise": 0.0, "ekf.init_position_sd": 0.0,
-         "ekf.init_heading_sd_deg": 0.0}
+QUIET = {
+    "follower.speed_noise": 0.0,
+    "follower.turn_noise_deg": 0.0,
+    "sensing.position_noise": 0.0,
+    "ekf.init_position_sd": 0.0,
+    "ekf.init_heading_sd_deg": 0.0,
+}
 OFFSETS = (130.0, 136.0)
 TOL_CM, TOL_RAD = 0.05, 5e-4  # each follower's send after its window's scan (ms)
 
@@ -44,14 +48,16 @@ def _window(world: World, t: float, w: float) -> None:
         world.command(i, t + off)
 
 
-@pytest.mark.parametrize(("name", "v_target", "windows", "model"), [
-    ("test2", 12.0, 12, "follow-the-leader"),   # braking hard into the followers' first turn
-    ("test2", 30.0, 40, "follow-the-leader"),   # holding V_Ld through it
-    ("test1", 18.0, 60, "follow-the-leader"),
-    ("test2", 15.0, 115, "l-psi"),              # the l-ψ law, the leader in its first turn
-])
-def test_rollout_matches_the_world(name: str, v_target: float, windows: int,
-                                   model: str) -> None:
+@pytest.mark.parametrize(
+    ("name", "v_target", "windows", "model"),
+    [
+        ("test2", 12.0, 12, "follow-the-leader"),  # braking hard into the followers' first turn
+        ("test2", 30.0, 40, "follow-the-leader"),  # holding V_Ld through it
+        ("test1", 18.0, 60, "follow-the-leader"),
+        ("test2", 15.0, 115, "l-psi"),  # the l-ψ law, the leader in its first turn
+    ],
+)
+def test_rollout_matches_the_world(name: str, v_target: float, windows: int, model: str) -> None:
     w = 237.0
     world = _quiet_world(name, model)
     for j in range(windows):  # drive some windows, then decide at 210 ms into the last
@@ -61,14 +67,27 @@ def test_rollout_matches_the_world(name: str, v_target: float, windows: int,
     fol = world.followers
     ld = world.leader
     state = RolloutState(
-        path=world.config.path, law=world.follow_law, params=world.config.follower,
-        step_ms=world.config.step_ms, t_now=t_d, leader_s=ld.s, leader_speed=ld.speed,
-        v_ld=ld.desired_speed, accel_max=ld.accel_max, decel_max=ld.decel_max,
-        poses=tuple(fol.pose(k) for k in range(world.n)), speeds=tuple(fol.v),
+        path=world.config.path,
+        law=world.follow_law,
+        params=world.config.follower,
+        step_ms=world.config.step_ms,
+        t_now=t_d,
+        leader_s=ld.s,
+        leader_speed=ld.speed,
+        v_ld=ld.desired_speed,
+        accel_max=ld.accel_max,
+        decel_max=ld.decel_max,
+        poses=tuple(fol.pose(k) for k in range(world.n)),
+        speeds=tuple(fol.v),
         held=tuple((fol.cmd_v[k], fol.cmd_w[k]) for k in range(world.n)),
-        pending=((), ()), next_scan=windows * w, send_offsets=OFFSETS,
-        thresholds=world.config.thresholds, rho_d=tuple(world.config.formation.rho_d),
-        w_sch=w, beta_d=tuple(world.config.formation.beta_d))
+        pending=((), ()),
+        next_scan=windows * w,
+        send_offsets=OFFSETS,
+        thresholds=world.config.thresholds,
+        rho_d=tuple(world.config.formation.rho_d),
+        w_sch=w,
+        beta_d=tuple(world.config.formation.beta_d),
+    )
     ro = Rollout(state)
     ahead = [w, w, w]
     pred = ro.changes(v_target, ahead)
@@ -111,8 +130,7 @@ def test_search_rollout_brackets_and_bisects() -> None:
     assert method == "numeric" and 17.3 - 0.005 * 30.0 <= v <= 17.3 and found == v
     assert len(calls) <= 1 + 7 + 5
     # nothing passes: the least-bad speed, the larger one on a tie, method best
-    v, method, found = search_rollout(lambda v: 100.0 + (v if v < 20 else 0.0), 30.0, 237.0,
-                                      3.0)
+    v, method, found = search_rollout(lambda v: 100.0 + (v if v < 20 else 0.0), 30.0, 237.0, 3.0)
     assert method == "best" and math.isnan(found) and v == pytest.approx(30.0 * 5 / 8)
 
 
@@ -130,14 +148,28 @@ def test_paper_infeasible_is_exact_against_brute_force() -> None:
     grid = np.linspace(v_ld / 4000, v_ld, 4000)
     agree = empty = 0
     for _ in range(150):
-        fols = [FollowerEstimate(rng.uniform(250, 400), rng.uniform(2.6, 3.7),
-                                 rng.normal(0, 0.4), rng.uniform(0, 45), 325.0)
-                for _ in range(2)]
+        fols = [
+            FollowerEstimate(
+                rng.uniform(250, 400),
+                rng.uniform(2.6, 3.7),
+                rng.normal(0, 0.4),
+                rng.uniform(0, 45),
+                325.0,
+            )
+            for _ in range(2)
+        ]
         omega = rng.normal(0, 0.15)
         says = paper_infeasible(fols, v_ld, w_sch, thr, omega)
-        ok = any(min(min(r) for r in predicted_rows(fols, float(v), thresholds=thr,
-                                                    predictor="paper", omega_l=omega))
-                 >= w_sch * (1 - 1e-9) for v in grid)
+        ok = any(
+            min(
+                min(r)
+                for r in predicted_rows(
+                    fols, float(v), thresholds=thr, predictor="paper", omega_l=omega
+                )
+            )
+            >= w_sch * (1 - 1e-9)
+            for v in grid
+        )
         assert not (says and ok)
         empty += not ok
         agree += says == (not ok)
@@ -168,8 +200,9 @@ def test_a_users_policy_gets_the_rollout() -> None:
 
     register_policy("probe-rollout")(Probe)
     try:
-        res = run_scenario("test2", policy="probe-rollout", duration_s=5.0, seed=0,
-                           record_jobs=False)
+        res = run_scenario(
+            "test2", policy="probe-rollout", duration_s=5.0, seed=0, record_jobs=False
+        )
     finally:
         POLICIES.pop("probe-rollout")
     assert seen and all(p == "commands" and same and ran for p, same, ran in seen)

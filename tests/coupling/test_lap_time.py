@@ -21,7 +21,8 @@ def test_lap_time_at_constant_speed_is_the_paths_lap_time() -> None:
     res = run_scenario(PIN, seed=0, policy="fixed-wsch", record_jobs=False)
     assert (res.windows["v_leader"] == sc.world.leader_speed).all()
     assert res.summary["lap_time_s"] == pytest.approx(
-        sc.world.path.lap_length / sc.world.leader_speed, rel=1e-9)
+        sc.world.path.lap_length / sc.world.leader_speed, rel=1e-9
+    )
     assert "lap_time_note" not in res.summary
     assert res.summary["laps"] >= 1.0
 
@@ -37,12 +38,14 @@ def test_a_slowed_leader_takes_longer_and_the_run_covers_the_lap() -> None:
 def test_no_lap_time_when_the_duration_is_shorter() -> None:
     res = run_scenario(PIN, seed=0, duration_s=5.0, record_jobs=False)
     assert res.summary["lap_time_s"] is None
-    assert res.summary["lap_time_note"] == ("the run's duration (5 s) ended before the leader "
-                                            "completed its lap")
+    assert res.summary["lap_time_note"] == (
+        "the run's duration (5 s) ended before the leader completed its lap"
+    )
 
 
-def test_no_lap_time_when_the_cap_is_reached(monkeypatch: pytest.MonkeyPatch,
-                                             tmp_path: Path) -> None:
+def test_no_lap_time_when_the_cap_is_reached(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
     monkeypatch.setattr(duration, "LAP_CAP_FACTOR", 0.2)
     # the file's duration (200 s) would extend the run: 10 s here
     text = PIN.read_text(encoding="utf-8")
@@ -52,5 +55,6 @@ def test_no_lap_time_when_the_cap_is_reached(monkeypatch: pytest.MonkeyPatch,
     res = run_scenario(f, seed=0, record_jobs=False)
     assert res.summary["lap_time_s"] is None
     assert res.summary["lap_time_note"].startswith(
-        "the leader did not complete its lap within the cap of 0.2 lap times at V_Ld")
+        "the leader did not complete its lap within the cap of 0.2 lap times at V_Ld"
+    )
     assert res.summary["laps"] < 1.0

@@ -38,9 +38,20 @@ DIGESTS = {
 
 #: summary.json keys added after the pin was recorded (the pin ignores them): the policy, the
 #: lap time, and the physical outcomes (rtsim.coupling.physical)
-NEW_KEYS = ("policy", "lap_time_s", "lap_time_note", "cross_track_cm", "separation_error_cm",
-            "min_robot_distance_cm", "collisions", "distance_cm", "per_follower",
-            "tracks_lost_by_cause", "searches", "reacquisitions")
+NEW_KEYS = (
+    "policy",
+    "lap_time_s",
+    "lap_time_note",
+    "cross_track_cm",
+    "separation_error_cm",
+    "min_robot_distance_cm",
+    "collisions",
+    "distance_cm",
+    "per_follower",
+    "tracks_lost_by_cause",
+    "searches",
+    "reacquisitions",
+)
 
 
 def _digest(res) -> tuple[str, str]:  # type: ignore[no-untyped-def]

@@ -35,8 +35,15 @@ MAIN = {
 }
 SIMS = {
     "sim_example": ["tasksets/example.toml", "--horizon", "200000", "--seed", "3"],
-    "sim_barrel": ["tasksets/barrel_robots.toml", "--horizon", "120000", "--window", "140",
-                   "--seed", "5"],
+    "sim_barrel": [
+        "tasksets/barrel_robots.toml",
+        "--horizon",
+        "120000",
+        "--window",
+        "140",
+        "--seed",
+        "5",
+    ],
 }
 
 
@@ -66,8 +73,9 @@ def count_chunks(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
 
 
 @pytest.mark.parametrize("name", sorted(SIMS))
-def test_simulate_jobs_in_chunks_are_byte_identical(name: str, tmp_path: Path, tiny_chunks: None,
-                                                    count_chunks: dict[str, int]) -> None:
+def test_simulate_jobs_in_chunks_are_byte_identical(
+    name: str, tmp_path: Path, tiny_chunks: None, count_chunks: dict[str, int]
+) -> None:
     csv, par = tmp_path / f"{name}.csv", tmp_path / f"{name}.parquet"
     assert main(["simulate", *SIMS[name], "--jobs", str(csv)]) == 0
     assert main(["simulate", *SIMS[name], "--jobs", str(par)]) == 0
@@ -81,7 +89,8 @@ def test_simulate_jobs_in_chunks_are_byte_identical(name: str, tmp_path: Path, t
 
 @pytest.mark.parametrize("mode", ["adjust", "min-msb"])
 def test_scenario_windows_and_jobs_in_chunks_are_byte_identical(
-        mode: str, tmp_path: Path, tiny_chunks: None) -> None:
+    mode: str, tmp_path: Path, tiny_chunks: None
+) -> None:
     """The CLI's chunked files equal the tables built once in memory (the library run without
     sinks) and written whole, as before chunking; the scenario outputs' digests are not pinned
     here because the world and the recorder's columns change with other issues."""
@@ -90,8 +99,25 @@ def test_scenario_windows_and_jobs_in_chunks_are_byte_identical(
     from rtsim.io.summary import summary_json
 
     out = tmp_path / mode
-    assert main(["scenario", str(TEST2), "--mode", mode, "--duration", "300", "--seed", "1",
-                 "--parquet", "--no-figures", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "scenario",
+                str(TEST2),
+                "--mode",
+                mode,
+                "--duration",
+                "300",
+                "--seed",
+                "1",
+                "--parquet",
+                "--no-figures",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     plain = run_scenario(TEST2, mode=mode, duration_s=300, seed=1, record_jobs=True)
     assert plain.windows is not None and plain.jobs is not None
     ref = tmp_path / "ref"
@@ -121,8 +147,9 @@ def test_scenario_library_result_unchanged_by_sinks(tmp_path: Path, tiny_chunks:
     assert streamed.windows is None and streamed.jobs is None
     assert streamed.summary == plain.summary
     assert plain.windows is not None and plain.jobs is not None
-    pd.testing.assert_frame_equal(read_columns(tmp_path / "w.csv"), plain.windows,
-                                  check_dtype=False)
+    pd.testing.assert_frame_equal(
+        read_columns(tmp_path / "w.csv"), plain.windows, check_dtype=False
+    )
     assert (tmp_path / "j.csv").read_bytes() == plain.jobs.to_csv(index=False).encode()
 
 
@@ -133,9 +160,24 @@ def _rows(n: int, seed: int) -> list[tuple[object, ...]]:
         r = float(rng.uniform(0, 1e6))
         skipped = bool(rng.random() < 0.1)
         f = float("nan") if skipped else r + float(rng.exponential(10))
-        out.append((f"t{k % 3}", k, r, f, f, f - r, r + 50.0, 50.0,
-                    skipped or f > r + 50, int(rng.integers(0, 4)), False, skipped,
-                    float(rng.uniform(0, 5)), r))
+        out.append(
+            (
+                f"t{k % 3}",
+                k,
+                r,
+                f,
+                f,
+                f - r,
+                r + 50.0,
+                50.0,
+                skipped or f > r + 50,
+                int(rng.integers(0, 4)),
+                False,
+                skipped,
+                float(rng.uniform(0, 5)),
+                r,
+            )
+        )
     return out
 
 
@@ -166,10 +208,15 @@ def test_rowbuffer_chunks_equal_one_frame(n: int, chunk: int, seed: int) -> None
 
 
 @settings(max_examples=40, deadline=None)
-@given(m=st.integers(1, 400), bucket=st.integers(1, 50), seed=st.integers(0, 10_000),
-       p_crit=st.floats(0.0, 1.0))
-def test_thin_rows_keeps_extremes_and_every_span(m: int, bucket: int, seed: int,
-                                                 p_crit: float) -> None:
+@given(
+    m=st.integers(1, 400),
+    bucket=st.integers(1, 50),
+    seed=st.integers(0, 10_000),
+    p_crit=st.floats(0.0, 1.0),
+)
+def test_thin_rows_keeps_extremes_and_every_span(
+    m: int, bucket: int, seed: int, p_crit: float
+) -> None:
     """Long runs' figures draw a row selection: it keeps each bucket's extremes of every
     plotted value, the first and last window, and the critical spans exactly."""
     from rtsim.plots.scenario_data import critical_spans, thin_rows
@@ -179,16 +226,26 @@ def test_thin_rows_keeps_extremes_and_every_span(m: int, bucket: int, seed: int,
     w = rng.uniform(100, 400, m)
     msb = np.where(rng.random(m) < 0.1, np.inf, rng.uniform(50, 600, m))
     crit = rng.random(m) < p_crit
-    df = pd.DataFrame({"window": np.arange(m), "t": t, "w": w, "slack": np.maximum(0, w - 237),
-                       "w_sch": np.full(m, 237.0), "msb_min": msb, "critical": crit,
-                       "missed": rng.random(m) < 0.05, "v_leader": rng.uniform(5, 30, m),
-                       "f1_msb_separation_pred": rng.uniform(0, 1e3, m)})
+    df = pd.DataFrame(
+        {
+            "window": np.arange(m),
+            "t": t,
+            "w": w,
+            "slack": np.maximum(0, w - 237),
+            "w_sch": np.full(m, 237.0),
+            "msb_min": msb,
+            "critical": crit,
+            "missed": rng.random(m) < 0.05,
+            "v_leader": rng.uniform(5, 30, m),
+            "f1_msb_separation_pred": rng.uniform(0, 1e3, m),
+        }
+    )
     keep = thin_rows(df, bucket)
     assert keep[0] and keep[-1]
     for c in ("w", "slack", "msb_min", "v_leader", "f1_msb_separation_pred"):
         for b in range(0, m, bucket):
-            part = df[c].to_numpy()[b:b + bucket]
-            kept = part[keep[b:b + bucket]]
+            part = df[c].to_numpy()[b : b + bucket]
+            kept = part[keep[b : b + bucket]]
             assert kept.max() == part.max() and kept.min() == part.min()
     thin = df[keep].reset_index(drop=True)
     assert critical_spans(thin) == critical_spans(df)

@@ -39,12 +39,18 @@ SCEN = Path(__file__).resolve().parents[2] / "experiments" / "scenarios"
 TEST1, TEST2 = SCEN / "test1.toml", SCEN / "test2.toml"
 EPS = 1e-9
 #: The world these by-hand tests were written for: l-ψ chevron, leader speed steps.
-LPSI = {"formation.model": "l-psi", "leader.accel_max": math.inf, "leader.decel_max": math.inf,
-        # the paper's localization (window at the previous position, Eq 19, every lost
-        # track searched for) and the line's chevron; the files' predictor when these tests
-        # were written
-        "localization.centre": "previous", "localization.search": "always",
-        "formation.layout": "line", "adjust.predictor": "paper"}
+LPSI = {
+    "formation.model": "l-psi",
+    "leader.accel_max": math.inf,
+    "leader.decel_max": math.inf,
+    # the paper's localization (window at the previous position, Eq 19, every lost
+    # track searched for) and the line's chevron; the files' predictor when these tests
+    # were written
+    "localization.centre": "previous",
+    "localization.search": "always",
+    "formation.layout": "line",
+    "adjust.predictor": "paper",
+}
 
 
 def _outer_s(rho_d: float, r_t: float) -> float:
@@ -70,7 +76,8 @@ def adj2():  # type: ignore[no-untyped-def]
 
 @pytest.mark.parametrize("path", [TEST1, TEST2])
 def test_defaults_of_the_tests_plan_on_commands_without_floor_misses_or_lost_tracks(
-        path: Path) -> None:
+    path: Path,
+) -> None:
     """Test 1 and Test 2 as shipped (policy plan on the commands predictor, chosen by
     evidence: docs/results.md): a lap with no deadline miss, no lost track, fewer than 1 % of
     the windows at the floor speed; the policy, the predictor and the followers' law
@@ -85,14 +92,12 @@ def test_defaults_of_the_tests_plan_on_commands_without_floor_misses_or_lost_tra
 
 @pytest.fixture(scope="module")
 def fixed2():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST2, mode="fixed-wsch", duration_s=45, record_jobs=False,
-                        overrides=LPSI)
+    return run_scenario(TEST2, mode="fixed-wsch", duration_s=45, record_jobs=False, overrides=LPSI)
 
 
 @pytest.fixture(scope="module")
 def minmsb2():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST2, mode="min-msb", duration_s=45, record_jobs=False,
-                        overrides=LPSI)
+    return run_scenario(TEST2, mode="min-msb", duration_s=45, record_jobs=False, overrides=LPSI)
 
 
 @pytest.fixture(params=["adj1", "adj2"])
@@ -144,8 +149,9 @@ def test_adjust_critical_region_uses_wsch_and_slows_the_leader(adj) -> None:  # 
     assert (crit["margin"] < 0).all()
 
 
-@pytest.mark.parametrize("fixture, rho_d, r_t, v_ld", [("adj1", 390, 200, 25),
-                                                      ("adj2", 325, 120, 30)])
+@pytest.mark.parametrize(
+    "fixture, rho_d, r_t, v_ld", [("adj1", 390, 200, 25), ("adj2", 325, 120, 30)]
+)
 def test_adjust_depth_of_the_critical_region_by_hand(request, fixture, rho_d, r_t, v_ld) -> None:  # type: ignore[no-untyped-def]
     res = request.getfixturevalue(fixture)
     s = res.summary
@@ -234,15 +240,16 @@ def test_jobs_table_holds_the_schedule(short_runs) -> None:  # type: ignore[no-u
     # back-to-back windows: release k+1 = release k + w_k, w_k the row's w
     df = r.windows
     np.testing.assert_allclose(win["release"].to_numpy()[: len(df)], df["t"], rtol=0, atol=1e-6)
-    np.testing.assert_allclose(df["t"].to_numpy()[1:], (df["t"] + df["w"]).to_numpy()[:-1],
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        df["t"].to_numpy()[1:], (df["t"] + df["w"]).to_numpy()[:-1], atol=1e-6
+    )
     # the command task's period is 2w of the window in force at its release
     cmd = jobs[jobs["task"] == "command"]
     assert len(cmd) > 0
     assert (cmd["period"] >= 2 * df["w_sch"].iloc[0] - 1e-9).all()
     # the hough segment used the counted beams: e_hough = π r_H² n e_cal + P e_trans
     ts = r.inputs.taskset.window
-    base = math.pi * ts.r_H ** 2 * 2 * ts.e_cal
+    base = math.pi * ts.r_H**2 * 2 * ts.e_cal
     np.testing.assert_allclose(df["hough_ms"], base + df["points"] * ts.e_trans, rtol=1e-12)
     assert (df["points"] > 0).all() and (df["points"] < 2 * ts.k).all()
 
@@ -271,8 +278,24 @@ def test_recorder_drops_incomplete_windows() -> None:
     est = np.zeros((1, 7))
     zero = {c: np.zeros(1) for c in ("displacement", "d_rho", "travel", "d_beta")}
     for k in range(3):
-        r = rec.add(WindowRecord(k, 100.0 * k, 100.0, 90.0, 95.0, "separation:1", 30.0, 30.0,
-                                 30.0, "none", True, "straight", 0.0, est))
+        r = rec.add(
+            WindowRecord(
+                k,
+                100.0 * k,
+                100.0,
+                90.0,
+                95.0,
+                "separation:1",
+                30.0,
+                30.0,
+                30.0,
+                "none",
+                True,
+                "straight",
+                0.0,
+                est,
+            )
+        )
         r.truth, r.lost = np.ones((1, 7)), np.zeros(1, bool)
         if k < 2:
             r.finish = 100.0 * k + 80.0 + 30 * k  # window 1 finishes at 210 > deadline 200
@@ -280,8 +303,12 @@ def test_recorder_drops_incomplete_windows() -> None:
             r.viol = {kind: np.zeros(1, bool) for kind in BOUND_KINDS}
             r.changes, r.pred, r.v_leader_max = zero, [(1e3, 2e3, 3e3, 4e3)], 30.0
     rec.records[1].viol = {kind: np.array([kind == "separation"]) for kind in BOUND_KINDS}
-    rec.records[1].changes = {"displacement": np.array([5.0]), "d_rho": np.array([5.0]),
-                              "travel": np.array([4.0]), "d_beta": np.array([0.0])}
+    rec.records[1].changes = {
+        "displacement": np.array([5.0]),
+        "d_rho": np.array([5.0]),
+        "travel": np.array([4.0]),
+        "d_beta": np.array([0.0]),
+    }
     rec.records[1].pred, rec.records[1].v_leader_max = [(1.0, 2.0, 3.0, 4.0)], 25.0
     df = rec.frame()
     assert list(df["window"]) == [0, 1]
@@ -308,16 +335,18 @@ def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
         run_scenario(tmp_path / "missing.toml")
     sc = load_scenario(TEST2)
     bad = ScenarioInputs(sc.world, sc.load_taskset(), adjust={"cpa": 3})
-    with pytest.raises(InputError, match=r"^scenario: adjust: unknown key 'cpa' "
-                                         r"\(did you mean 'cap'\?\)$"):
+    with pytest.raises(
+        InputError,
+        match=r"^scenario: adjust: unknown key 'cpa' "
+        r"\(did you mean 'cap'\?\)$",
+    ):
         run_scenario(bad, duration_s=1)
 
 
 @pytest.mark.parametrize("model", ["formation", "hybrid"])
 def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, model: str) -> None:
     text = TEST2.read_text(encoding="utf-8")
-    text, count = re.subn(r'^predictor = "\w+"', f'predictor = "{model}"', text,
-                          flags=re.MULTILINE)
+    text, count = re.subn(r'^predictor = "\w+"', f'predictor = "{model}"', text, flags=re.MULTILINE)
     assert count == 1
     path = tmp_path / "t2.toml"
     path.write_text(text, encoding="utf-8")
@@ -327,8 +356,13 @@ def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, mod
     assert _inputs(path).adjust.get("predictor", "formation") == model
     assert _inputs(TEST2).adjust["predictor"] == "commands"  # the tests' choice
     short = run_scenario(path, mode="adjust", duration_s=3, record_jobs=False)
-    base = run_scenario(TEST2, mode="adjust", duration_s=3, record_jobs=False,
-                        overrides={"adjust.predictor": "paper"})
+    base = run_scenario(
+        TEST2,
+        mode="adjust",
+        duration_s=3,
+        record_jobs=False,
+        overrides={"adjust.predictor": "paper"},
+    )
     assert short.summary["predictor"] == model and base.summary["predictor"] == "paper"
     assert len(short.windows) > 5
     a, b = short.windows["msb_min"].iloc[1:], base.windows["msb_min"].iloc[1:]
@@ -347,10 +381,10 @@ def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, mod
         k = int(slow[0]) if len(slow) else len(bw)
         assert k >= 5
         assert (bw["v_leader"].iloc[:k] == bw["v_leader_desired"].iloc[:k]).all()
-        np.testing.assert_array_equal(a.iloc[:k - 1], b.iloc[:k - 1])
+        np.testing.assert_array_equal(a.iloc[: k - 1], b.iloc[: k - 1])
         if len(slow):  # the slow-down is the world's, not the prediction's
             true = bw[[f"f{i}_msb_path_diversion_true" for i in (1, 2)]].min(axis=1)
-            assert (true.iloc[:k + 1] < bw["w_sch"].iloc[:k + 1]).any()
+            assert (true.iloc[: k + 1] < bw["w_sch"].iloc[: k + 1]).any()
 
 
 def test_violations_beyond_tolerance(adj2, fixed2) -> None:  # type: ignore[no-untyped-def]
@@ -394,8 +428,16 @@ def test_decision_columns_recomputed_from_the_estimates(adj2) -> None:  # type: 
         out = {}
         for i, (rho_d, beta_d) in enumerate(zip(slots.rho_d, slots.beta_d, strict=True), 1):
             v_f, theta = formation_velocity(v_ld, kappa * v_ld, rho_d, beta_d)
-            m = follower_msbs(v_ld, kappa * v_ld, v_f, row[f"f{i}_rho_est"],
-                              row[f"f{i}_beta_est"], theta, rho_d, thr)
+            m = follower_msbs(
+                v_ld,
+                kappa * v_ld,
+                v_f,
+                row[f"f{i}_rho_est"],
+                row[f"f{i}_beta_est"],
+                theta,
+                rho_d,
+                thr,
+            )
             out.update({(i, k): v for k, v in m.items()})
         return out
 

@@ -17,11 +17,13 @@ TOL = 1e-6  # µs
 
 def _check_against_tables(doc: dict, jobs: pd.DataFrame, trace: pd.DataFrame) -> dict:
     ev = doc["traceEvents"]
-    names = {e["tid"]: e["args"]["name"] for e in ev
-             if e["ph"] == "M" and e["name"] == "thread_name"}
+    names = {
+        e["tid"]: e["args"]["name"] for e in ev if e["ph"] == "M" and e["name"] == "thread_name"
+    }
     slices = [e for e in ev if e["ph"] == "X"]
-    job_sl = {(e["name"].rsplit(" #", 1)[0], e["args"]["job"]): e
-              for e in slices if e["cat"] == "job"}
+    job_sl = {
+        (e["name"].rsplit(" #", 1)[0], e["args"]["job"]): e for e in slices if e["cat"] == "job"
+    }
     ran = jobs[jobs["start"].notna()]
     assert len(job_sl) == sum(e["cat"] == "job" for e in slices)
     unfinished = {k for k, e in job_sl.items() if e["name"].endswith("(unfinished)")}
@@ -44,8 +46,10 @@ def _check_against_tables(doc: dict, jobs: pd.DataFrame, trace: pd.DataFrame) ->
         assert e["cat"] == ("compute" if r.on_cpu else "suspension")
         parent = job_sl[(r.task, r.job)]
         assert parent["tid"] == e["tid"], "a segment sits on its job's track"
-        assert parent["ts"] - TOL <= e["ts"] and \
-            e["ts"] + e["dur"] <= parent["ts"] + parent["dur"] + TOL, "segments nest in the job"
+        assert (
+            parent["ts"] - TOL <= e["ts"]
+            and e["ts"] + e["dur"] <= parent["ts"] + parent["dur"] + TOL
+        ), "segments nest in the job"
     per_tid = defaultdict(list)
     for e in job_sl.values():
         per_tid[e["tid"]].append((e["ts"], e["ts"] + e["dur"]))
@@ -54,8 +58,9 @@ def _check_against_tables(doc: dict, jobs: pd.DataFrame, trace: pd.DataFrame) ->
         for (_, end), (start, _) in zip(spans, spans[1:], strict=False):
             assert start >= end - TOL
     busy_trace = sum(e["dur"] for e in segs if e["cat"] == "compute")
-    expected = float((trace.loc[trace["on_cpu"], "end"] - trace.loc[trace["on_cpu"],
-                                                                     "start"]).sum())
+    expected = float(
+        (trace.loc[trace["on_cpu"], "end"] - trace.loc[trace["on_cpu"], "start"]).sum()
+    )
     assert busy_trace == pytest.approx(expected * US, rel=1e-12)
     misses = [e for e in ev if e["ph"] == "i" and e["name"] == "deadline miss"]
     assert len(misses) == int((jobs["missed"] & ~jobs["skipped"]).sum())
@@ -65,12 +70,29 @@ def _check_against_tables(doc: dict, jobs: pd.DataFrame, trace: pd.DataFrame) ->
 def test_simulate_perfetto_matches_jobs_and_trace(tmp_path, capsys) -> None:
     """Preemptions, a backlog (overlapping jobs of one task) and misses, all in the trace."""
     ts = tmp_path / "overload.toml"
-    ts.write_text('[[tasks]]\nname = "hi"\nwcet = 3\nperiod = 4\nbcet = 3\n'
-                  '[[tasks]]\nname = "lo"\nwcet = 3\nperiod = 10\nbcet = 1\n', "utf-8")
+    ts.write_text(
+        '[[tasks]]\nname = "hi"\nwcet = 3\nperiod = 4\nbcet = 3\n'
+        '[[tasks]]\nname = "lo"\nwcet = 3\nperiod = 10\nbcet = 1\n',
+        "utf-8",
+    )
     out = tmp_path / "t.json"
-    rc = main(["simulate", str(ts), "--horizon", "200", "--exec", "uniform", "--json",
-               "--perfetto", str(out), "--jobs", str(tmp_path / "jobs.csv"),
-               "--trace", str(tmp_path / "trace.csv")])
+    rc = main(
+        [
+            "simulate",
+            str(ts),
+            "--horizon",
+            "200",
+            "--exec",
+            "uniform",
+            "--json",
+            "--perfetto",
+            str(out),
+            "--jobs",
+            str(tmp_path / "jobs.csv"),
+            "--trace",
+            str(tmp_path / "trace.csv"),
+        ]
+    )
     assert rc == 0
     report = json.loads(capsys.readouterr().out)
     doc = json.loads(out.read_text("utf-8"))
@@ -89,15 +111,32 @@ def test_overlapping_jobs_of_one_task_go_to_separate_tracks() -> None:
     """Hand-made: job 1 starts before job 0 finishes (as with a non-FIFO policy)."""
     from rtsim.export.perfetto import trace_events
 
-    jobs = pd.DataFrame({"task": ["a", "a", "a"], "job": [0, 1, 2],
-                         "release": [0.0, 1.0, 6.0], "start": [0.0, 1.0, 6.0],
-                         "finish": [5.0, 3.0, 7.0], "response": [5.0, 2.0, 1.0],
-                         "deadline": [4.0, 5.0, 10.0], "preemptions": [1, 0, 0],
-                         "missed": [True, False, False], "aborted": [False] * 3,
-                         "skipped": [False] * 3})
-    trace = pd.DataFrame({"task": ["a"] * 4, "job": [0, 1, 0, 2], "segment": ["s"] * 4,
-                          "kind": ["compute"] * 4, "on_cpu": [True] * 4,
-                          "start": [0.0, 1.0, 3.0, 6.0], "end": [1.0, 3.0, 5.0, 7.0]})
+    jobs = pd.DataFrame(
+        {
+            "task": ["a", "a", "a"],
+            "job": [0, 1, 2],
+            "release": [0.0, 1.0, 6.0],
+            "start": [0.0, 1.0, 6.0],
+            "finish": [5.0, 3.0, 7.0],
+            "response": [5.0, 2.0, 1.0],
+            "deadline": [4.0, 5.0, 10.0],
+            "preemptions": [1, 0, 0],
+            "missed": [True, False, False],
+            "aborted": [False] * 3,
+            "skipped": [False] * 3,
+        }
+    )
+    trace = pd.DataFrame(
+        {
+            "task": ["a"] * 4,
+            "job": [0, 1, 0, 2],
+            "segment": ["s"] * 4,
+            "kind": ["compute"] * 4,
+            "on_cpu": [True] * 4,
+            "start": [0.0, 1.0, 3.0, 6.0],
+            "end": [1.0, 3.0, 5.0, 7.0],
+        }
+    )
     ev = trace_events(jobs, trace)
     names = {e["tid"]: e["args"]["name"] for e in ev if e.get("name") == "thread_name"}
     tid = {e["args"]["job"]: names[e["tid"]] for e in ev if e.get("cat") == "job"}
@@ -108,8 +147,22 @@ def test_overlapping_jobs_of_one_task_go_to_separate_tracks() -> None:
 def test_scenario_perfetto_has_the_chain_counters_and_suspension(tmp_path) -> None:
     out = tmp_path / "run"
     f = tmp_path / "trace.json"
-    assert main(["scenario", "test2", "--duration", "6", "--no-figures", "--out", str(out),
-                 "--perfetto", str(f)]) == 0
+    assert (
+        main(
+            [
+                "scenario",
+                "test2",
+                "--duration",
+                "6",
+                "--no-figures",
+                "--out",
+                str(out),
+                "--perfetto",
+                str(f),
+            ]
+        )
+        == 0
+    )
     doc = json.loads(f.read_text("utf-8"))
     jobs = pd.read_csv(out / "jobs.csv")
     windows = pd.read_csv(out / "windows.csv")
@@ -120,8 +173,14 @@ def test_scenario_perfetto_has_the_chain_counters_and_suspension(tmp_path) -> No
     ev = doc["traceEvents"]
     radio = [e for e in ev if e["ph"] == "X" and e["name"] == "radio"]
     assert radio and all(e["cat"] == "suspension" for e in radio)
-    assert {e["name"] for e in ev if e["ph"] == "X"} >= {"scan", "hough", "estimate[1]",
-                                                          "send[2]", "recv[1]", "sched"}
+    assert {e["name"] for e in ev if e["ph"] == "X"} >= {
+        "scan",
+        "hough",
+        "estimate[1]",
+        "send[2]",
+        "recv[1]",
+        "sched",
+    }
     counters = [e for e in ev if e["ph"] == "C" and e["name"] == "window (ms)"]
     assert [c["args"]["w"] for c in counters] == pytest.approx(list(windows["w"]))
     assert [c["ts"] for c in counters] == pytest.approx(list(windows["t"] * US))

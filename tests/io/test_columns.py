@@ -24,9 +24,30 @@ ROOT = Path(__file__).resolve().parents[2]
 
 #: Floats pandas and repr might disagree on if the writer were wrong: signed zero, the
 #: exponent thresholds of the short form (1e16, 1e-5), subnormals, the extremes, NaN, inf.
-EDGE = [0.0, -0.0, 1e16, 9999999999999998.0, 1e15, 1e-4, 1e-5, 0.0001234, 5e-324, -5e-324,
-        2.2250738585072014e-308, 1.7976931348623157e308, -1.7976931348623157e308, math.inf,
-        -math.inf, math.nan, 0.1, 1 / 3, 100.0, 1e22, 123456789012345678.0, -1.5e-7]
+EDGE = [
+    0.0,
+    -0.0,
+    1e16,
+    9999999999999998.0,
+    1e15,
+    1e-4,
+    1e-5,
+    0.0001234,
+    5e-324,
+    -5e-324,
+    2.2250738585072014e-308,
+    1.7976931348623157e308,
+    -1.7976931348623157e308,
+    math.inf,
+    -math.inf,
+    math.nan,
+    0.1,
+    1 / 3,
+    100.0,
+    1e22,
+    123456789012345678.0,
+    -1.5e-7,
+]
 
 floats = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.sampled_from(EDGE))
 texts = st.one_of(st.none(), st.text(alphabet=st.sampled_from('ab ,"\n\r;x:é'), max_size=6))
@@ -37,21 +58,31 @@ def _pandas(df: pd.DataFrame) -> str:
 
 
 def _ours(df: pd.DataFrame) -> str | None:
-    return csv_text([df[c].to_numpy() for c in df.columns],
-                    [column_kind(t) for t in df.dtypes], list(df.columns))
+    return csv_text(
+        [df[c].to_numpy() for c in df.columns],
+        [column_kind(t) for t in df.dtypes],
+        list(df.columns),
+    )
 
 
 @settings(max_examples=150, deadline=None)
 @given(data=st.data(), m=st.integers(0, 40))
 def test_random_tables_give_pandas_bytes(data: st.DataObject, m: int) -> None:
     f = data.draw(st.lists(floats, min_size=m, max_size=m))
-    i = data.draw(st.lists(st.integers(-2**63, 2**63 - 1), min_size=m, max_size=m))
+    i = data.draw(st.lists(st.integers(-(2**63), 2**63 - 1), min_size=m, max_size=m))
     b = data.draw(st.lists(st.booleans(), min_size=m, max_size=m))
     s = data.draw(st.lists(texts, min_size=m, max_size=m))
     o = data.draw(st.lists(texts, min_size=m, max_size=m))
-    df = pd.DataFrame({"f": np.array(f, dtype=float), "i": np.array(i, dtype=np.int64),
-                       "b": np.array(b, dtype=bool), "s": pd.array(s, dtype="string"),
-                       "o": pd.Series(o, dtype=object), 'with,"comma': np.array(f)})
+    df = pd.DataFrame(
+        {
+            "f": np.array(f, dtype=float),
+            "i": np.array(i, dtype=np.int64),
+            "b": np.array(b, dtype=bool),
+            "s": pd.array(s, dtype="string"),
+            "o": pd.Series(o, dtype=object),
+            'with,"comma': np.array(f),
+        }
+    )
     assert [column_kind(t) for t in df.dtypes] == ["f", "i", "b", "s", "s", "f"]
     assert _ours(df) == _pandas(df)
 
@@ -72,9 +103,11 @@ def test_edge_floats_one_by_one() -> None:
 
 def test_values_the_fast_path_does_not_know_go_to_pandas(tmp_path: Path) -> None:
     """Numbers in an object column, categoricals, a single column: pandas writes them."""
-    for df in (pd.DataFrame({"a": [1.5, "x"], "b": [1, 2]}),
-               pd.DataFrame({"a": pd.Categorical(["u", "v"]), "b": [1.0, 2.0]}),
-               pd.DataFrame({"a": ["", "x"]})):
+    for df in (
+        pd.DataFrame({"a": [1.5, "x"], "b": [1, 2]}),
+        pd.DataFrame({"a": pd.Categorical(["u", "v"]), "b": [1.0, 2.0]}),
+        pd.DataFrame({"a": ["", "x"]}),
+    ):
         w = ChunkWriter([tmp_path / "t.csv"], None)
         w.write(df)
         w.write(df)
@@ -89,8 +122,24 @@ def _job_rows(n: int, seed: int) -> list[tuple[object, ...]]:
         r = float(rng.uniform(-1e3, 1e9)) * 10.0 ** int(rng.integers(-8, 8))
         skipped = bool(rng.random() < 0.2)
         f = math.nan if skipped else r + float(rng.exponential(10))
-        out.append((f"t{k % 3}", k, r, f, f, f - r, r + 50.0, 50.0, skipped or f > r + 50,
-                    int(rng.integers(0, 4)), False, skipped, -0.0 if k % 5 == 0 else 1.0, r))
+        out.append(
+            (
+                f"t{k % 3}",
+                k,
+                r,
+                f,
+                f,
+                f - r,
+                r + 50.0,
+                50.0,
+                skipped or f > r + 50,
+                int(rng.integers(0, 4)),
+                False,
+                skipped,
+                -0.0 if k % 5 == 0 else 1.0,
+                r,
+            )
+        )
     return out
 
 
@@ -135,8 +184,10 @@ def test_scenario_windows_as_columns_equal_pandas(scenario: str) -> None:
     res.windows.to_csv(buf, index=False)
     cols = records_columns([], 2, ((0.0,) * 2,) * 4)  # the schema: arrays or lists of str
     df = res.windows
-    kinds = [column_kind(df[c].dtype) if isinstance(cols[c], np.ndarray) else "s"
-             for c in df.columns]
-    assert csv_text([df[c].to_numpy() for c in df.columns], kinds, list(df.columns)) \
-        == buf.getvalue()
+    kinds = [
+        column_kind(df[c].dtype) if isinstance(cols[c], np.ndarray) else "s" for c in df.columns
+    ]
+    assert (
+        csv_text([df[c].to_numpy() for c in df.columns], kinds, list(df.columns)) == buf.getvalue()
+    )
     assert _ours(res.jobs) == _pandas(res.jobs)

@@ -36,8 +36,19 @@ def _staging(d: Path) -> list[Path]:
 
 
 def _scenario(out: Path, *extra: str, seed: int = 1, duration: str = "5") -> int:
-    return main(["scenario", str(TEST2), "--duration", duration, "--seed", str(seed),
-                 *extra, "--out", str(out)])
+    return main(
+        [
+            "scenario",
+            str(TEST2),
+            "--duration",
+            duration,
+            "--seed",
+            str(seed),
+            *extra,
+            "--out",
+            str(out),
+        ]
+    )
 
 
 def _whole(d: Path) -> dict:
@@ -62,8 +73,9 @@ def test_stage_commit_swaps_in_and_leaves_nothing(tmp_path: Path) -> None:
             assert staged.path.parent == tmp_path and staged.path.name.startswith(".out.rtsim-")
             assert not (target / f"f{k}.txt").exists()
             (staged.path / f"f{k}.txt").write_text(str(k))
-            (staged.path / "manifest.json").write_text(json.dumps(
-                {"rtsim_version": "x", "outputs": [f"f{k}.txt"]}))
+            (staged.path / "manifest.json").write_text(
+                json.dumps({"rtsim_version": "x", "outputs": [f"f{k}.txt"]})
+            )
             staged.commit()
         assert sorted(p.name for p in target.iterdir()) == sorted(["manifest.json", f"f{k}.txt"])
         assert _staging(target) == []
@@ -74,8 +86,9 @@ def test_two_runs_into_one_target_swap_one_after_the_other(tmp_path: Path) -> No
     a, b = stage(target), stage(target)  # both staged before either finishes
     for staged, name in ((a, "a.txt"), (b, "b.txt")):
         (staged.path / name).write_text(name)
-        (staged.path / "manifest.json").write_text(json.dumps({"rtsim_version": "x",
-                                                           "outputs": [name]}))
+        (staged.path / "manifest.json").write_text(
+            json.dumps({"rtsim_version": "x", "outputs": [name]})
+        )
     a.commit()
     assert sorted(p.name for p in target.iterdir()) == ["a.txt", "manifest.json"]
     b.commit()
@@ -88,8 +101,9 @@ def test_fallback_swap_without_exchange(tmp_path: Path, monkeypatch: pytest.Monk
     target = tmp_path / "out"
     target.mkdir()
     (target / "old.txt").write_text("old")
-    (target / "manifest.json").write_text(json.dumps({"rtsim_version": "x",
-                                                      "outputs": ["old.txt"]}))
+    (target / "manifest.json").write_text(
+        json.dumps({"rtsim_version": "x", "outputs": ["old.txt"]})
+    )
     with stage(target) as staged:
         (staged.path / "new.txt").write_text("new")
         staged.commit()
@@ -133,13 +147,16 @@ def test_fallback_kill_between_renames_restores_the_earlier_run(tmp_path: Path) 
     assert (target / "manifest.json").exists() and not saved.exists()
 
 
-@pytest.mark.parametrize("setup,match", [
-    ("user", "not empty and not an earlier rtsim output"),
-    ("unlisted", "not empty and not an earlier rtsim output"),
-    ("corrupt", "not empty and not an earlier rtsim output"),
-    ("file", "exists and is not a directory"),
-    ("symlink", "is a symlink"),
-])
+@pytest.mark.parametrize(
+    "setup,match",
+    [
+        ("user", "not empty and not an earlier rtsim output"),
+        ("unlisted", "not empty and not an earlier rtsim output"),
+        ("corrupt", "not empty and not an earlier rtsim output"),
+        ("file", "exists and is not a directory"),
+        ("symlink", "is a symlink"),
+    ],
+)
 def test_refuses_a_directory_it_must_not_replace(tmp_path: Path, setup: str, match: str) -> None:
     target = tmp_path / "out"
     if setup == "file":
@@ -151,8 +168,9 @@ def test_refuses_a_directory_it_must_not_replace(tmp_path: Path, setup: str, mat
         target.mkdir()
         (target / "thesis.tex").write_text("mine")
         if setup == "unlisted":  # an rtsim manifest that does not list thesis.tex
-            (target / "manifest.json").write_text(json.dumps(
-                {"rtsim_version": "x", "outputs": ["windows.csv"]}))
+            (target / "manifest.json").write_text(
+                json.dumps({"rtsim_version": "x", "outputs": ["windows.csv"]})
+            )
         elif setup == "corrupt":
             (target / "manifest.json").write_text("{not json")
     before = sorted(p.name for p in tmp_path.iterdir())
@@ -164,8 +182,9 @@ def test_refuses_a_directory_it_must_not_replace(tmp_path: Path, setup: str, mat
         assert (target / "thesis.tex").read_text() == "mine"
 
 
-def test_refuses_the_working_directory_and_its_ancestors(tmp_path: Path,
-                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+def test_refuses_the_working_directory_and_its_ancestors(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     inner = tmp_path / "a" / "b"
     inner.mkdir(parents=True)
     monkeypatch.chdir(inner)
@@ -180,8 +199,9 @@ def test_is_rtsim_output(tmp_path: Path) -> None:
     d.mkdir()
     for name in ("summary.csv", "report.html", "test1"):
         (d / name).mkdir() if name == "test1" else (d / name).write_text("x")
-    (d / "manifest.json").write_text(json.dumps(
-        {"rtsim_version": "0.1", "outputs": ["summary.csv", "test1/adjust/windows.csv"]}))
+    (d / "manifest.json").write_text(
+        json.dumps({"rtsim_version": "0.1", "outputs": ["summary.csv", "test1/adjust/windows.csv"]})
+    )
     assert is_rtsim_output(d)  # earlier versions left report.html unlisted
     (d / ".hidden").write_text("x")
     assert not is_rtsim_output(d)
@@ -205,8 +225,9 @@ def test_scenario_rerun_leaves_no_file_of_the_earlier_run(tmp_path: Path) -> Non
     assert _staging(out) == []
 
 
-def test_unwritable_out_is_refused_before_the_simulation(tmp_path: Path, capsys,
-                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+def test_unwritable_out_is_refused_before_the_simulation(
+    tmp_path: Path, capsys, monkeypatch: pytest.MonkeyPatch
+) -> None:
     import rtsim.coupling
 
     def boom(*a: object, **k: object) -> None:
@@ -228,13 +249,15 @@ def test_unwritable_out_is_refused_before_the_simulation(tmp_path: Path, capsys,
     assert (user / "notes.txt").read_text() == "keep"
 
 
-def test_simulate_files_reserved_before_and_renamed_together(tmp_path: Path, capsys,
-                                                             monkeypatch: pytest.MonkeyPatch
-                                                             ) -> None:
+def test_simulate_files_reserved_before_and_renamed_together(
+    tmp_path: Path, capsys, monkeypatch: pytest.MonkeyPatch
+) -> None:
     import rtsim.cli.simulate as sim
 
-    assert main(["simulate", str(EXAMPLE), "--horizon", "1000",
-                 "--jobs", "/sys/rtsim_test/jobs.csv"]) == 2
+    assert (
+        main(["simulate", str(EXAMPLE), "--horizon", "1000", "--jobs", "/sys/rtsim_test/jobs.csv"])
+        == 2
+    )
     assert "--jobs /sys/rtsim_test/jobs.csv: cannot write in" in capsys.readouterr().err
 
     def fail(*a: object, **k: object) -> None:
@@ -242,8 +265,18 @@ def test_simulate_files_reserved_before_and_renamed_together(tmp_path: Path, cap
 
     monkeypatch.setattr(sim, "_save_histograms", fail)
     with pytest.raises(RuntimeError):
-        main(["simulate", str(EXAMPLE), "--horizon", "1000", "--jobs",
-              str(tmp_path / "jobs.csv"), "--histogram", str(tmp_path / "h.png")])
+        main(
+            [
+                "simulate",
+                str(EXAMPLE),
+                "--horizon",
+                "1000",
+                "--jobs",
+                str(tmp_path / "jobs.csv"),
+                "--histogram",
+                str(tmp_path / "h.png"),
+            ]
+        )
     assert list(tmp_path.iterdir()) == []  # neither the jobs nor a temporary file
 
 
@@ -252,24 +285,27 @@ def test_simulate_never_writes_into_another_runs_directory(tmp_path: Path, capsy
     assert _scenario(out, "--no-figures") == 0
     before = sorted((p.name, p.read_bytes()) for p in out.iterdir())
     for name in ("sim_jobs.csv", "jobs.csv"):
-        assert main(["simulate", str(EXAMPLE), "--horizon", "1000",
-                     "--jobs", str(out / name)]) == 2
+        assert main(["simulate", str(EXAMPLE), "--horizon", "1000", "--jobs", str(out / name)]) == 2
         assert "output directory of `rtsim scenario`" in capsys.readouterr().err
     assert sorted((p.name, p.read_bytes()) for p in out.iterdir()) == before
     # beside a user's own files: a manifest of its own beside the file
     user = tmp_path / "user"
     user.mkdir()
     (user / "manifest.json").write_text("{}")
-    assert main(["simulate", str(EXAMPLE), "--horizon", "1000",
-                 "--jobs", str(user / "sim_jobs.csv")]) == 0
+    assert (
+        main(["simulate", str(EXAMPLE), "--horizon", "1000", "--jobs", str(user / "sim_jobs.csv")])
+        == 0
+    )
     assert (user / "manifest.json").read_text() == "{}"
     side = json.loads((user / "sim_jobs.csv.manifest.json").read_text())
     assert side["command"] == "simulate" and side["outputs"] == ["sim_jobs.csv"]
     # a directory of its own: manifest.json, replaced by a rerun writing the same files
     own = tmp_path / "own"
     for horizon in ("1000", "2000"):
-        assert main(["simulate", str(EXAMPLE), "--horizon", horizon,
-                     "--jobs", str(own / "jobs.csv")]) == 0
+        assert (
+            main(["simulate", str(EXAMPLE), "--horizon", horizon, "--jobs", str(own / "jobs.csv")])
+            == 0
+        )
         man = json.loads((own / "manifest.json").read_text())
         assert man["inputs"]["horizon"] == float(horizon) and man["outputs"] == ["jobs.csv"]
     assert sorted(p.name for p in own.iterdir()) == ["jobs.csv", "manifest.json"]
@@ -285,8 +321,10 @@ def test_reproduce_refuses_docs_inside_out(tmp_path: Path, capsys) -> None:
 # --- kill -9 at random moments ----------------------------------------------------------
 
 
-_RUN = ("import sys; from rtsim.cli import main; sys.exit(main(['scenario', sys.argv[1], "
-        "'--duration', '10', '--seed', sys.argv[2], '--parquet', '--out', sys.argv[3]]))")
+_RUN = (
+    "import sys; from rtsim.cli import main; sys.exit(main(['scenario', sys.argv[1], "
+    "'--duration', '10', '--seed', sys.argv[2], '--parquet', '--out', sys.argv[3]]))"
+)
 
 
 def _digest(d: Path) -> str:
@@ -299,9 +337,13 @@ def test_kill_minus_9_never_leaves_a_mixed_directory(tmp_path: Path) -> None:
     env = {**os.environ, "MPLBACKEND": "Agg"}
 
     def start(seed: int) -> subprocess.Popen[bytes]:
-        return subprocess.Popen([sys.executable, "-c", _RUN, str(TEST2), str(seed), str(out)],
-                                cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.DEVNULL)
+        return subprocess.Popen(
+            [sys.executable, "-c", _RUN, str(TEST2), str(seed), str(out)],
+            cwd=ROOT,
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
 
     t0 = time.perf_counter()
     assert start(1).wait(timeout=120) == 0
@@ -327,17 +369,31 @@ def test_kill_minus_9_never_leaves_a_mixed_directory(tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
-_NAMES = st.sampled_from(["windows.csv", "jobs.csv", "paths.png", ".hidden", "notes.txt",
-                          "sub", "report.html", "summary.json"])
+_NAMES = st.sampled_from(
+    [
+        "windows.csv",
+        "jobs.csv",
+        "paths.png",
+        ".hidden",
+        "notes.txt",
+        "sub",
+        "report.html",
+        "summary.json",
+    ]
+)
 
 
-@settings(max_examples=40, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(present=st.sets(_NAMES, max_size=6), listed=st.sets(_NAMES, max_size=6),
-       manifest=st.sampled_from(["rtsim", "foreign", "none", "corrupt"]))
-def test_only_an_earlier_rtsim_output_is_replaced(tmp_path_factory: pytest.TempPathFactory,
-                                                  present: set[str], listed: set[str],
-                                                  manifest: str) -> None:
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    present=st.sets(_NAMES, max_size=6),
+    listed=st.sets(_NAMES, max_size=6),
+    manifest=st.sampled_from(["rtsim", "foreign", "none", "corrupt"]),
+)
+def test_only_an_earlier_rtsim_output_is_replaced(
+    tmp_path_factory: pytest.TempPathFactory, present: set[str], listed: set[str], manifest: str
+) -> None:
     """Random directory contents: stage() accepts exactly the empty directory and the one
     whose rtsim manifest lists every entry (report.html aside); a refused one is untouched."""
     target = tmp_path_factory.mktemp("h") / "out"
@@ -345,12 +401,15 @@ def test_only_an_earlier_rtsim_output_is_replaced(tmp_path_factory: pytest.TempP
     for name in present:
         (target / name).mkdir() if name == "sub" else (target / name).write_text(name)
     if manifest != "none":
-        body = {"rtsim": {"rtsim_version": "1", "outputs": sorted(listed)},
-                "foreign": {"outputs": sorted(listed)}}.get(manifest)
+        body = {
+            "rtsim": {"rtsim_version": "1", "outputs": sorted(listed)},
+            "foreign": {"outputs": sorted(listed)},
+        }.get(manifest)
         (target / "manifest.json").write_text(json.dumps(body) if body else "{")
     entries = {p.name for p in target.iterdir()}
-    ok = not entries or (manifest == "rtsim" and
-                         entries <= listed | {"manifest.json", "report.html"})
+    ok = not entries or (
+        manifest == "rtsim" and entries <= listed | {"manifest.json", "report.html"}
+    )
     if ok:
         with stage(target) as staged:
             (staged.path / "new.txt").write_text("new")

@@ -45,14 +45,22 @@ def test_paper_scenarios_load(name: str, v: float, r_t: float, rho: float) -> No
     assert sorted(round(math.degrees(b), 9) for b in w.formation.beta_d) == [165, 195]
     turns = [seg for seg in w.path.segments if seg.kind == "turn"]
     assert turns and all(seg.radius == r_t for seg in turns)
-    assert s.duration >= w.path.lap_time(v)            # at least one lap
+    assert s.duration >= w.path.lap_time(v)  # at least one lap
     assert w.thresholds.T_beta == pytest.approx(math.radians(5))
     ts = s.load_taskset()
     assert ts.window is not None and ts.window.n == 2 and ts.window.r_H == 25
     # every value the paper does not give has a reason
-    for key in ("follower.max_speed", "follower.control_offset", "thresholds.T_rho",
-                "thresholds.T_eps", "thresholds.T_beta_deg", "sensing.r_reacq",
-                "sensing.position_noise", "adjust.cap", "adjust.floor"):
+    for key in (
+        "follower.max_speed",
+        "follower.control_offset",
+        "thresholds.T_rho",
+        "thresholds.T_eps",
+        "thresholds.T_beta_deg",
+        "sensing.r_reacq",
+        "sensing.position_noise",
+        "adjust.cap",
+        "adjust.floor",
+    ):
         assert s.assumptions[key].strip()
 
 
@@ -66,19 +74,24 @@ def test_minimal_file_defaults(tmp_path: Path) -> None:
 
 
 def test_slots_shape_and_degrees(tmp_path: Path) -> None:
-    text = BASE.replace("""followers = 2
+    text = BASE.replace(
+        """followers = 2
 separation = 390
 bearing_offset_deg = 15
-""", """[[formation.slot]]
+""",
+        """[[formation.slot]]
 rho_d = 300
 beta_d_deg = 200
 [[formation.slot]]
 rho_d = 500
 beta = 3.0
-""").replace("""path = [ {straight = 600}, {turn = "left", radius = 200, angle_deg = 180},
+""",
+    ).replace(
+        """path = [ {straight = 600}, {turn = "left", radius = 200, angle_deg = 180},
          {straight = 600}, {turn = "left", radius = 200, angle_deg = 180} ]""",
-             """shape = {kind = "rounded_rectangle", length = 500, width = 0, radius = 100}
-start = {x = 10, y = -5, heading_deg = 90}""")
+        """shape = {kind = "rounded_rectangle", length = 500, width = 0, radius = 100}
+start = {x = 10, y = -5, heading_deg = 90}""",
+    )
     text = text.replace("beta = 3.0", "beta_d = 3.0")
     s = load_scenario(write(tmp_path, text, "ok.toml"))
     assert s.world.formation.rho_d == (300, 500)
@@ -90,33 +103,67 @@ start = {x = 10, y = -5, heading_deg = 90}""")
 @pytest.mark.parametrize(
     ("old", "new", "match"),
     [
-        ("radius = 200, angle_deg = 180},\n", "radius = -200, angle_deg = 180},\n",
-         r"^.*bad\.toml: leader\.path\[2\]: radius: must be positive, got -200$"),
+        (
+            "radius = 200, angle_deg = 180},\n",
+            "radius = -200, angle_deg = 180},\n",
+            r"^.*bad\.toml: leader\.path\[2\]: radius: must be positive, got -200$",
+        ),
         ("speed = 25", "speed = 0", r"^.*bad\.toml: leader\.speed: must be positive, got 0$"),
-        ("{turn = \"left\", radius = 200, angle_deg = 180},\n",
-         "{turn = \"left\", radius = 200, angle_deg = 0},\n",
-         r"^.*bad\.toml: leader\.path\[2\]: angle_deg: must be positive"),
-        ("bearing_offset_deg = 15", "bearing_offset_deg = 0.5",
-         r"^.*bad\.toml: formation: followers 1 and 2 are .* \(on top of each other\)$"),
-        ("separation = 390", "separation = 30",
-         r"^.*bad\.toml: formation\.slot\[1\] is 30 cm from the leader"),
-        ("{straight = 600}, {turn", "{straight = 500}, {turn",
-         r"^.*bad\.toml: leader\.path: path does not close"),
-        ("speed = 25", "speed = 25\nsped = 3",
-         r"^.*bad\.toml: leader: unknown key 'sped' \(did you mean 'speed'\?\)$"),
-        ("[formation]", "[formaton]\nx = 1\n[formation]",
-         r"^.*bad\.toml: unknown key 'formaton' \(did you mean 'formation'\?\)$"),
-        ("followers = 2", "followers = 2.5",
-         r"^.*bad\.toml: formation\.followers: must be an integer"),
-        ("taskset = \"barrel_robots\"", "taskset = \"nowhere.toml\"",
-         r"^.*bad\.toml: taskset: file not found: .*nowhere\.toml$"),
-        ("speed = 25", "speed = 25\nshape = {kind = \"rounded_rectangle\", length = 1, "
-         "width = 1, radius = 1}", r"^.*bad\.toml: leader: give exactly one of 'path' or 'shape'$"),
-        ("{straight = 600}, {turn", "{straight = 600, turn = \"left\"}, {turn",
-         r"^.*bad\.toml: leader\.path\[1\]: a segment is either straight or turn"),
-        ("{turn = \"left\", radius = 200, angle_deg = 180},\n",
-         "{turn = \"up\", radius = 200, angle_deg = 180},\n",
-         r"^.*bad\.toml: leader\.path\[2\]: turn: must be 'left' or 'right'"),
+        (
+            '{turn = "left", radius = 200, angle_deg = 180},\n',
+            '{turn = "left", radius = 200, angle_deg = 0},\n',
+            r"^.*bad\.toml: leader\.path\[2\]: angle_deg: must be positive",
+        ),
+        (
+            "bearing_offset_deg = 15",
+            "bearing_offset_deg = 0.5",
+            r"^.*bad\.toml: formation: followers 1 and 2 are .* \(on top of each other\)$",
+        ),
+        (
+            "separation = 390",
+            "separation = 30",
+            r"^.*bad\.toml: formation\.slot\[1\] is 30 cm from the leader",
+        ),
+        (
+            "{straight = 600}, {turn",
+            "{straight = 500}, {turn",
+            r"^.*bad\.toml: leader\.path: path does not close",
+        ),
+        (
+            "speed = 25",
+            "speed = 25\nsped = 3",
+            r"^.*bad\.toml: leader: unknown key 'sped' \(did you mean 'speed'\?\)$",
+        ),
+        (
+            "[formation]",
+            "[formaton]\nx = 1\n[formation]",
+            r"^.*bad\.toml: unknown key 'formaton' \(did you mean 'formation'\?\)$",
+        ),
+        (
+            "followers = 2",
+            "followers = 2.5",
+            r"^.*bad\.toml: formation\.followers: must be an integer",
+        ),
+        (
+            'taskset = "barrel_robots"',
+            'taskset = "nowhere.toml"',
+            r"^.*bad\.toml: taskset: file not found: .*nowhere\.toml$",
+        ),
+        (
+            "speed = 25",
+            'speed = 25\nshape = {kind = "rounded_rectangle", length = 1, width = 1, radius = 1}',
+            r"^.*bad\.toml: leader: give exactly one of 'path' or 'shape'$",
+        ),
+        (
+            "{straight = 600}, {turn",
+            '{straight = 600, turn = "left"}, {turn',
+            r"^.*bad\.toml: leader\.path\[1\]: a segment is either straight or turn",
+        ),
+        (
+            '{turn = "left", radius = 200, angle_deg = 180},\n',
+            '{turn = "up", radius = 200, angle_deg = 180},\n',
+            r"^.*bad\.toml: leader\.path\[2\]: turn: must be 'left' or 'right'",
+        ),
     ],
 )
 def test_bad_values_one_line(tmp_path: Path, old: str, new: str, match: str) -> None:
@@ -130,30 +177,44 @@ def test_bad_values_one_line(tmp_path: Path, old: str, new: str, match: str) -> 
     ("extra", "match"),
     [
         ("[follower]\nradius = -25\n", r"^.*bad\.toml: follower\.radius: must be positive"),
-        ("[follower]\nmax_acel = 3\n",
-         r"^.*bad\.toml: follower: unknown key 'max_acel' \(did you mean 'max_accel'\?\)$"),
+        (
+            "[follower]\nmax_acel = 3\n",
+            r"^.*bad\.toml: follower: unknown key 'max_acel' \(did you mean 'max_accel'\?\)$",
+        ),
         ("[sensing]\nr_H = 0\n", r"^.*bad\.toml: sensing\.r_H: must be positive, got 0$"),
         ("[sensing]\nr_reacq = 10\n", r"^.*bad\.toml: sensing\.r_reacq: 10 must be >= r_H"),
         ("[sensing]\nposition_noise = -1\n", r"sensing\.position_noise: must be non-negative"),
         ("[thresholds]\nT_rho = 0\n", r"^.*bad\.toml: thresholds\.T_rho: must be positive"),
-        ("[thresholds]\nT_beta = 0.1\nT_beta_deg = 5\n",
-         r"^.*bad\.toml: thresholds: give T_beta or T_beta_deg, not both$"),
-        ("[thresholds]\nlocalization = \"round\"\n",
-         r"thresholds\.localization: must be one of radial, full, predicted, got 'round'"),
-        ("[ekf]\nbackend = \"gpu\"\n", r"^.*bad\.toml: ekf\.backend: must be 'filterpy' or 'fast'"),
+        (
+            "[thresholds]\nT_beta = 0.1\nT_beta_deg = 5\n",
+            r"^.*bad\.toml: thresholds: give T_beta or T_beta_deg, not both$",
+        ),
+        (
+            '[thresholds]\nlocalization = "round"\n',
+            r"thresholds\.localization: must be one of radial, full, predicted, got 'round'",
+        ),
+        ('[ekf]\nbackend = "gpu"\n', r"^.*bad\.toml: ekf\.backend: must be 'filterpy' or 'fast'"),
         ("[adjust]\ncap = -1\n", r"^.*bad\.toml: adjust\.cap: must be positive"),
         ("[adjust]\nfloor = 40\n", r"^.*bad\.toml: adjust\.floor: 40 cm/s is above"),
-        ("[adjust]\npredictor = \"hybird\"\n",
-         r"^.*bad\.toml: adjust\.predictor: must be one of paper, formation, hybrid, commands or "
-         r"'package\.module:Name', got "
-         r"'hybird' \(did you mean 'hybrid'\?\)$"),
+        (
+            '[adjust]\npredictor = "hybird"\n',
+            r"^.*bad\.toml: adjust\.predictor: must be one of paper, formation, hybrid, "
+            r"commands or 'package\.module:Name', got "
+            r"'hybird' \(did you mean 'hybrid'\?\)$",
+        ),
         ("[adjust]\npredictor = 3\n", r"^.*bad\.toml: adjust\.predictor: must be one of"),
-        ("[adjust]\npredictr = \"hybrid\"\n",
-         r"^.*bad\.toml: adjust: unknown key 'predictr' \(did you mean 'predictor'\?\)$"),
-        ("[adjust]\nmodel = \"hybrid\"\n",
-         r"^.*bad\.toml: adjust: unknown key 'model' \(renamed; did you mean 'predictor'\?\)$"),
-        ("[adjust]\npredictor = \"estimate\"\n",
-         r"^.*bad\.toml: adjust\.predictor: .*'estimate' was renamed; did you mean 'paper'\?"),
+        (
+            '[adjust]\npredictr = "hybrid"\n',
+            r"^.*bad\.toml: adjust: unknown key 'predictr' \(did you mean 'predictor'\?\)$",
+        ),
+        (
+            '[adjust]\nmodel = "hybrid"\n',
+            r"^.*bad\.toml: adjust: unknown key 'model' \(renamed; did you mean 'predictor'\?\)$",
+        ),
+        (
+            '[adjust]\npredictor = "estimate"\n',
+            r"^.*bad\.toml: adjust\.predictor: .*'estimate' was renamed; did you mean 'paper'\?",
+        ),
         ("[assumptions]\nx = 3\n", r"^.*bad\.toml: assumptions\.x: must be a non-empty string"),
         ("[world]\nstep_ms = 0\n", r"^.*bad\.toml: world\.step_ms: must be positive"),
     ],
@@ -179,8 +240,9 @@ def test_relative_taskset_path(tmp_path: Path) -> None:
     (tmp_path / "sets").mkdir()
     src = (ROOT / "tasksets" / "barrel_robots.toml").read_text()
     (tmp_path / "sets" / "mine.toml").write_text(src)
-    s = load_scenario(write(tmp_path, BASE.replace("\"barrel_robots\"", "\"sets/mine.toml\""),
-                            "ok.toml"))
+    s = load_scenario(
+        write(tmp_path, BASE.replace('"barrel_robots"', '"sets/mine.toml"'), "ok.toml")
+    )
     assert Path(s.taskset) == tmp_path / "sets" / "mine.toml"
     assert s.load_taskset().window.n == 2
 

@@ -46,15 +46,27 @@ def test_generic_shape_is_accepted_exactly(tmp_toml):
     (t,) = ts.tasks
     assert ts.name == "example"
     assert (t.name, t.wcet, t.period, t.deadline, t.priority, t.offset, t.bcet) == (
-        "tau1", 5.0, 40.0, 40.0, 1, 0.0, 3.0)
+        "tau1",
+        5.0,
+        40.0,
+        40.0,
+        1,
+        0.0,
+        3.0,
+    )
     assert ts.window is None and ts.source == str(tmp_toml(GENERIC))
 
 
 def test_defaults(tmp_toml):
     ts = load_taskset(tmp_toml('[[tasks]]\nname = "x"\nwcet = 1.5\nperiod = 7\n'))
     (t,) = ts.tasks
-    assert (t.deadline, t.offset, t.bcet, t.overload, t.priority) == (7.0, 0.0, None,
-                                                                      "finish-late", 1)
+    assert (t.deadline, t.offset, t.bcet, t.overload, t.priority) == (
+        7.0,
+        0.0,
+        None,
+        "finish-late",
+        1,
+    )
     assert ts.name == ""
 
 
@@ -132,43 +144,61 @@ BASE = '[[tasks]]\nname = "tau1"\n'
     "text,pattern",
     [
         ("[[tasks]\nname=1", r": malformed TOML: "),
-        (BASE + "wcet = 5\nperod = 40\n",
-         r": task 'tau1': unknown key 'perod' \(did you mean 'period'\?\)$"),
+        (
+            BASE + "wcet = 5\nperod = 40\n",
+            r": task 'tau1': unknown key 'perod' \(did you mean 'period'\?\)$",
+        ),
         (BASE + "wcet = 5\n", r": task 'tau1': period: missing \(required\)$"),
         ("[[tasks]]\nwcet = 5\nperiod = 4\n", r": \[\[tasks\]\] #1: name: missing"),
-        (BASE + 'wcet = 5\nperiod = 40\n[[tasks]]\nwcet = 1\nperiod = 3\n',
-         r": \[\[tasks\]\] #2: name: missing"),
+        (
+            BASE + "wcet = 5\nperiod = 40\n[[tasks]]\nwcet = 1\nperiod = 3\n",
+            r": \[\[tasks\]\] #2: name: missing",
+        ),
         (BASE + "wcet = 0\nperiod = 40\n", r": task 'tau1': wcet: must be positive, got 0$"),
         (BASE + "wcet = -1\nperiod = 40\n", r": task 'tau1': wcet: must be positive"),
         (BASE + "wcet = 1\nperiod = inf\n", r": task 'tau1': period: must be finite"),
         (BASE + "wcet = nan\nperiod = 4\n", r": task 'tau1': wcet: must be finite"),
-        (BASE + "wcet = 1\nperiod = 4\ndeadline = 0\n",
-         r": task 'tau1': deadline: must be positive"),
+        (
+            BASE + "wcet = 1\nperiod = 4\ndeadline = 0\n",
+            r": task 'tau1': deadline: must be positive",
+        ),
         (BASE + 'wcet = "5"\nperiod = 40\n', r": task 'tau1': wcet: must be a number, got '5'"),
         (BASE + "wcet = true\nperiod = 40\n", r": task 'tau1': wcet: must be a number, got True"),
-        (BASE + "wcet = 1\nperiod = 40\npriority = 1.0\n",
-         r": task 'tau1': priority: must be an integer"),
-        (BASE + "wcet = 1\nperiod = 40\npriority = true\n",
-         r": task 'tau1': priority: must be an integer"),
+        (
+            BASE + "wcet = 1\nperiod = 40\npriority = 1.0\n",
+            r": task 'tau1': priority: must be an integer",
+        ),
+        (
+            BASE + "wcet = 1\nperiod = 40\npriority = true\n",
+            r": task 'tau1': priority: must be an integer",
+        ),
         (BASE + "wcet = 1\nperiod = [40]\n", r": task 'tau1': period: must be a number"),
         (BASE + 'wcet = 1\nperiod = "2x"\n', r": task 'tau1': period: must be a number \(ms\) or"),
         (BASE + "wcet = 3\nperiod = 40\nbcet = 4\n", r": task 'tau1': bcet: 4 is above wcet 3$"),
-        (BASE + "wcet = 3\nperiod = 40\noffset = -1\n",
-         r": task 'tau1': offset: must be non-negative"),
+        (
+            BASE + "wcet = 3\nperiod = 40\noffset = -1\n",
+            r": task 'tau1': offset: must be non-negative",
+        ),
         (BASE + 'wcet = 3\nperiod = 40\noverload = "drop"\n', r": task 'tau1': overload: must"),
         (BASE + 'wcet = 3\nperiod = "2w"\n', r": task 'tau1': period: '2w' is a multiple of"),
-        (BASE + 'wcet = 3\nperiod = 40\n[[tasks]]\nname = "tau1"\nwcet = 1\nperiod = 3\n',
-         r": task 'tau1': name: duplicate of \[\[tasks\]\] #1$"),
-        (TWO.format(a="priority = 1", b="priority = 1"),
-         r": task 'b': priority: 1 is already used by task 'a'$"),
+        (
+            BASE + 'wcet = 3\nperiod = 40\n[[tasks]]\nname = "tau1"\nwcet = 1\nperiod = 3\n',
+            r": task 'tau1': name: duplicate of \[\[tasks\]\] #1$",
+        ),
+        (
+            TWO.format(a="priority = 1", b="priority = 1"),
+            r": task 'b': priority: 1 is already used by task 'a'$",
+        ),
         (TWO.format(a="priority = 1", b=""), r": task 'b': priority: missing, but task 'a'"),
         (TWO.format(a="", b="priority = 1"), r": task 'a': priority: missing, but task 'b'"),
         ('name = "empty"\n', r": tasks: no \[\[tasks\]\] in the file$"),
         ("tasks = []\n", r": tasks: no \[\[tasks\]\]"),
         ("tasks = 3\n", r": tasks: must be an array of tables"),
         ('nmae = "x"\n' + BASE, r": unknown key 'nmae' \(did you mean 'name'\?\)$"),
-        (BASE + "wcet = 3\nperiod = 40\n[assumptions]\ne_cal = 1\n",
-         r": \[assumptions\]: e_cal: must be a string"),
+        (
+            BASE + "wcet = 3\nperiod = 40\n[assumptions]\ne_cal = 1\n",
+            r": \[assumptions\]: e_cal: must be a string",
+        ),
     ],
 )
 def test_bad_input_names_file_task_and_field(tmp_toml, text, pattern):
@@ -208,25 +238,51 @@ e_sched = 1
     "window,tasks,pattern",
     [
         (WINDOW, TWO.format(a="", b=""), r": task 'a': priority: missing \(required when"),
-        (WINDOW.replace("priority = 2\n", ""), TWO.format(a="priority = 1", b="priority = 3"),
-         r": \[window\]: priority: missing \(required\)$"),
-        (WINDOW, TWO.format(a="priority = 1", b="priority = 2"),
-         r": task 'b': priority: 2 is already used by \[window\] 'window'$"),
-        (WINDOW.replace("n = 2", "n = 0"), TWO.format(a="priority = 1", b="priority = 3"),
-         r": \[window\]: n: must be an integer >= 1, got 0$"),
-        (WINDOW.replace("n = 2", "n = 2.5"), TWO.format(a="priority = 1", b="priority = 3"),
-         r": \[window\]: n: must be an integer"),
-        (WINDOW.replace("r_H = 25", "r_H = -25"), TWO.format(a="priority = 1", b="priority = 3"),
-         r": \[window\]: r_H: must be positive"),
-        (WINDOW.replace("delta_t = 67", "dleta_t = 67"),
-         TWO.format(a="priority = 1", b="priority = 3"),
-         r": \[window\]: unknown key 'dleta_t' \(did you mean 'delta_t'\?\)$"),
-        (WINDOW, TWO.format(a="priority = 1", b='priority = 3\nname2 = "x"'),
-         r": task 'b': unknown key 'name2'"),
-        (WINDOW, TWO.format(a="priority = 1", b='priority = 3\ndeadline = "2w"'),
-         r": task 'b': deadline: '2w' and period 20 must both be"),
-        (WINDOW, TWO.format(a="priority = 1", b='priority = 3').replace('"b"', '"window"'),
-         r": task 'window': name: duplicate of the \[window\]$"),
+        (
+            WINDOW.replace("priority = 2\n", ""),
+            TWO.format(a="priority = 1", b="priority = 3"),
+            r": \[window\]: priority: missing \(required\)$",
+        ),
+        (
+            WINDOW,
+            TWO.format(a="priority = 1", b="priority = 2"),
+            r": task 'b': priority: 2 is already used by \[window\] 'window'$",
+        ),
+        (
+            WINDOW.replace("n = 2", "n = 0"),
+            TWO.format(a="priority = 1", b="priority = 3"),
+            r": \[window\]: n: must be an integer >= 1, got 0$",
+        ),
+        (
+            WINDOW.replace("n = 2", "n = 2.5"),
+            TWO.format(a="priority = 1", b="priority = 3"),
+            r": \[window\]: n: must be an integer",
+        ),
+        (
+            WINDOW.replace("r_H = 25", "r_H = -25"),
+            TWO.format(a="priority = 1", b="priority = 3"),
+            r": \[window\]: r_H: must be positive",
+        ),
+        (
+            WINDOW.replace("delta_t = 67", "dleta_t = 67"),
+            TWO.format(a="priority = 1", b="priority = 3"),
+            r": \[window\]: unknown key 'dleta_t' \(did you mean 'delta_t'\?\)$",
+        ),
+        (
+            WINDOW,
+            TWO.format(a="priority = 1", b='priority = 3\nname2 = "x"'),
+            r": task 'b': unknown key 'name2'",
+        ),
+        (
+            WINDOW,
+            TWO.format(a="priority = 1", b='priority = 3\ndeadline = "2w"'),
+            r": task 'b': deadline: '2w' and period 20 must both be",
+        ),
+        (
+            WINDOW,
+            TWO.format(a="priority = 1", b="priority = 3").replace('"b"', '"window"'),
+            r": task 'window': name: duplicate of the \[window\]$",
+        ),
     ],
 )
 def test_bad_window_sets(tmp_toml, window, tasks, pattern):
@@ -236,7 +292,8 @@ def test_bad_window_sets(tmp_toml, window, tasks, pattern):
 
 def test_window_set_with_per_window_lp(tmp_toml):
     text = WINDOW + TWO.format(a="priority = 1", b="priority = 3").replace(
-        "period = 20", 'period = "2w"')
+        "period = 20", 'period = "2w"'
+    )
     ts = load_taskset(tmp_toml(text))
     assert [t.name for t in ts.hp] == ["a"] and [t.name for t in ts.lp] == ["b"]
 
@@ -270,7 +327,7 @@ def test_unreadable_file(tmp_toml, monkeypatch):
         path.chmod(0o644)
 
 
-@pytest.mark.parametrize("data", [b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", b"name = \"\xff\xfe\"\n"])
+@pytest.mark.parametrize("data", [b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", b'name = "\xff\xfe"\n'])
 def test_binary_file(tmp_toml, data):
     with pytest.raises(TaskSetError, match=r": not a text file"):
         load_taskset(tmp_toml(data))
@@ -279,8 +336,10 @@ def test_binary_file(tmp_toml, data):
 def test_deadline_above_period_is_accepted_and_analysed(tmp_toml):
     from rtsim.analysis.rta import analyze
 
-    text = ('[[tasks]]\nname = "a"\nwcet = 2\nperiod = 5\n'
-            '[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\ndeadline = 20\n')
+    text = (
+        '[[tasks]]\nname = "a"\nwcet = 2\nperiod = 5\n'
+        '[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\ndeadline = 20\n'
+    )
     ts = load_taskset(tmp_toml(text))
     assert ts.task("b").deadline == 20.0
     # By hand (level-i busy period): job 0 ends at w = 4 + 2⌈w/5⌉ = 8 (> 7: the busy period

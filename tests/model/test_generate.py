@@ -85,8 +85,21 @@ def test_random_taskset_dm_priorities_and_constrained_deadlines():
 
 def test_generate_cli_writes_loadable_sets(tmp_path, capsys):
     out = tmp_path / "sets"
-    argv = ["generate", "--tasks", "5", "--utilization", "0.7", "--periods", "10,20,40",
-            "--count", "4", "--seed", "9", "--out", str(out)]
+    argv = [
+        "generate",
+        "--tasks",
+        "5",
+        "--utilization",
+        "0.7",
+        "--periods",
+        "10,20,40",
+        "--count",
+        "4",
+        "--seed",
+        "9",
+        "--out",
+        str(out),
+    ]
     assert main(argv) == 0
     capsys.readouterr()
     files = sorted(out.glob("set_*.toml"))
@@ -106,15 +119,57 @@ def test_generate_cli_writes_loadable_sets(tmp_path, capsys):
 
 def test_generate_cli_overload_and_errors(tmp_path, capsys):
     out = tmp_path / "over"
-    assert main(["generate", "--tasks", "3", "--utilization", "1.6", "--out", str(out),
-                 "--deadlines", "constrained:0.5..1"]) == 0
+    assert (
+        main(
+            [
+                "generate",
+                "--tasks",
+                "3",
+                "--utilization",
+                "1.6",
+                "--out",
+                str(out),
+                "--deadlines",
+                "constrained:0.5..1",
+            ]
+        )
+        == 0
+    )
     ts = load_taskset(out / "set_0000.toml")
     assert math.isclose(sum(t.wcet / t.period for t in ts.tasks), 1.6, rel_tol=1e-9)
     assert all(t.deadline <= t.period for t in ts.tasks)
     capsys.readouterr()
-    assert main(["generate", "--tasks", "3", "--utilization", "0.5", "--periods", "a,b",
-                 "--out", str(out)]) == 2
+    assert (
+        main(
+            [
+                "generate",
+                "--tasks",
+                "3",
+                "--utilization",
+                "0.5",
+                "--periods",
+                "a,b",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
     assert capsys.readouterr().err.startswith("rtsim: --periods")
-    assert main(["generate", "--tasks", "3", "--utilization", "0.5", "--deadlines", "tight",
-                 "--out", str(out)]) == 2
+    assert (
+        main(
+            [
+                "generate",
+                "--tasks",
+                "3",
+                "--utilization",
+                "0.5",
+                "--deadlines",
+                "tight",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
     assert "--deadlines" in capsys.readouterr().err

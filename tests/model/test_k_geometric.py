@@ -31,8 +31,7 @@ def test_k_geometric_is_a_sound_and_tight_count(rho_min):
     for _ in range(3000):
         rho = rho_min * (1.0 + (rng.random() ** 4) * 0.5)  # mostly near rho_min
         bearing = math.radians(rng.uniform(92.0, 268.0))
-        worst = max(worst, ray_circle_hits(rho * math.cos(bearing), rho * math.sin(bearing),
-                                           R_F))
+        worst = max(worst, ray_circle_hits(rho * math.cos(bearing), rho * math.sin(bearing), R_F))
     # the worst placement: a beam on the disc's edge at ρ = rho_min
     edge = math.radians(180.0) + math.asin(R_F / rho_min) * (1 - 1e-12)
     worst = max(worst, ray_circle_hits(rho_min * math.cos(edge), rho_min * math.sin(edge), R_F))
@@ -64,7 +63,7 @@ def test_window_key_geometric(tmp_path):
         parse_taskset(data, "g.toml")
     data["window"]["k"] = 34
     data["window"]["rho_min"] = 100
-    with pytest.raises(TaskSetError, match="rho_min: applies only with k = \"geometric\""):
+    with pytest.raises(TaskSetError, match='rho_min: applies only with k = "geometric"'):
         parse_taskset(data, "g.toml")
 
 
@@ -80,11 +79,17 @@ def test_coupling_flags_windows_whose_scan_breaks_k(tmp_path):
     out = {}
     for rho_min in (100.0, 1200.0):  # k = 29 (sound here) and k = 5 (followers are closer)
         ts["window"]["k"], ts["window"]["rho_min"] = "geometric", rho_min
-        lines = [f"{k} = {v!r}" if not isinstance(v, str) else f'{k} = "{v}"'
-                 for k, v in ts["window"].items()]
+        lines = [
+            f"{k} = {v!r}" if not isinstance(v, str) else f'{k} = "{v}"'
+            for k, v in ts["window"].items()
+        ]
         tasks = "\n".join(
-            "[[tasks]]\n" + "\n".join(f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {v!r}"
-                                      for k, v in t.items()) for t in ts["tasks"])
+            "[[tasks]]\n"
+            + "\n".join(
+                f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {v!r}" for k, v in t.items()
+            )
+            for t in ts["tasks"]
+        )
         f = tmp_path / f"geo{int(rho_min)}.toml"
         f.write_text(f'name = "geo"\n{tasks}\n[window]\n' + "\n".join(lines) + "\n")
         tomllib.loads(f.read_text())

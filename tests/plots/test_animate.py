@@ -17,8 +17,7 @@ from rtsim.cli import main
 @pytest.fixture(scope="module")
 def run60(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("anim") / "t2"
-    assert main(["scenario", "test2", "--duration", "60", "--no-figures", "--out",
-                 str(out)]) == 0
+    assert main(["scenario", "test2", "--duration", "60", "--no-figures", "--out", str(out)]) == 0
     return out
 
 
@@ -28,8 +27,11 @@ def test_beams_hitting_a_disc_match_the_hand_count() -> None:
     angles = hit_beams(np.array([0.0, 0.0, 0.0]), np.array([150.0, 0.0]), 25.0)
     assert len(angles) == 39
     assert math.degrees(angles.min()) == pytest.approx(-9.5)
-    turned = hit_beams(np.array([10.0, 5.0, 1.0]), np.array([10.0, 5.0]) + 150 * np.array(
-        [math.cos(1.3), math.sin(1.3)]), 25.0)
+    turned = hit_beams(
+        np.array([10.0, 5.0, 1.0]),
+        np.array([10.0, 5.0]) + 150 * np.array([math.cos(1.3), math.sin(1.3)]),
+        25.0,
+    )
     assert len(turned) in (38, 39, 40)
     assert len(hit_beams(np.zeros(3), np.array([10.0, 0.0]), 25.0)) == 0  # leader inside
 
@@ -55,8 +57,9 @@ def test_sixty_simulated_seconds_render_to_gif(run60: Path, tmp_path: Path) -> N
 
 def test_html_animation_of_a_range_and_the_reader(run60: Path, tmp_path: Path) -> None:
     out = tmp_path / "run.html"
-    assert main(["animate", str(run60), "--out", str(out), "--start", "30", "--end", "31",
-                 "-q"]) == 0
+    assert (
+        main(["animate", str(run60), "--out", str(out), "--start", "30", "--end", "31", "-q"]) == 0
+    )
     text = out.read_text("utf-8")
     windows = pd.read_csv(run60 / "windows.csv")
     t = windows["t"] / 1000
@@ -77,14 +80,34 @@ def test_mp4_renders_and_decodes_back_frame_by_frame(run60: Path, tmp_path: Path
 
     imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
     out = tmp_path / "run.mp4"
-    assert main(["animate", str(run60), "--out", str(out), "--start", "10", "--end", "12",
-                 "--fps", "5", "-q"]) == 0
+    assert (
+        main(
+            [
+                "animate",
+                str(run60),
+                "--out",
+                str(out),
+                "--start",
+                "10",
+                "--end",
+                "12",
+                "--fps",
+                "5",
+                "-q",
+            ]
+        )
+        == 0
+    )
     windows = pd.read_csv(run60 / "windows.csv")
     t = windows["t"] / 1000
     frames = int(((t >= 10) & (t <= 12)).sum())
     assert frames >= 5
-    proc = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-v", "info", "-i", str(out),
-                           "-f", "null", "-"], capture_output=True, text=True, check=True)
+    proc = subprocess.run(
+        [imageio_ffmpeg.get_ffmpeg_exe(), "-v", "info", "-i", str(out), "-f", "null", "-"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     decoded = re.findall(r"frame=\s*(\d+)", proc.stderr)
     assert decoded and int(decoded[-1]) == frames, proc.stderr[-500:]
     assert "Video: h264" in proc.stderr or "Video: mpeg4" in proc.stderr, proc.stderr[-800:]
@@ -96,8 +119,21 @@ def test_animate_input_errors(run60: Path, tmp_path: Path, capsys, monkeypatch) 
     assert "not a scenario run directory (no windows.csv" in capsys.readouterr().err
     assert main(["animate", str(run60), "--out", str(tmp_path / "a.avi")]) == 2
     assert "--out must end in .gif, .html, .mp4" in capsys.readouterr().err
-    assert main(["animate", str(run60), "--out", str(tmp_path / "a.gif"), "--start", "500",
-                 "--end", "600"]) == 2
+    assert (
+        main(
+            [
+                "animate",
+                str(run60),
+                "--out",
+                str(tmp_path / "a.gif"),
+                "--start",
+                "500",
+                "--end",
+                "600",
+            ]
+        )
+        == 2
+    )
     assert "no window between 500.0 and 600.0 s" in capsys.readouterr().err
     import shutil
     import sys

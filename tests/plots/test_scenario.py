@@ -62,16 +62,33 @@ def make_windows(n: int = N, n_followers: int = 2) -> pd.DataFrame:
     v = np.where(crit, 12.5, 25.0)
     ang = idx / n * np.pi
     cols: dict[str, object] = {
-        "window": idx, "t": t, "w": w, "deadline": t + w, "w_sch": np.full(n, W_SCH),
-        "msb_min": msb_min, "binding": np.where(crit, "path_diversion:2", "path_diversion:1"),
-        "margin": msb_min - W_SCH, "slack": np.maximum(0.0, w - W_SCH),
-        "v_leader_desired": v_d, "v_leader": v, "v_leader_target": v, "v_leader_max": v,
+        "window": idx,
+        "t": t,
+        "w": w,
+        "deadline": t + w,
+        "w_sch": np.full(n, W_SCH),
+        "msb_min": msb_min,
+        "binding": np.where(crit, "path_diversion:2", "path_diversion:1"),
+        "margin": msb_min - W_SCH,
+        "slack": np.maximum(0.0, w - W_SCH),
+        "v_leader_desired": v_d,
+        "v_leader": v,
+        "v_leader_target": v,
+        "v_leader_max": v,
         "method": np.where(crit, "coupled", "none"),
-        "feasible": np.ones(n, bool), "critical": crit, "missed": np.isin(idx, MISSED),
-        "response": np.full(n, 200.0), "finish": t + 200.0, "points": np.full(n, 40),
-        "hough_ms": np.full(n, 30.0), "tracks_lost": np.zeros(n, int),
-        "segment": np.where(turn, "turn", "straight"), "curvature": np.where(turn, 0.005, 0.0),
-        "leader_x": 300 * np.cos(ang), "leader_y": 300 * np.sin(ang), "leader_heading": ang,
+        "feasible": np.ones(n, bool),
+        "critical": crit,
+        "missed": np.isin(idx, MISSED),
+        "response": np.full(n, 200.0),
+        "finish": t + 200.0,
+        "points": np.full(n, 40),
+        "hough_ms": np.full(n, 30.0),
+        "tracks_lost": np.zeros(n, int),
+        "segment": np.where(turn, "turn", "straight"),
+        "curvature": np.where(turn, 0.005, 0.0),
+        "leader_x": 300 * np.cos(ang),
+        "leader_y": 300 * np.sin(ang),
+        "leader_heading": ang,
     }
     for i in range(1, n_followers + 1):
         fx, fy = 300 * np.cos(ang - 0.2 * i), (300 - 20 * i) * np.sin(ang - 0.2 * i)
@@ -90,8 +107,9 @@ def make_windows(n: int = N, n_followers: int = 2) -> pd.DataFrame:
         for kind, b in zip(BOUND_KINDS, (loc, sep, pd_bound, bear), strict=True):
             # the truth: a little above the prediction (at least 1.2·w: unbroken), and 0.9·w
             # where the window broke the bound
-            cols[f"f{i}_msb_{kind}_true"] = np.where(viol[kind], 0.9 * w,
-                                                     np.maximum(b * scale + 3.0, 1.2 * w))
+            cols[f"f{i}_msb_{kind}_true"] = np.where(
+                viol[kind], 0.9 * w, np.maximum(b * scale + 3.0, 1.2 * w)
+            )
         for kind in BOUND_KINDS:
             cols[f"f{i}_viol_{kind}"] = viol[kind]
         cols[f"f{i}_lost"] = np.zeros(n, bool)
@@ -128,8 +146,13 @@ def test_followers_discovered_numerically():
 
 @pytest.mark.parametrize(
     ("plot", "n_axes"),
-    [(plot_paths, 1), (plot_window_slack, 1), (plot_bounds, 1), (plot_speed, 1),
-     (plot_operating_space, 2)],
+    [
+        (plot_paths, 1),
+        (plot_window_slack, 1),
+        (plot_bounds, 1),
+        (plot_speed, 1),
+        (plot_operating_space, 2),
+    ],
 )
 def test_every_figure_is_a_figure_without_pyplot(df, plot, n_axes):
     import matplotlib.pyplot as plt
@@ -172,15 +195,17 @@ def test_bounds_plot_clips_infinite_values_and_notes_it(df):
     t = np.minimum(df["f1_msb_separation_true"], df["f2_msb_separation_true"]).to_numpy()
     np.testing.assert_allclose(true.get_ydata(), t[t <= top])
     assert {f"pred_{k}" for k in BOUND_KINDS} | {f"true_{k}" for k in BOUND_KINDS} <= {
-        ln.get_gid() for ln in ax.get_lines()}
+        ln.get_gid() for ln in ax.get_lines()
+    }
 
 
 def test_critical_shading_spans_match_critical_windows(df):
     want = expected_spans(df, CRITICAL)
     assert flat(critical_spans(df)) == pytest.approx(flat(want))
     for fig in (plot_window_slack(df), plot_bounds(df), plot_operating_space(df)):
-        got = sorted((p.get_x(), p.get_x() + p.get_width())
-                     for p in gid_patches(fig.axes[0], "critical"))
+        got = sorted(
+            (p.get_x(), p.get_x() + p.get_width()) for p in gid_patches(fig.axes[0], "critical")
+        )
         assert flat(got) == pytest.approx(flat(want))
 
 
@@ -193,8 +218,9 @@ def test_speed_shades_turns_and_plots_both_speeds(df):
     v, t = df["v_leader"].to_numpy(), df["t"].to_numpy()
     np.testing.assert_array_equal(lines["actual $V_L$ (at t)"].get_ydata(), np.append(v, v[-1]))
     assert [ln for ln in ax.get_lines() if ln.get_gid() == "target"]
-    np.testing.assert_allclose(lines["actual $V_L$ (at t)"].get_xdata(),
-                               np.append(t, t[-1] + df["w"].iloc[-1]) / 1000)
+    np.testing.assert_allclose(
+        lines["actual $V_L$ (at t)"].get_xdata(), np.append(t, t[-1] + df["w"].iloc[-1]) / 1000
+    )
 
 
 def test_window_figure_marks_misses_and_slack(df):
@@ -253,8 +279,7 @@ def test_figure_data_is_the_table(df):
     assert np.isinf(bounds["bound_localization_pred"]).sum() == N - 10
     space = figure_data(df, "operating_space")
     for which in ("pred", "true"):
-        every = np.column_stack([df[f"f{i}_msb_{k}_{which}"] for i in (1, 2)
-                                 for k in BOUND_KINDS])
+        every = np.column_stack([df[f"f{i}_msb_{k}_{which}"] for i in (1, 2) for k in BOUND_KINDS])
         np.testing.assert_array_equal(space[f"msb_min_{which}"], every.min(axis=1))
     assert {"f2_x_est", "f2_y", "leader_x"} <= set(figure_data(df, "paths").columns)
 
@@ -265,15 +290,17 @@ def test_figure_data_from_csv_round_trip(df, tmp_path):
     df.to_csv(path, index=False)
     back = pd.read_csv(path)
     for name in SCENARIO_FIGURES:
-        pd.testing.assert_frame_equal(figure_data(back, name), figure_data(df, name),
-                                      check_dtype=False)
+        pd.testing.assert_frame_equal(
+            figure_data(back, name), figure_data(df, name), check_dtype=False
+        )
     spans = critical_spans(back.astype({"critical": str}))
     assert flat(spans) == pytest.approx(flat(expected_spans(df, CRITICAL)))
 
 
 def test_write_scenario_figures_pngs_and_data(df, tmp_path):
-    paths = write_scenario_figures(df, tmp_path / "figs", prefix="test1_", label="Test 1",
-                                   data=True)
+    paths = write_scenario_figures(
+        df, tmp_path / "figs", prefix="test1_", label="Test 1", data=True
+    )
     pngs = [p for p in paths if p.suffix == ".png"]
     assert sorted(p.name for p in pngs) == sorted(f"test1_{s}.png" for s in SCENARIO_FIGURES)
     for p in pngs:
@@ -314,8 +341,10 @@ def test_plot_modes_side_by_side(df, kind):
         title = ax.get_title(loc="left")
         assert title.startswith(mode)
         # violations beyond 5 % and the largest ratio lead, then misses and lost tracks
-        assert f"{mode}\nviolations > 5 % {int((ratio > 1.05).sum())} · max ratio " \
-               f"{ratio.max():.2f} · misses {int(d['missed'].sum())}" in title
+        assert (
+            f"{mode}\nviolations > 5 % {int((ratio > 1.05).sum())} · max ratio "
+            f"{ratio.max():.2f} · misses {int(d['missed'].sum())}" in title
+        )
     assert "max ratio 2.50 · misses 37" in fig.axes[2].get_title(loc="left")
     # separation broke at 1/0.9 = 1.11 in windows 1, 98, 195, 292 (f1) and 2, 99, 196, 293
     assert "violations > 5 % 8 · max ratio 1.11" in fig.axes[0].get_title(loc="left")

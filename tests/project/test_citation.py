@@ -50,5 +50,4 @@ def test_citation_cites_the_paper_and_matches_the_package() -> None:
     assert cff["license"] == meta["license"]
     paper = cff["references"][0]
     assert paper["title"] == "Using Dynamic Processing Windows for Robot Group Control"
-    assert [a["family-names"] for a in paper["authors"]] == ["Qadi", "Goddard", "Huang",
-                                                              "Farritor"]
+    assert [a["family-names"] for a in paper["authors"]] == ["Qadi", "Goddard", "Huang", "Farritor"]

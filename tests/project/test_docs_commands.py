@@ -30,8 +30,10 @@ SHORTER: tuple[tuple[str, str], ...] = (
     (r"--end \d+(\.\d+)?", "--end 3"),
     (r"(?m)^duration = \d+", "duration = 4"),  # a scenario sweep's [sweep.options]
     (r"duration_s=\d+(\.\d+)?", "duration_s=4"),
-    (r"rtsim validate --quick", "rtsim validate --quick --followers 1 --hough-radius 25 "
-                                "--random-sets 0 --histograms 1"),
+    (
+        r"rtsim validate --quick",
+        "rtsim validate --quick --followers 1 --hough-radius 25 --random-sets 0 --histograms 1",
+    ),
 )
 
 
@@ -57,8 +59,11 @@ def test_the_pages_have_blocks_and_every_command_appears() -> None:
     texts = [t for page in PAGES for _, t in blocks(page)]
     assert len(texts) >= 10
     used = {m for t in texts for m in re.findall(r"(?m)^rtsim (\w+)", t)}
-    assert {"scenario", "sweep", "bounds", "histogram", "validate", "simulate",
-            "animate", "examples"} <= used <= set(COMMANDS)
+    assert (
+        {"scenario", "sweep", "bounds", "histogram", "validate", "simulate", "animate", "examples"}
+        <= used
+        <= set(COMMANDS)
+    )
 
 
 @pytest.mark.slow
@@ -66,13 +71,26 @@ def test_the_pages_have_blocks_and_every_command_appears() -> None:
 def test_every_block_of_the_page_runs(page: Path, tmp_path: Path) -> None:
     for name in ("tasksets", "experiments"):
         (tmp_path / name).symlink_to(ROOT / name)
-    env = {**os.environ, "MPLBACKEND": "Agg",
-           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    env = {
+        **os.environ,
+        "MPLBACKEND": "Agg",
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
+    }
     env.pop("RTSIM_PROGRESS", None)
     for lang, text in blocks(page):
         code = shorter(text)
-        argv = ["bash", "-euo", "pipefail", "-c", code] if lang == "bash" else \
-            [sys.executable, "-c", code]
-        proc = subprocess.run(argv, cwd=tmp_path, env=env, capture_output=True, text=True,
-                              timeout=600, stdin=subprocess.DEVNULL)
+        argv = (
+            ["bash", "-euo", "pipefail", "-c", code]
+            if lang == "bash"
+            else [sys.executable, "-c", code]
+        )
+        proc = subprocess.run(
+            argv,
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            stdin=subprocess.DEVNULL,
+        )
         assert proc.returncode == 0, f"{page.name}:\n{code}\n{proc.stderr[-2000:]}"

@@ -17,8 +17,10 @@ ROOT = Path(__file__).resolve().parents[2]
 #: an internal work item (``issue 10``, ``issues 13–15``, ``#24``-style references).
 FORBIDDEN = re.compile(r"\.\./shared|\bSPEC\b|\b[Ii]ssues? #?\d+|\bitem \d+ of issue")
 #: The one use of the word that is none of those: the metavariable of a distribution option.
-ALLOWED = re.compile(r"\"SPEC\"|\bSPEC\.toml\b|\[--periods SPEC\]|--periods SPEC|--deadlines SPEC|"
-                     r"\[--deadlines SPEC\]")
+ALLOWED = re.compile(
+    r"\"SPEC\"|\bSPEC\.toml\b|\[--periods SPEC\]|--periods SPEC|--deadlines SPEC|"
+    r"\[--deadlines SPEC\]"
+)
 
 
 def _hits(text: str) -> list[str]:
@@ -26,8 +28,7 @@ def _hits(text: str) -> list[str]:
 
 
 def _files() -> list[Path]:
-    out = [ROOT / "README.md", ROOT / "README.pypi.md", ROOT / "mkdocs.yml",
-           ROOT / "CITATION.cff"]
+    out = [ROOT / "README.md", ROOT / "README.pypi.md", ROOT / "mkdocs.yml", ROOT / "CITATION.cff"]
     out += sorted((ROOT / "docs").rglob("*.md"))
     out += sorted((ROOT / "rtsim").rglob("*.py"))
     out += sorted((ROOT / "rtsim" / "data").rglob("*.toml"))

@@ -27,8 +27,14 @@ from chromium_cdp import find_chromium, load_page
 ROOT = Path(__file__).resolve().parents[2]
 #: Pages opened in the browser: the home page, a getting-started page, a model page, the API
 #: reference and the executed notebook.
-BROWSE = ["", "getting-started/", "model/adjustment/", "api/", "api/coupling/",
-          "tutorials/quickstart/"]
+BROWSE = [
+    "",
+    "getting-started/",
+    "model/adjustment/",
+    "api/",
+    "api/coupling/",
+    "tutorials/quickstart/",
+]
 
 
 def _mkdocs() -> list[str]:
@@ -48,9 +54,14 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
         assert (path / "index.html").is_file(), f"RTSIM_SITE_DIR={given} holds no built site"
         return path
     out = tmp_path_factory.mktemp("site")
-    proc = subprocess.run([*_mkdocs(), "build", "--strict", "--site-dir", str(out)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=600,
-                          env={**os.environ, "MPLBACKEND": "Agg", "NO_MKDOCS_2_WARNING": "1"})
+    proc = subprocess.run(
+        [*_mkdocs(), "build", "--strict", "--site-dir", str(out)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "MPLBACKEND": "Agg", "NO_MKDOCS_2_WARNING": "1"},
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return out
 
@@ -84,8 +95,9 @@ def _target(site: Path, page: Path, link: str) -> tuple[Path, str] | None:
         return None
     path = unquote(parts.path)
     base = page.parent
-    target = page if not path else (site / path.lstrip("/") if path.startswith("/")
-                                    else base / path)
+    target = (
+        page if not path else (site / path.lstrip("/") if path.startswith("/") else base / path)
+    )
     target = target.resolve()
     if target.is_dir() or path.endswith("/"):
         target = target / "index.html"
@@ -115,8 +127,9 @@ def test_site_builds_strict_and_every_internal_link_resolves(site: Path) -> None
 def _url(md: Path) -> str:
     """The directory URL of a docs page (``a/b.md`` -> ``a/b/``, ``a/index.md`` -> ``a/``)."""
     rel = md.with_suffix("")
-    return (rel.parent.as_posix() + "/" if rel.name == "index" else rel.as_posix() + "/"
-            ).removeprefix("./")
+    return (
+        rel.parent.as_posix() + "/" if rel.name == "index" else rel.as_posix() + "/"
+    ).removeprefix("./")
 
 
 def test_every_docs_page_is_in_the_site_and_its_navigation(site: Path) -> None:

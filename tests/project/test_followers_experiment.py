@@ -13,8 +13,9 @@ import pytest
 
 def _module():  # type: ignore[no-untyped-def]
     root = Path(__file__).resolve().parents[2]
-    spec = importlib.util.spec_from_file_location("followers_exp",
-                                                  root / "experiments" / "followers.py")
+    spec = importlib.util.spec_from_file_location(
+        "followers_exp", root / "experiments" / "followers.py"
+    )
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -40,9 +41,10 @@ def test_followers_experiment_quick(tmp_path: Path) -> None:
     assert t2.wsch_over_path == pytest.approx(t2.w_sch / (1000 * 0.025 * 325 / 30), rel=1e-12)
     # the fan's widest offset with 3 followers: 325·sin(15° + 2·asin(25/325) + 1°) to the right
     width = 325 * math.sin(math.radians(16.0) + 2 * math.asin(25 / 325))
-    assert math.isclose(summ[(summ["test"] == "test2") & (summ["n"] == 3)].iloc[0].width_cm,
-                        width)
+    assert math.isclose(summ[(summ["test"] == "test2") & (summ["n"] == 3)].iloc[0].width_cm, width)
     assert (tmp_path / "followers.png").stat().st_size > 0
     assert "| test2 | 3 | 25 |" in (tmp_path / "followers.md").read_text()
-    assert json.loads((tmp_path / "manifest.json").read_text())["command"] == \
-        "experiments/followers.py"
+    assert (
+        json.loads((tmp_path / "manifest.json").read_text())["command"]
+        == "experiments/followers.py"
+    )

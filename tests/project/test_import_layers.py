@@ -23,18 +23,30 @@ ROOT = Path(__file__).resolve().parents[2] / "rtsim"
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     # helpers every layer may use: errors, numbers, the plug-in registry, the range table and
     # work limits (data checked by every layer), the notebook display mixin
-    ("base", ("rtsim._version", "rtsim.errors", "rtsim._numbers", "rtsim._suggest",
-              "rtsim.registry", "rtsim.io.limits", "rtsim.io.ranges", "rtsim.io.work",
-              "rtsim.notebook")),
+    (
+        "base",
+        (
+            "rtsim._version",
+            "rtsim.errors",
+            "rtsim._numbers",
+            "rtsim._suggest",
+            "rtsim.registry",
+            "rtsim.io.limits",
+            "rtsim.io.ranges",
+            "rtsim.io.work",
+            "rtsim.notebook",
+        ),
+    ),
     ("model", ("rtsim.model",)),
     ("analysis", ("rtsim.analysis",)),
     ("world / sim / control", ("rtsim.world", "rtsim.sim", "rtsim.control")),
     ("config", ("rtsim.config", "rtsim.io", "rtsim.overrides", "rtsim.examples")),
     ("coupling", ("rtsim.coupling",)),
-    ("sweep / plots / export", ("rtsim.sweep", "rtsim.plots", "rtsim.export",
-                                "rtsim.animate")),
-    ("validate / reproduce", ("rtsim.validate", "rtsim.reproduce", "rtsim.report",
-                              "rtsim.notebook")),
+    ("sweep / plots / export", ("rtsim.sweep", "rtsim.plots", "rtsim.export", "rtsim.animate")),
+    (
+        "validate / reproduce",
+        ("rtsim.validate", "rtsim.reproduce", "rtsim.report", "rtsim.notebook"),
+    ),
     ("cli", ("rtsim.cli",)),
     ("facade", ("rtsim.__main__", "rtsim._facade")),
 )
@@ -68,7 +80,8 @@ def layer(mod: str) -> int:
 
 def _type_checking(test: ast.expr) -> bool:
     return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
-        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
 
 
 def _imports(tree: ast.AST) -> Iterator[ast.Import | ast.ImportFrom]:
@@ -177,9 +190,13 @@ def _layer_name(mod: str) -> str:
 
 
 def upward(g: dict[str, frozenset[str]]) -> list[str]:
-    return sorted(f"{m} ({_layer_name(m)}) -> {t} ({_layer_name(t)})"
-                  for m, ts in g.items() if m != "rtsim" for t in ts
-                  if t in g and layer(t) > layer(m))
+    return sorted(
+        f"{m} ({_layer_name(m)}) -> {t} ({_layer_name(t)})"
+        for m, ts in g.items()
+        if m != "rtsim"
+        for t in ts
+        if t in g and layer(t) > layer(m)
+    )
 
 
 def test_every_import_resolves_to_a_module() -> None:
@@ -206,10 +223,13 @@ def test_the_checker_sees_circles_and_upward_arrows() -> None:
     g = {"rtsim.model.a": frozenset({"rtsim.sim.b"}), "rtsim.sim.b": frozenset({"rtsim.model.a"})}
     assert cycles(g) == [["rtsim.model.a", "rtsim.sim.b"]]
     assert upward(g) == ["rtsim.model.a (model) -> rtsim.sim.b (world / sim / control)"]
-    tree = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import rtsim.x\n"
-                     "def f():\n    import rtsim.y\n")
-    assert [a.name for n in _imports(tree) if isinstance(n, ast.Import) for a in n.names] \
-        == ["rtsim.y"]
+    tree = ast.parse(
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import rtsim.x\n"
+        "def f():\n    import rtsim.y\n"
+    )
+    assert [a.name for n in _imports(tree) if isinstance(n, ast.Import) for a in n.names] == [
+        "rtsim.y"
+    ]
 
 
 if __name__ == "__main__":  # python tests/project/test_import_layers.py: the current findings

@@ -16,11 +16,14 @@ from rtsim.examples import EXAMPLES
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The repository file each shipped example is a copy of.
-ORIGINALS = {"barrel_robots": "tasksets/barrel_robots.toml", "example": "tasksets/example.toml",
-             "test1": "experiments/scenarios/test1.toml",
-             "test2": "experiments/scenarios/test2.toml",
-             "smoke": "experiments/sweeps/smoke.toml",
-             "quickstart": "examples/quickstart.ipynb"}
+ORIGINALS = {
+    "barrel_robots": "tasksets/barrel_robots.toml",
+    "example": "tasksets/example.toml",
+    "test1": "experiments/scenarios/test1.toml",
+    "test2": "experiments/scenarios/test2.toml",
+    "smoke": "experiments/sweeps/smoke.toml",
+    "quickstart": "examples/quickstart.ipynb",
+}
 
 
 def test_pyproject_license_is_spdx_with_a_license_file() -> None:
@@ -32,9 +35,23 @@ def test_pyproject_license_is_spdx_with_a_license_file() -> None:
 
 
 def test_wheel_has_license_metadata_and_every_example(tmp_path: Path) -> None:
-    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps",
-                           "--no-build-isolation", str(ROOT), "-w", str(tmp_path)],
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "-q",
+            "--no-deps",
+            "--no-build-isolation",
+            str(ROOT),
+            "-w",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     (whl,) = tmp_path.glob("rtsim-*.whl")
     with zipfile.ZipFile(whl) as z:
@@ -69,8 +86,7 @@ def test_examples_command_lists_and_prints(capsys) -> None:
     assert "nope: no such example (one of barrel_robots" in capsys.readouterr().err
 
 
-def test_examples_work_by_name_and_a_local_file_wins(tmp_path: Path, monkeypatch,
-                                                     capsys) -> None:
+def test_examples_work_by_name_and_a_local_file_wins(tmp_path: Path, monkeypatch, capsys) -> None:
     from rtsim.io import load_taskset
     from rtsim.sweep.spec import load_sweep
 
@@ -78,8 +94,9 @@ def test_examples_work_by_name_and_a_local_file_wins(tmp_path: Path, monkeypatch
     assert load_taskset("example").name == "example"
     smoke = load_sweep("smoke")
     assert smoke.kind == "simulate" and len(smoke.grid) == 2
-    assert smoke.base is not None and smoke.base.text == (ROOT / ORIGINALS["barrel_robots"]
-                                                          ).read_text("utf-8")
+    assert smoke.base is not None and smoke.base.text == (
+        ROOT / ORIGINALS["barrel_robots"]
+    ).read_text("utf-8")
     assert main(["analyze", "example", "--json"]) == 0
     assert '"schedulable": true' in capsys.readouterr().out
     (tmp_path / "example").write_text('[[tasks]]\nname = "mine"\nwcet = 1\nperiod = 9\n')
@@ -92,14 +109,45 @@ def test_rtsim_reproduce_passes_every_option_of_the_module(capsys) -> None:
     from rtsim import reproduce
     from rtsim.cli import build_parser
 
-    opts = ["--out", "x", "--quick", "--seed", "3", "--duration", "5", "--workers", "1",
-            "--docs", "d", "--quiet", "--format", "svg", "--dpi", "200", "--json"]
+    opts = [
+        "--out",
+        "x",
+        "--quick",
+        "--seed",
+        "3",
+        "--duration",
+        "5",
+        "--workers",
+        "1",
+        "--docs",
+        "d",
+        "--quiet",
+        "--format",
+        "svg",
+        "--dpi",
+        "200",
+        "--json",
+    ]
     args = build_parser().parse_args(["reproduce", *opts])
     got = {k: v for k, v in vars(args).items() if k not in ("command", "func")}
-    assert got == vars(reproduce.parse_args(opts)) == {
-        "out": "x", "quick": True, "seed": 3, "duration": 5.0, "workers": 1, "docs": "d",
-        "quiet": True, "force": False, "fig_format": "svg", "dpi": 200, "json": True,
-        "set": []}
+    assert (
+        got
+        == vars(reproduce.parse_args(opts))
+        == {
+            "out": "x",
+            "quick": True,
+            "seed": 3,
+            "duration": 5.0,
+            "workers": 1,
+            "docs": "d",
+            "quiet": True,
+            "force": False,
+            "fig_format": "svg",
+            "dpi": 200,
+            "json": True,
+            "set": [],
+        }
+    )
     with pytest.raises(SystemExit):
         reproduce.parse_args(["--help"])
     module_opts = set(re.findall(r"--[a-z]+", capsys.readouterr().out)) - {"--help"}
@@ -111,8 +159,11 @@ def test_rtsim_reproduce_passes_every_option_of_the_module(capsys) -> None:
 def test_classifiers_claim_what_ci_tests() -> None:
     """CI runs Python 3.11 on Linux: the classifiers claim that and no more."""
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text("utf-8"))["project"]
-    versions = {c.rsplit(" :: ", 1)[1] for c in meta["classifiers"]
-                if c.startswith("Programming Language :: Python :: 3.")}
+    versions = {
+        c.rsplit(" :: ", 1)[1]
+        for c in meta["classifiers"]
+        if c.startswith("Programming Language :: Python :: 3.")
+    }
     assert versions == {"3.11"}
     assert "Operating System :: OS Independent" not in meta["classifiers"]
     assert "Operating System :: POSIX :: Linux" in meta["classifiers"]

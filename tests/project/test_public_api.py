@@ -6,11 +6,25 @@ import importlib
 
 import pytest
 
-PACKAGES = ["rtsim", "rtsim.model", "rtsim.analysis", "rtsim.sim", "rtsim.world",
-            "rtsim.control", "rtsim.coupling", "rtsim.sweep", "rtsim.plots", "rtsim.validate",
-            "rtsim.io", "rtsim.notebook", "rtsim.overrides",
-            "rtsim.export", "rtsim.examples", "rtsim.report",
-            "rtsim.animate"]
+PACKAGES = [
+    "rtsim",
+    "rtsim.model",
+    "rtsim.analysis",
+    "rtsim.sim",
+    "rtsim.world",
+    "rtsim.control",
+    "rtsim.coupling",
+    "rtsim.sweep",
+    "rtsim.plots",
+    "rtsim.validate",
+    "rtsim.io",
+    "rtsim.notebook",
+    "rtsim.overrides",
+    "rtsim.export",
+    "rtsim.examples",
+    "rtsim.report",
+    "rtsim.animate",
+]
 
 
 @pytest.mark.parametrize("name", PACKAGES)
@@ -25,11 +39,27 @@ def test_all_names_resolve(name: str) -> None:
 def test_top_level_namespace_is_pinned() -> None:
     import rtsim
 
-    assert sorted(rtsim.__all__) == sorted([
-        "__version__", "InputError", "OverrideError", "RtsimError", "ScenarioError", "SweepError",
-        "TaskSetError", "Segment", "Task", "TaskSet", "WindowSpec",
-        "analyze", "load_scenario", "load_taskset", "run_scenario", "simulate", "window_bounds",
-    ])
+    assert sorted(rtsim.__all__) == sorted(
+        [
+            "__version__",
+            "InputError",
+            "OverrideError",
+            "RtsimError",
+            "ScenarioError",
+            "SweepError",
+            "TaskSetError",
+            "Segment",
+            "Task",
+            "TaskSet",
+            "WindowSpec",
+            "analyze",
+            "load_scenario",
+            "load_taskset",
+            "run_scenario",
+            "simulate",
+            "window_bounds",
+        ]
+    )
 
 
 def test_top_level_entry_points_are_the_subpackages_and_load_lazily() -> None:
@@ -51,8 +81,9 @@ def test_top_level_entry_points_are_the_subpackages_and_load_lazily() -> None:
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         rtsim.nope  # noqa: B018
     code = "import sys, rtsim; print('simpy' in sys.modules, 'rtsim.coupling' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.strip()
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.strip()
     assert out == "False False"
 
 
@@ -65,8 +96,16 @@ def test_subpackage_entry_points_are_exported() -> None:
     from rtsim.sweep import run_sweep
     from rtsim.validate import run_validation
 
-    for fn in (analyze, window_bounds, run_scenario, load_scenario, load_taskset, simulate,
-               run_sweep, run_validation):
+    for fn in (
+        analyze,
+        window_bounds,
+        run_scenario,
+        load_scenario,
+        load_taskset,
+        simulate,
+        run_sweep,
+        run_validation,
+    ):
         assert callable(fn)
 
 
@@ -75,10 +114,10 @@ def test_analysis_and_world_do_not_import_simpy() -> None:
     import subprocess
     import sys
 
-    code = ("import sys, rtsim.analysis, rtsim.world, rtsim.control; "
-            "print('simpy' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.strip()
+    code = "import sys, rtsim.analysis, rtsim.world, rtsim.control; print('simpy' in sys.modules)"
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.strip()
     assert out == "False"
 
 

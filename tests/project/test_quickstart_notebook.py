@@ -16,8 +16,9 @@ def test_quickstart_notebook_executes_and_displays(tmp_path) -> None:
 
     nb = nbformat.read(NOTEBOOK, as_version=4)
     assert not any("%matplotlib" in c.source for c in nb.cells), "must work without magics"
-    client = nbclient.NotebookClient(nb, timeout=300, kernel_name="python3",
-                                     resources={"metadata": {"path": str(tmp_path)}})
+    client = nbclient.NotebookClient(
+        nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
+    )
     client.execute()
     code = [c for c in nb.cells if c.cell_type == "code"]
     for cell in code:
@@ -29,8 +30,12 @@ def test_quickstart_notebook_executes_and_displays(tmp_path) -> None:
         pngs = [o for o in cell.outputs if "image/png" in o.get("data", {})]
         assert len(pngs) == 1, f"{cell.source[:40]!r}: {len(pngs)} images (want exactly one)"
         assert pngs[0]["data"]["image/png"].startswith("iVBOR")  # base64 of a PNG header
-    html = [o["data"]["text/html"] for c in code for o in c.outputs
-            if o.output_type == "execute_result" and "text/html" in o.get("data", {})]
+    html = [
+        o["data"]["text/html"]
+        for c in code
+        for o in c.outputs
+        if o.output_type == "execute_result" and "text/html" in o.get("data", {})
+    ]
     assert any("<code>ScenarioResult</code>" in h and "<table" in h for h in html)
     assert any("<code>SweepOutcome</code>" in h for h in html)
     overrides = next(c for c in code if "formation.followers" in c.source)
@@ -56,17 +61,20 @@ def test_figures_show_exactly_once_however_called(tmp_path) -> None:
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
 
-    setup = ("import numpy as np\nimport matplotlib.pyplot as plt\nfrom rtsim import plots\n"
-             "from rtsim.coupling import run_scenario\n"
-             "v = np.random.default_rng(0).normal(200.0, 5.0, 300)\n"
-             "df = run_scenario('test1', duration_s=3, record_jobs=False).windows")
+    setup = (
+        "import numpy as np\nimport matplotlib.pyplot as plt\nfrom rtsim import plots\n"
+        "from rtsim.coupling import run_scenario\n"
+        "v = np.random.default_rng(0).normal(200.0, 5.0, 300)\n"
+        "df = run_scenario('test1', duration_s=3, record_jobs=False).windows"
+    )
     saved = "plots.save_figure(plots.response_histogram(v), 'h.png')"  # written, not shown
     cells = [setup, *DISPLAY_CELLS.values(), saved]
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
-    nbclient.NotebookClient(nb, timeout=300, kernel_name="python3",
-                            resources={"metadata": {"path": str(tmp_path)}}).execute()
+    nbclient.NotebookClient(
+        nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
+    ).execute()
     shown = [sum("image/png" in o.get("data", {}) for o in c.outputs) for c in nb.cells]
-    assert shown == [0, *([1] * len(DISPLAY_CELLS)), 0], dict(zip(["setup", *DISPLAY_CELLS,
-                                                                  "saved"], shown,
-                                                                 strict=True))
+    assert shown == [0, *([1] * len(DISPLAY_CELLS)), 0], dict(
+        zip(["setup", *DISPLAY_CELLS, "saved"], shown, strict=True)
+    )
     assert (tmp_path / "h.png").read_bytes().startswith(b"\x89PNG")

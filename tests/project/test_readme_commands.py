@@ -32,9 +32,19 @@ def test_readme_has_command_lines_for_every_command() -> None:
 def test_every_readme_command_line_runs_as_written(tmp_path: Path) -> None:
     for name in ("tasksets", "experiments"):
         (tmp_path / name).symlink_to(ROOT / name)
-    env = {**os.environ, "MPLBACKEND": "Agg",
-           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    env = {
+        **os.environ,
+        "MPLBACKEND": "Agg",
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
+    }
     for line in readme_command_lines():
-        proc = subprocess.run(["bash", "-c", line], cwd=tmp_path, env=env, capture_output=True,
-                              text=True, timeout=300, stdin=subprocess.DEVNULL)
+        proc = subprocess.run(
+            ["bash", "-c", line],
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+            stdin=subprocess.DEVNULL,
+        )
         assert proc.returncode == 0, f"{line}\n{proc.stderr[-1500:]}"

@@ -20,20 +20,31 @@ from rtsim.registry import Registry, did_you_mean, load_code, opted_in, reading_
 RTSIM = Path(sys.executable).with_name("rtsim")  # the console script: no cwd on sys.path
 
 #: A module that leaves a marker file when it is imported.
-EVIL = ("from pathlib import Path\n"
-        "Path(__file__).with_name('MARKER').write_text('imported')\n"
-        "from rtsim.sim.policy import FixedPriority\n"
-        "class P(FixedPriority):\n    name = 'evil-fp'\n"
-        "def f(params, options, seed):\n    return {'x': 1.0}\n")
+EVIL = (
+    "from pathlib import Path\n"
+    "Path(__file__).with_name('MARKER').write_text('imported')\n"
+    "from rtsim.sim.policy import FixedPriority\n"
+    "class P(FixedPriority):\n    name = 'evil-fp'\n"
+    "def f(params, options, seed):\n    return {'x': 1.0}\n"
+)
 
-SET = ('[[tasks]]\nname = "a"\nwcet = 1\nperiod = 5\npriority = 1\n'
-       '[[tasks]]\nname = "b"\nwcet = 2\nperiod = 10\npriority = 2\n')
+SET = (
+    '[[tasks]]\nname = "a"\nwcet = 1\nperiod = 5\npriority = 1\n'
+    '[[tasks]]\nname = "b"\nwcet = 2\nperiod = 10\npriority = 2\n'
+)
 
 
 def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    return subprocess.run([str(RTSIM), *args], cwd=cwd, capture_output=True, text=True,
-                          env=env, timeout=300, check=False)
+    return subprocess.run(
+        [str(RTSIM), *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+        check=False,
+    )
 
 
 @pytest.fixture
@@ -49,8 +60,11 @@ def test_registry_names_did_you_mean_and_mapping() -> None:
     reg.register("one", 1)
     reg["two"] = 2
     assert reg.resolve("one", "n") == 1 and list(reg) == ["one", "two"] and len(reg) == 2
-    with pytest.raises(InputError, match=r"^n: must be one of one, two or 'package\.module:Name',"
-                                         r" got 'on' \(did you mean 'one'\?\)$"):
+    with pytest.raises(
+        InputError,
+        match=r"^n: must be one of one, two or 'package\.module:Name',"
+        r" got 'on' \(did you mean 'one'\?\)$",
+    ):
         reg.resolve("on", "n")
     del reg["two"]
     assert "two" not in reg and reg.contains("one") and not reg.contains(3)
@@ -66,13 +80,15 @@ def test_malformed_code_names_are_one_line_errors(spec: str) -> None:
         load_code(spec, "--scheduler")
 
 
-def test_an_installed_entry_point_resolves_without_opt_in(tmp_path: Path,
-                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+def test_an_installed_entry_point_resolves_without_opt_in(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """A distribution on sys.path with an ``rtsim.schedulers`` entry point: a file may name it
     (installed plug-ins are trusted, as pytest's and Sphinx's are)."""
     (tmp_path / "plug_sched.py").write_text(
         "from rtsim.sim.policy import FixedPriority\n"
-        "class Plugged(FixedPriority):\n    name = 'plugged'\n")
+        "class Plugged(FixedPriority):\n    name = 'plugged'\n"
+    )
     info = tmp_path / "plug_sched-1.0.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: plug-sched\nVersion: 1.0\n")
@@ -94,15 +110,19 @@ def test_an_installed_entry_point_resolves_without_opt_in(tmp_path: Path,
         sys.modules.pop("plug_sched", None)
 
 
-def test_api_file_names_code_only_with_allow_code(evil_dir: Path,
-                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+def test_api_file_names_code_only_with_allow_code(
+    evil_dir: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from rtsim.io.taskset import load_taskset
 
     monkeypatch.chdir(evil_dir)  # allowed code is imported from the current directory
     monkeypatch.setattr(sys, "path", list(sys.path))
 
-    with pytest.raises(TaskSetError, match=r"set\.toml: \[scheduler\]: policy: 'evil:P' names "
-                                           r"Python code, .*allow_code=True"):
+    with pytest.raises(
+        TaskSetError,
+        match=r"set\.toml: \[scheduler\]: policy: 'evil:P' names "
+        r"Python code, .*allow_code=True",
+    ):
         load_taskset(evil_dir / "set.toml")
     assert not (evil_dir / "MARKER").exists()
     with opted_in(False), reading_input():
@@ -130,15 +150,20 @@ def test_a_scenario_file_names_code_only_with_allow_code(tmp_path: Path) -> None
         sys.modules.pop("evil", None)
 
 
-@pytest.mark.parametrize("command", [
-    ["analyze", "set.toml"],
-    ["simulate", "set.toml", "--horizon", "20"],
-    ["sweep", "sweep.toml", "--out", "o"],
-])
-def test_cli_refuses_code_named_in_a_file_without_importing_it(evil_dir: Path,
-                                                               command: list[str]) -> None:
-    (evil_dir / "sweep.toml").write_text('[sweep]\nkind = "call"\nfunction = "evil:f"\n'
-                                         '[grid]\na = [1]\n')
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["analyze", "set.toml"],
+        ["simulate", "set.toml", "--horizon", "20"],
+        ["sweep", "sweep.toml", "--out", "o"],
+    ],
+)
+def test_cli_refuses_code_named_in_a_file_without_importing_it(
+    evil_dir: Path, command: list[str]
+) -> None:
+    (evil_dir / "sweep.toml").write_text(
+        '[sweep]\nkind = "call"\nfunction = "evil:f"\n[grid]\na = [1]\n'
+    )
     r = _run(*command, cwd=evil_dir)
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
@@ -160,26 +185,42 @@ def test_cli_module_name_on_the_command_line_is_the_opt_in(tmp_path: Path) -> No
         "from rtsim.control.policy import FixedWschPolicy\n"
         "class MyPolicy:\n"
         "    def decide(self, ctx):\n"
-        "        return FixedWschPolicy().decide(ctx)._replace(method='mine')\n")
-    r = _run("scenario", "test2", "--duration", "2", "--policy", "mymod:MyPolicy",
-             "--no-figures", "--out", "run", cwd=tmp_path)
+        "        return FixedWschPolicy().decide(ctx)._replace(method='mine')\n"
+    )
+    r = _run(
+        "scenario",
+        "test2",
+        "--duration",
+        "2",
+        "--policy",
+        "mymod:MyPolicy",
+        "--no-figures",
+        "--out",
+        "run",
+        cwd=tmp_path,
+    )
     assert r.returncode == 0, r.stderr
     import json
 
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["policy"] == "mymod:MyPolicy" and "mine" in summary["methods"]
-    r = _run("simulate", "set.toml", "--horizon", "20", "--scheduler", "mymod:Nope",
-             cwd=tmp_path)
+    r = _run("simulate", "set.toml", "--horizon", "20", "--scheduler", "mymod:Nope", cwd=tmp_path)
     assert r.returncode == 2
 
 
-@pytest.mark.parametrize(("option", "spec"), [("--scheduler", ":"), ("--scheduler", ".x:Y"),
-                                              ("--policy", ":"), ("--policy", ".x:Y")])
+@pytest.mark.parametrize(
+    ("option", "spec"),
+    [("--scheduler", ":"), ("--scheduler", ".x:Y"), ("--policy", ":"), ("--policy", ".x:Y")],
+)
 def test_cli_malformed_names_are_one_line_errors(tmp_path: Path, option: str, spec: str) -> None:
     (tmp_path / "set.toml").write_text(SET)
-    cmd = (["simulate", "set.toml", "--horizon", "20"] if option == "--scheduler"
-           else ["scenario", "test2", "--duration", "1", "--out", "o"])
+    cmd = (
+        ["simulate", "set.toml", "--horizon", "20"]
+        if option == "--scheduler"
+        else ["scenario", "test2", "--duration", "1", "--out", "o"]
+    )
     r = _run(*cmd, option, spec, cwd=tmp_path)
     assert r.returncode == 2
     assert r.stderr.strip().splitlines() == [
-        f"rtsim: {option}: {spec!r} is not 'package.module:Name'"]
+        f"rtsim: {option}: {spec!r} is not 'package.module:Name'"
+    ]

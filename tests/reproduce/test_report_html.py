@@ -59,9 +59,16 @@ def test_scenario_report_renders_in_chromium(tmp_path: Path) -> None:
     assert main(["scenario", "test1", "--duration", "20", "--out", str(out)]) == 0
     report = out / "report.html"
     text = report.read_text("utf-8")
-    for part in ("<h2>Summary</h2>", "<h2>Figures</h2>", "<h2>Assumptions</h2>",
-                 "<h2>Data files</h2>", "<h2>Manifest</h2>", "thresholds.T_eps",
-                 "windows.csv", "critical_share"):
+    for part in (
+        "<h2>Summary</h2>",
+        "<h2>Figures</h2>",
+        "<h2>Assumptions</h2>",
+        "<h2>Data files</h2>",
+        "<h2>Manifest</h2>",
+        "thresholds.T_eps",
+        "windows.csv",
+        "critical_share",
+    ):
         assert part in text, part
     _self_contained(report)
     pngs = sorted(out.glob("*.png"))
@@ -86,8 +93,9 @@ def test_validate_report_renders_in_chromium(tmp_path: Path) -> None:
 @pytest.mark.slow
 def test_reproduce_reports_render_in_chromium(tmp_path: Path) -> None:
     out = tmp_path / "paper"
-    assert main(["reproduce", "--duration", "10", "--workers", "1", "--quiet",
-                 "--out", str(out)]) == 0
+    assert (
+        main(["reproduce", "--duration", "10", "--workers", "1", "--quiet", "--out", str(out)]) == 0
+    )
     report = out / "report.html"
     text = report.read_text("utf-8")
     assert "<h2>Summary</h2>" in text and "fixed-wsch" in text and "min_msb_over_wsch" in text

@@ -25,9 +25,16 @@ MODES = ("adjust", "fixed-wsch", "min-msb")
 # before, only with float_precision="round_trip" (pandas 2.1 was one ulp off here)
 EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
 KINDS = ("localization", "separation", "path_diversion", "bearing")
-PAPER = {8: ("test1", "paths"), 9: ("test1", "window_slack"), 10: ("test1", "msb"),
-         11: ("test1", "speed"), 12: ("test2", "paths"), 13: ("test2", "window_slack"),
-         14: ("test2", "msb"), 15: ("test2", "speed")}
+PAPER = {
+    8: ("test1", "paths"),
+    9: ("test1", "window_slack"),
+    10: ("test1", "msb"),
+    11: ("test1", "speed"),
+    12: ("test2", "paths"),
+    13: ("test2", "window_slack"),
+    14: ("test2", "msb"),
+    15: ("test2", "speed"),
+}
 DETAIL = {10: ("test1", "bounds"), 14: ("test2", "bounds")}
 MODE_KINDS = {"window": "window_slack", "bounds": "bounds", "speed": "speed", "paths": "paths"}
 # the columns each figure plots (from the windows.csv schema), besides window and t
@@ -67,10 +74,24 @@ def quick(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not done.exists():
             env = {**os.environ, "MPLBACKEND": "Agg"}
-            proc = subprocess.run([sys.executable, "-m", "rtsim", "reproduce", "--quick",
-                                   "--out", str(out),
-                                   "--workers", "2"], cwd=REPO, env=env,
-                                  capture_output=True, text=True, timeout=240)
+            proc = subprocess.run(
+                [
+                    sys.executable,
+                    "-m",
+                    "rtsim",
+                    "reproduce",
+                    "--quick",
+                    "--out",
+                    str(out),
+                    "--workers",
+                    "2",
+                ],
+                cwd=REPO,
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=240,
+            )
             done.write_text(json.dumps({"rc": proc.returncode, "stderr": proc.stderr}))
     result = json.loads(done.read_text())
     assert result["rc"] == 0, result["stderr"][-3000:]
@@ -80,7 +101,8 @@ def quick(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
 def _figures() -> list[tuple[str, str, str | None]]:
     """(stem, figure_data name, test of a single-run figure or None for a modes figure)."""
     out: list[tuple[str, str, str | None]] = [
-        (f"fig{n:02d}_{t}_{name}", name, t) for n, (t, name) in PAPER.items()]
+        (f"fig{n:02d}_{t}_{name}", name, t) for n, (t, name) in PAPER.items()
+    ]
     out += [(f"fig{n:02d}_{t}_{name}_detail", name, t) for n, (t, name) in DETAIL.items()]
     out += [(f"fig02_{t}_operating_space", "operating_space", t) for t in TESTS]
     out += [(f"modes_{t}_{k}", name, None) for t in TESTS for k, name in MODE_KINDS.items()]
@@ -118,8 +140,7 @@ def test_quick_writes_every_file(quick: tuple[Path, str]) -> None:
     for t in TESTS:
         text = (REPO / "experiments" / "scenarios" / f"{t}.toml").read_text()
         assert man["inputs"]["scenarios"][t]["text"] == text
-    assert [(r["test"], r["mode"]) for r in man["runs"]] == [(t, m) for t in TESTS
-                                                              for m in MODES]
+    assert [(r["test"], r["mode"]) for r in man["runs"]] == [(t, m) for t in TESTS for m in MODES]
     assert all(r["timing"]["simulation_s"] > 0 for r in man["runs"])
     run_man = json.loads((out / "test2" / "min-msb" / "manifest.json").read_text())
     assert run_man["inputs"]["mode"] == "min-msb" and run_man["inputs"]["duration_s"] == 60.0
@@ -128,8 +149,9 @@ def test_quick_writes_every_file(quick: tuple[Path, str]) -> None:
 
 
 @pytest.mark.parametrize("stem,name,test", _figures())
-def test_figure_data_agree_with_runs(quick: tuple[Path, str], stem: str, name: str,
-                                     test: str | None) -> None:
+def test_figure_data_agree_with_runs(
+    quick: tuple[Path, str], stem: str, name: str, test: str | None
+) -> None:
     """Each figure CSV carries the run's windows.csv values unchanged (text equality, so
     ``inf`` and every digit included); bound_<kind>_pred / _true is the min over followers of
     the ``f{i}_msb_<kind>_pred`` / ``_true`` columns, msb_min_pred / _true (operating space)
@@ -152,8 +174,10 @@ def test_figure_data_agree_with_runs(quick: tuple[Path, str], stem: str, name: s
                 every = []
                 for kind in KINDS:
                     cols = [f"f{i}_msb_{kind}_{which}" for i in (1, 2)]
-                    expect = [min(float(a), float(b))
-                              for a, b in zip(*(win[c] for c in cols), strict=True)]
+                    expect = [
+                        min(float(a), float(b))
+                        for a, b in zip(*(win[c] for c in cols), strict=True)
+                    ]
                     every.append(expect)
                     if name == "bounds":
                         got = [float(v) for v in part[f"bound_{kind}_{which}"]]
@@ -162,8 +186,9 @@ def test_figure_data_agree_with_runs(quick: tuple[Path, str], stem: str, name: s
                     got = [float(v) for v in part[f"msb_min_{which}"]]
                     assert got == [min(v) for v in zip(*every, strict=True)], (stem, which)
         if name == "msb":  # the true minimum over every follower and kind
-            every = [[float(v) for v in win[f"f{i}_msb_{kind}_true"]] for i in (1, 2)
-                     for kind in KINDS]
+            every = [
+                [float(v) for v in win[f"f{i}_msb_{kind}_true"]] for i in (1, 2) for kind in KINDS
+            ]
             got = [float(v) for v in part["msb_min_true"]]
             assert got == [min(v) for v in zip(*every, strict=True)], stem
         if name == "paths":
@@ -180,9 +205,13 @@ def test_bounds_data_has_infinite_values(quick: tuple[Path, str], tmp_path: Path
     from rtsim.coupling import run_scenario
     from rtsim.plots.scenario import figure_data
 
-    res = run_scenario("test1", mode="adjust", duration_s=10, record_jobs=False,
-                       overrides={"adjust.predictor": "formation",
-                                  "thresholds.localization": "radial"})  # Eq 19: r_H/|ρ̇|
+    res = run_scenario(
+        "test1",
+        mode="adjust",
+        duration_s=10,
+        record_jobs=False,
+        overrides={"adjust.predictor": "formation", "thresholds.localization": "radial"},
+    )  # Eq 19: r_H/|ρ̇|
     data = figure_data(res.windows, "bounds")
     path = tmp_path / "formation_bounds.csv"
     data.to_csv(path, index=False)
@@ -200,8 +229,7 @@ def test_bounds_data_has_infinite_values(quick: tuple[Path, str], tmp_path: Path
 def test_summary_recomputed_from_windows(quick: tuple[Path, str]) -> None:
     out, _ = quick
     table = pd.read_csv(out / "summary.csv", **EXACT_FLOATS)
-    assert [(r.test, r.mode) for r in table.itertuples()] == [(t, m) for t in TESTS
-                                                              for m in MODES]
+    assert [(r.test, r.mode) for r in table.itertuples()] == [(t, m) for t in TESTS for m in MODES]
     for r in table.to_dict("records"):
         df = pd.read_csv(out / r["test"] / r["mode"] / "windows.csv", **EXACT_FLOATS)
         summ = json.loads((out / r["test"] / r["mode"] / "summary.json").read_text())
@@ -283,8 +311,11 @@ def test_one_worker_gives_identical_files(quick: tuple[Path, str], tmp_path: Pat
     for t in TESTS:
         for m in MODES:
             for f in ("windows.csv", "jobs.csv", "summary.json"):
-                assert (tmp_path / t / m / f).read_bytes() == (out / t / m / f).read_bytes(), \
-                    (t, m, f)
+                assert (tmp_path / t / m / f).read_bytes() == (out / t / m / f).read_bytes(), (
+                    t,
+                    m,
+                    f,
+                )
 
 
 def test_run_equals_rtsim_scenario(quick: tuple[Path, str], tmp_path: Path) -> None:
@@ -293,8 +324,24 @@ def test_run_equals_rtsim_scenario(quick: tuple[Path, str], tmp_path: Path) -> N
 
     out, _ = quick
     file = REPO / "rtsim" / "data" / "scenarios" / "test2.toml"  # what rtsim.reproduce runs
-    assert rtsim_main(["scenario", str(file), "--mode", "min-msb", "--duration", "60",
-                       "--seed", "0", "--no-figures", "--out", str(tmp_path)]) == 0
+    assert (
+        rtsim_main(
+            [
+                "scenario",
+                str(file),
+                "--mode",
+                "min-msb",
+                "--duration",
+                "60",
+                "--seed",
+                "0",
+                "--no-figures",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     for f in ("windows.csv", "jobs.csv", "summary.json"):
         assert (tmp_path / f).read_bytes() == (out / "test2" / "min-msb" / f).read_bytes(), f
     cli = json.loads((tmp_path / "manifest.json").read_text())
@@ -303,24 +350,27 @@ def test_run_equals_rtsim_scenario(quick: tuple[Path, str], tmp_path: Path) -> N
     assert set(cli) - {"created_utc"} <= set(ours)
 
 
-@pytest.mark.parametrize("argv,match", [
-    (["--workers", "0"], "--workers"),
-    (["--duration", "-5"], "--duration"),
-    (["--duration", "inf"], "--duration"),
-    (["--seed", "-1"], "--seed"),
-    (["--seed", "x"], "--seed"),
-    (["--bogus"], "--bogus"),
-])
-def test_bad_input_is_one_line_exit_2(argv: list[str], match: str, tmp_path: Path,
-                                      capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(
+    "argv,match",
+    [
+        (["--workers", "0"], "--workers"),
+        (["--duration", "-5"], "--duration"),
+        (["--duration", "inf"], "--duration"),
+        (["--seed", "-1"], "--seed"),
+        (["--seed", "x"], "--seed"),
+        (["--bogus"], "--bogus"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(
+    argv: list[str], match: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert rp.main([*argv, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and match in err and err.startswith("rtsim: ")
     assert not (tmp_path / "o").exists()
 
 
-def test_out_that_is_a_file_is_refused(tmp_path: Path,
-                                       capsys: pytest.CaptureFixture[str]) -> None:
+def test_out_that_is_a_file_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     f = tmp_path / "file"
     f.write_text("x")
     assert rp.main(["--quick", "--out", str(f)]) == 2

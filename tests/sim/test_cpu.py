@@ -24,14 +24,22 @@ def _rows(df, task):
 
 def test_two_tasks_hand_schedule():
     # hi (2, 5), lo (4, 10): hi 0-2, lo 2-5, hi 5-7, lo 7-8 -> lo R = 8 (one preemption)
-    res = simulate([Task("hi", 2, 5, priority=1), Task("lo", 4, 10, priority=2)], 10,
-                   record_jobs=True, record_trace=True)
+    res = simulate(
+        [Task("hi", 2, 5, priority=1), Task("lo", 4, 10, priority=2)],
+        10,
+        record_jobs=True,
+        record_trace=True,
+    )
     lo = _rows(res.jobs, "lo")
     assert list(lo["finish"]) == [8.0]
     assert list(lo["preemptions"]) == [1]
     tr = res.trace
     assert [(r.task, r.start, r.end) for r in tr.itertuples()] == [
-        ("hi", 0, 2), ("lo", 2, 5), ("hi", 5, 7), ("lo", 7, 8)]
+        ("hi", 0, 2),
+        ("lo", 2, 5),
+        ("hi", 5, 7),
+        ("lo", 7, 8),
+    ]
     assert res.tasks["lo"].max_response == 8.0
     assert res.tasks["hi"].completed == 2
     assert tuple(res.jobs.columns) == JOB_COLUMNS
@@ -41,27 +49,39 @@ def test_two_tasks_hand_schedule():
 
 def test_completion_before_release_at_same_instant():
     # lo runs 0-5 and completes exactly when hi is released at 5: no preemption of lo.
-    res = simulate([Task("hi", 1, 10, priority=1, offset=5), Task("lo", 5, 100, priority=2)],
-                   10, record_jobs=True, record_trace=True)
+    res = simulate(
+        [Task("hi", 1, 10, priority=1, offset=5), Task("lo", 5, 100, priority=2)],
+        10,
+        record_jobs=True,
+        record_trace=True,
+    )
     lo = _rows(res.jobs, "lo")
     assert lo.loc[0, "finish"] == 5.0 and lo.loc[0, "preemptions"] == 0
     assert [(r.task, r.start, r.end) for r in res.trace.itertuples()] == [
-        ("lo", 0, 5), ("hi", 5, 6)]
+        ("lo", 0, 5),
+        ("hi", 5, 6),
+    ]
 
 
 def test_completion_within_eps_of_release_is_simultaneous():
     # lo's work ends 1e-12 ms after hi's release: treated as the same instant, no preemption
-    res = simulate([Task("hi", 1, 10, priority=1, offset=0.3), Task("lo", 0.1 + 0.2, 100,
-                                                                     priority=2)],
-                   5, record_jobs=True, record_trace=True)
+    res = simulate(
+        [Task("hi", 1, 10, priority=1, offset=0.3), Task("lo", 0.1 + 0.2, 100, priority=2)],
+        5,
+        record_jobs=True,
+        record_trace=True,
+    )
     lo = _rows(res.jobs, "lo")
     assert lo.loc[0, "preemptions"] == 0
     assert len(res.trace[res.trace["task"] == "lo"]) == 1
 
 
 def test_simultaneous_releases_run_in_priority_order_and_hooks_in_that_order():
-    tasks = [Task("c", 1, 10, priority=3), Task("a", 1, 10, priority=1),
-             Task("b", 1, 10, priority=2)]
+    tasks = [
+        Task("c", 1, 10, priority=3),
+        Task("a", 1, 10, priority=1),
+        Task("b", 1, 10, priority=2),
+    ]
     cpu = CPU()
     log = []
     for t in tasks:
@@ -69,8 +89,14 @@ def test_simultaneous_releases_run_in_priority_order_and_hooks_in_that_order():
     cpu.on("release", lambda job: log.append(("rel", job.name, cpu.env.now)))
     cpu.on("segment_start", lambda job, seg: log.append(("start", job.name, cpu.env.now)))
     cpu.env.run(until=cpu.start(5))
-    assert log == [("rel", "a", 0), ("rel", "b", 0), ("rel", "c", 0),
-                   ("start", "a", 0), ("start", "b", 1), ("start", "c", 2)]
+    assert log == [
+        ("rel", "a", 0),
+        ("rel", "b", 0),
+        ("rel", "c", 0),
+        ("start", "a", 0),
+        ("start", "b", 1),
+        ("start", "c", 2),
+    ]
 
 
 def test_hook_order_at_a_segment_boundary_with_a_release():
@@ -89,26 +115,40 @@ def test_hook_order_at_a_segment_boundary_with_a_release():
     cpu.on("job_end", lambda j: log.append((now(), "job_end", j.name)))
     cpu.env.run(until=cpu.start(10))
     assert log == [
-        (0, "release", "lo"), (0, "start", "lo", "A"), (2, "end", "lo", "A"),
-        (2, "release", "hi"), (2, "start", "hi", "hi"), (3, "end", "hi", "hi"),
-        (3, "job_end", "hi"), (3, "start", "lo", "B"), (5, "end", "lo", "B"),
-        (5, "job_end", "lo")]
+        (0, "release", "lo"),
+        (0, "start", "lo", "A"),
+        (2, "end", "lo", "A"),
+        (2, "release", "hi"),
+        (2, "start", "hi", "hi"),
+        (3, "end", "hi", "hi"),
+        (3, "job_end", "hi"),
+        (3, "start", "lo", "B"),
+        (5, "end", "lo", "B"),
+        (5, "job_end", "lo"),
+    ]
     jobs = cpu.result().jobs
     assert _rows(jobs, "lo").loc[0, "preemptions"] == 1
 
 
 def test_hook_filters_and_exec_time_callable_after_start_hooks():
     # The "hough" time is computed from what the "scan" start hook saw (the coupling case).
-    segs = (Segment("scan", 3, role="scan"), Segment("hough", 10, role="hough"),
-            Segment("send[1]", 1, role="send", follower=1))
+    segs = (
+        Segment("scan", 3, role="scan"),
+        Segment("hough", 10, role="hough"),
+        Segment("send[1]", 1, role="send", follower=1),
+    )
     chain = Task("window", 14, 50, priority=1, segments=segs)
     cpu = CPU(record_jobs=True, record_trace=True)
     cpu.add_task(chain)
     seen = {}
     sends = []
     cpu.on("segment_start", lambda j, s: seen.__setitem__(j.index, cpu.env.now), role="scan")
-    cpu.on("segment_end", lambda j, s: sends.append((j.index, s.follower, cpu.env.now)),
-           task="window", segment="send[1]")
+    cpu.on(
+        "segment_end",
+        lambda j, s: sends.append((j.index, s.follower, cpu.env.now)),
+        task="window",
+        segment="send[1]",
+    )
     cpu.set_exec_time("window", "hough", lambda job, seg, rng: 2.0 + seen[job.index] / 50.0)
     cpu.env.run(until=cpu.start(100))
     tr = cpu.result().trace
@@ -119,8 +159,13 @@ def test_hook_filters_and_exec_time_callable_after_start_hooks():
 
 
 def test_idle_suspension_frees_the_cpu_cpu_mode_holds_it():
-    chain = Task("chain", 8, 100, priority=1,
-                 segments=(Segment("a", 2), Segment("radio", 5, "suspend"), Segment("b", 1)))
+    chain = Task(
+        "chain",
+        8,
+        100,
+        priority=1,
+        segments=(Segment("a", 2), Segment("radio", 5, "suspend"), Segment("b", 1)),
+    )
     low = Task("low", 4, 100, priority=2)
     idle = simulate([chain, low], 50, suspension="idle", record_jobs=True, record_trace=True)
     # idle: chain 0-2, radio 2-7 (CPU free: low 2-6), chain b 7-8
@@ -136,8 +181,9 @@ def test_idle_suspension_frees_the_cpu_cpu_mode_holds_it():
 
 def test_cpu_mode_suspension_is_preemptible():
     # chain (priority 2): a 1, radio 4 (as CPU time); hi (1, every 3) preempts it.
-    chain = Task("chain", 5, 100, priority=2,
-                 segments=(Segment("a", 1), Segment("radio", 4, "suspend")))
+    chain = Task(
+        "chain", 5, 100, priority=2, segments=(Segment("a", 1), Segment("radio", 4, "suspend"))
+    )
     hi = Task("hi", 1, 3, priority=1, offset=2)
     res = simulate([chain, hi], 9, suspension="cpu", record_jobs=True, record_trace=True)
     # chain 0-1 a, 1-2 radio, hi 2-3, radio 3-5, hi 5-6, radio 6-7 -> finish 7
@@ -167,8 +213,9 @@ def test_finish_late_backlog_is_fifo():
 def test_abort_at_deadline_before_release_at_same_instant():
     # e=3, p=d=2, abort: every job runs 2 ms and is aborted at its deadline, where the next
     # release comes after the abort (backlog never above 1).
-    res = simulate([Task("t", 3, 2, priority=1, overload="abort")], 8, record_jobs=True,
-                   record_trace=True)
+    res = simulate(
+        [Task("t", 3, 2, priority=1, overload="abort")], 8, record_jobs=True, record_trace=True
+    )
     s = res.tasks["t"]
     assert (s.released, s.completed, s.aborted, s.misses, s.max_backlog) == (4, 0, 4, 4, 1)
     assert list(res.jobs["exec_time"]) == [2.0] * 4
@@ -200,8 +247,13 @@ def test_skip_releases_while_pending():
 def test_overhead_charged_on_every_switch():
     # overhead 0.5: hi (1, 10), lo (3, 10); at 0 hi runs 0-1.5 (0.5 switch + 1),
     # lo 1.5-5 (0.5 + 3). Two switches per period.
-    res = simulate([Task("hi", 1, 10, priority=1), Task("lo", 3, 10, priority=2)], 20,
-                   overhead=0.5, record_jobs=True, record_trace=True)
+    res = simulate(
+        [Task("hi", 1, 10, priority=1), Task("lo", 3, 10, priority=2)],
+        20,
+        overhead=0.5,
+        record_jobs=True,
+        record_trace=True,
+    )
     assert list(_rows(res.jobs, "lo")["finish"]) == [5.0, 15.0]
     assert res.context_switches == 4
     ovh = res.trace[res.trace["kind"] == "overhead"]
@@ -211,10 +263,24 @@ def test_overhead_charged_on_every_switch():
 
 def test_dynamic_window_period_provider_and_per_window_task():
     # window chain with w = 100, 120, 130, ...; command (per window, 2w) at its releases
-    spec = WindowSpec(n=1, r_H=10, e_cal=0.0, e_trans=0.0, k=1, e_scan=5, e_estimate=1,
-                      e_send=1, e_recv=1, delta_t=2, e_sched=0, priority=2)
-    ts = TaskSet((Task("dr", 1, 40, priority=1), Task("command", 3, 2, per_window=True,
-                                                      priority=3)), window=spec)
+    spec = WindowSpec(
+        n=1,
+        r_H=10,
+        e_cal=0.0,
+        e_trans=0.0,
+        k=1,
+        e_scan=5,
+        e_estimate=1,
+        e_send=1,
+        e_recv=1,
+        delta_t=2,
+        e_sched=0,
+        priority=2,
+    )
+    ts = TaskSet(
+        (Task("dr", 1, 40, priority=1), Task("command", 3, 2, per_window=True, priority=3)),
+        window=spec,
+    )
     ws = iter([100.0, 120.0, 130.0, 140.0, 150.0, 160.0])
     res = simulate(ts, 400, window=lambda: next(ws), record_jobs=True)
     win = _rows(res.jobs, "window")
@@ -259,8 +325,11 @@ def test_shared_environment_with_a_world_process():
 
 
 def test_stats_without_job_records_match_the_job_table():
-    ts = [Task("a", 1, 4, priority=1, bcet=0.2), Task("b", 3, 7, priority=2, bcet=1),
-          Task("c", 2, 13, priority=3, bcet=0.5)]
+    ts = [
+        Task("a", 1, 4, priority=1, bcet=0.2),
+        Task("b", 3, 7, priority=2, bcet=1),
+        Task("c", 2, 13, priority=3, bcet=0.5),
+    ]
     with_jobs = simulate(ts, 500, exec_model="uniform", seed=3, record_jobs=True)
     without = simulate(ts, 500, exec_model="uniform", seed=3)
     assert without.jobs is None
@@ -279,11 +348,15 @@ def test_stats_without_job_records_match_the_job_table():
 
 def test_response_within_eps_of_deadline_is_not_a_miss():
     # lo's response 2 + 2 = 4 == deadline 4 exactly: met
-    res = simulate([Task("hi", 2, 5, priority=1), Task("lo", 2, 10, deadline=4, priority=2)],
-                   10, record_jobs=True)
+    res = simulate(
+        [Task("hi", 2, 5, priority=1), Task("lo", 2, 10, deadline=4, priority=2)],
+        10,
+        record_jobs=True,
+    )
     assert res.tasks["lo"].misses == 0
-    res = simulate([Task("hi", 2, 5, priority=1),
-                    Task("lo", 2, 10, deadline=4 - 1e-6, priority=2)], 10)
+    res = simulate(
+        [Task("hi", 2, 5, priority=1), Task("lo", 2, 10, deadline=4 - 1e-6, priority=2)], 10
+    )
     assert res.tasks["lo"].misses == 1
 
 
@@ -291,18 +364,28 @@ def test_to_json_has_the_cli_keys():
     res = simulate([Task("a", 1, 4, priority=1)], 40)
     out = res.to_json()
     entry = out["tasks"][0]
-    for key in ("name", "released", "jobs", "aborted", "skipped", "max_response",
-                "mean_response", "misses"):
+    for key in (
+        "name",
+        "released",
+        "jobs",
+        "aborted",
+        "skipped",
+        "max_response",
+        "mean_response",
+        "misses",
+    ):
         assert key in entry
     assert entry["jobs"] == 10 and entry["released"] == 10
 
 
 @pytest.mark.parametrize(
     ("kwargs", "match"),
-    [({"suspension": "nap"}, "suspension must be"),
-     ({"overhead": -1.0}, "overhead must be"),
-     ({"exec_model": "gauss"}, "exec model: must be one of"),
-     ({"seed": -3}, "seed must be")],
+    [
+        ({"suspension": "nap"}, "suspension must be"),
+        ({"overhead": -1.0}, "overhead must be"),
+        ({"exec_model": "gauss"}, "exec model: must be one of"),
+        ({"seed": -3}, "seed must be"),
+    ],
 )
 def test_bad_arguments(kwargs, match):
     with pytest.raises(InputError, match=match):
@@ -312,8 +395,20 @@ def test_bad_arguments(kwargs, match):
 def test_bad_exec_time_and_provider_are_reported():
     with pytest.raises(RtsimError, match="segment 'a': execution time must be"):
         simulate([Task("a", 1, 4)], 10, exec_model=lambda job, seg, rng: -1.0)
-    spec = WindowSpec(n=1, r_H=10, e_cal=0.0, e_trans=0.0, k=1, e_scan=5, e_estimate=1,
-                      e_send=1, e_recv=1, delta_t=2, e_sched=0, priority=1)
+    spec = WindowSpec(
+        n=1,
+        r_H=10,
+        e_cal=0.0,
+        e_trans=0.0,
+        k=1,
+        e_scan=5,
+        e_estimate=1,
+        e_send=1,
+        e_recv=1,
+        delta_t=2,
+        e_sched=0,
+        priority=1,
+    )
     with pytest.raises(RtsimError, match="period provider returned 0"):
         simulate(TaskSet((), window=spec), 100, window=lambda: 0)
     with pytest.raises(InputError, match="horizon must be"):
@@ -335,20 +430,35 @@ def test_cpu_rejects_duplicate_priorities_and_names():
 
 def test_window_in_force_and_constrained_per_window_deadline():
     # cmd: period 2w, deadline 1.5w; the CPU exposes the w in force to hooks
-    spec = WindowSpec(n=1, r_H=10, e_cal=0.0, e_trans=0.0, k=1, e_scan=5, e_estimate=1,
-                      e_send=1, e_recv=1, delta_t=2, e_sched=0, priority=1)
+    spec = WindowSpec(
+        n=1,
+        r_H=10,
+        e_cal=0.0,
+        e_trans=0.0,
+        k=1,
+        e_scan=5,
+        e_estimate=1,
+        e_send=1,
+        e_recv=1,
+        delta_t=2,
+        e_sched=0,
+        priority=1,
+    )
     cmd = Task("cmd", 3, 2, deadline=1.5, per_window=True, priority=2)
     from rtsim.sim import build_cpu
 
     ws = iter([50.0, 60.0, 70.0, 80.0, 90.0])
-    cpu, info = build_cpu(TaskSet((cmd,), window=spec), window=lambda: next(ws),
-                          record_jobs=True)
+    cpu, info = build_cpu(TaskSet((cmd,), window=spec), window=lambda: next(ws), record_jobs=True)
     seen = []
     cpu.on("release", lambda j: seen.append((j.name, cpu.env.now, cpu.window)))
     cpu.env.run(until=cpu.start(200))
     assert info == {"mode": "dynamic"}
-    assert seen[:4] == [("window", 0, 50.0), ("cmd", 0, 50.0), ("window", 50, 60.0),
-                        ("cmd", 100, 60.0)]
+    assert seen[:4] == [
+        ("window", 0, 50.0),
+        ("cmd", 0, 50.0),
+        ("window", 50, 60.0),
+        ("cmd", 100, 60.0),
+    ]
     c = _rows(cpu.result().jobs, "cmd")
     assert list(c["deadline"] - c["release"]) == [75.0, 90.0]
     assert cpu.stats("cmd").released == 2

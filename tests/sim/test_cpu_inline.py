@@ -37,41 +37,70 @@ class Spec:
 @st.composite
 def specs(draw: st.DrawFn) -> Spec:
     period = float(draw(st.integers(4, 40)))
-    top = Task("top", draw(st.sampled_from([0.5, 1.0, 2.0, 5.0, 3.3])), period, priority=1,
-               offset=draw(st.floats(0, period, exclude_max=True)) if draw(st.booleans())
-               else 0.0)
+    top = Task(
+        "top",
+        draw(st.sampled_from([0.5, 1.0, 2.0, 5.0, 3.3])),
+        period,
+        priority=1,
+        offset=draw(st.floats(0, period, exclude_max=True)) if draw(st.booleans()) else 0.0,
+    )
     others = []
     for k in range(draw(st.integers(0, 3))):
         segs = tuple(
-            Segment(f"s{i}", draw(st.sampled_from([0.5, 1.0, 1.5, 2.0, 3.0, 4.5, 0.1])),
-                    draw(st.sampled_from(["compute", "compute", "suspend"])))
-            for i in range(draw(st.integers(1, 3))))
+            Segment(
+                f"s{i}",
+                draw(st.sampled_from([0.5, 1.0, 1.5, 2.0, 3.0, 4.5, 0.1])),
+                draw(st.sampled_from(["compute", "compute", "suspend"])),
+            )
+            for i in range(draw(st.integers(1, 3)))
+        )
         p = float(draw(st.integers(4, 30))) + draw(st.sampled_from([0.0, 0.1, 1 / 3]))
-        others.append(Task(f"t{k}", sum(s.wcet for s in segs), p, priority=k + 3,
-                           offset=draw(st.floats(0, p, exclude_max=True)), segments=segs,
-                           overload=draw(st.sampled_from(["finish-late", "finish-late",
-                                                          "skip", "abort"]))))
+        others.append(
+            Task(
+                f"t{k}",
+                sum(s.wcet for s in segs),
+                p,
+                priority=k + 3,
+                offset=draw(st.floats(0, p, exclude_max=True)),
+                segments=segs,
+                overload=draw(st.sampled_from(["finish-late", "finish-late", "skip", "abort"])),
+            )
+        )
     window = per_window = None
     periods: list[float] = []
     if draw(st.booleans()):
         segs = (Segment("scan", 3.0), Segment("radio", 4.0, "suspend"), Segment("recv", 1.0))
         window = Task("win", 8.0, 10.0, priority=2, segments=segs)
-        periods = draw(st.lists(st.sampled_from([10.0, 12.0, 15.5, 40.0, 7.0]), min_size=1,
-                                max_size=4))
+        periods = draw(
+            st.lists(st.sampled_from([10.0, 12.0, 15.5, 40.0, 7.0]), min_size=1, max_size=4)
+        )
         if draw(st.booleans()):
             per_window = Task("lp", 2.5, 2.0, priority=99, per_window=True)
-    fracs = draw(st.lists(st.sampled_from([0.0, 0.25, 0.5, 1.0]) | st.floats(0, 1),
-                          min_size=1, max_size=5))
+    fracs = draw(
+        st.lists(st.sampled_from([0.0, 0.25, 0.5, 1.0]) | st.floats(0, 1), min_size=1, max_size=5)
+    )
     probes = draw(st.lists(st.floats(0, 150), max_size=4))
-    return Spec(top, others, window, periods, per_window, fracs,
-                float(draw(st.integers(20, 150))), draw(st.sampled_from(["cpu", "idle"])),
-                probes)
+    return Spec(
+        top,
+        others,
+        window,
+        periods,
+        per_window,
+        fracs,
+        float(draw(st.integers(20, 150))),
+        draw(st.sampled_from(["cpu", "idle"])),
+        probes,
+    )
 
 
 def run(spec: Spec, inline: bool, scheduler: str = "fp") -> dict[str, Any]:
     env = simpy.Environment()
-    cpu = CPU(env, suspension=spec.mode, record_jobs=True,  # type: ignore[arg-type]
-              scheduler=scheduler)
+    cpu = CPU(
+        env,
+        suspension=spec.mode,
+        record_jobs=True,  # type: ignore[arg-type]
+        scheduler=scheduler,
+    )
     cpu.add_task(spec.top)
     if spec.window is not None:
         cyc = itertools.cycle(spec.periods)
@@ -84,15 +113,40 @@ def run(spec: Spec, inline: bool, scheduler: str = "fp") -> dict[str, Any]:
 
     def seg_hook(event: str):  # noqa: ANN202
         def h(job, seg) -> None:  # noqa: ANN001
-            log.append((event, job.name, job.index, seg.name, env.now, job.start,
-                        job.seg_start, job.rem, job.executed, job.preemptions,
-                        cpu.stats("top").completed, cpu.stats("top").sum_response))
+            log.append(
+                (
+                    event,
+                    job.name,
+                    job.index,
+                    seg.name,
+                    env.now,
+                    job.start,
+                    job.seg_start,
+                    job.rem,
+                    job.executed,
+                    job.preemptions,
+                    cpu.stats("top").completed,
+                    cpu.stats("top").sum_response,
+                )
+            )
+
         return h
 
     def job_hook(event: str):  # noqa: ANN202
         def h(job) -> None:  # noqa: ANN001
-            log.append((event, job.name, job.index, env.now, job.executed, job.preemptions,
-                        cpu.window, cpu.stats("top").completed))
+            log.append(
+                (
+                    event,
+                    job.name,
+                    job.index,
+                    env.now,
+                    job.executed,
+                    job.preemptions,
+                    cpu.window,
+                    cpu.stats("top").completed,
+                )
+            )
+
         return h
 
     # hooks on every task but the top one (a hook on it switches the inline path off)
@@ -104,9 +158,11 @@ def run(spec: Spec, inline: bool, scheduler: str = "fp") -> dict[str, Any]:
             cpu.on(ev, job_hook(ev), task=name)  # type: ignore[arg-type]
     for t in spec.others:
         for i, s in enumerate(t.segments):
+
             def fn(job, seg, rng, i=i, t=t) -> float:  # noqa: ANN001
                 frac = spec.fracs[(job.index * 3 + i + 5 * int(t.name[1:])) % len(spec.fracs)]
                 return seg.wcet * frac
+
             cpu.set_exec_time(t.name, s.name, fn)
     if not inline:
         cpu.on("job_end", lambda job: None, task="top")
@@ -116,17 +172,29 @@ def run(spec: Spec, inline: bool, scheduler: str = "fp") -> dict[str, Any]:
         for t in sorted(spec.probes):
             yield env.timeout(t - last)
             last = t
-            log.append(("probe", env.now, cpu.stats("top").completed,
-                        cpu.stats("top").sum_response, cpu.result().busy_time))
+            log.append(
+                (
+                    "probe",
+                    env.now,
+                    cpu.stats("top").completed,
+                    cpu.stats("top").sum_response,
+                    cpu.result().busy_time,
+                )
+            )
 
     env.process(prober())
     proc = cpu.start(spec.horizon)
     env.run(until=proc)
     res = cpu.result()
-    return {"jobs": res.jobs, "log": log,
-            "stats": [(s.as_dict(), s.histogram.as_dict() if s.histogram else None)
-                      for s in res.tasks.values()],
-            "facts": (res.busy_time, res.context_switches, res.end_time, env.now)}
+    return {
+        "jobs": res.jobs,
+        "log": log,
+        "stats": [
+            (s.as_dict(), s.histogram.as_dict() if s.histogram else None)
+            for s in res.tasks.values()
+        ],
+        "facts": (res.busy_time, res.context_switches, res.end_time, env.now),
+    }
 
 
 def assert_same(a: dict[str, Any], b: dict[str, Any]) -> None:
@@ -135,8 +203,10 @@ def assert_same(a: dict[str, Any], b: dict[str, Any]) -> None:
     assert a["facts"] == b["facts"]  # exact floats
     assert len(a["log"]) == len(b["log"])
     for x, y in zip(a["log"], b["log"], strict=True):
-        assert x == y or all(u == v or (isinstance(u, float) and math.isnan(u) and math.isnan(v))
-                             for u, v in zip(x, y, strict=True)), (x, y)
+        assert x == y or all(
+            u == v or (isinstance(u, float) and math.isnan(u) and math.isnan(v))
+            for u, v in zip(x, y, strict=True)
+        ), (x, y)
 
 
 @settings(max_examples=100, deadline=None)
@@ -150,8 +220,7 @@ def test_inline_top_jobs_are_unobservable(spec: Spec) -> None:
 def test_inline_top_jobs_are_unobservable_under_edf(spec: Spec) -> None:
     """Under EDF the top task's job is booked inline only when it comes first (its deadline,
     then creation order) and preempts; the job after it is the first of the others."""
-    assert_same(run(spec, inline=True, scheduler="edf"),
-                run(spec, inline=False, scheduler="edf"))
+    assert_same(run(spec, inline=True, scheduler="edf"), run(spec, inline=False, scheduler="edf"))
 
 
 def test_inline_path_is_taken_and_exact(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -164,12 +233,28 @@ def test_inline_path_is_taken_and_exact(monkeypatch: pytest.MonkeyPatch) -> None
 
     monkeypatch.setattr(CPU, "_inline_top", counting)
     # the paper's set at w = 240: dead reckoning (5, 40) above the window chain, T_lp below
-    spec = Spec(Task("top", 5.0, 40.0, priority=1),
-                [Task("t0", 25.0, 480.0, priority=3)],
-                Task("win", 182.3, 240.0, priority=2,
-                     segments=(Segment("scan", 106.0), Segment("hough", 7.3),
-                               Segment("radio", 67.0, "suspend"), Segment("recv", 2.0))),
-                [240.0, 236.7, 251.1], None, [1.0, 0.7], 5000.0, "idle", [13.0, 333.3])
+    spec = Spec(
+        Task("top", 5.0, 40.0, priority=1),
+        [Task("t0", 25.0, 480.0, priority=3)],
+        Task(
+            "win",
+            182.3,
+            240.0,
+            priority=2,
+            segments=(
+                Segment("scan", 106.0),
+                Segment("hough", 7.3),
+                Segment("radio", 67.0, "suspend"),
+                Segment("recv", 2.0),
+            ),
+        ),
+        [240.0, 236.7, 251.1],
+        None,
+        [1.0, 0.7],
+        5000.0,
+        "idle",
+        [13.0, 333.3],
+    )
     a = run(spec, inline=True)
     n_inline = len(calls)
     b = run(spec, inline=False)
@@ -188,5 +273,9 @@ def test_inline_path_is_taken_and_exact(monkeypatch: pytest.MonkeyPatch) -> None
     assert n_edf > 10
     # hand check: job 1 is released at 40 and runs 40..45 alone (the scan runs 0+5..111)
     row = top[top["job"] == 1].iloc[0]
-    assert (row["start"], row["finish"], row["response"], row["exec_time"]) == \
-        (40.0, 45.0, 5.0, 5.0)
+    assert (row["start"], row["finish"], row["response"], row["exec_time"]) == (
+        40.0,
+        45.0,
+        5.0,
+        5.0,
+    )

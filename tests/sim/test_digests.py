@@ -18,8 +18,21 @@ from rtsim.io.taskset import load_taskset
 from rtsim.model.task import Task
 from rtsim.sim import simulate
 
-COLS = ["task", "job", "release", "start", "finish", "response", "deadline", "period",
-        "missed", "preemptions", "aborted", "skipped", "exec_time"]
+COLS = [
+    "task",
+    "job",
+    "release",
+    "start",
+    "finish",
+    "response",
+    "deadline",
+    "period",
+    "missed",
+    "preemptions",
+    "aborted",
+    "skipped",
+    "exec_time",
+]
 
 
 def _plain(x: object) -> object:
@@ -54,15 +67,23 @@ def test_job_records_are_unchanged():
     ts = load_taskset()
     h = hashlib.sha256()
     for susp in ("cpu", "idle"):
-        r = simulate(ts, 20 * 240.0, window=240.0, suspension=susp, exec_model="uniform", seed=3,
-                     record_jobs=True)
+        r = simulate(
+            ts,
+            20 * 240.0,
+            window=240.0,
+            suspension=susp,
+            exec_model="uniform",
+            seed=3,
+            record_jobs=True,
+        )
         assert (r.jobs["arrival"] == r.jobs["release"]).all()
         _digest_jobs(h, r.jobs)
-    tasks = [Task("a", 1.5, 6.0, priority=1, offset=0.7, bcet=0.2),
-             Task("b", 2.25, 9.0, priority=2, bcet=1.0),
-             Task("c", 3.1, 20.0, 18.0, priority=3, offset=2.0)]
-    _digest_jobs(h, simulate(tasks, 5000.0, exec_model="uniform", seed=9,
-                             record_jobs=True).jobs)
+    tasks = [
+        Task("a", 1.5, 6.0, priority=1, offset=0.7, bcet=0.2),
+        Task("b", 2.25, 9.0, priority=2, bcet=1.0),
+        Task("c", 3.1, 20.0, 18.0, priority=3, offset=2.0),
+    ]
+    _digest_jobs(h, simulate(tasks, 5000.0, exec_model="uniform", seed=9, record_jobs=True).jobs)
     assert h.hexdigest()[:16] == JOBS
 
 

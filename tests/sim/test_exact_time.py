@@ -73,8 +73,20 @@ def test_coincidence_window_is_absolute_then_sixteen_ulps():
 
 def test_reproducer_of_release_drift_runs_clean_for_ten_hours(capsys: pytest.CaptureFixture[str]):
     # before exact time: 2 misses of the command task within 36e6 ms at w_rta (R = D)
-    assert main(["simulate", "tasksets/barrel_robots.toml", "--window", repr(W_RTA),
-                 "--horizon", "36000000", "--json"]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "tasksets/barrel_robots.toml",
+                "--window",
+                repr(W_RTA),
+                "--horizon",
+                "36000000",
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert out["misses"] == 0
     cmd = next(t for t in out["tasks"] if t["name"] == "command")
@@ -88,7 +100,6 @@ def test_1e8_ms_at_the_least_window_has_no_miss(scheduler: str, w: float):
     # compensated segment ends the window job's rounding pushed later jobs 3e-4 ms past
     # their deadlines; under FP at w_rta the command's R = D needed a coincidence window
     # wider than 1e-9 ms beyond 2^25 ms
-    res = simulate(load_taskset("tasksets/barrel_robots.toml"), 1e8, window=w,
-                   scheduler=scheduler)
+    res = simulate(load_taskset("tasksets/barrel_robots.toml"), 1e8, window=w, scheduler=scheduler)
     assert res.misses == 0
     assert res.busy_time == pytest.approx(res.end_time, rel=1e-2)  # a busy run indeed

@@ -13,13 +13,38 @@ from rtsim.sim import WCET, Empirical, Uniform, simulate, task_rngs
 
 
 def test_public_api_is_pinned():
-    assert sorted(rtsim.sim.__all__) == sorted([
-        "CPU", "EPS", "Empirical", "ExecModel", "HOOK_EVENTS", "HookEvent", "JOB_COLUMNS",
-        "Job", "ResponseHistogram", "SimResult", "TRACE_COLUMNS", "TaskStats", "Uniform",
-        "WCET", "build_cpu", "resolve_exec_model", "resolve_window", "simulate",
-        "task_rngs", "EarliestDeadlineFirst", "FixedPriority", "POLICIES", "SCHEDULERS",
-        "SchedulingPolicy", "register_policy", "resolve_policy", "register_scheduler",
-        "resolve_scheduler"])
+    assert sorted(rtsim.sim.__all__) == sorted(
+        [
+            "CPU",
+            "EPS",
+            "Empirical",
+            "ExecModel",
+            "HOOK_EVENTS",
+            "HookEvent",
+            "JOB_COLUMNS",
+            "Job",
+            "ResponseHistogram",
+            "SimResult",
+            "TRACE_COLUMNS",
+            "TaskStats",
+            "Uniform",
+            "WCET",
+            "build_cpu",
+            "resolve_exec_model",
+            "resolve_window",
+            "simulate",
+            "task_rngs",
+            "EarliestDeadlineFirst",
+            "FixedPriority",
+            "POLICIES",
+            "SCHEDULERS",
+            "SchedulingPolicy",
+            "register_policy",
+            "resolve_policy",
+            "register_scheduler",
+            "resolve_scheduler",
+        ]
+    )
     for name in rtsim.sim.__all__:
         assert hasattr(rtsim.sim, name)
 
@@ -36,8 +61,13 @@ def test_wcet_is_the_default():
 
 def test_uniform_bounds_and_mean():
     # task bcet 1, wcet 3: draws in [1, 3], mean 2 (sd 1/sqrt(3)); 2000 jobs -> 4 sigma 0.052
-    res = simulate([Task("a", 3, 10, priority=1, bcet=1)], 20_000, exec_model="uniform",
-                   seed=1, record_jobs=True)
+    res = simulate(
+        [Task("a", 3, 10, priority=1, bcet=1)],
+        20_000,
+        exec_model="uniform",
+        seed=1,
+        record_jobs=True,
+    )
     x = np.array(_exec_times(res, "a"))
     assert len(x) == 2000
     assert x.min() >= 1 and x.max() <= 3
@@ -56,24 +86,24 @@ def test_uniform_segment_bcets():
     assert np.allclose(x["end"] - x["start"], 4.0)
     dy = (y["end"] - y["start"]).to_numpy()
     assert dy.min() >= 1.0 and dy.max() <= 2.0 and dy.std() > 0
-    res2 = simulate([Task("d", 6, 100, priority=1)], 500, exec_model="uniform",
-                    record_jobs=True)
+    res2 = simulate([Task("d", 6, 100, priority=1)], 500, exec_model="uniform", record_jobs=True)
     assert _exec_times(res2, "d") == [6.0] * 5
 
 
 def test_same_seed_same_trace_other_seed_differs():
-    ts = [Task("a", 2, 7, priority=1, bcet=0.5), Task("b", 4, 11, priority=2, bcet=1),
-          Task("c", 3, 17, priority=3, bcet=0.1)]
+    ts = [
+        Task("a", 2, 7, priority=1, bcet=0.5),
+        Task("b", 4, 11, priority=2, bcet=1),
+        Task("c", 3, 17, priority=3, bcet=0.1),
+    ]
     r1 = simulate(ts, 500, exec_model="uniform", seed=42, record_trace=True, record_jobs=True)
     r2 = simulate(ts, 500, exec_model="uniform", seed=42, record_trace=True, record_jobs=True)
     r3 = simulate(ts, 500, exec_model="uniform", seed=43, record_trace=True)
     pd.testing.assert_frame_equal(r1.trace, r2.trace)
     pd.testing.assert_frame_equal(r1.jobs, r2.jobs)
     assert not r1.trace.equals(r3.trace)
-    g1 = simulate(ts, 500, exec_model="uniform", seed=np.random.default_rng(5),
-                  record_jobs=True)
-    g2 = simulate(ts, 500, exec_model="uniform", seed=np.random.default_rng(5),
-                  record_jobs=True)
+    g1 = simulate(ts, 500, exec_model="uniform", seed=np.random.default_rng(5), record_jobs=True)
+    g2 = simulate(ts, 500, exec_model="uniform", seed=np.random.default_rng(5), record_jobs=True)
     pd.testing.assert_frame_equal(g1.jobs, g2.jobs)
 
 
@@ -88,18 +118,18 @@ def test_adding_a_task_does_not_reshuffle_the_others():
     assert _exec_times(r2, "b") == pytest.approx(_exec_times(r1, "b"), rel=1e-12)
     # and the per-task stream is what task_rngs documents
     rng = task_rngs(7, ["a"])["a"]
-    assert _exec_times(r1, "a")[:3] == pytest.approx(list(rng.uniform(0.5, 2.0, size=3)),
-                                                    rel=1e-12)
+    assert _exec_times(r1, "a")[:3] == pytest.approx(list(rng.uniform(0.5, 2.0, size=3)), rel=1e-12)
 
 
 def test_empirical_replay_and_bootstrap(tmp_path):
     csv = tmp_path / "times.csv"
-    csv.write_text("task,segment,exec_time\na,,1.0\na,,2.0\na,,1.5\n"
-                   "c,x,0.5\nc,x,0.25\n")
+    csv.write_text("task,segment,exec_time\na,,1.0\na,,2.0\na,,1.5\nc,x,0.5\nc,x,0.25\n")
     model = Empirical.from_csv(csv)
     assert model.samples[("a", "a")] == (1.0, 2.0, 1.5)
-    ts = [Task("a", 3, 10, priority=1),
-          Task("c", 3, 10, priority=2, segments=(Segment("x", 1), Segment("y", 2)))]
+    ts = [
+        Task("a", 3, 10, priority=1),
+        Task("c", 3, 10, priority=2, segments=(Segment("x", 1), Segment("y", 2))),
+    ]
     res = simulate(ts, 70, exec_model=model, record_jobs=True, record_trace=True)
     assert _exec_times(res, "a") == [1.0, 2.0, 1.5, 1.0, 2.0, 1.5, 1.0]
     tr = res.trace
@@ -117,16 +147,19 @@ def test_empirical_replay_and_bootstrap(tmp_path):
 def test_empirical_without_segment_column(tmp_path):
     csv = tmp_path / "t.csv"
     csv.write_text("task,exec_time\na,0.5\n")
-    res = simulate([Task("a", 3, 10, priority=1)], 30, exec_model=Empirical.from_csv(csv),
-                   record_jobs=True)
+    res = simulate(
+        [Task("a", 3, 10, priority=1)], 30, exec_model=Empirical.from_csv(csv), record_jobs=True
+    )
     assert _exec_times(res, "a") == [0.5] * 3
 
 
 @pytest.mark.parametrize(
     ("text", "match"),
-    [("task,time\na,1\n", "missing column 'exec_time'"),
-     ("task,exec_time\na,-1\n", "row 2: exec_time must be a non-negative number"),
-     ("task,exec_time\na,fast\n", "row 2: exec_time must be")],
+    [
+        ("task,time\na,1\n", "missing column 'exec_time'"),
+        ("task,exec_time\na,-1\n", "row 2: exec_time must be a non-negative number"),
+        ("task,exec_time\na,fast\n", "row 2: exec_time must be"),
+    ],
 )
 def test_empirical_bad_files(tmp_path, text, match):
     csv = tmp_path / "bad.csv"

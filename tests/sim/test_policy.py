@@ -43,8 +43,9 @@ def np_fp():
     POLICIES.pop("np-fp", None)
 
 
-def rows(res: Any, cols: tuple[str, ...] = ("task", "job", "start", "finish",
-                                           "preemptions")) -> list[tuple]:
+def rows(
+    res: Any, cols: tuple[str, ...] = ("task", "job", "start", "finish", "preemptions")
+) -> list[tuple]:
     df = res.jobs.sort_values(["start", "task"])
     return [tuple(r) for r in df[list(cols)].itertuples(index=False)]
 
@@ -57,9 +58,12 @@ def test_registry_and_resolution(np_fp):
     assert isinstance(resolve_policy("test_sim_policy:NonPreemptiveFP"), NonPreemptiveFP)
     pol = EarliestDeadlineFirst()
     assert resolve_policy(pol) is pol
-    with pytest.raises(InputError, match=r"--scheduler: must be one of fp, edf, np-fp or "
-                                         r"'package.module:Name', got 'edd' "
-                                         r"\(did you mean 'edf'\?\)"):
+    with pytest.raises(
+        InputError,
+        match=r"--scheduler: must be one of fp, edf, np-fp or "
+        r"'package.module:Name', got 'edd' "
+        r"\(did you mean 'edf'\?\)",
+    ):
         resolve_policy("edd", where="--scheduler")
     with pytest.raises(InputError, match="cannot load 'nosuchmod:X'"):
         resolve_policy("nosuchmod:X")
@@ -78,10 +82,20 @@ def test_edf_hand_schedule():
     ts = [Task("a", 2, 5, priority=2), Task("b", 4, 7, priority=1)]
     res = simulate(ts, 35, scheduler="edf", record_jobs=True)
     assert res.misses == 0 and res.scheduler == "edf"
-    assert rows(res) == [("a", 0, 0, 2, 0), ("b", 0, 2, 6, 0), ("a", 1, 6, 8, 0),
-                         ("b", 1, 8, 12, 0), ("a", 2, 12, 14, 0), ("b", 2, 14, 20, 1),
-                         ("a", 3, 15, 17, 0), ("a", 4, 20, 22, 0), ("b", 3, 22, 26, 0),
-                         ("a", 5, 26, 28, 0), ("b", 4, 28, 32, 0), ("a", 6, 32, 34, 0)]
+    assert rows(res) == [
+        ("a", 0, 0, 2, 0),
+        ("b", 0, 2, 6, 0),
+        ("a", 1, 6, 8, 0),
+        ("b", 1, 8, 12, 0),
+        ("a", 2, 12, 14, 0),
+        ("b", 2, 14, 20, 1),
+        ("a", 3, 15, 17, 0),
+        ("a", 4, 20, 22, 0),
+        ("b", 3, 22, 26, 0),
+        ("a", 5, 26, 28, 0),
+        ("b", 4, 28, 32, 0),
+        ("a", 6, 32, 34, 0),
+    ]
     fp = simulate(ts, 35, record_jobs=True)
     assert fp.misses > 0  # b above a: a's job 0 finishes at 6 > 5
 
@@ -89,28 +103,45 @@ def test_edf_hand_schedule():
 def test_edf_equal_deadline_does_not_preempt_and_ties_go_by_arrival():
     # p (3, d 6) runs from 0; q arrives at 2 with the same absolute deadline 6: no preemption
     ts = [Task("p", 3, 20, 6, priority=2), Task("q", 1, 20, 4, priority=1, offset=2)]
-    assert rows(simulate(ts, 20, scheduler="edf", record_jobs=True)) == \
-        [("p", 0, 0, 3, 0), ("q", 0, 3, 4, 0)]
+    assert rows(simulate(ts, 20, scheduler="edf", record_jobs=True)) == [
+        ("p", 0, 0, 3, 0),
+        ("q", 0, 3, 4, 0),
+    ]
     # with q's deadline one ms earlier it preempts
     ts[1] = Task("q", 1, 20, 3, priority=1, offset=2)
-    assert rows(simulate(ts, 20, scheduler="edf", record_jobs=True)) == \
-        [("p", 0, 0, 4, 1), ("q", 0, 2, 3, 0)]
+    assert rows(simulate(ts, 20, scheduler="edf", record_jobs=True)) == [
+        ("p", 0, 0, 4, 1),
+        ("q", 0, 2, 3, 0),
+    ]
     # z (d 3) holds the CPU until 3; m (arrived 0) and n (arrived 1, priority 1) both have
     # deadline 6: the earlier arrival, m, goes first although n has the higher priority
-    ts = [Task("z", 3, 20, 3, priority=3), Task("m", 1, 20, 6, priority=2),
-          Task("n", 1, 20, 5, priority=1, offset=1)]
-    assert rows(simulate(ts, 20, scheduler="edf", record_jobs=True)) == \
-        [("z", 0, 0, 3, 0), ("m", 0, 3, 4, 0), ("n", 0, 4, 5, 0)]
+    ts = [
+        Task("z", 3, 20, 3, priority=3),
+        Task("m", 1, 20, 6, priority=2),
+        Task("n", 1, 20, 5, priority=1, offset=1),
+    ]
+    assert rows(simulate(ts, 20, scheduler="edf", record_jobs=True)) == [
+        ("z", 0, 0, 3, 0),
+        ("m", 0, 3, 4, 0),
+        ("n", 0, 4, 5, 0),
+    ]
     # equal deadline and arrival: the task order (priority) decides
     ts = [Task("u", 1, 5, priority=2), Task("v", 1, 5, priority=1)]
-    assert rows(simulate(ts, 5, scheduler="edf", record_jobs=True)) == \
-        [("v", 0, 0, 1, 0), ("u", 0, 1, 2, 0)]
+    assert rows(simulate(ts, 5, scheduler="edf", record_jobs=True)) == [
+        ("v", 0, 0, 1, 0),
+        ("u", 0, 1, 2, 0),
+    ]
 
 
 def test_edf_with_an_idle_suspension_and_cpu_mode():
     # w: compute 2, suspend 3, compute 1, d 10; s: 4 ms, d 8. EDF: s first (d 8 < 10)
-    w = Task("w", 6, 10, priority=1, segments=(Segment("c1", 2), Segment("radio", 3, "suspend"),
-                                               Segment("c2", 1)))
+    w = Task(
+        "w",
+        6,
+        10,
+        priority=1,
+        segments=(Segment("c1", 2), Segment("radio", 3, "suspend"), Segment("c2", 1)),
+    )
     s = Task("s", 4, 10, 8, priority=2)
     idle = simulate([w, s], 10, scheduler="edf", suspension="idle", record_jobs=True)
     assert rows(idle) == [("s", 0, 0, 4, 0), ("w", 0, 4, 10, 0)]
@@ -142,8 +173,10 @@ def test_edf_abort_skip_and_jitter():
     a = Task("a", 2, 10, 5, priority=2, jitter=2.0)
     b = Task("b", 2, 10, 6, priority=1)
     r = simulate([a, b], 10, scheduler="edf", jitter="worst", record_jobs=True)
-    assert rows(r, ("task", "job", "arrival", "release", "start", "finish")) == \
-        [("a", 0, 0, 2, 2, 4), ("b", 0, 2, 2, 4, 6)]
+    assert rows(r, ("task", "job", "arrival", "release", "start", "finish")) == [
+        ("a", 0, 0, 2, 2, 4),
+        ("b", 0, 2, 2, 4, 6),
+    ]
 
 
 def test_third_policy_is_one_class(np_fp):
@@ -154,8 +187,13 @@ def test_third_policy_is_one_class(np_fp):
     fp_rows = rows(simulate(ts, 6, record_jobs=True))
     assert fp_rows == [("lo", 0, 0, 4, 1), ("hi", 0, 1, 2, 0)]
     # a class given directly works too, and a suspension still lets the next job in
-    w = Task("w", 4, 20, priority=2, segments=(Segment("c", 1), Segment("r", 2, "suspend"),
-                                               Segment("d", 1)))
+    w = Task(
+        "w",
+        4,
+        20,
+        priority=2,
+        segments=(Segment("c", 1), Segment("r", 2, "suspend"), Segment("d", 1)),
+    )
     h = Task("h", 3, 20, priority=1, offset=0.5)
     r = simulate([w, h], 20, scheduler=NonPreemptiveFP, suspension="idle", record_jobs=True)
     # w 0-1, suspends 1-3; h runs 1-4 (w resumed at 3 waits); w 4-5
@@ -163,8 +201,10 @@ def test_third_policy_is_one_class(np_fp):
 
 
 def test_taskset_file_scheduler_key(tmp_path):
-    text = ('name = "s"\n[scheduler]\npolicy = "edf"\n[[tasks]]\nname = "a"\nwcet = 2\n'
-            'period = 5\n[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\n')
+    text = (
+        'name = "s"\n[scheduler]\npolicy = "edf"\n[[tasks]]\nname = "a"\nwcet = 2\n'
+        'period = 5\n[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\n'
+    )
     f = tmp_path / "s.toml"
     f.write_text(text)
     ts = load_taskset(f)
@@ -175,25 +215,47 @@ def test_taskset_file_scheduler_key(tmp_path):
     assert d["scheduler"] == {"policy": "edf"}
     assert parse_taskset(d, "again").scheduler == "edf"
     assert "scheduler" not in taskset_to_dict(load_taskset())  # fp: not written
-    for bad, match in ((
-            '[scheduler]\npolicy = "edd"\n', r"s.toml: \[scheduler\]: policy: must be one "
-                                             r"of fp, edf or .*, got 'edd'"),
-            ('[scheduler]\npolcy = "edf"\n', r"s.toml: \[scheduler\]: unknown key 'polcy' "
-                                             r"\(did you mean 'policy'\?\)"),
-            ('scheduler = "edf"\n', r"s.toml: \[scheduler\]: must be a table"),
-            ('[scheduler]\npolicy = 3\n', r"policy: must be a policy name, got 3")):
-        f.write_text(bad + text.split("\n[scheduler]\npolicy = \"edf\"\n")[1])
+    for bad, match in (
+        (
+            '[scheduler]\npolicy = "edd"\n',
+            r"s.toml: \[scheduler\]: policy: must be one "
+            r"of fp, edf or .*, got 'edd'",
+        ),
+        (
+            '[scheduler]\npolcy = "edf"\n',
+            r"s.toml: \[scheduler\]: unknown key 'polcy' "
+            r"\(did you mean 'policy'\?\)",
+        ),
+        ('scheduler = "edf"\n', r"s.toml: \[scheduler\]: must be a table"),
+        ("[scheduler]\npolicy = 3\n", r"policy: must be a policy name, got 3"),
+    ):
+        f.write_text(bad + text.split('\n[scheduler]\npolicy = "edf"\n')[1])
         with pytest.raises(TaskSetError, match=match):
             load_taskset(f)
 
 
 def test_cli_scheduler_option(tmp_path, capsys):
     f = tmp_path / "s.toml"
-    f.write_text('[[tasks]]\nname = "a"\nwcet = 2\nperiod = 5\n'
-                 '[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\n')
+    f.write_text(
+        '[[tasks]]\nname = "a"\nwcet = 2\nperiod = 5\n[[tasks]]\nname = "b"\nwcet = 4\nperiod = 7\n'
+    )
     jobs = tmp_path / "out" / "jobs.csv"
-    assert main(["simulate", str(f), "--horizon", "35", "--scheduler", "edf", "--json",
-                 "--jobs", str(jobs)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                str(f),
+                "--horizon",
+                "35",
+                "--scheduler",
+                "edf",
+                "--json",
+                "--jobs",
+                str(jobs),
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert out["scheduler"] == "edf" and out["misses"] == 0
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
@@ -229,17 +291,22 @@ def test_the_docs_example_is_a_one_file_policy(tmp_path, monkeypatch, capsys):
     monkeypatch.syspath_prepend(str(tmp_path))
     try:
         ts = tmp_path / "s.toml"
-        ts.write_text('[scheduler]\npolicy = "my_policies:NonPreemptiveFP"\n'
-                      '[[tasks]]\nname = "hi"\nwcet = 1\nperiod = 5\noffset = 1\npriority = 1\n'
-                      '[[tasks]]\nname = "lo"\nwcet = 3\nperiod = 10\npriority = 2\n')
+        ts.write_text(
+            '[scheduler]\npolicy = "my_policies:NonPreemptiveFP"\n'
+            '[[tasks]]\nname = "hi"\nwcet = 1\nperiod = 5\noffset = 1\npriority = 1\n'
+            '[[tasks]]\nname = "lo"\nwcet = 3\nperiod = 10\npriority = 2\n'
+        )
         jobs = tmp_path / "jobs.csv"
         assert main(["simulate", str(ts), "--horizon", "6", "--jobs", str(jobs)]) == 2
         assert "--allow-code" in capsys.readouterr().err  # a file names code: refused
-        assert main(["simulate", str(ts), "--horizon", "6", "--jobs", str(jobs),
-                     "--allow-code"]) == 0
+        assert (
+            main(["simulate", str(ts), "--horizon", "6", "--jobs", str(jobs), "--allow-code"]) == 0
+        )
         df = pd.read_csv(jobs).sort_values("start")
-        assert list(zip(df["task"], df["start"], df["finish"], strict=True)) == \
-            [("lo", 0.0, 3.0), ("hi", 3.0, 4.0)]
+        assert list(zip(df["task"], df["start"], df["finish"], strict=True)) == [
+            ("lo", 0.0, 3.0),
+            ("hi", 3.0, 4.0),
+        ]
         assert "scheduler np-fp" in capsys.readouterr().out
         assert "np-fp" in POLICIES  # the decorator registered it on import
     finally:

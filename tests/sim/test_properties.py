@@ -37,25 +37,55 @@ def specs(draw: st.DrawFn) -> Spec:
     for k in range(n):
         nseg = draw(st.integers(1, 3))
         segs = tuple(
-            Segment(f"s{i}", draw(st.sampled_from([0.5, 1.0, 1.5, 2.0, 3.0, 4.5])),
-                    draw(st.sampled_from(["compute", "compute", "suspend"])))
-            for i in range(nseg))
+            Segment(
+                f"s{i}",
+                draw(st.sampled_from([0.5, 1.0, 1.5, 2.0, 3.0, 4.5])),
+                draw(st.sampled_from(["compute", "compute", "suspend"])),
+            )
+            for i in range(nseg)
+        )
         period = float(draw(st.integers(4, 30)))
         offset = draw(st.floats(0, period, allow_nan=False, exclude_max=True))
-        tasks.append(Task(f"t{k}", sum(s.wcet for s in segs), period, priority=k + 1,
-                          offset=offset, segments=segs,
-                          overload=draw(st.sampled_from(["finish-late", "abort", "skip"]))))
+        tasks.append(
+            Task(
+                f"t{k}",
+                sum(s.wcet for s in segs),
+                period,
+                priority=k + 1,
+                offset=offset,
+                segments=segs,
+                overload=draw(st.sampled_from(["finish-late", "abort", "skip"])),
+            )
+        )
     prios = draw(st.permutations(range(1, n + 1)))
-    tasks = [Task(t.name, t.wcet, t.period, priority=p, offset=t.offset, segments=t.segments,
-                  overload=t.overload) for t, p in zip(tasks, prios, strict=True)]
-    fracs = draw(st.lists(st.sampled_from([0.0, 0.25, 0.5, 0.8, 1.0]) | st.floats(0, 1),
-                          min_size=1, max_size=6))
-    return Spec(tasks, fracs, float(draw(st.integers(20, 120))),
-                draw(st.sampled_from(["cpu", "idle"])))
+    tasks = [
+        Task(
+            t.name,
+            t.wcet,
+            t.period,
+            priority=p,
+            offset=t.offset,
+            segments=t.segments,
+            overload=t.overload,
+        )
+        for t, p in zip(tasks, prios, strict=True)
+    ]
+    fracs = draw(
+        st.lists(
+            st.sampled_from([0.0, 0.25, 0.5, 0.8, 1.0]) | st.floats(0, 1), min_size=1, max_size=6
+        )
+    )
+    return Spec(
+        tasks, fracs, float(draw(st.integers(20, 120))), draw(st.sampled_from(["cpu", "idle"]))
+    )
 
 
-def check_schedule(spec: Spec, jobs, trace,  # noqa: C901 - one checker, read top-down
-                   scheduler: str = "fp") -> None:
+def check_schedule(
+    spec: Spec,
+    jobs,
+    trace,  # noqa: C901 - one checker, read top-down
+    scheduler: str = "fp",
+) -> None:
     """Assert the five properties of the issue over the trace (independent of the CPU).
 
     Property 2 by ``scheduler``: ``fp`` runs the ready job of the highest priority, ``edf``
@@ -89,8 +119,15 @@ def check_schedule(spec: Spec, jobs, trace,  # noqa: C901 - one checker, read to
         if j.skipped:
             continue
         end = j.deadline if j.aborted else j.finish
-        info[(j.task, j.job)] = {"release": j.release, "end": end, "aborted": j.aborted,
-                                 "cpu": {}, "susp": [], "pieces": [], "deadline": j.deadline}
+        info[(j.task, j.job)] = {
+            "release": j.release,
+            "end": end,
+            "aborted": j.aborted,
+            "cpu": {},
+            "susp": [],
+            "pieces": [],
+            "deadline": j.deadline,
+        }
     for r in on_cpu:
         d = info[(r.task, r.job)]
         d["cpu"][r.segment] = d["cpu"].get(r.segment, 0.0) + (r.end - r.start)
@@ -121,11 +158,13 @@ def check_schedule(spec: Spec, jobs, trace,  # noqa: C901 - one checker, read to
             # a job whose last segments take 0 ms can lose the CPU before them (preempted
             # between two segments, the documented rule) and finish later, with no piece
             last = max(int(p.segment[1:]) for p in d["pieces"])
-            tail_zero = all(spec.exec_time(task, k, s.name) < TOL
-                            for s in t.segments[last + 1:])
+            tail_zero = all(spec.exec_time(task, k, s.name) < TOL for s in t.segments[last + 1 :])
             end_piece = max(p.end for p in d["pieces"])
-            assert (abs(end_piece - d["end"]) < TOL or d["susp"]
-                    or (tail_zero and d["end"] >= end_piece - TOL))
+            assert (
+                abs(end_piece - d["end"]) < TOL
+                or d["susp"]
+                or (tail_zero and d["end"] >= end_piece - TOL)
+            )
         # 5. nothing runs for a job during its own suspension
         for s in d["susp"]:
             assert s.start >= d["release"] - TOL
@@ -140,8 +179,7 @@ def check_schedule(spec: Spec, jobs, trace,  # noqa: C901 - one checker, read to
         prev_end = None
         for j in mine.itertuples(index=False):
             if t.overload == "skip" and prev_end is not None:
-                assert j.skipped == (prev_end > j.release + TOL) or \
-                    abs(prev_end - j.release) < TOL
+                assert j.skipped == (prev_end > j.release + TOL) or abs(prev_end - j.release) < TOL
             if not j.skipped:
                 prev_end = info[(t.name, j.job)]["end"]
 
@@ -156,15 +194,21 @@ def check_schedule(spec: Spec, jobs, trace,  # noqa: C901 - one checker, read to
         for k, d in lst:
             pred_end[(task, k)] = -1e18 if prev is None else prev["end"]
             prev = d
-    points = sorted({p for d in info.values() for p in (d["release"], d["end"])}
-                    | {x for r in rows for x in (r.start, r.end)})
+    points = sorted(
+        {p for d in info.values() for p in (d["release"], d["end"])}
+        | {x for r in rows for x in (r.start, r.end)}
+    )
     for a, b in zip(points, points[1:], strict=False):
         if b - a < 1e-6:
             continue
         m = 0.5 * (a + b)
-        ready = [key for key, d in info.items()
-                 if d["release"] <= m < d["end"] and pred_end[key] <= m
-                 and not any(s.start <= m < s.end for s in d["susp"])]
+        ready = [
+            key
+            for key, d in info.items()
+            if d["release"] <= m < d["end"]
+            and pred_end[key] <= m
+            and not any(s.start <= m < s.end for s in d["susp"])
+        ]
         running = [r for r in on_cpu if r.start <= m < r.end]
         if not ready:
             assert not running, (m, running)
@@ -173,8 +217,11 @@ def check_schedule(spec: Spec, jobs, trace,  # noqa: C901 - one checker, read to
         r = running[0]
         assert (r.task, r.job) in ready, (m, r, ready)
         if scheduler == "edf":
-            assert info[(r.task, r.job)]["deadline"] == min(info[k]["deadline"]
-                                                            for k in ready), (m, r, ready)
+            assert info[(r.task, r.job)]["deadline"] == min(info[k]["deadline"] for k in ready), (
+                m,
+                r,
+                ready,
+            )
         else:
             assert prio[r.task] == min(prio[t] for t, _ in ready), (m, r, ready)
 
@@ -182,10 +229,14 @@ def check_schedule(spec: Spec, jobs, trace,  # noqa: C901 - one checker, read to
 @settings(max_examples=60, deadline=None)
 @given(specs())
 def test_schedule_properties(spec: Spec) -> None:
-    res = simulate(spec.tasks, spec.horizon, suspension=spec.mode,
-                   exec_model=lambda job, seg, rng: spec.exec_time(job.name, job.index,
-                                                                   seg.name),
-                   record_jobs=True, record_trace=True)
+    res = simulate(
+        spec.tasks,
+        spec.horizon,
+        suspension=spec.mode,
+        exec_model=lambda job, seg, rng: spec.exec_time(job.name, job.index, seg.name),
+        record_jobs=True,
+        record_trace=True,
+    )
     check_schedule(spec, res.jobs, res.trace)
     # statistics agree with the job table
     for t in spec.tasks:
@@ -199,25 +250,41 @@ def test_schedule_properties(spec: Spec) -> None:
 
 
 @settings(max_examples=60, deadline=None)
-@given(specs(), st.lists(st.sampled_from([0.5, 0.8, 1.0, 1.0, 1.5, 2.5]), min_size=4,
-                         max_size=4))
+@given(specs(), st.lists(st.sampled_from([0.5, 0.8, 1.0, 1.0, 1.5, 2.5]), min_size=4, max_size=4))
 def test_schedule_properties_under_edf(spec: Spec, factors: list[float]) -> None:
     """The same checker with EDF's rule: the running job has the earliest deadline of the
     ready jobs (constrained, implicit and arbitrary deadlines; overload policies)."""
-    spec.tasks = [Task(t.name, t.wcet, t.period, t.period * f, priority=t.priority,
-                       offset=t.offset, segments=t.segments, overload=t.overload)
-                  for t, f in zip(spec.tasks, factors, strict=False)]
-    res = simulate(spec.tasks, spec.horizon, suspension=spec.mode, scheduler="edf",
-                   exec_model=lambda job, seg, rng: spec.exec_time(job.name, job.index,
-                                                                   seg.name),
-                   record_jobs=True, record_trace=True)
+    spec.tasks = [
+        Task(
+            t.name,
+            t.wcet,
+            t.period,
+            t.period * f,
+            priority=t.priority,
+            offset=t.offset,
+            segments=t.segments,
+            overload=t.overload,
+        )
+        for t, f in zip(spec.tasks, factors, strict=False)
+    ]
+    res = simulate(
+        spec.tasks,
+        spec.horizon,
+        suspension=spec.mode,
+        scheduler="edf",
+        exec_model=lambda job, seg, rng: spec.exec_time(job.name, job.index, seg.name),
+        record_jobs=True,
+        record_trace=True,
+    )
     check_schedule(spec, res.jobs, res.trace, scheduler="edf")
 
 
 def test_checker_catches_a_broken_trace() -> None:
     # the checker must fail on a schedule where a low-priority job runs while a higher waits
-    tasks = [Task("t0", 2, 10, priority=1, segments=(Segment("s0", 2),)),
-             Task("t1", 2, 10, priority=2, segments=(Segment("s0", 2),))]
+    tasks = [
+        Task("t0", 2, 10, priority=1, segments=(Segment("s0", 2),)),
+        Task("t1", 2, 10, priority=2, segments=(Segment("s0", 2),)),
+    ]
     spec = Spec(tasks, [1.0], 10.0, "cpu")
     res = simulate(tasks, 10.0, record_jobs=True, record_trace=True)
     check_schedule(spec, res.jobs, res.trace)

@@ -34,8 +34,9 @@ def _random_set(rng: np.random.Generator) -> list[Task]:
         es = [max(1, round(u * p)) for u, p in zip(us, ps, strict=True)]
         if sum(e / p for e, p in zip(es, ps, strict=True)) > 0.95:
             continue
-        ds = [int(rng.integers(max(e, math.ceil(p / 2)), p + 1)) for e, p in
-              zip(es, ps, strict=True)]
+        ds = [
+            int(rng.integers(max(e, math.ceil(p / 2)), p + 1)) for e, p in zip(es, ps, strict=True)
+        ]
         if rng.random() < 0.5:  # deadline-monotonic
             order = sorted(range(n), key=lambda i: (ds[i], ps[i], i))
         else:  # an arbitrary fixed-priority order: the analysis is exact for any

@@ -28,16 +28,22 @@ PAPER = ROOT / "tasksets" / "barrel_robots.toml"
 def strict_load(path: Path) -> object:
     def refuse(name: str) -> None:
         raise ValueError(f"{path}: non-strict JSON constant {name}")
+
     return json.loads(path.read_text("utf-8"), parse_constant=refuse)
 
 
 # -- strict JSON ----------------------------------------------------------------------
 @settings(max_examples=50, deadline=None)
-@given(st.recursive(st.one_of(st.floats(), st.integers(), st.text(max_size=3), st.none()),
-                    lambda kids: st.one_of(st.lists(kids, max_size=3),
-                                           st.dictionaries(st.text("abc", min_size=1,
-                                                                   max_size=2), kids,
-                                                           max_size=3)), max_leaves=8))
+@given(
+    st.recursive(
+        st.one_of(st.floats(), st.integers(), st.text(max_size=3), st.none()),
+        lambda kids: st.one_of(
+            st.lists(kids, max_size=3),
+            st.dictionaries(st.text("abc", min_size=1, max_size=2), kids, max_size=3),
+        ),
+        max_leaves=8,
+    )
+)
 def test_dumps_writes_strict_json_or_names_the_non_finite_value(obj: object) -> None:
     try:
         text = dumps(obj)
@@ -56,8 +62,7 @@ def test_dumps_names_the_path_of_a_nan(tmp_path: Path) -> None:
 
 def test_a_short_scenario_writes_strict_summary_and_manifest(tmp_path: Path) -> None:
     out = tmp_path / "o"
-    assert main(["scenario", "test1", "--duration", "0.05", "--out", str(out),
-                 "--no-figures"]) == 0
+    assert main(["scenario", "test1", "--duration", "0.05", "--out", str(out), "--no-figures"]) == 0
     summary = strict_load(out / "summary.json")
     assert isinstance(summary, dict) and summary["windows"] == 0
     assert summary["min_msb_over_wsch"] is None and summary["max_response"] is None
@@ -66,11 +71,13 @@ def test_a_short_scenario_writes_strict_summary_and_manifest(tmp_path: Path) -> 
     assert manifest["inputs"]["scenario"]["follower"]["max_turn_rate"] is None  # no limit
 
 
-def test_simulate_json_and_jobs_manifest_are_strict(tmp_path: Path,
-                                                    capsys: pytest.CaptureFixture[str]) -> None:
+def test_simulate_json_and_jobs_manifest_are_strict(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["simulate", str(PAPER), "--horizon", "2000", "--json"]) == 0
-    json.loads(capsys.readouterr().out, parse_constant=lambda c: (_ for _ in ()).throw(
-        ValueError(c)))
+    json.loads(
+        capsys.readouterr().out, parse_constant=lambda c: (_ for _ in ()).throw(ValueError(c))
+    )
 
 
 # -- numpy scalars --------------------------------------------------------------------
@@ -103,22 +110,26 @@ def test_the_top_level_functions_accept_a_path() -> None:
         assert rtsim.simulate(arg, 500.0).tasks == simulate(ref, 500.0).tasks
 
 
-@pytest.mark.parametrize("fn", [analyze, w_sch_of, w_rta, w_susp, window_bounds,
-                                lambda p: simulate(p, 500.0)])
+@pytest.mark.parametrize(
+    "fn", [analyze, w_sch_of, w_rta, w_susp, window_bounds, lambda p: simulate(p, 500.0)]
+)
 def test_the_layers_take_task_sets_not_paths(fn: object) -> None:
     """The analysis and the simulator take task sets: a path is a one-line error saying how to
     read it (they never import the file loader)."""
     for arg in (PAPER, str(PAPER)):
-        with pytest.raises(TaskSetError, match=r"expected a TaskSet, got the path .*"
-                                               r"read the file with rtsim\.load_taskset"):
+        with pytest.raises(
+            TaskSetError,
+            match=r"expected a TaskSet, got the path .*"
+            r"read the file with rtsim\.load_taskset",
+        ):
             fn(arg)  # type: ignore[operator]
 
 
-@pytest.mark.parametrize("fn", [analyze, w_sch_of, w_rta, w_susp, window_bounds,
-                                lambda p: simulate(p, 500.0)])
+@pytest.mark.parametrize(
+    "fn", [analyze, w_sch_of, w_rta, w_susp, window_bounds, lambda p: simulate(p, 500.0)]
+)
 @pytest.mark.parametrize("bad", [None, 3, {"tasks": []}, b"file.toml"])
-def test_public_functions_refuse_other_things_with_an_input_error(fn: object,
-                                                                  bad: object) -> None:
+def test_public_functions_refuse_other_things_with_an_input_error(fn: object, bad: object) -> None:
     with pytest.raises(InputError):
         fn(bad)  # type: ignore[operator]
 
@@ -128,9 +139,12 @@ def test_a_missing_file_names_the_file() -> None:
 
     with pytest.raises(TaskSetError, match="nope.toml: no such file"):
         rtsim.analyze("nope.toml")  # the top level reads files; rtsim.analysis takes task sets
-    with pytest.raises(TaskSetError, match=r"analyze: expected a TaskSet, got the path "
-                                           r"'nope.toml' \(read the file with "
-                                           r"rtsim.load_taskset\)"):
+    with pytest.raises(
+        TaskSetError,
+        match=r"analyze: expected a TaskSet, got the path "
+        r"'nope.toml' \(read the file with "
+        r"rtsim.load_taskset\)",
+    ):
         analyze("nope.toml")
 
 
@@ -139,8 +153,10 @@ def test_simulate_refuses_a_horizon_out_of_range_at_once() -> None:
         simulate(load_taskset(PAPER), 1e15)
 
 
-@pytest.mark.parametrize(("changes", "key"), [({"r_H": 1e154}, "r_H"), ({"n": 10**6}, "n"),
-                                              ({"n": np.int64(10**6)}, "n")])
+@pytest.mark.parametrize(
+    ("changes", "key"),
+    [({"r_H": 1e154}, "r_H"), ({"n": 10**6}, "n"), ({"n": np.int64(10**6)}, "n")],
+)
 def test_window_changes_out_of_range_name_the_key(changes: dict[str, float], key: str) -> None:
     with pytest.raises(TaskSetError, match=rf"window 'window': {key}: .* is outside"):
         window_bounds(load_taskset(PAPER), **changes)  # type: ignore[arg-type]

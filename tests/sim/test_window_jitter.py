@@ -39,8 +39,11 @@ def test_keys_in_files_round_trip_and_bad_values_are_one_line_errors():
         for bad, msg in [(-1, "non-negative"), ("x", "number"), (math.inf, "finite")]:
             d = taskset_to_dict(load_taskset(PAPER))
             d["window"][key] = bad
-            with pytest.raises(TaskSetError, match=rf"f.toml: \[window\]: {key}: must be"
-                                                   rf".*{msg}"):
+            with pytest.raises(
+                TaskSetError,
+                match=rf"f.toml: \[window\]: {key}: must be"
+                rf".*{msg}",
+            ):
                 parse_taskset(d, "f.toml")
 
 
@@ -56,8 +59,12 @@ def test_jitter_raises_w_rta_by_half_of_it_on_the_paper_set(j: float):
     win = next(t for t in ana.tasks if t.name == "window")
     assert ana.schedulable and win.wcrt == pytest.approx(j + 222.72699081698724, abs=1e-9)
     assert not analyze(_paper(jitter=j), (r_cmd + j) / 2 - 1e-6).schedulable
-    assert w_sch_of(_paper(jitter=j)) >= w_rta(_paper(jitter=j)) > w_susp(_paper(jitter=j)) \
+    assert (
+        w_sch_of(_paper(jitter=j))
+        >= w_rta(_paper(jitter=j))
+        > w_susp(_paper(jitter=j))
         > w_susp(_paper())
+    )
 
 
 def test_worst_jitter_reaches_the_bound_at_w_rta_and_misses_below():
@@ -69,8 +76,7 @@ def test_worst_jitter_reaches_the_bound_at_w_rta_and_misses_below():
     for name in ("window", "command"):  # the critical instant is built: equal to the bound
         assert res.tasks[name].max_response == pytest.approx(ana[name], abs=1e-9)
     # at the jitter-free w_rta the command task misses
-    assert simulate(ts, 100 * w, window=w_rta(_paper()), jitter="worst").tasks[
-        "command"].misses > 0
+    assert simulate(ts, 100 * w, window=w_rta(_paper()), jitter="worst").tasks["command"].misses > 0
     for seed in range(3):  # random delays in [0, J]: never above the bound
         res = simulate(ts, 300 * w, window=w, jitter="random", seed=seed, record_jobs=True)
         jobs = res.jobs[res.jobs["task"] == "window"]
@@ -96,8 +102,7 @@ def test_suspension_aware_and_edf_bounds_with_window_jitter_hold_in_simulation()
     assert w_edf(_paper()) < we < w_rta(ts)
     assert analyze_edf(ts, we).schedulable and not analyze_edf(ts, we * (1 - 1e-9)).schedulable
     for mode in ("worst", "random"):
-        assert simulate(ts, 100 * we, window=we, scheduler="edf", jitter=mode,
-                        seed=2).misses == 0
+        assert simulate(ts, 100 * we, window=we, scheduler="edf", jitter=mode, seed=2).misses == 0
 
 
 def test_w_sch_with_jitter_is_sound():
@@ -121,8 +126,9 @@ def test_offset_delays_the_window_and_the_per_window_tasks():
 
 
 @pytest.mark.slow
-def test_cli_bounds_and_simulate_report_the_raised_w_rta(tmp_path: Path,
-                                                        capsys: pytest.CaptureFixture[str]):
+def test_cli_bounds_and_simulate_report_the_raised_w_rta(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+):
     text = PAPER.read_text().replace("e_sched = 1 ", "jitter = 5\ne_sched = 1 ", 1)
     f = tmp_path / "jittered.toml"
     f.write_text(text)

@@ -25,16 +25,27 @@ SMOKE = ROOT / "experiments" / "sweeps" / "smoke.toml"
 @pytest.fixture(autouse=True)
 def _helpers_importable(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.syspath_prepend(str(HERE))
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(
-        [str(HERE), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    monkeypatch.setenv(
+        "PYTHONPATH", os.pathsep.join([str(HERE), *filter(None, [os.environ.get("PYTHONPATH")])])
+    )
 
 
-def call_sweep(tmp_path: Path, function: str, n: int = 6, options: str = "",
-               extra: str = "", seed: int = 3, name: str = "call.toml") -> Path:
+def call_sweep(
+    tmp_path: Path,
+    function: str,
+    n: int = 6,
+    options: str = "",
+    extra: str = "",
+    seed: int = 3,
+    name: str = "call.toml",
+) -> Path:
     path = tmp_path / name
-    path.write_text(f'[sweep]\nkind = "call"\nfunction = "sweep_helpers:{function}"\n'
-                    f"seed = {seed}\n{extra}\n[sweep.options]\n{options}\n"
-                    f'[grid]\ni = "0..{n - 1}"\n', encoding="utf-8")
+    path.write_text(
+        f'[sweep]\nkind = "call"\nfunction = "sweep_helpers:{function}"\n'
+        f"seed = {seed}\n{extra}\n[sweep.options]\n{options}\n"
+        f'[grid]\ni = "0..{n - 1}"\n',
+        encoding="utf-8",
+    )
     return path
 
 
@@ -44,12 +55,14 @@ def smoke_serial(tmp_path_factory: pytest.TempPathFactory) -> pd.DataFrame:
 
 
 def test_smoke_serial_processes_and_dask_give_equal_tables(
-        smoke_serial: pd.DataFrame, tmp_path: Path) -> None:
+    smoke_serial: pd.DataFrame, tmp_path: Path
+) -> None:
     from distributed import LocalCluster
 
     procs = run_sweep(SMOKE, tmp_path / "procs", workers=2)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster:
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
         dask = run_sweep(SMOKE, tmp_path / "dask", dask=cluster.scheduler_address)
     pd.testing.assert_frame_equal(smoke_serial, procs)
     pd.testing.assert_frame_equal(smoke_serial, dask)
@@ -59,7 +72,10 @@ def test_smoke_serial_processes_and_dask_give_equal_tables(
     assert (smoke_serial["status"] == "ok").all() and (smoke_serial["error"] == "").all()
     # Point order: n outer, r_H inner, as in the file.
     assert list(zip(smoke_serial["n"], smoke_serial["r_H"], strict=True))[:3] == [
-        (1, 10), (1, 25), (2, 10)]
+        (1, 10),
+        (1, 25),
+        (2, 10),
+    ]
     timings = pd.read_csv(tmp_path / "procs" / "timings.csv")
     assert list(timings["index"]) == list(range(len(procs)))
     assert (timings["wall_s"] > 0).all() and (timings["cpu_s"] > 0).all()
@@ -81,9 +97,14 @@ def test_smoke_points_equal_direct_simulation(smoke_serial: pd.DataFrame) -> Non
         t["bcet"] = {"dead_reckoning": 2, "command": 10}[t["name"]]
     ts = parse_taskset(data, "direct")
     res = simulate(ts, 20000, seed=int(row["seed"]), exec_model="uniform", suspension="idle")
-    assert row["w"] == pytest.approx(window_bounds(
-        load_taskset(ROOT / "tasksets" / "barrel_robots.toml").with_window(
-            n=int(row["n"]), r_H=int(row["r_H"]))).w_sch, abs=1e-9)
+    assert row["w"] == pytest.approx(
+        window_bounds(
+            load_taskset(ROOT / "tasksets" / "barrel_robots.toml").with_window(
+                n=int(row["n"]), r_H=int(row["r_H"])
+            )
+        ).w_sch,
+        abs=1e-9,
+    )
     for name, s in res.tasks.items():
         assert row[f"max_response.{name}"] == s.max_response
         assert row[f"mean_response.{name}"] == s.mean_response
@@ -93,7 +114,8 @@ def test_smoke_points_equal_direct_simulation(smoke_serial: pd.DataFrame) -> Non
 
 
 def test_same_seed_same_table_other_seed_other_stochastic_metrics(
-        smoke_serial: pd.DataFrame, tmp_path: Path) -> None:
+    smoke_serial: pd.DataFrame, tmp_path: Path
+) -> None:
     text = SMOKE.read_text()
     again = run_sweep(SMOKE, tmp_path / "again", workers=1)
     pd.testing.assert_frame_equal(smoke_serial, again)
@@ -101,8 +123,11 @@ def test_same_seed_same_table_other_seed_other_stochastic_metrics(
     assert other_text != text
     import tomllib
 
-    other = run_sweep(parse_sweep(tomllib.loads(other_text), str(SMOKE), SMOKE.parent,
-                                  other_text), tmp_path / "other", workers=1)
+    other = run_sweep(
+        parse_sweep(tomllib.loads(other_text), str(SMOKE), SMOKE.parent, other_text),
+        tmp_path / "other",
+        workers=1,
+    )
     assert (other["seed"] != smoke_serial["seed"]).all()
     for col in ("mean_response.command", "mean_response.dead_reckoning"):
         assert (other[col] != smoke_serial[col]).all(), col
@@ -111,7 +136,8 @@ def test_same_seed_same_table_other_seed_other_stochastic_metrics(
 
 
 def test_failed_point_is_recorded_and_the_rest_complete(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     spec = call_sweep(tmp_path, "flaky", n=5, options="fail_at = 2")
     out = tmp_path / "out"
     assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 1
@@ -128,15 +154,29 @@ def test_failed_point_is_recorded_and_the_rest_complete(
     log = tmp_path / "calls.log"
     os.environ["RTSIM_SWEEP_TEST_LOG"] = str(log)
     try:
-        assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet",
-                     "--retry-failed"]) == 1
+        assert (
+            main(
+                [
+                    "sweep",
+                    str(spec),
+                    "--out",
+                    str(out),
+                    "--workers",
+                    "1",
+                    "--quiet",
+                    "--retry-failed",
+                ]
+            )
+            == 1
+        )
     finally:
         del os.environ["RTSIM_SWEEP_TEST_LOG"]
     assert not log.exists()  # only i=2 ran, and it raised before logging
 
 
-def test_resume_computes_only_missing_points(tmp_path: Path,
-                                             monkeypatch: pytest.MonkeyPatch) -> None:
+def test_resume_computes_only_missing_points(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     log = tmp_path / "calls.log"
     monkeypatch.setenv("RTSIM_SWEEP_TEST_LOG", str(log))
     spec = call_sweep(tmp_path, "slow", n=7)
@@ -156,7 +196,8 @@ def test_resume_computes_only_missing_points(tmp_path: Path,
 
 
 def test_changed_sweep_file_is_refused_unless_restart(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     spec = call_sweep(tmp_path, "slow", n=3)
     out = tmp_path / "out"
     assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 0
@@ -165,8 +206,9 @@ def test_changed_sweep_file_is_refused_unless_restart(
     assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--restart" in err and str(out) in err
-    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet",
-                 "--restart"]) == 0
+    assert (
+        main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet", "--restart"]) == 0
+    )
     assert len(pd.read_parquet(out / "results.parquet")) == 4
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["sweep_text"] == spec.read_text()
@@ -175,11 +217,13 @@ def test_changed_sweep_file_is_refused_unless_restart(
 
 
 def test_metrics_filter_and_bad_metrics(tmp_path: Path) -> None:
-    df = run_sweep(call_sweep(tmp_path, "slow", n=2, extra='metrics = ["dou*"]'),
-                   tmp_path / "a", workers=1)
+    df = run_sweep(
+        call_sweep(tmp_path, "slow", n=2, extra='metrics = ["dou*"]'), tmp_path / "a", workers=1
+    )
     assert list(df.columns) == ["i", "seed", "status", "error", "double"]
-    df = run_sweep(call_sweep(tmp_path, "slow", n=2, extra='metrics = ["nothere"]'),
-                   tmp_path / "b", workers=1)
+    df = run_sweep(
+        call_sweep(tmp_path, "slow", n=2, extra='metrics = ["nothere"]'), tmp_path / "b", workers=1
+    )
     assert (df["status"] == "failed").all()
     assert df["error"].str.contains("metric 'nothere' was not produced").all()
     df = run_sweep(call_sweep(tmp_path, "nested", n=2), tmp_path / "c", workers=1)
@@ -187,14 +231,16 @@ def test_metrics_filter_and_bad_metrics(tmp_path: Path) -> None:
 
 
 def test_options_and_seed_reach_the_call(tmp_path: Path) -> None:
-    df = run_sweep(call_sweep(tmp_path, "echo", n=2, options='mode = "x"'), tmp_path / "o",
-                   workers=1)
+    df = run_sweep(
+        call_sweep(tmp_path, "echo", n=2, options='mode = "x"'), tmp_path / "o", workers=1
+    )
     assert list(df["p.i"]) == [0, 1] and list(df["o.mode"]) == ["x", "x"]
     assert list(df["s"]) == list(df["seed"])
 
 
-def test_missing_kind_module_fails_points_not_the_sweep(tmp_path: Path,
-                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_missing_kind_module_fails_points_not_the_sweep(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     def needs_missing(point: object) -> dict:
         _need("rtsim.no_such_module", "later")
         return {}
@@ -234,7 +280,8 @@ def test_bad_workers_and_points_dir_without_manifest(tmp_path: Path) -> None:
 
 
 def test_progress_bar_shows_done_and_failures_only_when_asked(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     spec = call_sweep(tmp_path, "flaky", n=4, options="fail_at = 1")
     run_sweep(spec, tmp_path / "a", workers=1, progress=True)
     err = capsys.readouterr().err
@@ -257,15 +304,22 @@ def test_scenario_kind_matches_a_direct_coupled_run(tmp_path: Path) -> None:
 
     test1 = ROOT / "experiments" / "scenarios" / "test1.toml"
     path = tmp_path / "sc.toml"
-    path.write_text(f'[sweep]\nkind = "scenario"\nbase = "{test1}"\n[sweep.options]\n'
-                    'duration = 3\nmode = "adjust"\n[grid]\n"leader.speed" = [20, 30]\n')
+    path.write_text(
+        f'[sweep]\nkind = "scenario"\nbase = "{test1}"\n[sweep.options]\n'
+        'duration = 3\nmode = "adjust"\n[grid]\n"leader.speed" = [20, 30]\n'
+    )
     df = run_sweep(path, tmp_path / "out", workers=1)
     assert list(df["status"]) == ["ok", "ok"]
     row = df.iloc[1]
     data = tomllib.loads(test1.read_text())
     data["leader"]["speed"] = 30
-    direct = run_scenario(parse_scenario(data, str(test1), base=test1.parent), mode="adjust",
-                          duration_s=3.0, seed=int(row["seed"]), record_jobs=False).summary
+    direct = run_scenario(
+        parse_scenario(data, str(test1), base=test1.parent),
+        mode="adjust",
+        duration_s=3.0,
+        seed=int(row["seed"]),
+        record_jobs=False,
+    ).summary
     assert row["v_leader_desired"] == 30 == direct["v_leader_desired"]
     for key in ("windows", "missed", "w_sch", "min_msb_over_wsch", "max_response"):
         assert row[key] == direct[key], key
@@ -274,8 +328,9 @@ def test_scenario_kind_matches_a_direct_coupled_run(tmp_path: Path) -> None:
     assert df.loc[0, "v_leader_desired"] == 20
 
 
-def test_dask_without_the_extra_is_a_clear_error(tmp_path: Path,
-                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+def test_dask_without_the_extra_is_a_clear_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     import sys
 
     from rtsim.errors import SweepError

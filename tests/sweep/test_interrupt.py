@@ -38,8 +38,10 @@ def _calls(log: Path) -> list[int]:
 @pytest.fixture(scope="module")
 def sweep_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("spec") / "slow.toml"
-    path.write_text('[sweep]\nkind = "call"\nfunction = "sweep_helpers:slow"\nseed = 5\n'
-                    f'[sweep.options]\nsleep = 0.15\n[grid]\ni = "0..{N - 1}"\n')
+    path.write_text(
+        '[sweep]\nkind = "call"\nfunction = "sweep_helpers:slow"\nseed = 5\n'
+        f'[sweep.options]\nsleep = 0.15\n[grid]\ni = "0..{N - 1}"\n'
+    )
     return path
 
 
@@ -52,20 +54,39 @@ def reference(sweep_file: Path, tmp_path_factory: pytest.TempPathFactory) -> pd.
         sys.path.remove(str(HERE))
 
 
-@pytest.mark.parametrize(("workers", "sig", "group"), [
-    ("2", signal.SIGINT, True),    # Ctrl-C in a terminal: the whole process group
-    ("1", signal.SIGTERM, False),  # kill PID: the sweep process alone
-], ids=["sigint-group-2-workers", "sigterm-serial"])
+@pytest.mark.parametrize(
+    ("workers", "sig", "group"),
+    [
+        ("2", signal.SIGINT, True),  # Ctrl-C in a terminal: the whole process group
+        ("1", signal.SIGTERM, False),  # kill PID: the sweep process alone
+    ],
+    ids=["sigint-group-2-workers", "sigterm-serial"],
+)
 def test_interrupted_sweep_resumes_without_recomputing(
-        tmp_path: Path, sweep_file: Path, reference: pd.DataFrame,
-        workers: str, sig: signal.Signals, group: bool) -> None:
+    tmp_path: Path,
+    sweep_file: Path,
+    reference: pd.DataFrame,
+    workers: str,
+    sig: signal.Signals,
+    group: bool,
+) -> None:
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "rtsim", "sweep", "--allow-code",
-                            str(sweep_file), "--out", str(out),
-           "--workers", workers]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rtsim",
+        "sweep",
+        "--allow-code",
+        str(sweep_file),
+        "--out",
+        str(out),
+        "--workers",
+        workers,
+    ]
     log1 = tmp_path / "run1.log"
-    proc = subprocess.Popen(cmd, env=_env(log1), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, start_new_session=True)
+    proc = subprocess.Popen(
+        cmd, env=_env(log1), stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
+    )
     try:
         deadline = time.monotonic() + 60
         while len(list((out / "points").glob("*.json"))) < 3:

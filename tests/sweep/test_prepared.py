@@ -25,8 +25,7 @@ def test_summary_from_columns_equals_summary_from_the_table(mode: str) -> None:
     kw = dict(mode=mode, w_sch=1.0, duration_s=1.0, seed=0, scenario="x", n=2)
     cols = {c: df[c].to_numpy() for c in df.columns}
     assert summarize(cols, **kw) == summarize(df, **kw)
-    lean = run_scenario(TEST2, mode=mode, duration_s=120, seed=2, record_jobs=False,
-                        windows=False)
+    lean = run_scenario(TEST2, mode=mode, duration_s=120, seed=2, record_jobs=False, windows=False)
     assert lean.windows is None and lean.summary == res.summary
     if mode == "min-msb":
         assert res.summary["missed"] > 0  # the comparison covers missed windows too
@@ -46,8 +45,9 @@ def test_points_share_prepared_inputs(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr("rtsim.io.scenario.parse_scenario", counting)
     out = []
     for seed in (3, 4, 3):
-        p = PointInput(index=seed, kind="scenario", params={}, options={"duration": 30},
-                       seed=seed, base=base)
+        p = PointInput(
+            index=seed, kind="scenario", params={}, options={"duration": 30}, seed=seed, base=base
+        )
         out.append(kinds._scenario(p))
     assert len(parsed) == 1  # one parse for three points of the same content
     assert out[0] == out[2] and out[0] != out[1]

@@ -35,13 +35,15 @@ ROOT = HERE.parent
 @pytest.fixture(autouse=True)
 def _helpers_importable(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.syspath_prepend(str(HERE))
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(
-        [str(HERE), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    monkeypatch.setenv(
+        "PYTHONPATH", os.pathsep.join([str(HERE), *filter(None, [os.environ.get("PYTHONPATH")])])
+    )
 
 
 def _strict_load(path: Path) -> object:
     def refuse(name: str) -> None:
         raise ValueError(f"non-strict JSON constant {name} in {path}")
+
     return json.loads(path.read_text("utf-8"), parse_constant=refuse)
 
 
@@ -56,9 +58,13 @@ _BASE = ROOT / "experiments" / "scenarios" / "test1.toml"
 
 
 def test_mixed_grid_types_are_refused_at_load_naming_file_and_key(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    spec = _write(tmp_path, f'[sweep]\nkind = "scenario"\nbase = "{_BASE}"\n'
-                  '[sweep.options]\nduration = 1\n[grid]\n"leader.speed" = [20, 30.5, "fast"]\n')
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = _write(
+        tmp_path,
+        f'[sweep]\nkind = "scenario"\nbase = "{_BASE}"\n'
+        '[sweep.options]\nduration = 1\n[grid]\n"leader.speed" = [20, 30.5, "fast"]\n',
+    )
     assert main(["sweep", str(spec), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "Traceback" not in err
@@ -66,22 +72,30 @@ def test_mixed_grid_types_are_refused_at_load_naming_file_and_key(
     assert not (tmp_path / "o" / "points").exists()  # refused before anything ran
 
 
-_values = st.one_of(st.integers(-10**6, 10**6), st.floats(-1e6, 1e6, allow_nan=False),
-                    st.text("abcxyz", min_size=1, max_size=4), st.booleans())
+_values = st.one_of(
+    st.integers(-(10**6), 10**6),
+    st.floats(-1e6, 1e6, allow_nan=False),
+    st.text("abcxyz", min_size=1, max_size=4),
+    st.booleans(),
+)
 
 
 def _kind(v: object) -> str:
-    return "bool" if isinstance(v, bool) else ("number" if isinstance(v, int | float)
-                                                else "text")
+    return "bool" if isinstance(v, bool) else ("number" if isinstance(v, int | float) else "text")
 
 
-@settings(max_examples=60, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(values=st.lists(_values, min_size=1, max_size=6))
-def test_grid_column_of_one_type_loads_any_mix_is_refused(tmp_path: Path,
-                                                          values: list[object]) -> None:
-    text = ('[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\nv = '
-            + json.dumps(values) + "\n")
+def test_grid_column_of_one_type_loads_any_mix_is_refused(
+    tmp_path: Path, values: list[object]
+) -> None:
+    text = (
+        '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\nv = '
+        + json.dumps(values)
+        + "\n"
+    )
     spec = _write(tmp_path, text)
     if len({_kind(v) for v in values}) == 1:
         assert len(load_sweep(spec).grid[0][1]) == len(values)
@@ -91,25 +105,34 @@ def test_grid_column_of_one_type_loads_any_mix_is_refused(tmp_path: Path,
 
 
 def test_ints_mixed_with_bools_are_refused(tmp_path: Path) -> None:
-    spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n'
-                  "[grid]\nv = [0, 1, true]\n")
+    spec = _write(
+        tmp_path,
+        '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\nv = [0, 1, true]\n',
+    )
     with pytest.raises(SweepError, match=r"grid\.v: .*number 0 and bool True"):
         load_sweep(spec)
 
 
 # -- metrics per point ----------------------------------------------------------------
 def _odd_sweep(tmp_path: Path, cases: list[str]) -> Path:
-    return _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:odd"\n'
-                  f"[grid]\ncase = {json.dumps(cases)}\n")
+    return _write(
+        tmp_path,
+        '[sweep]\nkind = "call"\nfunction = "sweep_helpers:odd"\n'
+        f"[grid]\ncase = {json.dumps(cases)}\n",
+    )
 
 
-@pytest.mark.parametrize(("case", "error"), [
-    ("big", "does not fit a 64-bit column"),
-    ("clash", "clash"),
-    ("array", "not a scalar"),
-])
+@pytest.mark.parametrize(
+    ("case", "error"),
+    [
+        ("big", "does not fit a 64-bit column"),
+        ("clash", "clash"),
+        ("array", "not a scalar"),
+    ],
+)
 def test_a_bad_metric_fails_its_point_and_the_table_is_written(
-        tmp_path: Path, case: str, error: str) -> None:
+    tmp_path: Path, case: str, error: str
+) -> None:
     df = run_sweep(_odd_sweep(tmp_path, ["ok", case]), tmp_path / "o", workers=1)
     assert list(df["status"]) == ["ok", "failed"]
     assert error in df["error"].iloc[1]
@@ -118,7 +141,8 @@ def test_a_bad_metric_fails_its_point_and_the_table_is_written(
 
 
 def test_a_metric_whose_type_changes_fails_that_point_and_reruns_give_the_same_table(
-        tmp_path: Path) -> None:
+    tmp_path: Path,
+) -> None:
     spec = _odd_sweep(tmp_path, ["ok", "text", "bool", "ok"])
     df = run_sweep(spec, tmp_path / "o", workers=1)
     assert list(df["status"]) == ["ok", "failed", "failed", "ok"]
@@ -129,8 +153,7 @@ def test_a_metric_whose_type_changes_fails_that_point_and_reruns_give_the_same_t
     pd.testing.assert_frame_equal(df, again)
 
 
-def test_numpy_and_non_finite_metrics_round_trip_through_strict_point_files(
-        tmp_path: Path) -> None:
+def test_numpy_and_non_finite_metrics_round_trip_through_strict_point_files(tmp_path: Path) -> None:
     df = run_sweep(_odd_sweep(tmp_path, ["numpy", "inf"]), tmp_path / "o", workers=1)
     assert list(df["status"]) == ["ok", "ok"]
     assert df["x"].tolist() == [7.0, math.inf]
@@ -149,10 +172,14 @@ def test_a_metric_named_like_a_grid_column_and_its_renamed_form_clash(tmp_path: 
 
 
 # -- grid size ------------------------------------------------------------------------
-def test_a_huge_grid_is_refused_before_it_is_made(tmp_path: Path,
-                                                  capsys: pytest.CaptureFixture[str]) -> None:
-    spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n'
-                  '[grid]\na = "1..1000"\nb = "1..1000"\nc = "1..1000"\n')
+def test_a_huge_grid_is_refused_before_it_is_made(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = _write(
+        tmp_path,
+        '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n'
+        '[grid]\na = "1..1000"\nb = "1..1000"\nc = "1..1000"\n',
+    )
     assert grid_size(load_sweep(spec)) == 10**9
     t0 = time.perf_counter()
     assert main(["sweep", str(spec), "--out", str(tmp_path / "o")]) == 2
@@ -161,11 +188,11 @@ def test_a_huge_grid_is_refused_before_it_is_made(tmp_path: Path,
     assert "grid" in err and "1e+09" in err and "--force" in err and err.count("\n") == 1
 
 
-def test_force_runs_a_grid_above_the_limit(tmp_path: Path,
-                                           monkeypatch: pytest.MonkeyPatch) -> None:
+def test_force_runs_a_grid_above_the_limit(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(LIMITS, "grid", 3)
-    spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n'
-                  '[grid]\ni = "1..4"\n')
+    spec = _write(
+        tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\ni = "1..4"\n'
+    )
     with pytest.raises(TooMuchWork, match="--force"):
         Sweep(spec, tmp_path / "o")
     assert len(run_sweep(spec, tmp_path / "o", workers=1, force=True)) == 4
@@ -173,27 +200,33 @@ def test_force_runs_a_grid_above_the_limit(tmp_path: Path,
 
 @pytest.mark.parametrize("workers", ["2", 1.7, True, 0, -1])
 def test_workers_must_be_an_integer_of_at_least_one(tmp_path: Path, workers: object) -> None:
-    spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n'
-                  '[grid]\ni = "1..2"\n')
+    spec = _write(
+        tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\ni = "1..2"\n'
+    )
     with pytest.raises(InputError, match="workers"):
         run_sweep(spec, tmp_path / "o", workers=workers)  # type: ignore[arg-type]
 
 
 def test_workers_accepts_a_numpy_integer(tmp_path: Path) -> None:
-    spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n'
-                  '[grid]\ni = "1..2"\n')
+    spec = _write(
+        tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\ni = "1..2"\n'
+    )
     assert len(run_sweep(spec, tmp_path / "o", workers=np.int64(1))) == 2
 
 
 # -- dead workers ---------------------------------------------------------------------
 def _die_sweep(tmp_path: Path, die_at: int, once: Path | None, n: int = 6) -> Path:
     opts = f"die_at = {die_at}\nsleep = 0.05\n" + (f'once = "{once}"\n' if once else "")
-    return _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:die"\n'
-                  f'[sweep.options]\n{opts}[grid]\ni = "0..{n - 1}"\n')
+    return _write(
+        tmp_path,
+        '[sweep]\nkind = "call"\nfunction = "sweep_helpers:die"\n'
+        f'[sweep.options]\n{opts}[grid]\ni = "0..{n - 1}"\n',
+    )
 
 
 def test_a_point_that_kills_its_worker_is_recorded_failed_and_the_sweep_goes_on(
-        tmp_path: Path) -> None:
+    tmp_path: Path,
+) -> None:
     df = run_sweep(_die_sweep(tmp_path, 2, None), tmp_path / "o", workers=2)
     assert df["status"].tolist() == ["ok", "ok", "failed", "ok", "ok", "ok"]
     assert df["error"].iloc[2].startswith("WorkerDied: ")
@@ -210,11 +243,25 @@ def test_a_worker_that_dies_once_has_its_point_rerun(tmp_path: Path) -> None:
 
 def test_cli_prints_no_traceback_when_a_worker_dies(tmp_path: Path) -> None:
     spec = _die_sweep(tmp_path, 1, None, n=8)
-    r = subprocess.run([sys.executable, "-m", "rtsim", "sweep", "--allow-code",
-                            str(spec), "--out",
-                        str(tmp_path / "o"), "--workers", "2", "--quiet"],
-                       capture_output=True, text=True, env=os.environ | {
-                           "PYTHONPATH": str(HERE)}, timeout=120)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "rtsim",
+            "sweep",
+            "--allow-code",
+            str(spec),
+            "--out",
+            str(tmp_path / "o"),
+            "--workers",
+            "2",
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        env=os.environ | {"PYTHONPATH": str(HERE)},
+        timeout=120,
+    )
     assert r.returncode == 1, r.stderr
     assert "Traceback" not in r.stderr and "BrokenProcessPool" not in r.stderr
     df = pd.read_parquet(tmp_path / "o" / "results.parquet")
@@ -244,13 +291,28 @@ def _alive(pid: int) -> bool:
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
 def test_workers_exit_when_the_sweep_process_is_killed(tmp_path: Path) -> None:
-    spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:slow"\n'
-                  '[sweep.options]\nsleep = 0.5\n[grid]\ni = "0..40"\n')
-    proc = subprocess.Popen([sys.executable, "-m", "rtsim", "sweep", "--allow-code",
-                            str(spec), "--out",
-                             str(tmp_path / "o"), "--workers", "2", "--quiet"],
-                            env=os.environ | {"PYTHONPATH": str(HERE)},
-                            stderr=subprocess.DEVNULL)
+    spec = _write(
+        tmp_path,
+        '[sweep]\nkind = "call"\nfunction = "sweep_helpers:slow"\n'
+        '[sweep.options]\nsleep = 0.5\n[grid]\ni = "0..40"\n',
+    )
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rtsim",
+            "sweep",
+            "--allow-code",
+            str(spec),
+            "--out",
+            str(tmp_path / "o"),
+            "--workers",
+            "2",
+            "--quiet",
+        ],
+        env=os.environ | {"PYTHONPATH": str(HERE)},
+        stderr=subprocess.DEVNULL,
+    )
     try:
         deadline = time.monotonic() + 60
         workers: list[int] = []
@@ -272,39 +334,84 @@ def test_workers_exit_when_the_sweep_process_is_killed(tmp_path: Path) -> None:
 
 # -- the directory lock ---------------------------------------------------------------
 def test_a_second_sweep_into_a_locked_directory_is_refused_naming_the_holder(
-        tmp_path: Path) -> None:
-    spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n'
-                  '[grid]\ni = "1..2"\n')
+    tmp_path: Path,
+) -> None:
+    spec = _write(
+        tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\ni = "1..2"\n'
+    )
     out = tmp_path / "o"
     with lock_directory(out, ["rtsim", "sweep", "first"]):
-        with pytest.raises(DirectoryLocked, match=rf"in use by pid {os.getpid()} on .*"
-                                                  r"command: rtsim sweep first; since"):
+        with pytest.raises(
+            DirectoryLocked,
+            match=rf"in use by pid {os.getpid()} on .*"
+            r"command: rtsim sweep first; since",
+        ):
             run_sweep(spec, out, workers=1)
     assert len(run_sweep(spec, out, workers=1)) == 2  # released
 
 
 def test_the_lock_dies_with_its_holder_and_a_second_cli_run_exits_2(tmp_path: Path) -> None:
-    spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n'
-                  '[grid]\ni = "1..2"\n')
+    spec = _write(
+        tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\ni = "1..2"\n'
+    )
     out = tmp_path / "o"
-    holder = subprocess.Popen([sys.executable, "-c", (
-        "import sys, time\nfrom rtsim.io.lock import lock_directory\n"
-        f"with lock_directory({str(out)!r}):\n    print('held', flush=True)\n"
-        "    time.sleep(60)\n")], stdout=subprocess.PIPE, text=True)
+    holder = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            (
+                "import sys, time\nfrom rtsim.io.lock import lock_directory\n"
+                f"with lock_directory({str(out)!r}):\n    print('held', flush=True)\n"
+                "    time.sleep(60)\n"
+            ),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
-        r = subprocess.run([sys.executable, "-m", "rtsim", "sweep", "--allow-code",
-                            str(spec), "--out",
-                            str(out), "--workers", "1", "--quiet"], capture_output=True,
-                           text=True, env=os.environ | {"PYTHONPATH": str(HERE)}, timeout=60)
+        r = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "rtsim",
+                "sweep",
+                "--allow-code",
+                str(spec),
+                "--out",
+                str(out),
+                "--workers",
+                "1",
+                "--quiet",
+            ],
+            capture_output=True,
+            text=True,
+            env=os.environ | {"PYTHONPATH": str(HERE)},
+            timeout=60,
+        )
         assert r.returncode == 2
         assert f"in use by pid {holder.pid}" in r.stderr and r.stderr.count("\n") == 1
         holder.send_signal(signal.SIGKILL)
         holder.wait(timeout=10)
-        r = subprocess.run([sys.executable, "-m", "rtsim", "sweep", "--allow-code",
-                            str(spec), "--out",
-                            str(out), "--workers", "1", "--quiet"], capture_output=True,
-                           text=True, env=os.environ | {"PYTHONPATH": str(HERE)}, timeout=60)
+        r = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "rtsim",
+                "sweep",
+                "--allow-code",
+                str(spec),
+                "--out",
+                str(out),
+                "--workers",
+                "1",
+                "--quiet",
+            ],
+            capture_output=True,
+            text=True,
+            env=os.environ | {"PYTHONPATH": str(HERE)},
+            timeout=60,
+        )
         assert r.returncode == 0, r.stderr
     finally:
         if holder.poll() is None:
@@ -313,8 +420,9 @@ def test_the_lock_dies_with_its_holder_and_a_second_cli_run_exits_2(tmp_path: Pa
 
 # -- resume ---------------------------------------------------------------------------
 def test_a_corrupt_manifest_is_reported_as_such(tmp_path: Path) -> None:
-    spec = _write(tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n'
-                  '[grid]\ni = "1..2"\n')
+    spec = _write(
+        tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\ni = "1..2"\n'
+    )
     run_sweep(spec, tmp_path / "o", workers=1)
     (tmp_path / "o" / "manifest.json").write_text('{"fingerprint": "ab', encoding="utf-8")
     for restart in (False, True):  # not provably the sweep's: never removed, even by restart

@@ -34,7 +34,10 @@ def write(tmp_path: Path, body: str, name: str = "sweep.toml") -> Path:
 
 
 def test_ranges_lists_and_scalars(tmp_path: Path) -> None:
-    spec = load_sweep(write(tmp_path, f"""
+    spec = load_sweep(
+        write(
+            tmp_path,
+            f"""
 [sweep]
 kind = "bounds"
 base = "{PAPER}"
@@ -43,7 +46,9 @@ n = "1..4"
 r_H = "0.1..0.3:0.1"
 e_cal = 0.002
 k = [30, 34]
-"""))
+""",
+        )
+    )
     grid = dict(spec.grid)
     assert grid["n"] == (1, 2, 3, 4) and all(type(v) is int for v in grid["n"])
     assert grid["r_H"] == (0.1, 0.2, 0.3)
@@ -64,15 +69,23 @@ b = ["x", "y", "z"]
 """
     prod = points(load_sweep(write(tmp_path, body.format(c="product"))))
     assert [tuple(p.params.values()) for p in prod] == [
-        (1, "x"), (1, "y"), (1, "z"), (2, "x"), (2, "y"), (2, "z"), (3, "x"), (3, "y"), (3, "z")]
+        (1, "x"),
+        (1, "y"),
+        (1, "z"),
+        (2, "x"),
+        (2, "y"),
+        (2, "z"),
+        (3, "x"),
+        (3, "y"),
+        (3, "z"),
+    ]
     assert [p.index for p in prod] == list(range(9))
     zipped = points(load_sweep(write(tmp_path, body.format(c="zip"))))
     assert [tuple(p.params.values()) for p in zipped] == [(1, "x"), (2, "y"), (3, "z")]
 
 
 def _by_hand(sweep_seed: int, params: dict) -> int:
-    text = json.dumps({"params": params, "seed": sweep_seed}, sort_keys=True,
-                      separators=(",", ":"))
+    text = json.dumps({"params": params, "seed": sweep_seed}, sort_keys=True, separators=(",", ":"))
     return int(hashlib.sha256(text.encode()).hexdigest()[:16], 16) % 2**63
 
 
@@ -101,7 +114,10 @@ b = [0.5, 1.5]
 
 
 def test_seed_in_grid_overrides_the_derived_seed(tmp_path: Path) -> None:
-    spec = load_sweep(write(tmp_path, """
+    spec = load_sweep(
+        write(
+            tmp_path,
+            """
 [sweep]
 kind = "call"
 function = "sweep_helpers:echo"
@@ -109,14 +125,19 @@ combine = "zip"
 [grid]
 a = [1, 2]
 seed = [11, 12]
-"""))
+""",
+        )
+    )
     pts = points(spec)
     assert [p.seed for p in pts] == [11, 12]
     assert point_input(spec, pts[0]).params == {"a": 1}
 
 
 def test_overrides_reach_the_task_set(tmp_path: Path) -> None:
-    spec = load_sweep(write(tmp_path, f"""
+    spec = load_sweep(
+        write(
+            tmp_path,
+            f"""
 [sweep]
 kind = "analyze"
 base = "{PAPER}"
@@ -129,7 +150,9 @@ e_sched = 2
 n = [3]
 "window.r_H" = [40]
 "tasks.command.wcet" = [30]
-"""))
+""",
+        )
+    )
     assert spec.targets["n"] == ("path", "window", "n")
     assert spec.targets["e_sched"] == ("path", "window", "e_sched")
     pin = point_input(spec, points(spec)[0])
@@ -143,7 +166,10 @@ n = [3]
 
 
 def test_options_in_the_grid_merge_over_fixed_options(tmp_path: Path) -> None:
-    spec = load_sweep(write(tmp_path, f"""
+    spec = load_sweep(
+        write(
+            tmp_path,
+            f"""
 [sweep]
 kind = "simulate"
 base = "{PAPER}"
@@ -152,7 +178,9 @@ horizon = 1000
 exec = "wcet"
 [grid]
 exec = ["wcet", "uniform"]
-"""))
+""",
+        )
+    )
     assert spec.targets["exec"] == ("option", "exec")
     opts = [point_input(spec, p).options for p in points(spec)]
     assert opts == [{"horizon": 1000, "exec": "wcet"}, {"horizon": 1000, "exec": "uniform"}]
@@ -173,41 +201,74 @@ OK_HEAD = f'[sweep]\nkind = "bounds"\nbase = "{PAPER}"\n'
 
 BAD = [
     ("unknown-top", OK_HEAD + "[grdi]\nn = [1]\n", r"unknown key 'grdi' \(did you mean 'grid'\?\)"),
-    ("unknown-sweep-key", OK_HEAD + 'combin = "zip"\n[grid]\nn = [1]\n',
-     r"sweep: unknown key 'combin' \(did you mean 'combine'\?\)"),
-    ("unknown-kind", '[sweep]\nkind = "boundz"\n[grid]\nn = [1]\n',
-     r"sweep.kind: unknown kind 'boundz'.*did you mean 'bounds'"),
+    (
+        "unknown-sweep-key",
+        OK_HEAD + 'combin = "zip"\n[grid]\nn = [1]\n',
+        r"sweep: unknown key 'combin' \(did you mean 'combine'\?\)",
+    ),
+    (
+        "unknown-kind",
+        '[sweep]\nkind = "boundz"\n[grid]\nn = [1]\n',
+        r"sweep.kind: unknown kind 'boundz'.*did you mean 'bounds'",
+    ),
     ("no-kind", "[sweep]\n[grid]\nn = [1]\n", r"sweep.kind: missing"),
     ("no-sweep", "[grid]\nn = [1]\n", r"missing \[sweep\]"),
     ("empty-grid", OK_HEAD + "[grid]\n", r"grid: empty grid"),
     ("no-grid", OK_HEAD, r"grid: empty grid"),
     ("empty-list", OK_HEAD + "[grid]\nn = []\n", r"grid.n: empty list"),
-    ("zip-unequal", OK_HEAD + 'combine = "zip"\n[grid]\nn = [1, 2]\nr_H = [1, 2, 3]\n',
-     r"equal length \(n=2, r_H=3\)"),
+    (
+        "zip-unequal",
+        OK_HEAD + 'combine = "zip"\n[grid]\nn = [1, 2]\nr_H = [1, 2, 3]\n',
+        r"equal length \(n=2, r_H=3\)",
+    ),
     ("bad-combine", OK_HEAD + 'combine = "cross"\n[grid]\nn = [1]\n', r"sweep.combine"),
     ("bad-range", OK_HEAD + '[grid]\nn = "1..x"\n', r"grid.n: cannot parse"),
     ("bad-range-order", OK_HEAD + '[grid]\nn = "5..1"\n', r"grid.n: range end is below"),
     ("unknown-param", OK_HEAD + "[grid]\nnn = [1]\n", r"grid.nn: unknown parameter.*'n'"),
-    ("unknown-task", OK_HEAD + '[grid]\n"tasks.comand.wcet" = [1]\n',
-     r"grid.tasks.comand.wcet: unknown parameter path.*did you mean 'command'"),
-    ("typo-leaf", OK_HEAD + '[grid]\n"window.delta_tt" = [1]\n',
-     r"unknown parameter path.*did you mean 'delta_t'"),
+    (
+        "unknown-task",
+        OK_HEAD + '[grid]\n"tasks.comand.wcet" = [1]\n',
+        r"grid.tasks.comand.wcet: unknown parameter path.*did you mean 'command'",
+    ),
+    (
+        "typo-leaf",
+        OK_HEAD + '[grid]\n"window.delta_tt" = [1]\n',
+        r"unknown parameter path.*did you mean 'delta_t'",
+    ),
     ("path-through-value", OK_HEAD + '[grid]\n"window.n.x" = [1]\n', r"is a value, not a table"),
-    ("unknown-metric", OK_HEAD + 'metrics = ["w_sc"]\n[grid]\nn = [1]\n',
-     r"unknown metric 'w_sc'.*did you mean 'w_sch'"),
-    ("option-for-kind", OK_HEAD + "[sweep.options]\nhorizon = 5\n[grid]\nn = [1]\n",
-     r"unknown key 'sweep.options.horizon'"),
-    ("missing-horizon", f'[sweep]\nkind = "simulate"\nbase = "{PAPER}"\n[grid]\nn = [1]\n',
-     r"sweep.options.horizon: required"),
+    (
+        "unknown-metric",
+        OK_HEAD + 'metrics = ["w_sc"]\n[grid]\nn = [1]\n',
+        r"unknown metric 'w_sc'.*did you mean 'w_sch'",
+    ),
+    (
+        "option-for-kind",
+        OK_HEAD + "[sweep.options]\nhorizon = 5\n[grid]\nn = [1]\n",
+        r"unknown key 'sweep.options.horizon'",
+    ),
+    (
+        "missing-horizon",
+        f'[sweep]\nkind = "simulate"\nbase = "{PAPER}"\n[grid]\nn = [1]\n',
+        r"sweep.options.horizon: required",
+    ),
     ("call-no-function", '[sweep]\nkind = "call"\n[grid]\na = [1]\n', r"sweep.function"),
-    ("call-not-importable", '[sweep]\nkind = "call"\nfunction = "no_such_mod:f"\n[grid]\na = [1]\n',
-     r"sweep.function: cannot load"),
+    (
+        "call-not-importable",
+        '[sweep]\nkind = "call"\nfunction = "no_such_mod:f"\n[grid]\na = [1]\n',
+        r"sweep.function: cannot load",
+    ),
     ("negative-seed", OK_HEAD + "seed = -1\n[grid]\nn = [1]\n", r"sweep.seed"),
     ("grid-seed-float", OK_HEAD + "[grid]\nseed = [1.5]\n", r"grid.seed"),
-    ("missing-base", '[sweep]\nkind = "bounds"\nbase = "nope.toml"\n[grid]\nn = [1]\n',
-     r"sweep.base: cannot read"),
-    ("scenario-needs-base", '[sweep]\nkind = "scenario"\n[grid]\nmode = ["adjust"]\n',
-     r"sweep.base: required"),
+    (
+        "missing-base",
+        '[sweep]\nkind = "bounds"\nbase = "nope.toml"\n[grid]\nn = [1]\n',
+        r"sweep.base: cannot read",
+    ),
+    (
+        "scenario-needs-base",
+        '[sweep]\nkind = "scenario"\n[grid]\nmode = ["adjust"]\n',
+        r"sweep.base: required",
+    ),
     ("set-and-grid", OK_HEAD + "[sweep.set]\nn = 2\n[grid]\nn = [1]\n", r"also given in sweep.set"),
     ("malformed", "[sweep\nkind=", r"not valid TOML"),
 ]
@@ -220,10 +281,12 @@ def test_bad_sweep_files(tmp_path: Path, body: str, match: str) -> None:
         load_sweep(path)
 
 
-@pytest.mark.parametrize(("body", "match"), [BAD[1][1:], BAD[12][1:], BAD[8][1:]],
-                         ids=["key", "param", "zip"])
-def test_bad_sweep_file_on_the_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                   body: str, match: str) -> None:
+@pytest.mark.parametrize(
+    ("body", "match"), [BAD[1][1:], BAD[12][1:], BAD[8][1:]], ids=["key", "param", "zip"]
+)
+def test_bad_sweep_file_on_the_cli(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], body: str, match: str
+) -> None:
     import re
 
     path = write(tmp_path, body)
@@ -254,14 +317,27 @@ def test_packaged_base_by_name(tmp_path) -> None:  # type: ignore[no-untyped-def
     assert load_sweep(f).base.text == (root / "tasksets" / "barrel_robots.toml").read_text()
 
 
-@pytest.mark.parametrize("kind, table, match", [
-    ("simulate", '[sweep.options]\nhorizon = -5', r"sweep\.options\.horizon: must be a positive"),
-    ("simulate", '[sweep.options]\nhorizon = 100\nexec = "fast"',
-     r"sweep\.options\.exec: must be 'wcet' or 'uniform', got 'fast'"),
-    ("scenario", '[sweep.options]\nmode = "bogus"',
-     r"sweep\.options\.mode: must be one of "
-     r"adjust, .*lookahead.* or 'package\.module:Name', got 'bogus'"),
-])
+@pytest.mark.parametrize(
+    "kind, table, match",
+    [
+        (
+            "simulate",
+            "[sweep.options]\nhorizon = -5",
+            r"sweep\.options\.horizon: must be a positive",
+        ),
+        (
+            "simulate",
+            '[sweep.options]\nhorizon = 100\nexec = "fast"',
+            r"sweep\.options\.exec: must be 'wcet' or 'uniform', got 'fast'",
+        ),
+        (
+            "scenario",
+            '[sweep.options]\nmode = "bogus"',
+            r"sweep\.options\.mode: must be one of "
+            r"adjust, .*lookahead.* or 'package\.module:Name', got 'bogus'",
+        ),
+    ],
+)
 def test_bad_option_values_are_bad_sweep_files(kind, table, match, tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     from rtsim.cli import main
 
@@ -273,5 +349,6 @@ def test_bad_option_values_are_bad_sweep_files(kind, table, match, tmp_path, cap
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
     import re
+
     assert re.search(match, err[0]), err
     assert not (tmp_path / "o").exists()

@@ -30,8 +30,23 @@ def _wcrt(e: float, hp: list[tuple[float, float]]) -> float:
 def test_simulation_histograms_png_csv_and_hand_bounds(tmp_path: Path) -> None:
     out = tmp_path / "h"
     horizon = 4000.0
-    assert main(["histogram", str(PAPER), "--horizon", str(horizon), "--window", "250",
-                 "--out", str(out), "--bins", "20"]) == 0
+    assert (
+        main(
+            [
+                "histogram",
+                str(PAPER),
+                "--horizon",
+                str(horizon),
+                "--window",
+                "250",
+                "--out",
+                str(out),
+                "--bins",
+                "20",
+            ]
+        )
+        == 0
+    )
     for task in ("dead_reckoning", "window", "command"):
         assert (out / f"histogram-{task}.png").stat().st_size > 1000
     hist = pd.read_csv(out / "histogram.csv")
@@ -46,7 +61,8 @@ def test_simulation_histograms_png_csv_and_hand_bounds(tmp_path: Path) -> None:
     assert b["dead_reckoning", "WCRT (exact RTA)"] == pytest.approx(5.0)
     assert b["window", "WCRT (exact RTA)"] == pytest.approx(_wcrt(g, [(5, 40)]), abs=1e-9)
     assert b["command", "WCRT (exact RTA)"] == pytest.approx(
-        _wcrt(25, [(5, 40), (g, 250)]), abs=1e-9)
+        _wcrt(25, [(5, 40), (g, 250)]), abs=1e-9
+    )
     assert b["command", "deadline"] == pytest.approx(500.0)
     w_sch = (0.5 * (25 + 5) + g) / (1 - 5 / 40)  # Eq 11 dominates for the paper's set
     assert b["window", "w_sch"] == pytest.approx(w_sch, rel=1e-12)
@@ -57,12 +73,18 @@ def test_simulation_histograms_png_csv_and_hand_bounds(tmp_path: Path) -> None:
 def test_scenario_dir_histogram_counts_its_jobs(tmp_path: Path) -> None:
     d = tmp_path / "scen"
     d.mkdir()
-    rows = [("window", k, 250.0 * k, 250.0 * k, 250.0 * k + r, r, 250.0 * (k + 1), False)
-            for k, r in enumerate([200.0, 210.0, 205.0, 230.0])]
-    rows += [("dead_reckoning", k, 40.0 * k, 40.0 * k, 40.0 * k + 5, 5.0, 40.0 * (k + 1),
-              False) for k in range(25)]
-    pd.DataFrame(rows, columns=["task", "job", "release", "start", "finish", "response",
-                                "deadline", "missed"]).to_csv(d / "jobs.csv", index=False)
+    rows = [
+        ("window", k, 250.0 * k, 250.0 * k, 250.0 * k + r, r, 250.0 * (k + 1), False)
+        for k, r in enumerate([200.0, 210.0, 205.0, 230.0])
+    ]
+    rows += [
+        ("dead_reckoning", k, 40.0 * k, 40.0 * k, 40.0 * k + 5, 5.0, 40.0 * (k + 1), False)
+        for k in range(25)
+    ]
+    pd.DataFrame(
+        rows,
+        columns=["task", "job", "release", "start", "finish", "response", "deadline", "missed"],
+    ).to_csv(d / "jobs.csv", index=False)
     (d / "summary.json").write_text(json.dumps({"w_sch": 240.0}))
     out = tmp_path / "h"
     assert main(["histogram", "--scenario", str(d), "--out", str(out), "--bins", "5"]) == 0
@@ -76,14 +98,15 @@ def test_scenario_dir_histogram_counts_its_jobs(tmp_path: Path) -> None:
 
 def test_sweep_point_histogram_agrees_with_the_sweep_table(tmp_path: Path) -> None:
     spec = tmp_path / "s.toml"
-    spec.write_text(f'[sweep]\nkind = "simulate"\nbase = "{PAPER.as_posix()}"\nseed = 3\n'
-                    '[sweep.options]\nhorizon = 3000\nexec = "uniform"\n'
-                    '[sweep.set]\n"tasks.command.bcet" = 10\n[grid]\nn = [1, 3]\n')
+    spec.write_text(
+        f'[sweep]\nkind = "simulate"\nbase = "{PAPER.as_posix()}"\nseed = 3\n'
+        '[sweep.options]\nhorizon = 3000\nexec = "uniform"\n'
+        '[sweep.set]\n"tasks.command.bcet" = 10\n[grid]\nn = [1, 3]\n'
+    )
     sweep_dir = tmp_path / "sw"
     table = run_sweep(spec, sweep_dir, workers=1)
     out = tmp_path / "h"
-    assert main(["histogram", "--sweep", str(sweep_dir), "--point", "1", "--out",
-                 str(out)]) == 0
+    assert main(["histogram", "--sweep", str(sweep_dir), "--point", "1", "--out", str(out)]) == 0
     hist = pd.read_csv(out / "histogram.csv")
     counts = hist.groupby("task")["count"].sum()
     row = table.iloc[1]
@@ -104,12 +127,15 @@ def test_histogram_table_bins_reach_the_bound_lines() -> None:
     assert t["lo"].iloc[0] == 1.0 and t["hi"].iloc[-1] == pytest.approx(12.0)
 
 
-@pytest.mark.parametrize("argv, msg", [
-    (["--out", "x"], "exactly one of FILE"),
-    (["--sweep", "nowhere", "--out", "x"], "--sweep needs --point"),
-    ([str(PAPER), "--out", "x"], "needs --horizon"),
-    (["--scenario", "nowhere", "--out", "x"], "no jobs.csv"),
-])
+@pytest.mark.parametrize(
+    "argv, msg",
+    [
+        (["--out", "x"], "exactly one of FILE"),
+        (["--sweep", "nowhere", "--out", "x"], "--sweep needs --point"),
+        ([str(PAPER), "--out", "x"], "needs --horizon"),
+        (["--scenario", "nowhere", "--out", "x"], "no jobs.csv"),
+    ],
+)
 def test_histogram_bad_input_exits_2(argv: list[str], msg: str, capsys) -> None:
     assert main(["histogram", *argv]) == 2
     assert msg in capsys.readouterr().err

@@ -17,13 +17,19 @@ def test_load_scenario_overrides_use_the_sweep_paths() -> None:
     assert s.world.leader_speed == 20 and s.n == 4
 
 
-@pytest.mark.parametrize(("overrides", "match"), [
-    ({"leader.sped": 3}, r"test2\.toml: overrides\.leader\.sped: unknown parameter path .*"
-                         r"did you mean 'speed'"),
-    ({"formation.followers": 0}, r"test2\.toml: formation\.followers: must be an integer"),
-    ({"leader.speed": -1}, r"test2\.toml: leader\.speed: must be positive"),
-    ({"mode": "adjust"}, r"overrides\.mode: a run option"),
-])
+@pytest.mark.parametrize(
+    ("overrides", "match"),
+    [
+        (
+            {"leader.sped": 3},
+            r"test2\.toml: overrides\.leader\.sped: unknown parameter path .*"
+            r"did you mean 'speed'",
+        ),
+        ({"formation.followers": 0}, r"test2\.toml: formation\.followers: must be an integer"),
+        ({"leader.speed": -1}, r"test2\.toml: leader\.speed: must be positive"),
+        ({"mode": "adjust"}, r"overrides\.mode: a run option"),
+    ],
+)
 def test_bad_overrides_are_one_line_input_errors(overrides: dict, match: str) -> None:
     with pytest.raises(InputError, match=match) as info:
         load_scenario("test2", overrides=overrides)
@@ -111,12 +117,25 @@ def test_validation_outcome_repr(tmp_path) -> None:
     from rtsim.analysis.validation import Failure
     from rtsim.validate import ValidationOutcome
 
-    fail = Failure(config="n=6", task="window", mode="counted-idle", check="response",
-                   value=307.3, bound=305.5, severity="warning")
-    out = ValidationOutcome(pd.DataFrame({"n": [1, 2]}), [fail],
-                            {"rows": 2, "paper/wcet-cpu": {"w_sch_over_w_sim": {"min": 1.001}}},
-                            [], tmp_path)
-    assert repr(out) == (f"<ValidationOutcome ok=True, rows=2, failures=0, warnings=1, "
-                         f"point_errors=0, out_dir={tmp_path}>")
+    fail = Failure(
+        config="n=6",
+        task="window",
+        mode="counted-idle",
+        check="response",
+        value=307.3,
+        bound=305.5,
+        severity="warning",
+    )
+    out = ValidationOutcome(
+        pd.DataFrame({"n": [1, 2]}),
+        [fail],
+        {"rows": 2, "paper/wcet-cpu": {"w_sch_over_w_sim": {"min": 1.001}}},
+        [],
+        tmp_path,
+    )
+    assert repr(out) == (
+        f"<ValidationOutcome ok=True, rows=2, failures=0, warnings=1, "
+        f"point_errors=0, out_dir={tmp_path}>"
+    )
     assert list(out.summary_frame().columns) == ["rows", "paper/wcet-cpu.w_sch_over_w_sim.min"]
     assert "<code>ValidationOutcome</code>" in out._repr_html_()

@@ -21,12 +21,31 @@ def test_quick_mode_writes_report_figures_and_csvs(tmp_path: Path) -> None:
     out = tmp_path / "quick"
     env = {**os.environ, "MPLBACKEND": "Agg"}
     proc = subprocess.run(
-        [sys.executable, str(REPO / "experiments" / "validate.py"), "--quick", "--out",
-         str(out), "--workers", "2", "--quiet"],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=240)
+        [
+            sys.executable,
+            str(REPO / "experiments" / "validate.py"),
+            "--quick",
+            "--out",
+            str(out),
+            "--workers",
+            "2",
+            "--quiet",
+        ],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
-    for name in ("report.md", "validation.csv", "results.parquet", "failures.csv",
-                 "summary.json", "manifest.json"):
+    for name in (
+        "report.md",
+        "validation.csv",
+        "results.parquet",
+        "failures.csv",
+        "summary.json",
+        "manifest.json",
+    ):
         assert (out / name).is_file(), name
     for fig in ("bounds_vs_n", "pessimism_wsch", "pessimism_wrta", "scheduler_bounds"):
         assert (out / "figures" / f"{fig}.png").stat().st_size > 1000
@@ -40,10 +59,12 @@ def test_quick_mode_writes_report_figures_and_csvs(tmp_path: Path) -> None:
     assert table.loc[table["source"] == "random", "config"].nunique() == 3
     heat = pd.read_csv(out / "figures" / "pessimism_wsch.csv")
     for r in heat.to_dict("records"):
-        sel = paper[(paper["n"] == r["n"]) & (paper["r_H"] == r["r_H"])
-                    & (paper["mode"] == r["mode"])]
+        sel = paper[
+            (paper["n"] == r["n"]) & (paper["r_H"] == r["r_H"]) & (paper["mode"] == r["mode"])
+        ]
         assert sel["w_sch"].iloc[0] / sel["w_sim"].iloc[0] == pytest.approx(
-            r["w_sch_over_w_sim"], rel=1e-12)
+            r["w_sch_over_w_sim"], rel=1e-12
+        )
     assert json.loads((out / "summary.json").read_text())["failures"] == 0
     listed = json.loads((out / "manifest.json").read_text())["outputs"]
     assert "report.html" in listed and "report.md" in listed

@@ -29,8 +29,17 @@ from rtsim.sim import simulate
 from rtsim.validate import QUICK, run_validation
 
 SMALL = replace(QUICK, n=(1, 3), r_H=(20.0,), random_sets=2, histogram_configs=0)
-SMALL_ARGS = ["--quick", "--followers", "1,3", "--hough-radius", "20", "--random-sets", "2",
-              "--histograms", "0"]
+SMALL_ARGS = [
+    "--quick",
+    "--followers",
+    "1,3",
+    "--hough-radius",
+    "20",
+    "--random-sets",
+    "2",
+    "--histograms",
+    "0",
+]
 
 
 @pytest.fixture(scope="module")
@@ -104,9 +113,16 @@ def test_counted_idle_w_sim_at_most_w_rta(small) -> None:
 
 def test_report_files_and_figure_data_agree_with_the_table(small) -> None:
     out = small.out_dir
-    for name in ("report.md", "validation.csv", "results.parquet", "failures.csv",
-                 "summary.json", "manifest.json", "figures/bounds_vs_n.png",
-                 "figures/pessimism_wsch.png"):
+    for name in (
+        "report.md",
+        "validation.csv",
+        "results.parquet",
+        "failures.csv",
+        "summary.json",
+        "manifest.json",
+        "figures/bounds_vs_n.png",
+        "figures/pessimism_wsch.png",
+    ):
         assert (out / name).is_file(), name
     assert not (out / "histograms").exists()  # histograms: see test_validate_quick.py
     fig = pd.read_csv(out / "figures" / "bounds_vs_n.csv")
@@ -123,8 +139,9 @@ def test_random_sets_reach_the_wcrt_at_the_critical_instant(small) -> None:
     assert np.allclose(sync["sim_max"], sync["wcrt"], atol=1e-6)
 
 
-def test_cli_resumes_and_exits_1_on_a_fabricated_exceedance(small, monkeypatch, capsys,
-                                                             tmp_path: Path) -> None:
+def test_cli_resumes_and_exits_1_on_a_fabricated_exceedance(
+    small, monkeypatch, capsys, tmp_path: Path
+) -> None:
     copy = tmp_path / "copy"
     shutil.copytree(small.out_dir, copy)
     out = str(copy)
@@ -151,15 +168,20 @@ def test_cli_resumes_and_exits_1_on_a_fabricated_exceedance(small, monkeypatch, 
     assert "**FAIL**" in report
     fails = pd.read_csv(copy / "failures.csv")
     # above the oblivious WCRT, so above the (smaller) suspension-aware one too
-    assert list(fails["check"]) == ["response above WCRT",
-                                    "response above the suspension-aware WCRT"]
+    assert list(fails["check"]) == [
+        "response above WCRT",
+        "response above the suspension-aware WCRT",
+    ]
 
 
-@pytest.mark.parametrize("argv, msg", [
-    (["--windows", "50"], "windows must be at least 100"),
-    (["--followers", "0"], "n must be positive"),
-    (["--workers", "0"], "--workers: 0 processes is outside"),
-])
+@pytest.mark.parametrize(
+    "argv, msg",
+    [
+        (["--windows", "50"], "windows must be at least 100"),
+        (["--followers", "0"], "n must be positive"),
+        (["--workers", "0"], "--workers: 0 processes is outside"),
+    ],
+)
 def test_cli_bad_input_exits_2(argv: list[str], msg: str, tmp_path: Path, capsys) -> None:
     assert main(["validate", "--quick", "--out", str(tmp_path), *argv]) == 2
     assert msg in capsys.readouterr().err
@@ -170,10 +192,24 @@ def test_checker_flags_a_hand_made_exceedance() -> None:
         {"config": "a", "task": "t1", "mode": "m", "sim_max": 10.0, "wcrt": 10.0 + 1e-9},
         {"config": "a", "task": "t2", "mode": "m", "sim_max": 12.5, "wcrt": 12.0},
         {"config": "b", "task": "t1", "mode": "m", "sim_max": 50.0, "wcrt": math.nan},
-        {"config": "c", "task": "t1", "mode": "m", "sim_max": 9.0, "wcrt": 8.0,
-         "assumption_ok": False},
-        {"config": "d", "task": "t1", "mode": "m", "sim_max": 1.0, "wcrt": 2.0,
-         "w_sim": 100.02, "w_rta": 100.0, "w_sch": 99.0},
+        {
+            "config": "c",
+            "task": "t1",
+            "mode": "m",
+            "sim_max": 9.0,
+            "wcrt": 8.0,
+            "assumption_ok": False,
+        },
+        {
+            "config": "d",
+            "task": "t1",
+            "mode": "m",
+            "sim_max": 1.0,
+            "wcrt": 2.0,
+            "w_sim": 100.02,
+            "w_rta": 100.0,
+            "w_sch": 99.0,
+        },
     ]
     got = check_results(rows)
     assert Failure("a", "t2", "m", "response above WCRT", 12.5, 12.0) in got
@@ -224,16 +260,41 @@ def test_checker_orders_the_bounds_under_the_matching_model() -> None:
     # w_sim ≤ w_susp ≤ w_rta ≤ w_sch, w_sim against w_susp only in counted-idle (Δt idle)
     base = {"task": "t", "sim_max": 1.0, "wcrt": 2.0, "w_sch": 240.0, "w_rta": 235.0}
     rows = [
-        {**base, "config": "ok", "mode": "counted-idle", "w_sim": 210.0, "w_susp": 217.0,
-         "w_susp_geo": 212.0},
+        {
+            **base,
+            "config": "ok",
+            "mode": "counted-idle",
+            "w_sim": 210.0,
+            "w_susp": 217.0,
+            "w_susp_geo": 212.0,
+        },
         {**base, "config": "cpu", "mode": "wcet-cpu", "w_sim": 234.99, "w_susp": 217.0},
         {**base, "config": "low", "mode": "counted-idle", "w_sim": 218.0, "w_susp": 217.0},
-        {**base, "config": "brk", "mode": "counted-idle", "w_sim": 218.0, "w_susp": 217.0,
-         "assumption_ok": False},
-        {**base, "config": "geo", "mode": "counted-idle", "w_sim": 213.0, "w_susp": 217.0,
-         "w_susp_geo": 212.0},
-        {**base, "config": "geob", "mode": "counted-idle", "w_sim": 213.0, "w_susp": 217.0,
-         "w_susp_geo": 212.0, "geo_assumption_ok": False},
+        {
+            **base,
+            "config": "brk",
+            "mode": "counted-idle",
+            "w_sim": 218.0,
+            "w_susp": 217.0,
+            "assumption_ok": False,
+        },
+        {
+            **base,
+            "config": "geo",
+            "mode": "counted-idle",
+            "w_sim": 213.0,
+            "w_susp": 217.0,
+            "w_susp_geo": 212.0,
+        },
+        {
+            **base,
+            "config": "geob",
+            "mode": "counted-idle",
+            "w_sim": 213.0,
+            "w_susp": 217.0,
+            "w_susp_geo": 212.0,
+            "geo_assumption_ok": False,
+        },
         {**base, "config": "up", "mode": "wcet-cpu", "w_sim": 234.99, "w_susp": 236.0},
     ]
     got = check_results(rows)
@@ -241,8 +302,7 @@ def test_checker_orders_the_bounds_under_the_matching_model() -> None:
         Failure("low", "*", "counted-idle", "w_sim above w_susp", 218.0, 217.0),
         Failure("brk", "*", "counted-idle", "w_sim above w_susp", 218.0, 217.0, "warning"),
         Failure("geo", "*", "counted-idle", "w_sim above w_susp_geo", 213.0, 212.0),
-        Failure("geob", "*", "counted-idle", "w_sim above w_susp_geo", 213.0, 212.0,
-                "warning"),
+        Failure("geob", "*", "counted-idle", "w_sim above w_susp_geo", 213.0, 212.0, "warning"),
         Failure("up", "*", "wcet-cpu", "w_susp above w_rta", 236.0, 235.0),
     ]
 
@@ -263,8 +323,10 @@ def test_edf_checks_flag_w_sim_above_w_edf_and_w_edf_above_w_rta():
     from rtsim.analysis.validation import check_results
 
     base = {"source": "paper", "task": "window", "w_sch": 237.4, "w_rta": 235.2, "mode": "edf-cpu"}
-    rows = [{**base, "config": "ok", "w_sim": 234.5, "w_edf": 234.545},
-            {**base, "config": "hi", "w_sim": 234.6, "w_edf": 234.545},
-            {**base, "config": "bad", "w_sim": 230.0, "w_edf": 235.3}]
+    rows = [
+        {**base, "config": "ok", "w_sim": 234.5, "w_edf": 234.545},
+        {**base, "config": "hi", "w_sim": 234.6, "w_edf": 234.545},
+        {**base, "config": "bad", "w_sim": 230.0, "w_edf": 235.3},
+    ]
     fails = {(f.config, f.check) for f in check_results(rows)}
     assert fails == {("hi", "w_sim above w_edf"), ("bad", "w_edf above w_rta")}

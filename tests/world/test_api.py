@@ -20,14 +20,34 @@ def test_public_names() -> None:
     assert sorted(world_pkg.__all__) == sorted(set(world_pkg.__all__))
     for name in world_pkg.__all__:
         assert hasattr(world_pkg, name), name
-    sig = {name: str(inspect.signature(getattr(World, name))) for name in
-           ("advance", "scan", "estimate", "command", "set_leader_speed", "relative",
-            "segment_at", "state", "estimated_pose")}
+    sig = {
+        name: str(inspect.signature(getattr(World, name)))
+        for name in (
+            "advance",
+            "scan",
+            "estimate",
+            "command",
+            "set_leader_speed",
+            "relative",
+            "segment_at",
+            "state",
+            "estimated_pose",
+        )
+    }
     assert sig["advance"] == "(self, t_ms: 'float') -> 'None'"
     assert sig["scan"] == "(self, t_ms: 'float') -> 'Scan'"
     assert sig["command"] == "(self, i: 'int', t_ms: 'float') -> 'tuple[float, float]'"
-    for prop in ("t_ms", "n", "leader_speed", "leader_desired_speed", "leader_pose",
-                 "leader_omega", "lap_length", "lap_time", "filters"):
+    for prop in (
+        "t_ms",
+        "n",
+        "leader_speed",
+        "leader_desired_speed",
+        "leader_pose",
+        "leader_omega",
+        "lap_length",
+        "lap_time",
+        "filters",
+    ):
         assert isinstance(getattr(World, prop), property), prop
 
 

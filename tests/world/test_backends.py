@@ -53,8 +53,9 @@ def _same_run(a: Any, b: Any) -> None:
     assert a.windows.to_csv(index=False) == b.windows.to_csv(index=False)
     if a.jobs is not None:
         assert a.jobs.to_csv(index=False) == b.jobs.to_csv(index=False)
-    assert json.dumps(a.summary, sort_keys=True, default=str) == \
-        json.dumps(b.summary, sort_keys=True, default=str)
+    assert json.dumps(a.summary, sort_keys=True, default=str) == json.dumps(
+        b.summary, sort_keys=True, default=str
+    )
 
 
 @needs_numba
@@ -100,8 +101,12 @@ def test_follower_advance_kernel() -> None:
     p = FollowerParams(max_accel=80.0)
     for _ in range(200):
         n = 3
-        args = (rng.uniform(-500, 500, n), rng.uniform(-500, 500, n), rng.uniform(-7, 7, n),
-                rng.uniform(0, 60, n))
+        args = (
+            rng.uniform(-500, 500, n),
+            rng.uniform(-500, 500, n),
+            rng.uniform(-7, 7, n),
+            rng.uniform(0, 60, n),
+        )
         a, b = FollowerGroup(*args, p), compiled.CompiledFollowerGroup(*args, p)
         for g in (a, b):
             g.cmd_v = [float(v) for v in rng.uniform(-20, 80, n)] if g is a else list(a.cmd_v)
@@ -122,8 +127,11 @@ def test_ekf_kernels() -> None:
         pose = tuple(float(v) for v in rng.uniform(-300, 300, 3))
         a, b = FastFollowerEKF(pose, params), compiled.CompiledFollowerEKF(pose, params)
         for _ in range(5):
-            v, w, dt = float(rng.uniform(-10, 50)), float(rng.uniform(-1, 1)), \
-                float(rng.choice([0.0, rng.uniform(0.01, 0.5)]))
+            v, w, dt = (
+                float(rng.uniform(-10, 50)),
+                float(rng.uniform(-1, 1)),
+                float(rng.choice([0.0, rng.uniform(0.01, 0.5)])),
+            )
             if rng.random() < 0.2:
                 w = 0.0
             a.predict(v, w, dt)
@@ -146,18 +154,23 @@ def test_ftl_command_kernel() -> None:
     b = compiled.CompiledTraceFollower(path, rho, lat, 0.5, 40.0)
     s_l = 1000.0
     for k in range(4):
-        assert _bits(a.initial(k, s_l, path.pose(s_l), 30.0)) == \
-            _bits(b.initial(k, s_l, path.pose(s_l), 30.0))
+        assert _bits(a.initial(k, s_l, path.pose(s_l), 30.0)) == _bits(
+            b.initial(k, s_l, path.pose(s_l), 30.0)
+        )
     for _ in range(300):
         s_l += float(rng.uniform(0, 40))
         leader = path.pose(s_l)
         k = int(rng.integers(0, 4))
         x, y, h = a.point(k, a._s_ref[k] if a._s_ref[k] is not None else s_l)
-        x, y, h = x + float(rng.normal(0, 5)), y + float(rng.normal(0, 5)), \
-            h + float(rng.normal(0, 0.05))
+        x, y, h = (
+            x + float(rng.normal(0, 5)),
+            y + float(rng.normal(0, 5)),
+            h + float(rng.normal(0, 0.05)),
+        )
         v_l = float(rng.uniform(0, 35))
-        assert _bits(a.command(k, s_l, leader, v_l, x, y, h)) == \
-            _bits(b.command(k, s_l, leader, v_l, x, y, h))
+        assert _bits(a.command(k, s_l, leader, v_l, x, y, h)) == _bits(
+            b.command(k, s_l, leader, v_l, x, y, h)
+        )
         b._to_lists()
         assert _bits(a._s_ref) == _bits(b._s_ref) and _bits(a._s_f) == _bits(b._s_f)
 
@@ -173,8 +186,9 @@ def test_each_backend_runs_the_world(backend: str) -> None:
 
 
 def test_backend_switch_and_alias() -> None:
-    assert load_scenario("test2").world.resolved_backend() == \
-        ("compiled" if compiled.available() else "python")
+    assert load_scenario("test2").world.resolved_backend() == (
+        "compiled" if compiled.available() else "python"
+    )
     sc = load_scenario("test2", overrides={"ekf.backend": "filterpy"})
     assert sc.world.resolved_backend() == "filterpy"
     w = World(sc.world, np.random.default_rng(0))
@@ -199,15 +213,18 @@ def test_compiled_without_numba_is_an_error(monkeypatch: pytest.MonkeyPatch) -> 
 def test_second_process_loads_kernels_from_the_cache() -> None:
     """After one run has compiled the kernels, a fresh interpreter compiles nothing."""
     _run("test2", "compiled", duration_s=5, seed=0)
-    code = ("from rtsim.coupling import run_scenario\n"
-            "from rtsim.world import compiled\n"
-            "run_scenario('test2', duration_s=5, overrides={'world.backend': 'compiled'})\n"
-            "k = compiled.kernels()\n"
-            "ds = [d for d in vars(k).values() if hasattr(d, 'stats')]\n"
-            "print(sum(len(d.stats.cache_misses) for d in ds),"
-            " sum(len(d.stats.cache_hits) for d in ds))\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True, cwd=ROOT)
+    code = (
+        "from rtsim.coupling import run_scenario\n"
+        "from rtsim.world import compiled\n"
+        "run_scenario('test2', duration_s=5, overrides={'world.backend': 'compiled'})\n"
+        "k = compiled.kernels()\n"
+        "ds = [d for d in vars(k).values() if hasattr(d, 'stats')]\n"
+        "print(sum(len(d.stats.cache_misses) for d in ds),"
+        " sum(len(d.stats.cache_hits) for d in ds))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT
+    )
     misses, hits = map(int, out.stdout.split())
     assert misses == 0 and hits >= 4
     assert math.isfinite(hits)
@@ -279,10 +296,18 @@ def test_compiled_paper_search_bit_identical(policy: str) -> None:
     from rtsim.control.compiled import PaperSearch
 
     paper = {"adjust.predictor": "paper"}
-    py = _run("test2", "python", duration_s=150, seed=4, policy=policy, record_jobs=False,
-              overrides=paper)
-    co = _run("test2", "compiled", duration_s=150, seed=4, policy=policy, record_jobs=False,
-              overrides=paper)
+    py = _run(
+        "test2", "python", duration_s=150, seed=4, policy=policy, record_jobs=False, overrides=paper
+    )
+    co = _run(
+        "test2",
+        "compiled",
+        duration_s=150,
+        seed=4,
+        policy=policy,
+        record_jobs=False,
+        overrides=paper,
+    )
     _same_run(py, co)
     assert co.summary["predictor"] == "paper" and co.summary["critical_windows"] > 20
     rng = np.random.default_rng(8)
@@ -293,17 +318,24 @@ def test_compiled_paper_search_bit_identical(policy: str) -> None:
     thr = Thresholds(25.0, 0.005, 0.025, math.radians(5))
     ps = PaperSearch()
     for _ in range(300):
-        fols = [trusted_estimate(float(rng.uniform(200, 400)), float(rng.uniform(2.5, 3.8)),
-                                 float(rng.normal(0, 0.3)), float(rng.uniform(0, 40)), 325.0)
-                for _ in range(int(rng.integers(1, 4)))]
+        fols = [
+            trusted_estimate(
+                float(rng.uniform(200, 400)),
+                float(rng.uniform(2.5, 3.8)),
+                float(rng.normal(0, 0.3)),
+                float(rng.uniform(0, 40)),
+                325.0,
+            )
+            for _ in range(int(rng.integers(1, 4)))
+        ]
         om, need = float(rng.normal(0, 0.2)), float(rng.uniform(100, 400))
-        grid = [30.0 - 30.0 / 64 * i for i in range(64)] + [30.0 / 64 * 0.5**j
-                                                             for j in range(1, 21)]
+        grid = [30.0 - 30.0 / 64 * i for i in range(64)] + [
+            30.0 / 64 * 0.5**j for j in range(1, 21)
+        ]
 
         def ok(v: float, fols: Any = fols, om: float = om, need: float = need) -> bool:
             rows = predict_msb_rows(fols, v, lambda f, _v: (f.v_f, f.theta, om), thr)
             return min_bound_rows(rows)[0] >= need
 
         a, b = _largest(ok, grid), ps.largest(fols, om, thr, need, grid)
-        assert (a is None and b is None) or (a is not None and b is not None
-                                             and a.hex() == b.hex())
+        assert (a is None and b is None) or (a is not None and b is not None and a.hex() == b.hex())

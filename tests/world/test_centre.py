@@ -17,26 +17,43 @@ from rtsim.world.formation import Formation, in_line
 from rtsim.world.localization import lost_cause
 
 E_CAL, E_TRANS, R_H, R_REACQ = 0.001, 0.1, 25.0, 100.0
-QUIET = dict(follower=FollowerParams(speed_noise=0.0, turn_noise=0.0),
-             sensing=SensingParams(r_reacq=R_REACQ, position_noise=0.0),
-             ekf=EkfParams(init_position_sd=0.0, init_heading_sd=0.0))
+QUIET = dict(
+    follower=FollowerParams(speed_noise=0.0, turn_noise=0.0),
+    sensing=SensingParams(r_reacq=R_REACQ, position_noise=0.0),
+    ekf=EkfParams(init_position_sd=0.0, init_heading_sd=0.0),
+)
 
 
-def world(centre: str, formation: Formation, start_s: float, search: str = "always",
-          radius: float = 120.0, speed: float = 30.0) -> World:
-    cfg = WorldConfig(rr(800, 400, radius), speed, formation, start_s=start_s,
-                      localization=LocalizationParams(centre, search), **QUIET)  # type: ignore[arg-type]
+def world(
+    centre: str,
+    formation: Formation,
+    start_s: float,
+    search: str = "always",
+    radius: float = 120.0,
+    speed: float = 30.0,
+) -> World:
+    cfg = WorldConfig(
+        rr(800, 400, radius),
+        speed,
+        formation,
+        start_s=start_s,
+        localization=LocalizationParams(centre, search),
+        **QUIET,
+    )  # type: ignore[arg-type]
     return World(cfg, np.random.default_rng(3))
 
 
 def to_frame(leader: tuple[float, float, float], x: float, y: float) -> tuple[float, float]:
     xl, yl, h = leader
-    return (math.cos(h) * (x - xl) + math.sin(h) * (y - yl),
-            -math.sin(h) * (x - xl) + math.cos(h) * (y - yl))
+    return (
+        math.cos(h) * (x - xl) + math.sin(h) * (y - yl),
+        -math.sin(h) * (x - xl) + math.cos(h) * (y - yl),
+    )
 
 
 def test_config_rejects_unknown_choices() -> None:
     from rtsim.errors import ScenarioError
+
     with pytest.raises(ScenarioError, match="localization.centre"):
         LocalizationParams("truth")
     with pytest.raises(ScenarioError, match="localization.search"):
@@ -129,11 +146,13 @@ def test_coupled_run_records_lost_tracks_by_cause() -> None:
     from rtsim.coupling.scenario_run import run_scenario
 
     pin2 = Path(__file__).parents[1] / "data" / "policy_pin" / "pin2.toml"  # a frozen Test 2
-    res = run_scenario(pin2, overrides={"formation.followers": 4}, duration_s=45.0,
-                       record_jobs=False)
+    res = run_scenario(
+        pin2, overrides={"formation.followers": 4}, duration_s=45.0, record_jobs=False
+    )
     df, s = res.windows, res.summary
-    causes = df[["tracks_lost_outside_window", "tracks_lost_occluded",
-                 "tracks_lost_out_of_range"]].sum(axis=1)
+    causes = df[
+        ["tracks_lost_outside_window", "tracks_lost_occluded", "tracks_lost_out_of_range"]
+    ].sum(axis=1)
     assert (causes == df["tracks_lost"]).all()
     assert s["tracks_lost"] > 0
     assert sum(s["tracks_lost_by_cause"].values()) == s["tracks_lost"]
@@ -151,13 +170,23 @@ def test_predicted_localization_bound_by_hand() -> None:
     b = 150 * math.radians(2.0) + 0.5
     c = 25 / 3 - 2 * math.sqrt(2)
     w = (-b + math.sqrt(b * b + 4 * a * c)) / (2 * a)
-    got = msb_localization_predicted(25.0, fix_sd=1.0, heading_sd=math.radians(2.0),
-                                     speed_sd=0.5, turn_sd=math.radians(0.3), v_max=150.0)
+    got = msb_localization_predicted(
+        25.0,
+        fix_sd=1.0,
+        heading_sd=math.radians(2.0),
+        speed_sd=0.5,
+        turn_sd=math.radians(0.3),
+        v_max=150.0,
+    )
     assert got == pytest.approx(1000 * w) and 900 < got < 910
     # the residual at that w is exactly r_H
     assert 3 * (2 * math.sqrt(2) + b * w + a * w * w) == pytest.approx(25.0)
-    assert msb_localization_predicted(8.0, fix_sd=1.0, heading_sd=0.0, speed_sd=0.0,
-                                      turn_sd=0.0, v_max=150.0) == 0.0
+    assert (
+        msb_localization_predicted(
+            8.0, fix_sd=1.0, heading_sd=0.0, speed_sd=0.0, turn_sd=0.0, v_max=150.0
+        )
+        == 0.0
+    )
 
 
 def test_shipped_choices_leave_two_followers_unchanged() -> None:
@@ -167,8 +196,12 @@ def test_shipped_choices_leave_two_followers_unchanged() -> None:
     from rtsim.coupling.recorder import LOCALIZATION_COLUMNS
     from rtsim.coupling.scenario_run import run_scenario
 
-    old = {"localization.centre": "previous", "localization.search": "always",
-           "formation.layout": "line", "thresholds.localization": "radial"}
+    old = {
+        "localization.centre": "previous",
+        "localization.search": "always",
+        "formation.layout": "line",
+        "thresholds.localization": "radial",
+    }
     new = run_scenario("test2", duration_s=40.0, record_jobs=False).windows
     was = run_scenario("test2", duration_s=40.0, record_jobs=False, overrides=old).windows
     drop = [*LOCALIZATION_COLUMNS, "f1_msb_localization_pred", "f2_msb_localization_pred"]
@@ -187,8 +220,9 @@ def test_predicted_bound_in_the_follower_bounds() -> None:
     args = (25.0, 0.05, 27.0, 390.0, math.radians(195), 0.02, 390.0)
     a, b = follower_msbs(*args, pred), follower_msbs(*args, radial)
     assert a["localization"] == 903.0 and b["localization"] != 903.0
-    assert {k: a[k] for k in a if k != "localization"} == \
-        {k: b[k] for k in b if k != "localization"}
+    assert {k: a[k] for k in a if k != "localization"} == {
+        k: b[k] for k in b if k != "localization"
+    }
     rho = np.array([380.0, 390.0, 400.0])
     arr = follower_msbs(25.0, 0.05, 27.0, rho, math.radians(195), 0.02, 390.0, pred)
     assert arr["localization"].tolist() == [903.0] * 3

@@ -11,8 +11,8 @@ from rtsim.world import EkfParams, FollowerEKF, SensingParams, World, WorldConfi
 from rtsim.world import rounded_rectangle as rr
 from rtsim.world.ekf import FastFollowerEKF
 
-HEADING_TOL_DEG = 2.0     # the stated threshold
-SETTLE_WINDOWS = 20       # reached within this many windows from a 10° initial error, and kept
+HEADING_TOL_DEG = 2.0  # the stated threshold
+SETTLE_WINDOWS = 20  # reached within this many windows from a 10° initial error, and kept
 
 
 def test_state_jacobian_matches_finite_differences() -> None:
@@ -47,11 +47,17 @@ def test_update_pulls_towards_measurement_and_shrinks_covariance() -> None:
     assert ekf.P[0, 0] == pytest.approx(p0 / 2)
 
 
-def _straight_run(noise: float, seed: int, backend: str = "fast", windows: int = 120
-                  ) -> list[float]:
+def _straight_run(
+    noise: float, seed: int, backend: str = "fast", windows: int = 120
+) -> list[float]:
     path = rr(20000, 0, 200)  # a 200 m straight first
-    cfg = WorldConfig(path, 25.0, chevron(2, 390), sensing=SensingParams(position_noise=noise),
-                      ekf=EkfParams(backend=backend))
+    cfg = WorldConfig(
+        path,
+        25.0,
+        chevron(2, 390),
+        sensing=SensingParams(position_noise=noise),
+        ekf=EkfParams(backend=backend),
+    )
     world = World(cfg, np.random.default_rng(seed))
     for f in world.filters:
         x, y, th = f.pose
@@ -63,10 +69,18 @@ def _straight_run(noise: float, seed: int, backend: str = "fast", windows: int =
     for _ in range(windows):
         scan = world.scan(t)
         world.estimate(scan)
-        errs.append(max(
-            abs(math.degrees(math.remainder(world.filters[k].pose[2] - world.followers.th[k],
-                                            2 * math.pi)))
-            for k in range(2)))
+        errs.append(
+            max(
+                abs(
+                    math.degrees(
+                        math.remainder(
+                            world.filters[k].pose[2] - world.followers.th[k], 2 * math.pi
+                        )
+                    )
+                )
+                for k in range(2)
+            )
+        )
         world.command(1, t + 110.0)
         world.command(2, t + 113.0)
         t += 240.0
@@ -80,7 +94,7 @@ def test_heading_converges_on_a_straight_run(noise: float, seed: int, backend: s
     """From a 10° heading error, with default actuation noise and position noise 0 or 1 cm,
     the heading error falls below 2° within 20 windows (4.8 s) and stays there (120 windows)."""
     errs = _straight_run(noise, seed, backend)
-    assert errs[0] > 5.0                       # it did start far off
+    assert errs[0] > 5.0  # it did start far off
     assert max(errs[SETTLE_WINDOWS:]) < HEADING_TOL_DEG
 
 
@@ -107,8 +121,7 @@ def test_fast_filter_equals_filterpy() -> None:
 
 def test_worlds_with_either_backend_agree() -> None:
     def run(backend: str) -> dict:
-        cfg = WorldConfig(rr(600, 400, 200), 25.0, chevron(2, 390),
-                          ekf=EkfParams(backend=backend))
+        cfg = WorldConfig(rr(600, 400, 200), 25.0, chevron(2, 390), ekf=EkfParams(backend=backend))
         world = World(cfg, np.random.default_rng(11))
         t = 0.0
         for _ in range(300):

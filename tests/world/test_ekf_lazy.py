@@ -11,9 +11,16 @@ from rtsim.world.ekf import EkfParams, FastFollowerEKF, FollowerEKF
 
 
 def _modules_after(code: str) -> set[str]:
-    out = subprocess.run([sys.executable, "-c", code + "\nimport sys\n"
-                          "print(' '.join(sorted(m.split('.')[0] for m in sys.modules)))"],
-                         capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            code + "\nimport sys\nprint(' '.join(sorted(m.split('.')[0] for m in sys.modules)))",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return set(out.stdout.split())
 
 
@@ -24,8 +31,10 @@ def test_import_world_does_not_load_filterpy() -> None:
 
 
 def test_filterpy_backend_loads_filterpy_on_creation() -> None:
-    mods = _modules_after("from rtsim.world.ekf import EkfParams, make_filter\n"
-                          "make_filter((0.0, 0.0, 0.0), EkfParams(backend='filterpy'))")
+    mods = _modules_after(
+        "from rtsim.world.ekf import EkfParams, make_filter\n"
+        "make_filter((0.0, 0.0, 0.0), EkfParams(backend='filterpy'))"
+    )
     assert "filterpy" in mods
 
 

@@ -31,8 +31,9 @@ def quiet_follower(**kw: float) -> FollowerParams:
 
 
 def test_arc_step_matches_fine_euler() -> None:
-    x, y, th = arc_step(np.array([1.0]), np.array([2.0]), np.array([0.3]),
-                        np.array([40.0]), np.array([0.7]), 1.5)
+    x, y, th = arc_step(
+        np.array([1.0]), np.array([2.0]), np.array([0.3]), np.array([40.0]), np.array([0.7]), 1.5
+    )
     xe, ye, te, n = 1.0, 2.0, 0.3, 200_000
     h = 1.5 / n
     for _ in range(n):
@@ -52,8 +53,9 @@ def test_ramp_mean_speed_by_hand() -> None:
 
 def _turning_world(rng_seed: int = 3) -> World:
     path = rounded_rectangle(300, 300, 150)
-    cfg = WorldConfig(path, 25.0, chevron(2, 390), follower=FollowerParams(), step_ms=10.0,
-                      start_s=250.0)
+    cfg = WorldConfig(
+        path, 25.0, chevron(2, 390), follower=FollowerParams(), step_ms=10.0, start_s=250.0
+    )
     return World(cfg, np.random.default_rng(rng_seed))
 
 
@@ -63,10 +65,10 @@ def test_rho_dot_beta_dot_match_finite_differences_of_the_world() -> None:
     world = _turning_world()
     t, h = 0.0, 0.5
     checked = 0
-    for window in range(40):                 # the leader enters a turn at s = 300
+    for window in range(40):  # the leader enters a turn at s = 300
         world.command(1, t + 1.0)
         world.command(2, t + 2.0)
-        if window % 7 == 3:                  # shake follower 2: speed step and turn
+        if window % 7 == 3:  # shake follower 2: speed step and turn
             world.advance(t + 2.0)
             world.followers.cmd_v[1] += 15.0
             world.followers.cmd_w[1] -= 0.2
@@ -76,10 +78,13 @@ def test_rho_dot_beta_dot_match_finite_differences_of_the_world() -> None:
             for tt in (tm - h, tm, tm + h):
                 world.advance(tt)
                 fol = world.followers
-                samples.append([
-                    (world.leader.pose, (fol.x[k], fol.y[k], fol.th[k]), fol.v[k])
-                    for k in range(2)
-                ] + [(world.leader.speed, world.leader.omega)])
+                samples.append(
+                    [
+                        (world.leader.pose, (fol.x[k], fol.y[k], fol.th[k]), fol.v[k])
+                        for k in range(2)
+                    ]
+                    + [(world.leader.speed, world.leader.omega)]
+                )
             v_l, w_l = samples[1][2]
             for k in range(2):
                 (lp0, fp0, _), (lp1, fp1, vf), (lp2, fp2, _) = (s[k] for s in samples)
@@ -108,17 +113,23 @@ def test_steady_turn_follower_speed(v_l: float, r_t: float, rho_d: float, ratio:
     """In a steady left turn the outer follower (β = 195°) moves at SPEC §6's
     V_F = V_L·√(1 + (ρ/r)² − 2(ρ/r) sin β) (2.41·V_L Test 1, 3.12·V_L Test 2), ρ̇ = β̇ = 0."""
     path = LeaderPath([Turn("left", r_t, 2 * math.pi)])
-    cfg = WorldConfig(path, v_l, chevron(2, rho_d), follower=quiet_follower(gain_rho=1.0,
-                      gain_beta=1.0), sensing=QUIET_SENSING, ekf=QUIET_EKF)
+    cfg = WorldConfig(
+        path,
+        v_l,
+        chevron(2, rho_d),
+        follower=quiet_follower(gain_rho=1.0, gain_beta=1.0),
+        sensing=QUIET_SENSING,
+        ekf=QUIET_EKF,
+    )
     world = World(cfg, np.random.default_rng(0))
     fol = world.followers
-    for k, f in enumerate(world.filters):    # knock both followers out of formation
+    for k, f in enumerate(world.filters):  # knock both followers out of formation
         fol.x[k] += 8.0
         fol.y[k] -= 5.0
         fol.th[k] += 0.05
         f.set_state(fol.pose(k), f.P)
     t = 0.0
-    for _ in range(150):                     # 36 s of 240 ms windows
+    for _ in range(150):  # 36 s of 240 ms windows
         scan = world.scan(t)
         world.estimate(scan)
         world.command(1, t + 110.0)
@@ -137,7 +148,7 @@ def test_steady_turn_follower_speed(v_l: float, r_t: float, rho_d: float, ratio:
     assert vf2 == pytest.approx(inner, rel=1e-3)
     w_l = v_l / r_t
     for rho, beta, theta, vf in ((rho1, beta1, theta1, vf1), (rho2, beta2, theta2, vf2)):
-        assert abs(rho_dot(v_l, vf, beta, theta)) < 0.05          # cm/s
+        assert abs(rho_dot(v_l, vf, beta, theta)) < 0.05  # cm/s
         assert abs(beta_dot(v_l, vf, beta, theta, rho, w_l)) < 2e-4  # rad/s
 
 

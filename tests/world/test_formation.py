@@ -41,8 +41,9 @@ def test_no_follower_is_hidden(n: int, sep: float) -> None:
 
 def test_the_literal_chevron_would_hide_followers() -> None:
     """Same offset for every pair: pair 2 sits behind pair 1 and returns no beam."""
-    lit = Formation((390, 390, 780, 780), tuple(math.pi + s * math.radians(15)
-                                                for s in (1, -1, 1, -1)))
+    lit = Formation(
+        (390, 390, 780, 780), tuple(math.pi + s * math.radians(15) for s in (1, -1, 1, -1))
+    )
     assert list(_beams(lit)[2:]) == [0, 0]
     assert min(_beams(chevron(4, 390))) > 0
 

@@ -43,13 +43,13 @@ def _drive(world: World, windows: int, w: float) -> Iterator[dict]:
 def test_leader_ramp_by_hand() -> None:
     path = rounded_rectangle(800, 400, 200)
     ld = Leader(path, 30.0, accel_max=20.0, decel_max=50.0)
-    ld.set_speed(10.0)                      # 30 -> 10 at 50 cm/s²: 0.4 s, 8 cm
+    ld.set_speed(10.0)  # 30 -> 10 at 50 cm/s²: 0.4 s, 8 cm
     assert ld.speed == 30.0 and ld.target_speed == 10.0
     ld.advance(0.1)
     assert ld.speed == pytest.approx(25.0) and ld.s == pytest.approx(2.75)
-    ld.advance(1.0)                         # 0.3 s more of ramp (5.25 cm), then 0.7 s at 10
+    ld.advance(1.0)  # 0.3 s more of ramp (5.25 cm), then 0.7 s at 10
     assert ld.speed == 10.0 and ld.s == pytest.approx(2.75 + 5.25 + 7.0)
-    ld.set_speed(30.0)                      # 10 -> 30 at 20 cm/s²: 1 s, 20 cm
+    ld.set_speed(30.0)  # 10 -> 30 at 20 cm/s²: 1 s, 20 cm
     assert ld.speed_after(0.5) == pytest.approx(20.0)
     ld.advance(2.0)
     assert ld.speed == 30.0 and ld.s == pytest.approx(15.0 + 20.0 + 30.0)
@@ -62,8 +62,11 @@ def test_leader_ramp_by_hand() -> None:
 def test_leader_limits_are_validated() -> None:
     with pytest.raises(ScenarioError, match=r"leader.decel_max: must be positive"):
         load_scenario("test1", overrides={"leader.decel_max": 0})
-    with pytest.raises(ScenarioError, match=r"leader: unknown key 'accel' \(did you mean "
-                                            r"'accel_max'\?\)"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"leader: unknown key 'accel' \(did you mean "
+        r"'accel_max'\?\)",
+    ):
         load_scenario("test1", overrides={"leader.accel": 10})
 
 
@@ -105,10 +108,13 @@ def test_paper_tests_use_follow_the_leader(name: str) -> None:
 
 
 def test_formation_model_typo_is_an_error_with_a_hint() -> None:
-    with pytest.raises(ScenarioError, match=r"test1.toml: formation.model: must be one of "
-                                            r"follow-the-leader, l-psi or 'package\.module:Name', "
-                                            r"got 'follow-the-lead' "
-                                            r"\(did you mean 'follow-the-leader'\?\)"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"test1.toml: formation.model: must be one of "
+        r"follow-the-leader, l-psi or 'package\.module:Name', "
+        r"got 'follow-the-lead' "
+        r"\(did you mean 'follow-the-leader'\?\)",
+    ):
         load_scenario("test1", overrides={"formation.model": "follow-the-lead"})
 
 
@@ -206,8 +212,10 @@ def test_rho_dot_beta_dot_match_finite_differences_of_the_ftl_world() -> None:
             for tt in (tm - h, tm, tm + h):
                 world.advance(tt)
                 fol = world.followers
-                samples.append([(world.leader.pose, fol.pose(k), fol.v[k]) for k in range(2)]
-                               + [(world.leader.speed, world.leader.omega)])
+                samples.append(
+                    [(world.leader.pose, fol.pose(k), fol.v[k]) for k in range(2)]
+                    + [(world.leader.speed, world.leader.omega)]
+                )
             v_l, w_l = samples[1][2]
             for k in range(2):
                 (lp0, fp0, _), (lp1, fp1, vf), (lp2, fp2, _) = (s[k] for s in samples)

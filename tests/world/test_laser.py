@@ -61,8 +61,8 @@ def test_follower_outside_field_of_view_returns_nothing() -> None:
 @pytest.mark.parametrize(
     "centres",
     [
-        [polar(150, 180), polar(390, 180)],          # fully behind one another
-        [polar(390, 185), polar(200, 180)],          # partly shadowed, nearer listed second
+        [polar(150, 180), polar(390, 180)],  # fully behind one another
+        [polar(390, 185), polar(200, 180)],  # partly shadowed, nearer listed second
         [polar(390, 195), polar(390, 165), polar(780, 200), polar(780, 160)],  # chevron
         [polar(300, 180), polar(350, 184), polar(400, 188)],
     ],
@@ -99,5 +99,7 @@ def test_k_at_150_cm_versus_paper() -> None:
     assert max_points(150, R_F) == k_geom == 39
     for b, c in counts.items():
         assert count_beams(np.array([polar(150, 180 + b)]), R_F)[0] == c
-    print(f"\nk at 150 cm: geometry {min(counts.values())}-{k_geom} beams, paper's Eq 2: 34 "
-          f"(2*arctan(25/150)/0.5deg = {2 * math.degrees(math.atan(25 / 150)) / 0.5:.2f})")
+    print(
+        f"\nk at 150 cm: geometry {min(counts.values())}-{k_geom} beams, paper's Eq 2: 34 "
+        f"(2*arctan(25/150)/0.5deg = {2 * math.degrees(math.atan(25 / 150)) / 0.5:.2f})"
+    )

@@ -14,8 +14,12 @@ E_CAL, E_TRANS, R_H, R_REACQ = 0.001, 0.1, 25.0, 100.0
 
 
 def make_world(noise: float = 0.0) -> World:
-    cfg = WorldConfig(rr(5000, 400, 200), 25.0, chevron(2, 390),
-                      sensing=SensingParams(r_reacq=R_REACQ, position_noise=noise))
+    cfg = WorldConfig(
+        rr(5000, 400, 200),
+        25.0,
+        chevron(2, 390),
+        sensing=SensingParams(r_reacq=R_REACQ, position_noise=noise),
+    )
     return World(cfg, np.random.default_rng(7))
 
 
@@ -55,15 +59,16 @@ def test_pushed_follower_is_lost_reacquired_and_charged() -> None:
         step(world, t)
         t += 240.0
     world.advance(t)
-    world.followers.y[1] += 40.0          # follower 2 jumps 40 cm: outside r_H, inside r_reacq
+    world.followers.y[1] += 40.0  # follower 2 jumps 40 cm: outside r_H, inside r_reacq
     scan = world.scan(t)
     assert scan.lost.tolist() == [False, True]
     assert scan.reacquired.tolist() == [False, True]
     assert scan.lost_followers == (2,)
     assert scan.violations["localization"].tolist() == [False, True]
     pts = scan.total_points
-    expected = (math.pi * R_H**2 * 2 * E_CAL + pts * E_TRANS
-                + math.pi * R_REACQ**2 * E_CAL + 361 * E_TRANS)
+    expected = (
+        math.pi * R_H**2 * 2 * E_CAL + pts * E_TRANS + math.pi * R_REACQ**2 * E_CAL + 361 * E_TRANS
+    )
     assert hough_time(scan, E_CAL, E_TRANS, R_H, R_REACQ) == pytest.approx(expected)
     world.estimate(scan)
     # the estimate jumped to the fix, so the next window is centred on it again
@@ -104,7 +109,7 @@ def test_observed_violations_against_hand_thresholds() -> None:
     assert not scan.violations["path_diversion"].any()
     assert thr.T_eps * 390 == pytest.approx(9.75)
     world.estimate(scan)
-    world.advance(2000.0)                  # 1.76 s since the last scan: travel 44 cm
+    world.advance(2000.0)  # 1.76 s since the last scan: travel 44 cm
     scan = world.scan(2000.0)
     assert scan.violations["path_diversion"].all()
     # bearing: rotate follower 2 by 6° about the leader (> T_beta = 5°)

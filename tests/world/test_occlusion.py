@@ -22,8 +22,7 @@ def test_share_is_zero_on_a_straight() -> None:
 
 def _circle_formation() -> Formation:
     # followers 1 and 3 on the trace (lateral 0), 3 following 1 at 150 cm; 2 on the right
-    return Formation((150.0, 200.0, 300.0), (math.pi, math.pi + 0.8, math.pi),
-                     "follow-the-leader")
+    return Formation((150.0, 200.0, 300.0), (math.pi, math.pi + 0.8, math.pi), "follow-the-leader")
 
 
 @pytest.mark.parametrize("radius, hidden", [(1000.0, True), (150.0, False)])

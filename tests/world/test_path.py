@@ -51,8 +51,9 @@ def test_right_turn_path_closes_clockwise() -> None:
 
 
 def test_pose_is_continuous_at_every_boundary() -> None:
-    path = LeaderPath([Straight(100), Turn("left", 50, math.pi), Straight(100),
-                       Turn("left", 50, math.pi)])
+    path = LeaderPath(
+        [Straight(100), Turn("left", 50, math.pi), Straight(100), Turn("left", 50, math.pi)]
+    )
     s = 0.0
     for seg in path.segments:
         s += seg.length
@@ -65,8 +66,10 @@ def test_pose_is_continuous_at_every_boundary() -> None:
     ("segments", "match"),
     [
         ([Straight(100)], "does not close"),
-        ([Straight(100), Turn("left", 50, math.pi), Straight(100), Turn("left", 51, math.pi)],
-         "does not close"),
+        (
+            [Straight(100), Turn("left", 50, math.pi), Straight(100), Turn("left", 51, math.pi)],
+            "does not close",
+        ),
         ([Turn("left", 100, math.pi)], "does not close"),
         ([], "no segments"),
     ],
@@ -77,8 +80,7 @@ def test_open_paths_are_rejected(segments: list, match: str) -> None:
 
 
 def test_full_circle_and_figure_eight_close() -> None:
-    assert LeaderPath([Turn("left", 100, 2 * math.pi)]).lap_length == pytest.approx(
-        200 * math.pi)
+    assert LeaderPath([Turn("left", 100, 2 * math.pi)]).lap_length == pytest.approx(200 * math.pi)
     eight = LeaderPath([Turn("left", 100, 2 * math.pi), Turn("right", 100, 2 * math.pi)])
     assert eight.curvature(10) > 0 > eight.curvature(200 * math.pi + 10)
 
