@@ -688,9 +688,9 @@ def _build_scenario(
         T_rho=th.T_rho,
         T_eps=th.T_eps,
         T_beta=th.radians("T_beta", math.radians(5.0)),
-        localization=loc,
+        localization=loc,  # type: ignore[arg-type]
         predicted_ms=predicted_ms,
-    )  # type: ignore[arg-type]
+    )
     localization = LocalizationParams(centre=m.localization.centre, search=m.localization.search)
     adj = m.adjust
     args: dict[str, Any] = {k: getattr(adj, k) for k in _ADJUST_KEYS if getattr(adj, k) is not None}

@@ -218,8 +218,8 @@ def make_policy(
             hint = (
                 close
                 if close
-                else f" (a key of policy '{owner[0]}', not of '{cls.name}')"
-                if owner  # type: ignore[attr-defined]
+                else f" (a key of policy '{owner[0]}', not of '{cls.name}')"  # type: ignore[attr-defined]
+                if owner
                 else f" (known keys: {', '.join(names)})"
             )
             raise InputError(f"{where}: unknown key '{key}'{hint}")
