@@ -273,7 +273,7 @@ class _Coupling:
     def __init__(self, inp: ScenarioInputs, mode: str | None, seed: int, exec_model: ExecSpec,
                  record_jobs: bool, horizon_ms: float, stop_s: float | None,
                  stop_ms: float = 0.0, record_trace: bool = False,
-                 job_sink: Any = None) -> None:
+                 job_sink: Any = None, trace_sink: Any = None) -> None:
         cfg = inp.world
         ts = inp.taskset
         if ts.window is None:
@@ -349,7 +349,8 @@ class _Coupling:
         self.env = simpy.Environment()
         self.cpu, _ = build_cpu(ts, env=self.env, window=self._period, suspension="idle",
                                 exec_model=exec_model, seed=cpu_ss, record_jobs=record_jobs,
-                                record_trace=record_trace, job_sink=job_sink)
+                                record_trace=record_trace, job_sink=job_sink,
+                                trace_sink=trace_sink)
         win = ts.window
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
@@ -784,6 +785,7 @@ def run_scenario(
     overrides: Mapping[str, Any] | None = None,
     window_sink: Any = None,
     job_sink: Any = None,
+    trace_sink: Any = None,
     policy: str | None = None,
     allow_code: bool | None = None,
     force: bool = False,
@@ -808,8 +810,10 @@ def run_scenario(
     are written in chunks during the run, the summary is computed from the columns read
     back, and ``result.windows`` is None; job_sink: a callable given the job records in
     chunks, or a ChunkWriter of jobs.csv (``result.jobs`` is then None). With both, memory
-    stays flat on long runs. windows: False leaves ``result.windows`` None (the summary is
-    computed from the records' columns either way; what a sweep point needs).
+    stays flat on long runs. trace_sink: the same for the execution trace (implies
+    record_trace; ``result.trace`` is then None). windows: False leaves ``result.windows``
+    None (the summary is computed from the records' columns either way; what a sweep point
+    needs).
     allow_code: a scenario file (or its task set) may name code, ``module:Name``
     (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
     The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
@@ -853,7 +857,7 @@ def run_scenario(
     check_coupled(horizon_ms, win.g() if win is not None else 0.0, cfg.step_ms, cfg.n,
                   f"run_scenario: duration {horizon_ms / 1000.0:g} s", force=force)
     run = _Coupling(inp, policy, int(seed), exec_model, record_jobs, horizon_ms, stop_s, stop_ms,
-                    record_trace, job_sink)
+                    record_trace, job_sink, trace_sink)
     if window_sink is not None:
         run.rec.sink = lambda recs: run.hand_over(recs, window_sink)
         if window_sink.empty is None:

@@ -154,6 +154,9 @@ class CPU:
     Usage: ``cpu = CPU(env)``; ``cpu.add_task(...)`` for each task; register hooks with
     :meth:`on` and per-segment execution times with :meth:`set_exec_time`; ``cpu.start(H)``
     returns the dispatcher process (run ``env.run(until=proc)``); ``cpu.result()``.
+    ``job_sink`` / ``trace_sink``: where job records / trace rows go in chunks during the
+    run (:class:`~rtsim.sim.records.RowBuffer`; the result's ``jobs`` / ``trace`` are then
+    None), so that a long run keeps neither in memory.
     """
 
     def __init__(
@@ -170,6 +173,7 @@ class CPU:
         jitter: JitterMode = "random",
         job_sink: Callable[[Any], None] | None = None,
         scheduler: PolicySpec = "fp",
+        trace_sink: Any = None,
     ) -> None:
         self.policy: SchedulingPolicy = resolve_policy(scheduler)
         # preemption by "strictly smaller key" (the base class's test): evaluated inline
@@ -191,7 +195,8 @@ class CPU:
         self.overhead = float(overhead)
         self.record_jobs = record_jobs or job_sink is not None
         self.job_sink = job_sink  # job records go there in chunks (records.RowBuffer)
-        self.record_trace = record_trace
+        self.record_trace = record_trace or trace_sink is not None
+        self.trace_sink = trace_sink  # trace rows go there in chunks (records.RowBuffer)
         self.hist_bin = hist_bin
         self.jitter = jitter
         self._states: list[_TaskState] = []
@@ -202,7 +207,8 @@ class CPU:
         self._ready: list[tuple[Any, Any, Job]] = []  # (job.key, job.tie, job)
         self._seq = itertools.count()
         self._job_rows = RowBuffer(jobs_frame, job_sink)
-        self._trace_rows: list[tuple[Any, ...]] = []
+        self._trace_rows: list[tuple[Any, ...]] = \
+            [] if trace_sink is None else RowBuffer(trace_frame, trace_sink)
         self._w: float | None = None
         self._busy = 0.0
         self._switches = 0
@@ -861,6 +867,8 @@ class CPU:
         """Statistics (and job table / trace if recorded) of the run so far; with a job sink
         the records left are flushed to it and ``jobs`` is None."""
         self._job_rows.flush()
+        if self.trace_sink is not None:
+            self._trace_rows.flush()  # type: ignore[attr-defined]
         return SimResult(
             tasks={st.name: st.stats
                    for st in sorted(self._states, key=lambda x: x.priority)},
@@ -877,5 +885,6 @@ class CPU:
             scheduler=self.policy.name or type(self.policy).__name__,
             jobs=self._job_rows.frame()
             if self.record_jobs and self.job_sink is None else None,
-            trace=trace_frame(self._trace_rows) if self.record_trace else None,
+            trace=trace_frame(self._trace_rows)
+            if self.record_trace and self.trace_sink is None else None,
         )
