@@ -17,14 +17,9 @@ The top level is a facade over the subpackages; the entry points load on first u
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
-try:
-    __version__ = version("rtsim")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+unknown"
-
+from rtsim._version import __version__
 from rtsim.errors import InputError, RtsimError, ScenarioError, SweepError, TaskSetError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -43,9 +38,9 @@ _LAZY: dict[str, str] = {
     "run_scenario": "rtsim.coupling",
     "load_scenario": "rtsim.io",
     "load_taskset": "rtsim.io",
-    "simulate": "rtsim.sim",
-    "analyze": "rtsim.analysis",
-    "window_bounds": "rtsim.analysis",
+    "simulate": "rtsim._facade",  # these three take a task-set file too
+    "analyze": "rtsim._facade",
+    "window_bounds": "rtsim._facade",
 }
 
 __all__ = [

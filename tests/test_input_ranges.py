@@ -18,12 +18,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rtsim.cli import build_parser, main, numeric_options
+from rtsim.coupling.duration import check_scenario
 from rtsim.errors import InputError, ScenarioError, TaskSetError
 from rtsim.io import limits
 from rtsim.io.limits import REGISTRY, UnregisteredKey, check, render_markdown
 from rtsim.io.scenario import load_scenario, parse_scenario
 from rtsim.io.taskset import TASK_KEYS, TOP_KEYS, WINDOW_KEYS, load_taskset, parse_taskset
-from rtsim.io.work import LIMITS, TooMuchWork, check_scenario, check_simulate, check_work
+from rtsim.io.work import LIMITS, TooMuchWork, check_simulate, check_work
 from rtsim.world.config import SensingParams
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams

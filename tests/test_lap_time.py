@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from rtsim.coupling import scenario_run
+from rtsim.coupling import duration
 from rtsim.coupling.scenario_run import run_scenario
 from rtsim.io.scenario import load_scenario
 
@@ -43,7 +43,7 @@ def test_no_lap_time_when_the_duration_is_shorter() -> None:
 
 def test_no_lap_time_when_the_cap_is_reached(monkeypatch: pytest.MonkeyPatch,
                                              tmp_path: Path) -> None:
-    monkeypatch.setattr(scenario_run, "LAP_CAP_FACTOR", 0.2)
+    monkeypatch.setattr(duration, "LAP_CAP_FACTOR", 0.2)
     # the file's duration (200 s) would extend the run: 10 s here
     text = PIN.read_text(encoding="utf-8")
     assert text.count("\nduration = 200 ") == 1

@@ -19,12 +19,13 @@ import pytest
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control import FollowerEstimate, decide
-from rtsim.control.adjust import Decision, decide_rows
+from rtsim.control.adjust import Decision
 from rtsim.control.policy import (
     POLICIES,
     MarginPolicy,
     PolicyInput,
     adjust_options,
+    decide_rows,
     make_policy,
     policy_class,
 )

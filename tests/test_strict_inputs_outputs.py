@@ -91,14 +91,27 @@ def test_numpy_bools_are_not_numbers() -> None:
 
 
 # -- paths in public functions ------------------------------------------------------
-@pytest.mark.parametrize("fn", [analyze, w_sch_of, w_rta, w_susp, window_bounds,
-                                lambda p: simulate(p, 500.0)])
-def test_public_functions_accept_a_path(fn: object) -> None:
+def test_the_top_level_functions_accept_a_path() -> None:
+    """rtsim.analyze, rtsim.window_bounds and rtsim.simulate read a task-set file (the
+    configuration layer's loader, above the analysis and the simulator)."""
+    import rtsim
+
     ref = load_taskset(PAPER)
     for arg in (PAPER, str(PAPER)):
-        got = fn(arg)  # type: ignore[operator]
-        if isinstance(got, float):
-            assert got == fn(ref)  # type: ignore[operator]
+        assert rtsim.analyze(arg) == analyze(ref)
+        assert rtsim.window_bounds(arg) == window_bounds(ref)
+        assert rtsim.simulate(arg, 500.0).tasks == simulate(ref, 500.0).tasks
+
+
+@pytest.mark.parametrize("fn", [analyze, w_sch_of, w_rta, w_susp, window_bounds,
+                                lambda p: simulate(p, 500.0)])
+def test_the_layers_take_task_sets_not_paths(fn: object) -> None:
+    """The analysis and the simulator take task sets: a path is a one-line error saying how to
+    read it (they never import the file loader)."""
+    for arg in (PAPER, str(PAPER)):
+        with pytest.raises(TaskSetError, match=r"expected a TaskSet, got the path .*"
+                                               r"read the file with rtsim\.load_taskset"):
+            fn(arg)  # type: ignore[operator]
 
 
 @pytest.mark.parametrize("fn", [analyze, w_sch_of, w_rta, w_susp, window_bounds,
@@ -111,7 +124,13 @@ def test_public_functions_refuse_other_things_with_an_input_error(fn: object,
 
 
 def test_a_missing_file_names_the_file() -> None:
+    import rtsim
+
     with pytest.raises(TaskSetError, match="nope.toml: no such file"):
+        rtsim.analyze("nope.toml")  # the top level reads files; rtsim.analysis takes task sets
+    with pytest.raises(TaskSetError, match=r"analyze: expected a TaskSet, got the path "
+                                           r"'nope.toml' \(read the file with "
+                                           r"rtsim.load_taskset\)"):
         analyze("nope.toml")
 
 

@@ -287,7 +287,7 @@ def test_compiled_paper_search_bit_identical(policy: str) -> None:
     assert co.summary["predictor"] == "paper" and co.summary["critical_windows"] > 20
     rng = np.random.default_rng(8)
     from rtsim.analysis.kinematics import Thresholds
-    from rtsim.control.adjust import _largest
+    from rtsim.control.adjust import largest as _largest
     from rtsim.control.predict import min_bound_rows, predict_msb_rows, trusted_estimate
 
     thr = Thresholds(25.0, 0.005, 0.025, math.radians(5))

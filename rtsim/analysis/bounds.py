@@ -32,13 +32,22 @@ changes. :func:`w_rta` brackets it by bisection and then snaps to that closed fo
 from __future__ import annotations
 
 import math
-import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, analyze, ceil_div, response_time
-from rtsim.errors import TaskSetError
+from rtsim.analysis.common import DEADLINE_TOL, ceil_div, stretches
+from rtsim.analysis.edf import edf_tasks, qpa
+from rtsim.analysis.rta import analyze, response_time
+from rtsim.analysis.sufficient import (
+    _entries,
+    _need_window,
+    as_taskset,
+    w_eq7_of,
+    w_eq11_of,
+    w_sch_of,
+)
+from rtsim.analysis.suspension import compute_time, suspension_aware
 from rtsim.model.task import Task
 
 if TYPE_CHECKING:
@@ -54,95 +63,6 @@ BOUND_SCHEDULER: dict[str, str] = {"w_sch": "fp", "w_rta": "fp", "w_susp": "fp",
 
 #: Largest window w_rta searches (ms); beyond it the set is reported as never schedulable.
 W_MAX = 1e9
-
-
-def _taskset(ts: TaskSet | str | os.PathLike[str], function: str) -> TaskSet:
-    """A path becomes the task set it names; anything but a TaskSet is an InputError."""
-    from rtsim.model.taskset import TaskSet
-
-    if isinstance(ts, TaskSet):
-        return ts
-    from rtsim.io.taskset import as_taskset
-
-    return as_taskset(ts, function)
-
-
-def _need_window(ts: TaskSet) -> None:
-    if ts.window is None:
-        label = ts.source or ts.name or "task set"
-        raise TaskSetError(f"{label}: has no [window]; window bounds need a processing-window set")
-
-
-def _entries(ts: TaskSet) -> list[tuple[Task, bool]]:
-    """Every task in priority order with whether its period scales with w; chain at w = 1."""
-    assert ts.window is not None
-    chain = ts.window_task(1.0)
-    out = [(t, t.per_window) for t in ts.tasks] + [(chain, True)]
-    return sorted(out, key=lambda e: e[0].priority)
-
-
-def _sufficient(task: Task, scaled: bool, higher: Sequence[tuple[Task, bool]]) -> float:
-    """Least w passing the ⌈x⌉ ≤ x + 1 test for ``task`` at t = min(D, p) (module doc).
-
-    Release jitter (ms, also on tasks whose period scales with w): the task's own J shortens
-    the time its job has, t = D − J; a higher task's J_j adds at most ⌈J_j/P_j⌉ jobs, since
-    ⌈(t + J_j)/P_j⌉ ≤ ⌈t/P_j⌉ + ⌈J_j/P_j⌉ and ⌈t/P_j⌉ ≤ ⌈min(D, p)/P_j⌉. For a period that
-    scales with w, P_j is taken at the jitter-free result w0 ≤ w (so ⌈J_j/P_j(w)⌉ is at most
-    the count used). With no jitter this is the paper's form exactly.
-    """
-    assert task.deadline is not None
-    d = min(task.deadline, task.period)  # in units of w when ``scaled``, else ms
-    const = task.wcet  # demand terms that do not depend on w
-    per_w = 0.0  # scaled task: demand ∝ w; fixed task: demand ∝ 1/w
-    for t, t_scaled in higher:
-        if scaled == t_scaled:  # both scale with w, or both fixed: exact ceiling
-            const += math.ceil(d / t.period - CEIL_TOL) * t.wcet
-        else:
-            const += t.wcet
-            per_w += t.wcet / t.period
-
-    def solve(const: float, own_j: float) -> float:
-        if scaled:  # const + w·d·per_w ≤ d·w − J
-            return math.inf if per_w >= 1.0 else (const + own_j) / (d * (1.0 - per_w))
-        # fixed deadline d ms: const + (d/w)·per_w ≤ d − J
-        if const >= d - own_j:
-            return math.inf
-        return d * per_w / (d - own_j - const)
-
-    w0 = solve(const, 0.0)
-    jittered = [(t, s) for t, s in higher if t.jitter > 0]
-    if not jittered and task.jitter == 0:
-        return w0
-    if not math.isfinite(w0):
-        return math.inf
-    extra = math.fsum(math.ceil(t.jitter / (t.period * w0 if s else t.period) - CEIL_TOL)
-                      * t.wcet for t, s in jittered)
-    return solve(const + extra, task.jitter)
-
-
-def w_eq7_of(ts: TaskSet) -> float:
-    """Eq 7: the chain alone, w ≥ (g + Σ_hp e_j)/(1 − Σ_hp e_j/p_j) for fixed-period T_hp."""
-    _need_window(ts)
-    entries = _entries(ts)
-    i = next(k for k, (t, _) in enumerate(entries) if t.priority == ts.window.priority)
-    return _sufficient(*entries[i], entries[:i])
-
-
-def w_eq11_of(ts: TaskSet) -> float:
-    """Eq 11 over T_lp (``-inf`` without T_lp): (½Σ_{lp∪hp} e_j + g)/(1 − U_hp) for p = 2w."""
-    _need_window(ts)
-    entries = _entries(ts)
-    assert ts.window is not None
-    bounds = [_sufficient(t, s, entries[:k]) for k, (t, s) in enumerate(entries)
-              if t.priority > ts.window.priority]
-    return max(bounds, default=-math.inf)
-
-
-def w_sch_of(ts: TaskSet | str | os.PathLike[str]) -> float:
-    """The analytic lower bound w_sch = max(Eq 7, Eq 11) (docs/model/lower-bound.md); ``inf`` if
-    none exists."""
-    ts = _taskset(ts, "w_sch_of")
-    return max(w_eq7_of(ts), w_eq11_of(ts))
 
 
 def _feasible(ts: TaskSet, w: float) -> bool:
@@ -192,13 +112,13 @@ def _bracket(ts: TaskSet, feasible: Callable[[float], bool]) -> tuple[float, flo
     return lo, hi
 
 
-def w_rta(ts: TaskSet | str | os.PathLike[str]) -> float:
+def w_rta(ts: TaskSet) -> float:
     """The least window w at which the exact analysis finds every task schedulable (ms).
 
     ``inf`` when no w up to ``W_MAX`` is schedulable (e.g. T_hp alone is not). Exact up to
     float rounding: the analysis passes at the result and fails 1e-6 ms below it.
     """
-    ts = _taskset(ts, "w_rta")
+    ts = as_taskset(ts, "w_rta")
     _need_window(ts)
     lo, hi = _bracket(ts, lambda w: _feasible(ts, w))
     if not math.isfinite(hi):
@@ -209,7 +129,7 @@ def w_rta(ts: TaskSet | str | os.PathLike[str]) -> float:
     return hi
 
 
-def w_susp(ts: TaskSet | str | os.PathLike[str], overhead: float | None = None) -> float:
+def w_susp(ts: TaskSet, overhead: float | None = None) -> float:
     """The least window w at which the suspension-aware analysis accepts every task (ms).
 
     Bisected like :func:`w_rta`, then checked against the closed forms where the verdict can
@@ -219,9 +139,7 @@ def w_susp(ts: TaskSet | str | os.PathLike[str], overhead: float | None = None) 
     analysis passes, else that end (either way verified to pass).
     ``inf`` when no w up to ``W_MAX`` passes.
     """
-    from rtsim.analysis.suspension import compute_time, suspension_aware
-
-    ts = _taskset(ts, "w_susp")
+    ts = as_taskset(ts, "w_susp")
     _need_window(ts)
 
     def feasible(w: float) -> bool:
@@ -273,8 +191,6 @@ def w_edf(ts: TaskSet, overhead: float | None = None) -> float:
     is the closed form w = Σ_scaled(C/c)/(1 − U_fixed), to the ulp: the least float at which
     the criterion, taking U as computed, passes. ``inf`` when no w up to ``W_MAX`` passes.
     """
-    from rtsim.analysis.edf import edf_tasks, qpa
-
     _need_window(ts)
     o = ts.overhead if overhead is None else overhead
 
@@ -310,8 +226,6 @@ def w_edf(ts: TaskSet, overhead: float | None = None) -> float:
 
 def _edf_c(task: Task, overhead: float) -> float:
     """A task's C in the EDF analysis: WCET (suspensions included) + 2·o per stretch."""
-    from rtsim.analysis.rta import stretches
-
     return task.wcet + 2.0 * overhead * stretches(task) if overhead else task.wcet
 
 
@@ -388,11 +302,11 @@ def _task_input(t: Task) -> dict[str, Any]:
     return out
 
 
-def window_bounds(ts: TaskSet | str | os.PathLike[str], n: int | None = None,
+def window_bounds(ts: TaskSet, n: int | None = None,
                   r_H: float | None = None) -> WindowBounds:
     """e_hough, g, Eq 7, Eq 11, w_sch, w_rta, w_susp and w_edf for ``ts`` (a TaskSet or the
     path of a task-set file; n followers, radius r_H)."""
-    ts = _taskset(ts, "window_bounds")
+    ts = as_taskset(ts, "window_bounds")
     _need_window(ts)
     changes: dict[str, Any] = {}
     if n is not None:

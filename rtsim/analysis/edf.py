@@ -69,7 +69,8 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
-from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, ceil_div, stretches
+from rtsim.analysis.common import CEIL_TOL, DEADLINE_TOL, ceil_div, stretches
+from rtsim.analysis.rta import analysis_inputs
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Task
 
@@ -333,8 +334,6 @@ def analyze_edf(ts: TaskSet, w: float | None = None, *, overhead: float | None =
     analytic w_sch, as :func:`rtsim.analysis.rta.analyze`). ``overhead`` defaults to the
     set's; ``suspension`` ("cpu" or "idle") is recorded, the analysis is
     suspension-oblivious either way (sound for both)."""
-    from rtsim.analysis.rta import analysis_inputs
-
     ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze_edf")
     et = edf_tasks(tasks, overhead)
     verdict = qpa(et)

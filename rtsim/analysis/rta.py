@@ -43,13 +43,20 @@ paper does); see :meth:`rtsim.model.taskset.TaskSet.at_window`.
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
 from rtsim._numbers import is_real
 from rtsim.analysis import utilization as util
+from rtsim.analysis.common import (
+    CEIL_TOL,
+    DEADLINE_TOL,
+    busy_window,
+    ceil_div,
+    stretches,
+)
+from rtsim.analysis.sufficient import as_taskset, w_sch_of
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Task
 
@@ -58,60 +65,6 @@ if TYPE_CHECKING:  # the model package imports rtsim.analysis: no runtime import
 
 __all__ = ["Analysis", "TaskResult", "analyze", "analysis_inputs", "busy_window", "ceil_div",
            "response_time", "stretches", "CEIL_TOL", "DEADLINE_TOL"]
-
-#: ⌈x/p⌉ is computed as ⌈(x − CEIL_TOL)/p⌉ (absolute, ms): R = 3·p + 4e-14 counts 3 jobs.
-CEIL_TOL = 1e-9
-#: A response time up to DEADLINE_TOL ms above the deadline still meets it.
-DEADLINE_TOL = 1e-9
-#: Jobs of one level-i busy period examined before giving up (returning None).
-MAX_BUSY_JOBS = 100_000
-
-
-def ceil_div(x: float, p: float) -> int:
-    """⌈x/p⌉ for times x, p (ms), x taken CEIL_TOL ms lower (module doc: Numerics)."""
-    return math.ceil((x - CEIL_TOL) / p)
-
-
-def stretches(task: Task) -> int:
-    """Compute stretches of one job: runs of compute segments between suspensions (≥ 1)."""
-    n, inside = 0, False
-    for s in task.chain():
-        if s.kind == "compute":
-            if not inside:
-                n += 1
-            inside = True
-        else:
-            inside = False
-    return max(n, 1)
-
-
-def busy_window(c: float, t: float, j: float, d: float,
-                hp: Sequence[tuple[float, float, float]]) -> float | None:
-    """WCRT from arrival of a task (C, T, J, D) below ``hp`` = [(C_j, T_j, J_j)], or None.
-
-    The level-i busy window with release jitter and arbitrary deadlines (module doc;
-    Tindell, Burns & Wellings 1994). None once a response passes D (+ 1e-9 ms), at once when
-    the level-i utilization exceeds 1 and the window cannot close, or after MAX_BUSY_JOBS jobs.
-    """
-    limit = d + DEADLINE_TOL
-    if c / t + math.fsum(cj / tj for cj, tj, _ in hp) > 1.0 + 1e-12 and (d > t or j > 0):
-        return None  # level-i work grows without bound: some job misses any deadline
-    worst = 0.0
-    w = c + math.fsum(cj for cj, _, _ in hp)  # job 0 starts from C + Σ C_j
-    for q in range(MAX_BUSY_JOBS):
-        while True:
-            if j + w - q * t > limit:
-                return None
-            nxt = (q + 1) * c + math.fsum(ceil_div(w + jj, tj) * cj for cj, tj, jj in hp)
-            if nxt <= w:
-                break
-            w = nxt
-        worst = max(worst, j + w - q * t)
-        if w <= (q + 1) * t - j + DEADLINE_TOL:  # the busy window closes with job q
-            return worst
-        w += c  # job q+1 needs at least one more C
-    return None
-
 
 def _check_resolved(task: Task) -> None:
     if task.per_window:
@@ -218,18 +171,13 @@ class Analysis:
         }
 
 
-def analysis_inputs(ts: TaskSet | str | os.PathLike[str], w: float | None,
+def analysis_inputs(ts: TaskSet, w: float | None,
                     overhead: float | None, suspension: str, caller: str
                     ) -> tuple[TaskSet, float | None, float, tuple[Task, ...]]:
     """The checked inputs of an analysis of ``ts`` (a TaskSet or a task-set path): the set,
     the window w (default the analytic w_sch for a set with a ``[window]``), the overhead
     (default the set's) and the tasks to analyse (the window chain as one task at w)."""
-    from rtsim.model.taskset import TaskSet
-
-    if not isinstance(ts, TaskSet):
-        from rtsim.io.taskset import as_taskset
-
-        ts = as_taskset(ts, caller)
+    ts = as_taskset(ts, caller)
     label = ts.source or ts.name or "task set"
     if overhead is None:
         overhead = ts.overhead
@@ -245,8 +193,6 @@ def analysis_inputs(ts: TaskSet | str | os.PathLike[str], w: float | None,
         tasks = ts.tasks
     else:
         if w is None:
-            from rtsim.analysis.bounds import w_sch_of
-
             w = w_sch_of(ts)
             if not math.isfinite(w):
                 raise TaskSetError(
@@ -257,7 +203,7 @@ def analysis_inputs(ts: TaskSet | str | os.PathLike[str], w: float | None,
     return ts, w, overhead, tuple(tasks)
 
 
-def analyze(ts: TaskSet | str | os.PathLike[str], w: float | None = None, *,
+def analyze(ts: TaskSet, w: float | None = None, *,
             overhead: float | None = None,
             suspension: str = "cpu") -> Analysis:
     """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,

@@ -28,7 +28,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from rtsim.analysis.rta import DEADLINE_TOL, busy_window, ceil_div, stretches
+from rtsim.analysis.common import DEADLINE_TOL, busy_window, ceil_div, stretches
 from rtsim.model.task import Task
 
 __all__ = ["SuspensionBound", "suspension_aware", "compute_time", "suspends"]

@@ -8,6 +8,8 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
+from rtsim.model.window import LASER_POINTS, e_hough, g_window
+
 __all__ = [
     "LASER_POINTS",
     "e_hough",
@@ -21,8 +23,6 @@ __all__ = [
     "w_sch",
 ]
 
-#: Scan points of the laser rangefinder: 361 beams over 180°, 0.5° apart.
-LASER_POINTS = 361
 #: Angular spacing of the beams (degrees).
 BEAM_SPACING_DEG = 0.5
 #: Radius of a follower's barrel (cm), docs/model/index.md.
@@ -47,35 +47,6 @@ def k_geometric(rho_min: float, r_F: float = R_F, spacing_deg: float = BEAM_SPAC
         return LASER_POINTS
     width = 2.0 * math.asin(r_F / rho_min)
     return min(LASER_POINTS, math.floor(width / math.radians(spacing_deg) * (1 + 1e-9)) + 1)
-
-
-def e_hough(
-    n: int, r_H: float, e_cal: float, e_trans: float, k: float, points: float | None = None
-) -> float:
-    """Localization time, Eq 1: π·r_H²·n·e_cal + min(361, k·n)·e_trans.
-
-    ``points`` replaces the worst case min(361, k·n) with the scan points actually
-    counted (the simulation's view, docs/model/lower-bound.md).
-    """
-    pts = min(LASER_POINTS, k * n) if points is None else points
-    return math.pi * r_H**2 * n * e_cal + pts * e_trans
-
-
-def g_window(
-    n: int,
-    e_hough_ms: float,
-    e_scan: float,
-    e_estimate: float,
-    e_send: float,
-    e_recv: float,
-    delta_t: float,
-    e_sched: float,
-) -> float:
-    """Processing time of one window, Eq 5/6.
-
-    g = e_scan + e_hough + n·(e_recv + e_send + e_estimate) + Δt + e_sched.
-    """
-    return e_scan + e_hough_ms + n * (e_recv + e_send + e_estimate) + delta_t + e_sched
 
 
 def hp_utilization(hp: Iterable[tuple[float, float]]) -> float:

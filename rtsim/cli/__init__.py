@@ -116,7 +116,7 @@ class Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every available sub-command registered."""
-    from rtsim import __version__
+    from rtsim._version import __version__
 
     parser = Parser(
         prog="rtsim",

@@ -11,12 +11,20 @@ from rtsim.control.adjust import (
     FollowerEstimate,
     Predictor,
     adjust,
-    decide,
     predict_msbs,
     predictor,
 )
 from rtsim.control.closed_forms import coupled_speed, paper_speed
-from rtsim.control.policy import POLICIES, Decision, Policy, PolicyInput, register_policy
+from rtsim.control.policy import (
+    ADJUSTMENT_POLICIES,
+    POLICIES,
+    Decision,
+    Policy,
+    PolicyInput,
+    decide,
+    register_adjustment_policy,
+    register_policy,
+)
 from rtsim.control.predict import min_bound
 
 __all__ = [
@@ -25,6 +33,7 @@ __all__ = [
     "FLOOR_W",
     "METHODS",
     "MODES",
+    "ADJUSTMENT_POLICIES",
     "POLICIES",
     "Adjustment",
     "Decision",
@@ -39,5 +48,6 @@ __all__ = [
     "paper_speed",
     "predict_msbs",
     "predictor",
+    "register_adjustment_policy",
     "register_policy",
 ]

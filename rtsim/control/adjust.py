@@ -70,7 +70,7 @@ from rtsim.control.predict import (
 )
 from rtsim.errors import InputError
 
-_make_predictor = predictor  # the functions below take a ``predictor`` argument
+make_predictor = predictor  # the functions below take a ``predictor`` argument
 
 __all__ = [
     "CAP_FACTOR",
@@ -83,11 +83,15 @@ __all__ = [
     "FollowerEstimate",
     "Predictor",
     "adjust",
-    "decide",
-    "decide_rows",
+    "adjust_core",
+    "adjustment_of",
+    "largest",
     "predict_msbs",
     "predicted_rows",
     "predictor",
+    "bound_rows_at",
+    "CANDIDATES",
+    "TOL",
 ]
 
 #: Default window cap as a multiple of w_sch.
@@ -102,8 +106,8 @@ METHODS: tuple[str, ...] = ("none", "closed-form", "coupled", "numeric", "floor"
 MODES: tuple[str, ...] = ("adjust", "fixed-wsch", "min-msb")
 
 Mode = Literal["adjust", "fixed-wsch", "min-msb"]
-_CANDIDATES = ("closed-form", "coupled", "numeric")
-_TOL = 1e-9  # relative tolerance of "bound ≥ w_sch" and of ties
+CANDIDATES = ("closed-form", "coupled", "numeric")
+TOL = 1e-9  # relative tolerance of "bound ≥ w_sch" and of ties
 
 
 @dataclass(frozen=True)
@@ -284,7 +288,7 @@ def _hybrid_rows(pre: list[tuple[float, ...]], v: float, v_now: float, kappa: fl
     return out
 
 
-def _rows_at(
+def bound_rows_at(
     followers: Sequence[FollowerEstimate],
     predict: Predictor | None,
     thresholds: Thresholds,
@@ -321,7 +325,7 @@ def _rows_at(
         else:
             nonlocal predict
             if predict is None:  # the formation model's predictor, made when first needed
-                predict = _make_predictor(model, omega_l=omega_l, kappa=kappa)
+                predict = make_predictor(model, omega_l=omega_l, kappa=kappa)
             out = predict_msb_rows(followers, v, predict, thresholds)
         memo[v] = out
         return out
@@ -345,12 +349,12 @@ def predicted_rows(
     (:func:`decide_rows`'s ``rows`` at ``v_l``): what the decision's belief says about a
     window in which the leader drives at ``v_l`` (windows.csv ``f{i}_msb_{bound}_pred``)."""
     predict = (None if predictor == "formation"
-               else _make_predictor(predictor, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    return _rows_at(followers, predict, thresholds, predictor, kappa, omega_l, v_now,
+               else make_predictor(predictor, omega_l=omega_l, kappa=kappa, v_now=v_now))
+    return bound_rows_at(followers, predict, thresholds, predictor, kappa, omega_l, v_now,
                     rollout)(v_l)
 
 
-def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
+def largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
     """Largest passing speed: scan ``grid`` (descending), bisect below the first failure."""
     above: float | None = None
     for v in grid:
@@ -371,7 +375,7 @@ def _largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None
     return None
 
 
-def _adjust_core(
+def adjust_core(
     followers: Sequence[FollowerEstimate],
     v_ld: float,
     w_sch: float,
@@ -401,24 +405,24 @@ def _adjust_core(
         raise InputError(f"{where}: cap must be at least w_sch={w_sch!r}, got {cap!r}")
     if not 0.0 <= floor_frac <= 1.0:
         raise InputError(f"{where}: floor_frac must be in [0, 1], got {floor_frac!r}")
-    bad = [m for m in methods if m not in _CANDIDATES]
+    bad = [m for m in methods if m not in CANDIDATES]
     if bad or not methods:
         raise InputError(
-            f"{where}: methods must be a non-empty subset of {_CANDIDATES}, got {methods!r}"
+            f"{where}: methods must be a non-empty subset of {CANDIDATES}, got {methods!r}"
         )
     if scan_points < 1:
         raise InputError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
 
     # the formation model's predictor (which cannot fail) is only made when needed
     predict = (None if model == "formation"
-               else _make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
-    rows_at = _rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now, rollout)
+               else make_predictor(model, omega_l=omega_l, kappa=kappa, v_now=v_now))
+    rows_at = bound_rows_at(followers, predict, thresholds, model, kappa, omega_l, v_now, rollout)
     rows = rows_at(v_ld)
     m, kind, who = min_bound_rows(rows)
     if m >= w_sch:
         return Decision(min(m, cap), v_ld, m, kind, who, "none", True, rows, rows, m, {})
 
-    need = w_sch * (1.0 - _TOL)
+    need = w_sch * (1.0 - TOL)
     if model == "commands":
         v_l, method, found = search_rollout(lambda v: min_bound_rows(rows_at(v))[0], v_ld,
                                             need, floor_frac * v_ld)
@@ -435,7 +439,7 @@ def _adjust_core(
 
     def search(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
         if fast is None:
-            return _largest(ok, grid)
+            return largest(ok, grid)
         return fast(followers, omega_l, thresholds, need, grid)  # type: ignore[no-any-return]
 
     candidates: dict[str, float] = {k: math.nan for k in methods}
@@ -475,7 +479,7 @@ def _adjust_core(
     method = "floor"
     if passing:
         top = max(v for v, _ in passing)
-        best, method = next((v, k) for v, k in passing if v >= top * (1.0 - _TOL))
+        best, method = next((v, k) for v, k in passing if v >= top * (1.0 - TOL))
         probe = min(best * (1.0 + 1e-6), v_ld)
         if "numeric" in methods and probe > best and ok(probe):  # not maximal: refine upward
             step = (v_ld - best) / scan_points
@@ -563,7 +567,7 @@ def paper_infeasible(followers: Sequence[FollowerEstimate], v_ld: float, w_sch: 
     the ``radial`` localization bound.
     """
     lo, hi = 0.0, v_ld
-    k_scale = 1000.0 / (w_sch * (1.0 - _TOL))
+    k_scale = 1000.0 / (w_sch * (1.0 - TOL))
     slack = 1e-6 * (1.0 + v_ld)
     for f in followers:
         cb, sb = math.cos(f.beta), math.sin(f.beta)
@@ -595,7 +599,7 @@ def adjust(
     cap: float | None = None,
     floor_frac: float = FLOOR_FRAC,
     predictor: str | Predictor = "formation",
-    methods: Sequence[str] = _CANDIDATES,
+    methods: Sequence[str] = CANDIDATES,
     scan_points: int = 64,
     v_now: float | None = None,
 ) -> Adjustment:
@@ -606,23 +610,12 @@ def adjust(
     positive = left); cap: largest window (ms, default 10·w_sch); floor_frac: leader speed when
     nothing works, as a fraction of v_ld; methods: allowed candidates in tie-break order.
     """
-    d = _adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap, floor_frac,
+    d = adjust_core(followers, v_ld, w_sch, thresholds, omega_l, kappa, cap, floor_frac,
                      predictor, methods, scan_points, v_now)
-    return _adjustment("adjust", d, float(w_sch), float(v_ld))
+    return adjustment_of("adjust", d, float(w_sch), float(v_ld))
 
 
-def decide_rows(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Decision:
-    """:func:`decide` as the lightweight :class:`Decision` (bounds as rows in
-    :data:`BOUND_KINDS` order, no dicts): the registered policy ``mode``
-    (:mod:`rtsim.control.policy`) on a :class:`~rtsim.control.policy.PolicyInput` made of
-    ``followers`` and ``options`` (its fields: v_ld, w_sch, thresholds, omega_l, kappa, cap,
-    floor_frac, floor_w, predictor, methods, scan_points, v_now)."""
-    from rtsim.control.policy import PolicyInput, policy_class
-
-    return policy_class(mode, "mode")().decide(PolicyInput(followers, **options))
-
-
-def _adjustment(mode: str, d: Decision, w_sch: float, v_ld: float) -> Adjustment:
+def adjustment_of(mode: str, d: Decision, w_sch: float, v_ld: float) -> Adjustment:
     """The :class:`Adjustment` of a :class:`Decision`."""
     msbs = tuple(_as_dict(r) for r in d.rows)
     after = msbs if d.rows_after is d.rows else tuple(_as_dict(r) for r in d.rows_after)
@@ -648,19 +641,3 @@ def _adjustment(mode: str, d: Decision, w_sch: float, v_ld: float) -> Adjustment
         msbs_after=after,
         candidates=d.candidates,
     )
-
-
-def decide(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Adjustment:
-    """One window's decision by the registered policy ``mode`` (:mod:`rtsim.control.policy`;
-    ``options`` as in :func:`decide_rows`), e.g. the reproduction's three modes:
-
-    - ``adjust``: :func:`adjust`;
-    - ``fixed-wsch``: w = w_sch, V_L = V_Ld always (the bounds may break in the world);
-    - ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld always (the schedule may
-      break); floor_w (ms, default 1) keeps a zero-or-tiny bound from making a zero window.
-
-    In the two baselines ``method`` is ``none``, ``feasible`` says whether min MSB ≥ w_sch, and
-    slack = max(0, w − w_sch).
-    """
-    d = decide_rows(mode, followers, **options)
-    return _adjustment(mode, d, float(options["w_sch"]), float(options["v_ld"]))

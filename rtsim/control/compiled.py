@@ -7,7 +7,7 @@ stay at their estimates whatever the leader's speed, so the predicate of the spe
 are at least w_sch at V_L" — is a few lines of arithmetic per follower. :class:`PaperSearch`
 is the predictor name ``"paper"`` (a ``str`` equal to it, so every comparison and every
 record sees the same name) carrying :meth:`PaperSearch.largest`, which runs
-:func:`rtsim.control.adjust._largest` over the grid with that predicate in one compiled call:
+:func:`rtsim.control.adjust.largest` over the grid with that predicate in one compiled call:
 the same expressions in the same order as :func:`~rtsim.analysis.kinematics.scalar_msbs`
 and :func:`~rtsim.control.predict.min_bound_rows`, so the same speed, bit for bit (tested
 against the Python search on whole runs).
@@ -55,7 +55,7 @@ def _passes(v: float, rho: Any, beta: Any, theta: Any, v_f: Any, rho_d: Any, ome
 def _largest_paper(grid: Any, rho: Any, beta: Any, theta: Any, v_f: Any, rho_d: Any,
                    omega_l: float, r_H: float, T_rho: float, T_eps: float, T_beta: float,
                    need: float) -> tuple[bool, float]:
-    """adjust._largest with the paper model's predicate: (found, speed)."""
+    """adjust.largest with the paper model's predicate: (found, speed)."""
     have_above = False
     above = 0.0
     for g in range(grid.shape[0]):
@@ -104,7 +104,7 @@ class PaperSearch(str):
 
     def largest(self, followers: Sequence[Any], omega_l: float, thr: Thresholds,
                 need: float, grid: Sequence[float]) -> float | None:
-        """:func:`rtsim.control.adjust._largest` over ``grid`` with the paper model's
+        """:func:`rtsim.control.adjust.largest` over ``grid`` with the paper model's
         predicate (radial localization) for ``followers``; None when no speed passes."""
         rho = np.array([f.rho for f in followers], dtype=float)
         beta = np.array([f.beta for f in followers], dtype=float)

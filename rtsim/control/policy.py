@@ -42,22 +42,25 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import (
-    _CANDIDATES,
-    _TOL,
+    CANDIDATES,
     CAP_FACTOR,
     FLOOR_FRAC,
     FLOOR_W,
+    TOL,
+    Adjustment,
     Decision,
-    _adjust_core,
-    _largest,
-    _make_predictor,
-    _rows_at,
+    adjust_core,
+    adjustment_of,
+    bound_rows_at,
+    largest,
+    make_predictor,
 )
 from rtsim.control.predict import FollowerEstimate, Predictor, check_number, min_bound_rows
 from rtsim.errors import InputError
 from rtsim.registry import Registry, did_you_mean
 
-__all__ = ["ADJUSTMENT_POLICIES", "COMMON_KEYS", "POLICIES", "Decision", "Policy",
+__all__ = ["ADJUSTMENT_POLICIES", "COMMON_KEYS", "POLICIES", "Decision", "Policy", "decide",
+           "decide_rows",
            "PolicyInput", "adjust_options", "make_policy", "policy_class",
            "register_adjustment_policy", "register_policy"]
 
@@ -105,7 +108,7 @@ class PolicyInput:
     floor_frac: float = FLOOR_FRAC
     floor_w: float = FLOOR_W
     predictor: str | Predictor = "formation"
-    methods: Sequence[str] = _CANDIDATES
+    methods: Sequence[str] = CANDIDATES
     scan_points: int = 64
     ahead: tuple[tuple[float, float], ...] = ()
     accel_max: float = math.inf
@@ -233,9 +236,9 @@ def _check(ctx: PolicyInput, where: str) -> float:
 def _rows_at_vld(ctx: PolicyInput) -> list[tuple[float, float, float, float]]:
     model = ctx.predictor
     predict = (None if model == "formation"
-               else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
+               else make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
                                     v_now=ctx.v_now))
-    return _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
+    return bound_rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
                     ctx.v_now, ctx.rollout)(ctx.v_ld)
 
 
@@ -248,7 +251,7 @@ class PaperPolicy:
     params: ClassVar[Mapping[str, Any]] = {}
 
     def decide(self, ctx: PolicyInput) -> Decision:
-        return _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch, ctx.thresholds, ctx.omega_l,
+        return adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch, ctx.thresholds, ctx.omega_l,
                             ctx.kappa, ctx.cap, ctx.floor_frac, ctx.predictor, ctx.methods,
                             ctx.scan_points, ctx.v_now, ctx.rollout)
 
@@ -264,7 +267,7 @@ class FixedWschPolicy:
         rows = _rows_at_vld(ctx)
         m, kind, who = min_bound_rows(rows)
         return Decision(ctx.w_sch, ctx.v_ld, m, kind, who, "none",
-                        m >= ctx.w_sch * (1.0 - _TOL), rows, rows, m, {})
+                        m >= ctx.w_sch * (1.0 - TOL), rows, rows, m, {})
 
 
 @register_adjustment_policy("min-msb")
@@ -281,7 +284,7 @@ class MinMsbPolicy:
         rows = _rows_at_vld(ctx)
         m, kind, who = min_bound_rows(rows)
         w = min(max(m, floor_w), max(cap, floor_w))
-        return Decision(w, ctx.v_ld, m, kind, who, "none", m >= ctx.w_sch * (1.0 - _TOL), rows,
+        return Decision(w, ctx.v_ld, m, kind, who, "none", m >= ctx.w_sch * (1.0 - TOL), rows,
                         rows, m, {})
 
 
@@ -307,7 +310,7 @@ class MarginPolicy:
     def decide(self, ctx: PolicyInput) -> Decision:
         keep = 1.0 - self.margin
         cap = _check(ctx, "margin")
-        d = _adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch / keep, ctx.thresholds,
+        d = adjust_core(ctx.followers, ctx.v_ld, ctx.w_sch / keep, ctx.thresholds,
                          ctx.omega_l, ctx.kappa, cap / keep, ctx.floor_frac, ctx.predictor,
                          ctx.methods, ctx.scan_points, ctx.v_now, ctx.rollout)
         w = ctx.w_sch if d.method != "none" else max(ctx.w_sch, min(keep * d.msb_min, cap))
@@ -380,21 +383,21 @@ class LookaheadPolicy:
         if v_l >= d.v_leader:
             d_out = d
         else:
-            rows_after = _rows_at(ctx.followers, None if ctx.predictor == "formation" else
-                                  _make_predictor(ctx.predictor, omega_l=ctx.omega_l,
+            rows_after = bound_rows_at(ctx.followers, None if ctx.predictor == "formation" else
+                                  make_predictor(ctx.predictor, omega_l=ctx.omega_l,
                                                   kappa=ctx.kappa, v_now=ctx.v_now),
                                   ctx.thresholds, ctx.predictor, ctx.kappa, ctx.omega_l,
                                   ctx.v_now, ctx.rollout)(v_l)
             m_after = min_bound_rows(rows_after)[0]
             d_out = d._replace(v_leader=v_l, method="lookahead", rows_after=rows_after,
                                msb_min_after=m_after,
-                               feasible=keep * m_after >= ctx.w_sch * (1.0 - _TOL))
+                               feasible=keep * m_after >= ctx.w_sch * (1.0 - TOL))
         w = d_out.w
         window_reach = v_l * w / 1000.0
         for dist, kappa in ctx.ahead:
             if dist > window_reach:
                 break
-            rows = _rows_at(ctx.followers, None, ctx.thresholds, "formation", kappa,
+            rows = bound_rows_at(ctx.followers, None, ctx.thresholds, "formation", kappa,
                             kappa * v_now, ctx.v_now)(v_l)
             w = max(ctx.w_sch, min(w, keep * min_bound_rows(rows)[0]))
         return d_out if w == d_out.w else d_out._replace(w=w)
@@ -482,9 +485,9 @@ class NoiseAwarePolicy:
         keep = 1.0 - self.margin
         model = ctx.predictor
         predict = (None if model == "formation"
-                   else _make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
+                   else make_predictor(model, omega_l=ctx.omega_l, kappa=ctx.kappa,
                                         v_now=ctx.v_now))
-        raw = _rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
+        raw = bound_rows_at(ctx.followers, predict, ctx.thresholds, model, ctx.kappa, ctx.omega_l,
                        ctx.v_now, ctx.rollout)
         memo: dict[float, list[tuple[float, float, float, float]]] = {}
 
@@ -498,7 +501,7 @@ class NoiseAwarePolicy:
         if keep * m >= ctx.w_sch:
             return Decision(max(ctx.w_sch, min(keep * m, cap)), ctx.v_ld, m, kind, who, "none",
                             True, rows, rows, m, {})
-        need = ctx.w_sch * (1.0 - _TOL)
+        need = ctx.w_sch * (1.0 - TOL)
 
         def ok(v: float) -> bool:
             return keep * min_bound_rows(rows_at(v))[0] >= need
@@ -508,7 +511,7 @@ class NoiseAwarePolicy:
             step = ctx.v_ld / ctx.scan_points
             grid = [ctx.v_ld - step * i for i in range(ctx.scan_points)]
             grid += [step * 0.5**j for j in range(1, 21)]
-            found = _largest(ok, grid)
+            found = largest(ok, grid)
         v_l = ctx.floor_frac * ctx.v_ld if found is None else found
         after = rows_at(v_l)
         m_after = min_bound_rows(after)[0]
@@ -581,7 +584,7 @@ class PlanPolicy:
                              "coupled run with follow-the-leader followers fills")
         keep = 1.0 - self.margin
         lengths = (ctx.w_sch,) * self.windows
-        need = ctx.w_sch * (1.0 - _TOL)
+        need = ctx.w_sch * (1.0 - TOL)
 
         def worst(v: float) -> float:
             per = ro.changes(v, lengths)
@@ -603,3 +606,28 @@ class PlanPolicy:
         m_after = min_bound_rows(after)[0]
         return Decision(ctx.w_sch, v_l, m1, kind, who, method, keep * worst(v_l) >= need,
                         rows, after, m_after, {"numeric": found})
+
+
+def decide_rows(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Decision:
+    """:func:`decide` as the lightweight :class:`Decision` (bounds as rows in
+    :data:`BOUND_KINDS` order, no dicts): the registered policy ``mode``
+    (:mod:`rtsim.control.policy`) on a :class:`~rtsim.control.policy.PolicyInput` made of
+    ``followers`` and ``options`` (its fields: v_ld, w_sch, thresholds, omega_l, kappa, cap,
+    floor_frac, floor_w, predictor, methods, scan_points, v_now)."""
+    return policy_class(mode, "mode")().decide(PolicyInput(followers, **options))
+
+
+def decide(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Adjustment:
+    """One window's decision by the registered policy ``mode`` (:mod:`rtsim.control.policy`;
+    ``options`` as in :func:`decide_rows`), e.g. the reproduction's three modes:
+
+    - ``adjust``: :func:`adjust`;
+    - ``fixed-wsch``: w = w_sch, V_L = V_Ld always (the bounds may break in the world);
+    - ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld always (the schedule may
+      break); floor_w (ms, default 1) keeps a zero-or-tiny bound from making a zero window.
+
+    In the two baselines ``method`` is ``none``, ``feasible`` says whether min MSB ≥ w_sch, and
+    slack = max(0, w − w_sch).
+    """
+    d = decide_rows(mode, followers, **options)
+    return adjustment_of(mode, d, float(options["w_sch"]), float(options["v_ld"]))

@@ -63,6 +63,7 @@ import numpy as np
 import pandas as pd
 import simpy
 
+import rtsim.coupling.duration as run_duration
 from rtsim._numbers import is_int, is_real
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
@@ -70,6 +71,7 @@ from rtsim.control.adjust import predicted_rows
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
+from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
 from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.recorder import (
     FOLLOWER_FIELDS,
@@ -99,9 +101,6 @@ __all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "scenario_inputs"
 DECIDE: tuple[str, ...] = ("end", "before-send")
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
-#: With the default (one-lap) duration, the run stops at the latest after this many lap
-#: times at V_Ld.
-LAP_CAP_FACTOR = 3.0
 _NF = len(FOLLOWER_FIELDS)
 
 
@@ -838,13 +837,7 @@ def run_scenario(
     check_seed(seed, "run_scenario: seed")
     inp = scenario_inputs(scenario, text, overrides, allow_code)
     cfg = inp.world
-    stop_s: float | None = None
-    stop_ms = 0.0
-    if duration_s is None:
-        stop_s = cfg.path.lap_length + max(cfg.formation.rho_d)
-        stop_ms = 1000.0 * (inp.duration_s or 0.0)
-        horizon_ms = max(LAP_CAP_FACTOR * stop_s / cfg.leader_speed * 1000.0, stop_ms)
-    else:
+    if duration_s is not None:
         if not is_real(duration_s) or \
                 not (0 < duration_s < math.inf):
             raise InputError(f"duration must be a positive number of seconds, got "
@@ -852,7 +845,8 @@ def run_scenario(
         from rtsim.io.limits import check
 
         check("scenario: duration", duration_s, "run_scenario: duration_s")
-        horizon_ms = float(duration_s) * 1000.0
+    length = run_length(cfg, duration_s, inp.duration_s)
+    horizon_ms, stop_s, stop_ms = length.horizon_ms, length.stop_s, length.stop_ms
     win = inp.taskset.window
     check_coupled(horizon_ms, win.g() if win is not None else 0.0, cfg.step_ms, cfg.n,
                   f"run_scenario: duration {horizon_ms / 1000.0:g} s", force=force)
@@ -890,8 +884,9 @@ def run_scenario(
     }
     if run.lap_ms is None:  # why there is no lap time
         extra["lap_time_note"] = (
-            f"the leader did not complete its lap within the cap of {LAP_CAP_FACTOR:g} lap "
-            f"times at V_Ld ({horizon_ms / 1000.0:.6g} s)" if stop_s is not None else
+            f"the leader did not complete its lap within the cap of "
+            f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
+            if stop_s is not None else
             f"the run's duration ({float(duration_s):g} s) ended before the leader completed "
             f"its lap")
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()

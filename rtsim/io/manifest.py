@@ -24,7 +24,7 @@ def build_manifest(
     extra: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The manifest as a dict: version, seed, resolved inputs, command line, platform."""
-    from rtsim import __version__
+    from rtsim._version import __version__
 
     manifest: dict[str, Any] = {
         "rtsim_version": __version__,

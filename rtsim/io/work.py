@@ -21,17 +21,21 @@ estimate            limit      what is counted
 
 The library applies the same limits through the same functions: ``simulate``,
 ``run_scenario`` and ``run_sweep`` take ``force=True`` as the command line takes
-``--force``, and refuse an out-of-range seed as ``--seed`` does.
+``--force``, and refuse an out-of-range seed as ``--seed`` does. A coupled run's length, and
+so its estimate, comes from :mod:`rtsim.coupling.duration` (``check_scenario``). This module
+is a helper below every layer: it imports only :mod:`rtsim.errors`, :mod:`rtsim._numbers` and
+the range table :mod:`rtsim.io.limits`.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from rtsim.errors import InputError
 
-__all__ = ["LIMITS", "TooMuchWork", "check_work", "check_simulate", "check_scenario",
-           "check_coupled", "check_seed", "simulate_backlog"]
+__all__ = ["LIMITS", "TooMuchWork", "check_work", "check_simulate", "check_coupled",
+           "check_seed", "simulate_backlog"]
 
 #: The largest amount of each kind of work a command does without ``--force``.
 LIMITS: dict[str, float] = {
@@ -72,12 +76,9 @@ def check_work(kind: str, amount: float, where: str, *, force: bool = False) -> 
     return amount
 
 
-def simulate_jobs(ts: object, horizon_ms: float, w: float | None) -> float:
+def simulate_jobs(ts: Any, horizon_ms: float, w: float | None) -> float:
     """Jobs released in [0, horizon): Σ horizon / period, periods in ms at window ``w``
     (a processing-window set's per-window periods and its chain need ``w``)."""
-    from rtsim.model.taskset import TaskSet
-
-    assert isinstance(ts, TaskSet)
     tasks = ts.at_window(w).tasks if ts.window is not None and w is not None else ts.tasks
     total = 0.0
     for t in tasks:
@@ -87,7 +88,7 @@ def simulate_jobs(ts: object, horizon_ms: float, w: float | None) -> float:
     return total
 
 
-def check_simulate(ts: object, horizon_ms: float, w: float | None, where: str, *,
+def check_simulate(ts: Any, horizon_ms: float, w: float | None, where: str, *,
                    force: bool = False) -> None:
     """Refuse a simulation of more than ``LIMITS["jobs"]`` jobs (``where``: the horizon's
     name, e.g. ``--horizon 1e+15``)."""
@@ -95,14 +96,11 @@ def check_simulate(ts: object, horizon_ms: float, w: float | None, where: str, *
     check_work("backlog", simulate_backlog(ts, horizon_ms, w), where, force=force)
 
 
-def simulate_backlog(ts: object, horizon_ms: float, w: float | None) -> float:
+def simulate_backlog(ts: Any, horizon_ms: float, w: float | None) -> float:
     """Jobs that may wait at once: 0 when the utilization at window ``w`` is at most 1;
     above 1, every job of a ``finish-late`` task released over the horizon (an upper
     bound: such jobs are never dropped, so an overloaded CPU queues them — ``skip`` and
     ``abort`` tasks bound their own backlog by their overload policy)."""
-    from rtsim.model.taskset import TaskSet
-
-    assert isinstance(ts, TaskSet)
     if ts.window is not None and w is None:
         return 0.0  # the window is chosen by the run (w_sch or above: schedulable)
     tasks = ts.at_window(w).tasks if ts.window is not None else ts.tasks
@@ -132,21 +130,3 @@ def check_coupled(duration_ms: float, g_ms: float, step_ms: float, n: int, where
     world steps × followers (duration over the world step, times n)."""
     check_work("windows", duration_ms / g_ms if g_ms > 0 else math.inf, where, force=force)
     check_work("world_steps", duration_ms / step_ms * n, where, force=force)
-
-
-def check_scenario(scenario: object, duration_s: float | None, where: str, *,
-                   force: bool = False) -> None:
-    """Refuse a coupled run of more than ``LIMITS["windows"]`` windows (duration over the
-    chain's processing time g, below which no window can be) or ``LIMITS["world_steps"]``
-    world steps × followers (duration over ``world.step_ms``, times n)."""
-    from rtsim.coupling.scenario_run import LAP_CAP_FACTOR
-    from rtsim.io.scenario import Scenario
-
-    assert isinstance(scenario, Scenario)
-    cfg = scenario.world
-    if duration_s is None:
-        lap_s = (cfg.path.lap_length + max(cfg.formation.rho_d)) / cfg.leader_speed
-        duration_s = max(scenario.duration, LAP_CAP_FACTOR * lap_s)
-    win = scenario.load_taskset().window
-    assert win is not None
-    check_coupled(1000.0 * duration_s, win.g(), cfg.step_ms, cfg.n, where, force=force)

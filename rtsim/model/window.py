@@ -1,17 +1,51 @@
-"""The paper's processing-window job T_w as a spec: constants and segment chain
-(docs/model/index.md, docs/model/lower-bound.md)."""
+"""The paper's processing-window job T_w as a spec: constants and segment chain, and its cost
+on numbers, e_hough (Eq 1) and g (Eq 5/6) (docs/model/index.md, docs/model/lower-bound.md;
+:mod:`rtsim.analysis.window` holds the bounds built on them)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from rtsim._numbers import is_int
-from rtsim.analysis.window import e_hough, g_window
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Segment, check_time
 
-__all__ = ["WindowSpec"]
+__all__ = ["LASER_POINTS", "WindowSpec", "e_hough", "g_window"]
+
+
+#: Scan points of the laser rangefinder: 361 beams over 180°, 0.5° apart.
+LASER_POINTS = 361
+
+
+def e_hough(
+    n: int, r_H: float, e_cal: float, e_trans: float, k: float, points: float | None = None
+) -> float:
+    """Localization time, Eq 1: π·r_H²·n·e_cal + min(361, k·n)·e_trans.
+
+    ``points`` replaces the worst case min(361, k·n) with the scan points actually
+    counted (the simulation's view, docs/model/lower-bound.md).
+    """
+    pts = min(LASER_POINTS, k * n) if points is None else points
+    return math.pi * r_H**2 * n * e_cal + pts * e_trans
+
+
+def g_window(
+    n: int,
+    e_hough_ms: float,
+    e_scan: float,
+    e_estimate: float,
+    e_send: float,
+    e_recv: float,
+    delta_t: float,
+    e_sched: float,
+) -> float:
+    """Processing time of one window, Eq 5/6.
+
+    g = e_scan + e_hough + n·(e_recv + e_send + e_estimate) + Δt + e_sched.
+    """
+    return e_scan + e_hough_ms + n * (e_recv + e_send + e_estimate) + delta_t + e_sched
 
 
 @dataclass(frozen=True)

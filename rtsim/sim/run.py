@@ -38,8 +38,10 @@ __all__ = ["simulate", "build_cpu", "resolve_window", "WindowArg"]
 WindowArg = float | Callable[[], float] | None
 
 
-def _as_taskset(ts: TaskSet | Sequence[Task] | str | os.PathLike[str]) -> TaskSet:
-    from rtsim.io.taskset import as_taskset
+def _as_taskset(ts: TaskSet | Sequence[Task]) -> TaskSet:
+    """A TaskSet, or one of a list of tasks; a file is read above the simulator
+    (:func:`rtsim.load_taskset`, or the facade's :func:`rtsim.simulate`, which takes a path)."""
+    from rtsim.analysis.sufficient import as_taskset
 
     if isinstance(ts, TaskSet | str | os.PathLike):
         return as_taskset(ts, "simulate")
@@ -116,7 +118,7 @@ def build_cpu(
 
 
 def simulate(
-    ts: TaskSet | Sequence[Task] | str | os.PathLike[str],
+    ts: TaskSet | Sequence[Task],
     horizon: float,
     *,
     seed: int | np.random.SeedSequence | np.random.Generator | None = 0,

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import json
 import math
 from collections import OrderedDict
 from collections.abc import Callable, Mapping
@@ -49,6 +50,7 @@ from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 from rtsim.errors import InputError
+from rtsim.overrides import RUN_OPTIONS, apply_overrides
 from rtsim.registry import Registry
 
 if TYPE_CHECKING:
@@ -58,19 +60,9 @@ if TYPE_CHECKING:
 __all__ = ["PointInput", "KindSpec", "KINDS", "register_kind", "apply_overrides"]
 
 
-def apply_overrides(data: dict[str, Any], overrides: tuple[tuple[tuple[str, ...], Any], ...]
-                    ) -> dict[str, Any]:
-    """Set each dotted path (tables by key, lists of tables by ``name`` or index) in ``data``."""
-    for path, value in overrides:
-        node: Any = data
-        for key in path[:-1]:
-            if isinstance(node, list):
-                named = [e for e in node if isinstance(e, dict) and e.get("name") == key]
-                node = named[0] if named else node[int(key)]
-            else:
-                node = node[key]
-        node[path[-1]] = value
-    return data
+def canonical_json(obj: Any) -> str:
+    """Compact, key-sorted JSON: the text that seeds and fingerprints are hashed from."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=True)
 
 
 @dataclass(frozen=True)
@@ -219,8 +211,6 @@ def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[
     for each distinct content (points that differ only in seed or run options — mode,
     duration — share them): the key is the base file's name, its folder and the canonical
     JSON of the data with the point's overrides applied."""
-    from rtsim.sweep.spec import canonical_json
-
     assert p.base is not None
     key = hashlib.sha256("\0".join((p.base.source, str(where), canonical_json(data)))
                          .encode()).hexdigest()
@@ -254,7 +244,7 @@ def _scenario(p: PointInput) -> dict[str, Any]:
         kwargs["duration_s"] = float(o["duration"])
     if "exec" in o:
         kwargs["exec_model"] = o["exec"]
-    from rtsim.io.work import check_scenario
+    from rtsim.coupling.duration import check_scenario
 
     check_scenario(scenario, kwargs.get("duration_s"), f"{p.base.source}: duration")
     summary = dict(coupling.run_scenario(inputs, **kwargs).summary)
@@ -293,10 +283,10 @@ register_kind(KindSpec("analyze", _analyze, options=("window", "scheduler"),
                        metrics=("schedulable", "utilization", "wcrt.*", "schedulable.*"),
                        modules=(*_LOADER, "rtsim.sim.policy")))
 register_kind(KindSpec("simulate", _simulate,
-                       options=("horizon", "exec", "suspension", "window", "scheduler"),
+                       options=RUN_OPTIONS["simulate"],
                        required=("horizon",), modules=(*_LOADER, "rtsim.sim"),
                        metrics=("w", "max_response.*", "mean_response.*", "misses.*", "jobs.*",
                                 "misses", "jobs")))
-register_kind(KindSpec("scenario", _scenario, options=("mode", "duration", "exec", "scheduler"),
+register_kind(KindSpec("scenario", _scenario, options=RUN_OPTIONS["scenario"],
                        modules=("rtsim.io.scenario", "rtsim.coupling")))
 register_kind(KindSpec("call", _call))

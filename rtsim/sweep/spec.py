@@ -60,7 +60,8 @@ from typing import Any
 
 from rtsim.errors import InputError, SweepError
 from rtsim.io.ranges import parse_values
-from rtsim.sweep.kinds import KINDS
+from rtsim.overrides import resolve_path
+from rtsim.sweep.kinds import KINDS, canonical_json
 
 __all__ = ["BaseFile", "SweepSpec", "load_sweep", "parse_sweep", "canonical_json", "Scalar"]
 
@@ -72,11 +73,6 @@ _SWEEP_KEYS = (
     "description",
 )
 _COMBINE = ("product", "zip")
-
-
-def canonical_json(obj: Any) -> str:
-    """Compact, key-sorted JSON: the text that seeds and fingerprints are hashed from."""
-    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=True)
 
 
 def _did_you_mean(word: str, choices: list[str] | tuple[str, ...], cutoff: float = 0.6) -> str:
@@ -213,34 +209,6 @@ def _value_type(v: Any) -> str:
 
 
 # -- parameter resolution --------------------------------------------------------------
-def _walk(data: Any, keys: list[str], src: str, name: str, base: str, table: str) -> None:
-    """Check that dotted ``keys`` address a value (or a new leaf) in ``data``."""
-    node = data
-    for i, key in enumerate(keys):
-        last = i == len(keys) - 1
-        where = f"{src}: {table}.{name}: unknown parameter path"
-        if isinstance(node, dict):
-            if key in node:
-                node = node[key]
-                continue
-            # a new leaf key is allowed (the loader validates it) unless it looks like a typo
-            hint = _did_you_mean(key, [str(k) for k in node], 0.8 if last else 0.6)
-            if last and not hint:
-                return
-            raise SweepError(f"{where} (no key '{key}' in {base}{hint})")
-        if isinstance(node, list):
-            names = [e.get("name") for e in node if isinstance(e, dict)]
-            if key in names:
-                node = node[names.index(key)]
-                continue
-            if key.isdigit() and int(key) < len(node):
-                node = node[int(key)]
-                continue
-            hint = _did_you_mean(key, [str(n) for n in names if n is not None])
-            raise SweepError(f"{where} (no entry named '{key}' in {base}{hint})")
-        raise SweepError(f"{where} ('{'.'.join(keys[:i])}' in {base} is a value, not a table)")
-
-
 def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
              data: dict[str, Any] | None, table: str = "grid") -> tuple[str, ...]:
     if name == "seed":
@@ -254,23 +222,7 @@ def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
         return ("option", name)
     assert base is not None and data is not None
     bname = Path(base.path).name if base.path else base.source
-    if "." in name:
-        keys = name.split(".")
-        _walk(data, keys, src, name, bname, table)
-        return ("path", *keys)
-    window = data.get("window")
-    if isinstance(window, dict) and name in window and name != "name":
-        return ("path", "window", name)
-    if name in data and not isinstance(data[name], dict | list):
-        return ("path", name)
-    choices = list(spec.options) + ["seed"]
-    if isinstance(window, dict):
-        choices += [k for k in window if k != "name"]
-    choices += [k for k, v in data.items() if not isinstance(v, dict | list)]
-    raise SweepError(
-        f"{src}: {table}.{name}: unknown parameter (not an option of kind '{kind}', nor a key of "
-        f"{bname}){_did_you_mean(name, choices)}"
-    )
+    return resolve_path(src, name, data, bname, table, kind, spec.options)
 
 
 # -- the file --------------------------------------------------------------------------

@@ -32,7 +32,6 @@ every method; arrays are indexed i − 1.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any, Literal
 
@@ -51,7 +50,8 @@ from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
-from rtsim.world.localization import LOST_CAUSES, lost_cause
+from rtsim.world.localization import lost_cause
+from rtsim.world.scan import Scan
 
 __all__ = ["World", "Scan"]
 
@@ -60,162 +60,6 @@ NORMAL_BLOCK = 512
 
 Array = NDArray[np.float64]
 Pose = tuple[float, float, float]
-
-
-_ARRAY_FIELDS: tuple[tuple[str, Any], ...] = (
-    ("points", np.int64), ("measured", None), ("truth", None), ("centre", None),
-    ("in_window", None), ("lost", None), ("reacquired", None), ("searched", None))
-
-
-def _as_list(x: Any) -> list[Any]:
-    return x if isinstance(x, list) else np.asarray(x).tolist()
-
-
-class Scan:
-    """What one scan at ``t_ms`` saw; arrays have one row per follower (index i − 1).
-
-    points: beams returned by each follower (shadowing included); measured: position fixes in
-    the leader frame (truth + noise, cm); truth: true positions in the leader frame; centre:
-    Hough window centres; in_window / lost / reacquired: localization outcome; changes: the
-    truth's change since the previous scan (``displacement`` in the leader frame, ``d_rho``,
-    ``travel``, ``d_beta``; zeros at the first scan); violations: per bound kind
-    (docs/model/world.md),
-    whether that change exceeded its threshold.
-
-    Read-only. The world builds a scan from plain lists; each array (and each mapping of
-    arrays) is made on first access, so a caller that reads a few fields pays for those only.
-    """
-
-    __slots__ = ("t_ms", "leader_pose", "_raw", "_arrays")
-
-    t_ms: float
-    leader_pose: Pose
-
-    def __init__(self, t_ms: float, leader_pose: Pose, points: Any, measured: Any, truth: Any,
-                 centre: Any, in_window: Any, lost: Any, reacquired: Any,
-                 changes: Mapping[str, Any], violations: Mapping[str, Any],
-                 searched: Any = None, cause: Any = None) -> None:
-        object.__setattr__(self, "t_ms", t_ms)
-        object.__setattr__(self, "leader_pose", leader_pose)
-        if searched is None:  # every lost follower searched for (the default search)
-            searched = lost
-        if cause is None:
-            cause = ["" if not v else "outside_window" for v in _as_list(lost)]
-        object.__setattr__(self, "_raw", {
-            "points": points, "measured": measured, "truth": truth, "centre": centre,
-            "in_window": in_window, "lost": lost, "reacquired": reacquired,
-            "changes": changes, "violations": violations, "searched": searched,
-            "cause": cause})
-        object.__setattr__(self, "_arrays", {})
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        raise AttributeError(f"Scan is read-only: cannot set {name!r}")
-
-    def _array(self, name: str, dtype: Any = None) -> Any:
-        arr = self._arrays.get(name)
-        if arr is None:
-            raw = self._raw[name]
-            if name in ("changes", "violations"):
-                arr = {k: np.array(v) for k, v in raw.items()}
-            elif isinstance(raw, np.ndarray):
-                arr = raw
-            else:
-                arr = np.array(raw) if dtype is None else np.array(raw, dtype=dtype)
-            self._arrays[name] = arr
-        return arr
-
-    def as_lists(self, name: str) -> Any:
-        """A field as plain lists, without making numpy arrays (a fast path; do not mutate)."""
-        raw = self._raw[name]
-        if name in ("changes", "violations"):
-            return {k: _as_list(v) for k, v in raw.items()}
-        return _as_list(raw)
-
-    @property
-    def points(self) -> NDArray[np.int64]:
-        return self._array("points", np.int64)  # type: ignore[no-any-return]
-
-    @property
-    def measured(self) -> Array:
-        return self._array("measured")  # type: ignore[no-any-return]
-
-    @property
-    def truth(self) -> Array:
-        return self._array("truth")  # type: ignore[no-any-return]
-
-    @property
-    def centre(self) -> Array:
-        return self._array("centre")  # type: ignore[no-any-return]
-
-    @property
-    def in_window(self) -> NDArray[np.bool_]:
-        return self._array("in_window")  # type: ignore[no-any-return]
-
-    @property
-    def lost(self) -> NDArray[np.bool_]:
-        return self._array("lost")  # type: ignore[no-any-return]
-
-    @property
-    def reacquired(self) -> NDArray[np.bool_]:
-        return self._array("reacquired")  # type: ignore[no-any-return]
-
-    @property
-    def changes(self) -> Mapping[str, Array]:
-        return self._array("changes")  # type: ignore[no-any-return]
-
-    @property
-    def violations(self) -> Mapping[str, NDArray[np.bool_]]:
-        return self._array("violations")  # type: ignore[no-any-return]
-
-    @property
-    def n(self) -> int:
-        return len(self._raw["points"])
-
-    @property
-    def total_points(self) -> int:
-        """Scan points returned by all followers (Eq 1's min(361, k·n), counted)."""
-        return int(sum(_as_list(self._raw["points"])))
-
-    @property
-    def n_lost(self) -> int:
-        """Followers lost at this scan (each re-acquisition is charged)."""
-        return int(sum(_as_list(self._raw["lost"])))
-
-    @property
-    def searched(self) -> NDArray[np.bool_]:
-        """Lost followers the leader searched for (a full-scan search each)."""
-        return self._array("searched")  # type: ignore[no-any-return]
-
-    @property
-    def cause(self) -> tuple[str, ...]:
-        """Why each follower's track was lost (:data:`LOST_CAUSES`; "" when it was not)."""
-        return tuple(self._raw["cause"])
-
-    @property
-    def n_searched(self) -> int:
-        """Searches charged at this scan (:func:`~rtsim.world.localization.hough_time`)."""
-        return int(sum(_as_list(self._raw["searched"])))
-
-    @property
-    def n_reacquired(self) -> int:
-        """Lost followers found again by their search."""
-        return int(sum(_as_list(self._raw["reacquired"])))
-
-    def lost_by_cause(self) -> dict[str, int]:
-        """Lost tracks per cause, every cause of :data:`LOST_CAUSES` present (0 if none)."""
-        out = dict.fromkeys(LOST_CAUSES, 0)
-        for c in self._raw["cause"]:
-            if c:
-                out[c] += 1
-        return out
-
-    @property
-    def lost_followers(self) -> tuple[int, ...]:
-        """1-based numbers of the followers that need re-acquisition."""
-        return tuple(k + 1 for k, v in enumerate(_as_list(self._raw["lost"])) if v)
-
-    def __repr__(self) -> str:
-        return f"Scan(t_ms={self.t_ms!r}, n={self.n}, points={_as_list(self._raw['points'])})"
 
 
 class World:

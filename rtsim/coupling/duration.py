@@ -1,0 +1,57 @@
+"""How long a coupled run lasts, and the work limit that follows from it (one place).
+
+A run with a duration runs for it. A run without one (``duration_s=None``) stops once the
+leader has completed its lap — its arc length has grown by the path's lap length plus the
+largest ρ_d, so the last follower has completed its own — but not before the scenario file's
+``duration``, and at the latest after :data:`LAP_CAP_FACTOR` lap times at the desired speed
+V_Ld (a leader slowed to the floor would otherwise run for hours).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from rtsim.io.work import check_coupled
+from rtsim.world.config import WorldConfig
+
+__all__ = ["LAP_CAP_FACTOR", "RunLength", "check_scenario", "run_length"]
+
+#: With the default (one-lap) duration, the run stops at the latest after this many lap
+#: times at V_Ld.
+LAP_CAP_FACTOR = 3.0
+
+
+@dataclass(frozen=True)
+class RunLength:
+    """The simulated time a run may take (``horizon_ms``); ``stop_s``: the leader's arc length
+    (cm, from its start) after which it stops, reached no earlier than ``stop_ms`` (None: the
+    run lasts the horizon)."""
+
+    horizon_ms: float
+    stop_s: float | None = None
+    stop_ms: float = 0.0
+
+
+def run_length(world: WorldConfig, duration_s: float | None,
+               file_duration_s: float | None) -> RunLength:
+    """The run's length (module doc): ``duration_s`` as asked (s), or the lap rule with the
+    scenario file's ``file_duration_s`` (s, None or 0: none)."""
+    if duration_s is not None:
+        return RunLength(float(duration_s) * 1000.0)
+    stop_s = world.path.lap_length + max(world.formation.rho_d)
+    stop_ms = 1000.0 * (file_duration_s or 0.0)
+    horizon_ms = max(LAP_CAP_FACTOR * stop_s / world.leader_speed * 1000.0, stop_ms)
+    return RunLength(horizon_ms, stop_s, stop_ms)
+
+
+def check_scenario(scenario: Any, duration_s: float | None, where: str, *,
+                   force: bool = False) -> None:
+    """Refuse a coupled run of ``scenario`` (an :class:`rtsim.io.scenario.Scenario`) above the
+    work limits (:func:`rtsim.io.work.check_coupled`: windows over the chain's processing time
+    g, world steps × followers), its length from :func:`run_length`."""
+    cfg = scenario.world
+    length = run_length(cfg, duration_s, scenario.duration)
+    win = scenario.load_taskset().window
+    assert win is not None
+    check_coupled(length.horizon_ms, win.g(), cfg.step_ms, cfg.n, where, force=force)

@@ -1,0 +1,196 @@
+"""One scan's outcome as the leader's localization saw it (docs/model/world.md).
+
+:class:`Scan` is what :meth:`rtsim.world.world.World.scan` returns: per follower, the beams
+returned, the position fixes, the Hough windows, lost and re-acquired tracks, and the truth's
+change since the previous scan with the bound violations it caused.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rtsim.world.localization import LOST_CAUSES
+
+__all__ = ["Scan"]
+
+Array = NDArray[np.float64]
+Pose = tuple[float, float, float]
+
+
+def _as_list(x: Any) -> list[Any]:
+    return x if isinstance(x, list) else np.asarray(x).tolist()
+
+
+class Scan:
+    """What one scan at ``t_ms`` saw; arrays have one row per follower (index i − 1).
+
+    points: beams returned by each follower (shadowing included); measured: position fixes in
+    the leader frame (truth + noise, cm); truth: true positions in the leader frame; centre:
+    Hough window centres; in_window / lost / reacquired: localization outcome; changes: the
+    truth's change since the previous scan (``displacement`` in the leader frame, ``d_rho``,
+    ``travel``, ``d_beta``; zeros at the first scan); violations: per bound kind
+    (docs/model/world.md),
+    whether that change exceeded its threshold.
+
+    Read-only. The world builds a scan from plain lists; each array (and each mapping of
+    arrays) is made on first access, so a caller that reads a few fields pays for those only.
+    """
+
+    __slots__ = ("t_ms", "leader_pose", "_raw", "_arrays")
+
+    t_ms: float
+    leader_pose: Pose
+
+    def __init__(
+        self,
+        t_ms: float,
+        leader_pose: Pose,
+        points: Any,
+        measured: Any,
+        truth: Any,
+        centre: Any,
+        in_window: Any,
+        lost: Any,
+        reacquired: Any,
+        changes: Mapping[str, Any],
+        violations: Mapping[str, Any],
+        searched: Any = None,
+        cause: Any = None,
+    ) -> None:
+        object.__setattr__(self, "t_ms", t_ms)
+        object.__setattr__(self, "leader_pose", leader_pose)
+        if searched is None:  # every lost follower searched for (the default search)
+            searched = lost
+        if cause is None:
+            cause = ["" if not v else "outside_window" for v in _as_list(lost)]
+        object.__setattr__(
+            self,
+            "_raw",
+            {
+                "points": points,
+                "measured": measured,
+                "truth": truth,
+                "centre": centre,
+                "in_window": in_window,
+                "lost": lost,
+                "reacquired": reacquired,
+                "changes": changes,
+                "violations": violations,
+                "searched": searched,
+                "cause": cause,
+            },
+        )
+        object.__setattr__(self, "_arrays", {})
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"Scan is read-only: cannot set {name!r}")
+
+    def _array(self, name: str, dtype: Any = None) -> Any:
+        arr = self._arrays.get(name)
+        if arr is None:
+            raw = self._raw[name]
+            if name in ("changes", "violations"):
+                arr = {k: np.array(v) for k, v in raw.items()}
+            elif isinstance(raw, np.ndarray):
+                arr = raw
+            else:
+                arr = np.array(raw) if dtype is None else np.array(raw, dtype=dtype)
+            self._arrays[name] = arr
+        return arr
+
+    def as_lists(self, name: str) -> Any:
+        """A field as plain lists, without making numpy arrays (a fast path; do not mutate)."""
+        raw = self._raw[name]
+        if name in ("changes", "violations"):
+            return {k: _as_list(v) for k, v in raw.items()}
+        return _as_list(raw)
+
+    @property
+    def points(self) -> NDArray[np.int64]:
+        return self._array("points", np.int64)  # type: ignore[no-any-return]
+
+    @property
+    def measured(self) -> Array:
+        return self._array("measured")  # type: ignore[no-any-return]
+
+    @property
+    def truth(self) -> Array:
+        return self._array("truth")  # type: ignore[no-any-return]
+
+    @property
+    def centre(self) -> Array:
+        return self._array("centre")  # type: ignore[no-any-return]
+
+    @property
+    def in_window(self) -> NDArray[np.bool_]:
+        return self._array("in_window")  # type: ignore[no-any-return]
+
+    @property
+    def lost(self) -> NDArray[np.bool_]:
+        return self._array("lost")  # type: ignore[no-any-return]
+
+    @property
+    def reacquired(self) -> NDArray[np.bool_]:
+        return self._array("reacquired")  # type: ignore[no-any-return]
+
+    @property
+    def changes(self) -> Mapping[str, Array]:
+        return self._array("changes")  # type: ignore[no-any-return]
+
+    @property
+    def violations(self) -> Mapping[str, NDArray[np.bool_]]:
+        return self._array("violations")  # type: ignore[no-any-return]
+
+    @property
+    def n(self) -> int:
+        return len(self._raw["points"])
+
+    @property
+    def total_points(self) -> int:
+        """Scan points returned by all followers (Eq 1's min(361, k·n), counted)."""
+        return int(sum(_as_list(self._raw["points"])))
+
+    @property
+    def n_lost(self) -> int:
+        """Followers lost at this scan (each re-acquisition is charged)."""
+        return int(sum(_as_list(self._raw["lost"])))
+
+    @property
+    def searched(self) -> NDArray[np.bool_]:
+        """Lost followers the leader searched for (a full-scan search each)."""
+        return self._array("searched")  # type: ignore[no-any-return]
+
+    @property
+    def cause(self) -> tuple[str, ...]:
+        """Why each follower's track was lost (:data:`LOST_CAUSES`; "" when it was not)."""
+        return tuple(self._raw["cause"])
+
+    @property
+    def n_searched(self) -> int:
+        """Searches charged at this scan (:func:`~rtsim.world.localization.hough_time`)."""
+        return int(sum(_as_list(self._raw["searched"])))
+
+    @property
+    def n_reacquired(self) -> int:
+        """Lost followers found again by their search."""
+        return int(sum(_as_list(self._raw["reacquired"])))
+
+    def lost_by_cause(self) -> dict[str, int]:
+        """Lost tracks per cause, every cause of :data:`LOST_CAUSES` present (0 if none)."""
+        out = dict.fromkeys(LOST_CAUSES, 0)
+        for c in self._raw["cause"]:
+            if c:
+                out[c] += 1
+        return out
+
+    @property
+    def lost_followers(self) -> tuple[int, ...]:
+        """1-based numbers of the followers that need re-acquisition."""
+        return tuple(k + 1 for k, v in enumerate(_as_list(self._raw["lost"])) if v)
+
+    def __repr__(self) -> str:
+        return f"Scan(t_ms={self.t_ms!r}, n={self.n}, points={_as_list(self._raw['points'])})"
