@@ -25,6 +25,12 @@ ROOT = Path(__file__).resolve().parent.parent
 BARREL = ROOT / "tasksets" / "barrel_robots.toml"
 
 
+def _barrel() -> TaskSet:
+    from rtsim.io.taskset import load_taskset
+
+    return load_taskset(BARREL)
+
+
 def _both(
     tmp_path: Path, ts: object, horizon: float, tasks: list[str] | None = None, **kw: object
 ) -> tuple[bytes, bytes]:
@@ -68,7 +74,7 @@ def test_streamed_perfetto_is_byte_identical_with_aborted_lanes(tmp_path: Path) 
     ],
 )
 def test_streamed_perfetto_is_byte_identical_on_the_papers_set(tmp_path: Path, kw: dict) -> None:
-    a, b = _both(tmp_path, BARREL, 4000.0, tasks=None, **kw)
+    a, b = _both(tmp_path, _barrel(), 4000.0, tasks=None, **kw)
     assert a == b and len(a) > 10_000
 
 
@@ -225,7 +231,7 @@ def test_simulate_trace_gantt_and_jobs_are_the_whole_tables_files(
         == 0
     )
     res = simulate(
-        BARREL, 3000.0, window=150.0, suspension="idle", seed=2, record_jobs=True, record_trace=True
+        _barrel(), 3000.0, window=150.0, suspension="idle", seed=2, record_jobs=True, record_trace=True
     )
     assert (tmp_path / "t.csv").read_bytes() == res.trace.to_csv(index=False).encode()
     assert (tmp_path / "j.csv").read_bytes() == res.jobs.to_csv(index=False).encode()
