@@ -16,8 +16,13 @@ Real-Time Systems 55 (2019), confirms sound are used (docs/model/beyond.md):
     flawed variants the survey lists (jitter S_j instead of R_j − C_j; dynamic-suspension
     analyses ignoring carry-in) are not used.
 
-Each task takes the smaller of its sound bounds: (a) and, where it applies, (b) or (c) — the
-jitter form can count one more window job than the oblivious one, so neither dominates.
+(d) **unified**, for any task below a suspending one, including a suspending task below
+    suspending ones (which (b) and (c) leave to (a)): Theorem 1 of Chen, Nelissen & Huang,
+    ECRTS 2016, each higher task's suspension either as jitter R_i − C_i or as computation
+    with its carry-in, as the survey states it (:mod:`rtsim.analysis.unified`).
+
+Each task takes the least of its sound bounds: (a) and, where they apply, (b) or (c), and (d)
+— the jitter form can count one more window job than the oblivious one, so none dominates.
 Context-switch overhead o is charged as in :mod:`rtsim.analysis.rta` (2·o per higher compute
 stretch, o per own stretch). Offsets are ignored (sound).
 """
@@ -42,7 +47,8 @@ class SuspensionBound:
     """One task's suspension-aware bound (ms, from arrival; None = above the deadline).
 
     ``oblivious`` is bound (a), ``other`` bound (b) or (c) where it applies (``kind`` names it:
-    ``"segmented"``, ``"jitter"`` or ``""``), ``wcrt`` the smaller of the two.
+    ``"segmented"``, ``"jitter"`` or ``""``), ``unified`` bound (d) where some higher task
+    suspends, ``wcrt`` the least of them.
     """
 
     name: str
@@ -50,6 +56,7 @@ class SuspensionBound:
     oblivious: float | None
     other: float | None
     kind: str
+    unified: float | None = None
 
 
 def suspends(task: Task) -> bool:
@@ -94,6 +101,24 @@ def _segment_response(c: float, hp: Sequence[tuple[float, float, float]],
     return None
 
 
+def _unified(task: Task, higher: Sequence[Task], done: Sequence[SuspensionBound],
+             o: float) -> float | None:
+    """Bound (d) of ``task`` below ``higher`` (module doc), None where it does not apply."""
+    from rtsim.analysis.unified import HigherTask, unified_bound
+
+    hp = []
+    for t, b in zip(higher, done, strict=True):
+        if b.wcrt is None:
+            return None
+        c = compute_time(t)
+        hp.append(HigherTask(c, c + 2.0 * o * stretches(t), t.wcet - c, t.period, t.jitter,
+                             b.wcrt))
+    c = compute_time(task)
+    d = task.period if task.deadline is None else task.deadline
+    return unified_bound(c + o * stretches(task), task.wcet - c, task.period, d, task.jitter,
+                         hp)
+
+
 def suspension_aware(tasks: Sequence[Task], overhead: float = 0.0) -> list[SuspensionBound]:
     """Bounds of every task of a resolved set, highest priority first (module doc)."""
     o = float(overhead)
@@ -134,7 +159,8 @@ def suspension_aware(tasks: Sequence[Task], overhead: float = 0.0) -> list[Suspe
                 hp[k] = (c + 2.0 * o * stretches(t), t.period, max(rk - c, 0.0))
             if usable:
                 other = busy_window(own, task.period, task.jitter, d, hp)
-        bounds = [b for b in (obl, other) if b is not None]
+        unified = _unified(task, higher, out, o) if hp_susp else None
+        bounds = [b for b in (obl, other, unified) if b is not None]
         out.append(SuspensionBound(task.name, min(bounds) if bounds else None, obl, other,
-                                   kind))
+                                   kind, unified))
     return out

@@ -21,7 +21,8 @@ from typing import Any
 
 from rtsim.errors import InputError
 
-__all__ = ["register", "run", "format_analysis", "format_edf", "json_safe"]
+__all__ = ["register", "run", "format_analysis", "format_edf", "format_transaction",
+           "json_safe"]
 
 
 def register(sub: Any) -> None:
@@ -142,6 +143,13 @@ def format_edf(res: Any, source: str, w_from: str | None) -> str:
     return "\n".join(lines)
 
 
+def format_transaction(txn: dict[str, float | None]) -> str:
+    """One line: each task's offset-based (transaction) bound, the least sound bound rtsim
+    has for it under fixed priority (docs/analysis.md)."""
+    parts = ", ".join(f"{name} {_num(r)}" for name, r in txn.items())
+    return f"offset-based (transaction) WCRT: {parts}"
+
+
 def json_safe(obj: Any) -> Any:
     """Replace non-finite floats by None so the JSON has no NaN/Infinity tokens."""
     if isinstance(obj, float) and not math.isfinite(obj):
@@ -156,6 +164,7 @@ def json_safe(obj: Any) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
     from rtsim.analysis.edf import EdfAnalysis
+    from rtsim.analysis.rta import analyze
     from rtsim.io.taskset import load_taskset
     from rtsim.sim.policy import SCHEDULERS
 
@@ -177,13 +186,24 @@ def run(args: argparse.Namespace) -> int:
                          f"use --scheduler with one of {with_analysis}")
     w_from = None if ts.window is None else ("--window" if w is not None else "w_sch")
     res: Any = policy.analysis(ts, w, overhead=args.overhead, suspension=args.suspension)
+    txn: dict[str, float | None] | None = None
     if isinstance(res, EdfAnalysis):
         text = format_edf(res, str(ts.source), w_from)
     else:
         text = format_analysis(res, str(ts.source), w_from)
+        if policy.analysis is analyze:  # fixed priority: the offset-based bound beside it
+            from rtsim.analysis.transaction import transaction_bounds
+
+            txn = transaction_bounds(ts, res.w, overhead=res.overhead,
+                                     suspension=args.suspension)
+            head, _, last = text.rpartition("\n")  # before the verdict line
+            text = f"{head}\n{format_transaction(txn)}\n{last}"
     if args.json:
         out = {"source": ts.source, "w_from": w_from, "scheduler": scheduler,
                **res.as_dict()}
+        if txn is not None:
+            for entry in out["tasks"]:
+                entry["wcrt_transaction"] = txn.get(entry["name"])
         print(json.dumps(json_safe(out), indent=2, allow_nan=False))
     else:
         print(text)

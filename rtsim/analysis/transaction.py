@@ -1,0 +1,442 @@
+"""Offset-based response times: the window chain and its per-window tasks as one transaction.
+
+Model (Tindell 1994, "Adding time-offsets to schedulability analysis"; Palencia & González
+Harbour 1998, "Schedulability analysis for tasks with static and dynamic offsets", RTSS, as the
+MAST tools do). A *transaction* i is a stream of activations with period T_i; each of its
+*steps* j (here: one compute stretch of one job) is released Φ_ij after an activation, plus a
+release jitter in [0, J_ij]. Different transactions have arbitrary relative phases.
+
+For a processing-window set analysed at a fixed window w, one transaction of period
+T = L·w holds the L window jobs of a hyperperiod (job k arrives at k·w) and every job of the
+tasks whose period is a multiple m·w of the window (job i of such a task arrives at its
+offset + i·m·w; L is the least common multiple of the multiples). Every other task is a
+transaction of its own. A job with suspensions is split into its compute stretches with
+*dynamic offsets* (Palencia & González Harbour): stretch s + 1 is released at the earliest
+Φ_s + Ĉ_s + Ŝ (best cases: a segment's ``bcet``, else 0) and at the latest R_s + S, with R_s
+the worst completion of stretch s; so Φ_{s+1} = Φ_s + Ĉ_s + Ŝ and J_{s+1} = R_s + S − Φ_{s+1}.
+
+**Interference** of transaction i on a step b, with the busy period starting at t_c when step k
+of i is released after its largest jitter: step j's releases lie at phase
+φ_ijk = (Φ_ij − Φ_ik − J_ik) mod T_i after t_c, every T_i, and (Palencia & González Harbour,
+Eq. 3)
+
+    W_ik(t) = Σ_{j ∈ hp_i(b)} (⌊(φ_ijk + J_ij)/T_i⌋ + ⌈(t − φ_ijk)/T_i⌉₀) · C_ij,
+
+the first term the jobs whose jitter lets them all be released at t_c. Another transaction
+i ≠ a contributes at most W*_i(t) = max_k W_ik(t) (their upper bound that makes the analysis
+polynomial); the step's own transaction a is taken at each candidate k ∈ hp_a(b) ∪ {b} in turn.
+
+**One job at a time.** rtsim runs the jobs of a task first in, first out, and the stretches of
+a job in order. The analysis below assumes that every job of a task completes before the next
+job of that task arrives, and checks it: a task whose bound exceeds the distance to its next
+arrival gets no bound (``None``), nor does any task below it. Under that assumption, when a
+stretch b is released (at r) no other work of its priority level is pending and none can run
+before it ends; so with t0 ≤ r the last instant at which no higher-priority work was pending,
+the CPU runs only higher-priority work in [t0, r) and only that and b in [r, f), and
+
+    f − t0 ≤ least w ≥ (r − t0) + C_b with  w = C_b + W_ak(w) + Σ_{i≠a} W*_i(w)
+
+with t0 = t_c. The stretch is released at r − t0 = φ_abk + m·T_a for an m ≥ 0 while the
+higher-priority busy period (the least fixed point of W_ak + Σ W*_i) lasts, or at t_c itself if
+its jitter lets an earlier activation's release reach t_c (then its release is
+φ_abk − n·T_a after its earliest, n = ⌊(φ_abk + J_ab)/T_a⌋). Its response from its job's
+arrival is f − (its earliest release) + Φ_ab − (the job's arrival). Only strictly
+higher-priority steps interfere (rtsim's priorities are distinct per task; the other stretches
+and jobs of the step's own task cannot run while it is pending). The task's bound is the
+largest over its jobs of the last stretch's completion (plus a trailing suspension) from the
+job's arrival.
+
+Context-switch overhead o as in :mod:`rtsim.analysis.rta`: 2·o per interfering stretch, o per
+own stretch. Times in ms. Ceilings take x 1e-9 ms lower (:func:`rtsim.analysis.rta.ceil_div`);
+phases within 1e-9 ms of a multiple of the period are taken as 0 (the earlier, the more
+interference). Suspensions count as computation under ``suspension="cpu"``.
+
+The bound is sound for a fixed window w, execution and suspension times at or below their
+WCET (at or above their ``bcet`` where one is given), any phasing of the tasks not tied to the
+window, and the release jitters given; it assumes fixed-priority preemptive scheduling.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, ceil_div
+from rtsim.model.task import Segment, Task
+
+if TYPE_CHECKING:
+    from rtsim.model.taskset import TaskSet
+
+__all__ = [
+    "Job",
+    "Step",
+    "Transaction",
+    "TransactionBound",
+    "analyze_transactions",
+    "transactions_of",
+    "transaction_bounds",
+    "MAX_JOBS",
+]
+
+#: Largest number of window jobs in one transaction (L); beyond it per-window tasks are
+#: analysed as transactions of their own (sound, without the offsets).
+MAX_JOBS = 64
+#: Fixed-point steps of one response before giving up.
+_MAX_STEPS = 100_000
+_PHASE_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class Job:
+    """One job of a task inside a transaction: its arrival (ms after the activation), its
+    release jitter, the time to the next job of its task and its relative deadline."""
+
+    task: str
+    priority: int
+    arrival: float
+    jitter: float
+    spacing: float
+    deadline: float
+    segments: tuple[Segment, ...]
+    bcet_scale: float | None = None  # a task-level bcet scaled per segment (see Uniform)
+
+
+@dataclass(frozen=True)
+class Transaction:
+    """A stream of activations with period ``period`` and the jobs of one activation."""
+
+    period: float
+    jobs: tuple[Job, ...]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One compute stretch of one job: best-case release Φ, jitter J, WCET C (ms)."""
+
+    task: str
+    priority: int
+    offset: float
+    jitter: float
+    wcet: float
+
+
+@dataclass(frozen=True)
+class TransactionBound:
+    """A task's offset-based bound (ms from arrival; None: above its deadline, or the
+    analysis does not apply) and the transaction's period it was found in."""
+
+    name: str
+    wcrt: float | None
+    period: float
+
+
+def _phase(phi_j: float, phi_k: float, j_k: float, period: float) -> float:
+    """(Φ_j − Φ_k − J_k) mod T in [0, T), a value within 1e-9 ms of T or 0 taken as 0."""
+    ph = math.fmod(phi_j - phi_k - j_k, period)
+    if ph < 0.0:
+        ph += period
+    if ph < _PHASE_TOL or ph > period - _PHASE_TOL:
+        return 0.0
+    return ph
+
+
+def _work(steps: Sequence[Step], period: float, k: Step, t: float, cost: float) -> float:
+    """W_ik(t) (module doc): the work of ``steps`` of one transaction released in [t_c, t_c + t)
+    when step ``k`` is released at t_c after its largest jitter; ``cost`` is added per job."""
+    total = 0.0
+    for s in steps:
+        ph = _phase(s.offset, k.offset, k.jitter, period)
+        n = math.floor((ph + s.jitter + _PHASE_TOL) / period)
+        if t > ph:
+            n += max(ceil_div(t - ph, period), 0)
+        total += n * (s.wcet + cost)
+    return total
+
+
+def _segments_best(job: Job, seg: Segment) -> float:
+    if seg.bcet is not None:
+        return seg.bcet
+    if job.bcet_scale is not None:
+        return seg.wcet * job.bcet_scale
+    return 0.0
+
+
+def _stretches(job: Job, suspension: str) -> list[tuple[str, float, float]]:
+    """The job's chain as ("c" | "s", worst, best) runs, compute merged; suspensions are
+    computation under ``suspension="cpu"``."""
+    out: list[tuple[str, float, float]] = []
+    for seg in job.segments:
+        kind = "c" if seg.kind == "compute" or suspension == "cpu" else "s"
+        best = _segments_best(job, seg)
+        if out and out[-1][0] == kind:
+            _, w, b = out[-1]
+            out[-1] = (kind, w + seg.wcet, b + best)
+        else:
+            out.append((kind, seg.wcet, best))
+    return out
+
+
+def _step_response(
+    own: Step,
+    own_period: float,
+    own_hp: Sequence[Step],
+    others: Sequence[tuple[float, Sequence[Step]]],
+    overhead: float,
+    limit: float,
+) -> float | None:
+    """Worst completion of ``own`` after its earliest release (module doc), or None past
+    ``limit`` (ms after the earliest release) or when the busy period does not close."""
+    c = own.wcet + overhead
+    cost = 2.0 * overhead
+
+    def others_work(t: float) -> float:
+        return math.fsum(max(_work(hp, per, k, t, cost) for k in hp) for per, hp in others if hp)
+
+    util = math.fsum((s.wcet + cost) / per for per, hp in others for s in hp)
+    util += math.fsum((s.wcet + cost) / own_period for s in own_hp)
+    if util >= 1.0:
+        return None
+    worst = 0.0
+    for k in (*own_hp, own):
+        phase = _phase(own.offset, k.offset, k.jitter, own_period)
+
+        def hp_work(t: float, k: Step = k) -> float:
+            return _work(own_hp, own_period, k, t, cost) + others_work(t)
+
+        def fixpoint(start: float, extra: float) -> float | None:
+            w = start
+            for _ in range(_MAX_STEPS):
+                nxt = max(extra + hp_work(w), start)
+                if nxt <= w:
+                    return w
+                if nxt > limit + start + own_period:
+                    return None
+                w = nxt
+            return None
+
+        releases: list[float] = []  # the stretch's earliest release, relative to t_c
+        back = math.floor((phase + own.jitter + _PHASE_TOL) / own_period)
+        if back >= 1:  # an earlier activation's release delayed to t_c
+            releases.append(phase - back * own_period)
+        busy = fixpoint(2.0 * CEIL_TOL, 0.0) if own_hp or any(hp for _, hp in others) else 0.0
+        if busy is None:
+            return None
+        m = 0
+        while True:
+            e = phase + m * own_period
+            if m > 0 and e >= busy - CEIL_TOL:
+                break
+            releases.append(e)
+            m += 1
+            if m > _MAX_STEPS:
+                return None
+        for e in releases:
+            f = fixpoint(max(e, 0.0) + c, c)
+            if f is None:
+                return None
+            r = f - e
+            if r > limit + DEADLINE_TOL:
+                return None
+            worst = max(worst, r)
+    return worst
+
+
+def analyze_transactions(
+    transactions: Sequence[Transaction],
+    *,
+    overhead: float = 0.0,
+    suspension: str = "idle",
+    known: Mapping[str, float | None] | None = None,
+) -> dict[str, float | None]:
+    """Offset-based bounds of every task in ``transactions`` (module doc): task name → the
+    largest response of its jobs from their arrivals (ms), or None where the task's bound
+    passes the next arrival of its task (the analysis does not apply to it and to every
+    task below it). Deadlines are not checked here.
+
+    ``known``: sound bounds (ms from arrival) that other analyses give for some tasks. A job
+    completes by its arrival plus that bound, so a stretch completes by it less the best
+    case of what follows it: the latest releases (jitters) of the stretches after it, and
+    the task's own result, are capped there."""
+    if suspension not in ("cpu", "idle"):
+        raise ValueError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
+    o = float(overhead)
+    known = known or {}
+    prios = sorted({j.priority for tx in transactions for j in tx.jobs})
+    done: list[tuple[int, Step]] = []  # (transaction index, step) of analysed tasks
+    out: dict[str, float | None] = {}
+    failed = False
+    for prio in prios:
+        names = sorted({j.task for tx in transactions for j in tx.jobs if j.priority == prio})
+        if failed:
+            for nm in names:
+                out[nm] = None
+            continue
+        new: list[tuple[int, Step]] = []
+        worst: dict[str, float] = {}
+        ok = True
+        for a, tx in enumerate(transactions):
+            own_hp = [s for i, s in done if i == a]
+            others = [
+                (t.period, [s for i, s in done if i == b])
+                for b, t in enumerate(transactions)
+                if b != a
+            ]
+            for job in tx.jobs:
+                if job.priority != prio or not ok:
+                    continue
+                cap = known.get(job.task)
+                runs = _stretches(job, suspension)
+                after = [math.fsum(bc for _, _, bc in runs[i + 1 :]) for i in range(len(runs))]
+                best, late = job.arrival, job.arrival + job.jitter
+                for i, (kind, wc, bc) in enumerate(runs):
+                    if kind == "s":
+                        best, late = best + bc, late + wc
+                        continue
+                    step = Step(job.task, prio, best, late - best, wc)
+                    limit = job.arrival + job.spacing - best
+                    r = _step_response(step, tx.period, own_hp, others, o, limit)
+                    end = math.inf if r is None else best + r
+                    if cap is not None:
+                        end = min(end, job.arrival + cap - after[i])
+                    if not math.isfinite(end):
+                        ok = False
+                        break
+                    new.append((a, step))
+                    best, late = best + bc, end
+                if not ok:
+                    break
+                resp = late - job.arrival
+                if cap is not None:
+                    resp = min(resp, cap)
+                if resp > job.spacing + DEADLINE_TOL:
+                    ok = False
+                    break
+                worst[job.task] = max(worst.get(job.task, 0.0), resp)
+        if not ok:
+            failed = True
+            for nm in names:
+                out[nm] = None
+            continue
+        for nm in names:
+            out[nm] = worst.get(nm)
+        done.extend(new)
+    return out
+
+
+def _multiple(x: float) -> int | None:
+    m = round(x)
+    return m if m >= 1 and abs(x - m) <= 1e-9 * max(1.0, x) else None
+
+
+def _bcet_scale(task: Task) -> float | None:
+    return task.bcet / task.wcet if task.bcet is not None and not task.segments else None
+
+
+def transactions_of(ts: TaskSet, w: float | None) -> list[Transaction]:
+    """The transactions of ``ts`` at window ``w`` (module doc); a set without a window has
+    one transaction per task."""
+    out: list[Transaction] = []
+    linked: list[tuple[Task, int]] = []
+    if ts.window is not None:
+        assert w is not None
+        for t in ts.tasks:
+            m = _multiple(t.period) if t.per_window else None
+            if t.per_window and m is not None:
+                linked.append((t, m))
+        lcm = 1
+        for _, m in linked:
+            lcm = lcm * m // math.gcd(lcm, m)
+        if lcm > MAX_JOBS:
+            linked, lcm = [], 1
+        period = lcm * w
+        chain = ts.window_task(w)
+        jobs = [
+            Job(chain.name, chain.priority, k * w, chain.jitter, w, w, chain.chain())
+            for k in range(lcm)
+        ]
+        for t, m in linked:
+            assert t.deadline is not None
+            jobs += [
+                Job(
+                    t.name,
+                    t.priority,
+                    t.offset + i * m * w,
+                    t.jitter,
+                    m * w,
+                    t.deadline * w,
+                    t.chain(),
+                    _bcet_scale(t),
+                )
+                for i in range(lcm // m)
+            ]
+        out.append(Transaction(period, tuple(jobs)))
+    names = {t.name for t, _ in linked}
+    for t in ts.tasks:
+        if t.name in names:
+            continue
+        r = t.at_window(w) if t.per_window and w is not None else t
+        assert r.deadline is not None
+        out.append(
+            Transaction(
+                r.period,
+                (
+                    Job(
+                        r.name,
+                        r.priority,
+                        0.0,
+                        r.jitter,
+                        r.period,
+                        r.deadline,
+                        r.chain(),
+                        _bcet_scale(r),
+                    ),
+                ),
+            )
+        )
+    return out
+
+
+def transaction_bounds(
+    ts: TaskSet, w: float | None, *, overhead: float | None = None, suspension: str = "idle"
+) -> dict[str, float | None]:
+    """Offset-based WCRT of every task of ``ts`` at window ``w`` (ms from arrival; None where
+    it passes the task's deadline or the analysis does not apply), fixed priority."""
+    from rtsim.analysis.rta import analyze
+
+    o = ts.overhead if overhead is None else overhead
+    txs = transactions_of(ts, w)
+    known = {t.name: t.wcrt for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}
+    raw = analyze_transactions(txs, overhead=o, suspension=suspension, known=known)
+    deadlines = {j.task: j.deadline for tx in txs for j in tx.jobs}
+    return {
+        name: (r if r is not None and r <= deadlines[name] + DEADLINE_TOL else None)
+        for name, r in raw.items()
+    }
+
+
+def w_txn(
+    ts: TaskSet, *, overhead: float | None = None, suspension: str = "idle", tol: float = 1e-6
+) -> float:
+    """The least window w (ms, to ``tol``) at which every task of the processing-window set
+    ``ts`` has a bound within its deadline, each task taking the least of its sound bounds
+    (:func:`transaction_bounds`). Feasibility need not be monotone in w (the offsets move
+    with it), so the search is :func:`rtsim.analysis.validation.smallest_passing`: bisection
+    from above the suspension-aware w_susp (or w_rta under ``suspension="cpu"``), which
+    passes, with a scan of 20 windows above the result. ``inf`` when that start is."""
+    from rtsim.analysis.bounds import w_rta, w_susp
+    from rtsim.analysis.validation import smallest_passing
+
+    hi = w_susp(ts, overhead) if suspension == "idle" else w_rta(ts)
+    if not math.isfinite(hi):
+        return math.inf
+
+    def passes(w: float) -> bool:
+        bounds = transaction_bounds(ts, w, overhead=overhead, suspension=suspension)
+        return all(r is not None for r in bounds.values())
+
+    lo = 0.5 * hi
+    while passes(lo):
+        lo *= 0.5
+    return smallest_passing(passes, lo, hi, tol=tol, scan=20).w
