@@ -45,6 +45,9 @@ def register(sub: Any) -> None:
                    help="a scheduling policy with an analysis: fp (exact response-time "
                         "analysis) or edf (demand criterion and Spuri's bound); default: the "
                         "file's [scheduler] policy")
+    p.add_argument("--force", action="store_true",
+                   help="analyse even when the EDF bound would examine more than 1e6 "
+                        "arrivals (a busy period very long against the periods: minutes)")
     p.set_defaults(func=run)
 
 
@@ -185,6 +188,10 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{args.file}: [scheduler] policy {scheduler!r} has no analysis; "
                          f"use --scheduler with one of {with_analysis}")
     w_from = None if ts.window is None else ("--window" if w is not None else "w_sch")
+    from rtsim.io.work import check_analysis
+
+    check_analysis(ts, w, args.overhead, policy.analysis, str(ts.source or args.file),
+                   force=args.force)
     res: Any = policy.analysis(ts, w, overhead=args.overhead, suspension=args.suspension)
     txn: dict[str, float | None] | None = None
     if isinstance(res, EdfAnalysis):

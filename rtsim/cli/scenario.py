@@ -106,7 +106,7 @@ def run(args: Any) -> int:
             FileSet("scenario", inputs=inputs) as files:
         perfetto = _perfetto_target(args, staged.path, Path(args.out), files)
         res = _write(args, staged.path, Path(args.out), t0, scenario.source or str(args.file),
-                     override, perfetto)
+                     override, perfetto, files)
         staged.commit()
         files.commit()
     s = res.summary
@@ -150,7 +150,7 @@ def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | N
 
 
 def _write(args: Any, out: Path, target: Path, t0: float, src: str,
-           override: str | None, perfetto: Path | None) -> Any:
+           override: str | None, perfetto: Path | None, files: Any = None) -> Any:
     """Run the scenario (file ``src``), writing every file into ``out`` (the staging
     directory of ``target``); returns the result."""
     from rtsim.coupling import run_scenario
@@ -166,7 +166,11 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
         from rtsim.io.spool import Spool, Tee
 
         scratch = out / f".rtsim-spool-{secrets.token_hex(4)}"
-        spools = (Spool(f"{scratch}-jobs"), Spool(f"{scratch}-trace"))
+        spools = (Spool(f"{scratch}-jobs", label=args.perfetto),
+                  Spool(f"{scratch}-trace", label=args.perfetto))
+    if files is not None:  # closed after an error too, before the staging goes
+        for w in (windows, jobs, *(spools or ())):
+            files.on_release(getattr(w, "discard", w.close))
     try:
         res = run_scenario(Path(args.file), policy=override, duration_s=args.duration,
                            seed=args.seed, record_jobs=True, exec_model=args.exec_model,

@@ -220,13 +220,17 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     spools: tuple[Any, Any] | None = None
     if args.perfetto:
         scratch = Path(tmp["perfetto"]).parent / f".rtsim-spool-{secrets.token_hex(4)}"
-        spools = (Spool(f"{scratch}-jobs"), Spool(f"{scratch}-trace"))
+        spools = (Spool(f"{scratch}-jobs", label=args.perfetto),
+                  Spool(f"{scratch}-trace", label=args.perfetto))
     chart = None
     if args.gantt:
         from rtsim.plots.gantt import GanttRows
 
         assert rng is not None
         chart = GanttRows(*rng)
+    for out in (jobs_out, trace_out, *(spools or ())):
+        if out is not None:  # closed after an error too, before the staging goes
+            files.on_release(getattr(out, "discard", out.close))
     job_sink = Tee(jobs_out, spools and spools[0], chart and chart.jobs)
     trace_sink = Tee(trace_out, spools and spools[1], chart and chart.trace)
     res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,

@@ -24,19 +24,26 @@ class Spool:
     """Row chunks pickled to ``path`` (a scratch file, made or truncated here).
 
     :meth:`write_rows` appends a chunk; iterating yields the chunks written so far, in order
-    (each a list of tuples); :meth:`close` removes the file. A context manager.
+    (each a list of tuples); :meth:`close` removes the file. A context manager. A write
+    error (a full disk) names ``label``, the output the spool is for (default ``path``).
     """
 
-    def __init__(self, path: str | os.PathLike[str]) -> None:
+    def __init__(self, path: str | os.PathLike[str],
+                 label: str | os.PathLike[str] | None = None) -> None:
         self.path = Path(path)
+        self.label = self.path if label is None else Path(label)
         self._fh: Any = open(self.path, "wb")  # noqa: SIM115 - closed by close()
         self.rows = 0
 
     def write_rows(self, rows: Sequence[tuple[Any, ...]]) -> None:
         """Append one chunk of row tuples."""
+        from rtsim.io.atomic import naming
+
         if not len(rows):
             return
-        pickle.dump(list(rows), self._fh, protocol=pickle.HIGHEST_PROTOCOL)
+        with naming(self.label):
+            pickle.dump(list(rows), self._fh, protocol=pickle.HIGHEST_PROTOCOL)
+            self._fh.flush()
         self.rows += len(rows)
 
     def __iter__(self) -> Iterator[list[tuple[Any, ...]]]:

@@ -17,6 +17,9 @@ estimate            limit      what is counted
 ``backlog``         1e6        jobs waiting at once on an overloaded CPU (utilization
                                above 1 at the window): every job of a finish-late
                                task released over the horizon (about 0.7 KB each)
+``arrivals``        1e6        arrivals the EDF response-time bound (Spuri's) examines:
+                               tasks × Σ (synchronous busy period / period + 1),
+                               about 30 µs each (``rtsim analyze`` under EDF)
 ==================  =========  =====================================================
 
 The library applies the same limits through the same functions: ``simulate``,
@@ -44,6 +47,7 @@ LIMITS: dict[str, float] = {
     "world_steps": 2e8,
     "grid": 1e5,
     "backlog": 1e6,
+    "arrivals": 1e6,
 }
 
 _WHAT = {
@@ -53,6 +57,8 @@ _WHAT = {
     "grid": "grid points",
     "backlog": "jobs waiting at once (the CPU is overloaded: finish-late jobs pile up in "
                "memory)",
+    "arrivals": "arrivals for the EDF response-time bound to examine (the busy period is "
+                "long against the periods)",
 }
 
 
@@ -109,6 +115,35 @@ def simulate_backlog(ts: Any, horizon_ms: float, w: float | None) -> float:
         return 0.0
     return float(sum(math.ceil(horizon_ms / t.period) if horizon_ms / t.period < 1e300
                      else math.inf for t in plain if t.overload == "finish-late"))
+
+
+def edf_arrivals(ts: object, w: float | None, overhead: float | None) -> float:
+    """The arrivals Spuri's EDF bound examines for ``ts`` at window ``w``: for each task,
+    every arrival of every task in the synchronous busy period L_b (0 when it does not
+    close: the bound is then not searched). Computing L_b is itself bounded (the analysis'
+    step limit)."""
+    from rtsim.analysis.edf import busy_period, edf_tasks
+    from rtsim.analysis.rta import analysis_inputs
+    from rtsim.model.taskset import TaskSet
+
+    assert isinstance(ts, TaskSet)
+    _, _, o, tasks = analysis_inputs(ts, w, overhead, "cpu", "analyze_edf")
+    et = edf_tasks(tasks, o)
+    lb = busy_period(et)
+    if lb is None:
+        return 0.0
+    return float(len(et) * math.fsum(lb / p + 1.0 for _, p, _, _ in et))
+
+
+def check_analysis(ts: object, w: float | None, overhead: float | None, analysis: object,
+                   where: str, *, force: bool = False) -> None:
+    """Refuse an analysis that would examine more than ``LIMITS["arrivals"]`` arrivals
+    (``analysis``: the function the run would call; only the EDF analysis searches over
+    arrivals — the fixed-priority one is bounded by its own job limit)."""
+    from rtsim.analysis.edf import analyze_edf
+
+    if analysis is analyze_edf:
+        check_work("arrivals", edf_arrivals(ts, w, overhead), where, force=force)
 
 
 def check_seed(seed: object, where: str) -> None:
