@@ -15,4 +15,7 @@ import sys
 from rtsim.cli import main
 
 if __name__ == "__main__":
-    sys.exit(main(["validate", *sys.argv[1:]]))
+    argv = sys.argv[1:]
+    if not any(a == "--out" or a.startswith("--out=") for a in argv):  # the command needs one
+        argv += ["--out", "out/validate-quick" if "--quick" in argv else "out/validate"]
+    sys.exit(main(["validate", *argv]))

@@ -20,7 +20,14 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from rtsim._version import __version__
-from rtsim.errors import InputError, RtsimError, ScenarioError, SweepError, TaskSetError
+from rtsim.errors import (
+    InputError,
+    OverrideError,
+    RtsimError,
+    ScenarioError,
+    SweepError,
+    TaskSetError,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from rtsim.analysis import analyze, window_bounds
@@ -46,6 +53,7 @@ _LAZY: dict[str, str] = {
 __all__ = [
     "__version__",
     "InputError",
+    "OverrideError",
     "RtsimError",
     "ScenarioError",
     "SweepError",

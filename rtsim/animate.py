@@ -200,7 +200,7 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
     jobs = jobs[jobs["start"].notna()]
 
     fig = Figure(figsize=(8, 7.2))
-    gs = fig.add_gridspec(2, 1, height_ratios=(3.2, 1), left=0.17, right=0.97, top=0.94,
+    gs = fig.add_gridspec(2, 1, height_ratios=(3.2, 1), left=0.17, right=0.97, top=0.90,
                           bottom=0.07, hspace=0.22)
     ax = fig.add_subplot(gs[0])
     gx = fig.add_subplot(gs[1])
@@ -221,7 +221,9 @@ def _animate(run_dir: str | os.PathLike[str], out: Path, files: Any, *,
     hough = [Circle((0, 0), r_h, fill=False, lw=1.2, ls="--", zorder=2) for _ in range(view.n)]
     for c in hough:
         ax.add_patch(c)
-    ax.legend(loc="upper right", fontsize=8)
+    # above the map, never over the robots (the view follows them anywhere in it)
+    fig.legend(handles=[leader_dot, truth_dots, est_dots], loc="upper center", ncols=3,
+               fontsize=8, frameon=False, bbox_to_anchor=(0.57, 1.0))
     title = ax.set_title("", fontsize=10)
 
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]

@@ -6,7 +6,8 @@ and the problem; the command line prints it as ``rtsim: <message>`` and exits 2.
 
 from __future__ import annotations
 
-__all__ = ["RtsimError", "InputError", "TaskSetError", "ScenarioError", "SweepError"]
+__all__ = ["RtsimError", "InputError", "TaskSetError", "ScenarioError", "SweepError",
+           "OverrideError"]
 
 
 class RtsimError(Exception):
@@ -27,3 +28,8 @@ class ScenarioError(InputError):
 
 class SweepError(InputError):
     """A sweep file is invalid."""
+
+
+class OverrideError(InputError):
+    """A dotted override (``load_scenario(..., overrides={...})``, ``run_scenario(...,
+    overrides=...)``) names no key of the file, or a run option instead of one."""

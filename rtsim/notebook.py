@@ -6,9 +6,11 @@
   ``_repr_html_`` those facts and the ``summary_frame()`` table, so a result returned as a
   cell's value shows its summary rather than thousands of characters of DataFrames.
 - :func:`enable_figure_display`: a matplotlib ``Figure`` returned as a cell's value is shown as
-  a PNG in any IPython kernel, with or without ``%matplotlib inline`` (rtsim's figures are
-  made without pyplot, so the inline backend never registers them). Called when
-  :mod:`rtsim.plots` is imported; does nothing outside IPython.
+  a PNG in any IPython kernel, with or without ``%matplotlib inline``, once: with the inline
+  backend rtsim's figures are pyplot figures (``rtsim.plots.figure``), shown at the end
+  of the cell or on ``plt.show()`` too, and a figure shown as the cell's value is closed so
+  that the backend does not show it again. Called when :mod:`rtsim.plots` is imported; does
+  nothing outside IPython.
 """
 
 from __future__ import annotations
@@ -83,22 +85,32 @@ def figure_png(fig: Any, dpi: int = 100) -> bytes:
     return buf.getvalue()
 
 
-def enable_figure_display() -> bool:
-    """Show a ``matplotlib.figure.Figure`` returned as a cell's value as a PNG.
+def show_once(fig: Any) -> bytes:
+    """The PNG of a figure IPython shows; a pyplot figure is then closed, so that the inline
+    backend does not show it a second time at the end of the cell."""
+    png = figure_png(fig)
+    if getattr(fig.canvas, "manager", None) is not None and "matplotlib.pyplot" in sys.modules:
+        import matplotlib.pyplot as plt
 
-    Registers a PNG formatter for ``Figure`` with the running IPython shell (replacing the
-    inline backend's, which does the same, so a figure is never shown twice). Returns whether
-    an IPython shell was found.
-    """
+        plt.close(fig)
+    return png
+
+
+def enable_figure_display() -> bool:
+    """Show a ``matplotlib.figure.Figure`` returned as a cell's value (or given to
+    ``display``) as a PNG, once: registers :func:`show_once` as the running IPython shell's
+    PNG formatter of ``Figure``. Returns whether an IPython shell was found (nothing is done
+    outside IPython)."""
     if "IPython" not in sys.modules:
         return False
     try:
         from IPython import get_ipython
-        from matplotlib.figure import Figure
     except ImportError:  # pragma: no cover
         return False
     ip = get_ipython()
     if ip is None:
         return False
-    ip.display_formatter.formatters["image/png"].for_type(Figure, figure_png)
+    from matplotlib.figure import Figure
+
+    ip.display_formatter.formatters["image/png"].for_type(Figure, show_once)
     return True

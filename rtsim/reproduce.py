@@ -98,7 +98,8 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
 
 
 def figure_stems() -> list[str]:
-    """Every figure stem the script writes in ``figures/`` (each as .png and .csv)."""
+    """Every figure stem the script writes in ``figures/`` (each as .png — or the ``--format``
+    — and .csv)."""
     stems = [f"fig{n:02d}_{t}_{name}" for n, (t, name) in PAPER_FIGURES.items()]
     stems += [f"fig{n:02d}_{t}_{name}_detail" for n, (t, name) in DETAIL_FIGURES.items()]
     stems += [f"fig02_{t}_operating_space" for t in TESTS]
@@ -110,7 +111,8 @@ def figure_stems() -> list[str]:
 
 
 def write_run(out: Path, res: Any, *, scenario_file: Path, mode: str, seed: int,
-              duration_s: float | None, argv: list[str], wall_s: float) -> list[str]:
+              duration_s: float | None, argv: list[str], wall_s: float,
+              set_: list[str] | None = None) -> list[str]:
     """Write a run's directory as ``rtsim scenario --no-figures`` does (rtsim/cli/scenario.py).
 
     The CLI has no writer function of its own, so this calls the same library functions with
@@ -136,7 +138,7 @@ def write_run(out: Path, res: Any, *, scenario_file: Path, mode: str, seed: int,
         out, command="scenario", seed=seed,
         inputs={"scenario_file": str(scenario_file), "scenario_text": inp.text,
                 "scenario": inp.resolved, "mode": mode, "duration_s": duration_s,
-                "exec_model": "wcet"},
+                "exec_model": "wcet", "set": list(set_ or [])},
         argv=argv, extra={"timing": timing, "outputs": [*outputs, "manifest.json"]},
     )
     return [*outputs, "manifest.json"]
@@ -148,15 +150,18 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
 
     t0 = time.perf_counter()
     file = Path(spec["scenario_file"])
+    set_ = list(spec.get("set") or [])
     res = run_scenario(file, mode=spec["mode"], duration_s=spec["duration_s"],
-                       seed=spec["seed"], record_jobs=True)
+                       seed=spec["seed"], record_jobs=True,
+                       overrides=_overrides(set_) or None)
     argv = ["rtsim", "scenario", str(file), "--mode", spec["mode"], "--seed", str(spec["seed"])]
+    argv += [a for s in set_ for a in ("--set", s)]
     if spec["duration_s"] is not None:
         argv += ["--duration", repr(spec["duration_s"])]
     argv += ["--no-figures", "--out", str(spec.get("shown_out", spec["out"]))]
     written = write_run(Path(spec["out"]), res, scenario_file=file, mode=spec["mode"],
                         seed=spec["seed"], duration_s=spec["duration_s"], argv=argv,
-                        wall_s=time.perf_counter() - t0)
+                        wall_s=time.perf_counter() - t0, set_=set_)
     timing = dict(res.timing)
     timing["total_s"] = time.perf_counter() - t0
     return {"test": spec["test"], "mode": spec["mode"], "duration_s": spec["duration_s"],
@@ -165,7 +170,8 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
 
 
 def run_specs(out: Path, *, seed: int, duration_s: float | None,
-              scenarios: Path = SCENARIOS) -> list[dict[str, Any]]:
+              scenarios: Path = SCENARIOS, set_: list[str] | None = None
+              ) -> list[dict[str, Any]]:
     """The six runs: every test in every mode, each with its output directory.
 
     With ``duration_s`` None the adjust runs take the scenario's default (at least one lap)
@@ -174,7 +180,8 @@ def run_specs(out: Path, *, seed: int, duration_s: float | None,
     """
     return [{"test": t, "mode": m, "seed": seed, "duration_s": duration_s,
              "match_adjust": duration_s is None and m != "adjust",
-             "scenario_file": str(scenarios / f"{t}.toml"), "out": str(out / t / m)}
+             "scenario_file": str(scenarios / f"{t}.toml"), "out": str(out / t / m),
+             "set": list(set_ or [])}
             for t in TESTS for m in MODES]
 
 
@@ -194,13 +201,15 @@ def modes_data(dfs: dict[str, pd.DataFrame], name: str) -> pd.DataFrame:
 
 
 def figure_tasks(runs: dict[tuple[str, str], pd.DataFrame], fig_dir: Path,
-                 docs: Path | None) -> list[dict[str, Any]]:
-    """One task per figure: what to draw, from which run(s), and where to write it."""
+                 docs: Path | None, fmt: str = "png",
+                 dpi: int | None = None) -> list[dict[str, Any]]:
+    """One task per figure: what to draw, from which run(s), and where to write it (in
+    format ``fmt`` at ``dpi``; the docs' copies are always PNG at :data:`DOCS_DPI`)."""
     tasks: list[dict[str, Any]] = []
 
     def add(stem: str, kind: str, data: Any, title: str, name: str) -> None:
         tasks.append({"stem": stem, "kind": kind, "data": data, "title": title, "name": name,
-                      "dir": str(fig_dir),
+                      "dir": str(fig_dir), "fmt": fmt, "dpi": dpi,
                       "docs": str(docs) if docs is not None and stem in DOCS_FIGURES else None})
 
     for n, (test, name) in PAPER_FIGURES.items():
@@ -221,25 +230,35 @@ def figure_tasks(runs: dict[tuple[str, str], pd.DataFrame], fig_dir: Path,
     return tasks
 
 
-def draw(task: dict[str, Any]) -> list[str]:
-    """Draw one figure task; write PNG and CSV (and the docs PNG). Returns the paths."""
-    from rtsim.io.atomic import write_table
-    from rtsim.plots.scenario import SCENARIO_FIGURES, figure_data, plot_modes, save_figure
+def make_figure(task: dict[str, Any]) -> tuple[Any, pd.DataFrame]:
+    """The figure of one figure task (:func:`figure_tasks`) and the data it draws."""
+    from rtsim.plots.scenario import SCENARIO_FIGURES, figure_data, plot_modes
 
     kind, name, data = task["kind"], task["name"], task["data"]
     if kind.startswith("modes:"):
-        fig = plot_modes(data, kind.split(":", 1)[1], title=task["title"])
-        table = modes_data(data, name)
-    else:
-        fig = SCENARIO_FIGURES[kind](data, title=task["title"])
-        table = figure_data(data, name)
+        return plot_modes(data, kind.split(":", 1)[1], title=task["title"]), \
+            modes_data(data, name)
+    return SCENARIO_FIGURES[kind](data, title=task["title"]), figure_data(data, name)
+
+
+def draw(task: dict[str, Any]) -> list[str]:
+    """Draw one figure task; write the figure and CSV (and the docs PNG). Returns the
+    paths."""
+    from rtsim.io.atomic import write_table
+    from rtsim.plots.scenario import save_figure
+
+    fig, table = make_figure(task)
     out = Path(task["dir"])
-    png, csv = out / f"{task['stem']}.png", out / f"{task['stem']}.csv"
-    save_figure(fig, png)
+    fmt = task.get("fmt", "png")
+    path, csv = out / f"{task['stem']}.{fmt}", out / f"{task['stem']}.csv"
+    from rtsim.plots.scenario import DPI
+
+    save_figure(fig, path, dpi=task.get("dpi") or DPI)
     write_table(csv, table)
-    written = [str(png), str(csv)]
+    written = [str(path), str(csv)]
     if task["docs"]:
-        written.append(str(save_figure(fig, Path(task["docs"]) / png.name, dpi=DOCS_DPI)))
+        written.append(str(save_figure(fig, Path(task["docs"]) / f"{task['stem']}.png",
+                                       dpi=DOCS_DPI)))
     return written
 
 
@@ -366,6 +385,18 @@ def _check_args(args: argparse.Namespace) -> None:
     for t in TESTS:
         if not (SCENARIOS / f"{t}.toml").is_file():
             raise InputError(f"{SCENARIOS / f'{t}.toml'}: scenario file not found")
+    if args.set:  # checked before any run, by the scenario model
+        from rtsim.io.scenario import load_scenario
+
+        for t in TESTS:
+            load_scenario(SCENARIOS / f"{t}.toml", overrides=_overrides(args.set))
+
+
+def _overrides(strings: list[str]) -> dict[str, Any]:
+    """``--set KEY=VALUE`` strings as dotted path -> value."""
+    from rtsim.config.dotted import parse_assignment
+
+    return dict(parse_assignment(s) for s in strings)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -390,10 +421,20 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="processes (default min(6, cpu count)); 1 runs in this process")
     ap.add_argument("--docs", default=None, metavar="DIR",
                     help="also write the documentation's figures (PNG, 100 dpi) to DIR")
-    ap.add_argument("--quiet", "-q", action="store_true", help="no progress lines, no table")
+    ap.add_argument("--quiet", "-q", action="store_true",
+                    help="no progress bar or lines, no table")
+    ap.add_argument("--format", dest="fig_format", choices=("png", "svg", "pdf"),
+                    default=None, help="file format of the figures (default png)")
+    ap.add_argument("--dpi", type=int, default=None,
+                    help="resolution of PNG figures in dots per inch (default 120)")
+    ap.add_argument("--json", action="store_true",
+                    help="print the summary table as one JSON object instead of Markdown")
     ap.add_argument("--force", action="store_true",
                     help="run even when --duration looks like a mistake of unit (over 6 "
                          "simulated hours)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="change a key of both scenarios (a dotted path, the value read as "
+                         "TOML); repeatable")
     return ap.parse_args(argv)
 
 
@@ -430,13 +471,27 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
     duration = args.duration if args.duration is not None else \
         (QUICK_DURATION_S if args.quick else None)
     workers = args.workers if args.workers is not None else min(6, os.cpu_count() or 1)
-    specs = run_specs(out, seed=args.seed, duration_s=duration)
+    specs = run_specs(out, seed=args.seed, duration_s=duration, set_=args.set)
     for sp in specs:  # the command lines in the run manifests name the real --out
         sp["shown_out"] = str(Path(args.out) / sp["test"] / sp["mode"])
 
-    def progress(line: str) -> None:
-        if not args.quiet:
+    from rtsim.sim.progress import progress_bar
+
+    fmt = args.fig_format or "png"
+    tasks_total = len(specs) + len(figure_stems())
+    bar = progress_bar(args, total=tasks_total, desc="reproduce", unit="step")
+
+    def say(line: str) -> None:  # a progress line (above the bar when there is one)
+        if args.quiet:
+            return
+        if bar.disable:
             print(line, file=sys.stderr, flush=True)
+        else:
+            bar.write(line, file=sys.stderr)
+
+    def run_done(line: str) -> None:
+        bar.update(1)
+        say(line)
 
     from rtsim.sweep.point import worker_init
 
@@ -445,7 +500,7 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
     pool = ProcessPoolExecutor(workers, initializer=worker_init,
                                initargs=(os.getpid(),)) if workers > 1 else None
     try:
-        results = run_all(specs, pool, progress)
+        results = run_all(specs, pool, run_done)
         t_runs = time.perf_counter()
         windows = {key: res["windows"] for key, res in results.items()}
         fig_dir = out / "figures"
@@ -453,11 +508,14 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
         if docs is not None:
             docs.mkdir(parents=True, exist_ok=True)
         written: list[str] = []
-        for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs)):
+        for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs, fmt,
+                                                           args.dpi)):
             written += paths
-        progress(f"figures: {len(written)} files in {Path(args.out) / 'figures'} "
+            bar.update(1)
+        say(f"figures: {len(written)} files in {Path(args.out) / 'figures'} "
                  f"({time.perf_counter() - t_runs:.1f} s)")
     finally:
+        bar.close()
         if pool is not None:
             pool.shutdown()
     t_figs = time.perf_counter()
@@ -479,13 +537,13 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
                 "scenarios": {t: {"file": str(SCENARIOS / f"{t}.toml"),
                                   "text": (SCENARIOS / f"{t}.toml").read_text("utf-8")}
                               for t in TESTS},
-                "docs": str(docs) if docs is not None else None},
+                "docs": str(docs) if docs is not None else None, "set": list(args.set)},
         argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
         extra={"runs": runs_meta,
                "timing": {"runs_s": t_runs - t0, "figures_s": t_figs - t_runs,
                           "total_s": time.perf_counter() - t0},
                "outputs": ["summary.csv", "summary.md", "manifest.json",
-                           *(f"figures/{s}.{e}" for s in figure_stems() for e in ("png", "csv")),
+                           *(f"figures/{s}.{e}" for s in figure_stems() for e in (fmt, "csv")),
                            *(f"{t}/{m}/{f}" for t in TESTS for m in MODES
                              for f in results[(t, m)]["written"]),
                            *(["report.html", *(f"{t}/{m}/report.html" for t in TESTS
@@ -493,8 +551,15 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
     )
     if finish is not None:
         finish(out)
-    if not args.quiet:
+    if args.json:
+        from rtsim.io.atomic import dumps
+
+        finite = table.replace([math.inf, -math.inf], math.nan).astype(object)
+        rows = finite.where(finite.notna(), None).to_dict("records")  # NaN, inf: null
+        print(dumps({"out": str(args.out), "runs": rows}))
+    elif not args.quiet:
         print(md, end="")
+    if not args.quiet:
         print(f"-> {args.out} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
     return 0
 

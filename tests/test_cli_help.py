@@ -14,7 +14,7 @@ from rtsim.cli import COMMANDS, build_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 VOCABULARY = {"FILE", "DIR", "N", "MS", "CM", "U", "SPEC", "RANGE", "A..B", "PNG", "ADDRESS",
-              "SECONDS", "NAME", "S"}
+              "SECONDS", "NAME", "S", "KEY=VALUE"}
 MARKUP = re.compile(r"``|:(?:func|mod|class|data|meth):|\bissue \d|\bissues? #?\d")
 
 

@@ -18,12 +18,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rtsim.cli import build_parser, main, numeric_options
+from rtsim.config.docs import ranges, render_markdown
 from rtsim.coupling.duration import check_scenario
 from rtsim.errors import InputError, ScenarioError, TaskSetError
 from rtsim.io import limits
-from rtsim.io.limits import REGISTRY, UnregisteredKey, check, render_markdown
+from rtsim.io.limits import UnregisteredKey, check
 from rtsim.io.scenario import load_scenario, parse_scenario
-from rtsim.io.taskset import TASK_KEYS, TOP_KEYS, WINDOW_KEYS, load_taskset, parse_taskset
+from rtsim.io.taskset import load_taskset, parse_taskset
 from rtsim.io.work import LIMITS, TooMuchWork, check_simulate, check_work
 from rtsim.world.config import SensingParams
 from rtsim.world.ekf import EkfParams
@@ -31,29 +32,55 @@ from rtsim.world.follower import FollowerParams
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs" / "input_ranges.md"
+#: Every range: the input files' (the models' metadata) and the options'.
+REGISTRY = {**ranges(), **limits.REGISTRY}
 
 
 # -- the registry ---------------------------------------------------------------------
 def test_docs_table_is_generated_from_the_registry() -> None:
     assert DOCS.read_text("utf-8") == render_markdown() + "\n", (
-        "run: python -m rtsim.io.limits > docs/input_ranges.md")
+        "run: python -m rtsim.config.docs > docs/input_ranges.md")
 
 
 def _numeric_fields(cls: type) -> list[str]:
     return [f.name for f in fields(cls) if f.type in ("float", "int")]
 
 
-def test_every_numeric_key_of_the_parsers_has_a_range() -> None:
-    keys = [f"taskset: tasks.{k}" for k in TASK_KEYS if k not in ("name", "overload")]
-    keys += [f"taskset: window.{k}" for k in WINDOW_KEYS if k != "name"]
-    keys += [f"taskset: {k}" for k in TOP_KEYS if k not in ("name", "tasks", "window",
-                                                            "assumptions", "scheduler")]
+def test_every_numeric_key_of_the_models_has_a_range() -> None:
+    """Walk the models: every int or float field carries a range (its metadata)."""
+    import typing
+
+    from pydantic import BaseModel
+
+    from rtsim.config.docs import _leaves
+    from rtsim.config.scenario import ScenarioFile
+    from rtsim.config.taskset import TaskSetFile
+
+    missing = []
+
+    def walk(model: type[BaseModel], prefix: str) -> None:
+        for name, info in model.model_fields.items():
+            leaves, models = _leaves(info.annotation)
+            leaves += [m for m in info.metadata if hasattr(m, "range")]
+            plain = {a for a in typing.get_args(info.annotation) or (info.annotation,)}
+            numeric = plain & {int, float} or any(
+                typing.get_origin(a) is typing.Annotated and a.__origin__ in (int, float)
+                for a in plain)
+            if numeric and not any(leaf.range for leaf in leaves):
+                missing.append(prefix + name)
+            for sub in models:
+                walk(sub, f"{prefix}{name}.")
+
+    walk(TaskSetFile, "taskset: ")
+    walk(ScenarioFile, "scenario: ")
+    assert not missing, f"give these a range (rtsim/config): {missing}"
     for table, cls in (("follower", FollowerParams), ("ekf", EkfParams),
                        ("sensing", SensingParams)):
         names = _numeric_fields(cls)
         assert names, cls
-        keys += [f"scenario: {table}.{k}" for k in names]
-    keys += [f"scenario: {k}" for k in (
+        gaps = [k for k in names if f"scenario: {table}.{k}" not in REGISTRY]
+        assert not gaps, gaps
+    keys = [f"scenario: {k}" for k in (
         "duration", "leader.speed", "leader.accel_max", "leader.decel_max", "leader.start_s",
         "leader.start.x", "leader.start.y",
         "leader.start.heading", "leader.path.straight", "leader.path.radius",
@@ -62,8 +89,10 @@ def test_every_numeric_key_of_the_parsers_has_a_range() -> None:
         "formation.bearing_offset", "formation.slot.rho_d", "formation.slot.beta_d",
         "sensing.r_H", "thresholds.T_rho", "thresholds.T_eps", "thresholds.T_beta",
         "adjust.cap", "adjust.floor", "world.step_ms")]
-    missing = [k for k in keys if k not in REGISTRY]
-    assert not missing, f"register these in rtsim/io/limits.py: {missing}"
+    keys += [f"taskset: tasks.{k}" for k in ("wcet", "bcet", "period", "deadline", "offset",
+                                              "jitter", "priority")]
+    keys += [f"taskset: window.{k}" for k in ("n", "r_H", "k", "e_scan", "delta_t")]
+    assert not [k for k in keys if k not in REGISTRY]
 
 
 def test_every_numeric_option_of_every_command_has_a_range() -> None:

@@ -30,6 +30,18 @@ def test_bad_overrides_are_one_line_input_errors(overrides: dict, match: str) ->
     assert "\n" not in str(info.value)
 
 
+def test_an_override_typo_is_an_override_error_not_a_sweep_error() -> None:
+    from rtsim.errors import OverrideError, SweepError
+
+    for bad in ({"leader.sped": 3}, {"mode": "adjust"}, {"formation.folowers": 4}):
+        with pytest.raises(OverrideError) as info:
+            load_scenario("test2", overrides=bad)
+        assert not isinstance(info.value, SweepError), bad
+    import rtsim
+
+    assert rtsim.OverrideError is OverrideError and issubclass(OverrideError, InputError)
+
+
 def test_run_scenario_with_overrides_equals_the_edited_file(tmp_path) -> None:
     from importlib import resources
 

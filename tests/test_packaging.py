@@ -95,10 +95,12 @@ def test_rtsim_reproduce_passes_every_option_of_the_module(capsys) -> None:
 
     args = build_parser().parse_args(["reproduce", "--out", "x", "--quick", "--seed", "3",
                                       "--duration", "5", "--workers", "1", "--docs", "d",
-                                      "--quiet"])
+                                      "--quiet", "--format", "svg", "--dpi", "200",
+                                      "--json"])
     got = vars(reproduce.parse_args(argv_for(args)))
     assert got == {"out": "x", "quick": True, "seed": 3, "duration": 5.0, "workers": 1,
-                   "docs": "d", "quiet": True, "force": False}
+                   "docs": "d", "quiet": True, "force": False, "fig_format": "svg",
+                   "dpi": 200, "json": True, "set": []}
     with pytest.raises(SystemExit):
         reproduce.parse_args(["--help"])
     module_opts = set(re.findall(r"--[a-z]+", capsys.readouterr().out)) - {"--help"}

@@ -26,7 +26,7 @@ def test_top_level_namespace_is_pinned() -> None:
     import rtsim
 
     assert sorted(rtsim.__all__) == sorted([
-        "__version__", "InputError", "RtsimError", "ScenarioError", "SweepError",
+        "__version__", "InputError", "OverrideError", "RtsimError", "ScenarioError", "SweepError",
         "TaskSetError", "Segment", "Task", "TaskSet", "WindowSpec",
         "analyze", "load_scenario", "load_taskset", "run_scenario", "simulate", "window_bounds",
     ])

@@ -35,3 +35,38 @@ def test_quickstart_notebook_executes_and_displays(tmp_path) -> None:
     assert any("<code>SweepOutcome</code>" in h for h in html)
     overrides = next(c for c in code if "formation.followers" in c.source)
     assert overrides.outputs[0]["data"]["text/plain"] == "(20.0, 3)"
+    # the scenario it loads is the one it runs (no load left unused)
+    loads = next(c for c in code if "load_scenario(" in c.source and "=" in c.source)
+    name = loads.source.split("=", 1)[0].strip()
+    assert any(f"run_scenario({name}" in c.source for c in code)
+
+
+#: Ways a user shows a figure, each of which must show it exactly once (no %matplotlib magic).
+DISPLAY_CELLS = {
+    "value": "plots.response_histogram(v)",
+    "assigned, then the value": "fig = plots.response_histogram(v); fig",
+    "assigned only": "fig = plots.response_histogram(v)",
+    "plt.show()": "fig = plots.response_histogram(v)\nplt.show()",
+    "display()": "fig = plots.response_histogram(v)\ndisplay(fig)",
+    "scenario figure, plt.show()": "plots.plot_speed(df)\nplt.show()",
+}
+
+
+def test_figures_show_exactly_once_however_called(tmp_path) -> None:
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+
+    setup = ("import numpy as np\nimport matplotlib.pyplot as plt\nfrom rtsim import plots\n"
+             "from rtsim.coupling import run_scenario\n"
+             "v = np.random.default_rng(0).normal(200.0, 5.0, 300)\n"
+             "df = run_scenario('test1', duration_s=3, record_jobs=False).windows")
+    saved = "plots.save_figure(plots.response_histogram(v), 'h.png')"  # written, not shown
+    cells = [setup, *DISPLAY_CELLS.values(), saved]
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
+    nbclient.NotebookClient(nb, timeout=300, kernel_name="python3",
+                            resources={"metadata": {"path": str(tmp_path)}}).execute()
+    shown = [sum("image/png" in o.get("data", {}) for o in c.outputs) for c in nb.cells]
+    assert shown == [0, *([1] * len(DISPLAY_CELLS)), 0], dict(zip(["setup", *DISPLAY_CELLS,
+                                                                  "saved"], shown,
+                                                                 strict=True))
+    assert (tmp_path / "h.png").read_bytes().startswith(b"\x89PNG")

@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 
 from rtsim.cli import main
-from rtsim.io import limits
+from rtsim.config.docs import ranges
 
 TEST2 = Path(__file__).resolve().parents[1] / "rtsim" / "data" / "scenarios" / "test2.toml"
 #: What a scenario cannot leave out (the rest has a documented default).
@@ -76,7 +76,7 @@ def _run(tmp_path: Path, tree: dict[str, Any], tag: str) -> dict[str, Any]:
 
 BASE = tomllib.loads(TEST2.read_text("utf-8"))
 OPTIONAL = [k for k in _leaves(BASE) if k not in REQUIRED]
-INF_KEYS = sorted(r.key.removeprefix("scenario: ") for r in limits.REGISTRY.values()
+INF_KEYS = sorted(r.key.removeprefix("scenario: ") for r in ranges().values()
                   if r.inf and r.key.startswith("scenario: "))
 
 

@@ -204,11 +204,8 @@ def test_simulate_trace_gantt_and_jobs_are_the_whole_tables_files(
     """--trace/--jobs written in chunks (tiny chunks: many of them) have the bytes of
     to_csv on the whole tables; the Gantt PNG drawn from the rows kept for its range is the
     one drawn from the whole run."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import rtsim.sim.records as records
-    from rtsim.plots.gantt import gantt
+    from rtsim.cli.simulate import GANTT_DPI, _save_gantt
 
     monkeypatch.setattr(records, "CHUNK_ROWS", 64)
     args = ["--horizon", "3000", "--window", "150", "--suspension", "idle", "--seed", "2"]
@@ -231,19 +228,17 @@ def test_simulate_trace_gantt_and_jobs_are_the_whole_tables_files(
         == 0
     )
     res = simulate(
-        _barrel(), 3000.0, window=150.0, suspension="idle", seed=2, record_jobs=True, record_trace=True
+        _barrel(),
+        3000.0,
+        window=150.0,
+        suspension="idle",
+        seed=2,
+        record_jobs=True,
+        record_trace=True,
     )
     assert (tmp_path / "t.csv").read_bytes() == res.trace.to_csv(index=False).encode()
     assert (tmp_path / "j.csv").read_bytes() == res.jobs.to_csv(index=False).encode()
-    fig = gantt(
-        res.trace,
-        jobs=res.jobs,
-        start=100.0,
-        end=900.0,
-        tasks=list(res.tasks),
-        title="schedule 100..900 ms",
-    )
-    fig.savefig(tmp_path / "ref.png", format="png", dpi=120)
+    _save_gantt(res, str(tmp_path / "ref.png"), (100.0, 900.0), "png", GANTT_DPI)
     assert (tmp_path / "g.png").read_bytes() == (tmp_path / "ref.png").read_bytes()
 
 

@@ -241,10 +241,12 @@ def test_progress_bar_shows_done_and_failures_only_when_asked(
     assert "4/4" in err and "failed=1" in err
     run_sweep(spec, tmp_path / "b", workers=1, progress=False)
     assert capsys.readouterr().err == ""
-    # The CLI: stderr is not a terminal here, so no bar; one summary line.
+    # The CLI: stderr is not a terminal here, so no bar; the summary (a result) on stdout,
+    # the failed point (a diagnostic) on stderr.
     assert main(["sweep", str(spec), "--out", str(tmp_path / "c"), "--workers", "1"]) == 1
-    err = capsys.readouterr().err
-    assert "%|" not in err and "4 points (4 run now, 0 already done), 1 failed" in err
+    out, err = capsys.readouterr()
+    assert "%|" not in err and "4 points (4 run now, 0 already done), 1 failed" in out
+    assert "failed point" in err and "failed point" not in out
 
 
 def test_scenario_kind_matches_a_direct_coupled_run(tmp_path: Path) -> None:

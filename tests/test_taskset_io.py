@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import tomllib
 from pathlib import Path
 
@@ -172,10 +173,12 @@ BASE = '[[tasks]]\nname = "tau1"\n'
 )
 def test_bad_input_names_file_task_and_field(tmp_toml, text, pattern):
     path = tmp_toml(text)
-    with pytest.raises(TaskSetError, match=pattern) as info:
+    with pytest.raises(TaskSetError) as info:
         load_taskset(path)
-    msg = str(info.value)
-    assert msg.startswith(str(path) + ": ") and "\n" not in msg
+    # every problem of the file at once, one line each, each naming the file
+    lines = str(info.value).split("\n")
+    assert all(line.startswith(str(path) + ": ") for line in lines), lines
+    assert any(re.search(pattern, line) for line in lines), (pattern, lines)
 
 
 def test_unknown_key_is_reported_before_missing_key(tmp_toml):
@@ -210,7 +213,7 @@ e_sched = 1
         (WINDOW, TWO.format(a="priority = 1", b="priority = 2"),
          r": task 'b': priority: 2 is already used by \[window\] 'window'$"),
         (WINDOW.replace("n = 2", "n = 0"), TWO.format(a="priority = 1", b="priority = 3"),
-         r": \[window\]: n: must be at least 1"),
+         r": \[window\]: n: must be an integer >= 1, got 0$"),
         (WINDOW.replace("n = 2", "n = 2.5"), TWO.format(a="priority = 1", b="priority = 3"),
          r": \[window\]: n: must be an integer"),
         (WINDOW.replace("r_H = 25", "r_H = -25"), TWO.format(a="priority = 1", b="priority = 3"),

@@ -194,8 +194,17 @@ def w_edf(ts: TaskSet, overhead: float | None = None) -> float:
     _need_window(ts)
     o = ts.overhead if overhead is None else overhead
 
-    def feasible(w: float) -> bool:
-        return qpa(edf_tasks(ts.at_window(w).tasks, o)).schedulable
+    if ts.has_sections:  # Baker's condition with the blocking term (srp unless npr)
+        from rtsim.analysis.edf import analyze_edf
+
+        protocol = "npr" if ts.resources == "npr" else "srp"
+
+        def feasible(w: float) -> bool:
+            return analyze_edf(ts, w, overhead=o, resources=protocol).schedulable
+    else:
+
+        def feasible(w: float) -> bool:
+            return qpa(edf_tasks(ts.at_window(w).tasks, o)).schedulable
 
     lo, hi = _bracket(ts, feasible)
     if not math.isfinite(hi):

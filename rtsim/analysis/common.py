@@ -38,23 +38,30 @@ def stretches(task: Task) -> int:
 
 
 def busy_window(c: float, t: float, j: float, d: float,
-                hp: Sequence[tuple[float, float, float]]) -> float | None:
+                hp: Sequence[tuple[float, float, float]], blocking: float = 0.0
+                ) -> float | None:
     """WCRT from arrival of a task (C, T, J, D) below ``hp`` = [(C_j, T_j, J_j)], or None.
 
     The level-i busy window with release jitter and arbitrary deadlines (module doc;
     Tindell, Burns & Wellings 1994). None once a response passes D (+ 1e-9 ms), at once when
     the level-i utilization exceeds 1 and the window cannot close, or after MAX_BUSY_JOBS jobs.
+    ``blocking`` B (ms) is charged once per busy window, w = B + (q+1)·C + Σ ⌈(w + J_j)/T_j⌉·C_j
+    (a lower-priority critical section, :mod:`rtsim.analysis.blocking`).
     """
     limit = d + DEADLINE_TOL
     if c / t + math.fsum(cj / tj for cj, tj, _ in hp) > 1.0 + 1e-12 and (d > t or j > 0):
         return None  # level-i work grows without bound: some job misses any deadline
     worst = 0.0
     w = c + math.fsum(cj for cj, _, _ in hp)  # job 0 starts from C + Σ C_j
+    if blocking:
+        w += blocking
     for q in range(MAX_BUSY_JOBS):
         while True:
             if j + w - q * t > limit:
                 return None
             nxt = (q + 1) * c + math.fsum(ceil_div(w + jj, tj) * cj for cj, tj, jj in hp)
+            if blocking:
+                nxt += blocking
             if nxt <= w:
                 break
             w = nxt

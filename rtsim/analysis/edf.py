@@ -65,7 +65,7 @@ within 1e-9 ms.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -114,17 +114,22 @@ def limit_la(tasks: Sequence[EdfTask]) -> float:
     return max(max(d - j for _, _, d, j in tasks), s / (1.0 - u))
 
 
-def busy_period(tasks: Sequence[EdfTask], cap: float = math.inf) -> float | None:
+def busy_period(tasks: Sequence[EdfTask], cap: float = math.inf,
+                extra: float = 0.0) -> float | None:
     """L_b: least L = Σ ⌈(L + J_i)/T_i⌉·C_i from Σ C_i (the synchronous busy period with
     jitter); None if it does not close (U > 1, or U = 1 with jitter) within MAX_STEPS, or
-    passes ``cap``."""
+    passes ``cap``. ``extra``: work added once (a blocking section)."""
     if utilization(tasks) > 1.0:
         return None
     w = math.fsum(c for c, _, _, _ in tasks)
+    if extra:
+        w += extra
     for _ in range(MAX_BUSY_STEPS):
         if w > cap:
             return None
         nxt = math.fsum(ceil_div(w + j, p) * c for c, p, _, j in tasks)
+        if extra:
+            nxt += extra
         if nxt <= w + CEIL_TOL:
             return w
         w = nxt
@@ -215,11 +220,38 @@ def qpa(tasks: Sequence[EdfTask]) -> QpaResult:
     return QpaResult(False, limit, kind, t, steps)
 
 
-def spuri_wcrt(i: int, tasks: Sequence[EdfTask]) -> float | None:
+def blocking_check(tasks: Sequence[EdfTask], blocking: Callable[[float], float]
+                   ) -> float | None:
+    """Baker's SRP condition beside the demand criterion: the first deadline point t with
+    h(t) + B(t) > t (None: none). Points only below the largest t where B(t) > 0 matter
+    (beyond it the plain criterion decides); B is non-increasing in t."""
+    top = max((d for _, _, d, _ in tasks), default=0.0)
+    if blocking(0.0) <= 0.0 and blocking(top) <= 0.0 and \
+            all(blocking(d - j) <= 0.0 for _, _, d, j in tasks):
+        return None
+    steps = 0
+    for t in deadline_points(tasks, top):
+        b = blocking(t)
+        if b <= 0.0:
+            continue
+        steps += 1
+        if steps > MAX_STEPS:  # pragma: no cover - absurdly many deadlines below max D
+            return t
+        if demand(t, tasks) + b > t + DEADLINE_TOL:
+            return t
+    return None
+
+
+def spuri_wcrt(i: int, tasks: Sequence[EdfTask],
+               blocking: Callable[[float], float] | None = None) -> float | None:
     """Spuri's worst-case response time of task ``tasks[i]`` under EDF (module doc), from
     arrival; None when the synchronous busy period does not close (U > 1, or U = 1 with
-    jitter: the search over arrivals has no end)."""
-    lb = busy_period(tasks)
+    jitter: the search over arrivals has no end). ``blocking``: B(t) of
+    :func:`rtsim.analysis.blocking.edf_blocking`; the job due at d = a + D_i is delayed by
+    at most one section of a job due after d that started before the busy period, so
+    L_i(a) gains B(d) (and the busy period the largest B)."""
+    bmax = 0.0 if blocking is None else blocking(min(d - j for _, _, d, j in tasks))
+    lb = busy_period(tasks, extra=bmax)
     if lb is None:
         return None
     ci, ti, di, ji = tasks[i]
@@ -241,6 +273,8 @@ def spuri_wcrt(i: int, tasks: Sequence[EdfTask]) -> float | None:
     for a in sorted(cands):
         dl = a + di
         own = (floor_div(a + ji, ti) + 1) * ci
+        if blocking is not None:
+            own += blocking(dl)
         inter = [(c, p, floor_div(dl - d + j, p) + 1, j) for c, p, d, j in others
                  if d - j <= dl + CEIL_TOL]
         t = own + math.fsum(c for c, _, _, _ in inter)
@@ -291,6 +325,7 @@ class EdfTaskResult:
     wcrt: float | None
     schedulable: bool
     bound: str = "spuri"
+    blocking: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
         """Plain dict."""
@@ -317,6 +352,7 @@ class EdfAnalysis:
     offsets_ignored: bool = False
     suspension: str = "cpu"
     scheduler: str = "edf"
+    resources: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
@@ -325,32 +361,60 @@ class EdfAnalysis:
                 "schedulable": self.schedulable, "limit": self.limit,
                 "limit_kind": self.limit_kind, "failed_at": self.failed_at,
                 "qpa_steps": self.qpa_steps, "overhead": self.overhead,
-                "offsets_ignored": self.offsets_ignored, "suspension": self.suspension}
+                "offsets_ignored": self.offsets_ignored, "suspension": self.suspension,
+                "resources": self.resources}
 
 
 def analyze_edf(ts: TaskSet, w: float | None = None, *, overhead: float | None = None,
-                suspension: str = "cpu") -> EdfAnalysis:
+                suspension: str = "cpu", resources: str | None = None) -> EdfAnalysis:
     """The EDF analysis of ``ts`` (at window ``w`` for a processing-window set: default the
     analytic w_sch, as :func:`rtsim.analysis.rta.analyze`). ``overhead`` defaults to the
     set's; ``suspension`` ("cpu" or "idle") is recorded, the analysis is
-    suspension-oblivious either way (sound for both)."""
+    suspension-oblivious either way (sound for both).
+
+    Critical sections (``resources``: ``srp`` or ``npr``, default the set's protocol): the
+    demand criterion adds Baker's blocking term, h(t) + B(t) ≤ t
+    (:func:`rtsim.analysis.blocking.edf_blocking`), and Spuri's bound B(a + D_i); each
+    task's ``blocking`` is B(D_i − J_i), the most a job of it can be blocked. Under
+    ``suspension="idle"`` a job can be blocked once per compute stretch; this analysis
+    charges it once and refuses a set whose tasks with sections or below them suspend."""
+    from rtsim.analysis.blocking import check_protocol, edf_blocking
+
     ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze_edf")
     et = edf_tasks(tasks, overhead)
+    protocol = ts.resource_protocol("edf") if resources is None or not ts.has_sections \
+        else resources
+    blocking = None
+    if protocol is not None:
+        check_protocol(protocol, "edf", f"{ts.source or ts.name or 'task set'}: "
+                                          f"[scheduler] resources")
+        if suspension == "idle" and any(stretches(t) > 1 for t in tasks):
+            raise TaskSetError(f"{ts.source or ts.name or 'task set'}: critical sections "
+                               f"under edf with suspensions that leave the CPU idle have no "
+                               f"analysis here; use suspension \"cpu\"")
+        blocking = edf_blocking(tasks, protocol)
     verdict = qpa(et)
+    if blocking is not None and verdict.schedulable:
+        failed = blocking_check(et, blocking)
+        if failed is not None:
+            verdict = QpaResult(False, verdict.limit, verdict.limit_kind + " + B(t)", failed,
+                                verdict.steps)
     results = []
     for i, task in enumerate(tasks):
-        r = spuri_wcrt(i, et)
+        r = spuri_wcrt(i, et, blocking)
         assert task.deadline is not None
         kind = "spuri" if r is not None else "none"
         if verdict.schedulable and (r is None or r > task.deadline):
             # the demand criterion is exact: every job meets its deadline, so R <= D
             r, kind = task.deadline, "deadline"
         ok = r is not None and r <= task.deadline + DEADLINE_TOL
+        b = 0.0 if blocking is None else blocking(task.deadline - task.jitter)
         results.append(EdfTaskResult(task.name, task.priority, task.wcet, task.period,
                                      task.deadline, task.jitter, task.wcet / task.period,
-                                     r, ok, kind))
+                                     r, ok, kind, b))
     return EdfAnalysis(tasks=tuple(results), utilization=utilization(et),
                        schedulable=verdict.schedulable, limit=verdict.limit,
                        limit_kind=verdict.limit_kind, failed_at=verdict.failed_at,
                        qpa_steps=verdict.steps, w=w, name=ts.name, overhead=float(overhead),
-                       offsets_ignored=any(t.offset > 0 for t in tasks), suspension=suspension)
+                       offsets_ignored=any(t.offset > 0 for t in tasks), suspension=suspension,
+                       resources=protocol)

@@ -73,7 +73,8 @@ def _check_resolved(task: Task) -> None:
         )
 
 
-def response_time(task: Task, higher: Sequence[Task], overhead: float = 0.0) -> float | None:
+def response_time(task: Task, higher: Sequence[Task], overhead: float = 0.0,
+                  blocking: float = 0.0) -> float | None:
     """Worst-case response time of ``task`` below the tasks ``higher`` (ms, from arrival).
 
     Exact for independent tasks without offsets (release jitter, arbitrary deadlines; see
@@ -82,7 +83,8 @@ def response_time(task: Task, higher: Sequence[Task], overhead: float = 0.0) -> 
     once when the level-i utilization exceeds 1 and the busy window cannot close; and if a
     level-i busy period has not closed after ``MAX_BUSY_JOBS`` jobs (only possible at a
     level-i utilization of 1 up to rounding with a huge hyperperiod). Near utilization 1 a
-    D > p busy period can be long, and the analysis slow (seconds).
+    D > p busy period can be long, and the analysis slow (seconds). ``blocking``: the task's
+    blocking term B (ms, :func:`rtsim.analysis.blocking.fp_blocking`), charged once.
     """
     _check_resolved(task)
     for t in higher:
@@ -92,7 +94,7 @@ def response_time(task: Task, higher: Sequence[Task], overhead: float = 0.0) -> 
     c = task.wcet + o * stretches(task) if o else task.wcet
     hp = [(t.wcet + 2.0 * o * stretches(t) if o else t.wcet, t.period, t.jitter)
           for t in higher]
-    return busy_window(c, task.period, task.jitter, deadline, hp)
+    return busy_window(c, task.period, task.jitter, deadline, hp, blocking)
 
 
 @dataclass(frozen=True)
@@ -107,9 +109,11 @@ class TaskResult:
     utilization: float
     wcrt: float | None
     schedulable: bool
+    blocking: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
-        """Plain dict (``wcrt`` is ``None`` where the iteration passed the deadline)."""
+        """Plain dict (``wcrt`` is ``None`` where the iteration passed the deadline;
+        ``blocking``: the blocking term B included in it, ms)."""
         return asdict(self)
 
 
@@ -136,6 +140,7 @@ class Analysis:
     overhead: float = 0.0
     offsets_ignored: bool = False
     suspension: str = "cpu"
+    resources: str | None = None
 
     @property
     def rm_implicit(self) -> bool:
@@ -168,6 +173,7 @@ class Analysis:
             "overhead": self.overhead,
             "offsets_ignored": self.offsets_ignored,
             "suspension": self.suspension,
+            "resources": self.resources,
         }
 
 
@@ -205,7 +211,7 @@ def analysis_inputs(ts: TaskSet, w: float | None,
 
 def analyze(ts: TaskSet, w: float | None = None, *,
             overhead: float | None = None,
-            suspension: str = "cpu") -> Analysis:
+            suspension: str = "cpu", resources: str | None = None) -> Analysis:
     """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,
     default the set's ``overhead``). ``suspension="idle"``: suspensions leave the CPU free and
     each task takes the smaller of its sound suspension-aware bounds
@@ -214,19 +220,34 @@ def analyze(ts: TaskSet, w: float | None = None, *,
     A set with a ``[window]`` is analysed at window ``w`` (default: the analytic w_sch of
     :func:`rtsim.analysis.bounds.w_sch_of`), the chain as one task of cost g with period
     and deadline w, per-window periods resolved. ``w`` is an error for a set without one.
+
+    Critical sections: each task's blocking term B (:func:`rtsim.analysis.blocking.fp_blocking`)
+    under ``resources`` (``pcp``, ``srp``, ``npr``; default the set's protocol,
+    :meth:`~rtsim.model.taskset.TaskSet.resource_protocol`) is part of its response time,
+    once per compute stretch under ``suspension="idle"``.
     """
+    from rtsim.analysis.blocking import check_protocol, fp_blocking
+
     ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze")
+    protocol = ts.resource_protocol("fp") if resources is None or not ts.has_sections \
+        else resources
+    if protocol is not None:
+        check_protocol(protocol, "fp", f"{ts.source or ts.name or 'task set'}: "
+                                          f"[scheduler] resources")
+    block = fp_blocking(tasks, protocol)
     results = []
     aware = None
     if suspension == "idle":
         from rtsim.analysis.suspension import suspension_aware
 
-        aware = suspension_aware(tasks, overhead)
+        aware = suspension_aware(tasks, overhead, block if protocol else None)
     for i, task in enumerate(tasks):
-        r = aware[i].wcrt if aware is not None else response_time(task, tasks[:i], overhead)
+        r = aware[i].wcrt if aware is not None else \
+            response_time(task, tasks[:i], overhead, block[i])
         assert task.deadline is not None
         results.append(TaskResult(task.name, task.priority, task.wcet, task.period,
-                                  task.deadline, task.wcet / task.period, r, r is not None))
+                                  task.deadline, task.wcet / task.period, r, r is not None,
+                                  block[i]))
     return Analysis(
         tasks=tuple(results),
         utilization=util.total_utilization(tasks),
@@ -238,4 +259,5 @@ def analyze(ts: TaskSet, w: float | None = None, *,
         overhead=float(overhead),
         offsets_ignored=any(t.offset > 0 for t in tasks),
         suspension=suspension,
+        resources=protocol,
     )

@@ -102,7 +102,7 @@ def _segment_response(c: float, hp: Sequence[tuple[float, float, float]],
 
 
 def _unified(task: Task, higher: Sequence[Task], done: Sequence[SuspensionBound],
-             o: float) -> float | None:
+             o: float, blk: float = 0.0) -> float | None:
     """Bound (d) of ``task`` below ``higher`` (module doc), None where it does not apply."""
     from rtsim.analysis.unified import HigherTask, unified_bound
 
@@ -115,19 +115,26 @@ def _unified(task: Task, higher: Sequence[Task], done: Sequence[SuspensionBound]
                              b.wcrt))
     c = compute_time(task)
     d = task.period if task.deadline is None else task.deadline
-    return unified_bound(c + o * stretches(task), task.wcet - c, task.period, d, task.jitter,
-                         hp)
+    return unified_bound(c + (o + blk) * stretches(task), task.wcet - c, task.period, d,
+                         task.jitter, hp)
 
 
-def suspension_aware(tasks: Sequence[Task], overhead: float = 0.0) -> list[SuspensionBound]:
-    """Bounds of every task of a resolved set, highest priority first (module doc)."""
+def suspension_aware(tasks: Sequence[Task], overhead: float = 0.0,
+                     blocking: Sequence[float] | None = None) -> list[SuspensionBound]:
+    """Bounds of every task of a resolved set, highest priority first (module doc).
+
+    ``blocking``: each task's blocking term B (in the order of ``tasks``,
+    :mod:`rtsim.analysis.blocking`); a lower job can lock a resource while a job suspends, so
+    each compute stretch of a job can be blocked once: every bound charges B per stretch."""
     o = float(overhead)
-    ordered = sorted(tasks, key=lambda t: t.priority)
+    order = sorted(range(len(tasks)), key=lambda k: tasks[k].priority)
+    ordered = [tasks[k] for k in order]
+    block = [0.0] * len(tasks) if blocking is None else [blocking[k] for k in order]
     out: list[SuspensionBound] = []
     for i, task in enumerate(ordered):
         higher = ordered[:i]
         d = task.period if task.deadline is None else task.deadline
-        own = task.wcet + o * stretches(task)
+        own = task.wcet + (o + block[i]) * stretches(task)
         obl_hp = [(t.wcet + 2.0 * o * stretches(t), t.period, t.jitter) for t in higher]
         obl = busy_window(own, task.period, task.jitter, d, obl_hp)
         other: float | None = None
@@ -138,7 +145,7 @@ def suspension_aware(tasks: Sequence[Task], overhead: float = 0.0) -> list[Suspe
             runs, susp = _compute_runs(task)
             total = task.jitter + susp
             for c in runs:
-                r = _segment_response(c + o, obl_hp, d + DEADLINE_TOL - total)
+                r = _segment_response(c + o + block[i], obl_hp, d + DEADLINE_TOL - total)
                 if r is None:
                     total = math.inf
                     break
@@ -159,7 +166,7 @@ def suspension_aware(tasks: Sequence[Task], overhead: float = 0.0) -> list[Suspe
                 hp[k] = (c + 2.0 * o * stretches(t), t.period, max(rk - c, 0.0))
             if usable:
                 other = busy_window(own, task.period, task.jitter, d, hp)
-        unified = _unified(task, higher, out, o) if hp_susp else None
+        unified = _unified(task, higher, out, o, block[i]) if hp_susp else None
         bounds = [b for b in (obl, other, unified) if b is not None]
         out.append(SuspensionBound(task.name, min(bounds) if bounds else None, obl, other,
                                    kind, unified))

@@ -402,10 +402,13 @@ def transaction_bounds(
     ts: TaskSet, w: float | None, *, overhead: float | None = None, suspension: str = "idle"
 ) -> dict[str, float | None]:
     """Offset-based WCRT of every task of ``ts`` at window ``w`` (ms from arrival; None where
-    it passes the task's deadline or the analysis does not apply), fixed priority."""
+    it passes the task's deadline or the analysis does not apply, as for a set with
+    critical sections), fixed priority."""
     from rtsim.analysis.rta import analyze
 
     o = ts.overhead if overhead is None else overhead
+    if ts.has_sections:  # the offset-based analysis has no blocking term: it does not apply
+        return {t.name: None for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}
     txs = transactions_of(ts, w)
     known = {t.name: t.wcrt for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}
     raw = analyze_transactions(txs, overhead=o, suspension=suspension, known=known)

@@ -30,6 +30,7 @@ COMMANDS: tuple[str, ...] = (
     "validate",
     "histogram",
     "examples",
+    "schema",
     "animate",
     "reproduce",
 )
@@ -41,8 +42,9 @@ METAVARS: dict[str, str] = {
     "horizon": "MS", "overhead": "MS", "window": "MS", "granularity": "MS", "seed": "N",
     "followers": "N", "hough_radius": "CM", "tasks": "N", "count": "N", "windows": "N",
     "random_sets": "N", "bins": "N", "utilization": "U", "periods": "SPEC",
-    "deadlines": "SPEC", "jobs": "FILE", "trace": "FILE", "gantt": "PNG",
-    "gantt_range": "A..B", "histogram": "PNG", "out": "DIR", "scheduler": "NAME",
+    "deadlines": "SPEC", "jobs": "FILE", "trace": "FILE", "gantt": "FILE",
+    "gantt_range": "A..B", "histogram": "FILE", "out": "DIR", "scheduler": "NAME",
+    "dpi": "N",
 }
 #: Help of options whose module gives none.
 HELPS: dict[str, str] = {
@@ -51,7 +53,7 @@ HELPS: dict[str, str] = {
     "followers": "n, the number of followers, for a processing-window set",
     "hough_radius": "r_H in cm, for a processing-window set",
     "gantt_range": "time range of the Gantt chart, A..B in ms",
-    "histogram": "response-time histograms PNG, one panel per task",
+    "histogram": "response-time histograms (.png, .svg or .pdf), one panel per task",
     "utilization": "total utilization (UUniFast-Discard above 1)",
     "random_sets": "random task sets checked beside the paper's set",
     "allow_code": "let the input files load Python code they name as package.module:Name "
@@ -264,8 +266,9 @@ def main(argv: list[str] | None = None) -> int:
             with opted_in():
                 return int(args.func(args) or 0)
         return int(args.func(args) or 0)
-    except InputError as exc:
-        print(f"rtsim: {one_line(exc)}", file=sys.stderr)
+    except InputError as exc:  # one line per problem (a file may have several)
+        for line in getattr(exc, "lines", None) or (str(exc),):
+            print(f"rtsim: {one_line(line)}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into head, say
         return 0

@@ -30,7 +30,12 @@ def register(sub: Any) -> None:
     p = sub.add_parser("analyze", help="exact response-time analysis of a task set",
                        description=__doc__.splitlines()[0])
     p.add_argument("file", metavar="FILE", help="task-set TOML file")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    from rtsim.cli._set import add_set_option
+    from rtsim.cli.common import add_json, add_quiet
+
+    add_json(p)
+    add_quiet(p, "print nothing (the exit status with --check)")
+    add_set_option(p)
     p.add_argument("--check", action="store_true",
                    help="exit with status 1 when the set is not schedulable")
     p.add_argument("--window", metavar="MS", default=None,
@@ -70,6 +75,16 @@ def _num(x: float | None, digits: int = 3) -> str:
     return "miss" if x is None else f"{x:.{digits}f}"
 
 
+_RESOURCES = {
+    "pcp": "blocking: immediate priority ceiling protocol (one section of a lower task whose "
+           "resource's ceiling reaches the task), included in the WCRT",
+    "srp": "blocking: stack resource policy (one section of a lower-level task whose "
+           "resource's ceiling reaches the task), included in the WCRT",
+    "npr": "blocking: non-preemptive critical sections (the longest section of a lower task), "
+           "included in the WCRT",
+}
+
+
 def format_analysis(res: Any, source: str, w_from: str | None) -> str:
     """The readable report of an :class:`~rtsim.analysis.rta.Analysis`."""
     lines = [f"task set: {res.name or '(unnamed)'}  ({source})"]
@@ -80,15 +95,19 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
         lines.append(f"window: w = {res.w:.3f} ms ({w_from}); the chain is one task of cost g, "
                      + how)
     width = max(4, *(len(t.name) for t in res.tasks))
+    blk = getattr(res, "resources", None) is not None
     head = (f"{'prio':>5}  {'task':<{width}}  {'wcet':>9}  {'period':>9}  {'deadline':>9}  "
-            f"{'util':>6}  {'WCRT':>9}  schedulable")
+            f"{'util':>6}  " + (f"{'blocking':>9}  " if blk else "") + f"{'WCRT':>9}  schedulable")
     lines += ["", head, "-" * len(head)]
     for t in res.tasks:
         lines.append(
             f"{t.priority:>5}  {t.name:<{width}}  {t.wcet:>9.3f}  {t.period:>9.3f}  "
-            f"{t.deadline:>9.3f}  {t.utilization:>6.4f}  {_num(t.wcrt):>9}  "
+            f"{t.deadline:>9.3f}  {t.utilization:>6.4f}  "
+            + (f"{t.blocking:>9.3f}  " if blk else "") + f"{_num(t.wcrt):>9}  "
             f"{'yes' if t.schedulable else 'NO'}"
         )
+    if blk:
+        lines.append(_RESOURCES[res.resources])
     if res.overhead:
         lines.append(f"context-switch overhead: {res.overhead:g} ms (2x per higher-priority "
                      "segment start, 1x per own segment)")
@@ -117,14 +136,20 @@ def format_edf(res: Any, source: str, w_from: str | None) -> str:
         lines.append(f"window: w = {res.w:.3f} ms ({w_from}); the chain is one task of cost g, "
                      "radio round trip counted as CPU time (suspension-oblivious)")
     width = max(4, *(len(t.name) for t in res.tasks))
+    blk = getattr(res, "resources", None) is not None
     head = (f"{'task':<{width}}  {'wcet':>9}  {'period':>9}  {'deadline':>9}  {'jitter':>7}  "
-            f"{'util':>6}  {'WCRT':>9}  {'bound':>8}  meets D")
+            f"{'util':>6}  " + (f"{'blocking':>9}  " if blk else "")
+            + f"{'WCRT':>9}  {'bound':>8}  meets D")
     lines += ["", head, "-" * len(head)]
     for t in res.tasks:
         lines.append(
             f"{t.name:<{width}}  {t.wcet:>9.3f}  {t.period:>9.3f}  {t.deadline:>9.3f}  "
-            f"{t.jitter:>7.3f}  {t.utilization:>6.4f}  {_num(t.wcrt):>9}  {t.bound:>8}  "
+            f"{t.jitter:>7.3f}  {t.utilization:>6.4f}  "
+            + (f"{t.blocking:>9.3f}  " if blk else "")
+            + f"{_num(t.wcrt):>9}  {t.bound:>8}  "
             f"{'yes' if t.schedulable else 'NO'}")
+    if blk:
+        lines.append(_RESOURCES[res.resources] + "; the demand test adds Baker's B(t)")
     lines.append("WCRT: Spuri's (1996) response-time bound under EDF, from arrival (bound: "
                  "spuri); where his search does not close and the demand criterion accepts "
                  "the set, the deadline D (bound: deadline)")
@@ -168,11 +193,12 @@ def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
     from rtsim.analysis.edf import EdfAnalysis
     from rtsim.analysis.rta import analyze
+    from rtsim.cli._set import set_overrides
     from rtsim.io.taskset import load_taskset
     from rtsim.sim.policy import SCHEDULERS
 
     w = _window(args.window)
-    ts = load_taskset(args.file)
+    ts = load_taskset(args.file, overrides=set_overrides(args))
     if w is not None and ts.window is None:
         raise InputError(f"{args.file}: --window: the task set has no [window]")
     if args.overhead is not None and not (math.isfinite(args.overhead) and args.overhead >= 0):
@@ -212,6 +238,6 @@ def run(args: argparse.Namespace) -> int:
             for entry in out["tasks"]:
                 entry["wcrt_transaction"] = txn.get(entry["name"])
         print(json.dumps(json_safe(out), indent=2, allow_nan=False))
-    else:
+    elif not args.quiet:
         print(text)
     return 1 if args.check and not res.schedulable else 0

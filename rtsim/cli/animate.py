@@ -9,7 +9,6 @@ imageio-ffmpeg); GIF and HTML need nothing more.
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 __all__ = ["register", "run"]
@@ -30,33 +29,44 @@ def register(sub: Any) -> None:
                    help="frames (windows) per second of animation (default 10)")
     p.add_argument("--every", type=int, default=1, metavar="N",
                    help="draw every N-th window only (default 1: every window)")
-    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    from rtsim.cli.common import ANIMATION_FORMATS, add_figure_options, add_json, add_quiet
+
+    add_figure_options(p, default_dpi=80, formats=ANIMATION_FORMATS,  # rtsim.animate's
+                       what="animation", default="the suffix of --out")
+    add_json(p, "print the file written as one JSON object")
+    add_quiet(p, "no progress bar, no name of the file written")
     p.set_defaults(func=run)
 
 
 def run(args: Any) -> int:
     """Render the animation (see the module docstring)."""
     from rtsim.animate import animate_run
+    from rtsim.cli.common import ANIMATION_FORMATS, figure_format, progress_enabled
 
+    figure_format(args, args.out, "--out", ANIMATION_FORMATS)  # --format agrees with --out
     bar: Any = None
 
     def progress(i: int, total: int) -> None:
         nonlocal bar
-        if args.quiet:
+        if not progress_enabled(args):
             return
         if bar is None:
-            from tqdm.auto import tqdm
+            from rtsim.sim.progress import progress_bar
 
-            bar = tqdm(total=total, desc="animate", unit="frame", file=sys.stderr,
-                       disable=not sys.stderr.isatty())
+            bar = progress_bar(args, total=total, desc="animate", unit="frame")
         bar.update(1)
 
     try:
         path = animate_run(args.run_dir, args.out, start_s=args.start, end_s=args.end,
-                           fps=args.fps, every=args.every, progress=progress)
+                           fps=args.fps, every=args.every, progress=progress,
+                           dpi=args.dpi or 80)
     finally:
         if bar is not None:
             bar.close()
-    if not args.quiet:
-        print(f"rtsim: animate: -> {path}", file=sys.stderr)
+    if args.json:
+        import json
+
+        print(json.dumps({"out": str(path)}))
+    elif not args.quiet:
+        print(path)
     return 0

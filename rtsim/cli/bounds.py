@@ -32,7 +32,10 @@ def register(sub: Any) -> None:
                    help="n: a number, a list 1,2,5 or a range 1..10 (default: the file's)")
     p.add_argument("--hough-radius", metavar="RANGE", default=None,
                    help="r_H in cm: a number, a list or a range 10..50:10 (default: the file's)")
-    p.add_argument("--json", action="store_true", help="print JSON (a list for several rows)")
+    from rtsim.cli.common import add_json, add_quiet
+
+    add_json(p, "print JSON (a list for several rows)")
+    add_quiet(p, "print nothing (a check of the inputs)")
     p.add_argument("--force", action="store_true",
                    help="run even when a value looks like a mistake of unit")
     p.set_defaults(func=run)
@@ -83,6 +86,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         out: Any = [json_safe(b.as_dict()) for b in rows] if many else json_safe(rows[0].as_dict())
         print(json.dumps(out, indent=2, allow_nan=False))
+        return 0
+    if args.quiet:
         return 0
     print(f"task set: {ts.name or '(unnamed)'}  ({ts.source})")
     if not many:

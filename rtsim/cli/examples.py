@@ -17,6 +17,10 @@ def register(sub: Any) -> None:
     p = sub.add_parser("examples", help="list the shipped example files, or print one",
                        description=__doc__.splitlines()[0])
     p.add_argument("name", nargs="?", metavar="NAME", help="print this example's file")
+    from rtsim.cli.common import add_json, add_quiet
+
+    add_json(p, "list the examples (or give the one named: name, kind, summary, text) as JSON")
+    add_quiet(p, "print nothing (a check that the example exists)")
     p.set_defaults(func=run)
 
 
@@ -24,6 +28,21 @@ def run(args: Any) -> int:
     """List the examples, or print the one named."""
     from rtsim.examples import EXAMPLES, example
 
+    if args.json:
+        import json
+
+        def entry(ex: Any, text: bool) -> dict[str, Any]:
+            d = {"name": ex.name, "kind": ex.kind, "summary": ex.summary}
+            return {**d, "text": ex.text()} if text else d
+
+        obj: Any = entry(example(args.name), True) if args.name else \
+            [entry(ex, False) for ex in EXAMPLES.values()]
+        print(json.dumps(obj, indent=2))
+        return 0
+    if args.quiet:
+        if args.name:
+            example(args.name)
+        return 0
     if args.name:
         print(example(args.name).text(), end="")
         return 0

@@ -39,6 +39,10 @@ def register(sub: Any) -> None:
     p.add_argument("--count", type=int, default=1, help="number of sets")
     p.add_argument("--seed", type=int, default=0, help="random seed")
     p.add_argument("--out", required=True, help="output directory")
+    from rtsim.cli.common import add_json, add_quiet
+
+    add_json(p, "print the files written as one JSON object")
+    add_quiet(p, "no line saying what was written")
     p.set_defaults(func=run)
 
 
@@ -113,7 +117,12 @@ def run(args: argparse.Namespace) -> int:
     with stage(args.out, command="generate") as staged:
         files = _write_sets(args, staged.path, spec, factor)
         staged.commit()
-    print(f"wrote {len(files)} task set(s) to {args.out}")
+    if args.json:
+        from rtsim.io.atomic import dumps
+
+        print(dumps({"out": str(args.out), "files": files}))
+    elif not args.quiet:
+        print(f"wrote {len(files)} task set(s) to {args.out}")
     return 0
 
 

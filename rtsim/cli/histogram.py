@@ -7,8 +7,9 @@ Sources (exactly one):
 - ``rtsim histogram --scenario DIR``: the job table of ``rtsim scenario --out DIR``;
 - ``rtsim histogram --sweep DIR --point I``: point I of a ``simulate`` sweep, re-run.
 
-Writes into ``--out DIR``: ``histogram-<task>.png`` per task (lines: exact WCRT, deadline,
-w_sch), ``histogram.csv``, ``bounds.csv`` and ``manifest.json``.
+Writes into ``--out DIR``: ``histogram-<task>.png`` (``.svg``, ``.pdf`` with ``--format``) per
+task (lines: exact WCRT, deadline, w_sch), ``histogram.csv``, ``bounds.csv`` and
+``manifest.json``.
 """
 
 from __future__ import annotations
@@ -45,6 +46,11 @@ def register(sub: Any) -> None:
     p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
     p.add_argument("--force", action="store_true",
                    help="run even when a value looks like a mistake of unit")
+    from rtsim.cli.common import add_figure_options, add_json, add_quiet
+
+    add_figure_options(p, default_dpi=100, what="histograms")  # rtsim.validate.histogram.DPI
+    add_json(p, "print the files written as one JSON object")
+    add_quiet(p, "no progress bar, no list of the files written")
     p.set_defaults(func=run)
 
 
@@ -108,11 +114,21 @@ def run(args: argparse.Namespace) -> int:
 
     if args.bins < 1:
         raise InputError(f"--bins must be at least 1, got {args.bins}")
+    from rtsim.cli.common import figure_format
+    from rtsim.validate.histogram import DPI
+
+    fmt = figure_format(args)
     with stage(args.out, command="histogram") as staged:
         src = _source(args)
         written = write_histograms(src, staged.path, bins=args.bins,
-                                   argv=["rtsim", *sys.argv[1:]])
+                                   argv=["rtsim", *sys.argv[1:]], fmt=fmt,
+                                   dpi=args.dpi or DPI)
         staged.commit()
-    for p in written:
-        print(Path(args.out) / p.name)
+    files = [str(Path(args.out) / p.name) for p in written]
+    if args.json:
+        from rtsim.io.atomic import dumps
+
+        print(dumps({"out": str(args.out), "files": files}))
+    elif not args.quiet:
+        print("\n".join(files))
     return 0

@@ -19,8 +19,8 @@ def register(sub: Any) -> None:
     """Add the ``reproduce`` sub-command (the options of :func:`rtsim.reproduce.parse_args`)."""
     p = sub.add_parser("reproduce", help="reproduce the paper's experiments and figures",
                        description=__doc__.splitlines()[0])
-    p.add_argument("--out", default="results/paper", metavar="DIR",
-                   help="output directory (default results/paper)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output directory (the README's: results/paper)")
     p.add_argument("--quick", action="store_true",
                    help="60 simulated seconds per run (one turn) instead of a lap")
     p.add_argument("--seed", type=int, default=None, metavar="N",
@@ -31,21 +31,31 @@ def register(sub: Any) -> None:
                    help="processes (default min(6, CPU count)); 1 runs in this process")
     p.add_argument("--docs", default=None, metavar="DIR",
                    help="also write the documentation's figures (PNG, 100 dpi) to DIR")
-    p.add_argument("--quiet", "-q", action="store_true", help="no progress lines, no table")
     p.add_argument("--force", action="store_true",
                    help="run even when --duration looks like a mistake of unit (over 6 "
                         "simulated hours)")
+    from rtsim.cli._set import add_set_option
+    from rtsim.cli.common import add_figure_options, add_json, add_quiet
+
+    add_figure_options(p, default_dpi=120)  # rtsim.plots.scenario.DPI
+    add_json(p, "print the summary table as one JSON object instead of Markdown")
+    add_quiet(p, "no progress bar or lines, no table")
+    add_set_option(p, help="change a key of both scenarios (Test 1 and Test 2): a dotted path, "
+                   "the value read as TOML; repeatable")
     p.set_defaults(func=run)
 
 
 def argv_for(args: Any) -> list[str]:
     """The command line of :func:`rtsim.reproduce.main` for these options."""
     argv = ["--out", str(args.out)]
-    for opt in ("seed", "duration", "workers", "docs"):
-        value = getattr(args, opt)
+    for opt, dest in (("seed", "seed"), ("duration", "duration"), ("workers", "workers"),
+                      ("docs", "docs"), ("format", "fig_format"), ("dpi", "dpi")):
+        value = getattr(args, dest)
         if value is not None:
             argv += [f"--{opt}", str(value)]
-    return argv + [f"--{flag}" for flag in ("quick", "quiet", "force") if getattr(args, flag)]
+    argv += [a for s in getattr(args, "set", None) or [] for a in ("--set", s)]
+    return argv + [f"--{flag}" for flag in ("quick", "quiet", "force", "json")
+                   if getattr(args, flag)]
 
 
 def run(args: Any) -> int:

@@ -54,19 +54,23 @@ def register(sub: Any) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--exec", dest="exec_model", choices=("wcet", "uniform"), default="wcet",
                    help="execution times of the fixed segments (default wcet)")
-    p.add_argument("--no-figures", action="store_true", help="do not draw the PNG figures")
+    p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     p.add_argument("--parquet", action="store_true", help="also write windows.parquet")
-    p.add_argument("--format", dest="fig_format", choices=("png", "svg", "pdf"), default="png",
-                   help="file format of the figures (default png; svg and pdf are vector)")
-    p.add_argument("--dpi", type=int, default=None, metavar="N",
-                   help="resolution of PNG figures (default 120)")
+    from rtsim.cli.common import add_figure_options, add_json, add_quiet
+
+    add_figure_options(p, default_dpi=120)  # rtsim.plots.scenario.DPI (not imported: slow)
     p.add_argument("--perfetto", metavar="FILE",
                    help="also write the schedule as a Chrome/Perfetto trace (JSON; open in "
                         "ui.perfetto.dev)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    from rtsim.cli._set import add_set_option
+
+    add_set_option(p)
     p.add_argument("--force", action="store_true",
                    help="run even above the work limits (2e6 windows, 2e8 world steps x "
                         "followers), or a duration over 6 simulated hours")
+    add_json(p, "print summary.json on stdout instead of the summary line")
+    add_quiet(p, "no progress bar, no summary line")
     p.set_defaults(func=run)
 
 
@@ -95,7 +99,9 @@ def run(args: Any) -> int:
         from rtsim.control.policy import policy_class
 
         policy_class(args.policy, "--policy", allow_code=True)
-    scenario = load_scenario(args.file)
+    from rtsim.cli._set import set_overrides
+
+    scenario = load_scenario(args.file, overrides=set_overrides(args))
     override = args.policy if args.policy is not None else args.mode
     args.mode = override if override is not None else scenario.adjust.policy
     check_scenario(scenario, args.duration, where, force=args.force)
@@ -110,6 +116,14 @@ def run(args: Any) -> int:
         staged.commit()
         files.commit()
     s = res.summary
+    if args.json:
+        from rtsim.io.atomic import dumps
+        from rtsim.io.summary import summary_json
+
+        print(dumps(summary_json(s)))
+        return 0
+    if args.quiet:
+        return 0
     print(f"{s['scenario'] or args.file} [{s['mode']}] {s['duration_s']:.1f} s, "
           f"{s['windows']} windows: violations > 5 % "
           f"{sum(s['violations_beyond_5pct'].values())} (max ratio "
@@ -153,6 +167,7 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
            override: str | None, perfetto: Path | None, files: Any = None) -> Any:
     """Run the scenario (file ``src``), writing every file into ``out`` (the staging
     directory of ``target``); returns the result."""
+    from rtsim.cli._set import set_overrides, set_strings
     from rtsim.coupling import run_scenario
     from rtsim.io.atomic import write_json
     from rtsim.io.columns import ChunkWriter
@@ -171,12 +186,17 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
     if files is not None:  # closed after an error too, before the staging goes
         for w in (windows, jobs, *(spools or ())):
             files.on_release(getattr(w, "discard", w.close))
+    from rtsim.cli.common import simulation_bar
+
     try:
-        res = run_scenario(Path(args.file), policy=override, duration_s=args.duration,
-                           seed=args.seed, record_jobs=True, exec_model=args.exec_model,
-                           window_sink=windows,
-                           job_sink=Tee(jobs, spools[0]) if spools else jobs,
-                           trace_sink=spools[1] if spools else None, force=args.force)
+        with simulation_bar(args, "scenario") as bar:
+            res = run_scenario(Path(args.file), policy=override, duration_s=args.duration,
+                               seed=args.seed, record_jobs=True, exec_model=args.exec_model,
+                               window_sink=windows,
+                               job_sink=Tee(jobs, spools[0]) if spools else jobs,
+                               trace_sink=spools[1] if spools else None, force=args.force,
+                               overrides=set_overrides(args) or None,
+                               progress=bar if bar.enabled else None)
     except InputError as exc:  # raised inside the run (an estimate, a state): name the file
         if str(exc).startswith(src):
             raise
@@ -209,7 +229,7 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
                            int(res.summary["windows"]))
         from rtsim.plots.scenario import DPI
 
-        paths = write_scenario_figures(df, out, label=label, fmt=args.fig_format,
+        paths = write_scenario_figures(df, out, label=label, fmt=args.fig_format or "png",
                                        dpi=args.dpi or DPI)
         del df
         outputs += [p.name for p in paths]
@@ -220,7 +240,7 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
         out, command="scenario", seed=args.seed,
         inputs={"scenario_file": str(args.file), "scenario_text": inp.text,
                 "scenario": inp.resolved, "mode": args.mode, "duration_s": args.duration,
-                "exec_model": args.exec_model},
+                "exec_model": args.exec_model, "set": set_strings(args)},
         argv=["rtsim", *sys.argv[1:]],
         extra={"timing": timing, "outputs": [*outputs, "report.html"]},
     )

@@ -28,11 +28,14 @@ import secrets
 import sys
 from collections import defaultdict
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from rtsim.errors import InputError
 
 __all__ = ["register", "run"]
+
+#: Resolution (dots per inch) of the raster --gantt and --histogram figures.
+GANTT_DPI = HISTOGRAM_DPI = 120
 
 _RANGE = re.compile(r"^\s*([-+0-9.eE]+)\s*\.\.\s*([-+0-9.eE]+)\s*$")
 
@@ -63,12 +66,21 @@ def register(sub: Any) -> None:
     p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
     p.add_argument("--jobs", help="per-job records, .csv or .parquet")
     p.add_argument("--trace", help="execution-interval trace, .csv or .parquet")
-    p.add_argument("--gantt", help="Gantt chart PNG (with --gantt-range A..B ms)")
+    p.add_argument("--gantt", help="Gantt chart, .png, .svg or .pdf (with --gantt-range A..B "
+                                   "ms)")
     p.add_argument("--gantt-range", help="time range of the Gantt chart, A..B in ms")
-    p.add_argument("--histogram", help="response-time histograms PNG, one panel per task")
+    p.add_argument("--histogram", help="response-time histograms, .png, .svg or .pdf, one panel "
+                                       "per task")
     p.add_argument("--perfetto", metavar="FILE",
                    help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    from rtsim.cli._set import add_set_option
+    from rtsim.cli.common import add_figure_options, add_json, add_quiet
+
+    add_figure_options(p, default_dpi=GANTT_DPI, what="--gantt and --histogram figures",
+                       default="the file's suffix, else png")
+    add_json(p)
+    add_quiet(p, "no progress bar, no table")
+    add_set_option(p)
     p.add_argument("--force", action="store_true",
                    help="run even when the horizon gives more than 5e7 jobs, or looks like a "
                         "mistake of unit (shorter than one window)")
@@ -164,7 +176,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
 
     if not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
-    ts = load_taskset(args.file)
+    from rtsim.cli._set import set_overrides, set_strings
+
+    ts = load_taskset(args.file, overrides=set_overrides(args))
     changes: dict[str, Any] = {}
     if args.followers is not None:
         changes["n"] = args.followers
@@ -210,6 +224,10 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         name = getattr(args, opt)
         if name and Path(name).suffix.lower() not in (".csv", ".parquet"):
             raise InputError(f"--{opt} {name}: output must end in .csv or .parquet")
+    from rtsim.cli.common import figure_format
+
+    formats = {opt: figure_format(args, getattr(args, opt), f"--{opt}")
+               for opt in ("gantt", "histogram") if getattr(args, opt)}
     # every output reserved (a temporary file beside it) before the simulation
     tmp = {opt: files.add(getattr(args, opt), f"--{opt}")
            for opt in ("jobs", "trace", "perfetto", "gantt", "histogram") if getattr(args, opt)}
@@ -233,12 +251,16 @@ def _run(args: argparse.Namespace, files: Any) -> int:
             files.on_release(getattr(out, "discard", out.close))
     job_sink = Tee(jobs_out, spools and spools[0], chart and chart.jobs)
     trace_sink = Tee(trace_out, spools and spools[1], chart and chart.trace)
-    res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,
-                   suspension=args.suspension, window=args.window,
-                   record_jobs=bool(job_sink.sinks),
-                   overhead=overhead, jitter=args.jitter, scheduler=scheduler,
-                   job_sink=job_sink if job_sink.sinks else None,
-                   trace_sink=trace_sink if trace_sink.sinks else None, force=args.force)
+    from rtsim.cli.common import simulation_bar
+
+    with simulation_bar(args, "simulate") as bar:
+        res = simulate(ts, args.horizon, seed=args.seed, exec_model=args.exec_model,
+                       suspension=args.suspension, window=args.window,
+                       record_jobs=bool(job_sink.sinks),
+                       overhead=overhead, jitter=args.jitter, scheduler=scheduler,
+                       job_sink=job_sink if job_sink.sinks else None,
+                       trace_sink=trace_sink if trace_sink.sinks else None, force=args.force,
+                       progress=bar if bar.enabled else None)
     w = res.window["w"] if res.window else None
     # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own:
     # the deadlines still come from the fixed-priority analysis's table)
@@ -290,14 +312,17 @@ def _run(args: argparse.Namespace, files: Any) -> int:
             sp.close()
     if chart is not None:
         assert rng is not None
-        _save_gantt(chart, list(res.tasks), tmp["gantt"], rng, cut)
+        trace, jobs = chart.frames()
+        _save_gantt(_Tables(trace, jobs, res.tasks), tmp["gantt"], rng, formats["gantt"],
+                    args.dpi or GANTT_DPI, cut)
     if args.histogram:
         _save_histograms(res, tmp["histogram"], wcrt, deadlines, report.get("window"),
-                         ts.window.name if ts.window is not None else None)
+                         ts.window.name if ts.window is not None else None,
+                         formats["histogram"], args.dpi or HISTOGRAM_DPI)
     inputs = {"file": str(args.file), "horizon": args.horizon, "exec": args.exec_model,
               "suspension": args.suspension, "overhead": overhead, "jitter": args.jitter,
               "scheduler": scheduler,
-              "window": res.window, "taskset": taskset_to_dict(ts)}
+              "window": res.window, "taskset": taskset_to_dict(ts), "set": set_strings(args)}
     for man, names in _manifest_names(outputs).items():
         write_json(files.add(man, "--jobs/--trace/... manifest"),
                    build_manifest(command="simulate", seed=args.seed, inputs=inputs,
@@ -305,7 +330,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
 
     if args.json:
         print(dumps(report))
-    else:
+    elif not args.quiet:
         _print_table(report)
     return 0
 
@@ -337,38 +362,53 @@ def _print_table(report: dict[str, Any]) -> None:
                         for i, v in enumerate(r)))
 
 
-def _save_gantt(chart: Any, tasks: list[str], path: str, rng: tuple[float, float],
-                cut: float | None) -> None:
-    import matplotlib
+class _Tables(NamedTuple):
+    """What the Gantt chart reads of a run: its trace, its jobs, its tasks."""
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    trace: Any
+    jobs: Any
+    tasks: Any
 
-    from rtsim.io.atomic import atomic_path
+
+def gantt_figure(res: Any, rng: tuple[float, float], cut: float | None = None) -> Any:
+    """The ``--gantt`` figure of a run (its trace and jobs) over ``rng`` (ms); ``cut``: the
+    end of the range asked for, when it was cut to GANTT_MAX_JOBS (the title says so)."""
     from rtsim.plots.gantt import GANTT_MAX_JOBS, gantt
 
-    trace, jobs = chart.frames()
     title = f"schedule {rng[0]:g}..{rng[1]:g} ms"
     if cut is not None:
         title += f" (of ..{cut:g} ms: at most {GANTT_MAX_JOBS:,} jobs are drawn)"
-    fig = gantt(trace, jobs=jobs, start=rng[0], end=rng[1], tasks=tasks, title=title)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=120)
-    plt.close(fig)
+    return gantt(res.trace, jobs=res.jobs, start=rng[0], end=rng[1],
+                 tasks=list(res.tasks), title=title)
+
+
+def _save_gantt(res: Any, path: str, rng: tuple[float, float], fmt: str, dpi: int,
+                cut: float | None = None) -> None:
+    from rtsim.plots.scenario import save_figure
+
+    save_figure(gantt_figure(res, rng, cut), path, dpi=dpi, fmt=fmt)
 
 
 def _save_histograms(res: Any, path: str, wcrt: dict[str, Any], deadlines: dict[str, Any],
-                     window: dict[str, Any] | None, window_name: str | None) -> None:
-    import matplotlib
+                     window: dict[str, Any] | None, window_name: str | None,
+                     fmt: str, dpi: int) -> None:
+    from rtsim.plots.scenario import save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    save_figure(histogram_figure(res, wcrt, deadlines, window, window_name), path, dpi=dpi,
+                fmt=fmt)
 
-    from rtsim.io.atomic import atomic_path
+
+def histogram_figure(res: Any, wcrt: dict[str, Any], deadlines: dict[str, Any],
+                     window: dict[str, Any] | None, window_name: str | None) -> Any:
+    """The ``--histogram`` figure: one panel per task of the run, its analytic WCRT and
+    deadline drawn in (and w_sch, w_rta on the window's)."""
+    from matplotlib.figure import Figure
+
     from rtsim.plots.histogram import response_histogram
 
     names = list(res.tasks)
-    fig, axes = plt.subplots(len(names), 1, figsize=(7, 3 * len(names)), squeeze=False)
+    fig = Figure(figsize=(7, 3 * len(names)), layout="constrained")
+    axes = fig.subplots(len(names), 1, squeeze=False)
     for ax, name in zip(axes[:, 0], names, strict=True):
         stats = res.tasks[name]
         lines: dict[str, float | None] = {"WCRT (analysis)": wcrt.get(name),
@@ -379,7 +419,4 @@ def _save_histograms(res: Any, path: str, wcrt: dict[str, Any], deadlines: dict[
             ax.set_title(f"{name}: no completed job")
             continue
         response_histogram(stats.histogram, lines=lines, ax=ax, title=name)
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110)
-    plt.close(fig)
+    return fig

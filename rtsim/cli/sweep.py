@@ -38,7 +38,14 @@ def register(subparsers: Any) -> None:
                    help="recompute the points that failed in an earlier run")
     p.add_argument("--force", action="store_true",
                    help="run a grid above the size limit (1e5 points)")
-    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
+    from rtsim.cli._set import add_set_option
+    from rtsim.cli.common import add_json, add_quiet
+
+    add_json(p, "print the summary (points run, skipped, failed) as one JSON object")
+    add_quiet(p, "no progress bar, no summary")
+    add_set_option(p, help="change a key of the sweep's base file at every point, as "
+                   "[sweep.set] does (over it): a dotted path, the value read as TOML; "
+                   "repeatable")
     p.set_defaults(func=run)
 
 
@@ -48,13 +55,16 @@ def _sigterm(signum: int, frame: FrameType | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep; see the module docstring for the exit status."""
+    from rtsim.cli._set import set_strings
+    from rtsim.cli.common import progress_enabled
     from rtsim.sweep.engine import Sweep, SweepIncomplete
+    from rtsim.sweep.spec import load_sweep
 
-    sweep = Sweep(args.spec, args.out, force=args.force)
+    sweep = Sweep(load_sweep(args.spec, set_=set_strings(args)), args.out, force=args.force)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         outcome = sweep.run(workers=args.workers, dask=args.dask,
-                            progress=False if args.quiet else None, restart=args.restart,
+                            progress=progress_enabled(args), restart=args.restart,
                             retry_failed=args.retry_failed, argv=sys.argv)
     except SweepIncomplete as exc:
         print(f"rtsim: {exc}", file=sys.stderr)
@@ -63,10 +73,17 @@ def run(args: argparse.Namespace) -> int:
         signal.signal(signal.SIGTERM, previous)
     df = outcome.table
     failed = int((df["status"] == "failed").sum())
+    results = outcome.out_dir / "results.parquet"
+    if args.json:
+        from rtsim.io.atomic import dumps
+
+        print(dumps({"points": len(df), "computed": outcome.computed,
+                     "skipped": outcome.skipped, "failed": failed, "results": str(results),
+                     "errors": [str(e) for e in df.loc[df["status"] == "failed", "error"]]}))
+    elif not args.quiet:
+        print(f"sweep: {len(df)} points ({outcome.computed} run now, {outcome.skipped} "
+              f"already done), {failed} failed -> {results}")
     if not args.quiet:
-        print(f"rtsim: sweep: {len(df)} points ({outcome.computed} run now, {outcome.skipped} "
-              f"already done), {failed} failed -> {outcome.out_dir / 'results.parquet'}",
-              file=sys.stderr)
         for err in df.loc[df["status"] == "failed", "error"].head(3):
             print(f"rtsim: failed point: {err}", file=sys.stderr)
     return 1 if failed else 0

@@ -1,4 +1,4 @@
-"""``rtsim validate [--quick] [--out DIR] [--workers N] [--dask ADDRESS]``: analysis vs simulation.
+"""``rtsim validate [--quick] --out DIR [--workers N] [--dask ADDRESS]``: analysis vs simulation.
 
 Runs :func:`rtsim.validate.run_validation`: the paper's set over n and r_H (w_sch, w_rta,
 w_sim searched twice, response times at w_sch against the exact WCRT) and random UUniFast
@@ -25,8 +25,8 @@ def register(sub: Any) -> None:
                        description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true",
                    help="small grid: n in {1,2,4}, r_H in {10,30}, 100 windows, 3 random sets")
-    p.add_argument("--out", default=None, metavar="DIR",
-                   help="output directory (default out/validate, or out/validate-quick)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output directory (resumed when run again)")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="local worker processes (default: the CPU count; 1 = in this process)")
     p.add_argument("--dask", default=None, metavar="ADDRESS",
@@ -49,9 +49,13 @@ def register(sub: Any) -> None:
                    help="configurations to draw response-time histograms for (default 2, "
                    "quick 1; 0 = none)")
     p.add_argument("--seed", type=int, default=None, help="the validation's seed (default 1)")
-    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
     p.add_argument("--force", action="store_true",
                    help="run even when a value looks like a mistake of unit")
+    from rtsim.cli.common import add_figure_options, add_json, add_quiet
+
+    add_figure_options(p, default_dpi=100)  # rtsim.validate.runner.DPI (not imported: slow)
+    add_json(p, "print summary.json (and the failures) as one JSON object")
+    add_quiet(p, "no progress bar, no summary")
 
     p.set_defaults(func=run)
 
@@ -91,11 +95,23 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
     if changes:
         cfg = replace(cfg, **changes)
-    out = args.out or ("out/validate-quick" if args.quick else "out/validate")
+    out = args.out
+    from rtsim.cli.common import figure_format, progress_enabled
+    from rtsim.validate.runner import DPI
+
     outcome = run_validation(out, cfg, workers=args.workers, dask=args.dask,
-                             progress=False if args.quiet else None, restart=args.restart,
-                             argv=["rtsim", *sys.argv[1:]])
-    if not args.quiet:
+                             progress=progress_enabled(args), restart=args.restart,
+                             argv=["rtsim", *sys.argv[1:]], fig_format=figure_format(args),
+                             dpi=args.dpi or DPI)
+    if args.json:
+        from rtsim.cli.analyze import json_safe
+        from rtsim.io.atomic import dumps
+
+        print(dumps(json_safe({
+            "ok": outcome.ok, "out": str(outcome.out_dir), "summary": outcome.summary,
+            "failures": [f.as_dict() for f in outcome.failures],
+            "point_errors": list(outcome.point_errors)})))
+    elif not args.quiet:
         s = outcome.summary
         for key in ("paper/wcet-cpu", "paper/counted-idle"):
             e = s.get(key)

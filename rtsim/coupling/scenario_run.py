@@ -665,6 +665,25 @@ class _Coupling:
         self.lap_ms = t0 + (now - t0) * (self._lap_cm - d0) / (d - d0) if d > d0 else now
 
     # -- running ---------------------------------------------------------------------
+    def watch(self, progress: Any) -> None:
+        """Report progress (:func:`rtsim.sim.progress.start_ticker`): the share of the
+        duration; for a run to the end of the lap, the smaller of the shares of the lap
+        driven and of the scenario's duration, ticking at every percent of a lap at V_Ld."""
+        from rtsim.sim.progress import TICKS, start_ticker
+
+        if self._stop_s is None:
+            horizon = self.horizon_ms
+            start_ticker(self.env, horizon / TICKS, lambda now: now / horizon, progress)
+            return
+        stop_s, stop_ms, s0 = self._stop_s, self._stop_ms, self._s0
+        lap_ms = max(1000.0 * stop_s / max(self.v_ld, 1e-9), 1.0)
+
+        def share(now: float) -> float:
+            driven = (self.world.leader.s - s0) / stop_s if stop_s > 0 else 1.0
+            return min(driven, now / stop_ms if stop_ms > 0 else 1.0)
+
+        start_ticker(self.env, max(lap_ms, stop_ms) / TICKS, share, progress)
+
     def run(self) -> None:
         proc = self.cpu.start(self.horizon_ms)
         # Objects alive before the run (modules, pandas, matplotlib, ...) are moved out of
@@ -789,6 +808,7 @@ def run_scenario(
     allow_code: bool | None = None,
     force: bool = False,
     windows: bool = True,
+    progress: Any = None,
 ) -> ScenarioResult:
     """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
 
@@ -817,7 +837,9 @@ def run_scenario(
     (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
     The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
     range, 2e6 windows, 2e8 world steps × followers, the seed's range); ``force=True`` is
-    ``--force``.
+    ``--force``. ``progress(share, t_ms)`` is called at every percent of the run — of the
+    duration, or of the lap and the scenario's duration — with the share done (0..1) and the
+    simulated ms (:mod:`rtsim.sim.progress`; the results do not change).
     """
     t0 = time.perf_counter()
     if mode is not None and policy is not None and mode != policy:
@@ -844,7 +866,7 @@ def run_scenario(
                              f"{duration_s!r}")
         from rtsim.io.limits import check
 
-        check("scenario: duration", duration_s, "run_scenario: duration_s")
+        check("option: --duration", duration_s, "run_scenario: duration_s")
     length = run_length(cfg, duration_s, inp.duration_s)
     horizon_ms, stop_s, stop_ms = length.horizon_ms, length.stop_s, length.stop_ms
     win = inp.taskset.window
@@ -856,8 +878,12 @@ def run_scenario(
         run.rec.sink = lambda recs: run.hand_over(recs, window_sink)
         if window_sink.empty is None:
             window_sink.empty = records_frame([], run.n, run.rec.limits)
+    if progress is not None:
+        run.watch(progress)
     t1, c1 = time.perf_counter(), time.process_time()
     run.run()
+    if progress is not None:
+        progress(1.0, float(run.env.now))
     t2, c2 = time.perf_counter(), time.process_time()
     table: Any
     if window_sink is None:

@@ -11,7 +11,9 @@ for a coupled run, ``windows.csv`` — never from the simulator's internals.
   from its first start to its finish, named ``<task> #<job>``; its trace intervals are slices
   nested in it, named by segment (``scan``, ``hough``, ``estimate[1]``, ``send[1]``,
   ``radio`` …). A preempted segment shows as several pieces with the gap between them;
-  a suspension (the radio round trip) has category ``suspension``, compute ``compute``.
+  a suspension (the radio round trip) has category ``suspension``, compute ``compute``;
+  the time a job waits for the holder of a shared resource (trace kind ``blocked``,
+  docs/resources.md) is a slice ``blocked by <task> on <resource>`` of category ``blocked``.
 - Jobs of one task that overlap in time (a backlog) go to further tracks of the task
   (``<task> (2)``, ``<task> (3)`` …), so every track nests strictly.
 - Instant events (``i``) on the task's track: ``deadline miss`` at the job's deadline,
@@ -150,7 +152,8 @@ def trace_events(jobs: pd.DataFrame, trace: pd.DataFrame, *,
     for r in trace.itertuples(index=False):
         task, job = str(r.task), int(r.job)
         events.append({"ph": "X", "pid": PID, "tid": job_tid(task, job),
-                       "cat": "compute" if bool(r.on_cpu) else "suspension",
+                       "cat": "compute" if bool(r.on_cpu) else (
+                           "blocked" if str(r.kind) == "blocked" else "suspension"),
                        "name": str(r.segment), "ts": _us(r.start),
                        "dur": _us(r.end) - _us(r.start),
                        "args": {"job": job, "kind": str(r.kind), "on_cpu": bool(r.on_cpu)}})

@@ -12,11 +12,16 @@ from typing import Literal
 from rtsim._numbers import is_int, is_real
 from rtsim.errors import TaskSetError
 
-__all__ = ["Task", "Segment", "SegmentKind", "OverloadPolicy", "OVERLOAD_POLICIES"]
+__all__ = ["Task", "Segment", "SegmentKind", "OverloadPolicy", "OVERLOAD_POLICIES",
+           "CriticalSection", "RESOURCE_PROTOCOLS", "ResourceProtocol"]
 
 SegmentKind = Literal["compute", "suspend"]
 OverloadPolicy = Literal["finish-late", "abort", "skip"]
 OVERLOAD_POLICIES: tuple[str, ...] = ("finish-late", "abort", "skip")
+ResourceProtocol = Literal["pcp", "srp", "npr"]
+#: Resource access protocols (docs/resources.md): the immediate priority ceiling protocol,
+#: the stack resource policy, non-preemptive critical sections.
+RESOURCE_PROTOCOLS: tuple[str, ...] = ("pcp", "srp", "npr")
 
 
 def check_time(where: str, field: str, value: object, *, allow_zero: bool = False) -> float:
@@ -54,17 +59,53 @@ class Segment:
     bcet: float | None = None
     role: str = ""
     follower: int | None = None
+    resource: str | None = None
 
     def __post_init__(self) -> None:
         where = f"segment '{self.name}'"
         object.__setattr__(self, "wcet", check_time(where, "wcet", self.wcet, allow_zero=True))
         if self.kind not in ("compute", "suspend"):
             raise TaskSetError(f"{where}: kind must be 'compute' or 'suspend', got {self.kind!r}")
+        if self.resource is not None:
+            if not isinstance(self.resource, str) or not self.resource:
+                raise TaskSetError(f"{where}: resource must be a non-empty string, "
+                                   f"got {self.resource!r}")
+            if self.kind != "compute":
+                raise TaskSetError(f"{where}: a suspension cannot hold a resource")
         if self.bcet is not None:
             bcet = check_time(where, "bcet", self.bcet, allow_zero=True)
             if bcet > self.wcet:
                 raise TaskSetError(f"{where}: bcet {bcet:g} is above wcet {self.wcet:g}")
             object.__setattr__(self, "bcet", bcet)
+
+
+@dataclass(frozen=True)
+class CriticalSection:
+    """A stretch of a job's execution that holds the shared ``resource`` exclusively.
+
+    ``start``: the execution time (ms) the job has consumed when the section begins;
+    ``length``: how long it holds the resource (ms of execution). Sections of one task do not
+    overlap or nest; the task's resource protocol (``[scheduler] resources``,
+    docs/resources.md) decides how jobs wait for it.
+    """
+
+    resource: str
+    start: float
+    length: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.resource, str) or not self.resource.strip():
+            raise TaskSetError(f"critical section: resource: must be a non-empty string, "
+                               f"got {self.resource!r}")
+        where = f"critical section on '{self.resource}'"
+        object.__setattr__(self, "start", check_time(where, "start", self.start,
+                                                     allow_zero=True))
+        object.__setattr__(self, "length", check_time(where, "length", self.length))
+
+    @property
+    def end(self) -> float:
+        """start + length: the execution time consumed when the section ends."""
+        return self.start + self.length
 
 
 @dataclass(frozen=True)
@@ -92,6 +133,7 @@ class Task:
     overload: OverloadPolicy = "finish-late"
     segments: tuple[Segment, ...] = ()
     jitter: float = 0.0
+    critical_sections: tuple[CriticalSection, ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -123,6 +165,35 @@ class Task:
                 raise TaskSetError(
                     f"{where}: segments add up to {total:g} ms but wcet is {self.wcet:g}"
                 )
+        if self.critical_sections:
+            self._check_sections(where)
+
+    def _check_sections(self, where: str) -> None:
+        secs = tuple(self.critical_sections)
+        object.__setattr__(self, "critical_sections", secs)
+        if self.segments:
+            raise TaskSetError(f"{where}: critical_sections: only for a task without its own "
+                               f"segments (mark a chain's segments with a resource instead)")
+        prev: CriticalSection | None = None
+        for cs in secs:
+            if not isinstance(cs, CriticalSection):
+                raise TaskSetError(f"{where}: critical_sections: need CriticalSection "
+                                   f"entries, got {cs!r}")
+            if cs.start >= self.wcet:
+                raise TaskSetError(
+                    f"{where}: critical_sections: the section on '{cs.resource}' starts at "
+                    f"{cs.start:g} ms of execution, but the wcet is {self.wcet:g} ms (no "
+                    f"execution left)")
+            if cs.end > self.wcet * (1 + 1e-12):
+                raise TaskSetError(
+                    f"{where}: critical_sections: the section on '{cs.resource}' ends at "
+                    f"{cs.end:g} ms of execution, beyond the wcet {self.wcet:g} ms")
+            if prev is not None and cs.start < prev.end * (1 - 1e-12):
+                raise TaskSetError(
+                    f"{where}: critical_sections: the section on '{cs.resource}' (from "
+                    f"{cs.start:g} ms) overlaps the one on '{prev.resource}' (to "
+                    f"{prev.end:g} ms): give them in order, not overlapping")
+            prev = cs
 
     @property
     def utilization(self) -> float:
@@ -144,4 +215,36 @@ class Task:
         """The task's segments: its own chain, or one compute segment of ``wcet``."""
         if self.segments:
             return self.segments
+        if self.critical_sections:
+            return self._section_chain()
         return (Segment(self.name, self.wcet, "compute", self.bcet, role=self.name),)
+
+    def _section_chain(self) -> tuple[Segment, ...]:
+        """The job split at its sections' ends: plain pieces named after the task, sections
+        ``<task>[<resource>]`` (role: the task's name); each piece's bcet is the task's bcet
+        in proportion to its length."""
+        ratio = None if self.bcet is None else self.bcet / self.wcet
+        segs: list[Segment] = []
+
+        def piece(name: str, length: float, resource: str | None) -> None:
+            length = max(length, 0.0)
+            bcet = None if ratio is None else length * ratio
+            segs.append(Segment(name, length, "compute", bcet, role=self.name,
+                                resource=resource))
+
+        at = 0.0
+        for cs in self.critical_sections:
+            if cs.start > at:
+                piece(self.name, cs.start - at, None)
+            end = min(cs.end, self.wcet)
+            piece(f"{self.name}[{cs.resource}]",
+                  cs.length if cs.end <= self.wcet else end - cs.start, cs.resource)
+            at = end
+        if at < self.wcet:
+            piece(self.name, self.wcet - at, None)
+        return tuple(segs)
+
+    @property
+    def resources(self) -> frozenset[str]:
+        """The shared resources the task's jobs lock (its chain's marked segments)."""
+        return frozenset(s.resource for s in self.chain() if s.resource is not None)

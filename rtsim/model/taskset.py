@@ -9,7 +9,7 @@ from typing import Any
 
 from rtsim._numbers import is_real
 from rtsim.errors import TaskSetError
-from rtsim.model.task import Task
+from rtsim.model.task import RESOURCE_PROTOCOLS, Task
 from rtsim.model.window import WindowSpec
 
 __all__ = ["TaskSet"]
@@ -25,7 +25,9 @@ class TaskSet:
     spends by default (docs/model/beyond.md). ``scheduler`` names the CPU's scheduling policy that
     the
     simulator uses by default (``fp``, ``edf``, or any policy of :mod:`rtsim.sim.policy`);
-    priorities are required either way (under EDF they only break ties).
+    priorities are required either way (under EDF they only break ties). ``resources`` is
+    the protocol for tasks' critical sections (``pcp``, ``srp`` or ``npr``,
+    docs/resources.md); None: the scheduler's default (:meth:`resource_protocol`).
     """
 
     tasks: tuple[Task, ...]
@@ -35,10 +37,14 @@ class TaskSet:
     source: str | None = None
     overhead: float = 0.0
     scheduler: str = "fp"
+    resources: str | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.scheduler, str) or not self.scheduler:
             raise TaskSetError(f"scheduler must be a policy name, got {self.scheduler!r}")
+        if self.resources is not None and self.resources not in RESOURCE_PROTOCOLS:
+            raise TaskSetError(f"resources must be one of {', '.join(RESOURCE_PROTOCOLS)}, "
+                               f"got {self.resources!r}")
         o = self.overhead
         if not is_real(o) or not math.isfinite(o) \
                 or o < 0:
@@ -83,6 +89,21 @@ class TaskSet:
         if self.window is None:
             return ()
         return tuple(t for t in self.tasks if t.priority > self.window.priority)
+
+    @property
+    def has_sections(self) -> bool:
+        """Whether some task has a critical section."""
+        return any(t.resources for t in self.tasks)
+
+    def resource_protocol(self, scheduler: str | None = None) -> str | None:
+        """The resource protocol in force under ``scheduler`` (default the set's): the set's
+        ``resources``, else ``srp`` under ``edf`` and ``pcp`` otherwise; None when no task
+        has a critical section."""
+        if not self.has_sections:
+            return None
+        if self.resources is not None:
+            return self.resources
+        return "srp" if (scheduler or self.scheduler) == "edf" else "pcp"
 
     def task(self, name: str) -> Task:
         """The task called ``name``."""

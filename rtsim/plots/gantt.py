@@ -20,6 +20,8 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from rtsim.plots.figure import new_figure
+
 __all__ = ["gantt", "GanttRows", "GANTT_MAX_JOBS"]
 
 #: Jobs a ``rtsim simulate --gantt`` chart draws at most: a longer ``--gantt-range`` is cut
@@ -50,7 +52,7 @@ def gantt(
     if jobs is not None and tasks is None:
         names += [n for n in dict.fromkeys(jobs["task"]) if n not in names]
     if ax is None:
-        fig = Figure(figsize=(10, 0.6 * max(len(names), 1) + 1.2))
+        fig = new_figure(figsize=(10, 0.6 * max(len(names), 1) + 1.2))
         ax = fig.subplots()
     else:
         fig = ax.figure  # type: ignore[assignment]
@@ -89,6 +91,7 @@ def gantt(
     ax.set_ylim(len(names) - 0.5, -0.6)
     ax.set_yticks(range(len(names)), names)
     ax.set_xlabel("time (ms)")
+    ax.set_ylabel("task")
     ax.grid(axis="x", alpha=0.3)
     if title:
         ax.set_title(title)

@@ -13,6 +13,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from rtsim.plots.figure import new_figure
 from rtsim.sim.records import ResponseHistogram
 
 __all__ = ["response_histogram"]
@@ -35,8 +36,9 @@ def response_histogram(
     a ``None`` value (no finite bound) is left out of the plot but kept in the legend text.
     ``bins`` applies to raw data only (a ResponseHistogram has its own bins).
     """
+    own = ax is None
     if ax is None:
-        fig = Figure(figsize=(7, 4))
+        fig = new_figure(figsize=(7, 4))
         ax = fig.subplots()
     else:
         fig = ax.figure  # type: ignore[assignment]
@@ -55,9 +57,12 @@ def response_histogram(
         ax.axvline(x, color=colors[(i + 1) % len(colors)],
                    ls=_LINE_STYLES[i % len(_LINE_STYLES)], lw=1.5, label=f"{label} = {x:.6g}")
     ax.set_xlabel(xlabel)
-    ax.set_ylabel("jobs")
-    ax.legend(fontsize="small")
+    ax.set_ylabel("jobs (count)")
+    # beside the axes, never over the bars or the lines
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              borderaxespad=0.0, frameon=False)
     if title:
         ax.set_title(title)
-    fig.tight_layout()
+    if own:
+        fig.tight_layout()
     return fig

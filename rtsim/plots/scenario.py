@@ -22,6 +22,7 @@ from matplotlib.lines import Line2D
 
 from rtsim.errors import InputError
 from rtsim.io.atomic import atomic_path, write_table
+from rtsim.plots.figure import new_figure
 
 __all__ = [
     "BOUND_KINDS",
@@ -69,6 +70,9 @@ FOLLOWER_COLORS: tuple[str, ...] = (
 BOUNDS_CLIP = 4.0  # bounds figure: y-axis ends at most at this multiple of w_sch
 WINDOW_CLIP = 6.0  # window figure: the same for w (w is capped, but the cap may be large)
 DPI = 120
+#: What the lines and dots of the bounds figures are (their legend's title).
+BOUNDS_NOTE = ("lines: predicted at the leader's highest speed in the window; "
+               "dots: threshold·w / true change")
 VIOLATION_TOLERANCE = 0.05  # a broken bound counts beyond this relative overshoot
 
 _FOLLOWER_RE = re.compile(r"^f(\d+)_x$")
@@ -165,7 +169,7 @@ def _counts(df: pd.DataFrame) -> str:
     r = violation_ratios(df)
     beyond = int((r > 1.0 + VIOLATION_TOLERANCE).sum())
     worst = float(r.max()) if r.size else 0.0
-    return (f"violations > 5 % {beyond} · max ratio {worst:.2f} · misses {missed} · "
+    return (f"violations > 5 % {beyond} · max ratio {worst:.2f} · misses {missed}\n"
             f"lost tracks {lost}")
 
 
@@ -280,11 +284,15 @@ def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
 def _new_figure(ax: Axes | None, size: tuple[float, float]) -> tuple[Figure, Axes, bool]:
     if ax is not None:
         return ax.figure, ax, False  # type: ignore[return-value]
-    fig = Figure(figsize=size, layout="constrained")
+    fig = new_figure(figsize=size, layout="constrained")
     return fig, fig.add_subplot(), True
 
 
-def _finish(fig: Figure, ax: Axes, own: bool, title: str | None, legend: bool = True) -> Figure:
+def _finish(fig: Figure, ax: Axes, own: bool, title: str | None, legend: bool = True,
+            note: str | None = None) -> Figure:
+    """Title the figure; its legend below the axes, off the data (``note``: the legend's
+    title, what its entries mean). In an axes given by the caller the legend goes where
+    matplotlib finds room."""
     if title and own:
         fig.suptitle(title)
     elif title:
@@ -293,7 +301,8 @@ def _finish(fig: Figure, ax: Axes, own: bool, title: str | None, legend: bool = 
         handles, labels = ax.get_legend_handles_labels()
         if handles and own:
             fig.legend(handles, labels, loc="outside lower center", ncols=min(len(handles), 3),
-                       fontsize="small", frameon=False)
+                       fontsize="small", frameon=False, title=note,
+                       title_fontsize="small")
         elif handles:
             ax.legend(fontsize="small")
     return fig
@@ -336,7 +345,7 @@ def _offscale(y: np.ndarray, top: float) -> np.ndarray:
 def _note_clip(ax: Axes, values: list[np.ndarray], top: float) -> None:
     if any(np.any(v > top) for v in values):
         ax.set_title(f"off-scale above {top:.0f} ms (∞ = unbounded)", loc="right",
-                     fontsize="x-small", color="#555555")
+                     fontsize="small", color="#555555")
 
 
 def _shade(ax: Axes, spans: list[tuple[float, float]], kind: str, label: str) -> None:
@@ -458,9 +467,6 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     ax.set_ylim(0, top)
     _note_clip(ax, values + [w], top)
     _time_axes(ax, df, "bound on w (ms), min over followers")
-    ax.text(0.01, 0.01, "lines: predicted at the leader's highest speed in the window; "
-            "dots: threshold·w / true change", transform=ax.transAxes, fontsize="x-small",
-            color="#555555", va="bottom")
 
 
 def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
@@ -601,7 +607,7 @@ def plot_bounds(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None =
     each MSB kind (min over followers, estimates) and w over time."""
     fig, ax, own = _new_figure(ax, (8.0, 4.6))
     _draw_bounds(ax, df)
-    return _finish(fig, ax, own, title)
+    return _finish(fig, ax, own, title, note=BOUNDS_NOTE)
 
 
 def plot_msb(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
@@ -609,7 +615,7 @@ def plot_msb(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = No
     predicted at the desired speed V_Ld (the decision's ``msb_min``) and as the truth showed
     it, against w_sch and w; in the critical windows a marker coloured by the binding bound.
     The per-kind detail is :func:`plot_bounds`."""
-    fig, ax, own = _new_figure(ax, (10.5, 4.2))
+    fig, ax, own = _new_figure(ax, (9.5, 4.2))
     _draw_msb(ax, df)
     return _finish(fig, ax, own, title)
 
@@ -632,7 +638,7 @@ def plot_operating_space(df: pd.DataFrame, *, title: str | None = None,
         fig, ax, own = _new_figure(ax, (8.0, 4.2))
         _draw_operating(ax, df)
         return _finish(fig, ax, own, title)
-    fig = Figure(figsize=(10.5, 4.2), layout="constrained")
+    fig = new_figure(figsize=(9.5, 4.2), layout="constrained")
     ax_t, ax_p = fig.subplots(1, 2, width_ratios=[3, 1.1])
     data = figure_data(df, "operating_space")
     top = _ylimit([_floats(data["msb_min"]), _floats(data["w"])], _floats(data["w_sch"]),
@@ -682,8 +688,8 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
                   if c in df.columns]
         top = _ylimit(speeds, np.zeros(0), 1.0)
     n = len(dfs)
-    size = (4.6 * n, 4.6) if kind == "paths" else (4.4 * n, 3.8)
-    fig = Figure(figsize=size, layout="constrained")
+    size = (3.2 * n, 3.9) if kind == "paths" else (3.2 * n, 3.4)
+    fig = new_figure(figsize=size, layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, n, sharex=True, sharey=True, squeeze=False)[0])
     for ax, (mode, df) in zip(axes, dfs.items(), strict=True):
         _DRAWERS[kind](ax, df, top)
@@ -705,7 +711,8 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
             handles.setdefault(lab.split(" (")[0] if lab.startswith("deadline") else lab, h)
     if handles:
         fig.legend(list(handles.values()), list(handles), loc="outside lower center",
-                   ncols=min(len(handles), 4), fontsize="small", frameon=False)
+                   ncols=min(len(handles), 3), fontsize="small", frameon=False,
+                   title=BOUNDS_NOTE if kind == "bounds" else None, title_fontsize="small")
     if title:
         fig.suptitle(title)
     return fig
@@ -719,11 +726,13 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
 FIGURE_FORMATS: tuple[str, ...] = ("png", "svg", "pdf")
 
 
-def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI) -> Path:
-    """Write ``fig`` atomically (temp file beside ``path``, then rename) in the format its
-    suffix names (:data:`FIGURE_FORMATS`; ``dpi`` for PNG); close it."""
+def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI,
+                fmt: str | None = None) -> Path:
+    """Write ``fig`` atomically (temp file beside ``path``, then rename) in format ``fmt``
+    (:data:`FIGURE_FORMATS`; default: the one ``path``'s suffix names; ``dpi`` for PNG);
+    close it."""
     path = Path(path)
-    fmt = path.suffix.lstrip(".").lower() or "png"
+    fmt = (fmt or path.suffix.lstrip(".") or "png").lower()
     if fmt not in FIGURE_FORMATS:
         raise ValueError(f"figure format must be one of {', '.join(FIGURE_FORMATS)}, got {fmt!r}")
     import matplotlib

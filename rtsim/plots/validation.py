@@ -16,10 +16,36 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from rtsim.plots.figure import new_figure
+
 __all__ = ["bounds_vs_n_data", "bounds_vs_n", "pessimism_data", "pessimism_heatmap",
            "scheduler_bounds"]
 
 _MODES = ("wcet-cpu", "counted-idle")
+#: Panels per row of the figures with one panel per r_H.
+_COLUMNS = 3
+
+
+def _panels(count: int, width: float, height: float) -> tuple[Figure, list]:
+    """A figure of ``count`` panels, at most :data:`_COLUMNS` a row (sharing both axes), each
+    ``width`` x ``height`` in; panels left over in the last row are hidden."""
+    cols = min(count, _COLUMNS)
+    rows = -(-count // cols)
+    fig = new_figure(figsize=(width * cols + 0.4, height * rows + 0.7), layout="constrained")
+    grid = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False)
+    axes = list(grid.flat)
+    for ax in axes[count:]:
+        ax.set_visible(False)
+    for ax in axes[:count]:  # tick labels on every shown panel (a hidden one may be below)
+        ax.xaxis.set_tick_params(labelbottom=True)
+    return fig, axes[:count]
+
+
+def _legend_below(fig: Figure, ax: object) -> None:
+    """The panels' common legend below them, off the data."""
+    handles, labels = ax.get_legend_handles_labels()  # type: ignore[attr-defined]
+    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(handles), 2),
+               fontsize="small", frameon=False)
 
 
 def bounds_vs_n_data(df: pd.DataFrame) -> pd.DataFrame:
@@ -37,20 +63,20 @@ def bounds_vs_n(df: pd.DataFrame, r_H: Sequence[float] | None = None) -> Figure:
     """w_sch, w_rta and w_sim (both searches) against n, one panel per r_H (ms)."""
     data = bounds_vs_n_data(df)
     radii = sorted(data["r_H"].unique()) if r_H is None else list(r_H)
-    fig = Figure(figsize=(3.2 * len(radii) + 1, 3.6), layout="constrained")
-    axes = fig.subplots(1, len(radii), sharey=True, squeeze=False)
+    fig, axes = _panels(len(radii), 2.3, 2.0)
     styles = {"w_sch": ("w_sch (Eq 7/11)", "-", "o"), "w_rta": ("w_rta (exact RTA)", "--", "s"),
               "w_sim_wcet_cpu": ("w_sim: WCET, Δt on CPU", ":", "^"),
               "w_sim_counted_idle": ("w_sim: counted beams, Δt idle", "-.", "v")}
-    for ax, r in zip(axes[0], radii, strict=True):
+    for k, (ax, r) in enumerate(zip(axes, radii, strict=True)):
         sub = data[data["r_H"] == r]
         for col, (label, ls, mk) in styles.items():
             ax.plot(sub["n"], sub[col], ls=ls, marker=mk, ms=4, label=label)
         ax.set_title(f"r_H = {r:g} cm")
-        ax.set_xlabel("followers n")
+        ax.set_xlabel("followers n (count)")
+        if k % _COLUMNS == 0:
+            ax.set_ylabel("window (ms)")
         ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("window (ms)")
-    axes[0][-1].legend(fontsize="small", loc="upper left")
+    _legend_below(fig, axes[0])
     return fig
 
 
@@ -65,7 +91,7 @@ def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figu
     """Heat map of ``ratio`` over (n, r_H), one panel per search mode, values annotated."""
     data = pessimism_data(df, ratio)
     modes = [m for m in _MODES if m in set(data["mode"])]
-    fig = Figure(figsize=(5.2 * len(modes), 3.8), layout="constrained")
+    fig = new_figure(figsize=(3.7 * len(modes) + 0.8, 3.4), layout="constrained")
     axes = fig.subplots(1, len(modes), squeeze=False)
     vals = data[ratio].to_numpy(dtype=float)
     vmin, vmax = float(np.nanmin(vals)), float(np.nanmax(vals))
@@ -78,16 +104,17 @@ def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figu
                        vmin=vmin, vmax=vmax)
         ax.set_xticks(range(grid.shape[1]), [f"{c:g}" for c in grid.columns])
         ax.set_yticks(range(grid.shape[0]), [f"{r:g}" for r in grid.index])
-        ax.set_xlabel("followers n")
+        ax.set_xlabel("followers n (count)")
         ax.set_ylabel("r_H (cm)")
         ax.set_title(f"{ratio.replace('_over_', ' / ')} — {mode}")
         if grid.size <= 80:
             for (i, j), v in np.ndenumerate(grid.to_numpy(dtype=float)):
                 if np.isfinite(v):
-                    ax.text(j, i, f"{v:.4f}", ha="center", va="center", fontsize=7,
+                    ax.text(j, i, f"{v:.3f}", ha="center", va="center", fontsize=7,
                             color="w" if v < (vmin + vmax) / 2 else "k")
     if im is not None:
-        fig.colorbar(im, ax=list(axes[0]), shrink=0.9)
+        bar = fig.colorbar(im, ax=list(axes[0]), shrink=0.9)
+        bar.set_label(f"{ratio.replace('_over_', ' / ')} (ratio)")
     return fig
 
 
@@ -96,12 +123,13 @@ def scheduler_bounds(table: pd.DataFrame) -> Figure:
     the relative gain 1 − w_edf/w_rta on a second axis. ``table``: columns n, r_H, w_sch,
     w_rta, w_edf."""
     radii = sorted(table["r_H"].unique())
-    fig = Figure(figsize=(3.0 * len(radii) + 1, 3.6), layout="constrained")
-    axes = fig.subplots(1, len(radii), sharey=True, squeeze=False)
+    fig, axes = _panels(len(radii), 2.3, 2.0)
     styles = {"w_sch": ("w_sch (Eq 7/11, FP)", "-", "o"),
               "w_rta": ("w_rta (exact RTA, FP)", "--", "s"),
               "w_edf": ("w_edf (EDF demand)", ":", "^")}
-    for ax, r in zip(axes[0], radii, strict=True):
+    last_in_row = {min(k + _COLUMNS - 1 - k % _COLUMNS, len(radii) - 1)
+                   for k in range(len(radii))}
+    for k, (ax, r) in enumerate(zip(axes, radii, strict=True)):
         sub = table[table["r_H"] == r].sort_values("n")
         for col, (label, ls, mk) in styles.items():
             ax.plot(sub["n"], sub[col], ls=ls, marker=mk, ms=4, label=label)
@@ -109,15 +137,16 @@ def scheduler_bounds(table: pd.DataFrame) -> Figure:
         gain.bar(sub["n"], 100 * (1 - sub["w_edf"] / sub["w_rta"]), color="0.8", alpha=0.5,
                  width=0.5, zorder=0)
         gain.set_ylim(0, 5)
-        if r == radii[-1]:
+        if k in last_in_row:
             gain.set_ylabel("1 − w_edf / w_rta (%)")
         else:
             gain.set_yticklabels([])
         ax.set_zorder(gain.get_zorder() + 1)
         ax.patch.set_visible(False)
         ax.set_title(f"r_H = {r:g} cm")
-        ax.set_xlabel("followers n")
+        ax.set_xlabel("followers n (count)")
+        if k % _COLUMNS == 0:
+            ax.set_ylabel("window (ms)")
         ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("window (ms)")
-    axes[0][0].legend(fontsize="small", loc="upper left")
+    _legend_below(fig, axes[0])
     return fig

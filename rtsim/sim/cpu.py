@@ -106,7 +106,7 @@ import numpy as np
 import simpy
 
 from rtsim.errors import InputError, RtsimError
-from rtsim.model.task import Segment, Task
+from rtsim.model.task import RESOURCE_PROTOCOLS, Segment, Task
 from rtsim.sim.execution import WCET, ExecSpec, jitter_rngs, resolve_exec_model, task_rngs
 from rtsim.sim.job import _ABORT, _JREL, _RELEASE, _RESUME, Job, _TaskState
 from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_policy
@@ -173,9 +173,15 @@ class CPU:
         jitter: JitterMode = "random",
         job_sink: Callable[[Any], None] | None = None,
         scheduler: PolicySpec = "fp",
+        resources: str | None = None,
         trace_sink: Any = None,
     ) -> None:
         self.policy: SchedulingPolicy = resolve_policy(scheduler)
+        if resources is not None and resources not in RESOURCE_PROTOCOLS:
+            raise InputError(f"resources must be one of {', '.join(RESOURCE_PROTOCOLS)}, "
+                             f"got {resources!r}")
+        #: the resource protocol asked for (None: the policy's default, module doc)
+        self.resources = resources
         # preemption by "strictly smaller key" (the base class's test): evaluated inline
         self._by_key = type(self.policy).preempts is SchedulingPolicy.preempts
         if jitter not in JITTER_MODES:
@@ -218,6 +224,16 @@ class CPU:
         self._t0 = 0.0
         self._horizon: float | None = None
         self.process: simpy.Process | None = None
+        # critical sections (module doc: Shared resources); _res_on only if a task has one
+        self._res_on = False
+        self.protocol: str | None = None  # the protocol in force once started
+        self._ceil: dict[str, float] = {}
+        self._locked: dict[str, Job] = {}  # resource -> the job holding it
+        self._holding: dict[Job, tuple[str, float]] = {}  # job -> (resource, its ceiling)
+        self._blocked: dict[Job, tuple[float, str]] = {}  # job -> (blocked since, by what)
+        self._level_by = getattr(self.policy, "resource_levels", "priority")
+        #: per task, the longest time one job was blocked (ms; tasks that never were: absent)
+        self.blocking: dict[str, float] = {}
 
     # -- configuration -------------------------------------------------------------------
     def add_task(self, task: Task, *, period_provider: PeriodProvider | None = None,
@@ -321,6 +337,124 @@ class CPU:
         for st in self._states:
             st.fast_top = (st is top and st.fast_release and st.fast_start is not None
                            and not st.job_end_hooks and self._by_key)
+        self._compile_resources()
+
+    def _compile_resources(self) -> None:
+        """Ceilings of the resources (module doc: Shared resources); a task with a critical
+        section takes the general path: its sections start and end with a lock and unlock."""
+        users: dict[str, list[_TaskState]] = {}
+        for st in self._states:
+            st.res = [s.resource for s in st.segs]
+            for r in st.res:
+                if r is not None and st not in users.setdefault(r, []):
+                    users[r].append(st)
+        self._res_on = bool(users)
+        if not users:
+            return
+        by = self._level_by
+        protocol = self.resources or ("srp" if by == "deadline" else "pcp")
+        if protocol == "pcp" and by == "deadline":
+            raise InputError(f"resources: pcp needs fixed priorities; under "
+                             f"{self.policy.name or type(self.policy).__name__} use srp or npr")
+        self.protocol = protocol
+        for r, sts in users.items():
+            if protocol == "npr":
+                self._ceil[r] = _INF
+                continue
+            lv = []
+            for st in sts:
+                if by == "deadline" and (st.provider is not None or st.per_window
+                                         or st.is_window):
+                    raise InputError(f"task '{st.name}': a critical section under a "
+                                     f"deadline-ordered policy needs a deadline in ms (not "
+                                     f"one that follows the window)")
+                lv.append(-float(st.deadline) if by == "deadline" else -float(st.priority))
+            self._ceil[r] = max(lv)
+        for st in self._states:
+            if any(r is not None for r in st.res):
+                st.simple = False
+                st.fast_start = None
+                st.fast_top = False
+                for i, r in enumerate(st.res):
+                    if r is not None:
+                        st.seg_const[i] = None
+                        st.plain_next[i] = False
+
+    def _level(self, job: Job) -> float:
+        """The job's preemption level (larger = higher): −priority, or −relative deadline."""
+        if self._level_by == "deadline":
+            st = job._st
+            if st.provider is not None or st.per_window or st.is_window:
+                return -(job.deadline - job.arrival)  # the deadline in force at its arrival
+            return -float(st.deadline)  # exactly as the ceilings count it
+        return -float(job.priority)
+
+    def _lock(self, job: Job) -> None:
+        r = job._st.res[job.seg_index]
+        assert r is not None
+        if r in self._locked:  # the ceiling rule makes this impossible
+            raise RtsimError(f"task '{job.name}': resource '{r}' is held by "
+                             f"'{self._locked[r].name}' (a ceiling violation)")
+        self._locked[r] = job
+        self._holding[job] = (r, self._ceil[r])
+
+    def _unlock(self, job: Job) -> None:
+        held = self._holding.pop(job, None)
+        if held is not None:
+            del self._locked[held[0]]
+
+    def _res_pick(self, running: Job | None, now: float) -> Job | None:
+        """The job that takes the CPU under the resource protocol (removed from the ready
+        heap), or None: the first eligible job in the policy's order — one that holds a
+        resource, or whose level is above the system ceiling — if it preempts ``running``.
+        Jobs passed over that come before the job that runs are blocked (traced)."""
+        ready = self._ready
+        hold = self._holding
+        ceiling = max(c for _, c in hold.values()) if hold else -_INF
+        skipped = []
+        while ready:
+            job = ready[0][2]
+            if job.aborted:
+                heapq.heappop(ready)
+                continue
+            if job in hold or self._level(job) > ceiling:
+                break
+            skipped.append(heapq.heappop(ready))
+        cand = ready[0][2] if ready else None
+        if cand is not None and running is not None and not (
+                cand.key < running.key if self._by_key else self.policy.preempts(cand.key,
+                                                                                 running)):
+            cand = None
+        if cand is not None:
+            heapq.heappop(ready)
+        for e in skipped:
+            heapq.heappush(ready, e)
+        run = cand if cand is not None else running
+        blocked = self._blocked
+        now_blocked = [e[2] for e in skipped
+                       if run is not None and (e[0], e[1]) < (run.key, run.tie)]
+        for job in [j for j in blocked if j not in now_blocked]:
+            self._unblock(job, now)
+        if now_blocked:
+            by = ""
+            if hold:
+                holder, (r, _) = max(hold.items(), key=lambda kv: kv[1][1])
+                by = f" by {holder.name} on {r}"
+            for job in now_blocked:
+                if job not in blocked:
+                    blocked[job] = (now, f"blocked{by}")
+        return cand
+
+    def _unblock(self, job: Job, now: float) -> None:
+        since, what = self._blocked.pop(job)
+        if now > since:
+            total = getattr(job, "blocked", 0.0) + (now - since)
+            job.blocked = total
+            if total > self.blocking.get(job.name, 0.0):
+                self.blocking[job.name] = total
+            if self.record_trace:
+                self._trace_rows.append((job.name, job.index, what, "blocked", False,
+                                         since, now))
 
     # -- running -------------------------------------------------------------------------
     def start(self, horizon: float) -> simpy.Process:
@@ -362,7 +496,8 @@ class CPU:
         queue: list[Any] = env._queue if jump else []  # type: ignore[attr-defined]
         # Inline jobs of the top task (see _inline_top): only without trace, overhead and
         # aborts, and only when the clock can be moved without SimPy.
-        inline_ok = plain and jump and not has_abort
+        inline_ok = plain and jump and not has_abort and not self._res_on
+        res = self._res_on  # critical sections: the protocol's lock, unlock and dispatch
         # the policy's preemption test, inline when it is the default "strictly smaller key"
         preempts = self.policy.preempts
         by_key = self._by_key
@@ -403,6 +538,8 @@ class CPU:
                     running.seg_index += 1
                     running.rem = None
                 else:
+                    if res and st.res[running.seg_index] is not None:
+                        self._unlock(running)
                     self._lag = now_lag
                     running = self._segment_done(running, now)
                     self._lag = 0.0
@@ -511,10 +648,36 @@ class CPU:
                         job = Job(st, k, r, r + st.deadline, p, seq)
                     st.pending.append(job)
                     heappush(ready, (job.key, job.tie, job))
+            if res:  # the resource protocol picks (module doc: Shared resources)
+                cand = self._res_pick(running, now)
+                if cand is not None:
+                    if running is not None:
+                        if running.rem is not None:
+                            self._close_piece(running, piece_start, work_start, now,
+                                              done=False)
+                            if now > work_start:
+                                running.rem -= now_lag - work_lag
+                        running.preemptions += 1
+                        heappush(ready, (running.key, running.tie, running))
+                    running = cand
+                    piece_start = work_start = now
+                    work_lag = now_lag
+                    if running is not last:
+                        self._switches += 1
+                        last = running
+                        work_start = now + ovh
+                    if running.rem is not None:
+                        x = running.rem + work_lag
+                        run_end = work_start + x
+                        y = run_end - work_start
+                        run_lag = (work_start - (run_end - y)) + (x - y)
+                if (running is not None and running.rem is None
+                        and running._st.res[running.seg_index] is not None):
+                    self._lock(running)
             while has_abort and ready and ready[0][2].aborted:
                 heappop(ready)
-            if ready and (running is None or (ready[0][0] < running.key if by_key
-                                              else preempts(ready[0][0], running))):
+            if not res and ready and (running is None or (
+                    ready[0][0] < running.key if by_key else preempts(ready[0][0], running))):
                 if running is not None:
                     if running.rem is not None:
                         self._close_piece(running, piece_start, work_start, now, done=False)
@@ -844,6 +1007,10 @@ class CPU:
             seg = st.segs[i]
             self._trace_rows.append((job.name, job.index, seg.name, seg.kind, False,
                                      job.seg_start, now))
+        if self._res_on:
+            self._unlock(job)
+            if job in self._blocked:
+                self._unblock(job, now)
         job.aborted = True
         st.stats.aborted += 1
         st.stats.misses += 1
@@ -883,6 +1050,8 @@ class CPU:
             window=window,
             jitter=self.jitter,
             scheduler=self.policy.name or type(self.policy).__name__,
+            resources=self.protocol,
+            blocking=dict(self.blocking) if self.protocol is not None else None,
             jobs=self._job_rows.frame()
             if self.record_jobs and self.job_sink is None else None,
             trace=trace_frame(self._trace_rows)

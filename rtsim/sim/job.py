@@ -37,7 +37,9 @@ class Job:
 
     __slots__ = ("_st", "task", "name", "priority", "index", "release", "deadline", "period",
                  "seq", "seg_index", "rem", "seg_start", "seg_exec", "start", "finish",
-                 "preemptions", "aborted", "executed", "arrival", "held", "key", "tie")
+                 "preemptions", "aborted", "executed", "arrival", "held", "key", "tie",
+                 "blocked")  # blocked: set only by a CPU with critical sections
+    blocked: float  # time spent blocked (ms); unset until the job first is (critical sections)
 
     def __init__(self, st: _TaskState, index: int, release: float, deadline: float,
                  period: float, seq: int, arrival: float | None = None) -> None:
@@ -86,7 +88,7 @@ class _TaskState:
                  "stats", "rng", "exec_fns", "const_exec", "start_hooks", "end_hooks",
                  "release_hooks", "job_end_hooks", "policy", "simple", "fast_release", "fast_start",
                  "fast_top", "seg_const", "plain_next", "jitter", "jrng", "order", "stream_t",
-                 "stream_k", "stream_p")
+                 "stream_k", "stream_p", "res")
 
     def __init__(self, task: Task, provider: PeriodProvider | None, is_window: bool) -> None:
         self.task = task
@@ -127,6 +129,7 @@ class _TaskState:
         self.stream_t = 0.0
         self.stream_k = 0
         self.stream_p = math.nan
+        self.res: list[str | None] = []  # the resource segment i holds (critical sections)
 
 
 def _unset_order(job: Job) -> tuple[Any, Any]:

@@ -86,6 +86,10 @@ class SchedulingPolicy:
     #: the window lower bounds (``[adjust] lower_bound``) that hold under this policy, the
     #: first its default (not inherited)
     lower_bounds: ClassVar[tuple[str, ...]] = ()
+    #: how preemption levels of critical sections' protocols are ordered (docs/resources.md):
+    #: ``"priority"`` (a smaller priority number is a higher level) or ``"deadline"`` (a
+    #: shorter relative deadline is a higher level, as SRP under EDF)
+    resource_levels: ClassVar[str] = "priority"
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -123,6 +127,7 @@ class EarliestDeadlineFirst(SchedulingPolicy):
     """Preemptive EDF: key = absolute deadline, tie = job creation order (module doc)."""
 
     name = "edf"
+    resource_levels = "deadline"
     analysis = staticmethod(analyze_edf)
     lower_bounds = ("w_edf",)
 

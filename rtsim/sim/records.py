@@ -155,6 +155,8 @@ class SimResult(ResultDisplay):
     trace: pd.DataFrame | None = None
     jitter: str = "random"
     scheduler: str = "fp"
+    resources: str | None = None
+    blocking: dict[str, float] | None = None
 
     @property
     def misses(self) -> int:
@@ -194,6 +196,10 @@ class SimResult(ResultDisplay):
         if self.window is not None:
             out["window"] = {k: _finite_or_none(v) for k, v in self.window.items()}
         out["tasks"] = [s.as_dict() for s in self.tasks.values()]
+        if self.resources is not None:  # critical sections: the protocol, blocking per task
+            out["resources"] = self.resources
+            for t in out["tasks"]:
+                t["max_blocking"] = (self.blocking or {}).get(t["name"], 0.0)
         return out
 
 

@@ -30,6 +30,7 @@ from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU, JitterMode
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.policy import PolicySpec
+from rtsim.sim.progress import Progress
 from rtsim.sim.records import SimResult
 
 __all__ = ["simulate", "build_cpu", "resolve_window", "WindowArg"]
@@ -96,11 +97,12 @@ def build_cpu(
 
     Returns the CPU and the window description (None for a set without a window).
     ``cpu_kwargs`` go to :class:`CPU` (suspension, exec_model, seed, overhead, record_jobs,
-    record_trace, hist_bin, jitter, job_sink, trace_sink, scheduler; the scheduler defaults
-    to the set's).
+    record_trace, hist_bin, jitter, job_sink, trace_sink, scheduler, resources; the
+    scheduler and the resource protocol default to the set's).
     """
     ts = _as_taskset(ts)
     cpu_kwargs.setdefault("scheduler", ts.scheduler)
+    cpu_kwargs.setdefault("resources", ts.resources)
     cpu = CPU(env, **cpu_kwargs)
     info: dict[str, Any] | None = None
     if ts.window is not None:
@@ -134,6 +136,7 @@ def simulate(
     job_sink: Callable[[Any], None] | Any = None,
     scheduler: PolicySpec | None = None,
     force: bool = False,
+    progress: Progress | None = None,
     trace_sink: Any = None,
 ) -> SimResult:
     """Simulate ``ts`` for jobs released in [0, horizon) ms until they complete or abort.
@@ -150,7 +153,8 @@ def simulate(
     (``[scheduler] policy``; ``fp`` for a list of tasks).
     The work limits of the command line apply (:mod:`rtsim.io.work`: at most 5e7 jobs, and
     1e6 jobs waiting at once on an overloaded CPU); ``force=True`` is ``--force``. A seed
-    outside [0, 2**63) is refused as ``--seed`` is.
+    outside [0, 2**63) is refused as ``--seed`` is. ``progress(share, t_ms)`` is called at
+    every percent of the horizon (:mod:`rtsim.sim.progress`; the results do not change).
     """
     ts = _as_taskset(ts)
     if overhead is None:
@@ -175,5 +179,11 @@ def simulate(
                           hist_bin=hist_bin, jitter=jitter, job_sink=job_sink,
                           scheduler=scheduler, trace_sink=trace_sink)
     proc = cpu.start(horizon)
+    if progress is not None and is_real(horizon) and 0 < horizon < math.inf:
+        from rtsim.sim.progress import TICKS, start_ticker
+
+        start_ticker(cpu.env, horizon / TICKS, lambda now: now / horizon, progress)
     cpu.env.run(until=proc)
+    if progress is not None:
+        progress(1.0, float(cpu.env.now))
     return cpu.result(window=info)

@@ -47,7 +47,6 @@ Any problem is a :class:`~rtsim.errors.SweepError` naming the file and the key.
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import json
 import math
@@ -58,9 +57,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from rtsim._suggest import did_you_mean
+from rtsim.config.dotted import resolve, shortcuts
 from rtsim.errors import InputError, SweepError
 from rtsim.io.ranges import parse_values
-from rtsim.overrides import resolve_path
 from rtsim.sweep.kinds import KINDS, canonical_json
 
 __all__ = ["BaseFile", "SweepSpec", "load_sweep", "parse_sweep", "canonical_json", "Scalar"]
@@ -73,11 +73,6 @@ _SWEEP_KEYS = (
     "description",
 )
 _COMBINE = ("product", "zip")
-
-
-def _did_you_mean(word: str, choices: list[str] | tuple[str, ...], cutoff: float = 0.6) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=cutoff)
-    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 @dataclass(frozen=True)
@@ -134,6 +129,7 @@ class SweepSpec:
     function: str | None = None
     name: str = ""
     fixed: tuple[tuple[str, Any], ...] = ()
+    set_args: tuple[str, ...] = ()  # the command line's --set KEY=VALUE, as given
     #: the sweep's reader allowed code named in its files (not part of the fingerprint)
     allow_code: bool = field(default=False, compare=False)
 
@@ -151,6 +147,7 @@ class SweepSpec:
             "targets": {k: list(v) for k, v in self.targets.items()},
             "options": dict(self.options),
             "set": {k: v for k, v in self.fixed},
+            **({"set_args": list(self.set_args)} if self.set_args else {}),
             "metrics": None if self.metrics is None else list(self.metrics),
         }
 
@@ -222,7 +219,14 @@ def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
         return ("option", name)
     assert base is not None and data is not None
     bname = Path(base.path).name if base.path else base.source
-    return resolve_path(src, name, data, bname, table, kind, spec.options)
+    path = resolve(data, name, f"{src}: {table}.{name}", bname, SweepError)
+    if path is not None:
+        return ("path", *path)
+    choices = list(spec.options) + ["seed"] + shortcuts(data)
+    raise SweepError(
+        f"{src}: {table}.{name}: unknown parameter (not an option of kind '{kind}', nor a key of "
+        f"{bname}){did_you_mean(name, choices)}"
+    )
 
 
 # -- the file --------------------------------------------------------------------------
@@ -230,7 +234,7 @@ def _check_keys(src: str, table: str, got: Mapping[str, Any], allowed: tuple[str
     for key in got:
         if key not in allowed:
             where = f"{table}.{key}" if table else key
-            raise SweepError(f"{src}: unknown key '{where}'{_did_you_mean(key, allowed)}")
+            raise SweepError(f"{src}: unknown key '{where}'{did_you_mean(key, allowed)}")
 
 
 def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None:
@@ -313,8 +317,11 @@ def _check_option(src: str, where: str, name: str, value: Any) -> None:
 
 
 def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = ".",
-                text: str = "", *, allow_code: bool | None = None) -> SweepSpec:
-    """Validate a parsed sweep file; ``base_dir`` is where a relative ``base`` is found.
+                text: str = "", set_: tuple[str, ...] = (), *,
+                allow_code: bool | None = None) -> SweepSpec:
+    """Validate a parsed sweep file; ``base_dir`` is where a relative ``base`` is found;
+    ``set_``: ``KEY=VALUE`` changes of the base file at every point (the command line's
+    ``--set``, applied over ``[sweep.set]``).
 
     ``allow_code``: the file (its ``function``, a ``mode`` or ``scheduler``, its base file) may
     name Python code as ``package.module:Name`` (:mod:`rtsim.registry`); default: only when
@@ -323,12 +330,12 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
 
     allow = file_allows_code(allow_code)
     with reading_input(allow):
-        spec = _parse_sweep(data, source, Path(base_dir), text)
+        spec = _parse_sweep(data, source, Path(base_dir), text, tuple(set_))
     return replace(spec, allow_code=allow) if allow else spec
 
 
-def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
-                 ) -> SweepSpec:
+def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str,
+                 set_: tuple[str, ...]) -> SweepSpec:
     src = source
     _check_keys(src, "", data, _TOP_KEYS)
     sw = data.get("sweep")
@@ -340,14 +347,14 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
         raise SweepError(f"{src}: sweep.kind: missing (one of {', '.join(KINDS)})")
     if not KINDS.contains(kind):
         raise SweepError(f"{src}: sweep.kind: unknown kind {kind!r} (one of "
-                         f"{', '.join(KINDS)}){_did_you_mean(str(kind), tuple(KINDS))}")
+                         f"{', '.join(KINDS)}){did_you_mean(str(kind), tuple(KINDS))}")
     seed = sw.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
         raise SweepError(f"{src}: sweep.seed: expected a non-negative integer, got {seed!r}")
     combine = sw.get("combine", "product")
     if combine not in _COMBINE:
         raise SweepError(f"{src}: sweep.combine: expected 'product' or 'zip', got {combine!r}"
-                         f"{_did_you_mean(str(combine), _COMBINE)}")
+                         f"{did_you_mean(str(combine), _COMBINE)}")
     function = sw.get("function")
     if kind == "call":
         if not isinstance(function, str) or function.count(":") != 1:
@@ -380,7 +387,7 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
                     raise SweepError(
                         f"{src}: sweep.metrics: unknown metric {m!r} for kind '{kind}' "
                         f"(known: {', '.join(kspec.metrics)})"
-                        f"{_did_you_mean(m, kspec.metrics)}")
+                        f"{did_you_mean(m, kspec.metrics)}")
         metrics = tuple(metrics)
     name = sw.get("name", "")
     if not isinstance(name, str):
@@ -402,8 +409,15 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
     fixed_raw = sw.get("set", {})
     if not isinstance(fixed_raw, dict):
         raise SweepError(f"{src}: sweep.set: expected a table")
+    targets = {str(k): _resolve(src, str(k), kind, base, bdata, "sweep.set") for k in fixed_raw}
+    fixed_raw = dict(fixed_raw)
+    if set_:  # --set KEY=VALUE: as [sweep.set], over it
+        from rtsim.config.dotted import parse_assignment
+
+        for key, value in (parse_assignment(t, SweepError) for t in set_):
+            targets[key] = _resolve(src, key, kind, base, bdata, "--set")
+            fixed_raw[key] = value
     fixed = tuple((str(k), v) for k, v in fixed_raw.items())
-    targets = {k: _resolve(src, k, kind, base, bdata, "sweep.set") for k, _ in fixed}
     both = [k for k, _ in grid if k in targets]
     if both:
         raise SweepError(f"{src}: grid.{both[0]}: also given in sweep.set")
@@ -430,12 +444,16 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
     return SweepSpec(
         source=src, text=text, kind=kind, base=base, seed=seed, combine=combine, grid=grid,
         targets=targets, options=dict(options), metrics=metrics, function=function, name=name,
-        fixed=fixed,
+        fixed=fixed, set_args=tuple(set_),
     )
 
 
-def load_sweep(path: str | Path, *, allow_code: bool | None = None) -> SweepSpec:
-    """Read and validate a sweep file (``allow_code``: as :func:`parse_sweep`)."""
+def load_sweep(path: str | Path, set_: list[str] | tuple[str, ...] = (), *,
+               allow_code: bool | None = None) -> SweepSpec:
+    """Read and validate a sweep file; ``set_``: ``KEY=VALUE`` changes of the base file at
+    every point (the command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``:
+    as :func:`parse_sweep`."""
+    set_ = tuple(set_)
     p = Path(path)
     from rtsim.examples import packaged_text
 
@@ -445,7 +463,7 @@ def load_sweep(path: str | Path, *, allow_code: bool | None = None) -> SweepSpec
             data = tomllib.loads(shipped)
         except tomllib.TOMLDecodeError as exc:  # pragma: no cover - shipped files are valid
             raise SweepError(f"{p}: not valid TOML: {exc}") from None
-        return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped,
+        return parse_sweep(data, f"{p}.toml (packaged)", Path.cwd(), shipped, set_,
                            allow_code=allow_code)
     from rtsim.io.limits import read_input
 
@@ -455,7 +473,8 @@ def load_sweep(path: str | Path, *, allow_code: bool | None = None) -> SweepSpec
         raise SweepError(f"{p}: cannot read sweep file: {exc}") from None
     try:
         data = tomllib.loads(text)
-        return parse_sweep(data, str(p), p.resolve().parent, text, allow_code=allow_code)
+        return parse_sweep(data, str(p), p.resolve().parent, text, set_,
+                           allow_code=allow_code)
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{p}: not valid TOML: {exc}") from None
     except RecursionError:

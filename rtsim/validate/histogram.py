@@ -40,6 +40,9 @@ from rtsim.analysis.validation import TaskBounds, task_bounds
 from rtsim.errors import InputError
 from rtsim.model.taskset import TaskSet
 
+#: Resolution (dots per inch) of the PNG histograms.
+DPI = 100
+
 __all__ = ["JobSource", "from_simulation", "from_scenario_dir", "from_sweep_point",
            "histogram_table", "write_histograms", "HISTOGRAM_COLUMNS"]
 
@@ -227,14 +230,14 @@ def _safe(name: str) -> str:
 
 def write_histograms(source: JobSource, out_dir: str | os.PathLike[str], *, bins: int = 50,
                      suffix: str = "", title: str = "", argv: Sequence[str] | None = None,
-                     manifest: bool = True) -> list[Path]:
-    """Write the PNGs, ``histogram<suffix>.csv``, ``bounds<suffix>.csv`` (and manifest.json)
-    into ``out_dir``; return the paths written (module doc)."""
-    import matplotlib.pyplot as plt
-
-    from rtsim.io.atomic import write_bytes, write_table
+                     manifest: bool = True, fmt: str = "png", dpi: int = DPI) -> list[Path]:
+    """Write the figures (``fmt``: png, svg or pdf; ``dpi`` for PNG), ``histogram<suffix>.csv``,
+    ``bounds<suffix>.csv`` (and manifest.json) into ``out_dir``; return the paths written
+    (module doc)."""
+    from rtsim.io.atomic import write_table
     from rtsim.io.manifest import write_manifest
     from rtsim.plots.histogram import response_histogram
+    from rtsim.plots.scenario import save_figure
 
     if bins < 1:
         raise InputError(f"--bins must be at least 1, got {bins}")
@@ -256,14 +259,8 @@ def write_histograms(source: JobSource, out_dir: str | os.PathLike[str], *, bins
         if b is not None and b.w is not None and b.per_window | b.is_window:
             name += f" (bounds at w = {b.w:.6g} ms)"
         fig = response_histogram(vals, lines=lines, bins=list(edges), title=name)
-        path = out / f"histogram{suffix}-{_safe(task)}.png"
-        import io
-
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=100)
-        plt.close(fig)
-        write_bytes(path, buf.getvalue())
-        written.append(path)
+        written.append(save_figure(fig, out / f"histogram{suffix}-{_safe(task)}.{fmt}",
+                                   dpi=dpi, fmt=fmt))
     csv = out / f"histogram{suffix}.csv"
     write_table(csv, table)
     bcsv = out / f"bounds{suffix}.csv"

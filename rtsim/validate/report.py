@@ -155,16 +155,20 @@ def write_report(outcome: ValidationOutcome, config: ValidationConfig,
         lines += ["Sweep points that failed to run:", ""]
         lines += [f"- {e}" for e in outcome.point_errors] + [""]
     figs = out / "figures"
+    from rtsim.plots.scenario import FIGURE_FORMATS
+
     lines += ["## Figures", ""]
     for name, caption in (("bounds_vs_n", "w_sch, w_rta and w_sim against n, per r_H"),
                           ("pessimism_wsch", "pessimism w_sch / w_sim over (n, r_H)"),
                           ("pessimism_wrta", "w_rta / w_sim over (n, r_H)"),
                           ("scheduler_bounds", "the paper set's w_sch, w_rta (fixed "
                            "priority) and w_edf (EDF) against n, per r_H")):
-        if (figs / f"{name}.png").exists():
-            lines += [f"![{caption}](figures/{name}.png)", "",
-                      f"*{caption}* (data: `figures/{name}.csv`)", ""]
-    hist = sorted((out / "histograms").glob("*/histogram-*.png")) \
+        for fmt in FIGURE_FORMATS:
+            if (figs / f"{name}.{fmt}").exists():
+                lines += [f"![{caption}](figures/{name}.{fmt})", "",
+                          f"*{caption}* (data: `figures/{name}.csv`)", ""]
+    hist = sorted(p for p in (out / "histograms").glob("*/histogram-*.*")
+                  if p.suffix.lstrip(".") in FIGURE_FORMATS) \
         if (out / "histograms").exists() else []
     if hist:
         lines += ["### Response-time histograms at w = w_sch", "",

@@ -37,6 +37,9 @@ import pandas as pd
 from rtsim.analysis.validation import SEARCH_TOL, Failure, check_results, summarize
 from rtsim.notebook import ResultDisplay, flatten
 
+#: Resolution (dots per inch) of the PNG figures.
+DPI = 100
+
 __all__ = ["ValidationConfig", "QUICK", "FULL", "DEFAULT_SCENARIO", "ValidationOutcome",
            "run_validation", "paper_sweep_spec", "random_sweep_spec", "scheduler_table"]
 
@@ -184,7 +187,8 @@ def _histogram_configs(table: pd.DataFrame, k: int) -> list[tuple[int, float, in
     return out
 
 
-def _histograms(cfg: ValidationConfig, table: pd.DataFrame, out: Path) -> list[Path]:
+def _histograms(cfg: ValidationConfig, table: pd.DataFrame, out: Path, fmt: str = "png",
+                dpi: int = DPI) -> list[Path]:
     """Re-run the chosen configurations at w_sch (same seeds) and draw their histograms."""
     from rtsim.analysis.bounds import w_sch_of
     from rtsim.analysis.validation import task_bounds
@@ -209,7 +213,7 @@ def _histograms(cfg: ValidationConfig, table: pd.DataFrame, out: Path) -> list[P
                                                "windows": cfg.windows})
             written += write_histograms(src, d, suffix=f"-{mode}",
                                         title=f"n={n}, r_H={r_H:g} cm, w=w_sch, {mode}",
-                                        manifest=False)
+                                        manifest=False, fmt=fmt, dpi=dpi)
         from rtsim.io.manifest import write_manifest
 
         write_manifest(d, command="validate histograms", seed=seed,
@@ -238,13 +242,10 @@ def scheduler_table(cfg: ValidationConfig, n: Sequence[int] = tuple(range(1, 11)
     return pd.DataFrame(rows)
 
 
-def _figures(table: pd.DataFrame, out: Path,
-             sched: pd.DataFrame | None = None) -> list[Path]:
-    import io
-
-    import matplotlib.pyplot as plt
-
-    from rtsim.io.atomic import write_bytes, write_table
+def _figures(table: pd.DataFrame, out: Path, sched: pd.DataFrame | None = None,
+             fmt: str = "png", dpi: int = DPI) -> list[Path]:
+    from rtsim.io.atomic import write_table
+    from rtsim.plots.scenario import save_figure
     from rtsim.plots.validation import (
         bounds_vs_n,
         bounds_vs_n_data,
@@ -262,20 +263,14 @@ def _figures(table: pd.DataFrame, out: Path,
                 ("pessimism_wrta", pessimism_heatmap(table, "w_rta_over_w_sim"),
                  pessimism_data(table, "w_rta_over_w_sim"))]
         for name, fig, data in jobs:
-            buf = io.BytesIO()
-            fig.savefig(buf, format="png", dpi=100)
-            plt.close(fig)
-            write_bytes(figs / f"{name}.png", buf.getvalue())
+            written.append(save_figure(fig, figs / f"{name}.{fmt}", dpi=dpi, fmt=fmt))
             write_table(figs / f"{name}.csv", data)
-            written += [figs / f"{name}.png", figs / f"{name}.csv"]
+            written.append(figs / f"{name}.csv")
     if sched is not None:
-        buf = io.BytesIO()
-        fig = scheduler_bounds(sched)
-        fig.savefig(buf, format="png", dpi=100)
-        plt.close(fig)
-        write_bytes(figs / "scheduler_bounds.png", buf.getvalue())
+        written.append(save_figure(scheduler_bounds(sched), figs / f"scheduler_bounds.{fmt}",
+                                   dpi=dpi, fmt=fmt))
         write_table(figs / "scheduler_bounds.csv", sched)
-        written += [figs / "scheduler_bounds.png", figs / "scheduler_bounds.csv"]
+        written.append(figs / "scheduler_bounds.csv")
     return written
 
 
@@ -286,9 +281,10 @@ MADE = {"sweeps", "validation.csv", "results.parquet", "failures.csv", "summary.
 
 def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = FULL, *,
                    workers: int | None = None, dask: Any = None, progress: bool | None = False,
-                   restart: bool = False, argv: Sequence[str] | None = None
-                   ) -> ValidationOutcome:
+                   restart: bool = False, argv: Sequence[str] | None = None,
+                   fig_format: str = "png", dpi: int = DPI) -> ValidationOutcome:
     """Run (or resume) both sweeps into ``out_dir`` and write the report (module doc).
+    ``fig_format``: the figures' file format (png, svg or pdf; ``dpi`` for PNG).
 
     ``out_dir`` is locked while it runs (:mod:`rtsim.io.lock`): a second validation into it
     is refused, naming the holder. A directory holding anything validate does not make
@@ -302,12 +298,13 @@ def run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig = F
     with lock_directory(out_dir, argv):
         check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"})
         return _run_validation(out_dir, config, workers=workers, dask=dask, progress=progress,
-                               restart=restart, argv=argv)
+                               restart=restart, argv=argv, fig_format=fig_format, dpi=dpi)
 
 
 def _run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig, *,
                     workers: int | None, dask: Any, progress: bool | None, restart: bool,
-                    argv: Sequence[str] | None) -> ValidationOutcome:
+                    argv: Sequence[str] | None, fig_format: str = "png",
+                    dpi: int = DPI) -> ValidationOutcome:
     from rtsim.io.atomic import write_json, write_table
     from rtsim.io.manifest import write_manifest
     from rtsim.report import REPORT_NAME, write_run_report
@@ -348,8 +345,8 @@ def _run_validation(out_dir: str | os.PathLike[str], config: ValidationConfig, *
     files += [out / "validation.csv", out / "results.parquet", out / "failures.csv",
               out / "summary.json"]
     sched = scheduler_table(config)
-    files += _figures(table, out, sched)
-    files += _histograms(config, table, out)
+    files += _figures(table, out, sched, fig_format, dpi)
+    files += _histograms(config, table, out, fig_format, dpi)
     outcome = ValidationOutcome(table, failures, summary, errors, out, files)
     files.append(write_report(outcome, config, sched))
     html_path = out / REPORT_NAME

@@ -1,0 +1,168 @@
+"""Blocking on shared resources: preemption levels, resource ceilings and blocking terms.
+
+A task's critical sections (:class:`~rtsim.model.task.CriticalSection`) hold a shared
+resource exclusively; the resource protocol decides how a job waits for one
+(docs/resources.md). All three protocols rtsim knows are *ceiling* protocols in the stack
+form, which the simulator runs (:mod:`rtsim.sim.cpu`) and this module bounds:
+
+- every task has a **preemption level** π: under fixed priorities its priority (a smaller
+  number is a higher level), under EDF its relative deadline (a shorter deadline is a higher
+  level; Baker 1991);
+- every resource has a **ceiling**: the highest level of the tasks that use it (``pcp``,
+  ``srp``), or above every task (``npr``: a section is not preemptible);
+- the **system ceiling** Π is the highest ceiling of the resources locked now; a job may
+  start running (or take the CPU back) only if its level is above Π, unless it holds a
+  resource itself.
+
+``pcp`` is the *immediate* priority ceiling protocol (ICPP, "highest locker", Sha, Rajkumar &
+Lehoczky 1990 / Baker 1991): a job that locks a resource runs at once at its ceiling, so
+a higher-priority job of level up to the ceiling waits before it starts instead of starting
+and blocking at its own lock (the original protocol). Both give a job at most one blocking,
+by one section, so the bounds below are the same for both; under fixed priorities ``srp``
+runs the same schedule as ``pcp``.
+
+**Fixed priority** (Sha, Rajkumar & Lehoczky 1990; Buttazzo, *Hard Real-Time Computing
+Systems*, 3rd ed., §7.7–7.9): task i is blocked at most once per level-i busy period, by one
+section of a lower-priority task j
+
+    B_i = max { |z| : z a section of j, P_j < P_i, ceiling(R(z)) ≥ P_i }       (pcp, srp)
+    B_i = max { |z| : z a section of j, P_j < P_i }                            (npr)
+
+and its response time is the least fixed point of R = B_i + C_i + Σ_hp ⌈(R + J_j)/T_j⌉ C_j
+(:func:`rtsim.analysis.rta.busy_window`). With suspensions that leave the CPU idle, a lower
+job can lock a resource each time a job of i suspends, so each compute stretch of i can be
+blocked once (Rajkumar 1991): B_i is charged once per compute stretch of every job.
+
+**EDF with SRP** (Baker 1991, Theorem 6.4 in the demand form of Baruah 2006, "Resource
+sharing in EDF-scheduled systems: a closer look", RTSS): the set is schedulable if for every
+deadline point t, h(t) + B(t) ≤ t, with
+
+    B(t) = max { |z| : z a section of j, D_j > t, ceiling(R(z)) ≥ π_k for some k with
+                 D_k − J_k ≤ t }
+
+(``npr``: any section of a task with D_j > t). A job that blocks a job due by t is released
+before the interval [0, t] and due after it, so D_j > t; the waiting job's level must not be
+above the ceiling. B is non-increasing in t and 0 beyond the largest deadline of a task with
+a section.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+from rtsim.errors import TaskSetError
+from rtsim.model.task import RESOURCE_PROTOCOLS, Task
+
+__all__ = [
+    "sections",
+    "uses",
+    "levels",
+    "ceilings",
+    "fp_blocking",
+    "edf_blocking",
+    "check_protocol",
+    "LEVEL_BY",
+]
+
+#: How a policy orders preemption levels: ``fp`` by priority, ``edf`` by relative deadline.
+LEVEL_BY = {"edf": "deadline"}
+
+
+def sections(task: Task) -> list[tuple[str, float]]:
+    """(resource, length) of every critical section of one job of ``task``."""
+    return [(s.resource, s.wcet) for s in task.chain() if s.resource is not None]
+
+
+def uses(tasks: Sequence[Task]) -> dict[str, list[int]]:
+    """resource → the indices of the tasks that use it."""
+    out: dict[str, list[int]] = {}
+    for i, t in enumerate(tasks):
+        for r in sorted(t.resources):
+            out.setdefault(r, []).append(i)
+    return out
+
+
+def levels(tasks: Sequence[Task], by: str = "priority") -> list[float]:
+    """Preemption levels (larger = higher): −priority, or −relative deadline (``deadline``)."""
+    if by == "deadline":
+        out = []
+        for t in tasks:
+            if t.per_window:
+                raise TaskSetError(
+                    f"task '{t.name}': period is a multiple of w; resolve it "
+                    f"with at_window(w) first"
+                )
+            assert t.deadline is not None
+            out.append(-float(t.deadline))
+        return out
+    return [-float(t.priority) for t in tasks]
+
+
+def ceilings(tasks: Sequence[Task], protocol: str, by: str = "priority") -> dict[str, float]:
+    """resource → its ceiling: the highest level of its users (``npr``: +inf)."""
+    lv = levels(tasks, by)
+    return {
+        r: math.inf if protocol == "npr" else max(lv[i] for i in users)
+        for r, users in uses(tasks).items()
+    }
+
+
+def check_protocol(protocol: str, scheduler: str, where: str = "resources") -> None:
+    """Refuse an unknown protocol, and ``pcp`` under EDF (it needs fixed priorities)."""
+    if protocol not in RESOURCE_PROTOCOLS:
+        raise TaskSetError(
+            f"{where}: must be one of {', '.join(RESOURCE_PROTOCOLS)}, got {protocol!r}"
+        )
+    if protocol == "pcp" and LEVEL_BY.get(scheduler) == "deadline":
+        raise TaskSetError(
+            f"{where}: pcp needs fixed priorities; under {scheduler} use srp "
+            f"(the stack resource policy) or npr"
+        )
+
+
+def fp_blocking(tasks: Sequence[Task], protocol: str | None) -> list[float]:
+    """B_i of every task under fixed priorities (module doc): the longest section of a
+    lower-priority task that can block i once. 0 for every task when ``protocol`` is None."""
+    n = len(tasks)
+    if protocol is None:
+        return [0.0] * n
+    ceil = ceilings(tasks, protocol)
+    secs = [sections(t) for t in tasks]
+    out = []
+    for ti in tasks:
+        li = -float(ti.priority)
+        b = 0.0
+        for j, tj in enumerate(tasks):
+            if tj.priority <= ti.priority:
+                continue
+            for r, length in secs[j]:
+                if ceil[r] >= li:
+                    b = max(b, length)
+        out.append(b)
+    return out
+
+
+def edf_blocking(tasks: Sequence[Task], protocol: str | None) -> Callable[[float], float]:
+    """B(t) under EDF (module doc); the zero function when ``protocol`` is None."""
+    if protocol is None or not any(t.resources for t in tasks):
+        return lambda t: 0.0
+    by_r = uses(tasks)
+    dl = [float(t.deadline) for t in tasks]  # type: ignore[arg-type]
+    min_user_d = {r: min(dl[i] for i in users) for r, users in by_r.items()}
+    secs = [(dl[j], r, length) for j, t in enumerate(tasks) for r, length in sections(t)]
+    due = sorted((d - t.jitter, d) for d, t in zip(dl, tasks, strict=True))
+    tol = 1e-9
+
+    def blocking(t: float) -> float:
+        # the largest relative deadline among tasks with a job due by t (D_k − J_k ≤ t)
+        reach = max((d for dj, d in due if dj <= t + tol), default=-math.inf)
+        if reach == -math.inf:
+            return 0.0
+        b = 0.0
+        for d_j, r, length in secs:
+            if d_j > t and (protocol == "npr" or min_user_d[r] <= reach + tol):
+                b = max(b, length)
+        return b
+
+    return blocking

@@ -1,0 +1,121 @@
+"""Options every sub-command shares, added one way: ``-q/--quiet``, ``--json``, ``--out``,
+``--format``/``--dpi``; and the progress bar.
+
+The conventions they keep (tests/test_cli_conventions.py checks them per command):
+
+- results go to standard output (a table, a summary line, the files written, or one JSON
+  object with ``--json``), diagnostics to standard error (progress, notes, errors);
+- ``-q`` prints nothing but errors — no progress, no notes, no text summary — except what
+  ``--json`` asks for;
+- every command that writes files takes ``--out``; every command that prints a result
+  takes ``--json``; every command that draws takes ``--format`` and ``--dpi``.
+
+Progress bars (``tqdm.auto``) go to standard error when it is a terminal, never with ``-q``;
+``RTSIM_PROGRESS=1`` forces them on (``0``: off) whatever standard error is.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from typing import Any
+
+__all__ = [
+    "FIGURE_FORMATS",
+    "ANIMATION_FORMATS",
+    "add_quiet",
+    "add_json",
+    "add_figure_options",
+    "figure_format",
+    "progress_enabled",
+    "simulation_bar",
+    "note",
+]
+
+#: Formats of the commands that draw figures (raster PNG, or vector SVG and PDF for papers).
+FIGURE_FORMATS: tuple[str, ...] = ("png", "svg", "pdf")
+#: Formats of ``rtsim animate``.
+ANIMATION_FORMATS: tuple[str, ...] = ("gif", "mp4", "html")
+
+
+def add_quiet(p: Any, what: str = "no progress bar, no notes on stderr") -> None:
+    """``-q/--quiet``."""
+    p.add_argument("--quiet", "-q", action="store_true", help=what)
+
+
+def add_json(p: Any, what: str = "print the result as one JSON object") -> None:
+    """``--json``: the result on standard output as one JSON object instead of text."""
+    p.add_argument("--json", action="store_true", help=what)
+
+
+def add_figure_options(
+    p: Any,
+    *,
+    default_dpi: int,
+    formats: tuple[str, ...] = FIGURE_FORMATS,
+    what: str = "figures",
+    default: str | None = None,
+) -> None:
+    """``--format`` (dest ``fig_format``; default: a named file's suffix, else the first of
+    ``formats``; ``default`` says so in the help) and ``--dpi`` (raster resolution)."""
+    vector = [f for f in formats if f in ("svg", "pdf")]
+    tail = f"; {' and '.join(vector)} are vector" if vector else ""
+    p.add_argument(
+        "--format",
+        dest="fig_format",
+        choices=formats,
+        default=None,
+        help=f"file format of the {what}: {', '.join(formats)} (default "
+        f"{default or formats[0]}{tail})",
+    )
+    p.add_argument(
+        "--dpi",
+        type=int,
+        default=None,
+        help=f"resolution of raster {what} in dots per inch (default {default_dpi})",
+    )
+
+
+def figure_format(
+    args: Any,
+    path: str | os.PathLike[str] | None = None,
+    option: str = "--out",
+    formats: tuple[str, ...] = FIGURE_FORMATS,
+) -> str:
+    """The format to write: ``--format``, else the suffix of ``path`` (a file the user
+    named) when it is one of ``formats``, else the first of ``formats``. A ``--format``
+    that contradicts the named file's suffix is an input error."""
+    from pathlib import Path
+
+    from rtsim.errors import InputError
+
+    given = getattr(args, "fig_format", None)
+    suffix = Path(path).suffix.lstrip(".").lower() if path is not None else ""
+    if given is not None:
+        if suffix in formats and suffix != given:
+            raise InputError(
+                f"{option} {path}: ends in .{suffix} but --format is {given}; "
+                f"give one of them, or a file ending in .{given}"
+            )
+        return str(given)
+    return suffix if suffix in formats else formats[0]
+
+
+def progress_enabled(args: Any) -> bool:
+    """Whether to show progress bars (:func:`rtsim.sim.progress.progress_enabled`)."""
+    from rtsim.sim.progress import progress_enabled as enabled
+
+    return enabled(args)
+
+
+def simulation_bar(args: Any, desc: str) -> Any:
+    """The progress bar of one simulation run (:class:`rtsim.sim.progress.SimulationBar`)."""
+    from rtsim.sim.progress import SimulationBar
+
+    return SimulationBar(args, desc)
+
+
+def note(args: Any, text: str) -> None:
+    """A diagnostic line on standard error (``rtsim: <text>``), unless ``-q``."""
+    if not getattr(args, "quiet", False):
+        print(f"rtsim: {text}", file=sys.stderr)

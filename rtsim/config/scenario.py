@@ -1,0 +1,693 @@
+"""Scenario files: the typed model of the file, and the runtime objects built from it once
+it is valid (:class:`~rtsim.world.config.WorldConfig`, the task set, :class:`AdjustConfig`),
+each built once.
+
+Angles are radians, or degrees when the key is written with ``_deg`` (``heading_deg``):
+both spellings are fields of the model, with the same range. See :mod:`rtsim.io.scenario`
+for the file format.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from functools import partial
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Any, ClassVar, TypeVar
+
+from pydantic import ConfigDict, Field, model_validator
+
+from rtsim.analysis.bounds import LOWER_BOUNDS
+from rtsim.analysis.kinematics import (
+    LOCALIZATION_KINDS,
+    Thresholds,
+    msb_localization_predicted,
+)
+from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
+from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
+from rtsim.control.predict import PREDICTORS, RENAMED
+from rtsim.errors import InputError, ScenarioError
+from rtsim.model.taskset import TaskSet
+from rtsim.world._check import non_negative, positive
+from rtsim.world.config import (
+    CENTRES,
+    SEARCHES,
+    WORLD_BACKENDS,
+    LocalizationParams,
+    SensingParams,
+    WorldConfig,
+)
+from rtsim.world.ekf import EkfParams
+from rtsim.world.follower import FollowerParams
+from rtsim.world.formation import (
+    FOLLOWER_MODELS,
+    FORMATION_LAYOUTS,
+    Formation,
+    fan,
+    follower_model,
+    outer_side,
+)
+from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
+
+__all__ = ["AdjustConfig", "Scenario", "ScenarioFile", "load_scenario", "parse_scenario",
+           "scenario_bytes", "PACKAGED_SCENARIOS", "PACKAGED_TASKSETS"]
+
+#: Task-set names that refer to the package's own files rather than to a path.
+PACKAGED_TASKSETS = ("barrel_robots", "example")
+#: When in its window the adjustment decides: after the radio round trip, or before sending.
+DECIDE: tuple[str, ...] = ("end", "before-send")
+#: The common keys of ``[adjust]`` (the rest are the policy's own).
+_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide")
+#: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
+PACKAGED_SCENARIOS = ("test1", "test2")
+
+T = TypeVar("T")
+
+
+# ----------------------------------------------------------------- runtime objects
+@dataclass(frozen=True)
+class AdjustConfig:
+    """Limits for the adjustment algorithm (semantics in :mod:`rtsim.control`).
+
+    cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
+    predictor: the prediction model of :mod:`rtsim.control.predict` (``paper``, ``formation``
+    or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
+    names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
+    ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle) or ``w_edf``
+    (the EDF demand criterion; needs ``[scheduler] policy = "edf"``); decide: when in its
+    window the decision is taken, ``end`` (after the radio round trip) or ``before-send``.
+    """
+
+    cap: float = math.inf
+    floor: float = 0.0
+    predictor: str = "formation"
+    lower_bound: str = "w_sch"
+    policy: str = "adjust"
+    decide: str = "end"
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.lower_bound not in LOWER_BOUNDS:
+            raise ScenarioError(f"adjust.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
+                                f"got {self.lower_bound!r}")
+        if self.decide not in DECIDE:
+            raise ScenarioError(f"adjust.decide: must be one of end, before-send, got "
+                                f"{self.decide!r}")
+        from rtsim.control.predict import check_predictor
+
+        object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
+        object.__setattr__(self, "floor", non_negative("adjust.floor", self.floor))
+        from rtsim.control.policy import make_policy
+
+        try:
+            check_predictor(self.predictor, "adjust.predictor")
+            make_policy(self.policy, self.params, "adjust",
+                        _ADJUST_KEYS)
+        except InputError as exc:
+            raise ScenarioError(str(exc)) from None
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario: the world, the task set reference, duration and assumptions.
+
+    ``scheduler``: the leader CPU's scheduling policy from ``[scheduler] policy`` (None: the
+    task set's, ``fp`` unless its file says otherwise). ``task_set``: the task-set file, read
+    once when the scenario is loaded (:meth:`load_taskset` gives it the scenario's n, r_H
+    and scheduler).
+    """
+
+    name: str
+    world: WorldConfig
+    taskset: str = "barrel_robots"
+    duration: float = 0.0
+    description: str = ""
+    adjust: AdjustConfig = field(default_factory=AdjustConfig)
+    assumptions: Mapping[str, str] = field(default_factory=dict)
+    source: str | None = None
+    scheduler: str | None = None
+    task_set: TaskSet | None = field(default=None, compare=False, repr=False)
+    #: the file may name code (``module:Name``), also in its task set (the user opted in)
+    allow_code: bool = field(default=False, compare=False)
+
+    @property
+    def n(self) -> int:
+        return self.world.n
+
+    def load_taskset(self) -> TaskSet:
+        """The task set, with its window's n and r_H set to the scenario's (followers, r_H)
+        and the scenario's ``[scheduler]``; the file is read once, when the scenario is
+        loaded (``task_set``), or here for a scenario made by hand."""
+        where = self.source or "<scenario>"
+        ts = self.task_set if self.task_set is not None else _read_taskset(
+            self.taskset, where, self.allow_code)
+        return _fit(ts, self.world, self.scheduler)
+
+
+def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> TaskSet:
+    """The task-set file ``name`` (a packaged name or a path), which must have a [window]."""
+    # a packaged set by its own name ("example" is the generic set, not the paper's)
+    ts = load_taskset(None if name == "barrel_robots" else name, allow_code=allow_code)
+    if ts.window is None:
+        raise ScenarioError(f"{where}: taskset: '{name}' has no [window]")
+    return ts
+
+
+def _fit(ts: TaskSet, world: WorldConfig, scheduler: str | None) -> TaskSet:
+    """``ts`` with the scenario's follower count, r_H and scheduler (the one source of each)."""
+    assert ts.window is not None
+    if (ts.window.n, ts.window.r_H) != (world.n, world.thresholds.r_H):
+        ts = ts.with_window(n=world.n, r_H=world.thresholds.r_H)
+    if scheduler is not None and scheduler != ts.scheduler:
+        ts = replace(ts, scheduler=scheduler)
+    return ts
+
+
+# ------------------------------------------------------------------------ the model
+_CM_MAX = 1e7  # cm: 100 km
+_MS_MAX = 1e9
+_ANGLE = 20 * math.pi
+
+
+def _angle(lo: float, hi: float, why: str, deg: bool = False, lo_open: bool = False,
+           unit: str = "rad", inf: bool = False) -> Any:
+    return number(lo, hi, unit, why, deg=deg, lo_open=lo_open, inf=inf)
+
+
+class _Angles(Table):
+    """A table with angle keys that may be written in degrees (``<key>_deg``)."""
+
+    #: Angle keys that must be given (in one spelling).
+    _required_angles: ClassVar[tuple[str, ...]] = ()
+
+    @model_validator(mode="after")
+    def _one_spelling(self) -> Any:
+        for name in type(self).model_fields:
+            if name.endswith("_deg") and name[:-4] in type(self).model_fields:
+                key = name[:-4]
+                if getattr(self, key) is not None and getattr(self, name) is not None:
+                    raise problem(f"give {key} or {name}, not both")
+        for key in self._required_angles:
+            if getattr(self, key) is None and getattr(self, f"{key}_deg") is None:
+                raise problem(f"{key}: missing (required)")
+        return self
+
+    def radians(self, key: str, default: Any = None) -> Any:
+        """The angle ``key`` in radians (its ``_deg`` twin converted), or ``default``."""
+        deg = getattr(self, f"{key}_deg")
+        if deg is not None:
+            return math.radians(float(deg))
+        value = getattr(self, key)
+        return default if value is None else value
+
+    def given(self, keys: tuple[str, ...]) -> dict[str, Any]:
+        """The keys that were given (angles in radians), for a runtime constructor."""
+        out = {}
+        for key in keys:
+            if f"{key}_deg" in type(self).model_fields:
+                value = self.radians(key)
+            else:
+                value = getattr(self, key)
+            if value is not None:
+                out[key] = value
+        return out
+
+
+_HEADING = "ten turns either way"
+
+
+class StartModel(_Angles):
+    x: Annotated[float, number(-_CM_MAX, _CM_MAX, "cm", "within 100 km")] = 0.0
+    y: Annotated[float, number(-_CM_MAX, _CM_MAX, "cm", "within 100 km")] = 0.0
+    heading: Annotated[float, _angle(-_ANGLE, _ANGLE, _HEADING)] | None = None
+    heading_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, _HEADING, deg=True)] | None = None
+
+
+class SegmentModel(_Angles):
+    """One entry of ``leader.path``: ``{straight = <cm>}`` or ``{turn = "left", radius, angle}``."""
+
+    straight: Annotated[float, number(0, _CM_MAX, "cm", "a straight of at most 100 km",
+                                      lo_open=True)] | None = None
+    turn: Annotated[str, choice(("left", "right"))] | None = None
+    radius: Annotated[float, number(1, _CM_MAX, "cm", "a turn tighter than 1 cm is a spin in "
+                                    "place, not an arc")] | None = None
+    angle: Annotated[float, _angle(0, _ANGLE, "up to ten full turns", lo_open=True)] | None \
+        = None
+    angle_deg: Annotated[float, _angle(0, _ANGLE, "up to ten full turns", deg=True,
+                                       lo_open=True)] | None = None
+
+    @model_validator(mode="after")
+    def _kind(self) -> Any:
+        if self.straight is not None and self.turn is not None:
+            raise problem("a segment is either straight or turn, not both")
+        if self.straight is None and self.turn is None:
+            raise problem("a segment needs 'straight = <cm>' or 'turn = \"left\"|\"right\"'")
+        if self.turn is not None:
+            for req in ("radius", "angle"):
+                if getattr(self, req) is None and (req != "angle" or self.angle_deg is None):
+                    raise problem(f"{req}: missing (required for a turn)")
+        else:
+            for key in ("radius", "angle", "angle_deg"):
+                if getattr(self, key) is not None:
+                    raise problem(f"{key}: only for a turn")
+        return self
+
+
+class ShapeModel(Table):
+    kind: Annotated[str, choice(("rounded_rectangle",))]
+    length: Annotated[float, number(0, _CM_MAX, "cm", "at most 100 km")]
+    width: Annotated[float, number(0, _CM_MAX, "cm", "at most 100 km")]
+    radius: Annotated[float, number(1, _CM_MAX, "cm", "as a path turn's radius")]
+    direction: Annotated[str, choice(("left", "right"))] = "left"
+
+
+_RAMP = "at most 100 g; inf: the speed steps"
+
+
+class LeaderModel(Table):
+    speed: Annotated[float, number(0, 1000, "cm/s", "a ground robot at most 10 m/s",
+                                   lo_open=True)]
+    start: StartModel = Field(default_factory=StartModel)
+    start_s: Annotated[float, number(0, _CM_MAX, "cm", "a position along the path (within one "
+                                     "lap, checked against the path's length)")] = 0.0
+    accel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] \
+        = math.inf
+    decel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] \
+        = math.inf
+    path: list[SegmentModel] | None = Field(default=None, min_length=1)
+    shape: ShapeModel | None = None
+
+    @model_validator(mode="after")
+    def _path_or_shape(self) -> Any:
+        if (self.path is None) == (self.shape is None):
+            raise problem("give exactly one of 'path' or 'shape'")
+        return self
+
+
+class SlotModel(_Angles):
+    _required_angles: ClassVar[tuple[str, ...]] = ("beta_d",)
+    rho_d: Annotated[float, number(0, 1e5, "cm", "as separation", lo_open=True)]
+    beta_d: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle")] | None = None
+    beta_d_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle", deg=True)] | None = None
+
+
+class FormationModel(_Angles):
+    model: Annotated[str, plugin(FOLLOWER_MODELS)] = "l-psi"
+    layout: Annotated[str, choice(FORMATION_LAYOUTS)] = "line"
+    followers: Annotated[int, integer(1, 1000, "followers", "as window.n")] | None = None
+    separation: Annotated[float, number(0, 1e5, "cm", "at most 1 km (the laser sees 80 m)",
+                                        lo_open=True)] | None = None
+    bearing_offset: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle")] | None = None
+    bearing_offset_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle", deg=True)] | None \
+        = None
+    slot: list[SlotModel] | None = Field(default=None, min_length=1)
+
+    @model_validator(mode="after")
+    def _slots_or_pattern(self) -> Any:
+        pattern = (self.followers, self.separation, self.bearing_offset,
+                   self.bearing_offset_deg)
+        if self.slot is not None:
+            if any(v is not None for v in pattern) or self.layout != "line":
+                raise problem("give [[formation.slot]] or followers/separation/bearing_offset, "
+                              "not both")
+            return self
+        for req in ("followers", "separation"):
+            if getattr(self, req) is None:
+                raise problem(f"{req}: missing (required)")
+        return self
+
+
+_NOISE = "a noise standard deviation"
+
+
+class FollowerModel(_Angles):
+    radius: Annotated[float, number(0, 1e3, "cm", "a robot of at most 10 m", lo_open=True)] \
+        | None = None
+    max_speed: Annotated[float, number(0, 1000, "cm/s", "as leader.speed", lo_open=True)] \
+        | None = None
+    max_accel: Annotated[float, number(0, 1e5, "cm/s²", "at most 100 g", lo_open=True)] \
+        | None = None
+    max_turn_rate: Annotated[float, _angle(0, 1e3, "inf: no limit", lo_open=True,
+                                           unit="rad/s", inf=True)] | None = None
+    max_turn_rate_deg: Annotated[float, _angle(0, 1e3, "inf: no limit", deg=True, lo_open=True,
+                                               unit="rad/s", inf=True)] | None = None
+    control_offset: Annotated[float, number(0, 1e3, "cm", "a control point within 10 m",
+                                            lo_open=True)] | None = None
+    gain_rho: Annotated[float, number(0, 1e3, "1/s", "a controller gain", lo_open=True)] \
+        | None = None
+    gain_beta: Annotated[float, number(0, 1e3, "1/s", "a controller gain", lo_open=True)] \
+        | None = None
+    lookahead: Annotated[float, number(0, 1e4, "cm", "pure pursuit's look-ahead, within "
+                                       "100 m", lo_open=True)] | None = None
+    speed_noise: Annotated[float, number(0, 1e3, "cm/s", _NOISE)] | None = None
+    turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
+    turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None \
+        = None
+
+
+class SensingModel(Table):
+    r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = 25.0
+    r_reacq: Annotated[float, number(0, 1e5, "cm", "a search radius within 1 km",
+                                     lo_open=True)] | None = None
+    position_noise: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
+    min_points: Annotated[int, integer(1, 361, "points", "at most the 361 beams")] | None = None
+    max_range: Annotated[float, number(0, 1e7, "cm", "inf: unlimited", lo_open=True,
+                                       inf=True)] | None = None
+
+
+class EkfModel(_Angles):
+    measurement_noise: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
+    speed_noise: Annotated[float, number(0, 1e4, "cm/s", _NOISE)] | None = None
+    turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
+    turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None \
+        = None
+    position_drift: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
+    heading_drift: Annotated[float, _angle(0, 100, _NOISE)] | None = None
+    heading_drift_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True)] | None = None
+    init_position_sd: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
+    init_heading_sd: Annotated[float, _angle(0, 100, _NOISE)] | None = None
+    init_heading_sd_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True)] | None = None
+    backend: Annotated[str, choice(("filterpy", "fast"))] | None = None
+
+
+_FRACTION = "a fraction of the desired separation"
+
+
+class ThresholdsModel(_Angles):
+    T_rho: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.01
+    T_eps: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.025
+    T_beta: Annotated[float, _angle(0, math.pi, "a bearing error below 180°",
+                                    lo_open=True)] | None = None
+    T_beta_deg: Annotated[float, _angle(0, math.pi, "a bearing error below 180°", deg=True,
+                                        lo_open=True)] | None = None
+    localization: Annotated[str, choice(LOCALIZATION_KINDS)] | None = None
+
+
+class LocalizationModel(Table):
+    """``[localization]``: where the Hough windows are centred, which lost followers are
+    searched for."""
+
+    centre: Annotated[str, choice(CENTRES)] = "previous"
+    search: Annotated[str, choice(SEARCHES)] = "always"
+
+
+class AdjustModel(Table):
+    """``[adjust]``: the common keys and the policies' own keys (``margin``, ``windows``,
+    ``z`` and those of a plug-in policy, which checks its own)."""
+
+    model_config = ConfigDict(strict=True, extra="allow", frozen=True, validate_default=False)
+
+    cap: Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] \
+        | None = None
+    floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] | None = None
+    predictor: Annotated[str, plugin(PREDICTORS, renamed=RENAMED)] | None = None
+    lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
+    policy: Annotated[str, text(what="a policy name")] | None = None
+    decide: Annotated[str, choice(DECIDE)] | None = None
+    margin: Annotated[float, number(0, 1, "", "the share μ of each predicted bound kept in "
+                                    "reserve (policies margin, lookahead, noise-aware, safe)",
+                                    hi_open=True)] | None = None
+    windows: Annotated[float, number(1, 100, "windows", "policies lookahead and safe: the "
+                                     "horizon, in windows of w_sch")] | None = None
+    z: Annotated[float, number(0, 10, "σ", "policies noise-aware and safe: the padding of the "
+                               "predicted V_F, |ρ̇|, |β̇| in standard deviations")] | None = None
+
+
+class WorldModel(Table):
+    step_ms: Annotated[float, number(1e-3, 1e4, "ms", "1 µs to 10 s per integration step")] \
+        = 10.0
+    backend: Annotated[str, choice(WORLD_BACKENDS)] | None = None
+
+
+class SchedulerModel(Table):
+    policy: Annotated[str, text(what="a policy name")] = "fp"
+
+
+class ScenarioFile(Table):
+    """A scenario file."""
+
+    name: Annotated[str, text()] | None = None
+    description: Annotated[str, text(nonempty=False, what="a string")] = ""
+    taskset: Annotated[str, text(what="a name or a path")] = "barrel_robots"
+    duration: Annotated[float, number(0, 1e6, "s", "up to 11.6 simulated days",
+                                      lo_open=True)] | None = None
+    leader: LeaderModel
+    formation: FormationModel
+    follower: FollowerModel = Field(default_factory=FollowerModel)
+    sensing: SensingModel = Field(default_factory=SensingModel)
+    ekf: EkfModel = Field(default_factory=EkfModel)
+    thresholds: ThresholdsModel = Field(default_factory=ThresholdsModel)
+    adjust: AdjustModel = Field(default_factory=AdjustModel)
+    world: WorldModel = Field(default_factory=WorldModel)
+    localization: LocalizationModel = Field(default_factory=LocalizationModel)
+    assumptions: dict[str, Annotated[str, text(what="a non-empty string giving the "
+                                                    "reason")]] = Field(default_factory=dict)
+    scheduler: SchedulerModel | None = None
+
+
+# -------------------------------------------------------------------------- building
+def parse_scenario(data: Mapping[str, Any], source: str = "<scenario>",
+                   base: Path | None = None, *, allow_code: bool | None = None) -> Scenario:
+    """Validate a parsed TOML document and build the scenario; ``base`` resolves a relative
+    task-set path. Every problem of the file is reported at once.
+
+    A plug-in named ``module:Name`` (``[adjust] policy``, ``predictor``, ``[formation]
+    model``, ``[scheduler] policy``, the task set's) is code: it loads only with
+    ``allow_code=True`` or the user's opt-in (:func:`rtsim.registry.reading_input`).
+    """
+    from rtsim.registry import file_allows_code, reading_input
+
+    allow = file_allows_code(allow_code)
+    with reading_input(allow):
+        scenario = _parse_scenario(data, source, base)
+    return replace(scenario, allow_code=True) if allow else scenario
+
+
+def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> Scenario:
+    from rtsim.config.errors import raise_errors
+
+    if isinstance(data, Mapping) and isinstance(data.get("adjust"), Mapping) \
+            and "model" in data["adjust"]:
+        raise ScenarioError(f"{source}: adjust: unknown key 'model' (renamed; did you mean "
+                            f"'predictor'?)")
+    model = validate(ScenarioFile, data, source, ScenarioError)
+    errors: list[str] = []
+    raw_adjust = data.get("adjust")
+    order = list(raw_adjust) if isinstance(raw_adjust, Mapping) else []
+    scenario = _build_scenario(model, source, base, errors, order)
+    raise_errors([e if e.startswith(f"{source}: ") else f"{source}: {e}" for e in errors],
+                 ScenarioError)
+    assert scenario is not None
+    return scenario
+
+
+def _attempt(errors: list[str], where: str, make: Callable[[], T]) -> T | None:
+    """``make()``, or None with its error (``<where>: <message>``) added to ``errors``."""
+    try:
+        return make()
+    except (InputError, TypeError) as exc:
+        errors.append(f"{where}: {exc}" if where else str(exc))
+        return None
+
+
+def _path(src: str, leader: LeaderModel) -> LeaderPath:
+    st = leader.start
+    start = (st.x, st.y, st.radians("heading", 0.0))
+    if leader.path is not None:
+        segs: list[Segment] = []
+        for k, s in enumerate(leader.path):
+            where = f"{src}: leader.path[{k + 1}]"
+            seg: Segment
+            if s.straight is not None:
+                seg = _attempt_raise(where, partial(Straight, s.straight))
+            else:
+                seg = _attempt_raise(where, partial(Turn, s.turn, s.radius, s.radians("angle")))
+            segs.append(seg)
+        return _attempt_raise(f"{src}: leader.path", lambda: LeaderPath(segs, start))
+    shape = leader.shape
+    assert shape is not None
+    return _attempt_raise(f"{src}: leader.shape", lambda: rounded_rectangle(
+        shape.length, shape.width, shape.radius, direction=shape.direction, start=start))
+
+
+def _attempt_raise(where: str, make: Callable[[], T]) -> T:
+    try:
+        return make()
+    except (InputError, TypeError) as exc:
+        raise ScenarioError(f"{where}: {exc}") from None
+
+
+def _formation(f: FormationModel, r_F: float, path: LeaderPath) -> Formation:
+    if f.slot is not None:
+        rho = tuple(s.rho_d for s in f.slot)
+        beta = tuple(s.radians("beta_d") for s in f.slot)
+        return Formation(rho, beta, f.model)
+    offset = f.radians("bearing_offset", math.radians(15))
+    if f.layout == "fan":
+        segs = path.segments
+        outer = outer_side([g.curvature for g in segs], [g.length for g in segs])
+        return fan(f.followers, f.separation, offset, r_F=r_F, outer=outer, model=f.model)
+    place = follower_model(f.model, "formation.model").place
+    return place(f.followers, f.separation, offset, r_F=r_F)
+
+
+def _build_scenario(m: ScenarioFile, src: str, base: Path | None, errors: list[str],
+                    adjust_order: list[str]) -> Scenario | None:
+    speed = float(m.leader.speed)
+    path = _attempt(errors, "", lambda: _path(src, m.leader))
+    follower = _attempt(errors, src, lambda: FollowerParams(**m.follower.given(
+        tuple(FollowerParams.__dataclass_fields__))))
+    formation = None
+    if follower is not None:
+        r_F = follower.radius
+        formation = (None if path is None else
+                     _attempt(errors, src, lambda: _formation(m.formation, r_F, path)))
+    sensing = _attempt(errors, src, lambda: SensingParams(**{
+        k: getattr(m.sensing, k) for k in SensingParams.__dataclass_fields__
+        if getattr(m.sensing, k) is not None}))
+    ekf = _attempt(errors, src, lambda: EkfParams(**m.ekf.given(
+        tuple(EkfParams.__dataclass_fields__))))
+    th = m.thresholds
+    # the decision's localization bound: by default the one that matches the window's
+    # centre (Eq 19 for the previous position, the residual bound for the predicted one)
+    centre = m.localization.centre
+    loc = th.localization or ("predicted" if centre == "predicted" else "radial")
+    predicted_ms = math.inf
+    r_H = float(m.sensing.r_H)
+    if loc == "predicted" and follower is not None and sensing is not None and ekf is not None:
+        bound = _attempt(errors, "", lambda: _predicted_bound(src, r_H, follower, sensing, ekf))
+        predicted_ms = math.inf if bound is None else bound
+    if loc == "predicted" and centre != "predicted":
+        errors.append(f"{src}: thresholds.localization: 'predicted' bounds what a predicted "
+                      f"window centre leaves; set [localization] centre = 'predicted' (it is "
+                      f"{centre!r})")
+    thresholds = Thresholds(r_H=r_H, T_rho=th.T_rho, T_eps=th.T_eps,
+                            T_beta=th.radians("T_beta", math.radians(5.0)),
+                            localization=loc, predicted_ms=predicted_ms)  # type: ignore[arg-type]
+    localization = LocalizationParams(centre=m.localization.centre,
+                                      search=m.localization.search)
+    adj = m.adjust
+    args: dict[str, Any] = {k: getattr(adj, k) for k in _ADJUST_KEYS
+                            if getattr(adj, k) is not None}
+    own = {k: getattr(adj, k) for k in ("margin", "windows", "z") if getattr(adj, k) is not None}
+    own.update(adj.model_extra or {})
+    args["params"] = {k: own[k] for k in adjust_order if k in own}  # in the file's order
+    adjust = _attempt(errors, src, lambda: AdjustConfig(**args))
+    scheduler = m.scheduler.policy if m.scheduler is not None else None
+    if scheduler is not None:
+        from rtsim.sim.policy import SCHEDULERS
+
+        policy = None
+        try:
+            policy = SCHEDULERS.resolve(scheduler, f"{src}: scheduler.policy")
+        except InputError as exc:
+            errors.append(str(exc))
+        # the scheduler's registry entry names the lower bounds that hold under it
+        if adjust is not None and policy is not None and policy.lower_bounds \
+                and adjust.lower_bound not in policy.lower_bounds:
+            need = [n for n, c in SCHEDULERS.items() if adjust.lower_bound in c.lower_bounds]
+            errors.append(f"{src}: adjust.lower_bound: {adjust.lower_bound} assumes the "
+                          f"{' or '.join(need)} scheduler, but [scheduler] policy is "
+                          f"{scheduler!r}")
+    if adjust is not None and adjust.floor > speed:
+        errors.append(f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the desired speed "
+                      f"{speed:g} cm/s")
+    taskset = m.taskset
+    if taskset not in PACKAGED_TASKSETS:
+        p = Path(taskset)
+        if not p.is_absolute() and base is not None:
+            p = base / p
+        if not p.is_file():
+            errors.append(f"{src}: taskset: file not found: {p}")
+        taskset = str(p)
+    if path is None or formation is None or follower is None or sensing is None \
+            or ekf is None or adjust is None:
+        return None
+    world = _attempt(errors, src, lambda: WorldConfig(
+        path, speed, formation, follower, sensing, ekf, thresholds, m.world.step_ms,
+        float(m.leader.start_s), leader_accel_max=float(m.leader.accel_max),
+        leader_decel_max=float(m.leader.decel_max), localization=localization,
+        backend=m.world.backend))
+    if world is None:
+        return None
+    errors += _sense(world, src)
+    duration = float(m.duration) if m.duration is not None else float(
+        math.ceil(path.lap_time(speed)))
+    if errors:
+        return None
+    task_set = _attempt(errors, "", lambda: _read_taskset(taskset, src))
+    if task_set is None:
+        return None
+    return Scenario(name=m.name if m.name is not None else Path(src).stem, world=world,
+                    taskset=taskset, duration=duration, description=m.description,
+                    adjust=adjust, assumptions=dict(m.assumptions), source=src,
+                    scheduler=scheduler, task_set=task_set)
+
+
+def _predicted_bound(src: str, r_H: float, follower: FollowerParams, sensing: SensingParams,
+                     ekf: EkfParams) -> float:
+    """The decision's localization bound for a window centred at the predicted position
+    (:func:`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
+    the fix noise, the EKF's initial heading error, the actuation noise, at the followers'
+    top speed, 3 standard deviations; the leader knows its own motion (no error)."""
+    if not math.isfinite(follower.max_speed):
+        raise ScenarioError(f"{src}: thresholds.localization: 'predicted' needs a finite "
+                            f"follower.max_speed (the bound carries the heading error at it)")
+    return msb_localization_predicted(
+        r_H, fix_sd=sensing.position_noise, heading_sd=ekf.init_heading_sd,
+        speed_sd=follower.speed_noise, turn_sd=follower.turn_noise, v_max=follower.max_speed)
+
+
+def _sense(world: WorldConfig, src: str) -> list[str]:
+    """A scenario that would run but give nonsense: a leader starting beyond its path's length
+    (its arc length would swamp each step: the leader stands still) and a leader faster than
+    the followers can drive (they fall behind from the first window)."""
+    out = []
+    length = world.path.lap_length
+    if world.start_s > length:
+        out.append(f"{src}: leader.start_s: {world.start_s:g} cm is beyond the path's length "
+                   f"{length:g} cm (give a position within one lap)")
+    vmax = world.follower.max_speed
+    if world.leader_speed > vmax:
+        out.append(f"{src}: leader.speed: {world.leader_speed:g} cm/s is above "
+                   f"follower.max_speed {vmax:g} cm/s: the followers cannot keep up")
+    return out
+
+
+# -------------------------------------------------------------------------- loading
+def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
+    """The bytes of a scenario file, and its path.
+
+    ``path`` is a file, or the name of a packaged scenario (``test1``, ``test2``: the paper's
+    tests, shipped with rtsim as copies of ``experiments/scenarios/``) when no such file
+    exists.
+    """
+    from rtsim.io.limits import read_input
+
+    p = Path(path)
+    if not p.exists() and str(path) in PACKAGED_SCENARIOS:
+        res = resources.files("rtsim") / "data" / "scenarios" / f"{path}.toml"
+        return res.read_bytes(), Path(f"{path}.toml")
+    try:
+        return read_input(p, "scenario"), p
+    except OSError as exc:
+        raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
+
+
+def load_scenario(path: str | os.PathLike[str],
+                  overrides: Mapping[str, Any] | None = None, *,
+                  allow_code: bool | None = None) -> Scenario:
+    """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``).
+
+    ``overrides``: dotted paths into the file and their new values, resolved as a sweep's
+    (``{"leader.speed": 20, "formation.followers": 4}``; :mod:`rtsim.config.dotted`).
+    ``allow_code``: as :func:`parse_scenario`.
+    """
+    raw, p = scenario_bytes(path)
+    src = str(p)  # the full path in every message
+    data = parse_toml(raw, src, ScenarioError)
+    return parse_scenario(with_overrides(data, overrides, src), src, p.parent,
+                          allow_code=allow_code)

@@ -1,0 +1,301 @@
+"""Task-set files: the typed model of the file, and the :class:`~rtsim.model.taskset.TaskSet`
+built from it once it is valid.
+
+The file's shape (keys, types, ranges, units) is the model below; the rules that involve
+several keys (every task gives a priority or none does, names are unique, ``"2w"`` needs a
+``[window]``, ``k = "geometric"`` needs ``rho_min``) are checked when the task set is built,
+also all at once. See :mod:`rtsim.io.taskset` for the file format.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from typing import Annotated, Any
+
+from pydantic import Field
+
+from rtsim.config.errors import Loc
+from rtsim.config.fields import (
+    Leaf,
+    Table,
+    _check_number,
+    choice,
+    integer,
+    number,
+    problem,
+    ranged,
+    text,
+)
+from rtsim.io.limits import WINDOW_N, WINDOW_R_H, Range
+from rtsim.model.task import OVERLOAD_POLICIES, Task
+from rtsim.model.taskset import TaskSet
+from rtsim.model.window import WindowSpec
+
+__all__ = ["TaskSetFile", "TaskModel", "WindowModel", "SchedulerModel", "build_taskset",
+           "taskset_where"]
+
+_MS_MAX = 1e9  # ms: 11.6 days, beyond any run rtsim is made for
+_W_MULTIPLE = re.compile(r"^\s*(\d+(?:\.\d*)?|\.\d+)?\s*w\s*$")
+
+
+def _time_or_multiple(lo: float, why: str) -> Leaf:
+    """A time in ms, or a multiple of the window written ``"2w"`` (``"w"``: one)."""
+    r = Range("", lo, _MS_MAX, "ms", why)
+    check_ms = _check_number(r, False)
+
+    def check(value: Any) -> Any:
+        if isinstance(value, str):
+            m = _W_MULTIPLE.match(value)
+            if not m:
+                raise problem(f"must be a number (ms) or a multiple of the window such as "
+                              f"\"2w\", got {value!r}")
+            if m.group(1) and float(m.group(1)) <= 0:
+                raise problem(f"must be positive, got {value!r}")
+            return value
+        return check_ms(value)
+
+    schema = {"anyOf": [{"type": "number", "minimum": lo, "maximum": _MS_MAX},
+                        {"type": "string", "pattern": _W_MULTIPLE.pattern}],
+              "unit": "ms", "why": why}
+    return Leaf(check, schema, r)
+
+
+def per_window(value: float | str) -> tuple[float, bool]:
+    """(value, per_window) of a period or deadline: ``"2w"`` → (2.0, True)."""
+    if isinstance(value, str):
+        m = _W_MULTIPLE.match(value)
+        assert m is not None
+        return (float(m.group(1)) if m.group(1) else 1.0), True
+    return float(value), False
+
+
+class TaskModel(Table):
+    """One ``[[tasks]]`` entry."""
+
+    name: Annotated[str, text()]
+    wcet: Annotated[float, number(0, 1e7, "ms", "at most 2.8 h of CPU per job", lo_open=True)]
+    period: Annotated[float | str, _time_or_multiple(1e-3, "1 µs (a timer tick) to 11.6 days")]
+    deadline: Annotated[float | str, _time_or_multiple(1e-3, "as the period")] | None = None
+    priority: Annotated[int, integer(-1e9, 1e9, "", "an integer rank")] | None = None
+    offset: Annotated[float, number(0, _MS_MAX, "ms", "within 11.6 days of the start")] | None \
+        = None
+    jitter: Annotated[float, number(0, _MS_MAX, "ms", "as the offset")] | None = None
+    bcet: Annotated[float, number(0, 1e7, "ms", "at most 2.8 h of CPU per job")] | None = None
+    overload: Annotated[str, choice(OVERLOAD_POLICIES)] | None = None
+
+
+_CHAIN = "a chain step of at most 2.8 h"
+_K_RANGE = number(0, 361, "points", "a follower returns at most the 361 beams", lo_open=True)
+
+
+def _k(value: Any) -> Any:
+    if value == "geometric":
+        return value
+    if isinstance(value, str):
+        raise problem(f"must be a number or \"geometric\", got {value!r}")
+    return _K_RANGE.check(value)
+
+
+_K = Leaf(_k, {"anyOf": [{k: v for k, v in _K_RANGE.schema.items() if k not in ("unit", "why")},
+                         {"type": "string", "enum": ["geometric"]}],
+               "unit": "points", "why": _K_RANGE.schema["why"]}, _K_RANGE.range)
+
+
+class WindowModel(Table):
+    """The ``[window]`` table: the processing window's chain T_w."""
+
+    name: Annotated[str, text()] = "window"
+    priority: Annotated[int, integer(-1e9, 1e9, "", "an integer rank")]
+    n: Annotated[int, ranged(WINDOW_N)]
+    r_H: Annotated[float, ranged(WINDOW_R_H)]
+    e_cal: Annotated[float, number(0, 1e3, "ms", "per accumulator cell")]
+    e_trans: Annotated[float, number(0, 1e3, "ms", "per scan point")]
+    k: Annotated[float | str, _K]
+    e_scan: Annotated[float, number(0, 1e7, "ms", _CHAIN)]
+    e_estimate: Annotated[float, number(0, 1e7, "ms", _CHAIN)]
+    e_send: Annotated[float, number(0, 1e7, "ms", _CHAIN)]
+    e_recv: Annotated[float, number(0, 1e7, "ms", _CHAIN)]
+    delta_t: Annotated[float, number(0, 1e7, "ms", _CHAIN)]
+    e_sched: Annotated[float, number(0, 1e7, "ms", _CHAIN)]
+    rho_min: Annotated[float, number(25, 1e5, "cm", "beyond the follower radius r_F = 25 cm, "
+                                   "within 1 km", lo_open=True)] | None = None
+    k_value: Annotated[float, number(0, 361, "points", "as k", lo_open=True)] | None = None
+    offset: Annotated[float, number(0, _MS_MAX, "ms", "as a task's offset: the first window "
+                                    "arrives then; per-window tasks count their offsets from "
+                                    "it")] | None = None
+    jitter: Annotated[float, number(0, _MS_MAX, "ms", "as a task's jitter: each window job is "
+                                    "released up to J after its arrival")] | None = None
+
+
+class SchedulerModel(Table):
+    """``[scheduler]``: the CPU's scheduling policy."""
+
+    policy: Annotated[str, text(what="a policy name")] = "fp"
+
+
+class TaskSetFile(Table):
+    """A task-set file."""
+
+    name: Annotated[str, text(nonempty=False, what="a string")] = ""
+    tasks: list[TaskModel] = Field(min_length=1)
+    window: WindowModel | None = None
+    assumptions: dict[str, str] = Field(default_factory=dict)
+    overhead: Annotated[float, number(0, 1e4, "ms", "a context switch of at most 10 s")] = 0.0
+    scheduler: SchedulerModel | None = None
+
+
+# ------------------------------------------------------------------------- messages
+def taskset_where(data: Any) -> Any:
+    """Locations as task-set messages give them: ``task 'tau1': wcet``, ``[window]: n``."""
+
+    def where(loc: Loc) -> str:
+        head, rest = loc[0], loc[1:]
+        if head == "tasks" and rest and isinstance(rest[0], int):
+            i = rest[0]
+            label = f"[[tasks]] #{i + 1}"
+            tasks = data.get("tasks") if isinstance(data, Mapping) else None
+            if isinstance(tasks, list) and i < len(tasks) and isinstance(tasks[i], Mapping):
+                name = tasks[i].get("name")
+                if isinstance(name, str) and name.strip():
+                    label = f"task '{name}'"
+            rest = rest[1:]
+        elif head in ("window", "scheduler", "assumptions"):
+            label = f"[{head}]"
+        else:
+            return ".".join(str(p) for p in loc)
+        return f"{label}: {'.'.join(str(p) for p in rest)}" if rest else label
+
+    return where
+
+
+def taskset_special(loc: Loc, what: str) -> str | None:
+    if loc == ("tasks",) and what in ("missing (required)", "must not be empty"):
+        return "no [[tasks]] in the file"
+    if loc == ("tasks",) and what.startswith("must be an array"):
+        return "must be an array of tables ([[tasks]])"
+    return None
+
+
+# -------------------------------------------------------------------------- building
+def _label(model: TaskModel, index: int) -> str:
+    return f"task '{model.name}'" if model.name.strip() else f"[[tasks]] #{index}"
+
+
+def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list[str]]:
+    """The TaskSet of a valid file, or the problems (``<key>: <problem>`` lines without the
+    file) of the rules between keys."""
+    errors: list[str] = []
+    window = None
+    if model.window is not None:
+        window, errs = _window(model.window)
+        errors += errs
+    if model.scheduler is not None:
+        from rtsim.sim.policy import resolve_policy
+
+        try:
+            resolve_policy(model.scheduler.policy, where=f"{source}: [scheduler]: policy")
+        except Exception as exc:  # an InputError naming the file already
+            errors.append(str(exc).removeprefix(f"{source}: "))
+    entries: list[tuple[dict[str, Any], str]] = []
+    for i, t in enumerate(model.tasks, start=1):
+        label = _label(t, i)
+        kw: dict[str, Any] = {"name": t.name, "wcet": float(t.wcet)}
+        kw["period"], kw["per_window"] = per_window(t.period)
+        if t.deadline is not None:
+            deadline, d_window = per_window(t.deadline)
+            if d_window != kw["per_window"]:
+                errors.append(f"{label}: deadline: {t.deadline!r} and period {t.period!r} must "
+                              "both be in ms or both be multiples of w")
+            kw["deadline"] = deadline
+        if kw["per_window"] and model.window is None:
+            errors.append(f"{label}: period: {t.period!r} is a multiple of the window w, but "
+                          "the file has no [window] table")
+        if t.priority is not None:
+            kw["priority"] = int(t.priority)
+        if t.offset is not None:
+            kw["offset"] = float(t.offset)
+        if t.jitter is not None:
+            kw["jitter"] = float(t.jitter)
+        if t.bcet is not None:
+            if t.bcet > t.wcet:
+                errors.append(f"{label}: bcet: {float(t.bcet):g} is above wcet "
+                              f"{float(t.wcet):g}")
+            kw["bcet"] = float(t.bcet)
+        if t.overload is not None:
+            kw["overload"] = t.overload
+        entries.append((kw, label))
+    names: dict[str, int] = {} if model.window is None else {model.window.name: 0}
+    for i, (kw, label) in enumerate(entries, start=1):
+        if kw["name"] in names:
+            other = names[kw["name"]]
+            first = "the [window]" if other == 0 else f"[[tasks]] #{other}"
+            errors.append(f"{label}: name: duplicate of {first}")
+        else:
+            names[kw["name"]] = i
+    errors += _assign_priorities(entries, model.window)
+    if errors or (model.window is not None and window is None):
+        return None, errors
+    tasks = tuple(Task(**kw) for kw, _ in entries)
+    return TaskSet(tasks, name=model.name, window=window, assumptions=dict(model.assumptions),
+                   source=source, overhead=float(model.overhead),
+                   scheduler=model.scheduler.policy if model.scheduler else "fp"), []
+
+
+def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:
+    where = "[window]"
+    values: dict[str, Any] = {"name": w.name, "n": int(w.n), "priority": int(w.priority),
+                              "r_H": float(w.r_H)}
+    if w.k == "geometric":
+        from rtsim.analysis.window import k_geometric
+
+        if w.rho_min is None:
+            return None, [f"{where}: rho_min: missing (required with k = \"geometric\": the "
+                          "least follower distance in cm)"]
+        values["k"] = float(k_geometric(float(w.rho_min)))
+        values["rho_min"] = float(w.rho_min)
+        if w.k_value is not None and w.k_value != values["k"]:
+            return None, [f"{where}: k_value: {w.k_value!r} is not the geometric count "
+                          f"{values['k']:g} for rho_min = {float(w.rho_min):g} cm"]
+    else:
+        values["k"] = float(w.k)
+        for key in ("rho_min", "k_value"):
+            if getattr(w, key) is not None:
+                return None, [f"{where}: {key}: applies only with k = \"geometric\""]
+    for key in ("e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv", "delta_t",
+                "e_sched"):
+        values[key] = float(getattr(w, key))
+    for key in ("jitter", "offset"):  # the window's release jitter and first arrival (ms)
+        if getattr(w, key) is not None:
+            values[key] = float(getattr(w, key))
+    return WindowSpec(**values), []
+
+
+def _assign_priorities(entries: list[tuple[dict[str, Any], str]],
+                       window: WindowModel | None) -> list[str]:
+    """Every task gives a priority or none does; none → deadline-monotonic, ties in file order."""
+    given = [label for kw, label in entries if "priority" in kw]
+    if given and len(given) != len(entries):
+        missing = next(label for kw, label in entries if "priority" not in kw)
+        return [f"{missing}: priority: missing, but {given[0]} gives one (give every task a "
+                "priority, or none for deadline-monotonic order)"]
+    if not given:
+        if window is not None and entries:
+            return [f"{entries[0][1]}: priority: missing (required when the file has a "
+                    "[window]: it places each task above or below the window)"]
+        order = sorted(range(len(entries)), key=lambda i: (
+            entries[i][0].get("deadline", entries[i][0]["period"]), i))
+        for rank, i in enumerate(order, start=1):
+            entries[i][0]["priority"] = rank
+        return []
+    seen: dict[int, str] = {}
+    if window is not None:
+        seen[int(window.priority)] = f"[window] '{window.name}'"
+    errors = []
+    for kw, label in entries:
+        prio = kw["priority"]
+        if prio in seen:
+            errors.append(f"{label}: priority: {prio} is already used by {seen[prio]}")
+        else:
+            seen[prio] = label
+    return errors
