@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from rtsim.analysis.edf import edf_arrivals
 from rtsim.cli import main
 from rtsim.io import work
 from rtsim.io.taskset import load_taskset
@@ -57,7 +58,7 @@ def test_a_hopeless_edf_analysis_is_refused_up_front(tmp_path: Path,
     assert "arrivals" in err and "above the limit of 1e+06" in err and "--force" in err
     # the paper's set and the example are far below the limit
     for name in ("barrel_robots", "example"):
-        assert work.edf_arrivals(load_taskset(ROOT / "tasksets" / f"{name}.toml"), None,
+        assert edf_arrivals(load_taskset(ROOT / "tasksets" / f"{name}.toml"), None,
                                  None) < 1000
 
 
@@ -78,7 +79,7 @@ def test_the_estimate_bounds_the_arrivals_examined(tmp_path: Path, monkeypatch) 
     monkeypatch.setattr(edf, "sorted", counting, raising=False)
     edf.analyze_edf(ts)
     examined = sum(seen[-3:])  # one sort per task, the last three calls
-    est = work.edf_arrivals(ts, None, None)
+    est = edf_arrivals(ts, None, None)
     assert examined > 100
     assert examined <= est <= 3 * examined + 10
 

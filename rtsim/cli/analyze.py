@@ -214,9 +214,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{args.file}: [scheduler] policy {scheduler!r} has no analysis; "
                          f"use --scheduler with one of {with_analysis}")
     w_from = None if ts.window is None else ("--window" if w is not None else "w_sch")
-    from rtsim.io.work import check_analysis
+    from rtsim.analysis.edf import analyze_edf, edf_arrivals
+    from rtsim.io.work import check_work
 
-    check_analysis(ts, w, args.overhead, policy.analysis, str(ts.source or args.file),
+    if policy.analysis is analyze_edf:  # Spuri's search over arrivals (the FP analysis stops
+        # by itself: a deadline passed, or MAX_BUSY_JOBS jobs of one busy period)
+        check_work("arrivals", edf_arrivals(ts, w, args.overhead), str(ts.source or args.file),
                    force=args.force)
     res: Any = policy.analysis(ts, w, overhead=args.overhead, suspension=args.suspension)
     txn: dict[str, float | None] | None = None

@@ -117,35 +117,6 @@ def simulate_backlog(ts: Any, horizon_ms: float, w: float | None) -> float:
                      else math.inf for t in plain if t.overload == "finish-late"))
 
 
-def edf_arrivals(ts: object, w: float | None, overhead: float | None) -> float:
-    """The arrivals Spuri's EDF bound examines for ``ts`` at window ``w``: for each task,
-    every arrival of every task in the synchronous busy period L_b (0 when it does not
-    close: the bound is then not searched). Computing L_b is itself bounded (the analysis'
-    step limit)."""
-    from rtsim.analysis.edf import busy_period, edf_tasks
-    from rtsim.analysis.rta import analysis_inputs
-    from rtsim.model.taskset import TaskSet
-
-    assert isinstance(ts, TaskSet)
-    _, _, o, tasks = analysis_inputs(ts, w, overhead, "cpu", "analyze_edf")
-    et = edf_tasks(tasks, o)
-    lb = busy_period(et)
-    if lb is None:
-        return 0.0
-    return float(len(et) * math.fsum(lb / p + 1.0 for _, p, _, _ in et))
-
-
-def check_analysis(ts: object, w: float | None, overhead: float | None, analysis: object,
-                   where: str, *, force: bool = False) -> None:
-    """Refuse an analysis that would examine more than ``LIMITS["arrivals"]`` arrivals
-    (``analysis``: the function the run would call; only the EDF analysis searches over
-    arrivals — the fixed-priority one is bounded by its own job limit)."""
-    from rtsim.analysis.edf import analyze_edf
-
-    if analysis is analyze_edf:
-        check_work("arrivals", edf_arrivals(ts, w, overhead), where, force=force)
-
-
 def check_seed(seed: object, where: str) -> None:
     """Refuse an integer seed outside the CLI's ``--seed`` range (non-negative, 63 bits)."""
     from rtsim._numbers import is_int
