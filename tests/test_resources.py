@@ -422,3 +422,124 @@ def test_window_bounds_count_blocking() -> None:
     for bound in (w_rta, w_edf):
         assert bound(shared) > bound(ts)
     assert all(r is None for r in transaction_bounds(shared, 300.0).values())
+
+
+# ---------------------------------------------------------------------- the file's keys
+_FILE = """
+[scheduler]
+policy = "{policy}"
+{resources}
+[[tasks]]
+name = "H"
+wcet = 2
+period = 50
+priority = 1
+critical_sections = [{{ resource = "R", start = 0, length = 1 }}]
+[[tasks]]
+name = "L"
+wcet = 6
+period = 50
+priority = 3
+critical_sections = [{sections}]
+"""
+
+
+def _file(
+    tmp_path,
+    sections: str = '{ resource = "R", start = 0.0, length = 4.0 }',
+    policy: str = "fp",
+    resources: str = 'resources = "pcp"',
+):
+    p = tmp_path / "cs.toml"
+    p.write_text(_FILE.format(sections=sections, policy=policy, resources=resources))
+    return p
+
+
+def test_file_keys_and_cli(tmp_path) -> None:
+    import json
+    import subprocess
+    import sys
+
+    from rtsim.io.taskset import load_taskset, parse_taskset, taskset_to_dict
+
+    ts = load_taskset(_file(tmp_path))
+    assert ts.resources == "pcp"
+    assert ts.task("L").critical_sections == (CS("R", 0.0, 4.0),)
+    back = parse_taskset(taskset_to_dict(ts), "again")
+    assert back.tasks == ts.tasks and back.resources == "pcp"
+    out = subprocess.run(
+        [sys.executable, "-m", "rtsim", "analyze", str(_file(tmp_path)), "--json"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    doc = json.loads(out)
+    assert doc["resources"] == "pcp"
+    assert [(t["name"], t["blocking"], t["wcrt"]) for t in doc["tasks"]] == [
+        ("H", 4.0, 6.0),
+        ("L", 0.0, 8.0),
+    ]
+    # without the key: pcp under fp, srp under edf
+    assert load_taskset(_file(tmp_path, resources="")).resource_protocol() == "pcp"
+    assert load_taskset(_file(tmp_path, resources="", policy="edf")).resource_protocol() == "srp"
+
+
+@pytest.mark.parametrize(
+    ("sections", "extra", "message"),
+    [
+        (
+            '{ resource = "R", start = 0.0, length = 7.0 }',
+            {},
+            "task 'L': critical_sections: the section on 'R' ends at 7 ms of execution, beyond "
+            "the wcet 6 ms",
+        ),
+        (
+            '{ resource = "R", start = 6.0, length = 1.0 }',
+            {},
+            "task 'L': critical_sections: the section on 'R' starts at 6 ms of execution, but the "
+            "wcet is 6 ms (no execution left)",
+        ),
+        (
+            '{ resource = "R", start = 0.0, lenght = 4.0 }',
+            {},
+            "task 'L': critical_sections.0: unknown key 'lenght'",
+        ),
+        (
+            '{ resource = "R", start = -1.0, length = 4.0 }',
+            {},
+            "task 'L': critical_sections.0.start: must be non-negative",
+        ),
+        (
+            '{ resource = "R", start = 0.0, length = 0 }',
+            {},
+            "task 'L': critical_sections.0.length: must be positive",
+        ),
+        (
+            '{ resource = "R", start = 0.0, length = 3 }, '
+            '{ resource = "S", start = 2, length = 1 }',
+            {},
+            "task 'L': critical_sections: the section on 'S' (from 2 ms) overlaps",
+        ),
+        (
+            '{ resource = "R", start = 0.0, length = 4.0 }',
+            {"policy": "edf"},
+            "[scheduler]: resources: pcp needs fixed priorities",
+        ),
+        (
+            '{ resource = "R", start = 0.0, length = 4.0 }',
+            {"resources": 'resources = "pip"'},
+            "[scheduler]: resources: must be one of pcp, srp, npr",
+        ),
+    ],
+)
+def test_bad_sections_in_a_file(tmp_path, sections: str, extra: dict, message: str) -> None:
+    import subprocess
+    import sys
+
+    p = _file(tmp_path, sections=sections, **extra)
+    r = subprocess.run(
+        [sys.executable, "-m", "rtsim", "analyze", str(p)], capture_output=True, text=True
+    )
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"rtsim: {p}: {message}"), r.stderr

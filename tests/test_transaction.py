@@ -27,7 +27,7 @@ from rtsim.analysis.transaction import (
 from rtsim.cli import main
 from rtsim.io.taskset import load_taskset
 from rtsim.model.task import Segment, Task
-from rtsim.sim import build_cpu
+from rtsim.sim import build_cpu, simulate
 
 sys.path.insert(0, str(Path(__file__).parent))
 
@@ -391,3 +391,29 @@ def test_random_window_sets_simulated_within_the_transaction_bound(overhead):
                     assert got is None or got <= r + 1e-9, (name, got, r, w)
             checked += 1
     assert checked >= 10
+
+
+def test_worst_jitter_moves_per_window_tasks_and_the_bound_follows():
+    # --jitter worst releases every task's first job at t0 = max J, its arrivals moved by
+    # t0 - J_i: a per-window task then arrives J_window - J_task after the window's arrivals.
+    # Without that shift the bound can be passed in such a run; with it, never.
+    from test_bounds import random_window_sets
+
+    passed_unshifted = checked = 0
+    for ts0 in random_window_sets(seed=21, count=10):
+        ts = ts0.with_window(jitter=20.0)
+        w = w_txn(ts)
+        if not math.isfinite(w):
+            continue
+        shifts = {t.name: 20.0 - t.jitter for t in ts.tasks if t.per_window}
+        plain = transaction_bounds(ts, w)
+        moved = transaction_bounds(ts, w, shifts=shifts)
+        res = simulate(ts, 30 * w, window=w, suspension="idle", jitter="worst")
+        for name, r in moved.items():
+            got = res.tasks[name].max_response
+            if r is not None and got is not None:
+                checked += 1
+                assert got <= r + 1e-9, (name, got, r)
+            if plain[name] is not None and got is not None and got > plain[name] + 1e-9:
+                passed_unshifted += 1
+    assert checked >= 10 and passed_unshifted >= 1

@@ -37,6 +37,8 @@ from rtsim.analysis.kinematics import (
 )
 from rtsim.analysis.rta import Analysis, TaskResult, analyze, busy_window, response_time
 from rtsim.analysis.suspension import SuspensionBound, suspension_aware
+from rtsim.analysis.transaction import analyze_transactions, transaction_bounds, w_txn
+from rtsim.analysis.unified import unified_bound
 from rtsim.analysis.utilization import (
     hyperbolic,
     hyperbolic_product,
@@ -93,6 +95,11 @@ __all__ = [
     # suspension-aware bounds (docs/model/beyond.md)
     "SuspensionBound",
     "suspension_aware",
+    "unified_bound",
+    # offsets: the window chain and its per-window tasks as one transaction (docs/analysis.md)
+    "analyze_transactions",
+    "transaction_bounds",
+    "w_txn",
     # utilization tests
     "hyperbolic",
     "hyperbolic_product",

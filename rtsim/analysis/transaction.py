@@ -334,9 +334,13 @@ def _bcet_scale(task: Task) -> float | None:
     return task.bcet / task.wcet if task.bcet is not None and not task.segments else None
 
 
-def transactions_of(ts: TaskSet, w: float | None) -> list[Transaction]:
+def transactions_of(
+    ts: TaskSet, w: float | None, shifts: Mapping[str, float] | None = None
+) -> list[Transaction]:
     """The transactions of ``ts`` at window ``w`` (module doc); a set without a window has
-    one transaction per task."""
+    one transaction per task. ``shifts``: extra arrival offsets (ms, either sign) of tasks
+    whose period is a multiple of w, against the window's arrivals."""
+    shifts = shifts or {}
     out: list[Transaction] = []
     linked: list[tuple[Task, int]] = []
     if ts.window is not None:
@@ -362,7 +366,7 @@ def transactions_of(ts: TaskSet, w: float | None) -> list[Transaction]:
                 Job(
                     t.name,
                     t.priority,
-                    t.offset + i * m * w,
+                    (t.offset + shifts.get(t.name, 0.0)) % (m * w) + i * m * w,
                     t.jitter,
                     m * w,
                     t.deadline * w,
@@ -399,17 +403,25 @@ def transactions_of(ts: TaskSet, w: float | None) -> list[Transaction]:
 
 
 def transaction_bounds(
-    ts: TaskSet, w: float | None, *, overhead: float | None = None, suspension: str = "idle"
+    ts: TaskSet,
+    w: float | None,
+    *,
+    overhead: float | None = None,
+    suspension: str = "idle",
+    shifts: Mapping[str, float] | None = None,
 ) -> dict[str, float | None]:
     """Offset-based WCRT of every task of ``ts`` at window ``w`` (ms from arrival; None where
     it passes the task's deadline or the analysis does not apply, as for a set with
-    critical sections), fixed priority."""
+    critical sections), fixed priority. ``shifts``: as for :func:`transactions_of` (a
+    simulation whose releases put per-window tasks' arrivals elsewhere than their offsets
+    from the window's, e.g. jitter "worst", which moves every task's arrivals by the largest
+    jitter less its own)."""
     from rtsim.analysis.rta import analyze
 
     o = ts.overhead if overhead is None else overhead
     if ts.has_sections:  # the offset-based analysis has no blocking term: it does not apply
         return {t.name: None for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}
-    txs = transactions_of(ts, w)
+    txs = transactions_of(ts, w, shifts)
     known = {t.name: t.wcrt for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}
     raw = analyze_transactions(txs, overhead=o, suspension=suspension, known=known)
     deadlines = {j.task: j.deadline for tx in txs for j in tx.jobs}

@@ -227,7 +227,7 @@ def run(args: argparse.Namespace) -> int:
         text = format_edf(res, str(ts.source), w_from)
     else:
         text = format_analysis(res, str(ts.source), w_from)
-        if policy.analysis is analyze:  # fixed priority: the offset-based bound beside it
+        if policy.analysis is analyze and not ts.has_sections:  # FP: the offset-based bound
             from rtsim.analysis.transaction import transaction_bounds
 
             txn = transaction_bounds(ts, res.w, overhead=res.overhead,

@@ -281,7 +281,13 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     if known and analyze_with is analyze and (ts.window is None or w is not None):
         from rtsim.analysis.transaction import transaction_bounds
 
-        txn = transaction_bounds(ts, w, overhead=overhead, suspension=args.suspension)
+        # --jitter worst moves each task's arrivals by (largest jitter - its own): a
+        # per-window task's arrivals then sit J_window - J_task after the window's
+        shifts = None
+        if args.jitter == "worst" and ts.window is not None:
+            shifts = {t.name: ts.window.jitter - t.jitter for t in ts.tasks if t.per_window}
+        txn = transaction_bounds(ts, w, overhead=overhead, suspension=args.suspension,
+                                 shifts=shifts)
         for name, r in txn.items():
             old = wcrt.get(name)
             if r is not None and (old is None or r < old):

@@ -27,8 +27,9 @@ from rtsim.config.fields import (
     ranged,
     text,
 )
+from rtsim.errors import TaskSetError
 from rtsim.io.limits import WINDOW_N, WINDOW_R_H, Range
-from rtsim.model.task import OVERLOAD_POLICIES, Task
+from rtsim.model.task import OVERLOAD_POLICIES, RESOURCE_PROTOCOLS, CriticalSection, Task
 from rtsim.model.taskset import TaskSet
 from rtsim.model.window import WindowSpec
 
@@ -70,6 +71,17 @@ def per_window(value: float | str) -> tuple[float, bool]:
     return float(value), False
 
 
+class SectionModel(Table):
+    """One critical section of a task: ``{ resource = "radio", start = 2.0, length = 3.0 }``
+    (docs/resources.md)."""
+
+    resource: Annotated[str, text(what="a resource name")]
+    start: Annotated[float, number(0, 1e7, "ms", "the execution a job has consumed when the "
+                                   "section begins (within the wcet)")]
+    length: Annotated[float, number(0, 1e7, "ms", "the execution that holds the resource "
+                                    "(within what is left of the wcet)", lo_open=True)]
+
+
 class TaskModel(Table):
     """One ``[[tasks]]`` entry."""
 
@@ -83,6 +95,7 @@ class TaskModel(Table):
     jitter: Annotated[float, number(0, _MS_MAX, "ms", "as the offset")] | None = None
     bcet: Annotated[float, number(0, 1e7, "ms", "at most 2.8 h of CPU per job")] | None = None
     overload: Annotated[str, choice(OVERLOAD_POLICIES)] | None = None
+    critical_sections: list[SectionModel] | None = None
 
 
 _CHAIN = "a chain step of at most 2.8 h"
@@ -132,6 +145,7 @@ class SchedulerModel(Table):
     """``[scheduler]``: the CPU's scheduling policy."""
 
     policy: Annotated[str, text(what="a policy name")] = "fp"
+    resources: Annotated[str, choice(RESOURCE_PROTOCOLS)] | None = None
 
 
 class TaskSetFile(Table):
@@ -224,6 +238,10 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
             kw["bcet"] = float(t.bcet)
         if t.overload is not None:
             kw["overload"] = t.overload
+        if t.critical_sections:
+            kw["critical_sections"] = tuple(
+                CriticalSection(c.resource, float(c.start), float(c.length))
+                for c in t.critical_sections)
         entries.append((kw, label))
     names: dict[str, int] = {} if model.window is None else {model.window.name: 0}
     for i, (kw, label) in enumerate(entries, start=1):
@@ -236,10 +254,30 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
     errors += _assign_priorities(entries, model.window)
     if errors or (model.window is not None and window is None):
         return None, errors
-    tasks = tuple(Task(**kw) for kw, _ in entries)
+    tasks_l = []
+    for kw, label in entries:
+        try:
+            tasks_l.append(Task(**kw))
+        except TaskSetError as exc:  # the critical sections against the wcet
+            msg = str(exc)
+            errors.append(msg if msg.startswith(label) else f"{label}: {msg}")
+    if model.scheduler is not None and model.scheduler.resources == "pcp":
+        from rtsim.sim.policy import resolve_policy
+
+        try:
+            levels = resolve_policy(model.scheduler.policy).resource_levels
+        except Exception:  # an unknown policy: reported above
+            levels = "priority"
+        if levels == "deadline":
+            errors.append(f"[scheduler]: resources: pcp needs fixed priorities; under "
+                          f"{model.scheduler.policy} use srp or npr")
+    if errors:
+        return None, errors
+    tasks = tuple(tasks_l)
     return TaskSet(tasks, name=model.name, window=window, assumptions=dict(model.assumptions),
                    source=source, overhead=float(model.overhead),
-                   scheduler=model.scheduler.policy if model.scheduler else "fp"), []
+                   scheduler=model.scheduler.policy if model.scheduler else "fp",
+                   resources=model.scheduler.resources if model.scheduler else None), []
 
 
 def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:

@@ -86,12 +86,18 @@ def taskset_to_dict(ts: TaskSet) -> dict[str, Any]:
         if t.bcet is not None:
             entry["bcet"] = t.bcet
         entry["overload"] = t.overload
+        if t.critical_sections:
+            entry["critical_sections"] = [
+                {"resource": c.resource, "start": c.start, "length": c.length}
+                for c in t.critical_sections]
         tasks.append(entry)
     out: dict[str, Any] = {"name": ts.name, "tasks": tasks}
     if ts.overhead:
         out["overhead"] = ts.overhead
-    if ts.scheduler != "fp":
+    if ts.scheduler != "fp" or ts.resources is not None:
         out["scheduler"] = {"policy": ts.scheduler}
+        if ts.resources is not None:
+            out["scheduler"]["resources"] = ts.resources
     if ts.window is not None:
         out["window"] = ts.window.as_dict()
     if ts.assumptions:
