@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import numbers
+from typing import TypeGuard
 
 __all__ = ["is_real", "is_int"]
 
@@ -15,11 +16,11 @@ def _is_bool(v: object) -> bool:
     return isinstance(v, bool) or type(v).__name__ == "bool_"
 
 
-def is_real(v: object) -> bool:
+def is_real(v: object) -> TypeGuard[float]:
     """A real number (int, float, numpy integer or floating scalar), not a bool."""
     return isinstance(v, numbers.Real) and not _is_bool(v)
 
 
-def is_int(v: object) -> bool:
+def is_int(v: object) -> TypeGuard[int]:
     """An integer (int or numpy integer scalar), not a bool."""
     return isinstance(v, numbers.Integral) and not _is_bool(v)

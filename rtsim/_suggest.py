@@ -12,7 +12,7 @@ Imports nothing from rtsim, so every layer may use it.
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 __all__ = ["close_match", "did_you_mean"]
 
@@ -60,7 +60,11 @@ def close_match(word: object, choices: Iterable[object], ratio: float | None = N
     return best if _edits(word, best) <= _allowed(word) else None
 
 
-def did_you_mean(word: object, choices: Iterable[object], ratio: float | None = None) -> str:
-    """`` (did you mean 'x'?)`` for :func:`close_match`, or ``""``."""
+def did_you_mean(word: object, choices: Iterable[object], ratio: float | None = None,
+                 renamed: Mapping[str, str] | None = None) -> str:
+    """`` (did you mean 'x'?)`` for :func:`close_match`, or ``""``; ``renamed``: old names and
+    their new ones (`` ('estimate' was renamed; did you mean 'paper'?)``)."""
+    if renamed and isinstance(word, str) and word in renamed:
+        return f" ('{word}' was renamed; did you mean '{renamed[word]}'?)"
     close = close_match(word, choices, ratio)
     return f" (did you mean '{close}'?)" if close else ""

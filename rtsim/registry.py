@@ -19,22 +19,23 @@ says how to opt in; its module is not imported. When code is loaded, the current
 importable (as ``python -m`` and pytest make it), so ``--policy mymod:MyPolicy`` works from
 the directory that holds ``mymod.py``.
 
-This module is at the bottom of the package: it imports only :mod:`rtsim.errors`.
+This module is at the bottom of the package: it imports only :mod:`rtsim.errors` and
+:mod:`rtsim._suggest` (the did-you-mean, re-exported here).
 """
 
 from __future__ import annotations
 
 import contextlib
-import difflib
 import importlib
 import os
 import re
 import sys
-from collections.abc import Callable, Iterable, Iterator, MutableMapping
+from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from contextvars import ContextVar
 from importlib import metadata
 from typing import Any, Generic, TypeVar
 
+from rtsim._suggest import did_you_mean
 from rtsim.errors import InputError
 
 __all__ = ["Registry", "code_allowed", "did_you_mean", "file_allows_code", "is_code_spec",
@@ -53,14 +54,6 @@ _OPTED_IN: ContextVar[bool] = ContextVar("rtsim_code_opted_in", default=False)
 
 #: How a user opts in, named in every refusal.
 OPT_IN = "pass --allow-code (allow_code=True in the API) to allow it"
-
-
-def did_you_mean(name: object, choices: Iterable[str], cutoff: float = 0.6) -> str:
-    """``" (did you mean 'x'?)"`` for the choice closest to ``name``, or ``""``."""
-    if not isinstance(name, str):
-        return ""
-    close = difflib.get_close_matches(name, list(choices), n=1, cutoff=cutoff)
-    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 def is_code_spec(spec: object) -> bool:
@@ -144,10 +137,13 @@ class Registry(MutableMapping[str, T], Generic[T]):
     :class:`InputError`."""
 
     def __init__(self, kind: str, group: str,
-                 check: Callable[[Any, str, str], T] | None = None) -> None:
+                 check: Callable[[Any, str, str], T] | None = None,
+                 renamed: Mapping[str, str] | None = None) -> None:
         self.kind = kind
         self.group = group
         self._check = check
+        #: old names and their new ones: an old name is an error that names its replacement
+        self.renamed: dict[str, str] = dict(renamed or {})
         self._items: dict[str, T] = {}
 
     # -- the mapping of registered plug-ins ----------------------------------------------
@@ -211,7 +207,8 @@ class Registry(MutableMapping[str, T], Generic[T]):
             return value
         known = self.known()
         raise InputError(f"{where}: must be one of {', '.join(known)} or "
-                         f"'package.module:Name', got {spec!r}{did_you_mean(spec, known, 0.5)}")
+                         f"'package.module:Name', got {spec!r}"
+                         f"{did_you_mean(spec, known, renamed=self.renamed)}")
 
     def _checked(self, obj: Any, spec: str, where: str) -> T:
         if self._check is None:

@@ -87,7 +87,8 @@ def _summary_section(run_dir: Path) -> str:
 
         df = pd.read_csv(csv)
         return "<h2>Summary</h2>" + _frame_table(
-            [str(c) for c in df.columns], df.astype(object).where(df.notna(), None).values)
+            [str(c) for c in df.columns],
+            df.astype(object).where(df.notna(), None).values.tolist())
     return "<h2>Summary</h2><p class='muted'>No summary.json or summary.csv.</p>"
 
 

@@ -45,11 +45,12 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
-from typing import Any
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any
 
 from rtsim.errors import InputError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 SCENARIOS = Path(__file__).resolve().parent / "data" / "scenarios"  # = experiments/scenarios
 TESTS: tuple[str, ...] = ("test1", "test2")
@@ -197,6 +198,8 @@ def modes_data(dfs: dict[str, pd.DataFrame], name: str) -> pd.DataFrame:
         part = figure_data(df, name)
         part.insert(0, "mode", mode)
         parts.append(part)
+    import pandas as pd
+
     return pd.concat(parts, ignore_index=True)
 
 
@@ -300,6 +303,7 @@ def summary_markdown(df: pd.DataFrame) -> str:
             "loc / sep / path / bear | misses | lost tracks | sim. s | windows | all violations "
             "| critical share | min MSB / w_sch | min V_L / V_Ld | methods |")
     lines = [head, "|" + "---|" * 13]
+    r: Any  # a row (its fields typed by the columns, not by pandas)
     for r in df.itertuples(index=False):
         lines.append(
             f"| {TEST_LABELS.get(r.test, r.test)} | {r.mode} | {r.viol5_localization} / "
@@ -406,11 +410,16 @@ class _Parser(argparse.ArgumentParser):
         raise InputError(message)
 
 
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    """The command line (module docstring); bad options raise :class:`InputError`."""
-    ap = _Parser(prog="rtsim reproduce", description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                    help=f"output directory (default {DEFAULT_OUT})")
+def add_options(ap: Any, *, out_required: bool = False) -> None:
+    """Add the options (module docstring) to the parser ``ap``: the one definition used by
+    ``python -m rtsim.reproduce`` and by ``rtsim reproduce`` (``out_required``: ``--out``
+    has no default, as on every command of the ``rtsim`` program that writes)."""
+    if out_required:
+        ap.add_argument("--out", required=True, metavar="DIR",
+                        help=f"output directory (the README's: {DEFAULT_OUT})")
+    else:
+        ap.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                        help=f"output directory (default {DEFAULT_OUT})")
     ap.add_argument("--quick", action="store_true",
                     help=f"CI mode: {QUICK_DURATION_S:g} simulated s per run (one turn)")
     ap.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")
@@ -435,20 +444,39 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="change a key of both scenarios (a dotted path, the value read as "
                          "TOML); repeatable")
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The command line (module docstring); bad options raise :class:`InputError`."""
+    ap = _Parser(prog="rtsim reproduce", description=__doc__.splitlines()[0])
+    add_options(ap)
     return ap.parse_args(argv)
 
 
 def main(argv: list[str] | None = None, finish: Callable[[Path], None] | None = None) -> int:
-    """Run the six scenarios, draw the figures, write the tables (module docstring).
+    """``python -m rtsim.reproduce``: parse ``argv`` and :func:`run` (exit status)."""
+    t0 = time.perf_counter()
+    try:
+        args = parse_args(argv)
+    except InputError as exc:
+        print(f"rtsim: {exc}", file=sys.stderr)
+        return 2
+    return run(args, finish=finish, argv=argv, t0=t0)
+
+
+def run(args: argparse.Namespace, *, finish: Callable[[Path], None] | None = None,
+        argv: list[str] | None = None, t0: float | None = None) -> int:
+    """Run the six scenarios, draw the figures, write the tables (module docstring), for the
+    parsed options ``args`` (:func:`add_options`); returns the exit status.
 
     ``--out`` is written whole (:mod:`rtsim.io.outdir`): into a staging directory beside it,
     checked before the runs start, swapped in at the end. ``finish`` (the CLI's report
     writer) is called with the staging directory just before the swap; what it writes,
     ``report.html`` at the top and in each run directory, is listed in the manifest.
+    ``argv``: the command line the manifest records (default: this process's).
     """
-    t0 = time.perf_counter()
+    t0 = time.perf_counter() if t0 is None else t0
     try:
-        args = parse_args(argv)
         _check_args(args)
         from rtsim.io.outdir import stage
 
@@ -522,6 +550,8 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
 
     rows = [summary_row(t, m, results[(t, m)]["summary"], results[(t, m)]["timing"]["total_s"])
             for t in TESTS for m in MODES]
+    import pandas as pd
+
     table = pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
     write_table(out / "summary.csv", table)
     md = summary_markdown(table)
@@ -555,8 +585,8 @@ def _main(args: argparse.Namespace, argv: list[str] | None, t0: float, out: Path
         from rtsim.io.atomic import dumps
 
         finite = table.replace([math.inf, -math.inf], math.nan).astype(object)
-        rows = finite.where(finite.notna(), None).to_dict("records")  # NaN, inf: null
-        print(dumps({"out": str(args.out), "runs": rows}))
+        records = finite.where(finite.notna(), None).to_dict("records")  # NaN, inf: null
+        print(dumps({"out": str(args.out), "runs": records}))
     elif not args.quiet:
         print(md, end="")
     if not args.quiet:

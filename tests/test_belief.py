@@ -154,7 +154,8 @@ def test_old_predictor_names_are_input_errors() -> None:
     ('model = "formation"', r"^.*/t\.toml: adjust: unknown key 'model' \(renamed; did you mean "
                             r"'predictor'\?\)$"),
     ('predictor = "estimate"', r"^.*/t\.toml: adjust\.predictor: must be one of paper, formation, "
-                               r"hybrid, commands, got 'estimate' \('estimate' was renamed; "
+                               r"hybrid, commands or 'package\.module:Name', got 'estimate' "
+                               r"\('estimate' was renamed; "
                                r"did you mean 'paper'\?\)$"),
     ('predictor = "hybird"', r"^.*/t\.toml: adjust\.predictor: .* \(did you mean 'hybrid'\?\)$"),
 ])

@@ -139,6 +139,7 @@ def _rows(n: int, seed: int) -> list[tuple[object, ...]]:
     return out
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(n=st.integers(0, 300), chunk=st.integers(1, 64), seed=st.integers(0, 10_000))
 def test_rowbuffer_chunks_equal_one_frame(n: int, chunk: int, seed: int) -> None:
@@ -171,7 +172,7 @@ def test_thin_rows_keeps_extremes_and_every_span(m: int, bucket: int, seed: int,
                                                  p_crit: float) -> None:
     """Long runs' figures draw a row selection: it keeps each bucket's extremes of every
     plotted value, the first and last window, and the critical spans exactly."""
-    from rtsim.plots.scenario import critical_spans, thin_rows
+    from rtsim.plots.scenario_data import critical_spans, thin_rows
 
     rng = np.random.default_rng(seed)
     t = np.cumsum(rng.uniform(100, 300, m))

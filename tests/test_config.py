@@ -57,6 +57,23 @@ def test_the_cli_prints_every_error_one_line_each_and_exits_2(
     assert len(err) == 3 and all(line.startswith(f"rtsim: {p}: task '") for line in err), err
 
 
+def test_a_sweep_file_with_three_mistakes_reports_all_three(tmp_path: Path) -> None:
+    from rtsim.errors import SweepError
+    from rtsim.sweep import load_sweep
+
+    p = tmp_path / "three.toml"
+    p.write_text('[sweep]\nkind = "bounds"\nseed = -1\ncombin = "zip"\n'
+                 '[grid]\nn = "1..x"\n')
+    with pytest.raises(SweepError) as info:
+        load_sweep(p)
+    assert str(info.value).split("\n") == [
+        f"{p}: sweep.seed: must be an integer >= 0, got -1",
+        f"{p}: sweep: unknown key 'combin' (did you mean 'combine'?)",
+        f"{p}: grid.n: cannot parse range '1..x' (expected a..b or a..b:step) (use a TOML "
+        "list for text values)",
+    ]
+
+
 def test_a_scenario_with_several_mistakes_reports_them_all(tmp_path: Path) -> None:
     text = (ROOT / "experiments" / "scenarios" / "test2.toml").read_text()
     text = text.replace("speed = 30", "speed = -30").replace("followers = 2",
@@ -109,6 +126,25 @@ def test_values_keep_their_toml_types() -> None:
 ])
 def test_did_you_mean(word: str, choices: list[str], expected: str | None) -> None:
     assert close_match(word, choices) == expected
+
+
+def test_did_you_mean_is_guessed_in_one_place() -> None:
+    """Only rtsim/_suggest.py guesses a name (difflib); the registry, the models, the sweep
+    file, the adjustment policies' keys and the command line all ask it."""
+    guessers = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "rtsim").rglob("*.py")
+                      if "difflib" in p.read_text("utf-8"))
+    assert guessers == ["rtsim/_suggest.py"]
+
+
+def test_registry_names_and_renamed_names_use_the_same_guess() -> None:
+    from rtsim.control.predict import PREDICTORS
+    from rtsim.world.formation import FOLLOWER_MODELS
+
+    with pytest.raises(InputError, match=r"got 'follow-the-lead' \(did you mean "
+                                         r"'follow-the-leader'\?\)$"):
+        FOLLOWER_MODELS.resolve("follow-the-lead", "formation.model")
+    with pytest.raises(InputError, match=r"'estimate' was renamed; did you mean 'paper'\?"):
+        PREDICTORS.resolve("estimate", "adjust.predictor")
 
 
 # -- JSON Schemas -----------------------------------------------------------------------
@@ -247,12 +283,15 @@ def test_sweep_set_applies_at_every_point(tmp_path: Path) -> None:
     assert "set_args" not in load_sweep("smoke").resolved()  # old fingerprints unchanged
 
 
-def test_reproduce_passes_set_through() -> None:
-    from rtsim.cli import build_parser
-    from rtsim.cli.reproduce import argv_for
-    from rtsim.reproduce import parse_args
+def test_reproduce_parses_once_and_passes_set_through(monkeypatch: pytest.MonkeyPatch
+                                                      ) -> None:
+    """``rtsim reproduce`` hands its parsed options to :func:`rtsim.reproduce.run` (no second
+    parser, no command line rebuilt from them)."""
+    import rtsim.reproduce as rp
 
-    ns = build_parser().parse_args(["reproduce", "--quick", "--out", "o", "--set",
-                                    "leader.speed=20"])
-    argv = argv_for(ns)
-    assert parse_args(argv).set == ["leader.speed=20"]
+    seen = []
+    monkeypatch.setattr(rp, "parse_args", lambda argv: pytest.fail("parsed twice"))
+    monkeypatch.setattr(rp, "run", lambda args, **kw: seen.append(args) or 0)
+    assert main(["reproduce", "--quick", "--out", "o", "--set", "leader.speed=20"]) == 0
+    assert [(a.set, a.quick, a.out, a.seed) for a in seen] == [(["leader.speed=20"], True,
+                                                                 "o", 0)]

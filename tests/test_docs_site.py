@@ -92,6 +92,7 @@ def _target(site: Path, page: Path, link: str) -> tuple[Path, str] | None:
     return target, unquote(parts.fragment)
 
 
+@pytest.mark.slow
 def test_site_builds_strict_and_every_internal_link_resolves(site: Path) -> None:
     pages = sorted(site.rglob("*.html"))
     assert len(pages) > 30
@@ -161,6 +162,7 @@ class _QuietHandler(http.server.SimpleHTTPRequestHandler):
         pass
 
 
+@pytest.mark.slow
 def test_pages_render_in_chromium_with_a_clean_console(served: str) -> None:
     exe = find_chromium()
     if exe is None:

@@ -142,6 +142,7 @@ def _label(ax: Any, which: str) -> str:
     return ""
 
 
+@pytest.mark.slow
 def test_every_axis_says_what_it_shows_and_its_unit(figures: dict[str, Figure]) -> None:
     problems = []
     for name, fig in figures.items():

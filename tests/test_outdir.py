@@ -293,6 +293,7 @@ def _digest(d: Path) -> str:
     return hashlib.sha256((d / "windows.csv").read_bytes()).hexdigest()
 
 
+@pytest.mark.slow
 def test_kill_minus_9_never_leaves_a_mixed_directory(tmp_path: Path) -> None:
     out = tmp_path / "run"
     env = {**os.environ, "MPLBACKEND": "Agg"}

@@ -91,16 +91,15 @@ def test_rtsim_reproduce_passes_every_option_of_the_module(capsys) -> None:
 
     from rtsim import reproduce
     from rtsim.cli import build_parser
-    from rtsim.cli.reproduce import argv_for
 
-    args = build_parser().parse_args(["reproduce", "--out", "x", "--quick", "--seed", "3",
-                                      "--duration", "5", "--workers", "1", "--docs", "d",
-                                      "--quiet", "--format", "svg", "--dpi", "200",
-                                      "--json"])
-    got = vars(reproduce.parse_args(argv_for(args)))
-    assert got == {"out": "x", "quick": True, "seed": 3, "duration": 5.0, "workers": 1,
-                   "docs": "d", "quiet": True, "force": False, "fig_format": "svg",
-                   "dpi": 200, "json": True, "set": []}
+    opts = ["--out", "x", "--quick", "--seed", "3", "--duration", "5", "--workers", "1",
+            "--docs", "d", "--quiet", "--format", "svg", "--dpi", "200", "--json"]
+    args = build_parser().parse_args(["reproduce", *opts])
+    got = {k: v for k, v in vars(args).items() if k not in ("command", "func")}
+    assert got == vars(reproduce.parse_args(opts)) == {
+        "out": "x", "quick": True, "seed": 3, "duration": 5.0, "workers": 1, "docs": "d",
+        "quiet": True, "force": False, "fig_format": "svg", "dpi": 200, "json": True,
+        "set": []}
     with pytest.raises(SystemExit):
         reproduce.parse_args(["--help"])
     module_opts = set(re.findall(r"--[a-z]+", capsys.readouterr().out)) - {"--help"}

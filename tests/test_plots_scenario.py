@@ -374,3 +374,10 @@ def test_bad_input_names_the_problem(df):
         plot_bounds(df.drop(columns=["f2_msb_bearing_pred"]))
     with pytest.raises(InputError, match="unknown kind 'gantt'"):
         plot_modes({"a": df}, kind="gantt")
+
+
+def test_data_module_lists_the_drawn_figures() -> None:
+    from rtsim.plots.scenario import SCENARIO_FIGURES
+    from rtsim.plots.scenario_data import FIGURE_NAMES
+
+    assert FIGURE_NAMES == tuple(SCENARIO_FIGURES)

@@ -206,6 +206,7 @@ def _cli(*args: str) -> subprocess.CompletedProcess[str]:
                           text=True, check=False)
 
 
+@pytest.mark.slow
 def test_cli_policy(tmp_path: Path) -> None:
     bad = _cli("scenario", str(PIN / "pin1.toml"), "--policy", "margn", "--out",
                str(tmp_path / "x"))

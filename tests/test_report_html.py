@@ -71,6 +71,7 @@ def test_scenario_report_renders_in_chromium(tmp_path: Path) -> None:
     _check_in_browser(report, len(pngs))
 
 
+@pytest.mark.slow
 def test_validate_report_renders_in_chromium(tmp_path: Path) -> None:
     out = tmp_path / "val"
     assert main(["validate", "--quick", "--out", str(out), "--workers", "1", "--quiet"]) == 0
@@ -82,6 +83,7 @@ def test_validate_report_renders_in_chromium(tmp_path: Path) -> None:
     _check_in_browser(report, len(list(out.rglob("*.png"))))
 
 
+@pytest.mark.slow
 def test_reproduce_reports_render_in_chromium(tmp_path: Path) -> None:
     out = tmp_path / "paper"
     assert main(["reproduce", "--duration", "10", "--workers", "1", "--quiet",

@@ -174,7 +174,7 @@ OK_HEAD = f'[sweep]\nkind = "bounds"\nbase = "{PAPER}"\n'
 BAD = [
     ("unknown-top", OK_HEAD + "[grdi]\nn = [1]\n", r"unknown key 'grdi' \(did you mean 'grid'\?\)"),
     ("unknown-sweep-key", OK_HEAD + 'combin = "zip"\n[grid]\nn = [1]\n',
-     r"unknown key 'sweep.combin' \(did you mean 'combine'\?\)"),
+     r"sweep: unknown key 'combin' \(did you mean 'combine'\?\)"),
     ("unknown-kind", '[sweep]\nkind = "boundz"\n[grid]\nn = [1]\n',
      r"sweep.kind: unknown kind 'boundz'.*did you mean 'bounds'"),
     ("no-kind", "[sweep]\n[grid]\nn = [1]\n", r"sweep.kind: missing"),

@@ -16,6 +16,7 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 
 
+@pytest.mark.slow
 def test_quick_mode_writes_report_figures_and_csvs(tmp_path: Path) -> None:
     out = tmp_path / "quick"
     env = {**os.environ, "MPLBACKEND": "Agg"}

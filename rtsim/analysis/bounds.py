@@ -65,6 +65,12 @@ BOUND_SCHEDULER: dict[str, str] = {"w_sch": "fp", "w_rta": "fp", "w_susp": "fp",
 W_MAX = 1e9
 
 
+def _deadline(t: Task) -> float:
+    """The task's relative deadline (set to the period when the file gives none)."""
+    assert t.deadline is not None
+    return t.deadline
+
+
 def _feasible(ts: TaskSet, w: float) -> bool:
     return analyze(ts, w).schedulable
 
@@ -73,7 +79,7 @@ def _snap(ts: TaskSet, hi: float) -> float:
     """The exact left end of the feasible piece containing ``hi`` (module doc)."""
     entries = _entries(ts)
     resolved = ts.at_window(hi).tasks
-    scale = {t.name: (t.period, t.deadline) for t, s in entries if s}
+    scale = {t.name: (t.period, _deadline(t)) for t, s in entries if s}
     best = 0.0
     for i, task in enumerate(resolved):
         r = response_time(task, resolved[:i])
@@ -149,7 +155,7 @@ def w_susp(ts: TaskSet, overhead: float | None = None) -> float:
     if not math.isfinite(hi):
         return math.inf
     o = ts.overhead if overhead is None else overhead
-    scale = {t.name: (t.period, t.deadline) for t, s in _entries(ts) if s}
+    scale = {t.name: (t.period, _deadline(t)) for t, s in _entries(ts) if s}
     resolved = ts.at_window(hi).tasks
     bounds = suspension_aware(resolved, o)
     cands: list[float] = []
@@ -163,8 +169,9 @@ def w_susp(ts: TaskSet, overhead: float | None = None) -> float:
                 if j.name not in scale:
                     continue
                 jits = {j.jitter}
-                if bounds[k].wcrt is not None:
-                    jits.add(max(bounds[k].wcrt - compute_time(j), 0.0))
+                wcrt = bounds[k].wcrt
+                if wcrt is not None:
+                    jits.add(max(wcrt - compute_time(j), 0.0))
                 for jj in jits:
                     m = ceil_div(r + jj, j.period)
                     if m > 0:

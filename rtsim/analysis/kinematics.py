@@ -293,8 +293,8 @@ def follower_msbs(
     ``localization`` is Eq 19 or the full form, as ``thr.localization`` says.
     """
     if _xp(v_l, omega_l, v_f, rho, beta, theta, rho_d) is math:  # scalar fast path, same ops
-        loc, sep, path, bear = scalar_msbs(v_l, omega_l, v_f, rho, beta, theta, rho_d, thr)
-        return {"localization": loc, "separation": sep, "path_diversion": path,
+        s_loc, sep, path, bear = scalar_msbs(v_l, omega_l, v_f, rho, beta, theta, rho_d, thr)
+        return {"localization": s_loc, "separation": sep, "path_diversion": path,
                 "bearing": bear}
     rd = rho_dot(v_l, v_f, beta, theta)
     bd = beta_dot(v_l, v_f, beta, theta, rho, omega_l)

@@ -56,7 +56,7 @@ from rtsim.analysis.common import (
     ceil_div,
     stretches,
 )
-from rtsim.analysis.sufficient import as_taskset, w_sch_of
+from rtsim.analysis.sufficient import as_taskset, window_or_w_sch
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Task
 
@@ -198,13 +198,7 @@ def analysis_inputs(ts: TaskSet, w: float | None,
             raise TaskSetError(f"{label}: has no [window], so a window w does not apply")
         tasks = ts.tasks
     else:
-        if w is None:
-            w = w_sch_of(ts)
-            if not math.isfinite(w):
-                raise TaskSetError(
-                    f"{label}: the analytic bound w_sch is infinite (T_hp saturates the CPU); "
-                    "choose a window w explicitly"
-                )
+        w = window_or_w_sch(ts, w)
         tasks = ts.at_window(w).tasks
     return ts, w, overhead, tuple(tasks)
 

@@ -16,8 +16,9 @@ from rtsim.model.task import Task
 
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
+    from rtsim.model.window import WindowSpec
 
-__all__ = ["as_taskset", "w_eq7_of", "w_eq11_of", "w_sch_of"]
+__all__ = ["as_taskset", "w_eq7_of", "w_eq11_of", "w_sch_of", "window_or_w_sch"]
 
 
 def as_taskset(ts: object, function: str) -> TaskSet:
@@ -36,10 +37,11 @@ def as_taskset(ts: object, function: str) -> TaskSet:
                        f"got {type(ts).__name__}")
 
 
-def _need_window(ts: TaskSet) -> None:
+def _need_window(ts: TaskSet) -> WindowSpec:
     if ts.window is None:
         label = ts.source or ts.name or "task set"
         raise TaskSetError(f"{label}: has no [window]; window bounds need a processing-window set")
+    return ts.window
 
 
 def _entries(ts: TaskSet) -> list[tuple[Task, bool]]:
@@ -91,9 +93,9 @@ def _sufficient(task: Task, scaled: bool, higher: Sequence[tuple[Task, bool]]) -
 
 def w_eq7_of(ts: TaskSet) -> float:
     """Eq 7: the chain alone, w ≥ (g + Σ_hp e_j)/(1 − Σ_hp e_j/p_j) for fixed-period T_hp."""
-    _need_window(ts)
+    win = _need_window(ts)
     entries = _entries(ts)
-    i = next(k for k, (t, _) in enumerate(entries) if t.priority == ts.window.priority)
+    i = next(k for k, (t, _) in enumerate(entries) if t.priority == win.priority)
     return _sufficient(*entries[i], entries[:i])
 
 
@@ -112,3 +114,17 @@ def w_sch_of(ts: TaskSet) -> float:
     none exists."""
     ts = as_taskset(ts, "w_sch_of")
     return max(w_eq7_of(ts), w_eq11_of(ts))
+
+
+def window_or_w_sch(ts: TaskSet, w: float | None = None) -> float:
+    """The window a processing-window set is analysed or simulated at: ``w`` when given, else
+    the analytic bound w_sch (the one place that decides it). An infinite w_sch is a
+    :class:`~rtsim.errors.TaskSetError`: T_hp saturates the CPU, a window must be given."""
+    if w is not None:
+        return w
+    w_sch = w_sch_of(ts)
+    if not math.isfinite(w_sch):
+        label = ts.source or ts.name or "task set"
+        raise TaskSetError(f"{label}: the analytic bound w_sch is infinite (T_hp saturates the "
+                           f"CPU); choose a window w explicitly")
+    return w_sch

@@ -101,7 +101,7 @@ def task_bounds(ts: TaskSet, w: float | None = None) -> dict[str, TaskBounds]:
         from rtsim.analysis.bounds import w_sch_of
 
         w_sch = w_sch_of(ts)
-        w = w_sch if w is None else w
+        w = w_sch if w is None else w  # (w_sch itself is needed too: not window_or_w_sch)
         per_window = {t.name for t in ts.tasks if t.per_window}
         win_name = ts.window.name
     a = analyze(ts, w) if ts.window is not None else analyze(ts)

@@ -9,12 +9,12 @@ Input errors, and files that cannot be read or written, print one line,
 from __future__ import annotations
 
 import argparse
-import difflib
 import importlib
 import re
 import sys
 from typing import Any, NoReturn
 
+from rtsim._suggest import close_match, did_you_mean
 from rtsim.errors import InputError
 
 __all__ = ["main", "COMMANDS", "Parser", "plain"]
@@ -109,9 +109,7 @@ class Parser(argparse.ArgumentParser):
         m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
         if m:
             choices = re.findall(r"'([^']*)'", m.group(2))
-            close = difflib.get_close_matches(m.group(1), choices, n=1, cutoff=0.5)
-            if close:
-                message += f" (did you mean '{close[0]}'?)"
+            message += did_you_mean(m.group(1), choices)
         self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
@@ -160,8 +158,7 @@ def suggest(token: str, options: list[str]) -> str | None:
     prefixed = [o for o in longs if o.startswith(name)] if name.startswith("--") else []
     if len(prefixed) == 1:
         return prefixed[0]
-    close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
-    return close[0] if close else None
+    return close_match(name, options)
 
 
 def unknown_arguments(parser: argparse.ArgumentParser, command: str | None,

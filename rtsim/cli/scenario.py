@@ -253,12 +253,12 @@ def _write(args: Any, out: Path, target: Path, t0: float, src: str,
 
 def _figure_table(path: Path, n: int, rows: int) -> Any:
     """The columns the figures draw, read back from windows.csv; above
-    :data:`~rtsim.plots.scenario.FIGURE_MAX_ROWS` windows only the rows
-    :func:`~rtsim.plots.scenario.thin_rows` keeps (read in bucket-aligned chunks)."""
+    :data:`~rtsim.plots.scenario_data.FIGURE_MAX_ROWS` windows only the rows
+    :func:`~rtsim.plots.scenario_data.thin_rows` keeps (read in bucket-aligned chunks)."""
     import pandas as pd
 
     from rtsim.io.columns import iter_columns, read_columns
-    from rtsim.plots.scenario import FIGURE_BUCKETS, FIGURE_MAX_ROWS, figure_columns, thin_rows
+    from rtsim.plots.scenario_data import FIGURE_BUCKETS, FIGURE_MAX_ROWS, figure_columns, thin_rows
 
     cols = figure_columns(n)
     if rows <= FIGURE_MAX_ROWS:

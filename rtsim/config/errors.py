@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import types
 import typing
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
@@ -68,7 +68,7 @@ def keys_of(model: type[BaseModel]) -> list[str]:
     return [f.alias or name for name, f in model.model_fields.items()]
 
 
-def _problem(root: type[BaseModel], err: dict[str, Any]) -> tuple[Loc, str]:
+def _problem(root: type[BaseModel], err: Mapping[str, Any]) -> tuple[Loc, str]:
     """(where, what) of one pydantic error."""
     loc: Loc = tuple(err["loc"])
     kind = err["type"]

@@ -147,26 +147,22 @@ def choice(values: Sequence[str], *, renamed: Mapping[str, str] | None = None) -
     def check(value: Any) -> Any:
         if isinstance(value, str) and value in names:
             return value
-        if renamed and value in renamed:
-            raise problem(f"must be {shown}, got {value!r} ('{value}' was renamed; did you "
-                          f"mean '{renamed[value]}'?)")
-        raise problem(f"must be {shown}, got {value!r}{did_you_mean(value, names)}")
+        raise problem(f"must be {shown}, got {value!r}"
+                      f"{did_you_mean(value, names, renamed=renamed)}")
 
     return Leaf(check, {"type": "string", "enum": list(names)})
 
 
-def plugin(registry: Registry[Any], *, renamed: Mapping[str, str] | None = None) -> Leaf:
+def plugin(registry: Registry[Any]) -> Leaf:
     """The name of a plug-in of ``registry`` (:mod:`rtsim.registry`): a registered name, an
     installed entry point, or ``package.module:Name`` (code: only when the reader allows it),
-    resolved while the file is validated; ``renamed``: old names and their new ones.
+    resolved while the file is validated (an old name says its new one: the registry's
+    ``renamed``).
 
     Its JSON Schema is a string, with the built-in names as ``examples`` (an installed
     plug-in or a ``module:Name`` is valid too, so they are no ``enum``)."""
 
     def check(value: Any) -> Any:
-        if renamed and isinstance(value, str) and value in renamed:
-            raise problem(f"must be one of {', '.join(registry)}, got {value!r} ('{value}' "
-                          f"was renamed; did you mean '{renamed[value]}'?)")
         try:
             registry.resolve(value, "")
         except InputError as exc:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field, replace
 from functools import partial
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, ClassVar, TypeVar
+from typing import Annotated, Any, ClassVar, Literal, TypeVar
 
 from pydantic import ConfigDict, Field, model_validator
 
@@ -28,7 +28,7 @@ from rtsim.analysis.kinematics import (
 )
 from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
 from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
-from rtsim.control.predict import PREDICTORS, RENAMED
+from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError
 from rtsim.model.taskset import TaskSet
 from rtsim.world._check import non_negative, positive
@@ -65,6 +65,7 @@ _ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide")
 PACKAGED_SCENARIOS = ("test1", "test2")
 
 T = TypeVar("T")
+Side = Literal["left", "right"]
 
 
 # ----------------------------------------------------------------- runtime objects
@@ -231,7 +232,7 @@ class SegmentModel(_Angles):
 
     straight: Annotated[float, number(0, _CM_MAX, "cm", "a straight of at most 100 km",
                                       lo_open=True)] | None = None
-    turn: Annotated[str, choice(("left", "right"))] | None = None
+    turn: Annotated[Side, choice(("left", "right"))] | None = None
     radius: Annotated[float, number(1, _CM_MAX, "cm", "a turn tighter than 1 cm is a spin in "
                                     "place, not an arc")] | None = None
     angle: Annotated[float, _angle(0, _ANGLE, "up to ten full turns", lo_open=True)] | None \
@@ -261,7 +262,7 @@ class ShapeModel(Table):
     length: Annotated[float, number(0, _CM_MAX, "cm", "at most 100 km")]
     width: Annotated[float, number(0, _CM_MAX, "cm", "at most 100 km")]
     radius: Annotated[float, number(1, _CM_MAX, "cm", "as a path turn's radius")]
-    direction: Annotated[str, choice(("left", "right"))] = "left"
+    direction: Annotated[Side, choice(("left", "right"))] = "left"
 
 
 _RAMP = "at most 100 g; inf: the speed steps"
@@ -403,7 +404,7 @@ class AdjustModel(Table):
     cap: Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] \
         | None = None
     floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] | None = None
-    predictor: Annotated[str, plugin(PREDICTORS, renamed=RENAMED)] | None = None
+    predictor: Annotated[str, plugin(PREDICTORS)] | None = None
     lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
     policy: Annotated[str, text(what="a policy name")] | None = None
     decide: Annotated[str, choice(DECIDE)] | None = None
@@ -504,6 +505,7 @@ def _path(src: str, leader: LeaderModel) -> LeaderPath:
             if s.straight is not None:
                 seg = _attempt_raise(where, partial(Straight, s.straight))
             else:
+                assert s.turn is not None and s.radius is not None  # (the model's rule)
                 seg = _attempt_raise(where, partial(Turn, s.turn, s.radius, s.radians("angle")))
             segs.append(seg)
         return _attempt_raise(f"{src}: leader.path", lambda: LeaderPath(segs, start))
@@ -526,6 +528,7 @@ def _formation(f: FormationModel, r_F: float, path: LeaderPath) -> Formation:
         beta = tuple(s.radians("beta_d") for s in f.slot)
         return Formation(rho, beta, f.model)
     offset = f.radians("bearing_offset", math.radians(15))
+    assert f.followers is not None and f.separation is not None  # (the model's rule)
     if f.layout == "fan":
         segs = path.segments
         outer = outer_side([g.curvature for g in segs], [g.length for g in segs])

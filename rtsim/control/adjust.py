@@ -194,7 +194,7 @@ def _formation_consts(
     """
     if kappa.__class__ is not float or thresholds.localization != "radial":
         return None
-    out = []
+    out: list[tuple[float, ...]] = []
     loc = 1000.0 * thresholds.r_H
     bear = 1000.0 * thresholds.T_beta
     for f in followers:
@@ -244,7 +244,7 @@ def _hybrid_consts(
     if (kappa.__class__ is not float or v_now.__class__ is not float
             or thresholds.localization != "radial"):
         return None
-    out = []
+    out: list[tuple[float, ...]] = []
     loc = 1000.0 * thresholds.r_H
     bear = 1000.0 * thresholds.T_beta
     for f in followers:
@@ -484,10 +484,10 @@ def adjust_core(
         if "numeric" in methods and probe > best and ok(probe):  # not maximal: refine upward
             step = (v_ld - best) / scan_points
             grid = [v_ld - step * i for i in range(scan_points)] + [probe]
-            found = search(ok, grid)
-            if found is not None and found > best:
-                best, method = found, "numeric"
-                candidates["numeric"] = found
+            hit = search(ok, grid)
+            if hit is not None and hit > best:
+                best, method = hit, "numeric"
+                candidates["numeric"] = hit
     elif "numeric" in methods and v_ld > 0.0 and not (
             model == "paper" and thresholds.localization == "radial"
             and paper_infeasible(followers, v_ld, w_sch, thresholds, omega_l)):
@@ -496,10 +496,10 @@ def adjust_core(
         step = v_ld / scan_points
         grid = [v_ld - step * i for i in range(scan_points)]
         grid += [step * 0.5**j for j in range(1, 21)]
-        found = search(ok, grid)
-        if found is not None:
-            best, method = found, "numeric"
-            candidates["numeric"] = found
+        hit = search(ok, grid)
+        if hit is not None:
+            best, method = hit, "numeric"
+            candidates["numeric"] = hit
     v_l = floor_frac * v_ld if best is None else best
     after_rows = rows_at(v_l)
     m_after = min_bound_rows(after_rows)[0]

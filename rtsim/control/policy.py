@@ -40,6 +40,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
+from rtsim._suggest import did_you_mean
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import (
     CANDIDATES,
@@ -57,7 +58,7 @@ from rtsim.control.adjust import (
 )
 from rtsim.control.predict import FollowerEstimate, Predictor, check_number, min_bound_rows
 from rtsim.errors import InputError
-from rtsim.registry import Registry, did_you_mean
+from rtsim.registry import Registry
 
 __all__ = ["ADJUSTMENT_POLICIES", "COMMON_KEYS", "POLICIES", "Decision", "Policy", "decide",
            "decide_rows",

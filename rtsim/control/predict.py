@@ -178,22 +178,19 @@ def _factory(obj: Any, spec: str, where: str) -> PredictorFactory:
 #: The prediction models (``[adjust] predictor`` of a scenario) by name, each a factory
 #: (entry-point group ``rtsim.predictors``).
 PREDICTORS: Registry[PredictorFactory] = Registry("prediction model", "rtsim.predictors",
-                                                  _factory)
+                                                  _factory, renamed={"estimate": "paper"})
 PREDICTORS.register("paper", _paper)
 PREDICTORS.register("formation", _formation)
 PREDICTORS.register("hybrid", _hybrid)
 PREDICTORS.register("commands", lambda **_: _needs_rollout)
 #: Old names, an input error naming their replacement.
-RENAMED: dict[str, str] = {"estimate": "paper"}
+RENAMED: dict[str, str] = PREDICTORS.renamed
 
 
 def check_predictor(name: object, where: str = "predictor") -> str:
     """``name`` if it names a prediction model (:data:`PREDICTORS`); else an
     :class:`InputError` with a did-you-mean (old names such as ``estimate`` name their
     replacement)."""
-    if isinstance(name, str) and name in RENAMED:
-        raise InputError(f"{where}: must be one of {', '.join(PREDICTORS)}, got {name!r} "
-                         f"('{name}' was renamed; did you mean '{RENAMED[name]}'?)")
     PREDICTORS.resolve(name, where)  # type: ignore[arg-type]
     return name  # type: ignore[return-value]
 

@@ -261,9 +261,9 @@ def records_columns(recs: list[WindowRecord], n: int,
     pred = np.array([r.pred for r in recs], dtype=float).reshape(m, n, nb)
     changes = np.array(
         [[r.changes[c] for c in CHANGE_KEYS] for r in recs],  # type: ignore[index]
-        dtype=float).reshape(m, nb, n).transpose(0, 2, 1)
+        dtype=np.float64).reshape(m, nb, n).transpose(0, 2, 1)
     viol = np.array([[r.viol[k] for k in BOUND_KINDS] for r in recs],  # type: ignore[index]
-                    dtype=bool).reshape(m, len(BOUND_KINDS), n).transpose(0, 2, 1)
+                    dtype=np.bool_).reshape(m, len(BOUND_KINDS), n).transpose(0, 2, 1)
     lost = np.array([r.lost for r in recs], dtype=bool).reshape(m, n)
     for i in range(n):
         for j, f in enumerate(FOLLOWER_FIELDS):

@@ -53,10 +53,9 @@ from __future__ import annotations
 
 import gc
 import math
-import os
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -66,21 +65,28 @@ import simpy
 import rtsim.coupling.duration as run_duration
 from rtsim._numbers import is_int, is_real
 from rtsim.analysis.bounds import lower_bound
-from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
+from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
 from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
+from rtsim.coupling.inputs import ScenarioInputs as ScenarioInputs
+from rtsim.coupling.inputs import _inputs as _inputs
+from rtsim.coupling.inputs import resolved as resolved
+from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.recorder import (
     FOLLOWER_FIELDS,
-    LOCALIZATION_COLUMNS,
     WindowRecord,
     WindowRecorder,
     records_columns,
     records_frame,
 )
+from rtsim.coupling.summary import _name as _name
+from rtsim.coupling.summary import formation_model as formation_model
+from rtsim.coupling.summary import summarize as summarize
+from rtsim.coupling.summary import summary_columns as summary_columns
 from rtsim.errors import InputError
 from rtsim.model.task import Segment
 from rtsim.model.taskset import TaskSet
@@ -88,8 +94,7 @@ from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.run import build_cpu
-from rtsim.world.config import WorldConfig
-from rtsim.world.localization import LOST_CAUSES, hough_time
+from rtsim.world.localization import hough_time
 from rtsim.world.world import World
 
 __all__ = ["ScenarioInputs", "ScenarioResult", "run_scenario", "scenario_inputs", "summarize",
@@ -102,28 +107,6 @@ DECIDE: tuple[str, ...] = ("end", "before-send")
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
 _NF = len(FOLLOWER_FIELDS)
-
-
-@dataclass(frozen=True)
-class ScenarioInputs:
-    """What a coupled run needs: the world, the leader's task set, and run options.
-
-    ``adjust``: options of :func:`rtsim.control.decide` (``cap`` in ms or ``cap_factor``
-    × w_sch, ``floor_frac``, ``floor_w``, ``predictor``, ``methods``, ``scan_points``,
-    ``lower_bound``), ``policy`` and the policy's own keys; validated by
-    :func:`rtsim.control.policy.adjust_options`.
-    ``duration_s``: default duration (simulated s), None = one lap. ``text``/``resolved``:
-    the scenario file's text and resolved values, for the manifest.
-    """
-
-    world: WorldConfig
-    taskset: TaskSet
-    name: str = ""
-    duration_s: float | None = None
-    adjust: Mapping[str, Any] = field(default_factory=dict)
-    source: str | None = None
-    text: str | None = None
-    resolved: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass(repr=False)
@@ -151,104 +134,6 @@ class ScenarioResult(ResultDisplay):
     def summary_frame(self) -> pd.DataFrame:
         """summary.json as one row (nested keys dotted), so runs concatenate into a table."""
         return pd.DataFrame([flatten(self.summary)])
-
-
-def scenario_inputs(scenario: Any, text: str | None = None,
-                    overrides: Mapping[str, Any] | None = None,
-                    allow_code: bool | None = None) -> ScenarioInputs:
-    """What :func:`run_scenario` runs, prepared once (the world, the task set loaded, the
-    resolved values): a caller that runs the same scenario many times (a sweep's worker)
-    can keep it and pass it back. Accept :class:`ScenarioInputs`, a path (loaded with
-    :func:`rtsim.io.scenario.load_scenario`), or a :class:`rtsim.io.scenario.Scenario`.
-
-    A Scenario's ``[adjust]`` maps to :func:`rtsim.control.decide`: ``cap`` (ms; ``inf`` →
-    decide's default, 10·w_sch) and ``floor`` (cm/s) → ``floor_frac`` = floor / V_Ld, which
-    is also the lowest speed the coupling ever sets; ``predictor`` (when not the default
-    ``formation``) → ``predictor``. The leader's current actual speed is passed to every
-    decision as ``v_now`` (the ``hybrid`` model needs it).
-    """
-    if overrides and not isinstance(scenario, str | os.PathLike):
-        raise InputError("overrides need a scenario file or a packaged scenario's name")
-    if isinstance(scenario, ScenarioInputs):
-        return scenario
-    if isinstance(scenario, str | os.PathLike):
-        from rtsim.io.scenario import load_scenario, scenario_bytes
-
-        path = scenario
-        # a file, or a packaged scenario by name ("test2")
-        scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
-        if text is None:
-            text = scenario_bytes(path)[0].decode("utf-8")
-    try:
-        world = scenario.world
-        ts = scenario.load_taskset() if hasattr(scenario, "load_taskset") else scenario.taskset
-    except AttributeError:
-        raise InputError(f"not a scenario: {type(scenario).__name__}") from None
-    adjust: dict[str, Any] = {}
-    cfg = getattr(scenario, "adjust", None)
-    if cfg is not None and not isinstance(cfg, Mapping):
-        if math.isfinite(cfg.cap):
-            adjust["cap"] = float(cfg.cap)
-        adjust["floor_frac"] = float(cfg.floor) / world.leader_speed
-        if getattr(cfg, "predictor", "formation") != "formation":
-            adjust["predictor"] = cfg.predictor
-        if getattr(cfg, "lower_bound", "w_sch") != "w_sch":
-            adjust["lower_bound"] = cfg.lower_bound
-        if getattr(cfg, "policy", "adjust") != "adjust":
-            adjust["policy"] = cfg.policy
-        if getattr(cfg, "decide", "end") != "end":
-            adjust["decide"] = cfg.decide
-        adjust.update(getattr(cfg, "params", {}))
-    elif cfg:
-        adjust = dict(cfg)
-    duration = getattr(scenario, "duration", None)
-    return ScenarioInputs(
-        world=world, taskset=ts, name=str(getattr(scenario, "name", "") or ""),
-        duration_s=float(duration) if duration else None, adjust=adjust,
-        source=getattr(scenario, "source", None), text=text,
-        resolved=resolved(scenario, ts))
-
-
-_inputs = scenario_inputs
-
-
-def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
-    """The scenario's resolved values as plain JSON data (for the manifest); a limit that is
-    not set (``inf``: follower.max_turn_rate, sensing.max_range, adjust.cap) is null."""
-    from dataclasses import asdict, is_dataclass
-
-    from rtsim.io.taskset import taskset_to_dict
-
-    cfg: WorldConfig = scenario.world
-
-    def plain(obj: Any) -> Any:
-        return asdict(obj) if is_dataclass(obj) and not isinstance(obj, type) else obj
-
-    path = cfg.path
-    out: dict[str, Any] = {
-        "name": getattr(scenario, "name", ""),
-        "description": getattr(scenario, "description", ""),
-        "duration_s": getattr(scenario, "duration", None),
-        "leader": {"speed": cfg.leader_speed, "start_s": cfg.start_s,
-                   "accel_max": cfg.leader_accel_max, "decel_max": cfg.leader_decel_max,
-                   "start": list(path.start), "lap_length": path.lap_length,
-                   "lap_time_s": path.lap_time(cfg.leader_speed),
-                   "segments": [{"kind": s.kind, **plain(s)} for s in path.segments]},
-        "formation": {"model": cfg.formation.model, "rho_d": list(cfg.formation.rho_d),
-                      "beta_d": list(cfg.formation.beta_d)},
-        "follower": plain(cfg.follower),
-        "sensing": plain(cfg.sensing),
-        "ekf": plain(cfg.ekf),
-        "thresholds": plain(cfg.thresholds),
-        "localization": plain(cfg.localization),
-        "step_ms": cfg.step_ms,
-        "adjust": plain(getattr(scenario, "adjust", {})),
-        "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),
-        "taskset": taskset_to_dict(ts),
-    }
-    from rtsim.io.atomic import inf_as_null
-
-    return inf_as_null(out)
 
 
 class _Decision(NamedTuple):
@@ -302,7 +187,8 @@ class _Coupling:
         if getattr(self.policy, "needs_path", False):  # the leader's known path commands
             segs = cfg.path.segments
             starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
-            self._path = (tuple(float(x) for x in starts), tuple(g.curvature for g in segs))
+            self._path: tuple[tuple[float, ...], tuple[float, ...]] | None = (
+                tuple(float(x) for x in starts), tuple(g.curvature for g in segs))
             opts["accel_max"] = cfg.leader_accel_max
             opts["decel_max"] = cfg.leader_decel_max
         else:
@@ -351,6 +237,7 @@ class _Coupling:
                                 record_trace=record_trace, job_sink=job_sink,
                                 trace_sink=trace_sink)
         win = ts.window
+        assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
         # Eq 1's assumption: a scan counts at most min(361, k·n) points (checked per window)
@@ -449,7 +336,8 @@ class _Coupling:
             state.append((*pose, rho, beta, theta, v_f))
             fols.append(trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k],
                                          self.beta_d[k]))
-        kw = {"omega_l": world.leader_omega, "kappa": kappa, "v_now": self._v_actual()}
+        kw: dict[str, Any] = {"omega_l": world.leader_omega, "kappa": kappa,
+                              "v_now": self._v_actual()}
         ahead = () if self._path is None else self._ahead()
         extra: dict[str, Any] = {"pose_sd": self._pose_sd()} if self._noise else {}
         if self._rollout:
@@ -592,7 +480,8 @@ class _Coupling:
         if not recs:
             return out
         for kind, key, lim in self._limits:
-            ch = np.array([r.changes[key] for r in recs], dtype=float)  # type: ignore[index]
+            ch = np.array([r.changes[key] for r in recs],  # type: ignore[index]
+                          dtype=np.float64)
             ratio = ch.reshape(len(recs), -1) / lim
             out[kind] = (float(ratio.max()), int((ratio > 1.0 + tolerance).sum()))
         return out
@@ -704,89 +593,6 @@ class _Coupling:
         last = self._last_scanned
         if last is not None and last.viol is None:  # close the last observation interval
             self._close(self.world.scan(max(self.env.now, self.world.t_ms)))
-
-
-def formation_model(cfg: WorldConfig) -> str:
-    """The followers' control law of ``cfg`` (summary.json ``formation_model``):
-    ``follow-the-leader`` or ``l-psi``."""
-    return str(cfg.formation.model)
-
-
-def _name(predictor: Any) -> str:
-    return predictor if isinstance(predictor, str) else getattr(predictor, "__name__",
-                                                                 "callable")
-
-
-def summary_columns(n: int) -> list[str]:
-    """The columns of windows.csv that :func:`summarize` reads (``n`` followers)."""
-    return ["w", "w_sch", "msb_min", "binding", "critical", "missed", "tracks_lost",
-            "assumption_broken", "method", "v_leader", "v_leader_desired", "feasible",
-            "response", *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS),
-            *LOCALIZATION_COLUMNS]
-
-
-def _total(df: pd.DataFrame | Mapping[str, Any], col: str) -> int:
-    """Sum of an integer column of windows.csv (0 when a table from before it lacks it)."""
-    return int(np.asarray(df[col], dtype=np.int64).sum()) if col in df else 0
-
-
-def summarize(df: pd.DataFrame | Mapping[str, Any], *, mode: str, w_sch: float,
-              duration_s: float, seed: int, scenario: str, n: int,
-              extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """summary.json from windows.csv (docs/outputs.md) and run facts. ``df``: the table, or
-    its columns (name -> array or list, as :func:`~rtsim.coupling.recorder.records_columns`
-    gives them): the summary is computed from arrays either way."""
-
-    def col(name: str, dtype: Any = float) -> Any:
-        return np.asarray(df[name], dtype=dtype)
-
-    w = col("w")
-    rows = len(w)
-    crit = col("critical", bool)
-    total_w = float(w.sum())
-    violations = {
-        k: int(sum(int(col(f"f{i}_viol_{k}", bool).sum()) for i in range(1, n + 1)))
-        for k in BOUND_KINDS
-    }
-    binding_critical: dict[str, int] = {}
-    for b in col("binding", object)[crit].tolist():
-        kind = str(b).split(":")[0]
-        binding_critical[kind] = binding_critical.get(kind, 0) + 1
-    methods: dict[str, int] = {}
-    for m in col("method", object).tolist():
-        methods[str(m)] = methods.get(str(m), 0) + 1
-    ratio = col("msb_min") / col("w_sch")
-    speed = col("v_leader") / col("v_leader_desired")
-    response = col("response")
-    with np.errstate(invalid="ignore"):  # the table's max skips NaN (none in practice)
-        kept = response[~np.isnan(response)]
-    out: dict[str, Any] = {
-        "scenario": scenario,
-        "mode": mode,
-        "seed": seed,
-        "duration_s": duration_s,
-        "w_sch": w_sch,
-        "windows": int(rows),
-        "missed": int(col("missed", bool).sum()),
-        "tracks_lost": int(col("tracks_lost", np.int64).sum()),
-        "assumption_broken": int(col("assumption_broken", bool).sum()),
-        "violations": violations,
-        "critical_share": float(w[crit].sum() / total_w) if total_w > 0 else 0.0,
-        "critical_windows": int(crit.sum()),
-        "methods": dict(sorted(methods.items())),
-        "binding_critical": dict(sorted(binding_critical.items())),
-        "min_msb_over_wsch": float(ratio.min()) if rows else math.nan,
-        "min_speed_ratio": float(speed.min()) if rows else math.nan,
-        "infeasible": int((~col("feasible", bool)).sum()),
-        "max_response": float(kept.max()) if kept.size else math.nan,
-        # lost tracks by cause (they sum to tracks_lost), searches charged, re-acquisitions
-        "tracks_lost_by_cause": {c: _total(df, f"tracks_lost_{c}") for c in LOST_CAUSES},
-        "searches": _total(df, "searches"),
-        "reacquisitions": _total(df, "reacquisitions"),
-    }
-    if extra:
-        out.update(extra)
-    return out
 
 
 def run_scenario(
@@ -913,7 +719,8 @@ def run_scenario(
             f"the leader did not complete its lap within the cap of "
             f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
             if stop_s is not None else
-            f"the run's duration ({float(duration_s):g} s) ended before the leader completed "
+            f"the run's duration ({float(duration_s or 0.0):g} s) ended before the leader "
+            f"completed "
             f"its lap")
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     world.followers.advance_all(world.t_ms, cfg.step_ms)

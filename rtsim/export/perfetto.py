@@ -129,25 +129,26 @@ def trace_events(jobs: pd.DataFrame, trace: pd.DataFrame, *,
     def job_tid(task: str, job: int) -> int:
         return tid[(task, lanes.get((task, job), 0))]
 
+    r: Any  # a row (its fields typed by the columns, not by pandas)
     for r in jobs.itertuples(index=False):
         task, job = str(r.task), int(r.job)
-        t = job_tid(task, job)
+        thread = job_tid(task, job)
         args = {"job": job, "release_ms": _ms(r.release), "deadline_ms": _ms(r.deadline),
                 "response_ms": None if pd.isna(r.response) else float(r.response),
                 "preemptions": int(r.preemptions), "missed": bool(r.missed)}
         if pd.notna(r.start) and pd.notna(r.finish):
             unfinished = " (unfinished)" if pd.isna(r.release) else ""
-            events.append({"ph": "X", "pid": PID, "tid": t, "cat": "job",
+            events.append({"ph": "X", "pid": PID, "tid": thread, "cat": "job",
                            "name": f"{task} #{job}{unfinished}", "ts": _us(r.start),
                            "dur": _us(r.finish) - _us(r.start), "args": args})
         if bool(r.skipped):
-            events.append({"ph": "i", "s": "t", "pid": PID, "tid": t, "cat": "skip",
+            events.append({"ph": "i", "s": "t", "pid": PID, "tid": thread, "cat": "skip",
                            "name": "skipped release", "ts": _us(r.release), "args": args})
         elif bool(r.aborted):
-            events.append({"ph": "i", "s": "t", "pid": PID, "tid": t, "cat": "abort",
+            events.append({"ph": "i", "s": "t", "pid": PID, "tid": thread, "cat": "abort",
                            "name": "aborted", "ts": _us(r.deadline), "args": args})
         if bool(r.missed) and not bool(r.skipped):
-            events.append({"ph": "i", "s": "t", "pid": PID, "tid": t, "cat": "miss",
+            events.append({"ph": "i", "s": "t", "pid": PID, "tid": thread, "cat": "miss",
                            "name": "deadline miss", "ts": _us(r.deadline), "args": args})
     for r in trace.itertuples(index=False):
         task, job = str(r.task), int(r.job)

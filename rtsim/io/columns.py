@@ -224,8 +224,11 @@ class ChunkWriter:
         if p.suffix.lower() == ".csv":
             if not tried:
                 tried = True
-                header = list(self.empty.columns if df is None else df.columns) \
-                    if self.chunks == 0 else None  # type: ignore[union-attr]
+                header = None
+                if self.chunks == 0:
+                    table = self.empty if df is None else df
+                    assert table is not None  # (the empty table, or the frame written)
+                    header = list(table.columns)
                 text = csv_text(columns(), kinds, header)  # type: ignore[arg-type]
             with open(p, "w" if self.chunks == 0 else "a", encoding="utf-8",
                       newline="") as fh:

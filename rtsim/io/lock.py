@@ -44,7 +44,8 @@ def _describe(directory: Path) -> str:
     info = holder(directory)
     if not info:
         return "another rtsim run"
-    cmd = " ".join(str(a) for a in info.get("argv") or []) or "?"
+    argv = info.get("argv")
+    cmd = (" ".join(str(a) for a in argv) if isinstance(argv, list) else "") or "?"
     return (f"pid {info.get('pid')} on {info.get('host')} (command: {cmd}; since "
             f"{info.get('since')})")
 

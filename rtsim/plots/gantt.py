@@ -59,6 +59,7 @@ def gantt(
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     rows = {n: i for i, n in enumerate(names)}
     view = trace[(trace["end"] > lo) & (trace["start"] < hi)]
+    rec: Any  # a row (its fields typed by the columns, not by pandas)
     for rec in view.itertuples(index=False):
         if rec.task not in rows:
             continue

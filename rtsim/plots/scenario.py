@@ -10,9 +10,9 @@ returns the exact columns each figure plots, so a figure can be redrawn from CSV
 from __future__ import annotations
 
 import os
-import re
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -23,6 +23,21 @@ from matplotlib.lines import Line2D
 from rtsim.errors import InputError
 from rtsim.io.atomic import atomic_path, write_table
 from rtsim.plots.figure import new_figure
+from rtsim.plots.scenario_data import (
+    BOUND_KINDS,
+    as_bool,
+    as_floats,
+    binding_xy,
+    critical_spans,
+    ends_s,
+    figure_data,
+    followers,
+    headline_counts,
+    need_columns,
+    spans_of,
+    times_s,
+    violation_ratios,
+)
 
 __all__ = [
     "BOUND_KINDS",
@@ -44,9 +59,6 @@ __all__ = [
     "write_scenario_figures",
 ]
 
-BOUND_KINDS: tuple[str, ...] = ("localization", "separation", "path_diversion", "bearing")
-
-# Okabe-Ito colour-blind-safe palette; one colour per quantity, the same in every figure.
 COLORS: dict[str, str] = {
     "w_sch": "#000000",
     "w": "#0072B2",
@@ -73,214 +85,6 @@ DPI = 120
 #: What the lines and dots of the bounds figures are (their legend's title).
 BOUNDS_NOTE = ("lines: predicted at the leader's highest speed in the window; "
                "dots: threshold·w / true change")
-VIOLATION_TOLERANCE = 0.05  # a broken bound counts beyond this relative overshoot
-
-_FOLLOWER_RE = re.compile(r"^f(\d+)_x$")
-
-
-# --- the table ---------------------------------------------------------------------------
-
-
-def followers(df: pd.DataFrame) -> list[int]:
-    """Follower numbers (1-based) found in the columns ``f{i}_x``, in numeric order."""
-    found = (_FOLLOWER_RE.match(str(c)) for c in df.columns)
-    return sorted(int(m.group(1)) for m in found if m)
-
-
-def _need(df: pd.DataFrame, cols: list[str], what: str) -> None:
-    missing = [c for c in cols if c not in df.columns]
-    if missing:
-        raise InputError(f"windows table: missing column {missing[0]!r} (needed for {what})")
-
-
-def _bool(s: pd.Series) -> np.ndarray:
-    """A boolean column as read from CSV (bool dtype, or 'True'/'False' text)."""
-    if s.dtype == bool:
-        return s.to_numpy()
-    text = s.astype(str).str.strip().str.lower()
-    return text.isin(("true", "1", "1.0")).to_numpy()
-
-
-def _floats(s: pd.Series) -> np.ndarray:
-    return pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
-
-
-def _t_s(df: pd.DataFrame) -> np.ndarray:
-    return _floats(df["t"]) / 1000.0
-
-
-def _ends_s(df: pd.DataFrame) -> np.ndarray:
-    """End of each window in s: the next window's start; the last one ends at t + w."""
-    t = _t_s(df)
-    if len(t) == 0:
-        return t
-    last_w = _floats(df["w"])[-1] / 1000.0 if "w" in df.columns else 0.0
-    last = t[-1] + (last_w if np.isfinite(last_w) else 0.0)
-    return np.append(t[1:], last)
-
-
-def _spans(df: pd.DataFrame, mask: np.ndarray) -> list[tuple[float, float]]:
-    """Maximal runs of consecutive windows where ``mask`` holds, as (start, end) in s."""
-    t, ends = _t_s(df), _ends_s(df)
-    spans: list[tuple[float, float]] = []
-    start = None
-    for i, on in enumerate(mask):
-        if on and start is None:
-            start = i
-        if start is not None and (not on or i == len(mask) - 1):
-            stop = i if on else i - 1
-            spans.append((float(t[start]), float(ends[stop])))
-            start = None
-    return spans
-
-
-def critical_spans(df: pd.DataFrame) -> list[tuple[float, float]]:
-    """Time spans (s) of the critical region, min MSB < w_sch (runs of ``critical`` windows)."""
-    _need(df, ["t", "critical"], "the critical region")
-    return _spans(df, _bool(df["critical"]))
-
-
-def _kind_min(df: pd.DataFrame, kind: str, which: str) -> np.ndarray:
-    """Per window, the minimum over followers of one bound kind's ``which`` (``pred`` or
-    ``true``) column (inf when none is finite)."""
-    cols = [f"f{i}_msb_{kind}_{which}" for i in followers(df)]
-    _need(df, cols, f"the {kind} bound")
-    if not cols:
-        return np.full(len(df), np.inf)
-    return np.min(np.column_stack([_floats(df[c]) for c in cols]), axis=1)
-
-
-def violation_ratios(df: pd.DataFrame) -> np.ndarray:
-    """Per (window, follower, bound) the observed change over its threshold, w / ``_true``
-    (> 1: the window broke the bound), as an (m, n·4) array (empty without ``_true``)."""
-    cols = [f"f{i}_msb_{k}_true" for i in followers(df) for k in BOUND_KINDS]
-    cols = [c for c in cols if c in df.columns]
-    if not cols or "w" not in df.columns:
-        return np.zeros((len(df), 0))
-    true = np.column_stack([_floats(df[c]) for c in cols])
-    return _floats(df["w"])[:, None] / true
-
-
-def _counts(df: pd.DataFrame) -> str:
-    """Panel headline: violations beyond 5 % and the largest violation ratio first, then
-    misses and lost tracks."""
-    missed = int(_bool(df["missed"]).sum()) if "missed" in df.columns else 0
-    lost = int(_floats(df["tracks_lost"]).sum()) if "tracks_lost" in df.columns else 0
-    r = violation_ratios(df)
-    beyond = int((r > 1.0 + VIOLATION_TOLERANCE).sum())
-    worst = float(r.max()) if r.size else 0.0
-    return (f"violations > 5 % {beyond} · max ratio {worst:.2f} · misses {missed}\n"
-            f"lost tracks {lost}")
-
-
-def figure_columns(n: int) -> list[str]:
-    """The columns of windows.csv that :func:`write_scenario_figures` draws (``n`` followers),
-    in table order — what a long run reads back instead of the whole table."""
-    from rtsim.coupling.recorder import window_columns
-
-    need = {"window", "t", "w", "slack", "w_sch", "missed", "critical", "msb_min", "binding",
-            "v_leader_desired", "v_leader", "v_leader_target", "segment", "leader_x",
-            "leader_y"}
-    for i in range(1, n + 1):
-        need |= {f"f{i}_x", f"f{i}_y", f"f{i}_x_est", f"f{i}_y_est"}
-        need |= {f"f{i}_msb_{k}_{which}" for k in BOUND_KINDS for which in ("pred", "true")}
-    return [c for c in window_columns(n) if c in need]
-
-
-#: A run with more windows than this is drawn from a selection of rows (:func:`thin_rows`).
-FIGURE_MAX_ROWS = 20_000
-#: Buckets of consecutive windows :func:`thin_rows` keeps extremes of.
-FIGURE_BUCKETS = 1_000
-
-
-def thin_rows(df: pd.DataFrame, bucket: int) -> np.ndarray:
-    """Which rows to draw of a long windows table (a boolean mask): per ``bucket``
-    consecutive windows the first and last and, for every plotted value (w, slack, w_sch,
-    min MSB, leader speed and target, each follower's predicted and true bounds), the rows of
-    its smallest and largest value; both rows of every change of ``critical`` (so the shaded
-    regions are exact) and every missed window (each is marked and counted). A figure of
-    ~1000 pixels cannot show more; its lines and extremes are those of the whole table."""
-    m = len(df)
-    keep = np.zeros(m, dtype=bool)
-    if m == 0:
-        return keep
-    bucket = max(1, int(bucket))
-    nb = -(-m // bucket)
-    starts = np.arange(nb) * bucket
-    keep[starts] = True
-    keep[np.minimum(starts + bucket, m) - 1] = True
-    if "critical" in df.columns:
-        f = _bool(df["critical"])
-        ch = np.flatnonzero(f[1:] != f[:-1])
-        keep[ch] = True
-        keep[ch + 1] = True
-    if "missed" in df.columns:
-        keep |= _bool(df["missed"])
-    guarded = [c for c in df.columns
-               if c in ("w", "slack", "w_sch", "msb_min", "v_leader", "v_leader_target")
-               or (str(c).startswith("f") and "_msb_" in str(c)
-                   and str(c).endswith(("_pred", "_true")))]
-    pad = nb * bucket - m
-    for c in guarded:
-        v = _floats(df[c])
-        nan = np.isnan(v)
-        lo = np.pad(np.where(nan, np.inf, v), (0, pad), constant_values=np.inf)
-        hi = np.pad(np.where(nan, -np.inf, v), (0, pad), constant_values=-np.inf)
-        for pos in (lo.reshape(nb, bucket).argmin(axis=1), hi.reshape(nb, bucket).argmax(axis=1)):
-            idx = starts + pos
-            keep[idx[idx < m]] = True
-    return keep
-
-
-def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
-    """The exact columns figure ``name`` plots, taken or derived from the windows table.
-
-    Columns named as in ``windows.csv`` carry its values unchanged (times stay in ms; the
-    figures divide by 1000). ``bound_<kind>_pred`` / ``bound_<kind>_true`` are the minimum
-    over followers of ``f{i}_msb_<kind>_pred`` (the decision's prediction at the highest
-    speed the leader had in the window) and ``f{i}_msb_<kind>_true`` (what the world showed);
-    ``msb_min_pred`` / ``msb_min_true`` the minimum of those over the bound kinds (operating
-    space). Infinite values stay ``inf``.
-    """
-    keys = ["window", "t"]
-    if name == "paths":
-        cols = keys + ["leader_x", "leader_y"]
-        for i in followers(df):
-            cols += [f"f{i}_x", f"f{i}_y", f"f{i}_x_est", f"f{i}_y_est"]
-        cols.append("critical")
-        if "binding" in df.columns:
-            cols.append("binding")
-    elif name == "window_slack":
-        cols = keys + ["w", "slack", "w_sch", "missed", "critical"]
-    elif name == "bounds":
-        cols = keys + ["w", "w_sch", "critical"]
-    elif name == "msb":
-        cols = keys + ["w", "w_sch", "msb_min", "binding", "critical"]
-    elif name == "speed":
-        cols = keys + ["v_leader_desired", "v_leader", "v_leader_target", "segment"]
-    elif name == "operating_space":
-        cols = keys + ["w", "w_sch", "msb_min", "critical"]
-    else:
-        raise InputError(f"figure_data: unknown figure {name!r} (known: {', '.join(_NAMES)})")
-    _need(df, cols, f"the {name} figure")
-    out = df.loc[:, cols].reset_index(drop=True)
-    if name == "msb":
-        out["msb_min_true"] = np.min(np.column_stack(
-            [_kind_min(df, kind, "true") for kind in BOUND_KINDS]), axis=1)
-    if name in ("bounds", "operating_space"):
-        for which in ("pred", "true"):
-            mins = {kind: _kind_min(df, kind, which) for kind in BOUND_KINDS}
-            if name == "bounds":
-                for kind in BOUND_KINDS:
-                    out[f"bound_{kind}_{which}"] = mins[kind]
-            else:
-                out[f"msb_min_{which}"] = np.min(np.column_stack(list(mins.values())), axis=1)
-    return out
-
-
-# --- drawing helpers ---------------------------------------------------------------------
-
-
 def _new_figure(ax: Axes | None, size: tuple[float, float]) -> tuple[Figure, Axes, bool]:
     if ax is not None:
         return ax.figure, ax, False  # type: ignore[return-value]
@@ -314,10 +118,10 @@ def _held(df: pd.DataFrame, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     A per-window value holds from the window's start to its end; drawn as steps-post over
     these points, the last window gets its full width too (and a one-row table a segment).
     """
-    t = _t_s(df)
+    t = times_s(df)
     if len(t) == 0:
         return t, y
-    return np.append(t, _ends_s(df)[-1]), np.append(y, y[-1])
+    return np.append(t, ends_s(df)[-1]), np.append(y, y[-1])
 
 
 def _step(ax: Axes, df: pd.DataFrame, y: np.ndarray, **kw: object) -> Line2D:
@@ -359,7 +163,7 @@ def _time_axes(ax: Axes, df: pd.DataFrame, ylabel: str) -> None:
     ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)
     if len(df):
-        t, ends = _t_s(df), _ends_s(df)
+        t, ends = times_s(df), ends_s(df)
         if ends[-1] > t[0]:
             ax.set_xlim(t[0], ends[-1])
     else:
@@ -367,33 +171,17 @@ def _time_axes(ax: Axes, df: pd.DataFrame, ylabel: str) -> None:
 
 
 def _wsch_line(ax: Axes, df: pd.DataFrame) -> None:
-    _step(ax, df, _floats(df["w_sch"]), color=COLORS["w_sch"], ls="--", lw=1.2,
+    _step(ax, df, as_floats(df["w_sch"]), color=COLORS["w_sch"], ls="--", lw=1.2,
           label="$w_{sch}$")
 
 
 # --- drawers (one axes each; shared by the single figures and plot_modes) ---------------
 
 
-def binding_xy(df: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
-    """Per window, the true position of the follower whose bound binds (``binding`` =
-    ``kind:i``); the leader's where no follower binds or the table has no ``binding``."""
-    x, y = _floats(df["leader_x"]).copy(), _floats(df["leader_y"]).copy()
-    if "binding" not in df.columns:
-        return x, y
-    who = df["binding"].astype(str).str.rsplit(":", n=1).str[-1]
-    num = pd.to_numeric(who, errors="coerce").to_numpy()
-    for i in followers(df):
-        sel = num == i
-        if sel.any():
-            x[sel] = _floats(df[f"f{i}_x"])[sel]
-            y[sel] = _floats(df[f"f{i}_y"])[sel]
-    return x, y
-
-
 def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     figure_data(df, "paths")  # validates the columns
-    crit = _bool(df["critical"])
-    lx, ly = _floats(df["leader_x"]), _floats(df["leader_y"])
+    crit = as_bool(df["critical"])
+    lx, ly = as_floats(df["leader_x"]), as_floats(df["leader_y"])
     bx, by = binding_xy(df)
     where = "at the binding follower" if "binding" in df.columns else "on leader path"
     ax.scatter(bx[crit], by[crit], s=30, color=COLORS["critical"], alpha=0.5, lw=0,
@@ -401,13 +189,13 @@ def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     ax.plot(lx, ly, color=COLORS["leader"], lw=1.4, label="leader", zorder=3)
     for k, i in enumerate(followers(df)):
         c = FOLLOWER_COLORS[k % len(FOLLOWER_COLORS)]
-        ax.plot(_floats(df[f"f{i}_x"]), _floats(df[f"f{i}_y"]), color=c, lw=1.2,
+        ax.plot(as_floats(df[f"f{i}_x"]), as_floats(df[f"f{i}_y"]), color=c, lw=1.2,
                 label=f"follower {i}", zorder=3)
-        ax.scatter(_floats(df[f"f{i}_x_est"]), _floats(df[f"f{i}_y_est"]), s=6, color=c,
+        ax.scatter(as_floats(df[f"f{i}_x_est"]), as_floats(df[f"f{i}_y_est"]), s=6, color=c,
                    alpha=0.3, lw=0, gid="estimate", zorder=2,
                    label="estimated follower positions" if k == 0 else None)
         if len(df):
-            ax.plot(_floats(df[f"f{i}_x"])[0], _floats(df[f"f{i}_y"])[0], "o", color=c,
+            ax.plot(as_floats(df[f"f{i}_x"])[0], as_floats(df[f"f{i}_y"])[0], "o", color=c,
                     mec="white", ms=7, zorder=4, gid="start")
     if len(df):
         ax.plot(lx[0], ly[0], "o", color=COLORS["leader"], mec="white", ms=7, zorder=4,
@@ -420,8 +208,8 @@ def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
 
 def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     figure_data(df, "window_slack")
-    t, w, slack = _t_s(df), _floats(df["w"]), _floats(df["slack"])
-    top = top if top is not None else _ylimit([w, slack], _floats(df["w_sch"]), WINDOW_CLIP)
+    t, w, slack = times_s(df), as_floats(df["w"]), as_floats(df["slack"])
+    top = top if top is not None else _ylimit([w, slack], as_floats(df["w_sch"]), WINDOW_CLIP)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
     ax.fill_between(*_held(df, _offscale(slack, top)), step="post", color=COLORS["slack"],
                     alpha=0.25, lw=0)
@@ -429,7 +217,7 @@ def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
           label="slack $t_{slack}$ = max(0, w − $w_{sch}$)")
     _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=1.5, label="processing window w")
     _wsch_line(ax, df)
-    missed = _bool(df["missed"])
+    missed = as_bool(df["missed"])
     if missed.any():
         ax.plot(t[missed], np.minimum(w[missed], top), "x", color=COLORS["miss"], ms=7,
                 mew=1.8, gid="miss", label=f"deadline miss ({int(missed.sum())})")
@@ -440,8 +228,8 @@ def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
 
 def _bounds_top(df: pd.DataFrame) -> float:
     data = figure_data(df, "bounds")
-    values = [_floats(data[f"bound_{k}_pred"]) for k in BOUND_KINDS] + [_floats(data["w"])]
-    return _ylimit(values, _floats(data["w_sch"]), BOUNDS_CLIP)
+    values = [as_floats(data[f"bound_{k}_pred"]) for k in BOUND_KINDS] + [as_floats(data["w"])]
+    return _ylimit(values, as_floats(data["w_sch"]), BOUNDS_CLIP)
 
 
 def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
@@ -449,18 +237,18 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     top = top if top is not None else _bounds_top(df)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
     values = []
-    t = _t_s(df)
+    t = times_s(df)
     for kind in BOUND_KINDS:
-        y = _floats(data[f"bound_{kind}_pred"])
+        y = as_floats(data[f"bound_{kind}_pred"])
         values.append(y)
         _step(ax, df, _offscale(y, top), color=COLORS[kind], lw=1.3, gid=f"pred_{kind}",
               label=f"{kind.replace('_', ' ')} MSB predicted")
-        yt = _floats(data[f"bound_{kind}_true"])
+        yt = as_floats(data[f"bound_{kind}_true"])
         values.append(yt)
         shown = yt <= top
         ax.plot(t[shown], yt[shown], ".", color=COLORS[kind], ms=2.5, alpha=0.6,
                 gid=f"true_{kind}", label=f"{kind.replace('_', ' ')} MSB true")
-    w = _floats(data["w"])
+    w = as_floats(data["w"])
     _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
           label="processing window w")
     _wsch_line(ax, df)
@@ -471,12 +259,12 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
 
 def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     data = figure_data(df, "msb")
-    w_sch = _floats(data["w_sch"])
-    pred, true = _floats(data["msb_min"]), _floats(data["msb_min_true"])
-    w = _floats(data["w"])
+    w_sch = as_floats(data["w_sch"])
+    pred, true = as_floats(data["msb_min"]), as_floats(data["msb_min_true"])
+    w = as_floats(data["w"])
     top = top if top is not None else _ylimit([pred, w], w_sch, BOUNDS_CLIP)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
-    t = _t_s(df)
+    t = times_s(df)
     _step(ax, df, _offscale(pred, top), color=COLORS["msb_min"], lw=1.5, gid="msb_pred",
           label="min MSB at $V_{Ld}$, predicted")
     shown = true <= top
@@ -485,7 +273,7 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=4.0, alpha=0.3, zorder=1.8,
           label="processing window w")
     _wsch_line(ax, df)
-    crit = _bool(df["critical"])
+    crit = as_bool(df["critical"])
     kinds = data["binding"].astype(str).str.split(":").str[0].to_numpy()
     for kind in BOUND_KINDS:
         sel = crit & (kinds == kind) & (pred <= top)
@@ -501,10 +289,10 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
 def _draw_speed(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     figure_data(df, "speed")
     turn = (df["segment"].astype(str).str.strip() == "turn").to_numpy()
-    _shade(ax, _spans(df, turn), "turn", "turn")
-    v_d, v = _floats(df["v_leader_desired"]), _floats(df["v_leader"])
+    _shade(ax, spans_of(df, turn), "turn", "turn")
+    v_d, v = as_floats(df["v_leader_desired"]), as_floats(df["v_leader"])
     _step(ax, df, v, color=COLORS["v_actual"], lw=1.5, label="actual $V_L$ (at t)")
-    _step(ax, df, _floats(df["v_leader_target"]), color=COLORS["v_actual"], ls=":", lw=1.0,
+    _step(ax, df, as_floats(df["v_leader_target"]), color=COLORS["v_actual"], ls=":", lw=1.0,
           gid="target", label="target (the decision's)")
     _step(ax, df, v_d, color=COLORS["v_desired"], ls="--", lw=1.2, zorder=3,
           label="desired $V_{Ld}$")
@@ -514,8 +302,8 @@ def _draw_speed(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
 
 def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     data = figure_data(df, "operating_space")
-    w_sch = _floats(data["w_sch"])
-    msb, w = _floats(data["msb_min"]), _floats(data["w"])
+    w_sch = as_floats(data["w_sch"])
+    msb, w = as_floats(data["msb_min"]), as_floats(data["w"])
     top = top if top is not None else _ylimit([msb, w], w_sch, BOUNDS_CLIP)
     spans = critical_spans(df)
     _shade(ax, spans, "critical", "critical (min MSB < $w_{sch}$)")
@@ -528,11 +316,11 @@ def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> Non
           label="processing window w")
     _step(ax, df, _offscale(msb, top), color=COLORS["msb_min"], lw=1.5,
           label="min MSB at $V_{Ld}$ (the decision's)")
-    pred, true = _floats(data["msb_min_pred"]), _floats(data["msb_min_true"])
+    pred, true = as_floats(data["msb_min_pred"]), as_floats(data["msb_min_true"])
     _step(ax, df, _offscale(pred, top), color=COLORS["msb_min"], lw=1.0, ls=":",
           gid="pred_min", label="min MSB predicted at the leader's speed")
     shown = true <= top
-    ax.plot(_t_s(df)[shown], true[shown], ".", color="#333333", ms=2.5, alpha=0.6,
+    ax.plot(times_s(df)[shown], true[shown], ".", color="#333333", ms=2.5, alpha=0.6,
             gid="true_min", label="min MSB true (threshold·w / change)")
     _wsch_line(ax, df)
     _label_runs(ax, df, safe, w_sch, np.minimum(msb, top), "safe operating area", top)
@@ -546,14 +334,14 @@ def _label_runs(ax: Axes, df: pd.DataFrame, mask: np.ndarray, lo: np.ndarray,
                 hi: np.ndarray, text: str, top: float) -> None:
     """Write ``text`` in the middle of the longest run of ``mask`` (if wide enough); above
     the band instead when it is thinner than 10% of the axis height ``top``."""
-    spans = _spans(df, mask)
+    spans = spans_of(df, mask)
     if not spans or len(df) < 2:
         return
     a, b = max(spans, key=lambda s: s[1] - s[0])
-    total = _ends_s(df)[-1] - _t_s(df)[0]
+    total = ends_s(df)[-1] - times_s(df)[0]
     if total <= 0 or (b - a) < 0.12 * total:
         return
-    inside = (_t_s(df) >= a) & (_t_s(df) < b)
+    inside = (times_s(df) >= a) & (times_s(df) < b)
     y, va = float(np.nanmedian((lo[inside] + hi[inside]) / 2)), "center"
     if float(np.nanmedian(hi[inside] - lo[inside])) < 0.1 * top:
         y, va = float(np.nanmax(hi[inside])) + 0.02 * top, "bottom"
@@ -563,7 +351,7 @@ def _label_runs(ax: Axes, df: pd.DataFrame, mask: np.ndarray, lo: np.ndarray,
 
 def _draw_plane(ax: Axes, df: pd.DataFrame, top: float) -> None:
     """The (w_sch, min MSB) plane: points below the diagonal are critical."""
-    w_sch, msb = _floats(df["w_sch"]), _floats(df["msb_min"])
+    w_sch, msb = as_floats(df["w_sch"]), as_floats(df["msb_min"])
     ax.fill_between([0, top], [0, top], 0, color=COLORS["critical"], alpha=0.15, lw=0)
     ax.fill_between([0, top], [0, top], top, color=COLORS["safe"], alpha=0.12, lw=0)
     ax.plot([0, top], [0, top], color="#333333", lw=1.0, label="min MSB = $w_{sch}$")
@@ -641,7 +429,7 @@ def plot_operating_space(df: pd.DataFrame, *, title: str | None = None,
     fig = new_figure(figsize=(9.5, 4.2), layout="constrained")
     ax_t, ax_p = fig.subplots(1, 2, width_ratios=[3, 1.1])
     data = figure_data(df, "operating_space")
-    top = _ylimit([_floats(data["msb_min"]), _floats(data["w"])], _floats(data["w_sch"]),
+    top = _ylimit([as_floats(data["msb_min"]), as_floats(data["w"])], as_floats(data["w_sch"]),
                   BOUNDS_CLIP)
     _draw_operating(ax_t, df, top)
     _draw_plane(ax_p, df, top)
@@ -679,12 +467,12 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
                 tops.append(_bounds_top(df))
             else:
                 cols = ["w", "slack"] if kind.startswith("window") else ["w", "msb_min"]
-                _need(df, cols + ["w_sch"], f"the {kind} figure")
+                need_columns(df, cols + ["w_sch"], f"the {kind} figure")
                 clip = WINDOW_CLIP if kind.startswith("window") else BOUNDS_CLIP
-                tops.append(_ylimit([_floats(df[c]) for c in cols], _floats(df["w_sch"]), clip))
+                tops.append(_ylimit([as_floats(df[c]) for c in cols], as_floats(df["w_sch"]), clip))
         top = max(tops)
     elif kind == "speed":
-        speeds = [_floats(df[c]) for df in dfs.values() for c in ("v_leader_desired", "v_leader")
+        speeds = [as_floats(df[c]) for df in dfs.values() for c in ("v_leader_desired", "v_leader")
                   if c in df.columns]
         top = _ylimit(speeds, np.zeros(0), 1.0)
     n = len(dfs)
@@ -697,15 +485,15 @@ def plot_modes(dfs: Mapping[str, pd.DataFrame], kind: str = "window", *,
             ax.set_aspect("equal", adjustable="box")  # shared axes cannot adjust data limits
         note = ax.get_title(loc="right")  # the off-scale note would overlap the counts
         ax.set_title("", loc="right")
-        ax.set_title(f"{mode}\n{_counts(df)}" + (f"\n{note}" if note else ""),
+        ax.set_title(f"{mode}\n{headline_counts(df)}" + (f"\n{note}" if note else ""),
                      fontsize="small", loc="left")
         if ax is not axes[0]:
             ax.set_ylabel("")
     if kind != "paths":  # shared time axis: the union of the runs (each panel set its own)
-        spans = [(_t_s(df)[0], _ends_s(df)[-1]) for df in dfs.values() if len(df)]
+        spans = [(times_s(df)[0], ends_s(df)[-1]) for df in dfs.values() if len(df)]
         if spans and max(b for _, b in spans) > min(a for a, _ in spans):
             axes[0].set_xlim(min(a for a, _ in spans), max(b for _, b in spans))
-    handles: dict[str, object] = {}
+    handles: dict[str, Any] = {}
     for ax in axes:  # union of legend entries (a panel may lack misses or critical spans)
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(lab.split(" (")[0] if lab.startswith("deadline") else lab, h)

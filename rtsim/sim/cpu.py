@@ -330,16 +330,18 @@ class CPU:
             st.release_hooks, st.job_end_hooks = [], []
             st.start_hooks = [[] for _ in st.segs]
             st.end_hooks = [[] for _ in st.segs]
-            for event, fn, tname, sname, role in self._hooks:
+            for event, hook, tname, sname, role in self._hooks:
                 if tname is not None and tname != st.name:
                     continue
                 if event in ("release", "job_end"):
                     if sname is None and role is None:
-                        (st.release_hooks if event == "release" else st.job_end_hooks).append(fn)
+                        (st.release_hooks if event == "release" else st.job_end_hooks).append(
+                            hook)
                     continue
                 for i, s in enumerate(st.segs):
                     if (sname is None or sname == s.name) and (role is None or role == s.role):
-                        (st.start_hooks if event == "segment_start" else st.end_hooks)[i].append(fn)
+                        (st.start_hooks if event == "segment_start" else st.end_hooks)[i].append(
+                            hook)
             st.simple = len(st.segs) == 1 and not st.end_hooks[0] and not st.idle_kind[0]
             st.fast_release = (st.provider is None and not st.per_window and not st.is_window
                                and st.policy == "finish-late" and not st.release_hooks
@@ -594,7 +596,8 @@ class CPU:
                 else:
                     job = entry[5]
                     if job.finish is None and not job.aborted:
-                        if job is running:
+                        on_cpu = job is running  # (a bool: no narrowing of job to running's type)
+                        if on_cpu:
                             self._close_piece(job, piece_start, work_start, now, done=False)
                             running, run_end = None, _INF
                         self._abort(job, now)

@@ -70,12 +70,9 @@ def _window_estimate(ts: TaskSet, window: WindowArg) -> float | None:
 def resolve_window(ts: TaskSet, window: WindowArg) -> tuple[Callable[[], float], dict[str, Any]]:
     """The window provider for ``ts`` and a description of it (for results and manifests)."""
     if window is None:
-        from rtsim.analysis.bounds import w_sch_of
+        from rtsim.analysis.sufficient import window_or_w_sch
 
-        w = w_sch_of(ts)
-        if not math.isfinite(w):
-            raise InputError(f"{ts.source or ts.name or 'task set'}: w_sch is infinite "
-                             f"(T_hp saturates the CPU); give a window explicitly")
+        w = window_or_w_sch(ts)
         return (lambda: w), {"mode": "w_sch", "w": w}
     if callable(window):
         return window, {"mode": "dynamic"}

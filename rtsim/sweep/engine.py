@@ -463,14 +463,15 @@ class Sweep:
             client = dask
         prefix = f"rtsim-sweep-{self.spec.fingerprint()[:10]}"
         futures = []
+        point_of = {}  # each future's point, by the future's key
         try:
             for p, pin in self._inputs(pending):
                 fut = client.submit(execute_point, pin, self.spec.metrics,
                                     key=f"{prefix}-{p.index}", pure=False)
-                fut.rtsim_point = p
+                point_of[fut.key] = p
                 futures.append(fut)
             for fut in as_completed(futures):
-                p = fut.rtsim_point
+                p = point_of[fut.key]
                 try:
                     rec = fut.result()
                 except Exception as exc:  # noqa: BLE001 - a lost worker; the point stays pending

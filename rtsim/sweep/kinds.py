@@ -170,10 +170,10 @@ def _simulate(p: PointInput) -> dict[str, Any]:
     from rtsim.io.work import check_simulate
 
     w_est = kwargs.get("window")
-    if w_est is None and ts.window is not None:
-        from rtsim.analysis.bounds import w_sch_of
+    if ts.window is not None:
+        from rtsim.analysis.sufficient import window_or_w_sch
 
-        w_est = w_sch_of(ts)
+        w_est = window_or_w_sch(ts, w_est)  # (simulate decides its window the same way)
     check_simulate(ts, float(o["horizon"]), w_est, f"sweep.options.horizon {o['horizon']}")
     if "scheduler" in o:
         kwargs["scheduler"] = o["scheduler"]

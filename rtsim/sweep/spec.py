@@ -50,6 +50,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -59,20 +60,13 @@ from typing import Any
 
 from rtsim._suggest import did_you_mean
 from rtsim.config.dotted import resolve, shortcuts
+from rtsim.config.sweep import Scalar
 from rtsim.errors import InputError, SweepError
-from rtsim.io.ranges import parse_values
 from rtsim.sweep.kinds import KINDS, canonical_json
 
 __all__ = ["BaseFile", "SweepSpec", "load_sweep", "parse_sweep", "canonical_json", "Scalar"]
 
-Scalar = int | float | str | bool
 
-_TOP_KEYS = ("sweep", "grid")
-_SWEEP_KEYS = (
-    "kind", "base", "seed", "combine", "metrics", "options", "set", "function", "name",
-    "description",
-)
-_COMBINE = ("product", "zip")
 
 
 @dataclass(frozen=True)
@@ -160,51 +154,6 @@ class SweepSpec:
         return hashlib.sha256(canonical_json(r).encode("utf-8")).hexdigest()
 
 
-# -- grid values ----------------------------------------------------------------------
-def _tidy(v: float) -> int | float:
-    r = float(f"{v:.12g}")
-    return int(r) if r.is_integer() else r
-
-
-def _grid_values(src: str, name: str, raw: Any) -> tuple[Scalar, ...]:
-    where = f"{src}: grid.{name}"
-    if isinstance(raw, str):
-        try:
-            vals = parse_values(raw, where)
-        except InputError as exc:
-            raise SweepError(f"{exc} (use a TOML list for text values)") from None
-        if all(float(v).is_integer() for v in vals):
-            return tuple(int(v) for v in vals)
-        return tuple(_tidy(v) for v in vals)
-    if isinstance(raw, bool | int | float):
-        raw = [raw]
-    if not isinstance(raw, list):
-        raise SweepError(f"{where}: expected a list or a range string, got {type(raw).__name__}")
-    if not raw:
-        raise SweepError(f"{where}: empty list")
-    for v in raw:
-        if not isinstance(v, bool | int | float | str):
-            raise SweepError(f"{where}: values must be numbers, text or booleans, got {v!r}")
-        if isinstance(v, float) and not math.isfinite(v):
-            raise SweepError(f"{where}: value {v!r} is not finite")
-        if isinstance(v, int) and not isinstance(v, bool) and not -2**63 <= v < 2**63:
-            raise SweepError(f"{where}: value {v!r} does not fit a 64-bit integer column")
-    kinds = {_value_type(v) for v in raw}
-    if len(kinds) > 1:
-        first = _value_type(raw[0])
-        odd = next(v for v in raw if _value_type(v) != first)
-        raise SweepError(f"{where}: values must all be of one type (a results column has one), "
-                         f"got {first} {raw[0]!r} and {_value_type(odd)} {odd!r}")
-    return tuple(raw)
-
-
-def _value_type(v: Any) -> str:
-    """The column type of a grid value: ``bool``, ``number`` (int or float) or ``text``."""
-    if isinstance(v, bool):
-        return "bool"
-    return "number" if isinstance(v, int | float) else "text"
-
-
 # -- parameter resolution --------------------------------------------------------------
 def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
              data: dict[str, Any] | None, table: str = "grid") -> tuple[str, ...]:
@@ -231,6 +180,7 @@ def _resolve(src: str, name: str, kind: str, base: BaseFile | None,
 
 # -- the file --------------------------------------------------------------------------
 def _check_keys(src: str, table: str, got: Mapping[str, Any], allowed: tuple[str, ...]) -> None:
+    """A kind's own option names (the keys of ``[sweep.options]``)."""
     for key in got:
         if key not in allowed:
             where = f"{table}.{key}" if table else key
@@ -337,27 +287,18 @@ def parse_sweep(data: Mapping[str, Any], source: str, base_dir: str | Path = "."
 def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str,
                  set_: tuple[str, ...]) -> SweepSpec:
     src = source
-    _check_keys(src, "", data, _TOP_KEYS)
-    sw = data.get("sweep")
-    if not isinstance(sw, dict):
-        raise SweepError(f"{src}: missing [sweep] table")
-    _check_keys(src, "sweep", sw, _SWEEP_KEYS)
-    kind = sw.get("kind")
-    if kind is None:
-        raise SweepError(f"{src}: sweep.kind: missing (one of {', '.join(KINDS)})")
+    from rtsim.config.load import validate
+    from rtsim.config.sweep import SweepFile, sweep_special
+
+    model = validate(SweepFile, data, src, SweepError, special=sweep_special)
+    sw = model.sweep
+    kind = sw.kind
     if not KINDS.contains(kind):
         raise SweepError(f"{src}: sweep.kind: unknown kind {kind!r} (one of "
-                         f"{', '.join(KINDS)}){did_you_mean(str(kind), tuple(KINDS))}")
-    seed = sw.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
-        raise SweepError(f"{src}: sweep.seed: expected a non-negative integer, got {seed!r}")
-    combine = sw.get("combine", "product")
-    if combine not in _COMBINE:
-        raise SweepError(f"{src}: sweep.combine: expected 'product' or 'zip', got {combine!r}"
-                         f"{did_you_mean(str(combine), _COMBINE)}")
-    function = sw.get("function")
+                         f"{', '.join(KINDS)}){did_you_mean(kind, tuple(KINDS))}")
+    seed, combine, function = sw.seed, sw.combine, sw.function
     if kind == "call":
-        if not isinstance(function, str) or function.count(":") != 1:
+        if function is None or function.count(":") != 1:
             raise SweepError(f"{src}: sweep.function: kind 'call' needs "
                              f"'package.module:function', got {function!r}")
         from rtsim.registry import load_code
@@ -371,44 +312,28 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
     elif function is not None:
         raise SweepError(f"{src}: sweep.function: only for kind 'call', not {kind!r}")
     kspec = KINDS.resolve(kind, f"{src}: sweep.kind")
-    options = sw.get("options", {})
-    if not isinstance(options, dict):
-        raise SweepError(f"{src}: sweep.options: expected a table")
+    options = sw.options
     if kind != "call":
         _check_keys(src, "sweep.options", options, kspec.options)
-    metrics = sw.get("metrics")
-    if metrics is not None:
-        if (not isinstance(metrics, list) or not metrics
-                or not all(isinstance(m, str) and m for m in metrics)):
-            raise SweepError(f"{src}: sweep.metrics: expected a non-empty list of names")
-        if kspec.metrics is not None:
-            for m in metrics:
-                if not kspec.knows_metric(m):
-                    raise SweepError(
-                        f"{src}: sweep.metrics: unknown metric {m!r} for kind '{kind}' "
-                        f"(known: {', '.join(kspec.metrics)})"
-                        f"{did_you_mean(m, kspec.metrics)}")
-        metrics = tuple(metrics)
-    name = sw.get("name", "")
-    if not isinstance(name, str):
-        raise SweepError(f"{src}: sweep.name: expected text")
+    metrics = None if sw.metrics is None else tuple(sw.metrics)
+    if metrics is not None and kspec.metrics is not None:
+        for m in metrics:
+            if not kspec.knows_metric(m):
+                raise SweepError(
+                    f"{src}: sweep.metrics: unknown metric {m!r} for kind '{kind}' "
+                    f"(known: {', '.join(kspec.metrics)})"
+                    f"{did_you_mean(m, kspec.metrics)}")
+    name = sw.name
 
-    base = _load_base(src, kind, sw.get("base"), Path(base_dir))
+    base = _load_base(src, kind, sw.base, Path(base_dir))
     bdata = base.data() if base is not None else None
-    grid_raw = data.get("grid")
-    if grid_raw is None or (isinstance(grid_raw, dict) and not grid_raw):
-        raise SweepError(f"{src}: grid: empty grid (give at least one parameter under [grid])")
-    if not isinstance(grid_raw, dict):
-        raise SweepError(f"{src}: grid: expected a table")
-    grid = tuple((str(k), _grid_values(src, str(k), v)) for k, v in grid_raw.items())
+    grid = tuple(model.grid.items())
     if kind != "call" and base is None:  # pragma: no cover - _load_base always gives one
         raise SweepError(f"{src}: sweep.base: missing")
     for v in dict(grid).get("seed", ()):
         if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < 2**63:
             raise SweepError(f"{src}: grid.seed: expected non-negative integers, got {v!r}")
-    fixed_raw = sw.get("set", {})
-    if not isinstance(fixed_raw, dict):
-        raise SweepError(f"{src}: sweep.set: expected a table")
+    fixed_raw = sw.set
     targets = {str(k): _resolve(src, str(k), kind, base, bdata, "sweep.set") for k in fixed_raw}
     fixed_raw = dict(fixed_raw)
     if set_:  # --set KEY=VALUE: as [sweep.set], over it
@@ -448,7 +373,7 @@ def _parse_sweep(data: Mapping[str, Any], source: str, base_dir: Path, text: str
     )
 
 
-def load_sweep(path: str | Path, set_: list[str] | tuple[str, ...] = (), *,
+def load_sweep(path: str | os.PathLike[str], set_: list[str] | tuple[str, ...] = (), *,
                allow_code: bool | None = None) -> SweepSpec:
     """Read and validate a sweep file; ``set_``: ``KEY=VALUE`` changes of the base file at
     every point (the command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``:

@@ -65,6 +65,7 @@ def from_simulation(ts: TaskSet, horizon: float, **simulate_kwargs: Any) -> JobS
 
     simulate_kwargs["record_jobs"] = True
     res = simulate(ts, horizon, **simulate_kwargs)
+    assert res.jobs is not None  # (record_jobs)
     w = res.window["w"] if res.window and "w" in res.window else None
     info = {"source": "simulation", "horizon": horizon, "window": res.window,
             **{k: v for k, v in simulate_kwargs.items() if isinstance(v, str | int | float)}}

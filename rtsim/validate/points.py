@@ -178,8 +178,8 @@ def paper_point(params: Mapping[str, Any], options: Mapping[str, Any], seed: int
         out[f"deadline.{name}"] = float(b.deadline)
     for t in analyze(ts, wb.w_sch, suspension="idle").tasks:  # Δt idle: counted-idle's model
         out[f"wcrt_susp.{t.name}"] = math.nan if t.wcrt is None else float(t.wcrt)
-    for t in analyze_edf(ts, wb.w_sch).tasks:  # Spuri's bounds: edf-cpu's model
-        out[f"wcrt_edf.{t.name}"] = math.nan if t.wcrt is None else float(t.wcrt)
+    for te in analyze_edf(ts, wb.w_sch).tasks:  # Spuri's bounds: edf-cpu's model
+        out[f"wcrt_edf.{te.name}"] = math.nan if te.wcrt is None else float(te.wcrt)
     # every chain job needs at least its own length g_j: any w below the longest one misses
     g_longest = {"wcet-cpu": ts.window.g(), "counted-idle": ts.window.g(float(hough.max())),
                  "edf-cpu": ts.window.g()}

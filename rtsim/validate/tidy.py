@@ -29,6 +29,7 @@ Columns (ms unless noted; NaN where not applicable):
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import pandas as pd
@@ -50,7 +51,7 @@ COLUMNS: tuple[str, ...] = (
 _PER_TASK = ("sim_max", "p50", "p99", "p999", "jobs", "misses")
 
 
-def _tasks(row: dict[str, Any]) -> list[str]:
+def _tasks(row: Mapping[Any, Any]) -> list[str]:
     return [k.split(".", 1)[1] for k in row if k.startswith("wcrt.")]
 
 
@@ -62,7 +63,7 @@ def _div(a: Any, b: Any) -> float:
     return a / b if math.isfinite(a) and math.isfinite(b) and b > 0 else math.nan
 
 
-def _rows(row: dict[str, Any], modes: tuple[str, ...], base: dict[str, Any]) -> list[dict]:
+def _rows(row: Mapping[Any, Any], modes: tuple[str, ...], base: dict[str, Any]) -> list[dict]:
     out = []
     for mode in modes:
         for task in _tasks(row):

@@ -44,6 +44,8 @@ class Scan:
 
     t_ms: float
     leader_pose: Pose
+    _raw: dict[str, Any]
+    _arrays: dict[str, Any]
 
     def __init__(
         self,

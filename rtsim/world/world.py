@@ -117,11 +117,11 @@ class World:
         if self.backend == "filterpy" and ep.backend != "filterpy":
             ep = replace(ep, backend="filterpy")
         noise = rng.standard_normal((form.n, 3))
-        init = [(x[k] + ep.init_position_sd * noise[k, 0],
-                 y[k] + ep.init_position_sd * noise[k, 1],
-                 th[k] + ep.init_heading_sd * noise[k, 2]) for k in range(form.n)]
-        self._filters = [CompiledFollowerEKF(p, ep) if fast else make_filter(p, ep)
-                         for p in init]
+        poses = [(x[k] + ep.init_position_sd * noise[k, 0],
+                  y[k] + ep.init_position_sd * noise[k, 1],
+                  th[k] + ep.init_heading_sd * noise[k, 2]) for k in range(form.n)]
+        self._filters = [CompiledFollowerEKF(pose, ep) if fast else make_filter(pose, ep)
+                         for pose in poses]
         self._vhat = [float(v) for v in v_f]
         self._pieces: list[list[tuple[float, float, float]]] = [
             [(0.0, float(v_f[k]), w0)] for k in range(form.n)]
