@@ -1,7 +1,8 @@
 """Peak memory of long runs against short ones (run by hand, not a test).
 
     python benchmarks/bench_memory.py [--sim-hours 24] [--scenario-hours 6] [--short-min 10]
-                                      [--only simulate|scenario] [--json]
+                                      [--trace-hours 3] [--only simulate|scenario|traces]
+                                      [--json]
 
 Each run is a fresh interpreter (``rtsim.cli.main`` in a child process) whose peak resident
 set size (``ru_maxrss``) is reported:
@@ -10,10 +11,14 @@ set size (``ru_maxrss``) is reported:
    for ``--sim-hours`` hours of simulated time (every job record written to the file);
 2. ``rtsim scenario experiments/scenarios/test2.toml --parquet --out DIR`` — every output:
    windows.csv, windows.parquet, jobs.csv, the five figures, report.html — for
-   ``--short-min`` minutes and ``--scenario-hours`` hours.
+   ``--short-min`` minutes and ``--scenario-hours`` hours;
+3. the traces, for ``--short-min`` minutes and ``--trace-hours`` hours: ``rtsim simulate
+   tasksets/example.toml --trace FILE.csv``, the same with ``--perfetto FILE.json``, and
+   ``rtsim scenario experiments/scenarios/test2.toml --no-figures --perfetto FILE.json``.
 
 Target: the long run's peak within 100 MB of the short run's (records are kept as column
-chunks and flushed to the output as they come; summaries and figures read columns back).
+chunks and flushed to the output as they come; summaries and figures read columns back;
+the Perfetto trace is written from records spooled to disk).
 """
 
 from __future__ import annotations
@@ -58,7 +63,8 @@ def main() -> int:
     ap.add_argument("--sim-hours", type=float, default=24.0)
     ap.add_argument("--scenario-hours", type=float, default=6.0)
     ap.add_argument("--short-min", type=float, default=10.0)
-    ap.add_argument("--only", choices=("simulate", "scenario"), default=None)
+    ap.add_argument("--trace-hours", type=float, default=3.0)
+    ap.add_argument("--only", choices=("simulate", "scenario", "traces"), default=None)
     ap.add_argument("--json", action="store_true", help="also print one JSON line")
     args = ap.parse_args()
     results: dict[str, dict[str, float]] = {}
@@ -103,7 +109,56 @@ def main() -> int:
             results[
                 f"scenario test2, every output, {args.scenario_hours:g} h vs {args.short_min:g} min"
             ] = row
-    print(f"{'run':58s} {'short MB':>9s} {'long MB':>9s} {'delta':>8s}  rows (long)   verdict")
+        if args.only in (None, "traces"):
+            runs = {
+                "simulate --trace": (
+                    [
+                        "simulate",
+                        "tasksets/example.toml",
+                        "--horizon",
+                        "{ms}",
+                        "--trace",
+                        "{o}.csv",
+                    ],
+                    "{o}.csv",
+                ),
+                "simulate --perfetto": (
+                    [
+                        "simulate",
+                        "tasksets/example.toml",
+                        "--horizon",
+                        "{ms}",
+                        "--perfetto",
+                        "{o}.json",
+                    ],
+                    "{o}.json",
+                ),
+                "scenario test2 --perfetto": (
+                    [
+                        "scenario",
+                        "experiments/scenarios/test2.toml",
+                        "--no-figures",
+                        "--duration",
+                        "{s}",
+                        "--out",
+                        "{o}",
+                        "--perfetto",
+                        "{o}.json",
+                    ],
+                    "{o}.json",
+                ),
+            }
+            for what, (argv, sized) in runs.items():
+                row = {}
+                for label, s in (("short", args.short_min * 60), ("long", args.trace_hours * 3600)):
+                    o = str(d / f"{what.split()[-1][2:]}_{what.split()[0]}_{label}")
+                    peak, wall = peak_mb(
+                        [a.format(ms=repr(s * 1000.0), s=repr(s), o=o) for a in argv]
+                    )
+                    size = Path(sized.format(o=o)).stat().st_size / 1e6
+                    row.update({f"{label}_mb": peak, f"{label}_s": wall, f"{label}_rows": size})
+                results[f"{what}, {args.trace_hours:g} h vs {args.short_min:g} min (file MB)"] = row
+    print(f"{'run':58s} {'short MB':>9s} {'long MB':>9s} {'delta':>8s}  rows or MB (long) verdict")
     ok = True
     for name, r in results.items():
         delta = r["long_mb"] - r["short_mb"]
@@ -111,7 +166,7 @@ def main() -> int:
         ok &= good
         print(
             f"{name:58s} {r['short_mb']:9.1f} {r['long_mb']:9.1f} {delta:+8.1f}  "
-            f"{int(r['long_rows']):>11d}   {'ok' if good else 'MISSED'} "
+            f"{r['long_rows']:>11.0f}   {'ok' if good else 'MISSED'} "
             f"(target +{TARGET_MB:g} MB; long run {r['long_s']:.0f} s)"
         )
         r["delta_mb"] = delta

@@ -86,6 +86,7 @@ __all__ = [
     "limit_la",
     "busy_period",
     "deadline_points",
+    "edf_arrivals",
     "qpa",
     "spuri_wcrt",
     "analyze_edf",
@@ -305,6 +306,19 @@ def spuri_wcrt(
             return None
         worst = max(worst, t - a)
     return worst
+
+
+def edf_arrivals(ts: TaskSet, w: float | None = None, overhead: float | None = None) -> float:
+    """The arrivals :func:`spuri_wcrt` examines for ``ts`` at window ``w``, an upper bound
+    computed before the search: for each task, every arrival of every task in the
+    synchronous busy period L_b, tasks × Σ (L_b / T + 1) (0 when L_b does not close: the
+    bound is then not searched). Computing L_b is itself bounded (MAX_BUSY_STEPS)."""
+    _, _, o, tasks = analysis_inputs(ts, w, overhead, "cpu", "analyze_edf")
+    et = edf_tasks(tasks, o)
+    lb = busy_period(et)
+    if lb is None:
+        return 0.0
+    return float(len(et) * math.fsum(lb / p + 1.0 for _, p, _, _ in et))
 
 
 def edf_tasks(tasks: Sequence[Task], overhead: float = 0.0) -> list[EdfTask]:

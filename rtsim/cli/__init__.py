@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import os
 import re
 import sys
 from typing import Any, NoReturn
@@ -301,7 +300,9 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into head, say
         return 0
     except OSError as exc:  # an output path that cannot be written, a full disk, ...
-        where = f"{os.fsdecode(exc.filename)}: " if exc.filename else ""
+        from rtsim.io.outdir import shown  # a staged file is named by its target
+
+        where = f"{shown(exc.filename)}: " if exc.filename else ""
         print(f"rtsim: {one_line(where)}{one_line(exc.strerror or exc)}", file=sys.stderr)
         return 2
     except RecursionError:  # a deeply nested input (TOML, JSON) read by a library

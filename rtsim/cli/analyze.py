@@ -70,6 +70,12 @@ def register(sub: Any) -> None:
         "analysis) or edf (demand criterion and Spuri's bound); default: the "
         "file's [scheduler] policy",
     )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="analyse even when the EDF bound would examine more than 1e6 "
+        "arrivals (a busy period very long against the periods: minutes)",
+    )
     p.set_defaults(func=run)
 
 
@@ -264,6 +270,17 @@ def run(args: argparse.Namespace) -> int:
             f"use --scheduler with one of {with_analysis}"
         )
     w_from = None if ts.window is None else ("--window" if w is not None else "w_sch")
+    from rtsim.analysis.edf import analyze_edf, edf_arrivals
+    from rtsim.io.work import check_work
+
+    if policy.analysis is analyze_edf:  # Spuri's search over arrivals (the FP analysis stops
+        # by itself: a deadline passed, or MAX_BUSY_JOBS jobs of one busy period)
+        check_work(
+            "arrivals",
+            edf_arrivals(ts, w, args.overhead),
+            str(ts.source or args.file),
+            force=args.force,
+        )
     res: Any = policy.analysis(ts, w, overhead=args.overhead, suspension=args.suspension)
     txn: dict[str, float | None] | None = None
     if isinstance(res, EdfAnalysis):

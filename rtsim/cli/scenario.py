@@ -21,6 +21,7 @@ the leader's path plus the followers' separation (see :mod:`rtsim.coupling.scena
 
 from __future__ import annotations
 
+import secrets
 import sys
 import time
 from pathlib import Path
@@ -145,6 +146,7 @@ def run(args: Any) -> int:
             scenario.source or str(args.file),
             override,
             perfetto,
+            files,
         )
         staged.commit()
         files.commit()
@@ -224,19 +226,32 @@ def _write(
     src: str,
     override: str | None,
     perfetto: Path | None,
+    files: Any = None,
 ) -> Any:
     """Run the scenario (file ``src``), writing every file into ``out`` (the staging
     directory of ``target``); returns the result."""
     from rtsim.cli._set import set_overrides, set_strings
     from rtsim.coupling import run_scenario
-    from rtsim.io.atomic import write_json, write_table
+    from rtsim.io.atomic import write_json
     from rtsim.io.columns import ChunkWriter
     from rtsim.io.manifest import write_manifest
     from rtsim.sim.records import jobs_frame
 
     windows_files = [out / "windows.csv", *([out / "windows.parquet"] if args.parquet else [])]
     windows = ChunkWriter(windows_files, None)
-    jobs = None if args.perfetto else ChunkWriter([out / "jobs.csv"], jobs_frame([]))
+    jobs = ChunkWriter([out / "jobs.csv"], jobs_frame([]))
+    spools: tuple[Any, Any] | None = None
+    if args.perfetto:  # records for the trace, on disk in the staging directory meanwhile
+        from rtsim.io.spool import Spool, Tee
+
+        scratch = out / f".rtsim-spool-{secrets.token_hex(4)}"
+        spools = (
+            Spool(f"{scratch}-jobs", label=args.perfetto),
+            Spool(f"{scratch}-trace", label=args.perfetto),
+        )
+    if files is not None:  # closed after an error too, before the staging goes
+        for w in (windows, jobs, *(spools or ())):
+            files.on_release(getattr(w, "discard", w.close))
     from rtsim.cli.common import simulation_bar
 
     try:
@@ -248,9 +263,9 @@ def _write(
                 seed=args.seed,
                 record_jobs=True,
                 exec_model=args.exec_model,
-                record_trace=bool(args.perfetto),
                 window_sink=windows,
-                job_sink=jobs,
+                job_sink=Tee(jobs, spools[0]) if spools else jobs,
+                trace_sink=spools[1] if spools else None,
                 force=args.force,
                 overrides=set_overrides(args) or None,
                 progress=bar if bar.enabled else None,
@@ -262,22 +277,19 @@ def _write(
     outputs = ["windows.csv", "jobs.csv", "summary.json"]
     if args.parquet:
         outputs.append("windows.parquet")
-    if jobs is not None:
-        jobs.close()
-    elif res.jobs is not None:
-        write_table(out / "jobs.csv", res.jobs)
+    jobs.close()
     from rtsim.io.summary import summary_json
 
     write_json(out / "summary.json", summary_json(res.summary))
-    if args.perfetto:
-        from rtsim.export.perfetto import write_perfetto
+    if spools is not None:
+        from rtsim.export.perfetto import stream_perfetto
 
-        assert res.jobs is not None and res.trace is not None and perfetto is not None
-        write_perfetto(
+        assert perfetto is not None
+        stream_perfetto(
             perfetto,
-            res.jobs,
-            res.trace,
-            windows=windows.read(),
+            spools[0],
+            spools[1],
+            windows=windows.paths[0],
             tasks=[t.name for t in sorted(res.inputs.taskset.tasks, key=lambda t: t.priority)],
             metadata={
                 "command": "scenario",
@@ -286,6 +298,8 @@ def _write(
                 "seed": args.seed,
             },
         )
+        for sp in spools:
+            sp.close()
         if perfetto.parent == out:
             outputs.append(perfetto.name)
     if not args.no_figures:

@@ -8,8 +8,11 @@ unwritable place is refused at once — and renamed in together at the end
 outputs written there): ``manifest.json`` when the directory has none or has one of an
 earlier ``simulate`` whose files this run replaces all of, else ``<file>.manifest.json``
 beside each file, so another run's ``manifest.json`` (a scenario directory's, say) is never
-overwritten. ``--jobs`` alone streams the job records to the file in chunks (memory stays
-flat for any horizon); with ``--gantt`` or ``--perfetto`` they are kept in memory.
+overwritten. Records are never held for the whole run: job records and trace rows go to
+their files in chunks as the run makes them (``--jobs``, ``--trace``), to scratch files in
+the staging directory that ``--perfetto`` is written from afterwards, and ``--gantt`` keeps
+only those inside its time range (a range holding more than 2,000 jobs is cut, and the
+chart's title says so) — memory stays flat for any horizon.
 
 For a processing-window set (``[window]``), ``--followers``/``--hough-radius`` change n and
 r_H, the window is fixed at ``--window`` (default: the analytic w_sch), and the report puts
@@ -21,10 +24,11 @@ from __future__ import annotations
 import argparse
 import math
 import re
+import secrets
 import sys
 from collections import defaultdict
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from rtsim.errors import InputError
 
@@ -132,6 +136,21 @@ def _gantt_range(text: str | None, horizon: float) -> tuple[float, float]:
     return a, b
 
 
+def _bounded_range(
+    ts: Any, rng: tuple[float, float], w: float | None
+) -> tuple[tuple[float, float], float | None]:
+    """The Gantt range, cut to hold at most GANTT_MAX_JOBS jobs (estimated from the periods),
+    and the end it had when cut (None: not cut)."""
+    from rtsim.io.work import simulate_jobs
+    from rtsim.plots.gantt import GANTT_MAX_JOBS
+
+    a, b = rng
+    jobs = simulate_jobs(ts, b - a, w)
+    if jobs <= GANTT_MAX_JOBS:
+        return rng, None
+    return (a, a + (b - a) * GANTT_MAX_JOBS / jobs), b
+
+
 def require_bcet(ts: Any, source: str) -> None:
     """``--exec uniform`` draws in [bcet, wcet]: a task (other than the processing window,
     whose Hough time varies anyway) with no bcet would silently run at its WCET."""
@@ -189,12 +208,13 @@ def _manifest_names(names: dict[Path, list[str]]) -> dict[Path, list[str]]:
 
 def _run(args: argparse.Namespace, files: Any) -> int:
     from rtsim.analysis.rta import analyze
-    from rtsim.io.atomic import dumps, write_json, write_table
+    from rtsim.io.atomic import dumps, write_json
     from rtsim.io.columns import ChunkWriter
     from rtsim.io.manifest import build_manifest
+    from rtsim.io.spool import Spool, Tee
     from rtsim.io.taskset import load_taskset, taskset_to_dict
     from rtsim.sim import simulate
-    from rtsim.sim.records import jobs_frame
+    from rtsim.sim.records import jobs_frame, trace_frame
 
     if not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
@@ -242,6 +262,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     check_horizon(args, args.horizon, w_est)
     check_simulate(ts, args.horizon, w_est, f"--horizon {args.horizon:g}", force=args.force)
     rng = _gantt_range(args.gantt_range, args.horizon) if args.gantt else None
+    cut = None
+    if rng is not None:
+        rng, cut = _bounded_range(ts, rng, w_est)
     for opt in ("jobs", "trace"):
         name = getattr(args, opt)
         if name and Path(name).suffix.lower() not in (".csv", ".parquet"):
@@ -259,9 +282,28 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         for opt in ("jobs", "trace", "perfetto", "gantt", "histogram")
         if getattr(args, opt)
     }
-    want_jobs = bool(args.jobs or args.gantt or args.perfetto)
-    stream = bool(args.jobs) and not (args.gantt or args.perfetto)
-    writer = ChunkWriter([tmp["jobs"]], jobs_frame([])) if stream else None
+    # every record goes to disk as the run makes it (the --jobs / --trace files, the scratch
+    # spools of --perfetto) or is kept only inside the Gantt range: memory stays flat
+    jobs_out = ChunkWriter([tmp["jobs"]], jobs_frame([])) if args.jobs else None
+    trace_out = ChunkWriter([tmp["trace"]], trace_frame([])) if args.trace else None
+    spools: tuple[Any, Any] | None = None
+    if args.perfetto:
+        scratch = Path(tmp["perfetto"]).parent / f".rtsim-spool-{secrets.token_hex(4)}"
+        spools = (
+            Spool(f"{scratch}-jobs", label=args.perfetto),
+            Spool(f"{scratch}-trace", label=args.perfetto),
+        )
+    chart = None
+    if args.gantt:
+        from rtsim.plots.gantt import GanttRows
+
+        assert rng is not None
+        chart = GanttRows(*rng)
+    for out in (jobs_out, trace_out, *(spools or ())):
+        if out is not None:  # closed after an error too, before the staging goes
+            files.on_release(getattr(out, "discard", out.close))
+    job_sink = Tee(jobs_out, spools and spools[0], chart and chart.jobs)
+    trace_sink = Tee(trace_out, spools and spools[1], chart and chart.trace)
     from rtsim.cli.common import simulation_bar
 
     with simulation_bar(args, "simulate") as bar:
@@ -272,12 +314,12 @@ def _run(args: argparse.Namespace, files: Any) -> int:
             exec_model=args.exec_model,
             suspension=args.suspension,
             window=args.window,
-            record_jobs=want_jobs,
-            record_trace=bool(args.trace or args.gantt or args.perfetto),
+            record_jobs=bool(job_sink.sinks),
             overhead=overhead,
             jitter=args.jitter,
             scheduler=scheduler,
-            job_sink=writer,
+            job_sink=job_sink if job_sink.sinks else None,
+            trace_sink=trace_sink if trace_sink.sinks else None,
             force=args.force,
             progress=bar if bar.enabled else None,
         )
@@ -330,26 +372,32 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     outputs: dict[Path, list[str]] = defaultdict(list)
     for opt in tmp:
         outputs[Path(getattr(args, opt)).resolve().parent].append(Path(getattr(args, opt)).name)
-    if writer is not None:
-        writer.close()
-    elif args.jobs:
-        write_table(tmp["jobs"], res.jobs)
-    if args.trace:
-        write_table(tmp["trace"], res.trace)
-    if args.perfetto:
-        from rtsim.export.perfetto import write_perfetto
+    for out in (jobs_out, trace_out):
+        if out is not None:
+            out.close()
+    if spools is not None:
+        from rtsim.export.perfetto import stream_perfetto
 
-        assert res.jobs is not None and res.trace is not None  # (recorded for --perfetto)
-        write_perfetto(
+        stream_perfetto(
             tmp["perfetto"],
-            res.jobs,
-            res.trace,
+            spools[0],
+            spools[1],
             tasks=list(res.tasks),
             metadata={"command": "simulate", "file": str(args.file), "seed": args.seed},
         )
-    if args.gantt:
+        for sp in spools:
+            sp.close()
+    if chart is not None:
         assert rng is not None
-        _save_gantt(res, tmp["gantt"], rng, formats["gantt"], args.dpi or GANTT_DPI)
+        trace, jobs = chart.frames()
+        _save_gantt(
+            _Tables(trace, jobs, res.tasks),
+            tmp["gantt"],
+            rng,
+            formats["gantt"],
+            args.dpi or GANTT_DPI,
+            cut,
+        )
     if args.histogram:
         _save_histograms(
             res,
@@ -434,24 +482,33 @@ def _print_table(report: dict[str, Any]) -> None:
         )
 
 
-def gantt_figure(res: Any, rng: tuple[float, float]) -> Any:
-    """The ``--gantt`` figure of a run (its trace and jobs) over ``rng`` (ms)."""
-    from rtsim.plots.gantt import gantt
+class _Tables(NamedTuple):
+    """What the Gantt chart reads of a run: its trace, its jobs, its tasks."""
 
+    trace: Any
+    jobs: Any
+    tasks: Any
+
+
+def gantt_figure(res: Any, rng: tuple[float, float], cut: float | None = None) -> Any:
+    """The ``--gantt`` figure of a run (its trace and jobs) over ``rng`` (ms); ``cut``: the
+    end of the range asked for, when it was cut to GANTT_MAX_JOBS (the title says so)."""
+    from rtsim.plots.gantt import GANTT_MAX_JOBS, gantt
+
+    title = f"schedule {rng[0]:g}..{rng[1]:g} ms"
+    if cut is not None:
+        title += f" (of ..{cut:g} ms: at most {GANTT_MAX_JOBS:,} jobs are drawn)"
     return gantt(
-        res.trace,
-        jobs=res.jobs,
-        start=rng[0],
-        end=rng[1],
-        tasks=list(res.tasks),
-        title=f"schedule {rng[0]:g}..{rng[1]:g} ms",
+        res.trace, jobs=res.jobs, start=rng[0], end=rng[1], tasks=list(res.tasks), title=title
     )
 
 
-def _save_gantt(res: Any, path: str, rng: tuple[float, float], fmt: str, dpi: int) -> None:
+def _save_gantt(
+    res: Any, path: str, rng: tuple[float, float], fmt: str, dpi: int, cut: float | None = None
+) -> None:
     from rtsim.plots.scenario import save_figure
 
-    save_figure(gantt_figure(res, rng), path, dpi=dpi, fmt=fmt)
+    save_figure(gantt_figure(res, rng, cut), path, dpi=dpi, fmt=fmt)
 
 
 def _save_histograms(

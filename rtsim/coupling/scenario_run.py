@@ -183,6 +183,7 @@ class _Coupling:
         stop_ms: float = 0.0,
         record_trace: bool = False,
         job_sink: Any = None,
+        trace_sink: Any = None,
     ) -> None:
         cfg = inp.world
         ts = inp.taskset
@@ -285,6 +286,7 @@ class _Coupling:
             record_jobs=record_jobs,
             record_trace=record_trace,
             job_sink=job_sink,
+            trace_sink=trace_sink,
         )
         win = ts.window
         assert win is not None  # (a scenario's task set has a [window])
@@ -738,6 +740,7 @@ def run_scenario(
     overrides: Mapping[str, Any] | None = None,
     window_sink: Any = None,
     job_sink: Any = None,
+    trace_sink: Any = None,
     policy: str | None = None,
     allow_code: bool | None = None,
     force: bool = False,
@@ -763,8 +766,10 @@ def run_scenario(
     are written in chunks during the run, the summary is computed from the columns read
     back, and ``result.windows`` is None; job_sink: a callable given the job records in
     chunks, or a ChunkWriter of jobs.csv (``result.jobs`` is then None). With both, memory
-    stays flat on long runs. windows: False leaves ``result.windows`` None (the summary is
-    computed from the records' columns either way; what a sweep point needs).
+    stays flat on long runs. trace_sink: the same for the execution trace (implies
+    record_trace; ``result.trace`` is then None). windows: False leaves ``result.windows``
+    None (the summary is computed from the records' columns either way; what a sweep point
+    needs).
     allow_code: a scenario file (or its task set) may name code, ``module:Name``
     (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
     The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
@@ -820,6 +825,7 @@ def run_scenario(
         stop_ms,
         record_trace,
         job_sink,
+        trace_sink,
     )
     if window_sink is not None:
         run.rec.sink = lambda recs: run.hand_over(recs, window_sink)

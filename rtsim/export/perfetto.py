@@ -23,6 +23,13 @@ for a coupled run, ``windows.csv`` — never from the simulator's internals.
   ``min MSB`` (ms, when finite), at each window's release.
 
 Open the file in Perfetto with "Open trace file", or in chrome://tracing with "Load".
+
+:func:`write_perfetto` builds the file from whole tables in memory; :func:`stream_perfetto`
+writes the same bytes from records kept on disk (a :class:`rtsim.io.spool.Spool` of job
+records, one of trace rows, and ``windows.csv``), reading them a few times in chunks: its
+memory does not grow with the run (the tracks of a task are assigned as its jobs come, in
+start order, which is the order a run records them in; records in another order are handled
+by building the tables after all).
 """
 
 from __future__ import annotations
@@ -36,7 +43,7 @@ from typing import Any
 
 import pandas as pd
 
-__all__ = ["trace_events", "write_perfetto", "PID"]
+__all__ = ["trace_events", "write_perfetto", "stream_perfetto", "PID"]
 
 #: The one process id of every event.
 PID = 1
@@ -313,3 +320,457 @@ def write_perfetto(
     with atomic_path(p) as tmp:
         Path(tmp).write_text(json.dumps(doc, separators=(",", ":"), allow_nan=False), "utf-8")
     return p
+
+
+# -- streaming ---------------------------------------------------------------------------------
+#: Events per ``json.dumps`` call of :func:`stream_perfetto` (a list's items joined by ",").
+BATCH = 4096
+_J = {
+    n: i
+    for i, n in enumerate(
+        (
+            "task",
+            "job",
+            "release",
+            "start",
+            "finish",
+            "response",
+            "deadline",
+            "period",
+            "missed",
+            "preemptions",
+            "aborted",
+            "skipped",
+            "exec_time",
+            "arrival",
+        )
+    )
+}
+_T = {n: i for i, n in enumerate(("task", "job", "segment", "kind", "on_cpu", "start", "end"))}
+_WINDOW_COLUMNS = ["t", "w", "w_sch", "v_leader", "msb_min", "tracks_lost", "window"]
+
+
+def _nan(v: Any) -> bool:
+    return v is None or v != v
+
+
+class _IntSet:
+    """A set of non-negative integers as sorted disjoint ranges (job indices of one task,
+    nearly contiguous): memory grows with the gaps, not the members."""
+
+    def __init__(self) -> None:
+        self.lo: list[int] = []
+        self.hi: list[int] = []
+
+    def add(self, i: int) -> None:
+        lo, hi = self.lo, self.hi
+        if hi and hi[-1] + 1 == i:  # the common case: the next index
+            hi[-1] = i
+            return
+        if not hi or hi[-1] + 1 < i:
+            lo.append(i)
+            hi.append(i)
+            return
+        import bisect
+
+        k = bisect.bisect_right(lo, i) - 1  # the range starting at or before i
+        if k >= 0 and i <= hi[k]:
+            return
+        if k >= 0 and hi[k] + 1 == i:
+            hi[k] = i
+        elif k + 1 < len(lo) and lo[k + 1] == i + 1:
+            lo[k + 1] = i
+            return
+        else:
+            lo.insert(k + 1, i)
+            hi.insert(k + 1, i)
+            return
+        if k + 1 < len(lo) and lo[k + 1] == hi[k] + 1:  # merge with the next range
+            hi[k] = hi[k + 1]
+            del lo[k + 1], hi[k + 1]
+
+    def __contains__(self, i: int) -> bool:
+        import bisect
+
+        k = bisect.bisect_right(self.lo, i) - 1
+        return k >= 0 and i <= self.hi[k]
+
+
+class _Lanes:
+    """:func:`_lanes` of one task, fed its started jobs in (start, job) order."""
+
+    def __init__(self) -> None:
+        self.ends: list[float] = []
+        self.dead = 0  # lanes [0, dead) end at infinity (an aborted job's): never free again
+        self.last: tuple[float, int] | None = None
+        # the jobs on a lane other than 0, as runs of consecutive indices: first, last, lane
+        self.first: list[int] = []
+        self.final: list[int] = []
+        self.lane: list[int] = []
+
+    def add(self, job: int, start: float, finish: float) -> bool:
+        """Place one job; False when it does not come after the last one placed."""
+        key = (start, job)
+        if self.last is not None and (key <= self.last or job <= self.last[1]):
+            return False
+        self.last = key
+        ends = self.ends
+        fin = math.inf if _nan(finish) else finish
+        while self.dead < len(ends) and ends[self.dead] == math.inf:
+            self.dead += 1
+        for i in range(self.dead, len(ends)):
+            if ends[i] <= start:
+                ends[i] = fin
+                break
+        else:
+            ends.append(fin)
+            i = len(ends) - 1
+        if i:
+            if self.lane and self.lane[-1] == i and self.final[-1] + 1 == job:
+                self.final[-1] = job
+            else:
+                self.first.append(job)
+                self.final.append(job)
+                self.lane.append(i)
+        return True
+
+    def of(self, job: int) -> int:
+        import bisect
+
+        k = bisect.bisect_right(self.first, job) - 1
+        return self.lane[k] if k >= 0 and job <= self.final[k] else 0
+
+
+class _Unordered(Exception):
+    """Records not in start order: the streaming writer falls back to whole tables."""
+
+
+def _job_event(row: tuple[Any, ...], t: int, unfinished: bool, out: list[dict[str, Any]]) -> None:
+    """The events of one job record (as :func:`trace_events` makes them)."""
+    task, job = str(row[0]), int(row[1])
+    release, start, finish = row[2], row[3], row[4]
+    response, deadline = row[5], row[6]
+    args = {
+        "job": job,
+        "release_ms": None if _nan(release) else float(release),
+        "deadline_ms": None if _nan(deadline) else float(deadline),
+        "response_ms": None if _nan(response) else float(response),
+        "preemptions": int(row[9]),
+        "missed": bool(row[8]),
+    }
+    if not _nan(start) and not _nan(finish):
+        suffix = " (unfinished)" if unfinished else ""
+        out.append(
+            {
+                "ph": "X",
+                "pid": PID,
+                "tid": t,
+                "cat": "job",
+                "name": f"{task} #{job}{suffix}",
+                "ts": _us(start),
+                "dur": _us(finish) - _us(start),
+                "args": args,
+            }
+        )
+    if bool(row[11]):
+        out.append(
+            {
+                "ph": "i",
+                "s": "t",
+                "pid": PID,
+                "tid": t,
+                "cat": "skip",
+                "name": "skipped release",
+                "ts": _us(release),
+                "args": args,
+            }
+        )
+    elif bool(row[10]):
+        out.append(
+            {
+                "ph": "i",
+                "s": "t",
+                "pid": PID,
+                "tid": t,
+                "cat": "abort",
+                "name": "aborted",
+                "ts": _us(deadline),
+                "args": args,
+            }
+        )
+    if bool(row[8]) and not bool(row[11]):
+        out.append(
+            {
+                "ph": "i",
+                "s": "t",
+                "pid": PID,
+                "tid": t,
+                "cat": "miss",
+                "name": "deadline miss",
+                "ts": _us(deadline),
+                "args": args,
+            }
+        )
+
+
+class _Writer:
+    """Events written as the items of one JSON array, :data:`BATCH` at a time."""
+
+    def __init__(self, fh: Any) -> None:
+        self.fh = fh
+        self.batch: list[dict[str, Any]] = []
+        self.any = False
+
+    def flush(self) -> None:
+        if not self.batch:
+            return
+        text = json.dumps(self.batch, separators=(",", ":"), allow_nan=False)[1:-1]
+        self.fh.write(("," if self.any else "") + text)
+        self.any = True
+        self.batch.clear()
+
+    def maybe_flush(self) -> None:
+        if len(self.batch) >= BATCH:
+            self.flush()
+
+
+def _window_chunks(windows: str | os.PathLike[str] | None) -> Any:
+    from rtsim.io.columns import iter_columns
+
+    if windows is None:
+        return
+    yield from iter_columns(windows, _WINDOW_COLUMNS)
+
+
+def stream_perfetto(
+    path: str | os.PathLike[str],
+    jobs: Any,
+    trace: Any,
+    *,
+    tasks: Sequence[str] | None = None,
+    windows: str | os.PathLike[str] | None = None,
+    metadata: dict[str, Any] | None = None,
+    title: str = "rtsim, simulated time",
+) -> Path:
+    """Write the file of :func:`write_perfetto` (the same bytes) atomically to ``path``,
+    from records on disk: ``jobs`` and ``trace`` iterate (again at each pass) chunks of row
+    tuples in :data:`~rtsim.sim.records.JOB_COLUMNS` / :data:`~rtsim.sim.records.
+    TRACE_COLUMNS` order (a :class:`rtsim.io.spool.Spool`); ``windows`` is the path of a
+    coupled run's ``windows.csv`` (read in chunks)."""
+    from rtsim.io.atomic import atomic_path
+
+    p = Path(path)
+    try:
+        plan = _plan(jobs, trace, tasks)
+    except _Unordered:
+        from rtsim.sim.records import jobs_frame, trace_frame
+
+        jt = jobs_frame([r for chunk in jobs for r in chunk])
+        tt = trace_frame([r for chunk in trace for r in chunk])
+        wt = None
+        if windows is not None:
+            from rtsim.io.columns import read_columns
+
+            wt = read_columns(windows)
+        return write_perfetto(p, jt, tt, tasks=tasks, windows=wt, metadata=metadata)
+    names, lanes, extras, nlanes = plan
+    other = json.dumps(
+        {"time_unit": "µs of simulated time", **(metadata or {})},
+        separators=(",", ":"),
+        allow_nan=False,
+    )
+    with atomic_path(p) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+        fh.write('{"traceEvents":[')
+        out = _Writer(fh)
+        ev = out.batch
+        ev.append(
+            {"ph": "M", "pid": PID, "tid": 0, "name": "process_name", "args": {"name": title}}
+        )
+        tid: dict[tuple[str, int], int] = {}
+        nxt = 1
+        for order, t in enumerate(names):
+            for lane in range(nlanes.get(t, 1)):
+                tid[(t, lane)] = nxt
+                label = t if lane == 0 else f"{t} ({lane + 1})"
+                ev.append(
+                    {
+                        "ph": "M",
+                        "pid": PID,
+                        "tid": nxt,
+                        "name": "thread_name",
+                        "args": {"name": label},
+                    }
+                )
+                ev.append(
+                    {
+                        "ph": "M",
+                        "pid": PID,
+                        "tid": nxt,
+                        "name": "thread_sort_index",
+                        "args": {"sort_index": order * 100 + lane},
+                    }
+                )
+                nxt += 1
+            out.maybe_flush()
+
+        def job_tid(task: str, job: int) -> int:
+            ln = lanes.get(task)
+            return tid[(task, ln.of(job) if ln is not None else 0)]
+
+        for chunk in jobs:
+            for row in chunk:
+                _job_event(row, job_tid(str(row[0]), int(row[1])), False, ev)
+            out.maybe_flush()
+        for (task, job), (s, f) in extras.items():
+            _job_event(
+                (task, job, math.nan, s, f, math.nan, math.nan, math.nan, False, 0, False, False),
+                job_tid(task, job),
+                True,
+                ev,
+            )
+        out.maybe_flush()
+        for chunk in trace:
+            for r in chunk:
+                task, job = str(r[0]), int(r[1])
+                on_cpu = bool(r[4])
+                ev.append(
+                    {
+                        "ph": "X",
+                        "pid": PID,
+                        "tid": job_tid(task, job),
+                        "cat": "compute" if on_cpu else "suspension",
+                        "name": str(r[2]),
+                        "ts": _us(r[5]),
+                        "dur": _us(r[6]) - _us(r[5]),
+                        "args": {"job": job, "kind": str(r[3]), "on_cpu": on_cpu},
+                    }
+                )
+            out.maybe_flush()
+        world = nxt
+        first = True
+        for w in _window_chunks(windows):
+            if not len(w):
+                continue
+            if first:
+                ev.append(
+                    {
+                        "ph": "M",
+                        "pid": PID,
+                        "tid": world,
+                        "name": "thread_name",
+                        "args": {"name": "world"},
+                    }
+                )
+                ev.append(
+                    {
+                        "ph": "M",
+                        "pid": PID,
+                        "tid": world,
+                        "name": "thread_sort_index",
+                        "args": {"sort_index": -1},
+                    }
+                )
+                first = False
+            for r in w.itertuples(index=False):
+                ts = _us(r.t)
+                ev.append(
+                    {
+                        "ph": "C",
+                        "pid": PID,
+                        "tid": 0,
+                        "name": "window (ms)",
+                        "ts": ts,
+                        "args": {"w": float(r.w), "w_sch": float(r.w_sch)},
+                    }
+                )
+                ev.append(
+                    {
+                        "ph": "C",
+                        "pid": PID,
+                        "tid": 0,
+                        "name": "leader speed (cm/s)",
+                        "ts": ts,
+                        "args": {"v_leader": float(r.v_leader)},
+                    }
+                )
+                if math.isfinite(float(r.msb_min)):
+                    ev.append(
+                        {
+                            "ph": "C",
+                            "pid": PID,
+                            "tid": 0,
+                            "name": "min MSB (ms)",
+                            "ts": ts,
+                            "args": {"msb_min": float(r.msb_min)},
+                        }
+                    )
+                if int(r.tracks_lost) > 0:
+                    ev.append(
+                        {
+                            "ph": "i",
+                            "s": "t",
+                            "pid": PID,
+                            "tid": world,
+                            "cat": "world",
+                            "name": "track lost",
+                            "ts": ts,
+                            "args": {"window": int(r.window), "lost": int(r.tracks_lost)},
+                        }
+                    )
+                if len(ev) >= BATCH:
+                    out.flush()
+        out.flush()
+        fh.write('],"displayTimeUnit":"ms","otherData":' + other + "}")
+        fh.flush()
+        os.fsync(fh.fileno())
+    return p
+
+
+def _plan(
+    jobs: Any, trace: Any, tasks: Sequence[str] | None
+) -> tuple[list[str], dict[str, _Lanes], dict[tuple[str, int], list[float]], dict[str, int]]:
+    """The first passes of :func:`stream_perfetto`: track names, the lanes of each task, the
+    jobs that ran but have no record (first start, last end), lanes per task."""
+    seen: dict[str, None] = {}
+    recorded: dict[str, _IntSet] = {}
+    lanes: dict[str, _Lanes] = {}
+    for chunk in jobs:
+        for row in chunk:
+            task, job = str(row[0]), int(row[1])
+            seen[task] = None
+            rec = recorded.get(task)
+            if rec is None:
+                rec = recorded[task] = _IntSet()
+            rec.add(job)
+            if not _nan(row[3]):
+                ln = lanes.get(task)
+                if ln is None:
+                    ln = lanes[task] = _Lanes()
+                if not ln.add(job, float(row[3]), row[4]):
+                    raise _Unordered
+    extras: dict[tuple[str, int], list[float]] = {}
+    for chunk in trace:
+        for r in chunk:
+            task, job = str(r[0]), int(r[1])
+            rec = recorded.get(task)
+            if rec is not None and job in rec:
+                continue
+            span = extras.get((task, job))
+            if span is None:
+                extras[(task, job)] = [r[5], r[6]]
+            else:
+                if r[5] < span[0]:
+                    span[0] = r[5]
+                if r[6] > span[1]:
+                    span[1] = r[6]
+    for (task, job), (s, f) in extras.items():
+        seen[task] = None
+        ln = lanes.get(task)
+        if ln is None:
+            ln = lanes[task] = _Lanes()
+        if not ln.add(job, float(s), f):
+            raise _Unordered
+    names = list(tasks) if tasks is not None else list(seen)
+    names += [t for t in seen if t not in names]
+    nlanes = {t: max(1, len(ln.ends)) for t, ln in lanes.items()}
+    return names, lanes, extras, nlanes

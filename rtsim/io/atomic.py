@@ -16,6 +16,7 @@ from typing import Any
 
 __all__ = [
     "atomic_path",
+    "naming",
     "write_text",
     "write_bytes",
     "write_json",
@@ -32,8 +33,25 @@ FILE_MODE = 0o666 & ~_UMASK
 
 
 @contextmanager
+def naming(path: str | os.PathLike[str]) -> Iterator[None]:
+    """Give an :class:`OSError` raised inside without a file name (a ``write`` on a full
+    disk: "No space left on device") the name ``path``, so that its one-line message says
+    which output could not be written."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None or isinstance(exc, BrokenPipeError):
+            raise
+        code = exc.errno
+        # the system's words for the error (pyarrow's strerror is a whole message)
+        why = os.strerror(code) if code is not None else (exc.strerror or str(exc))
+        raise OSError(code, why, os.fspath(path)) from exc
+
+
+@contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temporary path beside ``target``; on success it replaces ``target``."""
+    """Yield a temporary path beside ``target``; on success it replaces ``target``. A write
+    error inside names ``target`` (:func:`naming`)."""
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
@@ -41,7 +59,8 @@ def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     os.chmod(tmp, FILE_MODE)
     tmp_path = Path(tmp)
     try:
-        yield tmp_path
+        with naming(target):
+            yield tmp_path
         os.replace(tmp_path, target)
     finally:
         if tmp_path.exists():

@@ -218,32 +218,49 @@ class ChunkWriter:
     def _append(self, frame: Any, columns: Any, kinds: list[str | None], rows: int) -> None:
         """Write one chunk: ``frame`` a DataFrame or a function making it (pandas' CSV path,
         Parquet), ``columns`` a function giving the columns for :func:`csv_text`."""
+        from rtsim.io.atomic import naming
+
         df = frame if isinstance(frame, pd.DataFrame) else None
         text: str | None = None
         tried = None in kinds
         for p in self.paths:
-            if p.suffix.lower() == ".csv":
-                if not tried:
-                    tried = True
-                    header = None
-                    if self.chunks == 0:
-                        table = self.empty if df is None else df
-                        assert table is not None  # (the empty table, or the frame written)
-                        header = list(table.columns)
-                    text = csv_text(columns(), kinds, header)  # type: ignore[arg-type]
-                with open(p, "w" if self.chunks == 0 else "a", encoding="utf-8", newline="") as fh:
-                    if text is not None:
-                        fh.write(text)
-                    else:
-                        if df is None:
-                            df = frame()
-                        df.to_csv(fh, index=False, header=self.chunks == 0)
-            else:
-                if df is None:
-                    df = frame()
-                self._write_parquet(p, df)
+            with naming(p):
+                df, text, tried = self._append_to(p, df, frame, columns, kinds, text, tried)
         self.rows += rows
         self.chunks += 1
+
+    def _append_to(
+        self,
+        p: Path,
+        df: Any,
+        frame: Any,
+        columns: Any,
+        kinds: list[str | None],
+        text: str | None,
+        tried: bool,
+    ) -> tuple[Any, str | None, bool]:
+        """One file's part of :meth:`_append`; returns (the frame, the CSV text, tried)."""
+        if p.suffix.lower() == ".csv":
+            if not tried:
+                tried = True
+                header = None
+                if self.chunks == 0:
+                    table = self.empty if df is None else df
+                    assert table is not None  # (the empty table, or the frame written)
+                    header = list(table.columns)
+                text = csv_text(columns(), kinds, header)  # type: ignore[arg-type]
+            with open(p, "w" if self.chunks == 0 else "a", encoding="utf-8", newline="") as fh:
+                if text is not None:
+                    fh.write(text)
+                else:
+                    if df is None:
+                        df = frame()
+                    df.to_csv(fh, index=False, header=self.chunks == 0)
+        else:
+            if df is None:
+                df = frame()
+            self._write_parquet(p, df)
+        return df, text, tried
 
     def _write_parquet(self, p: Path, df: pd.DataFrame) -> None:
         import pyarrow as pa
@@ -266,11 +283,25 @@ class ChunkWriter:
             if self.empty is None:
                 raise ValueError("ChunkWriter.close: no chunk and no empty table")
             self.write(self.empty)
-        for w in self._parquet.values():
-            w.close()
+        from rtsim.io.atomic import naming
+
+        for p, w in self._parquet.items():
+            with naming(p):
+                w.close()
         for p in self.paths:
-            with open(p, "rb+") as fh:
+            with naming(p), open(p, "rb+") as fh:
                 os.fsync(fh.fileno())
+        self._closed = True
+
+    def discard(self) -> None:
+        """Close the files without finishing them (after an error: the run's staging is
+        removed), so that no descriptor stays open on them."""
+        for w in self._parquet.values():
+            try:
+                w.close()
+            except Exception:  # noqa: S110 - a full disk, say: the file is dropped anyway
+                pass
+        self._parquet = {}
         self._closed = True
 
     def read(

@@ -63,6 +63,7 @@ __all__ = [
     "owner",
     "stem",
     "sidecar",
+    "shown",
 ]
 
 #: Infix of staging directories: ``.NAME.rtsim-<token>`` beside the target NAME.
@@ -76,6 +77,29 @@ _OLD_AGE_S = 60.0  # a ".new" directory older than this belongs to a killed run
 #: Longest target name used whole in a staging name (a name is at most 255 bytes; the
 #: staging prefix and suffix add about 30): longer names are cut and a hash appended.
 _NAME_MAX_WHOLE = 180
+
+
+#: The staging directories of this process and the places they stand for, for messages
+#: (the latest :data:`_SHOWN_KEPT`: an error is reported after its run's staging is gone).
+_SHOWN: dict[str, str] = {}
+_SHOWN_KEPT = 64
+
+
+def _show_as(staged: Path, target: Path) -> None:
+    _SHOWN[os.fspath(staged)] = os.fspath(target)
+    while len(_SHOWN) > _SHOWN_KEPT:
+        del _SHOWN[next(iter(_SHOWN))]
+
+
+def shown(path: str | bytes | os.PathLike[Any]) -> str:
+    """``path`` as the user knows it: a file inside one of this process's staging
+    directories is named by its target (``out/.run.rtsim-1-ab/jobs.csv`` is ``out/run/
+    jobs.csv``), so that a message about it (a full disk) names the output."""
+    p = os.fsdecode(path)
+    for staged, target in _SHOWN.items():
+        if p == staged or p.startswith(staged + os.sep):
+            return target + p[len(staged) :]
+    return p
 
 
 def stem(name: str) -> str:
@@ -331,6 +355,7 @@ class StagedDir:
         token = f"{os.getpid()}-{secrets.token_hex(4)}"
         name = f".{stem(target.name)}{STAGING_MARK}{token}"
         self.path, self._fd = _locked_dir(parent, name, option, target)
+        _show_as(self.path, target)
 
     def commit(self) -> Path:
         """Swap the staged directory in as the target (atomic on Linux); returns the target."""
@@ -482,6 +507,12 @@ class FileSet:
         self.inputs = [Path(i) for i in inputs]
         self._files: list[tuple[Path, Path, str]] = []
         self._dirs: dict[Path, tuple[Path, int]] = {}
+        self._on_release: list[Any] = []
+
+    def on_release(self, fn: Any) -> None:
+        """Call ``fn()`` when the set is committed or aborted, before its staging directory
+        is removed (to close a writer still open on a staged file after an error)."""
+        self._on_release.append(fn)
 
     def _made_here(self, target: Path) -> bool:
         """Whether ``target`` (existing) is a file this command wrote."""
@@ -538,6 +569,7 @@ class FileSet:
                 _clean_file_staging(parent)
             name = f"{FILES_MARK}{os.getpid()}-{secrets.token_hex(4)}"
             self._dirs[parent] = _locked_dir(parent, name, option, target)
+            _show_as(self._dirs[parent][0], parent)
         staged = self._dirs[parent][0] / target.name
         try:
             fd = os.open(staged, os.O_WRONLY | os.O_CREAT | os.O_EXCL, FILE_MODE)
@@ -566,6 +598,10 @@ class FileSet:
         self._release()
 
     def _release(self) -> None:
+        for fn in self._on_release:
+            with contextlib.suppress(Exception):
+                fn()
+        self._on_release = []
         for d, fd in self._dirs.values():
             shutil.rmtree(d, ignore_errors=True)
             os.close(fd)

@@ -17,6 +17,9 @@ estimate            limit      what is counted
 ``backlog``         1e6        jobs waiting at once on an overloaded CPU (utilization
                                above 1 at the window): every job of a finish-late
                                task released over the horizon (about 0.7 KB each)
+``arrivals``        1e6        arrivals the EDF response-time bound (Spuri's) examines:
+                               tasks × Σ (synchronous busy period / period + 1),
+                               about 30 µs each (``rtsim analyze`` under EDF)
 ==================  =========  =====================================================
 
 The library applies the same limits through the same functions: ``simulate``,
@@ -51,6 +54,7 @@ LIMITS: dict[str, float] = {
     "world_steps": 2e8,
     "grid": 1e5,
     "backlog": 1e6,
+    "arrivals": 1e6,
 }
 
 _WHAT = {
@@ -59,6 +63,8 @@ _WHAT = {
     "world_steps": "world steps x followers",
     "grid": "grid points",
     "backlog": "jobs waiting at once (the CPU is overloaded: finish-late jobs pile up in memory)",
+    "arrivals": "arrivals for the EDF response-time bound to examine (the busy period is "
+    "long against the periods)",
 }
 
 

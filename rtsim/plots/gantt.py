@@ -3,11 +3,16 @@
 Input is the execution-interval trace of :class:`rtsim.sim.SimResult` (columns
 :data:`rtsim.sim.TRACE_COLUMNS`) and optionally the job table, whose releases (up arrows)
 and absolute deadlines (down ticks; red when missed) are drawn too.
+
+:class:`GanttRows` keeps, during a run, only the records a chart of one time range draws (it
+is a pair of record sinks, :class:`rtsim.sim.records.RowBuffer`), so that ``rtsim simulate
+--gantt`` does not hold the whole run; the command line cuts a range that would hold more
+than :data:`GANTT_MAX_JOBS` jobs and says so in the chart's title.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import matplotlib
@@ -17,7 +22,11 @@ from matplotlib.figure import Figure
 
 from rtsim.plots.figure import new_figure
 
-__all__ = ["gantt"]
+__all__ = ["gantt", "GanttRows", "GANTT_MAX_JOBS"]
+
+#: Jobs a ``rtsim simulate --gantt`` chart draws at most: a longer ``--gantt-range`` is cut
+#: (estimated from the task set's periods before the run) and the title says where.
+GANTT_MAX_JOBS = 2_000
 
 
 def gantt(
@@ -98,3 +107,35 @@ def gantt(
         ax.set_title(title)
     fig.tight_layout()
     return fig
+
+
+class _Rows:
+    """A record sink (``write_rows``) keeping the rows ``keep(row)`` accepts."""
+
+    def __init__(self, keep: Callable[[tuple[Any, ...]], bool]) -> None:
+        self.keep = keep
+        self.rows: list[tuple[Any, ...]] = []
+
+    def write_rows(self, rows: Sequence[tuple[Any, ...]]) -> None:
+        keep = self.keep
+        self.rows.extend(r for r in rows if keep(r))
+
+
+class GanttRows:
+    """Sinks for a run's records that keep what :func:`gantt` draws between ``start`` and
+    ``end`` (ms): ``trace`` keeps the intervals that overlap the range, ``jobs`` the jobs
+    released or due in it (so the chart is the one drawn from the whole tables). Memory
+    grows with the jobs in the range, not with the run."""
+
+    def __init__(self, start: float, end: float) -> None:
+        lo, hi = float(start), float(end)
+        self.start, self.end = lo, hi
+        # TRACE_COLUMNS: start 5, end 6; JOB_COLUMNS: release 2, deadline 6
+        self.trace = _Rows(lambda r: r[6] > lo and r[5] < hi)
+        self.jobs = _Rows(lambda r: lo <= r[2] <= hi or lo <= r[6] <= hi)
+
+    def frames(self) -> tuple[pd.DataFrame, pd.DataFrame]:
+        """(trace, jobs) as the run's tables, restricted to the range."""
+        from rtsim.sim.records import jobs_frame, trace_frame
+
+        return trace_frame(self.trace.rows), jobs_frame(self.jobs.rows)

@@ -178,6 +178,9 @@ class CPU:
     Usage: ``cpu = CPU(env)``; ``cpu.add_task(...)`` for each task; register hooks with
     :meth:`on` and per-segment execution times with :meth:`set_exec_time`; ``cpu.start(H)``
     returns the dispatcher process (run ``env.run(until=proc)``); ``cpu.result()``.
+    ``job_sink`` / ``trace_sink``: where job records / trace rows go in chunks during the
+    run (:class:`~rtsim.sim.records.RowBuffer`; the result's ``jobs`` / ``trace`` are then
+    None), so that a long run keeps neither in memory.
     """
 
     def __init__(
@@ -195,6 +198,7 @@ class CPU:
         job_sink: Callable[[Any], None] | None = None,
         scheduler: PolicySpec = "fp",
         resources: str | None = None,
+        trace_sink: Any = None,
     ) -> None:
         self.policy: SchedulingPolicy = resolve_policy(scheduler)
         if resources is not None and resources not in RESOURCE_PROTOCOLS:
@@ -225,7 +229,8 @@ class CPU:
         self.overhead = float(overhead)
         self.record_jobs = record_jobs or job_sink is not None
         self.job_sink = job_sink  # job records go there in chunks (records.RowBuffer)
-        self.record_trace = record_trace
+        self.record_trace = record_trace or trace_sink is not None
+        self.trace_sink = trace_sink  # trace rows go there in chunks (records.RowBuffer)
         self.hist_bin = hist_bin
         self.jitter = jitter
         self._states: list[_TaskState] = []
@@ -236,7 +241,9 @@ class CPU:
         self._ready: list[tuple[Any, Any, Job]] = []  # (job.key, job.tie, job)
         self._seq = itertools.count()
         self._job_rows = RowBuffer(jobs_frame, job_sink)
-        self._trace_rows: list[tuple[Any, ...]] = []
+        self._trace_rows: list[tuple[Any, ...]] = (
+            [] if trace_sink is None else RowBuffer(trace_frame, trace_sink)
+        )
         self._w: float | None = None
         self._busy = 0.0
         self._switches = 0
@@ -1180,6 +1187,8 @@ class CPU:
         """Statistics (and job table / trace if recorded) of the run so far; with a job sink
         the records left are flushed to it and ``jobs`` is None."""
         self._job_rows.flush()
+        if self.trace_sink is not None:
+            self._trace_rows.flush()  # type: ignore[attr-defined]
         return SimResult(
             tasks={st.name: st.stats for st in sorted(self._states, key=lambda x: x.priority)},
             horizon=self._horizon if self._horizon is not None else 0.0,
@@ -1196,5 +1205,7 @@ class CPU:
             resources=self.protocol,
             blocking=dict(self.blocking) if self.protocol is not None else None,
             jobs=self._job_rows.frame() if self.record_jobs and self.job_sink is None else None,
-            trace=trace_frame(self._trace_rows) if self.record_trace else None,
+            trace=trace_frame(self._trace_rows)
+            if self.record_trace and self.trace_sink is None
+            else None,
         )

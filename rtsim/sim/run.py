@@ -95,8 +95,8 @@ def build_cpu(
 
     Returns the CPU and the window description (None for a set without a window).
     ``cpu_kwargs`` go to :class:`CPU` (suspension, exec_model, seed, overhead, record_jobs,
-    record_trace, hist_bin, jitter, job_sink, scheduler, resources; the scheduler and the
-    resource protocol default to the set's).
+    record_trace, hist_bin, jitter, job_sink, trace_sink, scheduler, resources; the
+    scheduler and the resource protocol default to the set's).
     """
     ts = _as_taskset(ts)
     cpu_kwargs.setdefault("scheduler", ts.scheduler)
@@ -136,6 +136,7 @@ def simulate(
     scheduler: PolicySpec | None = None,
     force: bool = False,
     progress: Progress | None = None,
+    trace_sink: Any = None,
 ) -> SimResult:
     """Simulate ``ts`` for jobs released in [0, horizon) ms until they complete or abort.
 
@@ -145,7 +146,8 @@ def simulate(
     ``job_sink``: a callable that receives the job records as DataFrame chunks during the
     run, or a :class:`rtsim.io.columns.ChunkWriter` that formats them without a DataFrame
     (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
-    long horizon (:class:`rtsim.sim.records.RowBuffer`).
+    long horizon (:class:`rtsim.sim.records.RowBuffer`). ``trace_sink``: the same for the
+    execution trace (implies ``record_trace``; ``result.trace`` is then None).
     ``scheduler``: the scheduling policy (:mod:`rtsim.sim.policy`), default the set's
     (``[scheduler] policy``; ``fp`` for a list of tasks).
     The work limits of the command line apply (:mod:`rtsim.io.work`: at most 5e7 jobs, and
@@ -185,6 +187,7 @@ def simulate(
         jitter=jitter,
         job_sink=job_sink,
         scheduler=scheduler,
+        trace_sink=trace_sink,
     )
     proc = cpu.start(horizon)
     if progress is not None and is_real(horizon) and 0 < horizon < math.inf:
