@@ -98,6 +98,8 @@ class SimulationBar:
         if done > self.bar.n:
             self.bar.set_postfix_str(f"{t_ms / 1000.0:.0f} s simulated", refresh=False)
             self.bar.update(done - self.bar.n)
+            if done >= 100:  # drawn once at the end even when the run beat tqdm's mininterval
+                self.bar.refresh()
 
     def __enter__(self) -> SimulationBar:
         return self
