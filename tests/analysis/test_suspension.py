@@ -227,7 +227,9 @@ def brute_suspending(tasks: list[Task], phases, full: bool) -> dict[str, int]:
     """The exact discrete schedule of integer ``tasks`` (tests/analysis/test_transaction.py's brute
     force) at the given first releases, suspensions at their WCET (``full``) or alternating
     between 0 and it; the largest response per task over three hyperperiods."""
-    from test_transaction import Job, Transaction, brute
+    from exact_schedule import brute
+
+    from rtsim.analysis.transaction import Job, Transaction
 
     txs = [
         Transaction(t.period, (Job(t.name, t.priority, 0, 0, t.period, t.period, t.chain()),))

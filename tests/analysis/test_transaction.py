@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from exact_schedule import brute
 
 from rtsim.analysis.bounds import w_susp
 from rtsim.analysis.rta import analyze
@@ -30,69 +31,6 @@ from rtsim.model.task import Segment, Task
 from rtsim.sim import build_cpu, simulate
 
 sys.path.insert(0, str(Path(__file__).parents[1]))
-
-
-# -- an exact discrete simulator --------------------------------------------------------------
-def brute(
-    transactions: list[Transaction], phases: list[int], choose, horizon: int
-) -> dict[str, int]:
-    """Largest response from arrival of each task's jobs arriving in [0, horizon), in unit
-    steps: fixed priority, preemptive, a task's jobs first in, first out, each job's chain in
-    order (chains start and end with compute; compute lengths >= 1, suspensions >= 0).
-    ``choose(i, n, job)`` gives (release delay, [segment length, ...]) of the job in the n-th
-    activation of transaction i, which is activated at phases[i] + n·T_i."""
-    queues: dict[str, list[dict]] = {}
-    for i, tx in enumerate(transactions):
-        n = 0
-        while phases[i] + n * tx.period < horizon:
-            for job in tx.jobs:
-                arr = phases[i] + n * int(tx.period) + int(job.arrival)
-                delay, lens = choose(i, n, job)
-                queues.setdefault(job.task, []).append(
-                    {
-                        "prio": job.priority,
-                        "arr": arr,
-                        "ready": arr + delay,
-                        "lens": list(lens),
-                        "kinds": [s.kind for s in job.segments],
-                        "seg": 0,
-                        "done": None,
-                    }
-                )
-            n += 1
-    for q in queues.values():
-        q.sort(key=lambda j: j["arr"])
-    heads = {k: 0 for k in queues}
-    t = 0
-    while any(heads[k] < len(q) for k, q in queues.items()):
-        live = [queues[k][heads[k]] for k in queues if heads[k] < len(queues[k])]
-        live = [j for j in live if j["ready"] <= t]
-        run = min(
-            (j for j in live if j["kinds"][j["seg"]] == "compute"),
-            key=lambda j: j["prio"],
-            default=None,
-        )
-        for j in live:
-            if j is not run and j["kinds"][j["seg"]] != "suspend":
-                continue
-            j["lens"][j["seg"]] -= 1
-            while j["seg"] < len(j["lens"]) and j["lens"][j["seg"]] == 0:
-                j["seg"] += 1
-                j["ready"] = t + 1
-            if j["seg"] == len(j["lens"]):
-                j["done"] = t + 1
-        for k, q in queues.items():
-            while heads[k] < len(q) and q[heads[k]]["done"] is not None:
-                heads[k] += 1
-        t += 1
-        if t > 50 * horizon:
-            raise AssertionError("brute force does not finish")
-    out: dict[str, int] = {}
-    for k, q in queues.items():
-        for j in q:
-            if j["arr"] < horizon:
-                out[k] = max(out.get(k, 0), j["done"] - j["arr"])
-    return out
 
 
 def known_bounds(txs: list[Transaction]) -> dict[str, float | None]:
@@ -357,7 +295,7 @@ def test_random_window_sets_simulated_within_the_transaction_bound(overhead):
     # random window chains (Δt idle), T_hp, and per-window tasks of 1, 1.5, 2, 3, 4 windows:
     # at the least window the analysis accepts (and above it) runs with other phases of the
     # fixed-period tasks and Δt anywhere in [0, Δt] never pass a task's transaction bound
-    from test_bounds import random_window_sets
+    from window_sets import random_window_sets
 
     rng = np.random.default_rng(5)
     checked = 0
@@ -397,7 +335,7 @@ def test_worst_jitter_moves_per_window_tasks_and_the_bound_follows():
     # --jitter worst releases every task's first job at t0 = max J, its arrivals moved by
     # t0 - J_i: a per-window task then arrives J_window - J_task after the window's arrivals.
     # Without that shift the bound can be passed in such a run; with it, never.
-    from test_bounds import random_window_sets
+    from window_sets import random_window_sets
 
     passed_unshifted = checked = 0
     for ts0 in random_window_sets(seed=21, count=10):

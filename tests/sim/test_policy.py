@@ -55,7 +55,8 @@ def test_registry_and_resolution(np_fp):
     assert isinstance(resolve_policy("edf"), EarliestDeadlineFirst)
     assert isinstance(resolve_policy("np-fp"), NonPreemptiveFP)
     assert isinstance(resolve_policy(NonPreemptiveFP), NonPreemptiveFP)
-    assert isinstance(resolve_policy("test_sim_policy:NonPreemptiveFP"), NonPreemptiveFP)
+    edf = resolve_policy("rtsim.sim.policy:EarliestDeadlineFirst")  # by module:Name
+    assert isinstance(edf, EarliestDeadlineFirst)
     pol = EarliestDeadlineFirst()
     assert resolve_policy(pol) is pol
     with pytest.raises(
