@@ -237,64 +237,9 @@ def trace_events(
         )
     if windows is not None and len(windows):
         world = nxt
-        events.append(
-            {"ph": "M", "pid": PID, "tid": world, "name": "thread_name", "args": {"name": "world"}}
-        )
-        events.append(
-            {
-                "ph": "M",
-                "pid": PID,
-                "tid": world,
-                "name": "thread_sort_index",
-                "args": {"sort_index": -1},
-            }
-        )
+        events.extend(_world_meta(world))
         for r in windows.itertuples(index=False):
-            ts = _us(r.t)
-            events.append(
-                {
-                    "ph": "C",
-                    "pid": PID,
-                    "tid": 0,
-                    "name": "window (ms)",
-                    "ts": ts,
-                    "args": {"w": float(r.w), "w_sch": float(r.w_sch)},
-                }
-            )
-            events.append(
-                {
-                    "ph": "C",
-                    "pid": PID,
-                    "tid": 0,
-                    "name": "leader speed (cm/s)",
-                    "ts": ts,
-                    "args": {"v_leader": float(r.v_leader)},
-                }
-            )
-            if math.isfinite(float(r.msb_min)):
-                events.append(
-                    {
-                        "ph": "C",
-                        "pid": PID,
-                        "tid": 0,
-                        "name": "min MSB (ms)",
-                        "ts": ts,
-                        "args": {"msb_min": float(r.msb_min)},
-                    }
-                )
-            if int(r.tracks_lost) > 0:
-                events.append(
-                    {
-                        "ph": "i",
-                        "s": "t",
-                        "pid": PID,
-                        "tid": world,
-                        "cat": "world",
-                        "name": "track lost",
-                        "ts": ts,
-                        "args": {"window": int(r.window), "lost": int(r.tracks_lost)},
-                    }
-                )
+            events.extend(_window_events(r, world))
     return events
 
 
@@ -652,71 +597,10 @@ def stream_perfetto(
             if not len(w):
                 continue
             if first:
-                ev.append(
-                    {
-                        "ph": "M",
-                        "pid": PID,
-                        "tid": world,
-                        "name": "thread_name",
-                        "args": {"name": "world"},
-                    }
-                )
-                ev.append(
-                    {
-                        "ph": "M",
-                        "pid": PID,
-                        "tid": world,
-                        "name": "thread_sort_index",
-                        "args": {"sort_index": -1},
-                    }
-                )
+                ev.extend(_world_meta(world))
                 first = False
             for r in w.itertuples(index=False):
-                ts = _us(r.t)
-                ev.append(
-                    {
-                        "ph": "C",
-                        "pid": PID,
-                        "tid": 0,
-                        "name": "window (ms)",
-                        "ts": ts,
-                        "args": {"w": float(r.w), "w_sch": float(r.w_sch)},
-                    }
-                )
-                ev.append(
-                    {
-                        "ph": "C",
-                        "pid": PID,
-                        "tid": 0,
-                        "name": "leader speed (cm/s)",
-                        "ts": ts,
-                        "args": {"v_leader": float(r.v_leader)},
-                    }
-                )
-                if math.isfinite(float(r.msb_min)):
-                    ev.append(
-                        {
-                            "ph": "C",
-                            "pid": PID,
-                            "tid": 0,
-                            "name": "min MSB (ms)",
-                            "ts": ts,
-                            "args": {"msb_min": float(r.msb_min)},
-                        }
-                    )
-                if int(r.tracks_lost) > 0:
-                    ev.append(
-                        {
-                            "ph": "i",
-                            "s": "t",
-                            "pid": PID,
-                            "tid": world,
-                            "cat": "world",
-                            "name": "track lost",
-                            "ts": ts,
-                            "args": {"window": int(r.window), "lost": int(r.tracks_lost)},
-                        }
-                    )
+                ev.extend(_window_events(r, world))
                 if len(ev) >= BATCH:
                     out.flush()
         out.flush()
@@ -724,6 +608,69 @@ def stream_perfetto(
         fh.flush()
         os.fsync(fh.fileno())
     return p
+
+
+def _world_meta(world: int) -> list[dict[str, Any]]:
+    """The metadata events that name the world's track ``world`` and sort it first."""
+    return [
+        {"ph": "M", "pid": PID, "tid": world, "name": "thread_name", "args": {"name": "world"}},
+        {
+            "ph": "M",
+            "pid": PID,
+            "tid": world,
+            "name": "thread_sort_index",
+            "args": {"sort_index": -1},
+        },
+    ]
+
+
+def _window_events(r: Any, world: int) -> list[dict[str, Any]]:
+    """One windows.csv row's events: the window, leader speed and min MSB counters, and a
+    "track lost" instant on the world's track when the window lost any."""
+    ts = _us(r.t)
+    ev: list[dict[str, Any]] = [
+        {
+            "ph": "C",
+            "pid": PID,
+            "tid": 0,
+            "name": "window (ms)",
+            "ts": ts,
+            "args": {"w": float(r.w), "w_sch": float(r.w_sch)},
+        },
+        {
+            "ph": "C",
+            "pid": PID,
+            "tid": 0,
+            "name": "leader speed (cm/s)",
+            "ts": ts,
+            "args": {"v_leader": float(r.v_leader)},
+        },
+    ]
+    if math.isfinite(float(r.msb_min)):
+        ev.append(
+            {
+                "ph": "C",
+                "pid": PID,
+                "tid": 0,
+                "name": "min MSB (ms)",
+                "ts": ts,
+                "args": {"msb_min": float(r.msb_min)},
+            }
+        )
+    if int(r.tracks_lost) > 0:
+        ev.append(
+            {
+                "ph": "i",
+                "s": "t",
+                "pid": PID,
+                "tid": world,
+                "cat": "world",
+                "name": "track lost",
+                "ts": ts,
+                "args": {"window": int(r.window), "lost": int(r.tracks_lost)},
+            }
+        )
+    return ev
 
 
 def _plan(
