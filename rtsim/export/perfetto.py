@@ -43,6 +43,8 @@ from typing import Any
 
 import pandas as pd
 
+from rtsim.sim.records import JOB_COLUMNS, TRACE_COLUMNS
+
 __all__ = ["trace_events", "write_perfetto", "stream_perfetto", "PID"]
 
 #: The one process id of every event.
@@ -270,28 +272,8 @@ def write_perfetto(
 # -- streaming ---------------------------------------------------------------------------------
 #: Events per ``json.dumps`` call of :func:`stream_perfetto` (a list's items joined by ",").
 BATCH = 4096
-_J = {
-    n: i
-    for i, n in enumerate(
-        (
-            "task",
-            "job",
-            "release",
-            "start",
-            "finish",
-            "response",
-            "deadline",
-            "period",
-            "missed",
-            "preemptions",
-            "aborted",
-            "skipped",
-            "exec_time",
-            "arrival",
-        )
-    )
-}
-_T = {n: i for i, n in enumerate(("task", "job", "segment", "kind", "on_cpu", "start", "end"))}
+_J = {n: i for i, n in enumerate(JOB_COLUMNS)}  # the streamed job rows' column positions
+_T = {n: i for i, n in enumerate(TRACE_COLUMNS)}
 _WINDOW_COLUMNS = ["t", "w", "w_sch", "v_leader", "msb_min", "tracks_lost", "window"]
 
 
