@@ -1,7 +1,7 @@
 """Benchmark: one simulated hour of the paper's Test 2 (the project's speed target).
 
-``python benchmarks/bench_scenario.py [--duration 3600] [--mode adjust] [--profile] [--out DIR]
-[--backends fast,filterpy] [--repeat 3]``
+``python benchmarks/bench_scenario.py [--duration 3600] [--mode POLICY] [--profile] [--out DIR]
+[--backends compiled,python] [--repeat 3]``
 
 Runs ``rtsim scenario experiments/scenarios/test2.toml --duration D --out DIR`` end to end
 (tables and figures included) and prints the wall time of the simulation loop alone
@@ -9,8 +9,11 @@ Runs ``rtsim scenario experiments/scenarios/test2.toml --duration D --out DIR`` 
 end-to-end time (``timing.total_s``). ``--profile`` runs the loop under cProfile instead and
 prints the 25 most expensive functions (no output files).
 
-Then, for each EKF backend of ``--backends`` (``fast``: plain floats, the scenarios' default;
-``filterpy``: one filterpy ExtendedKalmanFilter per follower, the reference), it runs the
+``--mode``: the adjustment policy (default: the scenario file's own, ``plan`` for Test 2 — what
+a user runs; ``adjust`` is the paper's algorithm, this benchmark's default before 2026-11-26).
+
+Then, for each world backend of ``--backends`` (``[world] backend``: ``compiled``, the default
+where numba is installed; ``python``, the reference; ``filterpy``), it runs the
 loop ``--repeat`` times with job records on (as the CLI does), each run in a fresh
 interpreter, and prints a table of the best CPU time of the loop
 (``timing.simulation_cpu_s``: robust on a shared machine), µs per window and the ratio
@@ -37,14 +40,14 @@ TEST2 = Path(__file__).resolve().parent.parent / "experiments" / "scenarios" / "
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=3600.0, help="simulated seconds")
-    ap.add_argument("--mode", default="adjust")
+    ap.add_argument("--mode", default=None, help="policy (default: the scenario's own)")
     ap.add_argument("--scenario", default=str(TEST2))
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--out", default=None, help="output directory (default: a temp dir)")
     ap.add_argument(
         "--backends",
-        default="fast,filterpy",
-        help="EKF backends to time in the table (comma-separated; '' = none)",
+        default="compiled,python",
+        help="world backends to time in the table (comma-separated; '' = none)",
     )
     ap.add_argument("--repeat", type=int, default=3, help="best of this many loop runs")
     args = ap.parse_args(argv)
@@ -62,12 +65,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_scenario_"))
     t0 = time.perf_counter()
+    mode = [] if args.mode is None else ["--mode", args.mode]
     rc = rtsim_main(
         [
             "scenario",
             args.scenario,
-            "--mode",
-            args.mode,
+            *mode,
             "--duration",
             str(args.duration),
             "--out",
@@ -81,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     s = json.loads((out / "summary.json").read_text())
     t = m["timing"]
     print(
-        f"scenario {Path(args.scenario).name}, mode {args.mode}: {args.duration:g} s "
+        f"scenario {Path(args.scenario).name}, policy {s.get('policy')}: {args.duration:g} s "
         f"simulated, {s['windows']} windows"
     )
     print(
@@ -103,23 +106,25 @@ def main(argv: list[str] | None = None) -> int:
 
 _LOOP_CODE = """
 import json, sys
-from dataclasses import replace
 from rtsim.coupling import run_scenario
-from rtsim.io.scenario import load_scenario
 scenario, mode, duration, backend = sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4]
-base = load_scenario(scenario)
-sc = replace(base, world=replace(base.world, ekf=replace(base.world.ekf, backend=backend)))
-res = run_scenario(sc, mode=mode, duration_s=duration, record_jobs=True)
+res = run_scenario(
+    scenario,
+    mode=mode or None,
+    duration_s=duration,
+    record_jobs=True,
+    overrides={"world.backend": backend},
+)
 print(json.dumps([res.timing["simulation_cpu_s"], int(res.summary["windows"])]))
 """
 
 
-def loop_cpu(scenario: str, mode: str, duration: float, backend: str) -> tuple[float, int]:
+def loop_cpu(scenario: str, mode: str | None, duration: float, backend: str) -> tuple[float, int]:
     """(CPU s of the loop, windows) of one run in a fresh interpreter, as the CLI runs it
     (an interpreter that has already made figures holds ~10x more objects, and the garbage
     collector's full passes over them slow the loop by up to ~25 %)."""
     out = subprocess.run(
-        [sys.executable, "-c", _LOOP_CODE, scenario, mode, str(duration), backend],
+        [sys.executable, "-c", _LOOP_CODE, scenario, mode or "", str(duration), backend],
         capture_output=True,
         text=True,
         check=True,
@@ -129,9 +134,9 @@ def loop_cpu(scenario: str, mode: str, duration: float, backend: str) -> tuple[f
 
 
 def backend_table(
-    scenario: str, mode: str, duration: float, backends: list[str], repeat: int
+    scenario: str, mode: str | None, duration: float, backends: list[str], repeat: int
 ) -> str:
-    """Best-of-``repeat`` CPU time of the loop per EKF backend (fresh interpreter per run,
+    """Best-of-``repeat`` CPU time of the loop per world backend (fresh interpreter per run,
     backends alternated), as a text table."""
     best = {b: float("inf") for b in backends}
     windows = {b: 0 for b in backends}
@@ -140,7 +145,7 @@ def backend_table(
             cpu_s, windows[backend] = loop_cpu(scenario, mode, duration, backend)
             best[backend] = min(best[backend], cpu_s)
     lines = [
-        f"{'EKF backend':12s} {'windows':>8s} {'loop CPU s':>11s} {'us/window':>10s} "
+        f"{'backend':12s} {'windows':>8s} {'loop CPU s':>11s} {'us/window':>10s} "
         f"{'x real time':>12s}  (best of {repeat}, job records on)"
     ]
     for backend in backends:

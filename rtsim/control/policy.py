@@ -725,6 +725,22 @@ class PlanPolicy:
             per = ro.changes(v, lengths)
             return min(min_bound_rows(ro.bounds(c, ctx.w_sch))[0] for c in per)
 
+        v_floor = ctx.floor_frac * ctx.v_ld
+        plan = getattr(ro, "plan", None)  # the rollout's compiled decision, if it has one
+        hit = (
+            None
+            if plan is None
+            else plan(ctx.v_ld, keep, need, cap, v_floor, self.windows, ctx.w_sch)
+        )
+        if hit is not None:
+            w, v_l, method, found, feasible, rows, after = hit
+            m1, kind, who = min_bound_rows(rows)
+            if method == "none":
+                return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})
+            m_after = min_bound_rows(after)[0]
+            return Decision(
+                w, v_l, m1, kind, who, method, feasible, rows, after, m_after, {"numeric": found}
+            )
         rows = ro.rows(ctx.v_ld)
         m1, kind, who = min_bound_rows(rows)
         if keep * worst(ctx.v_ld) >= need:
@@ -735,9 +751,7 @@ class PlanPolicy:
                 if keep * m_w < w:
                     w = max(ctx.w_sch, keep * m_w)
             return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})
-        v_l, method, found = search_rollout(
-            lambda v: keep * worst(v), ctx.v_ld, need, ctx.floor_frac * ctx.v_ld
-        )
+        v_l, method, found = search_rollout(lambda v: keep * worst(v), ctx.v_ld, need, v_floor)
         after = ro.rows(v_l)
         m_after = min_bound_rows(after)[0]
         return Decision(

@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
+from rtsim.world.compiled import as_changes
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.leader import Leader
@@ -118,6 +119,15 @@ class Rollout:
     _memo: dict[tuple[float, tuple[float, ...]], list[list[Changes]]] = field(
         default_factory=dict, repr=False
     )
+    _compiled: Any = field(default=None, init=False, repr=False, compare=False)
+    _raw: dict[tuple[float, tuple[float, ...]], Any] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+
+    def __post_init__(self) -> None:
+        # a law of the world's compiled backend plays whole rollouts in compiled calls
+        make = getattr(self.state.law, "compiled_rollout", None)
+        self._compiled = None if make is None else make(self.state)
 
     def changes(self, v: float, windows: Sequence[float]) -> list[list[Changes]]:
         """The predicted changes per window (lengths ``windows``, ms, the first opening at
@@ -125,8 +135,12 @@ class Rollout:
         key = (float(v), tuple(float(w) for w in windows))
         out = self._memo.get(key)
         if out is None:
-            out = self._memo[key] = self._run(key[0], key[1])
-            self.count += 1
+            raw = self._raw.pop(key, None) if self._raw else None
+            if raw is None:
+                out = self._memo[key] = self._run(key[0], key[1])
+                self.count += 1
+            else:  # a rollout of the compiled search, kept as its array until asked for
+                out = self._memo[key] = as_changes(raw)
         return out
 
     def rows(self, v: float, w: float | None = None) -> list[tuple[float, float, float, float]]:
@@ -151,7 +165,73 @@ class Rollout:
             out.append(row)
         return out  # type: ignore[return-value]
 
+    def search(
+        self, v_ld: float, keep: float, need: float, v_floor: float, windows: int, w: float
+    ) -> tuple[float, str, float] | None:
+        """:func:`~rtsim.control.adjust.search_rollout` over keep · m(V), m(V) the smallest
+        bound of every follower in ``windows`` windows of ``w`` ms (the plan policy's), in one
+        compiled call; None when this rollout is not compiled (the caller searches in
+        Python, with the same result; also when ``v_ld``, the top of the search, is not the
+        state's). The rollouts it ran join the memo, as the Python search's do (a later
+        :meth:`changes` of one of its speeds is that rollout)."""
+        if self._compiled is None or v_ld != self.state.v_ld:
+            return None
+        from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
+
+        v, numeric, found, speeds, changes = self._compiled.search(
+            keep, need, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w
+        )
+        lengths = (float(w),) * windows
+        self._remember([(s, lengths, changes[r]) for r, s in enumerate(speeds)])
+        return v, "numeric" if numeric else "best", found
+
+    def plan(
+        self,
+        v_ld: float,
+        keep: float,
+        need: float,
+        cap: float,
+        v_floor: float,
+        windows: int,
+        w: float,
+    ) -> tuple[float, float, str, float, bool, list[Any], list[Any]] | None:
+        """:class:`~rtsim.control.policy.PlanPolicy`'s decision (margin 1 − ``keep``, horizon
+        ``windows`` windows of ``w`` ms) in one compiled call: (w, V_L, method, the found
+        speed or NaN, feasible, the rows at V_Ld, the rows at V_L); None when this rollout
+        is not compiled, or ``v_ld`` or ``w`` are not the state's (its V_Ld and w_sch,
+        which :meth:`rows` uses). Its rollouts join the memo, as the Python policy's do."""
+        st = self.state
+        if self._compiled is None or v_ld != st.v_ld or w != st.w_sch:
+            return None
+        from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
+
+        out, rows, ran = self._compiled.plan(
+            keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w
+        )
+        self._remember(ran)
+        w_out, v_l, method, found, feasible = out
+        r = rows.tolist()
+        return (
+            w_out,
+            v_l,
+            ("none", "numeric", "best")[int(method)],
+            found,
+            feasible == 1.0,
+            [tuple(x) for x in r[0]],
+            [tuple(x) for x in r[1]],
+        )
+
+    def _remember(self, ran: Sequence[tuple[float, tuple[float, ...], Any]]) -> None:
+        """Keep compiled rollouts (speed, window lengths, changes array) for :meth:`changes`."""
+        for v, lengths, arr in ran:
+            key = (v, lengths)
+            if key not in self._memo and key not in self._raw:
+                self._raw[key] = arr
+                self.count += 1
+
     def _run(self, v: float, windows: tuple[float, ...]) -> list[list[Changes]]:
+        if self._compiled is not None:  # the world's compiled law: one kernel call
+            return self._compiled.changes(v, windows)  # type: ignore[no-any-return]
         st = self.state
         ld = Leader(st.path, st.v_ld, st.leader_s, accel_max=st.accel_max, decel_max=st.decel_max)
         ld.speed = st.leader_speed
@@ -175,76 +255,69 @@ class Rollout:
                     events.append((t, 0, k))
         events += [(t, 1, j) for j, t in enumerate(scans)]
         events.sort()
-        # a compiled law (the world's compiled backend) plays the loop below in one call,
-        # with the same numbers; None: play it here
-        roll = getattr(law, "roll", None)
-        samples: list[list[tuple[float, float, float, float, float]]] | None = (
-            None if roll is None else roll(ld, st, events, len(scans))
+        samples: list[list[tuple[float, float, float, float, float]]] = []
+        group = st.group(
+            [p[0] for p in st.poses],
+            [p[1] for p in st.poses],
+            [p[2] for p in st.poses],
+            st.speeds,
+            st.params,
+            st.t_now,
         )
-        if samples is None:
-            samples = []
-            group = st.group(
-                [p[0] for p in st.poses],
-                [p[1] for p in st.poses],
-                [p[2] for p in st.poses],
-                st.speeds,
-                st.params,
-                st.t_now,
-            )
-            group.cmd_v = [h[0] for h in st.held]
-            group.cmd_w = [h[1] for h in st.held]
-            t_leader = st.t_now
-            for t, kind, k in events:
-                if t > t_leader:
-                    ld.advance((t - t_leader) / 1000.0)
-                    t_leader = t
-                if kind == 0:
-                    group.advance(k, t, st.step_ms)
-                    if law is not None:
-                        cmd = law.command(
-                            k, ld.s, ld.pose, ld.speed, group.x[k], group.y[k], group.th[k]
-                        )
-                    else:
-                        kappa = ld.curvature
-                        if kappa not in targets:
-                            targets[kappa] = control_targets(
-                                np.asarray(st.rho_d),
-                                np.asarray(st.beta_d),
-                                st.params.control_offset,
-                                kappa,
-                            )
-                        l_d, psi_d = targets[kappa]
-                        cmd = lpsi_command(
-                            ld.pose,
-                            ld.speed,
-                            kappa * ld.speed,
-                            group.x[k],
-                            group.y[k],
-                            group.th[k],
-                            float(l_d[k]),
-                            float(psi_d[k]),
-                            st.params,
-                        )
-                    v_c, w_c = group.saturate(*cmd)
-                    group.apply_drawn(k, v_c, w_c, 0.0, 0.0)
-                    continue
-                group.advance_all(t, st.step_ms)
-                xl, yl, hl = ld.pose
-                c, s = math.cos(hl), math.sin(hl)
-                row = []
-                for i in range(n):
-                    dx, dy = group.x[i] - xl, group.y[i] - yl
-                    tx, ty = c * dx + s * dy, -s * dx + c * dy
-                    row.append(
-                        (
-                            tx,
-                            ty,
-                            math.hypot(tx, ty),
-                            math.atan2(ty, tx) % _TWO_PI,
-                            group.odometer[i],
-                        )
+        group.cmd_v = [h[0] for h in st.held]
+        group.cmd_w = [h[1] for h in st.held]
+        t_leader = st.t_now
+        for t, kind, k in events:
+            if t > t_leader:
+                ld.advance((t - t_leader) / 1000.0)
+                t_leader = t
+            if kind == 0:
+                group.advance(k, t, st.step_ms)
+                if law is not None:
+                    cmd = law.command(
+                        k, ld.s, ld.pose, ld.speed, group.x[k], group.y[k], group.th[k]
                     )
-                samples.append(row)
+                else:
+                    kappa = ld.curvature
+                    if kappa not in targets:
+                        targets[kappa] = control_targets(
+                            np.asarray(st.rho_d),
+                            np.asarray(st.beta_d),
+                            st.params.control_offset,
+                            kappa,
+                        )
+                    l_d, psi_d = targets[kappa]
+                    cmd = lpsi_command(
+                        ld.pose,
+                        ld.speed,
+                        kappa * ld.speed,
+                        group.x[k],
+                        group.y[k],
+                        group.th[k],
+                        float(l_d[k]),
+                        float(psi_d[k]),
+                        st.params,
+                    )
+                v_c, w_c = group.saturate(*cmd)
+                group.apply_drawn(k, v_c, w_c, 0.0, 0.0)
+                continue
+            group.advance_all(t, st.step_ms)
+            xl, yl, hl = ld.pose
+            c, s = math.cos(hl), math.sin(hl)
+            row = []
+            for i in range(n):
+                dx, dy = group.x[i] - xl, group.y[i] - yl
+                tx, ty = c * dx + s * dy, -s * dx + c * dy
+                row.append(
+                    (
+                        tx,
+                        ty,
+                        math.hypot(tx, ty),
+                        math.atan2(ty, tx) % _TWO_PI,
+                        group.odometer[i],
+                    )
+                )
+            samples.append(row)
         out = []
         for a, b in zip(samples, samples[1:], strict=False):
             out.append(

@@ -54,7 +54,7 @@ from __future__ import annotations
 import gc
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -358,16 +358,22 @@ class _Coupling:
                 out.append(t)
         return out[: self.n] + [out[-1] if out else 0.0] * (self.n - len(out))
 
-    def _rollout_state(self, now: float, next_scan: float, pending: bool = False) -> Any:
-        """What the leader knows for its rollout at ``now`` (:class:`RolloutState`)."""
+    def _rollout_state(
+        self,
+        now: float,
+        next_scan: float,
+        pending: bool = False,
+        estimates: Sequence[tuple[Any, float]] | None = None,
+    ) -> Any:
+        """What the leader knows for its rollout at ``now`` (:class:`RolloutState`);
+        ``estimates``: per follower ``World.estimate_at(i, now)`` if already computed."""
         world = self.world
         ld = world.leader
-        poses, speeds, held = [], [], []
-        for i in range(1, self.n + 1):
-            pose, v = world.estimate_at(i, now)
-            poses.append(pose)
-            speeds.append(v)
-            held.append(world.held_command(i))
+        if estimates is None:
+            estimates = [world.estimate_at(i, now) for i in range(1, self.n + 1)]
+        poses = [e[0] for e in estimates]
+        speeds = [e[1] for e in estimates]
+        held = [world.held_command(i) for i in range(1, self.n + 1)]
         cfg = self.cfg
         return Rollout(
             RolloutState(
@@ -410,10 +416,12 @@ class _Coupling:
         _, kappa = world.segment_at()
         state = []
         fols: list[Any] = []
+        estimates = []
         for k in range(self.n):
             # the estimate propagated to now and its expected speed, in one pass (the same
             # as World.estimated_pose(i) and World.relative(i, "estimate")[3])
             pose, v_f = world.estimate_at(k + 1, now)
+            estimates.append((pose, v_f))
             rho, beta, theta = relative_state(lp, pose)
             state.append((*pose, rho, beta, theta, v_f))
             fols.append(
@@ -431,6 +439,7 @@ class _Coupling:
                 now,
                 now if next_scan is None else next_scan,
                 self.decide_at == "before-send" and now > 0,
+                estimates,
             )
         adj = self.policy.decide(
             PolicyInput(

@@ -36,12 +36,19 @@ from rtsim.world.kernels import available, kernels
 from rtsim.world.path import LeaderPath
 
 __all__ = [
+    "CompiledRollout",
     "CompiledFollowerEKF",
     "CompiledFollowerGroup",
     "CompiledTraceFollower",
     "available",
     "kernels",
 ]
+
+
+def as_changes(arr: Any) -> list[list[tuple[float, ...]]]:
+    """A [window, follower, change] array as the rollout's lists of tuples."""
+    return [[tuple(c) for c in win] for win in arr.tolist()]
+
 
 # -- the classes the compiled backend builds -------------------------------------------------
 
@@ -146,72 +153,11 @@ class CompiledTraceFollower(TraceFollower):
         new.fallbacks = 0
         return new
 
-    def roll(
-        self, leader: Any, state: Any, events: list[tuple[float, int, int]], scans: int
-    ) -> list[list[tuple[float, float, float, float, float]]] | None:
-        """:meth:`rtsim.control.rollout.Rollout._run`'s event loop in one kernel call, on this
-        law (a clone: its search starts move) and a group started from ``state``; returns
-        the samples at the scans (per follower: x, y in the leader frame, ρ, β, odometer), or
-        None when the compiled hypot is not this interpreter's (the caller runs Python)."""
-        ker = kernels()
-        if not ker.exact_hypot:
-            return None
-        p = state.params
-        n = len(state.poses)
-        pose = np.array(state.poses, dtype=float).reshape(n, 3)
-        x, y, th = pose[:, 0].copy(), pose[:, 1].copy(), pose[:, 2].copy()
-        v = np.array(state.speeds, dtype=float)
-        held = np.array(state.held, dtype=float).reshape(n, 2)
-        cmd_v, cmd_w = held[:, 0].copy(), held[:, 1].copy()
-        odo = np.zeros(n)
-        t_f = np.full(n, float(state.t_now))
-        ev = np.array([e[0] for e in events], dtype=float)
-        kind = np.array([e[1] for e in events], dtype=np.int64)
-        who = np.array([e[2] for e in events], dtype=np.int64)
-        out = np.zeros((scans, n, 3))
-        ker.rollout(
-            self._s0,
-            self._poses,
-            self._kappa,
-            self.path.lap_length,
-            leader.s,
-            leader.speed,
-            leader.target_speed,
-            leader.accel_max,
-            leader.decel_max,
-            x,
-            y,
-            th,
-            v,
-            cmd_v,
-            cmd_w,
-            odo,
-            t_f,
-            p.max_accel,
-            p.max_speed,
-            p.max_turn_rate,
-            p.speed_noise,
-            p.turn_noise,
-            float(state.step_ms),
-            self._lateral,
-            self._ahead,
-            self._spacing,
-            self._sr,
-            self._sf,
-            self.gain,
-            self.lookahead,
-            ev,
-            kind,
-            who,
-            float(state.t_now),
-            out,
-        )
-        self._to_lists()
-        two_pi = 2.0 * math.pi
-        return [
-            [(tx, ty, math.hypot(tx, ty), math.atan2(ty, tx) % two_pi, od) for tx, ty, od in row]
-            for row in out.tolist()
-        ]
+    def compiled_rollout(self, state: Any) -> CompiledRollout | None:
+        """The compiled rollout of ``state`` (a :class:`~rtsim.control.rollout.RolloutState`
+        whose law is this one), or None when the compiled hypot is not this interpreter's
+        (the caller plays the rollout in Python)."""
+        return CompiledRollout(self, state) if kernels().exact_hypot else None
 
     # the last references and projections live in two arrays (NaN: none yet) that the
     # kernel updates; the Python class's lists are kept equal to them after every command
@@ -274,3 +220,165 @@ class CompiledTraceFollower(TraceFollower):
         )
         self._to_lists()
         return out  # type: ignore[no-any-return]
+
+
+#: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
+#: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
+_SEARCH_RUNS = 64
+
+
+class CompiledRollout:
+    """:class:`~rtsim.control.rollout.Rollout`'s arithmetic for one state in compiled calls:
+    the state packed into arrays once (:data:`~rtsim.world.kernels.R_SIZE` scalars, a row per
+    follower, the pending sends NaN-padded), the law's search starts read at each call (the
+    live law's, as the Python rollout clones it then)."""
+
+    def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
+        from rtsim.world import kernels as K
+
+        self._law = law
+        self._ker = kernels()
+        p, thr = state.params, state.thresholds
+        fs = [0.0] * K.R_SIZE  # a list first: one numpy call instead of one per item
+        fs[K.R_LAP] = law.path.lap_length
+        fs[K.R_LEADER_S] = state.leader_s
+        fs[K.R_LEADER_SPEED] = state.leader_speed
+        fs[K.R_V_LD] = state.v_ld
+        fs[K.R_ACCEL] = state.accel_max
+        fs[K.R_DECEL] = state.decel_max
+        fs[K.R_T_NOW] = state.t_now
+        fs[K.R_NEXT_SCAN] = state.next_scan
+        fs[K.R_MAX_ACCEL] = p.max_accel
+        fs[K.R_MAX_SPEED] = p.max_speed
+        fs[K.R_MAX_TURN] = p.max_turn_rate
+        fs[K.R_SPEED_NOISE] = p.speed_noise
+        fs[K.R_TURN_NOISE] = p.turn_noise
+        fs[K.R_STEP] = state.step_ms
+        fs[K.R_GAIN] = law.gain
+        fs[K.R_LOOKAHEAD] = law.lookahead
+        fs[K.R_R_H] = thr.r_H
+        fs[K.R_T_RHO] = thr.T_rho
+        fs[K.R_T_EPS] = thr.T_eps
+        fs[K.R_T_BETA] = thr.T_beta
+        fs[K.R_PREDICTED] = 1.0 if thr.localization == "predicted" else 0.0
+        fs[K.R_PREDICTED_MS] = thr.predicted_ms
+        n = len(state.poses)
+        # per follower, in F_* column order: x, y, θ, v, held v, held ω, send offset, ρ_d
+        fol = np.array(
+            [
+                (*state.poses[k], state.speeds[k], *state.held[k], state.send_offsets[k])
+                + (state.rho_d[k],)
+                for k in range(n)
+            ],
+            dtype=float,
+        ).reshape(n, K.F_SIZE)
+        width = max([1, *map(len, state.pending)])
+        pend = np.array(
+            [(*times, *(math.nan,) * (width - len(times))) for times in state.pending],
+            dtype=float,
+        ).reshape(n, width)
+        self._args = (
+            np.array(fs, dtype=float),
+            fol,
+            pend,
+            law._s0,
+            law._poses,
+            law._kappa,
+            law._lateral,
+            law._ahead,
+            law._spacing,
+        )
+        self.n = n
+
+    def changes(self, v: float, windows: tuple[float, ...]) -> list[list[tuple[float, ...]]]:
+        """:meth:`Rollout.changes` uncached: per window, per follower the four changes."""
+        out = np.empty((len(windows), self.n, 4))
+        law = self._law
+        self._ker.rollout_changes(
+            float(v), np.array(windows, dtype=float), *self._args, law._sr, law._sf, out
+        )
+        return as_changes(out)
+
+    def search(
+        self,
+        keep: float,
+        need: float,
+        v_floor: float,
+        grid: int,
+        tol: float,
+        windows: int,
+        w: float,
+    ) -> tuple[float, bool, float, list[float], Any]:
+        """:func:`rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
+        ``windows`` windows of ``w`` ms) in one call: (speed, numeric?, found or NaN, the
+        speeds rolled out, their changes as an array [rollout, window, follower, change])."""
+        law = self._law
+        speeds = np.empty(_SEARCH_RUNS)
+        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 4))
+        v, numeric, found, runs = self._ker.plan_search(
+            float(keep),
+            float(need),
+            float(v_floor),
+            int(grid),
+            float(tol),
+            float(w),
+            *self._args,
+            law._sr,
+            law._sf,
+            speeds,
+            changes,
+        )
+        runs = min(runs, _SEARCH_RUNS)
+        return v, bool(numeric), found, speeds[:runs].tolist(), changes[:runs]
+
+    def plan(
+        self,
+        keep: float,
+        need: float,
+        cap: float,
+        v_floor: float,
+        grid: int,
+        tol: float,
+        windows: int,
+        w: float,
+    ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
+        """:class:`~rtsim.control.policy.PlanPolicy`'s decision in one call
+        (:func:`rtsim.world.kernels._plan_decide`): ((w, V_L, method code, found, feasible),
+        the rows at V_Ld and at V_L as an array [2, follower, kind], and the rollouts it ran
+        as (speed, window lengths, changes [window, follower, change]) for the memo)."""
+        law = self._law
+        speeds = np.empty(_SEARCH_RUNS)
+        lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
+        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 4))
+        rows = np.empty((2, self.n, 4))
+        out = np.full(6, math.nan)
+        runs = self._ker.plan_decide(
+            float(keep),
+            float(need),
+            float(cap),
+            float(v_floor),
+            int(grid),
+            float(tol),
+            float(w),
+            *self._args,
+            law._sr,
+            law._sf,
+            speeds,
+            lens,
+            changes,
+            rows,
+            out,
+        )
+        w = float(w)
+        horizon = (w,) * int(windows)
+        ran: list[tuple[float, tuple[float, ...], Any]] = []
+        for r, (v, code) in enumerate(
+            zip(speeds[:runs].tolist(), lens[:runs].tolist(), strict=True)
+        ):
+            if code == 2:
+                ran.append((v, (float(out[5]),), changes[r, :1]))
+                continue
+            ran.append((v, horizon, changes[r]))
+            if code == 1:
+                ran.append((v, (w,), changes[r, :1]))
+        return tuple(out[:5].tolist()), rows, ran

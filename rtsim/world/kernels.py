@@ -525,6 +525,526 @@ def _rollout(
         scan += 1
 
 
+# -- the command-aware rollout's changes, bounds and the plan policy's speed search ---------
+# (rtsim.control.rollout.Rollout and rtsim.control.policy.PlanPolicy; kept in this file so
+# that numba's cache, which tracks only the calling kernel's own file, sees every change)
+
+#: indices of the scalars in a rollout's float pack (:meth:`CompiledTraceFollower.rollout_pack`)
+(
+    R_LAP,
+    R_LEADER_S,
+    R_LEADER_SPEED,
+    R_V_LD,
+    R_ACCEL,
+    R_DECEL,
+    R_T_NOW,
+    R_NEXT_SCAN,
+    R_MAX_ACCEL,
+    R_MAX_SPEED,
+    R_MAX_TURN,
+    R_SPEED_NOISE,
+    R_TURN_NOISE,
+    R_STEP,
+    R_GAIN,
+    R_LOOKAHEAD,
+    R_R_H,
+    R_T_RHO,
+    R_T_EPS,
+    R_T_BETA,
+    R_PREDICTED,
+    R_PREDICTED_MS,
+    R_SIZE,
+) = range(23)
+#: columns of a rollout's follower pack: the estimate, its speed, the held command, the
+#: send offset after a window's scan, ρ_d (CompiledRollout builds the rows in this order)
+F_X, F_Y, F_TH, F_V, F_CMD_V, F_CMD_W, F_SEND, F_RHO_D, F_SIZE = range(9)
+
+
+def _remainder(x: float, y: float) -> float:
+    """CPython's ``math.remainder`` (its m_remainder) for finite ``y`` ≠ 0: x − n·y with n the
+    integer nearest x / y, ties to even, computed exactly with fmod (``%`` of non-negative
+    operands, which is fmod)."""
+    if math.isnan(x):
+        return x
+    absx, absy = abs(x), abs(y)
+    m = absx % absy
+    c = absy - m
+    if m < c:
+        r = m
+    elif m > c:
+        r = -c
+    else:
+        r = m - 2.0 * ((0.5 * (absx - m)) % absy)
+    return math.copysign(1.0, x) * r
+
+
+def _before(t1: float, k1: int, j1: int, t2: float, k2: int, j2: int) -> bool:
+    """(t1, k1, j1) < (t2, k2, j2) as Python compares tuples."""
+    if t1 != t2:
+        return t1 < t2
+    if k1 != k2:
+        return k1 < k2
+    return j1 < j2
+
+
+def _rollout_changes(
+    v: float,
+    lengths: Any,
+    fs: Any,
+    fol: Any,
+    pend: Any,
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lateral: Any,
+    ahead: Any,
+    spacing: Any,
+    sr0: Any,
+    sf0: Any,
+    out: Any,
+) -> None:
+    """Rollout._run whole: the leader set to target ``v`` (Leader.set_speed), the scans and
+    sends of windows ``lengths`` in Python's tuple order, :func:`_rollout` on copies of the
+    group and the law's search starts, and the changes per window and follower
+    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|)."""
+    n = fol.shape[0]
+    nw = lengths.shape[0]
+    v_ld = fs[R_V_LD]
+    speed = fs[R_LEADER_SPEED]
+    t_now = fs[R_T_NOW]
+    a = 0.0 if 0.0 > v else v  # min(max(v, 0.0), v_ld), then Leader.set_speed
+    if v_ld < a:
+        a = v_ld
+    target = v_ld if v_ld < a else a
+    acc = fs[R_ACCEL] if target > speed else fs[R_DECEL]
+    if acc == math.inf:
+        speed = target
+    scans = np.empty(nw + 1)
+    scans[0] = fs[R_NEXT_SCAN]
+    for j in range(nw):
+        scans[j + 1] = scans[j] + lengths[j]
+    last = scans[nw]
+    cap = n * (pend.shape[1] + nw) + nw + 1
+    ev_t = np.empty(cap)
+    ev_kind = np.empty(cap, dtype=np.int64)
+    ev_k = np.empty(cap, dtype=np.int64)
+    m = 0
+    for k in range(n):
+        for p in range(pend.shape[1]):
+            t = pend[k, p]
+            if t_now <= t < last:  # NaN pads fail both
+                ev_t[m], ev_kind[m], ev_k[m] = t, 0, k
+                m += 1
+        for j in range(nw):
+            t = scans[j] + fol[k, F_SEND]
+            if t < last:
+                ev_t[m], ev_kind[m], ev_k[m] = t, 0, k
+                m += 1
+    for j in range(nw + 1):
+        ev_t[m], ev_kind[m], ev_k[m] = scans[j], 1, j
+        m += 1
+    for i in range(1, m):  # insertion sort: Python's sort of the (t, kind, k) tuples
+        t, kd, kk = ev_t[i], ev_kind[i], ev_k[i]
+        j = i - 1
+        while j >= 0 and _before(t, kd, kk, ev_t[j], ev_kind[j], ev_k[j]):
+            ev_t[j + 1], ev_kind[j + 1], ev_k[j + 1] = ev_t[j], ev_kind[j], ev_k[j]
+            j -= 1
+        ev_t[j + 1], ev_kind[j + 1], ev_k[j + 1] = t, kd, kk
+    x = fol[:, F_X].copy()
+    y = fol[:, F_Y].copy()
+    th = fol[:, F_TH].copy()
+    vf = fol[:, F_V].copy()
+    cmd_v = fol[:, F_CMD_V].copy()
+    cmd_w = fol[:, F_CMD_W].copy()
+    odo = np.zeros(n)
+    t_f = np.full(n, t_now)
+    samples = np.zeros((nw + 1, n, 3))
+    _rollout(
+        s0,
+        poses,
+        kappa,
+        fs[R_LAP],
+        fs[R_LEADER_S],
+        speed,
+        target,
+        fs[R_ACCEL],
+        fs[R_DECEL],
+        x,
+        y,
+        th,
+        vf,
+        cmd_v,
+        cmd_w,
+        odo,
+        t_f,
+        fs[R_MAX_ACCEL],
+        fs[R_MAX_SPEED],
+        fs[R_MAX_TURN],
+        fs[R_SPEED_NOISE],
+        fs[R_TURN_NOISE],
+        fs[R_STEP],
+        lateral,
+        ahead,
+        spacing,
+        sr0.copy(),
+        sf0.copy(),
+        fs[R_GAIN],
+        fs[R_LOOKAHEAD],
+        ev_t[:m],
+        ev_kind[:m],
+        ev_k[:m],
+        t_now,
+        samples,
+    )
+    two_pi = 2.0 * math.pi
+    for j in range(nw):
+        for i in range(n):
+            px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
+            qx, qy, qo = samples[j + 1, i, 0], samples[j + 1, i, 1], samples[j + 1, i, 2]
+            out[j, i, 0] = _hypot(qx - px, qy - py)
+            out[j, i, 1] = abs(_hypot(qx, qy) - _hypot(px, py))
+            out[j, i, 2] = qo - po
+            b_q = math.atan2(qy, qx) % two_pi
+            b_p = math.atan2(py, px) % two_pi
+            out[j, i, 3] = abs(_remainder(b_q - b_p, two_pi))
+
+
+def _bound(fs: Any, rho_d: float, j: int, ci: float, w: float) -> float:
+    """Rollout.bounds of one change: L·w / c (∞ when c ≤ 0), L by kind j in BOUND_KINDS
+    order; the predicted localization bound in place of kind 0 when the window follows the
+    predicted motion."""
+    if j == 0 and fs[R_PREDICTED] != 0.0:
+        return fs[R_PREDICTED_MS]
+    if j == 0:
+        lim = fs[R_R_H]
+    elif j == 1:
+        lim = fs[R_T_RHO] * rho_d
+    elif j == 2:
+        lim = fs[R_T_EPS] * rho_d
+    else:
+        lim = fs[R_T_BETA]
+    return math.inf if ci <= 0.0 else lim * w / ci
+
+
+def _rows(changes: Any, fs: Any, fol: Any, w: float, rows: Any) -> float:
+    """Rollout.bounds(changes, w) into ``rows`` [follower, kind]; returns min_bound_rows's
+    bound (the first smallest)."""
+    best = math.inf
+    for i in range(changes.shape[0]):
+        for j in range(4):
+            b = _bound(fs, fol[i, F_RHO_D], j, changes[i, j], w)
+            rows[i, j] = b
+            if b < best:
+                best = b
+    return best
+
+
+def _min_bound(changes: Any, fs: Any, fol: Any, w: float) -> float:
+    """min_bound_rows(Rollout.bounds(changes, w))[0]: the smallest L·w / c of one window."""
+    best = math.inf
+    for i in range(changes.shape[0]):
+        for j in range(4):
+            b = _bound(fs, fol[i, F_RHO_D], j, changes[i, j], w)
+            if b < best:
+                best = b
+    return best
+
+
+def _rollout_worst(
+    v: float,
+    w: float,
+    fs: Any,
+    fol: Any,
+    pend: Any,
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lateral: Any,
+    ahead: Any,
+    spacing: Any,
+    sr0: Any,
+    sf0: Any,
+    ch: Any,
+) -> float:
+    """PlanPolicy's m(V): the smallest bound of every follower in ``ch.shape[0]`` windows of
+    ``w`` ms (Python's ``min`` over the windows: the first, then any smaller); the changes
+    are left in ``ch``."""
+    windows = ch.shape[0]
+    lengths = np.full(windows, w)
+    _rollout_changes(
+        v, lengths, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, ch
+    )
+    worst = _min_bound(ch[0], fs, fol, w)
+    for j in range(1, windows):
+        mj = _min_bound(ch[j], fs, fol, w)
+        if mj < worst:
+            worst = mj
+    return worst
+
+
+def _search_into(
+    keep: float,
+    need: float,
+    v_floor: float,
+    grid: int,
+    tol: float,
+    w: float,
+    fs: Any,
+    fol: Any,
+    pend: Any,
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lateral: Any,
+    ahead: Any,
+    spacing: Any,
+    sr0: Any,
+    sf0: Any,
+    speeds: Any,
+    changes: Any,
+    first: int,
+    found_out: Any,
+) -> int:
+    """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · :func:`_rollout_worst` over
+    ``changes.shape[1]`` windows of ``w``; rollout r's speed and changes go to ``speeds[r]``
+    and ``changes[r]`` from r = ``first`` (as many as they hold). ``found_out`` ←
+    (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the
+    speed's rollout or −1); returns the next free index (rollouts run: it − first)."""
+    v_ld = fs[R_V_LD]
+    cap = speeds.shape[0]
+    scratch = np.empty(changes.shape[1:])
+    above = v_ld
+    best_v, best_r = v_floor, -1
+    r = first
+    best_m = -math.inf
+    if v_floor > 0.0:
+        ch = changes[r] if r < cap else scratch
+        if r < cap:
+            speeds[r] = v_floor
+        best_m = keep * _rollout_worst(
+            v_floor, w, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, ch
+        )
+        best_r = r if r < cap else -1
+        r += 1
+    for j in range(1, grid):
+        v = v_ld * (1.0 - j / grid)
+        ch = changes[r] if r < cap else scratch
+        if r < cap:
+            speeds[r] = v
+        r_v = r if r < cap else -1
+        r += 1
+        mv = keep * _rollout_worst(
+            v, w, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, ch
+        )
+        if mv >= need:
+            lo, hi, r_lo = v, above, r_v
+            while hi - lo > tol * v_ld:
+                mid = 0.5 * (lo + hi)
+                ch = changes[r] if r < cap else scratch
+                if r < cap:
+                    speeds[r] = mid
+                r_mid = r if r < cap else -1
+                r += 1
+                mm = keep * _rollout_worst(
+                    mid, w, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, ch
+                )
+                if mm >= need:
+                    lo, r_lo = mid, r_mid
+                else:
+                    hi = mid
+            found_out[0], found_out[1], found_out[2], found_out[3] = lo, 1.0, lo, r_lo
+            return r
+        if mv > best_m:
+            best_v, best_m, best_r = v, mv, r_v
+        above = v
+    found_out[0], found_out[1], found_out[2], found_out[3] = best_v, 0.0, math.nan, best_r
+    return r
+
+
+def _plan_search(
+    keep: float,
+    need: float,
+    v_floor: float,
+    grid: int,
+    tol: float,
+    w: float,
+    fs: Any,
+    fol: Any,
+    pend: Any,
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lateral: Any,
+    ahead: Any,
+    spacing: Any,
+    sr0: Any,
+    sf0: Any,
+    speeds: Any,
+    changes: Any,
+) -> tuple[float, int, float, int]:
+    """:func:`_search_into` from rollout 0: (speed, 1 for ``numeric`` or 0 for ``best``, the
+    found speed or NaN, rollouts run)."""
+    res = np.empty(4)
+    runs = _search_into(
+        keep,
+        need,
+        v_floor,
+        grid,
+        tol,
+        w,
+        fs,
+        fol,
+        pend,
+        s0,
+        poses,
+        kappa,
+        lateral,
+        ahead,
+        spacing,
+        sr0,
+        sf0,
+        speeds,
+        changes,
+        0,
+        res,
+    )
+    return res[0], int(res[1]), res[2], runs
+
+
+def _plan_decide(
+    keep: float,
+    need: float,
+    cap: float,
+    v_floor: float,
+    grid: int,
+    tol: float,
+    w: float,
+    fs: Any,
+    fol: Any,
+    pend: Any,
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lateral: Any,
+    ahead: Any,
+    spacing: Any,
+    sr0: Any,
+    sf0: Any,
+    speeds: Any,
+    lens: Any,
+    changes: Any,
+    rows: Any,
+    out: Any,
+) -> int:
+    """PlanPolicy.decide's numbers over ``changes.shape[1]`` windows of ``w`` (the horizon H).
+
+    Rows: ``rows[0]`` the bounds at V_Ld in the window the decision governs, ``rows[1]``
+    those at the chosen speed; ``out`` ← (w, V_L, method: 0 none, 1 numeric, 2 best, the
+    found speed or NaN, feasible 1/0, the length of the longer first window checked).
+    Every rollout goes to ``speeds[r]``, ``changes[r]`` with ``lens[r]``: 0 the horizon, 1
+    the horizon and its first window as a one-window rollout of w (the sends after that
+    window's closing scan cannot change it: they come after the sample), 2 one window of
+    ``out[5]`` (in ``changes[r, 0]``); returns how many.
+    """
+    v_ld = fs[R_V_LD]
+    windows = changes.shape[1]
+    speeds[0], lens[0] = v_ld, 1
+    m_ld = _rollout_worst(
+        v_ld, w, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, changes[0]
+    )
+    m1 = _rows(changes[0, 0], fs, fol, w, rows[0])
+    if keep * m_ld >= need:
+        a = keep * m1
+        mn = cap if cap < a else a  # max(w, min(keep·m1, cap)), as Python picks
+        ww = mn if mn > w else w
+        runs = 1
+        if ww > w:  # the longer first window, checked by its own rollout
+            speeds[1], lens[1] = v_ld, 2
+            one = changes[1, 0:1]
+            _rollout_changes(
+                v_ld,
+                np.full(1, ww),
+                fs,
+                fol,
+                pend,
+                s0,
+                poses,
+                kappa,
+                lateral,
+                ahead,
+                spacing,
+                sr0,
+                sf0,
+                one,
+            )
+            m_w = _min_bound(one[0], fs, fol, ww)
+            runs = 2
+            out[5] = ww
+            if keep * m_w < ww:
+                t = keep * m_w
+                ww = t if t > w else w
+        rows[1] = rows[0]
+        out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
+        return runs
+    res = np.empty(4)
+    runs = _search_into(
+        keep,
+        need,
+        v_floor,
+        grid,
+        tol,
+        w,
+        fs,
+        fol,
+        pend,
+        s0,
+        poses,
+        kappa,
+        lateral,
+        ahead,
+        spacing,
+        sr0,
+        sf0,
+        speeds,
+        changes,
+        1,
+        res,
+    )
+    for r in range(1, min(runs, speeds.shape[0])):
+        lens[r] = 0
+    v_l, r_l = res[0], int(res[3])
+    if r_l < 0:  # the speed was not rolled out in the search (a zero floor): roll it now
+        r_l = min(runs, speeds.shape[0] - 1)
+        speeds[r_l] = v_l
+        _rollout_worst(
+            v_l,
+            w,
+            fs,
+            fol,
+            pend,
+            s0,
+            poses,
+            kappa,
+            lateral,
+            ahead,
+            spacing,
+            sr0,
+            sf0,
+            changes[r_l],
+        )
+        runs = r_l + 1
+    lens[r_l] = 1
+    _rows(changes[r_l, 0], fs, fol, w, rows[1])
+    m_l = _min_bound(changes[r_l, 0], fs, fol, w)
+    for j in range(1, windows):
+        mj = _min_bound(changes[r_l, j], fs, fol, w)
+        if mj < m_l:
+            m_l = mj
+    out[0], out[1], out[2], out[3] = w, v_l, 2.0 - res[1], res[2]
+    out[4] = 1.0 if keep * m_l >= need else 0.0
+    return runs
+
+
 def kernels() -> Any:
     """The compiled kernels (a namespace), compiled or loaded from numba's cache once per
     process."""
@@ -551,6 +1071,15 @@ def kernels() -> Any:
             "_clip",
             "_advance_follower",
             "_ftl_exact",
+            "_remainder",
+            "_before",
+            "_rollout",
+            "_rollout_changes",
+            "_bound",
+            "_rows",
+            "_min_bound",
+            "_rollout_worst",
+            "_search_into",
         ):
             glob[name] = jit(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
         for name in (
@@ -560,6 +1089,11 @@ def kernels() -> Any:
             "_ftl_exact",
             "_rollout",
             "_hypot",
+            "_remainder",
+            "_rollout_changes",
+            "_rollout_worst",
+            "_plan_search",
+            "_plan_decide",
         ):
             fn = glob[name]
             setattr(ns, name.lstrip("_"), fn if hasattr(fn, "py_func") else jit(fn))
@@ -619,4 +1153,45 @@ def _warm(ns: Any) -> None:
         0.0,
         0.0,
         0.0,
+    )
+    # the rollout's kernels, on one follower 100 cm behind a leader on a straight lap
+    fs = np.zeros(R_SIZE)
+    fs[R_LAP], fs[R_V_LD], fs[R_LEADER_SPEED], fs[R_ACCEL], fs[R_DECEL] = (
+        1000.0,
+        30.0,
+        30.0,
+        20.0,
+        50.0,
+    )
+    fs[R_MAX_ACCEL], fs[R_MAX_SPEED], fs[R_MAX_TURN], fs[R_STEP] = 100.0, 150.0, 3.0, 10.0
+    fs[R_GAIN], fs[R_LOOKAHEAD], fs[R_R_H], fs[R_T_RHO], fs[R_T_EPS], fs[R_T_BETA] = (
+        0.5,
+        40.0,
+        25.0,
+        0.005,
+        0.025,
+        0.1,
+    )
+    fol = np.zeros((1, F_SIZE))
+    fol[0, F_X], fol[0, F_V], fol[0, F_SEND], fol[0, F_RHO_D] = -100.0, 30.0, 100.0, 100.0
+    path = (np.zeros(1), np.zeros((1, 3)), np.zeros(1), one, np.full(1, -1), np.full(1, 100.0))
+    nan1 = np.full(1, math.nan)
+    ch = np.empty((64, 2, 1, 4))
+    args = (fs, fol, np.full((1, 1), math.nan), *path, nan1, nan1)
+    ns.rollout_changes(20.0, np.full(2, 240.0), *args, ch[0])
+    ns.plan_search(1.0, 1e12, 3.0, 8, 0.005, 240.0, *args, np.empty(64), ch)
+    ns.plan_decide(
+        1.0,
+        240.0,
+        1000.0,
+        3.0,
+        8,
+        0.005,
+        240.0,
+        *args,
+        np.empty(64),
+        np.zeros(64, dtype=np.int64),
+        ch,
+        np.empty((2, 1, 4)),
+        np.full(6, math.nan),
     )

@@ -40,6 +40,8 @@ def _bits(x: Any) -> Any:
         return x.hex()
     if isinstance(x, list | tuple):
         return [_bits(v) for v in x]
+    if isinstance(x, dict):
+        return {k: _bits(v) for k, v in x.items()}
     return x
 
 
@@ -246,11 +248,14 @@ def test_compiled_hypot_is_the_interpreters() -> None:
 
 @needs_numba
 @pytest.mark.parametrize("scenario", ["test1", "test2"])
-def test_rollout_policy_bit_identical(scenario: str) -> None:
-    """The plan policy on the command-aware rollout: the compiled rollout (one kernel per
-    rollout) gives the Python one's decisions and tables."""
-    py = _run(scenario, "python", duration_s=60, seed=3, overrides=PLAN)
-    co = _run(scenario, "compiled", duration_s=60, seed=3, overrides=PLAN)
+@pytest.mark.parametrize("policy", ["plan", "adjust"])
+def test_rollout_policy_bit_identical(scenario: str, policy: str) -> None:
+    """The plan policy and the paper's algorithm on the command-aware rollout: the compiled
+    rollout and speed search give the Python ones' decisions and tables."""
+    over = {**PLAN, "adjust.policy": policy}
+    py = _run(scenario, "python", duration_s=60, seed=3, overrides=over)
+    co = _run(scenario, "compiled", duration_s=60, seed=3, overrides=over)
+    assert (co.windows["method"] == "numeric").any()  # the compiled search ran and found
     _same_run(py, co)
 
 
@@ -339,3 +344,160 @@ def test_compiled_paper_search_bit_identical(policy: str) -> None:
 
         a, b = _largest(ok, grid), ps.largest(fols, om, thr, need, grid)
         assert (a is None and b is None) or (a is not None and b is not None and a.hex() == b.hex())
+
+
+@needs_numba
+def test_remainder_kernel_is_the_interpreters() -> None:
+    """The rollout's |Δβ| uses CPython's math.remainder, carried by the kernels (numba has
+    none): random pairs over many exponents, exact ties (odd and even multiples), NaN."""
+    from rtsim.world import kernels as K
+
+    K.kernels()  # compiles, rebinding the helpers
+    rem = K._remainder
+    rng = np.random.default_rng(5)
+    x = rng.standard_normal(20000) * 10.0 ** rng.integers(-8, 9, 20000)
+    y = np.abs(rng.standard_normal(20000)) * 10.0 ** rng.integers(-4, 5, 20000) + 1e-300
+    pairs = list(zip(x.tolist(), y.tolist(), strict=True))
+    two_pi = 2.0 * math.pi
+    pairs += [(d, two_pi) for d in rng.uniform(-2 * two_pi, 2 * two_pi, 5000).tolist()]
+    pairs += [((k + 0.5) * 2.0, 2.0) for k in range(-6, 7)]  # ties: to the even multiple
+    pairs += [(-0.0, two_pi), (0.0, two_pi), (math.pi, two_pi), (-math.pi, two_pi)]
+    for a, b in pairs:
+        assert rem(a, b).hex() == math.remainder(a, b).hex(), (a, b)
+    assert math.isnan(rem(math.nan, two_pi))
+
+
+def _twin_states(name: str, windows: int, seed: int) -> list[Any]:
+    """The same decision state on a python and a compiled world (driven alike), each with its
+    own law and group class, and random sends still pending."""
+    from rtsim.control.rollout import RolloutState
+
+    rng = np.random.default_rng(seed)
+    w = 237.0
+    offs = (130.0, 136.0)
+    pending = tuple((float(windows * w + rng.uniform(-20.0, 5.0)),) for _ in offs)
+    out = []
+    for backend in ("python", "compiled"):
+        sc = load_scenario(name, overrides={"world.backend": backend})
+        world = World(sc.world, np.random.default_rng(seed))
+        for j in range(windows):
+            world.estimate(world.scan(j * w))
+            for i, off in enumerate(offs, start=1):
+                world.command(i, j * w + off)
+        t_d = (windows - 1) * w + 210.0
+        world.advance(t_d)
+        fol, ld = world.followers, world.leader
+        out.append(
+            RolloutState(
+                path=world.config.path,
+                law=world.follow_law,
+                params=world.config.follower,
+                step_ms=world.config.step_ms,
+                t_now=t_d,
+                leader_s=ld.s,
+                leader_speed=ld.speed,
+                v_ld=ld.desired_speed,
+                accel_max=ld.accel_max,
+                decel_max=ld.decel_max,
+                poses=tuple(fol.pose(k) for k in range(world.n)),
+                speeds=tuple(fol.v),
+                held=tuple((fol.cmd_v[k], fol.cmd_w[k]) for k in range(world.n)),
+                pending=pending,
+                next_scan=windows * w,
+                send_offsets=offs,
+                thresholds=world.config.thresholds,
+                rho_d=tuple(world.config.formation.rho_d),
+                w_sch=w,
+                group=type(fol),
+                beta_d=tuple(world.config.formation.beta_d),
+            )
+        )
+    return out
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    ("name", "windows", "seed"),
+    [("test2", 12, 0), ("test2", 100, 1), ("test1", 60, 2), ("test2", 400, 3)],
+)
+def test_compiled_rollout_and_plan_search_bit_identical(name: str, windows: int, seed: int) -> None:
+    """One decision's rollouts, whole (the leader's ramp, the events in Python's order, the
+    changes) and the plan policy's speed search, compiled against the Python rollout: the
+    same changes and the same speed, bit for bit, for random targets, horizons and
+    margins (the margins make some searches bisect, others find nothing)."""
+    from rtsim.control.adjust import search_rollout
+    from rtsim.control.predict import min_bound_rows
+    from rtsim.control.rollout import Rollout
+    from rtsim.world.compiled import CompiledRollout
+
+    st_py, st_co = _twin_states(name, windows, seed)
+    py, co = Rollout(st_py), Rollout(st_co)
+    assert py._compiled is None and isinstance(co._compiled, CompiledRollout)
+    rng = np.random.default_rng(seed)
+    for v in [0.0, -1.0, 1e9, *rng.uniform(0.0, 30.0, 6).tolist()]:
+        for lengths in [(237.0,), (237.0, 237.0), tuple(rng.uniform(50.0, 900.0, 3).tolist())]:
+            assert _bits(co.changes(v, lengths)) == _bits(py.changes(v, lengths)), (v, lengths)
+    w = st_py.w_sch
+    methods = set()
+    for keep in (1.0, 0.6):
+        for horizon in (1, 2, 3):
+
+            def worst(v: float, horizon: int = horizon, keep: float = keep) -> float:
+                per = py.changes(v, (w,) * horizon)
+                return keep * min(min_bound_rows(py.bounds(c, w))[0] for c in per)
+
+            # w_sch (as the policy asks), a need that the scan's 4th speed meets, and one
+            # that no speed meets (the least-bad speed)
+            co.changes(0.625 * st_py.v_ld, (w,) * horizon)  # as worst() does on py's memo
+            for need in (w * (1.0 - 1e-9), worst(0.625 * st_py.v_ld), 1e12):
+                ref = search_rollout(worst, st_py.v_ld, need, 3.0)
+                got = co.search(st_co.v_ld, keep, need, 3.0, horizon, w)
+                assert got is not None
+                assert _bits(list(got)) == _bits(list(ref)), (keep, horizon, need)
+                methods.add(ref[1])
+                # its rollouts joined the memo, as the Python search's did
+                assert set(co._memo) | set(co._raw) == set(py._memo)
+                assert co.count == py.count
+    assert methods == {"numeric", "best"}  # both ends of the search were compared
+    for key in list(co._raw):  # a memoised search rollout reads back as the Python one
+        assert _bits(co.changes(*key)) == _bits(py.changes(*key))
+    assert (
+        py.search(st_py.v_ld, 1.0, w, 3.0, 2, w) is None
+    )  # the Python rollout has no compiled search
+
+
+@needs_numba
+def test_compiled_plan_decision_bit_identical() -> None:
+    """The plan policy's whole decision in one compiled call against the Python policy on
+    the Python rollout, at decisions along a lap, for horizons 1–3, margins and caps that
+    take each branch (V_Ld kept with a longer first window, a search that bisects, one that
+    finds nothing); the memo after it holds the same rollouts."""
+    from rtsim.control.policy import PlanPolicy, PolicyInput
+    from rtsim.control.rollout import Rollout
+
+    seen = set()
+    for seed, (name, windows) in enumerate(
+        [(n, k) for n in ("test1", "test2") for k in (12, 40, 100, 130, 200, 260)]
+    ):
+        st_py, st_co = _twin_states(name, windows, seed)
+        for horizon in (1, 2, 3):
+            for margin in (0.0, 0.3, 0.8):
+                for cap in (237.0, 400.0, 1000.0):
+                    pol = PlanPolicy(windows=horizon, margin=margin)
+                    out = []
+                    for st in (st_py, st_co):
+                        ro = Rollout(st)
+                        ctx = PolicyInput((), st.v_ld, st.w_sch, st.thresholds, cap=cap, rollout=ro)
+                        out.append((pol.decide(ctx), ro))
+                    (d_py, ro_py), (d_co, ro_co) = out
+                    assert ro_co._compiled is not None and ro_py._compiled is None
+                    assert _bits(list(d_co)) == _bits(list(d_py)), (windows, horizon, margin, cap)
+                    assert set(ro_co._memo) | set(ro_co._raw) == set(ro_py._memo)
+                    assert ro_co.count == ro_py.count
+                    seen.add((d_py.method, d_py.w > st.w_sch))
+        # compiled only where the policy's V_Ld and w_sch are the rollout's (else Python)
+        ro = Rollout(st_co)
+        assert ro.plan(st_co.v_ld, 1.0, 1.0, 1000.0, 3.0, 1, st_co.w_sch) is not None
+        assert ro.plan(st_co.v_ld, 1.0, 1.0, 1000.0, 3.0, 1, 60.0) is None
+        assert ro.plan(st_co.v_ld / 2, 1.0, 1.0, 1000.0, 3.0, 1, st_co.w_sch) is None
+    assert {("none", True), ("numeric", False), ("best", False)} <= seen, seen  # every branch
