@@ -171,6 +171,18 @@ class CompiledTraceFollower(TraceFollower):
         self._sr = np.array([nan if s is None else s for s in self._s_ref], dtype=float)
         self._sf = np.array([nan if s is None else s for s in self._s_f], dtype=float)
 
+    def project(self, k: int, x: float, y: float, guess: float) -> float:
+        """:meth:`TraceFollower.project` in one kernel call (the same Newton steps)."""
+        s = self._sf[k]
+        if math.isnan(s):
+            s = float(guess)
+        s = kernels().project(
+            self._s0, self._poses, self._kappa, self.path.lap_length, self.lateral[k], s, x, y
+        )
+        self._sf[k] = s
+        self._s_f[k] = s
+        return s  # type: ignore[no-any-return]
+
     def initial(
         self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
     ) -> tuple[float, float, float, float]:

@@ -334,6 +334,19 @@ def _clip(v: float, lim: float) -> float:
     return m
 
 
+def _project(
+    s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, x: float, y: float
+) -> float:
+    """TraceFollower.project's Newton steps from ``s`` on the offset-``o`` trace."""
+    for _ in range(6):
+        px, py, h = _point(s0, poses, kappa, lap, o, s)
+        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / _scale(s0, kappa, lap, o, s)
+        s += ds
+        if abs(ds) < 1e-3:
+            break
+    return s
+
+
 def _ftl_exact(
     s0: Any,
     poses: Any,
@@ -385,12 +398,7 @@ def _ftl_exact(
     sf = s_f[k]
     if math.isnan(sf):
         sf = s_ref[k]
-    for _ in range(6):
-        px, py, h = _point(s0, poses, kappa, lap, o, sf)
-        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / _scale(s0, kappa, lap, o, sf)
-        sf += ds
-        if abs(ds) < 1e-3:
-            break
+    sf = _project(s0, poses, kappa, lap, o, sf, x, y)
     s_f[k] = sf
     v = v_ref + gain * (s_ref[k] - sf) * _scale(s0, kappa, lap, o, sf)
     if not v > 0.0:
@@ -1070,6 +1078,7 @@ def kernels() -> Any:
             "_hypot",
             "_clip",
             "_advance_follower",
+            "_project",
             "_ftl_exact",
             "_remainder",
             "_before",
@@ -1087,6 +1096,7 @@ def kernels() -> Any:
             "_ekf_predict",
             "_ekf_update",
             "_ftl_exact",
+            "_project",
             "_rollout",
             "_hypot",
             "_remainder",
@@ -1154,6 +1164,7 @@ def _warm(ns: Any) -> None:
         0.0,
         0.0,
     )
+    ns.project(np.zeros(1), np.zeros((1, 3)), np.zeros(1), 100.0, 0.0, 10.0, 20.0, 1.0)
     # the rollout's kernels, on one follower 100 cm behind a leader on a straight lap
     fs = np.zeros(R_SIZE)
     fs[R_LAP], fs[R_V_LD], fs[R_LEADER_SPEED], fs[R_ACCEL], fs[R_DECEL] = (
