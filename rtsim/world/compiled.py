@@ -302,13 +302,15 @@ class CompiledRollout:
         )
         self.n = n
 
+    def pack(self) -> tuple[Any, ...]:
+        """The kernels' ``P``: the state's arrays, the path's, the law's geometry and its
+        search starts as they are now."""
+        return (*self._args, self._law._sr, self._law._sf)
+
     def changes(self, v: float, windows: tuple[float, ...]) -> list[list[tuple[float, ...]]]:
         """:meth:`Rollout.changes` uncached: per window, per follower the four changes."""
         out = np.empty((len(windows), self.n, 4))
-        law = self._law
-        self._ker.rollout_changes(
-            float(v), np.array(windows, dtype=float), *self._args, law._sr, law._sf, out
-        )
+        self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
         return as_changes(out)
 
     def search(
@@ -324,9 +326,9 @@ class CompiledRollout:
         """:func:`rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
         ``windows`` windows of ``w`` ms) in one call: (speed, numeric?, found or NaN, the
         speeds rolled out, their changes as an array [rollout, window, follower, change])."""
-        law = self._law
         speeds = np.empty(_SEARCH_RUNS)
         changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 4))
+
         v, numeric, found, runs = self._ker.plan_search(
             float(keep),
             float(need),
@@ -334,9 +336,7 @@ class CompiledRollout:
             int(grid),
             float(tol),
             float(w),
-            *self._args,
-            law._sr,
-            law._sf,
+            self.pack(),
             speeds,
             changes,
         )
@@ -358,12 +358,12 @@ class CompiledRollout:
         (:func:`rtsim.world.kernels._plan_decide`): ((w, V_L, method code, found, feasible),
         the rows at V_Ld and at V_L as an array [2, follower, kind], and the rollouts it ran
         as (speed, window lengths, changes [window, follower, change]) for the memo)."""
-        law = self._law
         speeds = np.empty(_SEARCH_RUNS)
         lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
         changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 4))
         rows = np.empty((2, self.n, 4))
         out = np.full(6, math.nan)
+
         runs = self._ker.plan_decide(
             float(keep),
             float(need),
@@ -372,9 +372,7 @@ class CompiledRollout:
             int(grid),
             float(tol),
             float(w),
-            *self._args,
-            law._sr,
-            law._sf,
+            self.pack(),
             speeds,
             lens,
             changes,

@@ -598,23 +598,15 @@ def _before(t1: float, k1: int, j1: int, t2: float, k2: int, j2: int) -> bool:
 def _rollout_changes(
     v: float,
     lengths: Any,
-    fs: Any,
-    fol: Any,
-    pend: Any,
-    s0: Any,
-    poses: Any,
-    kappa: Any,
-    lateral: Any,
-    ahead: Any,
-    spacing: Any,
-    sr0: Any,
-    sf0: Any,
+    P: Any,
     out: Any,
 ) -> None:
     """Rollout._run whole: the leader set to target ``v`` (Leader.set_speed), the scans and
     sends of windows ``lengths`` in Python's tuple order, :func:`_rollout` on copies of the
     group and the law's search starts, and the changes per window and follower
-    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|)."""
+    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|). ``P``: the state's
+    pack (:meth:`rtsim.world.compiled.CompiledRollout.pack`)."""
+    fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
     n = fol.shape[0]
     nw = lengths.shape[0]
     v_ld = fs[R_V_LD]
@@ -761,27 +753,16 @@ def _min_bound(changes: Any, fs: Any, fol: Any, w: float) -> float:
 def _rollout_worst(
     v: float,
     w: float,
-    fs: Any,
-    fol: Any,
-    pend: Any,
-    s0: Any,
-    poses: Any,
-    kappa: Any,
-    lateral: Any,
-    ahead: Any,
-    spacing: Any,
-    sr0: Any,
-    sf0: Any,
+    P: Any,
     ch: Any,
 ) -> float:
     """PlanPolicy's m(V): the smallest bound of every follower in ``ch.shape[0]`` windows of
     ``w`` ms (Python's ``min`` over the windows: the first, then any smaller); the changes
     are left in ``ch``."""
+    fs, fol = P[0], P[1]
     windows = ch.shape[0]
     lengths = np.full(windows, w)
-    _rollout_changes(
-        v, lengths, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, ch
-    )
+    _rollout_changes(v, lengths, P, ch)
     worst = _min_bound(ch[0], fs, fol, w)
     for j in range(1, windows):
         mj = _min_bound(ch[j], fs, fol, w)
@@ -797,17 +778,7 @@ def _search_into(
     grid: int,
     tol: float,
     w: float,
-    fs: Any,
-    fol: Any,
-    pend: Any,
-    s0: Any,
-    poses: Any,
-    kappa: Any,
-    lateral: Any,
-    ahead: Any,
-    spacing: Any,
-    sr0: Any,
-    sf0: Any,
+    P: Any,
     speeds: Any,
     changes: Any,
     first: int,
@@ -818,7 +789,7 @@ def _search_into(
     and ``changes[r]`` from r = ``first`` (as many as they hold). ``found_out`` ←
     (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the
     speed's rollout or −1); returns the next free index (rollouts run: it − first)."""
-    v_ld = fs[R_V_LD]
+    v_ld = P[0][R_V_LD]
     cap = speeds.shape[0]
     scratch = np.empty(changes.shape[1:])
     above = v_ld
@@ -829,9 +800,7 @@ def _search_into(
         ch = changes[r] if r < cap else scratch
         if r < cap:
             speeds[r] = v_floor
-        best_m = keep * _rollout_worst(
-            v_floor, w, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, ch
-        )
+        best_m = keep * _rollout_worst(v_floor, w, P, ch)
         best_r = r if r < cap else -1
         r += 1
     for j in range(1, grid):
@@ -841,9 +810,7 @@ def _search_into(
             speeds[r] = v
         r_v = r if r < cap else -1
         r += 1
-        mv = keep * _rollout_worst(
-            v, w, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, ch
-        )
+        mv = keep * _rollout_worst(v, w, P, ch)
         if mv >= need:
             lo, hi, r_lo = v, above, r_v
             while hi - lo > tol * v_ld:
@@ -853,9 +820,7 @@ def _search_into(
                     speeds[r] = mid
                 r_mid = r if r < cap else -1
                 r += 1
-                mm = keep * _rollout_worst(
-                    mid, w, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, ch
-                )
+                mm = keep * _rollout_worst(mid, w, P, ch)
                 if mm >= need:
                     lo, r_lo = mid, r_mid
                 else:
@@ -876,46 +841,14 @@ def _plan_search(
     grid: int,
     tol: float,
     w: float,
-    fs: Any,
-    fol: Any,
-    pend: Any,
-    s0: Any,
-    poses: Any,
-    kappa: Any,
-    lateral: Any,
-    ahead: Any,
-    spacing: Any,
-    sr0: Any,
-    sf0: Any,
+    P: Any,
     speeds: Any,
     changes: Any,
 ) -> tuple[float, int, float, int]:
     """:func:`_search_into` from rollout 0: (speed, 1 for ``numeric`` or 0 for ``best``, the
     found speed or NaN, rollouts run)."""
     res = np.empty(4)
-    runs = _search_into(
-        keep,
-        need,
-        v_floor,
-        grid,
-        tol,
-        w,
-        fs,
-        fol,
-        pend,
-        s0,
-        poses,
-        kappa,
-        lateral,
-        ahead,
-        spacing,
-        sr0,
-        sf0,
-        speeds,
-        changes,
-        0,
-        res,
-    )
+    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 0, res)
     return res[0], int(res[1]), res[2], runs
 
 
@@ -927,17 +860,7 @@ def _plan_decide(
     grid: int,
     tol: float,
     w: float,
-    fs: Any,
-    fol: Any,
-    pend: Any,
-    s0: Any,
-    poses: Any,
-    kappa: Any,
-    lateral: Any,
-    ahead: Any,
-    spacing: Any,
-    sr0: Any,
-    sf0: Any,
+    P: Any,
     speeds: Any,
     lens: Any,
     changes: Any,
@@ -954,12 +877,11 @@ def _plan_decide(
     window's closing scan cannot change it: they come after the sample), 2 one window of
     ``out[5]`` (in ``changes[r, 0]``); returns how many.
     """
+    fs, fol = P[0], P[1]
     v_ld = fs[R_V_LD]
     windows = changes.shape[1]
     speeds[0], lens[0] = v_ld, 1
-    m_ld = _rollout_worst(
-        v_ld, w, fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0, changes[0]
-    )
+    m_ld = _rollout_worst(v_ld, w, P, changes[0])
     m1 = _rows(changes[0, 0], fs, fol, w, rows[0])
     if keep * m_ld >= need:
         a = keep * m1
@@ -972,17 +894,7 @@ def _plan_decide(
             _rollout_changes(
                 v_ld,
                 np.full(1, ww),
-                fs,
-                fol,
-                pend,
-                s0,
-                poses,
-                kappa,
-                lateral,
-                ahead,
-                spacing,
-                sr0,
-                sf0,
+                P,
                 one,
             )
             m_w = _min_bound(one[0], fs, fol, ww)
@@ -995,29 +907,7 @@ def _plan_decide(
         out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
         return runs
     res = np.empty(4)
-    runs = _search_into(
-        keep,
-        need,
-        v_floor,
-        grid,
-        tol,
-        w,
-        fs,
-        fol,
-        pend,
-        s0,
-        poses,
-        kappa,
-        lateral,
-        ahead,
-        spacing,
-        sr0,
-        sf0,
-        speeds,
-        changes,
-        1,
-        res,
-    )
+    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 1, res)
     for r in range(1, min(runs, speeds.shape[0])):
         lens[r] = 0
     v_l, r_l = res[0], int(res[3])
@@ -1027,17 +917,7 @@ def _plan_decide(
         _rollout_worst(
             v_l,
             w,
-            fs,
-            fol,
-            pend,
-            s0,
-            poses,
-            kappa,
-            lateral,
-            ahead,
-            spacing,
-            sr0,
-            sf0,
+            P,
             changes[r_l],
         )
         runs = r_l + 1
@@ -1188,9 +1068,10 @@ def _warm(ns: Any) -> None:
     path = (np.zeros(1), np.zeros((1, 3)), np.zeros(1), one, np.full(1, -1), np.full(1, 100.0))
     nan1 = np.full(1, math.nan)
     ch = np.empty((64, 2, 1, 4))
-    args = (fs, fol, np.full((1, 1), math.nan), *path, nan1, nan1)
+    args = ((fs, fol, np.full((1, 1), math.nan), *path, nan1, nan1),)
     ns.rollout_changes(20.0, np.full(2, 240.0), *args, ch[0])
     ns.plan_search(1.0, 1e12, 3.0, 8, 0.005, 240.0, *args, np.empty(64), ch)
+
     ns.plan_decide(
         1.0,
         240.0,

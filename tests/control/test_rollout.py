@@ -20,9 +20,10 @@ import math
 
 import numpy as np
 import pytest
+from rollout_states import world_state
 
 from rtsim.control.adjust import search_rollout
-from rtsim.control.rollout import Rollout, RolloutState
+from rtsim.control.rollout import Rollout
 from rtsim.io.scenario import load_scenario
 from rtsim.world import World
 
@@ -64,30 +65,7 @@ def test_rollout_matches_the_world(name: str, v_target: float, windows: int, mod
         _window(world, j * w, w)
     t_d = (windows - 1) * w + 210.0
     world.advance(t_d)
-    fol = world.followers
-    ld = world.leader
-    state = RolloutState(
-        path=world.config.path,
-        law=world.follow_law,
-        params=world.config.follower,
-        step_ms=world.config.step_ms,
-        t_now=t_d,
-        leader_s=ld.s,
-        leader_speed=ld.speed,
-        v_ld=ld.desired_speed,
-        accel_max=ld.accel_max,
-        decel_max=ld.decel_max,
-        poses=tuple(fol.pose(k) for k in range(world.n)),
-        speeds=tuple(fol.v),
-        held=tuple((fol.cmd_v[k], fol.cmd_w[k]) for k in range(world.n)),
-        pending=((), ()),
-        next_scan=windows * w,
-        send_offsets=OFFSETS,
-        thresholds=world.config.thresholds,
-        rho_d=tuple(world.config.formation.rho_d),
-        w_sch=w,
-        beta_d=tuple(world.config.formation.beta_d),
-    )
+    state = world_state(world, t_d, windows * w, OFFSETS, w)
     ro = Rollout(state)
     ahead = [w, w, w]
     pred = ro.changes(v_target, ahead)

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from rollout_states import world_state
 
 from rtsim.coupling import run_scenario
 from rtsim.errors import ScenarioError
@@ -370,8 +371,6 @@ def test_remainder_kernel_is_the_interpreters() -> None:
 def _twin_states(name: str, windows: int, seed: int) -> list[Any]:
     """The same decision state on a python and a compiled world (driven alike), each with its
     own law and group class, and random sends still pending."""
-    from rtsim.control.rollout import RolloutState
-
     rng = np.random.default_rng(seed)
     w = 237.0
     offs = (130.0, 136.0)
@@ -386,32 +385,7 @@ def _twin_states(name: str, windows: int, seed: int) -> list[Any]:
                 world.command(i, j * w + off)
         t_d = (windows - 1) * w + 210.0
         world.advance(t_d)
-        fol, ld = world.followers, world.leader
-        out.append(
-            RolloutState(
-                path=world.config.path,
-                law=world.follow_law,
-                params=world.config.follower,
-                step_ms=world.config.step_ms,
-                t_now=t_d,
-                leader_s=ld.s,
-                leader_speed=ld.speed,
-                v_ld=ld.desired_speed,
-                accel_max=ld.accel_max,
-                decel_max=ld.decel_max,
-                poses=tuple(fol.pose(k) for k in range(world.n)),
-                speeds=tuple(fol.v),
-                held=tuple((fol.cmd_v[k], fol.cmd_w[k]) for k in range(world.n)),
-                pending=pending,
-                next_scan=windows * w,
-                send_offsets=offs,
-                thresholds=world.config.thresholds,
-                rho_d=tuple(world.config.formation.rho_d),
-                w_sch=w,
-                group=type(fol),
-                beta_d=tuple(world.config.formation.beta_d),
-            )
-        )
+        out.append(world_state(world, t_d, windows * w, offs, w, pending))
     return out
 
 
