@@ -4,6 +4,7 @@ file (run by hand, on a machine as quiet as you can get).
     python benchmarks/perf_table.py [--repeat 3] [--skip-reproduce] [--write]
 
 Runs ``bench_cli.py`` (the CLI's loop with its outputs, one simulated hour of Test 2),
+``bench_scenario.py``'s loop alone (the same hour without output files, per world backend),
 ``bench_sweep_point.py`` (one lap of Test 2 as a warm sweep point), ``bench_sim.py`` (the
 scheduler against a bare heap loop) and times ``rtsim reproduce --out DIR``; prints the
 table, and with ``--write`` puts it between the markers of docs/performance.md (the text
@@ -53,8 +54,24 @@ def reproduce_s() -> float:
         shutil.rmtree(out, ignore_errors=True)
 
 
+def loop_alone(repeat: int) -> dict[str, Any]:
+    """Best-of-``repeat`` CPU of one simulated hour of Test 2's loop without output files,
+    per world backend, each run in a fresh interpreter (``bench_scenario.loop_cpu``)."""
+    sys.path.insert(0, str(HERE))
+    from bench_scenario import TEST2, loop_cpu
+
+    out: dict[str, Any] = {"duration": 3600.0}
+    for backend in ("compiled", "python"):
+        runs = [loop_cpu(str(TEST2), None, 3600.0, backend) for _ in range(repeat)]
+        out[backend] = min(c for c, _ in runs)
+        out["windows"] = runs[0][1]
+    print(f"loop alone: {out}")
+    return out
+
+
 def table(
     cli: dict[str, Any],
+    alone: dict[str, Any],
     point: dict[str, Any],
     sim: dict[str, Any],
     repro: float | None,
@@ -72,6 +89,12 @@ def table(
         f"CPU {cli['loop_cpu_s']:.2f} s = {cli['x_real_time_cpu']:,.0f}× "
         f"({1e6 * cli['loop_cpu_s'] / cli['windows']:.0f} µs/window) | ≥ 3,000× | "
         f"{yes[cli['x_real_time'] >= 3000]} |",
+        f"| the same hour, the loop alone without output files (`run_scenario`, job records "
+        f"kept in memory; `bench_scenario.py`), CPU | {alone['windows']:,} windows: compiled "
+        f"world {alone['compiled']:.2f} s = **{alone['duration'] / alone['compiled']:,.0f}×** "
+        f"({1e6 * alone['compiled'] / alone['windows']:.0f} µs/window); python world "
+        f"{alone['python']:.2f} s = {alone['duration'] / alone['python']:,.0f}× | ≥ 1,000× "
+        f"(the standing floor) | {yes[alone['duration'] / alone['compiled'] >= 1000]} |",
         f"| one lap of Test 2 as a warm sweep point (`run_scenario('test2', "
         f"record_jobs=False)`, CPU; `bench_sweep_point.py`) | {point['windows']} windows: "
         f"best **{point['best_ms']:.0f} ms**, median {point['median_ms']:.0f} ms | ≤ 20 ms | "
@@ -102,10 +125,11 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     m = print_machine()
     cli = _bench("bench_cli.py", "--repeat", str(args.repeat), "--json")
+    alone = loop_alone(args.repeat)
     point = _bench("bench_sweep_point.py", "--repeat", str(max(5, args.repeat)), "--json")
     sim = _bench("bench_sim.py", "--repeat", str(args.repeat), "--no-memory")
     repro = None if args.skip_reproduce else reproduce_s()
-    text = table(cli, point, sim, repro, m)
+    text = table(cli, alone, point, sim, repro, m)
     print(text)
     if args.write:
         doc = DOC.read_text(encoding="utf-8")
