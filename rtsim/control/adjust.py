@@ -473,11 +473,11 @@ def adjust_core(
     need = w_sch * (1.0 - TOL)
     if model == "commands":
         # the rollout's compiled search, if it has one (one window of w_sch: its rows)
-        search = getattr(rollout, "search", None)
+        compiled = getattr(rollout, "search", None)
         hit = (
             None
-            if search is None
-            else search(v_ld, 1.0, need, floor_frac * v_ld, 1, rollout.state.w_sch)
+            if compiled is None
+            else compiled(v_ld, 1.0, need, floor_frac * v_ld, 1, rollout.state.w_sch)
         )
         v_l, method, found = (
             search_rollout(lambda v: min_bound_rows(rows_at(v))[0], v_ld, need, floor_frac * v_ld)

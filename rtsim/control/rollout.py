@@ -169,7 +169,8 @@ class Rollout:
         self, v_ld: float, keep: float, need: float, v_floor: float, windows: int, w: float
     ) -> tuple[float, str, float] | None:
         """:func:`~rtsim.control.adjust.search_rollout` over keep · m(V), m(V) the smallest
-        bound of every follower in ``windows`` windows of ``w`` ms (the plan policy's), in one
+        bound of every follower in ``windows`` windows of ``w`` ms (plan's; adjust with the
+        ``commands`` predictor asks for one window of w_sch, its rows), in one
         compiled call; None when this rollout is not compiled (the caller searches in
         Python, with the same result; also when ``v_ld``, the top of the search, is not the
         state's). The rollouts it ran join the memo, as the Python search's do (a later

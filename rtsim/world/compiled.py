@@ -45,7 +45,7 @@ __all__ = [
 ]
 
 
-def as_changes(arr: Any) -> list[list[tuple[float, ...]]]:
+def as_changes(arr: Any) -> list[list[Any]]:
     """A [window, follower, change] array as the rollout's lists of tuples."""
     return [[tuple(c) for c in win] for win in arr.tolist()]
 
@@ -307,7 +307,7 @@ class CompiledRollout:
         search starts as they are now."""
         return (*self._args, self._law._sr, self._law._sf)
 
-    def changes(self, v: float, windows: tuple[float, ...]) -> list[list[tuple[float, ...]]]:
+    def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
         """:meth:`Rollout.changes` uncached: per window, per follower the four changes."""
         out = np.empty((len(windows), self.n, 4))
         self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
