@@ -65,6 +65,16 @@ Changes = tuple[float, float, float, float]
 _TWO_PI = 2.0 * math.pi
 
 
+def _smallest(rows: Sequence[Sequence[float]]) -> float:
+    """The smallest bound of ``rows`` as min_bound_rows picks it (NaN never smallest)."""
+    best = math.inf
+    for row in rows:
+        for b in row:
+            if b < best:
+                best = b
+    return best
+
+
 @dataclass(frozen=True)
 class RolloutState:
     """What the leader knows at its decision (ms, cm, cm/s, rad).
@@ -212,6 +222,12 @@ class Rollout:
         self._remember(ran)
         w_out, v_l, method, found, feasible = out
         r = rows.tolist()
+        after = [tuple(x) for x in r[1]]
+        if math.isnan(feasible):  # the search did not roll the chosen speed out: here
+            after = self.rows(v_l)
+            horizon = self.changes(v_l, (w,) * windows)
+            worst = min(_smallest(self.bounds(c, w)) for c in horizon)
+            feasible = 1.0 if keep * worst >= need else 0.0
         return (
             w_out,
             v_l,
@@ -219,7 +235,7 @@ class Rollout:
             found,
             feasible == 1.0,
             [tuple(x) for x in r[0]],
-            [tuple(x) for x in r[1]],
+            after,
         )
 
     def _remember(self, ran: Sequence[tuple[float, tuple[float, ...], Any]]) -> None:

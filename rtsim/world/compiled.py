@@ -248,6 +248,7 @@ class CompiledRollout:
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
         from rtsim.world import kernels as K
 
+        K.warm_rollout()  # once per process: before the first rollout, not in a window
         self._law = law
         self._ker = kernels()
         p, thr = state.params, state.thresholds
@@ -322,26 +323,12 @@ class CompiledRollout:
         tol: float,
         windows: int,
         w: float,
-    ) -> tuple[float, bool, float, list[float], Any]:
+    ) -> tuple[float, bool, float, list[float], list[Any]]:
         """:func:`rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
         ``windows`` windows of ``w`` ms) in one call: (speed, numeric?, found or NaN, the
-        speeds rolled out, their changes as an array [rollout, window, follower, change])."""
-        speeds = np.empty(_SEARCH_RUNS)
-        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 4))
-
-        v, numeric, found, runs = self._ker.plan_search(
-            float(keep),
-            float(need),
-            float(v_floor),
-            int(grid),
-            float(tol),
-            float(w),
-            self.pack(),
-            speeds,
-            changes,
-        )
-        runs = min(runs, _SEARCH_RUNS)
-        return v, bool(numeric), found, speeds[:runs].tolist(), changes[:runs]
+        speeds rolled out, their changes as arrays [window, follower, change])."""
+        out, _, ran = self._decide(True, keep, need, 0.0, v_floor, grid, tol, windows, w)
+        return out[1], out[2] == 1.0, out[3], [v for v, _, _ in ran], [c for _, _, c in ran]
 
     def plan(
         self,
@@ -358,13 +345,28 @@ class CompiledRollout:
         (:func:`rtsim.world.kernels._plan_decide`): ((w, V_L, method code, found, feasible),
         the rows at V_Ld and at V_L as an array [2, follower, kind], and the rollouts it ran
         as (speed, window lengths, changes [window, follower, change]) for the memo)."""
+        return self._decide(False, keep, need, cap, v_floor, grid, tol, windows, w)
+
+    def _decide(
+        self,
+        search_only: bool,
+        keep: float,
+        need: float,
+        cap: float,
+        v_floor: float,
+        grid: int,
+        tol: float,
+        windows: int,
+        w: float,
+    ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
+        """:func:`rtsim.world.kernels._plan_decide` on fresh buffers, its rollouts listed."""
         speeds = np.empty(_SEARCH_RUNS)
         lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
         changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 4))
         rows = np.empty((2, self.n, 4))
         out = np.full(6, math.nan)
-
         runs = self._ker.plan_decide(
+            bool(search_only),
             float(keep),
             float(need),
             float(cap),
@@ -379,6 +381,7 @@ class CompiledRollout:
             rows,
             out,
         )
+        runs = min(runs, _SEARCH_RUNS)
         w = float(w)
         horizon = (w,) * int(windows)
         ran: list[tuple[float, tuple[float, ...], Any]] = []

@@ -16,7 +16,7 @@ import numpy as np
 
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
 
-__all__ = ["available", "kernels"]
+__all__ = ["available", "kernels", "warm_rollout"]
 
 _KERNELS: Any = None
 _AVAILABLE: bool | None = None
@@ -793,66 +793,52 @@ def _search_into(
     cap = speeds.shape[0]
     scratch = np.empty(changes.shape[1:])
     above = v_ld
-    best_v, best_r = v_floor, -1
+    best_v, best_r, best_m = v_floor, -1, -math.inf
+    lo = hi = 0.0
+    r_lo = -1
     r = first
-    best_m = -math.inf
-    if v_floor > 0.0:
-        ch = changes[r] if r < cap else scratch
-        if r < cap:
-            speeds[r] = v_floor
-        best_m = keep * _rollout_worst(v_floor, w, P, ch)
-        best_r = r if r < cap else -1
-        r += 1
-    for j in range(1, grid):
-        v = v_ld * (1.0 - j / grid)
+    # one rollout per pass (one call site keeps the compiled code small): phase 0 the floor,
+    # 1 the scan's j-th speed, 2 the bisection
+    phase = 0 if v_floor > 0.0 else 1
+    j = 1
+    while True:
+        if phase == 0:
+            v = v_floor
+        elif phase == 1:
+            if j >= grid:
+                found_out[0], found_out[1], found_out[2] = best_v, 0.0, math.nan
+                found_out[3] = best_r
+                return r
+            v = v_ld * (1.0 - j / grid)
+        else:
+            if not hi - lo > tol * v_ld:
+                found_out[0], found_out[1], found_out[2], found_out[3] = lo, 1.0, lo, r_lo
+                return r
+            v = 0.5 * (lo + hi)
         ch = changes[r] if r < cap else scratch
         if r < cap:
             speeds[r] = v
         r_v = r if r < cap else -1
         r += 1
-        mv = keep * _rollout_worst(v, w, P, ch)
-        if mv >= need:
-            lo, hi, r_lo = v, above, r_v
-            while hi - lo > tol * v_ld:
-                mid = 0.5 * (lo + hi)
-                ch = changes[r] if r < cap else scratch
-                if r < cap:
-                    speeds[r] = mid
-                r_mid = r if r < cap else -1
-                r += 1
-                mm = keep * _rollout_worst(mid, w, P, ch)
-                if mm >= need:
-                    lo, r_lo = mid, r_mid
-                else:
-                    hi = mid
-            found_out[0], found_out[1], found_out[2], found_out[3] = lo, 1.0, lo, r_lo
-            return r
-        if mv > best_m:
-            best_v, best_m, best_r = v, mv, r_v
-        above = v
-    found_out[0], found_out[1], found_out[2], found_out[3] = best_v, 0.0, math.nan, best_r
-    return r
-
-
-def _plan_search(
-    keep: float,
-    need: float,
-    v_floor: float,
-    grid: int,
-    tol: float,
-    w: float,
-    P: Any,
-    speeds: Any,
-    changes: Any,
-) -> tuple[float, int, float, int]:
-    """:func:`_search_into` from rollout 0: (speed, 1 for ``numeric`` or 0 for ``best``, the
-    found speed or NaN, rollouts run)."""
-    res = np.empty(4)
-    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 0, res)
-    return res[0], int(res[1]), res[2], runs
+        m = keep * _rollout_worst(v, w, P, ch)
+        if phase == 0:
+            best_m, best_r, phase = m, r_v, 1
+        elif phase == 1:
+            if m >= need:
+                lo, hi, r_lo, phase = v, above, r_v, 2
+            else:
+                if m > best_m:
+                    best_v, best_m, best_r = v, m, r_v
+                above = v
+                j += 1
+        elif m >= need:
+            lo, r_lo = v, r_v
+        else:
+            hi = v
 
 
 def _plan_decide(
+    search_only: bool,
     keep: float,
     need: float,
     cap: float,
@@ -871,15 +857,27 @@ def _plan_decide(
 
     Rows: ``rows[0]`` the bounds at V_Ld in the window the decision governs, ``rows[1]``
     those at the chosen speed; ``out`` ← (w, V_L, method: 0 none, 1 numeric, 2 best, the
-    found speed or NaN, feasible 1/0, the length of the longer first window checked).
+    found speed or NaN, feasible 1/0 — NaN, with ``rows[1]`` not filled, when the chosen speed
+    was not rolled out in the search (a zero floor) — the length of the longer first
+    window checked).
     Every rollout goes to ``speeds[r]``, ``changes[r]`` with ``lens[r]``: 0 the horizon, 1
     the horizon and its first window as a one-window rollout of w (the sends after that
     window's closing scan cannot change it: they come after the sample), 2 one window of
     ``out[5]`` (in ``changes[r, 0]``); returns how many.
+
+    ``search_only``: only the speed search (search_rollout with m(V) = keep · the smallest
+    bound over H; ``adjust`` with the ``commands`` predictor, H one window): from rollout 0,
+    ``out[1:4]`` its (speed, method, found), every rollout the search's own (``lens`` 0).
     """
     fs, fol = P[0], P[1]
     v_ld = fs[R_V_LD]
     windows = changes.shape[1]
+    res = np.empty(4)
+    if search_only:
+        runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 0, res)
+        lens[: min(runs, speeds.shape[0])] = 0
+        out[0], out[1], out[2], out[3], out[4] = w, res[0], 2.0 - res[1], res[2], math.nan
+        return runs
     speeds[0], lens[0] = v_ld, 1
     m_ld = _rollout_worst(v_ld, w, P, changes[0])
     m1 = _rows(changes[0, 0], fs, fol, w, rows[0])
@@ -891,12 +889,7 @@ def _plan_decide(
         if ww > w:  # the longer first window, checked by its own rollout
             speeds[1], lens[1] = v_ld, 2
             one = changes[1, 0:1]
-            _rollout_changes(
-                v_ld,
-                np.full(1, ww),
-                P,
-                one,
-            )
+            _rollout_changes(v_ld, np.full(1, ww), P, one)
             m_w = _min_bound(one[0], fs, fol, ww)
             runs = 2
             out[5] = ww
@@ -906,21 +899,13 @@ def _plan_decide(
         rows[1] = rows[0]
         out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
         return runs
-    res = np.empty(4)
     runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 1, res)
     for r in range(1, min(runs, speeds.shape[0])):
         lens[r] = 0
     v_l, r_l = res[0], int(res[3])
-    if r_l < 0:  # the speed was not rolled out in the search (a zero floor): roll it now
-        r_l = min(runs, speeds.shape[0] - 1)
-        speeds[r_l] = v_l
-        _rollout_worst(
-            v_l,
-            w,
-            P,
-            changes[r_l],
-        )
-        runs = r_l + 1
+    out[0], out[1], out[2], out[3] = w, v_l, 2.0 - res[1], res[2]
+    if r_l < 0:  # the speed was not rolled out (a zero floor): the caller rolls it out
+        return runs
     lens[r_l] = 1
     _rows(changes[r_l, 0], fs, fol, w, rows[1])
     m_l = _min_bound(changes[r_l, 0], fs, fol, w)
@@ -928,7 +913,6 @@ def _plan_decide(
         mj = _min_bound(changes[r_l, j], fs, fol, w)
         if mj < m_l:
             m_l = mj
-    out[0], out[1], out[2], out[3] = w, v_l, 2.0 - res[1], res[2]
     out[4] = 1.0 if keep * m_l >= need else 0.0
     return runs
 
@@ -967,22 +951,22 @@ def kernels() -> Any:
             "_bound",
             "_rows",
             "_min_bound",
-            "_rollout_worst",
-            "_search_into",
         ):
             glob[name] = jit(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
+        # inlined into _plan_decide by numba, not compiled on their own: each compiled level
+        # links and optimises the whole rollout again (compile time, once per machine)
+        inline = numba.njit(cache=True, nogil=True, inline="always")
+        for name in ("_rollout_worst", "_search_into"):
+            glob[name] = inline(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
         for name in (
             "_advance_follower",
             "_ekf_predict",
             "_ekf_update",
             "_ftl_exact",
             "_project",
-            "_rollout",
             "_hypot",
             "_remainder",
             "_rollout_changes",
-            "_rollout_worst",
-            "_plan_search",
             "_plan_decide",
         ):
             fn = glob[name]
@@ -1045,45 +1029,36 @@ def _warm(ns: Any) -> None:
         0.0,
     )
     ns.project(np.zeros(1), np.zeros((1, 3)), np.zeros(1), 100.0, 0.0, 10.0, 20.0, 1.0)
-    # the rollout's kernels, on one follower 100 cm behind a leader on a straight lap
+    # (the rollout's kernels: warm_rollout, when a run first rolls out)
+
+
+def warm_rollout() -> None:
+    """Compile the rollout's kernels (or load them from numba's cache) once per process:
+    called when the first compiled rollout is made (a coupled run makes it while it is set
+    up, before the loop), so a run that never rolls out never compiles them."""
+    ns = kernels()
+    if getattr(ns, "rollout_warm", False):
+        return
+    # one follower 100 cm behind a leader on a straight lap
     fs = np.zeros(R_SIZE)
     fs[R_LAP], fs[R_V_LD], fs[R_LEADER_SPEED], fs[R_ACCEL], fs[R_DECEL] = (
-        1000.0,
+        1e3,
         30.0,
         30.0,
         20.0,
         50.0,
     )
     fs[R_MAX_ACCEL], fs[R_MAX_SPEED], fs[R_MAX_TURN], fs[R_STEP] = 100.0, 150.0, 3.0, 10.0
-    fs[R_GAIN], fs[R_LOOKAHEAD], fs[R_R_H], fs[R_T_RHO], fs[R_T_EPS], fs[R_T_BETA] = (
-        0.5,
-        40.0,
-        25.0,
-        0.005,
-        0.025,
-        0.1,
-    )
+    fs[R_GAIN], fs[R_LOOKAHEAD], fs[R_R_H] = 0.5, 40.0, 25.0
+    fs[R_T_RHO], fs[R_T_EPS], fs[R_T_BETA] = 0.005, 0.025, 0.1
     fol = np.zeros((1, F_SIZE))
     fol[0, F_X], fol[0, F_V], fol[0, F_SEND], fol[0, F_RHO_D] = -100.0, 30.0, 100.0, 100.0
-    path = (np.zeros(1), np.zeros((1, 3)), np.zeros(1), one, np.full(1, -1), np.full(1, 100.0))
     nan1 = np.full(1, math.nan)
+    path = (np.zeros(1), np.zeros((1, 3)), np.zeros(1), np.zeros(1), np.full(1, -1))
+    P = (fs, fol, np.full((1, 1), math.nan), *path, np.full(1, 100.0), nan1, nan1)
     ch = np.empty((64, 2, 1, 4))
-    args = ((fs, fol, np.full((1, 1), math.nan), *path, nan1, nan1),)
-    ns.rollout_changes(20.0, np.full(2, 240.0), *args, ch[0])
-    ns.plan_search(1.0, 1e12, 3.0, 8, 0.005, 240.0, *args, np.empty(64), ch)
-
-    ns.plan_decide(
-        1.0,
-        240.0,
-        1000.0,
-        3.0,
-        8,
-        0.005,
-        240.0,
-        *args,
-        np.empty(64),
-        np.zeros(64, dtype=np.int64),
-        ch,
-        np.empty((2, 1, 4)),
-        np.full(6, math.nan),
-    )
+    ns.rollout_changes(20.0, np.full(2, 240.0), P, ch[0])
+    bufs = (np.empty(64), np.zeros(64, dtype=np.int64), ch, np.empty((2, 1, 4)), np.empty(6))
+    for search_only in (True, False):
+        ns.plan_decide(search_only, 1.0, 240.0, 1e3, 3.0, 8, 0.005, 240.0, P, *bufs)
+    ns.rollout_warm = True

@@ -8,6 +8,7 @@ variations) are compared byte for byte: windows.csv, jobs.csv and the summary.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import subprocess
@@ -455,23 +456,65 @@ def test_compiled_plan_decision_bit_identical() -> None:
     ):
         st_py, st_co = _twin_states(name, windows, seed)
         for horizon in (1, 2, 3):
-            for margin in (0.0, 0.3, 0.8):
-                for cap in (237.0, 400.0, 1000.0):
-                    pol = PlanPolicy(windows=horizon, margin=margin)
-                    out = []
-                    for st in (st_py, st_co):
-                        ro = Rollout(st)
-                        ctx = PolicyInput((), st.v_ld, st.w_sch, st.thresholds, cap=cap, rollout=ro)
-                        out.append((pol.decide(ctx), ro))
-                    (d_py, ro_py), (d_co, ro_co) = out
-                    assert ro_co._compiled is not None and ro_py._compiled is None
-                    assert _bits(list(d_co)) == _bits(list(d_py)), (windows, horizon, margin, cap)
-                    assert set(ro_co._memo) | set(ro_co._raw) == set(ro_py._memo)
-                    assert ro_co.count == ro_py.count
-                    seen.add((d_py.method, d_py.w > st.w_sch))
+            for margin, cap, floor in itertools.product(
+                (0.0, 0.3, 0.8), (237.0, 400.0, 1000.0), (0.1, 0.0)
+            ):
+                pol = PlanPolicy(windows=horizon, margin=margin)
+                out = []
+                for st in (st_py, st_co):
+                    ro = Rollout(st)
+                    ctx = PolicyInput(
+                        (), st.v_ld, st.w_sch, st.thresholds, cap=cap, floor_frac=floor, rollout=ro
+                    )
+                    out.append((pol.decide(ctx), ro))
+                (d_py, ro_py), (d_co, ro_co) = out
+                assert ro_co._compiled is not None and ro_py._compiled is None
+                assert _bits(list(d_co)) == _bits(list(d_py)), (
+                    windows,
+                    horizon,
+                    margin,
+                    cap,
+                    floor,
+                )
+                assert set(ro_co._memo) | set(ro_co._raw) == set(ro_py._memo)
+                assert ro_co.count == ro_py.count
+                seen.add((d_py.method, d_py.w > st.w_sch))
         # compiled only where the policy's V_Ld and w_sch are the rollout's (else Python)
         ro = Rollout(st_co)
         assert ro.plan(st_co.v_ld, 1.0, 1.0, 1000.0, 3.0, 1, st_co.w_sch) is not None
         assert ro.plan(st_co.v_ld, 1.0, 1.0, 1000.0, 3.0, 1, 60.0) is None
         assert ro.plan(st_co.v_ld / 2, 1.0, 1.0, 1000.0, 3.0, 1, st_co.w_sch) is None
     assert {("none", True), ("numeric", False), ("best", False)} <= seen, seen  # every branch
+
+
+@needs_numba
+def test_plan_decision_rolls_out_an_unsearched_speed_in_python(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """When the kernel's search did not roll its chosen speed out (it reports feasibility
+    NaN: a zero floor kept as the least-bad speed), Rollout.plan rolls it out in Python:
+    the decision stays the Python policy's."""
+    from rtsim.control.policy import PlanPolicy, PolicyInput
+    from rtsim.control.rollout import Rollout
+    from rtsim.world.compiled import CompiledRollout
+
+    real = CompiledRollout._decide
+
+    def unsearched(self: Any, *a: Any) -> Any:
+        out, rows, ran = real(self, *a)
+        if out[2] == 0.0:  # V_Ld kept: nothing searched
+            return out, rows, ran
+        return (*out[:4], math.nan), rows, ran
+
+    monkeypatch.setattr(CompiledRollout, "_decide", unsearched)
+    st_py, st_co = _twin_states("test2", 100, 1)
+    searched = 0
+    for margin in (0.0, 0.3, 0.8):
+        pol = PlanPolicy(windows=2, margin=margin)
+        d = [
+            pol.decide(PolicyInput((), st.v_ld, st.w_sch, st.thresholds, rollout=Rollout(st)))
+            for st in (st_py, st_co)
+        ]
+        assert _bits(list(d[1])) == _bits(list(d[0])), margin
+        searched += d[0].method != "none"
+    assert searched  # the fallback ran
