@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from rtsim.world import kernels as K
 from rtsim.world.ekf import EkfParams, FastFollowerEKF
 from rtsim.world.follower import FollowerGroup, FollowerParams
 from rtsim.world.ftl import TraceFollower
@@ -141,6 +142,7 @@ class CompiledTraceFollower(TraceFollower):
         self._spacing = np.array(self.spacing, dtype=float)
         self._from_lists()
         self.fallbacks = 0  # commands handed back to Python
+        self._rollout_static: Any = None  # CompiledRollout's constant scalars, packed once
 
     def clone(self) -> CompiledTraceFollower:
         """A copy with its own search starts, compiled too (:meth:`TraceFollower.clone`)."""
@@ -246,52 +248,67 @@ class CompiledRollout:
     live law's, as the Python rollout clones it then)."""
 
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
-        from rtsim.world import kernels as K
-
         K.warm_rollout()  # once per process: before the first rollout, not in a window
         self._law = law
         self._ker = kernels()
         p, thr = state.params, state.thresholds
-        fs = [0.0] * K.R_SIZE  # a list first: one numpy call instead of one per item
-        fs[K.R_LAP] = law.path.lap_length
-        fs[K.R_LEADER_S] = state.leader_s
-        fs[K.R_LEADER_SPEED] = state.leader_speed
-        fs[K.R_V_LD] = state.v_ld
-        fs[K.R_ACCEL] = state.accel_max
-        fs[K.R_DECEL] = state.decel_max
-        fs[K.R_T_NOW] = state.t_now
-        fs[K.R_NEXT_SCAN] = state.next_scan
-        fs[K.R_MAX_ACCEL] = p.max_accel
-        fs[K.R_MAX_SPEED] = p.max_speed
-        fs[K.R_MAX_TURN] = p.max_turn_rate
-        fs[K.R_SPEED_NOISE] = p.speed_noise
-        fs[K.R_TURN_NOISE] = p.turn_noise
-        fs[K.R_STEP] = state.step_ms
-        fs[K.R_GAIN] = law.gain
-        fs[K.R_LOOKAHEAD] = law.lookahead
-        fs[K.R_R_H] = thr.r_H
-        fs[K.R_T_RHO] = thr.T_rho
-        fs[K.R_T_EPS] = thr.T_eps
-        fs[K.R_T_BETA] = thr.T_beta
-        fs[K.R_PREDICTED] = 1.0 if thr.localization == "predicted" else 0.0
-        fs[K.R_PREDICTED_MS] = thr.predicted_ms
-        n = len(state.poses)
-        # per follower, in F_* column order: x, y, θ, v, held v, held ω, send offset, ρ_d
-        fol = np.array(
+        # the scalars that stay from one decision to the next, packed once per law (they
+        # follow the five that change, kernels.R_*)
+        static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
+        cached = law._rollout_static
+        if cached is None or any(a is not b for a, b in zip(cached[0], static, strict=True)):
+            fs = np.zeros(K.R_SIZE)
+            fs[K.R_LAP] = law.path.lap_length
+            fs[K.R_ACCEL] = state.accel_max
+            fs[K.R_DECEL] = state.decel_max
+            fs[K.R_MAX_ACCEL] = p.max_accel
+            fs[K.R_MAX_SPEED] = p.max_speed
+            fs[K.R_MAX_TURN] = p.max_turn_rate
+            fs[K.R_SPEED_NOISE] = p.speed_noise
+            fs[K.R_TURN_NOISE] = p.turn_noise
+            fs[K.R_STEP] = state.step_ms
+            fs[K.R_GAIN] = law.gain
+            fs[K.R_LOOKAHEAD] = law.lookahead
+            fs[K.R_R_H] = thr.r_H
+            fs[K.R_T_RHO] = thr.T_rho
+            fs[K.R_T_EPS] = thr.T_eps
+            fs[K.R_T_BETA] = thr.T_beta
+            fs[K.R_PREDICTED] = 1.0 if thr.localization == "predicted" else 0.0
+            fs[K.R_PREDICTED_MS] = thr.predicted_ms
+            cached = law._rollout_static = (static, fs[K.R_LAP :].tolist(), {})
+        fs = np.array(
             [
-                (*state.poses[k], state.speeds[k], *state.held[k], state.send_offsets[k])
-                + (state.rho_d[k],)
-                for k in range(n)
+                state.leader_s,
+                state.leader_speed,
+                state.v_ld,
+                state.t_now,
+                state.next_scan,
+                *cached[1],
             ],
             dtype=float,
-        ).reshape(n, K.F_SIZE)
+        )
+        n = len(state.poses)
+        # per follower, in F_* column order: x, y, θ, v, held v, held ω, send offset, ρ_d (a
+        # flat list: numpy reads it much faster than nested tuples)
+        flat: list[float] = []
+        for k in range(n):
+            flat += state.poses[k]
+            flat.append(state.speeds[k])
+            flat += state.held[k]
+            flat.append(state.send_offsets[k])
+            flat.append(state.rho_d[k])
+        fol = np.array(flat, dtype=float).reshape(n, K.F_SIZE)
         width = max([1, *map(len, state.pending)])
-        pend = np.array(
-            [(*times, *(math.nan,) * (width - len(times))) for times in state.pending],
-            dtype=float,
-        ).reshape(n, width)
+        if width == 1 and not any(state.pending):  # no sends pending: one array per n, kept
+            pend = cached[2].get(n)
+            if pend is None:
+                pend = cached[2][n] = np.full((n, 1), math.nan)
+        else:
+            pend = np.full((n, width), math.nan)
+            for k, times in enumerate(state.pending):
+                pend[k, : len(times)] = times
         self._args = (
-            np.array(fs, dtype=float),
+            fs,
             fol,
             pend,
             law._s0,

@@ -539,14 +539,14 @@ def _rollout(
 
 #: indices of the scalars in a rollout's float pack (:meth:`CompiledTraceFollower.rollout_pack`)
 (
-    R_LAP,
-    R_LEADER_S,
+    R_LEADER_S,  # the five that change from one decision to the next come first
     R_LEADER_SPEED,
     R_V_LD,
-    R_ACCEL,
-    R_DECEL,
     R_T_NOW,
     R_NEXT_SCAN,
+    R_LAP,
+    R_ACCEL,
+    R_DECEL,
     R_MAX_ACCEL,
     R_MAX_SPEED,
     R_MAX_TURN,
