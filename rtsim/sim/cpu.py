@@ -535,7 +535,7 @@ class CPU:
             for st in self._states:
                 st.offset = st.task.offset + (jmax - st.jitter)
         for st in self._states:
-            st.next_release = self._t0 + st.offset
+            st.first = st.next_release = self._t0 + st.offset
             if st.next_release < end - EPS:
                 heapq.heappush(
                     self._timers,
@@ -548,7 +548,8 @@ class CPU:
         env = self.env
         timeout = env.timeout
         timers, ready = self._timers, self._ready
-        heappush, heappop = heapq.heappush, heapq.heappop
+        heappush, heappop, heapreplace = heapq.heappush, heapq.heappop, heapq.heapreplace
+        seqs = self._seq  # (next(seqs): job and timer sequence numbers)
         ovh = self.overhead
         plain = not self.record_trace and ovh == 0.0  # no trace, no overhead: book inline
         has_abort = any(st.policy == "abort" for st in self._states)
@@ -556,7 +557,7 @@ class CPU:
         # (only on the plain Environment: a RealtimeEnvironment must pace every step).
         jump = type(env) is simpy.Environment and isinstance(getattr(env, "_queue", None), list)
         queue: list[Any] = env._queue if jump else []  # type: ignore[attr-defined]
-        # Inline jobs of the top task (see _inline_top): only without trace, overhead and
+        # Inline jobs of the top task (module doc; step 3): only without trace, overhead and
         # aborts, and only when the clock can be moved without SimPy.
         inline_ok = plain and jump and not has_abort and not self._res_on
         res = self._res_on  # critical sections: the protocol's lock, unlock and dispatch
@@ -564,10 +565,20 @@ class CPU:
         preempts = self.policy.preempts
         by_key = self._by_key
         top_first = self.policy.top_task_first
-        deferred: tuple[Any, ...] | None = None
-        t0 = self._t0
+        record_jobs = self.record_jobs
+        # a job of the top task released at now (its k, release and seq) to book in step 3;
+        # still set after it when booked inline (the general dispatch is skipped)
+        top: _TaskState | None = None
+        top_k = top_seq = 0
+        top_r = 0.0
+        # the top task's latest response time booked inline, its histogram bin and counts
+        top_resp = math.nan
+        top_bin = 0
+        top_counts: dict[int, int] = {}
+        last_release = end - EPS  # (jobs are released in [t0, end): _release's test)
         running: Job | None = None
         last: Job | None = None
+        job: Job | None = None
         run_end = _INF
         # Compensated time (docs/time.md): the exact instant is now + now_lag, the exact end
         # of the running segment run_end + run_lag, its work started at work_start + work_lag.
@@ -582,8 +593,11 @@ class CPU:
             if now >= tol_next:  # the clock entered the next binade: a wider window
                 tol, tol_next = coincidence(now)
                 self._tol = tol
-            # 1. the running segment ends?
-            if running is not None and running.rem is not None and run_end <= now + tol:
+            limit = now + tol  # what is due by limit happens at now
+            # 1. the running segment ends? (run_end is finite only while a started segment
+            # runs: the tests of running and its rem are implied)
+            if run_end <= limit:
+                assert running is not None and running.rem is not None
                 if plain:
                     worked = now - work_start
                     running.executed += worked
@@ -608,30 +622,46 @@ class CPU:
                 run_end = _INF
                 work_lag = now_lag
             # 2. timers due
-            limit = now + tol
-            while timers and timers[0][0] <= limit:
-                entry = heappop(timers)
+            while timers and (t_next := timers[0][0]) <= limit:  # (then t_next: the next)
+                entry = timers[0]  # (popped below: a release's successor replaces it)
                 kind = entry[4]
                 if kind == _RELEASE:
                     st = entry[5]
-                    if st.fast_top and inline_ok and not st.pending:
-                        # _release's fast path, the Job itself deferred to the dispatch
+                    if st.fast_release:  # fixed period, finish-late, no hook, no jitter
                         k = st.k
                         st.k = k + 1
                         r = st.next_release
                         p = st.period
-                        nxt = t0 + st.offset + (k + 1) * p
-                        if nxt < end - EPS:
+                        nxt = st.first + (k + 1) * p
+                        if nxt < last_release:
                             st.next_release = nxt
-                            heappush(timers, (nxt, st.rank, st.priority, 0, _RELEASE, st))
+                            heapreplace(timers, (nxt, st.rank, st.priority, 0, _RELEASE, st))
+                        else:
+                            heappop(timers)
                         stats = st.stats
                         stats.released += 1
-                        if stats.max_backlog < 1:
-                            stats.max_backlog = 1
-                        deferred = (st, k, r, p, next(self._seq))
+                        pending = st.pending
+                        if st.fast_top and inline_ok and not pending:  # its Job: see 3.
+                            if stats.max_backlog < 1:
+                                stats.max_backlog = 1
+                            top = st
+                            top_k = k
+                            top_r = r
+                            top_seq = next(seqs)
+                            continue
+                        job = Job(st, k, r, r + st.deadline, p, next(seqs))
+                        pending.append(job)
+                        n = len(pending)
+                        if n > stats.max_backlog:
+                            stats.max_backlog = n
+                        if n == 1:
+                            heappush(ready, (job.key, job.tie, job))
                     else:
+                        heappop(timers)
                         self._release(st, now, end)
-                elif kind == _RESUME:
+                    continue
+                heappop(timers)
+                if kind == _RESUME:
                     job = entry[5]
                     if not job.aborted:
                         self._resume(job, now)
@@ -646,9 +676,8 @@ class CPU:
                             running, run_end = None, _INF
                         self._abort(job, now)
             # 3. dispatch
-            if deferred is not None:
-                st, k, r, p, seq = deferred
-                deferred = None
+            if top is not None:
+                st = top
                 # The top task's job gets the CPU now (under fp always; under another policy
                 # if it comes first in the ready order and preempts the running job) and runs
                 # uninterrupted to f = now + c.
@@ -656,15 +685,14 @@ class CPU:
                 # that gets the CPU at f has already started its segment (so no hook runs at
                 # f), do both instants here with the same float operations, in the same
                 # order, as the dispatch at now and the completion at f would.
-                c = st.fast_start
-                x = c + now_lag
+                x = st.fast_start + now_lag  # type: ignore[operator]
                 f = now + x
                 y = f - now
                 f_lag = (now - (f - y)) + (x - y)
                 job = None
                 wins = True
                 if not top_first:
-                    job = Job(st, k, r, r + st.deadline, p, seq)
+                    job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
                     jk = job.key
                     wins = (running is None or jk < running.key) and (
                         not ready
@@ -675,16 +703,18 @@ class CPU:
                 from_ready = False
                 if ready and (
                     running is None
-                    or ready[0][0] < running.key
-                    or (ready[0][0] == running.key and ready[0][1] < running.tie)
+                    or (  # (key, tie) < running's, the common "key greater" case first
+                        ready[0][0] <= running.key
+                        and (ready[0][0] < running.key or ready[0][1] < running.tie)
+                    )
                 ):
                     nxt_job = ready[0][2]
                     from_ready = True
                 if (
                     wins
-                    and f > now + tol
+                    and f > limit
                     and timers
-                    and timers[0][0] > f + tol
+                    and t_next > f + tol
                     and (not queue or queue[0][0] > f)
                     and (nxt_job is None or nxt_job.rem is not None)
                 ):
@@ -699,33 +729,94 @@ class CPU:
                             heappush(ready, (running.key, running.tie, running))
                     if from_ready:
                         heappop(ready)
-                    self._switches += 1
-                    self._inline_top(st, k, r, p, now, f)
-                    env._now = now = f  # the clock moves to f, as the wait would
+                    # its completion at f: the booking of step 1 and _complete, without a Job
+                    self._busy += f - now
+                    stats = st.stats
+                    resp = f - top_r
+                    stats.completed += 1
+                    stats.sum_response += resp
+                    if stats.max_response is None or resp > stats.max_response:
+                        stats.max_response = resp
+                    deadline = top_r + st.deadline
+                    if f > deadline + tol:
+                        stats.misses += 1
+                    if resp == top_resp:  # (nearly always: its bin, counted before, exists)
+                        top_counts[top_bin] += 1
+                    else:
+                        hist = stats.histogram
+                        if hist is None:
+                            width = self.hist_bin or (deadline - top_r) / 100.0
+                            hist = stats.histogram = ResponseHistogram(width)
+                        top_resp = resp
+                        top_bin = int(resp / hist.bin_width)
+                        top_counts = hist.counts
+                        top_counts[top_bin] = top_counts.get(top_bin, 0) + 1
+                    if record_jobs:
+                        self._top_record(st, top_k, top_r, now, f, f > deadline + tol)
+                    # the clock moves to f, as the wait would (tol is renewed at the loop's top:
+                    # nothing below uses it before)
+                    env._now = now = f
                     now_lag = work_lag = f_lag
-                    if now >= tol_next:
-                        tol, tol_next = coincidence(now)
-                        self._tol = tol
                     piece_start = work_start = f
-                    if nxt_job is not None:  # it gets the CPU at f
-                        self._switches += 1
+                    if nxt_job is not None:  # it gets the CPU at f: a second switch
+                        self._switches += 2
                         x = nxt_job.rem + f_lag  # type: ignore[operator]
                         run_end = f + x
                         y = run_end - f
                         run_lag = (f - (run_end - y)) + (x - y)
                     else:
+                        self._switches += 1
                         run_end = _INF
                     running = last = nxt_job
                 else:
+                    top = None  # (not booked: the general dispatch below)
                     if job is None:
-                        job = Job(st, k, r, r + st.deadline, p, seq)
+                        job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
                     st.pending.append(job)
                     heappush(ready, (job.key, job.tie, job))
-            if res:  # the resource protocol picks (module doc: Shared resources)
-                # (the switch below repeats the one for runs without sections on purpose:
-                # folding them together costs runs without sections 3-4 % in bench_sim)
-                cand = self._res_pick(running, now)
-                if cand is not None:
+            if top is not None:  # a job of the top task booked inline: the instant is settled
+                top = None
+            else:
+                if res:  # the resource protocol picks (module doc: Shared resources)
+                    # (the switch below repeats the one for runs without sections on purpose:
+                    # folding them together costs runs without sections 3-4 % in bench_sim)
+                    cand = self._res_pick(running, now)
+                    if cand is not None:
+                        if running is not None:
+                            if running.rem is not None:
+                                self._close_piece(running, piece_start, work_start, now, done=False)
+                                if now > work_start:
+                                    running.rem -= now_lag - work_lag
+                            running.preemptions += 1
+                            heappush(ready, (running.key, running.tie, running))
+                        running = cand
+                        piece_start = work_start = now
+                        work_lag = now_lag
+                        if running is not last:
+                            self._switches += 1
+                            last = running
+                            work_start = now + ovh
+                        if running.rem is not None:
+                            x = running.rem + work_lag
+                            run_end = work_start + x
+                            y = run_end - work_start
+                            run_lag = (work_start - (run_end - y)) + (x - y)
+                    if (
+                        running is not None
+                        and running.rem is None
+                        and running._st.res[running.seg_index] is not None
+                    ):
+                        self._lock(running)
+                while has_abort and ready and ready[0][2].aborted:
+                    heappop(ready)
+                if (
+                    not res
+                    and ready
+                    and (
+                        running is None
+                        or (ready[0][0] < running.key if by_key else preempts(ready[0][0], running))
+                    )
+                ):
                     if running is not None:
                         if running.rem is not None:
                             self._close_piece(running, piece_start, work_start, now, done=False)
@@ -733,7 +824,7 @@ class CPU:
                                 running.rem -= now_lag - work_lag
                         running.preemptions += 1
                         heappush(ready, (running.key, running.tie, running))
-                    running = cand
+                    running = heappop(ready)[2]
                     piece_start = work_start = now
                     work_lag = now_lag
                     if running is not last:
@@ -745,61 +836,26 @@ class CPU:
                         run_end = work_start + x
                         y = run_end - work_start
                         run_lag = (work_start - (run_end - y)) + (x - y)
-                if (
-                    running is not None
-                    and running.rem is None
-                    and running._st.res[running.seg_index] is not None
-                ):
-                    self._lock(running)
-            while has_abort and ready and ready[0][2].aborted:
-                heappop(ready)
-            if (
-                not res
-                and ready
-                and (
-                    running is None
-                    or (ready[0][0] < running.key if by_key else preempts(ready[0][0], running))
-                )
-            ):
-                if running is not None:
-                    if running.rem is not None:
-                        self._close_piece(running, piece_start, work_start, now, done=False)
-                        if now > work_start:
-                            running.rem -= now_lag - work_lag
-                    running.preemptions += 1
-                    heappush(ready, (running.key, running.tie, running))
-                running = heappop(ready)[2]
-                piece_start = work_start = now
-                work_lag = now_lag
-                if running is not last:
-                    self._switches += 1
-                    last = running
-                    work_start = now + ovh
-                if running.rem is not None:
-                    x = running.rem + work_lag
+                if running is not None and running.rem is None:
+                    c = running._st.seg_const[running.seg_index]
+                    if c is not None:  # _start_segment without a hook or an exec-time call
+                        if running.start is None:
+                            running.start = now
+                        running.seg_start = now
+                        running.seg_exec = running.rem = c
+                    else:
+                        self._start_segment(running, now)
+                    x = running.rem + work_lag  # type: ignore[operator]
                     run_end = work_start + x
                     y = run_end - work_start
                     run_lag = (work_start - (run_end - y)) + (x - y)
-            if running is not None and running.rem is None:
-                c = running._st.seg_const[running.seg_index]
-                if c is not None:  # _start_segment without a hook or an exec-time call
-                    if running.start is None:
-                        running.start = now
-                    running.seg_start = now
-                    running.seg_exec = running.rem = c
-                else:
-                    self._start_segment(running, now)
-                x = running.rem + work_lag  # type: ignore[operator]
-                run_end = work_start + x
-                y = run_end - work_start
-                run_lag = (work_start - (run_end - y)) + (x - y)
-                if run_end <= now + tol:
-                    continue
+                    if run_end <= limit:
+                        continue
             # 4. wait
-            target = run_end if running is not None else _INF
+            target = run_end  # (_INF when nothing runs)
             now_lag = run_lag
-            if timers and timers[0][0] < target:
-                target = timers[0][0]
+            if timers and (t_next := timers[0][0]) < target:
+                target = t_next
                 now_lag = 0.0
             if target == _INF:
                 self._end_time = now
@@ -914,26 +970,7 @@ class CPU:
         heapq.heappush(self._ready, (job.key, job.tie, job))
 
     def _release(self, st: _TaskState, now: float, end: float) -> None:
-        if st.fast_release:  # the common case, inlined
-            k = st.k
-            st.k = k + 1
-            r = st.next_release
-            p = st.period
-            nxt = self._t0 + st.offset + (k + 1) * p
-            if nxt < end - EPS:
-                st.next_release = nxt
-                heapq.heappush(self._timers, (nxt, st.rank, st.priority, 0, _RELEASE, st))
-            job = Job(st, k, r, r + st.deadline, p, next(self._seq))
-            pending = st.pending
-            pending.append(job)
-            stats = st.stats
-            stats.released += 1
-            n = len(pending)
-            if n > stats.max_backlog:
-                stats.max_backlog = n
-            if n == 1:
-                heapq.heappush(self._ready, (job.key, job.tie, job))
-            return
+        """Release job k of ``st`` (a task without ``fast_release``: the dispatcher does those)."""
         k = st.k
         st.k = k + 1
         r = st.next_release
@@ -957,7 +994,7 @@ class CPU:
             nxt = self._stream_next(st, k, r, p)
         else:
             p, d = st.period, st.deadline
-            nxt = self._t0 + st.offset + (k + 1) * p
+            nxt = st.first + (k + 1) * p
         if st.is_window:
             self._w = p
         if nxt < end - EPS:
@@ -1047,51 +1084,29 @@ class CPU:
         if st.pending and st.pending[0] is job:
             self._eligible(job, now)
 
-    def _inline_top(
-        self, st: _TaskState, k: int, r: float, p: float, start: float, f: float
+    def _top_record(
+        self, st: _TaskState, k: int, r: float, start: float, f: float, missed: bool
     ) -> None:
-        """Book job ``k`` of the top task, run alone from ``start`` to ``f``, without a Job.
-
-        The same float operations as the dispatcher's booking at f and :meth:`_complete`.
-        """
-        worked = f - start
-        self._busy += worked
-        stats = st.stats
-        resp = f - r
-        stats.completed += 1
-        stats.sum_response += resp
-        if stats.max_response is None or resp > stats.max_response:
-            stats.max_response = resp
-        deadline = r + st.deadline
-        missed = f > deadline + self._tol
-        if missed:
-            stats.misses += 1
-        hist = stats.histogram
-        if hist is None:
-            width = self.hist_bin or (deadline - r) / 100.0
-            hist = stats.histogram = ResponseHistogram(width)
-        i = int(resp / hist.bin_width)
-        counts = hist.counts
-        counts[i] = counts.get(i, 0) + 1
-        if self.record_jobs:
-            self._job_rows.append(
-                (
-                    st.name,
-                    k,
-                    r,
-                    start,
-                    f,
-                    resp,
-                    deadline,
-                    p,
-                    missed,
-                    0,
-                    False,
-                    False,
-                    0.0 + worked,
-                    r,
-                )
+        """The job record of job ``k`` of the top task, booked inline (run from ``start`` to
+        ``f``): the same floats as :meth:`_record` of its Job."""
+        self._job_rows.append(
+            (
+                st.name,
+                k,
+                r,
+                start,
+                f,
+                f - r,
+                r + st.deadline,
+                st.period,
+                missed,
+                0,
+                False,
+                False,
+                0.0 + (f - start),
+                r,
             )
+        )
 
     def _record(self, job: Job, missed: bool) -> None:
         resp = math.nan if job.finish is None else job.finish - job.arrival

@@ -126,6 +126,7 @@ class _TaskState:
         "is_window",
         "rank",
         "k",
+        "first",
         "next_release",
         "pending",
         "stats",
@@ -166,6 +167,7 @@ class _TaskState:
         self.is_window = is_window
         self.rank = _RELEASE_W if is_window else _RELEASE
         self.k = 0
+        self.first = task.offset  # the first arrival, t0 + offset (CPU.start)
         self.next_release = task.offset
         self.pending: deque[Job] = deque()
         self.stats = TaskStats(task.name, task.priority)

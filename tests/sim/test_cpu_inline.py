@@ -225,13 +225,13 @@ def test_inline_top_jobs_are_unobservable_under_edf(spec: Spec) -> None:
 
 def test_inline_path_is_taken_and_exact(monkeypatch: pytest.MonkeyPatch) -> None:
     calls = []
-    orig = CPU._inline_top
+    orig = CPU._top_record  # called once per job booked inline (run() records the jobs)
 
     def counting(self, *args):  # noqa: ANN001, ANN202
         calls.append(args)
         return orig(self, *args)
 
-    monkeypatch.setattr(CPU, "_inline_top", counting)
+    monkeypatch.setattr(CPU, "_top_record", counting)
     # the paper's set at w = 240: dead reckoning (5, 40) above the window chain, T_lp below
     spec = Spec(
         Task("top", 5.0, 40.0, priority=1),
