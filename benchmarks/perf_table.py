@@ -7,8 +7,8 @@ Runs ``bench_cli.py`` (the CLI's loop with its outputs, one simulated hour of Te
 ``bench_scenario.py``'s loop alone (the same hour without output files, per world backend),
 ``bench_sweep_point.py`` (one lap of Test 2 as a warm sweep point), ``bench_sim.py`` (the
 scheduler against a bare heap loop) and times ``rtsim reproduce --out DIR``; prints the
-table, and with ``--write`` puts it between the markers of docs/performance.md (the text
-around them is kept).
+table, and with ``--write`` puts it between the markers of docs/performance.md and of
+README.md (the text around them is kept).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from _machine import print_machine
 
 HERE = Path(__file__).resolve().parent
 DOC = HERE.parent / "docs" / "performance.md"
+README = HERE.parent / "README.md"
 START, END = "<!-- perf-table:start -->", "<!-- perf-table:end -->"
 
 
@@ -132,18 +133,19 @@ def main(argv: list[str] | None = None) -> int:
     text = table(cli, alone, point, sim, repro, m)
     print(text)
     if args.write:
-        doc = DOC.read_text(encoding="utf-8")
-        new, count = re.subn(
-            re.escape(START) + ".*?" + re.escape(END),
-            lambda _: f"{START}\n{text}\n{END}",
-            doc,
-            flags=re.S,
-        )
-        if count != 1:
-            print(f"{DOC}: the markers {START} ... {END} were not found", file=sys.stderr)
-            return 2
-        DOC.write_text(new, encoding="utf-8")
-        print(f"wrote {DOC}")
+        for path in (DOC, README):
+            doc = path.read_text(encoding="utf-8")
+            new, count = re.subn(
+                re.escape(START) + ".*?" + re.escape(END),
+                lambda _: f"{START}\n{text}\n{END}",
+                doc,
+                flags=re.S,
+            )
+            if count != 1:
+                print(f"{path}: the markers {START} ... {END} were not found", file=sys.stderr)
+                return 2
+            path.write_text(new, encoding="utf-8")
+            print(f"wrote {path}")
     return 0
 
 
