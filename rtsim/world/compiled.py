@@ -9,17 +9,24 @@ Python ones (tests run both paths and compare whole runs):
 - :class:`CompiledFollowerEKF`: the EKF's predict and update (:class:`FastFollowerEKF`'s
   float algebra);
 - :class:`CompiledTraceFollower`: the follow-the-leader reference search, projection and
-  control law (:class:`TraceFollower.command`) in one call per command.
+  control law (:class:`TraceFollower.command`) in one call per command, and the projection
+  alone (:meth:`TraceFollower.project`, the truth log's cross-track error);
+- :class:`CompiledRollout`: the leader's command-aware rollout
+  (:class:`rtsim.control.rollout.Rollout`) whole in one call per rollout, and the ``plan``
+  policy's decision or the ``commands`` speed search in one call per decision (its rollouts
+  handed back for the rollout's memo, as the Python policy leaves them there).
 
 Only the operations whose compiled result is the interpreter's are compiled: + − × ÷,
 ``sqrt``, ``sin``, ``cos``, ``atan2``, ``abs``, ``copysign`` and ``%`` (numba calls the same C
 library for the functions and follows Python's rules for ``%``). CPython computes
 ``math.hypot`` with an algorithm of its own; the kernels carry that algorithm
 (:func:`rtsim.world.kernels._hypot`), checked against ``math.hypot`` when they load — where
-this interpreter disagrees, the controller and the rollout run in Python instead.
+this interpreter disagrees, the controller and the rollout run in Python instead; numba has
+no ``math.remainder``, and the kernels carry CPython's (exact, with fmod).
 
 numba is imported on first use (:func:`available`); kernels are compiled once per machine
-and cached on disk (``cache=True``), so a later process loads them in milliseconds.
+and cached on disk (``cache=True``), so a later process loads them in milliseconds (the
+rollout's only when a run first rolls out: :func:`rtsim.world.kernels.warm_rollout`).
 """
 
 from __future__ import annotations

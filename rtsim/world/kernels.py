@@ -537,7 +537,7 @@ def _rollout(
 # (rtsim.control.rollout.Rollout and rtsim.control.policy.PlanPolicy; kept in this file so
 # that numba's cache, which tracks only the calling kernel's own file, sees every change)
 
-#: indices of the scalars in a rollout's float pack (:meth:`CompiledTraceFollower.rollout_pack`)
+#: indices of the scalars in a rollout's float pack (built by compiled.CompiledRollout)
 (
     R_LEADER_S,  # the five that change from one decision to the next come first
     R_LEADER_SPEED,
