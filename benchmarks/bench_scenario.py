@@ -9,8 +9,9 @@ Runs ``rtsim scenario experiments/scenarios/test2.toml --duration D --out DIR`` 
 end-to-end time (``timing.total_s``). ``--profile`` runs the loop under cProfile instead and
 prints the 25 most expensive functions (no output files).
 
-``--mode``: the adjustment policy (default: the scenario file's own, ``plan`` for Test 2 — what
-a user runs; ``adjust`` is the paper's algorithm, this benchmark's default before 2026-11-26).
+``--mode``: the adjustment policy, any registered one (passed as ``--policy``; default: the
+scenario file's own, ``plan`` for Test 2 — what a user runs; ``adjust`` is the paper's
+algorithm, this benchmark's default before 2026-11-26).
 
 Then, for each world backend of ``--backends`` (``[world] backend``: ``compiled``, the default
 where numba is installed; ``python``, the reference; ``filterpy``), it runs the
@@ -65,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_scenario_"))
     t0 = time.perf_counter()
-    mode = [] if args.mode is None else ["--mode", args.mode]
+    mode = [] if args.mode is None else ["--policy", args.mode]
     rc = rtsim_main(
         [
             "scenario",
