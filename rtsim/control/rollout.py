@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
+from rtsim.control.predict import min_bound_rows
 from rtsim.world.compiled import as_changes
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
 from rtsim.world.ftl import TraceFollower
@@ -63,16 +64,6 @@ __all__ = ["Rollout", "RolloutState", "Changes"]
 Changes = tuple[float, float, float, float]
 
 _TWO_PI = 2.0 * math.pi
-
-
-def _smallest(rows: Sequence[Sequence[float]]) -> float:
-    """The smallest bound of ``rows`` as min_bound_rows picks it (NaN never smallest)."""
-    best = math.inf
-    for row in rows:
-        for b in row:
-            if b < best:
-                best = b
-    return best
 
 
 @dataclass(frozen=True)
@@ -189,12 +180,11 @@ class Rollout:
             return None
         from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
 
-        v, numeric, found, speeds, changes = self._compiled.search(
-            keep, need, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w
+        out, _, ran = self._compiled.decide(
+            True, keep, need, 0.0, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w
         )
-        lengths = (float(w),) * windows
-        self._remember([(s, lengths, changes[r]) for r, s in enumerate(speeds)])
-        return v, "numeric" if numeric else "best", found
+        self._remember(ran)
+        return out[1], "numeric" if out[2] == 1.0 else "best", out[3]
 
     def plan(
         self,
@@ -216,8 +206,8 @@ class Rollout:
             return None
         from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
 
-        out, rows, ran = self._compiled.plan(
-            keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w
+        out, rows, ran = self._compiled.decide(
+            False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w
         )
         self._remember(ran)
         w_out, v_l, method, found, feasible = out
@@ -226,7 +216,7 @@ class Rollout:
         if math.isnan(feasible):  # the search did not roll the chosen speed out: here
             after = self.rows(v_l)
             horizon = self.changes(v_l, (w,) * windows)
-            worst = min(_smallest(self.bounds(c, w)) for c in horizon)
+            worst = min(min_bound_rows(self.bounds(c, w))[0] for c in horizon)
             feasible = 1.0 if keep * worst >= need else 0.0
         return (
             w_out,

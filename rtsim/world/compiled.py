@@ -338,40 +338,7 @@ class CompiledRollout:
         self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
         return as_changes(out)
 
-    def search(
-        self,
-        keep: float,
-        need: float,
-        v_floor: float,
-        grid: int,
-        tol: float,
-        windows: int,
-        w: float,
-    ) -> tuple[float, bool, float, list[float], list[Any]]:
-        """:func:`rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
-        ``windows`` windows of ``w`` ms) in one call: (speed, numeric?, found or NaN, the
-        speeds rolled out, their changes as arrays [window, follower, change])."""
-        out, _, ran = self._decide(True, keep, need, 0.0, v_floor, grid, tol, windows, w)
-        return out[1], out[2] == 1.0, out[3], [v for v, _, _ in ran], [c for _, _, c in ran]
-
-    def plan(
-        self,
-        keep: float,
-        need: float,
-        cap: float,
-        v_floor: float,
-        grid: int,
-        tol: float,
-        windows: int,
-        w: float,
-    ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
-        """:class:`~rtsim.control.policy.PlanPolicy`'s decision in one call
-        (:func:`rtsim.world.kernels._plan_decide`): ((w, V_L, method code, found, feasible),
-        the rows at V_Ld and at V_L as an array [2, follower, kind], and the rollouts it ran
-        as (speed, window lengths, changes [window, follower, change]) for the memo)."""
-        return self._decide(False, keep, need, cap, v_floor, grid, tol, windows, w)
-
-    def _decide(
+    def decide(
         self,
         search_only: bool,
         keep: float,
@@ -383,7 +350,12 @@ class CompiledRollout:
         windows: int,
         w: float,
     ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
-        """:func:`rtsim.world.kernels._plan_decide` on fresh buffers, its rollouts listed."""
+        """:class:`~rtsim.control.policy.PlanPolicy`'s decision, or with ``search_only``
+        :func:`rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
+        ``windows`` windows of ``w`` ms), in one call (:func:`rtsim.world.kernels.
+        _plan_decide`, on fresh buffers): ((w, V_L, method code, found, feasible), the rows
+        at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
+        lengths, changes [window, follower, change]) for the rollout's memo)."""
         speeds = np.empty(_SEARCH_RUNS)
         lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
         changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 4))

@@ -760,11 +760,15 @@ def _rollout_worst(
     ``w`` ms (Python's ``min`` over the windows: the first, then any smaller); the changes
     are left in ``ch``."""
     fs, fol = P[0], P[1]
-    windows = ch.shape[0]
-    lengths = np.full(windows, w)
-    _rollout_changes(v, lengths, P, ch)
-    worst = _min_bound(ch[0], fs, fol, w)
-    for j in range(1, windows):
+    _rollout_changes(v, np.full(ch.shape[0], w), P, ch)
+    return _worst_after(ch, fs, fol, w, _min_bound(ch[0], fs, fol, w))
+
+
+def _worst_after(ch: Any, fs: Any, fol: Any, w: float, first: float) -> float:
+    """Python's ``min`` over windows: ``first`` (window 0's smallest bound), then any window
+    of ``ch`` after it with a smaller one."""
+    worst = first
+    for j in range(1, ch.shape[0]):
         mj = _min_bound(ch[j], fs, fol, w)
         if mj < worst:
             worst = mj
@@ -871,7 +875,6 @@ def _plan_decide(
     """
     fs, fol = P[0], P[1]
     v_ld = fs[R_V_LD]
-    windows = changes.shape[1]
     res = np.empty(4)
     if search_only:
         runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 0, res)
@@ -888,9 +891,7 @@ def _plan_decide(
         runs = 1
         if ww > w:  # the longer first window, checked by its own rollout
             speeds[1], lens[1] = v_ld, 2
-            one = changes[1, 0:1]
-            _rollout_changes(v_ld, np.full(1, ww), P, one)
-            m_w = _min_bound(one[0], fs, fol, ww)
+            m_w = _rollout_worst(v_ld, ww, P, changes[1, 0:1])
             runs = 2
             out[5] = ww
             if keep * m_w < ww:
@@ -907,12 +908,7 @@ def _plan_decide(
     if r_l < 0:  # the speed was not rolled out (a zero floor): the caller rolls it out
         return runs
     lens[r_l] = 1
-    _rows(changes[r_l, 0], fs, fol, w, rows[1])
-    m_l = _min_bound(changes[r_l, 0], fs, fol, w)
-    for j in range(1, windows):
-        mj = _min_bound(changes[r_l, j], fs, fol, w)
-        if mj < m_l:
-            m_l = mj
+    m_l = _worst_after(changes[r_l], fs, fol, w, _rows(changes[r_l, 0], fs, fol, w, rows[1]))
     out[4] = 1.0 if keep * m_l >= need else 0.0
     return runs
 
@@ -951,6 +947,7 @@ def kernels() -> Any:
             "_bound",
             "_rows",
             "_min_bound",
+            "_worst_after",
         ):
             glob[name] = jit(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
         # inlined into _plan_decide by numba, not compiled on their own: each compiled level

@@ -498,7 +498,7 @@ def test_plan_decision_rolls_out_an_unsearched_speed_in_python(
     from rtsim.control.rollout import Rollout
     from rtsim.world.compiled import CompiledRollout
 
-    real = CompiledRollout._decide
+    real = CompiledRollout.decide
 
     def unsearched(self: Any, *a: Any) -> Any:
         out, rows, ran = real(self, *a)
@@ -506,7 +506,7 @@ def test_plan_decision_rolls_out_an_unsearched_speed_in_python(
             return out, rows, ran
         return (*out[:4], math.nan), rows, ran
 
-    monkeypatch.setattr(CompiledRollout, "_decide", unsearched)
+    monkeypatch.setattr(CompiledRollout, "decide", unsearched)
     st_py, st_co = _twin_states("test2", 100, 1)
     searched = 0
     for margin in (0.0, 0.3, 0.8):
