@@ -43,6 +43,7 @@ from rtsim.world.config import (
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import (
+    DEFAULT_CLEARANCE,
     FOLLOWER_MODELS,
     FORMATION_LAYOUTS,
     Formation,
@@ -50,6 +51,7 @@ from rtsim.world.formation import (
     follower_model,
     outer_side,
 )
+from rtsim.world.ideal import START_ON, check_clearance, settled_start
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
 __all__ = [
@@ -307,6 +309,7 @@ class LeaderModel(Table):
             "a position along the path (within one lap, checked against the path's length)",
         ),
     ] = 0.0
+    start_on: Annotated[str, choice(START_ON)] = "straight"
     accel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
     decel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
     path: list[SegmentModel] | None = Field(default=None, min_length=1)
@@ -338,6 +341,9 @@ class FormationModel(_Angles):
     bearing_offset_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle", deg=True)] | None = (
         None
     )
+    clearance: Annotated[
+        float, number(0, 1000, "cm", "the least gap between two robots' discs, at most 10 m")
+    ] = DEFAULT_CLEARANCE
     slot: list[SlotModel] | None = Field(default=None, min_length=1)
 
     @model_validator(mode="after")
@@ -624,15 +630,23 @@ def _formation(f: FormationModel, r_F: float, path: LeaderPath) -> Formation:
     if f.slot is not None:
         rho = tuple(s.rho_d for s in f.slot)
         beta = tuple(s.radians("beta_d") for s in f.slot)
-        return Formation(rho, beta, f.model)
+        return Formation(rho, beta, f.model, f.clearance)
     offset = f.radians("bearing_offset", math.radians(15))
     assert f.followers is not None and f.separation is not None  # (the model's rule)
     if f.layout == "fan":
         segs = path.segments
         outer = outer_side([g.curvature for g in segs], [g.length for g in segs])
-        return fan(f.followers, f.separation, offset, r_F=r_F, outer=outer, model=f.model)
+        return fan(
+            f.followers,
+            f.separation,
+            offset,
+            r_F=r_F,
+            outer=outer,
+            model=f.model,
+            clearance=f.clearance,
+        )
     place = follower_model(f.model, "formation.model").place
-    return place(f.followers, f.separation, offset, r_F=r_F)
+    return replace(place(f.followers, f.separation, offset, r_F=r_F), clearance=f.clearance)
 
 
 def _build_scenario(
@@ -763,6 +777,10 @@ def _build_scenario(
     if world is None:
         return None
     errors += _sense(world, src)
+    if not errors:
+        errors += _fits_path(world, m.leader.start_on, src)
+        if not errors:
+            world = replace(world, start_s=_start(world, m.leader.start_on))
     duration = (
         float(m.duration) if m.duration is not None else float(math.ceil(path.lap_time(speed)))
     )
@@ -805,6 +823,29 @@ def _predicted_bound(
         turn_sd=follower.turn_noise,
         v_max=follower.max_speed,
     )
+
+
+def _start(world: WorldConfig, start_on: str) -> float:
+    """The leader's initial arc length: ``leader.start_s``, moved forward onto the first
+    straight that holds the whole group settled with ``start_on = "straight"``
+    (:func:`rtsim.world.ideal.settled_start`)."""
+    if start_on == "given":
+        return world.start_s
+    return settled_start(world.path, world.formation, world.follower.radius, world.start_s)
+
+
+def _fits_path(world: WorldConfig, start_on: str, src: str) -> list[str]:
+    """A formation that cannot fit its path: the settled start has no straight long enough,
+    or (follow-the-leader) two robots would come closer than 2·r_F + clearance over a lap
+    without error, or an offset trace folds inside a turn
+    (:func:`rtsim.world.ideal.check_clearance`): one line each, before the run."""
+    try:
+        start = _start(world, start_on)
+        if follower_model(world.formation.model).on_trace:
+            check_clearance(world.path, world.formation, world.follower.radius, start)
+    except ScenarioError as exc:
+        return [f"{src}: {exc}"]
+    return []
 
 
 def _sense(world: WorldConfig, src: str) -> list[str]:

@@ -67,6 +67,7 @@ from rtsim._numbers import is_int, is_real
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
+from rtsim.control.oracle import lap_oracle
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
@@ -272,7 +273,13 @@ class _Coupling:
             opts["predictor"] = PaperSearch()
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
-        self.phys = PhysicalLog(self.n, self.rho_d, cfg.follower.radius, self.world.follow_law)
+        self.phys = PhysicalLog(
+            self.n,
+            self.rho_d,
+            cfg.follower.radius,
+            self.world.follow_law,
+            clearance=cfg.formation.clearance,
+        )
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
         self.v_ld = cfg.leader_speed
         self.env = simpy.Environment()
@@ -879,6 +886,12 @@ def run_scenario(
             f"its lap"
         )
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
+    # the fastest lap that keeps every bound, offline (rtsim.control.oracle; cached)
+    oracle = lap_oracle(cfg, run.w_sch)
+    extra["lap_oracle_s"] = oracle
+    extra["lap_over_oracle"] = (
+        None if oracle is None or run.lap_ms is None else run.lap_ms / 1000.0 / oracle
+    )
     world.followers.advance_all(world.t_ms, cfg.step_ms)
     extra.update(run.phys.summary(world.leader.s - run._s0, list(world.followers.odometer)))
     summary = summarize(

@@ -11,6 +11,10 @@ by cause, searches, re-acquisitions); summary.json without the keys added since
 cause: ``NEW_KEYS``). Re-pinned for exact time (docs/time.md): window releases from the
 stream's start and compensated segment ends move floats by an ulp (the world's values follow,
 relative ≤ 3e-10); row counts, flags and verdicts are unchanged.
+
+The settled start (``[leader] start_on``, default ``"straight"``, issue 33) moves the leader's
+start onto a straight: the pin files name the old setting, ``start_on = "given"``, so the
+digests stay those of the old start.
 """
 
 from __future__ import annotations
@@ -51,6 +55,10 @@ NEW_KEYS = (
     "tracks_lost_by_cause",
     "searches",
     "reacquisitions",
+    "clearance_cm",
+    "clearance_violations",
+    "lap_oracle_s",
+    "lap_over_oracle",
 )
 
 

@@ -41,6 +41,7 @@ EPS = 1e-9
 #: The world these by-hand tests were written for: l-ψ chevron, leader speed steps.
 LPSI = {
     "formation.model": "l-psi",
+    "leader.start_on": "given",  # the start as these tests were written (not settled)
     "leader.accel_max": math.inf,
     "leader.decel_max": math.inf,
     # the paper's localization (window at the previous position, Eq 19, every lost
