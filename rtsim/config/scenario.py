@@ -70,7 +70,7 @@ PACKAGED_TASKSETS = ("barrel_robots", "example")
 #: When in its window the adjustment decides: after the radio round trip, or before sending.
 DECIDE: tuple[str, ...] = ("end", "before-send")
 #: The common keys of ``[adjust]`` (the rest are the policy's own).
-_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide")
+_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide", "paper_predictor")
 #: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
 PACKAGED_SCENARIOS = ("test1", "test2")
 
@@ -89,7 +89,9 @@ class AdjustConfig:
     names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
     ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle) or ``w_edf``
     (the EDF demand criterion; needs ``[scheduler] policy = "edf"``); decide: when in its
-    window the decision is taken, ``end`` (after the radio round trip) or ``before-send``.
+    window the decision is taken, ``end`` (after the radio round trip) or ``before-send``;
+    paper_predictor: the policy ``adjust`` runs on the paper's predictor (default) or on
+    ``predictor`` (the other policies always use ``predictor``).
     """
 
     cap: float = math.inf
@@ -98,6 +100,9 @@ class AdjustConfig:
     lower_bound: str = "w_sch"
     policy: str = "adjust"
     decide: str = "end"
+    #: the policy ``adjust`` (the paper's algorithm) predicts with the paper's §3.3
+    #: (``predictor = "paper"``) whatever ``predictor`` names; False: with ``predictor``
+    paper_predictor: bool = True
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -468,6 +473,8 @@ class AdjustModel(Table):
     lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
     policy: Annotated[str, text(what="a policy name")] | None = None
     decide: Annotated[str, choice(DECIDE)] | None = None
+    #: policy adjust on the paper's predictor (true, the default) or on ``predictor``
+    paper_predictor: bool | None = None
     margin: (
         Annotated[
             float,
@@ -780,7 +787,9 @@ def _build_scenario(
     if not errors:
         errors += _fits_path(world, m.leader.start_on, src)
         if not errors:
-            world = replace(world, start_s=_start(world, m.leader.start_on))
+            world = replace(
+                world, start_s=_start(world, m.leader.start_on), start_on=m.leader.start_on
+            )
     duration = (
         float(m.duration) if m.duration is not None else float(math.ceil(path.lap_time(speed)))
     )

@@ -32,7 +32,7 @@ from rtsim.world.config import WorldConfig
 from rtsim.world.formation import follower_model
 from rtsim.world.ideal import IdealLap, ideal_lap
 
-__all__ = ["lap_oracle", "oracle_profile", "speed_cap"]
+__all__ = ["lap_oracle", "oracle_profile", "speed_cap", "start_speed"]
 
 
 def speed_cap(
@@ -125,3 +125,17 @@ def lap_oracle(cfg: WorldConfig, w_sch: float) -> float | None:
 
 _CACHE: dict[tuple[object, ...], float] = {}
 _CACHE_SIZE = 64
+
+
+def start_speed(cfg: WorldConfig, w_sch: float) -> float:
+    """The leader's speed for a settled start (cm/s): V_Ld, or less where the bounds at the
+    start with windows of ``w_sch`` ms allow less (:func:`speed_cap` at the start; e.g. six
+    followers of Test 2: T_ε·ρ_d/w_sch = 29.0 cm/s on the straight, below V_Ld = 30). V_Ld
+    for followers that do not track the trace (l-ψ)."""
+    if not follower_model(cfg.formation.model).on_trace:
+        return cfg.leader_speed
+    lap = ideal_lap(cfg.path, cfg.formation, cfg.start_s)
+    cap = speed_cap(
+        lap, cfg.formation.rho_d, cfg.thresholds, w_sch, cfg.leader_speed, cfg.follower.max_speed
+    )
+    return float(min(cfg.leader_speed, cap[0]))

@@ -55,7 +55,7 @@ import gc
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -67,7 +67,7 @@ from rtsim._numbers import is_int, is_real
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
-from rtsim.control.oracle import lap_oracle
+from rtsim.control.oracle import lap_oracle, start_speed
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
@@ -218,8 +218,13 @@ class _Coupling:
                 f"below w_sch = {self.w_sch:.6g} ms (the window could never reach "
                 f"the schedulability bound)"
             )
+        # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
+        # predictor is for its own policy, unless [adjust] paper_predictor = false
+        paper = bool(opts.pop("paper_predictor", True))
         # run_scenario(policy=/mode=) overrides the file's [adjust] policy
         self.policy, opts = adjust_options(opts, f"{inp.source or 'scenario'}: adjust", mode)
+        if paper and self.policy.name == "adjust":
+            opts["predictor"] = "paper"
         if getattr(self.policy, "needs_path", False):  # the leader's known path commands
             segs = cfg.path.segments
             starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
@@ -259,6 +264,10 @@ class _Coupling:
             opts["methods"] = tuple(opts["methods"])
         self.opts = opts
         self.v_floor = float(opts.get("floor_frac", 0.0)) * cfg.leader_speed
+        if cfg.start_on == "straight" and cfg.start_speed is None:
+            # settled: at the speed the bounds allow at the start (V_Ld unless less)
+            cfg = replace(cfg, start_speed=start_speed(cfg, self.w_sch))
+            self.cfg = cfg
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
@@ -347,7 +356,7 @@ class _Coupling:
         first = self._estimates(0.0)
         self.dec = first._replace(
             w=self.w_sch,
-            v_leader=self.v_ld,
+            v_leader=self._v_actual(),  # V_Ld, or a settled start's speed
             method="fixed",
             feasible=first.msb_min >= self.w_sch,
             known=first.known[:1],
@@ -875,6 +884,7 @@ def run_scenario(
         "formation_model": formation_model(cfg),
         "leader_accel_max": cfg.leader_accel_max,
         "leader_decel_max": cfg.leader_decel_max,
+        "leader_start_speed": run.cfg.start_speed or cfg.leader_speed,
     }
     if run.lap_ms is None:  # why there is no lap time
         extra["lap_time_note"] = (

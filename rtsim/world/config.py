@@ -12,6 +12,7 @@ from rtsim.world._check import integer, positive
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import Formation
+from rtsim.world.ideal import START_ON
 from rtsim.world.path import LeaderPath
 
 __all__ = [
@@ -125,6 +126,13 @@ class WorldConfig:
     leader_decel_max: float = math.inf
     localization: LocalizationParams = field(default_factory=LocalizationParams)
     backend: str | None = None
+    #: how the group starts (:data:`rtsim.world.ideal.START_ON`): ``given`` (at ``start_s``,
+    #: as a :class:`WorldConfig` built by hand) or ``straight`` (settled on a straight: a
+    #: scenario file's default, which moves ``start_s``; the run starts the leader at
+    #: the speed the bounds allow there, :func:`rtsim.control.oracle.start_speed`)
+    start_on: str = "given"
+    #: the leader's speed at t = 0 (cm/s, in (0, V_Ld]; None: V_Ld)
+    start_speed: float | None = None
 
     def __post_init__(self) -> None:
         if self.backend is not None and self.backend not in WORLD_BACKENDS:
@@ -144,6 +152,17 @@ class WorldConfig:
                 positive(f"leader.{key}", getattr(self, f"leader_{key}"), allow_inf=True),
             )
         object.__setattr__(self, "step_ms", positive("world.step_ms", self.step_ms))
+        if self.start_on not in START_ON:
+            raise ScenarioError(
+                f"leader.start_on: must be one of {', '.join(START_ON)}, got {self.start_on!r}"
+            )
+        if self.start_speed is not None:
+            v0 = positive("leader.start_speed", self.start_speed)
+            if v0 > self.leader_speed:
+                raise ScenarioError(
+                    f"leader.start_speed: {v0:g} cm/s is above leader.speed {self.leader_speed:g}"
+                )
+            object.__setattr__(self, "start_speed", v0)
         self.formation.check_spacing(self.follower.radius)
         if self.sensing.r_reacq < self.thresholds.r_H:
             raise ScenarioError(

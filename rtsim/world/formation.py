@@ -32,7 +32,8 @@ half-width plus half the gap to the trace (and so to its partner on the other si
 distance ρ_d from the leader — the paper gives one ρ_d for its followers — and spreads their
 bearings: the paper's pair at 180° ± offset, then each further follower one disc width plus
 the gap further out, φ_{k+1} = φ_k + 2·arcsin(r_F/ρ_d) + gap — or, when the clearance asks
-for more, the step whose chord is 2·r_F + clearance (:func:`fan_step`) — on the *outer* side of the
+for more, the step whose chord is 2·r_F + clearance + a 5 cm margin (:func:`fan_step`) — on
+the *outer* side of the
 path's turns (the right for a path driven counter-clockwise) until that side is full, then on
 the inner side. Why: in a turn, a follower's bearing swings toward the inside of the turn by
 about its depth behind the leader over twice the turn radius, so followers at different
@@ -62,6 +63,7 @@ from rtsim.world._check import integer, number, positive
 
 __all__ = [
     "CHEVRON_GAP",
+    "CLEARANCE_MARGIN",
     "DEFAULT_CLEARANCE",
     "FAN_INNER",
     "FOLLOWER_MODELS",
@@ -82,10 +84,13 @@ __all__ = [
 #: How ``followers``/``separation``/``bearing_offset`` place them: ``line`` (the chevron for
 #: l-ψ, :func:`in_line` for follow-the-leader) or ``fan`` (:func:`fan`).
 FORMATION_LAYOUTS: tuple[str, ...] = ("line", "fan")
-#: The least gap (cm) between any two robots' discs by default (``[formation] clearance``):
-#: 10 cm kept in the world plus a 5 cm margin for the followers' tracking error (their
-#: place departs from the error-free one by a few cm: docs/followers.md, "Clearance").
-DEFAULT_CLEARANCE = 15.0
+#: The least gap (cm) between any two robots' discs in the world by default
+#: (``[formation] clearance``): summary.json counts the scans that break it.
+DEFAULT_CLEARANCE = 10.0
+#: What the layouts keep on top of the clearance (cm): the followers' true places depart
+#: from their error-free ones by a few cm (at most 4 measured, docs/followers.md), so a
+#: layout whose error-free lap keeps clearance + this margin keeps the clearance in the world.
+CLEARANCE_MARGIN = 5.0
 #: Followers the fan places on the inner side of the path's turns before the outer side is
 #: full (the pair's one included).
 FAN_INNER = 1
@@ -326,9 +331,10 @@ def outer_side(curvatures: Sequence[float], lengths: Sequence[float]) -> int:
 def fan_step(separation: float, r_F: float, clearance: float, gap: float = CHEVRON_GAP) -> float:
     """The fan's angular step (rad) between neighbours at ρ_d = ``separation``: the larger of
     the laser's (the two discs' angular half-widths plus ``gap``, so neither hides the other)
-    and the clearance's (a chord of 2·r_F + ``clearance`` between the centres)."""
+    and the clearance's (a chord of 2·r_F + ``clearance`` + :data:`CLEARANCE_MARGIN` between
+    the centres)."""
     seen = 2.0 * math.asin(min(1.0, r_F / separation)) + gap
-    apart = 2.0 * math.asin(min(1.0, (r_F + 0.5 * clearance) / separation))
+    apart = 2.0 * math.asin(min(1.0, (r_F + 0.5 * (clearance + CLEARANCE_MARGIN)) / separation))
     return max(seen, apart)
 
 

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.errors import ScenarioError
-from rtsim.world.formation import Formation, follower_model
+from rtsim.world.formation import CLEARANCE_MARGIN, Formation, follower_model
 from rtsim.world.path import LeaderPath
 
 __all__ = [
@@ -196,8 +196,9 @@ def tightest_radius(path: LeaderPath) -> float:
 def check_clearance(
     path: LeaderPath, formation: Formation, r_F: float, start_s: float = 0.0
 ) -> float:
-    """Refuse a follow-the-leader formation that cannot keep ``formation.clearance`` (cm)
-    between any two robots' discs (radius ``r_F``) over a lap without error, or whose
+    """Refuse a follow-the-leader formation that cannot keep ``formation.clearance`` plus
+    :data:`~rtsim.world.formation.CLEARANCE_MARGIN` (cm) between any two robots' discs
+    (radius ``r_F``) over a lap without error, or whose
     offset trace folds inside a turn (a lateral offset on the turn's inner side at least its
     radius): :class:`ScenarioError` in one line naming the follower count, the tightest turn's
     radius and the clearance. Returns the least centre distance (cm) over the lap."""
@@ -207,6 +208,7 @@ def check_clearance(
         f"formation.followers: {n} followers do not fit this path (tightest turn radius "
         f"{radius:g} cm) with clearance {c:g} cm"
     )
+    need = 2.0 * r_F + c + CLEARANCE_MARGIN
     for k, o in enumerate(formation.lateral):
         for g in path.segments:
             if g.curvature * o >= 1.0 - r_F * abs(g.curvature):
@@ -216,12 +218,12 @@ def check_clearance(
                     f"followers or a smaller clearance"
                 )
     d, i, a, b = ideal_lap(path, formation, start_s).closest()
-    need = 2.0 * r_F + c
     if d < need - IDEAL_TOL:
         who = f"the leader and follower {b}" if a == 0 else f"followers {a} and {b}"
         raise ScenarioError(
-            f"{head}: {who} would come {d:.4g} cm apart (centres; need 2*r_F + clearance = "
-            f"{need:g} cm); use fewer followers, a larger separation or a smaller clearance"
+            f"{head}: {who} would come {d:.4g} cm apart (centres; need 2*r_F + clearance + "
+            f"margin = {need:g} cm); use fewer followers, a larger separation or a smaller "
+            f"clearance"
         )
     return d
 

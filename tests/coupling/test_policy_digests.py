@@ -59,6 +59,7 @@ NEW_KEYS = (
     "clearance_violations",
     "lap_oracle_s",
     "lap_over_oracle",
+    "leader_start_speed",
 )
 
 

@@ -62,7 +62,7 @@ def _outer_s(rho_d: float, r_t: float) -> float:
 # The hand derivations below are the formation predictor's (SPEC §6): these runs use it; the
 # tests' own policy and predictor (plan on commands, chosen by evidence) run in
 # test_defaults_of_the_tests_*.
-FORMATION = {"adjust.predictor": "formation"}
+FORMATION = {"adjust.predictor": "formation", "adjust.paper_predictor": False}
 
 
 @pytest.fixture(scope="module")

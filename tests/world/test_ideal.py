@@ -10,17 +10,17 @@ import pytest
 
 from rtsim.errors import ScenarioError
 from rtsim.io.scenario import load_scenario
-from rtsim.world.formation import DEFAULT_CLEARANCE, fan, fan_step
+from rtsim.world.formation import CLEARANCE_MARGIN, DEFAULT_CLEARANCE, fan, fan_step
 from rtsim.world.ideal import check_clearance, ideal_lap, settled_start
 from rtsim.world.path import rounded_rectangle
 
 
 def test_fan_step_gives_the_clearance_as_the_chord() -> None:
-    """Neighbours at rho_d one step apart are 2 r_F + clearance apart: the chord
-    2 rho sin(step / 2)."""
-    step = fan_step(325.0, 25.0, 15.0)
+    """Neighbours at rho_d one step apart are 2 r_F + clearance + the 5 cm margin apart: the
+    chord 2 rho sin(step / 2)."""
+    step = fan_step(325.0, 25.0, 10.0)
     assert 2 * 325.0 * math.sin(step / 2) == pytest.approx(65.0)
-    # with no clearance the laser's step (half-widths plus 1 deg) is kept
+    # with no clearance the laser's step (half-widths plus 1 deg, a 55.7 cm chord) is kept
     assert fan_step(325.0, 25.0, 0.0) == pytest.approx(2 * math.asin(25 / 325) + math.radians(1.0))
 
 
@@ -28,10 +28,10 @@ def test_the_default_fan_keeps_the_clearance_over_a_lap_without_error() -> None:
     path = rounded_rectangle(800, 400, 120)
     form = fan(6, 325.0, r_F=25.0, clearance=DEFAULT_CLEARANCE)
     d = check_clearance(path, form, 25.0, start_s=339.0)
-    assert d >= 2 * 25.0 + DEFAULT_CLEARANCE - 0.05
+    assert d >= 2 * 25.0 + DEFAULT_CLEARANCE + CLEARANCE_MARGIN - 0.05
     # the same group at the laser's step alone comes within 6 cm of touching: refused
     tight = replace(fan(6, 325.0, r_F=25.0), clearance=DEFAULT_CLEARANCE)
-    with pytest.raises(ScenarioError, match=r"6 followers .* radius 120 cm\) with clearance 15"):
+    with pytest.raises(ScenarioError, match=r"6 followers .* radius 120 cm\) with clearance 10"):
         check_clearance(path, tight, 25.0, start_s=339.0)
 
 
@@ -45,7 +45,7 @@ def test_test2_refuses_followers_that_cannot_fit_its_turns(n: int) -> None:
     msg = str(info.value)
     assert "\n" not in msg
     assert f"{n} followers do not fit" in msg
-    assert "radius 120 cm" in msg and "clearance 15 cm" in msg
+    assert "radius 120 cm" in msg and "clearance 10 cm" in msg
 
 
 def test_a_smaller_clearance_fits_more() -> None:
