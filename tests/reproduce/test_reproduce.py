@@ -20,7 +20,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "rtsim" / "reproduce.py"
 TESTS = ("test1", "test2")
-MODES = ("adjust", "fixed-wsch", "min-msb")
+MODES = ("adjust", "fixed-wsch", "min-msb", "plan")
 # read_csv parses floats exactly by default from pandas 3 (which deprecates the option);
 # before, only with float_precision="round_trip" (pandas 2.1 was one ulp off here)
 EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
@@ -253,7 +253,7 @@ def test_summary_recomputed_from_windows(quick: tuple[Path, str]) -> None:
         assert r["methods"] == ";".join(f"{k}={counts[k]}" for k in sorted(counts.index))
         assert r["duration_s"] == summ["duration_s"] and r["seed"] == 0
     md = (out / "summary.md").read_text().splitlines()
-    assert sum(ln.startswith("| Test ") for ln in md) == 6
+    assert sum(ln.startswith("| Test ") for ln in md) == 8
 
 
 def test_quick_modes_show_spec_section_5(quick: tuple[Path, str]) -> None:
