@@ -356,7 +356,14 @@ def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, mod
     # formation is the library's default and is not passed on
     assert _inputs(path).adjust.get("predictor", "formation") == model
     assert _inputs(TEST2).adjust["predictor"] == "commands"  # the tests' choice
-    short = run_scenario(path, mode="adjust", duration_s=3, record_jobs=False)
+    # (adjust on the file's predictor, not the paper's: its default since issue 33)
+    short = run_scenario(
+        path,
+        mode="adjust",
+        duration_s=3,
+        record_jobs=False,
+        overrides={"adjust.paper_predictor": False},
+    )
     base = run_scenario(
         TEST2,
         mode="adjust",
