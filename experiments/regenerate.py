@@ -6,6 +6,7 @@ Runs, each into ``DIR/<name>``:
 
 * ``reproduction``: ``rtsim reproduce`` (Test 1 and Test 2; the paper's three modes, adjust on
   the paper's predictor, and plan beside them; seed 0, one lap);
+* ``predictors``: ``experiments/predictors.py`` (adjust on each predictor, seed 0);
 * ``policies``: ``experiments/policies.py`` (every policy, n = 2 and 4, seeds 0-4);
 * ``followers``: ``experiments/followers.py`` (n = 1..10, r_H = 15-50 cm, seeds 0-4);
 * ``clearance``: ``experiments/clearance.py`` (n = 6..10 with the clearance, seeds 13-37);
@@ -83,9 +84,14 @@ def _script(name: str) -> Callable[[Path], int]:
 
 def _script_markdown(name: str) -> Callable[[pd.DataFrame], str]:
     def md(df: pd.DataFrame) -> str:
-        return str(_experiment(name).markdown(df))
+        return str(_experiment(name).markdown(df)).rstrip("\n") + "\n"
 
     return md
+
+
+def _predictors(out: Path) -> int:
+    out.mkdir(parents=True, exist_ok=True)
+    return int(_experiment("predictors").main(["--out", str(out / "predictors.csv")]))
 
 
 def _reproduce_markdown(df: pd.DataFrame) -> str:
@@ -98,6 +104,7 @@ TABLES: dict[str, Table] = {
     t.name: t
     for t in (
         Table("reproduction", _reproduce, "summary.csv", _reproduce_markdown),
+        Table("predictors", _predictors, "predictors.csv", _script_markdown("predictors")),
         Table(
             "policies", _script("policies"), "policies_summary.csv", _script_markdown("policies")
         ),

@@ -145,7 +145,7 @@ def test_quick_writes_every_file(quick: tuple[Path, str]) -> None:
     run_man = json.loads((out / "test2" / "min-msb" / "manifest.json").read_text())
     assert run_man["inputs"]["mode"] == "min-msb" and run_man["inputs"]["duration_s"] == 60.0
     progress = [ln for ln in stderr.splitlines() if ln.startswith("[")]
-    assert sorted(ln[:5] for ln in progress) == [f"[{k}/6]" for k in range(1, 7)]
+    assert sorted(ln[:5] for ln in progress) == [f"[{k}/8]" for k in range(1, 9)]
 
 
 @pytest.mark.parametrize("stem,name,test", _figures())
@@ -210,7 +210,11 @@ def test_bounds_data_has_infinite_values(quick: tuple[Path, str], tmp_path: Path
         mode="adjust",
         duration_s=10,
         record_jobs=False,
-        overrides={"adjust.predictor": "formation", "thresholds.localization": "radial"},
+        overrides={
+            "adjust.predictor": "formation",
+            "adjust.paper_predictor": False,  # adjust on formation (not the paper's)
+            "thresholds.localization": "radial",
+        },
     )  # Eq 19: r_H/|ρ̇|
     data = figure_data(res.windows, "bounds")
     path = tmp_path / "formation_bounds.csv"
