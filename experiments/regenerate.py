@@ -14,7 +14,9 @@ Runs, each into ``DIR/<name>``:
 
 then copies each one's summary table into the documentation, ``<docs>/results/<name>.csv``
 and ``<name>.md`` (the table as Markdown, rendered from that CSV by the experiment's own
-function), and rewrites every block of the documentation's pages that quotes it::
+function), and its figures into ``<docs>/figures`` (the paper's figures, the policies'
+Pareto plot, the followers' and the thresholds' figures), and rewrites every block of the
+documentation's pages that quotes it::
 
     <!-- results: <name> -->
     ...the table...
@@ -54,6 +56,7 @@ def _experiment(name: str) -> ModuleType:
     spec = importlib.util.spec_from_file_location(f"rtsim_experiment_{name}", HERE / f"{name}.py")
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
     spec.loader.exec_module(mod)
     return mod
 
@@ -67,12 +70,18 @@ class Table:
     run: Callable[[Path], int]
     csv: str
     markdown: Callable[[pd.DataFrame], str]
+    #: figures of its output copied to <docs>/figures: (file in the output, name in docs)
+    figures: tuple[tuple[str, str], ...] = ()
 
 
 def _reproduce(out: Path) -> int:
     from rtsim.reproduce import main
 
-    return main(["--out", str(out), "--quiet", "--workers", "2"])
+    docs = out.parent / "reproduction-docs-figures"
+    rc = main(["--out", str(out), "--quiet", "--workers", "2", "--docs", str(docs)])
+    for png in sorted(docs.glob("*.png")) if rc == 0 else ():
+        shutil.copyfile(png, out / png.name)
+    return rc
 
 
 def _script(name: str) -> Callable[[Path], int]:
@@ -94,6 +103,12 @@ def _predictors(out: Path) -> int:
     return int(_experiment("predictors").main(["--out", str(out / "predictors.csv")]))
 
 
+def _docs_figures() -> tuple[str, ...]:
+    from rtsim.reproduce import DOCS_FIGURES
+
+    return DOCS_FIGURES
+
+
 def _reproduce_markdown(df: pd.DataFrame) -> str:
     from rtsim.reproduce import summary_markdown
 
@@ -103,16 +118,27 @@ def _reproduce_markdown(df: pd.DataFrame) -> str:
 TABLES: dict[str, Table] = {
     t.name: t
     for t in (
-        Table("reproduction", _reproduce, "summary.csv", _reproduce_markdown),
+        Table(
+            "reproduction",
+            _reproduce,
+            "summary.csv",
+            _reproduce_markdown,
+            tuple((stem + ".png", stem + ".png") for stem in _docs_figures()),
+        ),
         Table("predictors", _predictors, "predictors.csv", _script_markdown("predictors")),
         Table(
-            "policies", _script("policies"), "policies_summary.csv", _script_markdown("policies")
+            "policies",
+            _script("policies"),
+            "policies_summary.csv",
+            _script_markdown("policies"),
+            (("pareto.png", "policies_pareto.png"),),
         ),
         Table(
             "followers",
             _script("followers"),
             "followers_summary.csv",
             _script_markdown("followers"),
+            (("followers.png", "followers.png"),),
         ),
         Table(
             "clearance",
@@ -125,6 +151,7 @@ TABLES: dict[str, Table] = {
             _script("thresholds"),
             "thresholds_summary.csv",
             _script_markdown("thresholds"),
+            (("thresholds.png", "thresholds.png"),),
         ),
     )
 }
@@ -177,6 +204,9 @@ def regenerate(name: str, out: Path, docs: Path) -> dict[str, Any]:
     results.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(out / name / table.csv, results / f"{name}.csv")
     write_text(results / f"{name}.md", table_markdown(name, results))
+    for src, dst in table.figures:
+        (docs / "figures").mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(out / name / src, docs / "figures" / dst)
     return {"name": name, "seconds": time.perf_counter() - t0}
 
 

@@ -4,6 +4,7 @@ each table's Markdown renders from its CSV, and every quoted block equals the ta
 from __future__ import annotations
 
 import importlib.util
+import sys
 from pathlib import Path
 
 import pytest
@@ -19,6 +20,7 @@ def _regenerate():  # type: ignore[no-untyped-def]
     )
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # (its dataclass looks its module up)
     spec.loader.exec_module(mod)
     return mod
 
