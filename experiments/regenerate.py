@@ -1,6 +1,7 @@
 """Regenerate every results table the documentation quotes, from the runs themselves.
 
     python experiments/regenerate.py --out DIR [--only NAME[,NAME...]] [--docs docs]
+    python experiments/regenerate.py --quote     # only re-quote the tables from docs/results
 
 Runs, each into ``DIR/<name>``:
 
@@ -12,11 +13,11 @@ Runs, each into ``DIR/<name>``:
 * ``clearance``: ``experiments/clearance.py`` (n = 6..10 with the clearance, seeds 13-37);
 * ``thresholds``: ``experiments/thresholds.py`` (T_ε, T_ρ, T_β, the bearing offset);
 
-then copies each one's summary table into the documentation, ``<docs>/results/<name>.csv``
-and ``<name>.md`` (the table as Markdown, rendered from that CSV by the experiment's own
-function), and its figures into ``<docs>/figures`` (the paper's figures, the policies'
+then copies each one's summary table into the documentation, ``<docs>/results/<name>.csv``,
+and its figures into ``<docs>/figures`` (the paper's figures, the policies'
 Pareto plot, the followers' and the thresholds' figures), and rewrites every block of the
-documentation's pages that quotes it::
+documentation's pages that quotes it with the table rendered from that CSV by the
+experiment's own Markdown function::
 
     <!-- results: <name> -->
     ...the table...
@@ -168,20 +169,23 @@ def table_markdown(name: str, results: Path) -> str:
 
 
 def quote(docs: Path) -> list[Path]:
-    """Rewrite every quoted block under ``docs`` from ``docs/results/<name>.md``; returns the
-    pages changed."""
+    """Rewrite every quoted block under ``docs`` and in the README beside it from
+    ``docs/results/<name>.csv`` (rendered by :func:`table_markdown`); returns the pages
+    changed."""
     from rtsim.io.atomic import write_text
 
     results = docs / "results"
     changed = []
-    for page in sorted(docs.rglob("*.md")):
+    readme = docs.parent / "README.md"
+    for page in sorted(docs.rglob("*.md")) + ([readme] if readme.is_file() else []):
         if results in page.parents:
             continue
         text = page.read_text("utf-8")
 
         def sub(m: re.Match[str]) -> str:
-            md = results / f"{m.group(2)}.md"
-            body = md.read_text("utf-8") if md.is_file() else m.group(3)
+            name = m.group(2)
+            known = name in TABLES and (results / f"{name}.csv").is_file()
+            body = table_markdown(name, results) if known else m.group(3)
             return m.group(1) + body + m.group(4)
 
         new = BLOCK.sub(sub, text)
@@ -192,9 +196,8 @@ def quote(docs: Path) -> list[Path]:
 
 
 def regenerate(name: str, out: Path, docs: Path) -> dict[str, Any]:
-    """Run table ``name`` into ``out/name`` and copy its CSV and Markdown into docs/results."""
-    from rtsim.io.atomic import write_text
-
+    """Run table ``name`` into ``out/name`` and copy its CSV into docs/results, its figures
+    into docs/figures."""
     t0 = time.perf_counter()
     table = TABLES[name]
     rc = table.run(out / name)
@@ -203,7 +206,6 @@ def regenerate(name: str, out: Path, docs: Path) -> dict[str, Any]:
     results = docs / "results"
     results.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(out / name / table.csv, results / f"{name}.csv")
-    write_text(results / f"{name}.md", table_markdown(name, results))
     for src, dst in table.figures:
         (docs / "figures").mkdir(parents=True, exist_ok=True)
         shutil.copyfile(out / name / src, docs / "figures" / dst)
@@ -212,7 +214,7 @@ def regenerate(name: str, out: Path, docs: Path) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--out", metavar="DIR", required=True, help="where the runs write")
+    p.add_argument("--out", metavar="DIR", help="where the runs write (required unless --quote)")
     p.add_argument(
         "--only",
         metavar="NAME[,NAME...]",
@@ -220,7 +222,19 @@ def main(argv: list[str] | None = None) -> int:
         help=f"tables to regenerate (default all: {', '.join(TABLES)})",
     )
     p.add_argument("--docs", metavar="DIR", default=str(ROOT / "docs"), help="docs directory")
+    p.add_argument(
+        "--quote",
+        action="store_true",
+        help="run nothing: only rewrite the quoted blocks from the CSVs in <docs>/results",
+    )
     args = p.parse_args(argv)
+    if args.quote:
+        for page in quote(Path(args.docs)):
+            print(f"updated {page}", file=sys.stderr)
+        return 0
+    if args.out is None:
+        print("regenerate: --out DIR is required (or --quote)", file=sys.stderr)
+        return 2
     names = [n for n in args.only.split(",") if n]
     unknown = [n for n in names if n not in TABLES]
     if unknown:
