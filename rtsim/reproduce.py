@@ -8,12 +8,13 @@ paper's algorithm, on the paper's predictor whatever the file names: ``[adjust]
 paper_predictor``), ``fixed-wsch`` and ``min-msb`` (docs/model/adjustment.md), and beside them
 ``plan``, rtsim's improvement (the shipped files' policy) — eight coupled runs, in parallel
 processes when ``--workers`` > 1. Every run uses the seed ``--seed``, so a run equals
-``rtsim scenario <test>.toml --mode <mode> --seed N [--duration S]`` (the command line is in
-its manifest) and the three modes of a test see the same noise draws at the start; the
+``rtsim scenario <test>.toml --mode <mode> --seed N [--duration S]`` (``--policy plan`` for
+plan; the command line is in its manifest) and the modes of a test see the same noise draws
+at the start; the
 results do not depend on the worker count.
 Duration: ``--duration`` (simulated s) for every run; by default the adjust run takes its
 scenario's default (at least one lap; the leader is slowed in the turns, so this is the
-longest) and the two baselines then run exactly as long, so the three modes cover the same
+longest) and the baselines and plan then run exactly as long, so the modes cover the same
 time; ``--quick`` (CI): 60 s, which covers the leader's whole first turn in both tests (it
 enters it at 32 s in Test 1, 26.7 s in Test 2).
 
@@ -25,7 +26,7 @@ Writes to ``--out`` (default ``results/paper``):
   ``fig15_test2_speed``; Figs 10/14 the minimum MSB against w_sch as the paper draws it,
   with the per-kind detail beside them as ``fig10_test1_bounds_detail`` and
   ``fig14_test2_bounds_detail``), the operating space of its Figure 2 per test
-  (``fig02_<test>_operating_space``), and the three modes side by side
+  (``fig02_<test>_operating_space``), and the modes (plan included) side by side
   (``modes_<test>_{window,bounds,speed,paths}``); every PNG has its data beside it as CSV
   (same stem; :func:`rtsim.plots.scenario.figure_data`, the modes' stacked with a ``mode``
   column);
