@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -78,3 +79,17 @@ def test_settled_start_without_a_long_straight_takes_the_longest() -> None:
     path = rounded_rectangle(300, 100, 120)
     form = fan(2, 325.0, r_F=25.0)
     assert settled_start(path, form, 25.0, 0.0) == pytest.approx(300.0)
+
+
+def test_the_command_line_refuses_a_count_that_does_not_fit(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Exit 2, one line naming the count, the turn radius and the clearance; nothing run."""
+    from rtsim.cli import main
+
+    out = tmp_path / "nine"
+    rc = main(["scenario", "test2", "--set", "formation.followers=9", "--out", str(out), "-q"])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and err.startswith("rtsim: ")
+    assert "9 followers do not fit" in err and "120 cm" in err and "clearance 10 cm" in err
+    assert not (out / "summary.json").exists()
