@@ -26,7 +26,7 @@ Writes to ``--out`` (default ``results/paper``):
   ``fig15_test2_speed``; Figs 10/14 the minimum MSB against w_sch as the paper draws it,
   with the per-kind detail beside them as ``fig10_test1_bounds_detail`` and
   ``fig14_test2_bounds_detail``), the operating space of its Figure 2 per test
-  (``fig02_<test>_operating_space``), and the modes (plan included) side by side
+  (``fig02_<test>_operating_space``), and the paper's three modes side by side
   (``modes_<test>_{window,bounds,speed,paths}``); every PNG has its data beside it as CSV
   (same stem; :func:`rtsim.plots.scenario.figure_data`, the modes' stacked with a ``mode``
   column);
@@ -344,7 +344,7 @@ def figure_tasks(
             "operating_space",
         )
     for test in TESTS:
-        dfs = {m: runs[(test, m)] for m in MODES}
+        dfs = {m: runs[(test, m)] for m in PAPER_MODES}  # plan: in the table
         for kind, name in MODE_FIGURES.items():
             add(
                 f"modes_{test}_{kind}",
