@@ -15,8 +15,14 @@ be new, empty or an earlier rtsim output. Windows and job records are written in
 during the run, and the summary and figures are made from the columns read back, so memory
 stays flat on long runs.
 
-``--duration`` is simulated seconds; by default the scenario's ``duration``, else one lap of
-the leader's path plus the followers' separation (see :mod:`rtsim.coupling.scenario_run`).
+``--duration`` is simulated seconds, exact, like the file's ``duration`` and ``--set
+duration=S``; without any, the run ends with the lap (``until = "lap"``: the leader's lap plus
+the followers' separation, :mod:`rtsim.coupling.duration`), and says so in one line.
+
+A file's unsaid choices are the recommended model (``preset = "recommended"``: policy
+``plan``, predictor ``commands``, follow-the-leader followers in a ``fan``, windows centred
+at the predicted position, searches for visible followers only, as the shipped test1/test2);
+``preset = "paper"`` (or ``--set preset=paper``) takes the paper's own (docs/configuration.md).
 """
 
 from __future__ import annotations
@@ -39,7 +45,10 @@ def register(sub: Any) -> None:
     p = sub.add_parser(
         "scenario",
         help="run a robot-group scenario (schedule + world)",
-        description=__doc__.splitlines()[0],
+        description=__doc__.splitlines()[0]
+        + " A file's unsaid choices are the recommended model (policy plan, predictor "
+        "commands, follow-the-leader followers in a fan, predicted/visible localization, "
+        'as test2); preset = "paper" takes the paper\'s own (docs/configuration.md).',
     )
     p.add_argument("file", help="scenario TOML file")
     from rtsim.control.policy import POLICIES
@@ -49,8 +58,9 @@ def register(sub: Any) -> None:
         default=None,
         metavar="NAME",
         help="adjustment policy, overriding the file's [adjust] policy: "
-        f"{', '.join(POLICIES)} (adjust, the paper's algorithm, is the "
-        "default), or package.module:Name (docs/adjustment.md)",
+        f"{', '.join(POLICIES)} (default plan, the recommended model; adjust is the "
+        'paper\'s algorithm, also preset = "paper"), or package.module:Name '
+        "(docs/adjustment.md)",
     )
     p.add_argument(
         "--mode",
@@ -65,7 +75,8 @@ def register(sub: Any) -> None:
         type=float,
         default=None,
         metavar="SECONDS",
-        help="simulated seconds (default: the scenario's, else one lap)",
+        help="simulated seconds, exact (default: the file's duration, else to the end of "
+        'the lap, until = "lap")',
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument(
@@ -151,6 +162,12 @@ def run(args: Any) -> int:
         staged.commit()
         files.commit()
     s = res.summary
+    from rtsim.coupling.duration import run_length, run_note
+
+    to_lap = run_length(scenario.world, args.duration, scenario.duration).stop_s is not None
+    note = None if args.quiet else run_note(s, to_lap)
+    if note is not None:
+        print(note, file=sys.stderr)
     if args.json:
         from rtsim.io.atomic import dumps
         from rtsim.io.summary import summary_json

@@ -37,16 +37,17 @@ schedule breaks), ``margin``, ``lookahead``, ``noise-aware``, ``safe`` or a user
 ``package.module:Name``. Each window's decision is the policy's ``decide`` on a
 :class:`~rtsim.control.policy.PolicyInput`.
 
-Duration: an explicit ``duration_s`` (simulated seconds) is exact. By default the run covers
-the scenario's ``duration`` **and at least one lap**: it stops at the first window completion
-at or after that duration at which the leader has driven one lap plus the largest ρ_d (so the
-followers, which trail by ρ_d, leave the last turn too) — the leader is slowed in the turns,
-so a lap takes longer than at V_Ld — and at the latest after max(duration, 3 lap times at
-V_Ld), i.e. a leader slowed to ⅓·V_Ld on average. ``summary['laps']`` and
+Duration (:mod:`rtsim.coupling.duration`): a duration is exact, whether it is ``duration_s``,
+an override or the scenario file's ``duration``. Without one (the file's ``until = "lap"``,
+the default) the run stops at the first window completion at which the leader has driven one
+lap plus the largest ρ_d (so the followers, which trail by ρ_d, leave the last turn too) —
+the leader is slowed in the turns, so a lap takes longer than at V_Ld — and at the latest
+after 3 lap times at V_Ld, i.e. a leader slowed to ⅓·V_Ld on average. ``summary['laps']`` and
 ``summary['duration_s']`` say how far it got; ``summary['lap_time_s']`` is the simulated
 time at which the leader first completed its lap (interpolated between the two window
 completions around it), or None with ``summary['lap_time_note']`` saying why (the cap, or
-a ``duration_s`` shorter than the lap). A window still running at the stop is dropped.
+a duration shorter than the lap); :func:`rtsim.coupling.duration.run_note` words what a run
+did beyond a duration. A window still running at the stop is dropped.
 """
 
 from __future__ import annotations
@@ -763,8 +764,8 @@ def run_scenario(
     ``"package.module:Name"``; it overrides the scenario's ``[adjust] policy`` (default
     ``adjust``); mode: an alias of policy (the three modes of the paper's reproduction);
     duration_s: simulated
-    seconds (None: the scenario's, else one lap — module docstring); ``duration`` is an
-    alias (sweep kind);
+    seconds, exact (None: the scenario's ``duration``, else to the end of the lap — module
+    docstring); ``duration`` is an alias (sweep kind);
     seed: one seed for the world's noise and the CPU's execution-time draws; record_jobs:
     keep the job table (``result.jobs``); exec_model: execution times of the fixed segments;
     text: the scenario file's text (for the manifest; read from the path when one is given);
@@ -874,9 +875,8 @@ def run_scenario(
             f"the leader did not complete its lap within the cap of "
             f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
             if stop_s is not None
-            else f"the run's duration ({float(duration_s or 0.0):g} s) ended before the leader "
-            f"completed "
-            f"its lap"
+            else f"the run's duration ({horizon_ms / 1000.0:g} s) ended before the leader "
+            f"completed its lap"
         )
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     world.followers.advance_all(world.t_ms, cfg.step_ms)
