@@ -7,6 +7,7 @@ The top level is a facade over the subpackages; the entry points load on first u
 ``import rtsim`` stays light:
 
 - :func:`run_scenario` (``rtsim.coupling``): one coupled robot run, schedule and world;
+- :func:`run_sweep`: a scenario over a grid (followers × Hough radii …), a DataFrame;
 - :func:`load_scenario` (``rtsim.io``): a scenario file, or a shipped one by name, with
   dotted overrides;
 - :func:`simulate` (``rtsim.sim``): a task set on the virtual CPU;
@@ -30,6 +31,7 @@ from rtsim.errors import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover
+    from rtsim._facade import run_sweep
     from rtsim.analysis import analyze, window_bounds
     from rtsim.coupling import run_scenario
     from rtsim.io import load_scenario, load_taskset
@@ -50,6 +52,7 @@ _LAZY: dict[str, str] = {
     "simulate": "rtsim._facade",  # these three take a task-set file too
     "analyze": "rtsim._facade",
     "window_bounds": "rtsim._facade",
+    "run_sweep": "rtsim._facade",  # a grid of runs in one call (not the rtsim.sweep package)
 }
 
 __all__ = [
@@ -68,6 +71,7 @@ __all__ = [
     "load_scenario",
     "load_taskset",
     "run_scenario",
+    "run_sweep",
     "simulate",
     "window_bounds",
 ]

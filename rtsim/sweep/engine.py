@@ -10,8 +10,9 @@ Output directory ``DIR``:
   (:mod:`rtsim.sweep.table`); ``attempts`` when the point was rerun after its worker died;
 - ``DIR/manifest.json``: the sweep file's text, the resolved spec and its fingerprint,
   the rtsim version and the command line;
-- ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``,
-  ``status``, ``error`` (empty when ok), then the metrics. Built from the point files only,
+- ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``
+  (the seed asked for: the grid's, else the sweep's), ``point_seed`` (the one the point ran
+  with), ``status``, ``error`` (empty when ok), then the metrics. Built from the point files only,
   so serial, process and Dask runs (and resumed runs) give equal tables;
 - ``DIR/timings.csv``: wall-clock and CPU time, host and pid per point (not in the table).
 
@@ -22,9 +23,11 @@ dies again; the sweep goes on. Workers exit when the sweep's process dies. A gri
 than ``LIMITS["grid"]`` points (:mod:`rtsim.io.work`) is refused before any point is made
 unless ``force=True``.
 
-Running again skips the points that have a file. A sweep whose fingerprint (the resolved
-spec: kind, function, base file content, seed, combine, grid, options, metrics) differs
-from the one in ``DIR/manifest.json`` is refused unless ``restart=True``, which deletes the
+Running again skips the points that have a file. A grid grown (or shrunk) with everything
+else unchanged keeps the points it still has: they are renumbered, not run again. A sweep
+whose fingerprint otherwise (the resolved spec: kind, function, base file content, seed,
+combine, grid names, options, metrics) differs from the one in ``DIR/manifest.json`` is
+refused unless ``restart=True``, which deletes the
 old results first — only what a sweep made: a ``DIR`` holding anything else (another
 command's output, a user's file) is refused before anything is done
 (:func:`rtsim.io.outdir.check_resumable`). ``retry_failed=True`` recomputes the failed
@@ -273,7 +276,7 @@ class Sweep:
                     f"{manifest}: corrupt or unreadable ({why}); use --restart "
                     "to discard the results in this directory, or another --out"
                 ) from None
-            if old != fp:
+            if old != fp and not self._regrid(manifest):
                 raise SweepError(
                     f"{self.out}: holds results of a different sweep than {self.spec.source} "
                     "(the sweep file changed); use --restart to discard them, or another --out"
@@ -305,6 +308,38 @@ class Sweep:
                 "spec": self.spec.resolved(),
             },
         )
+
+    def _regrid(self, manifest: Path) -> bool:
+        """Whether the results in ``self.out`` are of this sweep with another grid (more or
+        fewer values, the rest equal): then the finished points this grid has are kept,
+        renumbered to their place in it, and True; else False (nothing touched)."""
+        import json
+
+        from rtsim.sweep.spec import spec_fingerprint
+
+        try:
+            old = json.loads(manifest.read_text("utf-8"))["spec"]
+            same = spec_fingerprint(old, grid=False) == self.spec.fingerprint_but_grid()
+        except (OSError, ValueError, KeyError, TypeError):
+            return False
+        if not same:
+            return False
+        by_key = {}
+        for f in self.points_dir.glob("*.json") if self.points_dir.is_dir() else ():
+            rec = _read_json(f)
+            if rec is not None:
+                by_key[rec.get("key")] = (f, rec)
+        for p in self.points:
+            found = by_key.get(p.key)
+            if found is None or found[0].name == p.filename:
+                continue
+            f, rec = found
+            rec = {**rec, "index": p.index}
+            rec["checksum"] = _checksum(rec)
+            write_json(self.points_dir / p.filename, rec)
+            if not any(q.filename == f.name for q in self.points):
+                f.unlink(missing_ok=True)
+        return True
 
     def finished(self, retry_failed: bool = False) -> dict[int, Record]:
         """The point records already on disk (failed ones left out with ``retry_failed``)."""
@@ -558,7 +593,7 @@ class Sweep:
                 raise SweepIncomplete(f"{self.out}: point {p.index} has not finished")
             recs[p.index] = rec
         param_cols = [k for k, _ in self.spec.grid if k != "seed"]
-        return build_table(self.points, lambda p: recs[p.index], param_cols)
+        return build_table(self.points, lambda p: recs[p.index], param_cols, self.spec.seed)
 
     def timings(self) -> pd.DataFrame:
         """Wall-clock and CPU time, host and pid per finished point."""

@@ -18,8 +18,9 @@ from rtsim.sweep.kinds import KINDS, PointInput
 
 __all__ = ["execute_point", "select_metrics", "RESERVED", "worker_init"]
 
-#: Column names a metric may not take (grid names are checked by the engine).
-RESERVED = ("seed", "status", "error")
+#: The results table's own columns after the grid's, in order: names a metric may not take
+#: (grid names are checked by the engine).
+RESERVED = ("seed", "point_seed", "status", "error")
 
 
 #: Seconds between two checks that a worker's parent (the sweep) is still alive.

@@ -150,10 +150,23 @@ class SweepSpec:
     def fingerprint(self) -> str:
         """sha256 of the resolved spec (base path excluded; the base file's parsed content
         included, so a change to its comments or layout alone keeps the fingerprint)."""
-        r = self.resolved()
-        if r["base"] is not None:
-            r["base"] = {"data_sha256": r["base"]["data_sha256"]}
-        return hashlib.sha256(canonical_json(r).encode("utf-8")).hexdigest()
+        return spec_fingerprint(self.resolved())
+
+    def fingerprint_but_grid(self) -> str:
+        """:meth:`fingerprint` without the grid's values: equal for two sweeps whose points
+        with equal values give equal results (a grown grid keeps its finished points)."""
+        return spec_fingerprint(self.resolved(), grid=False)
+
+
+def spec_fingerprint(resolved: Mapping[str, Any], grid: bool = True) -> str:
+    """sha256 of a resolved spec (:meth:`SweepSpec.resolved`, also as a manifest keeps it):
+    the base file by its parsed content; ``grid=False`` leaves the grid's values out."""
+    r = dict(resolved)
+    if r.get("base") is not None:
+        r["base"] = {"data_sha256": r["base"]["data_sha256"]}
+    if not grid:
+        r.pop("grid", None)
+    return hashlib.sha256(canonical_json(r).encode("utf-8")).hexdigest()
 
 
 # -- parameter resolution --------------------------------------------------------------
