@@ -1,7 +1,8 @@
 """``rtsim scenario FILE --out DIR``: run a robot scenario, schedule and world in one SimPy run.
 
 Writes to DIR: ``windows.csv`` (one row per processing window; schema in
-docs/outputs.md) and ``windows.parquet`` with ``--parquet``, ``jobs.csv`` (the job
+docs/outputs.md) and ``windows.parquet`` with ``--parquet``, ``followers.csv`` (the same in
+long form: one row per window and follower, :mod:`rtsim.coupling.tidy`), ``jobs.csv`` (the job
 records of the schedule), ``summary.json``, the paper's figures as PNG (paths, window and
 slack, effective bounds, leader speed, and the operating space) unless ``--no-figures``, and
 ``manifest.json`` (rtsim version, seed, argv, the scenario file's text and resolved values,
@@ -143,6 +144,9 @@ def run(args: Any) -> int:
     scenario = load_scenario(args.file, overrides=set_overrides(args))
     override = args.policy if args.policy is not None else args.mode
     args.mode = override if override is not None else scenario.adjust.policy
+    from rtsim.cli.plausible import check_scenario_units
+
+    check_scenario_units(args, scenario)  # the options' unit hints, for the file's keys
     check_scenario(scenario, args.duration, where, force=args.force)
     from rtsim.io.outdir import FileSet
 
@@ -186,6 +190,25 @@ def run(args: Any) -> int:
         f"{s['min_speed_ratio']:.3f}  -> {args.out}"
     )
     return 0
+
+
+#: Windows read back per chunk when followers.csv is written (memory stays flat).
+FOLLOWER_CHUNK_ROWS = 20_000
+
+
+def _write_followers(windows_csv: Path, target: Path) -> None:
+    """followers.csv: windows.csv in long form, one row per window and follower
+    (:mod:`rtsim.coupling.tidy`), from the file read back in chunks."""
+    import pandas as pd
+
+    from rtsim.coupling.tidy import followers_frame
+    from rtsim.io.columns import ChunkWriter
+
+    first = pd.read_csv(windows_csv, nrows=0)
+    writer = ChunkWriter([target], followers_frame(first))
+    for chunk in pd.read_csv(windows_csv, chunksize=FOLLOWER_CHUNK_ROWS):
+        writer.write(followers_frame(chunk))
+    writer.close()
 
 
 def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | None:
@@ -291,10 +314,11 @@ def _write(
         if str(exc).startswith(src):
             raise
         raise type(exc)(f"{src}: during the run (seed {args.seed}): {exc}") from None
-    outputs = ["windows.csv", "jobs.csv", "summary.json"]
+    outputs = ["windows.csv", "followers.csv", "jobs.csv", "summary.json"]
     if args.parquet:
         outputs.append("windows.parquet")
     jobs.close()
+    _write_followers(out / "windows.csv", out / "followers.csv")
     from rtsim.io.summary import summary_json
 
     write_json(out / "summary.json", summary_json(res.summary))

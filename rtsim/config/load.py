@@ -50,8 +50,9 @@ def validate(
     except ValidationError as exc:
         kw: dict[str, Any] = {} if where is None else {"where": where}
         lines = error_lines(exc, model, source, special=special, **kw)
-        raise_errors(lines, error)
-        raise AssertionError("unreachable") from None
+    # raised outside the handler: the user's error alone, no pydantic traceback chained under it
+    raise_errors(lines, error)
+    raise AssertionError("unreachable")
 
 
 def parse_toml(raw: bytes, source: str, error: type[InputError]) -> dict[str, Any]:
@@ -106,7 +107,9 @@ def taskset_bytes(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
     try:
         return read_input(source, "task-set"), source
     except FileNotFoundError:
-        raise TaskSetError(f"{source}: no such file") from None
+        from rtsim.examples import shipped_hint
+
+        raise TaskSetError(f"{source}: no such file{shipped_hint(source, 'taskset')}") from None
     except IsADirectoryError:
         raise TaskSetError(f"{source}: is a directory, not a task-set file") from None
     except OSError as exc:

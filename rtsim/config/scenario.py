@@ -897,6 +897,7 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
     tests, shipped with rtsim as copies of ``experiments/scenarios/``) when no such file
     exists.
     """
+    from rtsim.examples import shipped_hint
     from rtsim.io.limits import read_input
 
     p = Path(path)
@@ -905,6 +906,8 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
         return res.read_bytes(), Path(f"{path}.toml")
     try:
         return read_input(p, "scenario"), p
+    except FileNotFoundError:
+        raise ScenarioError(f"{p}: no such scenario file{shipped_hint(p, 'scenario')}") from None
     except OSError as exc:
         raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
 

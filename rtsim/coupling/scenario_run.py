@@ -153,6 +153,15 @@ class ScenarioResult(ResultDisplay):
         """summary.json as one row (nested keys dotted), so runs concatenate into a table."""
         return pd.DataFrame([flatten(self.summary)])
 
+    @property
+    def followers(self) -> pd.DataFrame | None:
+        """``windows`` in long form, one row per window and follower (position, estimate,
+        fix error, each bound ``_pred``/``_true``, violations, lost: :mod:`rtsim.coupling.tidy`;
+        ``followers.csv``); None when the windows were streamed to a sink."""
+        from rtsim.coupling.tidy import followers_frame
+
+        return None if self.windows is None else followers_frame(self.windows)
+
 
 class _Decision(NamedTuple):
     w: float

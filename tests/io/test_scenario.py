@@ -233,7 +233,7 @@ def test_duration_and_malformed(tmp_path: Path) -> None:
         load_scenario(write(tmp_path, BASE + "[[["))
     with pytest.raises(ScenarioError, match=r"^.*bad\.toml: formation: missing \(required\)$"):
         load_scenario(write(tmp_path, BASE.split("[formation]")[0]))
-    with pytest.raises(ScenarioError, match="cannot read scenario"):
+    with pytest.raises(ScenarioError, match="missing.toml: no such scenario file$"):
         load_scenario(tmp_path / "missing.toml")
 
 
