@@ -55,9 +55,9 @@ def followers_frame(windows: pd.DataFrame) -> pd.DataFrame:
     out = pd.concat(parts, ignore_index=False).sort_index(kind="stable")
     if {"x", "y", "x_est", "y_est"} <= set(out.columns):
         err = np.hypot(out["x_est"] - out["x"], out["y_est"] - out["y"])
-        out.insert(
-            out.columns.get_loc("v_est") + 1 if "v_est" in out else len(out.columns), "error", err
-        )
+        cols = list(out.columns)
+        at = cols.index("v_est") + 1 if "v_est" in cols else len(cols)
+        out.insert(at, "error", err)
     return out.reset_index(drop=True)
 
 
