@@ -766,36 +766,64 @@ def run_scenario(
     windows: bool = True,
     progress: Any = None,
 ) -> ScenarioResult:
-    """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
+    """Run one scenario: the leader's schedule and the robots' world in one simulation.
 
-    policy: a registered adjustment policy (:data:`rtsim.control.policy.POLICIES`: ``adjust``,
-    the paper's algorithm, ``fixed-wsch``, ``min-msb``, ``margin``, …) or
-    ``"package.module:Name"``; it overrides the scenario's ``[adjust] policy`` (default
-    ``adjust``); mode: an alias of policy (the three modes of the paper's reproduction);
-    duration_s: simulated
-    seconds, exact (None: the scenario's ``duration``, else to the end of the lap — module
-    docstring); ``duration`` is an alias (sweep kind);
-    seed: one seed for the world's noise and the CPU's execution-time draws; record_jobs:
-    keep the job table (``result.jobs``); exec_model: execution times of the fixed segments;
-    text: the scenario file's text (for the manifest; read from the path when one is given);
-    record_trace: keep the execution trace (``result.trace``, for trace export); overrides:
-    dotted paths into the scenario file and their values, as in sweeps (``{"leader.speed":
-    20}``; only with a path or a packaged name; :func:`rtsim.io.scenario.load_scenario`);
-    window_sink: a :class:`rtsim.io.columns.ChunkWriter` of windows.csv — the window rows
-    are written in chunks during the run, the summary is computed from the columns read
-    back, and ``result.windows`` is None; job_sink: a callable given the job records in
-    chunks, or a ChunkWriter of jobs.csv (``result.jobs`` is then None). With both, memory
-    stays flat on long runs. trace_sink: the same for the execution trace (implies
-    record_trace; ``result.trace`` is then None). windows: False leaves ``result.windows``
-    None (the summary is computed from the records' columns either way; what a sweep point
-    needs).
-    allow_code: a scenario file (or its task set) may name code, ``module:Name``
-    (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
-    The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
-    range, 2e6 windows, 2e8 world steps × followers, the seed's range); ``force=True`` is
-    ``--force``. ``progress(share, t_ms)`` is called at every percent of the run — of the
-    duration, or of the lap and the scenario's duration — with the share done (0..1) and the
-    simulated ms (:mod:`rtsim.sim.progress`; the results do not change).
+    Parameters
+    ----------
+    scenario : str, path, Scenario or ScenarioInputs
+        A scenario file, a shipped one by name (``"test2"``), a loaded
+        :class:`~rtsim.io.scenario.Scenario`, or :class:`ScenarioInputs` prepared once.
+    mode : str, optional
+        Alias of ``policy`` (the paper's reproduction names its three modes so).
+    duration_s : float, optional
+        Simulated seconds, exact. None: the scenario's ``duration``, else to the end of the
+        lap (``until = "lap"``, :mod:`rtsim.coupling.duration`).
+    seed : int, default 0
+        One seed for the world's noise and the CPU's execution-time draws.
+    record_jobs : bool, default True
+        Keep the job table (``result.jobs``).
+    exec_model : str, default "wcet"
+        Execution times of the fixed segments: ``"wcet"`` or ``"uniform"`` in [bcet, wcet].
+    duration : float, optional
+        Alias of ``duration_s`` (simulated s; a sweep's option name).
+    text : str, optional
+        The scenario file's text, for the manifest (read from the path when one is given).
+    record_trace : bool, default False
+        Keep the execution trace (``result.trace``, for trace export).
+    overrides : mapping, optional
+        Dotted keys of the scenario file and their values, as in a sweep
+        (``{"leader.speed": 20, "sensing.r_H": 30}``; cm, cm/s as in the file); with a
+        path or a shipped name only.
+    window_sink, job_sink, trace_sink : optional
+        :class:`rtsim.io.columns.ChunkWriter` (or a callable) given the window rows, job
+        records, trace rows in chunks during the run: memory stays flat on long runs, and
+        the matching result table is None.
+    policy : str, optional
+        The adjustment policy, overriding the file's ``[adjust] policy`` (default ``plan``,
+        the recommended model; ``adjust`` is the paper's): a registered name or
+        ``"package.module:Name"``.
+    allow_code : bool, optional
+        The scenario file (or its task set) may name code, ``module:Name``
+        (:mod:`rtsim.registry`); a ``policy`` of that form given here is always allowed.
+    force : bool, default False
+        Run above the work limits (2e6 windows, 2e8 world steps × followers), as
+        ``--force``.
+    windows : bool, default True
+        False leaves ``result.windows`` None (the summary is computed either way).
+    progress : callable, optional
+        ``progress(share, t_ms)``, called at every percent of the run with the share done
+        (0..1) and the simulated ms; the results do not change.
+
+    Returns
+    -------
+    ScenarioResult
+        ``summary`` (summary.json), ``windows`` (one row per window), ``followers`` (one
+        row per window and follower), ``jobs``, ``trace``, ``timing`` (wall s).
+
+    Raises
+    ------
+    InputError
+        A bad scenario, option or override, in one line per problem.
     """
     t0 = time.perf_counter()
     if mode is not None and policy is not None and mode != policy:
