@@ -68,6 +68,34 @@ def rewrite(text: str, known: set[str], module: str = "") -> str:
     return ROLE.sub(one, text)
 
 
+#: Lines a rewrite made longer than this are wrapped (the project's line length).
+WIDTH = 100
+_LEAD = re.compile(r"^(\s*(?:#: |# )?)")
+
+
+def wrap(line: str, width: int = WIDTH) -> list[str]:
+    """``line`` broken at spaces into lines of at most ``width`` (where it can be), each
+    continuation with the first line's indentation and comment marker (``#:``, ``#``)."""
+    lead = _LEAD.match(line).group(1)  # type: ignore[union-attr]
+    out = []
+    while len(line) > width:
+        cut = line.rfind(" ", len(lead) + 1, width + 1)
+        if cut <= len(lead):
+            break
+        out.append(line[:cut].rstrip())
+        line = lead + line[cut + 1 :].lstrip()
+    return [*out, line]
+
+
+def rewrite_file(text: str, known: set[str], module: str = "", width: int = WIDTH) -> str:
+    """:func:`rewrite` line by line; a line it made longer than ``width`` is wrapped."""
+    out = []
+    for line in text.split("\n"):
+        new = rewrite(line, known, module)
+        out += wrap(new, width) if new != line and len(new) > width else [new]
+    return "\n".join(out)
+
+
 def files(paths: Iterable[str]) -> list[Path]:
     out: list[Path] = []
     for p in map(Path, paths):
@@ -95,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     for f in files(args.paths):
         root = next((p for p in f.parents if not (p / "__init__.py").exists()), f.parent)
         text = f.read_text("utf-8")
-        new = rewrite(text, known, module_of(f, root))
+        new = rewrite_file(text, known, module_of(f, root))
         if new != text:
             f.write_text(new, encoding="utf-8")
             changed += 1

@@ -62,6 +62,17 @@ def test_roles_are_rewritten(text: str, module: str, want: str) -> None:
     assert _tool().rewrite(text, KNOWN, module) == want
 
 
+def test_a_line_made_too_long_is_wrapped_with_its_indentation() -> None:
+    tool = _tool()
+    line = "    #: " + "word " * 15 + ":class:`~rtsim.coupling.ScenarioResult` and more words here"
+    out = tool.rewrite_file(line, KNOWN, "", width=60).split("\n")
+    assert all(len(x) <= 60 for x in out) and len(out) > 1
+    assert all(x.startswith("    #: ") for x in out)
+    assert " ".join(x[len("    #: ") :] for x in out) == tool.rewrite(line, KNOWN)[len("    #: ") :]
+    short = "x :func:`f`"
+    assert tool.rewrite_file(short, KNOWN) == "x `f`"
+
+
 def test_the_inventory_is_read(tmp_path: Path) -> None:
     body = "rtsim.io py:module 1 api/io/#$ -\nrtsim.run_sweep py:function 1 api/#$ -\n"
     head = b"# Sphinx inventory version 2\n# Project: rtsim\n# Version: 0\n# zlib\n"
