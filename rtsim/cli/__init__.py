@@ -98,7 +98,8 @@ def plain(text: str | None) -> str | None:
         return text
     text = re.sub(r"^``rtsim [^`]*``:?\s*", "", text)
     text = re.sub(r":[a-z]+:`~?([^`]+)`", r"\1", text)
-    return text.replace("``", "")
+    text = re.sub(r"\[`([^`]+)`\]\[[^\]]+\]", r"\1", text)  # an API page's cross-reference
+    return text.replace("``", "").replace("`", "")
 
 
 class Parser(argparse.ArgumentParser):
