@@ -1,11 +1,13 @@
 """The top level's entry points that take a task-set file as well as a task set.
 
-The analyses and the simulator take task sets (:class:`~rtsim.model.taskset.TaskSet`); reading
+The analyses and the simulator take task sets ([`TaskSet`][rtsim.model.taskset.TaskSet]); reading
 a file is the configuration layer's work, above them. For convenience at the top level,
-:func:`rtsim.analyze`, :func:`rtsim.window_bounds` and :func:`rtsim.simulate` also take the
+[`rtsim.analyze`][rtsim.analyze], [`rtsim.window_bounds`][rtsim.window_bounds] and
+[`rtsim.simulate`][rtsim.simulate] also take the
 path of a task-set file or the name of a packaged one (``"example"``), read with
-:func:`rtsim.io.taskset.load_taskset`. :func:`run_sweep` is a grid of scenario runs in one
-call, returning a DataFrame. This module sits with :mod:`rtsim` above every layer.
+[`rtsim.io.taskset.load_taskset`][rtsim.io.taskset.load_taskset].
+[`run_sweep`][rtsim._facade.run_sweep] is a grid of scenario runs in one
+call, returning a DataFrame. This module sits with `rtsim` above every layer.
 """
 
 from __future__ import annotations
@@ -72,7 +74,7 @@ def run_sweep(
     A row equals ``run_scenario(base, overrides={**overrides, **point}, seed=s,
     duration_s=duration_s, mode=mode).summary``: every point runs with each seed of ``seeds``
     itself, so the ``seed`` and ``point_seed`` columns are equal here (a sweep file without
-    a grid seed derives ``point_seed`` from its seed and the point, :mod:`rtsim.sweep`).
+    a grid seed derives ``point_seed`` from its seed and the point, [`rtsim.sweep`][rtsim.sweep]).
 
     Parameters
     ----------
@@ -99,7 +101,7 @@ def run_sweep(
         Dotted keys set at every point, before the grid's.
     kind, options
         Another sweep kind (``"simulate"``, ``"analyze"``, ``"bounds"`` on a task set) and
-        its options (:mod:`rtsim.sweep.kinds`).
+        its options (`rtsim.sweep.kinds`).
     progress, force
         A progress bar on stderr; run above the grid-size limit.
 

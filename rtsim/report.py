@@ -1,6 +1,6 @@
 """``report.html``: one self-contained page per run directory.
 
-:func:`write_run_report` reads what a run already wrote — ``summary.json`` (or
+`write_run_report` reads what a run already wrote — ``summary.json`` (or
 ``summary.csv``), ``manifest.json``, the PNG figures, the data files — and writes
 ``report.html`` beside them: the summary table, the figures (embedded as base64 PNG, so the
 page is one file that can be mailed or archived), the assumptions table (the scenario's

@@ -1,7 +1,7 @@
 """Values that are valid but almost certainly a mistake of unit, refused with a one-line hint
 naming the unit unless ``--force``.
 
-The ranges of :mod:`rtsim.io.limits` refuse what cannot be meant (a negative radius, a
+The ranges of `rtsim.io.limits` refuse what cannot be meant (a negative radius, a
 horizon of 1e15 ms); these checks catch what is easy to type by mistake: a horizon given in
 seconds (``--horizon 60``: shorter than one processing window), a Hough radius in metres
 (``--hough-radius 0.25``: a quarter of a centimetre), a duration in milliseconds
@@ -72,7 +72,7 @@ def check_horizon(
     periods: Iterable[float] = (),
 ) -> None:
     """A horizon shorter than one processing window: probably seconds, refused. Shorter than
-    the longest of ``periods`` (ms): :func:`short_horizon`'s warning, on stderr once every
+    the longest of ``periods`` (ms): `short_horizon`'s warning, on stderr once every
     input is checked (the task releases one job)."""
     if window is not None and 0 < horizon < window:
         refuse(
@@ -97,7 +97,7 @@ def short_horizon(horizon: float, periods: Iterable[float], option: str = "--hor
 
 
 def warn_short_horizon(args: Any) -> None:
-    """Print :func:`check_horizon`'s warning, if any, on stderr (unless ``--quiet``)."""
+    """Print `check_horizon`'s warning, if any, on stderr (unless ``--quiet``)."""
     import sys
 
     text = getattr(args, "_short_horizon", "")

@@ -2,13 +2,13 @@
 
 Writes to DIR: ``windows.csv`` (one row per processing window; schema in
 docs/outputs.md) and ``windows.parquet`` with ``--parquet``, ``followers.csv`` (the same in
-long form: one row per window and follower, :mod:`rtsim.coupling.tidy`), ``jobs.csv`` (the job
+long form: one row per window and follower, `rtsim.coupling.tidy`), ``jobs.csv`` (the job
 records of the schedule), ``summary.json``, the paper's figures as PNG (paths, window and
 slack, effective bounds, leader speed, and the operating space) unless ``--no-figures``, and
 ``manifest.json`` (rtsim version, seed, argv, the scenario file's text and resolved values,
 ``timing.simulation_s`` — the simulation loop alone — and ``timing.total_s``).
 
-DIR is written whole (:mod:`rtsim.io.outdir`): everything goes into a hidden staging
+DIR is written whole (`rtsim.io.outdir`): everything goes into a hidden staging
 directory beside it, checked writable before the simulation starts, which replaces DIR only
 at the end — a reader never sees files of two runs, an interrupted run leaves the earlier one
 as it was, and files of an earlier run that this one does not write do not survive. DIR must
@@ -18,7 +18,7 @@ stays flat on long runs.
 
 ``--duration`` is simulated seconds, exact, like the file's ``duration`` and ``--set
 duration=S``; without any, the run ends with the lap (``until = "lap"``: the leader's lap plus
-the followers' separation, :mod:`rtsim.coupling.duration`), and says so in one line.
+the followers' separation, `rtsim.coupling.duration`), and says so in one line.
 
 A file's unsaid choices are the recommended model (``preset = "recommended"``: policy
 ``plan``, predictor ``commands``, follow-the-leader followers in a ``fan``, windows centred
@@ -198,7 +198,7 @@ FOLLOWER_CHUNK_ROWS = 20_000
 
 def _write_followers(windows_csv: Path, target: Path) -> None:
     """followers.csv: windows.csv in long form, one row per window and follower
-    (:mod:`rtsim.coupling.tidy`), from the file read back in chunks."""
+    (`rtsim.coupling.tidy`), from the file read back in chunks."""
     import pandas as pd
 
     from rtsim.coupling.tidy import followers_frame
@@ -383,8 +383,8 @@ def _write(
 
 def _figure_table(path: Path, n: int, rows: int) -> Any:
     """The columns the figures draw, read back from windows.csv; above
-    :data:`~rtsim.plots.scenario_data.FIGURE_MAX_ROWS` windows only the rows
-    :func:`~rtsim.plots.scenario_data.thin_rows` keeps (read in bucket-aligned chunks)."""
+    `FIGURE_MAX_ROWS` windows only the rows
+    `thin_rows` keeps (read in bucket-aligned chunks)."""
     import pandas as pd
 
     from rtsim.io.columns import iter_columns, read_columns

@@ -3,7 +3,7 @@
 Output files (``--jobs``, ``--trace``, ``--gantt``, ``--histogram``, ``--perfetto``) are
 written to temporary files beside their targets — made before the simulation starts, so an
 unwritable place is refused at once — and renamed in together at the end
-(:class:`rtsim.io.outdir.FileSet`). Every directory that receives one also gets a manifest
+(`rtsim.io.outdir.FileSet`). Every directory that receives one also gets a manifest
 (rtsim version, seed, resolved inputs including the task set, command line, and the list of
 outputs written there): ``manifest.json`` when the directory has none or has one of an
 earlier ``simulate`` whose files this run replaces all of, else ``<file>.manifest.json``

@@ -1,9 +1,11 @@
 """Scenario files: the typed model of the file, and the runtime objects built from it once
-it is valid (:class:`~rtsim.world.config.WorldConfig`, the task set, :class:`AdjustConfig`),
+it is valid ([`WorldConfig`][rtsim.world.config.WorldConfig], the task set,
+[`AdjustConfig`][rtsim.config.scenario.AdjustConfig]),
 each built once.
 
 Angles are radians, or degrees when the key is written with ``_deg`` (``heading_deg``):
-both spellings are fields of the model, with the same range. See :mod:`rtsim.io.scenario`
+both spellings are fields of the model, with the same range. See
+[`rtsim.io.scenario`][rtsim.io.scenario]
 for the file format.
 """
 
@@ -101,7 +103,7 @@ PRESETS: dict[str, dict[str, str]] = {
 _DEFAULT = PRESETS["recommended"]
 #: ``until``: what ends a run without a ``duration`` (docs/scenarios.md): ``lap``, the leader's
 #: lap plus the largest ρ_d, so that the followers complete theirs too
-#: (:mod:`rtsim.coupling.duration`). A ``duration`` given anywhere replaces it.
+#: (`rtsim.coupling.duration`). A ``duration`` given anywhere replaces it.
 UNTIL: tuple[str, ...] = ("lap",)
 
 #: Top-level keys an override may set though the file leaves them out (``--set
@@ -115,10 +117,10 @@ Side = Literal["left", "right"]
 # ----------------------------------------------------------------- runtime objects
 @dataclass(frozen=True)
 class AdjustConfig:
-    """Limits for the adjustment algorithm (semantics in :mod:`rtsim.control`).
+    """Limits for the adjustment algorithm (semantics in [`rtsim.control`][rtsim.control]).
 
     cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
-    predictor: the prediction model of :mod:`rtsim.control.predict` (``paper``, ``formation``
+    predictor: the prediction model of `rtsim.control.predict` (``paper``, ``formation``
     or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
     names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
     ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle) or ``w_edf``
@@ -163,9 +165,9 @@ class Scenario:
 
     ``scheduler``: the leader CPU's scheduling policy from ``[scheduler] policy`` (None: the
     task set's, ``fp`` unless its file says otherwise). ``task_set``: the task-set file, read
-    once when the scenario is loaded (:meth:`load_taskset` gives it the scenario's n, r_H
+    once when the scenario is loaded (`load_taskset` gives it the scenario's n, r_H
     and scheduler). ``duration``: simulated s, exact; 0 with ``until = "lap"`` (the run ends
-    with the lap, :mod:`rtsim.coupling.duration`).
+    with the lap, `rtsim.coupling.duration`).
     """
 
     name: str
@@ -554,7 +556,7 @@ class ScenarioFile(Table):
 
     name: Annotated[str, text()] | None = None
     description: Annotated[str, text(nonempty=False, what="a string")] = ""
-    #: the model choices the file leaves unsaid (:data:`PRESETS`)
+    #: the model choices the file leaves unsaid (`PRESETS`)
     preset: Annotated[str, choice(tuple(PRESETS))] = "recommended"
     taskset: Annotated[str, text(what="a name or a path")] = "barrel_robots"
     duration: (
@@ -590,7 +592,7 @@ def parse_scenario(
 
     A plug-in named ``module:Name`` (``[adjust] policy``, ``predictor``, ``[formation]
     model``, ``[scheduler] policy``, the task set's) is code: it loads only with
-    ``allow_code=True`` or the user's opt-in (:func:`rtsim.registry.reading_input`).
+    ``allow_code=True`` or the user's opt-in (`rtsim.registry.reading_input`).
     """
     from rtsim.registry import file_allows_code, reading_input
 
@@ -624,7 +626,7 @@ def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> 
 
 
 def _with_preset(data: Mapping[str, Any]) -> Mapping[str, Any]:
-    """``data`` with its ``preset``'s choices (:data:`PRESETS`) where the file gives none;
+    """``data`` with its ``preset``'s choices (`PRESETS`) where the file gives none;
     the recommended preset's are the model's defaults, so only another preset fills keys."""
     preset = data.get("preset") if isinstance(data, Mapping) else None
     if not isinstance(preset, str) or preset not in PRESETS or preset == "recommended":
@@ -851,7 +853,7 @@ def _predicted_bound(
     src: str, r_H: float, follower: FollowerParams, sensing: SensingParams, ekf: EkfParams
 ) -> float:
     """The decision's localization bound for a window centred at the predicted position
-    (:func:`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
+    (`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
     the fix noise, the EKF's initial heading error, the actuation noise, at the followers'
     top speed, 3 standard deviations; the leader knows its own motion (no error)."""
     if not math.isfinite(follower.max_speed):
@@ -921,8 +923,8 @@ def load_scenario(
     """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``).
 
     ``overrides``: dotted paths into the file and their new values, resolved as a sweep's
-    (``{"leader.speed": 20, "formation.followers": 4}``; :mod:`rtsim.config.dotted`).
-    ``allow_code``: as :func:`parse_scenario`.
+    (``{"leader.speed": 20, "formation.followers": 4}``; `rtsim.config.dotted`).
+    ``allow_code``: as [`parse_scenario`][rtsim.config.scenario.parse_scenario].
     """
     raw, p = scenario_bytes(path)
     src = str(p)  # the full path in every message

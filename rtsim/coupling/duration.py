@@ -4,7 +4,7 @@ A run with a duration runs for exactly that long, whether the duration comes fro
 (``duration_s``, ``--duration``), an override (``--set duration=30``) or the scenario file.
 A run without one (the file's ``until = "lap"``, also the default) stops once the leader has
 completed its lap — its arc length has grown by the path's lap length plus the largest ρ_d,
-so the last follower has completed its own — and at the latest after :data:`LAP_CAP_FACTOR`
+so the last follower has completed its own — and at the latest after `LAP_CAP_FACTOR`
 lap times at the desired speed V_Ld (a leader slowed to the floor would otherwise run for
 hours).
 """
@@ -53,9 +53,10 @@ def run_length(
 def check_scenario(
     scenario: Any, duration_s: float | None, where: str, *, force: bool = False
 ) -> None:
-    """Refuse a coupled run of ``scenario`` (an :class:`rtsim.io.scenario.Scenario`) above the
-    work limits (:func:`rtsim.io.work.check_coupled`: windows over the chain's processing time
-    g, world steps × followers), its length from :func:`run_length`."""
+    """Refuse a coupled run of ``scenario`` (an
+    [`rtsim.io.scenario.Scenario`][rtsim.io.scenario.Scenario]) above the
+    work limits (`rtsim.io.work.check_coupled`: windows over the chain's processing time
+    g, world steps × followers), its length from `run_length`."""
     cfg = scenario.world
     length = run_length(cfg, duration_s, scenario.duration)
     win = scenario.load_taskset().window

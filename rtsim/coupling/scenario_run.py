@@ -1,8 +1,8 @@
 """Schedule and world in one SimPy run (docs/model/adjustment.md, docs/model/world.md).
 
-One ``simpy.Environment`` holds the virtual :class:`~rtsim.sim.cpu.CPU` with the leader's
+One ``simpy.Environment`` holds the virtual [`CPU`][rtsim.sim.cpu.CPU] with the leader's
 task set: dead reckoning (T_hp), the processing-window chain T_w and the command task (T_lp,
-period 2w). The world (:class:`~rtsim.world.world.World`, no engine of its own) is driven
+period 2w). The world ([`World`][rtsim.world.world.World], no engine of its own) is driven
 from the CPU's hooks:
 
 - **release** of window k: it is governed by the latest decision — the w returned to the
@@ -17,12 +17,13 @@ from the CPU's hooks:
 - **send[i] ends**: follower i's command (the formation model's control law on the leader's
   estimate) takes effect; a late window therefore means stale commands.
 - **window job completes**: every follower's estimate (propagated to now) gives its
-  MSBs and :func:`rtsim.control.decide` in the run's mode sets the next w (and thereby T_lp's
+  MSBs and [`rtsim.control.decide`][rtsim.control.decide] in the run's mode sets the next w (and
+  thereby T_lp's
   2w) and the leader speed (``World.set_leader_speed``).
 
 The world is advanced lazily to the time of every hook (its own fixed step sub-steps a
 ramping wheel speed). Execution times: every fixed segment runs its WCET (``exec_model=
-"wcet"``, the default; ``"uniform"`` or any model of :mod:`rtsim.sim.execution` may be
+"wcet"``, the default; ``"uniform"`` or any model of `rtsim.sim.execution` may be
 given); the radio round trip Δt is an idle suspension (``suspension="idle"``: the CPU is free,
 as on the real system). Overload: the window chain is ``finish-late``; a window that misses
 its deadline is recorded (``missed``), the next window is still released on time
@@ -30,14 +31,14 @@ its deadline is recorded (``missed``), the next window is still released on time
 scan, commands and decision come late too. A backlogged release is governed by the latest
 decision available at its release (that of the last *completed* window).
 
-Policies (:mod:`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
+Policies (`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
 ``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
 break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
 schedule breaks), ``margin``, ``lookahead``, ``noise-aware``, ``safe`` or a user's
 ``package.module:Name``. Each window's decision is the policy's ``decide`` on a
-:class:`~rtsim.control.policy.PolicyInput`.
+[`PolicyInput`][rtsim.control.policy.PolicyInput].
 
-Duration (:mod:`rtsim.coupling.duration`): a duration is exact, whether it is ``duration_s``,
+Duration (`rtsim.coupling.duration`): a duration is exact, whether it is ``duration_s``,
 an override or the scenario file's ``duration``. Without one (the file's ``until = "lap"``,
 the default) the run stops at the first window completion at which the leader has driven one
 lap plus the largest ρ_d (so the followers, which trail by ρ_d, leave the last turn too) —
@@ -46,7 +47,7 @@ after 3 lap times at V_Ld, i.e. a leader slowed to ⅓·V_Ld on average. ``summa
 ``summary['duration_s']`` say how far it got; ``summary['lap_time_s']`` is the simulated
 time at which the leader first completed its lap (interpolated between the two window
 completions around it), or None with ``summary['lap_time_note']`` saying why (the cap, or
-a duration shorter than the lap); :func:`rtsim.coupling.duration.run_note` words what a run
+a duration shorter than the lap); `rtsim.coupling.duration.run_note` words what a run
 did beyond a duration. A window still running at the stop is dropped.
 """
 
@@ -156,7 +157,7 @@ class ScenarioResult(ResultDisplay):
     @property
     def followers(self) -> pd.DataFrame | None:
         """``windows`` in long form, one row per window and follower (position, estimate,
-        fix error, each bound ``_pred``/``_true``, violations, lost: :mod:`rtsim.coupling.tidy`;
+        fix error, each bound ``_pred``/``_true``, violations, lost: `rtsim.coupling.tidy`;
         ``followers.csv``); None when the windows were streamed to a sink."""
         from rtsim.coupling.tidy import followers_frame
 
@@ -375,7 +376,7 @@ class _Coupling:
         pending: bool = False,
         estimates: Sequence[tuple[Any, float]] | None = None,
     ) -> Any:
-        """What the leader knows for its rollout at ``now`` (:class:`RolloutState`);
+        """What the leader knows for its rollout at ``now`` (`RolloutState`);
         ``estimates``: per follower ``World.estimate_at(i, now)`` if already computed."""
         world = self.world
         ld = world.leader
@@ -705,7 +706,7 @@ class _Coupling:
 
     # -- running ---------------------------------------------------------------------
     def watch(self, progress: Any) -> None:
-        """Report progress (:func:`rtsim.sim.progress.start_ticker`): the share of the
+        """Report progress (`rtsim.sim.progress.start_ticker`): the share of the
         duration; for a run to the end of the lap, the smaller of the shares of the lap
         driven and of the scenario's duration, ticking at every percent of a lap at V_Ld."""
         from rtsim.sim.progress import TICKS, start_ticker
@@ -772,12 +773,13 @@ def run_scenario(
     ----------
     scenario : str, path, Scenario or ScenarioInputs
         A scenario file, a shipped one by name (``"test2"``), a loaded
-        :class:`~rtsim.io.scenario.Scenario`, or :class:`ScenarioInputs` prepared once.
+        [`Scenario`][rtsim.io.scenario.Scenario], or
+        [`ScenarioInputs`][rtsim.coupling.scenario_run.ScenarioInputs] prepared once.
     mode : str, optional
         Alias of ``policy`` (the paper's reproduction names its three modes so).
     duration_s : float, optional
         Simulated seconds, exact. None: the scenario's ``duration``, else to the end of the
-        lap (``until = "lap"``, :mod:`rtsim.coupling.duration`).
+        lap (``until = "lap"``, `rtsim.coupling.duration`).
     seed : int, default 0
         One seed for the world's noise and the CPU's execution-time draws.
     record_jobs : bool, default True
@@ -795,7 +797,7 @@ def run_scenario(
         (``{"leader.speed": 20, "sensing.r_H": 30}``; cm, cm/s as in the file); with a
         path or a shipped name only.
     window_sink, job_sink, trace_sink : optional
-        :class:`rtsim.io.columns.ChunkWriter` (or a callable) given the window rows, job
+        `rtsim.io.columns.ChunkWriter` (or a callable) given the window rows, job
         records, trace rows in chunks during the run: memory stays flat on long runs, and
         the matching result table is None.
     policy : str, optional
@@ -804,7 +806,7 @@ def run_scenario(
         ``"package.module:Name"``.
     allow_code : bool, optional
         The scenario file (or its task set) may name code, ``module:Name``
-        (:mod:`rtsim.registry`); a ``policy`` of that form given here is always allowed.
+        (`rtsim.registry`); a ``policy`` of that form given here is always allowed.
     force : bool, default False
         Run above the work limits (2e6 windows, 2e8 world steps × followers), as
         ``--force``.

@@ -1,7 +1,7 @@
 """The windows table in long form: one row per window and follower (``followers.csv``).
 
 ``windows.csv`` is wide: every per-follower quantity is a column per follower (``f1_x`` …
-``f4_msb_bearing_true``, 141 columns at n = 4). :func:`followers_frame` turns those into one
+``f4_msb_bearing_true``, 141 columns at n = 4). `followers_frame` turns those into one
 row per (window, follower), so a per-follower question is a ``groupby`` rather than a melt:
 
 - ``window``, ``t`` (ms, the window's release), ``w`` (ms), ``follower`` (1..n);
@@ -62,7 +62,7 @@ def followers_frame(windows: pd.DataFrame) -> pd.DataFrame:
 
 
 def followers_chunks(chunks: Iterable[pd.DataFrame]) -> Iterator[pd.DataFrame]:
-    """:func:`followers_frame` of each chunk of a windows table read in pieces (the rows
+    """`followers_frame` of each chunk of a windows table read in pieces (the rows
     of a window stay in its chunk, so the long table's order is kept)."""
     for chunk in chunks:
         yield followers_frame(chunk)

@@ -60,7 +60,7 @@ def parse_values(text: str, what: str = "value") -> list[float]:
 
 
 def parse_int_values(text: str, what: str = "value") -> list[int]:
-    """As :func:`parse_values`, but every value must be an integer."""
+    """As `parse_values`, but every value must be an integer."""
     out = []
     for v in parse_values(text, what):
         if v != int(v):

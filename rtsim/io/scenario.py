@@ -59,10 +59,11 @@ Every table but ``[leader]`` and ``[formation]`` is optional: the model choices 
 are the ``preset``'s (the recommended model, as test1/test2, or the paper's), the numbers the
 world's dataclasses' defaults.
 Unknown keys are errors with a did-you-mean; every problem is one line of a
-:class:`~rtsim.errors.ScenarioError`, ``<file>: <key>: <problem>``, all of them at once. The
-path must close. The file is read and checked by :mod:`rtsim.config` (the model of the file
-in :mod:`rtsim.config.scenario`, with every key's type, range and unit).
-Initial state: see :class:`rtsim.world.World` (followers on their slots in steady formation,
+`ScenarioError`, ``<file>: <key>: <problem>``, all of them at once. The
+path must close. The file is read and checked by `rtsim.config` (the model of the file
+in `rtsim.config.scenario`, with every key's type, range and unit).
+Initial state: see [`rtsim.world.World`][rtsim.world.World] (followers on their slots in steady
+formation,
 estimates = truth + N(0, init sd²)).
 """
 

@@ -1,7 +1,8 @@
 """Response-time histogram with labelled vertical lines (analytic WCRT, deadline, w_sch, …).
 
 Takes either raw response times (a sequence, array or pandas Series, e.g. from the job table)
-or the running :class:`rtsim.sim.ResponseHistogram` a run keeps without job records.
+or the running [`rtsim.sim.ResponseHistogram`][rtsim.sim.ResponseHistogram] a run keeps without job
+records.
 """
 
 from __future__ import annotations

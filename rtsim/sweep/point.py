@@ -31,7 +31,7 @@ def worker_init(parent: int | None = None) -> None:
     """Worker-process initializer: Ctrl-C goes to the parent, which stops the workers
     (SIGTERM); a SIGTERM handler inherited from the parent by ``fork`` is undone; and the
     worker exits as soon as its parent ``parent`` (a pid) is gone, even killed with
-    SIGKILL, rather than wait forever for work (:func:`watch_parent`)."""
+    SIGKILL, rather than wait forever for work (`watch_parent`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if parent is not None:

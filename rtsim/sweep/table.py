@@ -2,9 +2,9 @@
 
 Point files are strict JSON: a metric that is not finite (NaN, ±inf; ``w_sch`` of an
 infeasible set is ``inf``) is written as ``null`` under ``metrics`` and its value, ``"nan"``,
-``"inf"`` or ``"-inf"``, under ``nonfinite`` (:func:`encode_metrics`, :func:`decode_metrics`).
+``"inf"`` or ``"-inf"``, under ``nonfinite`` (`encode_metrics`, `decode_metrics`).
 
-The table (:func:`build_table`) is always writable to Parquet: a metric named like a grid
+The table (`build_table`) is always writable to Parquet: a metric named like a grid
 column becomes ``metric.<name>``; a point whose metric names still clash after that, or
 whose metric has another type (``bool``, ``number``, ``text``) than the same metric at the
 points before it in point order, is a ``failed`` row with that error (its metrics left
@@ -13,7 +13,7 @@ empty). NaN (no value) fits any column.
 Seeds: ``seed`` is the seed the user asked for — the grid's ``seed`` value at a point that
 has one, else the sweep's ``seed`` (default 0) — and ``point_seed`` the one the point ran
 with (the grid's seed itself, else derived from the sweep's seed and the point's values,
-:func:`rtsim.sweep.grid.point_seed`).
+[`rtsim.sweep.grid.point_seed`][rtsim.sweep.grid.point_seed]).
 """
 
 from __future__ import annotations

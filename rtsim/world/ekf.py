@@ -20,8 +20,8 @@ The leader predicts once per held command piece between two scans (at most two p
 window: before and after that window's send), not per integration step: the arc model is
 exact for a held command, so finer predicts would only cost time.
 
-Two interchangeable implementations: :class:`FollowerEKF` wraps filterpy's
-``ExtendedKalmanFilter`` (the reference), :class:`FastFollowerEKF` does the same algebra
+Two interchangeable implementations: [`FollowerEKF`][rtsim.world.ekf.FollowerEKF] wraps filterpy's
+``ExtendedKalmanFilter`` (the reference), `FastFollowerEKF` does the same algebra
 on plain floats (P = F P Fᵀ + Q with this F's two non-zeros; update P − K H P with
 H = [I₂ 0], which equals filterpy's Joseph form for the optimal gain), several times
 cheaper; a test checks that both agree to 1e-9.
@@ -194,7 +194,8 @@ def _process(
 
 
 class FastFollowerEKF:
-    """The same filter as :class:`FollowerEKF` on plain floats (state x, symmetric P)."""
+    """The same filter as [`FollowerEKF`][rtsim.world.ekf.FollowerEKF] on plain floats (state x,
+    symmetric P)."""
 
     def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
         self.params = params

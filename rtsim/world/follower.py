@@ -57,7 +57,7 @@ class FollowerParams:
     control_offset d (cm, > 0); gain_rho k_ρ and gain_beta k_β (1/s); speed_noise (cm/s) and
     turn_noise (rad/s): standard deviations of the actuation error per command; lookahead ℓ
     (cm): pure pursuit's look-ahead along the trace in follow-the-leader
-    (:mod:`rtsim.world.ftl`, which also uses gain_rho on the along-track separation error).
+    (`rtsim.world.ftl`, which also uses gain_rho on the along-track separation error).
 
     The offset d must not be too small for the command hold w: the control point's heading
     loop has time constant d/V_F, and a command held for w overshoots (and the formation
@@ -125,7 +125,7 @@ def lpsi_command(
     """l-ψ control law (unsaturated): (v, ω) for followers at (x, y, θ).
 
     ``leader`` is the leader's pose (x, y, heading), ``v_l`` its speed, ``omega_l`` its
-    turn rate; (l_d, ψ_d) the control point's targets from :func:`control_targets`.
+    turn rate; (l_d, ψ_d) the control point's targets from `control_targets`.
     Floats use ``math`` (fast path for one follower); NumPy arrays are vectorised.
     """
     if x.__class__ is float and th.__class__ is float:
@@ -165,7 +165,8 @@ def _lpsi1(
     psi_d: float,
     p: FollowerParams,
 ) -> tuple[float, float]:
-    """:func:`lpsi_command` for one follower given as floats (the same expressions)."""
+    """[`lpsi_command`][rtsim.world.follower.lpsi_command] for one follower given as floats (the
+    same expressions)."""
     xl, yl, hl = leader
     d = p.control_offset
     c, s = math.cos(hl), math.sin(hl)
@@ -201,7 +202,7 @@ def ramp1(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
 def arc1(
     pose: tuple[float, float, float], v: float, w: float, dt: float
 ) -> tuple[float, float, float]:
-    """Scalar exact arc (see :func:`rtsim.world.unicycle.arc_step`)."""
+    """Scalar exact arc (see `rtsim.world.unicycle.arc_step`)."""
     x, y, th = pose
     dth = w * dt
     c = v * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
@@ -212,7 +213,7 @@ def arc1(
 def ramp_arc(
     x: float, y: float, th: float, v: float, vc: float, w: float, a: float, dt: float
 ) -> tuple[float, float, float, float, float]:
-    """One step of a held command: :func:`ramp1` then :func:`arc1` at the ramp's mean speed,
+    """One step of a held command: `ramp1` then `arc1` at the ramp's mean speed,
     in one call (the same expressions; the hot path of the truth and of the estimates).
 
     Returns (x, y, heading, speed after dt, mean speed)."""
@@ -275,7 +276,7 @@ class FollowerGroup:
         return self.apply_drawn(k, v, w, nv, nw)
 
     def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
-        """:meth:`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
+        """`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
         sv, sw = self.saturate(v + self.p.speed_noise * nv, w + self.p.turn_noise * nw)
         self.cmd_v[k] = sv
         self.cmd_w[k] = sw

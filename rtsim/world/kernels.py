@@ -1,8 +1,8 @@
 """The world's numba kernels, as plain Python: each is the expressions of the Python code it
-replaces, in the same order (:mod:`rtsim.world.compiled` for the classes that call them and
+replaces, in the same order (`rtsim.world.compiled` for the classes that call them and
 why the results are bit for bit the Python ones).
 
-:func:`kernels` compiles them (or loads them from numba's cache) once per process; numba is
+`kernels` compiles them (or loads them from numba's cache) once per process; numba is
 imported only then. The helpers are rebound to their compiled versions at that moment, so
 that the kernels calling them are compiled against compiled code.
 """
@@ -297,7 +297,7 @@ def _hypot_core(ax: float, ay: float, mx: float) -> float:
 def _hypot(x: float, y: float) -> float:
     """CPython's ``math.hypot`` of two coordinates (its vector_norm: scaled by a power of
     two, the squares summed with their exact errors, a square root and one differential
-    correction); :func:`kernels` checks it against ``math.hypot`` before a kernel uses it."""
+    correction); `kernels` checks it against ``math.hypot`` before a kernel uses it."""
     ax, ay = abs(x), abs(y)
     if math.isnan(ax) or math.isnan(ay):
         return math.nan
@@ -369,7 +369,7 @@ def _ftl_exact(
     y: float,
     th: float,
 ) -> tuple[float, float]:
-    """TraceFollower.command whole (with :func:`_hypot`): (v, ω); updates s_ref, s_f."""
+    """TraceFollower.command whole (with `_hypot`): (v, ω); updates s_ref, s_f."""
     chain = np.empty(ahead.shape[0] + 1, dtype=np.int64)
     m = 0
     j = k
@@ -602,10 +602,10 @@ def _rollout_changes(
     out: Any,
 ) -> None:
     """Rollout._run whole: the leader set to target ``v`` (Leader.set_speed), the scans and
-    sends of windows ``lengths`` in Python's tuple order, :func:`_rollout` on copies of the
+    sends of windows ``lengths`` in Python's tuple order, `_rollout` on copies of the
     group and the law's search starts, and the changes per window and follower
     (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|). ``P``: the state's
-    pack (:meth:`rtsim.world.compiled.CompiledRollout.pack`)."""
+    pack (`rtsim.world.compiled.CompiledRollout.pack`)."""
     fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
     n = fol.shape[0]
     nw = lengths.shape[0]
@@ -788,7 +788,7 @@ def _search_into(
     first: int,
     found_out: Any,
 ) -> int:
-    """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · :func:`_rollout_worst` over
+    """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · `_rollout_worst` over
     ``changes.shape[1]`` windows of ``w``; rollout r's speed and changes go to ``speeds[r]``
     and ``changes[r]`` from r = ``first`` (as many as they hold). ``found_out`` ←
     (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the
