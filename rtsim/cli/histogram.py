@@ -7,7 +7,8 @@ Sources (exactly one):
 - ``rtsim histogram --scenario DIR``: the job table of ``rtsim scenario --out DIR``;
 - ``rtsim histogram --sweep DIR --point I``: point I of a ``simulate`` sweep, re-run.
 
-Writes into ``--out DIR``: ``histogram-<task>.png`` (``.svg``, ``.pdf`` with ``--format``) per
+Writes into ``--out DIR``: ``histograms.png`` (the run in one figure, a panel per task, 300
+dpi) and ``histogram-<task>.png`` (``.svg``, ``.pdf`` with ``--format``) per
 task (lines: exact WCRT, deadline, w_sch), ``histogram.csv``, ``bounds.csv`` and
 ``manifest.json``.
 """
@@ -68,7 +69,7 @@ def register(sub: Any) -> None:
     )
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
-    add_figure_options(p, default_dpi=100, what="histograms")  # rtsim.validate.histogram.DPI
+    add_figure_options(p, default_dpi=300, what="histograms")  # rtsim.validate.histogram.DPI
     add_json(p, "print the files written as one JSON object")
     add_quiet(p, "no progress bar, no list of the files written")
     p.set_defaults(func=run)

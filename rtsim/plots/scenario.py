@@ -39,6 +39,7 @@ from rtsim.plots.scenario_data import (
     times_s,
     violation_ratios,
 )
+from rtsim.plots.style import few
 
 __all__ = [
     "BOUND_KINDS",
@@ -118,7 +119,7 @@ def _finish(
     elif title:
         ax.set_title(title, loc="left")
     if legend:
-        handles, labels = ax.get_legend_handles_labels()
+        handles, labels = few(*ax.get_legend_handles_labels())
         if handles and own:
             fig.legend(
                 handles,
@@ -131,7 +132,7 @@ def _finish(
                 title_fontsize="small",
             )
         elif handles:
-            ax.legend(fontsize="small")
+            ax.legend(handles, labels, fontsize="small")
     return fig
 
 
@@ -697,11 +698,11 @@ def plot_modes(
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(lab.split(" (")[0] if lab.startswith("deadline") else lab, h)
     if handles:
+        shown = few(list(handles.values()), list(handles))
         fig.legend(
-            list(handles.values()),
-            list(handles),
+            *shown,
             loc="outside lower center",
-            ncols=min(len(handles), 3),
+            ncols=min(len(shown[0]), 3),
             fontsize="small",
             frameon=False,
             title=BOUNDS_NOTE if kind == "bounds" else None,
