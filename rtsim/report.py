@@ -137,7 +137,7 @@ def _summary_section(run_dir: Path) -> str:
 
 def _summary_columns(df: Any) -> str:
     """A summary table turned on its side so that it fits the page: one row per column of
-    ``df`` under its full name (:func:`column_title`, the short name beside it), one column
+    ``df`` under its full name (`column_title`, the short name beside it), one column
     per run (headed by its test and mode, or its row number)."""
     label = [c for c in ("test", "mode") if c in df.columns]
     heads = [

@@ -35,7 +35,7 @@ def response_histogram(
     """Histogram of response times with one labelled vertical line per ``lines`` entry.
 
     The count axis has integer ticks; ``legend``: ``"beside"`` the axes or ``"inside"`` them
-    (a panel of :func:`response_histograms`).
+    (a panel of `response_histograms`).
 
     Example: ``lines={"WCRT (analysis)": 229.0, "deadline": 237.4, "w_sch": 237.4}``;
     a ``None`` value (no finite bound) is left out of the plot but kept in the legend text.
@@ -100,7 +100,7 @@ def response_histograms(
     columns: int = 2,
 ) -> Figure:
     """One figure for a run: a panel per task (``panels``: task → (response times, lines)),
-    ``columns`` panels across, as wide as a paper's page (:mod:`rtsim.plots.style`), text at
+    ``columns`` panels across, as wide as a paper's page (`rtsim.plots.style`), text at
     caption size. ``bins``: a count, or each task's bin edges."""
     import matplotlib as mpl
 

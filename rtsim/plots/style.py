@@ -1,10 +1,10 @@
 """Figures fit for a paper: column-width sizes, print resolution, small legends.
 
-A two-column paper (IEEE, ACM) sets a figure one column wide (:data:`COLUMN_IN`) or across
-both (:data:`PAGE_IN`); text in a figure reads best at the caption's size, 7–8 pt, and a
-raster figure prints sharp at :data:`DPI` (vector formats, ``--format pdf`` or ``svg``, need
-none). A legend of more than :data:`MAX_LEGEND` entries is cut to that many, its last entry
-saying how many more the figure's CSV holds (:func:`few`).
+A two-column paper (IEEE, ACM) sets a figure one column wide (`COLUMN_IN`) or across
+both (`PAGE_IN`); text in a figure reads best at the caption's size, 7–8 pt, and a
+raster figure prints sharp at `DPI` (vector formats, ``--format pdf`` or ``svg``, need
+none). A legend of more than `MAX_LEGEND` entries is cut to that many, its last entry
+saying how many more the figure's CSV holds (`few`).
 """
 
 from __future__ import annotations

@@ -196,13 +196,19 @@ def test_resume_computes_only_missing_points(
     assert list(first.table["double"]) == [2 * i for i in range(7)]
 
 
-def test_changed_sweep_file_is_refused_unless_restart(
+def test_a_grown_grid_keeps_its_points_another_change_needs_restart(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     spec = call_sweep(tmp_path, "slow", n=3)
     out = tmp_path / "out"
     assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 0
-    call_sweep(tmp_path, "slow", n=4)  # same file, one more point
+    before = {f.name: f.read_text() for f in (out / "points").glob("*.json")}
+    call_sweep(tmp_path, "slow", n=4)  # same file, one more point: a grown grid (issue 34)
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    after = {f.name: f.read_text() for f in (out / "points").glob("*.json")}
+    assert len(after) == 4 and all(after[k] == v for k, v in before.items())  # kept, not rerun
+    assert len(pd.read_parquet(out / "results.parquet")) == 4
+    call_sweep(tmp_path, "slow", n=4, options='mode = "x"')  # something else changed
     capsys.readouterr()
     assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 2
     err = capsys.readouterr().err
