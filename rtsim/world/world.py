@@ -45,12 +45,13 @@ from rtsim.analysis.kinematics import (
 from rtsim.errors import RtsimError
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
-from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command, ramp1, ramp_arc
+from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
 from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
 from rtsim.world.localization import lost_cause
+from rtsim.world.motion import ramp, ramp_arc
 from rtsim.world.scan import Scan
 
 __all__ = ["World", "Scan"]
@@ -397,7 +398,7 @@ class World:
                     continue
                 t1 = min(pieces[j + 1][0], t) if j < last else t
                 dt = (t1 - t0) / 1000.0
-                v, vm = ramp1(v, vc, a, dt)
+                v, vm = ramp(v, vc, a, dt)
                 f.predict(vm, w, dt)
                 if t1 >= t and not (j < last and pieces[j + 1][0] <= t):
                     keep.insert(0, (t, vc, w))
