@@ -50,7 +50,7 @@ from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
-from rtsim.world.localization import lost_cause
+from rtsim.world.localization import locate_one, lost_cause
 from rtsim.world.motion import ramp, ramp_arc
 from rtsim.world.scan import Scan
 
@@ -316,19 +316,17 @@ class World:
         for k in range(n):
             tx, ty = truth_l[k]
             mx, my = tx + pn * z[2 * k], ty + pn * z[2 * k + 1]
-            # locate_one, inlined
-            cx, cy = centre[k]
-            dist = math.hypot(mx - cx, my - cy)
-            visible = pts[k] >= min_pts
-            in_w = visible and dist <= r_H
+            in_w, lost, reacq = locate_one((mx, my), centre[k], pts[k], r_H, r_re, min_pts)
             measured.append((mx, my))
             in_ws.append(in_w)
-            losts.append(not in_w)
-            search = not in_w and (expected is None or expected[k] >= min_pts)
+            losts.append(lost)
+            search = lost and (expected is None or expected[k] >= min_pts)
             searched.append(search)
-            reacqs.append(search and visible and dist <= r_re)
+            reacqs.append(reacq and search)
             causes.append(
-                "" if in_w else lost_cause(visible, truth_l[k], r_F, sens.max_range, min_pts)
+                ""
+                if in_w
+                else lost_cause(pts[k] >= min_pts, truth_l[k], r_F, sens.max_range, min_pts)
             )
             rho = math.hypot(tx, ty)
             beta = math.atan2(ty, tx) % two_pi
