@@ -175,7 +175,7 @@ class FollowerEKF:
         P[0:2, 0:2] = self.kf.R
 
 
-@kernel
+@kernel(inline=True)
 def process(
     th: float, v: float, w: float, dt: float, sv2: float, sw2: float, qp2: float, qh2: float
 ) -> tuple[float, ...]:

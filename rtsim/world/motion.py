@@ -32,7 +32,7 @@ from rtsim.world.jit import kernel
 __all__ = ["arc", "chord", "follower_advance", "leader_travel", "ramp", "ramp_arc"]
 
 
-@kernel
+@kernel(inline=True)
 def chord(th: float, v: float, w: float, dt: float) -> tuple[float, float, float, float]:
     """The exact arc's (Δθ, chord c, mid-heading m, sinc term s = sin(Δθ/2)/(Δθ/2))."""
     dth = w * dt
@@ -40,14 +40,14 @@ def chord(th: float, v: float, w: float, dt: float) -> tuple[float, float, float
     return dth, v * dt * s, th + 0.5 * dth, s
 
 
-@kernel
+@kernel(inline=True)
 def arc(x: float, y: float, th: float, v: float, w: float, dt: float) -> tuple[float, float, float]:
     """The pose after holding (v, ω) for ``dt`` s: the exact arc (module docstring)."""
     dth, c, m, _ = chord(th, v, w, dt)
     return x + c * math.cos(m), y + c * math.sin(m), th + dth
 
 
-@kernel
+@kernel(inline=True)
 def ramp(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
     """A follower's speed ramp toward ``vc`` at most ``a`` cm/s² over ``dt`` s: (speed after
     dt, mean speed over dt) (module docstring)."""
@@ -61,7 +61,7 @@ def ramp(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
     return v1, 0.5 * (v0 + v1)
 
 
-@kernel
+@kernel(inline=True)
 def ramp_arc(
     x: float, y: float, th: float, v: float, vc: float, w: float, a: float, dt: float
 ) -> tuple[float, float, float, float, float]:
