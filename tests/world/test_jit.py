@@ -66,44 +66,49 @@ def test_dependencies_found_in_the_code() -> None:
     assert not jit.is_kernel(math.sin) and jit.is_kernel(motion.arc)
 
 
-def test_editing_a_dependency_in_another_module_changes_the_key(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
+@pytest.fixture
+def isolated(monkeypatch: pytest.MonkeyPatch) -> pytest.MonkeyPatch:
+    """sys.path restored after the test, no .pyc written for the temporary packages."""
     monkeypatch.setattr(sys, "path", list(sys.path))
     monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    return monkeypatch
+
+
+def test_editing_a_dependency_in_another_module_changes_the_key(
+    tmp_path: Path, isolated: pytest.MonkeyPatch
+) -> None:
     caller, pkg = _package(tmp_path, "kpkg_key", "2 * x")
     before = jit.source_key(caller.f)
+    callee_before = jit.source_key(sys.modules["kpkg_key.callee"].double)
+    other = jit.source_key(motion.arc)
     assert jit.source_key(caller.f) == before  # stable
     caller = _edit(pkg, "kpkg_key", "x + x + 0")
     assert jit.source_key(caller.f) != before
     # the callee's own key moves too, an unrelated kernel's does not
-    assert jit.source_key(motion.arc) == jit.source_key(motion.arc)
+    assert jit.source_key(sys.modules["kpkg_key.callee"].double) != callee_before
+    assert jit.source_key(motion.arc) == other
 
 
 def test_a_constant_the_kernel_reads_is_in_the_key(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, isolated: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(sys, "path", list(sys.path))
-    monkeypatch.setattr(sys, "dont_write_bytecode", True)
     caller, _ = _package(tmp_path, "kpkg_const", "2 * x")
     before = jit.source_key(caller.f)
     jit._digest.cache_clear()
-    monkeypatch.setattr(caller, "SCALE", 11)
+    isolated.setattr(caller, "SCALE", 11)
     assert jit.source_key(caller.f) != before
     jit._digest.cache_clear()
 
 
 @pytest.mark.skipif(not available(), reason="numba is not importable")
 def test_compiled_kernel_sees_an_edit_in_another_module(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, isolated: pytest.MonkeyPatch
 ) -> None:
     """Compiled and cached, then the callee edited: the next build is compiled afresh (a new
     cache directory) and returns the edited result; the same sources load from the cache."""
     from numba.core import config
 
-    monkeypatch.setattr(sys, "path", list(sys.path))
-    monkeypatch.setattr(sys, "dont_write_bytecode", True)
-    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path / "numba-cache"))
+    isolated.setattr(config, "CACHE_DIR", str(tmp_path / "numba-cache"))
     root = jit.cache_root()
     assert root is not None and root.startswith(str(tmp_path / "numba-cache"))
     caller, pkg = _package(tmp_path, "kpkg_run", "2 * x")
