@@ -21,6 +21,7 @@ from rtsim.world.ekf import ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
 from rtsim.world.jit import build, kernel
 from rtsim.world.motion import follower_advance, leader_travel
+from rtsim.world.path import along
 
 __all__ = ["available", "kernels", "warm_rollout"]
 
@@ -205,13 +206,7 @@ def _hypot(x: float, y: float) -> float:
 def _pose(s0: Any, poses: Any, kappa: Any, lap: float, s: float) -> tuple[float, float, float]:
     """LeaderPath.pose(s)."""
     k, u = _index(s0, lap, s)
-    x0, y0, h0 = poses[k, 0], poses[k, 1], poses[k, 2]
-    kap = kappa[k]
-    ds = u - s0[k]
-    if kap == 0.0:
-        return x0 + ds * math.cos(h0), y0 + ds * math.sin(h0), h0
-    h = h0 + kap * ds
-    return x0 + (math.sin(h) - math.sin(h0)) / kap, y0 - (math.cos(h) - math.cos(h0)) / kap, h
+    return along(poses[k, 0], poses[k, 1], poses[k, 2], kappa[k], u - s0[k])
 
 
 @kernel
