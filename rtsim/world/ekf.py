@@ -332,24 +332,8 @@ class FastFollowerEKF:
 
     def update(self, z: tuple[float, float]) -> None:
         x = self.x
-        (p00, p01, p02), (p10, p11, p12), (p20, p21, p22) = self._p
-        r = self._update(
-            x[0],
-            x[1],
-            x[2],
-            p00,
-            p01,
-            p02,
-            p10,
-            p11,
-            p12,
-            p20,
-            p21,
-            p22,
-            self.r,
-            float(z[0]),
-            float(z[1]),
-        )
+        p0, p1, p2 = self._p
+        r = self._update(*x, *p0, *p1, *p2, self.r, float(z[0]), float(z[1]))
         x[0], x[1], x[2] = r[0], r[1], r[2]
         self._p = [[r[3], r[4], r[5]], [r[6], r[7], r[8]], [r[9], r[10], r[11]]]
 

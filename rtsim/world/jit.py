@@ -76,35 +76,25 @@ def dependencies(fn: Callable[..., Any]) -> tuple[dict[str, Callable[..., Any]],
     return calls, values
 
 
-def _closure(fn: Callable[..., Any], seen: dict[Callable[..., Any], None]) -> None:
-    if fn in seen:
-        return
-    seen[fn] = None
-    for dep in dependencies(fn)[0].values():
-        _closure(dep, seen)
-
-
 @functools.cache
 def _digest(fn: Callable[..., Any]) -> bytes:
-    """The hash of one function's part of a source key: its name, source text, options and
-    the plain values it reads."""
+    """One function's part of a source key: its name, source text, options, plain values."""
     h = hashlib.sha256(f"{fn.__module__}.{fn.__qualname__}\n".encode())
     h.update(inspect.getsource(fn).encode())
-    h.update(repr(sorted(dependencies(fn)[1].items())).encode())
-    h.update(repr(getattr(fn, _MARK, None)).encode())
+    h.update(repr((sorted(dependencies(fn)[1].items()), getattr(fn, _MARK, None))).encode())
     return h.digest()
 
 
 def source_key(fn: Callable[..., Any]) -> str:
-    """A hash of the source text of ``fn`` and of every kernel source it reaches (its module
-    and name too), and of the values of the other globals they read: the name of the
-    directory ``fn``'s compiled code is cached in (module docstring)."""
-    seen: dict[Callable[..., Any], None] = {}
-    _closure(fn, seen)
-    h = hashlib.sha256()
-    for d in sorted(_digest(f) for f in seen):
-        h.update(d)
-    return h.hexdigest()[:24]
+    """A hash of the source text of ``fn`` and of every kernel source it reaches (with their
+    names), and of the values of the other globals they read (module docstring)."""
+    seen, todo = set(), [fn]
+    while todo:
+        f = todo.pop()
+        if f not in seen:
+            seen.add(f)
+            todo += dependencies(f)[0].values()
+    return hashlib.sha256(b"".join(sorted(map(_digest, seen)))).hexdigest()[:24]
 
 
 def build(fn: Callable[..., Any]) -> Any:
@@ -115,31 +105,23 @@ def build(fn: Callable[..., Any]) -> Any:
         return done
     import numba
 
-    calls, _ = dependencies(fn)
     glob = dict(fn.__globals__)  # type: ignore[attr-defined]
-    for name, dep in calls.items():
+    for name, dep in dependencies(fn)[0].items():
         if dep is fn:
             raise TypeError(f"kernel {fn.__qualname__} calls itself (numba cannot)")
         glob[name] = build(dep)
-    clone = types.FunctionType(
-        fn.__code__,  # type: ignore[attr-defined]
-        glob,
-        fn.__name__,
-        fn.__defaults__,  # type: ignore[attr-defined]
-        fn.__closure__,  # type: ignore[attr-defined]
-    )
-    clone.__qualname__ = fn.__qualname__
-    clone.__module__ = fn.__module__
-    clone.__doc__ = fn.__doc__
-    opts = getattr(fn, _MARK, {})
+    f: Any = fn
+    clone = types.FunctionType(f.__code__, glob, f.__name__, f.__defaults__, f.__closure__)
+    clone.__qualname__, clone.__module__ = fn.__qualname__, fn.__module__
     out: Any
-    if opts.get("inline"):
+    if getattr(fn, _MARK)["inline"]:
         out = numba.njit(nogil=True, inline="always")(clone)
     else:
         out = numba.njit(nogil=True)(clone)
         root = cache_root()
         if root is not None:  # else uncached, as numba leaves a kernel it cannot cache
-            out._cache = _keyed_cache_class()(clone, os.path.join(root, source_key(fn)))
+            clone.__rtsim_cache__ = os.path.join(root, source_key(fn))  # type: ignore[attr-defined]
+            out._cache = _keyed_cache_class()(clone)
     _COMPILED[fn] = out
     return out
 
@@ -149,24 +131,19 @@ def cache_root() -> str | None:
     else ``__pycache__/rtsim-kernels`` next to this file when writable, else numba's
     user-wide cache directory's rtsim-kernels; None when none is writable."""
     from numba.core import config
+    from numba.misc.appdirs import AppDirs
 
-    candidates = []
     user_dir = getattr(config, "CACHE_DIR", "")  # NUMBA_CACHE_DIR, read by numba
-    if user_dir:
-        candidates.append(os.path.join(user_dir, "rtsim-kernels"))
-    else:
-        candidates.append(os.path.join(os.path.dirname(__file__), "__pycache__", "rtsim-kernels"))
-        from numba.misc.appdirs import AppDirs
-
-        user = AppDirs(appname="numba", appauthor=False).user_cache_dir
-        candidates.append(os.path.join(user, "rtsim-kernels"))
-    for path in candidates:
+    dirs = [user_dir] if user_dir else [os.path.join(os.path.dirname(__file__), "__pycache__")]
+    if not user_dir:
+        dirs.append(AppDirs(appname="numba", appauthor=False).user_cache_dir)
+    for path in (os.path.join(d, "rtsim-kernels") for d in dirs):
         try:
             os.makedirs(path, exist_ok=True)
-            if os.access(path, os.W_OK):
-                return path
         except OSError:
             continue
+        if os.access(path, os.W_OK):
+            return path
     return None
 
 
@@ -174,20 +151,19 @@ _CACHE_CLASS: Any = None
 
 
 def _keyed_cache_class() -> Any:
-    """numba's FunctionCache with one locator: the directory it is given, named by the
-    source key, which is also its source stamp (built on first use: numba is imported
-    then)."""
+    """numba's FunctionCache with one locator: the function's ``__rtsim_cache__`` directory,
+    named by its source key, which is also the source stamp (built when numba is imported)."""
     global _CACHE_CLASS
     if _CACHE_CLASS is not None:
         return _CACHE_CLASS
     from numba.core import caching
 
     class _KeyedLocator(caching._CacheLocator):
-        def __init__(self, path: str, lineno: int) -> None:
-            self._path, self._lineno = path, lineno
+        def __init__(self, py_func: Any) -> None:
+            self._path, self._lineno = py_func.__rtsim_cache__, py_func.__code__.co_firstlineno
 
         def get_cache_path(self) -> str:
-            return self._path
+            return self._path  # type: ignore[no-any-return]
 
         def get_source_stamp(self) -> str:
             return os.path.basename(self._path)  # the source key
@@ -197,7 +173,7 @@ def _keyed_cache_class() -> Any:
 
         @classmethod
         def from_function(cls, py_func: Any, py_file: str) -> Any:
-            self = cls(_PATH_OF[py_func], py_func.__code__.co_firstlineno)
+            self = cls(py_func)
             try:
                 self.ensure_cache_path()
             except OSError:
@@ -205,18 +181,10 @@ def _keyed_cache_class() -> Any:
             return self
 
     class _KeyedImpl(caching.CompileResultCacheImpl):  # type: ignore[misc]
-        _locator_classes = [_KeyedLocator]
+        _locator_classes: list[Any] = [_KeyedLocator]
 
     class _KeyedCache(caching.FunctionCache):  # type: ignore[misc]
         _impl_class = _KeyedImpl
 
-        def __init__(self, py_func: Any, path: str) -> None:
-            _PATH_OF[py_func] = path
-            super().__init__(py_func)
-
     _CACHE_CLASS = _KeyedCache
     return _CACHE_CLASS
-
-
-#: the cache directory of each function handed to numba (read by the locator numba builds)
-_PATH_OF: dict[Any, str] = {}
