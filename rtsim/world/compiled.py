@@ -192,6 +192,9 @@ class CompiledTraceFollower(TraceFollower):
         return out  # type: ignore[no-any-return]
 
 
+#: how many of RolloutScalars' fields change from one decision to the next (they come first)
+_CHANGING = K.RolloutScalars._fields.index("lap")
+
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
@@ -199,7 +202,7 @@ _SEARCH_RUNS = 64
 
 class CompiledRollout:
     """:class:`~rtsim.control.rollout.Rollout`'s arithmetic for one state in compiled calls:
-    the state packed into arrays once (:data:`~rtsim.world.kernels.R_SIZE` scalars, a row per
+    the state packed into arrays once (:class:`~rtsim.world.kernels.RolloutScalars`, a row per
     follower, the pending sends NaN-padded), the law's search starts read at each call (the
     live law's, as the Python rollout clones it then)."""
 
@@ -209,31 +212,37 @@ class CompiledRollout:
         self._ker = kernels()
         p, thr = state.params, state.thresholds
         # the scalars that stay from one decision to the next, packed once per law (they
-        # follow the five that change, kernels.R_*)
+        # follow the five that change, in RolloutScalars' order)
         static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
         cached = law._rollout_static
         if cached is None or any(a is not b for a, b in zip(cached[0], static, strict=True)):
-            fs = np.zeros(K.R_SIZE)
-            fs[K.R_LAP] = law.path.lap_length
-            fs[K.R_ACCEL] = state.accel_max
-            fs[K.R_DECEL] = state.decel_max
-            fs[K.R_MAX_ACCEL] = p.max_accel
-            fs[K.R_MAX_SPEED] = p.max_speed
-            fs[K.R_MAX_TURN] = p.max_turn_rate
-            fs[K.R_SPEED_NOISE] = p.speed_noise
-            fs[K.R_TURN_NOISE] = p.turn_noise
-            fs[K.R_STEP] = state.step_ms
-            fs[K.R_GAIN] = law.gain
-            fs[K.R_LOOKAHEAD] = law.lookahead
-            fs[K.R_R_H] = thr.r_H
-            fs[K.R_T_RHO] = thr.T_rho
-            fs[K.R_T_EPS] = thr.T_eps
-            fs[K.R_T_BETA] = thr.T_beta
-            fs[K.R_PREDICTED] = 1.0 if thr.localization == "predicted" else 0.0
-            fs[K.R_PREDICTED_MS] = thr.predicted_ms
-            cached = law._rollout_static = (static, fs[K.R_LAP :].tolist(), {})
+            scalars = K.RolloutScalars(
+                leader_s=0.0,  # the five that change: set per decision below
+                leader_speed=0.0,
+                v_ld=0.0,
+                t_now=0.0,
+                next_scan=0.0,
+                lap=law.path.lap_length,
+                accel=state.accel_max,
+                decel=state.decel_max,
+                max_accel=p.max_accel,
+                max_speed=p.max_speed,
+                max_turn=p.max_turn_rate,
+                speed_noise=p.speed_noise,
+                turn_noise=p.turn_noise,
+                step=state.step_ms,
+                gain=law.gain,
+                lookahead=law.lookahead,
+                r_H=thr.r_H,
+                T_rho=thr.T_rho,
+                T_eps=thr.T_eps,
+                T_beta=thr.T_beta,
+                predicted=1.0 if thr.localization == "predicted" else 0.0,
+                predicted_ms=thr.predicted_ms,
+            )
+            cached = law._rollout_static = (static, [float(x) for x in scalars[_CHANGING:]], {})
         fs = np.array(
-            [
+            [  # RolloutScalars' first five
                 state.leader_s,
                 state.leader_speed,
                 state.v_ld,

@@ -61,7 +61,8 @@ def _names(code: types.CodeType) -> Iterator[str]:
 
 def dependencies(fn: Callable[..., Any]) -> tuple[dict[str, Callable[..., Any]], dict[str, Any]]:
     """The kernel sources ``fn`` calls by name, and the other plain values (numbers, strings,
-    tuples of them) it reads from its globals: two name → object dicts."""
+    tuples of them; a named tuple class as its fields) it reads from its globals: two
+    name → object dicts."""
     glob = fn.__globals__  # type: ignore[attr-defined]
     calls: dict[str, Callable[..., Any]] = {}
     values: dict[str, Any] = {}
@@ -73,6 +74,8 @@ def dependencies(fn: Callable[..., Any]) -> tuple[dict[str, Callable[..., Any]],
             calls[name] = obj
         elif isinstance(obj, int | float | str | bool | tuple | type(None)):
             values[name] = obj
+        elif isinstance(obj, type) and issubclass(obj, tuple):  # a NamedTuple it builds
+            values[name] = (obj.__qualname__, getattr(obj, "__annotations__", None))
     return calls, values
 
 

@@ -13,7 +13,7 @@ numba is imported only then.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -413,35 +413,48 @@ def _rollout(
 
 
 # -- the command-aware rollout's changes, bounds and the plan policy's speed search ---------
-# (rtsim.control.rollout.Rollout and rtsim.control.policy.PlanPolicy; kept in this file so
-# that numba's cache, which tracks only the calling kernel's own file, sees every change)
+# (rtsim.control.rollout.Rollout and rtsim.control.policy.PlanPolicy)
 
-#: indices of the scalars in a rollout's float pack (built by compiled.CompiledRollout)
-(
-    R_LEADER_S,  # the five that change from one decision to the next come first
-    R_LEADER_SPEED,
-    R_V_LD,
-    R_T_NOW,
-    R_NEXT_SCAN,
-    R_LAP,
-    R_ACCEL,
-    R_DECEL,
-    R_MAX_ACCEL,
-    R_MAX_SPEED,
-    R_MAX_TURN,
-    R_SPEED_NOISE,
-    R_TURN_NOISE,
-    R_STEP,
-    R_GAIN,
-    R_LOOKAHEAD,
-    R_R_H,
-    R_T_RHO,
-    R_T_EPS,
-    R_T_BETA,
-    R_PREDICTED,
-    R_PREDICTED_MS,
-    R_SIZE,
-) = range(23)
+
+class RolloutScalars(NamedTuple):
+    """A rollout's scalars (ms, cm, cm/s, rad), in the order of its float pack (the pack's
+    first element; :class:`~rtsim.world.compiled.CompiledRollout` builds it, :func:`scalars`
+    reads it back inside the kernels): the five that change from one decision to the next
+    come first."""
+
+    leader_s: float
+    leader_speed: float
+    v_ld: float
+    t_now: float
+    next_scan: float
+    lap: float
+    accel: float
+    decel: float
+    max_accel: float
+    max_speed: float
+    max_turn: float
+    speed_noise: float
+    turn_noise: float
+    step: float
+    gain: float
+    lookahead: float
+    r_H: float
+    T_rho: float
+    T_eps: float
+    T_beta: float
+    predicted: float  # 1.0 when the window follows the predicted motion, else 0.0
+    predicted_ms: float
+
+
+@kernel
+def scalars(fs: Any) -> RolloutScalars:
+    """The float pack ``fs`` as its named scalars (the field order of RolloutScalars)."""
+    return RolloutScalars(
+        fs[0], fs[1], fs[2], fs[3], fs[4], fs[5], fs[6], fs[7], fs[8], fs[9], fs[10],
+        fs[11], fs[12], fs[13], fs[14], fs[15], fs[16], fs[17], fs[18], fs[19], fs[20], fs[21],
+    )  # fmt: skip
+
+
 #: columns of a rollout's follower pack: the estimate, its speed, the held command, the
 #: send offset after a window's scan, ρ_d (CompiledRollout builds the rows in this order)
 F_X, F_Y, F_TH, F_V, F_CMD_V, F_CMD_W, F_SEND, F_RHO_D, F_SIZE = range(9)
@@ -489,20 +502,21 @@ def _rollout_changes(
     (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|). ``P``: the state's
     pack (:meth:`rtsim.world.compiled.CompiledRollout.pack`)."""
     fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
+    S = scalars(fs)
     n = fol.shape[0]
     nw = lengths.shape[0]
-    v_ld = fs[R_V_LD]
-    speed = fs[R_LEADER_SPEED]
-    t_now = fs[R_T_NOW]
+    v_ld = S.v_ld
+    speed = S.leader_speed
+    t_now = S.t_now
     a = 0.0 if 0.0 > v else v  # min(max(v, 0.0), v_ld), then Leader.set_speed
     if v_ld < a:
         a = v_ld
     target = v_ld if v_ld < a else a
-    acc = fs[R_ACCEL] if target > speed else fs[R_DECEL]
+    acc = S.accel if target > speed else S.decel
     if acc == math.inf:
         speed = target
     scans = np.empty(nw + 1)
-    scans[0] = fs[R_NEXT_SCAN]
+    scans[0] = S.next_scan
     for j in range(nw):
         scans[j + 1] = scans[j] + lengths[j]
     last = scans[nw]
@@ -545,12 +559,12 @@ def _rollout_changes(
         s0,
         poses,
         kappa,
-        fs[R_LAP],
-        fs[R_LEADER_S],
+        S.lap,
+        S.leader_s,
         speed,
         target,
-        fs[R_ACCEL],
-        fs[R_DECEL],
+        S.accel,
+        S.decel,
         x,
         y,
         th,
@@ -559,19 +573,19 @@ def _rollout_changes(
         cmd_w,
         odo,
         t_f,
-        fs[R_MAX_ACCEL],
-        fs[R_MAX_SPEED],
-        fs[R_MAX_TURN],
-        fs[R_SPEED_NOISE],
-        fs[R_TURN_NOISE],
-        fs[R_STEP],
+        S.max_accel,
+        S.max_speed,
+        S.max_turn,
+        S.speed_noise,
+        S.turn_noise,
+        S.step,
         lateral,
         ahead,
         spacing,
         sr0.copy(),
         sf0.copy(),
-        fs[R_GAIN],
-        fs[R_LOOKAHEAD],
+        S.gain,
+        S.lookahead,
         ev_t[:m],
         ev_kind[:m],
         ev_k[:m],
@@ -592,31 +606,31 @@ def _rollout_changes(
 
 
 @kernel
-def _bound(fs: Any, rho_d: float, j: int, ci: float, w: float) -> float:
+def _bound(S: RolloutScalars, rho_d: float, j: int, ci: float, w: float) -> float:
     """Rollout.bounds of one change: L·w / c (∞ when c ≤ 0), L by kind j in BOUND_KINDS
     order; the predicted localization bound in place of kind 0 when the window follows the
     predicted motion."""
-    if j == 0 and fs[R_PREDICTED] != 0.0:
-        return fs[R_PREDICTED_MS]
+    if j == 0 and S.predicted != 0.0:
+        return S.predicted_ms
     if j == 0:
-        lim = fs[R_R_H]
+        lim = S.r_H
     elif j == 1:
-        lim = fs[R_T_RHO] * rho_d
+        lim = S.T_rho * rho_d
     elif j == 2:
-        lim = fs[R_T_EPS] * rho_d
+        lim = S.T_eps * rho_d
     else:
-        lim = fs[R_T_BETA]
+        lim = S.T_beta
     return math.inf if ci <= 0.0 else lim * w / ci
 
 
 @kernel
-def _rows(changes: Any, fs: Any, fol: Any, w: float, rows: Any) -> float:
+def _rows(changes: Any, S: RolloutScalars, fol: Any, w: float, rows: Any) -> float:
     """Rollout.bounds(changes, w) into ``rows`` [follower, kind]; returns min_bound_rows's
     bound (the first smallest)."""
     best = math.inf
     for i in range(changes.shape[0]):
         for j in range(4):
-            b = _bound(fs, fol[i, F_RHO_D], j, changes[i, j], w)
+            b = _bound(S, fol[i, F_RHO_D], j, changes[i, j], w)
             rows[i, j] = b
             if b < best:
                 best = b
@@ -624,12 +638,12 @@ def _rows(changes: Any, fs: Any, fol: Any, w: float, rows: Any) -> float:
 
 
 @kernel
-def _min_bound(changes: Any, fs: Any, fol: Any, w: float) -> float:
+def _min_bound(changes: Any, S: RolloutScalars, fol: Any, w: float) -> float:
     """min_bound_rows(Rollout.bounds(changes, w))[0]: the smallest L·w / c of one window."""
     best = math.inf
     for i in range(changes.shape[0]):
         for j in range(4):
-            b = _bound(fs, fol[i, F_RHO_D], j, changes[i, j], w)
+            b = _bound(S, fol[i, F_RHO_D], j, changes[i, j], w)
             if b < best:
                 best = b
     return best
@@ -645,18 +659,18 @@ def _rollout_worst(
     """PlanPolicy's m(V): the smallest bound of every follower in ``ch.shape[0]`` windows of
     ``w`` ms (Python's ``min`` over the windows: the first, then any smaller); the changes
     are left in ``ch``."""
-    fs, fol = P[0], P[1]
+    S, fol = scalars(P[0]), P[1]
     _rollout_changes(v, np.full(ch.shape[0], w), P, ch)
-    return _worst_after(ch, fs, fol, w, _min_bound(ch[0], fs, fol, w))
+    return _worst_after(ch, S, fol, w, _min_bound(ch[0], S, fol, w))
 
 
 @kernel
-def _worst_after(ch: Any, fs: Any, fol: Any, w: float, first: float) -> float:
+def _worst_after(ch: Any, S: RolloutScalars, fol: Any, w: float, first: float) -> float:
     """Python's ``min`` over windows: ``first`` (window 0's smallest bound), then any window
     of ``ch`` after it with a smaller one."""
     worst = first
     for j in range(1, ch.shape[0]):
-        mj = _min_bound(ch[j], fs, fol, w)
+        mj = _min_bound(ch[j], S, fol, w)
         if mj < worst:
             worst = mj
     return worst
@@ -681,7 +695,7 @@ def _search_into(
     and ``changes[r]`` from r = ``first`` (as many as they hold). ``found_out`` ←
     (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the
     speed's rollout or −1); returns the next free index (rollouts run: it − first)."""
-    v_ld = P[0][R_V_LD]
+    v_ld = scalars(P[0]).v_ld
     cap = speeds.shape[0]
     scratch = np.empty(changes.shape[1:])
     above = v_ld
@@ -762,8 +776,8 @@ def _plan_decide(
     bound over H; ``adjust`` with the ``commands`` predictor, H one window): from rollout 0,
     ``out[1:4]`` its (speed, method, found), every rollout the search's own (``lens`` 0).
     """
-    fs, fol = P[0], P[1]
-    v_ld = fs[R_V_LD]
+    S, fol = scalars(P[0]), P[1]
+    v_ld = S.v_ld
     res = np.empty(4)
     if search_only:
         runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 0, res)
@@ -772,7 +786,7 @@ def _plan_decide(
         return runs
     speeds[0], lens[0] = v_ld, 1
     m_ld = _rollout_worst(v_ld, w, P, changes[0])
-    m1 = _rows(changes[0, 0], fs, fol, w, rows[0])
+    m1 = _rows(changes[0, 0], S, fol, w, rows[0])
     if keep * m_ld >= need:
         a = keep * m1
         mn = cap if cap < a else a  # max(w, min(keep·m1, cap)), as Python picks
@@ -797,7 +811,7 @@ def _plan_decide(
     if r_l < 0:  # the speed was not rolled out (a zero floor): the caller rolls it out
         return runs
     lens[r_l] = 1
-    m_l = _worst_after(changes[r_l], fs, fol, w, _rows(changes[r_l, 0], fs, fol, w, rows[1]))
+    m_l = _worst_after(changes[r_l], S, fol, w, _rows(changes[r_l, 0], S, fol, w, rows[1]))
     out[4] = 1.0 if keep * m_l >= need else 0.0
     return runs
 
@@ -894,17 +908,28 @@ def warm_rollout() -> None:
     if getattr(ns, "rollout_warm", False):
         return
     # one follower 100 cm behind a leader on a straight lap
-    fs = np.zeros(R_SIZE)
-    fs[R_LAP], fs[R_V_LD], fs[R_LEADER_SPEED], fs[R_ACCEL], fs[R_DECEL] = (
-        1e3,
-        30.0,
-        30.0,
-        20.0,
-        50.0,
+    fs = np.array(
+        RolloutScalars(
+            *(0.0, 30.0, 30.0, 0.0, 0.0),  # leader_s, leader_speed, v_ld, t_now, next_scan
+            lap=1e3,
+            accel=20.0,
+            decel=50.0,
+            max_accel=100.0,
+            max_speed=150.0,
+            max_turn=3.0,
+            speed_noise=0.0,
+            turn_noise=0.0,
+            step=10.0,
+            gain=0.5,
+            lookahead=40.0,
+            r_H=25.0,
+            T_rho=0.005,
+            T_eps=0.025,
+            T_beta=0.1,
+            predicted=0.0,
+            predicted_ms=0.0,
+        )
     )
-    fs[R_MAX_ACCEL], fs[R_MAX_SPEED], fs[R_MAX_TURN], fs[R_STEP] = 100.0, 150.0, 3.0, 10.0
-    fs[R_GAIN], fs[R_LOOKAHEAD], fs[R_R_H] = 0.5, 40.0, 25.0
-    fs[R_T_RHO], fs[R_T_EPS], fs[R_T_BETA] = 0.005, 0.025, 0.1
     fol = np.zeros((1, F_SIZE))
     fol[0, F_X], fol[0, F_V], fol[0, F_SEND], fol[0, F_RHO_D] = -100.0, 30.0, 100.0, 100.0
     nan1 = np.full(1, math.nan)

@@ -121,3 +121,16 @@ def test_compiled_kernel_sees_an_edit_in_another_module(
     g = jit.build(caller.f)
     assert g(3) == 19
     assert jit.source_key(caller.f) != key1
+
+
+def test_rollout_pack_reads_back_as_its_named_scalars() -> None:
+    """kernels.scalars reads the float pack in RolloutScalars' field order (distinct values,
+    so a swapped field fails); the compiled rollout packs the five changing ones first."""
+    import numpy as np
+
+    from rtsim.world.compiled import _CHANGING
+
+    fields = kernels.RolloutScalars._fields
+    named = kernels.RolloutScalars(*(float(i) + 0.5 for i in range(len(fields))))
+    assert kernels.scalars(np.array(named)) == named
+    assert fields[:_CHANGING] == ("leader_s", "leader_speed", "v_ld", "t_now", "next_scan")
