@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.world._check import non_negative, positive
-from rtsim.world.motion import follower_advance
+from rtsim.world.motion import clip, follower_advance
 
 __all__ = [
     "FollowerParams",
@@ -213,10 +213,7 @@ class FollowerGroup:
     def saturate(self, v: float, w: float) -> tuple[float, float]:
         """Clip a command to the speed and turn-rate limits."""
         p = self.p
-        return (
-            min(max(v, -p.max_speed), p.max_speed),
-            min(max(w, -p.max_turn_rate), p.max_turn_rate),
-        )
+        return clip(v, p.max_speed), clip(w, p.max_turn_rate)
 
     def apply(self, k: int, v: float, w: float, rng: np.random.Generator) -> tuple[float, float]:
         """Hold command (v, ω) for follower index ``k`` (0-based), with actuation noise.

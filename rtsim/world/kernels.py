@@ -20,7 +20,7 @@ import numpy as np
 from rtsim.world.ekf import ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
 from rtsim.world.jit import build, kernel
-from rtsim.world.motion import follower_advance, leader_travel
+from rtsim.world.motion import clip, follower_advance, leader_travel
 from rtsim.world.path import along
 
 __all__ = ["available", "kernels", "warm_rollout"]
@@ -210,18 +210,6 @@ def _pose(s0: Any, poses: Any, kappa: Any, lap: float, s: float) -> tuple[float,
 
 
 @kernel
-def _clip(v: float, lim: float) -> float:
-    """min(max(v, −lim), lim) with Python's choice among equal values."""
-    lo = -lim
-    m = v
-    if lo > m:
-        m = lo
-    if lim < m:
-        m = lim
-    return m
-
-
-@kernel
 def _project(
     s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, x: float, y: float
 ) -> float:
@@ -399,9 +387,9 @@ def _rollout(
                 y[k],
                 th[k],
             )
-            vc, wc = _clip(vc, max_speed), _clip(wc, max_turn)
-            cmd_v[k] = _clip(vc + speed_noise * 0.0, max_speed)
-            cmd_w[k] = _clip(wc + turn_noise * 0.0, max_turn)
+            vc, wc = clip(vc, max_speed), clip(wc, max_turn)
+            cmd_v[k] = clip(vc + speed_noise * 0.0, max_speed)
+            cmd_w[k] = clip(wc + turn_noise * 0.0, max_turn)
             continue
         c, s = math.cos(hl), math.sin(hl)
         for i in range(n):

@@ -29,7 +29,7 @@ import math
 
 from rtsim.world.jit import kernel
 
-__all__ = ["arc", "chord", "follower_advance", "leader_travel", "ramp", "ramp_arc"]
+__all__ = ["arc", "chord", "clip", "follower_advance", "leader_travel", "ramp", "ramp_arc"]
 
 
 @kernel(inline=True)
@@ -114,3 +114,15 @@ def leader_travel(
         return vt, 0.5 * (v0 + vt) * tau + vt * (dt - tau)
     v1 = v0 + math.copysign(a * dt, vt - v0)
     return v1, 0.5 * (v0 + v1) * dt
+
+
+@kernel(inline=True)
+def clip(v: float, lim: float) -> float:
+    """``min(max(v, −lim), lim)``, a command's saturation, with Python's choice among equal
+    values and its NaN rule (the value itself), written out so that numba compiles the same."""
+    m = v
+    if -lim > m:
+        m = -lim
+    if lim < m:
+        m = lim
+    return m

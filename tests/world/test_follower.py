@@ -20,7 +20,7 @@ from rtsim.world import (
     rounded_rectangle,
 )
 from rtsim.world.formation import Formation
-from rtsim.world.motion import arc, ramp
+from rtsim.world.motion import arc, clip, ramp
 
 QUIET_EKF = EkfParams(init_position_sd=0.0, init_heading_sd=0.0)
 QUIET_SENSING = SensingParams(position_noise=0.0)
@@ -53,6 +53,16 @@ def test_ramp_mean_speed_by_hand() -> None:
     assert v1 == pytest.approx(20.0) and vm == pytest.approx(15.0)
     assert ramp(10.0, 30.0, math.inf, 0.1) == (30.0, pytest.approx(30.0))  # no limit: at once
     assert ramp(30.0, 10.0, 100.0, 0.1) == (pytest.approx(20.0), pytest.approx(25.0))
+
+
+def test_clip_is_pythons_min_max() -> None:
+    """The saturation both backends run: min(max(v, −lim), lim), NaN and ties included."""
+    rng = np.random.default_rng(4)
+    values = [*rng.normal(0.0, 200.0, 2000).tolist(), 150.0, -150.0, 0.0, -0.0, math.nan]
+    for lim in (150.0, 3.0, math.inf, 0.0):
+        for v in values:
+            want = min(max(v, -lim), lim)
+            assert str(clip(v, lim)) == str(want), (v, lim)
 
 
 def _turning_world(rng_seed: int = 3) -> World:
