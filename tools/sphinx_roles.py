@@ -27,8 +27,8 @@ from collections.abc import Iterable
 from pathlib import Path
 
 ROLES = ("class", "func", "meth", "data", "mod", "attr", "exc", "obj")
-#: ``:role:`target``` or ``:role:`~target```; a target may not span lines
-ROLE = re.compile(r":(?:py:)?(" + "|".join(ROLES) + r"):`(~?)([^`\n]+?)`")
+#: ``:role:`target``` or ``:role:`~target```; a target broken over two lines counts too
+ROLE = re.compile(r":(?:py:)?(" + "|".join(ROLES) + r"):`(~?)([^`]+?)`")
 
 
 def read_inventory(path: str | Path) -> set[str]:
@@ -52,7 +52,7 @@ def rewrite(text: str, known: set[str], module: str = "") -> str:
     ``module``: the dotted name of the file's module, for relative targets."""
 
     def one(m: re.Match[str]) -> str:
-        tilde, target = m.group(2), m.group(3).strip()
+        tilde, target = m.group(2), re.sub(r"\s+", "", m.group(3))  # a broken line joined
         bare = target.lstrip(".")
         title = bare.rsplit(".", 1)[-1] if tilde else bare
         candidates = [bare]
@@ -88,7 +88,13 @@ def wrap(line: str, width: int = WIDTH) -> list[str]:
 
 
 def rewrite_file(text: str, known: set[str], module: str = "", width: int = WIDTH) -> str:
-    """:func:`rewrite` line by line; a line it made longer than ``width`` is wrapped."""
+    """:func:`rewrite` line by line; a line it made longer than ``width`` is wrapped. A role
+    broken over two lines is joined onto the first."""
+    text = re.sub(  # the next line joins the first (wrapped again below when too long)
+        r"(:(?:py:)?(?:" + "|".join(ROLES) + r"):`~?[^`\n]*)\n\s*(?:#:?\s*)?([^`\n]*`)",
+        r"\1\2",
+        text,
+    )
     out = []
     for line in text.split("\n"):
         new = rewrite(line, known, module)
@@ -111,10 +117,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.check:
         left = [
-            f"{f}:{n}: {m.group(0)}"
+            f"{f}:{f.read_text('utf-8').count(chr(10), 0, m.start()) + 1}: {m.group(0)}"
             for f in files(args.paths)
-            for n, line in enumerate(f.read_text("utf-8").splitlines(), 1)
-            for m in ROLE.finditer(line)
+            for m in ROLE.finditer(f.read_text("utf-8"))
         ]
         print("\n".join(left))
         return 1 if left else 0

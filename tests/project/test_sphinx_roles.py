@@ -73,6 +73,17 @@ def test_a_line_made_too_long_is_wrapped_with_its_indentation() -> None:
     assert tool.rewrite_file(short, KNOWN) == "x `f`"
 
 
+def test_a_role_broken_over_two_lines_is_joined() -> None:
+    text = '    """Integrate (:func:`rtsim.io.\n    scenario.load_scenario`: exact)."""'
+    out = _tool().rewrite_file(text, KNOWN)
+    assert ":func:" not in out
+    assert "[`rtsim.io.scenario.load_scenario`][rtsim.io.scenario.load_scenario]" in out
+    assert out == (
+        '    """Integrate ([`rtsim.io.scenario.load_scenario`][rtsim.io.scenario.load_scenario]:'
+        ' exact)."""'
+    )
+
+
 def test_the_inventory_is_read(tmp_path: Path) -> None:
     body = "rtsim.io py:module 1 api/io/#$ -\nrtsim.run_sweep py:function 1 api/#$ -\n"
     head = b"# Sphinx inventory version 2\n# Project: rtsim\n# Version: 0\n# zlib\n"
@@ -83,9 +94,8 @@ def test_the_inventory_is_read(tmp_path: Path) -> None:
 def test_no_sphinx_role_is_left_in_the_package() -> None:
     tool = _tool()
     left = [
-        f"{f.relative_to(ROOT)}:{n}"
+        f"{f.relative_to(ROOT)}: {m.group(0)!r}"
         for f in tool.files([str(ROOT / "rtsim")])
-        for n, line in enumerate(f.read_text("utf-8").splitlines(), 1)
-        if tool.ROLE.search(line)
+        for m in tool.ROLE.finditer(f.read_text("utf-8"))  # a role broken over lines too
     ]
     assert not left, f"{len(left)} Sphinx roles left (python tools/sphinx_roles.py): {left[:5]}"
