@@ -9,8 +9,9 @@ Each window, from the leader's estimates of every follower, `adjust`:
 3. else (overload): w = w_sch, slack = 0, and V_L is the **largest** speed in (0, V_Ld] at
    which every bound of every follower, predicted at that speed, is ≥ w_sch. Candidates:
 
-   * ``closed-form``: the paper's Eqs 23–26, corrected (:func:`~rtsim.control.closed_forms.
-     paper_speed`), with V_F, θ and ω_L at their estimates, for every bound violated at V_Ld
+   * ``closed-form``: the paper's Eqs 23–26, corrected
+   ([`paper_speed`][rtsim.control.closed_forms.paper_speed]), with V_F, θ and ω_L at their
+   estimates, for every bound violated at V_Ld
      (the paper treats the one binding bound; with several violated, the smallest speed);
    * ``coupled``: the coupled closed forms
    ([`coupled_speed`][rtsim.control.closed_forms.coupled_speed]),

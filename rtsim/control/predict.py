@@ -11,8 +11,8 @@ A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_
   slot and κ, and θ is fixed. The bounds are evaluated at the *estimated* (ρ, β).
 * ``"paper"`` (the paper's §3.3): Eq 17 and Eqs 19–21 evaluated on the EKF estimates —
   V̂_F, θ̂ and ω_L stay at the estimates (and the bounds at the estimated ρ̂, β̂) whatever V_L
-  is, so the corrected closed forms of Eqs 23–26 (:func:`~rtsim.control.closed_forms.
-  paper_speed`) are exact for it.
+  is, so the corrected closed forms of Eqs 23–26
+  ([`paper_speed`][rtsim.control.closed_forms.paper_speed]) are exact for it.
 * ``"hybrid"``: the follower's estimated velocity vector, with its formation feed-forward
   part following V_L: u(V_L) = û + f(V_L) − f(V_now), where û = V̂_F·(cos θ̂, −sin θ̂) is the
   estimated velocity in the leader frame, f(V) = s·V·(cos θ_F, −sin θ_F) the slot's

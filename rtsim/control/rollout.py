@@ -1,8 +1,8 @@
 """The command-aware rollout: the leader predicts the followers from the commands it will send.
 
 The leader radios every follower its command, and it knows the law that computes it
-(follow-the-leader, `rtsim.world.ftl`, or l-ψ, :func:`~rtsim.world.follower.
-lpsi_command`). So instead of holding the followers' estimated
+(follow-the-leader, `rtsim.world.ftl`, or l-ψ, [`lpsi_command`][rtsim.world.follower.lpsi_command]).
+So instead of holding the followers' estimated
 velocities while its own speed changes (the ``paper`` predictor), it can play the next
 windows forward: for a candidate target speed V it runs
 

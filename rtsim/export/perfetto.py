@@ -1,8 +1,8 @@
 """A run's schedule in the Chrome Trace Event Format, for Perfetto (ui.perfetto.dev) and
 chrome://tracing.
 
-Built from the tables a run already has — the job records (:data:`rtsim.sim.records.
-JOB_COLUMNS`), the execution-interval trace (`TRACE_COLUMNS`) and,
+Built from the tables a run already has — the job records (`rtsim.sim.records.JOB_COLUMNS`), the
+execution-interval trace (`TRACE_COLUMNS`) and,
 for a coupled run, ``windows.csv`` — never from the simulator's internals.
 
 - Timestamps are µs of *simulated* time (``ts = ms × 1000``), in one process ("rtsim,
@@ -484,8 +484,8 @@ def stream_perfetto(
     """Write the file of [`write_perfetto`][rtsim.export.perfetto.write_perfetto] (the same bytes)
     atomically to ``path``,
     from records on disk: ``jobs`` and ``trace`` iterate (again at each pass) chunks of row
-    tuples in `JOB_COLUMNS` / :data:`~rtsim.sim.records.
-    TRACE_COLUMNS` order (a `rtsim.io.spool.Spool`); ``windows`` is the path of a
+    tuples in `JOB_COLUMNS` / `TRACE_COLUMNS` order (a `rtsim.io.spool.Spool`); ``windows`` is the
+    path of a
     coupled run's ``windows.csv`` (read in chunks)."""
     from rtsim.io.atomic import atomic_path
 

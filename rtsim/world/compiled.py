@@ -310,8 +310,8 @@ class CompiledRollout:
     ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
         """`PlanPolicy`'s decision, or with ``search_only``
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
-        ``windows`` windows of ``w`` ms), in one call (:func:`rtsim.world.kernels.
-        _plan_decide`, on fresh buffers): ((w, V_L, method code, found, feasible), the rows
+        ``windows`` windows of ``w`` ms), in one call (`rtsim.world.kernels._plan_decide`, on fresh
+        buffers): ((w, V_L, method code, found, feasible), the rows
         at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
         lengths, changes [window, follower, change]) for the rollout's memo)."""
         speeds = np.empty(_SEARCH_RUNS)

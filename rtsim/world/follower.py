@@ -240,8 +240,8 @@ class FollowerGroup:
     _advance = staticmethod(follower_advance)
 
     def advance(self, k: int, t_ms: float, step_ms: float) -> None:
-        """Integrate follower index ``k`` to ``t_ms`` (:func:`rtsim.world.motion.
-        follower_advance`: exact arcs at the ramp's mean speed)."""
+        """Integrate follower index ``k`` to ``t_ms`` (`rtsim.world.motion.follower_advance`: exact
+        arcs at the ramp's mean speed)."""
         t0 = self.t[k]
         if t_ms <= t0:
             return
