@@ -2,7 +2,7 @@
 follow-the-leader law, the leader's speed limits and w_sch, all known exactly
 (docs/planning.md, "The oracle lap").
 
-Along one lap of error-free follow-the-leader (:func:`rtsim.world.ideal.ideal_lap`: the
+Along one lap of error-free follow-the-leader (`rtsim.world.ideal.ideal_lap`: the
 leader at arc length s, follower k on its reference, moving at g_k(s)·V_L with bearing
 β_k(s)), each bound with the window at its least, w = w_sch, caps the leader's speed:
 
@@ -129,7 +129,7 @@ _CACHE_SIZE = 64
 
 def start_speed(cfg: WorldConfig, w_sch: float) -> float:
     """The leader's speed for a settled start (cm/s): V_Ld, or less where the bounds at the
-    start with windows of ``w_sch`` ms allow less (:func:`speed_cap` at the start; e.g. six
+    start with windows of ``w_sch`` ms allow less (`speed_cap` at the start; e.g. six
     followers of Test 2: T_ε·ρ_d/w_sch = 29.0 cm/s on the straight, below V_Ld = 30). V_Ld
     for followers that do not track the trace (l-ψ)."""
     if not follower_model(cfg.formation.model).on_trace:

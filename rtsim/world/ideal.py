@@ -1,17 +1,17 @@
 """Follow-the-leader without error: where each follower would be, over one lap, if it sat
 exactly on its reference (docs/followers.md, docs/model/world.md).
 
-The follow-the-leader law (:mod:`rtsim.world.ftl`) gives every follower a reference: the
+The follow-the-leader law (`rtsim.world.ftl`) gives every follower a reference: the
 first point P_k(σ) of its offset trace behind the point it follows (the leader, or the
 reference of the follower ahead of it) at its spacing, moving at the speed (FTL-1). Played
 over a lap of the leader's arc length s on a grid of ``step`` cm, this gives, exactly from
 the path and the law (no noise, no windows, no control error):
 
 * each follower's place (x, y) and so the least distance between any two robots, the
-  geometry a formation must fit before it runs (:func:`check_clearance`);
+  geometry a formation must fit before it runs (`check_clearance`);
 * each follower's speed per unit of leader speed g_k(s) = V_F/V_L (FTL-1 chained) and its
   bearing β_k(s) in the leader's frame, from which the fastest lap that keeps the bounds
-  follows (:mod:`rtsim.control.oracle`).
+  follows (`rtsim.control.oracle`).
 
 Everything is cached per (path, formation, start, step): a run pays for it once per process.
 """
@@ -39,10 +39,10 @@ __all__ = [
     "tightest_radius",
 ]
 
-#: Grid step (cm) of the leader's arc length in :func:`ideal_lap`.
+#: Grid step (cm) of the leader's arc length in `ideal_lap`.
 IDEAL_STEP = 2.0
 
-#: Tolerance (cm) of :func:`check_clearance` on the sampled lap (the samples' interpolation
+#: Tolerance (cm) of `check_clearance` on the sampled lap (the samples' interpolation
 #: is exact on straights, within about 0.01 cm in turns).
 IDEAL_TOL = 0.05
 
@@ -197,10 +197,10 @@ def check_clearance(
     path: LeaderPath, formation: Formation, r_F: float, start_s: float = 0.0
 ) -> float:
     """Refuse a follow-the-leader formation that cannot keep ``formation.clearance`` plus
-    :data:`~rtsim.world.formation.CLEARANCE_MARGIN` (cm) between any two robots' discs
+    `CLEARANCE_MARGIN` (cm) between any two robots' discs
     (radius ``r_F``) over a lap without error, or whose
     offset trace folds inside a turn (a lateral offset on the turn's inner side at least its
-    radius): :class:`ScenarioError` in one line naming the follower count, the tightest turn's
+    radius): `ScenarioError` in one line naming the follower count, the tightest turn's
     radius and the clearance. Returns the least centre distance (cm) over the lap."""
     n, c = formation.n, formation.clearance
     radius = tightest_radius(path)
@@ -230,7 +230,7 @@ def check_clearance(
 
 #: ``[leader] start_on``: ``straight`` — the leader's start is moved forward from ``start_s``
 #: to the first place where the whole group stands settled on one straight
-#: (:func:`settled_start`); ``given`` — ``start_s`` as given (before 0.x: the group could
+#: (`settled_start`); ``given`` — ``start_s`` as given (before 0.x: the group could
 #: start in the middle of a turn).
 START_ON: tuple[str, ...] = ("straight", "given")
 

@@ -10,11 +10,15 @@ by cause, searches, re-acquisitions); summary.json without the keys added since
 (``policy``, ``lap_time_s``, ``lap_time_note``, the physical outcomes and the lost tracks by
 cause: ``NEW_KEYS``). Re-pinned for exact time (docs/time.md): window releases from the
 stream's start and compensated segment ends move floats by an ulp (the world's values follow,
-relative ≤ 3e-10); row counts, flags and verdicts are unchanged.
+relative ≤ 3e-10); row counts, flags and verdicts are unchanged. Since the defaults became
+the recommended model (issue 34: plan, commands, fan, predicted/visible), the pin files name
+the old settings explicitly (``policy = "adjust"``, ``layout = "line"``, ``centre =
+"previous"``, ``search = "always"``), so these digests did not move.
 
 The settled start (``[leader] start_on``, default ``"straight"``, issue 33) moves the leader's
-start onto a straight: the pin files name the old setting, ``start_on = "given"``, so the
-digests stay those of the old start.
+start onto a straight, and ``adjust`` predicts with the paper's §3.3 whatever the file's
+predictor (``[adjust] paper_predictor``, default true): the pin files name the old settings,
+``start_on = "given"`` and ``paper_predictor = false``, so the digests stay those of before.
 """
 
 from __future__ import annotations
