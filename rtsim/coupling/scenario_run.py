@@ -261,6 +261,10 @@ class _Coupling:
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
+        # the radio link's draws: a generator of its own, spawned after the world's and the
+        # CPU's, so a run whose link draws nothing sees the same numbers as before it existed
+        self.radio = cfg.radio
+        self._radio_rng = np.random.default_rng(ss.spawn(1)[0]) if self.radio.varies else None
         if (
             self.world.backend == "compiled"
             and type(opts.get("predictor")) is str
@@ -303,6 +307,15 @@ class _Coupling:
         self._e_send = float(win.e_send)
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
+        self._delta_t = float(win.delta_t)
+        if self.radio.min_ms is not None:
+            if self.radio.min_ms > self._delta_t:
+                raise InputError(
+                    f"{inp.source or inp.name or 'scenario'}: radio.min_ms: "
+                    f"{self.radio.min_ms:g} ms is above the task set's delta_t "
+                    f"({self._delta_t:g} ms, the round trip's maximum)"
+                )
+            cpu.set_exec_time(win.name, "radio", self._radio_exec)
         self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
         self._v_max = self._v_actual()  # highest leader speed since the last scan
         self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
@@ -546,6 +559,7 @@ class _Coupling:
                 segment=kind,
                 curvature=kappa,
                 est=d.est,
+                radio_ms=self._delta_t,  # (a drawn round trip replaces it)
             )
         )
 
@@ -558,13 +572,16 @@ class _Coupling:
         self._hough_ms = hough_time(scan, *self._hough_args)
         rec.scan_t = now
         rec.hough_ms = self._hough_ms
-        rec.points = scan.total_points
-        rec.assumption_broken = scan.total_points > self._points_assumed
+        rec.points = scan.hough_points
+        rec.assumption_broken = rec.points > self._points_assumed
         rec.tracks_lost = scan.n_lost
         if rec.tracks_lost:
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = scan.n_searched
             rec.reacquisitions = scan.n_reacquired
+        rec.voted = scan.voted
+        rec.fix_error = scan.fix_error
+        rec.neighbour = scan.neighbour
         rec.lost = scan.as_lists("lost")
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
@@ -643,10 +660,26 @@ class _Coupling:
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms
 
+    def _radio_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
+        """The window's radio round trip: uniform on [radio.min_ms, delta_t] (its maximum,
+        what the analyses use), drawn from the link's own generator."""
+        lo = self.radio.min_ms
+        assert lo is not None and self._radio_rng is not None
+        dt = lo + (self._delta_t - lo) * float(self._radio_rng.random())
+        rec = self._open.get(job.index)
+        if rec is not None:
+            rec.radio_ms = dt
+        return dt
+
     def _on_send(self, job: Job, seg: Segment) -> None:
         now = self.env.now
         i = int(seg.follower)  # type: ignore[arg-type]
-        self.world.command(i, now)
+        if self.radio.loss > 0 and self._radio_rng.random() < self.radio.loss:  # type: ignore[union-attr]
+            # lost: the follower keeps its previous command; the leader, missing the reply,
+            # keeps it in its estimate too
+            self._open[job.index].radio_losses += 1
+        else:
+            self.world.command(i, now)
         scan_t = self._open[job.index].scan_t
         if scan_t == scan_t and 1 <= i <= self.n:  # (NaN before the scan)
             self._send_offsets[i - 1] = now - scan_t
@@ -866,6 +899,7 @@ def run_scenario(
         "lap_time_s": None if run.lap_ms is None else run.lap_ms / 1000.0,
         "predictor": _name(run.opts.get("predictor", "formation")),
         "formation_model": formation_model(cfg),
+        "localization_model": cfg.localization.model,
         "leader_accel_max": cfg.leader_accel_max,
         "leader_decel_max": cfg.leader_decel_max,
     }

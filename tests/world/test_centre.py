@@ -121,7 +121,12 @@ def test_no_search_is_charged_for_a_follower_hidden_from_the_laser() -> None:
         assert scan.points.tolist()[1] == 0 and scan.points.tolist()[0] >= 3
         assert scan.lost.tolist() == [False, True]
         assert scan.cause == ("", "occluded")
-        assert scan.lost_by_cause() == {"outside_window": 0, "occluded": 1, "out_of_range": 0}
+        assert scan.lost_by_cause() == {
+            "outside_window": 0,
+            "occluded": 1,
+            "out_of_range": 0,
+            "neighbour": 0,
+        }
         cost[search] = hough_time(scan, E_CAL, E_TRANS, R_H, R_REACQ)
         assert scan.n_searched == (1 if search == "always" else 0)
         assert not scan.reacquired.any()
@@ -156,7 +161,12 @@ def test_coupled_run_records_lost_tracks_by_cause() -> None:
     assert (causes == df["tracks_lost"]).all()
     assert s["tracks_lost"] > 0
     assert sum(s["tracks_lost_by_cause"].values()) == s["tracks_lost"]
-    assert set(s["tracks_lost_by_cause"]) == {"outside_window", "occluded", "out_of_range"}
+    assert set(s["tracks_lost_by_cause"]) == {
+        "outside_window",
+        "occluded",
+        "out_of_range",
+        "neighbour",
+    }
     assert s["searches"] == s["tracks_lost"]  # search = "always" searches every lost track
     assert s["reacquisitions"] == int(df["reacquisitions"].sum()) <= s["searches"]
 
