@@ -95,7 +95,7 @@ LOCALIZATION_COLUMNS: tuple[str, ...] = (
 )
 #: Per-follower sensing columns, after :data:`LOCALIZATION_COLUMNS`: the scan points that
 #: voted in its window (``hough``; the beams it returned with ``gaussian``), the accepted
-#: fix's distance from the truth (cm, NaN: no fix), whether a neighbour's points made it.
+#: fix's distance from the truth (cm, inf: no fix), whether a neighbour's points made it.
 SENSING_FIELDS: tuple[str, ...] = ("points", "fix_error_cm", "neighbour")
 #: Per-follower state columns (truth; the estimate adds ``_est``), in order.
 FOLLOWER_FIELDS: tuple[str, ...] = ("x", "y", "heading", "rho", "beta", "theta", "v")
@@ -198,7 +198,7 @@ class WindowRecord:
     voted: tuple[int, ...] = ()
     fix_error: tuple[float, ...] = ()
     neighbour: tuple[bool, ...] = ()
-    radio_ms: float = math.nan
+    radio_ms: float = math.nan  # (set at the release: delta_t, or the drawn round trip)
     radio_losses: int = 0
 
     @property
@@ -353,7 +353,7 @@ def records_columns(
     data["reacquisitions"] = np.array([r.reacquisitions for r in recs], dtype=np.int64)
     # (a record made without a scan's sensing, by hand, has none: 0 points, no fix)
     voted = np.array([r.voted or (0,) * n for r in recs], dtype=np.int64).reshape(m, n)
-    err = np.array([r.fix_error or (math.nan,) * n for r in recs], dtype=float).reshape(m, n)
+    err = np.array([r.fix_error or (math.inf,) * n for r in recs], dtype=float).reshape(m, n)
     nb_ = np.array([r.neighbour or (False,) * n for r in recs], dtype=bool).reshape(m, n)
     data["confusions"] = nb_.sum(axis=1).astype(np.int64)
     data["radio_ms"] = np.array([r.radio_ms for r in recs], dtype=float)

@@ -55,7 +55,7 @@ import gc
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -94,7 +94,7 @@ from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.run import build_cpu
-from rtsim.world.localization import hough_time
+from rtsim.world.localization import hough_time, search_time
 from rtsim.world.world import World
 
 __all__ = [
@@ -210,6 +210,7 @@ class _Coupling:
         )
         if not math.isfinite(self.w_sch):
             raise InputError(f"{inp.source or inp.name or 'scenario'}: {bound} is infinite")
+        self.infeasible_note = self._unrestorable()
         cap = opts.get("cap")
         if cap is not None and cap < self.w_sch:
             raise InputError(
@@ -296,8 +297,12 @@ class _Coupling:
         assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
+        self._search_ms = search_time(win.e_cal, win.e_trans, cfg.sensing.r_reacq)
         # Eq 1's assumption: a scan counts at most min(361, k·n) points (checked per window)
         self._points_assumed = min(361.0, win.k * win.n)
+        # ... and its localization step at most Eq 1's time (the hough model counts the cells
+        # its accumulators cover: the Gauss circle count, a few cells off π·r_H² either way)
+        self._hough_assumed = win.e_hough()
         cpu = self.cpu
         cpu.on("release", self._on_release, task=win.name)
         cpu.on("segment_start", self._on_scan, task=win.name, role="scan")
@@ -357,6 +362,23 @@ class _Coupling:
             method="fixed",
             feasible=first.msb_min >= self.w_sch,
             known=first.known[:1],
+        )
+
+    def _unrestorable(self) -> str | None:
+        """A bound below w_sch whatever the leader's speed cannot be restored by slowing: the
+        predicted-centre localization bound (docs/localization.md) depends on the noise and
+        r_H alone. Then the leader does not park for it: the decisions leave it out (the
+        world still loses what the window cannot hold), and the run reports it once (the
+        returned note, summary.json ``infeasible_note``). None: no such bound."""
+        thr = self.thr
+        if thr.localization != "predicted" or not thr.predicted_ms < self.w_sch:
+            return None
+        self.thr = replace(thr, predicted_ms=math.inf)
+        return (
+            f"localization: the predicted-centre bound ({thr.predicted_ms:.4g} ms at r_H = "
+            f"{thr.r_H:g} cm) is below w_sch ({self.w_sch:.4g} ms) at every leader speed: the "
+            f"window is infeasible whatever V_L (r_H too small for the noise); the leader "
+            f"does not slow for it and the run counts the tracks it loses"
         )
 
     # -- the decision ----------------------------------------------------------------
@@ -573,7 +595,10 @@ class _Coupling:
         rec.scan_t = now
         rec.hough_ms = self._hough_ms
         rec.points = scan.hough_points
-        rec.assumption_broken = rec.points > self._points_assumed
+        no_search = self._hough_ms - scan.n_searched * self._search_ms
+        rec.assumption_broken = (
+            rec.points > self._points_assumed or no_search > self._hough_assumed + 1e-9
+        )
         rec.tracks_lost = scan.n_lost
         if rec.tracks_lost:
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
@@ -903,6 +928,8 @@ def run_scenario(
         "leader_accel_max": cfg.leader_accel_max,
         "leader_decel_max": cfg.leader_decel_max,
     }
+    if run.infeasible_note is not None:
+        extra["infeasible_note"] = run.infeasible_note
     if run.lap_ms is None:  # why there is no lap time
         extra["lap_time_note"] = (
             f"the leader did not complete its lap within the cap of "

@@ -52,7 +52,7 @@ def summary_columns(n: int) -> list[str]:
 
 def _p95_max(values: Any) -> dict[str, float] | None:
     v = np.asarray(values, dtype=float)
-    v = v[~np.isnan(v)]
+    v = v[np.isfinite(v)]  # (inf: no fix)
     if not v.size:
         return None
     return {"p95": float(np.percentile(v, 95)), "max": float(v.max())}
@@ -60,8 +60,8 @@ def _p95_max(values: Any) -> dict[str, float] | None:
 
 def fix_errors(df: pd.DataFrame | Mapping[str, Any], n: int) -> dict[str, Any] | None:
     """summary.json ``localization_error_cm``: the accepted fixes' distance from the truth
-    (cm), p95 and max over every follower's fixes and ``per_follower`` (None: a table
-    without the columns, or no fix)."""
+    (cm; windows without a fix left out), p95 and max over every follower's fixes and
+    ``per_follower`` (None: a table without the columns, or no fix)."""
     cols = [f"f{i}_fix_error_cm" for i in range(1, n + 1)]
     if any(c not in df for c in cols):
         return None

@@ -14,9 +14,11 @@ those are the points that vote (Eq 1's second term, counted). Each votes once fo
 cell of the window at distance r_F from it: the ring of radius r_F around p is walked at
 half-cell steps (:func:`ring`), and each cell it enters gets one vote from that point. The
 **peak** is the cell with the most votes (ties: the mean of the tied cells within two cells
-of the first); it is the fix when it has at least ``min_points`` votes, otherwise the window
-has no fix. The window does no data association: points of a neighbour that fall in the
-window vote as well and can take the peak. Whose points made the peak is read from the
+of the first in row-major order); it is the fix when it has at least ``min_points`` votes,
+otherwise the window has no fix. The cells are anchored at the window centre, so a fix is a
+multiple of ``cell`` away from it (up to the mean of tied cells). The window does no data
+association: points of a neighbour that fall in the window vote as well and can take the
+peak. Whose points made the peak is read from the
 truth (each beam's owner), only to count it: the owner with the most points within one cell
 of the ring through the peak.
 
@@ -87,35 +89,38 @@ def hough_window(
     r_H: float,
     r_F: float,
     cell: float,
+    cells: int,
     ring_cos: NDArray[np.float64],
     ring_sin: NDArray[np.float64],
     acc: NDArray[np.int64],
+    epoch: NDArray[np.int64],
     stamp: NDArray[np.int64],
     tally: NDArray[np.int64],
+    state: NDArray[np.int64],
     out: NDArray[np.float64],
 ) -> None:
     """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
-    radius ``r_H``. ``acc``, ``stamp``: scratch of at least (2h+1)² cells, h = ⌊r_H/cell⌋;
-    ``tally``: scratch of one entry per follower. Writes ``out``: the fix (NaN, NaN when the
-    window has no votes), the peak's votes, the points that voted, the follower whose points
-    made the peak (−1: none) and the cells covered."""
+    radius ``r_H`` (``cells`` of side ``cell``: :func:`window_cells`). ``acc``, ``epoch``,
+    ``stamp``: scratch of at least (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared: a cell counts
+    only if its ``epoch`` is this call's (``state[0]``, advanced by each call), and a point
+    votes for a cell once (its ``stamp``); ``tally``: scratch of one entry per follower.
+    Writes ``out``: the fix (NaN, NaN when no point voted), the peak's votes, the points that
+    voted, the follower whose points made the peak (−1: none) and ``cells``."""
     h = int(math.floor(r_H / cell))
     m = 2 * h + 1
     lim = (r_H / cell) * (r_H / cell)
-    cells = 0
-    for i in range(m):
-        for j in range(m):
-            acc[i, j] = 0
-            stamp[i, j] = 0
-            di = i - h
-            dj = j - h
-            if di * di + dj * dj <= lim:
-                cells += 1
+    ep = state[0] + 1
+    state[0] = ep + px.shape[0] + 1
     lo = r_F - r_H
     hi = r_F + r_H
     voters = 0
+    best = 0
+    bi = -1
+    bj = -1
     na = ring_cos.shape[0]
+    step = 2.0 * math.pi / na
+    reach = r_H + cell
     for p in range(px.shape[0]):
         x = px[p]
         y = py[p]
@@ -125,16 +130,15 @@ def hough_window(
         if d < lo or d > hi:
             continue
         voters += 1
+        me = ep + p + 1
         # only the arc of the ring that can reach a cell of the window: the directions u with
         # |p + r_F·u − c| ≤ r_H + cell, within γ of the direction from p to c
         a0 = 0
         a1 = na - 1
         if d > 0.0:
-            reach = r_H + cell
             cg = (r_F * r_F + d * d - reach * reach) / (2.0 * r_F * d)
             if cg > -1.0:
                 gamma = math.acos(min(cg, 1.0))
-                step = 2.0 * math.pi / na
                 theta = math.atan2(cy - y, cx - x)
                 a0 = int(math.floor((theta - gamma) / step)) - 1
                 a1 = int(math.ceil((theta + gamma) / step)) + 1
@@ -149,17 +153,17 @@ def hough_window(
                 continue
             di = i - h
             dj = j - h
-            if di * di + dj * dj > lim or stamp[i, j] == p + 1:
+            if di * di + dj * dj > lim or stamp[i, j] == me:
                 continue
-            stamp[i, j] = p + 1
-            acc[i, j] += 1
-    best = 0
-    bi = -1
-    bj = -1
-    for i in range(m):
-        for j in range(m):
-            if acc[i, j] > best:
-                best = acc[i, j]
+            stamp[i, j] = me
+            if epoch[i, j] != ep:
+                epoch[i, j] = ep
+                acc[i, j] = 0
+            v = acc[i, j] + 1
+            acc[i, j] = v
+            # the peak: the most votes, the first in row-major order among equals
+            if v > best or (v == best and (i < bi or (i == bi and j < bj))):
+                best = v
                 bi = i
                 bj = j
     out[OUT_VOTERS] = voters
@@ -175,7 +179,7 @@ def hough_window(
     cnt = 0
     for i in range(max(0, bi - 2), min(m, bi + 3)):
         for j in range(max(0, bj - 2), min(m, bj + 3)):
-            if acc[i, j] == best:
+            if epoch[i, j] == ep and acc[i, j] == best:
                 si += i
                 sj += j
                 cnt += 1
@@ -210,32 +214,23 @@ def locate_all(
     r_H: float,
     r_F: float,
     cell: float,
+    cells: int,
     ring_cos: NDArray[np.float64],
     ring_sin: NDArray[np.float64],
     acc: NDArray[np.int64],
+    epoch: NDArray[np.int64],
     stamp: NDArray[np.int64],
     tally: NDArray[np.int64],
+    state: NDArray[np.int64],
     out: NDArray[np.float64],
 ) -> None:
     """:func:`hough_window` for every follower's window (centres ``cxs``, ``cys``), one row
     of ``out`` (n, :data:`OUT_SIZE`) each."""
     for k in range(cxs.shape[0]):
         hough_window(
-            px,
-            py,
-            owner,
-            cxs[k],
-            cys[k],
-            r_H,
-            r_F,
-            cell,
-            ring_cos,
-            ring_sin,
-            acc,
-            stamp,
-            tally,
-            out[k],
-        )
+            px, py, owner, cxs[k], cys[k], r_H, r_F, cell, cells, ring_cos, ring_sin, acc,
+            epoch, stamp, tally, state, out[k],
+        )  # fmt: skip
 
 
 def compiled() -> Any:
@@ -265,9 +260,9 @@ def _dummy(every: bool) -> tuple[Any, ...]:
     acc = np.zeros((11, 11), dtype=np.int64)
     centre: Any = (np.zeros(1), np.zeros(1)) if every else (0.0, 0.0)
     out = np.zeros((1, OUT_SIZE)) if every else np.zeros(OUT_SIZE)
-    tally = np.zeros(1, dtype=np.int64)
-    return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, c, s, acc,
-            acc.copy(), tally, out)  # fmt: skip
+    one = np.zeros(1, dtype=np.int64)
+    return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, 81, c, s, acc,
+            acc.copy(), acc.copy(), one, one.copy(), out)  # fmt: skip
 
 
 class Accumulator:
@@ -280,12 +275,22 @@ class Accumulator:
         self.ring_cos, self.ring_sin = ring(self.r_F, self.cell)
         m = 2 * int(math.floor(r_max / cell)) + 1
         self.acc = np.zeros((m, m), dtype=np.int64)
+        self.epoch = np.zeros((m, m), dtype=np.int64)
         self.stamp = np.zeros((m, m), dtype=np.int64)
         self.tally = np.zeros(max(n, 1), dtype=np.int64)
+        self.state = np.zeros(1, dtype=np.int64)
+        self._cells: dict[float, int] = {}
         self.out = np.zeros((n, OUT_SIZE))
         self.one = np.zeros(OUT_SIZE)
         kernels: tuple[Any, Any] = compiled() if fast else (hough_window, locate_all)
         self._one, self._every = kernels
+
+    def cells(self, r_H: float) -> int:
+        """:func:`window_cells` of a window of radius ``r_H`` (computed once per radius)."""
+        c = self._cells.get(r_H)
+        if c is None:
+            c = self._cells[r_H] = window_cells(r_H, self.cell)
+        return c
 
     def locate(
         self,
@@ -299,8 +304,8 @@ class Accumulator:
         """Every follower's window: the (n, :data:`OUT_SIZE`) rows (valid until the next
         call)."""
         self._every(
-            px, py, owner, cxs, cys, r_H, self.r_F, self.cell, self.ring_cos, self.ring_sin,
-            self.acc, self.stamp, self.tally, self.out,
+            px, py, owner, cxs, cys, r_H, self.r_F, self.cell, self.cells(r_H), self.ring_cos,
+            self.ring_sin, self.acc, self.epoch, self.stamp, self.tally, self.state, self.out,
         )  # fmt: skip
         return self.out
 
@@ -316,7 +321,8 @@ class Accumulator:
         """One window of ``radius`` around (``cx``, ``cy``) (a re-acquisition search): its
         :data:`OUT_SIZE` values (valid until the next call)."""
         self._one(
-            px, py, owner, cx, cy, radius, self.r_F, self.cell, self.ring_cos, self.ring_sin,
-            self.acc, self.stamp, self.tally, self.one,
+            px, py, owner, cx, cy, radius, self.r_F, self.cell, self.cells(radius),
+            self.ring_cos, self.ring_sin, self.acc, self.epoch, self.stamp, self.tally,
+            self.state, self.one,
         )  # fmt: skip
         return self.one

@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 from rtsim.analysis.window import LASER_POINTS, e_hough
 from rtsim.world.laser import count_beams_xy
 
-__all__ = ["LOST_CAUSES", "locate", "locate_one", "lost_cause", "hough_time"]
+__all__ = ["LOST_CAUSES", "locate", "locate_one", "lost_cause", "hough_time", "search_time"]
 
 #: Why a track is lost: the fix fell outside the Hough window; the follower returned too few
 #: beams although the laser could reach it alone (hidden by a nearer follower, or its disc
@@ -126,4 +126,10 @@ def hough_time(scan: _ScanLike, e_cal: float, e_trans: float, r_H: float, r_reac
         base = e_hough(scan.n, r_H, e_cal, e_trans, k=0.0, points=scan.total_points)
     else:
         base = cells * e_cal + min(LASER_POINTS, scan.hough_points) * e_trans
-    return base + scan.n_searched * (math.pi * r_reacq**2 * e_cal + LASER_POINTS * e_trans)
+    return base + scan.n_searched * search_time(e_cal, e_trans, r_reacq)
+
+
+def search_time(e_cal: float, e_trans: float, r_reacq: float) -> float:
+    """One re-acquisition search (ms): an accumulator of radius r_reacq and all 361 points,
+    π·r_reacq²·e_cal + 361·e_trans."""
+    return math.pi * r_reacq**2 * e_cal + LASER_POINTS * e_trans

@@ -52,14 +52,18 @@ def scan_points(
     px: NDArray[np.float64],
     py: NDArray[np.float64],
     owner: NDArray[np.int64],
+    counts: NDArray[np.int64],
 ) -> int:
     """Fill one scan (module docstring): for every beam j, ``owner[j]`` the index of the
     follower it hit (−1: nothing) and (``px[j]``, ``py[j]``) its point in the leader's frame
-    (cm; NaN when nothing), the true range plus ``range_sd``·``z[j]``. ``xs``, ``ys``: the
-    followers' centres in the leader's frame (cm). Returns the number of beams that hit."""
+    (cm; NaN when nothing), the true range plus ``range_sd``·``z[j]``; ``counts[k]`` the beams
+    follower k returned. ``xs``, ``ys``: the followers' centres in the leader's frame (cm).
+    Returns the number of beams that hit."""
     n = xs.shape[0]
     r2 = r_F * r_F
     hits = 0
+    for k in range(n):
+        counts[k] = 0
     for j in range(cos_b.shape[0]):
         c = cos_b[j]
         s = sin_b[j]
@@ -79,6 +83,7 @@ def scan_points(
         if who >= 0 and best <= max_range:
             r = best + range_sd * z[j]
             owner[j] = who
+            counts[who] += 1
             px[j] = r * c
             py[j] = r * s
             hits += 1
@@ -105,7 +110,9 @@ class Rangefinder:
     ``range_sd``: the range noise's standard deviation (cm); ``max_range`` (cm);
     ``fast``: run the compiled :func:`scan_points` (else the Python one)."""
 
-    def __init__(self, r_F: float, max_range: float, range_sd: float, fast: bool) -> None:
+    def __init__(
+        self, r_F: float, max_range: float, range_sd: float, fast: bool, n: int = 16
+    ) -> None:
         self.r_F = float(r_F)
         self.max_range = float(max_range)
         self.range_sd = float(range_sd)
@@ -113,13 +120,16 @@ class Rangefinder:
         self.px = np.empty(LASER_POINTS)
         self.py = np.empty(LASER_POINTS)
         self.owner = np.empty(LASER_POINTS, dtype=np.int64)
+        self.counts = np.zeros(n, dtype=np.int64)
 
     def scan(
         self, xs: NDArray[np.float64], ys: NDArray[np.float64], z: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
         """The scan of followers centred at (``xs``, ``ys``) (leader frame, cm) with the
         standard normals ``z`` (361): (px, py, owner), the buffers, valid until the next
-        scan."""
+        scan; :attr:`counts` holds the beams each follower returned."""
+        if self.counts.shape[0] < xs.shape[0]:
+            self.counts = np.zeros(xs.shape[0], dtype=np.int64)
         self._fn(
             xs,
             ys,
@@ -132,5 +142,6 @@ class Rangefinder:
             self.px,
             self.py,
             self.owner,
+            self.counts,
         )
         return self.px, self.py, self.owner

@@ -192,9 +192,9 @@ class Scan:
 
     @property
     def fix_error(self) -> tuple[float, ...]:
-        """Per follower, the accepted fix's distance from the truth (cm; NaN: no fix)."""
+        """Per follower, the accepted fix's distance from the truth (cm; inf: no fix)."""
         v = self._raw["fix_error"]
-        return tuple(_as_list(v)) if v is not None else (math.nan,) * self.n
+        return tuple(_as_list(v)) if v is not None else (math.inf,) * self.n
 
     @property
     def neighbour(self) -> tuple[bool, ...]:

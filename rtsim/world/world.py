@@ -338,7 +338,7 @@ class World:
         causes: list[str] = []
         errors: list[float] = []
         fixes = self._locate_hough(beams, centre) if hough else None
-        voted: list[int] = [] if fixes is None else fixes[:, OUT_VOTERS].astype(int).tolist()
+        voted: list[int] = [] if fixes is None else [int(row[OUT_VOTERS]) for row in fixes]
         neighbours: list[bool] = []
         disps, d_rhos, travels, d_betas = [], [], [], []
         v_loc, v_sep, v_path, v_bear = [], [], [], []
@@ -354,7 +354,7 @@ class World:
                 searched.append(search)
                 reacqs.append(reacq)
                 neighbours.append(neighbour)
-                errors.append(math.hypot(mx - tx, my - ty) if in_w or reacq else math.nan)
+                errors.append(math.hypot(mx - tx, my - ty) if in_w or reacq else math.inf)
                 causes.append(
                     ""
                     if not lost
@@ -375,7 +375,7 @@ class World:
                 searched.append(search)
                 reacq = search and visible and dist <= r_re
                 reacqs.append(reacq)
-                errors.append(math.hypot(mx - tx, my - ty) if in_w or reacq else math.nan)
+                errors.append(math.hypot(mx - tx, my - ty) if in_w or reacq else math.inf)
                 causes.append(
                     "" if in_w else lost_cause(visible, truth_l[k], r_F, sens.max_range, min_pts)
                 )
@@ -431,23 +431,21 @@ class World:
     def _laser(self, truth_l: list[tuple[float, float]]) -> tuple[list[int], Any]:
         """The scan of the followers at ``truth_l`` (leader frame): the beams each returned
         and the scan (px, py, owner)."""
-        xs = np.array([p[0] for p in truth_l])
-        ys = np.array([p[1] for p in truth_l])
+        xy = np.array(truth_l).T.copy()  # (contiguous rows, the kernel's one signature)
         z = self.rng.standard_normal(LASER_POINTS)
-        beams = self._rangefinder.scan(xs, ys, z)  # type: ignore[union-attr]
-        owner = beams[2]
-        pts = np.bincount(owner[owner >= 0], minlength=self.n).tolist()
-        return pts, beams
+        rf = self._rangefinder
+        assert rf is not None
+        beams = rf.scan(xy[0], xy[1], z)
+        return rf.counts[: self.n].tolist(), beams
 
     def _locate_hough(self, beams: Any, centre: list[tuple[float, float]]) -> Any:
         """Every follower's window on the scan ``beams``: the rows of
-        :meth:`rtsim.world.hough.Accumulator.locate` (a copy)."""
-        cxs = np.array([c[0] for c in centre])
-        cys = np.array([c[1] for c in centre])
+        :meth:`rtsim.world.hough.Accumulator.locate` (as lists)."""
+        c = np.array(centre).T.copy()
         acc = self._hough
         assert acc is not None
         px, py, owner = beams
-        return acc.locate(px, py, owner, cxs, cys, self.config.thresholds.r_H).copy()
+        return acc.locate(px, py, owner, c[0], c[1], self.config.thresholds.r_H).tolist()
 
     def _hough_fix(
         self,
