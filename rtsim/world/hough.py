@@ -62,6 +62,18 @@ OUT_SIZE = 6
 
 _COMPILED: Any = None
 
+#: A window's working arrays: the ring's directions (cos, sin) and the scratch (acc, epoch,
+#: stamp, tally, state) of :func:`hough_window`.
+Work = tuple[
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+]
+
 
 def ring(r_F: float, cell: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The unit directions a point's ring of radius ``r_F`` is walked along: half-cell
@@ -90,23 +102,19 @@ def hough_window(
     r_F: float,
     cell: float,
     cells: int,
-    ring_cos: NDArray[np.float64],
-    ring_sin: NDArray[np.float64],
-    acc: NDArray[np.int64],
-    epoch: NDArray[np.int64],
-    stamp: NDArray[np.int64],
-    tally: NDArray[np.int64],
-    state: NDArray[np.int64],
+    work: Work,
     out: NDArray[np.float64],
 ) -> None:
     """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
-    radius ``r_H`` (``cells`` of side ``cell``: :func:`window_cells`). ``acc``, ``epoch``,
-    ``stamp``: scratch of at least (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared: a cell counts
-    only if its ``epoch`` is this call's (``state[0]``, advanced by each call), and a point
-    votes for a cell once (its ``stamp``); ``tally``: scratch of one entry per follower.
-    Writes ``out``: the fix (NaN, NaN when no point voted), the peak's votes, the points that
-    voted, the follower whose points made the peak (−1: none) and ``cells``."""
+    radius ``r_H`` (``cells`` of side ``cell``: :func:`window_cells`). ``work``: the ring's
+    directions (:func:`ring`) and the scratch (:class:`Accumulator`): ``acc``, ``epoch``,
+    ``stamp`` of at least (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared — a cell counts only if
+    its ``epoch`` is this call's (``state[0]``, advanced by each call), and a point votes for a
+    cell once (its ``stamp``) — and ``tally``, one entry per follower. Writes ``out``: the fix
+    (NaN, NaN when no point voted), the peak's votes, the points that voted, the follower whose
+    points made the peak (−1: none) and ``cells``."""
+    ring_cos, ring_sin, acc, epoch, stamp, tally, state = work
     h = int(math.floor(r_H / cell))
     m = 2 * h + 1
     lim = (r_H / cell) * (r_H / cell)
@@ -215,22 +223,13 @@ def locate_all(
     r_F: float,
     cell: float,
     cells: int,
-    ring_cos: NDArray[np.float64],
-    ring_sin: NDArray[np.float64],
-    acc: NDArray[np.int64],
-    epoch: NDArray[np.int64],
-    stamp: NDArray[np.int64],
-    tally: NDArray[np.int64],
-    state: NDArray[np.int64],
+    work: Work,
     out: NDArray[np.float64],
 ) -> None:
     """:func:`hough_window` for every follower's window (centres ``cxs``, ``cys``), one row
     of ``out`` (n, :data:`OUT_SIZE`) each."""
     for k in range(cxs.shape[0]):
-        hough_window(
-            px, py, owner, cxs[k], cys[k], r_H, r_F, cell, cells, ring_cos, ring_sin, acc,
-            epoch, stamp, tally, state, out[k],
-        )  # fmt: skip
+        hough_window(px, py, owner, cxs[k], cys[k], r_H, r_F, cell, cells, work, out[k])
 
 
 def compiled() -> Any:
@@ -261,8 +260,8 @@ def _dummy(every: bool) -> tuple[Any, ...]:
     centre: Any = (np.zeros(1), np.zeros(1)) if every else (0.0, 0.0)
     out = np.zeros((1, OUT_SIZE)) if every else np.zeros(OUT_SIZE)
     one = np.zeros(1, dtype=np.int64)
-    return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, 81, c, s, acc,
-            acc.copy(), acc.copy(), one, one.copy(), out)  # fmt: skip
+    work = (c, s, acc, acc.copy(), acc.copy(), one, one.copy())
+    return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, 81, work, out)
 
 
 class Accumulator:
@@ -279,6 +278,10 @@ class Accumulator:
         self.stamp = np.zeros((m, m), dtype=np.int64)
         self.tally = np.zeros(max(n, 1), dtype=np.int64)
         self.state = np.zeros(1, dtype=np.int64)
+        self.work: Work = (
+            self.ring_cos, self.ring_sin, self.acc, self.epoch, self.stamp, self.tally,
+            self.state,
+        )  # fmt: skip
         self._cells: dict[float, int] = {}
         self.out = np.zeros((n, OUT_SIZE))
         self.one = np.zeros(OUT_SIZE)
@@ -303,10 +306,8 @@ class Accumulator:
     ) -> NDArray[np.float64]:
         """Every follower's window: the (n, :data:`OUT_SIZE`) rows (valid until the next
         call)."""
-        self._every(
-            px, py, owner, cxs, cys, r_H, self.r_F, self.cell, self.cells(r_H), self.ring_cos,
-            self.ring_sin, self.acc, self.epoch, self.stamp, self.tally, self.state, self.out,
-        )  # fmt: skip
+        cells = self.cells(r_H)
+        self._every(px, py, owner, cxs, cys, r_H, self.r_F, self.cell, cells, self.work, self.out)
         return self.out
 
     def search(
@@ -320,9 +321,6 @@ class Accumulator:
     ) -> NDArray[np.float64]:
         """One window of ``radius`` around (``cx``, ``cy``) (a re-acquisition search): its
         :data:`OUT_SIZE` values (valid until the next call)."""
-        self._one(
-            px, py, owner, cx, cy, radius, self.r_F, self.cell, self.cells(radius),
-            self.ring_cos, self.ring_sin, self.acc, self.epoch, self.stamp, self.tally,
-            self.state, self.one,
-        )  # fmt: skip
+        cells = self.cells(radius)
+        self._one(px, py, owner, cx, cy, radius, self.r_F, self.cell, cells, self.work, self.one)
         return self.one
