@@ -22,12 +22,12 @@ from typing import Any
 import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
+from rtsim.world.jit import build, kernel
 
 __all__ = ["PaperSearch"]
 
-_KERNEL: Any = None
 
-
+@kernel
 def _passes(
     v: float,
     rho: Any,
@@ -64,6 +64,7 @@ def _passes(
     return best >= need
 
 
+@kernel
 def _largest_paper(
     grid: Any,
     rho: Any,
@@ -103,18 +104,6 @@ def _largest_paper(
     return False, 0.0
 
 
-def _kernel() -> Any:
-    global _KERNEL, _passes
-    if _KERNEL is None:
-        import numba
-
-        jit = numba.njit(cache=True, nogil=True)
-        if not hasattr(_passes, "py_func"):
-            _passes = jit(_passes)
-        _KERNEL = jit(_largest_paper)
-    return _KERNEL
-
-
 class PaperSearch(str):
     """The predictor name ``"paper"`` with its compiled speed search (module docstring)."""
 
@@ -122,8 +111,8 @@ class PaperSearch(str):
         return super().__new__(cls, "paper")
 
     def __init__(self) -> None:
-        self._kernel = _kernel()
-        self.largest(  # compile, or load from numba's cache, now rather than in a window
+        self._kernel = build(_largest_paper)
+        self.largest(  # compile, or load from the cache, now rather than in a window
             [], 0.0, Thresholds(1.0, 1.0, 1.0, 1.0), 1.0, [1.0]
         )
 

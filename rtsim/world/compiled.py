@@ -4,10 +4,10 @@ The Python classes stay the reference; the classes here are subclasses that hand
 expressions, in the same order, to compiled kernels, so the results are bit for bit the
 Python ones (tests run both paths and compare whole runs):
 
-- :class:`CompiledFollowerGroup`: a follower's held command integrated to a time (the
-  exact arcs and speed-ramp sub-steps of :meth:`FollowerGroup.advance`) in one call;
-- :class:`CompiledFollowerEKF`: the EKF's predict and update (:class:`FastFollowerEKF`'s
-  float algebra);
+- :class:`CompiledFollowerGroup`: a follower's held command integrated to a time
+  (:func:`rtsim.world.motion.follower_advance` compiled) in one call;
+- :class:`CompiledFollowerEKF`: the EKF's predict and update
+  (:func:`rtsim.world.ekf.ekf_predict` and :func:`~rtsim.world.ekf.ekf_update` compiled);
 - :class:`CompiledTraceFollower`: the follow-the-leader reference search, projection and
   control law (:class:`TraceFollower.command`) in one call per command, and the projection
   alone (:meth:`TraceFollower.project`, the truth log's cross-track error);
@@ -25,7 +25,8 @@ this interpreter disagrees, the controller and the rollout run in Python instead
 no ``math.remainder``, and the kernels carry CPython's (exact, with fmod).
 
 numba is imported on first use (:func:`available`); kernels are compiled once per machine
-and cached on disk (``cache=True``), so a later process loads them in milliseconds (the
+and cached on disk (keyed by a hash of their sources: :mod:`rtsim.world.jit`), so a later
+process loads them in milliseconds (the
 rollout's only when a run first rolls out: :func:`rtsim.world.kernels.warm_rollout`).
 """
 
@@ -68,26 +69,7 @@ class CompiledFollowerGroup(FollowerGroup):
         self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
     ) -> None:
         super().__init__(x, y, th, v, params, t_ms)
-        self._advance_kernel = kernels().advance_follower
-
-    def advance(self, k: int, t_ms: float, step_ms: float) -> None:
-        t0 = self.t[k]
-        if t_ms <= t0:
-            return
-        (self.x[k], self.y[k], self.th[k], self.v[k], self.odometer[k]) = self._advance_kernel(
-            self.x[k],
-            self.y[k],
-            self.th[k],
-            self.v[k],
-            self.cmd_v[k],
-            self.cmd_w[k],
-            self.p.max_accel,
-            self.odometer[k],
-            t0,
-            t_ms,
-            step_ms,
-        )
-        self.t[k] = t_ms
+        self._advance = kernels().advance_follower
 
 
 class CompiledFollowerEKF(FastFollowerEKF):
@@ -96,41 +78,8 @@ class CompiledFollowerEKF(FastFollowerEKF):
     def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
         super().__init__(pose, params)
         ker = kernels()
-        self._predict_kernel = ker.ekf_predict
-        self._update_kernel = ker.ekf_update
-
-    def predict(self, v: float, w: float, dt: float) -> None:
-        if dt <= 0.0:
-            return
-        x = self.x
-        (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._p
-        x[0], x[1], x[2], n00, n01, n02, n11, n12, n22 = self._predict_kernel(
-            x[0], x[1], x[2], p00, p01, p02, p11, p12, p22, v, w, dt, *self._noise
-        )
-        self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
-
-    def update(self, z: tuple[float, float]) -> None:
-        x = self.x
-        (p00, p01, p02), (p10, p11, p12), (p20, p21, p22) = self._p
-        r = self._update_kernel(
-            x[0],
-            x[1],
-            x[2],
-            p00,
-            p01,
-            p02,
-            p10,
-            p11,
-            p12,
-            p20,
-            p21,
-            p22,
-            self.r,
-            float(z[0]),
-            float(z[1]),
-        )
-        x[0], x[1], x[2] = r[0], r[1], r[2]
-        self._p = [[r[3], r[4], r[5]], [r[6], r[7], r[8]], [r[9], r[10], r[11]]]
+        self._predict = ker.ekf_predict
+        self._update = ker.ekf_update
 
 
 class CompiledTraceFollower(TraceFollower):
@@ -243,6 +192,9 @@ class CompiledTraceFollower(TraceFollower):
         return out  # type: ignore[no-any-return]
 
 
+#: how many of RolloutScalars' fields change from one decision to the next (they come first)
+_CHANGING = K.RolloutScalars._fields.index("lap")
+
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
@@ -250,7 +202,7 @@ _SEARCH_RUNS = 64
 
 class CompiledRollout:
     """:class:`~rtsim.control.rollout.Rollout`'s arithmetic for one state in compiled calls:
-    the state packed into arrays once (:data:`~rtsim.world.kernels.R_SIZE` scalars, a row per
+    the state packed into arrays once (:class:`~rtsim.world.kernels.RolloutScalars`, a row per
     follower, the pending sends NaN-padded), the law's search starts read at each call (the
     live law's, as the Python rollout clones it then)."""
 
@@ -260,31 +212,37 @@ class CompiledRollout:
         self._ker = kernels()
         p, thr = state.params, state.thresholds
         # the scalars that stay from one decision to the next, packed once per law (they
-        # follow the five that change, kernels.R_*)
+        # follow the five that change, in RolloutScalars' order)
         static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
         cached = law._rollout_static
         if cached is None or any(a is not b for a, b in zip(cached[0], static, strict=True)):
-            fs = np.zeros(K.R_SIZE)
-            fs[K.R_LAP] = law.path.lap_length
-            fs[K.R_ACCEL] = state.accel_max
-            fs[K.R_DECEL] = state.decel_max
-            fs[K.R_MAX_ACCEL] = p.max_accel
-            fs[K.R_MAX_SPEED] = p.max_speed
-            fs[K.R_MAX_TURN] = p.max_turn_rate
-            fs[K.R_SPEED_NOISE] = p.speed_noise
-            fs[K.R_TURN_NOISE] = p.turn_noise
-            fs[K.R_STEP] = state.step_ms
-            fs[K.R_GAIN] = law.gain
-            fs[K.R_LOOKAHEAD] = law.lookahead
-            fs[K.R_R_H] = thr.r_H
-            fs[K.R_T_RHO] = thr.T_rho
-            fs[K.R_T_EPS] = thr.T_eps
-            fs[K.R_T_BETA] = thr.T_beta
-            fs[K.R_PREDICTED] = 1.0 if thr.localization == "predicted" else 0.0
-            fs[K.R_PREDICTED_MS] = thr.predicted_ms
-            cached = law._rollout_static = (static, fs[K.R_LAP :].tolist(), {})
+            scalars = K.RolloutScalars(
+                leader_s=0.0,  # the five that change: set per decision below
+                leader_speed=0.0,
+                v_ld=0.0,
+                t_now=0.0,
+                next_scan=0.0,
+                lap=law.path.lap_length,
+                accel=state.accel_max,
+                decel=state.decel_max,
+                max_accel=p.max_accel,
+                max_speed=p.max_speed,
+                max_turn=p.max_turn_rate,
+                speed_noise=p.speed_noise,
+                turn_noise=p.turn_noise,
+                step=state.step_ms,
+                gain=law.gain,
+                lookahead=law.lookahead,
+                r_H=thr.r_H,
+                T_rho=thr.T_rho,
+                T_eps=thr.T_eps,
+                T_beta=thr.T_beta,
+                predicted=1.0 if thr.localization == "predicted" else 0.0,
+                predicted_ms=thr.predicted_ms,
+            )
+            cached = law._rollout_static = (static, [float(x) for x in scalars[_CHANGING:]], {})
         fs = np.array(
-            [
+            [  # RolloutScalars' first five
                 state.leader_s,
                 state.leader_speed,
                 state.v_ld,

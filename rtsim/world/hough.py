@@ -35,6 +35,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from rtsim.world.jit import build, kernel
+
 __all__ = [
     "CELL_CM",
     "OUT_CELLS",
@@ -92,6 +94,7 @@ def window_cells(r_H: float, cell: float = CELL_CM) -> int:
     return int(((i[:, None] ** 2 + i[None, :] ** 2) <= lim).sum())
 
 
+@kernel
 def hough_window(
     px: NDArray[np.float64],
     py: NDArray[np.float64],
@@ -213,6 +216,7 @@ def hough_window(
     out[OUT_OWNER] = who
 
 
+@kernel
 def locate_all(
     px: NDArray[np.float64],
     py: NDArray[np.float64],
@@ -233,21 +237,13 @@ def locate_all(
 
 
 def compiled() -> Any:
-    """(hough_window, locate_all) compiled with numba (cached on disk), once per process."""
+    """(hough_window, locate_all) compiled with numba (:func:`rtsim.world.jit.build`: once
+    per process, cached on disk by their sources), loaded or compiled now."""
     global _COMPILED
     if _COMPILED is None:
-        import numba
-
-        glob = globals()
-        jit = numba.njit(cache=True, nogil=True)
-        one = jit(hough_window)
-        glob["hough_window"] = one  # locate_all is compiled against the compiled window
-        try:
-            every = jit(locate_all)
-            every(*_dummy(every=True))
-            one(*_dummy(every=False))
-        finally:
-            glob["hough_window"] = one.py_func
+        one, every = build(hough_window), build(locate_all)
+        every(*_dummy(every=True))
+        one(*_dummy(every=False))
         _COMPILED = (one, every)
     return _COMPILED
 

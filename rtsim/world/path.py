@@ -21,6 +21,7 @@ from typing import Literal
 
 from rtsim.errors import ScenarioError
 from rtsim.world._check import number, positive
+from rtsim.world.jit import kernel
 
 __all__ = ["Straight", "Turn", "Segment", "LeaderPath", "rounded_rectangle", "CLOSURE_TOL"]
 
@@ -84,9 +85,10 @@ Segment = Straight | Turn
 Pose = tuple[float, float, float]
 
 
-def _advance(pose: Pose, kappa: float, s: float) -> Pose:
-    """Pose after arc length ``s`` along curvature ``kappa`` from ``pose`` (exact)."""
-    x0, y0, h0 = pose
+@kernel(inline=True)
+def along(x0: float, y0: float, h0: float, kappa: float, s: float) -> Pose:
+    """Pose after arc length ``s`` along curvature ``kappa`` from pose (x0, y0, h0) (exact;
+    the compiled kernels call it too)."""
     if kappa == 0.0:
         return (x0 + s * math.cos(h0), y0 + s * math.sin(h0), h0)
     h = h0 + kappa * s
@@ -125,7 +127,7 @@ class LeaderPath:
         poses = [self._start]
         s0 = [0.0]
         for seg, kappa in zip(segs, self._kappa, strict=True):
-            poses.append(_advance(poses[-1], kappa, seg.length))
+            poses.append(along(*poses[-1], kappa, seg.length))
             s0.append(s0[-1] + seg.length)
         self._poses = tuple(poses[:-1])
         self._s0 = tuple(s0[:-1])
@@ -183,7 +185,7 @@ class LeaderPath:
             return self._memo_pose
         u = s % self._lap
         k = bisect.bisect_right(self._s0, u) - 1
-        pose = _advance(self._poses[k], self._kappa[k], u - self._s0[k])
+        pose = along(*self._poses[k], self._kappa[k], u - self._s0[k])
         self._memo_pose_s, self._memo_pose = s, pose
         return pose
 

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.model.window import LASER_POINTS
+from rtsim.world.jit import build, kernel
 from rtsim.world.laser import BEAM_BEARINGS
 
 __all__ = ["BEAM_COS", "BEAM_SIN", "Rangefinder", "compiled", "scan_points"]
@@ -40,6 +41,7 @@ BEAM_SIN: NDArray[np.float64] = np.sin(BEAM_BEARINGS)
 _COMPILED: Any = None
 
 
+@kernel
 def scan_points(
     xs: NDArray[np.float64],
     ys: NDArray[np.float64],
@@ -95,12 +97,11 @@ def scan_points(
 
 
 def compiled() -> Any:
-    """:func:`scan_points` compiled with numba (cached on disk), compiled once per process."""
+    """:func:`scan_points` compiled with numba (:func:`rtsim.world.jit.build`: once per
+    process, cached on disk by its source)."""
     global _COMPILED
     if _COMPILED is None:
-        import numba
-
-        _COMPILED = numba.njit(cache=True, nogil=True)(scan_points)
+        _COMPILED = build(scan_points)
     return _COMPILED
 
 

@@ -46,7 +46,7 @@ from rtsim.errors import RtsimError
 from rtsim.model.window import LASER_POINTS
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
-from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command, ramp1, ramp_arc
+from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
 from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.hough import (
@@ -60,7 +60,8 @@ from rtsim.world.hough import (
 )
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
-from rtsim.world.localization import lost_cause
+from rtsim.world.localization import locate_one, lost_cause
+from rtsim.world.motion import ramp, ramp_arc
 from rtsim.world.rangefinder import Rangefinder
 from rtsim.world.scan import Scan
 
@@ -348,37 +349,26 @@ class World:
             if fixes is not None:
                 fix = self._hough_fix(k, fixes, beams, centre[k], expected, visible)
                 (mx, my), in_w, lost, search, reacq, neighbour = fix
-                measured.append((mx, my))
-                in_ws.append(in_w)
-                losts.append(lost)
-                searched.append(search)
-                reacqs.append(reacq)
                 neighbours.append(neighbour)
-                errors.append(math.hypot(mx - tx, my - ty) if in_w or reacq else math.inf)
-                causes.append(
-                    ""
-                    if not lost
-                    else "neighbour"
-                    if neighbour
-                    else lost_cause(visible, truth_l[k], r_F, sens.max_range, min_pts)
-                )
             else:
                 mx, my = tx + pn * z[2 * k], ty + pn * z[2 * k + 1]
-                # locate_one, inlined
-                cx, cy = centre[k]
-                dist = math.hypot(mx - cx, my - cy)
-                in_w = visible and dist <= r_H
-                measured.append((mx, my))
-                in_ws.append(in_w)
-                losts.append(not in_w)
-                search = not in_w and (expected is None or expected[k] >= min_pts)
-                searched.append(search)
-                reacq = search and visible and dist <= r_re
-                reacqs.append(reacq)
-                errors.append(math.hypot(mx - tx, my - ty) if in_w or reacq else math.inf)
-                causes.append(
-                    "" if in_w else lost_cause(visible, truth_l[k], r_F, sens.max_range, min_pts)
-                )
+                in_w, lost, reacq = locate_one((mx, my), centre[k], pts[k], r_H, r_re, min_pts)
+                search = lost and (expected is None or expected[k] >= min_pts)
+                reacq = reacq and search
+                neighbour = False
+            measured.append((mx, my))
+            in_ws.append(in_w)
+            losts.append(lost)
+            searched.append(search)
+            reacqs.append(reacq)
+            errors.append(math.hypot(mx - tx, my - ty) if in_w or reacq else math.inf)
+            causes.append(
+                ""
+                if not lost
+                else "neighbour"
+                if neighbour
+                else lost_cause(visible, truth_l[k], r_F, sens.max_range, min_pts)
+            )
             rho = math.hypot(tx, ty)
             beta = math.atan2(ty, tx) % two_pi
             rhos.append(rho)
@@ -507,7 +497,7 @@ class World:
                     continue
                 t1 = min(pieces[j + 1][0], t) if j < last else t
                 dt = (t1 - t0) / 1000.0
-                v, vm = ramp1(v, vc, a, dt)
+                v, vm = ramp(v, vc, a, dt)
                 f.predict(vm, w, dt)
                 if t1 >= t and not (j < last and pieces[j + 1][0] <= t):
                     keep.insert(0, (t, vc, w))
