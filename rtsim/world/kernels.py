@@ -767,15 +767,16 @@ def _plan_decide(
     S, fol = scalars(P[0]), P[1]
     v_ld = S.v_ld
     res = np.empty(4)
-    if search_only:
-        runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 0, res)
-        lens[: min(runs, speeds.shape[0])] = 0
-        out[0], out[1], out[2], out[3], out[4] = w, res[0], 2.0 - res[1], res[2], math.nan
-        return runs
-    speeds[0], lens[0] = v_ld, 1
-    m_ld = _rollout_worst(v_ld, w, P, changes[0])
-    m1 = _rows(changes[0, 0], S, fol, w, rows[0])
-    if keep * m_ld >= need:
+    # (one call site of the inlined search: the search-only decision and the plan's search
+    # share it, which halves the compiled code)
+    first = 0 if search_only else 1
+    feasible = False
+    if not search_only:
+        speeds[0], lens[0] = v_ld, 1
+        m_ld = _rollout_worst(v_ld, w, P, changes[0])
+        m1 = _rows(changes[0, 0], S, fol, w, rows[0])
+        feasible = keep * m_ld >= need
+    if feasible:
         a = keep * m1
         mn = cap if cap < a else a  # max(w, min(keep·m1, cap)), as Python picks
         ww = mn if mn > w else w
@@ -788,12 +789,17 @@ def _plan_decide(
             if keep * m_w < ww:
                 t = keep * m_w
                 ww = t if t > w else w
-        rows[1] = rows[0]
+        for i in range(rows.shape[1]):  # rows[1] = rows[0], without numba's shape-error
+            for j in range(rows.shape[2]):  # message (its string formatting compiles ~3 s)
+                rows[1, i, j] = rows[0, i, j]
         out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
         return runs
-    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 1, res)
-    for r in range(1, min(runs, speeds.shape[0])):
+    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, first, res)
+    for r in range(first, min(runs, speeds.shape[0])):
         lens[r] = 0
+    if search_only:
+        out[0], out[1], out[2], out[3], out[4] = w, res[0], 2.0 - res[1], res[2], math.nan
+        return runs
     v_l, r_l = res[0], int(res[3])
     out[0], out[1], out[2], out[3] = w, v_l, 2.0 - res[1], res[2]
     if r_l < 0:  # the speed was not rolled out (a zero floor): the caller rolls it out
