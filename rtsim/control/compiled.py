@@ -1,15 +1,15 @@
 """The ``paper`` predictor's speed search compiled with numba (the world's ``compiled``
-backend turns it on; :mod:`rtsim.world.compiled` for the world's own kernels).
+backend turns it on; `rtsim.world.compiled` for the world's own kernels).
 
 Under the ``paper`` model the followers' predicted speed, heading and the leader's turn rate
 stay at their estimates whatever the leader's speed, so the predicate of the speed search —
 "every follower's four bounds (Eq 17, Eqs 19–21 and the bearing bound, radial localization)
-are at least w_sch at V_L" — is a few lines of arithmetic per follower. :class:`PaperSearch`
+are at least w_sch at V_L" — is a few lines of arithmetic per follower. `PaperSearch`
 is the predictor name ``"paper"`` (a ``str`` equal to it, so every comparison and every
-record sees the same name) carrying :meth:`PaperSearch.largest`, which runs
-:func:`rtsim.control.adjust.largest` over the grid with that predicate in one compiled call:
-the same expressions in the same order as :func:`~rtsim.analysis.kinematics.scalar_msbs`
-and :func:`~rtsim.control.predict.min_bound_rows`, so the same speed, bit for bit (tested
+record sees the same name) carrying `PaperSearch.largest`, which runs
+`rtsim.control.adjust.largest` over the grid with that predicate in one compiled call:
+the same expressions in the same order as `scalar_msbs`
+and `min_bound_rows`, so the same speed, bit for bit (tested
 against the Python search on whole runs).
 """
 
@@ -104,8 +104,8 @@ def _largest_paper(
     return False, 0.0
 
 
-#: about how long compiling :func:`_largest_paper` takes, CPU s (as
-#: :data:`rtsim.world.kernels.COMPILE_S`)
+#: about how long compiling `_largest_paper` takes, CPU s (as
+#: `rtsim.world.kernels.COMPILE_S`)
 PAPER_COMPILE_S = 1.0
 
 
@@ -132,7 +132,7 @@ class PaperSearch(str):
         need: float,
         grid: Sequence[float],
     ) -> float | None:
-        """:func:`rtsim.control.adjust.largest` over ``grid`` with the paper model's
+        """`rtsim.control.adjust.largest` over ``grid`` with the paper model's
         predicate (radial localization) for ``followers``; None when no speed passes."""
         rho = np.array([f.rho for f in followers], dtype=float)
         beta = np.array([f.beta for f in followers], dtype=float)

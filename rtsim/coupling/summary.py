@@ -31,7 +31,8 @@ def _name(predictor: Any) -> str:
 
 
 def summary_columns(n: int) -> list[str]:
-    """The columns of windows.csv that :func:`summarize` reads (``n`` followers)."""
+    """The columns of windows.csv that [`summarize`][rtsim.coupling.summary.summarize] reads (``n``
+    followers)."""
     return [
         "w",
         "w_sch",
@@ -68,7 +69,7 @@ def summarize(
     extra: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """summary.json from windows.csv (docs/outputs.md) and run facts. ``df``: the table, or
-    its columns (name -> array or list, as :func:`~rtsim.coupling.recorder.records_columns`
+    its columns (name -> array or list, as `records_columns`
     gives them): the summary is computed from arrays either way."""
 
     def col(name: str, dtype: Any = float) -> Any:

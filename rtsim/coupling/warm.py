@@ -2,9 +2,9 @@
 
 A process pool whose workers each build a world on the ``compiled`` backend would compile
 the same kernels once per worker the first time (an empty numba cache: every worker pays
-the full compile at the same moment). :func:`warm_world` compiles them, or loads them from
+the full compile at the same moment). `warm_world` compiles them, or loads them from
 the cache, in the calling process first: workers forked after it inherit them, spawned ones
-load what it cached (:mod:`rtsim.world.jit`). ``rtsim reproduce`` and the sweep engine call
+load what it cached (`rtsim.world.jit`). ``rtsim reproduce`` and the sweep engine call
 it just before they start their pools.
 """
 
@@ -19,8 +19,8 @@ __all__ = ["warm_world"]
 
 def warm_world(scenarios: Iterable[Scenario]) -> bool:
     """Compile (or load) the kernels when any of ``scenarios`` runs on the compiled backend
-    (:meth:`rtsim.world.config.WorldConfig.resolved_backend`); returns whether it did. The
-    world's and the rollout's kernels (:func:`rtsim.world.kernels.warm_all`); the ``paper``
+    (`rtsim.world.config.WorldConfig.resolved_backend`); returns whether it did. The
+    world's and the rollout's kernels (`rtsim.world.kernels.warm_all`); the ``paper``
     predictor's compiles lazily where it is used."""
     if not any(sc.world.resolved_backend() == "compiled" for sc in scenarios):
         return False

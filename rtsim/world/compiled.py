@@ -4,15 +4,15 @@ The Python classes stay the reference; the classes here are subclasses that hand
 expressions, in the same order, to compiled kernels, so the results are bit for bit the
 Python ones (tests run both paths and compare whole runs):
 
-- :class:`CompiledFollowerGroup`: a follower's held command integrated to a time
-  (:func:`rtsim.world.motion.follower_advance` compiled) in one call;
-- :class:`CompiledFollowerEKF`: the EKF's predict and update
-  (:func:`rtsim.world.ekf.ekf_predict` and :func:`~rtsim.world.ekf.ekf_update` compiled);
-- :class:`CompiledTraceFollower`: the follow-the-leader reference search, projection and
-  control law (:class:`TraceFollower.command`) in one call per command, and the projection
-  alone (:meth:`TraceFollower.project`, the truth log's cross-track error);
-- :class:`CompiledRollout`: the leader's command-aware rollout
-  (:class:`rtsim.control.rollout.Rollout`) whole in one call per rollout, and the ``plan``
+- `CompiledFollowerGroup`: a follower's held command integrated to a time
+  (`rtsim.world.motion.follower_advance` compiled) in one call;
+- `CompiledFollowerEKF`: the EKF's predict and update
+  (`rtsim.world.ekf.ekf_predict` and `ekf_update` compiled);
+- `CompiledTraceFollower`: the follow-the-leader reference search, projection and
+  control law (`TraceFollower.command`) in one call per command, and the projection
+  alone (`TraceFollower.project`, the truth log's cross-track error);
+- `CompiledRollout`: the leader's command-aware rollout
+  (`rtsim.control.rollout.Rollout`) whole in one call per rollout, and the ``plan``
   policy's decision or the ``commands`` speed search in one call per decision (its rollouts
   handed back for the rollout's memo, as the Python policy leaves them there).
 
@@ -20,14 +20,14 @@ Only the operations whose compiled result is the interpreter's are compiled: + �
 ``sqrt``, ``sin``, ``cos``, ``atan2``, ``abs``, ``copysign`` and ``%`` (numba calls the same C
 library for the functions and follows Python's rules for ``%``). CPython computes
 ``math.hypot`` with an algorithm of its own; the kernels carry that algorithm
-(:func:`rtsim.world.kernels._hypot`), checked against ``math.hypot`` when they load — where
+(`rtsim.world.kernels._hypot`), checked against ``math.hypot`` when they load — where
 this interpreter disagrees, the controller and the rollout run in Python instead; numba has
 no ``math.remainder``, and the kernels carry CPython's (exact, with fmod).
 
-numba is imported on first use (:func:`available`); kernels are compiled once per machine
-and cached on disk (keyed by a hash of their sources: :mod:`rtsim.world.jit`), so a later
+numba is imported on first use (`available`); kernels are compiled once per machine
+and cached on disk (keyed by a hash of their sources: `rtsim.world.jit`), so a later
 process loads them in milliseconds (the
-rollout's only when a run first rolls out: :func:`rtsim.world.kernels.warm_rollout`).
+rollout's only when a run first rolls out: `rtsim.world.kernels.warm_rollout`).
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ def as_changes(arr: Any) -> list[list[Any]]:
 
 
 class CompiledFollowerGroup(FollowerGroup):
-    """:class:`FollowerGroup` whose :meth:`advance` runs compiled."""
+    """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose `advance` runs compiled."""
 
     def __init__(
         self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
@@ -73,7 +73,7 @@ class CompiledFollowerGroup(FollowerGroup):
 
 
 class CompiledFollowerEKF(FastFollowerEKF):
-    """:class:`FastFollowerEKF` whose predict and update run compiled."""
+    """`FastFollowerEKF` whose predict and update run compiled."""
 
     def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
         super().__init__(pose, params)
@@ -83,7 +83,7 @@ class CompiledFollowerEKF(FastFollowerEKF):
 
 
 class CompiledTraceFollower(TraceFollower):
-    """:class:`TraceFollower` whose :meth:`command` runs compiled (the Python one when the
+    """`TraceFollower` whose `command` runs compiled (the Python one when the
     kernel cannot decide a comparison exactly: module docstring)."""
 
     def __init__(
@@ -101,7 +101,7 @@ class CompiledTraceFollower(TraceFollower):
         self._rollout_static: Any = None  # CompiledRollout's constant scalars, packed once
 
     def clone(self) -> CompiledTraceFollower:
-        """A copy with its own search starts, compiled too (:meth:`TraceFollower.clone`)."""
+        """A copy with its own search starts, compiled too (`TraceFollower.clone`)."""
         new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
         new._s_ref = list(self._s_ref)
@@ -112,7 +112,7 @@ class CompiledTraceFollower(TraceFollower):
         return new
 
     def compiled_rollout(self, state: Any) -> CompiledRollout | None:
-        """The compiled rollout of ``state`` (a :class:`~rtsim.control.rollout.RolloutState`
+        """The compiled rollout of ``state`` (a `RolloutState`
         whose law is this one), or None when the compiled hypot is not this interpreter's
         (the caller plays the rollout in Python)."""
         return CompiledRollout(self, state) if kernels().exact_hypot else None
@@ -130,7 +130,7 @@ class CompiledTraceFollower(TraceFollower):
         self._sf = np.array([nan if s is None else s for s in self._s_f], dtype=float)
 
     def project(self, k: int, x: float, y: float, guess: float) -> float:
-        """:meth:`TraceFollower.project` in one kernel call (the same Newton steps)."""
+        """`TraceFollower.project` in one kernel call (the same Newton steps)."""
         s = self._sf[k]
         if math.isnan(s):
             s = float(guess)
@@ -201,8 +201,8 @@ _SEARCH_RUNS = 64
 
 
 class CompiledRollout:
-    """:class:`~rtsim.control.rollout.Rollout`'s arithmetic for one state in compiled calls:
-    the state packed into arrays once (:class:`~rtsim.world.kernels.RolloutScalars`, a row per
+    """`Rollout`'s arithmetic for one state in compiled calls:
+    the state packed into arrays once (`RolloutScalars`, a row per
     follower, the pending sends NaN-padded), the law's search starts read at each call (the
     live law's, as the Python rollout clones it then)."""
 
@@ -291,7 +291,7 @@ class CompiledRollout:
         return (*self._args, self._law._sr, self._law._sf)
 
     def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
-        """:meth:`Rollout.changes` uncached: per window, per follower the four changes."""
+        """`Rollout.changes` uncached: per window, per follower the four changes."""
         out = np.empty((len(windows), self.n, 4))
         self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
         return as_changes(out)
@@ -308,10 +308,10 @@ class CompiledRollout:
         windows: int,
         w: float,
     ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
-        """:class:`~rtsim.control.policy.PlanPolicy`'s decision, or with ``search_only``
-        :func:`rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
-        ``windows`` windows of ``w`` ms), in one call (:func:`rtsim.world.kernels.
-        _plan_decide`, on fresh buffers): ((w, V_L, method code, found, feasible), the rows
+        """`PlanPolicy`'s decision, or with ``search_only``
+        `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
+        ``windows`` windows of ``w`` ms), in one call (`rtsim.world.kernels._plan_decide`, on fresh
+        buffers): ((w, V_L, method code, found, feasible), the rows
         at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
         lengths, changes [window, follower, change]) for the rollout's memo)."""
         speeds = np.empty(_SEARCH_RUNS)

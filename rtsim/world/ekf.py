@@ -20,8 +20,8 @@ The leader predicts once per held command piece between two scans (at most two p
 window: before and after that window's send), not per integration step: the arc model is
 exact for a held command, so finer predicts would only cost time.
 
-Two interchangeable implementations: :class:`FollowerEKF` wraps filterpy's
-``ExtendedKalmanFilter`` (the reference), :class:`FastFollowerEKF` does the same algebra
+Two interchangeable implementations: [`FollowerEKF`][rtsim.world.ekf.FollowerEKF] wraps filterpy's
+``ExtendedKalmanFilter`` (the reference), `FastFollowerEKF` does the same algebra
 on plain floats (P = F P Fᵀ + Q with this F's two non-zeros; update P − K H P with
 H = [I₂ 0], which equals filterpy's Joseph form for the optimal gain), several times
 cheaper; a test checks that both agree to 1e-9.
@@ -224,7 +224,7 @@ def ekf_predict(
     qh2: float,
 ) -> tuple[float, float, float, float, float, float, float, float, float]:
     """The predict on floats: (x, y, θ, P00, P01, P02, P11, P12, P22) after F P Fᵀ + Q with
-    F = I + a e0 e2ᵀ + b e1 e2ᵀ (:func:`process`)."""
+    F = I + a e0 e2ᵀ + b e1 e2ᵀ (`process`)."""
     dx, dy, dth, a, b, q00, q01, q02, q11, q12, q22 = process(x2, v, w, dt, sv2, sw2, qp2, qh2)
     return (
         x0 + dx,
@@ -284,13 +284,14 @@ def ekf_update(
 
 
 def _squares(p: EkfParams) -> tuple[float, float, float, float]:
-    """σ_v², σ_ω², q_p², q_θ²: :func:`process`'s noise arguments."""
+    """σ_v², σ_ω², q_p², q_θ²: `process`'s noise arguments."""
     return p.speed_noise**2, p.turn_noise**2, p.position_drift**2, p.heading_drift**2
 
 
 class FastFollowerEKF:
-    """The same filter as :class:`FollowerEKF` on plain floats (state x, symmetric P):
-    :func:`ekf_predict` and :func:`ekf_update` (compiled in the compiled backend's
+    """The same filter as [`FollowerEKF`][rtsim.world.ekf.FollowerEKF] on plain floats (state x,
+    symmetric P):
+    `ekf_predict` and `ekf_update` (compiled in the compiled backend's
     subclass)."""
 
     _predict = staticmethod(ekf_predict)

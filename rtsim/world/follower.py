@@ -56,7 +56,7 @@ class FollowerParams:
     control_offset d (cm, > 0); gain_rho k_ρ and gain_beta k_β (1/s); speed_noise (cm/s) and
     turn_noise (rad/s): standard deviations of the actuation error per command; lookahead ℓ
     (cm): pure pursuit's look-ahead along the trace in follow-the-leader
-    (:mod:`rtsim.world.ftl`, which also uses gain_rho on the along-track separation error).
+    (`rtsim.world.ftl`, which also uses gain_rho on the along-track separation error).
 
     The offset d must not be too small for the command hold w: the control point's heading
     loop has time constant d/V_F, and a command held for w overshoots (and the formation
@@ -124,7 +124,7 @@ def lpsi_command(
     """l-ψ control law (unsaturated): (v, ω) for followers at (x, y, θ).
 
     ``leader`` is the leader's pose (x, y, heading), ``v_l`` its speed, ``omega_l`` its
-    turn rate; (l_d, ψ_d) the control point's targets from :func:`control_targets`.
+    turn rate; (l_d, ψ_d) the control point's targets from `control_targets`.
     Floats use ``math`` (fast path for one follower); NumPy arrays are vectorised.
     """
     if x.__class__ is float and th.__class__ is float:
@@ -164,7 +164,8 @@ def _lpsi1(
     psi_d: float,
     p: FollowerParams,
 ) -> tuple[float, float]:
-    """:func:`lpsi_command` for one follower given as floats (the same expressions)."""
+    """[`lpsi_command`][rtsim.world.follower.lpsi_command] for one follower given as floats (the
+    same expressions)."""
     xl, yl, hl = leader
     d = p.control_offset
     c, s = math.cos(hl), math.sin(hl)
@@ -225,7 +226,7 @@ class FollowerGroup:
         return self.apply_drawn(k, v, w, nv, nw)
 
     def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
-        """:meth:`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
+        """`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
         sv, sw = self.saturate(v + self.p.speed_noise * nv, w + self.p.turn_noise * nw)
         self.cmd_v[k] = sv
         self.cmd_w[k] = sw
@@ -234,13 +235,13 @@ class FollowerGroup:
     def pose(self, k: int) -> tuple[float, float, float]:
         return self.x[k], self.y[k], self.th[k]
 
-    #: the integration (:func:`rtsim.world.motion.follower_advance`; its compiled build in
+    #: the integration (`rtsim.world.motion.follower_advance`; its compiled build in
     #: the compiled backend's subclass)
     _advance = staticmethod(follower_advance)
 
     def advance(self, k: int, t_ms: float, step_ms: float) -> None:
-        """Integrate follower index ``k`` to ``t_ms`` (:func:`rtsim.world.motion.
-        follower_advance`: exact arcs at the ramp's mean speed)."""
+        """Integrate follower index ``k`` to ``t_ms`` (`rtsim.world.motion.follower_advance`: exact
+        arcs at the ramp's mean speed)."""
         t0 = self.t[k]
         if t_ms <= t0:
             return

@@ -1,7 +1,7 @@
 """Kernel sources: plain Python functions that numba compiles for the ``compiled`` backend.
 
-A function marked with :func:`kernel` stays the plain function it is (the ``python`` backend
-and every Python caller run it as Python; numba is not imported). :func:`build` turns one
+A function marked with `kernel` stays the plain function it is (the ``python`` backend
+and every Python caller run it as Python; numba is not imported). `build` turns one
 into a numba dispatcher on demand, together with the kernel sources it calls (found in its
 code, by name in its module's globals): each callee is compiled first and the caller is
 compiled against a copy of its globals in which the callees' names are their dispatchers, so
@@ -10,7 +10,7 @@ compile order is derived from the calls; nothing lists it by hand.
 
 **Cache.** numba's own on-disk cache (``cache=True``) checks only the file that defines a
 kernel, so a kernel calling an edited function of another module would load a stale build.
-Here each compiled kernel is cached in a directory named by :func:`source_key`, a hash of
+Here each compiled kernel is cached in a directory named by `source_key`, a hash of
 the source text of the kernel and of every kernel source it reaches, and of the values of
 the other globals they read (numba freezes those at compile time): an edit anywhere in that
 closure is a new directory, hence a fresh compile. The directories live under
@@ -56,7 +56,7 @@ def kernel(fn: F | None = None, *, inline: bool = False) -> Any:
 
 
 def is_kernel(obj: Any) -> bool:
-    """Whether ``obj`` is a function marked by :func:`kernel`."""
+    """Whether ``obj`` is a function marked by `kernel`."""
     return isinstance(obj, types.FunctionType) and hasattr(obj, _MARK)
 
 
@@ -110,7 +110,7 @@ def source_key(fn: Callable[..., Any]) -> str:
 
 def build(fn: Callable[..., Any]) -> Any:
     """The numba dispatcher of kernel source ``fn`` (made once per process; its callees
-    first), cached on disk by :func:`source_key`. Imports numba."""
+    first), cached on disk by `source_key`. Imports numba."""
     done = _COMPILED.get(fn)
     if done is not None:
         return done
@@ -139,7 +139,7 @@ def build(fn: Callable[..., Any]) -> Any:
 
 def cached(fn: Callable[..., Any]) -> bool:
     """Whether kernel source ``fn`` has a build in the cache (numba's index file in its
-    source key's directory), so that :func:`build` loads it rather than compiles it; False
+    source key's directory), so that `build` loads it rather than compiles it; False
     when nothing can be cached."""
     root = cache_root()
     if root is None:

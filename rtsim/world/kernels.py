@@ -1,12 +1,12 @@
 """The world's and the controller's numba kernels, as plain Python kernel sources
-(:mod:`rtsim.world.jit`): the follow-the-leader law's search and projection, CPython's
+(`rtsim.world.jit`): the follow-the-leader law's search and projection, CPython's
 hypot and remainder, the command-aware rollout and the plan policy's decision
-(:mod:`rtsim.world.compiled` for the classes that call them and why the results are bit for
+(`rtsim.world.compiled` for the classes that call them and why the results are bit for
 bit the Python ones). The motion and the EKF are the world's own functions
-(:mod:`rtsim.world.motion`, :mod:`rtsim.world.ekf`), compiled with the kernels that call
+(`rtsim.world.motion`, `rtsim.world.ekf`), compiled with the kernels that call
 them.
 
-:func:`kernels` compiles :data:`ENTRIES` (or loads them from the cache) once per process;
+`kernels` compiles `ENTRIES` (or loads them from the cache) once per process;
 numba is imported only then.
 """
 
@@ -190,7 +190,7 @@ def _hypot_core(ax: float, ay: float, mx: float) -> float:
 def _hypot(x: float, y: float) -> float:
     """CPython's ``math.hypot`` of two coordinates (its vector_norm: scaled by a power of
     two, the squares summed with their exact errors, a square root and one differential
-    correction); :func:`kernels` checks it against ``math.hypot`` before a kernel uses it."""
+    correction); `kernels` checks it against ``math.hypot`` before a kernel uses it."""
     ax, ay = abs(x), abs(y)
     if math.isnan(ax) or math.isnan(ay):
         return math.nan
@@ -248,7 +248,7 @@ def _ftl_exact(
     y: float,
     th: float,
 ) -> tuple[float, float]:
-    """TraceFollower.command whole (with :func:`_hypot`): (v, ω); updates s_ref, s_f."""
+    """TraceFollower.command whole (with `_hypot`): (v, ω); updates s_ref, s_f."""
     chain = np.empty(ahead.shape[0] + 1, dtype=np.int64)
     m = 0
     j = k
@@ -408,7 +408,7 @@ def _rollout(
 
 class RolloutScalars(NamedTuple):
     """A rollout's scalars (ms, cm, cm/s, rad), in the order of its float pack (the pack's
-    first element; :class:`~rtsim.world.compiled.CompiledRollout` builds it, :func:`scalars`
+    first element; `CompiledRollout` builds it, `scalars`
     reads it back inside the kernels): the five that change from one decision to the next
     come first."""
 
@@ -487,10 +487,10 @@ def _rollout_changes(
     out: Any,
 ) -> None:
     """Rollout._run whole: the leader set to target ``v`` (Leader.set_speed), the scans and
-    sends of windows ``lengths`` in Python's tuple order, :func:`_rollout` on copies of the
+    sends of windows ``lengths`` in Python's tuple order, `_rollout` on copies of the
     group and the law's search starts, and the changes per window and follower
     (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|). ``P``: the state's
-    pack (:meth:`rtsim.world.compiled.CompiledRollout.pack`)."""
+    pack (`rtsim.world.compiled.CompiledRollout.pack`)."""
     fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
     S = scalars(fs)
     n = fol.shape[0]
@@ -680,7 +680,7 @@ def _search_into(
     first: int,
     found_out: Any,
 ) -> int:
-    """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · :func:`_rollout_worst` over
+    """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · `_rollout_worst` over
     ``changes.shape[1]`` windows of ``w``; rollout r's speed and changes go to ``speeds[r]``
     and ``changes[r]`` from r = ``first`` (as many as they hold). ``found_out`` ←
     (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the
@@ -812,8 +812,8 @@ def _plan_decide(
     return runs
 
 
-#: the kernels the classes call, by the name they have in :func:`kernels`'s namespace (each
-#: compiled with the kernel sources it calls: :func:`rtsim.world.jit.compile`)
+#: the kernels the classes call, by the name they have in `kernels`'s namespace (each
+#: compiled with the kernel sources it calls: `rtsim.world.jit.compile`)
 ENTRIES: dict[str, Any] = {
     "advance_follower": follower_advance,
     "ekf_predict": ekf_predict,
@@ -827,7 +827,7 @@ ENTRIES: dict[str, Any] = {
 }
 
 
-#: the entries only a run that rolls out calls (compiled by :func:`warm_rollout`)
+#: the entries only a run that rolls out calls (compiled by `warm_rollout`)
 ROLLOUT_ENTRIES = ("rollout_changes", "plan_decide")
 
 #: about how long compiling takes, CPU s on a 2-core machine (numba 0.68; measured with a
@@ -840,7 +840,7 @@ _ANNOUNCED = False
 def announce(sources: Iterable[Any], seconds: float) -> bool:
     """Say on stderr, in one line and once per process, that the kernels are being compiled
     (once per install, about ``seconds``), when any of the kernel ``sources`` has no build
-    in the cache and progress is shown (:func:`rtsim.sim.progress.progress_enabled`: a
+    in the cache and progress is shown (`rtsim.sim.progress.progress_enabled`: a
     terminal, or ``RTSIM_PROGRESS=1``); nothing when they load from the cache. Returns
     whether it said so."""
     global _ANNOUNCED
@@ -861,7 +861,7 @@ def announce(sources: Iterable[Any], seconds: float) -> bool:
 
 def kernels() -> Any:
     """The compiled kernels (a namespace), compiled or loaded from the cache once per
-    process (saying so when they compile: :func:`announce`, with the rollout's time when
+    process (saying so when they compile: `announce`, with the rollout's time when
     those are not cached either, as most runs roll out next)."""
     global _KERNELS
     if _KERNELS is None:

@@ -6,9 +6,10 @@ target speed it is driving toward; its pose is the path's exact pose at ``s``, s
 is exact whatever the step. The adjustment algorithm sets the **target** (at most the
 desired speed V_Ld); the actual speed ramps toward it at ``accel_max`` cm/s² when speeding
 up and ``decel_max`` cm/s² when slowing down, as a real robot's speed controller does
-(docs/model/world.md). With both limits infinite (the default of a :class:`Leader` built by hand)
+(docs/model/world.md). With both limits infinite (the default of a
+[`Leader`][rtsim.world.leader.Leader] built by hand)
 the speed steps at once, the paper's idealisation. Over a step of dt seconds the arc length is
-the exact integral of that ramp-then-hold profile (:func:`rtsim.world.motion.leader_travel`).
+the exact integral of that ramp-then-hold profile (`rtsim.world.motion.leader_travel`).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The unicycle's motion, written once: the exact arc, the followers' speed ramp and the
 leader's (docs/model/world.md).
 
-Each function is plain Python on floats and a kernel source (:func:`rtsim.world.jit.kernel`):
+Each function is plain Python on floats and a kernel source (`rtsim.world.jit.kernel`):
 the ``python`` backend calls it as it is, the ``compiled`` backend's kernels call the same
 function compiled by numba, so both backends run these expressions in this order.
 
@@ -65,7 +65,7 @@ def ramp(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
 def ramp_arc(
     x: float, y: float, th: float, v: float, vc: float, w: float, a: float, dt: float
 ) -> tuple[float, float, float, float, float]:
-    """One step of a held command: :func:`ramp`, then :func:`arc` at the ramp's mean speed:
+    """One step of a held command: `ramp`, then `arc` at the ramp's mean speed:
     (x, y, heading, speed after dt, mean speed)."""
     v, vm = ramp(v, vc, a, dt)
     x, y, th = arc(x, y, th, vm, w, dt)

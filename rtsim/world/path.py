@@ -2,8 +2,9 @@
 
 The remote-control station commands "move in a straight line, turn, turn direction, turn
 radius and desired speed" (the paper's §4). A path is a closed sequence of
-:class:`Straight` and :class:`Turn` segments from a start pose; the speed lives with the
-leader (:mod:`rtsim.world.leader`). Everything is a function of the arc length ``s`` (cm),
+[`Straight`][rtsim.world.path.Straight] and [`Turn`][rtsim.world.path.Turn] segments from a start
+pose; the speed lives with the
+leader (`rtsim.world.leader`). Everything is a function of the arc length ``s`` (cm),
 so the leader's pose is exact whatever the time step: on a turn of signed curvature κ
 (+1/r left, −1/r right) starting at (x0, y0, h0),
 
@@ -98,8 +99,8 @@ def along(x0: float, y0: float, h0: float, kappa: float, s: float) -> Pose:
 class LeaderPath:
     """A closed path of segments from a start pose (x, y, heading); immutable after construction.
 
-    Raises :class:`ScenarioError` if the path is empty or does not close: the end must be
-    within :data:`CLOSURE_TOL` cm of the start and the total turning a multiple of 2π.
+    Raises `ScenarioError` if the path is empty or does not close: the end must be
+    within `CLOSURE_TOL` cm of the start and the total turning a multiple of 2π.
     """
 
     def __init__(
