@@ -450,6 +450,9 @@ class Sweep:
         after `MAX_ATTEMPTS` starts)."""
         import multiprocessing
 
+        warm = KINDS.resolve(self.spec.kind, "sweep.kind").warm
+        if warm is not None and pending:  # e.g. the kernels compiled once, not per worker
+            warm(point_input(self.spec, pending[0]))
         method = _start_method()
         if method == "fork":
             import pandas  # noqa: F401 - the results table needs it anyway
