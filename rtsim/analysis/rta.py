@@ -234,7 +234,8 @@ def analyze(
     Critical sections: each task's blocking term B (:func:`rtsim.analysis.blocking.fp_blocking`)
     under ``resources`` (``pcp``, ``srp``, ``npr``; default the set's protocol,
     :meth:`~rtsim.model.taskset.TaskSet.resource_protocol`) is part of its response time,
-    once per compute stretch under ``suspension="idle"``.
+    once per compute stretch under ``suspension="idle"``, with the switch into the blocking
+    section (``overhead``) included.
     """
     from rtsim.analysis.blocking import check_protocol, fp_blocking
 
@@ -244,7 +245,7 @@ def analyze(
         check_protocol(
             protocol, "fp", f"{ts.source or ts.name or 'task set'}: [scheduler] resources"
         )
-    block = fp_blocking(tasks, protocol)
+    block = fp_blocking(tasks, protocol, overhead)
     results = []
     aware = None
     if suspension == "idle":

@@ -44,6 +44,9 @@ Order of things at one instant t (the tie-break rules, tested in tests/sim/test_
    its length is drawn, the job leaves the CPU); after the last segment the job *completes*
    (finish = t, statistics, job-end hooks) and its task's next pending job becomes eligible.
    So a completion at t comes before a release at t: the finishing job is never preempted.
+   Empty steps after the chain's last real one (no time, no resource) start and end here
+   at once, so a job whose work ends at t completes at t (likewise when an idle suspension
+   ending in step 2 leaves only empty steps).
 2. Timers due at t, in the order (time, rank, priority, sequence) with rank: end of an idle
    suspension (the job is eligible again; segment-end hooks) < abort at deadline < release of
    the window task < other releases. Releases of different tasks at t are handled in priority
@@ -101,7 +104,8 @@ instant (no inline top-task jobs); a set without sections runs exactly the code 
 job has a preemption level (−priority, or −relative deadline under ``edf``), each resource a
 ceiling (the highest level of its users; +inf under ``npr``), and the system ceiling is the
 highest ceiling of the resources held. At dispatch the first job in the policy's order that
-holds a resource or whose level is above the system ceiling is the candidate (it preempts
+holds a resource, or whose level is above the system ceiling and (if it has not started)
+comes before every job passed over — Baker's start rule — is the candidate (it preempts
 the running job as the policy says); a section locks its resource when it starts and
 unlocks it when it ends (or its job is aborted). The rule keeps a resource from ever being
 found locked. ``pcp`` is therefore the immediate priority ceiling protocol. A job passed
@@ -376,9 +380,17 @@ class CPU:
             )
             st.fast_start = st.const_exec[0] if st.simple and not st.start_hooks[0] else None
             st.seg_const = [None if st.start_hooks[i] else c for i, c in enumerate(st.const_exec)]
+            segs = st.segs
+            st.zero_tail = [
+                i > 0 and all(s.wcet == 0.0 and s.resource is None for s in segs[i:])
+                for i in range(len(segs))
+            ]
             st.plain_next = [
-                not st.end_hooks[i] and i + 1 < len(st.segs) and not st.idle_kind[i + 1]
-                for i in range(len(st.segs))
+                not st.end_hooks[i]
+                and i + 1 < len(segs)
+                and not st.idle_kind[i + 1]
+                and not st.zero_tail[i + 1]
+                for i in range(len(segs))
             ]
         top = min(self._states, key=lambda x: x.priority, default=None)
         for st in self._states:
@@ -462,19 +474,23 @@ class CPU:
 
     def _res_pick(self, running: Job | None, now: float) -> Job | None:
         """The job that takes the CPU under the resource protocol (removed from the ready
-        heap), or None: the first eligible job in the policy's order — one that holds a
-        resource, or whose level is above the system ceiling — if it preempts ``running``.
-        Jobs passed over that come before the job that runs are blocked (traced)."""
+        heap), or None: the first eligible job in the policy's order that holds a resource,
+        or whose level is above the system ceiling and, if it has not started yet, comes
+        before every job passed over (Baker's start rule: a job starts only when it is first
+        among the active jobs and above the ceiling) — if it preempts ``running``. Jobs
+        passed over that come before the job that runs are blocked (traced)."""
         ready = self._ready
         hold = self._holding
         ceiling = max(c for _, c in hold.values()) if hold else -_INF
-        skipped = []
+        skipped: list[tuple[Any, Any, Job]] = []
         while ready:
             job = ready[0][2]
             if job.aborted:
                 heapq.heappop(ready)
                 continue
-            if job in hold or self._level(job) > ceiling:
+            if job in hold or (
+                self._level(job) > ceiling and (not skipped or job.start is not None)
+            ):
                 break
             skipped.append(heapq.heappop(ready))
         cand = ready[0][2] if ready else None
@@ -621,6 +637,12 @@ class CPU:
                     self._lag = 0.0
                 run_end = _INF
                 work_lag = now_lag
+                if running is not None and running.rem is not None:
+                    # an empty step given work by an execution-time model (_continue)
+                    x = running.rem + work_lag
+                    run_end = work_start + x
+                    y = run_end - work_start
+                    run_lag = (work_start - (run_end - y)) + (x - y)
             # 2. timers due
             while timers and (t_next := timers[0][0]) <= limit:  # (then t_next: the next)
                 entry = timers[0]  # (popped below: a release's successor replaces it)
@@ -926,14 +948,30 @@ class CPU:
         return self._continue(job, now)
 
     def _continue(self, job: Job, now: float) -> Job | None:
-        """Move ``job`` to its current segment: complete it, suspend it, or return it."""
+        """Move ``job`` to its current segment: complete it, suspend it, or return it.
+
+        Empty steps past the chain's real end (``zero_tail``: no time, no resource) run here
+        and then, at once: nothing released at this instant preempts them, so the job
+        completes when its last real step ends, as the analyses count it."""
         st = job._st
         i = job.seg_index
-        if i >= len(st.segs):
+        n = len(st.segs)
+        started = False
+        while i < n and st.zero_tail[i]:
+            self._start_segment(job, now)
+            if job.rem:  # an execution-time model gave it work: it runs as any segment
+                started = True
+                break
+            for h in st.end_hooks[i]:
+                h(job, st.segs[i])
+            i = job.seg_index = i + 1
+            job.rem = None
+        if i >= n:
             self._complete(job, now)
             return None
         if st.idle_kind[i]:
-            self._start_segment(job, now)
+            if not started:
+                self._start_segment(job, now)
             heapq.heappush(
                 self._timers,
                 (

@@ -144,6 +144,7 @@ class _TaskState:
         "fast_top",
         "seg_const",
         "plain_next",
+        "zero_tail",
         "jitter",
         "jrng",
         "order",
@@ -185,6 +186,8 @@ class _TaskState:
         self.fast_top = False  # highest priority, fast release and start, no hooks at all
         self.seg_const: list[float | None] = []  # constant time of segment i, no start hooks
         self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
+        # segment i > 0 and every one after it are empty (no time, no resource): run at once
+        self.zero_tail: list[bool] = []
         self.jitter = 0.0  # release jitter in force (0 under jitter="none")
         self.jrng: np.random.Generator | None = None  # release delays, own stream
         self.order: Callable[[Job], tuple[Any, Any]] = _unset_order  # the policy's (key, tie)
