@@ -116,6 +116,7 @@ records per task the longest total blocking of one job.
 
 from __future__ import annotations
 
+import copy
 import heapq
 import itertools
 import math
@@ -128,7 +129,7 @@ import simpy
 from rtsim.errors import InputError, RtsimError
 from rtsim.model.task import RESOURCE_PROTOCOLS, Segment, Task
 from rtsim.sim.execution import WCET, ExecSpec, jitter_rngs, resolve_exec_model, task_rngs
-from rtsim.sim.job import _ABORT, _JREL, _RELEASE, _RESUME, Job, _TaskState
+from rtsim.sim.job import _ABORT, _JREL, _RELEASE, _RESUME, _SLICE, Job, _TaskState
 from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_policy
 from rtsim.sim.records import (
     EPS,
@@ -167,6 +168,27 @@ _INF = math.inf
 ULPS = 16
 
 
+def _with_quantum(policy: SchedulingPolicy, quantum: float | None) -> SchedulingPolicy:
+    """``policy`` with the time slice ``quantum`` (ms); a time-sliced policy needs one and
+    only such a policy takes one (a copy: the caller's instance is left as it is)."""
+    name = policy.name or type(policy).__name__
+    if quantum is not None:
+        if not policy.takes_quantum:
+            raise InputError(f"quantum: the {name} policy is not time-sliced (rr is)")
+        if not (
+            isinstance(quantum, int | float)
+            and not isinstance(quantum, bool)
+            and math.isfinite(quantum)
+            and quantum > 0
+        ):
+            raise InputError(f"quantum must be a positive number of ms, got {quantum!r}")
+        policy = copy.copy(policy)
+        policy.quantum = float(quantum)
+    if policy.takes_quantum and policy.quantum is None:
+        raise InputError(f"the {name} policy needs a time slice: [scheduler] quantum (ms)")
+    return policy
+
+
 def coincidence(t: float) -> tuple[float, float]:
     """(the coincidence window at time ``t``, the time from which it is larger): the window
     is constant over [2^(e−1), 2^e), the binade of t."""
@@ -203,8 +225,12 @@ class CPU:
         scheduler: PolicySpec = "fp",
         resources: str | None = None,
         trace_sink: Any = None,
+        quantum: float | None = None,
     ) -> None:
-        self.policy: SchedulingPolicy = resolve_policy(scheduler)
+        self.policy: SchedulingPolicy = _with_quantum(resolve_policy(scheduler), quantum)
+        #: the time slice of a time-sliced policy (ms; None: jobs are not sliced)
+        self.quantum = self.policy.quantum
+        self._slice_left: dict[Job, float] = {}  # a preempted job's rest of its slice
         if resources is not None and resources not in RESOURCE_PROTOCOLS:
             raise InputError(
                 f"resources must be one of {', '.join(RESOURCE_PROTOCOLS)}, got {resources!r}"
@@ -285,16 +311,18 @@ class CPU:
         if task.name in self._by_name:
             raise InputError(f"task '{task.name}': duplicate task name")
         for st in self._states:
-            if st.priority == task.priority:
+            if st.priority == task.priority and not self.policy.shared_priorities:
                 raise InputError(
                     f"task '{task.name}': priority {task.priority} is already "
-                    f"used by task '{st.name}'"
+                    f"used by task '{st.name}' (tasks share a priority only under a "
+                    f"time-sliced policy: rr)"
                 )
         if window and any(st.is_window for st in self._states):
             raise InputError(f"task '{task.name}': only one window task is allowed")
         if task.per_window and period_provider is not None:
             raise InputError(f"task '{task.name}': a per-window task cannot have a provider")
         st = _TaskState(task, period_provider, window)
+        st.index = len(self._states)  # (orders the releases of tasks that share a priority)
         self._states.append(st)
         self._by_name[task.name] = st
 
@@ -400,6 +428,7 @@ class CPU:
                 and st.fast_start is not None
                 and not st.job_end_hooks
                 and self._by_key
+                and self.quantum is None
             )
         self._compile_resources()
 
@@ -582,6 +611,13 @@ class CPU:
         by_key = self._by_key
         top_first = self.policy.top_task_first
         record_jobs = self.record_jobs
+        # time slices (a time-sliced policy, module doc): the job whose slice runs, its end
+        # and the sequence number of its timer (an older timer of the job is stale)
+        quantum = self.quantum
+        slice_job: Job | None = None
+        slice_end = 0.0
+        slice_seq = -1
+        slice_left = self._slice_left
         # a job of the top task released at now (its k, release and seq) to book in step 3;
         # still set after it when booked inline (the general dispatch is skipped)
         top: _TaskState | None = None
@@ -657,7 +693,7 @@ class CPU:
                         nxt = st.first + (k + 1) * p
                         if nxt < last_release:
                             st.next_release = nxt
-                            heapreplace(timers, (nxt, st.rank, st.priority, 0, _RELEASE, st))
+                            heapreplace(timers, (nxt, st.rank, st.priority, st.index, _RELEASE, st))
                         else:
                             heappop(timers)
                         stats = st.stats
@@ -689,6 +725,25 @@ class CPU:
                         self._resume(job, now)
                 elif kind == _JREL:
                     self._jittered_release(entry[5], now)
+                elif kind == _SLICE:
+                    if entry[5] is not running or entry[3] != slice_seq:
+                        continue  # the slice of a job that has left the CPU
+                    assert running is not None
+                    key = running.key
+                    if any(e[0] == key and not e[2].aborted for e in ready):
+                        # another job of its level is ready: to the tail of the level
+                        if running.rem is not None:
+                            self._close_piece(running, piece_start, work_start, now, done=False)
+                            if now > work_start:
+                                running.rem -= now_lag - work_lag
+                        running.preemptions += 1
+                        running.key, running.tie = self.policy.requeue(running, next(seqs))
+                        heappush(ready, (running.key, running.tie, running))
+                        running, run_end, slice_job = None, _INF, None
+                    else:  # alone at its level: a new slice
+                        slice_end = now + quantum  # type: ignore[operator]
+                        slice_seq = next(seqs)
+                        heappush(timers, (slice_end, _SLICE, 0, slice_seq, _SLICE, running))
                 else:
                     job = entry[5]
                     if job.finish is None and not job.aborted:
@@ -873,6 +928,14 @@ class CPU:
                     run_lag = (work_start - (run_end - y)) + (x - y)
                     if run_end <= limit:
                         continue
+            if quantum is not None and running is not slice_job:  # time slices: a new owner
+                if slice_job is not None and slice_job.finish is None and not slice_job.aborted:
+                    slice_left[slice_job] = slice_end - now  # preempted: keeps the rest
+                slice_job = running
+                if running is not None:
+                    slice_end = now + slice_left.pop(running, quantum)
+                    slice_seq = next(seqs)
+                    heappush(timers, (slice_end, _SLICE, 0, slice_seq, _SLICE, running))
             # 4. wait
             target = run_end  # (_INF when nothing runs)
             now_lag = run_lag
@@ -996,6 +1059,9 @@ class CPU:
         job.rem = 0.0
         nxt = self._segment_done(job, now)
         if nxt is not None:
+            if self.quantum is not None:  # back from a suspension: the tail, a fresh slice
+                self._slice_left.pop(nxt, None)
+                nxt.key, nxt.tie = self.policy.requeue(nxt, next(self._seq))
             heapq.heappush(self._ready, (nxt.key, nxt.tie, nxt))
 
     def _eligible(self, job: Job, now: float) -> None:

@@ -21,6 +21,8 @@ __all__ = ["Job"]
 _RESUME, _ABORT, _RELEASE_W, _RELEASE = 0, 1, 2, 3
 #: Timer kind of a jittered release (ordered by its task's release rank).
 _JREL = 4
+#: Timer kind and rank of the end of a time slice (after every release of its instant).
+_SLICE = 5
 
 
 class Job:
@@ -145,6 +147,7 @@ class _TaskState:
         "seg_const",
         "plain_next",
         "zero_tail",
+        "index",
         "jitter",
         "jrng",
         "order",
@@ -188,6 +191,7 @@ class _TaskState:
         self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
         # segment i > 0 and every one after it are empty (no time, no resource): run at once
         self.zero_tail: list[bool] = []
+        self.index = 0  # the order in which the CPU got the task
         self.jitter = 0.0  # release jitter in force (0 under jitter="none")
         self.jrng: np.random.Generator | None = None  # release delays, own stream
         self.order: Callable[[Job], tuple[Any, Any]] = _unset_order  # the policy's (key, tie)
