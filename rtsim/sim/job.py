@@ -17,7 +17,7 @@ if TYPE_CHECKING:
 
 __all__ = ["Job"]
 
-#: Timer kinds, in their order at one instant (module docstring of rtsim.sim.cpu).
+#: Timer kinds, in their order at one instant (docs/cpu-events.md).
 _RESUME, _ABORT, _RELEASE_W, _RELEASE = 0, 1, 2, 3
 #: Timer kind of a jittered release (ordered by its task's release rank).
 _JREL = 4
