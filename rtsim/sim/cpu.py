@@ -461,25 +461,8 @@ class CPU(ResourceProtocols, TimeSlices):
                         self._release(st, now, end)
                     continue
                 heappop(timers)
-                if kind == _RESUME:
-                    job = entry[5]
-                    if not job.aborted:
-                        self._resume(job, now)
-                elif kind == _JREL:
-                    self._jittered_release(entry[5], now)
-                elif kind == _SLICE:  # (rtsim.sim.slices)
-                    if self._slice_ends(
-                        entry, running, now, now_lag, piece_start, work_start, work_lag
-                    ):
-                        running, run_end = None, _INF
-                else:
-                    job = entry[5]
-                    if job.finish is None and not job.aborted:
-                        on_cpu = job is running  # (a bool: no narrowing of job to running's type)
-                        if on_cpu:
-                            self._close_piece(job, piece_start, work_start, now, done=False)
-                            running, run_end = None, _INF
-                        self._abort(job, now)
+                if self._timer_due(entry, running, now, now_lag, piece_start, work_start, work_lag):
+                    running, run_end = None, _INF  # it left the CPU
             # 3. dispatch
             if top is not None:
                 st = top
@@ -548,14 +531,8 @@ class CPU(ResourceProtocols, TimeSlices):
                     if resp == top_resp:  # (nearly always: its bin, counted before, exists)
                         top_counts[top_bin] += 1
                     else:
-                        hist = stats.histogram
-                        if hist is None:
-                            width = self.hist_bin or (deadline - top_r) / 100.0
-                            hist = stats.histogram = ResponseHistogram(width)
                         top_resp = resp
-                        top_bin = int(resp / hist.bin_width)
-                        top_counts = hist.counts
-                        top_counts[top_bin] = top_counts.get(top_bin, 0) + 1
+                        top_bin, top_counts = self._count_response(stats, resp, deadline - top_r)
                     if record_jobs:
                         self._top_record(st, top_k, top_r, now, f, f > deadline + tol)
                     # the clock moves to f, as the wait would (tol is renewed at the loop's top:
@@ -669,6 +646,36 @@ class CPU(ResourceProtocols, TimeSlices):
             now = target
 
     # -- the steps (internal) ------------------------------------------------------------
+    def _timer_due(
+        self,
+        entry: tuple[Any, ...],
+        running: Job | None,
+        now: float,
+        now_lag: float,
+        piece_start: float,
+        work_start: float,
+        work_lag: float,
+    ) -> bool:
+        """A timer other than a release is due at ``now`` (step 2, popped): an idle
+        suspension ends, a jittered job is released, a time slice ends or a job is aborted
+        at its deadline. True if ``running`` left the CPU."""
+        kind = entry[4]
+        job = entry[5]
+        if kind == _RESUME:
+            if not job.aborted:
+                self._resume(job, now)
+        elif kind == _JREL:
+            self._jittered_release(job, now)
+        elif kind == _SLICE:  # (rtsim.sim.slices)
+            return self._slice_ends(entry, running, now, now_lag, piece_start, work_start, work_lag)
+        elif job.finish is None and not job.aborted:
+            on_cpu = job is running
+            if on_cpu:
+                self._close_piece(job, piece_start, work_start, now, done=False)
+            self._abort(job, now)
+            return on_cpu
+        return False
+
     def _preempt(
         self,
         job: Job,
@@ -965,6 +972,19 @@ class CPU(ResourceProtocols, TimeSlices):
             )
         )
 
+    def _count_response(
+        self, stats: TaskStats, resp: float, rel_deadline: float
+    ) -> tuple[int, dict[int, int]]:
+        """Count ``resp`` in the task's histogram (made on first use: ``hist_bin`` or a
+        hundredth of the relative deadline wide); returns its bin and the counts."""
+        hist = stats.histogram
+        if hist is None:
+            hist = stats.histogram = ResponseHistogram(self.hist_bin or rel_deadline / 100.0)
+        i = int(resp / hist.bin_width)
+        counts = hist.counts
+        counts[i] = counts.get(i, 0) + 1
+        return i, counts
+
     def _complete(self, job: Job, now: float) -> None:
         st = job._st
         stats = st.stats
@@ -978,13 +998,7 @@ class CPU(ResourceProtocols, TimeSlices):
         if missed:
             stats.misses += 1
         stats.preemptions += job.preemptions
-        hist = stats.histogram
-        if hist is None:
-            width = self.hist_bin or (job.deadline - job.arrival) / 100.0
-            hist = stats.histogram = ResponseHistogram(width)
-        i = int(resp / hist.bin_width)
-        counts = hist.counts
-        counts[i] = counts.get(i, 0) + 1
+        self._count_response(stats, resp, job.deadline - job.arrival)
         if self.record_jobs:
             self._record(job, missed)
         pending = st.pending
