@@ -81,12 +81,13 @@ class TimeSlices:
         self._slice_job = running
         if running is not None:
             assert self.quantum is not None
-            self._slice_end = now + self._slice_left.pop(running, self.quantum)
-            self._slice_seq = next(self._seq)
-            heapq.heappush(
-                self._timers,
-                (self._slice_end, _SLICE, 0, self._slice_seq, _SLICE, running),
-            )
+            self._arm_slice(running, now + self._slice_left.pop(running, self.quantum))
+
+    def _arm_slice(self, running: Job, end: float) -> None:
+        """``running``'s slice ends at ``end``: its timer (an older one becomes stale)."""
+        self._slice_end = end
+        self._slice_seq = next(self._seq)
+        heapq.heappush(self._timers, (end, _SLICE, 0, self._slice_seq, _SLICE, running))
 
     def _slice_ends(
         self,
@@ -109,9 +110,7 @@ class TimeSlices:
             self._preempt(running, now, now_lag, piece_start, work_start, work_lag)
             self._slice_job = None
             return True
-        self._slice_end = now + self.quantum  # type: ignore[operator]
-        self._slice_seq = next(self._seq)
-        heapq.heappush(self._timers, (self._slice_end, _SLICE, 0, self._slice_seq, _SLICE, running))
+        self._arm_slice(running, now + self.quantum)  # type: ignore[operator]
         return False
 
     def _requeue_resumed(self, job: Job) -> None:

@@ -14,6 +14,7 @@ must never beat the bound.
 from __future__ import annotations
 
 import random
+from dataclasses import replace
 
 import pytest
 from exact_schedule import brute_srp
@@ -241,19 +242,6 @@ def test_switch_into_a_section_under_edf(protocol: str) -> None:
     assert res.tasks["H"].max_response <= a.tasks[0].wcrt
 
 
-def _kw(t: Task, **changes) -> dict:
-    kw = {
-        "name": t.name,
-        "wcet": t.wcet,
-        "period": t.period,
-        "deadline": t.deadline,
-        "priority": t.priority,
-        "offset": t.offset,
-        "critical_sections": t.critical_sections,
-    }
-    return kw | changes
-
-
 @pytest.mark.parametrize("scheduler", ["fp", "edf"])
 def test_random_sets_with_sections_and_overhead(scheduler: str) -> None:
     """Random sets with sections and overhead, random offsets and the lower task of each
@@ -278,16 +266,14 @@ def test_random_sets_with_sections_and_overhead(scheduler: str) -> None:
         checked += 1
         bound = {t.name: t.wcrt for t in a.tasks}
         runs = [
-            tuple(_kw(t, offset=round(rng.uniform(0, t.period), 2)) for t in ts.tasks)
+            tuple(replace(t, offset=round(rng.uniform(0, t.period), 2)) for t in ts.tasks)
             for _ in range(2)
         ]
         # the worst instants: the lowest task alone from 0, everything else a little later
         for d in (0.05, 0.25 * o, o - 0.01):
-            runs.append(tuple(_kw(t, offset=0.0 if t is ts.tasks[-1] else d) for t in ts.tasks))
-        for kws in runs:
-            sub = TaskSet(
-                tuple(Task(**k) for k in kws), scheduler=scheduler, resources=protocol, overhead=o
-            )
+            runs.append(tuple(replace(t, offset=0.0 if t is ts.tasks[-1] else d) for t in ts.tasks))
+        for tasks_run in runs:
+            sub = TaskSet(tasks_run, scheduler=scheduler, resources=protocol, overhead=o)
             res = simulate(sub, 240)
             assert res.misses == 0, ts
             for name, st in res.tasks.items():
