@@ -26,9 +26,20 @@ import numpy as np
 import simpy
 
 from rtsim.errors import InputError, RtsimError
-from rtsim.model.task import RESOURCE_PROTOCOLS, Segment, Task
+from rtsim.model.task import RESOURCE_PROTOCOLS, Task
 from rtsim.sim.execution import WCET, ExecSpec, jitter_rngs, resolve_exec_model, task_rngs
-from rtsim.sim.job import _ABORT, _JREL, _RELEASE, _RESUME, _SLICE, Job, _TaskState
+from rtsim.sim.job import (
+    _ABORT,
+    _JREL,
+    _RELEASE,
+    _RESUME,
+    _SLICE,
+    Job,
+    JobHook,
+    PeriodProvider,
+    SegmentHook,
+    _TaskState,
+)
 from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_policy
 from rtsim.sim.records import (
     EPS,
@@ -55,9 +66,6 @@ __all__ = [
 
 HookEvent = Literal["release", "segment_start", "segment_end", "job_end"]
 HOOK_EVENTS: tuple[str, ...] = ("release", "segment_start", "segment_end", "job_end")
-SegmentHook = Callable[["Job", Segment], None]
-JobHook = Callable[["Job"], None]
-PeriodProvider = Callable[[], float]
 JitterMode = Literal["random", "worst", "none"]
 JITTER_MODES: tuple[str, ...] = ("random", "worst", "none")
 

@@ -40,7 +40,7 @@ from rtsim.model.task import Segment
 from rtsim.registry import Registry
 
 if TYPE_CHECKING:
-    from rtsim.sim.cpu import Job
+    from rtsim.sim.job import Job
 
 __all__ = [
     "EXEC_MODELS",

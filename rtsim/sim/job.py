@@ -5,17 +5,20 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from rtsim.model.task import Segment, Task
 from rtsim.sim.records import TaskStats
 
-if TYPE_CHECKING:
-    from rtsim.sim.cpu import JobHook, PeriodProvider, SegmentHook
+__all__ = ["Job", "JobHook", "PeriodProvider", "SegmentHook"]
 
-__all__ = ["Job"]
+#: Hooks the CPU calls at a segment's start or end and at a job's end, and the callable that
+#: gives a task's current period (a window chosen at run time).
+SegmentHook = Callable[["Job", Segment], None]
+JobHook = Callable[["Job"], None]
+PeriodProvider = Callable[[], float]
 
 #: Timer kinds, in their order at one instant (docs/cpu-events.md).
 _RESUME, _ABORT, _RELEASE_W, _RELEASE = 0, 1, 2, 3

@@ -52,10 +52,10 @@ from typing import TYPE_CHECKING, Any
 from rtsim.errors import InputError
 from rtsim.overrides import RUN_OPTIONS, apply_overrides
 from rtsim.registry import Registry
+from rtsim.sweep.base import BaseFile
 
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
-    from rtsim.sweep.spec import BaseFile
 
 __all__ = ["PointInput", "KindSpec", "KINDS", "register_kind", "apply_overrides"]
 

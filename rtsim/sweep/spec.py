@@ -48,7 +48,6 @@ Any problem is a :class:`~rtsim.errors.SweepError` naming the file and the key.
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import os
 import tomllib
@@ -62,41 +61,10 @@ from rtsim._suggest import did_you_mean
 from rtsim.config.dotted import resolve, shortcuts
 from rtsim.config.sweep import Scalar
 from rtsim.errors import InputError, SweepError
+from rtsim.sweep.base import BaseFile
 from rtsim.sweep.kinds import KINDS, canonical_json
 
 __all__ = ["BaseFile", "SweepSpec", "load_sweep", "parse_sweep", "canonical_json", "Scalar"]
-
-
-@dataclass(frozen=True)
-class BaseFile:
-    """The base task-set or scenario file of a sweep: its path and its text.
-
-    The text travels with every point, so remote (Dask) workers need no shared disk.
-    """
-
-    path: str | None
-    text: str
-    packaged: str = "barrel_robots"
-
-    @property
-    def source(self) -> str:
-        """The name the loaders use in error messages."""
-        return self.path or f"{self.packaged}.toml (packaged)"
-
-    @property
-    def sha256(self) -> str:
-        """sha256 of the file's text."""
-        return hashlib.sha256(self.text.encode("utf-8")).hexdigest()
-
-    @property
-    def data_sha256(self) -> str:
-        """sha256 of the parsed content (canonical JSON): comments and layout do not count."""
-        text = json.dumps(self.data(), sort_keys=True, separators=(",", ":"), default=str)
-        return hashlib.sha256(text.encode("utf-8")).hexdigest()
-
-    def data(self) -> dict[str, Any]:
-        """The parsed TOML dict (a fresh copy on every call)."""
-        return tomllib.loads(self.text)
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import pandas as pd
 
 if TYPE_CHECKING:
-    from rtsim.validate.runner import ValidationConfig, ValidationOutcome
+    from rtsim.validate.outcome import ValidationConfig, ValidationOutcome
 
 __all__ = ["write_report", "markdown_table"]
 
