@@ -411,6 +411,8 @@ class CPU(ResourceProtocols, TimeSlices):
                 else:
                     self._close_piece(running, piece_start, work_start, now, done=True)
                 piece_start = work_start = now
+                run_end = _INF
+                work_lag = now_lag
                 st = running._st
                 if st.simple:
                     self._complete(running, now)
@@ -424,11 +426,9 @@ class CPU(ResourceProtocols, TimeSlices):
                     self._lag = now_lag
                     running = self._segment_done(running, now)
                     self._lag = 0.0
-                run_end = _INF
-                work_lag = now_lag
-                if running is not None and running.rem is not None:
-                    # an empty step given work by an execution-time model (_continue)
-                    run_end, run_lag = _end_of(work_start, running.rem, work_lag)
+                    if running is not None and running.rem is not None:
+                        # an empty step given work by an execution-time model (_continue)
+                        run_end, run_lag = _end_of(work_start, running.rem, work_lag)
             # 2. timers due
             while timers and (t_next := timers[0][0]) <= limit:  # (then t_next: the next)
                 entry = timers[0]  # (popped below: a release's successor replaces it)

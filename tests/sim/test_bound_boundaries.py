@@ -341,3 +341,18 @@ def test_empty_sched_step_of_a_window() -> None:
         assert bound["window"] == 5.0
         res = simulate(ts, 100, window=w, suspension=suspension)
         assert res.tasks["window"].max_response == 5.0
+
+
+def test_empty_step_given_work_runs_as_any_step() -> None:
+    """An execution-time model that gives a declared-empty last step work makes it an
+    ordinary step: it starts when the last real one ends and can be preempted."""
+    from rtsim.sim.cpu import CPU
+
+    cpu = CPU()
+    for t in _empty_tail(("compute", "compute"), 1).tasks:
+        cpu.add_task(t)
+    cpu.set_exec_time("W", "z0", lambda job, seg, rng: 1.5)
+    cpu.env.run(until=cpu.start(20))
+    # W: a 1-3, b 3-4, z0 from 4 for 1.5 ms; H's job at 4 comes first (a release before
+    # the dispatch), then z0 runs 5-6.5
+    assert cpu.result().tasks["W"].max_response == 6.5
