@@ -174,23 +174,25 @@ def test_random_sets_with_sections_against_brute_force(scheduler: str) -> None:
                 assert got[t.name] <= t.wcrt + 1e-9, (tasks, t.name)
 
 
-def test_w_edf_with_sections_holds_in_simulation() -> None:
-    """w_edf of a window set with sections rests on Baker's condition: at w_edf the worst
-    instant built from the issue's shape (a long section locked just before the window
-    and a short-deadline task arrive) meets every deadline."""
+@pytest.mark.parametrize(("g", "d_k", "s"), [(4.0, 20, 12), (3.0, 16, 8), (2.0, 24, 16)])
+def test_w_edf_with_sections_holds_in_simulation(g: float, d_k: int, s: int) -> None:
+    """w_edf of a window set with sections rests on Baker's condition. The issue's shape
+    with the window in j2's place (period = deadline = w, no section): j1 locks R at 0, k
+    and the window arrive at 1. At w_edf every deadline is met and every bound holds (before
+    Baker's start rule, each of these sets missed one of k's deadlines at w_edf)."""
     from rtsim.analysis.bounds import w_edf
 
     win = WindowSpec(
-        n=1, r_H=25.0, e_cal=0.0, e_trans=0.0, k=1.0, e_scan=2.0, e_estimate=1.0,
-        e_send=0.0, e_recv=0.0, delta_t=0.0, e_sched=1.0, priority=1, offset=1.0,
+        n=1, r_H=25.0, e_cal=0.0, e_trans=0.0, k=1.0, e_scan=g - 1, e_estimate=1.0,
+        e_send=0.0, e_recv=0.0, delta_t=0.0, e_sched=0.0, priority=1, offset=1.0,
     )  # fmt: skip
     tasks = (
-        Task("k", 2, 100, deadline=30, offset=1, priority=2, critical_sections=(CS("R", 0, 1),)),
-        Task("j1", 12, 400, priority=3, critical_sections=(CS("R", 0, 12),)),
+        Task("k", 4, 100, deadline=d_k, offset=1, priority=2, critical_sections=(CS("R", 0, 1),)),
+        Task("j1", s, 400, priority=3, critical_sections=(CS("R", 0, s),)),
     )
     ts = TaskSet(tasks, window=win, scheduler="edf")
     w = w_edf(ts)
-    assert 0 < w < 100
+    assert w < d_k  # the window's next jobs arrive while k waits
     res = simulate(ts, 400, window=w)
     assert res.misses == 0
     bound = {t.name: t.wcrt for t in analyze_edf(ts, w).tasks}
