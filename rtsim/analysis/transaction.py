@@ -46,8 +46,8 @@ and jobs of the step's own task cannot run while it is pending). The task's boun
 largest over its jobs of the last stretch's completion (plus a trailing suspension) from the
 job's arrival.
 
-Context-switch overhead o as in :mod:`rtsim.analysis.rta`: 2·o per interfering stretch, o per
-own stretch. Times in ms. Ceilings take x 1e-9 ms lower (:func:`rtsim.analysis.rta.ceil_div`);
+Context-switch overhead o as in `rtsim.analysis.rta`: 2·o per interfering stretch, o per
+own stretch. Times in ms. Ceilings take x 1e-9 ms lower (`rtsim.analysis.rta.ceil_div`);
 phases within 1e-9 ms of a multiple of the period are taken as 0 (the earlier, the more
 interference). Suspensions count as computation under ``suspension="cpu"``.
 
@@ -412,7 +412,7 @@ def transaction_bounds(
 ) -> dict[str, float | None]:
     """Offset-based WCRT of every task of ``ts`` at window ``w`` (ms from arrival; None where
     it passes the task's deadline or the analysis does not apply, as for a set with
-    critical sections), fixed priority. ``shifts``: as for :func:`transactions_of` (a
+    critical sections), fixed priority. ``shifts``: as for `transactions_of` (a
     simulation whose releases put per-window tasks' arrivals elsewhere than their offsets
     from the window's, e.g. jitter "worst", which moves every task's arrivals by the largest
     jitter less its own)."""
@@ -436,8 +436,9 @@ def w_txn(
 ) -> float:
     """The least window w (ms, to ``tol``) at which every task of the processing-window set
     ``ts`` has a bound within its deadline, each task taking the least of its sound bounds
-    (:func:`transaction_bounds`). Feasibility need not be monotone in w (the offsets move
-    with it), so the search is :func:`rtsim.analysis.validation.smallest_passing`: bisection
+    ([`transaction_bounds`][rtsim.analysis.transaction.transaction_bounds]). Feasibility need not be
+    monotone in w (the offsets move
+    with it), so the search is `rtsim.analysis.validation.smallest_passing`: bisection
     from above the suspension-aware w_susp (or w_rta under ``suspension="cpu"``), which
     passes, with a scan of 20 windows above the result. ``inf`` when that start is."""
     from rtsim.analysis.bounds import w_rta, w_susp

@@ -109,7 +109,7 @@ _RESOURCES = {
 
 
 def format_analysis(res: Any, source: str, w_from: str | None) -> str:
-    """The readable report of an :class:`~rtsim.analysis.rta.Analysis`."""
+    """The readable report of an [`Analysis`][rtsim.analysis.rta.Analysis]."""
     lines = [f"task set: {res.name or '(unnamed)'}  ({source})"]
     if res.w is not None:
         how = (
@@ -171,7 +171,7 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
 
 
 def format_edf(res: Any, source: str, w_from: str | None) -> str:
-    """The readable report of an :class:`~rtsim.analysis.edf.EdfAnalysis`."""
+    """The readable report of an [`EdfAnalysis`][rtsim.analysis.edf.EdfAnalysis]."""
     lines = [f"task set: {res.name or '(unnamed)'}  ({source}), scheduler: EDF"]
     if res.w is not None:
         lines.append(

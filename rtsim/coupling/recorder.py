@@ -4,17 +4,19 @@ The schema is pinned in ``docs/outputs.md`` (other modules plot and validate aga
 it): one row per processing window, window-level columns first, then per follower i (1-based)
 the truth at the scan (``f{i}_x`` … ``f{i}_v``), the leader's estimate that the decision used
 (the same names with ``_est``), every bound as the decision's belief and as the truth
-(``f{i}_msb_{bound}_pred``, ``f{i}_msb_{bound}_true``, :func:`true_bounds`), and the
+(``f{i}_msb_{bound}_pred``, ``f{i}_msb_{bound}_true``, `true_bounds`), and the
 violations observed on the truth between this window's scan and the next (``f{i}_viol_*``)
 with ``f{i}_lost``. No empty cells: an unbounded value is ``inf``; booleans are
 ``True``/``False``.
 
-During the run the coupling fills one :class:`WindowRecord` per window (plain Python and small
-numpy arrays); :meth:`WindowRecorder.frame` builds the DataFrame in one pass with a fixed
-column order and dtypes. With a ``sink``, every :data:`CHUNK_WINDOWS` windows the complete
+During the run the coupling fills one [`WindowRecord`][rtsim.coupling.recorder.WindowRecord] per
+window (plain Python and small
+numpy arrays); [`WindowRecorder.frame`][rtsim.coupling.recorder.WindowRecorder.frame] builds the
+DataFrame in one pass with a fixed
+column order and dtypes. With a ``sink``, every `CHUNK_WINDOWS` windows the complete
 records at the front are handed to it and dropped (a record is complete once the next scan
 has closed its violation interval, and never changes after), so a long run keeps about two
-chunks of records in memory; :func:`records_frame` turns a chunk into its rows of the table.
+chunks of records in memory; `records_frame` turns a chunk into its rows of the table.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from numpy.typing import NDArray
 
 from rtsim.analysis.kinematics import BOUND_KINDS
 from rtsim.sim.records import EPS
+from rtsim.world.localization import LOST_CAUSES
 
 __all__ = [
     "BOUND_FIELDS",
@@ -43,11 +46,14 @@ __all__ = [
     "WindowRecorder",
     "records_columns",
     "records_frame",
+    "SENSING_FIELDS",
+    "sensing_columns",
     "true_bounds",
     "window_columns",
 ]
 
-#: Window records per chunk handed to a :class:`WindowRecorder`'s sink.
+#: Window records per chunk handed to a [`WindowRecorder`][rtsim.coupling.recorder.WindowRecorder]'s
+#: sink.
 CHUNK_WINDOWS = 1024
 
 #: Window-level columns, in order (docs/outputs.md).
@@ -83,12 +89,17 @@ WINDOW_COLUMNS: tuple[str, ...] = (
 #: Lost tracks by cause (``tracks_lost`` is their sum), the searches charged and the
 #: followers they re-acquired: the last columns of windows.csv.
 LOCALIZATION_COLUMNS: tuple[str, ...] = (
-    "tracks_lost_outside_window",
-    "tracks_lost_occluded",
-    "tracks_lost_out_of_range",
+    *(f"tracks_lost_{c}" for c in LOST_CAUSES),
     "searches",
     "reacquisitions",
+    "confusions",
+    "radio_ms",
+    "radio_losses",
 )
+#: Per-follower sensing columns, after :data:`LOCALIZATION_COLUMNS`: the scan points that
+#: voted in its window (``hough``; the beams it returned with ``gaussian``), the accepted
+#: fix's distance from the truth (cm, inf: no fix), whether a neighbour's points made it.
+SENSING_FIELDS: tuple[str, ...] = ("points", "fix_error_cm", "neighbour")
 #: Per-follower state columns (truth; the estimate adds ``_est``), in order.
 FOLLOWER_FIELDS: tuple[str, ...] = ("x", "y", "heading", "rho", "beta", "theta", "v")
 #: Per-follower bound columns, in order: the decision's prediction, then the truth.
@@ -97,7 +108,7 @@ BOUND_FIELDS: tuple[str, ...] = (
     *(f"msb_{k}_true" for k in BOUND_KINDS),
 )
 #: The observed change (``Scan.changes`` key) that each bound kind limits, in
-#: :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order (docs/model/world.md): relative
+#: `BOUND_KINDS` order (docs/model/world.md): relative
 # displacement (r_H),
 #: |Δρ| (T_ρ·ρ_d), distance travelled (T_ε·ρ_d), |Δβ| (T_β).
 CHANGE_KEYS: tuple[str, ...] = ("displacement", "d_rho", "travel", "d_beta")
@@ -114,7 +125,13 @@ def window_columns(n: int) -> list[str]:
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in VIOLATION_FIELDS]
     cols.append("assumption_broken")  # the scan counted more than Eq 1's min(361, k·n)
     cols += list(LOCALIZATION_COLUMNS)
+    cols += sensing_columns(n)
     return cols
+
+
+def sensing_columns(n: int) -> list[str]:
+    """The per-follower sensing columns of windows.csv (:data:`SENSING_FIELDS`), in order."""
+    return [f"f{i}_{f}" for i in range(1, n + 1) for f in SENSING_FIELDS]
 
 
 def true_bounds(
@@ -143,10 +160,10 @@ class WindowRecord:
     scan (truth, points, lost tracks), when the Hough time is known, at its completion
     (``finish``), and at the next scan (``viol``).
 
-    ``truth`` and ``est`` are n rows of 7 floats in :data:`FOLLOWER_FIELDS` order (tuples
+    ``truth`` and ``est`` are n rows of 7 floats in `FOLLOWER_FIELDS` order (tuples
     or an (n, 7) array); ``pred`` n rows of the decision's four bounds (ms, BOUND_KINDS
     order) at ``v_leader_max``, the highest speed the leader had between this window's scan
-    and the next; ``viol`` maps each of :data:`~rtsim.analysis.kinematics.BOUND_KINDS`
+    and the next; ``viol`` maps each of `BOUND_KINDS`
     to an (n,) bool array (``World.scan(...).violations``), ``changes`` the observed changes
     (``Scan.changes``), ``lost`` is (n,) bool.
     """
@@ -178,9 +195,14 @@ class WindowRecord:
     finish: float = math.nan
     scan_t: float = math.nan
     assumption_broken: bool = False
-    lost_by_cause: tuple[int, ...] = (0, 0, 0)
+    lost_by_cause: tuple[int, ...] = (0,) * len(LOST_CAUSES)
     searches: int = 0
     reacquisitions: int = 0
+    voted: tuple[int, ...] = ()
+    fix_error: tuple[float, ...] = ()
+    neighbour: tuple[bool, ...] = ()
+    radio_ms: float = math.nan  # (set at the release: delta_t, or the drawn round trip)
+    radio_losses: int = 0
 
     @property
     def complete(self) -> bool:
@@ -195,12 +217,13 @@ class WindowRecord:
 
 @dataclass
 class WindowRecorder:
-    """Collects :class:`WindowRecord` s of ``n`` followers; :meth:`frame` builds the table.
+    """Collects [`WindowRecord`][rtsim.coupling.recorder.WindowRecord] s of ``n`` followers; `frame`
+    builds the table.
 
     ``limits``: each bound kind's threshold per follower (n values, BOUND_KINDS order: r_H,
-    T_ρ·ρ_d,i, T_ε·ρ_d,i, T_β), for the ``_true`` columns (:func:`true_bounds`).
+    T_ρ·ρ_d,i, T_ε·ρ_d,i, T_β), for the ``_true`` columns (`true_bounds`).
     ``sink``: a callable given lists of complete records, oldest first, during the run
-    (module docstring); :attr:`records` then holds only those not handed over yet.
+    (module docstring); `records` then holds only those not handed over yet.
     """
 
     n: int
@@ -231,7 +254,7 @@ class WindowRecorder:
 
     def flush(self) -> None:
         """Hand every complete record left to the sink (the end of the run); an incomplete
-        one is dropped, as in :meth:`frame`."""
+        one is dropped, as in `frame`."""
         done = [r for r in self.records if r.complete]
         self.records.clear()
         if done and self.sink is not None:
@@ -247,7 +270,7 @@ def records_frame(
     recs: list[WindowRecord], n: int, limits: tuple[tuple[float, ...], ...]
 ) -> pd.DataFrame:
     """The rows of windows.csv for complete records ``recs`` of ``n`` followers (``limits``
-    as :class:`WindowRecorder`'s)."""
+    as [`WindowRecorder`][rtsim.coupling.recorder.WindowRecorder]'s)."""
     data = records_columns(recs, n, limits)
     return pd.DataFrame(data, columns=list(data))
 
@@ -256,8 +279,8 @@ def records_columns(
     recs: list[WindowRecord], n: int, limits: tuple[tuple[float, ...], ...]
 ) -> dict[str, Any]:
     """The columns of windows.csv (name -> array or list, in order) for complete records
-    ``recs``: what :func:`records_frame` holds, without the DataFrame (a writer's
-    :meth:`~rtsim.io.columns.ChunkWriter.write_columns` formats them directly)."""
+    ``recs``: what `records_frame` holds, without the DataFrame (a writer's
+    `write_columns` formats them directly)."""
     cols = window_columns(n)
     m = len(recs)
     data: dict[str, object] = {}
@@ -326,9 +349,21 @@ def records_columns(
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
         data[f"f{i + 1}_lost"] = lost[:, i]
     data["assumption_broken"] = np.array([r.assumption_broken for r in recs], dtype=bool)
-    causes = np.array([r.lost_by_cause for r in recs], dtype=np.int64).reshape(m, 3)
-    for j, col in enumerate(LOCALIZATION_COLUMNS[:3]):
+    nc = len(LOST_CAUSES)
+    causes = np.array([r.lost_by_cause for r in recs], dtype=np.int64).reshape(m, nc)
+    for j, col in enumerate(LOCALIZATION_COLUMNS[:nc]):
         data[col] = causes[:, j]
     data["searches"] = np.array([r.searches for r in recs], dtype=np.int64)
     data["reacquisitions"] = np.array([r.reacquisitions for r in recs], dtype=np.int64)
+    # (a record made without a scan's sensing, by hand, has none: 0 points, no fix)
+    voted = np.array([r.voted or (0,) * n for r in recs], dtype=np.int64).reshape(m, n)
+    err = np.array([r.fix_error or (math.inf,) * n for r in recs], dtype=float).reshape(m, n)
+    nb_ = np.array([r.neighbour or (False,) * n for r in recs], dtype=bool).reshape(m, n)
+    data["confusions"] = nb_.sum(axis=1).astype(np.int64)
+    data["radio_ms"] = np.array([r.radio_ms for r in recs], dtype=float)
+    data["radio_losses"] = np.array([r.radio_losses for r in recs], dtype=np.int64)
+    for i in range(n):
+        data[f"f{i + 1}_points"] = voted[:, i]
+        data[f"f{i + 1}_fix_error_cm"] = err[:, i]
+        data[f"f{i + 1}_neighbour"] = nb_[:, i]
     return {c: data[c] for c in cols}

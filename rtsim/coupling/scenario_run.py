@@ -1,8 +1,8 @@
 """Schedule and world in one SimPy run (docs/model/adjustment.md, docs/model/world.md).
 
-One ``simpy.Environment`` holds the virtual :class:`~rtsim.sim.cpu.CPU` with the leader's
+One ``simpy.Environment`` holds the virtual [`CPU`][rtsim.sim.cpu.CPU] with the leader's
 task set: dead reckoning (T_hp), the processing-window chain T_w and the command task (T_lp,
-period 2w). The world (:class:`~rtsim.world.world.World`, no engine of its own) is driven
+period 2w). The world ([`World`][rtsim.world.world.World], no engine of its own) is driven
 from the CPU's hooks:
 
 - **release** of window k: it is governed by the latest decision — the w returned to the
@@ -17,12 +17,13 @@ from the CPU's hooks:
 - **send[i] ends**: follower i's command (the formation model's control law on the leader's
   estimate) takes effect; a late window therefore means stale commands.
 - **window job completes**: every follower's estimate (propagated to now) gives its
-  MSBs and :func:`rtsim.control.decide` in the run's mode sets the next w (and thereby T_lp's
+  MSBs and [`rtsim.control.decide`][rtsim.control.decide] in the run's mode sets the next w (and
+  thereby T_lp's
   2w) and the leader speed (``World.set_leader_speed``).
 
 The world is advanced lazily to the time of every hook (its own fixed step sub-steps a
 ramping wheel speed). Execution times: every fixed segment runs its WCET (``exec_model=
-"wcet"``, the default; ``"uniform"`` or any model of :mod:`rtsim.sim.execution` may be
+"wcet"``, the default; ``"uniform"`` or any model of `rtsim.sim.execution` may be
 given); the radio round trip Δt is an idle suspension (``suspension="idle"``: the CPU is free,
 as on the real system). Overload: the window chain is ``finish-late``; a window that misses
 its deadline is recorded (``missed``), the next window is still released on time
@@ -30,23 +31,24 @@ its deadline is recorded (``missed``), the next window is still released on time
 scan, commands and decision come late too. A backlogged release is governed by the latest
 decision available at its release (that of the last *completed* window).
 
-Policies (:mod:`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
+Policies (`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
 ``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
 break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
 schedule breaks), ``margin``, ``lookahead``, ``noise-aware``, ``safe`` or a user's
 ``package.module:Name``. Each window's decision is the policy's ``decide`` on a
-:class:`~rtsim.control.policy.PolicyInput`.
+[`PolicyInput`][rtsim.control.policy.PolicyInput].
 
-Duration: an explicit ``duration_s`` (simulated seconds) is exact. By default the run covers
-the scenario's ``duration`` **and at least one lap**: it stops at the first window completion
-at or after that duration at which the leader has driven one lap plus the largest ρ_d (so the
-followers, which trail by ρ_d, leave the last turn too) — the leader is slowed in the turns,
-so a lap takes longer than at V_Ld — and at the latest after max(duration, 3 lap times at
-V_Ld), i.e. a leader slowed to ⅓·V_Ld on average. ``summary['laps']`` and
+Duration (`rtsim.coupling.duration`): a duration is exact, whether it is ``duration_s``,
+an override or the scenario file's ``duration``. Without one (the file's ``until = "lap"``,
+the default) the run stops at the first window completion at which the leader has driven one
+lap plus the largest ρ_d (so the followers, which trail by ρ_d, leave the last turn too) —
+the leader is slowed in the turns, so a lap takes longer than at V_Ld — and at the latest
+after 3 lap times at V_Ld, i.e. a leader slowed to ⅓·V_Ld on average. ``summary['laps']`` and
 ``summary['duration_s']`` say how far it got; ``summary['lap_time_s']`` is the simulated
 time at which the leader first completed its lap (interpolated between the two window
 completions around it), or None with ``summary['lap_time_note']`` saying why (the cap, or
-a ``duration_s`` shorter than the lap). A window still running at the stop is dropped.
+a duration shorter than the lap); `rtsim.coupling.duration.run_note` words what a run
+did beyond a duration. A window still running at the stop is dropped.
 """
 
 from __future__ import annotations
@@ -55,7 +57,7 @@ import gc
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -94,7 +96,7 @@ from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.run import build_cpu
-from rtsim.world.localization import hough_time
+from rtsim.world.localization import hough_time, search_time
 from rtsim.world.world import World
 
 __all__ = [
@@ -151,6 +153,15 @@ class ScenarioResult(ResultDisplay):
     def summary_frame(self) -> pd.DataFrame:
         """summary.json as one row (nested keys dotted), so runs concatenate into a table."""
         return pd.DataFrame([flatten(self.summary)])
+
+    @property
+    def followers(self) -> pd.DataFrame | None:
+        """``windows`` in long form, one row per window and follower (position, estimate,
+        fix error, each bound ``_pred``/``_true``, violations, lost: `rtsim.coupling.tidy`;
+        ``followers.csv``); None when the windows were streamed to a sink."""
+        from rtsim.coupling.tidy import followers_frame
+
+        return None if self.windows is None else followers_frame(self.windows)
 
 
 class _Decision(NamedTuple):
@@ -210,6 +221,7 @@ class _Coupling:
         )
         if not math.isfinite(self.w_sch):
             raise InputError(f"{inp.source or inp.name or 'scenario'}: {bound} is infinite")
+        self.infeasible_note = self._unrestorable()
         cap = opts.get("cap")
         if cap is not None and cap < self.w_sch:
             raise InputError(
@@ -261,6 +273,10 @@ class _Coupling:
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
+        # the radio link's draws: a generator of its own, spawned after the world's and the
+        # CPU's, so a run whose link draws nothing sees the same numbers as before it existed
+        self.radio = cfg.radio
+        self._radio_rng = np.random.default_rng(ss.spawn(1)[0]) if self.radio.varies else None
         if (
             self.world.backend == "compiled"
             and type(opts.get("predictor")) is str
@@ -292,8 +308,12 @@ class _Coupling:
         assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
+        self._search_ms = search_time(win.e_cal, win.e_trans, cfg.sensing.r_reacq)
         # Eq 1's assumption: a scan counts at most min(361, k·n) points (checked per window)
         self._points_assumed = min(361.0, win.k * win.n)
+        # ... and its localization step at most Eq 1's time (the hough model counts the cells
+        # its accumulators cover: the Gauss circle count, a few cells off π·r_H² either way)
+        self._hough_assumed = win.e_hough()
         cpu = self.cpu
         cpu.on("release", self._on_release, task=win.name)
         cpu.on("segment_start", self._on_scan, task=win.name, role="scan")
@@ -303,6 +323,15 @@ class _Coupling:
         self._e_send = float(win.e_send)
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
+        self._delta_t = float(win.delta_t)
+        if self.radio.min_ms is not None:
+            if self.radio.min_ms > self._delta_t:
+                raise InputError(
+                    f"{inp.source or inp.name or 'scenario'}: radio.min_ms: "
+                    f"{self.radio.min_ms:g} ms is above the task set's delta_t "
+                    f"({self._delta_t:g} ms, the round trip's maximum)"
+                )
+            cpu.set_exec_time(win.name, "radio", self._radio_exec)
         self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
         self._v_max = self._v_actual()  # highest leader speed since the last scan
         self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
@@ -346,6 +375,23 @@ class _Coupling:
             known=first.known[:1],
         )
 
+    def _unrestorable(self) -> str | None:
+        """A bound below w_sch whatever the leader's speed cannot be restored by slowing: the
+        predicted-centre localization bound (docs/localization.md) depends on the noise and
+        r_H alone. Then the leader does not park for it: the decisions leave it out (the
+        world still loses what the window cannot hold), and the run reports it once (the
+        returned note, summary.json ``infeasible_note``). None: no such bound."""
+        thr = self.thr
+        if thr.localization != "predicted" or not thr.predicted_ms < self.w_sch:
+            return None
+        self.thr = replace(thr, predicted_ms=math.inf)
+        return (
+            f"localization: the predicted-centre bound ({thr.predicted_ms:.4g} ms at r_H = "
+            f"{thr.r_H:g} cm) is below w_sch ({self.w_sch:.4g} ms) at every leader speed: the "
+            f"window is infeasible whatever V_L (r_H too small for the noise); the leader "
+            f"does not slow for it and the run counts the tracks it loses"
+        )
+
     # -- the decision ----------------------------------------------------------------
     def _nominal_offsets(self, ts: TaskSet) -> list[float]:
         """Each follower's send, ms after the scan starts, with the chain's WCETs and the
@@ -365,7 +411,7 @@ class _Coupling:
         pending: bool = False,
         estimates: Sequence[tuple[Any, float]] | None = None,
     ) -> Any:
-        """What the leader knows for its rollout at ``now`` (:class:`RolloutState`);
+        """What the leader knows for its rollout at ``now`` (`RolloutState`);
         ``estimates``: per follower ``World.estimate_at(i, now)`` if already computed."""
         world = self.world
         ld = world.leader
@@ -546,6 +592,7 @@ class _Coupling:
                 segment=kind,
                 curvature=kappa,
                 est=d.est,
+                radio_ms=self._delta_t,  # (a drawn round trip replaces it)
             )
         )
 
@@ -558,13 +605,19 @@ class _Coupling:
         self._hough_ms = hough_time(scan, *self._hough_args)
         rec.scan_t = now
         rec.hough_ms = self._hough_ms
-        rec.points = scan.total_points
-        rec.assumption_broken = scan.total_points > self._points_assumed
+        rec.points = scan.hough_points
+        no_search = self._hough_ms - scan.n_searched * self._search_ms
+        rec.assumption_broken = (
+            rec.points > self._points_assumed or no_search > self._hough_assumed + 1e-9
+        )
         rec.tracks_lost = scan.n_lost
         if rec.tracks_lost:
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = scan.n_searched
             rec.reacquisitions = scan.n_reacquired
+        rec.voted = scan.voted
+        rec.fix_error = scan.fix_error
+        rec.neighbour = scan.neighbour
         rec.lost = scan.as_lists("lost")
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
@@ -643,10 +696,26 @@ class _Coupling:
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms
 
+    def _radio_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
+        """The window's radio round trip: uniform on [radio.min_ms, delta_t] (its maximum,
+        what the analyses use), drawn from the link's own generator."""
+        lo = self.radio.min_ms
+        assert lo is not None and self._radio_rng is not None
+        dt = lo + (self._delta_t - lo) * float(self._radio_rng.random())
+        rec = self._open.get(job.index)
+        if rec is not None:
+            rec.radio_ms = dt
+        return dt
+
     def _on_send(self, job: Job, seg: Segment) -> None:
         now = self.env.now
         i = int(seg.follower)  # type: ignore[arg-type]
-        self.world.command(i, now)
+        if self.radio.loss > 0 and self._radio_rng.random() < self.radio.loss:  # type: ignore[union-attr]
+            # lost: the follower keeps its previous command; the leader, missing the reply,
+            # keeps it in its estimate too
+            self._open[job.index].radio_losses += 1
+        else:
+            self.world.command(i, now)
         scan_t = self._open[job.index].scan_t
         if scan_t == scan_t and 1 <= i <= self.n:  # (NaN before the scan)
             self._send_offsets[i - 1] = now - scan_t
@@ -695,7 +764,7 @@ class _Coupling:
 
     # -- running ---------------------------------------------------------------------
     def watch(self, progress: Any) -> None:
-        """Report progress (:func:`rtsim.sim.progress.start_ticker`): the share of the
+        """Report progress (`rtsim.sim.progress.start_ticker`): the share of the
         duration; for a run to the end of the lap, the smaller of the shares of the lap
         driven and of the scenario's duration, ticking at every percent of a lap at V_Ld."""
         from rtsim.sim.progress import TICKS, start_ticker
@@ -756,36 +825,65 @@ def run_scenario(
     windows: bool = True,
     progress: Any = None,
 ) -> ScenarioResult:
-    """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
+    """Run one scenario: the leader's schedule and the robots' world in one simulation.
 
-    policy: a registered adjustment policy (:data:`rtsim.control.policy.POLICIES`: ``adjust``,
-    the paper's algorithm, ``fixed-wsch``, ``min-msb``, ``margin``, …) or
-    ``"package.module:Name"``; it overrides the scenario's ``[adjust] policy`` (default
-    ``adjust``); mode: an alias of policy (the three modes of the paper's reproduction);
-    duration_s: simulated
-    seconds (None: the scenario's, else one lap — module docstring); ``duration`` is an
-    alias (sweep kind);
-    seed: one seed for the world's noise and the CPU's execution-time draws; record_jobs:
-    keep the job table (``result.jobs``); exec_model: execution times of the fixed segments;
-    text: the scenario file's text (for the manifest; read from the path when one is given);
-    record_trace: keep the execution trace (``result.trace``, for trace export); overrides:
-    dotted paths into the scenario file and their values, as in sweeps (``{"leader.speed":
-    20}``; only with a path or a packaged name; :func:`rtsim.io.scenario.load_scenario`);
-    window_sink: a :class:`rtsim.io.columns.ChunkWriter` of windows.csv — the window rows
-    are written in chunks during the run, the summary is computed from the columns read
-    back, and ``result.windows`` is None; job_sink: a callable given the job records in
-    chunks, or a ChunkWriter of jobs.csv (``result.jobs`` is then None). With both, memory
-    stays flat on long runs. trace_sink: the same for the execution trace (implies
-    record_trace; ``result.trace`` is then None). windows: False leaves ``result.windows``
-    None (the summary is computed from the records' columns either way; what a sweep point
-    needs).
-    allow_code: a scenario file (or its task set) may name code, ``module:Name``
-    (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
-    The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
-    range, 2e6 windows, 2e8 world steps × followers, the seed's range); ``force=True`` is
-    ``--force``. ``progress(share, t_ms)`` is called at every percent of the run — of the
-    duration, or of the lap and the scenario's duration — with the share done (0..1) and the
-    simulated ms (:mod:`rtsim.sim.progress`; the results do not change).
+    Parameters
+    ----------
+    scenario : str, path, Scenario or ScenarioInputs
+        A scenario file, a shipped one by name (``"test2"``), a loaded
+        [`Scenario`][rtsim.io.scenario.Scenario], or
+        [`ScenarioInputs`][rtsim.coupling.scenario_run.ScenarioInputs] prepared once.
+    mode : str, optional
+        Alias of ``policy`` (the paper's reproduction names its three modes so).
+    duration_s : float, optional
+        Simulated seconds, exact. None: the scenario's ``duration``, else to the end of the
+        lap (``until = "lap"``, `rtsim.coupling.duration`).
+    seed : int, default 0
+        One seed for the world's noise and the CPU's execution-time draws.
+    record_jobs : bool, default True
+        Keep the job table (``result.jobs``).
+    exec_model : str, default "wcet"
+        Execution times of the fixed segments: ``"wcet"`` or ``"uniform"`` in [bcet, wcet].
+    duration : float, optional
+        Alias of ``duration_s`` (simulated s; a sweep's option name).
+    text : str, optional
+        The scenario file's text, for the manifest (read from the path when one is given).
+    record_trace : bool, default False
+        Keep the execution trace (``result.trace``, for trace export).
+    overrides : mapping, optional
+        Dotted keys of the scenario file and their values, as in a sweep
+        (``{"leader.speed": 20, "sensing.r_H": 30}``; cm, cm/s as in the file); with a
+        path or a shipped name only.
+    window_sink, job_sink, trace_sink : optional
+        `rtsim.io.columns.ChunkWriter` (or a callable) given the window rows, job
+        records, trace rows in chunks during the run: memory stays flat on long runs, and
+        the matching result table is None.
+    policy : str, optional
+        The adjustment policy, overriding the file's ``[adjust] policy`` (default ``plan``,
+        the recommended model; ``adjust`` is the paper's): a registered name or
+        ``"package.module:Name"``.
+    allow_code : bool, optional
+        The scenario file (or its task set) may name code, ``module:Name``
+        (`rtsim.registry`); a ``policy`` of that form given here is always allowed.
+    force : bool, default False
+        Run above the work limits (2e6 windows, 2e8 world steps × followers), as
+        ``--force``.
+    windows : bool, default True
+        False leaves ``result.windows`` None (the summary is computed either way).
+    progress : callable, optional
+        ``progress(share, t_ms)``, called at every percent of the run with the share done
+        (0..1) and the simulated ms; the results do not change.
+
+    Returns
+    -------
+    ScenarioResult
+        ``summary`` (summary.json), ``windows`` (one row per window), ``followers`` (one
+        row per window and follower), ``jobs``, ``trace``, ``timing`` (wall s).
+
+    Raises
+    ------
+    InputError
+        A bad scenario, option or override, in one line per problem.
     """
     t0 = time.perf_counter()
     if mode is not None and policy is not None and mode != policy:
@@ -866,17 +964,19 @@ def run_scenario(
         "lap_time_s": None if run.lap_ms is None else run.lap_ms / 1000.0,
         "predictor": _name(run.opts.get("predictor", "formation")),
         "formation_model": formation_model(cfg),
+        "localization_model": cfg.localization.model,
         "leader_accel_max": cfg.leader_accel_max,
         "leader_decel_max": cfg.leader_decel_max,
     }
+    if run.infeasible_note is not None:
+        extra["infeasible_note"] = run.infeasible_note
     if run.lap_ms is None:  # why there is no lap time
         extra["lap_time_note"] = (
             f"the leader did not complete its lap within the cap of "
             f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
             if stop_s is not None
-            else f"the run's duration ({float(duration_s or 0.0):g} s) ended before the leader "
-            f"completed "
-            f"its lap"
+            else f"the run's duration ({horizon_ms / 1000.0:g} s) ended before the leader "
+            f"completed its lap"
         )
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     world.followers.advance_all(world.t_ms, cfg.step_ms)

@@ -11,9 +11,7 @@ import numpy as np
 import pandas as pd
 
 from rtsim.analysis.kinematics import BOUND_KINDS
-from rtsim.coupling.recorder import (
-    LOCALIZATION_COLUMNS,
-)
+from rtsim.coupling.recorder import LOCALIZATION_COLUMNS, sensing_columns
 from rtsim.world.config import WorldConfig
 from rtsim.world.localization import LOST_CAUSES
 
@@ -31,7 +29,8 @@ def _name(predictor: Any) -> str:
 
 
 def summary_columns(n: int) -> list[str]:
-    """The columns of windows.csv that :func:`summarize` reads (``n`` followers)."""
+    """The columns of windows.csv that [`summarize`][rtsim.coupling.summary.summarize] reads (``n``
+    followers)."""
     return [
         "w",
         "w_sch",
@@ -48,7 +47,30 @@ def summary_columns(n: int) -> list[str]:
         "response",
         *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS),
         *LOCALIZATION_COLUMNS,
+        *sensing_columns(n),
     ]
+
+
+def _p95_max(values: Any) -> dict[str, float] | None:
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]  # (inf: no fix)
+    if not v.size:
+        return None
+    return {"p95": float(np.percentile(v, 95)), "max": float(v.max())}
+
+
+def fix_errors(df: pd.DataFrame | Mapping[str, Any], n: int) -> dict[str, Any] | None:
+    """summary.json ``localization_error_cm``: the accepted fixes' distance from the truth
+    (cm; windows without a fix left out), p95 and max over every follower's fixes and
+    ``per_follower`` (None: a table without the columns, or no fix)."""
+    cols = [f"f{i}_fix_error_cm" for i in range(1, n + 1)]
+    if any(c not in df for c in cols):
+        return None
+    per = [np.asarray(df[c], dtype=float) for c in cols]
+    every = _p95_max(np.concatenate(per) if per else [])
+    if every is None:
+        return None
+    return {**every, "per_follower": [_p95_max(v) for v in per]}
 
 
 def _total(df: pd.DataFrame | Mapping[str, Any], col: str) -> int:
@@ -68,7 +90,7 @@ def summarize(
     extra: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """summary.json from windows.csv (docs/outputs.md) and run facts. ``df``: the table, or
-    its columns (name -> array or list, as :func:`~rtsim.coupling.recorder.records_columns`
+    its columns (name -> array or list, as `records_columns`
     gives them): the summary is computed from arrays either way."""
 
     def col(name: str, dtype: Any = float) -> Any:
@@ -117,6 +139,10 @@ def summarize(
         "tracks_lost_by_cause": {c: _total(df, f"tracks_lost_{c}") for c in LOST_CAUSES},
         "searches": _total(df, "searches"),
         "reacquisitions": _total(df, "reacquisitions"),
+        # the sensing: fixes made by a neighbour, the fixes' error from the truth, commands lost
+        "confusions": _total(df, "confusions"),
+        "radio_losses": _total(df, "radio_losses"),
+        "localization_error_cm": fix_errors(df, n),
     }
     if extra:
         out.update(extra)

@@ -34,7 +34,7 @@ FILE_MODE = 0o666 & ~_UMASK
 
 @contextmanager
 def naming(path: str | os.PathLike[str]) -> Iterator[None]:
-    """Give an :class:`OSError` raised inside without a file name (a ``write`` on a full
+    """Give an `OSError` raised inside without a file name (a ``write`` on a full
     disk: "No space left on device") the name ``path``, so that its one-line message says
     which output could not be written."""
     try:
@@ -51,7 +51,7 @@ def naming(path: str | os.PathLike[str]) -> Iterator[None]:
 @contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; on success it replaces ``target``. A write
-    error inside names ``target`` (:func:`naming`)."""
+    error inside names ``target`` ([`naming`][rtsim.io.atomic.naming])."""
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
@@ -135,7 +135,8 @@ def inf_as_null(obj: Any) -> Any:
 def dumps(obj: Any, indent: int | None = 2) -> str:
     """Strict JSON text (RFC 8259) with numpy scalars handled.
 
-    A NaN or infinite float raises :class:`NonFiniteJSON` naming its path: each writer
+    A NaN or infinite float raises [`NonFiniteJSON`][rtsim.io.atomic.NonFiniteJSON] naming its path:
+    each writer
     turns such a value into ``null`` where its field's documentation says what null means
     there (``wcrt``: above the deadline; ``lap_time_s``: no lap; see docs/outputs.md).
     """

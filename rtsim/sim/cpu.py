@@ -2,16 +2,16 @@
 
 The specification — what the dispatcher owns, the order of things at one instant, and how
 suspensions, overload, overhead, jitter, periods, critical sections and time slices enter —
-is docs/cpu-events.md. In short: ONE SimPy process, the dispatcher (:meth:`CPU._dispatcher`),
-owns a timer heap, a ready heap keyed by the policy's (key, tie) (:mod:`rtsim.sim.policy`)
+is docs/cpu-events.md. In short: ONE SimPy process, the dispatcher (`CPU._dispatcher`),
+owns a timer heap, a ready heap keyed by the policy's (key, tie) (`rtsim.sim.policy`)
 and the running job; at each instant it (1) ends the running segment if its work is done,
 (2) handles the timers due (idle suspensions ending, aborts, the window's release, other
 releases by priority, ends of time slices), (3) gives the CPU to the first eligible job if
 the policy says it preempts, and (4) waits for the earlier of the segment's end and the
 next timer. Preemption is bookkeeping, not interrupts. Jobs of a simple top task may be
 booked inline, bit-identically (docs/cpu-events.md). The rooms: this module (dispatch and
-the jobs' bookkeeping), :mod:`rtsim.sim.resources` (the resource protocols) and
-:mod:`rtsim.sim.slices` (time slices).
+the jobs' bookkeeping), `rtsim.sim.resources` (the resource protocols) and
+`rtsim.sim.slices` (time slices).
 """
 
 from __future__ import annotations
@@ -97,13 +97,14 @@ def coincidence(t: float) -> tuple[float, float]:
 class CPU(ResourceProtocols, TimeSlices):
     """One processor under a scheduling policy, ``scheduler``: ``"fp"``, ``"edf"``, another
     registered name, ``"package.module:Name"`` or a
-    :class:`~rtsim.sim.policy.SchedulingPolicy` (docs/cpu-events.md; :mod:`rtsim.sim.policy`).
+    [`SchedulingPolicy`][rtsim.sim.policy.SchedulingPolicy] (docs/cpu-events.md;
+    `rtsim.sim.policy`).
 
     Usage: ``cpu = CPU(env)``; ``cpu.add_task(...)`` for each task; register hooks with
-    :meth:`on` and per-segment execution times with :meth:`set_exec_time`; ``cpu.start(H)``
+    `on` and per-segment execution times with `set_exec_time`; ``cpu.start(H)``
     returns the dispatcher process (run ``env.run(until=proc)``); ``cpu.result()``.
     ``job_sink`` / ``trace_sink``: where job records / trace rows go in chunks during the
-    run (:class:`~rtsim.sim.records.RowBuffer`; the result's ``jobs`` / ``trace`` are then
+    run (`RowBuffer`; the result's ``jobs`` / ``trace`` are then
     None), so that a long run keeps neither in memory.
     """
 
@@ -939,7 +940,7 @@ class CPU(ResourceProtocols, TimeSlices):
         self, st: _TaskState, k: int, r: float, start: float, f: float, missed: bool
     ) -> None:
         """The job record of job ``k`` of the top task, booked inline (run from ``start`` to
-        ``f``): the same floats as :meth:`_record` of its Job."""
+        ``f``): the same floats as `_record` of its Job."""
         self._job_rows.append(
             (
                 st.name,

@@ -1,4 +1,4 @@
-"""Jobs and the CPU's per-task bookkeeping (internal to :mod:`rtsim.sim.cpu`)."""
+"""Jobs and the CPU's per-task bookkeeping (internal to `rtsim.sim.cpu`)."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ class Job:
     arrived but not yet released. ``period`` is the period in force at the arrival.
     ``segment`` is the current segment, ``seg_exec`` its drawn execution time,
     ``start``/``finish`` are None until they happen. ``key``/``tie``: its place in the ready
-    queue, set by the CPU's scheduling policy (:mod:`rtsim.sim.policy`) at creation.
+    queue, set by the CPU's scheduling policy (`rtsim.sim.policy`) at creation.
     """
 
     __slots__ = (

@@ -1,8 +1,8 @@
 """The resource protocols of the virtual CPU (``pcp``, ``srp``, ``npr``): a room of it.
 
 A task's critical sections are segments of its chain marked with a ``resource``
-(docs/resources.md). When some task has one, the dispatcher (:mod:`rtsim.sim.cpu`) asks
-:meth:`ResourceProtocols._res_pick` which job takes the CPU, locks a section's resource when
+(docs/resources.md). When some task has one, the dispatcher (`rtsim.sim.cpu`) asks
+`ResourceProtocols._res_pick` which job takes the CPU, locks a section's resource when
 the section starts and unlocks it when it ends (or its job is aborted); a set without
 sections never calls in here. The rules (docs/cpu-events.md: Shared resources): each job
 has a preemption level (−priority, or −relative deadline under a deadline-ordered policy),
@@ -29,7 +29,7 @@ _INF = math.inf
 
 
 class ResourceProtocols:
-    """The CPU's resource protocols (module doc); a mixin of :class:`rtsim.sim.cpu.CPU`."""
+    """The CPU's resource protocols (module doc); a mixin of `rtsim.sim.cpu.CPU`."""
 
     policy: SchedulingPolicy
     resources: str | None

@@ -1,11 +1,11 @@
 """Time slices of a time-sliced scheduling policy (``rr``): a room of the virtual CPU.
 
-The dispatcher (:mod:`rtsim.sim.cpu`) calls in here only when its policy has a
+The dispatcher (`rtsim.sim.cpu`) calls in here only when its policy has a
 ``quantum`` (docs/cpu-events.md: Time slices; docs/scheduling.md: Round robin). When a job
 gets the CPU its slice starts — the rest of its slice if a higher level preempted it
 before, else ``quantum`` ms — and a timer of kind ``_SLICE`` is set at its end, ranked after
 every release of that instant. At the timer the running job goes to the tail of its key
-(:meth:`~rtsim.sim.policy.SchedulingPolicy.requeue`) if another job of its key is ready,
+(`requeue`) if another job of its key is ready,
 else it gets a new slice without a switch.
 """
 
@@ -46,7 +46,7 @@ def with_quantum(policy: SchedulingPolicy, quantum: float | None) -> SchedulingP
 
 
 class TimeSlices:
-    """The CPU's time slices (module doc); a mixin of :class:`rtsim.sim.cpu.CPU`."""
+    """The CPU's time slices (module doc); a mixin of `rtsim.sim.cpu.CPU`."""
 
     policy: SchedulingPolicy
     quantum: float | None

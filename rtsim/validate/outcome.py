@@ -1,5 +1,5 @@
-"""What ``rtsim validate`` runs (:class:`ValidationConfig`, with the :data:`QUICK` and
-:data:`FULL` presets) and what it returns (:class:`ValidationOutcome`): the types the runner
+"""What ``rtsim validate`` runs (`ValidationConfig`, with the `QUICK` and
+`FULL` presets) and what it returns (`ValidationOutcome`): the types the runner
 and the report share, in a module of their own so that neither imports the other."""
 
 from __future__ import annotations

@@ -2,9 +2,9 @@
 
 Two sweeps run through the sweep engine (kind ``call``, so they run on local processes or a
 Dask cluster and resume when run again): the paper's set over the (n, r_H) grid
-(:func:`rtsim.validate.points.paper_point`) and random UUniFast sets
-(:func:`rtsim.validate.points.random_point`). Their rows become one validation table
-(:mod:`rtsim.validate.tidy`), which is checked (:func:`rtsim.analysis.validation.check_results`),
+(`rtsim.validate.points.paper_point`) and random UUniFast sets
+(`rtsim.validate.points.random_point`). Their rows become one validation table
+(`rtsim.validate.tidy`), which is checked (`rtsim.analysis.validation.check_results`),
 summarised, drawn and written up.
 
 Output directory ``OUT``::
@@ -15,7 +15,7 @@ Output directory ``OUT``::
     summary.json         the headline numbers
     figures/             bounds_vs_n.png/.csv, pessimism_wsch.png/.csv, pessimism_wrta.png/.csv,
                          scheduler_bounds.png/.csv (the paper set's w_sch, w_rta, w_edf for
-                         n = 1..10, r_H = 10..50: :func:`scheduler_table`)
+                         n = 1..10, r_H = 10..50: `scheduler_table`)
     histograms/<config>/ per-task response-time histograms with the bounds (PNG + CSV)
     sweeps/<name>/       the two sweeps (results.parquet, per-point files, manifests)
     manifest.json
@@ -321,7 +321,7 @@ def run_validation(
     """Run (or resume) both sweeps into ``out_dir`` and write the report (module doc).
     ``fig_format``: the figures' file format (png, svg or pdf; ``dpi`` for PNG).
 
-    ``out_dir`` is locked while it runs (:mod:`rtsim.io.lock`): a second validation into it
+    ``out_dir`` is locked while it runs (`rtsim.io.lock`): a second validation into it
     is refused, naming the holder. A directory holding anything validate does not make
     (another command's output, a user's file) is refused before anything is done; a new
     directory is claimed at once by a ``manifest.json`` of ``validate`` (rewritten at the

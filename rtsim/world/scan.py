@@ -1,12 +1,14 @@
 """One scan's outcome as the leader's localization saw it (docs/model/world.md).
 
-:class:`Scan` is what :meth:`rtsim.world.world.World.scan` returns: per follower, the beams
+[`Scan`][rtsim.world.scan.Scan] is what
+[`rtsim.world.world.World.scan`][rtsim.world.world.World.scan] returns: per follower, the beams
 returned, the position fixes, the Hough windows, lost and re-acquired tracks, and the truth's
 change since the previous scan with the bound violations it caused.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -62,6 +64,11 @@ class Scan:
         violations: Mapping[str, Any],
         searched: Any = None,
         cause: Any = None,
+        *,
+        voted: Any = None,
+        fix_error: Any = None,
+        neighbour: Any = None,
+        cells: int | None = None,
     ) -> None:
         object.__setattr__(self, "t_ms", t_ms)
         object.__setattr__(self, "leader_pose", leader_pose)
@@ -84,6 +91,10 @@ class Scan:
                 "violations": violations,
                 "searched": searched,
                 "cause": cause,
+                "voted": voted,
+                "fix_error": fix_error,
+                "neighbour": neighbour,
+                "cells": cells,
             },
         )
         object.__setattr__(self, "_arrays", {})
@@ -157,6 +168,47 @@ class Scan:
         return int(sum(_as_list(self._raw["points"])))
 
     @property
+    def hough(self) -> bool:
+        """Whether the fixes came from a laser scan and Hough windows (``model = "hough"``)."""
+        return self._raw["voted"] is not None
+
+    @property
+    def voted(self) -> tuple[int, ...]:
+        """Per follower, the scan points that voted in its window (``hough``; else the beams
+        it returned)."""
+        v = self._raw["voted"]
+        return tuple(_as_list(self._raw["points"] if v is None else v))
+
+    @property
+    def hough_points(self) -> int:
+        """Eq 1's second term, counted: ``hough`` — the points that voted over every window;
+        ``gaussian`` — the beams the followers returned (:attr:`total_points`)."""
+        return int(sum(self.voted))
+
+    @property
+    def cells(self) -> int | None:
+        """The cells every window's accumulator covered (``hough``), or None (Eq 1's
+        π·r_H²·n)."""
+        return self._raw["cells"]  # type: ignore[no-any-return]
+
+    @property
+    def fix_error(self) -> tuple[float, ...]:
+        """Per follower, the accepted fix's distance from the truth (cm; inf: no fix)."""
+        v = self._raw["fix_error"]
+        return tuple(_as_list(v)) if v is not None else (math.inf,) * self.n
+
+    @property
+    def neighbour(self) -> tuple[bool, ...]:
+        """Per follower, whether another follower's points made its fix (a confusion)."""
+        v = self._raw["neighbour"]
+        return tuple(_as_list(v)) if v is not None else (False,) * self.n
+
+    @property
+    def confusions(self) -> int:
+        """Followers whose fix a neighbour made at this scan."""
+        return int(sum(self.neighbour))
+
+    @property
     def n_lost(self) -> int:
         """Followers lost at this scan (each re-acquisition is charged)."""
         return int(sum(_as_list(self._raw["lost"])))
@@ -168,12 +220,12 @@ class Scan:
 
     @property
     def cause(self) -> tuple[str, ...]:
-        """Why each follower's track was lost (:data:`LOST_CAUSES`; "" when it was not)."""
+        """Why each follower's track was lost (`LOST_CAUSES`; "" when it was not)."""
         return tuple(self._raw["cause"])
 
     @property
     def n_searched(self) -> int:
-        """Searches charged at this scan (:func:`~rtsim.world.localization.hough_time`)."""
+        """Searches charged at this scan ([`hough_time`][rtsim.world.localization.hough_time])."""
         return int(sum(_as_list(self._raw["searched"])))
 
     @property
@@ -182,7 +234,7 @@ class Scan:
         return int(sum(_as_list(self._raw["reacquired"])))
 
     def lost_by_cause(self) -> dict[str, int]:
-        """Lost tracks per cause, every cause of :data:`LOST_CAUSES` present (0 if none)."""
+        """Lost tracks per cause, every cause of `LOST_CAUSES` present (0 if none)."""
         out = dict.fromkeys(LOST_CAUSES, 0)
         for c in self._raw["cause"]:
             if c:
