@@ -239,8 +239,8 @@ def analyze(
     ([`rtsim.analysis.blocking.fp_blocking`][rtsim.analysis.blocking.fp_blocking])
     under ``resources`` (``pcp``, ``srp``, ``npr``; default the set's protocol,
     [`resource_protocol`][rtsim.model.taskset.TaskSet.resource_protocol]) is part of its response
-    time,
-    once per compute stretch under ``suspension="idle"``.
+    time, once per compute stretch under ``suspension="idle"``, with the switch into the
+    blocking section (``overhead``) included.
     """
     from rtsim.analysis.blocking import check_protocol, fp_blocking
 
@@ -250,7 +250,7 @@ def analyze(
         check_protocol(
             protocol, "fp", f"{ts.source or ts.name or 'task set'}: [scheduler] resources"
         )
-    block = fp_blocking(tasks, protocol)
+    block = fp_blocking(tasks, protocol, overhead)
     results = []
     aware = None
     if suspension == "idle":

@@ -211,6 +211,19 @@ class SchedulerModel(Table):
 
     policy: Annotated[str, text(what="a policy name")] = "fp"
     resources: Annotated[str, choice(RESOURCE_PROTOCOLS)] | None = None
+    quantum: (
+        Annotated[
+            float,
+            number(
+                0,
+                1e7,
+                "ms",
+                "the time slice of a time-sliced policy (rr)",
+                lo_open=True,
+            ),
+        ]
+        | None
+    ) = None
 
 
 class TaskSetFile(Table):
@@ -273,9 +286,22 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         from rtsim.sim.policy import resolve_policy
 
         try:
-            resolve_policy(model.scheduler.policy, where=f"{source}: [scheduler]: policy")
+            sliced = resolve_policy(
+                model.scheduler.policy, where=f"{source}: [scheduler]: policy"
+            ).takes_quantum
         except Exception as exc:  # an InputError naming the file already
             errors.append(str(exc).removeprefix(f"{source}: "))
+        else:
+            if model.scheduler.quantum is not None and not sliced:
+                errors.append(
+                    f"[scheduler]: quantum: only for a time-sliced policy (rr), not "
+                    f"{model.scheduler.policy!r}"
+                )
+            if model.scheduler.quantum is None and sliced:
+                errors.append(
+                    f"[scheduler]: quantum: missing (required by the time-sliced policy "
+                    f"{model.scheduler.policy!r}: its time slice in ms)"
+                )
     entries: list[tuple[dict[str, Any], str]] = []
     for i, t in enumerate(model.tasks, start=1):
         label = _label(t, i)
@@ -320,7 +346,8 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
             errors.append(f"{label}: name: duplicate of {first}")
         else:
             names[kw["name"]] = i
-    errors += _assign_priorities(entries, model.window)
+    shared = model.scheduler is not None and model.scheduler.quantum is not None
+    errors += _assign_priorities(entries, model.window, shared)
     if errors or (model.window is not None and window is None):
         return None, errors
     tasks_l = []
@@ -354,6 +381,7 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         overhead=float(model.overhead),
         scheduler=model.scheduler.policy if model.scheduler else "fp",
         resources=model.scheduler.resources if model.scheduler else None,
+        quantum=model.scheduler.quantum if model.scheduler else None,
     ), []
 
 
@@ -403,9 +431,10 @@ def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:
 
 
 def _assign_priorities(
-    entries: list[tuple[dict[str, Any], str]], window: WindowModel | None
+    entries: list[tuple[dict[str, Any], str]], window: WindowModel | None, shared: bool = False
 ) -> list[str]:
-    """Every task gives a priority or none does; none → deadline-monotonic, ties in file order."""
+    """Every task gives a priority or none does; none → deadline-monotonic, ties in file order.
+    ``shared``: tasks may share a priority (a time-sliced policy with its quantum)."""
     given = [label for kw, label in entries if "priority" in kw]
     if given and len(given) != len(entries):
         missing = next(label for kw, label in entries if "priority" not in kw)
@@ -432,8 +461,12 @@ def _assign_priorities(
     errors = []
     for kw, label in entries:
         prio = kw["priority"]
-        if prio in seen:
-            errors.append(f"{label}: priority: {prio} is already used by {seen[prio]}")
+        if prio in seen and not shared:
+            errors.append(
+                f"{label}: priority: {prio} is already used by {seen[prio]} (tasks share a "
+                f'priority only under a time-sliced policy: [scheduler] policy = "rr" with '
+                f"a quantum)"
+            )
         else:
             seen[prio] = label
     return errors

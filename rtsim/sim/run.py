@@ -31,7 +31,7 @@ from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU, JitterMode
 from rtsim.sim.execution import ExecSpec
-from rtsim.sim.policy import PolicySpec
+from rtsim.sim.policy import PolicySpec, resolve_scheduler
 from rtsim.sim.progress import Progress
 from rtsim.sim.records import SimResult
 
@@ -100,13 +100,17 @@ def build_cpu(
 
     Returns the CPU and the window description (None for a set without a window).
     ``cpu_kwargs`` go to [`CPU`][rtsim.sim.run.CPU] (suspension, exec_model, seed, overhead,
-    record_jobs,
-    record_trace, hist_bin, jitter, job_sink, trace_sink, scheduler, resources; the
-    scheduler and the resource protocol default to the set's).
+    record_jobs, record_trace, hist_bin, jitter, job_sink, trace_sink, scheduler, resources,
+    quantum; the scheduler, the resource protocol and a time-sliced policy's quantum default
+    to the set's).
     """
     ts = _as_taskset(ts)
     cpu_kwargs.setdefault("scheduler", ts.scheduler)
     cpu_kwargs.setdefault("resources", ts.resources)
+    if ts.quantum is not None and cpu_kwargs.get("quantum") is None:
+        policy = resolve_scheduler(cpu_kwargs["scheduler"])
+        if policy.takes_quantum and policy.quantum is None:  # the set's time slice
+            cpu_kwargs["quantum"] = ts.quantum
     cpu = CPU(env, **cpu_kwargs)
     info: dict[str, Any] | None = None
     if ts.window is not None:

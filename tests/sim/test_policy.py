@@ -61,7 +61,7 @@ def test_registry_and_resolution(np_fp):
     assert resolve_policy(pol) is pol
     with pytest.raises(
         InputError,
-        match=r"--scheduler: must be one of fp, edf, np-fp or "
+        match=r"--scheduler: must be one of fp, edf, rr, np-fp or "
         r"'package.module:Name', got 'edd' "
         r"\(did you mean 'edf'\?\)",
     ):
@@ -220,7 +220,7 @@ def test_taskset_file_scheduler_key(tmp_path):
         (
             '[scheduler]\npolicy = "edd"\n',
             r"s.toml: \[scheduler\]: policy: must be one "
-            r"of fp, edf or .*, got 'edd'",
+            r"of fp, edf, rr.*, got 'edd'",
         ),
         (
             '[scheduler]\npolcy = "edf"\n',
