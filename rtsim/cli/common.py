@@ -118,4 +118,6 @@ def simulation_bar(args: Any, desc: str) -> Any:
 def note(args: Any, text: str) -> None:
     """A diagnostic line on standard error (``rtsim: <text>``), unless ``-q``."""
     if not getattr(args, "quiet", False):
-        print(f"rtsim: {text}", file=sys.stderr)
+        from rtsim.cli import one_line
+
+        print(f"rtsim: {one_line(text)}", file=sys.stderr)

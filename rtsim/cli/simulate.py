@@ -40,6 +40,17 @@ GANTT_DPI = HISTOGRAM_DPI = 120
 _RANGE = re.compile(r"^\s*([-+0-9.eE]+)\s*\.\.\s*([-+0-9.eE]+)\s*$")
 
 
+
+def worst_jitter_note(late: list[str]) -> str:
+    """The line ``--jitter worst`` prints for per-window tasks it cannot move to the
+    critical instant (:func:`rtsim.sim.run.worst_jitter_shifts`)."""
+    names = ", ".join(f"'{n}'" for n in late)
+    return (
+        f"--jitter worst: {names} cannot arrive before the window's first arrival "
+        "(a per-window task): its first release is at the window's arrival plus its "
+        "jitter, not at the critical instant"
+    )
+
 def register(sub: Any) -> None:
     """Add the ``simulate`` sub-command."""
     p = sub.add_parser(
@@ -215,6 +226,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     from rtsim.io.taskset import load_taskset, taskset_to_dict
     from rtsim.sim import simulate
     from rtsim.sim.records import jobs_frame, trace_frame
+    from rtsim.sim.run import worst_jitter_shifts
 
     if not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
@@ -304,8 +316,12 @@ def _run(args: argparse.Namespace, files: Any) -> int:
             files.on_release(getattr(out, "discard", out.close))
     job_sink = Tee(jobs_out, spools and spools[0], chart and chart.jobs)
     trace_sink = Tee(trace_out, spools and spools[1], chart and chart.trace)
-    from rtsim.cli.common import simulation_bar
+    from rtsim.cli.common import note, simulation_bar
 
+    if args.jitter == "worst":
+        late = worst_jitter_shifts(ts)[1]
+        if late:
+            note(args, worst_jitter_note(late))
     with simulation_bar(args, "simulate") as bar:
         res = simulate(
             ts,
@@ -345,11 +361,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     if known and analyze_with is analyze and (ts.window is None or w is not None):
         from rtsim.analysis.transaction import transaction_bounds
 
-        # --jitter worst moves each task's arrivals by (largest jitter - its own): a
-        # per-window task's arrivals then sit J_window - J_task after the window's
-        shifts = None
-        if args.jitter == "worst" and ts.window is not None:
-            shifts = {t.name: ts.window.jitter - t.jitter for t in ts.tasks if t.per_window}
+        # --jitter worst moves each task's arrivals by (largest jitter - its own), a
+        # per-window task's no earlier than the window's (worst_jitter_shifts)
+        shifts = worst_jitter_shifts(ts)[0] if args.jitter == "worst" else None
         txn = transaction_bounds(
             ts, w, overhead=overhead, suspension=args.suspension, shifts=shifts
         )
