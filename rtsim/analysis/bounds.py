@@ -68,9 +68,15 @@ __all__ = [
 ]
 
 #: The window lower bounds an adjustment policy can use ([adjust] lower_bound).
-LOWER_BOUNDS: tuple[str, ...] = ("w_sch", "w_rta", "w_susp", "w_edf")
+LOWER_BOUNDS: tuple[str, ...] = ("w_sch", "w_rta", "w_susp", "w_edf", "w_txn")
 #: The scheduler each lower bound assumes.
-BOUND_SCHEDULER: dict[str, str] = {"w_sch": "fp", "w_rta": "fp", "w_susp": "fp", "w_edf": "edf"}
+BOUND_SCHEDULER: dict[str, str] = {
+    "w_sch": "fp",
+    "w_rta": "fp",
+    "w_susp": "fp",
+    "w_edf": "edf",
+    "w_txn": "fp",
+}
 
 #: Largest window w_rta searches (ms); beyond it the set is reported as never schedulable.
 W_MAX = 1e9
@@ -265,9 +271,10 @@ def lower_bound(
     where: str = "lower_bound",
 ) -> float:
     """The window lower bound ``name`` (:data:`LOWER_BOUNDS`) for a CPU run with ``scheduler``
-    and ``suspension``; a bound whose model does not match is an input error: w_sch, w_rta and
-    w_susp are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only with Δt
-    leaving the CPU idle."""
+    and ``suspension``; a bound whose model does not match is an input error: w_sch, w_rta,
+    w_susp and w_txn (the offset-based bound, :func:`rtsim.analysis.transaction.w_txn`, under
+    ``suspension``) are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only
+    with Δt leaving the CPU idle."""
     from rtsim.errors import InputError
 
     if name not in LOWER_BOUNDS:
@@ -288,6 +295,10 @@ def lower_bound(
         return w_sch_of(ts)
     if name == "w_edf":
         return w_edf(ts)
+    if name == "w_txn":
+        from rtsim.analysis.transaction import w_txn
+
+        return w_txn(ts, suspension=suspension)
     return w_rta(ts) if name == "w_rta" else w_susp(ts)
 
 
