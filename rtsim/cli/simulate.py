@@ -40,7 +40,6 @@ GANTT_DPI = HISTOGRAM_DPI = 120
 _RANGE = re.compile(r"^\s*([-+0-9.eE]+)\s*\.\.\s*([-+0-9.eE]+)\s*$")
 
 
-
 def worst_jitter_note(late: list[str]) -> str:
     """The line ``--jitter worst`` prints for per-window tasks it cannot move to the
     critical instant (:func:`rtsim.sim.run.worst_jitter_shifts`)."""
@@ -50,6 +49,7 @@ def worst_jitter_note(late: list[str]) -> str:
         "(a per-window task): its first release is at the window's arrival plus its "
         "jitter, not at the critical instant"
     )
+
 
 def register(sub: Any) -> None:
     """Add the ``simulate`` sub-command."""

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -16,6 +17,7 @@ from typing import Any
 
 __all__ = [
     "atomic_path",
+    "temp_target",
     "naming",
     "write_text",
     "write_bytes",
@@ -46,6 +48,19 @@ def naming(path: str | os.PathLike[str]) -> Iterator[None]:
         # the system's words for the error (pyarrow's strerror is a whole message)
         why = os.strerror(code) if code is not None else (exc.strerror or str(exc))
         raise OSError(code, why, os.fspath(path)) from exc
+
+
+#: The name of :func:`atomic_path`'s temporary file: ``.<target name>.<8 characters of
+#: tempfile's alphabet>.tmp`` (``mkstemp(prefix=".<name>.", suffix=".tmp")``).
+_TEMP = re.compile(r"\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp", re.DOTALL)
+
+
+def temp_target(entry: str) -> str | None:
+    """The target name whose :func:`atomic_path` temporary file ``entry`` is
+    (``.results.parquet.k2j9_x0a.tmp`` → ``results.parquet``), or None: what a write killed
+    by ``kill -9`` leaves beside its target."""
+    m = _TEMP.fullmatch(entry)
+    return m.group("name") if m else None
 
 
 @contextmanager

@@ -307,15 +307,21 @@ def check_resumable(
     *,
     before_manifest: set[str] = frozenset(),  # type: ignore[assignment]
     option: str = "--out",
+    clean: bool = False,
 ) -> None:
     """Check the directory of a resumable command (``sweep``, ``validate``), which works in
     place: new, empty, or holding only what ``command`` makes.
 
     With ``command``'s own ``manifest.json`` there, every entry must be one of ``made``;
     without one, one of ``before_manifest`` (what the command writes before its manifest).
-    Another command's directory and a user's files are refused (InputError naming the
-    entry), so nothing the command did not make is ever overwritten or removed.
+    The temporary file of an atomic write of one of those files, left by a run killed while
+    it wrote (:func:`rtsim.io.atomic.temp_target`), is the command's own: tolerated, and
+    removed with ``clean=True`` (call it holding the directory's lock, when no run of the
+    command can be writing). Another command's directory and a user's files are refused
+    (InputError naming the entry), so nothing the command did not make is ever overwritten
+    or removed.
     """
+    from rtsim.io.atomic import temp_target
     from rtsim.io.lock import LOCK_NAME
 
     target = Path(target)
@@ -331,12 +337,18 @@ def check_resumable(
             f"give a new directory"
         )
     allowed = (made if own else set(before_manifest)) | {LOCK_NAME, "manifest.json"}
+    stale = []
     for entry in sorted(e.name for e in target.iterdir()):
-        if entry not in allowed:
+        if temp_target(entry) in allowed and (target / entry).is_file():
+            stale.append(target / entry)
+        elif entry not in allowed:
             raise InputError(
                 f"{option} {target}: holds {entry!r}, which `rtsim {command}` did "
                 f"not make; it is left alone — give a new directory"
             )
+    if clean:
+        for f in stale:
+            f.unlink(missing_ok=True)
 
 
 class StagedDir:

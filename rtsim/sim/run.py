@@ -134,9 +134,7 @@ def build_cpu(
         raise InputError(
             f"{ts.source or ts.name or 'task set'}: has no [window], so a window does not apply"
         )
-    worst = (
-        worst_jitter_shifts(ts)[0] if cpu_kwargs.get("jitter") == "worst" else {}
-    )
+    worst = worst_jitter_shifts(ts)[0] if cpu_kwargs.get("jitter") == "worst" else {}
     for task in ts.tasks:
         if task.per_window and ts.window is not None:
             # a per-window task counts its offset from the window stream's first arrival;

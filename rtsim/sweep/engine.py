@@ -236,17 +236,22 @@ class Sweep:
         return self.out / "points"
 
     # -- the directory -----------------------------------------------------------------
-    def check_out(self) -> None:
+    def check_out(self, clean: bool = False) -> None:
         """Refuse an output directory holding anything a sweep does not make (another
-        command's directory, a user's ``results.parquet``, a stranger in ``points/``)."""
+        command's directory, a user's ``results.parquet``, a stranger in ``points/``).
+        ``clean=True`` (under the lock) removes the temporary files of atomic writes a
+        killed run left (:func:`rtsim.io.outdir.check_resumable`), in ``points/`` too."""
         import re
 
         from rtsim.io.outdir import check_resumable
 
-        check_resumable(self.out, "sweep", MADE, before_manifest={"points"})
+        check_resumable(self.out, "sweep", MADE, before_manifest={"points"}, clean=clean)
         if self.points_dir.is_dir():
             for f in sorted(self.points_dir.iterdir()):
-                if not (re.fullmatch(POINT_FILE, f.name) or re.fullmatch(POINT_TMP, f.name)):
+                if re.fullmatch(POINT_TMP, f.name):
+                    if clean:
+                        f.unlink(missing_ok=True)
+                elif not re.fullmatch(POINT_FILE, f.name):
                     raise SweepError(
                         f"{self.out}: points/ holds {f.name!r}, which the sweep did "
                         "not make; it is left alone — give a new --out"
@@ -256,7 +261,7 @@ class Sweep:
         import json
         import re
 
-        self.check_out()  # again, under the lock
+        self.check_out(clean=True)  # again, under the lock: a killed run's temporary files go
 
         fp = self.spec.fingerprint()
         manifest = self.out / "manifest.json"
