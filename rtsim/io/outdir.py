@@ -287,9 +287,42 @@ def _other_command(target: Path, option: str, command: str | None) -> None:
         )
 
 
+#: Commands whose output directory holds another command's by design (``validate``'s
+#: sweeps, under ``sweeps/``).
+_NESTS: dict[str, tuple[str, ...]] = {"validate": ("sweep",)}
+
+
+def _enclosing(target: Path, command: str | None, first: int = 0) -> tuple[Path, str] | None:
+    """The nearest ancestor of ``target`` (from its ``first``-th: 0 is its parent) that is an
+    rtsim command's output directory (its ``manifest.json`` names the command), and that
+    command: writing there would put a stranger inside it (a sweep then refuses to resume,
+    a rerun of the command removes it). Single-file commands' directories (``simulate``'s)
+    are shared and not counted, nor a command's own nested outputs (:data:`_NESTS`)."""
+    here = Path(os.path.abspath(target)).parent
+    for a in [here, *here.parents][first:]:
+        other = owner(a)
+        if other is None or other in FILE_COMMANDS:
+            continue
+        if command is not None and command.removeprefix("rtsim ") in _NESTS.get(other, ()):
+            continue
+        return a, other
+    return None
+
+
+def _check_ancestors(target: Path, option: str, command: str | None) -> None:
+    """Refuse a directory target inside another command's output directory."""
+    inside = _enclosing(target, command)
+    if inside is not None:
+        raise InputError(
+            f"{option} {os.fsdecode(target)}: is inside the output directory of `rtsim "
+            f"{inside[1]}` ({os.fsdecode(inside[0])}); give a directory elsewhere"
+        )
+
+
 def _check_target(target: Path, option: str, command: str | None = None) -> None:
     """Refuse a target that must not be replaced (module docstring)."""
     _check_place(target, option)
+    _check_ancestors(target, option, command)
     if target.exists():
         if not is_rtsim_output(target):
             raise InputError(
@@ -326,6 +359,7 @@ def check_resumable(
 
     target = Path(target)
     _check_place(target, option)
+    _check_ancestors(target, option, command)
     if not target.is_dir():
         return
     _other_command(target, option, command)
@@ -552,15 +586,13 @@ class FileSet:
                 raise InputError(
                     f"{option} {shown}: is also the file of {opt}; give each output its own file"
                 )
-        other = owner(target.parent)
-        if (
-            other is not None
-            and other not in FILE_COMMANDS
-            and not target.name.endswith(".manifest.json")
-        ):
+        # the directory the file goes into, or any above it (a sweep's points/, a
+        # reproduce run's test1/), must not be another command's output directory
+        inside = _enclosing(target, None, 1 if target.name.endswith(".manifest.json") else 0)
+        if inside is not None:
             raise InputError(
                 f"{option} {shown}: is inside the output directory of `rtsim "
-                f"{other}` ({os.fsdecode(target.parent)}); give a file elsewhere"
+                f"{inside[1]}` ({os.fsdecode(inside[0])}); give a file elsewhere"
             )
         if os.path.lexists(target) and not self._made_here(target):
             raise InputError(
