@@ -487,7 +487,10 @@ def _print_table(report: dict[str, Any]) -> None:
         "wcrt_analysis",
         "max_backlog",
     )
-    rows = [[_fmt(t.get(c)) for c in cols] for t in report["tasks"]]
+    from rtsim.cli import one_line
+
+    # names escaped as in error lines (a line break or ESC in a name cannot fake a line)
+    rows = [[one_line(_fmt(t.get(c))) for c in cols] for t in report["tasks"]]
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     print("  ".join(c.ljust(widths[i]) for i, c in enumerate(cols)))
     for r in rows:

@@ -67,16 +67,28 @@ def temp_target(entry: str) -> str | None:
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; on success it replaces ``target``. A write
     error inside names ``target`` (:func:`naming`)."""
+    from rtsim.io.outdir import stem
+
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:  # (a long name is cut and hashed in the temporary name: stem)
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{stem(target.name)}.", suffix=".tmp", dir=target.parent
+        )
+    except OSError as exc:  # named by the target, never by the hidden temporary name
+        raise OSError(exc.errno, exc.strerror, os.fspath(target)) from None
     os.close(fd)
     os.chmod(tmp, FILE_MODE)
     tmp_path = Path(tmp)
     try:
         with naming(target):
-            yield tmp_path
-        os.replace(tmp_path, target)
+            try:
+                yield tmp_path
+                os.replace(tmp_path, target)
+            except OSError as exc:
+                if exc.filename is None or os.fspath(exc.filename) != tmp:
+                    raise
+                raise OSError(exc.errno, exc.strerror, os.fspath(target)) from None
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
@@ -173,13 +185,20 @@ def write_json(target: str | os.PathLike[str], obj: Any) -> None:
     write_text(target, dumps(obj) + "\n")
 
 
+def _to_parquet(df: Any, p: Path) -> None:
+    # through a file Python opened: pyarrow takes a path only as UTF-8, and a path that is
+    # not (bytes the file system gave as surrogates) is written as the file system gave it
+    with open(p, "wb") as fh:
+        df.to_parquet(fh, index=False)
+
+
 def write_table(target: str | os.PathLike[str], df: Any) -> None:
     """Write a DataFrame as CSV or Parquet (by the suffix of ``target``) atomically."""
     target = Path(target)
     suffix = target.suffix.lower()
     writers: dict[str, Callable[[Path], None]] = {
         ".csv": lambda p: df.to_csv(p, index=False),
-        ".parquet": lambda p: df.to_parquet(p, index=False),
+        ".parquet": lambda p: _to_parquet(df, p),
     }
     if suffix not in writers:
         from rtsim.errors import InputError
