@@ -63,7 +63,8 @@ def test_sweep_writes_and_resumes_in_a_non_utf8_out(tmp_path: Path) -> None:
 def _named(tmp_path: Path, *names: str) -> Path:
     f = tmp_path / "named.toml"
     body = "".join(
-        f"[[tasks]]\nname = {json.dumps(n)}\nwcet = 1\nperiod = {10 * (i + 1)}\npriority = {i + 1}\n"
+        f"[[tasks]]\nname = {json.dumps(n)}\nwcet = 1\n"
+        f"period = {10 * (i + 1)}\npriority = {i + 1}\n"
         for i, n in enumerate(names)
     )
     f.write_text(body, encoding="utf-8")
