@@ -263,12 +263,18 @@ def analyze_transactions(
         raise ValueError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
     o = float(overhead)
     known = known or {}
-    prios = sorted({j.priority for tx in transactions for j in tx.jobs})
-    done: list[tuple[int, Step]] = []  # (transaction index, step) of analysed tasks
+    # each level's jobs by transaction, and each transaction's analysed steps, kept as the
+    # levels go down (O(n) per level: no list of the finished steps is rebuilt)
+    at: dict[int, dict[int, list[Job]]] = {}
+    for a, tx in enumerate(transactions):
+        for job in tx.jobs:
+            at.setdefault(job.priority, {}).setdefault(a, []).append(job)
+    prios = sorted(at)
+    done: dict[int, list[Step]] = {}  # transaction index -> steps of analysed tasks
     out: dict[str, float | None] = {}
     failed = False
     for prio in prios:
-        names = sorted({j.task for tx in transactions for j in tx.jobs if j.priority == prio})
+        names = sorted({j.task for jobs in at[prio].values() for j in jobs})
         if failed:
             for nm in names:
                 out[nm] = None
@@ -276,15 +282,12 @@ def analyze_transactions(
         new: list[tuple[int, Step]] = []
         worst: dict[str, float] = {}
         ok = True
-        for a, tx in enumerate(transactions):
-            own_hp = [s for i, s in done if i == a]
-            others = [
-                (t.period, [s for i, s in done if i == b])
-                for b, t in enumerate(transactions)
-                if b != a
-            ]
-            for job in tx.jobs:
-                if job.priority != prio or not ok:
+        for a, jobs in at[prio].items():
+            tx = transactions[a]
+            own_hp = list(done.get(a, ()))
+            others = [(transactions[b].period, st) for b, st in done.items() if b != a and st]
+            for job in jobs:
+                if not ok:
                     continue
                 cap = known.get(job.task)
                 runs = _stretches(job, suspension)
@@ -321,7 +324,8 @@ def analyze_transactions(
             continue
         for nm in names:
             out[nm] = worst.get(nm)
-        done.extend(new)
+        for a, step in new:
+            done.setdefault(a, []).append(step)
     return out
 
 
