@@ -281,7 +281,11 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         name = getattr(args, opt)
         if name and Path(name).suffix.lower() not in (".csv", ".parquet"):
             raise InputError(f"--{opt} {name}: output must end in .csv or .parquet")
-    from rtsim.cli.common import figure_format
+    from rtsim.cli.common import check_suffix, figure_format
+
+    if args.perfetto:  # (an input or a user's file named first: that is the worse mistake)
+        files.check(args.perfetto, "--perfetto")
+        check_suffix(args.perfetto, "--perfetto", (".json",))
 
     formats = {
         opt: figure_format(args, getattr(args, opt), f"--{opt}")

@@ -187,6 +187,10 @@ def simulate(
     ts = _as_taskset(ts)
     if overhead is None:
         overhead = ts.overhead
+    # a bool is not a number (True would run 1 ms): refused here, as the options are
+    for name, value in (("horizon", horizon), ("overhead", overhead), ("hist_bin", hist_bin)):
+        if not is_real(value) and not (name == "hist_bin" and value is None):
+            raise InputError(f"simulate: {name} must be a number of ms, got {value!r}")
     horizon = float(horizon) if is_real(horizon) else horizon  # numpy scalars too
     from rtsim.io.limits import check
 
