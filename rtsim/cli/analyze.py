@@ -298,7 +298,9 @@ def run(args: argparse.Namespace) -> int:
         if policy.analysis is analyze and not ts.has_sections:  # FP: the offset-based bound
             from rtsim.analysis.transaction import transaction_bounds
 
-            txn = transaction_bounds(ts, res.w, overhead=res.overhead, suspension=args.suspension)
+            txn = transaction_bounds(
+                ts, res.w, overhead=res.overhead, suspension=args.suspension, force=args.force
+            )
             head, _, last = text.rpartition("\n")  # before the verdict line
             text = f"{head}\n{format_transaction(txn)}\n{last}"
     if args.json:

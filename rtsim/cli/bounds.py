@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
     ns, rs = _values(args, ts.window.n, ts.window.r_H)
     sets = [ts.with_window(n=n, r_H=r) for n in ns for r in rs]
     rows = [window_bounds(one) for one in sets]
-    txn = [w_txn(one) for one in sets]
+    txn = [w_txn(one, force=args.force) for one in sets]
     many = len(rows) > 1 or _is_list(args.followers) or _is_list(args.hough_radius)
     dicts = [
         {**b.as_dict(), "w_txn": x if math.isfinite(x) else None}
