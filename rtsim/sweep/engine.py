@@ -33,9 +33,11 @@ points.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
+import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -66,6 +68,78 @@ Record = dict[str, Any]
 MADE = {"points", "manifest.json", "results.parquet", "timings.csv"}
 POINT_FILE = r"[0-9]{6,}-[0-9a-f]{12}\.json"
 POINT_TMP = r"\.[0-9]{6,}-[0-9a-f]{12}\.json\..*\.tmp"
+
+
+#: How often the pool's loop looks at a held Ctrl-C or SIGTERM (s).
+_POLL_S = 0.1
+#: How long the interrupt path waits for the workers and the pool's manager thread (s).
+STOP_TIMEOUT_S = 5.0
+#: Threads of stopped pools that did not end within :data:`STOP_TIMEOUT_S`: the command line
+#: leaves with ``os._exit`` after its cleanup rather than wait for them at exit.
+STUCK: list[Any] = []
+
+
+def _hold_signals(held: list[int]) -> dict[int, Any]:
+    """In the main thread, record SIGINT and SIGTERM in ``held`` instead of acting on them;
+    returns the handlers to put back (empty elsewhere)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+
+    def hold(signum: int, frame: Any) -> None:
+        held.append(signum)
+
+    return {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+def _restore_signals(restore: dict[int, Any]) -> None:
+    import signal
+
+    for sig, handler in restore.items():
+        signal.signal(sig, handler)
+    restore.clear()
+
+
+def _raise_held(signum: int, restore: dict[int, Any]) -> None:
+    """Act on a held signal as its own handler would (SIGTERM: the command line's
+    ``Terminated``; Ctrl-C: KeyboardInterrupt), at a point where no lock is held."""
+    handler = restore.get(signum)
+    if callable(handler):
+        handler(signum, None)
+    raise KeyboardInterrupt
+
+
+def _stop_pool(ex: Any, timeout: float = STOP_TIMEOUT_S) -> None:
+    """Stop a process pool after an interrupt: terminate its workers and join them (killed
+    if they outlive ``timeout``), shut it down without waiting, join its manager thread with
+    a timeout. A manager thread that ended is taken off concurrent.futures' exit hook
+    (whose wake-up of an ended pool printed ``OSError: [Errno 9] Bad file descriptor``); one
+    that did not is kept in :data:`STUCK`."""
+    import concurrent.futures.process as cfp
+
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    manager = getattr(ex, "_executor_manager_thread", None)
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.terminate()
+    with contextlib.suppress(Exception):
+        ex.shutdown(wait=False, cancel_futures=True)
+    deadline = time.monotonic() + timeout
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(max(0.0, deadline - time.monotonic()))
+            if proc.is_alive():
+                proc.kill()
+                proc.join(1.0)
+    if manager is None:
+        return
+    manager.join(max(0.1, deadline - time.monotonic()))
+    if manager.is_alive():
+        STUCK.append(manager)
+    else:
+        cfp._threads_wakeups.pop(manager, None)
 
 
 class SweepIncomplete(RtsimError):
@@ -474,11 +548,22 @@ class Sweep:
                 "timing": {},
             }
 
+        # Ctrl-C and SIGTERM are held while the pool runs and acted on between waits: an
+        # exception raised inside concurrent.futures.wait can leave a future's lock held,
+        # and the pool's manager thread then waits on it for ever (issue 35, item 8)
+        held: list[int] = []
+        restore = _hold_signals(held)
         try:
             fill()
             started()
             while inflight or retry:
-                finished = wait(inflight, return_when=FIRST_COMPLETED)[0] if inflight else set()
+                if held:
+                    _raise_held(held[0], restore)
+                finished = (
+                    wait(inflight, timeout=_POLL_S, return_when=FIRST_COMPLETED)[0]
+                    if inflight
+                    else set()
+                )
                 broken = state["broken"]
                 for fut in sorted(finished, key=lambda f: inflight[f][0].index):
                     item = inflight.pop(fut)
@@ -508,11 +593,13 @@ class Sweep:
                     ex = pool()
                     state["broken"] = False
                 fill()
+            if held:
+                _raise_held(held[0], restore)
         except BaseException:
-            for proc in list(getattr(ex, "_processes", {}).values()):
-                proc.terminate()
-            ex.shutdown(wait=False, cancel_futures=True)
+            _stop_pool(ex)
             raise
+        finally:
+            _restore_signals(restore)
         ex.shutdown(wait=True)
 
     def _run_dask(self, pending: list[Point], dask: Any, on_result: Callable[..., None]) -> None:
