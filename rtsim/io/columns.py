@@ -321,6 +321,23 @@ class ChunkWriter:
         """Columns of the table written (after :meth:`close`), from its first file."""
         return read_columns(self.paths[0], columns, dtypes)
 
+    def iter_read(
+        self, columns: Sequence[str] | None = None, chunk_rows: int = READ_ROWS
+    ) -> Iterator[pd.DataFrame]:
+        """The same columns as :meth:`read`, ``chunk_rows`` rows at a time (memory does
+        not grow with the table)."""
+        p = Path(self.paths[0])
+        if p.suffix.lower() != ".parquet":
+            yield from iter_columns(p, columns, chunk_rows)
+            return
+        import pyarrow.parquet as pq
+
+        with open(p, "rb") as fh:  # (pyarrow takes a path only as UTF-8)
+            pf = pq.ParquetFile(fh)
+            cols = list(columns) if columns is not None else None
+            for batch in pf.iter_batches(batch_size=chunk_rows, columns=cols):
+                yield batch.to_pandas()
+
 
 def iter_columns(
     path: str | os.PathLike[str],
