@@ -855,7 +855,7 @@ def run_scenario(
         run.rec.flush()
         window_sink.close()
         # the summary reads the columns back in chunks: memory stays flat at any length
-        # and follower count (issue 35, item 11)
+        # and follower count
         df, table = None, window_sink.iter_read(summary_columns(run.n))
     res = run.cpu.result()
     world = run.world

@@ -550,7 +550,7 @@ class Sweep:
 
         # Ctrl-C and SIGTERM are held while the pool runs and acted on between waits: an
         # exception raised inside concurrent.futures.wait can leave a future's lock held,
-        # and the pool's manager thread then waits on it for ever (issue 35, item 8)
+        # and the pool's manager thread then waits on it for ever
         held: list[int] = []
         restore = _hold_signals(held)
         try:

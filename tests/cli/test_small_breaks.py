@@ -125,16 +125,8 @@ def test_every_generated_set_is_read_by_analyze(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "g"
-    argv = [
-        "generate",
-        "--tasks",
-        "5",
-        "--utilization",
-        "0.7",
-        "--periods",
-        "loguniform:0.01..1e6",
-    ]
-    assert main([*argv, "--count", "5", "--out", str(out)]) == 0
+    argv = "generate --tasks 5 --utilization 0.7 --periods loguniform:0.01..1e6 --count 5"
+    assert main([*argv.split(), "--out", str(out)]) == 0
     for f in sorted(out.glob("set_*.toml")):
         assert main(["analyze", str(f), "-q"]) in (0, 1), capsys.readouterr().err
     assert capsys.readouterr().err == ""

@@ -75,18 +75,17 @@ def test_interrupted_sweep_resumes_without_recomputing(
     """Ctrl-C: ``rtsim: interrupted``, exit 130; SIGTERM: ``rtsim: terminated``, exit 143
     (docs/reliability.md); no traceback, no other line; the rerun computes each missing
     point once."""
-    _interrupt_and_resume(tmp_path, sweep_file, reference, workers, sig, group)
+    _interrupt_and_resume(tmp_path, sweep_file, reference, (workers, sig, group))
 
 
 def _interrupt_and_resume(
     tmp_path: Path,
     sweep_file: Path,
     reference: pd.DataFrame,
-    workers: str,
-    sig: signal.Signals,
-    group: bool,
+    case: tuple[str, signal.Signals, bool],
     timeout: float = 60,
 ) -> None:
+    workers, sig, group = case
     out = tmp_path / "out"
     cmd = [
         sys.executable,
@@ -158,10 +157,10 @@ def test_interrupts_in_a_loop_under_a_cpu_hog(
     start = time.monotonic()
     try:
         for round_ in range(3):
-            for (workers, sig, group), name in zip(CASES, IDS, strict=True):
+            for case, name in zip(CASES, IDS, strict=True):
                 d = tmp_path / f"{round_}-{name}"
                 d.mkdir()
-                _interrupt_and_resume(d, sweep_file, reference, workers, sig, group, timeout=30)
+                _interrupt_and_resume(d, sweep_file, reference, case, timeout=30)
                 assert time.monotonic() - start < 600
     finally:
         for h in hogs:
