@@ -6,12 +6,14 @@ Robot Group Control". Times are in ms, lengths in cm, speeds in cm/s, angles in 
 The top level is a facade over the subpackages; the entry points load on first use, so
 ``import rtsim`` stays light:
 
-- :func:`run_scenario` (``rtsim.coupling``): one coupled robot run, schedule and world;
-- :func:`load_scenario` (``rtsim.io``): a scenario file, or a shipped one by name, with
+- [`run_scenario`][rtsim.run_scenario] (``rtsim.coupling``): one coupled robot run, schedule and
+world;
+- [`run_sweep`][rtsim.run_sweep]: a scenario over a grid (followers × Hough radii …), a DataFrame;
+- `load_scenario` (``rtsim.io``): a scenario file, or a shipped one by name, with
   dotted overrides;
-- :func:`simulate` (``rtsim.sim``): a task set on the virtual CPU;
-- :func:`analyze` (``rtsim.analysis``): exact response-time analysis of a task set;
-- :func:`load_taskset`, :func:`window_bounds`: a task-set file, the window's bounds.
+- [`simulate`][rtsim.simulate] (``rtsim.sim``): a task set on the virtual CPU;
+- [`analyze`][rtsim.analyze] (``rtsim.analysis``): exact response-time analysis of a task set;
+- `load_taskset`, [`window_bounds`][rtsim.window_bounds]: a task-set file, the window's bounds.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from rtsim.errors import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover
+    from rtsim._facade import run_sweep
     from rtsim.analysis import analyze, window_bounds
     from rtsim.coupling import run_scenario
     from rtsim.io import load_scenario, load_taskset
@@ -50,6 +53,7 @@ _LAZY: dict[str, str] = {
     "simulate": "rtsim._facade",  # these three take a task-set file too
     "analyze": "rtsim._facade",
     "window_bounds": "rtsim._facade",
+    "run_sweep": "rtsim._facade",  # a grid of runs in one call (not the rtsim.sweep package)
 }
 
 __all__ = [
@@ -68,6 +72,7 @@ __all__ = [
     "load_scenario",
     "load_taskset",
     "run_scenario",
+    "run_sweep",
     "simulate",
     "window_bounds",
 ]

@@ -39,7 +39,7 @@ def _allowed(word: str) -> int:
 def close_match(word: object, choices: Iterable[object], ratio: float | None = None) -> str | None:
     """The known name ``word`` most likely means, or None.
 
-    ``ratio``: instead of the rule above, :mod:`difflib`'s similarity ratio at least this
+    ``ratio``: instead of the rule above, `difflib`'s similarity ratio at least this
     (for a stricter test: is a new name a typo of an existing one?).
     """
     if not isinstance(word, str) or not word:
@@ -66,7 +66,7 @@ def did_you_mean(
     ratio: float | None = None,
     renamed: Mapping[str, str] | None = None,
 ) -> str:
-    """`` (did you mean 'x'?)`` for :func:`close_match`, or ``""``; ``renamed``: old names and
+    """`` (did you mean 'x'?)`` for `close_match`, or ``""``; ``renamed``: old names and
     their new ones (`` ('estimate' was renamed; did you mean 'paper'?)``)."""
     if renamed and isinstance(word, str) and word in renamed:
         return f" ('{word}' was renamed; did you mean '{renamed[word]}'?)"

@@ -1,11 +1,7 @@
-"""The installed version of rtsim (``rtsim.__version__``), for modules inside the package that
-must not import the top-level facade."""
-
-from importlib.metadata import PackageNotFoundError, version
+"""rtsim's version (``rtsim.__version__``): one static string, the source the package metadata
+takes (pyproject.toml reads it with ``attr:``), so that no command pays for a metadata look-up
+at start-up; for modules inside the package that must not import the top-level facade."""
 
 __all__ = ["__version__"]
 
-try:
-    __version__ = version("rtsim")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+unknown"
+__version__ = "0.1.0"

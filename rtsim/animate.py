@@ -3,7 +3,7 @@ schedule below, one frame per processing window (``rtsim animate RUN_DIR --out F
 
 Drawn from what ``rtsim scenario`` wrote — ``windows.csv`` (poses, w, w_sch, critical,
 v_leader), ``jobs.csv`` (the schedule) and ``manifest.json`` (follower radius, r_H) — through
-:func:`window_view`, the one place that knows windows.csv's column names. Each frame shows
+`window_view`, the one place that knows windows.csv's column names. Each frame shows
 the window's scan: every follower's true pose (filled) and the leader's estimate (hollow),
 its Hough window (a circle of radius r_H around the estimate; red in a critical window, when
 min MSB < w_sch), and the laser beams that hit each follower's disc (recomputed from the
@@ -208,7 +208,7 @@ def _animate(
     progress: Callable[[int, int], Any] | None,
     dpi: int,
 ) -> None:
-    """Render into the staging area of ``files`` (see :func:`animate_run`)."""
+    """Render into the staging area of ``files`` (see `animate_run`)."""
     import matplotlib
     from matplotlib import animation
     from matplotlib.collections import LineCollection

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from rtsim.errors import InputError
 
-__all__ = ["Example", "EXAMPLES", "example", "packaged_text"]
+__all__ = ["Example", "EXAMPLES", "example", "packaged_text", "shipped_hint"]
 
 
 @dataclass(frozen=True)
@@ -109,3 +109,20 @@ def packaged_text(path: str | os.PathLike[str], kind: str) -> str | None:
     if ex is None or ex.kind != kind or Path(name).exists():
         return None
     return ex.text()
+
+
+def shipped_hint(path: str | os.PathLike[str], kind: str) -> str:
+    """The end of a "no such file" message: `` (did you mean 'test2', shipped with rtsim?
+    ...)`` when the name is close to a shipped example of ``kind`` (``"scenario"``,
+    ``"taskset"``), a pointer to ``rtsim examples`` for another bare name, else ``""``."""
+    from rtsim._suggest import close_match
+
+    p = Path(path)
+    names = [e.name for e in EXAMPLES.values() if e.kind == kind]
+    guess = close_match(p.stem if p.suffix == ".toml" else p.name, names)
+    what = "task sets" if kind == "taskset" else f"{kind}s"
+    if guess is not None:
+        return f" (did you mean {guess!r}, shipped with rtsim? `rtsim examples` lists the {what})"
+    if str(p.parent) == "." and p.suffix == "":
+        return f" (`rtsim examples` lists the {what} shipped with rtsim, usable by name)"
+    return ""

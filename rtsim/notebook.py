@@ -1,15 +1,16 @@
 """Notebook display: short reprs and HTML reprs of results, figures shown as cell values.
 
-- :class:`ResultDisplay` (a mixin of :class:`~rtsim.coupling.ScenarioResult`,
-  :class:`~rtsim.sim.SimResult`, :class:`~rtsim.sweep.SweepOutcome` and
-  :class:`~rtsim.validate.ValidationOutcome`): ``repr`` is one line of headline facts,
+- `ResultDisplay` (a mixin of [`ScenarioResult`][rtsim.coupling.ScenarioResult],
+  [`SimResult`][rtsim.sim.SimResult], [`SweepOutcome`][rtsim.sweep.SweepOutcome] and
+  `ValidationOutcome`): ``repr`` is one line of headline facts,
   ``_repr_html_`` those facts and the ``summary_frame()`` table, so a result returned as a
   cell's value shows its summary rather than thousands of characters of DataFrames.
-- :func:`enable_figure_display`: a matplotlib ``Figure`` returned as a cell's value is shown as
+- `enable_figure_display`: a matplotlib ``Figure`` returned as a cell's value is shown as
   a PNG in any IPython kernel, with or without ``%matplotlib inline``, once: with the inline
   backend rtsim's figures are pyplot figures (``rtsim.plots.figure``), shown at the end
   of the cell or on ``plt.show()`` too, and a figure shown as the cell's value is closed so
-  that the backend does not show it again. Called when :mod:`rtsim.plots` is imported; does
+  that the backend does not show it again. Called when [`rtsim.plots`][rtsim.plots] is imported;
+  does
   nothing outside IPython.
 """
 
@@ -52,7 +53,7 @@ def _fmt(v: Any) -> str:
 
 
 class ResultDisplay:
-    """Mixin: one-line ``repr`` from :meth:`headline`, HTML from it and :meth:`summary_frame`.
+    """Mixin: one-line ``repr`` from `headline`, HTML from it and `summary_frame`.
 
     A class using it is a ``@dataclass(repr=False)`` that defines ``headline()`` (an ordered
     dict of a few scalar facts) and ``summary_frame()`` (a DataFrame).
@@ -105,7 +106,7 @@ def show_once(fig: Any) -> bytes:
 
 def enable_figure_display() -> bool:
     """Show a ``matplotlib.figure.Figure`` returned as a cell's value (or given to
-    ``display``) as a PNG, once: registers :func:`show_once` as the running IPython shell's
+    ``display``) as a PNG, once: registers `show_once` as the running IPython shell's
     PNG formatter of ``Figure``. Returns whether an IPython shell was found (nothing is done
     outside IPython)."""
     if "IPython" not in sys.modules:

@@ -3,9 +3,9 @@
 ``load_scenario("test2", overrides={"leader.speed": 20, "formation.followers": 4})`` changes
 the parsed TOML document before it is validated, with the paths a sweep's ``[sweep.set]`` and
 ``[grid]`` use and ``--set KEY=VALUE`` on the command line takes: one implementation,
-:mod:`rtsim.config.dotted`, kept here under its old names, and the run options of the sweep
+`rtsim.config.dotted`, kept here under its old names, and the run options of the sweep
 kinds that have a base file (names that are arguments, not keys of the file). A path that
-names no key of the file, or a run option, is an :class:`~rtsim.errors.OverrideError`; a value
+names no key of the file, or a run option, is an `OverrideError`; a value
 the file's model refuses is the loader's error (a ScenarioError, ...).
 """
 

@@ -1,6 +1,6 @@
 """One registry for every plug-in seam, and the one place that loads ``package.module:Name``.
 
-A :class:`Registry` maps names to plug-ins of one kind (scheduling policies, adjustment
+A `Registry` maps names to plug-ins of one kind (scheduling policies, adjustment
 policies, predictors, execution-time models, follower models, exporters, sweep kinds). A name
 resolves, in this order, to
 
@@ -8,19 +8,19 @@ resolves, in this order, to
 2. an installed entry point of the registry's group (``rtsim.schedulers``,
    ``rtsim.policies``, ...; the Python convention pytest and Sphinx use for their plug-ins);
 3. ``"package.module:Name"``: an object imported from a module — **code**. It is loaded only
-   when code is allowed (:func:`code_allowed`).
+   when code is allowed (`code_allowed`).
 
 Code is allowed by default in the library: a ``module:Name`` passed to a function is the
-caller's own choice. Reading an input file switches it off (:func:`reading_input`): a name
+caller's own choice. Reading an input file switches it off (`reading_input`): a name
 written in a task-set, scenario or sweep file resolves only to registered and entry-point
 plug-ins unless the user opts in with ``--allow-code`` on the command line or
-``allow_code=True`` in the API. A refused name is an :class:`~rtsim.errors.InputError` that
+``allow_code=True`` in the API. A refused name is an `InputError` that
 says how to opt in; its module is not imported. When code is loaded, the current directory is
 importable (as ``python -m`` and pytest make it), so ``--policy mymod:MyPolicy`` works from
 the directory that holds ``mymod.py``.
 
-This module is at the bottom of the package: it imports only :mod:`rtsim.errors` and
-:mod:`rtsim._suggest` (the did-you-mean, re-exported here).
+This module is at the bottom of the package: it imports only `rtsim.errors` and
+`rtsim._suggest` (the did-you-mean, re-exported here).
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def is_code_spec(spec: object) -> bool:
 
 def code_allowed() -> bool:
     """Whether a ``module:Name`` may be imported now: always, unless an input file is being
-    read without the user's opt-in (:func:`reading_input`)."""
+    read without the user's opt-in (`reading_input`)."""
     state = _IN_FILE.get()
     return True if state is None else state
 
@@ -80,7 +80,7 @@ def code_allowed() -> bool:
 def reading_input(allow_code: bool | None = None) -> Iterator[None]:
     """While an input file is read: code named in it loads only if ``allow_code``. ``None``:
     as the file that names this one (a scenario's task set), else as the user opted in
-    (:func:`opted_in`), else not."""
+    (`opted_in`), else not."""
     if allow_code is None:
         outer = _IN_FILE.get()
         allow_code = _OPTED_IN.get() if outer is None else outer
@@ -102,7 +102,7 @@ def opted_in(allow: bool = True) -> Iterator[None]:
 
 
 def file_allows_code(allow_code: bool | None = None) -> bool:
-    """What :func:`reading_input` ``(allow_code)`` would allow: for an API call that must pass
+    """What `reading_input` ``(allow_code)`` would allow: for an API call that must pass
     the decision on (a sweep's points, run in other processes)."""
     if allow_code is not None:
         return bool(allow_code)
@@ -114,7 +114,7 @@ def load_code(spec: str, where: str, *, allow_code: bool | None = None) -> Any:
     """The object ``"package.module:Name"`` names.
 
     Malformed strings, refused code (``allow_code`` False, or None and not
-    :func:`code_allowed`) and failed imports are one-line :class:`InputError` s naming
+    `code_allowed`) and failed imports are one-line `InputError` s naming
     ``where``; a refused module is never imported."""
     if not isinstance(spec, str) or not _CODE_SPEC.fullmatch(spec):
         raise InputError(f"{where}: {spec!r} is not 'package.module:Name'")
@@ -139,12 +139,12 @@ def load_code(spec: str, where: str, *, allow_code: bool | None = None) -> Any:
 
 class Registry(MutableMapping[str, T], Generic[T]):
     """Plug-ins of one kind by name (module doc): a mutable mapping of the registered ones,
-    with :meth:`resolve` for names, entry points and ``module:Name``.
+    with `resolve` for names, entry points and ``module:Name``.
 
     ``kind``: what a plug-in is, for messages ("scheduling policy"); ``group``: the entry-point
     group; ``check(obj, spec, where)``: validates (and may convert) a plug-in loaded from an
     entry point or from code (``spec`` the name it was loaded by), raising
-    :class:`InputError`."""
+    `InputError`."""
 
     def __init__(
         self,
@@ -188,7 +188,7 @@ class Registry(MutableMapping[str, T], Generic[T]):
 
     # -- resolution ---------------------------------------------------------------------
     def entry_point(self, name: str) -> Any | None:
-        """The object of the installed entry point ``name`` of :attr:`group`, or None."""
+        """The object of the installed entry point ``name`` of `group`, or None."""
         for ep in metadata.entry_points(group=self.group, name=name):
             return ep.load()
         return None
@@ -209,7 +209,7 @@ class Registry(MutableMapping[str, T], Generic[T]):
 
     def resolve(self, spec: str, where: str, *, allow_code: bool | None = None) -> T:
         """The plug-in ``spec`` names: registered, an entry point, or ``module:Name`` (code:
-        see :func:`load_code`). An unknown name is an :class:`InputError` with a
+        see `load_code`). An unknown name is an `InputError` with a
         did-you-mean."""
         if isinstance(spec, str) and spec in self._items:
             return self._items[spec]

@@ -1,6 +1,6 @@
 """``report.html``: one self-contained page per run directory.
 
-:func:`write_run_report` reads what a run already wrote — ``summary.json`` (or
+`write_run_report` reads what a run already wrote — ``summary.json`` (or
 ``summary.csv``), ``manifest.json``, the PNG figures, the data files — and writes
 ``report.html`` beside them: the summary table, the figures (embedded as base64 PNG, so the
 page is one file that can be mailed or archived), the assumptions table (the scenario's
@@ -28,7 +28,8 @@ _CSS = """
 body{font:14px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:2em auto;
 max-width:1100px;padding:0 1em;color:#222}
 h1{font-size:1.6em}h2{font-size:1.25em;border-bottom:1px solid #ddd;padding-bottom:.2em}
-table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.25em .6em;
+table{border-collapse:collapse;margin:.5em 0;max-width:100%}th{overflow-wrap:anywhere}
+td,th{border:1px solid #ccc;padding:.25em .6em;
 text-align:left;vertical-align:top}th{background:#f3f3f3}td.num{text-align:right;
 font-variant-numeric:tabular-nums}figure{margin:1em 0}img{max-width:100%;height:auto;
 border:1px solid #eee}figcaption{color:#555;font-size:.9em}pre{background:#f7f7f7;
@@ -55,6 +56,42 @@ def _kv_table(rows: Mapping[str, Any], header: tuple[str, str] = ("key", "value"
         for k, v in rows.items()
     )
     return f"<table><tr><th>{_esc(header[0])}</th><th>{_esc(header[1])}</th></tr>{body}</table>"
+
+
+#: Full names of the short summary columns (rtsim reproduce's summary.csv); a bound kind's
+#: column (``viol5_separation``) takes the bound's name after its kind's title.
+COLUMN_TITLES: dict[str, str] = {
+    "viol5": "window-follower pairs with a bound broken by more than 5 %",
+    "max_viol_ratio": "largest violation ratio (the world's bound over the predicted one)",
+    "viol": "window-follower pairs with a bound broken",
+    "missed": "deadline misses",
+    "tracks_lost": "lost tracks",
+    "seed": "seed",
+    "duration_s": "simulated time (s)",
+    "laps": "laps the leader drove",
+    "w_sch": "lower bound w_sch (ms)",
+    "windows": "processing windows",
+    "critical_share": "share of critical windows",
+    "min_msb_over_wsch": "smallest MSB over w_sch",
+    "min_speed_ratio": "lowest leader speed over V_Ld",
+    "methods": "how the windows were chosen",
+    "predictor": "predictor",
+    "formation_model": "follower model",
+    "max_response": "longest window response (ms)",
+    "wall_s": "wall-clock time (s)",
+}
+
+
+def column_title(name: str) -> str:
+    """The full name of a summary column (``viol5_separation`` → "… by more than 5 %:
+    separation bound"); a name without one is returned as it is."""
+    if name in COLUMN_TITLES:
+        return COLUMN_TITLES[name]
+    for short in sorted(COLUMN_TITLES, key=len, reverse=True):
+        if name.startswith(short + "_"):
+            kind = name[len(short) + 1 :].replace("_", " ")
+            return f"{COLUMN_TITLES[short]}: {kind} bound"
+    return name
 
 
 def _frame_table(columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
@@ -94,10 +131,27 @@ def _summary_section(run_dir: Path) -> str:
         import pandas as pd
 
         df = pd.read_csv(csv)
-        return "<h2>Summary</h2>" + _frame_table(
-            [str(c) for c in df.columns], df.astype(object).where(df.notna(), None).values.tolist()
-        )
+        return "<h2>Summary</h2>" + _summary_columns(df)
     return "<h2>Summary</h2><p class='muted'>No summary.json or summary.csv.</p>"
+
+
+def _summary_columns(df: Any) -> str:
+    """A summary table turned on its side so that it fits the page: one row per column of
+    ``df`` under its full name (`column_title`, the short name beside it), one column
+    per run (headed by its test and mode, or its row number)."""
+    label = [c for c in ("test", "mode") if c in df.columns]
+    heads = [
+        " / ".join(str(r[c]) for c in label) if label else f"run {i + 1}"
+        for i, (_, r) in enumerate(df.iterrows())
+    ]
+    values = df.astype(object).where(df.notna(), None)
+    rows = [
+        [f"{column_title(str(c))} ({c})" if column_title(str(c)) != str(c) else str(c)]
+        + list(values[c])
+        for c in df.columns
+        if c not in label
+    ]
+    return _frame_table(["", *heads], rows)
 
 
 def _assumptions(manifest: Any) -> dict[str, str]:

@@ -26,7 +26,8 @@ Writes to ``--out`` (default ``results/paper``):
   ``fig14_test2_bounds_detail``), the operating space of its Figure 2 per test
   (``fig02_<test>_operating_space``), and the three modes side by side
   (``modes_<test>_{window,bounds,speed,paths}``); every PNG has its data beside it as CSV
-  (same stem; :func:`rtsim.plots.scenario.figure_data`, the modes' stacked with a ``mode``
+  (same stem; [`rtsim.plots.scenario.figure_data`][rtsim.plots.scenario.figure_data], the modes'
+  stacked with a ``mode``
   column);
 - ``summary.csv`` / ``summary.md``: per test and mode, the counts and ratios of the run;
 - ``manifest.json``: rtsim version, seed, the scenario files' text, command line, timings.
@@ -74,7 +75,8 @@ PAPER_FIGURES: dict[int, tuple[str, str]] = {
 }
 #: The per-follower, per-kind detail beside Figs 10/14: number → (test, figure name).
 DETAIL_FIGURES: dict[int, tuple[str, str]] = {10: ("test1", "bounds"), 14: ("test2", "bounds")}
-#: Side-by-side mode figures: kind of :func:`rtsim.plots.scenario.plot_modes` → figure_data name.
+#: Side-by-side mode figures: kind of
+#: [`rtsim.plots.scenario.plot_modes`][rtsim.plots.scenario.plot_modes] → figure_data name.
 MODE_FIGURES: dict[str, str] = {
     "window": "window_slack",
     "bounds": "bounds",
@@ -244,7 +246,7 @@ def run_specs(
     """The six runs: every test in every mode, each with its output directory.
 
     With ``duration_s`` None the adjust runs take the scenario's default (at least one lap)
-    and the baselines are marked ``match_adjust``: :func:`run_all` runs them as long as the
+    and the baselines are marked ``match_adjust``: `run_all` runs them as long as the
     adjust run of their test, so the three modes cover the same simulated time.
     """
     return [
@@ -288,7 +290,7 @@ def figure_tasks(
     dpi: int | None = None,
 ) -> list[dict[str, Any]]:
     """One task per figure: what to draw, from which run(s), and where to write it (in
-    format ``fmt`` at ``dpi``; the docs' copies are always PNG at :data:`DOCS_DPI`)."""
+    format ``fmt`` at ``dpi``; the docs' copies are always PNG at `DOCS_DPI`)."""
     tasks: list[dict[str, Any]] = []
 
     def add(stem: str, kind: str, data: Any, title: str, name: str) -> None:
@@ -344,7 +346,7 @@ def figure_tasks(
 
 
 def make_figure(task: dict[str, Any]) -> tuple[Any, pd.DataFrame]:
-    """The figure of one figure task (:func:`figure_tasks`) and the data it draws."""
+    """The figure of one figure task (`figure_tasks`) and the data it draws."""
     from rtsim.plots.scenario import SCENARIO_FIGURES, figure_data, plot_modes
 
     kind, name, data = task["kind"], task["name"], task["data"]
@@ -468,7 +470,7 @@ def run_all(
     pool: ProcessPoolExecutor | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> dict[tuple[str, str], dict]:
-    """Run ``specs`` (see :func:`run_specs`); results keyed by (test, mode).
+    """Run ``specs`` (see `run_specs`); results keyed by (test, mode).
 
     Specs marked ``match_adjust`` run after the others, with the duration their test's adjust
     run reached (``summary['duration_s']``).
@@ -534,7 +536,7 @@ def _overrides(strings: list[str]) -> dict[str, Any]:
 
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one-line :class:`InputError`s (exit 2 in main)."""
+    """An argument parser whose errors are one-line `InputError`s (exit 2 in main)."""
 
     def error(self, message: str) -> Any:  # type: ignore[override]
         raise InputError(message)
@@ -618,14 +620,14 @@ def add_options(ap: Any, *, out_required: bool = False) -> None:
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    """The command line (module docstring); bad options raise :class:`InputError`."""
+    """The command line (module docstring); bad options raise `InputError`."""
     ap = _Parser(prog="rtsim reproduce", description=__doc__.splitlines()[0])
     add_options(ap)
     return ap.parse_args(argv)
 
 
 def main(argv: list[str] | None = None, finish: Callable[[Path], None] | None = None) -> int:
-    """``python -m rtsim.reproduce``: parse ``argv`` and :func:`run` (exit status)."""
+    """``python -m rtsim.reproduce``: parse ``argv`` and `run` (exit status)."""
     t0 = time.perf_counter()
     try:
         args = parse_args(argv)
@@ -643,9 +645,9 @@ def run(
     t0: float | None = None,
 ) -> int:
     """Run the six scenarios, draw the figures, write the tables (module docstring), for the
-    parsed options ``args`` (:func:`add_options`); returns the exit status.
+    parsed options ``args`` (`add_options`); returns the exit status.
 
-    ``--out`` is written whole (:mod:`rtsim.io.outdir`): into a staging directory beside it,
+    ``--out`` is written whole (`rtsim.io.outdir`): into a staging directory beside it,
     checked before the runs start, swapped in at the end. ``finish`` (the CLI's report
     writer) is called with the staging directory just before the swap; what it writes,
     ``report.html`` at the top and in each run directory, is listed in the manifest.

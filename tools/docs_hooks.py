@@ -45,10 +45,37 @@ def on_config(config: Any, **_: Any) -> Any:
     extra = []
     for path in sorted(docs.rglob("*")):
         rel = path.relative_to(docs).as_posix()
-        if (path.suffix not in (".md", ".ipynb") or rel in listed
-                or SKIP_DIRS & set(rel.split("/")[:-1])):
+        if (
+            path.suffix not in (".md", ".ipynb")
+            or rel in listed
+            or SKIP_DIRS & set(rel.split("/")[:-1])
+        ):
             continue
         extra.append({_title(path): rel})
     if extra:
         nav.append({"More": extra})
     return config
+
+
+#: The paper's symbols as the pages write them (docs/glossary.md explains each): a page that
+#: uses one and does not link the glossary gets a line pointing to it.
+SYMBOLS = re.compile(r"(?<![\w`])(?:r_H|w_sch|ρ_d|V_Ld|T_ρ|T_ε|e_hough|MSBs?|β_d|r_F)(?![\w])")
+GLOSSARY = "glossary.md"
+
+
+def glossary_line(markdown: str, src_uri: str) -> str:
+    """``markdown`` with a pointer to the glossary appended when it uses the paper's symbols
+    and links no glossary (``src_uri``: the page's path under docs/)."""
+    if src_uri == GLOSSARY or GLOSSARY in markdown or not SYMBOLS.search(markdown):
+        return markdown
+    if src_uri.endswith(".ipynb"):
+        return markdown
+    up = "../" * src_uri.count("/")
+    return (
+        markdown.rstrip("\n")
+        + f"\n\n---\n\n*Symbols* (n, r_H, w_sch, ρ_d, MSB …): the [glossary]({up}{GLOSSARY}).\n"
+    )
+
+
+def on_page_markdown(markdown: str, page: Any, **_: Any) -> str:
+    return glossary_line(markdown, page.file.src_uri)

@@ -1,9 +1,9 @@
 """Blocking on shared resources: preemption levels, resource ceilings and blocking terms.
 
-A task's critical sections (:class:`~rtsim.model.task.CriticalSection`) hold a shared
+A task's critical sections (`CriticalSection`) hold a shared
 resource exclusively; the resource protocol decides how a job waits for one
 (docs/resources.md). All three protocols rtsim knows are *ceiling* protocols in the stack
-form, which the simulator runs (:mod:`rtsim.sim.cpu`) and this module bounds:
+form, which the simulator runs (`rtsim.sim.cpu`) and this module bounds:
 
 - every task has a **preemption level** π: under fixed priorities its priority (a smaller
   number is a higher level), under EDF its relative deadline (a shorter deadline is a higher
@@ -29,7 +29,8 @@ section of a lower-priority task j
     B_i = max { |z| : z a section of j, P_j < P_i }                            (npr)
 
 and its response time is the least fixed point of R = B_i + C_i + Σ_hp ⌈(R + J_j)/T_j⌉ C_j
-(:func:`rtsim.analysis.rta.busy_window`). With suspensions that leave the CPU idle, a lower
+([`rtsim.analysis.rta.busy_window`][rtsim.analysis.rta.busy_window]). With suspensions that leave
+the CPU idle, a lower
 job can lock a resource each time a job of i suspends, so each compute stretch of i can be
 blocked once (Rajkumar 1991): B_i is charged once per compute stretch of every job.
 

@@ -11,11 +11,12 @@
   maximum over T_lp. w_sch = max(Eq 7, Eq 11). Release jitter (the paper has none; a task's
   or the window's ``jitter``) shortens a task's own time to D − J and adds ⌈J_j/P_j⌉ jobs
   of each jittered higher task (``_sufficient``).
-- w_rta: the least w at which the exact analysis (:func:`rtsim.analysis.rta.analyze`, chain as
+- w_rta: the least w at which the exact analysis
+([`rtsim.analysis.rta.analyze`][rtsim.analysis.rta.analyze], chain as
   one task of cost g) finds every task schedulable.
 - w_susp: the least w at which the suspension-aware analysis (Δt with the CPU idle,
-  :mod:`rtsim.analysis.suspension`) finds every task schedulable; w_susp ≤ w_rta.
-- w_edf: the least w at which the EDF processor-demand criterion (:mod:`rtsim.analysis.edf`,
+  `rtsim.analysis.suspension`) finds every task schedulable; w_susp ≤ w_rta.
+- w_edf: the least w at which the EDF processor-demand criterion (`rtsim.analysis.edf`,
   Δt counted as CPU time: suspension-oblivious, sound with the CPU idle too) accepts the set
   (the CPU running EDF). With Δt as CPU time EDF is optimal, so w_edf ≤ w_rta; with the CPU
   idle during Δt it is a comparison, not a floor (Ridouard, Richard & Cottet 2004).
@@ -26,7 +27,8 @@ non-decreasing in w; a job that meets its deadline at w therefore meets it at an
 the feasible windows form a ray [w_rta, ∞). Its left end is attained: the demand at fixed t
 is constant on intervals closed on the left, [t/(m c_j), t/((m−1) c_j)). So w_rta is either
 R/d_i (a deadline d_i·w meeting a response R) or a breakpoint R/(m·c_j) where a ceiling
-changes. :func:`w_rta` brackets it by bisection and then snaps to that closed form.
+changes. [`w_rta`][rtsim.analysis.bounds.w_rta] brackets it by bisection and then snaps to that
+closed form.
 """
 
 from __future__ import annotations
@@ -155,7 +157,8 @@ def w_rta(ts: TaskSet) -> float:
 def w_susp(ts: TaskSet, overhead: float | None = None) -> float:
     """The least window w at which the suspension-aware analysis accepts every task (ms).
 
-    Bisected like :func:`w_rta`, then checked against the closed forms where the verdict can
+    Bisected like [`w_rta`][rtsim.analysis.bounds.w_rta], then checked against the closed forms
+    where the verdict can
     change (a scaled deadline d·w met by a bound R: R/d; a window-scaled higher task's ceiling
     ⌈(R + J)/(m·c)⌉ stepping: (R + J)/(m·c), for its own jitter and for R_w − C_w): the
     result is the least such candidate within 1e-8 ms of the bisection's end at which the
@@ -210,7 +213,8 @@ def w_edf(ts: TaskSet, overhead: float | None = None) -> float:
 
     Feasibility is monotone in w (every period and deadline is non-decreasing in w, so each
     ⌊(t + J − D)/T⌋ and h(t) are non-increasing), so the result is bisected like
-    :func:`w_rta` to 1e-13 relative and checked: the criterion passes at the result and fails
+    [`w_rta`][rtsim.analysis.bounds.w_rta] to 1e-13 relative and checked: the criterion passes at
+    the result and fails
     just below it. Where U(w) = 1 binds (implicit deadlines, as the paper's set) the result
     is the closed form w = Σ_scaled(C/c)/(1 − U_fixed), to the ulp: the least float at which
     the criterion, taking U as computed, passes. ``inf`` when no w up to ``W_MAX`` passes.
@@ -270,9 +274,10 @@ def lower_bound(
     suspension: str = "idle",
     where: str = "lower_bound",
 ) -> float:
-    """The window lower bound ``name`` (:data:`LOWER_BOUNDS`) for a CPU run with ``scheduler``
+    """The window lower bound ``name`` (`LOWER_BOUNDS`) for a CPU run with ``scheduler``
     and ``suspension``; a bound whose model does not match is an input error: w_sch, w_rta,
-    w_susp and w_txn (the offset-based bound, :func:`rtsim.analysis.transaction.w_txn`, under
+    w_susp and w_txn (the offset-based bound,
+    [`rtsim.analysis.transaction.w_txn`][rtsim.analysis.transaction.w_txn], under
     ``suspension``) are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only
     with Δt leaving the CPU idle."""
     from rtsim.errors import InputError

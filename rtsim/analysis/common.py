@@ -1,6 +1,6 @@
 """What the analyses share: the tolerances of their comparisons, ⌈x/p⌉ with them, the compute
 stretches of a job, and the level-i busy window (the numerics are described in
-:mod:`rtsim.analysis.rta`, Numerics)."""
+`rtsim.analysis.rta`, Numerics)."""
 
 from __future__ import annotations
 
@@ -51,7 +51,7 @@ def busy_window(
     Tindell, Burns & Wellings 1994). None once a response passes D (+ 1e-9 ms), at once when
     the level-i utilization exceeds 1 and the window cannot close, or after MAX_BUSY_JOBS jobs.
     ``blocking`` B (ms) is charged once per busy window, w = B + (q+1)·C + Σ ⌈(w + J_j)/T_j⌉·C_j
-    (a lower-priority critical section, :mod:`rtsim.analysis.blocking`).
+    (a lower-priority critical section, [`rtsim.analysis.blocking`][rtsim.analysis.blocking]).
     """
     limit = d + DEADLINE_TOL
     if c / t + math.fsum(cj / tj for cj, tj, _ in hp) > 1.0 + 1e-12 and (d > t or j > 0):

@@ -45,7 +45,8 @@ exactly.
 
 **Where Spuri's search does not close** (U = 1 with jitter, or periods without a common
 multiple, so the synchronous busy period is unbounded) and the demand criterion accepts the
-set, every job meets its deadline, so D is a valid bound: :func:`analyze_edf` reports it with
+set, every job meets its deadline, so D is a valid bound:
+[`analyze_edf`][rtsim.analysis.edf.analyze_edf] reports it with
 ``bound = "deadline"`` (``"spuri"`` where Spuri's bound is used). When the criterion fails
 and the search does not close, there is no bound (``"none"``).
 
@@ -57,7 +58,7 @@ analysis is used. **Overhead** o: each job is charged 2·o per compute stretch (
 in, and the resumption of the job it preempted; under EDF a preemption happens only when a
 job starts a stretch).
 
-Numerics as :mod:`rtsim.analysis.rta`: ceilings ⌈(x − ε)/p⌉ and floors ⌊(x + ε)/p⌋ with an
+Numerics as `rtsim.analysis.rta`: ceilings ⌈(x − ε)/p⌉ and floors ⌊(x + ε)/p⌋ with an
 absolute ε = 1e-9 ms (both count a job whose boundary is within ε: sound), and h(t) ≤ t
 within 1e-9 ms.
 """
@@ -263,7 +264,8 @@ def spuri_wcrt(
     """Spuri's worst-case response time of task ``tasks[i]`` under EDF (module doc), from
     arrival; None when the synchronous busy period does not close (U > 1, or U = 1 with
     jitter: the search over arrivals has no end). ``blocking``: B(t) of
-    :func:`rtsim.analysis.blocking.edf_blocking`; the job due at d = a + D_i is delayed by
+    [`rtsim.analysis.blocking.edf_blocking`][rtsim.analysis.blocking.edf_blocking]; the job due at d
+    = a + D_i is delayed by
     at most one section of a job due after d that started before the busy period, so
     L_i(a) gains B(d) (and the busy period the largest B)."""
     bmax = 0.0 if blocking is None else blocking(min(d - j for _, _, d, j in tasks))
@@ -309,7 +311,8 @@ def spuri_wcrt(
 
 
 def edf_arrivals(ts: TaskSet, w: float | None = None, overhead: float | None = None) -> float:
-    """The arrivals :func:`spuri_wcrt` examines for ``ts`` at window ``w``, an upper bound
+    """The arrivals [`spuri_wcrt`][rtsim.analysis.edf.spuri_wcrt] examines for ``ts`` at window
+    ``w``, an upper bound
     computed before the search: for each task, every arrival of every task in the
     synchronous busy period L_b, tasks × Σ (L_b / T + 1) (0 when L_b does not close: the
     bound is then not searched). Computing L_b is itself bounded (MAX_BUSY_STEPS)."""
@@ -416,13 +419,15 @@ def analyze_edf(
     resources: str | None = None,
 ) -> EdfAnalysis:
     """The EDF analysis of ``ts`` (at window ``w`` for a processing-window set: default the
-    analytic w_sch, as :func:`rtsim.analysis.rta.analyze`). ``overhead`` defaults to the
+    analytic w_sch, as [`rtsim.analysis.rta.analyze`][rtsim.analysis.rta.analyze]). ``overhead``
+    defaults to the
     set's; ``suspension`` ("cpu" or "idle") is recorded, the analysis is
     suspension-oblivious either way (sound for both).
 
     Critical sections (``resources``: ``srp`` or ``npr``, default the set's protocol): the
     demand criterion adds Baker's blocking term, h(t) + B(t) ≤ t
-    (:func:`rtsim.analysis.blocking.edf_blocking`), and Spuri's bound B(a + D_i); each
+    ([`rtsim.analysis.blocking.edf_blocking`][rtsim.analysis.blocking.edf_blocking]), and Spuri's
+    bound B(a + D_i); each
     task's ``blocking`` is B(D_i − J_i), the most a job of it can be blocked. Under
     ``suspension="idle"`` a job can be blocked once per compute stretch; this analysis
     charges it once and refuses a set whose tasks with sections or below them suspend."""

@@ -52,7 +52,7 @@ BOUND_KINDS: tuple[str, ...] = ("localization", "separation", "path_diversion", 
 
 LocalizationKind = Literal["radial", "full", "predicted"]
 #: The decision's localization bound: Eq 19 (radial), the full displacement, or the bound on
-#: what a predicted window centre leaves (:func:`msb_localization_predicted`).
+#: what a predicted window centre leaves (`msb_localization_predicted`).
 LOCALIZATION_KINDS: tuple[str, ...] = ("radial", "full", "predicted")
 
 _TWO_PI = 2.0 * math.pi
@@ -238,7 +238,7 @@ class Thresholds:
     T_beta: float
     localization: LocalizationKind = "radial"
     #: with ``localization = "predicted"``: the bound (ms) on what the predicted window
-    #: centre leaves (:func:`msb_localization_predicted`), the same for every follower
+    #: centre leaves (`msb_localization_predicted`), the same for every follower
     predicted_ms: float = math.inf
 
     def __post_init__(self) -> None:
@@ -270,7 +270,8 @@ def scalar_msbs(
     rho_d: float,
     thr: Thresholds,
 ) -> tuple[float, float, float, float]:
-    """:func:`follower_msbs` for scalars, as a tuple in :data:`BOUND_KINDS` order (the hot
+    """[`follower_msbs`][rtsim.analysis.kinematics.follower_msbs] for scalars, as a tuple in
+    `BOUND_KINDS` order (the hot
     path of the coupled run: no dict, no array checks; the same operations)."""
     rd = v_f * math.cos(theta + beta) - v_l * math.cos(beta)
     bd = (v_l * math.sin(beta) - v_f * math.sin(beta + theta)) / rho - omega_l
@@ -299,7 +300,7 @@ def follower_msbs(
     rho_d: float,
     thr: Thresholds,
 ) -> dict[str, float]:
-    """The four bounds of one follower (ms), keyed as :data:`BOUND_KINDS`.
+    """The four bounds of one follower (ms), keyed as `BOUND_KINDS`.
 
     ``localization`` is Eq 19 or the full form, as ``thr.localization`` says.
     """

@@ -37,7 +37,7 @@ finishes later than D + 1e-9 ms).
 
 A processing-window set is analysed at a fixed window w, its chain counted as one task of
 cost g, the radio round trip Δt included as if it used the CPU (suspension-oblivious, as the
-paper does); see :meth:`rtsim.model.taskset.TaskSet.at_window`.
+paper does); see [`rtsim.model.taskset.TaskSet.at_window`][rtsim.model.taskset.TaskSet.at_window].
 """
 
 from __future__ import annotations
@@ -91,13 +91,15 @@ def response_time(
     """Worst-case response time of ``task`` below the tasks ``higher`` (ms, from arrival).
 
     Exact for independent tasks without offsets (release jitter, arbitrary deadlines; see
-    :func:`busy_window`), with the context-switch ``overhead`` charged as in the module doc.
+    [`busy_window`][rtsim.analysis.rta.busy_window]), with the context-switch ``overhead`` charged
+    as in the module doc.
     Returns ``None`` as soon as a response passes the task's deadline (not schedulable); at
     once when the level-i utilization exceeds 1 and the busy window cannot close; and if a
     level-i busy period has not closed after ``MAX_BUSY_JOBS`` jobs (only possible at a
     level-i utilization of 1 up to rounding with a huge hyperperiod). Near utilization 1 a
     D > p busy period can be long, and the analysis slow (seconds). ``blocking``: the task's
-    blocking term B (ms, :func:`rtsim.analysis.blocking.fp_blocking`), charged once.
+    blocking term B (ms,
+    [`rtsim.analysis.blocking.fp_blocking`][rtsim.analysis.blocking.fp_blocking]), charged once.
     """
     _check_resolved(task)
     for t in higher:
@@ -135,12 +137,13 @@ class Analysis:
 
     ``w`` is the processing window the set was analysed at (``None`` without a window).
     ``liu_layland`` and ``hyperbolic`` are ``False`` where those tests do not apply (see
-    :mod:`rtsim.analysis.utilization`); ``schedulable`` is the exact verdict. ``overhead`` is
+    `rtsim.analysis.utilization`); ``schedulable`` is the exact verdict. ``overhead`` is
     the context-switch cost charged (ms); ``offsets_ignored`` says that some task has an
     offset, which the analysis ignores (sound, possibly pessimistic). ``suspension`` is
     ``"cpu"`` (suspensions counted as computation), ``"idle"`` (suspension-aware,
-    :mod:`rtsim.analysis.suspension`) or ``"either"`` (each task the larger of the two:
-    :func:`analyze`'s default for a set that suspends and has critical sections).
+    `rtsim.analysis.suspension`) or ``"either"`` (each task the larger of the two:
+    [`analyze`][rtsim.analysis.rta.analyze]'s default for a set that suspends and has critical
+    sections).
     """
 
     tasks: tuple[TaskResult, ...]
@@ -219,7 +222,7 @@ def analysis_inputs(
 def suspends_with_sections(ts: TaskSet, tasks: Sequence[Task]) -> bool:
     """Whether ``ts`` has critical sections and some of ``tasks`` (its analysed tasks, the
     window chain among them) a suspension: then only the suspension-aware analysis charges
-    the blocking a suspension lets in (:func:`analyze`)."""
+    the blocking a suspension lets in ([`analyze`][rtsim.analysis.rta.analyze])."""
     return ts.has_sections and any(seg.kind == "suspend" for t in tasks for seg in t.chain())
 
 
@@ -250,19 +253,23 @@ def analyze(
     """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,
     default the set's ``overhead``). ``suspension="idle"``: suspensions leave the CPU free and
     each task takes the smaller of its sound suspension-aware bounds
-    (:func:`rtsim.analysis.suspension.suspension_aware`); ``"cpu"``: they count as computation.
+    ([`rtsim.analysis.suspension.suspension_aware`][rtsim.analysis.suspension.suspension_aware]);
+    ``"cpu"``: they count as computation.
     Default (None): sound whichever the simulator runs. Counting a suspension as computation
     is sound for both unless a set with critical sections also suspends (a job can then be
     blocked once per compute stretch, which ``"cpu"`` does not charge): such a set gets each
     task's larger bound of the two (``suspension="either"`` in the result); any other ``"cpu"``.
 
     A set with a ``[window]`` is analysed at window ``w`` (default: the analytic w_sch of
-    :func:`rtsim.analysis.bounds.w_sch_of`), the chain as one task of cost g with period
+    [`rtsim.analysis.bounds.w_sch_of`][rtsim.analysis.bounds.w_sch_of]), the chain as one task of
+    cost g with period
     and deadline w, per-window periods resolved. ``w`` is an error for a set without one.
 
-    Critical sections: each task's blocking term B (:func:`rtsim.analysis.blocking.fp_blocking`)
+    Critical sections: each task's blocking term B
+    ([`rtsim.analysis.blocking.fp_blocking`][rtsim.analysis.blocking.fp_blocking])
     under ``resources`` (``pcp``, ``srp``, ``npr``; default the set's protocol,
-    :meth:`~rtsim.model.taskset.TaskSet.resource_protocol`) is part of its response time,
+    [`resource_protocol`][rtsim.model.taskset.TaskSet.resource_protocol]) is part of its response
+    time,
     once per compute stretch under ``suspension="idle"``.
     """
     from rtsim.analysis.blocking import check_protocol, fp_blocking

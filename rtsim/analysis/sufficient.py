@@ -1,5 +1,5 @@
 """The paper's sufficient lower bound on the processing window, w_sch = max(Eq 7, Eq 11)
-(docs/model/lower-bound.md; the general form is described in :mod:`rtsim.analysis.bounds`):
+(docs/model/lower-bound.md; the general form is described in `rtsim.analysis.bounds`):
 Eq 7 for the chain, Eq 11 over the tasks below it, both from ⌈x⌉ ≤ x + 1, the ceiling kept
 exact where both periods scale with w or both are fixed."""
 
@@ -22,10 +22,10 @@ __all__ = ["as_taskset", "w_eq7_of", "w_eq11_of", "w_sch_of", "window_or_w_sch"]
 
 
 def as_taskset(ts: object, function: str) -> TaskSet:
-    """``ts`` if it is a :class:`~rtsim.model.taskset.TaskSet`; else a
-    :class:`~rtsim.errors.TaskSetError` naming ``function`` (the analyses take task sets; a
-    file is read above them: :func:`rtsim.load_taskset`, or the facade's :func:`rtsim.analyze`
-    and :func:`rtsim.window_bounds`, which take a path too)."""
+    """``ts`` if it is a [`TaskSet`][rtsim.model.taskset.TaskSet]; else a
+    `TaskSetError` naming ``function`` (the analyses take task sets; a
+    file is read above them: `rtsim.load_taskset`, or the facade's [`rtsim.analyze`][rtsim.analyze]
+    and [`rtsim.window_bounds`][rtsim.window_bounds], which take a path too)."""
     from rtsim.model.taskset import TaskSet
 
     if isinstance(ts, TaskSet):
@@ -127,7 +127,7 @@ def w_sch_of(ts: TaskSet) -> float:
 def window_or_w_sch(ts: TaskSet, w: float | None = None) -> float:
     """The window a processing-window set is analysed or simulated at: ``w`` when given, else
     the analytic bound w_sch (the one place that decides it). An infinite w_sch is a
-    :class:`~rtsim.errors.TaskSetError`: T_hp saturates the CPU, a window must be given."""
+    `TaskSetError`: T_hp saturates the CPU, a window must be given."""
     if w is not None:
         return w
     w_sch = w_sch_of(ts)

@@ -5,7 +5,8 @@ Only treatments that the survey of Chen, Nelissen, Huang, Yang, Kim, Brandenburg
 Real-Time Systems 55 (2019), confirms sound are used (docs/model/beyond.md):
 
 (a) **suspension-oblivious**: every suspension counted as computation (the paper's Eqs 7/11 and
-    :func:`rtsim.analysis.rta.response_time`); sound for every task, suspending or not.
+    [`rtsim.analysis.rta.response_time`][rtsim.analysis.rta.response_time]); sound for every task,
+    suspending or not.
 (b) **segmented**, for a suspending task whose higher-priority tasks do not suspend: each
     compute stretch's response with its own critical instant, plus every suspension:
     R = J + Σ_s R_s + Σ S, with R_s the least fixed point of w = C_s + Σ_hp ⌈(w + J_j)/T_j⌉ C_j.
@@ -19,11 +20,11 @@ Real-Time Systems 55 (2019), confirms sound are used (docs/model/beyond.md):
 (d) **unified**, for any task below a suspending one, including a suspending task below
     suspending ones (which (b) and (c) leave to (a)): Theorem 1 of Chen, Nelissen & Huang,
     ECRTS 2016, each higher task's suspension either as jitter R_i − C_i or as computation
-    with its carry-in, as the survey states it (:mod:`rtsim.analysis.unified`).
+    with its carry-in, as the survey states it (`rtsim.analysis.unified`).
 
 Each task takes the least of its sound bounds: (a) and, where they apply, (b) or (c), and (d)
 — the jitter form can count one more window job than the oblivious one, so none dominates.
-Context-switch overhead o is charged as in :mod:`rtsim.analysis.rta` (2·o per higher compute
+Context-switch overhead o is charged as in `rtsim.analysis.rta` (2·o per higher compute
 stretch, o per own stretch). Offsets are ignored (sound).
 """
 
@@ -127,7 +128,8 @@ def suspension_aware(
     """Bounds of every task of a resolved set, highest priority first (module doc).
 
     ``blocking``: each task's blocking term B (in the order of ``tasks``,
-    :mod:`rtsim.analysis.blocking`); a lower job can lock a resource while a job suspends, so
+    [`rtsim.analysis.blocking`][rtsim.analysis.blocking]); a lower job can lock a resource while a
+    job suspends, so
     each compute stretch of a job can be blocked once: every bound charges B per stretch."""
     o = float(overhead)
     order = sorted(range(len(tasks)), key=lambda k: tasks[k].priority)

@@ -46,8 +46,8 @@ and jobs of the step's own task cannot run while it is pending). The task's boun
 largest over its jobs of the last stretch's completion (plus a trailing suspension) from the
 job's arrival.
 
-Context-switch overhead o as in :mod:`rtsim.analysis.rta`: 2·o per interfering stretch, o per
-own stretch. Times in ms. Ceilings take x 1e-9 ms lower (:func:`rtsim.analysis.rta.ceil_div`);
+Context-switch overhead o as in `rtsim.analysis.rta`: 2·o per interfering stretch, o per
+own stretch. Times in ms. Ceilings take x 1e-9 ms lower (`rtsim.analysis.rta.ceil_div`);
 phases within 1e-9 ms of a multiple of the period are taken as 0 (the earlier, the more
 interference). Suspensions count as computation under ``suspension="cpu"``.
 
@@ -145,7 +145,7 @@ def _phase(phi_j: float, phi_k: float, j_k: float, period: float) -> float:
 
 class _Budget:
     """The interference terms (one step of one W_ik) the analysis may still evaluate
-    (``None``: no limit); over it, :class:`~rtsim.io.work.TooMuchWork` naming ``where``."""
+    (``None``: no limit); over it, `TooMuchWork` naming ``where``."""
 
     def __init__(self, limit: float | None, where: str) -> None:
         self.left = math.inf if limit is None else limit
@@ -291,7 +291,7 @@ def analyze_transactions(
     largest response of its jobs from their arrivals (ms), or None where the task's bound
     passes the next arrival of its task (the analysis does not apply to it and to every
     task below it). Deadlines are not checked here. ``budget``: the most interference terms
-    to evaluate (None: no limit); beyond it :class:`~rtsim.io.work.TooMuchWork` naming
+    to evaluate (None: no limit); beyond it `TooMuchWork` naming
     ``where``.
 
     ``known``: sound bounds (ms from arrival) that other analyses give for some tasks. A job
@@ -457,15 +457,15 @@ def transaction_bounds(
 ) -> dict[str, float | None]:
     """Offset-based WCRT of every task of ``ts`` at window ``w`` (ms from arrival; None where
     it passes the task's deadline or the analysis does not apply, as for a set with
-    critical sections), fixed priority. ``shifts``: as for :func:`transactions_of` (a
+    critical sections), fixed priority. ``shifts``: as for `transactions_of` (a
     simulation whose releases put per-window tasks' arrivals elsewhere than their offsets
     from the window's, e.g. jitter "worst", which moves every task's arrivals by the largest
     jitter less its own).
 
-    Work limit (the command line's, :data:`rtsim.io.work.LIMITS` ``interference``): the
-    least work of the analysis, :func:`transaction_work`, is checked before it starts, and
+    Work limit (the command line's, `rtsim.io.work.LIMITS` ``interference``): the
+    least work of the analysis, `transaction_work`, is checked before it starts, and
     the terms it evaluates are counted as it runs; above the limit
-    :class:`~rtsim.io.work.TooMuchWork` (one line, exit 2 on the command line) unless
+    `TooMuchWork` (one line, exit 2 on the command line) unless
     ``force=True`` (``--force``)."""
     from rtsim.analysis.rta import analyze
     from rtsim.io.work import LIMITS, check_work
@@ -493,7 +493,9 @@ def transaction_bounds(
 
 
 def _least_work(transactions: Sequence[Transaction], suspension: str) -> float:
-    """The interference terms :func:`analyze_transactions` evaluates at the least: for each
+    """The interference terms
+    [`analyze_transactions`][rtsim.analysis.transaction.analyze_transactions] evaluates at the
+    least: for each
     compute stretch, one fixed-point step per candidate instant of its own transaction
     (its higher steps there, and itself) over every higher step of every transaction (the
     other transactions' W*_i take the maximum over their steps, |steps|² terms). A bound
@@ -513,8 +515,9 @@ def _least_work(transactions: Sequence[Transaction], suspension: str) -> float:
 
 
 def transaction_work(ts: TaskSet, w: float | None, *, suspension: str = "idle") -> float:
-    """The least work of :func:`transaction_bounds` for ``ts`` at ``w`` (interference terms,
-    :func:`_least_work`), the estimate its work limit checks before it starts."""
+    """The least work of [`transaction_bounds`][rtsim.analysis.transaction.transaction_bounds] for
+    ``ts`` at ``w`` (interference terms,
+    `_least_work`), the estimate its work limit checks before it starts."""
     return _least_work(transactions_of(ts, w), suspension)
 
 
@@ -528,8 +531,9 @@ def w_txn(
 ) -> float:
     """The least window w (ms, to ``tol``) at which every task of the processing-window set
     ``ts`` has a bound within its deadline, each task taking the least of its sound bounds
-    (:func:`transaction_bounds`). Feasibility need not be monotone in w (the offsets move
-    with it), so the search is :func:`rtsim.analysis.validation.smallest_passing`: bisection
+    ([`transaction_bounds`][rtsim.analysis.transaction.transaction_bounds]). Feasibility need not be
+    monotone in w (the offsets move
+    with it), so the search is `rtsim.analysis.validation.smallest_passing`: bisection
     from above the suspension-aware w_susp (or w_rta under ``suspension="cpu"``), which
     passes, with a scan of 20 windows above the result. ``inf`` when that start is."""
     from rtsim.analysis.bounds import w_rta, w_susp

@@ -20,7 +20,7 @@ by Q. This is the case that rtsim's other suspension-aware bounds leave to the
 suspension-oblivious one: a suspending task below suspending tasks (the task's own
 suspension is counted as computation here, so the bound also covers tasks that suspend).
 
-rtsim's use of it (:func:`unified_bound`):
+rtsim's use of it ([`unified_bound`][rtsim.analysis.unified.unified_bound]):
 
 - x_i = 1 only for a higher task without release jitter (the theorem is for sporadic
   releases); a jittered one always gets x_i = 0, its R_i counted from arrival (its compute
@@ -31,7 +31,7 @@ rtsim's use of it (:func:`unified_bound`):
 - it applies only when every higher task has a bound R_i ≤ T_i and τ_k has D_k ≤ T_k, and its
   result (plus τ_k's own release jitter J_k, from arrival) is kept only when it is at most
   min(D_k, T_k), so that no two jobs of τ_k are ever pending together;
-- context-switch overhead o as in :mod:`rtsim.analysis.rta`: C_i + 2·o·s_i per higher job,
+- context-switch overhead o as in `rtsim.analysis.rta`: C_i + 2·o·s_i per higher job,
   C_k + o·s_k for τ_k (s: compute stretches); the jitter stays R_i − C_i with the bare C_i.
 """
 

@@ -7,12 +7,13 @@ Both are *sufficient* tests, and only for independent periodic tasks with implic
 (D_i = p_i) under rate-monotonic priorities (a shorter period never has a lower priority).
 When a set is not of that kind the tests do not apply and both functions return ``False``,
 which always means "not proven schedulable by this test", never "unschedulable";
-:func:`rm_implicit` tells the two cases apart. The exact answer is
-:func:`rtsim.analysis.rta.analyze`.
+[`rm_implicit`][rtsim.analysis.utilization.rm_implicit] tells the two cases apart. The exact answer
+is
+[`rtsim.analysis.rta.analyze`][rtsim.analysis.rta.analyze].
 
 The functions take any objects with ``period``, ``deadline``, ``priority`` and
-``utilization`` attributes: :class:`~rtsim.model.task.Task` (periods in ms) or
-:class:`~rtsim.analysis.rta.TaskResult`.
+``utilization`` attributes: [`Task`][rtsim.model.task.Task] (periods in ms) or
+[`TaskResult`][rtsim.analysis.rta.TaskResult].
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ percentiles, the failure checker and the summary numbers (docs/model/lower-bound
 No simulator here: the search takes the simulation as a predicate ``passes(w) -> bool``
 ("no deadline miss at window w"), and the checker reads a results table.
 
-**w_sim search** (:func:`smallest_passing`). Feasibility in simulation need not be monotone in
+**w_sim search** (`smallest_passing`). Feasibility in simulation need not be monotone in
 w (with idle suspensions and varying execution times the phasing against T_hp changes with
 w), so the search is bisection *plus a scan*:
 
@@ -18,10 +18,10 @@ w), so the search is bisection *plus a scan*:
 The result is the least w, to ``tol``, above which none of the windows tried failed: the
 "threshold" definition of w_sim. ``nonmonotone`` counts the scan failures seen. With WCET
 execution, suspensions as CPU time and synchronous releases the simulation is the critical
-instant and feasibility is monotone (the argument of :mod:`rtsim.analysis.bounds`), so the
+instant and feasibility is monotone (the argument of `rtsim.analysis.bounds`), so the
 scan never fires and w_sim lands within tol above w_rta.
 
-**Checks** (:func:`check_results`), on the tidy table of :mod:`rtsim.validate` (one row per
+**Checks** (`check_results`), on the tidy table of `rtsim.validate` (one row per
 configuration, task and mode): a simulated maximum response above the exact WCRT (the
 suspension-oblivious WCET analysis, which also bounds idle suspensions and execution times
 at or below WCET); a w_sim above w_rta + tol; w_sch below w_rta. Rows whose execution times
@@ -92,7 +92,7 @@ def task_bounds(ts: TaskSet, w: float | None = None) -> dict[str, TaskBounds]:
     """Exact WCRT and deadline of every task of ``ts`` at window ``w`` (default w_sch).
 
     For a set with a ``[window]`` the chain is one task of cost g (suspension-oblivious,
-    :func:`rtsim.analysis.rta.analyze`); w_sch is Eq 7/11.
+    [`rtsim.analysis.rta.analyze`][rtsim.analysis.rta.analyze]); w_sch is Eq 7/11.
     """
     w_sch: float | None = None
     per_window: set[str] = set()
@@ -115,7 +115,7 @@ def task_bounds(ts: TaskSet, w: float | None = None) -> dict[str, TaskBounds]:
 
 @dataclass(frozen=True)
 class SearchResult:
-    """Outcome of :func:`smallest_passing`: the window found and how it was found."""
+    """Outcome of `smallest_passing`: the window found and how it was found."""
 
     w: float
     lo: float
@@ -228,7 +228,7 @@ def check_results(
     search_tol: float = SEARCH_TOL,
 ) -> list[Failure]:
     """Every failure (and warning) in a validation table (columns: module doc of
-    :mod:`rtsim.validate.tidy`; missing columns are skipped).
+    `rtsim.validate.tidy`; missing columns are skipped).
 
     Checks per row: ``sim_max > wcrt + bound_tol`` (finite WCRT; a warning instead when
     ``assumption_ok`` is false); a task with no finite WCRT is not checked. Per paper

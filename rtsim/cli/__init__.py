@@ -92,18 +92,19 @@ READS_INPUT_FILES: tuple[str, ...] = (
 
 
 def plain(text: str | None) -> str | None:
-    """Docstring markup removed for the terminal: ``code``, :func:`name` and a leading
+    """Docstring markup removed for the terminal: ``code``, `name` and a leading
     ``rtsim CMD ...``: synopsis (usage already shows it)."""
     if not text:
         return text
     text = re.sub(r"^``rtsim [^`]*``:?\s*", "", text)
     text = re.sub(r":[a-z]+:`~?([^`]+)`", r"\1", text)
-    return text.replace("``", "")
+    text = re.sub(r"\[`([^`]+)`\]\[[^\]]+\]", r"\1", text)  # an API page's cross-reference
+    return text.replace("``", "").replace("`", "")
 
 
 class Parser(argparse.ArgumentParser):
-    """An ArgumentParser whose texts are plain (:func:`plain`) and whose value options all
-    have a metavariable (:data:`METAVARS`) and a help text (:data:`HELPS`)."""
+    """An ArgumentParser whose texts are plain (`plain`) and whose value options all
+    have a metavariable (`METAVARS`) and a help text (`HELPS`)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("allow_abbrev", False)  # --hor is not --horizon: say so instead
@@ -164,7 +165,7 @@ def numeric_options(parser: argparse.ArgumentParser, command: str) -> list[argpa
 
 
 def check_option_ranges(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """Refuse a numeric option outside its range (:mod:`rtsim.io.limits`), naming it."""
+    """Refuse a numeric option outside its range (`rtsim.io.limits`), naming it."""
     from rtsim.io import limits
 
     for action in numeric_options(parser, args.command):
@@ -234,7 +235,7 @@ def _terminate(signum: int, frame: Any) -> None:
 
 
 def _signals() -> Any:
-    """Route SIGTERM through :class:`Terminated` (in the main thread); returns the previous
+    """Route SIGTERM through `Terminated` (in the main thread); returns the previous
     handler (None when it could not be set)."""
     import signal
     import threading

@@ -109,7 +109,7 @@ _RESOURCES = {
 
 
 def format_analysis(res: Any, source: str, w_from: str | None) -> str:
-    """The readable report of an :class:`~rtsim.analysis.rta.Analysis`."""
+    """The readable report of an [`Analysis`][rtsim.analysis.rta.Analysis]."""
     from rtsim.cli import one_line
 
     lines = [f"task set: {one_line(res.name or '(unnamed)')}  ({one_line(source)})"]
@@ -174,7 +174,7 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
 
 
 def format_edf(res: Any, source: str, w_from: str | None) -> str:
-    """The readable report of an :class:`~rtsim.analysis.edf.EdfAnalysis`."""
+    """The readable report of an [`EdfAnalysis`][rtsim.analysis.edf.EdfAnalysis]."""
     from rtsim.cli import one_line
 
     lines = [f"task set: {one_line(res.name or '(unnamed)')}  ({one_line(source)}), scheduler: EDF"]

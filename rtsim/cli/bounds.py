@@ -48,7 +48,10 @@ def register(sub: Any) -> None:
         default=None,
         help="r_H in cm: a number, a list or a range 10..50:10 (default: the file's)",
     )
+    from rtsim.cli._set import add_set_option
     from rtsim.cli.common import add_json, add_quiet
+
+    add_set_option(p)
 
     add_json(p, "print JSON (a list for several rows)")
     add_quiet(p, "print nothing (a check of the inputs)")
@@ -94,9 +97,10 @@ def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
     from rtsim.analysis.bounds import window_bounds
     from rtsim.analysis.transaction import w_txn
+    from rtsim.cli._set import set_overrides
     from rtsim.io.taskset import load_taskset
 
-    ts = load_taskset(args.file)
+    ts = load_taskset(args.file, overrides=set_overrides(args))
     if ts.window is None:
         raise InputError(f"{ts.source}: has no [window]; bounds needs a processing-window set")
     ns, rs = _values(args, ts.window.n, ts.window.r_H)

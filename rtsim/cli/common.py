@@ -126,14 +126,14 @@ def figure_format(
 
 
 def progress_enabled(args: Any) -> bool:
-    """Whether to show progress bars (:func:`rtsim.sim.progress.progress_enabled`)."""
+    """Whether to show progress bars (`rtsim.sim.progress.progress_enabled`)."""
     from rtsim.sim.progress import progress_enabled as enabled
 
     return enabled(args)
 
 
 def simulation_bar(args: Any, desc: str) -> Any:
-    """The progress bar of one simulation run (:class:`rtsim.sim.progress.SimulationBar`)."""
+    """The progress bar of one simulation run (`rtsim.sim.progress.SimulationBar`)."""
     from rtsim.sim.progress import SimulationBar
 
     return SimulationBar(args, desc)

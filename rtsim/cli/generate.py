@@ -3,7 +3,8 @@
     rtsim generate --tasks N --utilization U --periods loguniform:10..1000|10,20,40 \
                    --count K --seed S --out DIR
 
-writes ``DIR/set_0000.toml`` … (readable by :func:`rtsim.io.taskset.load_taskset`) and
+writes ``DIR/set_0000.toml`` … (readable by
+[`rtsim.io.taskset.load_taskset`][rtsim.io.taskset.load_taskset]) and
 ``DIR/manifest.json``. Set i is drawn from the i-th child of ``SeedSequence(S)``, so set i
 does not depend on ``--count``.
 """

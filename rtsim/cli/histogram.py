@@ -3,11 +3,12 @@
 Sources (exactly one):
 
 - ``rtsim histogram FILE --horizon H [--seed S] [--exec wcet|uniform] [--suspension cpu|idle]
-  [--followers N] [--hough-radius R] [--window W]``: simulate a task set;
+  [--followers N] [--hough-radius R] [--window W] [--set KEY=VALUE]``: simulate a task set;
 - ``rtsim histogram --scenario DIR``: the job table of ``rtsim scenario --out DIR``;
 - ``rtsim histogram --sweep DIR --point I``: point I of a ``simulate`` sweep, re-run.
 
-Writes into ``--out DIR``: ``histogram-<task>.png`` (``.svg``, ``.pdf`` with ``--format``) per
+Writes into ``--out DIR``: ``histograms.png`` (the run in one figure, a panel per task, 300
+dpi) and ``histogram-<task>.png`` (``.svg``, ``.pdf`` with ``--format``) per
 task (lines: exact WCRT, deadline, w_sch), ``histogram.csv``, ``bounds.csv`` and
 ``manifest.json``.
 """
@@ -59,9 +60,16 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--force", action="store_true", help="run even when a value looks like a mistake of unit"
     )
+    from rtsim.cli._set import add_set_option
+
+    add_set_option(
+        p,
+        "with FILE: change a key of the task set (a dotted path, the value read "
+        "as TOML; repeatable), e.g. --set tasks.command.wcet=12",
+    )
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
-    add_figure_options(p, default_dpi=100, what="histograms")  # rtsim.validate.histogram.DPI
+    add_figure_options(p, default_dpi=300, what="histograms")  # rtsim.validate.histogram.DPI
     add_json(p, "print the files written as one JSON object")
     add_quiet(p, "no progress bar, no list of the files written")
     p.set_defaults(func=run)
@@ -73,6 +81,11 @@ def _source(args: argparse.Namespace) -> Any:
     given = [x for x in (args.file, args.scenario, args.sweep) if x is not None]
     if len(given) != 1:
         raise InputError("histogram: give exactly one of FILE, --scenario DIR, --sweep DIR")
+    if args.set and args.file is None:
+        raise InputError(
+            "histogram: --set changes FILE's keys; it does not apply to "
+            "--scenario or --sweep (their runs are recorded as they were)"
+        )
     if args.sweep is not None:
         if args.point is None:
             raise InputError("histogram: --sweep needs --point I")
@@ -87,7 +100,9 @@ def _source(args: argparse.Namespace) -> Any:
 
     if args.horizon is None or not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError("histogram: FILE needs --horizon H, a positive number of ms")
-    ts = load_taskset(args.file)
+    from rtsim.cli._set import set_overrides
+
+    ts = load_taskset(args.file, overrides=set_overrides(args))
     changes: dict[str, Any] = {}
     if args.followers is not None:
         changes["n"] = args.followers
@@ -100,7 +115,7 @@ def _source(args: argparse.Namespace) -> Any:
         )
     if changes:
         ts = ts.with_window(**changes)
-    from rtsim.cli.plausible import check_horizon, check_hough_radius
+    from rtsim.cli.plausible import check_horizon, check_hough_radius, periods_ms
 
     if args.hough_radius is not None:
         check_hough_radius(args, [args.hough_radius])
@@ -108,7 +123,9 @@ def _source(args: argparse.Namespace) -> Any:
         from rtsim.analysis.bounds import window_bounds
 
         w = args.window if args.window is not None else window_bounds(ts).w_sch
-        check_horizon(args, args.horizon, w)
+        check_horizon(args, args.horizon, w, periods=periods_ms(ts, w))
+    else:
+        check_horizon(args, args.horizon, None, periods=periods_ms(ts, None))
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed}")
     if args.exec_model == "uniform":
@@ -122,6 +139,9 @@ def _source(args: argparse.Namespace) -> Any:
     }
     if args.window is not None:
         kwargs["window"] = args.window
+    from rtsim.cli.plausible import warn_short_horizon
+
+    warn_short_horizon(args)  # every input checked: the run goes ahead
     src = from_simulation(ts, args.horizon, **kwargs)
     return src
 

@@ -1,7 +1,7 @@
 """Values that are valid but almost certainly a mistake of unit, refused with a one-line hint
 naming the unit unless ``--force``.
 
-The ranges of :mod:`rtsim.io.limits` refuse what cannot be meant (a negative radius, a
+The ranges of `rtsim.io.limits` refuse what cannot be meant (a negative radius, a
 horizon of 1e15 ms); these checks catch what is easy to type by mistake: a horizon given in
 seconds (``--horizon 60``: shorter than one processing window), a Hough radius in metres
 (``--hough-radius 0.25``: a quarter of a centimetre), a duration in milliseconds
@@ -22,6 +22,10 @@ __all__ = [
     "check_hough_radius",
     "check_duration",
     "check_horizon",
+    "check_scenario_units",
+    "periods_ms",
+    "short_horizon",
+    "warn_short_horizon",
 ]
 
 #: A Hough window smaller than this (cm) is far below a robot's size (the paper's is 25 cm).
@@ -61,10 +65,15 @@ def check_duration(args: Any, seconds: float | None, option: str = "--duration")
 
 
 def check_horizon(
-    args: Any, horizon: float, window: float | None, option: str = "--horizon"
+    args: Any,
+    horizon: float,
+    window: float | None,
+    option: str = "--horizon",
+    periods: Iterable[float] = (),
 ) -> None:
-    """A horizon shorter than one processing window (or, without one, than the longest
-    period): probably seconds."""
+    """A horizon shorter than one processing window: probably seconds, refused. Shorter than
+    the longest of ``periods`` (ms): `short_horizon`'s warning, on stderr once every
+    input is checked (the task releases one job)."""
     if window is not None and 0 < horizon < window:
         refuse(
             args,
@@ -72,3 +81,41 @@ def check_horizon(
             f"({window:.1f} ms) (did you mean {horizon * 1000:g} ms, given in "
             f"seconds?)",
         )
+    args._short_horizon = short_horizon(horizon, periods, option)
+
+
+def short_horizon(horizon: float, periods: Iterable[float], option: str = "--horizon") -> str:
+    """The warning for a horizon shorter than the longest period (ms), or ``""``."""
+    longest = max((float(p) for p in periods), default=0.0)
+    if not 0 < horizon < longest:
+        return ""
+    return (
+        f"rtsim: warning: {option} is in ms: {horizon:g} ms is shorter than the longest "
+        f"period ({longest:g} ms), whose task releases one job (did you mean "
+        f"{horizon * 1000:g} ms, given in seconds?)"
+    )
+
+
+def warn_short_horizon(args: Any) -> None:
+    """Print `check_horizon`'s warning, if any, on stderr (unless ``--quiet``)."""
+    import sys
+
+    text = getattr(args, "_short_horizon", "")
+    if text and not getattr(args, "quiet", False):
+        print(text, file=sys.stderr)
+
+
+def periods_ms(ts: Any, window: float | None) -> list[float]:
+    """The task set's periods in ms (a per-window period in windows of ``window`` ms)."""
+    return [
+        float(t.period) * (window or 0.0) if t.per_window else float(t.period) for t in ts.tasks
+    ]
+
+
+def check_scenario_units(args: Any, scenario: Any) -> None:
+    """The same hints for a scenario's file keys (also when set by ``--set``): ``sensing.r_H``
+    in metres, ``duration`` in ms."""
+    where = scenario.source or "<scenario>"
+    check_hough_radius(args, [scenario.world.thresholds.r_H], f"{where}: sensing.r_H")
+    if scenario.duration:
+        check_duration(args, scenario.duration, f"{where}: duration")

@@ -1,9 +1,9 @@
 """``rtsim reproduce [--quick] --out DIR``: the paper's Test 1 and Test 2 in the three window
 modes, with Figures 2 and 8-15, their data, a summary table and report.html.
 
-Runs :mod:`rtsim.reproduce` (the paper reproduction), which writes ``report.html`` in DIR
+Runs `rtsim.reproduce` (the paper reproduction), which writes ``report.html`` in DIR
 (the summary table, every figure, the data files, the manifest) and in each run directory
-DIR/<test>/<mode>/ before DIR is swapped in whole (:mod:`rtsim.io.outdir`).
+DIR/<test>/<mode>/ before DIR is swapped in whole (`rtsim.io.outdir`).
 ``--quick``: 60 simulated seconds per run (one turn), about 15 s.
 """
 
@@ -16,7 +16,7 @@ __all__ = ["register", "run"]
 
 
 def register(sub: Any) -> None:
-    """Add the ``reproduce`` sub-command (its options are :func:`rtsim.reproduce.add_options`,
+    """Add the ``reproduce`` sub-command (its options are `rtsim.reproduce.add_options`,
     defined once for this command and ``python -m rtsim.reproduce``)."""
     from rtsim.reproduce import add_options
 

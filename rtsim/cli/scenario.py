@@ -1,13 +1,14 @@
 """``rtsim scenario FILE --out DIR``: run a robot scenario, schedule and world in one SimPy run.
 
 Writes to DIR: ``windows.csv`` (one row per processing window; schema in
-docs/outputs.md) and ``windows.parquet`` with ``--parquet``, ``jobs.csv`` (the job
+docs/outputs.md) and ``windows.parquet`` with ``--parquet``, ``followers.csv`` (the same in
+long form: one row per window and follower, `rtsim.coupling.tidy`), ``jobs.csv`` (the job
 records of the schedule), ``summary.json``, the paper's figures as PNG (paths, window and
 slack, effective bounds, leader speed, and the operating space) unless ``--no-figures``, and
 ``manifest.json`` (rtsim version, seed, argv, the scenario file's text and resolved values,
 ``timing.simulation_s`` — the simulation loop alone — and ``timing.total_s``).
 
-DIR is written whole (:mod:`rtsim.io.outdir`): everything goes into a hidden staging
+DIR is written whole (`rtsim.io.outdir`): everything goes into a hidden staging
 directory beside it, checked writable before the simulation starts, which replaces DIR only
 at the end — a reader never sees files of two runs, an interrupted run leaves the earlier one
 as it was, and files of an earlier run that this one does not write do not survive. DIR must
@@ -15,8 +16,14 @@ be new, empty or an earlier rtsim output. Windows and job records are written in
 during the run, and the summary and figures are made from the columns read back, so memory
 stays flat on long runs.
 
-``--duration`` is simulated seconds; by default the scenario's ``duration``, else one lap of
-the leader's path plus the followers' separation (see :mod:`rtsim.coupling.scenario_run`).
+``--duration`` is simulated seconds, exact, like the file's ``duration`` and ``--set
+duration=S``; without any, the run ends with the lap (``until = "lap"``: the leader's lap plus
+the followers' separation, `rtsim.coupling.duration`), and says so in one line.
+
+A file's unsaid choices are the recommended model (``preset = "recommended"``: policy
+``plan``, predictor ``commands``, follow-the-leader followers in a ``fan``, windows centred
+at the predicted position, searches for visible followers only, as the shipped test1/test2);
+``preset = "paper"`` (or ``--set preset=paper``) takes the paper's own (docs/configuration.md).
 """
 
 from __future__ import annotations
@@ -39,7 +46,10 @@ def register(sub: Any) -> None:
     p = sub.add_parser(
         "scenario",
         help="run a robot-group scenario (schedule + world)",
-        description=__doc__.splitlines()[0],
+        description=__doc__.splitlines()[0]
+        + " A file's unsaid choices are the recommended model (policy plan, predictor "
+        "commands, follow-the-leader followers in a fan, predicted/visible localization, "
+        'as test2); preset = "paper" takes the paper\'s own (docs/configuration.md).',
     )
     p.add_argument("file", help="scenario TOML file")
     from rtsim.control.policy import POLICIES
@@ -49,8 +59,9 @@ def register(sub: Any) -> None:
         default=None,
         metavar="NAME",
         help="adjustment policy, overriding the file's [adjust] policy: "
-        f"{', '.join(POLICIES)} (adjust, the paper's algorithm, is the "
-        "default), or package.module:Name (docs/adjustment.md)",
+        f"{', '.join(POLICIES)} (default plan, the recommended model; adjust is the "
+        'paper\'s algorithm, also preset = "paper"), or package.module:Name '
+        "(docs/adjustment.md)",
     )
     p.add_argument(
         "--mode",
@@ -65,7 +76,8 @@ def register(sub: Any) -> None:
         type=float,
         default=None,
         metavar="SECONDS",
-        help="simulated seconds (default: the scenario's, else one lap)",
+        help="simulated seconds, exact (default: the file's duration, else to the end of "
+        'the lap, until = "lap")',
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument(
@@ -132,6 +144,9 @@ def run(args: Any) -> int:
     scenario = load_scenario(args.file, overrides=set_overrides(args))
     override = args.policy if args.policy is not None else args.mode
     args.mode = override if override is not None else scenario.adjust.policy
+    from rtsim.cli.plausible import check_scenario_units
+
+    check_scenario_units(args, scenario)  # the options' unit hints, for the file's keys
     check_scenario(scenario, args.duration, where, force=args.force)
     from rtsim.io.outdir import FileSet
 
@@ -151,6 +166,12 @@ def run(args: Any) -> int:
         staged.commit()
         files.commit()
     s = res.summary
+    from rtsim.coupling.duration import run_length, run_note
+
+    to_lap = run_length(scenario.world, args.duration, scenario.duration).stop_s is not None
+    note = None if args.quiet else run_note(s, to_lap)
+    if note is not None:
+        print(note, file=sys.stderr)
     if args.json:
         from rtsim.io.atomic import dumps
         from rtsim.io.summary import summary_json
@@ -169,6 +190,25 @@ def run(args: Any) -> int:
         f"{s['min_speed_ratio']:.3f}  -> {args.out}"
     )
     return 0
+
+
+#: Windows read back per chunk when followers.csv is written (memory stays flat).
+FOLLOWER_CHUNK_ROWS = 20_000
+
+
+def _write_followers(windows_csv: Path, target: Path) -> None:
+    """followers.csv: windows.csv in long form, one row per window and follower
+    (`rtsim.coupling.tidy`), from the file read back in chunks."""
+    import pandas as pd
+
+    from rtsim.coupling.tidy import followers_frame
+    from rtsim.io.columns import ChunkWriter
+
+    first = pd.read_csv(windows_csv, nrows=0)
+    writer = ChunkWriter([target], followers_frame(first))
+    for chunk in pd.read_csv(windows_csv, chunksize=FOLLOWER_CHUNK_ROWS):
+        writer.write(followers_frame(chunk))
+    writer.close()
 
 
 def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | None:
@@ -277,10 +317,11 @@ def _write(
         if str(exc).startswith(src):
             raise
         raise type(exc)(f"{src}: during the run (seed {args.seed}): {exc}") from None
-    outputs = ["windows.csv", "jobs.csv", "summary.json"]
+    outputs = ["windows.csv", "followers.csv", "jobs.csv", "summary.json"]
     if args.parquet:
         outputs.append("windows.parquet")
     jobs.close()
+    _write_followers(out / "windows.csv", out / "followers.csv")
     from rtsim.io.summary import summary_json
 
     write_json(out / "summary.json", summary_json(res.summary))
@@ -345,8 +386,8 @@ def _write(
 
 def _figure_table(path: Path, n: int, rows: int) -> Any:
     """The columns the figures draw, read back from windows.csv; above
-    :data:`~rtsim.plots.scenario_data.FIGURE_MAX_ROWS` windows only the rows
-    :func:`~rtsim.plots.scenario_data.thin_rows` keeps (read in bucket-aligned chunks)."""
+    `FIGURE_MAX_ROWS` windows only the rows
+    `thin_rows` keeps (read in bucket-aligned chunks)."""
     import pandas as pd
 
     from rtsim.io.columns import iter_columns, read_columns

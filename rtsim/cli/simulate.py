@@ -3,7 +3,7 @@
 Output files (``--jobs``, ``--trace``, ``--gantt``, ``--histogram``, ``--perfetto``) are
 written to temporary files beside their targets — made before the simulation starts, so an
 unwritable place is refused at once — and renamed in together at the end
-(:class:`rtsim.io.outdir.FileSet`). Every directory that receives one also gets a manifest
+(`rtsim.io.outdir.FileSet`). Every directory that receives one also gets a manifest
 (rtsim version, seed, resolved inputs including the task set, command line, and the list of
 outputs written there): ``manifest.json`` when the directory has none or has one of an
 earlier ``simulate`` whose files this run replaces all of, else ``<file>.manifest.json``
@@ -42,7 +42,7 @@ _RANGE = re.compile(r"^\s*([-+0-9.eE]+)\s*\.\.\s*([-+0-9.eE]+)\s*$")
 
 def worst_jitter_note(late: list[str]) -> str:
     """The line ``--jitter worst`` prints for per-window tasks it cannot move to the
-    critical instant (:func:`rtsim.sim.run.worst_jitter_shifts`)."""
+    critical instant (`rtsim.sim.run.worst_jitter_shifts`)."""
     names = ", ".join(f"'{n}'" for n in late)
     return (
         f"--jitter worst: {names} cannot arrive before the window's first arrival "
@@ -267,11 +267,11 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     w_est = (
         args.window if args.window is not None else (bounds.w_sch if bounds is not None else None)
     )
-    from rtsim.cli.plausible import check_horizon, check_hough_radius
+    from rtsim.cli.plausible import check_horizon, check_hough_radius, periods_ms
 
     if args.hough_radius is not None:
         check_hough_radius(args, [args.hough_radius])
-    check_horizon(args, args.horizon, w_est)
+    check_horizon(args, args.horizon, w_est, periods=periods_ms(ts, w_est))
     check_simulate(ts, args.horizon, w_est, f"--horizon {args.horizon:g}", force=args.force)
     rng = _gantt_range(args.gantt_range, args.horizon) if args.gantt else None
     cut = None
@@ -321,7 +321,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     job_sink = Tee(jobs_out, spools and spools[0], chart and chart.jobs)
     trace_sink = Tee(trace_out, spools and spools[1], chart and chart.trace)
     from rtsim.cli.common import note, simulation_bar
+    from rtsim.cli.plausible import warn_short_horizon
 
+    warn_short_horizon(args)  # every input checked: the run goes ahead
     if args.jitter == "worst":
         late = worst_jitter_shifts(ts)[1]
         if late:

@@ -1,6 +1,6 @@
 """``rtsim validate [--quick] --out DIR [--workers N] [--dask ADDRESS]``: analysis vs simulation.
 
-Runs :func:`rtsim.validate.run_validation`: the paper's set over n and r_H (w_sch, w_rta,
+Runs `rtsim.validate.run_validation`: the paper's set over n and r_H (w_sch, w_rta,
 w_sim searched twice, response times at w_sch against the exact WCRT) and random UUniFast
 sets, through the sweep engine (parallel, resumable). Writes the table, figures and
 ``DIR/report.md``. Exit status: 0 when nothing is flagged, 1 when a simulated response is

@@ -72,7 +72,7 @@ def resolve(
 
 
 def shortcuts(data: Mapping[str, Any]) -> list[str]:
-    """The plain names :func:`resolve` accepts in ``data`` (for a did-you-mean)."""
+    """The plain names `resolve` accepts in ``data`` (for a did-you-mean)."""
     window = data.get("window")
     out = [k for k in window if k != "name"] if isinstance(window, dict) else []
     return out + [k for k, v in data.items() if not isinstance(v, dict | list)]

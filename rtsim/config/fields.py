@@ -9,7 +9,7 @@ A numeric key is declared once, with everything that is known about it::
 The range and unit are the field's metadata: the validator refuses a value outside the range
 (no coercion: ``"5"`` and ``true`` are not numbers, ``1.0`` is not an integer), the JSON
 Schema carries ``minimum``/``exclusiveMinimum``/``maximum``, ``unit`` and ``why``, and
-``docs/input_ranges.md`` is generated from them (:mod:`rtsim.config.docs`). A value keeps its
+``docs/input_ranges.md`` is generated from them (`rtsim.config.docs`). A value keeps its
 TOML type (an int stays an int), so the runtime objects are built from exactly what the
 file says.
 """
@@ -148,7 +148,7 @@ def number(
 
 
 def ranged(r: Range) -> Leaf:
-    """A number in the registered range ``r`` (:mod:`rtsim.io.limits`: a key that a lower
+    """A number in the registered range ``r`` (`rtsim.io.limits`: a key that a lower
     layer checks too, with the same range)."""
     return number(
         r.lo,
@@ -186,7 +186,7 @@ def choice(values: Sequence[str], *, renamed: Mapping[str, str] | None = None) -
 
 
 def plugin(registry: Registry[Any]) -> Leaf:
-    """The name of a plug-in of ``registry`` (:mod:`rtsim.registry`): a registered name, an
+    """The name of a plug-in of ``registry`` (`rtsim.registry`): a registered name, an
     installed entry point, or ``package.module:Name`` (code: only when the reader allows it),
     resolved while the file is validated (an old name says its new one: the registry's
     ``renamed``).
@@ -226,5 +226,5 @@ def text(*, nonempty: bool = True, what: str = "a non-empty string") -> Leaf:
 
 
 def range_of(metadata: Sequence[Any]) -> Range | None:
-    """The :class:`Range` among a field's metadata (None: not a number field)."""
+    """The `Range` among a field's metadata (None: not a number field)."""
     return next((m.range for m in metadata if isinstance(m, Leaf) and m.range), None)

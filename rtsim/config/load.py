@@ -50,8 +50,9 @@ def validate(
     except ValidationError as exc:
         kw: dict[str, Any] = {} if where is None else {"where": where}
         lines = error_lines(exc, model, source, special=special, **kw)
-        raise_errors(lines, error)
-        raise AssertionError("unreachable") from None
+    # raised outside the handler: the user's error alone, no pydantic traceback chained under it
+    raise_errors(lines, error)
+    raise AssertionError("unreachable")
 
 
 def parse_toml(raw: bytes, source: str, error: type[InputError]) -> dict[str, Any]:
@@ -76,7 +77,7 @@ def parse_toml(raw: bytes, source: str, error: type[InputError]) -> dict[str, An
 def with_overrides(
     data: dict[str, Any], overrides: Mapping[str, Any] | None, source: str
 ) -> dict[str, Any]:
-    """``data`` with the dotted ``overrides`` applied (:mod:`rtsim.config.dotted`)."""
+    """``data`` with the dotted ``overrides`` applied (`rtsim.config.dotted`)."""
     if overrides:  # a path that names no key, or a run option: an OverrideError
         apply_overrides(
             data,
@@ -106,7 +107,9 @@ def taskset_bytes(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
     try:
         return read_input(source, "task-set"), source
     except FileNotFoundError:
-        raise TaskSetError(f"{source}: no such file") from None
+        from rtsim.examples import shipped_hint
+
+        raise TaskSetError(f"{source}: no such file{shipped_hint(source, 'taskset')}") from None
     except IsADirectoryError:
         raise TaskSetError(f"{source}: is a directory, not a task-set file") from None
     except OSError as exc:
@@ -114,10 +117,10 @@ def taskset_bytes(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
 
 
 def parse_taskset(data: Mapping[str, Any], source: str, *, allow_code: bool | None = None) -> Any:
-    """Validate a task-set table (as :func:`tomllib.loads` returns it) and build the TaskSet;
+    """Validate a task-set table (as `tomllib.loads` returns it) and build the TaskSet;
     ``source`` names the file in error messages and is kept as ``TaskSet.source``. A
     ``[scheduler] policy`` of the form ``module:Name`` is code: it loads only with
-    ``allow_code=True`` or the user's opt-in (:func:`rtsim.registry.reading_input`)."""
+    ``allow_code=True`` or the user's opt-in (`rtsim.registry.reading_input`)."""
     from rtsim.config.taskset import (
         TaskSetFile,
         build_taskset,
@@ -143,8 +146,8 @@ def load_taskset(
     allow_code: bool | None = None,
 ) -> Any:
     """Read a TOML task-set file (``None``: the packaged paper set, Table 1); ``overrides``:
-    dotted paths and their values (:mod:`rtsim.config.dotted`); ``allow_code``: as
-    :func:`parse_taskset`."""
+    dotted paths and their values (`rtsim.config.dotted`); ``allow_code``: as
+    [`parse_taskset`][rtsim.config.load.parse_taskset]."""
     raw, source = taskset_bytes(path)
     data = parse_toml(raw, source, TaskSetError)
     return parse_taskset(with_overrides(data, overrides, source), source, allow_code=allow_code)

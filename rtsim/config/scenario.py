@@ -1,9 +1,11 @@
 """Scenario files: the typed model of the file, and the runtime objects built from it once
-it is valid (:class:`~rtsim.world.config.WorldConfig`, the task set, :class:`AdjustConfig`),
+it is valid ([`WorldConfig`][rtsim.world.config.WorldConfig], the task set,
+[`AdjustConfig`][rtsim.config.scenario.AdjustConfig]),
 each built once.
 
 Angles are radians, or degrees when the key is written with ``_deg`` (``heading_deg``):
-both spellings are fields of the model, with the same range. See :mod:`rtsim.io.scenario`
+both spellings are fields of the model, with the same range. See
+[`rtsim.io.scenario`][rtsim.io.scenario]
 for the file format.
 """
 
@@ -61,6 +63,8 @@ __all__ = [
     "scenario_bytes",
     "PACKAGED_SCENARIOS",
     "PACKAGED_TASKSETS",
+    "PRESETS",
+    "UNTIL",
 ]
 
 #: Task-set names that refer to the package's own files rather than to a path.
@@ -72,6 +76,40 @@ _ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide")
 #: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
 PACKAGED_SCENARIOS = ("test1", "test2")
 
+#: The model choices a scenario file leaves unsaid, by ``preset`` (docs/configuration.md).
+#: ``recommended`` (the default) is what the shipped Test 1/2 chose by evidence
+#: (docs/results.md, docs/planning.md, docs/followers.md, docs/localization.md); ``paper`` is
+#: the paper's own algorithm as written: its adjustment, its predictor (the followers'
+#: estimated speed held), its window centre (Fig 5) and a search for every lost follower.
+#: A key the file gives always wins; ``formation.layout`` applies to a pattern, not to slots.
+PRESETS: dict[str, dict[str, str]] = {
+    "recommended": {
+        "formation.model": "follow-the-leader",
+        "formation.layout": "fan",
+        "adjust.policy": "plan",
+        "adjust.predictor": "commands",
+        "localization.centre": "predicted",
+        "localization.search": "visible",
+    },
+    "paper": {
+        "formation.model": "follow-the-leader",
+        "formation.layout": "line",
+        "adjust.policy": "adjust",
+        "adjust.predictor": "paper",
+        "localization.centre": "previous",
+        "localization.search": "always",
+    },
+}
+_DEFAULT = PRESETS["recommended"]
+#: ``until``: what ends a run without a ``duration`` (docs/scenarios.md): ``lap``, the leader's
+#: lap plus the largest ρ_d, so that the followers complete theirs too
+#: (`rtsim.coupling.duration`). A ``duration`` given anywhere replaces it.
+UNTIL: tuple[str, ...] = ("lap",)
+
+#: Top-level keys an override may set though the file leaves them out (``--set
+#: duration=30``), each with the key it replaces.
+_TOP_KEYS: dict[str, str | None] = {"duration": "until", "until": "duration", "preset": None}
+
 T = TypeVar("T")
 Side = Literal["left", "right"]
 
@@ -79,10 +117,10 @@ Side = Literal["left", "right"]
 # ----------------------------------------------------------------- runtime objects
 @dataclass(frozen=True)
 class AdjustConfig:
-    """Limits for the adjustment algorithm (semantics in :mod:`rtsim.control`).
+    """Limits for the adjustment algorithm (semantics in [`rtsim.control`][rtsim.control]).
 
     cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
-    predictor: the prediction model of :mod:`rtsim.control.predict` (``paper``, ``formation``
+    predictor: the prediction model of `rtsim.control.predict` (``paper``, ``formation``
     or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
     names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
     ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle), ``w_txn``
@@ -128,8 +166,9 @@ class Scenario:
 
     ``scheduler``: the leader CPU's scheduling policy from ``[scheduler] policy`` (None: the
     task set's, ``fp`` unless its file says otherwise). ``task_set``: the task-set file, read
-    once when the scenario is loaded (:meth:`load_taskset` gives it the scenario's n, r_H
-    and scheduler).
+    once when the scenario is loaded (`load_taskset` gives it the scenario's n, r_H
+    and scheduler). ``duration``: simulated s, exact; 0 with ``until = "lap"`` (the run ends
+    with the lap, `rtsim.coupling.duration`).
     """
 
     name: str
@@ -137,6 +176,7 @@ class Scenario:
     taskset: str = "barrel_robots"
     duration: float = 0.0
     description: str = ""
+    until: str | None = None
     adjust: AdjustConfig = field(default_factory=AdjustConfig)
     assumptions: Mapping[str, str] = field(default_factory=dict)
     source: str | None = None
@@ -328,8 +368,8 @@ class SlotModel(_Angles):
 
 
 class FormationModel(_Angles):
-    model: Annotated[str, plugin(FOLLOWER_MODELS)] = "l-psi"
-    layout: Annotated[str, choice(FORMATION_LAYOUTS)] = "line"
+    model: Annotated[str, plugin(FOLLOWER_MODELS)] = _DEFAULT["formation.model"]
+    layout: Annotated[str, choice(FORMATION_LAYOUTS)] = _DEFAULT["formation.layout"]
     followers: Annotated[int, integer(1, 1000, "followers", "as window.n")] | None = None
     separation: (
         Annotated[float, number(0, 1e5, "cm", "at most 1 km (the laser sees 80 m)", lo_open=True)]
@@ -345,7 +385,9 @@ class FormationModel(_Angles):
     def _slots_or_pattern(self) -> Any:
         pattern = (self.followers, self.separation, self.bearing_offset, self.bearing_offset_deg)
         if self.slot is not None:
-            if any(v is not None for v in pattern) or self.layout != "line":
+            if any(v is not None for v in pattern) or (
+                "layout" in self.model_fields_set and self.layout != "line"
+            ):
                 raise problem(
                     "give [[formation.slot]] or followers/separation/bearing_offset, not both"
                 )
@@ -445,8 +487,8 @@ class LocalizationModel(Table):
     """``[localization]``: where the Hough windows are centred, which lost followers are
     searched for."""
 
-    centre: Annotated[str, choice(CENTRES)] = "previous"
-    search: Annotated[str, choice(SEARCHES)] = "always"
+    centre: Annotated[str, choice(CENTRES)] = _DEFAULT["localization.centre"]
+    search: Annotated[str, choice(SEARCHES)] = _DEFAULT["localization.search"]
 
 
 class AdjustModel(Table):
@@ -459,9 +501,9 @@ class AdjustModel(Table):
         Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] | None
     ) = None
     floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] | None = None
-    predictor: Annotated[str, plugin(PREDICTORS)] | None = None
+    predictor: Annotated[str, plugin(PREDICTORS)] | None = _DEFAULT["adjust.predictor"]
     lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
-    policy: Annotated[str, text(what="a policy name")] | None = None
+    policy: Annotated[str, text(what="a policy name")] | None = _DEFAULT["adjust.policy"]
     decide: Annotated[str, choice(DECIDE)] | None = None
     margin: (
         Annotated[
@@ -515,10 +557,14 @@ class ScenarioFile(Table):
 
     name: Annotated[str, text()] | None = None
     description: Annotated[str, text(nonempty=False, what="a string")] = ""
+    #: the model choices the file leaves unsaid (`PRESETS`)
+    preset: Annotated[str, choice(tuple(PRESETS))] = "recommended"
     taskset: Annotated[str, text(what="a name or a path")] = "barrel_robots"
     duration: (
         Annotated[float, number(0, 1e6, "s", "up to 11.6 simulated days", lo_open=True)] | None
     ) = None
+    #: ``"lap"``: run to the end of the lap, followers included (without a duration)
+    until: Annotated[str, choice(UNTIL)] | None = None
     leader: LeaderModel
     formation: FormationModel
     follower: FollowerModel = Field(default_factory=FollowerModel)
@@ -547,7 +593,7 @@ def parse_scenario(
 
     A plug-in named ``module:Name`` (``[adjust] policy``, ``predictor``, ``[formation]
     model``, ``[scheduler] policy``, the task set's) is code: it loads only with
-    ``allow_code=True`` or the user's opt-in (:func:`rtsim.registry.reading_input`).
+    ``allow_code=True`` or the user's opt-in (`rtsim.registry.reading_input`).
     """
     from rtsim.registry import file_allows_code, reading_input
 
@@ -568,7 +614,7 @@ def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> 
         raise ScenarioError(
             f"{source}: adjust: unknown key 'model' (renamed; did you mean 'predictor'?)"
         )
-    model = validate(ScenarioFile, data, source, ScenarioError)
+    model = validate(ScenarioFile, _with_preset(data), source, ScenarioError)
     errors: list[str] = []
     raw_adjust = data.get("adjust")
     order = list(raw_adjust) if isinstance(raw_adjust, Mapping) else []
@@ -578,6 +624,23 @@ def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> 
     )
     assert scenario is not None
     return scenario
+
+
+def _with_preset(data: Mapping[str, Any]) -> Mapping[str, Any]:
+    """``data`` with its ``preset``'s choices (`PRESETS`) where the file gives none;
+    the recommended preset's are the model's defaults, so only another preset fills keys."""
+    preset = data.get("preset") if isinstance(data, Mapping) else None
+    if not isinstance(preset, str) or preset not in PRESETS or preset == "recommended":
+        return data
+    out = {k: dict(v) if isinstance(v, Mapping) else v for k, v in data.items()}
+    for dotted, value in PRESETS[preset].items():
+        table, key = dotted.split(".")
+        if table == "formation" and key == "layout" and "slot" in out.get(table, {}):
+            continue
+        section = out.setdefault(table, {})
+        if isinstance(section, dict):
+            section.setdefault(key, value)
+    return out
 
 
 def _attempt(errors: list[str], where: str, make: Callable[[], T]) -> T | None:
@@ -764,9 +827,9 @@ def _build_scenario(
     if world is None:
         return None
     errors += _sense(world, src)
-    duration = (
-        float(m.duration) if m.duration is not None else float(math.ceil(path.lap_time(speed)))
-    )
+    # a duration given anywhere replaces ``until``; neither given: to the end of the lap
+    duration = float(m.duration) if m.duration is not None else 0.0
+    until = None if m.duration is not None else (m.until or "lap")
     if errors:
         return None
     task_set = _attempt(errors, "", lambda: _read_taskset(taskset, src))
@@ -777,6 +840,7 @@ def _build_scenario(
         world=world,
         taskset=taskset,
         duration=duration,
+        until=until,
         description=m.description,
         adjust=adjust,
         assumptions=dict(m.assumptions),
@@ -790,7 +854,7 @@ def _predicted_bound(
     src: str, r_H: float, follower: FollowerParams, sensing: SensingParams, ekf: EkfParams
 ) -> float:
     """The decision's localization bound for a window centred at the predicted position
-    (:func:`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
+    (`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
     the fix noise, the EKF's initial heading error, the actuation noise, at the followers'
     top speed, 3 standard deviations; the leader knows its own motion (no error)."""
     if not math.isfinite(follower.max_speed):
@@ -836,6 +900,7 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
     tests, shipped with rtsim as copies of ``experiments/scenarios/``) when no such file
     exists.
     """
+    from rtsim.examples import shipped_hint
     from rtsim.io.limits import read_input
 
     p = Path(path)
@@ -844,6 +909,8 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
         return res.read_bytes(), Path(f"{path}.toml")
     try:
         return read_input(p, "scenario"), p
+    except FileNotFoundError:
+        raise ScenarioError(f"{p}: no such scenario file{shipped_hint(p, 'scenario')}") from None
     except OSError as exc:
         raise ScenarioError(f"{p}: cannot read scenario: {exc.strerror or exc}") from None
 
@@ -857,12 +924,20 @@ def load_scenario(
     """Read and validate a scenario TOML file (or a packaged scenario by name, e.g. ``test1``).
 
     ``overrides``: dotted paths into the file and their new values, resolved as a sweep's
-    (``{"leader.speed": 20, "formation.followers": 4}``; :mod:`rtsim.config.dotted`).
-    ``allow_code``: as :func:`parse_scenario`.
+    (``{"leader.speed": 20, "formation.followers": 4}``; `rtsim.config.dotted`).
+    ``allow_code``: as [`parse_scenario`][rtsim.config.scenario.parse_scenario].
     """
     raw, p = scenario_bytes(path)
     src = str(p)  # the full path in every message
     data = parse_toml(raw, src, ScenarioError)
+    if overrides and any(k in overrides for k in _TOP_KEYS):
+        # top-level keys a file may leave out; the run's end asked for replaces the file's
+        overrides = dict(overrides)
+        for key, other in _TOP_KEYS.items():
+            if key in overrides:
+                if other:
+                    data.pop(other, None)
+                data[key] = overrides.pop(key)
     return parse_scenario(
         with_overrides(data, overrides, src), src, p.parent, allow_code=allow_code
     )

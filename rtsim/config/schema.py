@@ -1,6 +1,6 @@
 """JSON Schemas of the input files, generated from the models (``rtsim schema KIND``).
 
-The schemas describe the TOML documents (as :func:`tomllib.loads` returns them), so an
+The schemas describe the TOML documents (as `tomllib.loads` returns them), so an
 editor with a TOML language server (Taplo, Even Better TOML) checks a file as it is typed:
 add ``#:schema <path or URL of the schema>`` as the first line of the file. The package
 ships them in ``rtsim/data/schemas/`` (a test keeps them equal to the models).
@@ -70,7 +70,7 @@ def json_schema(kind: str) -> dict[str, Any]:
 
 
 def schema_text(kind: str) -> str:
-    """:func:`json_schema` as the text ``rtsim schema`` prints and the package ships."""
+    """`json_schema` as the text ``rtsim schema`` prints and the package ships."""
     return json.dumps(json_schema(kind), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
 
 

@@ -6,7 +6,7 @@ as a list of names, and every grid entry — a range string ``"1..10"``, ``"10..
 comma list ``"10,20"``, one value, or a TOML array — expanded to its values (finite numbers,
 integers within 64 bits, text or booleans, all of one type: each is a results column). What a
 sweep's names mean (a kind, its options and metrics, dotted paths into the base file) is
-checked by :mod:`rtsim.sweep.spec`, which sits above the registered sweep kinds.
+checked by `rtsim.sweep.spec`, which sits above the registered sweep kinds.
 """
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ def grid_values(raw: Any) -> tuple[Scalar, ...]:
 
 
 _SCALAR = [{"type": "number"}, {"type": "string"}, {"type": "boolean"}]
-#: A grid entry (:func:`grid_values`): validated and expanded to a tuple of its values.
+#: A grid entry (`grid_values`): validated and expanded to a tuple of its values.
 GRID_VALUE = Leaf(
     grid_values,
     {"anyOf": [*_SCALAR, {"type": "array", "minItems": 1, "items": {"anyOf": _SCALAR}}]},

@@ -1,10 +1,10 @@
-"""Task-set files: the typed model of the file, and the :class:`~rtsim.model.taskset.TaskSet`
+"""Task-set files: the typed model of the file, and the [`TaskSet`][rtsim.model.taskset.TaskSet]
 built from it once it is valid.
 
 The file's shape (keys, types, ranges, units) is the model below; the rules that involve
 several keys (every task gives a priority or none does, names are unique, ``"2w"`` needs a
 ``[window]``, ``k = "geometric"`` needs ``rho_min``) are checked when the task set is built,
-also all at once. See :mod:`rtsim.io.taskset` for the file format.
+also all at once. See [`rtsim.io.taskset`][rtsim.io.taskset] for the file format.
 """
 
 from __future__ import annotations

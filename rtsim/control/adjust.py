@@ -1,7 +1,7 @@
 """The adjustment algorithm (paper §3.3, docs/model/adjustment.md) and the three window modes, as
 pure functions.
 
-Each window, from the leader's estimates of every follower, :func:`adjust`:
+Each window, from the leader's estimates of every follower, `adjust`:
 
 1. predicts every follower's four bounds (ms) at the desired speed V_Ld, with the follower's
    motion given by the *prediction model* (below); m = the smallest, and which one binds;
@@ -9,10 +9,12 @@ Each window, from the leader's estimates of every follower, :func:`adjust`:
 3. else (overload): w = w_sch, slack = 0, and V_L is the **largest** speed in (0, V_Ld] at
    which every bound of every follower, predicted at that speed, is ≥ w_sch. Candidates:
 
-   * ``closed-form``: the paper's Eqs 23–26, corrected (:func:`~rtsim.control.closed_forms.
-     paper_speed`), with V_F, θ and ω_L at their estimates, for every bound violated at V_Ld
+   * ``closed-form``: the paper's Eqs 23–26, corrected
+   ([`paper_speed`][rtsim.control.closed_forms.paper_speed]), with V_F, θ and ω_L at their
+   estimates, for every bound violated at V_Ld
      (the paper treats the one binding bound; with several violated, the smallest speed);
-   * ``coupled``: the coupled closed forms (:func:`~rtsim.control.closed_forms.coupled_speed`),
+   * ``coupled``: the coupled closed forms
+   ([`coupled_speed`][rtsim.control.closed_forms.coupled_speed]),
      V_F = s·V_L, ω_L = κ·V_L, over every bound of every follower;
    * ``numeric``: a scan of the model's min bound over (0, V_Ld] and bisection (below),
      run only when no closed-form candidate passes the check.
@@ -22,19 +24,19 @@ Each window, from the leader's estimates of every follower, :func:`adjust`:
    is not maximal (the bound still holds 1e-6 above it) the numeric search refines it upward.
    If no speed passes: ``feasible=False``, method ``floor``, V_L = floor_frac·V_Ld.
 
-Prediction models (``predictor``, :data:`~rtsim.control.predict.PREDICTORS`):
+Prediction models (``predictor``, `PREDICTORS`):
 
 * ``"formation"`` (default, docs/model/world.md): the follower moves with its formation slot —
   velocity =
   leader velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
-  :func:`~rtsim.analysis.kinematics.formation_velocity`; the slot is (ρ_d, β_d) when
+  [`formation_velocity`][rtsim.analysis.kinematics.formation_velocity]; the slot is (ρ_d, β_d) when
   ``beta_d`` is given, else the estimated (ρ, β). The bounds are evaluated at the estimated
   (ρ, β): a follower off its slot has ρ̇, β̇ ≠ 0, one on its slot only the path-diversion bound.
   Every bound is ∝ 1/V_L, so the coupled form is exact and the feasible speeds are (0, V*].
 * ``"paper"`` (the paper's §3.3): Eq 17 and Eqs 19–21 on the EKF estimates — V̂_F, θ̂ and
   ω_L stay at the estimates whatever V_L is; the corrected closed forms (Eqs 23–26) are then
   exact and each bound is an interval of speeds;
-* ``"hybrid"``: :mod:`rtsim.control.predict`;
+* ``"hybrid"``: `rtsim.control.predict`;
 * any callable ``(follower, v_l) -> (v_f, theta, omega_l)``.
 
 Numeric search: descending scan of ``scan_points`` equal steps of (0, V_Ld] and then 20
@@ -100,9 +102,9 @@ CAP_FACTOR = 10.0
 FLOOR_FRAC = 0.05
 #: Default smallest window (ms) of the ``min-msb`` mode.
 FLOOR_W = 1.0
-#: Methods that :func:`adjust` can report.
+#: Methods that `adjust` can report.
 METHODS: tuple[str, ...] = ("none", "closed-form", "coupled", "numeric", "floor", "best")
-#: Window modes of :func:`decide`.
+#: Window modes of [`decide`][rtsim.control.decide].
 MODES: tuple[str, ...] = ("adjust", "fixed-wsch", "min-msb")
 
 Mode = Literal["adjust", "fixed-wsch", "min-msb"]
@@ -152,10 +154,12 @@ class Adjustment:
 
 
 class Decision(NamedTuple):
-    """A window's decision without the dicts of :class:`Adjustment` (:func:`decide_rows`).
+    """A window's decision without the dicts of [`Adjustment`][rtsim.control.adjust.Adjustment]
+    (`decide_rows`).
 
-    ``rows``/``rows_after``: every follower's bounds (ms) in :data:`BOUND_KINDS` order at the
-    desired / the chosen speed; the other fields as in :class:`Adjustment`.
+    ``rows``/``rows_after``: every follower's bounds (ms) in `BOUND_KINDS` order at the
+    desired / the chosen speed; the other fields as in
+    [`Adjustment`][rtsim.control.adjust.Adjustment].
     """
 
     w: float
@@ -194,7 +198,7 @@ def _formation_consts(
     fast path does not apply (non-float values, ``full`` localization).
 
     Each row: ρ, κ, s, cos(θ_F + β), cos β, sin β, sin(β + θ_F), and the numerators
-    1000·r_H, 1000·(T_ρ ρ_d), 1000·(T_ε ρ_d), 1000·T_β of :func:`scalar_msbs` (which computes
+    1000·r_H, 1000·(T_ρ ρ_d), 1000·(T_ε ρ_d), 1000·T_β of `scalar_msbs` (which computes
     ``1000.0 * x / d`` as ``(1000.0 * x) / d``: the same floats).
     """
     if kappa.__class__ is not float or thresholds.localization != "radial":
@@ -230,8 +234,8 @@ def _formation_consts(
 def _formation_rows(
     pre: list[tuple[float, ...]], v: float
 ) -> list[tuple[float, float, float, float]]:
-    """:func:`scalar_msbs` of every follower under the ``formation`` model at leader speed
-    ``v`` (V_F = s·v, ω_L = κ·v), from :func:`_formation_consts`; the same operations."""
+    """`scalar_msbs` of every follower under the ``formation`` model at leader speed
+    ``v`` (V_F = s·v, ω_L = κ·v), from `_formation_consts`; the same operations."""
     out = []
     for rho, kappa, s, c_tb, c_b, s_b, s_bt, n_loc, n_sep, n_path, n_bear in pre:
         v_f = s * v
@@ -256,8 +260,8 @@ def _hybrid_consts(
     path does not apply (non-float values, ``full`` localization).
 
     Each row: ρ, β, θ̂, cos β, sin β, s, cos θ_F, sin θ_F, V̂_F cos θ̂, V̂_F sin θ̂ (the
-    terms of :func:`~rtsim.control.predict.hybrid_velocity`) and the numerators of
-    :func:`_formation_consts`.
+    terms of `hybrid_velocity`) and the numerators of
+    `_formation_consts`.
     """
     if (
         kappa.__class__ is not float
@@ -305,9 +309,9 @@ def _hybrid_consts(
 def _hybrid_rows(
     pre: list[tuple[float, ...]], v: float, v_now: float, kappa: float
 ) -> list[tuple[float, float, float, float]]:
-    """:func:`scalar_msbs` of every follower under the ``hybrid`` model at leader speed
-    ``v`` (:func:`~rtsim.control.predict.hybrid_velocity`, ω_L = κ·v), from
-    :func:`_hybrid_consts`; the same operations, so the same floats."""
+    """`scalar_msbs` of every follower under the ``hybrid`` model at leader speed
+    ``v`` (`hybrid_velocity`, ω_L = κ·v), from
+    `_hybrid_consts`; the same operations, so the same floats."""
     out = []
     omega = kappa * v
     for rho, beta, theta0, c_b, s_b, s, c_tf, s_tf, ux0, uy0, n_loc, n_sep, n_path, n_bear in pre:
@@ -343,9 +347,9 @@ def bound_rows_at(
     """v_l -> every follower's bounds at v_l (rows in BOUND_KINDS order), memoised per v_l.
 
     For the built-in ``formation`` and ``hybrid`` models the per-follower constants are
-    computed once (:func:`_formation_consts`, :func:`_hybrid_consts`); the values are those
-    of :func:`predict_msb_rows` with the same predictor (bit for bit, tested). The
-    ``commands`` model's rows are ``rollout.rows(v_l)`` (:mod:`rtsim.control.rollout`).
+    computed once (`_formation_consts`, `_hybrid_consts`); the values are those
+    of `predict_msb_rows` with the same predictor (bit for bit, tested). The
+    ``commands`` model's rows are ``rollout.rows(v_l)`` (`rtsim.control.rollout`).
     """
     if model == "commands":
         if rollout is None:
@@ -385,9 +389,9 @@ def predicted_rows(
     v_now: float | None = None,
     rollout: Any = None,
 ) -> list[tuple[float, float, float, float]]:
-    """Every follower's four bounds (ms, :data:`BOUND_KINDS` order) at leader speed ``v_l``
+    """Every follower's four bounds (ms, `BOUND_KINDS` order) at leader speed ``v_l``
     under ``predictor``, from the same estimates and with the same arithmetic as the decision
-    (:func:`decide_rows`'s ``rows`` at ``v_l``): what the decision's belief says about a
+    (`decide_rows`'s ``rows`` at ``v_l``): what the decision's belief says about a
     window in which the leader drives at ``v_l`` (windows.csv ``f{i}_msb_{bound}_pred``)."""
     predict = (
         None
@@ -435,7 +439,7 @@ def adjust_core(
     v_now: float | None,
     rollout: Any = None,
 ) -> Decision:
-    """:func:`adjust` as a :class:`Decision` (validation included)."""
+    """`adjust` as a [`Decision`][rtsim.control.adjust.Decision] (validation included)."""
     where = "adjust"
     v_ld = check_number(where, "v_ld", v_ld)
     w_sch = check_number(where, "w_sch", w_sch)
@@ -603,9 +607,9 @@ def search_rollout(
     """The largest leader speed in (0, V_Ld) whose predicted min bound ``m(v)`` is ≥ ``need``,
     for a predictor without a closed form (the ``commands`` rollout).
 
-    Bracket: the speeds V_Ld·(1 − j/:data:`ROLLOUT_GRID`), j = 1 … GRID − 1, descending
+    Bracket: the speeds V_Ld·(1 − j/`ROLLOUT_GRID`), j = 1 … GRID − 1, descending
     (V_Ld itself has failed); the first that passes is refined by bisection against the
-    failing one above it until the bracket is :data:`ROLLOUT_TOL`·V_Ld wide (≤ 7 + 5 = 12
+    failing one above it until the bracket is `ROLLOUT_TOL`·V_Ld wide (≤ 7 + 5 = 12
     evaluations of ``m``; the passing end is returned, so the result is feasible and at most
     0.5 % of V_Ld below the boundary if feasibility is monotone within that step). Method
     ``numeric``. When no speed of the scan passes: the scanned speed (or ``v_floor``) with the
@@ -718,7 +722,8 @@ def adjust(
 
 
 def adjustment_of(mode: str, d: Decision, w_sch: float, v_ld: float) -> Adjustment:
-    """The :class:`Adjustment` of a :class:`Decision`."""
+    """The [`Adjustment`][rtsim.control.adjust.Adjustment] of a
+    [`Decision`][rtsim.control.adjust.Decision]."""
     msbs = tuple(_as_dict(r) for r in d.rows)
     after = msbs if d.rows_after is d.rows else tuple(_as_dict(r) for r in d.rows_after)
     if mode == "adjust":

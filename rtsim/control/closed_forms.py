@@ -4,7 +4,8 @@ docs/model/adjustment.md).
 Two families, each returning the **largest** leader speed V_L at which one bound of one
 follower is at least the window w (ms):
 
-- :func:`paper_speed` — the paper's Eqs 23–26 as corrected in docs/model/slips.md. V_F, θ and ω_L
+- [`paper_speed`][rtsim.control.closed_forms.paper_speed] — the paper's Eqs 23–26 as corrected in
+docs/model/slips.md. V_F, θ and ω_L
   are
   held at the leader's estimates while V_L changes (the paper's assumption):
   * bearing (Eq 23): β̇ = (V sin β − V_F sin(β+θ))/ρ − ω_L is affine in V, and |β̇| ≤ T_β/w
@@ -15,7 +16,8 @@ follower is at least the window w (ms):
     (V_F cos(β+θ) − D/w)/cos β for trailing followers (cos β < 0), (… + D/w)/cos β otherwise;
     with the full localization bound, |(a₀, b₀) + V(−cos β, sin β)| ≤ r_H/w is a quadratic in V;
   * path diversion (Eq 26): T_ε ρ_d / w, which assumes V_F = V_L.
-- :func:`coupled_speed` — the follower coupled to the leader through the formation,
+- [`coupled_speed`][rtsim.control.closed_forms.coupled_speed] — the follower coupled to the leader
+through the formation,
   V_F = s·V_L, ω_L = κ·V_L, θ fixed, so every bound is c/V_L and has one positive root:
   D/(w|s cos(β+θ) − cos β|), T_β/(w|(sin β − s sin(β+θ))/ρ − κ|), T_ε ρ_d/(w s).
 
@@ -107,7 +109,8 @@ def coupled_speed(
     (ms).
 
     ``s`` = V_F/V_L and ``theta_f`` come from the formation (see
-    :func:`rtsim.analysis.kinematics.formation_velocity` at V_L = 1, ω_L = κ); every bound is
+    [`rtsim.analysis.kinematics.formation_velocity`][rtsim.analysis.kinematics.formation_velocity]
+    at V_L = 1, ω_L = κ); every bound is
     then proportional to 1/V_L, so it holds exactly for V_L ≤ the returned speed (``inf`` when
     the bound does not depend on V_L at all).
     """
@@ -141,7 +144,8 @@ def coupled_speeds(
     thr: Thresholds,
     w: float,
 ) -> tuple[float, float, float, float]:
-    """:func:`coupled_speed` for the four bounds at once, in ``BOUND_KINDS`` order
+    """[`coupled_speed`][rtsim.control.closed_forms.coupled_speed] for the four bounds at once, in
+    ``BOUND_KINDS`` order
     (localization, separation, path_diversion, bearing): the same values, one evaluation of
     the shared terms."""
     ws = _check_w(w)

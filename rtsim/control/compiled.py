@@ -1,15 +1,15 @@
 """The ``paper`` predictor's speed search compiled with numba (the world's ``compiled``
-backend turns it on; :mod:`rtsim.world.compiled` for the world's own kernels).
+backend turns it on; `rtsim.world.compiled` for the world's own kernels).
 
 Under the ``paper`` model the followers' predicted speed, heading and the leader's turn rate
 stay at their estimates whatever the leader's speed, so the predicate of the speed search —
 "every follower's four bounds (Eq 17, Eqs 19–21 and the bearing bound, radial localization)
-are at least w_sch at V_L" — is a few lines of arithmetic per follower. :class:`PaperSearch`
+are at least w_sch at V_L" — is a few lines of arithmetic per follower. `PaperSearch`
 is the predictor name ``"paper"`` (a ``str`` equal to it, so every comparison and every
-record sees the same name) carrying :meth:`PaperSearch.largest`, which runs
-:func:`rtsim.control.adjust.largest` over the grid with that predicate in one compiled call:
-the same expressions in the same order as :func:`~rtsim.analysis.kinematics.scalar_msbs`
-and :func:`~rtsim.control.predict.min_bound_rows`, so the same speed, bit for bit (tested
+record sees the same name) carrying `PaperSearch.largest`, which runs
+`rtsim.control.adjust.largest` over the grid with that predicate in one compiled call:
+the same expressions in the same order as `scalar_msbs`
+and `min_bound_rows`, so the same speed, bit for bit (tested
 against the Python search on whole runs).
 """
 
@@ -22,12 +22,12 @@ from typing import Any
 import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
+from rtsim.world.jit import build, kernel
 
 __all__ = ["PaperSearch"]
 
-_KERNEL: Any = None
 
-
+@kernel
 def _passes(
     v: float,
     rho: Any,
@@ -64,6 +64,7 @@ def _passes(
     return best >= need
 
 
+@kernel
 def _largest_paper(
     grid: Any,
     rho: Any,
@@ -103,18 +104,6 @@ def _largest_paper(
     return False, 0.0
 
 
-def _kernel() -> Any:
-    global _KERNEL, _passes
-    if _KERNEL is None:
-        import numba
-
-        jit = numba.njit(cache=True, nogil=True)
-        if not hasattr(_passes, "py_func"):
-            _passes = jit(_passes)
-        _KERNEL = jit(_largest_paper)
-    return _KERNEL
-
-
 class PaperSearch(str):
     """The predictor name ``"paper"`` with its compiled speed search (module docstring)."""
 
@@ -122,8 +111,8 @@ class PaperSearch(str):
         return super().__new__(cls, "paper")
 
     def __init__(self) -> None:
-        self._kernel = _kernel()
-        self.largest(  # compile, or load from numba's cache, now rather than in a window
+        self._kernel = build(_largest_paper)
+        self.largest(  # compile, or load from the cache, now rather than in a window
             [], 0.0, Thresholds(1.0, 1.0, 1.0, 1.0), 1.0, [1.0]
         )
 
@@ -135,7 +124,7 @@ class PaperSearch(str):
         need: float,
         grid: Sequence[float],
     ) -> float | None:
-        """:func:`rtsim.control.adjust.largest` over ``grid`` with the paper model's
+        """`rtsim.control.adjust.largest` over ``grid`` with the paper model's
         predicate (radial localization) for ``followers``; None when no speed passes."""
         rho = np.array([f.rho for f in followers], dtype=float)
         beta = np.array([f.beta for f in followers], dtype=float)

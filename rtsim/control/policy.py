@@ -1,21 +1,23 @@
 """Adjustment policies: what sets each window's w and the leader's speed target .
 
 A policy is an object with one method, ``decide(ctx: PolicyInput) -> Decision``: from what
-the leader knows when a window completes (:class:`PolicyInput`: its estimates of every
+the leader knows when a window completes ([`PolicyInput`][rtsim.control.policy.PolicyInput]: its
+estimates of every
 follower, the window's lower bound ``w_sch``, the desired speed, its own turn rate and the
 path's curvature, its actual speed, the scenario's limits) it returns the one decision type,
-:class:`~rtsim.control.adjust.Decision` (w, leader speed target, binding bound, method,
+[`Decision`][rtsim.control.adjust.Decision] (w, leader speed target, binding bound, method,
 predicted bounds at the desired and at the chosen speed).
 
-Policies are registered by name (:data:`ADJUSTMENT_POLICIES`, a
-:class:`~rtsim.registry.Registry`; :func:`register_adjustment_policy`), or installed as entry
+Policies are registered by name (`ADJUSTMENT_POLICIES`, a
+`Registry`; [`register_adjustment_policy`][rtsim.control.policy.register_adjustment_policy]), or
+installed as entry
 points of the group ``rtsim.policies``. A scenario selects one with ``[adjust] policy =
-"NAME"`` or ``"package.module:Name"`` (a user's own class, loaded by :func:`policy_class`; code
-named in a file loads only when the user allows it, :mod:`rtsim.registry`); ``rtsim scenario …
+"NAME"`` or ``"package.module:Name"`` (a user's own class, loaded by `policy_class`; code
+named in a file loads only when the user allows it, `rtsim.registry`); ``rtsim scenario …
 --policy NAME`` overrides the file; ``--mode`` is an alias. The registered policies:
 
 * ``adjust``: the paper's algorithm (§3.3, docs/model/adjustment.md;
-  :func:`rtsim.control.adjust.adjust`);
+  `rtsim.control.adjust.adjust`);
 * ``fixed-wsch``: w = w_sch, V_L = V_Ld (the bounds may break in the world);
 * ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld (the schedule may break);
 * ``lookahead``: margin, made safe ahead of time along the leader's known path commands;
@@ -26,10 +28,10 @@ named in a file loads only when the user allows it, :mod:`rtsim.registry`); ``rt
   w = max(w_sch, (1 − μ)·min MSB) (capped), and in overload the largest speed at which every
   bound is ≥ w_sch / (1 − μ), i.e. (1 − μ)·bound ≥ w_sch.
 
-A policy's own keys in ``[adjust]`` are its class's :attr:`Policy.params` (name → default);
+A policy's own keys in ``[adjust]`` are its class's `Policy.params` (name → default);
 its constructor receives them as keyword arguments and validates them (an
-:class:`~rtsim.errors.InputError` whose message starts with the key). Every ``[adjust]`` key
-is validated in one place, :func:`adjust_options`.
+`InputError` whose message starts with the key). Every ``[adjust]`` key
+is validated in one place, `adjust_options`.
 """
 
 from __future__ import annotations
@@ -99,7 +101,7 @@ class PolicyInput:
     omega_l: its turn rate; kappa: the path's curvature where it is; v_now: its actual speed;
     cap: the largest window (None: CAP_FACTOR·w_sch); floor_frac: its speed when nothing
     restores the bounds, as a fraction of v_ld; floor_w: the smallest window of ``min-msb``;
-    predictor, methods, scan_points: as in :func:`rtsim.control.adjust.adjust`; ahead: the
+    predictor, methods, scan_points: as in `rtsim.control.adjust.adjust`; ahead: the
     leader's known upcoming path commands as (distance from here to the command's start in
     cm, its curvature in 1/cm), nearest first (filled for a policy whose class sets
     ``needs_path = True``, else empty); accel_max, decel_max: the leader's speed ramp limits
@@ -108,12 +110,12 @@ class PolicyInput:
     leader's EKF covariance P, σ_p = √((P_xx + P_yy)/2), σ_θ = √P_θθ (these three are filled
     for a policy whose class sets ``needs_noise = True``, else 0 / empty).
 
-    rollout: **the command-aware rollout hook** (:class:`rtsim.control.rollout.Rollout`),
+    rollout: **the command-aware rollout hook** (`rtsim.control.rollout.Rollout`),
     filled by a coupled run with follow-the-leader followers when the predictor is
     ``commands`` or the policy's class sets ``needs_rollout = True`` (else None):
     ``rollout.rows(v)`` — every follower's four bounds (ms) in the window this decision
     governs if the leader's target speed is ``v``, from the leader's own ramp and the
-    commands it will send (:mod:`rtsim.control.rollout`); ``rollout.rows(v, w)`` for a window
+    commands it will send (`rtsim.control.rollout`); ``rollout.rows(v, w)`` for a window
     of ``w`` ms; ``rollout.changes(v, windows)`` — the predicted changes (displacement,
     |Δρ|, distance, |Δβ|) per follower in each of several consecutive windows;
     ``rollout.bounds(changes, w)`` turns one window's changes into bounds.
@@ -143,8 +145,9 @@ class PolicyInput:
 
 @runtime_checkable
 class Policy(Protocol):
-    """An adjustment policy: ``decide`` maps a :class:`PolicyInput` to a
-    :class:`~rtsim.control.adjust.Decision`. ``params``: its own ``[adjust]`` keys and their
+    """An adjustment policy: ``decide`` maps a [`PolicyInput`][rtsim.control.policy.PolicyInput] to
+    a
+    [`Decision`][rtsim.control.adjust.Decision]. ``params``: its own ``[adjust]`` keys and their
     defaults (its constructor takes them as keyword arguments)."""
 
     name: ClassVar[str]
@@ -185,16 +188,16 @@ def register_adjustment_policy(name: str) -> Callable[[type], type]:
     return deco
 
 
-#: Old names, kept for code that uses them: :data:`ADJUSTMENT_POLICIES`,
-#: :func:`register_adjustment_policy`.
+#: Old names, kept for code that uses them: `ADJUSTMENT_POLICIES`,
+#: [`register_adjustment_policy`][rtsim.control.policy.register_adjustment_policy].
 POLICIES = ADJUSTMENT_POLICIES
 register_policy = register_adjustment_policy
 
 
 def policy_class(spec: object, where: str = "policy", *, allow_code: bool | None = None) -> type:
     """The policy class named ``spec``: a registered name, an entry point or
-    ``"package.module:Name"`` (code: :func:`rtsim.registry.load_code`). An unknown name is an
-    :class:`InputError` with a did-you-mean."""
+    ``"package.module:Name"`` (code: `rtsim.registry.load_code`). An unknown name is an
+    `InputError` with a did-you-mean."""
     return ADJUSTMENT_POLICIES.resolve(spec, where, allow_code=allow_code)  # type: ignore[arg-type]
 
 
@@ -204,8 +207,8 @@ def make_policy(
     where: str = "adjust",
     common: tuple[str, ...] = COMMON_KEYS,
 ) -> Any:
-    """An instance of :func:`policy_class` ``(spec)`` with its own keys ``params``; a key it
-    does not know is an :class:`InputError` with a did-you-mean (among ``common`` and its
+    """An instance of `policy_class` ``(spec)`` with its own keys ``params``; a key it
+    does not know is an `InputError` with a did-you-mean (among ``common`` and its
     own keys)."""
     cls = policy_class(spec, f"{where}.policy")
     params = dict(params or {})
@@ -233,7 +236,7 @@ def adjust_options(
     opts: Mapping[str, Any], where: str = "adjust", override: str | None = None
 ) -> tuple[Any, dict[str, Any]]:
     """Validate an ``[adjust]`` mapping (ScenarioInputs.adjust): the policy (key ``policy``,
-    default ``adjust``) made with its own keys, and the common options (:data:`COMMON_KEYS`
+    default ``adjust``) made with its own keys, and the common options (`COMMON_KEYS`
     without ``policy``) as a dict. The old key ``model`` names its replacement.
 
     ``override`` (``--policy``): a policy that replaces the mapping's; the mapping's keys of
@@ -283,7 +286,7 @@ def _rows_at_vld(ctx: PolicyInput) -> list[tuple[float, float, float, float]]:
 
 @register_adjustment_policy("adjust")
 class PaperPolicy:
-    """The paper's adjustment algorithm (§3.3, Eqs 22–26; :func:`rtsim.control.adjust.adjust`):
+    """The paper's adjustment algorithm (§3.3, Eqs 22–26; `rtsim.control.adjust.adjust`):
     w = min(min MSB, cap) at V_Ld when min MSB ≥ w_sch, else w = w_sch and the largest speed
     at which every predicted bound is ≥ w_sch."""
 
@@ -357,7 +360,7 @@ class MarginPolicy:
 
     w = max(w_sch, min((1 − μ)·min MSB, cap)) with min MSB predicted at V_Ld; when
     (1 − μ)·min MSB < w_sch (overload) w = w_sch and V_L is the largest speed at which
-    (1 − μ)·(every bound) ≥ w_sch, found by :func:`~rtsim.control.adjust.adjust` against the
+    (1 − μ)·(every bound) ≥ w_sch, found by `adjust` against the
     raised lower bound w_sch / (1 − μ) (and the cap / (1 − μ)). μ = 0 is the paper's policy.
     ``feasible``: (1 − μ)·min MSB at the chosen speed ≥ w_sch.
     """
@@ -396,7 +399,7 @@ class MarginPolicy:
 class LookaheadPolicy:
     """The margin policy, made safe ahead of time along the leader's known path commands.
 
-    1. d = :class:`MarginPolicy` (``margin`` μ, default 0) on the current command (κ here).
+    1. d = `MarginPolicy` (``margin`` μ, default 0) on the current command (κ here).
     2. For every upcoming command j at distance D_j within the horizon
        H = V·(windows·w_sch / 1000) + V² / (2·decel_max) (V = the leader's actual speed), the
        safe speed there, v_j = the margin policy's speed with κ = κ_j, ω_L = κ_j·V and the
@@ -560,7 +563,7 @@ def pad_rows(
 @register_adjustment_policy("noise-aware")
 class NoiseAwarePolicy:
     """The paper's algorithm against bounds whose predicted V_F, |ρ̇| and |β̇| are padded by
-    z·σ (:func:`pad_rows`; σ from the followers' actuation noise and the leader's EKF
+    z·σ (`pad_rows`; σ from the followers' actuation noise and the leader's EKF
     covariance), optionally with a margin μ:
 
     with m(v) = min over followers and bounds of the padded bounds at leader speed v,
@@ -655,7 +658,7 @@ class NoiseAwarePolicy:
 
 @register_adjustment_policy("safe")
 class SafePolicy(LookaheadPolicy):
-    """:class:`LookaheadPolicy` on top of :class:`NoiseAwarePolicy`: the current command's and
+    """`LookaheadPolicy` on top of `NoiseAwarePolicy`: the current command's and
     every upcoming command's decision are the noise-aware one (padding z·σ, margin μ), the
     leader slows ahead of turns as in ``lookahead``. Own keys: ``margin`` (default 0.1),
     ``z`` (default 1) and ``windows`` (default 2)."""
@@ -671,7 +674,7 @@ class SafePolicy(LookaheadPolicy):
 
 @register_policy("plan")
 class PlanPolicy:
-    """Several windows ahead on the command-aware rollout (:attr:`PolicyInput.rollout`).
+    """Several windows ahead on the command-aware rollout (`PolicyInput.rollout`).
 
     For a candidate target speed V the rollout plays the leader (its path commands ahead and
     its ramp limits, so a slow-down costs the braking it needs) and every follower under the
@@ -685,7 +688,7 @@ class PlanPolicy:
       window of that length (shrunk by its own worst change ratio if a change would exceed
       its threshold, never below w_sch);
     * else w = w_sch and V_L = the largest V with (1 − μ)·m(V) ≥ w_sch
-      (:func:`~rtsim.control.adjust.search_rollout`: bracket on 8 speeds, bisect to 0.5 % of
+      (`search_rollout`: bracket on 8 speeds, bisect to 0.5 % of
       V_Ld, method ``numeric``), or, when none has, the scanned speed with the largest m
       (method ``best``).
 
@@ -770,19 +773,20 @@ class PlanPolicy:
 
 
 def decide_rows(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Decision:
-    """:func:`decide` as the lightweight :class:`Decision` (bounds as rows in
-    :data:`BOUND_KINDS` order, no dicts): the registered policy ``mode``
-    (:mod:`rtsim.control.policy`) on a :class:`~rtsim.control.policy.PolicyInput` made of
+    """[`decide`][rtsim.control.policy.decide] as the lightweight
+    [`Decision`][rtsim.control.policy.Decision] (bounds as rows in
+    `BOUND_KINDS` order, no dicts): the registered policy ``mode``
+    (`rtsim.control.policy`) on a [`PolicyInput`][rtsim.control.policy.PolicyInput] made of
     ``followers`` and ``options`` (its fields: v_ld, w_sch, thresholds, omega_l, kappa, cap,
     floor_frac, floor_w, predictor, methods, scan_points, v_now)."""
     return policy_class(mode, "mode")().decide(PolicyInput(followers, **options))
 
 
 def decide(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Adjustment:
-    """One window's decision by the registered policy ``mode`` (:mod:`rtsim.control.policy`;
-    ``options`` as in :func:`decide_rows`), e.g. the reproduction's three modes:
+    """One window's decision by the registered policy ``mode`` (`rtsim.control.policy`;
+    ``options`` as in `decide_rows`), e.g. the reproduction's three modes:
 
-    - ``adjust``: :func:`adjust`;
+    - ``adjust``: `adjust`;
     - ``fixed-wsch``: w = w_sch, V_L = V_Ld always (the bounds may break in the world);
     - ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld always (the schedule may
       break); floor_w (ms, default 1) keeps a zero-or-tiny bound from making a zero window.

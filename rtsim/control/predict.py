@@ -6,12 +6,13 @@ A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_
 * ``"formation"`` (docs/model/world.md): the follower moves with its formation slot — velocity =
   leader
   velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
-  :func:`~rtsim.analysis.kinematics.formation_velocity`; so V_F = s·V_L with s fixed by the
+  [`formation_velocity`][rtsim.analysis.kinematics.formation_velocity]; so V_F = s·V_L with s fixed
+  by the
   slot and κ, and θ is fixed. The bounds are evaluated at the *estimated* (ρ, β).
 * ``"paper"`` (the paper's §3.3): Eq 17 and Eqs 19–21 evaluated on the EKF estimates —
   V̂_F, θ̂ and ω_L stay at the estimates (and the bounds at the estimated ρ̂, β̂) whatever V_L
-  is, so the corrected closed forms of Eqs 23–26 (:func:`~rtsim.control.closed_forms.
-  paper_speed`) are exact for it.
+  is, so the corrected closed forms of Eqs 23–26
+  ([`paper_speed`][rtsim.control.closed_forms.paper_speed]) are exact for it.
 * ``"hybrid"``: the follower's estimated velocity vector, with its formation feed-forward
   part following V_L: u(V_L) = û + f(V_L) − f(V_now), where û = V̂_F·(cos θ̂, −sin θ̂) is the
   estimated velocity in the leader frame, f(V) = s·V·(cos θ_F, −sin θ_F) the slot's
@@ -20,10 +21,10 @@ A *prediction model* maps (follower estimate, leader speed V_L) to (V_F, θ, ω_
   plus the follower's current correction velocity û − f(V_now), held constant. It equals
   ``"paper"`` at V_L = V_now and ``"formation"`` when û = f(V_now).
 * ``"commands"``: the leader plays its own motion and the followers' commands forward
-  (:mod:`rtsim.control.rollout`): the bounds come from the predicted changes over the window,
+  (`rtsim.control.rollout`): the bounds come from the predicted changes over the window,
   not from a (V_F, θ, ω_L) per follower, so it needs the rollout of a coupled run
-  (:attr:`rtsim.control.policy.PolicyInput.rollout`);
-* any callable with the :data:`Predictor` signature.
+  (`rtsim.control.policy.PolicyInput.rollout`);
+* any callable with the `Predictor` signature.
 """
 
 from __future__ import annotations
@@ -108,7 +109,7 @@ class FollowerEstimate:
         beta_d: float | None = None,
     ) -> FollowerEstimate:
         """Construct without validation: only for values the caller has already checked
-        (finite floats, rho and rho_d > 0, v_f ≥ 0) — see :func:`trusted_estimate`."""
+        (finite floats, rho and rho_d > 0, v_f ≥ 0) — see `trusted_estimate`."""
         self = object.__new__(cls)
         object.__setattr__(self, "rho", rho)
         object.__setattr__(self, "beta", beta)
@@ -209,8 +210,8 @@ RENAMED: dict[str, str] = PREDICTORS.renamed
 
 
 def check_predictor(name: object, where: str = "predictor") -> str:
-    """``name`` if it names a prediction model (:data:`PREDICTORS`); else an
-    :class:`InputError` with a did-you-mean (old names such as ``estimate`` name their
+    """``name`` if it names a prediction model (`PREDICTORS`); else an
+    `InputError` with a did-you-mean (old names such as ``estimate`` name their
     replacement)."""
     PREDICTORS.resolve(name, where)  # type: ignore[arg-type]
     return name  # type: ignore[return-value]
@@ -219,7 +220,7 @@ def check_predictor(name: object, where: str = "predictor") -> str:
 def predictor(
     model: str | Predictor, *, omega_l: float, kappa: float, v_now: float | None = None
 ) -> Predictor:
-    """The prediction model named ``model`` (:data:`PREDICTORS`), or ``model``.
+    """The prediction model named ``model`` (`PREDICTORS`), or ``model``.
 
     ``v_now``: the leader's current actual speed (cm/s), required by ``"hybrid"``.
     """
@@ -234,7 +235,7 @@ def predictor(
 
 def _needs_rollout(f: FollowerEstimate, v_l: float) -> tuple[float, float, float]:
     """The ``commands`` model has no per-follower form: its bounds come from the leader's
-    rollout (:mod:`rtsim.control.rollout`), which the decision receives separately."""
+    rollout (`rtsim.control.rollout`), which the decision receives separately."""
     raise InputError(
         "predictor 'commands' needs the leader's rollout (PolicyInput.rollout; "
         "a coupled run with follow-the-leader followers fills it)"
@@ -282,7 +283,8 @@ def predict_msbs(
 def predict_msb_rows(
     followers: Sequence[FollowerEstimate], v_l: float, predict: Predictor, thr: Thresholds
 ) -> list[tuple[float, float, float, float]]:
-    """:func:`predict_msbs` as tuples in :data:`BOUND_KINDS` order (same values, no dicts)."""
+    """[`predict_msbs`][rtsim.control.predict.predict_msbs] as tuples in `BOUND_KINDS` order (same
+    values, no dicts)."""
     out = []
     for f in followers:
         v_f, theta, omega_l = predict(f, v_l)
@@ -300,7 +302,7 @@ def predict_msb_rows(
 
 
 def min_bound_rows(rows: Sequence[Sequence[float]]) -> tuple[float, str, int]:
-    """:func:`min_bound` over rows in :data:`BOUND_KINDS` order."""
+    """[`min_bound`][rtsim.control.predict.min_bound] over rows in `BOUND_KINDS` order."""
     best, kind, who = math.inf, "none", 0
     for i, m in enumerate(rows, start=1):
         for j in range(4):

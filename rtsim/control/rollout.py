@@ -1,20 +1,20 @@
 """The command-aware rollout: the leader predicts the followers from the commands it will send.
 
 The leader radios every follower its command, and it knows the law that computes it
-(follow-the-leader, :mod:`rtsim.world.ftl`, or l-ψ, :func:`~rtsim.world.follower.
-lpsi_command`). So instead of holding the followers' estimated
+(follow-the-leader, `rtsim.world.ftl`, or l-ψ, [`lpsi_command`][rtsim.world.follower.lpsi_command]).
+So instead of holding the followers' estimated
 velocities while its own speed changes (the ``paper`` predictor), it can play the next
 windows forward: for a candidate target speed V it runs
 
 * **itself**: the path from its arc length and actual speed now, the speed ramping toward V
-  within its ``accel_max`` / ``decel_max`` (:class:`~rtsim.world.leader.Leader`, the world's
+  within its ``accel_max`` / ``decel_max`` ([`Leader`][rtsim.world.leader.Leader], the world's
   own class);
 * **every follower**: from the leader's estimate now (pose, expected speed, the command it
   holds), holding that command until its next send, then at each send time the command the
   law computes from the leader's state at that moment and the follower's predicted pose
-  (:meth:`~rtsim.world.ftl.TraceFollower.command`, the world's own controller, on a clone of
+  (`command`, the world's own controller, on a clone of
   the leader's law state), saturated and integrated exactly as the world integrates a held
-  command (:class:`~rtsim.world.follower.FollowerGroup`), **without** actuation noise — the
+  command ([`FollowerGroup`][rtsim.world.follower.FollowerGroup]), **without** actuation noise — the
   leader's best guess, never the truth;
 
 and samples, at the scans that open and close each window, the changes the world checks
@@ -34,8 +34,8 @@ opens with its scan at ``next_scan + Σ_{i<j} w_i`` and follower k's command is 
 ``send_offsets[k]`` ms after that scan (the offsets measured in the current window). The
 leader's new target takes effect at ``t_now``.
 
-Used by the ``commands`` predictor of the adjustment (:func:`rtsim.control.adjust.adjust`) and
-by policies through :attr:`rtsim.control.policy.PolicyInput.rollout`: ``ctx.rollout.rows(v)``
+Used by the ``commands`` predictor of the adjustment (`rtsim.control.adjust.adjust`) and
+by policies through `rtsim.control.policy.PolicyInput.rollout`: ``ctx.rollout.rows(v)``
 are the four bounds of every follower in the window the decision governs if the leader's
 target is ``v``; ``ctx.rollout.changes(v, windows)`` the predicted changes in several windows.
 """
@@ -72,7 +72,7 @@ class RolloutState:
 
     path, law: its path and its follow-the-leader law (cloned per rollout, so the caller's
     is never changed), or None for l-ψ followers (then their slots ``rho_d``, ``beta_d`` and
-    :func:`~rtsim.world.follower.lpsi_command`, as the world commands them); params: the
+    [`lpsi_command`][rtsim.world.follower.lpsi_command], as the world commands them); params: the
     followers' limits (max speed, acceleration, turn rate; the noise fields are ignored);
     step_ms: the integration step of a ramping wheel speed;
     t_now: the decision's time; leader_s, leader_speed: its arc length and actual speed;
@@ -110,7 +110,7 @@ class RolloutState:
 
 @dataclass
 class Rollout:
-    """Rollouts from one :class:`RolloutState`, memoised per (target, windows).
+    """Rollouts from one `RolloutState`, memoised per (target, windows).
 
     ``count``: the rollouts actually run (one per distinct (target, windows)).
     """
@@ -169,13 +169,13 @@ class Rollout:
     def search(
         self, v_ld: float, keep: float, need: float, v_floor: float, windows: int, w: float
     ) -> tuple[float, str, float] | None:
-        """:func:`~rtsim.control.adjust.search_rollout` over keep · m(V), m(V) the smallest
+        """`search_rollout` over keep · m(V), m(V) the smallest
         bound of every follower in ``windows`` windows of ``w`` ms (plan's; adjust with the
         ``commands`` predictor asks for one window of w_sch, its rows), in one
         compiled call; None when this rollout is not compiled (the caller searches in
         Python, with the same result; also when ``v_ld``, the top of the search, is not the
         state's). The rollouts it ran join the memo, as the Python search's do (a later
-        :meth:`changes` of one of its speeds is that rollout)."""
+        `changes` of one of its speeds is that rollout)."""
         if self._compiled is None or v_ld != self.state.v_ld:
             return None
         from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
@@ -196,11 +196,11 @@ class Rollout:
         windows: int,
         w: float,
     ) -> tuple[float, float, str, float, bool, list[Any], list[Any]] | None:
-        """:class:`~rtsim.control.policy.PlanPolicy`'s decision (margin 1 − ``keep``, horizon
+        """`PlanPolicy`'s decision (margin 1 − ``keep``, horizon
         ``windows`` windows of ``w`` ms) in one compiled call: (w, V_L, method, the found
         speed or NaN, feasible, the rows at V_Ld, the rows at V_L); None when this rollout
         is not compiled, or ``v_ld`` or ``w`` are not the state's (its V_Ld and w_sch,
-        which :meth:`rows` uses). Its rollouts join the memo, as the Python policy's do."""
+        which `rows` uses). Its rollouts join the memo, as the Python policy's do."""
         st = self.state
         if self._compiled is None or v_ld != st.v_ld or w != st.w_sch:
             return None
@@ -229,7 +229,7 @@ class Rollout:
         )
 
     def _remember(self, ran: Sequence[tuple[float, tuple[float, ...], Any]]) -> None:
-        """Keep compiled rollouts (speed, window lengths, changes array) for :meth:`changes`."""
+        """Keep compiled rollouts (speed, window lengths, changes array) for `changes`."""
         for v, lengths, arr in ran:
             key = (v, lengths)
             if key not in self._memo and key not in self._raw:

@@ -20,10 +20,11 @@ __all__ = ["ScenarioInputs", "resolved", "scenario_inputs"]
 class ScenarioInputs:
     """What a coupled run needs: the world, the leader's task set, and run options.
 
-    ``adjust``: options of :func:`rtsim.control.decide` (``cap`` in ms or ``cap_factor``
+    ``adjust``: options of [`rtsim.control.decide`][rtsim.control.decide] (``cap`` in ms or
+    ``cap_factor``
     × w_sch, ``floor_frac``, ``floor_w``, ``predictor``, ``methods``, ``scan_points``,
     ``lower_bound``), ``policy`` and the policy's own keys; validated by
-    :func:`rtsim.control.policy.adjust_options`.
+    `rtsim.control.policy.adjust_options`.
     ``duration_s``: default duration (simulated s), None = one lap. ``text``/``resolved``:
     the scenario file's text and resolved values, for the manifest.
     """
@@ -44,12 +45,16 @@ def scenario_inputs(
     overrides: Mapping[str, Any] | None = None,
     allow_code: bool | None = None,
 ) -> ScenarioInputs:
-    """What :func:`run_scenario` runs, prepared once (the world, the task set loaded, the
+    """What [`run_scenario`][rtsim.coupling.run_scenario] runs, prepared once (the world, the task
+    set loaded, the
     resolved values): a caller that runs the same scenario many times (a sweep's worker)
-    can keep it and pass it back. Accept :class:`ScenarioInputs`, a path (loaded with
-    :func:`rtsim.io.scenario.load_scenario`), or a :class:`rtsim.io.scenario.Scenario`.
+    can keep it and pass it back. Accept [`ScenarioInputs`][rtsim.coupling.inputs.ScenarioInputs], a
+    path (loaded with
+    [`rtsim.io.scenario.load_scenario`][rtsim.io.scenario.load_scenario]), or a
+    [`rtsim.io.scenario.Scenario`][rtsim.io.scenario.Scenario].
 
-    A Scenario's ``[adjust]`` maps to :func:`rtsim.control.decide`: ``cap`` (ms; ``inf`` →
+    A Scenario's ``[adjust]`` maps to [`rtsim.control.decide`][rtsim.control.decide]: ``cap`` (ms;
+    ``inf`` →
     decide's default, 10·w_sch) and ``floor`` (cm/s) → ``floor_frac`` = floor / V_Ld, which
     is also the lowest speed the coupling ever sets; ``predictor`` (when not the default
     ``formation``) → ``predictor``. The leader's current actual speed is passed to every

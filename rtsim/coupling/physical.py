@@ -8,7 +8,7 @@ they get. Sampled on the truth at every scan (every window, ~0.24 s here):
 
 * ``cross_track_cm``: a follower's distance from its place on the trace — the leader's trace
   (the path it drove) shifted sideways by the follower's lateral offset, the curve its
-  follow-the-leader law tracks (:meth:`rtsim.world.ftl.TraceFollower.project`); ``None``
+  follow-the-leader law tracks (`rtsim.world.ftl.TraceFollower.project`); ``None``
   with l-ψ followers, which track a slot, not the trace;
 * ``separation_error_cm``: |ρ − ρ_d|, ρ the follower's true distance to the leader;
 * ``min_robot_distance_cm``: the closest any two robots' centres came (leader included);

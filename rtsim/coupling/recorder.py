@@ -4,17 +4,19 @@ The schema is pinned in ``docs/outputs.md`` (other modules plot and validate aga
 it): one row per processing window, window-level columns first, then per follower i (1-based)
 the truth at the scan (``f{i}_x`` … ``f{i}_v``), the leader's estimate that the decision used
 (the same names with ``_est``), every bound as the decision's belief and as the truth
-(``f{i}_msb_{bound}_pred``, ``f{i}_msb_{bound}_true``, :func:`true_bounds`), and the
+(``f{i}_msb_{bound}_pred``, ``f{i}_msb_{bound}_true``, `true_bounds`), and the
 violations observed on the truth between this window's scan and the next (``f{i}_viol_*``)
 with ``f{i}_lost``. No empty cells: an unbounded value is ``inf``; booleans are
 ``True``/``False``.
 
-During the run the coupling fills one :class:`WindowRecord` per window (plain Python and small
-numpy arrays); :meth:`WindowRecorder.frame` builds the DataFrame in one pass with a fixed
-column order and dtypes. With a ``sink``, every :data:`CHUNK_WINDOWS` windows the complete
+During the run the coupling fills one [`WindowRecord`][rtsim.coupling.recorder.WindowRecord] per
+window (plain Python and small
+numpy arrays); [`WindowRecorder.frame`][rtsim.coupling.recorder.WindowRecorder.frame] builds the
+DataFrame in one pass with a fixed
+column order and dtypes. With a ``sink``, every `CHUNK_WINDOWS` windows the complete
 records at the front are handed to it and dropped (a record is complete once the next scan
 has closed its violation interval, and never changes after), so a long run keeps about two
-chunks of records in memory; :func:`records_frame` turns a chunk into its rows of the table.
+chunks of records in memory; `records_frame` turns a chunk into its rows of the table.
 """
 
 from __future__ import annotations
@@ -47,7 +49,8 @@ __all__ = [
     "window_columns",
 ]
 
-#: Window records per chunk handed to a :class:`WindowRecorder`'s sink.
+#: Window records per chunk handed to a [`WindowRecorder`][rtsim.coupling.recorder.WindowRecorder]'s
+#: sink.
 CHUNK_WINDOWS = 1024
 
 #: Window-level columns, in order (docs/outputs.md).
@@ -97,7 +100,7 @@ BOUND_FIELDS: tuple[str, ...] = (
     *(f"msb_{k}_true" for k in BOUND_KINDS),
 )
 #: The observed change (``Scan.changes`` key) that each bound kind limits, in
-#: :data:`~rtsim.analysis.kinematics.BOUND_KINDS` order (docs/model/world.md): relative
+#: `BOUND_KINDS` order (docs/model/world.md): relative
 # displacement (r_H),
 #: |Δρ| (T_ρ·ρ_d), distance travelled (T_ε·ρ_d), |Δβ| (T_β).
 CHANGE_KEYS: tuple[str, ...] = ("displacement", "d_rho", "travel", "d_beta")
@@ -143,10 +146,10 @@ class WindowRecord:
     scan (truth, points, lost tracks), when the Hough time is known, at its completion
     (``finish``), and at the next scan (``viol``).
 
-    ``truth`` and ``est`` are n rows of 7 floats in :data:`FOLLOWER_FIELDS` order (tuples
+    ``truth`` and ``est`` are n rows of 7 floats in `FOLLOWER_FIELDS` order (tuples
     or an (n, 7) array); ``pred`` n rows of the decision's four bounds (ms, BOUND_KINDS
     order) at ``v_leader_max``, the highest speed the leader had between this window's scan
-    and the next; ``viol`` maps each of :data:`~rtsim.analysis.kinematics.BOUND_KINDS`
+    and the next; ``viol`` maps each of `BOUND_KINDS`
     to an (n,) bool array (``World.scan(...).violations``), ``changes`` the observed changes
     (``Scan.changes``), ``lost`` is (n,) bool.
     """
@@ -195,12 +198,13 @@ class WindowRecord:
 
 @dataclass
 class WindowRecorder:
-    """Collects :class:`WindowRecord` s of ``n`` followers; :meth:`frame` builds the table.
+    """Collects [`WindowRecord`][rtsim.coupling.recorder.WindowRecord] s of ``n`` followers; `frame`
+    builds the table.
 
     ``limits``: each bound kind's threshold per follower (n values, BOUND_KINDS order: r_H,
-    T_ρ·ρ_d,i, T_ε·ρ_d,i, T_β), for the ``_true`` columns (:func:`true_bounds`).
+    T_ρ·ρ_d,i, T_ε·ρ_d,i, T_β), for the ``_true`` columns (`true_bounds`).
     ``sink``: a callable given lists of complete records, oldest first, during the run
-    (module docstring); :attr:`records` then holds only those not handed over yet.
+    (module docstring); `records` then holds only those not handed over yet.
     """
 
     n: int
@@ -231,7 +235,7 @@ class WindowRecorder:
 
     def flush(self) -> None:
         """Hand every complete record left to the sink (the end of the run); an incomplete
-        one is dropped, as in :meth:`frame`."""
+        one is dropped, as in `frame`."""
         done = [r for r in self.records if r.complete]
         self.records.clear()
         if done and self.sink is not None:
@@ -247,7 +251,7 @@ def records_frame(
     recs: list[WindowRecord], n: int, limits: tuple[tuple[float, ...], ...]
 ) -> pd.DataFrame:
     """The rows of windows.csv for complete records ``recs`` of ``n`` followers (``limits``
-    as :class:`WindowRecorder`'s)."""
+    as [`WindowRecorder`][rtsim.coupling.recorder.WindowRecorder]'s)."""
     data = records_columns(recs, n, limits)
     return pd.DataFrame(data, columns=list(data))
 
@@ -256,8 +260,8 @@ def records_columns(
     recs: list[WindowRecord], n: int, limits: tuple[tuple[float, ...], ...]
 ) -> dict[str, Any]:
     """The columns of windows.csv (name -> array or list, in order) for complete records
-    ``recs``: what :func:`records_frame` holds, without the DataFrame (a writer's
-    :meth:`~rtsim.io.columns.ChunkWriter.write_columns` formats them directly)."""
+    ``recs``: what `records_frame` holds, without the DataFrame (a writer's
+    `write_columns` formats them directly)."""
     cols = window_columns(n)
     m = len(recs)
     data: dict[str, object] = {}

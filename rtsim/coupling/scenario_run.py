@@ -1,8 +1,8 @@
 """Schedule and world in one SimPy run (docs/model/adjustment.md, docs/model/world.md).
 
-One ``simpy.Environment`` holds the virtual :class:`~rtsim.sim.cpu.CPU` with the leader's
+One ``simpy.Environment`` holds the virtual [`CPU`][rtsim.sim.cpu.CPU] with the leader's
 task set: dead reckoning (T_hp), the processing-window chain T_w and the command task (T_lp,
-period 2w). The world (:class:`~rtsim.world.world.World`, no engine of its own) is driven
+period 2w). The world ([`World`][rtsim.world.world.World], no engine of its own) is driven
 from the CPU's hooks:
 
 - **release** of window k: it is governed by the latest decision — the w returned to the
@@ -17,12 +17,13 @@ from the CPU's hooks:
 - **send[i] ends**: follower i's command (the formation model's control law on the leader's
   estimate) takes effect; a late window therefore means stale commands.
 - **window job completes**: every follower's estimate (propagated to now) gives its
-  MSBs and :func:`rtsim.control.decide` in the run's mode sets the next w (and thereby T_lp's
+  MSBs and [`rtsim.control.decide`][rtsim.control.decide] in the run's mode sets the next w (and
+  thereby T_lp's
   2w) and the leader speed (``World.set_leader_speed``).
 
 The world is advanced lazily to the time of every hook (its own fixed step sub-steps a
 ramping wheel speed). Execution times: every fixed segment runs its WCET (``exec_model=
-"wcet"``, the default; ``"uniform"`` or any model of :mod:`rtsim.sim.execution` may be
+"wcet"``, the default; ``"uniform"`` or any model of `rtsim.sim.execution` may be
 given); the radio round trip Δt is an idle suspension (``suspension="idle"``: the CPU is free,
 as on the real system). Overload: the window chain is ``finish-late``; a window that misses
 its deadline is recorded (``missed``), the next window is still released on time
@@ -30,23 +31,24 @@ its deadline is recorded (``missed``), the next window is still released on time
 scan, commands and decision come late too. A backlogged release is governed by the latest
 decision available at its release (that of the last *completed* window).
 
-Policies (:mod:`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
+Policies (`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
 ``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
 break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
 schedule breaks), ``margin``, ``lookahead``, ``noise-aware``, ``safe`` or a user's
 ``package.module:Name``. Each window's decision is the policy's ``decide`` on a
-:class:`~rtsim.control.policy.PolicyInput`.
+[`PolicyInput`][rtsim.control.policy.PolicyInput].
 
-Duration: an explicit ``duration_s`` (simulated seconds) is exact. By default the run covers
-the scenario's ``duration`` **and at least one lap**: it stops at the first window completion
-at or after that duration at which the leader has driven one lap plus the largest ρ_d (so the
-followers, which trail by ρ_d, leave the last turn too) — the leader is slowed in the turns,
-so a lap takes longer than at V_Ld — and at the latest after max(duration, 3 lap times at
-V_Ld), i.e. a leader slowed to ⅓·V_Ld on average. ``summary['laps']`` and
+Duration (`rtsim.coupling.duration`): a duration is exact, whether it is ``duration_s``,
+an override or the scenario file's ``duration``. Without one (the file's ``until = "lap"``,
+the default) the run stops at the first window completion at which the leader has driven one
+lap plus the largest ρ_d (so the followers, which trail by ρ_d, leave the last turn too) —
+the leader is slowed in the turns, so a lap takes longer than at V_Ld — and at the latest
+after 3 lap times at V_Ld, i.e. a leader slowed to ⅓·V_Ld on average. ``summary['laps']`` and
 ``summary['duration_s']`` say how far it got; ``summary['lap_time_s']`` is the simulated
 time at which the leader first completed its lap (interpolated between the two window
 completions around it), or None with ``summary['lap_time_note']`` saying why (the cap, or
-a ``duration_s`` shorter than the lap). A window still running at the stop is dropped.
+a duration shorter than the lap); `rtsim.coupling.duration.run_note` words what a run
+did beyond a duration. A window still running at the stop is dropped.
 """
 
 from __future__ import annotations
@@ -151,6 +153,15 @@ class ScenarioResult(ResultDisplay):
     def summary_frame(self) -> pd.DataFrame:
         """summary.json as one row (nested keys dotted), so runs concatenate into a table."""
         return pd.DataFrame([flatten(self.summary)])
+
+    @property
+    def followers(self) -> pd.DataFrame | None:
+        """``windows`` in long form, one row per window and follower (position, estimate,
+        fix error, each bound ``_pred``/``_true``, violations, lost: `rtsim.coupling.tidy`;
+        ``followers.csv``); None when the windows were streamed to a sink."""
+        from rtsim.coupling.tidy import followers_frame
+
+        return None if self.windows is None else followers_frame(self.windows)
 
 
 class _Decision(NamedTuple):
@@ -365,7 +376,7 @@ class _Coupling:
         pending: bool = False,
         estimates: Sequence[tuple[Any, float]] | None = None,
     ) -> Any:
-        """What the leader knows for its rollout at ``now`` (:class:`RolloutState`);
+        """What the leader knows for its rollout at ``now`` (`RolloutState`);
         ``estimates``: per follower ``World.estimate_at(i, now)`` if already computed."""
         world = self.world
         ld = world.leader
@@ -695,7 +706,7 @@ class _Coupling:
 
     # -- running ---------------------------------------------------------------------
     def watch(self, progress: Any) -> None:
-        """Report progress (:func:`rtsim.sim.progress.start_ticker`): the share of the
+        """Report progress (`rtsim.sim.progress.start_ticker`): the share of the
         duration; for a run to the end of the lap, the smaller of the shares of the lap
         driven and of the scenario's duration, ticking at every percent of a lap at V_Ld."""
         from rtsim.sim.progress import TICKS, start_ticker
@@ -756,36 +767,65 @@ def run_scenario(
     windows: bool = True,
     progress: Any = None,
 ) -> ScenarioResult:
-    """Run one scenario (a :class:`ScenarioInputs`, a loaded scenario, or a path).
+    """Run one scenario: the leader's schedule and the robots' world in one simulation.
 
-    policy: a registered adjustment policy (:data:`rtsim.control.policy.POLICIES`: ``adjust``,
-    the paper's algorithm, ``fixed-wsch``, ``min-msb``, ``margin``, …) or
-    ``"package.module:Name"``; it overrides the scenario's ``[adjust] policy`` (default
-    ``adjust``); mode: an alias of policy (the three modes of the paper's reproduction);
-    duration_s: simulated
-    seconds (None: the scenario's, else one lap — module docstring); ``duration`` is an
-    alias (sweep kind);
-    seed: one seed for the world's noise and the CPU's execution-time draws; record_jobs:
-    keep the job table (``result.jobs``); exec_model: execution times of the fixed segments;
-    text: the scenario file's text (for the manifest; read from the path when one is given);
-    record_trace: keep the execution trace (``result.trace``, for trace export); overrides:
-    dotted paths into the scenario file and their values, as in sweeps (``{"leader.speed":
-    20}``; only with a path or a packaged name; :func:`rtsim.io.scenario.load_scenario`);
-    window_sink: a :class:`rtsim.io.columns.ChunkWriter` of windows.csv — the window rows
-    are written in chunks during the run, the summary is computed from the columns read
-    back, and ``result.windows`` is None; job_sink: a callable given the job records in
-    chunks, or a ChunkWriter of jobs.csv (``result.jobs`` is then None). With both, memory
-    stays flat on long runs. trace_sink: the same for the execution trace (implies
-    record_trace; ``result.trace`` is then None). windows: False leaves ``result.windows``
-    None (the summary is computed from the records' columns either way; what a sweep point
-    needs).
-    allow_code: a scenario file (or its task set) may name code, ``module:Name``
-    (:mod:`rtsim.registry`; a ``policy``/``mode`` of that form given here is always allowed).
-    The command line's ranges and work limits apply (:mod:`rtsim.io.work`: the duration's
-    range, 2e6 windows, 2e8 world steps × followers, the seed's range); ``force=True`` is
-    ``--force``. ``progress(share, t_ms)`` is called at every percent of the run — of the
-    duration, or of the lap and the scenario's duration — with the share done (0..1) and the
-    simulated ms (:mod:`rtsim.sim.progress`; the results do not change).
+    Parameters
+    ----------
+    scenario : str, path, Scenario or ScenarioInputs
+        A scenario file, a shipped one by name (``"test2"``), a loaded
+        [`Scenario`][rtsim.io.scenario.Scenario], or
+        [`ScenarioInputs`][rtsim.coupling.scenario_run.ScenarioInputs] prepared once.
+    mode : str, optional
+        Alias of ``policy`` (the paper's reproduction names its three modes so).
+    duration_s : float, optional
+        Simulated seconds, exact. None: the scenario's ``duration``, else to the end of the
+        lap (``until = "lap"``, `rtsim.coupling.duration`).
+    seed : int, default 0
+        One seed for the world's noise and the CPU's execution-time draws.
+    record_jobs : bool, default True
+        Keep the job table (``result.jobs``).
+    exec_model : str, default "wcet"
+        Execution times of the fixed segments: ``"wcet"`` or ``"uniform"`` in [bcet, wcet].
+    duration : float, optional
+        Alias of ``duration_s`` (simulated s; a sweep's option name).
+    text : str, optional
+        The scenario file's text, for the manifest (read from the path when one is given).
+    record_trace : bool, default False
+        Keep the execution trace (``result.trace``, for trace export).
+    overrides : mapping, optional
+        Dotted keys of the scenario file and their values, as in a sweep
+        (``{"leader.speed": 20, "sensing.r_H": 30}``; cm, cm/s as in the file); with a
+        path or a shipped name only.
+    window_sink, job_sink, trace_sink : optional
+        `rtsim.io.columns.ChunkWriter` (or a callable) given the window rows, job
+        records, trace rows in chunks during the run: memory stays flat on long runs, and
+        the matching result table is None.
+    policy : str, optional
+        The adjustment policy, overriding the file's ``[adjust] policy`` (default ``plan``,
+        the recommended model; ``adjust`` is the paper's): a registered name or
+        ``"package.module:Name"``.
+    allow_code : bool, optional
+        The scenario file (or its task set) may name code, ``module:Name``
+        (`rtsim.registry`); a ``policy`` of that form given here is always allowed.
+    force : bool, default False
+        Run above the work limits (2e6 windows, 2e8 world steps × followers), as
+        ``--force``.
+    windows : bool, default True
+        False leaves ``result.windows`` None (the summary is computed either way).
+    progress : callable, optional
+        ``progress(share, t_ms)``, called at every percent of the run with the share done
+        (0..1) and the simulated ms; the results do not change.
+
+    Returns
+    -------
+    ScenarioResult
+        ``summary`` (summary.json), ``windows`` (one row per window), ``followers`` (one
+        row per window and follower), ``jobs``, ``trace``, ``timing`` (wall s).
+
+    Raises
+    ------
+    InputError
+        A bad scenario, option or override, in one line per problem.
     """
     t0 = time.perf_counter()
     if mode is not None and policy is not None and mode != policy:
@@ -876,9 +916,8 @@ def run_scenario(
             f"the leader did not complete its lap within the cap of "
             f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
             if stop_s is not None
-            else f"the run's duration ({float(duration_s or 0.0):g} s) ended before the leader "
-            f"completed "
-            f"its lap"
+            else f"the run's duration ({horizon_ms / 1000.0:g} s) ended before the leader "
+            f"completed its lap"
         )
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
     world.followers.advance_all(world.t_ms, cfg.step_ms)

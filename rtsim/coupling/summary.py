@@ -31,7 +31,8 @@ def _name(predictor: Any) -> str:
 
 
 def summary_columns(n: int) -> list[str]:
-    """The columns of windows.csv that :func:`summarize` reads (``n`` followers)."""
+    """The columns of windows.csv that [`summarize`][rtsim.coupling.summary.summarize] reads (``n``
+    followers)."""
     return [
         "w",
         "w_sch",
@@ -68,9 +69,9 @@ def summarize(
     extra: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """summary.json from windows.csv (docs/outputs.md) and run facts. ``df``: the table, or
-    its columns (name -> array or list, as :func:`~rtsim.coupling.recorder.records_columns`
+    its columns (name -> array or list, as `records_columns`
     gives them), or an iterable of such chunks in row order (a table read back in pieces,
-    :meth:`rtsim.io.columns.ChunkWriter.iter_read`: memory stays flat). Counts, minima and
+    `rtsim.io.columns.ChunkWriter.iter_read`: memory stays flat). Counts, minima and
     maxima are taken per chunk; the two float sums (of ``w``, and of ``w`` over critical
     windows) over the whole columns kept, so any chunking gives the same summary."""
     chunks = [df] if isinstance(df, pd.DataFrame | Mapping) else df
@@ -116,7 +117,8 @@ def _least(mins: list[float]) -> float:
 
 
 class _Totals:
-    """What :func:`summarize` keeps of the chunks it has seen: counts, per-chunk minima and
+    """What [`summarize`][rtsim.coupling.summary.summarize] keeps of the chunks it has seen: counts,
+    per-chunk minima and
     maxima, and the two float columns its sums need (``w``, ``critical``)."""
 
     def __init__(self, n: int) -> None:

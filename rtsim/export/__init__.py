@@ -1,8 +1,8 @@
 """Exporters: each takes the tables a run already has and writes one format.
 
-- :mod:`rtsim.export.perfetto` — the Chrome Trace Event Format (Perfetto, chrome://tracing).
+- `rtsim.export.perfetto` — the Chrome Trace Event Format (Perfetto, chrome://tracing).
 
-:data:`EXPORTERS` holds them by name (entry-point group ``rtsim.exporters``): a writer
+`EXPORTERS` holds them by name (entry-point group ``rtsim.exporters``): a writer
 ``write(path, jobs, trace, *, tasks=None, windows=None, metadata=None) -> Path``.
 """
 

@@ -1,8 +1,8 @@
 """A run's schedule in the Chrome Trace Event Format, for Perfetto (ui.perfetto.dev) and
 chrome://tracing.
 
-Built from the tables a run already has — the job records (:data:`rtsim.sim.records.
-JOB_COLUMNS`), the execution-interval trace (:data:`~rtsim.sim.records.TRACE_COLUMNS`) and,
+Built from the tables a run already has — the job records (`rtsim.sim.records.JOB_COLUMNS`), the
+execution-interval trace (`TRACE_COLUMNS`) and,
 for a coupled run, ``windows.csv`` — never from the simulator's internals.
 
 - Timestamps are µs of *simulated* time (``ts = ms × 1000``), in one process ("rtsim,
@@ -24,8 +24,9 @@ for a coupled run, ``windows.csv`` — never from the simulator's internals.
 
 Open the file in Perfetto with "Open trace file", or in chrome://tracing with "Load".
 
-:func:`write_perfetto` builds the file from whole tables in memory; :func:`stream_perfetto`
-writes the same bytes from records kept on disk (a :class:`rtsim.io.spool.Spool` of job
+[`write_perfetto`][rtsim.export.perfetto.write_perfetto] builds the file from whole tables in
+memory; `stream_perfetto`
+writes the same bytes from records kept on disk (a `rtsim.io.spool.Spool` of job
 records, one of trace rows, and ``windows.csv``), reading them a few times in chunks: its
 memory does not grow with the run (the tracks of a task are assigned as its jobs come, in
 start order, which is the order a run records them in; records in another order are handled
@@ -270,7 +271,7 @@ def write_perfetto(
 
 
 # -- streaming ---------------------------------------------------------------------------------
-#: Events per ``json.dumps`` call of :func:`stream_perfetto` (a list's items joined by ",").
+#: Events per ``json.dumps`` call of `stream_perfetto` (a list's items joined by ",").
 BATCH = 4096
 _J = {n: i for i, n in enumerate(JOB_COLUMNS)}  # the streamed job rows' column positions
 _T = {n: i for i, n in enumerate(TRACE_COLUMNS)}
@@ -324,7 +325,7 @@ class _IntSet:
 
 
 class _Lanes:
-    """:func:`_lanes` of one task, fed its started jobs in (start, job) order."""
+    """`_lanes` of one task, fed its started jobs in (start, job) order."""
 
     def __init__(self) -> None:
         self.ends: list[float] = []
@@ -373,7 +374,8 @@ class _Unordered(Exception):
 
 
 def _job_event(row: tuple[Any, ...], t: int, unfinished: bool, out: list[dict[str, Any]]) -> None:
-    """The events of one job record (as :func:`trace_events` makes them)."""
+    """The events of one job record (as [`trace_events`][rtsim.export.perfetto.trace_events] makes
+    them)."""
     task, job = str(row[0]), int(row[1])
     release, start, finish = row[2], row[3], row[4]
     response, deadline = row[5], row[6]
@@ -441,7 +443,7 @@ def _job_event(row: tuple[Any, ...], t: int, unfinished: bool, out: list[dict[st
 
 
 class _Writer:
-    """Events written as the items of one JSON array, :data:`BATCH` at a time."""
+    """Events written as the items of one JSON array, `BATCH` at a time."""
 
     def __init__(self, fh: Any) -> None:
         self.fh = fh
@@ -479,10 +481,11 @@ def stream_perfetto(
     metadata: dict[str, Any] | None = None,
     title: str = "rtsim, simulated time",
 ) -> Path:
-    """Write the file of :func:`write_perfetto` (the same bytes) atomically to ``path``,
+    """Write the file of [`write_perfetto`][rtsim.export.perfetto.write_perfetto] (the same bytes)
+    atomically to ``path``,
     from records on disk: ``jobs`` and ``trace`` iterate (again at each pass) chunks of row
-    tuples in :data:`~rtsim.sim.records.JOB_COLUMNS` / :data:`~rtsim.sim.records.
-    TRACE_COLUMNS` order (a :class:`rtsim.io.spool.Spool`); ``windows`` is the path of a
+    tuples in `JOB_COLUMNS` / `TRACE_COLUMNS` order (a `rtsim.io.spool.Spool`); ``windows`` is the
+    path of a
     coupled run's ``windows.csv`` (read in chunks)."""
     from rtsim.io.atomic import atomic_path
 
@@ -658,7 +661,7 @@ def _window_events(r: Any, world: int) -> list[dict[str, Any]]:
 def _plan(
     jobs: Any, trace: Any, tasks: Sequence[str] | None
 ) -> tuple[list[str], dict[str, _Lanes], dict[tuple[str, int], list[float]], dict[str, int]]:
-    """The first passes of :func:`stream_perfetto`: track names, the lanes of each task, the
+    """The first passes of `stream_perfetto`: track names, the lanes of each task, the
     jobs that ran but have no record (first start, last end), lanes per task."""
     seen: dict[str, None] = {}
     recorded: dict[str, _IntSet] = {}

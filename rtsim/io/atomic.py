@@ -36,7 +36,7 @@ FILE_MODE = 0o666 & ~_UMASK
 
 @contextmanager
 def naming(path: str | os.PathLike[str]) -> Iterator[None]:
-    """Give an :class:`OSError` raised inside without a file name (a ``write`` on a full
+    """Give an `OSError` raised inside without a file name (a ``write`` on a full
     disk: "No space left on device") the name ``path``, so that its one-line message says
     which output could not be written."""
     try:
@@ -50,13 +50,15 @@ def naming(path: str | os.PathLike[str]) -> Iterator[None]:
         raise OSError(code, why, os.fspath(path)) from exc
 
 
-#: The name of :func:`atomic_path`'s temporary file: ``.<target name>.<8 characters of
+#: The name of [`atomic_path`][rtsim.io.atomic.atomic_path]'s temporary file: ``.<target name>.<8
+#: characters of
 #: tempfile's alphabet>.tmp`` (``mkstemp(prefix=".<name>.", suffix=".tmp")``).
 _TEMP = re.compile(r"\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp", re.DOTALL)
 
 
 def temp_target(entry: str) -> str | None:
-    """The target name whose :func:`atomic_path` temporary file ``entry`` is
+    """The target name whose [`atomic_path`][rtsim.io.atomic.atomic_path] temporary file ``entry``
+    is
     (``.results.parquet.k2j9_x0a.tmp`` → ``results.parquet``), or None: what a write killed
     by ``kill -9`` leaves beside its target."""
     m = _TEMP.fullmatch(entry)
@@ -66,7 +68,7 @@ def temp_target(entry: str) -> str | None:
 @contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; on success it replaces ``target``. A write
-    error inside names ``target`` (:func:`naming`)."""
+    error inside names ``target`` ([`naming`][rtsim.io.atomic.naming])."""
     from rtsim.io.outdir import stem
 
     target = Path(target)
@@ -162,7 +164,8 @@ def inf_as_null(obj: Any) -> Any:
 def dumps(obj: Any, indent: int | None = 2) -> str:
     """Strict JSON text (RFC 8259) with numpy scalars handled.
 
-    A NaN or infinite float raises :class:`NonFiniteJSON` naming its path: each writer
+    A NaN or infinite float raises [`NonFiniteJSON`][rtsim.io.atomic.NonFiniteJSON] naming its path:
+    each writer
     turns such a value into ``null`` where its field's documentation says what null means
     there (``wcrt``: above the deadline; ``lap_time_s``: no lap; see docs/outputs.md).
     """

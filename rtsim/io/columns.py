@@ -1,23 +1,23 @@
 """Tables written in chunks: CSV appends and Parquet row groups, so a long run's records
 never have to be in memory at once.
 
-A :class:`ChunkWriter` takes DataFrame chunks with one fixed schema and appends each to its
+A `ChunkWriter` takes DataFrame chunks with one fixed schema and appends each to its
 files (``.csv``: the header once, then rows; ``.parquet``: one row group per chunk through
 ``pyarrow.parquet.ParquetWriter``). The CSV bytes are exactly those of ``DataFrame.to_csv``
 on the whole table (pandas formats each value on its own: the shortest repr of a float,
 ``True``/``False``, an empty cell for NaN); the Parquet file holds the same table and the
 same pandas dtypes as ``DataFrame.to_parquet``, in row groups.
 
-:func:`read_columns` reads columns back, floats exactly (pandas 3's default parser;
+`read_columns` reads columns back, floats exactly (pandas 3's default parser;
 ``float_precision="round_trip"`` before), for summaries and figures drawn after the run.
 
-CSV chunks are formatted by :func:`csv_text`, not by pandas: each column is turned into
+CSV chunks are formatted by `csv_text`, not by pandas: each column is turned into
 strings at once (a float by ``repr``, which is what pandas writes — numpy's ``str`` of a
 float64 is the same shortest round-trip form —, NaN and None as empty cells, a string
 quoted only when it holds a comma, a quote or a line break, as the ``csv`` module's
 QUOTE_MINIMAL does) and the rows joined, which gives the bytes of ``to_csv`` several times
-faster. A producer that has its chunk as columns (:meth:`ChunkWriter.write_columns`) or as
-row tuples (:meth:`ChunkWriter.write_rows`) skips the DataFrame altogether; a column type
+faster. A producer that has its chunk as columns (`ChunkWriter.write_columns`) or as
+row tuples (`ChunkWriter.write_rows`) skips the DataFrame altogether; a column type
 the formatter does not know (categoricals, dates, ...) is written by pandas.
 """
 
@@ -64,7 +64,7 @@ _BOOL_TEXT = {True: "True", False: "False"}
 
 
 def column_kind(dtype: Any) -> str | None:
-    """How :func:`csv_text` formats a column of ``dtype``: ``f`` float64, ``i`` int64,
+    """How `csv_text` formats a column of ``dtype``: ``f`` float64, ``i`` int64,
     ``b`` bool, ``s`` strings (``string``, ``str`` or object holding str / None / NaN), or
     None (pandas formats it)."""
     if dtype == np.float64:
@@ -87,7 +87,7 @@ def _quote(v: str) -> str:
 
 
 def _texts(values: Any, kind: str) -> list[str] | None:
-    """One column as the strings ``to_csv`` writes (None: a value :func:`csv_text` does not
+    """One column as the strings ``to_csv`` writes (None: a value `csv_text` does not
     format exactly as pandas, e.g. a number in a string column)."""
     if kind == "f":
         a = np.asarray(values, dtype=np.float64)
@@ -119,7 +119,7 @@ def csv_text(
     columns: Sequence[Any], kinds: Sequence[str], header: Sequence[str] | None = None
 ) -> str | None:
     """The rows (and ``header``, when given) of ``DataFrame.to_csv(index=False)`` for
-    ``columns`` (equal-length sequences or arrays, one per column) of :func:`column_kind`
+    ``columns`` (equal-length sequences or arrays, one per column) of `column_kind`
     ``kinds``; None when a value is not one the fast path formats exactly (the caller then
     uses pandas)."""
     sep = os.linesep
@@ -145,8 +145,8 @@ class ChunkWriter:
 
     ``paths``: where to write (the temporary paths of a staged output); ``empty``: a
     zero-row DataFrame with the table's columns and dtypes, written if no chunk comes (None:
-    the producer sets :attr:`empty` before :meth:`close`).
-    Call :meth:`write` per chunk and :meth:`close` once; ``rows`` counts what was written.
+    the producer sets `empty` before `close`).
+    Call `write` per chunk and `close` once; ``rows`` counts what was written.
     """
 
     def __init__(self, paths: Sequence[str | os.PathLike[str]], empty: pd.DataFrame | None) -> None:
@@ -175,7 +175,7 @@ class ChunkWriter:
 
     def write_columns(self, columns: Mapping[str, Any]) -> None:
         """Append one chunk given as columns (name -> numpy array, or a list of strings, in
-        ``empty``'s order): the same file as :meth:`write` of ``DataFrame(columns)``, without
+        ``empty``'s order): the same file as `write` of ``DataFrame(columns)``, without
         building that frame for a CSV."""
         names = self._names(columns)
         rows = len(next(iter(columns.values()))) if names else 0
@@ -191,7 +191,7 @@ class ChunkWriter:
 
     def write_rows(self, rows: Sequence[tuple[Any, ...]]) -> None:
         """Append one chunk given as row tuples in ``empty``'s column order: the same file
-        as :meth:`write` of ``DataFrame(rows).astype(empty.dtypes)``."""
+        as `write` of ``DataFrame(rows).astype(empty.dtypes)``."""
         assert self.empty is not None, "ChunkWriter.write_rows needs the empty table"
         names = list(self.empty.columns)
         dtypes = dict(self.empty.dtypes)
@@ -218,7 +218,7 @@ class ChunkWriter:
 
     def _append(self, frame: Any, columns: Any, kinds: list[str | None], rows: int) -> None:
         """Write one chunk: ``frame`` a DataFrame or a function making it (pandas' CSV path,
-        Parquet), ``columns`` a function giving the columns for :func:`csv_text`."""
+        Parquet), ``columns`` a function giving the columns for `csv_text`."""
         from rtsim.io.atomic import naming
 
         df = frame if isinstance(frame, pd.DataFrame) else None
@@ -240,7 +240,7 @@ class ChunkWriter:
         text: str | None,
         tried: bool,
     ) -> tuple[Any, str | None, bool]:
-        """One file's part of :meth:`_append`; returns (the frame, the CSV text, tried)."""
+        """One file's part of `_append`; returns (the frame, the CSV text, tried)."""
         if p.suffix.lower() == ".csv":
             if not tried:
                 tried = True
@@ -318,13 +318,13 @@ class ChunkWriter:
     def read(
         self, columns: Sequence[str] | None = None, dtypes: dict[str, Any] | None = None
     ) -> pd.DataFrame:
-        """Columns of the table written (after :meth:`close`), from its first file."""
+        """Columns of the table written (after `close`), from its first file."""
         return read_columns(self.paths[0], columns, dtypes)
 
     def iter_read(
         self, columns: Sequence[str] | None = None, chunk_rows: int = READ_ROWS
     ) -> Iterator[pd.DataFrame]:
-        """The same columns as :meth:`read`, ``chunk_rows`` rows at a time (memory does
+        """The same columns as `read`, ``chunk_rows`` rows at a time (memory does
         not grow with the table)."""
         p = Path(self.paths[0])
         if p.suffix.lower() != ".parquet":
@@ -345,7 +345,7 @@ def iter_columns(
     chunk_rows: int = READ_ROWS,
     dtypes: dict[str, Any] | None = None,
 ) -> Iterator[pd.DataFrame]:
-    """Columns of a CSV written by :class:`ChunkWriter` (floats exact), ``chunk_rows`` rows
+    """Columns of a CSV written by `ChunkWriter` (floats exact), ``chunk_rows`` rows
     at a time (row labels continue across chunks)."""
     exact: dict[str, Any] = {} if _PANDAS_3 else {"float_precision": "round_trip"}
     with pd.read_csv(
@@ -365,8 +365,8 @@ def read_columns(
     columns: Sequence[str] | None = None,
     dtypes: dict[str, Any] | None = None,
 ) -> pd.DataFrame:
-    """Columns of a CSV written by :class:`ChunkWriter` (floats exact, parsed in chunks of
-    :data:`READ_ROWS` rows), or of a Parquet file."""
+    """Columns of a CSV written by `ChunkWriter` (floats exact, parsed in chunks of
+    `READ_ROWS` rows), or of a Parquet file."""
     p = Path(path)
     if p.suffix.lower() == ".parquet":
         with open(p, "rb") as fh:  # (pyarrow takes a path only as UTF-8)

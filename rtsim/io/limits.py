@@ -1,16 +1,16 @@
-"""The accepted range of every numeric command-line option, the :class:`Range` type, and the
+"""The accepted range of every numeric command-line option, the `Range` type, and the
 size limit of input files.
 
 Each range is finite (or says where ``inf`` is meaningful), physically sensible and has a
 unit and a reason; a value outside it is refused, with one line that names the option:
 ``--horizon: 1e+15 ms is outside (0, 1e+09] ms (...)``. The ranges of the keys of input files
-are metadata of their models (:mod:`rtsim.config`); ``docs/input_ranges.md`` is generated
-from both (:mod:`rtsim.config.docs`). A new numeric option joins with one line::
+are metadata of their models (`rtsim.config`); ``docs/input_ranges.md`` is generated
+from both (`rtsim.config.docs`). A new numeric option joins with one line::
 
     register("option: --horizon", 0, 1e9, "ms", "why this range", lo_open=True)
 
 With ``RTSIM_STRICT_RANGES=1`` (the test suite sets it) a numeric option that has no range
-raises :class:`UnregisteredKey`, so an option added without one fails the tests.
+raises `UnregisteredKey`, so an option added without one fails the tests.
 """
 
 from __future__ import annotations

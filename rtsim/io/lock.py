@@ -4,7 +4,7 @@ The lock is an OS lock (``flock``) on the file ``DIR/.rtsim.lock``: the kernel r
 when its holder exits, however it exits (``kill -9`` included), so a dead run never blocks
 the next one and no stale-lock cleanup is needed. The file itself stays; while locked it
 says who holds the lock (pid, host, command line, since when), which a second run quotes in
-its one-line refusal (:class:`DirectoryLocked`, an :class:`~rtsim.errors.InputError`: exit
+its one-line refusal (`DirectoryLocked`, an `InputError`: exit
 2). On a system without ``fcntl`` (Windows) the lock is a no-op.
 """
 
@@ -57,7 +57,7 @@ def lock_directory(
 ) -> Iterator[Path]:
     """Hold ``directory``'s lock for the ``with`` block (the directory is created).
 
-    Raises :class:`DirectoryLocked` at once, naming the holder, when another process holds
+    Raises `DirectoryLocked` at once, naming the holder, when another process holds
     it. Re-entrant within one process is *not* supported (a second lock of the same
     directory from the same process is refused as well).
     """

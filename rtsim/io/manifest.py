@@ -41,7 +41,7 @@ def build_manifest(
 
 
 def write_manifest(out_dir: str | os.PathLike[str], **kwargs: Any) -> Path:
-    """Write ``out_dir/manifest.json`` atomically (arguments as :func:`build_manifest`)."""
+    """Write ``out_dir/manifest.json`` atomically (arguments as `build_manifest`)."""
     path = Path(out_dir) / "manifest.json"
     write_json(path, build_manifest(**kwargs))
     return path

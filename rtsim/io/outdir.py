@@ -1,7 +1,7 @@
 """Whole output directories: a run is written beside its target and swapped in at the end.
 
 ``rtsim scenario``, ``rtsim reproduce`` (and ``rtsim simulate`` for its files, via
-:class:`FileSet`) never write into the directory a reader may be looking at. They write into
+`FileSet`) never write into the directory a reader may be looking at. They write into
 a hidden staging directory beside the target, ``.NAME.rtsim-<token>``, and swap it in when
 everything is written:
 
@@ -10,24 +10,24 @@ everything is written:
   staging name — is removed;
 - elsewhere (or on a file system without the exchange) by renaming the earlier run aside,
   the new one in, and removing the earlier one; a kill between the two renames leaves no
-  target, and the next run puts the earlier one back (:func:`clean_leftovers`).
+  target, and the next run puts the earlier one back (`clean_leftovers`).
 
 The swap holds an exclusive ``flock`` on the parent directory, so two runs into one target
 swap one after the other (the last one wins; neither mixes files). A run holds a ``flock``
 on its own staging directory while it lives; a staging directory whose lock is free belongs
 to a killed run and is removed by the next run into the same target.
 
-The target is checked before anything is computed (:func:`stage`): its parent must be
+The target is checked before anything is computed (`stage`): its parent must be
 writable (the staging directory is made there at once), it must not be the working
 directory or one of its ancestors, not a symlink, not a file, and when it exists and is not
 empty it must be an earlier rtsim output — a ``manifest.json`` whose ``outputs`` list
 names every entry — so a user's own directory is never replaced — and, given the
 command, not another command's output (``generate`` never replaces a scenario's run).
 Names of up to 255 bytes work: a long name is cut and hashed in the staging names
-(:func:`stem`). Commands that work in place and resume (``sweep``, ``validate``) check
-their directory with :func:`check_resumable`; single files (``simulate``'s, ``animate``'s,
-``--perfetto``) go through :class:`FileSet`. Each refusal is an
-:class:`~rtsim.errors.InputError` (one line, exit 2 on the command line) naming the option.
+(`stem`). Commands that work in place and resume (``sweep``, ``validate``) check
+their directory with `check_resumable`; single files (``simulate``'s, ``animate``'s,
+``--perfetto``) go through `FileSet`. Each refusal is an
+`InputError` (one line, exit 2 on the command line) naming the option.
 
 The flock helpers here are local to this module (a sweep-wide lock lives elsewhere).
 """
@@ -80,7 +80,7 @@ _NAME_MAX_WHOLE = 180
 
 
 #: The staging directories of this process and the places they stand for, for messages
-#: (the latest :data:`_SHOWN_KEPT`: an error is reported after its run's staging is gone).
+#: (the latest `_SHOWN_KEPT`: an error is reported after its run's staging is gone).
 _SHOWN: dict[str, str] = {}
 _SHOWN_KEPT = 64
 
@@ -116,7 +116,7 @@ def stem(name: str) -> str:
 
 def sidecar(target: str | os.PathLike[str]) -> Path:
     """The manifest of a single output file, beside it: ``NAME.manifest.json`` (a long
-    NAME cut as in :func:`stem`)."""
+    NAME cut as in `stem`)."""
     t = Path(target)
     return t.with_name(f"{stem(t.name)}.manifest.json")
 
@@ -297,7 +297,7 @@ def _enclosing(target: Path, command: str | None, first: int = 0) -> tuple[Path,
     rtsim command's output directory (its ``manifest.json`` names the command), and that
     command: writing there would put a stranger inside it (a sweep then refuses to resume,
     a rerun of the command removes it). Single-file commands' directories (``simulate``'s)
-    are shared and not counted, nor a command's own nested outputs (:data:`_NESTS`)."""
+    are shared and not counted, nor a command's own nested outputs (`_NESTS`)."""
     here = Path(os.path.abspath(target)).parent
     for a in [here, *here.parents][first:]:
         other = owner(a)
@@ -348,7 +348,7 @@ def check_resumable(
     With ``command``'s own ``manifest.json`` there, every entry must be one of ``made``;
     without one, one of ``before_manifest`` (what the command writes before its manifest).
     The temporary file of an atomic write of one of those files, left by a run killed while
-    it wrote (:func:`rtsim.io.atomic.temp_target`), is the command's own: tolerated, and
+    it wrote (`rtsim.io.atomic.temp_target`), is the command's own: tolerated, and
     removed with ``clean=True`` (call it holding the directory's lock, when no run of the
     command can be writing). Another command's directory and a user's files are refused
     (InputError naming the entry), so nothing the command did not make is ever overwritten
@@ -388,8 +388,8 @@ def check_resumable(
 class StagedDir:
     """A run's staging directory beside ``target`` (see the module docstring).
 
-    Use :func:`stage`; write everything into :attr:`path`; :meth:`commit` swaps it in,
-    :meth:`abort` removes it. As a context manager it aborts unless committed.
+    Use `stage`; write everything into `path`; `commit` swaps it in,
+    `abort` removes it. As a context manager it aborts unless committed.
     """
 
     def __init__(self, target: Path, option: str, command: str | None = None) -> None:
@@ -494,7 +494,7 @@ def stage(
 ) -> StagedDir:
     """Check ``target`` and make its staging directory (before any work is done).
 
-    Raises :class:`InputError` naming ``option`` for a target that must not be replaced or
+    Raises `InputError` naming ``option`` for a target that must not be replaced or
     whose parent is not writable, and (with ``command``) another command's directory.
     Staging directories of killed runs are removed first.
     """
@@ -535,10 +535,10 @@ def _same(a: Path, b: Path) -> bool:
 class FileSet:
     """Several output files of one run of ``command``, each written into a hidden staging
     directory beside its target (``.rtsim-files-<token>``, locked while the run lives) and
-    all renamed in at :meth:`commit`: a failed, interrupted or killed run leaves none of its
+    all renamed in at `commit`: a failed, interrupted or killed run leaves none of its
     files (a killed run's staging directory is removed by the next run writing there).
 
-    :meth:`add` checks each target before any work: not a directory, not one of the run's
+    `add` checks each target before any work: not a directory, not one of the run's
     ``inputs``, not given twice, not inside another command's output directory, and — when
     it exists — a file rtsim ``command`` wrote (listed by a ``manifest.json`` of that
     command beside it, or its own ``NAME.manifest.json``). Each refusal is one InputError
@@ -571,7 +571,7 @@ class FileSet:
         return owner(target.parent) == self.command and listed is not None and target.name in listed
 
     def check(self, target: str | os.PathLike[str], option: str) -> Path:
-        """Refuse ``target`` as :meth:`add` does, without reserving it; returns it."""
+        """Refuse ``target`` as `add` does, without reserving it; returns it."""
         target = Path(target)
         shown = os.fsdecode(target)
         if target.is_dir():

@@ -13,6 +13,8 @@ from rtsim.errors import InputError
 __all__ = ["parse_values", "parse_int_values"]
 
 _NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+#: ``1-10``: a range written with a dash (the hint points to ``1..10``)
+_DASH = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*-\s*(\d+(?:\.\d*)?)\s*$")
 _RANGE = re.compile(rf"^\s*({_NUM})\s*\.\.\s*({_NUM})\s*(?::\s*({_NUM})\s*)?$")
 
 
@@ -48,11 +50,17 @@ def parse_values(text: str, what: str = "value") -> list[float]:
         return [a + i * step for i in range(count)]
     if ".." in text:
         raise InputError(f"{what}: cannot parse range {text!r} (expected a..b or a..b:step)")
+    dash = _DASH.match(text)
+    if dash:  # 1-10: a range written with a dash
+        raise InputError(
+            f"{what}: cannot parse {text!r}: ranges are written "
+            f"{dash.group(1)}..{dash.group(2)} (a..b or a..b:step), lists 1,2,5"
+        )
     return [_num(part.strip(), what) for part in text.split(",")]
 
 
 def parse_int_values(text: str, what: str = "value") -> list[int]:
-    """As :func:`parse_values`, but every value must be an integer."""
+    """As `parse_values`, but every value must be an integer."""
     out = []
     for v in parse_values(text, what):
         if v != int(v):

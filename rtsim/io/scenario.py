@@ -6,7 +6,10 @@ Shape (units as in docs/model/index.md: cm, cm/s, s for ``duration``, ms for ``w
     name = "test1"
     description = "Paper's Test 1: smooth turns"
     taskset = "barrel_robots"          # the packaged set, or a file path relative to this file
-    duration = 200                     # simulated s (default: one lap at V_Ld, rounded up)
+    preset = "recommended"             # the unsaid choices: "recommended" or "paper"
+                                       # (rtsim.config.scenario.PRESETS)
+    duration = 200                     # simulated s, exact; or instead:
+    # until = "lap"                    # run until the followers complete the lap (default)
 
     [leader]
     speed = 25                         # V_Ld (cm/s)
@@ -20,15 +23,15 @@ Shape (units as in docs/model/index.md: cm, cm/s, s for ``duration``, ms for ``w
              direction = "left"}       # straights of length/width, four 90-degree turns
 
     [formation]
-    model = "follow-the-leader"        # or "l-psi" (the default): how followers are controlled
+    model = "follow-the-leader"        # (the default) or "l-psi": how followers are controlled
     followers = 2                      # l-psi: the chevron, pairs at 180 ± offset widening
                                        # outward; follow-the-leader: the line (rank p at
                                        # p*separation, 180 ± offset tucked inward), the
                                        # place each follower holds on straights
     separation = 390                   # rho_d of the first pair (cm)
     bearing_offset_deg = 15
-    layout = "line"                    # or "fan" (follow-the-leader): every follower at
-                                       # rho_d, bearings fanned out (rtsim.world.formation)
+    layout = "fan"                     # (the default) every follower at rho_d, bearings
+                                       # fanned out (rtsim.world.formation); or "line"
     # or explicit slots instead of followers/separation/bearing_offset:
     # [[formation.slot]]
     # rho_d = 390
@@ -44,18 +47,23 @@ Shape (units as in docs/model/index.md: cm, cm/s, s for ``duration``, ms for ``w
     [adjust]       cap (ms, the largest window), floor (cm/s, the lowest leader speed),
                    predictor = "paper" | "formation" | "hybrid" | "commands"
                    (rtsim.control.predict), lower_bound = "w_sch" | "w_rta" | "w_susp",
-                   decide = "end" | "before-send" (when in the window the decision is taken)
-    [localization] centre = "previous" | "predicted", search = "always" | "visible"
+                   decide = "end" | "before-send" (when in the window the decision is taken),
+                   policy (default "plan"; rtsim.control.policy), predictor default "commands"
+    [localization] centre = "predicted" | "previous", search = "visible" | "always" (defaults
+                   first)
                    (where the Hough windows are centred; which lost followers are searched for)
     [world]        step_ms (integration step while a speed ramps)
     [assumptions]  key = "reason"      # every value the paper does not give
 
-Every table but ``[leader]`` and ``[formation]`` is optional (defaults: the world's dataclasses).
+Every table but ``[leader]`` and ``[formation]`` is optional: the model choices left unsaid
+are the ``preset``'s (the recommended model, as test1/test2, or the paper's), the numbers the
+world's dataclasses' defaults.
 Unknown keys are errors with a did-you-mean; every problem is one line of a
-:class:`~rtsim.errors.ScenarioError`, ``<file>: <key>: <problem>``, all of them at once. The
-path must close. The file is read and checked by :mod:`rtsim.config` (the model of the file
-in :mod:`rtsim.config.scenario`, with every key's type, range and unit).
-Initial state: see :class:`rtsim.world.World` (followers on their slots in steady formation,
+`ScenarioError`, ``<file>: <key>: <problem>``, all of them at once. The
+path must close. The file is read and checked by `rtsim.config` (the model of the file
+in `rtsim.config.scenario`, with every key's type, range and unit).
+Initial state: see [`rtsim.world.World`][rtsim.world.World] (followers on their slots in steady
+formation,
 estimates = truth + N(0, init sd²)).
 """
 

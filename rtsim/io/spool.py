@@ -1,12 +1,12 @@
 """Record chunks kept on disk during a run and read back in order, in constant memory.
 
-A :class:`Spool` is a sink for :class:`rtsim.sim.records.RowBuffer` (it has
+A `Spool` is a sink for `rtsim.sim.records.RowBuffer` (it has
 ``write_rows``): each chunk of row tuples is pickled to a scratch file as it comes, and
 iterating the spool yields the chunks again, one at a time, as often as needed. It holds what
-an export needs several passes over (the Perfetto trace: :mod:`rtsim.export.perfetto`) without
+an export needs several passes over (the Perfetto trace: `rtsim.export.perfetto`) without
 keeping a run's records in memory. The tuples come back exactly (floats bit for bit).
 
-A :class:`Tee` hands each chunk to several sinks (the ``--jobs`` file and a spool, say).
+A `Tee` hands each chunk to several sinks (the ``--jobs`` file and a spool, say).
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ __all__ = ["Spool", "Tee"]
 class Spool:
     """Row chunks pickled to ``path`` (a scratch file, made or truncated here).
 
-    :meth:`write_rows` appends a chunk; iterating yields the chunks written so far, in order
-    (each a list of tuples); :meth:`close` removes the file. A context manager. A write
+    `write_rows` appends a chunk; iterating yields the chunks written so far, in order
+    (each a list of tuples); `close` removes the file. A context manager. A write
     error (a full disk) names ``label``, the output the spool is for (default ``path``).
     """
 

@@ -1,6 +1,8 @@
 """``summary.json`` of a scenario run as strict JSON: null where docs/outputs.md says so.
 
-The in-memory summary (:func:`rtsim.coupling.scenario_run.summarize`) holds floats; a run
+The in-memory summary
+([`rtsim.coupling.scenario_run.summarize`][rtsim.coupling.scenario_run.summarize]) holds floats; a
+run
 with no finished window has no minimum and no maximum (NaN), and a run in which no bound
 was ever finite has an infinite ``min_msb_over_wsch``. In the file those are ``null``:
 
@@ -11,7 +13,8 @@ was ever finite has an infinite ``min_msb_over_wsch``. In the file those are ``n
 - ``leader_accel_max``, ``leader_decel_max``: null when the limit is infinite (the
   scenario left it out or wrote ``inf``: the leader's speed steps at once).
 
-Any other non-finite value is a bug and raises (:class:`rtsim.io.atomic.NonFiniteJSON`).
+Any other non-finite value is a bug and raises
+([`rtsim.io.atomic.NonFiniteJSON`][rtsim.io.atomic.NonFiniteJSON]).
 """
 
 from __future__ import annotations
@@ -42,5 +45,5 @@ def _null(v: Any) -> Any:
 
 
 def summary_json(summary: Mapping[str, Any]) -> dict[str, Any]:
-    """A copy of ``summary`` with the :data:`NULLABLE` fields' non-finite values as None."""
+    """A copy of ``summary`` with the `NULLABLE` fields' non-finite values as None."""
     return {k: _null(v) if k in NULLABLE else v for k, v in summary.items()}

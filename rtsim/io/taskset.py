@@ -1,4 +1,4 @@
-"""Task-set files (TOML, read with :mod:`tomllib`): loading, validation and the reverse.
+"""Task-set files (TOML, read with `tomllib`): loading, validation and the reverse.
 
 The generic shape any user can write::
 
@@ -20,7 +20,8 @@ The generic shape any user can write::
     overload = "finish-late"    # optional: "finish-late", "abort" or "skip"
 
 plus, for the paper's processing-window sets, a ``[window]`` table (the chain T_w: see
-:class:`rtsim.model.window.WindowSpec`; ``k = "geometric"`` with ``rho_min`` in cm takes the
+[`rtsim.model.window.WindowSpec`][rtsim.model.window.WindowSpec]; ``k = "geometric"`` with
+``rho_min`` in cm takes the
 sound count of 0.5° beams that can hit a follower at distance ≥ rho_min, docs/model/lower-bound.md)
 and an
 ``[assumptions]`` table mapping each value the paper does not give to the reason for the value
@@ -28,11 +29,11 @@ chosen. With no priorities, tasks are ordered deadline-monotonically (equal dead
 order) and numbered 1..N. With a ``[window]``, every task and the window must give a priority:
 T_hp and T_lp follow from them.
 
-Every problem raises :class:`~rtsim.errors.TaskSetError`, one line per problem and all of
+Every problem raises `TaskSetError`, one line per problem and all of
 them at once, ``<file>: task '<name>': <field>: <problem>`` (``[[tasks]] #3`` when the name
-is missing). The file is read and checked by :mod:`rtsim.config` (the model of the file in
-:mod:`rtsim.config.taskset`, with every key's type, range and unit).
-Deadlines above the period are accepted: :mod:`rtsim.analysis.rta` analyses them with the
+is missing). The file is read and checked by `rtsim.config` (the model of the file in
+`rtsim.config.taskset`, with every key's type, range and unit).
+Deadlines above the period are accepted: `rtsim.analysis.rta` analyses them with the
 level-i busy period (Lehoczky 1990).
 """
 
@@ -49,9 +50,11 @@ __all__ = ["load_taskset", "parse_taskset", "taskset_to_dict", "as_taskset", "PA
 
 
 def as_taskset(ts: object, function: str) -> TaskSet:
-    """``ts`` as a :class:`TaskSet`: itself, or the task-set file a path names (str or
-    ``os.PathLike``, read with :func:`load_taskset`). Anything else raises
-    :class:`~rtsim.errors.TaskSetError` naming ``function`` (never an AttributeError)."""
+    """``ts`` as a [`TaskSet`][rtsim.io.taskset.TaskSet]: itself, or the task-set file a path names
+    (str or
+    ``os.PathLike``, read with [`load_taskset`][rtsim.io.taskset.load_taskset]). Anything else
+    raises
+    `TaskSetError` naming ``function`` (never an AttributeError)."""
     if isinstance(ts, TaskSet):
         return ts
     if isinstance(ts, str | os.PathLike):
@@ -66,11 +69,12 @@ def _multiple(x: float) -> str:
 
 
 def taskset_to_dict(ts: TaskSet) -> dict[str, Any]:
-    """A JSON-able dict in the file's shape; :func:`parse_taskset` turns it back into ``ts``.
+    """A JSON-able dict in the file's shape; [`parse_taskset`][rtsim.io.taskset.parse_taskset] turns
+    it back into ``ts``.
 
     Priorities are always written out. A task's own ``segments`` are not part of the file
     format (the window chain is, as ``window``), so a task set made by
-    :meth:`TaskSet.at_window` comes back with the chain as a plain task of cost g.
+    `TaskSet.at_window` comes back with the chain as a plain task of cost g.
     """
     tasks: list[dict[str, Any]] = []
     for t in ts.tasks:

@@ -2,7 +2,7 @@
 
 Each estimate is cheap (no simulation, nothing materialised) and an upper bound of what
 the run would do; above its limit the command stops with one line that names the input and
-says that ``--force`` runs it anyway (:class:`TooMuchWork`, exit 2). The limits admit the
+says that ``--force`` runs it anyway (`TooMuchWork`, exit 2). The limits admit the
 long benchmarks: a 24-hour ``simulate --jobs`` of the paper's set (~2.6e6 jobs) and a
 6-hour coupled Test 2 (~9e4 windows, ~4.3e6 follower steps).
 
@@ -25,9 +25,9 @@ estimate            limit      what is counted
 The library applies the same limits through the same functions: ``simulate``,
 ``run_scenario`` and ``run_sweep`` take ``force=True`` as the command line takes
 ``--force``, and refuse an out-of-range seed as ``--seed`` does. A coupled run's length, and
-so its estimate, comes from :mod:`rtsim.coupling.duration` (``check_scenario``). This module
-is a helper below every layer: it imports only :mod:`rtsim.errors`, :mod:`rtsim._numbers` and
-the range table :mod:`rtsim.io.limits`.
+so its estimate, comes from `rtsim.coupling.duration` (``check_scenario``). This module
+is a helper below every layer: it imports only `rtsim.errors`, `rtsim._numbers` and
+the range table `rtsim.io.limits`.
 """
 
 from __future__ import annotations
@@ -72,11 +72,11 @@ _WHAT = {
 
 
 class TooMuchWork(InputError):
-    """A run would do more work than its limit (see :data:`LIMITS`); ``--force`` overrides."""
+    """A run would do more work than its limit (see `LIMITS`); ``--force`` overrides."""
 
 
 def check_work(kind: str, amount: float, where: str, *, force: bool = False) -> float:
-    """Refuse ``amount`` of ``kind`` work (a key of :data:`LIMITS`) above its limit.
+    """Refuse ``amount`` of ``kind`` work (a key of `LIMITS`) above its limit.
 
     ``where`` names the input that sets the amount (``"--horizon 1e15"``,
     ``"test2.toml: duration"``). Returns ``amount``. A NaN or infinite amount is refused

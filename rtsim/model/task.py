@@ -35,7 +35,7 @@ RESOURCE_PROTOCOLS: tuple[str, ...] = ("pcp", "srp", "npr")
 def check_time(where: str, field: str, value: object, *, allow_zero: bool = False) -> float:
     """Return ``value`` as a float if it is a finite positive (or non-negative) number.
 
-    Raises :class:`TaskSetError` naming ``where`` and ``field`` otherwise.
+    Raises `TaskSetError` naming ``where`` and ``field`` otherwise.
     """
     if not is_real(value):
         raise TaskSetError(f"{where}: {field} must be a number, got {value!r}")

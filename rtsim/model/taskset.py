@@ -24,10 +24,10 @@ class TaskSet:
     ``overhead`` is the context-switch cost (ms) that the analysis charges and the simulator
     spends by default (docs/model/beyond.md). ``scheduler`` names the CPU's scheduling policy that
     the
-    simulator uses by default (``fp``, ``edf``, or any policy of :mod:`rtsim.sim.policy`);
+    simulator uses by default (``fp``, ``edf``, or any policy of `rtsim.sim.policy`);
     priorities are required either way (under EDF they only break ties). ``resources`` is
     the protocol for tasks' critical sections (``pcp``, ``srp`` or ``npr``,
-    docs/resources.md); None: the scheduler's default (:meth:`resource_protocol`).
+    docs/resources.md); None: the scheduler's default (`resource_protocol`).
     """
 
     tasks: tuple[Task, ...]

@@ -1,6 +1,6 @@
 """The paper's processing-window job T_w as a spec: constants and segment chain, and its cost
 on numbers, e_hough (Eq 1) and g (Eq 5/6) (docs/model/index.md, docs/model/lower-bound.md;
-:mod:`rtsim.analysis.window` holds the bounds built on them)."""
+`rtsim.analysis.window` holds the bounds built on them)."""
 
 from __future__ import annotations
 
@@ -57,7 +57,7 @@ class WindowSpec:
     ``rho_min`` (cm) is set when k is the geometric bound for followers at distance ≥ rho_min
     (``k = "geometric"`` in a file; k then holds that count, docs/model/lower-bound.md).
     ``jitter`` and ``offset`` (ms) are the window task's release jitter and first arrival,
-    as for any task (:class:`~rtsim.model.task.Task`): window job k arrives at
+    as for any task ([`Task`][rtsim.model.task.Task]): window job k arrives at
     offset + (the sum of the windows before it) and is released up to ``jitter`` later; its
     deadline (one window) counts from the arrival. Tasks with per-window periods count their
     offsets from the window's.

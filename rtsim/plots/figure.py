@@ -1,12 +1,12 @@
 """The one place rtsim's plotting functions get a new figure from.
 
-Outside IPython a figure is a plain :class:`matplotlib.figure.Figure`, made without pyplot
+Outside IPython a figure is a plain `matplotlib.figure.Figure`, made without pyplot
 (nothing to close, nothing shown by surprise). In an IPython kernel whose matplotlib backend
 is the inline one (Jupyter's default) it is a pyplot figure, so that it shows however the user
 calls it, as any matplotlib figure does there: at the end of the cell, on ``plt.show()``, or
 returned as the cell's value — once, because the PNG formatter of
-:func:`rtsim.notebook.enable_figure_display` closes a pyplot figure it has shown (the inline
-backend registers its own formatter when it starts, so :func:`new_figure` registers rtsim's
+`rtsim.notebook.enable_figure_display` closes a pyplot figure it has shown (the inline
+backend registers its own formatter when it starts, so `new_figure` registers rtsim's
 again after).
 """
 
@@ -38,7 +38,7 @@ def inline_kernel() -> bool:
 
 
 def new_figure(**kwargs: Any) -> Figure:
-    """A new figure (``kwargs`` as :class:`~matplotlib.figure.Figure`'s; module docstring)."""
+    """A new figure (``kwargs`` as `Figure`'s; module docstring)."""
     if inline_kernel():
         import matplotlib.pyplot as plt
 

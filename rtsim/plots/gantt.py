@@ -1,13 +1,13 @@
 """Gantt chart of a simulated schedule: one row per task, CPU stretches as bars.
 
-Input is the execution-interval trace of :class:`rtsim.sim.SimResult` (columns
-:data:`rtsim.sim.TRACE_COLUMNS`) and optionally the job table, whose releases (up arrows)
+Input is the execution-interval trace of [`rtsim.sim.SimResult`][rtsim.sim.SimResult] (columns
+`rtsim.sim.TRACE_COLUMNS`) and optionally the job table, whose releases (up arrows)
 and absolute deadlines (down ticks; red when missed) are drawn too.
 
-:class:`GanttRows` keeps, during a run, only the records a chart of one time range draws (it
-is a pair of record sinks, :class:`rtsim.sim.records.RowBuffer`), so that ``rtsim simulate
+`GanttRows` keeps, during a run, only the records a chart of one time range draws (it
+is a pair of record sinks, `rtsim.sim.records.RowBuffer`), so that ``rtsim simulate
 --gantt`` does not hold the whole run; the command line cuts a range that would hold more
-than :data:`GANTT_MAX_JOBS` jobs and says so in the chart's title.
+than `GANTT_MAX_JOBS` jobs and says so in the chart's title.
 """
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ class _Rows:
 
 
 class GanttRows:
-    """Sinks for a run's records that keep what :func:`gantt` draws between ``start`` and
+    """Sinks for a run's records that keep what `gantt` draws between ``start`` and
     ``end`` (ms): ``trace`` keeps the intervals that overlap the range, ``jobs`` the jobs
     released or due in it (so the chart is the one drawn from the whole tables). Memory
     grows with the jobs in the range, not with the run."""

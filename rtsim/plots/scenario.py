@@ -3,7 +3,8 @@
 The paper's Figures 8-15 (paths, processing window and slack, effective bounds, leader speed),
 the operating space of its Figure 2 (w_sch ≤ w ≤ min MSB, critical region where min MSB < w_sch)
 and side-by-side comparisons of the three modes. Every function takes the windows DataFrame
-and returns a :class:`matplotlib.figure.Figure` built without pyplot; :func:`figure_data`
+and returns a `matplotlib.figure.Figure` built without pyplot;
+[`figure_data`][rtsim.plots.scenario.figure_data]
 returns the exact columns each figure plots, so a figure can be redrawn from CSV.
 """
 
@@ -38,6 +39,7 @@ from rtsim.plots.scenario_data import (
     times_s,
     violation_ratios,
 )
+from rtsim.plots.style import few
 
 __all__ = [
     "BOUND_KINDS",
@@ -117,7 +119,7 @@ def _finish(
     elif title:
         ax.set_title(title, loc="left")
     if legend:
-        handles, labels = ax.get_legend_handles_labels()
+        handles, labels = few(*ax.get_legend_handles_labels())
         if handles and own:
             fig.legend(
                 handles,
@@ -130,7 +132,7 @@ def _finish(
                 title_fontsize="small",
             )
         elif handles:
-            ax.legend(fontsize="small")
+            ax.legend(handles, labels, fontsize="small")
     return fig
 
 
@@ -563,7 +565,7 @@ def _draw_plane(ax: Axes, df: pd.DataFrame, top: float) -> None:
 
 def plot_paths(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
     """Figs 8/12: the leader's and followers' true paths, estimates faint, critical windows
-    drawn where the binding follower was (:func:`binding_xy`)."""
+    drawn where the binding follower was (`binding_xy`)."""
     fig, ax, own = _new_figure(ax, (6.4, 6.0))
     _draw_paths(ax, df)
     return _finish(fig, ax, own, title)
@@ -579,7 +581,7 @@ def plot_window_slack(
 
 
 def plot_bounds(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
-    """The per-kind detail of Figs 10/14 (:func:`plot_msb` is the paper's picture): w_sch,
+    """The per-kind detail of Figs 10/14 (`plot_msb` is the paper's picture): w_sch,
     each MSB kind (min over followers, estimates) and w over time."""
     fig, ax, own = _new_figure(ax, (8.0, 4.6))
     _draw_bounds(ax, df)
@@ -590,7 +592,7 @@ def plot_msb(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = No
     """Figs 10/14 as the paper draws them: the minimum MSB over every follower and bound,
     predicted at the desired speed V_Ld (the decision's ``msb_min``) and as the truth showed
     it, against w_sch and w; in the critical windows a marker coloured by the binding bound.
-    The per-kind detail is :func:`plot_bounds`."""
+    The per-kind detail is [`plot_bounds`][rtsim.plots.scenario.plot_bounds]."""
     fig, ax, own = _new_figure(ax, (9.5, 4.2))
     _draw_msb(ax, df)
     return _finish(fig, ax, own, title)
@@ -696,11 +698,11 @@ def plot_modes(
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(lab.split(" (")[0] if lab.startswith("deadline") else lab, h)
     if handles:
+        shown = few(list(handles.values()), list(handles))
         fig.legend(
-            list(handles.values()),
-            list(handles),
+            *shown,
             loc="outside lower center",
-            ncols=min(len(handles), 3),
+            ncols=min(len(shown[0]), 3),
             fontsize="small",
             frameon=False,
             title=BOUNDS_NOTE if kind == "bounds" else None,
@@ -723,7 +725,7 @@ def save_figure(
     fig: Figure, path: str | os.PathLike[str], *, dpi: int = DPI, fmt: str | None = None
 ) -> Path:
     """Write ``fig`` atomically (temp file beside ``path``, then rename) in format ``fmt``
-    (:data:`FIGURE_FORMATS`; default: the one ``path``'s suffix names; ``dpi`` for PNG);
+    (`FIGURE_FORMATS`; default: the one ``path``'s suffix names; ``dpi`` for PNG);
     close it."""
     path = Path(path)
     fmt = (fmt or path.suffix.lstrip(".") or "png").lower()
@@ -774,10 +776,11 @@ def write_scenario_figures(
     dpi: int = DPI,
     fmt: str = "png",
 ) -> list[Path]:
-    """Write every figure of :data:`SCENARIO_FIGURES` as ``<prefix><stem>.png`` in ``out_dir``.
+    """Write every figure of `SCENARIO_FIGURES` as ``<prefix><stem>.png`` in ``out_dir``.
 
     ``label`` (e.g. ``"Test 2, adjust"``) heads each title; with ``data`` each figure's
-    :func:`figure_data` is also written as ``<prefix><stem>.csv``. Returns the paths written.
+    [`figure_data`][rtsim.plots.scenario.figure_data] is also written as ``<prefix><stem>.csv``.
+    Returns the paths written.
     """
     out = Path(out_dir)
     written: list[Path] = []

@@ -1,7 +1,8 @@
 """What a scenario figure shows, selected from a run's ``windows.csv`` table (docs/outputs.md):
 the followers present, the critical spans, the violation ratios, the columns each figure
-plots (:func:`figure_data`) and the rows a long run is drawn from (:func:`thin_rows`). No
-drawing here: :mod:`rtsim.plots.scenario` draws what these return.
+plots ([`figure_data`][rtsim.plots.scenario_data.figure_data]) and the rows a long run is drawn from
+(`thin_rows`). No
+drawing here: `rtsim.plots.scenario` draws what these return.
 """
 
 from __future__ import annotations
@@ -131,7 +132,8 @@ def headline_counts(df: pd.DataFrame) -> str:
 
 
 def figure_columns(n: int) -> list[str]:
-    """The columns of windows.csv that :func:`write_scenario_figures` draws (``n`` followers),
+    """The columns of windows.csv that
+    [`write_scenario_figures`][rtsim.plots.write_scenario_figures] draws (``n`` followers),
     in table order — what a long run reads back instead of the whole table."""
     from rtsim.coupling.recorder import window_columns
 
@@ -168,9 +170,9 @@ FIGURE_NAMES: tuple[str, ...] = (
     "operating_space",
 )
 
-#: A run with more windows than this is drawn from a selection of rows (:func:`thin_rows`).
+#: A run with more windows than this is drawn from a selection of rows (`thin_rows`).
 FIGURE_MAX_ROWS = 20_000
-#: Buckets of consecutive windows :func:`thin_rows` keeps extremes of.
+#: Buckets of consecutive windows `thin_rows` keeps extremes of.
 FIGURE_BUCKETS = 1_000
 
 

@@ -1,9 +1,11 @@
-"""Figures of the validation report (:mod:`rtsim.validate`), drawn from its table.
+"""Figures of the validation report (`rtsim.validate`), drawn from its table.
 
-- :func:`bounds_vs_n`: w_sch, w_rta and the two w_sim against n, one panel per r_H;
-- :func:`pessimism_heatmap`: w_sch / w_sim over (n, r_H), one panel per search mode;
-- :func:`scheduler_bounds`: the paper set's w_sch, w_rta and w_edf against n, per r_H (from
-  the analytic table of :func:`rtsim.validate.runner.scheduler_table`).
+- [`bounds_vs_n`][rtsim.plots.validation.bounds_vs_n]: w_sch, w_rta and the two w_sim against n, one
+panel per r_H;
+- [`pessimism_heatmap`][rtsim.plots.validation.pessimism_heatmap]: w_sch / w_sim over (n, r_H), one
+panel per search mode;
+- `scheduler_bounds`: the paper set's w_sch, w_rta and w_edf against n, per r_H (from
+  the analytic table of `rtsim.validate.runner.scheduler_table`).
 
 Each has a ``*_data`` companion returning the exact numbers drawn (written beside the PNG).
 """
@@ -32,7 +34,7 @@ _COLUMNS = 3
 
 
 def _panels(count: int, width: float, height: float) -> tuple[Figure, list]:
-    """A figure of ``count`` panels, at most :data:`_COLUMNS` a row (sharing both axes), each
+    """A figure of ``count`` panels, at most `_COLUMNS` a row (sharing both axes), each
     ``width`` x ``height`` in; panels left over in the last row are hidden."""
     cols = min(count, _COLUMNS)
     rows = -(-count // cols)

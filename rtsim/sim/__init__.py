@@ -1,6 +1,7 @@
 """The SimPy virtual CPU: preemptive scheduling of job chains by a policy (fp, edf, yours).
 
-``simulate(ts, horizon, ...)`` is the entry point; :class:`CPU` is the lower-level object a
+``simulate(ts, horizon, ...)`` is the entry point; [`CPU`][rtsim.sim.CPU] is the lower-level object
+a
 coupling layer drives inside its own SimPy environment (hooks at segment boundaries,
 per-segment execution-time callables, dynamic windows).
 """

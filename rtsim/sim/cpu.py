@@ -5,7 +5,7 @@ Preemption mechanism (the only one in rtsim)
 The CPU *holds* a ``simpy.Environment`` and runs ONE SimPy process, the dispatcher. It owns
 three structures: a timer heap (releases, ends of idle suspensions, abort deadlines), a ready
 heap of eligible jobs keyed by the scheduling policy's (key, tie) — (priority, job sequence)
-under ``fp``, (absolute deadline, job sequence) under ``edf`` (:mod:`rtsim.sim.policy`) —
+under ``fp``, (absolute deadline, job sequence) under ``edf`` (`rtsim.sim.policy`) —
 and the running job. At each instant it books the running job's progress, handles what is
 due, gives the CPU to the first eligible job if the policy says it preempts the running one,
 and yields a single ``env.timeout`` until the earliest of "the running segment completes"
@@ -23,11 +23,11 @@ Inline jobs of the top task: when the highest-priority task is simple (one const
 segment, fixed period, finish-late, no hooks) and a job of it is released while it has no
 backlog, and nothing happens while it runs (no timer in (t, t + c], no other SimPy event up to
 t + c) and the job that gets the CPU after it has already started its segment, the dispatcher
-books that job without a :class:`Job` object and in one step: the preemption at t, the
+books that job without a [`Job`][rtsim.sim.cpu.Job] object and in one step: the preemption at t, the
 completion at t + c and the dispatch at t + c, with the same float operations in the same
 order (so results, job records, hook calls and times are bit-identical; tests/test_sim_inline
 compares runs with the path on and off). Not with a trace, overhead or abort policies, and
-only under a policy that preempts by key (:mod:`rtsim.sim.policy`); under one whose top
+only under a policy that preempts by key (`rtsim.sim.policy`); under one whose top
 task does not always come first (``edf``), only when the job comes first in the ready order and
 preempts the running job, and the job after it at t + c is the first of the others in the
 order (key, tie).
@@ -78,7 +78,7 @@ Release jitter (``Task.jitter`` J, docs/model/beyond.md): job k *arrives* at off
 release
 timer above fires at the arrival: period providers, the w in force, skips and the backlog count
 go by arrivals) and is released — made eligible, release hooks run — after a delay in [0, J]
-drawn from the task's own jitter stream (:func:`~rtsim.sim.execution.jitter_rngs`), ordered
+drawn from the task's own jitter stream (`jitter_rngs`), ordered
 at its instant as a release of its task. ``jitter="random"``: uniform in [0, J];
 ``"worst"``: the analysis' critical instant — with t0 = max_j J_j, every task's arrivals are
 shifted by t0 − J_i and its first job is released J_i after arriving (all at t0), later jobs
@@ -122,9 +122,19 @@ import numpy as np
 import simpy
 
 from rtsim.errors import InputError, RtsimError
-from rtsim.model.task import RESOURCE_PROTOCOLS, Segment, Task
+from rtsim.model.task import RESOURCE_PROTOCOLS, Task
 from rtsim.sim.execution import WCET, ExecSpec, jitter_rngs, resolve_exec_model, task_rngs
-from rtsim.sim.job import _ABORT, _JREL, _RELEASE, _RESUME, Job, _TaskState
+from rtsim.sim.job import (
+    _ABORT,
+    _JREL,
+    _RELEASE,
+    _RESUME,
+    Job,
+    JobHook,
+    PeriodProvider,
+    SegmentHook,
+    _TaskState,
+)
 from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_policy
 from rtsim.sim.records import (
     EPS,
@@ -149,9 +159,6 @@ __all__ = [
 
 HookEvent = Literal["release", "segment_start", "segment_end", "job_end"]
 HOOK_EVENTS: tuple[str, ...] = ("release", "segment_start", "segment_end", "job_end")
-SegmentHook = Callable[["Job", Segment], None]
-JobHook = Callable[["Job"], None]
-PeriodProvider = Callable[[], float]
 JitterMode = Literal["random", "worst", "none"]
 JITTER_MODES: tuple[str, ...] = ("random", "worst", "none")
 
@@ -173,13 +180,14 @@ def coincidence(t: float) -> tuple[float, float]:
 class CPU:
     """One processor under a scheduling policy, ``scheduler``: ``"fp"``, ``"edf"``, another
     registered name, ``"package.module:Name"`` or a
-    :class:`~rtsim.sim.policy.SchedulingPolicy` (the module docstring; :mod:`rtsim.sim.policy`).
+    [`SchedulingPolicy`][rtsim.sim.policy.SchedulingPolicy] (the module docstring;
+    `rtsim.sim.policy`).
 
     Usage: ``cpu = CPU(env)``; ``cpu.add_task(...)`` for each task; register hooks with
-    :meth:`on` and per-segment execution times with :meth:`set_exec_time`; ``cpu.start(H)``
+    `on` and per-segment execution times with `set_exec_time`; ``cpu.start(H)``
     returns the dispatcher process (run ``env.run(until=proc)``); ``cpu.result()``.
     ``job_sink`` / ``trace_sink``: where job records / trace rows go in chunks during the
-    run (:class:`~rtsim.sim.records.RowBuffer`; the result's ``jobs`` / ``trace`` are then
+    run (`RowBuffer`; the result's ``jobs`` / ``trace`` are then
     None), so that a long run keeps neither in memory.
     """
 
@@ -1088,7 +1096,7 @@ class CPU:
         self, st: _TaskState, k: int, r: float, start: float, f: float, missed: bool
     ) -> None:
         """The job record of job ``k`` of the top task, booked inline (run from ``start`` to
-        ``f``): the same floats as :meth:`_record` of its Job."""
+        ``f``): the same floats as `_record` of its Job."""
         self._job_rows.append(
             (
                 st.name,

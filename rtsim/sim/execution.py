@@ -7,10 +7,13 @@ scan has counted its points), with the task's own random generator.
 
 Models shipped here:
 
-- :class:`WCET` — every segment runs its ``wcet`` (the default; the analysis' assumption);
-- :class:`Uniform` — uniform in [bcet, wcet]: the segment's ``bcet``; else, for a task with a
+- [`WCET`][rtsim.sim.execution.WCET] — every segment runs its ``wcet`` (the default; the analysis'
+assumption);
+- [`Uniform`][rtsim.sim.execution.Uniform] — uniform in [bcet, wcet]: the segment's ``bcet``; else,
+for a task with a
   ``bcet``, that bcet scaled by ``segment.wcet / task.wcet``; else no variation (bcet = wcet);
-- :class:`Empirical` — measured times from a CSV file, replayed in file order (job k of a task
+- [`Empirical`][rtsim.sim.execution.Empirical] — measured times from a CSV file, replayed in file
+order (job k of a task
   gets the k-th value of its (task, segment) column, cyclically; stateless) or bootstrapped
   (drawn with replacement). CSV columns: ``task``, optional ``segment``, ``exec_time`` (ms).
   A missing or empty ``segment`` means the task's only segment (named after the task).
@@ -18,7 +21,8 @@ Models shipped here:
 - any callable with the signature above, e.g. e_hough from the beams counted at the scan.
 
 Randomness: all of it comes from one seed. Each task gets its own child generator,
-``SeedSequence(entropy=<seed entropy>, spawn_key=(crc32(task name),))`` (:func:`task_rngs`), so
+``SeedSequence(entropy=<seed entropy>, spawn_key=(crc32(task name),))``
+([`task_rngs`][rtsim.sim.execution.task_rngs]), so
 a task's draws depend only on the seed and its name: adding, removing or re-prioritising another
 task never reshuffles them, and the same seed gives the identical trace.
 """
@@ -40,7 +44,7 @@ from rtsim.model.task import Segment
 from rtsim.registry import Registry
 
 if TYPE_CHECKING:
-    from rtsim.sim.cpu import Job
+    from rtsim.sim.job import Job
 
 __all__ = [
     "EXEC_MODELS",
@@ -77,7 +81,7 @@ class WCET:
 
 
 def segment_bcet(job: Job, segment: Segment) -> float:
-    """The best case used by :class:`Uniform` (see the module docstring)."""
+    """The best case used by [`Uniform`][rtsim.sim.execution.Uniform] (see the module docstring)."""
     if segment.bcet is not None:
         return segment.bcet
     task = job.task

@@ -1,21 +1,24 @@
-"""Jobs and the CPU's per-task bookkeeping (internal to :mod:`rtsim.sim.cpu`)."""
+"""Jobs and the CPU's per-task bookkeeping (internal to `rtsim.sim.cpu`)."""
 
 from __future__ import annotations
 
 import math
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from rtsim.model.task import Segment, Task
 from rtsim.sim.records import TaskStats
 
-if TYPE_CHECKING:
-    from rtsim.sim.cpu import JobHook, PeriodProvider, SegmentHook
+__all__ = ["Job", "JobHook", "PeriodProvider", "SegmentHook"]
 
-__all__ = ["Job"]
+#: Hooks the CPU calls at a segment's start or end and at a job's end, and the callable that
+#: gives a task's current period (a window chosen at run time).
+SegmentHook = Callable[["Job", Segment], None]
+JobHook = Callable[["Job"], None]
+PeriodProvider = Callable[[], float]
 
 #: Timer kinds, in their order at one instant (module docstring of rtsim.sim.cpu).
 _RESUME, _ABORT, _RELEASE_W, _RELEASE = 0, 1, 2, 3
@@ -32,7 +35,7 @@ class Job:
     arrived but not yet released. ``period`` is the period in force at the arrival.
     ``segment`` is the current segment, ``seg_exec`` its drawn execution time,
     ``start``/``finish`` are None until they happen. ``key``/``tie``: its place in the ready
-    queue, set by the CPU's scheduling policy (:mod:`rtsim.sim.policy`) at creation.
+    queue, set by the CPU's scheduling policy (`rtsim.sim.policy`) at creation.
     """
 
     __slots__ = (

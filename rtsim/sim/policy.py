@@ -1,26 +1,29 @@
 """Scheduling policies of the virtual CPU: the ready queue's order and the preemption test.
 
-A policy is a specification (no engine, no SimPy); :mod:`rtsim.sim.cpu` applies it. The engine owns
+A policy is a specification (no engine, no SimPy); `rtsim.sim.cpu` applies it. The engine owns
 time, the policy owns the order (as SimPy's ``PriorityResource`` changes only
-its queue's sort key). The dispatcher of :mod:`rtsim.sim.cpu` keeps one ready heap of eligible
+its queue's sort key). The dispatcher of `rtsim.sim.cpu` keeps one ready heap of eligible
 jobs (a task's oldest pending job, once released and not suspended), each entry
 ``(job.key, job.tie, job)``; a policy decides
 
-- :meth:`SchedulingPolicy.order`: the job's ``(key, tie)``, computed once when the job is
+- [`SchedulingPolicy.order`][rtsim.sim.policy.SchedulingPolicy.order]: the job's ``(key, tie)``,
+computed once when the job is
   created (job-level static priorities: fixed priority, EDF, and any policy whose order of
   two jobs does not change while both wait). The smaller runs first; ``(key, tie)`` must be
   unique among eligible jobs (the heap never compares two jobs);
-- :meth:`SchedulingPolicy.preempts`: whether the first eligible job (its ``key``) takes the
+- [`SchedulingPolicy.preempts`][rtsim.sim.policy.SchedulingPolicy.preempts]: whether the first
+eligible job (its ``key``) takes the
   CPU from the running job. The default, ``key < running.key``, is preemptive scheduling by
   the key; the dispatcher evaluates it inline unless a subclass overrides ``preempts``, and
-  only then books jobs of the top task inline (:mod:`rtsim.sim.cpu`), checking that such a
+  only then books jobs of the top task inline (`rtsim.sim.cpu`), checking that such a
   job comes first unless ``top_task_first`` promises it.
 
-Registered policies (:data:`SCHEDULERS`, a :class:`~rtsim.registry.Registry`: by name, by an
+Registered policies (`SCHEDULERS`, a `Registry`: by name, by an
 installed entry point of the group ``rtsim.schedulers``, or ``"package.module:Name"`` for a class
-of one's own, see :func:`resolve_scheduler`). Each entry carries its analysis
-(:attr:`SchedulingPolicy.analysis`, for ``rtsim analyze`` and the simulator's report) and the
-window lower bounds that hold under it (:attr:`SchedulingPolicy.lower_bounds`, for
+of one's own, see [`resolve_scheduler`][rtsim.sim.policy.resolve_scheduler]). Each entry carries its
+analysis
+(`SchedulingPolicy.analysis`, for ``rtsim analyze`` and the simulator's report) and the
+window lower bounds that hold under it (`SchedulingPolicy.lower_bounds`, for
 ``[adjust] lower_bound``); a policy of one's own has neither unless it sets them (a subclass
 does not inherit them: the analysis of preemptive FP says nothing of a non-preemptive one):
 
@@ -78,7 +81,7 @@ __all__ = [
 class SchedulingPolicy:
     """The ready queue's order and the preemption test of one CPU (module doc).
 
-    Subclasses set :attr:`name` and implement :meth:`order`; override :meth:`preempts` for a
+    Subclasses set `name` and implement `order`; override `preempts` for a
     test other than "strictly smaller key". The built-ins keep no state (one instance may serve
     several CPUs).
     """
@@ -159,7 +162,7 @@ def _policy_class(obj: Any, spec: str, where: str) -> type[SchedulingPolicy]:
     raise InputError(f"{where} is not a SchedulingPolicy subclass")
 
 
-#: The registered scheduling policies by name (a :class:`~rtsim.registry.Registry` of classes;
+#: The registered scheduling policies by name (a `Registry` of classes;
 #: entry-point group ``rtsim.schedulers``).
 SCHEDULERS: Registry[type[SchedulingPolicy]] = Registry(
     "scheduling policy", "rtsim.schedulers", _policy_class
@@ -180,7 +183,7 @@ def register_scheduler(cls: P) -> P:
 register_scheduler(FixedPriority)
 register_scheduler(EarliestDeadlineFirst)
 
-#: What :func:`resolve_scheduler` accepts.
+#: What [`resolve_scheduler`][rtsim.sim.policy.resolve_scheduler] accepts.
 PolicySpec = str | SchedulingPolicy | type[SchedulingPolicy]
 
 
@@ -188,8 +191,8 @@ def resolve_scheduler(
     spec: PolicySpec, where: str = "scheduler", *, allow_code: bool | None = None
 ) -> SchedulingPolicy:
     """A policy instance from a registered name, an entry point, ``"package.module:Name"``
-    (code: :func:`rtsim.registry.load_code`), a class or an instance; an unknown name is an
-    :class:`InputError` naming ``where``."""
+    (code: `rtsim.registry.load_code`), a class or an instance; an unknown name is an
+    `InputError` naming ``where``."""
     if isinstance(spec, SchedulingPolicy):
         return spec
     if isinstance(spec, type) and issubclass(spec, SchedulingPolicy):
@@ -198,7 +201,8 @@ def resolve_scheduler(
 
 
 #: Deprecated aliases (the CPU's policies were once called "policies", as adjustment policies
-#: still are): use :data:`SCHEDULERS`, :func:`register_scheduler`, :func:`resolve_scheduler`.
+#: still are): use `SCHEDULERS`, [`register_scheduler`][rtsim.sim.policy.register_scheduler],
+#: [`resolve_scheduler`][rtsim.sim.policy.resolve_scheduler].
 POLICIES = SCHEDULERS
 register_policy = register_scheduler
 resolve_policy = resolve_scheduler

@@ -1,11 +1,11 @@
 """Progress of runs: a SimPy process that wakes every so much simulated time and reports how
-far the run has come (:func:`start_ticker`), and the progress bars of the command line
-(``tqdm.auto`` on standard error: :func:`progress_bar`, :class:`SimulationBar`).
+far the run has come (`start_ticker`), and the progress bars of the command line
+(``tqdm.auto`` on standard error: `progress_bar`, `SimulationBar`).
 
 The ticker only reads (the clock, and what ``share`` reads); its wake-ups are events of their
 own that no other process waits for, so a run with it makes the same decisions at the same
 instants as a run without it (the CPU's clock jumps stop at a tick and resume after it:
-:mod:`rtsim.sim.cpu`).
+`rtsim.sim.cpu`).
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ def progress_bar(
     args: Any, *, total: float | None, desc: str, unit: str = "it", **kwargs: Any
 ) -> Any:
     """A ``tqdm.auto`` bar on standard error, disabled (every call a no-op) unless
-    :func:`progress_enabled`."""
+    `progress_enabled`."""
     from tqdm.auto import tqdm
 
     # no monitor thread: a process pool may fork after the bar opens (rtsim reproduce)
@@ -80,8 +80,9 @@ def progress_bar(
 
 class SimulationBar:
     """A progress bar of one simulation run in percent, with the simulated seconds reached:
-    the ``progress`` callback of :func:`rtsim.sim.simulate` and
-    :func:`rtsim.coupling.run_scenario`. A context manager (closes the bar)."""
+    the ``progress`` callback of [`rtsim.sim.simulate`][rtsim.sim.simulate] and
+    [`rtsim.coupling.run_scenario`][rtsim.coupling.run_scenario]. A context manager (closes the
+    bar)."""
 
     def __init__(self, args: Any, desc: str) -> None:
         self.bar = progress_bar(

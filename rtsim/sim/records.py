@@ -1,13 +1,14 @@
 """What a simulation run leaves behind: running per-task statistics, job records, the trace.
 
-Per-task statistics (:class:`TaskStats`) are updated as jobs finish and keep O(1) memory per
+Per-task statistics ([`TaskStats`][rtsim.sim.records.TaskStats]) are updated as jobs finish and keep
+O(1) memory per
 task plus one counter per occupied histogram bin, so a long horizon runs in bounded memory
 when per-job records are off. Job records are appended as plain tuples to a
-:class:`RowBuffer`, which turns every :data:`CHUNK_ROWS` of them into a typed column chunk —
+`RowBuffer`, which turns every `CHUNK_ROWS` of them into a typed column chunk —
 kept in memory (about 4x smaller than the tuples) or handed to a sink that writes it out
 (``rtsim simulate --jobs``, ``rtsim scenario``: memory stays flat however long the run);
 the execution-interval trace is kept as tuples and turned into a DataFrame once. The column
-schemas are fixed: :data:`JOB_COLUMNS` and :data:`TRACE_COLUMNS`.
+schemas are fixed: `JOB_COLUMNS` and `TRACE_COLUMNS`.
 
 A job *misses* when it finishes later than its absolute deadline plus the coincidence window
 (1e-9 ms, or 16 units in the last place of t from t = 2^19 ms on, where doubles are coarser:
@@ -40,7 +41,7 @@ __all__ = [
 #: are simultaneous (from t = 2^19 ms on, 16 ulps of t instead: cpu.coincidence, docs/time.md).
 EPS = 1e-9
 
-#: Job records per column chunk of a :class:`RowBuffer`.
+#: Job records per column chunk of a `RowBuffer`.
 CHUNK_ROWS = 8192
 
 #: Columns of ``SimResult.jobs`` (one row per release; a skipped release has no start/finish).
@@ -190,7 +191,7 @@ class SimResult(ResultDisplay):
         }
 
     def summary_frame(self) -> pd.DataFrame:
-        """Per-task statistics, one row per task (the same as :meth:`stats_frame`)."""
+        """Per-task statistics, one row per task (the same as `stats_frame`)."""
         return self.stats_frame()
 
     def stats_frame(self) -> pd.DataFrame:
@@ -226,10 +227,10 @@ class RowBuffer(list):  # type: ignore[type-arg]
     """Job records as tuples, turned into a column chunk every ``chunk_rows`` rows.
 
     A list (the CPU appends to it as to a list) whose rows are converted by ``to_frame``
-    (:func:`jobs_frame`) and passed to ``sink`` (a callable taking a DataFrame, or an
-    object with ``write_rows`` given the tuples: :meth:`flush`), or kept in
-    :attr:`chunks` when there is no sink. :meth:`frame` returns the whole table (no sink);
-    :meth:`flush` hands over what is left.
+    (`jobs_frame`) and passed to ``sink`` (a callable taking a DataFrame, or an
+    object with ``write_rows`` given the tuples: `flush`), or kept in
+    `chunks` when there is no sink. `frame` returns the whole table (no sink);
+    `flush` hands over what is left.
     """
 
     def __init__(self, to_frame: Any, sink: Any = None, chunk_rows: int | None = None) -> None:
@@ -248,7 +249,7 @@ class RowBuffer(list):  # type: ignore[type-arg]
 
     def flush(self) -> None:
         """Turn the rows held into a chunk (to the sink, or kept); an empty buffer is a no-op.
-        A sink with a ``write_rows`` method (:class:`rtsim.io.columns.ChunkWriter`) is given
+        A sink with a ``write_rows`` method (`rtsim.io.columns.ChunkWriter`) is given
         the row tuples themselves: it formats them as columns, without a DataFrame."""
         if not len(self):
             return
@@ -276,7 +277,7 @@ class RowBuffer(list):  # type: ignore[type-arg]
 
 
 def jobs_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
-    """Job records (tuples in :data:`JOB_COLUMNS` order) as a typed DataFrame."""
+    """Job records (tuples in `JOB_COLUMNS` order) as a typed DataFrame."""
     df = pd.DataFrame(rows, columns=list(JOB_COLUMNS))
     return df.astype(
         {
@@ -299,7 +300,7 @@ def jobs_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
 
 
 def trace_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
-    """Trace rows (tuples in :data:`TRACE_COLUMNS` order) as a typed DataFrame."""
+    """Trace rows (tuples in `TRACE_COLUMNS` order) as a typed DataFrame."""
     df = pd.DataFrame(rows, columns=list(TRACE_COLUMNS))
     return df.astype(
         {

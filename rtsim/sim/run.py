@@ -1,8 +1,10 @@
 """High-level runs: a task set on the virtual CPU, with a fixed or dynamic processing window.
 
-:func:`build_cpu` puts a :class:`~rtsim.model.taskset.TaskSet` on a :class:`~rtsim.sim.cpu.CPU`
+[`build_cpu`][rtsim.sim.run.build_cpu] puts a [`TaskSet`][rtsim.model.taskset.TaskSet] on a
+[`CPU`][rtsim.sim.cpu.CPU]
 (in a given SimPy environment, so that a coupling layer can run its world processes beside
-it); :func:`simulate` builds, runs to completion and returns the :class:`SimResult`.
+it); [`simulate`][rtsim.sim.run.simulate] builds, runs to completion and returns the
+[`SimResult`][rtsim.sim.run.SimResult].
 
 For a set with a ``[window]`` the chain T_w becomes the window task (``ts.window_task``),
 whose period and deadline are the w in force: ``window`` is a float (fixed w), a callable
@@ -35,13 +37,15 @@ from rtsim.sim.records import SimResult
 
 __all__ = ["simulate", "build_cpu", "resolve_window", "worst_jitter_shifts", "WindowArg"]
 
-#: ``window=`` of :func:`simulate`: fixed w (ms), a period provider, or None for w_sch.
+#: ``window=`` of [`simulate`][rtsim.sim.run.simulate]: fixed w (ms), a period provider, or None for
+#: w_sch.
 WindowArg = float | Callable[[], float] | None
 
 
 def _as_taskset(ts: TaskSet | Sequence[Task]) -> TaskSet:
     """A TaskSet, or one of a list of tasks; a file is read above the simulator
-    (:func:`rtsim.load_taskset`, or the facade's :func:`rtsim.simulate`, which takes a path)."""
+    (`rtsim.load_taskset`, or the facade's [`rtsim.simulate`][rtsim.simulate], which takes a
+    path)."""
     from rtsim.analysis.sufficient import as_taskset
 
     if isinstance(ts, TaskSet | str | os.PathLike):
@@ -87,12 +91,12 @@ def resolve_window(ts: TaskSet, window: WindowArg) -> tuple[Callable[[], float],
 def worst_jitter_shifts(ts: TaskSet) -> tuple[dict[str, float], list[str]]:
     """Where ``jitter="worst"`` puts the per-window tasks of ``ts``, and which it cannot move.
 
-    The critical instant (:mod:`rtsim.sim.cpu`) shifts every task's arrivals by
+    The critical instant (`rtsim.sim.cpu`) shifts every task's arrivals by
     max_j J_j − J_i, so a per-window task (period m·w) would arrive J_w − J_i after the
     window's arrivals, past its own offset Φ_i. It cannot arrive before the window's first
     arrival (its period is decided there), so its shift is max(J_w − J_i, −Φ_i).
     Returns the shifts (ms, per-window tasks, against their offsets from the window's
-    arrivals: the ``shifts`` of :func:`rtsim.analysis.transaction.transactions_of`) and the
+    arrivals: the ``shifts`` of `rtsim.analysis.transaction.transactions_of`) and the
     names of the tasks whose first release therefore misses the critical instant."""
     if ts.window is None:
         return {}, []
@@ -115,10 +119,12 @@ def build_cpu(
     window: WindowArg = None,
     **cpu_kwargs: Any,
 ) -> tuple[CPU, dict[str, Any] | None]:
-    """A :class:`CPU` loaded with the tasks of ``ts`` (and its window chain), not started.
+    """A [`CPU`][rtsim.sim.run.CPU] loaded with the tasks of ``ts`` (and its window chain), not
+    started.
 
     Returns the CPU and the window description (None for a set without a window).
-    ``cpu_kwargs`` go to :class:`CPU` (suspension, exec_model, seed, overhead, record_jobs,
+    ``cpu_kwargs`` go to [`CPU`][rtsim.sim.run.CPU] (suspension, exec_model, seed, overhead,
+    record_jobs,
     record_trace, hist_bin, jitter, job_sink, trace_sink, scheduler, resources; the
     scheduler and the resource protocol default to the set's).
     """
@@ -171,18 +177,18 @@ def simulate(
 
     Example: ``simulate(load_taskset(), 60_000, window=250.0, record_jobs=True).jobs``.
     ``overhead`` defaults to the set's (0 for a list of tasks). ``jitter``: release delays
-    of tasks with a jitter, ``random``/``worst``/``none`` (:mod:`rtsim.sim.cpu`).
+    of tasks with a jitter, ``random``/``worst``/``none`` (`rtsim.sim.cpu`).
     ``job_sink``: a callable that receives the job records as DataFrame chunks during the
-    run, or a :class:`rtsim.io.columns.ChunkWriter` that formats them without a DataFrame
+    run, or a `rtsim.io.columns.ChunkWriter` that formats them without a DataFrame
     (implies ``record_jobs``; ``result.jobs`` is then None) — memory stays flat for a
-    long horizon (:class:`rtsim.sim.records.RowBuffer`). ``trace_sink``: the same for the
+    long horizon (`rtsim.sim.records.RowBuffer`). ``trace_sink``: the same for the
     execution trace (implies ``record_trace``; ``result.trace`` is then None).
-    ``scheduler``: the scheduling policy (:mod:`rtsim.sim.policy`), default the set's
+    ``scheduler``: the scheduling policy (`rtsim.sim.policy`), default the set's
     (``[scheduler] policy``; ``fp`` for a list of tasks).
-    The work limits of the command line apply (:mod:`rtsim.io.work`: at most 5e7 jobs, and
+    The work limits of the command line apply (`rtsim.io.work`: at most 5e7 jobs, and
     1e6 jobs waiting at once on an overloaded CPU); ``force=True`` is ``--force``. A seed
     outside [0, 2**63) is refused as ``--seed`` is. ``progress(share, t_ms)`` is called at
-    every percent of the horizon (:mod:`rtsim.sim.progress`; the results do not change).
+    every percent of the horizon (`rtsim.sim.progress`; the results do not change).
     """
     ts = _as_taskset(ts)
     if overhead is None:

@@ -1,6 +1,6 @@
 """Parameter sweeps: a TOML sweep file, deterministic per-point seeds, resumable results.
 
-See :mod:`rtsim.sweep.spec` for the file format and :mod:`rtsim.sweep.engine` for the
+See `rtsim.sweep.spec` for the file format and `rtsim.sweep.engine` for the
 output directory. Library use::
 
     from rtsim.sweep import run_sweep

@@ -7,27 +7,30 @@ Output directory ``DIR``:
   and a ``checksum``: the SHA-256 of the rest; a file that does not match it, edited or
   corrupt, is not taken on resume: its point is run again);
   strict JSON: a non-finite metric is null there, its value under ``nonfinite``
-  (:mod:`rtsim.sweep.table`); ``attempts`` when the point was rerun after its worker died;
+  (`rtsim.sweep.table`); ``attempts`` when the point was rerun after its worker died;
 - ``DIR/manifest.json``: the sweep file's text, the resolved spec and its fingerprint,
   the rtsim version and the command line;
-- ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``,
-  ``status``, ``error`` (empty when ok), then the metrics. Built from the point files only,
+- ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``
+  (the seed asked for: the grid's, else the sweep's), ``point_seed`` (the one the point ran
+  with), ``status``, ``error`` (empty when ok), then the metrics. Built from the point files only,
   so serial, process and Dask runs (and resumed runs) give equal tables;
 - ``DIR/timings.csv``: wall-clock and CPU time, host and pid per point (not in the table).
 
-While a sweep runs, ``DIR`` is locked (:mod:`rtsim.io.lock`): a second sweep into it exits
+While a sweep runs, ``DIR`` is locked (`rtsim.io.lock`): a second sweep into it exits
 2 naming the holder. A worker process that dies (killed, out of memory) takes down the
 points it was running: each is run again once, alone, and recorded as failed if its worker
 dies again; the sweep goes on. Workers exit when the sweep's process dies. A grid of more
-than ``LIMITS["grid"]`` points (:mod:`rtsim.io.work`) is refused before any point is made
+than ``LIMITS["grid"]`` points (`rtsim.io.work`) is refused before any point is made
 unless ``force=True``.
 
-Running again skips the points that have a file. A sweep whose fingerprint (the resolved
-spec: kind, function, base file content, seed, combine, grid, options, metrics) differs
-from the one in ``DIR/manifest.json`` is refused unless ``restart=True``, which deletes the
+Running again skips the points that have a file. A grid grown (or shrunk) with everything
+else unchanged keeps the points it still has: they are renumbered, not run again. A sweep
+whose fingerprint otherwise (the resolved spec: kind, function, base file content, seed,
+combine, grid names, options, metrics) differs from the one in ``DIR/manifest.json`` is
+refused unless ``restart=True``, which deletes the
 old results first — only what a sweep made: a ``DIR`` holding anything else (another
 command's output, a user's file) is refused before anything is done
-(:func:`rtsim.io.outdir.check_resumable`). ``retry_failed=True`` recomputes the failed
+(`rtsim.io.outdir.check_resumable`). ``retry_failed=True`` recomputes the failed
 points.
 """
 
@@ -74,7 +77,7 @@ POINT_TMP = r"\.[0-9]{6,}-[0-9a-f]{12}\.json\..*\.tmp"
 _POLL_S = 0.1
 #: How long the interrupt path waits for the workers and the pool's manager thread (s).
 STOP_TIMEOUT_S = 5.0
-#: Threads of stopped pools that did not end within :data:`STOP_TIMEOUT_S`: the command line
+#: Threads of stopped pools that did not end within `STOP_TIMEOUT_S`: the command line
 #: leaves with ``os._exit`` after its cleanup rather than wait for them at exit.
 STUCK: list[Any] = []
 
@@ -116,7 +119,7 @@ def _stop_pool(ex: Any, timeout: float = STOP_TIMEOUT_S) -> None:
     if they outlive ``timeout``), shut it down without waiting, join its manager thread with
     a timeout. A manager thread that ended is taken off concurrent.futures' exit hook
     (whose wake-up of an ended pool printed ``OSError: [Errno 9] Bad file descriptor``); one
-    that did not is kept in :data:`STUCK`."""
+    that did not is kept in `STUCK`."""
     import concurrent.futures.process as cfp
 
     procs = list((getattr(ex, "_processes", None) or {}).values())
@@ -314,7 +317,7 @@ class Sweep:
         """Refuse an output directory holding anything a sweep does not make (another
         command's directory, a user's ``results.parquet``, a stranger in ``points/``).
         ``clean=True`` (under the lock) removes the temporary files of atomic writes a
-        killed run left (:func:`rtsim.io.outdir.check_resumable`), in ``points/`` too."""
+        killed run left (`rtsim.io.outdir.check_resumable`), in ``points/`` too."""
         import re
 
         from rtsim.io.outdir import check_resumable
@@ -352,7 +355,7 @@ class Sweep:
                     f"{manifest}: corrupt or unreadable ({why}); use --restart "
                     "to discard the results in this directory, or another --out"
                 ) from None
-            if old != fp:
+            if old != fp and not self._regrid(manifest):
                 raise SweepError(
                     f"{self.out}: holds results of a different sweep than {self.spec.source} "
                     "(the sweep file changed); use --restart to discard them, or another --out"
@@ -385,6 +388,38 @@ class Sweep:
             },
         )
 
+    def _regrid(self, manifest: Path) -> bool:
+        """Whether the results in ``self.out`` are of this sweep with another grid (more or
+        fewer values, the rest equal): then the finished points this grid has are kept,
+        renumbered to their place in it, and True; else False (nothing touched)."""
+        import json
+
+        from rtsim.sweep.spec import spec_fingerprint
+
+        try:
+            old = json.loads(manifest.read_text("utf-8"))["spec"]
+            same = spec_fingerprint(old, grid=False) == self.spec.fingerprint_but_grid()
+        except (OSError, ValueError, KeyError, TypeError):
+            return False
+        if not same:
+            return False
+        by_key = {}
+        for f in self.points_dir.glob("*.json") if self.points_dir.is_dir() else ():
+            rec = _read_json(f)
+            if rec is not None:
+                by_key[rec.get("key")] = (f, rec)
+        for p in self.points:
+            found = by_key.get(p.key)
+            if found is None or found[0].name == p.filename:
+                continue
+            f, rec = found
+            rec = {**rec, "index": p.index}
+            rec["checksum"] = _checksum(rec)
+            write_json(self.points_dir / p.filename, rec)
+            if not any(q.filename == f.name for q in self.points):
+                f.unlink(missing_ok=True)
+        return True
+
     def finished(self, retry_failed: bool = False) -> dict[int, Record]:
         """The point records already on disk (failed ones left out with ``retry_failed``)."""
         out = {}
@@ -410,7 +445,8 @@ class Sweep:
         ``dask``: a scheduler address or a ``distributed.Client``. ``workers``: local
         processes (default ``os.cpu_count()``; 1 runs in this process). ``progress``: a tqdm
         bar on stderr (None: only when stderr is a terminal). Raises ``KeyboardInterrupt``
-        after stopping cleanly (finished points kept), :class:`SweepIncomplete` when points
+        after stopping cleanly (finished points kept),
+        [`SweepIncomplete`][rtsim.sweep.engine.SweepIncomplete] when points
         were lost to dead workers.
         """
         nworkers = check_workers(workers)
@@ -490,7 +526,7 @@ class Sweep:
         """Run ``pending`` on a process pool. A dead worker breaks the pool: a fresh one
         takes over, and the points that were running are started again one at a time (each
         alone, so a point that kills its worker again is known: it is recorded as failed
-        after :data:`MAX_ATTEMPTS` starts)."""
+        after `MAX_ATTEMPTS` starts)."""
         import multiprocessing
 
         method = _start_method()
@@ -642,7 +678,7 @@ class Sweep:
     # -- results -------------------------------------------------------------------------
     def table(self) -> pd.DataFrame:
         """The results table from the point files (every point must have finished); always
-        writable (:func:`rtsim.sweep.table.build_table`)."""
+        writable (`rtsim.sweep.table.build_table`)."""
         recs: dict[int, Record] = {}
         for p in self.points:
             rec = _read_json(self.points_dir / p.filename, p)
@@ -650,7 +686,7 @@ class Sweep:
                 raise SweepIncomplete(f"{self.out}: point {p.index} has not finished")
             recs[p.index] = rec
         param_cols = [k for k, _ in self.spec.grid if k != "seed"]
-        return build_table(self.points, lambda p: recs[p.index], param_cols)
+        return build_table(self.points, lambda p: recs[p.index], param_cols, self.spec.seed)
 
     def timings(self) -> pd.DataFrame:
         """Wall-clock and CPU time, host and pid per finished point."""
@@ -701,7 +737,7 @@ def run_sweep(
 
     Failed points are rows with ``status == "failed"``; they do not raise. ``force`` runs a
     grid above the size limit; ``allow_code``: the sweep file and its base may name Python
-    code (``package.module:Name``, :mod:`rtsim.registry`). See :class:`Sweep`.
+    code (``package.module:Name``, `rtsim.registry`). See [`Sweep`][rtsim.sweep.engine.Sweep].
     """
     sweep = Sweep(spec, out_dir, force=force, allow_code=allow_code)
     return sweep.run(

@@ -31,7 +31,8 @@ the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metr
 
 A kind whose module is not installed fails its points with a clear error (the sweep goes
 on). Only the ``call`` kind runs user code; a kind registered at run time with
-:func:`register_kind` exists only in the process that registered it, so use ``call`` for
+[`register_kind`][rtsim.sweep.kinds.register_kind] exists only in the process that registered it, so
+use ``call`` for
 anything that must also run on process or Dask workers.
 """
 
@@ -52,10 +53,10 @@ from typing import TYPE_CHECKING, Any
 from rtsim.errors import InputError
 from rtsim.overrides import RUN_OPTIONS, apply_overrides
 from rtsim.registry import Registry
+from rtsim.sweep.base import BaseFile
 
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
-    from rtsim.sweep.spec import BaseFile
 
 __all__ = ["PointInput", "KindSpec", "KINDS", "register_kind", "apply_overrides"]
 
@@ -77,7 +78,7 @@ class PointInput:
     base: BaseFile | None = None
     overrides: tuple[tuple[tuple[str, ...], Any], ...] = ()
     function: str | None = None
-    #: the sweep's reader allowed code named in its files (:mod:`rtsim.registry`)
+    #: the sweep's reader allowed code named in its files (`rtsim.registry`)
     allow_code: bool = False
 
     def base_data(self) -> dict[str, Any]:
@@ -107,7 +108,7 @@ class KindSpec:
     doc: str = field(default="", compare=False)
 
     def preload(self) -> None:
-        """Import :attr:`modules` now (best effort: a missing one fails at its points)."""
+        """Import `modules` now (best effort: a missing one fails at its points)."""
         for name in self.modules:
             try:
                 importlib.import_module(name)
@@ -205,7 +206,7 @@ def _flatten(obj: Any, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-#: Prepared scenarios a worker keeps (:func:`_prepared`), most recent last.
+#: Prepared scenarios a worker keeps (`_prepared`), most recent last.
 _PREPARED: OrderedDict[str, tuple[Any, Any]] = OrderedDict()
 _PREPARED_MAX = 16
 
@@ -271,7 +272,8 @@ def _kind_spec(obj: Any, spec: str, where: str) -> KindSpec:
     raise InputError(f"{where} is not a KindSpec")
 
 
-#: The sweep kinds by name (entry-point group ``rtsim.sweep_kinds``, each a :class:`KindSpec`).
+#: The sweep kinds by name (entry-point group ``rtsim.sweep_kinds``, each a
+#: [`KindSpec`][rtsim.sweep.kinds.KindSpec]).
 KINDS: Registry[KindSpec] = Registry("sweep kind", "rtsim.sweep_kinds", _kind_spec)
 
 

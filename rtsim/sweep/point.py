@@ -18,8 +18,9 @@ from rtsim.sweep.kinds import KINDS, PointInput
 
 __all__ = ["execute_point", "select_metrics", "RESERVED", "worker_init"]
 
-#: Column names a metric may not take (grid names are checked by the engine).
-RESERVED = ("seed", "status", "error")
+#: The results table's own columns after the grid's, in order: names a metric may not take
+#: (grid names are checked by the engine).
+RESERVED = ("seed", "point_seed", "status", "error")
 
 
 #: Seconds between two checks that a worker's parent (the sweep) is still alive.
@@ -30,7 +31,7 @@ def worker_init(parent: int | None = None) -> None:
     """Worker-process initializer: Ctrl-C goes to the parent, which stops the workers
     (SIGTERM); a SIGTERM handler inherited from the parent by ``fork`` is undone; and the
     worker exits as soon as its parent ``parent`` (a pid) is gone, even killed with
-    SIGKILL, rather than wait forever for work (:func:`watch_parent`)."""
+    SIGKILL, rather than wait forever for work (`watch_parent`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if parent is not None:

@@ -1,4 +1,5 @@
-"""Sweep files (TOML): parsing and validation into a frozen :class:`SweepSpec`.
+"""Sweep files (TOML): parsing and validation into a frozen
+[`SweepSpec`][rtsim.sweep.spec.SweepSpec].
 
 Format::
 
@@ -33,7 +34,8 @@ A grid name is resolved, in this order, as
    or a key at the top level of the base file.
 
 Overrides are applied to the parsed TOML dict, which then goes through the normal loader
-(:func:`rtsim.io.taskset.parse_taskset`, :func:`rtsim.io.scenario.parse_scenario`) at each
+([`rtsim.io.taskset.parse_taskset`][rtsim.io.taskset.parse_taskset],
+[`rtsim.io.scenario.parse_scenario`][rtsim.io.scenario.parse_scenario]) at each
 point: a bad value (``n = 0``) fails that point, with the loader's message, not the sweep.
 A new leaf key that looks like a typo of an existing one (``delta_tt``) is refused here.
 For ``kind = "call"`` every grid name is passed through as a parameter.
@@ -42,13 +44,12 @@ significant digits (so ``"0.1..0.3:0.1"`` gives 0.1, 0.2, 0.3). The values of on
 entry are all of one type — numbers (ints and floats), text or booleans — since each is a
 results column; integers must fit 64 bits.
 
-Any problem is a :class:`~rtsim.errors.SweepError` naming the file and the key.
+Any problem is a `SweepError` naming the file and the key.
 """
 
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import os
 import tomllib
@@ -62,41 +63,10 @@ from rtsim._suggest import did_you_mean
 from rtsim.config.dotted import resolve, shortcuts
 from rtsim.config.sweep import Scalar
 from rtsim.errors import InputError, SweepError
+from rtsim.sweep.base import BaseFile
 from rtsim.sweep.kinds import KINDS, canonical_json
 
 __all__ = ["BaseFile", "SweepSpec", "load_sweep", "parse_sweep", "canonical_json", "Scalar"]
-
-
-@dataclass(frozen=True)
-class BaseFile:
-    """The base task-set or scenario file of a sweep: its path and its text.
-
-    The text travels with every point, so remote (Dask) workers need no shared disk.
-    """
-
-    path: str | None
-    text: str
-    packaged: str = "barrel_robots"
-
-    @property
-    def source(self) -> str:
-        """The name the loaders use in error messages."""
-        return self.path or f"{self.packaged}.toml (packaged)"
-
-    @property
-    def sha256(self) -> str:
-        """sha256 of the file's text."""
-        return hashlib.sha256(self.text.encode("utf-8")).hexdigest()
-
-    @property
-    def data_sha256(self) -> str:
-        """sha256 of the parsed content (canonical JSON): comments and layout do not count."""
-        text = json.dumps(self.data(), sort_keys=True, separators=(",", ":"), default=str)
-        return hashlib.sha256(text.encode("utf-8")).hexdigest()
-
-    def data(self) -> dict[str, Any]:
-        """The parsed TOML dict (a fresh copy on every call)."""
-        return tomllib.loads(self.text)
 
 
 @dataclass(frozen=True)
@@ -150,10 +120,24 @@ class SweepSpec:
     def fingerprint(self) -> str:
         """sha256 of the resolved spec (base path excluded; the base file's parsed content
         included, so a change to its comments or layout alone keeps the fingerprint)."""
-        r = self.resolved()
-        if r["base"] is not None:
-            r["base"] = {"data_sha256": r["base"]["data_sha256"]}
-        return hashlib.sha256(canonical_json(r).encode("utf-8")).hexdigest()
+        return spec_fingerprint(self.resolved())
+
+    def fingerprint_but_grid(self) -> str:
+        """`fingerprint` without the grid's values: equal for two sweeps whose points
+        with equal values give equal results (a grown grid keeps its finished points)."""
+        return spec_fingerprint(self.resolved(), grid=False)
+
+
+def spec_fingerprint(resolved: Mapping[str, Any], grid: bool = True) -> str:
+    """sha256 of a resolved spec ([`SweepSpec.resolved`][rtsim.sweep.spec.SweepSpec.resolved], also
+    as a manifest keeps it):
+    the base file by its parsed content; ``grid=False`` leaves the grid's values out."""
+    r = dict(resolved)
+    if r.get("base") is not None:
+        r["base"] = {"data_sha256": r["base"]["data_sha256"]}
+    if not grid:
+        r.pop("grid", None)
+    return hashlib.sha256(canonical_json(r).encode("utf-8")).hexdigest()
 
 
 # -- parameter resolution --------------------------------------------------------------
@@ -288,7 +272,7 @@ def parse_sweep(
     ``--set``, applied over ``[sweep.set]``).
 
     ``allow_code``: the file (its ``function``, a ``mode`` or ``scheduler``, its base file) may
-    name Python code as ``package.module:Name`` (:mod:`rtsim.registry`); default: only when
+    name Python code as ``package.module:Name`` (`rtsim.registry`); default: only when
     the user opted in."""
     from rtsim.registry import file_allows_code, reading_input
 
@@ -412,7 +396,7 @@ def load_sweep(
 ) -> SweepSpec:
     """Read and validate a sweep file; ``set_``: ``KEY=VALUE`` changes of the base file at
     every point (the command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``:
-    as :func:`parse_sweep`."""
+    as [`parse_sweep`][rtsim.sweep.spec.parse_sweep]."""
     set_ = tuple(set_)
     p = Path(path)
     from rtsim.examples import packaged_text

@@ -2,13 +2,18 @@
 
 Point files are strict JSON: a metric that is not finite (NaN, ±inf; ``w_sch`` of an
 infeasible set is ``inf``) is written as ``null`` under ``metrics`` and its value, ``"nan"``,
-``"inf"`` or ``"-inf"``, under ``nonfinite`` (:func:`encode_metrics`, :func:`decode_metrics`).
+``"inf"`` or ``"-inf"``, under ``nonfinite`` (`encode_metrics`, `decode_metrics`).
 
-The table (:func:`build_table`) is always writable to Parquet: a metric named like a grid
+The table (`build_table`) is always writable to Parquet: a metric named like a grid
 column becomes ``metric.<name>``; a point whose metric names still clash after that, or
 whose metric has another type (``bool``, ``number``, ``text``) than the same metric at the
 points before it in point order, is a ``failed`` row with that error (its metrics left
 empty). NaN (no value) fits any column.
+
+Seeds: ``seed`` is the seed the user asked for — the grid's ``seed`` value at a point that
+has one, else the sweep's ``seed`` (default 0) — and ``point_seed`` the one the point ran
+with (the grid's seed itself, else derived from the sweep's seed and the point's values,
+[`rtsim.sweep.grid.point_seed`][rtsim.sweep.grid.point_seed]).
 """
 
 from __future__ import annotations
@@ -16,6 +21,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
+
+from rtsim.sweep.point import RESERVED as _RESERVED  # the table's own columns, in order
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -57,10 +64,14 @@ def value_type(v: Any) -> str | None:
 
 
 def build_table(
-    order: Sequence[Any], record: Callable[[Any], Mapping[str, Any]], param_cols: Sequence[str]
+    order: Sequence[Any],
+    record: Callable[[Any], Mapping[str, Any]],
+    param_cols: Sequence[str],
+    sweep_seed: int = 0,
 ) -> pd.DataFrame:
     """The results table: one row per point of ``order`` (objects with ``params`` and
-    ``seed``), ``record(point)`` its finished record. See the module docstring."""
+    ``seed``), ``record(point)`` its finished record; ``sweep_seed``: the sweep's seed, the
+    ``seed`` column of points without a grid seed. See the module docstring."""
     import pandas as pd
 
     rows: list[dict[str, Any]] = []
@@ -70,13 +81,14 @@ def build_table(
     for p in order:
         rec = record(p)
         row: dict[str, Any] = {k: p.params[k] for k in param_cols}
-        row.update(seed=p.seed, status=rec["status"], error=rec["error"])
+        asked = p.params.get("seed", sweep_seed)
+        row.update(seed=asked, point_seed=p.seed, status=rec["status"], error=rec["error"])
         metrics = decode_metrics(rec) if rec["status"] == "ok" else {}
         named: dict[str, Any] = {}
         error = ""
         for k, v in metrics.items():
             col = f"metric.{k}" if k in params else k
-            if col in named or col in params or col in ("seed", "status", "error"):
+            if col in named or col in params or col in _RESERVED:
                 error = (
                     f"ValueError: metric '{k}' clashes with another column "
                     f"'{col}' of the results table"
@@ -105,7 +117,8 @@ def build_table(
                     metric_cols.append(col)
                 row[col] = v
         rows.append(row)
-    cols = list(param_cols) + ["seed", "status", "error"] + metric_cols
+    cols = list(param_cols) + list(_RESERVED) + metric_cols
     df = pd.DataFrame.from_records(rows, columns=cols)
     df["seed"] = df["seed"].astype("int64")
+    df["point_seed"] = df["point_seed"].astype("int64")
     return df

@@ -1,13 +1,13 @@
 """Validation of the analysis against the simulator, and response-time histograms.
 
-- :func:`run_validation` (``rtsim validate``): w_sch, w_rta and w_sim for the paper's set over
+- `run_validation` (``rtsim validate``): w_sch, w_rta and w_sim for the paper's set over
   (n, r_H), response times at w_sch against the exact WCRT, random UUniFast sets; a table,
-  figures and ``report.md`` (:mod:`rtsim.validate.runner`).
-- :func:`write_histograms` with a source from :func:`from_simulation`,
-  :func:`from_scenario_dir` or :func:`from_sweep_point` (``rtsim histogram``).
+  figures and ``report.md`` (`rtsim.validate.runner`).
+- `write_histograms` with a source from `from_simulation`,
+  `from_scenario_dir` or `from_sweep_point` (``rtsim histogram``).
 
 The pure parts (bounds per task, the w_sim search, the checker) live in
-:mod:`rtsim.analysis.validation`.
+`rtsim.analysis.validation`.
 """
 
 from rtsim.validate.histogram import (

@@ -1,8 +1,9 @@
 """Beams counted per processing window, from a world run on Test 1 (docs/model/lower-bound.md,
 docs/model/world.md, docs/model/assumptions.md).
 
-The world (:class:`rtsim.world.World`) is stepped at a *fixed* window w: at each window start
-t_j = j·w the leader scans (:meth:`World.scan`), updates its filters (:meth:`World.estimate`)
+The world ([`rtsim.world.World`][rtsim.world.World]) is stepped at a *fixed* window w: at each
+window start
+t_j = j·w the leader scans (`World.scan`), updates its filters (`World.estimate`)
 and commands follower i at the end of its send segment as the WCET chain would without
 interference, t_j + e_scan + e_hough + i·(e_estimate + e_send). The counted points P_j of
 each scan give the localization segment's time by Eq 1 with counted points,
@@ -24,8 +25,8 @@ The world is Test 1 (the paper's §4.1: V_Ld = 25 cm/s, turn radius r_t = 2 m, s
 ρ = 390 cm) read from its scenario file (``experiments/scenarios/test1.toml``, passed as text
 so that remote workers need no shared disk) with ``formation.followers`` set to n (the
 file's model's default placement: for follow-the-leader, rank p at p·ρ, 180° ± φ_p on
-straights, :func:`rtsim.world.formation.in_line`) and ``sensing.r_H`` to the
-configuration's r_H (:func:`scenario_world`). Without a scenario file, :class:`Test1` builds
+straights, `rtsim.world.formation.in_line`) and ``sensing.r_H`` to the
+configuration's r_H (`scenario_world`). Without a scenario file, `Test1` builds
 the same numbers directly (8 m × 4 m rounded rectangle as in test1.toml, follow-the-leader
 in line; default follower, sensing and EKF parameters, which differ from the file's).
 """
@@ -73,8 +74,8 @@ def scenario_world(text: str, source: str, n: int, r_H: float) -> Any:
 
 
 def world_config(n: int, test: Test1 | None = None) -> Any:
-    """The :class:`~rtsim.world.WorldConfig` of Test 1 with n follow-the-leader followers in
-    the default line (:func:`~rtsim.world.formation.in_line`)."""
+    """The [`WorldConfig`][rtsim.world.WorldConfig] of Test 1 with n follow-the-leader followers in
+    the default line (`in_line`)."""
     from rtsim.world import WorldConfig, rounded_rectangle
     from rtsim.world.formation import in_line
 
@@ -125,7 +126,7 @@ class BeamCounts:
 def count_window_beams(
     window: WindowSpec, w: float, windows: int, rng: np.random.Generator, config: Any = None
 ) -> BeamCounts:
-    """Run the world ``config`` (default: :func:`world_config` of :class:`Test1`, n from
+    """Run the world ``config`` (default: `world_config` of `Test1`, n from
     ``window``) for ``windows`` windows of fixed length ``w`` (module doc)."""
     from rtsim.world import World
 

@@ -1,23 +1,27 @@
 """Response-time histograms per task with the analytic bounds drawn in, from any run.
 
-Sources (each returns a :class:`JobSource`: the job table, the bounds per task, a description):
+Sources (each returns a `JobSource`: the job table, the bounds per task, a description):
 
-- :func:`from_simulation` — a task set and ``simulate`` options;
-- :func:`from_scenario_dir` — the ``jobs.csv`` (or ``jobs.parquet``) that ``rtsim scenario
+- `from_simulation` — a task set and ``simulate`` options;
+- `from_scenario_dir` — the ``jobs.csv`` (or ``jobs.parquet``) that ``rtsim scenario
   --out DIR`` writes (columns task, job, release, start, finish, response, deadline, missed);
   w is taken from ``summary.json``'s ``w_sch`` when present;
-- :func:`from_sweep_point` — point I of a ``simulate`` sweep directory, re-run from the sweep
+- `from_sweep_point` — point I of a ``simulate`` sweep directory, re-run from the sweep
   file recorded in its ``manifest.json`` (the same point seed, so the same run).
 
-:func:`write_histograms` writes, into one directory: ``histogram-<task>.png`` per task
+`write_histograms` writes, into one directory: ``histograms.png``, the run in one figure as
+wide as a paper's page with a panel per task
+([`rtsim.plots.histogram.response_histograms`][rtsim.plots.histogram.response_histograms],
+300 dpi, integer count ticks), and ``histogram-<task>.png`` per task
 (a task name with other characters than letters, digits, ``_ . -`` gets them as ``_`` and
 a hash of its name: ``histogram-a_b-c14cddc0.png`` for ``a/b``)
-(:func:`rtsim.plots.histogram.response_histogram` with vertical lines for the exact WCRT,
+([`rtsim.plots.histogram.response_histogram`][rtsim.plots.histogram.response_histogram] with
+vertical lines for the exact WCRT,
 the deadline and, for the window chain and tasks whose period follows w, w_sch),
 ``histogram.csv`` (task, bin, lo, hi, count), ``bounds.csv`` (task, line, value) and
 ``manifest.json``.
 
-Bounds come from :func:`rtsim.analysis.validation.task_bounds`: the suspension-oblivious
+Bounds come from `rtsim.analysis.validation.task_bounds`: the suspension-oblivious
 exact RTA at the window the run used (w_sch by default). For a dynamic window it is the
 analysis at w_sch, labelled so.
 """
@@ -41,7 +45,7 @@ from rtsim.errors import InputError
 from rtsim.model.taskset import TaskSet
 
 #: Resolution (dots per inch) of the PNG histograms.
-DPI = 100
+DPI = 300  # rtsim.plots.style.DPI: print resolution
 
 __all__ = [
     "JobSource",
@@ -256,7 +260,7 @@ def histogram_table(
 
 
 #: Longest task name used whole in a file name (a file name is at most 255 bytes, the
-#: staging names beside it add about 30); longer names are cut to :data:`_NAME_CUT`.
+#: staging names beside it add about 30); longer names are cut to `_NAME_CUT`.
 _NAME_WHOLE = 100
 _NAME_CUT = 80
 
@@ -303,6 +307,8 @@ def write_histograms(
     table = histogram_table(jobs, bins, source.bounds)
     written: list[Path] = []
     brows = []
+    panels: dict[str, tuple[np.ndarray, dict[str, float | None]]] = {}
+    edges_of: dict[str, list[float]] = {}
     for task in pd.unique(table["task"]):
         sub = table[table["task"] == task]
         edges = np.append(sub["lo"].to_numpy(), sub["hi"].to_numpy()[-1])
@@ -318,6 +324,12 @@ def write_histograms(
         written.append(
             save_figure(fig, out / f"histogram{suffix}-{_safe(task)}.{fmt}", dpi=dpi, fmt=fmt)
         )
+        panels[str(task)], edges_of[str(task)] = (vals, dict(lines)), list(edges)
+    if panels:  # the run in one figure, a panel per task
+        from rtsim.plots.histogram import response_histograms
+
+        fig = response_histograms(panels, bins=edges_of, title=title or None)
+        written.insert(0, save_figure(fig, out / f"histograms{suffix}.{fmt}", dpi=dpi, fmt=fmt))
     csv = out / f"histogram{suffix}.csv"
     write_table(csv, table)
     bcsv = out / f"bounds{suffix}.csv"

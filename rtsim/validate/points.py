@@ -1,14 +1,14 @@
 """The two sweep-point functions of the validation (``call`` kind: ``fn(params, options, seed)``).
 
-:func:`paper_point` — one (n, r_H) of the paper's task set:
+`paper_point` — one (n, r_H) of the paper's task set:
 
 - analysis: e_hough, g, Eq 7, Eq 11, w_sch, w_rta, the suspension-aware w_susp, the geometric
   window w_susp_geo (w_susp with k = the geometric count for followers at distance ≥
   ``rho_min``, option, default 300 cm; ``beyond_geo`` counts the scans above its min(361, k·n))
   and each task's exact WCRT at w_sch;
-- beams: a Test 1 world run at the fixed window w_sch (:mod:`rtsim.validate.beams`);
+- beams: a Test 1 world run at the fixed window w_sch (`rtsim.validate.beams`);
 - two modes, each simulated at w = w_sch (response max and percentiles, with job records)
-  and searched for w_sim (:func:`rtsim.analysis.validation.smallest_passing`, every trial
+  and searched for w_sim (`rtsim.analysis.validation.smallest_passing`, every trial
   a run of ``windows`` windows at a fixed w, releases synchronous at 0):
 
   ``wcet-cpu``      every segment at its WCET, the radio round trip Δt as CPU time;
@@ -22,7 +22,7 @@
   chain job of that window needs at least g_j, so it misses), and max(w_sch, w_rta) + tol.
   A trial run stops at its first miss.
 
-:func:`random_point` — one UUniFast set (no window): exact WCRT per task against the
+`random_point` — one UUniFast set (no window): exact WCRT per task against the
 simulated maximum, ``wcet-sync`` (WCET, the critical instant of the jitter analysis —
 ``jitter="worst"`` — over one hyperperiod, so schedulable constrained-deadline tasks reach
 their WCRT exactly) and ``uniform-offsets`` (uniform in [bcet, wcet] with bcet =
@@ -91,7 +91,7 @@ def paper_taskset(options: Mapping[str, Any], n: int, r_H: float) -> TaskSet:
 def beam_counts_for(
     ts: TaskSet, w: float, windows: int, seed: int, options: Mapping[str, Any]
 ) -> Any:
-    """The Test 1 beam counts of this configuration (see :mod:`rtsim.validate.beams`)."""
+    """The Test 1 beam counts of this configuration (see `rtsim.validate.beams`)."""
     from rtsim.validate.beams import Test1, count_window_beams, scenario_world, world_config
 
     assert ts.window is not None
@@ -105,7 +105,7 @@ def beam_counts_for(
 
 
 class _Missed(Exception):
-    """Raised by the job-end hook of :func:`passes_at` to stop a run at its first miss."""
+    """Raised by the job-end hook of `passes_at` to stop a run at its first miss."""
 
 
 def simulate_mode(
@@ -118,9 +118,9 @@ def simulate_mode(
     record_jobs: bool = False,
     stop_at_miss: bool = False,
 ) -> Any:
-    """One run of ``windows`` windows at fixed ``w`` in ``mode`` (a :class:`SimResult`).
+    """One run of ``windows`` windows at fixed ``w`` in ``mode`` (a `SimResult`).
 
-    ``stop_at_miss``: raise :class:`_Missed` from a job-end hook at the first deadline miss
+    ``stop_at_miss``: raise `_Missed` from a job-end hook at the first deadline miss
     (the search only needs to know whether one happens).
     """
     from rtsim.sim import EPS, build_cpu

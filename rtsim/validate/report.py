@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import pandas as pd
 
 if TYPE_CHECKING:
-    from rtsim.validate.runner import ValidationConfig, ValidationOutcome
+    from rtsim.validate.outcome import ValidationConfig, ValidationOutcome
 
 __all__ = ["write_report", "markdown_table"]
 
@@ -153,7 +153,7 @@ def write_report(
     outcome: ValidationOutcome, config: ValidationConfig, sched: pd.DataFrame | None = None
 ) -> Path:
     """Write ``report.md`` into the outcome's directory and return its path (``sched``: the
-    analytic w_sch / w_rta / w_edf table of :func:`rtsim.validate.runner.scheduler_table`)."""
+    analytic w_sch / w_rta / w_edf table of `rtsim.validate.runner.scheduler_table`)."""
     from rtsim._version import __version__
     from rtsim.io.atomic import write_text
 

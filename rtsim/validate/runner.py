@@ -2,9 +2,9 @@
 
 Two sweeps run through the sweep engine (kind ``call``, so they run on local processes or a
 Dask cluster and resume when run again): the paper's set over the (n, r_H) grid
-(:func:`rtsim.validate.points.paper_point`) and random UUniFast sets
-(:func:`rtsim.validate.points.random_point`). Their rows become one validation table
-(:mod:`rtsim.validate.tidy`), which is checked (:func:`rtsim.analysis.validation.check_results`),
+(`rtsim.validate.points.paper_point`) and random UUniFast sets
+(`rtsim.validate.points.random_point`). Their rows become one validation table
+(`rtsim.validate.tidy`), which is checked (`rtsim.analysis.validation.check_results`),
 summarised, drawn and written up.
 
 Output directory ``OUT``::
@@ -15,7 +15,7 @@ Output directory ``OUT``::
     summary.json         the headline numbers
     figures/             bounds_vs_n.png/.csv, pessimism_wsch.png/.csv, pessimism_wrta.png/.csv,
                          scheduler_bounds.png/.csv (the paper set's w_sch, w_rta, w_edf for
-                         n = 1..10, r_H = 10..50: :func:`scheduler_table`)
+                         n = 1..10, r_H = 10..50: `scheduler_table`)
     histograms/<config>/ per-task response-time histograms with the bounds (PNG + CSV)
     sweeps/<name>/       the two sweeps (results.parquet, per-point files, manifests)
     manifest.json
@@ -25,17 +25,22 @@ Exit status (CLI): 1 when a failure is flagged or a sweep point failed, else 0.
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from rtsim.analysis.validation import SEARCH_TOL, Failure, check_results, summarize
-from rtsim.notebook import ResultDisplay, flatten
+from rtsim.analysis.validation import check_results, summarize
+from rtsim.validate.outcome import (
+    DEFAULT_SCENARIO,
+    FULL,
+    QUICK,
+    ValidationConfig,
+    ValidationOutcome,
+)
 
 #: Resolution (dots per inch) of the PNG figures.
 DPI = 100
@@ -51,84 +56,6 @@ __all__ = [
     "random_sweep_spec",
     "scheduler_table",
 ]
-
-
-@dataclass(frozen=True)
-class ValidationConfig:
-    """What to validate: the (n, r_H) grid, windows per run, scan size, random sets."""
-
-    n: tuple[int, ...] = tuple(range(1, 11))
-    r_H: tuple[float, ...] = (10.0, 20.0, 30.0, 40.0, 50.0)
-    windows: int = 400
-    scan: int = 20
-    tol: float = SEARCH_TOL
-    random_sets: int = 30
-    hyperperiods: int = 10
-    seed: int = 1
-    name: str = "full"
-    histogram_configs: int = 2
-    taskset_path: str | None = None
-    scenario_path: str | None = None  # None: DEFAULT_SCENARIO if it exists, else Test1()
-
-    def __post_init__(self) -> None:
-        from rtsim.errors import InputError
-
-        if not self.n or any(int(k) != k or k < 1 for k in self.n):
-            raise InputError(f"validate: n must be positive integers, got {self.n}")
-        if not self.r_H or any(not (math.isfinite(r) and r > 0) for r in self.r_H):
-            raise InputError(f"validate: r_H must be positive, got {self.r_H}")
-        if self.windows < 100:
-            raise InputError(f"validate: windows must be at least 100, got {self.windows}")
-        if self.random_sets < 0:
-            raise InputError(f"validate: random sets must be >= 0, got {self.random_sets}")
-
-
-#: Test 1's scenario file in a source checkout (installed as the packaged scenario ``test1``).
-DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "experiments" / "scenarios" / "test1.toml"
-
-FULL = ValidationConfig()
-QUICK = ValidationConfig(
-    n=(1, 2, 4),
-    r_H=(10.0, 30.0),
-    windows=100,
-    scan=6,
-    random_sets=3,
-    hyperperiods=5,
-    name="quick",
-    histogram_configs=1,
-)
-
-
-@dataclass(frozen=True, repr=False)
-class ValidationOutcome(ResultDisplay):
-    """The table, what was flagged, the summary, failed sweep points, and where it all is."""
-
-    table: pd.DataFrame
-    failures: list[Failure]
-    summary: dict[str, Any]
-    point_errors: list[str]
-    out_dir: Path
-    files: list[Path] = field(default_factory=list)
-
-    @property
-    def ok(self) -> bool:
-        """No failure flagged and every sweep point ran."""
-        return not self.point_errors and not any(f.severity == "failure" for f in self.failures)
-
-    def headline(self) -> dict[str, Any]:
-        """Verdict, size and where the report is (the short ``repr``)."""
-        return {
-            "ok": self.ok,
-            "rows": len(self.table),
-            "failures": sum(f.severity == "failure" for f in self.failures),
-            "warnings": sum(f.severity != "failure" for f in self.failures),
-            "point_errors": len(self.point_errors),
-            "out_dir": str(self.out_dir),
-        }
-
-    def summary_frame(self) -> pd.DataFrame:
-        """summary.json as one row (nested keys dotted)."""
-        return pd.DataFrame([flatten(self.summary)])
 
 
 def _scenario_options(cfg: ValidationConfig) -> dict[str, Any]:
@@ -394,7 +321,7 @@ def run_validation(
     """Run (or resume) both sweeps into ``out_dir`` and write the report (module doc).
     ``fig_format``: the figures' file format (png, svg or pdf; ``dpi`` for PNG).
 
-    ``out_dir`` is locked while it runs (:mod:`rtsim.io.lock`): a second validation into it
+    ``out_dir`` is locked while it runs (`rtsim.io.lock`): a second validation into it
     is refused, naming the holder. A directory holding anything validate does not make
     (another command's output, a user's file) is refused before anything is done; a new
     directory is claimed at once by a ``manifest.json`` of ``validate`` (rewritten at the

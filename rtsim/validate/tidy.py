@@ -174,7 +174,7 @@ def tidy_paper(results: pd.DataFrame) -> pd.DataFrame:
             n=int(row["n"]),
             r_H=float(row["r_H"]),
             set=math.nan,
-            seed=row["seed"],
+            seed=row["point_seed"],  # the seed the point ran with
             assumption_ok=True,
             geo_assumption_ok=True,
         )
@@ -194,7 +194,7 @@ def tidy_random(results: pd.DataFrame) -> pd.DataFrame:
             "n": math.nan,
             "r_H": math.nan,
             "set": int(row["set"]),
-            "seed": row["seed"],
+            "seed": row["point_seed"],  # the seed the point ran with
             "assumption_ok": True,
             "geo_assumption_ok": True,
         }

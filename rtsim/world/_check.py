@@ -1,4 +1,4 @@
-"""Validators shared by the world's frozen specs: one-line :class:`ScenarioError` naming the key."""
+"""Validators shared by the world's frozen specs: one-line `ScenarioError` naming the key."""
 
 from __future__ import annotations
 

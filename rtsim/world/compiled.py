@@ -4,15 +4,15 @@ The Python classes stay the reference; the classes here are subclasses that hand
 expressions, in the same order, to compiled kernels, so the results are bit for bit the
 Python ones (tests run both paths and compare whole runs):
 
-- :class:`CompiledFollowerGroup`: a follower's held command integrated to a time (the
-  exact arcs and speed-ramp sub-steps of :meth:`FollowerGroup.advance`) in one call;
-- :class:`CompiledFollowerEKF`: the EKF's predict and update (:class:`FastFollowerEKF`'s
-  float algebra);
-- :class:`CompiledTraceFollower`: the follow-the-leader reference search, projection and
-  control law (:class:`TraceFollower.command`) in one call per command, and the projection
-  alone (:meth:`TraceFollower.project`, the truth log's cross-track error);
-- :class:`CompiledRollout`: the leader's command-aware rollout
-  (:class:`rtsim.control.rollout.Rollout`) whole in one call per rollout, and the ``plan``
+- `CompiledFollowerGroup`: a follower's held command integrated to a time
+  (`rtsim.world.motion.follower_advance` compiled) in one call;
+- `CompiledFollowerEKF`: the EKF's predict and update
+  (`rtsim.world.ekf.ekf_predict` and `ekf_update` compiled);
+- `CompiledTraceFollower`: the follow-the-leader reference search, projection and
+  control law (`TraceFollower.command`) in one call per command, and the projection
+  alone (`TraceFollower.project`, the truth log's cross-track error);
+- `CompiledRollout`: the leader's command-aware rollout
+  (`rtsim.control.rollout.Rollout`) whole in one call per rollout, and the ``plan``
   policy's decision or the ``commands`` speed search in one call per decision (its rollouts
   handed back for the rollout's memo, as the Python policy leaves them there).
 
@@ -20,13 +20,14 @@ Only the operations whose compiled result is the interpreter's are compiled: + �
 ``sqrt``, ``sin``, ``cos``, ``atan2``, ``abs``, ``copysign`` and ``%`` (numba calls the same C
 library for the functions and follows Python's rules for ``%``). CPython computes
 ``math.hypot`` with an algorithm of its own; the kernels carry that algorithm
-(:func:`rtsim.world.kernels._hypot`), checked against ``math.hypot`` when they load — where
+(`rtsim.world.kernels._hypot`), checked against ``math.hypot`` when they load — where
 this interpreter disagrees, the controller and the rollout run in Python instead; numba has
 no ``math.remainder``, and the kernels carry CPython's (exact, with fmod).
 
-numba is imported on first use (:func:`available`); kernels are compiled once per machine
-and cached on disk (``cache=True``), so a later process loads them in milliseconds (the
-rollout's only when a run first rolls out: :func:`rtsim.world.kernels.warm_rollout`).
+numba is imported on first use (`available`); kernels are compiled once per machine
+and cached on disk (keyed by a hash of their sources: `rtsim.world.jit`), so a later
+process loads them in milliseconds (the
+rollout's only when a run first rolls out: `rtsim.world.kernels.warm_rollout`).
 """
 
 from __future__ import annotations
@@ -62,79 +63,27 @@ def as_changes(arr: Any) -> list[list[Any]]:
 
 
 class CompiledFollowerGroup(FollowerGroup):
-    """:class:`FollowerGroup` whose :meth:`advance` runs compiled."""
+    """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose `advance` runs compiled."""
 
     def __init__(
         self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
     ) -> None:
         super().__init__(x, y, th, v, params, t_ms)
-        self._advance_kernel = kernels().advance_follower
-
-    def advance(self, k: int, t_ms: float, step_ms: float) -> None:
-        t0 = self.t[k]
-        if t_ms <= t0:
-            return
-        (self.x[k], self.y[k], self.th[k], self.v[k], self.odometer[k]) = self._advance_kernel(
-            self.x[k],
-            self.y[k],
-            self.th[k],
-            self.v[k],
-            self.cmd_v[k],
-            self.cmd_w[k],
-            self.p.max_accel,
-            self.odometer[k],
-            t0,
-            t_ms,
-            step_ms,
-        )
-        self.t[k] = t_ms
+        self._advance = kernels().advance_follower
 
 
 class CompiledFollowerEKF(FastFollowerEKF):
-    """:class:`FastFollowerEKF` whose predict and update run compiled."""
+    """`FastFollowerEKF` whose predict and update run compiled."""
 
     def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
         super().__init__(pose, params)
         ker = kernels()
-        self._predict_kernel = ker.ekf_predict
-        self._update_kernel = ker.ekf_update
-
-    def predict(self, v: float, w: float, dt: float) -> None:
-        if dt <= 0.0:
-            return
-        x = self.x
-        (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._p
-        x[0], x[1], x[2], n00, n01, n02, n11, n12, n22 = self._predict_kernel(
-            x[0], x[1], x[2], p00, p01, p02, p11, p12, p22, v, w, dt, *self._noise
-        )
-        self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
-
-    def update(self, z: tuple[float, float]) -> None:
-        x = self.x
-        (p00, p01, p02), (p10, p11, p12), (p20, p21, p22) = self._p
-        r = self._update_kernel(
-            x[0],
-            x[1],
-            x[2],
-            p00,
-            p01,
-            p02,
-            p10,
-            p11,
-            p12,
-            p20,
-            p21,
-            p22,
-            self.r,
-            float(z[0]),
-            float(z[1]),
-        )
-        x[0], x[1], x[2] = r[0], r[1], r[2]
-        self._p = [[r[3], r[4], r[5]], [r[6], r[7], r[8]], [r[9], r[10], r[11]]]
+        self._predict = ker.ekf_predict
+        self._update = ker.ekf_update
 
 
 class CompiledTraceFollower(TraceFollower):
-    """:class:`TraceFollower` whose :meth:`command` runs compiled (the Python one when the
+    """`TraceFollower` whose `command` runs compiled (the Python one when the
     kernel cannot decide a comparison exactly: module docstring)."""
 
     def __init__(
@@ -152,7 +101,7 @@ class CompiledTraceFollower(TraceFollower):
         self._rollout_static: Any = None  # CompiledRollout's constant scalars, packed once
 
     def clone(self) -> CompiledTraceFollower:
-        """A copy with its own search starts, compiled too (:meth:`TraceFollower.clone`)."""
+        """A copy with its own search starts, compiled too (`TraceFollower.clone`)."""
         new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
         new._s_ref = list(self._s_ref)
@@ -163,7 +112,7 @@ class CompiledTraceFollower(TraceFollower):
         return new
 
     def compiled_rollout(self, state: Any) -> CompiledRollout | None:
-        """The compiled rollout of ``state`` (a :class:`~rtsim.control.rollout.RolloutState`
+        """The compiled rollout of ``state`` (a `RolloutState`
         whose law is this one), or None when the compiled hypot is not this interpreter's
         (the caller plays the rollout in Python)."""
         return CompiledRollout(self, state) if kernels().exact_hypot else None
@@ -181,7 +130,7 @@ class CompiledTraceFollower(TraceFollower):
         self._sf = np.array([nan if s is None else s for s in self._s_f], dtype=float)
 
     def project(self, k: int, x: float, y: float, guess: float) -> float:
-        """:meth:`TraceFollower.project` in one kernel call (the same Newton steps)."""
+        """`TraceFollower.project` in one kernel call (the same Newton steps)."""
         s = self._sf[k]
         if math.isnan(s):
             s = float(guess)
@@ -243,14 +192,17 @@ class CompiledTraceFollower(TraceFollower):
         return out  # type: ignore[no-any-return]
 
 
+#: how many of RolloutScalars' fields change from one decision to the next (they come first)
+_CHANGING = K.RolloutScalars._fields.index("lap")
+
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
 
 
 class CompiledRollout:
-    """:class:`~rtsim.control.rollout.Rollout`'s arithmetic for one state in compiled calls:
-    the state packed into arrays once (:data:`~rtsim.world.kernels.R_SIZE` scalars, a row per
+    """`Rollout`'s arithmetic for one state in compiled calls:
+    the state packed into arrays once (`RolloutScalars`, a row per
     follower, the pending sends NaN-padded), the law's search starts read at each call (the
     live law's, as the Python rollout clones it then)."""
 
@@ -260,31 +212,37 @@ class CompiledRollout:
         self._ker = kernels()
         p, thr = state.params, state.thresholds
         # the scalars that stay from one decision to the next, packed once per law (they
-        # follow the five that change, kernels.R_*)
+        # follow the five that change, in RolloutScalars' order)
         static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
         cached = law._rollout_static
         if cached is None or any(a is not b for a, b in zip(cached[0], static, strict=True)):
-            fs = np.zeros(K.R_SIZE)
-            fs[K.R_LAP] = law.path.lap_length
-            fs[K.R_ACCEL] = state.accel_max
-            fs[K.R_DECEL] = state.decel_max
-            fs[K.R_MAX_ACCEL] = p.max_accel
-            fs[K.R_MAX_SPEED] = p.max_speed
-            fs[K.R_MAX_TURN] = p.max_turn_rate
-            fs[K.R_SPEED_NOISE] = p.speed_noise
-            fs[K.R_TURN_NOISE] = p.turn_noise
-            fs[K.R_STEP] = state.step_ms
-            fs[K.R_GAIN] = law.gain
-            fs[K.R_LOOKAHEAD] = law.lookahead
-            fs[K.R_R_H] = thr.r_H
-            fs[K.R_T_RHO] = thr.T_rho
-            fs[K.R_T_EPS] = thr.T_eps
-            fs[K.R_T_BETA] = thr.T_beta
-            fs[K.R_PREDICTED] = 1.0 if thr.localization == "predicted" else 0.0
-            fs[K.R_PREDICTED_MS] = thr.predicted_ms
-            cached = law._rollout_static = (static, fs[K.R_LAP :].tolist(), {})
+            scalars = K.RolloutScalars(
+                leader_s=0.0,  # the five that change: set per decision below
+                leader_speed=0.0,
+                v_ld=0.0,
+                t_now=0.0,
+                next_scan=0.0,
+                lap=law.path.lap_length,
+                accel=state.accel_max,
+                decel=state.decel_max,
+                max_accel=p.max_accel,
+                max_speed=p.max_speed,
+                max_turn=p.max_turn_rate,
+                speed_noise=p.speed_noise,
+                turn_noise=p.turn_noise,
+                step=state.step_ms,
+                gain=law.gain,
+                lookahead=law.lookahead,
+                r_H=thr.r_H,
+                T_rho=thr.T_rho,
+                T_eps=thr.T_eps,
+                T_beta=thr.T_beta,
+                predicted=1.0 if thr.localization == "predicted" else 0.0,
+                predicted_ms=thr.predicted_ms,
+            )
+            cached = law._rollout_static = (static, [float(x) for x in scalars[_CHANGING:]], {})
         fs = np.array(
-            [
+            [  # RolloutScalars' first five
                 state.leader_s,
                 state.leader_speed,
                 state.v_ld,
@@ -333,7 +291,7 @@ class CompiledRollout:
         return (*self._args, self._law._sr, self._law._sf)
 
     def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
-        """:meth:`Rollout.changes` uncached: per window, per follower the four changes."""
+        """`Rollout.changes` uncached: per window, per follower the four changes."""
         out = np.empty((len(windows), self.n, 4))
         self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
         return as_changes(out)
@@ -350,10 +308,10 @@ class CompiledRollout:
         windows: int,
         w: float,
     ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
-        """:class:`~rtsim.control.policy.PlanPolicy`'s decision, or with ``search_only``
-        :func:`rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
-        ``windows`` windows of ``w`` ms), in one call (:func:`rtsim.world.kernels.
-        _plan_decide`, on fresh buffers): ((w, V_L, method code, found, feasible), the rows
+        """`PlanPolicy`'s decision, or with ``search_only``
+        `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
+        ``windows`` windows of ``w`` ms), in one call (`rtsim.world.kernels._plan_decide`, on fresh
+        buffers): ((w, V_L, method code, found, feasible), the rows
         at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
         lengths, changes [window, follower, change]) for the rollout's memo)."""
         speeds = np.empty(_SEARCH_RUNS)

@@ -1,5 +1,5 @@
 """The world's frozen configuration: path, leader speed, formation, followers, sensing, EKF,
-thresholds and integration step (built by :mod:`rtsim.io.scenario` or by hand)."""
+thresholds and integration step (built by [`rtsim.io.scenario`][rtsim.io.scenario] or by hand)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ __all__ = [
 ]
 
 #: ``[world] backend``: ``python`` (the reference: plain floats), ``compiled`` (the same
-#: arithmetic compiled with numba, bit for bit; :mod:`rtsim.world.compiled`), ``filterpy``
+#: arithmetic compiled with numba, bit for bit; `rtsim.world.compiled`), ``filterpy``
 #: (the Python world with filterpy's EKF; ``[ekf] backend = "filterpy"`` is its older name).
 WORLD_BACKENDS: tuple[str, ...] = ("python", "compiled", "filterpy")
 
@@ -66,15 +66,15 @@ class SensingParams:
         )
 
 
-#: Where the Hough window is centred (:mod:`rtsim.world.localization`).
+#: Where the Hough window is centred (`rtsim.world.localization`).
 CENTRES: tuple[str, ...] = ("previous", "predicted")
-#: When a lost follower is searched for (:mod:`rtsim.world.localization`).
+#: When a lost follower is searched for (`rtsim.world.localization`).
 SEARCHES: tuple[str, ...] = ("always", "visible")
 
 
 @dataclass(frozen=True)
 class LocalizationParams:
-    """How the leader looks for each follower in a scan (:mod:`rtsim.world.localization`).
+    """How the leader looks for each follower in a scan (`rtsim.world.localization`).
 
     centre: ``"previous"`` — the window is centred at the follower's previous position
     relative to the leader (the leader's estimate at the previous scan, in the leader's frame
@@ -100,16 +100,16 @@ class LocalizationParams:
 
 @dataclass(frozen=True)
 class WorldConfig:
-    """Everything the :class:`~rtsim.world.world.World` needs.
+    """Everything the [`World`][rtsim.world.world.World] needs.
 
     ``leader_speed`` is V_Ld (cm/s); ``start_s`` the leader's initial arc length (cm);
     ``step_ms`` the largest integration step while a follower's speed is ramping (a held
     command with a settled speed is integrated in one exact arc); ``leader_accel_max`` and
     ``leader_decel_max`` (cm/s², ``inf`` = a step) the leader's speed ramp
-    (:class:`~rtsim.world.leader.Leader`). The followers' controller is
+    ([`Leader`][rtsim.world.leader.Leader]). The followers' controller is
     ``formation.model`` (``"l-psi"`` or ``"follow-the-leader"``); ``localization`` where the
     Hough windows are centred and when a lost follower is searched for. ``backend``: one of
-    :data:`WORLD_BACKENDS`, None = :meth:`resolved_backend`'s default.
+    `WORLD_BACKENDS`, None = `resolved_backend`'s default.
     """
 
     path: LeaderPath

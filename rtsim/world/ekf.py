@@ -20,8 +20,8 @@ The leader predicts once per held command piece between two scans (at most two p
 window: before and after that window's send), not per integration step: the arc model is
 exact for a held command, so finer predicts would only cost time.
 
-Two interchangeable implementations: :class:`FollowerEKF` wraps filterpy's
-``ExtendedKalmanFilter`` (the reference), :class:`FastFollowerEKF` does the same algebra
+Two interchangeable implementations: [`FollowerEKF`][rtsim.world.ekf.FollowerEKF] wraps filterpy's
+``ExtendedKalmanFilter`` (the reference), `FastFollowerEKF` does the same algebra
 on plain floats (P = F P Fᵀ + Q with this F's two non-zeros; update P − K H P with
 H = [I₂ 0], which equals filterpy's Joseph form for the optimal gain), several times
 cheaper; a test checks that both agree to 1e-9.
@@ -39,8 +39,19 @@ from numpy.typing import NDArray
 
 from rtsim.errors import ScenarioError
 from rtsim.world._check import non_negative, positive
+from rtsim.world.jit import kernel
+from rtsim.world.motion import arc, chord
 
-__all__ = ["EkfParams", "FollowerEKF", "FastFollowerEKF", "H_POSITION", "make_filter"]
+__all__ = [
+    "EkfParams",
+    "FollowerEKF",
+    "FastFollowerEKF",
+    "H_POSITION",
+    "ekf_predict",
+    "ekf_update",
+    "make_filter",
+    "process",
+]
 
 #: Measurement Jacobian of the position fix.
 H_POSITION = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -106,13 +117,10 @@ def _arc_ekf_class() -> type:
         class _ArcEKF(ExtendedKalmanFilter):  # type: ignore[misc]
             def predict_x(self, u: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
                 v, w, dt = u
-                th = float(self.x[2, 0])
-                dth = w * dt
-                m = th + 0.5 * dth
-                c = v * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
-                self.x[0, 0] += c * math.cos(m)
-                self.x[1, 0] += c * math.sin(m)
-                self.x[2, 0] = th + dth
+                x = self.x
+                x[0, 0], x[1, 0], x[2, 0] = arc(
+                    float(x[0, 0]), float(x[1, 0]), float(x[2, 0]), v, w, dt
+                )
 
         _ARC_EKF = _ArcEKF
     return _ARC_EKF
@@ -149,7 +157,7 @@ class FollowerEKF:
         """Propagate over ``dt`` s holding speed ``v`` (cm/s) and turn rate ``w`` (rad/s)."""
         if dt <= 0.0:
             return
-        c, m, a, b, dth, q = _process(self.params, v, w, dt, float(self.kf.x[2, 0]))
+        _, _, _, a, b, *q = process(float(self.kf.x[2, 0]), v, w, dt, *_squares(self.params))
         self.kf.F = np.array([[1.0, 0.0, a], [0.0, 1.0, b], [0.0, 0.0, 1.0]])
         self.kf.Q = np.array([[q[0], q[1], q[2]], [q[1], q[3], q[4]], [q[2], q[4], q[5]]])
         self.kf.predict(u=(v, w, dt))
@@ -167,34 +175,127 @@ class FollowerEKF:
         P[0:2, 0:2] = self.kf.R
 
 
-def _process(
-    p: EkfParams, v: float, w: float, dt: float, th: float
-) -> tuple[float, float, float, float, float, tuple[float, ...]]:
-    """(c, m, a, b, dth, Q entries q00 q01 q02 q11 q12 q22) for one predict."""
-    dth = w * dt
-    m = th + 0.5 * dth
-    sinc = math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0
-    c = v * dt * sinc
+@kernel(inline=True)
+def process(
+    th: float, v: float, w: float, dt: float, sv2: float, sw2: float, qp2: float, qh2: float
+) -> tuple[float, ...]:
+    """One predict's model (module docstring) at heading θ: (c cos m, c sin m, Δθ, F[0,2],
+    F[1,2], then Q's q00 q01 q02 q11 q12 q22) with ``sv2``, ``sw2``, ``qp2``, ``qh2`` the
+    squared σ_v, σ_ω, q_p, q_θ."""
+    dth, c, m, sinc = chord(th, v, w, dt)
     cm, sm = math.cos(m), math.sin(m)
-    a, b = -c * sm, c * cm  # F[0,2], F[1,2]
-    sv2, sw2 = p.speed_noise**2, p.turn_noise**2
+    a, b = -c * sm, c * cm
     g00, g01 = dt * sinc * cm, 0.5 * dt * a
     g10, g11 = dt * sinc * sm, 0.5 * dt * b
-    g21 = dt
-    qp, qh = dt * p.position_drift**2, dt * p.heading_drift**2
-    q = (
+    qp = dt * qp2
+    # G diag(σ_v², σ_ω²) Gᵀ + dt diag(q_p², q_p², q_θ²), with G[2] = (0, dt)
+    return (
+        c * cm,
+        c * sm,
+        dth,
+        a,
+        b,
         g00 * g00 * sv2 + g01 * g01 * sw2 + qp,
         g00 * g10 * sv2 + g01 * g11 * sw2,
-        g01 * g21 * sw2,
+        g01 * dt * sw2,
         g10 * g10 * sv2 + g11 * g11 * sw2 + qp,
-        g11 * g21 * sw2,
-        g21 * g21 * sw2 + qh,
+        g11 * dt * sw2,
+        dt * dt * sw2 + dt * qh2,
     )
-    return c, m, a, b, dth, q
+
+
+@kernel
+def ekf_predict(
+    x0: float,
+    x1: float,
+    x2: float,
+    p00: float,
+    p01: float,
+    p02: float,
+    p11: float,
+    p12: float,
+    p22: float,
+    v: float,
+    w: float,
+    dt: float,
+    sv2: float,
+    sw2: float,
+    qp2: float,
+    qh2: float,
+) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """The predict on floats: (x, y, θ, P00, P01, P02, P11, P12, P22) after F P Fᵀ + Q with
+    F = I + a e0 e2ᵀ + b e1 e2ᵀ (`process`)."""
+    dx, dy, dth, a, b, q00, q01, q02, q11, q12, q22 = process(x2, v, w, dt, sv2, sw2, qp2, qh2)
+    return (
+        x0 + dx,
+        x1 + dy,
+        x2 + dth,
+        p00 + 2 * a * p02 + a * a * p22 + q00,
+        p01 + a * p12 + b * p02 + a * b * p22 + q01,
+        p02 + a * p22 + q02,
+        p11 + 2 * b * p12 + b * b * p22 + q11,
+        p12 + b * p22 + q12,
+        p22 + q22,
+    )
+
+
+@kernel
+def ekf_update(
+    x0: float,
+    x1: float,
+    x2: float,
+    p00: float,
+    p01: float,
+    p02: float,
+    p10: float,
+    p11: float,
+    p12: float,
+    p20: float,
+    p21: float,
+    p22: float,
+    r: float,
+    z0: float,
+    z1: float,
+) -> tuple[float, ...]:
+    """The update on floats with H = [I₂ 0], R = r I: (x, y, θ, then P − K H P row by row, 9
+    entries); filterpy's Joseph form is the same matrix for this optimal gain."""
+    s00, s01, s11 = p00 + r, p01, p11 + r
+    det = s00 * s11 - s01 * s01
+    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+    # K = P Hᵀ S⁻¹ (3×2), row j = (P[j][0] i00 + P[j][1] i01, P[j][0] i01 + P[j][1] i11)
+    k00, k01 = p00 * i00 + p01 * i01, p00 * i01 + p01 * i11
+    k10, k11 = p10 * i00 + p11 * i01, p10 * i01 + p11 * i11
+    k20, k21 = p20 * i00 + p21 * i01, p20 * i01 + p21 * i11
+    y0, y1 = z0 - x0, z1 - x1
+    return (
+        x0 + (k00 * y0 + k01 * y1),
+        x1 + (k10 * y0 + k11 * y1),
+        x2 + (k20 * y0 + k21 * y1),
+        p00 - k00 * p00 - k01 * p10,
+        p01 - k00 * p01 - k01 * p11,
+        p02 - k00 * p02 - k01 * p12,
+        p10 - k10 * p00 - k11 * p10,
+        p11 - k10 * p01 - k11 * p11,
+        p12 - k10 * p02 - k11 * p12,
+        p20 - k20 * p00 - k21 * p10,
+        p21 - k20 * p01 - k21 * p11,
+        p22 - k20 * p02 - k21 * p12,
+    )
+
+
+def _squares(p: EkfParams) -> tuple[float, float, float, float]:
+    """σ_v², σ_ω², q_p², q_θ²: `process`'s noise arguments."""
+    return p.speed_noise**2, p.turn_noise**2, p.position_drift**2, p.heading_drift**2
 
 
 class FastFollowerEKF:
-    """The same filter as :class:`FollowerEKF` on plain floats (state x, symmetric P)."""
+    """The same filter as [`FollowerEKF`][rtsim.world.ekf.FollowerEKF] on plain floats (state x,
+    symmetric P):
+    `ekf_predict` and `ekf_update` (compiled in the compiled backend's
+    subclass)."""
+
+    _predict = staticmethod(ekf_predict)
+    _update = staticmethod(ekf_update)
 
     def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
         self.params = params
@@ -206,13 +307,7 @@ class FastFollowerEKF:
             [0.0, 0.0, max(params.init_heading_sd, 1e-4) ** 2],
         ]
         self.r = max(params.measurement_noise, 0.01) ** 2
-        # σ_v², σ_ω², q_p², q_θ² of _process, squared once
-        self._noise = (
-            params.speed_noise**2,
-            params.turn_noise**2,
-            params.position_drift**2,
-            params.heading_drift**2,
-        )
+        self._noise = _squares(params)
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -230,53 +325,18 @@ class FastFollowerEKF:
         if dt <= 0.0:
             return
         x = self.x
-        # _process inlined (the same expressions, cos m and sin m computed once)
-        dth = w * dt
-        m = x[2] + 0.5 * dth
-        sinc = math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0
-        c = v * dt * sinc
-        cm, sm = math.cos(m), math.sin(m)
-        a, b = -c * sm, c * cm
-        sv2, sw2, qp2, qh2 = self._noise
-        g00, g01 = dt * sinc * cm, 0.5 * dt * a
-        g10, g11 = dt * sinc * sm, 0.5 * dt * b
-        qp = dt * qp2
-        x[0] += c * cm
-        x[1] += c * sm
-        x[2] += dth
         (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._p
-        # F P Fᵀ with F = I + a e0 e2ᵀ + b e1 e2ᵀ, plus Q (g21 = dt)
-        n00 = p00 + 2 * a * p02 + a * a * p22 + (g00 * g00 * sv2 + g01 * g01 * sw2 + qp)
-        n01 = p01 + a * p12 + b * p02 + a * b * p22 + (g00 * g10 * sv2 + g01 * g11 * sw2)
-        n02 = p02 + a * p22 + g01 * dt * sw2
-        n11 = p11 + 2 * b * p12 + b * b * p22 + (g10 * g10 * sv2 + g11 * g11 * sw2 + qp)
-        n12 = p12 + b * p22 + g11 * dt * sw2
-        n22 = p22 + (dt * dt * sw2 + dt * qh2)
+        x[0], x[1], x[2], n00, n01, n02, n11, n12, n22 = self._predict(
+            x[0], x[1], x[2], p00, p01, p02, p11, p12, p22, v, w, dt, *self._noise
+        )
         self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
 
     def update(self, z: tuple[float, float]) -> None:
-        x, r = self.x, self.r
+        x = self.x
         p0, p1, p2 = self._p
-        p00, p01, p02 = p0
-        p10, p11, p12 = p1
-        p20, p21, p22 = p2
-        s00, s01, s11 = p00 + r, p01, p11 + r
-        det = s00 * s11 - s01 * s01
-        i00, i01, i11 = s11 / det, -s01 / det, s00 / det
-        # K = P Hᵀ S⁻¹ (3×2), row j = (P[j][0] i00 + P[j][1] i01, P[j][0] i01 + P[j][1] i11)
-        k00, k01 = p00 * i00 + p01 * i01, p00 * i01 + p01 * i11
-        k10, k11 = p10 * i00 + p11 * i01, p10 * i01 + p11 * i11
-        k20, k21 = p20 * i00 + p21 * i01, p20 * i01 + p21 * i11
-        y0, y1 = z[0] - x[0], z[1] - x[1]
-        x[0] += k00 * y0 + k01 * y1
-        x[1] += k10 * y0 + k11 * y1
-        x[2] += k20 * y0 + k21 * y1
-        # P − K (H P): filterpy's Joseph form is the same matrix for this optimal gain
-        self._p = [
-            [p00 - k00 * p00 - k01 * p10, p01 - k00 * p01 - k01 * p11, p02 - k00 * p02 - k01 * p12],
-            [p10 - k10 * p00 - k11 * p10, p11 - k10 * p01 - k11 * p11, p12 - k10 * p02 - k11 * p12],
-            [p20 - k20 * p00 - k21 * p10, p21 - k20 * p01 - k21 * p11, p22 - k20 * p02 - k21 * p12],
-        ]
+        r = self._update(*x, *p0, *p1, *p2, self.r, float(z[0]), float(z[1]))
+        x[0], x[1], x[2] = r[0], r[1], r[2]
+        self._p = [[r[3], r[4], r[5]], [r[6], r[7], r[8]], [r[9], r[10], r[11]]]
 
     def reset_position(self, z: tuple[float, float]) -> None:
         self.x[0], self.x[1] = float(z[0]), float(z[1])

@@ -36,14 +36,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.world._check import non_negative, positive
+from rtsim.world.motion import clip, follower_advance
 
 __all__ = [
     "FollowerParams",
     "FollowerGroup",
     "lpsi_command",
     "control_targets",
-    "ramp1",
-    "arc1",
 ]
 
 Array = NDArray[np.float64]
@@ -57,7 +56,7 @@ class FollowerParams:
     control_offset d (cm, > 0); gain_rho k_ρ and gain_beta k_β (1/s); speed_noise (cm/s) and
     turn_noise (rad/s): standard deviations of the actuation error per command; lookahead ℓ
     (cm): pure pursuit's look-ahead along the trace in follow-the-leader
-    (:mod:`rtsim.world.ftl`, which also uses gain_rho on the along-track separation error).
+    (`rtsim.world.ftl`, which also uses gain_rho on the along-track separation error).
 
     The offset d must not be too small for the command hold w: the control point's heading
     loop has time constant d/V_F, and a command held for w overshoots (and the formation
@@ -125,7 +124,7 @@ def lpsi_command(
     """l-ψ control law (unsaturated): (v, ω) for followers at (x, y, θ).
 
     ``leader`` is the leader's pose (x, y, heading), ``v_l`` its speed, ``omega_l`` its
-    turn rate; (l_d, ψ_d) the control point's targets from :func:`control_targets`.
+    turn rate; (l_d, ψ_d) the control point's targets from `control_targets`.
     Floats use ``math`` (fast path for one follower); NumPy arrays are vectorised.
     """
     if x.__class__ is float and th.__class__ is float:
@@ -165,7 +164,8 @@ def _lpsi1(
     psi_d: float,
     p: FollowerParams,
 ) -> tuple[float, float]:
-    """:func:`lpsi_command` for one follower given as floats (the same expressions)."""
+    """[`lpsi_command`][rtsim.world.follower.lpsi_command] for one follower given as floats (the
+    same expressions)."""
     xl, yl, hl = leader
     d = p.control_offset
     c, s = math.cos(hl), math.sin(hl)
@@ -184,52 +184,6 @@ def _lpsi1(
     gx = c * vx - s * vy
     gy = s * vx + c * vy
     return gx * cth + gy * sth, (-gx * sth + gy * cth) / d
-
-
-def ramp1(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
-    """Scalar speed ramp toward ``vc`` at most ``a`` cm/s²: (speed after dt, mean speed)."""
-    if dt <= 0.0:
-        return v0, v0
-    dv = vc - v0
-    if a == math.inf or abs(dv) <= a * dt:
-        tau = 0.0 if a == math.inf else abs(dv) / a
-        return vc, ((v0 + vc) * 0.5 * tau + vc * (dt - tau)) / dt
-    v1 = v0 + math.copysign(a * dt, dv)
-    return v1, 0.5 * (v0 + v1)
-
-
-def arc1(
-    pose: tuple[float, float, float], v: float, w: float, dt: float
-) -> tuple[float, float, float]:
-    """Scalar exact arc (see :func:`rtsim.world.unicycle.arc_step`)."""
-    x, y, th = pose
-    dth = w * dt
-    c = v * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
-    m = th + 0.5 * dth
-    return x + c * math.cos(m), y + c * math.sin(m), th + dth
-
-
-def ramp_arc(
-    x: float, y: float, th: float, v: float, vc: float, w: float, a: float, dt: float
-) -> tuple[float, float, float, float, float]:
-    """One step of a held command: :func:`ramp1` then :func:`arc1` at the ramp's mean speed,
-    in one call (the same expressions; the hot path of the truth and of the estimates).
-
-    Returns (x, y, heading, speed after dt, mean speed)."""
-    if dt <= 0.0:
-        vm = v
-    else:
-        dv = vc - v
-        if a == math.inf or abs(dv) <= a * dt:
-            tau = 0.0 if a == math.inf else abs(dv) / a
-            v, vm = vc, ((v + vc) * 0.5 * tau + vc * (dt - tau)) / dt
-        else:
-            v1 = v + math.copysign(a * dt, dv)
-            v, vm = v1, 0.5 * (v + v1)
-    dth = w * dt
-    c = vm * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
-    m = th + 0.5 * dth
-    return x + c * math.cos(m), y + c * math.sin(m), th + dth, v, vm
 
 
 class FollowerGroup:
@@ -260,10 +214,7 @@ class FollowerGroup:
     def saturate(self, v: float, w: float) -> tuple[float, float]:
         """Clip a command to the speed and turn-rate limits."""
         p = self.p
-        return (
-            min(max(v, -p.max_speed), p.max_speed),
-            min(max(w, -p.max_turn_rate), p.max_turn_rate),
-        )
+        return clip(v, p.max_speed), clip(w, p.max_turn_rate)
 
     def apply(self, k: int, v: float, w: float, rng: np.random.Generator) -> tuple[float, float]:
         """Hold command (v, ω) for follower index ``k`` (0-based), with actuation noise.
@@ -275,7 +226,7 @@ class FollowerGroup:
         return self.apply_drawn(k, v, w, nv, nw)
 
     def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
-        """:meth:`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
+        """`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
         sv, sw = self.saturate(v + self.p.speed_noise * nv, w + self.p.turn_noise * nw)
         self.cmd_v[k] = sv
         self.cmd_w[k] = sw
@@ -284,30 +235,29 @@ class FollowerGroup:
     def pose(self, k: int) -> tuple[float, float, float]:
         return self.x[k], self.y[k], self.th[k]
 
+    #: the integration (`rtsim.world.motion.follower_advance`; its compiled build in
+    #: the compiled backend's subclass)
+    _advance = staticmethod(follower_advance)
+
     def advance(self, k: int, t_ms: float, step_ms: float) -> None:
-        """Integrate follower index ``k`` to ``t_ms``: the exact arc with the mean speed of the
-        acceleration ramp, in steps of at most ``step_ms`` while a ramp lasts longer than one
-        step (a shorter ramp is folded into one arc; the heading–speed coupling it ignores is
-        below 1e-3 cm for the speed changes of a command)."""
+        """Integrate follower index ``k`` to ``t_ms`` (`rtsim.world.motion.follower_advance`: exact
+        arcs at the ramp's mean speed)."""
         t0 = self.t[k]
         if t_ms <= t0:
             return
-        a = self.p.max_accel
-        pose = (self.x[k], self.y[k], self.th[k])
-        v, vc, w = self.v[k], self.cmd_v[k], self.cmd_w[k]
-        odo = self.odometer[k]
-        x, y, th = pose
-        while t_ms - t0 > 1e-12:
-            # one exact-mean arc once the ramp ends within a step; sub-steps while it lasts
-            short = v == vc or abs(vc - v) <= a * step_ms / 1000.0
-            h = t_ms - t0 if short else min(step_ms, t_ms - t0)
-            dt = h / 1000.0
-            x, y, th, v, vm = ramp_arc(x, y, th, v, vc, w, a, dt)
-            odo += abs(vm) * dt
-            t0 += h
-        self.x[k], self.y[k], self.th[k] = x, y, th
-        self.v[k] = v
-        self.odometer[k] = odo
+        (self.x[k], self.y[k], self.th[k], self.v[k], self.odometer[k]) = self._advance(
+            self.x[k],
+            self.y[k],
+            self.th[k],
+            self.v[k],
+            self.cmd_v[k],
+            self.cmd_w[k],
+            self.p.max_accel,
+            self.odometer[k],
+            t0,
+            t_ms,
+            step_ms,
+        )
         self.t[k] = t_ms
 
     def advance_all(self, t_ms: float, step_ms: float) -> None:

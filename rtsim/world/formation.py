@@ -18,7 +18,7 @@ changes; ten followers at 390 cm spread to 180° ± 31.4°.
 **Follow-the-leader** (the paper's followers, its reference [12]; docs/model/world.md) uses the same
 slots as the place each follower holds *on straights*: follower i tracks the leader's trace
 at lateral offset o_i = ρ_d,i·sin β_d,i (cm, positive to the left of the trace), at Euclidean
-distance ρ_d,i from the leader (:mod:`rtsim.world.ftl`). Its default line, :func:`in_line`,
+distance ρ_d,i from the leader (`rtsim.world.ftl`). Its default line, `in_line`,
 keeps the ranks of the chevron (pair p at p·separation, odd followers right, even left) but
 *tucks* each further rank inside the one before it instead of widening outward:
 φ_p = φ_{p−1} − arcsin(r_F/ρ_{p−1}) − arcsin(r_F/ρ_p) − gap, so every follower stays visible
@@ -28,7 +28,7 @@ given offset (15°: the paper's two followers at 180° ± 15°, 101 cm either si
 at 390 cm), raised just enough when the last rank would otherwise come closer than its own
 half-width plus half the gap to the trace (and so to its partner on the other side).
 
-**The fan** (:func:`fan`, ``formation.layout = "fan"``) keeps every follower at the same
+**The fan** (`fan`, ``formation.layout = "fan"``) keeps every follower at the same
 distance ρ_d from the leader — the paper gives one ρ_d for its followers — and spreads their
 bearings: the paper's pair at 180° ± offset, then each further follower one disc width plus
 the gap further out, φ_{k+1} = φ_k + 2·arcsin(r_F/ρ_d) + gap, on the *outer* side of the
@@ -77,7 +77,7 @@ __all__ = [
 ]
 
 #: How ``followers``/``separation``/``bearing_offset`` place them: ``line`` (the chevron for
-#: l-ψ, :func:`in_line` for follow-the-leader) or ``fan`` (:func:`fan`).
+#: l-ψ, `in_line` for follow-the-leader) or ``fan`` (`fan`).
 FORMATION_LAYOUTS: tuple[str, ...] = ("line", "fan")
 #: Followers the fan places on the inner side of the path's turns before the outer side is
 #: full (the pair's one included).
@@ -89,7 +89,7 @@ class Formation:
     """Desired separation ``rho_d`` (cm) and bearing ``beta_d`` (rad) of every follower.
 
     Validated: ρ_d > 0, β_d ∈ [π/2, 3π/2] (followers trail inside the laser's view).
-    :meth:`check_spacing` rejects slots closer than 2·r_F to each other or to the leader.
+    `check_spacing` rejects slots closer than 2·r_F to each other or to the leader.
     """
 
     rho_d: tuple[float, ...]
@@ -132,7 +132,7 @@ class Formation:
         return np.column_stack((r * np.cos(b), r * np.sin(b)))
 
     def check_spacing(self, r_F: float) -> None:
-        """Raise :class:`ScenarioError` if slots (or a slot and the leader) are < 2 r_F apart."""
+        """Raise `ScenarioError` if slots (or a slot and the leader) are < 2 r_F apart."""
         p = self.xy()
         for i in range(self.n):
             if self.rho_d[i] < 2 * r_F:
@@ -170,7 +170,8 @@ def chevron_offsets(
 def _pair_args(
     n: int, separation: float, offset: float, r_F: float
 ) -> tuple[int, float, float, float]:
-    """The checked arguments of :func:`chevron` and :func:`in_line` (offset in [0, 90°])."""
+    """The checked arguments of [`chevron`][rtsim.world.formation.chevron] and `in_line` (offset in
+    [0, 90°])."""
     n = integer("formation.followers", n, minimum=1)
     sep = positive("formation.separation", separation)
     off = number("formation.bearing_offset", offset)
@@ -193,7 +194,7 @@ def chevron(
     """The default V formation: pair p at p·``separation`` cm and 180° ± offset_p.
 
     offset_1 = ``offset``; further pairs turn outward so the laser sees every follower
-    (module docstring). Raises :class:`ScenarioError` if a pair would leave [90°, 270°].
+    (module docstring). Raises `ScenarioError` if a pair would leave [90°, 270°].
     """
     n, sep, off, r_F = _pair_args(n, separation, offset, r_F)
     offs = chevron_offsets((n + 1) // 2, sep, off, r_F, gap)
@@ -236,9 +237,9 @@ def in_line(
     gap: float = CHEVRON_GAP,
 ) -> Formation:
     """Follow-the-leader's default line: rank p at p·``separation`` cm, its two followers at
-    180° ± φ_p on straights (odd right, even left), φ_p from :func:`in_line_offsets`.
+    180° ± φ_p on straights (odd right, even left), φ_p from `in_line_offsets`.
 
-    Raises :class:`ScenarioError` if the first rank would need more than 90°.
+    Raises `ScenarioError` if the first rank would need more than 90°.
     """
     n, sep, off, r_F = _pair_args(n, separation, offset, r_F)
     offs = in_line_offsets((n + 1) // 2, sep, off, r_F, gap)
@@ -260,9 +261,10 @@ def in_line(
 @dataclass(frozen=True)
 class FollowerModel:
     """How followers are controlled: ``on_trace`` (follow-the-leader: each follower tracks the
-    leader's trace at its lateral offset, :mod:`rtsim.world.ftl`) or rigid slots (l-ψ), and
+    leader's trace at its lateral offset, `rtsim.world.ftl`) or rigid slots (l-ψ), and
     ``place(n, separation, offset, *, r_F)``, the default slots of n followers (a
-    :class:`Formation`) for a scenario that gives ``followers`` and ``separation``."""
+    [`Formation`][rtsim.world.formation.Formation]) for a scenario that gives ``followers`` and
+    ``separation``."""
 
     name: str
     place: Callable[..., Formation]
@@ -283,12 +285,12 @@ FOLLOWER_MODELS.register(
     "follow-the-leader", FollowerModel("follow-the-leader", in_line, on_trace=True)
 )
 FOLLOWER_MODELS.register("l-psi", FollowerModel("l-psi", chevron, on_trace=False))
-#: The old name of :data:`FOLLOWER_MODELS` (it iterates over the names).
+#: The old name of `FOLLOWER_MODELS` (it iterates over the names).
 FORMATION_MODELS = FOLLOWER_MODELS
 
 
 def follower_model(name: object, where: str = "formation.model") -> FollowerModel:
-    """The follower model ``name`` names; an unknown one is a :class:`ScenarioError`."""
+    """The follower model ``name`` names; an unknown one is a `ScenarioError`."""
     try:
         return FOLLOWER_MODELS.resolve(name, where)  # type: ignore[arg-type]
     except ScenarioError:
@@ -310,9 +312,9 @@ def fan_bearings(
     """Bearings (rad) of the fan's followers (module docstring): follower 1 at 180° + offset
     on the right, 2 at 180° − offset on the left, then each further follower one step
     (2·arcsin(r_F/ρ_d) + gap) beyond the last on the outer side (``outer``: −1 right, +1
-    left) while the inner side holds :data:`FAN_INNER`, and on the inner side once the outer
+    left) while the inner side holds `FAN_INNER`, and on the inner side once the outer
     one is full (the next bearing would put the disc outside [90°, 270°]). A follower that
-    fits neither side gets the outer side's next bearing (:func:`fan` refuses it)."""
+    fits neither side gets the outer side's next bearing (`fan` refuses it)."""
     step = 2.0 * math.asin(min(1.0, r_F / separation)) + gap
     half = math.asin(min(1.0, r_F / separation))
     right, left = math.pi + offset, math.pi - offset
@@ -345,9 +347,9 @@ def fan(
     gap: float = CHEVRON_GAP,
     model: str = "follow-the-leader",
 ) -> Formation:
-    """The fan: every follower at ρ_d = ``separation`` cm, bearings from :func:`fan_bearings`
+    """The fan: every follower at ρ_d = ``separation`` cm, bearings from `fan_bearings`
     (``model``: follow-the-leader holds them on straights, l-ψ as rigid slots). Raises
-    :class:`ScenarioError` when a follower would leave the laser's view (a bearing outside
+    `ScenarioError` when a follower would leave the laser's view (a bearing outside
     [90°, 270°] by its disc's half-width)."""
     n, sep, off, r_F = _pair_args(n, separation, offset, r_F)
     if outer not in (-1, 1):

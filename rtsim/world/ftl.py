@@ -34,7 +34,7 @@ proportional term on the along-track separation error, k_ρ = ``gain_rho``). Ste
 pursuit (Coulter 1992) on the goal point P_i(s_f + ℓ) a look-ahead ℓ (``lookahead``) ahead on
 the trace: with D the distance and α the bearing of the goal in the follower's frame,
 ω = v · 2 sin α / D. The command is saturated, realised with actuation noise and held until
-the next one exactly as for l-ψ (:mod:`rtsim.world.follower`).
+the next one exactly as for l-ψ (`rtsim.world.follower`).
 """
 
 from __future__ import annotations

@@ -1,20 +1,27 @@
-"""The world's numba kernels, as plain Python: each is the expressions of the Python code it
-replaces, in the same order (:mod:`rtsim.world.compiled` for the classes that call them and
-why the results are bit for bit the Python ones).
+"""The world's and the controller's numba kernels, as plain Python kernel sources
+(`rtsim.world.jit`): the follow-the-leader law's search and projection, CPython's
+hypot and remainder, the command-aware rollout and the plan policy's decision
+(`rtsim.world.compiled` for the classes that call them and why the results are bit for
+bit the Python ones). The motion and the EKF are the world's own functions
+(`rtsim.world.motion`, `rtsim.world.ekf`), compiled with the kernels that call
+them.
 
-:func:`kernels` compiles them (or loads them from numba's cache) once per process; numba is
-imported only then. The helpers are rebound to their compiled versions at that moment, so
-that the kernels calling them are compiled against compiled code.
+`kernels` compiles `ENTRIES` (or loads them from the cache) once per process;
+numba is imported only then.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from rtsim.world.ekf import ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
+from rtsim.world.jit import build, kernel
+from rtsim.world.motion import clip, follower_advance, leader_travel
+from rtsim.world.path import along
 
 __all__ = ["available", "kernels", "warm_rollout"]
 
@@ -38,130 +45,7 @@ def available() -> bool:
 # -- the kernels, as plain Python (numba compiles them; the names are what they call) ---------
 
 
-def _advance_follower(
-    x: float,
-    y: float,
-    th: float,
-    v: float,
-    vc: float,
-    w: float,
-    a: float,
-    odo: float,
-    t0: float,
-    t_ms: float,
-    step_ms: float,
-) -> tuple[float, float, float, float, float]:
-    """FollowerGroup.advance's loop with ramp_arc inlined: (x, y, θ, v, odometer)."""
-    inf = math.inf
-    while t_ms - t0 > 1e-12:
-        short = v == vc or abs(vc - v) <= a * step_ms / 1000.0
-        h = t_ms - t0 if short else min(step_ms, t_ms - t0)
-        dt = h / 1000.0
-        if dt <= 0.0:
-            vm = v
-        else:
-            dv = vc - v
-            if a == inf or abs(dv) <= a * dt:
-                tau = 0.0 if a == inf else abs(dv) / a
-                vm = ((v + vc) * 0.5 * tau + vc * (dt - tau)) / dt
-                v = vc
-            else:
-                v1 = v + math.copysign(a * dt, dv)
-                vm = 0.5 * (v + v1)
-                v = v1
-        dth = w * dt
-        c = vm * dt * (math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0)
-        m = th + 0.5 * dth
-        x, y, th = x + c * math.cos(m), y + c * math.sin(m), th + dth
-        odo += abs(vm) * dt
-        t0 += h
-    return x, y, th, v, odo
-
-
-def _ekf_predict(
-    x0: float,
-    x1: float,
-    x2: float,
-    p00: float,
-    p01: float,
-    p02: float,
-    p11: float,
-    p12: float,
-    p22: float,
-    v: float,
-    w: float,
-    dt: float,
-    sv2: float,
-    sw2: float,
-    qp2: float,
-    qh2: float,
-) -> tuple[float, float, float, float, float, float, float, float, float]:
-    """FastFollowerEKF.predict: (x, y, θ, P00, P01, P02, P11, P12, P22)."""
-    dth = w * dt
-    m = x2 + 0.5 * dth
-    sinc = math.sin(0.5 * dth) / (0.5 * dth) if dth != 0.0 else 1.0
-    c = v * dt * sinc
-    cm, sm = math.cos(m), math.sin(m)
-    a, b = -c * sm, c * cm
-    g00, g01 = dt * sinc * cm, 0.5 * dt * a
-    g10, g11 = dt * sinc * sm, 0.5 * dt * b
-    qp = dt * qp2
-    x0 += c * cm
-    x1 += c * sm
-    x2 += dth
-    n00 = p00 + 2 * a * p02 + a * a * p22 + (g00 * g00 * sv2 + g01 * g01 * sw2 + qp)
-    n01 = p01 + a * p12 + b * p02 + a * b * p22 + (g00 * g10 * sv2 + g01 * g11 * sw2)
-    n02 = p02 + a * p22 + g01 * dt * sw2
-    n11 = p11 + 2 * b * p12 + b * b * p22 + (g10 * g10 * sv2 + g11 * g11 * sw2 + qp)
-    n12 = p12 + b * p22 + g11 * dt * sw2
-    n22 = p22 + (dt * dt * sw2 + dt * qh2)
-    return x0, x1, x2, n00, n01, n02, n11, n12, n22
-
-
-def _ekf_update(
-    x0: float,
-    x1: float,
-    x2: float,
-    p00: float,
-    p01: float,
-    p02: float,
-    p10: float,
-    p11: float,
-    p12: float,
-    p20: float,
-    p21: float,
-    p22: float,
-    r: float,
-    z0: float,
-    z1: float,
-) -> tuple[float, ...]:
-    """FastFollowerEKF.update: (x, y, θ, then P row by row, 9 entries)."""
-    s00, s01, s11 = p00 + r, p01, p11 + r
-    det = s00 * s11 - s01 * s01
-    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
-    k00, k01 = p00 * i00 + p01 * i01, p00 * i01 + p01 * i11
-    k10, k11 = p10 * i00 + p11 * i01, p10 * i01 + p11 * i11
-    k20, k21 = p20 * i00 + p21 * i01, p20 * i01 + p21 * i11
-    y0, y1 = z0 - x0, z1 - x1
-    x0 += k00 * y0 + k01 * y1
-    x1 += k10 * y0 + k11 * y1
-    x2 += k20 * y0 + k21 * y1
-    return (
-        x0,
-        x1,
-        x2,
-        p00 - k00 * p00 - k01 * p10,
-        p01 - k00 * p01 - k01 * p11,
-        p02 - k00 * p02 - k01 * p12,
-        p10 - k10 * p00 - k11 * p10,
-        p11 - k10 * p01 - k11 * p11,
-        p12 - k10 * p02 - k11 * p12,
-        p20 - k20 * p00 - k21 * p10,
-        p21 - k20 * p01 - k21 * p11,
-        p22 - k20 * p02 - k21 * p12,
-    )
-
-
+@kernel
 def _index(s0: Any, lap: float, s: float) -> tuple[int, float]:
     """LeaderPath's segment index at arc length s (bisect_right − 1) and u = s mod lap."""
     u = s % lap
@@ -175,6 +59,7 @@ def _index(s0: Any, lap: float, s: float) -> tuple[int, float]:
     return lo - 1, u
 
 
+@kernel
 def _point(
     s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float
 ) -> tuple[float, float, float]:
@@ -183,11 +68,13 @@ def _point(
     return x - o * math.sin(h), y + o * math.cos(h), h
 
 
+@kernel
 def _scale(s0: Any, kappa: Any, lap: float, o: float, s: float) -> float:
     k, _ = _index(s0, lap, s)
     return max(_SCALE_MIN, 1.0 - kappa[k] * o)
 
 
+@kernel
 def _gap(
     s0: Any,
     poses: Any,
@@ -203,6 +90,7 @@ def _gap(
     return (x - xl) ** 2 + (y - yl) ** 2 - rho2
 
 
+@kernel
 def _search(
     s0: Any,
     poses: Any,
@@ -260,6 +148,7 @@ def _search(
     return 0.5 * (lo + hi)
 
 
+@kernel
 def _dl_mul(x: float, y: float) -> tuple[float, float]:
     """x·y and its exact rounding error (Dekker's product with Veltkamp's split)."""
     z = x * y
@@ -272,6 +161,7 @@ def _dl_mul(x: float, y: float) -> tuple[float, float]:
     return z, ((xh * yh - z) + xh * yl + xl * yh) + xl * yl
 
 
+@kernel
 def _hypot_core(ax: float, ay: float, mx: float) -> float:
     _, e = math.frexp(mx)
     scale = math.ldexp(1.0, -e)
@@ -294,10 +184,11 @@ def _hypot_core(ax: float, ay: float, mx: float) -> float:
     return h / scale
 
 
+@kernel
 def _hypot(x: float, y: float) -> float:
     """CPython's ``math.hypot`` of two coordinates (its vector_norm: scaled by a power of
     two, the squares summed with their exact errors, a square root and one differential
-    correction); :func:`kernels` checks it against ``math.hypot`` before a kernel uses it."""
+    correction); `kernels` checks it against ``math.hypot`` before a kernel uses it."""
     ax, ay = abs(x), abs(y)
     if math.isnan(ax) or math.isnan(ay):
         return math.nan
@@ -311,29 +202,14 @@ def _hypot(x: float, y: float) -> float:
     return _hypot_core(ax, ay, mx)
 
 
+@kernel
 def _pose(s0: Any, poses: Any, kappa: Any, lap: float, s: float) -> tuple[float, float, float]:
     """LeaderPath.pose(s)."""
     k, u = _index(s0, lap, s)
-    x0, y0, h0 = poses[k, 0], poses[k, 1], poses[k, 2]
-    kap = kappa[k]
-    ds = u - s0[k]
-    if kap == 0.0:
-        return x0 + ds * math.cos(h0), y0 + ds * math.sin(h0), h0
-    h = h0 + kap * ds
-    return x0 + (math.sin(h) - math.sin(h0)) / kap, y0 - (math.cos(h) - math.cos(h0)) / kap, h
+    return along(poses[k, 0], poses[k, 1], poses[k, 2], kappa[k], u - s0[k])
 
 
-def _clip(v: float, lim: float) -> float:
-    """min(max(v, −lim), lim) with Python's choice among equal values."""
-    lo = -lim
-    m = v
-    if lo > m:
-        m = lo
-    if lim < m:
-        m = lim
-    return m
-
-
+@kernel
 def _project(
     s0: Any, poses: Any, kappa: Any, lap: float, o: float, s: float, x: float, y: float
 ) -> float:
@@ -347,6 +223,7 @@ def _project(
     return s
 
 
+@kernel
 def _ftl_exact(
     s0: Any,
     poses: Any,
@@ -369,7 +246,7 @@ def _ftl_exact(
     y: float,
     th: float,
 ) -> tuple[float, float]:
-    """TraceFollower.command whole (with :func:`_hypot`): (v, ω); updates s_ref, s_f."""
+    """TraceFollower.command whole (with `_hypot`): (v, ω); updates s_ref, s_f."""
     chain = np.empty(ahead.shape[0] + 1, dtype=np.int64)
     m = 0
     j = k
@@ -415,6 +292,7 @@ def _ftl_exact(
     return v, v * 2.0 * math.sin(alpha) / dist
 
 
+@kernel
 def _rollout(
     s0: Any,
     poses: Any,
@@ -463,25 +341,14 @@ def _rollout(
     for e in range(ev_t.shape[0]):
         t = ev_t[e]
         if t > t_leader:
-            dt = (t - t_leader) / 1000.0
-            if v0 == vt or dt <= 0.0:
-                s_l += v0 * dt
-            else:
-                a = accel_max if vt > v0 else decel_max
-                tau = abs(vt - v0) / a
-                if tau <= dt:
-                    s_l += 0.5 * (v0 + vt) * tau + vt * (dt - tau)
-                    v0 = vt
-                else:
-                    v1 = v0 + math.copysign(a * dt, vt - v0)
-                    s_l += 0.5 * (v0 + v1) * dt
-                    v0 = v1
+            v0, ds = leader_travel(v0, vt, accel_max, decel_max, (t - t_leader) / 1000.0)
+            s_l += ds
             t_leader = t
         lo_k = ev_k[e] if ev_kind[e] == 0 else 0
         hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
         for k in range(lo_k, hi_k):
             if t > t_f[k]:
-                x[k], y[k], th[k], v[k], odo[k] = _advance_follower(
+                x[k], y[k], th[k], v[k], odo[k] = follower_advance(
                     x[k],
                     y[k],
                     th[k],
@@ -520,9 +387,9 @@ def _rollout(
                 y[k],
                 th[k],
             )
-            vc, wc = _clip(vc, max_speed), _clip(wc, max_turn)
-            cmd_v[k] = _clip(vc + speed_noise * 0.0, max_speed)
-            cmd_w[k] = _clip(wc + turn_noise * 0.0, max_turn)
+            vc, wc = clip(vc, max_speed), clip(wc, max_turn)
+            cmd_v[k] = clip(vc + speed_noise * 0.0, max_speed)
+            cmd_w[k] = clip(wc + turn_noise * 0.0, max_turn)
             continue
         c, s = math.cos(hl), math.sin(hl)
         for i in range(n):
@@ -534,40 +401,54 @@ def _rollout(
 
 
 # -- the command-aware rollout's changes, bounds and the plan policy's speed search ---------
-# (rtsim.control.rollout.Rollout and rtsim.control.policy.PlanPolicy; kept in this file so
-# that numba's cache, which tracks only the calling kernel's own file, sees every change)
+# (rtsim.control.rollout.Rollout and rtsim.control.policy.PlanPolicy)
 
-#: indices of the scalars in a rollout's float pack (built by compiled.CompiledRollout)
-(
-    R_LEADER_S,  # the five that change from one decision to the next come first
-    R_LEADER_SPEED,
-    R_V_LD,
-    R_T_NOW,
-    R_NEXT_SCAN,
-    R_LAP,
-    R_ACCEL,
-    R_DECEL,
-    R_MAX_ACCEL,
-    R_MAX_SPEED,
-    R_MAX_TURN,
-    R_SPEED_NOISE,
-    R_TURN_NOISE,
-    R_STEP,
-    R_GAIN,
-    R_LOOKAHEAD,
-    R_R_H,
-    R_T_RHO,
-    R_T_EPS,
-    R_T_BETA,
-    R_PREDICTED,
-    R_PREDICTED_MS,
-    R_SIZE,
-) = range(23)
+
+class RolloutScalars(NamedTuple):
+    """A rollout's scalars (ms, cm, cm/s, rad), in the order of its float pack (the pack's
+    first element; `CompiledRollout` builds it, `scalars`
+    reads it back inside the kernels): the five that change from one decision to the next
+    come first."""
+
+    leader_s: float
+    leader_speed: float
+    v_ld: float
+    t_now: float
+    next_scan: float
+    lap: float
+    accel: float
+    decel: float
+    max_accel: float
+    max_speed: float
+    max_turn: float
+    speed_noise: float
+    turn_noise: float
+    step: float
+    gain: float
+    lookahead: float
+    r_H: float
+    T_rho: float
+    T_eps: float
+    T_beta: float
+    predicted: float  # 1.0 when the window follows the predicted motion, else 0.0
+    predicted_ms: float
+
+
+@kernel
+def scalars(fs: Any) -> RolloutScalars:
+    """The float pack ``fs`` as its named scalars (the field order of RolloutScalars)."""
+    return RolloutScalars(
+        fs[0], fs[1], fs[2], fs[3], fs[4], fs[5], fs[6], fs[7], fs[8], fs[9], fs[10],
+        fs[11], fs[12], fs[13], fs[14], fs[15], fs[16], fs[17], fs[18], fs[19], fs[20], fs[21],
+    )  # fmt: skip
+
+
 #: columns of a rollout's follower pack: the estimate, its speed, the held command, the
 #: send offset after a window's scan, ρ_d (CompiledRollout builds the rows in this order)
 F_X, F_Y, F_TH, F_V, F_CMD_V, F_CMD_W, F_SEND, F_RHO_D, F_SIZE = range(9)
 
 
+@kernel
 def _remainder(x: float, y: float) -> float:
     """CPython's ``math.remainder`` (its m_remainder) for finite ``y`` ≠ 0: x − n·y with n the
     integer nearest x / y, ties to even, computed exactly with fmod (``%`` of non-negative
@@ -586,6 +467,7 @@ def _remainder(x: float, y: float) -> float:
     return math.copysign(1.0, x) * r
 
 
+@kernel
 def _before(t1: float, k1: int, j1: int, t2: float, k2: int, j2: int) -> bool:
     """(t1, k1, j1) < (t2, k2, j2) as Python compares tuples."""
     if t1 != t2:
@@ -595,6 +477,7 @@ def _before(t1: float, k1: int, j1: int, t2: float, k2: int, j2: int) -> bool:
     return j1 < j2
 
 
+@kernel
 def _rollout_changes(
     v: float,
     lengths: Any,
@@ -602,25 +485,26 @@ def _rollout_changes(
     out: Any,
 ) -> None:
     """Rollout._run whole: the leader set to target ``v`` (Leader.set_speed), the scans and
-    sends of windows ``lengths`` in Python's tuple order, :func:`_rollout` on copies of the
+    sends of windows ``lengths`` in Python's tuple order, `_rollout` on copies of the
     group and the law's search starts, and the changes per window and follower
     (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|). ``P``: the state's
-    pack (:meth:`rtsim.world.compiled.CompiledRollout.pack`)."""
+    pack (`rtsim.world.compiled.CompiledRollout.pack`)."""
     fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
+    S = scalars(fs)
     n = fol.shape[0]
     nw = lengths.shape[0]
-    v_ld = fs[R_V_LD]
-    speed = fs[R_LEADER_SPEED]
-    t_now = fs[R_T_NOW]
+    v_ld = S.v_ld
+    speed = S.leader_speed
+    t_now = S.t_now
     a = 0.0 if 0.0 > v else v  # min(max(v, 0.0), v_ld), then Leader.set_speed
     if v_ld < a:
         a = v_ld
     target = v_ld if v_ld < a else a
-    acc = fs[R_ACCEL] if target > speed else fs[R_DECEL]
+    acc = S.accel if target > speed else S.decel
     if acc == math.inf:
         speed = target
     scans = np.empty(nw + 1)
-    scans[0] = fs[R_NEXT_SCAN]
+    scans[0] = S.next_scan
     for j in range(nw):
         scans[j + 1] = scans[j] + lengths[j]
     last = scans[nw]
@@ -663,12 +547,12 @@ def _rollout_changes(
         s0,
         poses,
         kappa,
-        fs[R_LAP],
-        fs[R_LEADER_S],
+        S.lap,
+        S.leader_s,
         speed,
         target,
-        fs[R_ACCEL],
-        fs[R_DECEL],
+        S.accel,
+        S.decel,
         x,
         y,
         th,
@@ -677,19 +561,19 @@ def _rollout_changes(
         cmd_w,
         odo,
         t_f,
-        fs[R_MAX_ACCEL],
-        fs[R_MAX_SPEED],
-        fs[R_MAX_TURN],
-        fs[R_SPEED_NOISE],
-        fs[R_TURN_NOISE],
-        fs[R_STEP],
+        S.max_accel,
+        S.max_speed,
+        S.max_turn,
+        S.speed_noise,
+        S.turn_noise,
+        S.step,
         lateral,
         ahead,
         spacing,
         sr0.copy(),
         sf0.copy(),
-        fs[R_GAIN],
-        fs[R_LOOKAHEAD],
+        S.gain,
+        S.lookahead,
         ev_t[:m],
         ev_kind[:m],
         ev_k[:m],
@@ -709,47 +593,51 @@ def _rollout_changes(
             out[j, i, 3] = abs(_remainder(b_q - b_p, two_pi))
 
 
-def _bound(fs: Any, rho_d: float, j: int, ci: float, w: float) -> float:
+@kernel
+def _bound(S: RolloutScalars, rho_d: float, j: int, ci: float, w: float) -> float:
     """Rollout.bounds of one change: L·w / c (∞ when c ≤ 0), L by kind j in BOUND_KINDS
     order; the predicted localization bound in place of kind 0 when the window follows the
     predicted motion."""
-    if j == 0 and fs[R_PREDICTED] != 0.0:
-        return fs[R_PREDICTED_MS]
+    if j == 0 and S.predicted != 0.0:
+        return S.predicted_ms
     if j == 0:
-        lim = fs[R_R_H]
+        lim = S.r_H
     elif j == 1:
-        lim = fs[R_T_RHO] * rho_d
+        lim = S.T_rho * rho_d
     elif j == 2:
-        lim = fs[R_T_EPS] * rho_d
+        lim = S.T_eps * rho_d
     else:
-        lim = fs[R_T_BETA]
+        lim = S.T_beta
     return math.inf if ci <= 0.0 else lim * w / ci
 
 
-def _rows(changes: Any, fs: Any, fol: Any, w: float, rows: Any) -> float:
+@kernel
+def _rows(changes: Any, S: RolloutScalars, fol: Any, w: float, rows: Any) -> float:
     """Rollout.bounds(changes, w) into ``rows`` [follower, kind]; returns min_bound_rows's
     bound (the first smallest)."""
     best = math.inf
     for i in range(changes.shape[0]):
         for j in range(4):
-            b = _bound(fs, fol[i, F_RHO_D], j, changes[i, j], w)
+            b = _bound(S, fol[i, F_RHO_D], j, changes[i, j], w)
             rows[i, j] = b
             if b < best:
                 best = b
     return best
 
 
-def _min_bound(changes: Any, fs: Any, fol: Any, w: float) -> float:
+@kernel
+def _min_bound(changes: Any, S: RolloutScalars, fol: Any, w: float) -> float:
     """min_bound_rows(Rollout.bounds(changes, w))[0]: the smallest L·w / c of one window."""
     best = math.inf
     for i in range(changes.shape[0]):
         for j in range(4):
-            b = _bound(fs, fol[i, F_RHO_D], j, changes[i, j], w)
+            b = _bound(S, fol[i, F_RHO_D], j, changes[i, j], w)
             if b < best:
                 best = b
     return best
 
 
+@kernel(inline=True)
 def _rollout_worst(
     v: float,
     w: float,
@@ -759,22 +647,24 @@ def _rollout_worst(
     """PlanPolicy's m(V): the smallest bound of every follower in ``ch.shape[0]`` windows of
     ``w`` ms (Python's ``min`` over the windows: the first, then any smaller); the changes
     are left in ``ch``."""
-    fs, fol = P[0], P[1]
+    S, fol = scalars(P[0]), P[1]
     _rollout_changes(v, np.full(ch.shape[0], w), P, ch)
-    return _worst_after(ch, fs, fol, w, _min_bound(ch[0], fs, fol, w))
+    return _worst_after(ch, S, fol, w, _min_bound(ch[0], S, fol, w))
 
 
-def _worst_after(ch: Any, fs: Any, fol: Any, w: float, first: float) -> float:
+@kernel
+def _worst_after(ch: Any, S: RolloutScalars, fol: Any, w: float, first: float) -> float:
     """Python's ``min`` over windows: ``first`` (window 0's smallest bound), then any window
     of ``ch`` after it with a smaller one."""
     worst = first
     for j in range(1, ch.shape[0]):
-        mj = _min_bound(ch[j], fs, fol, w)
+        mj = _min_bound(ch[j], S, fol, w)
         if mj < worst:
             worst = mj
     return worst
 
 
+@kernel(inline=True)
 def _search_into(
     keep: float,
     need: float,
@@ -788,12 +678,12 @@ def _search_into(
     first: int,
     found_out: Any,
 ) -> int:
-    """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · :func:`_rollout_worst` over
+    """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · `_rollout_worst` over
     ``changes.shape[1]`` windows of ``w``; rollout r's speed and changes go to ``speeds[r]``
     and ``changes[r]`` from r = ``first`` (as many as they hold). ``found_out`` ←
     (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the
     speed's rollout or −1); returns the next free index (rollouts run: it − first)."""
-    v_ld = P[0][R_V_LD]
+    v_ld = scalars(P[0]).v_ld
     cap = speeds.shape[0]
     scratch = np.empty(changes.shape[1:])
     above = v_ld
@@ -841,6 +731,7 @@ def _search_into(
             hi = v
 
 
+@kernel
 def _plan_decide(
     search_only: bool,
     keep: float,
@@ -873,8 +764,8 @@ def _plan_decide(
     bound over H; ``adjust`` with the ``commands`` predictor, H one window): from rollout 0,
     ``out[1:4]`` its (speed, method, found), every rollout the search's own (``lens`` 0).
     """
-    fs, fol = P[0], P[1]
-    v_ld = fs[R_V_LD]
+    S, fol = scalars(P[0]), P[1]
+    v_ld = S.v_ld
     res = np.empty(4)
     if search_only:
         runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 0, res)
@@ -883,7 +774,7 @@ def _plan_decide(
         return runs
     speeds[0], lens[0] = v_ld, 1
     m_ld = _rollout_worst(v_ld, w, P, changes[0])
-    m1 = _rows(changes[0, 0], fs, fol, w, rows[0])
+    m1 = _rows(changes[0, 0], S, fol, w, rows[0])
     if keep * m_ld >= need:
         a = keep * m1
         mn = cap if cap < a else a  # max(w, min(keep·m1, cap)), as Python picks
@@ -908,66 +799,34 @@ def _plan_decide(
     if r_l < 0:  # the speed was not rolled out (a zero floor): the caller rolls it out
         return runs
     lens[r_l] = 1
-    m_l = _worst_after(changes[r_l], fs, fol, w, _rows(changes[r_l, 0], fs, fol, w, rows[1]))
+    m_l = _worst_after(changes[r_l], S, fol, w, _rows(changes[r_l, 0], S, fol, w, rows[1]))
     out[4] = 1.0 if keep * m_l >= need else 0.0
     return runs
 
 
+#: the kernels the classes call, by the name they have in `kernels`'s namespace (each
+#: compiled with the kernel sources it calls: `rtsim.world.jit.compile`)
+ENTRIES: dict[str, Any] = {
+    "advance_follower": follower_advance,
+    "ekf_predict": ekf_predict,
+    "ekf_update": ekf_update,
+    "ftl_exact": _ftl_exact,
+    "project": _project,
+    "hypot": _hypot,
+    "remainder": _remainder,
+    "rollout_changes": _rollout_changes,
+    "plan_decide": _plan_decide,
+}
+
+
 def kernels() -> Any:
-    """The compiled kernels (a namespace), compiled or loaded from numba's cache once per
+    """The compiled kernels (a namespace), compiled or loaded from the cache once per
     process."""
     global _KERNELS
     if _KERNELS is None:
         import types
 
-        import numba
-
-        jit = numba.njit(cache=True, nogil=True)
-        ns = types.SimpleNamespace()
-        glob = globals()
-        # helpers first: the kernels that call them find the compiled ones by name
-        for name in (
-            "_index",
-            "_pose",
-            "_point",
-            "_scale",
-            "_gap",
-            "_search",
-            "_dl_mul",
-            "_hypot_core",
-            "_hypot",
-            "_clip",
-            "_advance_follower",
-            "_project",
-            "_ftl_exact",
-            "_remainder",
-            "_before",
-            "_rollout",
-            "_rollout_changes",
-            "_bound",
-            "_rows",
-            "_min_bound",
-            "_worst_after",
-        ):
-            glob[name] = jit(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
-        # inlined into _plan_decide by numba, not compiled on their own: each compiled level
-        # links and optimises the whole rollout again (compile time, once per machine)
-        inline = numba.njit(cache=True, nogil=True, inline="always")
-        for name in ("_rollout_worst", "_search_into"):
-            glob[name] = inline(glob[name]) if not hasattr(glob[name], "py_func") else glob[name]
-        for name in (
-            "_advance_follower",
-            "_ekf_predict",
-            "_ekf_update",
-            "_ftl_exact",
-            "_project",
-            "_hypot",
-            "_remainder",
-            "_rollout_changes",
-            "_plan_decide",
-        ):
-            fn = glob[name]
-            setattr(ns, name.lstrip("_"), fn if hasattr(fn, "py_func") else jit(fn))
+        ns = types.SimpleNamespace(**{name: build(fn) for name, fn in ENTRIES.items()})
         _warm(ns)
         ns.exact_hypot = _hypot_matches(ns.hypot)
         _KERNELS = ns
@@ -1037,17 +896,28 @@ def warm_rollout() -> None:
     if getattr(ns, "rollout_warm", False):
         return
     # one follower 100 cm behind a leader on a straight lap
-    fs = np.zeros(R_SIZE)
-    fs[R_LAP], fs[R_V_LD], fs[R_LEADER_SPEED], fs[R_ACCEL], fs[R_DECEL] = (
-        1e3,
-        30.0,
-        30.0,
-        20.0,
-        50.0,
+    fs = np.array(
+        RolloutScalars(
+            *(0.0, 30.0, 30.0, 0.0, 0.0),  # leader_s, leader_speed, v_ld, t_now, next_scan
+            lap=1e3,
+            accel=20.0,
+            decel=50.0,
+            max_accel=100.0,
+            max_speed=150.0,
+            max_turn=3.0,
+            speed_noise=0.0,
+            turn_noise=0.0,
+            step=10.0,
+            gain=0.5,
+            lookahead=40.0,
+            r_H=25.0,
+            T_rho=0.005,
+            T_eps=0.025,
+            T_beta=0.1,
+            predicted=0.0,
+            predicted_ms=0.0,
+        )
     )
-    fs[R_MAX_ACCEL], fs[R_MAX_SPEED], fs[R_MAX_TURN], fs[R_STEP] = 100.0, 150.0, 3.0, 10.0
-    fs[R_GAIN], fs[R_LOOKAHEAD], fs[R_R_H] = 0.5, 40.0, 25.0
-    fs[R_T_RHO], fs[R_T_EPS], fs[R_T_BETA] = 0.005, 0.025, 0.1
     fol = np.zeros((1, F_SIZE))
     fol[0, F_X], fol[0, F_V], fol[0, F_SEND], fol[0, F_RHO_D] = -100.0, 30.0, 100.0, 100.0
     nan1 = np.full(1, math.nan)

@@ -73,7 +73,8 @@ def count_beams(
 
     Fast path: when no two discs' beam intervals overlap (no shadowing possible) and every
     disc is wholly inside or beyond the range, each count is the number of beams within
-    arcsin(r_F/ρ) of the disc's bearing; otherwise :func:`beam_owners` resolves every beam.
+    arcsin(r_F/ρ) of the disc's bearing; otherwise [`beam_owners`][rtsim.world.laser.beam_owners]
+    resolves every beam.
     """
     rel = np.asarray(rel_xy, dtype=float).reshape(-1, 2)
     return np.array(count_beams_xy(rel.tolist(), r_F, max_range), dtype=np.int64)
@@ -82,7 +83,8 @@ def count_beams(
 def count_beams_xy(
     rel_xy: Sequence[Sequence[float]], r_F: float, max_range: float = math.inf
 ) -> list[int]:
-    """:func:`count_beams` on a list of (x, y) pairs (floats), returning a list of ints
+    """[`count_beams`][rtsim.world.laser.count_beams] on a list of (x, y) pairs (floats), returning
+    a list of ints
     (the world's per-scan path: no arrays unless a shadowing check needs every beam)."""
     n = len(rel_xy)
     spans: list[tuple[int, int, int]] = []

@@ -6,13 +6,10 @@ target speed it is driving toward; its pose is the path's exact pose at ``s``, s
 is exact whatever the step. The adjustment algorithm sets the **target** (at most the
 desired speed V_Ld); the actual speed ramps toward it at ``accel_max`` cm/s² when speeding
 up and ``decel_max`` cm/s² when slowing down, as a real robot's speed controller does
-(docs/model/world.md). With both limits infinite (the default of a :class:`Leader` built by hand)
-the
-speed steps at once, the paper's idealisation. Over a step of dt seconds the arc length is
-the exact integral of that ramp-then-hold profile:
-
-    τ = |V_t − V_0| / a,   s += (V_0 + V_t)/2 · min(τ, dt) + V_t · max(0, dt − τ)   (τ ≤ dt)
-    s += V_0 dt ± a dt²/2                                                          (τ > dt)
+(docs/model/world.md). With both limits infinite (the default of a
+[`Leader`][rtsim.world.leader.Leader] built by hand)
+the speed steps at once, the paper's idealisation. Over a step of dt seconds the arc length is
+the exact integral of that ramp-then-hold profile (`rtsim.world.motion.leader_travel`).
 """
 
 from __future__ import annotations
@@ -22,6 +19,7 @@ from typing import Literal
 
 from rtsim.errors import InputError
 from rtsim.world._check import positive
+from rtsim.world.motion import leader_travel, ramp
 from rtsim.world.path import LeaderPath
 
 __all__ = ["Leader"]
@@ -60,28 +58,15 @@ class Leader:
 
     def advance(self, dt: float) -> None:
         """Drive ``dt`` seconds, the speed ramping toward the target (exact along the path)."""
-        v0, vt = self.speed, self.target_speed
-        if v0 == vt or dt <= 0.0:
-            self.s += v0 * dt
-            return
-        a = self.accel_max if vt > v0 else self.decel_max
-        tau = abs(vt - v0) / a
-        if tau <= dt:
-            self.s += 0.5 * (v0 + vt) * tau + vt * (dt - tau)
-            self.speed = vt
-        else:
-            v1 = v0 + math.copysign(a * dt, vt - v0)
-            self.s += 0.5 * (v0 + v1) * dt
-            self.speed = v1
+        self.speed, ds = leader_travel(
+            self.speed, self.target_speed, self.accel_max, self.decel_max, dt
+        )
+        self.s += ds
 
     def speed_after(self, dt: float) -> float:
         """The actual speed ``dt`` seconds from now if the target does not change."""
         v0, vt = self.speed, self.target_speed
-        if v0 == vt:
-            return v0
-        a = self.accel_max if vt > v0 else self.decel_max
-        step = a * dt
-        return vt if abs(vt - v0) <= step else v0 + math.copysign(step, vt - v0)
+        return ramp(v0, vt, self.accel_max if vt > v0 else self.decel_max, dt)[0]
 
     @property
     def pose(self) -> tuple[float, float, float]:

@@ -3,7 +3,7 @@
 
 At a scan the leader measures each follower's position in its own frame (true position plus
 noise). The Hough transform for follower i searches a window of radius r_H around a centre
-chosen by ``[localization] centre`` (:class:`~rtsim.world.config.LocalizationParams`):
+chosen by ``[localization] centre`` (`LocalizationParams`):
 
 - ``previous`` (the default; the paper's Fig 5): the follower's previous position relative to
   the leader — the leader's estimate at the previous scan, in the leader's frame at that scan.
@@ -15,7 +15,7 @@ chosen by ``[localization] centre`` (:class:`~rtsim.world.config.LocalizationPar
 
 The fix counts when the follower returned at least ``min_points`` beams and the measured
 centre lies within r_H of the window centre. Otherwise the track is **lost**, for one of
-:data:`LOST_CAUSES` (:func:`lost_cause`). A lost follower is **searched for** — the Hough
+`LOST_CAUSES` (`lost_cause`). A lost follower is **searched for** — the Hough
 transform re-run over the full scan with an accumulator for a window of radius r_reacq around
 the same centre — always (``[localization] search = "always"``, the default) or only when the
 leader, from its own prediction of every follower, expects it to return at least
@@ -81,7 +81,7 @@ def locate_one(
 def lost_cause(
     visible: bool, rel_xy: tuple[float, float], r_F: float, max_range: float, min_points: int
 ) -> str:
-    """The cause (:data:`LOST_CAUSES`) of a lost track: ``visible`` (at least ``min_points``
+    """The cause (`LOST_CAUSES`) of a lost track: ``visible`` (at least ``min_points``
     beams returned) means the fix fell outside the window; otherwise the follower at
     ``rel_xy`` (leader frame, cm) alone would return no beam (``out_of_range``) or some
     (``occluded``: hidden by another follower or too few beams)."""
@@ -99,7 +99,7 @@ def locate(
     r_reacq: float,
     min_points: int,
 ) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
-    """:func:`locate_one` for (n, 2) arrays of fixes and centres: three (n,) bool arrays."""
+    """`locate_one` for (n, 2) arrays of fixes and centres: three (n,) bool arrays."""
     rows = [
         locate_one(tuple(m), tuple(c), int(p), r_H, r_reacq, min_points)
         for m, c, p in zip(measured.tolist(), centre.tolist(), points.tolist(), strict=True)

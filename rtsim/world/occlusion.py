@@ -2,9 +2,9 @@
 
 A formation is drawn on the leader's path with every follower exactly on its place — its
 slot in the leader's frame for l-ψ, its follow-the-leader reference on the leader's trace
-(:class:`~rtsim.world.ftl.TraceFollower`) otherwise — at leader arc lengths ``step`` cm
+(`TraceFollower`) otherwise — at leader arc lengths ``step`` cm
 apart (about one processing window of travel). At each sample the laser's beams are counted
-with shadowing (:func:`~rtsim.world.laser.count_beams_xy`); a follower is
+with shadowing (`count_beams_xy`); a follower is
 
 - **occluded** when it returns fewer than ``min_points`` beams although, alone, some beam
   would reach it (a nearer follower hides it, or its disc covers too few beams);

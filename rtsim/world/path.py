@@ -2,8 +2,9 @@
 
 The remote-control station commands "move in a straight line, turn, turn direction, turn
 radius and desired speed" (the paper's §4). A path is a closed sequence of
-:class:`Straight` and :class:`Turn` segments from a start pose; the speed lives with the
-leader (:mod:`rtsim.world.leader`). Everything is a function of the arc length ``s`` (cm),
+[`Straight`][rtsim.world.path.Straight] and [`Turn`][rtsim.world.path.Turn] segments from a start
+pose; the speed lives with the
+leader (`rtsim.world.leader`). Everything is a function of the arc length ``s`` (cm),
 so the leader's pose is exact whatever the time step: on a turn of signed curvature κ
 (+1/r left, −1/r right) starting at (x0, y0, h0),
 
@@ -21,6 +22,7 @@ from typing import Literal
 
 from rtsim.errors import ScenarioError
 from rtsim.world._check import number, positive
+from rtsim.world.jit import kernel
 
 __all__ = ["Straight", "Turn", "Segment", "LeaderPath", "rounded_rectangle", "CLOSURE_TOL"]
 
@@ -84,9 +86,10 @@ Segment = Straight | Turn
 Pose = tuple[float, float, float]
 
 
-def _advance(pose: Pose, kappa: float, s: float) -> Pose:
-    """Pose after arc length ``s`` along curvature ``kappa`` from ``pose`` (exact)."""
-    x0, y0, h0 = pose
+@kernel(inline=True)
+def along(x0: float, y0: float, h0: float, kappa: float, s: float) -> Pose:
+    """Pose after arc length ``s`` along curvature ``kappa`` from pose (x0, y0, h0) (exact;
+    the compiled kernels call it too)."""
     if kappa == 0.0:
         return (x0 + s * math.cos(h0), y0 + s * math.sin(h0), h0)
     h = h0 + kappa * s
@@ -96,8 +99,8 @@ def _advance(pose: Pose, kappa: float, s: float) -> Pose:
 class LeaderPath:
     """A closed path of segments from a start pose (x, y, heading); immutable after construction.
 
-    Raises :class:`ScenarioError` if the path is empty or does not close: the end must be
-    within :data:`CLOSURE_TOL` cm of the start and the total turning a multiple of 2π.
+    Raises `ScenarioError` if the path is empty or does not close: the end must be
+    within `CLOSURE_TOL` cm of the start and the total turning a multiple of 2π.
     """
 
     def __init__(
@@ -125,7 +128,7 @@ class LeaderPath:
         poses = [self._start]
         s0 = [0.0]
         for seg, kappa in zip(segs, self._kappa, strict=True):
-            poses.append(_advance(poses[-1], kappa, seg.length))
+            poses.append(along(*poses[-1], kappa, seg.length))
             s0.append(s0[-1] + seg.length)
         self._poses = tuple(poses[:-1])
         self._s0 = tuple(s0[:-1])
@@ -183,7 +186,7 @@ class LeaderPath:
             return self._memo_pose
         u = s % self._lap
         k = bisect.bisect_right(self._s0, u) - 1
-        pose = _advance(self._poses[k], self._kappa[k], u - self._s0[k])
+        pose = along(*self._poses[k], self._kappa[k], u - self._s0[k])
         self._memo_pose_s, self._memo_pose = s, pose
         return pose
 

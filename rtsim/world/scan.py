@@ -1,6 +1,7 @@
 """One scan's outcome as the leader's localization saw it (docs/model/world.md).
 
-:class:`Scan` is what :meth:`rtsim.world.world.World.scan` returns: per follower, the beams
+[`Scan`][rtsim.world.scan.Scan] is what
+[`rtsim.world.world.World.scan`][rtsim.world.world.World.scan] returns: per follower, the beams
 returned, the position fixes, the Hough windows, lost and re-acquired tracks, and the truth's
 change since the previous scan with the bound violations it caused.
 """
@@ -168,12 +169,12 @@ class Scan:
 
     @property
     def cause(self) -> tuple[str, ...]:
-        """Why each follower's track was lost (:data:`LOST_CAUSES`; "" when it was not)."""
+        """Why each follower's track was lost (`LOST_CAUSES`; "" when it was not)."""
         return tuple(self._raw["cause"])
 
     @property
     def n_searched(self) -> int:
-        """Searches charged at this scan (:func:`~rtsim.world.localization.hough_time`)."""
+        """Searches charged at this scan ([`hough_time`][rtsim.world.localization.hough_time])."""
         return int(sum(_as_list(self._raw["searched"])))
 
     @property
@@ -182,7 +183,7 @@ class Scan:
         return int(sum(_as_list(self._raw["reacquired"])))
 
     def lost_by_cause(self) -> dict[str, int]:
-        """Lost tracks per cause, every cause of :data:`LOST_CAUSES` present (0 if none)."""
+        """Lost tracks per cause, every cause of `LOST_CAUSES` present (0 if none)."""
         out = dict.fromkeys(LOST_CAUSES, 0)
         for c in self._raw["cause"]:
             if c:

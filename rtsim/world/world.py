@@ -2,26 +2,32 @@
 
 Plain numpy + filterpy, no engine: whoever owns time calls, in simulated **milliseconds**,
 
-- :meth:`World.advance` to integrate the truth up to t (called by the others as needed);
-- :meth:`World.scan` at a window's scan: beams, position fixes, Hough windows, lost tracks,
-  and the observed bound violations since the previous scan (a :class:`Scan`);
-- :meth:`World.estimate` with that scan: the EKFs predict with the commands sent and
+- [`World.advance`][rtsim.world.world.World.advance] to integrate the truth up to t (called by the
+others as needed);
+- [`World.scan`][rtsim.world.world.World.scan] at a window's scan: beams, position fixes, Hough
+windows, lost tracks,
+  and the observed bound violations since the previous scan (a [`Scan`][rtsim.world.world.Scan]);
+- [`World.estimate`][rtsim.world.world.World.estimate] with that scan: the EKFs predict with the
+commands sent and
   update with the fixes; the new estimates centre the next scan's Hough windows (as they
   are, ``[localization] centre = "previous"``, or carried over the window with the commands
   held and seen from the leader's pose then, ``"predicted"``);
-- :meth:`World.command` at the end of follower i's send segment: l-ψ control
+- [`World.command`][rtsim.world.world.World.command] at the end of follower i's send segment: l-ψ
+control
   (``formation.model = "l-psi"``) or follow-the-leader (``"follow-the-leader"``,
-  :mod:`rtsim.world.ftl`) on the leader's estimate (propagated to t with the held command)
+  `rtsim.world.ftl`) on the leader's estimate (propagated to t with the held command)
   and the leader's own pose, held by the follower until the next command — a late window
   means stale commands;
-- :meth:`World.set_leader_speed` when the adjustment changes V_L: it sets the leader's
+- [`World.set_leader_speed`][rtsim.world.world.World.set_leader_speed] when the adjustment changes
+V_L: it sets the leader's
   target speed, toward which its actual speed ramps (``leader_accel_max``,
-  ``leader_decel_max``); :attr:`World.leader_speed` is the actual speed,
-  :attr:`World.leader_target_speed` the target.
+  ``leader_decel_max``); [`World.leader_speed`][rtsim.world.world.World.leader_speed] is the actual
+  speed,
+  [`World.leader_target_speed`][rtsim.world.world.World.leader_target_speed] the target.
 
 **Initial state** (t = 0): the leader at ``start_s`` on its path at V_Ld; each l-ψ
 follower's axle exactly on its slot, moving in steady formation (speed and heading from
-:func:`~rtsim.analysis.kinematics.formation_velocity`, turn rate ω_L); each
+[`formation_velocity`][rtsim.analysis.kinematics.formation_velocity], turn rate ω_L); each
 follow-the-leader follower on its reference point of the trace, heading along it at the
 reference's speed (turn rate 0); each holding that command without noise; each estimate
 is the truth plus N(0, init_position_sd²) per coordinate and N(0, init_heading_sd²) on
@@ -45,17 +51,18 @@ from rtsim.analysis.kinematics import (
 from rtsim.errors import RtsimError
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
-from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command, ramp1, ramp_arc
+from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
 from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
-from rtsim.world.localization import lost_cause
+from rtsim.world.localization import locate_one, lost_cause
+from rtsim.world.motion import ramp, ramp_arc
 from rtsim.world.scan import Scan
 
 __all__ = ["World", "Scan"]
 
-#: Standard normals the world draws ahead from its generator at a time (:meth:`World._normals`).
+#: Standard normals the world draws ahead from its generator at a time (`World._normals`).
 NORMAL_BLOCK = 512
 
 Array = NDArray[np.float64]
@@ -185,7 +192,7 @@ class World:
 
     @property
     def leader_target_speed(self) -> float:
-        """The speed the leader is ramping toward (cm/s): the last :meth:`set_leader_speed`."""
+        """The speed the leader is ramping toward (cm/s): the last `set_leader_speed`."""
         return self.leader.target_speed
 
     def set_leader_speed(self, v: float, t_ms: float | None = None) -> None:
@@ -263,7 +270,7 @@ class World:
 
     def _normals(self, m: int) -> list[float]:
         """The next ``m`` standard normals of ``rng``'s stream, drawn ahead in blocks of
-        :data:`NORMAL_BLOCK` (one numpy call per block instead of per scan or command).
+        `NORMAL_BLOCK` (one numpy call per block instead of per scan or command).
         A Generator's ``standard_normal(N)`` is the concatenation of consecutive smaller
         draws, so the world sees the same numbers; ``rng`` itself runs ahead by up to a
         block."""
@@ -315,19 +322,17 @@ class World:
         for k in range(n):
             tx, ty = truth_l[k]
             mx, my = tx + pn * z[2 * k], ty + pn * z[2 * k + 1]
-            # locate_one, inlined
-            cx, cy = centre[k]
-            dist = math.hypot(mx - cx, my - cy)
-            visible = pts[k] >= min_pts
-            in_w = visible and dist <= r_H
+            in_w, lost, reacq = locate_one((mx, my), centre[k], pts[k], r_H, r_re, min_pts)
             measured.append((mx, my))
             in_ws.append(in_w)
-            losts.append(not in_w)
-            search = not in_w and (expected is None or expected[k] >= min_pts)
+            losts.append(lost)
+            search = lost and (expected is None or expected[k] >= min_pts)
             searched.append(search)
-            reacqs.append(search and visible and dist <= r_re)
+            reacqs.append(reacq and search)
             causes.append(
-                "" if in_w else lost_cause(visible, truth_l[k], r_F, sens.max_range, min_pts)
+                ""
+                if in_w
+                else lost_cause(pts[k] >= min_pts, truth_l[k], r_F, sens.max_range, min_pts)
             )
             rho = math.hypot(tx, ty)
             beta = math.atan2(ty, tx) % two_pi
@@ -397,7 +402,7 @@ class World:
                     continue
                 t1 = min(pieces[j + 1][0], t) if j < last else t
                 dt = (t1 - t0) / 1000.0
-                v, vm = ramp1(v, vc, a, dt)
+                v, vm = ramp(v, vc, a, dt)
                 f.predict(vm, w, dt)
                 if t1 >= t and not (j < last and pieces[j + 1][0] <= t):
                     keep.insert(0, (t, vc, w))
@@ -457,7 +462,7 @@ class World:
     @property
     def follow_law(self) -> TraceFollower | None:
         """The follow-the-leader law the commands use (None for l-ψ); read it, do not drive
-        it (:meth:`TraceFollower.clone` for a copy to play commands ahead on)."""
+        it (`TraceFollower.clone` for a copy to play commands ahead on)."""
         return self._ftl
 
     def held_command(self, i: int) -> tuple[float, float]:

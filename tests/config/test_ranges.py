@@ -265,7 +265,7 @@ def _scenario_file(tmp_path: Path, **changes: str) -> Path:
 @pytest.mark.parametrize(
     ("old", "new", "key"),
     [
-        ("duration = 140", "duration = 1e300", "duration"),
+        ('until = "lap"', "duration = 1e300", "duration"),
         ("step_ms = 10", "step_ms = 1e-300", "world.step_ms"),
         ("r_H = 25 ", "r_H = 1e154 ", "sensing.r_H"),
         ("speed = 30 ", "speed = 30\nstart_s = 1e300 ", "leader.start_s"),

@@ -47,11 +47,11 @@ def test_no_lap_time_when_the_cap_is_reached(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     monkeypatch.setattr(duration, "LAP_CAP_FACTOR", 0.2)
-    # the file's duration (200 s) would extend the run: 10 s here
+    # the file's duration (200 s) is exact: a run to the end of the lap here
     text = PIN.read_text(encoding="utf-8")
     assert text.count("\nduration = 200 ") == 1
     f = tmp_path / "short.toml"
-    f.write_text(text.replace("\nduration = 200 ", "\nduration = 10 "), encoding="utf-8")
+    f.write_text(text.replace("\nduration = 200 ", '\nuntil = "lap" '), encoding="utf-8")
     res = run_scenario(f, seed=0, record_jobs=False)
     assert res.summary["lap_time_s"] is None
     assert res.summary["lap_time_note"].startswith(

@@ -10,7 +10,10 @@ by cause, searches, re-acquisitions); summary.json without the keys added since
 (``policy``, ``lap_time_s``, ``lap_time_note``, the physical outcomes and the lost tracks by
 cause: ``NEW_KEYS``). Re-pinned for exact time (docs/time.md): window releases from the
 stream's start and compensated segment ends move floats by an ulp (the world's values follow,
-relative ≤ 3e-10); row counts, flags and verdicts are unchanged.
+relative ≤ 3e-10); row counts, flags and verdicts are unchanged. Since the defaults became
+the recommended model (issue 34: plan, commands, fan, predicted/visible), the pin files name
+the old settings explicitly (``policy = "adjust"``, ``layout = "line"``, ``centre =
+"previous"``, ``search = "always"``), so these digests did not move.
 """
 
 from __future__ import annotations

@@ -45,7 +45,7 @@ def test_paper_scenarios_load(name: str, v: float, r_t: float, rho: float) -> No
     assert sorted(round(math.degrees(b), 9) for b in w.formation.beta_d) == [165, 195]
     turns = [seg for seg in w.path.segments if seg.kind == "turn"]
     assert turns and all(seg.radius == r_t for seg in turns)
-    assert s.duration >= w.path.lap_time(v)  # at least one lap
+    assert s.until == "lap" and s.duration == 0  # to the end of the lap, followers included
     assert w.thresholds.T_beta == pytest.approx(math.radians(5))
     ts = s.load_taskset()
     assert ts.window is not None and ts.window.n == 2 and ts.window.r_H == 25
@@ -68,9 +68,10 @@ def test_minimal_file_defaults(tmp_path: Path) -> None:
     s = load_scenario(write(tmp_path, BASE, "ok.toml"))
     lap = 1200 + 2 * math.pi * 200
     assert s.world.path.lap_length == pytest.approx(lap)
-    assert s.duration == math.ceil(lap / 25)
-    assert s.world.follower.radius == 25 and s.world.thresholds.localization == "radial"
-    assert s.adjust.cap == math.inf and s.adjust.floor == 0 and s.adjust.predictor == "formation"
+    assert s.duration == 0 and s.until == "lap"  # no duration: to the end of the lap
+    # the recommended model (issue 34): the localization bound follows the predicted centre
+    assert s.world.follower.radius == 25 and s.world.thresholds.localization == "predicted"
+    assert s.adjust.cap == math.inf and s.adjust.floor == 0 and s.adjust.predictor == "commands"
 
 
 def test_slots_shape_and_degrees(tmp_path: Path) -> None:
@@ -232,7 +233,7 @@ def test_duration_and_malformed(tmp_path: Path) -> None:
         load_scenario(write(tmp_path, BASE + "[[["))
     with pytest.raises(ScenarioError, match=r"^.*bad\.toml: formation: missing \(required\)$"):
         load_scenario(write(tmp_path, BASE.split("[formation]")[0]))
-    with pytest.raises(ScenarioError, match="cannot read scenario"):
+    with pytest.raises(ScenarioError, match="missing.toml: no such scenario file$"):
         load_scenario(tmp_path / "missing.toml")
 
 

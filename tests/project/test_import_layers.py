@@ -84,12 +84,13 @@ def _type_checking(test: ast.expr) -> bool:
     )
 
 
-def _imports(tree: ast.AST) -> Iterator[ast.Import | ast.ImportFrom]:
-    """Every import statement, except those in the body of ``if TYPE_CHECKING:``."""
+def _imports(tree: ast.AST, types: bool = False) -> Iterator[ast.Import | ast.ImportFrom]:
+    """Every import statement, except those in the body of ``if TYPE_CHECKING:`` (included
+    with ``types``)."""
     stack: list[ast.AST] = [tree]
     while stack:
         node = stack.pop()
-        if isinstance(node, ast.If) and _type_checking(node.test):
+        if not types and isinstance(node, ast.If) and _type_checking(node.test):
             stack.extend(node.orelse)
             continue
         if isinstance(node, ast.Import | ast.ImportFrom):
@@ -127,9 +128,10 @@ def defining_module(mod: str, name: str, depth: int = 0) -> str:
 
 
 @cache
-def edges(mod: str) -> frozenset[str]:
+def edges(mod: str, types: bool = False) -> frozenset[str]:
+    """The modules ``mod`` imports (``types``: type-only imports counted too)."""
     out: set[str] = set()
-    for node in _imports(_tree(mod)):
+    for node in _imports(_tree(mod), types):
         if isinstance(node, ast.Import):
             for alias in node.names:
                 if alias.name == "rtsim" or alias.name.startswith("rtsim."):
@@ -144,8 +146,8 @@ def edges(mod: str) -> frozenset[str]:
     return frozenset(out)
 
 
-def graph() -> dict[str, frozenset[str]]:
-    return {m: edges(m) for m in modules()}
+def graph(types: bool = False) -> dict[str, frozenset[str]]:
+    return {m: edges(m, types) for m in modules()}
 
 
 def cycles(g: dict[str, frozenset[str]]) -> list[list[str]]:
@@ -218,6 +220,13 @@ def test_no_arrow_runs_up_a_layer() -> None:
     assert upward(graph()) == []
 
 
+def test_no_import_circles_counting_type_only_imports() -> None:
+    """A type imported under ``if TYPE_CHECKING:`` ties two modules as much as a runtime
+    import does for a reader: a type that both need lives below both (issue 31)."""
+    assert cycles(graph(types=True)) == []
+    assert upward(graph(types=True)) == []
+
+
 def test_the_checker_sees_circles_and_upward_arrows() -> None:
     """The checks can fail: a hand-made graph with a circle and an arrow up."""
     g = {"rtsim.model.a": frozenset({"rtsim.sim.b"}), "rtsim.sim.b": frozenset({"rtsim.model.a"})}
@@ -230,6 +239,8 @@ def test_the_checker_sees_circles_and_upward_arrows() -> None:
     assert [a.name for n in _imports(tree) if isinstance(n, ast.Import) for a in n.names] == [
         "rtsim.y"
     ]
+    names = [a.name for n in _imports(tree, True) if isinstance(n, ast.Import) for a in n.names]
+    assert sorted(names) == ["rtsim.x", "rtsim.y"]
 
 
 if __name__ == "__main__":  # python tests/project/test_import_layers.py: the current findings
@@ -237,6 +248,8 @@ if __name__ == "__main__":  # python tests/project/test_import_layers.py: the cu
     print("modules:", len(g), "edges:", sum(len(v) for v in g.values()))
     for c in cycles(g):
         print("circle:", " ".join(c))
+    for c in cycles(graph(types=True)):
+        print("circle (type-only imports counted):", " ".join(c))
     for u in upward(g):
         print("up:", u)
     for m, ts in g.items():

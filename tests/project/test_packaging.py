@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from rtsim._version import __version__
 from rtsim.cli import main
 from rtsim.examples import EXAMPLES
 
@@ -58,6 +59,8 @@ def test_wheel_has_license_metadata_and_every_example(tmp_path: Path) -> None:
         names = set(z.namelist())
         meta = z.read(next(n for n in names if n.endswith(".dist-info/METADATA"))).decode()
     assert "License-Expression: MIT" in meta and "Classifier: Typing :: Typed" in meta
+    # the static version string is the metadata's (pyproject reads rtsim/_version.py)
+    assert f"\nVersion: {__version__}\n" in meta
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
     for ex in EXAMPLES.values():
         assert f"rtsim/data/{ex.resource}" in names, ex.name

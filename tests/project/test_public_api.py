@@ -56,10 +56,22 @@ def test_top_level_namespace_is_pinned() -> None:
             "load_scenario",
             "load_taskset",
             "run_scenario",
+            "run_sweep",
             "simulate",
             "window_bounds",
         ]
     )
+
+
+def test_run_sweep_is_not_shadowed_by_the_sweep_package() -> None:
+    """``rtsim.run_sweep`` (a grid in one call, a DataFrame) stays the facade's after
+    ``import rtsim.sweep`` (issue 34), beside the file-driven ``rtsim.sweep.run_sweep``."""
+    import rtsim
+    import rtsim.sweep
+    from rtsim._facade import run_sweep
+
+    assert rtsim.run_sweep is run_sweep and rtsim.sweep.run_sweep is not run_sweep
+    assert "grid" in run_sweep.__doc__ and "point_seed" in run_sweep.__doc__
 
 
 def test_top_level_entry_points_are_the_subpackages_and_load_lazily() -> None:

@@ -96,7 +96,7 @@ def test_smoke_points_equal_direct_simulation(smoke_serial: pd.DataFrame) -> Non
     for t in data["tasks"]:
         t["bcet"] = {"dead_reckoning": 2, "command": 10}[t["name"]]
     ts = parse_taskset(data, "direct")
-    res = simulate(ts, 20000, seed=int(row["seed"]), exec_model="uniform", suspension="idle")
+    res = simulate(ts, 20000, seed=int(row["point_seed"]), exec_model="uniform", suspension="idle")
     assert row["w"] == pytest.approx(
         window_bounds(
             load_taskset(ROOT / "tasksets" / "barrel_robots.toml").with_window(
@@ -128,7 +128,8 @@ def test_same_seed_same_table_other_seed_other_stochastic_metrics(
         tmp_path / "other",
         workers=1,
     )
-    assert (other["seed"] != smoke_serial["seed"]).all()
+    assert (other["seed"] == 2).all() and (smoke_serial["seed"] == 1).all()  # as asked
+    assert (other["point_seed"] != smoke_serial["point_seed"]).all()
     for col in ("mean_response.command", "mean_response.dead_reckoning"):
         assert (other[col] != smoke_serial[col]).all(), col
     # The window chain has no best case: its responses do not depend on the seed.
@@ -195,13 +196,19 @@ def test_resume_computes_only_missing_points(
     assert list(first.table["double"]) == [2 * i for i in range(7)]
 
 
-def test_changed_sweep_file_is_refused_unless_restart(
+def test_a_grown_grid_keeps_its_points_another_change_needs_restart(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     spec = call_sweep(tmp_path, "slow", n=3)
     out = tmp_path / "out"
     assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 0
-    call_sweep(tmp_path, "slow", n=4)  # same file, one more point
+    before = {f.name: f.read_text() for f in (out / "points").glob("*.json")}
+    call_sweep(tmp_path, "slow", n=4)  # same file, one more point: a grown grid (issue 34)
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    after = {f.name: f.read_text() for f in (out / "points").glob("*.json")}
+    assert len(after) == 4 and all(after[k] == v for k, v in before.items())  # kept, not rerun
+    assert len(pd.read_parquet(out / "results.parquet")) == 4
+    call_sweep(tmp_path, "slow", n=4, options='mode = "x"')  # something else changed
     capsys.readouterr()
     assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 2
     err = capsys.readouterr().err
@@ -220,7 +227,7 @@ def test_metrics_filter_and_bad_metrics(tmp_path: Path) -> None:
     df = run_sweep(
         call_sweep(tmp_path, "slow", n=2, extra='metrics = ["dou*"]'), tmp_path / "a", workers=1
     )
-    assert list(df.columns) == ["i", "seed", "status", "error", "double"]
+    assert list(df.columns) == ["i", "seed", "point_seed", "status", "error", "double"]
     df = run_sweep(
         call_sweep(tmp_path, "slow", n=2, extra='metrics = ["nothere"]'), tmp_path / "b", workers=1
     )
@@ -235,7 +242,8 @@ def test_options_and_seed_reach_the_call(tmp_path: Path) -> None:
         call_sweep(tmp_path, "echo", n=2, options='mode = "x"'), tmp_path / "o", workers=1
     )
     assert list(df["p.i"]) == [0, 1] and list(df["o.mode"]) == ["x", "x"]
-    assert list(df["s"]) == list(df["seed"])
+    assert list(df["s"]) == list(df["point_seed"])  # the seed the call received
+    assert list(df["seed"]) == [3, 3]  # the sweep's seed (the helper's), as asked
 
 
 def test_missing_kind_module_fails_points_not_the_sweep(
@@ -317,7 +325,7 @@ def test_scenario_kind_matches_a_direct_coupled_run(tmp_path: Path) -> None:
         parse_scenario(data, str(test1), base=test1.parent),
         mode="adjust",
         duration_s=3.0,
-        seed=int(row["seed"]),
+        seed=int(row["point_seed"]),
         record_jobs=False,
     ).summary
     assert row["v_leader_desired"] == 30 == direct["v_leader_desired"]

@@ -20,7 +20,7 @@ from rtsim.world import (
     rounded_rectangle,
 )
 from rtsim.world.formation import Formation
-from rtsim.world.unicycle import arc_step, ramp
+from rtsim.world.motion import arc, clip, ramp
 
 QUIET_EKF = EkfParams(init_position_sd=0.0, init_heading_sd=0.0)
 QUIET_SENSING = SensingParams(position_noise=0.0)
@@ -31,24 +31,38 @@ def quiet_follower(**kw: float) -> FollowerParams:
 
 
 def test_arc_step_matches_fine_euler() -> None:
-    x, y, th = arc_step(
-        np.array([1.0]), np.array([2.0]), np.array([0.3]), np.array([40.0]), np.array([0.7]), 1.5
-    )
+    x, y, th = arc(1.0, 2.0, 0.3, 40.0, 0.7, 1.5)
     xe, ye, te, n = 1.0, 2.0, 0.3, 200_000
     h = 1.5 / n
     for _ in range(n):
         xe += 40 * math.cos(te + 0.35 * h) * h  # midpoint in heading
         ye += 40 * math.sin(te + 0.35 * h) * h
         te += 0.7 * h
-    assert (x[0], y[0], th[0]) == pytest.approx((xe, ye, te), abs=1e-6)
+    assert (x, y, th) == pytest.approx((xe, ye, te), abs=1e-6)
+    # a straight step (ω = 0) is the plain line
+    assert arc(1.0, 2.0, 0.3, 40.0, 0.0, 1.5) == pytest.approx(
+        (1.0 + 60.0 * math.cos(0.3), 2.0 + 60.0 * math.sin(0.3), 0.3)
+    )
 
 
 def test_ramp_mean_speed_by_hand() -> None:
-    v1, vm = ramp(np.array([10.0]), np.array([30.0]), 100.0, 0.5)
+    v1, vm = ramp(10.0, 30.0, 100.0, 0.5)
     # reaches 30 after 0.2 s: distance 0.2·20 + 0.3·30 = 13 cm over 0.5 s
-    assert v1[0] == 30.0 and vm[0] == pytest.approx(26.0)
-    v1, vm = ramp(np.array([10.0]), np.array([30.0]), 100.0, 0.1)
-    assert v1[0] == pytest.approx(20.0) and vm[0] == pytest.approx(15.0)
+    assert v1 == 30.0 and vm == pytest.approx(26.0)
+    v1, vm = ramp(10.0, 30.0, 100.0, 0.1)
+    assert v1 == pytest.approx(20.0) and vm == pytest.approx(15.0)
+    assert ramp(10.0, 30.0, math.inf, 0.1) == (30.0, pytest.approx(30.0))  # no limit: at once
+    assert ramp(30.0, 10.0, 100.0, 0.1) == (pytest.approx(20.0), pytest.approx(25.0))
+
+
+def test_clip_is_pythons_min_max() -> None:
+    """The saturation both backends run: min(max(v, −lim), lim), NaN and ties included."""
+    rng = np.random.default_rng(4)
+    values = [*rng.normal(0.0, 200.0, 2000).tolist(), 150.0, -150.0, 0.0, -0.0, math.nan]
+    for lim in (150.0, 3.0, math.inf, 0.0):
+        for v in values:
+            want = min(max(v, -lim), lim)
+            assert str(clip(v, lim)) == str(want), (v, lim)
 
 
 def _turning_world(rng_seed: int = 3) -> World:

@@ -1,0 +1,136 @@
+"""Kernel sources (rtsim.world.jit): the dependencies found in the code, the source key that
+names a kernel's cache directory, and a kernel calling a kernel source of another module
+compiled fresh after that module is edited (numba's own cache would load a stale build)."""
+
+from __future__ import annotations
+
+import importlib
+import math
+import sys
+import textwrap
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from rtsim.world import jit, kernels, motion
+from rtsim.world.compiled import available
+
+CALLER = """
+from rtsim.world.jit import kernel
+from {pkg}.callee import double
+
+SCALE = 10
+
+@kernel
+def f(x):
+    return double(x) + SCALE
+"""
+
+CALLEE = """
+from rtsim.world.jit import kernel
+
+@kernel
+def double(x):
+    return {body}
+"""
+
+
+def _package(tmp_path: Path, name: str, body: str) -> tuple[ModuleType, Path]:
+    # (the edits below change the file's size: import's and inspect's freshness checks)
+    pkg = tmp_path / name
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "callee.py").write_text(textwrap.dedent(CALLEE.format(body=body)))
+    (pkg / "caller.py").write_text(textwrap.dedent(CALLER.format(pkg=name)))
+    sys.path.insert(0, str(tmp_path))
+    importlib.invalidate_caches()
+    return importlib.import_module(f"{name}.caller"), pkg
+
+
+def _edit(pkg: Path, name: str, body: str) -> ModuleType:
+    (pkg / "callee.py").write_text(textwrap.dedent(CALLEE.format(body=body)))
+    importlib.invalidate_caches()
+    importlib.reload(sys.modules[f"{name}.callee"])
+    return importlib.reload(sys.modules[f"{name}.caller"])
+
+
+def test_dependencies_found_in_the_code() -> None:
+    calls, values = jit.dependencies(motion.follower_advance)
+    assert calls == {"ramp_arc": motion.ramp_arc}
+    calls, _ = jit.dependencies(motion.ramp_arc)
+    assert calls == {"ramp": motion.ramp, "arc": motion.arc}
+    calls, values = jit.dependencies(kernels._search)
+    assert set(calls) == {"_point", "_scale", "_gap"}
+    assert values["_NEWTON"] > 0 and "FTL_STEP" in values  # constants numba freezes
+    assert not jit.is_kernel(math.sin) and jit.is_kernel(motion.arc)
+
+
+@pytest.fixture
+def isolated(monkeypatch: pytest.MonkeyPatch) -> pytest.MonkeyPatch:
+    """sys.path restored after the test, no .pyc written for the temporary packages."""
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    return monkeypatch
+
+
+def test_editing_a_dependency_in_another_module_changes_the_key(
+    tmp_path: Path, isolated: pytest.MonkeyPatch
+) -> None:
+    caller, pkg = _package(tmp_path, "kpkg_key", "2 * x")
+    before = jit.source_key(caller.f)
+    callee_before = jit.source_key(sys.modules["kpkg_key.callee"].double)
+    other = jit.source_key(motion.arc)
+    assert jit.source_key(caller.f) == before  # stable
+    caller = _edit(pkg, "kpkg_key", "x + x + 0")
+    assert jit.source_key(caller.f) != before
+    # the callee's own key moves too, an unrelated kernel's does not
+    assert jit.source_key(sys.modules["kpkg_key.callee"].double) != callee_before
+    assert jit.source_key(motion.arc) == other
+
+
+def test_a_constant_the_kernel_reads_is_in_the_key(
+    tmp_path: Path, isolated: pytest.MonkeyPatch
+) -> None:
+    caller, _ = _package(tmp_path, "kpkg_const", "2 * x")
+    before = jit.source_key(caller.f)
+    jit._digest.cache_clear()
+    isolated.setattr(caller, "SCALE", 11)
+    assert jit.source_key(caller.f) != before
+    jit._digest.cache_clear()
+
+
+@pytest.mark.skipif(not available(), reason="numba is not importable")
+def test_compiled_kernel_sees_an_edit_in_another_module(
+    tmp_path: Path, isolated: pytest.MonkeyPatch
+) -> None:
+    """Compiled and cached, then the callee edited: the next build is compiled afresh (a new
+    cache directory) and returns the edited result; the same sources load from the cache."""
+    from numba.core import config
+
+    isolated.setattr(config, "CACHE_DIR", str(tmp_path / "numba-cache"))
+    root = jit.cache_root()
+    assert root is not None and root.startswith(str(tmp_path / "numba-cache"))
+    caller, pkg = _package(tmp_path, "kpkg_run", "2 * x")
+    f = jit.build(caller.f)
+    assert f(3) == 16 and f.py_func is not caller.f  # compiled against its callee's build
+    assert caller.f(3) == 16  # the source itself stays Python
+    key1 = jit.source_key(caller.f)
+    assert any(Path(root, key1).iterdir())  # cached under its key
+    caller = _edit(pkg, "kpkg_run", "3 * x + 0")
+    g = jit.build(caller.f)
+    assert g(3) == 19
+    assert jit.source_key(caller.f) != key1
+
+
+def test_rollout_pack_reads_back_as_its_named_scalars() -> None:
+    """kernels.scalars reads the float pack in RolloutScalars' field order (distinct values,
+    so a swapped field fails); the compiled rollout packs the five changing ones first."""
+    import numpy as np
+
+    from rtsim.world.compiled import _CHANGING
+
+    fields = kernels.RolloutScalars._fields
+    named = kernels.RolloutScalars(*(float(i) + 0.5 for i in range(len(fields))))
+    assert kernels.scalars(np.array(named)) == named
+    assert fields[:_CHANGING] == ("leader_s", "leader_speed", "v_ld", "t_now", "next_scan")
