@@ -519,35 +519,3 @@ def transaction_work(ts: TaskSet, w: float | None, *, suspension: str = "idle") 
     ``ts`` at ``w`` (interference terms,
     `_least_work`), the estimate its work limit checks before it starts."""
     return _least_work(transactions_of(ts, w), suspension)
-
-
-def w_txn(
-    ts: TaskSet,
-    *,
-    overhead: float | None = None,
-    suspension: str = "idle",
-    tol: float = 1e-6,
-    force: bool = False,
-) -> float:
-    """The least window w (ms, to ``tol``) at which every task of the processing-window set
-    ``ts`` has a bound within its deadline, each task taking the least of its sound bounds
-    ([`transaction_bounds`][rtsim.analysis.transaction.transaction_bounds]). Feasibility need not be
-    monotone in w (the offsets move
-    with it), so the search is `rtsim.analysis.validation.smallest_passing`: bisection
-    from above the suspension-aware w_susp (or w_rta under ``suspension="cpu"``), which
-    passes, with a scan of 20 windows above the result. ``inf`` when that start is."""
-    from rtsim.analysis.bounds import w_rta, w_susp
-    from rtsim.analysis.validation import smallest_passing
-
-    hi = w_susp(ts, overhead) if suspension == "idle" else w_rta(ts)
-    if not math.isfinite(hi):
-        return math.inf
-
-    def passes(w: float) -> bool:
-        bounds = transaction_bounds(ts, w, overhead=overhead, suspension=suspension, force=force)
-        return all(r is not None for r in bounds.values())
-
-    lo = 0.5 * hi
-    while passes(lo):
-        lo *= 0.5
-    return smallest_passing(passes, lo, hi, tol=tol, scan=20).w

@@ -95,8 +95,7 @@ def _cell(x: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
-    from rtsim.analysis.bounds import window_bounds
-    from rtsim.analysis.transaction import w_txn
+    from rtsim.analysis.bounds import w_txn, window_bounds
     from rtsim.cli._set import set_overrides
     from rtsim.io.taskset import load_taskset
 

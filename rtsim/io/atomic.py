@@ -17,6 +17,7 @@ from typing import Any
 
 __all__ = [
     "atomic_path",
+    "stem",
     "temp_target",
     "naming",
     "write_text",
@@ -65,12 +66,27 @@ def temp_target(entry: str) -> str | None:
     return m.group("name") if m else None
 
 
+#: Longest target name used whole in a staging name (a name is at most 255 bytes; the
+#: staging prefix and suffix add about 30): longer names are cut and a hash appended.
+_NAME_MAX_WHOLE = 180
+
+
+def stem(name: str) -> str:
+    """``name`` as it appears in the hidden staging names beside it: whole when short, else
+    cut and followed by a hash of the whole (so 225- to 255-byte names still work)."""
+    if len(os.fsencode(name)) <= _NAME_MAX_WHOLE:
+        return name
+    import hashlib
+
+    digest = hashlib.sha256(os.fsencode(name)).hexdigest()[:16]
+    cut = os.fsencode(name)[:100].decode("utf-8", "ignore")
+    return f"{cut}~{digest}"
+
+
 @contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; on success it replaces ``target``. A write
     error inside names ``target`` ([`naming`][rtsim.io.atomic.naming])."""
-    from rtsim.io.outdir import stem
-
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     try:  # (a long name is cut and hashed in the temporary name: stem)

@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from rtsim.errors import InputError
+from rtsim.io.atomic import stem
 
 __all__ = [
     "StagedDir",
@@ -74,11 +75,6 @@ _AT_FDCWD = -100
 _OLD_AGE_S = 60.0  # a ".new" directory older than this belongs to a killed run
 
 
-#: Longest target name used whole in a staging name (a name is at most 255 bytes; the
-#: staging prefix and suffix add about 30): longer names are cut and a hash appended.
-_NAME_MAX_WHOLE = 180
-
-
 #: The staging directories of this process and the places they stand for, for messages
 #: (the latest `_SHOWN_KEPT`: an error is reported after its run's staging is gone).
 _SHOWN: dict[str, str] = {}
@@ -100,18 +96,6 @@ def shown(path: str | bytes | os.PathLike[Any]) -> str:
         if p == staged or p.startswith(staged + os.sep):
             return target + p[len(staged) :]
     return p
-
-
-def stem(name: str) -> str:
-    """``name`` as it appears in the hidden staging names beside it: whole when short, else
-    cut and followed by a hash of the whole (so 225- to 255-byte names still work)."""
-    if len(os.fsencode(name)) <= _NAME_MAX_WHOLE:
-        return name
-    import hashlib
-
-    digest = hashlib.sha256(os.fsencode(name)).hexdigest()[:16]
-    cut = os.fsencode(name)[:100].decode("utf-8", "ignore")
-    return f"{cut}~{digest}"
 
 
 def sidecar(target: str | os.PathLike[str]) -> Path:

@@ -94,7 +94,12 @@ def _hold_signals(held: list[int]) -> dict[int, Any]:
     def hold(signum: int, frame: Any) -> None:
         held.append(signum)
 
-    return {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
+    # (a signal the process ignores, as under nohup, stays ignored)
+    return {
+        sig: signal.signal(sig, hold)
+        for sig in (signal.SIGINT, signal.SIGTERM)
+        if signal.getsignal(sig) is not signal.SIG_IGN
+    }
 
 
 def _restore_signals(restore: dict[int, Any]) -> None:

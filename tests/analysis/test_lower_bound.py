@@ -10,8 +10,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from rtsim.analysis.bounds import lower_bound, window_bounds
-from rtsim.analysis.transaction import w_txn
+from rtsim.analysis.bounds import lower_bound, w_txn, window_bounds
 from rtsim.coupling import run_scenario
 from rtsim.errors import InputError
 from rtsim.io.scenario import ScenarioError, load_scenario

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from exact_schedule import brute
 
-from rtsim.analysis.bounds import w_susp
+from rtsim.analysis.bounds import w_susp, w_txn
 from rtsim.analysis.rta import analyze
 from rtsim.analysis.suspension import suspension_aware
 from rtsim.analysis.transaction import (
@@ -23,7 +23,6 @@ from rtsim.analysis.transaction import (
     Transaction,
     analyze_transactions,
     transaction_bounds,
-    w_txn,
 )
 from rtsim.cli import main
 from rtsim.io.taskset import load_taskset

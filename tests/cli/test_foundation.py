@@ -87,7 +87,7 @@ def test_bounds_default_single(capsys):
     assert rc == 0
     d = strict_json(out)
     want = window_bounds(load_taskset()).as_dict()
-    from rtsim.analysis.transaction import w_txn
+    from rtsim.analysis.bounds import w_txn
 
     assert d == json.loads(json.dumps({**want, "w_txn": w_txn(load_taskset())}))
     assert {
