@@ -16,10 +16,16 @@ reasons the group stops working, computed from the analysis and the formation:
   and the speed it needs in a turn, (1 + o/R)·V_Ld, against the followers' top speed.
 
 Outputs in DIR: ``followers.csv`` (one row per run), ``followers_summary.csv`` and
-``followers.md`` (the table), ``followers.png`` (misses + lost tracks and lap time against n,
-one line per r_H, per test), ``manifest.json``.
+``followers.md`` (the table), ``followers.png`` (misses + lost tracks + confusions and lap
+time against r_H, one line per n, per test), ``manifest.json``. Per run also the confusions,
+the fix error (p95, max), radio losses, the laps driven, the leader's distance, the lap time
+and the loop's CPU time.
 
     python experiments/followers.py [--quick] [--choices] [--out DIR] [--workers N]
+        [--followers 2,4] [--hough-radius 15,30] [--seeds 0] [--tests test2]
+
+Any of ``--followers``, ``--hough-radius``, ``--seeds``, ``--tests`` replaces the default
+grid by their product (the others at their defaults), one lap each.
 
 ``--choices`` instead measures what each modelling choice moves, one lap, seed 0, n = 2, 4, 6,
 r_H = 25 cm: the original choices (``previous`` centre, ``always`` search, the line,
@@ -47,6 +53,7 @@ import pandas as pd
 from rtsim.coupling import run_scenario
 from rtsim.io.atomic import write_table, write_text
 from rtsim.io.manifest import write_manifest
+from rtsim.world.localization import LOST_CAUSES
 
 TESTS = ("test1", "test2")
 NS = tuple(range(1, 11))
@@ -54,7 +61,7 @@ RADII = (15.0, 25.0, 35.0, 50.0)
 SEEDS = (0, 1, 2)
 #: the goal's extra seeds: n = 1..6 at r_H = 25 cm
 GOAL_NS, GOAL_R, GOAL_SEEDS = tuple(range(1, 7)), 25.0, (3, 4)
-CAUSES = ("outside_window", "occluded", "out_of_range")
+CAUSES = LOST_CAUSES
 
 
 def _choice(centre: str, search: str, layout: str, bound: str) -> dict[str, Any]:
@@ -100,7 +107,7 @@ def run_choice(task: tuple[str, int, str]) -> dict[str, Any]:
 
 def choices_markdown(df: pd.DataFrame) -> str:
     lines = [
-        "| test | n | choice | misses | lost (window/occl./range) | searches | mean w (ms) "
+        "| test | n | choice | misses | lost (window/occl./range/neighb.) | searches | mean w (ms) "
         "| lap (s) | critical |",
         "|" + "---|" * 9,
     ]
@@ -114,8 +121,20 @@ def choices_markdown(df: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
-def tasks(quick: bool) -> list[tuple[str, int, float, int, float | None]]:
-    """(test, n, r_H, seed, duration) of every run."""
+def tasks(
+    quick: bool, grid: tuple[Any, Any, Any, Any] | None = None
+) -> list[tuple[str, int, float, int, float | None]]:
+    """(test, n, r_H, seed, duration) of every run: ``grid`` (tests, ns, radii, seeds, each
+    None for the default's) one lap each, else the default grid (module docstring)."""
+    if grid is not None and any(g is not None for g in grid):
+        ts, ns, rs, ss = grid
+        return [
+            (t, n, r, seed, None)
+            for t in ts or TESTS
+            for n in ns or NS
+            for r in rs or RADII
+            for seed in ss or SEEDS
+        ]
     if quick:
         return [(t, n, 25.0, 0, 15.0) for t in TESTS for n in (2, 3)]
     # the goal's runs first (n = 1..6 at r_H = 25 cm, seeds 0-4), then the rest of the grid
@@ -149,18 +168,27 @@ def run_one(task: tuple[str, int, float, int, float | None]) -> dict[str, Any]:
         row["error"] = str(exc)
         return row
     s = res.summary
+    err = s.get("localization_error_cm") or {}
     row.update(
         {
             "missed": s["missed"],
             "tracks_lost": s["tracks_lost"],
             **{f"lost_{c}": s["tracks_lost_by_cause"][c] for c in CAUSES},
             "searches": s["searches"],
+            "confusions": s.get("confusions", 0),
+            "radio_losses": s.get("radio_losses", 0),
+            "fix_error_p95_cm": err.get("p95", np.nan),
+            "fix_error_max_cm": err.get("max", np.nan),
             "windows": s["windows"],
             "w_sch": s["w_sch"],
+            "infeasible": s["infeasible"],
+            "laps": s["laps"],
+            "leader_cm": s["distance_cm"]["leader"] if "distance_cm" in s else np.nan,
             "lap_s": np.nan if s["lap_time_s"] is None else s["lap_time_s"],
             "critical_share": s["critical_share"],
             "min_speed_ratio": s["min_speed_ratio"],
             "max_response": s["max_response"],
+            "cpu_s": res.timing["simulation_cpu_s"],
             "wall_s": time.perf_counter() - t0,
         }
     )
@@ -219,6 +247,9 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
         "tracks_lost": "sum",
         **{f"lost_{c}": "sum" for c in CAUSES},
         "searches": "sum",
+        "confusions": "sum",
+        "fix_error_max_cm": "max",
+        "laps": "min",
         "lap_s": "mean",
         "critical_share": "mean",
         "min_speed_ratio": "min",
@@ -246,17 +277,19 @@ def markdown(df: pd.DataFrame) -> str:
     """The summary as a Markdown table."""
     phys = "collisions" in df
     lines = [
-        "| test | n | r_H (cm) | seeds | misses | lost (window/occl./range) | searches "
+        "| test | n | r_H (cm) | seeds | misses | lost (window/occl./range/neighb.) | searches "
+        "| confusions | fix error max (cm) | laps (min) "
         "| lap (s) | critical | min V_L/V_Ld | w_sch (ms) | w_sch / path bound | "
         "beams at ρ_d | width (cm) | turn speed (cm/s) |"
         + (" collisions | min distance (cm) |" if phys else ""),
-        "|" + "---|" * (17 if phys else 15),
+        "|" + "---|" * (20 if phys else 18),
     ]
     for r in df.to_dict("records"):
         by = "/".join(str(int(r[f"lost_{c}"])) for c in CAUSES)
         lines.append(
             f"| {r['test']} | {r['n']} | {r['r_H']:g} | {r['seeds']} | "
             f"{r['missed']} | {r['tracks_lost']} ({by}) | {r['searches']} | "
+            f"{r['confusions']} | {r['fix_error_max_cm']:.1f} | {r['laps']:.2f} | "
             f"{r['lap_s']:.1f} | {r['critical_share']:.2f} | "
             f"{r['min_speed_ratio']:.2f} | {r['w_sch']:.0f} | "
             f"{r['wsch_over_path']:.2f} | {r['beams']:.0f} | {r['width_cm']:.0f} | "
@@ -267,8 +300,10 @@ def markdown(df: pd.DataFrame) -> str:
 
 
 def figure(df: pd.DataFrame, path: Path) -> None:
-    """Per test: misses + lost tracks (summed over the seeds, log scale) and lap time against
-    n, one line per r_H."""
+    """Per test, against r_H, one line per n: what a window loses (misses + lost tracks +
+    confusions, summed over the seeds, log scale: too small a window loses its follower, too
+    large lets a neighbour in) and what it costs (the lap time, the leader's progress; a run
+    that did not finish its lap is drawn hollow). The right r_H lies between."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -281,23 +316,51 @@ def figure(df: pd.DataFrame, path: Path) -> None:
         2, len(tests), figsize=(5.5 * len(tests), 6.5), squeeze=False, sharex=True
     )
     for j, test in enumerate(tests):
-        for i, r in enumerate(sorted(df["r_H"].unique())):
-            sel = df[(df["test"] == test) & (df["r_H"] == r)].sort_values("n")
-            bad = (sel["missed"] + sel["tracks_lost"]).to_numpy(float)
-            axes[0][j].plot(sel["n"], bad + 1.0, marker="o", color=f"C{i}", label=f"r_H = {r:g} cm")
-            axes[1][j].plot(
-                sel["n"], sel["lap_s"], marker="o", color=f"C{i}", label=f"r_H = {r:g} cm"
+        for i, n in enumerate(sorted(df["n"].unique())):
+            sel = df[(df["test"] == test) & (df["n"] == n)].sort_values("r_H")
+            if sel.empty:
+                continue
+            bad = (sel["missed"] + sel["tracks_lost"] + sel["confusions"]).to_numpy(float)
+            axes[0][j].plot(sel["r_H"], bad + 1.0, marker="o", color=f"C{i}", label=f"n = {n}")
+            done = sel["laps"].to_numpy(float) >= 1.0
+            axes[1][j].plot(sel["r_H"], sel["lap_s"], color=f"C{i}", label=f"n = {n}")
+            axes[1][j].scatter(
+                sel["r_H"],
+                sel["lap_s"],
+                facecolors=[f"C{i}" if d else "none" for d in done],
+                edgecolors=f"C{i}",
             )
         axes[0][j].set_yscale("log")
         axes[0][j].set_title(test, fontsize=10)
-        axes[0][j].set_ylabel("1 + misses + lost tracks (seeds summed)")
+        axes[0][j].set_ylabel("1 + misses + lost + confusions")
         axes[1][j].set_ylabel("lap time (s, mean over seeds)")
-        axes[1][j].set_xlabel("followers n")
+        axes[1][j].set_xlabel("Hough window radius r_H (cm)")
         axes[0][j].legend(fontsize=7)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=100)
     plt.close(fig)
+
+
+def _list(text: str | None, kind: Any, flag: str) -> list[Any] | None:
+    """A comma-separated option as a list of ``kind`` (None when not given); a bad value is
+    a ValueError naming the flag."""
+    if text is None:
+        return None
+    out = []
+    for part in text.split(","):
+        try:
+            v = kind(part.strip())
+        except ValueError:
+            raise ValueError(f"{flag}: not a list of {kind.__name__}s: {text!r}") from None
+        if kind is int and (v < (1 if flag == "--followers" else 0)):
+            raise ValueError(f"{flag}: {v} is out of range")
+        if kind is float and not (0 < v < math.inf):
+            raise ValueError(f"{flag}: {v:g} must be a positive number of cm")
+        if kind is str and not v:
+            raise ValueError(f"{flag}: an empty name in {text!r}")
+        out.append(v)
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -314,7 +377,21 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="compare the modelling choices instead (n = 2, 4, 6, seed 0)",
     )
+    p.add_argument("--followers", metavar="N,N,...", help="follower counts (default 1..10)")
+    p.add_argument("--hough-radius", metavar="CM,CM,...", help="r_H values (default 15,25,35,50)")
+    p.add_argument("--seeds", metavar="S,S,...", help="seeds (default 0,1,2)")
+    p.add_argument("--tests", metavar="NAME,...", help="scenarios (default test1,test2)")
     args = p.parse_args(argv)
+    try:
+        grid = (
+            _list(args.tests, str, "--tests"),
+            _list(args.followers, int, "--followers"),
+            _list(args.hough_radius, float, "--hough-radius"),
+            _list(args.seeds, int, "--seeds"),
+        )
+    except ValueError as exc:
+        print(f"experiments/followers.py: {exc}", file=sys.stderr)
+        return 2
     if args.choices:
         out = Path(args.out or "out/followers-choices")
         todo_c = [(t, n, label) for t in TESTS for n in (2, 4, 6) for label, _ in CHOICES]
@@ -326,7 +403,7 @@ def main(argv: list[str] | None = None) -> int:
         print(choices_markdown(table), end="")
         return 0
     out = Path(args.out or ("out/followers-quick" if args.quick else "out/followers"))
-    todo = tasks(args.quick)
+    todo = tasks(args.quick, grid)
     out.mkdir(parents=True, exist_ok=True)
     # every finished run is appended to followers.partial.csv; a rerun skips those (resume)
     partial = out / "followers.partial.csv"
@@ -356,7 +433,11 @@ def main(argv: list[str] | None = None) -> int:
         out,
         command="experiments/followers.py",
         seed=0,
-        inputs={"quick": args.quick, "tests": list(TESTS), "runs": [list(t) for t in todo]},
+        inputs={
+            "quick": args.quick,
+            "tests": sorted({t[0] for t in todo}),
+            "runs": [list(t) for t in todo],
+        },
         argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
         extra={
             "outputs": ["followers.csv", "followers_summary.csv", "followers.md", "followers.png"]

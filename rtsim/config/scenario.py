@@ -36,9 +36,11 @@ from rtsim.model.taskset import TaskSet
 from rtsim.world._check import non_negative, positive
 from rtsim.world.config import (
     CENTRES,
+    LOCALIZATION_MODELS,
     SEARCHES,
     WORLD_BACKENDS,
     LocalizationParams,
+    RadioParams,
     SensingParams,
     WorldConfig,
 )
@@ -90,6 +92,7 @@ PRESETS: dict[str, dict[str, str]] = {
         "adjust.predictor": "commands",
         "localization.centre": "predicted",
         "localization.search": "visible",
+        "localization.model": "hough",
     },
     "paper": {
         "formation.model": "follow-the-leader",
@@ -98,6 +101,7 @@ PRESETS: dict[str, dict[str, str]] = {
         "adjust.predictor": "paper",
         "localization.centre": "previous",
         "localization.search": "always",
+        "localization.model": "hough",
     },
 }
 _DEFAULT = PRESETS["recommended"]
@@ -451,6 +455,10 @@ class SensingModel(Table):
     max_range: (
         Annotated[float, number(0, 1e7, "cm", "inf: unlimited", lo_open=True, inf=True)] | None
     ) = None
+    range_noise: (
+        Annotated[float, number(0, 1e3, "cm", "a beam's range noise (σ), localization hough")]
+        | None
+    ) = None
 
 
 class EkfModel(_Angles):
@@ -489,6 +497,7 @@ class LocalizationModel(Table):
 
     centre: Annotated[str, choice(CENTRES)] = _DEFAULT["localization.centre"]
     search: Annotated[str, choice(SEARCHES)] = _DEFAULT["localization.search"]
+    model: Annotated[str, choice(LOCALIZATION_MODELS)] = _DEFAULT["localization.model"]
 
 
 class AdjustModel(Table):
@@ -543,6 +552,20 @@ class AdjustModel(Table):
     ) = None
 
 
+class RadioModel(Table):
+    """``[radio]``: the round trip's spread and the commands' loss probability."""
+
+    min_ms: (
+        Annotated[
+            float,
+            number(0, _MS_MAX, "ms", "the shortest round trip, at most the task set's delta_t",
+                   lo_open=True),
+        ]
+        | None
+    ) = None  # fmt: skip
+    loss: Annotated[float, number(0, 1, "", "a probability per command", hi_open=True)] = 0.0
+
+
 class WorldModel(Table):
     step_ms: Annotated[float, number(1e-3, 1e4, "ms", "1 µs to 10 s per integration step")] = 10.0
     backend: Annotated[str, choice(WORLD_BACKENDS)] | None = None
@@ -574,6 +597,7 @@ class ScenarioFile(Table):
     adjust: AdjustModel = Field(default_factory=AdjustModel)
     world: WorldModel = Field(default_factory=WorldModel)
     localization: LocalizationModel = Field(default_factory=LocalizationModel)
+    radio: RadioModel = Field(default_factory=RadioModel)
     assumptions: dict[str, Annotated[str, text(what="a non-empty string giving the reason")]] = (
         Field(default_factory=dict)
     )
@@ -755,7 +779,9 @@ def _build_scenario(
         localization=loc,  # type: ignore[arg-type]
         predicted_ms=predicted_ms,
     )
-    localization = LocalizationParams(centre=m.localization.centre, search=m.localization.search)
+    localization = LocalizationParams(
+        centre=m.localization.centre, search=m.localization.search, model=m.localization.model
+    )
     adj = m.adjust
     args: dict[str, Any] = {k: getattr(adj, k) for k in _ADJUST_KEYS if getattr(adj, k) is not None}
     own = {k: getattr(adj, k) for k in ("margin", "windows", "z") if getattr(adj, k) is not None}
@@ -822,6 +848,7 @@ def _build_scenario(
             leader_decel_max=float(m.leader.decel_max),
             localization=localization,
             backend=m.world.backend,
+            radio=RadioParams(min_ms=m.radio.min_ms, loss=m.radio.loss),
         ),
     )
     if world is None:

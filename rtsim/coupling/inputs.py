@@ -147,6 +147,7 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "ekf": plain(cfg.ekf),
         "thresholds": plain(cfg.thresholds),
         "localization": plain(cfg.localization),
+        "radio": plain(cfg.radio),
         "step_ms": cfg.step_ms,
         "adjust": plain(getattr(scenario, "adjust", {})),
         "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),

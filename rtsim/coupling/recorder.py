@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from rtsim.analysis.kinematics import BOUND_KINDS
 from rtsim.sim.records import EPS
+from rtsim.world.localization import LOST_CAUSES
 
 __all__ = [
     "BOUND_FIELDS",
@@ -45,6 +46,8 @@ __all__ = [
     "WindowRecorder",
     "records_columns",
     "records_frame",
+    "SENSING_FIELDS",
+    "sensing_columns",
     "true_bounds",
     "window_columns",
 ]
@@ -86,12 +89,17 @@ WINDOW_COLUMNS: tuple[str, ...] = (
 #: Lost tracks by cause (``tracks_lost`` is their sum), the searches charged and the
 #: followers they re-acquired: the last columns of windows.csv.
 LOCALIZATION_COLUMNS: tuple[str, ...] = (
-    "tracks_lost_outside_window",
-    "tracks_lost_occluded",
-    "tracks_lost_out_of_range",
+    *(f"tracks_lost_{c}" for c in LOST_CAUSES),
     "searches",
     "reacquisitions",
+    "confusions",
+    "radio_ms",
+    "radio_losses",
 )
+#: Per-follower sensing columns, after :data:`LOCALIZATION_COLUMNS`: the scan points that
+#: voted in its window (``hough``; the beams it returned with ``gaussian``), the accepted
+#: fix's distance from the truth (cm, inf: no fix), whether a neighbour's points made it.
+SENSING_FIELDS: tuple[str, ...] = ("points", "fix_error_cm", "neighbour")
 #: Per-follower state columns (truth; the estimate adds ``_est``), in order.
 FOLLOWER_FIELDS: tuple[str, ...] = ("x", "y", "heading", "rho", "beta", "theta", "v")
 #: Per-follower bound columns, in order: the decision's prediction, then the truth.
@@ -117,7 +125,13 @@ def window_columns(n: int) -> list[str]:
     cols += [f"f{i}_{f}" for i in range(1, n + 1) for f in VIOLATION_FIELDS]
     cols.append("assumption_broken")  # the scan counted more than Eq 1's min(361, k·n)
     cols += list(LOCALIZATION_COLUMNS)
+    cols += sensing_columns(n)
     return cols
+
+
+def sensing_columns(n: int) -> list[str]:
+    """The per-follower sensing columns of windows.csv (:data:`SENSING_FIELDS`), in order."""
+    return [f"f{i}_{f}" for i in range(1, n + 1) for f in SENSING_FIELDS]
 
 
 def true_bounds(
@@ -181,9 +195,14 @@ class WindowRecord:
     finish: float = math.nan
     scan_t: float = math.nan
     assumption_broken: bool = False
-    lost_by_cause: tuple[int, ...] = (0, 0, 0)
+    lost_by_cause: tuple[int, ...] = (0,) * len(LOST_CAUSES)
     searches: int = 0
     reacquisitions: int = 0
+    voted: tuple[int, ...] = ()
+    fix_error: tuple[float, ...] = ()
+    neighbour: tuple[bool, ...] = ()
+    radio_ms: float = math.nan  # (set at the release: delta_t, or the drawn round trip)
+    radio_losses: int = 0
 
     @property
     def complete(self) -> bool:
@@ -330,9 +349,21 @@ def records_columns(
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
         data[f"f{i + 1}_lost"] = lost[:, i]
     data["assumption_broken"] = np.array([r.assumption_broken for r in recs], dtype=bool)
-    causes = np.array([r.lost_by_cause for r in recs], dtype=np.int64).reshape(m, 3)
-    for j, col in enumerate(LOCALIZATION_COLUMNS[:3]):
+    nc = len(LOST_CAUSES)
+    causes = np.array([r.lost_by_cause for r in recs], dtype=np.int64).reshape(m, nc)
+    for j, col in enumerate(LOCALIZATION_COLUMNS[:nc]):
         data[col] = causes[:, j]
     data["searches"] = np.array([r.searches for r in recs], dtype=np.int64)
     data["reacquisitions"] = np.array([r.reacquisitions for r in recs], dtype=np.int64)
+    # (a record made without a scan's sensing, by hand, has none: 0 points, no fix)
+    voted = np.array([r.voted or (0,) * n for r in recs], dtype=np.int64).reshape(m, n)
+    err = np.array([r.fix_error or (math.inf,) * n for r in recs], dtype=float).reshape(m, n)
+    nb_ = np.array([r.neighbour or (False,) * n for r in recs], dtype=bool).reshape(m, n)
+    data["confusions"] = nb_.sum(axis=1).astype(np.int64)
+    data["radio_ms"] = np.array([r.radio_ms for r in recs], dtype=float)
+    data["radio_losses"] = np.array([r.radio_losses for r in recs], dtype=np.int64)
+    for i in range(n):
+        data[f"f{i + 1}_points"] = voted[:, i]
+        data[f"f{i + 1}_fix_error_cm"] = err[:, i]
+        data[f"f{i + 1}_neighbour"] = nb_[:, i]
     return {c: data[c] for c in cols}

@@ -57,7 +57,7 @@ import gc
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -96,7 +96,7 @@ from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.run import build_cpu
-from rtsim.world.localization import hough_time
+from rtsim.world.localization import hough_time, search_time
 from rtsim.world.world import World
 
 __all__ = [
@@ -221,6 +221,7 @@ class _Coupling:
         )
         if not math.isfinite(self.w_sch):
             raise InputError(f"{inp.source or inp.name or 'scenario'}: {bound} is infinite")
+        self.infeasible_note = self._unrestorable()
         cap = opts.get("cap")
         if cap is not None and cap < self.w_sch:
             raise InputError(
@@ -272,6 +273,10 @@ class _Coupling:
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
+        # the radio link's draws: a generator of its own, spawned after the world's and the
+        # CPU's, so a run whose link draws nothing sees the same numbers as before it existed
+        self.radio = cfg.radio
+        self._radio_rng = np.random.default_rng(ss.spawn(1)[0]) if self.radio.varies else None
         if (
             self.world.backend == "compiled"
             and type(opts.get("predictor")) is str
@@ -303,8 +308,12 @@ class _Coupling:
         assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
+        self._search_ms = search_time(win.e_cal, win.e_trans, cfg.sensing.r_reacq)
         # Eq 1's assumption: a scan counts at most min(361, k·n) points (checked per window)
         self._points_assumed = min(361.0, win.k * win.n)
+        # ... and its localization step at most Eq 1's time (the hough model counts the cells
+        # its accumulators cover: the Gauss circle count, a few cells off π·r_H² either way)
+        self._hough_assumed = win.e_hough()
         cpu = self.cpu
         cpu.on("release", self._on_release, task=win.name)
         cpu.on("segment_start", self._on_scan, task=win.name, role="scan")
@@ -314,6 +323,15 @@ class _Coupling:
         self._e_send = float(win.e_send)
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
+        self._delta_t = float(win.delta_t)
+        if self.radio.min_ms is not None:
+            if self.radio.min_ms > self._delta_t:
+                raise InputError(
+                    f"{inp.source or inp.name or 'scenario'}: radio.min_ms: "
+                    f"{self.radio.min_ms:g} ms is above the task set's delta_t "
+                    f"({self._delta_t:g} ms, the round trip's maximum)"
+                )
+            cpu.set_exec_time(win.name, "radio", self._radio_exec)
         self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
         self._v_max = self._v_actual()  # highest leader speed since the last scan
         self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
@@ -355,6 +373,23 @@ class _Coupling:
             method="fixed",
             feasible=first.msb_min >= self.w_sch,
             known=first.known[:1],
+        )
+
+    def _unrestorable(self) -> str | None:
+        """A bound below w_sch whatever the leader's speed cannot be restored by slowing: the
+        predicted-centre localization bound (docs/localization.md) depends on the noise and
+        r_H alone. Then the leader does not park for it: the decisions leave it out (the
+        world still loses what the window cannot hold), and the run reports it once (the
+        returned note, summary.json ``infeasible_note``). None: no such bound."""
+        thr = self.thr
+        if thr.localization != "predicted" or not thr.predicted_ms < self.w_sch:
+            return None
+        self.thr = replace(thr, predicted_ms=math.inf)
+        return (
+            f"localization: the predicted-centre bound ({thr.predicted_ms:.4g} ms at r_H = "
+            f"{thr.r_H:g} cm) is below w_sch ({self.w_sch:.4g} ms) at every leader speed: the "
+            f"window is infeasible whatever V_L (r_H too small for the noise); the leader "
+            f"does not slow for it and the run counts the tracks it loses"
         )
 
     # -- the decision ----------------------------------------------------------------
@@ -557,6 +592,7 @@ class _Coupling:
                 segment=kind,
                 curvature=kappa,
                 est=d.est,
+                radio_ms=self._delta_t,  # (a drawn round trip replaces it)
             )
         )
 
@@ -569,13 +605,19 @@ class _Coupling:
         self._hough_ms = hough_time(scan, *self._hough_args)
         rec.scan_t = now
         rec.hough_ms = self._hough_ms
-        rec.points = scan.total_points
-        rec.assumption_broken = scan.total_points > self._points_assumed
+        rec.points = scan.hough_points
+        no_search = self._hough_ms - scan.n_searched * self._search_ms
+        rec.assumption_broken = (
+            rec.points > self._points_assumed or no_search > self._hough_assumed + 1e-9
+        )
         rec.tracks_lost = scan.n_lost
         if rec.tracks_lost:
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = scan.n_searched
             rec.reacquisitions = scan.n_reacquired
+        rec.voted = scan.voted
+        rec.fix_error = scan.fix_error
+        rec.neighbour = scan.neighbour
         rec.lost = scan.as_lists("lost")
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
@@ -654,10 +696,26 @@ class _Coupling:
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms
 
+    def _radio_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
+        """The window's radio round trip: uniform on [radio.min_ms, delta_t] (its maximum,
+        what the analyses use), drawn from the link's own generator."""
+        lo = self.radio.min_ms
+        assert lo is not None and self._radio_rng is not None
+        dt = lo + (self._delta_t - lo) * float(self._radio_rng.random())
+        rec = self._open.get(job.index)
+        if rec is not None:
+            rec.radio_ms = dt
+        return dt
+
     def _on_send(self, job: Job, seg: Segment) -> None:
         now = self.env.now
         i = int(seg.follower)  # type: ignore[arg-type]
-        self.world.command(i, now)
+        if self.radio.loss > 0 and self._radio_rng.random() < self.radio.loss:  # type: ignore[union-attr]
+            # lost: the follower keeps its previous command; the leader, missing the reply,
+            # keeps it in its estimate too
+            self._open[job.index].radio_losses += 1
+        else:
+            self.world.command(i, now)
         scan_t = self._open[job.index].scan_t
         if scan_t == scan_t and 1 <= i <= self.n:  # (NaN before the scan)
             self._send_offsets[i - 1] = now - scan_t
@@ -908,9 +966,12 @@ def run_scenario(
         "lap_time_s": None if run.lap_ms is None else run.lap_ms / 1000.0,
         "predictor": _name(run.opts.get("predictor", "formation")),
         "formation_model": formation_model(cfg),
+        "localization_model": cfg.localization.model,
         "leader_accel_max": cfg.leader_accel_max,
         "leader_decel_max": cfg.leader_decel_max,
     }
+    if run.infeasible_note is not None:
+        extra["infeasible_note"] = run.infeasible_note
     if run.lap_ms is None:  # why there is no lap time
         extra["lap_time_note"] = (
             f"the leader did not complete its lap within the cap of "

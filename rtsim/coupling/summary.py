@@ -11,9 +11,7 @@ import numpy as np
 import pandas as pd
 
 from rtsim.analysis.kinematics import BOUND_KINDS
-from rtsim.coupling.recorder import (
-    LOCALIZATION_COLUMNS,
-)
+from rtsim.coupling.recorder import LOCALIZATION_COLUMNS, sensing_columns
 from rtsim.world.config import WorldConfig
 from rtsim.world.localization import LOST_CAUSES
 
@@ -49,7 +47,30 @@ def summary_columns(n: int) -> list[str]:
         "response",
         *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS),
         *LOCALIZATION_COLUMNS,
+        *sensing_columns(n),
     ]
+
+
+def _p95_max(values: Any) -> dict[str, float] | None:
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]  # (inf: no fix)
+    if not v.size:
+        return None
+    return {"p95": float(np.percentile(v, 95)), "max": float(v.max())}
+
+
+def fix_errors(df: pd.DataFrame | Mapping[str, Any], n: int) -> dict[str, Any] | None:
+    """summary.json ``localization_error_cm``: the accepted fixes' distance from the truth
+    (cm; windows without a fix left out), p95 and max over every follower's fixes and
+    ``per_follower`` (None: a table without the columns, or no fix)."""
+    cols = [f"f{i}_fix_error_cm" for i in range(1, n + 1)]
+    if any(c not in df for c in cols):
+        return None
+    per = [np.asarray(df[c], dtype=float) for c in cols]
+    every = _p95_max(np.concatenate(per) if per else [])
+    if every is None:
+        return None
+    return {**every, "per_follower": [_p95_max(v) for v in per]}
 
 
 def _total(df: pd.DataFrame | Mapping[str, Any], col: str) -> int:
@@ -105,6 +126,10 @@ def summarize(
         "tracks_lost_by_cause": {c: acc.totals[f"tracks_lost_{c}"] for c in LOST_CAUSES},
         "searches": acc.totals["searches"],
         "reacquisitions": acc.totals["reacquisitions"],
+        # the sensing: fixes made by a neighbour, the fixes' error from the truth, commands lost
+        "confusions": acc.totals["confusions"],
+        "radio_losses": acc.totals["radio_losses"],
+        "localization_error_cm": acc.fix_errors(),
     }
     if extra:
         out.update(extra)
@@ -134,8 +159,16 @@ class _Totals:
         self.speed: list[float] = []
         self.response: list[float] = []
         self.totals = {
-            c: 0 for c in (*(f"tracks_lost_{c}" for c in LOST_CAUSES), "searches", "reacquisitions")
+            c: 0
+            for c in (
+                *(f"tracks_lost_{c}" for c in LOST_CAUSES),
+                "searches",
+                "reacquisitions",
+                "confusions",
+                "radio_losses",
+            )
         }
+        self.fix: list[list[np.ndarray]] | None = [[] for _ in range(n)]
 
     def add(self, df: pd.DataFrame | Mapping[str, Any]) -> None:
         def col(name: str, dtype: Any = float) -> Any:
@@ -170,3 +203,21 @@ class _Totals:
         self.counts["infeasible"] += int((~col("feasible", bool)).sum())
         for c in self.totals:
             self.totals[c] += _total(df, c)
+        cols = [f"f{i}_fix_error_cm" for i in range(1, self.n + 1)]
+        if self.fix is not None and all(c in df for c in cols):
+            for kept, c in zip(self.fix, cols, strict=True):
+                kept.append(col(c))
+        else:  # a table from before the columns: no localization_error_cm
+            self.fix = None
+
+    def fix_errors(self) -> dict[str, Any] | None:
+        """`fix_errors` of the columns kept (the fixes' errors: n floats a window)."""
+        if self.fix is None:
+            return None
+        return fix_errors(
+            {
+                f"f{i}_fix_error_cm": np.concatenate(v) if v else np.zeros(0)
+                for i, v in enumerate(self.fix, start=1)
+            },
+            self.n,
+        )

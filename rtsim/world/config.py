@@ -16,7 +16,9 @@ from rtsim.world.path import LeaderPath
 
 __all__ = [
     "CENTRES",
+    "LOCALIZATION_MODELS",
     "LocalizationParams",
+    "RadioParams",
     "SEARCHES",
     "SensingParams",
     "WorldConfig",
@@ -39,25 +41,28 @@ class SensingParams:
 
     r_reacq: re-acquisition search radius (cm, ≥ r_H); position_noise: standard deviation
     of each coordinate of a position fix (cm); min_points: beams a follower must return to
-    be found; max_range: laser range (cm).
+    be found; max_range: laser range (cm); range_noise: standard deviation of each beam's
+    range reading (cm; the ``hough`` localization model's scan, :mod:`rtsim.world.rangefinder`).
+    ``position_noise`` is the ``gaussian`` model's only noise.
     """
 
     r_reacq: float = 100.0
     position_noise: float = 1.0
     min_points: int = 3
     max_range: float = 8000.0
+    range_noise: float = 1.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "r_reacq", positive("sensing.r_reacq", self.r_reacq))
-        if (
-            isinstance(self.position_noise, bool)
-            or not isinstance(self.position_noise, int | float)
-            or not (0 <= self.position_noise < math.inf)
-        ):
-            raise ScenarioError(
-                f"sensing.position_noise: must be non-negative, got {self.position_noise!r}"
-            )
-        object.__setattr__(self, "position_noise", float(self.position_noise))
+        for key in ("position_noise", "range_noise"):
+            value = getattr(self, key)
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float)
+                or not (0 <= value < math.inf)
+            ):
+                raise ScenarioError(f"sensing.{key}: must be non-negative, got {value!r}")
+            object.__setattr__(self, key, float(value))
         object.__setattr__(
             self, "min_points", integer("sensing.min_points", self.min_points, minimum=1)
         )
@@ -70,6 +75,11 @@ class SensingParams:
 CENTRES: tuple[str, ...] = ("previous", "predicted")
 #: When a lost follower is searched for (`rtsim.world.localization`).
 SEARCHES: tuple[str, ...] = ("always", "visible")
+#: How a fix is made (``[localization] model``, docs/localization.md): ``gaussian`` — the
+#: true position plus N(0, position_noise²) per coordinate, accepted inside the window (the
+#: fast stand-in); ``hough`` — a laser scan (:mod:`rtsim.world.rangefinder`) and a Hough
+#: transform in each window (:mod:`rtsim.world.hough`).
+LOCALIZATION_MODELS: tuple[str, ...] = ("gaussian", "hough")
 
 
 @dataclass(frozen=True)
@@ -82,20 +92,54 @@ class LocalizationParams:
     window with the command the follower holds, in the leader's frame at the new scan (the
     leader knows its own motion). search: ``"always"`` — every lost follower costs a
     full-scan search; ``"visible"`` — only those the leader expects, from its own prediction
-    of every follower, to return at least ``min_points`` beams.
+    of every follower, to return at least ``min_points`` beams. model: one of
+    :data:`LOCALIZATION_MODELS`.
     """
 
     centre: str = "previous"
     search: str = "always"
+    model: str = "gaussian"
 
     def __post_init__(self) -> None:
-        for key, allowed in (("centre", CENTRES), ("search", SEARCHES)):
+        for key, allowed in (
+            ("centre", CENTRES),
+            ("search", SEARCHES),
+            ("model", LOCALIZATION_MODELS),
+        ):
             value = getattr(self, key)
             if value not in allowed:
                 raise ScenarioError(
                     f"localization.{key}: must be one of "
                     f"{', '.join(repr(a) for a in allowed)}, got {value!r}"
                 )
+
+
+@dataclass(frozen=True)
+class RadioParams:
+    """The leader's radio link to its followers (``[radio]``, docs/localization.md).
+
+    The round trip Δt of each window (send to the last reply) is drawn uniformly between
+    ``min_ms`` and the task set's ``delta_t`` (its maximum, the paper's measured 67 ms);
+    ``min_ms`` None: always ``delta_t`` (a constant). ``loss``: the probability that one
+    follower's command is lost; the follower keeps its previous command, and the leader,
+    missing its reply, knows it (its estimate keeps the previous command too).
+    """
+
+    min_ms: float | None = None
+    loss: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.min_ms is not None:
+            object.__setattr__(self, "min_ms", positive("radio.min_ms", self.min_ms))
+        loss = self.loss
+        if isinstance(loss, bool) or not isinstance(loss, int | float) or not 0 <= loss < 1:
+            raise ScenarioError(f"radio.loss: must be in [0, 1), got {loss!r}")
+        object.__setattr__(self, "loss", float(loss))
+
+    @property
+    def varies(self) -> bool:
+        """Whether the link draws anything (a spread round trip or a loss probability)."""
+        return self.min_ms is not None or self.loss > 0
 
 
 @dataclass(frozen=True)
@@ -109,7 +153,8 @@ class WorldConfig:
     ([`Leader`][rtsim.world.leader.Leader]). The followers' controller is
     ``formation.model`` (``"l-psi"`` or ``"follow-the-leader"``); ``localization`` where the
     Hough windows are centred and when a lost follower is searched for. ``backend``: one of
-    `WORLD_BACKENDS`, None = `resolved_backend`'s default.
+    `WORLD_BACKENDS`, None = `resolved_backend`'s default. ``radio``: the leader's radio link
+    (its round trip and losses, drawn by the coupled run).
     """
 
     path: LeaderPath
@@ -125,6 +170,7 @@ class WorldConfig:
     leader_decel_max: float = math.inf
     localization: LocalizationParams = field(default_factory=LocalizationParams)
     backend: str | None = None
+    radio: RadioParams = field(default_factory=RadioParams)
 
     def __post_init__(self) -> None:
         if self.backend is not None and self.backend not in WORLD_BACKENDS:

@@ -44,12 +44,14 @@ from numpy.typing import NDArray
 from rtsim.analysis.window import LASER_POINTS, e_hough
 from rtsim.world.laser import count_beams_xy
 
-__all__ = ["LOST_CAUSES", "locate", "locate_one", "lost_cause", "hough_time"]
+__all__ = ["LOST_CAUSES", "locate", "locate_one", "lost_cause", "hough_time", "search_time"]
 
 #: Why a track is lost: the fix fell outside the Hough window; the follower returned too few
 #: beams although the laser could reach it alone (hidden by a nearer follower, or its disc
-#: covers too few beams); no beam reaches it (beyond the laser's range or outside its field).
-LOST_CAUSES: tuple[str, ...] = ("outside_window", "occluded", "out_of_range")
+#: covers too few beams); no beam reaches it (beyond the laser's range or outside its field);
+#: another follower's points took the window's peak (``model = "hough"``: the window does no
+#: data association).
+LOST_CAUSES: tuple[str, ...] = ("outside_window", "occluded", "out_of_range", "neighbour")
 
 
 class _ScanLike(Protocol):
@@ -61,6 +63,10 @@ class _ScanLike(Protocol):
     def n_lost(self) -> int: ...
     @property
     def n_searched(self) -> int: ...
+    @property
+    def hough_points(self) -> int: ...
+    @property
+    def cells(self) -> int | None: ...
 
 
 def locate_one(
@@ -110,6 +116,20 @@ def locate(
 
 def hough_time(scan: _ScanLike, e_cal: float, e_trans: float, r_H: float, r_reacq: float) -> float:
     """Localization segment time (ms) for ``scan``: Eq 1 with its counted points, plus a
-    search (π r_reacq² e_cal + 361 e_trans) per lost follower searched for."""
-    base = e_hough(scan.n, r_H, e_cal, e_trans, k=0.0, points=scan.total_points)
-    return base + scan.n_searched * (math.pi * r_reacq**2 * e_cal + LASER_POINTS * e_trans)
+    search (π r_reacq² e_cal + 361 e_trans) per lost follower searched for.
+
+    ``gaussian``: π·r_H²·n·e_cal + P·e_trans, P the beams the followers returned;
+    ``hough``: C·e_cal + min(361, P)·e_trans with the scan's own counts, C the cells the
+    windows' accumulators covered and P the points that voted in them."""
+    cells = scan.cells
+    if cells is None:
+        base = e_hough(scan.n, r_H, e_cal, e_trans, k=0.0, points=scan.total_points)
+    else:
+        base = cells * e_cal + min(LASER_POINTS, scan.hough_points) * e_trans
+    return base + scan.n_searched * search_time(e_cal, e_trans, r_reacq)
+
+
+def search_time(e_cal: float, e_trans: float, r_reacq: float) -> float:
+    """One re-acquisition search (ms): an accumulator of radius r_reacq and all 361 points,
+    π·r_reacq²·e_cal + 361·e_trans."""
+    return math.pi * r_reacq**2 * e_cal + LASER_POINTS * e_trans

@@ -8,6 +8,7 @@ change since the previous scan with the bound violations it caused.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -63,6 +64,11 @@ class Scan:
         violations: Mapping[str, Any],
         searched: Any = None,
         cause: Any = None,
+        *,
+        voted: Any = None,
+        fix_error: Any = None,
+        neighbour: Any = None,
+        cells: int | None = None,
     ) -> None:
         object.__setattr__(self, "t_ms", t_ms)
         object.__setattr__(self, "leader_pose", leader_pose)
@@ -85,6 +91,10 @@ class Scan:
                 "violations": violations,
                 "searched": searched,
                 "cause": cause,
+                "voted": voted,
+                "fix_error": fix_error,
+                "neighbour": neighbour,
+                "cells": cells,
             },
         )
         object.__setattr__(self, "_arrays", {})
@@ -156,6 +166,47 @@ class Scan:
     def total_points(self) -> int:
         """Scan points returned by all followers (Eq 1's min(361, k·n), counted)."""
         return int(sum(_as_list(self._raw["points"])))
+
+    @property
+    def hough(self) -> bool:
+        """Whether the fixes came from a laser scan and Hough windows (``model = "hough"``)."""
+        return self._raw["voted"] is not None
+
+    @property
+    def voted(self) -> tuple[int, ...]:
+        """Per follower, the scan points that voted in its window (``hough``; else the beams
+        it returned)."""
+        v = self._raw["voted"]
+        return tuple(_as_list(self._raw["points"] if v is None else v))
+
+    @property
+    def hough_points(self) -> int:
+        """Eq 1's second term, counted: ``hough`` — the points that voted over every window;
+        ``gaussian`` — the beams the followers returned (:attr:`total_points`)."""
+        return int(sum(self.voted))
+
+    @property
+    def cells(self) -> int | None:
+        """The cells every window's accumulator covered (``hough``), or None (Eq 1's
+        π·r_H²·n)."""
+        return self._raw["cells"]  # type: ignore[no-any-return]
+
+    @property
+    def fix_error(self) -> tuple[float, ...]:
+        """Per follower, the accepted fix's distance from the truth (cm; inf: no fix)."""
+        v = self._raw["fix_error"]
+        return tuple(_as_list(v)) if v is not None else (math.inf,) * self.n
+
+    @property
+    def neighbour(self) -> tuple[bool, ...]:
+        """Per follower, whether another follower's points made its fix (a confusion)."""
+        v = self._raw["neighbour"]
+        return tuple(_as_list(v)) if v is not None else (False,) * self.n
+
+    @property
+    def confusions(self) -> int:
+        """Followers whose fix a neighbour made at this scan."""
+        return int(sum(self.neighbour))
 
     @property
     def n_lost(self) -> int:

@@ -39,6 +39,7 @@ def _choices(s: object) -> dict[str, object]:
         "adjust.lower_bound": a.lower_bound,
         "localization.centre": w.localization.centre,
         "localization.search": w.localization.search,
+        "localization.model": w.localization.model,
         "thresholds.localization": w.thresholds.localization,
         "ekf.backend": w.ekf.backend,
         "world.backend": w.backend,

@@ -31,6 +31,7 @@ QUIET = {
     "follower.speed_noise": 0.0,
     "follower.turn_noise_deg": 0.0,
     "sensing.position_noise": 0.0,
+    "localization.model": "gaussian",  # exact fixes (the hough model's cells quantise them)
     "ekf.init_position_sd": 0.0,
     "ekf.init_heading_sd_deg": 0.0,
 }

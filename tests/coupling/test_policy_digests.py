@@ -6,14 +6,17 @@ The digests were recorded on main at 63334eb, before ``rtsim.control.policy`` ex
 frozen copies of Test 1 and Test 2 (``tests/data/policy_pin``; copies, so that retuning the
 shipped scenarios does not move the pin): 20 simulated s, seed 1, each mode. windows.csv is
 hashed as written by ``DataFrame.to_csv`` without the later localization columns (lost tracks
-by cause, searches, re-acquisitions); summary.json without the keys added since
+by cause, searches, re-acquisitions, and the sensing columns of issue 32: confusions, the
+radio's round trip and losses, each follower's voting points, fix error and neighbour flag);
+summary.json without the keys added since
 (``policy``, ``lap_time_s``, ``lap_time_note``, the physical outcomes and the lost tracks by
-cause: ``NEW_KEYS``). Re-pinned for exact time (docs/time.md): window releases from the
-stream's start and compensated segment ends move floats by an ulp (the world's values follow,
-relative ≤ 3e-10); row counts, flags and verdicts are unchanged. Since the defaults became
-the recommended model (issue 34: plan, commands, fan, predicted/visible), the pin files name
-the old settings explicitly (``policy = "adjust"``, ``layout = "line"``, ``centre =
-"previous"``, ``search = "always"``), so these digests did not move.
+cause, and the sensing keys: ``NEW_KEYS``). Re-pinned for exact time (docs/time.md): window
+releases from the stream's start and compensated segment ends move floats by an ulp (the
+world's values follow, relative ≤ 3e-10); row counts, flags and verdicts are unchanged. Since
+the defaults became the recommended model (issue 34: plan, commands, fan, predicted/visible,
+the Hough localization), the pin files name the old settings explicitly (``preset =
+"paper"``, ``layout = "line"``, ``centre = "previous"``, ``search = "always"``, ``model =
+"gaussian"``, no ``[radio]``: a constant round trip), so these digests did not move.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from pathlib import Path
 
 import pytest
 
-from rtsim.coupling.recorder import LOCALIZATION_COLUMNS
+from rtsim.coupling.recorder import LOCALIZATION_COLUMNS, sensing_columns
 from rtsim.coupling.scenario_run import run_scenario
 
 PIN = Path(__file__).parents[1] / "data" / "policy_pin"
@@ -54,11 +57,17 @@ NEW_KEYS = (
     "tracks_lost_by_cause",
     "searches",
     "reacquisitions",
+    "confusions",
+    "radio_losses",
+    "localization_error_cm",
+    "localization_model",
 )
 
 
 def _digest(res) -> tuple[str, str]:  # type: ignore[no-untyped-def]
-    csv = res.windows.drop(columns=list(LOCALIZATION_COLUMNS)).to_csv(index=False).encode()
+    n = res.summary["n"]
+    drop = [*LOCALIZATION_COLUMNS, *sensing_columns(n)]
+    csv = res.windows.drop(columns=drop).to_csv(index=False).encode()
     s = {k: v for k, v in res.summary.items() if k not in NEW_KEYS}
     js = json.dumps(s, sort_keys=True, default=str).encode()
     return hashlib.sha256(csv).hexdigest()[:16], hashlib.sha256(js).hexdigest()[:16]

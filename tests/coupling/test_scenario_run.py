@@ -34,6 +34,7 @@ from rtsim.coupling import (
 )
 from rtsim.errors import InputError
 from rtsim.io.scenario import load_scenario
+from rtsim.world.hough import window_cells
 
 SCEN = Path(__file__).resolve().parents[2] / "experiments" / "scenarios"
 TEST1, TEST2 = SCEN / "test1.toml", SCEN / "test2.toml"
@@ -247,9 +248,11 @@ def test_jobs_table_holds_the_schedule(short_runs) -> None:  # type: ignore[no-u
     cmd = jobs[jobs["task"] == "command"]
     assert len(cmd) > 0
     assert (cmd["period"] >= 2 * df["w_sch"].iloc[0] - 1e-9).all()
-    # the hough segment used the counted beams: e_hough = π r_H² n e_cal + P e_trans
+    # the hough segment used the scan's counts: e_hough = C e_cal + P e_trans, C the cells of
+    # the two windows' accumulators (the hough model) and P the points that voted
     ts = r.inputs.taskset.window
-    base = math.pi * ts.r_H**2 * 2 * ts.e_cal
+    assert r.summary["localization_model"] == "hough"
+    base = 2 * window_cells(ts.r_H) * ts.e_cal
     np.testing.assert_allclose(df["hough_ms"], base + df["points"] * ts.e_trans, rtol=1e-12)
     assert (df["points"] > 0).all() and (df["points"] < 2 * ts.k).all()
 
@@ -348,6 +351,11 @@ def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, mod
     text = TEST2.read_text(encoding="utf-8")
     text, count = re.subn(r'^predictor = "\w+"', f'predictor = "{model}"', text, flags=re.MULTILINE)
     assert count == 1
+    # the gaussian stand-in and a constant radio: the world this test's numbers describe
+    text = text.replace('model = "hough"', 'model = "gaussian"').replace(
+        "min_ms = 33.5", "min_ms = 67.0"
+    )
+    text = re.sub(r"^loss = [\d.]+", "loss = 0.0", text, flags=re.MULTILINE)
     path = tmp_path / "t2.toml"
     path.write_text(text, encoding="utf-8")
     from rtsim.coupling.scenario_run import _inputs
@@ -361,7 +369,12 @@ def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, mod
         mode="adjust",
         duration_s=3,
         record_jobs=False,
-        overrides={"adjust.predictor": "paper"},
+        overrides={
+            "adjust.predictor": "paper",
+            "localization.model": "gaussian",
+            "radio.min_ms": 67.0,
+            "radio.loss": 0.0,
+        },
     )
     assert short.summary["predictor"] == model and base.summary["predictor"] == "paper"
     assert len(short.windows) > 5

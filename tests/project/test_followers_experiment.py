@@ -48,3 +48,22 @@ def test_followers_experiment_quick(tmp_path: Path) -> None:
         json.loads((tmp_path / "manifest.json").read_text())["command"]
         == "experiments/followers.py"
     )
+
+
+def test_followers_experiment_grid_options(tmp_path: Path) -> None:
+    """--followers/--hough-radius/--seeds/--tests pick the grid: one row per run with the
+    sensing and progress columns, lost causes summing to the total; a bad list is one line
+    and exit 2."""
+    mod = _module()
+    argv = ["--followers", "2,4", "--hough-radius", "15,30", "--seeds", "0", "--tests", "test2"]
+    assert mod.main([*argv, "--out", str(tmp_path), "--workers", "1"]) == 0
+    runs = pd.read_csv(tmp_path / "followers.csv", keep_default_na=False)
+    assert sorted(zip(runs["n"], runs["r_H"], strict=True)) == [(2, 15), (2, 30), (4, 15), (4, 30)]
+    assert (runs["test"] == "test2").all() and (runs["seed"] == 0).all()
+    for col in ("confusions", "fix_error_p95_cm", "laps", "leader_cm", "lap_s", "cpu_s"):
+        assert col in runs
+    causes = runs[[f"lost_{c}" for c in mod.CAUSES]].sum(axis=1)
+    assert (causes == runs["tracks_lost"]).all()
+    assert (runs["laps"] >= 1.0).all()
+    assert (tmp_path / "followers.png").stat().st_size > 0
+    assert mod.main(["--followers", "2,x", "--out", str(tmp_path)]) == 2

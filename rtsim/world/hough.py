@@ -1,0 +1,322 @@
+"""The Hough transform in a follower's window: accumulator, votes, peak (docs/localization.md).
+
+A follower is a disc of radius r_F; the scan points it returns lie on its near side, at r_F
+from its centre. The leader seeks each centre in a **window**, the disc of radius r_H around
+the window centre c. The window's **accumulator** has one cell per candidate centre: the
+square cells of side ``cell`` (:data:`CELL_CM` = 1 cm, so that a window covers π·r_H² cells,
+Eq 1's first term taken literally) whose centres lie within r_H of c.
+
+A scan point p **can belong** to a disc centred in the window when
+
+    r_F − r_H ≤ |p − c| ≤ r_F + r_H;
+
+those are the points that vote (Eq 1's second term, counted). Each votes once for every
+cell of the window at distance r_F from it: the ring of radius r_F around p is walked at
+half-cell steps (:func:`ring`), and each cell it enters gets one vote from that point. The
+**peak** is the cell with the most votes (ties: the mean of the tied cells within two cells
+of the first in row-major order); it is the fix when it has at least ``min_points`` votes,
+otherwise the window has no fix. The cells are anchored at the window centre, so a fix is a
+multiple of ``cell`` away from it (up to the mean of tied cells). The window does no data
+association: points of a neighbour that fall in the window vote as well and can take the
+peak. Whose points made the peak is read from the
+truth (each beam's owner), only to count it: the owner with the most points within one cell
+of the ring through the peak.
+
+:func:`hough_window` and :func:`locate_all` are plain functions that numba compiles
+(:func:`compiled`); the Python path runs the same functions and is the reference in the
+tests.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rtsim.world.jit import build, kernel
+
+__all__ = [
+    "CELL_CM",
+    "OUT_CELLS",
+    "OUT_FIX_X",
+    "OUT_FIX_Y",
+    "OUT_OWNER",
+    "OUT_SIZE",
+    "OUT_VOTERS",
+    "OUT_VOTES",
+    "Accumulator",
+    "compiled",
+    "hough_window",
+    "locate_all",
+    "ring",
+    "window_cells",
+]
+
+#: The accumulator's cell side (cm): 1 cm² cells make a window of radius r_H cover π·r_H²
+#: cells, Eq 1's first term.
+CELL_CM = 1.0
+
+# one row of locate_all's output per follower
+OUT_FIX_X, OUT_FIX_Y, OUT_VOTES, OUT_VOTERS, OUT_OWNER, OUT_CELLS = range(6)
+OUT_SIZE = 6
+
+_COMPILED: Any = None
+
+#: A window's working arrays: the ring's directions (cos, sin) and the scratch (acc, epoch,
+#: stamp, tally, state) of :func:`hough_window`.
+Work = tuple[
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+    NDArray[np.int64],
+]
+
+
+def ring(r_F: float, cell: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The unit directions a point's ring of radius ``r_F`` is walked along: half-cell
+    steps, so that no cell the ring crosses is skipped."""
+    m = max(8, math.ceil(2.0 * math.pi * r_F / (0.5 * cell)))
+    a = 2.0 * math.pi * np.arange(m) / m
+    return np.cos(a), np.sin(a)
+
+
+def window_cells(r_H: float, cell: float = CELL_CM) -> int:
+    """The cells of a window of radius ``r_H``: cell centres within r_H of the window centre
+    (≈ π·r_H²/cell²; the Gauss circle count)."""
+    h = int(math.floor(r_H / cell))
+    lim = (r_H / cell) ** 2
+    i = np.arange(-h, h + 1)
+    return int(((i[:, None] ** 2 + i[None, :] ** 2) <= lim).sum())
+
+
+@kernel
+def hough_window(
+    px: NDArray[np.float64],
+    py: NDArray[np.float64],
+    owner: NDArray[np.int64],
+    cx: float,
+    cy: float,
+    r_H: float,
+    r_F: float,
+    cell: float,
+    cells: int,
+    work: Work,
+    out: NDArray[np.float64],
+) -> None:
+    """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
+    NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
+    radius ``r_H`` (``cells`` of side ``cell``: :func:`window_cells`). ``work``: the ring's
+    directions (:func:`ring`) and the scratch (:class:`Accumulator`): ``acc``, ``epoch``,
+    ``stamp`` of at least (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared — a cell counts only if
+    its ``epoch`` is this call's (``state[0]``, advanced by each call), and a point votes for a
+    cell once (its ``stamp``) — and ``tally``, one entry per follower. Writes ``out``: the fix
+    (NaN, NaN when no point voted), the peak's votes, the points that voted, the follower whose
+    points made the peak (−1: none) and ``cells``."""
+    ring_cos, ring_sin, acc, epoch, stamp, tally, state = work
+    h = int(math.floor(r_H / cell))
+    m = 2 * h + 1
+    lim = (r_H / cell) * (r_H / cell)
+    ep = state[0] + 1
+    state[0] = ep + px.shape[0] + 1
+    lo = r_F - r_H
+    hi = r_F + r_H
+    voters = 0
+    best = 0
+    bi = -1
+    bj = -1
+    na = ring_cos.shape[0]
+    step = 2.0 * math.pi / na
+    reach = r_H + cell
+    for p in range(px.shape[0]):
+        x = px[p]
+        y = py[p]
+        if not (x == x):  # no return
+            continue
+        d = math.sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy))
+        if d < lo or d > hi:
+            continue
+        voters += 1
+        me = ep + p + 1
+        # only the arc of the ring that can reach a cell of the window: the directions u with
+        # |p + r_F·u − c| ≤ r_H + cell, within γ of the direction from p to c
+        a0 = 0
+        a1 = na - 1
+        if d > 0.0:
+            cg = (r_F * r_F + d * d - reach * reach) / (2.0 * r_F * d)
+            if cg > -1.0:
+                gamma = math.acos(min(cg, 1.0))
+                theta = math.atan2(cy - y, cx - x)
+                a0 = int(math.floor((theta - gamma) / step)) - 1
+                a1 = int(math.ceil((theta + gamma) / step)) + 1
+                if a1 - a0 + 1 >= na:
+                    a0 = 0
+                    a1 = na - 1
+        for aa in range(a0, a1 + 1):
+            a = aa % na
+            i = int(math.floor((x + r_F * ring_cos[a] - cx) / cell + 0.5)) + h
+            j = int(math.floor((y + r_F * ring_sin[a] - cy) / cell + 0.5)) + h
+            if i < 0 or j < 0 or i >= m or j >= m:
+                continue
+            di = i - h
+            dj = j - h
+            if di * di + dj * dj > lim or stamp[i, j] == me:
+                continue
+            stamp[i, j] = me
+            if epoch[i, j] != ep:
+                epoch[i, j] = ep
+                acc[i, j] = 0
+            v = acc[i, j] + 1
+            acc[i, j] = v
+            # the peak: the most votes, the first in row-major order among equals
+            if v > best or (v == best and (i < bi or (i == bi and j < bj))):
+                best = v
+                bi = i
+                bj = j
+    out[OUT_VOTERS] = voters
+    out[OUT_CELLS] = cells
+    out[OUT_VOTES] = best
+    if bi < 0:
+        out[OUT_FIX_X] = math.nan
+        out[OUT_FIX_Y] = math.nan
+        out[OUT_OWNER] = -1
+        return
+    si = 0.0
+    sj = 0.0
+    cnt = 0
+    for i in range(max(0, bi - 2), min(m, bi + 3)):
+        for j in range(max(0, bj - 2), min(m, bj + 3)):
+            if epoch[i, j] == ep and acc[i, j] == best:
+                si += i
+                sj += j
+                cnt += 1
+    fx = cx + (si / cnt - h) * cell
+    fy = cy + (sj / cnt - h) * cell
+    out[OUT_FIX_X] = fx
+    out[OUT_FIX_Y] = fy
+    for k in range(tally.shape[0]):
+        tally[k] = 0
+    for p in range(px.shape[0]):
+        k = owner[p]
+        if k < 0:
+            continue
+        d = math.sqrt((px[p] - fx) * (px[p] - fx) + (py[p] - fy) * (py[p] - fy))
+        if abs(d - r_F) <= cell:
+            tally[k] += 1
+    who = -1
+    most = 0
+    for k in range(tally.shape[0]):
+        if tally[k] > most:
+            most = tally[k]
+            who = k
+    out[OUT_OWNER] = who
+
+
+@kernel
+def locate_all(
+    px: NDArray[np.float64],
+    py: NDArray[np.float64],
+    owner: NDArray[np.int64],
+    cxs: NDArray[np.float64],
+    cys: NDArray[np.float64],
+    r_H: float,
+    r_F: float,
+    cell: float,
+    cells: int,
+    work: Work,
+    out: NDArray[np.float64],
+) -> None:
+    """:func:`hough_window` for every follower's window (centres ``cxs``, ``cys``), one row
+    of ``out`` (n, :data:`OUT_SIZE`) each."""
+    for k in range(cxs.shape[0]):
+        hough_window(px, py, owner, cxs[k], cys[k], r_H, r_F, cell, cells, work, out[k])
+
+
+def compiled() -> Any:
+    """(hough_window, locate_all) compiled with numba (:func:`rtsim.world.jit.build`: once
+    per process, cached on disk by their sources), loaded or compiled now."""
+    global _COMPILED
+    if _COMPILED is None:
+        one, every = build(hough_window), build(locate_all)
+        every(*_dummy(every=True))
+        one(*_dummy(every=False))
+        _COMPILED = (one, every)
+    return _COMPILED
+
+
+def _dummy(every: bool) -> tuple[Any, ...]:
+    """Arguments that compile the kernels once (an empty scan)."""
+    px = np.full(3, np.nan)
+    c, s = ring(25.0, 1.0)
+    acc = np.zeros((11, 11), dtype=np.int64)
+    centre: Any = (np.zeros(1), np.zeros(1)) if every else (0.0, 0.0)
+    out = np.zeros((1, OUT_SIZE)) if every else np.zeros(OUT_SIZE)
+    one = np.zeros(1, dtype=np.int64)
+    work = (c, s, acc, acc.copy(), acc.copy(), one, one.copy())
+    return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, 81, work, out)
+
+
+class Accumulator:
+    """The windows' accumulators for one world: scratch sized for the largest window
+    (``r_max``), the ring for ``r_F``; ``fast`` runs the compiled kernels."""
+
+    def __init__(self, n: int, r_F: float, r_max: float, fast: bool, cell: float = CELL_CM):
+        self.r_F = float(r_F)
+        self.cell = float(cell)
+        self.ring_cos, self.ring_sin = ring(self.r_F, self.cell)
+        m = 2 * int(math.floor(r_max / cell)) + 1
+        self.acc = np.zeros((m, m), dtype=np.int64)
+        self.epoch = np.zeros((m, m), dtype=np.int64)
+        self.stamp = np.zeros((m, m), dtype=np.int64)
+        self.tally = np.zeros(max(n, 1), dtype=np.int64)
+        self.state = np.zeros(1, dtype=np.int64)
+        self.work: Work = (
+            self.ring_cos, self.ring_sin, self.acc, self.epoch, self.stamp, self.tally,
+            self.state,
+        )  # fmt: skip
+        self._cells: dict[float, int] = {}
+        self.out = np.zeros((n, OUT_SIZE))
+        self.one = np.zeros(OUT_SIZE)
+        kernels: tuple[Any, Any] = compiled() if fast else (hough_window, locate_all)
+        self._one, self._every = kernels
+
+    def cells(self, r_H: float) -> int:
+        """:func:`window_cells` of a window of radius ``r_H`` (computed once per radius)."""
+        c = self._cells.get(r_H)
+        if c is None:
+            c = self._cells[r_H] = window_cells(r_H, self.cell)
+        return c
+
+    def locate(
+        self,
+        px: NDArray[np.float64],
+        py: NDArray[np.float64],
+        owner: NDArray[np.int64],
+        cxs: NDArray[np.float64],
+        cys: NDArray[np.float64],
+        r_H: float,
+    ) -> NDArray[np.float64]:
+        """Every follower's window: the (n, :data:`OUT_SIZE`) rows (valid until the next
+        call)."""
+        cells = self.cells(r_H)
+        self._every(px, py, owner, cxs, cys, r_H, self.r_F, self.cell, cells, self.work, self.out)
+        return self.out
+
+    def search(
+        self,
+        px: NDArray[np.float64],
+        py: NDArray[np.float64],
+        owner: NDArray[np.int64],
+        cx: float,
+        cy: float,
+        radius: float,
+    ) -> NDArray[np.float64]:
+        """One window of ``radius`` around (``cx``, ``cy``) (a re-acquisition search): its
+        :data:`OUT_SIZE` values (valid until the next call)."""
+        cells = self.cells(radius)
+        self._one(px, py, owner, cx, cy, radius, self.r_F, self.cell, cells, self.work, self.one)
+        return self.one

@@ -1,0 +1,148 @@
+"""The leader's laser scan as data: per beam, the nearest hit among the followers' discs
+(docs/localization.md).
+
+The rangefinder is the paper's: 361 beams over 180° at 0.5°, facing backward
+(:data:`~rtsim.world.laser.BEAM_BEARINGS`: bearing 90° + 0.5°·j in the leader's frame). Beam j
+meets the disc of radius r_F centred at (x, y) when the centre lies within r_F of the beam's
+ray, at range
+
+    r = p − √(r_F² − q²),   p = x·cos φ + y·sin φ,   q = x·sin φ − y·cos φ
+
+(p the distance along the beam to the foot of the perpendicular, q the centre's distance
+from the beam; the same geometry as :func:`~rtsim.world.laser.beam_owners`). Each beam returns
+its nearest hit only, so occlusion follows from the geometry; a beam whose nearest hit lies
+beyond the maximum range returns nothing. The reading is that range plus range noise
+(σ·z, z a standard normal drawn per beam); the scan point is the reading along the beam, in
+the leader's frame at the scan instant. Only the followers are in the world: no walls, no
+clutter.
+
+:func:`scan_points` is one plain function that numba compiles (:func:`compiled`); the Python
+path runs the same function and is the reference in the tests.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rtsim.model.window import LASER_POINTS
+from rtsim.world.jit import build, kernel
+from rtsim.world.laser import BEAM_BEARINGS
+
+__all__ = ["BEAM_COS", "BEAM_SIN", "Rangefinder", "compiled", "scan_points"]
+
+#: cos and sin of every beam's bearing (the laser's fixed geometry).
+BEAM_COS: NDArray[np.float64] = np.cos(BEAM_BEARINGS)
+BEAM_SIN: NDArray[np.float64] = np.sin(BEAM_BEARINGS)
+
+_COMPILED: Any = None
+
+
+@kernel
+def scan_points(
+    xs: NDArray[np.float64],
+    ys: NDArray[np.float64],
+    r_F: float,
+    max_range: float,
+    range_sd: float,
+    z: NDArray[np.float64],
+    cos_b: NDArray[np.float64],
+    sin_b: NDArray[np.float64],
+    px: NDArray[np.float64],
+    py: NDArray[np.float64],
+    owner: NDArray[np.int64],
+    counts: NDArray[np.int64],
+) -> int:
+    """Fill one scan (module docstring): for every beam j, ``owner[j]`` the index of the
+    follower it hit (−1: nothing) and (``px[j]``, ``py[j]``) its point in the leader's frame
+    (cm; NaN when nothing), the true range plus ``range_sd``·``z[j]``; ``counts[k]`` the beams
+    follower k returned. ``xs``, ``ys``: the followers' centres in the leader's frame (cm).
+    Returns the number of beams that hit."""
+    n = xs.shape[0]
+    r2 = r_F * r_F
+    hits = 0
+    for k in range(n):
+        counts[k] = 0
+    for j in range(cos_b.shape[0]):
+        c = cos_b[j]
+        s = sin_b[j]
+        best = math.inf
+        who = -1
+        for k in range(n):
+            p = xs[k] * c + ys[k] * s
+            q = xs[k] * s - ys[k] * c
+            half2 = r2 - q * q
+            if half2 >= 0.0 and p > 0.0:
+                r = p - math.sqrt(half2)
+                if r < 0.0:
+                    r = 0.0
+                if r < best:
+                    best = r
+                    who = k
+        if who >= 0 and best <= max_range:
+            r = best + range_sd * z[j]
+            owner[j] = who
+            counts[who] += 1
+            px[j] = r * c
+            py[j] = r * s
+            hits += 1
+        else:
+            owner[j] = -1
+            px[j] = math.nan
+            py[j] = math.nan
+    return hits
+
+
+def compiled() -> Any:
+    """:func:`scan_points` compiled with numba (:func:`rtsim.world.jit.build`: once per
+    process, cached on disk by its source)."""
+    global _COMPILED
+    if _COMPILED is None:
+        _COMPILED = build(scan_points)
+    return _COMPILED
+
+
+class Rangefinder:
+    """The leader's laser: :meth:`scan` fills and returns its buffers (reused per scan).
+
+    ``range_sd``: the range noise's standard deviation (cm); ``max_range`` (cm);
+    ``fast``: run the compiled :func:`scan_points` (else the Python one)."""
+
+    def __init__(
+        self, r_F: float, max_range: float, range_sd: float, fast: bool, n: int = 16
+    ) -> None:
+        self.r_F = float(r_F)
+        self.max_range = float(max_range)
+        self.range_sd = float(range_sd)
+        self._fn = compiled() if fast else scan_points
+        self.px = np.empty(LASER_POINTS)
+        self.py = np.empty(LASER_POINTS)
+        self.owner = np.empty(LASER_POINTS, dtype=np.int64)
+        self.counts = np.zeros(n, dtype=np.int64)
+
+    def scan(
+        self, xs: NDArray[np.float64], ys: NDArray[np.float64], z: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+        """The scan of followers centred at (``xs``, ``ys``) (leader frame, cm) with the
+        standard normals ``z`` (361): (px, py, owner), the buffers, valid until the next
+        scan; :attr:`counts` holds the beams each follower returned."""
+        if self.counts.shape[0] < xs.shape[0]:
+            self.counts = np.zeros(xs.shape[0], dtype=np.int64)
+        self._fn(
+            xs,
+            ys,
+            self.r_F,
+            self.max_range,
+            self.range_sd,
+            z,
+            BEAM_COS,
+            BEAM_SIN,
+            self.px,
+            self.py,
+            self.owner,
+            self.counts,
+        )
+        return self.px, self.py, self.owner
