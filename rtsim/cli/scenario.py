@@ -216,6 +216,9 @@ def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | N
     the run); elsewhere, checked and staged in ``files`` with a manifest of its own."""
     if not args.perfetto:
         return None
+    from rtsim.cli.common import check_suffix
+
+    check_suffix(args.perfetto, "--perfetto", (".json",))
     perfetto = Path(args.perfetto)
     if (
         perfetto.resolve().is_relative_to(target.resolve())

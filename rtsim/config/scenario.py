@@ -127,7 +127,8 @@ class AdjustConfig:
     predictor: the prediction model of `rtsim.control.predict` (``paper``, ``formation``
     or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
     names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
-    ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle) or ``w_edf``
+    ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle), ``w_txn``
+    (offset-based: the window chain and the command task as one transaction) or ``w_edf``
     (the EDF demand criterion; needs ``[scheduler] policy = "edf"``); decide: when in its
     window the decision is taken, ``end`` (after the radio round trip) or ``before-send``.
     """

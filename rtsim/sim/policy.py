@@ -156,7 +156,7 @@ class FixedPriority(SchedulingPolicy):
     name = "fp"
     top_task_first = True
     analysis = staticmethod(analyze)
-    lower_bounds = ("w_sch", "w_rta", "w_susp")
+    lower_bounds = ("w_sch", "w_rta", "w_susp", "w_txn")
 
     def order(self, job: Job) -> tuple[int, int]:
         """(priority, sequence): the task priority; jobs of one task are FIFO anyway."""
