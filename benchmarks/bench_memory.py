@@ -2,7 +2,7 @@
 
     python benchmarks/bench_memory.py [--sim-hours 24] [--scenario-hours 6] [--short-min 10]
                                       [--trace-hours 3] [--only simulate|scenario|traces]
-                                      [--json]
+                                      [--followers N] [--json]
 
 Each run is a fresh interpreter (``rtsim.cli.main`` in a child process) whose peak resident
 set size (``ru_maxrss``) is reported:
@@ -11,7 +11,8 @@ set size (``ru_maxrss``) is reported:
    for ``--sim-hours`` hours of simulated time (every job record written to the file);
 2. ``rtsim scenario experiments/scenarios/test2.toml --parquet --out DIR`` — every output:
    windows.csv, windows.parquet, jobs.csv, the five figures, report.html — for
-   ``--short-min`` minutes and ``--scenario-hours`` hours;
+   ``--short-min`` minutes and ``--scenario-hours`` hours (``--followers N``: with
+   ``--set formation.followers=N``; the summary's read-back grew with N);
 3. the traces, for ``--short-min`` minutes and ``--trace-hours`` hours: ``rtsim simulate
    tasksets/example.toml --trace FILE.csv``, the same with ``--perfetto FILE.json``, and
    ``rtsim scenario experiments/scenarios/test2.toml --no-figures --perfetto FILE.json``.
@@ -65,6 +66,7 @@ def main() -> int:
     ap.add_argument("--short-min", type=float, default=10.0)
     ap.add_argument("--trace-hours", type=float, default=3.0)
     ap.add_argument("--only", choices=("simulate", "scenario", "traces"), default=None)
+    ap.add_argument("--followers", type=int, default=None, help="scenario: followers")
     ap.add_argument("--json", action="store_true", help="also print one JSON line")
     args = ap.parse_args()
     results: dict[str, dict[str, float]] = {}
@@ -102,12 +104,19 @@ def main() -> int:
                         "--parquet",
                         "--out",
                         str(out),
+                        *(
+                            ["--set", f"formation.followers={args.followers}"]
+                            if args.followers
+                            else []
+                        ),
                     ]
                 )
                 rows = sum(1 for _ in open(out / "windows.csv", "rb")) - 1
                 row.update({f"{label}_mb": peak, f"{label}_s": wall, f"{label}_rows": rows})
+            who = f", {args.followers} followers" if args.followers else ""
             results[
-                f"scenario test2, every output, {args.scenario_hours:g} h vs {args.short_min:g} min"
+                f"scenario test2{who}, every output, {args.scenario_hours:g} h vs "
+                f"{args.short_min:g} min"
             ] = row
         if args.only in (None, "traces"):
             runs = {

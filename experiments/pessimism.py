@@ -27,8 +27,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from rtsim.analysis.bounds import window_bounds
-from rtsim.analysis.transaction import w_txn
+from rtsim.analysis.bounds import w_txn, window_bounds
 from rtsim.analysis.validation import smallest_passing
 from rtsim.io.atomic import write_table, write_text
 from rtsim.io.manifest import write_manifest

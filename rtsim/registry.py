@@ -32,7 +32,6 @@ import re
 import sys
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from contextvars import ContextVar
-from importlib import metadata
 from typing import Any, Generic, TypeVar
 
 from rtsim._suggest import did_you_mean
@@ -137,6 +136,14 @@ def load_code(spec: str, where: str, *, allow_code: bool | None = None) -> Any:
     return obj
 
 
+def _entry_points(**select: str) -> Any:
+    """``importlib.metadata.entry_points(**select)``, imported when a plug-in is first looked
+    up (importing it costs every command ≈ 40 ms at start-up otherwise)."""
+    from importlib import metadata
+
+    return metadata.entry_points(**select)
+
+
 class Registry(MutableMapping[str, T], Generic[T]):
     """Plug-ins of one kind by name (module doc): a mutable mapping of the registered ones,
     with `resolve` for names, entry points and ``module:Name``.
@@ -189,23 +196,21 @@ class Registry(MutableMapping[str, T], Generic[T]):
     # -- resolution ---------------------------------------------------------------------
     def entry_point(self, name: str) -> Any | None:
         """The object of the installed entry point ``name`` of `group`, or None."""
-        for ep in metadata.entry_points(group=self.group, name=name):
+        for ep in _entry_points(group=self.group, name=name):
             return ep.load()
         return None
 
     def known(self) -> list[str]:
         """Registered names, then installed entry points' names."""
         names = list(self._items)
-        names += [
-            ep.name for ep in metadata.entry_points(group=self.group) if ep.name not in self._items
-        ]
+        names += [ep.name for ep in _entry_points(group=self.group) if ep.name not in self._items]
         return names
 
     def contains(self, name: object) -> bool:
         """Whether ``name`` resolves without code (registered or an entry point)."""
         if not isinstance(name, str):
             return False
-        return name in self._items or bool(metadata.entry_points(group=self.group, name=name))
+        return name in self._items or bool(_entry_points(group=self.group, name=name))
 
     def resolve(self, spec: str, where: str, *, allow_code: bool | None = None) -> T:
         """The plug-in ``spec`` names: registered, an entry point, or ``module:Name`` (code:

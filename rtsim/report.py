@@ -259,6 +259,8 @@ def write_run_report(
 
     target = Path(run_dir) / REPORT_NAME
     text = render_run_report(run_dir, title=title, extra_html=extra_html)
+    # a path that is not UTF-8 (surrogates) shows its bytes as \xNN escapes
+    text = text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
     with atomic_path(target) as tmp:
         Path(tmp).write_text(text, "utf-8")
     return target

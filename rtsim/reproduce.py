@@ -739,6 +739,12 @@ def _main(
 
     # workers ignore Ctrl-C (the parent stops them) and exit when the parent dies, even by
     # kill -9, releasing the staging directory's lock that a fork inherits
+    if workers > 1:  # the kernels compiled (or loaded) here once, not once per worker
+        from rtsim.config.scenario import load_scenario
+        from rtsim.coupling.warm import warm_world
+
+        files = dict.fromkeys(sp["scenario_file"] for sp in specs)
+        warm_world(load_scenario(f, _overrides(args.set or []) or None) for f in files)
     pool = (
         ProcessPoolExecutor(workers, initializer=worker_init, initargs=(os.getpid(),))
         if workers > 1

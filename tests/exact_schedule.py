@@ -66,3 +66,67 @@ def brute(
             if j["arr"] < horizon:
                 out[k] = max(out.get(k, 0), j["done"] - j["arr"])
     return out
+
+
+def brute_srp(
+    tasks: list[dict], horizon: int, *, by: str = "deadline", protocol: str = "srp"
+) -> dict[str, int]:
+    """Largest response of each task's jobs arriving in [0, horizon), in unit steps, under
+    EDF (``by="deadline"``) or fixed priority (``"priority"``) with shared resources, as
+    Baker (1991) states the stack resource policy: a job that has not started may start
+    only if it comes first among the active jobs (deadline, then arrival, then priority)
+    and its preemption level is above the system ceiling; of the jobs allowed to run, the
+    first runs. A job locks a section's resource when it runs the section's first unit.
+    ``tasks``: dicts of name, C, T, D, offset, prio and sections [(resource, start,
+    length)] with integer times; levels −D (``deadline``) or −prio; ceilings the highest
+    level of a resource's users (``npr``: above every level)."""
+    level = {t["name"]: -(t["D"] if by == "deadline" else t["prio"]) for t in tasks}
+    ceil: dict[str, float] = {}
+    for t in tasks:
+        for r, _, _ in t["sections"]:
+            lv = float("inf") if protocol == "npr" else level[t["name"]]
+            ceil[r] = max(ceil.get(r, -float("inf")), lv)
+    jobs = []
+    for t in tasks:
+        k = 0
+        while t["offset"] + k * t["T"] < horizon:
+            a = t["offset"] + k * t["T"]
+            jobs.append({"t": t, "arr": a, "dl": a + t["D"], "done": 0, "fin": None, "k": k})
+            k += 1
+
+    def order(j: dict) -> tuple:
+        key = j["dl"] if by == "deadline" else j["t"]["prio"]
+        return (key, j["arr"], j["t"]["prio"])
+
+    def holding(j: dict) -> str | None:
+        for r, s, n in j["t"]["sections"]:
+            if s < j["done"] < s + n:
+                return r
+        return None
+
+    t = 0
+    while any(j["fin"] is None for j in jobs):
+        heads = {}
+        for j in jobs:  # a task's jobs one at a time, in arrival order
+            name = j["t"]["name"]
+            if j["fin"] is None and j["arr"] <= t and name not in heads:
+                heads[name] = j
+        active = sorted(heads.values(), key=order)
+        held = [holding(j) for j in active]
+        system = max((ceil[r] for r in held if r is not None), default=-float("inf"))
+        allowed = [j for j in active if j["done"] > 0]
+        if active and active[0]["done"] == 0 and level[active[0]["t"]["name"]] > system:
+            allowed.append(active[0])
+        if allowed:
+            run = min(allowed, key=order)
+            run["done"] += 1
+            if run["done"] == run["t"]["C"]:
+                run["fin"] = t + 1
+        t += 1
+        if t > 50 * horizon:
+            raise AssertionError("brute force does not finish")
+    out: dict[str, int] = {}
+    for j in jobs:
+        name = j["t"]["name"]
+        out[name] = max(out.get(name, 0), j["fin"] - j["arr"])
+    return out

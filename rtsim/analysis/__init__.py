@@ -14,6 +14,7 @@ from rtsim.analysis.bounds import (
     w_rta,
     w_sch_of,
     w_susp,
+    w_txn,
     window_bounds,
 )
 from rtsim.analysis.edf import EdfAnalysis, EdfTaskResult, analyze_edf, demand, qpa, spuri_wcrt
@@ -37,7 +38,7 @@ from rtsim.analysis.kinematics import (
 )
 from rtsim.analysis.rta import Analysis, TaskResult, analyze, busy_window, response_time
 from rtsim.analysis.suspension import SuspensionBound, suspension_aware
-from rtsim.analysis.transaction import analyze_transactions, transaction_bounds, w_txn
+from rtsim.analysis.transaction import analyze_transactions, transaction_bounds
 from rtsim.analysis.unified import unified_bound
 from rtsim.analysis.utilization import (
     hyperbolic,

@@ -45,6 +45,12 @@ deadline point t, h(t) + B(t) ≤ t, with
 before the interval [0, t] and due after it, so D_j > t; the waiting job's level must not be
 above the ceiling. B is non-increasing in t and 0 beyond the largest deadline of a task with
 a section.
+
+**Context-switch overhead** o (the simulator's ``overhead``): a job whose section begins a
+stretch of its CPU time locks the resource when it gets the CPU, so the switch into it (o
+ms, spent on its behalf before its work) is as unpreemptible as the section itself. Every
+blocking term above is therefore |z| + o when o > 0 (``blocking_overhead``): the blocked
+job waits for the switch and the section; its own switch afterwards is part of its cost.
 """
 
 from __future__ import annotations
@@ -63,6 +69,7 @@ __all__ = [
     "fp_blocking",
     "edf_blocking",
     "check_protocol",
+    "blocking_overhead",
     "LEVEL_BY",
 ]
 
@@ -122,9 +129,15 @@ def check_protocol(protocol: str, scheduler: str, where: str = "resources") -> N
         )
 
 
-def fp_blocking(tasks: Sequence[Task], protocol: str | None) -> list[float]:
+def blocking_overhead(section: float, overhead: float) -> float:
+    """One blocking of length ``section`` with the switch into it (module doc): |z| + o."""
+    return section + overhead if overhead else section
+
+
+def fp_blocking(tasks: Sequence[Task], protocol: str | None, overhead: float = 0.0) -> list[float]:
     """B_i of every task under fixed priorities (module doc): the longest section of a
-    lower-priority task that can block i once. 0 for every task when ``protocol`` is None."""
+    lower-priority task that can block i once, with the switch into it (``overhead``, ms).
+    0 for every task when ``protocol`` is None."""
     n = len(tasks)
     if protocol is None:
         return [0.0] * n
@@ -140,12 +153,15 @@ def fp_blocking(tasks: Sequence[Task], protocol: str | None) -> list[float]:
             for r, length in secs[j]:
                 if ceil[r] >= li:
                     b = max(b, length)
-        out.append(b)
+        out.append(blocking_overhead(b, overhead) if b > 0 else 0.0)
     return out
 
 
-def edf_blocking(tasks: Sequence[Task], protocol: str | None) -> Callable[[float], float]:
-    """B(t) under EDF (module doc); the zero function when ``protocol`` is None."""
+def edf_blocking(
+    tasks: Sequence[Task], protocol: str | None, overhead: float = 0.0
+) -> Callable[[float], float]:
+    """B(t) under EDF (module doc), with the switch into the section (``overhead``, ms); the
+    zero function when ``protocol`` is None."""
     if protocol is None or not any(t.resources for t in tasks):
         return lambda t: 0.0
     by_r = uses(tasks)
@@ -164,6 +180,6 @@ def edf_blocking(tasks: Sequence[Task], protocol: str | None) -> Callable[[float
         for d_j, r, length in secs:
             if d_j > t and (protocol == "npr" or min_user_d[r] <= reach + tol):
                 b = max(b, length)
-        return b
+        return blocking_overhead(b, overhead) if b > 0 else 0.0
 
     return blocking

@@ -61,6 +61,7 @@ __all__ = [
     "w_rta",
     "w_susp",
     "w_edf",
+    "w_txn",
     "w_sch_of",
     "w_eq7_of",
     "w_eq11_of",
@@ -70,9 +71,15 @@ __all__ = [
 ]
 
 #: The window lower bounds an adjustment policy can use ([adjust] lower_bound).
-LOWER_BOUNDS: tuple[str, ...] = ("w_sch", "w_rta", "w_susp", "w_edf")
+LOWER_BOUNDS: tuple[str, ...] = ("w_sch", "w_rta", "w_susp", "w_edf", "w_txn")
 #: The scheduler each lower bound assumes.
-BOUND_SCHEDULER: dict[str, str] = {"w_sch": "fp", "w_rta": "fp", "w_susp": "fp", "w_edf": "edf"}
+BOUND_SCHEDULER: dict[str, str] = {
+    "w_sch": "fp",
+    "w_rta": "fp",
+    "w_susp": "fp",
+    "w_edf": "edf",
+    "w_txn": "fp",
+}
 
 #: Largest window w_rta searches (ms); beyond it the set is reported as never schedulable.
 W_MAX = 1e9
@@ -255,6 +262,38 @@ def w_edf(ts: TaskSet, overhead: float | None = None) -> float:
     return hi
 
 
+def w_txn(
+    ts: TaskSet,
+    *,
+    overhead: float | None = None,
+    suspension: str = "idle",
+    tol: float = 1e-6,
+    force: bool = False,
+) -> float:
+    """The least window w (ms, to ``tol``) at which every task of the processing-window set
+    ``ts`` has a bound within its deadline, each task taking the least of its sound bounds
+    ([`transaction_bounds`][rtsim.analysis.transaction.transaction_bounds]). Feasibility need not be
+    monotone in w (the offsets move
+    with it), so the search is `rtsim.analysis.validation.smallest_passing`: bisection
+    from above the suspension-aware w_susp (or w_rta under ``suspension="cpu"``), which
+    passes, with a scan of 20 windows above the result. ``inf`` when that start is."""
+    from rtsim.analysis.transaction import transaction_bounds
+    from rtsim.analysis.validation import smallest_passing
+
+    hi = w_susp(ts, overhead) if suspension == "idle" else w_rta(ts)
+    if not math.isfinite(hi):
+        return math.inf
+
+    def passes(w: float) -> bool:
+        bounds = transaction_bounds(ts, w, overhead=overhead, suspension=suspension, force=force)
+        return all(r is not None for r in bounds.values())
+
+    lo = 0.5 * hi
+    while passes(lo):
+        lo *= 0.5
+    return smallest_passing(passes, lo, hi, tol=tol, scan=20).w
+
+
 def _edf_c(task: Task, overhead: float) -> float:
     """A task's C in the EDF analysis: WCET (suspensions included) + 2·o per stretch."""
     return task.wcet + 2.0 * overhead * stretches(task) if overhead else task.wcet
@@ -269,9 +308,11 @@ def lower_bound(
     where: str = "lower_bound",
 ) -> float:
     """The window lower bound ``name`` (`LOWER_BOUNDS`) for a CPU run with ``scheduler``
-    and ``suspension``; a bound whose model does not match is an input error: w_sch, w_rta and
-    w_susp are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only with Δt
-    leaving the CPU idle."""
+    and ``suspension``; a bound whose model does not match is an input error: w_sch, w_rta,
+    w_susp and w_txn (the offset-based bound,
+    [`rtsim.analysis.transaction.w_txn`][rtsim.analysis.transaction.w_txn], under
+    ``suspension``) are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only
+    with Δt leaving the CPU idle."""
     from rtsim.errors import InputError
 
     if name not in LOWER_BOUNDS:
@@ -292,6 +333,8 @@ def lower_bound(
         return w_sch_of(ts)
     if name == "w_edf":
         return w_edf(ts)
+    if name == "w_txn":
+        return w_txn(ts, suspension=suspension)
     return w_rta(ts) if name == "w_rta" else w_susp(ts)
 
 

@@ -449,7 +449,7 @@ def analyze_edf(
                 f"under edf with suspensions that leave the CPU idle have no "
                 f'analysis here; use suspension "cpu"'
             )
-        blocking = edf_blocking(tasks, protocol)
+        blocking = edf_blocking(tasks, protocol, overhead)
     verdict = qpa(et)
     if blocking is not None and verdict.schedulable:
         failed = blocking_check(et, blocking)

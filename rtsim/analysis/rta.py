@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from rtsim._numbers import is_real
@@ -68,6 +68,7 @@ __all__ = [
     "TaskResult",
     "analyze",
     "analysis_inputs",
+    "suspends_with_sections",
     "busy_window",
     "ceil_div",
     "response_time",
@@ -139,8 +140,10 @@ class Analysis:
     `rtsim.analysis.utilization`); ``schedulable`` is the exact verdict. ``overhead`` is
     the context-switch cost charged (ms); ``offsets_ignored`` says that some task has an
     offset, which the analysis ignores (sound, possibly pessimistic). ``suspension`` is
-    ``"cpu"`` (suspensions counted as computation) or ``"idle"`` (suspension-aware,
-    `rtsim.analysis.suspension`).
+    ``"cpu"`` (suspensions counted as computation), ``"idle"`` (suspension-aware,
+    `rtsim.analysis.suspension`) or ``"either"`` (each task the larger of the two:
+    [`analyze`][rtsim.analysis.rta.analyze]'s default for a set that suspends and has critical
+    sections).
     """
 
     tasks: tuple[TaskResult, ...]
@@ -216,12 +219,35 @@ def analysis_inputs(
     return ts, w, overhead, tuple(tasks)
 
 
+def suspends_with_sections(ts: TaskSet, tasks: Sequence[Task]) -> bool:
+    """Whether ``ts`` has critical sections and some of ``tasks`` (its analysed tasks, the
+    window chain among them) a suspension: then only the suspension-aware analysis charges
+    the blocking a suspension lets in ([`analyze`][rtsim.analysis.rta.analyze])."""
+    return ts.has_sections and any(seg.kind == "suspend" for t in tasks for seg in t.chain())
+
+
+def _either(cpu: Analysis, idle: Analysis) -> Analysis:
+    """Each task's larger bound of the two analyses (None where either has none)."""
+    tasks = []
+    for a, b in zip(cpu.tasks, idle.tasks, strict=True):
+        r = None if a.wcrt is None or b.wcrt is None else max(a.wcrt, b.wcrt)
+        tasks.append(
+            replace(a, wcrt=r, schedulable=r is not None, blocking=max(a.blocking, b.blocking))
+        )
+    return replace(
+        cpu,
+        tasks=tuple(tasks),
+        schedulable=all(t.schedulable for t in tasks),
+        suspension="either",
+    )
+
+
 def analyze(
     ts: TaskSet,
     w: float | None = None,
     *,
     overhead: float | None = None,
-    suspension: str = "cpu",
+    suspension: str | None = None,
     resources: str | None = None,
 ) -> Analysis:
     """Exact response-time analysis of every task of ``ts`` (with jitter; ``overhead`` in ms,
@@ -229,6 +255,10 @@ def analyze(
     each task takes the smaller of its sound suspension-aware bounds
     ([`rtsim.analysis.suspension.suspension_aware`][rtsim.analysis.suspension.suspension_aware]);
     ``"cpu"``: they count as computation.
+    Default (None): sound whichever the simulator runs. Counting a suspension as computation
+    is sound for both unless a set with critical sections also suspends (a job can then be
+    blocked once per compute stretch, which ``"cpu"`` does not charge): such a set gets each
+    task's larger bound of the two (``suspension="either"`` in the result); any other ``"cpu"``.
 
     A set with a ``[window]`` is analysed at window ``w`` (default: the analytic w_sch of
     [`rtsim.analysis.bounds.w_sch_of`][rtsim.analysis.bounds.w_sch_of]), the chain as one task of
@@ -239,18 +269,27 @@ def analyze(
     ([`rtsim.analysis.blocking.fp_blocking`][rtsim.analysis.blocking.fp_blocking])
     under ``resources`` (``pcp``, ``srp``, ``npr``; default the set's protocol,
     [`resource_protocol`][rtsim.model.taskset.TaskSet.resource_protocol]) is part of its response
-    time,
-    once per compute stretch under ``suspension="idle"``.
+    time, once per compute stretch under ``suspension="idle"``, with the switch into the
+    blocking section (``overhead``) included.
     """
     from rtsim.analysis.blocking import check_protocol, fp_blocking
 
+    if suspension is None:
+        ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, "cpu", "analyze")
+        if not suspends_with_sections(ts, tasks):
+            suspension = "cpu"
+        else:
+            return _either(
+                analyze(ts, w, overhead=overhead, suspension="cpu", resources=resources),
+                analyze(ts, w, overhead=overhead, suspension="idle", resources=resources),
+            )
     ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze")
     protocol = ts.resource_protocol("fp") if resources is None or not ts.has_sections else resources
     if protocol is not None:
         check_protocol(
             protocol, "fp", f"{ts.source or ts.name or 'task set'}: [scheduler] resources"
         )
-    block = fp_blocking(tasks, protocol)
+    block = fp_blocking(tasks, protocol, overhead)
     results = []
     aware = None
     if suspension == "idle":

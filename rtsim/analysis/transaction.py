@@ -77,6 +77,7 @@ __all__ = [
     "analyze_transactions",
     "transactions_of",
     "transaction_bounds",
+    "transaction_work",
     "MAX_JOBS",
 ]
 
@@ -142,9 +143,40 @@ def _phase(phi_j: float, phi_k: float, j_k: float, period: float) -> float:
     return ph
 
 
-def _work(steps: Sequence[Step], period: float, k: Step, t: float, cost: float) -> float:
+class _Budget:
+    """The interference terms (one step of one W_ik) the analysis may still evaluate
+    (``None``: no limit); over it, `TooMuchWork` naming ``where``."""
+
+    def __init__(self, limit: float | None, where: str) -> None:
+        self.left = math.inf if limit is None else limit
+        self.limit, self.where = limit, where
+
+    def spend(self, n: int) -> None:
+        self.left -= n
+        if self.left < 0:
+            from rtsim.io.work import _WHAT, LIMITS, TooMuchWork
+
+            raise TooMuchWork(
+                f"{self.where}: more than {self.limit:.3g} {_WHAT['interference']} (the limit "
+                f"is {LIMITS['interference']:.3g}); use --force (force=True in Python) to "
+                "run it anyway"
+            )
+
+
+_NO_BUDGET = _Budget(None, "")
+
+
+def _work(
+    steps: Sequence[Step],
+    period: float,
+    k: Step,
+    t: float,
+    cost: float,
+    budget: _Budget = _NO_BUDGET,
+) -> float:
     """W_ik(t) (module doc): the work of ``steps`` of one transaction released in [t_c, t_c + t)
     when step ``k`` is released at t_c after its largest jitter; ``cost`` is added per job."""
+    budget.spend(len(steps))
     total = 0.0
     for s in steps:
         ph = _phase(s.offset, k.offset, k.jitter, period)
@@ -185,6 +217,7 @@ def _step_response(
     others: Sequence[tuple[float, Sequence[Step]]],
     overhead: float,
     limit: float,
+    budget: _Budget = _NO_BUDGET,
 ) -> float | None:
     """Worst completion of ``own`` after its earliest release (module doc), or None past
     ``limit`` (ms after the earliest release) or when the busy period does not close."""
@@ -192,7 +225,9 @@ def _step_response(
     cost = 2.0 * overhead
 
     def others_work(t: float) -> float:
-        return math.fsum(max(_work(hp, per, k, t, cost) for k in hp) for per, hp in others if hp)
+        return math.fsum(
+            max(_work(hp, per, k, t, cost, budget) for k in hp) for per, hp in others if hp
+        )
 
     util = math.fsum((s.wcet + cost) / per for per, hp in others for s in hp)
     util += math.fsum((s.wcet + cost) / own_period for s in own_hp)
@@ -203,7 +238,7 @@ def _step_response(
         phase = _phase(own.offset, k.offset, k.jitter, own_period)
 
         def hp_work(t: float, k: Step = k) -> float:
-            return _work(own_hp, own_period, k, t, cost) + others_work(t)
+            return _work(own_hp, own_period, k, t, cost, budget) + others_work(t)
 
         def fixpoint(start: float, extra: float) -> float | None:
             w = start
@@ -249,11 +284,15 @@ def analyze_transactions(
     overhead: float = 0.0,
     suspension: str = "idle",
     known: Mapping[str, float | None] | None = None,
+    budget: float | None = None,
+    where: str = "transaction analysis",
 ) -> dict[str, float | None]:
     """Offset-based bounds of every task in ``transactions`` (module doc): task name → the
     largest response of its jobs from their arrivals (ms), or None where the task's bound
     passes the next arrival of its task (the analysis does not apply to it and to every
-    task below it). Deadlines are not checked here.
+    task below it). Deadlines are not checked here. ``budget``: the most interference terms
+    to evaluate (None: no limit); beyond it `TooMuchWork` naming
+    ``where``.
 
     ``known``: sound bounds (ms from arrival) that other analyses give for some tasks. A job
     completes by its arrival plus that bound, so a stretch completes by it less the best
@@ -263,12 +302,19 @@ def analyze_transactions(
         raise ValueError(f"suspension must be 'cpu' or 'idle', got {suspension!r}")
     o = float(overhead)
     known = known or {}
-    prios = sorted({j.priority for tx in transactions for j in tx.jobs})
-    done: list[tuple[int, Step]] = []  # (transaction index, step) of analysed tasks
+    spend = _Budget(budget, where)
+    # each level's jobs by transaction, and each transaction's analysed steps, kept as the
+    # levels go down (O(n) per level: no list of the finished steps is rebuilt)
+    at: dict[int, dict[int, list[Job]]] = {}
+    for a, tx in enumerate(transactions):
+        for job in tx.jobs:
+            at.setdefault(job.priority, {}).setdefault(a, []).append(job)
+    prios = sorted(at)
+    done: dict[int, list[Step]] = {}  # transaction index -> steps of analysed tasks
     out: dict[str, float | None] = {}
     failed = False
     for prio in prios:
-        names = sorted({j.task for tx in transactions for j in tx.jobs if j.priority == prio})
+        names = sorted({j.task for jobs in at[prio].values() for j in jobs})
         if failed:
             for nm in names:
                 out[nm] = None
@@ -276,15 +322,12 @@ def analyze_transactions(
         new: list[tuple[int, Step]] = []
         worst: dict[str, float] = {}
         ok = True
-        for a, tx in enumerate(transactions):
-            own_hp = [s for i, s in done if i == a]
-            others = [
-                (t.period, [s for i, s in done if i == b])
-                for b, t in enumerate(transactions)
-                if b != a
-            ]
-            for job in tx.jobs:
-                if job.priority != prio or not ok:
+        for a, jobs in at[prio].items():
+            tx = transactions[a]
+            own_hp = list(done.get(a, ()))
+            others = [(transactions[b].period, st) for b, st in done.items() if b != a and st]
+            for job in jobs:
+                if not ok:
                     continue
                 cap = known.get(job.task)
                 runs = _stretches(job, suspension)
@@ -296,7 +339,7 @@ def analyze_transactions(
                         continue
                     step = Step(job.task, prio, best, late - best, wc)
                     limit = job.arrival + job.spacing - best
-                    r = _step_response(step, tx.period, own_hp, others, o, limit)
+                    r = _step_response(step, tx.period, own_hp, others, o, limit, spend)
                     end = math.inf if r is None else best + r
                     if cap is not None:
                         end = min(end, job.arrival + cap - after[i])
@@ -321,7 +364,8 @@ def analyze_transactions(
             continue
         for nm in names:
             out[nm] = worst.get(nm)
-        done.extend(new)
+        for a, step in new:
+            done.setdefault(a, []).append(step)
     return out
 
 
@@ -409,21 +453,38 @@ def transaction_bounds(
     overhead: float | None = None,
     suspension: str = "idle",
     shifts: Mapping[str, float] | None = None,
+    force: bool = False,
 ) -> dict[str, float | None]:
     """Offset-based WCRT of every task of ``ts`` at window ``w`` (ms from arrival; None where
     it passes the task's deadline or the analysis does not apply, as for a set with
     critical sections), fixed priority. ``shifts``: as for `transactions_of` (a
     simulation whose releases put per-window tasks' arrivals elsewhere than their offsets
     from the window's, e.g. jitter "worst", which moves every task's arrivals by the largest
-    jitter less its own)."""
+    jitter less its own).
+
+    Work limit (the command line's, `rtsim.io.work.LIMITS` ``interference``): the
+    least work of the analysis, `transaction_work`, is checked before it starts, and
+    the terms it evaluates are counted as it runs; above the limit
+    `TooMuchWork` (one line, exit 2 on the command line) unless
+    ``force=True`` (``--force``)."""
     from rtsim.analysis.rta import analyze
+    from rtsim.io.work import LIMITS, check_work
 
     o = ts.overhead if overhead is None else overhead
     if ts.has_sections:  # the offset-based analysis has no blocking term: it does not apply
         return {t.name: None for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}
     txs = transactions_of(ts, w, shifts)
+    where = f"{ts.source or ts.name or 'task set'}: the offset-based (transaction) analysis"
+    check_work("interference", _least_work(txs, suspension), where, force=force)
     known = {t.name: t.wcrt for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}
-    raw = analyze_transactions(txs, overhead=o, suspension=suspension, known=known)
+    raw = analyze_transactions(
+        txs,
+        overhead=o,
+        suspension=suspension,
+        known=known,
+        budget=None if force else LIMITS["interference"],
+        where=where,
+    )
     deadlines = {j.task: j.deadline for tx in txs for j in tx.jobs}
     return {
         name: (r if r is not None and r <= deadlines[name] + DEADLINE_TOL else None)
@@ -431,28 +492,30 @@ def transaction_bounds(
     }
 
 
-def w_txn(
-    ts: TaskSet, *, overhead: float | None = None, suspension: str = "idle", tol: float = 1e-6
-) -> float:
-    """The least window w (ms, to ``tol``) at which every task of the processing-window set
-    ``ts`` has a bound within its deadline, each task taking the least of its sound bounds
-    ([`transaction_bounds`][rtsim.analysis.transaction.transaction_bounds]). Feasibility need not be
-    monotone in w (the offsets move
-    with it), so the search is `rtsim.analysis.validation.smallest_passing`: bisection
-    from above the suspension-aware w_susp (or w_rta under ``suspension="cpu"``), which
-    passes, with a scan of 20 windows above the result. ``inf`` when that start is."""
-    from rtsim.analysis.bounds import w_rta, w_susp
-    from rtsim.analysis.validation import smallest_passing
+def _least_work(transactions: Sequence[Transaction], suspension: str) -> float:
+    """The interference terms
+    [`analyze_transactions`][rtsim.analysis.transaction.analyze_transactions] evaluates at the
+    least: for each
+    compute stretch, one fixed-point step per candidate instant of its own transaction
+    (its higher steps there, and itself) over every higher step of every transaction (the
+    other transactions' W*_i take the maximum over their steps, |steps|² terms). A bound
+    from below: every further fixed-point step costs as much again (counted as it runs)."""
+    n = [0] * len(transactions)
+    squares = 0
+    total = 0.0
+    for _, a, job in sorted(
+        ((j.priority, a, j) for a, tx in enumerate(transactions) for j in tx.jobs),
+        key=lambda x: x[0],
+    ):
+        k = sum(1 for kind, _, _ in _stretches(job, suspension) if kind == "c")
+        total += k * (n[a] + 1) * (squares - n[a] * n[a] + n[a])
+        squares += (n[a] + k) ** 2 - n[a] ** 2
+        n[a] += k
+    return total
 
-    hi = w_susp(ts, overhead) if suspension == "idle" else w_rta(ts)
-    if not math.isfinite(hi):
-        return math.inf
 
-    def passes(w: float) -> bool:
-        bounds = transaction_bounds(ts, w, overhead=overhead, suspension=suspension)
-        return all(r is not None for r in bounds.values())
-
-    lo = 0.5 * hi
-    while passes(lo):
-        lo *= 0.5
-    return smallest_passing(passes, lo, hi, tol=tol, scan=20).w
+def transaction_work(ts: TaskSet, w: float | None, *, suspension: str = "idle") -> float:
+    """The least work of [`transaction_bounds`][rtsim.analysis.transaction.transaction_bounds] for
+    ``ts`` at ``w`` (interference terms,
+    `_least_work`), the estimate its work limit checks before it starts."""
+    return _least_work(transactions_of(ts, w), suspension)

@@ -276,8 +276,13 @@ def main(argv: list[str] | None = None) -> int:
     try:
         previous = _signals()
         _streams()
-        parser = build_parser()
         argv = sys.argv[1:] if argv is None else list(argv)
+        if argv == ["--version"]:  # what argparse prints, without importing every command
+            from rtsim._version import __version__
+
+            print(f"rtsim {__version__}")
+            return 0
+        parser = build_parser()
         early = _unknown_before_parsing(parser, argv)
         if early:
             print(one_line(early), file=sys.stderr)

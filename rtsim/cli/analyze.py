@@ -110,7 +110,9 @@ _RESOURCES = {
 
 def format_analysis(res: Any, source: str, w_from: str | None) -> str:
     """The readable report of an [`Analysis`][rtsim.analysis.rta.Analysis]."""
-    lines = [f"task set: {res.name or '(unnamed)'}  ({source})"]
+    from rtsim.cli import one_line
+
+    lines = [f"task set: {one_line(res.name or '(unnamed)')}  ({one_line(source)})"]
     if res.w is not None:
         how = (
             "radio round trip counted as CPU time"
@@ -121,7 +123,8 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
         lines.append(
             f"window: w = {res.w:.3f} ms ({w_from}); the chain is one task of cost g, " + how
         )
-    width = max(4, *(len(t.name) for t in res.tasks))
+    names = {t.name: one_line(t.name) for t in res.tasks}  # escaped, as in error lines
+    width = max(4, *(len(n) for n in names.values()))
     blk = getattr(res, "resources", None) is not None
     head = (
         f"{'prio':>5}  {'task':<{width}}  {'wcet':>9}  {'period':>9}  {'deadline':>9}  "
@@ -130,7 +133,7 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
     lines += ["", head, "-" * len(head)]
     for t in res.tasks:
         lines.append(
-            f"{t.priority:>5}  {t.name:<{width}}  {t.wcet:>9.3f}  {t.period:>9.3f}  "
+            f"{t.priority:>5}  {names[t.name]:<{width}}  {t.wcet:>9.3f}  {t.period:>9.3f}  "
             f"{t.deadline:>9.3f}  {t.utilization:>6.4f}  "
             + (f"{t.blocking:>9.3f}  " if blk else "")
             + f"{_num(t.wcrt):>9}  "
@@ -172,13 +175,16 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
 
 def format_edf(res: Any, source: str, w_from: str | None) -> str:
     """The readable report of an [`EdfAnalysis`][rtsim.analysis.edf.EdfAnalysis]."""
-    lines = [f"task set: {res.name or '(unnamed)'}  ({source}), scheduler: EDF"]
+    from rtsim.cli import one_line
+
+    lines = [f"task set: {one_line(res.name or '(unnamed)')}  ({one_line(source)}), scheduler: EDF"]
     if res.w is not None:
         lines.append(
             f"window: w = {res.w:.3f} ms ({w_from}); the chain is one task of cost g, "
             "radio round trip counted as CPU time (suspension-oblivious)"
         )
-    width = max(4, *(len(t.name) for t in res.tasks))
+    names = {t.name: one_line(t.name) for t in res.tasks}  # escaped, as in error lines
+    width = max(4, *(len(n) for n in names.values()))
     blk = getattr(res, "resources", None) is not None
     head = (
         f"{'task':<{width}}  {'wcet':>9}  {'period':>9}  {'deadline':>9}  {'jitter':>7}  "
@@ -189,7 +195,7 @@ def format_edf(res: Any, source: str, w_from: str | None) -> str:
     lines += ["", head, "-" * len(head)]
     for t in res.tasks:
         lines.append(
-            f"{t.name:<{width}}  {t.wcet:>9.3f}  {t.period:>9.3f}  {t.deadline:>9.3f}  "
+            f"{names[t.name]:<{width}}  {t.wcet:>9.3f}  {t.period:>9.3f}  {t.deadline:>9.3f}  "
             f"{t.jitter:>7.3f}  {t.utilization:>6.4f}  "
             + (f"{t.blocking:>9.3f}  " if blk else "")
             + f"{_num(t.wcrt):>9}  {t.bound:>8}  "
@@ -228,7 +234,9 @@ def format_edf(res: Any, source: str, w_from: str | None) -> str:
 def format_transaction(txn: dict[str, float | None]) -> str:
     """One line: each task's offset-based (transaction) bound, the least sound bound rtsim
     has for it under fixed priority (docs/analysis.md)."""
-    parts = ", ".join(f"{name} {_num(r)}" for name, r in txn.items())
+    from rtsim.cli import one_line
+
+    parts = ", ".join(f"{one_line(name)} {_num(r)}" for name, r in txn.items())
     return f"offset-based (transaction) WCRT: {parts}"
 
 
@@ -290,7 +298,9 @@ def run(args: argparse.Namespace) -> int:
         if policy.analysis is analyze and not ts.has_sections:  # FP: the offset-based bound
             from rtsim.analysis.transaction import transaction_bounds
 
-            txn = transaction_bounds(ts, res.w, overhead=res.overhead, suspension=args.suspension)
+            txn = transaction_bounds(
+                ts, res.w, overhead=res.overhead, suspension=args.suspension, force=args.force
+            )
             head, _, last = text.rpartition("\n")  # before the verdict line
             text = f"{head}\n{format_transaction(txn)}\n{last}"
     if args.json:

@@ -1,9 +1,9 @@
 """``rtsim bounds [FILE] [--followers N] [--hough-radius R] [--json]``: the window bounds.
 
 Prints e_hough (Eq 1), g (Eq 5/6), Eq 7, Eq 11, w_sch = max(Eq 7, Eq 11), the exact w_rta,
-the suspension-aware w_susp (Δt with the CPU idle, docs/model/beyond.md) and w_edf (the CPU under
-EDF:
-the processor-demand criterion, Δt as CPU time).
+the suspension-aware w_susp (Δt with the CPU idle, docs/model/beyond.md), w_edf (the CPU under
+EDF: the processor-demand criterion, Δt as CPU time) and w_txn (the offset-based transaction
+analysis, Δt with the CPU idle, docs/analysis.md).
 FILE defaults to the paper's task set; n and r_H default to the file's. Both options also take
 lists and inclusive ranges (``1..10``, ``10..50:10``, ``10,20,30``): one row per combination.
 ``--json`` prints one object (a list of them with lists or ranges) that echoes every input.
@@ -95,7 +95,7 @@ def _cell(x: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
-    from rtsim.analysis.bounds import window_bounds
+    from rtsim.analysis.bounds import w_txn, window_bounds
     from rtsim.cli._set import set_overrides
     from rtsim.io.taskset import load_taskset
 
@@ -103,10 +103,16 @@ def run(args: argparse.Namespace) -> int:
     if ts.window is None:
         raise InputError(f"{ts.source}: has no [window]; bounds needs a processing-window set")
     ns, rs = _values(args, ts.window.n, ts.window.r_H)
-    rows = [window_bounds(ts, n=n, r_H=r) for n in ns for r in rs]
+    sets = [ts.with_window(n=n, r_H=r) for n in ns for r in rs]
+    rows = [window_bounds(one) for one in sets]
+    txn = [w_txn(one, force=args.force) for one in sets]
     many = len(rows) > 1 or _is_list(args.followers) or _is_list(args.hough_radius)
+    dicts = [
+        {**b.as_dict(), "w_txn": x if math.isfinite(x) else None}
+        for b, x in zip(rows, txn, strict=True)
+    ]
     if args.json:
-        out: Any = [json_safe(b.as_dict()) for b in rows] if many else json_safe(rows[0].as_dict())
+        out: Any = [json_safe(d) for d in dicts] if many else json_safe(dicts[0])
         print(json.dumps(out, indent=2, allow_nan=False))
         return 0
     if args.quiet:
@@ -124,18 +130,19 @@ def run(args: argparse.Namespace) -> int:
             ("w_rta", b.w_rta, "exact response-time analysis; 'none': never schedulable"),
             ("w_susp", b.w_susp, "suspension-aware analysis, Δt with the CPU idle"),
             ("w_edf", b.w_edf, "EDF processor-demand criterion, Δt as CPU time"),
+            ("w_txn", txn[0], "offset-based (transaction) analysis, Δt with the CPU idle"),
         ]:
             print(f"{label:<8} {_cell(value):>10} ms   {note}")
         return 0
     head = (
         f"{'n':>4} {'r_H':>7} {'e_hough':>9} {'g':>9} {'Eq 7':>9} {'Eq 11':>9} "
-        f"{'w_sch':>9} {'w_rta':>9} {'w_susp':>9} {'w_edf':>9}"
+        f"{'w_sch':>9} {'w_rta':>9} {'w_susp':>9} {'w_edf':>9} {'w_txn':>9}"
     )
     print(f"times in ms, r_H in cm\n\n{head}\n{'-' * len(head)}")
-    for b in rows:
+    for b, x in zip(rows, txn, strict=True):
         print(
             f"{b.inputs['n']:>4} {b.inputs['r_H']:>7g} {_cell(b.e_hough):>9} {_cell(b.g):>9} "
             f"{_cell(b.w_eq7):>9} {_cell(b.w_eq11):>9} {_cell(b.w_sch):>9} "
-            f"{_cell(b.w_rta):>9} {_cell(b.w_susp):>9} {_cell(b.w_edf):>9}"
+            f"{_cell(b.w_rta):>9} {_cell(b.w_susp):>9} {_cell(b.w_edf):>9} {_cell(x):>9}"
         )
     return 0

@@ -76,6 +76,27 @@ def add_figure_options(
     )
 
 
+def check_suffix(
+    path: str | os.PathLike[str] | None, option: str, suffixes: tuple[str, ...]
+) -> None:
+    """Refuse an output file whose suffix does not name the format written there (one of
+    ``suffixes``, e.g. ``(".json",)``): a file's name says what it holds."""
+    from pathlib import Path
+
+    from rtsim.errors import InputError
+
+    if path is None:
+        return
+    suffix = Path(path).suffix.lower()
+    if suffix not in suffixes:
+        got = f"ends in {suffix}" if suffix else "has no suffix"
+        raise InputError(
+            f"{option} {os.fsdecode(path)}: {got}, but it is written as "
+            f"{' or '.join(s.lstrip('.') for s in suffixes)}; give a file ending in "
+            f"{' or '.join(suffixes)}"
+        )
+
+
 def figure_format(
     args: Any,
     path: str | os.PathLike[str] | None = None,
@@ -84,13 +105,16 @@ def figure_format(
 ) -> str:
     """The format to write: ``--format``, else the suffix of ``path`` (a file the user
     named) when it is one of ``formats``, else the first of ``formats``. A ``--format``
-    that contradicts the named file's suffix is an input error."""
+    that contradicts the named file's suffix, and a suffix that is none of ``formats``
+    (``--gantt g.csv`` would be a PNG named .csv), are input errors."""
     from pathlib import Path
 
     from rtsim.errors import InputError
 
     given = getattr(args, "fig_format", None)
     suffix = Path(path).suffix.lstrip(".").lower() if path is not None else ""
+    if suffix:
+        check_suffix(path, option, tuple(f".{f}" for f in formats))
     if given is not None:
         if suffix in formats and suffix != given:
             raise InputError(
@@ -118,4 +142,6 @@ def simulation_bar(args: Any, desc: str) -> Any:
 def note(args: Any, text: str) -> None:
     """A diagnostic line on standard error (``rtsim: <text>``), unless ``-q``."""
     if not getattr(args, "quiet", False):
-        print(f"rtsim: {text}", file=sys.stderr)
+        from rtsim.cli import one_line
+
+        print(f"rtsim: {one_line(text)}", file=sys.stderr)

@@ -148,6 +148,23 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _readable(args: argparse.Namespace, path: Path) -> None:
+    """Read the set just written as ``analyze`` and ``simulate`` will (their ranges, e.g. a
+    period of 1 µs to 11.6 days): a set they would refuse is not written (the staging goes),
+    the refusal is one line naming the options and the reader's first problem."""
+    from rtsim.io.taskset import load_taskset
+
+    try:
+        load_taskset(path)
+    except InputError as exc:
+        first = (getattr(exc, "lines", None) or [str(exc)])[0]
+        why = first.split(": ", 1)[1] if first.startswith(str(path)) else first
+        raise InputError(
+            f"--periods {args.periods}, --utilization {args.utilization:g}: makes sets that "
+            f"the task-set reader refuses ({path.name}: {why})"
+        ) from None
+
+
 def _write_sets(
     args: argparse.Namespace, out: Path, spec: Any, factor: tuple[float, float]
 ) -> list[str]:
@@ -174,6 +191,7 @@ def _write_sets(
                 f"seed {args.seed}, set {i}",
             ),
         )
+        _readable(args, out / name)
         files.append(name)
     write_manifest(
         out,

@@ -52,14 +52,14 @@ def register(sub: Any) -> None:
         'as test2); preset = "paper" takes the paper\'s own (docs/configuration.md).',
     )
     p.add_argument("file", help="scenario TOML file")
-    from rtsim.control.policy import POLICIES
+    from rtsim.control.policy import ADJUSTMENT_POLICIES
 
     p.add_argument(
         "--policy",
         default=None,
         metavar="NAME",
         help="adjustment policy, overriding the file's [adjust] policy: "
-        f"{', '.join(POLICIES)} (default plan, the recommended model; adjust is the "
+        f"{', '.join(ADJUSTMENT_POLICIES)} (default plan, the recommended model; adjust is the "
         'paper\'s algorithm, also preset = "paper"), or package.module:Name '
         "(docs/adjustment.md)",
     )
@@ -216,6 +216,9 @@ def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | N
     the run); elsewhere, checked and staged in ``files`` with a manifest of its own."""
     if not args.perfetto:
         return None
+    from rtsim.cli.common import check_suffix
+
+    check_suffix(args.perfetto, "--perfetto", (".json",))
     perfetto = Path(args.perfetto)
     if (
         perfetto.resolve().is_relative_to(target.resolve())

@@ -40,6 +40,17 @@ GANTT_DPI = HISTOGRAM_DPI = 120
 _RANGE = re.compile(r"^\s*([-+0-9.eE]+)\s*\.\.\s*([-+0-9.eE]+)\s*$")
 
 
+def worst_jitter_note(late: list[str]) -> str:
+    """The line ``--jitter worst`` prints for per-window tasks it cannot move to the
+    critical instant (`rtsim.sim.run.worst_jitter_shifts`)."""
+    names = ", ".join(f"'{n}'" for n in late)
+    return (
+        f"--jitter worst: {names} cannot arrive before the window's first arrival "
+        "(a per-window task): its first release is at the window's arrival plus its "
+        "jitter, not at the critical instant"
+    )
+
+
 def register(sub: Any) -> None:
     """Add the ``simulate`` sub-command."""
     p = sub.add_parser(
@@ -215,6 +226,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     from rtsim.io.taskset import load_taskset, taskset_to_dict
     from rtsim.sim import simulate
     from rtsim.sim.records import jobs_frame, trace_frame
+    from rtsim.sim.run import worst_jitter_shifts
 
     if not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
@@ -241,9 +253,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         require_bcet(ts, str(args.file))
     scheduler = ts.scheduler
     if args.scheduler is not None:
-        from rtsim.sim.policy import resolve_policy
+        from rtsim.sim.policy import resolve_scheduler
 
-        resolve_policy(args.scheduler, where="--scheduler", allow_code=True)
+        resolve_scheduler(args.scheduler, where="--scheduler", allow_code=True)
         scheduler = args.scheduler
     bounds = None
     if ts.window is not None:
@@ -269,7 +281,11 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         name = getattr(args, opt)
         if name and Path(name).suffix.lower() not in (".csv", ".parquet"):
             raise InputError(f"--{opt} {name}: output must end in .csv or .parquet")
-    from rtsim.cli.common import figure_format
+    from rtsim.cli.common import check_suffix, figure_format
+
+    if args.perfetto:  # (an input or a user's file named first: that is the worse mistake)
+        files.check(args.perfetto, "--perfetto")
+        check_suffix(args.perfetto, "--perfetto", (".json",))
 
     formats = {
         opt: figure_format(args, getattr(args, opt), f"--{opt}")
@@ -304,10 +320,14 @@ def _run(args: argparse.Namespace, files: Any) -> int:
             files.on_release(getattr(out, "discard", out.close))
     job_sink = Tee(jobs_out, spools and spools[0], chart and chart.jobs)
     trace_sink = Tee(trace_out, spools and spools[1], chart and chart.trace)
-    from rtsim.cli.common import simulation_bar
+    from rtsim.cli.common import note, simulation_bar
     from rtsim.cli.plausible import warn_short_horizon
 
     warn_short_horizon(args)  # every input checked: the run goes ahead
+    if args.jitter == "worst":
+        late = worst_jitter_shifts(ts)[1]
+        if late:
+            note(args, worst_jitter_note(late))
     with simulation_bar(args, "simulate") as bar:
         res = simulate(
             ts,
@@ -347,14 +367,23 @@ def _run(args: argparse.Namespace, files: Any) -> int:
     if known and analyze_with is analyze and (ts.window is None or w is not None):
         from rtsim.analysis.transaction import transaction_bounds
 
-        # --jitter worst moves each task's arrivals by (largest jitter - its own): a
-        # per-window task's arrivals then sit J_window - J_task after the window's
-        shifts = None
-        if args.jitter == "worst" and ts.window is not None:
-            shifts = {t.name: ts.window.jitter - t.jitter for t in ts.tasks if t.per_window}
-        txn = transaction_bounds(
-            ts, w, overhead=overhead, suspension=args.suspension, shifts=shifts
-        )
+        # --jitter worst moves each task's arrivals by (largest jitter - its own), a
+        # per-window task's no earlier than the window's (worst_jitter_shifts)
+        shifts = worst_jitter_shifts(ts)[0] if args.jitter == "worst" else None
+        from rtsim.io.work import TooMuchWork
+
+        try:  # (the report's bound, after the run: above its work limit it is left out)
+            txn = transaction_bounds(
+                ts,
+                w,
+                overhead=overhead,
+                suspension=args.suspension,
+                shifts=shifts,
+                force=args.force,
+            )
+        except TooMuchWork as exc:
+            note(args, f"{exc}; wcrt_transaction left out")
+            txn = {}
         for name, r in txn.items():
             old = wcrt.get(name)
             if r is not None and (old is None or r < old):
@@ -475,7 +504,10 @@ def _print_table(report: dict[str, Any]) -> None:
         "wcrt_analysis",
         "max_backlog",
     )
-    rows = [[_fmt(t.get(c)) for c in cols] for t in report["tasks"]]
+    from rtsim.cli import one_line
+
+    # names escaped as in error lines (a line break or ESC in a name cannot fake a line)
+    rows = [[one_line(_fmt(t.get(c))) for c in cols] for t in report["tasks"]]
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     print("  ".join(c.ljust(widths[i]) for i, c in enumerate(cols)))
     for r in rows:

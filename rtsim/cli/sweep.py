@@ -2,8 +2,9 @@
 
 Exit status: 0 when every point is ok, 1 when any point failed (or workers were lost),
 2 for a bad sweep file, a changed sweep file without ``--restart``, a grid above the size
-limit without ``--force`` or an output directory another sweep is using, 130 on Ctrl-C or
-SIGTERM (finished points are kept; the same command resumes).
+limit without ``--force`` or an output directory another sweep is using, 130 on Ctrl-C
+(``rtsim: interrupted``) and 143 on SIGTERM (``rtsim: terminated``): the workers are stopped
+and joined with timeouts, finished points kept, and the same command resumes.
 """
 
 from __future__ import annotations
@@ -69,7 +70,29 @@ def register(subparsers: Any) -> None:
 
 
 def _sigterm(signum: int, frame: FrameType | None) -> None:
-    raise KeyboardInterrupt
+    from rtsim.cli import Terminated
+
+    raise Terminated  # "rtsim: terminated", exit 143 (docs/reliability.md)
+
+
+def _leave_if_stuck(exc: KeyboardInterrupt) -> None:
+    """After the interrupt path's cleanup, leave at once (``os._exit``) when a stopped
+    pool's thread did not end: the interpreter's exit would wait for it without a timeout."""
+    import os
+
+    from rtsim.cli import Terminated
+    from rtsim.sweep.engine import STUCK
+
+    if not any(t.is_alive() for t in STUCK):
+        return
+    term = isinstance(exc, Terminated)
+    print(f"rtsim: {'terminated' if term else 'interrupted'}", file=sys.stderr)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(143 if term else 130)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -93,6 +116,9 @@ def run(args: argparse.Namespace) -> int:
     except SweepIncomplete as exc:
         print(f"rtsim: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt as exc:  # cleaned up: the workers stopped, the lock released
+        _leave_if_stuck(exc)
+        raise
     finally:
         signal.signal(signal.SIGTERM, previous)
     df = outcome.table

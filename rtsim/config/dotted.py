@@ -136,7 +136,10 @@ def parse_assignment(
     text: str, error: type[InputError] = InputError, flag: str = "--set"
 ) -> tuple[str, Any]:
     """``KEY=VALUE`` → (key, value): the value read as a TOML value (``4``, ``2.5``, ``true``,
-    ``"text"``, ``[1, 2]``, ``inf``), a bare word as a string (``left``)."""
+    ``"text"``, ``[1, 2]``, ``inf``), a bare word as a string (``left``). A line break is
+    refused: TOML would read the rest as further keys, which the value would silently drop."""
+    if "\n" in text or "\r" in text:
+        raise error(f"{flag} {text!r}: has a line break; give one KEY=VALUE per {flag}")
     key, sep, raw = text.partition("=")
     key = key.strip()
     if not sep or not key:

@@ -129,7 +129,8 @@ class AdjustConfig:
     predictor: the prediction model of `rtsim.control.predict` (``paper``, ``formation``
     or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
     names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
-    ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle) or ``w_edf``
+    ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle), ``w_txn``
+    (offset-based: the window chain and the command task as one transaction) or ``w_edf``
     (the EDF demand criterion; needs ``[scheduler] policy = "edf"``); decide: when in its
     window the decision is taken, ``end`` (after the radio round trip) or ``before-send``;
     paper_predictor: the policy ``adjust`` runs on the paper's predictor (default) or on
@@ -291,14 +292,14 @@ class _Angles(Table):
 _HEADING = "ten turns either way"
 
 
-class StartModel(_Angles):
+class StartTable(_Angles):
     x: Annotated[float, number(-_CM_MAX, _CM_MAX, "cm", "within 100 km")] = 0.0
     y: Annotated[float, number(-_CM_MAX, _CM_MAX, "cm", "within 100 km")] = 0.0
     heading: Annotated[float, _angle(-_ANGLE, _ANGLE, _HEADING)] | None = None
     heading_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, _HEADING, deg=True)] | None = None
 
 
-class SegmentModel(_Angles):
+class SegmentTable(_Angles):
     """One entry of ``leader.path``: ``{straight = <cm>}`` or ``{turn = "left", radius, angle}``."""
 
     straight: (
@@ -335,7 +336,7 @@ class SegmentModel(_Angles):
         return self
 
 
-class ShapeModel(Table):
+class ShapeTable(Table):
     kind: Annotated[str, choice(("rounded_rectangle",))]
     length: Annotated[float, number(0, _CM_MAX, "cm", "at most 100 km")]
     width: Annotated[float, number(0, _CM_MAX, "cm", "at most 100 km")]
@@ -346,9 +347,9 @@ class ShapeModel(Table):
 _RAMP = "at most 100 g; inf: the speed steps"
 
 
-class LeaderModel(Table):
+class LeaderTable(Table):
     speed: Annotated[float, number(0, 1000, "cm/s", "a ground robot at most 10 m/s", lo_open=True)]
-    start: StartModel = Field(default_factory=StartModel)
+    start: StartTable = Field(default_factory=StartTable)
     start_s: Annotated[
         float,
         number(
@@ -361,8 +362,8 @@ class LeaderModel(Table):
     start_on: Annotated[str, choice(START_ON)] = "straight"
     accel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
     decel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
-    path: list[SegmentModel] | None = Field(default=None, min_length=1)
-    shape: ShapeModel | None = None
+    path: list[SegmentTable] | None = Field(default=None, min_length=1)
+    shape: ShapeTable | None = None
 
     @model_validator(mode="after")
     def _path_or_shape(self) -> Any:
@@ -371,14 +372,14 @@ class LeaderModel(Table):
         return self
 
 
-class SlotModel(_Angles):
+class SlotTable(_Angles):
     _required_angles: ClassVar[tuple[str, ...]] = ("beta_d",)
     rho_d: Annotated[float, number(0, 1e5, "cm", "as separation", lo_open=True)]
     beta_d: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle")] | None = None
     beta_d_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle", deg=True)] | None = None
 
 
-class FormationModel(_Angles):
+class FormationTable(_Angles):
     model: Annotated[str, plugin(FOLLOWER_MODELS)] = _DEFAULT["formation.model"]
     layout: Annotated[str, choice(FORMATION_LAYOUTS)] = _DEFAULT["formation.layout"]
     followers: Annotated[int, integer(1, 1000, "followers", "as window.n")] | None = None
@@ -393,7 +394,7 @@ class FormationModel(_Angles):
     clearance: Annotated[
         float, number(0, 1000, "cm", "the least gap between two robots' discs, at most 10 m")
     ] = DEFAULT_CLEARANCE
-    slot: list[SlotModel] | None = Field(default=None, min_length=1)
+    slot: list[SlotTable] | None = Field(default=None, min_length=1)
 
     @model_validator(mode="after")
     def _slots_or_pattern(self) -> Any:
@@ -415,7 +416,7 @@ class FormationModel(_Angles):
 _NOISE = "a noise standard deviation"
 
 
-class FollowerModel(_Angles):
+class FollowerTable(_Angles):
     radius: (
         Annotated[float, number(0, 1e3, "cm", "a robot of at most 10 m", lo_open=True)] | None
     ) = None
@@ -455,7 +456,7 @@ class FollowerModel(_Angles):
     turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None = None
 
 
-class SensingModel(Table):
+class SensingTable(Table):
     r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = 25.0
     r_reacq: (
         Annotated[float, number(0, 1e5, "cm", "a search radius within 1 km", lo_open=True)] | None
@@ -471,7 +472,7 @@ class SensingModel(Table):
     ) = None
 
 
-class EkfModel(_Angles):
+class EkfTable(_Angles):
     measurement_noise: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
     speed_noise: Annotated[float, number(0, 1e4, "cm/s", _NOISE)] | None = None
     turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
@@ -488,7 +489,7 @@ class EkfModel(_Angles):
 _FRACTION = "a fraction of the desired separation"
 
 
-class ThresholdsModel(_Angles):
+class ThresholdsTable(_Angles):
     T_rho: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.01
     T_eps: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.025
     T_beta: (
@@ -501,7 +502,7 @@ class ThresholdsModel(_Angles):
     localization: Annotated[str, choice(LOCALIZATION_KINDS)] | None = None
 
 
-class LocalizationModel(Table):
+class LocalizationTable(Table):
     """``[localization]``: where the Hough windows are centred, which lost followers are
     searched for."""
 
@@ -510,7 +511,7 @@ class LocalizationModel(Table):
     model: Annotated[str, choice(LOCALIZATION_MODELS)] = _DEFAULT["localization.model"]
 
 
-class AdjustModel(Table):
+class AdjustTable(Table):
     """``[adjust]``: the common keys and the policies' own keys (``margin``, ``windows``,
     ``z`` and those of a plug-in policy, which checks its own)."""
 
@@ -564,7 +565,7 @@ class AdjustModel(Table):
     ) = None
 
 
-class RadioModel(Table):
+class RadioTable(Table):
     """``[radio]``: the round trip's spread and the commands' loss probability."""
 
     min_ms: (
@@ -578,12 +579,12 @@ class RadioModel(Table):
     loss: Annotated[float, number(0, 1, "", "a probability per command", hi_open=True)] = 0.0
 
 
-class WorldModel(Table):
+class WorldTable(Table):
     step_ms: Annotated[float, number(1e-3, 1e4, "ms", "1 µs to 10 s per integration step")] = 10.0
     backend: Annotated[str, choice(WORLD_BACKENDS)] | None = None
 
 
-class SchedulerModel(Table):
+class SchedulerTable(Table):
     policy: Annotated[str, text(what="a policy name")] = "fp"
 
 
@@ -600,20 +601,20 @@ class ScenarioFile(Table):
     ) = None
     #: ``"lap"``: run to the end of the lap, followers included (without a duration)
     until: Annotated[str, choice(UNTIL)] | None = None
-    leader: LeaderModel
-    formation: FormationModel
-    follower: FollowerModel = Field(default_factory=FollowerModel)
-    sensing: SensingModel = Field(default_factory=SensingModel)
-    ekf: EkfModel = Field(default_factory=EkfModel)
-    thresholds: ThresholdsModel = Field(default_factory=ThresholdsModel)
-    adjust: AdjustModel = Field(default_factory=AdjustModel)
-    world: WorldModel = Field(default_factory=WorldModel)
-    localization: LocalizationModel = Field(default_factory=LocalizationModel)
-    radio: RadioModel = Field(default_factory=RadioModel)
+    leader: LeaderTable
+    formation: FormationTable
+    follower: FollowerTable = Field(default_factory=FollowerTable)
+    sensing: SensingTable = Field(default_factory=SensingTable)
+    ekf: EkfTable = Field(default_factory=EkfTable)
+    thresholds: ThresholdsTable = Field(default_factory=ThresholdsTable)
+    adjust: AdjustTable = Field(default_factory=AdjustTable)
+    world: WorldTable = Field(default_factory=WorldTable)
+    localization: LocalizationTable = Field(default_factory=LocalizationTable)
+    radio: RadioTable = Field(default_factory=RadioTable)
     assumptions: dict[str, Annotated[str, text(what="a non-empty string giving the reason")]] = (
         Field(default_factory=dict)
     )
-    scheduler: SchedulerModel | None = None
+    scheduler: SchedulerTable | None = None
 
 
 # -------------------------------------------------------------------------- building
@@ -688,7 +689,7 @@ def _attempt(errors: list[str], where: str, make: Callable[[], T]) -> T | None:
         return None
 
 
-def _path(src: str, leader: LeaderModel) -> LeaderPath:
+def _path(src: str, leader: LeaderTable) -> LeaderPath:
     st = leader.start
     start = (st.x, st.y, st.radians("heading", 0.0))
     if leader.path is not None:
@@ -720,7 +721,7 @@ def _attempt_raise(where: str, make: Callable[[], T]) -> T:
         raise ScenarioError(f"{where}: {exc}") from None
 
 
-def _formation(f: FormationModel, r_F: float, path: LeaderPath) -> Formation:
+def _formation(f: FormationTable, r_F: float, path: LeaderPath) -> Formation:
     if f.slot is not None:
         rho = tuple(s.rho_d for s in f.slot)
         beta = tuple(s.radians("beta_d") for s in f.slot)

@@ -35,9 +35,9 @@ from rtsim.model.window import WindowSpec
 
 __all__ = [
     "TaskSetFile",
-    "TaskModel",
-    "WindowModel",
-    "SchedulerModel",
+    "TaskTable",
+    "WindowTable",
+    "SchedulerTable",
     "build_taskset",
     "taskset_where",
 ]
@@ -83,7 +83,7 @@ def per_window(value: float | str) -> tuple[float, bool]:
     return float(value), False
 
 
-class SectionModel(Table):
+class SectionTable(Table):
     """One critical section of a task: ``{ resource = "radio", start = 2.0, length = 3.0 }``
     (docs/resources.md)."""
 
@@ -109,7 +109,7 @@ class SectionModel(Table):
     ]
 
 
-class TaskModel(Table):
+class TaskTable(Table):
     """One ``[[tasks]]`` entry."""
 
     name: Annotated[str, text()]
@@ -123,7 +123,7 @@ class TaskModel(Table):
     jitter: Annotated[float, number(0, _MS_MAX, "ms", "as the offset")] | None = None
     bcet: Annotated[float, number(0, 1e7, "ms", "at most 2.8 h of CPU per job")] | None = None
     overload: Annotated[str, choice(OVERLOAD_POLICIES)] | None = None
-    critical_sections: list[SectionModel] | None = None
+    critical_sections: list[SectionTable] | None = None
 
 
 _CHAIN = "a chain step of at most 2.8 h"
@@ -152,7 +152,7 @@ _K = Leaf(
 )
 
 
-class WindowModel(Table):
+class WindowTable(Table):
     """The ``[window]`` table: the processing window's chain T_w."""
 
     name: Annotated[str, text()] = "window"
@@ -206,22 +206,35 @@ class WindowModel(Table):
     ) = None
 
 
-class SchedulerModel(Table):
+class SchedulerTable(Table):
     """``[scheduler]``: the CPU's scheduling policy."""
 
     policy: Annotated[str, text(what="a policy name")] = "fp"
     resources: Annotated[str, choice(RESOURCE_PROTOCOLS)] | None = None
+    quantum: (
+        Annotated[
+            float,
+            number(
+                0,
+                1e7,
+                "ms",
+                "the time slice of a time-sliced policy (rr)",
+                lo_open=True,
+            ),
+        ]
+        | None
+    ) = None
 
 
 class TaskSetFile(Table):
     """A task-set file."""
 
     name: Annotated[str, text(nonempty=False, what="a string")] = ""
-    tasks: list[TaskModel] = Field(min_length=1)
-    window: WindowModel | None = None
+    tasks: list[TaskTable] = Field(min_length=1)
+    window: WindowTable | None = None
     assumptions: dict[str, str] = Field(default_factory=dict)
     overhead: Annotated[float, number(0, 1e4, "ms", "a context switch of at most 10 s")] = 0.0
-    scheduler: SchedulerModel | None = None
+    scheduler: SchedulerTable | None = None
 
 
 # ------------------------------------------------------------------------- messages
@@ -257,7 +270,7 @@ def taskset_special(loc: Loc, what: str) -> str | None:
 
 
 # -------------------------------------------------------------------------- building
-def _label(model: TaskModel, index: int) -> str:
+def _label(model: TaskTable, index: int) -> str:
     return f"task '{model.name}'" if model.name.strip() else f"[[tasks]] #{index}"
 
 
@@ -270,12 +283,25 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         window, errs = _window(model.window)
         errors += errs
     if model.scheduler is not None:
-        from rtsim.sim.policy import resolve_policy
+        from rtsim.sim.policy import resolve_scheduler
 
         try:
-            resolve_policy(model.scheduler.policy, where=f"{source}: [scheduler]: policy")
+            sliced = resolve_scheduler(
+                model.scheduler.policy, where=f"{source}: [scheduler]: policy"
+            ).takes_quantum
         except Exception as exc:  # an InputError naming the file already
             errors.append(str(exc).removeprefix(f"{source}: "))
+        else:
+            if model.scheduler.quantum is not None and not sliced:
+                errors.append(
+                    f"[scheduler]: quantum: only for a time-sliced policy (rr), not "
+                    f"{model.scheduler.policy!r}"
+                )
+            if model.scheduler.quantum is None and sliced:
+                errors.append(
+                    f"[scheduler]: quantum: missing (required by the time-sliced policy "
+                    f"{model.scheduler.policy!r}: its time slice in ms)"
+                )
     entries: list[tuple[dict[str, Any], str]] = []
     for i, t in enumerate(model.tasks, start=1):
         label = _label(t, i)
@@ -320,7 +346,8 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
             errors.append(f"{label}: name: duplicate of {first}")
         else:
             names[kw["name"]] = i
-    errors += _assign_priorities(entries, model.window)
+    shared = model.scheduler is not None and model.scheduler.quantum is not None
+    errors += _assign_priorities(entries, model.window, shared)
     if errors or (model.window is not None and window is None):
         return None, errors
     tasks_l = []
@@ -331,10 +358,10 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
             msg = str(exc)
             errors.append(msg if msg.startswith(label) else f"{label}: {msg}")
     if model.scheduler is not None and model.scheduler.resources == "pcp":
-        from rtsim.sim.policy import resolve_policy
+        from rtsim.sim.policy import resolve_scheduler
 
         try:
-            levels = resolve_policy(model.scheduler.policy).resource_levels
+            levels = resolve_scheduler(model.scheduler.policy).resource_levels
         except Exception:  # an unknown policy: reported above
             levels = "priority"
         if levels == "deadline":
@@ -354,10 +381,11 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         overhead=float(model.overhead),
         scheduler=model.scheduler.policy if model.scheduler else "fp",
         resources=model.scheduler.resources if model.scheduler else None,
+        quantum=model.scheduler.quantum if model.scheduler else None,
     ), []
 
 
-def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:
+def _window(w: WindowTable) -> tuple[WindowSpec | None, list[str]]:
     where = "[window]"
     values: dict[str, Any] = {
         "name": w.name,
@@ -403,9 +431,10 @@ def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:
 
 
 def _assign_priorities(
-    entries: list[tuple[dict[str, Any], str]], window: WindowModel | None
+    entries: list[tuple[dict[str, Any], str]], window: WindowTable | None, shared: bool = False
 ) -> list[str]:
-    """Every task gives a priority or none does; none → deadline-monotonic, ties in file order."""
+    """Every task gives a priority or none does; none → deadline-monotonic, ties in file order.
+    ``shared``: tasks may share a priority (a time-sliced policy with its quantum)."""
     given = [label for kw, label in entries if "priority" in kw]
     if given and len(given) != len(entries):
         missing = next(label for kw, label in entries if "priority" not in kw)
@@ -432,8 +461,12 @@ def _assign_priorities(
     errors = []
     for kw, label in entries:
         prio = kw["priority"]
-        if prio in seen:
-            errors.append(f"{label}: priority: {prio} is already used by {seen[prio]}")
+        if prio in seen and not shared:
+            errors.append(
+                f"{label}: priority: {prio} is already used by {seen[prio]} (tasks share a "
+                f'priority only under a time-sliced policy: [scheduler] policy = "rr" with '
+                f"a quantum)"
+            )
         else:
             seen[prio] = label
     return errors

@@ -104,6 +104,11 @@ def _largest_paper(
     return False, 0.0
 
 
+#: about how long compiling `_largest_paper` takes, CPU s (as
+#: `rtsim.world.kernels.COMPILE_S`)
+PAPER_COMPILE_S = 1.0
+
+
 class PaperSearch(str):
     """The predictor name ``"paper"`` with its compiled speed search (module docstring)."""
 
@@ -111,6 +116,9 @@ class PaperSearch(str):
         return super().__new__(cls, "paper")
 
     def __init__(self) -> None:
+        from rtsim.world.kernels import announce
+
+        announce([_largest_paper], PAPER_COMPILE_S)
         self._kernel = build(_largest_paper)
         self.largest(  # compile, or load from the cache, now rather than in a window
             [], 0.0, Thresholds(1.0, 1.0, 1.0, 1.0), 1.0, [1.0]

@@ -968,7 +968,9 @@ def run_scenario(
     else:
         run.rec.flush()
         window_sink.close()
-        df = table = window_sink.read(summary_columns(run.n))
+        # the summary reads the columns back in chunks: memory stays flat at any length
+        # and follower count
+        df, table = None, window_sink.iter_read(summary_columns(run.n))
     res = run.cpu.result()
     world = run.world
     extra = {

@@ -4,7 +4,7 @@ critical share, the violations and the physical outcome, computed from the recor
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -79,7 +79,7 @@ def _total(df: pd.DataFrame | Mapping[str, Any], col: str) -> int:
 
 
 def summarize(
-    df: pd.DataFrame | Mapping[str, Any],
+    df: pd.DataFrame | Mapping[str, Any] | Iterable[pd.DataFrame | Mapping[str, Any]],
     *,
     mode: str,
     w_sch: float,
@@ -91,31 +91,18 @@ def summarize(
 ) -> dict[str, Any]:
     """summary.json from windows.csv (docs/outputs.md) and run facts. ``df``: the table, or
     its columns (name -> array or list, as `records_columns`
-    gives them): the summary is computed from arrays either way."""
-
-    def col(name: str, dtype: Any = float) -> Any:
-        return np.asarray(df[name], dtype=dtype)
-
-    w = col("w")
-    rows = len(w)
-    crit = col("critical", bool)
+    gives them), or an iterable of such chunks in row order (a table read back in pieces,
+    `rtsim.io.columns.ChunkWriter.iter_read`: memory stays flat). Counts, minima and
+    maxima are taken per chunk; the two float sums (of ``w``, and of ``w`` over critical
+    windows) over the whole columns kept, so any chunking gives the same summary."""
+    chunks = [df] if isinstance(df, pd.DataFrame | Mapping) else df
+    acc = _Totals(n)
+    for chunk in chunks:
+        acc.add(chunk)
+    w = np.concatenate(acc.w) if acc.w else np.zeros(0)
+    crit = np.concatenate(acc.crit) if acc.crit else np.zeros(0, dtype=bool)
     total_w = float(w.sum())
-    violations = {
-        k: int(sum(int(col(f"f{i}_viol_{k}", bool).sum()) for i in range(1, n + 1)))
-        for k in BOUND_KINDS
-    }
-    binding_critical: dict[str, int] = {}
-    for b in col("binding", object)[crit].tolist():
-        kind = str(b).split(":")[0]
-        binding_critical[kind] = binding_critical.get(kind, 0) + 1
-    methods: dict[str, int] = {}
-    for m in col("method", object).tolist():
-        methods[str(m)] = methods.get(str(m), 0) + 1
-    ratio = col("msb_min") / col("w_sch")
-    speed = col("v_leader") / col("v_leader_desired")
-    response = col("response")
-    with np.errstate(invalid="ignore"):  # the table's max skips NaN (none in practice)
-        kept = response[~np.isnan(response)]
+    rows = acc.rows
     out: dict[str, Any] = {
         "scenario": scenario,
         "mode": mode,
@@ -123,27 +110,114 @@ def summarize(
         "duration_s": duration_s,
         "w_sch": w_sch,
         "windows": int(rows),
-        "missed": int(col("missed", bool).sum()),
-        "tracks_lost": int(col("tracks_lost", np.int64).sum()),
-        "assumption_broken": int(col("assumption_broken", bool).sum()),
-        "violations": violations,
+        "missed": acc.counts["missed"],
+        "tracks_lost": acc.counts["tracks_lost"],
+        "assumption_broken": acc.counts["assumption_broken"],
+        "violations": acc.violations,
         "critical_share": float(w[crit].sum() / total_w) if total_w > 0 else 0.0,
         "critical_windows": int(crit.sum()),
-        "methods": dict(sorted(methods.items())),
-        "binding_critical": dict(sorted(binding_critical.items())),
-        "min_msb_over_wsch": float(ratio.min()) if rows else math.nan,
-        "min_speed_ratio": float(speed.min()) if rows else math.nan,
-        "infeasible": int((~col("feasible", bool)).sum()),
-        "max_response": float(kept.max()) if kept.size else math.nan,
+        "methods": dict(sorted(acc.methods.items())),
+        "binding_critical": dict(sorted(acc.binding.items())),
+        "min_msb_over_wsch": _least(acc.ratio) if rows else math.nan,
+        "min_speed_ratio": _least(acc.speed) if rows else math.nan,
+        "infeasible": acc.counts["infeasible"],
+        "max_response": max(acc.response) if acc.response else math.nan,
         # lost tracks by cause (they sum to tracks_lost), searches charged, re-acquisitions
-        "tracks_lost_by_cause": {c: _total(df, f"tracks_lost_{c}") for c in LOST_CAUSES},
-        "searches": _total(df, "searches"),
-        "reacquisitions": _total(df, "reacquisitions"),
+        "tracks_lost_by_cause": {c: acc.totals[f"tracks_lost_{c}"] for c in LOST_CAUSES},
+        "searches": acc.totals["searches"],
+        "reacquisitions": acc.totals["reacquisitions"],
         # the sensing: fixes made by a neighbour, the fixes' error from the truth, commands lost
-        "confusions": _total(df, "confusions"),
-        "radio_losses": _total(df, "radio_losses"),
-        "localization_error_cm": fix_errors(df, n),
+        "confusions": acc.totals["confusions"],
+        "radio_losses": acc.totals["radio_losses"],
+        "localization_error_cm": acc.fix_errors(),
     }
     if extra:
         out.update(extra)
     return out
+
+
+def _least(mins: list[float]) -> float:
+    """The least of the chunks' minima, NaN if any is (as one array's ``min``)."""
+    return float(np.min(np.asarray(mins, dtype=float)))
+
+
+class _Totals:
+    """What [`summarize`][rtsim.coupling.summary.summarize] keeps of the chunks it has seen: counts,
+    per-chunk minima and
+    maxima, and the two float columns its sums need (``w``, ``critical``)."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.rows = 0
+        self.w: list[np.ndarray] = []
+        self.crit: list[np.ndarray] = []
+        self.counts = {"missed": 0, "tracks_lost": 0, "assumption_broken": 0, "infeasible": 0}
+        self.violations = {k: 0 for k in BOUND_KINDS}
+        self.binding: dict[str, int] = {}
+        self.methods: dict[str, int] = {}
+        self.ratio: list[float] = []
+        self.speed: list[float] = []
+        self.response: list[float] = []
+        self.totals = {
+            c: 0
+            for c in (
+                *(f"tracks_lost_{c}" for c in LOST_CAUSES),
+                "searches",
+                "reacquisitions",
+                "confusions",
+                "radio_losses",
+            )
+        }
+        self.fix: list[list[np.ndarray]] | None = [[] for _ in range(n)]
+
+    def add(self, df: pd.DataFrame | Mapping[str, Any]) -> None:
+        def col(name: str, dtype: Any = float) -> Any:
+            return np.asarray(df[name], dtype=dtype)
+
+        w = col("w")
+        if not len(w):
+            return
+        self.rows += len(w)
+        crit = col("critical", bool)
+        self.w.append(w)
+        self.crit.append(crit)
+        for k in BOUND_KINDS:
+            self.violations[k] += sum(
+                int(col(f"f{i}_viol_{k}", bool).sum()) for i in range(1, self.n + 1)
+            )
+        for b in col("binding", object)[crit].tolist():
+            kind = str(b).split(":")[0]
+            self.binding[kind] = self.binding.get(kind, 0) + 1
+        for m in col("method", object).tolist():
+            self.methods[str(m)] = self.methods.get(str(m), 0) + 1
+        self.ratio.append(float((col("msb_min") / col("w_sch")).min()))
+        self.speed.append(float((col("v_leader") / col("v_leader_desired")).min()))
+        response = col("response")
+        with np.errstate(invalid="ignore"):  # the table's max skips NaN (none in practice)
+            kept = response[~np.isnan(response)]
+        if kept.size:
+            self.response.append(float(kept.max()))
+        self.counts["missed"] += int(col("missed", bool).sum())
+        self.counts["tracks_lost"] += int(col("tracks_lost", np.int64).sum())
+        self.counts["assumption_broken"] += int(col("assumption_broken", bool).sum())
+        self.counts["infeasible"] += int((~col("feasible", bool)).sum())
+        for c in self.totals:
+            self.totals[c] += _total(df, c)
+        cols = [f"f{i}_fix_error_cm" for i in range(1, self.n + 1)]
+        if self.fix is not None and all(c in df for c in cols):
+            for kept, c in zip(self.fix, cols, strict=True):
+                kept.append(col(c))
+        else:  # a table from before the columns: no localization_error_cm
+            self.fix = None
+
+    def fix_errors(self) -> dict[str, Any] | None:
+        """`fix_errors` of the columns kept (the fixes' errors: n floats a window)."""
+        if self.fix is None:
+            return None
+        return fix_errors(
+            {
+                f"f{i}_fix_error_cm": np.concatenate(v) if v else np.zeros(0)
+                for i, v in enumerate(self.fix, start=1)
+            },
+            self.n,
+        )

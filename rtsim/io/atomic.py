@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -16,6 +17,8 @@ from typing import Any
 
 __all__ = [
     "atomic_path",
+    "stem",
+    "temp_target",
     "naming",
     "write_text",
     "write_bytes",
@@ -48,20 +51,62 @@ def naming(path: str | os.PathLike[str]) -> Iterator[None]:
         raise OSError(code, why, os.fspath(path)) from exc
 
 
+#: The name of [`atomic_path`][rtsim.io.atomic.atomic_path]'s temporary file: ``.<target name>.<8
+#: characters of
+#: tempfile's alphabet>.tmp`` (``mkstemp(prefix=".<name>.", suffix=".tmp")``).
+_TEMP = re.compile(r"\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp", re.DOTALL)
+
+
+def temp_target(entry: str) -> str | None:
+    """The target name whose [`atomic_path`][rtsim.io.atomic.atomic_path] temporary file ``entry``
+    is
+    (``.results.parquet.k2j9_x0a.tmp`` → ``results.parquet``), or None: what a write killed
+    by ``kill -9`` leaves beside its target."""
+    m = _TEMP.fullmatch(entry)
+    return m.group("name") if m else None
+
+
+#: Longest target name used whole in a staging name (a name is at most 255 bytes; the
+#: staging prefix and suffix add about 30): longer names are cut and a hash appended.
+_NAME_MAX_WHOLE = 180
+
+
+def stem(name: str) -> str:
+    """``name`` as it appears in the hidden staging names beside it: whole when short, else
+    cut and followed by a hash of the whole (so 225- to 255-byte names still work)."""
+    if len(os.fsencode(name)) <= _NAME_MAX_WHOLE:
+        return name
+    import hashlib
+
+    digest = hashlib.sha256(os.fsencode(name)).hexdigest()[:16]
+    cut = os.fsencode(name)[:100].decode("utf-8", "ignore")
+    return f"{cut}~{digest}"
+
+
 @contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; on success it replaces ``target``. A write
     error inside names ``target`` ([`naming`][rtsim.io.atomic.naming])."""
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:  # (a long name is cut and hashed in the temporary name: stem)
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{stem(target.name)}.", suffix=".tmp", dir=target.parent
+        )
+    except OSError as exc:  # named by the target, never by the hidden temporary name
+        raise OSError(exc.errno, exc.strerror, os.fspath(target)) from None
     os.close(fd)
     os.chmod(tmp, FILE_MODE)
     tmp_path = Path(tmp)
     try:
         with naming(target):
-            yield tmp_path
-        os.replace(tmp_path, target)
+            try:
+                yield tmp_path
+                os.replace(tmp_path, target)
+            except OSError as exc:
+                if exc.filename is None or os.fspath(exc.filename) != tmp:
+                    raise
+                raise OSError(exc.errno, exc.strerror, os.fspath(target)) from None
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
@@ -159,13 +204,20 @@ def write_json(target: str | os.PathLike[str], obj: Any) -> None:
     write_text(target, dumps(obj) + "\n")
 
 
+def _to_parquet(df: Any, p: Path) -> None:
+    # through a file Python opened: pyarrow takes a path only as UTF-8, and a path that is
+    # not (bytes the file system gave as surrogates) is written as the file system gave it
+    with open(p, "wb") as fh:
+        df.to_parquet(fh, index=False)
+
+
 def write_table(target: str | os.PathLike[str], df: Any) -> None:
     """Write a DataFrame as CSV or Parquet (by the suffix of ``target``) atomically."""
     target = Path(target)
     suffix = target.suffix.lower()
     writers: dict[str, Callable[[Path], None]] = {
         ".csv": lambda p: df.to_csv(p, index=False),
-        ".parquet": lambda p: df.to_parquet(p, index=False),
+        ".parquet": lambda p: _to_parquet(df, p),
     }
     if suffix not in writers:
         from rtsim.errors import InputError

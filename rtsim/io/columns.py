@@ -158,6 +158,7 @@ class ChunkWriter:
         self.rows = 0
         self.chunks = 0
         self._parquet: dict[Path, Any] = {}
+        self._handles: list[Any] = []
         self._closed = False
         self._kind_cache: list[str | None] | None = None
 
@@ -271,7 +272,10 @@ class ChunkWriter:
         if writer is None:
             # the first chunk's schema, as to_parquet infers it for the whole table (string
             # columns held as objects have no type in an empty frame)
-            writer = pq.ParquetWriter(p, table.schema)
+            # (a file Python opened: pyarrow takes a path only as UTF-8)
+            fh = open(p, "wb")  # noqa: SIM115 - closed in close() or discard()
+            self._handles.append(fh)
+            writer = pq.ParquetWriter(fh, table.schema)
             self._parquet[p] = writer
         writer.write_table(table.cast(writer.schema))
 
@@ -288,6 +292,8 @@ class ChunkWriter:
         for p, w in self._parquet.items():
             with naming(p):
                 w.close()
+        for fh in self._handles:
+            fh.close()
         for p in self.paths:
             with naming(p), open(p, "rb+") as fh:
                 os.fsync(fh.fileno())
@@ -301,7 +307,12 @@ class ChunkWriter:
                 w.close()
             except Exception:  # noqa: S110 - a full disk, say: the file is dropped anyway
                 pass
-        self._parquet = {}
+        for fh in self._handles:
+            try:
+                fh.close()
+            except OSError:
+                pass
+        self._parquet, self._handles = {}, []
         self._closed = True
 
     def read(
@@ -309,6 +320,23 @@ class ChunkWriter:
     ) -> pd.DataFrame:
         """Columns of the table written (after `close`), from its first file."""
         return read_columns(self.paths[0], columns, dtypes)
+
+    def iter_read(
+        self, columns: Sequence[str] | None = None, chunk_rows: int = READ_ROWS
+    ) -> Iterator[pd.DataFrame]:
+        """The same columns as `read`, ``chunk_rows`` rows at a time (memory does
+        not grow with the table)."""
+        p = Path(self.paths[0])
+        if p.suffix.lower() != ".parquet":
+            yield from iter_columns(p, columns, chunk_rows)
+            return
+        import pyarrow.parquet as pq
+
+        with open(p, "rb") as fh:  # (pyarrow takes a path only as UTF-8)
+            pf = pq.ParquetFile(fh)
+            cols = list(columns) if columns is not None else None
+            for batch in pf.iter_batches(batch_size=chunk_rows, columns=cols):
+                yield batch.to_pandas()
 
 
 def iter_columns(
@@ -341,7 +369,8 @@ def read_columns(
     `READ_ROWS` rows), or of a Parquet file."""
     p = Path(path)
     if p.suffix.lower() == ".parquet":
-        return pd.read_parquet(p, columns=list(columns) if columns is not None else None)
+        with open(p, "rb") as fh:  # (pyarrow takes a path only as UTF-8)
+            return pd.read_parquet(fh, columns=list(columns) if columns is not None else None)
     parts = list(iter_columns(p, columns, READ_ROWS, dtypes))
     if len(parts) == 1:
         return parts[0]

@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from rtsim.errors import InputError
+from rtsim.io.atomic import stem
 
 __all__ = [
     "StagedDir",
@@ -74,11 +75,6 @@ _AT_FDCWD = -100
 _OLD_AGE_S = 60.0  # a ".new" directory older than this belongs to a killed run
 
 
-#: Longest target name used whole in a staging name (a name is at most 255 bytes; the
-#: staging prefix and suffix add about 30): longer names are cut and a hash appended.
-_NAME_MAX_WHOLE = 180
-
-
 #: The staging directories of this process and the places they stand for, for messages
 #: (the latest `_SHOWN_KEPT`: an error is reported after its run's staging is gone).
 _SHOWN: dict[str, str] = {}
@@ -100,18 +96,6 @@ def shown(path: str | bytes | os.PathLike[Any]) -> str:
         if p == staged or p.startswith(staged + os.sep):
             return target + p[len(staged) :]
     return p
-
-
-def stem(name: str) -> str:
-    """``name`` as it appears in the hidden staging names beside it: whole when short, else
-    cut and followed by a hash of the whole (so 225- to 255-byte names still work)."""
-    if len(os.fsencode(name)) <= _NAME_MAX_WHOLE:
-        return name
-    import hashlib
-
-    digest = hashlib.sha256(os.fsencode(name)).hexdigest()[:16]
-    cut = os.fsencode(name)[:100].decode("utf-8", "ignore")
-    return f"{cut}~{digest}"
 
 
 def sidecar(target: str | os.PathLike[str]) -> Path:
@@ -287,9 +271,42 @@ def _other_command(target: Path, option: str, command: str | None) -> None:
         )
 
 
+#: Commands whose output directory holds another command's by design (``validate``'s
+#: sweeps, under ``sweeps/``).
+_NESTS: dict[str, tuple[str, ...]] = {"validate": ("sweep",)}
+
+
+def _enclosing(target: Path, command: str | None, first: int = 0) -> tuple[Path, str] | None:
+    """The nearest ancestor of ``target`` (from its ``first``-th: 0 is its parent) that is an
+    rtsim command's output directory (its ``manifest.json`` names the command), and that
+    command: writing there would put a stranger inside it (a sweep then refuses to resume,
+    a rerun of the command removes it). Single-file commands' directories (``simulate``'s)
+    are shared and not counted, nor a command's own nested outputs (`_NESTS`)."""
+    here = Path(os.path.abspath(target)).parent
+    for a in [here, *here.parents][first:]:
+        other = owner(a)
+        if other is None or other in FILE_COMMANDS:
+            continue
+        if command is not None and command.removeprefix("rtsim ") in _NESTS.get(other, ()):
+            continue
+        return a, other
+    return None
+
+
+def _check_ancestors(target: Path, option: str, command: str | None) -> None:
+    """Refuse a directory target inside another command's output directory."""
+    inside = _enclosing(target, command)
+    if inside is not None:
+        raise InputError(
+            f"{option} {os.fsdecode(target)}: is inside the output directory of `rtsim "
+            f"{inside[1]}` ({os.fsdecode(inside[0])}); give a directory elsewhere"
+        )
+
+
 def _check_target(target: Path, option: str, command: str | None = None) -> None:
     """Refuse a target that must not be replaced (module docstring)."""
     _check_place(target, option)
+    _check_ancestors(target, option, command)
     if target.exists():
         if not is_rtsim_output(target):
             raise InputError(
@@ -307,19 +324,26 @@ def check_resumable(
     *,
     before_manifest: set[str] = frozenset(),  # type: ignore[assignment]
     option: str = "--out",
+    clean: bool = False,
 ) -> None:
     """Check the directory of a resumable command (``sweep``, ``validate``), which works in
     place: new, empty, or holding only what ``command`` makes.
 
     With ``command``'s own ``manifest.json`` there, every entry must be one of ``made``;
     without one, one of ``before_manifest`` (what the command writes before its manifest).
-    Another command's directory and a user's files are refused (InputError naming the
-    entry), so nothing the command did not make is ever overwritten or removed.
+    The temporary file of an atomic write of one of those files, left by a run killed while
+    it wrote (`rtsim.io.atomic.temp_target`), is the command's own: tolerated, and
+    removed with ``clean=True`` (call it holding the directory's lock, when no run of the
+    command can be writing). Another command's directory and a user's files are refused
+    (InputError naming the entry), so nothing the command did not make is ever overwritten
+    or removed.
     """
+    from rtsim.io.atomic import temp_target
     from rtsim.io.lock import LOCK_NAME
 
     target = Path(target)
     _check_place(target, option)
+    _check_ancestors(target, option, command)
     if not target.is_dir():
         return
     _other_command(target, option, command)
@@ -331,12 +355,18 @@ def check_resumable(
             f"give a new directory"
         )
     allowed = (made if own else set(before_manifest)) | {LOCK_NAME, "manifest.json"}
+    stale = []
     for entry in sorted(e.name for e in target.iterdir()):
-        if entry not in allowed:
+        if temp_target(entry) in allowed and (target / entry).is_file():
+            stale.append(target / entry)
+        elif entry not in allowed:
             raise InputError(
                 f"{option} {target}: holds {entry!r}, which `rtsim {command}` did "
                 f"not make; it is left alone — give a new directory"
             )
+    if clean:
+        for f in stale:
+            f.unlink(missing_ok=True)
 
 
 class StagedDir:
@@ -540,15 +570,13 @@ class FileSet:
                 raise InputError(
                     f"{option} {shown}: is also the file of {opt}; give each output its own file"
                 )
-        other = owner(target.parent)
-        if (
-            other is not None
-            and other not in FILE_COMMANDS
-            and not target.name.endswith(".manifest.json")
-        ):
+        # the directory the file goes into, or any above it (a sweep's points/, a
+        # reproduce run's test1/), must not be another command's output directory
+        inside = _enclosing(target, None, 1 if target.name.endswith(".manifest.json") else 0)
+        if inside is not None:
             raise InputError(
                 f"{option} {shown}: is inside the output directory of `rtsim "
-                f"{other}` ({os.fsdecode(target.parent)}); give a file elsewhere"
+                f"{inside[1]}` ({os.fsdecode(inside[0])}); give a file elsewhere"
             )
         if os.path.lexists(target) and not self._made_here(target):
             raise InputError(

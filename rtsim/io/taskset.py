@@ -104,6 +104,8 @@ def taskset_to_dict(ts: TaskSet) -> dict[str, Any]:
         out["scheduler"] = {"policy": ts.scheduler}
         if ts.resources is not None:
             out["scheduler"]["resources"] = ts.resources
+        if ts.quantum is not None:
+            out["scheduler"]["quantum"] = ts.quantum
     if ts.window is not None:
         out["window"] = ts.window.as_dict()
     if ts.assumptions:

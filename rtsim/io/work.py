@@ -55,6 +55,7 @@ LIMITS: dict[str, float] = {
     "grid": 1e5,
     "backlog": 1e6,
     "arrivals": 1e6,
+    "interference": 1e7,
 }
 
 _WHAT = {
@@ -65,6 +66,8 @@ _WHAT = {
     "backlog": "jobs waiting at once (the CPU is overloaded: finish-late jobs pile up in memory)",
     "arrivals": "arrivals for the EDF response-time bound to examine (the busy period is "
     "long against the periods)",
+    "interference": "interference terms for the offset-based (transaction) analysis to "
+    "evaluate (many tasks, or long busy periods)",
 }
 
 

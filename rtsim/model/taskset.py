@@ -28,6 +28,8 @@ class TaskSet:
     priorities are required either way (under EDF they only break ties). ``resources`` is
     the protocol for tasks' critical sections (``pcp``, ``srp`` or ``npr``,
     docs/resources.md); None: the scheduler's default (`resource_protocol`).
+    ``quantum`` (ms): the time slice of a time-sliced scheduler (``rr``); with one, tasks
+    may share a priority (they keep the given order among themselves).
     """
 
     tasks: tuple[Task, ...]
@@ -38,6 +40,7 @@ class TaskSet:
     overhead: float = 0.0
     scheduler: str = "fp"
     resources: str | None = None
+    quantum: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.scheduler, str) or not self.scheduler:
@@ -50,6 +53,11 @@ class TaskSet:
         if not is_real(o) or not math.isfinite(o) or o < 0:
             raise TaskSetError(f"overhead must be a non-negative number of ms, got {o!r}")
         object.__setattr__(self, "overhead", float(o))
+        q = self.quantum
+        if q is not None:
+            if not is_real(q) or not math.isfinite(q) or q <= 0:
+                raise TaskSetError(f"quantum must be a positive number of ms, got {q!r}")
+            object.__setattr__(self, "quantum", float(q))
         tasks = tuple(sorted(self.tasks, key=lambda t: t.priority))
         object.__setattr__(self, "tasks", tasks)
         if not tasks and self.window is None:
@@ -62,9 +70,11 @@ class TaskSet:
         for nm, pr in entries:
             if nm in names:
                 raise TaskSetError(f"task '{nm}': duplicate task name")
-            if pr in prios:
+            if pr in prios and self.quantum is None:
                 raise TaskSetError(
-                    f"task '{nm}': priority {pr} is already used by task '{prios[pr]}'"
+                    f"task '{nm}': priority {pr} is already used by task '{prios[pr]}' "
+                    f"(tasks share a priority only under a time-sliced policy: "
+                    f'[scheduler] policy = "rr" with a quantum)'
                 )
             names[nm] = nm
             prios[pr] = nm

@@ -1,113 +1,17 @@
 """The virtual CPU: preemptive scheduling of job chains on one processor, by a policy.
 
-Preemption mechanism (the only one in rtsim)
---------------------------------------------
-The CPU *holds* a ``simpy.Environment`` and runs ONE SimPy process, the dispatcher. It owns
-three structures: a timer heap (releases, ends of idle suspensions, abort deadlines), a ready
-heap of eligible jobs keyed by the scheduling policy's (key, tie) — (priority, job sequence)
-under ``fp``, (absolute deadline, job sequence) under ``edf`` (`rtsim.sim.policy`) —
-and the running job. At each instant it books the running job's progress, handles what is
-due, gives the CPU to the first eligible job if the policy says it preempts the running one,
-and yields a single ``env.timeout`` until the earliest of "the running segment completes"
-and "the next timer". Preemption is therefore bookkeeping: the running job's remaining work is
-``end − now`` and it goes back into the ready heap; no SimPy process per job, no interrupts.
-When nothing else in the environment is scheduled before that wake-up (``env.peek()`` is
-later), the dispatcher moves the clock itself instead of the Timeout round trip — the same
-instants in the same order, without SimPy's per-event cost; any event another process (or a
-hook) schedules at or before the wake-up makes it yield as usual. This is the one place that
-touches SimPy internals: it reads ``env._queue`` (the public ``env.peek()`` is the same read
-behind a method call, measurably slower per step) and writes ``env._now`` (SimPy has no public
-way to move the clock without an event); both only on a plain ``simpy.Environment``.
-
-Inline jobs of the top task: when the highest-priority task is simple (one constant-time
-segment, fixed period, finish-late, no hooks) and a job of it is released while it has no
-backlog, and nothing happens while it runs (no timer in (t, t + c], no other SimPy event up to
-t + c) and the job that gets the CPU after it has already started its segment, the dispatcher
-books that job without a [`Job`][rtsim.sim.cpu.Job] object and in one step: the preemption at t, the
-completion at t + c and the dispatch at t + c, with the same float operations in the same
-order (so results, job records, hook calls and times are bit-identical; tests/test_sim_inline
-compares runs with the path on and off). Not with a trace, overhead or abort policies, and
-only under a policy that preempts by key (`rtsim.sim.policy`); under one whose top
-task does not always come first (``edf``), only when the job comes first in the ready order and
-preempts the running job, and the job after it at t + c is the first of the others in the
-order (key, tie).
-
-Eligibility: jobs of one task run one at a time, first in, first out. A task's pending jobs
-(released, not finished, not aborted) wait in a FIFO; only its oldest is eligible. So under
-finish-late the backlog of a task is served in release order, and the ready heap holds at
-most one job per task.
-
-Order of things at one instant t (the tie-break rules, tested in tests/sim/test_cpu.py)
-------------------------------------------------------------------------------------------
-1. The running segment, if its work ends at t (within 1e-9 ms), ends: segment-end hooks;
-   the job's next segment becomes current (an idle-mode suspension starts at once: start hooks,
-   its length is drawn, the job leaves the CPU); after the last segment the job *completes*
-   (finish = t, statistics, job-end hooks) and its task's next pending job becomes eligible.
-   So a completion at t comes before a release at t: the finishing job is never preempted.
-2. Timers due at t, in the order (time, rank, priority, sequence) with rank: end of an idle
-   suspension (the job is eligible again; segment-end hooks) < abort at deadline < release of
-   the window task < other releases. Releases of different tasks at t are handled in priority
-   order (release hooks run as each job is released); the window task first, so tasks whose
-   period is a multiple of w see the w chosen at t.
-3. Dispatch: the first eligible job in the policy's order gets the CPU if nothing runs or the
-   policy's preemption test says it preempts the running job (``fp``: a higher priority;
-   ``edf``: a strictly earlier deadline); then the running job is preempted (its
-   ``preemptions`` count grows, also when it was between two segments). When a job gets the
-   CPU and its current segment has not started, the segment *starts*: segment-start hooks
-   run, then the execution-time model is evaluated. A zero-length segment ends at once and
-   the instant is processed again from step 1.
-4. Wait until the running segment's work ends or the next timer, whichever is first.
-
-Hooks never see the dispatch decision of their own instant half-done: all hooks of steps 1–2
-run before the dispatch of step 3; start hooks run when the dispatched segment starts.
-
-Suspensions: ``suspension="cpu"`` runs a suspend segment like compute (it holds the CPU at
-the job's place in the policy's order and can be preempted: the paper's
-suspension-oblivious view);
-``suspension="idle"`` frees the CPU for the segment's length and the job is not eligible
-meanwhile.
-
-Overload (``Task.overload``): ``finish-late`` keeps every job and reports the largest backlog;
-``abort`` removes a job that has not finished at its deadline (a miss); ``skip`` drops a
-release while the task still has a pending job (the skipped release is a miss and uses up a
-job index). Context-switch overhead (default 0): whenever the CPU starts running a job other
-than the one it ran last, it first spends ``overhead`` ms on that job's behalf (preemptible,
-charged again on every switch); the job's work starts after it.
-
-Release jitter (``Task.jitter`` J, docs/model/beyond.md): job k *arrives* at offset + k·p (the
-release
-timer above fires at the arrival: period providers, the w in force, skips and the backlog count
-go by arrivals) and is released — made eligible, release hooks run — after a delay in [0, J]
-drawn from the task's own jitter stream (`jitter_rngs`), ordered
-at its instant as a release of its task. ``jitter="random"``: uniform in [0, J];
-``"worst"``: the analysis' critical instant — with t0 = max_j J_j, every task's arrivals are
-shifted by t0 − J_i and its first job is released J_i after arriving (all at t0), later jobs
-at their arrival; ``"none"``: released at arrival. Deadlines and responses count from the
-arrival. A task's jobs still run in arrival order: a job released before its predecessor
-waits for it. With J = 0 nothing of this runs (no draw, the same instants).
-
-Times (docs/time.md): every periodic stream's arrivals are computed from its start, never by
-adding up periods: ``t0 + offset + k·p`` for a fixed period; for a period decided at each
-arrival (the window task's provider, per-window tasks' multiples of w) ``a + (k − k_a)·p`` from
-the arrival a = the stream's k_a-th, where the period last changed — so a window held at one w
-releases at exactly t0 + k·w, and a per-window task with period 2w at exactly the window's
-even releases. The dispatcher records the exact target time of each wake-up.
-
-Shared resources (docs/resources.md): a task's critical sections are segments of its chain
-marked with a ``resource``. When some task has one, the CPU runs the resource protocol
-(``resources``: ``pcp``, ``srp`` or ``npr``; default ``srp`` under a policy whose preemption
-levels follow deadlines — ``edf`` — else ``pcp``) and takes the general path for every
-instant (no inline top-task jobs); a set without sections runs exactly the code above. Each
-job has a preemption level (−priority, or −relative deadline under ``edf``), each resource a
-ceiling (the highest level of its users; +inf under ``npr``), and the system ceiling is the
-highest ceiling of the resources held. At dispatch the first job in the policy's order that
-holds a resource or whose level is above the system ceiling is the candidate (it preempts
-the running job as the policy says); a section locks its resource when it starts and
-unlocks it when it ends (or its job is aborted). The rule keeps a resource from ever being
-found locked. ``pcp`` is therefore the immediate priority ceiling protocol. A job passed
-over that comes before the job that runs, in the policy's order, is *blocked*: traced as
-``blocked by <holder> on <resource>`` (kind ``blocked``, not on the CPU); ``blocking``
-records per task the longest total blocking of one job.
+The specification — what the dispatcher owns, the order of things at one instant, and how
+suspensions, overload, overhead, jitter, periods, critical sections and time slices enter —
+is docs/cpu-events.md. In short: ONE SimPy process, the dispatcher (`CPU._dispatcher`),
+owns a timer heap, a ready heap keyed by the policy's (key, tie) (`rtsim.sim.policy`)
+and the running job; at each instant it (1) ends the running segment if its work is done,
+(2) handles the timers due (idle suspensions ending, aborts, the window's release, other
+releases by priority, ends of time slices), (3) gives the CPU to the first eligible job if
+the policy says it preempts, and (4) waits for the earlier of the segment's end and the
+next timer. Preemption is bookkeeping, not interrupts. Jobs of a simple top task may be
+booked inline, bit-identically (docs/cpu-events.md). The rooms: this module (dispatch and
+the jobs' bookkeeping), `rtsim.sim.resources` (the resource protocols) and
+`rtsim.sim.slices` (time slices).
 """
 
 from __future__ import annotations
@@ -129,13 +33,14 @@ from rtsim.sim.job import (
     _JREL,
     _RELEASE,
     _RESUME,
+    _SLICE,
     Job,
     JobHook,
     PeriodProvider,
     SegmentHook,
     _TaskState,
 )
-from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_policy
+from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_scheduler
 from rtsim.sim.records import (
     EPS,
     ResponseHistogram,
@@ -145,6 +50,8 @@ from rtsim.sim.records import (
     jobs_frame,
     trace_frame,
 )
+from rtsim.sim.resources import ResourceProtocols
+from rtsim.sim.slices import TimeSlices, with_quantum
 
 __all__ = [
     "CPU",
@@ -170,6 +77,16 @@ _INF = math.inf
 ULPS = 16
 
 
+def _end_of(start: float, rem: float, lag: float) -> tuple[float, float]:
+    """The end of ``rem`` ms of work started at ``start`` whose exact start is ``start +
+    lag``, and that end's rounding error (Knuth's TwoSum; docs/time.md). The dispatcher's
+    hot paths write the same four operations inline."""
+    x = rem + lag
+    end = start + x
+    y = end - start
+    return end, (start - (end - y)) + (x - y)
+
+
 def coincidence(t: float) -> tuple[float, float]:
     """(the coincidence window at time ``t``, the time from which it is larger): the window
     is constant over [2^(e−1), 2^e), the binade of t."""
@@ -177,10 +94,10 @@ def coincidence(t: float) -> tuple[float, float]:
     return max(EPS, math.ldexp(float(ULPS), e - 53)), math.ldexp(1.0, e)
 
 
-class CPU:
+class CPU(ResourceProtocols, TimeSlices):
     """One processor under a scheduling policy, ``scheduler``: ``"fp"``, ``"edf"``, another
     registered name, ``"package.module:Name"`` or a
-    [`SchedulingPolicy`][rtsim.sim.policy.SchedulingPolicy] (the module docstring;
+    [`SchedulingPolicy`][rtsim.sim.policy.SchedulingPolicy] (docs/cpu-events.md;
     `rtsim.sim.policy`).
 
     Usage: ``cpu = CPU(env)``; ``cpu.add_task(...)`` for each task; register hooks with
@@ -207,13 +124,17 @@ class CPU:
         scheduler: PolicySpec = "fp",
         resources: str | None = None,
         trace_sink: Any = None,
+        quantum: float | None = None,
     ) -> None:
-        self.policy: SchedulingPolicy = resolve_policy(scheduler)
+        self.policy: SchedulingPolicy = with_quantum(resolve_scheduler(scheduler), quantum)
+        #: the time slice of a time-sliced policy (ms; None: jobs are not sliced)
+        self.quantum = self.policy.quantum
+        self._init_slices()
         if resources is not None and resources not in RESOURCE_PROTOCOLS:
             raise InputError(
                 f"resources must be one of {', '.join(RESOURCE_PROTOCOLS)}, got {resources!r}"
             )
-        #: the resource protocol asked for (None: the policy's default, module doc)
+        #: the resource protocol asked for (None: the policy's default, docs/resources.md)
         self.resources = resources
         # preemption by "strictly smaller key" (the base class's test): evaluated inline
         self._by_key = type(self.policy).preempts is SchedulingPolicy.preempts
@@ -261,16 +182,7 @@ class CPU:
         self._t0 = 0.0
         self._horizon: float | None = None
         self.process: simpy.Process | None = None
-        # critical sections (module doc: Shared resources); _res_on only if a task has one
-        self._res_on = False
-        self.protocol: str | None = None  # the protocol in force once started
-        self._ceil: dict[str, float] = {}
-        self._locked: dict[str, Job] = {}  # resource -> the job holding it
-        self._holding: dict[Job, tuple[str, float]] = {}  # job -> (resource, its ceiling)
-        self._blocked: dict[Job, tuple[float, str]] = {}  # job -> (blocked since, by what)
-        self._level_by = getattr(self.policy, "resource_levels", "priority")
-        #: per task, the longest time one job was blocked (ms; tasks that never were: absent)
-        self.blocking: dict[str, float] = {}
+        self._init_resources()  # critical sections (rtsim.sim.resources)
 
     # -- configuration -------------------------------------------------------------------
     def add_task(
@@ -289,16 +201,18 @@ class CPU:
         if task.name in self._by_name:
             raise InputError(f"task '{task.name}': duplicate task name")
         for st in self._states:
-            if st.priority == task.priority:
+            if st.priority == task.priority and not self.policy.shared_priorities:
                 raise InputError(
                     f"task '{task.name}': priority {task.priority} is already "
-                    f"used by task '{st.name}'"
+                    f"used by task '{st.name}' (tasks share a priority only under a "
+                    f"time-sliced policy: rr)"
                 )
         if window and any(st.is_window for st in self._states):
             raise InputError(f"task '{task.name}': only one window task is allowed")
         if task.per_window and period_provider is not None:
             raise InputError(f"task '{task.name}': a per-window task cannot have a provider")
         st = _TaskState(task, period_provider, window)
+        st.index = len(self._states)  # (orders the releases of tasks that share a priority)
         self._states.append(st)
         self._by_name[task.name] = st
 
@@ -317,7 +231,7 @@ class CPU:
         ``segment_start``, ``segment_end``, ``job_end`` (completion, or abort with
         ``job.aborted``). Filters (None = any): task name, segment name, segment role.
         Hooks run synchronously inside the dispatcher, in registration order; they must not
-        yield, and may read ``cpu.env.now`` and the job. See the module docstring for order.
+        yield, and may read ``cpu.env.now`` and the job. See docs/cpu-events.md for the order.
         """
         if event not in HOOK_EVENTS:
             raise InputError(f"hook event must be one of {', '.join(HOOK_EVENTS)}, got {event!r}")
@@ -384,9 +298,17 @@ class CPU:
             )
             st.fast_start = st.const_exec[0] if st.simple and not st.start_hooks[0] else None
             st.seg_const = [None if st.start_hooks[i] else c for i, c in enumerate(st.const_exec)]
+            segs = st.segs
+            st.zero_tail = [
+                i > 0 and all(s.wcet == 0.0 and s.resource is None for s in segs[i:])
+                for i in range(len(segs))
+            ]
             st.plain_next = [
-                not st.end_hooks[i] and i + 1 < len(st.segs) and not st.idle_kind[i + 1]
-                for i in range(len(st.segs))
+                not st.end_hooks[i]
+                and i + 1 < len(segs)
+                and not st.idle_kind[i + 1]
+                and not st.zero_tail[i + 1]
+                for i in range(len(segs))
             ]
         top = min(self._states, key=lambda x: x.priority, default=None)
         for st in self._states:
@@ -396,134 +318,9 @@ class CPU:
                 and st.fast_start is not None
                 and not st.job_end_hooks
                 and self._by_key
+                and self.quantum is None
             )
         self._compile_resources()
-
-    def _compile_resources(self) -> None:
-        """Ceilings of the resources (module doc: Shared resources); a task with a critical
-        section takes the general path: its sections start and end with a lock and unlock."""
-        users: dict[str, list[_TaskState]] = {}
-        for st in self._states:
-            st.res = [s.resource for s in st.segs]
-            for r in st.res:
-                if r is not None and st not in users.setdefault(r, []):
-                    users[r].append(st)
-        self._res_on = bool(users)
-        if not users:
-            return
-        by = self._level_by
-        protocol = self.resources or ("srp" if by == "deadline" else "pcp")
-        if protocol == "pcp" and by == "deadline":
-            raise InputError(
-                f"resources: pcp needs fixed priorities; under "
-                f"{self.policy.name or type(self.policy).__name__} use srp or npr"
-            )
-        self.protocol = protocol
-        for r, sts in users.items():
-            if protocol == "npr":
-                self._ceil[r] = _INF
-                continue
-            lv = []
-            for st in sts:
-                if by == "deadline" and (st.provider is not None or st.per_window or st.is_window):
-                    raise InputError(
-                        f"task '{st.name}': a critical section under a "
-                        f"deadline-ordered policy needs a deadline in ms (not "
-                        f"one that follows the window)"
-                    )
-                lv.append(-float(st.deadline) if by == "deadline" else -float(st.priority))
-            self._ceil[r] = max(lv)
-        for st in self._states:
-            if any(r is not None for r in st.res):
-                st.simple = False
-                st.fast_start = None
-                st.fast_top = False
-                for i, r in enumerate(st.res):
-                    if r is not None:
-                        st.seg_const[i] = None
-                        st.plain_next[i] = False
-
-    def _level(self, job: Job) -> float:
-        """The job's preemption level (larger = higher): −priority, or −relative deadline."""
-        if self._level_by == "deadline":
-            st = job._st
-            if st.provider is not None or st.per_window or st.is_window:
-                return -(job.deadline - job.arrival)  # the deadline in force at its arrival
-            return -float(st.deadline)  # exactly as the ceilings count it
-        return -float(job.priority)
-
-    def _lock(self, job: Job) -> None:
-        r = job._st.res[job.seg_index]
-        assert r is not None
-        if r in self._locked:  # the ceiling rule makes this impossible
-            raise RtsimError(
-                f"task '{job.name}': resource '{r}' is held by "
-                f"'{self._locked[r].name}' (a ceiling violation)"
-            )
-        self._locked[r] = job
-        self._holding[job] = (r, self._ceil[r])
-
-    def _unlock(self, job: Job) -> None:
-        held = self._holding.pop(job, None)
-        if held is not None:
-            del self._locked[held[0]]
-
-    def _res_pick(self, running: Job | None, now: float) -> Job | None:
-        """The job that takes the CPU under the resource protocol (removed from the ready
-        heap), or None: the first eligible job in the policy's order — one that holds a
-        resource, or whose level is above the system ceiling — if it preempts ``running``.
-        Jobs passed over that come before the job that runs are blocked (traced)."""
-        ready = self._ready
-        hold = self._holding
-        ceiling = max(c for _, c in hold.values()) if hold else -_INF
-        skipped = []
-        while ready:
-            job = ready[0][2]
-            if job.aborted:
-                heapq.heappop(ready)
-                continue
-            if job in hold or self._level(job) > ceiling:
-                break
-            skipped.append(heapq.heappop(ready))
-        cand = ready[0][2] if ready else None
-        if (
-            cand is not None
-            and running is not None
-            and not (
-                cand.key < running.key if self._by_key else self.policy.preempts(cand.key, running)
-            )
-        ):
-            cand = None
-        if cand is not None:
-            heapq.heappop(ready)
-        for e in skipped:
-            heapq.heappush(ready, e)
-        run = cand if cand is not None else running
-        blocked = self._blocked
-        now_blocked = [
-            e[2] for e in skipped if run is not None and (e[0], e[1]) < (run.key, run.tie)
-        ]
-        for job in [j for j in blocked if j not in now_blocked]:
-            self._unblock(job, now)
-        if now_blocked:
-            by = ""
-            if hold:
-                holder, (r, _) = max(hold.items(), key=lambda kv: kv[1][1])
-                by = f" by {holder.name} on {r}"
-            for job in now_blocked:
-                if job not in blocked:
-                    blocked[job] = (now, f"blocked{by}")
-        return cand
-
-    def _unblock(self, job: Job, now: float) -> None:
-        since, what = self._blocked.pop(job)
-        if now > since:
-            total = getattr(job, "blocked", 0.0) + (now - since)
-            job.blocked = total
-            if total > self.blocking.get(job.name, 0.0):
-                self.blocking[job.name] = total
-            if self.record_trace:
-                self._trace_rows.append((job.name, job.index, what, "blocked", False, since, now))
 
     # -- running -------------------------------------------------------------------------
     def start(self, horizon: float) -> simpy.Process:
@@ -565,7 +362,7 @@ class CPU:
         # (only on the plain Environment: a RealtimeEnvironment must pace every step).
         jump = type(env) is simpy.Environment and isinstance(getattr(env, "_queue", None), list)
         queue: list[Any] = env._queue if jump else []  # type: ignore[attr-defined]
-        # Inline jobs of the top task (module doc; step 3): only without trace, overhead and
+        # Inline jobs of the top task (docs/cpu-events.md; step 3): only without trace, overhead and
         # aborts, and only when the clock can be moved without SimPy.
         inline_ok = plain and jump and not has_abort and not self._res_on
         res = self._res_on  # critical sections: the protocol's lock, unlock and dispatch
@@ -574,6 +371,7 @@ class CPU:
         by_key = self._by_key
         top_first = self.policy.top_task_first
         record_jobs = self.record_jobs
+        sliced = self.quantum is not None  # time slices (docs/cpu-events.md: Time slices)
         # a job of the top task released at now (its k, release and seq) to book in step 3;
         # still set after it when booked inline (the general dispatch is skipped)
         top: _TaskState | None = None
@@ -592,7 +390,7 @@ class CPU:
         # of the running segment run_end + run_lag, its work started at work_start + work_lag.
         # A lag is the rounding error of a segment's end (Knuth's TwoSum); it is carried into
         # the next segment so that a busy period never accumulates rounding, and is 0 at a
-        # timer (releases are exact: module doc, Times).
+        # timer (releases are exact: docs/cpu-events.md, Times).
         now_lag = work_lag = run_lag = 0.0
         piece_start = work_start = now = env.now
         tol, tol_next = coincidence(now)
@@ -614,6 +412,8 @@ class CPU:
                 else:
                     self._close_piece(running, piece_start, work_start, now, done=True)
                 piece_start = work_start = now
+                run_end = _INF
+                work_lag = now_lag
                 st = running._st
                 if st.simple:
                     self._complete(running, now)
@@ -627,8 +427,9 @@ class CPU:
                     self._lag = now_lag
                     running = self._segment_done(running, now)
                     self._lag = 0.0
-                run_end = _INF
-                work_lag = now_lag
+                    if running is not None and running.rem is not None:
+                        # an empty step given work by an execution-time model (_continue)
+                        run_end, run_lag = _end_of(work_start, running.rem, work_lag)
             # 2. timers due
             while timers and (t_next := timers[0][0]) <= limit:  # (then t_next: the next)
                 entry = timers[0]  # (popped below: a release's successor replaces it)
@@ -643,7 +444,7 @@ class CPU:
                         nxt = st.first + (k + 1) * p
                         if nxt < last_release:
                             st.next_release = nxt
-                            heapreplace(timers, (nxt, st.rank, st.priority, 0, _RELEASE, st))
+                            heapreplace(timers, (nxt, st.rank, st.priority, st.index, _RELEASE, st))
                         else:
                             heappop(timers)
                         stats = st.stats
@@ -669,20 +470,8 @@ class CPU:
                         self._release(st, now, end)
                     continue
                 heappop(timers)
-                if kind == _RESUME:
-                    job = entry[5]
-                    if not job.aborted:
-                        self._resume(job, now)
-                elif kind == _JREL:
-                    self._jittered_release(entry[5], now)
-                else:
-                    job = entry[5]
-                    if job.finish is None and not job.aborted:
-                        on_cpu = job is running  # (a bool: no narrowing of job to running's type)
-                        if on_cpu:
-                            self._close_piece(job, piece_start, work_start, now, done=False)
-                            running, run_end = None, _INF
-                        self._abort(job, now)
+                if self._timer_due(entry, running, now, now_lag, piece_start, work_start, work_lag):
+                    running, run_end = None, _INF  # it left the CPU
             # 3. dispatch
             if top is not None:
                 st = top
@@ -751,14 +540,8 @@ class CPU:
                     if resp == top_resp:  # (nearly always: its bin, counted before, exists)
                         top_counts[top_bin] += 1
                     else:
-                        hist = stats.histogram
-                        if hist is None:
-                            width = self.hist_bin or (deadline - top_r) / 100.0
-                            hist = stats.histogram = ResponseHistogram(width)
                         top_resp = resp
-                        top_bin = int(resp / hist.bin_width)
-                        top_counts = hist.counts
-                        top_counts[top_bin] = top_counts.get(top_bin, 0) + 1
+                        top_bin, top_counts = self._count_response(stats, resp, deadline - top_r)
                     if record_jobs:
                         self._top_record(st, top_k, top_r, now, f, f > deadline + tol)
                     # the clock moves to f, as the wait would (tol is renewed at the loop's top:
@@ -785,18 +568,11 @@ class CPU:
             if top is not None:  # a job of the top task booked inline: the instant is settled
                 top = None
             else:
-                if res:  # the resource protocol picks (module doc: Shared resources)
-                    # (the switch below repeats the one for runs without sections on purpose:
-                    # folding them together costs runs without sections 3-4 % in bench_sim)
+                if res:  # the resource protocol picks (rtsim.sim.resources)
                     cand = self._res_pick(running, now)
-                    if cand is not None:
+                    if cand is not None:  # (the same switch as below, not inline: see there)
                         if running is not None:
-                            if running.rem is not None:
-                                self._close_piece(running, piece_start, work_start, now, done=False)
-                                if now > work_start:
-                                    running.rem -= now_lag - work_lag
-                            running.preemptions += 1
-                            heappush(ready, (running.key, running.tie, running))
+                            self._preempt(running, now, now_lag, piece_start, work_start, work_lag)
                         running = cand
                         piece_start = work_start = now
                         work_lag = now_lag
@@ -805,10 +581,7 @@ class CPU:
                             last = running
                             work_start = now + ovh
                         if running.rem is not None:
-                            x = running.rem + work_lag
-                            run_end = work_start + x
-                            y = run_end - work_start
-                            run_lag = (work_start - (run_end - y)) + (x - y)
+                            run_end, run_lag = _end_of(work_start, running.rem, work_lag)
                     if (
                         running is not None
                         and running.rem is None
@@ -817,6 +590,8 @@ class CPU:
                         self._lock(running)
                 while has_abort and ready and ready[0][2].aborted:
                     heappop(ready)
+                # the switch for runs without sections, inline on purpose (the one above
+                # as calls: folding the two together costs 3-4 % in bench_sim)
                 if (
                     not res
                     and ready
@@ -859,6 +634,8 @@ class CPU:
                     run_lag = (work_start - (run_end - y)) + (x - y)
                     if run_end <= limit:
                         continue
+            if sliced and running is not self._slice_job:  # a new slice (rtsim.sim.slices)
+                self._new_slice(running, now)
             # 4. wait
             target = run_end  # (_INF when nothing runs)
             now_lag = run_lag
@@ -878,6 +655,55 @@ class CPU:
             now = target
 
     # -- the steps (internal) ------------------------------------------------------------
+    def _timer_due(
+        self,
+        entry: tuple[Any, ...],
+        running: Job | None,
+        now: float,
+        now_lag: float,
+        piece_start: float,
+        work_start: float,
+        work_lag: float,
+    ) -> bool:
+        """A timer other than a release is due at ``now`` (step 2, popped): an idle
+        suspension ends, a jittered job is released, a time slice ends or a job is aborted
+        at its deadline. True if ``running`` left the CPU."""
+        kind = entry[4]
+        job = entry[5]
+        if kind == _RESUME:
+            if not job.aborted:
+                self._resume(job, now)
+        elif kind == _JREL:
+            self._jittered_release(job, now)
+        elif kind == _SLICE:  # (rtsim.sim.slices)
+            return self._slice_ends(entry, running, now, now_lag, piece_start, work_start, work_lag)
+        elif job.finish is None and not job.aborted:
+            on_cpu = job is running
+            if on_cpu:
+                self._close_piece(job, piece_start, work_start, now, done=False)
+            self._abort(job, now)
+            return on_cpu
+        return False
+
+    def _preempt(
+        self,
+        job: Job,
+        now: float,
+        now_lag: float,
+        piece_start: float,
+        work_start: float,
+        work_lag: float,
+    ) -> None:
+        """``job`` leaves the CPU at ``now`` and goes back into the ready heap: its progress
+        booked (the rest of its work carrying the lag, docs/time.md), a preemption counted.
+        (The dispatch of runs without sections does the same inline.)"""
+        if job.rem is not None:
+            self._close_piece(job, piece_start, work_start, now, done=False)
+            if now > work_start:
+                job.rem -= now_lag - work_lag
+        job.preemptions += 1
+        heapq.heappush(self._ready, (job.key, job.tie, job))
+
     def _close_piece(
         self, job: Job, piece_start: float, work_start: float, now: float, done: bool
     ) -> None:
@@ -934,14 +760,30 @@ class CPU:
         return self._continue(job, now)
 
     def _continue(self, job: Job, now: float) -> Job | None:
-        """Move ``job`` to its current segment: complete it, suspend it, or return it."""
+        """Move ``job`` to its current segment: complete it, suspend it, or return it.
+
+        Empty steps past the chain's real end (``zero_tail``: no time, no resource) run here
+        and then, at once: nothing released at this instant preempts them, so the job
+        completes when its last real step ends, as the analyses count it."""
         st = job._st
         i = job.seg_index
-        if i >= len(st.segs):
+        n = len(st.segs)
+        started = False
+        while i < n and st.zero_tail[i]:
+            self._start_segment(job, now)
+            if job.rem:  # an execution-time model gave it work: it runs as any segment
+                started = True
+                break
+            for h in st.end_hooks[i]:
+                h(job, st.segs[i])
+            i = job.seg_index = i + 1
+            job.rem = None
+        if i >= n:
             self._complete(job, now)
             return None
         if st.idle_kind[i]:
-            self._start_segment(job, now)
+            if not started:
+                self._start_segment(job, now)
             heapq.heappush(
                 self._timers,
                 (
@@ -966,6 +808,8 @@ class CPU:
         job.rem = 0.0
         nxt = self._segment_done(job, now)
         if nxt is not None:
+            if self.quantum is not None:  # back from a suspension (rtsim.sim.slices)
+                self._requeue_resumed(nxt)
             heapq.heappush(self._ready, (nxt.key, nxt.tie, nxt))
 
     def _eligible(self, job: Job, now: float) -> None:
@@ -1052,7 +896,7 @@ class CPU:
         """The arrival after job ``k`` (arrived at ``r``) of a stream whose period ``p`` is
         decided at each arrival: anchor + (k + 1 − k_anchor)·p, the stream restarting
         (anchor = r, k_anchor = k) whenever p differs from the period in force. A constant
-        period therefore gives t0 + k·p exactly, never a running sum (module doc: Times)."""
+        period therefore gives t0 + k·p exactly, never a running sum (docs/cpu-events.md: Times)."""
         if p != st.stream_p:
             st.stream_p = p
             st.stream_t = r
@@ -1060,7 +904,7 @@ class CPU:
         return st.stream_t + (k + 1 - st.stream_k) * p
 
     def _jittered(self, st: _TaskState, k: int, r: float, d: float, p: float, now: float) -> None:
-        """Job ``k`` arrives at ``r`` and is released after its drawn delay (module doc)."""
+        """Job ``k`` arrives at ``r`` and is released after its drawn delay (docs/cpu-events.md)."""
         if self.jitter == "worst":
             delay = st.jitter if k == 0 else 0.0
         else:
@@ -1137,6 +981,19 @@ class CPU:
             )
         )
 
+    def _count_response(
+        self, stats: TaskStats, resp: float, rel_deadline: float
+    ) -> tuple[int, dict[int, int]]:
+        """Count ``resp`` in the task's histogram (made on first use: ``hist_bin`` or a
+        hundredth of the relative deadline wide); returns its bin and the counts."""
+        hist = stats.histogram
+        if hist is None:
+            hist = stats.histogram = ResponseHistogram(self.hist_bin or rel_deadline / 100.0)
+        i = int(resp / hist.bin_width)
+        counts = hist.counts
+        counts[i] = counts.get(i, 0) + 1
+        return i, counts
+
     def _complete(self, job: Job, now: float) -> None:
         st = job._st
         stats = st.stats
@@ -1150,13 +1007,7 @@ class CPU:
         if missed:
             stats.misses += 1
         stats.preemptions += job.preemptions
-        hist = stats.histogram
-        if hist is None:
-            width = self.hist_bin or (job.deadline - job.arrival) / 100.0
-            hist = stats.histogram = ResponseHistogram(width)
-        i = int(resp / hist.bin_width)
-        counts = hist.counts
-        counts[i] = counts.get(i, 0) + 1
+        self._count_response(stats, resp, job.deadline - job.arrival)
         if self.record_jobs:
             self._record(job, missed)
         pending = st.pending

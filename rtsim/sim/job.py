@@ -20,10 +20,12 @@ SegmentHook = Callable[["Job", Segment], None]
 JobHook = Callable[["Job"], None]
 PeriodProvider = Callable[[], float]
 
-#: Timer kinds, in their order at one instant (module docstring of rtsim.sim.cpu).
+#: Timer kinds, in their order at one instant (docs/cpu-events.md).
 _RESUME, _ABORT, _RELEASE_W, _RELEASE = 0, 1, 2, 3
 #: Timer kind of a jittered release (ordered by its task's release rank).
 _JREL = 4
+#: Timer kind and rank of the end of a time slice (after every release of its instant).
+_SLICE = 5
 
 
 class Job:
@@ -147,6 +149,8 @@ class _TaskState:
         "fast_top",
         "seg_const",
         "plain_next",
+        "zero_tail",
+        "index",
         "jitter",
         "jrng",
         "order",
@@ -188,6 +192,9 @@ class _TaskState:
         self.fast_top = False  # highest priority, fast release and start, no hooks at all
         self.seg_const: list[float | None] = []  # constant time of segment i, no start hooks
         self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
+        # segment i > 0 and every one after it are empty (no time, no resource): run at once
+        self.zero_tail: list[bool] = []
+        self.index = 0  # the order in which the CPU got the task
         self.jitter = 0.0  # release jitter in force (0 under jitter="none")
         self.jrng: np.random.Generator | None = None  # release delays, own stream
         self.order: Callable[[Job], tuple[Any, Any]] = _unset_order  # the policy's (key, tie)

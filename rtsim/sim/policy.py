@@ -39,6 +39,20 @@ does not inherit them: the analysis of preemptive FP says nothing of a non-preem
   earlier deadline: never by one with the same deadline. Deadlines are compared as floats,
   without a tolerance.
 
+- ``rr``: POSIX ``SCHED_RR``, fixed priority across levels and round robin within one
+  level, with a time slice ``quantum`` (ms; ``[scheduler] quantum``). key = the priority,
+  tie = the sequence at which the job joined its level's queue: at its creation (jobs
+  released together in the order the CPU handles releases: the file's task order among
+  equal priorities), again when its slice ends while another job of its level is ready
+  (it goes to the tail) and when it comes back from an idle suspension (the tail, a fresh
+  slice). A job preempted by a higher level keeps its place at the head and the rest of
+  its slice. Tasks may share a priority (the only built-in policy that allows it).
+
+Time-sliced policies (`SchedulingPolicy.quantum` not None) get two more things from
+the dispatcher: a timer at the end of the running job's slice, and
+`SchedulingPolicy.requeue`, the job's new ``(key, tie)`` when its slice ends with
+another job of its key ready (and when it resumes from a suspension).
+
 A third policy is one class in one file (docs/scheduling.md shows a non-preemptive FP)::
 
     from rtsim.sim.policy import FixedPriority, register_scheduler
@@ -53,6 +67,7 @@ A third policy is one class in one file (docs/scheduling.md shows a non-preempti
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
@@ -68,13 +83,11 @@ __all__ = [
     "SchedulingPolicy",
     "FixedPriority",
     "EarliestDeadlineFirst",
+    "RoundRobin",
     "SCHEDULERS",
     "register_scheduler",
     "resolve_scheduler",
     "PolicySpec",
-    "POLICIES",
-    "register_policy",
-    "resolve_policy",
 ]
 
 
@@ -102,6 +115,12 @@ class SchedulingPolicy:
     #: ``"priority"`` (a smaller priority number is a higher level) or ``"deadline"`` (a
     #: shorter relative deadline is a higher level, as SRP under EDF)
     resource_levels: ClassVar[str] = "priority"
+    #: tasks may share a priority (the policy orders the jobs of one level itself)
+    shared_priorities: ClassVar[bool] = False
+    #: whether the policy takes a time slice (``[scheduler] quantum``)
+    takes_quantum: ClassVar[bool] = False
+    #: the time slice (ms) of a time-sliced policy, None for one that is not (module doc)
+    quantum: float | None = None
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -118,6 +137,12 @@ class SchedulingPolicy:
         """Whether the first eligible job, of key ``key``, takes the CPU from ``running``."""
         return bool(key < running.key)
 
+    def requeue(self, job: Job, seq: int) -> tuple[Any, Any]:
+        """``(key, tie)`` of a job going to the tail of its key's queue (a time-sliced
+        policy: its slice ended, or it resumed from a suspension); ``seq`` is larger than
+        every tie given so far. Default: the same key, ``seq`` as the tie."""
+        return job.key, seq
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
 
@@ -128,7 +153,7 @@ class FixedPriority(SchedulingPolicy):
     name = "fp"
     top_task_first = True
     analysis = staticmethod(analyze)
-    lower_bounds = ("w_sch", "w_rta", "w_susp")
+    lower_bounds = ("w_sch", "w_rta", "w_susp", "w_txn")
 
     def order(self, job: Job) -> tuple[int, int]:
         """(priority, sequence): the task priority; jobs of one task are FIFO anyway."""
@@ -146,6 +171,29 @@ class EarliestDeadlineFirst(SchedulingPolicy):
     def order(self, job: Job) -> tuple[float, int]:
         """(deadline, sequence): arrival order, then the release order of one instant."""
         return job.deadline, job.seq
+
+
+class RoundRobin(FixedPriority):
+    """POSIX ``SCHED_RR`` (module doc): fixed priority across levels, round robin with a
+    time slice of ``quantum`` ms within one level."""
+
+    name = "rr"
+    top_task_first = False
+    shared_priorities = True
+    takes_quantum = True
+
+    def __init__(self, quantum: float | None = None) -> None:
+        if quantum is not None and not (
+            isinstance(quantum, int | float)
+            and not isinstance(quantum, bool)
+            and math.isfinite(quantum)
+            and quantum > 0
+        ):
+            raise InputError(f"quantum must be a positive number of ms, got {quantum!r}")
+        self.quantum = None if quantum is None else float(quantum)
+
+    def __repr__(self) -> str:
+        return f"RoundRobin(quantum={self.quantum!r})"
 
 
 P = TypeVar("P", bound=type[SchedulingPolicy])
@@ -182,6 +230,7 @@ def register_scheduler(cls: P) -> P:
 
 register_scheduler(FixedPriority)
 register_scheduler(EarliestDeadlineFirst)
+register_scheduler(RoundRobin)
 
 #: What [`resolve_scheduler`][rtsim.sim.policy.resolve_scheduler] accepts.
 PolicySpec = str | SchedulingPolicy | type[SchedulingPolicy]
@@ -203,6 +252,3 @@ def resolve_scheduler(
 #: Deprecated aliases (the CPU's policies were once called "policies", as adjustment policies
 #: still are): use `SCHEDULERS`, [`register_scheduler`][rtsim.sim.policy.register_scheduler],
 #: [`resolve_scheduler`][rtsim.sim.policy.resolve_scheduler].
-POLICIES = SCHEDULERS
-register_policy = register_scheduler
-resolve_policy = resolve_scheduler

@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:  # (imported where a frame is made: pandas costs a command ~0.3 s to import)
+    import pandas as pd
 
 from rtsim.notebook import ResultDisplay
 
@@ -196,6 +198,8 @@ class SimResult(ResultDisplay):
 
     def stats_frame(self) -> pd.DataFrame:
         """Per-task statistics as a DataFrame (one row per task, priority order)."""
+        import pandas as pd
+
         return pd.DataFrame([s.as_dict() for s in self.tasks.values()])
 
     def to_json(self) -> dict[str, Any]:
@@ -273,11 +277,15 @@ class RowBuffer(list):  # type: ignore[type-arg]
             return self.to_frame([])
         if len(self.chunks) == 1:
             return self.chunks[0]
+        import pandas as pd
+
         return pd.concat(self.chunks, ignore_index=True)
 
 
 def jobs_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
     """Job records (tuples in `JOB_COLUMNS` order) as a typed DataFrame."""
+    import pandas as pd
+
     df = pd.DataFrame(rows, columns=list(JOB_COLUMNS))
     return df.astype(
         {
@@ -301,6 +309,8 @@ def jobs_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
 
 def trace_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
     """Trace rows (tuples in `TRACE_COLUMNS` order) as a typed DataFrame."""
+    import pandas as pd
+
     df = pd.DataFrame(rows, columns=list(TRACE_COLUMNS))
     return df.astype(
         {

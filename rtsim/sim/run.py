@@ -31,11 +31,11 @@ from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU, JitterMode
 from rtsim.sim.execution import ExecSpec
-from rtsim.sim.policy import PolicySpec
+from rtsim.sim.policy import PolicySpec, resolve_scheduler
 from rtsim.sim.progress import Progress
 from rtsim.sim.records import SimResult
 
-__all__ = ["simulate", "build_cpu", "resolve_window", "WindowArg"]
+__all__ = ["simulate", "build_cpu", "resolve_window", "worst_jitter_shifts", "WindowArg"]
 
 #: ``window=`` of [`simulate`][rtsim.sim.run.simulate]: fixed w (ms), a period provider, or None for
 #: w_sch.
@@ -65,9 +65,9 @@ def _window_estimate(ts: TaskSet, window: WindowArg) -> float | None:
     if is_real(window):
         return float(window)  # type: ignore[arg-type]
     try:
-        from rtsim.analysis.bounds import window_bounds
+        from rtsim.analysis.sufficient import w_sch_of
 
-        w = window_bounds(ts).w_sch
+        w = w_sch_of(ts)  # (only w_sch: the other bounds, w_edf's QPA, can take long)
     except (InputError, ValueError, ArithmeticError):
         return None
     return w if math.isfinite(w) and w > 0 else None
@@ -88,6 +88,30 @@ def resolve_window(ts: TaskSet, window: WindowArg) -> tuple[Callable[[], float],
     return (lambda: w), {"mode": "fixed", "w": w}
 
 
+def worst_jitter_shifts(ts: TaskSet) -> tuple[dict[str, float], list[str]]:
+    """Where ``jitter="worst"`` puts the per-window tasks of ``ts``, and which it cannot move.
+
+    The critical instant (`rtsim.sim.cpu`) shifts every task's arrivals by
+    max_j J_j − J_i, so a per-window task (period m·w) would arrive J_w − J_i after the
+    window's arrivals, past its own offset Φ_i. It cannot arrive before the window's first
+    arrival (its period is decided there), so its shift is max(J_w − J_i, −Φ_i).
+    Returns the shifts (ms, per-window tasks, against their offsets from the window's
+    arrivals: the ``shifts`` of `rtsim.analysis.transaction.transactions_of`) and the
+    names of the tasks whose first release therefore misses the critical instant."""
+    if ts.window is None:
+        return {}, []
+    jw = ts.window.jitter
+    shifts: dict[str, float] = {}
+    late: list[str] = []
+    for t in ts.tasks:
+        if not t.per_window:
+            continue
+        shifts[t.name] = max(jw - t.jitter, -t.offset)
+        if jw - t.jitter < -t.offset:
+            late.append(t.name)
+    return shifts, late
+
+
 def build_cpu(
     ts: TaskSet | Sequence[Task],
     *,
@@ -100,13 +124,17 @@ def build_cpu(
 
     Returns the CPU and the window description (None for a set without a window).
     ``cpu_kwargs`` go to [`CPU`][rtsim.sim.run.CPU] (suspension, exec_model, seed, overhead,
-    record_jobs,
-    record_trace, hist_bin, jitter, job_sink, trace_sink, scheduler, resources; the
-    scheduler and the resource protocol default to the set's).
+    record_jobs, record_trace, hist_bin, jitter, job_sink, trace_sink, scheduler, resources,
+    quantum; the scheduler, the resource protocol and a time-sliced policy's quantum default
+    to the set's).
     """
     ts = _as_taskset(ts)
     cpu_kwargs.setdefault("scheduler", ts.scheduler)
     cpu_kwargs.setdefault("resources", ts.resources)
+    if ts.quantum is not None and cpu_kwargs.get("quantum") is None:
+        policy = resolve_scheduler(cpu_kwargs["scheduler"])
+        if policy.takes_quantum and policy.quantum is None:  # the set's time slice
+            cpu_kwargs["quantum"] = ts.quantum
     cpu = CPU(env, **cpu_kwargs)
     info: dict[str, Any] | None = None
     if ts.window is not None:
@@ -116,10 +144,15 @@ def build_cpu(
         raise InputError(
             f"{ts.source or ts.name or 'task set'}: has no [window], so a window does not apply"
         )
+    worst = worst_jitter_shifts(ts)[0] if cpu_kwargs.get("jitter") == "worst" else {}
     for task in ts.tasks:
-        if task.per_window and ts.window is not None and ts.window.offset:
-            # a per-window task counts its offset from the window stream's first arrival
-            task = replace(task, offset=task.offset + ts.window.offset)
+        if task.per_window and ts.window is not None:
+            # a per-window task counts its offset from the window stream's first arrival;
+            # under jitter "worst" it cannot arrive before it (worst_jitter_shifts): the CPU
+            # moves it by J_w - J_i against the window, the rest is added here
+            extra = worst[task.name] - (ts.window.jitter - task.jitter) if worst else 0.0
+            if ts.window.offset or extra:
+                task = replace(task, offset=task.offset + ts.window.offset + extra)
         cpu.add_task(task)
     return cpu, info
 
@@ -164,6 +197,10 @@ def simulate(
     ts = _as_taskset(ts)
     if overhead is None:
         overhead = ts.overhead
+    # a bool is not a number (True would run 1 ms): refused here, as the options are
+    for name, value in (("horizon", horizon), ("overhead", overhead), ("hist_bin", hist_bin)):
+        if not is_real(value) and not (name == "hist_bin" and value is None):
+            raise InputError(f"simulate: {name} must be a number of ms, got {value!r}")
     horizon = float(horizon) if is_real(horizon) else horizon  # numpy scalars too
     from rtsim.io.limits import check
 

@@ -36,9 +36,11 @@ points.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
+import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -69,6 +71,83 @@ Record = dict[str, Any]
 MADE = {"points", "manifest.json", "results.parquet", "timings.csv"}
 POINT_FILE = r"[0-9]{6,}-[0-9a-f]{12}\.json"
 POINT_TMP = r"\.[0-9]{6,}-[0-9a-f]{12}\.json\..*\.tmp"
+
+
+#: How often the pool's loop looks at a held Ctrl-C or SIGTERM (s).
+_POLL_S = 0.1
+#: How long the interrupt path waits for the workers and the pool's manager thread (s).
+STOP_TIMEOUT_S = 5.0
+#: Threads of stopped pools that did not end within `STOP_TIMEOUT_S`: the command line
+#: leaves with ``os._exit`` after its cleanup rather than wait for them at exit.
+STUCK: list[Any] = []
+
+
+def _hold_signals(held: list[int]) -> dict[int, Any]:
+    """In the main thread, record SIGINT and SIGTERM in ``held`` instead of acting on them;
+    returns the handlers to put back (empty elsewhere)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+
+    def hold(signum: int, frame: Any) -> None:
+        held.append(signum)
+
+    # (a signal the process ignores, as under nohup, stays ignored)
+    return {
+        sig: signal.signal(sig, hold)
+        for sig in (signal.SIGINT, signal.SIGTERM)
+        if signal.getsignal(sig) is not signal.SIG_IGN
+    }
+
+
+def _restore_signals(restore: dict[int, Any]) -> None:
+    import signal
+
+    for sig, handler in restore.items():
+        signal.signal(sig, handler)
+    restore.clear()
+
+
+def _raise_held(signum: int, restore: dict[int, Any]) -> None:
+    """Act on a held signal as its own handler would (SIGTERM: the command line's
+    ``Terminated``; Ctrl-C: KeyboardInterrupt), at a point where no lock is held."""
+    handler = restore.get(signum)
+    if callable(handler):
+        handler(signum, None)
+    raise KeyboardInterrupt
+
+
+def _stop_pool(ex: Any, timeout: float = STOP_TIMEOUT_S) -> None:
+    """Stop a process pool after an interrupt: terminate its workers and join them (killed
+    if they outlive ``timeout``), shut it down without waiting, join its manager thread with
+    a timeout. A manager thread that ended is taken off concurrent.futures' exit hook
+    (whose wake-up of an ended pool printed ``OSError: [Errno 9] Bad file descriptor``); one
+    that did not is kept in `STUCK`."""
+    import concurrent.futures.process as cfp
+
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    manager = getattr(ex, "_executor_manager_thread", None)
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.terminate()
+    with contextlib.suppress(Exception):
+        ex.shutdown(wait=False, cancel_futures=True)
+    deadline = time.monotonic() + timeout
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(max(0.0, deadline - time.monotonic()))
+            if proc.is_alive():
+                proc.kill()
+                proc.join(1.0)
+    if manager is None:
+        return
+    manager.join(max(0.1, deadline - time.monotonic()))
+    if manager.is_alive():
+        STUCK.append(manager)
+    else:
+        cfp._threads_wakeups.pop(manager, None)
 
 
 class SweepIncomplete(RtsimError):
@@ -239,17 +318,22 @@ class Sweep:
         return self.out / "points"
 
     # -- the directory -----------------------------------------------------------------
-    def check_out(self) -> None:
+    def check_out(self, clean: bool = False) -> None:
         """Refuse an output directory holding anything a sweep does not make (another
-        command's directory, a user's ``results.parquet``, a stranger in ``points/``)."""
+        command's directory, a user's ``results.parquet``, a stranger in ``points/``).
+        ``clean=True`` (under the lock) removes the temporary files of atomic writes a
+        killed run left (`rtsim.io.outdir.check_resumable`), in ``points/`` too."""
         import re
 
         from rtsim.io.outdir import check_resumable
 
-        check_resumable(self.out, "sweep", MADE, before_manifest={"points"})
+        check_resumable(self.out, "sweep", MADE, before_manifest={"points"}, clean=clean)
         if self.points_dir.is_dir():
             for f in sorted(self.points_dir.iterdir()):
-                if not (re.fullmatch(POINT_FILE, f.name) or re.fullmatch(POINT_TMP, f.name)):
+                if re.fullmatch(POINT_TMP, f.name):
+                    if clean:
+                        f.unlink(missing_ok=True)
+                elif not re.fullmatch(POINT_FILE, f.name):
                     raise SweepError(
                         f"{self.out}: points/ holds {f.name!r}, which the sweep did "
                         "not make; it is left alone — give a new --out"
@@ -259,7 +343,7 @@ class Sweep:
         import json
         import re
 
-        self.check_out()  # again, under the lock
+        self.check_out(clean=True)  # again, under the lock: a killed run's temporary files go
 
         fp = self.spec.fingerprint()
         manifest = self.out / "manifest.json"
@@ -450,6 +534,9 @@ class Sweep:
         after `MAX_ATTEMPTS` starts)."""
         import multiprocessing
 
+        warm = KINDS.resolve(self.spec.kind, "sweep.kind").warm
+        if warm is not None and pending:  # e.g. the kernels compiled once, not per worker
+            warm(point_input(self.spec, pending[0]))
         method = _start_method()
         if method == "fork":
             import pandas  # noqa: F401 - the results table needs it anyway
@@ -505,11 +592,22 @@ class Sweep:
                 "timing": {},
             }
 
+        # Ctrl-C and SIGTERM are held while the pool runs and acted on between waits: an
+        # exception raised inside concurrent.futures.wait can leave a future's lock held,
+        # and the pool's manager thread then waits on it for ever
+        held: list[int] = []
+        restore = _hold_signals(held)
         try:
             fill()
             started()
             while inflight or retry:
-                finished = wait(inflight, return_when=FIRST_COMPLETED)[0] if inflight else set()
+                if held:
+                    _raise_held(held[0], restore)
+                finished = (
+                    wait(inflight, timeout=_POLL_S, return_when=FIRST_COMPLETED)[0]
+                    if inflight
+                    else set()
+                )
                 broken = state["broken"]
                 for fut in sorted(finished, key=lambda f: inflight[f][0].index):
                     item = inflight.pop(fut)
@@ -539,11 +637,13 @@ class Sweep:
                     ex = pool()
                     state["broken"] = False
                 fill()
+            if held:
+                _raise_held(held[0], restore)
         except BaseException:
-            for proc in list(getattr(ex, "_processes", {}).values()):
-                proc.terminate()
-            ex.shutdown(wait=False, cancel_futures=True)
+            _stop_pool(ex)
             raise
+        finally:
+            _restore_signals(restore)
         ex.shutdown(wait=True)
 
     def _run_dask(self, pending: list[Point], dask: Any, on_result: Callable[..., None]) -> None:

@@ -105,6 +105,9 @@ class KindSpec:
     required: tuple[str, ...] = ()
     metrics: tuple[str, ...] | None = None  # None: not known in advance
     modules: tuple[str, ...] = ()  # imported before forking workers, so they inherit them
+    #: called with the first point before a process pool starts (the scenario kind compiles
+    #: the world's kernels there once, not once per worker: rtsim.coupling.warm)
+    warm: Callable[[PointInput], Any] | None = field(default=None, compare=False)
     doc: str = field(default="", compare=False)
 
     def preload(self) -> None:
@@ -234,15 +237,33 @@ def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[
     return hit
 
 
-def _scenario(p: PointInput) -> dict[str, Any]:
-    coupling = _need("rtsim.coupling", "scenario")
+def _point_scenario(p: PointInput) -> tuple[Any, Any]:
+    """(Scenario, ScenarioInputs) of a scenario point (`_prepared`)."""
     assert p.base is not None
     where = Path(p.base.path).parent if p.base.path else None
     data = p.base_data()
+    if "scheduler" in p.options:
+        data.setdefault("scheduler", {})["policy"] = p.options["scheduler"]
+    return _prepared(p, data, where)
+
+
+def _warm_scenario(p: PointInput) -> None:
+    """The compiled world's kernels made ready when point ``p`` runs compiled (best effort:
+    a point that cannot be read fails in its worker, recorded)."""
+    try:
+        scenario, _ = _point_scenario(p)
+    except Exception:
+        return
+    from rtsim.coupling.warm import warm_world
+
+    warm_world([scenario])
+
+
+def _scenario(p: PointInput) -> dict[str, Any]:
+    coupling = _need("rtsim.coupling", "scenario")
+    assert p.base is not None
     o = p.options
-    if "scheduler" in o:
-        data.setdefault("scheduler", {})["policy"] = o["scheduler"]
-    scenario, inputs = _prepared(p, data, where)
+    scenario, inputs = _point_scenario(p)
     kwargs: dict[str, Any] = {"seed": p.seed, "record_jobs": False, "windows": False}
     if "mode" in o:
         kwargs["mode"] = o["mode"]
@@ -316,6 +337,7 @@ register_kind(
         _scenario,
         options=RUN_OPTIONS["scenario"],
         modules=("rtsim.io.scenario", "rtsim.coupling"),
+        warm=_warm_scenario,
     )
 )
 register_kind(KindSpec("call", _call))

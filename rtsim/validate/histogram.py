@@ -146,7 +146,11 @@ def from_scenario_dir(
             f"{d}: no jobs.csv or jobs.parquet (the job table of rtsim scenario --out DIR)"
         )
     try:
-        jobs = pd.read_csv(path) if path.suffix == ".csv" else pd.read_parquet(path)
+        if path.suffix == ".csv":
+            jobs = pd.read_csv(path)
+        else:
+            with open(path, "rb") as fh:  # (pyarrow takes a path only as UTF-8)
+                jobs = pd.read_parquet(fh)
     except (OSError, ValueError) as exc:
         raise InputError(f"{path}: cannot read the job table: {exc}") from None
     missing = [c for c in _JOB_COLS if c not in jobs.columns]
@@ -255,16 +259,24 @@ def histogram_table(
     return pd.DataFrame(rows, columns=list(HISTOGRAM_COLUMNS))
 
 
+#: Longest task name used whole in a file name (a file name is at most 255 bytes, the
+#: staging names beside it add about 30); longer names are cut to `_NAME_CUT`.
+_NAME_WHOLE = 100
+_NAME_CUT = 80
+
+
 def _safe(name: str) -> str:
     """A file-name part for task ``name``: the name itself when it has only letters, digits,
-    ``_``, ``.`` and ``-``; else those kept, the rest ``_``, and 8 hex digits of the name's
-    sha256, so that ``a/b``, ``a:b`` and ``a_b`` get three files."""
+    ``_``, ``.`` and ``-`` and at most 100 of them; else those kept (the first 80), the rest
+    ``_``, and 8 hex digits of the name's sha256, so that ``a/b``, ``a:b`` and ``a_b`` get
+    three files and a 250-character name a file name the file system takes."""
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
-    if safe == name:
+    if safe == name and len(name) <= _NAME_WHOLE:
         return name
     import hashlib
 
-    return f"{safe}-{hashlib.sha256(name.encode('utf-8')).hexdigest()[:8]}"
+    digest = hashlib.sha256(name.encode("utf-8", "surrogatepass")).hexdigest()[:8]
+    return f"{safe[:_NAME_CUT]}-{digest}"
 
 
 def write_histograms(

@@ -331,7 +331,7 @@ def run_validation(
 
     check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"})
     with lock_directory(out_dir, argv):
-        check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"})
+        check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"}, clean=True)
         return _run_validation(
             out_dir,
             config,

@@ -28,7 +28,15 @@ import types
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
-__all__ = ["build", "cache_root", "dependencies", "is_kernel", "kernel", "source_key"]
+__all__ = [
+    "build",
+    "cache_root",
+    "cached",
+    "dependencies",
+    "is_kernel",
+    "kernel",
+    "source_key",
+]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -127,6 +135,20 @@ def build(fn: Callable[..., Any]) -> Any:
             out._cache = _keyed_cache_class()(clone)
     _COMPILED[fn] = out
     return out
+
+
+def cached(fn: Callable[..., Any]) -> bool:
+    """Whether kernel source ``fn`` has a build in the cache (numba's index file in its
+    source key's directory), so that `build` loads it rather than compiles it; False
+    when nothing can be cached."""
+    root = cache_root()
+    if root is None:
+        return False
+    try:
+        names = os.listdir(os.path.join(root, source_key(fn)))
+    except OSError:
+        return False
+    return any(name.endswith(".nbi") for name in names)
 
 
 def cache_root() -> str | None:

@@ -13,17 +13,19 @@ numba is imported only then.
 from __future__ import annotations
 
 import math
+import sys
+from collections.abc import Iterable
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from rtsim.world.ekf import ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
-from rtsim.world.jit import build, kernel
+from rtsim.world.jit import build, cached, kernel
 from rtsim.world.motion import clip, follower_advance, leader_travel
 from rtsim.world.path import along
 
-__all__ = ["available", "kernels", "warm_rollout"]
+__all__ = ["announce", "available", "kernels", "warm_all", "warm_rollout"]
 
 _KERNELS: Any = None
 _AVAILABLE: bool | None = None
@@ -767,15 +769,16 @@ def _plan_decide(
     S, fol = scalars(P[0]), P[1]
     v_ld = S.v_ld
     res = np.empty(4)
-    if search_only:
-        runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 0, res)
-        lens[: min(runs, speeds.shape[0])] = 0
-        out[0], out[1], out[2], out[3], out[4] = w, res[0], 2.0 - res[1], res[2], math.nan
-        return runs
-    speeds[0], lens[0] = v_ld, 1
-    m_ld = _rollout_worst(v_ld, w, P, changes[0])
-    m1 = _rows(changes[0, 0], S, fol, w, rows[0])
-    if keep * m_ld >= need:
+    # (one call site of the inlined search: the search-only decision and the plan's search
+    # share it, which halves the compiled code)
+    first = 0 if search_only else 1
+    feasible = False
+    if not search_only:
+        speeds[0], lens[0] = v_ld, 1
+        m_ld = _rollout_worst(v_ld, w, P, changes[0])
+        m1 = _rows(changes[0, 0], S, fol, w, rows[0])
+        feasible = keep * m_ld >= need
+    if feasible:
         a = keep * m1
         mn = cap if cap < a else a  # max(w, min(keep·m1, cap)), as Python picks
         ww = mn if mn > w else w
@@ -788,12 +791,17 @@ def _plan_decide(
             if keep * m_w < ww:
                 t = keep * m_w
                 ww = t if t > w else w
-        rows[1] = rows[0]
+        for i in range(rows.shape[1]):  # rows[1] = rows[0], without numba's shape-error
+            for j in range(rows.shape[2]):  # message (its string formatting compiles ~3 s)
+                rows[1, i, j] = rows[0, i, j]
         out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
         return runs
-    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, 1, res)
-    for r in range(1, min(runs, speeds.shape[0])):
+    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, first, res)
+    for r in range(first, min(runs, speeds.shape[0])):
         lens[r] = 0
+    if search_only:
+        out[0], out[1], out[2], out[3], out[4] = w, res[0], 2.0 - res[1], res[2], math.nan
+        return runs
     v_l, r_l = res[0], int(res[3])
     out[0], out[1], out[2], out[3] = w, v_l, 2.0 - res[1], res[2]
     if r_l < 0:  # the speed was not rolled out (a zero floor): the caller rolls it out
@@ -819,13 +827,51 @@ ENTRIES: dict[str, Any] = {
 }
 
 
+#: the entries only a run that rolls out calls (compiled by `warm_rollout`)
+ROLLOUT_ENTRIES = ("rollout_changes", "plan_decide")
+
+#: about how long compiling takes, CPU s on a 2-core machine (numba 0.68; measured with a
+#: fresh NUMBA_CACHE_DIR, docs/performance.md): the world's entries, the rollout's
+COMPILE_S = {"world": 4.0, "rollout": 6.0}
+
+_ANNOUNCED = False
+
+
+def announce(sources: Iterable[Any], seconds: float) -> bool:
+    """Say on stderr, in one line and once per process, that the kernels are being compiled
+    (once per install, about ``seconds``), when any of the kernel ``sources`` has no build
+    in the cache and progress is shown (`rtsim.sim.progress.progress_enabled`: a
+    terminal, or ``RTSIM_PROGRESS=1``); nothing when they load from the cache. Returns
+    whether it said so."""
+    global _ANNOUNCED
+    if _ANNOUNCED or all(cached(fn) for fn in sources):
+        return False
+    from rtsim.sim.progress import progress_enabled
+
+    _ANNOUNCED = True  # (asked once: a later group compiles under the same line)
+    if not progress_enabled():
+        return False
+    from tqdm.auto import tqdm
+
+    line = f"rtsim: compiling the world's kernels (once per install, about {seconds:.0f} s)..."
+    tqdm.write(line, file=sys.stderr)  # (above a progress bar that is open, on a line of its own)
+    sys.stderr.flush()
+    return True
+
+
 def kernels() -> Any:
     """The compiled kernels (a namespace), compiled or loaded from the cache once per
-    process."""
+    process (saying so when they compile: `announce`, with the rollout's time when
+    those are not cached either, as most runs roll out next)."""
     global _KERNELS
     if _KERNELS is None:
         import types
 
+        world = [fn for name, fn in ENTRIES.items() if name not in ROLLOUT_ENTRIES]
+        if not all(cached(fn) for fn in world):
+            rollout = [ENTRIES[name] for name in ROLLOUT_ENTRIES]
+            later = 0.0 if all(cached(fn) for fn in rollout) else COMPILE_S["rollout"]
+            announce(world, COMPILE_S["world"] + later)
         ns = types.SimpleNamespace(**{name: build(fn) for name, fn in ENTRIES.items()})
         _warm(ns)
         ns.exact_hypot = _hypot_matches(ns.hypot)
@@ -895,6 +941,7 @@ def warm_rollout() -> None:
     ns = kernels()
     if getattr(ns, "rollout_warm", False):
         return
+    announce([ENTRIES[name] for name in ROLLOUT_ENTRIES], COMPILE_S["rollout"])
     # one follower 100 cm behind a leader on a straight lap
     fs = np.array(
         RolloutScalars(
@@ -929,3 +976,12 @@ def warm_rollout() -> None:
     for search_only in (True, False):
         ns.plan_decide(search_only, 1.0, 240.0, 1e3, 3.0, 8, 0.005, 240.0, P, *bufs)
     ns.rollout_warm = True
+
+
+def warm_all() -> None:
+    """Compile the kernels a coupled run of the compiled backend uses (the world's and the
+    rollout's), or load them from the cache, in this process: called before a process pool
+    starts (``rtsim reproduce``, the sweep engine), so that workers forked after it inherit
+    them and spawned ones load what it cached: the first run pays the compile once, not once
+    per worker."""
+    warm_rollout()

@@ -10,7 +10,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from rtsim.analysis.bounds import lower_bound, window_bounds
+from rtsim.analysis.bounds import lower_bound, w_txn, window_bounds
 from rtsim.coupling import run_scenario
 from rtsim.errors import InputError
 from rtsim.io.scenario import ScenarioError, load_scenario
@@ -30,12 +30,34 @@ def test_lower_bound_values_and_model_checks():
         lower_bound(ts, "w_susp", suspension="cpu")
     with pytest.raises(InputError, match="fixed-priority bound, but the scheduler is 'edf'"):
         lower_bound(ts, "w_rta", scheduler="edf")
-    with pytest.raises(InputError, match="lower_bound: must be one of w_sch, w_rta, w_susp, w_edf"):
+    with pytest.raises(
+        InputError, match="lower_bound: must be one of w_sch, w_rta, w_susp, w_edf, w_txn"
+    ):
         lower_bound(ts, "w_min")
     assert lower_bound(ts, "w_edf", scheduler="edf") == b.w_edf
     assert lower_bound(ts, "w_edf", scheduler="edf", suspension="cpu") == b.w_edf
     with pytest.raises(InputError, match="w_edf is an EDF bound, but the scheduler is 'fp'"):
         lower_bound(ts, "w_edf")
+
+
+def test_w_txn_is_a_lower_bound_the_robots_can_use(tmp_path):
+    """Issue 35 (5): w_txn, reachable only from Python, is ``[adjust] lower_bound = "w_txn"``:
+    the offset-based bound under the suspension model asked for (the coupling's CPU: idle),
+    a fixed-priority one; a 6 s Test 2 runs at or above it without a miss."""
+    ts = load_taskset()
+    assert lower_bound(ts, "w_txn") == w_txn(ts) <= window_bounds(ts).w_susp
+    assert lower_bound(ts, "w_txn", suspension="cpu") == w_txn(ts, suspension="cpu")
+    assert w_txn(ts, suspension="cpu") <= window_bounds(ts).w_rta
+    with pytest.raises(InputError, match="w_txn is a fixed-priority bound, but the scheduler"):
+        lower_bound(ts, "w_txn", scheduler="edf")
+    f = tmp_path / "s.toml"
+    f.write_text(TEST2.read_text().replace("[adjust]", '[adjust]\nlower_bound = "w_txn"'))
+    sc = load_scenario(f)
+    assert sc.adjust.lower_bound == "w_txn"
+    res = run_scenario(sc, duration_s=6, record_jobs=False)
+    assert res.summary["w_sch"] == w_txn(load_taskset())
+    assert res.summary["missed"] == 0
+    assert (res.windows["w"] >= res.summary["w_sch"]).all()
 
 
 def test_scenario_key(tmp_path):
@@ -72,12 +94,14 @@ def test_experiment_quick(tmp_path):
     spec.loader.exec_module(mod)
     assert mod.main(["--quick", "--out", str(tmp_path)]) == 0
     df = pd.read_csv(tmp_path / "lower_bounds.csv")
-    assert len(df) == 8 and set(df["lower_bound"]) == {"w_sch", "w_rta", "w_susp", "w_edf"}
+    assert len(df) == 10
+    assert set(df["lower_bound"]) == {"w_sch", "w_rta", "w_susp", "w_edf", "w_txn"}
     assert set(df[df["lower_bound"] == "w_edf"]["scheduler"]) == {"edf"}
     assert set(df[df["lower_bound"] != "w_edf"]["scheduler"]) == {"fp"}
     for _, g in df.groupby("test"):
         bounds = g.set_index("lower_bound")["bound_ms"]
         assert bounds["w_susp"] < bounds["w_rta"] < bounds["w_sch"]
+        assert bounds["w_txn"] <= bounds["w_susp"]
         assert bounds["w_susp"] < bounds["w_edf"] <= bounds["w_rta"]
     assert (df["missed"] == 0).all() and df["mean_speed_ratio"].between(0, 1).all()
     assert (tmp_path / "manifest.json").exists() and (tmp_path / "lower_bounds.md").exists()

@@ -253,3 +253,79 @@ def test_monotone_in_own_wcet(hp, e, extra, d):
     assert wcrt(e + extra, hp, d) >= wcrt(e, hp, d)
     r = wcrt(e, hp, d)
     assert r == INF or r >= e + sum(ej for ej, _ in hp)
+
+
+def _suspending_with_sections(sus: float, l1: float, l2: float, offset: float = 1.0) -> TaskSet:
+    """H locks R, suspends, locks R again; two lower tasks hold R long enough to block it in
+    each of its compute stretches when Δt leaves the CPU idle."""
+    from rtsim.model.task import Segment
+
+    h = Task(
+        "H",
+        2.0 + sus,
+        50,
+        priority=1,
+        offset=offset,
+        segments=(
+            Segment("a", 1, resource="R"),
+            Segment("s", sus, kind="suspend"),
+            Segment("b", 1, resource="R"),
+        ),
+    )
+    lo1 = Task("L1", l1, 100, priority=2, segments=(Segment("x", l1, resource="R"),))
+    lo2 = Task("L2", l2, 100, priority=3, segments=(Segment("y", l2, resource="R"),))
+    return TaskSet((h, lo1, lo2))
+
+
+@pytest.mark.parametrize(
+    ("sus", "l1", "l2", "protocol"),
+    [(0.5, 3, 6, "pcp"), (0.25, 2, 5, "pcp"), (0.5, 3, 6, "npr"), (1.0, 4, 9, "srp")],
+)
+def test_default_analysis_is_sound_for_suspensions_with_sections(sus, l1, l2, protocol):
+    """Issue 35 (5): ``analyze(ts)`` counted suspensions as CPU time by default, which charges
+    the blocking once; with Δt idle H is blocked by L1 before its first stretch and by L2
+    (which locks R while H suspends) before its second. By hand (pcp, first numbers): L1 holds
+    R over [0, 3), H runs [3, 4), suspends [4, 4.5), L2 holds R over [4, 10), H ends at 11:
+    response 10 > the Δt-as-CPU bound 2.5 + 6 = 8.5. The default takes each task's larger
+    bound of both models, which holds in both simulations."""
+    from dataclasses import replace
+
+    from rtsim.sim import simulate
+
+    ts = replace(_suspending_with_sections(sus, l1, l2), resources=protocol)
+    if protocol == "pcp":
+        cpu_bound = 2.0 + sus + l2  # C + B, nothing above H
+        assert analyze(ts, suspension="cpu").tasks[0].wcrt == pytest.approx(cpu_bound)
+        assert simulate(ts, 200, suspension="idle").tasks["H"].max_response > cpu_bound
+    default = analyze(ts)
+    assert default.suspension == "either"
+    for mode in ("cpu", "idle"):
+        one = analyze(ts, suspension=mode)
+        sim = simulate(ts, 400, suspension=mode)
+        for d, o in zip(default.tasks, one.tasks, strict=True):
+            assert d.wcrt is not None and d.wcrt >= o.wcrt
+            assert sim.tasks[d.name].max_response <= d.wcrt + 1e-9
+
+
+def test_default_analysis_is_unchanged_without_sections_or_suspensions():
+    """A set without critical sections, or with them but no suspension: the default is the
+    Δt-as-CPU analysis (sound under both models there), result for result."""
+    from dataclasses import replace
+
+    from rtsim.io.taskset import load_taskset
+    from rtsim.model.task import Segment
+
+    paper = load_taskset()
+    assert analyze(paper) == analyze(paper, suspension="cpu")
+    ts = _suspending_with_sections(0.5, 3, 6)
+    plain = TaskSet(
+        tuple(
+            replace(t, segments=tuple(Segment(s.name, s.wcet) for s in t.segments))
+            for t in ts.tasks
+        )
+    )
+    assert analyze(plain) == analyze(plain, suspension="cpu")
+    flat = TaskSet(
+        (replace(ts.tasks[0], segments=(Segment("a", 2.5, resource="R"),)), *ts.tasks[1:])
+    )
+    assert analyze(flat) == analyze(flat, suspension="cpu")

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from exact_schedule import brute
 
-from rtsim.analysis.bounds import w_susp
+from rtsim.analysis.bounds import w_susp, w_txn
 from rtsim.analysis.rta import analyze
 from rtsim.analysis.suspension import suspension_aware
 from rtsim.analysis.transaction import (
@@ -23,7 +23,6 @@ from rtsim.analysis.transaction import (
     Transaction,
     analyze_transactions,
     transaction_bounds,
-    w_txn,
 )
 from rtsim.cli import main
 from rtsim.io.taskset import load_taskset
@@ -333,17 +332,27 @@ def test_random_window_sets_simulated_within_the_transaction_bound(overhead):
 
 def test_worst_jitter_moves_per_window_tasks_and_the_bound_follows():
     # --jitter worst releases every task's first job at t0 = max J, its arrivals moved by
-    # t0 - J_i: a per-window task then arrives J_window - J_task after the window's arrivals.
-    # Without that shift the bound can be passed in such a run; with it, never.
+    # t0 - J_i: a per-window task then arrives J_window - J_task after the window's arrivals,
+    # but never before the window's first (worst_jitter_shifts; issue 35 item 4: a
+    # per-window task more jittered than the window). Without that shift the bound can be
+    # passed in such a run; with it, never.
     from window_sets import random_window_sets
 
+    from rtsim.sim.run import worst_jitter_shifts
+
     passed_unshifted = checked = 0
-    for ts0 in random_window_sets(seed=21, count=10):
-        ts = ts0.with_window(jitter=20.0)
+    sets = [ts0.with_window(jitter=20.0) for ts0 in random_window_sets(seed=21, count=10)]
+    for ts0 in random_window_sets(seed=22, count=4):  # per-window tasks more jittered
+        tasks = tuple(
+            replace(t, jitter=t.jitter + 7.0 * (1 + i)) if t.per_window else t
+            for i, t in enumerate(ts0.tasks)
+        )
+        sets.append(replace(ts0, tasks=tasks).with_window(jitter=3.0))
+    for ts in sets:
         w = w_txn(ts)
         if not math.isfinite(w):
             continue
-        shifts = {t.name: 20.0 - t.jitter for t in ts.tasks if t.per_window}
+        shifts = worst_jitter_shifts(ts)[0]
         plain = transaction_bounds(ts, w)
         moved = transaction_bounds(ts, w, shifts=shifts)
         res = simulate(ts, 30 * w, window=w, suspension="idle", jitter="worst")
@@ -355,3 +364,22 @@ def test_worst_jitter_moves_per_window_tasks_and_the_bound_follows():
             if plain[name] is not None and got is not None and got > plain[name] + 1e-9:
                 passed_unshifted += 1
     assert checked >= 10 and passed_unshifted >= 1
+
+
+def test_bounds_reports_w_txn(capsys):
+    """Issue 35 (5): ``rtsim bounds`` gives w_txn (JSON and both tables), the library's value,
+    at every row of a range."""
+    ts = load_taskset()
+    assert main(["bounds", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["w_txn"] == w_txn(ts) <= d["w_susp"]
+    assert main(["bounds", "--followers", "1..3", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["w_txn"] for r in rows] == [w_txn(ts.with_window(n=n)) for n in (1, 2, 3)]
+    assert main(["bounds"]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("w_txn"))
+    assert f"{w_txn(ts):.3f} ms" in line
+    assert main(["bounds", "--followers", "1..2"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[3].split()[-1] == "w_txn"
+    assert out[5].split()[-1] == f"{w_txn(ts.with_window(n=1)):.3f}"

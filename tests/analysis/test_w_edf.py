@@ -158,6 +158,6 @@ def test_sweep_option_scheduler(tmp_path):
     from rtsim.errors import SweepError
 
     with pytest.raises(
-        SweepError, match="scheduler: must be one of fp, edf or 'package.module:Name', got 'rm'"
+        SweepError, match="scheduler: must be one of fp, edf, rr or 'package.module:Name', got 'rm'"
     ):
         run_sweep(sw, tmp_path / "out2")

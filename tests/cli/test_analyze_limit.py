@@ -94,3 +94,108 @@ def test_force_runs_what_the_limit_refuses(
     assert "above the limit of 50" in capsys.readouterr().err
     assert main(["analyze", str(f), "--force", "--json"]) == 0
     assert '"schedulable"' in capsys.readouterr().out
+
+
+# -- the offset-based (transaction) analysis (issue 35, item 6) ------------------------------
+def _many(tmp_path: Path, n: int, seed: int = 3, periods: str = "loguniform:10..1000") -> Path:
+    out = tmp_path / f"gen{n}-{seed}"
+    argv = ["generate", "--tasks", str(n), "--utilization", "0.7", "--periods", periods]
+    assert main([*argv, "--seed", str(seed), "--out", str(out), "-q"]) == 0
+    return out / "set_0000.toml"
+
+
+class _Counting:
+    """Counts the interference terms the analysis evaluates (no limit)."""
+
+    def __init__(self, limit: object, where: str) -> None:
+        self.n = 0
+
+    def spend(self, n: int) -> None:
+        self.n += n
+
+
+@pytest.mark.parametrize(
+    ("n", "periods"), [(30, "loguniform:10..1000"), (60, "loguniform:1..100000")]
+)
+def test_the_transaction_estimate_is_a_least_work(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, n: int, periods: str
+) -> None:
+    """Counted in the analysis itself: the estimate checked up front is at most what it
+    evaluates (the paper's set too)."""
+    import rtsim.analysis.transaction as tx
+
+    for f in (_many(tmp_path, n, periods=periods), ROOT / "tasksets" / "barrel_robots.toml"):
+        ts = load_taskset(f)
+        w = None if ts.window is None else 240.0
+        counter = _Counting(None, "")
+        monkeypatch.setattr(tx, "_Budget", lambda *a, c=counter: c)
+        tx.transaction_bounds(ts, w)
+        monkeypatch.undo()
+        assert 0 < tx.transaction_work(ts, w) <= counter.n
+
+
+def test_a_transaction_analysis_above_the_limit_is_refused_in_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Up front when its least work is above the limit (nothing evaluated), as it runs when
+    its fixed points take it there; --force (force=True) runs it, with the same bounds as
+    without a limit; the CLI and the library refuse alike."""
+    from rtsim.analysis.transaction import transaction_bounds, transaction_work
+    from rtsim.io.work import TooMuchWork
+
+    f = _many(tmp_path, 40)
+    ts = load_taskset(f)
+    least = transaction_work(ts, None)
+    free = transaction_bounds(ts, None)
+    monkeypatch.setitem(work.LIMITS, "interference", least / 2)  # refused up front
+    with pytest.raises(TooMuchWork, match="above the limit"):
+        transaction_bounds(ts, None)
+    assert main(["analyze", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"rtsim: {f}: ") and "--force" in err
+    assert "offset-based (transaction) analysis: about" in err
+    monkeypatch.setitem(work.LIMITS, "interference", least * 1.5)  # stopped as it runs
+    with pytest.raises(TooMuchWork, match="more than"):
+        transaction_bounds(ts, None)
+    assert main(["analyze", str(f)]) == 2
+    assert "more than" in capsys.readouterr().err
+    assert transaction_bounds(ts, None, force=True) == free
+    assert main(["analyze", str(f), "--force", "--json"]) == 0
+    out = capsys.readouterr().out
+    import json
+
+    got = {t["name"]: t["wcrt_transaction"] for t in json.loads(out)["tasks"]}
+    assert got == free
+
+
+def test_simulate_leaves_the_transaction_bound_out_above_the_limit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``simulate`` ran the analysis unbounded for its report; above the limit the report
+    goes without ``wcrt_transaction`` (one line says so), with --force it has it."""
+    import json
+
+    f = _many(tmp_path, 40)
+    monkeypatch.setitem(work.LIMITS, "interference", 10.0)
+    assert main(["simulate", str(f), "--horizon", "1000", "--json"]) == 0
+    cap = capsys.readouterr()
+    assert cap.err.count("\n") == 1 and "wcrt_transaction left out" in cap.err
+    assert all(t["wcrt_transaction"] is None for t in json.loads(cap.out)["tasks"])
+    assert main(["simulate", str(f), "--horizon", "1000", "--json", "--force"]) == 0
+    tasks = json.loads(capsys.readouterr().out)["tasks"]
+    assert all(t["wcrt_transaction"] is not None for t in tasks)
+
+
+@pytest.mark.slow
+def test_a_thousand_tasks_are_analysed_within_the_limit(tmp_path: Path) -> None:
+    """Issue 35's 1,000 distinct periods took over 11 minutes (O(n³)); now seconds, under the
+    default limit, every task bounded."""
+    import time
+
+    from rtsim.analysis.transaction import transaction_bounds
+
+    ts = load_taskset(_many(tmp_path, 1000))
+    t0 = time.monotonic()
+    got = transaction_bounds(ts, None)
+    assert time.monotonic() - t0 < 120
+    assert len(got) == 1000 and all(r is not None for r in got.values())

@@ -87,7 +87,9 @@ def test_bounds_default_single(capsys):
     assert rc == 0
     d = strict_json(out)
     want = window_bounds(load_taskset()).as_dict()
-    assert d == json.loads(json.dumps(want))
+    from rtsim.analysis.bounds import w_txn
+
+    assert d == json.loads(json.dumps({**want, "w_txn": w_txn(load_taskset())}))
     assert {
         "n",
         "r_H",

@@ -266,3 +266,83 @@ def test_non_utf8_out_is_one_line(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     assert b"Traceback" not in proc.stderr
     assert os.path.isdir(out)
+
+
+@pytest.fixture(scope="module")
+def sweep_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("sw")
+    spec = d / "s.toml"
+    spec.write_text(f'[sweep]\nkind = "bounds"\nbase = "{BARREL}"\n[grid]\nn = "1..2"\n')
+    out = d / "SW"
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    return out
+
+
+@pytest.mark.parametrize(
+    ("inside", "argv"),
+    [
+        ("sweep", ["simulate", str(EXAMPLE), "--horizon", "100", "--jobs", "{d}/points/x.csv"]),
+        ("sweep", ["simulate", str(EXAMPLE), "--horizon", "100", "--trace", "{d}/points/a/b.csv"]),
+        ("sweep", ["scenario", "test2", "--duration", "1", "--out", "{d}/points/run"]),
+        ("sweep", ["generate", "--tasks", "3", "--utilization", "0.5", "--out", "{d}/points/g"]),
+        ("scenario", ["simulate", str(EXAMPLE), "--horizon", "100", "--jobs", "{d}/sub/new.csv"]),
+        ("scenario", ["animate", "{d}", "--out", "{d}/figures/a.gif"]),
+        ("scenario", ["scenario", "test2", "--duration", "1", "--out", "{d}/again"]),
+        ("scenario", ["histogram", str(EXAMPLE), "--horizon", "100", "--out", "{d}/figures/h"]),
+    ],
+    ids=lambda a: a if isinstance(a, str) else " ".join(a[:1] + a[-2:]),
+)
+def test_nothing_is_written_into_a_subdirectory_of_another_commands_output(
+    scenario_dir: Path,
+    sweep_dir: Path,
+    capsys: pytest.CaptureFixture[str],
+    inside: str,
+    argv: list[str],
+) -> None:
+    """Issue 35 (9): only the immediate parent was checked, so ``simulate --jobs
+    SW/points/x.csv`` poisoned a sweep (its resume refused for good) and a file under a
+    reproduce run's test1/ was silently deleted by the next reproduce. Every ancestor is
+    checked; nothing is written, the directory stays as it was, the sweep still resumes."""
+    d = sweep_dir if inside == "sweep" else scenario_dir
+    before = _snapshot(d)
+    entries = sorted(p.name for p in d.rglob("*"))
+    _refused(
+        capsys,
+        [a.replace("{d}", str(d)) for a in argv],
+        f"is inside the output directory of `rtsim {inside}` ({d})",
+    )
+    assert _snapshot(d) == before and sorted(p.name for p in d.rglob("*")) == entries
+    if inside == "sweep":
+        spec = d.parent / "s.toml"
+        assert main(["sweep", str(spec), "--out", str(d), "--workers", "1", "--quiet"]) == 0
+
+
+def test_a_directory_beside_an_output_is_fine(
+    scenario_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The check looks up, not sideways: a file next to an output directory is written."""
+    out = scenario_dir.parent / "beside" / "jobs.csv"
+    assert main(["simulate", str(EXAMPLE), "--horizon", "100", "--jobs", str(out)]) == 0
+    assert out.is_file()
+
+
+def test_a_reproduce_runs_subdirectory_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--jobs RP/test1/new.csv`` (the next reproduce would delete it): RP is claimed by
+    reproduce's manifest, listing test1/ (made here by the manifest writer, as reproduce
+    does, rather than by a minutes-long reproduce run)."""
+    from rtsim.io.manifest import write_manifest
+
+    rp = tmp_path / "RP"
+    (rp / "test1").mkdir(parents=True)
+    (rp / "test1" / "windows.csv").write_text("t\n")
+    write_manifest(rp, command="reproduce", seed=0, inputs={}, extra={"outputs": ["test1"]})
+    for opt in ("--jobs", "--gantt", "--perfetto"):
+        target = rp / "test1" / ("new.png" if opt == "--gantt" else "new.csv")
+        _refused(
+            capsys,
+            ["simulate", str(EXAMPLE), "--horizon", "100", opt, str(target)],
+            f"inside the output directory of `rtsim reproduce` ({rp})",
+        )
+    assert sorted(p.name for p in (rp / "test1").iterdir()) == ["windows.csv"]

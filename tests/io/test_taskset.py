@@ -187,7 +187,8 @@ BASE = '[[tasks]]\nname = "tau1"\n'
         ),
         (
             TWO.format(a="priority = 1", b="priority = 1"),
-            r": task 'b': priority: 1 is already used by task 'a'$",
+            r": task 'b': priority: 1 is already used by task 'a' \(tasks share a priority "
+            r"only under a time-sliced policy: \[scheduler\] policy = \"rr\" with a quantum\)$",
         ),
         (TWO.format(a="priority = 1", b=""), r": task 'b': priority: missing, but task 'a'"),
         (TWO.format(a="", b="priority = 1"), r": task 'a': priority: missing, but task 'b'"),
@@ -246,7 +247,7 @@ e_sched = 1
         (
             WINDOW,
             TWO.format(a="priority = 1", b="priority = 2"),
-            r": task 'b': priority: 2 is already used by \[window\] 'window'$",
+            r": task 'b': priority: 2 is already used by \[window\] 'window' \(tasks share",
         ),
         (
             WINDOW.replace("n = 2", "n = 0"),

@@ -118,7 +118,7 @@ def test_animate_input_errors(run60: Path, tmp_path: Path, capsys, monkeypatch) 
     assert main(["animate", str(tmp_path), "--out", str(tmp_path / "a.gif")]) == 2
     assert "not a scenario run directory (no windows.csv" in capsys.readouterr().err
     assert main(["animate", str(run60), "--out", str(tmp_path / "a.avi")]) == 2
-    assert "--out must end in .gif, .html, .mp4" in capsys.readouterr().err
+    assert "ends in .avi, but it is written as gif or mp4 or html" in capsys.readouterr().err
     assert (
         main(
             [

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -142,3 +143,82 @@ def test_cli_bounds_and_simulate_report_the_raised_w_rta(
     out = json.loads(capsys.readouterr().out)
     assert out["window"]["w_rta"] == jit["w_rta"]
     assert out["window"]["w_edf"] == jit["w_edf"] > plain["w_edf"]
+
+
+def _jittered(cmd: float = 0.0, dr: float = 0.0, cmd_offset: float = 0.0, **window: float):
+    ts = _paper(**window)
+    tasks = []
+    for t in ts.tasks:
+        if t.name == "command":
+            t = replace(t, jitter=cmd, offset=cmd_offset)
+        elif t.name == "dead_reckoning":
+            t = replace(t, jitter=dr)
+        tasks.append(t)
+    return replace(ts, tasks=tuple(tasks))
+
+
+@pytest.mark.parametrize(
+    ("cmd", "win", "dr", "cmd_offset"),
+    [
+        (3.0, 0.0, 0.0, 0.0),  # issue 35's reproducer
+        (0.5, 0.0, 0.0, 0.0),
+        (50.0, 2.0, 7.0, 0.0),
+        (3.0, 5.0, 0.0, 0.0),  # the window more jittered: the command task is movable
+        (4.0, 4.0, 1.0, 0.0),
+        (6.0, 1.0, 0.0, 10.0),  # its own offset absorbs the shift
+        (6.0, 1.0, 0.0, 2.0),  # only part of it
+    ],
+)
+def test_worst_jitter_moves_every_task_it_can(cmd: float, win: float, dr: float, cmd_offset: float):
+    """Issue 35 (4): the critical instant t0 = max J; every task arrives t0 - J_i (plus its
+    offset) and is first released at t0 + offset; a per-window task cannot arrive before the
+    window's first arrival t0 - J_w + (its offset), so there it arrives. By hand from the
+    jitters, against the job records; the responses stay within the analysis."""
+    from rtsim.sim.run import worst_jitter_shifts
+
+    ts = _jittered(cmd, dr, cmd_offset, jitter=win)
+    t0 = max(cmd, win, dr)
+    w = 270.0  # command: 470.45 + J ≤ 2w for every J here
+    res = simulate(ts, 12 * w, window=w, jitter="worst", record_jobs=True)
+    first = res.jobs[res.jobs["job"] == 0].set_index("task")
+    assert first.loc["window", "arrival"] == t0 - win
+    assert first.loc["window", "release"] == t0
+    assert first.loc["dead_reckoning", "release"] == t0
+    movable = cmd_offset + win - cmd >= 0
+    arrival = t0 - cmd + cmd_offset if movable else t0 - win
+    assert first.loc["command", "arrival"] == pytest.approx(arrival, abs=1e-12)
+    assert first.loc["command", "release"] == pytest.approx(arrival + cmd, abs=1e-12)
+    cmd_jobs = res.jobs[res.jobs["task"] == "command"]
+    assert np.allclose(np.diff(cmd_jobs["arrival"].to_numpy()), 2 * w)  # still aligned
+    assert worst_jitter_shifts(ts)[1] == ([] if movable else ["command"])
+    bound = {t.name: t.wcrt for t in analyze(ts, w).tasks}
+    assert all(b is not None for b in bound.values())
+    for name, st in res.tasks.items():
+        assert st.max_response <= bound[name] + 1e-9, name
+
+
+@pytest.mark.parametrize("scheduler", ["fp", "edf"])
+def test_cli_worst_jitter_on_the_papers_set_with_a_jittered_command_task(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], scheduler: str
+):
+    """Issue 35 (4): `simulate --jitter worst` with jitter = 3 on the command task ended in a
+    traceback; it runs (exit 0) and says in one line which task it could not move."""
+    text = PAPER.read_text().replace('period = "2w"', 'period = "2w"\njitter = 3', 1)
+    f = tmp_path / "j3.toml"
+    f.write_text(text)
+    args = ["simulate", str(f), "--jitter", "worst", "--horizon", "3000", "--json"]
+    if scheduler == "edf":
+        args += ["--scheduler", "edf"]
+    assert main(args) == 0
+    cap = capsys.readouterr()
+    lines = cap.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("rtsim: --jitter worst: 'command'")
+    assert json.loads(cap.out)["misses"] == 0
+    if scheduler == "edf":
+        return
+    assert main([*args, "-q"]) == 0
+    assert capsys.readouterr().err == ""
+    # a set whose jittered tasks can all be moved says nothing
+    f.write_text(text.replace("jitter = 3", "jitter = 3\noffset = 3", 1))
+    assert main(args) == 0
+    assert capsys.readouterr().err == ""

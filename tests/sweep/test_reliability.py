@@ -474,3 +474,101 @@ def test_validate_locks_its_output_directory(tmp_path: Path) -> None:
         with pytest.raises(DirectoryLocked, match="command: rtsim validate first"):
             run_validation(tmp_path / "v", QUICK, workers=1)
     assert not (tmp_path / "v" / "sweeps").exists()
+
+
+# -- temporary files of a write killed by kill -9 ------------------------------------------
+def _killed_while_writing(target: Path) -> Path:
+    """Kill -9 a process in the middle of an atomic write of ``target``; the temporary file
+    it leaves (named by the writer itself, not by the test)."""
+    code = (
+        "import os, sys, time\nfrom rtsim.io.atomic import atomic_path\n"
+        f"with atomic_path({str(target)!r}) as tmp:\n"
+        "    tmp.write_bytes(b'half')\n    print(tmp, flush=True)\n    time.sleep(60)\n"
+    )
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        assert p.stdout is not None
+        left = Path(p.stdout.readline().strip())
+        p.send_signal(signal.SIGKILL)
+        p.wait(timeout=10)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert left.is_file() and left.parent == target.parent
+    return left
+
+
+@pytest.mark.parametrize(
+    "names", [["results.parquet"], ["timings.csv", "manifest.json"], ["points/"]]
+)
+@pytest.mark.parametrize("restart", [False, True])
+def test_a_write_killed_by_kill_9_never_blocks_the_resume(
+    tmp_path: Path, names: list[str], restart: bool
+) -> None:
+    """Issue 35 (7): a ``.results.parquet.*.tmp`` (or timings', manifest's) left by kill -9
+    made every later sweep refuse the directory, --restart included, and point files'
+    temporary files were never removed: they are the sweep's own, removed under the lock."""
+    spec = _write(
+        tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\ni = "1..3"\n'
+    )
+    out = tmp_path / "o"
+    first = run_sweep(spec, out, workers=1)
+    left = []
+    for name in names:
+        if name == "points/":
+            point = next((out / "points").glob("*.json"))
+            left.append(_killed_while_writing(point))
+        else:
+            left.append(_killed_while_writing(out / name))
+    again = run_sweep(spec, out, workers=1, restart=restart)
+    assert not any(f.exists() for f in left)
+    pd.testing.assert_frame_equal(
+        again.drop(columns=[c for c in again if "time" in c]),
+        first.drop(columns=[c for c in first if "time" in c]),
+    )
+
+
+def test_temporary_files_of_what_the_sweep_does_not_make_are_still_refused(tmp_path: Path) -> None:
+    spec = _write(
+        tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\ni = "1..2"\n'
+    )
+    out = tmp_path / "o"
+    run_sweep(spec, out, workers=1)
+    for bad, kind in [
+        (".notes.txt.abcd1234.tmp", "file"),
+        (".results.parquet.abcd1234.tmp", "dir"),
+    ]:
+        p = out / bad
+        p.mkdir() if kind == "dir" else p.write_text("mine")
+        with pytest.raises(InputError, match="did not make"):
+            run_sweep(spec, out, workers=1, restart=True)
+        assert p.exists()
+        p.rmdir() if kind == "dir" else p.unlink()
+
+
+def test_cli_sweep_resumes_after_a_killed_write(tmp_path: Path) -> None:
+    spec = _write(
+        tmp_path, '[sweep]\nkind = "call"\nfunction = "sweep_helpers:echo"\n[grid]\ni = "1..2"\n'
+    )
+    out = tmp_path / "o"
+    args = ["sweep", "--allow-code", str(spec), "--out", str(out), "--workers", "1", "--quiet"]
+    assert main(args) == 0
+    left = _killed_while_writing(out / "results.parquet")
+    assert main(args) == 0 and not left.exists()
+    left = _killed_while_writing(out / "manifest.json")
+    assert main([*args, "--restart"]) == 0 and not left.exists()
+
+
+def test_validate_directory_temporary_files_are_removed_under_the_lock(tmp_path: Path) -> None:
+    """The same rule for ``validate``'s directory (its report, its summary)."""
+    from rtsim.io.manifest import write_manifest
+    from rtsim.io.outdir import check_resumable
+    from rtsim.validate.runner import MADE
+
+    out = tmp_path / "v"
+    write_manifest(out, command="validate", seed=0, inputs={})
+    left = [_killed_while_writing(out / n) for n in ("summary.json", "report.html")]
+    check_resumable(out, "validate", MADE, before_manifest={"sweeps"})
+    assert all(f.exists() for f in left)  # tolerated outside the lock
+    check_resumable(out, "validate", MADE, before_manifest={"sweeps"}, clean=True)
+    assert not any(f.exists() for f in left)
