@@ -43,7 +43,7 @@ class SensingParams:
     r_reacq: re-acquisition search radius (cm, ≥ r_H); position_noise: standard deviation
     of each coordinate of a position fix (cm); min_points: beams a follower must return to
     be found; max_range: laser range (cm); range_noise: standard deviation of each beam's
-    range reading (cm; the ``hough`` localization model's scan, :mod:`rtsim.world.rangefinder`).
+    range reading (cm; the ``hough`` localization model's scan, `rtsim.world.rangefinder`).
     ``position_noise`` is the ``gaussian`` model's only noise.
     """
 
@@ -78,8 +78,8 @@ CENTRES: tuple[str, ...] = ("previous", "predicted")
 SEARCHES: tuple[str, ...] = ("always", "visible")
 #: How a fix is made (``[localization] model``, docs/localization.md): ``gaussian`` — the
 #: true position plus N(0, position_noise²) per coordinate, accepted inside the window (the
-#: fast stand-in); ``hough`` — a laser scan (:mod:`rtsim.world.rangefinder`) and a Hough
-#: transform in each window (:mod:`rtsim.world.hough`).
+#: fast stand-in); ``hough`` — a laser scan (`rtsim.world.rangefinder`) and a Hough
+#: transform in each window (`rtsim.world.hough`).
 LOCALIZATION_MODELS: tuple[str, ...] = ("gaussian", "hough")
 
 
@@ -94,7 +94,7 @@ class LocalizationParams:
     leader knows its own motion). search: ``"always"`` — every lost follower costs a
     full-scan search; ``"visible"`` — only those the leader expects, from its own prediction
     of every follower, to return at least ``min_points`` beams. model: one of
-    :data:`LOCALIZATION_MODELS`.
+    `LOCALIZATION_MODELS`.
     """
 
     centre: str = "previous"

@@ -439,7 +439,7 @@ class World:
 
     def _locate_hough(self, beams: Any, centre: list[tuple[float, float]]) -> Any:
         """Every follower's window on the scan ``beams``: the rows of
-        :meth:`rtsim.world.hough.Accumulator.locate` (as lists)."""
+        `rtsim.world.hough.Accumulator.locate` (as lists)."""
         c = np.array(centre).T.copy()
         acc = self._hough
         assert acc is not None
