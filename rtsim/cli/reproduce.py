@@ -78,7 +78,7 @@ def add_options(ap: Any) -> None:
         "--dpi",
         type=int,
         default=None,
-        help="resolution of PNG figures in dots per inch (default 120)",
+        help="resolution of PNG figures in dots per inch (default 300)",
     )
     ap.add_argument(
         "--json",

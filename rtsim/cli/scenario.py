@@ -91,7 +91,7 @@ def register(sub: Any) -> None:
     p.add_argument("--parquet", action="store_true", help="also write windows.parquet")
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
-    add_figure_options(p, default_dpi=120)  # rtsim.plots.scenario.DPI (not imported: slow)
+    add_figure_options(p, default_dpi=300)  # rtsim.plots.scenario.DPI (not imported: slow)
     p.add_argument(
         "--perfetto",
         metavar="FILE",

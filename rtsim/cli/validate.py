@@ -1,4 +1,4 @@
-"""``rtsim validate [--quick] --out DIR [--workers N] [--dask ADDRESS]``: analysis vs simulation.
+"""``rtsim validate [--quick] --out DIR [--set KEY=VALUE] [--workers N]``: analysis vs simulation.
 
 Runs `rtsim.validate.run_validation`: the paper's set over n and r_H (w_sch, w_rta,
 w_sim searched twice, response times at w_sch against the exact WCRT) and random UUniFast
@@ -92,9 +92,17 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--force", action="store_true", help="run even when a value looks like a mistake of unit"
     )
+    from rtsim.cli._set import add_set_option
+
+    add_set_option(
+        p,
+        "change a key of the task set (a key of its tables or [window], e.g. "
+        "tasks.command.wcet=12) or else of the scenario (e.g. leader.speed=20): a dotted "
+        "path, the value read as TOML; repeatable; n and r_H: --followers, --hough-radius",
+    )
     from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
-    add_figure_options(p, default_dpi=100)  # rtsim.validate.runner.DPI (not imported: slow)
+    add_figure_options(p, default_dpi=300)  # rtsim.validate.runner.DPI (not imported: slow)
     add_json(p, "print summary.json (and the failures) as one JSON object")
     add_quiet(p, "no progress bar, no summary")
 
@@ -131,6 +139,11 @@ def run(args: argparse.Namespace) -> int:
         changes["taskset_path"] = args.taskset
     if args.scenario is not None:
         changes["scenario_path"] = args.scenario
+    from rtsim.cli._set import set_overrides
+
+    overrides = set_overrides(args)
+    if overrides:
+        changes["overrides"] = tuple(overrides.items())
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
     if changes:

@@ -39,7 +39,8 @@ from rtsim.plots.scenario_data import (
     times_s,
     violation_ratios,
 )
-from rtsim.plots.style import few
+from rtsim.plots.style import COLUMN_IN, PAGE_IN, few, paper
+from rtsim.plots.style import DPI as _PRINT_DPI
 
 __all__ = [
     "BOUND_KINDS",
@@ -89,7 +90,8 @@ FOLLOWER_COLORS: tuple[str, ...] = (
 )
 BOUNDS_CLIP = 4.0  # bounds figure: y-axis ends at most at this multiple of w_sch
 WINDOW_CLIP = 6.0  # window figure: the same for w (w is capped, but the cap may be large)
-DPI = 120
+#: Resolution of PNG figures: print (`rtsim.plots.style.DPI`); SVG and PDF are vector.
+DPI = _PRINT_DPI
 #: What the lines and dots of the bounds figures are (their legend's title).
 BOUNDS_NOTE = (
     "lines: predicted at the leader's highest speed in the window; dots: threshold·w / true change"
@@ -125,7 +127,7 @@ def _finish(
                 handles,
                 labels,
                 loc="outside lower center",
-                ncols=min(len(handles), 3),
+                ncols=min(len(handles), 3 if fig.get_figwidth() > COLUMN_IN + 0.5 else 1),
                 fontsize="small",
                 frameon=False,
                 title=note,
@@ -563,48 +565,54 @@ def _draw_plane(ax: Axes, df: pd.DataFrame, top: float) -> None:
 # --- public figures ----------------------------------------------------------------------
 
 
+@paper
 def plot_paths(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
     """Figs 8/12: the leader's and followers' true paths, estimates faint, critical windows
     drawn where the binding follower was (`binding_xy`)."""
-    fig, ax, own = _new_figure(ax, (6.4, 6.0))
+    fig, ax, own = _new_figure(ax, (COLUMN_IN, COLUMN_IN + 1.6))
     _draw_paths(ax, df)
     return _finish(fig, ax, own, title)
 
 
+@paper
 def plot_window_slack(
     df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None
 ) -> Figure:
     """Figs 9/13: the processing window w and the slack (Eq 22) over time, w_sch for reference."""
-    fig, ax, own = _new_figure(ax, (8.0, 4.2))
+    fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
     _draw_window(ax, df)
     return _finish(fig, ax, own, title)
 
 
+@paper
 def plot_bounds(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
     """The per-kind detail of Figs 10/14 (`plot_msb` is the paper's picture): w_sch,
     each MSB kind (min over followers, estimates) and w over time."""
-    fig, ax, own = _new_figure(ax, (8.0, 4.6))
+    fig, ax, own = _new_figure(ax, (PAGE_IN, 3.2))
     _draw_bounds(ax, df)
     return _finish(fig, ax, own, title, note=BOUNDS_NOTE)
 
 
+@paper
 def plot_msb(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
     """Figs 10/14 as the paper draws them: the minimum MSB over every follower and bound,
     predicted at the desired speed V_Ld (the decision's ``msb_min``) and as the truth showed
     it, against w_sch and w; in the critical windows a marker coloured by the binding bound.
     The per-kind detail is [`plot_bounds`][rtsim.plots.scenario.plot_bounds]."""
-    fig, ax, own = _new_figure(ax, (9.5, 4.2))
+    fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
     _draw_msb(ax, df)
     return _finish(fig, ax, own, title)
 
 
+@paper
 def plot_speed(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
     """Figs 11/15: the desired and actual leader speed over time, turns shaded."""
-    fig, ax, own = _new_figure(ax, (8.0, 3.8))
+    fig, ax, own = _new_figure(ax, (PAGE_IN, 2.5))
     _draw_speed(ax, df)
     return _finish(fig, ax, own, title)
 
 
+@paper
 def plot_operating_space(
     df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None, plane: bool = True
 ) -> Figure:
@@ -614,10 +622,10 @@ def plot_operating_space(
     the diagonal min MSB = w_sch that separates the safe area from the critical region.
     """
     if ax is not None or not plane:
-        fig, ax, own = _new_figure(ax, (8.0, 4.2))
+        fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
         _draw_operating(ax, df)
         return _finish(fig, ax, own, title)
-    fig = new_figure(figsize=(9.5, 4.2), layout="constrained")
+    fig = new_figure(figsize=(PAGE_IN, 2.8), layout="constrained")
     ax_t, ax_p = fig.subplots(1, 2, width_ratios=[3, 1.1])
     data = figure_data(df, "operating_space")
     top = _ylimit(
@@ -639,6 +647,7 @@ _DRAWERS: dict[str, Callable[[Axes, pd.DataFrame, float | None], None]] = {
 }
 
 
+@paper
 def plot_modes(
     dfs: Mapping[str, pd.DataFrame], kind: str = "window", *, title: str | None = None
 ) -> Figure:
@@ -673,7 +682,7 @@ def plot_modes(
         ]
         top = _ylimit(speeds, np.zeros(0), 1.0)
     n = len(dfs)
-    size = (3.2 * n, 3.9) if kind == "paths" else (3.2 * n, 3.4)
+    size = (PAGE_IN, PAGE_IN / n + 1.2) if kind == "paths" else (PAGE_IN, 2.8)
     fig = new_figure(figsize=size, layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, n, sharex=True, sharey=True, squeeze=False)[0])
     for ax, (mode, df) in zip(axes, dfs.items(), strict=True):

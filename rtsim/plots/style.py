@@ -4,15 +4,20 @@ A two-column paper (IEEE, ACM) sets a figure one column wide (`COLUMN_IN`) or ac
 both (`PAGE_IN`); text in a figure reads best at the caption's size, 7–8 pt, and a
 raster figure prints sharp at `DPI` (vector formats, ``--format pdf`` or ``svg``, need
 none). A legend of more than `MAX_LEGEND` entries is cut to that many, its last entry
-saying how many more the figure's CSV holds (`few`).
+saying how many more the figure's CSV holds (`few`). `paper` draws a figure function's
+text at these sizes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+import functools
+from collections.abc import Callable, Sequence
+from typing import Any, ParamSpec, TypeVar
 
-__all__ = ["COLUMN_IN", "PAGE_IN", "DPI", "MAX_LEGEND", "PAPER_RC", "size", "few"]
+__all__ = ["COLUMN_IN", "PAGE_IN", "DPI", "MAX_LEGEND", "PAPER_RC", "size", "few", "paper"]
+
+_P = ParamSpec("_P")
+_F = TypeVar("_F")
 
 #: One column of a two-column paper, inches (IEEE: 3.5 in).
 COLUMN_IN = 3.5
@@ -58,3 +63,23 @@ def few(
     rest = len(handles) - (most - 1)
     more = Line2D([], [], linestyle="none")
     return [*handles[: most - 1], more], [*labels[: most - 1], f"+{rest} more (in the CSV)"]
+
+
+def paper(draw: Callable[_P, _F]) -> Callable[_P, _F]:
+    """Decorator: run a function that returns a figure under `PAPER_RC`. Tick labels are made
+    when the figure is drawn, after the context: their size is set on each axes (only on a
+    figure the function made itself, not when the caller passed ``ax``)."""
+
+    @functools.wraps(draw)
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _F:
+        import matplotlib as mpl
+
+        with mpl.rc_context(PAPER_RC):  # type: ignore[arg-type]
+            fig = draw(*args, **kwargs)
+        if kwargs.get("ax") is None:
+            for ax in getattr(fig, "axes", ()):
+                ax.tick_params(axis="x", labelsize=PAPER_RC["xtick.labelsize"])
+                ax.tick_params(axis="y", labelsize=PAPER_RC["ytick.labelsize"])
+        return fig
+
+    return wrapper

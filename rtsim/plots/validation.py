@@ -19,6 +19,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from rtsim.plots.figure import new_figure
+from rtsim.plots.style import PAGE_IN, few, paper
 
 __all__ = [
     "bounds_vs_n_data",
@@ -33,12 +34,13 @@ _MODES = ("wcet-cpu", "counted-idle")
 _COLUMNS = 3
 
 
-def _panels(count: int, width: float, height: float) -> tuple[Figure, list]:
-    """A figure of ``count`` panels, at most `_COLUMNS` a row (sharing both axes), each
-    ``width`` x ``height`` in; panels left over in the last row are hidden."""
+def _panels(count: int, aspect: float = 0.8) -> tuple[Figure, list]:
+    """A page-wide figure of ``count`` panels, at most `_COLUMNS` a row (sharing both axes),
+    each ``aspect`` times as high as wide; panels left over in the last row are hidden."""
     cols = min(count, _COLUMNS)
     rows = -(-count // cols)
-    fig = new_figure(figsize=(width * cols + 0.4, height * rows + 0.7), layout="constrained")
+    height = aspect * PAGE_IN / _COLUMNS * rows + 0.8
+    fig = new_figure(figsize=(PAGE_IN, height), layout="constrained")
     grid = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False)
     axes = list(grid.flat)
     for ax in axes[count:]:
@@ -50,7 +52,7 @@ def _panels(count: int, width: float, height: float) -> tuple[Figure, list]:
 
 def _legend_below(fig: Figure, ax: object) -> None:
     """The panels' common legend below them, off the data."""
-    handles, labels = ax.get_legend_handles_labels()  # type: ignore[attr-defined]
+    handles, labels = few(*ax.get_legend_handles_labels())  # type: ignore[attr-defined]
     fig.legend(
         handles,
         labels,
@@ -72,11 +74,12 @@ def bounds_vs_n_data(df: pd.DataFrame) -> pd.DataFrame:
     return out.reset_index().sort_values(["r_H", "n"], ignore_index=True)
 
 
+@paper
 def bounds_vs_n(df: pd.DataFrame, r_H: Sequence[float] | None = None) -> Figure:
     """w_sch, w_rta and w_sim (both searches) against n, one panel per r_H (ms)."""
     data = bounds_vs_n_data(df)
     radii = sorted(data["r_H"].unique()) if r_H is None else list(r_H)
-    fig, axes = _panels(len(radii), 2.3, 2.0)
+    fig, axes = _panels(len(radii))
     styles = {
         "w_sch": ("w_sch (Eq 7/11)", "-", "o"),
         "w_rta": ("w_rta (exact RTA)", "--", "s"),
@@ -102,11 +105,12 @@ def pessimism_data(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> pd.Data
     return paper[["mode", "r_H", "n", ratio]].sort_values(["mode", "r_H", "n"], ignore_index=True)
 
 
+@paper
 def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figure:
     """Heat map of ``ratio`` over (n, r_H), one panel per search mode, values annotated."""
     data = pessimism_data(df, ratio)
     modes = [m for m in _MODES if m in set(data["mode"])]
-    fig = new_figure(figsize=(3.7 * len(modes) + 0.8, 3.4), layout="constrained")
+    fig = new_figure(figsize=(PAGE_IN, 2.9), layout="constrained")
     axes = fig.subplots(1, len(modes), squeeze=False)
     vals = data[ratio].to_numpy(dtype=float)
     vmin, vmax = float(np.nanmin(vals)), float(np.nanmax(vals))
@@ -137,7 +141,7 @@ def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figu
                         f"{v:.3f}",
                         ha="center",
                         va="center",
-                        fontsize=7,
+                        fontsize=6 if grid.shape[1] > 6 else 7,
                         color="w" if v < (vmin + vmax) / 2 else "k",
                     )
     if im is not None:
@@ -146,12 +150,13 @@ def pessimism_heatmap(df: pd.DataFrame, ratio: str = "w_sch_over_w_sim") -> Figu
     return fig
 
 
+@paper
 def scheduler_bounds(table: pd.DataFrame) -> Figure:
     """w_sch, w_rta (fixed priority) and w_edf (EDF) against n, one panel per r_H (ms), with
     the relative gain 1 − w_edf/w_rta on a second axis. ``table``: columns n, r_H, w_sch,
     w_rta, w_edf."""
     radii = sorted(table["r_H"].unique())
-    fig, axes = _panels(len(radii), 2.3, 2.0)
+    fig, axes = _panels(len(radii))
     styles = {
         "w_sch": ("w_sch (Eq 7/11, FP)", "-", "o"),
         "w_rta": ("w_rta (exact RTA, FP)", "--", "s"),

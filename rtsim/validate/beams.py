@@ -61,13 +61,17 @@ class Test1:
         return asdict(self)
 
 
-def scenario_world(text: str, source: str, n: int, r_H: float) -> Any:
-    """The world of a scenario file's text with n followers and Hough radius r_H."""
+def scenario_world(
+    text: str, source: str, n: int, r_H: float, overrides: dict[str, Any] | None = None
+) -> Any:
+    """The world of a scenario file's text (changed by ``overrides``, dotted paths) with n
+    followers and Hough radius r_H."""
     import tomllib
 
+    from rtsim.config.load import with_overrides
     from rtsim.io.scenario import parse_scenario
 
-    data = tomllib.loads(text)
+    data = with_overrides(tomllib.loads(text), overrides, source)
     data.setdefault("formation", {})["followers"] = int(n)
     data.setdefault("sensing", {})["r_H"] = float(r_H)
     return parse_scenario(data, source).world

@@ -34,6 +34,9 @@ class ValidationConfig:
     histogram_configs: int = 2
     taskset_path: str | None = None
     scenario_path: str | None = None  # None: DEFAULT_SCENARIO if it exists, else Test1()
+    #: ``--set``: (dotted path, value) pairs, each changing the task set's key when its first
+    #: part is a table (or shortcut) of the task set, else the scenario's (`split_overrides`)
+    overrides: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         if not self.n or any(int(k) != k or k < 1 for k in self.n):

@@ -76,15 +76,18 @@ _QNAMES = {50.0: "p50", 99.0: "p99", 99.9: "p999"}
 
 
 def paper_taskset(options: Mapping[str, Any], n: int, r_H: float) -> TaskSet:
-    """The task set of the options (TOML text, default the packaged paper set) at (n, r_H)."""
+    """The task set of the options (TOML text, default the packaged paper set; changed by
+    ``taskset_set``, ``--set``'s dotted paths) at (n, r_H)."""
+    from rtsim.config.load import with_overrides
     from rtsim.io.taskset import load_taskset, parse_taskset
 
     text = options.get("taskset_text")
-    ts = (
-        load_taskset()
-        if not text
-        else parse_taskset(tomllib.loads(text), str(options.get("taskset_source", "taskset")))
-    )
+    if not text:
+        ts = load_taskset()
+    else:
+        source = str(options.get("taskset_source", "taskset"))
+        data = with_overrides(tomllib.loads(text), options.get("taskset_set"), source)
+        ts = parse_taskset(data, source)
     return ts.with_window(n=int(n), r_H=float(r_H))
 
 
@@ -98,7 +101,8 @@ def beam_counts_for(
     n, r_H = ts.window.n, ts.window.r_H
     text = options.get("scenario_text")
     if text:
-        cfg = scenario_world(text, str(options.get("scenario_source", "scenario")), n, r_H)
+        source = str(options.get("scenario_source", "scenario"))
+        cfg = scenario_world(text, source, n, r_H, options.get("scenario_set"))
     else:
         cfg = world_config(n, Test1(**dict(options.get("world", {}))))
     return count_window_beams(ts.window, w, windows, np.random.default_rng(seed), cfg)

@@ -43,7 +43,7 @@ from rtsim.validate.outcome import (
 )
 
 #: Resolution (dots per inch) of the PNG figures.
-DPI = 100
+DPI = 300  # rtsim.plots.style.DPI: print resolution
 
 __all__ = [
     "ValidationConfig",
@@ -58,32 +58,76 @@ __all__ = [
 ]
 
 
+#: Keys each grid point sets itself (``--followers``, ``--hough-radius`` change them).
+_GRID_KEYS = {
+    "n": "--followers",
+    "window.n": "--followers",
+    "formation.followers": "--followers",
+    "r_H": "--hough-radius",
+    "window.r_H": "--hough-radius",
+    "sensing.r_H": "--hough-radius",
+}
+
+
+def _scenario_path(cfg: ValidationConfig) -> str:
+    if cfg.scenario_path is not None:
+        return cfg.scenario_path
+    return str(DEFAULT_SCENARIO) if DEFAULT_SCENARIO.exists() else "test1"  # packaged copy
+
+
+def split_overrides(cfg: ValidationConfig) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``cfg.overrides`` as (the task set's, the scenario's): a key goes to the task set when
+    its first part is a table or shortcut of the task set (``tasks.command.wcet``,
+    ``delta_t``), else to the scenario (``leader.speed``); a key the grid sets is refused."""
+    from rtsim.config.dotted import shortcuts
+    from rtsim.config.load import parse_toml, taskset_bytes
+    from rtsim.errors import OverrideError
+
+    ts_out: dict[str, Any] = {}
+    sc_out: dict[str, Any] = {}
+    if not cfg.overrides:
+        return ts_out, sc_out
+    raw, source = taskset_bytes(cfg.taskset_path)
+    ts_data = parse_toml(raw, source, OverrideError)
+    ts_keys = {str(k) for k in ts_data} | set(shortcuts(ts_data))
+    for name, value in cfg.overrides:
+        if name in _GRID_KEYS:
+            raise OverrideError(
+                f"--set {name}: set by the validation grid at every point; "
+                f"use {_GRID_KEYS[name]} instead"
+            )
+        (ts_out if name.split(".")[0] in ts_keys else sc_out)[name] = value
+    return ts_out, sc_out
+
+
 def _scenario_options(cfg: ValidationConfig) -> dict[str, Any]:
     from rtsim.io.scenario import load_scenario, scenario_bytes
 
-    path = cfg.scenario_path
-    if path is None:
-        path = str(DEFAULT_SCENARIO) if DEFAULT_SCENARIO.exists() else "test1"  # packaged copy
-    load_scenario(path)  # checked here: a bad file is an input error (exit 2)
+    path = _scenario_path(cfg)
+    overrides = split_overrides(cfg)[1]
+    load_scenario(path, overrides)  # checked here: a bad file or key is an input error (exit 2)
     raw, p = scenario_bytes(path)
-    return {"scenario_text": raw.decode("utf-8"), "scenario_source": str(p)}
+    opts = {"scenario_text": raw.decode("utf-8"), "scenario_source": str(p)}
+    return {**opts, "scenario_set": overrides} if overrides else opts
 
 
 def _taskset_options(cfg: ValidationConfig) -> dict[str, Any]:
     opts = _scenario_options(cfg)
-    if cfg.taskset_path is None:
+    overrides = split_overrides(cfg)[0]
+    if cfg.taskset_path is None and not overrides:
         return opts
+    from rtsim.config.load import taskset_bytes
     from rtsim.io.taskset import load_taskset
 
-    ts = load_taskset(cfg.taskset_path)  # checked here: a bad file is an input error (exit 2)
+    # checked here: a bad file or key is an input error (exit 2)
+    ts = load_taskset(cfg.taskset_path, overrides)
+    raw, source = taskset_bytes(cfg.taskset_path)
     if ts.window is None:
         from rtsim.errors import TaskSetError
 
-        raise TaskSetError(
-            f"{cfg.taskset_path}: has no [window]; validate needs a processing-window set"
-        )
-    text = Path(cfg.taskset_path).read_text("utf-8")
-    return {**opts, "taskset_text": text, "taskset_source": str(cfg.taskset_path)}
+        raise TaskSetError(f"{source}: has no [window]; validate needs a processing-window set")
+    opts = {**opts, "taskset_text": raw.decode("utf-8"), "taskset_source": source}
+    return {**opts, "taskset_set": overrides} if overrides else opts
 
 
 def paper_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: paper") -> Any:

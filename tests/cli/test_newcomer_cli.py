@@ -142,3 +142,39 @@ def test_python_api_errors_are_one_line_without_a_chained_traceback() -> None:
     with pytest.raises(rtsim.SweepError) as sw:
         parse_sweep({"sweep": {"kind": "bounds", "seed": -1}, "grid": {"n": [1]}}, "s.toml")
     assert "\n" not in str(sw.value) and sw.value.__context__ is None
+
+
+def test_validate_set_changes_the_task_set_or_the_scenario(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """``rtsim validate --set``: a task-set key changes the analysed set (its w_sch is the one
+    ``rtsim bounds`` computes with the same ``--set``), a scenario key the world, a key the
+    grid sets or of neither file is refused in one line."""
+    import json
+
+    import pandas as pd
+
+    assert "set" in {a.dest for a in _parsers()["validate"]._actions}
+    grid = ["--followers", "1", "--hough-radius", "10"]
+    change = ["--set", "tasks.dead_reckoning.wcet=10"]
+    expected = {}
+    for argv in ([], change):
+        assert main(["bounds", *grid, *argv, "--json"]) == 0
+        expected[bool(argv)] = json.loads(capsys.readouterr().out)["w_sch"]
+    assert expected[True] > expected[False]  # the hp task's WCET enters eq. (11)
+    out = tmp_path / "v"
+    small = ["--random-sets", "0", "--windows", "100", "--histograms", "0", "--workers", "1"]
+    argv = ["validate", "--out", str(out), *grid, *small, "--quiet", *change]
+    assert main([*argv, "--set", "leader.speed=20"]) == 0
+    table = pd.read_csv(out / "validation.csv")
+    assert table["w_sch"].dropna().unique().tolist() == pytest.approx([expected[True]])
+    manifest = (out / "manifest.json").read_text("utf-8")
+    assert "leader.speed" in manifest and "tasks.dead_reckoning.wcet" in manifest
+    bad = ["validate", "--out", str(tmp_path / "b"), *grid, *small]
+    line = _error(capsys, [*bad, "--set", "formation.followers=3"])
+    assert line.endswith(
+        "--set formation.followers: set by the validation grid at every "
+        "point; use --followers instead"
+    )
+    line = _error(capsys, [*bad, "--set", "leader.sped=20"])
+    assert "test1.toml: overrides.leader.sped" in line and "speed" in line
