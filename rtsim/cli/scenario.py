@@ -192,21 +192,25 @@ def run(args: Any) -> int:
     return 0
 
 
-#: Windows read back per chunk when followers.csv is written (memory stays flat).
-FOLLOWER_CHUNK_ROWS = 20_000
+#: Rows of followers.csv (one per window and follower) built per chunk: windows.csv is read
+#: back ``FOLLOWER_CHUNK_ROWS // n`` windows at a time for ``n`` followers, so the chunk's
+#: frame and its CSV text stay the same size at any run length and follower count.
+FOLLOWER_CHUNK_ROWS = 8_192
 
 
 def _write_followers(windows_csv: Path, target: Path) -> None:
     """followers.csv: windows.csv in long form, one row per window and follower
-    (`rtsim.coupling.tidy`), from the file read back in chunks."""
+    (`rtsim.coupling.tidy`), from the file read back in chunks of a bounded number of
+    long rows (`FOLLOWER_CHUNK_ROWS`)."""
     import pandas as pd
 
-    from rtsim.coupling.tidy import followers_frame
+    from rtsim.coupling.tidy import follower_count, followers_frame
     from rtsim.io.columns import ChunkWriter
 
     first = pd.read_csv(windows_csv, nrows=0)
+    windows = max(1, FOLLOWER_CHUNK_ROWS // max(1, follower_count(first.columns)))
     writer = ChunkWriter([target], followers_frame(first))
-    for chunk in pd.read_csv(windows_csv, chunksize=FOLLOWER_CHUNK_ROWS):
+    for chunk in pd.read_csv(windows_csv, chunksize=windows):
         writer.write(followers_frame(chunk))
     writer.close()
 

@@ -820,6 +820,11 @@ class _Coupling:
             self._close(self.world.scan(max(self.env.now, self.world.t_ms)))
 
 
+#: Rows of windows.csv the summary reads back at a time (a chunk's frame stays small next
+#: to a run's table: the post-run peak does not grow with the run's length).
+SUMMARY_READ_ROWS = 2_048
+
+
 def run_scenario(
     scenario: Any,
     *,
@@ -970,7 +975,7 @@ def run_scenario(
         window_sink.close()
         # the summary reads the columns back in chunks: memory stays flat at any length
         # and follower count
-        df, table = None, window_sink.iter_read(summary_columns(run.n))
+        df, table = None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS)
     res = run.cpu.result()
     world = run.world
     extra = {

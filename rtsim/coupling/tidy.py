@@ -26,11 +26,18 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["WINDOW_KEYS", "followers_frame", "followers_chunks"]
+__all__ = ["WINDOW_KEYS", "follower_count", "followers_frame", "followers_chunks"]
 
 #: The window's columns repeated on every follower's row.
 WINDOW_KEYS: tuple[str, ...] = ("window", "t", "w")
 _FOLLOWER = re.compile(r"^f(\d+)_(.+)$")
+
+
+def follower_count(columns: Iterable[object]) -> int:
+    """How many followers a wide windows table's ``columns`` describe (the largest ``k`` of
+    an ``f<k>_`` column; 0 without one)."""
+    ks = [int(m.group(1)) for c in columns if (m := _FOLLOWER.match(str(c)))]
+    return max(ks, default=0)
 
 
 def followers_frame(windows: pd.DataFrame) -> pd.DataFrame:
