@@ -33,8 +33,11 @@ def _read(ts: Any, function: str) -> Any:
 
 
 @functools.wraps(_analyze)
-def analyze(ts: Any, *args: Any, **kwargs: Any) -> Any:
-    return _analyze(_read(ts, "analyze"), *args, **kwargs)
+def analyze(ts: Any, *args: Any, force: bool = False, **kwargs: Any) -> Any:
+    from rtsim.analysis.transaction import with_transaction_bounds
+
+    ts = _read(ts, "analyze")
+    return with_transaction_bounds(ts, _analyze(ts, *args, **kwargs), force=force)
 
 
 @functools.wraps(_window_bounds)
@@ -52,6 +55,12 @@ for _f in (analyze, window_bounds, simulate):
         f"\n\n    At the top level (``rtsim.{_f.__name__}``), ``ts`` may also be the path of a "
         f"task-set file or the name of a packaged set."
     )
+analyze.__doc__ = (analyze.__doc__ or "") + (
+    "\n\n    At the top level the result also holds each task's offset-based (transaction) "
+    "bound, as ``rtsim analyze`` reports it "
+    "([`with_transaction_bounds`][rtsim.analysis.transaction.with_transaction_bounds]): its "
+    "work limit raises `TooMuchWork` unless ``force=True``."
+)
 
 
 def run_sweep(

@@ -43,7 +43,7 @@ paper does); see [`rtsim.model.taskset.TaskSet.at_window`][rtsim.model.taskset.T
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -143,7 +143,10 @@ class Analysis:
     ``"cpu"`` (suspensions counted as computation), ``"idle"`` (suspension-aware,
     `rtsim.analysis.suspension`) or ``"either"`` (each task the larger of the two:
     [`analyze`][rtsim.analysis.rta.analyze]'s default for a set that suspends and has critical
-    sections).
+    sections). ``transaction``: each task's offset-based (transaction) bound (ms from
+    arrival) where it was computed
+    ([`with_transaction_bounds`][rtsim.analysis.transaction.with_transaction_bounds]);
+    None: not computed.
     """
 
     tasks: tuple[TaskResult, ...]
@@ -157,6 +160,7 @@ class Analysis:
     offsets_ignored: bool = False
     suspension: str = "cpu"
     resources: str | None = None
+    transaction: Mapping[str, float | None] | None = None
 
     @property
     def rm_implicit(self) -> bool:
@@ -175,10 +179,14 @@ class Analysis:
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict: ``tasks`` (list), totals, the utilization tests, the verdict."""
+        tasks = [t.as_dict() for t in self.tasks]
+        if self.transaction is not None:  # ms from arrival; None: passes the deadline
+            for entry in tasks:
+                entry["wcrt_transaction"] = self.transaction.get(entry["name"])
         return {
             "name": self.name,
             "w": self.w,
-            "tasks": [t.as_dict() for t in self.tasks],
+            "tasks": tasks,
             "utilization": self.utilization,
             "rm_implicit": self.rm_implicit,
             "liu_layland": self.liu_layland,

@@ -67,9 +67,11 @@ from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, ceil_div
 from rtsim.model.task import Segment, Task
 
 if TYPE_CHECKING:
+    from rtsim.analysis.rta import Analysis
     from rtsim.model.taskset import TaskSet
 
 __all__ = [
+    "with_transaction_bounds",
     "Job",
     "Step",
     "Transaction",
@@ -490,6 +492,22 @@ def transaction_bounds(
         name: (r if r is not None and r <= deadlines[name] + DEADLINE_TOL else None)
         for name, r in raw.items()
     }
+
+
+def with_transaction_bounds(ts: TaskSet, res: Analysis, *, force: bool = False) -> Analysis:
+    """``res`` (a fixed-priority `rtsim.analysis.rta.analyze` of ``ts``) with each task's
+    offset-based bound (`transaction_bounds`, at its window, overhead and suspension model)
+    in ``transaction``, as `rtsim analyze` reports it; unchanged for a set with critical
+    sections (the offset-based analysis has no blocking term) or an ``"either"`` result.
+    Work limit and ``force`` as `transaction_bounds`."""
+    from dataclasses import replace
+
+    if ts.has_sections or res.suspension not in ("cpu", "idle"):
+        return res
+    txn = transaction_bounds(
+        ts, res.w, overhead=res.overhead, suspension=res.suspension, force=force
+    )
+    return replace(res, transaction=txn)
 
 
 def _least_work(transactions: Sequence[Transaction], suspension: str) -> float:

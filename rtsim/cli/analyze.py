@@ -290,24 +290,19 @@ def run(args: argparse.Namespace) -> int:
             force=args.force,
         )
     res: Any = policy.analysis(ts, w, overhead=args.overhead, suspension=args.suspension)
-    txn: dict[str, float | None] | None = None
     if isinstance(res, EdfAnalysis):
         text = format_edf(res, str(ts.source), w_from)
     else:
         text = format_analysis(res, str(ts.source), w_from)
-        if policy.analysis is analyze and not ts.has_sections:  # FP: the offset-based bound
-            from rtsim.analysis.transaction import transaction_bounds
+        if policy.analysis is analyze:  # FP: the offset-based bound (as the library's)
+            from rtsim.analysis.transaction import with_transaction_bounds
 
-            txn = transaction_bounds(
-                ts, res.w, overhead=res.overhead, suspension=args.suspension, force=args.force
-            )
-            head, _, last = text.rpartition("\n")  # before the verdict line
-            text = f"{head}\n{format_transaction(txn)}\n{last}"
+            res = with_transaction_bounds(ts, res, force=args.force)
+            if res.transaction is not None:
+                head, _, last = text.rpartition("\n")  # before the verdict line
+                text = f"{head}\n{format_transaction(dict(res.transaction))}\n{last}"
     if args.json:
         out = {"source": ts.source, "w_from": w_from, "scheduler": scheduler, **res.as_dict()}
-        if txn is not None:
-            for entry in out["tasks"]:
-                entry["wcrt_transaction"] = txn.get(entry["name"])
         print(json.dumps(json_safe(out), indent=2, allow_nan=False))
     elif not args.quiet:
         print(text)
