@@ -58,7 +58,7 @@ for _f in (analyze, window_bounds, simulate):
 analyze.__doc__ = (analyze.__doc__ or "") + (
     "\n\n    At the top level the result also holds each task's offset-based (transaction) "
     "bound, as ``rtsim analyze`` reports it "
-    "([`with_transaction_bounds`][rtsim.analysis.transaction.with_transaction_bounds]): its "
+    "(``rtsim.analysis.transaction.with_transaction_bounds``): its "
     "work limit raises `TooMuchWork` unless ``force=True``."
 )
 

@@ -145,7 +145,7 @@ class Analysis:
     [`analyze`][rtsim.analysis.rta.analyze]'s default for a set that suspends and has critical
     sections). ``transaction``: each task's offset-based (transaction) bound (ms from
     arrival) where it was computed
-    ([`with_transaction_bounds`][rtsim.analysis.transaction.with_transaction_bounds]);
+    (`rtsim.analysis.transaction.with_transaction_bounds`);
     None: not computed.
     """
 
