@@ -100,12 +100,14 @@ def test_numpy_bools_are_not_numbers() -> None:
 # -- paths in public functions ------------------------------------------------------
 def test_the_top_level_functions_accept_a_path() -> None:
     """rtsim.analyze, rtsim.window_bounds and rtsim.simulate read a task-set file (the
-    configuration layer's loader, above the analysis and the simulator)."""
+    configuration layer's loader, above the analysis and the simulator); the top-level
+    analyze adds the offset-based bounds, as ``rtsim analyze`` does."""
     import rtsim
+    from rtsim.analysis.transaction import with_transaction_bounds
 
     ref = load_taskset(PAPER)
     for arg in (PAPER, str(PAPER)):
-        assert rtsim.analyze(arg) == analyze(ref)
+        assert rtsim.analyze(arg) == with_transaction_bounds(ref, analyze(ref))
         assert rtsim.window_bounds(arg) == window_bounds(ref)
         assert rtsim.simulate(arg, 500.0).tasks == simulate(ref, 500.0).tasks
 
