@@ -82,6 +82,10 @@ class LocalizationModel:
         self.rng = rng
         self.normals = normals
         self.fast = fast
+        self.start()
+
+    def start(self) -> None:
+        """Set up the model's own state for this world (its sensor, its buffers)."""
 
     @classmethod
     def fix_sd(cls, sensing: SensingParams, rho: float) -> float:
@@ -150,15 +154,9 @@ class HoughModel(LocalizationModel):
 
     name = "hough"
 
-    def __init__(
-        self,
-        config: WorldConfig,
-        n: int,
-        rng: np.random.Generator,
-        normals: Callable[[int], list[float]],
-        fast: bool,
-    ) -> None:
-        super().__init__(config, n, rng, normals, fast)
+    def start(self) -> None:
+        """The rangefinder and the accumulator (sized for r_H and r_reacq)."""
+        config, n, fast = self.config, self.n, self.fast
         sens = config.sensing
         r_F = config.follower.radius
         self.rangefinder = Rangefinder(r_F, sens.max_range, sens.range_noise, fast)
