@@ -52,14 +52,14 @@ def register(sub: Any) -> None:
         'as test2); preset = "paper" takes the paper\'s own (docs/configuration.md).',
     )
     p.add_argument("file", help="scenario TOML file")
-    from rtsim.control.policy import POLICIES
+    from rtsim.control.policy import ADJUSTMENT_POLICIES
 
     p.add_argument(
         "--policy",
         default=None,
         metavar="NAME",
         help="adjustment policy, overriding the file's [adjust] policy: "
-        f"{', '.join(POLICIES)} (default plan, the recommended model; adjust is the "
+        f"{', '.join(ADJUSTMENT_POLICIES)} (default plan, the recommended model; adjust is the "
         'paper\'s algorithm, also preset = "paper"), or package.module:Name '
         "(docs/adjustment.md)",
     )

@@ -253,9 +253,9 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         require_bcet(ts, str(args.file))
     scheduler = ts.scheduler
     if args.scheduler is not None:
-        from rtsim.sim.policy import resolve_policy
+        from rtsim.sim.policy import resolve_scheduler
 
-        resolve_policy(args.scheduler, where="--scheduler", allow_code=True)
+        resolve_scheduler(args.scheduler, where="--scheduler", allow_code=True)
         scheduler = args.scheduler
     bounds = None
     if ts.window is not None:

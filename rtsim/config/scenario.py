@@ -285,14 +285,14 @@ class _Angles(Table):
 _HEADING = "ten turns either way"
 
 
-class StartModel(_Angles):
+class StartTable(_Angles):
     x: Annotated[float, number(-_CM_MAX, _CM_MAX, "cm", "within 100 km")] = 0.0
     y: Annotated[float, number(-_CM_MAX, _CM_MAX, "cm", "within 100 km")] = 0.0
     heading: Annotated[float, _angle(-_ANGLE, _ANGLE, _HEADING)] | None = None
     heading_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, _HEADING, deg=True)] | None = None
 
 
-class SegmentModel(_Angles):
+class SegmentTable(_Angles):
     """One entry of ``leader.path``: ``{straight = <cm>}`` or ``{turn = "left", radius, angle}``."""
 
     straight: (
@@ -329,7 +329,7 @@ class SegmentModel(_Angles):
         return self
 
 
-class ShapeModel(Table):
+class ShapeTable(Table):
     kind: Annotated[str, choice(("rounded_rectangle",))]
     length: Annotated[float, number(0, _CM_MAX, "cm", "at most 100 km")]
     width: Annotated[float, number(0, _CM_MAX, "cm", "at most 100 km")]
@@ -340,9 +340,9 @@ class ShapeModel(Table):
 _RAMP = "at most 100 g; inf: the speed steps"
 
 
-class LeaderModel(Table):
+class LeaderTable(Table):
     speed: Annotated[float, number(0, 1000, "cm/s", "a ground robot at most 10 m/s", lo_open=True)]
-    start: StartModel = Field(default_factory=StartModel)
+    start: StartTable = Field(default_factory=StartTable)
     start_s: Annotated[
         float,
         number(
@@ -354,8 +354,8 @@ class LeaderModel(Table):
     ] = 0.0
     accel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
     decel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
-    path: list[SegmentModel] | None = Field(default=None, min_length=1)
-    shape: ShapeModel | None = None
+    path: list[SegmentTable] | None = Field(default=None, min_length=1)
+    shape: ShapeTable | None = None
 
     @model_validator(mode="after")
     def _path_or_shape(self) -> Any:
@@ -364,14 +364,14 @@ class LeaderModel(Table):
         return self
 
 
-class SlotModel(_Angles):
+class SlotTable(_Angles):
     _required_angles: ClassVar[tuple[str, ...]] = ("beta_d",)
     rho_d: Annotated[float, number(0, 1e5, "cm", "as separation", lo_open=True)]
     beta_d: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle")] | None = None
     beta_d_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle", deg=True)] | None = None
 
 
-class FormationModel(_Angles):
+class FormationTable(_Angles):
     model: Annotated[str, plugin(FOLLOWER_MODELS)] = _DEFAULT["formation.model"]
     layout: Annotated[str, choice(FORMATION_LAYOUTS)] = _DEFAULT["formation.layout"]
     followers: Annotated[int, integer(1, 1000, "followers", "as window.n")] | None = None
@@ -383,7 +383,7 @@ class FormationModel(_Angles):
     bearing_offset_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle", deg=True)] | None = (
         None
     )
-    slot: list[SlotModel] | None = Field(default=None, min_length=1)
+    slot: list[SlotTable] | None = Field(default=None, min_length=1)
 
     @model_validator(mode="after")
     def _slots_or_pattern(self) -> Any:
@@ -405,7 +405,7 @@ class FormationModel(_Angles):
 _NOISE = "a noise standard deviation"
 
 
-class FollowerModel(_Angles):
+class FollowerTable(_Angles):
     radius: (
         Annotated[float, number(0, 1e3, "cm", "a robot of at most 10 m", lo_open=True)] | None
     ) = None
@@ -445,7 +445,7 @@ class FollowerModel(_Angles):
     turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None = None
 
 
-class SensingModel(Table):
+class SensingTable(Table):
     r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = 25.0
     r_reacq: (
         Annotated[float, number(0, 1e5, "cm", "a search radius within 1 km", lo_open=True)] | None
@@ -461,7 +461,7 @@ class SensingModel(Table):
     ) = None
 
 
-class EkfModel(_Angles):
+class EkfTable(_Angles):
     measurement_noise: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
     speed_noise: Annotated[float, number(0, 1e4, "cm/s", _NOISE)] | None = None
     turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
@@ -478,7 +478,7 @@ class EkfModel(_Angles):
 _FRACTION = "a fraction of the desired separation"
 
 
-class ThresholdsModel(_Angles):
+class ThresholdsTable(_Angles):
     T_rho: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.01
     T_eps: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.025
     T_beta: (
@@ -491,7 +491,7 @@ class ThresholdsModel(_Angles):
     localization: Annotated[str, choice(LOCALIZATION_KINDS)] | None = None
 
 
-class LocalizationModel(Table):
+class LocalizationTable(Table):
     """``[localization]``: where the Hough windows are centred, which lost followers are
     searched for."""
 
@@ -500,7 +500,7 @@ class LocalizationModel(Table):
     model: Annotated[str, plugin(LOCALIZATION_MODELS)] = _DEFAULT["localization.model"]
 
 
-class AdjustModel(Table):
+class AdjustTable(Table):
     """``[adjust]``: the common keys and the policies' own keys (``margin``, ``windows``,
     ``z`` and those of a plug-in policy, which checks its own)."""
 
@@ -552,7 +552,7 @@ class AdjustModel(Table):
     ) = None
 
 
-class RadioModel(Table):
+class RadioTable(Table):
     """``[radio]``: the round trip's spread and the commands' loss probability."""
 
     min_ms: (
@@ -566,12 +566,12 @@ class RadioModel(Table):
     loss: Annotated[float, number(0, 1, "", "a probability per command", hi_open=True)] = 0.0
 
 
-class WorldModel(Table):
+class WorldTable(Table):
     step_ms: Annotated[float, number(1e-3, 1e4, "ms", "1 µs to 10 s per integration step")] = 10.0
     backend: Annotated[str, choice(WORLD_BACKENDS)] | None = None
 
 
-class SchedulerModel(Table):
+class SchedulerTable(Table):
     policy: Annotated[str, text(what="a policy name")] = "fp"
 
 
@@ -588,20 +588,20 @@ class ScenarioFile(Table):
     ) = None
     #: ``"lap"``: run to the end of the lap, followers included (without a duration)
     until: Annotated[str, choice(UNTIL)] | None = None
-    leader: LeaderModel
-    formation: FormationModel
-    follower: FollowerModel = Field(default_factory=FollowerModel)
-    sensing: SensingModel = Field(default_factory=SensingModel)
-    ekf: EkfModel = Field(default_factory=EkfModel)
-    thresholds: ThresholdsModel = Field(default_factory=ThresholdsModel)
-    adjust: AdjustModel = Field(default_factory=AdjustModel)
-    world: WorldModel = Field(default_factory=WorldModel)
-    localization: LocalizationModel = Field(default_factory=LocalizationModel)
-    radio: RadioModel = Field(default_factory=RadioModel)
+    leader: LeaderTable
+    formation: FormationTable
+    follower: FollowerTable = Field(default_factory=FollowerTable)
+    sensing: SensingTable = Field(default_factory=SensingTable)
+    ekf: EkfTable = Field(default_factory=EkfTable)
+    thresholds: ThresholdsTable = Field(default_factory=ThresholdsTable)
+    adjust: AdjustTable = Field(default_factory=AdjustTable)
+    world: WorldTable = Field(default_factory=WorldTable)
+    localization: LocalizationTable = Field(default_factory=LocalizationTable)
+    radio: RadioTable = Field(default_factory=RadioTable)
     assumptions: dict[str, Annotated[str, text(what="a non-empty string giving the reason")]] = (
         Field(default_factory=dict)
     )
-    scheduler: SchedulerModel | None = None
+    scheduler: SchedulerTable | None = None
 
 
 # -------------------------------------------------------------------------- building
@@ -676,7 +676,7 @@ def _attempt(errors: list[str], where: str, make: Callable[[], T]) -> T | None:
         return None
 
 
-def _path(src: str, leader: LeaderModel) -> LeaderPath:
+def _path(src: str, leader: LeaderTable) -> LeaderPath:
     st = leader.start
     start = (st.x, st.y, st.radians("heading", 0.0))
     if leader.path is not None:
@@ -708,7 +708,7 @@ def _attempt_raise(where: str, make: Callable[[], T]) -> T:
         raise ScenarioError(f"{where}: {exc}") from None
 
 
-def _formation(f: FormationModel, r_F: float, path: LeaderPath) -> Formation:
+def _formation(f: FormationTable, r_F: float, path: LeaderPath) -> Formation:
     if f.slot is not None:
         rho = tuple(s.rho_d for s in f.slot)
         beta = tuple(s.radians("beta_d") for s in f.slot)

@@ -35,9 +35,9 @@ from rtsim.model.window import WindowSpec
 
 __all__ = [
     "TaskSetFile",
-    "TaskModel",
-    "WindowModel",
-    "SchedulerModel",
+    "TaskTable",
+    "WindowTable",
+    "SchedulerTable",
     "build_taskset",
     "taskset_where",
 ]
@@ -83,7 +83,7 @@ def per_window(value: float | str) -> tuple[float, bool]:
     return float(value), False
 
 
-class SectionModel(Table):
+class SectionTable(Table):
     """One critical section of a task: ``{ resource = "radio", start = 2.0, length = 3.0 }``
     (docs/resources.md)."""
 
@@ -109,7 +109,7 @@ class SectionModel(Table):
     ]
 
 
-class TaskModel(Table):
+class TaskTable(Table):
     """One ``[[tasks]]`` entry."""
 
     name: Annotated[str, text()]
@@ -123,7 +123,7 @@ class TaskModel(Table):
     jitter: Annotated[float, number(0, _MS_MAX, "ms", "as the offset")] | None = None
     bcet: Annotated[float, number(0, 1e7, "ms", "at most 2.8 h of CPU per job")] | None = None
     overload: Annotated[str, choice(OVERLOAD_POLICIES)] | None = None
-    critical_sections: list[SectionModel] | None = None
+    critical_sections: list[SectionTable] | None = None
 
 
 _CHAIN = "a chain step of at most 2.8 h"
@@ -152,7 +152,7 @@ _K = Leaf(
 )
 
 
-class WindowModel(Table):
+class WindowTable(Table):
     """The ``[window]`` table: the processing window's chain T_w."""
 
     name: Annotated[str, text()] = "window"
@@ -206,7 +206,7 @@ class WindowModel(Table):
     ) = None
 
 
-class SchedulerModel(Table):
+class SchedulerTable(Table):
     """``[scheduler]``: the CPU's scheduling policy."""
 
     policy: Annotated[str, text(what="a policy name")] = "fp"
@@ -230,11 +230,11 @@ class TaskSetFile(Table):
     """A task-set file."""
 
     name: Annotated[str, text(nonempty=False, what="a string")] = ""
-    tasks: list[TaskModel] = Field(min_length=1)
-    window: WindowModel | None = None
+    tasks: list[TaskTable] = Field(min_length=1)
+    window: WindowTable | None = None
     assumptions: dict[str, str] = Field(default_factory=dict)
     overhead: Annotated[float, number(0, 1e4, "ms", "a context switch of at most 10 s")] = 0.0
-    scheduler: SchedulerModel | None = None
+    scheduler: SchedulerTable | None = None
 
 
 # ------------------------------------------------------------------------- messages
@@ -270,7 +270,7 @@ def taskset_special(loc: Loc, what: str) -> str | None:
 
 
 # -------------------------------------------------------------------------- building
-def _label(model: TaskModel, index: int) -> str:
+def _label(model: TaskTable, index: int) -> str:
     return f"task '{model.name}'" if model.name.strip() else f"[[tasks]] #{index}"
 
 
@@ -283,10 +283,10 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         window, errs = _window(model.window)
         errors += errs
     if model.scheduler is not None:
-        from rtsim.sim.policy import resolve_policy
+        from rtsim.sim.policy import resolve_scheduler
 
         try:
-            sliced = resolve_policy(
+            sliced = resolve_scheduler(
                 model.scheduler.policy, where=f"{source}: [scheduler]: policy"
             ).takes_quantum
         except Exception as exc:  # an InputError naming the file already
@@ -358,10 +358,10 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
             msg = str(exc)
             errors.append(msg if msg.startswith(label) else f"{label}: {msg}")
     if model.scheduler is not None and model.scheduler.resources == "pcp":
-        from rtsim.sim.policy import resolve_policy
+        from rtsim.sim.policy import resolve_scheduler
 
         try:
-            levels = resolve_policy(model.scheduler.policy).resource_levels
+            levels = resolve_scheduler(model.scheduler.policy).resource_levels
         except Exception:  # an unknown policy: reported above
             levels = "priority"
         if levels == "deadline":
@@ -385,7 +385,7 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
     ), []
 
 
-def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:
+def _window(w: WindowTable) -> tuple[WindowSpec | None, list[str]]:
     where = "[window]"
     values: dict[str, Any] = {
         "name": w.name,
@@ -431,7 +431,7 @@ def _window(w: WindowModel) -> tuple[WindowSpec | None, list[str]]:
 
 
 def _assign_priorities(
-    entries: list[tuple[dict[str, Any], str]], window: WindowModel | None, shared: bool = False
+    entries: list[tuple[dict[str, Any], str]], window: WindowTable | None, shared: bool = False
 ) -> list[str]:
     """Every task gives a priority or none does; none → deadline-monotonic, ties in file order.
     ``shared``: tasks may share a priority (a time-sliced policy with its quantum)."""

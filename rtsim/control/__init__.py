@@ -17,13 +17,11 @@ from rtsim.control.adjust import (
 from rtsim.control.closed_forms import coupled_speed, paper_speed
 from rtsim.control.policy import (
     ADJUSTMENT_POLICIES,
-    POLICIES,
     Decision,
     Policy,
     PolicyInput,
     decide,
     register_adjustment_policy,
-    register_policy,
 )
 from rtsim.control.predict import min_bound
 
@@ -34,7 +32,6 @@ __all__ = [
     "METHODS",
     "MODES",
     "ADJUSTMENT_POLICIES",
-    "POLICIES",
     "Adjustment",
     "Decision",
     "FollowerEstimate",
@@ -49,5 +46,4 @@ __all__ = [
     "predict_msbs",
     "predictor",
     "register_adjustment_policy",
-    "register_policy",
 ]

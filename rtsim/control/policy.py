@@ -65,7 +65,6 @@ from rtsim.registry import Registry
 __all__ = [
     "ADJUSTMENT_POLICIES",
     "COMMON_KEYS",
-    "POLICIES",
     "Decision",
     "Policy",
     "decide",
@@ -75,7 +74,6 @@ __all__ = [
     "make_policy",
     "policy_class",
     "register_adjustment_policy",
-    "register_policy",
 ]
 
 #: ``[adjust]`` keys every policy understands (options of the decision, ScenarioInputs.adjust).
@@ -188,12 +186,6 @@ def register_adjustment_policy(name: str) -> Callable[[type], type]:
     return deco
 
 
-#: Old names, kept for code that uses them: `ADJUSTMENT_POLICIES`,
-#: [`register_adjustment_policy`][rtsim.control.policy.register_adjustment_policy].
-POLICIES = ADJUSTMENT_POLICIES
-register_policy = register_adjustment_policy
-
-
 def policy_class(spec: object, where: str = "policy", *, allow_code: bool | None = None) -> type:
     """The policy class named ``spec``: a registered name, an entry point or
     ``"package.module:Name"`` (code: `rtsim.registry.load_code`). An unknown name is an
@@ -217,7 +209,7 @@ def make_policy(
         if key not in known:
             names = tuple(common) + known
             close = did_you_mean(key, names)
-            owner = [n for n, c in POLICIES.items() if key in c.params]  # type: ignore[attr-defined]
+            owner = [n for n, c in ADJUSTMENT_POLICIES.items() if key in c.params]  # type: ignore[attr-defined]
             hint = (
                 close
                 if close
@@ -672,7 +664,7 @@ class SafePolicy(LookaheadPolicy):
         self.base = NoiseAwarePolicy(z, margin)
 
 
-@register_policy("plan")
+@register_adjustment_policy("plan")
 class PlanPolicy:
     """Several windows ahead on the command-aware rollout (`PolicyInput.rollout`).
 

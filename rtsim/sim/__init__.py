@@ -16,14 +16,11 @@ from rtsim.sim.execution import (
     task_rngs,
 )
 from rtsim.sim.policy import (
-    POLICIES,
     SCHEDULERS,
     EarliestDeadlineFirst,
     FixedPriority,
     SchedulingPolicy,
-    register_policy,
     register_scheduler,
-    resolve_policy,
     resolve_scheduler,
 )
 from rtsim.sim.records import (
@@ -41,7 +38,6 @@ __all__ = [
     "EPS",
     "EarliestDeadlineFirst",
     "FixedPriority",
-    "POLICIES",
     "SCHEDULERS",
     "SchedulingPolicy",
     "Empirical",
@@ -57,9 +53,7 @@ __all__ = [
     "Uniform",
     "WCET",
     "build_cpu",
-    "register_policy",
     "register_scheduler",
-    "resolve_policy",
     "resolve_scheduler",
     "resolve_exec_model",
     "resolve_window",

@@ -40,7 +40,7 @@ from rtsim.sim.job import (
     SegmentHook,
     _TaskState,
 )
-from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_policy
+from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_scheduler
 from rtsim.sim.records import (
     EPS,
     ResponseHistogram,
@@ -126,7 +126,7 @@ class CPU(ResourceProtocols, TimeSlices):
         trace_sink: Any = None,
         quantum: float | None = None,
     ) -> None:
-        self.policy: SchedulingPolicy = with_quantum(resolve_policy(scheduler), quantum)
+        self.policy: SchedulingPolicy = with_quantum(resolve_scheduler(scheduler), quantum)
         #: the time slice of a time-sliced policy (ms; None: jobs are not sliced)
         self.quantum = self.policy.quantum
         self._init_slices()

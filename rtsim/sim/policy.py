@@ -88,9 +88,6 @@ __all__ = [
     "register_scheduler",
     "resolve_scheduler",
     "PolicySpec",
-    "POLICIES",
-    "register_policy",
-    "resolve_policy",
 ]
 
 
@@ -255,6 +252,3 @@ def resolve_scheduler(
 #: Deprecated aliases (the CPU's policies were once called "policies", as adjustment policies
 #: still are): use `SCHEDULERS`, [`register_scheduler`][rtsim.sim.policy.register_scheduler],
 #: [`resolve_scheduler`][rtsim.sim.policy.resolve_scheduler].
-POLICIES = SCHEDULERS
-register_policy = register_scheduler
-resolve_policy = resolve_scheduler

@@ -117,12 +117,12 @@ def test_quiet_exists_on_every_command_that_reports_progress() -> None:
 
 def test_policy_help_lists_every_registered_policy() -> None:
     from rtsim.cli import build_parser
-    from rtsim.control.policy import POLICIES
+    from rtsim.control.policy import ADJUSTMENT_POLICIES
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
     text = " ".join(sub.choices["scenario"].format_help().split())
-    for name in POLICIES:
+    for name in ADJUSTMENT_POLICIES:
         assert name in text, name
 
 

@@ -21,7 +21,7 @@ from rtsim.analysis.kinematics import Thresholds
 from rtsim.control import FollowerEstimate, decide
 from rtsim.control.adjust import Decision
 from rtsim.control.policy import (
-    POLICIES,
+    ADJUSTMENT_POLICIES,
     MarginPolicy,
     PolicyInput,
     adjust_options,
@@ -43,7 +43,7 @@ def _ctx(w_sch: float, **kw: Any) -> PolicyInput:
 
 
 def test_the_case_has_one_finite_bound_of_2500_over_v() -> None:
-    d = POLICIES["fixed-wsch"]().decide(_ctx(80.0))
+    d = ADJUSTMENT_POLICIES["fixed-wsch"]().decide(_ctx(80.0))
     loc, sep, path, bear = d.rows[0]
     assert math.isinf(loc) and math.isinf(sep) and math.isinf(bear)
     assert path == pytest.approx(100.0, rel=1e-12)
@@ -65,7 +65,7 @@ def test_the_case_has_one_finite_bound_of_2500_over_v() -> None:
 def test_registered_policies_by_hand(
     policy: str, w_sch: float, w: float, v: float, method: str
 ) -> None:
-    d = POLICIES[policy]().decide(_ctx(w_sch))
+    d = ADJUSTMENT_POLICIES[policy]().decide(_ctx(w_sch))
     assert isinstance(d, Decision)
     assert d.w == pytest.approx(w, rel=1e-9)
     assert d.v_leader == pytest.approx(v, rel=1e-9)
@@ -98,9 +98,9 @@ def test_margin_by_hand(mu: float, w_sch: float, w: float, v: float) -> None:
 
 def test_margin_zero_is_the_papers_policy() -> None:
     for w_sch in (60.0, 100.0, 120.0, 300.0):
-        assert MarginPolicy(margin=0.0).decide(_ctx(w_sch)) == POLICIES["adjust"]().decide(
-            _ctx(w_sch)
-        )
+        assert MarginPolicy(margin=0.0).decide(_ctx(w_sch)) == ADJUSTMENT_POLICIES[
+            "adjust"
+        ]().decide(_ctx(w_sch))
 
 
 def test_decide_runs_the_registered_policies() -> None:
@@ -207,7 +207,7 @@ class HalfSpeed:
         self.share = share
 
     def decide(self, ctx: PolicyInput) -> Decision:
-        d = POLICIES["adjust"]().decide(ctx)
+        d = ADJUSTMENT_POLICIES["adjust"]().decide(ctx)
         return d._replace(v_leader=self.share * ctx.v_ld, method="half")
 
 
@@ -315,7 +315,7 @@ KAPPA = 0.0075
     ],
 )
 def test_lookahead_by_hand(dist: float, decel: float, w: float, v: float, method: str) -> None:
-    pol = POLICIES["lookahead"]()
+    pol = ADJUSTMENT_POLICIES["lookahead"]()
     d = pol.decide(
         _ctx(90.0, ahead=((dist, KAPPA), (dist + 500.0, 0.0)), decel_max=decel, v_now=25.0)
     )
@@ -342,7 +342,7 @@ class Recorder:
 
     def decide(self, ctx: PolicyInput) -> Decision:
         Recorder.seen.append(ctx)
-        return POLICIES["adjust"]().decide(ctx)
+        return ADJUSTMENT_POLICIES["adjust"]().decide(ctx)
 
 
 def test_the_coupling_gives_the_leaders_upcoming_commands() -> None:

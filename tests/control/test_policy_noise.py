@@ -22,7 +22,7 @@ from rtsim.analysis.kinematics import Thresholds
 from rtsim.control import FollowerEstimate
 from rtsim.control.adjust import Decision
 from rtsim.control.policy import (
-    POLICIES,
+    ADJUSTMENT_POLICIES,
     MarginPolicy,
     NoiseAwarePolicy,
     PolicyInput,
@@ -58,7 +58,7 @@ def test_heading_and_turn_noise_by_hand() -> None:
     # σ_θ = 0.02, σ_ω = 0.05 rad/s, T = 0.08 s: σ_θ² = 0.0004 + 0.004² = 0.000416;
     # S² = 0.25 + 25²·0.000416 + (50·0.01)² = 0.76 at v = 25
     ctx = _ctx(80.0, turn_noise=0.05, pose_sd=((1.0, 0.02),))
-    raw = POLICIES["fixed-wsch"]().decide(ctx).rows
+    raw = ADJUSTMENT_POLICIES["fixed-wsch"]().decide(ctx).rows
     rows = pad_rows(raw, [F], ctx, 25.0, 3.0)
     assert rows[0][1] == pytest.approx(1000.0 / (3.0 * math.sqrt(0.76)), rel=1e-12)
     assert rows[0][3] == pytest.approx(100.0 / (3.0 * math.sqrt(0.76) / 100.0), rel=1e-12)
@@ -81,7 +81,7 @@ def test_overload_slows_to_the_padded_bound() -> None:
 def test_z_zero_is_the_papers_decision_at_vld() -> None:
     for w_sch in (60.0, 100.0):
         a = NoiseAwarePolicy(z=0.0).decide(_ctx(w_sch))
-        b = POLICIES["adjust"]().decide(_ctx(w_sch))
+        b = ADJUSTMENT_POLICIES["adjust"]().decide(_ctx(w_sch))
         assert (a.w, a.v_leader, a.rows) == (b.w, b.v_leader, b.rows)
     # in overload the numeric scan finds the paper's speed
     a = NoiseAwarePolicy(z=0.0).decide(_ctx(120.0))
@@ -123,7 +123,7 @@ class NoiseRecorder:
 
     def decide(self, ctx: PolicyInput) -> Decision:
         NoiseRecorder.seen.append(ctx)
-        return POLICIES["adjust"]().decide(ctx)
+        return ADJUSTMENT_POLICIES["adjust"]().decide(ctx)
 
 
 def test_the_coupling_gives_the_noise_and_the_ekf_spread() -> None:

@@ -160,7 +160,7 @@ def test_a_users_policy_gets_the_rollout() -> None:
     ``PolicyInput.rollout`` in a coupled run, and its rows at V_Ld are the ``commands``
     predictor's (the decision of the paper's algorithm on the rollout)."""
     from rtsim.control.adjust import Decision
-    from rtsim.control.policy import POLICIES, PaperPolicy, register_policy
+    from rtsim.control.policy import ADJUSTMENT_POLICIES, PaperPolicy, register_adjustment_policy
     from rtsim.control.predict import min_bound_rows
     from rtsim.coupling import run_scenario
 
@@ -177,12 +177,12 @@ def test_a_users_policy_gets_the_rollout() -> None:
             m = min_bound_rows(rows)[0]
             return Decision(ctx.w_sch, ctx.v_ld, m, "none", 0, "none", True, rows, rows, m, {})
 
-    register_policy("probe-rollout")(Probe)
+    register_adjustment_policy("probe-rollout")(Probe)
     try:
         res = run_scenario(
             "test2", policy="probe-rollout", duration_s=5.0, seed=0, record_jobs=False
         )
     finally:
-        POLICIES.pop("probe-rollout")
+        ADJUSTMENT_POLICIES.pop("probe-rollout")
     assert seen and all(p == "commands" and same and ran for p, same, ran in seen)
     assert res.summary["predictor"] == "commands"

@@ -36,11 +36,8 @@ def test_public_api_is_pinned():
             "task_rngs",
             "EarliestDeadlineFirst",
             "FixedPriority",
-            "POLICIES",
             "SCHEDULERS",
             "SchedulingPolicy",
-            "register_policy",
-            "resolve_policy",
             "register_scheduler",
             "resolve_scheduler",
         ]

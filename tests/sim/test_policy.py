@@ -17,12 +17,12 @@ from rtsim.io.taskset import load_taskset, parse_taskset, taskset_to_dict
 from rtsim.model.task import Segment, Task
 from rtsim.sim import CPU, simulate
 from rtsim.sim.policy import (
-    POLICIES,
+    SCHEDULERS,
     EarliestDeadlineFirst,
     FixedPriority,
     SchedulingPolicy,
-    register_policy,
-    resolve_policy,
+    register_scheduler,
+    resolve_scheduler,
 )
 
 
@@ -38,9 +38,9 @@ class NonPreemptiveFP(FixedPriority):
 
 @pytest.fixture
 def np_fp():
-    register_policy(NonPreemptiveFP)
+    register_scheduler(NonPreemptiveFP)
     yield NonPreemptiveFP
-    POLICIES.pop("np-fp", None)
+    SCHEDULERS.pop("np-fp", None)
 
 
 def rows(
@@ -51,27 +51,27 @@ def rows(
 
 
 def test_registry_and_resolution(np_fp):
-    assert isinstance(resolve_policy("fp"), FixedPriority)
-    assert isinstance(resolve_policy("edf"), EarliestDeadlineFirst)
-    assert isinstance(resolve_policy("np-fp"), NonPreemptiveFP)
-    assert isinstance(resolve_policy(NonPreemptiveFP), NonPreemptiveFP)
-    edf = resolve_policy("rtsim.sim.policy:EarliestDeadlineFirst")  # by module:Name
+    assert isinstance(resolve_scheduler("fp"), FixedPriority)
+    assert isinstance(resolve_scheduler("edf"), EarliestDeadlineFirst)
+    assert isinstance(resolve_scheduler("np-fp"), NonPreemptiveFP)
+    assert isinstance(resolve_scheduler(NonPreemptiveFP), NonPreemptiveFP)
+    edf = resolve_scheduler("rtsim.sim.policy:EarliestDeadlineFirst")  # by module:Name
     assert isinstance(edf, EarliestDeadlineFirst)
     pol = EarliestDeadlineFirst()
-    assert resolve_policy(pol) is pol
+    assert resolve_scheduler(pol) is pol
     with pytest.raises(
         InputError,
         match=r"--scheduler: must be one of fp, edf, rr, np-fp or "
         r"'package.module:Name', got 'edd' "
         r"\(did you mean 'edf'\?\)",
     ):
-        resolve_policy("edd", where="--scheduler")
+        resolve_scheduler("edd", where="--scheduler")
     with pytest.raises(InputError, match="cannot load 'nosuchmod:X'"):
-        resolve_policy("nosuchmod:X")
+        resolve_scheduler("nosuchmod:X")
     with pytest.raises(InputError, match="is not a SchedulingPolicy subclass"):
-        resolve_policy("rtsim.sim.policy:SCHEDULERS")
+        resolve_scheduler("rtsim.sim.policy:SCHEDULERS")
     with pytest.raises(TypeError, match="name must be a non-empty string"):
-        register_policy(type("Nameless", (SchedulingPolicy,), {}))
+        register_scheduler(type("Nameless", (SchedulingPolicy,), {}))
 
 
 def test_edf_hand_schedule():
@@ -309,7 +309,7 @@ def test_the_docs_example_is_a_one_file_policy(tmp_path, monkeypatch, capsys):
             ("hi", 3.0, 4.0),
         ]
         assert "scheduler np-fp" in capsys.readouterr().out
-        assert "np-fp" in POLICIES  # the decorator registered it on import
+        assert "np-fp" in SCHEDULERS  # the decorator registered it on import
     finally:
-        POLICIES.pop("np-fp", None)
+        SCHEDULERS.pop("np-fp", None)
         sys.modules.pop("my_policies", None)
