@@ -4,15 +4,17 @@
 [--quiet]`` (or ``python -m rtsim.reproduce``)
 
 Runs ``experiments/scenarios/test1.toml`` and ``test2.toml`` in the modes ``adjust`` (the
-paper's algorithm), ``fixed-wsch`` and ``min-msb`` (docs/model/adjustment.md) — six coupled runs,
-in parallel
+paper's algorithm, on the paper's predictor whatever the file names: ``[adjust]
+paper_predictor``), ``fixed-wsch`` and ``min-msb`` (docs/model/adjustment.md), and beside them
+``plan``, rtsim's improvement (the shipped files' policy) — eight coupled runs, in parallel
 processes when ``--workers`` > 1. Every run uses the seed ``--seed``, so a run equals
-``rtsim scenario <test>.toml --mode <mode> --seed N [--duration S]`` (the command line is in
-its manifest) and the three modes of a test see the same noise draws at the start; the
+``rtsim scenario <test>.toml --mode <mode> --seed N [--duration S]`` (``--policy plan`` for
+plan; the command line is in its manifest) and the modes of a test see the same noise draws
+at the start; the
 results do not depend on the worker count.
 Duration: ``--duration`` (simulated s) for every run; by default the adjust run takes its
 scenario's default (at least one lap; the leader is slowed in the turns, so this is the
-longest) and the two baselines then run exactly as long, so the three modes cover the same
+longest) and the baselines and plan then run exactly as long, so the modes cover the same
 time; ``--quick`` (CI): 60 s, which covers the leader's whole first turn in both tests (it
 enters it at 32 s in Test 1, 26.7 s in Test 2).
 
@@ -24,7 +26,7 @@ Writes to ``--out`` (default ``results/paper``):
   ``fig15_test2_speed``; Figs 10/14 the minimum MSB against w_sch as the paper draws it,
   with the per-kind detail beside them as ``fig10_test1_bounds_detail`` and
   ``fig14_test2_bounds_detail``), the operating space of its Figure 2 per test
-  (``fig02_<test>_operating_space``), and the three modes side by side
+  (``fig02_<test>_operating_space``), and the paper's three modes side by side
   (``modes_<test>_{window,bounds,speed,paths}``); every PNG has its data beside it as CSV
   (same stem; [`rtsim.plots.scenario.figure_data`][rtsim.plots.scenario.figure_data], the modes'
   stacked with a ``mode``
@@ -55,7 +57,10 @@ if TYPE_CHECKING:
 
 SCENARIOS = Path(__file__).resolve().parent / "data" / "scenarios"  # = experiments/scenarios
 TESTS: tuple[str, ...] = ("test1", "test2")
-MODES: tuple[str, ...] = ("adjust", "fixed-wsch", "min-msb")
+#: The paper's three window modes (``adjust`` on the paper's predictor, §3.3), then rtsim's
+#: improvement ``plan`` (the shipped scenarios' policy) beside them.
+PAPER_MODES: tuple[str, ...] = ("adjust", "fixed-wsch", "min-msb")
+MODES: tuple[str, ...] = (*PAPER_MODES, "plan")
 TEST_LABELS = {"test1": "Test 1", "test2": "Test 2"}
 QUICK_DURATION_S = 60.0
 DEFAULT_OUT = "results/paper"
@@ -107,6 +112,13 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     "max_viol_ratio",
     "missed",
     "tracks_lost",
+    "lap_time_s",
+    "lap_oracle_s",
+    "lap_over_oracle",
+    "collisions",
+    "min_robot_distance_cm",
+    "separation_binds",
+    "critical_windows",
     *(f"viol5_{k}" for k in BOUND_KINDS),
     *(f"max_viol_ratio_{k}" for k in BOUND_KINDS),
     "seed",
@@ -206,7 +218,8 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
         record_jobs=True,
         overrides=_overrides(set_) or None,
     )
-    argv = ["rtsim", "scenario", str(file), "--mode", spec["mode"], "--seed", str(spec["seed"])]
+    flag = "--mode" if spec["mode"] in PAPER_MODES else "--policy"
+    argv = ["rtsim", "scenario", str(file), flag, spec["mode"], "--seed", str(spec["seed"])]
     argv += [a for s in set_ for a in ("--set", s)]
     if spec["duration_s"] is not None:
         argv += ["--duration", repr(spec["duration_s"])]
@@ -243,7 +256,7 @@ def run_specs(
     scenarios: Path = SCENARIOS,
     set_: list[str] | None = None,
 ) -> list[dict[str, Any]]:
-    """The six runs: every test in every mode, each with its output directory.
+    """The eight runs: every test in every mode, each with its output directory.
 
     With ``duration_s`` None the adjust runs take the scenario's default (at least one lap)
     and the baselines are marked ``match_adjust``: `run_all` runs them as long as the
@@ -333,7 +346,7 @@ def figure_tasks(
             "operating_space",
         )
     for test in TESTS:
-        dfs = {m: runs[(test, m)] for m in MODES}
+        dfs = {m: runs[(test, m)] for m in PAPER_MODES}  # plan: in the table
         for kind, name in MODE_FIGURES.items():
             add(
                 f"modes_{test}_{kind}",
@@ -380,6 +393,10 @@ def draw(task: dict[str, Any]) -> list[str]:
 # --- summary ------------------------------------------------------------------------------
 
 
+def _or_nan(x: Any) -> float:
+    return math.nan if x is None else float(x)
+
+
 def summary_row(test: str, mode: str, summary: dict[str, Any], wall_s: float) -> dict[str, Any]:
     """One row of summary.csv from a run's summary.json."""
     row: dict[str, Any] = {
@@ -392,6 +409,13 @@ def summary_row(test: str, mode: str, summary: dict[str, Any], wall_s: float) ->
         "windows": summary["windows"],
         "missed": summary["missed"],
         "tracks_lost": summary["tracks_lost"],
+        "lap_time_s": _or_nan(summary.get("lap_time_s")),
+        "lap_oracle_s": _or_nan(summary.get("lap_oracle_s")),
+        "lap_over_oracle": _or_nan(summary.get("lap_over_oracle")),
+        "collisions": summary.get("collisions", -1),
+        "min_robot_distance_cm": _or_nan(summary.get("min_robot_distance_cm")),
+        "separation_binds": summary["binding_critical"].get("separation", 0),
+        "critical_windows": summary["critical_windows"],
     }
     for k in BOUND_KINDS:
         row[f"viol_{k}"] = summary["violations"][k]
@@ -421,9 +445,10 @@ def summary_markdown(df: pd.DataFrame) -> str:
     head = (
         "| test | mode | violations > 5 % loc / sep / path / bear | max violation ratio "
         "loc / sep / path / bear | misses | lost tracks | sim. s | windows | all violations "
-        "| critical share | min MSB / w_sch | min V_L / V_Ld | methods |"
+        "| critical share | min MSB / w_sch | min V_L / V_Ld | methods | lap s | lap / oracle "
+        "| separation binds / critical | collisions |"
     )
-    lines = [head, "|" + "---|" * 13]
+    lines = [head, "|" + "---|" * 17]
     r: Any  # a row (its fields typed by the columns, not by pandas)
     for r in df.itertuples(index=False):
         lines.append(
@@ -434,7 +459,8 @@ def summary_markdown(df: pd.DataFrame) -> str:
             f"{r.missed} | {r.tracks_lost} | {r.duration_s:.1f} | {r.windows} | "
             f"{r.viol_localization + r.viol_separation + r.viol_path_diversion + r.viol_bearing}"
             f" | {r.critical_share:.3f} | {r.min_msb_over_wsch:.3f} | {r.min_speed_ratio:.3f} | "
-            f"{r.methods.replace(';', ', ')} |"
+            f"{r.methods.replace(';', ', ')} | {r.lap_time_s:.1f} | {r.lap_over_oracle:.3f} | "
+            f"{r.separation_binds} / {r.critical_windows} | {r.collisions} |"
         )
     notes = (
         "\nViolations > 5 % count (window, follower) pairs whose truth, between this window's "
@@ -443,7 +469,11 @@ def summary_markdown(df: pd.DataFrame) -> str:
         "violation ratio is the largest observed change over its threshold (>1: broken). "
         "Critical share: the share of simulated time with min MSB (at V_Ld) < w_sch. "
         "Methods: how each window's w and V_L were set (none: no overload; coupled / "
-        "closed-form / numeric: speed lowered; fixed: the first window, or a baseline mode).\n"
+        "closed-form / numeric: speed lowered; fixed: the first window, or a baseline mode). "
+        "adjust is the paper's algorithm on the paper's predictor (its §3.3); plan is rtsim's "
+        "improvement (the rollout on the followers' commands), shown beside it. Lap / oracle: "
+        "the first lap over the fastest lap that keeps every bound (rtsim.control.oracle; nan "
+        "when the run ends before the lap).\n"
     )
     return "\n".join(lines) + "\n" + notes
 
@@ -644,7 +674,7 @@ def run(
     argv: list[str] | None = None,
     t0: float | None = None,
 ) -> int:
-    """Run the six scenarios, draw the figures, write the tables (module docstring), for the
+    """Run the eight scenarios, draw the figures, write the tables (module docstring), for the
     parsed options ``args`` (`add_options`); returns the exit status.
 
     ``--out`` is written whole (`rtsim.io.outdir`): into a staging directory beside it,

@@ -310,7 +310,7 @@ def lower_bound(
     """The window lower bound ``name`` (`LOWER_BOUNDS`) for a CPU run with ``scheduler``
     and ``suspension``; a bound whose model does not match is an input error: w_sch, w_rta,
     w_susp and w_txn (the offset-based bound,
-    [`rtsim.analysis.transaction.w_txn`][rtsim.analysis.transaction.w_txn], under
+    [`rtsim.analysis.bounds.w_txn`][rtsim.analysis.bounds.w_txn], under
     ``suspension``) are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only
     with Δt leaving the CPU idle."""
     from rtsim.errors import InputError

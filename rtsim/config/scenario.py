@@ -46,6 +46,7 @@ from rtsim.world.config import (
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import (
+    DEFAULT_CLEARANCE,
     FOLLOWER_MODELS,
     FORMATION_LAYOUTS,
     Formation,
@@ -53,6 +54,7 @@ from rtsim.world.formation import (
     follower_model,
     outer_side,
 )
+from rtsim.world.ideal import START_ON, check_clearance, settled_start
 from rtsim.world.locmodels import LOCALIZATION_MODELS, localization_model
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
@@ -74,7 +76,7 @@ PACKAGED_TASKSETS = ("barrel_robots", "example")
 #: When in its window the adjustment decides: after the radio round trip, or before sending.
 DECIDE: tuple[str, ...] = ("end", "before-send")
 #: The common keys of ``[adjust]`` (the rest are the policy's own).
-_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide")
+_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide", "paper_predictor")
 #: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
 PACKAGED_SCENARIOS = ("test1", "test2")
 
@@ -130,7 +132,9 @@ class AdjustConfig:
     ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle), ``w_txn``
     (offset-based: the window chain and the command task as one transaction) or ``w_edf``
     (the EDF demand criterion; needs ``[scheduler] policy = "edf"``); decide: when in its
-    window the decision is taken, ``end`` (after the radio round trip) or ``before-send``.
+    window the decision is taken, ``end`` (after the radio round trip) or ``before-send``;
+    paper_predictor: the policy ``adjust`` runs on the paper's predictor (default) or on
+    ``predictor`` (the other policies always use ``predictor``).
     """
 
     cap: float = math.inf
@@ -139,6 +143,9 @@ class AdjustConfig:
     lower_bound: str = "w_sch"
     policy: str = "adjust"
     decide: str = "end"
+    #: the policy ``adjust`` (the paper's algorithm) predicts with the paper's §3.3
+    #: (``predictor = "paper"``) whatever ``predictor`` names; False: with ``predictor``
+    paper_predictor: bool = True
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -352,6 +359,7 @@ class LeaderTable(Table):
             "a position along the path (within one lap, checked against the path's length)",
         ),
     ] = 0.0
+    start_on: Annotated[str, choice(START_ON)] = "straight"
     accel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
     decel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
     path: list[SegmentTable] | None = Field(default=None, min_length=1)
@@ -383,6 +391,9 @@ class FormationTable(_Angles):
     bearing_offset_deg: Annotated[float, _angle(-_ANGLE, _ANGLE, "an angle", deg=True)] | None = (
         None
     )
+    clearance: Annotated[
+        float, number(0, 1000, "cm", "the least gap between two robots' discs, at most 10 m")
+    ] = DEFAULT_CLEARANCE
     slot: list[SlotTable] | None = Field(default=None, min_length=1)
 
     @model_validator(mode="after")
@@ -514,6 +525,8 @@ class AdjustTable(Table):
     lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
     policy: Annotated[str, text(what="a policy name")] | None = _DEFAULT["adjust.policy"]
     decide: Annotated[str, choice(DECIDE)] | None = None
+    #: policy adjust on the paper's predictor (true, the default) or on ``predictor``
+    paper_predictor: bool | None = None
     margin: (
         Annotated[
             float,
@@ -712,15 +725,23 @@ def _formation(f: FormationTable, r_F: float, path: LeaderPath) -> Formation:
     if f.slot is not None:
         rho = tuple(s.rho_d for s in f.slot)
         beta = tuple(s.radians("beta_d") for s in f.slot)
-        return Formation(rho, beta, f.model)
+        return Formation(rho, beta, f.model, f.clearance)
     offset = f.radians("bearing_offset", math.radians(15))
     assert f.followers is not None and f.separation is not None  # (the model's rule)
     if f.layout == "fan":
         segs = path.segments
         outer = outer_side([g.curvature for g in segs], [g.length for g in segs])
-        return fan(f.followers, f.separation, offset, r_F=r_F, outer=outer, model=f.model)
+        return fan(
+            f.followers,
+            f.separation,
+            offset,
+            r_F=r_F,
+            outer=outer,
+            model=f.model,
+            clearance=f.clearance,
+        )
     place = follower_model(f.model, "formation.model").place
-    return place(f.followers, f.separation, offset, r_F=r_F)
+    return replace(place(f.followers, f.separation, offset, r_F=r_F), clearance=f.clearance)
 
 
 def _build_scenario(
@@ -871,6 +892,12 @@ def _build_scenario(
     if world is None:
         return None
     errors += _sense(world, src)
+    if not errors:
+        errors += _fits_path(world, m.leader.start_on, src)
+        if not errors:
+            world = replace(
+                world, start_s=_start(world, m.leader.start_on), start_on=m.leader.start_on
+            )
     # a duration given anywhere replaces ``until``; neither given: to the end of the lap
     duration = float(m.duration) if m.duration is not None else 0.0
     until = None if m.duration is not None else (m.until or "lap")
@@ -916,6 +943,29 @@ def _predicted_bound(
         turn_sd=follower.turn_noise,
         v_max=follower.max_speed,
     )
+
+
+def _start(world: WorldConfig, start_on: str) -> float:
+    """The leader's initial arc length: ``leader.start_s``, moved forward onto the first
+    straight that holds the whole group settled with ``start_on = "straight"``
+    (`rtsim.world.ideal.settled_start`)."""
+    if start_on == "given":
+        return world.start_s
+    return settled_start(world.path, world.formation, world.follower.radius, world.start_s)
+
+
+def _fits_path(world: WorldConfig, start_on: str, src: str) -> list[str]:
+    """A formation that cannot fit its path: the settled start has no straight long enough,
+    or (follow-the-leader) two robots would come closer than 2·r_F + clearance over a lap
+    without error, or an offset trace folds inside a turn
+    (`rtsim.world.ideal.check_clearance`): one line each, before the run."""
+    try:
+        start = _start(world, start_on)
+        if follower_model(world.formation.model).on_trace:
+            check_clearance(world.path, world.formation, world.follower.radius, start)
+    except ScenarioError as exc:
+        return [f"{src}: {exc}"]
+    return []
 
 
 def _sense(world: WorldConfig, src: str) -> list[str]:

@@ -91,6 +91,8 @@ def scenario_inputs(
             adjust["policy"] = cfg.policy
         if getattr(cfg, "decide", "end") != "end":
             adjust["decide"] = cfg.decide
+        if not getattr(cfg, "paper_predictor", True):
+            adjust["paper_predictor"] = False
         adjust.update(getattr(cfg, "params", {}))
     elif cfg:
         adjust = dict(cfg)

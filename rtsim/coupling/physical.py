@@ -14,6 +14,8 @@ they get. Sampled on the truth at every scan (every window, ~0.24 s here):
 * ``min_robot_distance_cm``: the closest any two robots' centres came (leader included);
 * ``collisions``: scans at which some two robots' centres were closer than the sum of their
   radii (every robot has the follower radius r_F: the paper's barrels);
+* ``clearance_violations``: scans at which some two robots' discs came closer than the
+  formation's clearance (centres closer than 2·r_F + clearance; ``clearance_cm``);
 * ``distance_cm``: the distance each robot drove over the run.
 
 Per run: p95 and max over every follower's samples; per follower in ``per_follower``.
@@ -41,8 +43,11 @@ class PhysicalLog:
         radius: float,
         law: TraceFollower | None,
         guesses: list[float] | None = None,
+        clearance: float = 0.0,
     ) -> None:
         self.n = n
+        self.clearance = float(clearance)
+        self.clearance_violations = 0
         self.rho_d = rho_d
         self.radius = float(radius)
         self._law = None if law is None else law.clone()  # its own projection starts
@@ -70,6 +75,7 @@ class PhysicalLog:
                 close = min(close, math.hypot(pts[a][0] - pts[b][0], pts[a][1] - pts[b][1]))
         self.min_dist = min(self.min_dist, close)
         self.collisions += close < 2.0 * self.radius
+        self.clearance_violations += close < 2.0 * self.radius + self.clearance
 
     @staticmethod
     def _stats(values: list[float]) -> dict[str, float] | None:
@@ -88,6 +94,8 @@ class PhysicalLog:
             "separation_error_cm": self._stats(every_sep),
             "min_robot_distance_cm": None if math.isinf(self.min_dist) else self.min_dist,
             "collisions": int(self.collisions),
+            "clearance_cm": self.clearance,
+            "clearance_violations": int(self.clearance_violations),
             "distance_cm": {
                 "leader": float(leader_cm),
                 "followers": [float(d) for d in follower_cm],

@@ -96,7 +96,7 @@ LOCALIZATION_COLUMNS: tuple[str, ...] = (
     "radio_ms",
     "radio_losses",
 )
-#: Per-follower sensing columns, after :data:`LOCALIZATION_COLUMNS`: the scan points that
+#: Per-follower sensing columns, after `LOCALIZATION_COLUMNS`: the scan points that
 #: voted in its window (``hough``; the beams it returned with ``gaussian``), the accepted
 #: fix's distance from the truth (cm, inf: no fix), whether a neighbour's points made it.
 SENSING_FIELDS: tuple[str, ...] = ("points", "fix_error_cm", "neighbour")
@@ -130,7 +130,7 @@ def window_columns(n: int) -> list[str]:
 
 
 def sensing_columns(n: int) -> list[str]:
-    """The per-follower sensing columns of windows.csv (:data:`SENSING_FIELDS`), in order."""
+    """The per-follower sensing columns of windows.csv (`SENSING_FIELDS`), in order."""
     return [f"f{i}_{f}" for i in range(1, n + 1) for f in SENSING_FIELDS]
 
 

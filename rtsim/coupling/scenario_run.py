@@ -69,6 +69,7 @@ from rtsim._numbers import is_int, is_real
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
+from rtsim.control.oracle import lap_oracle, start_speed
 from rtsim.control.policy import PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
@@ -229,8 +230,13 @@ class _Coupling:
                 f"below w_sch = {self.w_sch:.6g} ms (the window could never reach "
                 f"the schedulability bound)"
             )
+        # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
+        # predictor is for its own policy, unless [adjust] paper_predictor = false
+        paper = bool(opts.pop("paper_predictor", True))
         # run_scenario(policy=/mode=) overrides the file's [adjust] policy
         self.policy, opts = adjust_options(opts, f"{inp.source or 'scenario'}: adjust", mode)
+        if paper and self.policy.name == "adjust":
+            opts["predictor"] = "paper"
         if getattr(self.policy, "needs_path", False):  # the leader's known path commands
             segs = cfg.path.segments
             starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
@@ -270,6 +276,10 @@ class _Coupling:
             opts["methods"] = tuple(opts["methods"])
         self.opts = opts
         self.v_floor = float(opts.get("floor_frac", 0.0)) * cfg.leader_speed
+        if cfg.start_on == "straight" and cfg.start_speed is None:
+            # settled: at the speed the bounds allow at the start (V_Ld unless less)
+            cfg = replace(cfg, start_speed=start_speed(cfg, self.w_sch))
+            self.cfg = cfg
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
@@ -288,7 +298,13 @@ class _Coupling:
             opts["predictor"] = PaperSearch()
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
-        self.phys = PhysicalLog(self.n, self.rho_d, cfg.follower.radius, self.world.follow_law)
+        self.phys = PhysicalLog(
+            self.n,
+            self.rho_d,
+            cfg.follower.radius,
+            self.world.follow_law,
+            clearance=cfg.formation.clearance,
+        )
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
         self.v_ld = cfg.leader_speed
         self.env = simpy.Environment()
@@ -369,7 +385,7 @@ class _Coupling:
         first = self._estimates(0.0)
         self.dec = first._replace(
             w=self.w_sch,
-            v_leader=self.v_ld,
+            v_leader=self._v_actual(),  # V_Ld, or a settled start's speed
             method="fixed",
             feasible=first.msb_min >= self.w_sch,
             known=first.known[:1],
@@ -969,6 +985,7 @@ def run_scenario(
         "localization_model": cfg.localization.model,
         "leader_accel_max": cfg.leader_accel_max,
         "leader_decel_max": cfg.leader_decel_max,
+        "leader_start_speed": run.cfg.start_speed or cfg.leader_speed,
     }
     if run.infeasible_note is not None:
         extra["infeasible_note"] = run.infeasible_note
@@ -981,6 +998,12 @@ def run_scenario(
             f"completed its lap"
         )
     extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
+    # the fastest lap that keeps every bound, offline (rtsim.control.oracle; cached)
+    oracle = lap_oracle(cfg, run.w_sch)
+    extra["lap_oracle_s"] = oracle
+    extra["lap_over_oracle"] = (
+        None if oracle is None or run.lap_ms is None else run.lap_ms / 1000.0 / oracle
+    )
     world.followers.advance_all(world.t_ms, cfg.step_ms)
     extra.update(run.phys.summary(world.leader.s - run._s0, list(world.followers.odometer)))
     summary = summarize(

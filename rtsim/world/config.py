@@ -12,6 +12,7 @@ from rtsim.world._check import integer, positive
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import Formation
+from rtsim.world.ideal import START_ON
 from rtsim.world.path import LeaderPath
 
 __all__ = [
@@ -41,7 +42,7 @@ class SensingParams:
     r_reacq: re-acquisition search radius (cm, ≥ r_H); position_noise: standard deviation
     of each coordinate of a position fix (cm); min_points: beams a follower must return to
     be found; max_range: laser range (cm); range_noise: standard deviation of each beam's
-    range reading (cm; the ``hough`` localization model's scan, :mod:`rtsim.world.rangefinder`).
+    range reading (cm; the ``hough`` localization model's scan, `rtsim.world.rangefinder`).
     ``position_noise`` is the ``gaussian`` model's only noise.
     """
 
@@ -167,6 +168,13 @@ class WorldConfig:
     localization: LocalizationParams = field(default_factory=LocalizationParams)
     backend: str | None = None
     radio: RadioParams = field(default_factory=RadioParams)
+    #: how the group starts (`rtsim.world.ideal.START_ON`): ``given`` (at ``start_s``,
+    #: as a `WorldConfig` built by hand) or ``straight`` (settled on a straight: a
+    #: scenario file's default, which moves ``start_s``; the run starts the leader at
+    #: the speed the bounds allow there, `rtsim.control.oracle.start_speed`)
+    start_on: str = "given"
+    #: the leader's speed at t = 0 (cm/s, in (0, V_Ld]; None: V_Ld)
+    start_speed: float | None = None
 
     def __post_init__(self) -> None:
         if self.backend is not None and self.backend not in WORLD_BACKENDS:
@@ -186,6 +194,17 @@ class WorldConfig:
                 positive(f"leader.{key}", getattr(self, f"leader_{key}"), allow_inf=True),
             )
         object.__setattr__(self, "step_ms", positive("world.step_ms", self.step_ms))
+        if self.start_on not in START_ON:
+            raise ScenarioError(
+                f"leader.start_on: must be one of {', '.join(START_ON)}, got {self.start_on!r}"
+            )
+        if self.start_speed is not None:
+            v0 = positive("leader.start_speed", self.start_speed)
+            if v0 > self.leader_speed:
+                raise ScenarioError(
+                    f"leader.start_speed: {v0:g} cm/s is above leader.speed {self.leader_speed:g}"
+                )
+            object.__setattr__(self, "start_speed", v0)
         self.formation.check_spacing(self.follower.radius)
         if self.sensing.r_reacq < self.thresholds.r_H:
             raise ScenarioError(

@@ -31,7 +31,9 @@ half-width plus half the gap to the trace (and so to its partner on the other si
 **The fan** (`fan`, ``formation.layout = "fan"``) keeps every follower at the same
 distance ρ_d from the leader — the paper gives one ρ_d for its followers — and spreads their
 bearings: the paper's pair at 180° ± offset, then each further follower one disc width plus
-the gap further out, φ_{k+1} = φ_k + 2·arcsin(r_F/ρ_d) + gap, on the *outer* side of the
+the gap further out, φ_{k+1} = φ_k + 2·arcsin(r_F/ρ_d) + gap — or, when the clearance asks
+for more, the step whose chord is 2·r_F + clearance + a 5 cm margin (`fan_step`) — on
+the *outer* side of the
 path's turns (the right for a path driven counter-clockwise) until that side is full, then on
 the inner side. Why: in a turn, a follower's bearing swings toward the inside of the turn by
 about its depth behind the leader over twice the turn radius, so followers at different
@@ -61,6 +63,8 @@ from rtsim.world._check import integer, number, positive
 
 __all__ = [
     "CHEVRON_GAP",
+    "CLEARANCE_MARGIN",
+    "DEFAULT_CLEARANCE",
     "FAN_INNER",
     "FOLLOWER_MODELS",
     "FORMATION_LAYOUTS",
@@ -71,6 +75,7 @@ __all__ = [
     "chevron_offsets",
     "fan",
     "fan_bearings",
+    "fan_step",
     "in_line",
     "in_line_offsets",
     "outer_side",
@@ -79,6 +84,13 @@ __all__ = [
 #: How ``followers``/``separation``/``bearing_offset`` place them: ``line`` (the chevron for
 #: l-ψ, `in_line` for follow-the-leader) or ``fan`` (`fan`).
 FORMATION_LAYOUTS: tuple[str, ...] = ("line", "fan")
+#: The least gap (cm) between any two robots' discs in the world by default
+#: (``[formation] clearance``): summary.json counts the scans that break it.
+DEFAULT_CLEARANCE = 10.0
+#: What the layouts keep on top of the clearance (cm): the followers' true places depart
+#: from their error-free ones by a few cm (at most 4 measured, docs/followers.md), so a
+#: layout whose error-free lap keeps clearance + this margin keeps the clearance in the world.
+CLEARANCE_MARGIN = 5.0
 #: Followers the fan places on the inner side of the path's turns before the outer side is
 #: full (the pair's one included).
 FAN_INNER = 1
@@ -95,9 +107,15 @@ class Formation:
     rho_d: tuple[float, ...]
     beta_d: tuple[float, ...]
     model: str = "l-psi"
+    #: the least gap (cm) kept between any two robots' discs (``[formation] clearance``)
+    clearance: float = 0.0
 
     def __post_init__(self) -> None:
         follower_model(self.model, "formation.model")
+        c = number("formation.clearance", self.clearance)
+        if not 0.0 <= c < math.inf:
+            raise ScenarioError(f"formation.clearance: must be >= 0 cm, got {self.clearance!r}")
+        object.__setattr__(self, "clearance", c)
         rho = tuple(positive(f"formation.slot[{i + 1}].rho_d", r) for i, r in enumerate(self.rho_d))
         beta = tuple(
             number(f"formation.slot[{i + 1}].beta_d", b) for i, b in enumerate(self.beta_d)
@@ -132,20 +150,24 @@ class Formation:
         return np.column_stack((r * np.cos(b), r * np.sin(b)))
 
     def check_spacing(self, r_F: float) -> None:
-        """Raise `ScenarioError` if slots (or a slot and the leader) are < 2 r_F apart."""
+        """Raise `ScenarioError` if slots (or a slot and the leader) are closer than
+        2 r_F + clearance (the discs would touch or come within the clearance)."""
         p = self.xy()
+        need = 2 * r_F + self.clearance
+        what = f"2*r_F{' + clearance' if self.clearance else ''} = {need:.6g} cm"
         for i in range(self.n):
-            if self.rho_d[i] < 2 * r_F:
+            if self.rho_d[i] < need - 1e-9:
                 raise ScenarioError(
                     f"formation.slot[{i + 1}] is {self.rho_d[i]:.6g} cm from the leader, "
-                    f"closer than 2*r_F = {2 * r_F:.6g} cm"
+                    f"closer than {what}"
                 )
             for j in range(i):
                 d = float(np.hypot(*(p[i] - p[j])))
-                if d < 2 * r_F:
+                if d < need - 1e-9:  # (a layout built for the clearance meets it exactly)
                     raise ScenarioError(
                         f"formation: followers {j + 1} and {i + 1} are {d:.6g} cm apart, "
-                        f"closer than 2*r_F = {2 * r_F:.6g} cm (on top of each other)"
+                        f"closer than {what} "
+                        f"(on top of each other)"
                     )
 
 
@@ -190,6 +212,7 @@ def chevron(
     *,
     r_F: float = 25.0,
     gap: float = CHEVRON_GAP,
+    clearance: float = 0.0,
 ) -> Formation:
     """The default V formation: pair p at p·``separation`` cm and 180° ± offset_p.
 
@@ -210,7 +233,7 @@ def chevron(
         math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
         for i in range(1, n + 1)
     )
-    return Formation(rho, beta)
+    return Formation(rho, beta, clearance=clearance)
 
 
 def in_line_offsets(
@@ -235,6 +258,7 @@ def in_line(
     *,
     r_F: float = 25.0,
     gap: float = CHEVRON_GAP,
+    clearance: float = 0.0,
 ) -> Formation:
     """Follow-the-leader's default line: rank p at p·``separation`` cm, its two followers at
     180° ± φ_p on straights (odd right, even left), φ_p from `in_line_offsets`.
@@ -255,7 +279,7 @@ def in_line(
         math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
         for i in range(1, n + 1)
     )
-    return Formation(rho, beta, "follow-the-leader")
+    return Formation(rho, beta, "follow-the-leader", clearance)
 
 
 @dataclass(frozen=True)
@@ -306,16 +330,32 @@ def outer_side(curvatures: Sequence[float], lengths: Sequence[float]) -> int:
     return 1 if total < 0 else -1
 
 
+def fan_step(separation: float, r_F: float, clearance: float, gap: float = CHEVRON_GAP) -> float:
+    """The fan's angular step (rad) between neighbours at ρ_d = ``separation``: the larger of
+    the laser's (the two discs' angular half-widths plus ``gap``, so neither hides the other)
+    and the clearance's (a chord of 2·r_F + ``clearance`` + `CLEARANCE_MARGIN` between
+    the centres)."""
+    seen = 2.0 * math.asin(min(1.0, r_F / separation)) + gap
+    apart = 2.0 * math.asin(min(1.0, (r_F + 0.5 * (clearance + CLEARANCE_MARGIN)) / separation))
+    return max(seen, apart)
+
+
 def fan_bearings(
-    n: int, separation: float, offset: float, r_F: float, outer: int = -1, gap: float = CHEVRON_GAP
+    n: int,
+    separation: float,
+    offset: float,
+    r_F: float,
+    outer: int = -1,
+    gap: float = CHEVRON_GAP,
+    clearance: float = 0.0,
 ) -> list[float]:
     """Bearings (rad) of the fan's followers (module docstring): follower 1 at 180° + offset
     on the right, 2 at 180° − offset on the left, then each further follower one step
-    (2·arcsin(r_F/ρ_d) + gap) beyond the last on the outer side (``outer``: −1 right, +1
+    (`fan_step`) beyond the last on the outer side (``outer``: −1 right, +1
     left) while the inner side holds `FAN_INNER`, and on the inner side once the outer
     one is full (the next bearing would put the disc outside [90°, 270°]). A follower that
     fits neither side gets the outer side's next bearing (`fan` refuses it)."""
-    step = 2.0 * math.asin(min(1.0, r_F / separation)) + gap
+    step = fan_step(separation, r_F, clearance, gap)
     half = math.asin(min(1.0, r_F / separation))
     right, left = math.pi + offset, math.pi - offset
     bearings = [right, left][:n]
@@ -346,6 +386,7 @@ def fan(
     outer: int = -1,
     gap: float = CHEVRON_GAP,
     model: str = "follow-the-leader",
+    clearance: float = 0.0,
 ) -> Formation:
     """The fan: every follower at ρ_d = ``separation`` cm, bearings from `fan_bearings`
     (``model``: follow-the-leader holds them on straights, l-ψ as rigid slots). Raises
@@ -354,7 +395,7 @@ def fan(
     n, sep, off, r_F = _pair_args(n, separation, offset, r_F)
     if outer not in (-1, 1):
         raise ValueError(f"outer must be -1 (right) or 1 (left), got {outer!r}")
-    bearings = fan_bearings(n, sep, off, r_F, outer, gap)
+    bearings = fan_bearings(n, sep, off, r_F, outer, gap, clearance)
     half = math.asin(min(1.0, r_F / sep))
     for i, b in enumerate(bearings):
         if not math.pi / 2 + half <= b <= 1.5 * math.pi - half:
@@ -364,4 +405,4 @@ def fan(
                 f"view; use a larger separation, a smaller bearing_offset, or "
                 f"[[formation.slot]]"
             )
-    return Formation(tuple([sep] * n), tuple(bearings), model)
+    return Formation(tuple([sep] * n), tuple(bearings), model, clearance)

@@ -3,7 +3,7 @@
 A follower is a disc of radius r_F; the scan points it returns lie on its near side, at r_F
 from its centre. The leader seeks each centre in a **window**, the disc of radius r_H around
 the window centre c. The window's **accumulator** has one cell per candidate centre: the
-square cells of side ``cell`` (:data:`CELL_CM` = 1 cm, so that a window covers π·r_H² cells,
+square cells of side ``cell`` (`CELL_CM` = 1 cm, so that a window covers π·r_H² cells,
 Eq 1's first term taken literally) whose centres lie within r_H of c.
 
 A scan point p **can belong** to a disc centred in the window when
@@ -12,7 +12,7 @@ A scan point p **can belong** to a disc centred in the window when
 
 those are the points that vote (Eq 1's second term, counted). Each votes once for every
 cell of the window at distance r_F from it: the ring of radius r_F around p is walked at
-half-cell steps (:func:`ring`), and each cell it enters gets one vote from that point. The
+half-cell steps (`ring`), and each cell it enters gets one vote from that point. The
 **peak** is the cell with the most votes (ties: the mean of the tied cells within two cells
 of the first in row-major order); it is the fix when it has at least ``min_points`` votes,
 otherwise the window has no fix. The cells are anchored at the window centre, so a fix is a
@@ -22,8 +22,8 @@ peak. Whose points made the peak is read from the
 truth (each beam's owner), only to count it: the owner with the most points within one cell
 of the ring through the peak.
 
-:func:`hough_window` and :func:`locate_all` are plain functions that numba compiles
-(:func:`compiled`); the Python path runs the same functions and is the reference in the
+`hough_window` and `locate_all` are plain functions that numba compiles
+(`compiled`); the Python path runs the same functions and is the reference in the
 tests.
 """
 
@@ -65,7 +65,7 @@ OUT_SIZE = 6
 _COMPILED: Any = None
 
 #: A window's working arrays: the ring's directions (cos, sin) and the scratch (acc, epoch,
-#: stamp, tally, state) of :func:`hough_window`.
+#: stamp, tally, state) of `hough_window`.
 Work = tuple[
     NDArray[np.float64],
     NDArray[np.float64],
@@ -110,8 +110,8 @@ def hough_window(
 ) -> None:
     """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
-    radius ``r_H`` (``cells`` of side ``cell``: :func:`window_cells`). ``work``: the ring's
-    directions (:func:`ring`) and the scratch (:class:`Accumulator`): ``acc``, ``epoch``,
+    radius ``r_H`` (``cells`` of side ``cell``: `window_cells`). ``work``: the ring's
+    directions (`ring`) and the scratch (`Accumulator`): ``acc``, ``epoch``,
     ``stamp`` of at least (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared — a cell counts only if
     its ``epoch`` is this call's (``state[0]``, advanced by each call), and a point votes for a
     cell once (its ``stamp``) — and ``tally``, one entry per follower. Writes ``out``: the fix
@@ -230,14 +230,14 @@ def locate_all(
     work: Work,
     out: NDArray[np.float64],
 ) -> None:
-    """:func:`hough_window` for every follower's window (centres ``cxs``, ``cys``), one row
-    of ``out`` (n, :data:`OUT_SIZE`) each."""
+    """`hough_window` for every follower's window (centres ``cxs``, ``cys``), one row
+    of ``out`` (n, `OUT_SIZE`) each."""
     for k in range(cxs.shape[0]):
         hough_window(px, py, owner, cxs[k], cys[k], r_H, r_F, cell, cells, work, out[k])
 
 
 def compiled() -> Any:
-    """(hough_window, locate_all) compiled with numba (:func:`rtsim.world.jit.build`: once
+    """(hough_window, locate_all) compiled with numba (`rtsim.world.jit.build`: once
     per process, cached on disk by their sources), loaded or compiled now."""
     global _COMPILED
     if _COMPILED is None:
@@ -285,7 +285,7 @@ class Accumulator:
         self._one, self._every = kernels
 
     def cells(self, r_H: float) -> int:
-        """:func:`window_cells` of a window of radius ``r_H`` (computed once per radius)."""
+        """`window_cells` of a window of radius ``r_H`` (computed once per radius)."""
         c = self._cells.get(r_H)
         if c is None:
             c = self._cells[r_H] = window_cells(r_H, self.cell)
@@ -300,7 +300,7 @@ class Accumulator:
         cys: NDArray[np.float64],
         r_H: float,
     ) -> NDArray[np.float64]:
-        """Every follower's window: the (n, :data:`OUT_SIZE`) rows (valid until the next
+        """Every follower's window: the (n, `OUT_SIZE`) rows (valid until the next
         call)."""
         cells = self.cells(r_H)
         self._every(px, py, owner, cxs, cys, r_H, self.r_F, self.cell, cells, self.work, self.out)
@@ -316,7 +316,7 @@ class Accumulator:
         radius: float,
     ) -> NDArray[np.float64]:
         """One window of ``radius`` around (``cx``, ``cy``) (a re-acquisition search): its
-        :data:`OUT_SIZE` values (valid until the next call)."""
+        `OUT_SIZE` values (valid until the next call)."""
         cells = self.cells(radius)
         self._one(px, py, owner, cx, cy, radius, self.r_F, self.cell, cells, self.work, self.one)
         return self.one

@@ -2,21 +2,22 @@
 (docs/localization.md).
 
 The rangefinder is the paper's: 361 beams over 180° at 0.5°, facing backward
-(:data:`~rtsim.world.laser.BEAM_BEARINGS`: bearing 90° + 0.5°·j in the leader's frame). Beam j
+(`BEAM_BEARINGS`: bearing 90° + 0.5°·j in the leader's frame). Beam j
 meets the disc of radius r_F centred at (x, y) when the centre lies within r_F of the beam's
 ray, at range
 
     r = p − √(r_F² − q²),   p = x·cos φ + y·sin φ,   q = x·sin φ − y·cos φ
 
 (p the distance along the beam to the foot of the perpendicular, q the centre's distance
-from the beam; the same geometry as :func:`~rtsim.world.laser.beam_owners`). Each beam returns
+from the beam; the same geometry as [`beam_owners`][rtsim.world.laser.beam_owners]). Each beam
+returns
 its nearest hit only, so occlusion follows from the geometry; a beam whose nearest hit lies
 beyond the maximum range returns nothing. The reading is that range plus range noise
 (σ·z, z a standard normal drawn per beam); the scan point is the reading along the beam, in
 the leader's frame at the scan instant. Only the followers are in the world: no walls, no
 clutter.
 
-:func:`scan_points` is one plain function that numba compiles (:func:`compiled`); the Python
+`scan_points` is one plain function that numba compiles (`compiled`); the Python
 path runs the same function and is the reference in the tests.
 """
 
@@ -97,7 +98,7 @@ def scan_points(
 
 
 def compiled() -> Any:
-    """:func:`scan_points` compiled with numba (:func:`rtsim.world.jit.build`: once per
+    """`scan_points` compiled with numba (`rtsim.world.jit.build`: once per
     process, cached on disk by its source)."""
     global _COMPILED
     if _COMPILED is None:
@@ -106,10 +107,10 @@ def compiled() -> Any:
 
 
 class Rangefinder:
-    """The leader's laser: :meth:`scan` fills and returns its buffers (reused per scan).
+    """The leader's laser: `scan` fills and returns its buffers (reused per scan).
 
     ``range_sd``: the range noise's standard deviation (cm); ``max_range`` (cm);
-    ``fast``: run the compiled :func:`scan_points` (else the Python one)."""
+    ``fast``: run the compiled `scan_points` (else the Python one)."""
 
     def __init__(
         self, r_F: float, max_range: float, range_sd: float, fast: bool, n: int = 16
@@ -128,7 +129,7 @@ class Rangefinder:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
         """The scan of followers centred at (``xs``, ``ys``) (leader frame, cm) with the
         standard normals ``z`` (361): (px, py, owner), the buffers, valid until the next
-        scan; :attr:`counts` holds the beams each follower returned."""
+        scan; `counts` holds the beams each follower returned."""
         if self.counts.shape[0] < xs.shape[0]:
             self.counts = np.zeros(xs.shape[0], dtype=np.int64)
         self._fn(

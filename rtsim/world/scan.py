@@ -182,7 +182,7 @@ class Scan:
     @property
     def hough_points(self) -> int:
         """Eq 1's second term, counted: ``hough`` — the points that voted over every window;
-        ``gaussian`` — the beams the followers returned (:attr:`total_points`)."""
+        ``gaussian`` — the beams the followers returned (`total_points`)."""
         return int(sum(self.voted))
 
     @property

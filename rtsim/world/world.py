@@ -25,7 +25,8 @@ V_L: it sets the leader's
   speed,
   [`World.leader_target_speed`][rtsim.world.world.World.leader_target_speed] the target.
 
-**Initial state** (t = 0): the leader at ``start_s`` on its path at V_Ld; each l-ψ
+**Initial state** (t = 0): the leader at ``start_s`` on its path at V_Ld (or
+``start_speed``); each l-ψ
 follower's axle exactly on its slot, moving in steady formation (speed and heading from
 [`formation_velocity`][rtsim.analysis.kinematics.formation_velocity], turn rate ω_L); each
 follow-the-leader follower on its reference point of the trace, heading along it at the
@@ -85,6 +86,8 @@ class World:
             accel_max=config.leader_accel_max,
             decel_max=config.leader_decel_max,
         )
+        if config.start_speed is not None:  # a settled start below V_Ld
+            self.leader.speed = self.leader.target_speed = config.start_speed
         form = config.formation
         self._rho_d = np.asarray(form.rho_d)
         self._beta_d = np.asarray(form.beta_d)

@@ -17,6 +17,11 @@ the defaults became the recommended model (issue 34: plan, commands, fan, predic
 the Hough localization), the pin files name the old settings explicitly (``preset =
 "paper"``, ``layout = "line"``, ``centre = "previous"``, ``search = "always"``, ``model =
 "gaussian"``, no ``[radio]``: a constant round trip), so these digests did not move.
+
+The settled start (``[leader] start_on``, default ``"straight"``, issue 33) moves the leader's
+start onto a straight, and ``adjust`` predicts with the paper's §3.3 whatever the file's
+predictor (``[adjust] paper_predictor``, default true): the pin files name the old settings,
+``start_on = "given"`` and ``paper_predictor = false``, so the digests stay those of before.
 """
 
 from __future__ import annotations
@@ -61,6 +66,11 @@ NEW_KEYS = (
     "radio_losses",
     "localization_error_cm",
     "localization_model",
+    "clearance_cm",
+    "clearance_violations",
+    "lap_oracle_s",
+    "lap_over_oracle",
+    "leader_start_speed",
 )
 
 

@@ -42,6 +42,7 @@ EPS = 1e-9
 #: The world these by-hand tests were written for: l-ψ chevron, leader speed steps.
 LPSI = {
     "formation.model": "l-psi",
+    "leader.start_on": "given",  # the start as these tests were written (not settled)
     "leader.accel_max": math.inf,
     "leader.decel_max": math.inf,
     # the paper's localization (window at the previous position, Eq 19, every lost
@@ -62,7 +63,7 @@ def _outer_s(rho_d: float, r_t: float) -> float:
 # The hand derivations below are the formation predictor's (SPEC §6): these runs use it; the
 # tests' own policy and predictor (plan on commands, chosen by evidence) run in
 # test_defaults_of_the_tests_*.
-FORMATION = {"adjust.predictor": "formation"}
+FORMATION = {"adjust.predictor": "formation", "adjust.paper_predictor": False}
 
 
 @pytest.fixture(scope="module")
@@ -363,7 +364,14 @@ def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, mod
     # formation is the library's default and is not passed on
     assert _inputs(path).adjust.get("predictor", "formation") == model
     assert _inputs(TEST2).adjust["predictor"] == "commands"  # the tests' choice
-    short = run_scenario(path, mode="adjust", duration_s=3, record_jobs=False)
+    # (adjust on the file's predictor, not the paper's: its default since issue 33)
+    short = run_scenario(
+        path,
+        mode="adjust",
+        duration_s=3,
+        record_jobs=False,
+        overrides={"adjust.paper_predictor": False},
+    )
     base = run_scenario(
         TEST2,
         mode="adjust",

@@ -39,8 +39,9 @@ def test_followers_experiment_quick(tmp_path: Path) -> None:
     t2 = summ[(summ["test"] == "test2") & (summ["n"] == 2)].iloc[0]
     # to 1e-12: at the declared pandas floor a CSV float parses one ulp off
     assert t2.wsch_over_path == pytest.approx(t2.w_sch / (1000 * 0.025 * 325 / 30), rel=1e-12)
-    # the fan's widest offset with 3 followers: 325·sin(15° + 2·asin(25/325) + 1°) to the right
-    width = 325 * math.sin(math.radians(16.0) + 2 * math.asin(25 / 325))
+    # the fan's widest offset with 3 followers: one step beyond 15°, the step whose chord is
+    # 2·r_F + clearance = 65 cm: 325·sin(15° + 2·asin(32.5/325)) to the right
+    width = 325 * math.sin(math.radians(15.0) + 2 * math.asin(32.5 / 325))
     assert math.isclose(summ[(summ["test"] == "test2") & (summ["n"] == 3)].iloc[0].width_cm, width)
     assert (tmp_path / "followers.png").stat().st_size > 0
     assert "| test2 | 3 | 25 |" in (tmp_path / "followers.md").read_text()

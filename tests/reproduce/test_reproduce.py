@@ -20,7 +20,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "rtsim" / "reproduce.py"
 TESTS = ("test1", "test2")
-MODES = ("adjust", "fixed-wsch", "min-msb")
+MODES = ("adjust", "fixed-wsch", "min-msb", "plan")
 # read_csv parses floats exactly by default from pandas 3 (which deprecates the option);
 # before, only with float_precision="round_trip" (pandas 2.1 was one ulp off here)
 EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
@@ -145,7 +145,7 @@ def test_quick_writes_every_file(quick: tuple[Path, str]) -> None:
     run_man = json.loads((out / "test2" / "min-msb" / "manifest.json").read_text())
     assert run_man["inputs"]["mode"] == "min-msb" and run_man["inputs"]["duration_s"] == 60.0
     progress = [ln for ln in stderr.splitlines() if ln.startswith("[")]
-    assert sorted(ln[:5] for ln in progress) == [f"[{k}/6]" for k in range(1, 7)]
+    assert sorted(ln[:5] for ln in progress) == [f"[{k}/8]" for k in range(1, 9)]
 
 
 @pytest.mark.parametrize("stem,name,test", _figures())
@@ -162,8 +162,9 @@ def test_figure_data_agree_with_runs(
         parts = {"adjust": (fig, test)}
     else:
         t = stem.split("_")[1]
-        assert list(fig["mode"].unique()) == list(MODES)
-        parts = {m: (fig[fig["mode"] == m].reset_index(drop=True), t) for m in MODES}
+        # the side-by-side figures draw the paper's three modes (plan is in the table)
+        assert list(fig["mode"].unique()) == list(MODES[:3])
+        parts = {m: (fig[fig["mode"] == m].reset_index(drop=True), t) for m in MODES[:3]}
     for mode, (part, t) in parts.items():
         win = _windows_str(out, t, mode)
         assert len(part) == len(win), (stem, mode)
@@ -210,7 +211,11 @@ def test_bounds_data_has_infinite_values(quick: tuple[Path, str], tmp_path: Path
         mode="adjust",
         duration_s=10,
         record_jobs=False,
-        overrides={"adjust.predictor": "formation", "thresholds.localization": "radial"},
+        overrides={
+            "adjust.predictor": "formation",
+            "adjust.paper_predictor": False,  # adjust on formation (not the paper's)
+            "thresholds.localization": "radial",
+        },
     )  # Eq 19: r_H/|ρ̇|
     data = figure_data(res.windows, "bounds")
     path = tmp_path / "formation_bounds.csv"
@@ -253,7 +258,7 @@ def test_summary_recomputed_from_windows(quick: tuple[Path, str]) -> None:
         assert r["methods"] == ";".join(f"{k}={counts[k]}" for k in sorted(counts.index))
         assert r["duration_s"] == summ["duration_s"] and r["seed"] == 0
     md = (out / "summary.md").read_text().splitlines()
-    assert sum(ln.startswith("| Test ") for ln in md) == 6
+    assert sum(ln.startswith("| Test ") for ln in md) == 8
 
 
 def test_quick_modes_show_spec_section_5(quick: tuple[Path, str]) -> None:

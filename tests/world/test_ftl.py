@@ -251,7 +251,16 @@ def test_test1_geometry_every_lost_track_is_the_sensor_or_the_localization_bound
     4 m wide rectangle) + 231 moved."""
     from rtsim.analysis.bounds import window_bounds
 
-    sc = load_scenario("test1", overrides={"formation.followers": n})
+    # the line as it was measured: no clearance (ten followers do not fit 15 cm), the start
+    # as given
+    sc = load_scenario(
+        "test1",
+        overrides={
+            "formation.followers": n,
+            "formation.clearance": 0,
+            "leader.start_on": "given",
+        },
+    )
     ts = sc.load_taskset()
     assert ts.window is not None
     w = window_bounds(ts).w_sch
