@@ -76,10 +76,10 @@ class Table:
 
 
 def _reproduce(out: Path) -> int:
-    from rtsim.reproduce import main
+    from rtsim.reproduce import ReproduceOptions, run
 
     docs = out.parent / "reproduction-docs-figures"
-    rc = main(["--out", str(out), "--quiet", "--workers", "2", "--docs", str(docs)])
+    rc = run(ReproduceOptions(out=out, quiet=True, workers=2, docs=docs))
     for png in sorted(docs.glob("*.png")) if rc == 0 else ():
         shutil.copyfile(png, out / png.name)
     return rc

@@ -79,6 +79,13 @@ COLUMN_TITLES: dict[str, str] = {
     "formation_model": "follower model",
     "max_response": "longest window response (ms)",
     "wall_s": "wall-clock time (s)",
+    "lap_time_s": "lap time (s)",
+    "lap_oracle_s": "oracle lap: the fastest that keeps every bound (s)",
+    "lap_over_oracle": "lap over the oracle lap",
+    "collisions": "collisions (samples with two robots' discs overlapping)",
+    "min_robot_distance_cm": "closest approach of two robots, centre to centre (cm)",
+    "separation_binds": "critical windows where the separation bound binds",
+    "critical_windows": "critical windows (a bound below w_sch)",
 }
 
 

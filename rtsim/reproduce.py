@@ -1,7 +1,8 @@
 """The paper's experiments reproduced: Test 1 and Test 2 in the three window modes.
 
-``rtsim reproduce [--out DIR] [--quick] [--seed N] [--duration S] [--workers N] [--docs DIR]
-[--quiet]`` (or ``python -m rtsim.reproduce``)
+``rtsim reproduce --out DIR [--quick] [--seed N] [--duration S] [--workers N] [--docs DIR]
+[--quiet]``, or [`run`][rtsim.reproduce.run] with
+[`ReproduceOptions`][rtsim.reproduce.ReproduceOptions] from Python
 
 Runs ``experiments/scenarios/test1.toml`` and ``test2.toml`` in the modes ``adjust`` (the
 paper's algorithm, on the paper's predictor whatever the file names: ``[adjust]
@@ -40,13 +41,13 @@ operating-space figures and the Test 2 mode comparison.
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -161,7 +162,7 @@ def write_run(
     duration_s: float | None,
     argv: list[str],
     wall_s: float,
-    set_: list[str] | None = None,
+    set_: Iterable[str] | None = None,
 ) -> list[str]:
     """Write a run's directory as ``rtsim scenario --no-figures`` does (rtsim/cli/scenario.py).
 
@@ -254,7 +255,7 @@ def run_specs(
     seed: int,
     duration_s: float | None,
     scenarios: Path = SCENARIOS,
-    set_: list[str] | None = None,
+    set_: Iterable[str] | None = None,
 ) -> list[dict[str, Any]]:
     """The eight runs: every test in every mode, each with its output directory.
 
@@ -531,7 +532,7 @@ def run_all(
     return results
 
 
-def _check_args(args: argparse.Namespace) -> None:
+def _check_args(args: ReproduceOptions) -> None:
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed}")
     if args.duration is not None and not (0 < args.duration < math.inf):
@@ -558,124 +559,44 @@ def _check_args(args: argparse.Namespace) -> None:
             load_scenario(SCENARIOS / f"{t}.toml", overrides=_overrides(args.set))
 
 
-def _overrides(strings: list[str]) -> dict[str, Any]:
+def _overrides(strings: Iterable[str]) -> dict[str, Any]:
     """``--set KEY=VALUE`` strings as dotted path -> value."""
     from rtsim.config.dotted import parse_assignment
 
     return dict(parse_assignment(s) for s in strings)
 
 
-class _Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one-line `InputError`s (exit 2 in main)."""
+@dataclass(frozen=True)
+class ReproduceOptions:
+    """What [`run`][rtsim.reproduce.run] reproduces: the options of ``rtsim reproduce``
+    (module docstring), typed. ``duration`` in simulated s (None: each scenario's, at least one
+    lap; ``quick``: 60 s); ``workers`` None: min(6, cpu count); ``docs``: also write the
+    documentation's figures there; ``fig_format`` png (default), svg or pdf; ``force``: run a
+    duration over six simulated hours; ``set``: ``KEY=VALUE`` changes to both scenarios."""
 
-    def error(self, message: str) -> Any:  # type: ignore[override]
-        raise InputError(message)
-
-
-def add_options(ap: Any, *, out_required: bool = False) -> None:
-    """Add the options (module docstring) to the parser ``ap``: the one definition used by
-    ``python -m rtsim.reproduce`` and by ``rtsim reproduce`` (``out_required``: ``--out``
-    has no default, as on every command of the ``rtsim`` program that writes)."""
-    if out_required:
-        ap.add_argument(
-            "--out",
-            required=True,
-            metavar="DIR",
-            help=f"output directory (the README's: {DEFAULT_OUT})",
-        )
-    else:
-        ap.add_argument(
-            "--out",
-            default=DEFAULT_OUT,
-            metavar="DIR",
-            help=f"output directory (default {DEFAULT_OUT})",
-        )
-    ap.add_argument(
-        "--quick",
-        action="store_true",
-        help=f"CI mode: {QUICK_DURATION_S:g} simulated s per run (one turn)",
-    )
-    ap.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")
-    ap.add_argument(
-        "--duration",
-        type=float,
-        default=None,
-        metavar="S",
-        help="simulated seconds per run (default: each scenario's, at least one lap; --quick: 60)",
-    )
-    ap.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        metavar="N",
-        help="processes (default min(6, cpu count)); 1 runs in this process",
-    )
-    ap.add_argument(
-        "--docs",
-        default=None,
-        metavar="DIR",
-        help="also write the documentation's figures (PNG, 100 dpi) to DIR",
-    )
-    ap.add_argument("--quiet", "-q", action="store_true", help="no progress bar or lines, no table")
-    ap.add_argument(
-        "--format",
-        dest="fig_format",
-        choices=("png", "svg", "pdf"),
-        default=None,
-        help="file format of the figures (default png)",
-    )
-    ap.add_argument(
-        "--dpi",
-        type=int,
-        default=None,
-        help="resolution of PNG figures in dots per inch (default 120)",
-    )
-    ap.add_argument(
-        "--json",
-        action="store_true",
-        help="print the summary table as one JSON object instead of Markdown",
-    )
-    ap.add_argument(
-        "--force",
-        action="store_true",
-        help="run even when --duration looks like a mistake of unit (over 6 simulated hours)",
-    )
-    ap.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="change a key of both scenarios (a dotted path, the value read as TOML); repeatable",
-    )
-
-
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    """The command line (module docstring); bad options raise `InputError`."""
-    ap = _Parser(prog="rtsim reproduce", description=__doc__.splitlines()[0])
-    add_options(ap)
-    return ap.parse_args(argv)
-
-
-def main(argv: list[str] | None = None, finish: Callable[[Path], None] | None = None) -> int:
-    """``python -m rtsim.reproduce``: parse ``argv`` and `run` (exit status)."""
-    t0 = time.perf_counter()
-    try:
-        args = parse_args(argv)
-    except InputError as exc:
-        print(f"rtsim: {exc}", file=sys.stderr)
-        return 2
-    return run(args, finish=finish, argv=argv, t0=t0)
+    out: str | Path = DEFAULT_OUT
+    quick: bool = False
+    seed: int = 0
+    duration: float | None = None
+    workers: int | None = None
+    docs: str | Path | None = None
+    quiet: bool = False
+    fig_format: str | None = None
+    dpi: int | None = None
+    json: bool = False
+    force: bool = False
+    set: tuple[str, ...] = field(default=())
 
 
 def run(
-    args: argparse.Namespace,
+    args: ReproduceOptions,
     *,
     finish: Callable[[Path], None] | None = None,
     argv: list[str] | None = None,
     t0: float | None = None,
 ) -> int:
     """Run the eight scenarios, draw the figures, write the tables (module docstring), for the
-    parsed options ``args`` (`add_options`); returns the exit status.
+    options ``args``; returns the exit status (2 with one line on stderr for bad options).
 
     ``--out`` is written whole (`rtsim.io.outdir`): into a staging directory beside it,
     checked before the runs start, swapped in at the end. ``finish`` (the CLI's report
@@ -699,7 +620,7 @@ def run(
 
 
 def _main(
-    args: argparse.Namespace,
+    args: ReproduceOptions,
     argv: list[str] | None,
     t0: float,
     out: Path,
@@ -850,7 +771,3 @@ def _main(
     if not args.quiet:
         print(f"-> {args.out} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

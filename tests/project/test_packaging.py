@@ -106,57 +106,46 @@ def test_examples_work_by_name_and_a_local_file_wins(tmp_path: Path, monkeypatch
     assert [t.name for t in load_taskset("example").tasks] == ["mine"]
 
 
-def test_rtsim_reproduce_passes_every_option_of_the_module(capsys) -> None:
-    import re
+def test_rtsim_reproduce_options_are_the_typed_options() -> None:
+    """Only the CLI parses: ``rtsim reproduce``'s options map one to one onto
+    ``rtsim.reproduce.ReproduceOptions``, which ``rtsim.reproduce.run`` takes."""
+    import dataclasses
 
-    from rtsim import reproduce
     from rtsim.cli import build_parser
+    from rtsim.cli.reproduce import options
+    from rtsim.reproduce import ReproduceOptions
 
-    opts = [
-        "--out",
-        "x",
-        "--quick",
-        "--seed",
-        "3",
-        "--duration",
-        "5",
-        "--workers",
-        "1",
-        "--docs",
-        "d",
-        "--quiet",
-        "--format",
-        "svg",
-        "--dpi",
-        "200",
-        "--json",
-    ]
+    opts = ["--out", "x", "--quick", "--seed", "3", "--duration", "5", "--workers", "1"]
+    opts += ["--docs", "d", "--quiet", "--format", "svg", "--dpi", "200", "--json"]
+    opts += ["--set", "formation.followers=3"]
     args = build_parser().parse_args(["reproduce", *opts])
-    got = {k: v for k, v in vars(args).items() if k not in ("command", "func")}
-    assert (
-        got
-        == vars(reproduce.parse_args(opts))
-        == {
-            "out": "x",
-            "quick": True,
-            "seed": 3,
-            "duration": 5.0,
-            "workers": 1,
-            "docs": "d",
-            "quiet": True,
-            "force": False,
-            "fig_format": "svg",
-            "dpi": 200,
-            "json": True,
-            "set": [],
-        }
+    assert options(args) == ReproduceOptions(
+        out="x",
+        quick=True,
+        seed=3,
+        duration=5.0,
+        workers=1,
+        docs="d",
+        quiet=True,
+        force=False,
+        fig_format="svg",
+        dpi=200,
+        json=True,
+        set=("formation.followers=3",),
     )
-    with pytest.raises(SystemExit):
-        reproduce.parse_args(["--help"])
-    module_opts = set(re.findall(r"--[a-z]+", capsys.readouterr().out)) - {"--help"}
-    sub = next(a for a in build_parser()._actions if a.dest == "command").choices["reproduce"]
-    cli_opts = {o for a in sub._actions for o in a.option_strings if o.startswith("--")}
-    assert module_opts == cli_opts - {"--help"}
+    dests = set(vars(args)) - {"command", "func"}
+    assert dests == {f.name for f in dataclasses.fields(ReproduceOptions)}
+
+
+def test_no_module_outside_the_cli_parses_options() -> None:
+    """argparse is imported by ``rtsim/cli/`` alone (issue 31: one place parses options)."""
+    bad = [
+        str(p.relative_to(ROOT))
+        for p in sorted((ROOT / "rtsim").rglob("*.py"))
+        if "cli" not in p.relative_to(ROOT / "rtsim").parts[:1]
+        and re.search(r"^\s*(import argparse|from argparse import)", p.read_text("utf-8"), re.M)
+    ]
+    assert bad == []
 
 
 def test_classifiers_claim_what_ci_tests() -> None:
