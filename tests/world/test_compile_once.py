@@ -105,6 +105,11 @@ def test_sweep_warms_its_kind_in_the_parent_once_before_the_pool(
     from rtsim.sweep import KindSpec, register_kind, run_sweep
     from rtsim.sweep.kinds import KINDS
 
+    import rtsim.sweep.engine as engine
+
+    # the probe kind is registered in this process only: fork, so the workers have it (the
+    # engine spawns instead when another test left a thread running in this process)
+    monkeypatch.setattr(engine, "_start_method", lambda: "fork")
     seen: list[Any] = []
     pid = os.getpid()
 
