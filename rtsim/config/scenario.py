@@ -36,7 +36,6 @@ from rtsim.model.taskset import TaskSet
 from rtsim.world._check import non_negative, positive
 from rtsim.world.config import (
     CENTRES,
-    LOCALIZATION_MODELS,
     SEARCHES,
     WORLD_BACKENDS,
     LocalizationParams,
@@ -56,6 +55,7 @@ from rtsim.world.formation import (
     outer_side,
 )
 from rtsim.world.ideal import START_ON, check_clearance, settled_start
+from rtsim.world.locmodels import LOCALIZATION_MODELS, localization_model
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
 __all__ = [
@@ -508,7 +508,7 @@ class LocalizationTable(Table):
 
     centre: Annotated[str, choice(CENTRES)] = _DEFAULT["localization.centre"]
     search: Annotated[str, choice(SEARCHES)] = _DEFAULT["localization.search"]
-    model: Annotated[str, choice(LOCALIZATION_MODELS)] = _DEFAULT["localization.model"]
+    model: Annotated[str, plugin(LOCALIZATION_MODELS)] = _DEFAULT["localization.model"]
 
 
 class AdjustTable(Table):
@@ -783,8 +783,25 @@ def _build_scenario(
     loc = th.localization or ("predicted" if centre == "predicted" else "radial")
     predicted_ms = math.inf
     r_H = float(m.sensing.r_H)
-    if loc == "predicted" and follower is not None and sensing is not None and ekf is not None:
-        bound = _attempt(errors, "", lambda: _predicted_bound(src, r_H, follower, sensing, ekf))
+    if (
+        loc == "predicted"
+        and follower is not None
+        and sensing is not None
+        and ekf is not None
+        and formation is not None
+    ):
+        fix_sd = _attempt(
+            errors,
+            "",
+            lambda: localization_model(m.localization.model).fix_sd(
+                sensing, max(formation.rho_d, default=0.0)
+            ),
+        )
+        bound = (
+            None
+            if fix_sd is None
+            else _attempt(errors, "", lambda: _predicted_bound(src, r_H, follower, fix_sd, ekf))
+        )
         predicted_ms = math.inf if bound is None else bound
     if loc == "predicted" and centre != "predicted":
         errors.append(
@@ -905,11 +922,13 @@ def _build_scenario(
 
 
 def _predicted_bound(
-    src: str, r_H: float, follower: FollowerParams, sensing: SensingParams, ekf: EkfParams
+    src: str, r_H: float, follower: FollowerParams, fix_sd: float, ekf: EkfParams
 ) -> float:
     """The decision's localization bound for a window centred at the predicted position
     (`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
-    the fix noise, the EKF's initial heading error, the actuation noise, at the followers'
+    the fix noise ``fix_sd`` (the localization model's σ_fix at the formation's farthest
+    desired range, `rtsim.world.locmodels.LocalizationModel.fix_sd`), the EKF's initial
+    heading error, the actuation noise, at the followers'
     top speed, 3 standard deviations; the leader knows its own motion (no error)."""
     if not math.isfinite(follower.max_speed):
         raise ScenarioError(
@@ -918,7 +937,7 @@ def _predicted_bound(
         )
     return msb_localization_predicted(
         r_H,
-        fix_sd=sensing.position_noise,
+        fix_sd=fix_sd,
         heading_sd=ekf.init_heading_sd,
         speed_sd=follower.speed_noise,
         turn_sd=follower.turn_noise,

@@ -207,8 +207,12 @@ def write_json(target: str | os.PathLike[str], obj: Any) -> None:
 def _to_parquet(df: Any, p: Path) -> None:
     # through a file Python opened: pyarrow takes a path only as UTF-8, and a path that is
     # not (bytes the file system gave as surrogates) is written as the file system gave it
+    # (pyarrow directly: pandas < 2.2 swaps an opened file for its name before pyarrow sees it)
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     with open(p, "wb") as fh:
-        df.to_parquet(fh, index=False)
+        pq.write_table(pa.Table.from_pandas(df, preserve_index=False), fh)
 
 
 def write_table(target: str | os.PathLike[str], df: Any) -> None:

@@ -17,7 +17,6 @@ from rtsim.world.path import LeaderPath
 
 __all__ = [
     "CENTRES",
-    "LOCALIZATION_MODELS",
     "LocalizationParams",
     "RadioParams",
     "SEARCHES",
@@ -76,11 +75,6 @@ class SensingParams:
 CENTRES: tuple[str, ...] = ("previous", "predicted")
 #: When a lost follower is searched for (`rtsim.world.localization`).
 SEARCHES: tuple[str, ...] = ("always", "visible")
-#: How a fix is made (``[localization] model``, docs/localization.md): ``gaussian`` — the
-#: true position plus N(0, position_noise²) per coordinate, accepted inside the window (the
-#: fast stand-in); ``hough`` — a laser scan (`rtsim.world.rangefinder`) and a Hough
-#: transform in each window (`rtsim.world.hough`).
-LOCALIZATION_MODELS: tuple[str, ...] = ("gaussian", "hough")
 
 
 @dataclass(frozen=True)
@@ -93,8 +87,9 @@ class LocalizationParams:
     window with the command the follower holds, in the leader's frame at the new scan (the
     leader knows its own motion). search: ``"always"`` — every lost follower costs a
     full-scan search; ``"visible"`` — only those the leader expects, from its own prediction
-    of every follower, to return at least ``min_points`` beams. model: one of
-    `LOCALIZATION_MODELS`.
+    of every follower, to return at least ``min_points`` beams. model: the name of a
+    localization model (`rtsim.world.locmodels.LOCALIZATION_MODELS`), resolved when a
+    `World` is built (a scenario file's is checked when it is read).
     """
 
     centre: str = "previous"
@@ -105,7 +100,6 @@ class LocalizationParams:
         for key, allowed in (
             ("centre", CENTRES),
             ("search", SEARCHES),
-            ("model", LOCALIZATION_MODELS),
         ):
             value = getattr(self, key)
             if value not in allowed:
@@ -113,6 +107,8 @@ class LocalizationParams:
                     f"localization.{key}: must be one of "
                     f"{', '.join(repr(a) for a in allowed)}, got {value!r}"
                 )
+        if not isinstance(self.model, str) or not self.model:
+            raise ScenarioError(f"localization.model: must be a model's name, got {self.model!r}")
 
 
 @dataclass(frozen=True)

@@ -50,26 +50,16 @@ from rtsim.analysis.kinematics import (
     relative_state,
 )
 from rtsim.errors import RtsimError
-from rtsim.model.window import LASER_POINTS
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
 from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
 from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
-from rtsim.world.hough import (
-    OUT_FIX_X,
-    OUT_FIX_Y,
-    OUT_OWNER,
-    OUT_VOTERS,
-    OUT_VOTES,
-    Accumulator,
-    window_cells,
-)
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
-from rtsim.world.localization import locate_one, lost_cause
+from rtsim.world.localization import lost_cause
+from rtsim.world.locmodels import localization_model
 from rtsim.world.motion import ramp, ramp_arc
-from rtsim.world.rangefinder import Rangefinder
 from rtsim.world.scan import Scan
 
 __all__ = ["World", "Scan"]
@@ -164,16 +154,8 @@ class World:
         ]
         self._centre = self._to_leader(self.leader.pose, *self._estimated_xy())
         self._prev: dict[str, Any] | None = None
-        self._hough: Accumulator | None = None
-        self._rangefinder: Rangefinder | None = None
-        self._cells = 0
-        if config.localization.model == "hough":
-            sens = config.sensing
-            r_F = fp.radius
-            self._rangefinder = Rangefinder(r_F, sens.max_range, sens.range_noise, fast)
-            r_max = max(config.thresholds.r_H, sens.r_reacq)
-            self._hough = Accumulator(form.n, r_F, r_max, fast)
-            self._cells = form.n * window_cells(config.thresholds.r_H)
+        model = localization_model(config.localization.model)
+        self.localization = model(config, form.n, rng, self._normals, fast)
         thr = config.thresholds
         self._sep_limit = thr.T_rho * self._rho_d
         self._travel_limit = thr.T_eps * self._rho_d
@@ -319,15 +301,9 @@ class World:
         n = self.n
         truth_l = self._to_leader(lp, fol.x, fol.y)
         loc = cfg.localization
-        hough = self._hough is not None
-        if hough:
-            pts, beams = self._laser(truth_l)
-            z: list[float] = []
-        else:
-            pts = count_beams_xy(truth_l, cfg.follower.radius, sens.max_range)
-            z = self._normals(2 * n)  # = standard_normal((n, 2)), row-major
-        pn = sens.position_noise
-        r_H, r_re, min_pts = thr.r_H, sens.r_reacq, sens.min_points
+        model = self.localization
+        pts, sensed = model.sense(truth_l)
+        r_H, min_pts = thr.r_H, sens.min_points
         T_beta = thr.T_beta
         sep_lim, trav_lim = self._sep_limit_l, self._travel_limit_l
         prev = self._prev
@@ -347,24 +323,15 @@ class World:
         searched: list[bool] = []
         causes: list[str] = []
         errors: list[float] = []
-        fixes = self._locate_hough(beams, centre) if hough else None
-        voted: list[int] = [] if fixes is None else [int(row[OUT_VOTERS]) for row in fixes]
+        fixes, voted = model.locate(sensed, truth_l, pts, centre, expected)
         neighbours: list[bool] = []
         disps, d_rhos, travels, d_betas = [], [], [], []
         v_loc, v_sep, v_path, v_bear = [], [], [], []
         for k in range(n):
             tx, ty = truth_l[k]
             visible = pts[k] >= min_pts
-            if fixes is not None:
-                fix = self._hough_fix(k, fixes, beams, centre[k], expected, visible)
-                (mx, my), in_w, lost, search, reacq, neighbour = fix
-                neighbours.append(neighbour)
-            else:
-                mx, my = tx + pn * z[2 * k], ty + pn * z[2 * k + 1]
-                in_w, lost, reacq = locate_one((mx, my), centre[k], pts[k], r_H, r_re, min_pts)
-                search = lost and (expected is None or expected[k] >= min_pts)
-                reacq = reacq and search
-                neighbour = False
+            (mx, my), in_w, lost, search, reacq, neighbour = fixes[k]
+            neighbours.append(neighbour)
             measured.append((mx, my))
             in_ws.append(in_w)
             losts.append(lost)
@@ -422,65 +389,9 @@ class World:
             causes,
             voted=voted or None,
             fix_error=errors,
-            neighbour=neighbours or None,
-            cells=self._cells if hough else None,
+            neighbour=neighbours if voted else None,
+            cells=model.cells,
         )
-
-    # -- the hough model: a laser scan and a Hough transform per window ------------------
-    def _laser(self, truth_l: list[tuple[float, float]]) -> tuple[list[int], Any]:
-        """The scan of the followers at ``truth_l`` (leader frame): the beams each returned
-        and the scan (px, py, owner)."""
-        xy = np.array(truth_l).T.copy()  # (contiguous rows, the kernel's one signature)
-        z = self.rng.standard_normal(LASER_POINTS)
-        rf = self._rangefinder
-        assert rf is not None
-        beams = rf.scan(xy[0], xy[1], z)
-        return rf.counts[: self.n].tolist(), beams
-
-    def _locate_hough(self, beams: Any, centre: list[tuple[float, float]]) -> Any:
-        """Every follower's window on the scan ``beams``: the rows of
-        `rtsim.world.hough.Accumulator.locate` (as lists)."""
-        c = np.array(centre).T.copy()
-        acc = self._hough
-        assert acc is not None
-        px, py, owner = beams
-        return acc.locate(px, py, owner, c[0], c[1], self.config.thresholds.r_H).tolist()
-
-    def _hough_fix(
-        self,
-        k: int,
-        fixes: Any,
-        beams: Any,
-        centre: tuple[float, float],
-        expected: list[int] | None,
-        visible: bool,
-    ) -> tuple[tuple[float, float], bool, bool, bool, bool, bool]:
-        """Follower index k's outcome from its window's row of ``fixes``: (fix, in_window,
-        lost, searched, reacquired, neighbour). The peak is the fix when it has at least
-        ``min_points`` votes; the leader accepts it, and the track is lost by a neighbour
-        when another follower's points made it (the truth says so, the leader does not
-        know). A window without a fix loses the track; the follower is searched for over
-        the full scan (r_reacq) as with the gaussian model."""
-        sens = self.config.sensing
-        min_pts = sens.min_points
-        row = fixes[k]
-        if row[OUT_VOTES] >= min_pts:
-            who = int(row[OUT_OWNER])
-            neighbour = who >= 0 and who != k
-            fix = (float(row[OUT_FIX_X]), float(row[OUT_FIX_Y]))
-            return fix, True, neighbour, False, False, neighbour
-        search = expected is None or expected[k] >= min_pts
-        if not search:
-            return centre, False, True, False, False, False
-        acc = self._hough
-        assert acc is not None
-        px, py, owner = beams
-        found = acc.search(px, py, owner, centre[0], centre[1], sens.r_reacq)
-        if found[OUT_VOTES] < min_pts:
-            return centre, False, True, True, False, False
-        who = int(found[OUT_OWNER])
-        fix = (float(found[OUT_FIX_X]), float(found[OUT_FIX_Y]))
-        return fix, False, True, True, True, who >= 0 and who != k
 
     def estimate(self, scan: Scan) -> None:
         """EKF predict (commands held since the last estimate) and update from ``scan``'s fixes;

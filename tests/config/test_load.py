@@ -383,12 +383,12 @@ def test_sweep_set_applies_at_every_point(tmp_path: Path) -> None:
 
 
 def test_reproduce_parses_once_and_passes_set_through(monkeypatch: pytest.MonkeyPatch) -> None:
-    """``rtsim reproduce`` hands its parsed options to :func:`rtsim.reproduce.run` (no second
-    parser, no command line rebuilt from them)."""
+    """``rtsim reproduce`` hands its parsed options to `rtsim.reproduce.run` as typed
+    `ReproduceOptions` (one parser, no command line rebuilt from them)."""
     import rtsim.reproduce as rp
 
     seen = []
-    monkeypatch.setattr(rp, "parse_args", lambda argv: pytest.fail("parsed twice"))
     monkeypatch.setattr(rp, "run", lambda args, **kw: seen.append(args) or 0)
     assert main(["reproduce", "--quick", "--out", "o", "--set", "leader.speed=20"]) == 0
-    assert [(a.set, a.quick, a.out, a.seed) for a in seen] == [(["leader.speed=20"], True, "o", 0)]
+    assert all(isinstance(a, rp.ReproduceOptions) for a in seen)
+    assert [(a.set, a.quick, a.out, a.seed) for a in seen] == [(("leader.speed=20",), True, "o", 0)]

@@ -392,8 +392,11 @@ def test_idle_suspension_blocks_once_per_stretch() -> None:
     assert res.tasks["hi"].max_response == pytest.approx(10.0 - 2 * EPS, abs=1e-12)
     blocked = res.trace[res.trace["kind"] == "blocked"]
     assert list(blocked["segment"]) == ["blocked by lo1 on R", "blocked by lo2 on R"]
-    # the suspension-oblivious analysis (suspension = "cpu") charges B once: 4 + 3 = 7
-    assert analyze(ts2).tasks[0].wcrt == 7.0
+    # the suspension-oblivious analysis (suspension = "cpu") charges B once: 4 + 3 = 7, which
+    # the idle run above beats; the library's default is sound for what the set declares (a
+    # suspending task with sections: the larger of the two, issue 35)
+    assert analyze(ts2, suspension="cpu").tasks[0].wcrt == 7.0
+    assert analyze(ts2).tasks[0].wcrt == 10.0
 
 
 def test_window_bounds_count_blocking() -> None:

@@ -102,9 +102,13 @@ def test_warm_world_only_when_the_world_runs_compiled(monkeypatch: pytest.Monkey
 def test_sweep_warms_its_kind_in_the_parent_once_before_the_pool(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    import rtsim.sweep.engine as engine
     from rtsim.sweep import KindSpec, register_kind, run_sweep
     from rtsim.sweep.kinds import KINDS
 
+    # the probe kind is registered in this process only: fork, so the workers have it (the
+    # engine spawns instead when another test left a thread running in this process)
+    monkeypatch.setattr(engine, "_start_method", lambda: "fork")
     seen: list[Any] = []
     pid = os.getpid()
 
