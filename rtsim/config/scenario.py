@@ -213,10 +213,15 @@ class Scenario:
         return _fit(ts, self.world, self.scheduler)
 
 
+def taskset_file(name: str) -> str | None:
+    """What `load_taskset` reads for a scenario's ``taskset`` ``name``: a packaged set by its
+    own name (``None``: the paper's; "example" is the generic set), else the path."""
+    return None if name == "barrel_robots" else name
+
+
 def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> TaskSet:
     """The task-set file ``name`` (a packaged name or a path), which must have a [window]."""
-    # a packaged set by its own name ("example" is the generic set, not the paper's)
-    ts = load_taskset(None if name == "barrel_robots" else name, allow_code=allow_code)
+    ts = load_taskset(taskset_file(name), allow_code=allow_code)
     if ts.window is None:
         raise ScenarioError(f"{where}: taskset: '{name}' has no [window]")
     return ts

@@ -65,13 +65,10 @@ def scenario_inputs(
     if isinstance(scenario, ScenarioInputs):
         return scenario
     if isinstance(scenario, str | os.PathLike):
-        from rtsim.io.scenario import load_scenario, scenario_bytes
+        # a file, or a packaged scenario by name ("test2"): prepared once per content
+        from rtsim.coupling.prepared import prepared
 
-        path = scenario
-        # a file, or a packaged scenario by name ("test2")
-        scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
-        if text is None:
-            text = scenario_bytes(path)[0].decode("utf-8")
+        return prepared(scenario, text, overrides, allow_code, scenario_inputs)  # type: ignore[no-any-return]
     try:
         world = scenario.world
         ts = scenario.load_taskset() if hasattr(scenario, "load_taskset") else scenario.taskset
