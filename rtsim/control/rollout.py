@@ -55,6 +55,7 @@ from rtsim.world.compiled import as_changes
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.leader import Leader
+from rtsim.world.motionmodels import motion_model
 from rtsim.world.path import LeaderPath
 
 __all__ = ["Rollout", "RolloutState", "Changes"]
@@ -82,7 +83,9 @@ class RolloutState:
     the scan that opens the window the decision governs; send_offsets: per follower, its send
     after a window's scan; thresholds, rho_d: the bounds' thresholds; w_sch: the window
     length of windows after the first; group: the class that integrates the followers (the
-    world's own, so that a compiled world rolls out compiled: the same numbers).
+    world's own, so that a compiled world rolls out compiled: the same numbers); turns: per
+    follower the expected turn rate (below). The followers and the leader move by
+    ``params.motion_model`` (`rtsim.world.motionmodels`).
     """
 
     path: LeaderPath
@@ -106,6 +109,9 @@ class RolloutState:
     w_sch: float
     group: type[FollowerGroup] = FollowerGroup
     beta_d: tuple[float, ...] = ()
+    #: per follower, the turn rate it is expected to have (the motion model's state; empty:
+    #: the held commands' turn rates, as the unicycle, which turns at once)
+    turns: tuple[float, ...] = ()
 
 
 @dataclass
@@ -240,7 +246,15 @@ class Rollout:
         if self._compiled is not None:  # the world's compiled law: one kernel call
             return self._compiled.changes(v, windows)  # type: ignore[no-any-return]
         st = self.state
-        ld = Leader(st.path, st.v_ld, st.leader_s, accel_max=st.accel_max, decel_max=st.decel_max)
+        travel = motion_model(st.params.motion_model).leader
+        ld = Leader(
+            st.path,
+            st.v_ld,
+            st.leader_s,
+            accel_max=st.accel_max,
+            decel_max=st.decel_max,
+            travel=travel,
+        )
         ld.speed = st.leader_speed
         ld.target_speed = st.leader_speed
         ld.set_speed(min(max(v, 0.0), st.v_ld))
@@ -273,6 +287,7 @@ class Rollout:
         )
         group.cmd_v = [h[0] for h in st.held]
         group.cmd_w = [h[1] for h in st.held]
+        group.w = list(st.turns or group.cmd_w)
         t_leader = st.t_now
         for t, kind, k in events:
             if t > t_leader:

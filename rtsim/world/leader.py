@@ -15,6 +15,7 @@ the exact integral of that ramp-then-hold profile (`rtsim.world.motion.leader_tr
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Literal
 
 from rtsim.errors import InputError
@@ -27,7 +28,8 @@ __all__ = ["Leader"]
 
 class Leader:
     """Leader on ``path`` with desired speed ``desired_speed`` (cm/s), starting at ``s0`` cm,
-    its speed ramping toward the target at most ``accel_max`` / ``decel_max`` cm/s²."""
+    its speed ramping toward the target at most ``accel_max`` / ``decel_max`` cm/s² (by
+    ``travel``: a motion model's leader part, `rtsim.world.motionmodels`)."""
 
     def __init__(
         self,
@@ -37,8 +39,10 @@ class Leader:
         *,
         accel_max: float = math.inf,
         decel_max: float = math.inf,
+        travel: Callable[..., tuple[float, float]] = leader_travel,
     ) -> None:
         self.path = path
+        self._travel = travel
         self.desired_speed = positive("leader.speed", desired_speed)
         self.accel_max = positive("leader.accel_max", accel_max, allow_inf=True)
         self.decel_max = positive("leader.decel_max", decel_max, allow_inf=True)
@@ -58,7 +62,7 @@ class Leader:
 
     def advance(self, dt: float) -> None:
         """Drive ``dt`` seconds, the speed ramping toward the target (exact along the path)."""
-        self.speed, ds = leader_travel(
+        self.speed, ds = self._travel(
             self.speed, self.target_speed, self.accel_max, self.decel_max, dt
         )
         self.s += ds
