@@ -285,7 +285,10 @@ class World:
 
     def expected_turn_rates(self, t_ms: float) -> tuple[float, ...]:
         """The turn rate the leader expects of each follower at ``t_ms`` (the motion model's
-        state: the held command's for the unicycle), for the rollout (`RolloutState.turns`)."""
+        state), for the rollout (`RolloutState.turns`); empty for the unicycle, whose turn
+        rate is the held command's."""
+        if not self.motion.subs:
+            return ()
         return tuple(self._propagate(k, t_ms)[2] for k in range(self.n))
 
     def _normals(self, m: int) -> list[float]:
