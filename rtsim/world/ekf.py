@@ -243,27 +243,10 @@ def process(
 
 @kernel(inline=True)
 def ekf_apply(
-    x0: float,
-    x1: float,
-    x2: float,
-    p00: float,
-    p01: float,
-    p02: float,
-    p11: float,
-    p12: float,
-    p22: float,
-    dx: float,
-    dy: float,
-    dth: float,
-    a: float,
-    b: float,
-    q00: float,
-    q01: float,
-    q02: float,
-    q11: float,
-    q12: float,
-    q22: float,
-) -> tuple[float, float, float, float, float, float, float, float, float]:
+    x0: float, x1: float, x2: float, p00: float, p01: float, p02: float, p11: float, p12: float,
+    p22: float, dx: float, dy: float, dth: float, a: float, b: float, q00: float, q01: float,
+    q02: float, q11: float, q12: float, q22: float,
+) -> tuple[float, float, float, float, float, float, float, float, float]:  # fmt: skip
     """A predict's mean and covariance from its model (`process`'s increments, F's two
     non-zeros ``a``, ``b`` and Q): (x, y, θ, P00, P01, P02, P11, P12, P22) after F P Fᵀ + Q with
     F = I + a e0 e2ᵀ + b e1 e2ᵀ."""
@@ -282,23 +265,9 @@ def ekf_apply(
 
 @kernel
 def ekf_predict(
-    x0: float,
-    x1: float,
-    x2: float,
-    p00: float,
-    p01: float,
-    p02: float,
-    p11: float,
-    p12: float,
-    p22: float,
-    v: float,
-    w: float,
-    dt: float,
-    sv2: float,
-    sw2: float,
-    qp2: float,
-    qh2: float,
-) -> tuple[float, float, float, float, float, float, float, float, float]:
+    x0: float, x1: float, x2: float, p00: float, p01: float, p02: float, p11: float, p12: float,
+    p22: float, v: float, w: float, dt: float, sv2: float, sw2: float, qp2: float, qh2: float,
+) -> tuple[float, float, float, float, float, float, float, float, float]:  # fmt: skip
     """The predict on floats holding (v, ω) exactly: `process`, then `ekf_apply`."""
     dx, dy, dth, a, b, q00, q01, q02, q11, q12, q22 = process(x2, v, w, dt, sv2, sw2, qp2, qh2)
     return ekf_apply(
@@ -308,18 +277,9 @@ def ekf_predict(
 
 @kernel
 def command_process(
-    th: float,
-    v: float,
-    w: float,
-    vc: float,
-    wc: float,
-    a: float,
-    dt: float,
-    sv2: float,
-    sw2: float,
-    qp2: float,
-    qh2: float,
-) -> tuple[float, ...]:
+    th: float, v: float, w: float, vc: float, wc: float, a: float, dt: float, sv2: float,
+    sw2: float, qp2: float, qh2: float,
+) -> tuple[float, ...]:  # fmt: skip
     """The unicycle's predict model for a held command (v_c, ω_c) from expected speed ``v``
     (its turn rate ``w`` is not read: it turns at once): `process` at the mean speed of
     the expected ramp (`rtsim.world.motion.ramp`, limit ``a``), then the speed and turn rate
@@ -331,26 +291,10 @@ def command_process(
 
 @kernel
 def ekf_command(
-    x0: float,
-    x1: float,
-    x2: float,
-    p00: float,
-    p01: float,
-    p02: float,
-    p11: float,
-    p12: float,
-    p22: float,
-    v: float,
-    w: float,
-    vc: float,
-    wc: float,
-    a: float,
-    dt: float,
-    sv2: float,
-    sw2: float,
-    qp2: float,
-    qh2: float,
-) -> tuple[float, ...]:
+    x0: float, x1: float, x2: float, p00: float, p01: float, p02: float, p11: float, p12: float,
+    p22: float, v: float, w: float, vc: float, wc: float, a: float, dt: float, sv2: float,
+    sw2: float, qp2: float, qh2: float,
+) -> tuple[float, ...]:  # fmt: skip
     """The predict of a held command (v_c, ω_c) from expected speed ``v`` and turn rate ``w``:
     the motion model's predict model (`command_process` for the unicycle; another model's in
     its variant, `rtsim.world.motionmodels`), then `ekf_apply`: (x, y, θ, P00, P01, P02,

@@ -26,9 +26,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from rtsim.errors import InputError, ScenarioError
+from rtsim.errors import InputError
 from rtsim.model.window import LASER_POINTS
 from rtsim.registry import Registry
+from rtsim.world._check import plugin
 from rtsim.world.config import SensingParams, WorldConfig
 from rtsim.world.hough import (
     OUT_FIX_X,
@@ -228,9 +229,4 @@ LOCALIZATION_MODELS.register("hough", HoughModel)
 
 def localization_model(name: str, where: str = "localization.model") -> type[LocalizationModel]:
     """The localization model class ``name`` names; an unknown one is a `ScenarioError`."""
-    try:
-        return LOCALIZATION_MODELS.resolve(name, where)
-    except ScenarioError:
-        raise
-    except InputError as exc:
-        raise ScenarioError(str(exc)) from None
+    return plugin(LOCALIZATION_MODELS, name, where)

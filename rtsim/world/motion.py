@@ -75,19 +75,9 @@ def ramp_arc(
 
 @kernel
 def follower_advance(
-    x: float,
-    y: float,
-    th: float,
-    v: float,
-    w: float,
-    vc: float,
-    wc: float,
-    a: float,
-    odo: float,
-    t0: float,
-    t_ms: float,
-    step_ms: float,
-) -> tuple[float, float, float, float, float, float]:
+    x: float, y: float, th: float, v: float, w: float, vc: float, wc: float, a: float, odo: float,
+    t0: float, t_ms: float, step_ms: float,
+) -> tuple[float, float, float, float, float, float]:  # fmt: skip
     """A follower holding (v_c, ω_c) integrated from ``t0`` to ``t_ms`` (ms): the exact arc at
     the ramp's mean speed, in steps of at most ``step_ms`` while the ramp lasts longer than
     one step (a shorter ramp is folded into one arc; the heading–speed coupling it ignores is

@@ -32,8 +32,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, fields
 from typing import Any
 
-from rtsim.errors import InputError, ScenarioError
+from rtsim.errors import InputError
 from rtsim.registry import Registry
+from rtsim.world._check import plugin
 from rtsim.world.ekf import command_process
 from rtsim.world.jit import Subs, is_kernel
 from rtsim.world.motion import follower_advance, leader_travel, ramp_arc
@@ -130,9 +131,4 @@ MOTION_MODELS.register("unicycle", UNICYCLE)
 
 def motion_model(name: str, where: str = "follower.motion_model") -> MotionModel:
     """The motion model ``name`` names; an unknown one is a `ScenarioError`."""
-    try:
-        return MOTION_MODELS.resolve(name, where)
-    except ScenarioError:
-        raise
-    except InputError as exc:
-        raise ScenarioError(str(exc)) from None
+    return plugin(MOTION_MODELS, name, where)
