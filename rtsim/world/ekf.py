@@ -1,10 +1,12 @@
 """One filterpy ``ExtendedKalmanFilter`` per follower: pose (x, y, θ) in the world frame
 (docs/model/world.md).
 
-**Predict** with the follower's unicycle model and the command the leader sent, held over
-the interval (the leader knows the acceleration limit, so the speed used is the mean of
-the expected ramp toward the command). With chord c = v·dt·sinc(ω dt/2) and mid-heading
-m = θ + ω dt/2 the model is x' = x + c cos m, y' = y + c sin m, θ' = θ + ω dt, and
+**Predict** with the followers' motion model (`rtsim.world.motionmodels`: its ``process``,
+read by `ekf_command` and ``predict_command``) and the command the leader sent, held over the
+interval. The unicycle's (`command_process`): the leader knows the acceleration limit, so
+the speed used is the mean of the expected ramp toward the command. With chord
+c = v·dt·sinc(ω dt/2) and mid-heading m = θ + ω dt/2 the model is x' = x + c cos m,
+y' = y + c sin m, θ' = θ + ω dt, and
 
     F = ∂f/∂(x, y, θ) = [[1, 0, −c sin m], [0, 1, c cos m], [0, 0, 1]],
     G = ∂f/∂(v, ω) ≈ [[dt·s cos m, −(dt/2) c sin m], [dt·s sin m, (dt/2) c cos m], [0, dt]]
@@ -310,22 +312,9 @@ def ekf_command(
 
 @kernel
 def ekf_update(
-    x0: float,
-    x1: float,
-    x2: float,
-    p00: float,
-    p01: float,
-    p02: float,
-    p10: float,
-    p11: float,
-    p12: float,
-    p20: float,
-    p21: float,
-    p22: float,
-    r: float,
-    z0: float,
-    z1: float,
-) -> tuple[float, ...]:
+    x0: float, x1: float, x2: float, p00: float, p01: float, p02: float, p10: float, p11: float,
+    p12: float, p20: float, p21: float, p22: float, r: float, z0: float, z1: float,
+) -> tuple[float, ...]:  # fmt: skip
     """The update on floats with H = [I₂ 0], R = r I: (x, y, θ, then P − K H P row by row, 9
     entries); filterpy's Joseph form is the same matrix for this optimal gain."""
     s00, s01, s11 = p00 + r, p01, p11 + r

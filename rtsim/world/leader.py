@@ -20,7 +20,7 @@ from typing import Literal
 
 from rtsim.errors import InputError
 from rtsim.world._check import positive
-from rtsim.world.motion import leader_travel, ramp
+from rtsim.world.motion import leader_travel
 from rtsim.world.path import LeaderPath
 
 __all__ = ["Leader"]
@@ -69,8 +69,7 @@ class Leader:
 
     def speed_after(self, dt: float) -> float:
         """The actual speed ``dt`` seconds from now if the target does not change."""
-        v0, vt = self.speed, self.target_speed
-        return ramp(v0, vt, self.accel_max if vt > v0 else self.decel_max, dt)[0]
+        return self._travel(self.speed, self.target_speed, self.accel_max, self.decel_max, dt)[0]
 
     @property
     def pose(self) -> tuple[float, float, float]:
