@@ -197,3 +197,42 @@ def test_the_rollout_predicts_the_turn_lag_world(turnlag: Any, backend: str) -> 
     err = [max(abs(p[k][0] - seen[j + 1][k]) for j, p in enumerate(pred) for k in range(2))
            for pred in (lagged, straight)]  # fmt: skip
     assert err[0] < 0.01 < err[1], err
+
+
+# -- the substitution that builds a kernel for a model (rtsim.world.jit) ----------------------
+
+
+@kernel
+def _double(x: float) -> float:
+    return 2.0 * x
+
+
+@kernel
+def _triple(x: float) -> float:
+    return 3.0 * x
+
+
+@kernel
+def _caller(x: float) -> float:
+    return _double(x) + 1.0
+
+
+@kernel
+def _outer(x: float) -> float:
+    return _caller(x) * 10.0
+
+
+def test_a_substitution_reaches_through_the_callers() -> None:
+    """`specialise` (Python) and `build` (compiled) with (callee, replacement): every kernel
+    on the way calls the replacement; the sources stay as they are; the source key moves
+    only for kernels that reach the callee."""
+    from rtsim.world import jit
+
+    subs = ((_double, _triple),)
+    assert jit.specialise(_outer, subs)(2.0) == 70.0 and _outer(2.0) == 50.0
+    assert jit.specialise(_triple, subs) is _triple  # (nothing to replace)
+    assert jit.source_key(_outer, subs) != jit.source_key(_outer)
+    assert jit.source_key(_triple, subs) == jit.source_key(_triple)
+    if compiled.available():
+        assert jit.build(_outer, subs)(2.0) == 70.0 and jit.build(_outer)(2.0) == 50.0
+        assert jit.build(_triple, subs) is jit.build(_triple)  # shared
