@@ -83,9 +83,7 @@ class RolloutState:
     the scan that opens the window the decision governs; send_offsets: per follower, its send
     after a window's scan; thresholds, rho_d: the bounds' thresholds; w_sch: the window
     length of windows after the first; group: the class that integrates the followers (the
-    world's own, so that a compiled world rolls out compiled: the same numbers); turns: per
-    follower the expected turn rate (below). The followers and the leader move by
-    ``params.motion_model`` (`rtsim.world.motionmodels`).
+    world's own, so that a compiled world rolls out compiled: the same numbers).
     """
 
     path: LeaderPath
@@ -109,9 +107,10 @@ class RolloutState:
     w_sch: float
     group: type[FollowerGroup] = FollowerGroup
     beta_d: tuple[float, ...] = ()
-    #: per follower, the turn rate it is expected to have (the motion model's state; empty:
-    #: the held commands' turn rates, as the unicycle, which turns at once)
-    turns: tuple[float, ...] = ()
+    #: per follower, the turn rate it is expected to have: the state of the motion model
+    #: ``params.motion_model`` (`rtsim.world.motionmodels`), by which the followers and the
+    #: leader move (empty: the held commands' turn rates, as the unicycle turns at once)
+    turns: tuple[float, ...] = field(default=(), kw_only=True)
 
 
 @dataclass

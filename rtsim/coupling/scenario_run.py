@@ -460,7 +460,7 @@ class _Coupling:
                 self.w_sch,
                 type(world.followers),
                 tuple(self.beta_d),
-                world.expected_turn_rates(now),
+                turns=world.expected_turn_rates(now),
             )
         )
 

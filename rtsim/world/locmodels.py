@@ -26,10 +26,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from rtsim.errors import InputError
+from rtsim.errors import InputError, ScenarioError
 from rtsim.model.window import LASER_POINTS
 from rtsim.registry import Registry
-from rtsim.world._check import plugin
 from rtsim.world.config import SensingParams, WorldConfig
 from rtsim.world.hough import (
     OUT_FIX_X,
@@ -229,4 +228,9 @@ LOCALIZATION_MODELS.register("hough", HoughModel)
 
 def localization_model(name: str, where: str = "localization.model") -> type[LocalizationModel]:
     """The localization model class ``name`` names; an unknown one is a `ScenarioError`."""
-    return plugin(LOCALIZATION_MODELS, name, where)
+    try:
+        return LOCALIZATION_MODELS.resolve(name, where)
+    except ScenarioError:
+        raise
+    except InputError as exc:
+        raise ScenarioError(str(exc)) from None
