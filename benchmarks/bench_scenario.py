@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         prof = cProfile.Profile()
         prof.enable()
         res = run_scenario(
-            args.scenario, mode=args.mode, duration_s=args.duration, record_jobs=False
+            args.scenario, policy=args.mode, duration_s=args.duration, record_jobs=False
         )
         prof.disable()
         pstats.Stats(prof).sort_stats("tottime").print_stats(25)

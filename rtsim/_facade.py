@@ -105,7 +105,7 @@ def run_sweep(
         ``manifest.json``): calling again with a grown grid runs only the new points. None:
         nothing is written (a temporary directory, removed at the end).
     mode : str, optional
-        The adjustment policy of every run (as ``run_scenario``'s ``mode``/``policy``).
+        The adjustment policy of every run (as ``run_scenario``'s ``policy``).
     overrides : mapping, optional
         Dotted keys set at every point, before the grid's.
     kind, options

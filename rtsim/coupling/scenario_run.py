@@ -31,7 +31,7 @@ its deadline is recorded (``missed``), the next window is still released on time
 scan, commands and decision come late too. A backlogged release is governed by the latest
 decision available at its release (that of the last *completed* window).
 
-Policies (`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
+Policies (`rtsim.control.policy`; ``[adjust] policy``, ``policy=``):
 ``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
 break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
 schedule breaks), ``margin``, ``lookahead``, ``noise-aware``, ``safe`` or a user's
@@ -54,6 +54,7 @@ did beyond a duration. A window still running at the stop is dropped.
 from __future__ import annotations
 
 import gc
+import inspect
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -66,6 +67,7 @@ import simpy
 
 import rtsim.coupling.duration as run_duration
 from rtsim._numbers import is_int, is_real
+from rtsim._suggest import did_you_mean
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
@@ -233,7 +235,7 @@ class _Coupling:
         # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
         # predictor is for its own policy, unless [adjust] paper_predictor = false
         paper = bool(opts.pop("paper_predictor", True))
-        # run_scenario(policy=/mode=) overrides the file's [adjust] policy
+        # run_scenario(policy=) overrides the file's [adjust] policy
         self.policy, opts = adjust_options(opts, f"{inp.source or 'scenario'}: adjust", mode)
         if paper and self.policy.name == "adjust":
             opts["predictor"] = "paper"
@@ -820,6 +822,19 @@ class _Coupling:
             self._close(self.world.scan(max(self.env.now, self.world.t_ms)))
 
 
+#: The keyword arguments `run_scenario` took under other names, and their names now.
+RENAMED_ARGS: dict[str, str] = {"mode": "policy", "duration": "duration_s"}
+
+
+def _refuse(unknown: Mapping[str, Any]) -> None:
+    """A keyword argument `run_scenario` does not take (an old name among them) is a
+    TypeError naming the one meant (`rtsim._suggest.did_you_mean`)."""
+    for key in unknown:
+        names = [p for p in inspect.signature(run_scenario).parameters if p != "unknown"]
+        hint = did_you_mean(key, names, renamed=RENAMED_ARGS)
+        raise TypeError(f"run_scenario() got an unexpected keyword argument '{key}'{hint}")
+
+
 #: Rows of windows.csv the summary reads back at a time (a chunk's frame stays small next
 #: to a run's table: the post-run peak does not grow with the run's length).
 SUMMARY_READ_ROWS = 2_048
@@ -828,23 +843,22 @@ SUMMARY_READ_ROWS = 2_048
 def run_scenario(
     scenario: Any,
     *,
-    mode: str | None = None,
-    duration_s: float | None = None,
+    policy: str | None = None,
     seed: int = 0,
+    overrides: Mapping[str, Any] | None = None,
+    duration_s: float | None = None,
     record_jobs: bool = True,
     exec_model: ExecSpec = "wcet",
-    duration: float | None = None,
     text: str | None = None,
     record_trace: bool = False,
-    overrides: Mapping[str, Any] | None = None,
     window_sink: Any = None,
     job_sink: Any = None,
     trace_sink: Any = None,
-    policy: str | None = None,
     allow_code: bool | None = None,
     force: bool = False,
     windows: bool = True,
     progress: Any = None,
+    **unknown: Any,
 ) -> ScenarioResult:
     """Run one scenario: the leader's schedule and the robots' world in one simulation.
 
@@ -854,8 +868,6 @@ def run_scenario(
         A scenario file, a shipped one by name (``"test2"``), a loaded
         [`Scenario`][rtsim.io.scenario.Scenario], or
         [`ScenarioInputs`][rtsim.coupling.scenario_run.ScenarioInputs] prepared once.
-    mode : str, optional
-        Alias of ``policy`` (the paper's reproduction names its three modes so).
     duration_s : float, optional
         Simulated seconds, exact. None: the scenario's ``duration``, else to the end of the
         lap (``until = "lap"``, `rtsim.coupling.duration`).
@@ -865,8 +877,6 @@ def run_scenario(
         Keep the job table (``result.jobs``).
     exec_model : str, default "wcet"
         Execution times of the fixed segments: ``"wcet"`` or ``"uniform"`` in [bcet, wcet].
-    duration : float, optional
-        Alias of ``duration_s`` (simulated s; a sweep's option name).
     text : str, optional
         The scenario file's text, for the manifest (read from the path when one is given).
     record_trace : bool, default False
@@ -907,17 +917,9 @@ def run_scenario(
         A bad scenario, option or override, in one line per problem.
     """
     t0 = time.perf_counter()
-    if mode is not None and policy is not None and mode != policy:
-        raise InputError(
-            f"mode is an alias of policy: give one, got mode={mode!r} and policy={policy!r}"
-        )
-    if policy is None and mode is not None:
-        policy_class(mode, "mode")
-        policy = mode
-    elif policy is not None:
+    _refuse(unknown)
+    if policy is not None:
         policy_class(policy, "policy")
-    if duration_s is None:
-        duration_s = duration
     if not is_int(seed) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
     from rtsim.io.work import check_coupled, check_seed

@@ -18,7 +18,7 @@ the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metr
   ``uniform``), ``suspension`` (``cpu`` | ``idle``), ``window`` (ms; default w_sch),
   ``scheduler`` (``fp`` | ``edf``; default the set's).
 - ``scenario`` — ``rtsim.coupling.run_scenario(parse_scenario(base with overrides),
-  seed=, mode=, duration_s=duration, exec_model=exec)``: the scalar entries of the run's
+  seed=, policy=mode, duration_s=duration, exec_model=exec)``: the scalar entries of the run's
   summary (summary.json without ``seed``), nested ones flattened with dots
   (``violations.separation``, ``methods.coupled``). Options ``mode`` (``adjust`` |
   ``fixed-wsch`` | ``min-msb``), ``duration`` (simulated s), ``exec``, ``scheduler`` (the
@@ -266,7 +266,7 @@ def _scenario(p: PointInput) -> dict[str, Any]:
     scenario, inputs = _point_scenario(p)
     kwargs: dict[str, Any] = {"seed": p.seed, "record_jobs": False, "windows": False}
     if "mode" in o:
-        kwargs["mode"] = o["mode"]
+        kwargs["policy"] = o["mode"]
     if "duration" in o:
         kwargs["duration_s"] = float(o["duration"])
     if "exec" in o:
