@@ -25,6 +25,7 @@ from pydantic import ConfigDict, Field, model_validator
 from rtsim.analysis.bounds import LOWER_BOUNDS
 from rtsim.analysis.kinematics import (
     LOCALIZATION_KINDS,
+    R_H_DEFAULT,
     Thresholds,
     msb_localization_predicted,
 )
@@ -457,7 +458,9 @@ class FollowerTable(_Angles):
 
 
 class SensingTable(Table):
-    r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = 25.0
+    #: the run's one r_H: the window's cost (Eq 1) and the bounds read it; it replaces the
+    #: task set's ``[window] r_H`` (the manifest's ``r_H`` records both)
+    r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = R_H_DEFAULT
     r_reacq: (
         Annotated[float, number(0, 1e5, "cm", "a search radius within 1 km", lo_open=True)] | None
     ) = None

@@ -112,6 +112,18 @@ def scenario_inputs(
 _inputs = scenario_inputs
 
 
+def r_h_record(scenario: Any, ts: TaskSet) -> dict[str, Any]:
+    """The manifest's record of the run's one r_H (cm): ``value``, the scenario's
+    ``[sensing] r_H`` that the window's cost and the bounds read; ``taskset``, the task
+    set's own ``[window] r_H`` (what it serves analysed alone); ``replaced``: whether the
+    two differ (the scenario's replaced the set's)."""
+    value = float(scenario.world.thresholds.r_H)
+    own = getattr(scenario, "task_set", None)
+    win = own.window if own is not None and own.window is not None else ts.window
+    mine = None if win is None else float(win.r_H)
+    return {"value": value, "from": "sensing.r_H", "taskset": mine, "replaced": mine != value}
+
+
 def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
     """The scenario's resolved values as plain JSON data (for the manifest); a limit that is
     not set (``inf``: follower.max_turn_rate, sensing.max_range, adjust.cap) is null."""
@@ -150,6 +162,7 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "thresholds": plain(cfg.thresholds),
         "localization": plain(cfg.localization),
         "radio": plain(cfg.radio),
+        "r_H": r_h_record(scenario, ts),
         "step_ms": cfg.step_ms,
         "adjust": plain(getattr(scenario, "adjust", {})),
         "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),

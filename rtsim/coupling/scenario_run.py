@@ -205,8 +205,9 @@ class _Coupling:
             raise InputError(
                 f"{inp.source or inp.name or 'scenario'}: the task set has no [window]"
             )
-        if ts.window.n != cfg.n:
-            ts = ts.with_window(n=cfg.n)
+        # the world's n and r_H (the scenario's [sensing] r_H, its one home) size the window
+        if (ts.window.n, ts.window.r_H) != (cfg.n, cfg.thresholds.r_H):
+            ts = ts.with_window(n=cfg.n, r_H=cfg.thresholds.r_H)
         self.ts = ts
         self.cfg = cfg
         self.thr = cfg.thresholds
