@@ -111,7 +111,7 @@ from rtsim.coupling import run_scenario
 scenario, mode, duration, backend = sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4]
 res = run_scenario(
     scenario,
-    mode=mode or None,
+    policy=mode or None,
     duration_s=duration,
     record_jobs=True,
     overrides={"world.backend": backend},

@@ -31,10 +31,10 @@ from rtsim.analysis.kinematics import (
 )
 from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
 from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
+from rtsim.control.policy import DECIDE, make_policy
 from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError
 from rtsim.model.taskset import TaskSet
-from rtsim.world._check import non_negative, positive
 from rtsim.world.config import (
     CENTRES,
     SEARCHES,
@@ -61,6 +61,7 @@ from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectan
 
 __all__ = [
     "AdjustConfig",
+    "fit_taskset",
     "Scenario",
     "ScenarioFile",
     "load_scenario",
@@ -74,10 +75,6 @@ __all__ = [
 
 #: Task-set names that refer to the package's own files rather than to a path.
 PACKAGED_TASKSETS = ("barrel_robots", "example")
-#: When in its window the adjustment decides: after the radio round trip, or before sending.
-DECIDE: tuple[str, ...] = ("end", "before-send")
-#: The common keys of ``[adjust]`` (the rest are the policy's own).
-_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide", "paper_predictor")
 #: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
 PACKAGED_SCENARIOS = ("test1", "test2")
 
@@ -123,56 +120,6 @@ Side = Literal["left", "right"]
 
 # ----------------------------------------------------------------- runtime objects
 @dataclass(frozen=True)
-class AdjustConfig:
-    """Limits for the adjustment algorithm (semantics in [`rtsim.control`][rtsim.control]).
-
-    cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
-    predictor: the prediction model of `rtsim.control.predict` (``paper``, ``formation``
-    or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
-    names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
-    ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle), ``w_txn``
-    (offset-based: the window chain and the command task as one transaction) or ``w_edf``
-    (the EDF demand criterion; needs ``[scheduler] policy = "edf"``); decide: when in its
-    window the decision is taken, ``end`` (after the radio round trip) or ``before-send``;
-    paper_predictor: the policy ``adjust`` runs on the paper's predictor (default) or on
-    ``predictor`` (the other policies always use ``predictor``).
-    """
-
-    cap: float = math.inf
-    floor: float = 0.0
-    predictor: str = "formation"
-    lower_bound: str = "w_sch"
-    policy: str = "adjust"
-    decide: str = "end"
-    #: the policy ``adjust`` (the paper's algorithm) predicts with the paper's §3.3
-    #: (``predictor = "paper"``) whatever ``predictor`` names; False: with ``predictor``
-    paper_predictor: bool = True
-    params: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        if self.lower_bound not in LOWER_BOUNDS:
-            raise ScenarioError(
-                f"adjust.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
-                f"got {self.lower_bound!r}"
-            )
-        if self.decide not in DECIDE:
-            raise ScenarioError(
-                f"adjust.decide: must be one of end, before-send, got {self.decide!r}"
-            )
-        from rtsim.control.predict import check_predictor
-
-        object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
-        object.__setattr__(self, "floor", non_negative("adjust.floor", self.floor))
-        from rtsim.control.policy import make_policy
-
-        try:
-            check_predictor(self.predictor, "adjust.predictor")
-            make_policy(self.policy, self.params, "adjust", _ADJUST_KEYS)
-        except InputError as exc:
-            raise ScenarioError(str(exc)) from None
-
-
-@dataclass(frozen=True)
 class Scenario:
     """A validated scenario: the world, the task set reference, duration and assumptions.
 
@@ -189,13 +136,16 @@ class Scenario:
     duration: float = 0.0
     description: str = ""
     until: str | None = None
-    adjust: AdjustConfig = field(default_factory=AdjustConfig)
+    adjust: AdjustConfig = field(default_factory=lambda: AdjustConfig())
     assumptions: Mapping[str, str] = field(default_factory=dict)
     source: str | None = None
     scheduler: str | None = None
     task_set: TaskSet | None = field(default=None, compare=False, repr=False)
     #: the file may name code (``module:Name``), also in its task set (the user opted in)
     allow_code: bool = field(default=False, compare=False)
+    #: the adjustment policy, made once from ``adjust`` (its own keys checked) when the
+    #: scenario was built; None for a scenario made by hand (the run makes it)
+    policy: Any = field(default=None, compare=False, repr=False)
 
     @property
     def n(self) -> int:
@@ -211,7 +161,7 @@ class Scenario:
             if self.task_set is not None
             else _read_taskset(self.taskset, where, self.allow_code)
         )
-        return _fit(ts, self.world, self.scheduler)
+        return fit_taskset(ts, self.world, self.scheduler)
 
 
 def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> TaskSet:
@@ -223,8 +173,9 @@ def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> Task
     return ts
 
 
-def _fit(ts: TaskSet, world: WorldConfig, scheduler: str | None) -> TaskSet:
-    """``ts`` with the scenario's follower count, r_H and scheduler (the one source of each)."""
+def fit_taskset(ts: TaskSet, world: WorldConfig, scheduler: str | None = None) -> TaskSet:
+    """``ts`` with the world's follower count and r_H (``[sensing] r_H``, a coupled run's one
+    r_H) and the scenario's scheduler (None: the set's): the one source of each."""
     assert ts.window is not None
     if (ts.window.n, ts.window.r_H) != (world.n, world.thresholds.r_H):
         ts = ts.with_window(n=world.n, r_H=world.thresholds.r_H)
@@ -514,58 +465,39 @@ class LocalizationTable(Table):
     model: Annotated[str, plugin(LOCALIZATION_MODELS)] = _DEFAULT["localization.model"]
 
 
-class AdjustTable(Table):
-    """``[adjust]``: the common keys and the policies' own keys (``margin``, ``windows``,
-    ``z`` and those of a plug-in policy, which checks its own)."""
+class AdjustConfig(Table):
+    """``[adjust]``, the runtime object too: the keys every policy reads, each with its one
+    default and range, and the policy's own keys, the table's other keys (its options model,
+    `rtsim.control.policy.PolicyOptions`, checks them when the scenario is built).
+
+    cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
+    predictor: the prediction model of `rtsim.control.predict`; lower_bound: the window's
+    lower bound, ``w_sch`` (the paper's Eq 7/11), ``w_rta`` (exact RTA), ``w_susp``
+    (suspension-aware, Δt with the CPU idle), ``w_txn`` (offset-based: the window chain and
+    the command task as one transaction) or ``w_edf`` (the EDF demand criterion; needs
+    ``[scheduler] policy = "edf"``); policy: the adjustment policy
+    (`rtsim.control.policy`); decide: when in its window the decision is taken, ``end``
+    (after the radio round trip) or ``before-send``; paper_predictor: the policy ``adjust``
+    runs on the paper's predictor (default) or on ``predictor`` (the other policies always
+    use ``predictor``).
+    """
 
     model_config = ConfigDict(strict=True, extra="allow", frozen=True, validate_default=False)
 
-    cap: (
-        Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] | None
-    ) = None
-    floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] | None = None
-    predictor: Annotated[str, plugin(PREDICTORS)] | None = _DEFAULT["adjust.predictor"]
-    lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
-    policy: Annotated[str, text(what="a policy name")] | None = _DEFAULT["adjust.policy"]
-    decide: Annotated[str, choice(DECIDE)] | None = None
-    #: policy adjust on the paper's predictor (true, the default) or on ``predictor``
-    paper_predictor: bool | None = None
-    margin: (
-        Annotated[
-            float,
-            number(
-                0,
-                1,
-                "",
-                "the share μ of each predicted bound kept in "
-                "reserve (policies margin, lookahead, noise-aware, safe)",
-                hi_open=True,
-            ),
-        ]
-        | None
-    ) = None
-    windows: (
-        Annotated[
-            float,
-            number(
-                1, 100, "windows", "policies lookahead and safe: the horizon, in windows of w_sch"
-            ),
-        ]
-        | None
-    ) = None
-    z: (
-        Annotated[
-            float,
-            number(
-                0,
-                10,
-                "σ",
-                "policies noise-aware and safe: the padding of the "
-                "predicted V_F, |ρ̇|, |β̇| in standard deviations",
-            ),
-        ]
-        | None
-    ) = None
+    cap: Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] = (
+        math.inf
+    )
+    floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] = 0.0
+    predictor: Annotated[str, plugin(PREDICTORS)] = _DEFAULT["adjust.predictor"]
+    lower_bound: Annotated[str, choice(LOWER_BOUNDS)] = "w_sch"
+    policy: Annotated[str, text(what="a policy name")] = _DEFAULT["adjust.policy"]
+    decide: Annotated[str, choice(DECIDE)] = "end"
+    paper_predictor: bool = True
+
+    @property
+    def params(self) -> dict[str, Any]:
+        """The policy's own keys, in the file's order."""
+        return dict(self.model_extra or {})
 
 
 class RadioTable(Table):
@@ -610,7 +542,7 @@ class ScenarioFile(Table):
     sensing: SensingTable = Field(default_factory=SensingTable)
     ekf: EkfTable = Field(default_factory=EkfTable)
     thresholds: ThresholdsTable = Field(default_factory=ThresholdsTable)
-    adjust: AdjustTable = Field(default_factory=AdjustTable)
+    adjust: AdjustConfig = Field(default_factory=AdjustConfig)
     world: WorldTable = Field(default_factory=WorldTable)
     localization: LocalizationTable = Field(default_factory=LocalizationTable)
     radio: RadioTable = Field(default_factory=RadioTable)
@@ -656,9 +588,7 @@ def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> 
         )
     model = validate(ScenarioFile, _with_preset(data), source, ScenarioError)
     errors: list[str] = []
-    raw_adjust = data.get("adjust")
-    order = list(raw_adjust) if isinstance(raw_adjust, Mapping) else []
-    scenario = _build_scenario(model, source, base, errors, order)
+    scenario = _build_scenario(model, source, base, errors)
     raise_errors(
         [e if e.startswith(f"{source}: ") else f"{source}: {e}" for e in errors], ScenarioError
     )
@@ -748,7 +678,7 @@ def _formation(f: FormationTable, r_F: float, path: LeaderPath) -> Formation:
 
 
 def _build_scenario(
-    m: ScenarioFile, src: str, base: Path | None, errors: list[str], adjust_order: list[str]
+    m: ScenarioFile, src: str, base: Path | None, errors: list[str]
 ) -> Scenario | None:
     speed = float(m.leader.speed)
     path = _attempt(errors, "", lambda: _path(src, m.leader))
@@ -823,27 +753,25 @@ def _build_scenario(
     localization = LocalizationParams(
         centre=m.localization.centre, search=m.localization.search, model=m.localization.model
     )
-    adj = m.adjust
-    args: dict[str, Any] = {k: getattr(adj, k) for k in _ADJUST_KEYS if getattr(adj, k) is not None}
-    own = {k: getattr(adj, k) for k in ("margin", "windows", "z") if getattr(adj, k) is not None}
-    own.update(adj.model_extra or {})
-    args["params"] = {k: own[k] for k in adjust_order if k in own}  # in the file's order
-    adjust = _attempt(errors, src, lambda: AdjustConfig(**args))
+    adjust = m.adjust
+    common = tuple(AdjustConfig.model_fields)
+    policy = _attempt(
+        errors, src, lambda: make_policy(adjust.policy, adjust.params, "adjust", common)
+    )
     scheduler = m.scheduler.policy if m.scheduler is not None else None
     if scheduler is not None:
         from rtsim.sim.policy import SCHEDULERS
 
-        policy = None
+        sched = None
         try:
-            policy = SCHEDULERS.resolve(scheduler, f"{src}: scheduler.policy")
+            sched = SCHEDULERS.resolve(scheduler, f"{src}: scheduler.policy")
         except InputError as exc:
             errors.append(str(exc))
         # the scheduler's registry entry names the lower bounds that hold under it
         if (
-            adjust is not None
-            and policy is not None
-            and policy.lower_bounds
-            and adjust.lower_bound not in policy.lower_bounds
+            sched is not None
+            and sched.lower_bounds
+            and adjust.lower_bound not in sched.lower_bounds
         ):
             need = [n for n, c in SCHEDULERS.items() if adjust.lower_bound in c.lower_bounds]
             errors.append(
@@ -851,7 +779,7 @@ def _build_scenario(
                 f"{' or '.join(need)} scheduler, but [scheduler] policy is "
                 f"{scheduler!r}"
             )
-    if adjust is not None and adjust.floor > speed:
+    if adjust.floor > speed:
         errors.append(
             f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the desired speed {speed:g} cm/s"
         )
@@ -869,7 +797,7 @@ def _build_scenario(
         or follower is None
         or sensing is None
         or ekf is None
-        or adjust is None
+        or policy is None
     ):
         return None
     world = _attempt(
@@ -921,6 +849,7 @@ def _build_scenario(
         source=src,
         scheduler=scheduler,
         task_set=task_set,
+        policy=policy,
     )
 
 

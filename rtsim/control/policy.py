@@ -39,10 +39,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
+from rtsim._numbers import is_real
 from rtsim._suggest import did_you_mean
+from rtsim.analysis.bounds import LOWER_BOUNDS
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import (
     CANDIDATES,
@@ -58,13 +60,24 @@ from rtsim.control.adjust import (
     largest,
     make_predictor,
 )
-from rtsim.control.predict import FollowerEstimate, Predictor, check_number, min_bound_rows
+from rtsim.control.predict import (
+    FollowerEstimate,
+    Predictor,
+    check_number,
+    check_predictor,
+    min_bound_rows,
+)
 from rtsim.errors import InputError
 from rtsim.registry import Registry
 
 __all__ = [
     "ADJUSTMENT_POLICIES",
+    "AdjustOptions",
     "COMMON_KEYS",
+    "DECIDE",
+    "OptionRange",
+    "PolicyOptions",
+    "option",
     "Decision",
     "Policy",
     "decide",
@@ -75,6 +88,11 @@ __all__ = [
     "policy_class",
     "register_adjustment_policy",
 ]
+
+#: When in its window the decision is taken (``[adjust] decide``): at the window job's end,
+#: after the radio round trip (the paper's chain: scan, Hough, estimate, send, receive,
+#: schedule), or at the start of the first send, so its speed leaves with the commands.
+DECIDE: tuple[str, ...] = ("end", "before-send")
 
 #: ``[adjust]`` keys every policy understands (options of the decision, ScenarioInputs.adjust).
 COMMON_KEYS: tuple[str, ...] = (
@@ -88,6 +106,7 @@ COMMON_KEYS: tuple[str, ...] = (
     "scan_points",
     "lower_bound",
     "decide",
+    "paper_predictor",
 )
 
 
@@ -154,6 +173,136 @@ class Policy(Protocol):
     def decide(self, ctx: PolicyInput) -> Decision: ...
 
 
+@dataclass(frozen=True)
+class OptionRange:
+    """The accepted values of a policy's option: ``lo`` to ``hi`` in ``unit``, each end open
+    or closed, ``integer`` for a count; ``why`` says what it is (docs/input_ranges.md)."""
+
+    lo: float
+    hi: float
+    unit: str
+    why: str
+    lo_open: bool = False
+    hi_open: bool = False
+    integer: bool = False
+
+    def text(self) -> str:
+        """``[0, 1)``."""
+        lo, hi = "(" if self.lo_open else "[", ")" if self.hi_open else "]"
+        return f"{lo}{self.lo:g}, {self.hi:g}{hi}"
+
+    def check(self, name: str, value: Any) -> float:
+        """``value`` as a float (an int for a count), or an `InputError` naming ``name``."""
+        if not is_real(value) or not math.isfinite(float(value)):
+            raise InputError(f"{name}: must be a finite number, got {value!r}")
+        x = float(value)
+        above = x > self.lo if self.lo_open else x >= self.lo
+        below = x < self.hi if self.hi_open else x <= self.hi
+        whole = not self.integer or x == int(x)
+        if not (above and below and whole):
+            kind = "an integer " if self.integer else ""
+            raise InputError(f"{name}: must be {kind}in {self.text()}, got {value!r}")
+        return int(x) if self.integer else x
+
+
+def option(
+    default: float,
+    lo: float,
+    hi: float,
+    unit: str,
+    why: str,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    integer: bool = False,
+) -> Any:
+    """A field of a policy's options model: its one default and its one range."""
+    rng = OptionRange(lo, hi, unit, why, lo_open, hi_open, integer)
+    return field(default=default, metadata={"range": rng})
+
+
+@dataclass(frozen=True)
+class PolicyOptions:
+    """Base of a policy's options model: a frozen dataclass of `option` fields, each checked
+    against its range when made (`OptionRange.check`). A policy class names its model in
+    ``options``; its ``params`` (name → default) are derived from it."""
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            rng = f.metadata.get("range")
+            if rng is not None:
+                object.__setattr__(self, f.name, rng.check(f.name, getattr(self, f.name)))
+
+
+def _margin(default: float) -> Any:
+    return option(
+        default, 0.0, 1.0, "", "the share μ of each predicted bound kept in reserve", hi_open=True
+    )
+
+
+def _z(default: float) -> Any:
+    why = "the padding of the predicted V_F, |ρ̇|, |β̇| in standard deviations"
+    return option(default, 0.0, 10.0, "σ", why)
+
+
+def _windows(default: float) -> Any:
+    return option(default, 1.0, 100.0, "windows", "the horizon, in windows of w_sch")
+
+
+@dataclass(frozen=True)
+class AdjustOptions(Mapping[str, Any]):
+    """A run's ``[adjust]``, validated once (`adjust_options`, or from a scenario's table):
+    the policy (an instance, made with its own keys ``own``) and the options every policy
+    reads, each with its one default (`PolicyInput`'s fields of the same names; ``cap``
+    None: CAP_FACTOR·w_sch, or ``cap_factor``·w_sch when that is given; ``floor_frac`` is
+    also the lowest speed the coupling sets), ``lower_bound`` (the window's lower bound,
+    `rtsim.analysis.bounds.LOWER_BOUNDS`), ``decide`` (`DECIDE`) and ``paper_predictor``
+    (the policy ``adjust`` predicts with the paper's §3.3 whatever ``predictor`` says).
+
+    As a mapping it is the keys that make it again (``policy`` by name, the options that
+    differ from their default, the policy's own keys), so ``{**inputs.adjust, "cap": 500}``
+    changes one option of a run's inputs."""
+
+    policy: Any
+    cap: float | None = None
+    cap_factor: float | None = None
+    floor_frac: float = FLOOR_FRAC
+    floor_w: float = FLOOR_W
+    predictor: str | Predictor = "formation"
+    methods: tuple[str, ...] = CANDIDATES
+    scan_points: int = 64
+    lower_bound: str = "w_sch"
+    decide: str = "end"
+    paper_predictor: bool = True
+    own: Mapping[str, Any] = field(default_factory=dict)
+
+    def _items(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"policy": self.policy.name}
+        for f in fields(self):
+            if f.name not in ("policy", "own") and getattr(self, f.name) != f.default:
+                out[f.name] = getattr(self, f.name)
+        return {**out, **self.own}
+
+    def __getitem__(self, key: str) -> Any:
+        return self._items()[key]
+
+    def __iter__(self) -> Any:
+        return iter(self._items())
+
+    def __len__(self) -> int:
+        return len(self._items())
+
+    def overridden(self, spec: str | None, where: str = "adjust") -> AdjustOptions:
+        """These options with the policy ``spec`` (``--policy``) instead: the own keys the new
+        policy does not know are dropped (``--policy adjust`` on a file written for
+        ``margin``; they were validated with their own policy)."""
+        if spec is None or spec == self.policy.name:
+            return self
+        known = policy_class(spec, f"{where}.policy").params  # type: ignore[attr-defined]
+        own = {k: v for k, v in self.own.items() if k in known}
+        return dataclasses.replace(self, policy=make_policy(spec, own, where), own=own)
+
+
 def _policy_class(cls: Any, spec: str, where: str) -> type:
     """A loaded class as a policy class (``params`` default ``{}``), or an InputError."""
     if not isinstance(cls, type) or not callable(getattr(cls, "decide", None)):
@@ -178,7 +327,10 @@ def register_adjustment_policy(name: str) -> Callable[[type], type]:
         if name in ADJUSTMENT_POLICIES and ADJUSTMENT_POLICIES[name] is not cls:
             raise ValueError(f"policy {name!r} is already registered")
         cls.name = name  # type: ignore[attr-defined]
-        if not hasattr(cls, "params"):
+        model = getattr(cls, "options", None)
+        if model is not None:  # its params, from its options model
+            cls.params = {f.name: f.default for f in fields(model)}  # type: ignore[attr-defined]
+        elif not hasattr(cls, "params"):
             cls.params = {}  # type: ignore[attr-defined]
         ADJUSTMENT_POLICIES.register(name, cls)
         return cls
@@ -226,25 +378,32 @@ def make_policy(
 
 def adjust_options(
     opts: Mapping[str, Any], where: str = "adjust", override: str | None = None
-) -> tuple[Any, dict[str, Any]]:
-    """Validate an ``[adjust]`` mapping (ScenarioInputs.adjust): the policy (key ``policy``,
-    default ``adjust``) made with its own keys, and the common options (`COMMON_KEYS`
-    without ``policy``) as a dict. The old key ``model`` names its replacement.
-
-    ``override`` (``--policy``): a policy that replaces the mapping's; the mapping's keys of
-    its own policy that the new one does not know are then dropped (``--policy adjust`` on a
-    file written for ``margin``), after they were validated with their own policy."""
+) -> AdjustOptions:
+    """Validate an ``[adjust]`` mapping (a hand-made `ScenarioInputs.adjust`) once: the
+    policy (key ``policy``, default ``adjust``) made with its own keys, and the common
+    options (`COMMON_KEYS`) as an `AdjustOptions`. The old key ``model`` names its
+    replacement. ``override`` (``--policy``): `AdjustOptions.overridden`."""
+    if isinstance(opts, AdjustOptions):
+        return opts.overridden(override, where)
     if "model" in opts:
         raise InputError(f"{where}: unknown key 'model' (renamed; did you mean 'predictor'?)")
-    spec = opts.get("policy", "adjust")
-    common = {k: v for k, v in opts.items() if k in COMMON_KEYS and k != "policy"}
     own = {k: v for k, v in opts.items() if k not in COMMON_KEYS}
-    if override is not None and override != spec:
-        make_policy(spec, own, where)
-        spec = override
-        known = policy_class(spec, f"{where}.policy").params  # type: ignore[attr-defined]
-        own = {k: v for k, v in own.items() if k in known}
-    return make_policy(spec, own, where), common
+    policy = make_policy(opts.get("policy", "adjust"), own, where)
+    common = {k: v for k, v in opts.items() if k in COMMON_KEYS and k != "policy"}
+    if common.get("decide", "end") not in DECIDE:
+        raise InputError(
+            f"{where}.decide: must be one of {', '.join(DECIDE)}, got {common['decide']!r}"
+        )
+    if common.get("lower_bound", "w_sch") not in LOWER_BOUNDS:
+        raise InputError(
+            f"{where}.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
+            f"got {common['lower_bound']!r}"
+        )
+    if isinstance(common.get("predictor"), str):
+        check_predictor(common["predictor"], f"{where}.predictor")
+    if "methods" in common:
+        common["methods"] = tuple(common["methods"])
+    return AdjustOptions(policy, own=own, **common).overridden(override, where)
 
 
 def _check(ctx: PolicyInput, where: str) -> float:
@@ -346,6 +505,13 @@ class MinMsbPolicy:
         )
 
 
+@dataclass(frozen=True)
+class MarginOptions(PolicyOptions):
+    """The options of the policy ``margin``."""
+
+    margin: float = _margin(0.1)
+
+
 @register_adjustment_policy("margin")
 class MarginPolicy:
     """The paper's algorithm with every predicted bound shrunk by the factor (1 − μ):
@@ -357,13 +523,10 @@ class MarginPolicy:
     ``feasible``: (1 − μ)·min MSB at the chosen speed ≥ w_sch.
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"margin": 0.1}
+    options: ClassVar[type[PolicyOptions]] = MarginOptions
 
-    def __init__(self, margin: float = 0.1) -> None:
-        margin = check_number("margin", "margin", margin)
-        if not 0.0 <= margin < 1.0:
-            raise InputError(f"margin: must be in [0, 1), got {margin!r}")
-        self.margin = margin
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        self.margin = MarginOptions(*args, **kw).margin
 
     def decide(self, ctx: PolicyInput) -> Decision:
         keep = 1.0 - self.margin
@@ -385,6 +548,14 @@ class MarginPolicy:
         )
         w = ctx.w_sch if d.method != "none" else max(ctx.w_sch, min(keep * d.msb_min, cap))
         return d._replace(w=w)
+
+
+@dataclass(frozen=True)
+class LookaheadOptions(PolicyOptions):
+    """The options of the policy ``lookahead``."""
+
+    margin: float = _margin(0.0)
+    windows: float = _windows(2.0)
 
 
 @register_adjustment_policy("lookahead")
@@ -415,16 +586,14 @@ class LookaheadPolicy:
     (μ in [0, 1), default 0) and ``windows`` (the horizon in windows of w_sch, ≥ 1, default 2).
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"margin": 0.0, "windows": 2.0}
+    options: ClassVar[type[PolicyOptions]] = LookaheadOptions
     #: the coupling fills PolicyInput.ahead, accel_max and decel_max for this policy
     needs_path: ClassVar[bool] = True
 
-    def __init__(self, margin: float = 0.0, windows: float = 2.0) -> None:
-        self.base: Any = MarginPolicy(margin)
-        windows = check_number("windows", "windows", windows)
-        if not 1.0 <= windows <= 100.0:
-            raise InputError(f"windows: must be in [1, 100], got {windows!r}")
-        self.windows = windows
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        o = LookaheadOptions(*args, **kw)
+        self.base: Any = MarginPolicy(o.margin)
+        self.windows = o.windows
 
     def decide(self, ctx: PolicyInput) -> Decision:
         d = self.base.decide(ctx)
@@ -552,6 +721,14 @@ def pad_rows(
     return out
 
 
+@dataclass(frozen=True)
+class NoiseAwareOptions(PolicyOptions):
+    """The options of the policy ``noise-aware``."""
+
+    z: float = _z(2.0)
+    margin: float = _margin(0.0)
+
+
 @register_adjustment_policy("noise-aware")
 class NoiseAwarePolicy:
     """The paper's algorithm against bounds whose predicted V_F, |ρ̇| and |β̇| are padded by
@@ -566,16 +743,14 @@ class NoiseAwarePolicy:
     ``margin`` (μ in [0, 1), default 0). z = 0 with μ = 0 is the paper's decision at V_Ld.
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"z": 2.0, "margin": 0.0}
+    options: ClassVar[type[PolicyOptions]] = NoiseAwareOptions
     #: the coupling fills PolicyInput.speed_noise, turn_noise and pose_sd for this policy
     needs_noise: ClassVar[bool] = True
 
-    def __init__(self, z: float = 2.0, margin: float = 0.0) -> None:
-        z = check_number("z", "z", z)
-        if not 0.0 <= z <= 10.0:
-            raise InputError(f"z: must be in [0, 10], got {z!r}")
-        self.z = z
-        self.margin = MarginPolicy(margin).margin
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        o = NoiseAwareOptions(*args, **kw)
+        self.z = o.z
+        self.margin = o.margin
 
     def decide(self, ctx: PolicyInput) -> Decision:
         cap = _check(ctx, "noise-aware")
@@ -648,6 +823,15 @@ class NoiseAwarePolicy:
         )
 
 
+@dataclass(frozen=True)
+class SafeOptions(PolicyOptions):
+    """The options of the policy ``safe``."""
+
+    margin: float = _margin(0.1)
+    z: float = _z(1.0)
+    windows: float = _windows(2.0)
+
+
 @register_adjustment_policy("safe")
 class SafePolicy(LookaheadPolicy):
     """`LookaheadPolicy` on top of `NoiseAwarePolicy`: the current command's and
@@ -655,13 +839,22 @@ class SafePolicy(LookaheadPolicy):
     leader slows ahead of turns as in ``lookahead``. Own keys: ``margin`` (default 0.1),
     ``z`` (default 1) and ``windows`` (default 2)."""
 
-    params: ClassVar[Mapping[str, Any]] = {"margin": 0.1, "z": 1.0, "windows": 2.0}
+    options: ClassVar[type[PolicyOptions]] = SafeOptions
     needs_path: ClassVar[bool] = True
     needs_noise: ClassVar[bool] = True
 
-    def __init__(self, margin: float = 0.1, z: float = 1.0, windows: float = 2.0) -> None:
-        super().__init__(margin, windows)
-        self.base = NoiseAwarePolicy(z, margin)
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        o = SafeOptions(*args, **kw)
+        super().__init__(o.margin, o.windows)
+        self.base = NoiseAwarePolicy(o.z, o.margin)
+
+
+@dataclass(frozen=True)
+class PlanOptions(PolicyOptions):
+    """The options of the policy ``plan``."""
+
+    windows: int = option(2, 1, 20, "windows", "the horizon, in windows of w_sch", integer=True)
+    margin: float = _margin(0.0)
 
 
 @register_adjustment_policy("plan")
@@ -691,16 +884,14 @@ class PlanPolicy:
     (μ in [0, 1), default 0).
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"windows": 2, "margin": 0.0}
+    options: ClassVar[type[PolicyOptions]] = PlanOptions
     #: the coupling fills PolicyInput.rollout for this policy
     needs_rollout: ClassVar[bool] = True
 
-    def __init__(self, windows: float = 2, margin: float = 0.0) -> None:
-        windows = check_number("windows", "windows", windows)
-        if not (1 <= windows <= 20 and windows == int(windows)):
-            raise InputError(f"windows: must be an integer in [1, 20], got {windows!r}")
-        self.windows = int(windows)
-        self.margin = MarginPolicy(margin).margin
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        o = PlanOptions(*args, **kw)
+        self.windows = int(o.windows)
+        self.margin = o.margin
 
     def decide(self, ctx: PolicyInput) -> Decision:
         from rtsim.control.adjust import search_rollout

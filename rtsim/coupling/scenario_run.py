@@ -71,13 +71,15 @@ from rtsim._suggest import did_you_mean
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
+from rtsim.control.compiled import PaperSearch
 from rtsim.control.oracle import lap_oracle, start_speed
-from rtsim.control.policy import PolicyInput, adjust_options, policy_class
+from rtsim.control.policy import AdjustOptions, PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
 from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
 from rtsim.coupling.inputs import ScenarioInputs as ScenarioInputs
 from rtsim.coupling.inputs import _inputs as _inputs
+from rtsim.coupling.inputs import fitted_taskset
 from rtsim.coupling.inputs import resolved as resolved
 from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
@@ -111,10 +113,6 @@ __all__ = [
     "LAP_CAP_FACTOR",
 ]
 
-#: Where in its window the decision is taken (``[adjust] decide``): at the window job's end,
-#: after the radio round trip (the paper's chain: scan, Hough, estimate, send, receive,
-#: schedule), or at the start of the first send, so its speed leaves with the commands.
-DECIDE: tuple[str, ...] = ("end", "before-send")
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
 _NF = len(FOLLOWER_FIELDS)
@@ -188,7 +186,7 @@ class _Coupling:
     def __init__(
         self,
         inp: ScenarioInputs,
-        mode: str | None,
+        policy: str | None,
         seed: int,
         exec_model: ExecSpec,
         record_jobs: bool,
@@ -199,90 +197,31 @@ class _Coupling:
         job_sink: Any = None,
         trace_sink: Any = None,
     ) -> None:
-        cfg = inp.world
-        ts = inp.taskset
-        if ts.window is None:
-            raise InputError(
-                f"{inp.source or inp.name or 'scenario'}: the task set has no [window]"
-            )
-        # the world's n and r_H (the scenario's [sensing] r_H, its one home) size the window
-        if (ts.window.n, ts.window.r_H) != (cfg.n, cfg.thresholds.r_H):
-            ts = ts.with_window(n=cfg.n, r_H=cfg.thresholds.r_H)
-        self.ts = ts
-        self.cfg = cfg
+        where = inp.source or inp.name or "scenario"
+        cfg = self.cfg = inp.world
+        ts = self.ts = fitted_taskset(inp.taskset, cfg, where)
         self.thr = cfg.thresholds
-        opts = dict(inp.adjust)
+        # run_scenario(policy=) overrides the file's [adjust] policy
+        adj = adjust_options(inp.adjust, f"{inp.source or 'scenario'}: adjust", policy)
         # the window's lower bound (w_sch unless [adjust] lower_bound says otherwise; the
         # column and summary keep the name w_sch): the CPU below runs the set's scheduler
         # ([scheduler] policy, fp by default) with Δt idle
-        bound = opts.pop("lower_bound", "w_sch")
         self.w_sch = lower_bound(
-            ts,
-            bound,
-            scheduler=ts.scheduler,
-            suspension="idle",
-            where=f"{inp.source or inp.name or 'scenario'}: adjust",
+            ts, adj.lower_bound, scheduler=ts.scheduler, suspension="idle", where=f"{where}: adjust"
         )
         if not math.isfinite(self.w_sch):
-            raise InputError(f"{inp.source or inp.name or 'scenario'}: {bound} is infinite")
+            raise InputError(f"{where}: {adj.lower_bound} is infinite")
         self.infeasible_note = self._unrestorable()
-        cap = opts.get("cap")
-        if cap is not None and cap < self.w_sch:
+        if adj.cap is not None and adj.cap < self.w_sch:
             raise InputError(
-                f"{inp.source or inp.name or 'scenario'}: adjust.cap: {cap:g} ms is "
-                f"below w_sch = {self.w_sch:.6g} ms (the window could never reach "
-                f"the schedulability bound)"
+                f"{where}: adjust.cap: {adj.cap:g} ms is below w_sch = {self.w_sch:.6g} ms (the "
+                f"window could never reach the schedulability bound)"
             )
-        # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
-        # predictor is for its own policy, unless [adjust] paper_predictor = false
-        paper = bool(opts.pop("paper_predictor", True))
-        # run_scenario(policy=) overrides the file's [adjust] policy
-        self.policy, opts = adjust_options(opts, f"{inp.source or 'scenario'}: adjust", mode)
-        if paper and self.policy.name == "adjust":
-            opts["predictor"] = "paper"
-        if getattr(self.policy, "needs_path", False):  # the leader's known path commands
-            segs = cfg.path.segments
-            starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
-            self._path: tuple[tuple[float, ...], tuple[float, ...]] | None = (
-                tuple(float(x) for x in starts),
-                tuple(g.curvature for g in segs),
-            )
-            opts["accel_max"] = cfg.leader_accel_max
-            opts["decel_max"] = cfg.leader_decel_max
-        else:
-            self._path = None
-        self._noise = bool(getattr(self.policy, "needs_noise", False))
-        if self._noise:  # the followers' actuation noise (PolicyInput.speed_noise, turn_noise)
-            opts["speed_noise"] = cfg.follower.speed_noise
-            opts["turn_noise"] = cfg.follower.turn_noise
-        self.mode = str(self.policy.name)
-        # the command-aware rollout (PolicyInput.rollout): the predictor "commands", or a
-        # policy that asks for it
-        self._rollout = opts.get("predictor") == "commands" or bool(
-            getattr(self.policy, "needs_rollout", False)
-        )
-        if self._rollout:  # a policy on the rollout predicts with it
-            opts["predictor"] = "commands"
-        # when in the window the decision is taken: at the job's end (after the radio round
-        # trip, the paper's chain) or just before the first send (its speed leaves with the
-        # commands)
-        self.decide_at = str(opts.pop("decide", "end"))
-        if self.decide_at not in DECIDE:
-            raise InputError(
-                f"{inp.source or inp.name or 'scenario'}: adjust.decide: must be "
-                f"one of {', '.join(DECIDE)}, got {self.decide_at!r}"
-            )
-        cap_factor = opts.pop("cap_factor", None)
-        if cap_factor is not None and "cap" not in opts:
-            opts["cap"] = float(cap_factor) * self.w_sch
-        if "methods" in opts:
-            opts["methods"] = tuple(opts["methods"])
-        self.opts = opts
-        self.v_floor = float(opts.get("floor_frac", 0.0)) * cfg.leader_speed
+        self.v_ld = cfg.leader_speed
+        self.v_floor = adj.floor_frac * cfg.leader_speed
         if cfg.start_on == "straight" and cfg.start_speed is None:
             # settled: at the speed the bounds allow at the start (V_Ld unless less)
-            cfg = replace(cfg, start_speed=start_speed(cfg, self.w_sch))
-            self.cfg = cfg
+            cfg = self.cfg = replace(cfg, start_speed=start_speed(cfg, self.w_sch))
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
@@ -290,15 +229,7 @@ class _Coupling:
         # CPU's, so a run whose link draws nothing sees the same numbers as before it existed
         self.radio = cfg.radio
         self._radio_rng = np.random.default_rng(ss.spawn(1)[0]) if self.radio.varies else None
-        if (
-            self.world.backend == "compiled"
-            and type(opts.get("predictor")) is str
-            and opts["predictor"] == "paper"
-            and self.thr.localization == "radial"
-        ):
-            from rtsim.control.compiled import PaperSearch  # the same speeds, compiled
-
-            opts["predictor"] = PaperSearch()
+        self._take_policy(adj)
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
         self.phys = PhysicalLog(
@@ -309,7 +240,6 @@ class _Coupling:
             clearance=cfg.formation.clearance,
         )
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
-        self.v_ld = cfg.leader_speed
         self.env = simpy.Environment()
         self.cpu, _ = build_cpu(
             ts,
@@ -323,7 +253,79 @@ class _Coupling:
             job_sink=job_sink,
             trace_sink=trace_sink,
         )
-        win = ts.window
+        self._hook_window(where)
+        self._start_state(horizon_ms, stop_s, stop_ms)
+        self._record_limits()
+        # each follower's send, ms after its window's scan (measured in the last window; the
+        # chain's nominal offsets until then)
+        self._send_offsets = self._nominal_offsets(ts)
+        first = self._estimates(0.0)
+        self.dec = first._replace(
+            w=self.w_sch,
+            v_leader=self._v_actual(),  # V_Ld, or a settled start's speed
+            method="fixed",
+            feasible=first.msb_min >= self.w_sch,
+            known=first.known[:1],
+        )
+
+    def _take_policy(self, adj: AdjustOptions) -> None:
+        """The run's policy and the decision's fixed inputs (`PolicyInput` without the
+        followers and the leader's motion), from the validated ``[adjust]``."""
+        cfg = self.cfg
+        self.policy = adj.policy
+        self.mode = str(self.policy.name)
+        self.decide_at = adj.decide
+        predictor = adj.predictor
+        # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
+        # predictor is for its own policy, unless [adjust] paper_predictor = false
+        if adj.paper_predictor and self.policy.name == "adjust":
+            predictor = "paper"
+        # the command-aware rollout (PolicyInput.rollout): the predictor "commands", or a
+        # policy that asks for it (and then predicts with it)
+        self._rollout = predictor == "commands" or bool(
+            getattr(self.policy, "needs_rollout", False)
+        )
+        if self._rollout:
+            predictor = "commands"
+        if (
+            self.world.backend == "compiled"
+            and type(predictor) is str
+            and predictor == "paper"
+            and self.thr.localization == "radial"
+        ):
+            predictor = PaperSearch()  # the same speeds, compiled
+        self.predictor = predictor
+        fixed: dict[str, Any] = {}
+        self._path: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+        if getattr(self.policy, "needs_path", False):  # the leader's known path commands
+            segs = cfg.path.segments
+            starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
+            self._path = (tuple(float(x) for x in starts), tuple(g.curvature for g in segs))
+            fixed.update(accel_max=cfg.leader_accel_max, decel_max=cfg.leader_decel_max)
+        self._noise = bool(getattr(self.policy, "needs_noise", False))
+        if self._noise:  # the followers' actuation noise (PolicyInput.speed_noise, turn_noise)
+            fixed.update(speed_noise=cfg.follower.speed_noise, turn_noise=cfg.follower.turn_noise)
+        cap = adj.cap
+        if cap is None and adj.cap_factor is not None:
+            cap = float(adj.cap_factor) * self.w_sch
+        self._input = PolicyInput(
+            (),
+            v_ld=self.v_ld,
+            w_sch=self.w_sch,
+            thresholds=self.thr,
+            cap=cap,
+            floor_frac=adj.floor_frac,
+            floor_w=adj.floor_w,
+            predictor=predictor,
+            methods=adj.methods,
+            scan_points=adj.scan_points,
+            **fixed,
+        )
+
+    def _hook_window(self, where: str) -> None:
+        """The window chain's constants and the CPU hooks that drive the world."""
+        cfg, cpu = self.cfg, self.cpu
+        win = self.ts.window
         assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
@@ -333,7 +335,6 @@ class _Coupling:
         # ... and its localization step at most Eq 1's time (the hough model counts the cells
         # its accumulators cover: the Gauss circle count, a few cells off π·r_H² either way)
         self._hough_assumed = win.e_hough()
-        cpu = self.cpu
         cpu.on("release", self._on_release, task=win.name)
         cpu.on("segment_start", self._on_scan, task=win.name, role="scan")
         cpu.on("segment_end", self._on_send, task=win.name, role="send")
@@ -346,11 +347,13 @@ class _Coupling:
         if self.radio.min_ms is not None:
             if self.radio.min_ms > self._delta_t:
                 raise InputError(
-                    f"{inp.source or inp.name or 'scenario'}: radio.min_ms: "
-                    f"{self.radio.min_ms:g} ms is above the task set's delta_t "
-                    f"({self._delta_t:g} ms, the round trip's maximum)"
+                    f"{where}: radio.min_ms: {self.radio.min_ms:g} ms is above the task set's "
+                    f"delta_t ({self._delta_t:g} ms, the round trip's maximum)"
                 )
             cpu.set_exec_time(win.name, "radio", self._radio_exec)
+
+    def _start_state(self, horizon_ms: float, stop_s: float | None, stop_ms: float) -> None:
+        """The run's state before its first window: open records, the stop and the lap."""
         self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
         self._v_max = self._v_actual()  # highest leader speed since the last scan
         self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
@@ -364,9 +367,13 @@ class _Coupling:
         self.stop = self.env.event()
         # the leader's first lap: (time ms, distance cm) at the last window completion before
         # it, then the interpolated completion time (ms)
-        self._lap_cm = float(cfg.path.lap_length)
+        self._lap_cm = float(self.cfg.path.lap_length)
         self._lap_prev = (0.0, 0.0)
         self.lap_ms: float | None = None
+
+    def _record_limits(self) -> None:
+        """The four thresholds per follower (the violation ratios and the recorder's
+        ``_true`` columns)."""
         rho_d = np.asarray(self.rho_d)
         thr = self.thr
         self._limits = (
@@ -381,17 +388,6 @@ class _Coupling:
             tuple(
                 tuple(float(x) for x in np.broadcast_to(lim, self.n)) for _, _, lim in self._limits
             ),
-        )
-        # each follower's send, ms after its window's scan (measured in the last window; the
-        # chain's nominal offsets until then)
-        self._send_offsets = self._nominal_offsets(ts)
-        first = self._estimates(0.0)
-        self.dec = first._replace(
-            w=self.w_sch,
-            v_leader=self._v_actual(),  # V_Ld, or a settled start's speed
-            method="fixed",
-            feasible=first.msb_min >= self.w_sch,
-            known=first.known[:1],
         )
 
     def _unrestorable(self) -> str | None:
@@ -506,18 +502,7 @@ class _Coupling:
                 self.decide_at == "before-send" and now > 0,
                 estimates,
             )
-        adj = self.policy.decide(
-            PolicyInput(
-                fols,
-                v_ld=self.v_ld,
-                w_sch=self.w_sch,
-                thresholds=self.thr,
-                **kw,
-                **self.opts,
-                ahead=ahead,
-                **extra,
-            )
-        )
+        adj = self.policy.decide(replace(self._input, followers=fols, **kw, ahead=ahead, **extra))
         v_l = max(adj.v_leader, self.v_floor)
         if self._rollout:  # the _pred columns evaluate the same rollout
             kw = {**kw, "rollout": extra["rollout"]}
@@ -571,8 +556,7 @@ class _Coupling:
         for speed, rows in d.known:
             if speed == v:
                 return rows
-        pred = self.opts.get("predictor", "formation")
-        return predicted_rows(d.fols, v, thresholds=self.thr, predictor=pred, **d.kw)
+        return predicted_rows(d.fols, v, thresholds=self.thr, predictor=self.predictor, **d.kw)
 
     # -- the leader's speed, as the world has it ---------------------------------------
     # The only two places that read it: with leader dynamics (speed ramps toward a target)
@@ -988,7 +972,7 @@ def run_scenario(
         "n": run.n,
         "policy": run.mode,
         "lap_time_s": None if run.lap_ms is None else run.lap_ms / 1000.0,
-        "predictor": _name(run.opts.get("predictor", "formation")),
+        "predictor": _name(run.predictor),
         "formation_model": formation_model(cfg),
         "localization_model": cfg.localization.model,
         "leader_accel_max": cfg.leader_accel_max,

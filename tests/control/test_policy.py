@@ -166,8 +166,7 @@ def _file(tmp_path: Path, extra: str, name: str = "t1.toml") -> Path:
         ),
         (
             'policy = "margin"\nmargin = 1.5',
-            r"^.*/bad\.toml: adjust\.margin: 1\.5 is outside "
-            r"\[0, 1\)",
+            r"^.*/bad\.toml: adjust\.margin: must be in \[0, 1\), got 1\.5$",
         ),
     ],
 )

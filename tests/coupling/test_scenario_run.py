@@ -333,7 +333,7 @@ def test_recorder_drops_incomplete_windows() -> None:
 
 
 def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match="mode: must be one of"):
+    with pytest.raises(InputError, match="policy: must be one of"):
         run_scenario(TEST2, policy="fastest")
     with pytest.raises(InputError, match="duration must be a positive"):
         run_scenario(TEST2, duration_s=-1)
