@@ -12,6 +12,8 @@ from typing import Annotated, Any
 from pydantic import BaseModel
 
 from rtsim.config.fields import Leaf
+from rtsim.config.scenario import ScenarioFile
+from rtsim.config.taskset import TaskSetFile
 from rtsim.control.policy import ADJUSTMENT_POLICIES, OptionRange
 from rtsim.io.limits import REGISTRY, Range
 
@@ -50,9 +52,6 @@ def _walk(model: type[BaseModel], prefix: str, out: dict[str, Range]) -> None:
 def ranges() -> dict[str, Range]:
     """Every numeric key of the input files with its range: ``taskset: tasks.wcet``,
     ``scenario: leader.speed`` (entries of an array without an index), sorted."""
-    from rtsim.config.scenario import ScenarioFile
-    from rtsim.config.taskset import TaskSetFile
-
     out: dict[str, Range] = {}
     for kind, model in (("taskset", TaskSetFile), ("scenario", ScenarioFile)):
         found: dict[str, Range] = {}

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 from functools import partial
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, ClassVar, Literal, TypeVar
+from typing import Annotated, Any, ClassVar, Literal, NamedTuple, TypeVar
 
 from pydantic import ConfigDict, Field, model_validator
 
@@ -27,16 +27,21 @@ from rtsim.analysis.kinematics import (
     LOCALIZATION_KINDS,
     R_H_DEFAULT,
     Thresholds,
-    msb_localization_predicted,
 )
+from rtsim.config.errors import raise_errors
 from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
 from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
 from rtsim.control.policy import DECIDE, make_policy
 from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError
+from rtsim.examples import shipped_hint
+from rtsim.io.limits import read_input
 from rtsim.model.taskset import TaskSet
+from rtsim.registry import file_allows_code, reading_input
+from rtsim.sim.policy import SCHEDULERS
 from rtsim.world.config import (
     CENTRES,
+    DEFAULT_THRESHOLDS,
     SEARCHES,
     WORLD_BACKENDS,
     LocalizationParams,
@@ -56,7 +61,7 @@ from rtsim.world.formation import (
     outer_side,
 )
 from rtsim.world.ideal import START_ON, check_clearance, settled_start
-from rtsim.world.locmodels import LOCALIZATION_MODELS, localization_model
+from rtsim.world.locmodels import LOCALIZATION_MODELS, predicted_bound_ms
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
 __all__ = [
@@ -143,9 +148,8 @@ class Scenario:
     task_set: TaskSet | None = field(default=None, compare=False, repr=False)
     #: the file may name code (``module:Name``), also in its task set (the user opted in)
     allow_code: bool = field(default=False, compare=False)
-    #: the adjustment policy, made once from ``adjust`` (its own keys checked) when the
-    #: scenario was built; None for a scenario made by hand (the run makes it)
-    policy: Any = field(default=None, compare=False, repr=False)
+    #: (the ``adjust`` table, the policy made from it once when the scenario was built)
+    made: tuple[Any, Any] | None = field(default=None, compare=False, repr=False)
 
     @property
     def n(self) -> int:
@@ -162,6 +166,14 @@ class Scenario:
             else _read_taskset(self.taskset, where, self.allow_code)
         )
         return fit_taskset(ts, self.world, self.scheduler)
+
+    def policy(self) -> Any:
+        """The ``[adjust]`` policy: the one made when the scenario was built, or (``adjust``
+        replaced since, or a scenario made by hand) made now from ``adjust``."""
+        if self.made is not None and self.made[0] is self.adjust:
+            return self.made[1]
+        adj = self.adjust
+        return make_policy(adj.policy, adj.params, "adjust", tuple(AdjustConfig.model_fields))
 
 
 def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> TaskSet:
@@ -567,8 +579,6 @@ def parse_scenario(
     model``, ``[scheduler] policy``, the task set's) is code: it loads only with
     ``allow_code=True`` or the user's opt-in (`rtsim.registry.reading_input`).
     """
-    from rtsim.registry import file_allows_code, reading_input
-
     allow = file_allows_code(allow_code)
     with reading_input(allow):
         scenario = _parse_scenario(data, source, base)
@@ -576,8 +586,6 @@ def parse_scenario(
 
 
 def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> Scenario:
-    from rtsim.config.errors import raise_errors
-
     if (
         isinstance(data, Mapping)
         and isinstance(data.get("adjust"), Mapping)
@@ -677,10 +685,17 @@ def _formation(f: FormationTable, r_F: float, path: LeaderPath) -> Formation:
     return replace(place(f.followers, f.separation, offset, r_F=r_F), clearance=f.clearance)
 
 
-def _build_scenario(
-    m: ScenarioFile, src: str, base: Path | None, errors: list[str]
-) -> Scenario | None:
-    speed = float(m.leader.speed)
+class _Parts(NamedTuple):
+    """The world's parts a scenario file describes (None: that part has an error)."""
+
+    path: LeaderPath | None
+    follower: FollowerParams | None
+    formation: Formation | None
+    sensing: SensingParams | None
+    ekf: EkfParams | None
+
+
+def _parts(m: ScenarioFile, src: str, errors: list[str]) -> _Parts:
     path = _attempt(errors, "", lambda: _path(src, m.leader))
     follower = _attempt(
         errors,
@@ -688,13 +703,9 @@ def _build_scenario(
         lambda: FollowerParams(**m.follower.given(tuple(FollowerParams.__dataclass_fields__))),
     )
     formation = None
-    if follower is not None:
+    if follower is not None and path is not None:
         r_F = follower.radius
-        formation = (
-            None
-            if path is None
-            else _attempt(errors, src, lambda: _formation(m.formation, r_F, path))
-        )
+        formation = _attempt(errors, src, lambda: _formation(m.formation, r_F, path))
     sensing = _attempt(
         errors,
         src,
@@ -709,50 +720,47 @@ def _build_scenario(
     ekf = _attempt(
         errors, src, lambda: EkfParams(**m.ekf.given(tuple(EkfParams.__dataclass_fields__)))
     )
+    return _Parts(path, follower, formation, sensing, ekf)
+
+
+def _thresholds(m: ScenarioFile, src: str, parts: _Parts, errors: list[str]) -> Thresholds:
+    """The bounds' thresholds, with the run's one r_H (``[sensing] r_H``) and the decision's
+    localization bound: by default the one that matches the window's centre (Eq 19 for the
+    previous position, the residual bound for the predicted one,
+    `rtsim.world.locmodels.predicted_bound_ms`)."""
     th = m.thresholds
-    # the decision's localization bound: by default the one that matches the window's
-    # centre (Eq 19 for the previous position, the residual bound for the predicted one)
     centre = m.localization.centre
     loc = th.localization or ("predicted" if centre == "predicted" else "radial")
-    predicted_ms = math.inf
+    predicted_ms: float | None = math.inf
     r_H = float(m.sensing.r_H)
-    if (
-        loc == "predicted"
-        and follower is not None
-        and sensing is not None
-        and ekf is not None
-        and formation is not None
-    ):
-        fix_sd = _attempt(
+    follower, formation, sensing, ekf = parts.follower, parts.formation, parts.sensing, parts.ekf
+    if loc == "predicted" and None not in (follower, sensing, ekf, formation):
+        assert follower and sensing and ekf and formation  # (for the type checker)
+        rho_max = max(formation.rho_d, default=0.0)
+        predicted_ms = _attempt(
             errors,
-            "",
-            lambda: localization_model(m.localization.model).fix_sd(
-                sensing, max(formation.rho_d, default=0.0)
-            ),
+            src,
+            lambda: predicted_bound_ms(m.localization.model, r_H, sensing, follower, ekf, rho_max),
         )
-        bound = (
-            None
-            if fix_sd is None
-            else _attempt(errors, "", lambda: _predicted_bound(src, r_H, follower, fix_sd, ekf))
-        )
-        predicted_ms = math.inf if bound is None else bound
     if loc == "predicted" and centre != "predicted":
         errors.append(
             f"{src}: thresholds.localization: 'predicted' bounds what a predicted "
             f"window centre leaves; set [localization] centre = 'predicted' (it is "
             f"{centre!r})"
         )
-    thresholds = Thresholds(
+    return Thresholds(
         r_H=r_H,
         T_rho=th.T_rho,
         T_eps=th.T_eps,
-        T_beta=th.radians("T_beta", math.radians(5.0)),
+        T_beta=th.radians("T_beta", DEFAULT_THRESHOLDS.T_beta),
         localization=loc,  # type: ignore[arg-type]
-        predicted_ms=predicted_ms,
+        predicted_ms=math.inf if predicted_ms is None else predicted_ms,
     )
-    localization = LocalizationParams(
-        centre=m.localization.centre, search=m.localization.search, model=m.localization.model
-    )
+
+
+def _policy(m: ScenarioFile, src: str, errors: list[str]) -> Any:
+    """The ``[adjust]`` policy, made once with its own keys, and the checks of ``[adjust]``
+    against the scheduler and the leader's speed."""
     adjust = m.adjust
     common = tuple(AdjustConfig.model_fields)
     policy = _attempt(
@@ -760,52 +768,55 @@ def _build_scenario(
     )
     scheduler = m.scheduler.policy if m.scheduler is not None else None
     if scheduler is not None:
-        from rtsim.sim.policy import SCHEDULERS
-
         sched = None
         try:
             sched = SCHEDULERS.resolve(scheduler, f"{src}: scheduler.policy")
         except InputError as exc:
             errors.append(str(exc))
         # the scheduler's registry entry names the lower bounds that hold under it
-        if (
-            sched is not None
-            and sched.lower_bounds
-            and adjust.lower_bound not in sched.lower_bounds
-        ):
-            need = [n for n, c in SCHEDULERS.items() if adjust.lower_bound in c.lower_bounds]
+        bound = adjust.lower_bound
+        if sched is not None and sched.lower_bounds and bound not in sched.lower_bounds:
+            need = [n for n, c in SCHEDULERS.items() if bound in c.lower_bounds]
             errors.append(
-                f"{src}: adjust.lower_bound: {adjust.lower_bound} assumes the "
-                f"{' or '.join(need)} scheduler, but [scheduler] policy is "
-                f"{scheduler!r}"
+                f"{src}: adjust.lower_bound: {bound} assumes the {' or '.join(need)} "
+                f"scheduler, but [scheduler] policy is {scheduler!r}"
             )
+    speed = float(m.leader.speed)
     if adjust.floor > speed:
         errors.append(
             f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the desired speed {speed:g} cm/s"
         )
-    taskset = m.taskset
-    if taskset not in PACKAGED_TASKSETS:
-        p = Path(taskset)
-        if not p.is_absolute() and base is not None:
-            p = base / p
-        if not p.is_file():
-            errors.append(f"{src}: taskset: file not found: {p}")
-        taskset = str(p)
-    if (
-        path is None
-        or formation is None
-        or follower is None
-        or sensing is None
-        or ekf is None
-        or policy is None
-    ):
+    return policy
+
+
+def _taskset_path(name: str, src: str, base: Path | None, errors: list[str]) -> str:
+    """A packaged task set's name, or the path of the file ``name`` (relative to ``base``)."""
+    if name in PACKAGED_TASKSETS:
+        return name
+    p = Path(name)
+    if not p.is_absolute() and base is not None:
+        p = base / p
+    if not p.is_file():
+        errors.append(f"{src}: taskset: file not found: {p}")
+    return str(p)
+
+
+def _world(
+    m: ScenarioFile, src: str, parts: _Parts, thresholds: Thresholds, errors: list[str]
+) -> WorldConfig | None:
+    """The world, of its parts and thresholds."""
+    path, follower, formation, sensing, ekf = parts
+    if path is None or formation is None or follower is None or sensing is None or ekf is None:
         return None
+    localization = LocalizationParams(
+        centre=m.localization.centre, search=m.localization.search, model=m.localization.model
+    )
     world = _attempt(
         errors,
         src,
         lambda: WorldConfig(
             path,
-            speed,
+            float(m.leader.speed),
             formation,
             follower,
             sensing,
@@ -820,6 +831,19 @@ def _build_scenario(
             radio=RadioParams(min_ms=m.radio.min_ms, loss=m.radio.loss),
         ),
     )
+    return world
+
+
+def _build_scenario(
+    m: ScenarioFile, src: str, base: Path | None, errors: list[str]
+) -> Scenario | None:
+    parts = _parts(m, src, errors)
+    thresholds = _thresholds(m, src, parts, errors)
+    policy = _policy(m, src, errors)
+    taskset = _taskset_path(m.taskset, src, base, errors)
+    if policy is None:
+        return None
+    world = _world(m, src, parts, thresholds, errors)
     if world is None:
         return None
     errors += _sense(world, src)
@@ -829,51 +853,25 @@ def _build_scenario(
             world = replace(
                 world, start_s=_start(world, m.leader.start_on), start_on=m.leader.start_on
             )
-    # a duration given anywhere replaces ``until``; neither given: to the end of the lap
-    duration = float(m.duration) if m.duration is not None else 0.0
-    until = None if m.duration is not None else (m.until or "lap")
     if errors:
         return None
     task_set = _attempt(errors, "", lambda: _read_taskset(taskset, src))
     if task_set is None:
         return None
+    # a duration given anywhere replaces ``until``; neither given: to the end of the lap
     return Scenario(
         name=m.name if m.name is not None else Path(src).stem,
         world=world,
         taskset=taskset,
-        duration=duration,
-        until=until,
+        duration=float(m.duration) if m.duration is not None else 0.0,
+        until=None if m.duration is not None else (m.until or "lap"),
         description=m.description,
-        adjust=adjust,
+        adjust=m.adjust,
         assumptions=dict(m.assumptions),
         source=src,
-        scheduler=scheduler,
+        scheduler=m.scheduler.policy if m.scheduler is not None else None,
         task_set=task_set,
-        policy=policy,
-    )
-
-
-def _predicted_bound(
-    src: str, r_H: float, follower: FollowerParams, fix_sd: float, ekf: EkfParams
-) -> float:
-    """The decision's localization bound for a window centred at the predicted position
-    (`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
-    the fix noise ``fix_sd`` (the localization model's σ_fix at the formation's farthest
-    desired range, `rtsim.world.locmodels.LocalizationModel.fix_sd`), the EKF's initial
-    heading error, the actuation noise, at the followers'
-    top speed, 3 standard deviations; the leader knows its own motion (no error)."""
-    if not math.isfinite(follower.max_speed):
-        raise ScenarioError(
-            f"{src}: thresholds.localization: 'predicted' needs a finite "
-            f"follower.max_speed (the bound carries the heading error at it)"
-        )
-    return msb_localization_predicted(
-        r_H,
-        fix_sd=fix_sd,
-        heading_sd=ekf.init_heading_sd,
-        speed_sd=follower.speed_noise,
-        turn_sd=follower.turn_noise,
-        v_max=follower.max_speed,
+        made=(m.adjust, policy),
     )
 
 
@@ -928,9 +926,6 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
     tests, shipped with rtsim as copies of ``experiments/scenarios/``) when no such file
     exists.
     """
-    from rtsim.examples import shipped_hint
-    from rtsim.io.limits import read_input
-
     p = Path(path)
     if not p.exists() and str(path) in PACKAGED_SCENARIOS:
         res = resources.files("rtsim") / "data" / "scenarios" / f"{path}.toml"

@@ -28,10 +28,13 @@ named in a file loads only when the user allows it, `rtsim.registry`); ``rtsim s
   w = max(w_sch, (1 − μ)·min MSB) (capped), and in overload the largest speed at which every
   bound is ≥ w_sch / (1 − μ), i.e. (1 − μ)·bound ≥ w_sch.
 
-A policy's own keys in ``[adjust]`` are its class's `Policy.params` (name → default);
-its constructor receives them as keyword arguments and validates them (an
-`InputError` whose message starts with the key). Every ``[adjust]`` key
-is validated in one place, `adjust_options`.
+A policy's own keys in ``[adjust]`` are declared once, in its options model (``options``, a
+`PolicyOptions` dataclass of `option` fields: each key's one default and one range); its
+``params`` (name → default) are derived from it, and its constructor takes them as keyword
+arguments (a user's class may give ``params`` and check its keys itself, an `InputError`
+whose message starts with the key). The policy is made once: when a scenario is read, or by
+`adjust_options` for an ``[adjust]`` mapping made by hand (`AdjustOptions`, the run's
+validated ``[adjust]``).
 """
 
 from __future__ import annotations
@@ -59,6 +62,7 @@ from rtsim.control.adjust import (
     bound_rows_at,
     largest,
     make_predictor,
+    search_rollout,
 )
 from rtsim.control.predict import (
     FollowerEstimate,
@@ -894,8 +898,6 @@ class PlanPolicy:
         self.margin = o.margin
 
     def decide(self, ctx: PolicyInput) -> Decision:
-        from rtsim.control.adjust import search_rollout
-
         cap = _check(ctx, "plan")
         ro = ctx.rollout
         if ro is None:

@@ -6,12 +6,14 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, is_dataclass
 from typing import Any
 
-from rtsim.config.scenario import AdjustConfig, fit_taskset
-from rtsim.control.policy import AdjustOptions, make_policy
+from rtsim.config.scenario import AdjustConfig, fit_taskset, load_scenario, scenario_bytes
+from rtsim.control.policy import AdjustOptions
 from rtsim.errors import InputError
+from rtsim.io.atomic import inf_as_null
+from rtsim.io.taskset import taskset_to_dict
 from rtsim.model.taskset import TaskSet
 from rtsim.world.config import WorldConfig
 
@@ -67,8 +69,6 @@ def scenario_inputs(
     if isinstance(scenario, ScenarioInputs):
         return scenario
     if isinstance(scenario, str | os.PathLike):
-        from rtsim.io.scenario import load_scenario, scenario_bytes
-
         path = scenario
         # a file, or a packaged scenario by name ("test2")
         scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
@@ -81,7 +81,7 @@ def scenario_inputs(
         raise InputError(f"not a scenario: {type(scenario).__name__}") from None
     cfg = getattr(scenario, "adjust", None)
     adjust: Mapping[str, Any] = (
-        adjust_of(cfg, world.leader_speed, getattr(scenario, "policy", None))
+        adjust_of(cfg, world.leader_speed, scenario.policy())
         if isinstance(cfg, AdjustConfig)
         else dict(cfg or {})
     )
@@ -101,11 +101,9 @@ def scenario_inputs(
 _inputs = scenario_inputs
 
 
-def adjust_of(cfg: AdjustConfig, v_ld: float, policy: Any = None) -> AdjustOptions:
-    """A scenario's ``[adjust]`` as the run's options, with ``policy`` the instance made when
-    the scenario was built (None: made here, for a scenario made by hand)."""
-    if policy is None:
-        policy = make_policy(cfg.policy, cfg.params, "adjust", tuple(AdjustConfig.model_fields))
+def adjust_of(cfg: AdjustConfig, v_ld: float, policy: Any) -> AdjustOptions:
+    """A scenario's ``[adjust]`` as the run's options, with ``policy`` the instance made from
+    it (`rtsim.config.scenario.Scenario.policy`)."""
     return AdjustOptions(
         policy,
         cap=float(cfg.cap) if math.isfinite(cfg.cap) else None,
@@ -141,9 +139,6 @@ def r_h_record(scenario: Any, ts: TaskSet) -> dict[str, Any]:
 def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
     """The scenario's resolved values as plain JSON data (for the manifest); a limit that is
     not set (``inf``: follower.max_turn_rate, sensing.max_range, adjust.cap) is null."""
-    from dataclasses import asdict, is_dataclass
-
-    from rtsim.io.taskset import taskset_to_dict
 
     cfg: WorldConfig = scenario.world
 
@@ -182,8 +177,6 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),
         "taskset": taskset_to_dict(ts),
     }
-    from rtsim.io.atomic import inf_as_null
-
     return inf_as_null(out)
 
 

@@ -94,12 +94,16 @@ from rtsim.coupling.summary import _name as _name
 from rtsim.coupling.summary import formation_model as formation_model
 from rtsim.coupling.summary import summarize as summarize
 from rtsim.coupling.summary import summary_columns as summary_columns
+from rtsim.coupling.tidy import followers_frame
 from rtsim.errors import InputError
+from rtsim.io.limits import check
+from rtsim.io.work import check_coupled, check_seed
 from rtsim.model.task import Segment
 from rtsim.model.taskset import TaskSet
 from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
+from rtsim.sim.progress import TICKS, start_ticker
 from rtsim.sim.run import build_cpu
 from rtsim.world.localization import hough_time, search_time
 from rtsim.world.world import World
@@ -160,8 +164,6 @@ class ScenarioResult(ResultDisplay):
         """``windows`` in long form, one row per window and follower (position, estimate,
         fix error, each bound ``_pred``/``_true``, violations, lost: `rtsim.coupling.tidy`;
         ``followers.csv``); None when the windows were streamed to a sink."""
-        from rtsim.coupling.tidy import followers_frame
-
         return None if self.windows is None else followers_frame(self.windows)
 
 
@@ -198,7 +200,7 @@ class _Coupling:
         trace_sink: Any = None,
     ) -> None:
         where = inp.source or inp.name or "scenario"
-        cfg = self.cfg = inp.world
+        cfg = self.cfg = self._given = inp.world
         ts = self.ts = fitted_taskset(inp.taskset, cfg, where)
         self.thr = cfg.thresholds
         # run_scenario(policy=) overrides the file's [adjust] policy
@@ -765,13 +767,51 @@ class _Coupling:
         t0, d0 = self._lap_prev
         self.lap_ms = t0 + (now - t0) * (self._lap_cm - d0) / (d - d0) if d > d0 else now
 
+    def summary_extra(self, res: Any, horizon_ms: float, stop_s: float | None) -> dict[str, Any]:
+        """summary.json's keys beyond the windows' (`summarize`): the lap, the policy and
+        models, the violation ratios, the oracle's lap and the physical log; ``res``: the
+        CPU's result."""
+        cfg, world = self._given, self.world  # (the scenario's world, before a settled start)
+        extra: dict[str, Any] = {
+            "laps": (world.leader.s - self._s0) / cfg.path.lap_length,
+            "max_backlog": int(res.tasks[self.wname].max_backlog),
+            "v_leader_desired": self.v_ld,
+            "n": self.n,
+            "policy": self.mode,
+            "lap_time_s": None if self.lap_ms is None else self.lap_ms / 1000.0,
+            "predictor": _name(self.predictor),
+            "formation_model": formation_model(cfg),
+            "localization_model": cfg.localization.model,
+            "leader_accel_max": cfg.leader_accel_max,
+            "leader_decel_max": cfg.leader_decel_max,
+            "leader_start_speed": self.cfg.start_speed or cfg.leader_speed,
+        }
+        if self.infeasible_note is not None:
+            extra["infeasible_note"] = self.infeasible_note
+        if self.lap_ms is None:  # why there is no lap time
+            extra["lap_time_note"] = (
+                f"the leader did not complete its lap within the cap of "
+                f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
+                if stop_s is not None
+                else f"the run's duration ({horizon_ms / 1000.0:g} s) ended before the leader "
+                f"completed its lap"
+            )
+        extra["max_violation_ratio"], extra["violations_beyond_5pct"] = self.violation_ratios()
+        # the fastest lap that keeps every bound, offline (rtsim.control.oracle; cached)
+        oracle = lap_oracle(cfg, self.w_sch)
+        extra["lap_oracle_s"] = oracle
+        extra["lap_over_oracle"] = (
+            None if oracle is None or self.lap_ms is None else self.lap_ms / 1000.0 / oracle
+        )
+        world.followers.advance_all(world.t_ms, cfg.step_ms)
+        extra.update(self.phys.summary(world.leader.s - self._s0, list(world.followers.odometer)))
+        return extra
+
     # -- running ---------------------------------------------------------------------
     def watch(self, progress: Any) -> None:
         """Report progress (`rtsim.sim.progress.start_ticker`): the share of the
         duration; for a run to the end of the lap, the smaller of the shares of the lap
         driven and of the scenario's duration, ticking at every percent of a lap at V_Ld."""
-        from rtsim.sim.progress import TICKS, start_ticker
-
         if self._stop_s is None:
             horizon = self.horizon_ms
             start_ticker(self.env, horizon / TICKS, lambda now: now / horizon, progress)
@@ -907,28 +947,9 @@ def run_scenario(
         policy_class(policy, "policy")
     if not is_int(seed) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
-    from rtsim.io.work import check_coupled, check_seed
-
     check_seed(seed, "run_scenario: seed")
     inp = scenario_inputs(scenario, text, overrides, allow_code)
-    cfg = inp.world
-    if duration_s is not None:
-        if not is_real(duration_s) or not (0 < duration_s < math.inf):
-            raise InputError(f"duration must be a positive number of seconds, got {duration_s!r}")
-        from rtsim.io.limits import check
-
-        check("option: --duration", duration_s, "run_scenario: duration_s")
-    length = run_length(cfg, duration_s, inp.duration_s)
-    horizon_ms, stop_s, stop_ms = length.horizon_ms, length.stop_s, length.stop_ms
-    win = inp.taskset.window
-    check_coupled(
-        horizon_ms,
-        win.g() if win is not None else 0.0,
-        cfg.step_ms,
-        cfg.n,
-        f"run_scenario: duration {horizon_ms / 1000.0:g} s",
-        force=force,
-    )
+    horizon_ms, stop_s, stop_ms = _length(inp, duration_s, force)
     run = _Coupling(
         inp,
         policy,
@@ -953,51 +974,8 @@ def run_scenario(
     if progress is not None:
         progress(1.0, float(run.env.now))
     t2, c2 = time.perf_counter(), time.process_time()
-    table: Any
-    if window_sink is None:
-        table = records_columns([r for r in run.rec.records if r.complete], run.n, run.rec.limits)
-        df = pd.DataFrame(table, columns=list(table)) if windows else None
-    else:
-        run.rec.flush()
-        window_sink.close()
-        # the summary reads the columns back in chunks: memory stays flat at any length
-        # and follower count
-        df, table = None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS)
+    df, table = _tables(run, window_sink, windows)
     res = run.cpu.result()
-    world = run.world
-    extra = {
-        "laps": (world.leader.s - run._s0) / cfg.path.lap_length,
-        "max_backlog": int(res.tasks[run.wname].max_backlog),
-        "v_leader_desired": run.v_ld,
-        "n": run.n,
-        "policy": run.mode,
-        "lap_time_s": None if run.lap_ms is None else run.lap_ms / 1000.0,
-        "predictor": _name(run.predictor),
-        "formation_model": formation_model(cfg),
-        "localization_model": cfg.localization.model,
-        "leader_accel_max": cfg.leader_accel_max,
-        "leader_decel_max": cfg.leader_decel_max,
-        "leader_start_speed": run.cfg.start_speed or cfg.leader_speed,
-    }
-    if run.infeasible_note is not None:
-        extra["infeasible_note"] = run.infeasible_note
-    if run.lap_ms is None:  # why there is no lap time
-        extra["lap_time_note"] = (
-            f"the leader did not complete its lap within the cap of "
-            f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
-            if stop_s is not None
-            else f"the run's duration ({horizon_ms / 1000.0:g} s) ended before the leader "
-            f"completed its lap"
-        )
-    extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
-    # the fastest lap that keeps every bound, offline (rtsim.control.oracle; cached)
-    oracle = lap_oracle(cfg, run.w_sch)
-    extra["lap_oracle_s"] = oracle
-    extra["lap_over_oracle"] = (
-        None if oracle is None or run.lap_ms is None else run.lap_ms / 1000.0 / oracle
-    )
-    world.followers.advance_all(world.t_ms, cfg.step_ms)
-    extra.update(run.phys.summary(world.leader.s - run._s0, list(world.followers.odometer)))
     summary = summarize(
         table,
         mode=run.mode,
@@ -1006,7 +984,7 @@ def run_scenario(
         seed=int(seed),
         scenario=inp.name,
         n=run.n,
-        extra=extra,
+        extra=run.summary_extra(res, horizon_ms, stop_s),
     )
     t3 = time.perf_counter()
     timing = {
@@ -1018,3 +996,38 @@ def run_scenario(
     return ScenarioResult(
         df if window_sink is None else None, res.jobs, summary, timing, inp, res.trace
     )
+
+
+def _length(
+    inp: ScenarioInputs, duration_s: float | None, force: bool
+) -> tuple[float, float | None, float]:
+    """The run's (horizon ms, stop arc length cm or None, earliest stop ms) for
+    ``duration_s`` (`rtsim.coupling.duration.run_length`), within the work limits."""
+    cfg = inp.world
+    if duration_s is not None:
+        if not is_real(duration_s) or not (0 < duration_s < math.inf):
+            raise InputError(f"duration must be a positive number of seconds, got {duration_s!r}")
+        check("option: --duration", duration_s, "run_scenario: duration_s")
+    length = run_length(cfg, duration_s, inp.duration_s)
+    win = inp.taskset.window
+    check_coupled(
+        length.horizon_ms,
+        win.g() if win is not None else 0.0,
+        cfg.step_ms,
+        cfg.n,
+        f"run_scenario: duration {length.horizon_ms / 1000.0:g} s",
+        force=force,
+    )
+    return length.horizon_ms, length.stop_s, length.stop_ms
+
+
+def _tables(run: _Coupling, window_sink: Any, windows: bool) -> tuple[pd.DataFrame | None, Any]:
+    """The windows' frame (None: streamed or not asked for) and the columns the summary
+    reads (in memory, or read back from the sink in chunks: memory stays flat at any
+    length and follower count)."""
+    if window_sink is None:
+        table = records_columns([r for r in run.rec.records if r.complete], run.n, run.rec.limits)
+        return (pd.DataFrame(table, columns=list(table)) if windows else None), table
+    run.rec.flush()
+    window_sink.close()
+    return None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS)

@@ -5,10 +5,16 @@ the manifest records which value the run used and that it replaced the set's."""
 from __future__ import annotations
 
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 
+import pytest
+
 from rtsim.analysis.kinematics import R_H_DEFAULT
+from rtsim.config.scenario import AdjustConfig
+from rtsim.control.policy import AdjustOptions
 from rtsim.coupling import ScenarioInputs, run_scenario, scenario_inputs
+from rtsim.errors import InputError
 from rtsim.io.scenario import load_scenario, parse_scenario, scenario_bytes
 from rtsim.world.config import DEFAULT_THRESHOLDS
 
@@ -51,3 +57,27 @@ def test_one_default_r_h() -> None:
     sc = parse_scenario(data, str(path), SCEN)
     assert sc.world.thresholds.r_H == R_H_DEFAULT == DEFAULT_THRESHOLDS.r_H == 25.0
     assert sc.load_taskset().window.r_H == R_H_DEFAULT  # type: ignore[union-attr]
+
+
+def test_adjust_is_validated_once_and_typed() -> None:
+    """The scenario's [adjust] policy is made once, when the file is read; the run's inputs
+    carry it typed (no dict of keys for the coupling to pop), and a scenario whose
+    ``adjust`` was replaced since makes the new one."""
+    sc = load_scenario("test2", overrides={"adjust.policy": "margin", "adjust.margin": 0.25})
+    inp = scenario_inputs(sc)
+    assert isinstance(inp.adjust, AdjustOptions)
+    assert inp.adjust.policy is sc.policy()  # the instance made when the file was read
+    assert type(inp.adjust.policy).__name__ == "MarginPolicy" and inp.adjust.policy.margin == 0.25
+    assert dict(inp.adjust)["margin"] == 0.25 and inp.adjust["policy"] == "margin"
+    other = replace(sc, adjust=sc.adjust.model_copy(update={"policy": "plan"}))
+    assert other.policy().name == "plan" and other.policy() is not sc.policy()
+
+
+def test_policies_declare_their_options_once() -> None:
+    from rtsim.control.policy import ADJUSTMENT_POLICIES, MarginPolicy, PlanPolicy
+
+    assert ADJUSTMENT_POLICIES["safe"].params == {"margin": 0.1, "z": 1.0, "windows": 2.0}
+    assert PlanPolicy().windows == 2 and MarginPolicy().margin == 0.1
+    assert "margin" not in AdjustConfig.model_fields  # no policy key in the scenario model
+    with pytest.raises(InputError, match=r"^windows: must be an integer in \[1, 20\], got 2\.5$"):
+        PlanPolicy(windows=2.5)
