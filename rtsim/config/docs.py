@@ -14,7 +14,7 @@ from pydantic import BaseModel
 from rtsim.config.fields import Leaf
 from rtsim.config.scenario import ScenarioFile
 from rtsim.config.taskset import TaskSetFile
-from rtsim.control.policy import ADJUSTMENT_POLICIES, OptionRange
+from rtsim.control.policy import ADJUSTMENT_POLICIES
 from rtsim.io.limits import REGISTRY, Range
 
 __all__ = ["ranges", "render_markdown"]
@@ -65,7 +65,7 @@ def ranges() -> dict[str, Range]:
 def _policy_options() -> dict[str, Range]:
     """The registered policies' own ``[adjust]`` keys (their options models,
     `rtsim.control.policy.PolicyOptions`): one row per key and range, naming the policies."""
-    found: dict[tuple[str, OptionRange], list[str]] = {}
+    found: dict[tuple[str, Range], list[str]] = {}
     for name, cls in ADJUSTMENT_POLICIES.items():
         model = getattr(cls, "options", None)
         for f in fields(model) if model is not None else ():
@@ -75,7 +75,7 @@ def _policy_options() -> dict[str, Range]:
         many = sum(1 for k, _ in found if k == key) > 1
         label = f"scenario: adjust.{key}" + (f" ({', '.join(names)})" if many else "")
         why = f"{r.why} (polic{'ies' if len(names) > 1 else 'y'} {', '.join(names)})"
-        out[label] = Range(label, r.lo, r.hi, r.unit, why, r.lo_open, r.hi_open, integer=r.integer)
+        out[label] = replace(r, key=label, why=why)
     return dict(sorted(out.items()))
 
 

@@ -72,6 +72,7 @@ from rtsim.control.predict import (
     min_bound_rows,
 )
 from rtsim.errors import InputError
+from rtsim.io.limits import Range
 from rtsim.registry import Registry
 
 __all__ = [
@@ -79,7 +80,6 @@ __all__ = [
     "AdjustOptions",
     "COMMON_KEYS",
     "DECIDE",
-    "OptionRange",
     "PolicyOptions",
     "option",
     "Decision",
@@ -177,80 +177,54 @@ class Policy(Protocol):
     def decide(self, ctx: PolicyInput) -> Decision: ...
 
 
-@dataclass(frozen=True)
-class OptionRange:
-    """The accepted values of a policy's option: ``lo`` to ``hi`` in ``unit``, each end open
-    or closed, ``integer`` for a count; ``why`` says what it is (docs/input_ranges.md)."""
-
-    lo: float
-    hi: float
-    unit: str
-    why: str
-    lo_open: bool = False
-    hi_open: bool = False
-    integer: bool = False
-
-    def text(self) -> str:
-        """``[0, 1)``."""
-        lo, hi = "(" if self.lo_open else "[", ")" if self.hi_open else "]"
-        return f"{lo}{self.lo:g}, {self.hi:g}{hi}"
-
-    def check(self, name: str, value: Any) -> float:
-        """``value`` as a float (an int for a count), or an `InputError` naming ``name``."""
-        if not is_real(value) or not math.isfinite(float(value)):
-            raise InputError(f"{name}: must be a finite number, got {value!r}")
-        x = float(value)
-        above = x > self.lo if self.lo_open else x >= self.lo
-        below = x < self.hi if self.hi_open else x <= self.hi
-        whole = not self.integer or x == int(x)
-        if not (above and below and whole):
-            kind = "an integer " if self.integer else ""
-            raise InputError(f"{name}: must be {kind}in {self.text()}, got {value!r}")
-        return int(x) if self.integer else x
-
-
-def option(
-    default: float,
-    lo: float,
-    hi: float,
-    unit: str,
-    why: str,
-    *,
-    lo_open: bool = False,
-    hi_open: bool = False,
-    integer: bool = False,
-) -> Any:
-    """A field of a policy's options model: its one default and its one range."""
-    rng = OptionRange(lo, hi, unit, why, lo_open, hi_open, integer)
+def option(default: float, rng: Range) -> Any:
+    """A field of a policy's options model: its one default and its one range ``rng``
+    (`rtsim.io.limits.Range`; a value outside it is an `InputError` naming the key)."""
     return field(default=default, metadata={"range": rng})
+
+
+def _checked(rng: Range, name: str, value: Any) -> float:
+    """``value`` as a float (an int for a count) if ``rng`` admits it."""
+    if not is_real(value) or not math.isfinite(float(value)):
+        raise InputError(f"{name}: must be a finite number, got {value!r}")
+    x = float(value)
+    if not rng.admits(x) or (rng.integer and x != int(x)):
+        kind = "an integer " if rng.integer else ""
+        raise InputError(f"{name}: must be {kind}in {rng.interval()}, got {value!r}")
+    return int(x) if rng.integer else x
 
 
 @dataclass(frozen=True)
 class PolicyOptions:
     """Base of a policy's options model: a frozen dataclass of `option` fields, each checked
-    against its range when made (`OptionRange.check`). A policy class names its model in
+    against its range when made. A policy class names its model in
     ``options``; its ``params`` (name → default) are derived from it."""
 
     def __post_init__(self) -> None:
         for f in fields(self):
             rng = f.metadata.get("range")
             if rng is not None:
-                object.__setattr__(self, f.name, rng.check(f.name, getattr(self, f.name)))
+                object.__setattr__(self, f.name, _checked(rng, f.name, getattr(self, f.name)))
+
+
+_HORIZON = "the horizon, in windows of w_sch"
+_MARGIN = Range(
+    "margin", 0, 1, "", "the share μ of each predicted bound kept in reserve", hi_open=True
+)
+_Z = Range("z", 0, 10, "σ", "the padding of the predicted V_F, |ρ̇|, |β̇| in standard deviations")
+_WINDOWS = Range("windows", 1, 100, "windows", _HORIZON)
 
 
 def _margin(default: float) -> Any:
-    return option(
-        default, 0.0, 1.0, "", "the share μ of each predicted bound kept in reserve", hi_open=True
-    )
+    return option(default, _MARGIN)
 
 
 def _z(default: float) -> Any:
-    why = "the padding of the predicted V_F, |ρ̇|, |β̇| in standard deviations"
-    return option(default, 0.0, 10.0, "σ", why)
+    return option(default, _Z)
 
 
 def _windows(default: float) -> Any:
-    return option(default, 1.0, 100.0, "windows", "the horizon, in windows of w_sch")
+    return option(default, _WINDOWS)
 
 
 @dataclass(frozen=True)
@@ -857,7 +831,7 @@ class SafePolicy(LookaheadPolicy):
 class PlanOptions(PolicyOptions):
     """The options of the policy ``plan``."""
 
-    windows: int = option(2, 1, 20, "windows", "the horizon, in windows of w_sch", integer=True)
+    windows: int = option(2, Range("windows", 1, 20, "windows", _HORIZON, integer=True))
     margin: float = _margin(0.0)
 
 
