@@ -31,7 +31,7 @@ from rtsim.analysis.kinematics import (
 from rtsim.config.errors import raise_errors
 from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
 from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
-from rtsim.control.policy import DECIDE, make_policy
+from rtsim.control.policy import DECIDE, AdjustOptions, make_policy
 from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError
 from rtsim.examples import shipped_hint
@@ -501,10 +501,10 @@ class AdjustConfig(Table):
     )
     floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] = 0.0
     predictor: Annotated[str, plugin(PREDICTORS)] = _DEFAULT["adjust.predictor"]
-    lower_bound: Annotated[str, choice(LOWER_BOUNDS)] = "w_sch"
+    lower_bound: Annotated[str, choice(LOWER_BOUNDS)] = AdjustOptions.lower_bound
     policy: Annotated[str, text(what="a policy name")] = _DEFAULT["adjust.policy"]
-    decide: Annotated[str, choice(DECIDE)] = "end"
-    paper_predictor: bool = True
+    decide: Annotated[str, choice(DECIDE)] = AdjustOptions.decide
+    paper_predictor: bool = AdjustOptions.paper_predictor
 
     @property
     def params(self) -> dict[str, Any]:

@@ -227,6 +227,10 @@ def _windows(default: float) -> Any:
     return option(default, _WINDOWS)
 
 
+#: `PolicyInput`'s defaults, the one declaration of those of `AdjustOptions`.
+_INPUT: dict[str, Any] = {f.name: f.default for f in fields(PolicyInput)}
+
+
 @dataclass(frozen=True)
 class AdjustOptions(Mapping[str, Any]):
     """A run's ``[adjust]``, validated once (`adjust_options`, or from a scenario's table):
@@ -242,13 +246,13 @@ class AdjustOptions(Mapping[str, Any]):
     changes one option of a run's inputs."""
 
     policy: Any
-    cap: float | None = None
+    cap: float | None = _INPUT["cap"]
     cap_factor: float | None = None
-    floor_frac: float = FLOOR_FRAC
-    floor_w: float = FLOOR_W
-    predictor: str | Predictor = "formation"
-    methods: tuple[str, ...] = CANDIDATES
-    scan_points: int = 64
+    floor_frac: float = _INPUT["floor_frac"]
+    floor_w: float = _INPUT["floor_w"]
+    predictor: str | Predictor = _INPUT["predictor"]
+    methods: tuple[str, ...] = _INPUT["methods"]
+    scan_points: int = _INPUT["scan_points"]
     lower_bound: str = "w_sch"
     decide: str = "end"
     paper_predictor: bool = True
