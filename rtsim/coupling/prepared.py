@@ -7,8 +7,9 @@ repeated runs: docs/performance.md).
 The cache is keyed by the path as given, the working directory, the overrides, ``allow_code``
 and the caller's ``text``, and an entry is used only while the scenario file's bytes and its
 task-set file's bytes are those it was prepared from (both read again at each call, a few µs):
-an edited file is prepared again. The inputs are shared: treat them as read-only (as
-`run_scenario` does).
+an edited file is prepared again. The inputs are shared, treat them as read-only (as
+`run_scenario` does), except the adjustment policy: each call gets a fresh instance made
+with the file's keys, as a first read does (a policy of the user's may keep state).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from __future__ import annotations
 import os
 from collections import OrderedDict
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import Any, NamedTuple
 
 from rtsim.errors import InputError
@@ -43,6 +45,17 @@ def _taskset_raw(name: str) -> bytes:
     return taskset_bytes(taskset_file(name))[0]
 
 
+def _fresh_policy(inp: Any) -> Any:
+    """``inp`` with a new instance of its adjustment policy, made with the same own keys
+    (`rtsim.control.policy.make_policy`'s ``cls(**params)``; a hand-made ``adjust`` mapping
+    holds no instance)."""
+    adj = inp.adjust
+    policy, own = getattr(adj, "policy", None), getattr(adj, "own", None)
+    if policy is None or own is None:
+        return inp
+    return replace(inp, adjust=replace(adj, policy=type(policy)(**own)))
+
+
 def clear() -> None:
     """Forget every prepared scenario."""
     _CACHE.clear()
@@ -58,7 +71,7 @@ def prepared(
     """``prepare(scenario, text)`` (`rtsim.coupling.inputs.scenario_inputs`, which calls this)
     of the scenario file (or packaged name) ``path`` loaded with ``overrides``, from the cache
     while both its files are unchanged (module docstring)."""
-    from rtsim.io.scenario import load_scenario, scenario_bytes
+    from rtsim.config.scenario import load_scenario, scenario_bytes
 
     key = (
         os.fspath(path),
@@ -76,7 +89,7 @@ def prepared(
             same = False
         if same:
             _CACHE.move_to_end(key)
-            return hit.inputs
+            return _fresh_policy(hit.inputs)
     scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
     inp = prepare(scenario, raw.decode("utf-8") if text is None else text)
     if scenario_bytes(path)[0] == raw:  # (not edited while it was read)

@@ -31,21 +31,26 @@ def files(tmp_path: Path) -> tuple[Path, Path]:
 def test_prepared_once_per_content(files: tuple[Path, Path]) -> None:
     sc, ts = files
     first = scenario_inputs(sc)
-    assert scenario_inputs(sc) is first  # unchanged: the same inputs
+    again = scenario_inputs(sc)  # unchanged: the same inputs, a fresh policy instance
+    assert again.world is first.world and again.taskset is first.taskset
+    assert again.resolved is first.resolved and again.text == first.text
+    assert again.adjust.policy is not first.adjust.policy
+    assert type(again.adjust.policy) is type(first.adjust.policy)
+    assert dict(again.adjust) == dict(first.adjust)
     other = scenario_inputs(sc, overrides={"leader.speed": 20})
-    assert other is not first and other.world.leader_speed == 20.0
-    assert scenario_inputs(sc, overrides={"leader.speed": 20}) is other
-    assert scenario_inputs(sc) is first
+    assert other.world is not first.world and other.world.leader_speed == 20.0
+    assert scenario_inputs(sc, overrides={"leader.speed": 20}).world is other.world
+    assert scenario_inputs(sc).world is first.world
     # the scenario file edited (same length): prepared again
     sc.write_text(sc.read_text("utf-8").replace("speed = 30 ", "speed = 25 "), "utf-8")
     edited = scenario_inputs(sc)
-    assert edited is not first and edited.world.leader_speed == 25.0
+    assert edited.world is not first.world and edited.world.leader_speed == 25.0
     # the task set's file edited (same length): prepared again
     old = ts.read_text("utf-8")
     assert "e_scan = 106" in old and edited.taskset.window.e_scan == 106.0
     ts.write_text(old.replace("e_scan = 106", "e_scan = 107"), "utf-8")
     again = scenario_inputs(sc)
-    assert again is not edited and again.taskset.window.e_scan == 107.0
+    assert again.taskset is not edited.taskset and again.taskset.window.e_scan == 107.0
 
 
 def test_a_task_set_gone_is_the_first_read_error(files: tuple[Path, Path]) -> None:
@@ -59,7 +64,7 @@ def test_a_task_set_gone_is_the_first_read_error(files: tuple[Path, Path]) -> No
 def test_packaged_names_and_the_cache_bound() -> None:
     clear()
     a = scenario_inputs("test2")
-    assert scenario_inputs("test2") is a
+    assert scenario_inputs("test2").world is a.world
     for k in range(PREPARED_MAX):  # the least recently used goes first
         scenario_inputs("test1", overrides={"leader.speed": 10 + k})
-    assert scenario_inputs("test2") is not a
+    assert scenario_inputs("test2").world is not a.world
