@@ -152,7 +152,7 @@ def table(
         f"{m['numba']}; CPU time, best of {cli['repeat']} (sweep point: of "
         f"{point['repeat']}). Floor: the rollouts' own CPU (their compiled kernels, measured "
         f"in the run; for the hour at a lap's µs per rollout) plus the rest of a window "
-        f"compiled as one step (issue 36's prototypes: 2.7 µs/window at n = 2, 11.6 at "
+        f"compiled as one step (prototypes: 2.7 µs/window at n = 2, 11.6 at "
         f"n = 10)."
     )
     return head + "\n\n" + "\n".join(rows) + "\n\n" + followers_table(fol)
