@@ -52,6 +52,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rtsim.errors import InputError
+from rtsim.io.atomic import write_table, write_text
+from rtsim.io.manifest import write_manifest
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -553,7 +555,7 @@ def _check_args(args: ReproduceOptions) -> None:
         if not (SCENARIOS / f"{t}.toml").is_file():
             raise InputError(f"{SCENARIOS / f'{t}.toml'}: scenario file not found")
     if args.set:  # checked before any run, by the scenario model
-        from rtsim.io.scenario import load_scenario
+        from rtsim.config.scenario import load_scenario
 
         for t in TESTS:
             load_scenario(SCENARIOS / f"{t}.toml", overrides=_overrides(args.set))
@@ -619,6 +621,91 @@ def run(
         return 2
 
 
+def _write_summary(
+    out: Path,
+    args: ReproduceOptions,
+    results: dict[tuple[str, str], Any],
+    *,
+    duration: float | None,
+    workers: int,
+    docs: Path | None,
+    fmt: str,
+    finished: bool,
+    argv: list[str] | None,
+    times: tuple[float, float, float],
+) -> tuple[Any, str]:
+    """summary.csv, summary.md and the manifest of a reproduction; (the summary table, its
+    Markdown). ``times``: the start, the end of the runs and the end of the figures
+    (``time.perf_counter``); ``finished``: the reports are written after."""
+    t0, t_runs, t_figs = times
+    rows = [
+        summary_row(t, m, results[(t, m)]["summary"], results[(t, m)]["timing"]["total_s"])
+        for t in TESTS
+        for m in MODES
+    ]
+    import pandas as pd
+
+    table = pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
+    write_table(out / "summary.csv", table)
+    md = summary_markdown(table)
+    write_text(out / "summary.md", md)
+    runs_meta = [
+        {
+            "test": t,
+            "mode": m,
+            "seed": args.seed,
+            "duration_s": results[(t, m)]["duration_s"],
+            "out": str(Path(t) / m),
+            "timing": results[(t, m)]["timing"],
+        }
+        for t in TESTS
+        for m in MODES
+    ]
+    write_manifest(
+        out,
+        command="rtsim reproduce",
+        seed=args.seed,
+        inputs={
+            "quick": args.quick,
+            "duration_s": duration,
+            "workers": workers,
+            "tests": list(TESTS),
+            "modes": list(MODES),
+            "scenarios": {
+                t: {
+                    "file": str(SCENARIOS / f"{t}.toml"),
+                    "text": (SCENARIOS / f"{t}.toml").read_text("utf-8"),
+                }
+                for t in TESTS
+            },
+            "docs": str(docs) if docs is not None else None,
+            "set": list(args.set),
+        },
+        argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
+        extra={
+            "runs": runs_meta,
+            "timing": {
+                "runs_s": t_runs - t0,
+                "figures_s": t_figs - t_runs,
+                "total_s": time.perf_counter() - t0,
+            },
+            "outputs": [
+                "summary.csv",
+                "summary.md",
+                "manifest.json",
+                *(f"figures/{s}.{e}" for s in figure_stems() for e in (fmt, "csv")),
+                *(f"{t}/{m}/{f}" for t in TESTS for m in MODES for f in results[(t, m)]["written"]),
+                *(
+                    ["report.html", *(f"{t}/{m}/report.html" for t in TESTS for m in MODES)]
+                    if finished
+                    else []
+                ),
+            ],
+        },
+    )
+    return table, md
+
+
 def _main(
     args: ReproduceOptions,
     argv: list[str] | None,
@@ -626,9 +713,6 @@ def _main(
     out: Path,
     finish: Callable[[Path], None] | None = None,
 ) -> int:
-    from rtsim.io.atomic import write_table, write_text
-    from rtsim.io.manifest import write_manifest
-
     docs = Path(args.docs) if args.docs is not None else None
     duration = (
         args.duration if args.duration is not None else (QUICK_DURATION_S if args.quick else None)
@@ -693,70 +777,17 @@ def _main(
             pool.shutdown()
     t_figs = time.perf_counter()
 
-    rows = [
-        summary_row(t, m, results[(t, m)]["summary"], results[(t, m)]["timing"]["total_s"])
-        for t in TESTS
-        for m in MODES
-    ]
-    import pandas as pd
-
-    table = pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
-    write_table(out / "summary.csv", table)
-    md = summary_markdown(table)
-    write_text(out / "summary.md", md)
-    runs_meta = [
-        {
-            "test": t,
-            "mode": m,
-            "seed": args.seed,
-            "duration_s": results[(t, m)]["duration_s"],
-            "out": str(Path(t) / m),
-            "timing": results[(t, m)]["timing"],
-        }
-        for t in TESTS
-        for m in MODES
-    ]
-    write_manifest(
+    table, md = _write_summary(
         out,
-        command="rtsim reproduce",
-        seed=args.seed,
-        inputs={
-            "quick": args.quick,
-            "duration_s": duration,
-            "workers": workers,
-            "tests": list(TESTS),
-            "modes": list(MODES),
-            "scenarios": {
-                t: {
-                    "file": str(SCENARIOS / f"{t}.toml"),
-                    "text": (SCENARIOS / f"{t}.toml").read_text("utf-8"),
-                }
-                for t in TESTS
-            },
-            "docs": str(docs) if docs is not None else None,
-            "set": list(args.set),
-        },
-        argv=[sys.argv[0], *(argv if argv is not None else sys.argv[1:])],
-        extra={
-            "runs": runs_meta,
-            "timing": {
-                "runs_s": t_runs - t0,
-                "figures_s": t_figs - t_runs,
-                "total_s": time.perf_counter() - t0,
-            },
-            "outputs": [
-                "summary.csv",
-                "summary.md",
-                "manifest.json",
-                *(f"figures/{s}.{e}" for s in figure_stems() for e in (fmt, "csv")),
-                *(f"{t}/{m}/{f}" for t in TESTS for m in MODES for f in results[(t, m)]["written"]),
-                *(
-                    ["report.html", *(f"{t}/{m}/report.html" for t in TESTS for m in MODES)]
-                    if finish
-                    else []
-                ),
-            ],
-        },
+        args,
+        results,
+        duration=duration,
+        workers=workers,
+        docs=docs,
+        fmt=fmt,
+        finished=finish is not None,
+        argv=argv,
+        times=(t0, t_runs, t_figs),
     )
     if finish is not None:
         finish(out)
