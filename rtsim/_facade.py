@@ -5,7 +5,7 @@ a file is the configuration layer's work, above them. For convenience at the top
 [`rtsim.analyze`][rtsim.analyze], [`rtsim.window_bounds`][rtsim.window_bounds] and
 [`rtsim.simulate`][rtsim.simulate] also take the
 path of a task-set file or the name of a packaged one (``"example"``), read with
-[`rtsim.io.taskset.load_taskset`][rtsim.io.taskset.load_taskset].
+[`rtsim.config.taskset.load_taskset`][rtsim.config.taskset.load_taskset].
 [`run_sweep`][rtsim._facade.run_sweep] is a grid of scenario runs in one
 call, returning a DataFrame. This module sits with `rtsim` above every layer.
 """
@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from rtsim.analysis.bounds import window_bounds as _window_bounds
 from rtsim.analysis.rta import analyze as _analyze
-from rtsim.io.taskset import as_taskset
+from rtsim.config.taskset import as_taskset
 from rtsim.sim.run import simulate as _simulate
 
 if TYPE_CHECKING:

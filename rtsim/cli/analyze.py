@@ -256,7 +256,7 @@ def run(args: argparse.Namespace) -> int:
     from rtsim.analysis.edf import EdfAnalysis
     from rtsim.analysis.rta import analyze
     from rtsim.cli._set import set_overrides
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
     from rtsim.sim.policy import SCHEDULERS
 
     w = _window(args.window)

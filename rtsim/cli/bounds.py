@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
     from rtsim.analysis.bounds import w_txn, window_bounds
     from rtsim.cli._set import set_overrides
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
 
     ts = load_taskset(args.file, overrides=set_overrides(args))
     if ts.window is None:

@@ -4,7 +4,7 @@
                    --count K --seed S --out DIR
 
 writes ``DIR/set_0000.toml`` … (readable by
-[`rtsim.io.taskset.load_taskset`][rtsim.io.taskset.load_taskset]) and
+[`rtsim.config.taskset.load_taskset`][rtsim.config.taskset.load_taskset]) and
 ``DIR/manifest.json``. Set i is drawn from the i-th child of ``SeedSequence(S)``, so set i
 does not depend on ``--count``.
 """
@@ -76,7 +76,7 @@ def _toml_value(v: Any) -> str:
 
 
 def taskset_toml(ts: TaskSet, comment: str = "") -> str:
-    """A plain (window-less) task set as TOML text in the file format of rtsim.io.taskset."""
+    """A plain (window-less) task set as TOML text in the file format of rtsim.config.taskset."""
     if ts.window is not None:
         raise InputError("taskset_toml: sets with a [window] are not supported")
     lines = [f"# {line}" for line in comment.splitlines()]
@@ -152,7 +152,7 @@ def _readable(args: argparse.Namespace, path: Path) -> None:
     """Read the set just written as ``analyze`` and ``simulate`` will (their ranges, e.g. a
     period of 1 µs to 11.6 days): a set they would refuse is not written (the staging goes),
     the refusal is one line naming the options and the reader's first problem."""
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
 
     try:
         load_taskset(path)

@@ -96,7 +96,7 @@ def _source(args: argparse.Namespace) -> Any:
         return from_scenario_dir(
             args.scenario, n=args.followers, r_H=args.hough_radius, w=args.window
         )
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
 
     if args.horizon is None or not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError("histogram: FILE needs --horizon H, a positive number of ms")

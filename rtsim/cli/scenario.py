@@ -124,8 +124,8 @@ def run(args: Any) -> int:
     from rtsim.cli.plausible import check_duration
 
     check_duration(args, args.duration)
+    from rtsim.config.scenario import load_scenario
     from rtsim.coupling.duration import check_scenario
-    from rtsim.io.scenario import load_scenario
 
     where = (
         f"--duration {args.duration:g}" if args.duration is not None else f"{args.file}: duration"

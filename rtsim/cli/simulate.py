@@ -219,11 +219,11 @@ def _manifest_names(names: dict[Path, list[str]]) -> dict[Path, list[str]]:
 
 def _run(args: argparse.Namespace, files: Any) -> int:
     from rtsim.analysis.rta import analyze
+    from rtsim.config.taskset import load_taskset, taskset_to_dict
     from rtsim.io.atomic import dumps, write_json
     from rtsim.io.columns import ChunkWriter
     from rtsim.io.manifest import build_manifest
     from rtsim.io.spool import Spool, Tee
-    from rtsim.io.taskset import load_taskset, taskset_to_dict
     from rtsim.sim import simulate
     from rtsim.sim.records import jobs_frame, trace_frame
     from rtsim.sim.run import worst_jitter_shifts

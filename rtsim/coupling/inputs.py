@@ -50,8 +50,8 @@ def scenario_inputs(
     resolved values): a caller that runs the same scenario many times (a sweep's worker)
     can keep it and pass it back. Accept [`ScenarioInputs`][rtsim.coupling.inputs.ScenarioInputs], a
     path (loaded with
-    [`rtsim.io.scenario.load_scenario`][rtsim.io.scenario.load_scenario]), or a
-    [`rtsim.io.scenario.Scenario`][rtsim.io.scenario.Scenario].
+    [`rtsim.config.scenario.load_scenario`][rtsim.config.scenario.load_scenario]), or a
+    [`rtsim.config.scenario.Scenario`][rtsim.config.scenario.Scenario].
 
     A Scenario's ``[adjust]`` maps to [`rtsim.control.decide`][rtsim.control.decide]: ``cap`` (ms;
     ``inf`` →
@@ -65,7 +65,7 @@ def scenario_inputs(
     if isinstance(scenario, ScenarioInputs):
         return scenario
     if isinstance(scenario, str | os.PathLike):
-        from rtsim.io.scenario import load_scenario, scenario_bytes
+        from rtsim.config.scenario import load_scenario, scenario_bytes
 
         path = scenario
         # a file, or a packaged scenario by name ("test2")
@@ -117,7 +117,7 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
     not set (``inf``: follower.max_turn_rate, sensing.max_range, adjust.cap) is null."""
     from dataclasses import asdict, is_dataclass
 
-    from rtsim.io.taskset import taskset_to_dict
+    from rtsim.config.taskset import taskset_to_dict
 
     cfg: WorldConfig = scenario.world
 

@@ -852,7 +852,7 @@ def run_scenario(
     ----------
     scenario : str, path, Scenario or ScenarioInputs
         A scenario file, a shipped one by name (``"test2"``), a loaded
-        [`Scenario`][rtsim.io.scenario.Scenario], or
+        [`Scenario`][rtsim.config.scenario.Scenario], or
         [`ScenarioInputs`][rtsim.coupling.scenario_run.ScenarioInputs] prepared once.
     mode : str, optional
         Alias of ``policy`` (the paper's reproduction names its three modes so).

@@ -89,7 +89,7 @@ class PointInput:
 
     def taskset(self) -> TaskSet:
         """The base task set with this point's overrides, through the normal loader."""
-        from rtsim.io.taskset import parse_taskset
+        from rtsim.config.taskset import parse_taskset
 
         assert self.base is not None
         return parse_taskset(self.base_data(), self.base.source, allow_code=self.allow_code)
@@ -227,7 +227,7 @@ def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[
     if hit is not None:
         _PREPARED.move_to_end(key)
         return hit
-    io = _need("rtsim.io.scenario", "scenario")
+    io = _need("rtsim.config.scenario", "scenario")
     coupling = _need("rtsim.coupling", "scenario")
     scenario = io.parse_scenario(data, p.base.source, base=where, allow_code=p.allow_code)
     hit = (scenario, coupling.scenario_inputs(scenario))
@@ -303,7 +303,7 @@ def register_kind(spec: KindSpec) -> None:
     KINDS.register(spec.name, spec)
 
 
-_LOADER = ("rtsim.io.taskset",)
+_LOADER = ("rtsim.config.taskset",)
 register_kind(
     KindSpec(
         "bounds",
@@ -336,7 +336,7 @@ register_kind(
         "scenario",
         _scenario,
         options=RUN_OPTIONS["scenario"],
-        modules=("rtsim.io.scenario", "rtsim.coupling"),
+        modules=("rtsim.config.scenario", "rtsim.coupling"),
         warm=_warm_scenario,
     )
 )

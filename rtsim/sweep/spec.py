@@ -34,8 +34,8 @@ A grid name is resolved, in this order, as
    or a key at the top level of the base file.
 
 Overrides are applied to the parsed TOML dict, which then goes through the normal loader
-([`rtsim.io.taskset.parse_taskset`][rtsim.io.taskset.parse_taskset],
-[`rtsim.io.scenario.parse_scenario`][rtsim.io.scenario.parse_scenario]) at each
+([`rtsim.config.taskset.parse_taskset`][rtsim.config.taskset.parse_taskset],
+[`rtsim.config.scenario.parse_scenario`][rtsim.config.scenario.parse_scenario]) at each
 point: a bad value (``n = 0``) fails that point, with the loader's message, not the sweep.
 A new leaf key that looks like a typo of an existing one (``delta_tt``) is refused here.
 For ``kind = "call"`` every grid name is passed through as a parameter.
@@ -190,7 +190,7 @@ def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None
     if not isinstance(raw, str) or not raw:
         raise SweepError(f"{src}: sweep.base: expected a file path, got {raw!r}")
     path = (base_dir / raw).resolve()
-    from rtsim.io.scenario import PACKAGED_SCENARIOS, PACKAGED_TASKSETS
+    from rtsim.config.scenario import PACKAGED_SCENARIOS, PACKAGED_TASKSETS
 
     packaged = PACKAGED_SCENARIOS if kind == "scenario" else PACKAGED_TASKSETS
     if not path.exists() and raw in packaged:  # a file shipped with rtsim, by name

@@ -69,7 +69,7 @@ def scenario_world(
     import tomllib
 
     from rtsim.config.load import with_overrides
-    from rtsim.io.scenario import parse_scenario
+    from rtsim.config.scenario import parse_scenario
 
     data = with_overrides(tomllib.loads(text), overrides, source)
     data.setdefault("formation", {})["followers"] = int(n)

@@ -100,7 +100,7 @@ def _read_json(path: Path) -> dict[str, Any]:
 def _scenario_taskset(directory: Path, ts: TaskSet | None) -> TaskSet:
     if ts is not None:
         return ts
-    from rtsim.io.taskset import load_taskset, parse_taskset
+    from rtsim.config.taskset import load_taskset, parse_taskset
 
     inputs = _read_json(directory / "manifest.json").get("inputs", {})
     inputs = inputs if isinstance(inputs, dict) else {}
@@ -108,7 +108,7 @@ def _scenario_taskset(directory: Path, ts: TaskSet | None) -> TaskSet:
     if isinstance(text, str) and text:  # rtsim scenario's manifest: the scenario's task set
         import tomllib
 
-        from rtsim.io.scenario import parse_scenario
+        from rtsim.config.scenario import parse_scenario
 
         src = str(inputs.get("scenario_file") or directory / "manifest.json")
         return parse_scenario(tomllib.loads(text), src, Path(src).parent).load_taskset()

@@ -79,7 +79,7 @@ def paper_taskset(options: Mapping[str, Any], n: int, r_H: float) -> TaskSet:
     """The task set of the options (TOML text, default the packaged paper set; changed by
     ``taskset_set``, ``--set``'s dotted paths) at (n, r_H)."""
     from rtsim.config.load import with_overrides
-    from rtsim.io.taskset import load_taskset, parse_taskset
+    from rtsim.config.taskset import load_taskset, parse_taskset
 
     text = options.get("taskset_text")
     if not text:

@@ -80,7 +80,8 @@ def split_overrides(cfg: ValidationConfig) -> tuple[dict[str, Any], dict[str, An
     its first part is a table or shortcut of the task set (``tasks.command.wcet``,
     ``delta_t``), else to the scenario (``leader.speed``); a key the grid sets is refused."""
     from rtsim.config.dotted import shortcuts
-    from rtsim.config.load import parse_toml, taskset_bytes
+    from rtsim.config.load import parse_toml
+    from rtsim.config.taskset import taskset_bytes
     from rtsim.errors import OverrideError
 
     ts_out: dict[str, Any] = {}
@@ -101,7 +102,7 @@ def split_overrides(cfg: ValidationConfig) -> tuple[dict[str, Any], dict[str, An
 
 
 def _scenario_options(cfg: ValidationConfig) -> dict[str, Any]:
-    from rtsim.io.scenario import load_scenario, scenario_bytes
+    from rtsim.config.scenario import load_scenario, scenario_bytes
 
     path = _scenario_path(cfg)
     overrides = split_overrides(cfg)[1]
@@ -116,8 +117,7 @@ def _taskset_options(cfg: ValidationConfig) -> dict[str, Any]:
     overrides = split_overrides(cfg)[0]
     if cfg.taskset_path is None and not overrides:
         return opts
-    from rtsim.config.load import taskset_bytes
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset, taskset_bytes
 
     # checked here: a bad file or key is an input error (exit 2)
     ts = load_taskset(cfg.taskset_path, overrides)

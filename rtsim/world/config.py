@@ -1,5 +1,6 @@
 """The world's frozen configuration: path, leader speed, formation, followers, sensing, EKF,
-thresholds and integration step (built by [`rtsim.io.scenario`][rtsim.io.scenario] or by hand)."""
+thresholds and integration step (built by [`rtsim.config.scenario`][rtsim.config.scenario] or
+by hand)."""
 
 from __future__ import annotations
 

@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 from rollout_states import world_state
 
+from rtsim.config.scenario import load_scenario
 from rtsim.coupling import run_scenario
 from rtsim.errors import ScenarioError
-from rtsim.io.scenario import load_scenario
 from rtsim.world import compiled
 from rtsim.world.ekf import EkfParams, FastFollowerEKF
 from rtsim.world.follower import FollowerGroup, FollowerParams
