@@ -31,6 +31,9 @@ import numpy as np
 import pandas as pd
 
 from rtsim.errors import InputError
+from rtsim.io.atomic import write_json
+from rtsim.io.manifest import build_manifest
+from rtsim.io.outdir import FileSet, sidecar
 
 __all__ = ["WindowView", "window_view", "load_run", "animate_run", "FORMATS", "BEAM_STEP"]
 
@@ -173,7 +176,6 @@ def animate_run(
     import matplotlib
 
     matplotlib.use("Agg", force=False)
-    from rtsim.io.outdir import FileSet, sidecar
 
     out = Path(out)
     if out.suffix.lower() not in FORMATS:
@@ -264,10 +266,6 @@ def _sidecar(
     every: int,
 ) -> None:
     """The manifest beside ``out``."""
-    from rtsim.io.atomic import write_json
-    from rtsim.io.manifest import build_manifest
-    from rtsim.io.outdir import sidecar
-
     write_json(
         files.add(sidecar(out), "--out"),
         build_manifest(

@@ -15,7 +15,10 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from rtsim.reproduce import DEFAULT_OUT, QUICK_DURATION_S, ReproduceOptions
+from rtsim.cli.plausible import check_duration
+from rtsim.report import write_run_report
+from rtsim.reproduce import DEFAULT_OUT, MODES, QUICK_DURATION_S, TESTS, ReproduceOptions
+from rtsim.reproduce import run as reproduce
 
 __all__ = ["register", "run", "add_options", "options"]
 
@@ -109,11 +112,6 @@ def options(args: Any) -> ReproduceOptions:
 
 def run(args: Any) -> int:
     """Run the reproduction on the parsed options (one parse), then write the reports."""
-    from rtsim.cli.plausible import check_duration
-    from rtsim.report import write_run_report
-    from rtsim.reproduce import MODES, TESTS
-    from rtsim.reproduce import run as reproduce
-
     check_duration(args, args.duration)
 
     def reports(out: Path) -> None:  # in the staging directory, before the swap

@@ -49,8 +49,12 @@ def _walk(model: type[BaseModel], prefix: str, out: dict[str, Range]) -> None:
 def ranges() -> dict[str, Range]:
     """Every numeric key of the input files with its range: ``taskset: tasks.wcet``,
     ``scenario: leader.speed`` (entries of an array without an index), sorted."""
-    from rtsim.config.scenario import ScenarioFile
-    from rtsim.config.taskset import TaskSetFile
+    from rtsim.config.scenario import (  # lazy: only this needs numpy
+        ScenarioFile,
+    )
+    from rtsim.config.taskset import (  # lazy: only this needs numpy
+        TaskSetFile,
+    )
 
     out: dict[str, Range] = {}
     for kind, model in (("taskset", TaskSetFile), ("scenario", ScenarioFile)):

@@ -13,6 +13,9 @@ import math
 from importlib import resources
 from typing import Any
 
+from rtsim.config.sweep import SweepFile
+from rtsim.config.taskset import TaskSetFile
+
 __all__ = ["KINDS", "json_schema", "schema_text", "shipped_schema"]
 
 #: The file kinds that have a schema.
@@ -23,16 +26,12 @@ _TITLES = {"taskset": "rtsim task set", "scenario": "rtsim scenario", "sweep": "
 
 def _model(kind: str) -> Any:
     if kind == "taskset":
-        from rtsim.config.taskset import TaskSetFile
-
         return TaskSetFile
     if kind == "scenario":
-        from rtsim.config.scenario import ScenarioFile
+        from rtsim.config.scenario import ScenarioFile  # lazy: CLI start-up (numpy)
 
         return ScenarioFile
     if kind == "sweep":
-        from rtsim.config.sweep import SweepFile
-
         return SweepFile
     raise ValueError(f"no schema for {kind!r}: one of {', '.join(KINDS)}")
 

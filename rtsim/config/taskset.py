@@ -50,6 +50,7 @@ from typing import Annotated, Any
 
 from pydantic import Field
 
+from rtsim.analysis.window import k_geometric
 from rtsim.config.errors import Loc, raise_errors
 from rtsim.config.fields import (
     Leaf,
@@ -64,10 +65,13 @@ from rtsim.config.fields import (
 )
 from rtsim.config.load import parse_toml, validate, with_overrides
 from rtsim.errors import TaskSetError
-from rtsim.io.limits import WINDOW_N, WINDOW_R_H, Range
+from rtsim.examples import packaged_text, shipped_hint
+from rtsim.io.limits import WINDOW_N, WINDOW_R_H, Range, read_input
 from rtsim.model.task import OVERLOAD_POLICIES, RESOURCE_PROTOCOLS, CriticalSection, Task
 from rtsim.model.taskset import TaskSet
 from rtsim.model.window import WindowSpec
+from rtsim.registry import reading_input
+from rtsim.sim.policy import resolve_scheduler
 
 __all__ = [
     "TaskSetFile",
@@ -328,8 +332,6 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         window, errs = _window(model.window)
         errors += errs
     if model.scheduler is not None:
-        from rtsim.sim.policy import resolve_scheduler
-
         try:
             sliced = resolve_scheduler(
                 model.scheduler.policy, where=f"{source}: [scheduler]: policy"
@@ -403,8 +405,6 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
             msg = str(exc)
             errors.append(msg if msg.startswith(label) else f"{label}: {msg}")
     if model.scheduler is not None and model.scheduler.resources == "pcp":
-        from rtsim.sim.policy import resolve_scheduler
-
         try:
             levels = resolve_scheduler(model.scheduler.policy).resource_levels
         except Exception:  # an unknown policy: reported above
@@ -439,8 +439,6 @@ def _window(w: WindowTable) -> tuple[WindowSpec | None, list[str]]:
         "r_H": float(w.r_H),
     }
     if w.k == "geometric":
-        from rtsim.analysis.window import k_geometric
-
         if w.rho_min is None:
             return None, [
                 f'{where}: rho_min: missing (required with k = "geometric": the '
@@ -524,19 +522,15 @@ def taskset_bytes(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
     if path is None:
         res = resources.files("rtsim") / "data" / PACKAGED_TASKSET
         return res.read_bytes(), str(res)
-    from rtsim.examples import packaged_text
 
     shipped = packaged_text(path, "taskset")
     if shipped is not None:
         return shipped.encode("utf-8"), f"{os.fspath(path)}.toml (packaged)"
     source = os.fspath(path)
-    from rtsim.io.limits import read_input
 
     try:
         return read_input(source, "task-set"), source
     except FileNotFoundError:
-        from rtsim.examples import shipped_hint
-
         raise TaskSetError(f"{source}: no such file{shipped_hint(source, 'taskset')}") from None
     except IsADirectoryError:
         raise TaskSetError(f"{source}: is a directory, not a task-set file") from None
@@ -549,8 +543,6 @@ def parse_taskset(data: Mapping[str, Any], source: str, *, allow_code: bool | No
     ``source`` names the file in error messages and is kept as ``TaskSet.source``. A
     ``[scheduler] policy`` of the form ``module:Name`` is code: it loads only with
     ``allow_code=True`` or the user's opt-in (`rtsim.registry.reading_input`)."""
-    from rtsim.registry import reading_input
-
     with reading_input(allow_code):
         model = validate(
             TaskSetFile, data, source, TaskSetError, taskset_where(data), taskset_special

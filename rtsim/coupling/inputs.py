@@ -9,7 +9,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from rtsim.config.scenario import load_scenario, scenario_bytes
+from rtsim.config.taskset import taskset_to_dict
 from rtsim.errors import InputError
+from rtsim.io.atomic import inf_as_null
 from rtsim.model.taskset import TaskSet
 from rtsim.world.config import WorldConfig
 
@@ -65,8 +68,6 @@ def scenario_inputs(
     if isinstance(scenario, ScenarioInputs):
         return scenario
     if isinstance(scenario, str | os.PathLike):
-        from rtsim.config.scenario import load_scenario, scenario_bytes
-
         path = scenario
         # a file, or a packaged scenario by name ("test2")
         scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
@@ -117,8 +118,6 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
     not set (``inf``: follower.max_turn_rate, sensing.max_range, adjust.cap) is null."""
     from dataclasses import asdict, is_dataclass
 
-    from rtsim.config.taskset import taskset_to_dict
-
     cfg: WorldConfig = scenario.world
 
     def plain(obj: Any) -> Any:
@@ -155,6 +154,5 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),
         "taskset": taskset_to_dict(ts),
     }
-    from rtsim.io.atomic import inf_as_null
 
     return inf_as_null(out)

@@ -51,8 +51,9 @@ from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 from rtsim.errors import InputError
+from rtsim.io.work import check_simulate
 from rtsim.overrides import RUN_OPTIONS, apply_overrides
-from rtsim.registry import Registry
+from rtsim.registry import Registry, load_code
 from rtsim.sweep.base import BaseFile
 
 if TYPE_CHECKING:
@@ -89,7 +90,9 @@ class PointInput:
 
     def taskset(self) -> TaskSet:
         """The base task set with this point's overrides, through the normal loader."""
-        from rtsim.config.taskset import parse_taskset
+        from rtsim.config.taskset import (  # lazy: only this needs numpy
+            parse_taskset,
+        )
 
         assert self.base is not None
         return parse_taskset(self.base_data(), self.base.source, allow_code=self.allow_code)
@@ -175,11 +178,12 @@ def _simulate(p: PointInput) -> dict[str, Any]:
     }
     if o.get("window") is not None:
         kwargs["window"] = float(o["window"])
-    from rtsim.io.work import check_simulate
 
     w_est = kwargs.get("window")
     if ts.window is not None:
-        from rtsim.analysis.sufficient import window_or_w_sch
+        from rtsim.analysis.sufficient import (  # lazy: only this needs numpy
+            window_or_w_sch,
+        )
 
         w_est = window_or_w_sch(ts, w_est)  # (simulate decides its window the same way)
     check_simulate(ts, float(o["horizon"]), w_est, f"sweep.options.horizon {o['horizon']}")
@@ -254,7 +258,9 @@ def _warm_scenario(p: PointInput) -> None:
         scenario, _ = _point_scenario(p)
     except Exception:
         return
-    from rtsim.coupling.warm import warm_world
+    from rtsim.coupling.warm import (  # lazy: only this needs pandas
+        warm_world,
+    )
 
     warm_world([scenario])
 
@@ -271,7 +277,9 @@ def _scenario(p: PointInput) -> dict[str, Any]:
         kwargs["duration_s"] = float(o["duration"])
     if "exec" in o:
         kwargs["exec_model"] = o["exec"]
-    from rtsim.coupling.duration import check_scenario
+    from rtsim.coupling.duration import (  # lazy: only this needs pandas
+        check_scenario,
+    )
 
     check_scenario(scenario, kwargs.get("duration_s"), f"{p.base.source}: duration")
     summary = dict(coupling.run_scenario(inputs, **kwargs).summary)
@@ -280,8 +288,6 @@ def _scenario(p: PointInput) -> dict[str, Any]:
 
 
 def _call(p: PointInput) -> dict[str, Any]:
-    from rtsim.registry import load_code
-
     assert p.function is not None
     fn = load_code(p.function, "sweep.function", allow_code=p.allow_code)
     return fn(dict(p.params), dict(p.options), p.seed)

@@ -10,6 +10,9 @@ from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
+from rtsim._version import __version__
+from rtsim.io.atomic import write_text
+
 if TYPE_CHECKING:
     from rtsim.validate.outcome import ValidationConfig, ValidationOutcome
 
@@ -153,7 +156,9 @@ def _figure_lines(out: Path) -> list[str]:
     """The report's figures and response-time histograms found under ``out``."""
     lines: list[str] = []
     figs = out / "figures"
-    from rtsim.plots.scenario import FIGURE_FORMATS
+    from rtsim.plots.scenario import (  # lazy: only this needs matplotlib
+        FIGURE_FORMATS,
+    )
 
     lines += ["## Figures", ""]
     for name, caption in (
@@ -242,9 +247,6 @@ def write_report(
 ) -> Path:
     """Write ``report.md`` into the outcome's directory and return its path (``sched``: the
     analytic w_sch / w_rta / w_edf table of `rtsim.validate.runner.scheduler_table`)."""
-    from rtsim._version import __version__
-    from rtsim.io.atomic import write_text
-
     out = outcome.out_dir
     t = outcome.table
     world = (

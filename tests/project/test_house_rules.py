@@ -23,6 +23,18 @@ MAX_LAZY = 80
 #: The marker of a function-level import's reason, on the import's first line.
 LAZY = re.compile(r"#\s*lazy:\s*\S")
 
+#: Files being rewritten by other parts of issue 31 (one source per equation, one form per
+#: parameter): their function-level imports count towards `MAX_LAZY` but need no reason yet
+#: (left untouched so that the rewrites merge cleanly).
+REWRITING: tuple[str, ...] = (
+    "rtsim/config/scenario.py",
+    "rtsim/coupling/scenario_run.py",
+    "rtsim/control/policy.py",
+    "rtsim/control/rollout.py",
+    "rtsim/control/compiled.py",
+    "rtsim/world/",
+)
+
 #: Functions may be shorter than this many lines (the ``def`` line to the last line).
 MAX_FUNCTION_LINES = 150
 #: The functions allowed to be longer, with the reason.
@@ -88,33 +100,39 @@ def lazy_imports() -> tuple[list[str], list[str]]:
     return given, missing
 
 
-def long_functions(min_lines: int = MAX_FUNCTION_LINES) -> dict[str, int]:
-    """``file:Class.function`` → its length in lines, for every function of ``min_lines``
-    lines or more."""
-    out: dict[str, int] = {}
+def function_lengths(tree: ast.AST, rel: str) -> Iterator[tuple[str, int]]:
+    """(``rel:Class.function``, its length in lines from its first decorator or ``def`` to
+    its last line) of every function in ``tree``, nested ones too."""
 
-    def walk(node: ast.AST, prefix: str, rel: str) -> None:
+    def walk(node: ast.AST, prefix: str) -> Iterator[tuple[str, int]]:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
                 name = f"{prefix}{child.name}"
                 if not isinstance(child, ast.ClassDef):
                     start = min([child.lineno] + [d.lineno for d in child.decorator_list])
-                    length = (child.end_lineno or child.lineno) - start + 1
-                    if length >= min_lines:
-                        out[f"{rel}:{name}"] = length
-                walk(child, name + ".", rel)
+                    yield f"{rel}:{name}", (child.end_lineno or child.lineno) - start + 1
+                yield from walk(child, name + ".")
             else:
-                walk(child, prefix, rel)
+                yield from walk(child, prefix)
 
+    yield from walk(tree, "")
+
+
+def long_functions(min_lines: int = MAX_FUNCTION_LINES) -> dict[str, int]:
+    """``file:Class.function`` → its length in lines, for every function of rtsim of
+    ``min_lines`` lines or more."""
+    out: dict[str, int] = {}
     for path in _python_files():
         rel = path.relative_to(ROOT.parent).as_posix()
-        walk(ast.parse(path.read_text(encoding="utf-8")), "", rel)
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        out.update((name, n) for name, n in function_lengths(tree, rel) if n >= min_lines)
     return out
 
 
 def test_function_level_imports_state_a_reason() -> None:
     """Every rtsim import inside a function says why it is not at the module's top."""
     _, missing = lazy_imports()
+    missing = [m for m in missing if not m.startswith(REWRITING)]
     assert missing == [], f"{len(missing)} function-level imports without '# lazy: <reason>'"
 
 
@@ -140,14 +158,13 @@ def test_the_counters_see_what_they_count(tmp_path: Path) -> None:
         "    import numpy\n"
         "    from . import work\n"
         "    if True:\n"
-        "        import rtsim.model\n"
-        + "    x = 1\n" * 150
+        "        import rtsim.model\n" + "    x = 1\n" * 150
     )
     path = ROOT / "io" / "example.py"  # (not written: only its name places the relative import)
     assert list(function_imports(path, source)) == [(3, False), (4, True), (6, False), (8, False)]
-    tree = ast.parse(source)
-    fn = tree.body[1]
-    assert isinstance(fn, ast.FunctionDef) and fn.end_lineno == 157
+    assert dict(function_lengths(ast.parse(source), "x.py")) == {"x.py:f": 157}
+    nested = "class A:\n    @staticmethod\n    def g():\n        def h():\n            pass\n"
+    assert dict(function_lengths(ast.parse(nested), "x.py")) == {"x.py:A.g": 4, "x.py:A.g.h": 2}
 
 
 if __name__ == "__main__":  # python tests/project/test_house_rules.py: the current findings
