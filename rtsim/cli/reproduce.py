@@ -15,10 +15,10 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+import rtsim.reproduce
 from rtsim.cli.plausible import check_duration
 from rtsim.report import write_run_report
 from rtsim.reproduce import DEFAULT_OUT, MODES, QUICK_DURATION_S, TESTS, ReproduceOptions
-from rtsim.reproduce import run as reproduce
 
 __all__ = ["register", "run", "add_options", "options"]
 
@@ -121,4 +121,4 @@ def run(args: Any) -> int:
                 if (out / t / m / "summary.json").is_file():
                     write_run_report(out / t / m, title=f"rtsim reproduce: {t}, {m}")
 
-    return reproduce(options(args), finish=reports)
+    return rtsim.reproduce.run(options(args), finish=reports)

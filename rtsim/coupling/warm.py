@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from rtsim.config.scenario import Scenario
-from rtsim.world.kernels import warm_all
+from rtsim.world import kernels
 
 __all__ = ["warm_world"]
 
@@ -26,5 +26,5 @@ def warm_world(scenarios: Iterable[Scenario]) -> bool:
     if not any(sc.world.resolved_backend() == "compiled" for sc in scenarios):
         return False
 
-    warm_all()
+    kernels.warm_all()
     return True

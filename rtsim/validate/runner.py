@@ -47,6 +47,7 @@ from rtsim.io.outdir import check_resumable
 from rtsim.report import REPORT_NAME, write_run_report
 from rtsim.sweep.engine import Sweep
 from rtsim.sweep.spec import parse_sweep
+from rtsim.validate import tidy
 from rtsim.validate.histogram import JobSource, write_histograms
 from rtsim.validate.outcome import (
     DEFAULT_SCENARIO,
@@ -58,7 +59,6 @@ from rtsim.validate.outcome import (
 from rtsim.validate.points import FP_MODES as PAPER_MODES
 from rtsim.validate.points import beam_counts_for, paper_taskset, simulate_mode
 from rtsim.validate.report import write_report
-from rtsim.validate.tidy import COLUMNS, tidy_paper, tidy_random
 
 #: Resolution (dots per inch) of the PNG figures.
 DPI = 300  # rtsim.plots.style.DPI: print resolution
@@ -413,7 +413,7 @@ def _run_validation(
         restart,
         argv,
     )
-    parts = [tidy_paper(paper)]
+    parts = [tidy.tidy_paper(paper)]  # (looked up at the call: tests replace it)
     errors = [
         f"paper n={r['n']}, r_H={r['r_H']}: {r['error']}"
         for r in paper[paper["status"] == "failed"].to_dict("records")
@@ -428,13 +428,13 @@ def _run_validation(
             restart,
             argv,
         )
-        parts.append(tidy_random(rnd))
+        parts.append(tidy.tidy_random(rnd))
         errors += [
             f"random set {r['set']}: {r['error']}"
             for r in rnd[rnd["status"] == "failed"].to_dict("records")
         ]
     table = pd.concat([p for p in parts if not p.empty] or [parts[0]], ignore_index=True)
-    table = table.reindex(columns=list(COLUMNS))
+    table = table.reindex(columns=list(tidy.COLUMNS))
     failures = check_results(table)
     summary = summarize(table) if not table.empty else {"rows": 0, "failures": 0}
     summary["point_errors"] = len(errors)

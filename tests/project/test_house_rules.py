@@ -7,6 +7,9 @@
   command line's start-up time, a module the plug-in machinery loads by name, ...). At most
   `MAX_LAZY` such imports remain.
 - No function of `MAX_FUNCTION_LINES` lines or more, except those in `LONG_FUNCTIONS`.
+- One meaning per name: ``FollowerModel`` is the world's follower model only, and
+  ``POLICIES`` (once schedulers in ``rtsim.sim``, adjustment policies in ``rtsim.control``)
+  is gone for ``SCHEDULERS`` and ``ADJUSTMENT_POLICIES``.
 """
 
 from __future__ import annotations
@@ -127,6 +130,31 @@ def long_functions(min_lines: int = MAX_FUNCTION_LINES) -> dict[str, int]:
         tree = ast.parse(path.read_text(encoding="utf-8"))
         out.update((name, n) for name, n in function_lengths(tree, rel) if n >= min_lines)
     return out
+
+
+def definitions(name: str) -> list[str]:
+    """The rtsim files that define ``name`` at module level (a class, a function or an
+    assignment)."""
+    out = []
+    for path in _python_files():
+        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+            if isinstance(node, ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+                bound = [node.name]
+            elif isinstance(node, ast.Assign | ast.AnnAssign):
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                bound = [t.id for t in targets if isinstance(t, ast.Name)]
+            else:
+                continue
+            if name in bound:
+                out.append(path.relative_to(ROOT.parent).as_posix())
+    return out
+
+
+def test_one_meaning_per_name() -> None:
+    assert definitions("FollowerModel") == ["rtsim/world/formation.py"]
+    assert definitions("POLICIES") == []
+    assert definitions("SCHEDULERS") == ["rtsim/sim/policy.py"]
+    assert definitions("ADJUSTMENT_POLICIES") == ["rtsim/control/policy.py"]
 
 
 def test_function_level_imports_state_a_reason() -> None:
