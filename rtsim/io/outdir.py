@@ -123,7 +123,6 @@ def _libc_renameat2() -> Any:
     return fn
 
 
-
 def exchange(a: Path, b: Path) -> bool:
     """Atomically swap the paths ``a`` and ``b`` (Linux ``renameat2(RENAME_EXCHANGE)``).
 
