@@ -17,7 +17,6 @@ from typing import Any
 
 import rtsim.reproduce
 from rtsim.cli.plausible import check_duration
-from rtsim.report import write_run_report
 from rtsim.reproduce import DEFAULT_OUT, MODES, QUICK_DURATION_S, TESTS, ReproduceOptions
 
 __all__ = ["register", "run", "add_options", "options"]
@@ -112,6 +111,8 @@ def options(args: Any) -> ReproduceOptions:
 
 def run(args: Any) -> int:
     """Run the reproduction on the parsed options (one parse), then write the reports."""
+    from rtsim.report import write_run_report  # lazy: CLI start-up (~2 ms)
+
     check_duration(args, args.duration)
 
     def reports(out: Path) -> None:  # in the staging directory, before the swap

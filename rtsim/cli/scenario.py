@@ -44,7 +44,6 @@ from rtsim.io.manifest import build_manifest, write_manifest
 from rtsim.io.outdir import FileSet, sidecar, stage
 from rtsim.io.spool import Spool, Tee
 from rtsim.io.summary import summary_json
-from rtsim.report import write_run_report
 from rtsim.sim.records import jobs_frame
 
 __all__ = ["register", "run"]
@@ -372,6 +371,8 @@ def _write(
         argv=["rtsim", *sys.argv[1:]],
         extra={"timing": timing, "outputs": [*outputs, "report.html"]},
     )
+
+    from rtsim.report import write_run_report  # lazy: CLI start-up (~2 ms)
 
     label = res.inputs.name or Path(args.file).stem
     write_run_report(out, title=f"rtsim scenario: {label}, {args.mode}")

@@ -13,7 +13,6 @@ import math
 from importlib import resources
 from typing import Any
 
-from rtsim.config.sweep import SweepFile
 from rtsim.config.taskset import TaskSetFile
 
 __all__ = ["KINDS", "json_schema", "schema_text", "shipped_schema"]
@@ -32,6 +31,8 @@ def _model(kind: str) -> Any:
 
         return ScenarioFile
     if kind == "sweep":
+        from rtsim.config.sweep import SweepFile  # lazy: CLI start-up (~4 ms)
+
         return SweepFile
     raise ValueError(f"no schema for {kind!r}: one of {', '.join(KINDS)}")
 
