@@ -527,6 +527,9 @@ class AdjustTable(Table):
     decide: Annotated[str, choice(DECIDE)] | None = None
     #: policy adjust on the paper's predictor (true, the default) or on ``predictor``
     paper_predictor: bool | None = None
+    #: policy plan: keep the predicted closest approach of any two robots at or above
+    #: 2·r_F + formation.clearance (the contact bound; true, the default, or false)
+    contact: bool | None = None
     margin: (
         Annotated[
             float,

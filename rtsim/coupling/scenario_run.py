@@ -97,6 +97,7 @@ from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.run import build_cpu
+from rtsim.world.contact import closest_to, contact_distance
 from rtsim.world.localization import hough_time, search_time
 from rtsim.world.world import World
 
@@ -460,6 +461,7 @@ class _Coupling:
                 self.w_sch,
                 type(world.followers),
                 tuple(self.beta_d),
+                contact_distance(cfg.follower.radius, cfg.formation.clearance),
             )
         )
 
