@@ -692,8 +692,9 @@ def _search_into(
     """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · `_rollout_worst` over
     ``changes.shape[1]`` windows of ``w`` (contact bound at ``contact``); rollout r's speed
     and changes go to ``speeds[r]`` and ``changes[r]`` from r = ``first`` (as many as they
-    hold). ``found_out`` ← (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the
-    speed's rollout or −1); returns the next free index (rollouts run: it − first)."""
+    hold). ``found_out`` ← (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or
+    NaN, the index of the speed's rollout or −1); returns the next free index (rollouts run:
+    it − first)."""
     v_ld = scalars(P[0]).v_ld
     cap = speeds.shape[0]
     scratch = np.empty(changes.shape[1:])
