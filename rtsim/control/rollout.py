@@ -26,7 +26,9 @@ follower's displacement in the leader frame, |Δρ|, the distance it drove, and
 
 the bound of Eqs 19–21 with the rate replaced by the window's average predicted rate — the
 same form as the ``_true`` columns of windows.csv, so MSB ≥ w exactly when the predicted
-change stays within its threshold.
+change stays within its threshold. Each follower's changes end with its closest approach to
+any other robot (leader included) at the two scans (cm; `rtsim.world.contact`), which the
+``plan`` policy's contact bound reads (`Rollout.closest`, `Rollout.contact`).
 
 **Timing.** The rollout starts at the decision (``t_now``). Sends still to come in the current
 window (a decision taken before the sends) are at ``pending`` times; each later window j
