@@ -54,7 +54,7 @@ import numpy as np
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.predict import min_bound_rows
 from rtsim.world.compiled import as_changes
-from rtsim.world.contact import closest_in_window, lowest_contact
+from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.leader import Leader
@@ -351,10 +351,12 @@ class Rollout:
                     )
                 )
             samples.append(row)
+        near = []  # each follower's closest approach at each scan (rtsim.world.contact)
+        for a in samples:
+            xs, ys = [p[0] for p in a], [p[1] for p in a]
+            near.append([closest_to(xs, ys, i, 0.0, 0.0) for i in range(n)])
         out = []
-        for a, b in zip(samples, samples[1:], strict=False):
-            px, py = [p[0] for p in a], [p[1] for p in a]
-            qx, qy = [q[0] for q in b], [q[1] for q in b]
+        for j, (a, b) in enumerate(zip(samples, samples[1:], strict=False)):
             out.append(
                 [
                     (
@@ -362,7 +364,7 @@ class Rollout:
                         abs(q[2] - p[2]),
                         q[4] - p[4],
                         abs(math.remainder(q[3] - p[3], _TWO_PI)),
-                        closest_in_window(px, py, qx, qy, i),
+                        closest_over(near[j][i], near[j + 1][i]),
                     )
                     for i, (p, q) in enumerate(zip(a, b, strict=True))
                 ]

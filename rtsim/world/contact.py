@@ -18,7 +18,8 @@ L·w / c, which are ≥ w exactly when the change c keeps its threshold L.
 The functions are kernel sources (`rtsim.world.jit`): the Python rollout, the truth's
 physical log and the compiled rollout call the same code. A distance is
 ``sqrt(dx·dx + dy·dy)`` (not ``math.hypot``, whose CPython algorithm numba does not carry),
-so both backends give the same float.
+so both backends give the same float. The rollouts sample the robots at the scans only
+(the closest approach at a scan is computed once and serves the windows on both sides).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from typing import Any
 from rtsim.world.jit import kernel
 
 __all__ = [
-    "closest_in_window",
+    "closest_over",
     "closest_to",
     "contact_bound",
     "contact_distance",
@@ -45,27 +46,26 @@ def contact_distance(radius: float, clearance: float) -> float:
 @kernel
 def closest_to(xs: Any, ys: Any, i: int, xl: float, yl: float) -> float:
     """The centre distance (cm) from follower ``i`` at (xs[i], ys[i]) to the nearest other
-    robot: the leader at (xl, yl), or another follower (xs[j], ys[j])."""
+    robot: the leader at (xl, yl), or another follower (xs[j], ys[j]). (The least squared
+    distance, then one square root: √ is monotone and correctly rounded, so this is the
+    least of the distances, exactly.)"""
     xi, yi = xs[i], ys[i]
     dx, dy = xi - xl, yi - yl
-    best = math.sqrt(dx * dx + dy * dy)
+    best = dx * dx + dy * dy
     for j in range(len(xs)):
         if j != i:
             dx, dy = xi - xs[j], yi - ys[j]
-            d = math.sqrt(dx * dx + dy * dy)
-            if d < best:
-                best = d
-    return best
+            d2 = dx * dx + dy * dy
+            if d2 < best:
+                best = d2
+    return math.sqrt(best)
 
 
 @kernel
-def closest_in_window(px: Any, py: Any, qx: Any, qy: Any, i: int) -> float:
-    """Follower ``i``'s closest approach over a window sampled at its opening scan (followers
-    at (px, py)) and its closing scan (qx, qy), both in the leader's frame (the leader at
-    the origin): the smaller of `closest_to` at the two."""
-    d = closest_to(px, py, i, 0.0, 0.0)
-    e = closest_to(qx, qy, i, 0.0, 0.0)
-    return e if e < d else d
+def closest_over(d_open: float, d_close: float) -> float:
+    """A window's closest approach from `closest_to` at its opening and its closing scan:
+    the smaller."""
+    return d_close if d_close < d_open else d_open
 
 
 @kernel

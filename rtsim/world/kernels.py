@@ -19,7 +19,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rtsim.world.contact import closest_in_window, lowest_contact
+from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.ekf import ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
 from rtsim.world.jit import build, cached, kernel
@@ -585,6 +585,10 @@ def _rollout_changes(
         samples,
     )
     two_pi = 2.0 * math.pi
+    near = np.empty((nw + 1, n))  # (contact: each follower's closest approach at each scan)
+    for j in range(nw + 1):
+        for i in range(n):
+            near[j, i] = closest_to(samples[j, :, 0], samples[j, :, 1], i, 0.0, 0.0)
     for j in range(nw):
         for i in range(n):
             px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
@@ -595,10 +599,7 @@ def _rollout_changes(
             b_q = math.atan2(qy, qx) % two_pi
             b_p = math.atan2(py, px) % two_pi
             out[j, i, 3] = abs(_remainder(b_q - b_p, two_pi))
-            # (contact: the closest approach over the window, rtsim.world.contact)
-            out[j, i, 4] = closest_in_window(
-                samples[j, :, 0], samples[j, :, 1], samples[j + 1, :, 0], samples[j + 1, :, 1], i
-            )
+            out[j, i, 4] = closest_over(near[j, i], near[j + 1, i])
 
 
 @kernel
