@@ -87,3 +87,17 @@ def test_one_distance_for_both_backends() -> None:
     assert d_c == 60.0
     assert contact_bound(240.0, 60.0, d_c) == 240.0
     assert contact_bound(240.0, 59.9, d_c) < 240.0 < contact_bound(240.0, 60.1, d_c)
+
+
+def test_contact_is_plans_own_key() -> None:
+    """``[adjust] contact`` is a bool of the policy plan (default true); another policy's file
+    naming it is an error that says whose key it is."""
+    from rtsim.control.policy import PlanPolicy, make_policy
+    from rtsim.errors import InputError
+
+    assert PlanPolicy.params["contact"] is True and PlanPolicy().contact is True
+    assert make_policy("plan", {"contact": False}).contact is False
+    with pytest.raises(InputError, match="contact: must be true or false"):
+        make_policy("plan", {"contact": 1})
+    with pytest.raises(InputError, match="a key of policy 'plan'"):
+        make_policy("adjust", {"contact": False})
