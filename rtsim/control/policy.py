@@ -215,18 +215,6 @@ _Z = Range("z", 0, 10, "σ", "the padding of the predicted V_F, |ρ̇|, |β̇| i
 _WINDOWS = Range("windows", 1, 100, "windows", _HORIZON)
 
 
-def _margin(default: float) -> Any:
-    return option(default, _MARGIN)
-
-
-def _z(default: float) -> Any:
-    return option(default, _Z)
-
-
-def _windows(default: float) -> Any:
-    return option(default, _WINDOWS)
-
-
 #: `PolicyInput`'s defaults, the one declaration of those of `AdjustOptions`.
 _INPUT: dict[str, Any] = {f.name: f.default for f in fields(PolicyInput)}
 
@@ -491,7 +479,7 @@ class MinMsbPolicy:
 class MarginOptions(PolicyOptions):
     """The options of the policy ``margin``."""
 
-    margin: float = _margin(0.1)
+    margin: float = option(0.1, _MARGIN)
 
 
 @register_adjustment_policy("margin")
@@ -536,8 +524,8 @@ class MarginPolicy:
 class LookaheadOptions(PolicyOptions):
     """The options of the policy ``lookahead``."""
 
-    margin: float = _margin(0.0)
-    windows: float = _windows(2.0)
+    margin: float = option(0.0, _MARGIN)
+    windows: float = option(2.0, _WINDOWS)
 
 
 @register_adjustment_policy("lookahead")
@@ -707,8 +695,8 @@ def pad_rows(
 class NoiseAwareOptions(PolicyOptions):
     """The options of the policy ``noise-aware``."""
 
-    z: float = _z(2.0)
-    margin: float = _margin(0.0)
+    z: float = option(2.0, _Z)
+    margin: float = option(0.0, _MARGIN)
 
 
 @register_adjustment_policy("noise-aware")
@@ -809,9 +797,9 @@ class NoiseAwarePolicy:
 class SafeOptions(PolicyOptions):
     """The options of the policy ``safe``."""
 
-    margin: float = _margin(0.1)
-    z: float = _z(1.0)
-    windows: float = _windows(2.0)
+    margin: float = option(0.1, _MARGIN)
+    z: float = option(1.0, _Z)
+    windows: float = option(2.0, _WINDOWS)
 
 
 @register_adjustment_policy("safe")
@@ -837,7 +825,7 @@ class PlanOptions(PolicyOptions):
     range: `PlanPolicy`)."""
 
     windows: int = option(2, Range("windows", 1, 20, "windows", _HORIZON, integer=True))
-    margin: float = _margin(0.0)
+    margin: float = option(0.0, _MARGIN)
     contact: bool = True
 
     def __post_init__(self) -> None:

@@ -467,6 +467,7 @@ class _Coupling:
                 type(world.followers),
                 tuple(self.beta_d),
                 self._contact_cm,
+                turns=world.expected_turn_rates(now),
             )
         )
 
