@@ -63,6 +63,7 @@ from rtsim.world.formation import (
 )
 from rtsim.world.ideal import START_ON, check_clearance, settled_start
 from rtsim.world.locmodels import LOCALIZATION_MODELS, predicted_bound_ms
+from rtsim.world.motionmodels import MOTION_MODELS
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
 __all__ = [
@@ -419,6 +420,7 @@ class FollowerTable(_Angles):
     speed_noise: Annotated[float, number(0, 1e3, "cm/s", _NOISE)] | None = None
     turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
     turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None = None
+    motion_model: Annotated[str, plugin(MOTION_MODELS)] | None = None
 
 
 class SensingTable(Table):

@@ -39,9 +39,10 @@ import numpy as np
 
 from rtsim.world import kernels as K
 from rtsim.world.ekf import EkfParams, FastFollowerEKF
-from rtsim.world.follower import FollowerGroup, FollowerParams
+from rtsim.world.follower import FollowerGroup
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.kernels import available, kernels
+from rtsim.world.motionmodels import MotionModel, motion_model
 from rtsim.world.path import LeaderPath
 
 __all__ = [
@@ -55,7 +56,8 @@ __all__ = [
 
 
 def as_changes(arr: Any) -> list[list[Any]]:
-    """A [window, follower, change] array as the rollout's lists of tuples."""
+    """A [window, follower, change] array as the rollout's lists of tuples (the four changes
+    and the closest approach, `rtsim.control.rollout.Changes`)."""
     return [[tuple(c) for c in win] for win in arr.tolist()]
 
 
@@ -65,21 +67,25 @@ def as_changes(arr: Any) -> list[list[Any]]:
 class CompiledFollowerGroup(FollowerGroup):
     """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose `advance` runs compiled."""
 
-    def __init__(
-        self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
-    ) -> None:
-        super().__init__(x, y, th, v, params, t_ms)
-        self._advance = kernels().advance_follower
+    @staticmethod
+    def _kernel(motion: MotionModel) -> Any:
+        return kernels(motion).advance_follower
 
 
 class CompiledFollowerEKF(FastFollowerEKF):
     """`FastFollowerEKF` whose predict and update run compiled."""
 
-    def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
-        super().__init__(pose, params)
+    def __init__(
+        self, pose: tuple[float, float, float], params: EkfParams, motion: Any = None
+    ) -> None:
+        super().__init__(pose, params, motion)
         ker = kernels()
         self._predict = ker.ekf_predict
         self._update = ker.ekf_update
+
+    @staticmethod
+    def _command_kernel(motion: Any) -> Any:
+        return kernels(motion).ekf_command
 
 
 class CompiledTraceFollower(TraceFollower):
@@ -207,10 +213,11 @@ class CompiledRollout:
     live law's, as the Python rollout clones it then)."""
 
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
-        K.warm_rollout()  # once per process: before the first rollout, not in a window
-        self._law = law
-        self._ker = kernels()
         p, thr = state.params, state.thresholds
+        motion = motion_model(p.motion_model)
+        K.warm_rollout(motion)  # once per process: before the first rollout, not in a window
+        self._law = law
+        self._ker = kernels(motion)
         # the scalars that stay from one decision to the next, packed once per law (they
         # follow the five that change, in RolloutScalars' order)
         static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
@@ -253,12 +260,14 @@ class CompiledRollout:
             dtype=float,
         )
         n = len(state.poses)
-        # per follower, in F_* column order: x, y, θ, v, held v, held ω, send offset, ρ_d (a
-        # flat list: numpy reads it much faster than nested tuples)
+        # per follower, in F_* column order: x, y, θ, v, ω, held v, held ω, send offset, ρ_d
+        # (a flat list: numpy reads it much faster than nested tuples)
         flat: list[float] = []
+        turns = state.turns or [h[1] for h in state.held]
         for k in range(n):
             flat += state.poses[k]
             flat.append(state.speeds[k])
+            flat.append(turns[k])
             flat += state.held[k]
             flat.append(state.send_offsets[k])
             flat.append(state.rho_d[k])
@@ -292,7 +301,7 @@ class CompiledRollout:
 
     def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
         """`Rollout.changes` uncached: per window, per follower the four changes."""
-        out = np.empty((len(windows), self.n, 4))
+        out = np.empty((len(windows), self.n, 5))
         self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
         return as_changes(out)
 
@@ -307,16 +316,18 @@ class CompiledRollout:
         tol: float,
         windows: int,
         w: float,
+        contact: float = 0.0,
     ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
         """`PlanPolicy`'s decision, or with ``search_only``
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
-        ``windows`` windows of ``w`` ms), in one call (`rtsim.world.kernels._plan_decide`, on fresh
+        ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
+        in one call (`rtsim.world.kernels._plan_decide`, on fresh
         buffers): ((w, V_L, method code, found, feasible), the rows
         at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
         lengths, changes [window, follower, change]) for the rollout's memo)."""
         speeds = np.empty(_SEARCH_RUNS)
         lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
-        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 4))
+        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))
         rows = np.empty((2, self.n, 4))
         out = np.full(6, math.nan)
         runs = self._ker.plan_decide(
@@ -334,6 +345,7 @@ class CompiledRollout:
             changes,
             rows,
             out,
+            float(contact),
         )
         runs = min(runs, _SEARCH_RUNS)
         w = float(w)

@@ -19,9 +19,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rtsim.world.ekf import ekf_predict, ekf_update
+from rtsim.world.contact import closest_over, closest_to, lowest_contact
+from rtsim.world.ekf import ekf_command, ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
-from rtsim.world.jit import build, cached, kernel
+from rtsim.world.jit import Subs, build, cached, kernel
 from rtsim.world.motion import clip, follower_advance, leader_travel
 from rtsim.world.path import along
 
@@ -309,6 +310,7 @@ def _rollout(
     y: Any,
     th: Any,
     v: Any,
+    w: Any,
     cmd_v: Any,
     cmd_w: Any,
     odo: Any,
@@ -350,11 +352,12 @@ def _rollout(
         hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
         for k in range(lo_k, hi_k):
             if t > t_f[k]:
-                x[k], y[k], th[k], v[k], odo[k] = follower_advance(
+                x[k], y[k], th[k], v[k], w[k], odo[k] = follower_advance(
                     x[k],
                     y[k],
                     th[k],
                     v[k],
+                    w[k],
                     cmd_v[k],
                     cmd_w[k],
                     max_accel,
@@ -445,9 +448,10 @@ def scalars(fs: Any) -> RolloutScalars:
     )  # fmt: skip
 
 
-#: columns of a rollout's follower pack: the estimate, its speed, the held command, the
-#: send offset after a window's scan, ρ_d (CompiledRollout builds the rows in this order)
-F_X, F_Y, F_TH, F_V, F_CMD_V, F_CMD_W, F_SEND, F_RHO_D, F_SIZE = range(9)
+#: columns of a rollout's follower pack: the estimate, its speed and turn rate, the held
+#: command, the send offset after a window's scan, ρ_d (CompiledRollout builds the rows in
+#: this order)
+F_X, F_Y, F_TH, F_V, F_W, F_CMD_V, F_CMD_W, F_SEND, F_RHO_D, F_SIZE = range(10)
 
 
 @kernel
@@ -489,8 +493,8 @@ def _rollout_changes(
     """Rollout._run whole: the leader set to target ``v`` (Leader.set_speed), the scans and
     sends of windows ``lengths`` in Python's tuple order, `_rollout` on copies of the
     group and the law's search starts, and the changes per window and follower
-    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|). ``P``: the state's
-    pack (`rtsim.world.compiled.CompiledRollout.pack`)."""
+    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|, closest approach).
+    ``P``: the state's pack (`rtsim.world.compiled.CompiledRollout.pack`)."""
     fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
     S = scalars(fs)
     n = fol.shape[0]
@@ -540,6 +544,7 @@ def _rollout_changes(
     y = fol[:, F_Y].copy()
     th = fol[:, F_TH].copy()
     vf = fol[:, F_V].copy()
+    wf = fol[:, F_W].copy()
     cmd_v = fol[:, F_CMD_V].copy()
     cmd_w = fol[:, F_CMD_W].copy()
     odo = np.zeros(n)
@@ -559,6 +564,7 @@ def _rollout_changes(
         y,
         th,
         vf,
+        wf,
         cmd_v,
         cmd_w,
         odo,
@@ -583,6 +589,10 @@ def _rollout_changes(
         samples,
     )
     two_pi = 2.0 * math.pi
+    near = np.empty((nw + 1, n))  # (contact: each follower's closest approach at each scan)
+    for j in range(nw + 1):
+        for i in range(n):
+            near[j, i] = closest_to(samples[j, :, 0], samples[j, :, 1], i, 0.0, 0.0)
     for j in range(nw):
         for i in range(n):
             px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
@@ -593,6 +603,7 @@ def _rollout_changes(
             b_q = math.atan2(qy, qx) % two_pi
             b_p = math.atan2(py, px) % two_pi
             out[j, i, 3] = abs(_remainder(b_q - b_p, two_pi))
+            out[j, i, 4] = closest_over(near[j, i], near[j + 1, i])
 
 
 @kernel
@@ -645,13 +656,15 @@ def _rollout_worst(
     w: float,
     P: Any,
     ch: Any,
+    contact: float,
 ) -> float:
     """PlanPolicy's m(V): the smallest bound of every follower in ``ch.shape[0]`` windows of
-    ``w`` ms (Python's ``min`` over the windows: the first, then any smaller); the changes
-    are left in ``ch``."""
+    ``w`` ms (Python's ``min`` over the windows: the first, then any smaller), then the
+    contact bound at d_c = ``contact`` (0: off); the changes are left in ``ch``."""
     S, fol = scalars(P[0]), P[1]
     _rollout_changes(v, np.full(ch.shape[0], w), P, ch)
-    return _worst_after(ch, S, fol, w, _min_bound(ch[0], S, fol, w))
+    m = _worst_after(ch, S, fol, w, _min_bound(ch[0], S, fol, w))
+    return lowest_contact(ch, w, contact, m)  # type: ignore[no-any-return]
 
 
 @kernel
@@ -679,12 +692,14 @@ def _search_into(
     changes: Any,
     first: int,
     found_out: Any,
+    contact: float,
 ) -> int:
     """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · `_rollout_worst` over
-    ``changes.shape[1]`` windows of ``w``; rollout r's speed and changes go to ``speeds[r]``
-    and ``changes[r]`` from r = ``first`` (as many as they hold). ``found_out`` ←
-    (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the
-    speed's rollout or −1); returns the next free index (rollouts run: it − first)."""
+    ``changes.shape[1]`` windows of ``w`` (contact bound at ``contact``); rollout r's speed
+    and changes go to ``speeds[r]`` and ``changes[r]`` from r = ``first`` (as many as they
+    hold). ``found_out`` ← (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or
+    NaN, the index of the speed's rollout or −1); returns the next free index (rollouts run:
+    it − first)."""
     v_ld = scalars(P[0]).v_ld
     cap = speeds.shape[0]
     scratch = np.empty(changes.shape[1:])
@@ -716,7 +731,7 @@ def _search_into(
             speeds[r] = v
         r_v = r if r < cap else -1
         r += 1
-        m = keep * _rollout_worst(v, w, P, ch)
+        m = keep * _rollout_worst(v, w, P, ch, contact)
         if phase == 0:
             best_m, best_r, phase = m, r_v, 1
         elif phase == 1:
@@ -749,8 +764,10 @@ def _plan_decide(
     changes: Any,
     rows: Any,
     out: Any,
+    contact: float,
 ) -> int:
-    """PlanPolicy.decide's numbers over ``changes.shape[1]`` windows of ``w`` (the horizon H).
+    """PlanPolicy.decide's numbers over ``changes.shape[1]`` windows of ``w`` (the horizon H),
+    with the contact bound at d_c = ``contact`` cm (0: off; `rtsim.world.contact`).
 
     Rows: ``rows[0]`` the bounds at V_Ld in the window the decision governs, ``rows[1]``
     those at the chosen speed; ``out`` ← (w, V_L, method: 0 none, 1 numeric, 2 best, the
@@ -775,7 +792,7 @@ def _plan_decide(
     feasible = False
     if not search_only:
         speeds[0], lens[0] = v_ld, 1
-        m_ld = _rollout_worst(v_ld, w, P, changes[0])
+        m_ld = _rollout_worst(v_ld, w, P, changes[0], contact)
         m1 = _rows(changes[0, 0], S, fol, w, rows[0])
         feasible = keep * m_ld >= need
     if feasible:
@@ -785,7 +802,7 @@ def _plan_decide(
         runs = 1
         if ww > w:  # the longer first window, checked by its own rollout
             speeds[1], lens[1] = v_ld, 2
-            m_w = _rollout_worst(v_ld, ww, P, changes[1, 0:1])
+            m_w = _rollout_worst(v_ld, ww, P, changes[1, 0:1], contact)
             runs = 2
             out[5] = ww
             if keep * m_w < ww:
@@ -796,7 +813,7 @@ def _plan_decide(
                 rows[1, i, j] = rows[0, i, j]
         out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
         return runs
-    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, first, res)
+    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, first, res, contact)
     for r in range(first, min(runs, speeds.shape[0])):
         lens[r] = 0
     if search_only:
@@ -808,6 +825,7 @@ def _plan_decide(
         return runs
     lens[r_l] = 1
     m_l = _worst_after(changes[r_l], S, fol, w, _rows(changes[r_l, 0], S, fol, w, rows[1]))
+    m_l = lowest_contact(changes[r_l], w, contact, m_l)
     out[4] = 1.0 if keep * m_l >= need else 0.0
     return runs
 
@@ -816,6 +834,7 @@ def _plan_decide(
 #: compiled with the kernel sources it calls: `rtsim.world.jit.compile`)
 ENTRIES: dict[str, Any] = {
     "advance_follower": follower_advance,
+    "ekf_command": ekf_command,
     "ekf_predict": ekf_predict,
     "ekf_update": ekf_update,
     "ftl_exact": _ftl_exact,
@@ -830,6 +849,10 @@ ENTRIES: dict[str, Any] = {
 #: the entries only a run that rolls out calls (compiled by `warm_rollout`)
 ROLLOUT_ENTRIES = ("rollout_changes", "plan_decide")
 
+#: the entries that run a motion model's parts (built again for a model other than the
+#: unicycle: `kernels`)
+MOTION_ENTRIES = ("advance_follower", "ekf_command", *ROLLOUT_ENTRIES)
+
 #: about how long compiling takes, CPU s on a 2-core machine (numba 0.68; measured with a
 #: fresh NUMBA_CACHE_DIR, docs/performance.md): the world's entries, the rollout's
 COMPILE_S = {"world": 4.0, "rollout": 6.0}
@@ -837,14 +860,14 @@ COMPILE_S = {"world": 4.0, "rollout": 6.0}
 _ANNOUNCED = False
 
 
-def announce(sources: Iterable[Any], seconds: float) -> bool:
+def announce(sources: Iterable[Any], seconds: float, subs: Subs = ()) -> bool:
     """Say on stderr, in one line and once per process, that the kernels are being compiled
-    (once per install, about ``seconds``), when any of the kernel ``sources`` has no build
-    in the cache and progress is shown (`rtsim.sim.progress.progress_enabled`: a
-    terminal, or ``RTSIM_PROGRESS=1``); nothing when they load from the cache. Returns
-    whether it said so."""
+    (once per install, about ``seconds``), when any of the kernel ``sources`` (with
+    ``subs``) has no build in the cache and progress is shown
+    (`rtsim.sim.progress.progress_enabled`: a terminal, or ``RTSIM_PROGRESS=1``); nothing
+    when they load from the cache. Returns whether it said so."""
     global _ANNOUNCED
-    if _ANNOUNCED or all(cached(fn) for fn in sources):
+    if _ANNOUNCED or all(cached(fn, subs) for fn in sources):
         return False
     from rtsim.sim.progress import progress_enabled
 
@@ -859,10 +882,22 @@ def announce(sources: Iterable[Any], seconds: float) -> bool:
     return True
 
 
-def kernels() -> Any:
+def _sources(names: Iterable[str], subs: Subs = ()) -> list[Any]:
+    """The kernel sources of entries ``names`` for substitutions ``subs`` (an entry that is
+    itself a substituted part is its replacement)."""
+    swap = dict(subs)
+    return [swap.get(ENTRIES[name], ENTRIES[name]) for name in names]
+
+
+_BY_MODEL: dict[Subs, Any] = {}
+
+
+def kernels(motion: Any = None) -> Any:
     """The compiled kernels (a namespace), compiled or loaded from the cache once per
     process (saying so when they compile: `announce`, with the rollout's time when
-    those are not cached either, as most runs roll out next)."""
+    those are not cached either, as most runs roll out next). ``motion``: a motion model
+    (`rtsim.world.motionmodels.MotionModel`; None: the unicycle) whose parts the
+    `MOTION_ENTRIES` run (the others are the unicycle's namespace's)."""
     global _KERNELS
     if _KERNELS is None:
         import types
@@ -876,7 +911,23 @@ def kernels() -> Any:
         _warm(ns)
         ns.exact_hypot = _hypot_matches(ns.hypot)
         _KERNELS = ns
-    return _KERNELS
+    subs: Subs = () if motion is None else motion.subs
+    if not subs:
+        return _KERNELS
+    model_ns = _BY_MODEL.get(subs)
+    if model_ns is None:
+        import types
+
+        world = [n for n in MOTION_ENTRIES if n not in ROLLOUT_ENTRIES]
+        announce(_sources(world, subs), COMPILE_S["world"], subs)
+        model_ns = types.SimpleNamespace(**vars(_KERNELS))
+        for name, fn in zip(MOTION_ENTRIES, _sources(MOTION_ENTRIES, subs), strict=True):
+            setattr(model_ns, name, build(fn, subs))
+        model_ns.rollout_warm = False
+        model_ns.subs = subs
+        _warm(model_ns)
+        _BY_MODEL[subs] = model_ns
+    return model_ns
 
 
 def _hypot_matches(fn: Any, count: int = 20000) -> bool:
@@ -904,7 +955,8 @@ def _warm(ns: Any) -> None:
     """Call every kernel once on dummy values, so that compiling it (the first time on a
     machine) or loading it from numba's cache happens when the world is built, not inside
     the first window."""
-    ns.advance_follower(0.0, 0.0, 0.0, 1.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
+    ns.advance_follower(0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
+    ns.ekf_command(*([1.0] * 19))
     ns.ekf_predict(*([1.0] * 16))
     ns.ekf_update(*([1.0] * 15))
     one = np.zeros(1)
@@ -934,14 +986,16 @@ def _warm(ns: Any) -> None:
     # (the rollout's kernels: warm_rollout, when a run first rolls out)
 
 
-def warm_rollout() -> None:
+def warm_rollout(motion: Any = None) -> None:
     """Compile the rollout's kernels (or load them from numba's cache) once per process:
     called when the first compiled rollout is made (a coupled run makes it while it is set
-    up, before the loop), so a run that never rolls out never compiles them."""
-    ns = kernels()
+    up, before the loop), so a run that never rolls out never compiles them. ``motion``: as
+    `kernels`."""
+    ns = kernels(motion)
     if getattr(ns, "rollout_warm", False):
         return
-    announce([ENTRIES[name] for name in ROLLOUT_ENTRIES], COMPILE_S["rollout"])
+    subs = getattr(ns, "subs", ())
+    announce(_sources(ROLLOUT_ENTRIES, subs), COMPILE_S["rollout"], subs)
     # one follower 100 cm behind a leader on a straight lap
     fs = np.array(
         RolloutScalars(
@@ -970,11 +1024,11 @@ def warm_rollout() -> None:
     nan1 = np.full(1, math.nan)
     path = (np.zeros(1), np.zeros((1, 3)), np.zeros(1), np.zeros(1), np.full(1, -1))
     P = (fs, fol, np.full((1, 1), math.nan), *path, np.full(1, 100.0), nan1, nan1)
-    ch = np.empty((64, 2, 1, 4))
+    ch = np.empty((64, 2, 1, 5))
     ns.rollout_changes(20.0, np.full(2, 240.0), P, ch[0])
     bufs = (np.empty(64), np.zeros(64, dtype=np.int64), ch, np.empty((2, 1, 4)), np.empty(6))
     for search_only in (True, False):
-        ns.plan_decide(search_only, 1.0, 240.0, 1e3, 3.0, 8, 0.005, 240.0, P, *bufs)
+        ns.plan_decide(search_only, 1.0, 240.0, 1e3, 3.0, 8, 0.005, 240.0, P, *bufs, 60.0)
     ns.rollout_warm = True
 
 

@@ -30,6 +30,7 @@ from rtsim.analysis.kinematics import msb_localization_predicted
 from rtsim.errors import InputError, ScenarioError
 from rtsim.model.window import LASER_POINTS
 from rtsim.registry import Registry
+from rtsim.world._check import plugin
 from rtsim.world.config import SensingParams, WorldConfig
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
@@ -232,12 +233,7 @@ LOCALIZATION_MODELS.register("hough", HoughModel)
 
 def localization_model(name: str, where: str = "localization.model") -> type[LocalizationModel]:
     """The localization model class ``name`` names; an unknown one is a `ScenarioError`."""
-    try:
-        return LOCALIZATION_MODELS.resolve(name, where)
-    except ScenarioError:
-        raise
-    except InputError as exc:
-        raise ScenarioError(str(exc)) from None
+    return plugin(LOCALIZATION_MODELS, name, where)
 
 
 def predicted_bound_ms(
