@@ -21,7 +21,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2] / "rtsim"
 
-#: The most function-level rtsim→rtsim imports with a reason (issue 31: at most 80).
+#: The most function-level rtsim→rtsim imports, with a reason or not (issue 31: at most 80).
 MAX_LAZY = 80
 #: The marker of a function-level import's reason, on the import's first line.
 LAZY = re.compile(r"#\s*lazy:\s*\S")
@@ -35,7 +35,7 @@ REWRITING: tuple[str, ...] = (
     "rtsim/world/",
 )
 
-#: Functions may be shorter than this many lines (the ``def`` line to the last line).
+#: A function is shorter than this many lines (its first decorator or ``def`` to its end).
 MAX_FUNCTION_LINES = 150
 #: The functions allowed to be longer, with the reason.
 LONG_FUNCTIONS: dict[str, str] = {
