@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
+from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
 from rtsim.control.predict import min_bound_rows
 from rtsim.world.compiled import as_changes
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
@@ -206,8 +207,6 @@ class Rollout:
         `changes` of one of its speeds is that rollout)."""
         if self._compiled is None or v_ld != self.state.v_ld:
             return None
-        from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
-
         out, _, ran = self._compiled.decide(
             True, keep, need, 0.0, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, 0.0
         )
@@ -234,8 +233,6 @@ class Rollout:
         st = self.state
         if self._compiled is None or v_ld != st.v_ld or w != st.w_sch:
             return None
-        from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
-
         out, rows, ran = self._compiled.decide(
             False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact
         )

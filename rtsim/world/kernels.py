@@ -19,6 +19,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from rtsim.sim.progress import progress_enabled
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.ekf import ekf_command, ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
@@ -869,8 +870,6 @@ def announce(sources: Iterable[Any], seconds: float, subs: Subs = ()) -> bool:
     global _ANNOUNCED
     if _ANNOUNCED or all(cached(fn, subs) for fn in sources):
         return False
-    from rtsim.sim.progress import progress_enabled
-
     _ANNOUNCED = True  # (asked once: a later group compiles under the same line)
     if not progress_enabled():
         return False

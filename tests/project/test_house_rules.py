@@ -26,15 +26,6 @@ MAX_LAZY = 80
 #: The marker of a function-level import's reason, on the import's first line.
 LAZY = re.compile(r"#\s*lazy:\s*\S")
 
-#: Files being rewritten by another part of issue 31 (one source per equation): their
-#: function-level imports count towards `MAX_LAZY` but need no reason yet (left untouched so
-#: that the rewrite merges cleanly).
-REWRITING: tuple[str, ...] = (
-    "rtsim/control/rollout.py",
-    "rtsim/control/compiled.py",
-    "rtsim/world/",
-)
-
 #: A function is shorter than this many lines (its first decorator or ``def`` to its end).
 MAX_FUNCTION_LINES = 150
 #: The functions allowed to be longer, with the reason.
@@ -153,7 +144,6 @@ def test_one_meaning_per_name() -> None:
 def test_function_level_imports_state_a_reason() -> None:
     """Every rtsim import inside a function says why it is not at the module's top."""
     _, missing = lazy_imports()
-    missing = [m for m in missing if not m.startswith(REWRITING)]
     assert missing == [], f"{len(missing)} function-level imports without '# lazy: <reason>'"
 
 
