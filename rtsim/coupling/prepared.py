@@ -39,8 +39,8 @@ _CACHE: OrderedDict[tuple[Any, ...], _Entry] = OrderedDict()
 
 
 def _taskset_raw(name: str) -> bytes:
-    from rtsim.config.load import taskset_bytes
     from rtsim.config.scenario import taskset_file
+    from rtsim.config.taskset import taskset_bytes
 
     return taskset_bytes(taskset_file(name))[0]
 
