@@ -14,13 +14,13 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import partial
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, NamedTuple, TypeVar
 
-from pydantic import ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field, create_model, model_validator
 
 from rtsim.analysis.bounds import LOWER_BOUNDS
 from rtsim.analysis.kinematics import (
@@ -383,56 +383,55 @@ class FormationTable(_Angles):
         return self
 
 
-def _spec(cls: type, key: str, *, deg: bool = False) -> Leaf:
+def _spec(cls: type, key: str) -> Leaf:
     """The range of field ``key`` of the world's spec ``cls``, declared there once with its
-    default (`rtsim.world._check.spec`); ``deg``: its ``_deg`` twin's."""
-    return ranged(cls.__dataclass_fields__[key].metadata["range"], deg=deg)  # type: ignore[attr-defined]
+    default (`rtsim.world._check.spec`)."""
+    return ranged(cls.__dataclass_fields__[key].metadata["range"])  # type: ignore[attr-defined]
 
 
-# The world's tables: each key's one default and one range are its spec's field's
-# (FollowerParams, SensingParams, EkfParams, RadioParams, WorldConfig); a table names them.
-_FP, _SP, _EP = FollowerParams, SensingParams, EkfParams
+def _of(spec: type, **leaves: Leaf) -> Callable[[type[T]], type[T]]:
+    """Class decorator: the world's table ``cls`` with a key for each field of the world's
+    spec ``spec`` that has a range (`rtsim.world._check.spec`) or a leaf in ``leaves``, with
+    the spec's one default and one range; an angle (a unit in rad) with its ``_deg`` twin."""
+
+    def make(cls: type[T]) -> type[T]:
+        keys: dict[str, Any] = {}
+        for f in fields(spec):
+            rng = f.metadata.get("range")
+            leaf = leaves.get(f.name) or (ranged(rng) if rng is not None else None)
+            if leaf is None:
+                continue
+            kind = str if rng is None else int if rng.integer else float
+            ann: Any = Annotated[kind, leaf]  # type: ignore[valid-type]
+            keys[f.name] = (ann if f.default is not None else ann | None, f.default)
+            if rng is not None and rng.unit.startswith("rad"):
+                twin: Any = Annotated[float, ranged(rng, deg=True)]
+                keys[f"{f.name}_deg"] = (twin | None, None)
+        model: Any = create_model(  # type: ignore[call-overload]
+            cls.__name__, __base__=cls, __module__=cls.__module__, __doc__=cls.__doc__, **keys
+        )
+        return model  # type: ignore[no-any-return]
+
+    return make
 
 
+@_of(FollowerParams, motion_model=plugin(MOTION_MODELS))
 class FollowerTable(_Angles):
-    radius: Annotated[float, _spec(_FP, "radius")] = _FP.radius
-    max_speed: Annotated[float, _spec(_FP, "max_speed")] = _FP.max_speed
-    max_accel: Annotated[float, _spec(_FP, "max_accel")] = _FP.max_accel
-    max_turn_rate: Annotated[float, _spec(_FP, "max_turn_rate")] = _FP.max_turn_rate
-    max_turn_rate_deg: Annotated[float, _spec(_FP, "max_turn_rate", deg=True)] | None = None
-    control_offset: Annotated[float, _spec(_FP, "control_offset")] = _FP.control_offset
-    gain_rho: Annotated[float, _spec(_FP, "gain_rho")] = _FP.gain_rho
-    gain_beta: Annotated[float, _spec(_FP, "gain_beta")] = _FP.gain_beta
-    lookahead: Annotated[float, _spec(_FP, "lookahead")] = _FP.lookahead
-    speed_noise: Annotated[float, _spec(_FP, "speed_noise")] = _FP.speed_noise
-    turn_noise: Annotated[float, _spec(_FP, "turn_noise")] = _FP.turn_noise
-    turn_noise_deg: Annotated[float, _spec(_FP, "turn_noise", deg=True)] | None = None
-    motion_model: Annotated[str, plugin(MOTION_MODELS)] = _FP.motion_model
+    """``[follower]``: `rtsim.world.follower.FollowerParams`'s keys."""
 
 
+@_of(SensingParams)
 class SensingTable(_Angles):
+    """``[sensing]``: the run's one r_H and `rtsim.world.config.SensingParams`'s keys."""
+
     #: the run's one r_H: the window's cost (Eq 1) and the bounds read it; it replaces the
     #: task set's ``[window] r_H`` (the manifest's ``r_H`` records both)
     r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = R_H_DEFAULT
-    r_reacq: Annotated[float, _spec(_SP, "r_reacq")] = _SP.r_reacq
-    position_noise: Annotated[float, _spec(_SP, "position_noise")] = _SP.position_noise
-    min_points: Annotated[int, _spec(_SP, "min_points")] = _SP.min_points
-    max_range: Annotated[float, _spec(_SP, "max_range")] = _SP.max_range
-    range_noise: Annotated[float, _spec(_SP, "range_noise")] = _SP.range_noise
 
 
+@_of(EkfParams, backend=choice(EKF_BACKENDS))
 class EkfTable(_Angles):
-    measurement_noise: Annotated[float, _spec(_EP, "measurement_noise")] = _EP.measurement_noise
-    speed_noise: Annotated[float, _spec(_EP, "speed_noise")] = _EP.speed_noise
-    turn_noise: Annotated[float, _spec(_EP, "turn_noise")] = _EP.turn_noise
-    turn_noise_deg: Annotated[float, _spec(_EP, "turn_noise", deg=True)] | None = None
-    position_drift: Annotated[float, _spec(_EP, "position_drift")] = _EP.position_drift
-    heading_drift: Annotated[float, _spec(_EP, "heading_drift")] = _EP.heading_drift
-    heading_drift_deg: Annotated[float, _spec(_EP, "heading_drift", deg=True)] | None = None
-    init_position_sd: Annotated[float, _spec(_EP, "init_position_sd")] = _EP.init_position_sd
-    init_heading_sd: Annotated[float, _spec(_EP, "init_heading_sd")] = _EP.init_heading_sd
-    init_heading_sd_deg: Annotated[float, _spec(_EP, "init_heading_sd", deg=True)] | None = None
-    backend: Annotated[str, choice(EKF_BACKENDS)] = _EP.backend
+    """``[ekf]``: `rtsim.world.ekf.EkfParams`'s keys."""
 
 
 _FRACTION = "a fraction of the desired separation"
@@ -495,11 +494,9 @@ class AdjustConfig(Table):
         return dict(self.model_extra or {})
 
 
-class RadioTable(Table):
+@_of(RadioParams)
+class RadioTable(_Angles):
     """``[radio]``: the round trip's spread and the commands' loss probability."""
-
-    min_ms: Annotated[float, _spec(RadioParams, "min_ms")] | None = RadioParams.min_ms
-    loss: Annotated[float, _spec(RadioParams, "loss")] = RadioParams.loss
 
 
 class WorldTable(Table):
@@ -788,7 +785,7 @@ def _world(
             leader_decel_max=float(m.leader.decel_max),
             localization=localization,
             backend=m.world.backend,
-            radio=RadioParams(min_ms=m.radio.min_ms, loss=m.radio.loss),
+            radio=m.radio.build(RadioParams),
         ),
     )
     return world
