@@ -5,7 +5,7 @@ each built once.
 
 Angles are radians, or degrees when the key is written with ``_deg`` (``heading_deg``):
 both spellings are fields of the model, with the same range. See
-[`rtsim.io.scenario`][rtsim.io.scenario]
+[`rtsim.config.scenario`][rtsim.config.scenario]
 for the file format.
 """
 
@@ -40,7 +40,8 @@ from rtsim.config.fields import (
     ranged,
     text,
 )
-from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
+from rtsim.config.load import parse_toml, validate, with_overrides
+from rtsim.config.taskset import load_taskset
 from rtsim.control.policy import DECIDE, AdjustOptions, make_policy
 from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError
