@@ -403,15 +403,15 @@ def _of(spec: type, **leaves: Leaf) -> Callable[[type[T]], type[T]]:
             if leaf is None:
                 continue
             kind = str if rng is None else int if rng.integer else float
-            ann: Any = Annotated[kind, leaf]  # type: ignore[valid-type]
+            ann: Any = Annotated[kind, leaf]
             keys[f.name] = (ann if f.default is not None else ann | None, f.default)
             if rng is not None and rng.unit.startswith("rad"):
                 twin: Any = Annotated[float, ranged(rng, deg=True)]
                 keys[f"{f.name}_deg"] = (twin | None, None)
-        model: Any = create_model(  # type: ignore[call-overload]
+        model: Any = create_model(
             cls.__name__, __base__=cls, __module__=cls.__module__, __doc__=cls.__doc__, **keys
         )
-        return model  # type: ignore[no-any-return]
+        return model
 
     return make
 

@@ -11,7 +11,7 @@ from rtsim.errors import InputError, ScenarioError
 from rtsim.io.limits import Range
 from rtsim.registry import Registry
 
-__all__ = ["number", "positive", "non_negative", "integer", "plugin", "spec", "in_ranges", "NOISE"]
+__all__ = ["number", "positive", "integer", "plugin", "spec", "in_ranges", "NOISE"]
 
 T = TypeVar("T")
 
@@ -46,14 +46,6 @@ def positive(key: str, value: object, *, allow_inf: bool = False) -> float:
     v = number(key, value)
     if v <= 0:
         raise ScenarioError(f"{key}: must be positive, got {value!r}")
-    return v
-
-
-def non_negative(key: str, value: object) -> float:
-    """``value`` as a float ≥ 0."""
-    v = number(key, value)
-    if v < 0:
-        raise ScenarioError(f"{key}: must be non-negative, got {value!r}")
     return v
 
 
