@@ -19,7 +19,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rtsim.sim.progress import progress_enabled
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.ekf import ekf_command, ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
@@ -882,6 +881,8 @@ def announce(sources: Iterable[Any], seconds: float, subs: Subs = ()) -> bool:
     if _ANNOUNCED or all(cached(fn, subs) for fn in sources):
         return False
     _ANNOUNCED = True  # (asked once: a later group compiles under the same line)
+    from rtsim.sim.progress import progress_enabled  # lazy: rtsim.sim loads simpy
+
     if not progress_enabled():
         return False
     from tqdm.auto import tqdm
