@@ -12,6 +12,7 @@ from typing import Any
 from rtsim.config.scenario import AdjustConfig, fit_taskset
 from rtsim.config.taskset import taskset_to_dict
 from rtsim.control.policy import AdjustOptions
+from rtsim.coupling.prepared import prepared
 from rtsim.errors import InputError
 from rtsim.io.atomic import inf_as_null
 from rtsim.model.taskset import TaskSet
@@ -70,8 +71,6 @@ def scenario_inputs(
         return scenario
     if isinstance(scenario, str | os.PathLike):
         # a file, or a packaged scenario by name ("test2"): prepared once per content
-        from rtsim.coupling.prepared import prepared
-
         return prepared(scenario, text, overrides, allow_code, scenario_inputs)  # type: ignore[no-any-return]
     try:
         world = scenario.world

@@ -20,6 +20,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import replace
 from typing import Any, NamedTuple
 
+from rtsim.config.scenario import load_scenario, scenario_bytes, taskset_file
+from rtsim.config.taskset import taskset_bytes
 from rtsim.errors import InputError
 
 __all__ = ["prepared", "clear"]
@@ -39,9 +41,6 @@ _CACHE: OrderedDict[tuple[Any, ...], _Entry] = OrderedDict()
 
 
 def _taskset_raw(name: str) -> bytes:
-    from rtsim.config.scenario import taskset_file
-    from rtsim.config.taskset import taskset_bytes
-
     return taskset_bytes(taskset_file(name))[0]
 
 
@@ -71,8 +70,6 @@ def prepared(
     """``prepare(scenario, text)`` (`rtsim.coupling.inputs.scenario_inputs`, which calls this)
     of the scenario file (or packaged name) ``path`` loaded with ``overrides``, from the cache
     while both its files are unchanged (module docstring)."""
-    from rtsim.config.scenario import load_scenario, scenario_bytes
-
     key = (
         os.fspath(path),
         os.getcwd(),
