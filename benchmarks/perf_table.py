@@ -213,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
             doc = path.read_text(encoding="utf-8")
             new, count = re.subn(
                 re.escape(START) + ".*?" + re.escape(END),
-                lambda _: f"{START}\n{block}\n{END}",
+                lambda _, b=block: f"{START}\n{b}\n{END}",
                 doc,
                 flags=re.S,
             )
