@@ -791,11 +791,16 @@ def write_scenario_figures(
     [`figure_data`][rtsim.plots.scenario.figure_data] is also written as ``<prefix><stem>.csv``.
     Returns the paths written.
     """
+    import gc
+
     out = Path(out_dir)
     written: list[Path] = []
     for stem, plot in SCENARIO_FIGURES.items():
         title = f"{label}: {_TITLES[stem]}" if label else _TITLES[stem]
         written.append(save_figure(plot(df, title=title), out / f"{prefix}{stem}.{fmt}", dpi=dpi))
+        # a figure is a web of reference cycles: freed here, before the next is drawn,
+        # not when the collector next runs (six figures of a long run held at once)
+        gc.collect()
         if data:
             csv = out / f"{prefix}{stem}.csv"
             write_table(csv, figure_data(df, stem))

@@ -7,6 +7,7 @@ drawing here: `rtsim.plots.scenario` draws what these return.
 
 from __future__ import annotations
 
+import os
 import re
 
 import numpy as np
@@ -100,6 +101,8 @@ def critical_spans(df: pd.DataFrame) -> list[tuple[float, float]]:
 def kind_min(df: pd.DataFrame, kind: str, which: str) -> np.ndarray:
     """Per window, the minimum over followers of one bound kind's ``which`` (``pred`` or
     ``true``) column (inf when none is finite)."""
+    if f"bound_{kind}_{which}" in df.columns:  # reduced as it was read (`reduce_chunk`)
+        return as_floats(df[f"bound_{kind}_{which}"])
     cols = [f"f{i}_msb_{kind}_{which}" for i in followers(df)]
     need_columns(df, cols, f"the {kind} bound")
     if not cols:
@@ -170,28 +173,53 @@ FIGURE_NAMES: tuple[str, ...] = (
     "operating_space",
 )
 
-#: A run with more windows than this is drawn from a selection of rows (`thin_rows`).
+#: Rows of windows.csv parsed at a time when the figures' table is read back
+#: (`read_figure_table`): the parser's buffers and each chunk stay this small.
+FIGURE_READ_ROWS = 2048
+#: Bins of the time axis `read_figure_table` keeps each plotted value's extremes of: about
+#: the pixel columns of a page-wide figure (`rtsim.plots.style.PAGE_IN` × 300 dpi = 2,148
+#: px, the axes a little narrower), so a bin is at most one pixel column wide.
+FIGURE_BINS = 2048
+#: Kept for the readers of older versions: `thin_rows` with buckets of consecutive windows.
 FIGURE_MAX_ROWS = 20_000
-#: Buckets of consecutive windows `thin_rows` keeps extremes of.
 FIGURE_BUCKETS = 1_000
 
+#: The plotted values whose extremes a thinned table keeps, by name (each follower's bound
+#: columns too, and the minima over followers `reduce_chunk` adds).
+_GUARDED = ("w", "slack", "w_sch", "msb_min", "v_leader", "v_leader_target", "v_leader_desired")
 
-def thin_rows(df: pd.DataFrame, bucket: int) -> np.ndarray:
-    """Which rows to draw of a long windows table (a boolean mask): per ``bucket``
-    consecutive windows the first and last and, for every plotted value (w, slack, w_sch,
-    min MSB, leader speed and target, each follower's predicted and true bounds), the rows of
-    its smallest and largest value; both rows of every change of ``critical`` (so the shaded
-    regions are exact) and every missed window (each is marked and counted). A figure of
-    ~1000 pixels cannot show more; its lines and extremes are those of the whole table."""
+
+def _guarded(df: pd.DataFrame) -> list[np.ndarray]:
+    """Every value a figure plots against time, per row: the named columns, each bound
+    column, and the minima over bound kinds the msb and operating-space figures draw
+    (the largest value of a minimum is not always a kept row of its parts)."""
+
+    def plotted(c: str) -> bool:
+        bound = (c.startswith("f") and "_msb_" in c) or c.startswith("bound_")
+        return c in _GUARDED or (bound and c.endswith(("_pred", "_true")))
+
+    out = [as_floats(df[c]) for c in df.columns if plotted(str(c))]
+    for which in ("pred", "true"):
+        if all(f"bound_{k}_{which}" in df.columns for k in BOUND_KINDS):
+            out.append(np.min([as_floats(df[f"bound_{k}_{which}"]) for k in BOUND_KINDS], axis=0))
+    return out
+
+
+def keep_extremes(df: pd.DataFrame, bins: np.ndarray) -> np.ndarray:
+    """Which rows to draw (a boolean mask) when rows are grouped by ``bins`` (one
+    non-decreasing bin number per row): per bin its first and last row and, for every
+    plotted value (`_guarded`), the rows of its smallest and largest value; both rows of
+    every change of ``critical`` (so the shaded regions are exact) and every missed window
+    (each is marked and counted). Drawn through these rows, each line covers in each bin
+    the same range as through every row, so a bin no wider than a pixel column draws the
+    same picture."""
     m = len(df)
     keep = np.zeros(m, dtype=bool)
     if m == 0:
         return keep
-    bucket = max(1, int(bucket))
-    nb = -(-m // bucket)
-    starts = np.arange(nb) * bucket
+    starts = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
     keep[starts] = True
-    keep[np.minimum(starts + bucket, m) - 1] = True
+    keep[np.r_[starts[1:], m] - 1] = True
     if "critical" in df.columns:
         f = as_bool(df["critical"])
         ch = np.flatnonzero(f[1:] != f[:-1])
@@ -199,22 +227,72 @@ def thin_rows(df: pd.DataFrame, bucket: int) -> np.ndarray:
         keep[ch + 1] = True
     if "missed" in df.columns:
         keep |= as_bool(df["missed"])
-    guarded = [
-        c
-        for c in df.columns
-        if c in ("w", "slack", "w_sch", "msb_min", "v_leader", "v_leader_target")
-        or (str(c).startswith("f") and "_msb_" in str(c) and str(c).endswith(("_pred", "_true")))
-    ]
-    pad = nb * bucket - m
-    for c in guarded:
-        v = as_floats(df[c])
+    for v in _guarded(df):
         nan = np.isnan(v)
-        lo = np.pad(np.where(nan, np.inf, v), (0, pad), constant_values=np.inf)
-        hi = np.pad(np.where(nan, -np.inf, v), (0, pad), constant_values=-np.inf)
-        for pos in (lo.reshape(nb, bucket).argmin(axis=1), hi.reshape(nb, bucket).argmax(axis=1)):
-            idx = starts + pos
-            keep[idx[idx < m]] = True
+        for pos in (
+            np.minimum.reduceat(np.where(nan, np.inf, v), starts),
+            np.maximum.reduceat(np.where(nan, -np.inf, v), starts),
+        ):
+            # the first row of each bin holding its extreme
+            hit = v == np.repeat(pos, np.diff(np.r_[starts, m]))
+            first = np.flatnonzero(hit & ~_seen_in_bin(hit, starts, m))
+            keep[first] = True
     return keep
+
+
+def _seen_in_bin(hit: np.ndarray, starts: np.ndarray, m: int) -> np.ndarray:
+    """Per row, whether an earlier row of its bin already has ``hit``."""
+    c = np.cumsum(hit)
+    before = np.repeat(np.r_[0, c[starts[1:] - 1]], np.diff(np.r_[starts, m]))
+    return (c - hit) > before
+
+
+def thin_rows(df: pd.DataFrame, bucket: int) -> np.ndarray:
+    """`keep_extremes` over buckets of ``bucket`` consecutive windows."""
+    return keep_extremes(df, np.arange(len(df)) // max(1, int(bucket)))
+
+
+def reduce_chunk(chunk: pd.DataFrame) -> pd.DataFrame:
+    """The figures' columns of a chunk of windows.csv with each follower's bound columns
+    replaced by their minimum over followers, ``bound_<kind>_pred`` and
+    ``bound_<kind>_true`` (what `figure_data` derives; `kind_min` takes them as they are):
+    the table a figure needs no longer grows with the follower count."""
+    out = chunk.loc[:, [c for c in chunk.columns if "_msb_" not in str(c)]].copy()
+    for kind in BOUND_KINDS:
+        for which in ("pred", "true"):
+            out[f"bound_{kind}_{which}"] = kind_min(chunk, kind, which)
+    return out
+
+
+def read_figure_table(path: str | os.PathLike[str], n: int) -> pd.DataFrame:
+    """The rows and columns the scenario figures draw, read back from a run's windows.csv
+    in chunks of `FIGURE_READ_ROWS` rows: each chunk reduced (`reduce_chunk`), its rows
+    grouped by `FIGURE_BINS` equal bins of the run's time span and thinned
+    (`keep_extremes`). The table stays within about ``FIGURE_BINS`` × (2 + 2 × plotted
+    values) rows (plus the critical changes and misses, each kept) whatever the run's
+    length; a run shorter than the bins are many keeps every row."""
+    from rtsim.io.columns import iter_columns
+
+    t0 = end = None
+    for chunk in iter_columns(path, ["t", "w"], chunk_rows=FIGURE_READ_ROWS):
+        if len(chunk):
+            t = as_floats(chunk["t"])
+            w = as_floats(chunk["w"])[-1]
+            t0 = t[0] if t0 is None else t0
+            end = t[-1] + (w if np.isfinite(w) else 0.0)
+    span = (end - t0) if t0 is not None and end is not None else 0.0
+    parts = []
+    for chunk in iter_columns(path, figure_columns(n), chunk_rows=FIGURE_READ_ROWS):
+        small = reduce_chunk(chunk)
+        if span > 0:
+            bins = np.clip((as_floats(chunk["t"]) - t0) * (FIGURE_BINS / span), 0, FIGURE_BINS)
+            bins = np.floor(np.nan_to_num(bins)).astype(np.int64)
+        else:
+            bins = np.zeros(len(chunk), dtype=np.int64)
+        parts.append(small[keep_extremes(small, bins)])
+    if not parts:
+        return reduce_chunk(pd.DataFrame(columns=figure_columns(n)))
+    return pd.concat(parts, ignore_index=True)
 
 
 def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:
