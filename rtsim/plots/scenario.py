@@ -26,6 +26,8 @@ from rtsim.io.atomic import atomic_path, write_table
 from rtsim.plots.figure import new_figure
 from rtsim.plots.scenario_data import (
     BOUND_KINDS,
+    BOUNDS_CLIP,
+    WINDOW_CLIP,
     as_bool,
     as_floats,
     binding_xy,
@@ -88,8 +90,6 @@ FOLLOWER_COLORS: tuple[str, ...] = (
     "#D55E00",
     "#F0E442",
 )
-BOUNDS_CLIP = 4.0  # bounds figure: y-axis ends at most at this multiple of w_sch
-WINDOW_CLIP = 6.0  # window figure: the same for w (w is capped, but the cap may be large)
 #: Resolution of PNG figures: print (`rtsim.plots.style.DPI`); SVG and PDF are vector.
 DPI = _PRINT_DPI
 #: What the lines and dots of the bounds figures are (their legend's title).

@@ -180,6 +180,15 @@ FIGURE_READ_ROWS = 2048
 #: the pixel columns of a page-wide figure (`rtsim.plots.style.PAGE_IN` × 300 dpi = 2,148
 #: px, the axes a little narrower), so a bin is at most one pixel column wide.
 FIGURE_BINS = 2048
+#: The time figures' y axes end at most at these multiples of the run's largest w_sch: the
+#: bounds, msb and operating-space figures (`BOUNDS_CLIP`), the window figure
+#: (`WINDOW_CLIP`: w is capped, but the cap may be large).
+BOUNDS_CLIP = 4.0
+WINDOW_CLIP = 6.0
+#: The band of values, as a fraction of the run's largest w_sch, within which
+#: `read_figure_table` keeps one dot per bin: the time figures' y axes reach at least 1.5 ×
+#: w_sch over about 500 px, so this is under 4 px; a dot is about 10 px wide.
+FIGURE_DOT_CELL = 0.01
 #: Kept for the readers of older versions: `thin_rows` with buckets of consecutive windows.
 FIGURE_MAX_ROWS = 20_000
 FIGURE_BUCKETS = 1_000
@@ -189,30 +198,53 @@ FIGURE_BUCKETS = 1_000
 _GUARDED = ("w", "slack", "w_sch", "msb_min", "v_leader", "v_leader_target", "v_leader_desired")
 
 
-def _guarded(df: pd.DataFrame) -> list[np.ndarray]:
+def _guarded(df: pd.DataFrame, dots: bool = False) -> list[np.ndarray]:
     """Every value a figure plots against time, per row: the named columns, each bound
     column, and the minima over bound kinds the msb and operating-space figures draw
-    (the largest value of a minimum is not always a kept row of its parts)."""
+    (the largest value of a minimum is not always a kept row of its parts). With ``dots``
+    the true values, which are drawn as dots (`_dots`), are left to those."""
+    ends = ("_pred",) if dots else ("_pred", "_true")
 
     def plotted(c: str) -> bool:
         bound = (c.startswith("f") and "_msb_" in c) or c.startswith("bound_")
-        return c in _GUARDED or (bound and c.endswith(("_pred", "_true")))
+        return c in _GUARDED or (bound and c.endswith(ends))
 
     out = [as_floats(df[c]) for c in df.columns if plotted(str(c))]
-    for which in ("pred", "true"):
+    for which in ("pred",) if dots else ("pred", "true"):
         if all(f"bound_{k}_{which}" in df.columns for k in BOUND_KINDS):
             out.append(np.min([as_floats(df[f"bound_{k}_{which}"]) for k in BOUND_KINDS], axis=0))
     return out
 
 
-def keep_extremes(df: pd.DataFrame, bins: np.ndarray) -> np.ndarray:
+def _dots(df: pd.DataFrame) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The values the figures draw as a dot per window, each with a group per row (dots of
+    one group look alike): each bound kind's true value and their minimum (bounds, msb,
+    operating space), and ``msb_min`` in the critical windows by binding kind (msb)."""
+    out: list[tuple[np.ndarray, np.ndarray]] = []
+    every = np.zeros(len(df), dtype=np.int64)
+    true = [f"bound_{k}_true" for k in BOUND_KINDS if f"bound_{k}_true" in df.columns]
+    out += [(as_floats(df[c]), every) for c in true]
+    if len(true) == len(BOUND_KINDS):
+        out.append((np.min([as_floats(df[c]) for c in true], axis=0), every))
+    if {"msb_min", "critical", "binding"} <= set(df.columns):
+        kind = pd.factorize(df["binding"].astype(str).str.split(":").str[0])[0] + 1
+        out.append((as_floats(df["msb_min"]), np.where(as_bool(df["critical"]), kind, -1)))
+    return out
+
+
+def keep_extremes(
+    df: pd.DataFrame, bins: np.ndarray, dot_cell: float | None = None, dot_top: float = np.inf
+) -> np.ndarray:
     """Which rows to draw (a boolean mask) when rows are grouped by ``bins`` (one
     non-decreasing bin number per row): per bin its first and last row and, for every
     plotted value (`_guarded`), the rows of its smallest and largest value; both rows of
     every change of ``critical`` (so the shaded regions are exact) and every missed window
     (each is marked and counted). Drawn through these rows, each line covers in each bin
     the same range as through every row, so a bin no wider than a pixel column draws the
-    same picture."""
+    same picture. With ``dot_cell`` (ms), of the values drawn as dots (`_dots`) up to
+    ``dot_top`` (ms; no dot is drawn above the y axis) one row per bin and
+    ``dot_cell``-high band of values is kept too, so the dots cover what every row's dots
+    cover to within that band."""
     m = len(df)
     keep = np.zeros(m, dtype=bool)
     if m == 0:
@@ -227,7 +259,8 @@ def keep_extremes(df: pd.DataFrame, bins: np.ndarray) -> np.ndarray:
         keep[ch + 1] = True
     if "missed" in df.columns:
         keep |= as_bool(df["missed"])
-    for v in _guarded(df):
+    dots = dot_cell is not None and dot_cell > 0
+    for v in _guarded(df, dots):
         nan = np.isnan(v)
         for pos in (
             np.minimum.reduceat(np.where(nan, np.inf, v), starts),
@@ -237,6 +270,15 @@ def keep_extremes(df: pd.DataFrame, bins: np.ndarray) -> np.ndarray:
             hit = v == np.repeat(pos, np.diff(np.r_[starts, m]))
             first = np.flatnonzero(hit & ~_seen_in_bin(hit, starts, m))
             keep[first] = True
+    if dots:
+        assert dot_cell is not None
+        for v, group in _dots(df):
+            drawn = np.flatnonzero((v <= dot_top) & (group >= 0))
+            key = np.column_stack(
+                [bins[drawn], group[drawn], np.floor(v[drawn] / dot_cell).astype(np.int64)]
+            )
+            first = np.unique(key, axis=0, return_index=True)[1]
+            keep[drawn[first]] = True
     return keep
 
 
@@ -268,19 +310,25 @@ def read_figure_table(path: str | os.PathLike[str], n: int) -> pd.DataFrame:
     """The rows and columns the scenario figures draw, read back from a run's windows.csv
     in chunks of `FIGURE_READ_ROWS` rows: each chunk reduced (`reduce_chunk`), its rows
     grouped by `FIGURE_BINS` equal bins of the run's time span and thinned
-    (`keep_extremes`). The table stays within about ``FIGURE_BINS`` × (2 + 2 × plotted
-    values) rows (plus the critical changes and misses, each kept) whatever the run's
-    length; a run shorter than the bins are many keeps every row."""
+    (`keep_extremes`, dots kept per `FIGURE_DOT_CELL` × w_sch band). The table stays
+    within ``FIGURE_BINS`` × (2 + 2 × plotted values + the dot bands a bin's values span)
+    rows (plus the critical changes and misses, each kept) whatever the run's length; a run
+    with fewer windows than bins keeps every row."""
     from rtsim.io.columns import iter_columns
 
     t0 = end = None
-    for chunk in iter_columns(path, ["t", "w"], chunk_rows=FIGURE_READ_ROWS):
+    w_sch = 0.0
+    for chunk in iter_columns(path, ["t", "w", "w_sch"], chunk_rows=FIGURE_READ_ROWS):
         if len(chunk):
             t = as_floats(chunk["t"])
             w = as_floats(chunk["w"])[-1]
             t0 = t[0] if t0 is None else t0
             end = t[-1] + (w if np.isfinite(w) else 0.0)
+            r = as_floats(chunk["w_sch"])
+            r = r[np.isfinite(r)]
+            w_sch = max(w_sch, float(r.max())) if r.size else w_sch
     span = (end - t0) if t0 is not None and end is not None else 0.0
+    cell = FIGURE_DOT_CELL * w_sch if w_sch > 0 else None
     parts = []
     for chunk in iter_columns(path, figure_columns(n), chunk_rows=FIGURE_READ_ROWS):
         small = reduce_chunk(chunk)
@@ -289,7 +337,7 @@ def read_figure_table(path: str | os.PathLike[str], n: int) -> pd.DataFrame:
             bins = np.floor(np.nan_to_num(bins)).astype(np.int64)
         else:
             bins = np.zeros(len(chunk), dtype=np.int64)
-        parts.append(small[keep_extremes(small, bins)])
+        parts.append(small[keep_extremes(small, bins, cell, BOUNDS_CLIP * w_sch)])
     if not parts:
         return reduce_chunk(pd.DataFrame(columns=figure_columns(n)))
     return pd.concat(parts, ignore_index=True)
