@@ -261,15 +261,7 @@ def keep_extremes(
         keep |= as_bool(df["missed"])
     dots = dot_cell is not None and dot_cell > 0
     for v in _guarded(df, dots):
-        nan = np.isnan(v)
-        for pos in (
-            np.minimum.reduceat(np.where(nan, np.inf, v), starts),
-            np.maximum.reduceat(np.where(nan, -np.inf, v), starts),
-        ):
-            # the first row of each bin holding its extreme
-            hit = v == np.repeat(pos, np.diff(np.r_[starts, m]))
-            first = np.flatnonzero(hit & ~_seen_in_bin(hit, starts, m))
-            keep[first] = True
+        _keep_extremes_of(v, starts, keep)
     if dots:
         assert dot_cell is not None
         for v, group in _dots(df):
@@ -279,6 +271,65 @@ def keep_extremes(
             )
             first = np.unique(key, axis=0, return_index=True)[1]
             keep[drawn[first]] = True
+    return keep
+
+
+def _keep_extremes_of(v: np.ndarray, starts: np.ndarray, keep: np.ndarray) -> None:
+    """Mark in ``keep`` the first row of each bin (starting at ``starts``) holding the bin's
+    smallest and its largest value of ``v``."""
+    m = len(v)
+    nan = np.isnan(v)
+    for pos in (
+        np.minimum.reduceat(np.where(nan, np.inf, v), starts),
+        np.maximum.reduceat(np.where(nan, -np.inf, v), starts),
+    ):
+        hit = v == np.repeat(pos, np.diff(np.r_[starts, m]))
+        keep[np.flatnonzero(hit & ~_seen_in_bin(hit, starts, m))] = True
+
+
+def line_points(x: np.ndarray, ys: list[np.ndarray], bins: int | None = None) -> np.ndarray:
+    """Which points of lines drawn over ``x`` (non-decreasing) to draw (a boolean mask): all
+    of them when there are no more than ``bins`` (default `FIGURE_BINS`); else per bin of
+    ``bins`` equal parts of x's span its first and last point and the smallest and largest
+    value of each of ``ys``, and every NaN (a line's break). Drawn steps-post through these
+    points a line covers in each bin the range it covers through all of them."""
+    bins = FIGURE_BINS if bins is None else bins
+    m = len(x)
+    keep = np.ones(m, dtype=bool)
+    span = float(x[-1] - x[0]) if m else 0.0
+    if m <= bins or not np.isfinite(span) or span <= 0:
+        return keep
+    b = np.clip(np.floor((x - x[0]) * (bins / span)), 0, bins - 1).astype(np.int64)
+    starts = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
+    keep[:] = False
+    keep[starts] = True
+    keep[np.r_[starts[1:], m] - 1] = True
+    for y in ys:
+        keep |= np.isnan(y)
+        _keep_extremes_of(y, starts, keep)
+    return keep
+
+
+#: The dots a figure draws, one per this fraction of the y axis's height and time bin
+#: (`dot_points`): under a pixel of an axes 300 px high or more.
+DOT_BAND = 1 / 1000
+
+
+def dot_points(x: np.ndarray, y: np.ndarray, top: float, bins: int | None = None) -> np.ndarray:
+    """Which of the dots at (``x``, ``y``) to draw (a boolean mask) on a y axis from 0 to
+    ``top``: all when there are no more than ``bins`` (default `FIGURE_BINS`); else the
+    first dot of each time bin and `DOT_BAND` × ``top`` band of values (a dot is
+    several pixels wide; the ones dropped lie within a pixel of one kept)."""
+    bins = FIGURE_BINS if bins is None else bins
+    m = len(x)
+    span = float(x[-1] - x[0]) if m else 0.0
+    if m <= bins or not np.isfinite(span) or span <= 0 or not top > 0:
+        return np.ones(m, dtype=bool)
+    b = np.clip(np.floor((x - x[0]) * (bins / span)), 0, bins - 1).astype(np.int64)
+    band = np.floor(np.nan_to_num(y, posinf=-1.0, neginf=-1.0) / (DOT_BAND * top))
+    first = np.unique(np.column_stack([b, band.astype(np.int64)]), axis=0, return_index=True)[1]
+    keep = np.zeros(m, dtype=bool)
+    keep[first] = True
     return keep
 
 

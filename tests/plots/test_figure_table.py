@@ -1,6 +1,7 @@
-"""The scenario figures' table read back in bounded chunks (issue 35, item 11: a coupled run
-with every output grew ~55 MB per simulated hour because the figures read and drew the
-whole windows table, and held all six figures until the collector ran)."""
+"""The scenario figures' table read back in bounded chunks and thinned per pixel column
+(issue 35, item 11: a coupled run with every output grew ~55 MB per simulated hour because
+the figures read and drew the whole windows table, and held all six figures until the
+collector ran)."""
 
 from __future__ import annotations
 
@@ -60,15 +61,20 @@ def _differing(a: np.ndarray, b: np.ndarray) -> float:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("stem", ["msb", "bounds", "paths"])
-def test_the_thinned_table_draws_the_whole_tables_figure(long_csv: Path, stem: str) -> None:
-    """At 300 dpi the figure drawn from `read_figure_table` differs from the one drawn from
-    every row in under 0.1 % of its pixels, while a table of every fourth row (as many rows
-    as the bins, fewer than the thinned table) differs in more: the bins keep each line's
-    extremes per pixel column and the dots of each band."""
+def test_the_thinned_table_draws_the_whole_tables_figure(
+    long_csv: Path, stem: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """At 300 dpi the figure drawn from `read_figure_table` (its lines and dots thinned
+    again as they are drawn) differs from the one drawn from every row, every point of
+    every line and dot, in under 0.1 % of its pixels, while a table of every fourth row (as
+    many rows as the bins) differs in more: the bins keep each line's extremes per pixel
+    column and the dots of each band."""
     whole = read_columns(long_csv, sd.figure_columns(N))
     thin = sd.read_figure_table(long_csv, N)
     assert len(thin) < len(whole)
-    reference = _png(whole, stem)
+    with monkeypatch.context() as m:
+        m.setattr(sd, "FIGURE_BINS", 10**9)  # no thinning as the figure is drawn
+        reference = _png(whole, stem)
     assert _differing(_png(thin, stem), reference) < 1e-3
     assert _differing(_png(whole.iloc[::4].reset_index(drop=True), stem), reference) > 1e-3
 
@@ -133,3 +139,34 @@ def write_one(df: pd.DataFrame, stem: str, out: Path) -> None:
 
     save_figure(SCENARIO_FIGURES[stem](df, title="t"), out / f"{stem}.png", dpi=100)
     gc.collect()
+
+
+@pytest.mark.parametrize("m", [10, 5000, 20_000])
+def test_line_points_keep_each_bins_range_and_dot_points_each_band(m: int) -> None:
+    """`line_points`: every point of a short line; of a long one, per bin the first, last,
+    smallest and largest point of each value (so a steps-post line spans in each bin the
+    range of every point), and every NaN. `dot_points`: a dot within DOT_BAND × top of each
+    dropped one in its bin."""
+    rng = np.random.default_rng(m)
+    x = np.cumsum(rng.uniform(0.1, 0.5, m))
+    y = rng.normal(100, 30, m)
+    y[rng.random(m) < 0.01] = np.nan
+    keep = sd.line_points(x, [y])
+    if m <= sd.FIGURE_BINS:
+        assert keep.all()
+        assert sd.dot_points(x, y, 300.0).all()
+        return
+    assert keep[0] and keep[-1] and keep[np.isnan(y)].all() and keep.sum() < m
+    b = np.clip(np.floor((x - x[0]) * sd.FIGURE_BINS / (x[-1] - x[0])), 0, sd.FIGURE_BINS - 1)
+    for how in ("min", "max"):
+        got = pd.Series(y[keep]).groupby(b[keep]).agg(how)
+        want = pd.Series(y).groupby(b).agg(how)
+        pd.testing.assert_series_equal(got, want)
+    ok = ~np.isnan(y)
+    xs, ys = x[ok], y[ok]
+    dots = sd.dot_points(xs, ys, 300.0)
+    bs = np.clip(np.floor((xs - xs[0]) * sd.FIGURE_BINS / (xs[-1] - xs[0])), 0, sd.FIGURE_BINS - 1)
+    band = sd.DOT_BAND * 300.0
+    for i in np.flatnonzero(~dots)[:200]:
+        same = (bs == bs[i]) & dots
+        assert np.min(np.abs(ys[same] - ys[i])) < band
