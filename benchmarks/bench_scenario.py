@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         prof = cProfile.Profile()
         prof.enable()
         res = run_scenario(
-            args.scenario, mode=args.mode, duration_s=args.duration, record_jobs=False
+            args.scenario, policy=args.mode, duration_s=args.duration, record_jobs=False
         )
         prof.disable()
         pstats.Stats(prof).sort_stats("tottime").print_stats(25)
@@ -111,7 +111,7 @@ from rtsim.coupling import run_scenario
 scenario, mode, duration, backend = sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4]
 res = run_scenario(
     scenario,
-    mode=mode or None,
+    policy=mode or None,
     duration_s=duration,
     record_jobs=True,
     overrides={"world.backend": backend},

@@ -39,7 +39,11 @@ TESTS = {"Test 1": SCENARIOS / "test1.toml", "Test 2": SCENARIOS / "test2.toml"}
 def run_one(label: str, path: Path, bound: str, duration_s: float | None) -> dict[str, Any]:
     """One scenario with one lower bound: the row of the table."""
     sc = load_scenario(path)
-    sc = replace(sc, adjust=replace(sc.adjust, lower_bound=bound), scheduler=BOUND_SCHEDULER[bound])
+    sc = replace(
+        sc,
+        adjust=sc.adjust.model_copy(update={"lower_bound": bound}),
+        scheduler=BOUND_SCHEDULER[bound],
+    )
     res = run_scenario(sc, duration_s=duration_s, record_jobs=False)
     df, s = res.windows, res.summary
     w = df["w"].to_numpy(dtype=float)

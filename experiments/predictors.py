@@ -26,7 +26,7 @@ def row(test: str, predictor: str, seed: int) -> dict[str, object]:
     t0 = time.perf_counter()
     res = run_scenario(
         test,
-        mode="adjust",
+        policy="adjust",
         seed=seed,
         record_jobs=False,
         # adjust on this predictor, not the paper's (its default since issue 33)

@@ -83,7 +83,7 @@ def run_point(p: dict[str, Any]) -> dict[str, Any]:
     )
     sc = replace(sc, world=replace(sc.world, thresholds=thr))
     t0 = time.perf_counter()
-    res = run_scenario(sc, mode=p["mode"], duration_s=p["duration"], seed=0, record_jobs=False)
+    res = run_scenario(sc, policy=p["mode"], duration_s=p["duration"], seed=0, record_jobs=False)
     s = res.summary
     row = {k: v for k, v in p.items() if k != "duration"}
     row.update(

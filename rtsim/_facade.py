@@ -81,7 +81,7 @@ def run_sweep(
     """Run a scenario at every point of a grid and return one row per point and seed.
 
     A row equals ``run_scenario(base, overrides={**overrides, **point}, seed=s,
-    duration_s=duration_s, mode=mode).summary``: every point runs with each seed of ``seeds``
+    duration_s=duration_s, policy=mode).summary``: every point runs with each seed of ``seeds``
     itself, so the ``seed`` and ``point_seed`` columns are equal here (a sweep file without
     a grid seed derives ``point_seed`` from its seed and the point, [`rtsim.sweep`][rtsim.sweep]).
 
@@ -105,7 +105,7 @@ def run_sweep(
         ``manifest.json``): calling again with a grown grid runs only the new points. None:
         nothing is written (a temporary directory, removed at the end).
     mode : str, optional
-        The adjustment policy of every run (as ``run_scenario``'s ``mode``/``policy``).
+        The adjustment policy of every run (as ``run_scenario``'s ``policy``).
     overrides : mapping, optional
         Dotted keys set at every point, before the grid's.
     kind, options

@@ -30,7 +30,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rtsim.analysis.kinematics import R_H_DEFAULT
 from rtsim.errors import InputError
+from rtsim.world.follower import FollowerParams
 
 __all__ = ["WindowView", "window_view", "load_run", "animate_run", "FORMATS", "BEAM_STEP"]
 
@@ -132,9 +134,8 @@ def load_run(run_dir: str | os.PathLike[str]) -> tuple[pd.DataFrame, pd.DataFram
 def _geometry(manifest: dict) -> tuple[float, float]:
     """(follower radius cm, r_H cm) from a scenario manifest."""
     sc = manifest.get("inputs", {}).get("scenario", {})
-    radius = float(sc.get("follower", {}).get("radius", 25.0))
-    ts = sc.get("taskset", {})
-    r_h = ts.get("window", {}).get("r_H", 25.0) if isinstance(ts, dict) else 25.0
+    radius = float(sc.get("follower", {}).get("radius", FollowerParams.radius))
+    r_h = sc.get("thresholds", {}).get("r_H", R_H_DEFAULT)  # the run's r_H (sensing.r_H)
     return radius, float(r_h)
 
 

@@ -213,7 +213,7 @@ def run_one(spec: dict[str, Any]) -> dict[str, Any]:
     set_ = list(spec.get("set") or [])
     res = run_scenario(
         file,
-        mode=spec["mode"],
+        policy=spec["mode"],
         duration_s=spec["duration_s"],
         seed=spec["seed"],
         record_jobs=True,

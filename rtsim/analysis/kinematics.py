@@ -27,6 +27,7 @@ from rtsim._numbers import is_real
 from rtsim.errors import InputError
 
 __all__ = [
+    "R_H_DEFAULT",
     "BOUND_KINDS",
     "LocalizationKind",
     "Thresholds",
@@ -220,6 +221,12 @@ def slack(msb_min: float, w_sch: float) -> float:
     which is 0 in the critical region; this function is the paper's signed quantity.
     """
     return msb_min - w_sch
+
+
+#: The Hough window radius r_H (cm) when nothing gives one: the paper's r_F = 25 cm. The one
+#: default of ``[sensing] r_H`` (a coupled run's one r_H, docs/scenarios.md) and of the
+#: world's `DEFAULT_THRESHOLDS`.
+R_H_DEFAULT = 25.0
 
 
 @dataclass(frozen=True)

@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import sys
 import typing
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import Annotated, Any
 
 from pydantic import BaseModel
 
 from rtsim.config.fields import Leaf
+from rtsim.config.scenario import ScenarioFile
+from rtsim.config.taskset import TaskSetFile
+from rtsim.control.policy import ADJUSTMENT_POLICIES
 from rtsim.io.limits import REGISTRY, Range
 
 __all__ = ["ranges", "render_markdown"]
@@ -49,9 +52,6 @@ def _walk(model: type[BaseModel], prefix: str, out: dict[str, Range]) -> None:
 def ranges() -> dict[str, Range]:
     """Every numeric key of the input files with its range: ``taskset: tasks.wcet``,
     ``scenario: leader.speed`` (entries of an array without an index), sorted."""
-    from rtsim.config.scenario import ScenarioFile
-    from rtsim.config.taskset import TaskSetFile
-
     out: dict[str, Range] = {}
     for kind, model in (("taskset", TaskSetFile), ("scenario", ScenarioFile)):
         found: dict[str, Range] = {}
@@ -59,7 +59,24 @@ def ranges() -> dict[str, Range]:
         out.update(
             {f"{kind}: {k}": replace(r, key=f"{kind}: {k}") for k, r in sorted(found.items())}
         )
-    return out
+    return {**out, **_policy_options()}
+
+
+def _policy_options() -> dict[str, Range]:
+    """The registered policies' own ``[adjust]`` keys (their options models,
+    `rtsim.control.policy.PolicyOptions`): one row per key and range, naming the policies."""
+    found: dict[tuple[str, Range], list[str]] = {}
+    for name, cls in ADJUSTMENT_POLICIES.items():
+        model = getattr(cls, "options", None)
+        for f in fields(model) if model is not None else ():
+            found.setdefault((f.name, f.metadata["range"]), []).append(name)
+    out: dict[str, Range] = {}
+    for (key, r), names in found.items():
+        many = sum(1 for k, _ in found if k == key) > 1
+        label = f"scenario: adjust.{key}" + (f" ({', '.join(names)})" if many else "")
+        why = f"{r.why} (polic{'ies' if len(names) > 1 else 'y'} {', '.join(names)})"
+        out[label] = replace(r, key=label, why=why)
+    return dict(sorted(out.items()))
 
 
 def render_markdown() -> str:

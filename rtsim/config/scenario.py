@@ -18,24 +18,30 @@ from dataclasses import dataclass, field, replace
 from functools import partial
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, ClassVar, Literal, TypeVar
+from typing import Annotated, Any, ClassVar, Literal, NamedTuple, TypeVar
 
 from pydantic import ConfigDict, Field, model_validator
 
 from rtsim.analysis.bounds import LOWER_BOUNDS
 from rtsim.analysis.kinematics import (
     LOCALIZATION_KINDS,
+    R_H_DEFAULT,
     Thresholds,
-    msb_localization_predicted,
 )
+from rtsim.config.errors import raise_errors
 from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
 from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
+from rtsim.control.policy import DECIDE, AdjustOptions, make_policy
 from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError
+from rtsim.examples import shipped_hint
+from rtsim.io.limits import read_input
 from rtsim.model.taskset import TaskSet
-from rtsim.world._check import non_negative, positive
+from rtsim.registry import file_allows_code, reading_input
+from rtsim.sim.policy import SCHEDULERS
 from rtsim.world.config import (
     CENTRES,
+    DEFAULT_THRESHOLDS,
     SEARCHES,
     WORLD_BACKENDS,
     LocalizationParams,
@@ -55,11 +61,13 @@ from rtsim.world.formation import (
     outer_side,
 )
 from rtsim.world.ideal import START_ON, check_clearance, settled_start
-from rtsim.world.locmodels import LOCALIZATION_MODELS, localization_model
+from rtsim.world.locmodels import LOCALIZATION_MODELS, predicted_bound_ms
+from rtsim.world.motionmodels import MOTION_MODELS
 from rtsim.world.path import LeaderPath, Segment, Straight, Turn, rounded_rectangle
 
 __all__ = [
     "AdjustConfig",
+    "fit_taskset",
     "Scenario",
     "ScenarioFile",
     "load_scenario",
@@ -73,10 +81,6 @@ __all__ = [
 
 #: Task-set names that refer to the package's own files rather than to a path.
 PACKAGED_TASKSETS = ("barrel_robots", "example")
-#: When in its window the adjustment decides: after the radio round trip, or before sending.
-DECIDE: tuple[str, ...] = ("end", "before-send")
-#: The common keys of ``[adjust]`` (the rest are the policy's own).
-_ADJUST_KEYS = ("cap", "floor", "predictor", "lower_bound", "policy", "decide", "paper_predictor")
 #: Scenarios shipped with rtsim (the paper's Test 1 and Test 2), loadable by name.
 PACKAGED_SCENARIOS = ("test1", "test2")
 
@@ -122,56 +126,6 @@ Side = Literal["left", "right"]
 
 # ----------------------------------------------------------------- runtime objects
 @dataclass(frozen=True)
-class AdjustConfig:
-    """Limits for the adjustment algorithm (semantics in [`rtsim.control`][rtsim.control]).
-
-    cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
-    predictor: the prediction model of `rtsim.control.predict` (``paper``, ``formation``
-    or ``hybrid``; the old key ``model`` and value ``estimate`` are errors naming their new
-    names); lower_bound: the window's lower bound, ``w_sch`` (the paper's Eq 7/11),
-    ``w_rta`` (exact RTA), ``w_susp`` (suspension-aware, Δt with the CPU idle), ``w_txn``
-    (offset-based: the window chain and the command task as one transaction) or ``w_edf``
-    (the EDF demand criterion; needs ``[scheduler] policy = "edf"``); decide: when in its
-    window the decision is taken, ``end`` (after the radio round trip) or ``before-send``;
-    paper_predictor: the policy ``adjust`` runs on the paper's predictor (default) or on
-    ``predictor`` (the other policies always use ``predictor``).
-    """
-
-    cap: float = math.inf
-    floor: float = 0.0
-    predictor: str = "formation"
-    lower_bound: str = "w_sch"
-    policy: str = "adjust"
-    decide: str = "end"
-    #: the policy ``adjust`` (the paper's algorithm) predicts with the paper's §3.3
-    #: (``predictor = "paper"``) whatever ``predictor`` names; False: with ``predictor``
-    paper_predictor: bool = True
-    params: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        if self.lower_bound not in LOWER_BOUNDS:
-            raise ScenarioError(
-                f"adjust.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
-                f"got {self.lower_bound!r}"
-            )
-        if self.decide not in DECIDE:
-            raise ScenarioError(
-                f"adjust.decide: must be one of end, before-send, got {self.decide!r}"
-            )
-        from rtsim.control.predict import check_predictor
-
-        object.__setattr__(self, "cap", positive("adjust.cap", self.cap, allow_inf=True))
-        object.__setattr__(self, "floor", non_negative("adjust.floor", self.floor))
-        from rtsim.control.policy import make_policy
-
-        try:
-            check_predictor(self.predictor, "adjust.predictor")
-            make_policy(self.policy, self.params, "adjust", _ADJUST_KEYS)
-        except InputError as exc:
-            raise ScenarioError(str(exc)) from None
-
-
-@dataclass(frozen=True)
 class Scenario:
     """A validated scenario: the world, the task set reference, duration and assumptions.
 
@@ -188,13 +142,15 @@ class Scenario:
     duration: float = 0.0
     description: str = ""
     until: str | None = None
-    adjust: AdjustConfig = field(default_factory=AdjustConfig)
+    adjust: AdjustConfig = field(default_factory=lambda: AdjustConfig())
     assumptions: Mapping[str, str] = field(default_factory=dict)
     source: str | None = None
     scheduler: str | None = None
     task_set: TaskSet | None = field(default=None, compare=False, repr=False)
     #: the file may name code (``module:Name``), also in its task set (the user opted in)
     allow_code: bool = field(default=False, compare=False)
+    #: (the ``adjust`` table, the policy made from it once when the scenario was built)
+    made: tuple[Any, Any] | None = field(default=None, compare=False, repr=False)
 
     @property
     def n(self) -> int:
@@ -210,7 +166,15 @@ class Scenario:
             if self.task_set is not None
             else _read_taskset(self.taskset, where, self.allow_code)
         )
-        return _fit(ts, self.world, self.scheduler)
+        return fit_taskset(ts, self.world, self.scheduler)
+
+    def policy(self) -> Any:
+        """The ``[adjust]`` policy: the one made when the scenario was built, or (``adjust``
+        replaced since, or a scenario made by hand) made now from ``adjust``."""
+        if self.made is not None and self.made[0] is self.adjust:
+            return self.made[1]
+        adj = self.adjust
+        return make_policy(adj.policy, adj.params, "adjust", tuple(AdjustConfig.model_fields))
 
 
 def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> TaskSet:
@@ -222,8 +186,9 @@ def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> Task
     return ts
 
 
-def _fit(ts: TaskSet, world: WorldConfig, scheduler: str | None) -> TaskSet:
-    """``ts`` with the scenario's follower count, r_H and scheduler (the one source of each)."""
+def fit_taskset(ts: TaskSet, world: WorldConfig, scheduler: str | None = None) -> TaskSet:
+    """``ts`` with the world's follower count and r_H (``[sensing] r_H``, a coupled run's one
+    r_H) and the scenario's scheduler (None: the set's): the one source of each."""
     assert ts.window is not None
     if (ts.window.n, ts.window.r_H) != (world.n, world.thresholds.r_H):
         ts = ts.with_window(n=world.n, r_H=world.thresholds.r_H)
@@ -454,10 +419,13 @@ class FollowerTable(_Angles):
     speed_noise: Annotated[float, number(0, 1e3, "cm/s", _NOISE)] | None = None
     turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
     turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None = None
+    motion_model: Annotated[str, plugin(MOTION_MODELS)] | None = None
 
 
 class SensingTable(Table):
-    r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = 25.0
+    #: the run's one r_H: the window's cost (Eq 1) and the bounds read it; it replaces the
+    #: task set's ``[window] r_H`` (the manifest's ``r_H`` records both)
+    r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = R_H_DEFAULT
     r_reacq: (
         Annotated[float, number(0, 1e5, "cm", "a search radius within 1 km", lo_open=True)] | None
     ) = None
@@ -511,58 +479,39 @@ class LocalizationTable(Table):
     model: Annotated[str, plugin(LOCALIZATION_MODELS)] = _DEFAULT["localization.model"]
 
 
-class AdjustTable(Table):
-    """``[adjust]``: the common keys and the policies' own keys (``margin``, ``windows``,
-    ``z`` and those of a plug-in policy, which checks its own)."""
+class AdjustConfig(Table):
+    """``[adjust]``, the runtime object too: the keys every policy reads, each with its one
+    default and range, and the policy's own keys, the table's other keys (its options model,
+    `rtsim.control.policy.PolicyOptions`, checks them when the scenario is built).
+
+    cap: the largest window w (ms; ``inf`` = none); floor: the lowest leader speed (cm/s);
+    predictor: the prediction model of `rtsim.control.predict`; lower_bound: the window's
+    lower bound, ``w_sch`` (the paper's Eq 7/11), ``w_rta`` (exact RTA), ``w_susp``
+    (suspension-aware, Δt with the CPU idle), ``w_txn`` (offset-based: the window chain and
+    the command task as one transaction) or ``w_edf`` (the EDF demand criterion; needs
+    ``[scheduler] policy = "edf"``); policy: the adjustment policy
+    (`rtsim.control.policy`); decide: when in its window the decision is taken, ``end``
+    (after the radio round trip) or ``before-send``; paper_predictor: the policy ``adjust``
+    runs on the paper's predictor (default) or on ``predictor`` (the other policies always
+    use ``predictor``).
+    """
 
     model_config = ConfigDict(strict=True, extra="allow", frozen=True, validate_default=False)
 
-    cap: (
-        Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] | None
-    ) = None
-    floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] | None = None
-    predictor: Annotated[str, plugin(PREDICTORS)] | None = _DEFAULT["adjust.predictor"]
-    lower_bound: Annotated[str, choice(LOWER_BOUNDS)] | None = None
-    policy: Annotated[str, text(what="a policy name")] | None = _DEFAULT["adjust.policy"]
-    decide: Annotated[str, choice(DECIDE)] | None = None
-    #: policy adjust on the paper's predictor (true, the default) or on ``predictor``
-    paper_predictor: bool | None = None
-    margin: (
-        Annotated[
-            float,
-            number(
-                0,
-                1,
-                "",
-                "the share μ of each predicted bound kept in "
-                "reserve (policies margin, lookahead, noise-aware, safe)",
-                hi_open=True,
-            ),
-        ]
-        | None
-    ) = None
-    windows: (
-        Annotated[
-            float,
-            number(
-                1, 100, "windows", "policies lookahead and safe: the horizon, in windows of w_sch"
-            ),
-        ]
-        | None
-    ) = None
-    z: (
-        Annotated[
-            float,
-            number(
-                0,
-                10,
-                "σ",
-                "policies noise-aware and safe: the padding of the "
-                "predicted V_F, |ρ̇|, |β̇| in standard deviations",
-            ),
-        ]
-        | None
-    ) = None
+    cap: Annotated[float, number(0, _MS_MAX, "ms", "inf: no cap", lo_open=True, inf=True)] = (
+        math.inf
+    )
+    floor: Annotated[float, number(0, 1000, "cm/s", "as leader.speed")] = 0.0
+    predictor: Annotated[str, plugin(PREDICTORS)] = _DEFAULT["adjust.predictor"]
+    lower_bound: Annotated[str, choice(LOWER_BOUNDS)] = AdjustOptions.lower_bound
+    policy: Annotated[str, text(what="a policy name")] = _DEFAULT["adjust.policy"]
+    decide: Annotated[str, choice(DECIDE)] = AdjustOptions.decide
+    paper_predictor: bool = AdjustOptions.paper_predictor
+
+    @property
+    def params(self) -> dict[str, Any]:
+        """The policy's own keys, in the file's order."""
+        return dict(self.model_extra or {})
 
 
 class RadioTable(Table):
@@ -607,7 +556,7 @@ class ScenarioFile(Table):
     sensing: SensingTable = Field(default_factory=SensingTable)
     ekf: EkfTable = Field(default_factory=EkfTable)
     thresholds: ThresholdsTable = Field(default_factory=ThresholdsTable)
-    adjust: AdjustTable = Field(default_factory=AdjustTable)
+    adjust: AdjustConfig = Field(default_factory=AdjustConfig)
     world: WorldTable = Field(default_factory=WorldTable)
     localization: LocalizationTable = Field(default_factory=LocalizationTable)
     radio: RadioTable = Field(default_factory=RadioTable)
@@ -632,8 +581,6 @@ def parse_scenario(
     model``, ``[scheduler] policy``, the task set's) is code: it loads only with
     ``allow_code=True`` or the user's opt-in (`rtsim.registry.reading_input`).
     """
-    from rtsim.registry import file_allows_code, reading_input
-
     allow = file_allows_code(allow_code)
     with reading_input(allow):
         scenario = _parse_scenario(data, source, base)
@@ -641,8 +588,6 @@ def parse_scenario(
 
 
 def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> Scenario:
-    from rtsim.config.errors import raise_errors
-
     if (
         isinstance(data, Mapping)
         and isinstance(data.get("adjust"), Mapping)
@@ -653,9 +598,7 @@ def _parse_scenario(data: Mapping[str, Any], source: str, base: Path | None) -> 
         )
     model = validate(ScenarioFile, _with_preset(data), source, ScenarioError)
     errors: list[str] = []
-    raw_adjust = data.get("adjust")
-    order = list(raw_adjust) if isinstance(raw_adjust, Mapping) else []
-    scenario = _build_scenario(model, source, base, errors, order)
+    scenario = _build_scenario(model, source, base, errors)
     raise_errors(
         [e if e.startswith(f"{source}: ") else f"{source}: {e}" for e in errors], ScenarioError
     )
@@ -744,10 +687,17 @@ def _formation(f: FormationTable, r_F: float, path: LeaderPath) -> Formation:
     return replace(place(f.followers, f.separation, offset, r_F=r_F), clearance=f.clearance)
 
 
-def _build_scenario(
-    m: ScenarioFile, src: str, base: Path | None, errors: list[str], adjust_order: list[str]
-) -> Scenario | None:
-    speed = float(m.leader.speed)
+class _Parts(NamedTuple):
+    """The world's parts a scenario file describes (None: that part has an error)."""
+
+    path: LeaderPath | None
+    follower: FollowerParams | None
+    formation: Formation | None
+    sensing: SensingParams | None
+    ekf: EkfParams | None
+
+
+def _parts(m: ScenarioFile, src: str, errors: list[str]) -> _Parts:
     path = _attempt(errors, "", lambda: _path(src, m.leader))
     follower = _attempt(
         errors,
@@ -755,13 +705,9 @@ def _build_scenario(
         lambda: FollowerParams(**m.follower.given(tuple(FollowerParams.__dataclass_fields__))),
     )
     formation = None
-    if follower is not None:
+    if follower is not None and path is not None:
         r_F = follower.radius
-        formation = (
-            None
-            if path is None
-            else _attempt(errors, src, lambda: _formation(m.formation, r_F, path))
-        )
+        formation = _attempt(errors, src, lambda: _formation(m.formation, r_F, path))
     sensing = _attempt(
         errors,
         src,
@@ -776,105 +722,103 @@ def _build_scenario(
     ekf = _attempt(
         errors, src, lambda: EkfParams(**m.ekf.given(tuple(EkfParams.__dataclass_fields__)))
     )
+    return _Parts(path, follower, formation, sensing, ekf)
+
+
+def _thresholds(m: ScenarioFile, src: str, parts: _Parts, errors: list[str]) -> Thresholds:
+    """The bounds' thresholds, with the run's one r_H (``[sensing] r_H``) and the decision's
+    localization bound: by default the one that matches the window's centre (Eq 19 for the
+    previous position, the residual bound for the predicted one,
+    `rtsim.world.locmodels.predicted_bound_ms`)."""
     th = m.thresholds
-    # the decision's localization bound: by default the one that matches the window's
-    # centre (Eq 19 for the previous position, the residual bound for the predicted one)
     centre = m.localization.centre
     loc = th.localization or ("predicted" if centre == "predicted" else "radial")
-    predicted_ms = math.inf
+    predicted_ms: float | None = math.inf
     r_H = float(m.sensing.r_H)
-    if (
-        loc == "predicted"
-        and follower is not None
-        and sensing is not None
-        and ekf is not None
-        and formation is not None
-    ):
-        fix_sd = _attempt(
+    follower, formation, sensing, ekf = parts.follower, parts.formation, parts.sensing, parts.ekf
+    if loc == "predicted" and None not in (follower, sensing, ekf, formation):
+        assert follower and sensing and ekf and formation  # (for the type checker)
+        rho_max = max(formation.rho_d, default=0.0)
+        predicted_ms = _attempt(
             errors,
-            "",
-            lambda: localization_model(m.localization.model).fix_sd(
-                sensing, max(formation.rho_d, default=0.0)
-            ),
+            src,
+            lambda: predicted_bound_ms(m.localization.model, r_H, sensing, follower, ekf, rho_max),
         )
-        bound = (
-            None
-            if fix_sd is None
-            else _attempt(errors, "", lambda: _predicted_bound(src, r_H, follower, fix_sd, ekf))
-        )
-        predicted_ms = math.inf if bound is None else bound
     if loc == "predicted" and centre != "predicted":
         errors.append(
             f"{src}: thresholds.localization: 'predicted' bounds what a predicted "
             f"window centre leaves; set [localization] centre = 'predicted' (it is "
             f"{centre!r})"
         )
-    thresholds = Thresholds(
+    return Thresholds(
         r_H=r_H,
         T_rho=th.T_rho,
         T_eps=th.T_eps,
-        T_beta=th.radians("T_beta", math.radians(5.0)),
+        T_beta=th.radians("T_beta", DEFAULT_THRESHOLDS.T_beta),
         localization=loc,  # type: ignore[arg-type]
-        predicted_ms=predicted_ms,
+        predicted_ms=math.inf if predicted_ms is None else predicted_ms,
     )
-    localization = LocalizationParams(
-        centre=m.localization.centre, search=m.localization.search, model=m.localization.model
+
+
+def _policy(m: ScenarioFile, src: str, errors: list[str]) -> Any:
+    """The ``[adjust]`` policy, made once with its own keys, and the checks of ``[adjust]``
+    against the scheduler and the leader's speed."""
+    adjust = m.adjust
+    common = tuple(AdjustConfig.model_fields)
+    policy = _attempt(
+        errors, src, lambda: make_policy(adjust.policy, adjust.params, "adjust", common)
     )
-    adj = m.adjust
-    args: dict[str, Any] = {k: getattr(adj, k) for k in _ADJUST_KEYS if getattr(adj, k) is not None}
-    own = {k: getattr(adj, k) for k in ("margin", "windows", "z") if getattr(adj, k) is not None}
-    own.update(adj.model_extra or {})
-    args["params"] = {k: own[k] for k in adjust_order if k in own}  # in the file's order
-    adjust = _attempt(errors, src, lambda: AdjustConfig(**args))
     scheduler = m.scheduler.policy if m.scheduler is not None else None
     if scheduler is not None:
-        from rtsim.sim.policy import SCHEDULERS
-
-        policy = None
+        sched = None
         try:
-            policy = SCHEDULERS.resolve(scheduler, f"{src}: scheduler.policy")
+            sched = SCHEDULERS.resolve(scheduler, f"{src}: scheduler.policy")
         except InputError as exc:
             errors.append(str(exc))
         # the scheduler's registry entry names the lower bounds that hold under it
-        if (
-            adjust is not None
-            and policy is not None
-            and policy.lower_bounds
-            and adjust.lower_bound not in policy.lower_bounds
-        ):
-            need = [n for n, c in SCHEDULERS.items() if adjust.lower_bound in c.lower_bounds]
+        bound = adjust.lower_bound
+        if sched is not None and sched.lower_bounds and bound not in sched.lower_bounds:
+            need = [n for n, c in SCHEDULERS.items() if bound in c.lower_bounds]
             errors.append(
-                f"{src}: adjust.lower_bound: {adjust.lower_bound} assumes the "
-                f"{' or '.join(need)} scheduler, but [scheduler] policy is "
-                f"{scheduler!r}"
+                f"{src}: adjust.lower_bound: {bound} assumes the {' or '.join(need)} "
+                f"scheduler, but [scheduler] policy is {scheduler!r}"
             )
-    if adjust is not None and adjust.floor > speed:
+    speed = float(m.leader.speed)
+    if adjust.floor > speed:
         errors.append(
             f"{src}: adjust.floor: {adjust.floor:g} cm/s is above the desired speed {speed:g} cm/s"
         )
-    taskset = m.taskset
-    if taskset not in PACKAGED_TASKSETS:
-        p = Path(taskset)
-        if not p.is_absolute() and base is not None:
-            p = base / p
-        if not p.is_file():
-            errors.append(f"{src}: taskset: file not found: {p}")
-        taskset = str(p)
-    if (
-        path is None
-        or formation is None
-        or follower is None
-        or sensing is None
-        or ekf is None
-        or adjust is None
-    ):
+    return policy
+
+
+def _taskset_path(name: str, src: str, base: Path | None, errors: list[str]) -> str:
+    """A packaged task set's name, or the path of the file ``name`` (relative to ``base``)."""
+    if name in PACKAGED_TASKSETS:
+        return name
+    p = Path(name)
+    if not p.is_absolute() and base is not None:
+        p = base / p
+    if not p.is_file():
+        errors.append(f"{src}: taskset: file not found: {p}")
+    return str(p)
+
+
+def _world(
+    m: ScenarioFile, src: str, parts: _Parts, thresholds: Thresholds, errors: list[str]
+) -> WorldConfig | None:
+    """The world, of its parts and thresholds."""
+    path, follower, formation, sensing, ekf = parts
+    if path is None or formation is None or follower is None or sensing is None or ekf is None:
         return None
+    localization = LocalizationParams(
+        centre=m.localization.centre, search=m.localization.search, model=m.localization.model
+    )
     world = _attempt(
         errors,
         src,
         lambda: WorldConfig(
             path,
-            speed,
+            float(m.leader.speed),
             formation,
             follower,
             sensing,
@@ -889,6 +833,19 @@ def _build_scenario(
             radio=RadioParams(min_ms=m.radio.min_ms, loss=m.radio.loss),
         ),
     )
+    return world
+
+
+def _build_scenario(
+    m: ScenarioFile, src: str, base: Path | None, errors: list[str]
+) -> Scenario | None:
+    parts = _parts(m, src, errors)
+    thresholds = _thresholds(m, src, parts, errors)
+    policy = _policy(m, src, errors)
+    taskset = _taskset_path(m.taskset, src, base, errors)
+    if policy is None:
+        return None
+    world = _world(m, src, parts, thresholds, errors)
     if world is None:
         return None
     errors += _sense(world, src)
@@ -898,50 +855,25 @@ def _build_scenario(
             world = replace(
                 world, start_s=_start(world, m.leader.start_on), start_on=m.leader.start_on
             )
-    # a duration given anywhere replaces ``until``; neither given: to the end of the lap
-    duration = float(m.duration) if m.duration is not None else 0.0
-    until = None if m.duration is not None else (m.until or "lap")
     if errors:
         return None
     task_set = _attempt(errors, "", lambda: _read_taskset(taskset, src))
     if task_set is None:
         return None
+    # a duration given anywhere replaces ``until``; neither given: to the end of the lap
     return Scenario(
         name=m.name if m.name is not None else Path(src).stem,
         world=world,
         taskset=taskset,
-        duration=duration,
-        until=until,
+        duration=float(m.duration) if m.duration is not None else 0.0,
+        until=None if m.duration is not None else (m.until or "lap"),
         description=m.description,
-        adjust=adjust,
+        adjust=m.adjust,
         assumptions=dict(m.assumptions),
         source=src,
-        scheduler=scheduler,
+        scheduler=m.scheduler.policy if m.scheduler is not None else None,
         task_set=task_set,
-    )
-
-
-def _predicted_bound(
-    src: str, r_H: float, follower: FollowerParams, fix_sd: float, ekf: EkfParams
-) -> float:
-    """The decision's localization bound for a window centred at the predicted position
-    (`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md):
-    the fix noise ``fix_sd`` (the localization model's σ_fix at the formation's farthest
-    desired range, `rtsim.world.locmodels.LocalizationModel.fix_sd`), the EKF's initial
-    heading error, the actuation noise, at the followers'
-    top speed, 3 standard deviations; the leader knows its own motion (no error)."""
-    if not math.isfinite(follower.max_speed):
-        raise ScenarioError(
-            f"{src}: thresholds.localization: 'predicted' needs a finite "
-            f"follower.max_speed (the bound carries the heading error at it)"
-        )
-    return msb_localization_predicted(
-        r_H,
-        fix_sd=fix_sd,
-        heading_sd=ekf.init_heading_sd,
-        speed_sd=follower.speed_noise,
-        turn_sd=follower.turn_noise,
-        v_max=follower.max_speed,
+        made=(m.adjust, policy),
     )
 
 
@@ -996,9 +928,6 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
     tests, shipped with rtsim as copies of ``experiments/scenarios/``) when no such file
     exists.
     """
-    from rtsim.examples import shipped_hint
-    from rtsim.io.limits import read_input
-
     p = Path(path)
     if not p.exists() and str(path) in PACKAGED_SCENARIOS:
         res = resources.files("rtsim") / "data" / "scenarios" / f"{path}.toml"

@@ -28,10 +28,13 @@ named in a file loads only when the user allows it, `rtsim.registry`); ``rtsim s
   w = max(w_sch, (1 − μ)·min MSB) (capped), and in overload the largest speed at which every
   bound is ≥ w_sch / (1 − μ), i.e. (1 − μ)·bound ≥ w_sch.
 
-A policy's own keys in ``[adjust]`` are its class's `Policy.params` (name → default);
-its constructor receives them as keyword arguments and validates them (an
-`InputError` whose message starts with the key). Every ``[adjust]`` key
-is validated in one place, `adjust_options`.
+A policy's own keys in ``[adjust]`` are declared once, in its options model (``options``, a
+`PolicyOptions` dataclass of `option` fields: each key's one default and one range); its
+``params`` (name → default) are derived from it, and its constructor takes them as keyword
+arguments (a user's class may give ``params`` and check its keys itself, an `InputError`
+whose message starts with the key). The policy is made once: when a scenario is read, or by
+`adjust_options` for an ``[adjust]`` mapping made by hand (`AdjustOptions`, the run's
+validated ``[adjust]``).
 """
 
 from __future__ import annotations
@@ -39,10 +42,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
+from rtsim._numbers import is_real
 from rtsim._suggest import did_you_mean
+from rtsim.analysis.bounds import LOWER_BOUNDS
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import (
     CANDIDATES,
@@ -57,14 +62,26 @@ from rtsim.control.adjust import (
     bound_rows_at,
     largest,
     make_predictor,
+    search_rollout,
 )
-from rtsim.control.predict import FollowerEstimate, Predictor, check_number, min_bound_rows
+from rtsim.control.predict import (
+    FollowerEstimate,
+    Predictor,
+    check_number,
+    check_predictor,
+    min_bound_rows,
+)
 from rtsim.errors import InputError
+from rtsim.io.limits import Range
 from rtsim.registry import Registry
 
 __all__ = [
     "ADJUSTMENT_POLICIES",
+    "AdjustOptions",
     "COMMON_KEYS",
+    "DECIDE",
+    "PolicyOptions",
+    "option",
     "Decision",
     "Policy",
     "decide",
@@ -75,6 +92,11 @@ __all__ = [
     "policy_class",
     "register_adjustment_policy",
 ]
+
+#: When in its window the decision is taken (``[adjust] decide``): at the window job's end,
+#: after the radio round trip (the paper's chain: scan, Hough, estimate, send, receive,
+#: schedule), or at the start of the first send, so its speed leaves with the commands.
+DECIDE: tuple[str, ...] = ("end", "before-send")
 
 #: ``[adjust]`` keys every policy understands (options of the decision, ScenarioInputs.adjust).
 COMMON_KEYS: tuple[str, ...] = (
@@ -88,6 +110,7 @@ COMMON_KEYS: tuple[str, ...] = (
     "scan_points",
     "lower_bound",
     "decide",
+    "paper_predictor",
 )
 
 
@@ -154,6 +177,102 @@ class Policy(Protocol):
     def decide(self, ctx: PolicyInput) -> Decision: ...
 
 
+def option(default: float, rng: Range) -> Any:
+    """A field of a policy's options model: its one default and its one range ``rng``
+    (`rtsim.io.limits.Range`; a value outside it is an `InputError` naming the key)."""
+    return field(default=default, metadata={"range": rng})
+
+
+def _checked(rng: Range, name: str, value: Any) -> float:
+    """``value`` as a float (an int for a count) if ``rng`` admits it."""
+    if not is_real(value) or not math.isfinite(float(value)):
+        raise InputError(f"{name}: must be a finite number, got {value!r}")
+    x = float(value)
+    if not rng.admits(x) or (rng.integer and x != int(x)):
+        kind = "an integer " if rng.integer else ""
+        raise InputError(f"{name}: must be {kind}in {rng.interval()}, got {value!r}")
+    return int(x) if rng.integer else x
+
+
+@dataclass(frozen=True)
+class PolicyOptions:
+    """Base of a policy's options model: a frozen dataclass of `option` fields, each checked
+    against its range when made. A policy class names its model in
+    ``options``; its ``params`` (name → default) are derived from it."""
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            rng = f.metadata.get("range")
+            if rng is not None:
+                object.__setattr__(self, f.name, _checked(rng, f.name, getattr(self, f.name)))
+
+
+_HORIZON = "the horizon, in windows of w_sch"
+_MARGIN = Range(
+    "margin", 0, 1, "", "the share μ of each predicted bound kept in reserve", hi_open=True
+)
+_Z = Range("z", 0, 10, "σ", "the padding of the predicted V_F, |ρ̇|, |β̇| in standard deviations")
+_WINDOWS = Range("windows", 1, 100, "windows", _HORIZON)
+
+
+#: `PolicyInput`'s defaults, the one declaration of those of `AdjustOptions`.
+_INPUT: dict[str, Any] = {f.name: f.default for f in fields(PolicyInput)}
+
+
+@dataclass(frozen=True)
+class AdjustOptions(Mapping[str, Any]):
+    """A run's ``[adjust]``, validated once (`adjust_options`, or from a scenario's table):
+    the policy (an instance, made with its own keys ``own``) and the options every policy
+    reads, each with its one default (`PolicyInput`'s fields of the same names; ``cap``
+    None: CAP_FACTOR·w_sch, or ``cap_factor``·w_sch when that is given; ``floor_frac`` is
+    also the lowest speed the coupling sets), ``lower_bound`` (the window's lower bound,
+    `rtsim.analysis.bounds.LOWER_BOUNDS`), ``decide`` (`DECIDE`) and ``paper_predictor``
+    (the policy ``adjust`` predicts with the paper's §3.3 whatever ``predictor`` says).
+
+    As a mapping it is the keys that make it again (``policy`` by name, the options that
+    differ from their default, the policy's own keys), so ``{**inputs.adjust, "cap": 500}``
+    changes one option of a run's inputs."""
+
+    policy: Any
+    cap: float | None = _INPUT["cap"]
+    cap_factor: float | None = None
+    floor_frac: float = _INPUT["floor_frac"]
+    floor_w: float = _INPUT["floor_w"]
+    predictor: str | Predictor = _INPUT["predictor"]
+    methods: tuple[str, ...] = _INPUT["methods"]
+    scan_points: int = _INPUT["scan_points"]
+    lower_bound: str = "w_sch"
+    decide: str = "end"
+    paper_predictor: bool = True
+    own: Mapping[str, Any] = field(default_factory=dict)
+
+    def _items(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"policy": self.policy.name}
+        for f in fields(self):
+            if f.name not in ("policy", "own") and getattr(self, f.name) != f.default:
+                out[f.name] = getattr(self, f.name)
+        return {**out, **self.own}
+
+    def __getitem__(self, key: str) -> Any:
+        return self._items()[key]
+
+    def __iter__(self) -> Any:
+        return iter(self._items())
+
+    def __len__(self) -> int:
+        return len(self._items())
+
+    def overridden(self, spec: str | None, where: str = "adjust") -> AdjustOptions:
+        """These options with the policy ``spec`` (``--policy``) instead: the own keys the new
+        policy does not know are dropped (``--policy adjust`` on a file written for
+        ``margin``; they were validated with their own policy)."""
+        if spec is None or spec == self.policy.name:
+            return self
+        known = policy_class(spec, f"{where}.policy").params  # type: ignore[attr-defined]
+        own = {k: v for k, v in self.own.items() if k in known}
+        return dataclasses.replace(self, policy=make_policy(spec, own, where), own=own)
+
+
 def _policy_class(cls: Any, spec: str, where: str) -> type:
     """A loaded class as a policy class (``params`` default ``{}``), or an InputError."""
     if not isinstance(cls, type) or not callable(getattr(cls, "decide", None)):
@@ -178,7 +297,10 @@ def register_adjustment_policy(name: str) -> Callable[[type], type]:
         if name in ADJUSTMENT_POLICIES and ADJUSTMENT_POLICIES[name] is not cls:
             raise ValueError(f"policy {name!r} is already registered")
         cls.name = name  # type: ignore[attr-defined]
-        if not hasattr(cls, "params"):
+        model = getattr(cls, "options", None)
+        if model is not None:  # its params, from its options model
+            cls.params = {f.name: f.default for f in fields(model)}  # type: ignore[attr-defined]
+        elif not hasattr(cls, "params"):
             cls.params = {}  # type: ignore[attr-defined]
         ADJUSTMENT_POLICIES.register(name, cls)
         return cls
@@ -226,25 +348,32 @@ def make_policy(
 
 def adjust_options(
     opts: Mapping[str, Any], where: str = "adjust", override: str | None = None
-) -> tuple[Any, dict[str, Any]]:
-    """Validate an ``[adjust]`` mapping (ScenarioInputs.adjust): the policy (key ``policy``,
-    default ``adjust``) made with its own keys, and the common options (`COMMON_KEYS`
-    without ``policy``) as a dict. The old key ``model`` names its replacement.
-
-    ``override`` (``--policy``): a policy that replaces the mapping's; the mapping's keys of
-    its own policy that the new one does not know are then dropped (``--policy adjust`` on a
-    file written for ``margin``), after they were validated with their own policy."""
+) -> AdjustOptions:
+    """Validate an ``[adjust]`` mapping (a hand-made `ScenarioInputs.adjust`) once: the
+    policy (key ``policy``, default ``adjust``) made with its own keys, and the common
+    options (`COMMON_KEYS`) as an `AdjustOptions`. The old key ``model`` names its
+    replacement. ``override`` (``--policy``): `AdjustOptions.overridden`."""
+    if isinstance(opts, AdjustOptions):
+        return opts.overridden(override, where)
     if "model" in opts:
         raise InputError(f"{where}: unknown key 'model' (renamed; did you mean 'predictor'?)")
-    spec = opts.get("policy", "adjust")
-    common = {k: v for k, v in opts.items() if k in COMMON_KEYS and k != "policy"}
     own = {k: v for k, v in opts.items() if k not in COMMON_KEYS}
-    if override is not None and override != spec:
-        make_policy(spec, own, where)
-        spec = override
-        known = policy_class(spec, f"{where}.policy").params  # type: ignore[attr-defined]
-        own = {k: v for k, v in own.items() if k in known}
-    return make_policy(spec, own, where), common
+    policy = make_policy(opts.get("policy", "adjust"), own, where)
+    common = {k: v for k, v in opts.items() if k in COMMON_KEYS and k != "policy"}
+    if common.get("decide", "end") not in DECIDE:
+        raise InputError(
+            f"{where}.decide: must be one of {', '.join(DECIDE)}, got {common['decide']!r}"
+        )
+    if common.get("lower_bound", "w_sch") not in LOWER_BOUNDS:
+        raise InputError(
+            f"{where}.lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, "
+            f"got {common['lower_bound']!r}"
+        )
+    if isinstance(common.get("predictor"), str):
+        check_predictor(common["predictor"], f"{where}.predictor")
+    if "methods" in common:
+        common["methods"] = tuple(common["methods"])
+    return AdjustOptions(policy, own=own, **common).overridden(override, where)
 
 
 def _check(ctx: PolicyInput, where: str) -> float:
@@ -346,6 +475,13 @@ class MinMsbPolicy:
         )
 
 
+@dataclass(frozen=True)
+class MarginOptions(PolicyOptions):
+    """The options of the policy ``margin``."""
+
+    margin: float = option(0.1, _MARGIN)
+
+
 @register_adjustment_policy("margin")
 class MarginPolicy:
     """The paper's algorithm with every predicted bound shrunk by the factor (1 − μ):
@@ -357,13 +493,10 @@ class MarginPolicy:
     ``feasible``: (1 − μ)·min MSB at the chosen speed ≥ w_sch.
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"margin": 0.1}
+    options: ClassVar[type[PolicyOptions]] = MarginOptions
 
-    def __init__(self, margin: float = 0.1) -> None:
-        margin = check_number("margin", "margin", margin)
-        if not 0.0 <= margin < 1.0:
-            raise InputError(f"margin: must be in [0, 1), got {margin!r}")
-        self.margin = margin
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        self.margin = MarginOptions(*args, **kw).margin
 
     def decide(self, ctx: PolicyInput) -> Decision:
         keep = 1.0 - self.margin
@@ -385,6 +518,14 @@ class MarginPolicy:
         )
         w = ctx.w_sch if d.method != "none" else max(ctx.w_sch, min(keep * d.msb_min, cap))
         return d._replace(w=w)
+
+
+@dataclass(frozen=True)
+class LookaheadOptions(PolicyOptions):
+    """The options of the policy ``lookahead``."""
+
+    margin: float = option(0.0, _MARGIN)
+    windows: float = option(2.0, _WINDOWS)
 
 
 @register_adjustment_policy("lookahead")
@@ -415,16 +556,14 @@ class LookaheadPolicy:
     (μ in [0, 1), default 0) and ``windows`` (the horizon in windows of w_sch, ≥ 1, default 2).
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"margin": 0.0, "windows": 2.0}
+    options: ClassVar[type[PolicyOptions]] = LookaheadOptions
     #: the coupling fills PolicyInput.ahead, accel_max and decel_max for this policy
     needs_path: ClassVar[bool] = True
 
-    def __init__(self, margin: float = 0.0, windows: float = 2.0) -> None:
-        self.base: Any = MarginPolicy(margin)
-        windows = check_number("windows", "windows", windows)
-        if not 1.0 <= windows <= 100.0:
-            raise InputError(f"windows: must be in [1, 100], got {windows!r}")
-        self.windows = windows
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        o = LookaheadOptions(*args, **kw)
+        self.base: Any = MarginPolicy(o.margin)
+        self.windows = o.windows
 
     def decide(self, ctx: PolicyInput) -> Decision:
         d = self.base.decide(ctx)
@@ -552,6 +691,14 @@ def pad_rows(
     return out
 
 
+@dataclass(frozen=True)
+class NoiseAwareOptions(PolicyOptions):
+    """The options of the policy ``noise-aware``."""
+
+    z: float = option(2.0, _Z)
+    margin: float = option(0.0, _MARGIN)
+
+
 @register_adjustment_policy("noise-aware")
 class NoiseAwarePolicy:
     """The paper's algorithm against bounds whose predicted V_F, |ρ̇| and |β̇| are padded by
@@ -566,16 +713,14 @@ class NoiseAwarePolicy:
     ``margin`` (μ in [0, 1), default 0). z = 0 with μ = 0 is the paper's decision at V_Ld.
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"z": 2.0, "margin": 0.0}
+    options: ClassVar[type[PolicyOptions]] = NoiseAwareOptions
     #: the coupling fills PolicyInput.speed_noise, turn_noise and pose_sd for this policy
     needs_noise: ClassVar[bool] = True
 
-    def __init__(self, z: float = 2.0, margin: float = 0.0) -> None:
-        z = check_number("z", "z", z)
-        if not 0.0 <= z <= 10.0:
-            raise InputError(f"z: must be in [0, 10], got {z!r}")
-        self.z = z
-        self.margin = MarginPolicy(margin).margin
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        o = NoiseAwareOptions(*args, **kw)
+        self.z = o.z
+        self.margin = o.margin
 
     def decide(self, ctx: PolicyInput) -> Decision:
         cap = _check(ctx, "noise-aware")
@@ -648,6 +793,15 @@ class NoiseAwarePolicy:
         )
 
 
+@dataclass(frozen=True)
+class SafeOptions(PolicyOptions):
+    """The options of the policy ``safe``."""
+
+    margin: float = option(0.1, _MARGIN)
+    z: float = option(1.0, _Z)
+    windows: float = option(2.0, _WINDOWS)
+
+
 @register_adjustment_policy("safe")
 class SafePolicy(LookaheadPolicy):
     """`LookaheadPolicy` on top of `NoiseAwarePolicy`: the current command's and
@@ -655,13 +809,22 @@ class SafePolicy(LookaheadPolicy):
     leader slows ahead of turns as in ``lookahead``. Own keys: ``margin`` (default 0.1),
     ``z`` (default 1) and ``windows`` (default 2)."""
 
-    params: ClassVar[Mapping[str, Any]] = {"margin": 0.1, "z": 1.0, "windows": 2.0}
+    options: ClassVar[type[PolicyOptions]] = SafeOptions
     needs_path: ClassVar[bool] = True
     needs_noise: ClassVar[bool] = True
 
-    def __init__(self, margin: float = 0.1, z: float = 1.0, windows: float = 2.0) -> None:
-        super().__init__(margin, windows)
-        self.base = NoiseAwarePolicy(z, margin)
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        o = SafeOptions(*args, **kw)
+        super().__init__(o.margin, o.windows)
+        self.base = NoiseAwarePolicy(o.z, o.margin)
+
+
+@dataclass(frozen=True)
+class PlanOptions(PolicyOptions):
+    """The options of the policy ``plan``."""
+
+    windows: int = option(2, Range("windows", 1, 20, "windows", _HORIZON, integer=True))
+    margin: float = option(0.0, _MARGIN)
 
 
 @register_adjustment_policy("plan")
@@ -691,20 +854,16 @@ class PlanPolicy:
     (μ in [0, 1), default 0).
     """
 
-    params: ClassVar[Mapping[str, Any]] = {"windows": 2, "margin": 0.0}
+    options: ClassVar[type[PolicyOptions]] = PlanOptions
     #: the coupling fills PolicyInput.rollout for this policy
     needs_rollout: ClassVar[bool] = True
 
-    def __init__(self, windows: float = 2, margin: float = 0.0) -> None:
-        windows = check_number("windows", "windows", windows)
-        if not (1 <= windows <= 20 and windows == int(windows)):
-            raise InputError(f"windows: must be an integer in [1, 20], got {windows!r}")
-        self.windows = int(windows)
-        self.margin = MarginPolicy(margin).margin
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        o = PlanOptions(*args, **kw)
+        self.windows = int(o.windows)
+        self.margin = o.margin
 
     def decide(self, ctx: PolicyInput) -> Decision:
-        from rtsim.control.adjust import search_rollout
-
         cap = _check(ctx, "plan")
         ro = ctx.rollout
         if ro is None:

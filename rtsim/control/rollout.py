@@ -55,6 +55,7 @@ from rtsim.world.compiled import as_changes
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.leader import Leader
+from rtsim.world.motionmodels import motion_model
 from rtsim.world.path import LeaderPath
 
 __all__ = ["Rollout", "RolloutState", "Changes"]
@@ -106,6 +107,10 @@ class RolloutState:
     w_sch: float
     group: type[FollowerGroup] = FollowerGroup
     beta_d: tuple[float, ...] = ()
+    #: per follower, the turn rate it is expected to have: the state of the motion model
+    #: ``params.motion_model`` (`rtsim.world.motionmodels`), by which the followers and the
+    #: leader move (empty: the held commands' turn rates, as the unicycle turns at once)
+    turns: tuple[float, ...] = field(default=(), kw_only=True)
 
 
 @dataclass
@@ -240,7 +245,15 @@ class Rollout:
         if self._compiled is not None:  # the world's compiled law: one kernel call
             return self._compiled.changes(v, windows)  # type: ignore[no-any-return]
         st = self.state
-        ld = Leader(st.path, st.v_ld, st.leader_s, accel_max=st.accel_max, decel_max=st.decel_max)
+        travel = motion_model(st.params.motion_model).leader
+        ld = Leader(
+            st.path,
+            st.v_ld,
+            st.leader_s,
+            accel_max=st.accel_max,
+            decel_max=st.decel_max,
+            travel=travel,
+        )
         ld.speed = st.leader_speed
         ld.target_speed = st.leader_speed
         ld.set_speed(min(max(v, 0.0), st.v_ld))
@@ -273,6 +286,7 @@ class Rollout:
         )
         group.cmd_v = [h[0] for h in st.held]
         group.cmd_w = [h[1] for h in st.held]
+        group.w = list(st.turns or group.cmd_w)
         t_leader = st.t_now
         for t, kind, k in events:
             if t > t_leader:

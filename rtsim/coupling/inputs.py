@@ -6,25 +6,30 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, is_dataclass
 from typing import Any
 
+from rtsim.config.scenario import AdjustConfig, fit_taskset, load_scenario, scenario_bytes
+from rtsim.control.policy import AdjustOptions
 from rtsim.errors import InputError
+from rtsim.io.atomic import inf_as_null
+from rtsim.io.taskset import taskset_to_dict
 from rtsim.model.taskset import TaskSet
 from rtsim.world.config import WorldConfig
 
-__all__ = ["ScenarioInputs", "resolved", "scenario_inputs"]
+__all__ = ["ScenarioInputs", "fitted_taskset", "resolved", "scenario_inputs"]
 
 
 @dataclass(frozen=True)
 class ScenarioInputs:
     """What a coupled run needs: the world, the leader's task set, and run options.
 
-    ``adjust``: options of [`rtsim.control.decide`][rtsim.control.decide] (``cap`` in ms or
-    ``cap_factor``
-    × w_sch, ``floor_frac``, ``floor_w``, ``predictor``, ``methods``, ``scan_points``,
-    ``lower_bound``), ``policy`` and the policy's own keys; validated by
-    `rtsim.control.policy.adjust_options`.
+    ``adjust``: the run's ``[adjust]``, an `rtsim.control.policy.AdjustOptions` (a
+    scenario's, validated when it was read), or a mapping of its keys for inputs made by
+    hand (``cap`` in ms or ``cap_factor`` × w_sch, ``floor_frac``, ``floor_w``,
+    ``predictor``, ``methods``, ``scan_points``, ``lower_bound``, ``decide``,
+    ``paper_predictor``, ``policy`` and the policy's own keys), validated once by
+    `rtsim.control.policy.adjust_options` when the run starts.
     ``duration_s``: default duration (simulated s), None = one lap. ``text``/``resolved``:
     the scenario file's text and resolved values, for the manifest.
     """
@@ -53,20 +58,17 @@ def scenario_inputs(
     [`rtsim.io.scenario.load_scenario`][rtsim.io.scenario.load_scenario]), or a
     [`rtsim.io.scenario.Scenario`][rtsim.io.scenario.Scenario].
 
-    A Scenario's ``[adjust]`` maps to [`rtsim.control.decide`][rtsim.control.decide]: ``cap`` (ms;
-    ``inf`` →
-    decide's default, 10·w_sch) and ``floor`` (cm/s) → ``floor_frac`` = floor / V_Ld, which
-    is also the lowest speed the coupling ever sets; ``predictor`` (when not the default
-    ``formation``) → ``predictor``. The leader's current actual speed is passed to every
-    decision as ``v_now`` (the ``hybrid`` model needs it).
+    A Scenario's ``[adjust]`` becomes the run's `AdjustOptions` (`adjust_of`): ``cap`` (ms;
+    ``inf`` → the decision's default, 10·w_sch) and ``floor`` (cm/s) → ``floor_frac`` =
+    floor / V_Ld, which is also the lowest speed the coupling ever sets. The leader's
+    current actual speed is passed to every decision as ``v_now`` (the ``hybrid`` model
+    needs it).
     """
     if overrides and not isinstance(scenario, str | os.PathLike):
         raise InputError("overrides need a scenario file or a packaged scenario's name")
     if isinstance(scenario, ScenarioInputs):
         return scenario
     if isinstance(scenario, str | os.PathLike):
-        from rtsim.io.scenario import load_scenario, scenario_bytes
-
         path = scenario
         # a file, or a packaged scenario by name ("test2")
         scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
@@ -77,25 +79,12 @@ def scenario_inputs(
         ts = scenario.load_taskset() if hasattr(scenario, "load_taskset") else scenario.taskset
     except AttributeError:
         raise InputError(f"not a scenario: {type(scenario).__name__}") from None
-    adjust: dict[str, Any] = {}
     cfg = getattr(scenario, "adjust", None)
-    if cfg is not None and not isinstance(cfg, Mapping):
-        if math.isfinite(cfg.cap):
-            adjust["cap"] = float(cfg.cap)
-        adjust["floor_frac"] = float(cfg.floor) / world.leader_speed
-        if getattr(cfg, "predictor", "formation") != "formation":
-            adjust["predictor"] = cfg.predictor
-        if getattr(cfg, "lower_bound", "w_sch") != "w_sch":
-            adjust["lower_bound"] = cfg.lower_bound
-        if getattr(cfg, "policy", "adjust") != "adjust":
-            adjust["policy"] = cfg.policy
-        if getattr(cfg, "decide", "end") != "end":
-            adjust["decide"] = cfg.decide
-        if not getattr(cfg, "paper_predictor", True):
-            adjust["paper_predictor"] = False
-        adjust.update(getattr(cfg, "params", {}))
-    elif cfg:
-        adjust = dict(cfg)
+    adjust: Mapping[str, Any] = (
+        adjust_of(cfg, world.leader_speed, scenario.policy())
+        if isinstance(cfg, AdjustConfig)
+        else dict(cfg or {})
+    )
     duration = getattr(scenario, "duration", None)
     return ScenarioInputs(
         world=world,
@@ -112,12 +101,44 @@ def scenario_inputs(
 _inputs = scenario_inputs
 
 
+def adjust_of(cfg: AdjustConfig, v_ld: float, policy: Any) -> AdjustOptions:
+    """A scenario's ``[adjust]`` as the run's options, with ``policy`` the instance made from
+    it (`rtsim.config.scenario.Scenario.policy`)."""
+    return AdjustOptions(
+        policy,
+        cap=float(cfg.cap) if math.isfinite(cfg.cap) else None,
+        floor_frac=float(cfg.floor) / v_ld,
+        predictor=cfg.predictor,
+        lower_bound=cfg.lower_bound,
+        decide=cfg.decide,
+        paper_predictor=cfg.paper_predictor,
+        own=cfg.params,
+    )
+
+
+def fitted_taskset(ts: TaskSet, world: WorldConfig, where: str) -> TaskSet:
+    """A run's task set: ``ts``, which must have a ``[window]``, sized by the world
+    (`rtsim.config.scenario.fit_taskset`: its n and r_H, the one home of each)."""
+    if ts.window is None:
+        raise InputError(f"{where}: the task set has no [window]")
+    return fit_taskset(ts, world)
+
+
+def r_h_record(scenario: Any, ts: TaskSet) -> dict[str, Any]:
+    """The manifest's record of the run's one r_H (cm): ``value``, the scenario's
+    ``[sensing] r_H`` that the window's cost and the bounds read; ``taskset``, the task
+    set's own ``[window] r_H`` (what it serves analysed alone); ``replaced``: whether the
+    two differ (the scenario's replaced the set's)."""
+    value = float(scenario.world.thresholds.r_H)
+    own = getattr(scenario, "task_set", None)
+    win = own.window if own is not None and own.window is not None else ts.window
+    mine = None if win is None else float(win.r_H)
+    return {"value": value, "from": "sensing.r_H", "taskset": mine, "replaced": mine != value}
+
+
 def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
     """The scenario's resolved values as plain JSON data (for the manifest); a limit that is
     not set (``inf``: follower.max_turn_rate, sensing.max_range, adjust.cap) is null."""
-    from dataclasses import asdict, is_dataclass
-
-    from rtsim.io.taskset import taskset_to_dict
 
     cfg: WorldConfig = scenario.world
 
@@ -150,11 +171,17 @@ def resolved(scenario: Any, ts: TaskSet) -> dict[str, Any]:
         "thresholds": plain(cfg.thresholds),
         "localization": plain(cfg.localization),
         "radio": plain(cfg.radio),
+        "r_H": r_h_record(scenario, ts),
         "step_ms": cfg.step_ms,
-        "adjust": plain(getattr(scenario, "adjust", {})),
+        "adjust": _adjust_record(getattr(scenario, "adjust", None)),
         "assumptions": dict(getattr(scenario, "assumptions", {}) or {}),
         "taskset": taskset_to_dict(ts),
     }
-    from rtsim.io.atomic import inf_as_null
-
     return inf_as_null(out)
+
+
+def _adjust_record(cfg: Any) -> dict[str, Any]:
+    """The manifest's ``adjust``: the common keys, then the policy's own under ``params``."""
+    if not isinstance(cfg, AdjustConfig):
+        return dict(cfg or {})
+    return {**{k: getattr(cfg, k) for k in AdjustConfig.model_fields}, "params": cfg.params}

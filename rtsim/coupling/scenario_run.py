@@ -31,7 +31,7 @@ its deadline is recorded (``missed``), the next window is still released on time
 scan, commands and decision come late too. A backlogged release is governed by the latest
 decision available at its release (that of the last *completed* window).
 
-Policies (`rtsim.control.policy`; ``[adjust] policy``, ``policy=``, ``mode=`` an alias):
+Policies (`rtsim.control.policy`; ``[adjust] policy``, ``policy=``):
 ``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
 break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
 schedule breaks), ``margin``, ``lookahead``, ``noise-aware``, ``safe`` or a user's
@@ -54,6 +54,7 @@ did beyond a duration. A window still running at the stop is dropped.
 from __future__ import annotations
 
 import gc
+import inspect
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -66,16 +67,19 @@ import simpy
 
 import rtsim.coupling.duration as run_duration
 from rtsim._numbers import is_int, is_real
+from rtsim._suggest import did_you_mean
 from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
+from rtsim.control.compiled import PaperSearch
 from rtsim.control.oracle import lap_oracle, start_speed
-from rtsim.control.policy import PolicyInput, adjust_options, policy_class
+from rtsim.control.policy import AdjustOptions, PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
 from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
 from rtsim.coupling.inputs import ScenarioInputs as ScenarioInputs
 from rtsim.coupling.inputs import _inputs as _inputs
+from rtsim.coupling.inputs import fitted_taskset
 from rtsim.coupling.inputs import resolved as resolved
 from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
@@ -90,12 +94,16 @@ from rtsim.coupling.summary import _name as _name
 from rtsim.coupling.summary import formation_model as formation_model
 from rtsim.coupling.summary import summarize as summarize
 from rtsim.coupling.summary import summary_columns as summary_columns
+from rtsim.coupling.tidy import followers_frame
 from rtsim.errors import InputError
+from rtsim.io.limits import check
+from rtsim.io.work import check_coupled, check_seed
 from rtsim.model.task import Segment
 from rtsim.model.taskset import TaskSet
 from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
+from rtsim.sim.progress import TICKS, start_ticker
 from rtsim.sim.run import build_cpu
 from rtsim.world.localization import hough_time, search_time
 from rtsim.world.world import World
@@ -109,10 +117,6 @@ __all__ = [
     "LAP_CAP_FACTOR",
 ]
 
-#: Where in its window the decision is taken (``[adjust] decide``): at the window job's end,
-#: after the radio round trip (the paper's chain: scan, Hough, estimate, send, receive,
-#: schedule), or at the start of the first send, so its speed leaves with the commands.
-DECIDE: tuple[str, ...] = ("end", "before-send")
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
 _NF = len(FOLLOWER_FIELDS)
@@ -160,8 +164,6 @@ class ScenarioResult(ResultDisplay):
         """``windows`` in long form, one row per window and follower (position, estimate,
         fix error, each bound ``_pred``/``_true``, violations, lost: `rtsim.coupling.tidy`;
         ``followers.csv``); None when the windows were streamed to a sink."""
-        from rtsim.coupling.tidy import followers_frame
-
         return None if self.windows is None else followers_frame(self.windows)
 
 
@@ -186,7 +188,7 @@ class _Coupling:
     def __init__(
         self,
         inp: ScenarioInputs,
-        mode: str | None,
+        policy: str | None,
         seed: int,
         exec_model: ExecSpec,
         record_jobs: bool,
@@ -197,89 +199,31 @@ class _Coupling:
         job_sink: Any = None,
         trace_sink: Any = None,
     ) -> None:
-        cfg = inp.world
-        ts = inp.taskset
-        if ts.window is None:
-            raise InputError(
-                f"{inp.source or inp.name or 'scenario'}: the task set has no [window]"
-            )
-        if ts.window.n != cfg.n:
-            ts = ts.with_window(n=cfg.n)
-        self.ts = ts
-        self.cfg = cfg
+        where = inp.source or inp.name or "scenario"
+        cfg = self.cfg = self._given = inp.world
+        ts = self.ts = fitted_taskset(inp.taskset, cfg, where)
         self.thr = cfg.thresholds
-        opts = dict(inp.adjust)
+        # run_scenario(policy=) overrides the file's [adjust] policy
+        adj = adjust_options(inp.adjust, f"{inp.source or 'scenario'}: adjust", policy)
         # the window's lower bound (w_sch unless [adjust] lower_bound says otherwise; the
         # column and summary keep the name w_sch): the CPU below runs the set's scheduler
         # ([scheduler] policy, fp by default) with Δt idle
-        bound = opts.pop("lower_bound", "w_sch")
         self.w_sch = lower_bound(
-            ts,
-            bound,
-            scheduler=ts.scheduler,
-            suspension="idle",
-            where=f"{inp.source or inp.name or 'scenario'}: adjust",
+            ts, adj.lower_bound, scheduler=ts.scheduler, suspension="idle", where=f"{where}: adjust"
         )
         if not math.isfinite(self.w_sch):
-            raise InputError(f"{inp.source or inp.name or 'scenario'}: {bound} is infinite")
+            raise InputError(f"{where}: {adj.lower_bound} is infinite")
         self.infeasible_note = self._unrestorable()
-        cap = opts.get("cap")
-        if cap is not None and cap < self.w_sch:
+        if adj.cap is not None and adj.cap < self.w_sch:
             raise InputError(
-                f"{inp.source or inp.name or 'scenario'}: adjust.cap: {cap:g} ms is "
-                f"below w_sch = {self.w_sch:.6g} ms (the window could never reach "
-                f"the schedulability bound)"
+                f"{where}: adjust.cap: {adj.cap:g} ms is below w_sch = {self.w_sch:.6g} ms (the "
+                f"window could never reach the schedulability bound)"
             )
-        # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
-        # predictor is for its own policy, unless [adjust] paper_predictor = false
-        paper = bool(opts.pop("paper_predictor", True))
-        # run_scenario(policy=/mode=) overrides the file's [adjust] policy
-        self.policy, opts = adjust_options(opts, f"{inp.source or 'scenario'}: adjust", mode)
-        if paper and self.policy.name == "adjust":
-            opts["predictor"] = "paper"
-        if getattr(self.policy, "needs_path", False):  # the leader's known path commands
-            segs = cfg.path.segments
-            starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
-            self._path: tuple[tuple[float, ...], tuple[float, ...]] | None = (
-                tuple(float(x) for x in starts),
-                tuple(g.curvature for g in segs),
-            )
-            opts["accel_max"] = cfg.leader_accel_max
-            opts["decel_max"] = cfg.leader_decel_max
-        else:
-            self._path = None
-        self._noise = bool(getattr(self.policy, "needs_noise", False))
-        if self._noise:  # the followers' actuation noise (PolicyInput.speed_noise, turn_noise)
-            opts["speed_noise"] = cfg.follower.speed_noise
-            opts["turn_noise"] = cfg.follower.turn_noise
-        self.mode = str(self.policy.name)
-        # the command-aware rollout (PolicyInput.rollout): the predictor "commands", or a
-        # policy that asks for it
-        self._rollout = opts.get("predictor") == "commands" or bool(
-            getattr(self.policy, "needs_rollout", False)
-        )
-        if self._rollout:  # a policy on the rollout predicts with it
-            opts["predictor"] = "commands"
-        # when in the window the decision is taken: at the job's end (after the radio round
-        # trip, the paper's chain) or just before the first send (its speed leaves with the
-        # commands)
-        self.decide_at = str(opts.pop("decide", "end"))
-        if self.decide_at not in DECIDE:
-            raise InputError(
-                f"{inp.source or inp.name or 'scenario'}: adjust.decide: must be "
-                f"one of {', '.join(DECIDE)}, got {self.decide_at!r}"
-            )
-        cap_factor = opts.pop("cap_factor", None)
-        if cap_factor is not None and "cap" not in opts:
-            opts["cap"] = float(cap_factor) * self.w_sch
-        if "methods" in opts:
-            opts["methods"] = tuple(opts["methods"])
-        self.opts = opts
-        self.v_floor = float(opts.get("floor_frac", 0.0)) * cfg.leader_speed
+        self.v_ld = cfg.leader_speed
+        self.v_floor = adj.floor_frac * cfg.leader_speed
         if cfg.start_on == "straight" and cfg.start_speed is None:
             # settled: at the speed the bounds allow at the start (V_Ld unless less)
-            cfg = replace(cfg, start_speed=start_speed(cfg, self.w_sch))
-            self.cfg = cfg
+            cfg = self.cfg = replace(cfg, start_speed=start_speed(cfg, self.w_sch))
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))
@@ -287,15 +231,7 @@ class _Coupling:
         # CPU's, so a run whose link draws nothing sees the same numbers as before it existed
         self.radio = cfg.radio
         self._radio_rng = np.random.default_rng(ss.spawn(1)[0]) if self.radio.varies else None
-        if (
-            self.world.backend == "compiled"
-            and type(opts.get("predictor")) is str
-            and opts["predictor"] == "paper"
-            and self.thr.localization == "radial"
-        ):
-            from rtsim.control.compiled import PaperSearch  # the same speeds, compiled
-
-            opts["predictor"] = PaperSearch()
+        self._take_policy(adj)
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
         self.phys = PhysicalLog(
@@ -306,7 +242,6 @@ class _Coupling:
             clearance=cfg.formation.clearance,
         )
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
-        self.v_ld = cfg.leader_speed
         self.env = simpy.Environment()
         self.cpu, _ = build_cpu(
             ts,
@@ -320,7 +255,79 @@ class _Coupling:
             job_sink=job_sink,
             trace_sink=trace_sink,
         )
-        win = ts.window
+        self._hook_window(where)
+        self._start_state(horizon_ms, stop_s, stop_ms)
+        self._record_limits()
+        # each follower's send, ms after its window's scan (measured in the last window; the
+        # chain's nominal offsets until then)
+        self._send_offsets = self._nominal_offsets(ts)
+        first = self._estimates(0.0)
+        self.dec = first._replace(
+            w=self.w_sch,
+            v_leader=self._v_actual(),  # V_Ld, or a settled start's speed
+            method="fixed",
+            feasible=first.msb_min >= self.w_sch,
+            known=first.known[:1],
+        )
+
+    def _take_policy(self, adj: AdjustOptions) -> None:
+        """The run's policy and the decision's fixed inputs (`PolicyInput` without the
+        followers and the leader's motion), from the validated ``[adjust]``."""
+        cfg = self.cfg
+        self.policy = adj.policy
+        self.mode = str(self.policy.name)
+        self.decide_at = adj.decide
+        predictor = adj.predictor
+        # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
+        # predictor is for its own policy, unless [adjust] paper_predictor = false
+        if adj.paper_predictor and self.policy.name == "adjust":
+            predictor = "paper"
+        # the command-aware rollout (PolicyInput.rollout): the predictor "commands", or a
+        # policy that asks for it (and then predicts with it)
+        self._rollout = predictor == "commands" or bool(
+            getattr(self.policy, "needs_rollout", False)
+        )
+        if self._rollout:
+            predictor = "commands"
+        if (
+            self.world.backend == "compiled"
+            and type(predictor) is str
+            and predictor == "paper"
+            and self.thr.localization == "radial"
+        ):
+            predictor = PaperSearch()  # the same speeds, compiled
+        self.predictor = predictor
+        fixed: dict[str, Any] = {}
+        self._path: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+        if getattr(self.policy, "needs_path", False):  # the leader's known path commands
+            segs = cfg.path.segments
+            starts = np.concatenate(([0.0], np.cumsum([g.length for g in segs])))
+            self._path = (tuple(float(x) for x in starts), tuple(g.curvature for g in segs))
+            fixed.update(accel_max=cfg.leader_accel_max, decel_max=cfg.leader_decel_max)
+        self._noise = bool(getattr(self.policy, "needs_noise", False))
+        if self._noise:  # the followers' actuation noise (PolicyInput.speed_noise, turn_noise)
+            fixed.update(speed_noise=cfg.follower.speed_noise, turn_noise=cfg.follower.turn_noise)
+        cap = adj.cap
+        if cap is None and adj.cap_factor is not None:
+            cap = float(adj.cap_factor) * self.w_sch
+        self._input = PolicyInput(
+            (),
+            v_ld=self.v_ld,
+            w_sch=self.w_sch,
+            thresholds=self.thr,
+            cap=cap,
+            floor_frac=adj.floor_frac,
+            floor_w=adj.floor_w,
+            predictor=predictor,
+            methods=adj.methods,
+            scan_points=adj.scan_points,
+            **fixed,
+        )
+
+    def _hook_window(self, where: str) -> None:
+        """The window chain's constants and the CPU hooks that drive the world."""
+        cfg, cpu = self.cfg, self.cpu
+        win = self.ts.window
         assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
@@ -330,7 +337,6 @@ class _Coupling:
         # ... and its localization step at most Eq 1's time (the hough model counts the cells
         # its accumulators cover: the Gauss circle count, a few cells off π·r_H² either way)
         self._hough_assumed = win.e_hough()
-        cpu = self.cpu
         cpu.on("release", self._on_release, task=win.name)
         cpu.on("segment_start", self._on_scan, task=win.name, role="scan")
         cpu.on("segment_end", self._on_send, task=win.name, role="send")
@@ -343,11 +349,13 @@ class _Coupling:
         if self.radio.min_ms is not None:
             if self.radio.min_ms > self._delta_t:
                 raise InputError(
-                    f"{inp.source or inp.name or 'scenario'}: radio.min_ms: "
-                    f"{self.radio.min_ms:g} ms is above the task set's delta_t "
-                    f"({self._delta_t:g} ms, the round trip's maximum)"
+                    f"{where}: radio.min_ms: {self.radio.min_ms:g} ms is above the task set's "
+                    f"delta_t ({self._delta_t:g} ms, the round trip's maximum)"
                 )
             cpu.set_exec_time(win.name, "radio", self._radio_exec)
+
+    def _start_state(self, horizon_ms: float, stop_s: float | None, stop_ms: float) -> None:
+        """The run's state before its first window: open records, the stop and the lap."""
         self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
         self._v_max = self._v_actual()  # highest leader speed since the last scan
         self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
@@ -361,9 +369,13 @@ class _Coupling:
         self.stop = self.env.event()
         # the leader's first lap: (time ms, distance cm) at the last window completion before
         # it, then the interpolated completion time (ms)
-        self._lap_cm = float(cfg.path.lap_length)
+        self._lap_cm = float(self.cfg.path.lap_length)
         self._lap_prev = (0.0, 0.0)
         self.lap_ms: float | None = None
+
+    def _record_limits(self) -> None:
+        """The four thresholds per follower (the violation ratios and the recorder's
+        ``_true`` columns)."""
         rho_d = np.asarray(self.rho_d)
         thr = self.thr
         self._limits = (
@@ -378,17 +390,6 @@ class _Coupling:
             tuple(
                 tuple(float(x) for x in np.broadcast_to(lim, self.n)) for _, _, lim in self._limits
             ),
-        )
-        # each follower's send, ms after its window's scan (measured in the last window; the
-        # chain's nominal offsets until then)
-        self._send_offsets = self._nominal_offsets(ts)
-        first = self._estimates(0.0)
-        self.dec = first._replace(
-            w=self.w_sch,
-            v_leader=self._v_actual(),  # V_Ld, or a settled start's speed
-            method="fixed",
-            feasible=first.msb_min >= self.w_sch,
-            known=first.known[:1],
         )
 
     def _unrestorable(self) -> str | None:
@@ -460,6 +461,7 @@ class _Coupling:
                 self.w_sch,
                 type(world.followers),
                 tuple(self.beta_d),
+                turns=world.expected_turn_rates(now),
             )
         )
 
@@ -503,18 +505,7 @@ class _Coupling:
                 self.decide_at == "before-send" and now > 0,
                 estimates,
             )
-        adj = self.policy.decide(
-            PolicyInput(
-                fols,
-                v_ld=self.v_ld,
-                w_sch=self.w_sch,
-                thresholds=self.thr,
-                **kw,
-                **self.opts,
-                ahead=ahead,
-                **extra,
-            )
-        )
+        adj = self.policy.decide(replace(self._input, followers=fols, **kw, ahead=ahead, **extra))
         v_l = max(adj.v_leader, self.v_floor)
         if self._rollout:  # the _pred columns evaluate the same rollout
             kw = {**kw, "rollout": extra["rollout"]}
@@ -568,8 +559,7 @@ class _Coupling:
         for speed, rows in d.known:
             if speed == v:
                 return rows
-        pred = self.opts.get("predictor", "formation")
-        return predicted_rows(d.fols, v, thresholds=self.thr, predictor=pred, **d.kw)
+        return predicted_rows(d.fols, v, thresholds=self.thr, predictor=self.predictor, **d.kw)
 
     # -- the leader's speed, as the world has it ---------------------------------------
     # The only two places that read it: with leader dynamics (speed ramps toward a target)
@@ -778,13 +768,51 @@ class _Coupling:
         t0, d0 = self._lap_prev
         self.lap_ms = t0 + (now - t0) * (self._lap_cm - d0) / (d - d0) if d > d0 else now
 
+    def summary_extra(self, res: Any, horizon_ms: float, stop_s: float | None) -> dict[str, Any]:
+        """summary.json's keys beyond the windows' (`summarize`): the lap, the policy and
+        models, the violation ratios, the oracle's lap and the physical log; ``res``: the
+        CPU's result."""
+        cfg, world = self._given, self.world  # (the scenario's world, before a settled start)
+        extra: dict[str, Any] = {
+            "laps": (world.leader.s - self._s0) / cfg.path.lap_length,
+            "max_backlog": int(res.tasks[self.wname].max_backlog),
+            "v_leader_desired": self.v_ld,
+            "n": self.n,
+            "policy": self.mode,
+            "lap_time_s": None if self.lap_ms is None else self.lap_ms / 1000.0,
+            "predictor": _name(self.predictor),
+            "formation_model": formation_model(cfg),
+            "localization_model": cfg.localization.model,
+            "leader_accel_max": cfg.leader_accel_max,
+            "leader_decel_max": cfg.leader_decel_max,
+            "leader_start_speed": self.cfg.start_speed or cfg.leader_speed,
+        }
+        if self.infeasible_note is not None:
+            extra["infeasible_note"] = self.infeasible_note
+        if self.lap_ms is None:  # why there is no lap time
+            extra["lap_time_note"] = (
+                f"the leader did not complete its lap within the cap of "
+                f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
+                if stop_s is not None
+                else f"the run's duration ({horizon_ms / 1000.0:g} s) ended before the leader "
+                f"completed its lap"
+            )
+        extra["max_violation_ratio"], extra["violations_beyond_5pct"] = self.violation_ratios()
+        # the fastest lap that keeps every bound, offline (rtsim.control.oracle; cached)
+        oracle = lap_oracle(cfg, self.w_sch)
+        extra["lap_oracle_s"] = oracle
+        extra["lap_over_oracle"] = (
+            None if oracle is None or self.lap_ms is None else self.lap_ms / 1000.0 / oracle
+        )
+        world.followers.advance_all(world.t_ms, cfg.step_ms)
+        extra.update(self.phys.summary(world.leader.s - self._s0, list(world.followers.odometer)))
+        return extra
+
     # -- running ---------------------------------------------------------------------
     def watch(self, progress: Any) -> None:
         """Report progress (`rtsim.sim.progress.start_ticker`): the share of the
         duration; for a run to the end of the lap, the smaller of the shares of the lap
         driven and of the scenario's duration, ticking at every percent of a lap at V_Ld."""
-        from rtsim.sim.progress import TICKS, start_ticker
-
         if self._stop_s is None:
             horizon = self.horizon_ms
             start_ticker(self.env, horizon / TICKS, lambda now: now / horizon, progress)
@@ -820,6 +848,19 @@ class _Coupling:
             self._close(self.world.scan(max(self.env.now, self.world.t_ms)))
 
 
+#: The keyword arguments `run_scenario` took under other names, and their names now.
+RENAMED_ARGS: dict[str, str] = {"mode": "policy", "duration": "duration_s"}
+
+
+def _refuse(unknown: Mapping[str, Any]) -> None:
+    """A keyword argument `run_scenario` does not take (an old name among them) is a
+    TypeError naming the one meant (`rtsim._suggest.did_you_mean`)."""
+    for key in unknown:
+        names = [p for p in inspect.signature(run_scenario).parameters if p != "unknown"]
+        hint = did_you_mean(key, names, renamed=RENAMED_ARGS)
+        raise TypeError(f"run_scenario() got an unexpected keyword argument '{key}'{hint}")
+
+
 #: Rows of windows.csv the summary reads back at a time (a chunk's frame stays small next
 #: to a run's table: the post-run peak does not grow with the run's length).
 SUMMARY_READ_ROWS = 2_048
@@ -828,23 +869,22 @@ SUMMARY_READ_ROWS = 2_048
 def run_scenario(
     scenario: Any,
     *,
-    mode: str | None = None,
-    duration_s: float | None = None,
+    policy: str | None = None,
     seed: int = 0,
+    overrides: Mapping[str, Any] | None = None,
+    duration_s: float | None = None,
     record_jobs: bool = True,
     exec_model: ExecSpec = "wcet",
-    duration: float | None = None,
     text: str | None = None,
     record_trace: bool = False,
-    overrides: Mapping[str, Any] | None = None,
     window_sink: Any = None,
     job_sink: Any = None,
     trace_sink: Any = None,
-    policy: str | None = None,
     allow_code: bool | None = None,
     force: bool = False,
     windows: bool = True,
     progress: Any = None,
+    **unknown: Any,
 ) -> ScenarioResult:
     """Run one scenario: the leader's schedule and the robots' world in one simulation.
 
@@ -854,8 +894,6 @@ def run_scenario(
         A scenario file, a shipped one by name (``"test2"``), a loaded
         [`Scenario`][rtsim.io.scenario.Scenario], or
         [`ScenarioInputs`][rtsim.coupling.scenario_run.ScenarioInputs] prepared once.
-    mode : str, optional
-        Alias of ``policy`` (the paper's reproduction names its three modes so).
     duration_s : float, optional
         Simulated seconds, exact. None: the scenario's ``duration``, else to the end of the
         lap (``until = "lap"``, `rtsim.coupling.duration`).
@@ -865,8 +903,6 @@ def run_scenario(
         Keep the job table (``result.jobs``).
     exec_model : str, default "wcet"
         Execution times of the fixed segments: ``"wcet"`` or ``"uniform"`` in [bcet, wcet].
-    duration : float, optional
-        Alias of ``duration_s`` (simulated s; a sweep's option name).
     text : str, optional
         The scenario file's text, for the manifest (read from the path when one is given).
     record_trace : bool, default False
@@ -907,41 +943,14 @@ def run_scenario(
         A bad scenario, option or override, in one line per problem.
     """
     t0 = time.perf_counter()
-    if mode is not None and policy is not None and mode != policy:
-        raise InputError(
-            f"mode is an alias of policy: give one, got mode={mode!r} and policy={policy!r}"
-        )
-    if policy is None and mode is not None:
-        policy_class(mode, "mode")
-        policy = mode
-    elif policy is not None:
+    _refuse(unknown)
+    if policy is not None:
         policy_class(policy, "policy")
-    if duration_s is None:
-        duration_s = duration
     if not is_int(seed) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
-    from rtsim.io.work import check_coupled, check_seed
-
     check_seed(seed, "run_scenario: seed")
     inp = scenario_inputs(scenario, text, overrides, allow_code)
-    cfg = inp.world
-    if duration_s is not None:
-        if not is_real(duration_s) or not (0 < duration_s < math.inf):
-            raise InputError(f"duration must be a positive number of seconds, got {duration_s!r}")
-        from rtsim.io.limits import check
-
-        check("option: --duration", duration_s, "run_scenario: duration_s")
-    length = run_length(cfg, duration_s, inp.duration_s)
-    horizon_ms, stop_s, stop_ms = length.horizon_ms, length.stop_s, length.stop_ms
-    win = inp.taskset.window
-    check_coupled(
-        horizon_ms,
-        win.g() if win is not None else 0.0,
-        cfg.step_ms,
-        cfg.n,
-        f"run_scenario: duration {horizon_ms / 1000.0:g} s",
-        force=force,
-    )
+    horizon_ms, stop_s, stop_ms = _length(inp, duration_s, force)
     run = _Coupling(
         inp,
         policy,
@@ -966,51 +975,8 @@ def run_scenario(
     if progress is not None:
         progress(1.0, float(run.env.now))
     t2, c2 = time.perf_counter(), time.process_time()
-    table: Any
-    if window_sink is None:
-        table = records_columns([r for r in run.rec.records if r.complete], run.n, run.rec.limits)
-        df = pd.DataFrame(table, columns=list(table)) if windows else None
-    else:
-        run.rec.flush()
-        window_sink.close()
-        # the summary reads the columns back in chunks: memory stays flat at any length
-        # and follower count
-        df, table = None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS)
+    df, table = _tables(run, window_sink, windows)
     res = run.cpu.result()
-    world = run.world
-    extra = {
-        "laps": (world.leader.s - run._s0) / cfg.path.lap_length,
-        "max_backlog": int(res.tasks[run.wname].max_backlog),
-        "v_leader_desired": run.v_ld,
-        "n": run.n,
-        "policy": run.mode,
-        "lap_time_s": None if run.lap_ms is None else run.lap_ms / 1000.0,
-        "predictor": _name(run.opts.get("predictor", "formation")),
-        "formation_model": formation_model(cfg),
-        "localization_model": cfg.localization.model,
-        "leader_accel_max": cfg.leader_accel_max,
-        "leader_decel_max": cfg.leader_decel_max,
-        "leader_start_speed": run.cfg.start_speed or cfg.leader_speed,
-    }
-    if run.infeasible_note is not None:
-        extra["infeasible_note"] = run.infeasible_note
-    if run.lap_ms is None:  # why there is no lap time
-        extra["lap_time_note"] = (
-            f"the leader did not complete its lap within the cap of "
-            f"{run_duration.LAP_CAP_FACTOR:g} lap times at V_Ld ({horizon_ms / 1000.0:.6g} s)"
-            if stop_s is not None
-            else f"the run's duration ({horizon_ms / 1000.0:g} s) ended before the leader "
-            f"completed its lap"
-        )
-    extra["max_violation_ratio"], extra["violations_beyond_5pct"] = run.violation_ratios()
-    # the fastest lap that keeps every bound, offline (rtsim.control.oracle; cached)
-    oracle = lap_oracle(cfg, run.w_sch)
-    extra["lap_oracle_s"] = oracle
-    extra["lap_over_oracle"] = (
-        None if oracle is None or run.lap_ms is None else run.lap_ms / 1000.0 / oracle
-    )
-    world.followers.advance_all(world.t_ms, cfg.step_ms)
-    extra.update(run.phys.summary(world.leader.s - run._s0, list(world.followers.odometer)))
     summary = summarize(
         table,
         mode=run.mode,
@@ -1019,7 +985,7 @@ def run_scenario(
         seed=int(seed),
         scenario=inp.name,
         n=run.n,
-        extra=extra,
+        extra=run.summary_extra(res, horizon_ms, stop_s),
     )
     t3 = time.perf_counter()
     timing = {
@@ -1031,3 +997,38 @@ def run_scenario(
     return ScenarioResult(
         df if window_sink is None else None, res.jobs, summary, timing, inp, res.trace
     )
+
+
+def _length(
+    inp: ScenarioInputs, duration_s: float | None, force: bool
+) -> tuple[float, float | None, float]:
+    """The run's (horizon ms, stop arc length cm or None, earliest stop ms) for
+    ``duration_s`` (`rtsim.coupling.duration.run_length`), within the work limits."""
+    cfg = inp.world
+    if duration_s is not None:
+        if not is_real(duration_s) or not (0 < duration_s < math.inf):
+            raise InputError(f"duration must be a positive number of seconds, got {duration_s!r}")
+        check("option: --duration", duration_s, "run_scenario: duration_s")
+    length = run_length(cfg, duration_s, inp.duration_s)
+    win = inp.taskset.window
+    check_coupled(
+        length.horizon_ms,
+        win.g() if win is not None else 0.0,
+        cfg.step_ms,
+        cfg.n,
+        f"run_scenario: duration {length.horizon_ms / 1000.0:g} s",
+        force=force,
+    )
+    return length.horizon_ms, length.stop_s, length.stop_ms
+
+
+def _tables(run: _Coupling, window_sink: Any, windows: bool) -> tuple[pd.DataFrame | None, Any]:
+    """The windows' frame (None: streamed or not asked for) and the columns the summary
+    reads (in memory, or read back from the sink in chunks: memory stays flat at any
+    length and follower count)."""
+    if window_sink is None:
+        table = records_columns([r for r in run.rec.records if r.complete], run.n, run.rec.limits)
+        return (pd.DataFrame(table, columns=list(table)) if windows else None), table
+    run.rec.flush()
+    window_sink.close()
+    return None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS)

@@ -57,14 +57,18 @@ class Range:
     inf: bool = False
     integer: bool = False
 
-    def text(self) -> str:
-        """``(0, 1000] cm/s``."""
+    def interval(self) -> str:
+        """``(0, 1000]``."""
         lo = "(" if self.lo_open else "["
         hi = ")" if self.hi_open else "]"
+        return f"{lo}{self.lo:g}, {self.hi:g}{hi}"
+
+    def text(self) -> str:
+        """``(0, 1000] cm/s``."""
         extra = " or inf" if self.inf else ""
         unit = f" {self.unit}" if self.unit else ""
         kind = " (integer)" if self.integer else ""
-        return f"{lo}{self.lo:g}, {self.hi:g}{hi}{unit}{extra}{kind}"
+        return f"{self.interval()}{unit}{extra}{kind}"
 
     def admits(self, value: float) -> bool:
         if self.inf and value == math.inf:

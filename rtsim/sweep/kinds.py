@@ -18,7 +18,7 @@ the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metr
   ``uniform``), ``suspension`` (``cpu`` | ``idle``), ``window`` (ms; default w_sch),
   ``scheduler`` (``fp`` | ``edf``; default the set's).
 - ``scenario`` — ``rtsim.coupling.run_scenario(parse_scenario(base with overrides),
-  seed=, mode=, duration_s=duration, exec_model=exec)``: the scalar entries of the run's
+  seed=, policy=mode, duration_s=duration, exec_model=exec)``: the scalar entries of the run's
   summary (summary.json without ``seed``), nested ones flattened with dots
   (``violations.separation``, ``methods.coupled``). Options ``mode`` (``adjust`` |
   ``fixed-wsch`` | ``min-msb``), ``duration`` (simulated s), ``exec``, ``scheduler`` (the
@@ -48,15 +48,16 @@ from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from rtsim.analysis.sufficient import window_or_w_sch
 from rtsim.errors import InputError
+from rtsim.io.taskset import parse_taskset
+from rtsim.io.work import check_simulate
+from rtsim.model.taskset import TaskSet
 from rtsim.overrides import RUN_OPTIONS, apply_overrides
-from rtsim.registry import Registry
+from rtsim.registry import Registry, load_code
 from rtsim.sweep.base import BaseFile
-
-if TYPE_CHECKING:
-    from rtsim.model.taskset import TaskSet
 
 __all__ = ["PointInput", "KindSpec", "KINDS", "register_kind", "apply_overrides"]
 
@@ -89,8 +90,6 @@ class PointInput:
 
     def taskset(self) -> TaskSet:
         """The base task set with this point's overrides, through the normal loader."""
-        from rtsim.io.taskset import parse_taskset
-
         assert self.base is not None
         return parse_taskset(self.base_data(), self.base.source, allow_code=self.allow_code)
 
@@ -175,12 +174,8 @@ def _simulate(p: PointInput) -> dict[str, Any]:
     }
     if o.get("window") is not None:
         kwargs["window"] = float(o["window"])
-    from rtsim.io.work import check_simulate
-
     w_est = kwargs.get("window")
     if ts.window is not None:
-        from rtsim.analysis.sufficient import window_or_w_sch
-
         w_est = window_or_w_sch(ts, w_est)  # (simulate decides its window the same way)
     check_simulate(ts, float(o["horizon"]), w_est, f"sweep.options.horizon {o['horizon']}")
     if "scheduler" in o:
@@ -254,7 +249,7 @@ def _warm_scenario(p: PointInput) -> None:
         scenario, _ = _point_scenario(p)
     except Exception:
         return
-    from rtsim.coupling.warm import warm_world
+    from rtsim.coupling.warm import warm_world  # (the scenario kind only: lazy, as _need)
 
     warm_world([scenario])
 
@@ -266,12 +261,12 @@ def _scenario(p: PointInput) -> dict[str, Any]:
     scenario, inputs = _point_scenario(p)
     kwargs: dict[str, Any] = {"seed": p.seed, "record_jobs": False, "windows": False}
     if "mode" in o:
-        kwargs["mode"] = o["mode"]
+        kwargs["policy"] = o["mode"]
     if "duration" in o:
         kwargs["duration_s"] = float(o["duration"])
     if "exec" in o:
         kwargs["exec_model"] = o["exec"]
-    from rtsim.coupling.duration import check_scenario
+    from rtsim.coupling.duration import check_scenario  # (the scenario kind only: lazy, as _need)
 
     check_scenario(scenario, kwargs.get("duration_s"), f"{p.base.source}: duration")
     summary = dict(coupling.run_scenario(inputs, **kwargs).summary)
@@ -280,8 +275,6 @@ def _scenario(p: PointInput) -> dict[str, Any]:
 
 
 def _call(p: PointInput) -> dict[str, Any]:
-    from rtsim.registry import load_code
-
     assert p.function is not None
     fn = load_code(p.function, "sweep.function", allow_code=p.allow_code)
     return fn(dict(p.params), dict(p.options), p.seed)

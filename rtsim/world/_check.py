@@ -3,11 +3,25 @@
 from __future__ import annotations
 
 import math
+from typing import TypeVar
 
 from rtsim._numbers import is_int, is_real
-from rtsim.errors import ScenarioError
+from rtsim.errors import InputError, ScenarioError
+from rtsim.registry import Registry
 
-__all__ = ["number", "positive", "non_negative", "integer"]
+__all__ = ["number", "positive", "non_negative", "integer", "plugin"]
+
+T = TypeVar("T")
+
+
+def plugin(registry: Registry[T], name: str, where: str) -> T:
+    """The plug-in ``name`` names in ``registry``; an unknown one is a `ScenarioError`."""
+    try:
+        return registry.resolve(name, where)
+    except ScenarioError:
+        raise
+    except InputError as exc:
+        raise ScenarioError(str(exc)) from None
 
 
 def number(key: str, value: object) -> float:

@@ -39,9 +39,10 @@ import numpy as np
 
 from rtsim.world import kernels as K
 from rtsim.world.ekf import EkfParams, FastFollowerEKF
-from rtsim.world.follower import FollowerGroup, FollowerParams
+from rtsim.world.follower import FollowerGroup
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.kernels import available, kernels
+from rtsim.world.motionmodels import MotionModel, motion_model
 from rtsim.world.path import LeaderPath
 
 __all__ = [
@@ -65,21 +66,25 @@ def as_changes(arr: Any) -> list[list[Any]]:
 class CompiledFollowerGroup(FollowerGroup):
     """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose `advance` runs compiled."""
 
-    def __init__(
-        self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
-    ) -> None:
-        super().__init__(x, y, th, v, params, t_ms)
-        self._advance = kernels().advance_follower
+    @staticmethod
+    def _kernel(motion: MotionModel) -> Any:
+        return kernels(motion).advance_follower
 
 
 class CompiledFollowerEKF(FastFollowerEKF):
     """`FastFollowerEKF` whose predict and update run compiled."""
 
-    def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
-        super().__init__(pose, params)
+    def __init__(
+        self, pose: tuple[float, float, float], params: EkfParams, motion: Any = None
+    ) -> None:
+        super().__init__(pose, params, motion)
         ker = kernels()
         self._predict = ker.ekf_predict
         self._update = ker.ekf_update
+
+    @staticmethod
+    def _command_kernel(motion: Any) -> Any:
+        return kernels(motion).ekf_command
 
 
 class CompiledTraceFollower(TraceFollower):
@@ -207,10 +212,11 @@ class CompiledRollout:
     live law's, as the Python rollout clones it then)."""
 
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
-        K.warm_rollout()  # once per process: before the first rollout, not in a window
-        self._law = law
-        self._ker = kernels()
         p, thr = state.params, state.thresholds
+        motion = motion_model(p.motion_model)
+        K.warm_rollout(motion)  # once per process: before the first rollout, not in a window
+        self._law = law
+        self._ker = kernels(motion)
         # the scalars that stay from one decision to the next, packed once per law (they
         # follow the five that change, in RolloutScalars' order)
         static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
@@ -253,12 +259,14 @@ class CompiledRollout:
             dtype=float,
         )
         n = len(state.poses)
-        # per follower, in F_* column order: x, y, θ, v, held v, held ω, send offset, ρ_d (a
-        # flat list: numpy reads it much faster than nested tuples)
+        # per follower, in F_* column order: x, y, θ, v, ω, held v, held ω, send offset, ρ_d
+        # (a flat list: numpy reads it much faster than nested tuples)
         flat: list[float] = []
+        turns = state.turns or [h[1] for h in state.held]
         for k in range(n):
             flat += state.poses[k]
             flat.append(state.speeds[k])
+            flat.append(turns[k])
             flat += state.held[k]
             flat.append(state.send_offsets[k])
             flat.append(state.rho_d[k])

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from rtsim.analysis.kinematics import Thresholds
+from rtsim.analysis.kinematics import R_H_DEFAULT, Thresholds
 from rtsim.errors import ScenarioError
 from rtsim.world._check import integer, positive
 from rtsim.world.ekf import EkfParams
@@ -32,7 +32,7 @@ __all__ = [
 WORLD_BACKENDS: tuple[str, ...] = ("python", "compiled", "filterpy")
 
 #: T_ρ = 0.01, T_ε = 0.025 (an earlier prototype of this world), T_β = 5°, r_H = r_F = 25 cm.
-DEFAULT_THRESHOLDS = Thresholds(r_H=25.0, T_rho=0.01, T_eps=0.025, T_beta=math.radians(5.0))
+DEFAULT_THRESHOLDS = Thresholds(r_H=R_H_DEFAULT, T_rho=0.01, T_eps=0.025, T_beta=math.radians(5.0))
 
 
 @dataclass(frozen=True)

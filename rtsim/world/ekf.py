@@ -1,10 +1,12 @@
 """One filterpy ``ExtendedKalmanFilter`` per follower: pose (x, y, θ) in the world frame
 (docs/model/world.md).
 
-**Predict** with the follower's unicycle model and the command the leader sent, held over
-the interval (the leader knows the acceleration limit, so the speed used is the mean of
-the expected ramp toward the command). With chord c = v·dt·sinc(ω dt/2) and mid-heading
-m = θ + ω dt/2 the model is x' = x + c cos m, y' = y + c sin m, θ' = θ + ω dt, and
+**Predict** with the followers' motion model (`rtsim.world.motionmodels`: its ``process``,
+read by `ekf_command` and ``predict_command``) and the command the leader sent, held over the
+interval. The unicycle's (`command_process`): the leader knows the acceleration limit, so
+the speed used is the mean of the expected ramp toward the command. With chord
+c = v·dt·sinc(ω dt/2) and mid-heading m = θ + ω dt/2 the model is x' = x + c cos m,
+y' = y + c sin m, θ' = θ + ω dt, and
 
     F = ∂f/∂(x, y, θ) = [[1, 0, −c sin m], [0, 1, c cos m], [0, 0, 1]],
     G = ∂f/∂(v, ω) ≈ [[dt·s cos m, −(dt/2) c sin m], [dt·s sin m, (dt/2) c cos m], [0, dt]]
@@ -39,14 +41,17 @@ from numpy.typing import NDArray
 
 from rtsim.errors import ScenarioError
 from rtsim.world._check import non_negative, positive
-from rtsim.world.jit import kernel
-from rtsim.world.motion import arc, chord
+from rtsim.world.jit import kernel, specialise
+from rtsim.world.motion import arc, chord, ramp
 
 __all__ = [
     "EkfParams",
     "FollowerEKF",
     "FastFollowerEKF",
     "H_POSITION",
+    "command_process",
+    "ekf_apply",
+    "ekf_command",
     "ekf_predict",
     "ekf_update",
     "make_filter",
@@ -115,11 +120,22 @@ def _arc_ekf_class() -> type:
         from filterpy.kalman import ExtendedKalmanFilter
 
         class _ArcEKF(ExtendedKalmanFilter):  # type: ignore[misc]
+            #: a motion model's pose increments for the next predict (`predict_command`)
+            move: tuple[float, float, float] | None = None
+
             def predict_x(self, u: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
-                v, w, dt = u
                 x = self.x
-                x[0, 0], x[1, 0], x[2, 0] = arc(
-                    float(x[0, 0]), float(x[1, 0]), float(x[2, 0]), v, w, dt
+                if self.move is None:
+                    v, w, dt = u
+                    x[0, 0], x[1, 0], x[2, 0] = arc(
+                        float(x[0, 0]), float(x[1, 0]), float(x[2, 0]), v, w, dt
+                    )
+                    return
+                (dx, dy, dth), self.move = self.move, None
+                x[0, 0], x[1, 0], x[2, 0] = (
+                    float(x[0, 0]) + dx,
+                    float(x[1, 0]) + dy,
+                    float(x[2, 0]) + dth,
                 )
 
         _ARC_EKF = _ArcEKF
@@ -127,10 +143,15 @@ def _arc_ekf_class() -> type:
 
 
 class FollowerEKF:
-    """The leader's estimate of one follower's pose; wraps a filterpy ExtendedKalmanFilter."""
+    """The leader's estimate of one follower's pose; wraps a filterpy ExtendedKalmanFilter.
+    ``motion``: the motion model `predict_command` predicts with
+    (`rtsim.world.motionmodels.MotionModel`; None: the unicycle)."""
 
-    def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
+    def __init__(
+        self, pose: tuple[float, float, float], params: EkfParams, motion: Any = None
+    ) -> None:
         self.params = params
+        self._process = command_process if motion is None else motion.process
         kf: Any = _arc_ekf_class()(dim_x=3, dim_z=2)
         kf.x = np.array([[pose[0]], [pose[1]], [pose[2]]], dtype=float)
         kf.P = np.diag(
@@ -161,6 +182,24 @@ class FollowerEKF:
         self.kf.F = np.array([[1.0, 0.0, a], [0.0, 1.0, b], [0.0, 0.0, 1.0]])
         self.kf.Q = np.array([[q[0], q[1], q[2]], [q[1], q[3], q[4]], [q[2], q[4], q[5]]])
         self.kf.predict(u=(v, w, dt))
+
+    def predict_command(
+        self, v: float, w: float, vc: float, wc: float, a: float, dt: float
+    ) -> tuple[float, float]:
+        """Propagate over ``dt`` s holding the command (v_c, ω_c) from expected speed ``v`` and
+        turn rate ``w`` with the motion model's ``process`` (acceleration limit ``a``);
+        returns the expected speed and turn rate after."""
+        if dt <= 0.0:
+            return v, w
+        th = float(self.kf.x[2, 0])
+        dx, dy, dth, fa, fb, *q, v, w = self._process(
+            th, v, w, vc, wc, a, dt, *_squares(self.params)
+        )
+        self.kf.F = np.array([[1.0, 0.0, fa], [0.0, 1.0, fb], [0.0, 0.0, 1.0]])
+        self.kf.Q = np.array([[q[0], q[1], q[2]], [q[1], q[3], q[4]], [q[2], q[4], q[5]]])
+        self.kf.move = (dx, dy, dth)
+        self.kf.predict()
+        return v, w
 
     def update(self, z: tuple[float, float]) -> None:
         """Correct with a measured world position ``z`` (cm)."""
@@ -204,28 +243,15 @@ def process(
     )
 
 
-@kernel
-def ekf_predict(
-    x0: float,
-    x1: float,
-    x2: float,
-    p00: float,
-    p01: float,
-    p02: float,
-    p11: float,
-    p12: float,
-    p22: float,
-    v: float,
-    w: float,
-    dt: float,
-    sv2: float,
-    sw2: float,
-    qp2: float,
-    qh2: float,
-) -> tuple[float, float, float, float, float, float, float, float, float]:
-    """The predict on floats: (x, y, θ, P00, P01, P02, P11, P12, P22) after F P Fᵀ + Q with
-    F = I + a e0 e2ᵀ + b e1 e2ᵀ (`process`)."""
-    dx, dy, dth, a, b, q00, q01, q02, q11, q12, q22 = process(x2, v, w, dt, sv2, sw2, qp2, qh2)
+@kernel(inline=True)
+def ekf_apply(
+    x0: float, x1: float, x2: float, p00: float, p01: float, p02: float, p11: float, p12: float,
+    p22: float, dx: float, dy: float, dth: float, a: float, b: float, q00: float, q01: float,
+    q02: float, q11: float, q12: float, q22: float,
+) -> tuple[float, float, float, float, float, float, float, float, float]:  # fmt: skip
+    """A predict's mean and covariance from its model (`process`'s increments, F's two
+    non-zeros ``a``, ``b`` and Q): (x, y, θ, P00, P01, P02, P11, P12, P22) after F P Fᵀ + Q with
+    F = I + a e0 e2ᵀ + b e1 e2ᵀ."""
     return (
         x0 + dx,
         x1 + dy,
@@ -240,23 +266,55 @@ def ekf_predict(
 
 
 @kernel
+def ekf_predict(
+    x0: float, x1: float, x2: float, p00: float, p01: float, p02: float, p11: float, p12: float,
+    p22: float, v: float, w: float, dt: float, sv2: float, sw2: float, qp2: float, qh2: float,
+) -> tuple[float, float, float, float, float, float, float, float, float]:  # fmt: skip
+    """The predict on floats holding (v, ω) exactly: `process`, then `ekf_apply`."""
+    dx, dy, dth, a, b, q00, q01, q02, q11, q12, q22 = process(x2, v, w, dt, sv2, sw2, qp2, qh2)
+    return ekf_apply(
+        x0, x1, x2, p00, p01, p02, p11, p12, p22, dx, dy, dth, a, b, q00, q01, q02, q11, q12, q22
+    )
+
+
+@kernel
+def command_process(
+    th: float, v: float, w: float, vc: float, wc: float, a: float, dt: float, sv2: float,
+    sw2: float, qp2: float, qh2: float,
+) -> tuple[float, ...]:  # fmt: skip
+    """The unicycle's predict model for a held command (v_c, ω_c) from expected speed ``v``
+    (its turn rate ``w`` is not read: it turns at once): `process` at the mean speed of
+    the expected ramp (`rtsim.world.motion.ramp`, limit ``a``), then the speed and turn rate
+    after dt: `process`'s 11 values, v, ω."""
+    v1, vm = ramp(v, vc, a, dt)
+    dx, dy, dth, fa, fb, q00, q01, q02, q11, q12, q22 = process(th, vm, wc, dt, sv2, sw2, qp2, qh2)
+    return dx, dy, dth, fa, fb, q00, q01, q02, q11, q12, q22, v1, wc
+
+
+@kernel
+def ekf_command(
+    x0: float, x1: float, x2: float, p00: float, p01: float, p02: float, p11: float, p12: float,
+    p22: float, v: float, w: float, vc: float, wc: float, a: float, dt: float, sv2: float,
+    sw2: float, qp2: float, qh2: float,
+) -> tuple[float, ...]:  # fmt: skip
+    """The predict of a held command (v_c, ω_c) from expected speed ``v`` and turn rate ``w``:
+    the motion model's predict model (`command_process` for the unicycle; another model's in
+    its variant, `rtsim.world.motionmodels`), then `ekf_apply`: (x, y, θ, P00, P01, P02,
+    P11, P12, P22, v, ω)."""
+    dx, dy, dth, fa, fb, q00, q01, q02, q11, q12, q22, v1, w1 = command_process(
+        x2, v, w, vc, wc, a, dt, sv2, sw2, qp2, qh2
+    )
+    n0, n1, n2, n3, n4, n5, n6, n7, n8 = ekf_apply(
+        x0, x1, x2, p00, p01, p02, p11, p12, p22, dx, dy, dth, fa, fb, q00, q01, q02, q11, q12, q22
+    )
+    return n0, n1, n2, n3, n4, n5, n6, n7, n8, v1, w1
+
+
+@kernel
 def ekf_update(
-    x0: float,
-    x1: float,
-    x2: float,
-    p00: float,
-    p01: float,
-    p02: float,
-    p10: float,
-    p11: float,
-    p12: float,
-    p20: float,
-    p21: float,
-    p22: float,
-    r: float,
-    z0: float,
-    z1: float,
-) -> tuple[float, ...]:
+    x0: float, x1: float, x2: float, p00: float, p01: float, p02: float, p10: float, p11: float,
+    p12: float, p20: float, p21: float, p22: float, r: float, z0: float, z1: float,
+) -> tuple[float, ...]:  # fmt: skip
     """The update on floats with H = [I₂ 0], R = r I: (x, y, θ, then P − K H P row by row, 9
     entries); filterpy's Joseph form is the same matrix for this optimal gain."""
     s00, s01, s11 = p00 + r, p01, p11 + r
@@ -297,8 +355,11 @@ class FastFollowerEKF:
     _predict = staticmethod(ekf_predict)
     _update = staticmethod(ekf_update)
 
-    def __init__(self, pose: tuple[float, float, float], params: EkfParams) -> None:
+    def __init__(
+        self, pose: tuple[float, float, float], params: EkfParams, motion: Any = None
+    ) -> None:
         self.params = params
+        self._command = self._command_kernel(motion)
         self.x = [float(pose[0]), float(pose[1]), float(pose[2])]
         sp = max(params.init_position_sd, 0.01) ** 2
         self._p = [
@@ -331,6 +392,26 @@ class FastFollowerEKF:
         )
         self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
 
+    @staticmethod
+    def _command_kernel(motion: Any) -> Any:
+        """`ekf_command` for ``motion`` (None: the unicycle), as Python (compiled in the
+        compiled backend's subclass)."""
+        return ekf_command if motion is None else specialise(ekf_command, motion.subs)
+
+    def predict_command(
+        self, v: float, w: float, vc: float, wc: float, a: float, dt: float
+    ) -> tuple[float, float]:
+        """`FollowerEKF.predict_command` on floats (`ekf_command`)."""
+        if dt <= 0.0:
+            return v, w
+        x = self.x
+        (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._p
+        x[0], x[1], x[2], n00, n01, n02, n11, n12, n22, v, w = self._command(
+            x[0], x[1], x[2], p00, p01, p02, p11, p12, p22, v, w, vc, wc, a, dt, *self._noise
+        )
+        self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
+        return v, w
+
     def update(self, z: tuple[float, float]) -> None:
         x = self.x
         p0, p1, p2 = self._p
@@ -349,9 +430,9 @@ class FastFollowerEKF:
 
 
 def make_filter(
-    pose: tuple[float, float, float], params: EkfParams
+    pose: tuple[float, float, float], params: EkfParams, motion: Any = None
 ) -> FollowerEKF | FastFollowerEKF:
-    """The filter ``params.backend`` names."""
+    """The filter ``params.backend`` names, predicting with motion model ``motion``."""
     if params.backend == "filterpy":
-        return FollowerEKF(pose, params)
-    return FastFollowerEKF(pose, params)
+        return FollowerEKF(pose, params, motion)
+    return FastFollowerEKF(pose, params, motion)

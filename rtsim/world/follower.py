@@ -36,7 +36,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.world._check import non_negative, positive
-from rtsim.world.motion import clip, follower_advance
+from rtsim.world.motion import clip
+from rtsim.world.motionmodels import MotionModel, motion_model
 
 __all__ = [
     "FollowerParams",
@@ -56,7 +57,10 @@ class FollowerParams:
     control_offset d (cm, > 0); gain_rho k_ρ and gain_beta k_β (1/s); speed_noise (cm/s) and
     turn_noise (rad/s): standard deviations of the actuation error per command; lookahead ℓ
     (cm): pure pursuit's look-ahead along the trace in follow-the-leader
-    (`rtsim.world.ftl`, which also uses gain_rho on the along-track separation error).
+    (`rtsim.world.ftl`, which also uses gain_rho on the along-track separation error);
+    motion_model: how the robots move under a held command, a name in
+    `rtsim.world.motionmodels.MOTION_MODELS` (the truth, the leader's belief and EKF, the
+    rollout and the leader's ramp all use it).
 
     The offset d must not be too small for the command hold w: the control point's heading
     loop has time constant d/V_F, and a command held for w overshoots (and the formation
@@ -74,8 +78,10 @@ class FollowerParams:
     speed_noise: float = 0.5
     turn_noise: float = 0.005
     lookahead: float = 40.0
+    motion_model: str = "unicycle"
 
     def __post_init__(self) -> None:
+        motion_model(self.motion_model)  # (an unknown name: one line naming the key)
         for key in ("radius", "max_speed", "control_offset", "gain_rho", "gain_beta", "lookahead"):
             object.__setattr__(self, key, positive(f"follower.{key}", getattr(self, key)))
         for key in ("max_accel", "max_turn_rate"):
@@ -191,7 +197,8 @@ class FollowerGroup:
 
     Per follower k = i − 1 (plain lists, each follower integrated lazily up to its own
     time ``t[k]`` in ms): ``x``, ``y``, ``th`` (unwrapped heading), ``v`` (actual wheel
-    speed), ``cmd_v``/``cmd_w`` (realised commands being held), ``odometer`` (cm travelled).
+    speed), ``w`` (actual turn rate: the motion model's; the unicycle's is its command's),
+    ``cmd_v``/``cmd_w`` (realised commands being held), ``odometer`` (cm travelled).
     """
 
     def __init__(
@@ -204,8 +211,17 @@ class FollowerGroup:
         self.v = [float(a) for a in v]
         self.cmd_v = list(self.v)
         self.cmd_w = [0.0] * len(self.x)
+        self.w = [0.0] * len(self.x)
         self.odometer = [0.0] * len(self.x)
         self.t = [float(t_ms)] * len(self.x)
+        self.motion: MotionModel = motion_model(params.motion_model)
+        self._advance = self._kernel(self.motion)
+
+    @staticmethod
+    def _kernel(motion: MotionModel) -> Any:
+        """The integration: the motion model's ``advance`` (compiled in the compiled
+        backend's subclass)."""
+        return motion.advance
 
     @property
     def n(self) -> int:
@@ -235,21 +251,19 @@ class FollowerGroup:
     def pose(self, k: int) -> tuple[float, float, float]:
         return self.x[k], self.y[k], self.th[k]
 
-    #: the integration (`rtsim.world.motion.follower_advance`; its compiled build in
-    #: the compiled backend's subclass)
-    _advance = staticmethod(follower_advance)
-
     def advance(self, k: int, t_ms: float, step_ms: float) -> None:
-        """Integrate follower index ``k`` to ``t_ms`` (`rtsim.world.motion.follower_advance`: exact
-        arcs at the ramp's mean speed)."""
+        """Integrate follower index ``k`` to ``t_ms`` (the motion model's ``advance``; the
+        unicycle's `rtsim.world.motion.follower_advance`: exact arcs at the ramp's mean
+        speed)."""
         t0 = self.t[k]
         if t_ms <= t0:
             return
-        (self.x[k], self.y[k], self.th[k], self.v[k], self.odometer[k]) = self._advance(
+        (self.x[k], self.y[k], self.th[k], self.v[k], self.w[k], self.odometer[k]) = self._advance(
             self.x[k],
             self.y[k],
             self.th[k],
             self.v[k],
+            self.w[k],
             self.cmd_v[k],
             self.cmd_w[k],
             self.p.max_accel,

@@ -6,7 +6,10 @@ into a numba dispatcher on demand, together with the kernel sources it calls (fo
 code, by name in its module's globals): each callee is compiled first and the caller is
 compiled against a copy of its globals in which the callees' names are their dispatchers, so
 a kernel may call kernel sources of any module and the module's own names stay Python. The
-compile order is derived from the calls; nothing lists it by hand.
+compile order is derived from the calls; nothing lists it by hand. ``subs`` (callee source →
+replacement source) builds a variant in which every kernel of the closure calls the
+replacement instead: a motion model's parts in the controller's rollout
+(`rtsim.world.motionmodels`).
 
 **Cache.** numba's own on-disk cache (``cache=True``) checks only the file that defines a
 kernel, so a kernel calling an edited function of another module would load a stale build.
@@ -36,12 +39,16 @@ __all__ = [
     "is_kernel",
     "kernel",
     "source_key",
+    "specialise",
 ]
 
 F = TypeVar("F", bound=Callable[..., Any])
+#: substitutions (callee source, replacement source), hashable
+Subs = tuple[tuple[Callable[..., Any], Callable[..., Any]], ...]
 
 _MARK = "__rtsim_kernel__"
-_COMPILED: dict[Callable[..., Any], Any] = {}
+_COMPILED: dict[tuple[Callable[..., Any], Subs], Any] = {}
+_PYTHON: dict[tuple[Callable[..., Any], Subs], Callable[..., Any]] = {}
 
 
 def kernel(fn: F | None = None, *, inline: bool = False) -> Any:
@@ -96,31 +103,47 @@ def _digest(fn: Callable[..., Any]) -> bytes:
     return h.digest()
 
 
-def source_key(fn: Callable[..., Any]) -> str:
-    """A hash of the source text of ``fn`` and of every kernel source it reaches (with their
-    names), and of the values of the other globals they read (module docstring)."""
-    seen, todo = set(), [fn]
+def _reach(fn: Callable[..., Any], subs: Subs = ()) -> tuple[set[Callable[..., Any]], Subs]:
+    """The kernel sources ``fn`` reaches with ``subs`` applied, and the substitutions met."""
+    swap = dict(subs)
+    seen: set[Callable[..., Any]] = set()
+    used: set[Callable[..., Any]] = set()
+    todo = [fn]
     while todo:
         f = todo.pop()
         if f not in seen:
             seen.add(f)
-            todo += dependencies(f)[0].values()
+            for dep in dependencies(f)[0].values():
+                if dep in swap:
+                    used.add(dep)
+                todo.append(swap.get(dep, dep))
+    return seen, tuple(pair for pair in subs if pair[0] in used)
+
+
+def source_key(fn: Callable[..., Any], subs: Subs = ()) -> str:
+    """A hash of the source text of ``fn`` and of every kernel source it reaches (with their
+    names; ``subs`` applied), and of the values of the other globals they read (module
+    docstring)."""
+    seen, _ = _reach(fn, subs)
     return hashlib.sha256(b"".join(sorted(map(_digest, seen)))).hexdigest()[:24]
 
 
-def build(fn: Callable[..., Any]) -> Any:
+def build(fn: Callable[..., Any], subs: Subs = ()) -> Any:
     """The numba dispatcher of kernel source ``fn`` (made once per process; its callees
-    first), cached on disk by `source_key`. Imports numba."""
-    done = _COMPILED.get(fn)
+    first), cached on disk by `source_key`; with ``subs``, the variant whose kernels call
+    each pair's replacement instead of its callee (module docstring). Imports numba."""
+    subs = _reach(fn, subs)[1]  # (only those it meets: a kernel they miss is shared)
+    done = _COMPILED.get((fn, subs))
     if done is not None:
         return done
     import numba
 
+    swap = dict(subs)
     glob = dict(fn.__globals__)  # type: ignore[attr-defined]
     for name, dep in dependencies(fn)[0].items():
         if dep is fn:
             raise TypeError(f"kernel {fn.__qualname__} calls itself (numba cannot)")
-        glob[name] = build(dep)
+        glob[name] = build(swap.get(dep, dep), subs)
     f: Any = fn
     clone = types.FunctionType(f.__code__, glob, f.__name__, f.__defaults__, f.__closure__)
     clone.__qualname__, clone.__module__ = fn.__qualname__, fn.__module__
@@ -131,21 +154,44 @@ def build(fn: Callable[..., Any]) -> Any:
         out = numba.njit(nogil=True)(clone)
         root = cache_root()
         if root is not None:  # else uncached, as numba leaves a kernel it cannot cache
-            clone.__rtsim_cache__ = os.path.join(root, source_key(fn))  # type: ignore[attr-defined]
+            key = source_key(fn, subs)
+            clone.__rtsim_cache__ = os.path.join(root, key)  # type: ignore[attr-defined]
             out._cache = _keyed_cache_class()(clone)
-    _COMPILED[fn] = out
+    _COMPILED[fn, subs] = out
     return out
 
 
-def cached(fn: Callable[..., Any]) -> bool:
-    """Whether kernel source ``fn`` has a build in the cache (numba's index file in its
-    source key's directory), so that `build` loads it rather than compiles it; False
-    when nothing can be cached."""
+def specialise(fn: Callable[..., Any], subs: Subs = ()) -> Callable[..., Any]:
+    """The plain-Python twin of `build` ``(fn, subs)``: ``fn`` itself when ``subs`` meets
+    nothing it reaches, else a copy of it whose globals (and its callees', copied the same
+    way) name the replacements (made once per process). The ``python`` backend runs it."""
+    subs = _reach(fn, subs)[1]
+    if not subs:
+        return fn
+    done = _PYTHON.get((fn, subs))
+    if done is not None:
+        return done  # type: ignore[no-any-return]
+    swap = dict(subs)
+    glob = dict(fn.__globals__)  # type: ignore[attr-defined]
+    for name, dep in dependencies(fn)[0].items():
+        glob[name] = specialise(swap.get(dep, dep), subs)
+    f: Any = fn
+    clone = types.FunctionType(f.__code__, glob, f.__name__, f.__defaults__, f.__closure__)
+    clone.__qualname__, clone.__module__ = fn.__qualname__, fn.__module__
+    clone.__doc__ = fn.__doc__
+    _PYTHON[fn, subs] = clone
+    return clone
+
+
+def cached(fn: Callable[..., Any], subs: Subs = ()) -> bool:
+    """Whether kernel source ``fn`` (with ``subs``) has a build in the cache (numba's index
+    file in its source key's directory), so that `build` loads it rather than compiles it;
+    False when nothing can be cached."""
     root = cache_root()
     if root is None:
         return False
     try:
-        names = os.listdir(os.path.join(root, source_key(fn)))
+        names = os.listdir(os.path.join(root, source_key(fn, subs)))
     except OSError:
         return False
     return any(name.endswith(".nbi") for name in names)

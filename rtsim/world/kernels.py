@@ -19,9 +19,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rtsim.world.ekf import ekf_predict, ekf_update
+from rtsim.world.ekf import ekf_command, ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
-from rtsim.world.jit import build, cached, kernel
+from rtsim.world.jit import Subs, build, cached, kernel
 from rtsim.world.motion import clip, follower_advance, leader_travel
 from rtsim.world.path import along
 
@@ -309,6 +309,7 @@ def _rollout(
     y: Any,
     th: Any,
     v: Any,
+    w: Any,
     cmd_v: Any,
     cmd_w: Any,
     odo: Any,
@@ -350,11 +351,12 @@ def _rollout(
         hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
         for k in range(lo_k, hi_k):
             if t > t_f[k]:
-                x[k], y[k], th[k], v[k], odo[k] = follower_advance(
+                x[k], y[k], th[k], v[k], w[k], odo[k] = follower_advance(
                     x[k],
                     y[k],
                     th[k],
                     v[k],
+                    w[k],
                     cmd_v[k],
                     cmd_w[k],
                     max_accel,
@@ -445,9 +447,10 @@ def scalars(fs: Any) -> RolloutScalars:
     )  # fmt: skip
 
 
-#: columns of a rollout's follower pack: the estimate, its speed, the held command, the
-#: send offset after a window's scan, ρ_d (CompiledRollout builds the rows in this order)
-F_X, F_Y, F_TH, F_V, F_CMD_V, F_CMD_W, F_SEND, F_RHO_D, F_SIZE = range(9)
+#: columns of a rollout's follower pack: the estimate, its speed and turn rate, the held
+#: command, the send offset after a window's scan, ρ_d (CompiledRollout builds the rows in
+#: this order)
+F_X, F_Y, F_TH, F_V, F_W, F_CMD_V, F_CMD_W, F_SEND, F_RHO_D, F_SIZE = range(10)
 
 
 @kernel
@@ -540,6 +543,7 @@ def _rollout_changes(
     y = fol[:, F_Y].copy()
     th = fol[:, F_TH].copy()
     vf = fol[:, F_V].copy()
+    wf = fol[:, F_W].copy()
     cmd_v = fol[:, F_CMD_V].copy()
     cmd_w = fol[:, F_CMD_W].copy()
     odo = np.zeros(n)
@@ -559,6 +563,7 @@ def _rollout_changes(
         y,
         th,
         vf,
+        wf,
         cmd_v,
         cmd_w,
         odo,
@@ -816,6 +821,7 @@ def _plan_decide(
 #: compiled with the kernel sources it calls: `rtsim.world.jit.compile`)
 ENTRIES: dict[str, Any] = {
     "advance_follower": follower_advance,
+    "ekf_command": ekf_command,
     "ekf_predict": ekf_predict,
     "ekf_update": ekf_update,
     "ftl_exact": _ftl_exact,
@@ -830,6 +836,10 @@ ENTRIES: dict[str, Any] = {
 #: the entries only a run that rolls out calls (compiled by `warm_rollout`)
 ROLLOUT_ENTRIES = ("rollout_changes", "plan_decide")
 
+#: the entries that run a motion model's parts (built again for a model other than the
+#: unicycle: `kernels`)
+MOTION_ENTRIES = ("advance_follower", "ekf_command", *ROLLOUT_ENTRIES)
+
 #: about how long compiling takes, CPU s on a 2-core machine (numba 0.68; measured with a
 #: fresh NUMBA_CACHE_DIR, docs/performance.md): the world's entries, the rollout's
 COMPILE_S = {"world": 4.0, "rollout": 6.0}
@@ -837,14 +847,14 @@ COMPILE_S = {"world": 4.0, "rollout": 6.0}
 _ANNOUNCED = False
 
 
-def announce(sources: Iterable[Any], seconds: float) -> bool:
+def announce(sources: Iterable[Any], seconds: float, subs: Subs = ()) -> bool:
     """Say on stderr, in one line and once per process, that the kernels are being compiled
-    (once per install, about ``seconds``), when any of the kernel ``sources`` has no build
-    in the cache and progress is shown (`rtsim.sim.progress.progress_enabled`: a
-    terminal, or ``RTSIM_PROGRESS=1``); nothing when they load from the cache. Returns
-    whether it said so."""
+    (once per install, about ``seconds``), when any of the kernel ``sources`` (with
+    ``subs``) has no build in the cache and progress is shown
+    (`rtsim.sim.progress.progress_enabled`: a terminal, or ``RTSIM_PROGRESS=1``); nothing
+    when they load from the cache. Returns whether it said so."""
     global _ANNOUNCED
-    if _ANNOUNCED or all(cached(fn) for fn in sources):
+    if _ANNOUNCED or all(cached(fn, subs) for fn in sources):
         return False
     from rtsim.sim.progress import progress_enabled
 
@@ -859,10 +869,22 @@ def announce(sources: Iterable[Any], seconds: float) -> bool:
     return True
 
 
-def kernels() -> Any:
+def _sources(names: Iterable[str], subs: Subs = ()) -> list[Any]:
+    """The kernel sources of entries ``names`` for substitutions ``subs`` (an entry that is
+    itself a substituted part is its replacement)."""
+    swap = dict(subs)
+    return [swap.get(ENTRIES[name], ENTRIES[name]) for name in names]
+
+
+_BY_MODEL: dict[Subs, Any] = {}
+
+
+def kernels(motion: Any = None) -> Any:
     """The compiled kernels (a namespace), compiled or loaded from the cache once per
     process (saying so when they compile: `announce`, with the rollout's time when
-    those are not cached either, as most runs roll out next)."""
+    those are not cached either, as most runs roll out next). ``motion``: a motion model
+    (`rtsim.world.motionmodels.MotionModel`; None: the unicycle) whose parts the
+    `MOTION_ENTRIES` run (the others are the unicycle's namespace's)."""
     global _KERNELS
     if _KERNELS is None:
         import types
@@ -876,7 +898,23 @@ def kernels() -> Any:
         _warm(ns)
         ns.exact_hypot = _hypot_matches(ns.hypot)
         _KERNELS = ns
-    return _KERNELS
+    subs: Subs = () if motion is None else motion.subs
+    if not subs:
+        return _KERNELS
+    model_ns = _BY_MODEL.get(subs)
+    if model_ns is None:
+        import types
+
+        world = [n for n in MOTION_ENTRIES if n not in ROLLOUT_ENTRIES]
+        announce(_sources(world, subs), COMPILE_S["world"], subs)
+        model_ns = types.SimpleNamespace(**vars(_KERNELS))
+        for name, fn in zip(MOTION_ENTRIES, _sources(MOTION_ENTRIES, subs), strict=True):
+            setattr(model_ns, name, build(fn, subs))
+        model_ns.rollout_warm = False
+        model_ns.subs = subs
+        _warm(model_ns)
+        _BY_MODEL[subs] = model_ns
+    return model_ns
 
 
 def _hypot_matches(fn: Any, count: int = 20000) -> bool:
@@ -904,7 +942,8 @@ def _warm(ns: Any) -> None:
     """Call every kernel once on dummy values, so that compiling it (the first time on a
     machine) or loading it from numba's cache happens when the world is built, not inside
     the first window."""
-    ns.advance_follower(0.0, 0.0, 0.0, 1.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
+    ns.advance_follower(0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
+    ns.ekf_command(*([1.0] * 19))
     ns.ekf_predict(*([1.0] * 16))
     ns.ekf_update(*([1.0] * 15))
     one = np.zeros(1)
@@ -934,14 +973,16 @@ def _warm(ns: Any) -> None:
     # (the rollout's kernels: warm_rollout, when a run first rolls out)
 
 
-def warm_rollout() -> None:
+def warm_rollout(motion: Any = None) -> None:
     """Compile the rollout's kernels (or load them from numba's cache) once per process:
     called when the first compiled rollout is made (a coupled run makes it while it is set
-    up, before the loop), so a run that never rolls out never compiles them."""
-    ns = kernels()
+    up, before the loop), so a run that never rolls out never compiles them. ``motion``: as
+    `kernels`."""
+    ns = kernels(motion)
     if getattr(ns, "rollout_warm", False):
         return
-    announce([ENTRIES[name] for name in ROLLOUT_ENTRIES], COMPILE_S["rollout"])
+    subs = getattr(ns, "subs", ())
+    announce(_sources(ROLLOUT_ENTRIES, subs), COMPILE_S["rollout"], subs)
     # one follower 100 cm behind a leader on a straight lap
     fs = np.array(
         RolloutScalars(

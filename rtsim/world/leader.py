@@ -15,11 +15,12 @@ the exact integral of that ramp-then-hold profile (`rtsim.world.motion.leader_tr
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Literal
 
 from rtsim.errors import InputError
 from rtsim.world._check import positive
-from rtsim.world.motion import leader_travel, ramp
+from rtsim.world.motion import leader_travel
 from rtsim.world.path import LeaderPath
 
 __all__ = ["Leader"]
@@ -27,7 +28,8 @@ __all__ = ["Leader"]
 
 class Leader:
     """Leader on ``path`` with desired speed ``desired_speed`` (cm/s), starting at ``s0`` cm,
-    its speed ramping toward the target at most ``accel_max`` / ``decel_max`` cm/s²."""
+    its speed ramping toward the target at most ``accel_max`` / ``decel_max`` cm/s² (by
+    ``travel``: a motion model's leader part, `rtsim.world.motionmodels`)."""
 
     def __init__(
         self,
@@ -37,8 +39,10 @@ class Leader:
         *,
         accel_max: float = math.inf,
         decel_max: float = math.inf,
+        travel: Callable[..., tuple[float, float]] = leader_travel,
     ) -> None:
         self.path = path
+        self._travel = travel
         self.desired_speed = positive("leader.speed", desired_speed)
         self.accel_max = positive("leader.accel_max", accel_max, allow_inf=True)
         self.decel_max = positive("leader.decel_max", decel_max, allow_inf=True)
@@ -58,15 +62,14 @@ class Leader:
 
     def advance(self, dt: float) -> None:
         """Drive ``dt`` seconds, the speed ramping toward the target (exact along the path)."""
-        self.speed, ds = leader_travel(
+        self.speed, ds = self._travel(
             self.speed, self.target_speed, self.accel_max, self.decel_max, dt
         )
         self.s += ds
 
     def speed_after(self, dt: float) -> float:
         """The actual speed ``dt`` seconds from now if the target does not change."""
-        v0, vt = self.speed, self.target_speed
-        return ramp(v0, vt, self.accel_max if vt > v0 else self.decel_max, dt)[0]
+        return self._travel(self.speed, self.target_speed, self.accel_max, self.decel_max, dt)[0]
 
     @property
     def pose(self) -> tuple[float, float, float]:

@@ -26,10 +26,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from rtsim.analysis.kinematics import msb_localization_predicted
 from rtsim.errors import InputError, ScenarioError
 from rtsim.model.window import LASER_POINTS
 from rtsim.registry import Registry
+from rtsim.world._check import plugin
 from rtsim.world.config import SensingParams, WorldConfig
+from rtsim.world.ekf import EkfParams
+from rtsim.world.follower import FollowerParams
 from rtsim.world.hough import (
     OUT_FIX_X,
     OUT_FIX_Y,
@@ -50,6 +54,7 @@ __all__ = [
     "HoughModel",
     "LocalizationModel",
     "localization_model",
+    "predicted_bound_ms",
 ]
 
 XY = tuple[float, float]
@@ -228,9 +233,34 @@ LOCALIZATION_MODELS.register("hough", HoughModel)
 
 def localization_model(name: str, where: str = "localization.model") -> type[LocalizationModel]:
     """The localization model class ``name`` names; an unknown one is a `ScenarioError`."""
-    try:
-        return LOCALIZATION_MODELS.resolve(name, where)
-    except ScenarioError:
-        raise
-    except InputError as exc:
-        raise ScenarioError(str(exc)) from None
+    return plugin(LOCALIZATION_MODELS, name, where)
+
+
+def predicted_bound_ms(
+    model: str,
+    r_H: float,
+    sensing: SensingParams,
+    follower: FollowerParams,
+    ekf: EkfParams,
+    rho_max: float,
+) -> float:
+    """The decision's localization bound (ms) for a window centred at the predicted position
+    (`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md): the
+    localization model ``model``'s fix noise σ_fix at the formation's farthest desired range
+    ``rho_max`` (`LocalizationModel.fix_sd`), the EKF's initial heading error, the actuation
+    noise, at the followers' top speed, 3 standard deviations; the leader knows its own
+    motion (no error)."""
+    fix_sd = localization_model(model).fix_sd(sensing, rho_max)
+    if not math.isfinite(follower.max_speed):
+        raise ScenarioError(
+            "thresholds.localization: 'predicted' needs a finite follower.max_speed (the "
+            "bound carries the heading error at it)"
+        )
+    return msb_localization_predicted(
+        r_H,
+        fix_sd=fix_sd,
+        heading_sd=ekf.init_heading_sd,
+        speed_sd=follower.speed_noise,
+        turn_sd=follower.turn_noise,
+        v_max=follower.max_speed,
+    )

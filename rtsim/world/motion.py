@@ -63,41 +63,33 @@ def ramp(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
 
 @kernel(inline=True)
 def ramp_arc(
-    x: float, y: float, th: float, v: float, vc: float, w: float, a: float, dt: float
-) -> tuple[float, float, float, float, float]:
-    """One step of a held command: `ramp`, then `arc` at the ramp's mean speed:
-    (x, y, heading, speed after dt, mean speed)."""
+    x: float, y: float, th: float, v: float, w: float, vc: float, wc: float, a: float, dt: float
+) -> tuple[float, float, float, float, float, float]:
+    """One step of a held command (v_c, ω_c): `ramp`, then `arc` at the ramp's mean speed:
+    (x, y, heading, speed after dt, turn rate after dt, mean speed). The unicycle turns at
+    once: the turn rate ``w`` it held before is not read, the one after is ω_c."""
     v, vm = ramp(v, vc, a, dt)
-    x, y, th = arc(x, y, th, vm, w, dt)
-    return x, y, th, v, vm
+    x, y, th = arc(x, y, th, vm, wc, dt)
+    return x, y, th, v, wc, vm
 
 
 @kernel
 def follower_advance(
-    x: float,
-    y: float,
-    th: float,
-    v: float,
-    vc: float,
-    w: float,
-    a: float,
-    odo: float,
-    t0: float,
-    t_ms: float,
-    step_ms: float,
-) -> tuple[float, float, float, float, float]:
-    """A follower holding (v_c, ω) integrated from ``t0`` to ``t_ms`` (ms): the exact arc at
+    x: float, y: float, th: float, v: float, w: float, vc: float, wc: float, a: float, odo: float,
+    t0: float, t_ms: float, step_ms: float,
+) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """A follower holding (v_c, ω_c) integrated from ``t0`` to ``t_ms`` (ms): the exact arc at
     the ramp's mean speed, in steps of at most ``step_ms`` while the ramp lasts longer than
     one step (a shorter ramp is folded into one arc; the heading–speed coupling it ignores is
-    below 1e-3 cm for a command's speed change): (x, y, θ, speed, odometer)."""
+    below 1e-3 cm for a command's speed change): (x, y, θ, speed, turn rate, odometer)."""
     while t_ms - t0 > 1e-12:
         short = v == vc or abs(vc - v) <= a * step_ms / 1000.0
         h = t_ms - t0 if short else min(step_ms, t_ms - t0)
         dt = h / 1000.0
-        x, y, th, v, vm = ramp_arc(x, y, th, v, vc, w, a, dt)
+        x, y, th, v, w, vm = ramp_arc(x, y, th, v, w, vc, wc, a, dt)
         odo += abs(vm) * dt
         t0 += h
-    return x, y, th, v, odo
+    return x, y, th, v, w, odo
 
 
 @kernel

@@ -59,7 +59,7 @@ from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
 from rtsim.world.localization import lost_cause
 from rtsim.world.locmodels import localization_model
-from rtsim.world.motion import ramp, ramp_arc
+from rtsim.world.motionmodels import motion_model
 from rtsim.world.scan import Scan
 
 __all__ = ["World", "Scan"]
@@ -79,12 +79,14 @@ class World:
         self.rng = rng
         self._z: list[float] = []  # standard normals drawn ahead from rng (see _normals)
         self._zi = 0
+        self.motion = motion_model(config.follower.motion_model)
         self.leader = Leader(
             config.path,
             config.leader_speed,
             config.start_s,
             accel_max=config.leader_accel_max,
             decel_max=config.leader_decel_max,
+            travel=self.motion.leader,
         )
         if config.start_speed is not None:  # a settled start below V_Ld
             self.leader.speed = self.leader.target_speed = config.start_speed
@@ -131,6 +133,7 @@ class World:
             w0 = float(w_l)
         self.followers = (CompiledFollowerGroup if fast else FollowerGroup)(x, y, th, v_f, fp)
         self.followers.cmd_w = [w0] * form.n
+        self.followers.w = [w0] * form.n
         self._t = 0.0
         self._est_t = 0.0
         ep = config.ekf
@@ -145,10 +148,13 @@ class World:
             )
             for k in range(form.n)
         ]
+        motion = self.motion
         self._filters = [
-            CompiledFollowerEKF(pose, ep) if fast else make_filter(pose, ep) for pose in poses
+            CompiledFollowerEKF(pose, ep, motion) if fast else make_filter(pose, ep, motion)
+            for pose in poses
         ]
         self._vhat = [float(v) for v in v_f]
+        self._what = [w0] * form.n  # the turn rates the leader expects
         self._pieces: list[list[tuple[float, float, float]]] = [
             [(0.0, float(v_f[k]), w0)] for k in range(form.n)
         ]
@@ -235,22 +241,24 @@ class World:
         """The leader's filters, one per follower (index i − 1)."""
         return tuple(self._filters)
 
-    def _propagate(self, k: int, t_ms: float) -> tuple[Pose, float]:
-        """Estimate of follower index k at t_ms (mean only) and its expected speed."""
+    def _propagate(self, k: int, t_ms: float) -> tuple[Pose, float, float]:
+        """Estimate of follower index k at t_ms (mean only), its expected speed and turn rate
+        (by the motion model's ``step``)."""
         pose = self._filters[k].pose
-        v = self._vhat[k]
+        v, w = self._vhat[k], self._what[k]
+        step = self.motion.step
         a = self.config.follower.max_accel
         pieces = self._pieces[k]
         n = len(pieces)
         x, y, th = pose
-        for j, (t0, vc, w) in enumerate(pieces):
+        for j, (t0, vc, wc) in enumerate(pieces):
             t1 = pieces[j + 1][0] if j + 1 < n else t_ms
             t1 = min(t1, t_ms)
             if t1 <= t0:
                 continue
-            x, y, th, v, _ = ramp_arc(x, y, th, v, vc, w, a, (t1 - t0) / 1000.0)
+            x, y, th, v, w, _ = step(x, y, th, v, w, vc, wc, a, (t1 - t0) / 1000.0)
             pose = (x, y, th)
-        return pose, v
+        return pose, v, w
 
     def _estimated_xy(self) -> tuple[list[float], list[float]]:
         poses = [f.pose for f in self._filters]
@@ -272,7 +280,16 @@ class World:
     def estimate_at(self, i: int, t_ms: float) -> tuple[Pose, float]:
         """The leader's estimate of follower i (from 1) carried to ``t_ms`` with the commands
         it holds: its pose (x, y, heading) and its expected speed (cm/s)."""
-        return self._propagate(i - 1, t_ms)
+        pose, v, _ = self._propagate(i - 1, t_ms)
+        return pose, v
+
+    def expected_turn_rates(self, t_ms: float) -> tuple[float, ...]:
+        """The turn rate the leader expects of each follower at ``t_ms`` (the motion model's
+        state), for the rollout (`RolloutState.turns`); empty for the unicycle, whose turn
+        rate is the held command's."""
+        if not self.motion.subs:
+            return ()
+        return tuple(self._propagate(k, t_ms)[2] for k in range(self.n))
 
     def _normals(self, m: int) -> list[float]:
         """The next ``m`` standard normals of ``rng``'s stream, drawn ahead in blocks of
@@ -408,21 +425,19 @@ class World:
         reacquired = scan.as_lists("reacquired")
         for k, f in enumerate(self._filters):
             pieces = self._pieces[k]
-            v = self._vhat[k]
+            v, w = self._vhat[k], self._what[k]
             last = len(pieces) - 1
             keep: list[tuple[float, float, float]] = []
-            for j, (t0, vc, w) in enumerate(pieces):
+            for j, (t0, vc, wc) in enumerate(pieces):
                 if t0 >= t:
-                    keep.append((t0, vc, w))
+                    keep.append((t0, vc, wc))
                     continue
                 t1 = min(pieces[j + 1][0], t) if j < last else t
-                dt = (t1 - t0) / 1000.0
-                v, vm = ramp(v, vc, a, dt)
-                f.predict(vm, w, dt)
+                v, w = f.predict_command(v, w, vc, wc, a, (t1 - t0) / 1000.0)
                 if t1 >= t and not (j < last and pieces[j + 1][0] <= t):
-                    keep.insert(0, (t, vc, w))
+                    keep.insert(0, (t, vc, wc))
             self._pieces[k] = keep or [(t, pieces[-1][1], pieces[-1][2])]
-            self._vhat[k] = v
+            self._vhat[k], self._what[k] = v, w
             mx, my = measured[k]
             z = (xl + c * mx - s * my, yl + s * mx + c * my)
             if in_window[k]:
@@ -445,7 +460,7 @@ class World:
         self._advance_leader(t_ms)
         fol = self.followers
         fol.advance(k, t_ms, self.config.step_ms)
-        (x, y, th), _ = self._propagate(k, t_ms)
+        (x, y, th), _, _ = self._propagate(k, t_ms)
         ld = self.leader
         if self._ftl is not None:
             v, w = self._ftl.command(k, ld.s, ld.pose, ld.speed, x, y, th)
@@ -502,7 +517,7 @@ class World:
             pose: Pose = fol.pose(k)
             v_f = fol.v[k]
         elif source == "estimate":
-            pose, v_f = self._propagate(k, self._t)
+            pose, v_f, _ = self._propagate(k, self._t)
         else:
             raise ValueError(f"source must be 'truth' or 'estimate', got {source!r}")
         rho, beta, theta = relative_state(self.leader.pose, pose)

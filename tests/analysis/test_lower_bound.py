@@ -80,7 +80,9 @@ def test_default_stays_w_sch_bit_identical():
     sc = load_scenario(TEST2)
     a = run_scenario(sc, duration_s=6, record_jobs=False)
     b = run_scenario(
-        replace(sc, adjust=replace(sc.adjust, lower_bound="w_sch")), duration_s=6, record_jobs=False
+        replace(sc, adjust=sc.adjust.model_copy(update={"lower_bound": "w_sch"})),
+        duration_s=6,
+        record_jobs=False,
     )
     pd.testing.assert_frame_equal(a.windows, b.windows)
 

@@ -219,7 +219,7 @@ def run2(request, tmp_path_factory):  # type: ignore[no-untyped-def]
         text.replace("[adjust]\n", f'[adjust]\npredictor = "{request.param}"\n', 1),
         encoding="utf-8",
     )
-    return run_scenario(path, mode="adjust", duration_s=40, record_jobs=False)
+    return run_scenario(path, policy="adjust", duration_s=40, record_jobs=False)
 
 
 @pytest.fixture(scope="module", params=["paper", "formation"])
@@ -235,7 +235,7 @@ def run2_instant(request, tmp_path_factory):  # type: ignore[no-untyped-def]
     )
     return run_scenario(
         path,
-        mode="adjust",
+        policy="adjust",
         duration_s=40,
         record_jobs=False,
         overrides={"leader.accel_max": math.inf, "leader.decel_max": math.inf},

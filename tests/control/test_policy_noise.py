@@ -109,7 +109,7 @@ def test_bad_z_is_a_one_line_error(tmp_path: Path) -> None:
         text.replace("[adjust]\n", '[adjust]\npolicy = "noise-aware"\nz = -1\n'), encoding="utf-8"
     )
     with pytest.raises(
-        ScenarioError, match=r"^.*/bad\.toml: adjust\.z: must be non-negative, got -1$"
+        ScenarioError, match=r"^.*/bad\.toml: adjust\.z: must be in \[0, 10\], got -1$"
     ):
         load_scenario(bad)
 

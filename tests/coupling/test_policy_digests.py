@@ -86,5 +86,5 @@ def _digest(res) -> tuple[str, str]:  # type: ignore[no-untyped-def]
 @pytest.mark.parametrize("key", sorted(DIGESTS))
 def test_results_unchanged(key: str) -> None:
     name, mode = key.split("/")
-    res = run_scenario(PIN / f"{name}.toml", mode=mode, duration_s=20.0, seed=1)
+    res = run_scenario(PIN / f"{name}.toml", policy=mode, duration_s=20.0, seed=1)
     assert _digest(res) == DIGESTS[key]

@@ -118,7 +118,7 @@ def test_scenario_windows_and_jobs_in_chunks_are_byte_identical(
         )
         == 0
     )
-    plain = run_scenario(TEST2, mode=mode, duration_s=300, seed=1, record_jobs=True)
+    plain = run_scenario(TEST2, policy=mode, duration_s=300, seed=1, record_jobs=True)
     assert plain.windows is not None and plain.jobs is not None
     ref = tmp_path / "ref"
     ref.mkdir()

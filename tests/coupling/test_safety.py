@@ -47,13 +47,13 @@ def test_the_papers_algorithm_runs_on_the_papers_predictor() -> None:
     predictor) predicts with the paper's §3.3: the summary says so, and the separation bound
     binds in at least a tenth of the critical windows (measured 28 of 57 on seed 13), with no
     miss and no lost track."""
-    s = run_scenario("test1", mode="adjust", seed=13, record_jobs=False, windows=False).summary
+    s = run_scenario("test1", policy="adjust", seed=13, record_jobs=False, windows=False).summary
     assert s["policy"] == "adjust" and s["predictor"] == "paper"
     assert s["binding_critical"].get("separation", 0) >= 0.1 * s["critical_windows"] > 0
     assert s["missed"] == 0 and s["tracks_lost"] == 0
     keep = run_scenario(
         "test1",
-        mode="adjust",
+        policy="adjust",
         seed=13,
         record_jobs=False,
         windows=False,

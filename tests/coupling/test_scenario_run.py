@@ -68,12 +68,12 @@ FORMATION = {"adjust.predictor": "formation", "adjust.paper_predictor": False}
 
 @pytest.fixture(scope="module")
 def adj1():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST1, mode="adjust", record_jobs=False, overrides={**LPSI, **FORMATION})
+    return run_scenario(TEST1, policy="adjust", record_jobs=False, overrides={**LPSI, **FORMATION})
 
 
 @pytest.fixture(scope="module")
 def adj2():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST2, mode="adjust", record_jobs=False, overrides={**LPSI, **FORMATION})
+    return run_scenario(TEST2, policy="adjust", record_jobs=False, overrides={**LPSI, **FORMATION})
 
 
 @pytest.mark.parametrize("path", [TEST1, TEST2])
@@ -94,12 +94,14 @@ def test_defaults_of_the_tests_plan_on_commands_without_floor_misses_or_lost_tra
 
 @pytest.fixture(scope="module")
 def fixed2():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST2, mode="fixed-wsch", duration_s=45, record_jobs=False, overrides=LPSI)
+    return run_scenario(
+        TEST2, policy="fixed-wsch", duration_s=45, record_jobs=False, overrides=LPSI
+    )
 
 
 @pytest.fixture(scope="module")
 def minmsb2():  # type: ignore[no-untyped-def]
-    return run_scenario(TEST2, mode="min-msb", duration_s=45, record_jobs=False, overrides=LPSI)
+    return run_scenario(TEST2, policy="min-msb", duration_s=45, record_jobs=False, overrides=LPSI)
 
 
 @pytest.fixture(params=["adj1", "adj2"])
@@ -331,8 +333,8 @@ def test_recorder_drops_incomplete_windows() -> None:
 
 
 def test_bad_inputs_are_one_line_errors(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match="mode: must be one of"):
-        run_scenario(TEST2, mode="fastest")
+    with pytest.raises(InputError, match="policy: must be one of"):
+        run_scenario(TEST2, policy="fastest")
     with pytest.raises(InputError, match="duration must be a positive"):
         run_scenario(TEST2, duration_s=-1)
     with pytest.raises(InputError, match="no such|cannot read"):
@@ -367,14 +369,14 @@ def test_adjust_model_from_the_scenario_reaches_the_decision(tmp_path: Path, mod
     # (adjust on the file's predictor, not the paper's: its default since issue 33)
     short = run_scenario(
         path,
-        mode="adjust",
+        policy="adjust",
         duration_s=3,
         record_jobs=False,
         overrides={"adjust.paper_predictor": False},
     )
     base = run_scenario(
         TEST2,
-        mode="adjust",
+        policy="adjust",
         duration_s=3,
         record_jobs=False,
         overrides={

@@ -208,7 +208,7 @@ def test_bounds_data_has_infinite_values(quick: tuple[Path, str], tmp_path: Path
 
     res = run_scenario(
         "test1",
-        mode="adjust",
+        policy="adjust",
         duration_s=10,
         record_jobs=False,
         overrides={

@@ -323,7 +323,7 @@ def test_scenario_kind_matches_a_direct_coupled_run(tmp_path: Path) -> None:
     data["leader"]["speed"] = 30
     direct = run_scenario(
         parse_scenario(data, str(test1), base=test1.parent),
-        mode="adjust",
+        policy="adjust",
         duration_s=3.0,
         seed=int(row["point_seed"]),
         record_jobs=False,

@@ -19,13 +19,15 @@ TEST2 = ROOT / "experiments" / "scenarios" / "test2.toml"
 
 @pytest.mark.parametrize("mode", ["adjust", "min-msb"])
 def test_summary_from_columns_equals_summary_from_the_table(mode: str) -> None:
-    res = run_scenario(TEST2, mode=mode, duration_s=120, seed=2, record_jobs=False)
+    res = run_scenario(TEST2, policy=mode, duration_s=120, seed=2, record_jobs=False)
     df = res.windows
     assert df is not None
     kw = dict(mode=mode, w_sch=1.0, duration_s=1.0, seed=0, scenario="x", n=2)
     cols = {c: df[c].to_numpy() for c in df.columns}
     assert summarize(cols, **kw) == summarize(df, **kw)
-    lean = run_scenario(TEST2, mode=mode, duration_s=120, seed=2, record_jobs=False, windows=False)
+    lean = run_scenario(
+        TEST2, policy=mode, duration_s=120, seed=2, record_jobs=False, windows=False
+    )
     assert lean.windows is None and lean.summary == res.summary
     if mode == "min-msb":
         assert res.summary["missed"] > 0  # the comparison covers missed windows too

@@ -74,8 +74,8 @@ def test_shipped_scenarios_bit_identical(scenario: str) -> None:
 @pytest.mark.parametrize("pin", ["pin1", "pin2"])
 @pytest.mark.parametrize("mode", ["adjust", "min-msb"])
 def test_pin_scenarios_bit_identical(pin: str, mode: str) -> None:
-    py = _run(PIN / f"{pin}.toml", "python", mode=mode, duration_s=20.0, seed=1)
-    co = _run(PIN / f"{pin}.toml", "compiled", mode=mode, duration_s=20.0, seed=1)
+    py = _run(PIN / f"{pin}.toml", "python", policy=mode, duration_s=20.0, seed=1)
+    co = _run(PIN / f"{pin}.toml", "compiled", policy=mode, duration_s=20.0, seed=1)
     _same_run(py, co)
 
 

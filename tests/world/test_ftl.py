@@ -83,7 +83,7 @@ def test_leader_speed_never_changes_faster_than_its_limits_in_adjust(monkeypatch
         steps.append((dt, v0, self.speed))
 
     monkeypatch.setattr(Leader, "advance", advance)
-    res = run_scenario("test2", mode="adjust", duration_s=60, record_jobs=False)
+    res = run_scenario("test2", policy="adjust", duration_s=60, record_jobs=False)
     cfg = res.inputs.world
     arr = np.array(steps)
     dv = arr[:, 2] - arr[:, 1]
