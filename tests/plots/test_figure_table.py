@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import gc
 import io
-import tracemalloc
 from pathlib import Path
 
 import matplotlib
@@ -18,6 +17,7 @@ import matplotlib.image as mpimg  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
+from traced import traced_peak as _peak  # noqa: E402
 
 import rtsim.plots.scenario_data as sd  # noqa: E402
 from rtsim.coupling import run_scenario  # noqa: E402
@@ -111,16 +111,6 @@ def test_each_bin_keeps_its_extremes_spans_and_misses(
         for which in ("pred", "true"):
             c = f"bound_{k}_{which}"
             np.testing.assert_array_equal(thin[c].to_numpy(), kept[c].to_numpy())
-
-
-def _peak(fn: object) -> int:
-    gc.collect()
-    tracemalloc.start()
-    try:
-        fn()  # type: ignore[operator]
-        return tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
 
 
 def test_the_six_figures_are_not_held_at_once(long_csv: Path, tmp_path: Path) -> None:
