@@ -1,8 +1,9 @@
 """What a scenario figure shows, selected from a run's ``windows.csv`` table (docs/outputs.md):
 the followers present, the critical spans, the violation ratios, the columns each figure
-plots ([`figure_data`][rtsim.plots.scenario_data.figure_data]) and the rows a long run is drawn from
-(`thin_rows`). No
-drawing here: `rtsim.plots.scenario` draws what these return.
+plots ([`figure_data`][rtsim.plots.scenario_data.figure_data]), the table a run's figures are
+drawn from, read back in chunks and thinned per pixel column (`read_figure_table`), and the
+points of each line and dot series drawn (`line_points`, `dot_points`). No drawing here:
+`rtsim.plots.scenario` draws what these return.
 """
 
 from __future__ import annotations
@@ -17,13 +18,22 @@ from rtsim.errors import InputError
 
 __all__ = [
     "BOUND_KINDS",
-    "FIGURE_BUCKETS",
-    "FIGURE_MAX_ROWS",
+    "BOUNDS_CLIP",
+    "DOT_BAND",
+    "FIGURE_BINS",
+    "FIGURE_DOT_CELL",
+    "FIGURE_READ_ROWS",
+    "WINDOW_CLIP",
     "binding_xy",
     "critical_spans",
+    "dot_points",
     "figure_columns",
     "figure_data",
     "followers",
+    "keep_extremes",
+    "line_points",
+    "read_figure_table",
+    "reduce_chunk",
     "thin_rows",
     "violation_ratios",
 ]
@@ -189,9 +199,6 @@ WINDOW_CLIP = 6.0
 #: `read_figure_table` keeps one dot per bin: the time figures' y axes reach at least 1.5 ×
 #: w_sch over about 500 px, so this is under 4 px; a dot is about 10 px wide.
 FIGURE_DOT_CELL = 0.01
-#: Kept for the readers of older versions: `thin_rows` with buckets of consecutive windows.
-FIGURE_MAX_ROWS = 20_000
-FIGURE_BUCKETS = 1_000
 
 #: The plotted values whose extremes a thinned table keeps, by name (each follower's bound
 #: columns too, and the minima over followers `reduce_chunk` adds).
