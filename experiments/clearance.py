@@ -3,8 +3,10 @@
 Runs the shipped Test 2 (policy plan) with n = 6..10 followers and Test 1 with n = 6..10,
 one lap each, seeds 13, 17, 21, 29, 37 (seeds no other document uses), and writes per
 (test, n) over the seeds: whether the count runs (or the loader's one-line refusal),
-collisions, the closest two robots' centres came (cm), scans below the clearance, misses,
-lost tracks, windows beyond 5 %, and lap / oracle (smallest and largest).
+collisions, the closest two robots' centres came (cm), scans below the clearance, the
+contact bound's breaks (window-follower pairs whose true closest approach fell below
+2·r_F + clearance, summary.json ``violations["contact"]``), misses, lost tracks, windows
+beyond 5 %, and lap / oracle (smallest and largest).
 
 Outputs in DIR: ``clearance.csv`` (a row per run), ``clearance_summary.csv``,
 ``clearance.md``, ``manifest.json``.
@@ -55,6 +57,7 @@ def run_one(test: str, n: int, seed: int) -> dict[str, Any]:
             "min_robot_distance_cm": s["min_robot_distance_cm"],
             "clearance_cm": s["clearance_cm"],
             "clearance_violations": s["clearance_violations"],
+            "contact_breaks": s["violations"]["contact"],
             "missed": s["missed"],
             "tracks_lost": s["tracks_lost"],
             "viol5": sum(s["violations_beyond_5pct"][k] for k in BOUND_KINDS),
@@ -87,6 +90,7 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
                 if len(ran)
                 else math.nan,
                 "clearance_violations": int(ran["clearance_violations"].sum()) if len(ran) else 0,
+                "contact_breaks": int(ran["contact_breaks"].sum()) if len(ran) else 0,
                 "missed": int(ran["missed"].sum()) if len(ran) else 0,
                 "tracks_lost": int(ran["tracks_lost"].sum()) if len(ran) else 0,
                 "viol5": int(ran["viol5"].sum()) if len(ran) else 0,
@@ -101,20 +105,21 @@ def markdown(df: pd.DataFrame) -> str:
     """The summary as a Markdown table."""
     lines = [
         "| test | n | runs / seeds | collisions | closest centres (cm) | scans below the "
-        "clearance | misses | lost | windows > 5 % | lap / oracle |",
-        "|" + "---|" * 10,
+        "clearance | contact breaks | misses | lost | windows > 5 % | lap / oracle |",
+        "|" + "---|" * 11,
     ]
     for r in df.to_dict("records"):
         if r["runs"] == 0:
             lines.append(
                 f"| {r['test']} | {r['n']} | 0 / {r['seeds']} | refused before the run: "
-                f"{r['refused']} | | | | | | |"
+                f"{r['refused']} | | | | | | | |"
             )
             continue
         lines.append(
             f"| {r['test']} | {r['n']} | {r['runs']} / {r['seeds']} | {r['collisions']} | "
             f"{r['closest_min_cm']:.1f}–{r['closest_max_cm']:.1f} | "
-            f"{r['clearance_violations']} | {r['missed']} | {r['tracks_lost']} | "
+            f"{r['clearance_violations']} | {r['contact_breaks']} | {r['missed']} | "
+            f"{r['tracks_lost']} | "
             f"{r['viol5']} | {r['oracle_min']:.3f}–{r['oracle_max']:.3f} |"
         )
     return "\n".join(lines) + "\n"

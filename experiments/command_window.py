@@ -28,9 +28,9 @@ import pandas as pd
 from rtsim.analysis.bounds import w_txn, window_bounds
 from rtsim.analysis.transaction import transaction_bounds
 from rtsim.analysis.validation import smallest_passing
+from rtsim.config.taskset import load_taskset
 from rtsim.io.atomic import write_table, write_text
 from rtsim.io.manifest import write_manifest
-from rtsim.io.taskset import load_taskset
 from rtsim.model.taskset import TaskSet
 from rtsim.sim import simulate
 

@@ -208,7 +208,7 @@ def run_one(task: tuple[str, int, float, int, float | None]) -> dict[str, Any]:
 
 def reasons(test: str, n: int, r_H: float) -> dict[str, float]:
     """Why the group stops working (module docstring), from the analysis and the formation."""
-    from rtsim.io.scenario import load_scenario
+    from rtsim.config.scenario import load_scenario
     from rtsim.world.laser import max_points
 
     try:

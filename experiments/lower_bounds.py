@@ -27,10 +27,10 @@ import numpy as np
 import pandas as pd
 
 from rtsim.analysis.bounds import BOUND_SCHEDULER, LOWER_BOUNDS
+from rtsim.config.scenario import load_scenario
 from rtsim.coupling import run_scenario
 from rtsim.io.atomic import write_table, write_text
 from rtsim.io.manifest import write_manifest
-from rtsim.io.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 TESTS = {"Test 1": SCENARIOS / "test1.toml", "Test 2": SCENARIOS / "test2.toml"}

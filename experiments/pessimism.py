@@ -29,9 +29,9 @@ import pandas as pd
 
 from rtsim.analysis.bounds import w_txn, window_bounds
 from rtsim.analysis.validation import smallest_passing
+from rtsim.config.taskset import load_taskset
 from rtsim.io.atomic import write_table, write_text
 from rtsim.io.manifest import write_manifest
-from rtsim.io.taskset import load_taskset
 from rtsim.sim import simulate
 
 TASKSET = Path(__file__).resolve().parent.parent / "tasksets" / "barrel_robots.toml"

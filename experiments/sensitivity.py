@@ -27,10 +27,10 @@ from typing import Any
 
 import pandas as pd
 
+from rtsim.config.scenario import load_scenario
 from rtsim.coupling import run_scenario
 from rtsim.io.atomic import write_table, write_text
 from rtsim.io.manifest import write_manifest
-from rtsim.io.scenario import load_scenario
 
 SCEN = Path(__file__).resolve().parent / "scenarios"
 MODES = ("adjust", "fixed-wsch", "min-msb")

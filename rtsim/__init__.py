@@ -9,11 +9,12 @@ The top level is a facade over the subpackages; the entry points load on first u
 - [`run_scenario`][rtsim.run_scenario] (``rtsim.coupling``): one coupled robot run, schedule and
 world;
 - [`run_sweep`][rtsim.run_sweep]: a scenario over a grid (followers × Hough radii …), a DataFrame;
-- `load_scenario` (``rtsim.io``): a scenario file, or a shipped one by name, with
+- `load_scenario` (``rtsim.config.scenario``): a scenario file, or a shipped one by name, with
   dotted overrides;
 - [`simulate`][rtsim.simulate] (``rtsim.sim``): a task set on the virtual CPU;
 - [`analyze`][rtsim.analyze] (``rtsim.analysis``): exact response-time analysis of a task set;
-- `load_taskset`, [`window_bounds`][rtsim.window_bounds]: a task-set file, the window's bounds.
+- `load_taskset` (``rtsim.config.taskset``), [`window_bounds`][rtsim.window_bounds]: a
+  task-set file, the window's bounds.
 """
 
 from __future__ import annotations
@@ -34,8 +35,9 @@ from rtsim.errors import (
 if TYPE_CHECKING:  # pragma: no cover
     from rtsim._facade import run_sweep
     from rtsim.analysis import analyze, window_bounds
+    from rtsim.config.scenario import load_scenario
+    from rtsim.config.taskset import load_taskset
     from rtsim.coupling import run_scenario
-    from rtsim.io import load_scenario, load_taskset
     from rtsim.model import Segment, Task, TaskSet, WindowSpec
     from rtsim.sim import simulate
 
@@ -48,8 +50,8 @@ _LAZY: dict[str, str] = {
     "TaskSet": "rtsim.model",
     "WindowSpec": "rtsim.model",
     "run_scenario": "rtsim.coupling",
-    "load_scenario": "rtsim.io",
-    "load_taskset": "rtsim.io",
+    "load_scenario": "rtsim.config.scenario",
+    "load_taskset": "rtsim.config.taskset",
     "simulate": "rtsim._facade",  # these three take a task-set file too
     "analyze": "rtsim._facade",
     "window_bounds": "rtsim._facade",

@@ -5,7 +5,7 @@ a file is the configuration layer's work, above them. For convenience at the top
 [`rtsim.analyze`][rtsim.analyze], [`rtsim.window_bounds`][rtsim.window_bounds] and
 [`rtsim.simulate`][rtsim.simulate] also take the
 path of a task-set file or the name of a packaged one (``"example"``), read with
-[`rtsim.io.taskset.load_taskset`][rtsim.io.taskset.load_taskset].
+[`rtsim.config.taskset.load_taskset`][rtsim.config.taskset.load_taskset].
 [`run_sweep`][rtsim._facade.run_sweep] is a grid of scenario runs in one
 call, returning a DataFrame. This module sits with `rtsim` above every layer.
 """
@@ -17,10 +17,15 @@ import os
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
+from rtsim._numbers import is_int
 from rtsim.analysis.bounds import window_bounds as _window_bounds
 from rtsim.analysis.rta import analyze as _analyze
-from rtsim.io.taskset import as_taskset
+from rtsim.analysis.transaction import with_transaction_bounds
+from rtsim.config.taskset import as_taskset
+from rtsim.errors import InputError
 from rtsim.sim.run import simulate as _simulate
+from rtsim.sweep.engine import Sweep
+from rtsim.sweep.spec import parse_sweep
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -34,8 +39,6 @@ def _read(ts: Any, function: str) -> Any:
 
 @functools.wraps(_analyze)
 def analyze(ts: Any, *args: Any, force: bool = False, **kwargs: Any) -> Any:
-    from rtsim.analysis.transaction import with_transaction_bounds
-
     ts = _read(ts, "analyze")
     return with_transaction_bounds(ts, _analyze(ts, *args, **kwargs), force=force)
 
@@ -123,11 +126,6 @@ def run_sweep(
     """
     import tempfile
     from pathlib import Path
-
-    from rtsim._numbers import is_int
-    from rtsim.errors import InputError
-    from rtsim.sweep.engine import Sweep
-    from rtsim.sweep.spec import parse_sweep
 
     seed_list = [seeds] if is_int(seeds) else list(seeds)  # type: ignore[arg-type]
     if not seed_list or not all(is_int(s) and 0 <= s < 2**63 for s in seed_list):

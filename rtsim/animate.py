@@ -32,6 +32,9 @@ import pandas as pd
 
 from rtsim.analysis.kinematics import R_H_DEFAULT
 from rtsim.errors import InputError
+from rtsim.io.atomic import write_json
+from rtsim.io.manifest import build_manifest
+from rtsim.io.outdir import FileSet, sidecar
 from rtsim.world.follower import FollowerParams
 
 __all__ = ["WindowView", "window_view", "load_run", "animate_run", "FORMATS", "BEAM_STEP"]
@@ -174,7 +177,6 @@ def animate_run(
     import matplotlib
 
     matplotlib.use("Agg", force=False)
-    from rtsim.io.outdir import FileSet, sidecar
 
     out = Path(out)
     if out.suffix.lower() not in FORMATS:
@@ -197,6 +199,91 @@ def animate_run(
     return out
 
 
+def _ffmpeg(out: Path, fps: int, every: int) -> str | None:
+    """Check ``fps`` and ``every``; the ffmpeg an MP4 ``out`` needs (None for .gif, .html)."""
+    if not (isinstance(fps, int) and 1 <= fps <= 60):
+        raise InputError(f"--fps must be an integer in 1..60, got {fps!r}")
+    if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+        raise InputError(f"--every must be a positive integer, got {every!r}")
+    ffmpeg = None
+    if out.suffix.lower() == ".mp4":
+        ffmpeg = shutil.which("ffmpeg")
+        if ffmpeg is None:
+            try:
+                import imageio_ffmpeg  # type: ignore[import-not-found]
+
+                ffmpeg = imageio_ffmpeg.get_ffmpeg_exe()
+            except (ImportError, RuntimeError):
+                raise InputError(
+                    f"{out}: MP4 needs ffmpeg (install it, or pip install "
+                    f"imageio-ffmpeg); .gif and .html need nothing more"
+                ) from None
+    return ffmpeg
+
+
+def _frames(t_s: Any, start_s: float | None, end_s: float | None, every: int, run_dir: Any) -> Any:
+    """The indices of the windows drawn: every ``every``-th window whose time ``t_s`` (s) is
+    in [start_s, end_s]."""
+    lo = -math.inf if start_s is None else float(start_s)
+    hi = math.inf if end_s is None else float(end_s)
+    if not lo < hi:
+        raise InputError(f"--start {start_s} must be before --end {end_s}")
+    frames = np.flatnonzero((t_s >= lo) & (t_s <= hi))[::every]
+    if not len(frames):
+        raise InputError(
+            f"{run_dir}: no window between {start_s} and {end_s} s "
+            f"(the run covers {t_s[0]:.1f}..{t_s[-1]:.1f} s)"
+        )
+    return frames
+
+
+def _save(
+    anim: Any, fig: Any, out: Path, files: Any, *, fps: int, dpi: int, ffmpeg: str | None
+) -> None:
+    """Write the animation into the staging area of ``files`` (the format: ``out``'s suffix)."""
+    import matplotlib
+    from matplotlib import animation
+
+    suffix = out.suffix.lower()
+    tmp_file = files.add(out, "--out")  # staged under out's own name: the writers pick the
+    if suffix == ".gif":  # format by the suffix
+        anim.save(tmp_file, writer=animation.PillowWriter(fps=fps), dpi=dpi)
+    elif suffix == ".mp4":
+        matplotlib.rcParams["animation.ffmpeg_path"] = ffmpeg
+        anim.save(tmp_file, writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
+    else:
+        fig.set_dpi(dpi)
+        tmp_file.write_text(anim.to_jshtml(fps=fps, default_mode="once"), "utf-8")
+
+
+def _sidecar(
+    out: Path,
+    files: Any,
+    run_dir: str | os.PathLike[str],
+    *,
+    start_s: float | None,
+    end_s: float | None,
+    fps: int,
+    every: int,
+) -> None:
+    """The manifest beside ``out``."""
+    write_json(
+        files.add(sidecar(out), "--out"),
+        build_manifest(
+            command="animate",
+            seed=None,
+            extra={"outputs": [out.name]},
+            inputs={
+                "run_dir": str(run_dir),
+                "start_s": start_s,
+                "end_s": end_s,
+                "fps": fps,
+                "every": every,
+            },
+        ),
+    )
+
+
 def _animate(
     run_dir: str | os.PathLike[str],
     out: Path,
@@ -216,36 +303,11 @@ def _animate(
     from matplotlib.figure import Figure
     from matplotlib.patches import Circle
 
-    if not (isinstance(fps, int) and 1 <= fps <= 60):
-        raise InputError(f"--fps must be an integer in 1..60, got {fps!r}")
-    if isinstance(every, bool) or not isinstance(every, int) or every < 1:
-        raise InputError(f"--every must be a positive integer, got {every!r}")
-    ffmpeg = None
-    if out.suffix.lower() == ".mp4":
-        ffmpeg = shutil.which("ffmpeg")
-        if ffmpeg is None:
-            try:
-                import imageio_ffmpeg  # type: ignore[import-not-found]
-
-                ffmpeg = imageio_ffmpeg.get_ffmpeg_exe()
-            except (ImportError, RuntimeError):
-                raise InputError(
-                    f"{out}: MP4 needs ffmpeg (install it, or pip install "
-                    f"imageio-ffmpeg); .gif and .html need nothing more"
-                ) from None
+    ffmpeg = _ffmpeg(out, fps, every)
     windows, jobs, manifest = load_run(run_dir)
     view = window_view(windows)
     t_s = view.t / 1000.0
-    lo = -math.inf if start_s is None else float(start_s)
-    hi = math.inf if end_s is None else float(end_s)
-    if not lo < hi:
-        raise InputError(f"--start {start_s} must be before --end {end_s}")
-    frames = np.flatnonzero((t_s >= lo) & (t_s <= hi))[::every]
-    if not len(frames):
-        raise InputError(
-            f"{run_dir}: no window between {start_s} and {end_s} s "
-            f"(the run covers {t_s[0]:.1f}..{t_s[-1]:.1f} s)"
-        )
+    frames = _frames(t_s, start_s, end_s, every, run_dir)
     radius, r_h = _geometry(manifest)
     tasks = list(dict.fromkeys(jobs["task"].astype(str)))
     jobs = jobs[jobs["start"].notna()]
@@ -363,32 +425,5 @@ def _animate(
     anim = animation.FuncAnimation(
         fig, draw, frames=len(frames), interval=1000 / fps, blit=False, repeat=False
     )
-    suffix = out.suffix.lower()
-    tmp_file = files.add(out, "--out")  # staged under out's own name: the writers pick the
-    if suffix == ".gif":  # format by the suffix
-        anim.save(tmp_file, writer=animation.PillowWriter(fps=fps), dpi=dpi)
-    elif suffix == ".mp4":
-        matplotlib.rcParams["animation.ffmpeg_path"] = ffmpeg
-        anim.save(tmp_file, writer=animation.FFMpegWriter(fps=fps), dpi=dpi)
-    else:
-        fig.set_dpi(dpi)
-        tmp_file.write_text(anim.to_jshtml(fps=fps, default_mode="once"), "utf-8")
-    from rtsim.io.atomic import write_json
-    from rtsim.io.manifest import build_manifest
-    from rtsim.io.outdir import sidecar
-
-    write_json(
-        files.add(sidecar(out), "--out"),
-        build_manifest(
-            command="animate",
-            seed=None,
-            extra={"outputs": [out.name]},
-            inputs={
-                "run_dir": str(run_dir),
-                "start_s": start_s,
-                "end_s": end_s,
-                "fps": fps,
-                "every": every,
-            },
-        ),
-    )
+    _save(anim, fig, out, files, fps=fps, dpi=dpi, ffmpeg=ffmpeg)
+    _sidecar(out, files, run_dir, start_s=start_s, end_s=end_s, fps=fps, every=every)

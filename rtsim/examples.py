@@ -25,6 +25,7 @@ from importlib import resources
 from importlib.resources.abc import Traversable
 from pathlib import Path
 
+from rtsim._suggest import close_match
 from rtsim.errors import InputError
 
 __all__ = ["Example", "EXAMPLES", "example", "packaged_text", "shipped_hint"]
@@ -115,8 +116,6 @@ def shipped_hint(path: str | os.PathLike[str], kind: str) -> str:
     """The end of a "no such file" message: `` (did you mean 'test2', shipped with rtsim?
     ...)`` when the name is close to a shipped example of ``kind`` (``"scenario"``,
     ``"taskset"``), a pointer to ``rtsim examples`` for another bare name, else ``""``."""
-    from rtsim._suggest import close_match
-
     p = Path(path)
     names = [e.name for e in EXAMPLES.values() if e.kind == kind]
     guess = close_match(p.stem if p.suffix == ".toml" else p.name, names)

@@ -20,6 +20,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from rtsim.io.atomic import atomic_path
+from rtsim.notebook import flatten
+
 __all__ = ["write_run_report", "render_run_report", "REPORT_NAME"]
 
 REPORT_NAME = "report.html"
@@ -116,8 +119,6 @@ def _frame_table(columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
 
 
 def _flatten(obj: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    from rtsim.notebook import flatten
-
     return flatten(obj, prefix)
 
 
@@ -262,8 +263,6 @@ def write_run_report(
     run_dir: str | os.PathLike[str], *, title: str | None = None, extra_html: str = ""
 ) -> Path:
     """Write ``run_dir/report.html`` atomically and return its path."""
-    from rtsim.io.atomic import atomic_path
-
     target = Path(run_dir) / REPORT_NAME
     text = render_run_report(run_dir, title=title, extra_html=extra_html)
     # a path that is not UTF-8 (surrogates) shows its bytes as \xNN escapes

@@ -46,14 +46,21 @@ import os
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from rtsim.config.dotted import parse_assignment
 from rtsim.errors import InputError
+from rtsim.io.atomic import dumps, write_json, write_table, write_text
+from rtsim.io.manifest import write_manifest
+from rtsim.io.outdir import stage
+from rtsim.io.summary import summary_json
+from rtsim.sim.progress import progress_bar
 
 if TYPE_CHECKING:
+    from concurrent.futures import ProcessPoolExecutor
+
     import pandas as pd
 
 SCENARIOS = Path(__file__).resolve().parent / "data" / "scenarios"  # = experiments/scenarios
@@ -169,9 +176,6 @@ def write_run(
     The CLI has no writer function of its own, so this calls the same library functions with
     the same manifest keys. Returns the names written.
     """
-    from rtsim.io.atomic import write_json, write_table
-    from rtsim.io.manifest import write_manifest
-
     out.mkdir(parents=True, exist_ok=True)
     outputs = ["windows.csv", "jobs.csv", "summary.json"]
     write_table(out / "windows.csv", res.windows)
@@ -179,7 +183,6 @@ def write_run(
         write_table(out / "jobs.csv", res.jobs)
     else:
         outputs.remove("jobs.csv")
-    from rtsim.io.summary import summary_json
 
     write_json(out / "summary.json", summary_json(res.summary))
     timing = dict(res.timing)
@@ -206,7 +209,7 @@ def write_run(
 
 def run_one(spec: dict[str, Any]) -> dict[str, Any]:
     """Run one (test, mode) and write ``spec['out']``; returns windows, summary and timing."""
-    from rtsim.coupling import run_scenario
+    from rtsim.coupling import run_scenario  # lazy: CLI start-up (pandas)
 
     t0 = time.perf_counter()
     file = Path(spec["scenario_file"])
@@ -284,7 +287,7 @@ def run_specs(
 
 def modes_data(dfs: dict[str, pd.DataFrame], name: str) -> pd.DataFrame:
     """The data of a side-by-side figure: each mode's figure_data, stacked, ``mode`` first."""
-    from rtsim.plots.scenario import figure_data
+    from rtsim.plots.scenario import figure_data  # lazy: CLI start-up (matplotlib)
 
     parts = []
     for mode, df in dfs.items():
@@ -361,7 +364,11 @@ def figure_tasks(
 
 def make_figure(task: dict[str, Any]) -> tuple[Any, pd.DataFrame]:
     """The figure of one figure task (`figure_tasks`) and the data it draws."""
-    from rtsim.plots.scenario import SCENARIO_FIGURES, figure_data, plot_modes
+    from rtsim.plots.scenario import (  # lazy: CLI start-up (matplotlib)
+        SCENARIO_FIGURES,
+        figure_data,
+        plot_modes,
+    )
 
     kind, name, data = task["kind"], task["name"], task["data"]
     if kind.startswith("modes:"):
@@ -372,14 +379,13 @@ def make_figure(task: dict[str, Any]) -> tuple[Any, pd.DataFrame]:
 def draw(task: dict[str, Any]) -> list[str]:
     """Draw one figure task; write the figure and CSV (and the docs PNG). Returns the
     paths."""
-    from rtsim.io.atomic import write_table
-    from rtsim.plots.scenario import save_figure
+    from rtsim.plots.scenario import save_figure  # lazy: CLI start-up (matplotlib)
 
     fig, table = make_figure(task)
     out = Path(task["dir"])
     fmt = task.get("fmt", "png")
     path, csv = out / f"{task['stem']}.{fmt}", out / f"{task['stem']}.csv"
-    from rtsim.plots.scenario import DPI
+    from rtsim.plots.scenario import DPI  # lazy: CLI start-up (matplotlib)
 
     save_figure(fig, path, dpi=task.get("dpi") or DPI)
     write_table(csv, table)
@@ -491,6 +497,8 @@ def _pool_map(
         for it in items:
             yield it, fn(it)
         return
+    from concurrent.futures import as_completed  # (multiprocessing: ~30 ms of CLI start-up)
+
     futures = {pool.submit(fn, it): it for it in items}
     for fut in as_completed(futures):
         yield futures[fut], fut.result()
@@ -553,7 +561,7 @@ def _check_args(args: ReproduceOptions) -> None:
         if not (SCENARIOS / f"{t}.toml").is_file():
             raise InputError(f"{SCENARIOS / f'{t}.toml'}: scenario file not found")
     if args.set:  # checked before any run, by the scenario model
-        from rtsim.io.scenario import load_scenario
+        from rtsim.config.scenario import load_scenario  # lazy: CLI start-up (numpy)
 
         for t in TESTS:
             load_scenario(SCENARIOS / f"{t}.toml", overrides=_overrides(args.set))
@@ -561,8 +569,6 @@ def _check_args(args: ReproduceOptions) -> None:
 
 def _overrides(strings: Iterable[str]) -> dict[str, Any]:
     """``--set KEY=VALUE`` strings as dotted path -> value."""
-    from rtsim.config.dotted import parse_assignment
-
     return dict(parse_assignment(s) for s in strings)
 
 
@@ -607,7 +613,6 @@ def run(
     t0 = time.perf_counter() if t0 is None else t0
     try:
         _check_args(args)
-        from rtsim.io.outdir import stage
 
         with stage(args.out, command="reproduce") as staged:
             rc = _main(args, argv, t0, staged.path, finish)
@@ -619,80 +624,23 @@ def run(
         return 2
 
 
-def _main(
-    args: ReproduceOptions,
-    argv: list[str] | None,
-    t0: float,
+def _write_summary(
     out: Path,
-    finish: Callable[[Path], None] | None = None,
-) -> int:
-    from rtsim.io.atomic import write_table, write_text
-    from rtsim.io.manifest import write_manifest
-
-    docs = Path(args.docs) if args.docs is not None else None
-    duration = (
-        args.duration if args.duration is not None else (QUICK_DURATION_S if args.quick else None)
-    )
-    workers = args.workers if args.workers is not None else min(6, os.cpu_count() or 1)
-    specs = run_specs(out, seed=args.seed, duration_s=duration, set_=args.set)
-    for sp in specs:  # the command lines in the run manifests name the real --out
-        sp["shown_out"] = str(Path(args.out) / sp["test"] / sp["mode"])
-
-    from rtsim.sim.progress import progress_bar
-
-    fmt = args.fig_format or "png"
-    tasks_total = len(specs) + len(figure_stems())
-    bar = progress_bar(args, total=tasks_total, desc="reproduce", unit="step")
-
-    def say(line: str) -> None:  # a progress line (above the bar when there is one)
-        if args.quiet:
-            return
-        if bar.disable:
-            print(line, file=sys.stderr, flush=True)
-        else:
-            bar.write(line, file=sys.stderr)
-
-    def run_done(line: str) -> None:
-        bar.update(1)
-        say(line)
-
-    from rtsim.sweep.point import worker_init
-
-    # workers ignore Ctrl-C (the parent stops them) and exit when the parent dies, even by
-    # kill -9, releasing the staging directory's lock that a fork inherits
-    if workers > 1:  # the kernels compiled (or loaded) here once, not once per worker
-        from rtsim.config.scenario import load_scenario
-        from rtsim.coupling.warm import warm_world
-
-        files = dict.fromkeys(sp["scenario_file"] for sp in specs)
-        warm_world(load_scenario(f, _overrides(args.set or []) or None) for f in files)
-    pool = (
-        ProcessPoolExecutor(workers, initializer=worker_init, initargs=(os.getpid(),))
-        if workers > 1
-        else None
-    )
-    try:
-        results = run_all(specs, pool, run_done)
-        t_runs = time.perf_counter()
-        windows = {key: res["windows"] for key, res in results.items()}
-        fig_dir = out / "figures"
-        fig_dir.mkdir(parents=True, exist_ok=True)
-        if docs is not None:
-            docs.mkdir(parents=True, exist_ok=True)
-        written: list[str] = []
-        for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs, fmt, args.dpi)):
-            written += paths
-            bar.update(1)
-        say(
-            f"figures: {len(written)} files in {Path(args.out) / 'figures'} "
-            f"({time.perf_counter() - t_runs:.1f} s)"
-        )
-    finally:
-        bar.close()
-        if pool is not None:
-            pool.shutdown()
-    t_figs = time.perf_counter()
-
+    args: ReproduceOptions,
+    results: dict[tuple[str, str], Any],
+    *,
+    duration: float | None,
+    workers: int,
+    docs: Path | None,
+    fmt: str,
+    finished: bool,
+    argv: list[str] | None,
+    times: tuple[float, float, float],
+) -> tuple[Any, str]:
+    """summary.csv, summary.md and the manifest of a reproduction; (the summary table, its
+    Markdown). ``times``: the start, the end of the runs and the end of the figures
+    (``time.perf_counter``); ``finished``: the reports are written after."""
+    t0, t_runs, t_figs = times
     rows = [
         summary_row(t, m, results[(t, m)]["summary"], results[(t, m)]["timing"]["total_s"])
         for t in TESTS
@@ -752,17 +700,101 @@ def _main(
                 *(f"{t}/{m}/{f}" for t in TESTS for m in MODES for f in results[(t, m)]["written"]),
                 *(
                     ["report.html", *(f"{t}/{m}/report.html" for t in TESTS for m in MODES)]
-                    if finish
+                    if finished
                     else []
                 ),
             ],
         },
     )
+    return table, md
+
+
+def _main(
+    args: ReproduceOptions,
+    argv: list[str] | None,
+    t0: float,
+    out: Path,
+    finish: Callable[[Path], None] | None = None,
+) -> int:
+    docs = Path(args.docs) if args.docs is not None else None
+    duration = (
+        args.duration if args.duration is not None else (QUICK_DURATION_S if args.quick else None)
+    )
+    workers = args.workers if args.workers is not None else min(6, os.cpu_count() or 1)
+    specs = run_specs(out, seed=args.seed, duration_s=duration, set_=args.set)
+    for sp in specs:  # the command lines in the run manifests name the real --out
+        sp["shown_out"] = str(Path(args.out) / sp["test"] / sp["mode"])
+
+    fmt = args.fig_format or "png"
+    tasks_total = len(specs) + len(figure_stems())
+    bar = progress_bar(args, total=tasks_total, desc="reproduce", unit="step")
+
+    def say(line: str) -> None:  # a progress line (above the bar when there is one)
+        if args.quiet:
+            return
+        if bar.disable:
+            print(line, file=sys.stderr, flush=True)
+        else:
+            bar.write(line, file=sys.stderr)
+
+    def run_done(line: str) -> None:
+        bar.update(1)
+        say(line)
+
+    from rtsim.sweep.point import worker_init  # lazy: CLI start-up (rtsim.sweep, ~27 ms)
+
+    # workers ignore Ctrl-C (the parent stops them) and exit when the parent dies, even by
+    # kill -9, releasing the staging directory's lock that a fork inherits
+    if workers > 1:  # the kernels compiled (or loaded) here once, not once per worker
+        from rtsim.config.scenario import load_scenario  # lazy: CLI start-up (numpy)
+        from rtsim.coupling.warm import warm_world  # lazy: CLI start-up (pandas)
+
+        files = dict.fromkeys(sp["scenario_file"] for sp in specs)
+        warm_world(load_scenario(f, _overrides(args.set or []) or None) for f in files)
+    from concurrent.futures import ProcessPoolExecutor  # (as in _pool_map)
+
+    pool = (
+        ProcessPoolExecutor(workers, initializer=worker_init, initargs=(os.getpid(),))
+        if workers > 1
+        else None
+    )
+    try:
+        results = run_all(specs, pool, run_done)
+        t_runs = time.perf_counter()
+        windows = {key: res["windows"] for key, res in results.items()}
+        fig_dir = out / "figures"
+        fig_dir.mkdir(parents=True, exist_ok=True)
+        if docs is not None:
+            docs.mkdir(parents=True, exist_ok=True)
+        written: list[str] = []
+        for _, paths in _pool_map(pool, draw, figure_tasks(windows, fig_dir, docs, fmt, args.dpi)):
+            written += paths
+            bar.update(1)
+        say(
+            f"figures: {len(written)} files in {Path(args.out) / 'figures'} "
+            f"({time.perf_counter() - t_runs:.1f} s)"
+        )
+    finally:
+        bar.close()
+        if pool is not None:
+            pool.shutdown()
+    t_figs = time.perf_counter()
+
+    table, md = _write_summary(
+        out,
+        args,
+        results,
+        duration=duration,
+        workers=workers,
+        docs=docs,
+        fmt=fmt,
+        finished=finish is not None,
+        argv=argv,
+        times=(t0, t_runs, t_figs),
+    )
     if finish is not None:
         finish(out)
     if args.json:
-        from rtsim.io.atomic import dumps
-
         finite = table.replace([math.inf, -math.inf], math.nan).astype(object)
         records = finite.where(finite.notna(), None).to_dict("records")  # NaN, inf: null
         print(dumps({"out": str(args.out), "runs": records}))

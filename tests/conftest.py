@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.model.taskset import TaskSet
 
 REPO = Path(__file__).resolve().parent.parent

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from rtsim.analysis.common import DEADLINE_TOL, ceil_div, stretches
-from rtsim.analysis.edf import edf_tasks, qpa
+from rtsim.analysis.edf import analyze_edf, edf_tasks, qpa
 from rtsim.analysis.rta import analyze, response_time
 from rtsim.analysis.sufficient import (
     _entries,
@@ -50,6 +50,8 @@ from rtsim.analysis.sufficient import (
     w_sch_of,
 )
 from rtsim.analysis.suspension import compute_time, suspension_aware
+from rtsim.analysis.transaction import transaction_bounds
+from rtsim.errors import InputError
 from rtsim.model.task import Task
 
 if TYPE_CHECKING:
@@ -224,8 +226,6 @@ def w_edf(ts: TaskSet, overhead: float | None = None) -> float:
     o = ts.overhead if overhead is None else overhead
 
     if ts.has_sections:  # Baker's condition with the blocking term (srp unless npr)
-        from rtsim.analysis.edf import analyze_edf
-
         protocol = "npr" if ts.resources == "npr" else "srp"
 
         def feasible(w: float) -> bool:
@@ -277,8 +277,7 @@ def w_txn(
     with it), so the search is `rtsim.analysis.validation.smallest_passing`: bisection
     from above the suspension-aware w_susp (or w_rta under ``suspension="cpu"``), which
     passes, with a scan of 20 windows above the result. ``inf`` when that start is."""
-    from rtsim.analysis.transaction import transaction_bounds
-    from rtsim.analysis.validation import smallest_passing
+    from rtsim.analysis.validation import smallest_passing  # lazy: CLI start-up (~20 ms)
 
     hi = w_susp(ts, overhead) if suspension == "idle" else w_rta(ts)
     if not math.isfinite(hi):
@@ -313,8 +312,6 @@ def lower_bound(
     [`rtsim.analysis.bounds.w_txn`][rtsim.analysis.bounds.w_txn], under
     ``suspension``) are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only
     with Δt leaving the CPU idle."""
-    from rtsim.errors import InputError
-
     if name not in LOWER_BOUNDS:
         raise InputError(
             f"{where}: lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, got {name!r}"

@@ -70,6 +70,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
+from rtsim.analysis.blocking import check_protocol, edf_blocking
 from rtsim.analysis.common import CEIL_TOL, DEADLINE_TOL, ceil_div, stretches
 from rtsim.analysis.rta import analysis_inputs
 from rtsim.errors import TaskSetError
@@ -431,8 +432,6 @@ def analyze_edf(
     task's ``blocking`` is B(D_i − J_i), the most a job of it can be blocked. Under
     ``suspension="idle"`` a job can be blocked once per compute stretch; this analysis
     charges it once and refuses a set whose tasks with sections or below them suspend."""
-    from rtsim.analysis.blocking import check_protocol, edf_blocking
-
     ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, suspension, "analyze_edf")
     et = edf_tasks(tasks, overhead)
     protocol = (

@@ -49,6 +49,7 @@ from typing import TYPE_CHECKING, Any
 
 from rtsim._numbers import is_real
 from rtsim.analysis import utilization as util
+from rtsim.analysis.blocking import check_protocol, fp_blocking
 from rtsim.analysis.common import (
     CEIL_TOL,
     DEADLINE_TOL,
@@ -57,6 +58,7 @@ from rtsim.analysis.common import (
     stretches,
 )
 from rtsim.analysis.sufficient import as_taskset, window_or_w_sch
+from rtsim.analysis.suspension import suspension_aware
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Task
 
@@ -280,8 +282,6 @@ def analyze(
     time, once per compute stretch under ``suspension="idle"``, with the switch into the
     blocking section (``overhead``) included.
     """
-    from rtsim.analysis.blocking import check_protocol, fp_blocking
-
     if suspension is None:
         ts, w, overhead, tasks = analysis_inputs(ts, w, overhead, "cpu", "analyze")
         if not suspends_with_sections(ts, tasks):
@@ -301,8 +301,6 @@ def analyze(
     results = []
     aware = None
     if suspension == "idle":
-        from rtsim.analysis.suspension import suspension_aware
-
         aware = suspension_aware(tasks, overhead, block if protocol else None)
     for i, task in enumerate(tasks):
         r = (

@@ -13,9 +13,9 @@ from typing import TYPE_CHECKING
 from rtsim.analysis.common import CEIL_TOL
 from rtsim.errors import TaskSetError
 from rtsim.model.task import Task
+from rtsim.model.taskset import TaskSet
 
 if TYPE_CHECKING:
-    from rtsim.model.taskset import TaskSet
     from rtsim.model.window import WindowSpec
 
 __all__ = ["as_taskset", "w_eq7_of", "w_eq11_of", "w_sch_of", "window_or_w_sch"]
@@ -26,8 +26,6 @@ def as_taskset(ts: object, function: str) -> TaskSet:
     `TaskSetError` naming ``function`` (the analyses take task sets; a
     file is read above them: `rtsim.load_taskset`, or the facade's [`rtsim.analyze`][rtsim.analyze]
     and [`rtsim.window_bounds`][rtsim.window_bounds], which take a path too)."""
-    from rtsim.model.taskset import TaskSet
-
     if isinstance(ts, TaskSet):
         return ts
     if isinstance(ts, str | os.PathLike):

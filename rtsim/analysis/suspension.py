@@ -35,6 +35,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from rtsim.analysis.common import DEADLINE_TOL, busy_window, ceil_div, stretches
+from rtsim.analysis.unified import HigherTask, unified_bound
 from rtsim.model.task import Task
 
 __all__ = ["SuspensionBound", "suspension_aware", "compute_time", "suspends"]
@@ -107,8 +108,6 @@ def _unified(
     task: Task, higher: Sequence[Task], done: Sequence[SuspensionBound], o: float, blk: float = 0.0
 ) -> float | None:
     """Bound (d) of ``task`` below ``higher`` (module doc), None where it does not apply."""
-    from rtsim.analysis.unified import HigherTask, unified_bound
-
     hp = []
     for t, b in zip(higher, done, strict=True):
         if b.wcrt is None:

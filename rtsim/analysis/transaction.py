@@ -63,7 +63,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, ceil_div
+from rtsim.analysis.rta import CEIL_TOL, DEADLINE_TOL, analyze, ceil_div
+from rtsim.io.work import _WHAT, LIMITS, TooMuchWork, check_work
 from rtsim.model.task import Segment, Task
 
 if TYPE_CHECKING:
@@ -156,8 +157,6 @@ class _Budget:
     def spend(self, n: int) -> None:
         self.left -= n
         if self.left < 0:
-            from rtsim.io.work import _WHAT, LIMITS, TooMuchWork
-
             raise TooMuchWork(
                 f"{self.where}: more than {self.limit:.3g} {_WHAT['interference']} (the limit "
                 f"is {LIMITS['interference']:.3g}); use --force (force=True in Python) to "
@@ -469,9 +468,6 @@ def transaction_bounds(
     the terms it evaluates are counted as it runs; above the limit
     `TooMuchWork` (one line, exit 2 on the command line) unless
     ``force=True`` (``--force``)."""
-    from rtsim.analysis.rta import analyze
-    from rtsim.io.work import LIMITS, check_work
-
     o = ts.overhead if overhead is None else overhead
     if ts.has_sections:  # the offset-based analysis has no blocking term: it does not apply
         return {t.name: None for t in analyze(ts, w, overhead=o, suspension=suspension).tasks}

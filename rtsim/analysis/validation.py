@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rtsim.analysis.bounds import w_sch_of
 from rtsim.analysis.rta import analyze
 
 if TYPE_CHECKING:
@@ -98,8 +99,6 @@ def task_bounds(ts: TaskSet, w: float | None = None) -> dict[str, TaskBounds]:
     per_window: set[str] = set()
     win_name: str | None = None
     if ts.window is not None:
-        from rtsim.analysis.bounds import w_sch_of
-
         w_sch = w_sch_of(ts)
         w = w_sch if w is None else w  # (w_sch itself is needed too: not window_or_w_sch)
         per_window = {t.name for t in ts.tasks if t.per_window}

@@ -15,6 +15,7 @@ import sys
 from typing import Any, NoReturn
 
 from rtsim._suggest import close_match, did_you_mean
+from rtsim._version import __version__
 from rtsim.errors import InputError
 
 __all__ = ["main", "COMMANDS", "Parser", "plain"]
@@ -141,8 +142,6 @@ class Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every available sub-command registered."""
-    from rtsim._version import __version__
-
     parser = Parser(
         prog="rtsim",
         description="Real-time scheduling simulator for dynamic processing windows "
@@ -166,7 +165,7 @@ def numeric_options(parser: argparse.ArgumentParser, command: str) -> list[argpa
 
 def check_option_ranges(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """Refuse a numeric option outside its range (`rtsim.io.limits`), naming it."""
-    from rtsim.io import limits
+    from rtsim.io import limits  # lazy: `rtsim --version` start-up
 
     for action in numeric_options(parser, args.command):
         value = getattr(args, action.dest, None)
@@ -270,7 +269,9 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``rtsim`` console script."""
     import signal
 
-    from rtsim.registry import opted_in
+    from rtsim.registry import (  # lazy: `rtsim --version` start-up
+        opted_in,
+    )
 
     previous = None
     try:
@@ -278,8 +279,6 @@ def main(argv: list[str] | None = None) -> int:
         _streams()
         argv = sys.argv[1:] if argv is None else list(argv)
         if argv == ["--version"]:  # what argparse prints, without importing every command
-            from rtsim._version import __version__
-
             print(f"rtsim {__version__}")
             return 0
         parser = build_parser()
@@ -306,7 +305,9 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into head, say
         return 0
     except OSError as exc:  # an output path that cannot be written, a full disk, ...
-        from rtsim.io.outdir import shown  # a staged file is named by its target
+        from rtsim.io.outdir import (  # lazy: `rtsim --version` start-up
+            shown,  # a staged file is named by its target
+        )
 
         where = f"{shown(exc.filename)}: " if exc.filename else ""
         print(f"rtsim: {one_line(where)}{one_line(exc.strerror or exc)}", file=sys.stderr)

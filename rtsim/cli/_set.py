@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from rtsim.config.dotted import parse_assignment
+
 __all__ = ["add_set_option", "set_overrides", "set_strings"]
 
 HELP = (
@@ -33,6 +35,4 @@ def set_strings(args: Any) -> list[str]:
 
 def set_overrides(args: Any) -> dict[str, Any]:
     """The ``--set`` options as dotted path → value (a key given twice: the last wins)."""
-    from rtsim.config.dotted import parse_assignment
-
     return dict(parse_assignment(text) for text in set_strings(args))

@@ -19,7 +19,17 @@ import json
 import math
 from typing import Any
 
+from rtsim.analysis.edf import EdfAnalysis, analyze_edf, edf_arrivals
+from rtsim.analysis.rta import analyze
+from rtsim.analysis.transaction import with_transaction_bounds
+from rtsim.cli import one_line
+from rtsim.cli._set import add_set_option, set_overrides
+from rtsim.cli.common import add_json, add_quiet
+from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError
+from rtsim.io.limits import check
+from rtsim.io.work import check_work
+from rtsim.sim.policy import SCHEDULERS
 
 __all__ = ["register", "run", "format_analysis", "format_edf", "format_transaction", "json_safe"]
 
@@ -32,8 +42,6 @@ def register(sub: Any) -> None:
         description=__doc__.splitlines()[0],
     )
     p.add_argument("file", metavar="FILE", help="task-set TOML file")
-    from rtsim.cli._set import add_set_option
-    from rtsim.cli.common import add_json, add_quiet
 
     add_json(p)
     add_quiet(p, "print nothing (the exit status with --check)")
@@ -88,7 +96,6 @@ def _window(text: str | None) -> float | None:
         raise InputError(f"--window: cannot parse {text!r} as a number of ms") from None
     if not (math.isfinite(w) and w > 0):
         raise InputError(f"--window: must be a positive number of ms, got {text!r}")
-    from rtsim.io.limits import check
 
     check("option: --window", w, "--window")
     return w
@@ -110,8 +117,6 @@ _RESOURCES = {
 
 def format_analysis(res: Any, source: str, w_from: str | None) -> str:
     """The readable report of an [`Analysis`][rtsim.analysis.rta.Analysis]."""
-    from rtsim.cli import one_line
-
     lines = [f"task set: {one_line(res.name or '(unnamed)')}  ({one_line(source)})"]
     if res.w is not None:
         how = (
@@ -175,8 +180,6 @@ def format_analysis(res: Any, source: str, w_from: str | None) -> str:
 
 def format_edf(res: Any, source: str, w_from: str | None) -> str:
     """The readable report of an [`EdfAnalysis`][rtsim.analysis.edf.EdfAnalysis]."""
-    from rtsim.cli import one_line
-
     lines = [f"task set: {one_line(res.name or '(unnamed)')}  ({one_line(source)}), scheduler: EDF"]
     if res.w is not None:
         lines.append(
@@ -234,8 +237,6 @@ def format_edf(res: Any, source: str, w_from: str | None) -> str:
 def format_transaction(txn: dict[str, float | None]) -> str:
     """One line: each task's offset-based (transaction) bound, the least sound bound rtsim
     has for it under fixed priority (docs/analysis.md)."""
-    from rtsim.cli import one_line
-
     parts = ", ".join(f"{one_line(name)} {_num(r)}" for name, r in txn.items())
     return f"offset-based (transaction) WCRT: {parts}"
 
@@ -253,12 +254,6 @@ def json_safe(obj: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
-    from rtsim.analysis.edf import EdfAnalysis
-    from rtsim.analysis.rta import analyze
-    from rtsim.cli._set import set_overrides
-    from rtsim.io.taskset import load_taskset
-    from rtsim.sim.policy import SCHEDULERS
-
     w = _window(args.window)
     ts = load_taskset(args.file, overrides=set_overrides(args))
     if w is not None and ts.window is None:
@@ -278,8 +273,6 @@ def run(args: argparse.Namespace) -> int:
             f"use --scheduler with one of {with_analysis}"
         )
     w_from = None if ts.window is None else ("--window" if w is not None else "w_sch")
-    from rtsim.analysis.edf import analyze_edf, edf_arrivals
-    from rtsim.io.work import check_work
 
     if policy.analysis is analyze_edf:  # Spuri's search over arrivals (the FP analysis stops
         # by itself: a deadline passed, or MAX_BUSY_JOBS jobs of one busy period)
@@ -295,8 +288,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         text = format_analysis(res, str(ts.source), w_from)
         if policy.analysis is analyze:  # FP: the offset-based bound (as the library's)
-            from rtsim.analysis.transaction import with_transaction_bounds
-
             res = with_transaction_bounds(ts, res, force=args.force)
             if res.transaction is not None:
                 head, _, last = text.rpartition("\n")  # before the verdict line

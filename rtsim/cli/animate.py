@@ -11,6 +11,16 @@ from __future__ import annotations
 
 from typing import Any
 
+from rtsim.cli.common import (
+    ANIMATION_FORMATS,
+    add_figure_options,
+    add_json,
+    add_quiet,
+    figure_format,
+    progress_enabled,
+)
+from rtsim.sim.progress import progress_bar
+
 __all__ = ["register", "run"]
 
 
@@ -56,7 +66,6 @@ def register(sub: Any) -> None:
         metavar="N",
         help="draw every N-th window only (default 1: every window)",
     )
-    from rtsim.cli.common import ANIMATION_FORMATS, add_figure_options, add_json, add_quiet
 
     add_figure_options(
         p,
@@ -72,8 +81,7 @@ def register(sub: Any) -> None:
 
 def run(args: Any) -> int:
     """Render the animation (see the module docstring)."""
-    from rtsim.animate import animate_run
-    from rtsim.cli.common import ANIMATION_FORMATS, figure_format, progress_enabled
+    from rtsim.animate import animate_run  # lazy: CLI start-up (pandas)
 
     figure_format(args, args.out, "--out", ANIMATION_FORMATS)  # --format agrees with --out
     bar: Any = None
@@ -83,8 +91,6 @@ def run(args: Any) -> int:
         if not progress_enabled(args):
             return
         if bar is None:
-            from rtsim.sim.progress import progress_bar
-
             bar = progress_bar(args, total=total, desc="animate", unit="frame")
         bar.update(1)
 

@@ -16,8 +16,15 @@ import json
 import math
 from typing import Any
 
+from rtsim.analysis.bounds import w_txn, window_bounds
+from rtsim.cli._set import add_set_option, set_overrides
 from rtsim.cli.analyze import json_safe
+from rtsim.cli.common import add_json, add_quiet
+from rtsim.cli.plausible import check_hough_radius
+from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError
+from rtsim.io.limits import check
+from rtsim.io.ranges import parse_int_values, parse_values
 
 __all__ = ["register", "run"]
 
@@ -48,8 +55,6 @@ def register(sub: Any) -> None:
         default=None,
         help="r_H in cm: a number, a list or a range 10..50:10 (default: the file's)",
     )
-    from rtsim.cli._set import add_set_option
-    from rtsim.cli.common import add_json, add_quiet
 
     add_set_option(p)
 
@@ -66,8 +71,6 @@ def _is_list(text: str | None) -> bool:
 
 
 def _values(args: argparse.Namespace, n0: int, r0: float) -> tuple[list[int], list[float]]:
-    from rtsim.io.ranges import parse_int_values, parse_values
-
     ns = [n0] if args.followers is None else parse_int_values(args.followers, "--followers")
     for n in ns:
         if n < 1:
@@ -78,8 +81,6 @@ def _values(args: argparse.Namespace, n0: int, r0: float) -> tuple[list[int], li
             raise InputError(
                 f"--hough-radius: must be positive (cm), got {r:g} in {args.hough_radius!r}"
             )
-    from rtsim.cli.plausible import check_hough_radius
-    from rtsim.io.limits import check
 
     check_hough_radius(args, rs)
     for n in ns:
@@ -95,10 +96,6 @@ def _cell(x: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
-    from rtsim.analysis.bounds import w_txn, window_bounds
-    from rtsim.cli._set import set_overrides
-    from rtsim.io.taskset import load_taskset
-
     ts = load_taskset(args.file, overrides=set_overrides(args))
     if ts.window is None:
         raise InputError(f"{ts.source}: has no [window]; bounds needs a processing-window set")

@@ -20,6 +20,11 @@ import os
 import sys
 from typing import Any
 
+from rtsim.cli import one_line
+from rtsim.errors import InputError
+from rtsim.sim.progress import SimulationBar
+from rtsim.sim.progress import progress_enabled as enabled
+
 __all__ = [
     "FIGURE_FORMATS",
     "ANIMATION_FORMATS",
@@ -83,8 +88,6 @@ def check_suffix(
     ``suffixes``, e.g. ``(".json",)``): a file's name says what it holds."""
     from pathlib import Path
 
-    from rtsim.errors import InputError
-
     if path is None:
         return
     suffix = Path(path).suffix.lower()
@@ -109,8 +112,6 @@ def figure_format(
     (``--gantt g.csv`` would be a PNG named .csv), are input errors."""
     from pathlib import Path
 
-    from rtsim.errors import InputError
-
     given = getattr(args, "fig_format", None)
     suffix = Path(path).suffix.lstrip(".").lower() if path is not None else ""
     if suffix:
@@ -127,21 +128,15 @@ def figure_format(
 
 def progress_enabled(args: Any) -> bool:
     """Whether to show progress bars (`rtsim.sim.progress.progress_enabled`)."""
-    from rtsim.sim.progress import progress_enabled as enabled
-
     return enabled(args)
 
 
 def simulation_bar(args: Any, desc: str) -> Any:
     """The progress bar of one simulation run (`rtsim.sim.progress.SimulationBar`)."""
-    from rtsim.sim.progress import SimulationBar
-
     return SimulationBar(args, desc)
 
 
 def note(args: Any, text: str) -> None:
     """A diagnostic line on standard error (``rtsim: <text>``), unless ``-q``."""
     if not getattr(args, "quiet", False):
-        from rtsim.cli import one_line
-
         print(f"rtsim: {one_line(text)}", file=sys.stderr)

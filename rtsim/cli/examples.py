@@ -9,6 +9,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from rtsim.cli.common import add_json, add_quiet
+from rtsim.examples import EXAMPLES, example
+
 __all__ = ["register", "run"]
 
 
@@ -20,7 +23,6 @@ def register(sub: Any) -> None:
         description=__doc__.splitlines()[0],
     )
     p.add_argument("name", nargs="?", metavar="NAME", help="print this example's file")
-    from rtsim.cli.common import add_json, add_quiet
 
     add_json(p, "list the examples (or give the one named: name, kind, summary, text) as JSON")
     add_quiet(p, "print nothing (a check that the example exists)")
@@ -29,8 +31,6 @@ def register(sub: Any) -> None:
 
 def run(args: Any) -> int:
     """List the examples, or print the one named."""
-    from rtsim.examples import EXAMPLES, example
-
     if args.json:
         import json
 

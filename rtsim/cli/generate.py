@@ -4,7 +4,7 @@
                    --count K --seed S --out DIR
 
 writes ``DIR/set_0000.toml`` … (readable by
-[`rtsim.io.taskset.load_taskset`][rtsim.io.taskset.load_taskset]) and
+[`rtsim.config.taskset.load_taskset`][rtsim.config.taskset.load_taskset]) and
 ``DIR/manifest.json``. Set i is drawn from the i-th child of ``SeedSequence(S)``, so set i
 does not depend on ``--count``.
 """
@@ -18,7 +18,13 @@ from typing import Any
 
 import numpy as np
 
+from rtsim.cli.common import add_json, add_quiet
+from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError
+from rtsim.io.atomic import dumps, write_text
+from rtsim.io.manifest import write_manifest
+from rtsim.io.outdir import stage
+from rtsim.model.generate import PeriodSpec, parse_periods, random_taskset
 from rtsim.model.taskset import TaskSet
 
 __all__ = ["register", "run", "taskset_toml"]
@@ -55,7 +61,6 @@ def register(sub: Any) -> None:
     p.add_argument("--count", type=int, default=1, help="number of sets")
     p.add_argument("--seed", type=int, default=0, help="random seed")
     p.add_argument("--out", required=True, help="output directory")
-    from rtsim.cli.common import add_json, add_quiet
 
     add_json(p, "print the files written as one JSON object")
     add_quiet(p, "no line saying what was written")
@@ -76,7 +81,7 @@ def _toml_value(v: Any) -> str:
 
 
 def taskset_toml(ts: TaskSet, comment: str = "") -> str:
-    """A plain (window-less) task set as TOML text in the file format of rtsim.io.taskset."""
+    """A plain (window-less) task set as TOML text in the file format of rtsim.config.taskset."""
     if ts.window is not None:
         raise InputError("taskset_toml: sets with a [window] are not supported")
     lines = [f"# {line}" for line in comment.splitlines()]
@@ -118,8 +123,6 @@ def _deadline_factor(text: str) -> tuple[float, float]:
 
 def run(args: argparse.Namespace) -> int:
     """Write the sets and the manifest (a whole directory); print the directory."""
-    from rtsim.model.generate import PeriodSpec, parse_periods
-
     if args.tasks < 1:
         raise InputError(f"--tasks must be at least 1, got {args.tasks}")
     if not (math.isfinite(args.utilization) and args.utilization > 0):
@@ -134,14 +137,11 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--granularity must be positive, got {args.granularity:g}")
         spec = PeriodSpec(spec.lo, spec.hi, spec.choices, args.granularity)
     factor = _deadline_factor(args.deadlines)
-    from rtsim.io.outdir import stage
 
     with stage(args.out, command="generate") as staged:
         files = _write_sets(args, staged.path, spec, factor)
         staged.commit()
     if args.json:
-        from rtsim.io.atomic import dumps
-
         print(dumps({"out": str(args.out), "files": files}))
     elif not args.quiet:
         print(f"wrote {len(files)} task set(s) to {args.out}")
@@ -152,8 +152,6 @@ def _readable(args: argparse.Namespace, path: Path) -> None:
     """Read the set just written as ``analyze`` and ``simulate`` will (their ranges, e.g. a
     period of 1 µs to 11.6 days): a set they would refuse is not written (the staging goes),
     the refusal is one line naming the options and the reader's first problem."""
-    from rtsim.io.taskset import load_taskset
-
     try:
         load_taskset(path)
     except InputError as exc:
@@ -170,10 +168,6 @@ def _write_sets(
 ) -> list[str]:
     """Write the sets and the manifest into ``out`` (the staging directory)."""
     import sys
-
-    from rtsim.io.atomic import write_text
-    from rtsim.io.manifest import write_manifest
-    from rtsim.model.generate import random_taskset
 
     children = np.random.SeedSequence(args.seed).spawn(args.count)
     files = []

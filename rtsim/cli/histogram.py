@@ -21,7 +21,15 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from rtsim.analysis.bounds import window_bounds
+from rtsim.cli._set import add_set_option, set_overrides
+from rtsim.cli.common import add_figure_options, add_json, add_quiet, figure_format
+from rtsim.cli.plausible import check_horizon, check_hough_radius, periods_ms, warn_short_horizon
+from rtsim.cli.simulate import require_bcet
+from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError
+from rtsim.io.atomic import dumps
+from rtsim.io.outdir import stage
 
 __all__ = ["register", "run"]
 
@@ -60,14 +68,12 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--force", action="store_true", help="run even when a value looks like a mistake of unit"
     )
-    from rtsim.cli._set import add_set_option
 
     add_set_option(
         p,
         "with FILE: change a key of the task set (a dotted path, the value read "
         "as TOML; repeatable), e.g. --set tasks.command.wcet=12",
     )
-    from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
     add_figure_options(p, default_dpi=300, what="histograms")  # rtsim.validate.histogram.DPI
     add_json(p, "print the files written as one JSON object")
@@ -76,7 +82,11 @@ def register(sub: Any) -> None:
 
 
 def _source(args: argparse.Namespace) -> Any:
-    from rtsim.validate.histogram import from_scenario_dir, from_simulation, from_sweep_point
+    from rtsim.validate.histogram import (  # lazy: CLI start-up (pandas)
+        from_scenario_dir,
+        from_simulation,
+        from_sweep_point,
+    )
 
     given = [x for x in (args.file, args.scenario, args.sweep) if x is not None]
     if len(given) != 1:
@@ -96,11 +106,9 @@ def _source(args: argparse.Namespace) -> Any:
         return from_scenario_dir(
             args.scenario, n=args.followers, r_H=args.hough_radius, w=args.window
         )
-    from rtsim.io.taskset import load_taskset
 
     if args.horizon is None or not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError("histogram: FILE needs --horizon H, a positive number of ms")
-    from rtsim.cli._set import set_overrides
 
     ts = load_taskset(args.file, overrides=set_overrides(args))
     changes: dict[str, Any] = {}
@@ -115,13 +123,10 @@ def _source(args: argparse.Namespace) -> Any:
         )
     if changes:
         ts = ts.with_window(**changes)
-    from rtsim.cli.plausible import check_horizon, check_hough_radius, periods_ms
 
     if args.hough_radius is not None:
         check_hough_radius(args, [args.hough_radius])
     if ts.window is not None:
-        from rtsim.analysis.bounds import window_bounds
-
         w = args.window if args.window is not None else window_bounds(ts).w_sch
         check_horizon(args, args.horizon, w, periods=periods_ms(ts, w))
     else:
@@ -129,8 +134,6 @@ def _source(args: argparse.Namespace) -> Any:
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed}")
     if args.exec_model == "uniform":
-        from rtsim.cli.simulate import require_bcet
-
         require_bcet(ts, str(args.file))
     kwargs: dict[str, Any] = {
         "seed": args.seed,
@@ -139,7 +142,6 @@ def _source(args: argparse.Namespace) -> Any:
     }
     if args.window is not None:
         kwargs["window"] = args.window
-    from rtsim.cli.plausible import warn_short_horizon
 
     warn_short_horizon(args)  # every input checked: the run goes ahead
     src = from_simulation(ts, args.horizon, **kwargs)
@@ -148,13 +150,11 @@ def _source(args: argparse.Namespace) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Write the histograms; print the files written."""
-    from rtsim.io.outdir import stage
-    from rtsim.validate.histogram import write_histograms
+    from rtsim.validate.histogram import write_histograms  # lazy: CLI start-up (pandas)
 
     if args.bins < 1:
         raise InputError(f"--bins must be at least 1, got {args.bins}")
-    from rtsim.cli.common import figure_format
-    from rtsim.validate.histogram import DPI
+    from rtsim.validate.histogram import DPI  # lazy: CLI start-up (pandas)
 
     fmt = figure_format(args)
     with stage(args.out, command="histogram") as staged:
@@ -170,8 +170,6 @@ def run(args: argparse.Namespace) -> int:
         staged.commit()
     files = [str(Path(args.out) / p.name) for p in written]
     if args.json:
-        from rtsim.io.atomic import dumps
-
         print(dumps({"out": str(args.out), "files": files}))
     elif not args.quiet:
         print("\n".join(files))

@@ -15,7 +15,9 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from rtsim.reproduce import DEFAULT_OUT, QUICK_DURATION_S, ReproduceOptions
+import rtsim.reproduce
+from rtsim.cli.plausible import check_duration
+from rtsim.reproduce import DEFAULT_OUT, MODES, QUICK_DURATION_S, TESTS, ReproduceOptions
 
 __all__ = ["register", "run", "add_options", "options"]
 
@@ -109,10 +111,7 @@ def options(args: Any) -> ReproduceOptions:
 
 def run(args: Any) -> int:
     """Run the reproduction on the parsed options (one parse), then write the reports."""
-    from rtsim.cli.plausible import check_duration
-    from rtsim.report import write_run_report
-    from rtsim.reproduce import MODES, TESTS
-    from rtsim.reproduce import run as reproduce
+    from rtsim.report import write_run_report  # lazy: CLI start-up (~2 ms)
 
     check_duration(args, args.duration)
 
@@ -123,4 +122,4 @@ def run(args: Any) -> int:
                 if (out / t / m / "summary.json").is_file():
                     write_run_report(out / t / m, title=f"rtsim reproduce: {t}, {m}")
 
-    return reproduce(options(args), finish=reports)
+    return rtsim.reproduce.run(options(args), finish=reports)

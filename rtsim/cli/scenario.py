@@ -34,7 +34,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+from rtsim.cli._set import add_set_option, set_overrides, set_strings
+from rtsim.cli.common import add_figure_options, add_json, add_quiet, check_suffix, simulation_bar
+from rtsim.cli.plausible import check_duration, check_scenario_units
+from rtsim.control.policy import ADJUSTMENT_POLICIES, policy_class
 from rtsim.errors import InputError
+from rtsim.io.atomic import dumps, write_json
+from rtsim.io.manifest import build_manifest, write_manifest
+from rtsim.io.outdir import FileSet, sidecar, stage
+from rtsim.io.spool import Spool, Tee
+from rtsim.io.summary import summary_json
+from rtsim.sim.records import jobs_frame
 
 __all__ = ["register", "run"]
 
@@ -52,7 +62,6 @@ def register(sub: Any) -> None:
         'as test2); preset = "paper" takes the paper\'s own (docs/configuration.md).',
     )
     p.add_argument("file", help="scenario TOML file")
-    from rtsim.control.policy import ADJUSTMENT_POLICIES
 
     p.add_argument(
         "--policy",
@@ -89,7 +98,6 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     p.add_argument("--parquet", action="store_true", help="also write windows.parquet")
-    from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
     add_figure_options(p, default_dpi=300)  # rtsim.plots.scenario.DPI (not imported: slow)
     p.add_argument(
@@ -98,7 +106,6 @@ def register(sub: Any) -> None:
         help="also write the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)",
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
-    from rtsim.cli._set import add_set_option
 
     add_set_option(p)
     p.add_argument(
@@ -115,17 +122,15 @@ def register(sub: Any) -> None:
 def run(args: Any) -> int:
     """Run the scenario and write DIR (see the module docstring)."""
     t0 = time.perf_counter()
-    from rtsim.io.outdir import stage
 
     if args.duration is not None and not (0 < args.duration < float("inf")):
         raise InputError(f"--duration must be a positive number of seconds, got {args.duration!r}")
     if args.seed < 0:
         raise InputError(f"--seed must be a non-negative integer, got {args.seed!r}")
-    from rtsim.cli.plausible import check_duration
 
     check_duration(args, args.duration)
-    from rtsim.coupling.duration import check_scenario
-    from rtsim.io.scenario import load_scenario
+    from rtsim.config.scenario import load_scenario  # lazy: CLI start-up (numpy)
+    from rtsim.coupling.duration import check_scenario  # lazy: CLI start-up (pandas)
 
     where = (
         f"--duration {args.duration:g}" if args.duration is not None else f"{args.file}: duration"
@@ -136,19 +141,14 @@ def run(args: Any) -> int:
             f"and --policy {args.policy}"
         )
     if args.policy is not None:
-        from rtsim.control.policy import policy_class
-
         policy_class(args.policy, "--policy", allow_code=True)
-    from rtsim.cli._set import set_overrides
 
     scenario = load_scenario(args.file, overrides=set_overrides(args))
     override = args.policy if args.policy is not None else args.mode
     args.mode = override if override is not None else scenario.adjust.policy
-    from rtsim.cli.plausible import check_scenario_units
 
     check_scenario_units(args, scenario)  # the options' unit hints, for the file's keys
     check_scenario(scenario, args.duration, where, force=args.force)
-    from rtsim.io.outdir import FileSet
 
     inputs = (args.file, scenario.taskset)  # (a packaged set's name is no path here)
     with stage(args.out, command="scenario") as staged, FileSet("scenario", inputs=inputs) as files:
@@ -166,16 +166,13 @@ def run(args: Any) -> int:
         staged.commit()
         files.commit()
     s = res.summary
-    from rtsim.coupling.duration import run_length, run_note
+    from rtsim.coupling.duration import run_length, run_note  # lazy: CLI start-up (pandas)
 
     to_lap = run_length(scenario.world, args.duration, scenario.duration).stop_s is not None
     note = None if args.quiet else run_note(s, to_lap)
     if note is not None:
         print(note, file=sys.stderr)
     if args.json:
-        from rtsim.io.atomic import dumps
-        from rtsim.io.summary import summary_json
-
         print(dumps(summary_json(s)))
         return 0
     if args.quiet:
@@ -204,8 +201,11 @@ def _write_followers(windows_csv: Path, target: Path) -> None:
     long rows (`FOLLOWER_CHUNK_ROWS`)."""
     import pandas as pd
 
-    from rtsim.coupling.tidy import follower_count, followers_frame
-    from rtsim.io.columns import ChunkWriter
+    from rtsim.coupling.tidy import (  # lazy: CLI start-up (pandas)
+        follower_count,
+        followers_frame,
+    )
+    from rtsim.io.columns import ChunkWriter  # lazy: CLI start-up (pandas)
 
     first = pd.read_csv(windows_csv, nrows=0)
     windows = max(1, FOLLOWER_CHUNK_ROWS // max(1, follower_count(first.columns)))
@@ -220,7 +220,6 @@ def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | N
     the run); elsewhere, checked and staged in ``files`` with a manifest of its own."""
     if not args.perfetto:
         return None
-    from rtsim.cli.common import check_suffix
 
     check_suffix(args.perfetto, "--perfetto", (".json",))
     perfetto = Path(args.perfetto)
@@ -246,12 +245,9 @@ def _perfetto_target(args: Any, out: Path, target: Path, files: Any) -> Path | N
                 f"each output its own file"
             )
         return out / perfetto.name
-    from rtsim.io.outdir import sidecar
 
     files.check(sidecar(perfetto), "--perfetto")
     staged = files.add(perfetto, "--perfetto")
-    from rtsim.io.atomic import write_json
-    from rtsim.io.manifest import build_manifest
 
     write_json(
         files.add(sidecar(perfetto), "--perfetto"),
@@ -277,20 +273,14 @@ def _write(
 ) -> Any:
     """Run the scenario (file ``src``), writing every file into ``out`` (the staging
     directory of ``target``); returns the result."""
-    from rtsim.cli._set import set_overrides, set_strings
-    from rtsim.coupling import run_scenario
-    from rtsim.io.atomic import write_json
-    from rtsim.io.columns import ChunkWriter
-    from rtsim.io.manifest import write_manifest
-    from rtsim.sim.records import jobs_frame
+    from rtsim.coupling import run_scenario  # lazy: CLI start-up (pandas)
+    from rtsim.io.columns import ChunkWriter  # lazy: CLI start-up (pandas)
 
     windows_files = [out / "windows.csv", *([out / "windows.parquet"] if args.parquet else [])]
     windows = ChunkWriter(windows_files, None)
     jobs = ChunkWriter([out / "jobs.csv"], jobs_frame([]))
     spools: tuple[Any, Any] | None = None
     if args.perfetto:  # records for the trace, on disk in the staging directory meanwhile
-        from rtsim.io.spool import Spool, Tee
-
         scratch = out / f".rtsim-spool-{secrets.token_hex(4)}"
         spools = (
             Spool(f"{scratch}-jobs", label=args.perfetto),
@@ -299,7 +289,6 @@ def _write(
     if files is not None:  # closed after an error too, before the staging goes
         for w in (windows, jobs, *(spools or ())):
             files.on_release(getattr(w, "discard", w.close))
-    from rtsim.cli.common import simulation_bar
 
     try:
         with simulation_bar(args, "scenario") as bar:
@@ -326,11 +315,10 @@ def _write(
         outputs.append("windows.parquet")
     jobs.close()
     _write_followers(out / "windows.csv", out / "followers.csv")
-    from rtsim.io.summary import summary_json
 
     write_json(out / "summary.json", summary_json(res.summary))
     if spools is not None:
-        from rtsim.export.perfetto import stream_perfetto
+        from rtsim.export.perfetto import stream_perfetto  # lazy: CLI start-up (pandas)
 
         assert perfetto is not None
         stream_perfetto(
@@ -351,11 +339,13 @@ def _write(
         if perfetto.parent == out:
             outputs.append(perfetto.name)
     if not args.no_figures:
-        from rtsim.plots.scenario import write_scenario_figures
+        from rtsim.plots.scenario import (  # lazy: CLI start-up (matplotlib)
+            write_scenario_figures,
+        )
 
         label = f"{res.inputs.name or Path(args.file).stem}, {args.mode}"
         df = _figure_table(out / "windows.csv", int(res.summary["n"]), int(res.summary["windows"]))
-        from rtsim.plots.scenario import DPI
+        from rtsim.plots.scenario import DPI  # lazy: CLI start-up (matplotlib)
 
         paths = write_scenario_figures(
             df, out, label=label, fmt=args.fig_format or "png", dpi=args.dpi or DPI
@@ -381,7 +371,8 @@ def _write(
         argv=["rtsim", *sys.argv[1:]],
         extra={"timing": timing, "outputs": [*outputs, "report.html"]},
     )
-    from rtsim.report import write_run_report
+
+    from rtsim.report import write_run_report  # lazy: CLI start-up (~2 ms)
 
     label = res.inputs.name or Path(args.file).stem
     write_run_report(out, title=f"rtsim scenario: {label}, {args.mode}")
@@ -391,6 +382,6 @@ def _write(
 def _figure_table(path: Path, n: int, rows: int) -> Any:
     """The rows and columns the figures draw, read back from windows.csv in bounded chunks
     (`rtsim.plots.scenario_data.read_figure_table`; ``rows`` is not needed)."""
-    from rtsim.plots.scenario_data import read_figure_table
+    from rtsim.plots.scenario_data import read_figure_table  # lazy: CLI start-up (matplotlib)
 
     return read_figure_table(path, n)

@@ -11,20 +11,20 @@ from __future__ import annotations
 import sys
 from typing import Any
 
+from rtsim.cli.common import add_json, add_quiet
+from rtsim.config.schema import KINDS, schema_text
+
 __all__ = ["register", "run"]
 
 
 def register(sub: Any) -> None:
     """Add the ``schema`` sub-command."""
-    from rtsim.config.schema import KINDS
-
     p = sub.add_parser(
         "schema",
         help="print the JSON Schema of task-set, scenario or sweep files",
         description=__doc__.splitlines()[0],
     )
     p.add_argument("kind", choices=KINDS, help="the kind of file: " + ", ".join(KINDS))
-    from rtsim.cli.common import add_json, add_quiet
 
     add_json(p, "print the schema (one JSON object, with or without this option)")
     add_quiet(p, "print nothing (only check that the kind exists)")
@@ -33,8 +33,6 @@ def register(sub: Any) -> None:
 
 def run(args: Any) -> int:
     """Print the schema to stdout."""
-    from rtsim.config.schema import schema_text
-
     if args.json or not args.quiet:
         sys.stdout.write(schema_text(args.kind))
     return 0

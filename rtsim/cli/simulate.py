@@ -30,7 +30,32 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any, NamedTuple
 
+from rtsim.analysis.bounds import window_bounds
+from rtsim.analysis.rta import analyze
+from rtsim.analysis.transaction import transaction_bounds
+from rtsim.cli import one_line
+from rtsim.cli._set import add_set_option, set_overrides, set_strings
+from rtsim.cli.common import (
+    add_figure_options,
+    add_json,
+    add_quiet,
+    check_suffix,
+    figure_format,
+    note,
+    simulation_bar,
+)
+from rtsim.cli.plausible import check_horizon, check_hough_radius, periods_ms, warn_short_horizon
+from rtsim.config.taskset import load_taskset, taskset_to_dict
 from rtsim.errors import InputError
+from rtsim.io.atomic import dumps, write_json
+from rtsim.io.manifest import build_manifest
+from rtsim.io.outdir import FileSet, sidecar
+from rtsim.io.spool import Spool, Tee
+from rtsim.io.work import TooMuchWork, check_simulate, simulate_jobs
+from rtsim.sim import simulate
+from rtsim.sim.policy import resolve_scheduler
+from rtsim.sim.records import jobs_frame, trace_frame
+from rtsim.sim.run import worst_jitter_shifts
 
 __all__ = ["register", "run"]
 
@@ -113,8 +138,6 @@ def register(sub: Any) -> None:
         metavar="FILE",
         help="the schedule as a Chrome/Perfetto trace (JSON; open in ui.perfetto.dev)",
     )
-    from rtsim.cli._set import add_set_option
-    from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
     add_figure_options(
         p,
@@ -152,8 +175,7 @@ def _bounded_range(
 ) -> tuple[tuple[float, float], float | None]:
     """The Gantt range, cut to hold at most GANTT_MAX_JOBS jobs (estimated from the periods),
     and the end it had when cut (None: not cut)."""
-    from rtsim.io.work import simulate_jobs
-    from rtsim.plots.gantt import GANTT_MAX_JOBS
+    from rtsim.plots.gantt import GANTT_MAX_JOBS  # lazy: CLI start-up (matplotlib)
 
     a, b = rng
     jobs = simulate_jobs(ts, b - a, w)
@@ -180,8 +202,6 @@ def require_bcet(ts: Any, source: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command (InputError is reported by the caller)."""
-    from rtsim.io.outdir import FileSet
-
     with FileSet("simulate", inputs=(args.file,)) as files:
         rc = _run(args, files)
         files.commit()
@@ -192,8 +212,6 @@ def _manifest_names(names: dict[Path, list[str]]) -> dict[Path, list[str]]:
     """Where each directory's manifest goes: {manifest path: outputs it lists} (see the
     module docstring)."""
     import json
-
-    from rtsim.io.outdir import sidecar
 
     out: dict[Path, list[str]] = {}
     for d, files in names.items():
@@ -217,21 +235,9 @@ def _manifest_names(names: dict[Path, list[str]]) -> dict[Path, list[str]]:
     return out
 
 
-def _run(args: argparse.Namespace, files: Any) -> int:
-    from rtsim.analysis.rta import analyze
-    from rtsim.io.atomic import dumps, write_json
-    from rtsim.io.columns import ChunkWriter
-    from rtsim.io.manifest import build_manifest
-    from rtsim.io.spool import Spool, Tee
-    from rtsim.io.taskset import load_taskset, taskset_to_dict
-    from rtsim.sim import simulate
-    from rtsim.sim.records import jobs_frame, trace_frame
-    from rtsim.sim.run import worst_jitter_shifts
-
-    if not (math.isfinite(args.horizon) and args.horizon > 0):
-        raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
-    from rtsim.cli._set import set_overrides, set_strings
-
+def _taskset(args: argparse.Namespace) -> tuple[Any, float, str, Any, float | None]:
+    """The task set of ``rtsim simulate`` with its options applied and checked: (task set,
+    overhead, scheduler, window bounds or None, the window's estimate in ms or None)."""
     ts = load_taskset(args.file, overrides=set_overrides(args))
     changes: dict[str, Any] = {}
     if args.followers is not None:
@@ -253,22 +259,107 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         require_bcet(ts, str(args.file))
     scheduler = ts.scheduler
     if args.scheduler is not None:
-        from rtsim.sim.policy import resolve_scheduler
-
         resolve_scheduler(args.scheduler, where="--scheduler", allow_code=True)
         scheduler = args.scheduler
     bounds = None
     if ts.window is not None:
-        from rtsim.analysis.bounds import window_bounds
-
         bounds = window_bounds(ts)
-    from rtsim.io.work import check_simulate
 
     w_est = (
         args.window if args.window is not None else (bounds.w_sch if bounds is not None else None)
     )
-    from rtsim.cli.plausible import check_horizon, check_hough_radius, periods_ms
+    return ts, overhead, scheduler, bounds, w_est
 
+
+def _analysis(
+    args: argparse.Namespace, ts: Any, res: Any, overhead: float, scheduler: str
+) -> tuple[dict[str, float | None], dict[str, float], dict[str, float | None]]:
+    """The analysis of the run's task set: (each task's least sound WCRT bound, its deadline,
+    its offset-based bound)."""
+    w = res.window["w"] if res.window else None
+    # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own:
+    # the deadlines still come from the fixed-priority analysis's table)
+
+    analyze_with = resolve_scheduler(scheduler).analysis
+    known = analyze_with is not None
+    if analyze_with is None:
+        analyze_with = analyze
+    analysis = (
+        analyze_with(ts, w, overhead=overhead, suspension=args.suspension)
+        if ts.window is not None
+        else analyze_with(ts, overhead=overhead, suspension=args.suspension)
+    )
+    wcrt = {t.name: t.wcrt if known else None for t in analysis.tasks}
+    deadlines = {t.name: t.deadline for t in analysis.tasks}
+    # the offset-based (transaction) bound, for fixed priority at a fixed window; the
+    # report's wcrt_analysis is the least of the sound bounds (docs/analysis.md)
+    txn: dict[str, float | None] = {}
+    if known and analyze_with is analyze and (ts.window is None or w is not None):
+        # --jitter worst moves each task's arrivals by (largest jitter - its own), a
+        # per-window task's no earlier than the window's (worst_jitter_shifts)
+        shifts = worst_jitter_shifts(ts)[0] if args.jitter == "worst" else None
+
+        try:  # (the report's bound, after the run: above its work limit it is left out)
+            txn = transaction_bounds(
+                ts,
+                w,
+                overhead=overhead,
+                suspension=args.suspension,
+                shifts=shifts,
+                force=args.force,
+            )
+        except TooMuchWork as exc:
+            note(args, f"{exc}; wcrt_transaction left out")
+            txn = {}
+        for name, r in txn.items():
+            old = wcrt.get(name)
+            if r is not None and (old is None or r < old):
+                wcrt[name] = r
+    return wcrt, deadlines, txn
+
+
+def _write_manifests(
+    args: argparse.Namespace,
+    files: Any,
+    outputs: dict[Path, list[str]],
+    ts: Any,
+    overhead: float,
+    scheduler: str,
+    window: Any,
+) -> None:
+    """The manifest of the outputs in each directory (``outputs``: their names by directory)."""
+    inputs = {
+        "file": str(args.file),
+        "horizon": args.horizon,
+        "exec": args.exec_model,
+        "suspension": args.suspension,
+        "overhead": overhead,
+        "jitter": args.jitter,
+        "scheduler": scheduler,
+        "window": window,
+        "taskset": taskset_to_dict(ts),
+        "set": set_strings(args),
+    }
+    for man, names in _manifest_names(outputs).items():
+        write_json(
+            files.add(man, "--jobs/--trace/... manifest"),
+            build_manifest(
+                command="simulate",
+                seed=args.seed,
+                inputs=inputs,
+                argv=["rtsim", *sys.argv[1:]],
+                extra={"outputs": names},
+            ),
+        )
+
+
+def _run(args: argparse.Namespace, files: Any) -> int:
+    from rtsim.io.columns import ChunkWriter  # lazy: CLI start-up (pandas)
+
+    if not (math.isfinite(args.horizon) and args.horizon > 0):
+        raise InputError(f"--horizon must be a positive number of ms, got {args.horizon:g}")
+
+    ts, overhead, scheduler, bounds, w_est = _taskset(args)
     if args.hough_radius is not None:
         check_hough_radius(args, [args.hough_radius])
     check_horizon(args, args.horizon, w_est, periods=periods_ms(ts, w_est))
@@ -281,7 +372,6 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         name = getattr(args, opt)
         if name and Path(name).suffix.lower() not in (".csv", ".parquet"):
             raise InputError(f"--{opt} {name}: output must end in .csv or .parquet")
-    from rtsim.cli.common import check_suffix, figure_format
 
     if args.perfetto:  # (an input or a user's file named first: that is the worse mistake)
         files.check(args.perfetto, "--perfetto")
@@ -311,7 +401,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         )
     chart = None
     if args.gantt:
-        from rtsim.plots.gantt import GanttRows
+        from rtsim.plots.gantt import GanttRows  # lazy: CLI start-up (matplotlib)
 
         assert rng is not None
         chart = GanttRows(*rng)
@@ -320,8 +410,6 @@ def _run(args: argparse.Namespace, files: Any) -> int:
             files.on_release(getattr(out, "discard", out.close))
     job_sink = Tee(jobs_out, spools and spools[0], chart and chart.jobs)
     trace_sink = Tee(trace_out, spools and spools[1], chart and chart.trace)
-    from rtsim.cli.common import note, simulation_bar
-    from rtsim.cli.plausible import warn_short_horizon
 
     warn_short_horizon(args)  # every input checked: the run goes ahead
     if args.jitter == "worst":
@@ -345,49 +433,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
             force=args.force,
             progress=bar if bar.enabled else None,
         )
-    w = res.window["w"] if res.window else None
-    # the analysis of the policy simulated (EDF: Spuri's bound; none for a policy of one's own:
-    # the deadlines still come from the fixed-priority analysis's table)
-    from rtsim.sim.policy import resolve_scheduler
-
-    analyze_with = resolve_scheduler(scheduler).analysis
-    known = analyze_with is not None
-    if analyze_with is None:
-        analyze_with = analyze
-    analysis = (
-        analyze_with(ts, w, overhead=overhead, suspension=args.suspension)
-        if ts.window is not None
-        else analyze_with(ts, overhead=overhead, suspension=args.suspension)
-    )
-    wcrt = {t.name: t.wcrt if known else None for t in analysis.tasks}
-    deadlines = {t.name: t.deadline for t in analysis.tasks}
-    # the offset-based (transaction) bound, for fixed priority at a fixed window; the
-    # report's wcrt_analysis is the least of the sound bounds (docs/analysis.md)
-    txn: dict[str, float | None] = {}
-    if known and analyze_with is analyze and (ts.window is None or w is not None):
-        from rtsim.analysis.transaction import transaction_bounds
-
-        # --jitter worst moves each task's arrivals by (largest jitter - its own), a
-        # per-window task's no earlier than the window's (worst_jitter_shifts)
-        shifts = worst_jitter_shifts(ts)[0] if args.jitter == "worst" else None
-        from rtsim.io.work import TooMuchWork
-
-        try:  # (the report's bound, after the run: above its work limit it is left out)
-            txn = transaction_bounds(
-                ts,
-                w,
-                overhead=overhead,
-                suspension=args.suspension,
-                shifts=shifts,
-                force=args.force,
-            )
-        except TooMuchWork as exc:
-            note(args, f"{exc}; wcrt_transaction left out")
-            txn = {}
-        for name, r in txn.items():
-            old = wcrt.get(name)
-            if r is not None and (old is None or r < old):
-                wcrt[name] = r
+    wcrt, deadlines, txn = _analysis(args, ts, res, overhead, scheduler)
     report = res.to_json()
     for entry in report["tasks"]:
         entry["wcrt_analysis"] = wcrt.get(entry["name"])
@@ -407,7 +453,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
         if out is not None:
             out.close()
     if spools is not None:
-        from rtsim.export.perfetto import stream_perfetto
+        from rtsim.export.perfetto import stream_perfetto  # lazy: CLI start-up (pandas)
 
         stream_perfetto(
             tmp["perfetto"],
@@ -440,29 +486,7 @@ def _run(args: argparse.Namespace, files: Any) -> int:
             formats["histogram"],
             args.dpi or HISTOGRAM_DPI,
         )
-    inputs = {
-        "file": str(args.file),
-        "horizon": args.horizon,
-        "exec": args.exec_model,
-        "suspension": args.suspension,
-        "overhead": overhead,
-        "jitter": args.jitter,
-        "scheduler": scheduler,
-        "window": res.window,
-        "taskset": taskset_to_dict(ts),
-        "set": set_strings(args),
-    }
-    for man, names in _manifest_names(outputs).items():
-        write_json(
-            files.add(man, "--jobs/--trace/... manifest"),
-            build_manifest(
-                command="simulate",
-                seed=args.seed,
-                inputs=inputs,
-                argv=["rtsim", *sys.argv[1:]],
-                extra={"outputs": names},
-            ),
-        )
+    _write_manifests(args, files, outputs, ts, overhead, scheduler, res.window)
 
     if args.json:
         print(dumps(report))
@@ -504,7 +528,6 @@ def _print_table(report: dict[str, Any]) -> None:
         "wcrt_analysis",
         "max_backlog",
     )
-    from rtsim.cli import one_line
 
     # names escaped as in error lines (a line break or ESC in a name cannot fake a line)
     rows = [[one_line(_fmt(t.get(c))) for c in cols] for t in report["tasks"]]
@@ -527,7 +550,7 @@ class _Tables(NamedTuple):
 def gantt_figure(res: Any, rng: tuple[float, float], cut: float | None = None) -> Any:
     """The ``--gantt`` figure of a run (its trace and jobs) over ``rng`` (ms); ``cut``: the
     end of the range asked for, when it was cut to GANTT_MAX_JOBS (the title says so)."""
-    from rtsim.plots.gantt import GANTT_MAX_JOBS, gantt
+    from rtsim.plots.gantt import GANTT_MAX_JOBS, gantt  # lazy: CLI start-up (matplotlib)
 
     title = f"schedule {rng[0]:g}..{rng[1]:g} ms"
     if cut is not None:
@@ -540,7 +563,7 @@ def gantt_figure(res: Any, rng: tuple[float, float], cut: float | None = None) -
 def _save_gantt(
     res: Any, path: str, rng: tuple[float, float], fmt: str, dpi: int, cut: float | None = None
 ) -> None:
-    from rtsim.plots.scenario import save_figure
+    from rtsim.plots.scenario import save_figure  # lazy: CLI start-up (matplotlib)
 
     save_figure(gantt_figure(res, rng, cut), path, dpi=dpi, fmt=fmt)
 
@@ -555,7 +578,7 @@ def _save_histograms(
     fmt: str,
     dpi: int,
 ) -> None:
-    from rtsim.plots.scenario import save_figure
+    from rtsim.plots.scenario import save_figure  # lazy: CLI start-up (matplotlib)
 
     save_figure(histogram_figure(res, wcrt, deadlines, window, window_name), path, dpi=dpi, fmt=fmt)
 
@@ -571,7 +594,7 @@ def histogram_figure(
     deadline drawn in (and w_sch, w_rta on the window's)."""
     from matplotlib.figure import Figure
 
-    from rtsim.plots.histogram import response_histogram
+    from rtsim.plots.histogram import response_histogram  # lazy: CLI start-up (matplotlib)
 
     names = list(res.tasks)
     fig = Figure(figsize=(7, 3 * len(names)), layout="constrained")

@@ -14,7 +14,19 @@ import sys
 from dataclasses import replace
 from typing import Any
 
+from rtsim.cli._set import add_set_option, set_overrides
+from rtsim.cli.analyze import json_safe
+from rtsim.cli.common import (
+    add_figure_options,
+    add_json,
+    add_quiet,
+    figure_format,
+    progress_enabled,
+)
+from rtsim.cli.plausible import check_hough_radius
 from rtsim.errors import InputError
+from rtsim.io.atomic import dumps
+from rtsim.io.ranges import parse_int_values, parse_values
 
 __all__ = ["register", "run"]
 
@@ -92,7 +104,6 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--force", action="store_true", help="run even when a value looks like a mistake of unit"
     )
-    from rtsim.cli._set import add_set_option
 
     add_set_option(
         p,
@@ -100,7 +111,6 @@ def register(sub: Any) -> None:
         "tasks.command.wcet=12) or else of the scenario (e.g. leader.speed=20): a dotted "
         "path, the value read as TOML; repeatable; n and r_H: --followers, --hough-radius",
     )
-    from rtsim.cli.common import add_figure_options, add_json, add_quiet
 
     add_figure_options(p, default_dpi=300)  # rtsim.validate.runner.DPI (not imported: slow)
     add_json(p, "print summary.json (and the failures) as one JSON object")
@@ -111,8 +121,7 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the validation; exit status as in the module docstring."""
-    from rtsim.io.ranges import parse_int_values, parse_values
-    from rtsim.validate import FULL, QUICK, run_validation
+    from rtsim.validate import FULL, QUICK, run_validation  # lazy: CLI start-up (pandas)
 
     cfg = QUICK if args.quick else FULL
     changes: dict[str, Any] = {}
@@ -120,7 +129,6 @@ def run(args: argparse.Namespace) -> int:
         changes["n"] = tuple(parse_int_values(args.followers, "--followers"))
     if args.hough_radius is not None:
         changes["r_H"] = tuple(float(x) for x in parse_values(args.hough_radius, "--hough-radius"))
-        from rtsim.cli.plausible import check_hough_radius
 
         check_hough_radius(args, changes["r_H"])
     if args.windows is not None:
@@ -139,7 +147,6 @@ def run(args: argparse.Namespace) -> int:
         changes["taskset_path"] = args.taskset
     if args.scenario is not None:
         changes["scenario_path"] = args.scenario
-    from rtsim.cli._set import set_overrides
 
     overrides = set_overrides(args)
     if overrides:
@@ -149,8 +156,7 @@ def run(args: argparse.Namespace) -> int:
     if changes:
         cfg = replace(cfg, **changes)
     out = args.out
-    from rtsim.cli.common import figure_format, progress_enabled
-    from rtsim.validate.runner import DPI
+    from rtsim.validate.runner import DPI  # lazy: CLI start-up (pandas)
 
     outcome = run_validation(
         out,
@@ -164,9 +170,6 @@ def run(args: argparse.Namespace) -> int:
         dpi=args.dpi or DPI,
     )
     if args.json:
-        from rtsim.cli.analyze import json_safe
-        from rtsim.io.atomic import dumps
-
         print(
             dumps(
                 json_safe(

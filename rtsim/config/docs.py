@@ -64,12 +64,14 @@ def ranges() -> dict[str, Range]:
 
 def _policy_options() -> dict[str, Range]:
     """The registered policies' own ``[adjust]`` keys (their options models,
-    `rtsim.control.policy.PolicyOptions`): one row per key and range, naming the policies."""
+    `rtsim.control.policy.PolicyOptions`): one row per key and range, naming the policies
+    (a key without a range, such as plan's bool ``contact``, has no row)."""
     found: dict[tuple[str, Range], list[str]] = {}
     for name, cls in ADJUSTMENT_POLICIES.items():
         model = getattr(cls, "options", None)
         for f in fields(model) if model is not None else ():
-            found.setdefault((f.name, f.metadata["range"]), []).append(name)
+            if "range" in f.metadata:
+                found.setdefault((f.name, f.metadata["range"]), []).append(name)
     out: dict[str, Range] = {}
     for (key, r), names in found.items():
         many = sum(1 for k, _ in found if k == key) > 1

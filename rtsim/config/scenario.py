@@ -5,7 +5,7 @@ each built once.
 
 Angles are radians, or degrees when the key is written with ``_deg`` (``heading_deg``):
 both spellings are fields of the model, with the same range. See
-[`rtsim.io.scenario`][rtsim.io.scenario]
+[`rtsim.config.scenario`][rtsim.config.scenario]
 for the file format.
 """
 
@@ -30,7 +30,8 @@ from rtsim.analysis.kinematics import (
 )
 from rtsim.config.errors import raise_errors
 from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
-from rtsim.config.load import load_taskset, parse_toml, validate, with_overrides
+from rtsim.config.load import parse_toml, validate, with_overrides
+from rtsim.config.taskset import load_taskset
 from rtsim.control.policy import DECIDE, AdjustOptions, make_policy
 from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError

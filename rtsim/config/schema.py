@@ -13,6 +13,8 @@ import math
 from importlib import resources
 from typing import Any
 
+from rtsim.config.taskset import TaskSetFile
+
 __all__ = ["KINDS", "json_schema", "schema_text", "shipped_schema"]
 
 #: The file kinds that have a schema.
@@ -23,15 +25,13 @@ _TITLES = {"taskset": "rtsim task set", "scenario": "rtsim scenario", "sweep": "
 
 def _model(kind: str) -> Any:
     if kind == "taskset":
-        from rtsim.config.taskset import TaskSetFile
-
         return TaskSetFile
     if kind == "scenario":
-        from rtsim.config.scenario import ScenarioFile
+        from rtsim.config.scenario import ScenarioFile  # lazy: CLI start-up (numpy)
 
         return ScenarioFile
     if kind == "sweep":
-        from rtsim.config.sweep import SweepFile
+        from rtsim.config.sweep import SweepFile  # lazy: CLI start-up (~4 ms)
 
         return SweepFile
     raise ValueError(f"no schema for {kind!r}: one of {', '.join(KINDS)}")

@@ -1,21 +1,57 @@
-"""Task-set files: the typed model of the file, and the [`TaskSet`][rtsim.model.taskset.TaskSet]
-built from it once it is valid.
+"""Task-set files: the file format, its typed model, the [`TaskSet`][rtsim.model.taskset.TaskSet]
+built from it once it is valid, and the loader (`load_taskset`, `parse_taskset`) and the
+reverse (`taskset_to_dict`).
 
 The file's shape (keys, types, ranges, units) is the model below; the rules that involve
 several keys (every task gives a priority or none does, names are unique, ``"2w"`` needs a
 ``[window]``, ``k = "geometric"`` needs ``rho_min``) are checked when the task set is built,
-also all at once. See [`rtsim.io.taskset`][rtsim.io.taskset] for the file format.
+also all at once. The generic shape any user can write::
+
+    name = "example"            # optional
+    overhead = 0                # optional: context-switch cost in ms (analysis and simulation)
+    [scheduler]                 # optional
+    policy = "fp"               # the CPU's scheduling policy: "fp" (default), "edf", or a
+                                # registered name / "package.module:Name" (sim.policy)
+    [[tasks]]
+    name = "tau1"
+    wcet = 5                    # ms
+    period = 40                 # ms, or a multiple of the window: "2w", "w", "1.5w"
+    deadline = 40               # optional, defaults to the period
+    priority = 1                # optional; smaller = higher. Every task or none.
+    offset = 0                  # optional, ms
+    jitter = 0                  # optional, ms: release up to J after the arrival
+    (docs/model/beyond.md)
+    bcet = 3                    # optional, for random execution-time models
+    overload = "finish-late"    # optional: "finish-late", "abort" or "skip"
+
+plus, for the paper's processing-window sets, a ``[window]`` table (the chain T_w: see
+[`rtsim.model.window.WindowSpec`][rtsim.model.window.WindowSpec]; ``k = "geometric"`` with
+``rho_min`` in cm takes the
+sound count of 0.5° beams that can hit a follower at distance ≥ rho_min, docs/model/lower-bound.md)
+and an
+``[assumptions]`` table mapping each value the paper does not give to the reason for the value
+chosen. With no priorities, tasks are ordered deadline-monotonically (equal deadlines in file
+order) and numbered 1..N. With a ``[window]``, every task and the window must give a priority:
+T_hp and T_lp follow from them.
+
+Every problem raises `TaskSetError`, one line per problem and all of
+them at once, ``<file>: task '<name>': <field>: <problem>`` (``[[tasks]] #3`` when the name
+is missing). Deadlines above the period are accepted: `rtsim.analysis.rta` analyses them with the
+level-i busy period (Lehoczky 1990).
 """
 
 from __future__ import annotations
 
+import os
 import re
 from collections.abc import Mapping
+from importlib import resources
 from typing import Annotated, Any
 
 from pydantic import Field
 
-from rtsim.config.errors import Loc
+from rtsim.analysis.window import k_geometric
+from rtsim.config.errors import Loc, raise_errors
 from rtsim.config.fields import (
     Leaf,
     Table,
@@ -27,11 +63,15 @@ from rtsim.config.fields import (
     ranged,
     text,
 )
+from rtsim.config.load import parse_toml, validate, with_overrides
 from rtsim.errors import TaskSetError
-from rtsim.io.limits import WINDOW_N, WINDOW_R_H, Range
+from rtsim.examples import packaged_text, shipped_hint
+from rtsim.io.limits import WINDOW_N, WINDOW_R_H, Range, read_input
 from rtsim.model.task import OVERLOAD_POLICIES, RESOURCE_PROTOCOLS, CriticalSection, Task
 from rtsim.model.taskset import TaskSet
 from rtsim.model.window import WindowSpec
+from rtsim.registry import reading_input
+from rtsim.sim.policy import resolve_scheduler
 
 __all__ = [
     "TaskSetFile",
@@ -40,7 +80,16 @@ __all__ = [
     "SchedulerTable",
     "build_taskset",
     "taskset_where",
+    "load_taskset",
+    "parse_taskset",
+    "taskset_bytes",
+    "taskset_to_dict",
+    "as_taskset",
+    "PACKAGED_TASKSET",
 ]
+
+#: The paper's Table 1, shipped inside the package (also ``tasksets/barrel_robots.toml``).
+PACKAGED_TASKSET = "barrel_robots.toml"
 
 _MS_MAX = 1e9  # ms: 11.6 days, beyond any run rtsim is made for
 _W_MULTIPLE = re.compile(r"^\s*(\d+(?:\.\d*)?|\.\d+)?\s*w\s*$")
@@ -283,8 +332,6 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
         window, errs = _window(model.window)
         errors += errs
     if model.scheduler is not None:
-        from rtsim.sim.policy import resolve_scheduler
-
         try:
             sliced = resolve_scheduler(
                 model.scheduler.policy, where=f"{source}: [scheduler]: policy"
@@ -358,8 +405,6 @@ def build_taskset(model: TaskSetFile, source: str) -> tuple[TaskSet | None, list
             msg = str(exc)
             errors.append(msg if msg.startswith(label) else f"{label}: {msg}")
     if model.scheduler is not None and model.scheduler.resources == "pcp":
-        from rtsim.sim.policy import resolve_scheduler
-
         try:
             levels = resolve_scheduler(model.scheduler.policy).resource_levels
         except Exception:  # an unknown policy: reported above
@@ -394,8 +439,6 @@ def _window(w: WindowTable) -> tuple[WindowSpec | None, list[str]]:
         "r_H": float(w.r_H),
     }
     if w.k == "geometric":
-        from rtsim.analysis.window import k_geometric
-
         if w.rho_min is None:
             return None, [
                 f'{where}: rho_min: missing (required with k = "geometric": the '
@@ -470,3 +513,116 @@ def _assign_priorities(
         else:
             seen[prio] = label
     return errors
+
+
+# -------------------------------------------------------------------------- loading
+def taskset_bytes(path: str | os.PathLike[str] | None) -> tuple[bytes, str]:
+    """The bytes of a task-set file and the name errors give it (``None``: the packaged
+    paper set; a shipped example by name, ``example``)."""
+    if path is None:
+        res = resources.files("rtsim") / "data" / PACKAGED_TASKSET
+        return res.read_bytes(), str(res)
+
+    shipped = packaged_text(path, "taskset")
+    if shipped is not None:
+        return shipped.encode("utf-8"), f"{os.fspath(path)}.toml (packaged)"
+    source = os.fspath(path)
+
+    try:
+        return read_input(source, "task-set"), source
+    except FileNotFoundError:
+        raise TaskSetError(f"{source}: no such file{shipped_hint(source, 'taskset')}") from None
+    except IsADirectoryError:
+        raise TaskSetError(f"{source}: is a directory, not a task-set file") from None
+    except OSError as exc:
+        raise TaskSetError(f"{source}: cannot read: {exc.strerror or exc}") from None
+
+
+def parse_taskset(data: Mapping[str, Any], source: str, *, allow_code: bool | None = None) -> Any:
+    """Validate a task-set table (as `tomllib.loads` returns it) and build the TaskSet;
+    ``source`` names the file in error messages and is kept as ``TaskSet.source``. A
+    ``[scheduler] policy`` of the form ``module:Name`` is code: it loads only with
+    ``allow_code=True`` or the user's opt-in (`rtsim.registry.reading_input`)."""
+    with reading_input(allow_code):
+        model = validate(
+            TaskSetFile, data, source, TaskSetError, taskset_where(data), taskset_special
+        )
+        ts, errors = build_taskset(model, source)
+    raise_errors([f"{source}: {e}" for e in errors], TaskSetError)
+    assert ts is not None
+    return ts
+
+
+def load_taskset(
+    path: str | os.PathLike[str] | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    allow_code: bool | None = None,
+) -> Any:
+    """Read a TOML task-set file (``None``: the packaged paper set, Table 1); ``overrides``:
+    dotted paths and their values (`rtsim.config.dotted`); ``allow_code``: as
+    `parse_taskset`."""
+    raw, source = taskset_bytes(path)
+    data = parse_toml(raw, source, TaskSetError)
+    return parse_taskset(with_overrides(data, overrides, source), source, allow_code=allow_code)
+
+
+def as_taskset(ts: object, function: str) -> TaskSet:
+    """``ts`` as a [`TaskSet`][rtsim.model.taskset.TaskSet]: itself, or the task-set file a
+    path names (str or ``os.PathLike``, read with `load_taskset`). Anything else raises
+    `TaskSetError` naming ``function`` (never an AttributeError)."""
+    if isinstance(ts, TaskSet):
+        return ts
+    if isinstance(ts, str | os.PathLike):
+        return load_taskset(ts)
+    raise TaskSetError(
+        f"{function}: expected a TaskSet or the path of a task-set file, got {type(ts).__name__}"
+    )
+
+
+def _multiple(x: float) -> str:
+    return f"{int(x)}w" if float(x).is_integer() else f"{x!r}w"
+
+
+def taskset_to_dict(ts: TaskSet) -> dict[str, Any]:
+    """A JSON-able dict in the file's shape; `parse_taskset` turns it back into ``ts``.
+
+    Priorities are always written out. A task's own ``segments`` are not part of the file
+    format (the window chain is, as ``window``), so a task set made by
+    `TaskSet.at_window` comes back with the chain as a plain task of cost g.
+    """
+    tasks: list[dict[str, Any]] = []
+    for t in ts.tasks:
+        entry: dict[str, Any] = {"name": t.name, "wcet": t.wcet}
+        assert t.deadline is not None
+        if t.per_window:
+            entry["period"], entry["deadline"] = _multiple(t.period), _multiple(t.deadline)
+        else:
+            entry["period"], entry["deadline"] = t.period, t.deadline
+        entry["priority"] = t.priority
+        entry["offset"] = t.offset
+        if t.jitter:
+            entry["jitter"] = t.jitter
+        if t.bcet is not None:
+            entry["bcet"] = t.bcet
+        entry["overload"] = t.overload
+        if t.critical_sections:
+            entry["critical_sections"] = [
+                {"resource": c.resource, "start": c.start, "length": c.length}
+                for c in t.critical_sections
+            ]
+        tasks.append(entry)
+    out: dict[str, Any] = {"name": ts.name, "tasks": tasks}
+    if ts.overhead:
+        out["overhead"] = ts.overhead
+    if ts.scheduler != "fp" or ts.resources is not None:
+        out["scheduler"] = {"policy": ts.scheduler}
+        if ts.resources is not None:
+            out["scheduler"]["resources"] = ts.resources
+        if ts.quantum is not None:
+            out["scheduler"]["quantum"] = ts.quantum
+    if ts.window is not None:
+        out["window"] = ts.window.as_dict()
+    if ts.assumptions:
+        out["assumptions"] = dict(ts.assumptions)
+    return out

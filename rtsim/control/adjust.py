@@ -424,22 +424,17 @@ def largest(ok: Callable[[float], bool], grid: Sequence[float]) -> float | None:
     return None
 
 
-def adjust_core(
-    followers: Sequence[FollowerEstimate],
+def _checked(
     v_ld: float,
     w_sch: float,
-    thresholds: Thresholds,
     omega_l: float,
     kappa: float,
     cap: float | None,
     floor_frac: float,
-    model: str | Predictor,
     methods: Sequence[str],
     scan_points: int,
-    v_now: float | None,
-    rollout: Any = None,
-) -> Decision:
-    """`adjust` as a [`Decision`][rtsim.control.adjust.Decision] (validation included)."""
+) -> tuple[float, float, float, float, float]:
+    """`adjust_core`'s arguments checked: (v_ld, w_sch, omega_l, kappa, cap)."""
     where = "adjust"
     v_ld = check_number(where, "v_ld", v_ld)
     w_sch = check_number(where, "w_sch", w_sch)
@@ -461,6 +456,82 @@ def adjust_core(
         )
     if scan_points < 1:
         raise InputError(f"{where}: scan_points must be at least 1, got {scan_points!r}")
+    return v_ld, w_sch, omega_l, kappa, cap
+
+
+def _closed_form(
+    followers: Sequence[FollowerEstimate],
+    rows: Sequence[Sequence[float]],
+    v_ld: float,
+    w_sch: float,
+    thresholds: Thresholds,
+    omega_l: float,
+) -> float:
+    """The ``closed-form`` candidate: the least of the paper's speed for each bound a follower
+    misses (NaN when one has none)."""
+    v = math.inf
+    for f, fm in zip(followers, rows, strict=True):
+        for j, k in enumerate(BOUND_KINDS):
+            if fm[j] < w_sch:
+                hi = paper_speed(
+                    k,
+                    rho=f.rho,
+                    beta=f.beta,
+                    theta=f.theta,
+                    v_f=f.v_f,
+                    omega_l=omega_l,
+                    rho_d=f.rho_d,
+                    thr=thresholds,
+                    w=w_sch,
+                )
+                v = -math.inf if hi is None else min(v, hi)
+    return math.nan if v == -math.inf else min(v, v_ld)
+
+
+def _coupled(
+    followers: Sequence[FollowerEstimate],
+    v_ld: float,
+    w_sch: float,
+    thresholds: Thresholds,
+    kappa: float,
+) -> float:
+    """The ``coupled`` candidate: the least coupled speed of every follower."""
+    v = math.inf
+    for f in followers:
+        s, theta_f = unit_formation(kappa, *f.slot)
+        for c in coupled_speeds(
+            rho=f.rho,
+            beta=f.beta,
+            s=s,
+            theta_f=theta_f,
+            kappa=kappa,
+            rho_d=f.rho_d,
+            thr=thresholds,
+            w=w_sch,
+        ):
+            v = min(v, c)
+    return min(v, v_ld)
+
+
+def adjust_core(
+    followers: Sequence[FollowerEstimate],
+    v_ld: float,
+    w_sch: float,
+    thresholds: Thresholds,
+    omega_l: float,
+    kappa: float,
+    cap: float | None,
+    floor_frac: float,
+    model: str | Predictor,
+    methods: Sequence[str],
+    scan_points: int,
+    v_now: float | None,
+    rollout: Any = None,
+) -> Decision:
+    """`adjust` as a [`Decision`][rtsim.control.adjust.Decision] (validation included)."""
+    v_ld, w_sch, omega_l, kappa, cap = _checked(
+        v_ld, w_sch, omega_l, kappa, cap, floor_frac, methods, scan_points
+    )
 
     # the formation model's predictor (which cannot fail) is only made when needed
     predict = (
@@ -517,39 +588,9 @@ def adjust_core(
 
     candidates: dict[str, float] = {k: math.nan for k in methods}
     if "closed-form" in methods:
-        v = math.inf
-        for f, fm in zip(followers, rows, strict=True):
-            for j, k in enumerate(BOUND_KINDS):
-                if fm[j] < w_sch:
-                    hi = paper_speed(
-                        k,
-                        rho=f.rho,
-                        beta=f.beta,
-                        theta=f.theta,
-                        v_f=f.v_f,
-                        omega_l=omega_l,
-                        rho_d=f.rho_d,
-                        thr=thresholds,
-                        w=w_sch,
-                    )
-                    v = -math.inf if hi is None else min(v, hi)
-        candidates["closed-form"] = math.nan if v == -math.inf else min(v, v_ld)
+        candidates["closed-form"] = _closed_form(followers, rows, v_ld, w_sch, thresholds, omega_l)
     if "coupled" in methods:
-        v = math.inf
-        for f in followers:
-            s, theta_f = unit_formation(kappa, *f.slot)
-            for c in coupled_speeds(
-                rho=f.rho,
-                beta=f.beta,
-                s=s,
-                theta_f=theta_f,
-                kappa=kappa,
-                rho_d=f.rho_d,
-                thr=thresholds,
-                w=w_sch,
-            ):
-                v = min(v, c)
-        candidates["coupled"] = min(v, v_ld)
+        candidates["coupled"] = _coupled(followers, v_ld, w_sch, thresholds, kappa)
 
     passing = [
         (candidates[k], k)

@@ -23,6 +23,7 @@ import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.world.jit import build, kernel
+from rtsim.world.kernels import announce
 
 __all__ = ["PaperSearch"]
 
@@ -116,8 +117,6 @@ class PaperSearch(str):
         return super().__new__(cls, "paper")
 
     def __init__(self) -> None:
-        from rtsim.world.kernels import announce
-
         announce([_largest_paper], PAPER_COMPILE_S)
         self._kernel = build(_largest_paper)
         self.largest(  # compile, or load from the cache, now rather than in a window

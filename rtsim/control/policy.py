@@ -821,10 +821,17 @@ class SafePolicy(LookaheadPolicy):
 
 @dataclass(frozen=True)
 class PlanOptions(PolicyOptions):
-    """The options of the policy ``plan``."""
+    """The options of the policy ``plan``; ``contact``: keep the contact bound (a bool, no
+    range: `PlanPolicy`)."""
 
     windows: int = option(2, Range("windows", 1, 20, "windows", _HORIZON, integer=True))
     margin: float = option(0.0, _MARGIN)
+    contact: bool = True
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not isinstance(self.contact, bool):
+            raise InputError(f"contact: must be true or false, got {self.contact!r}")
 
 
 @register_adjustment_policy("plan")
@@ -850,8 +857,19 @@ class PlanPolicy:
     The window's bound, ``msb_min`` and the rows are those of the first window (the window
     the decision governs). A constant target over the horizon is a conservative plan: the
     leader slows for the worst window ahead now, and speeds up only when the whole horizon
-    allows. Own keys: ``windows`` (horizon, integer 1–20, default 2) and ``margin``
-    (μ in [0, 1), default 0).
+    allows.
+
+    **The contact bound** (own key ``contact``, default true; `rtsim.world.contact`): a fifth
+    bound beside the four, MSB_contact = w·d_i / d_c per follower and window, d_i the
+    follower's predicted closest approach to any other robot (leader included) at the
+    window's two scans and d_c = 2·r_F + clearance (`RolloutState.contact_cm`). It joins the
+    four wherever the plan compares a rollout's bounds with a window: m(V) over the horizon,
+    the check of the longer first window and the feasibility at the chosen speed; it does not
+    set the first window's length (m₁, the rows, the binding bound and ``msb_min`` are the
+    four's). Off: the plan of before it.
+
+    Own keys: ``windows`` (horizon, integer 1–20, default 2), ``margin`` (μ in [0, 1), default
+    0) and ``contact`` (bool, default true).
     """
 
     options: ClassVar[type[PolicyOptions]] = PlanOptions
@@ -862,6 +880,7 @@ class PlanPolicy:
         o = PlanOptions(*args, **kw)
         self.windows = int(o.windows)
         self.margin = o.margin
+        self.contact = o.contact
 
     def decide(self, ctx: PolicyInput) -> Decision:
         cap = _check(ctx, "plan")
@@ -874,17 +893,20 @@ class PlanPolicy:
         keep = 1.0 - self.margin
         lengths = (ctx.w_sch,) * self.windows
         need = ctx.w_sch * (1.0 - TOL)
+        # the contact bound's d_c (cm; 0: off)
+        d_c = float(getattr(getattr(ro, "state", None), "contact_cm", 0.0)) if self.contact else 0.0
 
         def worst(v: float) -> float:
             per = ro.changes(v, lengths)
-            return min(min_bound_rows(ro.bounds(c, ctx.w_sch))[0] for c in per)
+            m = min(min_bound_rows(ro.bounds(c, ctx.w_sch))[0] for c in per)
+            return ro.contact(per, ctx.w_sch, d_c, m) if d_c > 0.0 else m  # type: ignore[no-any-return]
 
         v_floor = ctx.floor_frac * ctx.v_ld
         plan = getattr(ro, "plan", None)  # the rollout's compiled decision, if it has one
         hit = (
             None
             if plan is None
-            else plan(ctx.v_ld, keep, need, cap, v_floor, self.windows, ctx.w_sch)
+            else plan(ctx.v_ld, keep, need, cap, v_floor, self.windows, ctx.w_sch, d_c)
         )
         if hit is not None:
             w, v_l, method, found, feasible, rows, after = hit
@@ -902,6 +924,8 @@ class PlanPolicy:
             if w > ctx.w_sch:  # the longer first window, checked by its own rollout
                 r_w = ro.rows(ctx.v_ld, w)
                 m_w = min_bound_rows(r_w)[0]
+                if d_c > 0.0:
+                    m_w = ro.contact(ro.changes(ctx.v_ld, (w,)), w, d_c, m_w)
                 if keep * m_w < w:
                     w = max(ctx.w_sch, keep * m_w)
             return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})

@@ -26,7 +26,9 @@ follower's displacement in the leader frame, |Δρ|, the distance it drove, and
 
 the bound of Eqs 19–21 with the rate replaced by the window's average predicted rate — the
 same form as the ``_true`` columns of windows.csv, so MSB ≥ w exactly when the predicted
-change stays within its threshold.
+change stays within its threshold. Each follower's changes end with its closest approach to
+any other robot (leader included) at the two scans (cm; `rtsim.world.contact`), which the
+``plan`` policy's contact bound reads (`Rollout.closest`, `Rollout.contact`).
 
 **Timing.** The rollout starts at the decision (``t_now``). Sends still to come in the current
 window (a decision taken before the sends) are at ``pending`` times; each later window j
@@ -50,8 +52,10 @@ from typing import Any
 import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
+from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
 from rtsim.control.predict import min_bound_rows
 from rtsim.world.compiled import as_changes
+from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.leader import Leader
@@ -61,8 +65,9 @@ from rtsim.world.path import LeaderPath
 __all__ = ["Rollout", "RolloutState", "Changes"]
 
 #: Per follower, the four predicted changes of one window: (displacement in the leader frame
-#: cm, |Δρ| cm, distance driven cm, |Δβ| rad), in BOUND_KINDS order.
-Changes = tuple[float, float, float, float]
+#: cm, |Δρ| cm, distance driven cm, |Δβ| rad), in BOUND_KINDS order, then its closest
+#: approach to any other robot over the window (cm, `rtsim.world.contact`).
+Changes = tuple[float, float, float, float, float]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -83,7 +88,8 @@ class RolloutState:
     the scan that opens the window the decision governs; send_offsets: per follower, its send
     after a window's scan; thresholds, rho_d: the bounds' thresholds; w_sch: the window
     length of windows after the first; group: the class that integrates the followers (the
-    world's own, so that a compiled world rolls out compiled: the same numbers).
+    world's own, so that a compiled world rolls out compiled: the same numbers); contact_cm:
+    d_c = 2·r_F + clearance, the centre distance the contact bound keeps.
     """
 
     path: LeaderPath
@@ -107,6 +113,9 @@ class RolloutState:
     w_sch: float
     group: type[FollowerGroup] = FollowerGroup
     beta_d: tuple[float, ...] = ()
+    #: d_c = 2·r_F + clearance (cm), the contact bound's distance (`rtsim.world.contact`;
+    #: 0: none known, a policy cannot keep it)
+    contact_cm: float = 0.0
     #: per follower, the turn rate it is expected to have: the state of the motion model
     #: ``params.motion_model`` (`rtsim.world.motionmodels`), by which the followers and the
     #: leader move (empty: the held commands' turn rates, as the unicycle turns at once)
@@ -164,12 +173,27 @@ class Rollout:
         for c, rho_d in zip(changes, self.state.rho_d, strict=True):
             lims = (thr.r_H, thr.T_rho * rho_d, thr.T_eps * rho_d, thr.T_beta)
             row = tuple(
-                math.inf if ci <= 0.0 else lim * w / ci for ci, lim in zip(c, lims, strict=True)
+                math.inf if ci <= 0.0 else lim * w / ci
+                for lim, ci in zip(lims, c)  # noqa: B905 (the four; c[4] is the contact's)
             )
             if thr.localization == "predicted":  # the window follows the predicted motion:
                 row = (thr.predicted_ms, *row[1:])  # what is left is the residual's bound
             out.append(row)
         return out  # type: ignore[return-value]
+
+    def closest(self, v: float, w: float | None = None) -> list[float]:
+        """Every follower's predicted closest approach to any other robot (cm) in the window
+        of length ``w`` (default w_sch) that the decision governs, with the leader's target
+        ``v``."""
+        w = self.state.w_sch if w is None else float(w)
+        return [c[4] for c in self.changes(v, (w,))[0]]
+
+    @staticmethod
+    def contact(windows: Sequence[Sequence[Changes]], w: float, d_c: float, m: float) -> float:
+        """``m`` lowered to the smallest contact bound w·d / d_c of every follower in
+        ``windows`` (each window's changes; ``d_c`` 0: ``m`` unchanged): the plan's fifth
+        bound (`rtsim.world.contact.lowest_contact`, the compiled search's code)."""
+        return lowest_contact(windows, w, d_c, m)  # type: ignore[no-any-return]
 
     def search(
         self, v_ld: float, keep: float, need: float, v_floor: float, windows: int, w: float
@@ -183,10 +207,8 @@ class Rollout:
         `changes` of one of its speeds is that rollout)."""
         if self._compiled is None or v_ld != self.state.v_ld:
             return None
-        from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
-
         out, _, ran = self._compiled.decide(
-            True, keep, need, 0.0, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w
+            True, keep, need, 0.0, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, 0.0
         )
         self._remember(ran)
         return out[1], "numeric" if out[2] == 1.0 else "best", out[3]
@@ -200,19 +222,19 @@ class Rollout:
         v_floor: float,
         windows: int,
         w: float,
+        contact: float = 0.0,
     ) -> tuple[float, float, str, float, bool, list[Any], list[Any]] | None:
         """`PlanPolicy`'s decision (margin 1 − ``keep``, horizon
-        ``windows`` windows of ``w`` ms) in one compiled call: (w, V_L, method, the found
+        ``windows`` windows of ``w`` ms, the contact bound at d_c = ``contact`` cm, 0: off)
+        in one compiled call: (w, V_L, method, the found
         speed or NaN, feasible, the rows at V_Ld, the rows at V_L); None when this rollout
         is not compiled, or ``v_ld`` or ``w`` are not the state's (its V_Ld and w_sch,
         which `rows` uses). Its rollouts join the memo, as the Python policy's do."""
         st = self.state
         if self._compiled is None or v_ld != st.v_ld or w != st.w_sch:
             return None
-        from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
-
         out, rows, ran = self._compiled.decide(
-            False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w
+            False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact
         )
         self._remember(ran)
         w_out, v_l, method, found, feasible = out
@@ -222,6 +244,7 @@ class Rollout:
             after = self.rows(v_l)
             horizon = self.changes(v_l, (w,) * windows)
             worst = min(min_bound_rows(self.bounds(c, w))[0] for c in horizon)
+            worst = self.contact(horizon, w, contact, worst)
             feasible = 1.0 if keep * worst >= need else 0.0
         return (
             w_out,
@@ -339,8 +362,12 @@ class Rollout:
                     )
                 )
             samples.append(row)
+        near = []  # each follower's closest approach at each scan (rtsim.world.contact)
+        for a in samples:
+            xs, ys = [p[0] for p in a], [p[1] for p in a]
+            near.append([closest_to(xs, ys, i, 0.0, 0.0) for i in range(n)])
         out = []
-        for a, b in zip(samples, samples[1:], strict=False):
+        for j, (a, b) in enumerate(zip(samples, samples[1:], strict=False)):
             out.append(
                 [
                     (
@@ -348,8 +375,9 @@ class Rollout:
                         abs(q[2] - p[2]),
                         q[4] - p[4],
                         abs(math.remainder(q[3] - p[3], _TWO_PI)),
+                        closest_over(near[j][i], near[j + 1][i]),
                     )
-                    for p, q in zip(a, b, strict=True)
+                    for i, (p, q) in enumerate(zip(a, b, strict=True))
                 ]
             )
         return out

@@ -54,7 +54,7 @@ def check_scenario(
     scenario: Any, duration_s: float | None, where: str, *, force: bool = False
 ) -> None:
     """Refuse a coupled run of ``scenario`` (an
-    [`rtsim.io.scenario.Scenario`][rtsim.io.scenario.Scenario]) above the
+    [`rtsim.config.scenario.Scenario`][rtsim.config.scenario.Scenario]) above the
     work limits (`rtsim.io.work.check_coupled`: windows over the chain's processing time
     g, world steps × followers), its length from `run_length`."""
     cfg = scenario.world

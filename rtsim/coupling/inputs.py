@@ -10,10 +10,10 @@ from dataclasses import asdict, dataclass, field, is_dataclass
 from typing import Any
 
 from rtsim.config.scenario import AdjustConfig, fit_taskset, load_scenario, scenario_bytes
+from rtsim.config.taskset import taskset_to_dict
 from rtsim.control.policy import AdjustOptions
 from rtsim.errors import InputError
 from rtsim.io.atomic import inf_as_null
-from rtsim.io.taskset import taskset_to_dict
 from rtsim.model.taskset import TaskSet
 from rtsim.world.config import WorldConfig
 
@@ -55,8 +55,8 @@ def scenario_inputs(
     resolved values): a caller that runs the same scenario many times (a sweep's worker)
     can keep it and pass it back. Accept [`ScenarioInputs`][rtsim.coupling.inputs.ScenarioInputs], a
     path (loaded with
-    [`rtsim.io.scenario.load_scenario`][rtsim.io.scenario.load_scenario]), or a
-    [`rtsim.io.scenario.Scenario`][rtsim.io.scenario.Scenario].
+    [`rtsim.config.scenario.load_scenario`][rtsim.config.scenario.load_scenario]), or a
+    [`rtsim.config.scenario.Scenario`][rtsim.config.scenario.Scenario].
 
     A Scenario's ``[adjust]`` becomes the run's `AdjustOptions` (`adjust_of`): ``cap`` (ms;
     ``inf`` → the decision's default, 10·w_sch) and ``floor`` (cm/s) → ``floor_frac`` =

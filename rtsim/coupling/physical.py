@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from rtsim.world.contact import closest_to, contact_distance
 from rtsim.world.ftl import TraceFollower
 
 __all__ = ["PhysicalLog"]
@@ -57,10 +58,13 @@ class PhysicalLog:
         self.min_dist = math.inf
         self.collisions = 0
 
-    def add(self, leader: tuple[float, float, float], xs: list[float], ys: list[float]) -> None:
-        """One scan: the leader's pose and the followers' true positions (cm)."""
+    def add(
+        self, leader: tuple[float, float, float], xs: list[float], ys: list[float]
+    ) -> tuple[float, ...]:
+        """One scan: the leader's pose and the followers' true positions (cm). Returns each
+        follower's centre distance to the nearest other robot, leader included (cm,
+        `rtsim.world.contact.closest_to`: the planner's contact bound measures the same)."""
         xl, yl, _ = leader
-        pts = [(xl, yl), *zip(xs, ys, strict=True)]
         law = self._law
         for k in range(self.n):
             x, y = xs[k], ys[k]
@@ -69,13 +73,12 @@ class PhysicalLog:
                 s = law.project(k, x, y, 0.0 if self._guess is None else self._guess[k])
                 px, py, _ = law.point(k, s)
                 self.cross[k].append(math.hypot(x - px, y - py))
-        close = math.inf
-        for a in range(len(pts)):
-            for b in range(a + 1, len(pts)):
-                close = min(close, math.hypot(pts[a][0] - pts[b][0], pts[a][1] - pts[b][1]))
+        near = tuple(closest_to(xs, ys, k, xl, yl) for k in range(self.n))
+        close = min(near, default=math.inf)  # (every pair has a follower in it)
         self.min_dist = min(self.min_dist, close)
         self.collisions += close < 2.0 * self.radius
-        self.clearance_violations += close < 2.0 * self.radius + self.clearance
+        self.clearance_violations += close < contact_distance(self.radius, self.clearance)
+        return near
 
     @staticmethod
     def _stats(values: list[float]) -> dict[str, float] | None:

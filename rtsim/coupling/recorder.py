@@ -6,8 +6,8 @@ the truth at the scan (``f{i}_x`` … ``f{i}_v``), the leader's estimate that th
 (the same names with ``_est``), every bound as the decision's belief and as the truth
 (``f{i}_msb_{bound}_pred``, ``f{i}_msb_{bound}_true``, `true_bounds`), and the
 violations observed on the truth between this window's scan and the next (``f{i}_viol_*``)
-with ``f{i}_lost``. No empty cells: an unbounded value is ``inf``; booleans are
-``True``/``False``.
+with ``f{i}_lost``, and last the contact columns (`CONTACT_FIELDS`). No empty cells: an
+unbounded value is ``inf``; booleans are ``True``/``False``.
 
 During the run the coupling fills one [`WindowRecord`][rtsim.coupling.recorder.WindowRecord] per
 window (plain Python and small
@@ -37,6 +37,7 @@ from rtsim.world.localization import LOST_CAUSES
 __all__ = [
     "BOUND_FIELDS",
     "CHANGE_KEYS",
+    "CONTACT_FIELDS",
     "CHUNK_WINDOWS",
     "WINDOW_COLUMNS",
     "FOLLOWER_FIELDS",
@@ -44,6 +45,7 @@ __all__ = [
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
+    "contact_columns",
     "records_columns",
     "records_frame",
     "SENSING_FIELDS",
@@ -100,6 +102,11 @@ LOCALIZATION_COLUMNS: tuple[str, ...] = (
 #: voted in its window (``hough``; the beams it returned with ``gaussian``), the accepted
 #: fix's distance from the truth (cm, inf: no fix), whether a neighbour's points made it.
 SENSING_FIELDS: tuple[str, ...] = ("points", "fix_error_cm", "neighbour")
+#: Per-follower contact columns, the last of windows.csv (`rtsim.world.contact`): the
+#: closest approach to any other robot (leader included, centres, cm) that the window's
+#: decision predicted (``_pred``) and that the truth showed at the window's scan and the
+#: next (``_true``), and whether the truth came closer than 2·r_F + clearance.
+CONTACT_FIELDS: tuple[str, ...] = ("contact_cm_pred", "contact_cm_true", "viol_contact")
 #: Per-follower state columns (truth; the estimate adds ``_est``), in order.
 FOLLOWER_FIELDS: tuple[str, ...] = ("x", "y", "heading", "rho", "beta", "theta", "v")
 #: Per-follower bound columns, in order: the decision's prediction, then the truth.
@@ -126,7 +133,13 @@ def window_columns(n: int) -> list[str]:
     cols.append("assumption_broken")  # the scan counted more than Eq 1's min(361, k·n)
     cols += list(LOCALIZATION_COLUMNS)
     cols += sensing_columns(n)
+    cols += contact_columns(n)
     return cols
+
+
+def contact_columns(n: int) -> list[str]:
+    """The per-follower contact columns of windows.csv (`CONTACT_FIELDS`), in order."""
+    return [f"f{i}_{f}" for i in range(1, n + 1) for f in CONTACT_FIELDS]
 
 
 def sensing_columns(n: int) -> list[str]:
@@ -203,6 +216,12 @@ class WindowRecord:
     neighbour: tuple[bool, ...] = ()
     radio_ms: float = math.nan  # (set at the release: delta_t, or the drawn round trip)
     radio_losses: int = 0
+    # contact (CONTACT_FIELDS), per follower: the truth's closest approach at this window's
+    # scan, then (at the next scan) over both; the decision's prediction; the breaks
+    near: tuple[float, ...] = ()
+    near_true: tuple[float, ...] = ()
+    near_pred: tuple[float, ...] = ()
+    viol_contact: tuple[bool, ...] = ()
 
     @property
     def complete(self) -> bool:
@@ -366,4 +385,13 @@ def records_columns(
         data[f"f{i + 1}_points"] = voted[:, i]
         data[f"f{i + 1}_fix_error_cm"] = err[:, i]
         data[f"f{i + 1}_neighbour"] = nb_[:, i]
+    # (a record made by hand has no contact: inf, no break)
+    inf = (math.inf,) * n
+    near_p = np.array([r.near_pred or inf for r in recs], dtype=float).reshape(m, n)
+    near_t = np.array([r.near_true or inf for r in recs], dtype=float).reshape(m, n)
+    broke = np.array([r.viol_contact or (False,) * n for r in recs], dtype=bool).reshape(m, n)
+    for i in range(n):
+        data[f"f{i + 1}_contact_cm_pred"] = near_p[:, i]
+        data[f"f{i + 1}_contact_cm_true"] = near_t[:, i]
+        data[f"f{i + 1}_viol_contact"] = broke[:, i]
     return {c: data[c] for c in cols}

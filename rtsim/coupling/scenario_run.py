@@ -105,6 +105,7 @@ from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.progress import TICKS, start_ticker
 from rtsim.sim.run import build_cpu
+from rtsim.world.contact import closest_to, contact_distance
 from rtsim.world.localization import hough_time, search_time
 from rtsim.world.world import World
 
@@ -180,6 +181,9 @@ class _Decision(NamedTuple):
     fols: tuple[Any, ...] = ()
     kw: Mapping[str, Any] = {}
     known: tuple[tuple[float, Any], ...] = ()
+    # each follower's closest approach among the estimates it decided on (the contact
+    # columns' prediction when the decision has no rollout)
+    near: tuple[float, ...] = ()
 
 
 class _Coupling:
@@ -234,6 +238,7 @@ class _Coupling:
         self._take_policy(adj)
         self.n = cfg.n
         self.rho_d = [float(r) for r in cfg.formation.rho_d]
+        self._contact_cm = contact_distance(cfg.follower.radius, cfg.formation.clearance)
         self.phys = PhysicalLog(
             self.n,
             self.rho_d,
@@ -461,6 +466,7 @@ class _Coupling:
                 self.w_sch,
                 type(world.followers),
                 tuple(self.beta_d),
+                self._contact_cm,
                 turns=world.expected_turn_rates(now),
             )
         )
@@ -509,6 +515,9 @@ class _Coupling:
         v_l = max(adj.v_leader, self.v_floor)
         if self._rollout:  # the _pred columns evaluate the same rollout
             kw = {**kw, "rollout": extra["rollout"]}
+        xs = [e[0][0] for e in estimates]
+        ys = [e[0][1] for e in estimates]
+        near = tuple(closest_to(xs, ys, k, lp[0], lp[1]) for k in range(self.n))
         return _Decision(
             adj.w,
             v_l,
@@ -520,6 +529,7 @@ class _Coupling:
             tuple(fols),
             kw,
             ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
+            near,
         )
 
     def _pose_sd(self) -> tuple[tuple[float, float], ...]:
@@ -628,13 +638,14 @@ class _Coupling:
         rec.leader = scan.leader_pose
         rec.truth = self._truth(scan.leader_pose)
         fol = world.followers  # (the scan advanced every follower to now)
-        self.phys.add(scan.leader_pose, fol.x, fol.y)
-        self._close(scan)
+        rec.near = self.phys.add(scan.leader_pose, fol.x, fol.y)
+        self._close(scan, rec.near)
         self._last_scanned = rec
         self._v_max = self._v_actual()
 
-    def _close(self, scan: Any) -> None:
-        """Close the previous window's observation interval with ``scan``'s violations."""
+    def _close(self, scan: Any, near: tuple[float, ...] = ()) -> None:
+        """Close the previous window's observation interval with ``scan``'s violations (and
+        ``near``, each follower's closest approach at it)."""
         last = self._last_scanned
         if last is None:
             return
@@ -643,7 +654,16 @@ class _Coupling:
         # the bounds the window's decision predicts at the highest speed the leader had in
         # the interval the changes span (the world has advanced to the scan)
         last.v_leader_max = max(self._v_max, self._v_actual())
-        last.pred = self._predicted(self._decisions.pop(last.window), last.v_leader_max)
+        d = self._decisions.pop(last.window)
+        last.pred = self._predicted(d, last.v_leader_max)
+        # contact: the truth over the window's two scans against 2·r_F + clearance, and the
+        # decision's prediction (its rollout's at the same speed, else its estimates)
+        if near and last.near:
+            last.near_true = tuple(b if b < a else a for a, b in zip(last.near, near, strict=True))
+            d_c = self._contact_cm
+            last.viol_contact = tuple(x < d_c for x in last.near_true)
+        ro = d.kw.get("rollout")
+        last.near_pred = tuple(ro.closest(last.v_leader_max)) if ro is not None else d.near
 
     def violation_ratios(
         self, tolerance: float = VIOLATION_TOLERANCE
@@ -845,7 +865,9 @@ class _Coupling:
                 gc.unfreeze()
         last = self._last_scanned
         if last is not None and last.viol is None:  # close the last observation interval
-            self._close(self.world.scan(max(self.env.now, self.world.t_ms)))
+            scan = self.world.scan(max(self.env.now, self.world.t_ms))
+            fol, (xl, yl, _) = self.world.followers, scan.leader_pose
+            self._close(scan, tuple(closest_to(fol.x, fol.y, k, xl, yl) for k in range(self.n)))
 
 
 #: The keyword arguments `run_scenario` took under other names, and their names now.
@@ -892,7 +914,7 @@ def run_scenario(
     ----------
     scenario : str, path, Scenario or ScenarioInputs
         A scenario file, a shipped one by name (``"test2"``), a loaded
-        [`Scenario`][rtsim.io.scenario.Scenario], or
+        [`Scenario`][rtsim.config.scenario.Scenario], or
         [`ScenarioInputs`][rtsim.coupling.scenario_run.ScenarioInputs] prepared once.
     duration_s : float, optional
         Simulated seconds, exact. None: the scenario's ``duration``, else to the end of the

@@ -48,6 +48,7 @@ def summary_columns(n: int) -> list[str]:
         *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS),
         *LOCALIZATION_COLUMNS,
         *sensing_columns(n),
+        *(f"f{i}_viol_contact" for i in range(1, n + 1)),
     ]
 
 
@@ -152,7 +153,8 @@ class _Totals:
         self.w: list[np.ndarray] = []
         self.crit: list[np.ndarray] = []
         self.counts = {"missed": 0, "tracks_lost": 0, "assumption_broken": 0, "infeasible": 0}
-        self.violations = {k: 0 for k in BOUND_KINDS}
+        # the four bounds' breaks and the contact's (window-follower pairs)
+        self.violations = {k: 0 for k in (*BOUND_KINDS, "contact")}
         self.binding: dict[str, int] = {}
         self.methods: dict[str, int] = {}
         self.ratio: list[float] = []
@@ -181,9 +183,11 @@ class _Totals:
         crit = col("critical", bool)
         self.w.append(w)
         self.crit.append(crit)
-        for k in BOUND_KINDS:
+        for k in (*BOUND_KINDS, "contact"):
             self.violations[k] += sum(
-                int(col(f"f{i}_viol_{k}", bool).sum()) for i in range(1, self.n + 1)
+                int(col(f"f{i}_viol_{k}", bool).sum())
+                for i in range(1, self.n + 1)
+                if f"f{i}_viol_{k}" in df  # (a table from before the contact columns: 0)
             )
         for b in col("binding", object)[crit].tolist():
             kind = str(b).split(":")[0]

@@ -1,7 +1,7 @@
 """The windows table in long form: one row per window and follower (``followers.csv``).
 
 ``windows.csv`` is wide: every per-follower quantity is a column per follower (``f1_x`` …
-``f4_msb_bearing_true``, 141 columns at n = 4). `followers_frame` turns those into one
+``f4_viol_contact``, 169 columns at n = 4). `followers_frame` turns those into one
 row per (window, follower), so a per-follower question is a ``groupby`` rather than a melt:
 
 - ``window``, ``t`` (ms, the window's release), ``w`` (ms), ``follower`` (1..n);
@@ -12,6 +12,8 @@ row per (window, follower), so a per-follower question is a ``groupby`` rather t
 - per bound (localization, separation, path_diversion, bearing): ``msb_<bound>_pred`` (ms,
   what the decision predicted) and ``msb_<bound>_true`` (ms, what the world did),
   ``viol_<bound>`` (the violation ratio);
+- ``contact_cm_pred``, ``contact_cm_true`` (cm), ``viol_contact``: the closest approach to
+  any other robot, predicted and true, and whether it broke 2·r_F + clearance;
 - ``lost``: whether the follower's track was lost in that window.
 
 Column names are the wide table's with the ``f<k>_`` prefix removed (docs/outputs.md).

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from rtsim.config.scenario import Scenario
+from rtsim.world import kernels
 
 __all__ = ["warm_world"]
 
@@ -24,7 +25,6 @@ def warm_world(scenarios: Iterable[Scenario]) -> bool:
     predictor's compiles lazily where it is used."""
     if not any(sc.world.resolved_backend() == "compiled" for sc in scenarios):
         return False
-    from rtsim.world.kernels import warm_all
 
-    warm_all()
+    kernels.warm_all()
     return True

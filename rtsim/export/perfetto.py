@@ -44,7 +44,9 @@ from typing import Any
 
 import pandas as pd
 
-from rtsim.sim.records import JOB_COLUMNS, TRACE_COLUMNS
+from rtsim.io.atomic import atomic_path
+from rtsim.io.columns import iter_columns, read_columns
+from rtsim.sim.records import JOB_COLUMNS, TRACE_COLUMNS, jobs_frame, trace_frame
 
 __all__ = ["trace_events", "write_perfetto", "stream_perfetto", "PID"]
 
@@ -257,8 +259,6 @@ def write_perfetto(
 ) -> Path:
     """Write ``{"traceEvents": [...], "displayTimeUnit": "ms", "otherData": metadata}``
     atomically to ``path`` (JSON) and return it."""
-    from rtsim.io.atomic import atomic_path
-
     doc = {
         "traceEvents": trace_events(jobs, trace, tasks=tasks, windows=windows),
         "displayTimeUnit": "ms",
@@ -464,8 +464,6 @@ class _Writer:
 
 
 def _window_chunks(windows: str | os.PathLike[str] | None) -> Any:
-    from rtsim.io.columns import iter_columns
-
     if windows is None:
         return
     yield from iter_columns(windows, _WINDOW_COLUMNS)
@@ -487,20 +485,14 @@ def stream_perfetto(
     tuples in `JOB_COLUMNS` / `TRACE_COLUMNS` order (a `rtsim.io.spool.Spool`); ``windows`` is the
     path of a
     coupled run's ``windows.csv`` (read in chunks)."""
-    from rtsim.io.atomic import atomic_path
-
     p = Path(path)
     try:
         plan = _plan(jobs, trace, tasks)
     except _Unordered:
-        from rtsim.sim.records import jobs_frame, trace_frame
-
         jt = jobs_frame([r for chunk in jobs for r in chunk])
         tt = trace_frame([r for chunk in trace for r in chunk])
         wt = None
         if windows is not None:
-            from rtsim.io.columns import read_columns
-
             wt = read_columns(windows)
         return write_perfetto(p, jt, tt, tasks=tasks, windows=wt, metadata=metadata)
     names, lanes, extras, nlanes = plan

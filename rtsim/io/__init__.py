@@ -1,7 +1,8 @@
-"""Files in and out: task sets, scenarios, atomic results, manifests, parameter ranges.
+"""The base helpers for files: atomic writes, manifests, result directories, chunked tables,
+parameter ranges and the input and work limits. The loaders of input files are in
+`rtsim.config` (`rtsim.config.taskset.load_taskset`, `rtsim.config.scenario.load_scenario`).
 
-The names below load their module on first use, so that ``rtsim.io.atomic`` (used by every
-command) does not pull in the world and filterpy.
+The names below load their module on first use (``rtsim.io.columns`` needs pandas).
 """
 
 from __future__ import annotations
@@ -16,12 +17,6 @@ _WHERE = {
     "write_manifest": "manifest",
     "parse_int_values": "ranges",
     "parse_values": "ranges",
-    "Scenario": "scenario",
-    "load_scenario": "scenario",
-    "parse_scenario": "scenario",
-    "load_taskset": "taskset",
-    "parse_taskset": "taskset",
-    "taskset_to_dict": "taskset",
 }
 
 __all__ = sorted(_WHERE)

@@ -15,6 +15,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from rtsim.errors import InputError
+
 __all__ = [
     "atomic_path",
     "stem",
@@ -224,8 +226,6 @@ def write_table(target: str | os.PathLike[str], df: Any) -> None:
         ".parquet": lambda p: _to_parquet(df, p),
     }
     if suffix not in writers:
-        from rtsim.errors import InputError
-
         raise InputError(f"{target}: output must end in .csv or .parquet")
     with atomic_path(target) as tmp:
         writers[suffix](tmp)

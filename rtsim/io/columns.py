@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from rtsim.errors import InputError
+from rtsim.io.atomic import naming
 
 __all__ = ["ChunkWriter", "csv_text", "iter_columns", "read_columns"]
 
@@ -219,8 +220,6 @@ class ChunkWriter:
     def _append(self, frame: Any, columns: Any, kinds: list[str | None], rows: int) -> None:
         """Write one chunk: ``frame`` a DataFrame or a function making it (pandas' CSV path,
         Parquet), ``columns`` a function giving the columns for `csv_text`."""
-        from rtsim.io.atomic import naming
-
         df = frame if isinstance(frame, pd.DataFrame) else None
         text: str | None = None
         tried = None in kinds
@@ -287,7 +286,6 @@ class ChunkWriter:
             if self.empty is None:
                 raise ValueError("ChunkWriter.close: no chunk and no empty table")
             self.write(self.empty)
-        from rtsim.io.atomic import naming
 
         for p, w in self._parquet.items():
             with naming(p):

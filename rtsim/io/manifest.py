@@ -10,6 +10,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from rtsim._version import __version__
 from rtsim.io.atomic import write_json
 
 __all__ = ["build_manifest", "write_manifest"]
@@ -24,8 +25,6 @@ def build_manifest(
     extra: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The manifest as a dict: version, seed, resolved inputs, command line, platform."""
-    from rtsim._version import __version__
-
     manifest: dict[str, Any] = {
         "rtsim_version": __version__,
         "command": command,

@@ -39,6 +39,7 @@ import ctypes
 import ctypes.util
 import errno
 import fcntl
+import functools
 import json
 import os
 import secrets
@@ -50,7 +51,8 @@ from pathlib import Path
 from typing import Any
 
 from rtsim.errors import InputError
-from rtsim.io.atomic import stem
+from rtsim.io.atomic import FILE_MODE, stem, temp_target
+from rtsim.io.lock import LOCK_NAME
 
 __all__ = [
     "StagedDir",
@@ -105,7 +107,10 @@ def sidecar(target: str | os.PathLike[str]) -> Path:
     return t.with_name(f"{stem(t.name)}.manifest.json")
 
 
+@functools.cache
 def _libc_renameat2() -> Any:
+    """libc's renameat2, looked up on first use (``find_library`` runs ``ldconfig``: not at
+    import, where it cost every command ~10 ms)."""
     if not sys.platform.startswith("linux"):
         return None
     try:
@@ -118,17 +123,15 @@ def _libc_renameat2() -> Any:
     return fn
 
 
-_RENAMEAT2 = _libc_renameat2()
-
-
 def exchange(a: Path, b: Path) -> bool:
     """Atomically swap the paths ``a`` and ``b`` (Linux ``renameat2(RENAME_EXCHANGE)``).
 
     Returns False where the exchange is not available (other systems, some file systems).
     """
-    if _RENAMEAT2 is None:
+    renameat2 = _libc_renameat2()
+    if renameat2 is None:
         return False
-    rc = _RENAMEAT2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE)
+    rc = renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE)
     if rc == 0:
         return True
     err = ctypes.get_errno()
@@ -338,9 +341,6 @@ def check_resumable(
     (InputError naming the entry), so nothing the command did not make is ever overwritten
     or removed.
     """
-    from rtsim.io.atomic import temp_target
-    from rtsim.io.lock import LOCK_NAME
-
     target = Path(target)
     _check_place(target, option)
     _check_ancestors(target, option, command)
@@ -588,8 +588,6 @@ class FileSet:
 
     def add(self, target: str | os.PathLike[str], option: str) -> Path:
         """Check and reserve ``target``; returns the staging path to write instead."""
-        from rtsim.io.atomic import FILE_MODE
-
         target = self.check(target, option)
         parent = Path(os.path.abspath(target.parent))
         if parent not in self._dirs:

@@ -17,6 +17,8 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
+from rtsim.io.atomic import naming
+
 __all__ = ["Spool", "Tee"]
 
 
@@ -38,8 +40,6 @@ class Spool:
 
     def write_rows(self, rows: Sequence[tuple[Any, ...]]) -> None:
         """Append one chunk of row tuples."""
-        from rtsim.io.atomic import naming
-
         if not len(rows):
             return
         with naming(self.label):

@@ -35,7 +35,9 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from rtsim._numbers import is_int
 from rtsim.errors import InputError
+from rtsim.io import limits
 
 __all__ = [
     "LIMITS",
@@ -136,9 +138,6 @@ def simulate_backlog(ts: Any, horizon_ms: float, w: float | None) -> float:
 
 def check_seed(seed: object, where: str) -> None:
     """Refuse an integer seed outside the CLI's ``--seed`` range (non-negative, 63 bits)."""
-    from rtsim._numbers import is_int
-    from rtsim.io import limits
-
     if isinstance(seed, bool) or (is_int(seed) and not 0 <= int(seed) < 2**63):  # type: ignore[call-overload]
         raise InputError(
             f"{where}: {seed!r} is outside [0, 2**63 - 1] (a non-negative 63-bit integer)"

@@ -20,6 +20,7 @@ import numpy as np
 
 from rtsim._numbers import is_int, is_real
 from rtsim.errors import InputError
+from rtsim.io.ranges import parse_values
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 
@@ -83,8 +84,6 @@ class PeriodSpec:
 
 def parse_periods(text: str) -> PeriodSpec:
     """``loguniform:LO..HI`` or a comma list ``10,20,40`` (ms)."""
-    from rtsim.io.ranges import parse_values
-
     text = text.strip()
     if text.startswith("loguniform:"):
         body = text.split(":", 1)[1]

@@ -10,6 +10,7 @@ from typing import Any
 
 from rtsim._numbers import is_int
 from rtsim.errors import TaskSetError
+from rtsim.io.limits import check
 from rtsim.model.task import Segment, check_time
 
 __all__ = ["LASER_POINTS", "WindowSpec", "e_hough", "g_window"]
@@ -89,7 +90,6 @@ class WindowSpec:
         object.__setattr__(self, "n", int(self.n))
         object.__setattr__(self, "priority", int(self.priority))
         object.__setattr__(self, "r_H", check_time(where, "r_H", self.r_H))
-        from rtsim.io.limits import check
 
         for field in ("n", "r_H"):  # the keys a caller changes (with_window, --followers)
             check(

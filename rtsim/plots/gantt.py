@@ -21,6 +21,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from rtsim.plots.figure import new_figure
+from rtsim.sim.records import jobs_frame, trace_frame
 
 __all__ = ["gantt", "GanttRows", "GANTT_MAX_JOBS"]
 
@@ -136,6 +137,4 @@ class GanttRows:
 
     def frames(self) -> tuple[pd.DataFrame, pd.DataFrame]:
         """(trace, jobs) as the run's tables, restricted to the range."""
-        from rtsim.sim.records import jobs_frame, trace_frame
-
         return trace_frame(self.trace.rows), jobs_frame(self.jobs.rows)

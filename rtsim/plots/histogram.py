@@ -15,6 +15,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from rtsim.plots.figure import new_figure
+from rtsim.plots.style import PAGE_IN, PAPER_RC, few
 from rtsim.sim.records import ResponseHistogram
 
 __all__ = ["response_histogram", "response_histograms"]
@@ -71,7 +72,6 @@ def response_histogram(
     from matplotlib.ticker import MaxNLocator
 
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: no 2.5 jobs
-    from rtsim.plots.style import few
 
     shown = few(*ax.get_legend_handles_labels())
     if legend == "inside":
@@ -103,8 +103,6 @@ def response_histograms(
     ``columns`` panels across, as wide as a paper's page (`rtsim.plots.style`), text at
     caption size. ``bins``: a count, or each task's bin edges."""
     import matplotlib as mpl
-
-    from rtsim.plots.style import PAGE_IN, PAPER_RC
 
     names = list(panels)
     cols = max(1, min(columns, len(names)))

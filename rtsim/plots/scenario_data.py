@@ -14,6 +14,7 @@ import re
 import numpy as np
 import pandas as pd
 
+from rtsim.coupling.recorder import window_columns
 from rtsim.errors import InputError
 
 __all__ = [
@@ -148,8 +149,6 @@ def figure_columns(n: int) -> list[str]:
     """The columns of windows.csv that
     [`write_scenario_figures`][rtsim.plots.write_scenario_figures] draws (``n`` followers),
     in table order — what a long run reads back instead of the whole table."""
-    from rtsim.coupling.recorder import window_columns
-
     need = {
         "window",
         "t",

@@ -26,13 +26,16 @@ import numpy as np
 import simpy
 
 from rtsim._numbers import is_real
+from rtsim.analysis.sufficient import as_taskset, w_sch_of, window_or_w_sch
 from rtsim.errors import InputError
+from rtsim.io.limits import check
+from rtsim.io.work import check_seed, check_simulate
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU, JitterMode
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.policy import PolicySpec, resolve_scheduler
-from rtsim.sim.progress import Progress
+from rtsim.sim.progress import TICKS, Progress, start_ticker
 from rtsim.sim.records import SimResult
 
 __all__ = ["simulate", "build_cpu", "resolve_window", "worst_jitter_shifts", "WindowArg"]
@@ -46,8 +49,6 @@ def _as_taskset(ts: TaskSet | Sequence[Task]) -> TaskSet:
     """A TaskSet, or one of a list of tasks; a file is read above the simulator
     (`rtsim.load_taskset`, or the facade's [`rtsim.simulate`][rtsim.simulate], which takes a
     path)."""
-    from rtsim.analysis.sufficient import as_taskset
-
     if isinstance(ts, TaskSet | str | os.PathLike):
         return as_taskset(ts, "simulate")
     if not isinstance(ts, Sequence) or not all(isinstance(t, Task) for t in ts):
@@ -65,8 +66,6 @@ def _window_estimate(ts: TaskSet, window: WindowArg) -> float | None:
     if is_real(window):
         return float(window)  # type: ignore[arg-type]
     try:
-        from rtsim.analysis.sufficient import w_sch_of
-
         w = w_sch_of(ts)  # (only w_sch: the other bounds, w_edf's QPA, can take long)
     except (InputError, ValueError, ArithmeticError):
         return None
@@ -76,8 +75,6 @@ def _window_estimate(ts: TaskSet, window: WindowArg) -> float | None:
 def resolve_window(ts: TaskSet, window: WindowArg) -> tuple[Callable[[], float], dict[str, Any]]:
     """The window provider for ``ts`` and a description of it (for results and manifests)."""
     if window is None:
-        from rtsim.analysis.sufficient import window_or_w_sch
-
         w = window_or_w_sch(ts)
         return (lambda: w), {"mode": "w_sch", "w": w}
     if callable(window):
@@ -202,10 +199,8 @@ def simulate(
         if not is_real(value) and not (name == "hist_bin" and value is None):
             raise InputError(f"simulate: {name} must be a number of ms, got {value!r}")
     horizon = float(horizon) if is_real(horizon) else horizon  # numpy scalars too
-    from rtsim.io.limits import check
 
     check("option: --horizon", horizon, "simulate: horizon", magnitude_only=True)  # <= 11.6 d
-    from rtsim.io.work import check_seed, check_simulate
 
     if isinstance(seed, int) and seed >= 0:  # (a negative seed: build_cpu's message)
         check_seed(seed, "simulate: seed")
@@ -234,8 +229,6 @@ def simulate(
     )
     proc = cpu.start(horizon)
     if progress is not None and is_real(horizon) and 0 < horizon < math.inf:
-        from rtsim.sim.progress import TICKS, start_ticker
-
         start_ticker(cpu.env, horizon / TICKS, lambda now: now / horizon, progress)
     cpu.env.run(until=proc)
     if progress is not None:

@@ -49,15 +49,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rtsim.errors import RtsimError, SweepError
-from rtsim.io.atomic import write_json, write_table
+from rtsim.io.atomic import dumps, write_json, write_table
 from rtsim.io.lock import lock_directory
 from rtsim.io.manifest import write_manifest
+from rtsim.io.outdir import check_resumable
 from rtsim.io.work import check_work
 from rtsim.notebook import ResultDisplay
 from rtsim.sweep.grid import Point, point_input, points
 from rtsim.sweep.kinds import KINDS
 from rtsim.sweep.point import RESERVED, execute_point, worker_init
-from rtsim.sweep.spec import SweepSpec, load_sweep
+from rtsim.sweep.spec import SweepSpec, canonical_json, load_sweep, spec_fingerprint
 from rtsim.sweep.table import build_table, encode_metrics
 
 if TYPE_CHECKING:
@@ -210,9 +211,6 @@ def _checksum(rec: Record) -> str:
     import hashlib
     import json
 
-    from rtsim.io.atomic import dumps
-    from rtsim.sweep.spec import canonical_json
-
     plain = json.loads(dumps({k: v for k, v in rec.items() if k != "checksum"}, indent=None))
     return hashlib.sha256(canonical_json(plain).encode("utf-8")).hexdigest()
 
@@ -325,8 +323,6 @@ class Sweep:
         killed run left (`rtsim.io.outdir.check_resumable`), in ``points/`` too."""
         import re
 
-        from rtsim.io.outdir import check_resumable
-
         check_resumable(self.out, "sweep", MADE, before_manifest={"points"}, clean=clean)
         if self.points_dir.is_dir():
             for f in sorted(self.points_dir.iterdir()):
@@ -398,8 +394,6 @@ class Sweep:
         fewer values, the rest equal): then the finished points this grid has are kept,
         renumbered to their place in it, and True; else False (nothing touched)."""
         import json
-
-        from rtsim.sweep.spec import spec_fingerprint
 
         try:
             old = json.loads(manifest.read_text("utf-8"))["spec"]

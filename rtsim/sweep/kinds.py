@@ -51,8 +51,8 @@ from types import ModuleType
 from typing import Any
 
 from rtsim.analysis.sufficient import window_or_w_sch
+from rtsim.config.taskset import parse_taskset
 from rtsim.errors import InputError
-from rtsim.io.taskset import parse_taskset
 from rtsim.io.work import check_simulate
 from rtsim.model.taskset import TaskSet
 from rtsim.overrides import RUN_OPTIONS, apply_overrides
@@ -222,7 +222,7 @@ def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[
     if hit is not None:
         _PREPARED.move_to_end(key)
         return hit
-    io = _need("rtsim.io.scenario", "scenario")
+    io = _need("rtsim.config.scenario", "scenario")
     coupling = _need("rtsim.coupling", "scenario")
     scenario = io.parse_scenario(data, p.base.source, base=where, allow_code=p.allow_code)
     hit = (scenario, coupling.scenario_inputs(scenario))
@@ -249,7 +249,7 @@ def _warm_scenario(p: PointInput) -> None:
         scenario, _ = _point_scenario(p)
     except Exception:
         return
-    from rtsim.coupling.warm import warm_world  # (the scenario kind only: lazy, as _need)
+    from rtsim.coupling.warm import warm_world  # lazy: only this needs pandas (as _need)
 
     warm_world([scenario])
 
@@ -266,7 +266,7 @@ def _scenario(p: PointInput) -> dict[str, Any]:
         kwargs["duration_s"] = float(o["duration"])
     if "exec" in o:
         kwargs["exec_model"] = o["exec"]
-    from rtsim.coupling.duration import check_scenario  # (the scenario kind only: lazy, as _need)
+    from rtsim.coupling.duration import check_scenario  # lazy: only this needs pandas
 
     check_scenario(scenario, kwargs.get("duration_s"), f"{p.base.source}: duration")
     summary = dict(coupling.run_scenario(inputs, **kwargs).summary)
@@ -296,7 +296,7 @@ def register_kind(spec: KindSpec) -> None:
     KINDS.register(spec.name, spec)
 
 
-_LOADER = ("rtsim.io.taskset",)
+_LOADER = ("rtsim.config.taskset",)
 register_kind(
     KindSpec(
         "bounds",
@@ -329,7 +329,7 @@ register_kind(
         "scenario",
         _scenario,
         options=RUN_OPTIONS["scenario"],
-        modules=("rtsim.io.scenario", "rtsim.coupling"),
+        modules=("rtsim.config.scenario", "rtsim.coupling"),
         warm=_warm_scenario,
     )
 )

@@ -34,8 +34,8 @@ A grid name is resolved, in this order, as
    or a key at the top level of the base file.
 
 Overrides are applied to the parsed TOML dict, which then goes through the normal loader
-([`rtsim.io.taskset.parse_taskset`][rtsim.io.taskset.parse_taskset],
-[`rtsim.io.scenario.parse_scenario`][rtsim.io.scenario.parse_scenario]) at each
+([`rtsim.config.taskset.parse_taskset`][rtsim.config.taskset.parse_taskset],
+[`rtsim.config.scenario.parse_scenario`][rtsim.config.scenario.parse_scenario]) at each
 point: a bad value (``n = 0``) fails that point, with the loader's message, not the sweep.
 A new leaf key that looks like a typo of an existing one (``delta_tt``) is refused here.
 For ``kind = "call"`` every grid name is passed through as a parameter.
@@ -60,9 +60,14 @@ from pathlib import Path
 from typing import Any
 
 from rtsim._suggest import did_you_mean
-from rtsim.config.dotted import resolve, shortcuts
-from rtsim.config.sweep import Scalar
+from rtsim.config.dotted import parse_assignment, resolve, shortcuts
+from rtsim.config.load import validate
+from rtsim.config.sweep import Scalar, SweepFile, sweep_special
 from rtsim.errors import InputError, SweepError
+from rtsim.examples import packaged_text
+from rtsim.io.limits import check as check_range
+from rtsim.io.limits import read_input
+from rtsim.registry import file_allows_code, load_code, reading_input
 from rtsim.sweep.base import BaseFile
 from rtsim.sweep.kinds import KINDS, canonical_json
 
@@ -190,14 +195,16 @@ def _load_base(src: str, kind: str, raw: Any, base_dir: Path) -> BaseFile | None
     if not isinstance(raw, str) or not raw:
         raise SweepError(f"{src}: sweep.base: expected a file path, got {raw!r}")
     path = (base_dir / raw).resolve()
-    from rtsim.io.scenario import PACKAGED_SCENARIOS, PACKAGED_TASKSETS
+    from rtsim.config.scenario import (  # lazy: only this needs numpy
+        PACKAGED_SCENARIOS,
+        PACKAGED_TASKSETS,
+    )
 
     packaged = PACKAGED_SCENARIOS if kind == "scenario" else PACKAGED_TASKSETS
     if not path.exists() and raw in packaged:  # a file shipped with rtsim, by name
         sub = "scenarios/" if kind == "scenario" else ""
         text = (resources.files("rtsim") / "data" / f"{sub}{raw}.toml").read_text("utf-8")
         return BaseFile(None, text, raw)
-    from rtsim.io.limits import read_input
 
     try:
         text = read_input(path, "task-set or scenario").decode("utf-8")
@@ -231,11 +238,15 @@ def _registered(name: str) -> Any:
     """The registry a plug-in option resolves in (``mode``: adjustment policies,
     ``scheduler``: scheduling policies), or None."""
     if name == "mode":
-        from rtsim.control.policy import ADJUSTMENT_POLICIES
+        from rtsim.control.policy import (  # lazy: only this needs numpy
+            ADJUSTMENT_POLICIES,
+        )
 
         return ADJUSTMENT_POLICIES
     if name == "scheduler":
-        from rtsim.sim.policy import SCHEDULERS
+        from rtsim.sim.policy import (  # lazy: only this needs numpy
+            SCHEDULERS,
+        )
 
         return SCHEDULERS
     return None
@@ -253,8 +264,6 @@ def _check_option(src: str, where: str, name: str, value: Any) -> None:
     if check is not None and not check[0](value):
         raise SweepError(f"{src}: {where}: must be {check[1]}, got {value!r}")
     if name in ("horizon", "window", "duration") and value is not None:
-        from rtsim.io.limits import check as check_range
-
         check_range(f"option: --{name}", value, f"{src}: {where}", SweepError)
 
 
@@ -274,8 +283,6 @@ def parse_sweep(
     ``allow_code``: the file (its ``function``, a ``mode`` or ``scheduler``, its base file) may
     name Python code as ``package.module:Name`` (`rtsim.registry`); default: only when
     the user opted in."""
-    from rtsim.registry import file_allows_code, reading_input
-
     allow = file_allows_code(allow_code)
     with reading_input(allow):
         spec = _parse_sweep(data, source, Path(base_dir), text, tuple(set_))
@@ -286,8 +293,6 @@ def _parse_sweep(
     data: Mapping[str, Any], source: str, base_dir: Path, text: str, set_: tuple[str, ...]
 ) -> SweepSpec:
     src = source
-    from rtsim.config.load import validate
-    from rtsim.config.sweep import SweepFile, sweep_special
 
     model = validate(SweepFile, data, src, SweepError, special=sweep_special)
     sw = model.sweep
@@ -304,7 +309,6 @@ def _parse_sweep(
                 f"{src}: sweep.function: kind 'call' needs "
                 f"'package.module:function', got {function!r}"
             )
-        from rtsim.registry import load_code
 
         try:
             fn = load_code(function, f"{src}: sweep.function")
@@ -341,8 +345,6 @@ def _parse_sweep(
     targets = {str(k): _resolve(src, str(k), kind, base, bdata, "sweep.set") for k in fixed_raw}
     fixed_raw = dict(fixed_raw)
     if set_:  # --set KEY=VALUE: as [sweep.set], over it
-        from rtsim.config.dotted import parse_assignment
-
         for key, value in (parse_assignment(t, SweepError) for t in set_):
             targets[key] = _resolve(src, key, kind, base, bdata, "--set")
             fixed_raw[key] = value
@@ -399,7 +401,6 @@ def load_sweep(
     as [`parse_sweep`][rtsim.sweep.spec.parse_sweep]."""
     set_ = tuple(set_)
     p = Path(path)
-    from rtsim.examples import packaged_text
 
     shipped = packaged_text(path, "sweep")  # a shipped example by name ("smoke")
     if shipped is not None:
@@ -410,7 +411,6 @@ def load_sweep(
         return parse_sweep(
             data, f"{p}.toml (packaged)", Path.cwd(), shipped, set_, allow_code=allow_code
         )
-    from rtsim.io.limits import read_input
 
     try:
         text = read_input(p, "sweep").decode("utf-8")

@@ -41,7 +41,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.analysis.window import LASER_POINTS
+from rtsim.config.load import with_overrides
+from rtsim.config.scenario import parse_scenario
 from rtsim.model.window import WindowSpec
+from rtsim.world import World, WorldConfig, rounded_rectangle
+from rtsim.world.formation import in_line
 
 __all__ = ["Test1", "BeamCounts", "count_window_beams", "scenario_world", "world_config"]
 
@@ -68,9 +72,6 @@ def scenario_world(
     followers and Hough radius r_H."""
     import tomllib
 
-    from rtsim.config.load import with_overrides
-    from rtsim.io.scenario import parse_scenario
-
     data = with_overrides(tomllib.loads(text), overrides, source)
     data.setdefault("formation", {})["followers"] = int(n)
     data.setdefault("sensing", {})["r_H"] = float(r_H)
@@ -80,9 +81,6 @@ def scenario_world(
 def world_config(n: int, test: Test1 | None = None) -> Any:
     """The [`WorldConfig`][rtsim.world.WorldConfig] of Test 1 with n follow-the-leader followers in
     the default line (`in_line`)."""
-    from rtsim.world import WorldConfig, rounded_rectangle
-    from rtsim.world.formation import in_line
-
     t = Test1() if test is None else test
     path = rounded_rectangle(t.length, t.width, t.turn_radius)
     return WorldConfig(path, t.speed, in_line(n, t.separation, t.bearing_offset))
@@ -132,8 +130,6 @@ def count_window_beams(
 ) -> BeamCounts:
     """Run the world ``config`` (default: `world_config` of `Test1`, n from
     ``window``) for ``windows`` windows of fixed length ``w`` (module doc)."""
-    from rtsim.world import World
-
     n = window.n
     cfg = world_config(n) if config is None else config
     if cfg.n != n:

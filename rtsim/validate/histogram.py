@@ -41,8 +41,15 @@ import numpy as np
 import pandas as pd
 
 from rtsim.analysis.validation import TaskBounds, task_bounds
+from rtsim.config.scenario import parse_scenario
+from rtsim.config.taskset import load_taskset, parse_taskset
 from rtsim.errors import InputError
+from rtsim.io.atomic import write_table
+from rtsim.io.manifest import write_manifest
 from rtsim.model.taskset import TaskSet
+from rtsim.sim import simulate
+from rtsim.sweep.grid import point_input, points
+from rtsim.sweep.spec import parse_sweep
 
 #: Resolution (dots per inch) of the PNG histograms.
 DPI = 300  # rtsim.plots.style.DPI: print resolution
@@ -72,8 +79,6 @@ class JobSource:
 
 def from_simulation(ts: TaskSet, horizon: float, **simulate_kwargs: Any) -> JobSource:
     """Simulate ``ts`` (``rtsim.sim.simulate`` keyword options) with job records."""
-    from rtsim.sim import simulate
-
     simulate_kwargs["record_jobs"] = True
     res = simulate(ts, horizon, **simulate_kwargs)
     assert res.jobs is not None  # (record_jobs)
@@ -100,15 +105,12 @@ def _read_json(path: Path) -> dict[str, Any]:
 def _scenario_taskset(directory: Path, ts: TaskSet | None) -> TaskSet:
     if ts is not None:
         return ts
-    from rtsim.io.taskset import load_taskset, parse_taskset
 
     inputs = _read_json(directory / "manifest.json").get("inputs", {})
     inputs = inputs if isinstance(inputs, dict) else {}
     text = inputs.get("scenario_text")
     if isinstance(text, str) and text:  # rtsim scenario's manifest: the scenario's task set
         import tomllib
-
-        from rtsim.io.scenario import parse_scenario
 
         src = str(inputs.get("scenario_file") or directory / "manifest.json")
         return parse_scenario(tomllib.loads(text), src, Path(src).parent).load_taskset()
@@ -181,9 +183,6 @@ def from_sweep_point(directory: str | os.PathLike[str], index: int) -> JobSource
     changed since (fingerprint mismatch) is refused.
     """
     import tomllib
-
-    from rtsim.sweep.grid import point_input, points
-    from rtsim.sweep.spec import parse_sweep
 
     d = Path(directory)
     man = _read_json(d / "manifest.json")
@@ -294,10 +293,12 @@ def write_histograms(
     """Write the figures (``fmt``: png, svg or pdf; ``dpi`` for PNG), ``histogram<suffix>.csv``,
     ``bounds<suffix>.csv`` (and manifest.json) into ``out_dir``; return the paths written
     (module doc)."""
-    from rtsim.io.atomic import write_table
-    from rtsim.io.manifest import write_manifest
-    from rtsim.plots.histogram import response_histogram
-    from rtsim.plots.scenario import save_figure
+    from rtsim.plots.histogram import (  # lazy: only this needs matplotlib
+        response_histogram,
+    )
+    from rtsim.plots.scenario import (  # lazy: only this needs matplotlib
+        save_figure,
+    )
 
     if bins < 1:
         raise InputError(f"--bins must be at least 1, got {bins}")
@@ -326,7 +327,9 @@ def write_histograms(
         )
         panels[str(task)], edges_of[str(task)] = (vals, dict(lines)), list(edges)
     if panels:  # the run in one figure, a panel per task
-        from rtsim.plots.histogram import response_histograms
+        from rtsim.plots.histogram import (  # lazy: only this needs matplotlib
+            response_histograms,
+        )
 
         fig = response_histograms(panels, bins=edges_of, title=title or None)
         written.insert(0, save_figure(fig, out / f"histograms{suffix}.{fmt}", dpi=dpi, fmt=fmt))

@@ -54,7 +54,12 @@ from rtsim.analysis.validation import (
     task_bounds,
 )
 from rtsim.analysis.window import k_geometric
+from rtsim.config.load import with_overrides
+from rtsim.config.taskset import load_taskset, parse_taskset
+from rtsim.model.generate import random_taskset
 from rtsim.model.taskset import TaskSet
+from rtsim.sim import EPS, build_cpu, simulate
+from rtsim.validate.beams import Test1, count_window_beams, scenario_world, world_config
 
 __all__ = [
     "paper_point",
@@ -78,9 +83,6 @@ _QNAMES = {50.0: "p50", 99.0: "p99", 99.9: "p999"}
 def paper_taskset(options: Mapping[str, Any], n: int, r_H: float) -> TaskSet:
     """The task set of the options (TOML text, default the packaged paper set; changed by
     ``taskset_set``, ``--set``'s dotted paths) at (n, r_H)."""
-    from rtsim.config.load import with_overrides
-    from rtsim.io.taskset import load_taskset, parse_taskset
-
     text = options.get("taskset_text")
     if not text:
         ts = load_taskset()
@@ -95,8 +97,6 @@ def beam_counts_for(
     ts: TaskSet, w: float, windows: int, seed: int, options: Mapping[str, Any]
 ) -> Any:
     """The Test 1 beam counts of this configuration (see `rtsim.validate.beams`)."""
-    from rtsim.validate.beams import Test1, count_window_beams, scenario_world, world_config
-
     assert ts.window is not None
     n, r_H = ts.window.n, ts.window.r_H
     text = options.get("scenario_text")
@@ -127,8 +127,6 @@ def simulate_mode(
     ``stop_at_miss``: raise `_Missed` from a job-end hook at the first deadline miss
     (the search only needs to know whether one happens).
     """
-    from rtsim.sim import EPS, build_cpu
-
     assert ts.window is not None
     suspension = "idle" if mode == "counted-idle" else "cpu"
     cpu, info = build_cpu(
@@ -250,8 +248,6 @@ def _lcm(values: list[float]) -> float:
 
 def random_taskset_for(params: Mapping[str, Any], options: Mapping[str, Any], seed: int) -> TaskSet:
     """The random set of this point: size, utilization and periods drawn from ``seed``."""
-    from rtsim.model.generate import random_taskset
-
     rng = np.random.default_rng(seed)
     lo_n, hi_n = (int(x) for x in options.get("tasks", (2, 8)))
     lo_u, hi_u = (float(x) for x in options.get("utilization", (0.5, 0.9)))
@@ -268,8 +264,6 @@ def random_point(
     params: Mapping[str, Any], options: Mapping[str, Any], seed: int
 ) -> dict[str, Any]:
     """Validation metrics of one random task set (module doc)."""
-    from rtsim.sim import simulate
-
     ts = random_taskset_for(params, options, seed)
     jit_rng = np.random.default_rng([seed, 2])  # its own stream: the sets stay the same
     frac = float(options.get("jitter", 0.1))

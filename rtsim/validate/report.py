@@ -10,6 +10,9 @@ from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
+from rtsim._version import __version__
+from rtsim.io.atomic import write_text
+
 if TYPE_CHECKING:
     from rtsim.validate.outcome import ValidationConfig, ValidationOutcome
 
@@ -149,45 +152,13 @@ def _headline(outcome: ValidationOutcome) -> list[str]:
     return lines + [""]
 
 
-def write_report(
-    outcome: ValidationOutcome, config: ValidationConfig, sched: pd.DataFrame | None = None
-) -> Path:
-    """Write ``report.md`` into the outcome's directory and return its path (``sched``: the
-    analytic w_sch / w_rta / w_edf table of `rtsim.validate.runner.scheduler_table`)."""
-    from rtsim._version import __version__
-    from rtsim.io.atomic import write_text
-
-    out = outcome.out_dir
-    t = outcome.table
-    world = (
-        f"scenario `{config.scenario_path}`"
-        if config.scenario_path
-        else "Test 1, `experiments/scenarios/test1.toml`: V_Ld = 25 cm/s, r_t = 2 m, ρ = 390 cm"
-    )
-    lines = [
-        "# rtsim validation report",
-        "",
-        f"rtsim {__version__}, `{config.name}` run: n ∈ {list(config.n)}, "
-        f"r_H ∈ {[float(r) for r in config.r_H]} cm, {config.windows} windows per run, "
-        f"w_sim to {config.tol} ms, {config.random_sets} random sets, seed {config.seed}.",
-        "",
-    ]
-    lines += _headline(outcome)
-    lines += ["## Failures", ""]
-    if outcome.failures:
-        fdf = pd.DataFrame([f.as_dict() for f in outcome.failures])
-        lines += [markdown_table(fdf), ""]
-    else:
-        lines += [
-            "None: no simulated response above its analytic bound, no w_sim above "
-            "w_rta, w_sch ≥ w_rta everywhere.",
-            "",
-        ]
-    if outcome.point_errors:
-        lines += ["Sweep points that failed to run:", ""]
-        lines += [f"- {e}" for e in outcome.point_errors] + [""]
+def _figure_lines(out: Path) -> list[str]:
+    """The report's figures and response-time histograms found under ``out``."""
+    lines: list[str] = []
     figs = out / "figures"
-    from rtsim.plots.scenario import FIGURE_FORMATS
+    from rtsim.plots.scenario import (  # lazy: only this needs matplotlib
+        FIGURE_FORMATS,
+    )
 
     lines += ["## Figures", ""]
     for name, caption in (
@@ -227,6 +198,85 @@ def write_report(
         for p in hist:
             rel = p.relative_to(out).as_posix()
             lines += [f"![{p.stem}]({rel})", ""]
+    return lines
+
+
+def _method_lines(config: ValidationConfig, world: str) -> list[str]:
+    """The report's method section (``world``: the scenario the beams were counted in)."""
+    return [
+        "## Method",
+        "",
+        "- **Analysis**: w_sch = max(Eq 7, Eq 11); w_rta = the least w at which exact "
+        "response-time analysis (chain as one task of cost g, Δt counted as CPU time) "
+        "finds every task schedulable; WCRT = that analysis at w_sch.",
+        "- **Simulation**: the window is fixed at w, all tasks released at 0, jobs "
+        f"released in [0, {config.windows}·w) run to completion. Mode `wcet-cpu`: every "
+        "segment at its WCET, the radio round trip Δt holds the CPU. Mode "
+        "`edf-cpu`: as `wcet-cpu` with the CPU under EDF; its w_sim is checked against "
+        "w_edf (EDF demand criterion) and its responses against Spuri's bounds. Mode "
+        "`counted-idle`: the Hough segment takes π r_H² n e_cal + P_j e_trans with P_j "
+        "the beams counted at window j of a world run (" + world + ", with n followers "
+        "placed by its formation model's default and its Hough radius set to r_H; fixed "
+        "window w_sch, each follower commanded at the end of its send segment every "
+        "window), replayed by window index; Δt frees the CPU; re-acquisition costs of "
+        "lost tracks are not added.",
+        "- **w_sim**: bisection to the tolerance between 0.999 × the longest chain "
+        "length g_j (which must miss) and max(w_sch, w_rta) + tol (which must pass), "
+        "each trial a run of all windows stopped at its first miss, then a scan "
+        f"of {config.scan} windows above the result; a miss in the scan (a non-monotone "
+        "spot) restarts the bisection above it. w_sim is the least window, to the "
+        "tolerance, above which no tried window missed.",
+        "- **Checks**: a simulated maximum above the WCRT (+1e-6 ms) is a failure; so is "
+        "w_sim above w_rta + tol, and w_sch below w_rta. Under the model of the "
+        "suspension-aware analysis (`counted-idle`, Δt idle), also w_sim above w_susp "
+        "or the geometric w_susp + tol, w_susp above w_rta, and a simulated maximum "
+        "above the suspension-aware WCRT. Rows whose counted beams exceeded the "
+        "bound's k·n are warnings, not failures (the WCET assumption broke).",
+        "- **Random sets**: UUniFast utilizations, periods from {10, 20, 25, 40, 50, "
+        "100, 200} ms, constrained deadlines, deadline-monotonic priorities; `wcet-sync` "
+        "simulates one hyperperiod at WCET from the critical instant (with release "
+        "jitter J ≤ 0.1·T per task: first releases together after J, later ones at "
+        "arrival), `uniform-offsets` several hyperperiods with execution times uniform "
+        "in [wcet/2, wcet], random offsets and release delays in [0, J].",
+        "",
+    ]
+
+
+def write_report(
+    outcome: ValidationOutcome, config: ValidationConfig, sched: pd.DataFrame | None = None
+) -> Path:
+    """Write ``report.md`` into the outcome's directory and return its path (``sched``: the
+    analytic w_sch / w_rta / w_edf table of `rtsim.validate.runner.scheduler_table`)."""
+    out = outcome.out_dir
+    t = outcome.table
+    world = (
+        f"scenario `{config.scenario_path}`"
+        if config.scenario_path
+        else "Test 1, `experiments/scenarios/test1.toml`: V_Ld = 25 cm/s, r_t = 2 m, ρ = 390 cm"
+    )
+    lines = [
+        "# rtsim validation report",
+        "",
+        f"rtsim {__version__}, `{config.name}` run: n ∈ {list(config.n)}, "
+        f"r_H ∈ {[float(r) for r in config.r_H]} cm, {config.windows} windows per run, "
+        f"w_sim to {config.tol} ms, {config.random_sets} random sets, seed {config.seed}.",
+        "",
+    ]
+    lines += _headline(outcome)
+    lines += ["## Failures", ""]
+    if outcome.failures:
+        fdf = pd.DataFrame([f.as_dict() for f in outcome.failures])
+        lines += [markdown_table(fdf), ""]
+    else:
+        lines += [
+            "None: no simulated response above its analytic bound, no w_sim above "
+            "w_rta, w_sch ≥ w_rta everywhere.",
+            "",
+        ]
+    if outcome.point_errors:
+        lines += ["Sweep points that failed to run:", ""]
+        lines += [f"- {e}" for e in outcome.point_errors] + [""]
+    lines += _figure_lines(out)
     paper = t[t["source"] == "paper"]
     if not paper.empty:
         lines += ["## Windows per configuration (ms)", ""]
@@ -286,43 +336,7 @@ def write_report(
             "misses",
         ]
         lines += [markdown_table(rnd, cols, digits=6), ""]
-    lines += [
-        "## Method",
-        "",
-        "- **Analysis**: w_sch = max(Eq 7, Eq 11); w_rta = the least w at which exact "
-        "response-time analysis (chain as one task of cost g, Δt counted as CPU time) "
-        "finds every task schedulable; WCRT = that analysis at w_sch.",
-        "- **Simulation**: the window is fixed at w, all tasks released at 0, jobs "
-        f"released in [0, {config.windows}·w) run to completion. Mode `wcet-cpu`: every "
-        "segment at its WCET, the radio round trip Δt holds the CPU. Mode "
-        "`edf-cpu`: as `wcet-cpu` with the CPU under EDF; its w_sim is checked against "
-        "w_edf (EDF demand criterion) and its responses against Spuri's bounds. Mode "
-        "`counted-idle`: the Hough segment takes π r_H² n e_cal + P_j e_trans with P_j "
-        "the beams counted at window j of a world run (" + world + ", with n followers "
-        "placed by its formation model's default and its Hough radius set to r_H; fixed "
-        "window w_sch, each follower commanded at the end of its send segment every "
-        "window), replayed by window index; Δt frees the CPU; re-acquisition costs of "
-        "lost tracks are not added.",
-        "- **w_sim**: bisection to the tolerance between 0.999 × the longest chain "
-        "length g_j (which must miss) and max(w_sch, w_rta) + tol (which must pass), "
-        "each trial a run of all windows stopped at its first miss, then a scan "
-        f"of {config.scan} windows above the result; a miss in the scan (a non-monotone "
-        "spot) restarts the bisection above it. w_sim is the least window, to the "
-        "tolerance, above which no tried window missed.",
-        "- **Checks**: a simulated maximum above the WCRT (+1e-6 ms) is a failure; so is "
-        "w_sim above w_rta + tol, and w_sch below w_rta. Under the model of the "
-        "suspension-aware analysis (`counted-idle`, Δt idle), also w_sim above w_susp "
-        "or the geometric w_susp + tol, w_susp above w_rta, and a simulated maximum "
-        "above the suspension-aware WCRT. Rows whose counted beams exceeded the "
-        "bound's k·n are warnings, not failures (the WCET assumption broke).",
-        "- **Random sets**: UUniFast utilizations, periods from {10, 20, 25, 40, 50, "
-        "100, 200} ms, constrained deadlines, deadline-monotonic priorities; `wcet-sync` "
-        "simulates one hyperperiod at WCET from the critical instant (with release "
-        "jitter J ≤ 0.1·T per task: first releases together after J, later ones at "
-        "arrival), `uniform-offsets` several hyperperiods with execution times uniform "
-        "in [wcet/2, wcet], random offsets and release delays in [0, J].",
-        "",
-    ]
+    lines += _method_lines(config, world)
     path = out / "report.md"
     write_text(path, "\n".join(lines))
     return path

@@ -33,7 +33,22 @@ from typing import Any
 
 import pandas as pd
 
-from rtsim.analysis.validation import check_results, summarize
+from rtsim.analysis.bounds import w_edf, w_rta, w_sch_of
+from rtsim.analysis.validation import check_results, summarize, task_bounds
+from rtsim.config.dotted import shortcuts
+from rtsim.config.load import parse_toml
+from rtsim.config.scenario import load_scenario, scenario_bytes
+from rtsim.config.taskset import load_taskset, taskset_bytes
+from rtsim.errors import OverrideError, TaskSetError
+from rtsim.io.atomic import write_json, write_table
+from rtsim.io.lock import lock_directory
+from rtsim.io.manifest import write_manifest
+from rtsim.io.outdir import check_resumable
+from rtsim.report import REPORT_NAME, write_run_report
+from rtsim.sweep.engine import Sweep
+from rtsim.sweep.spec import parse_sweep
+from rtsim.validate import tidy
+from rtsim.validate.histogram import JobSource, write_histograms
 from rtsim.validate.outcome import (
     DEFAULT_SCENARIO,
     FULL,
@@ -41,6 +56,9 @@ from rtsim.validate.outcome import (
     ValidationConfig,
     ValidationOutcome,
 )
+from rtsim.validate.points import FP_MODES as PAPER_MODES
+from rtsim.validate.points import beam_counts_for, paper_taskset, simulate_mode
+from rtsim.validate.report import write_report
 
 #: Resolution (dots per inch) of the PNG figures.
 DPI = 300  # rtsim.plots.style.DPI: print resolution
@@ -79,10 +97,6 @@ def split_overrides(cfg: ValidationConfig) -> tuple[dict[str, Any], dict[str, An
     """``cfg.overrides`` as (the task set's, the scenario's): a key goes to the task set when
     its first part is a table or shortcut of the task set (``tasks.command.wcet``,
     ``delta_t``), else to the scenario (``leader.speed``); a key the grid sets is refused."""
-    from rtsim.config.dotted import shortcuts
-    from rtsim.config.load import parse_toml, taskset_bytes
-    from rtsim.errors import OverrideError
-
     ts_out: dict[str, Any] = {}
     sc_out: dict[str, Any] = {}
     if not cfg.overrides:
@@ -101,8 +115,6 @@ def split_overrides(cfg: ValidationConfig) -> tuple[dict[str, Any], dict[str, An
 
 
 def _scenario_options(cfg: ValidationConfig) -> dict[str, Any]:
-    from rtsim.io.scenario import load_scenario, scenario_bytes
-
     path = _scenario_path(cfg)
     overrides = split_overrides(cfg)[1]
     load_scenario(path, overrides)  # checked here: a bad file or key is an input error (exit 2)
@@ -116,15 +128,11 @@ def _taskset_options(cfg: ValidationConfig) -> dict[str, Any]:
     overrides = split_overrides(cfg)[0]
     if cfg.taskset_path is None and not overrides:
         return opts
-    from rtsim.config.load import taskset_bytes
-    from rtsim.io.taskset import load_taskset
 
     # checked here: a bad file or key is an input error (exit 2)
     ts = load_taskset(cfg.taskset_path, overrides)
     raw, source = taskset_bytes(cfg.taskset_path)
     if ts.window is None:
-        from rtsim.errors import TaskSetError
-
         raise TaskSetError(f"{source}: has no [window]; validate needs a processing-window set")
     opts = {**opts, "taskset_text": raw.decode("utf-8"), "taskset_source": source}
     return {**opts, "taskset_set": overrides} if overrides else opts
@@ -132,8 +140,6 @@ def _taskset_options(cfg: ValidationConfig) -> dict[str, Any]:
 
 def paper_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: paper") -> Any:
     """The sweep spec of the paper grid (kind ``call``)."""
-    from rtsim.sweep.spec import parse_sweep
-
     options = {"windows": cfg.windows, "scan": cfg.scan, "tol": cfg.tol, **_taskset_options(cfg)}
     data = {
         "sweep": {
@@ -150,8 +156,6 @@ def paper_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: paper
 
 def random_sweep_spec(cfg: ValidationConfig, source: str = "rtsim validate: random") -> Any:
     """The sweep spec of the random sets (kind ``call``)."""
-    from rtsim.sweep.spec import parse_sweep
-
     data = {
         "sweep": {
             "kind": "call",
@@ -174,8 +178,6 @@ def _run(
     restart: bool,
     argv: Sequence[str] | None,
 ) -> pd.DataFrame:
-    from rtsim.sweep.engine import Sweep
-
     return (
         Sweep(spec, out)
         .run(workers=workers, dask=dask, progress=progress, restart=restart, argv=argv)
@@ -206,12 +208,6 @@ def _histograms(
     cfg: ValidationConfig, table: pd.DataFrame, out: Path, fmt: str = "png", dpi: int = DPI
 ) -> list[Path]:
     """Re-run the chosen configurations at w_sch (same seeds) and draw their histograms."""
-    from rtsim.analysis.bounds import w_sch_of
-    from rtsim.analysis.validation import task_bounds
-    from rtsim.validate.histogram import JobSource, write_histograms
-    from rtsim.validate.points import FP_MODES as PAPER_MODES  # the FP bounds are drawn
-    from rtsim.validate.points import beam_counts_for, paper_taskset, simulate_mode
-
     opts = _taskset_options(cfg)
     written: list[Path] = []
     for n, r_H, seed in _histogram_configs(table, cfg.histogram_configs):
@@ -246,7 +242,6 @@ def _histograms(
                 fmt=fmt,
                 dpi=dpi,
             )
-        from rtsim.io.manifest import write_manifest
 
         write_manifest(
             d,
@@ -266,9 +261,6 @@ def scheduler_table(
     """The analytic table of the task set's window bounds under both schedulers: n, r_H,
     w_sch, w_rta (fixed priority), w_edf (EDF), and the gains w_rta/w_sch and w_edf/w_rta
     (all with Δt counted as CPU time; whatever the run's grid)."""
-    from rtsim.analysis.bounds import w_edf, w_rta, w_sch_of
-    from rtsim.validate.points import paper_taskset
-
     opts = _taskset_options(cfg)
     rows = []
     for r in r_H:
@@ -296,9 +288,10 @@ def _figures(
     fmt: str = "png",
     dpi: int = DPI,
 ) -> list[Path]:
-    from rtsim.io.atomic import write_table
-    from rtsim.plots.scenario import save_figure
-    from rtsim.plots.validation import (
+    from rtsim.plots.scenario import (  # lazy: only this needs matplotlib
+        save_figure,
+    )
+    from rtsim.plots.validation import (  # lazy: only this needs matplotlib
         bounds_vs_n,
         bounds_vs_n_data,
         pessimism_data,
@@ -370,9 +363,6 @@ def run_validation(
     (another command's output, a user's file) is refused before anything is done; a new
     directory is claimed at once by a ``manifest.json`` of ``validate`` (rewritten at the
     end), so a resumed run knows it."""
-    from rtsim.io.lock import lock_directory
-    from rtsim.io.outdir import check_resumable
-
     check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"})
     with lock_directory(out_dir, argv):
         check_resumable(out_dir, "validate", MADE, before_manifest={"sweeps"}, clean=True)
@@ -401,12 +391,6 @@ def _run_validation(
     fig_format: str = "png",
     dpi: int = DPI,
 ) -> ValidationOutcome:
-    from rtsim.io.atomic import write_json, write_table
-    from rtsim.io.manifest import write_manifest
-    from rtsim.report import REPORT_NAME, write_run_report
-    from rtsim.validate.report import write_report
-    from rtsim.validate.tidy import COLUMNS, tidy_paper, tidy_random
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     inputs = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(config).items()}
@@ -429,7 +413,7 @@ def _run_validation(
         restart,
         argv,
     )
-    parts = [tidy_paper(paper)]
+    parts = [tidy.tidy_paper(paper)]  # (looked up at the call: tests replace it)
     errors = [
         f"paper n={r['n']}, r_H={r['r_H']}: {r['error']}"
         for r in paper[paper["status"] == "failed"].to_dict("records")
@@ -444,13 +428,13 @@ def _run_validation(
             restart,
             argv,
         )
-        parts.append(tidy_random(rnd))
+        parts.append(tidy.tidy_random(rnd))
         errors += [
             f"random set {r['set']}: {r['error']}"
             for r in rnd[rnd["status"] == "failed"].to_dict("records")
         ]
     table = pd.concat([p for p in parts if not p.empty] or [parts[0]], ignore_index=True)
-    table = table.reindex(columns=list(COLUMNS))
+    table = table.reindex(columns=list(tidy.COLUMNS))
     failures = check_results(table)
     summary = summarize(table) if not table.empty else {"rows": 0, "failures": 0}
     summary["point_errors"] = len(errors)

@@ -34,6 +34,8 @@ from typing import Any
 
 import pandas as pd
 
+from rtsim.validate.points import PAPER_MODES, RANDOM_MODES
+
 __all__ = ["COLUMNS", "tidy_paper", "tidy_random"]
 
 COLUMNS: tuple[str, ...] = (
@@ -141,8 +143,6 @@ def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
 
 def tidy_paper(results: pd.DataFrame) -> pd.DataFrame:
     """Validation rows of the paper sweep (its ``ok`` points; ``results.parquet`` rows)."""
-    from rtsim.validate.points import PAPER_MODES
-
     rows: list[dict[str, Any]] = []
     for row in results[results["status"] == "ok"].to_dict("records"):
         base = {
@@ -184,8 +184,6 @@ def tidy_paper(results: pd.DataFrame) -> pd.DataFrame:
 
 def tidy_random(results: pd.DataFrame) -> pd.DataFrame:
     """Validation rows of the random-set sweep (its ``ok`` points)."""
-    from rtsim.validate.points import RANDOM_MODES
-
     rows: list[dict[str, Any]] = []
     for row in results[results["status"] == "ok"].to_dict("records"):
         base = {

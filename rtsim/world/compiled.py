@@ -56,7 +56,8 @@ __all__ = [
 
 
 def as_changes(arr: Any) -> list[list[Any]]:
-    """A [window, follower, change] array as the rollout's lists of tuples."""
+    """A [window, follower, change] array as the rollout's lists of tuples (the four changes
+    and the closest approach, `rtsim.control.rollout.Changes`)."""
     return [[tuple(c) for c in win] for win in arr.tolist()]
 
 
@@ -300,7 +301,7 @@ class CompiledRollout:
 
     def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
         """`Rollout.changes` uncached: per window, per follower the four changes."""
-        out = np.empty((len(windows), self.n, 4))
+        out = np.empty((len(windows), self.n, 5))
         self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
         return as_changes(out)
 
@@ -315,16 +316,18 @@ class CompiledRollout:
         tol: float,
         windows: int,
         w: float,
+        contact: float = 0.0,
     ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
         """`PlanPolicy`'s decision, or with ``search_only``
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
-        ``windows`` windows of ``w`` ms), in one call (`rtsim.world.kernels._plan_decide`, on fresh
+        ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
+        in one call (`rtsim.world.kernels._plan_decide`, on fresh
         buffers): ((w, V_L, method code, found, feasible), the rows
         at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
         lengths, changes [window, follower, change]) for the rollout's memo)."""
         speeds = np.empty(_SEARCH_RUNS)
         lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
-        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 4))
+        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))
         rows = np.empty((2, self.n, 4))
         out = np.full(6, math.nan)
         runs = self._ker.plan_decide(
@@ -342,6 +345,7 @@ class CompiledRollout:
             changes,
             rows,
             out,
+            float(contact),
         )
         runs = min(runs, _SEARCH_RUNS)
         w = float(w)

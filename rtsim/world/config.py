@@ -1,5 +1,6 @@
 """The world's frozen configuration: path, leader speed, formation, followers, sensing, EKF,
-thresholds and integration step (built by [`rtsim.io.scenario`][rtsim.io.scenario] or by hand)."""
+thresholds and integration step (built by [`rtsim.config.scenario`][rtsim.config.scenario] or
+by hand)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from dataclasses import dataclass, field
 
 from rtsim.analysis.kinematics import R_H_DEFAULT, Thresholds
 from rtsim.errors import ScenarioError
+from rtsim.world import compiled
 from rtsim.world._check import integer, positive
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
@@ -221,8 +223,6 @@ class WorldConfig:
         ``ekf.backend`` says so (its older name), else ``compiled`` where numba can be
         imported and ``python`` where it cannot. An explicit ``compiled`` without numba is
         an error."""
-        from rtsim.world import compiled
-
         if self.backend is None:
             if self.ekf.backend == "filterpy":
                 return "filterpy"

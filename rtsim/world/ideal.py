@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from rtsim.errors import ScenarioError
 from rtsim.world.formation import CLEARANCE_MARGIN, Formation, follower_model
+from rtsim.world.ftl import TraceFollower
 from rtsim.world.path import LeaderPath
 
 __all__ = [
@@ -130,8 +131,6 @@ def _ideal(
     start_s: float,
     step: float,
 ) -> IdealLap:
-    from rtsim.world.ftl import TraceFollower
-
     path = LeaderPath(segments, start)  # type: ignore[arg-type]
     law = TraceFollower(path, rho_d, lateral, 0.0, 1.0)  # whom each follows, at what spacing
     lap = path.lap_length

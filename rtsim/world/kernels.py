@@ -19,6 +19,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from rtsim.sim.progress import progress_enabled
+from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.ekf import ekf_command, ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
 from rtsim.world.jit import Subs, build, cached, kernel
@@ -492,8 +494,8 @@ def _rollout_changes(
     """Rollout._run whole: the leader set to target ``v`` (Leader.set_speed), the scans and
     sends of windows ``lengths`` in Python's tuple order, `_rollout` on copies of the
     group and the law's search starts, and the changes per window and follower
-    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|). ``P``: the state's
-    pack (`rtsim.world.compiled.CompiledRollout.pack`)."""
+    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|, closest approach).
+    ``P``: the state's pack (`rtsim.world.compiled.CompiledRollout.pack`)."""
     fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
     S = scalars(fs)
     n = fol.shape[0]
@@ -588,6 +590,10 @@ def _rollout_changes(
         samples,
     )
     two_pi = 2.0 * math.pi
+    near = np.empty((nw + 1, n))  # (contact: each follower's closest approach at each scan)
+    for j in range(nw + 1):
+        for i in range(n):
+            near[j, i] = closest_to(samples[j, :, 0], samples[j, :, 1], i, 0.0, 0.0)
     for j in range(nw):
         for i in range(n):
             px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
@@ -598,6 +604,7 @@ def _rollout_changes(
             b_q = math.atan2(qy, qx) % two_pi
             b_p = math.atan2(py, px) % two_pi
             out[j, i, 3] = abs(_remainder(b_q - b_p, two_pi))
+            out[j, i, 4] = closest_over(near[j, i], near[j + 1, i])
 
 
 @kernel
@@ -650,13 +657,15 @@ def _rollout_worst(
     w: float,
     P: Any,
     ch: Any,
+    contact: float,
 ) -> float:
     """PlanPolicy's m(V): the smallest bound of every follower in ``ch.shape[0]`` windows of
-    ``w`` ms (Python's ``min`` over the windows: the first, then any smaller); the changes
-    are left in ``ch``."""
+    ``w`` ms (Python's ``min`` over the windows: the first, then any smaller), then the
+    contact bound at d_c = ``contact`` (0: off); the changes are left in ``ch``."""
     S, fol = scalars(P[0]), P[1]
     _rollout_changes(v, np.full(ch.shape[0], w), P, ch)
-    return _worst_after(ch, S, fol, w, _min_bound(ch[0], S, fol, w))
+    m = _worst_after(ch, S, fol, w, _min_bound(ch[0], S, fol, w))
+    return lowest_contact(ch, w, contact, m)  # type: ignore[no-any-return]
 
 
 @kernel
@@ -684,12 +693,14 @@ def _search_into(
     changes: Any,
     first: int,
     found_out: Any,
+    contact: float,
 ) -> int:
     """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · `_rollout_worst` over
-    ``changes.shape[1]`` windows of ``w``; rollout r's speed and changes go to ``speeds[r]``
-    and ``changes[r]`` from r = ``first`` (as many as they hold). ``found_out`` ←
-    (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the
-    speed's rollout or −1); returns the next free index (rollouts run: it − first)."""
+    ``changes.shape[1]`` windows of ``w`` (contact bound at ``contact``); rollout r's speed
+    and changes go to ``speeds[r]`` and ``changes[r]`` from r = ``first`` (as many as they
+    hold). ``found_out`` ← (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or
+    NaN, the index of the speed's rollout or −1); returns the next free index (rollouts run:
+    it − first)."""
     v_ld = scalars(P[0]).v_ld
     cap = speeds.shape[0]
     scratch = np.empty(changes.shape[1:])
@@ -721,7 +732,7 @@ def _search_into(
             speeds[r] = v
         r_v = r if r < cap else -1
         r += 1
-        m = keep * _rollout_worst(v, w, P, ch)
+        m = keep * _rollout_worst(v, w, P, ch, contact)
         if phase == 0:
             best_m, best_r, phase = m, r_v, 1
         elif phase == 1:
@@ -754,8 +765,10 @@ def _plan_decide(
     changes: Any,
     rows: Any,
     out: Any,
+    contact: float,
 ) -> int:
-    """PlanPolicy.decide's numbers over ``changes.shape[1]`` windows of ``w`` (the horizon H).
+    """PlanPolicy.decide's numbers over ``changes.shape[1]`` windows of ``w`` (the horizon H),
+    with the contact bound at d_c = ``contact`` cm (0: off; `rtsim.world.contact`).
 
     Rows: ``rows[0]`` the bounds at V_Ld in the window the decision governs, ``rows[1]``
     those at the chosen speed; ``out`` ← (w, V_L, method: 0 none, 1 numeric, 2 best, the
@@ -780,7 +793,7 @@ def _plan_decide(
     feasible = False
     if not search_only:
         speeds[0], lens[0] = v_ld, 1
-        m_ld = _rollout_worst(v_ld, w, P, changes[0])
+        m_ld = _rollout_worst(v_ld, w, P, changes[0], contact)
         m1 = _rows(changes[0, 0], S, fol, w, rows[0])
         feasible = keep * m_ld >= need
     if feasible:
@@ -790,7 +803,7 @@ def _plan_decide(
         runs = 1
         if ww > w:  # the longer first window, checked by its own rollout
             speeds[1], lens[1] = v_ld, 2
-            m_w = _rollout_worst(v_ld, ww, P, changes[1, 0:1])
+            m_w = _rollout_worst(v_ld, ww, P, changes[1, 0:1], contact)
             runs = 2
             out[5] = ww
             if keep * m_w < ww:
@@ -801,7 +814,7 @@ def _plan_decide(
                 rows[1, i, j] = rows[0, i, j]
         out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
         return runs
-    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, first, res)
+    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, first, res, contact)
     for r in range(first, min(runs, speeds.shape[0])):
         lens[r] = 0
     if search_only:
@@ -813,6 +826,7 @@ def _plan_decide(
         return runs
     lens[r_l] = 1
     m_l = _worst_after(changes[r_l], S, fol, w, _rows(changes[r_l, 0], S, fol, w, rows[1]))
+    m_l = lowest_contact(changes[r_l], w, contact, m_l)
     out[4] = 1.0 if keep * m_l >= need else 0.0
     return runs
 
@@ -856,8 +870,6 @@ def announce(sources: Iterable[Any], seconds: float, subs: Subs = ()) -> bool:
     global _ANNOUNCED
     if _ANNOUNCED or all(cached(fn, subs) for fn in sources):
         return False
-    from rtsim.sim.progress import progress_enabled
-
     _ANNOUNCED = True  # (asked once: a later group compiles under the same line)
     if not progress_enabled():
         return False
@@ -1011,11 +1023,11 @@ def warm_rollout(motion: Any = None) -> None:
     nan1 = np.full(1, math.nan)
     path = (np.zeros(1), np.zeros((1, 3)), np.zeros(1), np.zeros(1), np.full(1, -1))
     P = (fs, fol, np.full((1, 1), math.nan), *path, np.full(1, 100.0), nan1, nan1)
-    ch = np.empty((64, 2, 1, 4))
+    ch = np.empty((64, 2, 1, 5))
     ns.rollout_changes(20.0, np.full(2, 240.0), P, ch[0])
     bufs = (np.empty(64), np.zeros(64, dtype=np.int64), ch, np.empty((2, 1, 4)), np.empty(6))
     for search_only in (True, False):
-        ns.plan_decide(search_only, 1.0, 240.0, 1e3, 3.0, 8, 0.005, 240.0, P, *bufs)
+        ns.plan_decide(search_only, 1.0, 240.0, 1e3, 3.0, 8, 0.005, 240.0, P, *bufs, 60.0)
     ns.rollout_warm = True
 
 

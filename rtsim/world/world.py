@@ -50,6 +50,11 @@ from rtsim.analysis.kinematics import (
     relative_state,
 )
 from rtsim.errors import RtsimError
+from rtsim.world.compiled import (
+    CompiledFollowerEKF,
+    CompiledFollowerGroup,
+    CompiledTraceFollower,
+)
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
 from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
@@ -110,12 +115,6 @@ class World:
         y = yl + s * slots[:, 0] + c * slots[:, 1]
         self.backend = config.resolved_backend()
         fast = self.backend == "compiled"
-        if fast:
-            from rtsim.world.compiled import (
-                CompiledFollowerEKF,
-                CompiledFollowerGroup,
-                CompiledTraceFollower,
-            )
         self._ftl: TraceFollower | None = None
         if follower_model(form.model).on_trace:
             ftl = CompiledTraceFollower if fast else TraceFollower

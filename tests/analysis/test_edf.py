@@ -25,7 +25,7 @@ from rtsim.analysis.edf import (
     qpa,
     spuri_wcrt,
 )
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim import simulate

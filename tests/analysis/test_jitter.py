@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from rtsim.analysis.rta import analyze, busy_window, response_time
+from rtsim.config.taskset import parse_taskset, taskset_to_dict
 from rtsim.errors import TaskSetError
-from rtsim.io.taskset import parse_taskset, taskset_to_dict
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim import simulate

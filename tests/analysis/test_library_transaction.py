@@ -12,8 +12,8 @@ import pytest
 import rtsim
 from rtsim.analysis.transaction import transaction_bounds
 from rtsim.cli import main
+from rtsim.config.taskset import load_taskset
 from rtsim.io import work
-from rtsim.io.taskset import load_taskset
 from rtsim.io.work import TooMuchWork
 
 # two tasks of one period with offsets 0 and 10 ms, and a lower-priority one

@@ -11,10 +11,10 @@ import pandas as pd
 import pytest
 
 from rtsim.analysis.bounds import lower_bound, w_txn, window_bounds
+from rtsim.config.scenario import load_scenario
+from rtsim.config.taskset import load_taskset
 from rtsim.coupling import run_scenario
-from rtsim.errors import InputError
-from rtsim.io.scenario import ScenarioError, load_scenario
-from rtsim.io.taskset import load_taskset
+from rtsim.errors import InputError, ScenarioError
 
 ROOT = Path(__file__).resolve().parents[2]
 TEST2 = ROOT / "experiments" / "scenarios" / "test2.toml"

@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from rtsim.analysis.rta import analyze, response_time, stretches
 from rtsim.cli import main
+from rtsim.config.taskset import load_taskset, parse_taskset
 from rtsim.errors import TaskSetError
-from rtsim.io.taskset import load_taskset, parse_taskset
 from rtsim.model.task import Segment, Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim import simulate

@@ -312,7 +312,7 @@ def test_default_analysis_is_unchanged_without_sections_or_suspensions():
     Δt-as-CPU analysis (sound under both models there), result for result."""
     from dataclasses import replace
 
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
     from rtsim.model.task import Segment
 
     paper = load_taskset()

@@ -17,7 +17,7 @@ from rtsim.analysis.bounds import w_rta, w_susp, window_bounds
 from rtsim.analysis.rta import analyze
 from rtsim.analysis.suspension import suspension_aware
 from rtsim.cli import main
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.model.task import Segment, Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim import build_cpu, simulate

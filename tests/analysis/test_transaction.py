@@ -25,7 +25,7 @@ from rtsim.analysis.transaction import (
     transaction_bounds,
 )
 from rtsim.cli import main
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.model.task import Segment, Task
 from rtsim.sim import build_cpu, simulate
 

@@ -18,7 +18,7 @@ import pytest
 from rtsim.analysis.bounds import w_edf, w_rta, w_sch_of, window_bounds
 from rtsim.analysis.edf import analyze_edf
 from rtsim.cli import main
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim import simulate

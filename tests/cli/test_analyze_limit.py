@@ -10,8 +10,8 @@ import pytest
 
 from rtsim.analysis.edf import edf_arrivals
 from rtsim.cli import main
+from rtsim.config.taskset import load_taskset
 from rtsim.io import work
-from rtsim.io.taskset import load_taskset
 
 ROOT = Path(__file__).resolve().parents[2]
 

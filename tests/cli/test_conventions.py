@@ -301,7 +301,7 @@ def test_scenario_progress_bar_changes_no_output(
 
 
 def test_simulate_with_progress_gives_the_same_jobs() -> None:
-    from rtsim.io import load_taskset
+    from rtsim.config.taskset import load_taskset
     from rtsim.sim import simulate
 
     ts = load_taskset()

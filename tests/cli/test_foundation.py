@@ -12,7 +12,7 @@ import pytest
 
 from rtsim.analysis.bounds import window_bounds
 from rtsim.cli import main
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = str(REPO / "tasksets" / "example.toml")

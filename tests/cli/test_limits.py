@@ -59,7 +59,7 @@ def test_the_overload_backlog_is_counted(capsys: pytest.CaptureFixture[str]) -> 
     assert main(["simulate", str(BARREL), "--window", "0.001", "--horizon", "30000"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "jobs waiting at once" in err
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
 
     ts = load_taskset(BARREL)
     released = work.simulate_jobs(ts, 1000.0, 0.001)
@@ -79,7 +79,7 @@ def test_example_taskset_in_a_scenario_is_not_the_papers(tmp_path: Path) -> None
     text = (ROOT / "rtsim" / "data" / "scenarios" / "test2.toml").read_text("utf-8")
     p = tmp_path / "s.toml"
     p.write_text(text.replace('taskset = "barrel_robots"', 'taskset = "example"'), "utf-8")
-    from rtsim.io.scenario import load_scenario
+    from rtsim.config.scenario import load_scenario
 
     with pytest.raises(InputError, match="'example' has no \\[window\\]"):
         load_scenario(p).load_taskset()

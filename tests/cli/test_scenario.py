@@ -63,7 +63,13 @@ def test_writes_the_issue_files(outs: list[Path]) -> None:
         "scenario",
     ):
         assert key in summary
-    assert set(summary["violations"]) == {"localization", "separation", "path_diversion", "bearing"}
+    assert set(summary["violations"]) == {
+        "localization",
+        "separation",
+        "path_diversion",
+        "bearing",
+        "contact",
+    }
     assert summary["duration_s"] == pytest.approx(12.0)
 
 

@@ -13,10 +13,10 @@ import pytest
 
 from rtsim._suggest import close_match
 from rtsim.cli import main
+from rtsim.config.scenario import load_scenario
 from rtsim.config.schema import KINDS, json_schema, schema_text, shipped_schema
+from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError, ScenarioError, TaskSetError
-from rtsim.io.scenario import load_scenario
-from rtsim.io.taskset import load_taskset
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -236,7 +236,7 @@ def test_the_schema_refuses_what_the_loader_refuses(edit: tuple[str, str], value
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate(data, json_schema("scenario"), cls=jsonschema.Draft202012Validator)
     with pytest.raises(ScenarioError):
-        from rtsim.io.scenario import parse_scenario
+        from rtsim.config.scenario import parse_scenario
 
         parse_scenario(data, "test2.toml", ROOT / "experiments" / "scenarios")
 

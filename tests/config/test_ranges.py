@@ -19,12 +19,12 @@ from hypothesis import strategies as st
 
 from rtsim.cli import build_parser, main, numeric_options
 from rtsim.config.docs import ranges, render_markdown
+from rtsim.config.scenario import load_scenario, parse_scenario
+from rtsim.config.taskset import load_taskset, parse_taskset
 from rtsim.coupling.duration import check_scenario
 from rtsim.errors import InputError, ScenarioError, TaskSetError
 from rtsim.io import limits
 from rtsim.io.limits import UnregisteredKey, check
-from rtsim.io.scenario import load_scenario, parse_scenario
-from rtsim.io.taskset import load_taskset, parse_taskset
 from rtsim.io.work import LIMITS, TooMuchWork, check_simulate, check_work
 from rtsim.world.config import SensingParams
 from rtsim.world.ekf import EkfParams

@@ -29,12 +29,12 @@ import numpy as np
 import pytest
 
 from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds
+from rtsim.config.scenario import load_scenario
 from rtsim.control import adjust, decide
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.predict import FollowerEstimate, check_predictor, predict_msbs, predictor
 from rtsim.coupling import run_scenario
 from rtsim.errors import InputError, ScenarioError
-from rtsim.io.scenario import load_scenario
 
 SCEN = Path(__file__).resolve().parents[2] / "experiments" / "scenarios"
 TEST2 = SCEN / "test2.toml"

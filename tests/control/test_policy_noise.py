@@ -19,6 +19,7 @@ from typing import Any, ClassVar
 import pytest
 
 from rtsim.analysis.kinematics import Thresholds
+from rtsim.config.scenario import load_scenario
 from rtsim.control import FollowerEstimate
 from rtsim.control.adjust import Decision
 from rtsim.control.policy import (
@@ -30,8 +31,7 @@ from rtsim.control.policy import (
     pad_rows,
 )
 from rtsim.coupling.scenario_run import run_scenario
-from rtsim.errors import InputError
-from rtsim.io.scenario import ScenarioError, load_scenario
+from rtsim.errors import InputError, ScenarioError
 
 PIN = Path(__file__).parents[1] / "data" / "policy_pin"
 THR = Thresholds(r_H=1.0, T_rho=0.01, T_eps=0.025, T_beta=0.1, localization="radial")

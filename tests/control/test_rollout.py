@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 from rollout_states import world_state
 
+from rtsim.config.scenario import load_scenario
 from rtsim.control.adjust import search_rollout
 from rtsim.control.rollout import Rollout
-from rtsim.io.scenario import load_scenario
 from rtsim.world import World
 
 QUIET = {

@@ -13,10 +13,10 @@ from traced import traced_peak as _peak
 
 import rtsim.coupling.scenario_run as scenario_run
 from rtsim.cli.scenario import FOLLOWER_CHUNK_ROWS, _write_followers
+from rtsim.config.scenario import load_scenario
 from rtsim.coupling import run_scenario
 from rtsim.coupling.tidy import follower_count, followers_frame
 from rtsim.io.columns import ChunkWriter
-from rtsim.io.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 TEST2 = ROOT / "experiments" / "scenarios" / "test2.toml"

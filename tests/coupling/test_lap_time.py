@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from rtsim.config.scenario import load_scenario
 from rtsim.coupling import duration
 from rtsim.coupling.scenario_run import run_scenario
-from rtsim.io.scenario import load_scenario
 
 PIN = Path(__file__).parents[1] / "data" / "policy_pin" / "pin1.toml"
 

@@ -11,11 +11,10 @@ from pathlib import Path
 import pytest
 
 from rtsim.analysis.kinematics import R_H_DEFAULT
-from rtsim.config.scenario import AdjustConfig
+from rtsim.config.scenario import AdjustConfig, load_scenario, parse_scenario, scenario_bytes
 from rtsim.control.policy import AdjustOptions
 from rtsim.coupling import ScenarioInputs, run_scenario, scenario_inputs
 from rtsim.errors import InputError
-from rtsim.io.scenario import load_scenario, parse_scenario, scenario_bytes
 from rtsim.world.config import DEFAULT_THRESHOLDS
 
 SCEN = Path(__file__).resolve().parents[2] / "experiments" / "scenarios"

@@ -22,6 +22,13 @@ The settled start (``[leader] start_on``, default ``"straight"``, issue 33) move
 start onto a straight, and ``adjust`` predicts with the paper's §3.3 whatever the file's
 predictor (``[adjust] paper_predictor``, default true): the pin files name the old settings,
 ``start_on = "given"`` and ``paper_predictor = false``, so the digests stay those of before.
+
+The contact bound (``[adjust] contact``, default true, issue 33) is a key of the policy
+``plan`` alone: the pinned policies (``adjust``, ``fixed-wsch``, ``min-msb``) never see it, so
+the pin files cannot name it (a key of another policy is an error) and need not. Its report
+is new output, left out like the columns above: the contact columns at the end of
+windows.csv (``f{i}_contact_cm_pred``, ``_true``, ``f{i}_viol_contact``) and
+``violations["contact"]`` in summary.json.
 """
 
 from __future__ import annotations
@@ -32,7 +39,7 @@ from pathlib import Path
 
 import pytest
 
-from rtsim.coupling.recorder import LOCALIZATION_COLUMNS, sensing_columns
+from rtsim.coupling.recorder import LOCALIZATION_COLUMNS, contact_columns, sensing_columns
 from rtsim.coupling.scenario_run import run_scenario
 
 PIN = Path(__file__).parents[1] / "data" / "policy_pin"
@@ -76,9 +83,10 @@ NEW_KEYS = (
 
 def _digest(res) -> tuple[str, str]:  # type: ignore[no-untyped-def]
     n = res.summary["n"]
-    drop = [*LOCALIZATION_COLUMNS, *sensing_columns(n)]
+    drop = [*LOCALIZATION_COLUMNS, *sensing_columns(n), *contact_columns(n)]
     csv = res.windows.drop(columns=drop).to_csv(index=False).encode()
     s = {k: v for k, v in res.summary.items() if k not in NEW_KEYS}
+    s["violations"] = {k: v for k, v in s["violations"].items() if k != "contact"}
     js = json.dumps(s, sort_keys=True, default=str).encode()
     return hashlib.sha256(csv).hexdigest()[:16], hashlib.sha256(js).hexdigest()[:16]
 

@@ -25,6 +25,7 @@ import pandas as pd
 import pytest
 
 from rtsim.analysis.kinematics import BOUND_KINDS
+from rtsim.config.scenario import load_scenario
 from rtsim.coupling import (
     ScenarioInputs,
     WindowRecord,
@@ -33,7 +34,6 @@ from rtsim.coupling import (
     window_columns,
 )
 from rtsim.errors import InputError
-from rtsim.io.scenario import load_scenario
 from rtsim.world.hough import window_cells
 
 SCEN = Path(__file__).resolve().parents[2] / "experiments" / "scenarios"

@@ -12,9 +12,9 @@ import pandas as pd
 import pytest
 
 from rtsim.cli import main
+from rtsim.config.scenario import load_scenario
 from rtsim.coupling import run_scenario
 from rtsim.coupling.summary import summarize, summary_columns
-from rtsim.io.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 TEST2 = ROOT / "experiments" / "scenarios" / "test2.toml"

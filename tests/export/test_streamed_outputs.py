@@ -26,7 +26,7 @@ BARREL = ROOT / "tasksets" / "barrel_robots.toml"
 
 
 def _barrel() -> TaskSet:
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
 
     return load_taskset(BARREL)
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from rtsim.config.scenario import load_scenario
 from rtsim.errors import ScenarioError
-from rtsim.io.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "experiments" / "scenarios"
@@ -252,7 +252,7 @@ def test_packaged_scenarios_equal_the_experiment_files(tmp_path, monkeypatch) ->
     """The paper's scenarios ship with rtsim (by name) and equal experiments/scenarios/."""
     from pathlib import Path
 
-    from rtsim.io.scenario import PACKAGED_SCENARIOS, load_scenario, scenario_bytes
+    from rtsim.config.scenario import PACKAGED_SCENARIOS, load_scenario, scenario_bytes
 
     root = Path(__file__).resolve().parents[2]
     monkeypatch.chdir(tmp_path)  # no file called test1 here: the name means the packaged one

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from rtsim.config.taskset import load_taskset, parse_taskset, taskset_to_dict
 from rtsim.errors import TaskSetError
-from rtsim.io.taskset import load_taskset, parse_taskset, taskset_to_dict
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from rtsim.cli import main
+from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError
-from rtsim.io.taskset import load_taskset
 from rtsim.model.generate import (
     PeriodSpec,
     draw_periods,

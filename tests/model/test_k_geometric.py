@@ -9,8 +9,8 @@ import pytest
 
 from rtsim.analysis.bounds import window_bounds
 from rtsim.analysis.window import k_geometric
+from rtsim.config.taskset import load_taskset, parse_taskset, taskset_to_dict
 from rtsim.errors import TaskSetError
-from rtsim.io.taskset import load_taskset, parse_taskset, taskset_to_dict
 
 R_F = 25.0
 ANGLES = np.radians(90.0 + 0.5 * np.arange(361))  # the laser's beams (backward facing)

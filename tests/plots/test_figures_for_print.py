@@ -74,7 +74,7 @@ def _validation_figures(tmp: Path) -> Iterator[tuple[str, Figure]]:
 
 def _schedule_figures(tmp: Path) -> Iterator[tuple[str, Figure]]:
     from rtsim.cli.simulate import gantt_figure, histogram_figure
-    from rtsim.io import load_taskset
+    from rtsim.config.taskset import load_taskset
     from rtsim.plots.histogram import response_histogram
     from rtsim.sim import simulate
 

@@ -218,5 +218,5 @@ def test_no_page_shows_a_sphinx_role(site: Path) -> None:
             )
     assert not shown, shown[:5]
     api = (site / "api" / "index.html").read_text(encoding="utf-8")
-    assert 'href="io/#rtsim.io.scenario.Scenario"' in api  # a role became a link
+    assert 'href="config/#rtsim.config.scenario.Scenario"' in api  # a role became a link
     assert "run_sweep" in api and "point_seed" in api  # the curated page's entry points

@@ -21,8 +21,9 @@ ROOT = Path(__file__).resolve().parents[2] / "rtsim"
 #: Layers, bottom up: a module may import modules of its own layer or below. The first
 #: matching prefix decides (most specific first).
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    # helpers every layer may use: errors, numbers, the plug-in registry, the range table and
-    # work limits (data checked by every layer), the notebook display mixin
+    # helpers every layer may use: errors, numbers, the plug-in registry, the file helpers of
+    # rtsim.io (atomic writes, result stores, the range table and work limits every layer
+    # checks against; the loaders of input files are in config), the notebook display mixin
     (
         "base",
         (
@@ -31,16 +32,14 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "rtsim._numbers",
             "rtsim._suggest",
             "rtsim.registry",
-            "rtsim.io.limits",
-            "rtsim.io.ranges",
-            "rtsim.io.work",
+            "rtsim.io",
             "rtsim.notebook",
         ),
     ),
     ("model", ("rtsim.model",)),
     ("analysis", ("rtsim.analysis",)),
     ("world / sim / control", ("rtsim.world", "rtsim.sim", "rtsim.control")),
-    ("config", ("rtsim.config", "rtsim.io", "rtsim.overrides", "rtsim.examples")),
+    ("config", ("rtsim.config", "rtsim.overrides", "rtsim.examples")),
     ("coupling", ("rtsim.coupling",)),
     ("sweep / plots / export", ("rtsim.sweep", "rtsim.plots", "rtsim.export", "rtsim.animate")),
     (

@@ -90,7 +90,7 @@ def test_examples_command_lists_and_prints(capsys) -> None:
 
 
 def test_examples_work_by_name_and_a_local_file_wins(tmp_path: Path, monkeypatch, capsys) -> None:
-    from rtsim.io import load_taskset
+    from rtsim.config.taskset import load_taskset
     from rtsim.sweep.spec import load_sweep
 
     monkeypatch.chdir(tmp_path)

@@ -82,8 +82,8 @@ def test_top_level_entry_points_are_the_subpackages_and_load_lazily() -> None:
 
     import rtsim
     from rtsim.analysis import analyze
+    from rtsim.config.scenario import load_scenario
     from rtsim.coupling import run_scenario
-    from rtsim.io import load_scenario
     from rtsim.sim import simulate
 
     assert rtsim.run_scenario is run_scenario and rtsim.load_scenario is load_scenario
@@ -102,8 +102,9 @@ def test_top_level_entry_points_are_the_subpackages_and_load_lazily() -> None:
 def test_subpackage_entry_points_are_exported() -> None:
     """The functions the README's library example uses."""
     from rtsim.analysis import analyze, window_bounds
+    from rtsim.config.scenario import load_scenario
+    from rtsim.config.taskset import load_taskset
     from rtsim.coupling import run_scenario
-    from rtsim.io import load_scenario, load_taskset
     from rtsim.sim import simulate
     from rtsim.sweep import run_sweep
     from rtsim.validate import run_validation

@@ -94,7 +94,7 @@ def test_an_installed_entry_point_resolves_without_opt_in(
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: plug-sched\nVersion: 1.0\n")
     (info / "entry_points.txt").write_text("[rtsim.schedulers]\nplugged = plug_sched:Plugged\n")
     monkeypatch.syspath_prepend(str(tmp_path))
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
     from rtsim.sim import simulate
     from rtsim.sim.policy import SCHEDULERS
 
@@ -113,7 +113,7 @@ def test_an_installed_entry_point_resolves_without_opt_in(
 def test_api_file_names_code_only_with_allow_code(
     evil_dir: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
 
     monkeypatch.chdir(evil_dir)  # allowed code is imported from the current directory
     monkeypatch.setattr(sys, "path", list(sys.path))
@@ -134,7 +134,7 @@ def test_api_file_names_code_only_with_allow_code(
 
 
 def test_a_scenario_file_names_code_only_with_allow_code(tmp_path: Path) -> None:
-    from rtsim.io.scenario import load_scenario, scenario_bytes
+    from rtsim.config.scenario import load_scenario, scenario_bytes
 
     text = scenario_bytes("test2")[0].decode()
     (tmp_path / "evil.py").write_text(EVIL)

@@ -45,6 +45,7 @@ def test_clearance_quick(tmp_path: Path) -> None:
     summ = pd.read_csv(tmp_path / "clearance_summary.csv", keep_default_na=False)
     six = summ[summ["n"] == 6].iloc[0]
     assert six.runs == 1 and six.collisions == 0 and float(six.closest_min_cm) >= 60.0
+    assert six.contact_breaks == 0
     nine = summ[summ["n"] == 9].iloc[0]
     assert nine.runs == 0 and "9 followers do not fit" in nine.refused
     assert "refused before the run" in (tmp_path / "clearance.md").read_text()

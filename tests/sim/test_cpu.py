@@ -296,7 +296,7 @@ def test_dynamic_window_period_provider_and_per_window_task():
 
 def test_fixed_window_and_w_sch_default():
     from rtsim.analysis.bounds import w_sch_of
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
 
     ts = load_taskset()
     res = simulate(ts, 2000, record_jobs=True)

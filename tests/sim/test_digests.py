@@ -14,7 +14,7 @@ from typing import Any
 
 from rtsim.analysis.bounds import window_bounds
 from rtsim.analysis.rta import analyze
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.model.task import Task
 from rtsim.sim import simulate
 

@@ -11,7 +11,7 @@ import pytest
 import simpy
 
 from rtsim.cli import main
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.model.task import Task
 from rtsim.sim import CPU, simulate
 from rtsim.sim.cpu import coincidence

@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 
 from rtsim.cli import main
+from rtsim.config.taskset import load_taskset, parse_taskset, taskset_to_dict
 from rtsim.errors import InputError, TaskSetError
-from rtsim.io.taskset import load_taskset, parse_taskset, taskset_to_dict
 from rtsim.model.task import Segment, Task
 from rtsim.sim import CPU, simulate
 from rtsim.sim.policy import (

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import simpy
 
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.model.task import Segment, Task
 from rtsim.sim import CPU, simulate
 

@@ -15,7 +15,7 @@ import pytest
 
 from rtsim.analysis.bounds import window_bounds
 from rtsim.analysis.rta import response_time
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.model.generate import uunifast
 from rtsim.model.task import Task
 from rtsim.sim import simulate

@@ -406,7 +406,7 @@ def test_window_bounds_count_blocking() -> None:
 
     from rtsim.analysis.bounds import w_edf, w_rta
     from rtsim.analysis.transaction import transaction_bounds
-    from rtsim.io.taskset import load_taskset
+    from rtsim.config.taskset import load_taskset
 
     ts = load_taskset(None)
     assert ts.window is not None
@@ -463,7 +463,7 @@ def test_file_keys_and_cli(tmp_path) -> None:
     import subprocess
     import sys
 
-    from rtsim.io.taskset import load_taskset, parse_taskset, taskset_to_dict
+    from rtsim.config.taskset import load_taskset, parse_taskset, taskset_to_dict
 
     ts = load_taskset(_file(tmp_path))
     assert ts.resources == "pcp"

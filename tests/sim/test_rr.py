@@ -9,8 +9,8 @@ import sys
 
 import pytest
 
+from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError
-from rtsim.io.taskset import load_taskset
 from rtsim.model.task import Segment, Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim.cpu import CPU

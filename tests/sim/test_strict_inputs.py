@@ -14,9 +14,9 @@ from hypothesis import strategies as st
 from rtsim.analysis.bounds import w_rta, w_sch_of, w_susp, window_bounds
 from rtsim.analysis.rta import analyze
 from rtsim.cli import main
+from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError, TaskSetError
 from rtsim.io.atomic import NonFiniteJSON, dumps, write_json
-from rtsim.io.taskset import load_taskset
 from rtsim.model.task import Task
 from rtsim.model.taskset import TaskSet
 from rtsim.sim import simulate

@@ -14,8 +14,8 @@ from rtsim.analysis.bounds import w_edf, w_rta, w_sch_of, w_susp
 from rtsim.analysis.edf import analyze_edf
 from rtsim.analysis.rta import analyze
 from rtsim.cli import main
+from rtsim.config.taskset import load_taskset, parse_taskset, taskset_to_dict
 from rtsim.errors import TaskSetError
-from rtsim.io.taskset import load_taskset, parse_taskset, taskset_to_dict
 from rtsim.sim import simulate
 
 PAPER = Path(__file__).resolve().parents[2] / "tasksets" / "barrel_robots.toml"

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from rtsim.cli import main
-from rtsim.io.taskset import load_taskset, parse_taskset
+from rtsim.config.taskset import load_taskset, parse_taskset
 from rtsim.sweep import KindSpec, Sweep, load_sweep, parse_sweep, register_kind, run_sweep
 from rtsim.sweep.kinds import KINDS, _need
 
@@ -307,8 +307,8 @@ def test_progress_bar_shows_done_and_failures_only_when_asked(
 def test_scenario_kind_matches_a_direct_coupled_run(tmp_path: Path) -> None:
     import tomllib
 
+    from rtsim.config.scenario import parse_scenario
     from rtsim.coupling import run_scenario
-    from rtsim.io.scenario import parse_scenario
 
     test1 = ROOT / "experiments" / "scenarios" / "test1.toml"
     path = tmp_path / "sc.toml"

@@ -38,13 +38,13 @@ def test_points_share_prepared_inputs(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(kinds, "_PREPARED", type(kinds._PREPARED)())
     base = BaseFile(str(TEST2), TEST2.read_text(encoding="utf-8"))
     parsed = []
-    real = kinds._need("rtsim.io.scenario", "scenario").parse_scenario
+    real = kinds._need("rtsim.config.scenario", "scenario").parse_scenario
 
     def counting(*a: object, **k: object) -> object:
         parsed.append(1)
         return real(*a, **k)
 
-    monkeypatch.setattr("rtsim.io.scenario.parse_scenario", counting)
+    monkeypatch.setattr("rtsim.config.scenario.parse_scenario", counting)
     out = []
     for seed in (3, 4, 3):
         p = PointInput(

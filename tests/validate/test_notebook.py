@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import pytest
 
+from rtsim.config.scenario import load_scenario
+from rtsim.config.taskset import load_taskset
 from rtsim.coupling import run_scenario
 from rtsim.errors import InputError
-from rtsim.io import load_scenario, load_taskset
 from rtsim.sim import simulate
 
 

@@ -24,7 +24,7 @@ from rtsim.analysis.validation import (
     smallest_passing,
 )
 from rtsim.cli import main
-from rtsim.io.taskset import load_taskset
+from rtsim.config.taskset import load_taskset
 from rtsim.sim import simulate
 from rtsim.validate import QUICK, run_validation
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import rtsim.world as world_pkg
-from rtsim.io.scenario import load_scenario
+from rtsim.config.scenario import load_scenario
 from rtsim.world import World, hough_time
 
 SCEN = Path(__file__).resolve().parents[2] / "experiments" / "scenarios"

@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 from rollout_states import world_state
 
+from rtsim.config.scenario import load_scenario
 from rtsim.coupling import run_scenario
 from rtsim.errors import ScenarioError
-from rtsim.io.scenario import load_scenario
 from rtsim.world import compiled
 from rtsim.world.ekf import EkfParams, FastFollowerEKF
 from rtsim.world.follower import FollowerGroup, FollowerParams
@@ -518,3 +518,42 @@ def test_plan_decision_rolls_out_an_unsearched_speed_in_python(
         assert _bits(list(d[1])) == _bits(list(d[0])), margin
         searched += d[0].method != "none"
     assert searched  # the fallback ran
+
+
+@needs_numba
+def test_compiled_plan_contact_bound_bit_identical() -> None:
+    """The plan's contact bound (rtsim.world.contact) in the compiled decision against the
+    Python policy: with d_c around the followers' predicted closest approach the bound
+    binds in some decisions (the leader slows or the decision changes against the bound
+    off) and the two backends agree bit for bit; the closest approach each rollout carries
+    is the same float in both."""
+    import dataclasses
+
+    from rtsim.control.policy import PlanPolicy, PolicyInput
+    from rtsim.control.rollout import Rollout
+
+    changed = 0
+    for seed, (name, windows) in enumerate([("test2", 40), ("test2", 130), ("test1", 100)]):
+        st_py, st_co = _twin_states(name, windows, seed)
+        near = min(Rollout(st_py).closest(st_py.v_ld))
+        assert near == min(Rollout(st_co).closest(st_co.v_ld))
+        for factor, horizon, margin in itertools.product(
+            (0.9, 0.999, 1.0005, 1.01, 1.3), (1, 2), (0.0, 0.3)
+        ):
+            d_c = factor * near
+            out = []
+            for st in (st_py, st_co):
+                ro = Rollout(dataclasses.replace(st, contact_cm=d_c))
+                ctx = PolicyInput((), st.v_ld, st.w_sch, st.thresholds, cap=1000.0, rollout=ro)
+                out.append(PlanPolicy(windows=horizon, margin=margin).decide(ctx))
+            assert _bits(list(out[1])) == _bits(list(out[0])), (name, factor, horizon, margin)
+            off = PlanPolicy(windows=horizon, margin=margin, contact=False).decide(
+                PolicyInput(
+                    (), st_py.v_ld, st_py.w_sch, st_py.thresholds, cap=1000.0,
+                    rollout=Rollout(dataclasses.replace(st_py, contact_cm=d_c)),
+                )
+            )  # fmt: skip
+            changed += list(off) != list(out[0])
+            if factor < 0.99 and margin == 0.0:  # far from contact: the bound does nothing
+                assert list(off) == list(out[0])
+    assert changed  # the bound bound somewhere

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from rtsim.analysis.kinematics import beta_dot, relative_state, rho_dot
+from rtsim.config.scenario import load_scenario
 from rtsim.errors import ScenarioError
-from rtsim.io.scenario import load_scenario
 from rtsim.world import World
 from rtsim.world.formation import in_line
 from rtsim.world.laser import count_beams

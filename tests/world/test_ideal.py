@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rtsim.config.scenario import load_scenario
 from rtsim.errors import ScenarioError
-from rtsim.io.scenario import load_scenario
 from rtsim.world.formation import CLEARANCE_MARGIN, DEFAULT_CLEARANCE, fan, fan_step
 from rtsim.world.ideal import check_clearance, ideal_lap, settled_start
 from rtsim.world.path import rounded_rectangle

@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 from rollout_states import world_state
 
+from rtsim.config.scenario import load_scenario
 from rtsim.control.rollout import Rollout
 from rtsim.errors import InputError, ScenarioError
-from rtsim.io.scenario import load_scenario
 from rtsim.world import World, compiled
 from rtsim.world.ekf import EkfParams, FastFollowerEKF, FollowerEKF
 from rtsim.world.follower import FollowerGroup, FollowerParams

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rtsim.io.scenario import load_scenario
+from rtsim.config.scenario import load_scenario
 from rtsim.world import World
 from rtsim.world.follower import FollowerGroup
 from rtsim.world.world import NORMAL_BLOCK
