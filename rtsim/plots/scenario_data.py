@@ -16,6 +16,7 @@ import pandas as pd
 
 from rtsim.coupling.recorder import window_columns
 from rtsim.errors import InputError
+from rtsim.io.columns import iter_columns
 
 __all__ = [
     "BOUND_KINDS",
@@ -371,8 +372,6 @@ def read_figure_table(path: str | os.PathLike[str], n: int) -> pd.DataFrame:
     within ``FIGURE_BINS`` × (2 + 2 × plotted values + the dot bands a bin's values span)
     rows (plus the critical changes and misses, each kept) whatever the run's length; a run
     with fewer windows than bins keeps every row."""
-    from rtsim.io.columns import iter_columns
-
     t0 = end = None
     w_sch = 0.0
     for chunk in iter_columns(path, ["t", "w", "w_sch"], chunk_rows=FIGURE_READ_ROWS):

@@ -20,9 +20,9 @@ import pytest  # noqa: E402
 from traced import traced_peak as _peak  # noqa: E402
 
 import rtsim.plots.scenario_data as sd  # noqa: E402
+from rtsim.config.scenario import load_scenario  # noqa: E402
 from rtsim.coupling import run_scenario  # noqa: E402
 from rtsim.io.columns import read_columns  # noqa: E402
-from rtsim.io.scenario import load_scenario  # noqa: E402
 from rtsim.plots.scenario import SCENARIO_FIGURES, write_scenario_figures  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
