@@ -107,6 +107,7 @@ def main(argv: list[str] | None = None) -> int:
 
 _LOOP_CODE = """
 import json, sys
+from rtsim.control.rollout import rollouts_run
 from rtsim.coupling import run_scenario
 scenario, mode, duration, backend = sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4]
 res = run_scenario(
@@ -116,12 +117,15 @@ res = run_scenario(
     record_jobs=True,
     overrides={"world.backend": backend},
 )
-print(json.dumps([res.timing["simulation_cpu_s"], int(res.summary["windows"])]))
+print(json.dumps([res.timing["simulation_cpu_s"], int(res.summary["windows"]), rollouts_run()]))
 """
 
 
-def loop_cpu(scenario: str, mode: str | None, duration: float, backend: str) -> tuple[float, int]:
-    """(CPU s of the loop, windows) of one run in a fresh interpreter, as the CLI runs it
+def loop_cpu(
+    scenario: str, mode: str | None, duration: float, backend: str
+) -> tuple[float, int, int]:
+    """(CPU s of the loop, windows, rollouts) of one run in a fresh interpreter, as the CLI
+    runs it
     (an interpreter that has already made figures holds ~10x more objects, and the garbage
     collector's full passes over them slow the loop by up to ~25 %)."""
     out = subprocess.run(
@@ -130,8 +134,8 @@ def loop_cpu(scenario: str, mode: str | None, duration: float, backend: str) -> 
         text=True,
         check=True,
     )
-    cpu_s, windows = json.loads(out.stdout.strip().splitlines()[-1])
-    return float(cpu_s), int(windows)
+    cpu_s, windows, rollouts = json.loads(out.stdout.strip().splitlines()[-1])
+    return float(cpu_s), int(windows), int(rollouts)
 
 
 def backend_table(
@@ -143,7 +147,7 @@ def backend_table(
     windows = {b: 0 for b in backends}
     for _ in range(repeat):
         for backend in backends:
-            cpu_s, windows[backend] = loop_cpu(scenario, mode, duration, backend)
+            cpu_s, windows[backend], _ = loop_cpu(scenario, mode, duration, backend)
             best[backend] = min(best[backend], cpu_s)
     lines = [
         f"{'backend':12s} {'windows':>8s} {'loop CPU s':>11s} {'us/window':>10s} "

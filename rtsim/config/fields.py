@@ -147,9 +147,9 @@ def number(
     return Leaf(_check_number(r, deg), schema, r)
 
 
-def ranged(r: Range) -> Leaf:
-    """A number in the registered range ``r`` (`rtsim.io.limits`: a key that a lower
-    layer checks too, with the same range)."""
+def ranged(r: Range, *, deg: bool = False) -> Leaf:
+    """A number in the range ``r`` declared by a lower layer (`rtsim.io.limits`, a world
+    spec's field: a key that layer checks too, with the same range); ``deg``: as `number`'s."""
     return number(
         r.lo,
         r.hi,
@@ -159,6 +159,7 @@ def ranged(r: Range) -> Leaf:
         hi_open=r.hi_open,
         inf=r.inf,
         integer=r.integer,
+        deg=deg,
     )
 
 

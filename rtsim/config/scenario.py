@@ -14,13 +14,13 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import partial
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, NamedTuple, TypeVar
 
-from pydantic import ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field, create_model, model_validator
 
 from rtsim.analysis.bounds import LOWER_BOUNDS
 from rtsim.analysis.kinematics import (
@@ -29,7 +29,17 @@ from rtsim.analysis.kinematics import (
     Thresholds,
 )
 from rtsim.config.errors import raise_errors
-from rtsim.config.fields import Table, choice, integer, number, plugin, problem, text
+from rtsim.config.fields import (
+    Leaf,
+    Table,
+    choice,
+    integer,
+    number,
+    plugin,
+    problem,
+    ranged,
+    text,
+)
 from rtsim.config.load import parse_toml, validate, with_overrides
 from rtsim.config.taskset import load_taskset
 from rtsim.control.policy import DECIDE, AdjustOptions, make_policy
@@ -50,7 +60,7 @@ from rtsim.world.config import (
     SensingParams,
     WorldConfig,
 )
-from rtsim.world.ekf import EkfParams
+from rtsim.world.ekf import EKF_BACKENDS, EkfParams
 from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import (
     DEFAULT_CLEARANCE,
@@ -178,10 +188,15 @@ class Scenario:
         return make_policy(adj.policy, adj.params, "adjust", tuple(AdjustConfig.model_fields))
 
 
+def taskset_file(name: str) -> str | None:
+    """What `load_taskset` reads for a scenario's ``taskset`` ``name``: a packaged set by its
+    own name (``None``: the paper's; "example" is the generic set), else the path."""
+    return None if name == "barrel_robots" else name
+
+
 def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> TaskSet:
     """The task-set file ``name`` (a packaged name or a path), which must have a [window]."""
-    # a packaged set by its own name ("example" is the generic set, not the paper's)
-    ts = load_taskset(None if name == "barrel_robots" else name, allow_code=allow_code)
+    ts = load_taskset(taskset_file(name), allow_code=allow_code)
     if ts.window is None:
         raise ScenarioError(f"{where}: taskset: '{name}' has no [window]")
     return ts
@@ -227,7 +242,7 @@ class _Angles(Table):
         for name in type(self).model_fields:
             if name.endswith("_deg") and name[:-4] in type(self).model_fields:
                 key = name[:-4]
-                if getattr(self, key) is not None and getattr(self, name) is not None:
+                if key in self.model_fields_set and getattr(self, name) is not None:
                     raise problem(f"give {key} or {name}, not both")
         for key in self._required_angles:
             if getattr(self, key) is None and getattr(self, f"{key}_deg") is None:
@@ -235,24 +250,19 @@ class _Angles(Table):
         return self
 
     def radians(self, key: str, default: Any = None) -> Any:
-        """The angle ``key`` in radians (its ``_deg`` twin converted), or ``default``."""
-        deg = getattr(self, f"{key}_deg")
+        """The angle ``key`` in radians (its ``_deg`` twin converted), or ``default``; a key
+        without a twin as it is."""
+        deg = getattr(self, f"{key}_deg", None)
         if deg is not None:
             return math.radians(float(deg))
         value = getattr(self, key)
         return default if value is None else value
 
-    def given(self, keys: tuple[str, ...]) -> dict[str, Any]:
-        """The keys that were given (angles in radians), for a runtime constructor."""
-        out = {}
-        for key in keys:
-            if f"{key}_deg" in type(self).model_fields:
-                value = self.radians(key)
-            else:
-                value = getattr(self, key)
-            if value is not None:
-                out[key] = value
-        return out
+    def build(self, spec: Callable[..., T]) -> T:
+        """The world's spec ``spec`` (a dataclass) made of this table's values of its fields
+        (angles in radians)."""
+        keys = spec.__dataclass_fields__  # type: ignore[attr-defined]
+        return spec(**{key: self.radians(key) for key in keys})
 
 
 _HEADING = "ten turns either way"
@@ -379,88 +389,63 @@ class FormationTable(_Angles):
         return self
 
 
-_NOISE = "a noise standard deviation"
+def _spec(cls: type, key: str) -> Leaf:
+    """The range of field ``key`` of the world's spec ``cls``, declared there once with its
+    default (`rtsim.world._check.spec`)."""
+    return ranged(cls.__dataclass_fields__[key].metadata["range"])  # type: ignore[attr-defined]
 
 
+def _of(spec: type, **leaves: Leaf) -> Callable[[type[T]], type[T]]:
+    """Class decorator: the world's table ``cls`` with a key for each field of the world's
+    spec ``spec`` that has a range (`rtsim.world._check.spec`) or a leaf in ``leaves``, with
+    the spec's one default and one range; an angle (a unit in rad) with its ``_deg`` twin."""
+
+    def make(cls: type[T]) -> type[T]:
+        keys: dict[str, Any] = {}
+        for f in fields(spec):
+            rng = f.metadata.get("range")
+            leaf = leaves.get(f.name) or (ranged(rng) if rng is not None else None)
+            if leaf is None:
+                continue
+            kind = str if rng is None else int if rng.integer else float
+            ann: Any = Annotated[kind, leaf]
+            keys[f.name] = (ann if f.default is not None else ann | None, f.default)
+            if rng is not None and rng.unit.startswith("rad"):
+                twin: Any = Annotated[float, ranged(rng, deg=True)]
+                keys[f"{f.name}_deg"] = (twin | None, None)
+        model: Any = create_model(
+            cls.__name__, __base__=cls, __module__=cls.__module__, __doc__=cls.__doc__, **keys
+        )
+        return model
+
+    return make
+
+
+@_of(FollowerParams, motion_model=plugin(MOTION_MODELS))
 class FollowerTable(_Angles):
-    radius: (
-        Annotated[float, number(0, 1e3, "cm", "a robot of at most 10 m", lo_open=True)] | None
-    ) = None
-    max_speed: Annotated[float, number(0, 1000, "cm/s", "as leader.speed", lo_open=True)] | None = (
-        None
-    )
-    max_accel: Annotated[float, number(0, 1e5, "cm/s²", "at most 100 g", lo_open=True)] | None = (
-        None
-    )
-    max_turn_rate: (
-        Annotated[float, _angle(0, 1e3, "inf: no limit", lo_open=True, unit="rad/s", inf=True)]
-        | None
-    ) = None
-    max_turn_rate_deg: (
-        Annotated[
-            float, _angle(0, 1e3, "inf: no limit", deg=True, lo_open=True, unit="rad/s", inf=True)
-        ]
-        | None
-    ) = None
-    control_offset: (
-        Annotated[float, number(0, 1e3, "cm", "a control point within 10 m", lo_open=True)] | None
-    ) = None
-    gain_rho: Annotated[float, number(0, 1e3, "1/s", "a controller gain", lo_open=True)] | None = (
-        None
-    )
-    gain_beta: Annotated[float, number(0, 1e3, "1/s", "a controller gain", lo_open=True)] | None = (
-        None
-    )
-    lookahead: (
-        Annotated[
-            float, number(0, 1e4, "cm", "pure pursuit's look-ahead, within 100 m", lo_open=True)
-        ]
-        | None
-    ) = None
-    speed_noise: Annotated[float, number(0, 1e3, "cm/s", _NOISE)] | None = None
-    turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
-    turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None = None
-    motion_model: Annotated[str, plugin(MOTION_MODELS)] | None = None
+    """``[follower]``: `rtsim.world.follower.FollowerParams`'s keys."""
 
 
-class SensingTable(Table):
+@_of(SensingParams)
+class SensingTable(_Angles):
+    """``[sensing]``: the run's one r_H and `rtsim.world.config.SensingParams`'s keys."""
+
     #: the run's one r_H: the window's cost (Eq 1) and the bounds read it; it replaces the
     #: task set's ``[window] r_H`` (the manifest's ``r_H`` records both)
     r_H: Annotated[float, number(0, 1e4, "cm", "as window.r_H", lo_open=True)] = R_H_DEFAULT
-    r_reacq: (
-        Annotated[float, number(0, 1e5, "cm", "a search radius within 1 km", lo_open=True)] | None
-    ) = None
-    position_noise: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
-    min_points: Annotated[int, integer(1, 361, "points", "at most the 361 beams")] | None = None
-    max_range: (
-        Annotated[float, number(0, 1e7, "cm", "inf: unlimited", lo_open=True, inf=True)] | None
-    ) = None
-    range_noise: (
-        Annotated[float, number(0, 1e3, "cm", "a beam's range noise (σ), localization hough")]
-        | None
-    ) = None
 
 
+@_of(EkfParams, backend=choice(EKF_BACKENDS))
 class EkfTable(_Angles):
-    measurement_noise: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
-    speed_noise: Annotated[float, number(0, 1e4, "cm/s", _NOISE)] | None = None
-    turn_noise: Annotated[float, _angle(0, 100, _NOISE, unit="rad/s")] | None = None
-    turn_noise_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True, unit="rad/s")] | None = None
-    position_drift: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
-    heading_drift: Annotated[float, _angle(0, 100, _NOISE)] | None = None
-    heading_drift_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True)] | None = None
-    init_position_sd: Annotated[float, number(0, 1e4, "cm", _NOISE)] | None = None
-    init_heading_sd: Annotated[float, _angle(0, 100, _NOISE)] | None = None
-    init_heading_sd_deg: Annotated[float, _angle(0, 100, _NOISE, deg=True)] | None = None
-    backend: Annotated[str, choice(("filterpy", "fast"))] | None = None
+    """``[ekf]``: `rtsim.world.ekf.EkfParams`'s keys."""
 
 
 _FRACTION = "a fraction of the desired separation"
 
 
 class ThresholdsTable(_Angles):
-    T_rho: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.01
-    T_eps: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = 0.025
+    T_rho: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = DEFAULT_THRESHOLDS.T_rho
+    T_eps: Annotated[float, number(0, 10, "", _FRACTION, lo_open=True)] = DEFAULT_THRESHOLDS.T_eps
     T_beta: (
         Annotated[float, _angle(0, math.pi, "a bearing error below 180°", lo_open=True)] | None
     ) = None
@@ -515,22 +500,13 @@ class AdjustConfig(Table):
         return dict(self.model_extra or {})
 
 
-class RadioTable(Table):
+@_of(RadioParams)
+class RadioTable(_Angles):
     """``[radio]``: the round trip's spread and the commands' loss probability."""
-
-    min_ms: (
-        Annotated[
-            float,
-            number(0, _MS_MAX, "ms", "the shortest round trip, at most the task set's delta_t",
-                   lo_open=True),
-        ]
-        | None
-    ) = None  # fmt: skip
-    loss: Annotated[float, number(0, 1, "", "a probability per command", hi_open=True)] = 0.0
 
 
 class WorldTable(Table):
-    step_ms: Annotated[float, number(1e-3, 1e4, "ms", "1 µs to 10 s per integration step")] = 10.0
+    step_ms: Annotated[float, _spec(WorldConfig, "step_ms")] = WorldConfig.step_ms
     backend: Annotated[str, choice(WORLD_BACKENDS)] | None = None
 
 
@@ -700,29 +676,13 @@ class _Parts(NamedTuple):
 
 def _parts(m: ScenarioFile, src: str, errors: list[str]) -> _Parts:
     path = _attempt(errors, "", lambda: _path(src, m.leader))
-    follower = _attempt(
-        errors,
-        src,
-        lambda: FollowerParams(**m.follower.given(tuple(FollowerParams.__dataclass_fields__))),
-    )
+    follower = _attempt(errors, src, lambda: m.follower.build(FollowerParams))
     formation = None
     if follower is not None and path is not None:
         r_F = follower.radius
         formation = _attempt(errors, src, lambda: _formation(m.formation, r_F, path))
-    sensing = _attempt(
-        errors,
-        src,
-        lambda: SensingParams(
-            **{
-                k: getattr(m.sensing, k)
-                for k in SensingParams.__dataclass_fields__
-                if getattr(m.sensing, k) is not None
-            }
-        ),
-    )
-    ekf = _attempt(
-        errors, src, lambda: EkfParams(**m.ekf.given(tuple(EkfParams.__dataclass_fields__)))
-    )
+    sensing = _attempt(errors, src, lambda: m.sensing.build(SensingParams))
+    ekf = _attempt(errors, src, lambda: m.ekf.build(EkfParams))
     return _Parts(path, follower, formation, sensing, ekf)
 
 
@@ -831,7 +791,7 @@ def _world(
             leader_decel_max=float(m.leader.decel_max),
             localization=localization,
             backend=m.world.backend,
-            radio=RadioParams(min_ms=m.radio.min_ms, loss=m.radio.loss),
+            radio=m.radio.build(RadioParams),
         ),
     )
     return world

@@ -651,8 +651,9 @@ def search_rollout(
     Bracket: the speeds V_Ld·(1 − j/`ROLLOUT_GRID`), j = 1 … GRID − 1, descending
     (V_Ld itself has failed); the first that passes is refined by bisection against the
     failing one above it until the bracket is `ROLLOUT_TOL`·V_Ld wide (≤ 7 + 5 = 12
-    evaluations of ``m``; the passing end is returned, so the result is feasible and at most
-    0.5 % of V_Ld below the boundary if feasibility is monotone within that step). Method
+    evaluations of ``m``, ``m(v_floor)`` only when nothing passes; the passing end is
+    returned, so the result is feasible and at most 0.5 % of V_Ld below the boundary if
+    feasibility is monotone within that step). Method
     ``numeric``. When no speed of the scan passes: the scanned speed (or ``v_floor``) with the
     largest min bound — the least-bad window, the larger speed on a tie — method ``best``
     (not ``floor``: the leader does not drop to its floor when braking harder does not help,
@@ -660,7 +661,7 @@ def search_rollout(
     the found speed or NaN).
     """
     above = v_ld
-    best_v, best_m = v_floor, m(v_floor) if v_floor > 0.0 else -math.inf
+    scanned = []
     for j in range(1, ROLLOUT_GRID):
         v = v_ld * (1.0 - j / ROLLOUT_GRID)
         mv = m(v)
@@ -673,9 +674,14 @@ def search_rollout(
                 else:
                     hi = mid
             return lo, "numeric", lo
+        scanned.append((v, mv))
+        above = v
+    # m(v_floor) matters only here, so it is evaluated last (a search that brackets never
+    # pays for it) and compared as if first: the floor wins ties
+    best_v, best_m = v_floor, m(v_floor) if v_floor > 0.0 else -math.inf
+    for v, mv in scanned:
         if mv > best_m:
             best_v, best_m = v, mv
-        above = v
     return best_v, "best", math.nan
 
 

@@ -54,7 +54,7 @@ import numpy as np
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
 from rtsim.control.predict import min_bound_rows
-from rtsim.world.compiled import as_changes
+from rtsim.world.compiled import CompiledRollout, as_changes
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
 from rtsim.world.ftl import TraceFollower
@@ -62,7 +62,7 @@ from rtsim.world.leader import Leader
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.path import LeaderPath
 
-__all__ = ["Rollout", "RolloutState", "Changes"]
+__all__ = ["Rollout", "RolloutState", "Changes", "rollouts_run"]
 
 #: Per follower, the four predicted changes of one window: (displacement in the leader frame
 #: cm, |Δρ| cm, distance driven cm, |Δβ| rad), in BOUND_KINDS order, then its closest
@@ -70,6 +70,16 @@ __all__ = ["Rollout", "RolloutState", "Changes"]
 Changes = tuple[float, float, float, float, float]
 
 _TWO_PI = 2.0 * math.pi
+
+#: rollouts the Python rollout has run in this process (`rollouts_run`)
+_PYTHON_RUNS = [0]
+
+
+def rollouts_run() -> int:
+    """How many rollouts this process has run so far, compiled and Python (each one a leader
+    target played over its windows; a memoised one is not run again): a benchmark reads it
+    before and after a run for its rollouts per lap (one integer add per decision)."""
+    return _PYTHON_RUNS[0] + CompiledRollout.runs
 
 
 @dataclass(frozen=True)
@@ -267,6 +277,7 @@ class Rollout:
     def _run(self, v: float, windows: tuple[float, ...]) -> list[list[Changes]]:
         if self._compiled is not None:  # the world's compiled law: one kernel call
             return self._compiled.changes(v, windows)  # type: ignore[no-any-return]
+        _PYTHON_RUNS[0] += 1
         st = self.state
         travel = motion_model(st.params.motion_model).leader
         ld = Leader(

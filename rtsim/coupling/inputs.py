@@ -9,7 +9,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, is_dataclass
 from typing import Any
 
-from rtsim.config.scenario import AdjustConfig, fit_taskset, load_scenario, scenario_bytes
+from rtsim.config.scenario import AdjustConfig, fit_taskset
 from rtsim.config.taskset import taskset_to_dict
 from rtsim.control.policy import AdjustOptions
 from rtsim.errors import InputError
@@ -69,11 +69,10 @@ def scenario_inputs(
     if isinstance(scenario, ScenarioInputs):
         return scenario
     if isinstance(scenario, str | os.PathLike):
-        path = scenario
-        # a file, or a packaged scenario by name ("test2")
-        scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
-        if text is None:
-            text = scenario_bytes(path)[0].decode("utf-8")
+        # a file, or a packaged scenario by name ("test2"): prepared once per content
+        from rtsim.coupling.prepared import prepared
+
+        return prepared(scenario, text, overrides, allow_code, scenario_inputs)  # type: ignore[no-any-return]
     try:
         world = scenario.world
         ts = scenario.load_taskset() if hasattr(scenario, "load_taskset") else scenario.taskset

@@ -33,7 +33,7 @@ rollout's only when a run first rolls out: `rtsim.world.kernels.warm_rollout`).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -210,7 +210,12 @@ class CompiledRollout:
     """`Rollout`'s arithmetic for one state in compiled calls:
     the state packed into arrays once (`RolloutScalars`, a row per
     follower, the pending sends NaN-padded), the law's search starts read at each call (the
-    live law's, as the Python rollout clones it then)."""
+    live law's, as the Python rollout clones it then).
+
+    ``runs``: the rollouts every instance has run in this process (each kernel call's; read
+    through `rtsim.control.rollout.rollouts_run`)."""
+
+    runs: ClassVar[int] = 0
 
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
         p, thr = state.params, state.thresholds
@@ -302,6 +307,7 @@ class CompiledRollout:
     def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
         """`Rollout.changes` uncached: per window, per follower the four changes."""
         out = np.empty((len(windows), self.n, 5))
+        CompiledRollout.runs += 1
         self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
         return as_changes(out)
 
@@ -347,6 +353,7 @@ class CompiledRollout:
             out,
             float(contact),
         )
+        CompiledRollout.runs += runs
         runs = min(runs, _SEARCH_RUNS)
         w = float(w)
         horizon = (w,) * int(windows)

@@ -9,8 +9,9 @@ from dataclasses import dataclass, field
 
 from rtsim.analysis.kinematics import R_H_DEFAULT, Thresholds
 from rtsim.errors import ScenarioError
+from rtsim.io.limits import Range
 from rtsim.world import compiled
-from rtsim.world._check import integer, positive
+from rtsim.world._check import NOISE, in_ranges, positive, spec
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
 from rtsim.world.formation import Formation
@@ -48,29 +49,20 @@ class SensingParams:
     ``position_noise`` is the ``gaussian`` model's only noise.
     """
 
-    r_reacq: float = 100.0
-    position_noise: float = 1.0
-    min_points: int = 3
-    max_range: float = 8000.0
-    range_noise: float = 1.0
+    r_reacq: float = spec(
+        100.0, Range("", 0, 1e5, "cm", "a search radius within 1 km", lo_open=True)
+    )
+    position_noise: float = spec(1.0, Range("", 0, 1e4, "cm", NOISE))
+    min_points: int = spec(3, Range("", 1, 361, "points", "at most the 361 beams", integer=True))
+    max_range: float = spec(
+        8000.0, Range("", 0, 1e7, "cm", "inf: unlimited", lo_open=True, inf=True)
+    )
+    range_noise: float = spec(
+        1.0, Range("", 0, 1e3, "cm", "a beam's range noise (σ), localization hough")
+    )
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "r_reacq", positive("sensing.r_reacq", self.r_reacq))
-        for key in ("position_noise", "range_noise"):
-            value = getattr(self, key)
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int | float)
-                or not (0 <= value < math.inf)
-            ):
-                raise ScenarioError(f"sensing.{key}: must be non-negative, got {value!r}")
-            object.__setattr__(self, key, float(value))
-        object.__setattr__(
-            self, "min_points", integer("sensing.min_points", self.min_points, minimum=1)
-        )
-        object.__setattr__(
-            self, "max_range", positive("sensing.max_range", self.max_range, allow_inf=True)
-        )
+        in_ranges(self, "sensing")
 
 
 #: Where the Hough window is centred (`rtsim.world.localization`).
@@ -124,16 +116,21 @@ class RadioParams:
     missing its reply, knows it (its estimate keeps the previous command too).
     """
 
-    min_ms: float | None = None
-    loss: float = 0.0
+    min_ms: float | None = spec(
+        None,
+        Range(
+            "",
+            0,
+            1e9,
+            "ms",
+            "the shortest round trip, at most the task set's delta_t",
+            lo_open=True,
+        ),
+    )
+    loss: float = spec(0.0, Range("", 0, 1, "", "a probability per command", hi_open=True))
 
     def __post_init__(self) -> None:
-        if self.min_ms is not None:
-            object.__setattr__(self, "min_ms", positive("radio.min_ms", self.min_ms))
-        loss = self.loss
-        if isinstance(loss, bool) or not isinstance(loss, int | float) or not 0 <= loss < 1:
-            raise ScenarioError(f"radio.loss: must be in [0, 1), got {loss!r}")
-        object.__setattr__(self, "loss", float(loss))
+        in_ranges(self, "radio")
 
     @property
     def varies(self) -> bool:
@@ -163,7 +160,7 @@ class WorldConfig:
     sensing: SensingParams = field(default_factory=SensingParams)
     ekf: EkfParams = field(default_factory=EkfParams)
     thresholds: Thresholds = DEFAULT_THRESHOLDS
-    step_ms: float = 10.0
+    step_ms: float = spec(10.0, Range("", 1e-3, 1e4, "ms", "1 µs to 10 s per integration step"))
     start_s: float = 0.0
     leader_accel_max: float = math.inf
     leader_decel_max: float = math.inf
@@ -195,7 +192,7 @@ class WorldConfig:
                 f"leader_{key}",
                 positive(f"leader.{key}", getattr(self, f"leader_{key}"), allow_inf=True),
             )
-        object.__setattr__(self, "step_ms", positive("world.step_ms", self.step_ms))
+        in_ranges(self, "world")  # (step_ms)
         if self.start_on not in START_ON:
             raise ScenarioError(
                 f"leader.start_on: must be one of {', '.join(START_ON)}, got {self.start_on!r}"

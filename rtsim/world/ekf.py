@@ -40,11 +40,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.errors import ScenarioError
-from rtsim.world._check import non_negative, positive
+from rtsim.io.limits import Range
+from rtsim.world._check import NOISE, in_ranges, spec
 from rtsim.world.jit import kernel, specialise
 from rtsim.world.motion import arc, chord, ramp
 
 __all__ = [
+    "EKF_BACKENDS",
     "EkfParams",
     "FollowerEKF",
     "FastFollowerEKF",
@@ -60,6 +62,10 @@ __all__ = [
 
 #: Measurement Jacobian of the position fix.
 H_POSITION = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+#: ``[ekf] backend``: plain floats (``fast``) or filterpy's filter (the reference).
+EKF_BACKENDS: tuple[str, ...] = ("filterpy", "fast")
+_CM = Range("", 0, 1e4, "cm", NOISE)
+_RAD = Range("", 0, 100, "rad", NOISE)
 
 
 @dataclass(frozen=True)
@@ -73,29 +79,19 @@ class EkfParams:
     backend: "fast" (plain floats, the default for speed) or "filterpy" (the reference).
     """
 
-    measurement_noise: float = 1.0
-    speed_noise: float = 0.5
-    turn_noise: float = 0.005
-    position_drift: float = 0.5
-    heading_drift: float = 0.005
-    init_position_sd: float = 1.0
-    init_heading_sd: float = math.radians(2.0)
+    measurement_noise: float = spec(1.0, _CM)
+    speed_noise: float = spec(0.5, Range("", 0, 1e4, "cm/s", NOISE))
+    turn_noise: float = spec(0.005, Range("", 0, 100, "rad/s", NOISE))
+    position_drift: float = spec(0.5, _CM)
+    heading_drift: float = spec(0.005, _RAD)
+    init_position_sd: float = spec(1.0, _CM)
+    init_heading_sd: float = spec(math.radians(2.0), _RAD)
     backend: Literal["filterpy", "fast"] = "fast"
 
     def __post_init__(self) -> None:
-        if self.backend not in ("filterpy", "fast"):
+        if self.backend not in EKF_BACKENDS:
             raise ScenarioError(f"ekf.backend: must be 'filterpy' or 'fast', got {self.backend!r}")
-        for key in (
-            "measurement_noise",
-            "speed_noise",
-            "turn_noise",
-            "position_drift",
-            "heading_drift",
-            "init_position_sd",
-            "init_heading_sd",
-        ):
-            object.__setattr__(self, key, non_negative(f"ekf.{key}", getattr(self, key)))
-        positive("ekf.measurement_noise", max(self.measurement_noise, 0.01))
+        in_ranges(self, "ekf")
 
 
 def _hx(x: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -35,7 +35,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rtsim.world._check import non_negative, positive
+from rtsim.io.limits import Range
+from rtsim.world._check import NOISE, in_ranges, spec
 from rtsim.world.motion import clip
 from rtsim.world.motionmodels import MotionModel, motion_model
 
@@ -47,6 +48,12 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
+
+_GAIN = Range("", 0, 1e3, "1/s", "a controller gain", lo_open=True)
+
+
+def _cm(hi: float, why: str) -> Range:
+    return Range("", 0, hi, "cm", why, lo_open=True)
 
 
 @dataclass(frozen=True)
@@ -68,28 +75,23 @@ class FollowerParams:
     (V_F ≈ 94 cm/s) stable at w ≈ 240 ms, d = 10 cm does not.
     """
 
-    radius: float = 25.0
-    max_speed: float = 150.0
-    max_accel: float = 100.0
-    max_turn_rate: float = math.inf
-    control_offset: float = 30.0
-    gain_rho: float = 0.5
-    gain_beta: float = 0.5
-    speed_noise: float = 0.5
-    turn_noise: float = 0.005
-    lookahead: float = 40.0
+    radius: float = spec(25.0, _cm(1e3, "a robot of at most 10 m"))
+    max_speed: float = spec(150.0, Range("", 0, 1000, "cm/s", "as leader.speed", lo_open=True))
+    max_accel: float = spec(100.0, Range("", 0, 1e5, "cm/s²", "at most 100 g", lo_open=True))
+    max_turn_rate: float = spec(
+        math.inf, Range("", 0, 1e3, "rad/s", "inf: no limit", lo_open=True, inf=True)
+    )
+    control_offset: float = spec(30.0, _cm(1e3, "a control point within 10 m"))
+    gain_rho: float = spec(0.5, _GAIN)
+    gain_beta: float = spec(0.5, _GAIN)
+    speed_noise: float = spec(0.5, Range("", 0, 1e3, "cm/s", NOISE))
+    turn_noise: float = spec(0.005, Range("", 0, 100, "rad/s", NOISE))
+    lookahead: float = spec(40.0, _cm(1e4, "pure pursuit's look-ahead, within 100 m"))
     motion_model: str = "unicycle"
 
     def __post_init__(self) -> None:
         motion_model(self.motion_model)  # (an unknown name: one line naming the key)
-        for key in ("radius", "max_speed", "control_offset", "gain_rho", "gain_beta", "lookahead"):
-            object.__setattr__(self, key, positive(f"follower.{key}", getattr(self, key)))
-        for key in ("max_accel", "max_turn_rate"):
-            object.__setattr__(
-                self, key, positive(f"follower.{key}", getattr(self, key), allow_inf=True)
-            )
-        for key in ("speed_noise", "turn_noise"):
-            object.__setattr__(self, key, non_negative(f"follower.{key}", getattr(self, key)))
+        in_ranges(self, "follower")
 
 
 def control_targets(

@@ -19,7 +19,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rtsim.sim.progress import progress_enabled
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.ekf import ekf_command, ekf_predict, ekf_update
 from rtsim.world.ftl import _BISECT, _NEWTON, _NEWTON_REACH, _SCALE_MIN, FTL_STEP
@@ -705,22 +704,26 @@ def _search_into(
     cap = speeds.shape[0]
     scratch = np.empty(changes.shape[1:])
     above = v_ld
-    best_v, best_r, best_m = v_floor, -1, -math.inf
     lo = hi = 0.0
     r_lo = -1
+    # the scan's m and rollout index per j, replayed after the floor when none passes
+    scan_m = np.empty(grid)
+    scan_r = np.empty(grid, dtype=np.int64)
+    m_floor, r_floor = -math.inf, -1
     r = first
-    # one rollout per pass (one call site keeps the compiled code small): phase 0 the floor,
-    # 1 the scan's j-th speed, 2 the bisection
-    phase = 0 if v_floor > 0.0 else 1
+    # one rollout per pass (one call site keeps the compiled code small): phase 1 the scan's
+    # j-th speed, 2 the bisection, 0 the floor — last: its m matters only when no scanned
+    # speed passes, so a search that brackets never rolls it out (search_rollout's order)
+    phase = 1
     j = 1
     while True:
+        if phase == 1 and j >= grid:
+            if not v_floor > 0.0:
+                break
+            phase = 0
         if phase == 0:
             v = v_floor
         elif phase == 1:
-            if j >= grid:
-                found_out[0], found_out[1], found_out[2] = best_v, 0.0, math.nan
-                found_out[3] = best_r
-                return r
             v = v_ld * (1.0 - j / grid)
         else:
             if not hi - lo > tol * v_ld:
@@ -734,19 +737,26 @@ def _search_into(
         r += 1
         m = keep * _rollout_worst(v, w, P, ch, contact)
         if phase == 0:
-            best_m, best_r, phase = m, r_v, 1
-        elif phase == 1:
+            m_floor, r_floor = m, r_v
+            break
+        if phase == 1:
             if m >= need:
                 lo, hi, r_lo, phase = v, above, r_v, 2
             else:
-                if m > best_m:
-                    best_v, best_m, best_r = v, m, r_v
+                scan_m[j], scan_r[j] = m, r_v
                 above = v
                 j += 1
         elif m >= need:
             lo, r_lo = v, r_v
         else:
             hi = v
+    # none passed: the least-bad speed, compared as if the floor came first
+    best_v, best_m, best_r = v_floor, m_floor, r_floor
+    for i in range(1, grid):
+        if scan_m[i] > best_m:
+            best_v, best_m, best_r = v_ld * (1.0 - i / grid), scan_m[i], scan_r[i]
+    found_out[0], found_out[1], found_out[2], found_out[3] = best_v, 0.0, math.nan, best_r
+    return r
 
 
 @kernel
@@ -871,6 +881,8 @@ def announce(sources: Iterable[Any], seconds: float, subs: Subs = ()) -> bool:
     if _ANNOUNCED or all(cached(fn, subs) for fn in sources):
         return False
     _ANNOUNCED = True  # (asked once: a later group compiles under the same line)
+    from rtsim.sim.progress import progress_enabled  # lazy: rtsim.sim loads simpy
+
     if not progress_enabled():
         return False
     from tqdm.auto import tqdm

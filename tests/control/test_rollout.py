@@ -16,7 +16,9 @@ the observed ones by at most 0.022 cm and 7e-5 rad (measured; elsewhere below 1e
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -111,6 +113,75 @@ def test_search_rollout_brackets_and_bisects() -> None:
     # nothing passes: the least-bad speed, the larger one on a tie, method best
     v, method, found = search_rollout(lambda v: 100.0 + (v if v < 20 else 0.0), 30.0, 237.0, 3.0)
     assert method == "best" and math.isnan(found) and v == pytest.approx(30.0 * 5 / 8)
+
+
+def _search_floor_first(
+    m: Callable[[float], float], v_ld: float, need: float, v_floor: float
+) -> tuple[float, str, float]:
+    """search_rollout as it was before the floor's evaluation moved last (the reference)."""
+    above = v_ld
+    best_v, best_m = v_floor, m(v_floor) if v_floor > 0.0 else -math.inf
+    for j in range(1, 8):
+        v = v_ld * (1.0 - j / 8)
+        mv = m(v)
+        if mv >= need:
+            lo, hi = v, above
+            while hi - lo > 0.005 * v_ld:
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if m(mid) >= need else (lo, mid)
+            return lo, "numeric", lo
+        if mv > best_m:
+            best_v, best_m = v, mv
+        above = v
+    return best_v, "best", math.nan
+
+
+def test_search_rollout_rolls_the_floor_out_last() -> None:
+    """The floor's m is asked for only when no scanned speed passes, and the result is the
+    floor-first search's in every case: random bounds with ties (values on a coarse grid),
+    NaN, a zero floor and a floor above some scanned speeds."""
+    rng = np.random.default_rng(3)
+
+    def m(v: float, calls: list[float], table: dict[float, float]) -> float:
+        calls.append(v)
+        if v not in table:
+            table[v] = float(rng.choice([math.nan, *range(90, 110)]))
+        return table[v]
+
+    for trial in range(3000):
+        table: dict[float, float] = {}
+
+        v_ld = float(rng.uniform(5.0, 40.0))
+        v_floor = float(rng.choice([0.0, 0.1 * v_ld, 0.4 * v_ld, math.nan]))
+        need = float(rng.choice([95.0, 105.0, 120.0]))
+        ref_calls: list[float] = []
+        ref = _search_floor_first(
+            functools.partial(m, calls=ref_calls, table=table), v_ld, need, v_floor
+        )
+        calls: list[float] = []
+        got = search_rollout(functools.partial(m, calls=calls, table=table), v_ld, need, v_floor)
+        assert repr(got) == repr(ref), trial
+        if got[1] == "numeric" and v_floor > 0.0:  # the floor (no scanned speed) not asked
+            assert v_floor not in calls and len(calls) == len(ref_calls) - 1
+        else:
+            assert sorted(calls, key=repr) == sorted(ref_calls, key=repr)
+
+
+def test_rollouts_run_counts_each_rollout_once() -> None:
+    """rollouts_run() grows by one per rollout run, not per memoised read."""
+    from rtsim.control.rollout import rollouts_run
+
+    world = _quiet_world("test2")
+    for j in range(12):
+        _window(world, j * 237.0, 237.0)
+    t_d = 11 * 237.0 + 210.0
+    world.advance(t_d)
+    ro = Rollout(world_state(world, t_d, 12 * 237.0, OFFSETS, 237.0))
+    before = rollouts_run()
+    ro.changes(12.0, (237.0,))
+    ro.changes(12.0, (237.0,))
+    ro.changes(20.0, (237.0, 237.0))
+    assert rollouts_run() - before == 2 == ro.count
 
 
 def test_paper_infeasible_is_exact_against_brute_force() -> None:

@@ -1,0 +1,100 @@
+"""Scenario files prepared once per process (`prepared`): a run of a file, or of a packaged
+scenario by name, that this process has already prepared skips the parse, the validation, the
+task set's read and the resolved values, and reuses the
+[`ScenarioInputs`][rtsim.coupling.inputs.ScenarioInputs] (a sweep's points, a notebook's
+repeated runs: docs/performance.md).
+
+The cache is keyed by the path as given, the working directory, the overrides, ``allow_code``
+and the caller's ``text``, and an entry is used only while the scenario file's bytes and its
+task-set file's bytes are those it was prepared from (both read again at each call, a few µs):
+an edited file is prepared again. The inputs are shared, treat them as read-only (as
+`run_scenario` does), except the adjustment policy: each call gets a fresh instance made
+with the file's keys, as a first read does (a policy of the user's may keep state).
+"""
+
+from __future__ import annotations
+
+import os
+from collections import OrderedDict
+from collections.abc import Callable, Mapping
+from dataclasses import replace
+from typing import Any, NamedTuple
+
+from rtsim.errors import InputError
+
+__all__ = ["prepared", "clear"]
+
+#: files prepared and kept per process, most recent last
+PREPARED_MAX = 8
+
+
+class _Entry(NamedTuple):
+    raw: bytes  # the scenario file's bytes
+    taskset: str  # its task set, as the scenario names it after resolution
+    taskset_raw: bytes  # ... and that file's bytes
+    inputs: Any  # ScenarioInputs
+
+
+_CACHE: OrderedDict[tuple[Any, ...], _Entry] = OrderedDict()
+
+
+def _taskset_raw(name: str) -> bytes:
+    from rtsim.config.scenario import taskset_file
+    from rtsim.config.taskset import taskset_bytes
+
+    return taskset_bytes(taskset_file(name))[0]
+
+
+def _fresh_policy(inp: Any) -> Any:
+    """``inp`` with a new instance of its adjustment policy, made with the same own keys
+    (`rtsim.control.policy.make_policy`'s ``cls(**params)``; a hand-made ``adjust`` mapping
+    holds no instance)."""
+    adj = inp.adjust
+    policy, own = getattr(adj, "policy", None), getattr(adj, "own", None)
+    if policy is None or own is None:
+        return inp
+    return replace(inp, adjust=replace(adj, policy=type(policy)(**own)))
+
+
+def clear() -> None:
+    """Forget every prepared scenario."""
+    _CACHE.clear()
+
+
+def prepared(
+    path: str | os.PathLike[str],
+    text: str | None,
+    overrides: Mapping[str, Any] | None,
+    allow_code: bool | None,
+    prepare: Callable[[Any, str], Any],
+) -> Any:
+    """``prepare(scenario, text)`` (`rtsim.coupling.inputs.scenario_inputs`, which calls this)
+    of the scenario file (or packaged name) ``path`` loaded with ``overrides``, from the cache
+    while both its files are unchanged (module docstring)."""
+    from rtsim.config.scenario import load_scenario, scenario_bytes
+
+    key = (
+        os.fspath(path),
+        os.getcwd(),
+        repr(sorted((overrides or {}).items())),
+        allow_code,
+        text,
+    )
+    raw = scenario_bytes(path)[0]
+    hit = _CACHE.get(key)
+    if hit is not None and hit.raw == raw:
+        try:
+            same = _taskset_raw(hit.taskset) == hit.taskset_raw
+        except InputError:  # gone or unreadable: prepared again, which says so
+            same = False
+        if same:
+            _CACHE.move_to_end(key)
+            return _fresh_policy(hit.inputs)
+    scenario = load_scenario(path, overrides=overrides, allow_code=allow_code)
+    inp = prepare(scenario, raw.decode("utf-8") if text is None else text)
+    if scenario_bytes(path)[0] == raw:  # (not edited while it was read)
+        _CACHE[key] = _Entry(raw, scenario.taskset, _taskset_raw(scenario.taskset), inp)
+        _CACHE.move_to_end(key)
+        while len(_CACHE) > PREPARED_MAX:
+            _CACHE.popitem(last=False)
+    return inp
