@@ -2,7 +2,7 @@
 
     python benchmarks/bench_memory.py [--sim-hours 24] [--scenario-hours 6] [--short-min 10]
                                       [--trace-hours 3] [--only simulate|scenario|traces]
-                                      [--followers N] [--json]
+                                      [--followers N] [--no-figures] [--json]
 
 Each run is a fresh interpreter (``rtsim.cli.main`` in a child process) whose peak resident
 set size (``ru_maxrss``) is reported:
@@ -11,15 +11,17 @@ set size (``ru_maxrss``) is reported:
    for ``--sim-hours`` hours of simulated time (every job record written to the file);
 2. ``rtsim scenario experiments/scenarios/test2.toml --parquet --out DIR`` — every output:
    windows.csv, windows.parquet, jobs.csv, the five figures, report.html — for
-   ``--short-min`` minutes and ``--scenario-hours`` hours (``--followers N``: with
-   ``--set formation.followers=N``; the summary's read-back grew with N);
+   ``--short-min`` minutes and each of ``--scenario-hours`` hours (``--followers N``: with
+   ``--set formation.followers=N``; the summary's and the figures' read-backs grew with N;
+   ``--no-figures``: the run without its figures, what the run itself costs);
 3. the traces, for ``--short-min`` minutes and ``--trace-hours`` hours: ``rtsim simulate
    tasksets/example.toml --trace FILE.csv``, the same with ``--perfetto FILE.json``, and
    ``rtsim scenario experiments/scenarios/test2.toml --no-figures --perfetto FILE.json``.
 
 Target: the long run's peak within 100 MB of the short run's (records are kept as column
 chunks and flushed to the output as they come; summaries and figures read columns back;
-the Perfetto trace is written from records spooled to disk).
+the Perfetto trace is written from records spooled to disk; the figures draw a table of
+bounded length, read back in chunks, and each figure is freed before the next).
 """
 
 from __future__ import annotations
@@ -62,7 +64,18 @@ def peak_mb(argv: list[str]) -> tuple[float, float]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sim-hours", type=float, default=24.0)
-    ap.add_argument("--scenario-hours", type=float, default=6.0)
+    ap.add_argument(
+        "--scenario-hours",
+        type=float,
+        nargs="+",
+        default=[6.0],
+        help="scenario: one or more long runs, each against the short one",
+    )
+    ap.add_argument(
+        "--no-figures",
+        action="store_true",
+        help="scenario: without the figures (what the run itself costs)",
+    )
     ap.add_argument("--short-min", type=float, default=10.0)
     ap.add_argument("--trace-hours", type=float, default=3.0)
     ap.add_argument("--only", choices=("simulate", "scenario", "traces"), default=None)
@@ -92,9 +105,11 @@ def main() -> int:
                 row.update({f"{label}_mb": peak, f"{label}_s": wall, f"{label}_rows": rows})
             results[f"simulate --jobs {args.sim_hours:g} h vs {args.short_min:g} min"] = row
         if args.only in (None, "scenario"):
-            row = {}
-            for label, s in (("short", args.short_min * 60), ("long", args.scenario_hours * 3600)):
-                out = d / f"scen_{label}"
+            runs = {"short": args.short_min * 60}
+            runs.update({f"{h:g} h": h * 3600 for h in args.scenario_hours})
+            measured = {}
+            for label, s in runs.items():
+                out = d / f"scen_{label.replace(' ', '')}"
                 peak, wall = peak_mb(
                     [
                         "scenario",
@@ -104,6 +119,7 @@ def main() -> int:
                         "--parquet",
                         "--out",
                         str(out),
+                        *(["--no-figures"] if args.no_figures else []),
                         *(
                             ["--set", f"formation.followers={args.followers}"]
                             if args.followers
@@ -112,12 +128,19 @@ def main() -> int:
                     ]
                 )
                 rows = sum(1 for _ in open(out / "windows.csv", "rb")) - 1
-                row.update({f"{label}_mb": peak, f"{label}_s": wall, f"{label}_rows": rows})
+                measured[label] = (peak, wall, rows)
             who = f", {args.followers} followers" if args.followers else ""
-            results[
-                f"scenario test2{who}, every output, {args.scenario_hours:g} h vs "
-                f"{args.short_min:g} min"
-            ] = row
+            what = "no figures" if args.no_figures else "every output"
+            short = measured.pop("short")
+            for label, (peak, wall, rows) in measured.items():
+                results[f"scenario test2{who}, {what}, {label} vs {args.short_min:g} min"] = {
+                    "short_mb": short[0],
+                    "short_s": short[1],
+                    "short_rows": short[2],
+                    "long_mb": peak,
+                    "long_s": wall,
+                    "long_rows": rows,
+                }
         if args.only in (None, "traces"):
             runs = {
                 "simulate --trace": (

@@ -96,3 +96,12 @@ def die(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str,
             os.kill(os.getpid(), signal.SIGKILL)
     time.sleep(float(options.get("sleep", 0.0)))
     return {"double": 2 * params["i"]}
+
+
+def stuck_thread(params: dict[str, Any], options: dict[str, Any], seed: int) -> dict[str, Any]:
+    """As :func:`slow`, after starting a non-daemon thread that never ends (the interpreter's
+    exit would wait for it for ever)."""
+    import threading
+
+    threading.Thread(target=threading.Event().wait, name="stuck-by-the-point").start()
+    return slow(params, options, seed)

@@ -380,25 +380,8 @@ def _write(
 
 
 def _figure_table(path: Path, n: int, rows: int) -> Any:
-    """The columns the figures draw, read back from windows.csv; above
-    `FIGURE_MAX_ROWS` windows only the rows
-    `thin_rows` keeps (read in bucket-aligned chunks)."""
-    import pandas as pd
+    """The rows and columns the figures draw, read back from windows.csv in bounded chunks
+    (`rtsim.plots.scenario_data.read_figure_table`; ``rows`` is not needed)."""
+    from rtsim.plots.scenario_data import read_figure_table  # lazy: CLI start-up (matplotlib)
 
-    from rtsim.io.columns import iter_columns, read_columns  # lazy: CLI start-up (pandas)
-    from rtsim.plots.scenario_data import (  # lazy: CLI start-up (matplotlib)
-        FIGURE_BUCKETS,
-        FIGURE_MAX_ROWS,
-        figure_columns,
-        thin_rows,
-    )
-
-    cols = figure_columns(n)
-    if rows <= FIGURE_MAX_ROWS:
-        return read_columns(path, cols)
-    bucket = -(-rows // FIGURE_BUCKETS)
-    parts = [
-        chunk[thin_rows(chunk, bucket)]
-        for chunk in iter_columns(path, cols, chunk_rows=bucket * 64)
-    ]
-    return pd.concat(parts, ignore_index=True)
+    return read_figure_table(path, n)

@@ -76,14 +76,28 @@ def _sigterm(signum: int, frame: FrameType | None) -> None:
     raise Terminated  # "rtsim: terminated", exit 143 (docs/reliability.md)
 
 
+#: After an interrupt's cleanup, how long other threads get to end before the command
+#: leaves without waiting for them (s).
+GRACE_S = 1.0
+
+
 def _leave_if_stuck(exc: KeyboardInterrupt) -> None:
-    """After the interrupt path's cleanup, leave at once (``os._exit``) when a stopped
-    pool's thread did not end: the interpreter's exit would wait for it without a timeout."""
+    """After the interrupt path's cleanup, leave at once (``os._exit``) when a thread did
+    not end: a stopped pool's manager thread (`rtsim.sweep.engine.STUCK`) or any other
+    non-daemon thread (one a point's code started, say) given `GRACE_S` to end. The
+    interpreter's exit would wait for them without a timeout."""
     import os
+    import threading
+    import time
 
     from rtsim.sweep.engine import STUCK  # lazy: CLI start-up (rtsim.sweep, ~27 ms)
 
-    if not any(t.is_alive() for t in STUCK):
+    me = threading.current_thread()
+    others = [t for t in threading.enumerate() if t is not me and not t.daemon]
+    deadline = time.monotonic() + GRACE_S
+    for t in others:
+        t.join(max(0.0, deadline - time.monotonic()))
+    if not any(t.is_alive() for t in [*STUCK, *others]):
         return
     term = isinstance(exc, Terminated)
     print(f"rtsim: {'terminated' if term else 'interrupted'}", file=sys.stderr)

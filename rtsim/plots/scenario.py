@@ -26,14 +26,18 @@ from rtsim.io.atomic import atomic_path, write_table
 from rtsim.plots.figure import new_figure
 from rtsim.plots.scenario_data import (
     BOUND_KINDS,
+    BOUNDS_CLIP,
+    WINDOW_CLIP,
     as_bool,
     as_floats,
     binding_xy,
     critical_spans,
+    dot_points,
     ends_s,
     figure_data,
     followers,
     headline_counts,
+    line_points,
     need_columns,
     spans_of,
     times_s,
@@ -88,8 +92,6 @@ FOLLOWER_COLORS: tuple[str, ...] = (
     "#D55E00",
     "#F0E442",
 )
-BOUNDS_CLIP = 4.0  # bounds figure: y-axis ends at most at this multiple of w_sch
-WINDOW_CLIP = 6.0  # window figure: the same for w (w is capped, but the cap may be large)
 #: Resolution of PNG figures: print (`rtsim.plots.style.DPI`); SVG and PDF are vector.
 DPI = _PRINT_DPI
 #: What the lines and dots of the bounds figures are (their legend's title).
@@ -151,8 +153,23 @@ def _held(df: pd.DataFrame, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _step(ax: Axes, df: pd.DataFrame, y: np.ndarray, **kw: object) -> Line2D:
+    """``y`` held over each window (`_held`), through the points `line_points` keeps."""
     x, yy = _held(df, y)
-    (line,) = ax.plot(x, yy, drawstyle="steps-post", **kw)  # type: ignore[arg-type]
+    keep = line_points(x, [yy])
+    (line,) = ax.plot(x[keep], yy[keep], drawstyle="steps-post", **kw)  # type: ignore[arg-type]
+    return line
+
+
+def _fill(ax: Axes, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, **kw: Any) -> None:
+    """A steps-post band from ``lo`` to ``hi`` through the points `line_points` keeps."""
+    keep = line_points(x, [lo, hi])
+    ax.fill_between(x[keep], lo[keep], hi[keep], step="post", **kw)
+
+
+def _dots(ax: Axes, t: np.ndarray, y: np.ndarray, top: float, fmt: str, **kw: Any) -> Line2D:
+    """Dots at (``t``, ``y``) on a y axis up to ``top``, those `dot_points` keeps."""
+    keep = dot_points(t, y, top)
+    (line,) = ax.plot(t[keep], y[keep], fmt, **kw)
     return line
 
 
@@ -281,9 +298,8 @@ def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     t, w, slack = times_s(df), as_floats(df["w"]), as_floats(df["slack"])
     top = top if top is not None else _ylimit([w, slack], as_floats(df["w_sch"]), WINDOW_CLIP)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
-    ax.fill_between(
-        *_held(df, _offscale(slack, top)), step="post", color=COLORS["slack"], alpha=0.25, lw=0
-    )
+    x, hi = _held(df, _offscale(slack, top))
+    _fill(ax, x, np.zeros_like(hi), hi, color=COLORS["slack"], alpha=0.25, lw=0)
     _step(
         ax,
         df,
@@ -338,9 +354,11 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
         yt = as_floats(data[f"bound_{kind}_true"])
         values.append(yt)
         shown = yt <= top
-        ax.plot(
+        _dots(
+            ax,
             t[shown],
             yt[shown],
+            top,
             ".",
             color=COLORS[kind],
             ms=2.5,
@@ -383,9 +401,11 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
         label="min MSB at $V_{Ld}$, predicted",
     )
     shown = true <= top
-    ax.plot(
+    _dots(
+        ax,
         t[shown],
         true[shown],
+        top,
         ".",
         color=COLORS["msb_min"],
         ms=2.5,
@@ -409,9 +429,11 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     for kind in BOUND_KINDS:
         sel = crit & (kinds == kind) & (pred <= top)
         if sel.any():
-            ax.plot(
+            _dots(
+                ax,
                 t[sel],
                 pred[sel],
+                top,
                 "o",
                 ms=3.5,
                 color=COLORS[kind],
@@ -456,11 +478,11 @@ def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> Non
     _shade(ax, spans, "critical", "critical (min MSB < $w_{sch}$)")
     safe = msb >= w_sch
     x, lo = _held(df, w_sch)  # zero height where critical, so runs keep their full width
-    ax.fill_between(
+    _fill(
+        ax,
         x,
         lo,
         _held(df, np.where(safe, np.minimum(msb, top), w_sch))[1],
-        step="post",
         color=COLORS["safe"],
         alpha=0.18,
         lw=0,
@@ -497,9 +519,11 @@ def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> Non
         label="min MSB predicted at the leader's speed",
     )
     shown = true <= top
-    ax.plot(
+    _dots(
+        ax,
         times_s(df)[shown],
         true[shown],
+        top,
         ".",
         color="#333333",
         ms=2.5,
@@ -791,11 +815,16 @@ def write_scenario_figures(
     [`figure_data`][rtsim.plots.scenario.figure_data] is also written as ``<prefix><stem>.csv``.
     Returns the paths written.
     """
+    import gc
+
     out = Path(out_dir)
     written: list[Path] = []
     for stem, plot in SCENARIO_FIGURES.items():
         title = f"{label}: {_TITLES[stem]}" if label else _TITLES[stem]
         written.append(save_figure(plot(df, title=title), out / f"{prefix}{stem}.{fmt}", dpi=dpi))
+        # a figure is a web of reference cycles: freed here, before the next is drawn,
+        # not when the collector next runs (six figures of a long run held at once)
+        gc.collect()
         if data:
             csv = out / f"{prefix}{stem}.csv"
             write_table(csv, figure_data(df, stem))

@@ -1,12 +1,14 @@
 """What a scenario figure shows, selected from a run's ``windows.csv`` table (docs/outputs.md):
 the followers present, the critical spans, the violation ratios, the columns each figure
-plots ([`figure_data`][rtsim.plots.scenario_data.figure_data]) and the rows a long run is drawn from
-(`thin_rows`). No
-drawing here: `rtsim.plots.scenario` draws what these return.
+plots ([`figure_data`][rtsim.plots.scenario_data.figure_data]), the table a run's figures are
+drawn from, read back in chunks and thinned per pixel column (`read_figure_table`), and the
+points of each line and dot series drawn (`line_points`, `dot_points`). No drawing here:
+`rtsim.plots.scenario` draws what these return.
 """
 
 from __future__ import annotations
 
+import os
 import re
 
 import numpy as np
@@ -14,16 +16,26 @@ import pandas as pd
 
 from rtsim.coupling.recorder import window_columns
 from rtsim.errors import InputError
+from rtsim.io.columns import iter_columns
 
 __all__ = [
     "BOUND_KINDS",
-    "FIGURE_BUCKETS",
-    "FIGURE_MAX_ROWS",
+    "BOUNDS_CLIP",
+    "DOT_BAND",
+    "FIGURE_BINS",
+    "FIGURE_DOT_CELL",
+    "FIGURE_READ_ROWS",
+    "WINDOW_CLIP",
     "binding_xy",
     "critical_spans",
+    "dot_points",
     "figure_columns",
     "figure_data",
     "followers",
+    "keep_extremes",
+    "line_points",
+    "read_figure_table",
+    "reduce_chunk",
     "thin_rows",
     "violation_ratios",
 ]
@@ -101,6 +113,8 @@ def critical_spans(df: pd.DataFrame) -> list[tuple[float, float]]:
 def kind_min(df: pd.DataFrame, kind: str, which: str) -> np.ndarray:
     """Per window, the minimum over followers of one bound kind's ``which`` (``pred`` or
     ``true``) column (inf when none is finite)."""
+    if f"bound_{kind}_{which}" in df.columns:  # reduced as it was read (`reduce_chunk`)
+        return as_floats(df[f"bound_{kind}_{which}"])
     cols = [f"f{i}_msb_{kind}_{which}" for i in followers(df)]
     need_columns(df, cols, f"the {kind} bound")
     if not cols:
@@ -169,28 +183,82 @@ FIGURE_NAMES: tuple[str, ...] = (
     "operating_space",
 )
 
-#: A run with more windows than this is drawn from a selection of rows (`thin_rows`).
-FIGURE_MAX_ROWS = 20_000
-#: Buckets of consecutive windows `thin_rows` keeps extremes of.
-FIGURE_BUCKETS = 1_000
+#: Rows of windows.csv parsed at a time when the figures' table is read back
+#: (`read_figure_table`): the parser's buffers and each chunk stay this small.
+FIGURE_READ_ROWS = 2048
+#: Bins of the time axis `read_figure_table` keeps each plotted value's extremes of: about
+#: the pixel columns of a page-wide figure (`rtsim.plots.style.PAGE_IN` × 300 dpi = 2,148
+#: px, the axes a little narrower), so a bin is at most one pixel column wide.
+FIGURE_BINS = 2048
+#: The time figures' y axes end at most at these multiples of the run's largest w_sch: the
+#: bounds, msb and operating-space figures (`BOUNDS_CLIP`), the window figure
+#: (`WINDOW_CLIP`: w is capped, but the cap may be large).
+BOUNDS_CLIP = 4.0
+WINDOW_CLIP = 6.0
+#: The band of values, as a fraction of the run's largest w_sch, within which
+#: `read_figure_table` keeps one dot per bin: the time figures' y axes reach at least 1.5 ×
+#: w_sch over about 500 px, so this is under 4 px; a dot is about 10 px wide.
+FIGURE_DOT_CELL = 0.01
+
+#: The plotted values whose extremes a thinned table keeps, by name (each follower's bound
+#: columns too, and the minima over followers `reduce_chunk` adds).
+_GUARDED = ("w", "slack", "w_sch", "msb_min", "v_leader", "v_leader_target", "v_leader_desired")
 
 
-def thin_rows(df: pd.DataFrame, bucket: int) -> np.ndarray:
-    """Which rows to draw of a long windows table (a boolean mask): per ``bucket``
-    consecutive windows the first and last and, for every plotted value (w, slack, w_sch,
-    min MSB, leader speed and target, each follower's predicted and true bounds), the rows of
-    its smallest and largest value; both rows of every change of ``critical`` (so the shaded
-    regions are exact) and every missed window (each is marked and counted). A figure of
-    ~1000 pixels cannot show more; its lines and extremes are those of the whole table."""
+def _guarded(df: pd.DataFrame, dots: bool = False) -> list[np.ndarray]:
+    """Every value a figure plots against time, per row: the named columns, each bound
+    column, and the minima over bound kinds the msb and operating-space figures draw
+    (the largest value of a minimum is not always a kept row of its parts). With ``dots``
+    the true values, which are drawn as dots (`_dots`), are left to those."""
+    ends = ("_pred",) if dots else ("_pred", "_true")
+
+    def plotted(c: str) -> bool:
+        bound = (c.startswith("f") and "_msb_" in c) or c.startswith("bound_")
+        return c in _GUARDED or (bound and c.endswith(ends))
+
+    out = [as_floats(df[c]) for c in df.columns if plotted(str(c))]
+    for which in ("pred",) if dots else ("pred", "true"):
+        if all(f"bound_{k}_{which}" in df.columns for k in BOUND_KINDS):
+            out.append(np.min([as_floats(df[f"bound_{k}_{which}"]) for k in BOUND_KINDS], axis=0))
+    return out
+
+
+def _dots(df: pd.DataFrame) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The values the figures draw as a dot per window, each with a group per row (dots of
+    one group look alike): each bound kind's true value and their minimum (bounds, msb,
+    operating space), and ``msb_min`` in the critical windows by binding kind (msb)."""
+    out: list[tuple[np.ndarray, np.ndarray]] = []
+    every = np.zeros(len(df), dtype=np.int64)
+    true = [f"bound_{k}_true" for k in BOUND_KINDS if f"bound_{k}_true" in df.columns]
+    out += [(as_floats(df[c]), every) for c in true]
+    if len(true) == len(BOUND_KINDS):
+        out.append((np.min([as_floats(df[c]) for c in true], axis=0), every))
+    if {"msb_min", "critical", "binding"} <= set(df.columns):
+        kind = pd.factorize(df["binding"].astype(str).str.split(":").str[0])[0] + 1
+        out.append((as_floats(df["msb_min"]), np.where(as_bool(df["critical"]), kind, -1)))
+    return out
+
+
+def keep_extremes(
+    df: pd.DataFrame, bins: np.ndarray, dot_cell: float | None = None, dot_top: float = np.inf
+) -> np.ndarray:
+    """Which rows to draw (a boolean mask) when rows are grouped by ``bins`` (one
+    non-decreasing bin number per row): per bin its first and last row and, for every
+    plotted value (`_guarded`), the rows of its smallest and largest value; both rows of
+    every change of ``critical`` (so the shaded regions are exact) and every missed window
+    (each is marked and counted). Drawn through these rows, each line covers in each bin
+    the same range as through every row, so a bin no wider than a pixel column draws the
+    same picture. With ``dot_cell`` (ms), of the values drawn as dots (`_dots`) up to
+    ``dot_top`` (ms; no dot is drawn above the y axis) one row per bin and
+    ``dot_cell``-high band of values is kept too, so the dots cover what every row's dots
+    cover to within that band."""
     m = len(df)
     keep = np.zeros(m, dtype=bool)
     if m == 0:
         return keep
-    bucket = max(1, int(bucket))
-    nb = -(-m // bucket)
-    starts = np.arange(nb) * bucket
+    starts = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
     keep[starts] = True
-    keep[np.minimum(starts + bucket, m) - 1] = True
+    keep[np.r_[starts[1:], m] - 1] = True
     if "critical" in df.columns:
         f = as_bool(df["critical"])
         ch = np.flatnonzero(f[1:] != f[:-1])
@@ -198,22 +266,137 @@ def thin_rows(df: pd.DataFrame, bucket: int) -> np.ndarray:
         keep[ch + 1] = True
     if "missed" in df.columns:
         keep |= as_bool(df["missed"])
-    guarded = [
-        c
-        for c in df.columns
-        if c in ("w", "slack", "w_sch", "msb_min", "v_leader", "v_leader_target")
-        or (str(c).startswith("f") and "_msb_" in str(c) and str(c).endswith(("_pred", "_true")))
-    ]
-    pad = nb * bucket - m
-    for c in guarded:
-        v = as_floats(df[c])
-        nan = np.isnan(v)
-        lo = np.pad(np.where(nan, np.inf, v), (0, pad), constant_values=np.inf)
-        hi = np.pad(np.where(nan, -np.inf, v), (0, pad), constant_values=-np.inf)
-        for pos in (lo.reshape(nb, bucket).argmin(axis=1), hi.reshape(nb, bucket).argmax(axis=1)):
-            idx = starts + pos
-            keep[idx[idx < m]] = True
+    dots = dot_cell is not None and dot_cell > 0
+    for v in _guarded(df, dots):
+        _keep_extremes_of(v, starts, keep)
+    if dots:
+        assert dot_cell is not None
+        for v, group in _dots(df):
+            drawn = np.flatnonzero((v <= dot_top) & (group >= 0))
+            key = np.column_stack(
+                [bins[drawn], group[drawn], np.floor(v[drawn] / dot_cell).astype(np.int64)]
+            )
+            first = np.unique(key, axis=0, return_index=True)[1]
+            keep[drawn[first]] = True
     return keep
+
+
+def _keep_extremes_of(v: np.ndarray, starts: np.ndarray, keep: np.ndarray) -> None:
+    """Mark in ``keep`` the first row of each bin (starting at ``starts``) holding the bin's
+    smallest and its largest value of ``v``."""
+    m = len(v)
+    nan = np.isnan(v)
+    for pos in (
+        np.minimum.reduceat(np.where(nan, np.inf, v), starts),
+        np.maximum.reduceat(np.where(nan, -np.inf, v), starts),
+    ):
+        hit = v == np.repeat(pos, np.diff(np.r_[starts, m]))
+        keep[np.flatnonzero(hit & ~_seen_in_bin(hit, starts, m))] = True
+
+
+def line_points(x: np.ndarray, ys: list[np.ndarray], bins: int | None = None) -> np.ndarray:
+    """Which points of lines drawn over ``x`` (non-decreasing) to draw (a boolean mask): all
+    of them when there are no more than ``bins`` (default `FIGURE_BINS`); else per bin of
+    ``bins`` equal parts of x's span its first and last point and the smallest and largest
+    value of each of ``ys``, and every NaN (a line's break). Drawn steps-post through these
+    points a line covers in each bin the range it covers through all of them."""
+    bins = FIGURE_BINS if bins is None else bins
+    m = len(x)
+    keep = np.ones(m, dtype=bool)
+    span = float(x[-1] - x[0]) if m else 0.0
+    if m <= bins or not np.isfinite(span) or span <= 0:
+        return keep
+    b = np.clip(np.floor((x - x[0]) * (bins / span)), 0, bins - 1).astype(np.int64)
+    starts = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
+    keep[:] = False
+    keep[starts] = True
+    keep[np.r_[starts[1:], m] - 1] = True
+    for y in ys:
+        keep |= np.isnan(y)
+        _keep_extremes_of(y, starts, keep)
+    return keep
+
+
+#: The dots a figure draws, one per this fraction of the y axis's height and time bin
+#: (`dot_points`): under a pixel of an axes 300 px high or more.
+DOT_BAND = 1 / 1000
+
+
+def dot_points(x: np.ndarray, y: np.ndarray, top: float, bins: int | None = None) -> np.ndarray:
+    """Which of the dots at (``x``, ``y``) to draw (a boolean mask) on a y axis from 0 to
+    ``top``: all when there are no more than ``bins`` (default `FIGURE_BINS`); else the
+    first dot of each time bin and `DOT_BAND` × ``top`` band of values (a dot is
+    several pixels wide; the ones dropped lie within a pixel of one kept)."""
+    bins = FIGURE_BINS if bins is None else bins
+    m = len(x)
+    span = float(x[-1] - x[0]) if m else 0.0
+    if m <= bins or not np.isfinite(span) or span <= 0 or not top > 0:
+        return np.ones(m, dtype=bool)
+    b = np.clip(np.floor((x - x[0]) * (bins / span)), 0, bins - 1).astype(np.int64)
+    band = np.floor(np.nan_to_num(y, posinf=-1.0, neginf=-1.0) / (DOT_BAND * top))
+    first = np.unique(np.column_stack([b, band.astype(np.int64)]), axis=0, return_index=True)[1]
+    keep = np.zeros(m, dtype=bool)
+    keep[first] = True
+    return keep
+
+
+def _seen_in_bin(hit: np.ndarray, starts: np.ndarray, m: int) -> np.ndarray:
+    """Per row, whether an earlier row of its bin already has ``hit``."""
+    c = np.cumsum(hit)
+    before = np.repeat(np.r_[0, c[starts[1:] - 1]], np.diff(np.r_[starts, m]))
+    return (c - hit) > before
+
+
+def thin_rows(df: pd.DataFrame, bucket: int) -> np.ndarray:
+    """`keep_extremes` over buckets of ``bucket`` consecutive windows."""
+    return keep_extremes(df, np.arange(len(df)) // max(1, int(bucket)))
+
+
+def reduce_chunk(chunk: pd.DataFrame) -> pd.DataFrame:
+    """The figures' columns of a chunk of windows.csv with each follower's bound columns
+    replaced by their minimum over followers, ``bound_<kind>_pred`` and
+    ``bound_<kind>_true`` (what `figure_data` derives; `kind_min` takes them as they are):
+    the table a figure needs no longer grows with the follower count."""
+    out = chunk.loc[:, [c for c in chunk.columns if "_msb_" not in str(c)]].copy()
+    for kind in BOUND_KINDS:
+        for which in ("pred", "true"):
+            out[f"bound_{kind}_{which}"] = kind_min(chunk, kind, which)
+    return out
+
+
+def read_figure_table(path: str | os.PathLike[str], n: int) -> pd.DataFrame:
+    """The rows and columns the scenario figures draw, read back from a run's windows.csv
+    in chunks of `FIGURE_READ_ROWS` rows: each chunk reduced (`reduce_chunk`), its rows
+    grouped by `FIGURE_BINS` equal bins of the run's time span and thinned
+    (`keep_extremes`, dots kept per `FIGURE_DOT_CELL` × w_sch band). The table stays
+    within ``FIGURE_BINS`` × (2 + 2 × plotted values + the dot bands a bin's values span)
+    rows (plus the critical changes and misses, each kept) whatever the run's length; a run
+    with fewer windows than bins keeps every row."""
+    t0 = end = None
+    w_sch = 0.0
+    for chunk in iter_columns(path, ["t", "w", "w_sch"], chunk_rows=FIGURE_READ_ROWS):
+        if len(chunk):
+            t = as_floats(chunk["t"])
+            w = as_floats(chunk["w"])[-1]
+            t0 = t[0] if t0 is None else t0
+            end = t[-1] + (w if np.isfinite(w) else 0.0)
+            r = as_floats(chunk["w_sch"])
+            r = r[np.isfinite(r)]
+            w_sch = max(w_sch, float(r.max())) if r.size else w_sch
+    span = (end - t0) if t0 is not None and end is not None else 0.0
+    cell = FIGURE_DOT_CELL * w_sch if w_sch > 0 else None
+    parts = []
+    for chunk in iter_columns(path, figure_columns(n), chunk_rows=FIGURE_READ_ROWS):
+        small = reduce_chunk(chunk)
+        if span > 0:
+            bins = np.clip((as_floats(chunk["t"]) - t0) * (FIGURE_BINS / span), 0, FIGURE_BINS)
+            bins = np.floor(np.nan_to_num(bins)).astype(np.int64)
+        else:
+            bins = np.zeros(len(chunk), dtype=np.int64)
+        parts.append(small[keep_extremes(small, bins, cell, BOUNDS_CLIP * w_sch)])
+    if not parts:
+        return reduce_chunk(pd.DataFrame(columns=figure_columns(n)))
+    return pd.concat(parts, ignore_index=True)
 
 
 def figure_data(df: pd.DataFrame, name: str) -> pd.DataFrame:

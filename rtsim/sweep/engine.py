@@ -627,7 +627,7 @@ class Sweep:
                         else:
                             retry.append(item)
                     retry.sort(key=lambda it: it[0].index)
-                    ex.shutdown(wait=True, cancel_futures=True)
+                    _stop_pool(ex)  # its manager thread joined with a timeout, not for ever
                     ex = pool()
                     state["broken"] = False
                 fill()

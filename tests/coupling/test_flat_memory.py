@@ -5,11 +5,11 @@ and its long frame and CSV text grew the peak by ~300 MB between 10 min and 1 h.
 
 from __future__ import annotations
 
-import tracemalloc
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from traced import traced_peak as _peak
 
 import rtsim.coupling.scenario_run as scenario_run
 from rtsim.cli.scenario import FOLLOWER_CHUNK_ROWS, _write_followers
@@ -38,15 +38,6 @@ def _windows_csv(df: pd.DataFrame, rows: int, path: Path) -> Path:
     big["window"] = range(1, rows + 1)
     big.to_csv(path, index=False)
     return path
-
-
-def _peak(fn: object) -> int:
-    tracemalloc.start()
-    try:
-        fn()  # type: ignore[operator]
-        return tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
 
 
 def test_follower_count_reads_the_wide_header(windows: pd.DataFrame) -> None:

@@ -12,6 +12,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from rtsim.io.lock import lock_directory
 from rtsim.sweep import run_sweep
 
 # the sweep files here name their helper functions (code): the user opts in
@@ -166,3 +167,109 @@ def test_interrupts_in_a_loop_under_a_cpu_hog(
         for h in hogs:
             h.kill()
             h.wait()
+
+
+#: ``python -c`` prologue: the pool's manager thread, once its work is done, never ends
+#: (as when an interrupt leaves one of its locks held); ``NO_FALLBACK`` takes the command's
+#: ``os._exit`` fallback away, to show what it saves.
+_STUCK_MANAGER = """
+import sys, threading
+import concurrent.futures.process as cfp
+_run = cfp._ExecutorManagerThread.run
+def run(self):
+    try:
+        _run(self)
+    finally:
+        threading.Event().wait()
+cfp._ExecutorManagerThread.run = run
+if "NO_FALLBACK" in sys.argv:
+    sys.argv.remove("NO_FALLBACK")
+    import rtsim.cli.sweep
+    rtsim.cli.sweep._leave_if_stuck = lambda exc: None
+from rtsim.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def _stuck_sweep(
+    tmp_path: Path, function: str, workers: str, sig: signal.Signals, extra: list[str]
+) -> tuple[int | None, bytes, float]:
+    """Start a sweep whose ``function`` points run on ``workers``; once a point is done
+    send ``sig`` (SIGINT to the process group, as Ctrl-C does; SIGTERM to the sweep alone).
+    Returns the exit status (None if still running 12 s after the signal), stderr, and the
+    seconds from the signal to the exit."""
+    spec = tmp_path / "stuck.toml"
+    spec.write_text(
+        f'[sweep]\nkind = "call"\nfunction = "sweep_helpers:{function}"\nseed = 5\n'
+        f'[sweep.options]\nsleep = 0.15\n[grid]\ni = "0..{N - 1}"\n'
+    )
+    out = tmp_path / "out"
+    argv = ["sweep", "--allow-code", str(spec), "--out", str(out), "--workers", workers]
+    log = tmp_path / "run.log"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _STUCK_MANAGER, *argv, *extra],
+        env=_env(log),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while not list((out / "points").glob("*.json")):
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "sweep made no progress"
+            time.sleep(0.02)
+        if sig == signal.SIGINT:  # Ctrl-C: the whole group; SIGTERM: the sweep alone
+            os.killpg(proc.pid, sig)
+        else:
+            proc.send_signal(sig)
+        sent = time.monotonic()
+        try:
+            _, err = proc.communicate(timeout=12)
+        except subprocess.TimeoutExpired:
+            return None, b"", time.monotonic() - sent
+        return proc.returncode, err, time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+
+
+def _one_line(err: bytes, word: bytes) -> None:
+    assert err.strip().splitlines() == [b"rtsim: " + word], err
+
+
+@pytest.mark.parametrize(
+    ("sig", "code", "word"),
+    [(signal.SIGINT, 130, b"interrupted"), (signal.SIGTERM, 143, b"terminated")],
+    ids=["sigint", "sigterm"],
+)
+def test_a_stuck_manager_thread_does_not_hold_the_exit(
+    tmp_path: Path, sig: signal.Signals, code: int, word: bytes
+) -> None:
+    """Issue 35 (8): the pool's manager thread never ends (staged: its ``run`` blocks once
+    its work is done); the interrupt path joins it for `STOP_TIMEOUT_S` and then leaves
+    with ``os._exit`` after its cleanup: the documented line and status, within 12 s of
+    the signal, and the directory's lock free."""
+    rc, err, took = _stuck_sweep(tmp_path, "slow", "2", sig, [])
+    assert rc == code, (err, took)
+    _one_line(err, word)
+    with lock_directory(tmp_path / "out"):  # no worker outlived it holding the lock
+        pass
+
+
+@pytest.mark.slow
+def test_without_the_fallback_the_stuck_manager_thread_hangs_the_exit(tmp_path: Path) -> None:
+    """The control of the test above: with ``_leave_if_stuck`` a no-op the same sweep is
+    still running 12 s after Ctrl-C (the interpreter's exit joins the thread for ever)."""
+    rc, _, _ = _stuck_sweep(tmp_path, "slow", "2", signal.SIGINT, ["NO_FALLBACK"])
+    assert rc is None
+
+
+def test_a_thread_a_point_left_running_does_not_hold_the_exit(tmp_path: Path) -> None:
+    """A point of a serial sweep starts a non-daemon thread that never ends: after Ctrl-C the
+    command waits `GRACE_S` for it, then leaves with ``os._exit``: ``rtsim: interrupted``,
+    130, well within 12 s (before, the interpreter's exit waited for it for ever)."""
+    rc, err, took = _stuck_sweep(tmp_path, "stuck_thread", "1", signal.SIGINT, [])
+    assert rc == 130, (err, took)
+    _one_line(err, b"interrupted")
