@@ -32,8 +32,8 @@ TARGET_LAP_S = 0.35
 
 def largest(scenario: str, n: int) -> int:
     """``n``, or the largest count below it that the scenario's layout accepts."""
+    from rtsim.config.scenario import load_scenario
     from rtsim.errors import InputError
-    from rtsim.io.scenario import load_scenario
 
     for k in range(n, 0, -1):
         try:
