@@ -207,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
     full = text + "\n\n" + followers_table(fol)
     print(full)
     # the README keeps the headline table (it stays under 200 lines); the docs have both
-    brief = text + "\n\nPer follower count: [performance](docs/performance.md)."
+    brief = text
     if args.write:
         for path, block in ((DOC, full), (README, brief)):
             doc = path.read_text(encoding="utf-8")
