@@ -11,11 +11,20 @@ instants as a run without it (the CPU's clock jumps stop at a tick and resume af
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["Progress", "start_ticker", "TICKS", "progress_enabled", "progress_bar", "SimulationBar"]
+__all__ = [
+    "Progress",
+    "start_ticker",
+    "TICKS",
+    "progress_enabled",
+    "progress_bar",
+    "whole",
+    "SimulationBar",
+]
 
 #: Reports per run (one per percent).
 TICKS = 100
@@ -66,16 +75,36 @@ def progress_bar(
 
     # no monitor thread: a process pool may fork after the bar opens (rtsim reproduce)
     tqdm.monitor_interval = 0
-    return tqdm(
-        total=total,
-        desc=desc,
-        unit=unit,
-        file=sys.stderr,
-        leave=False,
-        disable=not progress_enabled(args),
-        dynamic_ncols=True,
-        **kwargs,
+    return whole(
+        lambda: tqdm(
+            total=total,
+            desc=desc,
+            unit=unit,
+            file=sys.stderr,
+            leave=False,
+            disable=not progress_enabled(args),
+            dynamic_ncols=True,
+            **kwargs,
+        )
     )
+
+
+#: The signals the command line turns into exceptions (Ctrl-C, and SIGTERM: `rtsim.cli`).
+HELD = (signal.SIGINT, signal.SIGTERM)
+
+
+def whole(make: Callable[[], Any]) -> Any:
+    """``make()`` with SIGINT and SIGTERM held until it returns: a signal raised inside tqdm's
+    ``__init__`` leaves a half-built bar whose ``__del__`` prints an ``AttributeError`` at
+    exit, after the command's one line. A held signal is delivered when ``make`` returns."""
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, HELD)
+    except (AttributeError, ValueError, OSError):  # no pthread_sigmask, or not allowed here
+        return make()
+    try:
+        return make()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 class SimulationBar:
