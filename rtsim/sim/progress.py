@@ -96,7 +96,8 @@ HELD = (signal.SIGINT, signal.SIGTERM)
 def whole(make: Callable[[], Any]) -> Any:
     """``make()`` with SIGINT and SIGTERM held until it returns: a signal raised inside tqdm's
     ``__init__`` leaves a half-built bar whose ``__del__`` prints an ``AttributeError`` at
-    exit, after the command's one line. A held signal is delivered when ``make`` returns."""
+    exit, after the command's one line. A held signal is delivered when ``make`` returns
+    (held in the calling thread: the command line's runs build their bars single-threaded)."""
     try:
         old = signal.pthread_sigmask(signal.SIG_BLOCK, HELD)
     except (AttributeError, ValueError, OSError):  # no pthread_sigmask, or not allowed here
