@@ -39,7 +39,7 @@ TIMED = [
     ("rtsim.coupling.scenario_run", "_Coupling", "_close", "hooks and records"),
 ]
 
-#: the compiled rollout's entries (`rtsim.world.kernels.kernels`), timed the same way
+#: the compiled rollout's entries (`rtsim.control.kernels.rollout_kernels`), timed the same way
 ROLLOUT = ("plan_decide", "rollout_changes")
 ROLLOUT_STAGE = "rollout kernels (compiled)"
 REST = "dispatcher, SimPy, set-up, tables"
@@ -74,12 +74,12 @@ def install(timers: Timers) -> None:
     """Wrap every method of `TIMED` and the rollout's kernels."""
     import importlib
 
-    from rtsim.world.kernels import kernels
+    from rtsim.control.kernels import rollout_kernels
 
     for mod, cls, attr, stage in TIMED:
         owner = getattr(importlib.import_module(mod), cls)
         setattr(owner, attr, timers.wrap(getattr(owner, attr), stage))
-    ns = kernels()
+    ns = rollout_kernels()
     for name in ROLLOUT:
         setattr(ns, name, timers.wrap(getattr(ns, name), ROLLOUT_STAGE))
 
