@@ -184,7 +184,7 @@ class _Pieces(AbstractPathEffect):
     ) -> None:
         from matplotlib.backends.backend_agg import RendererAgg
 
-        v = tpath.vertices
+        v = np.asarray(tpath.vertices)
         alpha = gc.get_alpha() if gc.get_forced_alpha() else gc.get_rgb()[3]
         if (
             not isinstance(renderer, RendererAgg)
