@@ -271,7 +271,7 @@ def test_text_field_is_pandas_split_per_row(values: list[object], dtype: object)
     first = s.astype(str).str.split(":").str[0].to_numpy()
     last = s.astype(str).str.rsplit(":", n=1).str[-1].to_numpy()
     for got, want in ((sd.text_field(s), first), (sd.text_field(s, last=True), last)):
-        assert pd.Series(got).equals(pd.Series(want, dtype=object))
+        assert pd.Series(got, dtype=object).equals(pd.Series(want, dtype=object))
 
 
 def test_as_floats_takes_a_float_column_as_it_is() -> None:
