@@ -209,6 +209,12 @@ _PREPARED: OrderedDict[str, tuple[Any, Any]] = OrderedDict()
 _PREPARED_MAX = 16
 
 
+def forget_prepared() -> None:
+    """Forget the scenarios this process prepared for its points (a benchmark's or a test's
+    fresh start)."""
+    _PREPARED.clear()
+
+
 def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[Any, Any]:
     """(Scenario, ScenarioInputs) of ``data``, parsed and prepared once per worker process
     for each distinct content (points that differ only in seed or run options — mode,
