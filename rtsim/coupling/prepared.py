@@ -4,6 +4,9 @@ task set's read and the resolved values, and reuses the
 [`ScenarioInputs`][rtsim.coupling.inputs.ScenarioInputs] (a sweep's points, a notebook's
 repeated runs: docs/performance.md).
 
+`settled_speed`: the leader's settled start speed, computed once per process for the values
+it depends on (the points of a sweep that share a path, a formation and w_sch).
+
 The cache is keyed by the path as given, the working directory, the overrides, ``allow_code``
 and the caller's ``text``, and an entry is used only while the scenario file's bytes and its
 task-set file's bytes are those it was prepared from (both read again at each call, a few µs):
@@ -22,9 +25,11 @@ from typing import Any, NamedTuple
 
 from rtsim.config.scenario import load_scenario, scenario_bytes, taskset_file
 from rtsim.config.taskset import taskset_bytes
+from rtsim.control.oracle import start_speed
 from rtsim.errors import InputError
+from rtsim.world.config import WorldConfig
 
-__all__ = ["prepared", "clear"]
+__all__ = ["prepared", "clear", "settled_speed"]
 
 #: files prepared and kept per process, most recent last
 PREPARED_MAX = 8
@@ -56,8 +61,43 @@ def _fresh_policy(inp: Any) -> Any:
 
 
 def clear() -> None:
-    """Forget every prepared scenario."""
+    """Forget every prepared scenario (and the settled speeds)."""
     _CACHE.clear()
+    _SETTLED.clear()
+
+
+#: Settled start speeds kept per process (`settled_speed`)
+SETTLED_MAX = 64
+
+
+def settled_speed(cfg: WorldConfig, w_sch: float) -> float:
+    """`rtsim.control.oracle.start_speed` of ``cfg`` and ``w_sch`` (cm/s), computed once per
+    process for the values it reads — the path's segments and start, the formation, the
+    leader's start, T_ε and T_β, V_Ld, the followers' top speed, w_sch — never by the
+    identity of the (memoising, hence mutable) path object."""
+    thr = cfg.thresholds
+    key = (
+        tuple(cfg.path.segments),
+        tuple(cfg.path.start),
+        cfg.formation,
+        float(cfg.start_s),
+        float(thr.T_eps),
+        float(thr.T_beta),
+        float(cfg.leader_speed),
+        float(cfg.follower.max_speed),
+        float(w_sch),
+    )
+    hit = _SETTLED.get(key)
+    if hit is None:
+        hit = _SETTLED[key] = start_speed(cfg, w_sch)
+        while len(_SETTLED) > SETTLED_MAX:
+            _SETTLED.popitem(last=False)
+    else:
+        _SETTLED.move_to_end(key)
+    return hit
+
+
+_SETTLED: OrderedDict[tuple[Any, ...], float] = OrderedDict()
 
 
 def prepared(

@@ -210,9 +210,16 @@ _PREPARED_MAX = 16
 
 
 def forget_prepared() -> None:
-    """Forget the scenarios this process prepared for its points (a benchmark's or a test's
-    fresh start)."""
+    """Forget what this process prepared for its points — the scenarios, the base file's
+    parse, the task sets built, the settled speeds (a benchmark's or a test's fresh start)."""
+    from rtsim.config.scenario import _built_taskset
+    from rtsim.coupling.prepared import clear
+    from rtsim.sweep.base import _parsed
+
     _PREPARED.clear()
+    _parsed.cache_clear()
+    _built_taskset.cache_clear()
+    clear()
 
 
 def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[Any, Any]:
