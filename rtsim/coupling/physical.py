@@ -81,20 +81,38 @@ class PhysicalLog:
         return near
 
     @staticmethod
-    def _stats(values: list[float]) -> dict[str, float] | None:
-        if not values:
+    def _stats(values: Any) -> dict[str, float] | None:
+        """p95 and max of ``values`` (a list or an array; None: none)."""
+        if len(values) == 0:
             return None
         arr = np.asarray(values, dtype=float)
         return {"p95": float(np.percentile(arr, 95)), "max": float(arr.max())}
 
+    @classmethod
+    def _stats_all(
+        cls, per: list[list[float]]
+    ) -> tuple[dict[str, float] | None, list[dict[str, float] | None]]:
+        """`_stats` of every follower's samples together and of each follower's, from one
+        (n, scans) array: two percentile calls whatever n (each row's percentile along the
+        axis is the row's own, to the bit). Followers with unequal counts (not sampled
+        together): one call each."""
+        if len({len(v) for v in per}) != 1 or not per[0]:
+            return cls._stats([c for v in per for c in v]), [cls._stats(v) for v in per]
+        arr = np.asarray(per, dtype=float)
+        p95, top = np.percentile(arr, 95, axis=1), arr.max(axis=1)
+        rows: list[dict[str, float] | None] = [
+            {"p95": float(p), "max": float(m)} for p, m in zip(p95, top, strict=True)
+        ]
+        return cls._stats(arr.ravel()), rows
+
     def summary(self, leader_cm: float, follower_cm: list[float]) -> dict[str, Any]:
         """The summary.json keys (module docstring); ``leader_cm``, ``follower_cm``: the
         distance each robot drove."""
-        every_cross = [c for per in self.cross for c in per]
-        every_sep = [c for per in self.sep for c in per]
+        every_cross, cross = self._stats_all(self.cross)
+        every_sep, sep = self._stats_all(self.sep)
         return {
-            "cross_track_cm": self._stats(every_cross),
-            "separation_error_cm": self._stats(every_sep),
+            "cross_track_cm": every_cross,
+            "separation_error_cm": every_sep,
             "min_robot_distance_cm": None if math.isinf(self.min_dist) else self.min_dist,
             "collisions": int(self.collisions),
             "clearance_cm": self.clearance,
@@ -105,8 +123,8 @@ class PhysicalLog:
             },
             "per_follower": [
                 {
-                    "cross_track_cm": self._stats(self.cross[k]),
-                    "separation_error_cm": self._stats(self.sep[k]),
+                    "cross_track_cm": cross[k],
+                    "separation_error_cm": sep[k],
                     "distance_cm": float(follower_cm[k]),
                 }
                 for k in range(self.n)
