@@ -138,3 +138,30 @@ def test_same_grid_same_bytes_whatever_order_and_workers(tmp_path: Path) -> None
     for i, row in table.iterrows():
         assert row["windows"] == by_index[int(i)]["windows"]  # type: ignore[index]
         assert row["critical_share"] == by_index[int(i)]["critical_share"]  # type: ignore[index]
+
+
+def test_window_bound_keyed_by_the_task_sets_values() -> None:
+    from rtsim.analysis.bounds import lower_bound
+    from rtsim.coupling.inputs import fitted_taskset
+    from rtsim.coupling.prepared import window_bound
+
+    prepared_mod.clear()
+    sc = load_scenario(TEST2, overrides={"formation.followers": 3})
+    one = fitted_taskset(sc.load_taskset(), sc.world, "t")
+    scenario_mod._built_taskset.cache_clear()
+    other = load_scenario(TEST2, overrides={"formation.followers": 3})
+    two = fitted_taskset(other.load_taskset(), other.world, "t")
+    assert one is not two and one == two
+    kw = {"scheduler": "fp", "suspension": "idle", "where": "t"}
+    for name in ("w_sch", "w_rta"):
+        got = window_bound(one, name, **kw)
+        assert got == lower_bound(one, name, **kw)
+        assert window_bound(two, name, **kw) == got  # another object, equal values: kept
+    assert len(prepared_mod._BOUNDS) == 2
+    wider = two.with_window(r_H=two.window.r_H + 5)  # type: ignore[union-attr]
+    w_sch = window_bound(wider, "w_sch", **kw)
+    assert w_sch == lower_bound(wider, "w_sch", **kw) != window_bound(one, "w_sch", **kw)
+    assert len(prepared_mod._BOUNDS) == 3
+    with pytest.raises(Exception, match="t: lower_bound"):  # errors are not kept
+        window_bound(one, "w_edf", **kw)
+    assert len(prepared_mod._BOUNDS) == 3
