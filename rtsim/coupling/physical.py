@@ -31,7 +31,33 @@ import numpy as np
 from rtsim.world.contact import closest_to, contact_distance
 from rtsim.world.ftl import TraceFollower
 
-__all__ = ["PhysicalLog"]
+__all__ = ["PhysicalLog", "p95_max_rows"]
+
+Stats = dict[str, float] | None
+
+
+def _p95_max(v: np.ndarray) -> Stats:
+    """p95 and max of the values ``v`` (None: none)."""
+    if not v.size:
+        return None
+    return {"p95": float(np.percentile(v, 95)), "max": float(v.max())}
+
+
+def p95_max_rows(rows: Any) -> tuple[Stats, list[Stats]]:
+    """p95 and max (`_p95_max`) of every row's values together and of each row's (one per
+    follower, a list or an array each). Rows of one length go through one percentile call
+    along the axis — each row's is its own, to the bit — and the flattened array, two calls
+    whatever the number of rows; rows of unequal lengths, one call each."""
+    arrs = [np.asarray(r, dtype=float) for r in rows]
+    if len({a.size for a in arrs}) == 1 and arrs[0].size:
+        stack = np.stack(arrs)
+        p95, top = np.percentile(stack, 95, axis=1), stack.max(axis=1)
+        per: list[Stats] = [
+            {"p95": float(p), "max": float(m)} for p, m in zip(p95, top, strict=True)
+        ]
+        return _p95_max(stack.ravel()), per
+    every = np.concatenate(arrs) if arrs else np.zeros(0)
+    return _p95_max(every), [_p95_max(a) for a in arrs]
 
 
 class PhysicalLog:
@@ -80,36 +106,11 @@ class PhysicalLog:
         self.clearance_violations += close < contact_distance(self.radius, self.clearance)
         return near
 
-    @staticmethod
-    def _stats(values: Any) -> dict[str, float] | None:
-        """p95 and max of ``values`` (a list or an array; None: none)."""
-        if len(values) == 0:
-            return None
-        arr = np.asarray(values, dtype=float)
-        return {"p95": float(np.percentile(arr, 95)), "max": float(arr.max())}
-
-    @classmethod
-    def _stats_all(
-        cls, per: list[list[float]]
-    ) -> tuple[dict[str, float] | None, list[dict[str, float] | None]]:
-        """`_stats` of every follower's samples together and of each follower's, from one
-        (n, scans) array: two percentile calls whatever n (each row's percentile along the
-        axis is the row's own, to the bit). Followers with unequal counts (not sampled
-        together): one call each."""
-        if len({len(v) for v in per}) != 1 or not per[0]:
-            return cls._stats([c for v in per for c in v]), [cls._stats(v) for v in per]
-        arr = np.asarray(per, dtype=float)
-        p95, top = np.percentile(arr, 95, axis=1), arr.max(axis=1)
-        rows: list[dict[str, float] | None] = [
-            {"p95": float(p), "max": float(m)} for p, m in zip(p95, top, strict=True)
-        ]
-        return cls._stats(arr.ravel()), rows
-
     def summary(self, leader_cm: float, follower_cm: list[float]) -> dict[str, Any]:
         """The summary.json keys (module docstring); ``leader_cm``, ``follower_cm``: the
         distance each robot drove."""
-        every_cross, cross = self._stats_all(self.cross)
-        every_sep, sep = self._stats_all(self.sep)
+        every_cross, cross = p95_max_rows(self.cross)
+        every_sep, sep = p95_max_rows(self.sep)
         return {
             "cross_track_cm": every_cross,
             "separation_error_cm": every_sep,

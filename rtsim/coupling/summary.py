@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from rtsim.analysis.kinematics import BOUND_KINDS
+from rtsim.coupling.physical import p95_max_rows
 from rtsim.coupling.recorder import LOCALIZATION_COLUMNS, sensing_columns
 from rtsim.world.config import WorldConfig
 from rtsim.world.localization import LOST_CAUSES
@@ -53,14 +54,6 @@ def summary_columns(n: int) -> list[str]:
     ]
 
 
-def _p95_max(values: Any) -> dict[str, float] | None:
-    v = np.asarray(values, dtype=float)
-    v = v[np.isfinite(v)]  # (inf: no fix)
-    if not v.size:
-        return None
-    return {"p95": float(np.percentile(v, 95)), "max": float(v.max())}
-
-
 def fix_errors(df: pd.DataFrame | Mapping[str, Any], n: int) -> dict[str, Any] | None:
     """summary.json ``localization_error_cm``: the accepted fixes' distance from the truth
     (cm; windows without a fix left out), p95 and max over every follower's fixes and
@@ -69,10 +62,10 @@ def fix_errors(df: pd.DataFrame | Mapping[str, Any], n: int) -> dict[str, Any] |
     if any(c not in df for c in cols):
         return None
     per = [np.asarray(df[c], dtype=float) for c in cols]
-    every = _p95_max(np.concatenate(per) if per else [])
+    every, rows = p95_max_rows([v[np.isfinite(v)] for v in per])  # (inf: no fix)
     if every is None:
         return None
-    return {**every, "per_follower": [_p95_max(v) for v in per]}
+    return {**every, "per_follower": rows}
 
 
 def _total(df: pd.DataFrame | Mapping[str, Any], col: str) -> int:

@@ -14,7 +14,7 @@ import pytest
 
 from rtsim.coupling import run_scenario
 from rtsim.coupling import scenario_run as sr
-from rtsim.coupling.physical import PhysicalLog
+from rtsim.coupling.physical import p95_max_rows
 from rtsim.coupling.summary import _tally
 
 RUNS = [
@@ -63,25 +63,43 @@ def test_tally_of_mixed_labels() -> None:
     assert into == {"a": 3, "b": 2, "nan": 1}
 
 
+def one(values: Any) -> dict[str, float] | None:
+    """p95 and max of ``values`` by one call each, the plain way (None: no values)."""
+    v = np.asarray(values, dtype=float)
+    return {"p95": float(np.percentile(v, 95)), "max": float(v.max())} if v.size else None
+
+
 def test_physical_stats_equal_per_follower_calls(run: tuple[Any, Any]) -> None:
     coupling, res = run
     log = coupling.phys
     for name, per in (("cross_track_cm", log.cross), ("separation_error_cm", log.sep)):
-        every = PhysicalLog._stats([c for v in per for c in v])
-        assert res.summary[name] == every
+        assert res.summary[name] == one([c for v in per for c in v])
         for k, row in enumerate(res.summary["per_follower"]):
-            assert row[name] == PhysicalLog._stats(per[k])  # one np.percentile per follower
+            assert row[name] == one(per[k])
     if coupling.world.follow_law is not None:
         assert res.summary["cross_track_cm"] is not None
 
 
-def test_physical_stats_of_unequal_counts() -> None:
+def test_fix_errors_equal_per_follower_calls(run: tuple[Any, Any]) -> None:
+    _, res = run
+    df, n = res.windows, res.summary["n"]
+    cols = [df[f"f{i}_fix_error_cm"].to_numpy() for i in range(1, n + 1)]
+    fixes = [c[np.isfinite(c)] for c in cols]  # (inf: no fix)
+    got = res.summary["localization_error_cm"]
+    assert got == {**one(np.concatenate(fixes)), "per_follower": [one(f) for f in fixes]}  # type: ignore[dict-item]
+
+
+def test_rows_of_unequal_lengths() -> None:
     rng = np.random.default_rng(5)
     per = [list(rng.random(7)), list(rng.random(3)), []]
-    every, rows = PhysicalLog._stats_all(per)
-    assert every == PhysicalLog._stats([c for v in per for c in v])
-    assert rows == [PhysicalLog._stats(v) for v in per] and rows[2] is None
-    assert PhysicalLog._stats_all([[], []]) == (None, [None, None])
+    every, rows = p95_max_rows(per)
+    assert every == one([c for v in per for c in v])
+    assert rows == [one(v) for v in per] and rows[2] is None
+    assert p95_max_rows([[], []]) == (None, [None, None])
+    assert p95_max_rows([]) == (None, [])
+    same = rng.random((4, 50)) * 1e3
+    every, rows = p95_max_rows(list(same))
+    assert every == one(same.ravel()) and rows == [one(r) for r in same]
 
 
 def test_violation_ratios_equal_per_kind_arrays(run: tuple[Any, Any]) -> None:
