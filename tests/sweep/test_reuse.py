@@ -165,3 +165,26 @@ def test_window_bound_keyed_by_the_task_sets_values() -> None:
     with pytest.raises(Exception, match="t: lower_bound"):  # errors are not kept
         window_bound(one, "w_edf", **kw)
     assert len(prepared_mod._BOUNDS) == 3
+    for k in range(prepared_mod.BOUNDS_MAX + 5):  # bounded
+        window_bound(two.with_window(r_H=10.0 + k), "w_sch", **kw)  # type: ignore[union-attr]
+    assert len(prepared_mod._BOUNDS) == prepared_mod.BOUNDS_MAX
+
+
+def test_caches_stay_bounded_over_many_contents(tmp_path: Path) -> None:
+    import rtsim.sweep.kinds as kinds
+
+    spec_file = tmp_path / "many.toml"
+    spec_file.write_text(
+        '[sweep]\nkind = "scenario"\nbase = "test2"\n[sweep.options]\nduration = 0.5\n'
+        '[grid]\n"sensing.r_H" = "20..43"\n',
+        encoding="utf-8",
+    )
+    spec = load_sweep(spec_file)
+    forget_prepared()
+    recs = [execute_point(point_input(spec, p)) for p in points(spec)]
+    assert len(recs) == 24 and all(r["status"] == "ok" for r in recs)
+    assert len(kinds._PREPARED) == kinds._PREPARED_MAX < 24  # the oldest contents dropped
+    assert len(prepared_mod._BOUNDS) == len(prepared_mod._SETTLED) == 24
+    assert base_mod._parsed.cache_info().currsize == 1
+    # the first point again, prepared anew after its eviction: the same metrics
+    assert execute_point(point_input(spec, points(spec)[0]))["metrics"] == recs[0]["metrics"]
