@@ -20,6 +20,7 @@ with the file's keys, as a first read does (a policy of the user's may keep stat
 from __future__ import annotations
 
 import os
+import threading
 from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from dataclasses import fields, replace
@@ -92,17 +93,32 @@ def settled_speed(cfg: WorldConfig, w_sch: float) -> float:
         float(cfg.follower.max_speed),
         float(w_sch),
     )
-    hit = _SETTLED.get(key)
-    if hit is None:
-        hit = _SETTLED[key] = start_speed(cfg, w_sch)
-        while len(_SETTLED) > SETTLED_MAX:
-            _SETTLED.popitem(last=False)
-    else:
-        _SETTLED.move_to_end(key)
-    return hit
+    return _kept(_SETTLED, SETTLED_MAX, key, lambda: start_speed(cfg, w_sch))
 
 
 _SETTLED: OrderedDict[tuple[Any, ...], float] = OrderedDict()
+_LOCK = threading.Lock()  # (points may run in threads: a Dask worker's)
+
+
+def _kept(
+    cache: OrderedDict[tuple[Any, ...], float],
+    limit: int,
+    key: tuple[Any, ...],
+    compute: Callable[[], float],
+) -> float:
+    """``cache[key]``, else ``compute()`` kept there, the least recently used entry dropped
+    beyond ``limit`` (an exception is raised and nothing kept)."""
+    with _LOCK:
+        hit = cache.get(key)
+        if hit is not None:
+            cache.move_to_end(key)
+            return hit
+    value = compute()
+    with _LOCK:
+        cache[key] = value
+        while len(cache) > limit:
+            cache.popitem(last=False)
+    return value
 
 
 def prepared(
@@ -151,26 +167,21 @@ def window_bound(ts: TaskSet, name: str, *, scheduler: str, suspension: str, whe
     bound, the scheduler, the suspension and the task set's values — every field but its
     ``assumptions`` (text; a TaskSet is immutable) — whatever file or object they came from.
     ``where`` only words an error (errors are not kept)."""
+    key = (
+        name,
+        scheduler,
+        suspension,
+        *(getattr(ts, f.name) for f in fields(ts) if f.name != "assumptions"),
+    )
+
+    def compute() -> float:
+        return lower_bound(ts, name, scheduler=scheduler, suspension=suspension, where=where)
+
     try:
-        key: tuple[Any, ...] | None = (
-            name,
-            scheduler,
-            suspension,
-            *(getattr(ts, f.name) for f in fields(ts) if f.name != "assumptions"),
-        )
         hash(key)
     except TypeError:  # (a field that cannot be a key: computed every time)
-        key = None
-    hit = None if key is None else _BOUNDS.get(key)
-    if hit is not None:
-        _BOUNDS.move_to_end(key)  # type: ignore[arg-type]
-        return hit
-    w = lower_bound(ts, name, scheduler=scheduler, suspension=suspension, where=where)
-    if key is not None:
-        _BOUNDS[key] = w
-        while len(_BOUNDS) > BOUNDS_MAX:
-            _BOUNDS.popitem(last=False)
-    return w
+        return compute()
+    return _kept(_BOUNDS, BOUNDS_MAX, key, compute)
 
 
 _BOUNDS: OrderedDict[tuple[Any, ...], float] = OrderedDict()
