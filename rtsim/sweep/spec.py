@@ -62,9 +62,8 @@ from typing import Any
 from rtsim._suggest import did_you_mean
 from rtsim.config.dotted import parse_assignment, resolve, shortcuts
 from rtsim.config.load import validate
-from rtsim.config.sweep import Scalar, SweepFile, sweep_special
+from rtsim.config.sweep import Scalar, SweepFile, read_sweep, sweep_special
 from rtsim.errors import InputError, SweepError
-from rtsim.examples import packaged_text
 from rtsim.io.limits import check as check_range
 from rtsim.io.limits import read_input
 from rtsim.registry import file_allows_code, load_code, reading_input
@@ -396,33 +395,15 @@ def load_sweep(
     *,
     allow_code: bool | None = None,
 ) -> SweepSpec:
-    """Read and validate a sweep file; ``set_``: ``KEY=VALUE`` changes of the base file at
-    every point (the command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``:
-    as [`parse_sweep`][rtsim.sweep.spec.parse_sweep]."""
-    set_ = tuple(set_)
-    p = Path(path)
-
-    shipped = packaged_text(path, "sweep")  # a shipped example by name ("smoke")
-    if shipped is not None:
-        try:
-            data = tomllib.loads(shipped)
-        except tomllib.TOMLDecodeError as exc:  # pragma: no cover - shipped files are valid
-            raise SweepError(f"{p}: not valid TOML: {exc}") from None
-        return parse_sweep(
-            data, f"{p}.toml (packaged)", Path.cwd(), shipped, set_, allow_code=allow_code
-        )
-
+    """Read (`rtsim.config.sweep.read_sweep`) and validate a sweep file, or a shipped
+    example by name; ``set_``: ``KEY=VALUE`` changes of the base file at every point (the
+    command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``: as
+    [`parse_sweep`][rtsim.sweep.spec.parse_sweep]."""
+    data, source, base, text = read_sweep(path)
     try:
-        text = read_input(p, "sweep").decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SweepError(f"{p}: cannot read sweep file: {exc}") from None
-    try:
-        data = tomllib.loads(text)
-        return parse_sweep(data, str(p), p.resolve().parent, text, set_, allow_code=allow_code)
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepError(f"{p}: not valid TOML: {exc}") from None
+        return parse_sweep(data, source, base, text, tuple(set_), allow_code=allow_code)
     except RecursionError:
         raise SweepError(
-            f"{p}: nested too deeply to read (tables or arrays within each other "
+            f"{source}: nested too deeply to read (tables or arrays within each other "
             f"hundreds of levels deep)"
         ) from None
