@@ -475,46 +475,54 @@ class CPU(ResourceProtocols, TimeSlices):
             # 3. dispatch
             if top is not None:
                 st = top
-                # The top task's job gets the CPU now (under fp always; under another policy
-                # if it comes first in the ready order and preempts the running job) and runs
-                # uninterrupted to f = now + c.
-                # If nothing happens in (now, f] (no timer, no other SimPy event) and the job
-                # that gets the CPU at f has already started its segment (so no hook runs at
-                # f), do both instants here with the same float operations, in the same
-                # order, as the dispatch at now and the completion at f would.
-                x = st.fast_start + now_lag  # type: ignore[operator]
-                f = now + x
-                y = f - now
-                f_lag = (now - (f - y)) + (x - y)
                 job = None
                 wins = True
-                if not top_first:
-                    job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
-                    jk = job.key
-                    wins = (running is None or jk < running.key) and (
-                        not ready
-                        or jk < ready[0][0]
-                        or (jk == ready[0][0] and job.tie < ready[0][1])
-                    )
-                nxt_job = running  # the first in the ready order after it, at f
-                from_ready = False
-                if ready and (
-                    running is None
-                    or (  # (key, tie) < running's, the common "key greater" case first
-                        ready[0][0] <= running.key
-                        and (ready[0][0] < running.key or ready[0][1] < running.tie)
-                    )
-                ):
-                    nxt_job = ready[0][2]
-                    from_ready = True
-                if (
-                    wins
-                    and f > limit
-                    and timers
-                    and t_next > f + tol
-                    and (not queue or queue[0][0] > f)
-                    and (nxt_job is None or nxt_job.rem is not None)
-                ):
+                moved = False  # (the clock moved on to the top task's next release, below)
+                while True:
+                    # The top task's job gets the CPU now (under fp always; under another
+                    # policy if it comes first in the ready order and preempts the running job)
+                    # and runs uninterrupted to f = now + c.
+                    # If nothing happens in (now, f] (no timer, no other SimPy event) and the
+                    # job that gets the CPU at f has already started its segment (so no hook
+                    # runs at f), do both instants here with the same float operations, in the
+                    # same order, as the dispatch at now and the completion at f would.
+                    x = st.fast_start + now_lag  # type: ignore[operator]
+                    f = now + x
+                    y = f - now
+                    f_lag = (now - (f - y)) + (x - y)
+                    if not top_first:
+                        job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
+                        jk = job.key
+                        wins = (running is None or jk < running.key) and (
+                            not ready
+                            or jk < ready[0][0]
+                            or (jk == ready[0][0] and job.tie < ready[0][1])
+                        )
+                    nxt_job = running  # the first in the ready order after it, at f
+                    from_ready = False
+                    if ready and (
+                        running is None
+                        or (  # (key, tie) < running's, the common "key greater" case first
+                            ready[0][0] <= running.key
+                            and (ready[0][0] < running.key or ready[0][1] < running.tie)
+                        )
+                    ):
+                        nxt_job = ready[0][2]
+                        from_ready = True
+                    if not (
+                        wins
+                        and f > limit
+                        and timers
+                        and t_next > f + tol
+                        and (not queue or queue[0][0] > f)
+                        and (nxt_job is None or nxt_job.rem is not None)
+                    ):
+                        top = None  # (not booked: the general dispatch below)
+                        if job is None:
+                            job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
+                        st.pending.append(job)
+                        heappush(ready, (job.key, job.tie, job))
+                        break
                     if running is not None:  # preempted at now
                         if running.rem is not None and now > work_start:
                             worked = now - work_start
@@ -532,14 +540,14 @@ class CPU(ResourceProtocols, TimeSlices):
                     resp = f - top_r
                     stats.completed += 1
                     stats.sum_response += resp
-                    if stats.max_response is None or resp > stats.max_response:
-                        stats.max_response = resp
                     deadline = top_r + st.deadline
                     if f > deadline + tol:
                         stats.misses += 1
-                    if resp == top_resp:  # (nearly always: its bin, counted before, exists)
-                        top_counts[top_bin] += 1
+                    if resp == top_resp:  # (nearly always: its bin, counted before, exists,
+                        top_counts[top_bin] += 1  # and the maximum is at least resp)
                     else:
+                        if stats.max_response is None or resp > stats.max_response:
+                            stats.max_response = resp
                         top_resp = resp
                         top_bin, top_counts = self._count_response(stats, resp, deadline - top_r)
                     if record_jobs:
@@ -559,12 +567,45 @@ class CPU(ResourceProtocols, TimeSlices):
                         self._switches += 1
                         run_end = _INF
                     running = last = nxt_job
-                else:
-                    top = None  # (not booked: the general dispatch below)
-                    if job is None:
-                        job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
-                    st.pending.append(job)
-                    heappush(ready, (job.key, job.tie, job))
+                    # What nearly always comes next, done here as the loop would do it: 4.
+                    # the wait, for a timer before the end of the job now running; at the
+                    # loop's top, a new window if the clock entered the next binade; 1.
+                    # nothing ends; 2. the timer is the top task's next release (under fp,
+                    # whose top task has no backlog here), and no other timer is due with it.
+                    # Any other case goes on at the loop's top (step 1 or 2), as it would.
+                    if not (
+                        timers
+                        and (t_next := timers[0][0]) < run_end
+                        and (not queue or t_next < queue[0][0])
+                    ):
+                        break  # (to the wait below)
+                    env._now = now = t_next
+                    now_lag = 0.0
+                    moved = True
+                    if now >= tol_next:
+                        tol, tol_next = coincidence(now)
+                        self._tol = tol
+                    limit = now + tol
+                    if not top_first or timers[0][5] is not st or run_end <= limit:
+                        top = None
+                        break
+                    # the release of step 2's fast path (stats.max_backlog is 1 already)
+                    top_k = st.k
+                    st.k = top_k + 1
+                    top_r = st.next_release
+                    after = st.first + st.k * st.period
+                    if after < last_release:
+                        st.next_release = after
+                        heapreplace(timers, (after, st.rank, st.priority, st.index, _RELEASE, st))
+                    else:
+                        heappop(timers)
+                    stats.released += 1
+                    top_seq = next(seqs)
+                    if timers and (t_next := timers[0][0]) <= limit:
+                        break  # (another timer is due: step 2 goes on, then the top task's job)
+                    moved = False
+                if moved:
+                    continue
             if top is not None:  # a job of the top task booked inline: the instant is settled
                 top = None
             else:
