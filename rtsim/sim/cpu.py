@@ -475,13 +475,33 @@ class CPU(ResourceProtocols, TimeSlices):
             # 3. dispatch
             if top is not None:
                 st = top
+                stats = st.stats
+                # The top task's job gets the CPU now (under fp always; under another policy
+                # if it comes first in the ready order and preempts the running job) and runs
+                # uninterrupted to f = now + c.
                 job = None
                 wins = True
+                if not top_first:
+                    job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
+                    jk = job.key
+                    wins = (running is None or jk < running.key) and (
+                        not ready
+                        or jk < ready[0][0]
+                        or (jk == ready[0][0] and job.tie < ready[0][1])
+                    )
+                nxt_job = running  # the first in the ready order after it, at f
+                from_ready = False
+                if ready and (
+                    running is None
+                    or (  # (key, tie) < running's, the common "key greater" case first
+                        ready[0][0] <= running.key
+                        and (ready[0][0] < running.key or ready[0][1] < running.tie)
+                    )
+                ):
+                    nxt_job = ready[0][2]
+                    from_ready = True
                 moved = False  # (the clock moved on to the top task's next release, below)
                 while True:
-                    # The top task's job gets the CPU now (under fp always; under another
-                    # policy if it comes first in the ready order and preempts the running job)
-                    # and runs uninterrupted to f = now + c.
                     # If nothing happens in (now, f] (no timer, no other SimPy event) and the
                     # job that gets the CPU at f has already started its segment (so no hook
                     # runs at f), do both instants here with the same float operations, in the
@@ -490,25 +510,6 @@ class CPU(ResourceProtocols, TimeSlices):
                     f = now + x
                     y = f - now
                     f_lag = (now - (f - y)) + (x - y)
-                    if not top_first:
-                        job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
-                        jk = job.key
-                        wins = (running is None or jk < running.key) and (
-                            not ready
-                            or jk < ready[0][0]
-                            or (jk == ready[0][0] and job.tie < ready[0][1])
-                        )
-                    nxt_job = running  # the first in the ready order after it, at f
-                    from_ready = False
-                    if ready and (
-                        running is None
-                        or (  # (key, tie) < running's, the common "key greater" case first
-                            ready[0][0] <= running.key
-                            and (ready[0][0] < running.key or ready[0][1] < running.tie)
-                        )
-                    ):
-                        nxt_job = ready[0][2]
-                        from_ready = True
                     if not (
                         wins
                         and f > limit
@@ -536,7 +537,6 @@ class CPU(ResourceProtocols, TimeSlices):
                         heappop(ready)
                     # its completion at f: the booking of step 1 and _complete, without a Job
                     self._busy += f - now
-                    stats = st.stats
                     resp = f - top_r
                     stats.completed += 1
                     stats.sum_response += resp
@@ -553,8 +553,8 @@ class CPU(ResourceProtocols, TimeSlices):
                     if record_jobs:
                         self._top_record(st, top_k, top_r, now, f, f > deadline + tol)
                     # the clock moves to f, as the wait would (tol is renewed at the loop's top:
-                    # nothing below uses it before)
-                    env._now = now = f
+                    # nothing below uses it before; env._now is set where the clock stops)
+                    now = f
                     now_lag = work_lag = f_lag
                     piece_start = work_start = f
                     if nxt_job is not None:  # it gets the CPU at f: a second switch
@@ -578,6 +578,7 @@ class CPU(ResourceProtocols, TimeSlices):
                         and (t_next := timers[0][0]) < run_end
                         and (not queue or t_next < queue[0][0])
                     ):
+                        env._now = now
                         break  # (to the wait below)
                     env._now = now = t_next
                     now_lag = 0.0
@@ -604,6 +605,9 @@ class CPU(ResourceProtocols, TimeSlices):
                     if timers and (t_next := timers[0][0]) <= limit:
                         break  # (another timer is due: step 2 goes on, then the top task's job)
                     moved = False
+                    # its job: the job now running comes first of the others (it did at the
+                    # last release, and nothing has joined the ready heap since)
+                    from_ready = False
                 if moved:
                     continue
             if top is not None:  # a job of the top task booked inline: the instant is settled
