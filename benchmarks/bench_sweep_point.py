@@ -39,9 +39,9 @@ def rest_us(n: int) -> float:
 def time_rollouts() -> list[float]:
     """Sum the CPU time of the compiled rollout's kernel calls (the plan decision's and a
     single rollout's) into the returned one-element list, from now on in this process."""
-    from rtsim.world.kernels import kernels
+    from rtsim.control.kernels import rollout_kernels
 
-    ns = kernels()
+    ns = rollout_kernels()
     spent = [0.0]
     for name in ("plan_decide", "rollout_changes"):
         fn = getattr(ns, name)

@@ -1,5 +1,6 @@
 """The ``paper`` predictor's speed search compiled with numba (the world's ``compiled``
-backend turns it on; `rtsim.world.compiled` for the world's own kernels).
+backend turns it on; `rtsim.world.compiled` for the world's own kernels,
+`rtsim.control.compiled_rollout` for the rollout's).
 
 Under the ``paper`` model the followers' predicted speed, heading and the leader's turn rate
 stay at their estimates whatever the leader's speed, so the predicate of the speed search —
@@ -106,7 +107,7 @@ def _largest_paper(
 
 
 #: about how long compiling `_largest_paper` takes, CPU s (as
-#: `rtsim.world.kernels.COMPILE_S`)
+#: `rtsim.control.kernels.COMPILE_S`)
 PAPER_COMPILE_S = 1.0
 
 

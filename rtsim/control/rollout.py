@@ -53,8 +53,8 @@ import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
+from rtsim.control.compiled_rollout import CompiledRollout, as_changes, compiled_rollout
 from rtsim.control.predict import min_bound_rows
-from rtsim.world.compiled import CompiledRollout, as_changes
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
 from rtsim.world.ftl import TraceFollower
@@ -151,8 +151,7 @@ class Rollout:
 
     def __post_init__(self) -> None:
         # a law of the world's compiled backend plays whole rollouts in compiled calls
-        make = getattr(self.state.law, "compiled_rollout", None)
-        self._compiled = None if make is None else make(self.state)
+        self._compiled = compiled_rollout(self.state.law, self.state)
 
     def changes(self, v: float, windows: Sequence[float]) -> list[list[Changes]]:
         """The predicted changes per window (lengths ``windows``, ms, the first opening at

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from rtsim.config.scenario import Scenario
-from rtsim.world import kernels
+from rtsim.control import kernels
 
 __all__ = ["warm_world"]
 
@@ -21,7 +21,7 @@ __all__ = ["warm_world"]
 def warm_world(scenarios: Iterable[Scenario]) -> bool:
     """Compile (or load) the kernels when any of ``scenarios`` runs on the compiled backend
     (`rtsim.world.config.WorldConfig.resolved_backend`); returns whether it did. The
-    world's and the rollout's kernels (`rtsim.world.kernels.warm_all`); the ``paper``
+    world's and the rollout's kernels (`rtsim.control.kernels.warm_all`); the ``paper``
     predictor's compiles lazily where it is used."""
     if not any(sc.world.resolved_backend() == "compiled" for sc in scenarios):
         return False

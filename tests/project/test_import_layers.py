@@ -226,6 +226,21 @@ def test_no_import_circles_counting_type_only_imports() -> None:
     assert upward(graph(types=True)) == []
 
 
+def test_the_world_never_imports_the_controller() -> None:
+    """Within their shared layer, control sits on the world: the controller's kernels and
+    its compiled rollout call the world's (rtsim.control.kernels), never the other way."""
+    g = graph(types=True)
+    up = sorted(
+        f"{m} -> {t}"
+        for m, ts in g.items()
+        if m.startswith("rtsim.world")
+        for t in ts
+        if t.startswith("rtsim.control")
+    )
+    assert up == []
+    assert "rtsim.world.kernels" in g["rtsim.control.kernels"]  # (the check sees the arrow)
+
+
 def test_the_checker_sees_circles_and_upward_arrows() -> None:
     """The checks can fail: a hand-made graph with a circle and an arrow up."""
     g = {"rtsim.model.a": frozenset({"rtsim.sim.b"}), "rtsim.sim.b": frozenset({"rtsim.model.a"})}

@@ -221,8 +221,9 @@ def test_second_process_loads_kernels_from_the_cache() -> None:
         "from rtsim.coupling import run_scenario\n"
         "from rtsim.world import compiled\n"
         "run_scenario('test2', duration_s=5, overrides={'world.backend': 'compiled'})\n"
-        "k = compiled.kernels()\n"
-        "ds = [d for d in vars(k).values() if hasattr(d, 'stats')]\n"
+        "from rtsim.control.kernels import rollout_kernels\n"
+        "ks = (compiled.kernels(), rollout_kernels())\n"
+        "ds = [d for k in ks for d in vars(k).values() if hasattr(d, 'stats')]\n"
         "print(sum(len(d.stats.cache_misses) for d in ds),"
         " sum(len(d.stats.cache_hits) for d in ds))\n"
     )
@@ -401,9 +402,9 @@ def test_compiled_rollout_and_plan_search_bit_identical(name: str, windows: int,
     same changes and the same speed, bit for bit, for random targets, horizons and
     margins (the margins make some searches bisect, others find nothing)."""
     from rtsim.control.adjust import search_rollout
+    from rtsim.control.compiled_rollout import CompiledRollout
     from rtsim.control.predict import min_bound_rows
     from rtsim.control.rollout import Rollout
-    from rtsim.world.compiled import CompiledRollout
 
     st_py, st_co = _twin_states(name, windows, seed)
     py, co = Rollout(st_py), Rollout(st_co)
@@ -494,9 +495,9 @@ def test_plan_decision_rolls_out_an_unsearched_speed_in_python(
     """When the kernel's search did not roll its chosen speed out (it reports feasibility
     NaN: a zero floor kept as the least-bad speed), Rollout.plan rolls it out in Python:
     the decision stays the Python policy's."""
+    from rtsim.control.compiled_rollout import CompiledRollout
     from rtsim.control.policy import PlanPolicy, PolicyInput
     from rtsim.control.rollout import Rollout
-    from rtsim.world.compiled import CompiledRollout
 
     real = CompiledRollout.decide
 

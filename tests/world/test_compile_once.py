@@ -13,6 +13,7 @@ from typing import Any
 
 import pytest
 
+from rtsim.control import kernels as control_kernels
 from rtsim.world import jit, kernels, motion
 from rtsim.world.compiled import available
 
@@ -69,8 +70,9 @@ def test_first_run_says_it_compiles_and_the_next_loads_silently(tmp_path: Path) 
         "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
     }
     code = (
-        "from rtsim.world import kernels as K; K.warm_all(); "
-        "print(all(K.cached(fn) for fn in K.ENTRIES.values()))"
+        "from rtsim.control import kernels as C; from rtsim.world import kernels as K; "
+        "C.warm_all(); "
+        "print(all(K.cached(fn) for fn in [*K.ENTRIES.values(), *C.ENTRIES.values()]))"
     )
     runs = [
         subprocess.run(
@@ -92,7 +94,7 @@ def test_warm_world_only_when_the_world_runs_compiled(monkeypatch: pytest.Monkey
     from rtsim.coupling.warm import warm_world
 
     calls: list[int] = []
-    monkeypatch.setattr(kernels, "warm_all", lambda: calls.append(1))
+    monkeypatch.setattr(control_kernels, "warm_all", lambda: calls.append(1))
     python = load_scenario("test2", {"world.backend": "python"})
     compiled = load_scenario("test2", {"world.backend": "compiled"})
     assert not warm_world([python]) and calls == []

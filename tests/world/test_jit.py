@@ -5,6 +5,7 @@ compiled fresh after that module is edited (numba's own cache would load a stale
 from __future__ import annotations
 
 import importlib
+import inspect
 import math
 import sys
 import textwrap
@@ -123,14 +124,47 @@ def test_compiled_kernel_sees_an_edit_in_another_module(
     assert jit.source_key(caller.f) != key1
 
 
+def test_a_control_kernel_keys_the_world_sources_it_calls(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The controller's rollout (rtsim.control.kernels) calls the world's motion and law:
+    its source key covers them, so an edit of a world function (its source text changed)
+    is a new key for the control kernel, while a world kernel that does not reach that
+    function keeps its key."""
+    from rtsim.control import kernels as control_kernels
+
+    reached, _ = jit._reach(control_kernels._rollout_changes)
+    assert {motion.follower_advance, motion.ramp_arc, kernels._ftl_exact} <= reached
+    rollout, hypot = (
+        jit.source_key(control_kernels._rollout_changes),
+        jit.source_key(kernels._hypot),
+    )
+    real = inspect.getsource
+
+    def edited(obj: object) -> str:
+        text = real(obj)  # type: ignore[arg-type]
+        return text + "    # edited\n" if obj is motion.ramp_arc else text
+
+    jit._digest.cache_clear()
+    monkeypatch.setattr(inspect, "getsource", edited)
+    try:
+        assert jit.source_key(control_kernels._rollout_changes) != rollout
+        assert jit.source_key(kernels._hypot) == hypot
+    finally:
+        monkeypatch.undo()
+        jit._digest.cache_clear()
+    assert jit.source_key(control_kernels._rollout_changes) == rollout
+
+
 def test_rollout_pack_reads_back_as_its_named_scalars() -> None:
-    """kernels.scalars reads the float pack in RolloutScalars' field order (distinct values,
+    """control.kernels.scalars reads the float pack in RolloutScalars' field order (distinct values,
     so a swapped field fails); the compiled rollout packs the five changing ones first."""
     import numpy as np
 
-    from rtsim.world.compiled import _CHANGING
+    from rtsim.control import kernels as control_kernels
+    from rtsim.control.compiled_rollout import _CHANGING
 
-    fields = kernels.RolloutScalars._fields
-    named = kernels.RolloutScalars(*(float(i) + 0.5 for i in range(len(fields))))
-    assert kernels.scalars(np.array(named)) == named
+    fields = control_kernels.RolloutScalars._fields
+    named = control_kernels.RolloutScalars(*(float(i) + 0.5 for i in range(len(fields))))
+    assert control_kernels.scalars(np.array(named)) == named
     assert fields[:_CHANGING] == ("leader_s", "leader_speed", "v_ld", "t_now", "next_scan")

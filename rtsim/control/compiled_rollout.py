@@ -1,0 +1,211 @@
+"""The controller's command-aware rollout in compiled calls (the world's ``compiled``
+backend): `CompiledRollout` packs a `rtsim.control.rollout.RolloutState` into arrays
+once and hands it to the kernels of `rtsim.control.kernels` — a rollout whole in one
+call, and the ``plan`` policy's decision or the ``commands`` speed search in one call per
+decision (its rollouts handed back for the rollout's memo, as the Python policy leaves them
+there). The same expressions in the same order as the Python rollout, so the same numbers
+bit for bit (`rtsim.world.compiled` says which operations may be compiled).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from rtsim.control import kernels as K
+from rtsim.world.compiled import CompiledTraceFollower
+from rtsim.world.kernels import kernels
+from rtsim.world.motionmodels import motion_model
+
+__all__ = ["CompiledRollout", "as_changes", "compiled_rollout"]
+
+
+def as_changes(arr: Any) -> list[list[Any]]:
+    """A [window, follower, change] array as the rollout's lists of tuples (the four changes
+    and the closest approach, `rtsim.control.rollout.Changes`)."""
+    return [[tuple(c) for c in win] for win in arr.tolist()]
+
+
+def compiled_rollout(law: Any, state: Any) -> CompiledRollout | None:
+    """The compiled rollout of ``state`` (a `RolloutState` whose law is ``law``) when the
+    law is the compiled backend's and the compiled hypot is this interpreter's; else None
+    (the caller plays the rollout in Python)."""
+    if isinstance(law, CompiledTraceFollower) and kernels().exact_hypot:
+        return CompiledRollout(law, state)
+    return None
+
+
+#: how many of RolloutScalars' fields change from one decision to the next (they come first)
+_CHANGING = K.RolloutScalars._fields.index("lap")
+
+#: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
+#: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
+_SEARCH_RUNS = 64
+
+
+class CompiledRollout:
+    """`Rollout`'s arithmetic for one state in compiled calls:
+    the state packed into arrays once (`RolloutScalars`, a row per
+    follower, the pending sends NaN-padded), the law's search starts read at each call (the
+    live law's, as the Python rollout clones it then).
+
+    ``runs``: the rollouts every instance has run in this process (each kernel call's; read
+    through `rtsim.control.rollout.rollouts_run`)."""
+
+    runs: ClassVar[int] = 0
+
+    def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
+        p, thr = state.params, state.thresholds
+        motion = motion_model(p.motion_model)
+        self._law = law
+        # compiled once per process: before the first rollout, not in a window
+        self._ker = K.rollout_kernels(motion)
+        # the scalars that stay from one decision to the next, packed once per law (they
+        # follow the five that change, in RolloutScalars' order)
+        static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
+        cached: Any = getattr(law, "_rollout_static", None)  # (a clone of the law shares it)
+        if cached is None or any(a is not b for a, b in zip(cached[0], static, strict=True)):
+            scalars = K.RolloutScalars(
+                leader_s=0.0,  # the five that change: set per decision below
+                leader_speed=0.0,
+                v_ld=0.0,
+                t_now=0.0,
+                next_scan=0.0,
+                lap=law.path.lap_length,
+                accel=state.accel_max,
+                decel=state.decel_max,
+                max_accel=p.max_accel,
+                max_speed=p.max_speed,
+                max_turn=p.max_turn_rate,
+                speed_noise=p.speed_noise,
+                turn_noise=p.turn_noise,
+                step=state.step_ms,
+                gain=law.gain,
+                lookahead=law.lookahead,
+                r_H=thr.r_H,
+                T_rho=thr.T_rho,
+                T_eps=thr.T_eps,
+                T_beta=thr.T_beta,
+                predicted=1.0 if thr.localization == "predicted" else 0.0,
+                predicted_ms=thr.predicted_ms,
+            )
+            pends: dict[int, Any] = {}  # the no-sends-pending array per follower count
+            cached = (static, [float(x) for x in scalars[_CHANGING:]], pends)
+            setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
+        fs = np.array(
+            [  # RolloutScalars' first five
+                state.leader_s,
+                state.leader_speed,
+                state.v_ld,
+                state.t_now,
+                state.next_scan,
+                *cached[1],
+            ],
+            dtype=float,
+        )
+        n = len(state.poses)
+        # per follower, in F_* column order: x, y, θ, v, ω, held v, held ω, send offset, ρ_d
+        # (a flat list: numpy reads it much faster than nested tuples)
+        flat: list[float] = []
+        turns = state.turns or [h[1] for h in state.held]
+        for k in range(n):
+            flat += state.poses[k]
+            flat.append(state.speeds[k])
+            flat.append(turns[k])
+            flat += state.held[k]
+            flat.append(state.send_offsets[k])
+            flat.append(state.rho_d[k])
+        fol = np.array(flat, dtype=float).reshape(n, K.F_SIZE)
+        width = max([1, *map(len, state.pending)])
+        if width == 1 and not any(state.pending):  # no sends pending: one array per n, kept
+            pend = cached[2].get(n)
+            if pend is None:
+                pend = cached[2][n] = np.full((n, 1), math.nan)
+        else:
+            pend = np.full((n, width), math.nan)
+            for k, times in enumerate(state.pending):
+                pend[k, : len(times)] = times
+        self._args = (
+            fs,
+            fol,
+            pend,
+            law._s0,
+            law._poses,
+            law._kappa,
+            law._lateral,
+            law._ahead,
+            law._spacing,
+        )
+        self.n = n
+
+    def pack(self) -> tuple[Any, ...]:
+        """The kernels' ``P``: the state's arrays, the path's, the law's geometry and its
+        search starts as they are now."""
+        return (*self._args, self._law._sr, self._law._sf)
+
+    def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
+        """`Rollout.changes` uncached: per window, per follower the four changes."""
+        out = np.empty((len(windows), self.n, 5))
+        CompiledRollout.runs += 1
+        self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
+        return as_changes(out)
+
+    def decide(
+        self,
+        search_only: bool,
+        keep: float,
+        need: float,
+        cap: float,
+        v_floor: float,
+        grid: int,
+        tol: float,
+        windows: int,
+        w: float,
+        contact: float = 0.0,
+    ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
+        """`PlanPolicy`'s decision, or with ``search_only``
+        `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
+        ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
+        in one call (`rtsim.control.kernels._plan_decide`, on fresh
+        buffers): ((w, V_L, method code, found, feasible), the rows
+        at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
+        lengths, changes [window, follower, change]) for the rollout's memo)."""
+        speeds = np.empty(_SEARCH_RUNS)
+        lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
+        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))
+        rows = np.empty((2, self.n, 4))
+        out = np.full(6, math.nan)
+        runs = self._ker.plan_decide(
+            bool(search_only),
+            float(keep),
+            float(need),
+            float(cap),
+            float(v_floor),
+            int(grid),
+            float(tol),
+            float(w),
+            self.pack(),
+            speeds,
+            lens,
+            changes,
+            rows,
+            out,
+            float(contact),
+        )
+        CompiledRollout.runs += runs
+        runs = min(runs, _SEARCH_RUNS)
+        w = float(w)
+        horizon = (w,) * int(windows)
+        ran: list[tuple[float, tuple[float, ...], Any]] = []
+        for r, (v, code) in enumerate(
+            zip(speeds[:runs].tolist(), lens[:runs].tolist(), strict=True)
+        ):
+            if code == 2:
+                ran.append((v, (float(out[5]),), changes[r, :1]))
+                continue
+            ran.append((v, horizon, changes[r]))
+            if code == 1:
+                ran.append((v, (w,), changes[r, :1]))
+        return tuple(out[:5].tolist()), rows, ran

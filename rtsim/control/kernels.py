@@ -1,0 +1,649 @@
+"""The controller's numba kernels, as plain Python kernel sources (`rtsim.world.jit`): the
+command-aware rollout (`rtsim.control.rollout.Rollout`), its bounds and the ``plan``
+policy's decision or the ``commands`` speed search (`rtsim.control.policy.PlanPolicy`).
+They call the world's kernel sources (the motion model's parts, the follow-the-leader law,
+hypot and remainder: `rtsim.world.kernels`); the cache keyed on source hashes sees an edit
+there. `rtsim.control.compiled_rollout.CompiledRollout` packs a state and calls them.
+
+`rollout_kernels` compiles `ENTRIES` (or loads them from the cache) once per process and
+motion model, when a run first rolls out.
+"""
+
+from __future__ import annotations
+
+import math
+import types
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from rtsim.world.contact import closest_over, closest_to, lowest_contact
+from rtsim.world.jit import Subs, build, kernel
+from rtsim.world.kernels import (
+    _ftl_exact,
+    _hypot,
+    _pose,
+    _remainder,
+    announce,
+    follow_with,
+    kernels,
+)
+from rtsim.world.motion import clip, follower_advance, leader_travel
+
+__all__ = ["ENTRIES", "RolloutScalars", "rollout_kernels", "scalars", "warm_all", "warm_rollout"]
+
+
+@kernel
+def _rollout(
+    s0: Any,
+    poses: Any,
+    kappa: Any,
+    lap: float,
+    leader_s: float,
+    v0: float,
+    vt: float,
+    accel_max: float,
+    decel_max: float,
+    x: Any,
+    y: Any,
+    th: Any,
+    v: Any,
+    w: Any,
+    cmd_v: Any,
+    cmd_w: Any,
+    odo: Any,
+    t_f: Any,
+    max_accel: float,
+    max_speed: float,
+    max_turn: float,
+    speed_noise: float,
+    turn_noise: float,
+    step_ms: float,
+    lateral: Any,
+    ahead: Any,
+    spacing: Any,
+    s_ref: Any,
+    s_f: Any,
+    gain: float,
+    lookahead: float,
+    ev_t: Any,
+    ev_kind: Any,
+    ev_k: Any,
+    t_now: float,
+    out: Any,
+) -> None:
+    """Rollout._run's event loop: the leader's ramp, the followers' held commands, the
+    follow-the-leader commands at the sends (no noise), and at each scan every follower's
+    position in the leader frame and odometer (``out[scan, follower]``); the arrays of the
+    group and the law are updated in place."""
+    n = x.shape[0]
+    t_leader = t_now
+    s_l = leader_s
+    scan = 0
+    for e in range(ev_t.shape[0]):
+        t = ev_t[e]
+        if t > t_leader:
+            v0, ds = leader_travel(v0, vt, accel_max, decel_max, (t - t_leader) / 1000.0)
+            s_l += ds
+            t_leader = t
+        lo_k = ev_k[e] if ev_kind[e] == 0 else 0
+        hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
+        for k in range(lo_k, hi_k):
+            if t > t_f[k]:
+                x[k], y[k], th[k], v[k], w[k], odo[k] = follower_advance(
+                    x[k],
+                    y[k],
+                    th[k],
+                    v[k],
+                    w[k],
+                    cmd_v[k],
+                    cmd_w[k],
+                    max_accel,
+                    odo[k],
+                    t_f[k],
+                    t,
+                    step_ms,
+                )
+                t_f[k] = t
+        xl, yl, hl = _pose(s0, poses, kappa, lap, s_l)
+        if ev_kind[e] == 0:
+            k = ev_k[e]
+            vc, wc = _ftl_exact(
+                s0,
+                poses,
+                kappa,
+                lap,
+                lateral,
+                ahead,
+                spacing,
+                s_ref,
+                s_f,
+                gain,
+                lookahead,
+                k,
+                s_l,
+                xl,
+                yl,
+                hl,
+                v0,
+                x[k],
+                y[k],
+                th[k],
+            )
+            vc, wc = clip(vc, max_speed), clip(wc, max_turn)
+            cmd_v[k] = clip(vc + speed_noise * 0.0, max_speed)
+            cmd_w[k] = clip(wc + turn_noise * 0.0, max_turn)
+            continue
+        c, s = math.cos(hl), math.sin(hl)
+        for i in range(n):
+            dx, dy = x[i] - xl, y[i] - yl
+            out[scan, i, 0] = c * dx + s * dy
+            out[scan, i, 1] = -s * dx + c * dy
+            out[scan, i, 2] = odo[i]
+        scan += 1
+
+
+# -- the command-aware rollout's changes, bounds and the plan policy's speed search ---------
+# (rtsim.control.rollout.Rollout and rtsim.control.policy.PlanPolicy)
+
+
+class RolloutScalars(NamedTuple):
+    """A rollout's scalars (ms, cm, cm/s, rad), in the order of its float pack (the pack's
+    first element; `CompiledRollout` builds it, `scalars`
+    reads it back inside the kernels): the five that change from one decision to the next
+    come first."""
+
+    leader_s: float
+    leader_speed: float
+    v_ld: float
+    t_now: float
+    next_scan: float
+    lap: float
+    accel: float
+    decel: float
+    max_accel: float
+    max_speed: float
+    max_turn: float
+    speed_noise: float
+    turn_noise: float
+    step: float
+    gain: float
+    lookahead: float
+    r_H: float
+    T_rho: float
+    T_eps: float
+    T_beta: float
+    predicted: float  # 1.0 when the window follows the predicted motion, else 0.0
+    predicted_ms: float
+
+
+@kernel
+def scalars(fs: Any) -> RolloutScalars:
+    """The float pack ``fs`` as its named scalars (the field order of RolloutScalars)."""
+    return RolloutScalars(
+        fs[0], fs[1], fs[2], fs[3], fs[4], fs[5], fs[6], fs[7], fs[8], fs[9], fs[10],
+        fs[11], fs[12], fs[13], fs[14], fs[15], fs[16], fs[17], fs[18], fs[19], fs[20], fs[21],
+    )  # fmt: skip
+
+
+#: columns of a rollout's follower pack: the estimate, its speed and turn rate, the held
+#: command, the send offset after a window's scan, ρ_d (CompiledRollout builds the rows in
+#: this order)
+F_X, F_Y, F_TH, F_V, F_W, F_CMD_V, F_CMD_W, F_SEND, F_RHO_D, F_SIZE = range(10)
+
+
+@kernel
+def _before(t1: float, k1: int, j1: int, t2: float, k2: int, j2: int) -> bool:
+    """(t1, k1, j1) < (t2, k2, j2) as Python compares tuples."""
+    if t1 != t2:
+        return t1 < t2
+    if k1 != k2:
+        return k1 < k2
+    return j1 < j2
+
+
+@kernel
+def _rollout_changes(
+    v: float,
+    lengths: Any,
+    P: Any,
+    out: Any,
+) -> None:
+    """Rollout._run whole: the leader set to target ``v`` (Leader.set_speed), the scans and
+    sends of windows ``lengths`` in Python's tuple order, `_rollout` on copies of the
+    group and the law's search starts, and the changes per window and follower
+    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|, closest approach).
+    ``P``: the state's pack (`rtsim.control.compiled_rollout.CompiledRollout.pack`)."""
+    fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
+    S = scalars(fs)
+    n = fol.shape[0]
+    nw = lengths.shape[0]
+    v_ld = S.v_ld
+    speed = S.leader_speed
+    t_now = S.t_now
+    a = 0.0 if 0.0 > v else v  # min(max(v, 0.0), v_ld), then Leader.set_speed
+    if v_ld < a:
+        a = v_ld
+    target = v_ld if v_ld < a else a
+    acc = S.accel if target > speed else S.decel
+    if acc == math.inf:
+        speed = target
+    scans = np.empty(nw + 1)
+    scans[0] = S.next_scan
+    for j in range(nw):
+        scans[j + 1] = scans[j] + lengths[j]
+    last = scans[nw]
+    cap = n * (pend.shape[1] + nw) + nw + 1
+    ev_t = np.empty(cap)
+    ev_kind = np.empty(cap, dtype=np.int64)
+    ev_k = np.empty(cap, dtype=np.int64)
+    m = 0
+    for k in range(n):
+        for p in range(pend.shape[1]):
+            t = pend[k, p]
+            if t_now <= t < last:  # NaN pads fail both
+                ev_t[m], ev_kind[m], ev_k[m] = t, 0, k
+                m += 1
+        for j in range(nw):
+            t = scans[j] + fol[k, F_SEND]
+            if t < last:
+                ev_t[m], ev_kind[m], ev_k[m] = t, 0, k
+                m += 1
+    for j in range(nw + 1):
+        ev_t[m], ev_kind[m], ev_k[m] = scans[j], 1, j
+        m += 1
+    for i in range(1, m):  # insertion sort: Python's sort of the (t, kind, k) tuples
+        t, kd, kk = ev_t[i], ev_kind[i], ev_k[i]
+        j = i - 1
+        while j >= 0 and _before(t, kd, kk, ev_t[j], ev_kind[j], ev_k[j]):
+            ev_t[j + 1], ev_kind[j + 1], ev_k[j + 1] = ev_t[j], ev_kind[j], ev_k[j]
+            j -= 1
+        ev_t[j + 1], ev_kind[j + 1], ev_k[j + 1] = t, kd, kk
+    x = fol[:, F_X].copy()
+    y = fol[:, F_Y].copy()
+    th = fol[:, F_TH].copy()
+    vf = fol[:, F_V].copy()
+    wf = fol[:, F_W].copy()
+    cmd_v = fol[:, F_CMD_V].copy()
+    cmd_w = fol[:, F_CMD_W].copy()
+    odo = np.zeros(n)
+    t_f = np.full(n, t_now)
+    samples = np.zeros((nw + 1, n, 3))
+    _rollout(
+        s0,
+        poses,
+        kappa,
+        S.lap,
+        S.leader_s,
+        speed,
+        target,
+        S.accel,
+        S.decel,
+        x,
+        y,
+        th,
+        vf,
+        wf,
+        cmd_v,
+        cmd_w,
+        odo,
+        t_f,
+        S.max_accel,
+        S.max_speed,
+        S.max_turn,
+        S.speed_noise,
+        S.turn_noise,
+        S.step,
+        lateral,
+        ahead,
+        spacing,
+        sr0.copy(),
+        sf0.copy(),
+        S.gain,
+        S.lookahead,
+        ev_t[:m],
+        ev_kind[:m],
+        ev_k[:m],
+        t_now,
+        samples,
+    )
+    two_pi = 2.0 * math.pi
+    near = np.empty((nw + 1, n))  # (contact: each follower's closest approach at each scan)
+    for j in range(nw + 1):
+        for i in range(n):
+            near[j, i] = closest_to(samples[j, :, 0], samples[j, :, 1], i, 0.0, 0.0)
+    for j in range(nw):
+        for i in range(n):
+            px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
+            qx, qy, qo = samples[j + 1, i, 0], samples[j + 1, i, 1], samples[j + 1, i, 2]
+            out[j, i, 0] = _hypot(qx - px, qy - py)
+            out[j, i, 1] = abs(_hypot(qx, qy) - _hypot(px, py))
+            out[j, i, 2] = qo - po
+            b_q = math.atan2(qy, qx) % two_pi
+            b_p = math.atan2(py, px) % two_pi
+            out[j, i, 3] = abs(_remainder(b_q - b_p, two_pi))
+            out[j, i, 4] = closest_over(near[j, i], near[j + 1, i])
+
+
+@kernel
+def _bound(S: RolloutScalars, rho_d: float, j: int, ci: float, w: float) -> float:
+    """Rollout.bounds of one change: L·w / c (∞ when c ≤ 0), L by kind j in BOUND_KINDS
+    order; the predicted localization bound in place of kind 0 when the window follows the
+    predicted motion."""
+    if j == 0 and S.predicted != 0.0:
+        return S.predicted_ms
+    if j == 0:
+        lim = S.r_H
+    elif j == 1:
+        lim = S.T_rho * rho_d
+    elif j == 2:
+        lim = S.T_eps * rho_d
+    else:
+        lim = S.T_beta
+    return math.inf if ci <= 0.0 else lim * w / ci
+
+
+@kernel
+def _rows(changes: Any, S: RolloutScalars, fol: Any, w: float, rows: Any) -> float:
+    """Rollout.bounds(changes, w) into ``rows`` [follower, kind]; returns min_bound_rows's
+    bound (the first smallest)."""
+    best = math.inf
+    for i in range(changes.shape[0]):
+        for j in range(4):
+            b = _bound(S, fol[i, F_RHO_D], j, changes[i, j], w)
+            rows[i, j] = b
+            if b < best:
+                best = b
+    return best
+
+
+@kernel
+def _min_bound(changes: Any, S: RolloutScalars, fol: Any, w: float) -> float:
+    """min_bound_rows(Rollout.bounds(changes, w))[0]: the smallest L·w / c of one window."""
+    best = math.inf
+    for i in range(changes.shape[0]):
+        for j in range(4):
+            b = _bound(S, fol[i, F_RHO_D], j, changes[i, j], w)
+            if b < best:
+                best = b
+    return best
+
+
+@kernel(inline=True)
+def _rollout_worst(
+    v: float,
+    w: float,
+    P: Any,
+    ch: Any,
+    contact: float,
+) -> float:
+    """PlanPolicy's m(V): the smallest bound of every follower in ``ch.shape[0]`` windows of
+    ``w`` ms (Python's ``min`` over the windows: the first, then any smaller), then the
+    contact bound at d_c = ``contact`` (0: off); the changes are left in ``ch``."""
+    S, fol = scalars(P[0]), P[1]
+    _rollout_changes(v, np.full(ch.shape[0], w), P, ch)
+    m = _worst_after(ch, S, fol, w, _min_bound(ch[0], S, fol, w))
+    return lowest_contact(ch, w, contact, m)  # type: ignore[no-any-return]
+
+
+@kernel
+def _worst_after(ch: Any, S: RolloutScalars, fol: Any, w: float, first: float) -> float:
+    """Python's ``min`` over windows: ``first`` (window 0's smallest bound), then any window
+    of ``ch`` after it with a smaller one."""
+    worst = first
+    for j in range(1, ch.shape[0]):
+        mj = _min_bound(ch[j], S, fol, w)
+        if mj < worst:
+            worst = mj
+    return worst
+
+
+@kernel(inline=True)
+def _search_into(
+    keep: float,
+    need: float,
+    v_floor: float,
+    grid: int,
+    tol: float,
+    w: float,
+    P: Any,
+    speeds: Any,
+    changes: Any,
+    first: int,
+    found_out: Any,
+    contact: float,
+) -> int:
+    """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · `_rollout_worst` over
+    ``changes.shape[1]`` windows of ``w`` (contact bound at ``contact``); rollout r's speed
+    and changes go to ``speeds[r]`` and ``changes[r]`` from r = ``first`` (as many as they
+    hold). ``found_out`` ← (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or
+    NaN, the index of the speed's rollout or −1); returns the next free index (rollouts run:
+    it − first)."""
+    v_ld = scalars(P[0]).v_ld
+    cap = speeds.shape[0]
+    scratch = np.empty(changes.shape[1:])
+    above = v_ld
+    lo = hi = 0.0
+    r_lo = -1
+    # the scan's m and rollout index per j, replayed after the floor when none passes
+    scan_m = np.empty(grid)
+    scan_r = np.empty(grid, dtype=np.int64)
+    m_floor, r_floor = -math.inf, -1
+    r = first
+    # one rollout per pass (one call site keeps the compiled code small): phase 1 the scan's
+    # j-th speed, 2 the bisection, 0 the floor — last: its m matters only when no scanned
+    # speed passes, so a search that brackets never rolls it out (search_rollout's order)
+    phase = 1
+    j = 1
+    while True:
+        if phase == 1 and j >= grid:
+            if not v_floor > 0.0:
+                break
+            phase = 0
+        if phase == 0:
+            v = v_floor
+        elif phase == 1:
+            v = v_ld * (1.0 - j / grid)
+        else:
+            if not hi - lo > tol * v_ld:
+                found_out[0], found_out[1], found_out[2], found_out[3] = lo, 1.0, lo, r_lo
+                return r
+            v = 0.5 * (lo + hi)
+        ch = changes[r] if r < cap else scratch
+        if r < cap:
+            speeds[r] = v
+        r_v = r if r < cap else -1
+        r += 1
+        m = keep * _rollout_worst(v, w, P, ch, contact)
+        if phase == 0:
+            m_floor, r_floor = m, r_v
+            break
+        if phase == 1:
+            if m >= need:
+                lo, hi, r_lo, phase = v, above, r_v, 2
+            else:
+                scan_m[j], scan_r[j] = m, r_v
+                above = v
+                j += 1
+        elif m >= need:
+            lo, r_lo = v, r_v
+        else:
+            hi = v
+    # none passed: the least-bad speed, compared as if the floor came first
+    best_v, best_m, best_r = v_floor, m_floor, r_floor
+    for i in range(1, grid):
+        if scan_m[i] > best_m:
+            best_v, best_m, best_r = v_ld * (1.0 - i / grid), scan_m[i], scan_r[i]
+    found_out[0], found_out[1], found_out[2], found_out[3] = best_v, 0.0, math.nan, best_r
+    return r
+
+
+@kernel
+def _plan_decide(
+    search_only: bool,
+    keep: float,
+    need: float,
+    cap: float,
+    v_floor: float,
+    grid: int,
+    tol: float,
+    w: float,
+    P: Any,
+    speeds: Any,
+    lens: Any,
+    changes: Any,
+    rows: Any,
+    out: Any,
+    contact: float,
+) -> int:
+    """PlanPolicy.decide's numbers over ``changes.shape[1]`` windows of ``w`` (the horizon H),
+    with the contact bound at d_c = ``contact`` cm (0: off; `rtsim.world.contact`).
+
+    Rows: ``rows[0]`` the bounds at V_Ld in the window the decision governs, ``rows[1]``
+    those at the chosen speed; ``out`` ← (w, V_L, method: 0 none, 1 numeric, 2 best, the
+    found speed or NaN, feasible 1/0 — NaN, with ``rows[1]`` not filled, when the chosen speed
+    was not rolled out in the search (a zero floor) — the length of the longer first
+    window checked).
+    Every rollout goes to ``speeds[r]``, ``changes[r]`` with ``lens[r]``: 0 the horizon, 1
+    the horizon and its first window as a one-window rollout of w (the sends after that
+    window's closing scan cannot change it: they come after the sample), 2 one window of
+    ``out[5]`` (in ``changes[r, 0]``); returns how many.
+
+    ``search_only``: only the speed search (search_rollout with m(V) = keep · the smallest
+    bound over H; ``adjust`` with the ``commands`` predictor, H one window): from rollout 0,
+    ``out[1:4]`` its (speed, method, found), every rollout the search's own (``lens`` 0).
+    """
+    S, fol = scalars(P[0]), P[1]
+    v_ld = S.v_ld
+    res = np.empty(4)
+    # (one call site of the inlined search: the search-only decision and the plan's search
+    # share it, which halves the compiled code)
+    first = 0 if search_only else 1
+    feasible = False
+    if not search_only:
+        speeds[0], lens[0] = v_ld, 1
+        m_ld = _rollout_worst(v_ld, w, P, changes[0], contact)
+        m1 = _rows(changes[0, 0], S, fol, w, rows[0])
+        feasible = keep * m_ld >= need
+    if feasible:
+        a = keep * m1
+        mn = cap if cap < a else a  # max(w, min(keep·m1, cap)), as Python picks
+        ww = mn if mn > w else w
+        runs = 1
+        if ww > w:  # the longer first window, checked by its own rollout
+            speeds[1], lens[1] = v_ld, 2
+            m_w = _rollout_worst(v_ld, ww, P, changes[1, 0:1], contact)
+            runs = 2
+            out[5] = ww
+            if keep * m_w < ww:
+                t = keep * m_w
+                ww = t if t > w else w
+        for i in range(rows.shape[1]):  # rows[1] = rows[0], without numba's shape-error
+            for j in range(rows.shape[2]):  # message (its string formatting compiles ~3 s)
+                rows[1, i, j] = rows[0, i, j]
+        out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
+        return runs
+    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, first, res, contact)
+    for r in range(first, min(runs, speeds.shape[0])):
+        lens[r] = 0
+    if search_only:
+        out[0], out[1], out[2], out[3], out[4] = w, res[0], 2.0 - res[1], res[2], math.nan
+        return runs
+    v_l, r_l = res[0], int(res[3])
+    out[0], out[1], out[2], out[3] = w, v_l, 2.0 - res[1], res[2]
+    if r_l < 0:  # the speed was not rolled out (a zero floor): the caller rolls it out
+        return runs
+    lens[r_l] = 1
+    m_l = _worst_after(changes[r_l], S, fol, w, _rows(changes[r_l, 0], S, fol, w, rows[1]))
+    m_l = lowest_contact(changes[r_l], w, contact, m_l)
+    out[4] = 1.0 if keep * m_l >= need else 0.0
+    return runs
+
+
+#: the kernels `CompiledRollout` calls, by the name they have in `rollout_kernels`'s
+#: namespace (each compiled with the kernel sources it calls, the world's among them)
+ENTRIES: dict[str, Any] = {
+    "rollout_changes": _rollout_changes,
+    "plan_decide": _plan_decide,
+}
+
+#: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
+#: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
+COMPILE_S = 6.0
+
+# most runs roll out right after the world is built: the world's announcement counts these
+follow_with(ENTRIES.values(), COMPILE_S)
+
+_BY_MODEL: dict[Subs, Any] = {}
+
+
+def rollout_kernels(motion: Any = None) -> Any:
+    """The compiled rollout kernels (a namespace), compiled or loaded from the cache and
+    called once on dummy values, once per process and motion model (the world's first:
+    `rtsim.world.kernels.kernels`). ``motion``: a motion model
+    (`rtsim.world.motionmodels.MotionModel`; None: the unicycle) whose parts they run."""
+    subs: Subs = () if motion is None else motion.subs
+    ns = _BY_MODEL.get(subs)
+    if ns is None:
+        kernels(motion)
+        swap = dict(subs)
+        announce([swap.get(fn, fn) for fn in ENTRIES.values()], COMPILE_S, subs)
+        ns = types.SimpleNamespace(**{name: build(fn, subs) for name, fn in ENTRIES.items()})
+        _warm(ns)
+        _BY_MODEL[subs] = ns
+    return ns
+
+
+def _warm(ns: Any) -> None:
+    """Call the rollout kernels once on dummy values: one follower 100 cm behind a leader on
+    a straight lap (compiling them, or loading them from the cache, before the first
+    window)."""
+    fs = np.array(
+        RolloutScalars(
+            *(0.0, 30.0, 30.0, 0.0, 0.0),  # leader_s, leader_speed, v_ld, t_now, next_scan
+            lap=1e3,
+            accel=20.0,
+            decel=50.0,
+            max_accel=100.0,
+            max_speed=150.0,
+            max_turn=3.0,
+            speed_noise=0.0,
+            turn_noise=0.0,
+            step=10.0,
+            gain=0.5,
+            lookahead=40.0,
+            r_H=25.0,
+            T_rho=0.005,
+            T_eps=0.025,
+            T_beta=0.1,
+            predicted=0.0,
+            predicted_ms=0.0,
+        )
+    )
+    fol = np.zeros((1, F_SIZE))
+    fol[0, F_X], fol[0, F_V], fol[0, F_SEND], fol[0, F_RHO_D] = -100.0, 30.0, 100.0, 100.0
+    nan1 = np.full(1, math.nan)
+    path = (np.zeros(1), np.zeros((1, 3)), np.zeros(1), np.zeros(1), np.full(1, -1))
+    P = (fs, fol, np.full((1, 1), math.nan), *path, np.full(1, 100.0), nan1, nan1)
+    ch = np.empty((64, 2, 1, 5))
+    ns.rollout_changes(20.0, np.full(2, 240.0), P, ch[0])
+    bufs = (np.empty(64), np.zeros(64, dtype=np.int64), ch, np.empty((2, 1, 4)), np.empty(6))
+    for search_only in (True, False):
+        ns.plan_decide(search_only, 1.0, 240.0, 1e3, 3.0, 8, 0.005, 240.0, P, *bufs, 60.0)
+
+
+def warm_rollout(motion: Any = None) -> None:
+    """Compile the rollout's kernels (or load them from the cache) once per process: called
+    when the first compiled rollout is made (a coupled run makes it while it is set up,
+    before the loop), so a run that never rolls out never compiles them. ``motion``: as
+    `rollout_kernels`."""
+    rollout_kernels(motion)
+
+
+def warm_all() -> None:
+    """Compile the kernels a coupled run of the compiled backend uses (the world's and the
+    rollout's), or load them from the cache, in this process: called before a process pool
+    starts (``rtsim reproduce``, the sweep engine), so that workers forked after it inherit
+    them and spawned ones load what it cached: the first run pays the compile once, not once
+    per worker."""
+    warm_rollout()
