@@ -60,3 +60,19 @@ def test_previous_centre_has_no_entry() -> None:
         duration_s=3.0,
     )
     assert "assumptions" not in res.summary
+
+
+def test_heading_var_is_p_thth() -> None:
+    """Every filter's `heading_var` is its covariance's P_θθ after a predict and an update
+    (the filterpy reference, the plain-float and the compiled filter)."""
+    from rtsim.world.compiled import CompiledFollowerEKF
+    from rtsim.world.ekf import EkfParams, FastFollowerEKF, FollowerEKF
+
+    params = EkfParams(turn_noise=math.radians(40.0))
+    for cls in (FollowerEKF, FastFollowerEKF, CompiledFollowerEKF):
+        f = cls((0.0, 0.0, 0.3), params)
+        f.predict(100.0, 0.2, 0.25)
+        grown = f.heading_var
+        assert grown == float(f.P[2, 2]) > params.init_heading_sd**2
+        f.update((24.0, 8.0))
+        assert f.heading_var == float(f.P[2, 2]) < grown
