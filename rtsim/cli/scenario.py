@@ -166,7 +166,11 @@ def run(args: Any) -> int:
         staged.commit()
         files.commit()
     s = res.summary
-    from rtsim.coupling.duration import heading_warning, run_length, run_note  # lazy (pandas)
+    from rtsim.coupling.duration import (  # lazy: CLI start-up (pandas)
+        heading_warning,
+        run_length,
+        run_note,
+    )
 
     to_lap = run_length(scenario.world, args.duration, scenario.duration).stop_s is not None
     note = None if args.quiet else run_note(s, to_lap)
