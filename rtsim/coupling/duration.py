@@ -100,6 +100,6 @@ def heading_warning(heading: Mapping[str, Any]) -> str:
         f"rtsim: warning: localization: the predicted-centre bound assumed a heading SD of "
         f"{math.degrees(heading['assumed']):.3g}° ([ekf] init_heading_sd) and the filters "
         f"carried up to {math.degrees(heading['max_carried']):.3g}°: the bound may be "
-        f"optimistic; lower the turn noise ([follower]/[ekf] turn_noise) or raise r_H "
-        f"(raising init_heading_sd raises the filters' too)"
+        f"optimistic; lower the turn noise ([follower]/[ekf] turn_noise): raising "
+        f"init_heading_sd raises the filters' too"
     )
