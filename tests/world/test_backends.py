@@ -558,3 +558,63 @@ def test_compiled_plan_contact_bound_bit_identical() -> None:
             if factor < 0.99 and margin == 0.0:  # far from contact: the bound does nothing
                 assert list(off) == list(out[0])
     assert changed  # the bound bound somewhere
+
+
+@needs_numba
+def test_a_failing_first_window_ends_the_rollout() -> None:
+    """A pass/fail question (``need`` finite) ends a compiled rollout at its first window's
+    closing scan when that window alone already fails; that window's changes are the whole
+    rollout's bit for bit, and one that does not fail there is the whole rollout. The search
+    that finds nothing rolls its stopped scanned speeds out again whole (counted), so its
+    least-bad speed is the Python search's; a stopped rollout read from the memo later is
+    rolled out whole on the decision's state, the Python rollout's numbers."""
+    from rtsim.control.adjust import ROLLOUT_GRID, search_rollout
+    from rtsim.control.compiled_rollout import _Rest
+    from rtsim.control.predict import min_bound_rows
+    from rtsim.control.rollout import Rollout, rollouts_run
+
+    ended = kept = rested = 0
+    for seed, (name, windows) in enumerate([("test2", 12), ("test2", 130), ("test1", 100)]):
+        st_py, st_co = _twin_states(name, windows, seed)
+        py, co = Rollout(st_py), Rollout(st_co)
+        ker, pack = co._compiled._ker, co._compiled.pack()
+        w = st_co.w_sch
+        d_c = 0.98 * min(py.closest(st_py.v_ld))
+        for v in np.linspace(0.0, st_co.v_ld, 9).tolist():
+            for nw, keep, contact in itertools.product((2, 3), (1.0, 0.7), (0.0, d_c)):
+                lengths = np.full(nw, w)
+                whole = np.empty((nw, co._compiled.n, 5))
+                assert ker.rollout_changes(v, lengths, pack, whole, 1.0, -math.inf, 0.0) == nw
+                first = py.changes(v, (w,) * nw)[0]
+                m0 = min_bound_rows(py.bounds(first, w))[0]
+                m0 = py.contact([first], w, contact, m0)
+                for need in (0.5 * w, w, 2.0 * w):
+                    out = np.empty_like(whole)
+                    done = ker.rollout_changes(v, lengths, pack, out, keep, need, contact)
+                    if keep * m0 < need:  # fails in its first window: ends there
+                        assert done == 1
+                        assert _bits(out[0].tolist()) == _bits(whole[0].tolist())
+                        ended += 1
+                    else:
+                        assert done == nw
+                        assert _bits(out.tolist()) == _bits(whole.tolist())
+                        kept += 1
+
+        def worst(v: float, py: Any = py, w: float = w) -> float:
+            per = py.changes(v, (w, w))
+            return min(min_bound_rows(py.bounds(c, w))[0] for c in per)
+
+        before = rollouts_run()
+        got = co.search(st_co.v_ld, 1.0, 1e12, 3.0, 2, w)  # nothing passes: the least bad
+        assert rollouts_run() - before == 2 * (ROLLOUT_GRID - 1) + 1  # scan, floor, again
+        assert got is not None and _bits(list(got)) == _bits(
+            list(search_rollout(worst, st_py.v_ld, 1e12, 3.0))
+        )
+        for keep in (1.0, 0.8, 0.6):
+            co2 = Rollout(st_co)
+            co2.search(st_co.v_ld, keep, w * (1.0 - 1e-9), 3.0, 2, w)
+            rest = [k for k, raw in co2._raw.items() if isinstance(raw, _Rest)]
+            for key in rest:
+                assert _bits(co2.changes(*key)) == _bits(py.changes(*key))
+            rested += len(rest)
+    assert ended and kept and rested
