@@ -102,10 +102,9 @@ def one(scenario: str, n: int, seed: int, spec: str, spent: list[float]) -> dict
         )
         cpu = time.process_time() - t0
     win = res.windows
+    cols = (win["w"].tolist(), win["v_leader_target"].tolist(), win["method"].tolist())
     return {
-        "decisions": list(
-            zip(win["w"].tolist(), win["v_leader_target"].tolist(), win["method"].tolist())
-        ),
+        "decisions": list(zip(*cols, strict=True)),
         "outcomes": {k: outcome(res.summary, k) for k in OUTCOMES},
         "rollouts": rollouts_run() - r0,
         "rollouts_ms": 1e3 * (spent[0] - s0),
