@@ -15,7 +15,7 @@ import math
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields, replace
-from functools import partial
+from functools import lru_cache, partial
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, NamedTuple, TypeVar
@@ -41,7 +41,7 @@ from rtsim.config.fields import (
     text,
 )
 from rtsim.config.load import parse_toml, validate, with_overrides
-from rtsim.config.taskset import load_taskset
+from rtsim.config.taskset import taskset_bytes, taskset_from_bytes
 from rtsim.control.policy import DECIDE, AdjustOptions, make_policy
 from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError
@@ -194,9 +194,24 @@ def taskset_file(name: str) -> str | None:
     return None if name == "barrel_robots" else name
 
 
+#: Task-set files a process keeps built (`_built_taskset`): a sweep's points and a
+#: notebook's runs read the same few.
+TASKSETS_KEPT = 8
+
+
+@lru_cache(maxsize=TASKSETS_KEPT)
+def _built_taskset(raw: bytes, source: str, allow_code: bool) -> TaskSet:
+    """The task set of a file's bytes, built once per process for each (bytes, name, code
+    allowed): what it builds depends on nothing else (an edited file has other bytes). The
+    TaskSet is immutable and shared."""
+    ts: TaskSet = taskset_from_bytes(raw, source, allow_code=allow_code)
+    return ts
+
+
 def _read_taskset(name: str, where: str, allow_code: bool | None = None) -> TaskSet:
-    """The task-set file ``name`` (a packaged name or a path), which must have a [window]."""
-    ts = load_taskset(taskset_file(name), allow_code=allow_code)
+    """The task-set file ``name`` (a packaged name or a path), which must have a [window];
+    read at every call, built once per content (`_built_taskset`)."""
+    ts = _built_taskset(*taskset_bytes(taskset_file(name)), file_allows_code(allow_code))
     if ts.window is None:
         raise ScenarioError(f"{where}: taskset: '{name}' has no [window]")
     return ts

@@ -563,6 +563,18 @@ def load_taskset(
     dotted paths and their values (`rtsim.config.dotted`); ``allow_code``: as
     `parse_taskset`."""
     raw, source = taskset_bytes(path)
+    return taskset_from_bytes(raw, source, overrides, allow_code=allow_code)
+
+
+def taskset_from_bytes(
+    raw: bytes,
+    source: str,
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    allow_code: bool | None = None,
+) -> Any:
+    """A task-set file's bytes ``raw`` (named ``source``) parsed and built, as
+    `load_taskset` reads them."""
     data = parse_toml(raw, source, TaskSetError)
     return parse_taskset(with_overrides(data, overrides, source), source, allow_code=allow_code)
 

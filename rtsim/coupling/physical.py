@@ -31,7 +31,33 @@ import numpy as np
 from rtsim.world.contact import closest_to, contact_distance
 from rtsim.world.ftl import TraceFollower
 
-__all__ = ["PhysicalLog"]
+__all__ = ["PhysicalLog", "p95_max_rows"]
+
+Stats = dict[str, float] | None
+
+
+def _p95_max(v: np.ndarray) -> Stats:
+    """p95 and max of the values ``v`` (None: none)."""
+    if not v.size:
+        return None
+    return {"p95": float(np.percentile(v, 95)), "max": float(v.max())}
+
+
+def p95_max_rows(rows: Any) -> tuple[Stats, list[Stats]]:
+    """p95 and max (`_p95_max`) of every row's values together and of each row's (one per
+    follower, a list or an array each). Rows of one length go through one percentile call
+    along the axis — each row's is its own, to the bit — and the flattened array, two calls
+    whatever the number of rows; rows of unequal lengths, one call each."""
+    arrs = [np.asarray(r, dtype=float) for r in rows]
+    if len({a.size for a in arrs}) == 1 and arrs[0].size:
+        stack = np.stack(arrs)
+        p95, top = np.percentile(stack, 95, axis=1), stack.max(axis=1)
+        per: list[Stats] = [
+            {"p95": float(p), "max": float(m)} for p, m in zip(p95, top, strict=True)
+        ]
+        return _p95_max(stack.ravel()), per
+    every = np.concatenate(arrs) if arrs else np.zeros(0)
+    return _p95_max(every), [_p95_max(a) for a in arrs]
 
 
 class PhysicalLog:
@@ -80,21 +106,14 @@ class PhysicalLog:
         self.clearance_violations += close < contact_distance(self.radius, self.clearance)
         return near
 
-    @staticmethod
-    def _stats(values: list[float]) -> dict[str, float] | None:
-        if not values:
-            return None
-        arr = np.asarray(values, dtype=float)
-        return {"p95": float(np.percentile(arr, 95)), "max": float(arr.max())}
-
     def summary(self, leader_cm: float, follower_cm: list[float]) -> dict[str, Any]:
         """The summary.json keys (module docstring); ``leader_cm``, ``follower_cm``: the
         distance each robot drove."""
-        every_cross = [c for per in self.cross for c in per]
-        every_sep = [c for per in self.sep for c in per]
+        every_cross, cross = p95_max_rows(self.cross)
+        every_sep, sep = p95_max_rows(self.sep)
         return {
-            "cross_track_cm": self._stats(every_cross),
-            "separation_error_cm": self._stats(every_sep),
+            "cross_track_cm": every_cross,
+            "separation_error_cm": every_sep,
             "min_robot_distance_cm": None if math.isinf(self.min_dist) else self.min_dist,
             "collisions": int(self.collisions),
             "clearance_cm": self.clearance,
@@ -105,8 +124,8 @@ class PhysicalLog:
             },
             "per_follower": [
                 {
-                    "cross_track_cm": self._stats(self.cross[k]),
-                    "separation_error_cm": self._stats(self.sep[k]),
+                    "cross_track_cm": cross[k],
+                    "separation_error_cm": sep[k],
                     "distance_cm": float(follower_cm[k]),
                 }
                 for k in range(self.n)

@@ -4,6 +4,11 @@ task set's read and the resolved values, and reuses the
 [`ScenarioInputs`][rtsim.coupling.inputs.ScenarioInputs] (a sweep's points, a notebook's
 repeated runs: docs/performance.md).
 
+`window_bound`: the window's lower bound (w_sch, or the ``[adjust] lower_bound`` named:
+w_rta and w_susp run the response-time analysis, ≈ 6 ms for Test 2) and `settled_speed`:
+the leader's settled start speed, each computed once per process for the values it depends
+on (a sweep's points that share n and r_H — other seeds, policies, speeds — share them).
+
 The cache is keyed by the path as given, the working directory, the overrides, ``allow_code``
 and the caller's ``text``, and an entry is used only while the scenario file's bytes and its
 task-set file's bytes are those it was prepared from (both read again at each call, a few µs):
@@ -15,16 +20,21 @@ with the file's keys, as a first read does (a policy of the user's may keep stat
 from __future__ import annotations
 
 import os
+import threading
 from collections import OrderedDict
 from collections.abc import Callable, Mapping
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import Any, NamedTuple
 
+from rtsim.analysis.bounds import lower_bound
 from rtsim.config.scenario import load_scenario, scenario_bytes, taskset_file
 from rtsim.config.taskset import taskset_bytes
+from rtsim.control.oracle import start_speed
 from rtsim.errors import InputError
+from rtsim.model.taskset import TaskSet
+from rtsim.world.config import WorldConfig
 
-__all__ = ["prepared", "clear"]
+__all__ = ["prepared", "clear", "settled_speed", "window_bound"]
 
 #: files prepared and kept per process, most recent last
 PREPARED_MAX = 8
@@ -56,8 +66,59 @@ def _fresh_policy(inp: Any) -> Any:
 
 
 def clear() -> None:
-    """Forget every prepared scenario."""
+    """Forget every prepared scenario (and the bounds and settled speeds)."""
     _CACHE.clear()
+    _SETTLED.clear()
+    _BOUNDS.clear()
+
+
+#: Settled start speeds kept per process (`settled_speed`)
+SETTLED_MAX = 64
+
+
+def settled_speed(cfg: WorldConfig, w_sch: float) -> float:
+    """`rtsim.control.oracle.start_speed` of ``cfg`` and ``w_sch`` (cm/s), computed once per
+    process for the values it reads — the path's segments and start, the formation, the
+    leader's start, T_ε and T_β, V_Ld, the followers' top speed, w_sch — never by the
+    identity of the (memoising, hence mutable) path object."""
+    thr = cfg.thresholds
+    key = (
+        tuple(cfg.path.segments),
+        tuple(cfg.path.start),
+        cfg.formation,
+        float(cfg.start_s),
+        float(thr.T_eps),
+        float(thr.T_beta),
+        float(cfg.leader_speed),
+        float(cfg.follower.max_speed),
+        float(w_sch),
+    )
+    return _kept(_SETTLED, SETTLED_MAX, key, lambda: start_speed(cfg, w_sch))
+
+
+_SETTLED: OrderedDict[tuple[Any, ...], float] = OrderedDict()
+_LOCK = threading.Lock()  # (points may run in threads: a Dask worker's)
+
+
+def _kept(
+    cache: OrderedDict[tuple[Any, ...], float],
+    limit: int,
+    key: tuple[Any, ...],
+    compute: Callable[[], float],
+) -> float:
+    """``cache[key]``, else ``compute()`` kept there, the least recently used entry dropped
+    beyond ``limit`` (an exception is raised and nothing kept)."""
+    with _LOCK:
+        hit = cache.get(key)
+        if hit is not None:
+            cache.move_to_end(key)
+            return hit
+    value = compute()
+    with _LOCK:
+        cache[key] = value
+        while len(cache) > limit:
+            cache.popitem(last=False)
+    return value
 
 
 def prepared(
@@ -95,3 +156,32 @@ def prepared(
         while len(_CACHE) > PREPARED_MAX:
             _CACHE.popitem(last=False)
     return inp
+
+
+#: Window bounds kept per process (`window_bound`)
+BOUNDS_MAX = 64
+
+
+def window_bound(ts: TaskSet, name: str, *, scheduler: str, suspension: str, where: str) -> float:
+    """`rtsim.analysis.bounds.lower_bound` of ``ts`` (ms), computed once per process for the
+    bound, the scheduler, the suspension and the task set's values — every field but its
+    ``assumptions`` (text; a TaskSet is immutable) — whatever file or object they came from.
+    ``where`` only words an error (errors are not kept)."""
+    key = (
+        name,
+        scheduler,
+        suspension,
+        *(getattr(ts, f.name) for f in fields(ts) if f.name != "assumptions"),
+    )
+
+    def compute() -> float:
+        return lower_bound(ts, name, scheduler=scheduler, suspension=suspension, where=where)
+
+    try:
+        hash(key)
+    except TypeError:  # (a field that cannot be a key: computed every time)
+        return compute()
+    return _kept(_BOUNDS, BOUNDS_MAX, key, compute)
+
+
+_BOUNDS: OrderedDict[tuple[Any, ...], float] = OrderedDict()

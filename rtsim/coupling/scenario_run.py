@@ -68,11 +68,10 @@ import simpy
 import rtsim.coupling.duration as run_duration
 from rtsim._numbers import is_int, is_real
 from rtsim._suggest import did_you_mean
-from rtsim.analysis.bounds import lower_bound
 from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.compiled import PaperSearch
-from rtsim.control.oracle import lap_oracle, start_speed
+from rtsim.control.oracle import lap_oracle
 from rtsim.control.policy import AdjustOptions, PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, RolloutState
@@ -83,6 +82,7 @@ from rtsim.coupling.inputs import fitted_taskset
 from rtsim.coupling.inputs import resolved as resolved
 from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
+from rtsim.coupling.prepared import settled_speed, window_bound
 from rtsim.coupling.recorder import (
     FOLLOWER_FIELDS,
     WindowRecord,
@@ -212,7 +212,7 @@ class _Coupling:
         # the window's lower bound (w_sch unless [adjust] lower_bound says otherwise; the
         # column and summary keep the name w_sch): the CPU below runs the set's scheduler
         # ([scheduler] policy, fp by default) with Δt idle
-        self.w_sch = lower_bound(
+        self.w_sch = window_bound(
             ts, adj.lower_bound, scheduler=ts.scheduler, suspension="idle", where=f"{where}: adjust"
         )
         if not math.isfinite(self.w_sch):
@@ -227,7 +227,7 @@ class _Coupling:
         self.v_floor = adj.floor_frac * cfg.leader_speed
         if cfg.start_on == "straight" and cfg.start_speed is None:
             # settled: at the speed the bounds allow at the start (V_Ld unless less)
-            cfg = self.cfg = replace(cfg, start_speed=start_speed(cfg, self.w_sch))
+            cfg = self.cfg = replace(cfg, start_speed=settled_speed(cfg, self.w_sch))
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))

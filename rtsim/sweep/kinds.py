@@ -24,8 +24,9 @@ the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metr
   ``fixed-wsch`` | ``min-msb``), ``duration`` (simulated s), ``exec``, ``scheduler`` (the
   leader CPU's policy, as ``[scheduler] policy`` in the file). Needs ``base``. A worker
   parses and prepares each distinct scenario content once and keeps it (points differing
-  only in seed or options reuse it); the summary is computed from the window records'
-  columns, without a window table.
+  only in seed or options reuse it), and keeps what points of other contents share — the
+  base file's parse, the task set, w_sch, the settled start speed (docs/performance.md);
+  the summary is computed from the window records' columns, without a window table.
 - ``call`` — ``function(params, options, seed) -> dict`` named by ``sweep.function``
   (``package.module:function``, importable on every worker): the extension point.
 
@@ -57,7 +58,7 @@ from rtsim.io.work import check_simulate
 from rtsim.model.taskset import TaskSet
 from rtsim.overrides import RUN_OPTIONS, apply_overrides
 from rtsim.registry import Registry, load_code
-from rtsim.sweep.base import BaseFile
+from rtsim.sweep.base import BaseFile, _parsed
 
 __all__ = ["PointInput", "KindSpec", "KINDS", "register_kind", "apply_overrides"]
 
@@ -207,6 +208,19 @@ def _flatten(obj: Any, prefix: str = "") -> dict[str, Any]:
 #: Prepared scenarios a worker keeps (`_prepared`), most recent last.
 _PREPARED: OrderedDict[str, tuple[Any, Any]] = OrderedDict()
 _PREPARED_MAX = 16
+
+
+def forget_prepared() -> None:
+    """Forget what this process prepared for its points — the scenarios, the base file's
+    parse, the task sets built, the bounds and settled speeds (a benchmark's or a test's
+    fresh start)."""
+    from rtsim.config.scenario import _built_taskset  # lazy: as _need, only scenarios use it
+    from rtsim.coupling.prepared import clear  # lazy: only this needs pandas (as _need)
+
+    _PREPARED.clear()
+    _parsed.cache_clear()
+    _built_taskset.cache_clear()
+    clear()
 
 
 def _prepared(p: PointInput, data: dict[str, Any], where: Path | None) -> tuple[Any, Any]:

@@ -1,0 +1,112 @@
+"""The summary's counts and statistics computed in bulk — the methods and the binding bounds
+counted per distinct label, one percentile call per statistic for every follower together —
+equal the row-by-row computations they replace, on real runs (recomputed here the plain way,
+from the window table or the run's physical log); the violation ratios, from the records,
+are checked against their definition too."""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any
+
+import numpy as np
+import pytest
+
+from rtsim.coupling import run_scenario
+from rtsim.coupling import scenario_run as sr
+from rtsim.coupling.physical import p95_max_rows
+from rtsim.coupling.summary import _tally
+
+RUNS = [
+    ("test2", {"duration_s": 60, "seed": 3, "overrides": {"formation.followers": 4}}),
+    ("test2", {"duration_s": 60, "seed": 1, "policy": "min-msb"}),
+    ("test1", {"duration_s": 40, "seed": 2}),
+]
+
+
+@pytest.fixture(scope="module", params=range(len(RUNS)), ids=lambda i: f"run{i}")
+def run(request: pytest.FixtureRequest) -> tuple[Any, Any]:
+    """(the run's _Coupling after its loop, its ScenarioResult)."""
+    name, kw = RUNS[request.param]
+    kept: list[Any] = []
+    real = sr._Coupling.run
+
+    def keep(self: Any) -> None:
+        real(self)
+        kept.append(self)
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(sr._Coupling, "run", keep)
+    try:
+        res = run_scenario(name, record_jobs=False, **kw)
+    finally:
+        mp.undo()
+    return kept[0], res
+
+
+def test_methods_and_binding_counted_as_row_by_row(run: tuple[Any, Any]) -> None:
+    _, res = run
+    df = res.windows
+    methods = Counter(str(m) for m in df["method"])
+    binding = Counter(str(b).split(":")[0] for b in df.loc[df["critical"], "binding"])
+    assert res.summary["methods"] == dict(sorted(methods.items()))
+    assert res.summary["binding_critical"] == dict(sorted(binding.items()))
+    assert sum(res.summary["methods"].values()) == len(df) > 0
+
+
+def test_tally_of_mixed_labels() -> None:
+    into: dict[str, int] = {"a": 1}
+    labels = np.array(["a:x", "b", "a:y", float("nan"), "b"], dtype=object)
+    _tally(into, labels, lambda b: b.split(":")[0])
+    assert into == {"a": 3, "b": 2, "nan": 1}
+    _tally(into, np.array([], dtype=object))
+    assert into == {"a": 3, "b": 2, "nan": 1}
+
+
+def one(values: Any) -> dict[str, float] | None:
+    """p95 and max of ``values`` by one call each, the plain way (None: no values)."""
+    v = np.asarray(values, dtype=float)
+    return {"p95": float(np.percentile(v, 95)), "max": float(v.max())} if v.size else None
+
+
+def test_physical_stats_equal_per_follower_calls(run: tuple[Any, Any]) -> None:
+    coupling, res = run
+    log = coupling.phys
+    for name, per in (("cross_track_cm", log.cross), ("separation_error_cm", log.sep)):
+        assert res.summary[name] == one([c for v in per for c in v])
+        for k, row in enumerate(res.summary["per_follower"]):
+            assert row[name] == one(per[k])
+    if coupling.world.follow_law is not None:
+        assert res.summary["cross_track_cm"] is not None
+
+
+def test_fix_errors_equal_per_follower_calls(run: tuple[Any, Any]) -> None:
+    _, res = run
+    df, n = res.windows, res.summary["n"]
+    cols = [df[f"f{i}_fix_error_cm"].to_numpy() for i in range(1, n + 1)]
+    fixes = [c[np.isfinite(c)] for c in cols]  # (inf: no fix)
+    got = res.summary["localization_error_cm"]
+    assert got == {**one(np.concatenate(fixes)), "per_follower": [one(f) for f in fixes]}  # type: ignore[dict-item]
+
+
+def test_rows_of_unequal_lengths() -> None:
+    rng = np.random.default_rng(5)
+    per = [list(rng.random(7)), list(rng.random(3)), []]
+    every, rows = p95_max_rows(per)
+    assert every == one([c for v in per for c in v])
+    assert rows == [one(v) for v in per] and rows[2] is None
+    assert p95_max_rows([[], []]) == (None, [None, None])
+    assert p95_max_rows([]) == (None, [])
+    same = rng.random((4, 50)) * 1e3
+    every, rows = p95_max_rows(list(same))
+    assert every == one(same.ravel()) and rows == [one(r) for r in same]
+
+
+def test_violation_ratios_equal_per_kind_arrays(run: tuple[Any, Any]) -> None:
+    coupling, _ = run
+    recs = [r for r in coupling.rec.records if r.complete and r.changes is not None]
+    ratios, beyond = coupling.violation_ratios()
+    for kind, key, lim in coupling._limits:
+        ratio = np.array([r.changes[key] for r in recs], dtype=float).reshape(len(recs), -1) / lim
+        assert ratios[kind] == float(ratio.max())
+        assert beyond[kind] == int((ratio > 1.0 + sr.VIOLATION_TOLERANCE).sum())
