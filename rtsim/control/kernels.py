@@ -331,7 +331,7 @@ def _roll(
     near = np.empty((nw + 1, n))  # (contact: each follower's closest approach at each scan)
     # a pass/fail question stops after the first window if that one already fails
     first = 1 if nw > 1 and need > -math.inf else nw
-    e = 0
+    e = 0 * nw  # (an int64, not the literal 0: one compiled _rollout)
     done = 0  # windows whose changes are in ``out``
     while True:
         stop = first if done == 0 else nw
@@ -581,7 +581,11 @@ def _search_into(
             v, w, P, ch, contact, keep, ask, ev, traces, ms, dones, slot, upto
         )
         if q >= 0:  # an earlier rollout's leader: its changes
-            ch[:, :, :] = changes[q]
+            src = changes[q]
+            for a in range(ch.shape[0]):  # (loops: numba's slice assignment compiles slowly)
+                for b in range(ch.shape[1]):
+                    for c in range(ch.shape[2]):
+                        ch[a, b, c] = src[a, b, c]
             again -= 1
         m = keep * mm
         if phase == 3:
@@ -744,7 +748,7 @@ ENTRIES: dict[str, Any] = {
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
 #: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
-COMPILE_S = 6.0
+COMPILE_S = 9.0
 
 # most runs roll out right after the world is built: the world's announcement counts these
 follow_with(ENTRIES.values(), COMPILE_S)
