@@ -1,6 +1,6 @@
 """Speed and memory of the virtual CPU (run by hand; not a test).
 
-    python benchmarks/bench_sim.py [--hours 1] [--no-memory]
+    python benchmarks/bench_sim.py [--hours 1] [--no-memory] [--callgrind [--callgrind-dir D]]
 
 1. One simulated hour of the 3-task set (5, 40), (200, 250), (25, 500) (rate-monotonic) with
    per-task statistics on and per-job records off: jobs per second of ``rtsim.sim.simulate``.
@@ -10,6 +10,10 @@
    inline top-task path and a float key, target within 1.5x of FP's time.
 3. Peak memory (ru_maxrss of a fresh subprocess) for 1 simulated second and 24 simulated hours
    with per-job records off: it must not grow with the horizon.
+4. With ``--callgrind``: instructions executed (valgrind's callgrind, Ir) by the bare loop and
+   by rtsim fp on the same hours, and their ratio, which does not depend on the machine's
+   load. Each side runs in a fresh interpreter under callgrind twice, with and without the
+   measured run after the same imports and warm-up: its Ir is the difference.
 """
 
 from __future__ import annotations
@@ -18,10 +22,14 @@ import argparse
 import heapq
 import json
 import math
+import os
 import resource
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 from _machine import print_machine
@@ -81,13 +89,84 @@ def peak_rss_mb(horizon: float) -> float:
     return int(out.stdout.strip()) / 1024.0
 
 
+def _ir_child(side: str, horizon: float, measure: bool) -> None:
+    """What runs under callgrind: imports and warm-up, then (if ``measure``) one side."""
+    rtsim_run(1000.0)
+    bare_loop(1000.0)
+    if measure:
+        if side == "bare":
+            bare_loop(horizon)
+        else:
+            rtsim_run(horizon, side)
+
+
+def _callgrind_ir(valgrind: str, side: str, hours: float, out: Path, measure: bool) -> int:
+    """Total Ir of one `_ir_child` run under callgrind (its output file kept in ``out``)."""
+    name = out / f"callgrind.{side}.{'run' if measure else 'setup'}.out"
+    cmd = [
+        valgrind,
+        "--tool=callgrind",
+        f"--callgrind-out-file={name}",
+        sys.executable,
+        __file__,
+        "--ir-child",
+        side,
+        "--hours",
+        repr(hours),
+    ]
+    if not measure:
+        cmd.append("--ir-setup")
+    # a fixed hash seed, and no BLAS threads spinning beside the loop (their Ir would count)
+    env = dict(os.environ, PYTHONHASHSEED="0", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    subprocess.run(cmd, check=True, capture_output=True, env=env)
+    for line in name.read_text(encoding="utf-8", errors="replace").splitlines():
+        if line.startswith(("totals:", "summary:")):
+            return int(line.split()[1])
+    raise RuntimeError(f"{name}: no totals line")
+
+
+def callgrind(hours: float, keep: str | None) -> dict[str, Any]:
+    """Ir of the bare loop and of rtsim fp on ``hours`` simulated hours, and their ratio."""
+    valgrind = shutil.which("valgrind")
+    if valgrind is None:
+        print("bench_sim: --callgrind needs valgrind on the PATH", file=sys.stderr)
+        raise SystemExit(2)
+    out = Path(keep) if keep else Path(tempfile.mkdtemp(prefix="bench_sim_cg_"))
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        ir = {
+            side: _callgrind_ir(valgrind, side, hours, out, True)
+            - _callgrind_ir(valgrind, side, hours, out, False)
+            for side in ("bare", "fp")
+        }
+    finally:
+        if not keep:
+            shutil.rmtree(out, ignore_errors=True)
+    ratio = ir["fp"] / ir["bare"]
+    print(f"{'instructions (callgrind Ir)':32s} {'bare':>14s} {'rtsim fp':>14s}")
+    print(f"{'':32s} {ir['bare']:14,d} {ir['fp']:14,d}")
+    print(f"rtsim executes {ratio:.2f}x the instructions of the bare loop (target: within 2x)")
+    if keep:
+        print(f"callgrind files in {out} (callgrind_annotate FILE)")
+    return {"bare_ir": ir["bare"], "rtsim_ir": ir["fp"], "ir_ratio": ratio}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--hours", type=float, default=1.0)
     ap.add_argument("--repeat", type=int, default=3, help="best of this many runs")
     ap.add_argument("--no-memory", action="store_true")
+    ap.add_argument(
+        "--callgrind", action="store_true", help="also count instructions under valgrind"
+    )
+    ap.add_argument("--callgrind-dir", help="keep callgrind's output files in this folder")
+    ap.add_argument("--ir-child", choices=("bare", "fp", "edf"), help=argparse.SUPPRESS)
+    ap.add_argument("--ir-setup", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     horizon = args.hours * 3_600_000.0
+    if args.ir_child:
+        _ir_child(args.ir_child, horizon, not args.ir_setup)
+        return 0
     machine = print_machine()
     rtsim_run(1000.0)  # imports and warm-up outside the timing
 
@@ -131,6 +210,8 @@ def main(argv: list[str] | None = None) -> int:
         "repeat": args.repeat,
         "machine": machine,
     }
+    if args.callgrind:
+        result.update(callgrind(args.hours, args.callgrind_dir))
     if not args.no_memory:
         one_s = peak_rss_mb(1000.0)
         day = peak_rss_mb(24 * 3_600_000.0)

@@ -2,18 +2,19 @@
 file (run by hand, on a machine as quiet as you can get).
 
     python benchmarks/perf_table.py [--repeat 3] [--skip-reproduce] [--skip-python]
-        [--cli-duration 600] [--write]
+        [--skip-callgrind] [--cli-duration 600] [--write]
 
 Runs ``bench_cli.py`` (the CLI's loop with its outputs, one simulated hour of Test 2),
 ``bench_scenario.py``'s loop alone (the same hour without output files, per world backend),
 ``bench_sweep_point.py`` (one lap of Test 2 as a warm sweep point), ``bench_sim.py`` (the
-scheduler against a bare heap loop), ``bench_followers.py`` (Test 1 and Test 2 per follower
-count, n = 2, 6, 10 or the largest the layout accepts: a lap in-process and the CLI with
-its outputs) and times ``rtsim reproduce --out DIR``; every figure of the rollout planner
-has its rollouts and its floor beside it (the rollouts' own CPU plus the rest compiled,
-`bench_sweep_point.rest_us`). Prints the tables (Markdown), and with ``--write`` puts
-them between the markers of docs/performance.md and (the headline table only) of README.md
-(the text around them is kept).
+scheduler against a bare heap loop, in CPU time and, unless ``--skip-callgrind``, in
+instructions under valgrind's callgrind: about two minutes more), ``bench_followers.py``
+(Test 1 and Test 2 per follower count, n = 2, 6, 10 or the largest the layout accepts: a lap
+in-process and the CLI with its outputs) and times ``rtsim reproduce --out DIR``; every
+figure of the rollout planner has its rollouts and its floor beside it (the rollouts' own
+CPU plus the rest compiled, `bench_sweep_point.rest_us`). Prints the tables (Markdown), and
+with ``--write`` puts them between the markers of docs/performance.md and (the headline
+table only) of README.md (the text around them is kept).
 Targets: issue 36's, in CPU time.
 """
 
@@ -137,8 +138,15 @@ def table(
         f"{t1['floor_ms'] / 1e3:.2f} s | ≤ 0.35 s | {yes[t1['best_ms'] <= 350]} |",
         f"| the scheduler against a bare heap loop (one simulated hour of (5, 40), (200, 250), "
         f"(25, 500); `bench_sim.py`) | {sim['rtsim_jobs_per_s']:,.0f} jobs/s against "
-        f"{sim['bare_jobs_per_s']:,.0f}: **{sim['ratio']:.2f}×** slower; EDF "
-        f"{sim['edf_over_fp']:.2f}× FP's time | – | ≤ 2× | {yes[sim['ratio'] <= 2]} |",
+        f"{sim['bare_jobs_per_s']:,.0f}: **{sim['ratio']:.2f}×** slower"
+        + (
+            f"; instructions (callgrind Ir) {sim['rtsim_ir'] / 1e6:,.0f} M against "
+            f"{sim['bare_ir'] / 1e6:,.0f} M: **{sim['ir_ratio']:.2f}×**"
+            if "ir_ratio" in sim
+            else ""
+        )
+        + f"; EDF {sim['edf_over_fp']:.2f}× FP's time | – | ≤ 2× | "
+        f"{yes[sim['ratio'] <= 2 and sim.get('ir_ratio', 0) <= 2]} |",
     ]
     if repro is not None:
         rows.append(
@@ -190,6 +198,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--skip-python", action="store_true", help="no loop-alone hour on the python world"
     )
+    ap.add_argument(
+        "--skip-callgrind", action="store_true", help="bench_sim without instruction counts"
+    )
     ap.add_argument("--cli-duration", type=float, default=600.0, help="per follower count, s")
     ap.add_argument("--write", action="store_true", help="update docs/performance.md")
     args = ap.parse_args(argv)
@@ -198,7 +209,13 @@ def main(argv: list[str] | None = None) -> int:
     cli = _bench("bench_cli.py", "--repeat", rep, "--json")
     alone = loop_alone(args.repeat, ("compiled",) if args.skip_python else ("compiled", "python"))
     point = _bench("bench_sweep_point.py", "--repeat", str(max(5, args.repeat)), "--json")
-    sim = _bench("bench_sim.py", "--repeat", rep, "--no-memory")
+    sim = _bench(
+        "bench_sim.py",
+        "--repeat",
+        rep,
+        "--no-memory",
+        *(() if args.skip_callgrind else ("--callgrind",)),
+    )
     fol = _bench(
         "bench_followers.py", "--repeat", rep, "--cli-duration", str(args.cli_duration), "--json"
     )

@@ -13,11 +13,21 @@ The rate functions and bounds accept Python/NumPy scalars (fast ``math`` path) o
 arrays (broadcast with ``numpy``). Every bound is returned in **milliseconds**: a bound such
 as r_H [cm] / |ρ̇| [cm/s] is in seconds and is multiplied by 1000. A zero denominator gives
 an infinite bound.
+
+**Motion models** (`rtsim.world.motionmodels`). The rates ρ̇ (Eq 17) and β̇, hence Eqs
+19–21 and the bearing bound, are the relative velocity of two points that move along their
+headings at V_L and V_F: they read the state at one instant, not how it evolves, so they
+hold for every motion model (each moves a robot along its heading; the model decides how
+v, θ and ω change, which the bounds take at their estimates). The one quantity that reads
+the model is how far a turn-rate error turns a robot over a window: `TurnError`, which
+a model supplies (the predicted-centre bound `msb_localization_predicted` and the
+``noise-aware`` policy's padding read it).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -31,6 +41,7 @@ __all__ = [
     "BOUND_KINDS",
     "LocalizationKind",
     "Thresholds",
+    "TurnError",
     "beta_dot",
     "follower_msbs",
     "formation_velocity",
@@ -43,6 +54,7 @@ __all__ = [
     "relative_state",
     "rho_dot",
     "scalar_msbs",
+    "unicycle_turn_error",
     "slack",
     "wrap_angle",
     "wrap_positive",
@@ -167,6 +179,26 @@ def msb_localization_full(rho_dot: Any, beta_dot: Any, rho: Any, r_H: Any) -> An
     return _ratio_ms(r_H, xp.hypot(rho_dot, rho * beta_dot))
 
 
+#: A motion model's turn error (``MotionModel.turn_error``): ``(σ_ω, t) → (σ_θ, σ_∫θ)``, the
+#: standard deviations (bounds on them, for any timing of commands) of a robot's heading
+#: error t s after a turn-rate actuation error of standard deviation σ_ω (rad/s) starts to
+#: act, and of that heading error's integral over the t s (rad·s).
+TurnError = Callable[[float, float], tuple[float, float]]
+
+
+def unicycle_turn_error(turn_sd: float, t: float) -> tuple[float, float]:
+    """The unicycle's `TurnError`: its turn rate takes the command at once, so one
+    command's error σ_ω held for t s turns it by σ_ω·t, and the integral is ½·σ_ω·t².
+
+    It bounds every model whose turn-rate error is a weighted average of the commands'
+    errors with non-negative weights summing to at most 1 (a first-order lag,
+    docs/howto/motion-model.md): the heading error is then a sum of command errors with
+    non-negative coefficients summing to at most t, whose standard deviation is at most
+    σ_ω·t, reached when one error is held from before the window to its end (a command
+    lost, or sent after the window)."""
+    return turn_sd * t, 0.5 * turn_sd * t * t
+
+
 def msb_localization_predicted(
     r_H: float,
     *,
@@ -177,26 +209,51 @@ def msb_localization_predicted(
     v_max: float,
     k: float = 3.0,
     leader_error: float = 0.0,
+    turn_error: TurnError = unicycle_turn_error,
 ) -> float:
     """The localization bound when the Hough window is centred at the follower's predicted
     position (ms; docs/localization.md): the largest w with
 
-        k·(√2·σ_fix + √2·σ_fix + V·σ_θ·w + σ_v·w + ½·V·σ_ω·w²) + e_L ≤ r_H,
+        k·(√2·σ_fix + √2·σ_fix + V·σ_θ·w + σ_v·w + V·σ_∫θ(w)) + e_L ≤ r_H,
 
     the follower's departure from its predicted motion — the estimate's position error at
     the last scan (about one fix's, √2·σ_fix as a 2-D radius), its heading error carried
-    over the window at speed V = ``v_max``, the actuation errors σ_v (speed) and σ_ω (turn
-    rate) held over the window — plus this scan's fix error, each at ``k`` standard
-    deviations, and ``leader_error`` (cm), the leader's own dead-reckoning error over the
-    window. 0 when even w = 0 leaves no room (r_H too small for the noise)."""
+    over the window at speed V = ``v_max``, the speed error σ_v held over the window, the
+    turn error's drift V·σ_∫θ(w) (``turn_error``, the motion model's: ½·σ_ω·w² for the
+    unicycle, `unicycle_turn_error`) — plus this scan's fix error, each at ``k``
+    standard deviations, and ``leader_error`` (cm), the leader's own dead-reckoning error
+    over the window. 0 when even w = 0 leaves no room (r_H too small for the noise). The
+    unicycle's is solved in closed form, another model's by bisection (its departure grows
+    with w)."""
     room = (r_H - leader_error) / k - 2.0 * math.sqrt(2.0) * fix_sd
     if room <= 0.0:
         return 0.0
-    a = 0.5 * v_max * turn_sd
     b = v_max * heading_sd + speed_sd
+    if turn_error is not unicycle_turn_error:
+        return 1000.0 * _largest_within(lambda t: b * t + v_max * turn_error(turn_sd, t)[1], room)
+    a = 0.5 * v_max * turn_sd
     if a == 0.0:
         return math.inf if b == 0.0 else 1000.0 * room / b
     return 1000.0 * (-b + math.sqrt(b * b + 4.0 * a * room)) / (2.0 * a)
+
+
+def _largest_within(grow: Callable[[float], float], room: float, t_max: float = 1e6) -> float:
+    """The largest t (s) with ``grow(t)`` ≤ ``room``, for ``grow`` non-decreasing from
+    grow(0) = 0 (the lower end of the last bisection bracket, to 1e-12 relative; ``inf``
+    when even ``t_max`` fits)."""
+    hi = 1e-3
+    while grow(hi) <= room:
+        hi *= 2.0
+        if hi > t_max:
+            return math.inf
+    lo = 0.0
+    while hi - lo > 1e-12 * hi:
+        mid = 0.5 * (lo + hi)
+        if grow(mid) <= room:
+            lo = mid
+        else:
+            hi = mid
+    return lo
 
 
 def msb_separation(rho_dot: Any, T_rho: Any, rho_d: Any) -> Any:

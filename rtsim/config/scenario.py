@@ -335,24 +335,29 @@ class ShapeTable(Table):
     direction: Annotated[Side, choice(("left", "right"))] = "left"
 
 
-_RAMP = "at most 100 g; inf: the speed steps"
+def _spec(cls: type, key: str) -> Leaf:
+    """The range of field ``key`` of the world's spec ``cls``, declared there once with its
+    default (`rtsim.world._check.spec`)."""
+    return ranged(cls.__dataclass_fields__[key].metadata["range"])  # type: ignore[attr-defined]
 
 
 class LeaderTable(Table):
-    speed: Annotated[float, number(0, 1000, "cm/s", "a ground robot at most 10 m/s", lo_open=True)]
+    """``[leader]``: its numbers are `rtsim.world.config.WorldConfig`'s ``leader_*`` and
+    ``start_s`` fields."""
+
+    # (start_on's default differs from WorldConfig's on purpose: a file's group starts
+    # settled on a straight, a config built by hand where it is given)
+
+    speed: Annotated[float, _spec(WorldConfig, "leader_speed")]
     start: StartTable = Field(default_factory=StartTable)
-    start_s: Annotated[
-        float,
-        number(
-            0,
-            _CM_MAX,
-            "cm",
-            "a position along the path (within one lap, checked against the path's length)",
-        ),
-    ] = 0.0
+    start_s: Annotated[float, _spec(WorldConfig, "start_s")] = WorldConfig.start_s
     start_on: Annotated[str, choice(START_ON)] = "straight"
-    accel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
-    decel_max: Annotated[float, number(0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)] = math.inf
+    accel_max: Annotated[float, _spec(WorldConfig, "leader_accel_max")] = (
+        WorldConfig.leader_accel_max
+    )
+    decel_max: Annotated[float, _spec(WorldConfig, "leader_decel_max")] = (
+        WorldConfig.leader_decel_max
+    )
     path: list[SegmentTable] | None = Field(default=None, min_length=1)
     shape: ShapeTable | None = None
 
@@ -402,12 +407,6 @@ class FormationTable(_Angles):
             if getattr(self, req) is None:
                 raise problem(f"{req}: missing (required)")
         return self
-
-
-def _spec(cls: type, key: str) -> Leaf:
-    """The range of field ``key`` of the world's spec ``cls``, declared there once with its
-    default (`rtsim.world._check.spec`)."""
-    return ranged(cls.__dataclass_fields__[key].metadata["range"])  # type: ignore[attr-defined]
 
 
 def _of(spec: type, **leaves: Leaf) -> Callable[[type[T]], type[T]]:

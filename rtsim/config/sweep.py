@@ -6,21 +6,36 @@ as a list of names, and every grid entry — a range string ``"1..10"``, ``"10..
 comma list ``"10,20"``, one value, or a TOML array — expanded to its values (finite numbers,
 integers within 64 bits, text or booleans, all of one type: each is a results column). What a
 sweep's names mean (a kind, its options and metrics, dotted paths into the base file) is
-checked by `rtsim.sweep.spec`, which sits above the registered sweep kinds.
+checked by `rtsim.sweep.spec`, which sits above the registered sweep kinds: its
+``load_sweep`` (public as ``rtsim.sweep.load_sweep``) reads the file with `read_sweep`, as
+the other loaders read theirs.
 """
 
 from __future__ import annotations
 
 import math
+import os
+from pathlib import Path
 from typing import Annotated, Any
 
 from pydantic import Field
 
 from rtsim.config.fields import Leaf, Table, choice, integer, problem, text
-from rtsim.errors import InputError
+from rtsim.config.load import parse_toml
+from rtsim.errors import InputError, SweepError
+from rtsim.examples import packaged_text, shipped_hint
+from rtsim.io.limits import read_input
 from rtsim.io.ranges import parse_values
 
-__all__ = ["SweepFile", "SweepTable", "GRID_VALUE", "Scalar", "grid_values", "sweep_special"]
+__all__ = [
+    "SweepFile",
+    "SweepTable",
+    "GRID_VALUE",
+    "Scalar",
+    "grid_values",
+    "read_sweep",
+    "sweep_special",
+]
 
 Scalar = int | float | str | bool
 
@@ -113,3 +128,22 @@ def sweep_special(loc: tuple[int | str, ...], what: str) -> str | None:
     if loc == ("grid",) and (what.startswith("missing") or what == "must not be empty"):
         return "empty grid (give at least one parameter under [grid])"
     return None
+
+
+def read_sweep(path: str | os.PathLike[str]) -> tuple[dict[str, Any], str, Path, str]:
+    """A sweep file read as the other loaders read theirs (`rtsim.config.load.parse_toml`):
+    its TOML tables, the name errors give it, the directory its relative paths start from,
+    and its text; ``path`` a file, or a shipped example by name (``smoke``)."""
+    shipped = packaged_text(path, "sweep")
+    if shipped is not None:
+        raw, source, base = shipped.encode("utf-8"), f"{os.fspath(path)}.toml (packaged)", Path()
+    else:
+        source, base = os.fspath(path), Path(path).resolve().parent
+        try:
+            raw = read_input(source, "sweep")
+        except FileNotFoundError:
+            raise SweepError(f"{source}: no such file{shipped_hint(source, 'sweep')}") from None
+        except OSError as exc:
+            raise SweepError(f"{source}: cannot read sweep file: {exc.strerror or exc}") from None
+    data = parse_toml(raw, source, SweepError)
+    return data, source, base.resolve(), raw.decode("utf-8")

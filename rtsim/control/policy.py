@@ -48,7 +48,7 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 from rtsim._numbers import is_real
 from rtsim._suggest import did_you_mean
 from rtsim.analysis.bounds import LOWER_BOUNDS
-from rtsim.analysis.kinematics import Thresholds
+from rtsim.analysis.kinematics import Thresholds, TurnError, unicycle_turn_error
 from rtsim.control.adjust import (
     CANDIDATES,
     CAP_FACTOR,
@@ -127,9 +127,11 @@ class PolicyInput:
     cm, its curvature in 1/cm), nearest first (filled for a policy whose class sets
     ``needs_path = True``, else empty); accel_max, decel_max: the leader's speed ramp limits
     (cm/s², ``inf`` = the speed steps); speed_noise σ_v (cm/s), turn_noise σ_ω (rad/s): the
-    followers' actuation noise per command; pose_sd: per follower (σ_p cm, σ_θ rad) from the
-    leader's EKF covariance P, σ_p = √((P_xx + P_yy)/2), σ_θ = √P_θθ (these three are filled
-    for a policy whose class sets ``needs_noise = True``, else 0 / empty).
+    followers' actuation noise per command, turn_error the heading error σ_ω makes over a
+    window (their motion model's, `rtsim.analysis.kinematics.TurnError`); pose_sd: per
+    follower (σ_p cm, σ_θ rad) from the leader's EKF covariance P, σ_p = √((P_xx +
+    P_yy)/2), σ_θ = √P_θθ (these four are filled for a policy whose class sets
+    ``needs_noise = True``, else 0 / the unicycle's / empty).
 
     rollout: **the command-aware rollout hook** (`rtsim.control.rollout.Rollout`),
     filled by a coupled run with follow-the-leader followers when the predictor is
@@ -160,6 +162,7 @@ class PolicyInput:
     decel_max: float = math.inf
     speed_noise: float = 0.0
     turn_noise: float = 0.0
+    turn_error: TurnError = unicycle_turn_error
     pose_sd: tuple[tuple[float, float], ...] = ()
     rollout: Any = None
 
@@ -639,8 +642,9 @@ def pad_rows(
     |V_F| = 1000·T_ε·ρ_d / MSB_path, |ρ̇| = 1000·T_ρ·ρ_d / MSB_sep, |β̇| = 1000·T_β / MSB_bear
     (docs/model/adjustment.md's bounds, an infinite bound = a zero rate). With T = w_sch / 1000 s,
     follower i's
-    σ_β = σ_p / ρ and σ_θ² = σ_θ,EKF² + (σ_ω·T)² (its heading drifts by the turn noise over
-    one window), first-order propagation of ρ̇ = V_F cos(θ_F + β) − V_L cos β and
+    σ_β = σ_p / ρ and σ_θ² = σ_θ,EKF² + σ_θ,turn(σ_ω, T)² (its heading drifts by the turn
+    noise over one window: σ_ω·T for the unicycle, ``ctx.turn_error``), first-order
+    propagation of ρ̇ = V_F cos(θ_F + β) − V_L cos β and
     β̇ = (V_L sin β − V_F sin(β + θ_F)) / ρ − ω_L with independent errors, bounded by
     |cos|, |sin| ≤ 1:
 
@@ -663,7 +667,7 @@ def pad_rows(
         rd = 0.0 if math.isinf(row[1]) else n_sep / row[1]
         vf = 0.0 if math.isinf(row[2]) else n_path / row[2]
         bd = 0.0 if math.isinf(row[3]) else n_bear / row[3]
-        s_th2 = sth * sth + (ctx.turn_noise * t_s) ** 2
+        s_th2 = sth * sth + ctx.turn_error(ctx.turn_noise, t_s)[0] ** 2
         s_beta = sp / f.rho
         big_s = math.sqrt(sv * sv + vf * vf * s_th2 + ((v + vf) * s_beta) ** 2)
 
@@ -714,7 +718,8 @@ class NoiseAwarePolicy:
     """
 
     options: ClassVar[type[PolicyOptions]] = NoiseAwareOptions
-    #: the coupling fills PolicyInput.speed_noise, turn_noise and pose_sd for this policy
+    #: the coupling fills PolicyInput.speed_noise, turn_noise, turn_error and pose_sd for
+    #: this policy
     needs_noise: ClassVar[bool] = True
 
     def __init__(self, *args: Any, **kw: Any) -> None:

@@ -1,45 +1,14 @@
-"""The command-aware rollout: the leader predicts the followers from the commands it will send.
+"""The command-aware rollout: the leader predicts the followers from the commands it will
+send (docs/planning.md, "The rollout").
 
-The leader radios every follower its command, and it knows the law that computes it
-(follow-the-leader, `rtsim.world.ftl`, or l-ψ, [`lpsi_command`][rtsim.world.follower.lpsi_command]).
-So instead of holding the followers' estimated
-velocities while its own speed changes (the ``paper`` predictor), it can play the next
-windows forward: for a candidate target speed V it runs
-
-* **itself**: the path from its arc length and actual speed now, the speed ramping toward V
-  within its ``accel_max`` / ``decel_max`` ([`Leader`][rtsim.world.leader.Leader], the world's
-  own class);
-* **every follower**: from the leader's estimate now (pose, expected speed, the command it
-  holds), holding that command until its next send, then at each send time the command the
-  law computes from the leader's state at that moment and the follower's predicted pose
-  (`command`, the world's own controller, on a clone of
-  the leader's law state), saturated and integrated exactly as the world integrates a held
-  command ([`FollowerGroup`][rtsim.world.follower.FollowerGroup]), **without** actuation noise — the
-  leader's best guess, never the truth;
-
-and samples, at the scans that open and close each window, the changes the world checks
-(docs/model/world.md): the
-follower's displacement in the leader frame, |Δρ|, the distance it drove, and
-|Δβ|. A window of length w whose change is c against threshold L has the bound
-
-    MSB = L·w / c   (ms; ∞ when c = 0),
-
-the bound of Eqs 19–21 with the rate replaced by the window's average predicted rate — the
-same form as the ``_true`` columns of windows.csv, so MSB ≥ w exactly when the predicted
-change stays within its threshold. Each follower's changes end with its closest approach to
-any other robot (leader included) at the two scans (cm; `rtsim.world.contact`), which the
-``plan`` policy's contact bound reads (`Rollout.closest`, `Rollout.contact`).
-
-**Timing.** The rollout starts at the decision (``t_now``). Sends still to come in the current
-window (a decision taken before the sends) are at ``pending`` times; each later window j
-opens with its scan at ``next_scan + Σ_{i<j} w_i`` and follower k's command is sent
-``send_offsets[k]`` ms after that scan (the offsets measured in the current window). The
-leader's new target takes effect at ``t_now``.
-
-Used by the ``commands`` predictor of the adjustment (`rtsim.control.adjust.adjust`) and
-by policies through `rtsim.control.policy.PolicyInput.rollout`: ``ctx.rollout.rows(v)``
-are the four bounds of every follower in the window the decision governs if the leader's
-target is ``v``; ``ctx.rollout.changes(v, windows)`` the predicted changes in several windows.
+For a candidate target speed it plays itself (the world's `Leader`, its speed ramping) and
+every follower (the command it holds, then at each send the command the law computes, on a
+clone of the law's state, integrated as the world integrates, without actuation noise)
+forward, and reads at the scans the changes the world checks, and each follower's closest
+approach (`rtsim.world.contact`). A change c against threshold L over a window w gives the
+bound MSB = L·w / c (ms; ∞ when c = 0). Used by the ``commands`` predictor
+(`rtsim.control.adjust.adjust`) and by policies through `PolicyInput.rollout`
+(`rtsim.control.policy`): ``ctx.rollout.rows(v)``, ``ctx.rollout.changes(v, windows)``.
 """
 
 from __future__ import annotations

@@ -107,6 +107,7 @@ from rtsim.sim.progress import TICKS, start_ticker
 from rtsim.sim.run import build_cpu
 from rtsim.world.contact import closest_to, contact_distance
 from rtsim.world.localization import hough_time, search_time
+from rtsim.world.motionmodels import motion_model
 from rtsim.world.world import World
 
 __all__ = [
@@ -311,7 +312,11 @@ class _Coupling:
             fixed.update(accel_max=cfg.leader_accel_max, decel_max=cfg.leader_decel_max)
         self._noise = bool(getattr(self.policy, "needs_noise", False))
         if self._noise:  # the followers' actuation noise (PolicyInput.speed_noise, turn_noise)
-            fixed.update(speed_noise=cfg.follower.speed_noise, turn_noise=cfg.follower.turn_noise)
+            fixed.update(
+                speed_noise=cfg.follower.speed_noise,
+                turn_noise=cfg.follower.turn_noise,
+                turn_error=motion_model(cfg.follower.motion_model).turn_error,
+            )
         cap = adj.cap
         if cap is None and adj.cap_factor is not None:
             cap = float(adj.cap_factor) * self.w_sch

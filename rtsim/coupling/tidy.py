@@ -22,13 +22,13 @@ Column names are the wide table's with the ``f<k>_`` prefix removed (docs/output
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["WINDOW_KEYS", "follower_count", "followers_frame", "followers_chunks"]
+__all__ = ["WINDOW_KEYS", "follower_count", "followers_frame"]
 
 #: The window's columns repeated on every follower's row.
 WINDOW_KEYS: tuple[str, ...] = ("window", "t", "w")
@@ -68,10 +68,3 @@ def followers_frame(windows: pd.DataFrame) -> pd.DataFrame:
         at = cols.index("v_est") + 1 if "v_est" in cols else len(cols)
         out.insert(at, "error", err)
     return out.reset_index(drop=True)
-
-
-def followers_chunks(chunks: Iterable[pd.DataFrame]) -> Iterator[pd.DataFrame]:
-    """`followers_frame` of each chunk of a windows table read in pieces (the rows
-    of a window stay in its chunk, so the long table's order is kept)."""
-    for chunk in chunks:
-        yield followers_frame(chunk)

@@ -17,9 +17,13 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from matplotlib import patches as mpatches
 from matplotlib.axes import Axes
+from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.path import Path as MplPath
+from matplotlib.patheffects import AbstractPathEffect
 
 from rtsim.errors import InputError
 from rtsim.io.atomic import atomic_path, write_table
@@ -40,6 +44,7 @@ from rtsim.plots.scenario_data import (
     line_points,
     need_columns,
     spans_of,
+    text_field,
     times_s,
     violation_ratios,
 )
@@ -152,11 +157,69 @@ def _held(df: pd.DataFrame, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.append(t, ends_s(df)[-1]), np.append(y, y[-1])
 
 
+#: Vertical travel, in pixels within the axes, of the longest piece a step line is
+#: rasterized in as a PNG (`_Pieces`). Agg holds a cell per pixel a line's outline crosses
+#: until the whole line is drawn, about 45 bytes per pixel of travel: a line drawn through
+#: every bin's extremes (`line_points`) travels up and down each pixel column, 150,000 px
+#: for 1 h of Test 2, 660,000 px (≈ 30 MB of cells) for 6 h.
+AGG_LINE_TRAVEL = 200_000
+
+
+class _Pieces(AbstractPathEffect):
+    """Rasterize an opaque line whose vertical travel within the axes exceeds
+    `AGG_LINE_TRAVEL` as consecutive pieces of at most that travel, each ending at the next
+    one's first vertex (Agg's cells stay bounded; the pixels where two pieces join may
+    differ in their antialiasing, and a dash pattern starts again at each piece). A
+    shorter line, a translucent one (its pieces would blend twice where they join) or a
+    vector format is drawn as it is, in one call: its image is the one drawn without this
+    effect."""
+
+    def draw_path(
+        self,
+        renderer: Any,
+        gc: Any,
+        tpath: MplPath,
+        affine: Any,
+        rgbFace: Any = None,  # noqa: N803 - matplotlib's name
+    ) -> None:
+        from matplotlib.backends.backend_agg import RendererAgg
+
+        v = np.asarray(tpath.vertices)
+        alpha = gc.get_alpha() if gc.get_forced_alpha() else gc.get_rgb()[3]
+        if (
+            not isinstance(renderer, RendererAgg)
+            or tpath.codes is not None
+            or len(v) < 3
+            or alpha < 1.0  # pieces of a translucent line would blend twice where they join
+        ):
+            renderer.draw_path(gc, tpath, affine, rgbFace)
+            return
+        y = affine.transform(v)[:, 1]
+        box = gc.get_clip_rectangle()
+        if box is not None:
+            y = np.clip(y, box.y0, box.y1)
+        dy = np.abs(np.diff(y))
+        travel = np.r_[0.0, np.cumsum(np.where(np.isfinite(dy), dy, 0.0))]
+        if travel[-1] <= AGG_LINE_TRAVEL:
+            renderer.draw_path(gc, tpath, affine, rgbFace)
+            return
+        piece = np.floor(travel / AGG_LINE_TRAVEL)
+        starts = np.flatnonzero(np.r_[True, piece[1:] != piece[:-1]])
+        for a, b in zip(starts, np.r_[starts[1:], len(v) - 1], strict=True):
+            if b > a:
+                p = MplPath(v[a : b + 1])
+                p.should_simplify = tpath.should_simplify
+                p.simplify_threshold = tpath.simplify_threshold
+                renderer.draw_path(gc, p, affine, rgbFace)
+
+
 def _step(ax: Axes, df: pd.DataFrame, y: np.ndarray, **kw: object) -> Line2D:
-    """``y`` held over each window (`_held`), through the points `line_points` keeps."""
+    """``y`` held over each window (`_held`), through the points `line_points` keeps;
+    rasterized in pieces when long (`_Pieces`)."""
     x, yy = _held(df, y)
     keep = line_points(x, [yy])
     (line,) = ax.plot(x[keep], yy[keep], drawstyle="steps-post", **kw)  # type: ignore[arg-type]
+    line.set_path_effects([_Pieces()])
     return line
 
 
@@ -200,9 +263,33 @@ def _note_clip(ax: Axes, values: list[np.ndarray], top: float) -> None:
 
 
 def _shade(ax: Axes, spans: list[tuple[float, float]], kind: str, label: str) -> None:
-    for k, (a, b) in enumerate(spans):
-        ax.axvspan(
-            a, b, color=COLORS[kind], alpha=0.15, lw=0, gid=kind, label=label if k == 0 else None
+    """Shade each (start, end) span over the axes' height: the first as an ``axvspan``
+    (it carries the legend entry), the others as one `PolyCollection` of the same
+    rectangles, drawn right after it with the same colour, alpha, edge and snapping, so
+    the image is the one a patch per span drew (pixel-identical, tests/plots/
+    test_figure_table.py) while a 6 h run's 700–1,400 spans per figure are one artist, not
+    one patch (≈ 5 KB of transforms each) per span."""
+    if not spans:
+        return
+    (a, b), rest = spans[0], spans[1:]
+    ax.axvspan(a, b, color=COLORS[kind], alpha=0.15, lw=0, gid=kind, label=label)
+    if rest:
+        # the path axvspan's Rectangle draws: the unit square scaled by the span's width
+        verts = [
+            [(x0, 0.0), (x0 + (x1 - x0), 0.0), (x0 + (x1 - x0), 1.0), (x0, 1.0)] for x0, x1 in rest
+        ]
+        ax.add_collection(
+            PolyCollection(
+                verts,
+                closed=True,
+                color=COLORS[kind],
+                alpha=0.15,
+                lw=0,
+                gid=kind,
+                transform=ax.get_xaxis_transform(),
+                zorder=mpatches.Patch.zorder,
+            ),
+            autolim=False,
         )
 
 
@@ -425,7 +512,7 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     )
     _wsch_line(ax, df)
     crit = as_bool(df["critical"])
-    kinds = data["binding"].astype(str).str.split(":").str[0].to_numpy()
+    kinds = text_field(data["binding"])
     for kind in BOUND_KINDS:
         sel = crit & (kinds == kind) & (pred <= top)
         if sel.any():

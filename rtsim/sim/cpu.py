@@ -94,6 +94,18 @@ def coincidence(t: float) -> tuple[float, float]:
     return max(EPS, math.ldexp(float(ULPS), e - 53)), math.ldexp(1.0, e)
 
 
+class _Totals:
+    """The CPU's running totals, which the dispatcher adds to at every job: in a slotted object
+    of their own (the CPU has too many attributes for CPython's fast instance layout, and its
+    attributes cost ≈ 6 % of `benchmarks/bench_sim.py` here)."""
+
+    __slots__ = ("busy", "switches")
+
+    def __init__(self) -> None:
+        self.busy = 0.0  # CPU time given to jobs, overheads included (ms)
+        self.switches = 0  # context switches
+
+
 class CPU(ResourceProtocols, TimeSlices):
     """One processor under a scheduling policy, ``scheduler``: ``"fp"``, ``"edf"``, another
     registered name, ``"package.module:Name"`` or a
@@ -174,8 +186,7 @@ class CPU(ResourceProtocols, TimeSlices):
             [] if trace_sink is None else RowBuffer(trace_frame, trace_sink)
         )
         self._w: float | None = None
-        self._busy = 0.0
-        self._switches = 0
+        self._totals = _Totals()
         self._end_time = 0.0
         self._lag = 0.0  # the dispatcher's now_lag while it calls _segment_done
         self._tol = EPS  # the coincidence window at the dispatcher's now
@@ -355,6 +366,7 @@ class CPU(ResourceProtocols, TimeSlices):
         timers, ready = self._timers, self._ready
         heappush, heappop, heapreplace = heapq.heappush, heapq.heappop, heapq.heapreplace
         seqs = self._seq  # (next(seqs): job and timer sequence numbers)
+        totals = self._totals
         ovh = self.overhead
         plain = not self.record_trace and ovh == 0.0  # no trace, no overhead: book inline
         has_abort = any(st.policy == "abort" for st in self._states)
@@ -381,6 +393,7 @@ class CPU(ResourceProtocols, TimeSlices):
         top_resp = math.nan
         top_bin = 0
         top_counts: dict[int, int] = {}
+        top_n = 0  # responses equal to top_resp booked in the current run, not yet in the bin
         last_release = end - EPS  # (jobs are released in [t0, end): _release's test)
         running: Job | None = None
         last: Job | None = None
@@ -407,7 +420,7 @@ class CPU(ResourceProtocols, TimeSlices):
                 if plain:
                     worked = now - work_start
                     running.executed += worked
-                    self._busy += worked
+                    totals.busy += worked
                     running.rem = 0.0
                 else:
                     self._close_piece(running, piece_start, work_start, now, done=True)
@@ -475,17 +488,10 @@ class CPU(ResourceProtocols, TimeSlices):
             # 3. dispatch
             if top is not None:
                 st = top
+                stats = st.stats
                 # The top task's job gets the CPU now (under fp always; under another policy
                 # if it comes first in the ready order and preempts the running job) and runs
                 # uninterrupted to f = now + c.
-                # If nothing happens in (now, f] (no timer, no other SimPy event) and the job
-                # that gets the CPU at f has already started its segment (so no hook runs at
-                # f), do both instants here with the same float operations, in the same
-                # order, as the dispatch at now and the completion at f would.
-                x = st.fast_start + now_lag  # type: ignore[operator]
-                f = now + x
-                y = f - now
-                f_lag = (now - (f - y)) + (x - y)
                 job = None
                 wins = True
                 if not top_first:
@@ -507,19 +513,35 @@ class CPU(ResourceProtocols, TimeSlices):
                 ):
                     nxt_job = ready[0][2]
                     from_ready = True
-                if (
-                    wins
-                    and f > limit
-                    and timers
-                    and t_next > f + tol
-                    and (not queue or queue[0][0] > f)
-                    and (nxt_job is None or nxt_job.rem is not None)
-                ):
+                moved = False  # (the clock moved on to the top task's next release, below)
+                while True:
+                    # If nothing happens in (now, f] (no timer, no other SimPy event) and the
+                    # job that gets the CPU at f has already started its segment (so no hook
+                    # runs at f), do both instants here with the same float operations, in the
+                    # same order, as the dispatch at now and the completion at f would.
+                    x = st.fast_start + now_lag  # type: ignore[operator]
+                    f = now + x
+                    y = f - now
+                    f_lag = (now - (f - y)) + (x - y)
+                    if not (
+                        wins
+                        and f > limit
+                        and timers
+                        and t_next > f + tol
+                        and (not queue or queue[0][0] > f)
+                        and (nxt_job is None or nxt_job.rem is not None)
+                    ):
+                        top = None  # (not booked: the general dispatch below)
+                        if job is None:
+                            job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
+                        st.pending.append(job)
+                        heappush(ready, (job.key, job.tie, job))
+                        break
                     if running is not None:  # preempted at now
                         if running.rem is not None and now > work_start:
                             worked = now - work_start
                             running.executed += worked
-                            self._busy += worked
+                            totals.busy += worked
                             running.rem = running.rem - worked - (now_lag - work_lag)
                         running.preemptions += 1
                         if from_ready:
@@ -527,44 +549,86 @@ class CPU(ResourceProtocols, TimeSlices):
                     if from_ready:
                         heappop(ready)
                     # its completion at f: the booking of step 1 and _complete, without a Job
-                    self._busy += f - now
-                    stats = st.stats
+                    totals.busy += f - now
                     resp = f - top_r
                     stats.completed += 1
                     stats.sum_response += resp
-                    if stats.max_response is None or resp > stats.max_response:
-                        stats.max_response = resp
                     deadline = top_r + st.deadline
                     if f > deadline + tol:
                         stats.misses += 1
-                    if resp == top_resp:  # (nearly always: its bin, counted before, exists)
-                        top_counts[top_bin] += 1
-                    else:
+                    if resp == top_resp:  # (nearly always: its bin, counted before, exists,
+                        top_n += 1  # and the maximum is at least resp; top_n goes into the bin
+                    else:  # when the run ends, or before another bin is counted)
+                        if top_n:
+                            top_counts[top_bin] += top_n
+                            top_n = 0
+                        if stats.max_response is None or resp > stats.max_response:
+                            stats.max_response = resp
                         top_resp = resp
                         top_bin, top_counts = self._count_response(stats, resp, deadline - top_r)
                     if record_jobs:
                         self._top_record(st, top_k, top_r, now, f, f > deadline + tol)
                     # the clock moves to f, as the wait would (tol is renewed at the loop's top:
-                    # nothing below uses it before)
-                    env._now = now = f
+                    # nothing below uses it before; env._now is set where the clock stops)
+                    now = f
                     now_lag = work_lag = f_lag
                     piece_start = work_start = f
                     if nxt_job is not None:  # it gets the CPU at f: a second switch
-                        self._switches += 2
+                        totals.switches += 2
                         x = nxt_job.rem + f_lag  # type: ignore[operator]
                         run_end = f + x
                         y = run_end - f
                         run_lag = (f - (run_end - y)) + (x - y)
                     else:
-                        self._switches += 1
+                        totals.switches += 1
                         run_end = _INF
                     running = last = nxt_job
-                else:
-                    top = None  # (not booked: the general dispatch below)
-                    if job is None:
-                        job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
-                    st.pending.append(job)
-                    heappush(ready, (job.key, job.tie, job))
+                    # What nearly always comes next, done here as the loop would do it: 4.
+                    # the wait, for a timer before the end of the job now running; at the
+                    # loop's top, a new window if the clock entered the next binade; 1.
+                    # nothing ends; 2. the timer is the top task's next release (under fp,
+                    # whose top task has no backlog here), and no other timer is due with it.
+                    # Any other case goes on at the loop's top (step 1 or 2), as it would.
+                    if not (
+                        timers
+                        and (t_next := timers[0][0]) < run_end
+                        and (not queue or t_next < queue[0][0])
+                    ):
+                        env._now = now
+                        break  # (to the wait below)
+                    env._now = now = t_next
+                    now_lag = 0.0
+                    moved = True
+                    if now >= tol_next:
+                        tol, tol_next = coincidence(now)
+                        self._tol = tol
+                    limit = now + tol
+                    if not top_first or timers[0][5] is not st or run_end <= limit:
+                        top = None
+                        break
+                    # the release of step 2's fast path (stats.max_backlog is 1 already)
+                    top_k = st.k
+                    st.k = top_k + 1
+                    top_r = st.next_release
+                    after = st.first + st.k * st.period
+                    if after < last_release:
+                        st.next_release = after
+                        heapreplace(timers, (after, st.rank, st.priority, st.index, _RELEASE, st))
+                    else:
+                        heappop(timers)
+                    stats.released += 1
+                    top_seq = next(seqs)
+                    if timers and (t_next := timers[0][0]) <= limit:
+                        break  # (another timer is due: step 2 goes on, then the top task's job)
+                    moved = False
+                    # its job: the job now running comes first of the others (it did at the
+                    # last release, and nothing has joined the ready heap since)
+                    from_ready = False
+                if top_n:
+                    top_counts[top_bin] += top_n
+                    top_n = 0
+                if moved:
+                    continue
             if top is not None:  # a job of the top task booked inline: the instant is settled
                 top = None
             else:
@@ -577,7 +641,7 @@ class CPU(ResourceProtocols, TimeSlices):
                         piece_start = work_start = now
                         work_lag = now_lag
                         if running is not last:
-                            self._switches += 1
+                            totals.switches += 1
                             last = running
                             work_start = now + ovh
                         if running.rem is not None:
@@ -611,7 +675,7 @@ class CPU(ResourceProtocols, TimeSlices):
                     piece_start = work_start = now
                     work_lag = now_lag
                     if running is not last:
-                        self._switches += 1
+                        totals.switches += 1
                         last = running
                         work_start = now + ovh
                     if running.rem is not None:
@@ -713,11 +777,11 @@ class CPU(ResourceProtocols, TimeSlices):
                 (job.name, job.index, "switch", "overhead", True, piece_start, min(now, work_start))
             )
         if work_start > piece_start:
-            self._busy += min(now, work_start) - piece_start
+            self._totals.busy += min(now, work_start) - piece_start
         if now > work_start:
             worked = now - work_start
             job.executed += worked
-            self._busy += worked
+            self._totals.busy += worked
             if self.record_trace:
                 seg = job._st.segs[job.seg_index]
                 self._trace_rows.append(
@@ -1071,8 +1135,8 @@ class CPU(ResourceProtocols, TimeSlices):
             exec_model=self.exec_model_name,
             overhead=self.overhead,
             end_time=self._end_time,
-            busy_time=self._busy,
-            context_switches=self._switches,
+            busy_time=self._totals.busy,
+            context_switches=self._totals.switches,
             window=window,
             jitter=self.jitter,
             scheduler=self.policy.name or type(self.policy).__name__,

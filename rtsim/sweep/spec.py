@@ -1,51 +1,8 @@
 """Sweep files (TOML): parsing and validation into a frozen
-[`SweepSpec`][rtsim.sweep.spec.SweepSpec].
-
-Format::
-
-    [sweep]
-    kind = "simulate"               # analyze | bounds | simulate | scenario | call
-    base = "../../tasksets/barrel_robots.toml"  # relative to this file; omitted -> the
-                                    # packaged paper set (required for kind = "scenario");
-                                    # a packaged name ("barrel_robots", "test1", "test2") works
-    seed = 1                        # the sweep's seed (default 0)
-    combine = "product"             # or "zip" (all grid lists of equal length)
-    metrics = ["w_sch", "max_response.*"]  # optional: metrics to keep (names or glob
-                                    # patterns; default all); unknown metric -> error
-    function = "pkg.module:func"    # kind = "call" only: func(params, options, seed) -> dict
-    [sweep.options]                 # fixed options for every point (kind-specific)
-    horizon = 10000
-    [sweep.set]                     # optional: fixed changes to the base file at every point
-    "tasks.command.bcet" = 10       # (names resolved like grid names; not results columns)
-    [grid]                          # one entry per swept parameter, in this order
-    n = "1..10"                     # inclusive range a..b[:step], a comma list "10,25,50",
-    r_H = [10, 25, 50]              # or a TOML list (use a list for text values)
-
-A grid name is resolved, in this order, as
-
-1. ``seed``: the point's seed itself (overrides the derived seed);
-2. an option of the kind (``horizon``, ``exec``, ``suspension``, ``window``, ``mode``,
-   ``duration``, ``scheduler`` ...), merged over ``[sweep.options]``;
-3. a dotted path into the base file's TOML tables: ``window.delta_t``,
-   ``tasks.command.wcet`` (entries of a list of tables are addressed by their ``name``,
-   or by a 0-based index), ``leader.speed``. Intermediate keys must exist; a new leaf key
-   may be added (e.g. ``tasks.command.bcet``) and the normal loader then checks it;
-4. a shortcut: a key of the base file's ``[window]`` table (``n``, ``r_H``, ``e_cal`` ...),
-   or a key at the top level of the base file.
-
-Overrides are applied to the parsed TOML dict, which then goes through the normal loader
-([`rtsim.config.taskset.parse_taskset`][rtsim.config.taskset.parse_taskset],
-[`rtsim.config.scenario.parse_scenario`][rtsim.config.scenario.parse_scenario]) at each
-point: a bad value (``n = 0``) fails that point, with the loader's message, not the sweep.
-A new leaf key that looks like a typo of an existing one (``delta_tt``) is refused here.
-For ``kind = "call"`` every grid name is passed through as a parameter.
-Range strings give integers when every value is integral, else floats rounded to 12
-significant digits (so ``"0.1..0.3:0.1"`` gives 0.1, 0.2, 0.3). The values of one grid
-entry are all of one type — numbers (ints and floats), text or booleans — since each is a
-results column; integers must fit 64 bits.
-
-Any problem is a `SweepError` naming the file and the key.
-"""
+[`SweepSpec`][rtsim.sweep.spec.SweepSpec] (the format and how grid names resolve:
+docs/sweeps.md). Each point's changed base file goes through the normal loader, so a bad
+value fails that point, not the sweep; any problem with the sweep file itself is a
+`SweepError` naming the file and the key."""
 
 from __future__ import annotations
 
@@ -62,9 +19,8 @@ from typing import Any
 from rtsim._suggest import did_you_mean
 from rtsim.config.dotted import parse_assignment, resolve, shortcuts
 from rtsim.config.load import validate
-from rtsim.config.sweep import Scalar, SweepFile, sweep_special
+from rtsim.config.sweep import Scalar, SweepFile, read_sweep, sweep_special
 from rtsim.errors import InputError, SweepError
-from rtsim.examples import packaged_text
 from rtsim.io.limits import check as check_range
 from rtsim.io.limits import read_input
 from rtsim.registry import file_allows_code, load_code, reading_input
@@ -396,33 +352,15 @@ def load_sweep(
     *,
     allow_code: bool | None = None,
 ) -> SweepSpec:
-    """Read and validate a sweep file; ``set_``: ``KEY=VALUE`` changes of the base file at
-    every point (the command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``:
-    as [`parse_sweep`][rtsim.sweep.spec.parse_sweep]."""
-    set_ = tuple(set_)
-    p = Path(path)
-
-    shipped = packaged_text(path, "sweep")  # a shipped example by name ("smoke")
-    if shipped is not None:
-        try:
-            data = tomllib.loads(shipped)
-        except tomllib.TOMLDecodeError as exc:  # pragma: no cover - shipped files are valid
-            raise SweepError(f"{p}: not valid TOML: {exc}") from None
-        return parse_sweep(
-            data, f"{p}.toml (packaged)", Path.cwd(), shipped, set_, allow_code=allow_code
-        )
-
+    """Read (`rtsim.config.sweep.read_sweep`) and validate a sweep file, or a shipped
+    example by name; ``set_``: ``KEY=VALUE`` changes of the base file at every point (the
+    command line's ``--set``, applied over ``[sweep.set]``); ``allow_code``: as
+    [`parse_sweep`][rtsim.sweep.spec.parse_sweep]."""
+    data, source, base, text = read_sweep(path)
     try:
-        text = read_input(p, "sweep").decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SweepError(f"{p}: cannot read sweep file: {exc}") from None
-    try:
-        data = tomllib.loads(text)
-        return parse_sweep(data, str(p), p.resolve().parent, text, set_, allow_code=allow_code)
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepError(f"{p}: not valid TOML: {exc}") from None
+        return parse_sweep(data, source, base, text, tuple(set_), allow_code=allow_code)
     except RecursionError:
         raise SweepError(
-            f"{p}: nested too deeply to read (tables or arrays within each other "
+            f"{source}: nested too deeply to read (tables or arrays within each other "
             f"hundreds of levels deep)"
         ) from None

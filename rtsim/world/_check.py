@@ -75,9 +75,11 @@ def in_range(key: str, value: object, rng: Range) -> float:
 
 def in_ranges(spec_: object, table: str) -> None:
     """Check (and normalise) every `spec` field of the frozen dataclass ``spec_`` against its
-    range; a value outside it is a `ScenarioError` naming ``<table>.<key>``."""
+    range; a value outside it is a `ScenarioError` naming ``<table>.<key>`` (the range's own
+    key when it has one: a file key whose field is named otherwise)."""
     for f in fields(spec_):  # type: ignore[arg-type]
         rng = f.metadata.get("range")
         value = getattr(spec_, f.name)
         if rng is not None and value is not None:
-            object.__setattr__(spec_, f.name, in_range(f"{table}.{f.name}", value, rng))
+            key = rng.key or f"{table}.{f.name}"
+            object.__setattr__(spec_, f.name, in_range(key, value, rng))

@@ -138,6 +138,17 @@ class RadioParams:
         return self.min_ms is not None or self.loss > 0
 
 
+#: the reason of the leader's ramp limits' range (``[leader] accel_max``, ``decel_max``)
+_RAMP = "at most 100 g; inf: the speed steps"
+_ROBOT = "a ground robot at most 10 m/s"
+
+
+def _leader(key: str, lo: float, hi: float, unit: str, why: str, **kw: bool) -> Range:
+    """The range of a ``[leader]`` key, named by its file key (``leader.<key>``) in errors
+    and read by the scenario file's table (`spec`)."""
+    return Range(f"leader.{key}", lo, hi, unit, why, **kw)
+
+
 @dataclass(frozen=True)
 class WorldConfig:
     """Everything the [`World`][rtsim.world.world.World] needs.
@@ -154,16 +165,31 @@ class WorldConfig:
     """
 
     path: LeaderPath
-    leader_speed: float
+    leader_speed: float = field(
+        metadata={"range": _leader("speed", 0, 1000, "cm/s", _ROBOT, lo_open=True)}
+    )
     formation: Formation
     follower: FollowerParams = field(default_factory=FollowerParams)
     sensing: SensingParams = field(default_factory=SensingParams)
     ekf: EkfParams = field(default_factory=EkfParams)
     thresholds: Thresholds = DEFAULT_THRESHOLDS
     step_ms: float = spec(10.0, Range("", 1e-3, 1e4, "ms", "1 µs to 10 s per integration step"))
-    start_s: float = 0.0
-    leader_accel_max: float = math.inf
-    leader_decel_max: float = math.inf
+    start_s: float = spec(
+        0.0,
+        _leader(
+            "start_s",
+            0,
+            1e7,
+            "cm",
+            "a position along the path (within one lap, checked against the path's length)",
+        ),
+    )
+    leader_accel_max: float = spec(
+        math.inf, _leader("accel_max", 0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)
+    )
+    leader_decel_max: float = spec(
+        math.inf, _leader("decel_max", 0, 1e5, "cm/s²", _RAMP, lo_open=True, inf=True)
+    )
     localization: LocalizationParams = field(default_factory=LocalizationParams)
     backend: str | None = None
     radio: RadioParams = field(default_factory=RadioParams)
@@ -185,14 +211,7 @@ class WorldConfig:
                 f"world.backend: {self.backend!r} contradicts ekf.backend = "
                 f"'filterpy' (an alias of world.backend = 'filterpy')"
             )
-        object.__setattr__(self, "leader_speed", positive("leader.speed", self.leader_speed))
-        for key in ("accel_max", "decel_max"):
-            object.__setattr__(
-                self,
-                f"leader_{key}",
-                positive(f"leader.{key}", getattr(self, f"leader_{key}"), allow_inf=True),
-            )
-        in_ranges(self, "world")  # (step_ms)
+        in_ranges(self, "world")  # (step_ms, the [leader] keys under their file names)
         if self.start_on not in START_ON:
             raise ScenarioError(
                 f"leader.start_on: must be one of {', '.join(START_ON)}, got {self.start_on!r}"

@@ -1,33 +1,9 @@
-"""One filterpy ``ExtendedKalmanFilter`` per follower: pose (x, y, θ) in the world frame
-(docs/model/world.md).
-
-**Predict** with the followers' motion model (`rtsim.world.motionmodels`: its ``process``,
-read by `ekf_command` and ``predict_command``) and the command the leader sent, held over the
-interval. The unicycle's (`command_process`): the leader knows the acceleration limit, so
-the speed used is the mean of the expected ramp toward the command. With chord
-c = v·dt·sinc(ω dt/2) and mid-heading m = θ + ω dt/2 the model is x' = x + c cos m,
-y' = y + c sin m, θ' = θ + ω dt, and
-
-    F = ∂f/∂(x, y, θ) = [[1, 0, −c sin m], [0, 1, c cos m], [0, 0, 1]],
-    G = ∂f/∂(v, ω) ≈ [[dt·s cos m, −(dt/2) c sin m], [dt·s sin m, (dt/2) c cos m], [0, dt]]
-
-(s = sinc term; G drops the second-order change of the chord with ω). The process noise is
-Q = G diag(σ_v², σ_ω²) Gᵀ + dt·diag(q_p², q_p², q_θ²): the actuation noise per command plus
-a small random walk for what the model leaves out (the exact speed ramp, integration).
-
-**Update** with the measured position (the Hough fix turned into the world frame with the
-leader's own pose): h(x) = (x, y), H = [[1, 0, 0], [0, 1, 0]], R = σ_m² I.
-
-The leader predicts once per held command piece between two scans (at most two pieces per
-window: before and after that window's send), not per integration step: the arc model is
-exact for a held command, so finer predicts would only cost time.
-
-Two interchangeable implementations: [`FollowerEKF`][rtsim.world.ekf.FollowerEKF] wraps filterpy's
-``ExtendedKalmanFilter`` (the reference), `FastFollowerEKF` does the same algebra
-on plain floats (P = F P Fᵀ + Q with this F's two non-zeros; update P − K H P with
-H = [I₂ 0], which equals filterpy's Joseph form for the optimal gain), several times
-cheaper; a test checks that both agree to 1e-9.
-``EkfParams.backend`` chooses ("filterpy" or "fast").
+"""The leader's extended Kalman filter of each follower's pose (x, y, θ): predict with the
+followers' motion model's ``process`` (`rtsim.world.motionmodels`) and the command held,
+update with the Hough fix (docs/model/world.md, "Estimation"). `FollowerEKF` wraps
+filterpy's ``ExtendedKalmanFilter`` (the reference); `FastFollowerEKF` does the same algebra
+on plain floats, several times cheaper (tested equal to 1e-9); ``EkfParams.backend``
+chooses.
 """
 
 from __future__ import annotations

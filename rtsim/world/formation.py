@@ -1,51 +1,6 @@
-"""Formation slots (ρ_d,i, β_d,i) of the followers in the leader's frame
-(docs/model/upper-bounds.md, docs/model/world.md).
-
-β is counter-clockwise from the leader's heading, so trailing slots have β ∈ [90°, 270°].
-The default chevron for n followers: follower i (1-based) belongs to pair p = ⌈i/2⌉ at
-ρ_d = p·separation; odd followers sit at 180° + offset_p (right of the track), even ones at
-180° − offset_p (left) — a V behind the leader, the paper's two followers at 180° ± 15°.
-
-offset_1 is the given offset (15°). Were every pair at the same offset, the followers of
-pair p ≥ 2 would sit exactly behind those of pair p − 1 on the laser's ray and be hidden
-from it (a nearer disc shadows a farther one, docs/model/world.md): every scan would lose their
-tracks.
-So each further pair turns outward just enough to be seen:
-offset_p = offset_{p−1} + arcsin(r_F/ρ_{p−1}) + arcsin(r_F/ρ_p) + gap (the two discs'
-angular half-widths plus a gap of 1°, two beams). For the paper's two followers nothing
-changes; ten followers at 390 cm spread to 180° ± 31.4°.
-
-**Follow-the-leader** (the paper's followers, its reference [12]; docs/model/world.md) uses the same
-slots as the place each follower holds *on straights*: follower i tracks the leader's trace
-at lateral offset o_i = ρ_d,i·sin β_d,i (cm, positive to the left of the trace), at Euclidean
-distance ρ_d,i from the leader (`rtsim.world.ftl`). Its default line, `in_line`,
-keeps the ranks of the chevron (pair p at p·separation, odd followers right, even left) but
-*tucks* each further rank inside the one before it instead of widening outward:
-φ_p = φ_{p−1} − arcsin(r_F/ρ_{p−1}) − arcsin(r_F/ρ_p) − gap, so every follower stays visible
-on straights with lateral offsets of at most about 1.5 m (ten followers at 390 cm: 118, 150,
-143, 106 and 42 cm from the trace) where the widening chevron would need 10 m. φ_1 is the
-given offset (15°: the paper's two followers at 180° ± 15°, 101 cm either side of the trace
-at 390 cm), raised just enough when the last rank would otherwise come closer than its own
-half-width plus half the gap to the trace (and so to its partner on the other side).
-
-**The fan** (`fan`, ``formation.layout = "fan"``) keeps every follower at the same
-distance ρ_d from the leader — the paper gives one ρ_d for its followers — and spreads their
-bearings: the paper's pair at 180° ± offset, then each further follower one disc width plus
-the gap further out, φ_{k+1} = φ_k + 2·arcsin(r_F/ρ_d) + gap — or, when the clearance asks
-for more, the step whose chord is 2·r_F + clearance + a 5 cm margin (`fan_step`) — on
-the *outer* side of the
-path's turns (the right for a path driven counter-clockwise) until that side is full, then on
-the inner side. Why: in a turn, a follower's bearing swings toward the inside of the turn by
-about its depth behind the leader over twice the turn radius, so followers at different
-depths cross each other's rays (the line's further ranks hide behind the first in 8-19 % of a
-lap's windows) and far ones swing out of the laser's backward half-plane (a U-turn puts a
-follower 8 m back beside the leader); at one depth they swing alike and none hides another.
-The inner side holds only the pair's follower: an inner follower swings toward the leader's
-side (below 90°, out of the laser's field) in every turn, and an inner offset wider than the
-turn radius has no trace to follow. The price is speed: an outer follower o cm off the trace
-drives (1 + o/R) times the leader's speed in a turn of radius R. Ten followers at 390 cm:
-bearings 165° and 195° to 262°, at most 386 cm right of the trace on straights.
-"""
+"""Formation slots (ρ_d,i, β_d,i) of the followers in the leader's frame: the l-ψ chevron,
+follow-the-leader's ``line`` and ``fan`` layouts, each spread just enough that the laser
+sees every follower (docs/followers.md, "The formation"; docs/model/world.md)."""
 
 from __future__ import annotations
 

@@ -1,41 +1,6 @@
-"""Follow-the-leader control: each follower tracks the path the leader drove (docs/model/world.md).
-
-The paper's barrel robots "follow behind the leader" (its reference [12], Huang's thesis
-*Localization and Follow-The-Leader Control*). Here follower i tracks the leader's trace —
-the path the leader actually drove up to its arc length s_L (the leader drives its path
-exactly, so the trace is the path itself; before t = 0 it is the previous lap of the closed
-path) — shifted sideways by the follower's lateral offset o_i (cm, positive left):
-
-    P_i(s) = c(s) + o_i·(−sin h(s), cos h(s)),      c, h: the path's point and heading at s,
-
-an offset curve whose local scale is 1 − κ(s)·o_i (κ the path's signed curvature).
-
-**Place in line.** A follower of the first rank holds the Euclidean separation ρ_d,i to the
-leader that the bounds of docs/model/upper-bounds.md are written in: its reference is the first
-point P_i(s_ref)
-of its offset trace behind the leader with |P_i(s_ref) − L| = ρ_d,i. A follower of a further
-rank follows, the same way, the reference of the follower ahead of it on its side (index
-i − 2), at the Euclidean distance between their places on straights (|slot_i − slot_{i−2}|),
-as a column of barrels follows its predecessor: on straights every follower sits exactly on
-its slot (ρ_d,i, β_d,i), and in a turn no far follower has to cut across the path's loop to
-keep a Euclidean distance of several metres to the leader (with ρ_d = 780 cm across Test 1's
-4 m wide rectangle it would have to). In a turn the chord is shorter than the arc, so a
-reference lags and then catches up: its speed is, by implicit differentiation of
-|P(s_ref) − T| = const with T the point it follows (the leader, or the reference ahead),
-
-    V_ref = V_T · ((T − P)·t_T) / ((T − P)·t_P),                                       (FTL-1)
-
-with t_T, t_P the unit tangents at T and at the reference (V_ref = V_T on straights).
-
-**Controller** (on the leader's estimate of the follower, as every command). The follower's
-own place on its offset curve s_f is its projection (Newton steps from the last one). Speed law:
-v = V_ref + k_ρ·(s_ref − s_f)·(1 − κ(s_f)·o_i), clipped at 0 (the feed-forward (FTL-1) plus a
-proportional term on the along-track separation error, k_ρ = ``gain_rho``). Steering: pure
-pursuit (Coulter 1992) on the goal point P_i(s_f + ℓ) a look-ahead ℓ (``lookahead``) ahead on
-the trace: with D the distance and α the bearing of the goal in the follower's frame,
-ω = v · 2 sin α / D. The command is saturated, realised with actuation noise and held until
-the next one exactly as for l-ψ (`rtsim.world.follower`).
-"""
+"""Follow-the-leader control: each follower tracks the path the leader drove, offset
+sideways, holding its place in line by a search on its offset trace, a speed law (FTL-1)
+and pure pursuit (docs/model/world.md, "The follow-the-leader law")."""
 
 from __future__ import annotations
 

@@ -157,7 +157,15 @@ def hough_window(
                     a0 = 0
                     a1 = na - 1
         for aa in range(a0, a1 + 1):
-            a = aa % na
+            a = aa  # aa % na (θ ± γ lies within ±2π, so −2·na ≤ aa < 3·na), without a division
+            if a < 0:
+                a += na
+                if a < 0:
+                    a += na
+            elif a >= na:
+                a -= na
+                if a >= na:
+                    a -= na
             i = int(math.floor((x + r_F * ring_cos[a] - cx) / cell + 0.5)) + h
             j = int(math.floor((y + r_F * ring_sin[a] - cy) / cell + 0.5)) + h
             if i < 0 or j < 0 or i >= m or j >= m:

@@ -1,37 +1,7 @@
-"""Hough-window localization: window check, lost tracks, re-acquisition, and its cost
-(docs/model/lower-bound.md, docs/model/world.md).
-
-At a scan the leader measures each follower's position in its own frame (true position plus
-noise). The Hough transform for follower i searches a window of radius r_H around a centre
-chosen by ``[localization] centre`` (`LocalizationParams`):
-
-- ``previous`` (the default; the paper's Fig 5): the follower's previous position relative to
-  the leader — the leader's estimate at the previous scan, in the leader's frame at that scan.
-  Whatever the follower and the leader moved since is left to the window (ρ·Δβ of a far
-  follower behind a turning leader, ρ̇·w along the ray).
-- ``predicted``: the estimate carried to the new scan with the command the follower holds,
-  in the leader's frame at the new scan (the leader knows its own motion). What is left to the
-  window is the follower's departure from its predicted motion (docs/localization.md).
-
-The fix counts when the follower returned at least ``min_points`` beams and the measured
-centre lies within r_H of the window centre. Otherwise the track is **lost**, for one of
-`LOST_CAUSES` (`lost_cause`). A lost follower is **searched for** — the Hough
-transform re-run over the full scan with an accumulator for a window of radius r_reacq around
-the same centre — always (``[localization] search = "always"``, the default) or only when the
-leader, from its own prediction of every follower, expects it to return at least
-``min_points`` beams (``"visible"``: a search for a follower hidden from the laser finds
-nothing and only delays the window). A searched follower is **re-acquired** when it is
-visible and within r_reacq.
-
-Cost (Eq 1 with counted points, plus the searches):
-
-    e_hough = π r_H² n e_cal + P e_trans + S (π r_reacq² e_cal + 361 e_trans),
-
-P = scan points returned by the followers, S = searches at this scan (the lost followers
-with ``always``). The analysis's e_hough (Eq 1, k points per follower) has no search term:
-a window with a search exceeds the execution time the analysis assumed, and windows.csv
-counts its searches.
-"""
+"""Hough-window localization: the window check, lost tracks and their causes, the search
+for a lost follower and re-acquisition, and what they cost (Eq 1 with counted points, plus
+the searches); the window's centre is ``[localization] centre`` (docs/localization.md,
+docs/model/lower-bound.md)."""
 
 from __future__ import annotations
 

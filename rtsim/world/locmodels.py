@@ -45,6 +45,7 @@ from rtsim.world.hough import (
 )
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.localization import locate_one
+from rtsim.world.motionmodels import motion_model
 from rtsim.world.rangefinder import Rangefinder
 
 __all__ = [
@@ -248,8 +249,9 @@ def predicted_bound_ms(
     (`rtsim.analysis.kinematics.msb_localization_predicted`, docs/localization.md): the
     localization model ``model``'s fix noise σ_fix at the formation's farthest desired range
     ``rho_max`` (`LocalizationModel.fix_sd`), the EKF's initial heading error, the actuation
-    noise, at the followers' top speed, 3 standard deviations; the leader knows its own
-    motion (no error)."""
+    noise, at the followers' top speed, 3 standard deviations, the turn noise's drift the
+    followers' motion model's (`rtsim.world.motionmodels.MotionModel.turn_error`); the
+    leader knows its own motion (no error)."""
     fix_sd = localization_model(model).fix_sd(sensing, rho_max)
     if not math.isfinite(follower.max_speed):
         raise ScenarioError(
@@ -263,4 +265,5 @@ def predicted_bound_ms(
         speed_sd=follower.speed_noise,
         turn_sd=follower.turn_noise,
         v_max=follower.max_speed,
+        turn_error=motion_model(follower.motion_model, "follower.motion_model").turn_error,
     )

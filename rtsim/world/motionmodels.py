@@ -15,7 +15,11 @@ model cannot be half-wired (building one checks that every part is there):
   ``(θ, v, ω, v_c, ω_c, a, dt, σ_v², σ_ω², q_p², q_θ²) → (Δx, Δy, Δθ, F02, F12, q00, q01,
   q02, q11, q12, q22, v, ω)`` (`rtsim.world.ekf.command_process`);
 - ``leader`` — the leader's speed ramp along its path, ``(v0, v_target, accel, decel, dt) →
-  (v, arc length)`` (`rtsim.world.motion.leader_travel`).
+  (v, arc length)`` (`rtsim.world.motion.leader_travel`);
+- ``turn_error`` — the bounds: how far a turn-rate error turns the robot over a window,
+  ``(σ_ω, t) → (σ_θ, σ_∫θ)`` (`rtsim.analysis.kinematics.TurnError`; a plain function,
+  default the unicycle's, `rtsim.analysis.kinematics.unicycle_turn_error`, which bounds
+  any model whose turn rate is a non-negative average of its commands, such as a lag).
 
 (v, ω) is a robot's actual speed and turn rate (the unicycle's turn rate is its command's;
 a model with turn dynamics carries it), a its acceleration limit ``max_accel``. The
@@ -32,6 +36,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, fields
 from typing import Any
 
+from rtsim.analysis.kinematics import TurnError, unicycle_turn_error
 from rtsim.errors import InputError
 from rtsim.registry import Registry
 from rtsim.world._check import plugin
@@ -59,17 +64,24 @@ def _missing(*args: Any) -> Any:
 
 @dataclass(frozen=True)
 class MotionModel:
-    """A motion model (module docstring): ``name`` and its four parts, each a kernel source
-    with the unicycle's arguments. Building one with a part missing, not a kernel source or
-    with other arguments is an `InputError` naming the part."""
+    """A motion model (module docstring): ``name``, its four parts, each a kernel source
+    with the unicycle's arguments, and its ``turn_error`` for the bounds. Building one with
+    a part missing, not a kernel source or with other arguments is an `InputError` naming
+    the part."""
 
     name: str
     advance: Kernel = _missing
     step: Kernel = _missing
     process: Kernel = _missing
     leader: Kernel = _missing
+    turn_error: TurnError = unicycle_turn_error
 
     def __post_init__(self) -> None:
+        if not callable(self.turn_error):
+            raise InputError(
+                f"motion model {self.name!r}: turn_error (the bounds: the heading error a "
+                f"turn-rate error makes over a window) is not a function"
+            )
         for part, what in PARTS.items():
             fn = getattr(self, part)
             where = f"motion model {self.name!r}: {part} ({what})"

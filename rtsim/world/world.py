@@ -1,39 +1,19 @@
 """The robot-group world: truth and the leader's estimates side by side (docs/model/world.md).
 
 Plain numpy + filterpy, no engine: whoever owns time calls, in simulated **milliseconds**,
+`World.advance` (the truth up to t), `World.scan` at a window's scan (beams, fixes, Hough
+windows, lost tracks, the bound violations since the previous scan: a `Scan`),
+`World.estimate` with it (the EKFs predict with the commands sent and update with the
+fixes; the estimates centre the next windows, ``[localization] centre``), `World.command`
+at the end of follower i's send segment (l-ψ or follow-the-leader on the leader's
+estimate, held until the next command: a late window means stale commands) and
+`World.set_leader_speed` (the target the leader's speed ramps toward).
 
-- [`World.advance`][rtsim.world.world.World.advance] to integrate the truth up to t (called by the
-others as needed);
-- [`World.scan`][rtsim.world.world.World.scan] at a window's scan: beams, position fixes, Hough
-windows, lost tracks,
-  and the observed bound violations since the previous scan (a [`Scan`][rtsim.world.world.Scan]);
-- [`World.estimate`][rtsim.world.world.World.estimate] with that scan: the EKFs predict with the
-commands sent and
-  update with the fixes; the new estimates centre the next scan's Hough windows (as they
-  are, ``[localization] centre = "previous"``, or carried over the window with the commands
-  held and seen from the leader's pose then, ``"predicted"``);
-- [`World.command`][rtsim.world.world.World.command] at the end of follower i's send segment: l-ψ
-control
-  (``formation.model = "l-psi"``) or follow-the-leader (``"follow-the-leader"``,
-  `rtsim.world.ftl`) on the leader's estimate (propagated to t with the held command)
-  and the leader's own pose, held by the follower until the next command — a late window
-  means stale commands;
-- [`World.set_leader_speed`][rtsim.world.world.World.set_leader_speed] when the adjustment changes
-V_L: it sets the leader's
-  target speed, toward which its actual speed ramps (``leader_accel_max``,
-  ``leader_decel_max``); [`World.leader_speed`][rtsim.world.world.World.leader_speed] is the actual
-  speed,
-  [`World.leader_target_speed`][rtsim.world.world.World.leader_target_speed] the target.
-
-**Initial state** (t = 0): the leader at ``start_s`` on its path at V_Ld (or
-``start_speed``); each l-ψ
-follower's axle exactly on its slot, moving in steady formation (speed and heading from
-[`formation_velocity`][rtsim.analysis.kinematics.formation_velocity], turn rate ω_L); each
-follow-the-leader follower on its reference point of the trace, heading along it at the
-reference's speed (turn rate 0); each holding that command without noise; each estimate
-is the truth plus N(0, init_position_sd²) per coordinate and N(0, init_heading_sd²) on
-the heading. Followers are numbered from 1 in
-every method; arrays are indexed i − 1.
+**Initial state** (t = 0): the leader at ``start_s`` at V_Ld (or ``start_speed``); each
+follower on its slot (l-ψ, in steady formation: `formation_velocity`) or its reference
+point of the trace (follow-the-leader), holding that command without noise; each estimate
+the truth plus N(0, init_position_sd²) per coordinate and N(0, init_heading_sd²) on the
+heading. Followers are numbered from 1 in every method; arrays are indexed i − 1.
 """
 
 from __future__ import annotations

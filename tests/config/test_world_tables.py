@@ -7,7 +7,7 @@ from __future__ import annotations
 import ast
 import inspect
 import math
-from dataclasses import MISSING, fields
+from dataclasses import MISSING, fields, replace
 from typing import Annotated, Any, get_args, get_origin
 
 import pytest
@@ -126,3 +126,45 @@ def test_a_spec_keeps_the_types_it_always_had() -> None:
     assert type(p.radius) is float and p.max_turn_rate == math.inf
     s = SensingParams(min_points=3, max_range=math.inf)
     assert type(s.min_points) is int and s.max_range == math.inf
+
+
+#: ``[leader]``'s numeric keys and the WorldConfig fields that declare them
+LEADER_KEYS = {
+    "speed": "leader_speed",
+    "start_s": "start_s",
+    "accel_max": "leader_accel_max",
+    "decel_max": "leader_decel_max",
+}
+
+
+def test_the_leader_keys_are_declared_once() -> None:
+    """``[leader]``'s numbers: the table's range and default are WorldConfig's field's (its
+    range named by the file key), read with ``_spec`` and the field's attribute, never
+    written again in the table; a WorldConfig built by hand is held to the same range."""
+    spec_fields = {f.name: f for f in fields(WorldConfig)}
+    for key, name in LEADER_KEYS.items():
+        f, info = spec_fields[name], sc.LeaderTable.model_fields[key]
+        rng = f.metadata["range"]
+        assert rng.key == f"leader.{key}" and _range(info) == replace(rng, key=""), key
+        if f.default is MISSING:
+            assert info.is_required(), key
+        else:
+            assert info.default == f.default, key
+    for node in _class_body("LeaderTable").body:
+        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            key = node.target.id
+            if key in LEADER_KEYS:
+                src = ast.unparse(node)
+                assert f"_spec(WorldConfig, '{LEADER_KEYS[key]}')" in src, src
+                assert node.value is None or ast.unparse(node.value) == (
+                    f"WorldConfig.{LEADER_KEYS[key]}"
+                ), src
+    base = sc.load_scenario("test2").world
+    for name, bad, message in (
+        ("leader_speed", 1500.0, r"^leader\.speed: must be in \(0, 1000\] cm/s"),
+        ("leader_accel_max", 0.0, r"^leader\.accel_max: must be in \(0, 100000\] cm/s² or inf"),
+        ("start_s", -1.0, r"^leader\.start_s: must be in \[0, 1e\+07\] cm"),
+    ):
+        with pytest.raises(ScenarioError, match=message):
+            replace(base, **{name: bad})
+    assert replace(base, leader_decel_max=math.inf).leader_decel_max == math.inf

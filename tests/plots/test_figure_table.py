@@ -17,6 +17,7 @@ import matplotlib.image as mpimg  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from traced import traced_peak as _peak  # noqa: E402
 
 import rtsim.plots.scenario_data as sd  # noqa: E402
@@ -160,3 +161,179 @@ def test_line_points_keep_each_bins_range_and_dot_points_each_band(m: int) -> No
     for i in np.flatnonzero(~dots)[:200]:
         same = (bs == bs[i]) & dots
         assert np.min(np.abs(ys[same] - ys[i])) < band
+
+
+def _kept_the_simple_way(path: Path, chunk: int) -> pd.DataFrame:
+    """The figures' table built the plain way (as before issue 36, item 4): windows.csv
+    parsed in chunks of ``chunk`` rows, each reduced and thinned by the bins of the run's
+    time span, the kept rows of every chunk concatenated at the end."""
+    whole = read_columns(path, ["t", "w", "w_sch"])
+    t, w = whole["t"].to_numpy(float), whole["w"].to_numpy(float)
+    t0, span = t[0], t[-1] + w[-1] - t[0]
+    w_sch = float(whole["w_sch"].max())
+    parts = []
+    for part in pd.read_csv(path, usecols=sd.figure_columns(N), chunksize=chunk):
+        small = sd.reduce_chunk(part)
+        bins = np.floor(np.clip((small["t"].to_numpy() - t0) * (sd.FIGURE_BINS / span), 0, None))
+        keep = sd.keep_extremes(
+            small, bins.astype(np.int64), sd.FIGURE_DOT_CELL * w_sch, sd.BOUNDS_CLIP * w_sch
+        )
+        parts.append(small[keep])
+    return pd.concat(parts, ignore_index=True)
+
+
+@pytest.mark.parametrize("chunk", [97, 2048])
+def test_the_table_is_the_whole_tables_kept_rows_and_figure_columns(
+    long_csv: Path, chunk: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`read_figure_table` (three passes, the kept rows copied into columns allocated once)
+    gives the table built by concatenating each chunk's kept rows, column for column, dtype
+    for dtype, value for value; and every figure's data (`figure_data`) taken from it equals
+    the same figure's data taken from the wide table (each follower's bound columns, not
+    their minima) at the kept windows: the figures draw the same values either way."""
+    monkeypatch.setattr(sd, "FIGURE_READ_ROWS", chunk)
+    thin = sd.read_figure_table(long_csv, N)
+    pd.testing.assert_frame_equal(thin, _kept_the_simple_way(long_csv, chunk))
+    wide = read_columns(long_csv, sd.figure_columns(N))
+    wide = wide.set_index("window", drop=False).loc[thin["window"]].reset_index(drop=True)
+    assert [c for c in wide.columns if "_msb_" in c] and not [c for c in thin if "_msb_" in c]
+    for name in sd.FIGURE_NAMES:
+        pd.testing.assert_frame_equal(sd.figure_data(thin, name), sd.figure_data(wide, name))
+
+
+def test_a_column_read_as_two_types_is_joined_as_pandas_joins_it(
+    long_csv: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A column whose first chunk is empty (parsed as floats) and later chunks text: the
+    table holds it as `pandas.concat` of the kept rows does (object), and an empty
+    windows.csv gives the empty table of the figures' columns."""
+    monkeypatch.setattr(sd, "FIGURE_READ_ROWS", 97)
+    df = pd.read_csv(long_csv)
+    df.loc[:150, "binding"] = np.nan
+    path = tmp_path / "windows.csv"
+    df.to_csv(path, index=False)
+    thin = sd.read_figure_table(path, N)
+    want = _kept_the_simple_way(path, 97)
+    chunks = [c["binding"].dtype for c in pd.read_csv(path, usecols=["binding"], chunksize=97)]
+    assert chunks[0] == np.float64 and chunks[-1] != np.float64
+    assert want["binding"].dtype == object
+    pd.testing.assert_frame_equal(thin, want)
+    df.iloc[:0].to_csv(path, index=False)
+    empty = sd.read_figure_table(path, N)
+    assert len(empty) == 0
+    assert list(empty.columns) == list(sd.reduce_chunk(df.loc[:0, sd.figure_columns(N)]).columns)
+
+
+def _old_shade(ax, spans: list[tuple[float, float]], kind: str, label: str) -> None:
+    """The shading as drawn before: one axvspan per span."""
+    from rtsim.plots.scenario import COLORS
+
+    for k, (a, b) in enumerate(spans):
+        ax.axvspan(
+            a, b, color=COLORS[kind], alpha=0.15, lw=0, gid=kind, label=label if k == 0 else None
+        )
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_one_collection_of_spans_draws_the_pixels_of_a_patch_per_span(seed: int) -> None:
+    """`_shade` (the first span a patch, the others one collection) gives the RGBA buffer of
+    a patch per span, byte for byte at 300 dpi: spans wide and narrower than a pixel, two
+    within one pixel column, under a line, with the legend."""
+    from rtsim.plots.figure import new_figure
+    from rtsim.plots.scenario import _shade
+
+    rng = np.random.default_rng(seed)
+    edges = np.sort(rng.uniform(0, 3600, 1200))
+    spans = [(float(a), float(b)) for a, b in edges.reshape(-1, 2)]
+    spans.append((spans[-1][1] + 1e-3, spans[-1][1] + 2e-3))  # within the same pixel
+    images = []
+    for shade in (_old_shade, _shade):
+        fig = new_figure(figsize=(7.0, 2.8), layout="constrained")
+        ax = fig.add_subplot()
+        shade(ax, spans, "critical", "critical")
+        ax.plot([0, 3600], [0, 1], color="k", lw=1)
+        ax.set_xlim(0, 3600)
+        ax.legend()
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()
+        images.append(bytes(canvas.buffer_rgba()))
+    assert images[0] == images[1]
+
+
+@pytest.mark.parametrize(
+    "values", [["a:1", "b:2", None, "a:1", "c"], ["x:y:z", "", "q", None], [1.0, 2.5, np.nan]]
+)
+@pytest.mark.parametrize("dtype", [None, "str", object])
+def test_text_field_is_pandas_split_per_row(values: list[object], dtype: object) -> None:
+    """`text_field` gives per row what ``.str.split(':').str[0]`` and
+    ``.str.rsplit(':', n=1).str[-1]`` give, NaN for a missing cell."""
+    s = pd.Series(values, dtype=dtype)  # type: ignore[call-overload]
+    first = s.astype(str).str.split(":").str[0].to_numpy()
+    last = s.astype(str).str.rsplit(":", n=1).str[-1].to_numpy()
+    for got, want in ((sd.text_field(s), first), (sd.text_field(s, last=True), last)):
+        assert pd.Series(got, dtype=object).equals(pd.Series(want, dtype=object))
+
+
+def test_as_floats_takes_a_float_column_as_it_is() -> None:
+    """A float column's values without a copy; text as numbers, NaN where it is none."""
+    df = pd.DataFrame({"a": [1.5, np.inf, np.nan], "b": ["1", "x", ""]})
+    a = sd.as_floats(df["a"])
+    assert np.shares_memory(a, df["a"].to_numpy())
+    np.testing.assert_array_equal(a, [1.5, np.inf, np.nan])
+    np.testing.assert_array_equal(sd.as_floats(df["b"]), [1.0, np.nan, np.nan])
+
+
+def _zigzag_png(
+    travel_limit: int | None, monkeypatch: pytest.MonkeyPatch, alpha: float = 1.0
+) -> tuple[bytes, int]:
+    """A steps-post line swinging up and down the axes in each of 2,000 columns, drawn as
+    `_step` draws it (with ``travel_limit``) or without the effect (None); the RGBA bytes
+    and the number of paths handed to Agg."""
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    import rtsim.plots.scenario as sc
+    from rtsim.plots.figure import new_figure
+
+    x = np.repeat(np.arange(2000.0), 4)
+    y = np.tile([0.0, 100.0, 10.0, 90.0], 2000)
+    calls = []
+    real = RendererAgg.draw_path
+
+    def counted(self, gc, path, transform, rgbFace=None):  # noqa: N803
+        calls.append(len(path.vertices))
+        return real(self, gc, path, transform, rgbFace)
+
+    fig = new_figure(figsize=(7.0, 2.8))
+    ax = fig.add_subplot()
+    (line,) = ax.plot(x, y, drawstyle="steps-post", lw=1.3, color="#0072B2", alpha=alpha)
+    if travel_limit is not None:
+        monkeypatch.setattr(sc, "AGG_LINE_TRAVEL", travel_limit)
+        line.set_path_effects([sc._Pieces()])
+    ax.set_ylim(0, 50)  # half of each swing is clipped away
+    canvas = FigureCanvasAgg(fig)
+    with monkeypatch.context() as m:
+        m.setattr(RendererAgg, "draw_path", counted)
+        canvas.draw()
+    return bytes(canvas.buffer_rgba()), max(calls)
+
+
+def test_a_long_line_is_rasterized_in_pieces_and_a_short_one_as_it_is(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`_Pieces`: a line within `AGG_LINE_TRAVEL` (counted within the axes) gives the bytes
+    of the same line drawn without it; a longer one reaches Agg in pieces of at most the
+    travel, the largest path handed over shrinking with the limit, and the image differs
+    only where the pieces join (by more than half the range in under 0.1 % of the pixels,
+    as the thinned figures are checked); a translucent line is drawn
+    whole."""
+    whole, largest = _zigzag_png(None, monkeypatch)
+    same, n_same = _zigzag_png(10**9, monkeypatch)
+    assert same == whole and n_same == largest
+    cut, n_cut = _zigzag_png(100_000, monkeypatch)
+    assert n_cut < largest / 2
+    a = np.frombuffer(whole, dtype=np.uint8).reshape(-1, 4).astype(int)
+    b = np.frombuffer(cut, dtype=np.uint8).reshape(-1, 4)
+    diff = np.abs(a - b).max(axis=1)
+    assert diff.any() and (diff > 127).mean() < 1e-3
+    translucent, n_whole = _zigzag_png(None, monkeypatch, alpha=0.3)
+    assert _zigzag_png(100_000, monkeypatch, alpha=0.3) == (translucent, n_whole)

@@ -135,6 +135,16 @@ def gid_patches(ax, gid: str) -> list[Rectangle]:
     return [p for p in ax.patches if p.get_gid() == gid]
 
 
+def shaded(ax, gid: str) -> list[tuple[float, float]]:
+    """The (start, end) of each shaded span: the first is an axvspan (it carries the legend
+    entry), the others one collection of rectangles (`_shade`)."""
+    spans = [(p.get_x(), p.get_x() + p.get_width()) for p in gid_patches(ax, gid)]
+    for c in ax.collections:
+        if c.get_gid() == gid and c.get_transform() == ax.get_xaxis_transform():
+            spans += [(v[:, 0].min(), v[:, 0].max()) for v in (p.vertices for p in c.get_paths())]
+    return sorted(spans)
+
+
 def labelled_lines(ax) -> dict[str, matplotlib.lines.Line2D]:
     return {ln.get_label(): ln for ln in ax.get_lines() if not ln.get_label().startswith("_")}
 
@@ -203,15 +213,12 @@ def test_critical_shading_spans_match_critical_windows(df):
     want = expected_spans(df, CRITICAL)
     assert flat(critical_spans(df)) == pytest.approx(flat(want))
     for fig in (plot_window_slack(df), plot_bounds(df), plot_operating_space(df)):
-        got = sorted(
-            (p.get_x(), p.get_x() + p.get_width()) for p in gid_patches(fig.axes[0], "critical")
-        )
-        assert flat(got) == pytest.approx(flat(want))
+        assert flat(shaded(fig.axes[0], "critical")) == pytest.approx(flat(want))
 
 
 def test_speed_shades_turns_and_plots_both_speeds(df):
     ax = plot_speed(df).axes[0]
-    got = [(p.get_x(), p.get_x() + p.get_width()) for p in gid_patches(ax, "turn")]
+    got = shaded(ax, "turn")
     assert flat(got) == pytest.approx(flat(expected_spans(df, [TURN])))
     lines = labelled_lines(ax)
     # steps over the window starts, plus the end of the last window (t + w) at its value
@@ -367,7 +374,7 @@ def test_edge_cases_draw(case):
     axes = fig.subplots(1, len(SCENARIO_FIGURES))
     for ax, plot in zip(axes, SCENARIO_FIGURES.values(), strict=True):
         assert plot(d, ax=ax) is fig
-        assert not gid_patches(ax, "critical")
+        assert not shaded(ax, "critical")
         lo, hi = ax.get_ylim()
         assert np.isfinite(lo) and np.isfinite(hi)
     if case == "all_inf":

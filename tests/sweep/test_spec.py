@@ -270,7 +270,7 @@ BAD = [
         r"sweep.base: required",
     ),
     ("set-and-grid", OK_HEAD + "[sweep.set]\nn = 2\n[grid]\nn = [1]\n", r"also given in sweep.set"),
-    ("malformed", "[sweep\nkind=", r"not valid TOML"),
+    ("malformed", "[sweep\nkind=", r"malformed TOML"),
 ]
 
 

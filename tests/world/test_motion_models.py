@@ -236,3 +236,148 @@ def test_a_substitution_reaches_through_the_callers() -> None:
     if compiled.available():
         assert jit.build(_outer, subs)(2.0) == 70.0 and jit.build(_outer)(2.0) == 50.0
         assert jit.build(_triple, subs) is jit.build(_triple)  # shared
+
+
+# -- the bounds: what reads the motion model (rtsim.analysis.kinematics) ---------------------
+
+
+def test_the_rates_read_no_motion_model(turnlag: Any) -> None:
+    """ρ̇ (Eq 17) and β̇ are the relative velocity of two points moving along their headings:
+    a follower moved by the turn-lag model, whatever its lagging turn rate, changes ρ and β
+    over 1 ms at the rates the formulas give from (V_L, V_F, β, θ) alone (a first-order
+    difference: within 1e-3 of the rate's scale)."""
+    from rtsim.analysis.kinematics import beta_dot, relative_state, rho_dot
+    from rtsim.world.motion import arc
+
+    dt, v_l, v_f = 1e-3, 30.0, 25.0
+    leader = (0.0, 0.0, 0.2)
+    for w_lag in (-1.0, 0.0, 0.7):  # the follower's actual turn rate, its command 0.3 rad/s
+        for pose in ((-80.0, -20.0, 0.5), (-60.0, 45.0, -0.3)):
+            rho, beta, theta = relative_state(leader, pose)
+            x, y, th, _, _, _ = turnlag.lag_step(*pose, v_f, w_lag, v_f, 0.3, 100.0, dt)
+            lead = arc(*leader, v_l, 0.0, dt)
+            rho1, beta1, _ = relative_state(lead, (x, y, th))
+            assert (rho1 - rho) / dt == pytest.approx(rho_dot(v_l, v_f, beta, theta), abs=0.05)
+            got = math.remainder(beta1 - beta, 2 * math.pi) / dt
+            assert got == pytest.approx(beta_dot(v_l, v_f, beta, theta, rho, 0.0), abs=1e-3)
+
+
+def test_a_lag_turns_no_further_on_a_turn_error_than_the_unicycle(turnlag: Any) -> None:
+    """The one bound quantity a model supplies, its turn error: the turn-lag keeps the
+    unicycle's (σ_θ = σ_ω·t), and rightly — a lag's turn-rate error averages the commands'
+    errors, so random histories of command errors (σ_ω each, a new command every 50–300 ms)
+    turn it less, and one error held from long before the window turns it exactly as far."""
+    from rtsim.analysis.kinematics import unicycle_turn_error
+
+    assert turnlag.TURN_LAG.turn_error is unicycle_turn_error
+    rng = np.random.default_rng(7)
+    sd, t_win = 0.3, 0.4
+
+    def drift(w0: float, pieces: list[tuple[float, float]]) -> float:
+        th, w = 0.0, w0
+        for wc, dt in pieces:
+            _, _, th, _, w, _ = turnlag.lag_step(0.0, 0.0, th, 30.0, w, 30.0, wc, 100.0, dt)
+        return th
+
+    errors = []
+    for _ in range(3000):
+        # two seconds of commands before the window opens: the turn-rate error it carries in
+        w0, t = 0.0, -2.0
+        while True:
+            dt = rng.uniform(0.05, 0.3)
+            wc = rng.normal(0.0, sd)
+            if t + dt >= 0.0:
+                break
+            _, _, _, _, w0, _ = turnlag.lag_step(0.0, 0.0, 0.0, 30.0, w0, 30.0, wc, 100.0, dt)
+            t += dt
+        if t < 0.0:  # the command held when the window opens
+            _, _, _, _, w0, _ = turnlag.lag_step(0.0, 0.0, 0.0, 30.0, w0, 30.0, wc, 100.0, -t)
+        pieces = [(wc, min(t + dt, t_win))]  # ... held on, then new commands
+        t += dt
+        while t < t_win:
+            dt = min(rng.uniform(0.05, 0.3), t_win - t)
+            pieces.append((rng.normal(0.0, sd), dt))
+            t += dt
+        errors.append(drift(w0, pieces))
+    assert float(np.std(errors)) < 0.8 * unicycle_turn_error(sd, t_win)[0]
+    held = drift(sd, [(sd, t_win)])  # one error held since long before: the unicycle's
+    assert held == pytest.approx(unicycle_turn_error(sd, t_win)[0], rel=1e-12)
+
+
+def test_the_bounds_read_a_models_turn_error(turnlag: Any) -> None:
+    """A model whose turn error is twice the unicycle's (a turn actuator with twice the
+    command's error) gets the predicted-centre bound and the noise-aware padding of a
+    unicycle with twice the turn noise: through the scenario's thresholds and through
+    PolicyInput. The bound's bisection, given the unicycle's own error, is its closed form."""
+    from rtsim.analysis.kinematics import (
+        Thresholds,
+        msb_localization_predicted,
+        unicycle_turn_error,
+    )
+    from rtsim.control.policy import PolicyInput, pad_rows
+    from rtsim.control.predict import FollowerEstimate
+
+    def doubled(sd: float, t: float) -> tuple[float, float]:
+        return unicycle_turn_error(2.0 * sd, t)
+
+    kw = {"fix_sd": 1.0, "heading_sd": 0.03, "speed_sd": 0.5, "turn_sd": 0.2, "v_max": 60.0}
+    closed = msb_localization_predicted(25.0, **kw)
+    assert msb_localization_predicted(
+        25.0, **kw, turn_error=lambda s, t: unicycle_turn_error(s, t)
+    ) == pytest.approx(closed, rel=1e-10)
+    twice = msb_localization_predicted(25.0, **{**kw, "turn_sd": 0.4})
+    assert twice < closed
+    assert msb_localization_predicted(25.0, **kw, turn_error=doubled) == pytest.approx(
+        twice, rel=1e-10
+    )
+    MOTION_MODELS.register("wobbly", replace(turnlag.TURN_LAG, name="wobbly", turn_error=doubled))
+    try:
+        thr = {
+            m: load_scenario("test1", overrides={"follower.motion_model": m}).world.thresholds
+            for m in ("unicycle", "turn-lag", "wobbly")
+        }
+        sd = load_scenario("test1").world.follower.turn_noise
+        over = {"follower.turn_noise_deg": math.degrees(2.0 * sd)}
+        loud = load_scenario("test1", overrides=over)
+    finally:
+        del MOTION_MODELS["wobbly"]
+    assert thr["turn-lag"].predicted_ms == thr["unicycle"].predicted_ms  # (its error: the same)
+    assert thr["wobbly"].predicted_ms == pytest.approx(loud.world.thresholds.predicted_ms, rel=1e-9)
+    assert thr["wobbly"].predicted_ms < thr["unicycle"].predicted_ms
+    f = FollowerEstimate(rho=100.0, beta=math.pi, theta=0.05, v_f=30.0, rho_d=100.0)
+    t = Thresholds(25.0, 0.01, 0.025, 0.1)
+    base = {"followers": [f], "v_ld": 30.0, "w_sch": 250.0, "thresholds": t}
+    rows = [(1000.0, 800.0, 600.0, 900.0)]
+    noise = {"speed_noise": 0.5, "pose_sd": ((1.0, 0.02),)}
+    padded = {
+        name: pad_rows(rows, [f], PolicyInput(**base, **noise, **extra), 30.0, 2.0)[0]  # type: ignore[arg-type]
+        for name, extra in (
+            ("uni", {"turn_noise": 0.2}),
+            ("wobbly", {"turn_noise": 0.2, "turn_error": doubled}),
+            ("loud", {"turn_noise": 0.4}),
+        )
+    }
+    assert padded["wobbly"] == pytest.approx(padded["loud"], rel=1e-12)
+    assert padded["wobbly"][1] < padded["uni"][1]
+
+
+def test_the_predicted_bound_holds_in_a_turn_lag_run(turnlag: Any) -> None:
+    """Never optimistic: a turn-lag world (test1, turn noise 20°/s) scanned every
+    predicted-centre bound's worth of ms (362 ms) for 30 s keeps every follower within r_H
+    of its predicted window centre at every scan (18.9 cm at most, measured; the unicycle's
+    18.7 cm)."""
+    over = {"follower.motion_model": "turn-lag", "follower.turn_noise_deg": 20.0}
+    cfg = load_scenario("test1", overrides={**over, "world.backend": "python"}).world
+    w = cfg.thresholds.predicted_ms
+    assert cfg.localization.centre == "predicted" and 300.0 < w < 400.0
+    world = World(cfg, np.random.default_rng(3))
+    worst = 0.0
+    for j in range(int(30000 / w)):
+        scan = world.scan(j * w)
+        if j:
+            for (tx, ty), (cx, cy) in zip(scan.truth, scan.centre, strict=True):
+                worst = max(worst, math.hypot(tx - cx, ty - cy))
+        world.estimate(scan)
+        for i in range(1, world.n + 1):
+            world.command(i, j * w + 130.0 + 3 * i)
+    assert 10.0 < worst <= cfg.thresholds.r_H, worst
