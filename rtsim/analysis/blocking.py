@@ -1,56 +1,10 @@
 """Blocking on shared resources: preemption levels, resource ceilings and blocking terms.
 
-A task's critical sections (`CriticalSection`) hold a shared
-resource exclusively; the resource protocol decides how a job waits for one
-(docs/resources.md). All three protocols rtsim knows are *ceiling* protocols in the stack
-form, which the simulator runs (`rtsim.sim.cpu`) and this module bounds:
-
-- every task has a **preemption level** π: under fixed priorities its priority (a smaller
-  number is a higher level), under EDF its relative deadline (a shorter deadline is a higher
-  level; Baker 1991);
-- every resource has a **ceiling**: the highest level of the tasks that use it (``pcp``,
-  ``srp``), or above every task (``npr``: a section is not preemptible);
-- the **system ceiling** Π is the highest ceiling of the resources locked now; a job may
-  start running (or take the CPU back) only if its level is above Π, unless it holds a
-  resource itself.
-
-``pcp`` is the *immediate* priority ceiling protocol (ICPP, "highest locker", Sha, Rajkumar &
-Lehoczky 1990 / Baker 1991): a job that locks a resource runs at once at its ceiling, so
-a higher-priority job of level up to the ceiling waits before it starts instead of starting
-and blocking at its own lock (the original protocol). Both give a job at most one blocking,
-by one section, so the bounds below are the same for both; under fixed priorities ``srp``
-runs the same schedule as ``pcp``.
-
-**Fixed priority** (Sha, Rajkumar & Lehoczky 1990; Buttazzo, *Hard Real-Time Computing
-Systems*, 3rd ed., §7.7–7.9): task i is blocked at most once per level-i busy period, by one
-section of a lower-priority task j
-
-    B_i = max { |z| : z a section of j, P_j < P_i, ceiling(R(z)) ≥ P_i }       (pcp, srp)
-    B_i = max { |z| : z a section of j, P_j < P_i }                            (npr)
-
-and its response time is the least fixed point of R = B_i + C_i + Σ_hp ⌈(R + J_j)/T_j⌉ C_j
-([`rtsim.analysis.rta.busy_window`][rtsim.analysis.rta.busy_window]). With suspensions that leave
-the CPU idle, a lower
-job can lock a resource each time a job of i suspends, so each compute stretch of i can be
-blocked once (Rajkumar 1991): B_i is charged once per compute stretch of every job.
-
-**EDF with SRP** (Baker 1991, Theorem 6.4 in the demand form of Baruah 2006, "Resource
-sharing in EDF-scheduled systems: a closer look", RTSS): the set is schedulable if for every
-deadline point t, h(t) + B(t) ≤ t, with
-
-    B(t) = max { |z| : z a section of j, D_j > t, ceiling(R(z)) ≥ π_k for some k with
-                 D_k − J_k ≤ t }
-
-(``npr``: any section of a task with D_j > t). A job that blocks a job due by t is released
-before the interval [0, t] and due after it, so D_j > t; the waiting job's level must not be
-above the ceiling. B is non-increasing in t and 0 beyond the largest deadline of a task with
-a section.
-
-**Context-switch overhead** o (the simulator's ``overhead``): a job whose section begins a
-stretch of its CPU time locks the resource when it gets the CPU, so the switch into it (o
-ms, spent on its behalf before its work) is as unpreemptible as the section itself. Every
-blocking term above is therefore |z| + o when o > 0 (``blocking_overhead``): the blocked
-job waits for the switch and the section; its own switch afterwards is part of its cost.
+The stack form of the ceiling protocols ``pcp`` (immediate ceiling), ``srp`` and ``npr``, which
+`rtsim.sim.cpu` runs and this module bounds: B_i under fixed priority (Sha, Rajkumar &
+Lehoczky 1990; once per compute stretch with idle suspensions, Rajkumar 1991) and B(t) for
+EDF with SRP (Baker 1991 in Baruah's 2006 demand form), each plus the overhead o. The
+protocols, the formulas and why they hold: docs/resources.md (What the analyses add).
 """
 
 from __future__ import annotations

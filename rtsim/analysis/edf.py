@@ -1,66 +1,10 @@
 """EDF on one processor: the processor-demand criterion (with QPA) and Spuri's response times.
 
-Tasks are (C, T, D, J): WCET, period (minimum inter-arrival), relative deadline (arbitrary:
-above, at or below T) and release jitter, in ms; job k of a task arrives at k·T (sporadic: at
-least T apart), is released up to J later, and its deadline is arrival + D (docs/model/beyond.md).
-
-**Demand bound** (Baruah, Rosier & Howell 1990; with release jitter, Spuri 1996 and Zhang &
-Burns 2009 §6): the work of jobs released in [0, t] and due by t is at most
-
-    h(t) = Σ_i max(0, ⌊(t + J_i − D_i)/T_i⌋ + 1)·C_i,
-
-and preemptive EDF meets every deadline iff U = Σ C_i/T_i ≤ 1 and h(t) ≤ t for every
-deadline point t = k·T_i + D_i − J_i (k ≥ 0) up to a limit L. U > 1 is unschedulable at once;
-when every D_i − J_i ≥ T_i, U ≤ 1 suffices (h(t) ≤ Σ ⌊t/T_i⌋·C_i ≤ U·t: Liu & Layland 1973
-for D = T), with no point to check.
-
-**The limit L** (Zhang & Burns 2009, Theorems 2–3 with D_i − J_i for D_i): if U < 1,
-L_a = max(max_i (D_i − J_i), Σ_i (T_i − D_i + J_i)·U_i / (1 − U)); always the synchronous
-busy period L_b, the least fixed point of L = Σ_i ⌈(L + J_i)/T_i⌉·C_i from L = Σ C_i. L is
-min(L_a, L_b) (L_b alone when U = 1). With U = 1 and jitter L_b does not close; then, since
-h(t + H) = h(t) + H for t ≥ max_i (D_i − J_i) (H the hyperperiod), checking up to
-max_i (D_i − J_i) + H decides; periods that are not whole ms have no H here and such a set is
-reported unschedulable (pessimistic).
-
-**QPA** (Zhang & Burns 2009, Theorem 5, the Quick Processor-demand Analysis): t = the largest
-deadline point below L; while h(t) ≤ t and h(t) > d_min: t = h(t) if h(t) < t, else the
-largest deadline point below t; schedulable iff h(t) ≤ d_min (d_min = min_i (D_i − J_i)).
-It visits few points instead of all deadlines up to L.
-
-**Spuri's response-time bound** (Spuri 1996, "Analysis of deadline scheduled real-time
-systems", INRIA RR-2772, Theorem 2; jitter as in its §4 and Palencia & González Harbour
-2003): for the job of task i arriving at a in a deadline busy period starting at 0 (other
-tasks released at 0 as early as they can, i.e. arriving at −J_j, then every T_j), with
-absolute deadline d = a + D_i,
-
-    L_i(a) = W_i(a, L_i(a)) + (⌊(a + J_i)/T_i⌋ + 1)·C_i,
-    W_i(a, t) = Σ_{j≠i, D_j − J_j ≤ a + D_i}
-                min(⌈(t + J_j)/T_j⌉, ⌊(a + D_i − D_j + J_j)/T_j⌋ + 1)·C_j,
-    R_i = max(C_i + J_i, max_a (L_i(a) − a)),
-
-over a ∈ A = {k·T_j + D_j − J_j − D_i} ∪ {k·T_i − J_i}, −J_i ≤ a ≤ L_b − C_i (between two
-such points L_i is constant and L_i(a) − a falls). Jobs with a deadline equal to d count as
-interfering (ties can go against the analysed job). With J = 0 this is Spuri's theorem
-exactly.
-
-**Where Spuri's search does not close** (U = 1 with jitter, or periods without a common
-multiple, so the synchronous busy period is unbounded) and the demand criterion accepts the
-set, every job meets its deadline, so D is a valid bound:
-[`analyze_edf`][rtsim.analysis.edf.analyze_edf] reports it with
-``bound = "deadline"`` (``"spuri"`` where Spuri's bound is used). When the criterion fails
-and the search does not close, there is no bound (``"none"``).
-
-**Self-suspension** (the window's radio round trip Δt with the CPU idle): EDF is not optimal
-for self-suspending tasks (Ridouard, Richard & Cottet 2004), and the only treatment used here
-is the one the survey of Chen et al. (Real-Time Systems 55, 2019) confirms sound for EDF:
-suspension-oblivious, Δt counted as computation (C includes it). No tighter EDF suspension
-analysis is used. **Overhead** o: each job is charged 2·o per compute stretch (its own switch
-in, and the resumption of the job it preempted; under EDF a preemption happens only when a
-job starts a stretch).
-
-Numerics as `rtsim.analysis.rta`: ceilings ⌈(x − ε)/p⌉ and floors ⌊(x + ε)/p⌋ with an
-absolute ε = 1e-9 ms (both count a job whose boundary is within ε: sound), and h(t) ≤ t
-within 1e-9 ms.
+The demand bound h(t) with release jitter (Baruah, Rosier & Howell 1990; Zhang & Burns 2009),
+its limit L = min(L_a, L_b) and QPA (Zhang & Burns 2009, Theorems 2, 3 and 5), Spuri's (1996)
+per-task bound (``bound = "spuri"``, or ``"deadline"`` where his search does not close and
+the criterion accepts the set), Δt counted as computation, SRP blocking B(t) from
+`rtsim.analysis.blocking`. Equations, limits and numerics: docs/analysis-beyond.md (EDF).
 """
 
 from __future__ import annotations

@@ -1,43 +1,12 @@
 """Exact response-time analysis for fixed-priority preemptive scheduling on one CPU.
 
-For a task i with wcet e_i and the set hp(i) of higher-priority tasks, released together
-(the critical instant, Liu & Layland 1973), the worst-case response time is the least fixed
-point of (Joseph & Pandya 1986; Audsley et al. 1993)
-
-    R = e_i + Σ_{j ∈ hp(i)} ⌈R / p_j⌉ · e_j,
-
-found by iteration from R = e_i + Σ e_j and abandoned once R passes the deadline.
-
-Deadlines above the period are analysed with the level-i busy period (Lehoczky 1990;
-Tindell, Burns & Wellings 1994): job q = 0, 1, … of the busy period finishes at the least
-fixed point of w_q = (q+1)·e_i + Σ_j ⌈w_q / p_j⌉ e_j, its response is w_q − q·p_i, and the
-busy period ends with the first job that finishes by the next release, w_q ≤ (q+1)·p_i.
-For D_i ≤ p_i that is job 0 alone, i.e. the recurrence above.
-
-Release jitter (Tindell, Burns & Wellings 1994; docs/model/beyond.md): job k of task i *arrives* at
-O_i + k·T_i and is released in [arrival, arrival + J_i]; deadlines and responses count from the
-arrival. A higher task j then puts ⌈(w + J_j)/T_j⌉ jobs into a window of length w, and
-
-    w_i(q) = (q+1)·C_i + Σ_{j∈hp(i)} ⌈(w_i(q) + J_j)/T_j⌉·C_j,   R_i = J_i + max_q (w_i(q) − q·T_i),
-
-over q = 0, 1, … until the first q with w_i(q) ≤ (q+1)·T_i − J_i (the level-i busy window
-closes). With J = 0 this is the recurrence above. Offsets are ignored (sound, pessimistic).
-
-Context-switch overhead o (docs/model/beyond.md, the simulator's ``overhead``): a higher task's job
-costs
-C_j + 2·o·s_j and a job of task i costs C_i + o·s_i, where s is the number of compute stretches
-of a job (segments separated by suspensions; 1 for an ordinary task).
-
-Numerics: R/p_j is often an integer up to float rounding (e.g. R = 3·p_j built from a sum),
-so ceilings are taken as ⌈(x − ε)/p⌉ with an *absolute* ε = 1e-9 ms, the simulator's
-coincidence window (a release within 1e-9 ms of a completion comes after it); a tolerance
-relative to x/p would be 1e-9·p in time, optimistic for large periods. A response within
-1e-9 ms of the deadline counts as meeting it (docs/model/index.md: a job misses its deadline when it
-finishes later than D + 1e-9 ms).
-
-A processing-window set is analysed at a fixed window w, its chain counted as one task of
-cost g, the radio round trip Δt included as if it used the CPU (suspension-oblivious, as the
-paper does); see [`rtsim.model.taskset.TaskSet.at_window`][rtsim.model.taskset.TaskSet.at_window].
+The least fixed point R = e_i + Σ_hp ⌈R/p_j⌉·e_j (Joseph & Pandya 1986; Audsley et al. 1993),
+with the level-i busy window for deadlines beyond the period, release jitter
+w_i(q) = (q+1)·C_i + Σ_hp ⌈(w_i(q) + J_j)/T_j⌉·C_j, R_i = J_i + max_q (w_i(q) − q·T_i)
+(Tindell, Burns & Wellings 1994), overhead 2·o per higher and o per own compute stretch, and
+ceilings ⌈(x − ε)/p⌉ with ε = 1e-9 ms: docs/model/beyond.md. A processing-window set is
+analysed at a fixed w with Δt as CPU time
+([`TaskSet.at_window`][rtsim.model.taskset.TaskSet.at_window]).
 """
 
 from __future__ import annotations

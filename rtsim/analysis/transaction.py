@@ -1,59 +1,11 @@
 """Offset-based response times: the window chain and its per-window tasks as one transaction.
 
-Model (Tindell 1994, "Adding time-offsets to schedulability analysis"; Palencia & González
-Harbour 1998, "Schedulability analysis for tasks with static and dynamic offsets", RTSS, as the
-MAST tools do). A *transaction* i is a stream of activations with period T_i; each of its
-*steps* j (here: one compute stretch of one job) is released Φ_ij after an activation, plus a
-release jitter in [0, J_ij]. Different transactions have arbitrary relative phases.
-
-For a processing-window set analysed at a fixed window w, one transaction of period
-T = L·w holds the L window jobs of a hyperperiod (job k arrives at k·w) and every job of the
-tasks whose period is a multiple m·w of the window (job i of such a task arrives at its
-offset + i·m·w; L is the least common multiple of the multiples). Every other task is a
-transaction of its own. A job with suspensions is split into its compute stretches with
-*dynamic offsets* (Palencia & González Harbour): stretch s + 1 is released at the earliest
-Φ_s + Ĉ_s + Ŝ (best cases: a segment's ``bcet``, else 0) and at the latest R_s + S, with R_s
-the worst completion of stretch s; so Φ_{s+1} = Φ_s + Ĉ_s + Ŝ and J_{s+1} = R_s + S − Φ_{s+1}.
-
-**Interference** of transaction i on a step b, with the busy period starting at t_c when step k
-of i is released after its largest jitter: step j's releases lie at phase
-φ_ijk = (Φ_ij − Φ_ik − J_ik) mod T_i after t_c, every T_i, and (Palencia & González Harbour,
-Eq. 3)
-
-    W_ik(t) = Σ_{j ∈ hp_i(b)} (⌊(φ_ijk + J_ij)/T_i⌋ + ⌈(t − φ_ijk)/T_i⌉₀) · C_ij,
-
-the first term the jobs whose jitter lets them all be released at t_c. Another transaction
-i ≠ a contributes at most W*_i(t) = max_k W_ik(t) (their upper bound that makes the analysis
-polynomial); the step's own transaction a is taken at each candidate k ∈ hp_a(b) ∪ {b} in turn.
-
-**One job at a time.** rtsim runs the jobs of a task first in, first out, and the stretches of
-a job in order. The analysis below assumes that every job of a task completes before the next
-job of that task arrives, and checks it: a task whose bound exceeds the distance to its next
-arrival gets no bound (``None``), nor does any task below it. Under that assumption, when a
-stretch b is released (at r) no other work of its priority level is pending and none can run
-before it ends; so with t0 ≤ r the last instant at which no higher-priority work was pending,
-the CPU runs only higher-priority work in [t0, r) and only that and b in [r, f), and
-
-    f − t0 ≤ least w ≥ (r − t0) + C_b with  w = C_b + W_ak(w) + Σ_{i≠a} W*_i(w)
-
-with t0 = t_c. The stretch is released at r − t0 = φ_abk + m·T_a for an m ≥ 0 while the
-higher-priority busy period (the least fixed point of W_ak + Σ W*_i) lasts, or at t_c itself if
-its jitter lets an earlier activation's release reach t_c (then its release is
-φ_abk − n·T_a after its earliest, n = ⌊(φ_abk + J_ab)/T_a⌋). Its response from its job's
-arrival is f − (its earliest release) + Φ_ab − (the job's arrival). Only strictly
-higher-priority steps interfere (rtsim's priorities are distinct per task; the other stretches
-and jobs of the step's own task cannot run while it is pending). The task's bound is the
-largest over its jobs of the last stretch's completion (plus a trailing suspension) from the
-job's arrival.
-
-Context-switch overhead o as in `rtsim.analysis.rta`: 2·o per interfering stretch, o per
-own stretch. Times in ms. Ceilings take x 1e-9 ms lower (`rtsim.analysis.rta.ceil_div`);
-phases within 1e-9 ms of a multiple of the period are taken as 0 (the earlier, the more
-interference). Suspensions count as computation under ``suspension="cpu"``.
-
-The bound is sound for a fixed window w, execution and suspension times at or below their
-WCET (at or above their ``bcet`` where one is given), any phasing of the tasks not tied to the
-window, and the release jitters given; it assumes fixed-priority preemptive scheduling.
+Tindell (1994) and Palencia & González Harbour (1998): one transaction of period L·w holds the
+window jobs and the tasks with a period m·w, every other task is its own; a job's stretches
+after a suspension have dynamic offsets; the interference W_ik (their Eq. 3) and its bound
+W*_i = max_k W_ik enter a busy-window fixed point per stretch. Fixed-priority preemptive, one
+job of a task at a time (checked). Model, equations and numerics: docs/analysis.md (the
+window chain and the command task as a transaction).
 """
 
 from __future__ import annotations

@@ -24,7 +24,10 @@ __all__ = ["CompiledRollout", "as_changes", "compiled_rollout"]
 
 def as_changes(arr: Any) -> list[list[Any]]:
     """A [window, follower, change] array as the rollout's lists of tuples (the four changes
-    and the closest approach, `rtsim.control.rollout.Changes`)."""
+    and the closest approach, `rtsim.control.rollout.Changes`); a search's rollout that
+    stopped early (`_Rest`) is rolled out whole first."""
+    if isinstance(arr, _Rest):
+        arr = arr()
     return [[tuple(c) for c in win] for win in arr.tolist()]
 
 
@@ -43,6 +46,21 @@ _CHANGING = K.RolloutScalars._fields.index("lap")
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
+
+
+class _Rest:
+    """A search's rollout that stopped after its first window (its speed failed there, and
+    the decision needed no more), kept for the rollout's memo: called, it rolls the whole
+    horizon out on the pack of the decision (the law's search starts copied then), the
+    numbers the search would have had."""
+
+    __slots__ = ("ro", "v", "windows", "pack")
+
+    def __init__(self, ro: CompiledRollout, v: float, windows: tuple[float, ...], pack: Any):
+        self.ro, self.v, self.windows, self.pack = ro, v, windows, pack
+
+    def __call__(self) -> Any:
+        return self.ro._whole(self.v, self.windows, self.pack)
 
 
 class CompiledRollout:
@@ -147,10 +165,16 @@ class CompiledRollout:
 
     def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
         """`Rollout.changes` uncached: per window, per follower the four changes."""
+        return as_changes(self._whole(v, windows, self.pack()))
+
+    def _whole(self, v: float, windows: tuple[float, ...], pack: tuple[Any, ...]) -> Any:
+        """One rollout whole on ``pack`` (`pack`'s arrays): its changes array."""
         out = np.empty((len(windows), self.n, 5))
         CompiledRollout.runs += 1
-        self._ker.rollout_changes(float(v), np.array(windows, dtype=float), self.pack(), out)
-        return as_changes(out)
+        self._ker.rollout_changes(
+            float(v), np.array(windows, dtype=float), pack, out, 1.0, -math.inf, 0.0
+        )
+        return out
 
     def decide(
         self,
@@ -175,8 +199,9 @@ class CompiledRollout:
         speeds = np.empty(_SEARCH_RUNS)
         lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
         changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))
+        cut = np.zeros(_SEARCH_RUNS, dtype=np.int64)
         rows = np.empty((2, self.n, 4))
-        out = np.full(6, math.nan)
+        out = np.full(7, math.nan)
         runs = self._ker.plan_decide(
             bool(search_only),
             float(keep),
@@ -190,22 +215,29 @@ class CompiledRollout:
             speeds,
             lens,
             changes,
+            cut,
             rows,
             out,
             float(contact),
         )
-        CompiledRollout.runs += runs
+        CompiledRollout.runs += runs + int(out[6])
         runs = min(runs, _SEARCH_RUNS)
         w = float(w)
         horizon = (w,) * int(windows)
         ran: list[tuple[float, tuple[float, ...], Any]] = []
-        for r, (v, code) in enumerate(
-            zip(speeds[:runs].tolist(), lens[:runs].tolist(), strict=True)
+        frozen: tuple[Any, ...] = ()
+        for r, (v, code, short) in enumerate(
+            zip(speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist(), strict=True)
         ):
             if code == 2:
                 ran.append((v, (float(out[5]),), changes[r, :1]))
                 continue
-            ran.append((v, horizon, changes[r]))
+            if short:  # stopped after its first window: whole only if asked (_Rest)
+                if not frozen:  # the law's search starts as they are at the decision
+                    frozen = (*self._args, self._law._sr.copy(), self._law._sf.copy())
+                ran.append((v, horizon, _Rest(self, v, horizon, frozen)))
+            else:
+                ran.append((v, horizon, changes[r]))
             if code == 1:
                 ran.append((v, (w,), changes[r, :1]))
         return tuple(out[:5].tolist()), rows, ran

@@ -39,11 +39,6 @@ def _rollout(
     poses: Any,
     kappa: Any,
     lap: float,
-    leader_s: float,
-    v0: float,
-    vt: float,
-    accel_max: float,
-    decel_max: float,
     x: Any,
     y: Any,
     th: Any,
@@ -69,23 +64,23 @@ def _rollout(
     ev_t: Any,
     ev_kind: Any,
     ev_k: Any,
-    t_now: float,
+    trace: Any,
+    e0: int,
+    scan: int,
+    stop: int,
     out: Any,
-) -> None:
-    """Rollout._run's event loop: the leader's ramp, the followers' held commands, the
-    follow-the-leader commands at the sends (no noise), and at each scan every follower's
-    position in the leader frame and odometer (``out[scan, follower]``); the arrays of the
-    group and the law are updated in place."""
+) -> int:
+    """Rollout._run's event loop: the followers' held commands, the follow-the-leader
+    commands at the sends (no noise), and at each scan every follower's position in the
+    leader frame and odometer (``out[scan, follower]``), the leader at each event where
+    `_lead` put it (``trace``); the arrays of the group and the law are updated in place.
+
+    From event ``e0``, ``scan`` scans written, until the sample of scan ``stop`` is written
+    (then the next event's index is returned: a later call resumes there with the same
+    numbers) or the events end."""
     n = x.shape[0]
-    t_leader = t_now
-    s_l = leader_s
-    scan = 0
-    for e in range(ev_t.shape[0]):
+    for e in range(e0, ev_t.shape[0]):
         t = ev_t[e]
-        if t > t_leader:
-            v0, ds = leader_travel(v0, vt, accel_max, decel_max, (t - t_leader) / 1000.0)
-            s_l += ds
-            t_leader = t
         lo_k = ev_k[e] if ev_kind[e] == 0 else 0
         hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
         for k in range(lo_k, hi_k):
@@ -105,6 +100,7 @@ def _rollout(
                     step_ms,
                 )
                 t_f[k] = t
+        s_l, v0 = trace[e, 0], trace[e, 1]
         xl, yl, hl = _pose(s0, poses, kappa, lap, s_l)
         if ev_kind[e] == 0:
             k = ev_k[e]
@@ -141,6 +137,35 @@ def _rollout(
             out[scan, i, 1] = -s * dx + c * dy
             out[scan, i, 2] = odo[i]
         scan += 1
+        if scan > stop:
+            return e + 1
+    return ev_t.shape[0]
+
+
+@kernel
+def _lead(v: float, P: Any, ev_t: Any, trace: Any) -> None:
+    """The leader of a rollout with target ``v`` (Leader.set_speed, then its ramp between
+    events, Rollout._run's order): ``trace[e]`` ← its (arc length, speed) at event e. The
+    followers see the leader only through these: two targets whose traces are equal bit
+    for bit give the same rollout."""
+    S = scalars(P[0])
+    v_ld = S.v_ld
+    speed = S.leader_speed
+    a = 0.0 if 0.0 > v else v  # min(max(v, 0.0), v_ld), then Leader.set_speed
+    if v_ld < a:
+        a = v_ld
+    target = v_ld if v_ld < a else a
+    acc = S.accel if target > speed else S.decel
+    if acc == math.inf:
+        speed = target
+    t_leader, s_l, v0 = S.t_now, S.leader_s, speed
+    for e in range(ev_t.shape[0]):
+        t = ev_t[e]
+        if t > t_leader:
+            v0, ds = leader_travel(v0, target, S.accel, S.decel, (t - t_leader) / 1000.0)
+            s_l += ds
+            t_leader = t
+        trace[e, 0], trace[e, 1] = s_l, v0
 
 
 # -- the command-aware rollout's changes, bounds and the plan policy's speed search ---------
@@ -203,31 +228,15 @@ def _before(t1: float, k1: int, j1: int, t2: float, k2: int, j2: int) -> bool:
 
 
 @kernel
-def _rollout_changes(
-    v: float,
-    lengths: Any,
-    P: Any,
-    out: Any,
-) -> None:
-    """Rollout._run whole: the leader set to target ``v`` (Leader.set_speed), the scans and
-    sends of windows ``lengths`` in Python's tuple order, `_rollout` on copies of the
-    group and the law's search starts, and the changes per window and follower
-    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|, closest approach).
-    ``P``: the state's pack (`rtsim.control.compiled_rollout.CompiledRollout.pack`)."""
-    fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
+def _events(lengths: Any, P: Any) -> tuple[Any, Any, Any]:
+    """The scans and sends of windows ``lengths`` from the state's next scan, in Python's
+    order of the (time, kind, follower or scan) tuples (Rollout._run's): (times, kinds — 0 a
+    send, 1 a scan —, follower or scan index). The same for every target."""
+    fs, fol, pend = P[0], P[1], P[2]
     S = scalars(fs)
     n = fol.shape[0]
     nw = lengths.shape[0]
-    v_ld = S.v_ld
-    speed = S.leader_speed
     t_now = S.t_now
-    a = 0.0 if 0.0 > v else v  # min(max(v, 0.0), v_ld), then Leader.set_speed
-    if v_ld < a:
-        a = v_ld
-    target = v_ld if v_ld < a else a
-    acc = S.accel if target > speed else S.decel
-    if acc == math.inf:
-        speed = target
     scans = np.empty(nw + 1)
     scans[0] = S.next_scan
     for j in range(nw):
@@ -259,6 +268,55 @@ def _rollout_changes(
             ev_t[j + 1], ev_kind[j + 1], ev_k[j + 1] = ev_t[j], ev_kind[j], ev_k[j]
             j -= 1
         ev_t[j + 1], ev_kind[j + 1], ev_k[j + 1] = t, kd, kk
+    return ev_t[:m], ev_kind[:m], ev_k[:m]
+
+
+@kernel
+def _rollout_changes(
+    v: float,
+    lengths: Any,
+    P: Any,
+    out: Any,
+    keep: float,
+    need: float,
+    contact: float,
+) -> int:
+    """Rollout._run whole: the leader set to target ``v`` (`_lead`), the scans and sends of
+    windows ``lengths`` (`_events`), and the changes per window and follower (`_roll`).
+    ``P``: the state's pack (`rtsim.control.compiled_rollout.CompiledRollout.pack`);
+    ``keep``, ``need``, ``contact`` and the return value: `_roll`'s."""
+    ev_t, ev_kind, ev_k = _events(lengths, P)
+    trace = np.empty((ev_t.shape[0], 2))
+    _lead(v, P, ev_t, trace)
+    return _roll(lengths, P, ev_t, ev_kind, ev_k, trace, out, keep, need, contact)
+
+
+@kernel
+def _roll(
+    lengths: Any,
+    P: Any,
+    ev_t: Any,
+    ev_kind: Any,
+    ev_k: Any,
+    trace: Any,
+    out: Any,
+    keep: float,
+    need: float,
+    contact: float,
+) -> int:
+    """`_rollout` over the events on copies of the group and the law's search starts, the
+    leader at ``trace``, and the changes per window and follower (``out[window,
+    follower]``: displacement, |Δρ|, distance, |Δβ|, closest approach).
+
+    Returns how many windows it filled: all of them, or, for a pass/fail question (``need``
+    finite) whose first window alone fails (keep · its smallest bound, lowered by its contact
+    bound at d_c = ``contact``, below ``need``: later windows can only lower it), 1 — the
+    rollout stops at that window's closing scan, its first window the numbers it would have
+    had (the events up to that scan are the whole rollout's, in the same order)."""
+    fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
+    S = scalars(fs)
+    n = fol.shape[0]
+    nw = lengths.shape[0]
     x = fol[:, F_X].copy()
     y = fol[:, F_Y].copy()
     th = fol[:, F_TH].copy()
@@ -267,62 +325,51 @@ def _rollout_changes(
     cmd_v = fol[:, F_CMD_V].copy()
     cmd_w = fol[:, F_CMD_W].copy()
     odo = np.zeros(n)
-    t_f = np.full(n, t_now)
+    t_f = np.full(n, S.t_now)
+    sr, sf = sr0.copy(), sf0.copy()
     samples = np.zeros((nw + 1, n, 3))
-    _rollout(
-        s0,
-        poses,
-        kappa,
-        S.lap,
-        S.leader_s,
-        speed,
-        target,
-        S.accel,
-        S.decel,
-        x,
-        y,
-        th,
-        vf,
-        wf,
-        cmd_v,
-        cmd_w,
-        odo,
-        t_f,
-        S.max_accel,
-        S.max_speed,
-        S.max_turn,
-        S.speed_noise,
-        S.turn_noise,
-        S.step,
-        lateral,
-        ahead,
-        spacing,
-        sr0.copy(),
-        sf0.copy(),
-        S.gain,
-        S.lookahead,
-        ev_t[:m],
-        ev_kind[:m],
-        ev_k[:m],
-        t_now,
-        samples,
-    )
-    two_pi = 2.0 * math.pi
     near = np.empty((nw + 1, n))  # (contact: each follower's closest approach at each scan)
-    for j in range(nw + 1):
-        for i in range(n):
-            near[j, i] = closest_to(samples[j, :, 0], samples[j, :, 1], i, 0.0, 0.0)
-    for j in range(nw):
-        for i in range(n):
-            px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
-            qx, qy, qo = samples[j + 1, i, 0], samples[j + 1, i, 1], samples[j + 1, i, 2]
-            out[j, i, 0] = _hypot(qx - px, qy - py)
-            out[j, i, 1] = abs(_hypot(qx, qy) - _hypot(px, py))
-            out[j, i, 2] = qo - po
-            b_q = math.atan2(qy, qx) % two_pi
-            b_p = math.atan2(py, px) % two_pi
-            out[j, i, 3] = abs(_remainder(b_q - b_p, two_pi))
-            out[j, i, 4] = closest_over(near[j, i], near[j + 1, i])
+    # a pass/fail question stops after the first window if that one already fails
+    first = 1 if nw > 1 and need > -math.inf else nw
+    e = 0 * nw  # (an int64, not the literal 0: one compiled _rollout)
+    done = 0  # windows whose changes are in ``out``
+    while True:
+        stop = first if done == 0 else nw
+        scan = 0 if done == 0 else done + 1
+        e = _rollout(
+            s0, poses, kappa, S.lap, x, y, th, vf, wf, cmd_v, cmd_w, odo, t_f,
+            S.max_accel, S.max_speed, S.max_turn, S.speed_noise, S.turn_noise, S.step,
+            lateral, ahead, spacing, sr, sf, S.gain, S.lookahead,
+            ev_t, ev_kind, ev_k, trace, e, scan, stop, samples,
+        )  # fmt: skip
+        for j in range(scan, stop + 1):
+            for i in range(n):
+                near[j, i] = closest_to(samples[j, :, 0], samples[j, :, 1], i, 0.0, 0.0)
+        for j in range(done, stop):
+            _window_changes(samples, near, j, out)
+        done = stop
+        if done >= nw:
+            return nw
+        m0 = _min_bound(out[0], S, fol, lengths[0])
+        if keep * lowest_contact(out[0:1], lengths[0], contact, m0) < need:
+            return done
+
+
+@kernel
+def _window_changes(samples: Any, near: Any, j: int, out: Any) -> None:
+    """Window ``j``'s changes per follower into ``out[j]`` from the samples (leader-frame
+    position, odometer) and closest approaches at its two scans (Rollout._run's last loop)."""
+    two_pi = 2.0 * math.pi
+    for i in range(samples.shape[1]):
+        px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
+        qx, qy, qo = samples[j + 1, i, 0], samples[j + 1, i, 1], samples[j + 1, i, 2]
+        out[j, i, 0] = _hypot(qx - px, qy - py)
+        out[j, i, 1] = abs(_hypot(qx, qy) - _hypot(px, py))
+        out[j, i, 2] = qo - po
+        b_q = math.atan2(qy, qx) % two_pi
+        b_p = math.atan2(py, px) % two_pi
+        out[j, i, 3] = abs(_remainder(b_q - b_p, two_pi))
+        out[j, i, 4] = closest_over(near[j, i], near[j + 1, i])
 
 
 @kernel
@@ -369,6 +416,15 @@ def _min_bound(changes: Any, S: RolloutScalars, fol: Any, w: float) -> float:
     return best
 
 
+@kernel
+def _same(a: Any, b: Any) -> bool:
+    """Two leader traces (`_lead`) equal bit for bit (NaN never equal)."""
+    for e in range(a.shape[0]):
+        if not (a[e, 0] == b[e, 0] and a[e, 1] == b[e, 1]):
+            return False
+    return True
+
+
 @kernel(inline=True)
 def _rollout_worst(
     v: float,
@@ -376,14 +432,45 @@ def _rollout_worst(
     P: Any,
     ch: Any,
     contact: float,
-) -> float:
+    keep: float,
+    need: float,
+    ev: Any,
+    traces: Any,
+    ms: Any,
+    dones: Any,
+    r: int,
+    upto: int,
+) -> tuple[float, int, int]:
     """PlanPolicy's m(V): the smallest bound of every follower in ``ch.shape[0]`` windows of
     ``w`` ms (Python's ``min`` over the windows: the first, then any smaller), then the
-    contact bound at d_c = ``contact`` (0: off); the changes are left in ``ch``."""
+    contact bound at d_c = ``contact`` (0: off); the changes are left in ``ch``. With ``need``
+    finite, only whether keep · m(V) ≥ ``need`` is asked: a first window that already fails
+    ends the rollout there (`_roll`) and m is that window's, still below.
+
+    ``ev``: the windows' events (`_events`). With ``r`` ≥ 0 the rollout is the r-th of one
+    search: its leader goes to ``traces[r]``, its m and windows rolled out to ``ms[r]``,
+    ``dones[r]``. When its leader is that of a rollout q < ``upto`` (q ≠ r) bit for bit (a
+    target the leader does not reach within the horizon, as another it does not reach on
+    the same side), the rollout is q's: nothing is rolled out and q is returned (the caller
+    copies its changes), unless q stopped early and this question needs every window.
+    Returns (m, the windows rolled out, q or −1)."""
     S, fol = scalars(P[0]), P[1]
-    _rollout_changes(v, np.full(ch.shape[0], w), P, ch)
-    m = _worst_after(ch, S, fol, w, _min_bound(ch[0], S, fol, w))
-    return lowest_contact(ch, w, contact, m)  # type: ignore[no-any-return]
+    ev_t, ev_kind, ev_k = ev
+    nw = ch.shape[0]
+    tr = traces[r] if r >= 0 else np.empty((ev_t.shape[0], 2))
+    _lead(v, P, ev_t, tr)
+    for q in range(upto):
+        if q != r and (dones[q] == nw or need > -math.inf) and _same(traces[q], tr):
+            if r >= 0:
+                ms[r], dones[r] = ms[q], dones[q]
+            return ms[q], dones[q], q
+    done = _roll(np.full(nw, w), P, ev_t, ev_kind, ev_k, tr, ch, keep, need, contact)
+    part = ch[:done]
+    m = _worst_after(part, S, fol, w, _min_bound(ch[0], S, fol, w))
+    m = lowest_contact(part, w, contact, m)
+    if r >= 0:
+        ms[r], dones[r] = m, done
+    return m, done, -1
 
 
 @kernel
@@ -409,60 +496,116 @@ def _search_into(
     P: Any,
     speeds: Any,
     changes: Any,
+    cut: Any,
     first: int,
     found_out: Any,
     contact: float,
+    ev: Any,
+    traces: Any,
+    ms: Any,
+    dones: Any,
 ) -> int:
     """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · `_rollout_worst` over
     ``changes.shape[1]`` windows of ``w`` (contact bound at ``contact``); rollout r's speed
     and changes go to ``speeds[r]`` and ``changes[r]`` from r = ``first`` (as many as they
-    hold). ``found_out`` ← (speed, 1 for ``numeric`` or 0 for ``best``, the found speed or
-    NaN, the index of the speed's rollout or −1); returns the next free index (rollouts run:
-    it − first)."""
+    hold), ``cut[r]`` ← 1 when it stopped after its first window. ``found_out`` ← (speed, 1
+    for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the speed's
+    rollout or −1, the rollouts run beyond the indices: the scanned speeds rolled out again
+    less the speeds that were an earlier rollout's); returns the next free index (rollouts
+    run: it − first, plus ``found_out[4]``). ``ev``, ``traces``, ``ms``, ``dones``: the
+    horizon's events and the kept leaders of the decision's rollouts from index 0
+    (`_rollout_worst`).
+
+    Only pass or fail matters for a speed of the bisection, and for a scanned speed unless
+    none passes: those rollouts stop after a first window that fails (`_rollout_worst`).
+    When none passes, the least-bad speed needs each scanned speed's m: the scanned rollouts
+    that stopped are rolled out whole then (the same speed, the same numbers), after the
+    floor's (rolled out whole). A speed whose leader is an earlier rollout's bit for bit is
+    that rollout (its changes copied, not rolled out)."""
     v_ld = scalars(P[0]).v_ld
     cap = speeds.shape[0]
+    nw = changes.shape[1]
     scratch = np.empty(changes.shape[1:])
     above = v_ld
     lo = hi = 0.0
     r_lo = -1
-    # the scan's m and rollout index per j, replayed after the floor when none passes
+    # the scan's m, rollout index and whether it stopped early, per j, replayed after the
+    # floor when none passes
     scan_m = np.empty(grid)
     scan_r = np.empty(grid, dtype=np.int64)
+    scan_cut = np.zeros(grid, dtype=np.bool_)
     m_floor, r_floor = -math.inf, -1
     r = first
+    r_v = -1
+    again = 0
     # one rollout per pass (one call site keeps the compiled code small): phase 1 the scan's
     # j-th speed, 2 the bisection, 0 the floor — last: its m matters only when no scanned
-    # speed passes, so a search that brackets never rolls it out (search_rollout's order)
+    # speed passes, so a search that brackets never rolls it out (search_rollout's order) —
+    # 3 a scanned speed that stopped early, whole
     phase = 1
     j = 1
     while True:
         if phase == 1 and j >= grid:
-            if not v_floor > 0.0:
+            phase, j = (0, j) if v_floor > 0.0 else (3, 1)
+        if phase == 3:
+            while j < grid and not scan_cut[j]:
+                j += 1
+            if j >= grid:
                 break
-            phase = 0
         if phase == 0:
             v = v_floor
-        elif phase == 1:
-            v = v_ld * (1.0 - j / grid)
-        else:
+        elif phase == 2:
             if not hi - lo > tol * v_ld:
                 found_out[0], found_out[1], found_out[2], found_out[3] = lo, 1.0, lo, r_lo
+                found_out[4] = float(again)
                 return r
             v = 0.5 * (lo + hi)
-        ch = changes[r] if r < cap else scratch
-        if r < cap:
-            speeds[r] = v
-        r_v = r if r < cap else -1
-        r += 1
-        m = keep * _rollout_worst(v, w, P, ch, contact)
+        else:
+            v = v_ld * (1.0 - j / grid)
+        if phase == 3:
+            ch = changes[scan_r[j]] if scan_r[j] >= 0 else scratch
+            ask = -math.inf
+            slot = scan_r[j]
+        else:
+            ch = changes[r] if r < cap else scratch
+            if r < cap:
+                speeds[r] = v
+            r_v = r if r < cap else -1
+            slot = r_v
+            r += 1
+            ask = -math.inf if phase == 0 else need
+        upto = r - 1 if r - 1 < cap else cap  # the rollouts before this one
+        if phase == 3:
+            upto = r if r < cap else cap  # every rollout so far
+        mm, done, q = _rollout_worst(
+            v, w, P, ch, contact, keep, ask, ev, traces, ms, dones, slot, upto
+        )
+        if q >= 0:  # an earlier rollout's leader: its changes
+            src = changes[q]
+            for a in range(ch.shape[0]):  # (loops: numba's slice assignment compiles slowly)
+                for b in range(ch.shape[1]):
+                    for c in range(ch.shape[2]):
+                        ch[a, b, c] = src[a, b, c]
+            again -= 1
+        m = keep * mm
+        if phase == 3:
+            scan_m[j], scan_cut[j] = m, False
+            if scan_r[j] >= 0:
+                cut[scan_r[j]] = 0
+            again += 1
+            j += 1
+            continue
+        if done < nw and r_v >= 0:
+            cut[r_v] = 1
         if phase == 0:
             m_floor, r_floor = m, r_v
-            break
+            phase, j = 3, 1
+            continue
         if phase == 1:
             if m >= need:
                 lo, hi, r_lo, phase = v, above, r_v, 2
             else:
-                scan_m[j], scan_r[j] = m, r_v
+                scan_m[j], scan_r[j], scan_cut[j] = m, r_v, done < nw
                 above = v
                 j += 1
         elif m >= need:
@@ -475,6 +618,7 @@ def _search_into(
         if scan_m[i] > best_m:
             best_v, best_m, best_r = v_ld * (1.0 - i / grid), scan_m[i], scan_r[i]
     found_out[0], found_out[1], found_out[2], found_out[3] = best_v, 0.0, math.nan, best_r
+    found_out[4] = float(again)
     return r
 
 
@@ -492,6 +636,7 @@ def _plan_decide(
     speeds: Any,
     lens: Any,
     changes: Any,
+    cut: Any,
     rows: Any,
     out: Any,
     contact: float,
@@ -507,7 +652,11 @@ def _plan_decide(
     Every rollout goes to ``speeds[r]``, ``changes[r]`` with ``lens[r]``: 0 the horizon, 1
     the horizon and its first window as a one-window rollout of w (the sends after that
     window's closing scan cannot change it: they come after the sample), 2 one window of
-    ``out[5]`` (in ``changes[r, 0]``); returns how many.
+    ``out[5]`` (in ``changes[r, 0]``); returns how many. ``cut[r]`` ← 1 when rollout r
+    stopped after its first window (a speed that fails there, whose m the decision does not
+    need: `_search_into`; only ``changes[r, 0]`` is filled), and ``out[6]`` ← the rollouts
+    run beyond the returned count (`_search_into`'s ``found_out[4]``: rolled out again
+    whole, less those that were an earlier one's).
 
     ``search_only``: only the speed search (search_rollout with m(V) = keep · the smallest
     bound over H; ``adjust`` with the ``commands`` predictor, H one window): from rollout 0,
@@ -515,14 +664,25 @@ def _plan_decide(
     """
     S, fol = scalars(P[0]), P[1]
     v_ld = S.v_ld
-    res = np.empty(4)
+    res = np.empty(5)
+    out[6] = 0.0
+    nw = changes.shape[1]
+    # the horizon's events, the same for every speed; the leaders of its rollouts
+    ev = _events(np.full(nw, w), P)
+    traces = np.empty((speeds.shape[0], ev[0].shape[0], 2))
+    ms = np.empty(speeds.shape[0])
+    dones = np.zeros(speeds.shape[0], dtype=np.int64)
     # (one call site of the inlined search: the search-only decision and the plan's search
     # share it, which halves the compiled code)
     first = 0 if search_only else 1
     feasible = False
     if not search_only:
         speeds[0], lens[0] = v_ld, 1
-        m_ld = _rollout_worst(v_ld, w, P, changes[0], contact)
+        m_ld, done, _ = _rollout_worst(
+            v_ld, w, P, changes[0], contact, keep, need, ev, traces, ms, dones, 0, 0
+        )
+        if done < nw:
+            cut[0] = 1
         m1 = _rows(changes[0, 0], S, fol, w, rows[0])
         feasible = keep * m_ld >= need
     if feasible:
@@ -532,7 +692,22 @@ def _plan_decide(
         runs = 1
         if ww > w:  # the longer first window, checked by its own rollout
             speeds[1], lens[1] = v_ld, 2
-            m_w = _rollout_worst(v_ld, ww, P, changes[1, 0:1], contact)
+            ev_w = _events(np.full(1, ww), P)
+            m_w = _rollout_worst(
+                v_ld,
+                ww,
+                P,
+                changes[1, 0:1],
+                contact,
+                keep,
+                -math.inf,
+                ev_w,
+                traces,
+                ms,
+                dones,
+                -1,
+                0,
+            )[0]
             runs = 2
             out[5] = ww
             if keep * m_w < ww:
@@ -543,7 +718,11 @@ def _plan_decide(
                 rows[1, i, j] = rows[0, i, j]
         out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
         return runs
-    runs = _search_into(keep, need, v_floor, grid, tol, w, P, speeds, changes, first, res, contact)
+    runs = _search_into(
+        keep, need, v_floor, grid, tol, w, P, speeds, changes, cut, first, res, contact,
+        ev, traces, ms, dones,
+    )  # fmt: skip
+    out[6] = res[4]
     for r in range(first, min(runs, speeds.shape[0])):
         lens[r] = 0
     if search_only:
@@ -569,7 +748,7 @@ ENTRIES: dict[str, Any] = {
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
 #: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
-COMPILE_S = 6.0
+COMPILE_S = 9.0
 
 # most runs roll out right after the world is built: the world's announcement counts these
 follow_with(ENTRIES.values(), COMPILE_S)
@@ -626,8 +805,9 @@ def _warm(ns: Any) -> None:
     path = (np.zeros(1), np.zeros((1, 3)), np.zeros(1), np.zeros(1), np.full(1, -1))
     P = (fs, fol, np.full((1, 1), math.nan), *path, np.full(1, 100.0), nan1, nan1)
     ch = np.empty((64, 2, 1, 5))
-    ns.rollout_changes(20.0, np.full(2, 240.0), P, ch[0])
-    bufs = (np.empty(64), np.zeros(64, dtype=np.int64), ch, np.empty((2, 1, 4)), np.empty(6))
+    ns.rollout_changes(20.0, np.full(2, 240.0), P, ch[0], 1.0, -math.inf, 0.0)
+    cut = np.zeros(64, dtype=np.int64)
+    bufs = (np.empty(64), np.zeros(64, dtype=np.int64), ch, cut, np.empty((2, 1, 4)), np.empty(7))
     for search_only in (True, False):
         ns.plan_decide(search_only, 1.0, 240.0, 1e3, 3.0, 8, 0.005, 240.0, P, *bufs, 60.0)
 

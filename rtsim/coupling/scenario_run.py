@@ -1,54 +1,13 @@
 """Schedule and world in one SimPy run (docs/model/adjustment.md, docs/model/world.md).
 
-One ``simpy.Environment`` holds the virtual [`CPU`][rtsim.sim.cpu.CPU] with the leader's
-task set: dead reckoning (T_hp), the processing-window chain T_w and the command task (T_lp,
-period 2w). The world ([`World`][rtsim.world.world.World], no engine of its own) is driven
-from the CPU's hooks:
-
-- **release** of window k: it is governed by the latest decision — the w returned to the
-  CPU's period provider, the leader speed, the bounds; window k+1 is released at t_k + w_k
-  (back to back). The first window uses the scenario's initial values, w = w_sch and
-  V_L = V_Ld (method ``fixed``).
-- **scan starts**: the world is advanced to now and sampled (``World.scan``: beams,
-  position fixes, Hough windows, lost tracks, violations since the previous scan), and the
-  EKFs are updated with that scan (``World.estimate``).
-- **hough** runs for ``hough_time`` of that scan: Eq 1 with the beams actually counted plus
-  the re-acquisition cost of every lost track (so a lost track can make the window late).
-- **send[i] ends**: follower i's command (the formation model's control law on the leader's
-  estimate) takes effect; a late window therefore means stale commands.
-- **window job completes**: every follower's estimate (propagated to now) gives its
-  MSBs and [`rtsim.control.decide`][rtsim.control.decide] in the run's mode sets the next w (and
-  thereby T_lp's
-  2w) and the leader speed (``World.set_leader_speed``).
-
-The world is advanced lazily to the time of every hook (its own fixed step sub-steps a
-ramping wheel speed). Execution times: every fixed segment runs its WCET (``exec_model=
-"wcet"``, the default; ``"uniform"`` or any model of `rtsim.sim.execution` may be
-given); the radio round trip Δt is an idle suspension (``suspension="idle"``: the CPU is free,
-as on the real system). Overload: the window chain is ``finish-late``; a window that misses
-its deadline is recorded (``missed``), the next window is still released on time
-(t_k + w_k) and waits in the task's backlog until the late one completes, then scans — its
-scan, commands and decision come late too. A backlogged release is governed by the latest
-decision available at its release (that of the last *completed* window).
-
-Policies (`rtsim.control.policy`; ``[adjust] policy``, ``policy=``):
-``adjust`` (the paper's algorithm), ``fixed-wsch`` (w = w_sch, speed never lowered: the bounds
-break in the world), ``min-msb`` (w = min MSB even below w_sch, speed never lowered: the
-schedule breaks), ``margin``, ``lookahead``, ``noise-aware``, ``safe`` or a user's
-``package.module:Name``. Each window's decision is the policy's ``decide`` on a
-[`PolicyInput`][rtsim.control.policy.PolicyInput].
-
-Duration (`rtsim.coupling.duration`): a duration is exact, whether it is ``duration_s``,
-an override or the scenario file's ``duration``. Without one (the file's ``until = "lap"``,
-the default) the run stops at the first window completion at which the leader has driven one
-lap plus the largest ρ_d (so the followers, which trail by ρ_d, leave the last turn too) —
-the leader is slowed in the turns, so a lap takes longer than at V_Ld — and at the latest
-after 3 lap times at V_Ld, i.e. a leader slowed to ⅓·V_Ld on average. ``summary['laps']`` and
-``summary['duration_s']`` say how far it got; ``summary['lap_time_s']`` is the simulated
-time at which the leader first completed its lap (interpolated between the two window
-completions around it), or None with ``summary['lap_time_note']`` saying why (the cap, or
-a duration shorter than the lap); `rtsim.coupling.duration.run_note` words what a run
-did beyond a duration. A window still running at the stop is dropped.
+The virtual [`CPU`][rtsim.sim.cpu.CPU] runs the leader's task set (dead reckoning, the
+window chain, the command task of period 2w) and drives the
+[`World`][rtsim.world.world.World] from its hooks: a window's release takes the latest
+decision's w and speed, its scan samples the world and updates the EKFs, its Hough stretch
+costs Eq 1 for the beams counted, ``send[i]`` applies follower i's command, and its completion
+runs the policy's ``decide`` ([`rtsim.control.decide`][rtsim.control.decide]). The rules of a
+run (first window, execution times, overload, what is dropped): docs/scenarios.md; how long
+it lasts: `rtsim.coupling.duration` and docs/configuration.md.
 """
 
 from __future__ import annotations

@@ -1,68 +1,11 @@
 """Scheduling policies of the virtual CPU: the ready queue's order and the preemption test.
 
-A policy is a specification (no engine, no SimPy); `rtsim.sim.cpu` applies it. The engine owns
-time, the policy owns the order (as SimPy's ``PriorityResource`` changes only
-its queue's sort key). The dispatcher of `rtsim.sim.cpu` keeps one ready heap of eligible
-jobs (a task's oldest pending job, once released and not suspended), each entry
-``(job.key, job.tie, job)``; a policy decides
-
-- [`SchedulingPolicy.order`][rtsim.sim.policy.SchedulingPolicy.order]: the job's ``(key, tie)``,
-computed once when the job is
-  created (job-level static priorities: fixed priority, EDF, and any policy whose order of
-  two jobs does not change while both wait). The smaller runs first; ``(key, tie)`` must be
-  unique among eligible jobs (the heap never compares two jobs);
-- [`SchedulingPolicy.preempts`][rtsim.sim.policy.SchedulingPolicy.preempts]: whether the first
-eligible job (its ``key``) takes the
-  CPU from the running job. The default, ``key < running.key``, is preemptive scheduling by
-  the key; the dispatcher evaluates it inline unless a subclass overrides ``preempts``, and
-  only then books jobs of the top task inline (`rtsim.sim.cpu`), checking that such a
-  job comes first unless ``top_task_first`` promises it.
-
-Registered policies (`SCHEDULERS`, a `Registry`: by name, by an
-installed entry point of the group ``rtsim.schedulers``, or ``"package.module:Name"`` for a class
-of one's own, see [`resolve_scheduler`][rtsim.sim.policy.resolve_scheduler]). Each entry carries its
-analysis
-(`SchedulingPolicy.analysis`, for ``rtsim analyze`` and the simulator's report) and the
-window lower bounds that hold under it (`SchedulingPolicy.lower_bounds`, for
-``[adjust] lower_bound``); a policy of one's own has neither unless it sets them (a subclass
-does not inherit them: the analysis of preemptive FP says nothing of a non-preemptive one):
-
-- ``fp``: fixed-priority preemptive. key = the task's priority (smaller = higher), tie = the
-  job's creation sequence. ``top_task_first``: a job of the highest-priority task with no
-  backlog always gets the CPU at its release.
-- ``edf``: earliest deadline first, preemptive. key = the absolute deadline (from the
-  arrival, ``arrival + D``), tie = the job's creation sequence, which is the order of
-  arrivals and, at one instant, the order in which the CPU handles releases: the window task
-  first, then by priority (for a set without a window: the task with the smaller priority
-  number; the file's order when a set gives no priorities). So equal deadlines go to the job
-  that arrived first, then by that task order. A running job is preempted only by a strictly
-  earlier deadline: never by one with the same deadline. Deadlines are compared as floats,
-  without a tolerance.
-
-- ``rr``: POSIX ``SCHED_RR``, fixed priority across levels and round robin within one
-  level, with a time slice ``quantum`` (ms; ``[scheduler] quantum``). key = the priority,
-  tie = the sequence at which the job joined its level's queue: at its creation (jobs
-  released together in the order the CPU handles releases: the file's task order among
-  equal priorities), again when its slice ends while another job of its level is ready
-  (it goes to the tail) and when it comes back from an idle suspension (the tail, a fresh
-  slice). A job preempted by a higher level keeps its place at the head and the rest of
-  its slice. Tasks may share a priority (the only built-in policy that allows it).
-
-Time-sliced policies (`SchedulingPolicy.quantum` not None) get two more things from
-the dispatcher: a timer at the end of the running job's slice, and
-`SchedulingPolicy.requeue`, the job's new ``(key, tie)`` when its slice ends with
-another job of its key ready (and when it resumes from a suspension).
-
-A third policy is one class in one file (docs/scheduling.md shows a non-preemptive FP)::
-
-    from rtsim.sim.policy import FixedPriority, register_scheduler
-
-    @register_scheduler
-    class NonPreemptiveFP(FixedPriority):
-        name = "np-fp"
-
-        def preempts(self, key, running):
-            return False
+A policy is a specification (no engine, no SimPy) that `rtsim.sim.cpu` applies: `order` gives
+a job's ``(key, tie)`` once at its creation, `preempts` decides whether the first eligible job
+takes the CPU, and a time-sliced policy adds `quantum` and `requeue`. Built in and registered
+in `SCHEDULERS` (see `resolve_scheduler`): ``fp``, ``edf``, ``rr``, each with its analysis and
+window lower bounds. The specification, the table of keys and ties and a policy of one's own
+in one file: docs/scheduling.md.
 """
 
 from __future__ import annotations

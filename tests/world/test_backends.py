@@ -558,3 +558,105 @@ def test_compiled_plan_contact_bound_bit_identical() -> None:
             if factor < 0.99 and margin == 0.0:  # far from contact: the bound does nothing
                 assert list(off) == list(out[0])
     assert changed  # the bound bound somewhere
+
+
+@needs_numba
+def test_a_failing_first_window_ends_the_rollout() -> None:
+    """A pass/fail question (``need`` finite) ends a compiled rollout at its first window's
+    closing scan when that window alone already fails; that window's changes are the whole
+    rollout's bit for bit, and one that does not fail there is the whole rollout. The search
+    that finds nothing rolls its stopped scanned speeds out again whole (counted), so its
+    least-bad speed is the Python search's; a stopped rollout read from the memo later is
+    rolled out whole on the decision's state, the Python rollout's numbers."""
+    from rtsim.control.adjust import ROLLOUT_GRID, search_rollout
+    from rtsim.control.compiled_rollout import _Rest
+    from rtsim.control.predict import min_bound_rows
+    from rtsim.control.rollout import Rollout, rollouts_run
+
+    ended = kept = rested = 0
+    for seed, (name, windows) in enumerate([("test2", 12), ("test2", 130), ("test1", 100)]):
+        st_py, st_co = _twin_states(name, windows, seed)
+        py, co = Rollout(st_py), Rollout(st_co)
+        ker, pack = co._compiled._ker, co._compiled.pack()
+        w = st_co.w_sch
+        d_c = 0.98 * min(py.closest(st_py.v_ld))
+        for v in np.linspace(0.0, st_co.v_ld, 9).tolist():
+            for nw, keep, contact in itertools.product((2, 3), (1.0, 0.7), (0.0, d_c)):
+                lengths = np.full(nw, w)
+                whole = np.empty((nw, co._compiled.n, 5))
+                assert ker.rollout_changes(v, lengths, pack, whole, 1.0, -math.inf, 0.0) == nw
+                first = py.changes(v, (w,) * nw)[0]
+                m0 = min_bound_rows(py.bounds(first, w))[0]
+                m0 = py.contact([first], w, contact, m0)
+                for need in (0.5 * w, w, 2.0 * w):
+                    out = np.empty_like(whole)
+                    done = ker.rollout_changes(v, lengths, pack, out, keep, need, contact)
+                    if keep * m0 < need:  # fails in its first window: ends there
+                        assert done == 1
+                        assert _bits(out[0].tolist()) == _bits(whole[0].tolist())
+                        ended += 1
+                    else:
+                        assert done == nw
+                        assert _bits(out.tolist()) == _bits(whole.tolist())
+                        kept += 1
+
+        def worst(v: float, py: Any = py, w: float = w) -> float:
+            per = py.changes(v, (w, w))
+            return min(min_bound_rows(py.bounds(c, w))[0] for c in per)
+
+        before = rollouts_run()
+        got = co.search(st_co.v_ld, 1.0, 1e12, 3.0, 2, w)  # nothing passes: the least bad
+        # the scan's speeds and the floor (GRID), and stopped ones again (counted)
+        assert rollouts_run() - before > ROLLOUT_GRID
+        assert got is not None and _bits(list(got)) == _bits(
+            list(search_rollout(worst, st_py.v_ld, 1e12, 3.0))
+        )
+        for keep in (1.0, 0.8, 0.6):
+            co2 = Rollout(st_co)
+            co2.search(st_co.v_ld, keep, w * (1.0 - 1e-9), 3.0, 2, w)
+            rest = [k for k, raw in co2._raw.items() if isinstance(raw, _Rest)]
+            for key in rest:
+                assert _bits(co2.changes(*key)) == _bits(py.changes(*key))
+            rested += len(rest)
+    assert ended and kept and rested
+
+
+@needs_numba
+def test_a_speed_whose_leader_is_an_earlier_ones_is_not_rolled_out_again() -> None:
+    """A leader far below V_Ld reaches none of the scan's first speeds within the horizon,
+    so their leaders (arc length and speed at every event) are the same bit for bit, and so
+    are the rollouts: the compiled search copies the earlier one instead of rolling it out
+    (fewer rollouts run than the Python search's), and the speed, the memo's keys and its
+    numbers stay the Python search's."""
+    import dataclasses
+
+    from rtsim.control.adjust import search_rollout
+    from rtsim.control.predict import min_bound_rows
+    from rtsim.control.rollout import Rollout, rollouts_run
+
+    copied = 0
+    for seed, (name, windows) in enumerate([("test2", 130), ("test1", 100)]):
+        pair = _twin_states(name, windows, seed)
+        st_py, st_co = (dataclasses.replace(st, leader_speed=0.2 * st.v_ld) for st in pair)
+        w = st_py.w_sch
+        for at in (0.5, 0.375):  # a need met from the scan's 4th (5th) speed on, if monotone
+            py, co = Rollout(st_py), Rollout(st_co)
+
+            def worst(v: float, py: Any = py, w: float = w) -> float:
+                per = py.changes(v, (w, w))
+                return min(min_bound_rows(py.bounds(c, w))[0] for c in per)
+
+            need = worst(at * st_py.v_ld)
+            co.changes(at * st_py.v_ld, (w, w))  # as worst() does on py's memo
+            before = rollouts_run()
+            ref = search_rollout(worst, st_py.v_ld, need, 3.0)
+            n_py = rollouts_run() - before
+            got = co.search(st_co.v_ld, 1.0, need, 3.0, 2, w)
+            n_co = rollouts_run() - before - n_py
+            assert got is not None and _bits(list(got)) == _bits(list(ref)), (name, at)
+            assert set(co._memo) | set(co._raw) == set(py._memo)
+            assert co.count == py.count
+            for key in list(co._raw):
+                assert _bits(co.changes(*key)) == _bits(py.changes(*key))
+            copied += n_py - n_co
+    assert copied > 0
