@@ -166,12 +166,19 @@ def run(args: Any) -> int:
         staged.commit()
         files.commit()
     s = res.summary
-    from rtsim.coupling.duration import run_length, run_note  # lazy: CLI start-up (pandas)
+    from rtsim.coupling.duration import (  # lazy: CLI start-up (pandas)
+        heading_warning,
+        run_length,
+        run_note,
+    )
 
     to_lap = run_length(scenario.world, args.duration, scenario.duration).stop_s is not None
     note = None if args.quiet else run_note(s, to_lap)
     if note is not None:
         print(note, file=sys.stderr)
+    heading = s.get("assumptions", {}).get("predicted_heading_sd")
+    if heading is not None and not heading["held"] and not args.quiet:
+        print(heading_warning(heading), file=sys.stderr)
     if args.json:
         print(dumps(summary_json(s)))
         return 0

@@ -11,6 +11,7 @@ hours).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -18,7 +19,14 @@ from typing import Any
 from rtsim.io.work import check_coupled
 from rtsim.world.config import WorldConfig
 
-__all__ = ["LAP_CAP_FACTOR", "RunLength", "check_scenario", "run_length", "run_note"]
+__all__ = [
+    "LAP_CAP_FACTOR",
+    "RunLength",
+    "check_scenario",
+    "heading_warning",
+    "run_length",
+    "run_note",
+]
 
 #: With the default (one-lap) duration, the run stops at the latest after this many lap
 #: times at V_Ld.
@@ -81,4 +89,17 @@ def run_note(summary: Mapping[str, Any], to_lap: bool) -> str | None:
         f'until = "lap": ran {ran:.1f} s to the end of the lap (the leader\'s took '
         f"{float(lap):.1f} s, the followers' {ran - float(lap):.1f} s more); "
         f"a duration (--duration S, --set duration=S) fixes the length"
+    )
+
+
+def heading_warning(heading: Mapping[str, Any]) -> str:
+    """The warning for a broken heading assumption of the predicted-centre bound
+    (summary.json ``assumptions.predicted_heading_sd``: ``assumed``, ``max_carried``, rad;
+    docs/localization.md)."""
+    return (
+        f"rtsim: warning: localization: the predicted-centre bound assumed a heading SD of "
+        f"{math.degrees(heading['assumed']):.3g}° ([ekf] init_heading_sd) and the filters "
+        f"carried up to {math.degrees(heading['max_carried']):.3g}°: the bound may be "
+        f"optimistic; lower the turn noise ([follower]/[ekf] turn_noise): raising "
+        f"init_heading_sd raises the filters' too"
     )

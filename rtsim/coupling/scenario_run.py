@@ -378,6 +378,17 @@ class _Coupling:
             f"does not slow for it and the run counts the tracks it loses"
         )
 
+    def _heading_assumption(self) -> dict[str, Any]:
+        """The predicted-centre bound's heading assumption (docs/localization.md): the heading
+        SD it assumed (``[ekf] init_heading_sd``, rad), the largest the filters carried
+        from a scan over a window (√P_θθ after the scan's update, rad,
+        `rtsim.world.world.World.max_heading_var`), and whether the first bounds the second
+        within `HEADING_SLACK` (the first scan's estimate carries P0 and one interval's drift)."""
+        assumed = float(self._given.ekf.init_heading_sd)
+        carried = math.sqrt(self.world.max_heading_var)
+        held = carried <= assumed * (1.0 + HEADING_SLACK)
+        return {"assumed": assumed, "max_carried": carried, "held": held}
+
     # -- the decision ----------------------------------------------------------------
     def _nominal_offsets(self, ts: TaskSet) -> list[float]:
         """Each follower's send, ms after the scan starts, with the chain's WCETs and the
@@ -773,6 +784,8 @@ class _Coupling:
         }
         if self.infeasible_note is not None:
             extra["infeasible_note"] = self.infeasible_note
+        if self.thr.localization == "predicted":
+            extra["assumptions"] = {"predicted_heading_sd": self._heading_assumption()}
         if self.lap_ms is None:  # why there is no lap time
             extra["lap_time_note"] = (
                 f"the leader did not complete its lap within the cap of "
@@ -832,6 +845,12 @@ class _Coupling:
             scan = self.world.scan(max(self.env.now, self.world.t_ms))
             fol, (xl, yl, _) = self.world.followers, scan.leader_pose
             self._close(scan, tuple(closest_to(fol.x, fol.y, k, xl, yl) for k in range(self.n)))
+
+
+#: The relative excess of the filters' heading SD over the predicted-centre bound's assumed
+#: one that still counts as held (summary.json ``assumptions``): the first scan's estimate
+#: starts at P0 and adds one interval's drift (test1: 2.0001° against 2°).
+HEADING_SLACK = 0.01
 
 
 #: The keyword arguments `run_scenario` took under other names, and their names now.

@@ -141,6 +141,11 @@ class FollowerEKF:
     def P(self) -> NDArray[np.float64]:
         return self.kf.P
 
+    @property
+    def heading_var(self) -> float:
+        """P_θθ (rad²): the heading estimate's variance."""
+        return float(self.kf.P[2, 2])
+
     def set_state(self, pose: tuple[float, float, float], P: NDArray[np.float64]) -> None:
         """Overwrite the estimate and its covariance (tests, re-initialisation)."""
         self.kf.x = np.array([[pose[0]], [pose[1]], [pose[2]]], dtype=float)
@@ -349,6 +354,11 @@ class FastFollowerEKF:
     @property
     def P(self) -> NDArray[np.float64]:
         return np.array(self._p)
+
+    @property
+    def heading_var(self) -> float:
+        """P_θθ (rad²): the heading estimate's variance."""
+        return self._p[2][2]
 
     def set_state(self, pose: tuple[float, float, float], P: NDArray[np.float64]) -> None:
         self.x = [float(pose[0]), float(pose[1]), float(pose[2])]

@@ -115,6 +115,9 @@ class World:
         self.followers.w = [w0] * form.n
         self._t = 0.0
         self._est_t = 0.0
+        #: the largest heading variance P_θθ (rad²) the filters carried from a scan's
+        #: estimate over a predicted-centre window (`estimate`; 0 with another centre)
+        self.max_heading_var = 0.0
         ep = config.ekf
         if self.backend == "filterpy" and ep.backend != "filterpy":
             ep = replace(ep, backend="filterpy")
@@ -402,6 +405,7 @@ class World:
         measured = scan.as_lists("measured")
         in_window = scan.as_lists("in_window")
         reacquired = scan.as_lists("reacquired")
+        predicted = self.config.localization.centre == "predicted"
         for k, f in enumerate(self._filters):
             pieces = self._pieces[k]
             v, w = self._vhat[k], self._what[k]
@@ -423,6 +427,8 @@ class World:
                 f.update(z)
             elif reacquired[k]:
                 f.reset_position(z)
+            if predicted and f.heading_var > self.max_heading_var:
+                self.max_heading_var = f.heading_var
         self._est_t = t
         self._centre = self._to_leader(scan.leader_pose, *self._estimated_xy())
 

@@ -1,0 +1,78 @@
+"""The predicted-centre bound's heading assumption (docs/localization.md): a run records the
+largest heading SD its filters carried against the one the bound assumed
+(``[ekf] init_heading_sd``) and says so when it broke."""
+
+from __future__ import annotations
+
+import json
+import math
+
+from rtsim.cli import main
+from rtsim.coupling.scenario_run import HEADING_SLACK, run_scenario
+
+
+def _heading(overrides: dict[str, float], duration_s: float) -> dict[str, float]:
+    res = run_scenario("test1", overrides=overrides, duration_s=duration_s)
+    return res.summary["assumptions"]["predicted_heading_sd"]
+
+
+def test_shipped_noise_holds() -> None:
+    """At the shipped turn noise (0.3°/s) the filters' heading SD stays within the assumed
+    2° (the first scan's estimate, P0 plus one interval's drift, is the largest)."""
+    h = _heading({}, 5.0)
+    assert h["assumed"] == math.radians(2.0)
+    assert 0.0 < h["max_carried"] <= h["assumed"] * (1.0 + HEADING_SLACK)
+    assert h["held"] is True
+
+
+def test_large_turn_noise_breaks_it(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """At 40°/s turn noise (the follower's and the filters' model) the filters carry several
+    times the assumed heading SD: summary.json says held = false and the CLI warns once."""
+    code = main(
+        [
+            "scenario",
+            "test1",
+            "--duration",
+            "5",
+            "--set",
+            "follower.turn_noise_deg=40",
+            "--set",
+            "ekf.turn_noise_deg=40",
+            "--out",
+            str(tmp_path / "run"),
+        ]
+    )
+    assert code == 0
+    h = json.loads((tmp_path / "run" / "summary.json").read_text())["assumptions"][
+        "predicted_heading_sd"
+    ]
+    assert h["held"] is False
+    assert h["max_carried"] > 3.0 * h["assumed"]
+    err = capsys.readouterr().err
+    assert err.count("predicted-centre bound assumed a heading SD of 2°") == 1
+
+
+def test_previous_centre_has_no_entry() -> None:
+    """With the previous-position centre the bound is not in use: no entry."""
+    res = run_scenario(
+        "test1",
+        overrides={"localization.centre": "previous", "thresholds.localization": "radial"},
+        duration_s=3.0,
+    )
+    assert "assumptions" not in res.summary
+
+
+def test_heading_var_is_p_thth() -> None:
+    """Every filter's `heading_var` is its covariance's P_θθ after a predict and an update
+    (the filterpy reference, the plain-float and the compiled filter)."""
+    from rtsim.world.compiled import CompiledFollowerEKF
+    from rtsim.world.ekf import EkfParams, FastFollowerEKF, FollowerEKF
+
+    params = EkfParams(turn_noise=math.radians(40.0))
+    for cls in (FollowerEKF, FastFollowerEKF, CompiledFollowerEKF):
+        f = cls((0.0, 0.0, 0.3), params)
+        f.predict(100.0, 0.2, 0.25)
+        grown = f.heading_var
+        assert grown == float(f.P[2, 2]) > params.init_heading_sd**2
+        f.update((24.0, 8.0))
+        assert f.heading_var == float(f.P[2, 2]) < grown
