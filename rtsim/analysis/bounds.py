@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 from rtsim.analysis.common import DEADLINE_TOL, ceil_div, stretches
 from rtsim.analysis.edf import analyze_edf, edf_tasks, qpa
 from rtsim.analysis.rta import analyze, response_time
+from rtsim.analysis.search import smallest_passing
 from rtsim.analysis.sufficient import (
     _entries,
     _need_window,
@@ -274,10 +275,9 @@ def w_txn(
     ``ts`` has a bound within its deadline, each task taking the least of its sound bounds
     ([`transaction_bounds`][rtsim.analysis.transaction.transaction_bounds]). Feasibility need not be
     monotone in w (the offsets move
-    with it), so the search is `rtsim.analysis.validation.smallest_passing`: bisection
+    with it), so the search is `rtsim.analysis.search.smallest_passing`: bisection
     from above the suspension-aware w_susp (or w_rta under ``suspension="cpu"``), which
     passes, with a scan of 20 windows above the result. ``inf`` when that start is."""
-    from rtsim.analysis.validation import smallest_passing  # lazy: CLI start-up (~20 ms)
 
     hi = w_susp(ts, overhead) if suspension == "idle" else w_rta(ts)
     if not math.isfinite(hi):

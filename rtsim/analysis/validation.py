@@ -4,22 +4,7 @@ percentiles, the failure checker and the summary numbers (docs/model/lower-bound
 No simulator here: the search takes the simulation as a predicate ``passes(w) -> bool``
 ("no deadline miss at window w"), and the checker reads a results table.
 
-**w_sim search** (`smallest_passing`). Feasibility in simulation need not be monotone in
-w (with idle suspensions and varying execution times the phasing against T_hp changes with
-w), so the search is bisection *plus a scan*:
-
-1. bracket: ``passes(lo)`` must be false and ``passes(hi)`` true (``hi`` is doubled, at most
-   ``max_doublings`` times, until it passes);
-2. bisect to ``tol`` (0.01 ms): ``w = hi`` is a passing window with a failing one within tol
-   below it;
-3. scan ``scan`` windows evenly spaced in (w, hi₀]; if one fails (a non-monotone spot), the
-   bracket restarts from it and step 2–3 repeat.
-
-The result is the least w, to ``tol``, above which none of the windows tried failed: the
-"threshold" definition of w_sim. ``nonmonotone`` counts the scan failures seen. With WCET
-execution, suspensions as CPU time and synchronous releases the simulation is the critical
-instant and feasibility is monotone (the argument of `rtsim.analysis.bounds`), so the
-scan never fires and w_sim lands within tol above w_rta.
+**w_sim search**: `rtsim.analysis.search.smallest_passing` (re-exported here).
 
 **Checks** (`check_results`), on the tidy table of `rtsim.validate` (one row per
 configuration, task and mode): a simulated maximum response above the exact WCRT (the
@@ -32,7 +17,7 @@ not checked against the WCRT but reported as warnings.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -40,6 +25,7 @@ import numpy as np
 
 from rtsim.analysis.bounds import w_sch_of
 from rtsim.analysis.rta import analyze
+from rtsim.analysis.search import SEARCH_TOL, SearchResult, smallest_passing
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -62,8 +48,6 @@ __all__ = [
 
 #: A simulated response up to BOUND_TOL ms above its analytic bound is not a failure.
 BOUND_TOL = 1e-6
-#: Resolution of the w_sim search (ms).
-SEARCH_TOL = 0.01
 #: Percentiles reported for each task's response times.
 PERCENTILES: tuple[float, ...] = (50.0, 99.0, 99.9)
 
@@ -110,80 +94,6 @@ def task_bounds(ts: TaskSet, w: float | None = None) -> dict[str, TaskBounds]:
         )
         for t in a.tasks
     }
-
-
-@dataclass(frozen=True)
-class SearchResult:
-    """Outcome of `smallest_passing`: the window found and how it was found."""
-
-    w: float
-    lo: float
-    hi: float
-    evaluations: int
-    nonmonotone: int
-    hi_doublings: int
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-
-def smallest_passing(
-    passes: Callable[[float], bool],
-    lo: float,
-    hi: float,
-    *,
-    tol: float = SEARCH_TOL,
-    scan: int = 10,
-    max_doublings: int = 8,
-) -> SearchResult:
-    """Least w (to ``tol``) above which ``passes`` held everywhere it was tried (module doc).
-
-    Raises ``ValueError`` when ``passes(lo)`` holds (no failing lower end) or no passing
-    upper end is found within ``max_doublings`` doublings of ``hi``.
-    """
-    if not (0 < lo < hi) or not math.isfinite(hi):
-        raise ValueError(f"smallest_passing: need 0 < lo < hi < inf, got lo={lo!r}, hi={hi!r}")
-    if tol <= 0:
-        raise ValueError(f"smallest_passing: tol must be positive, got {tol!r}")
-    evals = 0
-
-    def test(w: float) -> bool:
-        nonlocal evals
-        evals += 1
-        return bool(passes(w))
-
-    if test(lo):
-        raise ValueError(f"smallest_passing: the lower end w={lo:g} already passes")
-    doublings = 0
-    while not test(hi):
-        if doublings >= max_doublings:
-            raise ValueError(f"smallest_passing: no passing window up to w={hi:g}")
-        lo, hi = hi, 2.0 * hi
-        doublings += 1
-    top = hi
-    nonmono = 0
-    for _ in range(1000):  # each round ends above the last failure seen: it terminates
-        while hi - lo > tol:
-            mid = 0.5 * (lo + hi)
-            if test(mid):
-                hi = mid
-            else:
-                lo = mid
-        found = hi
-        bad = None
-        for x in np.linspace(found, top, scan + 1)[1:-1] if scan > 1 else ():
-            if not test(float(x)):
-                bad = float(x)
-        if bad is None:
-            return SearchResult(found, lo, top, evals, nonmono, doublings)
-        nonmono += 1
-        lo = bad
-        hi = top
-        for x in np.linspace(found, top, scan + 1)[1:]:  # the next passing grid point
-            if x > bad:
-                hi = float(x)
-                break
-    raise ValueError("smallest_passing: no stable threshold after 1000 rounds")
 
 
 def percentiles(values: Iterable[float], qs: Sequence[float] = PERCENTILES) -> dict[float, float]:
