@@ -41,7 +41,7 @@ def compiled_rollout(law: Any, state: Any) -> CompiledRollout | None:
 
 
 #: how many of RolloutScalars' fields change from one decision to the next (they come first)
-_CHANGING = K.RolloutScalars._fields.index("lap")
+_CHANGING = K.RolloutScalars._fields.index("accel")
 
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
@@ -91,7 +91,6 @@ class CompiledRollout:
                 v_ld=0.0,
                 t_now=0.0,
                 next_scan=0.0,
-                lap=law.path.lap_length,
                 accel=state.accel_max,
                 decel=state.decel_max,
                 max_accel=p.max_accel,
@@ -149,12 +148,7 @@ class CompiledRollout:
             fs,
             fol,
             pend,
-            law._s0,
-            law._poses,
-            law._kappa,
-            law._lateral,
-            law._ahead,
-            law._spacing,
+            law._G,
         )
         self.n = n
 

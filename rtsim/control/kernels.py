@@ -1,9 +1,10 @@
 """The controller's numba kernels, as plain Python kernel sources (`rtsim.world.jit`): the
 command-aware rollout (`rtsim.control.rollout.Rollout`), its bounds and the ``plan``
 policy's decision or the ``commands`` speed search (`rtsim.control.policy.PlanPolicy`).
-They call the world's kernel sources (the motion model's parts, the follow-the-leader law,
-hypot and remainder: `rtsim.world.kernels`); the cache keyed on source hashes sees an edit
-there. `rtsim.control.compiled_rollout.CompiledRollout` packs a state and calls them.
+They call the world's kernel sources (the motion model's parts: `rtsim.world.motion`; the
+follow-the-leader law: `rtsim.world.ftl`; CPython's hypot and remainder:
+`rtsim.world.exactmath`); the cache keyed on source hashes sees an edit there.
+`rtsim.control.compiled_rollout.CompiledRollout` packs a state and calls them.
 
 `rollout_kernels` compiles `ENTRIES` (or loads them from the cache) once per process and
 motion model, when a run first rolls out.
@@ -18,16 +19,10 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
+from rtsim.world.exactmath import cpython_hypot, cpython_remainder
+from rtsim.world.ftl import ftl_command, path_pose
 from rtsim.world.jit import Subs, build, kernel
-from rtsim.world.kernels import (
-    _ftl_exact,
-    _hypot,
-    _pose,
-    _remainder,
-    announce,
-    follow_with,
-    kernels,
-)
+from rtsim.world.kernels import announce, follow_with, kernels
 from rtsim.world.motion import clip, follower_advance, leader_travel
 
 __all__ = ["ENTRIES", "RolloutScalars", "rollout_kernels", "scalars", "warm_all", "warm_rollout"]
@@ -35,10 +30,7 @@ __all__ = ["ENTRIES", "RolloutScalars", "rollout_kernels", "scalars", "warm_all"
 
 @kernel
 def _rollout(
-    s0: Any,
-    poses: Any,
-    kappa: Any,
-    lap: float,
+    G: Any,
     x: Any,
     y: Any,
     th: Any,
@@ -54,9 +46,6 @@ def _rollout(
     speed_noise: float,
     turn_noise: float,
     step_ms: float,
-    lateral: Any,
-    ahead: Any,
-    spacing: Any,
     s_ref: Any,
     s_f: Any,
     gain: float,
@@ -101,30 +90,11 @@ def _rollout(
                 )
                 t_f[k] = t
         s_l, v0 = trace[e, 0], trace[e, 1]
-        xl, yl, hl = _pose(s0, poses, kappa, lap, s_l)
+        xl, yl, hl = path_pose(G, s_l)
         if ev_kind[e] == 0:
             k = ev_k[e]
-            vc, wc = _ftl_exact(
-                s0,
-                poses,
-                kappa,
-                lap,
-                lateral,
-                ahead,
-                spacing,
-                s_ref,
-                s_f,
-                gain,
-                lookahead,
-                k,
-                s_l,
-                xl,
-                yl,
-                hl,
-                v0,
-                x[k],
-                y[k],
-                th[k],
+            vc, wc = ftl_command(
+                G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, hl, v0, x[k], y[k], th[k]
             )
             vc, wc = clip(vc, max_speed), clip(wc, max_turn)
             cmd_v[k] = clip(vc + speed_noise * 0.0, max_speed)
@@ -183,7 +153,6 @@ class RolloutScalars(NamedTuple):
     v_ld: float
     t_now: float
     next_scan: float
-    lap: float
     accel: float
     decel: float
     max_accel: float
@@ -207,7 +176,7 @@ def scalars(fs: Any) -> RolloutScalars:
     """The float pack ``fs`` as its named scalars (the field order of RolloutScalars)."""
     return RolloutScalars(
         fs[0], fs[1], fs[2], fs[3], fs[4], fs[5], fs[6], fs[7], fs[8], fs[9], fs[10],
-        fs[11], fs[12], fs[13], fs[14], fs[15], fs[16], fs[17], fs[18], fs[19], fs[20], fs[21],
+        fs[11], fs[12], fs[13], fs[14], fs[15], fs[16], fs[17], fs[18], fs[19], fs[20],
     )  # fmt: skip
 
 
@@ -313,7 +282,7 @@ def _roll(
     bound at d_c = ``contact``, below ``need``: later windows can only lower it), 1 — the
     rollout stops at that window's closing scan, its first window the numbers it would have
     had (the events up to that scan are the whole rollout's, in the same order)."""
-    fs, fol, pend, s0, poses, kappa, lateral, ahead, spacing, sr0, sf0 = P
+    fs, fol, pend, G, sr0, sf0 = P
     S = scalars(fs)
     n = fol.shape[0]
     nw = lengths.shape[0]
@@ -337,10 +306,9 @@ def _roll(
         stop = first if done == 0 else nw
         scan = 0 if done == 0 else done + 1
         e = _rollout(
-            s0, poses, kappa, S.lap, x, y, th, vf, wf, cmd_v, cmd_w, odo, t_f,
+            G, x, y, th, vf, wf, cmd_v, cmd_w, odo, t_f,
             S.max_accel, S.max_speed, S.max_turn, S.speed_noise, S.turn_noise, S.step,
-            lateral, ahead, spacing, sr, sf, S.gain, S.lookahead,
-            ev_t, ev_kind, ev_k, trace, e, scan, stop, samples,
+            sr, sf, S.gain, S.lookahead, ev_t, ev_kind, ev_k, trace, e, scan, stop, samples,
         )  # fmt: skip
         for j in range(scan, stop + 1):
             for i in range(n):
@@ -363,12 +331,12 @@ def _window_changes(samples: Any, near: Any, j: int, out: Any) -> None:
     for i in range(samples.shape[1]):
         px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
         qx, qy, qo = samples[j + 1, i, 0], samples[j + 1, i, 1], samples[j + 1, i, 2]
-        out[j, i, 0] = _hypot(qx - px, qy - py)
-        out[j, i, 1] = abs(_hypot(qx, qy) - _hypot(px, py))
+        out[j, i, 0] = cpython_hypot(qx - px, qy - py)
+        out[j, i, 1] = abs(cpython_hypot(qx, qy) - cpython_hypot(px, py))
         out[j, i, 2] = qo - po
         b_q = math.atan2(qy, qx) % two_pi
         b_p = math.atan2(py, px) % two_pi
-        out[j, i, 3] = abs(_remainder(b_q - b_p, two_pi))
+        out[j, i, 3] = abs(cpython_remainder(b_q - b_p, two_pi))
         out[j, i, 4] = closest_over(near[j, i], near[j + 1, i])
 
 
@@ -390,30 +358,32 @@ def _bound(S: RolloutScalars, rho_d: float, j: int, ci: float, w: float) -> floa
     return math.inf if ci <= 0.0 else lim * w / ci
 
 
-@kernel
-def _rows(changes: Any, S: RolloutScalars, fol: Any, w: float, rows: Any) -> float:
-    """Rollout.bounds(changes, w) into ``rows`` [follower, kind]; returns min_bound_rows's
-    bound (the first smallest)."""
+@kernel(inline=True)
+def _bounds_of(changes: Any, S: RolloutScalars, fol: Any, w: float, rows: Any, fill: bool) -> float:
+    """Rollout.bounds(changes, w) — into ``rows`` [follower, kind] when ``fill`` — and
+    min_bound_rows's bound of them (the first smallest)."""
     best = math.inf
     for i in range(changes.shape[0]):
         for j in range(4):
             b = _bound(S, fol[i, F_RHO_D], j, changes[i, j], w)
-            rows[i, j] = b
+            if fill:
+                rows[i, j] = b
             if b < best:
                 best = b
     return best
+
+
+@kernel
+def _rows(changes: Any, S: RolloutScalars, fol: Any, w: float, rows: Any) -> float:
+    """`_bounds_of` into ``rows``: a window's bounds and the smallest."""
+    return _bounds_of(changes, S, fol, w, rows, True)
 
 
 @kernel
 def _min_bound(changes: Any, S: RolloutScalars, fol: Any, w: float) -> float:
-    """min_bound_rows(Rollout.bounds(changes, w))[0]: the smallest L·w / c of one window."""
-    best = math.inf
-    for i in range(changes.shape[0]):
-        for j in range(4):
-            b = _bound(S, fol[i, F_RHO_D], j, changes[i, j], w)
-            if b < best:
-                best = b
-    return best
+    """min_bound_rows(Rollout.bounds(changes, w))[0]: the smallest L·w / c of one window
+    (`_bounds_of`, no rows kept)."""
+    return _bounds_of(changes, S, fol, w, changes, False)
 
 
 @kernel
@@ -780,7 +750,6 @@ def _warm(ns: Any) -> None:
     fs = np.array(
         RolloutScalars(
             *(0.0, 30.0, 30.0, 0.0, 0.0),  # leader_s, leader_speed, v_ld, t_now, next_scan
-            lap=1e3,
             accel=20.0,
             decel=50.0,
             max_accel=100.0,
@@ -802,8 +771,8 @@ def _warm(ns: Any) -> None:
     fol = np.zeros((1, F_SIZE))
     fol[0, F_X], fol[0, F_V], fol[0, F_SEND], fol[0, F_RHO_D] = -100.0, 30.0, 100.0, 100.0
     nan1 = np.full(1, math.nan)
-    path = (np.zeros(1), np.zeros((1, 3)), np.zeros(1), np.zeros(1), np.full(1, -1))
-    P = (fs, fol, np.full((1, 1), math.nan), *path, np.full(1, 100.0), nan1, nan1)
+    G = (np.zeros(1), np.zeros(3), np.zeros(1), 1e3, np.zeros(1), np.full(1, -1), np.full(1, 100.0))
+    P = (fs, fol, np.full((1, 1), math.nan), G, nan1, nan1)
     ch = np.empty((64, 2, 1, 5))
     ns.rollout_changes(20.0, np.full(2, 240.0), P, ch[0], 1.0, -math.inf, 0.0)
     cut = np.zeros(64, dtype=np.int64)

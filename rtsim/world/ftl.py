@@ -1,15 +1,24 @@
 """Follow-the-leader control: each follower tracks the path the leader drove, offset
 sideways, holding its place in line by a search on its offset trace, a speed law (FTL-1)
-and pure pursuit (docs/model/world.md, "The follow-the-leader law")."""
+and pure pursuit (docs/model/world.md, "The follow-the-leader law").
+
+The law's equations are written once, as kernel sources (`rtsim.world.jit`) on the law's
+geometry ``G`` (`TraceFollower.geometry`): `TraceFollower` runs them as Python (with
+``math.hypot``), the compiled backend's `rtsim.world.compiled.CompiledTraceFollower` and the
+controller's rollout (`rtsim.control.kernels`) run them compiled.
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
-from rtsim.world.path import LeaderPath
+from rtsim.world.exactmath import HYPOT_SUBS, cpython_hypot
+from rtsim.world.jit import kernel, specialise
+from rtsim.world.path import LeaderPath, along
 
-__all__ = ["TraceFollower", "FTL_STEP"]
+__all__ = ["TraceFollower", "FTL_STEP", "ftl_command", "ftl_project", "ftl_reference"]
 
 #: Bracketing step (cm) of the search for the reference point along the trace.
 FTL_STEP = 10.0
@@ -18,13 +27,206 @@ _NEWTON = 8
 _NEWTON_REACH = 50.0
 _SCALE_MIN = 0.05
 
+# -- the equations, on the geometry G = (s0, poses, kappa, lap, lateral, ahead, spacing):
+# the path's segment starts (cm), their start poses (x, y, heading, three per segment, flat)
+# and curvatures (1/cm), its lap (cm); per follower its lateral offset (cm, left positive),
+# whom it follows (-1: the leader) and at what spacing (cm). Tuples in Python, arrays compiled.
+
+
+@kernel
+def path_segment(G: Any, s: float) -> tuple[int, float]:
+    """`LeaderPath.index` (s), the segment's index (bisect_right − 1 of the starts), and u = s
+    mod lap."""
+    s0 = G[0]
+    u = s % G[3]
+    lo, hi = 0, len(s0)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if u < s0[mid]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo - 1, u
+
+
+@kernel
+def path_pose(G: Any, s: float) -> tuple[float, float, float]:
+    """`LeaderPath.pose` (s): `along` the segment at ``s`` from its start pose."""
+    k, u = path_segment(G, s)
+    poses = G[1]
+    return along(poses[3 * k], poses[3 * k + 1], poses[3 * k + 2], G[2][k], u - G[0][k])
+
+
+@kernel
+def trace_point(G: Any, k: int, s: float) -> tuple[float, float, float]:
+    """P_k(s) and the heading there: the path's pose at ``s`` moved follower k's offset to
+    the left."""
+    x, y, h = path_pose(G, s)
+    o = G[4][k]
+    return x - o * math.sin(h), y + o * math.cos(h), h
+
+
+@kernel
+def trace_scale(G: Any, k: int, s: float) -> float:
+    """1 − κ(s)·o_k: follower k's offset curve's length per unit of trace (floored at 0.05)."""
+    return max(_SCALE_MIN, 1.0 - G[2][path_segment(G, s)[0]] * G[4][k])
+
+
+@kernel
+def _gap(G: Any, k: int, s: float, xl: float, yl: float, rho2: float) -> float:
+    """|P_k(s) − (xl, yl)|² − ρ²."""
+    x, y, _ = trace_point(G, k, s)
+    return (x - xl) ** 2 + (y - yl) ** 2 - rho2
+
+
+@kernel
+def ftl_search(G: Any, k: int, s: float, s_l: float, xl: float, yl: float, rho: float) -> float:
+    """The first s ≤ ``s_l`` behind (xl, yl) on follower k's trace with |P_k(s) − (xl, yl)|
+    = ``rho``: Newton steps from the last reference ``s`` (NaN: none; it moves a few cm per
+    command), else a bracketing walk by `FTL_STEP` and a bisection."""
+    rho2 = rho * rho
+    if not math.isnan(s) and s <= s_l:
+        s_n = s
+        for _ in range(_NEWTON):
+            x, y, h = trace_point(G, k, s_n)
+            dx, dy = x - xl, y - yl
+            dg = 2.0 * (dx * math.cos(h) + dy * math.sin(h)) * trace_scale(G, k, s_n)
+            if dg > -1e-6 * rho:
+                break
+            step = (dx * dx + dy * dy - rho2) / dg
+            s_n -= step
+            if abs(s_n - s) > _NEWTON_REACH or s_n > s_l:
+                break
+            if abs(step) < 1e-9:
+                return s_n
+    limit = int(G[3] / FTL_STEP) + 2
+    if math.isnan(s) or s > s_l:
+        s = s_l
+    lo = hi = s
+    if _gap(G, k, s, xl, yl, rho2) > 0.0:  # too far behind: walk forward to the crossing
+        for _ in range(limit):
+            hi = min(lo + FTL_STEP, s_l)
+            if _gap(G, k, hi, xl, yl, rho2) <= 0.0 or hi >= s_l:
+                break
+            lo = hi
+    else:  # too close: walk back
+        for _ in range(limit):
+            lo = hi - FTL_STEP
+            if _gap(G, k, lo, xl, yl, rho2) > 0.0:
+                break
+            hi = lo
+    for _ in range(_BISECT):
+        mid = 0.5 * (lo + hi)
+        if _gap(G, k, mid, xl, yl, rho2) > 0.0:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < 1e-7:
+            break
+    return 0.5 * (lo + hi)
+
+
+@kernel
+def ftl_project(G: Any, k: int, s: float, x: float, y: float) -> float:
+    """Arc length of the trace whose follower-k offset point is nearest (x, y): Newton steps
+    on (p − P)·t / (1 − κo) from ``s``."""
+    for _ in range(6):
+        px, py, h = trace_point(G, k, s)
+        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / trace_scale(G, k, s)
+        s += ds
+        if abs(ds) < 1e-3:
+            break
+    return s
+
+
+@kernel
+def ftl_reference(
+    G: Any, s_ref: Any, k: int, s_l: float, xl: float, yl: float, hl: float, v_l: float
+) -> tuple[float, float]:
+    """(s_ref, V_ref) of follower k for the leader at arc length ``s_l``, pose (xl, yl, hl),
+    speed ``v_l``: down the chain of whom it follows, each one's reference behind the point it
+    follows at its spacing (`ftl_search`) and that point's speed by (FTL-1) — V_T where the
+    reference's tangent is nearly across the line. Updates ``s_ref`` (NaN: none yet) of each."""
+    ahead, spacing = G[5], G[6]
+    depth = 0  # how many followers k follows through
+    j = ahead[k]
+    while j >= 0:
+        depth += 1
+        j = ahead[j]
+    s_t, tx, ty, th_t, v_t = s_l, xl, yl, hl, v_l
+    sr = v_ref = 0.0
+    for c in range(depth, -1, -1):
+        q = k
+        for _ in range(c):
+            q = ahead[q]
+        sr = ftl_search(G, q, s_ref[q], s_t, tx, ty, spacing[q])
+        s_ref[q] = sr
+        px, py, hp = trace_point(G, q, sr)
+        dx, dy = tx - px, ty - py
+        den = dx * math.cos(hp) + dy * math.sin(hp)
+        if den <= 0.1 * cpython_hypot(dx, dy):
+            v_ref = v_t
+        else:
+            v_ref = v_t * (dx * math.cos(th_t) + dy * math.sin(th_t)) / den
+        s_t, tx, ty, th_t, v_t = sr, px, py, hp, v_ref  # the next one follows this one
+    return sr, v_ref
+
+
+@kernel
+def ftl_command(
+    G: Any,
+    s_ref: Any,
+    s_f: Any,
+    gain: float,
+    lookahead: float,
+    k: int,
+    s_l: float,
+    xl: float,
+    yl: float,
+    hl: float,
+    v_l: float,
+    x: float,
+    y: float,
+    th: float,
+) -> tuple[float, float]:
+    """(v, ω) of follower k at (x, y, θ) (the leader's estimate), unsaturated: its reference
+    (`ftl_reference`), its projection (`ftl_project`, from the last one, NaN: from the
+    reference), the speed V_ref + k_ρ·(s_ref − s_f)·(1 − κo) (not below 0) and pure pursuit
+    of the point ``lookahead`` ahead (not beyond the leader). Updates ``s_ref`` and ``s_f``."""
+    sr, v_ref = ftl_reference(G, s_ref, k, s_l, xl, yl, hl, v_l)
+    sf = s_f[k]
+    if math.isnan(sf):
+        sf = sr
+    sf = ftl_project(G, k, sf, x, y)
+    s_f[k] = sf
+    v = v_ref + gain * (sr - sf) * trace_scale(G, k, sf)
+    if not v > 0.0:
+        v = 0.0
+    ahead_s = sf + lookahead
+    if s_l < ahead_s:
+        ahead_s = s_l
+    gx, gy, _ = trace_point(G, k, ahead_s)
+    dx, dy = gx - x, gy - y
+    dist = cpython_hypot(dx, dy)
+    if dist < 1e-9:
+        return v, 0.0
+    alpha = math.atan2(dy, dx) - th
+    return v, v * 2.0 * math.sin(alpha) / dist
+
+
+#: the Python twins (`rtsim.world.jit.specialise`: ``math.hypot`` for `hypot`)
+_PY_REFERENCE = specialise(ftl_reference, HYPOT_SUBS)
+_PY_COMMAND = specialise(ftl_command, HYPOT_SUBS)
+
 
 class TraceFollower:
-    """Follow-the-leader references and commands for n followers on ``path``.
+    """Follow-the-leader references and commands for n followers on ``path`` (the module's
+    kernel sources, run as Python).
 
     ``rho_d``: each follower's separation (cm); ``lateral``: its offset from the trace (cm,
     left positive); ``gain`` k_ρ (1/s); ``lookahead`` ℓ (cm). Holds, per follower, the last
-    reference and projection arc lengths (searches start there).
+    reference and projection arc lengths (``_sr``, ``_sf``, NaN: none yet; searches start
+    there).
     """
 
     def __init__(
@@ -53,124 +255,66 @@ class TraceFollower:
                 self.spacing.append(r)
         self.gain = float(gain)
         self.lookahead = float(lookahead)
-        self._s_ref: list[float | None] = [None] * len(self.rho_d)
-        self._s_f: list[float | None] = [None] * len(self.rho_d)
+        #: the geometry G the equations read, as Python tuples (module comment)
+        self.geometry: tuple[Any, ...] = (
+            path._s0,
+            tuple(c for pose in path._poses for c in pose),
+            path._kappa,
+            path.lap_length,
+            tuple(self.lateral),
+            tuple(self.ahead),
+            tuple(self.spacing),
+        )
+        n = len(self.rho_d)
+        self._sr: Any = [math.nan] * n
+        self._sf: Any = [math.nan] * n
+        # what the equations run on: G and its functions (the compiled subclass swaps them)
+        self._G: tuple[Any, ...] = self.geometry
+        self._reference: Any = _PY_REFERENCE
+        self._command: Any = _PY_COMMAND
+        self._project: Any = ftl_project
 
     def clone(self) -> TraceFollower:
         """A copy with its own search starts (a rollout plays commands ahead on it without
         moving this law's)."""
-        new = object.__new__(TraceFollower)
+        new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
-        new._s_ref = list(self._s_ref)
-        new._s_f = list(self._s_f)
+        new._sr = self._sr.copy()
+        new._sf = self._sf.copy()
         return new
+
+    @property
+    def _s_ref(self) -> list[float | None]:
+        """The last references (None: none yet), as a list (for readers and tests)."""
+        return [None if s != s else float(s) for s in self._sr]
+
+    @property
+    def _s_f(self) -> list[float | None]:
+        """The last projections (None: none yet), as a list."""
+        return [None if s != s else float(s) for s in self._sf]
 
     # -- geometry --------------------------------------------------------------------
     def point(self, k: int, s: float) -> tuple[float, float, float]:
         """P_k(s) and the heading there: (x, y, heading) of follower index k's offset curve."""
-        x, y, h = self.path.pose(s)
-        o = self.lateral[k]
-        return x - o * math.sin(h), y + o * math.cos(h), h
-
-    def scale(self, k: int, s: float) -> float:
-        """1 − κ(s)·o_k: the offset curve's length per unit of trace (floored at 0.05)."""
-        return max(_SCALE_MIN, 1.0 - self.path.curvature(s) * self.lateral[k])
+        return trace_point(self.geometry, k, s)  # type: ignore[no-any-return]
 
     def reference(
         self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
     ) -> tuple[float, float]:
         """(s_ref, V_ref) of follower index k for the leader at arc length ``s_l``, pose
-        ``leader``, speed ``v_l``: the first point of its offset trace behind the point it
-        follows at its spacing (module docstring), and that point's speed (FTL-1)."""
-        j = self.ahead[k]
-        if j < 0:
-            s_t, target, v_t = s_l, leader, v_l
-        else:
-            s_t, v_t = self.reference(j, s_l, leader, v_l)
-            target = self.point(j, s_t)
-        s_ref = self._search(k, s_t, target[:2], self.spacing[k])
-        return s_ref, self._speed(k, s_ref, target, v_t)
-
-    def _search(self, k: int, s_l: float, leader_xy: tuple[float, float], rho: float) -> float:
-        """The first s ≤ ``s_l`` behind ``leader_xy`` with |P_k(s) − leader_xy| = ``rho``."""
-        xl, yl = leader_xy
-        rho2 = rho * rho
-        s = self._s_ref[k]
-        if s is not None and s <= s_l:
-            # Newton steps from the last reference (it moves a few cm per command); the
-            # bracketing search below when they do not converge quickly on this branch
-            s_n = s
-            for _ in range(_NEWTON):
-                x, y, h = self.point(k, s_n)
-                dx, dy = x - xl, y - yl
-                dg = 2.0 * (dx * math.cos(h) + dy * math.sin(h)) * self.scale(k, s_n)
-                if dg > -1e-6 * rho:
-                    break
-                step = (dx * dx + dy * dy - rho2) / dg
-                s_n -= step
-                if abs(s_n - s) > _NEWTON_REACH or s_n > s_l:
-                    break
-                if abs(step) < 1e-9:
-                    self._s_ref[k] = s_n
-                    return s_n
-
-        def g(s: float) -> float:
-            x, y, _ = self.point(k, s)
-            return (x - xl) ** 2 + (y - yl) ** 2 - rho2
-
-        limit = int(self.path.lap_length / FTL_STEP) + 2
-        if s is None or s > s_l:
-            s = s_l
-        if g(s) > 0.0:  # too far behind: walk forward to the crossing
-            lo = s
-            for _ in range(limit):
-                hi = min(lo + FTL_STEP, s_l)
-                if g(hi) <= 0.0 or hi >= s_l:
-                    break
-                lo = hi
-        else:  # too close: walk back
-            hi = s
-            for _ in range(limit):
-                lo = hi - FTL_STEP
-                if g(lo) > 0.0:
-                    break
-                hi = lo
-        for _ in range(_BISECT):
-            mid = 0.5 * (lo + hi)
-            if g(mid) > 0.0:
-                lo = mid
-            else:
-                hi = mid
-            if hi - lo < 1e-7:
-                break
-        s_ref = 0.5 * (lo + hi)
-        self._s_ref[k] = s_ref
-        return s_ref
-
-    def _speed(self, k: int, s_ref: float, leader: tuple[float, float, float], v_l: float) -> float:
-        """V_ref by (FTL-1); V_T where the reference's tangent is nearly across the line."""
+        ``leader``, speed ``v_l`` (`ftl_reference`)."""
         xl, yl, hl = leader
-        px, py, hp = self.point(k, s_ref)
-        dx, dy = xl - px, yl - py
-        den = dx * math.cos(hp) + dy * math.sin(hp)
-        if den <= 0.1 * math.hypot(dx, dy):
-            return v_l
-        return v_l * (dx * math.cos(hl) + dy * math.sin(hl)) / den
+        return self._reference(self._G, self._sr, k, s_l, xl, yl, hl, v_l)  # type: ignore[no-any-return]
 
     def project(self, k: int, x: float, y: float, guess: float) -> float:
-        """Arc length of the trace whose offset point is nearest (x, y), by Newton steps on
-        (p − P)·t / (1 − κo) from the last projection (or ``guess``)."""
-        s = self._s_f[k]
-        if s is None:
+        """Arc length of the trace whose offset point is nearest (x, y) (`ftl_project`, from
+        the last projection, or ``guess``)."""
+        s = self._sf[k]
+        if s != s:
             s = guess
-        for _ in range(6):
-            px, py, h = self.point(k, s)
-            ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / self.scale(k, s)
-            s += ds
-            if abs(ds) < 1e-3:
-                break
-        self._s_f[k] = s
-        return s
+        s = self._project(self._G, k, s, x, y)
+        self._sf[k] = s
+        return s  # type: ignore[no-any-return]
 
     # -- the controller --------------------------------------------------------------
     def initial(
@@ -179,7 +323,7 @@ class TraceFollower:
         """(x, y, heading, speed) of follower index k on its reference, moving with it."""
         s_ref, v_ref = self.reference(k, s_l, leader, v_l)
         x, y, h = self.point(k, s_ref)
-        self._s_f[k] = s_ref
+        self._sf[k] = s_ref
         return x, y, h, v_ref
 
     def command(
@@ -192,14 +336,22 @@ class TraceFollower:
         y: float,
         th: float,
     ) -> tuple[float, float]:
-        """(v, ω) for follower index k at (x, y, θ) (the leader's estimate), unsaturated."""
-        s_ref, v_ref = self.reference(k, s_l, leader, v_l)
-        s_f = self.project(k, x, y, s_ref)
-        v = max(0.0, v_ref + self.gain * (s_ref - s_f) * self.scale(k, s_f))
-        gx, gy, _ = self.point(k, min(s_f + self.lookahead, s_l))
-        dx, dy = gx - x, gy - y
-        dist = math.hypot(dx, dy)
-        if dist < 1e-9:
-            return v, 0.0
-        alpha = math.atan2(dy, dx) - th
-        return v, v * 2.0 * math.sin(alpha) / dist
+        """(v, ω) for follower index k at (x, y, θ) (the leader's estimate), unsaturated
+        (`ftl_command`)."""
+        xl, yl, hl = leader
+        return self._command(  # type: ignore[no-any-return]
+            self._G,
+            self._sr,
+            self._sf,
+            self.gain,
+            self.lookahead,
+            k,
+            s_l,
+            xl,
+            yl,
+            hl,
+            v_l,
+            x,
+            y,
+            th,
+        )

@@ -175,7 +175,6 @@ def test_ftl_command_kernel() -> None:
         assert _bits(a.command(k, s_l, leader, v_l, x, y, h)) == _bits(
             b.command(k, s_l, leader, v_l, x, y, h)
         )
-        b._to_lists()
         assert _bits(a._s_ref) == _bits(b._s_ref) and _bits(a._s_f) == _bits(b._s_f)
 
 

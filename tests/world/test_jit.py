@@ -14,7 +14,7 @@ from types import ModuleType
 
 import pytest
 
-from rtsim.world import jit, kernels, motion
+from rtsim.world import exactmath, ftl, jit, motion
 from rtsim.world.compiled import available
 
 CALLER = """
@@ -61,8 +61,8 @@ def test_dependencies_found_in_the_code() -> None:
     assert calls == {"ramp_arc": motion.ramp_arc}
     calls, _ = jit.dependencies(motion.ramp_arc)
     assert calls == {"ramp": motion.ramp, "arc": motion.arc}
-    calls, values = jit.dependencies(kernels._search)
-    assert set(calls) == {"_point", "_scale", "_gap"}
+    calls, values = jit.dependencies(ftl.ftl_search)
+    assert set(calls) == {"trace_point", "trace_scale", "_gap"}
     assert values["_NEWTON"] > 0 and "FTL_STEP" in values  # constants numba freezes
     assert not jit.is_kernel(math.sin) and jit.is_kernel(motion.arc)
 
@@ -134,10 +134,10 @@ def test_a_control_kernel_keys_the_world_sources_it_calls(
     from rtsim.control import kernels as control_kernels
 
     reached, _ = jit._reach(control_kernels._rollout_changes)
-    assert {motion.follower_advance, motion.ramp_arc, kernels._ftl_exact} <= reached
+    assert {motion.follower_advance, motion.ramp_arc, ftl.ftl_command} <= reached
     rollout, hypot = (
         jit.source_key(control_kernels._rollout_changes),
-        jit.source_key(kernels._hypot),
+        jit.source_key(exactmath.cpython_hypot),
     )
     real = inspect.getsource
 
@@ -149,7 +149,7 @@ def test_a_control_kernel_keys_the_world_sources_it_calls(
     monkeypatch.setattr(inspect, "getsource", edited)
     try:
         assert jit.source_key(control_kernels._rollout_changes) != rollout
-        assert jit.source_key(kernels._hypot) == hypot
+        assert jit.source_key(exactmath.cpython_hypot) == hypot
     finally:
         monkeypatch.undo()
         jit._digest.cache_clear()
