@@ -76,12 +76,9 @@ class CompiledRollout:
 
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
         p, thr = state.params, state.thresholds
-        motion = motion_model(p.motion_model)
         self._law = law
-        # compiled once per process: before the first rollout, not in a window
-        self._ker = K.rollout_kernels(motion)
         # the scalars that stay from one decision to the next, packed once per law (they
-        # follow the five that change, in RolloutScalars' order)
+        # follow the five that change, in RolloutScalars' order), and the kernels
         static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
         cached: Any = getattr(law, "_rollout_static", None)  # (a clone of the law shares it)
         if cached is None or any(a is not b for a, b in zip(cached[0], static, strict=True)):
@@ -109,8 +106,11 @@ class CompiledRollout:
                 predicted_ms=thr.predicted_ms,
             )
             pends: dict[int, Any] = {}  # the no-sends-pending array per follower count
-            cached = (static, [float(x) for x in scalars[_CHANGING:]], pends)
+            # (compiled once per process and motion model: before the first rollout)
+            ker = K.rollout_kernels(motion_model(p.motion_model))
+            cached = (static, [float(x) for x in scalars[_CHANGING:]], pends, ker)
             setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
+        self._ker = cached[3]
         fs = np.array(
             [  # RolloutScalars' first five
                 state.leader_s,
@@ -144,12 +144,7 @@ class CompiledRollout:
             pend = np.full((n, width), math.nan)
             for k, times in enumerate(state.pending):
                 pend[k, : len(times)] = times
-        self._args = (
-            fs,
-            fol,
-            pend,
-            law._G,
-        )
+        self._args = (fs, fol, pend, law._G)
         self.n = n
 
     def pack(self) -> tuple[Any, ...]:
@@ -195,7 +190,8 @@ class CompiledRollout:
         changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))
         cut = np.zeros(_SEARCH_RUNS, dtype=np.int64)
         rows = np.empty((2, self.n, 4))
-        out = np.full(7, math.nan)
+        out = np.empty(7)
+        out.fill(math.nan)  # (np.full is a Python function: 3x slower)
         runs = self._ker.plan_decide(
             bool(search_only),
             float(keep),

@@ -33,7 +33,7 @@ _SCALE_MIN = 0.05
 # whom it follows (-1: the leader) and at what spacing (cm). Tuples in Python, arrays compiled.
 
 
-@kernel
+@kernel(inline=True)
 def path_segment(G: Any, s: float) -> tuple[int, float]:
     """`LeaderPath.index` (s), the segment's index (bisect_right − 1 of the starts), and u = s
     mod lap."""
@@ -49,30 +49,46 @@ def path_segment(G: Any, s: float) -> tuple[int, float]:
     return lo - 1, u
 
 
-@kernel
-def path_pose(G: Any, s: float) -> tuple[float, float, float]:
-    """`LeaderPath.pose` (s): `along` the segment at ``s`` from its start pose."""
-    k, u = path_segment(G, s)
+@kernel(inline=True)
+def _pose_at(G: Any, k: int, u: float) -> tuple[float, float, float]:
+    """The pose `along` segment k at u − its start (u: s mod lap)."""
     poses = G[1]
     return along(poses[3 * k], poses[3 * k + 1], poses[3 * k + 2], G[2][k], u - G[0][k])
 
 
-@kernel
+@kernel(inline=True)
+def path_pose(G: Any, s: float) -> tuple[float, float, float]:
+    """`LeaderPath.pose` (s): `along` the segment at ``s`` from its start pose."""
+    k, u = path_segment(G, s)
+    return _pose_at(G, k, u)
+
+
+@kernel(inline=True)
 def trace_point(G: Any, k: int, s: float) -> tuple[float, float, float]:
     """P_k(s) and the heading there: the path's pose at ``s`` moved follower k's offset to
-    the left."""
-    x, y, h = path_pose(G, s)
-    o = G[4][k]
-    return x - o * math.sin(h), y + o * math.cos(h), h
+    the left (`trace_frame`'s first three)."""
+    x, y, h, _ = trace_frame(G, k, s)
+    return x, y, h
 
 
-@kernel
+@kernel(inline=True)
 def trace_scale(G: Any, k: int, s: float) -> float:
-    """1 − κ(s)·o_k: follower k's offset curve's length per unit of trace (floored at 0.05)."""
-    return max(_SCALE_MIN, 1.0 - G[2][path_segment(G, s)[0]] * G[4][k])
+    """1 − κ(s)·o_k: follower k's offset curve's length per unit of trace (floored at 0.05;
+    `trace_frame`'s last)."""
+    return trace_frame(G, k, s)[3]  # type: ignore[no-any-return]
 
 
-@kernel
+@kernel(inline=True)
+def trace_frame(G: Any, k: int, s: float) -> tuple[float, float, float, float]:
+    """P_k(s), the heading there and `trace_scale` (one segment lookup): the path's pose at
+    ``s`` moved follower k's offset to the left."""
+    i, u = path_segment(G, s)
+    x, y, h = _pose_at(G, i, u)
+    o = G[4][k]
+    return x - o * math.sin(h), y + o * math.cos(h), h, max(_SCALE_MIN, 1.0 - G[2][i] * o)
+
+
+@kernel(inline=True)
 def _gap(G: Any, k: int, s: float, xl: float, yl: float, rho2: float) -> float:
     """|P_k(s) − (xl, yl)|² − ρ²."""
     x, y, _ = trace_point(G, k, s)
@@ -88,9 +104,9 @@ def ftl_search(G: Any, k: int, s: float, s_l: float, xl: float, yl: float, rho: 
     if not math.isnan(s) and s <= s_l:
         s_n = s
         for _ in range(_NEWTON):
-            x, y, h = trace_point(G, k, s_n)
+            x, y, h, scale = trace_frame(G, k, s_n)
             dx, dy = x - xl, y - yl
-            dg = 2.0 * (dx * math.cos(h) + dy * math.sin(h)) * trace_scale(G, k, s_n)
+            dg = 2.0 * (dx * math.cos(h) + dy * math.sin(h)) * scale
             if dg > -1e-6 * rho:
                 break
             step = (dx * dx + dy * dy - rho2) / dg
@@ -131,8 +147,8 @@ def ftl_project(G: Any, k: int, s: float, x: float, y: float) -> float:
     """Arc length of the trace whose follower-k offset point is nearest (x, y): Newton steps
     on (p − P)·t / (1 − κo) from ``s``."""
     for _ in range(6):
-        px, py, h = trace_point(G, k, s)
-        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / trace_scale(G, k, s)
+        px, py, h, scale = trace_frame(G, k, s)
+        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / scale
         s += ds
         if abs(ds) < 1e-3:
             break

@@ -62,7 +62,7 @@ def test_dependencies_found_in_the_code() -> None:
     calls, _ = jit.dependencies(motion.ramp_arc)
     assert calls == {"ramp": motion.ramp, "arc": motion.arc}
     calls, values = jit.dependencies(ftl.ftl_search)
-    assert set(calls) == {"trace_point", "trace_scale", "_gap"}
+    assert set(calls) == {"trace_frame", "_gap"}
     assert values["_NEWTON"] > 0 and "FTL_STEP" in values  # constants numba freezes
     assert not jit.is_kernel(math.sin) and jit.is_kernel(motion.arc)
 
