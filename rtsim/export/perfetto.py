@@ -1,36 +1,8 @@
-"""A run's schedule in the Chrome Trace Event Format, for Perfetto (ui.perfetto.dev) and
-chrome://tracing.
-
-Built from the tables a run already has — the job records (`rtsim.sim.records.JOB_COLUMNS`), the
-execution-interval trace (`TRACE_COLUMNS`) and,
-for a coupled run, ``windows.csv`` — never from the simulator's internals.
-
-- Timestamps are µs of *simulated* time (``ts = ms × 1000``), in one process ("rtsim,
-  simulated time").
-- One track (a thread) per task, in priority order. Each job is a complete slice (``X``)
-  from its first start to its finish, named ``<task> #<job>``; its trace intervals are slices
-  nested in it, named by segment (``scan``, ``hough``, ``estimate[1]``, ``send[1]``,
-  ``radio`` …). A preempted segment shows as several pieces with the gap between them;
-  a suspension (the radio round trip) has category ``suspension``, compute ``compute``;
-  the time a job waits for the holder of a shared resource (trace kind ``blocked``,
-  docs/resources.md) is a slice ``blocked by <task> on <resource>`` of category ``blocked``.
-- Jobs of one task that overlap in time (a backlog) go to further tracks of the task
-  (``<task> (2)``, ``<task> (3)`` …), so every track nests strictly.
-- Instant events (``i``) on the task's track: ``deadline miss`` at the job's deadline,
-  ``aborted``, ``skipped release``; for a coupled run ``track lost`` at the window's release
-  (``windows.tracks_lost`` > 0) on a "world" track.
-- Counters (``C``) from ``windows.csv``: ``w`` and ``w_sch`` (ms), ``leader speed`` (cm/s),
-  ``min MSB`` (ms, when finite), at each window's release.
-
-Open the file in Perfetto with "Open trace file", or in chrome://tracing with "Load".
-
-[`write_perfetto`][rtsim.export.perfetto.write_perfetto] builds the file from whole tables in
-memory; `stream_perfetto`
-writes the same bytes from records kept on disk (a `rtsim.io.spool.Spool` of job
-records, one of trace rows, and ``windows.csv``), reading them a few times in chunks: its
-memory does not grow with the run (the tracks of a task are assigned as its jobs come, in
-start order, which is the order a run records them in; records in another order are handled
-by building the tables after all).
+"""A run's schedule in the Chrome Trace Event Format, for Perfetto and chrome://tracing, built
+from the tables a run already has (job records, the execution trace and, for a coupled run,
+``windows.csv``): [`write_perfetto`][rtsim.export.perfetto.write_perfetto] from tables in
+memory, `stream_perfetto` the same bytes from records on disk. The tracks, slices, events and
+counters: docs/getting-started/perfetto.md.
 """
 
 from __future__ import annotations
