@@ -27,6 +27,7 @@ from rtsim.analysis.suspension import compute_time, suspension_aware
 from rtsim.analysis.transaction import transaction_bounds
 from rtsim.errors import InputError
 from rtsim.model.task import Task
+from rtsim.model.window import TIMES
 
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
@@ -370,22 +371,8 @@ def window_bounds(ts: TaskSet, n: int | None = None, r_H: float | None = None) -
         ts = ts.with_window(**changes)
     win = ts.window
     assert win is not None
-    inputs: dict[str, Any] = {
-        k: getattr(win, k)
-        for k in (
-            "n",
-            "r_H",
-            "e_cal",
-            "e_trans",
-            "k",
-            "e_scan",
-            "e_estimate",
-            "e_send",
-            "e_recv",
-            "delta_t",
-            "e_sched",
-        )
-    }
+    keys = ("n", "r_H", *TIMES[:2], "k", *TIMES[2:])  # WindowSpec's field order
+    inputs: dict[str, Any] = {k: getattr(win, k) for k in keys}
     inputs["priority"] = win.priority
     for key in ("jitter", "offset"):
         if getattr(win, key):

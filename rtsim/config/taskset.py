@@ -32,7 +32,7 @@ from rtsim.examples import packaged_text, shipped_hint
 from rtsim.io.limits import WINDOW_N, WINDOW_R_H, Range, read_input
 from rtsim.model.task import OVERLOAD_POLICIES, RESOURCE_PROTOCOLS, CriticalSection, Task
 from rtsim.model.taskset import TaskSet
-from rtsim.model.window import WindowSpec
+from rtsim.model.window import TIMES, WindowSpec
 from rtsim.registry import reading_input
 from rtsim.sim.policy import resolve_scheduler
 
@@ -419,16 +419,7 @@ def _window(w: WindowTable) -> tuple[WindowSpec | None, list[str]]:
         for key in ("rho_min", "k_value"):
             if getattr(w, key) is not None:
                 return None, [f'{where}: {key}: applies only with k = "geometric"']
-    for key in (
-        "e_cal",
-        "e_trans",
-        "e_scan",
-        "e_estimate",
-        "e_send",
-        "e_recv",
-        "delta_t",
-        "e_sched",
-    ):
+    for key in TIMES:
         values[key] = float(getattr(w, key))
     for key in ("jitter", "offset"):  # the window's release jitter and first arrival (ms)
         if getattr(w, key) is not None:

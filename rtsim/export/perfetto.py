@@ -18,7 +18,7 @@ import pandas as pd
 
 from rtsim.io.atomic import atomic_path
 from rtsim.io.columns import iter_columns, read_columns
-from rtsim.sim.records import JOB_COLUMNS, TRACE_COLUMNS, jobs_frame, trace_frame
+from rtsim.sim.records import jobs_frame, trace_frame
 
 __all__ = ["trace_events", "write_perfetto", "stream_perfetto", "PID"]
 
@@ -245,8 +245,6 @@ def write_perfetto(
 # -- streaming ---------------------------------------------------------------------------------
 #: Events per ``json.dumps`` call of `stream_perfetto` (a list's items joined by ",").
 BATCH = 4096
-_J = {n: i for i, n in enumerate(JOB_COLUMNS)}  # the streamed job rows' column positions
-_T = {n: i for i, n in enumerate(TRACE_COLUMNS)}
 _WINDOW_COLUMNS = ["t", "w", "w_sch", "v_leader", "msb_min", "tracks_lost", "window"]
 
 
