@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -105,28 +105,7 @@ def trace_events(
     names += [t for t in dict.fromkeys(jobs["task"].astype(str)) if t not in names]
     lanes = _lanes(jobs)
     nlanes = {t: 1 + max([v for (tt, _), v in lanes.items() if tt == t], default=0) for t in names}
-    tid: dict[tuple[str, int], int] = {}
-    events: list[dict[str, Any]] = [
-        {"ph": "M", "pid": PID, "tid": 0, "name": "process_name", "args": {"name": title}},
-    ]
-    nxt = 1
-    for order, t in enumerate(names):
-        for lane in range(nlanes[t]):
-            tid[(t, lane)] = nxt
-            label = t if lane == 0 else f"{t} ({lane + 1})"
-            events.append(
-                {"ph": "M", "pid": PID, "tid": nxt, "name": "thread_name", "args": {"name": label}}
-            )
-            events.append(
-                {
-                    "ph": "M",
-                    "pid": PID,
-                    "tid": nxt,
-                    "name": "thread_sort_index",
-                    "args": {"sort_index": order * 100 + lane},
-                }
-            )
-            nxt += 1
+    events, tid = _tracks(title, names, nlanes)
 
     def job_tid(task: str, job: int) -> int:
         return tid[(task, lanes.get((task, job), 0))]
@@ -213,8 +192,8 @@ def trace_events(
             }
         )
     if windows is not None and len(windows):
-        world = nxt
-        events.extend(_world_meta(world))
+        world = len(tid) + 1
+        events.extend(_thread_meta(world, "world", -1))
         for r in windows.itertuples(index=False):
             events.extend(_window_events(r, world))
     return events
@@ -475,35 +454,9 @@ def stream_perfetto(
         fh.write('{"traceEvents":[')
         out = _Writer(fh)
         ev = out.batch
-        ev.append(
-            {"ph": "M", "pid": PID, "tid": 0, "name": "process_name", "args": {"name": title}}
-        )
-        tid: dict[tuple[str, int], int] = {}
-        nxt = 1
-        for order, t in enumerate(names):
-            for lane in range(nlanes.get(t, 1)):
-                tid[(t, lane)] = nxt
-                label = t if lane == 0 else f"{t} ({lane + 1})"
-                ev.append(
-                    {
-                        "ph": "M",
-                        "pid": PID,
-                        "tid": nxt,
-                        "name": "thread_name",
-                        "args": {"name": label},
-                    }
-                )
-                ev.append(
-                    {
-                        "ph": "M",
-                        "pid": PID,
-                        "tid": nxt,
-                        "name": "thread_sort_index",
-                        "args": {"sort_index": order * 100 + lane},
-                    }
-                )
-                nxt += 1
-            out.maybe_flush()
+        meta, tid = _tracks(title, names, nlanes)
+        ev.extend(meta)
+        out.maybe_flush()
 
         def job_tid(task: str, job: int) -> int:
             ln = lanes.get(task)
@@ -538,13 +491,13 @@ def stream_perfetto(
                     }
                 )
             out.maybe_flush()
-        world = nxt
+        world = len(tid) + 1
         first = True
         for w in _window_chunks(windows):
             if not len(w):
                 continue
             if first:
-                ev.extend(_world_meta(world))
+                ev.extend(_thread_meta(world, "world", -1))
                 first = False
             for r in w.itertuples(index=False):
                 ev.extend(_window_events(r, world))
@@ -557,18 +510,35 @@ def stream_perfetto(
     return p
 
 
-def _world_meta(world: int) -> list[dict[str, Any]]:
-    """The metadata events that name the world's track ``world`` and sort it first."""
+def _thread_meta(tid: int, name: str, sort_index: int) -> list[dict[str, Any]]:
+    """The metadata events that name the track ``tid`` and place it in the sort order (the
+    world's track, -1, first)."""
     return [
-        {"ph": "M", "pid": PID, "tid": world, "name": "thread_name", "args": {"name": "world"}},
+        {"ph": "M", "pid": PID, "tid": tid, "name": "thread_name", "args": {"name": name}},
         {
             "ph": "M",
             "pid": PID,
-            "tid": world,
+            "tid": tid,
             "name": "thread_sort_index",
-            "args": {"sort_index": -1},
+            "args": {"sort_index": sort_index},
         },
     ]
+
+
+def _tracks(
+    title: str, names: list[str], nlanes: Mapping[str, int]
+) -> tuple[list[dict[str, Any]], dict[tuple[str, int], int]]:
+    """The metadata events of the process and of every task's tracks (``nlanes[t]`` of task
+    ``t``, default 1, in the order of ``names``), and the track id of each (task, lane): 1, 2,
+    ..., so the next free id is ``len`` of it + 1."""
+    events = [{"ph": "M", "pid": PID, "tid": 0, "name": "process_name", "args": {"name": title}}]
+    tid: dict[tuple[str, int], int] = {}
+    for order, t in enumerate(names):
+        for lane in range(nlanes.get(t, 1)):
+            tid[(t, lane)] = len(tid) + 1
+            label = t if lane == 0 else f"{t} ({lane + 1})"
+            events += _thread_meta(tid[(t, lane)], label, order * 100 + lane)
+    return events, tid
 
 
 def _window_events(r: Any, world: int) -> list[dict[str, Any]]:
