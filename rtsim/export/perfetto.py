@@ -18,7 +18,7 @@ import pandas as pd
 
 from rtsim.io.atomic import atomic_path
 from rtsim.io.columns import iter_columns, read_columns
-from rtsim.sim.records import jobs_frame, trace_frame
+from rtsim.sim.records import JOB_COLUMNS, TRACE_COLUMNS, jobs_frame, trace_frame
 
 __all__ = ["trace_events", "write_perfetto", "stream_perfetto", "PID"]
 
@@ -29,10 +29,6 @@ _US = 1000.0  # µs per ms
 
 def _us(ms: float) -> float:
     return float(ms) * _US
-
-
-def _ms(v: Any) -> float | None:
-    return None if pd.isna(v) else float(v)
 
 
 def _with_unfinished(jobs: pd.DataFrame, trace: pd.DataFrame) -> pd.DataFrame:
@@ -110,87 +106,10 @@ def trace_events(
     def job_tid(task: str, job: int) -> int:
         return tid[(task, lanes.get((task, job), 0))]
 
-    r: Any  # a row (its fields typed by the columns, not by pandas)
-    for r in jobs.itertuples(index=False):
-        task, job = str(r.task), int(r.job)
-        thread = job_tid(task, job)
-        args = {
-            "job": job,
-            "release_ms": _ms(r.release),
-            "deadline_ms": _ms(r.deadline),
-            "response_ms": None if pd.isna(r.response) else float(r.response),
-            "preemptions": int(r.preemptions),
-            "missed": bool(r.missed),
-        }
-        if pd.notna(r.start) and pd.notna(r.finish):
-            unfinished = " (unfinished)" if pd.isna(r.release) else ""
-            events.append(
-                {
-                    "ph": "X",
-                    "pid": PID,
-                    "tid": thread,
-                    "cat": "job",
-                    "name": f"{task} #{job}{unfinished}",
-                    "ts": _us(r.start),
-                    "dur": _us(r.finish) - _us(r.start),
-                    "args": args,
-                }
-            )
-        if bool(r.skipped):
-            events.append(
-                {
-                    "ph": "i",
-                    "s": "t",
-                    "pid": PID,
-                    "tid": thread,
-                    "cat": "skip",
-                    "name": "skipped release",
-                    "ts": _us(r.release),
-                    "args": args,
-                }
-            )
-        elif bool(r.aborted):
-            events.append(
-                {
-                    "ph": "i",
-                    "s": "t",
-                    "pid": PID,
-                    "tid": thread,
-                    "cat": "abort",
-                    "name": "aborted",
-                    "ts": _us(r.deadline),
-                    "args": args,
-                }
-            )
-        if bool(r.missed) and not bool(r.skipped):
-            events.append(
-                {
-                    "ph": "i",
-                    "s": "t",
-                    "pid": PID,
-                    "tid": thread,
-                    "cat": "miss",
-                    "name": "deadline miss",
-                    "ts": _us(r.deadline),
-                    "args": args,
-                }
-            )
-    for r in trace.itertuples(index=False):
-        task, job = str(r.task), int(r.job)
-        events.append(
-            {
-                "ph": "X",
-                "pid": PID,
-                "tid": job_tid(task, job),
-                "cat": "compute"
-                if bool(r.on_cpu)
-                else ("blocked" if str(r.kind) == "blocked" else "suspension"),
-                "name": str(r.segment),
-                "ts": _us(r.start),
-                "dur": _us(r.end) - _us(r.start),
-                "args": {"job": job, "kind": str(r.kind), "on_cpu": bool(r.on_cpu)},
-            }
-        )
+    for row in jobs.reindex(columns=JOB_COLUMNS[:12]).itertuples(index=False, name=None):
+        _job_event(row, job_tid(str(row[0]), int(row[1])), bool(pd.isna(row[2])), events)
+    for row in trace[list(TRACE_COLUMNS)].itertuples(index=False, name=None):
+        events.append(_slice(row, job_tid(str(row[0]), int(row[1]))))
     if windows is not None and len(windows):
         world = len(tid) + 1
         events.extend(_thread_meta(world, "world", -1))
@@ -351,44 +270,41 @@ def _job_event(row: tuple[Any, ...], t: int, unfinished: bool, out: list[dict[st
             }
         )
     if bool(row[11]):
-        out.append(
-            {
-                "ph": "i",
-                "s": "t",
-                "pid": PID,
-                "tid": t,
-                "cat": "skip",
-                "name": "skipped release",
-                "ts": _us(release),
-                "args": args,
-            }
-        )
+        out.append(_instant(t, "skip", "skipped release", release, args))
     elif bool(row[10]):
-        out.append(
-            {
-                "ph": "i",
-                "s": "t",
-                "pid": PID,
-                "tid": t,
-                "cat": "abort",
-                "name": "aborted",
-                "ts": _us(deadline),
-                "args": args,
-            }
-        )
+        out.append(_instant(t, "abort", "aborted", deadline, args))
     if bool(row[8]) and not bool(row[11]):
-        out.append(
-            {
-                "ph": "i",
-                "s": "t",
-                "pid": PID,
-                "tid": t,
-                "cat": "miss",
-                "name": "deadline miss",
-                "ts": _us(deadline),
-                "args": args,
-            }
-        )
+        out.append(_instant(t, "miss", "deadline miss", deadline, args))
+
+
+def _instant(t: int, cat: str, name: str, ms: float, args: dict[str, Any]) -> dict[str, Any]:
+    """An instant event on the track ``t`` at ``ms``."""
+    return {
+        "ph": "i",
+        "s": "t",
+        "pid": PID,
+        "tid": t,
+        "cat": cat,
+        "name": name,
+        "ts": _us(ms),
+        "args": args,
+    }
+
+
+def _slice(row: Sequence[Any], t: int) -> dict[str, Any]:
+    """The slice of one execution-trace row (`TRACE_COLUMNS` order) on the track ``t``: its
+    category ``compute``, ``blocked`` (waiting for a resource) or ``suspension``."""
+    job, kind, on_cpu = int(row[1]), str(row[3]), bool(row[4])
+    return {
+        "ph": "X",
+        "pid": PID,
+        "tid": t,
+        "cat": "compute" if on_cpu else ("blocked" if kind == "blocked" else "suspension"),
+        "name": str(row[2]),
+        "ts": _us(row[5]),
+        "dur": _us(row[6]) - _us(row[5]),
+        "args": {"job": job, "kind": kind, "on_cpu": on_cpu},
+    }
 
 
 class _Writer:
@@ -476,20 +392,7 @@ def stream_perfetto(
         out.maybe_flush()
         for chunk in trace:
             for r in chunk:
-                task, job = str(r[0]), int(r[1])
-                on_cpu = bool(r[4])
-                ev.append(
-                    {
-                        "ph": "X",
-                        "pid": PID,
-                        "tid": job_tid(task, job),
-                        "cat": "compute" if on_cpu else "suspension",
-                        "name": str(r[2]),
-                        "ts": _us(r[5]),
-                        "dur": _us(r[6]) - _us(r[5]),
-                        "args": {"job": job, "kind": str(r[3]), "on_cpu": on_cpu},
-                    }
-                )
+                ev.append(_slice(r, job_tid(str(r[0]), int(r[1]))))
             out.maybe_flush()
         world = len(tid) + 1
         first = True
