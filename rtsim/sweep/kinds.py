@@ -61,6 +61,21 @@ class PointInput:
         assert self.base is not None
         return parse_taskset(self.base_data(), self.base.source, allow_code=self.allow_code)
 
+    def simulate_options(self) -> dict[str, Any]:
+        """The keyword options of `rtsim.sim.simulate` a ``simulate`` point runs with: its
+        seed and its ``exec``, ``suspension``, ``window`` and ``scheduler`` options."""
+        o = self.options
+        kwargs: dict[str, Any] = {
+            "seed": self.seed,
+            "exec_model": o.get("exec", "wcet"),
+            "suspension": o.get("suspension", "cpu"),
+        }
+        if o.get("window") is not None:
+            kwargs["window"] = float(o["window"])
+        if "scheduler" in o:
+            kwargs["scheduler"] = o["scheduler"]
+        return kwargs
+
 
 @dataclass(frozen=True)
 class KindSpec:
@@ -135,19 +150,11 @@ def _simulate(p: PointInput) -> dict[str, Any]:
     mod = _need("rtsim.sim", "simulate")
     ts = p.taskset()
     o = p.options
-    kwargs: dict[str, Any] = {
-        "seed": p.seed,
-        "exec_model": o.get("exec", "wcet"),
-        "suspension": o.get("suspension", "cpu"),
-    }
-    if o.get("window") is not None:
-        kwargs["window"] = float(o["window"])
+    kwargs = p.simulate_options()
     w_est = kwargs.get("window")
     if ts.window is not None:
         w_est = window_or_w_sch(ts, w_est)  # (simulate decides its window the same way)
     check_simulate(ts, float(o["horizon"]), w_est, f"sweep.options.horizon {o['horizon']}")
-    if "scheduler" in o:
-        kwargs["scheduler"] = o["scheduler"]
     res = mod.simulate(ts, float(o["horizon"]), **kwargs)
     out: dict[str, Any] = {}
     if res.window is not None and "w" in res.window:
