@@ -1,7 +1,6 @@
 """Options the sub-commands share, added one way: ``-q/--quiet``, ``--json``, ``--out``,
-``--format``/``--dpi``, the simulation's ``--exec``/``--suspension``, a processing
-window set's ``--followers``/``--hough-radius``/``--window``, ``--workers``/``--dask`` and
-``--force``; and the progress bar.
+``--format``/``--dpi``, a simulation's ``--exec``, ``--suspension`` and window set
+(`add_simulation`), ``--workers``/``--dask`` and ``--force``; and the progress bar.
 
 The conventions they keep (tests/cli/test_conventions.py checks them per command):
 
@@ -36,7 +35,7 @@ __all__ = [
     "add_force",
     "add_exec",
     "add_suspension",
-    "add_window_set",
+    "add_simulation",
     "add_workers",
     "figure_format",
     "progress_enabled",
@@ -81,8 +80,11 @@ def add_suspension(
     p.add_argument("--suspension", choices=("cpu", "idle"), default="cpu", help=what)
 
 
-def add_window_set(p: Any) -> None:
-    """``--followers``, ``--hough-radius`` and ``--window`` of a simulated window set."""
+def add_simulation(p: Any) -> None:
+    """A simulation's ``--exec`` and ``--suspension``, and ``--followers``,
+    ``--hough-radius`` and ``--window`` for a processing-window set."""
+    add_exec(p)
+    add_suspension(p)
     p.add_argument("--followers", type=int, help="n, for a processing-window set")
     p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
     p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")

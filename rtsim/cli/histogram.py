@@ -24,13 +24,11 @@ from typing import Any
 from rtsim.analysis.bounds import window_bounds
 from rtsim.cli._set import add_set_option, set_overrides
 from rtsim.cli.common import (
-    add_exec,
     add_figure_options,
     add_force,
     add_json,
     add_quiet,
-    add_suspension,
-    add_window_set,
+    add_simulation,
     figure_format,
 )
 from rtsim.cli.plausible import check_horizon, check_hough_radius, periods_ms, warn_short_horizon
@@ -58,9 +56,7 @@ def register(sub: Any) -> None:
     p.add_argument("--bins", type=int, default=50, help="bins per histogram (default 50)")
     p.add_argument("--horizon", type=float, help="simulated ms (with FILE)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    add_exec(p)
-    add_suspension(p)
-    add_window_set(p)
+    add_simulation(p)
     add_force(p)
 
     add_set_option(

@@ -36,13 +36,11 @@ from rtsim.analysis.transaction import transaction_bounds
 from rtsim.cli import one_line
 from rtsim.cli._set import add_set_option, set_overrides, set_strings
 from rtsim.cli.common import (
-    add_exec,
     add_figure_options,
     add_force,
     add_json,
     add_quiet,
-    add_suspension,
-    add_window_set,
+    add_simulation,
     check_suffix,
     figure_format,
     note,
@@ -95,8 +93,6 @@ def register(sub: Any) -> None:
         help="jobs released in [0, H) ms are simulated to completion",
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    add_exec(p)
-    add_suspension(p)
     p.add_argument(
         "--overhead",
         type=float,
@@ -116,7 +112,7 @@ def register(sub: Any) -> None:
         "deadline first), or package.module:Name (default: the file's "
         "[scheduler] policy, else fp)",
     )
-    add_window_set(p)
+    add_simulation(p)
     p.add_argument("--jobs", help="per-job records, .csv or .parquet")
     p.add_argument("--trace", help="execution-interval trace, .csv or .parquet")
     p.add_argument("--gantt", help="Gantt chart, .png, .svg or .pdf (with --gantt-range A..B ms)")
