@@ -10,6 +10,7 @@ controller's rollout (`rtsim.control.kernels`) run them compiled.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -230,9 +231,20 @@ def ftl_command(
     return v, v * 2.0 * math.sin(alpha) / dist
 
 
-#: the Python twins (`rtsim.world.jit.specialise`: ``math.hypot`` for `hypot`)
-_PY_REFERENCE = specialise(ftl_reference, HYPOT_SUBS)
-_PY_COMMAND = specialise(ftl_command, HYPOT_SUBS)
+@kernel
+def _bisect_segment(G: Any, s: float) -> tuple[int, float]:
+    """`path_segment` by the standard library's bisect_right (the Python twins')."""
+    u = s % G[3]
+    return bisect.bisect_right(G[0], u) - 1, u
+
+
+#: the Python twins (`rtsim.world.jit.specialise`): ``math.hypot`` for `cpython_hypot`,
+#: ``bisect`` for `path_segment`'s loop
+_PY_SUBS = (*HYPOT_SUBS, (path_segment, _bisect_segment))
+_PY_POINT = specialise(trace_point, _PY_SUBS)
+_PY_REFERENCE = specialise(ftl_reference, _PY_SUBS)
+_PY_COMMAND = specialise(ftl_command, _PY_SUBS)
+_PY_PROJECT = specialise(ftl_project, _PY_SUBS)
 
 
 class TraceFollower:
@@ -288,7 +300,7 @@ class TraceFollower:
         self._G: tuple[Any, ...] = self.geometry
         self._reference: Any = _PY_REFERENCE
         self._command: Any = _PY_COMMAND
-        self._project: Any = ftl_project
+        self._project: Any = _PY_PROJECT
 
     def clone(self) -> TraceFollower:
         """A copy with its own search starts (a rollout plays commands ahead on it without
@@ -312,7 +324,7 @@ class TraceFollower:
     # -- geometry --------------------------------------------------------------------
     def point(self, k: int, s: float) -> tuple[float, float, float]:
         """P_k(s) and the heading there: (x, y, heading) of follower index k's offset curve."""
-        return trace_point(self.geometry, k, s)  # type: ignore[no-any-return]
+        return _PY_POINT(self.geometry, k, s)  # type: ignore[no-any-return]
 
     def reference(
         self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
