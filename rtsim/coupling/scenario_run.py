@@ -17,7 +17,7 @@ import inspect
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -290,6 +290,13 @@ class _Coupling:
             scan_points=adj.scan_points,
             **fixed,
         )
+        # its fields less those each decision sets (a constructor call costs half a replace)
+        per_decision = {"followers", "omega_l", "kappa", "v_now", "ahead", "pose_sd", "rollout"}
+        self._input_kw = {
+            f.name: getattr(self._input, f.name)
+            for f in fields(PolicyInput)
+            if f.name not in per_decision
+        }
 
     def _hook_window(self, where: str) -> None:
         """The window chain's constants and the CPU hooks that drive the world."""
@@ -484,7 +491,9 @@ class _Coupling:
                 self.decide_at == "before-send" and now > 0,
                 estimates,
             )
-        adj = self.policy.decide(replace(self._input, followers=fols, **kw, ahead=ahead, **extra))
+        adj = self.policy.decide(
+            PolicyInput(**self._input_kw, followers=fols, **kw, ahead=ahead, **extra)
+        )
         v_l = max(adj.v_leader, self.v_floor)
         if self._rollout:  # the _pred columns evaluate the same rollout
             kw = {**kw, "rollout": extra["rollout"]}
