@@ -16,7 +16,7 @@ import pytest
 from rtsim.analysis.kinematics import beta_dot, relative_state, rho_dot
 from rtsim.config.scenario import load_scenario
 from rtsim.errors import ScenarioError
-from rtsim.world import World
+from rtsim.world import World, ftl, kernels
 from rtsim.world.formation import in_line
 from rtsim.world.laser import count_beams
 from rtsim.world.leader import Leader
@@ -281,3 +281,25 @@ def test_test1_geometry_every_lost_track_is_the_sensor_or_the_localization_bound
     print(f"n={n}: lost {sensor} (sensor's limit) + {moved} (moved > r_H) + {confused} (neighbour)")
     if n <= 2:
         assert sensor == moved == confused == 0
+
+
+def test_the_python_law_runs_the_kernel_sources() -> None:
+    """One source per equation (issue 31): the Python law's reference, command, projection
+    and point are the kernel sources' code (their twins differ only in the hypot and the
+    segment lookup they call), and the compiled entries are built from the same functions."""
+    twins = {
+        ftl._PY_REFERENCE: ftl.ftl_reference,
+        ftl._PY_COMMAND: ftl.ftl_command,
+        ftl._PY_PROJECT: ftl.ftl_project,
+        ftl._PY_POINT: ftl.trace_point,
+    }
+    for twin, source in twins.items():
+        assert twin.__code__ is source.__code__
+    law = ftl.TraceFollower(rounded_rectangle(800, 400, 120), [325.0], [0.0], 0.5, 40.0)
+    assert (law._reference, law._command, law._project) == (
+        ftl._PY_REFERENCE,
+        ftl._PY_COMMAND,
+        ftl._PY_PROJECT,
+    )
+    for name in ("ftl_command", "ftl_reference", "ftl_project"):
+        assert kernels.ENTRIES[name] is getattr(ftl, name)
