@@ -497,9 +497,13 @@ class _Coupling:
         v_l = max(adj.v_leader, self.v_floor)
         if self._rollout:  # the _pred columns evaluate the same rollout
             kw = {**kw, "rollout": extra["rollout"]}
-        xs = [e[0][0] for e in estimates]
-        ys = [e[0][1] for e in estimates]
-        near = tuple(closest_to(xs, ys, k, lp[0], lp[1]) for k in range(self.n))
+        # each follower's closest approach among the estimates: the contact prediction of a
+        # decision without a rollout (`_close`; a rollout predicts its own)
+        near: tuple[float, ...] = ()
+        if not self._rollout:
+            xs = [e[0][0] for e in estimates]
+            ys = [e[0][1] for e in estimates]
+            near = tuple(closest_to(xs, ys, k, lp[0], lp[1]) for k in range(self.n))
         return _Decision(
             adj.w,
             v_l,
