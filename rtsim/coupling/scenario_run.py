@@ -385,12 +385,24 @@ class _Coupling:
         """The predicted-centre bound's heading assumption (docs/localization.md): the heading
         SD it assumed (``[ekf] init_heading_sd``, rad), the largest the filters carried
         from a scan over a window (√P_θθ after the scan's update, rad,
-        `rtsim.world.world.World.max_heading_var`), and whether the first bounds the second
-        within `HEADING_SLACK` (the first scan's estimate carries P0 and one interval's drift)."""
+        `rtsim.world.world.World.max_heading_var`), the turn noise the filters model
+        (``[ekf] turn_noise``) and the followers' own (``[follower] turn_noise``, rad/s), and
+        whether it held: the first SD bounds the second within `HEADING_SLACK` (the first
+        scan's estimate carries P0 and one interval's drift), and the filters model at least
+        the followers' turn noise (below it, P_θθ understates the heading error and cannot
+        vouch for the assumption)."""
         assumed = float(self._given.ekf.init_heading_sd)
         carried = math.sqrt(self.world.max_heading_var)
-        held = carried <= assumed * (1.0 + HEADING_SLACK)
-        return {"assumed": assumed, "max_carried": carried, "held": held}
+        model = float(self._given.ekf.turn_noise)
+        true = float(self._given.follower.turn_noise)
+        held = carried <= assumed * (1.0 + HEADING_SLACK) and model >= true
+        return {
+            "assumed": assumed,
+            "max_carried": carried,
+            "filter_turn_noise": model,
+            "turn_noise": true,
+            "held": held,
+        }
 
     # -- the decision ----------------------------------------------------------------
     def _nominal_offsets(self, ts: TaskSet) -> list[float]:

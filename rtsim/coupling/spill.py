@@ -94,10 +94,11 @@ class ValueSpill:
                         if not part.size:
                             break
                         yield part.reshape(-1, self.width)
-        for kept in self._kept:
-            yield kept.reshape(-1, self.width)
-        if self.buf:
-            yield np.frombuffer(self.buf, dtype=np.float64).reshape(-1, self.width).copy()
+        tail = np.frombuffer(self.buf, dtype=np.float64).copy() if self.buf else None
+        for kept in (*self._kept, *(() if tail is None else (tail,))):
+            block = kept.reshape(-1, self.width)
+            for i in range(0, len(block), rows):
+                yield block[i : i + rows]
 
     def columns(self) -> list[np.ndarray]:
         """Each column whole (for tests and small runs: memory grows with the rows)."""
