@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 import os
-from array import array
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -52,7 +51,7 @@ class ValueSpill:
         self.width = int(width)
         self.path = None if path is None else Path(path)
         self.label: str | os.PathLike[str] = label if label is not None else (path or "")
-        self.buf: array[float] = array("d")
+        self.buf: list[float] = []  # (a list's append is the loop's cheapest)
         self._limit = SPILL_ROWS * self.width
         self._kept: list[np.ndarray] = []  # the full buffers, without a path
         self._fh: Any = None
@@ -71,17 +70,19 @@ class ValueSpill:
         if not self.buf:
             return
         self.rows += len(self.buf) // self.width
+        block = np.array(self.buf, dtype=np.float64)
         if self._fh is None:
-            self._kept.append(np.frombuffer(self.buf, dtype=np.float64).copy())
+            self._kept.append(block)
         else:
             with naming(self.label):
-                self._fh.write(self.buf.tobytes())
-        self.buf = array("d")
+                self._fh.write(block.tobytes())
+        self.buf = []
 
     def add_rows(self, rows: np.ndarray) -> None:
         """Append a block of rows (shape (m, width))."""
-        self.buf.frombytes(np.ascontiguousarray(rows, dtype=np.float64).tobytes())
-        self.full()
+        self.flush()
+        self.buf = np.asarray(rows, dtype=np.float64).ravel().tolist()
+        self.flush()
 
     def chunks(self, rows: int = SPILL_ROWS) -> Iterator[np.ndarray]:
         """Every row in order, ``rows`` at a time at most: arrays of shape (m, width)."""
@@ -94,7 +95,7 @@ class ValueSpill:
                         if not part.size:
                             break
                         yield part.reshape(-1, self.width)
-        tail = np.frombuffer(self.buf, dtype=np.float64).copy() if self.buf else None
+        tail = np.array(self.buf, dtype=np.float64) if self.buf else None
         for kept in (*self._kept, *(() if tail is None else (tail,))):
             block = kept.reshape(-1, self.width)
             for i in range(0, len(block), rows):
@@ -116,7 +117,7 @@ class ValueSpill:
         if self.path is not None:
             self.path.unlink(missing_ok=True)
         self._kept = []
-        self.buf = array("d")
+        self.buf = []
 
 
 def percentile95(count: int, select: Callable[[int], float], top: float) -> float:
