@@ -96,7 +96,9 @@ class PhysicalLog:
         `rtsim.world.contact.closest_to`: the planner's contact bound measures the same)."""
         xl, yl, _ = leader
         law = self._law
-        put = self.samples.buf.append
+        samples = self.samples
+        buf = samples.buf
+        put = buf.append
         for k in range(self.n):
             x, y = xs[k], ys[k]
             put(abs(math.hypot(x - xl, y - yl) - self.rho_d[k]))
@@ -104,7 +106,8 @@ class PhysicalLog:
                 s = law.project(k, x, y, 0.0 if self._guess is None else self._guess[k])
                 px, py, _ = law.point(k, s)
                 put(math.hypot(x - px, y - py))
-        self.samples.full()
+        if len(buf) >= samples.limit:  # (`ValueSpill.full` inline: once per scan)
+            samples.flush()
         near = tuple(closest_to(xs, ys, k, xl, yl) for k in range(self.n))
         close = min(near, default=math.inf)  # (every pair has a follower in it)
         self.min_dist = min(self.min_dist, close)

@@ -52,7 +52,7 @@ class ValueSpill:
         self.path = None if path is None else Path(path)
         self.label: str | os.PathLike[str] = label if label is not None else (path or "")
         self.buf: list[float] = []  # (a list's append is the loop's cheapest)
-        self._limit = SPILL_ROWS * self.width
+        self.limit = SPILL_ROWS * self.width
         self._kept: list[np.ndarray] = []  # the full buffers, without a path
         self._fh: Any = None
         self.rows = 0
@@ -62,7 +62,7 @@ class ValueSpill:
 
     def full(self) -> None:
         """Hand over the buffer if it holds `SPILL_ROWS` rows (called after each row)."""
-        if len(self.buf) >= self._limit:
+        if len(self.buf) >= self.limit:
             self.flush()
 
     def flush(self) -> None:
