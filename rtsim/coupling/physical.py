@@ -19,7 +19,7 @@ they get. Sampled on the truth at every scan (every window, ~0.24 s here):
 * ``distance_cm``: the distance each robot drove over the run.
 
 Per run: p95 and max over every follower's samples; per follower in ``per_follower``. The
-samples go to a [`ValueSpill`][rtsim.coupling.spill.ValueSpill] (a scratch file when the run
+samples go to a `rtsim.coupling.spill.ValueSpill` (a scratch file when the run
 has a directory for one), and the percentiles are selected from it exactly in bounded memory
 (`rtsim.coupling.spill.p95_max_columns`).
 """

@@ -92,7 +92,7 @@ def summarize(
     gives them), or an iterable of such chunks in row order (a table read back in pieces,
     `rtsim.io.columns.ChunkWriter.iter_read`: memory stays flat). Counts, minima and
     maxima are taken per chunk; the fixes' errors go to a
-    [`ValueSpill`][rtsim.coupling.spill.ValueSpill] (the scratch file ``scratch`` if given,
+    `rtsim.coupling.spill.ValueSpill` (the scratch file ``scratch`` if given,
     removed before returning) and their percentiles are selected exactly from it; the two
     float sums (of ``w``, and of ``w`` over critical windows) over the whole columns kept
     (9 bytes a window), so any chunking gives the same summary."""
