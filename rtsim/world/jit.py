@@ -47,7 +47,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 Subs = tuple[tuple[Callable[..., Any], Callable[..., Any]], ...]
 
 _MARK = "__rtsim_kernel__"
-_COMPILED: dict[tuple[Callable[..., Any], Subs], Any] = {}
+_COMPILED: dict[tuple[Callable[..., Any], Subs, bool], Any] = {}
 _PYTHON: dict[tuple[Callable[..., Any], Subs], Callable[..., Any]] = {}
 
 
@@ -132,8 +132,18 @@ def build(fn: Callable[..., Any], subs: Subs = ()) -> Any:
     """The numba dispatcher of kernel source ``fn`` (made once per process; its callees
     first), cached on disk by `source_key`; with ``subs``, the variant whose kernels call
     each pair's replacement instead of its callee (module docstring). Imports numba."""
+    return _build(fn, subs, entry=True)
+
+
+def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
+    """`build` for Python callers (``entry``) or for the kernels that call ``fn`` (module
+    docstring: compiled without numba's wrappers, not cached; an entry's dispatcher serves
+    when there is one already)."""
     subs = _reach(fn, subs)[1]  # (only those it meets: a kernel they miss is shared)
-    done = _COMPILED.get((fn, subs))
+    inline = getattr(fn, _MARK)["inline"]
+    done = _COMPILED.get((fn, subs, entry or inline))
+    if done is None and not entry:
+        done = _COMPILED.get((fn, subs, True))
     if done is not None:
         return done
     import numba
@@ -143,13 +153,15 @@ def build(fn: Callable[..., Any], subs: Subs = ()) -> Any:
     for name, dep in dependencies(fn)[0].items():
         if dep is fn:
             raise TypeError(f"kernel {fn.__qualname__} calls itself (numba cannot)")
-        glob[name] = build(swap.get(dep, dep), subs)
+        glob[name] = _build(swap.get(dep, dep), subs, entry=False)
     f: Any = fn
     clone = types.FunctionType(f.__code__, glob, f.__name__, f.__defaults__, f.__closure__)
     clone.__qualname__, clone.__module__ = fn.__qualname__, fn.__module__
     out: Any
-    if getattr(fn, _MARK)["inline"]:
+    if inline:
         out = numba.njit(nogil=True, inline="always")(clone)
+    elif not entry:
+        out = numba.njit(nogil=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)(clone)
     else:
         out = numba.njit(nogil=True)(clone)
         root = cache_root()
@@ -157,7 +169,7 @@ def build(fn: Callable[..., Any], subs: Subs = ()) -> Any:
             key = source_key(fn, subs)
             clone.__rtsim_cache__ = os.path.join(root, key)  # type: ignore[attr-defined]
             out._cache = _keyed_cache_class()(clone)
-    _COMPILED[fn, subs] = out
+    _COMPILED[fn, subs, entry or inline] = out
     return out
 
 
@@ -232,6 +244,7 @@ def _keyed_cache_class() -> Any:
     class _KeyedLocator(caching._CacheLocator):
         def __init__(self, py_func: Any) -> None:
             self._path, self._lineno = py_func.__rtsim_cache__, py_func.__code__.co_firstlineno
+            self._py_file = py_func.__code__.co_filename  # (numba's warnings name it)
 
         def get_cache_path(self) -> str:
             return self._path  # type: ignore[no-any-return]
