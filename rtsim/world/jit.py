@@ -164,7 +164,8 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
     if inline:
         out = numba.njit(nogil=True, inline="always")(clone)
     elif not entry:
-        out = numba.njit(nogil=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)(clone)
+        njit: Any = numba.njit  # (numba's stubs omit these two of its target options)
+        out = njit(nogil=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)(clone)
     else:
         out = numba.njit(nogil=True)(clone)
         root = cache_root()
