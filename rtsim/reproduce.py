@@ -1,42 +1,7 @@
-"""The paper's experiments reproduced: Test 1 and Test 2 in the three window modes.
-
-``rtsim reproduce --out DIR [--quick] [--seed N] [--duration S] [--workers N] [--docs DIR]
-[--quiet]``, or [`run`][rtsim.reproduce.run] with
-[`ReproduceOptions`][rtsim.reproduce.ReproduceOptions] from Python
-
-Runs ``experiments/scenarios/test1.toml`` and ``test2.toml`` in the modes ``adjust`` (the
-paper's algorithm, on the paper's predictor whatever the file names: ``[adjust]
-paper_predictor``), ``fixed-wsch`` and ``min-msb`` (docs/model/adjustment.md), and beside them
-``plan``, rtsim's improvement (the shipped files' policy) — eight coupled runs, in parallel
-processes when ``--workers`` > 1. Every run uses the seed ``--seed``, so a run equals
-``rtsim scenario <test>.toml --mode <mode> --seed N [--duration S]`` (``--policy plan`` for
-plan; the command line is in its manifest) and the modes of a test see the same noise draws
-at the start; the
-results do not depend on the worker count.
-Duration: ``--duration`` (simulated s) for every run; by default the adjust run takes its
-scenario's default (at least one lap; the leader is slowed in the turns, so this is the
-longest) and the baselines and plan then run exactly as long, so the modes cover the same
-time; ``--quick`` (CI): 60 s, which covers the leader's whole first turn in both tests (it
-enters it at 32 s in Test 1, 26.7 s in Test 2).
-
-Writes to ``--out`` (default ``results/paper``):
-
-- ``<test>/<mode>/``: ``windows.csv``, ``jobs.csv``, ``summary.json``, ``manifest.json`` (as
-  the ``rtsim scenario`` command writes them);
-- ``figures/``: the paper's Figures 8–15 from the adjust runs (``fig08_test1_paths`` …
-  ``fig15_test2_speed``; Figs 10/14 the minimum MSB against w_sch as the paper draws it,
-  with the per-kind detail beside them as ``fig10_test1_bounds_detail`` and
-  ``fig14_test2_bounds_detail``), the operating space of its Figure 2 per test
-  (``fig02_<test>_operating_space``), and the paper's three modes side by side
-  (``modes_<test>_{window,bounds,speed,paths}``); every PNG has its data beside it as CSV
-  (same stem; [`rtsim.plots.scenario.figure_data`][rtsim.plots.scenario.figure_data], the modes'
-  stacked with a ``mode``
-  column);
-- ``summary.csv`` / ``summary.md``: per test and mode, the counts and ratios of the run;
-- ``manifest.json``: rtsim version, seed, the scenario files' text, command line, timings.
-
-``--docs DIR`` also writes the documentation's figures there (PNG, 100 dpi): Figs 8–15, the two
-operating-space figures and the Test 2 mode comparison.
+"""The paper's experiments reproduced: Test 1 and Test 2 in the paper's three window modes and
+``plan`` beside them (``rtsim reproduce``, or [`run`][rtsim.reproduce.run] with
+[`ReproduceOptions`][rtsim.reproduce.ReproduceOptions] from Python). What it runs, for how
+long, and what it writes: docs/results.md.
 """
 
 from __future__ import annotations

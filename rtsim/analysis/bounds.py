@@ -1,34 +1,7 @@
-"""Lower bounds on the processing window: the paper's w_sch and the exact w_rta
-(docs/model/lower-bound.md).
-
-- e_hough (Eq 1) and g (Eq 5/6) come from the window's constants.
-- Eq 7 (the chain) and Eq 11 (the command task, p = 2w; Eq 10 corrected) are sufficient
-  bounds from ⌈x⌉ ≤ x + 1. They are evaluated here in a general form that reduces to the
-  paper's formulas for its set (fixed-period T_hp, T_lp with period = deadline = 2w): for a
-  task i tested at t = min(D_i, p_i), a higher task j contributes ⌈t/p_j⌉ e_j with the
-  ceiling kept exact when both periods scale with w (the window itself: period w) or both are
-  fixed, and bounded by t/p_j + 1 otherwise. Eq 7 is that bound for the chain, Eq 11 its
-  maximum over T_lp. w_sch = max(Eq 7, Eq 11). Release jitter (the paper has none; a task's
-  or the window's ``jitter``) shortens a task's own time to D − J and adds ⌈J_j/P_j⌉ jobs
-  of each jittered higher task (``_sufficient``).
-- w_rta: the least w at which the exact analysis
-([`rtsim.analysis.rta.analyze`][rtsim.analysis.rta.analyze], chain as
-  one task of cost g) finds every task schedulable.
-- w_susp: the least w at which the suspension-aware analysis (Δt with the CPU idle,
-  `rtsim.analysis.suspension`) finds every task schedulable; w_susp ≤ w_rta.
-- w_edf: the least w at which the EDF processor-demand criterion (`rtsim.analysis.edf`,
-  Δt counted as CPU time: suspension-oblivious, sound with the CPU idle too) accepts the set
-  (the CPU running EDF). With Δt as CPU time EDF is optimal, so w_edf ≤ w_rta; with the CPU
-  idle during Δt it is a comparison, not a floor (Ridouard, Richard & Cottet 2004).
-
-Why w_rta can be found by search: at a fixed t every period is non-decreasing in w, so each
-ceiling ⌈t/P_j(w)⌉ and hence the demand is non-increasing in w, while every deadline is
-non-decreasing in w; a job that meets its deadline at w therefore meets it at any w' > w, and
-the feasible windows form a ray [w_rta, ∞). Its left end is attained: the demand at fixed t
-is constant on intervals closed on the left, [t/(m c_j), t/((m−1) c_j)). So w_rta is either
-R/d_i (a deadline d_i·w meeting a response R) or a breakpoint R/(m·c_j) where a ceiling
-changes. [`w_rta`][rtsim.analysis.bounds.w_rta] brackets it by bisection and then snaps to that
-closed form.
+"""Lower bounds on the processing window: the paper's w_sch (Eqs 1, 5–7, 11, in a general form
+with jitter), and the least windows that the exact analysis (w_rta), the suspension-aware one
+(w_susp) and the EDF demand criterion (w_edf) accept. The equations, and why w_rta can be
+found by search and snapped to a closed form: docs/model/lower-bound.md.
 """
 
 from __future__ import annotations
@@ -54,6 +27,7 @@ from rtsim.analysis.suspension import compute_time, suspension_aware
 from rtsim.analysis.transaction import transaction_bounds
 from rtsim.errors import InputError
 from rtsim.model.task import Task
+from rtsim.model.window import TIMES
 
 if TYPE_CHECKING:
     from rtsim.model.taskset import TaskSet
@@ -397,22 +371,8 @@ def window_bounds(ts: TaskSet, n: int | None = None, r_H: float | None = None) -
         ts = ts.with_window(**changes)
     win = ts.window
     assert win is not None
-    inputs: dict[str, Any] = {
-        k: getattr(win, k)
-        for k in (
-            "n",
-            "r_H",
-            "e_cal",
-            "e_trans",
-            "k",
-            "e_scan",
-            "e_estimate",
-            "e_send",
-            "e_recv",
-            "delta_t",
-            "e_sched",
-        )
-    }
+    keys = ("n", "r_H", *TIMES[:2], "k", *TIMES[2:])  # WindowSpec's field order
+    inputs: dict[str, Any] = {k: getattr(win, k) for k in keys}
     inputs["priority"] = win.priority
     for key in ("jitter", "offset"):
         if getattr(win, key):

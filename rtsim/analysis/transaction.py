@@ -28,7 +28,6 @@ __all__ = [
     "Job",
     "Step",
     "Transaction",
-    "TransactionBound",
     "analyze_transactions",
     "transactions_of",
     "transaction_bounds",
@@ -76,16 +75,6 @@ class Step:
     offset: float
     jitter: float
     wcet: float
-
-
-@dataclass(frozen=True)
-class TransactionBound:
-    """A task's offset-based bound (ms from arrival; None: above its deadline, or the
-    analysis does not apply) and the transaction's period it was found in."""
-
-    name: str
-    wcrt: float | None
-    period: float
 
 
 def _phase(phi_j: float, phi_k: float, j_k: float, period: float) -> float:

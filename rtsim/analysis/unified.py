@@ -1,38 +1,8 @@
 """The unifying response-time bound for dynamic self-suspending tasks (Chen, Nelissen & Huang,
-"A Unifying Response Time Analysis Framework for Dynamic Self-suspending Tasks", ECRTS 2016,
-Theorem 1), the form that the review of Chen, Nelissen, Huang, Yang, Brandenburg, Bletsas et
-al., "Many suspensions, many problems: a review of self-suspending tasks in real-time
-systems", Real-Time Systems 55 (2019), presents as sound (its treatment of suspension as
-release jitter R_i − C_i, or as computation with the carry-in that the Q term below adds; the
-flawed variants it lists — jitter S_i, or suspension-as-computation without that carry-in —
-are not used).
-
-Tasks by priority, τ_k under analysis with compute time C_k and suspension S_k per job; each
-higher-priority τ_i has C_i, S_i, period T_i and a sound bound R_i ≤ T_i. For any vector
-x ∈ {0, 1}^{hp}, the worst-case response time of τ_k (from its release) is at most the least
-t > 0 with
-
-    C_k + S_k + Σ_{i ∈ hp(k)} ⌈(t + Q_i + (1 − x_i)(R_i − C_i)) / T_i⌉ · C_i ≤ t,
-    Q_i = Σ_{j ∈ hp(k), j at or below i} S_j · x_j.
-
-x_i = 0 treats τ_i's suspension as release jitter R_i − C_i; x_i = 1 as computation, paid for
-by Q. This is the case that rtsim's other suspension-aware bounds leave to the
-suspension-oblivious one: a suspending task below suspending tasks (the task's own
-suspension is counted as computation here, so the bound also covers tasks that suspend).
-
-rtsim's use of it ([`unified_bound`][rtsim.analysis.unified.unified_bound]):
-
-- x_i = 1 only for a higher task without release jitter (the theorem is for sporadic
-  releases); a jittered one always gets x_i = 0, its R_i counted from arrival (its compute
-  then lies within R_i of its arrival, so the jitter term holds);
-- vectors: all of them while there are at most 2^10, else the three of the paper's
-  Section 6 (all zero; x_i = 1 iff S_i ≤ C_i; and its linear rule x_i = 1 iff
-  U_i (R_i − C_i) > S_i Σ_{j ≤ i} U_j); the least result is taken;
-- it applies only when every higher task has a bound R_i ≤ T_i and τ_k has D_k ≤ T_k, and its
-  result (plus τ_k's own release jitter J_k, from arrival) is kept only when it is at most
-  min(D_k, T_k), so that no two jobs of τ_k are ever pending together;
-- context-switch overhead o as in `rtsim.analysis.rta`: C_i + 2·o·s_i per higher job,
-  C_k + o·s_k for τ_k (s: compute stretches); the jitter stays R_i − C_i with the bare C_i.
+ECRTS 2016, Theorem 1, in the form the 2019 review of self-suspension presents as sound):
+each higher task's suspension counted as jitter or as computation with its carry-in, the
+least over the choices ([`unified_bound`][rtsim.analysis.unified.unified_bound]). The
+equation and rtsim's choices: docs/analysis-beyond.md.
 """
 
 from __future__ import annotations

@@ -130,6 +130,26 @@ def _f(x: Any) -> float:
     return v
 
 
+def _held(flag: Any) -> bool:
+    """An assumption flag of the table: held unless it is false (missing or NaN: held)."""
+    return True if flag is None or (isinstance(flag, float) and math.isnan(flag)) else bool(flag)
+
+
+def _above(
+    where: tuple[str, str, str],
+    what: str,
+    value: float,
+    bound: float,
+    tol: float,
+    held: bool = True,
+) -> list[Failure]:
+    """[the failure ``what`` at ``where`` (config, task, mode)] when ``value`` > ``bound`` +
+    ``tol``, both finite (a warning where the bound's assumption did not hold); else []."""
+    if math.isfinite(value) and math.isfinite(bound) and value > bound + tol:
+        return [Failure(*where, what, value, bound, "failure" if held else "warning")]
+    return []
+
+
 def check_results(
     rows: pd.DataFrame | Iterable[Mapping[str, Any]],
     *,
@@ -153,105 +173,32 @@ def check_results(
     out: list[Failure] = []
     seen: set[tuple[str, str]] = set()
     for r in records:
-        config, task, mode = (
-            str(r.get("config", "")),
-            str(r.get("task", "")),
-            str(r.get("mode", "")),
-        )
+        config, task, mode = (str(r.get(k, "")) for k in ("config", "task", "mode"))
         sim, wcrt = _f(r.get("sim_max")), _f(r.get("wcrt"))
-        ok = r.get("assumption_ok", True)
-        ok = True if ok is None or (isinstance(ok, float) and math.isnan(ok)) else bool(ok)
-        if math.isfinite(sim) and math.isfinite(wcrt) and sim > wcrt + bound_tol:
-            out.append(
-                Failure(
-                    config,
-                    task,
-                    mode,
-                    "response above WCRT",
-                    sim,
-                    wcrt,
-                    "failure" if ok else "warning",
-                )
-            )
-        aware = _f(r.get("wcrt_susp"))
-        if (
-            mode == "counted-idle"
-            and math.isfinite(sim)
-            and math.isfinite(aware)
-            and sim > aware + bound_tol
-        ):
-            out.append(
-                Failure(
-                    config,
-                    task,
-                    mode,
-                    "response above the suspension-aware WCRT",
-                    sim,
-                    aware,
-                    "failure" if ok else "warning",
-                )
-            )
+        ok = _held(r.get("assumption_ok"))
+        out += _above((config, task, mode), "response above WCRT", sim, wcrt, bound_tol, ok)
+        if mode == "counted-idle":
+            what = "response above the suspension-aware WCRT"
+            out += _above((config, task, mode), what, sim, _f(r.get("wcrt_susp")), bound_tol, ok)
         w_sim, w_rta, w_sch = _f(r.get("w_sim")), _f(r.get("w_rta")), _f(r.get("w_sch"))
         key = (config, mode)
         if key in seen:
             continue
         seen.add(key)
-        if math.isfinite(w_sim) and math.isfinite(w_rta) and w_sim > w_rta + search_tol:
-            out.append(
-                Failure(
-                    config,
-                    "*",
-                    mode,
-                    "w_sim above w_rta",
-                    w_sim,
-                    w_rta,
-                    "failure" if ok else "warning",
-                )
-            )
+        where = (config, "*", mode)
+        out += _above(where, "w_sim above w_rta", w_sim, w_rta, search_tol, ok)
         if math.isfinite(w_sch) and math.isfinite(w_rta) and w_sch < w_rta - bound_tol:
             out.append(Failure(config, "*", mode, "w_sch below w_rta", w_sch, w_rta))
         w_susp = _f(r.get("w_susp"))
-        if math.isfinite(w_susp) and math.isfinite(w_rta) and w_susp > w_rta + bound_tol:
-            out.append(Failure(config, "*", mode, "w_susp above w_rta", w_susp, w_rta))
+        out += _above(where, "w_susp above w_rta", w_susp, w_rta, bound_tol)
         if mode == "edf-cpu":  # w_edf's model: the CPU under EDF, Δt as CPU time
             w_edf = _f(r.get("w_edf"))
-            if math.isfinite(w_sim) and math.isfinite(w_edf) and w_sim > w_edf + search_tol:
-                out.append(Failure(config, "*", mode, "w_sim above w_edf", w_sim, w_edf))
-            if math.isfinite(w_edf) and math.isfinite(w_rta) and w_edf > w_rta + bound_tol:
-                out.append(Failure(config, "*", mode, "w_edf above w_rta", w_edf, w_rta))
-        if mode != "counted-idle":  # w_susp's model: Δt with the CPU idle
-            continue
-        if math.isfinite(w_sim) and math.isfinite(w_susp) and w_sim > w_susp + search_tol:
-            out.append(
-                Failure(
-                    config,
-                    "*",
-                    mode,
-                    "w_sim above w_susp",
-                    w_sim,
-                    w_susp,
-                    "failure" if ok else "warning",
-                )
-            )
-        geo = _f(r.get("w_susp_geo"))
-        geo_ok = r.get("geo_assumption_ok", True)
-        geo_ok = (
-            True
-            if geo_ok is None or (isinstance(geo_ok, float) and math.isnan(geo_ok))
-            else bool(geo_ok)
-        )
-        if math.isfinite(w_sim) and math.isfinite(geo) and w_sim > geo + search_tol:
-            out.append(
-                Failure(
-                    config,
-                    "*",
-                    mode,
-                    "w_sim above w_susp_geo",
-                    w_sim,
-                    geo,
-                    "failure" if geo_ok else "warning",
-                )
-            )
+            out += _above(where, "w_sim above w_edf", w_sim, w_edf, search_tol)
+            out += _above(where, "w_edf above w_rta", w_edf, w_rta, bound_tol)
+        if mode == "counted-idle":  # w_susp's model: Δt with the CPU idle
+            out += _above(where, "w_sim above w_susp", w_sim, w_susp, search_tol, ok)
+            geo, geo_ok = _f(r.get("w_susp_geo")), _held(r.get("geo_assumption_ok"))
+            out += _above(where, "w_sim above w_susp_geo", w_sim, geo, search_tol, geo_ok)
     return out
 
 

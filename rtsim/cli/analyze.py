@@ -24,7 +24,7 @@ from rtsim.analysis.rta import analyze
 from rtsim.analysis.transaction import with_transaction_bounds
 from rtsim.cli import one_line
 from rtsim.cli._set import add_set_option, set_overrides
-from rtsim.cli.common import add_json, add_quiet
+from rtsim.cli.common import add_force, add_json, add_quiet, add_suspension
 from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError
 from rtsim.io.limits import check
@@ -55,11 +55,9 @@ def register(sub: Any) -> None:
         default=None,
         help="window w in ms for a [window] set (default: w_sch)",
     )
-    p.add_argument(
-        "--suspension",
-        choices=("cpu", "idle"),
-        default="cpu",
-        help="radio round trip / suspensions: counted as CPU time (default, the "
+    add_suspension(
+        p,
+        "radio round trip / suspensions: counted as CPU time (default, the "
         "paper's) or CPU free (suspension-aware bounds, docs/model/beyond.md)",
     )
     p.add_argument(
@@ -78,10 +76,9 @@ def register(sub: Any) -> None:
         "analysis) or edf (demand criterion and Spuri's bound); default: the "
         "file's [scheduler] policy",
     )
-    p.add_argument(
-        "--force",
-        action="store_true",
-        help="analyse even when the EDF bound would examine more than 1e6 "
+    add_force(
+        p,
+        "analyse even when the EDF bound would examine more than 1e6 "
         "arrivals (a busy period very long against the periods: minutes)",
     )
     p.set_defaults(func=run)

@@ -19,7 +19,7 @@ from typing import Any
 from rtsim.analysis.bounds import w_txn, window_bounds
 from rtsim.cli._set import add_set_option, set_overrides
 from rtsim.cli.analyze import json_safe
-from rtsim.cli.common import add_json, add_quiet
+from rtsim.cli.common import add_force, add_json, add_quiet
 from rtsim.cli.plausible import check_hough_radius
 from rtsim.config.taskset import load_taskset
 from rtsim.errors import InputError
@@ -60,9 +60,7 @@ def register(sub: Any) -> None:
 
     add_json(p, "print JSON (a list for several rows)")
     add_quiet(p, "print nothing (a check of the inputs)")
-    p.add_argument(
-        "--force", action="store_true", help="run even when a value looks like a mistake of unit"
-    )
+    add_force(p)
     p.set_defaults(func=run)
 
 

@@ -1,5 +1,6 @@
-"""Options every sub-command shares, added one way: ``-q/--quiet``, ``--json``, ``--out``,
-``--format``/``--dpi``; and the progress bar.
+"""Options the sub-commands share, added one way: ``-q/--quiet``, ``--json``, ``--out``,
+``--format``/``--dpi``, a simulation's ``--exec``, ``--suspension`` and window set
+(`add_simulation`), ``--workers``/``--dask`` and ``--force``; and the progress bar.
 
 The conventions they keep (tests/cli/test_conventions.py checks them per command):
 
@@ -31,6 +32,11 @@ __all__ = [
     "add_quiet",
     "add_json",
     "add_figure_options",
+    "add_force",
+    "add_exec",
+    "add_suspension",
+    "add_simulation",
+    "add_workers",
     "figure_format",
     "progress_enabled",
     "simulation_bar",
@@ -51,6 +57,50 @@ def add_quiet(p: Any, what: str = "no progress bar, no notes on stderr") -> None
 def add_json(p: Any, what: str = "print the result as one JSON object") -> None:
     """``--json``: the result on standard output as one JSON object instead of text."""
     p.add_argument("--json", action="store_true", help=what)
+
+
+def add_force(p: Any, what: str = "run even when a value looks like a mistake of unit") -> None:
+    """``--force``: run past a limit or a plausibility check (``what``: which)."""
+    p.add_argument("--force", action="store_true", help=what)
+
+
+def add_exec(
+    p: Any, what: str = "execution times: wcet (default) or uniform in [bcet, wcet]"
+) -> None:
+    """``--exec wcet|uniform`` (``args.exec_model``)."""
+    p.add_argument(
+        "--exec", dest="exec_model", choices=("wcet", "uniform"), default="wcet", help=what
+    )
+
+
+def add_suspension(
+    p: Any, what: str = "radio round trip: counted as CPU time (default) or CPU free"
+) -> None:
+    """``--suspension cpu|idle``."""
+    p.add_argument("--suspension", choices=("cpu", "idle"), default="cpu", help=what)
+
+
+def add_simulation(p: Any) -> None:
+    """A simulation's ``--exec`` and ``--suspension``, and ``--followers``,
+    ``--hough-radius`` and ``--window`` for a processing-window set."""
+    add_exec(p)
+    add_suspension(p)
+    p.add_argument("--followers", type=int, help="n, for a processing-window set")
+    p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
+    p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
+
+
+def add_workers(p: Any, dask: str | None = None) -> None:
+    """``--workers`` and, with ``dask`` (its help), ``--dask``."""
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="local worker processes (default: the CPU count; 1 = in this process)",
+    )
+    if dask is not None:
+        p.add_argument("--dask", default=None, metavar="ADDRESS", help=dask)
 
 
 def add_figure_options(

@@ -23,7 +23,14 @@ from typing import Any
 
 from rtsim.analysis.bounds import window_bounds
 from rtsim.cli._set import add_set_option, set_overrides
-from rtsim.cli.common import add_figure_options, add_json, add_quiet, figure_format
+from rtsim.cli.common import (
+    add_figure_options,
+    add_force,
+    add_json,
+    add_quiet,
+    add_simulation,
+    figure_format,
+)
 from rtsim.cli.plausible import check_horizon, check_hough_radius, periods_ms, warn_short_horizon
 from rtsim.cli.simulate import require_bcet
 from rtsim.config.taskset import load_taskset
@@ -49,25 +56,8 @@ def register(sub: Any) -> None:
     p.add_argument("--bins", type=int, default=50, help="bins per histogram (default 50)")
     p.add_argument("--horizon", type=float, help="simulated ms (with FILE)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument(
-        "--exec",
-        dest="exec_model",
-        choices=("wcet", "uniform"),
-        default="wcet",
-        help="execution times: wcet (default) or uniform in [bcet, wcet]",
-    )
-    p.add_argument(
-        "--suspension",
-        choices=("cpu", "idle"),
-        default="cpu",
-        help="radio round trip: CPU time (default) or CPU free",
-    )
-    p.add_argument("--followers", type=int, help="n, for a processing-window set")
-    p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
-    p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
-    p.add_argument(
-        "--force", action="store_true", help="run even when a value looks like a mistake of unit"
-    )
+    add_simulation(p)
+    add_force(p)
 
     add_set_option(
         p,

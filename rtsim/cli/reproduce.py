@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import rtsim.reproduce
+from rtsim.cli.common import add_force
 from rtsim.cli.plausible import check_duration
 from rtsim.reproduce import DEFAULT_OUT, MODES, QUICK_DURATION_S, TESTS, ReproduceOptions
 
@@ -87,11 +88,7 @@ def add_options(ap: Any) -> None:
         action="store_true",
         help="print the summary table as one JSON object instead of Markdown",
     )
-    ap.add_argument(
-        "--force",
-        action="store_true",
-        help="run even when --duration looks like a mistake of unit (over 6 simulated hours)",
-    )
+    add_force(ap, "run even when --duration looks like a mistake of unit (over 6 simulated hours)")
     ap.add_argument(
         "--set",
         action="append",

@@ -35,7 +35,15 @@ from pathlib import Path
 from typing import Any
 
 from rtsim.cli._set import add_set_option, set_overrides, set_strings
-from rtsim.cli.common import add_figure_options, add_json, add_quiet, check_suffix, simulation_bar
+from rtsim.cli.common import (
+    add_exec,
+    add_figure_options,
+    add_force,
+    add_json,
+    add_quiet,
+    check_suffix,
+    simulation_bar,
+)
 from rtsim.cli.plausible import check_duration, check_scenario_units
 from rtsim.control.policy import ADJUSTMENT_POLICIES, policy_class
 from rtsim.errors import InputError
@@ -89,13 +97,7 @@ def register(sub: Any) -> None:
         'the lap, until = "lap")',
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument(
-        "--exec",
-        dest="exec_model",
-        choices=("wcet", "uniform"),
-        default="wcet",
-        help="execution times of the fixed segments (default wcet)",
-    )
+    add_exec(p, "execution times of the fixed segments: wcet (default) or uniform in [bcet, wcet]")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     p.add_argument("--parquet", action="store_true", help="also write windows.parquet")
 
@@ -108,10 +110,9 @@ def register(sub: Any) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
 
     add_set_option(p)
-    p.add_argument(
-        "--force",
-        action="store_true",
-        help="run even above the work limits (2e6 windows, 2e8 world steps x "
+    add_force(
+        p,
+        "run even above the work limits (2e6 windows, 2e8 world steps x "
         "followers), or a duration over 6 simulated hours",
     )
     add_json(p, "print summary.json on stdout instead of the summary line")

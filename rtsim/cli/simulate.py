@@ -37,8 +37,10 @@ from rtsim.cli import one_line
 from rtsim.cli._set import add_set_option, set_overrides, set_strings
 from rtsim.cli.common import (
     add_figure_options,
+    add_force,
     add_json,
     add_quiet,
+    add_simulation,
     check_suffix,
     figure_format,
     note,
@@ -92,19 +94,6 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument(
-        "--exec",
-        dest="exec_model",
-        choices=("wcet", "uniform"),
-        default="wcet",
-        help="execution times: wcet (default) or uniform in [bcet, wcet]",
-    )
-    p.add_argument(
-        "--suspension",
-        choices=("cpu", "idle"),
-        default="cpu",
-        help="radio round trip: counted as CPU time (default) or CPU free",
-    )
-    p.add_argument(
         "--overhead",
         type=float,
         default=None,
@@ -123,9 +112,7 @@ def register(sub: Any) -> None:
         "deadline first), or package.module:Name (default: the file's "
         "[scheduler] policy, else fp)",
     )
-    p.add_argument("--followers", type=int, help="n, for a processing-window set")
-    p.add_argument("--hough-radius", type=float, help="r_H in cm, for a processing-window set")
-    p.add_argument("--window", type=float, help="fixed window w in ms (default w_sch)")
+    add_simulation(p)
     p.add_argument("--jobs", help="per-job records, .csv or .parquet")
     p.add_argument("--trace", help="execution-interval trace, .csv or .parquet")
     p.add_argument("--gantt", help="Gantt chart, .png, .svg or .pdf (with --gantt-range A..B ms)")
@@ -148,10 +135,9 @@ def register(sub: Any) -> None:
     add_json(p)
     add_quiet(p, "no progress bar, no table")
     add_set_option(p)
-    p.add_argument(
-        "--force",
-        action="store_true",
-        help="run even when the horizon gives more than 5e7 jobs, or looks like a "
+    add_force(
+        p,
+        "run even when the horizon gives more than 5e7 jobs, or looks like a "
         "mistake of unit (shorter than one window)",
     )
     p.set_defaults(func=run)

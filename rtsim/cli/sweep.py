@@ -17,7 +17,7 @@ from typing import Any
 
 from rtsim.cli import Terminated
 from rtsim.cli._set import add_set_option, set_strings
-from rtsim.cli.common import add_json, add_quiet, progress_enabled
+from rtsim.cli.common import add_force, add_json, add_quiet, add_workers, progress_enabled
 from rtsim.io.atomic import dumps
 
 __all__ = ["register", "run"]
@@ -33,19 +33,8 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("spec", metavar="FILE", help="the sweep file")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
-    p.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        metavar="N",
-        help="local worker processes (default: the CPU count; 1 = in this process)",
-    )
-    p.add_argument(
-        "--dask",
-        default=None,
-        metavar="ADDRESS",
-        help="run the points on an existing dask.distributed scheduler "
-        "(needs the extra rtsim[dask])",
+    add_workers(
+        p, "run the points on an existing dask.distributed scheduler (needs the extra rtsim[dask])"
     )
     p.add_argument(
         "--restart",
@@ -57,9 +46,7 @@ def register(subparsers: Any) -> None:
         action="store_true",
         help="recompute the points that failed in an earlier run",
     )
-    p.add_argument(
-        "--force", action="store_true", help="run a grid above the size limit (1e5 points)"
-    )
+    add_force(p, "run a grid above the size limit (1e5 points)")
 
     add_json(p, "print the summary (points run, skipped, failed) as one JSON object")
     add_quiet(p, "no progress bar, no summary")

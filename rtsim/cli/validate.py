@@ -18,8 +18,10 @@ from rtsim.cli._set import add_set_option, set_overrides
 from rtsim.cli.analyze import json_safe
 from rtsim.cli.common import (
     add_figure_options,
+    add_force,
     add_json,
     add_quiet,
+    add_workers,
     figure_format,
     progress_enabled,
 )
@@ -46,19 +48,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--out", required=True, metavar="DIR", help="output directory (resumed when run again)"
     )
-    p.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        metavar="N",
-        help="local worker processes (default: the CPU count; 1 = in this process)",
-    )
-    p.add_argument(
-        "--dask",
-        default=None,
-        metavar="ADDRESS",
-        help="run the points on an existing dask.distributed scheduler",
-    )
+    add_workers(p, "run the points on an existing dask.distributed scheduler")
     p.add_argument(
         "--restart",
         action="store_true",
@@ -101,9 +91,7 @@ def register(sub: Any) -> None:
         help="configurations to draw response-time histograms for (default 2, quick 1; 0 = none)",
     )
     p.add_argument("--seed", type=int, default=None, help="the validation's seed (default 1)")
-    p.add_argument(
-        "--force", action="store_true", help="run even when a value looks like a mistake of unit"
-    )
+    add_force(p)
 
     add_set_option(
         p,

@@ -1,43 +1,6 @@
-"""Task-set files: the file format, its typed model, the [`TaskSet`][rtsim.model.taskset.TaskSet]
-built from it once it is valid, and the loader (`load_taskset`, `parse_taskset`) and the
-reverse (`taskset_to_dict`).
-
-The file's shape (keys, types, ranges, units) is the model below; the rules that involve
-several keys (every task gives a priority or none does, names are unique, ``"2w"`` needs a
-``[window]``, ``k = "geometric"`` needs ``rho_min``) are checked when the task set is built,
-also all at once. The generic shape any user can write::
-
-    name = "example"            # optional
-    overhead = 0                # optional: context-switch cost in ms (analysis and simulation)
-    [scheduler]                 # optional
-    policy = "fp"               # the CPU's scheduling policy: "fp" (default), "edf", or a
-                                # registered name / "package.module:Name" (sim.policy)
-    [[tasks]]
-    name = "tau1"
-    wcet = 5                    # ms
-    period = 40                 # ms, or a multiple of the window: "2w", "w", "1.5w"
-    deadline = 40               # optional, defaults to the period
-    priority = 1                # optional; smaller = higher. Every task or none.
-    offset = 0                  # optional, ms
-    jitter = 0                  # optional, ms: release up to J after the arrival
-    (docs/model/beyond.md)
-    bcet = 3                    # optional, for random execution-time models
-    overload = "finish-late"    # optional: "finish-late", "abort" or "skip"
-
-plus, for the paper's processing-window sets, a ``[window]`` table (the chain T_w: see
-[`rtsim.model.window.WindowSpec`][rtsim.model.window.WindowSpec]; ``k = "geometric"`` with
-``rho_min`` in cm takes the
-sound count of 0.5° beams that can hit a follower at distance ≥ rho_min, docs/model/lower-bound.md)
-and an
-``[assumptions]`` table mapping each value the paper does not give to the reason for the value
-chosen. With no priorities, tasks are ordered deadline-monotonically (equal deadlines in file
-order) and numbered 1..N. With a ``[window]``, every task and the window must give a priority:
-T_hp and T_lp follow from them.
-
-Every problem raises `TaskSetError`, one line per problem and all of
-them at once, ``<file>: task '<name>': <field>: <problem>`` (``[[tasks]] #3`` when the name
-is missing). Deadlines above the period are accepted: `rtsim.analysis.rta` analyses them with the
-level-i busy period (Lehoczky 1990).
+"""Task-set files: the file format's typed model, the loader (`load_taskset`, `parse_taskset`)
+that builds a [`TaskSet`][rtsim.model.taskset.TaskSet] from a valid file, and the reverse
+(`taskset_to_dict`). The format, its rules and its errors: docs/tasksets.md.
 """
 
 from __future__ import annotations
@@ -69,7 +32,7 @@ from rtsim.examples import packaged_text, shipped_hint
 from rtsim.io.limits import WINDOW_N, WINDOW_R_H, Range, read_input
 from rtsim.model.task import OVERLOAD_POLICIES, RESOURCE_PROTOCOLS, CriticalSection, Task
 from rtsim.model.taskset import TaskSet
-from rtsim.model.window import WindowSpec
+from rtsim.model.window import TIMES, WindowSpec
 from rtsim.registry import reading_input
 from rtsim.sim.policy import resolve_scheduler
 
@@ -456,16 +419,7 @@ def _window(w: WindowTable) -> tuple[WindowSpec | None, list[str]]:
         for key in ("rho_min", "k_value"):
             if getattr(w, key) is not None:
                 return None, [f'{where}: {key}: applies only with k = "geometric"']
-    for key in (
-        "e_cal",
-        "e_trans",
-        "e_scan",
-        "e_estimate",
-        "e_send",
-        "e_recv",
-        "delta_t",
-        "e_sched",
-    ):
+    for key in TIMES:
         values[key] = float(getattr(w, key))
     for key in ("jitter", "offset"):  # the window's release jitter and first arrival (ms)
         if getattr(w, key) is not None:

@@ -1,54 +1,8 @@
-"""The adjustment algorithm (paper §3.3, docs/model/adjustment.md) and the three window modes, as
-pure functions.
-
-Each window, from the leader's estimates of every follower, `adjust`:
-
-1. predicts every follower's four bounds (ms) at the desired speed V_Ld, with the follower's
-   motion given by the *prediction model* (below); m = the smallest, and which one binds;
-2. if m ≥ w_sch: w = min(m, cap), V_L = V_Ld, slack = w − w_sch (Eq 22, capped);
-3. else (overload): w = w_sch, slack = 0, and V_L is the **largest** speed in (0, V_Ld] at
-   which every bound of every follower, predicted at that speed, is ≥ w_sch. Candidates:
-
-   * ``closed-form``: the paper's Eqs 23–26, corrected
-   ([`paper_speed`][rtsim.control.closed_forms.paper_speed]), with V_F, θ and ω_L at their
-   estimates, for every bound violated at V_Ld
-     (the paper treats the one binding bound; with several violated, the smallest speed);
-   * ``coupled``: the coupled closed forms
-   ([`coupled_speed`][rtsim.control.closed_forms.coupled_speed]),
-     V_F = s·V_L, ω_L = κ·V_L, over every bound of every follower;
-   * ``numeric``: a scan of the model's min bound over (0, V_Ld] and bisection (below),
-     run only when no closed-form candidate passes the check.
-
-   Every candidate is checked by re-evaluating all followers with the model; the largest
-   passing one is taken (on a tie — within 1e-9 relative — the earlier in ``methods``). If it
-   is not maximal (the bound still holds 1e-6 above it) the numeric search refines it upward.
-   If no speed passes: ``feasible=False``, method ``floor``, V_L = floor_frac·V_Ld.
-
-Prediction models (``predictor``, `PREDICTORS`):
-
-* ``"formation"`` (default, docs/model/world.md): the follower moves with its formation slot —
-  velocity =
-  leader velocity + ω_L × (slot position in the leader frame), ω_L = κ·V_L, via
-  [`formation_velocity`][rtsim.analysis.kinematics.formation_velocity]; the slot is (ρ_d, β_d) when
-  ``beta_d`` is given, else the estimated (ρ, β). The bounds are evaluated at the estimated
-  (ρ, β): a follower off its slot has ρ̇, β̇ ≠ 0, one on its slot only the path-diversion bound.
-  Every bound is ∝ 1/V_L, so the coupled form is exact and the feasible speeds are (0, V*].
-* ``"paper"`` (the paper's §3.3): Eq 17 and Eqs 19–21 on the EKF estimates — V̂_F, θ̂ and
-  ω_L stay at the estimates whatever V_L is; the corrected closed forms (Eqs 23–26) are then
-  exact and each bound is an interval of speeds;
-* ``"hybrid"``: `rtsim.control.predict`;
-* any callable ``(follower, v_l) -> (v_f, theta, omega_l)``.
-
-Numeric search: descending scan of ``scan_points`` equal steps of (0, V_Ld] and then 20
-halvings below the smallest step; the first passing point is refined by 60 bisections
-against the failing point above. Assumption: feasibility is monotone between neighbouring
-scan points (exact for the two built-in models, where the feasible set is an interval);
-a feasible island narrower than one step can be missed.
-
-Window cap: w = min(m, cap), default cap = 10·w_sch. The bounds are first-order motion
-predictions that ignore noise and disturbances, and infinite when a follower is still; a window
-ten times the schedulability bound keeps the open-loop time finite while never binding in the
-paper's scenarios (their bounds lie within 0.3–2·w_sch).
+"""The adjustment algorithm (paper §3.3) and the three window modes, as pure functions:
+`adjust` predicts every follower's bounds at the desired speed, keeps w = min(m, cap) when
+m ≥ w_sch, and otherwise finds the largest leader speed at which every bound is ≥ w_sch
+(closed-form, coupled or numeric candidates, each checked). The steps, the numeric search,
+the cap and the predictors: docs/model/adjustment.md.
 """
 
 from __future__ import annotations

@@ -1,40 +1,7 @@
-"""Adjustment policies: what sets each window's w and the leader's speed target .
-
-A policy is an object with one method, ``decide(ctx: PolicyInput) -> Decision``: from what
-the leader knows when a window completes ([`PolicyInput`][rtsim.control.policy.PolicyInput]: its
-estimates of every
-follower, the window's lower bound ``w_sch``, the desired speed, its own turn rate and the
-path's curvature, its actual speed, the scenario's limits) it returns the one decision type,
-[`Decision`][rtsim.control.adjust.Decision] (w, leader speed target, binding bound, method,
-predicted bounds at the desired and at the chosen speed).
-
-Policies are registered by name (`ADJUSTMENT_POLICIES`, a
-`Registry`; [`register_adjustment_policy`][rtsim.control.policy.register_adjustment_policy]), or
-installed as entry
-points of the group ``rtsim.policies``. A scenario selects one with ``[adjust] policy =
-"NAME"`` or ``"package.module:Name"`` (a user's own class, loaded by `policy_class`; code
-named in a file loads only when the user allows it, `rtsim.registry`); ``rtsim scenario …
---policy NAME`` overrides the file; ``--mode`` is an alias. The registered policies:
-
-* ``adjust``: the paper's algorithm (§3.3, docs/model/adjustment.md;
-  `rtsim.control.adjust.adjust`);
-* ``fixed-wsch``: w = w_sch, V_L = V_Ld (the bounds may break in the world);
-* ``min-msb``: w = min(max(min MSB, floor_w), cap), V_L = V_Ld (the schedule may break);
-* ``lookahead``: margin, made safe ahead of time along the leader's known path commands;
-* ``noise-aware``: the bounds with the predicted V_F, |ρ̇| and |β̇| padded by z·σ (key ``z``);
-* ``safe``: lookahead on top of noise-aware with a margin (keys ``margin``, ``z``, ``windows``);
-* ``plan``: several windows ahead on the command-aware rollout (keys ``windows``, ``margin``);
-* ``margin``: the paper's algorithm against the bounds shrunk by a margin μ (key ``margin``):
-  w = max(w_sch, (1 − μ)·min MSB) (capped), and in overload the largest speed at which every
-  bound is ≥ w_sch / (1 − μ), i.e. (1 − μ)·bound ≥ w_sch.
-
-A policy's own keys in ``[adjust]`` are declared once, in its options model (``options``, a
-`PolicyOptions` dataclass of `option` fields: each key's one default and one range); its
-``params`` (name → default) are derived from it, and its constructor takes them as keyword
-arguments (a user's class may give ``params`` and check its keys itself, an `InputError`
-whose message starts with the key). The policy is made once: when a scenario is read, or by
-`adjust_options` for an ``[adjust]`` mapping made by hand (`AdjustOptions`, the run's
-validated ``[adjust]``).
+"""Adjustment policies: what sets each window's w and the leader's speed target. A policy has
+one method, ``decide(ctx: PolicyInput) -> Decision``; the built-in ones are registered in
+`ADJUSTMENT_POLICIES`, each with its own options model (`PolicyOptions`: every key's default
+and range once). The policies, their keys and how to add one: docs/adjustment.md.
 """
 
 from __future__ import annotations

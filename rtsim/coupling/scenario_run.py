@@ -43,7 +43,6 @@ from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.prepared import settled_speed, window_bound
 from rtsim.coupling.recorder import (
-    FOLLOWER_FIELDS,
     WindowRecord,
     WindowRecorder,
     records_columns,
@@ -80,7 +79,6 @@ __all__ = [
 
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
-_NF = len(FOLLOWER_FIELDS)
 
 
 @dataclass(repr=False)

@@ -1,36 +1,8 @@
-"""A run's schedule in the Chrome Trace Event Format, for Perfetto (ui.perfetto.dev) and
-chrome://tracing.
-
-Built from the tables a run already has — the job records (`rtsim.sim.records.JOB_COLUMNS`), the
-execution-interval trace (`TRACE_COLUMNS`) and,
-for a coupled run, ``windows.csv`` — never from the simulator's internals.
-
-- Timestamps are µs of *simulated* time (``ts = ms × 1000``), in one process ("rtsim,
-  simulated time").
-- One track (a thread) per task, in priority order. Each job is a complete slice (``X``)
-  from its first start to its finish, named ``<task> #<job>``; its trace intervals are slices
-  nested in it, named by segment (``scan``, ``hough``, ``estimate[1]``, ``send[1]``,
-  ``radio`` …). A preempted segment shows as several pieces with the gap between them;
-  a suspension (the radio round trip) has category ``suspension``, compute ``compute``;
-  the time a job waits for the holder of a shared resource (trace kind ``blocked``,
-  docs/resources.md) is a slice ``blocked by <task> on <resource>`` of category ``blocked``.
-- Jobs of one task that overlap in time (a backlog) go to further tracks of the task
-  (``<task> (2)``, ``<task> (3)`` …), so every track nests strictly.
-- Instant events (``i``) on the task's track: ``deadline miss`` at the job's deadline,
-  ``aborted``, ``skipped release``; for a coupled run ``track lost`` at the window's release
-  (``windows.tracks_lost`` > 0) on a "world" track.
-- Counters (``C``) from ``windows.csv``: ``w`` and ``w_sch`` (ms), ``leader speed`` (cm/s),
-  ``min MSB`` (ms, when finite), at each window's release.
-
-Open the file in Perfetto with "Open trace file", or in chrome://tracing with "Load".
-
-[`write_perfetto`][rtsim.export.perfetto.write_perfetto] builds the file from whole tables in
-memory; `stream_perfetto`
-writes the same bytes from records kept on disk (a `rtsim.io.spool.Spool` of job
-records, one of trace rows, and ``windows.csv``), reading them a few times in chunks: its
-memory does not grow with the run (the tracks of a task are assigned as its jobs come, in
-start order, which is the order a run records them in; records in another order are handled
-by building the tables after all).
+"""A run's schedule in the Chrome Trace Event Format, for Perfetto and chrome://tracing, built
+from the tables a run already has (job records, the execution trace and, for a coupled run,
+``windows.csv``): [`write_perfetto`][rtsim.export.perfetto.write_perfetto] from tables in
+memory, `stream_perfetto` the same bytes from records on disk. The tracks, slices, events and
+counters: docs/getting-started/perfetto.md.
 """
 
 from __future__ import annotations
@@ -38,7 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -57,10 +29,6 @@ _US = 1000.0  # µs per ms
 
 def _us(ms: float) -> float:
     return float(ms) * _US
-
-
-def _ms(v: Any) -> float | None:
-    return None if pd.isna(v) else float(v)
 
 
 def _with_unfinished(jobs: pd.DataFrame, trace: pd.DataFrame) -> pd.DataFrame:
@@ -133,116 +101,18 @@ def trace_events(
     names += [t for t in dict.fromkeys(jobs["task"].astype(str)) if t not in names]
     lanes = _lanes(jobs)
     nlanes = {t: 1 + max([v for (tt, _), v in lanes.items() if tt == t], default=0) for t in names}
-    tid: dict[tuple[str, int], int] = {}
-    events: list[dict[str, Any]] = [
-        {"ph": "M", "pid": PID, "tid": 0, "name": "process_name", "args": {"name": title}},
-    ]
-    nxt = 1
-    for order, t in enumerate(names):
-        for lane in range(nlanes[t]):
-            tid[(t, lane)] = nxt
-            label = t if lane == 0 else f"{t} ({lane + 1})"
-            events.append(
-                {"ph": "M", "pid": PID, "tid": nxt, "name": "thread_name", "args": {"name": label}}
-            )
-            events.append(
-                {
-                    "ph": "M",
-                    "pid": PID,
-                    "tid": nxt,
-                    "name": "thread_sort_index",
-                    "args": {"sort_index": order * 100 + lane},
-                }
-            )
-            nxt += 1
+    events, tid = _tracks(title, names, nlanes)
 
     def job_tid(task: str, job: int) -> int:
         return tid[(task, lanes.get((task, job), 0))]
 
-    r: Any  # a row (its fields typed by the columns, not by pandas)
-    for r in jobs.itertuples(index=False):
-        task, job = str(r.task), int(r.job)
-        thread = job_tid(task, job)
-        args = {
-            "job": job,
-            "release_ms": _ms(r.release),
-            "deadline_ms": _ms(r.deadline),
-            "response_ms": None if pd.isna(r.response) else float(r.response),
-            "preemptions": int(r.preemptions),
-            "missed": bool(r.missed),
-        }
-        if pd.notna(r.start) and pd.notna(r.finish):
-            unfinished = " (unfinished)" if pd.isna(r.release) else ""
-            events.append(
-                {
-                    "ph": "X",
-                    "pid": PID,
-                    "tid": thread,
-                    "cat": "job",
-                    "name": f"{task} #{job}{unfinished}",
-                    "ts": _us(r.start),
-                    "dur": _us(r.finish) - _us(r.start),
-                    "args": args,
-                }
-            )
-        if bool(r.skipped):
-            events.append(
-                {
-                    "ph": "i",
-                    "s": "t",
-                    "pid": PID,
-                    "tid": thread,
-                    "cat": "skip",
-                    "name": "skipped release",
-                    "ts": _us(r.release),
-                    "args": args,
-                }
-            )
-        elif bool(r.aborted):
-            events.append(
-                {
-                    "ph": "i",
-                    "s": "t",
-                    "pid": PID,
-                    "tid": thread,
-                    "cat": "abort",
-                    "name": "aborted",
-                    "ts": _us(r.deadline),
-                    "args": args,
-                }
-            )
-        if bool(r.missed) and not bool(r.skipped):
-            events.append(
-                {
-                    "ph": "i",
-                    "s": "t",
-                    "pid": PID,
-                    "tid": thread,
-                    "cat": "miss",
-                    "name": "deadline miss",
-                    "ts": _us(r.deadline),
-                    "args": args,
-                }
-            )
-    for r in trace.itertuples(index=False):
-        task, job = str(r.task), int(r.job)
-        events.append(
-            {
-                "ph": "X",
-                "pid": PID,
-                "tid": job_tid(task, job),
-                "cat": "compute"
-                if bool(r.on_cpu)
-                else ("blocked" if str(r.kind) == "blocked" else "suspension"),
-                "name": str(r.segment),
-                "ts": _us(r.start),
-                "dur": _us(r.end) - _us(r.start),
-                "args": {"job": job, "kind": str(r.kind), "on_cpu": bool(r.on_cpu)},
-            }
-        )
+    for row in jobs.reindex(columns=JOB_COLUMNS[:12]).itertuples(index=False, name=None):
+        _job_event(row, job_tid(str(row[0]), int(row[1])), bool(pd.isna(row[2])), events)
+    for row in trace[list(TRACE_COLUMNS)].itertuples(index=False, name=None):
+        events.append(_slice(row, job_tid(str(row[0]), int(row[1]))))
     if windows is not None and len(windows):
-        world = nxt
-        events.extend(_world_meta(world))
+        world = len(tid) + 1
+        events.extend(_thread_meta(world, "world", -1))
         for r in windows.itertuples(index=False):
             events.extend(_window_events(r, world))
     return events
@@ -273,8 +143,6 @@ def write_perfetto(
 # -- streaming ---------------------------------------------------------------------------------
 #: Events per ``json.dumps`` call of `stream_perfetto` (a list's items joined by ",").
 BATCH = 4096
-_J = {n: i for i, n in enumerate(JOB_COLUMNS)}  # the streamed job rows' column positions
-_T = {n: i for i, n in enumerate(TRACE_COLUMNS)}
 _WINDOW_COLUMNS = ["t", "w", "w_sch", "v_leader", "msb_min", "tracks_lost", "window"]
 
 
@@ -402,44 +270,41 @@ def _job_event(row: tuple[Any, ...], t: int, unfinished: bool, out: list[dict[st
             }
         )
     if bool(row[11]):
-        out.append(
-            {
-                "ph": "i",
-                "s": "t",
-                "pid": PID,
-                "tid": t,
-                "cat": "skip",
-                "name": "skipped release",
-                "ts": _us(release),
-                "args": args,
-            }
-        )
+        out.append(_instant(t, "skip", "skipped release", release, args))
     elif bool(row[10]):
-        out.append(
-            {
-                "ph": "i",
-                "s": "t",
-                "pid": PID,
-                "tid": t,
-                "cat": "abort",
-                "name": "aborted",
-                "ts": _us(deadline),
-                "args": args,
-            }
-        )
+        out.append(_instant(t, "abort", "aborted", deadline, args))
     if bool(row[8]) and not bool(row[11]):
-        out.append(
-            {
-                "ph": "i",
-                "s": "t",
-                "pid": PID,
-                "tid": t,
-                "cat": "miss",
-                "name": "deadline miss",
-                "ts": _us(deadline),
-                "args": args,
-            }
-        )
+        out.append(_instant(t, "miss", "deadline miss", deadline, args))
+
+
+def _instant(t: int, cat: str, name: str, ms: float, args: dict[str, Any]) -> dict[str, Any]:
+    """An instant event on the track ``t`` at ``ms``."""
+    return {
+        "ph": "i",
+        "s": "t",
+        "pid": PID,
+        "tid": t,
+        "cat": cat,
+        "name": name,
+        "ts": _us(ms),
+        "args": args,
+    }
+
+
+def _slice(row: Sequence[Any], t: int) -> dict[str, Any]:
+    """The slice of one execution-trace row (`TRACE_COLUMNS` order) on the track ``t``: its
+    category ``compute``, ``blocked`` (waiting for a resource) or ``suspension``."""
+    job, kind, on_cpu = int(row[1]), str(row[3]), bool(row[4])
+    return {
+        "ph": "X",
+        "pid": PID,
+        "tid": t,
+        "cat": "compute" if on_cpu else ("blocked" if kind == "blocked" else "suspension"),
+        "name": str(row[2]),
+        "ts": _us(row[5]),
+        "dur": _us(row[6]) - _us(row[5]),
+        "args": {"job": job, "kind": kind, "on_cpu": on_cpu},
+    }
 
 
 class _Writer:
@@ -505,35 +370,9 @@ def stream_perfetto(
         fh.write('{"traceEvents":[')
         out = _Writer(fh)
         ev = out.batch
-        ev.append(
-            {"ph": "M", "pid": PID, "tid": 0, "name": "process_name", "args": {"name": title}}
-        )
-        tid: dict[tuple[str, int], int] = {}
-        nxt = 1
-        for order, t in enumerate(names):
-            for lane in range(nlanes.get(t, 1)):
-                tid[(t, lane)] = nxt
-                label = t if lane == 0 else f"{t} ({lane + 1})"
-                ev.append(
-                    {
-                        "ph": "M",
-                        "pid": PID,
-                        "tid": nxt,
-                        "name": "thread_name",
-                        "args": {"name": label},
-                    }
-                )
-                ev.append(
-                    {
-                        "ph": "M",
-                        "pid": PID,
-                        "tid": nxt,
-                        "name": "thread_sort_index",
-                        "args": {"sort_index": order * 100 + lane},
-                    }
-                )
-                nxt += 1
-            out.maybe_flush()
+        meta, tid = _tracks(title, names, nlanes)
+        ev.extend(meta)
+        out.maybe_flush()
 
         def job_tid(task: str, job: int) -> int:
             ln = lanes.get(task)
@@ -553,28 +392,15 @@ def stream_perfetto(
         out.maybe_flush()
         for chunk in trace:
             for r in chunk:
-                task, job = str(r[0]), int(r[1])
-                on_cpu = bool(r[4])
-                ev.append(
-                    {
-                        "ph": "X",
-                        "pid": PID,
-                        "tid": job_tid(task, job),
-                        "cat": "compute" if on_cpu else "suspension",
-                        "name": str(r[2]),
-                        "ts": _us(r[5]),
-                        "dur": _us(r[6]) - _us(r[5]),
-                        "args": {"job": job, "kind": str(r[3]), "on_cpu": on_cpu},
-                    }
-                )
+                ev.append(_slice(r, job_tid(str(r[0]), int(r[1]))))
             out.maybe_flush()
-        world = nxt
+        world = len(tid) + 1
         first = True
         for w in _window_chunks(windows):
             if not len(w):
                 continue
             if first:
-                ev.extend(_world_meta(world))
+                ev.extend(_thread_meta(world, "world", -1))
                 first = False
             for r in w.itertuples(index=False):
                 ev.extend(_window_events(r, world))
@@ -587,18 +413,35 @@ def stream_perfetto(
     return p
 
 
-def _world_meta(world: int) -> list[dict[str, Any]]:
-    """The metadata events that name the world's track ``world`` and sort it first."""
+def _thread_meta(tid: int, name: str, sort_index: int) -> list[dict[str, Any]]:
+    """The metadata events that name the track ``tid`` and place it in the sort order (the
+    world's track, -1, first)."""
     return [
-        {"ph": "M", "pid": PID, "tid": world, "name": "thread_name", "args": {"name": "world"}},
+        {"ph": "M", "pid": PID, "tid": tid, "name": "thread_name", "args": {"name": name}},
         {
             "ph": "M",
             "pid": PID,
-            "tid": world,
+            "tid": tid,
             "name": "thread_sort_index",
-            "args": {"sort_index": -1},
+            "args": {"sort_index": sort_index},
         },
     ]
+
+
+def _tracks(
+    title: str, names: list[str], nlanes: Mapping[str, int]
+) -> tuple[list[dict[str, Any]], dict[tuple[str, int], int]]:
+    """The metadata events of the process and of every task's tracks (``nlanes[t]`` of task
+    ``t``, default 1, in the order of ``names``), and the track id of each (task, lane): 1, 2,
+    ..., so the next free id is ``len`` of it + 1."""
+    events = [{"ph": "M", "pid": PID, "tid": 0, "name": "process_name", "args": {"name": title}}]
+    tid: dict[tuple[str, int], int] = {}
+    for order, t in enumerate(names):
+        for lane in range(nlanes.get(t, 1)):
+            tid[(t, lane)] = len(tid) + 1
+            label = t if lane == 0 else f"{t} ({lane + 1})"
+            events += _thread_meta(tid[(t, lane)], label, order * 100 + lane)
+    return events, tid
 
 
 def _window_events(r: Any, world: int) -> list[dict[str, Any]]:

@@ -1,35 +1,7 @@
-"""Whole output directories: a run is written beside its target and swapped in at the end.
-
-``rtsim scenario``, ``rtsim reproduce`` (and ``rtsim simulate`` for its files, via
-`FileSet`) never write into the directory a reader may be looking at. They write into
-a hidden staging directory beside the target, ``.NAME.rtsim-<token>``, and swap it in when
-everything is written:
-
-- on Linux with ``renameat2(RENAME_EXCHANGE)`` (one atomic step: at every instant the target
-  is either the whole earlier run or the whole new one), then the earlier run — now under the
-  staging name — is removed;
-- elsewhere (or on a file system without the exchange) by renaming the earlier run aside,
-  the new one in, and removing the earlier one; a kill between the two renames leaves no
-  target, and the next run puts the earlier one back (`clean_leftovers`).
-
-The swap holds an exclusive ``flock`` on the parent directory, so two runs into one target
-swap one after the other (the last one wins; neither mixes files). A run holds a ``flock``
-on its own staging directory while it lives; a staging directory whose lock is free belongs
-to a killed run and is removed by the next run into the same target.
-
-The target is checked before anything is computed (`stage`): its parent must be
-writable (the staging directory is made there at once), it must not be the working
-directory or one of its ancestors, not a symlink, not a file, and when it exists and is not
-empty it must be an earlier rtsim output — a ``manifest.json`` whose ``outputs`` list
-names every entry — so a user's own directory is never replaced — and, given the
-command, not another command's output (``generate`` never replaces a scenario's run).
-Names of up to 255 bytes work: a long name is cut and hashed in the staging names
-(`stem`). Commands that work in place and resume (``sweep``, ``validate``) check
-their directory with `check_resumable`; single files (``simulate``'s, ``animate``'s,
-``--perfetto``) go through `FileSet`. Each refusal is an
-`InputError` (one line, exit 2 on the command line) naming the option.
-
-The flock helpers here are local to this module (a sweep-wide lock lives elsewhere).
+"""Whole output directories: a run is written into a hidden staging directory beside its target
+and swapped in at the end (`stage`; atomically with ``renameat2`` on Linux), the target checked
+before anything is computed; resumable commands check theirs with `check_resumable`, single
+files go through `FileSet`. The rules a reader can rely on: docs/outputs.md.
 """
 
 from __future__ import annotations

@@ -58,11 +58,6 @@ class Spool:
                 except EOFError:
                     return
 
-    def rows_iter(self) -> Iterator[tuple[Any, ...]]:
-        """Every row, in order."""
-        for chunk in self:
-            yield from chunk
-
     def close(self) -> None:
         """Close and remove the scratch file."""
         if self._fh is not None:

@@ -1,33 +1,8 @@
-"""The work a command would do, estimated before it starts, and refused above a limit.
-
-Each estimate is cheap (no simulation, nothing materialised) and an upper bound of what
-the run would do; above its limit the command stops with one line that names the input and
-says that ``--force`` runs it anyway (`TooMuchWork`, exit 2). The limits admit the
-long benchmarks: a 24-hour ``simulate --jobs`` of the paper's set (~2.6e6 jobs) and a
-6-hour coupled Test 2 (~9e4 windows, ~4.3e6 follower steps).
-
-==================  =========  =====================================================
-estimate            limit      what is counted
-==================  =========  =====================================================
-``jobs``            5e7        jobs released over the horizon, Σ horizon / period
-``windows``         2e6        processing windows: duration / the smallest window
-``world_steps``     2e8        world integration steps × followers: duration /
-                               step_ms × n
-``grid``            1e5        points of a sweep grid (product or zip of its lists)
-``backlog``         1e6        jobs waiting at once on an overloaded CPU (utilization
-                               above 1 at the window): every job of a finish-late
-                               task released over the horizon (about 0.7 KB each)
-``arrivals``        1e6        arrivals the EDF response-time bound (Spuri's) examines:
-                               tasks × Σ (synchronous busy period / period + 1),
-                               about 30 µs each (``rtsim analyze`` under EDF)
-==================  =========  =====================================================
-
-The library applies the same limits through the same functions: ``simulate``,
-``run_scenario`` and ``run_sweep`` take ``force=True`` as the command line takes
-``--force``, and refuse an out-of-range seed as ``--seed`` does. A coupled run's length, and
-so its estimate, comes from `rtsim.coupling.duration` (``check_scenario``). This module
-is a helper below every layer: it imports only `rtsim.errors`, `rtsim._numbers` and
-the range table `rtsim.io.limits`.
+"""The work a command would do, estimated before it starts (cheap upper bounds: jobs, windows,
+world steps, grid points, backlog, EDF arrivals), and refused above a limit with one line
+that names the input (`TooMuchWork`, exit 2) unless forced; the library applies the same
+limits. The limits and what each counts: docs/reliability.md. A helper below every layer: it
+imports only `rtsim.errors`, `rtsim._numbers` and the range table `rtsim.io.limits`.
 """
 
 from __future__ import annotations

@@ -13,11 +13,15 @@ from rtsim.errors import TaskSetError
 from rtsim.io.limits import check
 from rtsim.model.task import Segment, check_time
 
-__all__ = ["LASER_POINTS", "WindowSpec", "e_hough", "g_window"]
+__all__ = ["LASER_POINTS", "TIMES", "WindowSpec", "e_hough", "g_window"]
 
 
 #: Scan points of the laser rangefinder: 361 beams over 180°, 0.5° apart.
 LASER_POINTS = 361
+#: The chain's time constants (ms) of a `WindowSpec`, in the order of its fields.
+TIMES: tuple[str, ...] = (
+    "e_cal", "e_trans", "e_scan", "e_estimate", "e_send", "e_recv", "delta_t", "e_sched"
+)  # fmt: skip
 
 
 def e_hough(
@@ -98,18 +102,7 @@ class WindowSpec:
         object.__setattr__(self, "k", check_time(where, "k", self.k))
         if self.rho_min is not None:
             object.__setattr__(self, "rho_min", check_time(where, "rho_min", self.rho_min))
-        for field in (
-            "e_cal",
-            "e_trans",
-            "e_scan",
-            "e_estimate",
-            "e_send",
-            "e_recv",
-            "delta_t",
-            "e_sched",
-            "jitter",
-            "offset",
-        ):
+        for field in (*TIMES, "jitter", "offset"):
             value = check_time(where, field, getattr(self, field), allow_zero=True)
             object.__setattr__(self, field, value)
 

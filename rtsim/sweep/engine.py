@@ -1,37 +1,7 @@
-"""Running a sweep: serially, on local processes or on a Dask cluster; resumable.
-
-Output directory ``DIR``:
-
-- ``DIR/points/<index>-<key>.json``: one file per finished point, written atomically as
-  soon as the point finishes (status ``ok`` or ``failed``, error, metrics, wall time,
-  and a ``checksum``: the SHA-256 of the rest; a file that does not match it, edited or
-  corrupt, is not taken on resume: its point is run again);
-  strict JSON: a non-finite metric is null there, its value under ``nonfinite``
-  (`rtsim.sweep.table`); ``attempts`` when the point was rerun after its worker died;
-- ``DIR/manifest.json``: the sweep file's text, the resolved spec and its fingerprint,
-  the rtsim version and the command line;
-- ``DIR/results.parquet``: one row per point in point order: the grid values, ``seed``
-  (the seed asked for: the grid's, else the sweep's), ``point_seed`` (the one the point ran
-  with), ``status``, ``error`` (empty when ok), then the metrics. Built from the point files only,
-  so serial, process and Dask runs (and resumed runs) give equal tables;
-- ``DIR/timings.csv``: wall-clock and CPU time, host and pid per point (not in the table).
-
-While a sweep runs, ``DIR`` is locked (`rtsim.io.lock`): a second sweep into it exits
-2 naming the holder. A worker process that dies (killed, out of memory) takes down the
-points it was running: each is run again once, alone, and recorded as failed if its worker
-dies again; the sweep goes on. Workers exit when the sweep's process dies. A grid of more
-than ``LIMITS["grid"]`` points (`rtsim.io.work`) is refused before any point is made
-unless ``force=True``.
-
-Running again skips the points that have a file. A grid grown (or shrunk) with everything
-else unchanged keeps the points it still has: they are renumbered, not run again. A sweep
-whose fingerprint otherwise (the resolved spec: kind, function, base file content, seed,
-combine, grid names, options, metrics) differs from the one in ``DIR/manifest.json`` is
-refused unless ``restart=True``, which deletes the
-old results first — only what a sweep made: a ``DIR`` holding anything else (another
-command's output, a user's file) is refused before anything is done
-(`rtsim.io.outdir.check_resumable`). ``retry_failed=True`` recomputes the failed
-points.
+"""Running a sweep: serially, on local processes or on a Dask cluster; resumable. Each point is
+written to ``DIR/points/`` as it finishes (checksummed), the table ``DIR/results.parquet`` is
+built from those files only, and ``DIR/manifest.json`` holds the fingerprint a resumed run
+must match. The output directory, resuming, dying workers and locking: docs/sweeps.md.
 """
 
 from __future__ import annotations

@@ -1,40 +1,7 @@
-"""What runs at a sweep point: the registry of kinds.
-
-A kind is a function ``fn(point: PointInput) -> dict[str, scalar]`` returning flat, scalar,
-deterministic metrics (no wall-clock values). Each kind declares the options it accepts and
-the metric names it produces (glob patterns such as ``wcrt.*`` for per-task metrics).
-
-- ``bounds`` — ``rtsim.analysis.bounds.window_bounds(ts)``: ``e_hough``, ``g``, ``w_eq7``,
-  ``w_eq11``, ``w_sch``, ``w_rta``, ``w_susp``, ``w_edf``. No options.
-- ``analyze`` — ``rtsim.analysis.rta.analyze(ts, w)``: ``schedulable``, ``utilization``,
-  ``wcrt.<task>`` (NaN once above the deadline), ``schedulable.<task>``. Options ``window``
-  and ``scheduler`` (a scheduling policy with an analysis: ``fp``, or ``edf``:
-  ``rtsim.analysis.edf.analyze_edf``, the demand criterion's verdict and Spuri's bounds;
-  default the set's ``[scheduler] policy``).
-- ``simulate`` — ``rtsim.sim.simulate(ts, horizon, seed=<point seed>, exec_model=exec,
-  suspension=, window=)``: ``w`` (the window used), per task ``max_response.<task>``,
-  ``mean_response.<task>``, ``misses.<task>``, ``jobs.<task>`` (completed jobs), totals
-  ``misses`` and ``jobs``. Options ``horizon`` (ms, required), ``exec`` (``wcet`` |
-  ``uniform``), ``suspension`` (``cpu`` | ``idle``), ``window`` (ms; default w_sch),
-  ``scheduler`` (``fp`` | ``edf``; default the set's).
-- ``scenario`` — ``rtsim.coupling.run_scenario(parse_scenario(base with overrides),
-  seed=, policy=mode, duration_s=duration, exec_model=exec)``: the scalar entries of the run's
-  summary (summary.json without ``seed``), nested ones flattened with dots
-  (``violations.separation``, ``methods.coupled``). Options ``mode`` (``adjust`` |
-  ``fixed-wsch`` | ``min-msb``), ``duration`` (simulated s), ``exec``, ``scheduler`` (the
-  leader CPU's policy, as ``[scheduler] policy`` in the file). Needs ``base``. A worker
-  parses and prepares each distinct scenario content once and keeps it (points differing
-  only in seed or options reuse it), and keeps what points of other contents share — the
-  base file's parse, the task set, w_sch, the settled start speed (docs/performance.md);
-  the summary is computed from the window records' columns, without a window table.
-- ``call`` — ``function(params, options, seed) -> dict`` named by ``sweep.function``
-  (``package.module:function``, importable on every worker): the extension point.
-
-A kind whose module is not installed fails its points with a clear error (the sweep goes
-on). Only the ``call`` kind runs user code; a kind registered at run time with
-[`register_kind`][rtsim.sweep.kinds.register_kind] exists only in the process that registered it, so
-use ``call`` for
-anything that must also run on process or Dask workers.
+"""What runs at a sweep point: the registry of kinds (``bounds``, ``analyze``, ``simulate``,
+``scenario``, ``call``). A kind is a function ``fn(point: PointInput) -> dict[str, scalar]``
+of flat, deterministic metrics that declares its options and metric names. Each kind's
+metrics and options: docs/sweeps.md.
 """
 
 from __future__ import annotations
@@ -93,6 +60,21 @@ class PointInput:
         """The base task set with this point's overrides, through the normal loader."""
         assert self.base is not None
         return parse_taskset(self.base_data(), self.base.source, allow_code=self.allow_code)
+
+    def simulate_options(self) -> dict[str, Any]:
+        """The keyword options of `rtsim.sim.simulate` a ``simulate`` point runs with: its
+        seed and its ``exec``, ``suspension``, ``window`` and ``scheduler`` options."""
+        o = self.options
+        kwargs: dict[str, Any] = {
+            "seed": self.seed,
+            "exec_model": o.get("exec", "wcet"),
+            "suspension": o.get("suspension", "cpu"),
+        }
+        if o.get("window") is not None:
+            kwargs["window"] = float(o["window"])
+        if "scheduler" in o:
+            kwargs["scheduler"] = o["scheduler"]
+        return kwargs
 
 
 @dataclass(frozen=True)
@@ -168,19 +150,11 @@ def _simulate(p: PointInput) -> dict[str, Any]:
     mod = _need("rtsim.sim", "simulate")
     ts = p.taskset()
     o = p.options
-    kwargs: dict[str, Any] = {
-        "seed": p.seed,
-        "exec_model": o.get("exec", "wcet"),
-        "suspension": o.get("suspension", "cpu"),
-    }
-    if o.get("window") is not None:
-        kwargs["window"] = float(o["window"])
+    kwargs = p.simulate_options()
     w_est = kwargs.get("window")
     if ts.window is not None:
         w_est = window_or_w_sch(ts, w_est)  # (simulate decides its window the same way)
     check_simulate(ts, float(o["horizon"]), w_est, f"sweep.options.horizon {o['horizon']}")
-    if "scheduler" in o:
-        kwargs["scheduler"] = o["scheduler"]
     res = mod.simulate(ts, float(o["horizon"]), **kwargs)
     out: dict[str, Any] = {}
     if res.window is not None and "w" in res.window:

@@ -1,34 +1,7 @@
-"""Beams counted per processing window, from a world run on Test 1 (docs/model/lower-bound.md,
-docs/model/world.md, docs/model/assumptions.md).
-
-The world ([`rtsim.world.World`][rtsim.world.World]) is stepped at a *fixed* window w: at each
-window start
-t_j = j·w the leader scans (`World.scan`), updates its filters (`World.estimate`)
-and commands follower i at the end of its send segment as the WCET chain would without
-interference, t_j + e_scan + e_hough + i·(e_estimate + e_send). The counted points P_j of
-each scan give the localization segment's time by Eq 1 with counted points,
-
-    e_hough,j = π r_H² n e_cal + P_j e_trans,
-
-which the validation feeds to the window chain through a callable execution time, replayed
-by window index. Lost tracks are recorded but their re-acquisition cost is *not* added (it
-is outside the WCET model the analysis assumes); windows with more points than Eq 1's
-min(361, k·n) are counted as breaking the WCET assumption. A lost track whose follower
-returned fewer than ``sensing.min_points`` beams (hidden behind a nearer follower, outside the
-laser's half-plane or beyond ``max_range``) is the sensor's limit and counted apart
-(``lost_sensor``); every other lost track is a follower that moved more than r_H in the
-leader's frame within one window (the localization bound broken at this fixed window and
-V_Ld: in Test 1's geometry a follower far behind the turning leader sweeps ρ·ω_L·w, 24 cm at
-ρ = 780 cm and w = 250 ms).
-
-The world is Test 1 (the paper's §4.1: V_Ld = 25 cm/s, turn radius r_t = 2 m, separation
-ρ = 390 cm) read from its scenario file (``experiments/scenarios/test1.toml``, passed as text
-so that remote workers need no shared disk) with ``formation.followers`` set to n (the
-file's model's default placement: for follow-the-leader, rank p at p·ρ, 180° ± φ_p on
-straights, `rtsim.world.formation.in_line`) and ``sensing.r_H`` to the
-configuration's r_H (`scenario_world`). Without a scenario file, `Test1` builds
-the same numbers directly (8 m × 4 m rounded rectangle as in test1.toml, follow-the-leader
-in line; default follower, sensing and EKF parameters, which differ from the file's).
+"""Beams counted per processing window, from a world run on Test 1 stepped at a fixed window w:
+the counted points of each scan give the localization segment's time by Eq 1, which the
+validation replays by window index; lost tracks and scans beyond Eq 1's count are recorded.
+The method: docs/validation.md.
 """
 
 from __future__ import annotations

@@ -202,16 +202,7 @@ def from_sweep_point(directory: str | os.PathLike[str], index: int) -> JobSource
     if not 0 <= index < len(pts):
         raise InputError(f"{d}: --point {index} out of range (0..{len(pts) - 1})")
     pin = point_input(spec, pts[index])
-    ts = pin.taskset()
-    o = pin.options
-    kwargs: dict[str, Any] = {
-        "seed": pin.seed,
-        "exec_model": o.get("exec", "wcet"),
-        "suspension": o.get("suspension", "cpu"),
-    }
-    if o.get("window") is not None:
-        kwargs["window"] = float(o["window"])
-    src_ = from_simulation(ts, float(o["horizon"]), **kwargs)
+    src_ = from_simulation(pin.taskset(), float(pin.options["horizon"]), **pin.simulate_options())
     return JobSource(
         src_.jobs,
         src_.bounds,

@@ -1,36 +1,7 @@
-"""The two sweep-point functions of the validation (``call`` kind: ``fn(params, options, seed)``).
-
-`paper_point` — one (n, r_H) of the paper's task set:
-
-- analysis: e_hough, g, Eq 7, Eq 11, w_sch, w_rta, the suspension-aware w_susp, the geometric
-  window w_susp_geo (w_susp with k = the geometric count for followers at distance ≥
-  ``rho_min``, option, default 300 cm; ``beyond_geo`` counts the scans above its min(361, k·n))
-  and each task's exact WCRT at w_sch;
-- beams: a Test 1 world run at the fixed window w_sch (`rtsim.validate.beams`);
-- two modes, each simulated at w = w_sch (response max and percentiles, with job records)
-  and searched for w_sim (`rtsim.analysis.validation.smallest_passing`, every trial
-  a run of ``windows`` windows at a fixed w, releases synchronous at 0):
-
-  ``wcet-cpu``      every segment at its WCET, the radio round trip Δt as CPU time;
-  ``counted-idle``  the Hough segment from the counted beams (replayed by window index),
-                    the other segments at WCET, Δt leaves the CPU free;
-  ``edf-cpu``       as ``wcet-cpu`` with the CPU under EDF: its w_sim is checked against
-                    w_edf (the EDF demand criterion) and its responses against Spuri's
-                    bounds (``wcrt_edf.<task>`` at w_sch).
-
-  The search brackets w between 0.999·(longest chain length g_j over the windows: the
-  chain job of that window needs at least g_j, so it misses), and max(w_sch, w_rta) + tol.
-  A trial run stops at its first miss.
-
-`random_point` — one UUniFast set (no window): exact WCRT per task against the
-simulated maximum, ``wcet-sync`` (WCET, the critical instant of the jitter analysis —
-``jitter="worst"`` — over one hyperperiod, so schedulable constrained-deadline tasks reach
-their WCRT exactly) and ``uniform-offsets`` (uniform in [bcet, wcet] with bcet =
-``bcet_ratio``·wcet, random integer offsets, release delays uniform in [0, J], several
-hyperperiods). Every task gets a release jitter J uniform in [0, ``jitter``·T] (option,
-default 0.1; drawn from its own stream, so the sets are otherwise those without jitter).
-
-Metrics are flat: ``<name>`` for the configuration, ``<metric>.<mode>.<task>`` per task.
+"""The two sweep-point functions of the validation (``call`` kind: ``fn(params, options, seed)``):
+`paper_point`, one (n, r_H) of the paper's task set (its bounds, the counted beams, and w_sim
+searched in three modes), and `random_point`, one UUniFast set's WCRTs against simulation.
+What each computes: docs/validation.md.
 """
 
 from __future__ import annotations

@@ -394,15 +394,15 @@ def _run_validation(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     inputs = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(config).items()}
-    if not (out / "manifest.json").exists():  # claim the directory (see run_validation)
+
+    def manifest(**extra: Any) -> None:
+        argv_ = None if argv is None else list(argv)
         write_manifest(
-            out,
-            command="validate",
-            seed=config.seed,
-            inputs=inputs,
-            argv=None if argv is None else list(argv),
-            extra={"outputs": []},
+            out, command="validate", seed=config.seed, inputs=inputs, argv=argv_, extra=extra
         )
+
+    if not (out / "manifest.json").exists():  # claim the directory (see run_validation)
+        manifest(outputs=[])
     suffix = "" if config.name == "full" else f"-{config.name}"
     paper = _run(
         paper_sweep_spec(config),
@@ -459,17 +459,7 @@ def _run_validation(
     outcome = ValidationOutcome(table, failures, summary, errors, out, files)
     files.append(write_report(outcome, config, sched))
     html_path = out / REPORT_NAME
-    write_manifest(
-        out,
-        command="validate",
-        seed=config.seed,
-        inputs=inputs,
-        argv=None if argv is None else list(argv),
-        extra={
-            "outputs": sorted(str(p.relative_to(out)) for p in [*files, html_path]),
-            "ok": outcome.ok,
-        },
-    )
+    manifest(outputs=sorted(str(p.relative_to(out)) for p in [*files, html_path]), ok=outcome.ok)
     # report.html last: it embeds the manifest just written.
     files.append(
         write_run_report(

@@ -65,6 +65,22 @@ def test_streamed_perfetto_is_byte_identical_with_aborted_lanes(tmp_path: Path) 
     assert b'"mid (3)"' in b, "the run puts aborted jobs' successors on further tracks"
 
 
+def test_streamed_perfetto_shows_blocking_as_the_whole_tables_do(tmp_path: Path) -> None:
+    """A job waiting for a shared resource is a ``blocked`` slice in the streamed file too
+    (``rtsim simulate --perfetto`` streams; it once labelled the wait a suspension)."""
+    from rtsim.model.task import CriticalSection as CS
+
+    ts = TaskSet(
+        (
+            Task("H", 2, 50, priority=1, offset=1, critical_sections=(CS("R", 0, 1),)),
+            Task("L", 6, 50, priority=3, critical_sections=(CS("R", 0, 4),)),
+        )
+    )
+    a, b = _both(tmp_path, ts, 50.0)
+    assert a == b
+    assert b.count(b'"cat":"blocked"') == 1 and b'"blocked by L on R"' in b
+
+
 @pytest.mark.parametrize(
     "kw",
     [

@@ -7,6 +7,8 @@
   command line's start-up time, a module the plug-in machinery loads by name, ...). At most
   `MAX_LAZY` such imports remain.
 - No function of `MAX_FUNCTION_LINES` lines or more, except those in `LONG_FUNCTIONS`.
+- A module docstring says what the module is and which page of ``docs/`` to read: at most
+  `MAX_DOCSTRING_LINES` lines. A specification belongs in the documentation.
 - One meaning per name: ``FollowerModel`` is the world's follower model only, and
   ``POLICIES`` (once schedulers in ``rtsim.sim``, adjustment policies in ``rtsim.control``)
   is gone for ``SCHEDULERS`` and ``ADJUSTMENT_POLICIES``.
@@ -34,6 +36,9 @@ LONG_FUNCTIONS: dict[str, str] = {
     # 25 % in benchmarks/bench_sim.py (a call per event in the hottest loop).
     "rtsim/sim/cpu.py:CPU._dispatcher": "the hot loop: splitting cost 25 % in bench_sim",
 }
+
+#: A module docstring spans at most this many lines, its quotes included.
+MAX_DOCSTRING_LINES = 30
 
 
 def _python_files() -> list[Path]:
@@ -116,6 +121,29 @@ def long_functions(min_lines: int = MAX_FUNCTION_LINES) -> dict[str, int]:
     return out
 
 
+def docstring_lines(source: str) -> int:
+    """The lines the module docstring of ``source`` spans, quotes included (0: none)."""
+    body = ast.parse(source).body
+    first = body[0] if body else None
+    if not (
+        isinstance(first, ast.Expr)
+        and isinstance(first.value, ast.Constant)
+        and isinstance(first.value.value, str)
+    ):
+        return 0
+    return (first.end_lineno or first.lineno) - first.lineno + 1
+
+
+def long_docstrings(max_lines: int = MAX_DOCSTRING_LINES) -> dict[str, int]:
+    """``file`` → its module docstring's lines, for every rtsim module above ``max_lines``."""
+    out = {}
+    for path in _python_files():
+        n = docstring_lines(path.read_text(encoding="utf-8"))
+        if n > max_lines:
+            out[path.relative_to(ROOT.parent).as_posix()] = n
+    return out
+
+
 def definitions(name: str) -> list[str]:
     """The rtsim files that define ``name`` at module level (a class, a function or an
     assignment)."""
@@ -159,6 +187,11 @@ def test_no_function_of_150_lines_or_more() -> None:
     assert all(f in long_functions(1) for f in LONG_FUNCTIONS), sorted(LONG_FUNCTIONS)
 
 
+def test_module_docstrings_are_summaries() -> None:
+    """A specification in a module docstring goes to its page under docs/, leaving a summary."""
+    assert long_docstrings() == {}
+
+
 def test_the_counters_see_what_they_count(tmp_path: Path) -> None:
     """The checks can fail: a hand-made module with each kind of import and a long function."""
     source = (
@@ -174,6 +207,9 @@ def test_the_counters_see_what_they_count(tmp_path: Path) -> None:
     path = ROOT / "io" / "example.py"  # (not written: only its name places the relative import)
     assert list(function_imports(path, source)) == [(3, False), (4, True), (6, False), (8, False)]
     assert dict(function_lengths(ast.parse(source), "x.py")) == {"x.py:f": 157}
+    assert docstring_lines('"""One."""\nx = 1\n') == 1
+    assert docstring_lines('"""One\n\ntwo.\n"""\n') == 4
+    assert docstring_lines("x = 1\n") == docstring_lines("") == 0
     nested = "class A:\n    @staticmethod\n    def g():\n        def h():\n            pass\n"
     assert dict(function_lengths(ast.parse(nested), "x.py")) == {"x.py:A.g": 4, "x.py:A.g.h": 2}
 
@@ -183,5 +219,7 @@ if __name__ == "__main__":  # python tests/project/test_house_rules.py: the curr
     print(f"function-level rtsim imports: {len(given)} with a reason, {len(missing)} without")
     for where in missing:
         print("  no reason:", where)
+    for name, n in sorted(long_docstrings(0).items(), key=lambda kv: -kv[1])[:10]:
+        print(f"{n:5d} {name} (module docstring)")
     for name, n in sorted(long_functions().items(), key=lambda kv: -kv[1]):
         print(f"{n:5d} {name}{'  (allowed)' if name in LONG_FUNCTIONS else ''}")
