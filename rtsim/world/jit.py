@@ -52,6 +52,8 @@ Subs = tuple[tuple[Callable[..., Any], Callable[..., Any]], ...]
 _MARK = "__rtsim_kernel__"
 _COMPILED: dict[tuple[Callable[..., Any], Subs, bool], Any] = {}
 _PYTHON: dict[tuple[Callable[..., Any], Subs], Callable[..., Any]] = {}
+#: id of a callee's dispatcher -> the (globals, name) of the kernels built to call it
+_CALLERS: dict[int, list[tuple[dict[str, Any], str]]] = {}
 
 
 def kernel(fn: F | None = None, *, inline: bool = False) -> Any:
@@ -141,7 +143,7 @@ def build(fn: Callable[..., Any], subs: Subs = ()) -> Any:
 def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
     """`build` for Python callers (``entry``) or for the kernels that call ``fn`` (module
     docstring: compiled without numba's wrappers, not cached; an entry's dispatcher serves
-    when there is one already)."""
+    when there is one already, or when it is built before any caller compiles)."""
     subs = _reach(fn, subs)[1]  # (only those it meets: a kernel they miss is shared)
     inline = getattr(fn, _MARK)["inline"]
     done = _COMPILED.get((fn, subs, entry or inline))
@@ -156,7 +158,9 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
     for name, dep in dependencies(fn)[0].items():
         if dep is fn:
             raise TypeError(f"kernel {fn.__qualname__} calls itself (numba cannot)")
-        glob[name] = _build(swap.get(dep, dep), subs, entry=False)
+        callee = _build(swap.get(dep, dep), subs, entry=False)
+        glob[name] = callee
+        _CALLERS.setdefault(id(callee), []).append((glob, name))
     f: Any = fn
     clone = types.FunctionType(f.__code__, glob, f.__name__, f.__defaults__, f.__closure__)
     clone.__qualname__, clone.__module__ = fn.__qualname__, fn.__module__
@@ -174,6 +178,11 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
             clone.__rtsim_cache__ = os.path.join(root, key)  # type: ignore[attr-defined]
             out._cache = _keyed_cache_class()(clone)
     _COMPILED[fn, subs, entry or inline] = out
+    bare = None if inline or not entry else _COMPILED.get((fn, subs, False))
+    if bare is not None and not bare.overloads:  # no caller compiled against it yet:
+        for caller_glob, name in _CALLERS.pop(id(bare), []):  # the entry serves them
+            caller_glob[name] = out
+        del _COMPILED[fn, subs, False]
     return out
 
 

@@ -96,6 +96,12 @@ def test_a_kernel_only_kernels_call_compiles_without_wrappers_and_is_not_cached(
     half = jit.build(mod.half)
     assert half is not inner and half(3.0) == 1.5 and jit.cached(mod.half)
     assert jit.build(mod.twice) is twice  # once per process
+    # an entry built after its caller was built, before the caller compiles, serves it
+    monkeypatch.setattr(jit, "_COMPILED", {})
+    twice = jit.build(mod.twice)
+    half = jit.build(mod.half)
+    assert twice.py_func.__globals__["half"] is half
+    assert twice(3.0) == 6.0 and not half.targetoptions.get("no_cpython_wrapper")
     monkeypatch.setattr(jit, "_COMPILED", {})
     half = jit.build(mod.half)
     assert jit.build(mod.twice).py_func.__globals__["half"] is half  # the entry serves
