@@ -3,6 +3,7 @@
     python benchmarks/bench_memory.py [--sim-hours 24] [--scenario-hours 6] [--short-min 10]
                                       [--trace-hours 3] [--only simulate|scenario|traces]
                                       [--followers N] [--no-figures] [--json]
+    python benchmarks/bench_memory.py --matrix [--scenario-hours 1 6] [--short-min 10]
 
 Each run is a fresh interpreter (``rtsim.cli.main`` in a child process) whose peak resident
 set size (``ru_maxrss``) is reported:
@@ -61,6 +62,67 @@ def peak_mb(argv: list[str]) -> tuple[float, float]:
     return float(peak), float(wall)
 
 
+#: The ``--matrix`` runs: label -> (scenario file, ``--set`` overrides).
+MATRIX: dict[str, tuple[str, list[str]]] = {
+    "n=2 (test2)": ("experiments/scenarios/test2.toml", []),
+    "n=10 (test1, clearance 5)": (
+        "experiments/scenarios/test1.toml",
+        ["formation.followers=10", "formation.clearance=5"],
+    ),
+}
+
+
+def scenario_run(
+    out: Path, scenario: str, sets: list[str], seconds: float, *extra: str
+) -> dict[str, float]:
+    """Peak MB, wall s, windows and the loop's CPU s (the manifest's) of one
+    ``rtsim scenario`` run with every output into ``out``."""
+    argv = ["scenario", scenario, "--duration", repr(seconds), "--out", str(out), *extra]
+    for kv in sets:
+        argv += ["--set", kv]
+    peak, wall = peak_mb(argv)
+    rows = sum(1 for _ in open(out / "windows.csv", "rb")) - 1
+    timing = json.loads((out / "manifest.json").read_text(encoding="utf-8"))["timing"]
+    return {"mb": peak, "s": wall, "rows": rows, "loop_cpu_s": timing["simulation_cpu_s"]}
+
+
+def matrix(hours: list[float], short_min: float, as_json: bool, keep: str | None) -> int:
+    """The ``--matrix`` table (module docstring): peak MB per follower count and length;
+    ``keep``: a directory that keeps the runs' outputs (to compare them byte for byte)."""
+    lengths = {f"{short_min:g} min": short_min * 60.0}
+    lengths.update({f"{h:g} h": h * 3600.0 for h in hours})
+    results: dict[str, dict[str, dict[str, float]]] = {}
+    with tempfile.TemporaryDirectory(prefix="bench_memory_") as tmp:
+        d = Path(keep or tmp)
+        for who, (scenario, sets) in MATRIX.items():
+            scenario_run(d / "warm", scenario, sets, 10.0, "--no-figures")  # numba's cache
+            row = results[who] = {}
+            for label, s in lengths.items():
+                run_dir = d / f"n{len(results)}_{label.replace(' ', '')}"
+                row[label] = scenario_run(run_dir, scenario, sets, s)
+                r = row[label]
+                print(
+                    f"{who:28s} {label:>7s}: peak {r['mb']:7.1f} MB, loop {r['loop_cpu_s']:7.2f}"
+                    f" s CPU = {1e6 * r['loop_cpu_s'] / max(r['rows'], 1):6.1f} us/window "
+                    f"({r['rows']:.0f} windows, {r['s']:.0f} s wall)",
+                    flush=True,
+                )
+    print(f"\n{'every output, peak MB':28s} " + " ".join(f"{k:>9s}" for k in lengths) + "  growth")
+    ok = True
+    for who, row in results.items():
+        peaks = [row[k]["mb"] for k in lengths]
+        growth = max(peaks) - peaks[0]
+        ok &= growth <= TARGET_MB
+        print(f"{who:28s} " + " ".join(f"{p:9.1f}" for p in peaks) + f"  {growth:+.1f}")
+    if as_json:
+        print(
+            json.dumps(
+                {"when": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "matrix": results}
+            )
+        )
+    return 0 if ok else 1
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sim-hours", type=float, default=24.0)
@@ -81,7 +143,15 @@ def main() -> int:
     ap.add_argument("--only", choices=("simulate", "scenario", "traces"), default=None)
     ap.add_argument("--followers", type=int, default=None, help="scenario: followers")
     ap.add_argument("--json", action="store_true", help="also print one JSON line")
+    ap.add_argument(
+        "--matrix",
+        action="store_true",
+        help="every output at 2 and 10 followers, short and --scenario-hours, with loop CPU",
+    )
+    ap.add_argument("--keep", default=None, help="--matrix: keep the outputs in this directory")
     args = ap.parse_args()
+    if args.matrix:
+        return matrix(args.scenario_hours, args.short_min, args.json, args.keep)
     results: dict[str, dict[str, float]] = {}
     with tempfile.TemporaryDirectory(prefix="bench_memory_") as tmp:
         d = Path(tmp)

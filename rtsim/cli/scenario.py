@@ -313,6 +313,7 @@ def _write(
                 force=args.force,
                 overrides=set_overrides(args) or None,
                 progress=bar if bar.enabled else None,
+                scratch_dir=out,
             )
     except InputError as exc:  # raised inside the run (an estimate, a state): name the file
         if str(exc).startswith(src):

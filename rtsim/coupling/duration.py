@@ -95,7 +95,19 @@ def run_note(summary: Mapping[str, Any], to_lap: bool) -> str | None:
 def heading_warning(heading: Mapping[str, Any]) -> str:
     """The warning for a broken heading assumption of the predicted-centre bound
     (summary.json ``assumptions.predicted_heading_sd``: ``assumed``, ``max_carried``, rad;
-    docs/localization.md)."""
+    docs/localization.md; ``filter_turn_noise`` below ``turn_noise``, rad/s: the filters
+    model less turn noise than the followers have)."""
+    model, true = heading.get("filter_turn_noise"), heading.get("turn_noise")
+    if model is not None and true is not None and model < true:
+        return (
+            f"rtsim: warning: localization: the filters model a turn noise of "
+            f"{math.degrees(model):.3g}°/s ([ekf] turn_noise), below the followers' "
+            f"{math.degrees(true):.3g}°/s ([follower] turn_noise): their heading SD (up to "
+            f"{math.degrees(heading['max_carried']):.3g}°) understates the error, so the "
+            f"predicted-centre bound's assumed {math.degrees(heading['assumed']):.3g}° "
+            f"([ekf] init_heading_sd) is not vouched for and the bound may be optimistic; set "
+            f"[ekf] turn_noise to at least [follower] turn_noise"
+        )
     return (
         f"rtsim: warning: localization: the predicted-centre bound assumed a heading SD of "
         f"{math.degrees(heading['assumed']):.3g}° ([ekf] init_heading_sd) and the filters "

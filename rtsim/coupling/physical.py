@@ -18,7 +18,10 @@ they get. Sampled on the truth at every scan (every window, ~0.24 s here):
   formation's clearance (centres closer than 2·r_F + clearance; ``clearance_cm``);
 * ``distance_cm``: the distance each robot drove over the run.
 
-Per run: p95 and max over every follower's samples; per follower in ``per_follower``.
+Per run: p95 and max over every follower's samples; per follower in ``per_follower``. The
+samples go to a `rtsim.coupling.spill.ValueSpill` (a scratch file when the run
+has a directory for one), and the percentiles are selected from it exactly in bounded memory
+(`rtsim.coupling.spill.p95_max_columns`).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from rtsim.coupling.spill import ValueSpill, p95_max_columns
 from rtsim.world.contact import closest_to, contact_distance
 from rtsim.world.ftl import TraceFollower
 
@@ -79,8 +83,8 @@ class PhysicalLog:
         self.radius = float(radius)
         self._law = None if law is None else law.clone()  # its own projection starts
         self._guess = guesses
-        self.cross: list[list[float]] = [[] for _ in range(n)]
-        self.sep: list[list[float]] = [[] for _ in range(n)]
+        # per scan, each follower's separation error then (with a trace law) its cross-track
+        self.samples = ValueSpill(n * (1 if law is None else 2))
         self.min_dist = math.inf
         self.collisions = 0
 
@@ -92,13 +96,18 @@ class PhysicalLog:
         `rtsim.world.contact.closest_to`: the planner's contact bound measures the same)."""
         xl, yl, _ = leader
         law = self._law
+        samples = self.samples
+        buf = samples.buf
+        put = buf.append
         for k in range(self.n):
             x, y = xs[k], ys[k]
-            self.sep[k].append(abs(math.hypot(x - xl, y - yl) - self.rho_d[k]))
+            put(abs(math.hypot(x - xl, y - yl) - self.rho_d[k]))
             if law is not None:
                 s = law.project(k, x, y, 0.0 if self._guess is None else self._guess[k])
                 px, py, _ = law.point(k, s)
-                self.cross[k].append(math.hypot(x - px, y - py))
+                put(math.hypot(x - px, y - py))
+        if len(buf) >= samples.limit:  # (`ValueSpill.full` inline: once per scan)
+            samples.flush()
         near = tuple(closest_to(xs, ys, k, xl, yl) for k in range(self.n))
         close = min(near, default=math.inf)  # (every pair has a follower in it)
         self.min_dist = min(self.min_dist, close)
@@ -106,11 +115,45 @@ class PhysicalLog:
         self.clearance_violations += close < contact_distance(self.radius, self.clearance)
         return near
 
+    def spill_to(self, path: Any, label: Any = None) -> None:
+        """Keep the samples in the scratch file ``path`` from now on (before the first
+        scan; removed by `close`): memory stays flat however long the run."""
+        assert not self.samples.rows and not self.samples.buf, "spill_to after a scan"
+        self.samples.close()
+        self.samples = ValueSpill(self.samples.width, path, label)
+
+    def close(self) -> None:
+        """Remove the scratch file and its samples (samples kept in memory stay)."""
+        if self.samples.path is not None:
+            self.samples.close()
+
+    def _stats(self, part: int) -> tuple[Stats, list[Stats]]:
+        """`p95_max_rows` of the samples' separation errors (``part`` 0) or cross-track
+        distances (1), selected from the chunks (`rtsim.coupling.spill.p95_max_columns`)."""
+        step = self.samples.width // self.n
+        return p95_max_columns(lambda: (c[:, part::step] for c in self.samples.chunks()), self.n)
+
+    @property
+    def sep(self) -> list[np.ndarray]:
+        """Each follower's separation errors (cm), whole (tests; memory grows with them)."""
+        return self.samples.columns()[0 :: self.samples.width // self.n]
+
+    @property
+    def cross(self) -> list[np.ndarray]:
+        """Each follower's cross-track distances (cm), whole; empty without a trace law."""
+        if self._law is None:
+            return [np.zeros(0) for _ in range(self.n)]
+        return self.samples.columns()[1::2]
+
     def summary(self, leader_cm: float, follower_cm: list[float]) -> dict[str, Any]:
         """The summary.json keys (module docstring); ``leader_cm``, ``follower_cm``: the
         distance each robot drove."""
-        every_cross, cross = p95_max_rows(self.cross)
-        every_sep, sep = p95_max_rows(self.sep)
+        self.samples.flush()
+        every_sep, sep = self._stats(0)
+        if self._law is None:
+            every_cross, cross = p95_max_rows([[] for _ in range(self.n)])
+        else:
+            every_cross, cross = self._stats(1)
         return {
             "cross_track_cm": every_cross,
             "separation_error_cm": every_sep,

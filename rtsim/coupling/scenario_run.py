@@ -15,9 +15,12 @@ from __future__ import annotations
 import gc
 import inspect
 import math
+import os
+import secrets
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -160,6 +163,7 @@ class _Coupling:
         record_trace: bool = False,
         job_sink: Any = None,
         trace_sink: Any = None,
+        force: bool = False,
     ) -> None:
         where = inp.source or inp.name or "scenario"
         cfg = self.cfg = self._given = inp.world
@@ -171,7 +175,12 @@ class _Coupling:
         # column and summary keep the name w_sch): the CPU below runs the set's scheduler
         # ([scheduler] policy, fp by default) with Δt idle
         self.w_sch = window_bound(
-            ts, adj.lower_bound, scheduler=ts.scheduler, suspension="idle", where=f"{where}: adjust"
+            ts,
+            adj.lower_bound,
+            scheduler=ts.scheduler,
+            suspension="idle",
+            where=f"{where}: adjust",
+            force=force,
         )
         if not math.isfinite(self.w_sch):
             raise InputError(f"{where}: {adj.lower_bound} is infinite")
@@ -380,12 +389,24 @@ class _Coupling:
         """The predicted-centre bound's heading assumption (docs/localization.md): the heading
         SD it assumed (``[ekf] init_heading_sd``, rad), the largest the filters carried
         from a scan over a window (√P_θθ after the scan's update, rad,
-        `rtsim.world.world.World.max_heading_var`), and whether the first bounds the second
-        within `HEADING_SLACK` (the first scan's estimate carries P0 and one interval's drift)."""
+        `rtsim.world.world.World.max_heading_var`), the turn noise the filters model
+        (``[ekf] turn_noise``) and the followers' own (``[follower] turn_noise``, rad/s), and
+        whether it held: the first SD bounds the second within `HEADING_SLACK` (the first
+        scan's estimate carries P0 and one interval's drift), and the filters model at least
+        the followers' turn noise (below it, P_θθ understates the heading error and cannot
+        vouch for the assumption)."""
         assumed = float(self._given.ekf.init_heading_sd)
         carried = math.sqrt(self.world.max_heading_var)
-        held = carried <= assumed * (1.0 + HEADING_SLACK)
-        return {"assumed": assumed, "max_carried": carried, "held": held}
+        model = float(self._given.ekf.turn_noise)
+        true = float(self._given.follower.turn_noise)
+        held = carried <= assumed * (1.0 + HEADING_SLACK) and model >= true
+        return {
+            "assumed": assumed,
+            "max_carried": carried,
+            "filter_turn_noise": model,
+            "turn_noise": true,
+            "held": held,
+        }
 
     # -- the decision ----------------------------------------------------------------
     def _nominal_offsets(self, ts: TaskSet) -> list[float]:
@@ -887,6 +908,7 @@ def run_scenario(
     force: bool = False,
     windows: bool = True,
     progress: Any = None,
+    scratch_dir: str | os.PathLike[str] | None = None,
     **unknown: Any,
 ) -> ScenarioResult:
     """Run one scenario: the leader's schedule and the robots' world in one simulation.
@@ -926,13 +948,18 @@ def run_scenario(
         The scenario file (or its task set) may name code, ``module:Name``
         (`rtsim.registry`); a ``policy`` of that form given here is always allowed.
     force : bool, default False
-        Run above the work limits (2e6 windows, 2e8 world steps × followers), as
-        ``--force``.
+        Run above the work limits (2e6 windows, 2e8 world steps × followers, the
+        transaction analysis of ``[adjust] lower_bound = "w_txn"``), as ``--force``.
     windows : bool, default True
         False leaves ``result.windows`` None (the summary is computed either way).
     progress : callable, optional
         ``progress(share, t_ms)``, called at every percent of the run with the share done
         (0..1) and the simulated ms; the results do not change.
+    scratch_dir : path, optional
+        A directory for the run's scratch files (``.rtsim-spool-*``: the samples whose
+        exact percentiles summary.json reports), removed before returning: memory stays
+        flat at any length and follower count. None keeps them in memory (8 bytes per
+        sample); the results are the same.
 
     Returns
     -------
@@ -966,6 +993,7 @@ def run_scenario(
         record_trace,
         job_sink,
         trace_sink,
+        force,
     )
     if window_sink is not None:
         run.rec.sink = lambda recs: run.hand_over(recs, window_sink)
@@ -973,23 +1001,32 @@ def run_scenario(
             window_sink.empty = records_frame([], run.n, run.rec.limits)
     if progress is not None:
         run.watch(progress)
-    t1, c1 = time.perf_counter(), time.process_time()
-    run.run()
-    if progress is not None:
-        progress(1.0, float(run.env.now))
-    t2, c2 = time.perf_counter(), time.process_time()
-    df, table = _tables(run, window_sink, windows)
-    res = run.cpu.result()
-    summary = summarize(
-        table,
-        mode=run.mode,
-        w_sch=run.w_sch,
-        duration_s=run.env.now / 1000.0,
-        seed=int(seed),
-        scenario=inp.name,
-        n=run.n,
-        extra=run.summary_extra(res, horizon_ms, stop_s),
-    )
+    scratch = None
+    if scratch_dir is not None:
+        scratch = Path(scratch_dir) / f".rtsim-spool-{secrets.token_hex(4)}"
+        # (a write error names summary.json, the output the samples are for)
+        run.phys.spill_to(f"{scratch}-physical", label=Path(scratch_dir) / "summary.json")
+    try:
+        t1, c1 = time.perf_counter(), time.process_time()
+        run.run()
+        if progress is not None:
+            progress(1.0, float(run.env.now))
+        t2, c2 = time.perf_counter(), time.process_time()
+        df, table = _tables(run, window_sink, windows)
+        res = run.cpu.result()
+        summary = summarize(
+            table,
+            mode=run.mode,
+            w_sch=run.w_sch,
+            duration_s=run.env.now / 1000.0,
+            seed=int(seed),
+            scenario=inp.name,
+            n=run.n,
+            extra=run.summary_extra(res, horizon_ms, stop_s),
+            scratch=None if scratch is None else f"{scratch}-fixes",
+        )
+    finally:
+        run.phys.close()
     t3 = time.perf_counter()
     timing = {
         "setup_s": t1 - t0,

@@ -4,6 +4,7 @@ critical share, the violations and the physical outcome, computed from the recor
 from __future__ import annotations
 
 import math
+import os
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
@@ -14,6 +15,7 @@ import pandas as pd
 from rtsim.analysis.kinematics import BOUND_KINDS
 from rtsim.coupling.physical import p95_max_rows
 from rtsim.coupling.recorder import LOCALIZATION_COLUMNS, sensing_columns
+from rtsim.coupling.spill import ValueSpill, p95_max_columns
 from rtsim.world.config import WorldConfig
 from rtsim.world.localization import LOST_CAUSES
 
@@ -83,17 +85,25 @@ def summarize(
     scenario: str,
     n: int,
     extra: Mapping[str, Any] | None = None,
+    scratch: str | os.PathLike[str] | None = None,
 ) -> dict[str, Any]:
     """summary.json from windows.csv (docs/outputs.md) and run facts. ``df``: the table, or
     its columns (name -> array or list, as `records_columns`
     gives them), or an iterable of such chunks in row order (a table read back in pieces,
     `rtsim.io.columns.ChunkWriter.iter_read`: memory stays flat). Counts, minima and
-    maxima are taken per chunk; the two float sums (of ``w``, and of ``w`` over critical
-    windows) over the whole columns kept, so any chunking gives the same summary."""
+    maxima are taken per chunk; the fixes' errors go to a
+    `rtsim.coupling.spill.ValueSpill` (the scratch file ``scratch`` if given,
+    removed before returning) and their percentiles are selected exactly from it; the two
+    float sums (of ``w``, and of ``w`` over critical windows) over the whole columns kept
+    (9 bytes a window), so any chunking gives the same summary."""
     chunks = [df] if isinstance(df, pd.DataFrame | Mapping) else df
-    acc = _Totals(n)
-    for chunk in chunks:
-        acc.add(chunk)
+    acc = _Totals(n, scratch)
+    try:
+        for chunk in chunks:
+            acc.add(chunk)
+        errors = acc.fix_errors()
+    finally:
+        acc.fix.close()
     w = np.concatenate(acc.w) if acc.w else np.zeros(0)
     crit = np.concatenate(acc.crit) if acc.crit else np.zeros(0, dtype=bool)
     total_w = float(w.sum())
@@ -124,7 +134,7 @@ def summarize(
         # the sensing: fixes made by a neighbour, the fixes' error from the truth, commands lost
         "confusions": acc.totals["confusions"],
         "radio_losses": acc.totals["radio_losses"],
-        "localization_error_cm": acc.fix_errors(),
+        "localization_error_cm": errors,
     }
     if extra:
         out.update(extra)
@@ -150,7 +160,7 @@ class _Totals:
     per-chunk minima and
     maxima, and the two float columns its sums need (``w``, ``critical``)."""
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, n: int, scratch: str | os.PathLike[str] | None = None) -> None:
         self.n = n
         self.rows = 0
         self.w: list[np.ndarray] = []
@@ -173,7 +183,11 @@ class _Totals:
                 "radio_losses",
             )
         }
-        self.fix: list[list[np.ndarray]] | None = [[] for _ in range(n)]
+        # each follower's fix error per window (inf: no fix); has_fix False: a table
+        # from before the columns
+        label = None if scratch is None else os.path.join(os.path.dirname(scratch), "summary.json")
+        self.fix = ValueSpill(n, scratch, label)
+        self.has_fix = True
 
     def add(self, df: pd.DataFrame | Mapping[str, Any]) -> None:
         def col(name: str, dtype: Any = float) -> Any:
@@ -209,20 +223,20 @@ class _Totals:
         for c in self.totals:
             self.totals[c] += _total(df, c)
         cols = [f"f{i}_fix_error_cm" for i in range(1, self.n + 1)]
-        if self.fix is not None and all(c in df for c in cols):
-            for kept, c in zip(self.fix, cols, strict=True):
-                kept.append(col(c))
+        if not self.n:
+            pass
+        elif self.has_fix and all(c in df for c in cols):
+            self.fix.add_rows(np.column_stack([col(c) for c in cols]))
         else:  # a table from before the columns: no localization_error_cm
-            self.fix = None
+            self.has_fix = False
 
     def fix_errors(self) -> dict[str, Any] | None:
-        """`fix_errors` of the columns kept (the fixes' errors: n floats a window)."""
-        if self.fix is None:
+        """`fix_errors` of the values spilled, selected in bounded memory
+        (`rtsim.coupling.spill.p95_max_columns`, finite values only: inf is no fix)."""
+        if not self.has_fix or not self.n:
             return None
-        return fix_errors(
-            {
-                f"f{i}_fix_error_cm": np.concatenate(v) if v else np.zeros(0)
-                for i, v in enumerate(self.fix, start=1)
-            },
-            self.n,
-        )
+        self.fix.flush()
+        every, rows = p95_max_columns(self.fix.chunks, self.n, finite_only=True)
+        if every is None:
+            return None
+        return {**every, "per_follower": rows}
