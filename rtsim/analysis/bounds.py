@@ -279,13 +279,14 @@ def lower_bound(
     scheduler: str = "fp",
     suspension: str = "idle",
     where: str = "lower_bound",
+    force: bool = False,
 ) -> float:
     """The window lower bound ``name`` (`LOWER_BOUNDS`) for a CPU run with ``scheduler``
     and ``suspension``; a bound whose model does not match is an input error: w_sch, w_rta,
     w_susp and w_txn (the offset-based bound,
     [`rtsim.analysis.bounds.w_txn`][rtsim.analysis.bounds.w_txn], under
     ``suspension``) are fixed-priority analyses, w_edf an EDF one, and w_susp is sound only
-    with Δt leaving the CPU idle."""
+    with Δt leaving the CPU idle. ``force`` runs w_txn past its work limit."""
     if name not in LOWER_BOUNDS:
         raise InputError(
             f"{where}: lower_bound: must be one of {', '.join(LOWER_BOUNDS)}, got {name!r}"
@@ -305,7 +306,7 @@ def lower_bound(
     if name == "w_edf":
         return w_edf(ts)
     if name == "w_txn":
-        return w_txn(ts, suspension=suspension)
+        return w_txn(ts, suspension=suspension, force=force)
     return w_rta(ts) if name == "w_rta" else w_susp(ts)
 
 

@@ -79,7 +79,8 @@ def register(sub: Any) -> None:
     add_force(
         p,
         "analyse even when the EDF bound would examine more than 1e6 "
-        "arrivals (a busy period very long against the periods: minutes)",
+        "arrivals (a busy period very long against the periods: minutes) or the "
+        "offset-based (transaction) analysis evaluate more than 1e7 interference terms",
     )
     p.set_defaults(func=run)
 

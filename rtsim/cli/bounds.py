@@ -60,7 +60,11 @@ def register(sub: Any) -> None:
 
     add_json(p, "print JSON (a list for several rows)")
     add_quiet(p, "print nothing (a check of the inputs)")
-    add_force(p)
+    add_force(
+        p,
+        "run even when a value looks like a mistake of unit, or w_txn's offset-based "
+        "analysis would evaluate more than 1e7 interference terms",
+    )
     p.set_defaults(func=run)
 
 

@@ -162,11 +162,14 @@ def prepared(
 BOUNDS_MAX = 64
 
 
-def window_bound(ts: TaskSet, name: str, *, scheduler: str, suspension: str, where: str) -> float:
+def window_bound(
+    ts: TaskSet, name: str, *, scheduler: str, suspension: str, where: str, force: bool = False
+) -> float:
     """`rtsim.analysis.bounds.lower_bound` of ``ts`` (ms), computed once per process for the
     bound, the scheduler, the suspension and the task set's values — every field but its
     ``assumptions`` (text; a TaskSet is immutable) — whatever file or object they came from.
-    ``where`` only words an error (errors are not kept)."""
+    ``where`` only words an error (errors are not kept); ``force`` runs past a work limit
+    (a value once computed is kept either way)."""
     key = (
         name,
         scheduler,
@@ -175,7 +178,9 @@ def window_bound(ts: TaskSet, name: str, *, scheduler: str, suspension: str, whe
     )
 
     def compute() -> float:
-        return lower_bound(ts, name, scheduler=scheduler, suspension=suspension, where=where)
+        return lower_bound(
+            ts, name, scheduler=scheduler, suspension=suspension, where=where, force=force
+        )
 
     try:
         hash(key)

@@ -163,6 +163,7 @@ class _Coupling:
         record_trace: bool = False,
         job_sink: Any = None,
         trace_sink: Any = None,
+        force: bool = False,
     ) -> None:
         where = inp.source or inp.name or "scenario"
         cfg = self.cfg = self._given = inp.world
@@ -174,7 +175,12 @@ class _Coupling:
         # column and summary keep the name w_sch): the CPU below runs the set's scheduler
         # ([scheduler] policy, fp by default) with Δt idle
         self.w_sch = window_bound(
-            ts, adj.lower_bound, scheduler=ts.scheduler, suspension="idle", where=f"{where}: adjust"
+            ts,
+            adj.lower_bound,
+            scheduler=ts.scheduler,
+            suspension="idle",
+            where=f"{where}: adjust",
+            force=force,
         )
         if not math.isfinite(self.w_sch):
             raise InputError(f"{where}: {adj.lower_bound} is infinite")
@@ -955,8 +961,8 @@ def run_scenario(
         The scenario file (or its task set) may name code, ``module:Name``
         (`rtsim.registry`); a ``policy`` of that form given here is always allowed.
     force : bool, default False
-        Run above the work limits (2e6 windows, 2e8 world steps × followers), as
-        ``--force``.
+        Run above the work limits (2e6 windows, 2e8 world steps × followers, the
+        transaction analysis of ``[adjust] lower_bound = "w_txn"``), as ``--force``.
     windows : bool, default True
         False leaves ``result.windows`` None (the summary is computed either way).
     progress : callable, optional
@@ -1000,6 +1006,7 @@ def run_scenario(
         record_trace,
         job_sink,
         trace_sink,
+        force,
     )
     if window_sink is not None:
         run.rec.sink = lambda recs: run.hand_over(recs, window_sink)

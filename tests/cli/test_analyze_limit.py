@@ -4,6 +4,7 @@ estimate is an upper bound of what the search examines, and ``--force`` runs it.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -199,3 +200,46 @@ def test_a_thousand_tasks_are_analysed_within_the_limit(tmp_path: Path) -> None:
     got = transaction_bounds(ts, None)
     assert time.monotonic() - t0 < 120
     assert len(got) == 1000 and all(r is not None for r in got.values())
+
+
+def test_every_route_to_w_txn_has_the_limit_and_force(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """docs/reliability.md: `bounds`' w_txn, ``[adjust] lower_bound = "w_txn"`` and `w_txn`
+    in Python refuse above the limit in one line and run with --force (force=True). Before
+    this test ``run_scenario(..., force=True)`` did not reach w_txn: a scenario with
+    ``lower_bound = "w_txn"`` above the limit could not be run at all."""
+    from rtsim.analysis.bounds import w_txn
+    from rtsim.coupling import prepared, run_scenario
+    from rtsim.io.work import TooMuchWork
+
+    paper = load_taskset()
+    free = w_txn(paper)
+    monkeypatch.setitem(work.LIMITS, "interference", 1)  # the paper's set evaluates ~45
+    with pytest.raises(TooMuchWork, match="above the limit of 1"):
+        w_txn(paper)
+    assert w_txn(paper, force=True) == free
+    capsys.readouterr()
+    assert main(["bounds", "--json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "transaction" in err and "--force" in err
+    assert main(["bounds", "--json", "--force"]) == 0
+    assert json.loads(capsys.readouterr().out)["w_txn"] == free
+    # the robots' lower bound: the run's w_sch is w_txn, computed past the limit when forced
+    scenario = ROOT / "experiments" / "scenarios" / "test2.toml"
+    over = {"adjust.lower_bound": "w_txn"}
+    prepared.clear()  # (a bound computed earlier in this process would be reused)
+    with pytest.raises(TooMuchWork, match="above the limit of 1"):
+        run_scenario(scenario, overrides=over, duration_s=1, record_jobs=False)
+    prepared.clear()
+    res = run_scenario(scenario, overrides=over, duration_s=1, record_jobs=False, force=True)
+    assert res.summary["w_sch"] == free
+    prepared.clear()
+    out = tmp_path / "run"
+    argv = ["scenario", str(scenario), "--duration", "1", "--no-figures", "--out", str(out)]
+    assert main([*argv, "--set", "adjust.lower_bound=w_txn"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--force" in err and not out.exists()
+    prepared.clear()
+    assert main([*argv, "--set", "adjust.lower_bound=w_txn", "--force", "-q"]) == 0
+    assert json.loads((out / "summary.json").read_text())["w_sch"] == free

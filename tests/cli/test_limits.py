@@ -98,6 +98,52 @@ def test_a_fifo_input_is_refused_at_once(tmp_path: Path) -> None:
     assert proc.stderr.count("\n") == 1
 
 
+def test_a_socket_input_is_refused_at_once(tmp_path: Path) -> None:
+    import socket
+
+    path = tmp_path / "s.toml"
+    with socket.socket(socket.AF_UNIX) as sock:
+        sock.bind(str(path))
+        proc = subprocess.run(
+            [sys.executable, "-m", "rtsim", "analyze", str(path)],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert proc.stderr.startswith(f"rtsim: {path}: ") and "Traceback" not in proc.stderr
+
+
+_DEEP = 100_000
+
+
+@pytest.mark.parametrize(
+    ("argv", "body"),
+    [
+        (["analyze", "{f}"], "x = " + "[" * _DEEP + "]" * _DEEP + "\n"),
+        (["analyze", "{f}"], "x = " + "{a = " * 5_000 + "1" + "}" * 5_000 + "\n"),
+        (["scenario", "{f}", "--out", "{o}"], "x = " + "[" * _DEEP + "]" * _DEEP + "\n"),
+        (
+            ["sweep", "{f}", "--out", "{o}"],
+            '[sweep]\nkind = "analyze"\n[grid]\nn = ' + "[" * _DEEP + "]" * _DEEP + "\n",
+        ),
+    ],
+    ids=["taskset-arrays", "taskset-tables", "scenario", "sweep"],
+)
+def test_deeply_nested_toml_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], body: str
+) -> None:
+    """tomllib recurses once per level: a file nested 1e5 deep would end in a
+    RecursionError; it is one line naming the file, exit 2, and nothing is written."""
+    f = tmp_path / "deep.toml"
+    f.write_text(body, "utf-8")
+    out = tmp_path / "out"
+    assert main([a.format(f=f, o=out) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"rtsim: {f}: nested too deeply"), err
+    assert not out.exists()
+
+
 def test_a_name_with_a_newline_stays_on_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

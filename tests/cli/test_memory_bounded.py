@@ -79,7 +79,11 @@ RUNS = [
     (
         "scenario windows and jobs",
         ["scenario", "test2", "--no-figures", "--duration", "{h}", "--out", "{o}"],
-        (60, 900),
+        # The chunk buffers fill in the first simulated minutes (peaks measured 261, 275,
+        # 287, 292, 298, 298 MB at 60, 300, 600, 900, 3,600, 7,200 s): 60 s against 900 s
+        # compared a run still filling them (+31 MB) and failed whenever the kernels came
+        # from the cache; 10 minutes against 2 hours compares two full ones.
+        (600, 7200),
         "{o}/jobs.csv",
     ),
 ]

@@ -130,3 +130,19 @@ def test_every_generated_set_is_read_by_analyze(
     for f in sorted(out.glob("set_*.toml")):
         assert main(["analyze", str(f), "-q"]) in (0, 1), capsys.readouterr().err
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize(
+    ("extra", "magic"),
+    [([], b"\x89PNG"), (["--format", "svg"], b"<?xml"), (["--format", "pdf"], b"%PDF")],
+)
+def test_a_figure_named_without_a_suffix_is_in_the_format_asked(
+    tmp_path: Path, extra: list[str], magic: bytes
+) -> None:
+    """docs/reliability.md: a figure without a suffix (``--gantt g``) is written in
+    ``--format``'s format, PNG by default (the only outputs a missing suffix does not
+    refuse)."""
+    g, h = tmp_path / "g", tmp_path / "h"
+    argv = ["simulate", str(EXAMPLE), "--horizon", "1000", "-q", *extra]
+    assert main([*argv, "--gantt", str(g), "--histogram", str(h)]) == 0
+    assert g.read_bytes().startswith(magic) and h.read_bytes().startswith(magic)

@@ -4,6 +4,7 @@ compile the kernels before their workers start, and only when the work runs comp
 
 from __future__ import annotations
 
+import importlib
 import os
 import re
 import subprocess
@@ -56,6 +57,54 @@ def test_announce_says_it_once_and_only_for_an_uncached_kernel(
     monkeypatch.setenv("RTSIM_PROGRESS", "0")
     assert not kernels.announce([motion.ramp], 7.4)
     assert capsys.readouterr().err == ""
+
+
+ROLES = """
+from rtsim.world.jit import kernel
+
+@kernel
+def half(x):
+    return 0.5 * x
+
+@kernel
+def twice(x):
+    return half(x) * 4.0
+"""
+
+
+@needs_numba
+def test_a_kernel_only_kernels_call_compiles_without_wrappers_and_is_not_cached(
+    empty_cache: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The kernel Python calls is cached with numba's wrappers; its callee is compiled without
+    them and not cached (its code is linked into the caller's); built as an entry, the callee
+    is a dispatcher of its own, cached, and it serves the callers built after it."""
+    pkg = tmp_path / "kpkg_roles"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "k.py").write_text(ROLES)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    importlib.invalidate_caches()
+    mod = importlib.import_module("kpkg_roles.k")
+    monkeypatch.setattr(jit, "_COMPILED", {})
+    twice = jit.build(mod.twice)
+    assert twice(3.0) == 6.0
+    inner = twice.py_func.__globals__["half"]
+    assert inner.targetoptions.get("no_cpython_wrapper") is True
+    assert "no_cpython_wrapper" not in twice.targetoptions
+    assert jit.cached(mod.twice) and not jit.cached(mod.half)
+    half = jit.build(mod.half)
+    assert half is not inner and half(3.0) == 1.5 and jit.cached(mod.half)
+    assert jit.build(mod.twice) is twice  # once per process
+    # an entry built after its caller was built, before the caller compiles, serves it
+    monkeypatch.setattr(jit, "_COMPILED", {})
+    twice = jit.build(mod.twice)
+    half = jit.build(mod.half)
+    assert twice.py_func.__globals__["half"] is half
+    assert twice(3.0) == 6.0 and not half.targetoptions.get("no_cpython_wrapper")
+    monkeypatch.setattr(jit, "_COMPILED", {})
+    half = jit.build(mod.half)
+    assert jit.build(mod.twice).py_func.__globals__["half"] is half  # the entry serves
 
 
 @needs_numba
