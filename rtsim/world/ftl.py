@@ -34,7 +34,7 @@ _SCALE_MIN = 0.05
 # whom it follows (-1: the leader) and at what spacing (cm). Tuples in Python, arrays compiled.
 
 
-@kernel(inline=True)
+@kernel
 def path_segment(G: Any, s: float) -> tuple[int, float]:
     """`LeaderPath.index` (s), the segment's index (bisect_right − 1 of the starts), and u = s
     mod lap."""
@@ -50,21 +50,21 @@ def path_segment(G: Any, s: float) -> tuple[int, float]:
     return lo - 1, u
 
 
-@kernel(inline=True)
+@kernel
 def _pose_at(G: Any, k: int, u: float) -> tuple[float, float, float]:
     """The pose `along` segment k at u − its start (u: s mod lap)."""
     poses = G[1]
     return along(poses[3 * k], poses[3 * k + 1], poses[3 * k + 2], G[2][k], u - G[0][k])
 
 
-@kernel(inline=True)
+@kernel
 def path_pose(G: Any, s: float) -> tuple[float, float, float]:
     """`LeaderPath.pose` (s): `along` the segment at ``s`` from its start pose."""
     k, u = path_segment(G, s)
     return _pose_at(G, k, u)
 
 
-@kernel(inline=True)
+@kernel
 def trace_point(G: Any, k: int, s: float) -> tuple[float, float, float]:
     """P_k(s) and the heading there: the path's pose at ``s`` moved follower k's offset to
     the left (`trace_frame`'s first three)."""
@@ -72,14 +72,14 @@ def trace_point(G: Any, k: int, s: float) -> tuple[float, float, float]:
     return x, y, h
 
 
-@kernel(inline=True)
+@kernel
 def trace_scale(G: Any, k: int, s: float) -> float:
     """1 − κ(s)·o_k: follower k's offset curve's length per unit of trace (floored at 0.05;
     `trace_frame`'s last)."""
     return trace_frame(G, k, s)[3]  # type: ignore[no-any-return]
 
 
-@kernel(inline=True)
+@kernel
 def trace_frame(G: Any, k: int, s: float) -> tuple[float, float, float, float]:
     """P_k(s), the heading there and `trace_scale` (one segment lookup): the path's pose at
     ``s`` moved follower k's offset to the left."""
@@ -89,7 +89,7 @@ def trace_frame(G: Any, k: int, s: float) -> tuple[float, float, float, float]:
     return x - o * math.sin(h), y + o * math.cos(h), h, max(_SCALE_MIN, 1.0 - G[2][i] * o)
 
 
-@kernel(inline=True)
+@kernel
 def _gap(G: Any, k: int, s: float, xl: float, yl: float, rho2: float) -> float:
     """|P_k(s) − (xl, yl)|² − ρ²."""
     x, y, _ = trace_point(G, k, s)
