@@ -13,7 +13,6 @@ import numpy as np
 import pandas as pd
 
 from rtsim.analysis.kinematics import BOUND_KINDS
-from rtsim.coupling.physical import p95_max_rows
 from rtsim.coupling.recorder import LOCALIZATION_COLUMNS, sensing_columns
 from rtsim.coupling.spill import ValueSpill, p95_max_columns
 from rtsim.world.config import WorldConfig
@@ -54,20 +53,6 @@ def summary_columns(n: int) -> list[str]:
         *sensing_columns(n),
         *(f"f{i}_viol_contact" for i in range(1, n + 1)),
     ]
-
-
-def fix_errors(df: pd.DataFrame | Mapping[str, Any], n: int) -> dict[str, Any] | None:
-    """summary.json ``localization_error_cm``: the accepted fixes' distance from the truth
-    (cm; windows without a fix left out), p95 and max over every follower's fixes and
-    ``per_follower`` (None: a table without the columns, or no fix)."""
-    cols = [f"f{i}_fix_error_cm" for i in range(1, n + 1)]
-    if any(c not in df for c in cols):
-        return None
-    per = [np.asarray(df[c], dtype=float) for c in cols]
-    every, rows = p95_max_rows([v[np.isfinite(v)] for v in per])  # (inf: no fix)
-    if every is None:
-        return None
-    return {**every, "per_follower": rows}
 
 
 def _total(df: pd.DataFrame | Mapping[str, Any], col: str) -> int:
@@ -223,16 +208,15 @@ class _Totals:
         for c in self.totals:
             self.totals[c] += _total(df, c)
         cols = [f"f{i}_fix_error_cm" for i in range(1, self.n + 1)]
-        if not self.n:
-            pass
-        elif self.has_fix and all(c in df for c in cols):
+        if self.n and self.has_fix and all(c in df for c in cols):
             self.fix.add_rows(np.column_stack([col(c) for c in cols]))
-        else:  # a table from before the columns: no localization_error_cm
+        else:  # no follower, or a table from before the columns: no localization_error_cm
             self.has_fix = False
 
     def fix_errors(self) -> dict[str, Any] | None:
-        """`fix_errors` of the values spilled, selected in bounded memory
-        (`rtsim.coupling.spill.p95_max_columns`, finite values only: inf is no fix)."""
+        """summary.json's ``localization_error_cm``: the accepted fixes' distance from the
+        truth (cm; p95, max, ``per_follower``; None without a fix), selected from the values
+        spilled in bounded memory (`rtsim.coupling.spill.p95_max_columns`; inf is no fix)."""
         if not self.has_fix or not self.n:
             return None
         self.fix.flush()
