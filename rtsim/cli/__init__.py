@@ -265,6 +265,13 @@ def one_line(text: object) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in s)
 
 
+def _quiet(_: Any) -> None:
+    """An unraisable-exception hook that says nothing: after a signal, an object the signal
+    cut short in its constructor (a progress bar) fails in its finaliser as the stack
+    unwinds (or when the process exits), and Python would print that traceback under the
+    one line the CLI promises. Left in place after a signal: the process is ending."""
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``rtsim`` console script."""
     import signal
@@ -316,9 +323,11 @@ def main(argv: list[str] | None = None) -> int:
         print("rtsim: an input is nested too deeply to read", file=sys.stderr)
         return 2
     except Terminated:
+        sys.unraisablehook = _quiet  # (`_quiet`: what the signal cut short, unwound)
         print("rtsim: terminated", file=sys.stderr)
         return 143
     except KeyboardInterrupt:
+        sys.unraisablehook = _quiet
         print("rtsim: interrupted", file=sys.stderr)
         return 130
     finally:
