@@ -1,0 +1,194 @@
+"""Jobs of a simple top task booked inline, without a `Job`: a room of the virtual CPU.
+
+The dispatcher (`rtsim.sim.cpu`) hands a job of its top task, released at now, to the
+function `top_jobs` made for its run (docs/cpu-events.md, step 3: inline jobs of the top
+task, runs of inline jobs). If nothing can happen while the job runs, that function books
+the preemption at now, the completion at f = now + c and the dispatch at f in one step, with
+the same float operations in the same order as the general path, then goes on to the top
+task's next release itself while that is the next thing to happen. Any other case goes back
+to the dispatcher's loop, in the state the loop would have there. A closure, not a method:
+its constants cost nothing per call (the call is made for every run of inline jobs).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from heapq import heappop, heappush, heapreplace
+from typing import Any
+
+from rtsim.sim.job import _RELEASE, Job, _TaskState, _Totals
+from rtsim.sim.records import TaskStats
+
+__all__ = ["Booked", "Top", "top_jobs"]
+
+_INF = math.inf
+
+#: A job of the top task released at now and not booked yet: (its task, k, release, seq).
+Top = tuple[_TaskState, int, float, int]
+#: What the booking of a run of inline jobs leaves (module doc): (moved: the clock moved on
+#: to a later release, the top task's job released then and not booked yet, running, now,
+#: work_start, work_lag, run_end, run_lag).
+Booked = tuple[bool, Top | None, Job | None, float, float, float, float, float]
+
+
+def top_jobs(
+    env: Any,
+    timers: list[tuple[Any, ...]],
+    ready: list[tuple[Any, Any, Job]],
+    queue: list[Any],
+    totals: _Totals,
+    seqs: Iterator[int],
+    top_first: bool,
+    record_jobs: bool,
+    last_release: float,
+    count_response: Callable[[TaskStats, float, float], tuple[int, dict[int, int]]],
+    top_record: Callable[[_TaskState, int, float, float, float, bool], None],
+) -> Callable[..., Booked | None]:
+    """The booking of the top task's jobs for one run of the dispatcher, which owns ``env``
+    (a plain SimPy environment, its events in ``queue``), the heaps, the totals and the
+    sequence numbers; ``top_first``: the policy's top task's job always comes first."""
+    top_resp, top_bin = math.nan, 0  # the latest response booked inline, its bin
+    top_counts: dict[int, int] = {}  # (and the bins' counts)
+
+    def book(
+        top: Top,
+        running: Job | None,
+        now: float,
+        now_lag: float,
+        work_start: float,
+        work_lag: float,
+        t_next: float,
+        tol: float,
+        tol_next: float,
+    ) -> Booked | None:
+        """Book ``top``'s job if it can be (the dispatcher's state is passed); None if not:
+        its `Job` is then in the ready heap, for the general dispatch."""
+        nonlocal top_resp, top_bin, top_counts
+        st, k, r, seq = top
+        limit = now + tol  # (what is due by limit happens at now)
+        stats = st.stats
+        job = None  # (it wins under fp; under another policy if it comes first and preempts)
+        wins = True
+        if not top_first:
+            job = Job(st, k, r, r + st.deadline, st.period, seq)
+            jk = job.key
+            wins = (running is None or jk < running.key) and (
+                not ready or jk < ready[0][0] or (jk == ready[0][0] and job.tie < ready[0][1])
+            )
+        nxt_job = running  # the first in the ready order after it, at f = now + c
+        from_ready = False
+        if ready and (  # (key, tie) < running's, the common "key greater" case first:
+            running is None
+            or (
+                ready[0][0] <= running.key
+                and (ready[0][0] < running.key or ready[0][1] < running.tie)
+            )
+        ):
+            nxt_job = ready[0][2]
+            from_ready = True
+        top_n = 0  # responses equal to top_resp booked here, not yet in their bin
+        moved = False
+        nxt = None
+        while True:
+            x = st.fast_start + now_lag  # type: ignore[operator]
+            f = now + x
+            y = f - now
+            f_lag = (now - (f - y)) + (x - y)
+            if not (  # nothing happens in (now, f], and no hook runs at f
+                wins
+                and f > limit
+                and timers
+                and t_next > f + tol
+                and (not queue or queue[0][0] > f)
+                and (nxt_job is None or nxt_job.rem is not None)
+            ):
+                if moved:  # (the loop's top comes back here in this state, and says no)
+                    nxt = (st, k, r, seq)
+                    break
+                if job is None:
+                    job = Job(st, k, r, r + st.deadline, st.period, seq)
+                st.pending.append(job)
+                heappush(ready, (job.key, job.tie, job))
+                return None
+            if running is not None:  # preempted at now
+                if running.rem is not None and now > work_start:
+                    worked = now - work_start
+                    running.executed += worked
+                    totals.busy += worked
+                    running.rem = running.rem - worked - (now_lag - work_lag)
+                running.preemptions += 1
+                if from_ready:
+                    heappush(ready, (running.key, running.tie, running))
+            if from_ready:
+                heappop(ready)
+            # its completion at f: the booking of step 1 and CPU._complete, without a Job
+            totals.busy += f - now
+            resp = f - r
+            stats.completed += 1
+            stats.sum_response += resp
+            deadline = r + st.deadline
+            if f > deadline + tol:
+                stats.misses += 1
+            if resp == top_resp:  # (nearly always: its bin exists, the maximum is at least
+                top_n += 1  # resp; top_n goes into the bin when the booking ends, or before
+            else:  # another bin is counted)
+                if top_n:
+                    top_counts[top_bin] += top_n
+                    top_n = 0
+                if stats.max_response is None or resp > stats.max_response:
+                    stats.max_response = resp
+                top_resp = resp
+                top_bin, top_counts = count_response(stats, resp, deadline - r)
+            if record_jobs:
+                top_record(st, k, r, now, f, f > deadline + tol)
+            now = work_start = f  # (env._now is set where the clock stops)
+            now_lag = work_lag = f_lag
+            if nxt_job is not None:  # it gets the CPU at f: a second switch
+                totals.switches += 2
+                x = nxt_job.rem + f_lag  # type: ignore[operator]
+                run_end = f + x
+                y = run_end - f
+                run_lag = (f - (run_end - y)) + (x - y)
+            else:
+                totals.switches += 1
+                run_end, run_lag = _INF, 0.0
+            running = nxt_job
+            # What nearly always comes next, done here as the loop would: 4. the wait, for
+            # a timer before the running job's end; 1. nothing ends; 2. the timer is the top
+            # task's next release (under fp) and no other timer is due with it. Any other
+            # case, and a wider coincidence window (a new binade), goes on at the loop's top.
+            if not (
+                timers
+                and (t_next := timers[0][0]) < run_end
+                and (not queue or t_next < queue[0][0])
+            ):
+                env._now = now
+                moved = False
+                break  # (to the wait)
+            env._now = now = t_next
+            now_lag = 0.0
+            moved = True
+            limit = now + tol
+            if now >= tol_next or not top_first or timers[0][5] is not st or run_end <= limit:
+                break
+            k = st.k  # the release of step 2's fast path (stats.max_backlog is 1 already)
+            st.k = k + 1
+            r = st.next_release
+            after = st.first + st.k * st.period
+            if after < last_release:
+                st.next_release = after
+                heapreplace(timers, (after, st.rank, st.priority, st.index, _RELEASE, st))
+            else:
+                heappop(timers)
+            stats.released += 1
+            seq = next(seqs)
+            if timers and (t_next := timers[0][0]) <= limit:
+                nxt = (st, k, r, seq)
+                break  # (another timer is due: step 2 goes on, then this job)
+            from_ready = False  # (the job running comes first of the others, as before)
+        if top_n:
+            top_counts[top_bin] += top_n
+        return moved, nxt, running, now, work_start, work_lag, run_end, run_lag
+
+    return book
