@@ -182,6 +182,7 @@ class CPU(ResourceProtocols, TimeSlices):
         self._tol = EPS  # the coincidence window at the dispatcher's now
         self._t0 = 0.0
         self._horizon: float | None = None
+        self._last_release = 0.0  # t0 + horizon − EPS: the last time a job is released
         self.process: simpy.Process | None = None
         self._init_resources()  # critical sections (rtsim.sim.resources)
 
@@ -336,53 +337,46 @@ class CPU(ResourceProtocols, TimeSlices):
         self._t0 = self.env.now
         self._horizon = float(horizon)
         end = self._t0 + self._horizon
+        self._last_release = end - EPS  # (jobs are released in [t0, end))
         if self.jitter == "worst":  # the critical instant: all first releases at t0 = max J
             jmax = max(st.jitter for st in self._states)
             for st in self._states:
                 st.offset = st.task.offset + (jmax - st.jitter)
         for st in self._states:
             st.first = st.next_release = self._t0 + st.offset
-            if st.next_release < end - EPS:
+            if st.next_release < self._last_release:
                 heapq.heappush(
                     self._timers,
                     (st.next_release, st.rank, st.priority, next(self._seq), _RELEASE, st),
                 )
-        self.process = self.env.process(self._dispatcher(end))
+        self.process = self.env.process(self._dispatcher())
         return self.process
 
-    def _dispatcher(self, end: float) -> Any:
+    def _dispatcher(self) -> Any:
         """The one SimPy process: steps 1-4 of each instant (docs/cpu-events.md). A job of a
         simple top task is booked by `rtsim.sim.inline.top_jobs`; the cold paths are calls."""
         env = self.env
         timeout = env.timeout
-        timers, ready = self._timers, self._ready
+        timers, ready, seqs, totals = self._timers, self._ready, self._seq, self._totals
         heappush, heappop, heapreplace = heapq.heappush, heapq.heappop, heapq.heapreplace
-        seqs = self._seq  # (next(seqs): job and timer sequence numbers)
-        totals = self._totals
-        ovh = self.overhead
-        last_release = end - EPS  # (jobs are released in [t0, end): _release's test)
-        plain, has_abort, jump, queue, inline_ok, book = self._modes(last_release)
-        res = self._res_on  # critical sections: the protocol's lock, unlock and dispatch
-        # the policy's preemption test, inline when it is the default "strictly smaller key"
-        preempts, by_key = self.policy.preempts, self._by_key
-        sliced = self.quantum is not None  # time slices (docs/cpu-events.md: Time slices)
-        top: Top | None = None  # a job of the top task released at now, to book in step 3
+        ovh, res, sliced = self.overhead, self._res_on, self.quantum is not None
+        preempts, by_key = self.policy.preempts, self._by_key  # (by_key: the test inline)
+        last_release = self._last_release  # (jobs are released in [t0, end))
+        plain, has_abort, jump, queue, inline_ok, book = self._modes()
+        top: Top | None = None  # a job of the top task released at now, for step 3
         running: Job | None = None
         last: Job | None = None
-        run_end = _INF
         # Compensated time (docs/time.md): the exact instant is now + now_lag, the exact end
         # of the running segment run_end + run_lag, its work started at work_start + work_lag.
-        now_lag = work_lag = run_lag = 0.0
+        run_end, now_lag, work_lag, run_lag = _INF, 0.0, 0.0, 0.0
         piece_start = work_start = now = env.now
-        tol, tol_next = coincidence(now)
-        self._tol = tol
+        tol_next = -_INF  # (the coincidence window is set at the loop's top)
         while True:
             if now >= tol_next:  # the clock entered the next binade: a wider window
                 tol, tol_next = coincidence(now)
                 self._tol = tol
             limit = now + tol  # what is due by limit happens at now
-            # 1. the running segment ends? (run_end is finite only while a started segment
-            # runs: the tests of running and its rem are implied)
+            # 1. the running segment ends (run_end is finite only while a started one runs)
             if run_end <= limit:
                 assert running is not None and running.rem is not None
                 if plain:
@@ -393,8 +387,7 @@ class CPU(ResourceProtocols, TimeSlices):
                 else:
                     self._close_piece(running, piece_start, work_start, now, done=True)
                 piece_start = work_start = now
-                run_end = _INF
-                work_lag = now_lag
+                run_end, work_lag = _INF, now_lag
                 st = running._st
                 if st.simple:
                     self._complete(running, now)
@@ -404,45 +397,43 @@ class CPU(ResourceProtocols, TimeSlices):
                     running.rem = None
                 else:
                     running, run_end, run_lag = self._segment_ends(running, now, now_lag, work_lag)
-            # 2. timers due
+            # 2. timers due (then t_next: the next timer)
             while timers and (t_next := timers[0][0]) <= limit:
                 entry = timers[0]  # (popped below: a release's successor replaces it)
-                kind = entry[4]
-                if kind == _RELEASE:
-                    st = entry[5]
-                    if st.fast_release:  # fixed period, finish-late, no hook, no jitter
-                        k = st.k
-                        st.k = k + 1
-                        r = st.next_release
-                        p = st.period
-                        nxt = st.first + (k + 1) * p
-                        if nxt < last_release:
-                            st.next_release = nxt
-                            heapreplace(timers, (nxt, st.rank, st.priority, st.index, _RELEASE, st))
-                        else:
-                            heappop(timers)
-                        stats = st.stats
-                        stats.released += 1
-                        pending = st.pending
-                        if st.fast_top and inline_ok and not pending:  # its Job: see 3.
-                            if stats.max_backlog < 1:
-                                stats.max_backlog = 1
-                            top = (st, k, r, next(seqs))
-                            continue
-                        job = Job(st, k, r, r + st.deadline, p, next(seqs))
-                        pending.append(job)
-                        n = len(pending)
-                        if n > stats.max_backlog:
-                            stats.max_backlog = n
-                        if n == 1:
-                            heappush(ready, (job.key, job.tie, job))
-                    else:
-                        heappop(timers)
-                        self._release(st, now, end)
+                st = entry[5]
+                if entry[4] != _RELEASE or not st.fast_release:
+                    heappop(timers)
+                    if self._timer_due(
+                        entry, running, now, now_lag, piece_start, work_start, work_lag
+                    ):
+                        running, run_end = None, _INF  # it left the CPU
                     continue
-                heappop(timers)
-                if self._timer_due(entry, running, now, now_lag, piece_start, work_start, work_lag):
-                    running, run_end = None, _INF  # it left the CPU
+                # a release of a fixed period, finish-late, without hooks and jitter
+                k = st.k
+                st.k = k + 1
+                r = st.next_release
+                p = st.period
+                nxt = st.first + (k + 1) * p
+                if nxt < last_release:
+                    st.next_release = nxt
+                    heapreplace(timers, (nxt, st.rank, st.priority, st.index, _RELEASE, st))
+                else:
+                    heappop(timers)
+                stats = st.stats
+                stats.released += 1
+                pending = st.pending
+                if st.fast_top and inline_ok and not pending:  # its Job: see 3.
+                    if stats.max_backlog < 1:
+                        stats.max_backlog = 1
+                    top = (st, k, r, next(seqs))
+                    continue
+                job = Job(st, k, r, r + st.deadline, p, next(seqs))
+                pending.append(job)
+                n = len(pending)
+                if n > stats.max_backlog:
+                    stats.max_backlog = n
+                if n == 1:
+                    heappush(ready, (job.key, job.tie, job))
             # 3. dispatch: the top task's job booked inline if it can be (rtsim.sim.inline)
             if (
                 top is None
@@ -460,35 +451,28 @@ class CPU(ResourceProtocols, TimeSlices):
                     running, last, piece_start, work_start, work_lag, run_end, run_lag = state
                 while has_abort and ready and ready[0][2].aborted:
                     heappop(ready)
-                # the switch for runs without sections, inline on purpose (the one above
-                # as calls: folding the two together costs 3-4 % in bench_sim)
-                if (
-                    not res
-                    and ready
-                    and (
-                        running is None
-                        or (ready[0][0] < running.key if by_key else preempts(ready[0][0], running))
-                    )
-                ):
-                    if running is not None:
+                if ready and not res:  # the switch, inline on purpose (folding it with the
+                    key = ready[0][0]  # one above, by calls, costs 3-4 % in bench_sim)
+                    if running is None or (key < running.key if by_key else preempts(key, running)):
+                        if running is not None:
+                            if running.rem is not None:
+                                self._close_piece(running, piece_start, work_start, now, False)
+                                if now > work_start:
+                                    running.rem -= now_lag - work_lag
+                            running.preemptions += 1
+                            heappush(ready, (running.key, running.tie, running))
+                        running = heappop(ready)[2]
+                        piece_start = work_start = now
+                        work_lag = now_lag
+                        if running is not last:
+                            totals.switches += 1
+                            last = running
+                            work_start = now + ovh
                         if running.rem is not None:
-                            self._close_piece(running, piece_start, work_start, now, done=False)
-                            if now > work_start:
-                                running.rem -= now_lag - work_lag
-                        running.preemptions += 1
-                        heappush(ready, (running.key, running.tie, running))
-                    running = heappop(ready)[2]
-                    piece_start = work_start = now
-                    work_lag = now_lag
-                    if running is not last:
-                        totals.switches += 1
-                        last = running
-                        work_start = now + ovh
-                    if running.rem is not None:
-                        x = running.rem + work_lag
-                        run_end = work_start + x
-                        y = run_end - work_start
-                        run_lag = (work_start - (run_end - y)) + (x - y)
+                            x = running.rem + work_lag
+                            run_end = work_start + x
+                            y = run_end - work_start
+                            run_lag = (work_start - (run_end - y)) + (x - y)
                 if running is not None and running.rem is None:
                     c = running._st.seg_const[running.seg_index]
                     if c is not None:  # _start_segment without a hook or an exec-time call
@@ -511,27 +495,19 @@ class CPU(ResourceProtocols, TimeSlices):
                     continue
             if sliced and running is not self._slice_job:  # a new slice (rtsim.sim.slices)
                 self._new_slice(running, now)
-            # 4. wait
-            target = run_end  # (_INF when nothing runs)
-            now_lag = run_lag
+            target, now_lag = run_end, run_lag  # 4. wait (run_end: _INF when nothing runs)
             if timers and (t_next := timers[0][0]) < target:
-                target = t_next
-                now_lag = 0.0
+                target, now_lag = t_next, 0.0
             if target == _INF:
                 self._end_time = now
                 return
-            if jump and (not queue or target < queue[0][0]):
-                # nothing else in the environment is due up to target: move the clock
-                # there ourselves instead of a Timeout round trip through SimPy
-                env._now = target
-                now = target
+            if jump and (not queue or target < queue[0][0]):  # nothing else is due up to
+                env._now = now = target  # target: move the clock without a SimPy Timeout
                 continue
             yield timeout(target - now if target > now else 0.0)
             now = target
 
-    def _modes(
-        self, last_release: float
-    ) -> tuple[bool, bool, bool, list[Any], bool, Callable[..., Booked | None]]:
+    def _modes(self) -> tuple[bool, bool, bool, list[Any], bool, Callable[..., Booked | None]]:
         """The dispatcher's set-up: (plain: no trace and no overhead, so progress is booked
         inline; a task aborts; jump: the clock can be moved without SimPy; SimPy's queue;
         inline_ok: top-task jobs may be booked inline; the function that books them)."""
@@ -554,7 +530,7 @@ class CPU(ResourceProtocols, TimeSlices):
             self._seq,
             self.policy.top_task_first,
             self.record_jobs,
-            last_release,
+            self._last_release,
             self._count_response,
             self._top_record,
         )
@@ -614,12 +590,15 @@ class CPU(ResourceProtocols, TimeSlices):
         work_start: float,
         work_lag: float,
     ) -> bool:
-        """A timer other than a release is due at ``now`` (step 2, popped): an idle
-        suspension ends, a jittered job is released, a time slice ends or a job is aborted
-        at its deadline. True if ``running`` left the CPU."""
+        """A timer is due at ``now`` (step 2, popped) that the dispatcher does not handle
+        itself: a release (not of a fixed period, finish-late, without hooks and jitter), an
+        idle suspension ends, a jittered job is released, a time slice ends or a job is
+        aborted at its deadline. True if ``running`` left the CPU."""
         kind = entry[4]
         job = entry[5]
-        if kind == _RESUME:
+        if kind == _RELEASE:
+            self._release(job, now)
+        elif kind == _RESUME:
             if not job.aborted:
                 self._resume(job, now)
         elif kind == _JREL:
@@ -770,7 +749,7 @@ class CPU(ResourceProtocols, TimeSlices):
                 return
         heapq.heappush(self._ready, (job.key, job.tie, job))
 
-    def _release(self, st: _TaskState, now: float, end: float) -> None:
+    def _release(self, st: _TaskState, now: float) -> None:
         """Release job k of ``st`` (a task without ``fast_release``: the dispatcher does those)."""
         k = st.k
         st.k = k + 1
@@ -798,7 +777,7 @@ class CPU(ResourceProtocols, TimeSlices):
             nxt = st.first + (k + 1) * p
         if st.is_window:
             self._w = p
-        if nxt < end - EPS:
+        if nxt < self._last_release:
             st.next_release = nxt
             heapq.heappush(self._timers, (nxt, st.rank, st.priority, next(self._seq), _RELEASE, st))
         stats = st.stats
