@@ -356,7 +356,6 @@ class CPU(ResourceProtocols, TimeSlices):
         """The one SimPy process: steps 1-4 of each instant (docs/cpu-events.md). A job of a
         simple top task is booked by `rtsim.sim.inline.top_jobs`; the cold paths are calls."""
         env = self.env
-        timeout = env.timeout
         timers, ready, seqs, totals = self._timers, self._ready, self._seq, self._totals
         heappush, heappop, heapreplace = heapq.heappush, heapq.heappop, heapq.heapreplace
         ovh, res, sliced = self.overhead, self._res_on, self.quantum is not None
@@ -365,9 +364,8 @@ class CPU(ResourceProtocols, TimeSlices):
         plain, has_abort, jump, queue, inline_ok, book = self._modes()
         top: Top | None = None  # a job of the top task released at now, for step 3
         running: Job | None = None
-        last: Job | None = None
-        # Compensated time (docs/time.md): the exact instant is now + now_lag, the exact end
-        # of the running segment run_end + run_lag, its work started at work_start + work_lag.
+        last: Job | None = None  # (the job that ran last: a switch to another costs overhead)
+        # compensated time (docs/time.md): now + now_lag, run_end + run_lag, work_start + work_lag
         run_end, now_lag, work_lag, run_lag = _INF, 0.0, 0.0, 0.0
         piece_start = work_start = now = env.now
         tol_next = -_INF  # (the coincidence window is set at the loop's top)
@@ -401,18 +399,15 @@ class CPU(ResourceProtocols, TimeSlices):
             while timers and (t_next := timers[0][0]) <= limit:
                 entry = timers[0]  # (popped below: a release's successor replaces it)
                 st = entry[5]
-                if entry[4] != _RELEASE or not st.fast_release:
-                    heappop(timers)
-                    if self._timer_due(
+                if entry[4] != _RELEASE or not st.fast_release:  # (popped by _on_timer)
+                    if self._on_timer(
                         entry, running, now, now_lag, piece_start, work_start, work_lag
                     ):
                         running, run_end = None, _INF  # it left the CPU
                     continue
-                # a release of a fixed period, finish-late, without hooks and jitter
-                k = st.k
+                k = st.k  # a release of a fixed period, finish-late, without hooks and jitter
                 st.k = k + 1
-                r = st.next_release
-                p = st.period
+                r, p = st.next_release, st.period
                 nxt = st.first + (k + 1) * p
                 if nxt < last_release:
                     st.next_release = nxt
@@ -504,7 +499,7 @@ class CPU(ResourceProtocols, TimeSlices):
             if jump and (not queue or target < queue[0][0]):  # nothing else is due up to
                 env._now = now = target  # target: move the clock without a SimPy Timeout
                 continue
-            yield timeout(target - now if target > now else 0.0)
+            yield env.timeout(target - now if target > now else 0.0)
             now = target
 
     def _modes(self) -> tuple[bool, bool, bool, list[Any], bool, Callable[..., Booked | None]]:
@@ -529,10 +524,9 @@ class CPU(ResourceProtocols, TimeSlices):
             self._totals,
             self._seq,
             self.policy.top_task_first,
-            self.record_jobs,
             self._last_release,
             self._count_response,
-            self._top_record,
+            self._top_record if self.record_jobs else None,
         )
         return plain, has_abort, jump, queue, inline_ok, book
 
@@ -580,7 +574,7 @@ class CPU(ResourceProtocols, TimeSlices):
         return running, last, piece_start, work_start, work_lag, run_end, run_lag
 
     # -- the steps (internal) ------------------------------------------------------------
-    def _timer_due(
+    def _on_timer(
         self,
         entry: tuple[Any, ...],
         running: Job | None,
@@ -590,10 +584,11 @@ class CPU(ResourceProtocols, TimeSlices):
         work_start: float,
         work_lag: float,
     ) -> bool:
-        """A timer is due at ``now`` (step 2, popped) that the dispatcher does not handle
+        """A timer is due at ``now`` (step 2; popped here) that the dispatcher does not handle
         itself: a release (not of a fixed period, finish-late, without hooks and jitter), an
         idle suspension ends, a jittered job is released, a time slice ends or a job is
         aborted at its deadline. True if ``running`` left the CPU."""
+        heapq.heappop(self._timers)
         kind = entry[4]
         job = entry[5]
         if kind == _RELEASE:

@@ -40,14 +40,12 @@ def top_jobs(
     totals: _Totals,
     seqs: Iterator[int],
     top_first: bool,
-    record_jobs: bool,
     last_release: float,
     count_response: Callable[[TaskStats, float, float], tuple[int, dict[int, int]]],
-    top_record: Callable[[_TaskState, int, float, float, float, bool], None],
+    top_record: Callable[[_TaskState, int, float, float, float, bool], None] | None,
 ) -> Callable[..., Booked | None]:
-    """The booking of the top task's jobs for one run of the dispatcher, which owns ``env``
-    (a plain SimPy environment, its events in ``queue``), the heaps, the totals and the
-    sequence numbers; ``top_first``: the policy's top task's job always comes first."""
+    """The booking for one run of the dispatcher (its environment, heaps, totals, ...; the
+    policy's top task comes first if ``top_first``; ``top_record``: None, no job records)."""
     top_resp, top_bin = math.nan, 0  # the latest response booked inline, its bin
     top_counts: dict[int, int] = {}  # (and the bins' counts)
 
@@ -62,8 +60,7 @@ def top_jobs(
         tol: float,
         tol_next: float,
     ) -> Booked | None:
-        """Book ``top``'s job if it can be (the dispatcher's state is passed); None if not:
-        its `Job` is then in the ready heap, for the general dispatch."""
+        """Book ``top``'s job if it can be (module doc); None if not: its `Job` is ready."""
         nonlocal top_resp, top_bin, top_counts
         st, k, r, seq = top
         limit = now + tol  # (what is due by limit happens at now)
@@ -78,18 +75,13 @@ def top_jobs(
             )
         nxt_job = running  # the first in the ready order after it, at f = now + c
         from_ready = False
-        if ready and (  # (key, tie) < running's, the common "key greater" case first:
-            running is None
-            or (
-                ready[0][0] <= running.key
-                and (ready[0][0] < running.key or ready[0][1] < running.tie)
-            )
-        ):
-            nxt_job = ready[0][2]
-            from_ready = True
-        top_n = 0  # responses equal to top_resp booked here, not yet in their bin
-        moved = False
-        nxt = None
+        if ready:  # (key, tie) < running's? (the common "key greater" case first)
+            h = ready[0]
+            if running is None or (
+                h[0] <= running.key and (h[0] < running.key or h[1] < running.tie)
+            ):
+                nxt_job, from_ready = h[2], True
+        top_n, moved, nxt = 0, False, None  # (top_n: responses = top_resp not yet in the bin)
         while True:
             x = st.fast_start + now_lag  # type: ignore[operator]
             f = now + x
@@ -122,8 +114,7 @@ def top_jobs(
                     heappush(ready, (running.key, running.tie, running))
             if from_ready:
                 heappop(ready)
-            # its completion at f: the booking of step 1 and CPU._complete, without a Job
-            totals.busy += f - now
+            totals.busy += f - now  # its completion at f: step 1 and CPU._complete, no Job
             resp = f - r
             stats.completed += 1
             stats.sum_response += resp
@@ -140,7 +131,7 @@ def top_jobs(
                     stats.max_response = resp
                 top_resp = resp
                 top_bin, top_counts = count_response(stats, resp, deadline - r)
-            if record_jobs:
+            if top_record is not None:
                 top_record(st, k, r, now, f, f > deadline + tol)
             now = work_start = f  # (env._now is set where the clock stops)
             now_lag = work_lag = f_lag
@@ -154,10 +145,8 @@ def top_jobs(
                 totals.switches += 1
                 run_end, run_lag = _INF, 0.0
             running = nxt_job
-            # What nearly always comes next, done here as the loop would: 4. the wait, for
-            # a timer before the running job's end; 1. nothing ends; 2. the timer is the top
-            # task's next release (under fp) and no other timer is due with it. Any other
-            # case, and a wider coincidence window (a new binade), goes on at the loop's top.
+            # What nearly always comes next, as the loop would do it (4. the wait; 1.; 2. the
+            # top task's release alone: module doc); else on at the loop's top.
             if not (
                 timers
                 and (t_next := timers[0][0]) < run_end
