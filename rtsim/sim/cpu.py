@@ -8,10 +8,10 @@ and the running job; at each instant it (1) ends the running segment if its work
 (2) handles the timers due (idle suspensions ending, aborts, the window's release, other
 releases by priority, ends of time slices), (3) gives the CPU to the first eligible job if
 the policy says it preempts, and (4) waits for the earlier of the segment's end and the
-next timer. Preemption is bookkeeping, not interrupts. Jobs of a simple top task may be
-booked inline, bit-identically (docs/cpu-events.md). The rooms: this module (dispatch and
-the jobs' bookkeeping), `rtsim.sim.resources` (the resource protocols) and
-`rtsim.sim.slices` (time slices).
+next timer. Preemption is bookkeeping, not interrupts. The rooms: this module (dispatch and
+the jobs' bookkeeping), `rtsim.sim.inline` (jobs of a simple top task booked inline,
+bit-identically), `rtsim.sim.resources` (the resource protocols) and `rtsim.sim.slices`
+(time slices).
 """
 
 from __future__ import annotations

@@ -44,8 +44,7 @@ def top_jobs(
     count_response: Callable[[TaskStats, float, float], tuple[int, dict[int, int]]],
     top_record: Callable[[_TaskState, int, float, float, float, bool], None] | None,
 ) -> Callable[..., Booked | None]:
-    """The booking for one run of the dispatcher (its environment, heaps, totals, ...; the
-    policy's top task comes first if ``top_first``; ``top_record``: None, no job records)."""
+    """The booking for a run of the dispatcher (module doc; no job records: no top_record)."""
     top_resp, top_bin = math.nan, 0  # the latest response booked inline, its bin
     top_counts: dict[int, int] = {}  # (and the bins' counts)
 
@@ -64,7 +63,8 @@ def top_jobs(
         nonlocal top_resp, top_bin, top_counts
         st, k, r, seq = top
         limit = now + tol  # (what is due by limit happens at now)
-        stats = st.stats
+        stats, c = st.stats, st.fast_start  # (constant for the run, as these:)
+        first, period, rel_deadline = st.first, st.period, st.deadline
         job = None  # (it wins under fp; under another policy if it comes first and preempts)
         wins = True
         if not top_first:
@@ -83,7 +83,7 @@ def top_jobs(
                 nxt_job, from_ready = h[2], True
         top_n, moved, nxt = 0, False, None  # (top_n: responses = top_resp not yet in the bin)
         while True:
-            x = st.fast_start + now_lag  # type: ignore[operator]
+            x = c + now_lag  # type: ignore[operator]
             f = now + x
             y = f - now
             f_lag = (now - (f - y)) + (x - y)
@@ -118,7 +118,7 @@ def top_jobs(
             resp = f - r
             stats.completed += 1
             stats.sum_response += resp
-            deadline = r + st.deadline
+            deadline = r + rel_deadline
             if f > deadline + tol:
                 stats.misses += 1
             if resp == top_resp:  # (nearly always: its bin exists, the maximum is at least
@@ -164,7 +164,7 @@ def top_jobs(
             k = st.k  # the release of step 2's fast path (stats.max_backlog is 1 already)
             st.k = k + 1
             r = st.next_release
-            after = st.first + st.k * st.period
+            after = first + st.k * period
             if after < last_release:
                 st.next_release = after
                 heapreplace(timers, (after, st.rank, st.priority, st.index, _RELEASE, st))
