@@ -361,7 +361,7 @@ class CPU(ResourceProtocols, TimeSlices):
         ovh, res, sliced = self.overhead, self._res_on, self.quantum is not None
         preempts, by_key = self.policy.preempts, self._by_key  # (by_key: the test inline)
         last_release = self._last_release  # (jobs are released in [t0, end))
-        plain, has_abort, jump, queue, inline_ok, book = self._modes()
+        plain, jump, queue, inline_ok, book = self._modes()
         top: Top | None = None  # a job of the top task released at now, for step 3
         running: Job | None = None
         last: Job | None = None  # (the job that ran last: a switch to another costs overhead)
@@ -376,25 +376,25 @@ class CPU(ResourceProtocols, TimeSlices):
             limit = now + tol  # what is due by limit happens at now
             # 1. the running segment ends (run_end is finite only while a started one runs)
             if run_end <= limit:
-                assert running is not None and running.rem is not None
+                job: Job = running  # type: ignore[assignment]  # (run_end finite: a job runs)
                 if plain:
                     worked = now - work_start
-                    running.executed += worked
+                    job.executed += worked
                     totals.busy += worked
-                    running.rem = 0.0
+                    job.rem = 0.0
                 else:
-                    self._close_piece(running, piece_start, work_start, now, done=True)
+                    self._close_piece(job, piece_start, work_start, now, done=True)
                 piece_start = work_start = now
                 run_end, work_lag = _INF, now_lag
-                st = running._st
+                st = job._st
                 if st.simple:
-                    self._complete(running, now)
+                    self._complete(job, now)
                     running = None
-                elif st.plain_next[running.seg_index]:  # _segment_done without a hook
-                    running.seg_index += 1
-                    running.rem = None
+                elif st.plain_next[job.seg_index]:  # _segment_done without a hook
+                    job.seg_index += 1
+                    job.rem = None
                 else:
-                    running, run_end, run_lag = self._segment_ends(running, now, now_lag, work_lag)
+                    running, run_end, run_lag = self._segment_ends(job, now, now_lag, work_lag)
             # 2. timers due (then t_next: the next timer)
             while timers and (t_next := timers[0][0]) <= limit:
                 entry = timers[0]  # (popped below: a release's successor replaces it)
@@ -444,8 +444,6 @@ class CPU(ResourceProtocols, TimeSlices):
                     state = (running, last, piece_start, work_start, work_lag, run_end, run_lag)
                     state = self._res_dispatch(state, now, now_lag)
                     running, last, piece_start, work_start, work_lag, run_end, run_lag = state
-                while has_abort and ready and ready[0][2].aborted:
-                    heappop(ready)
                 if ready and not res:  # the switch, inline on purpose (folding it with the
                     key = ready[0][0]  # one above, by calls, costs 3-4 % in bench_sim)
                     if running is None or (key < running.key if by_key else preempts(key, running)):
@@ -502,10 +500,10 @@ class CPU(ResourceProtocols, TimeSlices):
             yield env.timeout(target - now if target > now else 0.0)
             now = target
 
-    def _modes(self) -> tuple[bool, bool, bool, list[Any], bool, Callable[..., Booked | None]]:
+    def _modes(self) -> tuple[bool, bool, list[Any], bool, Callable[..., Booked | None]]:
         """The dispatcher's set-up: (plain: no trace and no overhead, so progress is booked
-        inline; a task aborts; jump: the clock can be moved without SimPy; SimPy's queue;
-        inline_ok: top-task jobs may be booked inline; the function that books them)."""
+        inline; jump: the clock can be moved without SimPy; SimPy's queue; inline_ok: top-task
+        jobs may be booked inline; the function that books them, `rtsim.sim.inline`)."""
         env = self.env
         plain = not self.record_trace and self.overhead == 0.0
         has_abort = any(st.policy == "abort" for st in self._states)
@@ -528,7 +526,7 @@ class CPU(ResourceProtocols, TimeSlices):
             self._count_response,
             self._top_record if self.record_jobs else None,
         )
-        return plain, has_abort, jump, queue, inline_ok, book
+        return plain, jump, queue, inline_ok, book
 
     def _segment_ends(
         self, job: Job, now: float, now_lag: float, work_lag: float
@@ -962,6 +960,9 @@ class CPU(ResourceProtocols, TimeSlices):
             if job in self._blocked:
                 self._unblock(job, now)
         job.aborted = True
+        if any(e[2] is job for e in self._ready):  # it leaves the ready heap at once
+            self._ready[:] = [e for e in self._ready if e[2] is not job]
+            heapq.heapify(self._ready)
         st.stats.aborted += 1
         st.stats.misses += 1
         st.stats.preemptions += job.preemptions
