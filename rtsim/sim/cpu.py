@@ -514,18 +514,8 @@ class CPU(ResourceProtocols, TimeSlices):
         # Inline jobs of the top task (docs/cpu-events.md; step 3): only without trace,
         # overhead, aborts and sections, and only when the clock can be moved without SimPy.
         inline_ok = plain and jump and not has_abort and not self._res_on
-        book = top_jobs(
-            env,
-            self._timers,
-            self._ready,
-            queue,
-            self._totals,
-            self._seq,
-            self.policy.top_task_first,
-            self._last_release,
-            self._count_response,
-            self._top_record if self.record_jobs else None,
-        )
+        record = self._top_record if self.record_jobs else None
+        book = top_jobs(self, queue, self.policy.top_task_first, record)
         return plain, jump, queue, inline_ok, book
 
     def _segment_ends(

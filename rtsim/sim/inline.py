@@ -6,8 +6,8 @@ task, runs of inline jobs). If nothing can happen while the job runs, that funct
 the preemption at now, the completion at f = now + c and the dispatch at f in one step, with
 the same float operations in the same order as the general path, then goes on to the top
 task's next release itself while that is the next thing to happen. Any other case goes back
-to the dispatcher's loop, in the state the loop would have there. A closure, not a method:
-its constants cost nothing per call (the call is made for every run of inline jobs).
+to the dispatcher's loop, in the state the loop would have there. The call is made for every
+run of inline jobs, so its constants are bound once per run (default arguments: locals).
 """
 
 from __future__ import annotations
@@ -15,12 +15,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from heapq import heappop, heappush, heapreplace
-from typing import Any
+from typing import Any, Protocol
 
 from rtsim.sim.job import _RELEASE, Job, _TaskState, _Totals
 from rtsim.sim.records import TaskStats
 
-__all__ = ["Booked", "Top", "top_jobs"]
+__all__ = ["Booked", "Dispatcher", "Top", "top_jobs"]
 
 _INF = math.inf
 
@@ -32,23 +32,33 @@ Top = tuple[_TaskState, int, float, int]
 Booked = tuple[bool, Top | None, Job | None, float, float, float, float, float]
 
 
+class Dispatcher(Protocol):
+    """What `top_jobs` takes from the CPU whose run it books (`rtsim.sim.cpu.CPU`)."""
+
+    env: Any  # (a plain SimPy environment)
+    _timers: list[tuple[Any, ...]]
+    _ready: list[tuple[Any, Any, Job]]
+    _totals: _Totals
+    _last_release: float
+
+    @property
+    def _seq(self) -> Iterator[int]: ...
+
+    def _count_response(
+        self, stats: TaskStats, resp: float, rel_deadline: float
+    ) -> tuple[int, dict[int, int]]: ...
+
+
 def top_jobs(
-    env: Any,
-    timers: list[tuple[Any, ...]],
-    ready: list[tuple[Any, Any, Job]],
+    cpu: Dispatcher,
     queue: list[Any],
-    totals: _Totals,
-    seqs: Iterator[int],
     top_first: bool,
-    last_release: float,
-    count_response: Callable[[TaskStats, float, float], tuple[int, dict[int, int]]],
     top_record: Callable[[_TaskState, int, float, float, float, bool], None] | None,
 ) -> Callable[..., Booked | None]:
-    """The booking for a run of the dispatcher (module doc; no job records: no top_record)."""
-    top_resp, top_bin = math.nan, 0  # the latest response booked inline, its bin
-    top_counts: dict[int, int] = {}  # (and the bins' counts)
+    """The booking for a run of ``cpu`` (module doc; ``top_record`` None: no job records)."""
+    top_resp, top_bin, top_counts = math.nan, 0, dict[int, int]()  # the latest response, its bin
 
-    def book(
+    def book(  # (the dispatcher's state, then its constants bound as locals for the run)
         top: Top,
         running: Job | None,
         now: float,
@@ -58,6 +68,15 @@ def top_jobs(
         t_next: float,
         tol: float,
         tol_next: float,
+        env: Any = cpu.env,
+        timers: list[tuple[Any, ...]] = cpu._timers,
+        ready: list[tuple[Any, Any, Job]] = cpu._ready,
+        queue: list[Any] = queue,
+        totals: _Totals = cpu._totals,
+        seqs: Iterator[int] = cpu._seq,
+        top_first: bool = top_first,
+        last_release: float = cpu._last_release,
+        top_record: Callable[..., None] | None = top_record,
     ) -> Booked | None:
         """Book ``top``'s job if it can be (module doc); None if not: its `Job` is ready."""
         nonlocal top_resp, top_bin, top_counts
@@ -65,16 +84,14 @@ def top_jobs(
         limit = now + tol  # (what is due by limit happens at now)
         stats, c = st.stats, st.fast_start  # (constant for the run, as these:)
         first, period, rel_deadline = st.first, st.period, st.deadline
-        job = None  # (it wins under fp; under another policy if it comes first and preempts)
-        wins = True
+        job, wins = None, True  # (it wins under fp; else if it comes first and preempts)
         if not top_first:
             job = Job(st, k, r, r + st.deadline, st.period, seq)
             jk = job.key
             wins = (running is None or jk < running.key) and (
                 not ready or jk < ready[0][0] or (jk == ready[0][0] and job.tie < ready[0][1])
             )
-        nxt_job = running  # the first in the ready order after it, at f = now + c
-        from_ready = False
+        nxt_job, from_ready = running, False  # the first in the ready order after it, at f
         if ready:  # (key, tie) < running's? (the common "key greater" case first)
             h = ready[0]
             if running is None or (
@@ -130,7 +147,7 @@ def top_jobs(
                 if stats.max_response is None or resp > stats.max_response:
                     stats.max_response = resp
                 top_resp = resp
-                top_bin, top_counts = count_response(stats, resp, deadline - r)
+                top_bin, top_counts = cpu._count_response(stats, resp, deadline - r)
             if top_record is not None:
                 top_record(st, k, r, now, f, f > deadline + tol)
             now = work_start = f  # (env._now is set where the clock stops)
