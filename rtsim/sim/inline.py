@@ -85,12 +85,6 @@ def top_jobs(
         stats, c = st.stats, st.fast_start  # (constant for the run, as these:)
         first, period, rel_deadline = st.first, st.period, st.deadline
         job, wins = None, True  # (it wins under fp; else if it comes first and preempts)
-        if not top_first:
-            job = Job(st, k, r, r + st.deadline, st.period, seq)
-            jk = job.key
-            wins = (running is None or jk < running.key) and (
-                not ready or jk < ready[0][0] or (jk == ready[0][0] and job.tie < ready[0][1])
-            )
         nxt_job, from_ready = running, False  # the first in the ready order after it, at f
         if ready:  # (key, tie) < running's? (the common "key greater" case first)
             h = ready[0]
@@ -100,6 +94,12 @@ def top_jobs(
                 nxt_job, from_ready = h[2], True
         top_n, moved, nxt = 0, False, None  # (top_n: responses = top_resp not yet in the bin)
         while True:
+            if not top_first:  # (its key, a deadline, is compared with the others')
+                job = Job(st, k, r, r + rel_deadline, period, seq)
+                jk = job.key
+                wins = (running is None or jk < running.key) and (
+                    not ready or jk < ready[0][0] or (jk == ready[0][0] and job.tie < ready[0][1])
+                )
             x = c + now_lag  # type: ignore[operator]
             f = now + x
             y = f - now
@@ -112,13 +112,12 @@ def top_jobs(
                 and (not queue or queue[0][0] > f)
                 and (nxt_job is None or nxt_job.rem is not None)
             ):
-                if moved:  # (the loop's top comes back here in this state, and says no)
-                    nxt = (st, k, r, seq)
-                    break
-                if job is None:
-                    job = Job(st, k, r, r + st.deadline, st.period, seq)
+                if job is None:  # not booked: its Job is ready, for the general dispatch
+                    job = Job(st, k, r, r + rel_deadline, period, seq)
                 st.pending.append(job)
                 heappush(ready, (job.key, job.tie, job))
+                if moved:  # (at the new instant, where the loop's top finds nothing due)
+                    break
                 return None
             if running is not None:  # preempted at now
                 if running.rem is not None and now > work_start:
@@ -176,7 +175,7 @@ def top_jobs(
             now_lag = 0.0
             moved = True
             limit = now + tol
-            if now >= tol_next or not top_first or timers[0][5] is not st or run_end <= limit:
+            if now >= tol_next or timers[0][5] is not st or run_end <= limit:
                 break
             k = st.k  # the release of step 2's fast path (stats.max_backlog is 1 already)
             st.k = k + 1
