@@ -48,6 +48,7 @@ from rtsim.plots.scenario_data import (
     times_s,
     violation_ratios,
 )
+from rtsim.plots.sketch import FigureSketch
 from rtsim.plots.style import COLUMN_IN, PAGE_IN, few, paper
 from rtsim.plots.style import DPI as _PRINT_DPI
 
@@ -236,6 +237,17 @@ def _dots(ax: Axes, t: np.ndarray, y: np.ndarray, top: float, fmt: str, **kw: An
     return line
 
 
+def _dot_data(
+    df: pd.DataFrame, sketch: FigureSketch | None, name: str, values: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """A dot series' times (s) and ``values``: the table's rows, or the ``sketch``'s dots
+    of series ``name`` (`FigureSketch`)."""
+    if sketch is None:
+        return times_s(df), values
+    t, v = sketch.dots.get(name, (np.zeros(0), np.zeros(0)))
+    return t / 1000.0, v
+
+
 def _ylimit(values: list[np.ndarray], w_sch: np.ndarray, factor: float) -> float:
     """Top of the y-axis (ms): a little above the finite data, at most ``factor`` × w_sch."""
     finite = np.concatenate([v[np.isfinite(v)] for v in values] + [np.zeros(1)])
@@ -312,15 +324,23 @@ def _wsch_line(ax: Axes, df: pd.DataFrame) -> None:
 # --- drawers (one axes each; shared by the single figures and plot_modes) ---------------
 
 
-def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_paths(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
+    """The paths; with a ``sketch`` (a long run) its lines and scatters instead of every
+    row's positions."""
     figure_data(df, "paths")  # validates the columns
-    crit = as_bool(df["critical"])
     lx, ly = as_floats(df["leader_x"]), as_floats(df["leader_y"])
-    bx, by = binding_xy(df)
+    if sketch is None:
+        crit = as_bool(df["critical"])
+        bx, by = binding_xy(df)
+        cx, cy = bx[crit], by[crit]
+    else:
+        cx, cy = sketch.points["critical"]
     where = "at the binding follower" if "binding" in df.columns else "on leader path"
     ax.scatter(
-        bx[crit],
-        by[crit],
+        cx,
+        cy,
         s=30,
         color=COLORS["critical"],
         alpha=0.5,
@@ -329,20 +349,32 @@ def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
         label=f"critical windows ({where})",
         zorder=1,
     )
-    ax.plot(lx, ly, color=COLORS["leader"], lw=1.4, label="leader", zorder=3)
+    ax.plot(
+        *((lx, ly) if sketch is None else sketch.lines["leader"]),
+        color=COLORS["leader"],
+        lw=1.4,
+        label="leader",
+        zorder=3,
+    )
     for k, i in enumerate(followers(df)):
         c = FOLLOWER_COLORS[k % len(FOLLOWER_COLORS)]
         ax.plot(
-            as_floats(df[f"f{i}_x"]),
-            as_floats(df[f"f{i}_y"]),
+            *(
+                (as_floats(df[f"f{i}_x"]), as_floats(df[f"f{i}_y"]))
+                if sketch is None
+                else sketch.lines[f"f{i}"]
+            ),
             color=c,
             lw=1.2,
             label=f"follower {i}",
             zorder=3,
         )
         ax.scatter(
-            as_floats(df[f"f{i}_x_est"]),
-            as_floats(df[f"f{i}_y_est"]),
+            *(
+                (as_floats(df[f"f{i}_x_est"]), as_floats(df[f"f{i}_y_est"]))
+                if sketch is None
+                else sketch.points[f"f{i}_est"]
+            ),
             s=6,
             color=c,
             alpha=0.3,
@@ -420,12 +452,13 @@ def _bounds_top(df: pd.DataFrame) -> float:
     return _ylimit(values, as_floats(data["w_sch"]), BOUNDS_CLIP)
 
 
-def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_bounds(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
     data = figure_data(df, "bounds")
     top = top if top is not None else _bounds_top(df)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
     values = []
-    t = times_s(df)
     for kind in BOUND_KINDS:
         y = as_floats(data[f"bound_{kind}_pred"])
         values.append(y)
@@ -440,11 +473,12 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
         )
         yt = as_floats(data[f"bound_{kind}_true"])
         values.append(yt)
-        shown = yt <= top
+        dt, dv = _dot_data(df, sketch, f"bound_{kind}_true", yt)
+        shown = dv <= top
         _dots(
             ax,
-            t[shown],
-            yt[shown],
+            dt[shown],
+            dv[shown],
             top,
             ".",
             color=COLORS[kind],
@@ -470,14 +504,15 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     _time_axes(ax, df, "bound on w (ms), min over followers")
 
 
-def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_msb(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
     data = figure_data(df, "msb")
     w_sch = as_floats(data["w_sch"])
     pred, true = as_floats(data["msb_min"]), as_floats(data["msb_min_true"])
     w = as_floats(data["w"])
     top = top if top is not None else _ylimit([pred, w], w_sch, BOUNDS_CLIP)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
-    t = times_s(df)
     _step(
         ax,
         df,
@@ -487,11 +522,12 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
         gid="msb_pred",
         label="min MSB at $V_{Ld}$, predicted",
     )
-    shown = true <= top
+    dt, dv = _dot_data(df, sketch, "msb_min_true", true)
+    shown = dv <= top
     _dots(
         ax,
-        t[shown],
-        true[shown],
+        dt[shown],
+        dv[shown],
         top,
         ".",
         color=COLORS["msb_min"],
@@ -515,18 +551,24 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     kinds = text_field(data["binding"])
     for kind in BOUND_KINDS:
         sel = crit & (kinds == kind) & (pred <= top)
-        if sel.any():
+        dt, dv = _dot_data(df, sketch, f"binding_{kind}", pred)
+        if sketch is None:
+            dt, dv, count = dt[sel], dv[sel], int(sel.sum())
+        else:
+            sel = dv <= top
+            dt, dv, count = dt[sel], dv[sel], sketch.counts.get(f"binding_{kind}", 0)
+        if count:
             _dots(
                 ax,
-                t[sel],
-                pred[sel],
+                dt,
+                dv,
                 top,
                 "o",
                 ms=3.5,
                 color=COLORS[kind],
                 mec="none",
                 gid=f"binding_{kind}",
-                label=f"binding: {kind.replace('_', ' ')} ({int(sel.sum())})",
+                label=f"binding: {kind.replace('_', ' ')} ({count})",
             )
     ax.set_ylim(0, top)
     _note_clip(ax, [pred, w], top)
@@ -556,7 +598,9 @@ def _draw_speed(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     _time_axes(ax, df, "leader speed (cm/s)")
 
 
-def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_operating(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
     data = figure_data(df, "operating_space")
     w_sch = as_floats(data["w_sch"])
     msb, w = as_floats(data["msb_min"]), as_floats(data["w"])
@@ -605,11 +649,12 @@ def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> Non
         gid="pred_min",
         label="min MSB predicted at the leader's speed",
     )
-    shown = true <= top
+    dt, dv = _dot_data(df, sketch, "msb_min_true", true)
+    shown = dv <= top
     _dots(
         ax,
-        times_s(df)[shown],
-        true[shown],
+        dt[shown],
+        dv[shown],
         top,
         ".",
         color="#333333",
@@ -677,47 +722,80 @@ def _draw_plane(ax: Axes, df: pd.DataFrame, top: float) -> None:
 
 
 @paper
-def plot_paths(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+def plot_paths(
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
+) -> Figure:
     """Figs 8/12: the leader's and followers' true paths, estimates faint, critical windows
-    drawn where the binding follower was (`binding_xy`)."""
+    drawn where the binding follower was (`binding_xy`); from a long run's ``sketch``
+    (`rtsim.plots.scenario_data.read_figures`) if given."""
     fig, ax, own = _new_figure(ax, (COLUMN_IN, COLUMN_IN + 1.6))
-    _draw_paths(ax, df)
+    _draw_paths(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title)
 
 
 @paper
 def plot_window_slack(
-    df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
 ) -> Figure:
-    """Figs 9/13: the processing window w and the slack (Eq 22) over time, w_sch for reference."""
+    """Figs 9/13: the processing window w and the slack (Eq 22) over time, w_sch for reference
+    (``sketch``: not needed, taken for a uniform call)."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
     _draw_window(ax, df)
     return _finish(fig, ax, own, title)
 
 
 @paper
-def plot_bounds(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+def plot_bounds(
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
+) -> Figure:
     """The per-kind detail of Figs 10/14 (`plot_msb` is the paper's picture): w_sch,
-    each MSB kind (min over followers, estimates) and w over time."""
+    each MSB kind (min over followers, estimates) and w over time; the dots from a long
+    run's ``sketch`` if given."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 3.2))
-    _draw_bounds(ax, df)
+    _draw_bounds(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title, note=BOUNDS_NOTE)
 
 
 @paper
-def plot_msb(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+def plot_msb(
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
+) -> Figure:
     """Figs 10/14 as the paper draws them: the minimum MSB over every follower and bound,
     predicted at the desired speed V_Ld (the decision's ``msb_min``) and as the truth showed
     it, against w_sch and w; in the critical windows a marker coloured by the binding bound.
-    The per-kind detail is [`plot_bounds`][rtsim.plots.scenario.plot_bounds]."""
+    The per-kind detail is [`plot_bounds`][rtsim.plots.scenario.plot_bounds]. The dots from
+    a long run's ``sketch`` if given."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
-    _draw_msb(ax, df)
+    _draw_msb(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title)
 
 
 @paper
-def plot_speed(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
-    """Figs 11/15: the desired and actual leader speed over time, turns shaded."""
+def plot_speed(
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
+) -> Figure:
+    """Figs 11/15: the desired and actual leader speed over time, turns shaded (``sketch``:
+    not needed, taken for a uniform call)."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 2.5))
     _draw_speed(ax, df)
     return _finish(fig, ax, own, title)
@@ -725,16 +803,22 @@ def plot_speed(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = 
 
 @paper
 def plot_operating_space(
-    df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None, plane: bool = True
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    plane: bool = True,
+    sketch: FigureSketch | None = None,
 ) -> Figure:
     """Fig 2's operating space over time: w_sch ≤ w ≤ min MSB, the critical region shaded.
 
     With ``plane`` (and no ``ax`` given) a second panel shows the (w_sch, min MSB) plane with
     the diagonal min MSB = w_sch that separates the safe area from the critical region.
+    The dots from a long run's ``sketch`` if given.
     """
     if ax is not None or not plane:
         fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
-        _draw_operating(ax, df)
+        _draw_operating(ax, df, sketch=sketch)
         return _finish(fig, ax, own, title)
     fig = new_figure(figsize=(PAGE_IN, 2.8), layout="constrained")
     ax_t, ax_p = fig.subplots(1, 2, width_ratios=[3, 1.1])
@@ -742,7 +826,7 @@ def plot_operating_space(
     top = _ylimit(
         [as_floats(data["msb_min"]), as_floats(data["w"])], as_floats(data["w_sch"]), BOUNDS_CLIP
     )
-    _draw_operating(ax_t, df, top)
+    _draw_operating(ax_t, df, top, sketch)
     _draw_plane(ax_p, df, top)
     return _finish(fig, ax_t, True, title)
 
@@ -905,11 +989,13 @@ def write_scenario_figures(
     data: bool = False,
     dpi: int = DPI,
     fmt: str = "png",
+    sketch: FigureSketch | None = None,
 ) -> list[Path]:
     """Write every figure of `SCENARIO_FIGURES` as ``<prefix><stem>.png`` in ``out_dir``.
 
     ``label`` (e.g. ``"Test 2, adjust"``) heads each title; with ``data`` each figure's
-    [`figure_data`][rtsim.plots.scenario.figure_data] is also written as ``<prefix><stem>.csv``.
+    [`figure_data`][rtsim.plots.scenario.figure_data] is also written as ``<prefix><stem>.csv``;
+    ``sketch``: a long run's paths and dots (`rtsim.plots.scenario_data.read_figures`).
     Returns the paths written.
     """
     import gc
@@ -918,7 +1004,9 @@ def write_scenario_figures(
     written: list[Path] = []
     for stem, plot in SCENARIO_FIGURES.items():
         title = f"{label}: {_TITLES[stem]}" if label else _TITLES[stem]
-        written.append(save_figure(plot(df, title=title), out / f"{prefix}{stem}.{fmt}", dpi=dpi))
+        fig = plot(df, title=title, sketch=sketch)
+        written.append(save_figure(fig, out / f"{prefix}{stem}.{fmt}", dpi=dpi))
+        del fig
         # a figure is a web of reference cycles: freed here, before the next is drawn,
         # not when the collector next runs (six figures of a long run held at once)
         gc.collect()
