@@ -214,6 +214,40 @@ class _Pieces(AbstractPathEffect):
                 renderer.draw_path(gc, p, affine, rgbFace)
 
 
+#: Most times a sketched path is drawn over itself (`_Retraced`).
+RETRACE_PASSES = 16
+
+
+class _Retraced(AbstractPathEffect):
+    """Draw a path ``k`` times over itself: a path a long run retraced lap after lap, drawn
+    once from its sketch (`rtsim.plots.sketch.LineSketch`), gets the edges its laps' opaque
+    antialiased strokes piled up to (each pass composites the edge pixels' coverage again)."""
+
+    def __init__(self, k: int) -> None:
+        super().__init__()
+        self.k = k
+
+    def draw_path(
+        self,
+        renderer: Any,
+        gc: Any,
+        tpath: MplPath,
+        affine: Any,
+        rgbFace: Any = None,  # noqa: N803 - matplotlib's name
+    ) -> None:
+        for _ in range(self.k):
+            renderer.draw_path(gc, tpath, affine, rgbFace)
+
+
+def _sketched_line(ax: Axes, sketch: FigureSketch, name: str, **kw: Any) -> None:
+    """A path of the ``sketch`` drawn as often over itself as its laps (at most
+    `RETRACE_PASSES`)."""
+    (line,) = ax.plot(*sketch.lines[name], **kw)
+    k = int(min(RETRACE_PASSES, max(1, round(sketch.passes.get(name, 1.0)))))
+    if k > 1:
+        line.set_path_effects([_Retraced(k)])
+
+
 def _step(ax: Axes, df: pd.DataFrame, y: np.ndarray, **kw: object) -> Line2D:
     """``y`` held over each window (`_held`), through the points `line_points` keeps;
     rasterized in pieces when long (`_Pieces`)."""
@@ -349,26 +383,18 @@ def _draw_paths(
         label=f"critical windows ({where})",
         zorder=1,
     )
-    ax.plot(
-        *((lx, ly) if sketch is None else sketch.lines["leader"]),
-        color=COLORS["leader"],
-        lw=1.4,
-        label="leader",
-        zorder=3,
-    )
+    leader: dict[str, Any] = {"color": COLORS["leader"], "lw": 1.4, "label": "leader", "zorder": 3}
+    if sketch is None:
+        ax.plot(lx, ly, **leader)
+    else:
+        _sketched_line(ax, sketch, "leader", **leader)
     for k, i in enumerate(followers(df)):
         c = FOLLOWER_COLORS[k % len(FOLLOWER_COLORS)]
-        ax.plot(
-            *(
-                (as_floats(df[f"f{i}_x"]), as_floats(df[f"f{i}_y"]))
-                if sketch is None
-                else sketch.lines[f"f{i}"]
-            ),
-            color=c,
-            lw=1.2,
-            label=f"follower {i}",
-            zorder=3,
-        )
+        line: dict[str, Any] = {"color": c, "lw": 1.2, "label": f"follower {i}", "zorder": 3}
+        if sketch is None:
+            ax.plot(as_floats(df[f"f{i}_x"]), as_floats(df[f"f{i}_y"]), **line)
+        else:
+            _sketched_line(ax, sketch, f"f{i}", **line)
         ax.scatter(
             *(
                 (as_floats(df[f"f{i}_x_est"]), as_floats(df[f"f{i}_y_est"]))

@@ -229,10 +229,17 @@ FIGURE_ROWS = 16_384
 #: the paths figure's axes are under 1,100 px wide at 300 dpi, so a cell is under half a
 #: pixel.
 FIGURE_PATH_CELLS = 2048
-#: Cells across the same extent for the translucent scatters (`PointSketch`) and the
-#: points each keeps at most (alpha 0.3 piled 16 deep leaves under 1/255 to add).
-FIGURE_POINT_CELLS = 1024
-FIGURE_POINTS_PER_CELL = 16
+#: Cells across the same extent for the translucent scatters (`PointSketch`), about two
+#: pixels, and the points each keeps at most: a marker is about 10 px wide, so a pixel in
+#: a full cell's neighbourhood lies under dozens of kept markers (alpha 0.3 or 0.5: under
+#: 1 % of the colour left to add).
+FIGURE_POINT_CELLS = 512
+FIGURE_POINTS_PER_CELL = 8
+#: A sketched dot series' cells (`DotSketch`): this many time bins by this many
+#: `FIGURE_DOT_CELL` bands, holding at most `FIGURE_DOTS_PER_CELL` dots each.
+FIGURE_DOT_BINS = 1
+FIGURE_DOT_BANDS = 1
+FIGURE_DOTS_PER_CELL = 1
 
 #: The plotted values whose extremes a thinned table keeps, by name (each follower's bound
 #: columns too, and the minima over followers `reduce_chunk` adds).
@@ -484,12 +491,15 @@ class _Sketcher:
             return
         t = as_floats(df["t"])
         for name, drawn in _dot_series(df, self.top):
-            sk = self.dots.setdefault(name, DotSketch(self.cell))
+            sk = self.dots.setdefault(
+                name, DotSketch(self.cell * FIGURE_DOT_BANDS, FIGURE_DOT_BINS, FIGURE_DOTS_PER_CELL)
+            )
             sk.add(bins[drawn], t[drawn], _dot_values(df, name)[drawn])
 
     def sketch(self) -> FigureSketch:
         return FigureSketch(
             lines={r: s.xy() for r, s in self.lines.items()},
+            passes={r: s.passes() for r, s in self.lines.items()},
             points={r: s.xy() for r, s in self.points.items()},
             dots={r: s.tv() for r, s in self.dots.items()},
             counts={r: s.count for r, s in self.dots.items()},

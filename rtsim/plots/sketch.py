@@ -52,15 +52,21 @@ def _merge_counts(
 
 
 class LineSketch:
-    """An opaque polyline fed in order, keeping a segment between consecutive points only
-    when a point sampled along it (at most ``grid.cell`` apart) falls in a cell no earlier
-    kept segment's samples fell in: a lap retracing the path within a cell adds nothing.
-    Kept segments form runs separated by NaN (a break in a matplotlib line). At most one
-    kept segment per cell of the grid, whatever the run's length."""
+    """An opaque polyline fed in order, keeping a segment between consecutive points unless
+    every point sampled along it (at most ``grid.cell`` apart) falls in a cell first
+    crossed more than ``lag`` segments before: a lap retracing the path within a cell
+    adds nothing, while the path's own consecutive segments (which share cells) are all
+    kept. Kept segments form runs separated by NaN (a break in a matplotlib line). Each
+    kept segment crosses a cell first crossed at most ``lag`` segments before, so at most
+    ``lag`` + 1 segments are kept per cell of the grid, whatever the run's length."""
 
-    def __init__(self, grid: Grid) -> None:
+    def __init__(self, grid: Grid, lag: int = 64) -> None:
         self.grid = grid
-        self.seen = np.zeros(0, dtype=np.int64)
+        self.lag = lag
+        self.seen = np.zeros(0, dtype=np.int64)  # cells crossed, sorted
+        self.first = np.zeros(0, dtype=np.int64)  # the segment that first crossed each
+        self.base = 0  # segments fed before this chunk
+        self.kept = 0  # segments kept
         self.last: tuple[float, float] | None = None
         self.open = False  # the last point is the end of a kept segment
         self.xs: list[np.ndarray] = []
@@ -77,21 +83,30 @@ class LineSketch:
         if m < 2:
             return
         ok = np.isfinite(x) & np.isfinite(y)
-        valid = ok[:-1] & ok[1:]
-        seg = np.flatnonzero(valid)
+        seg = np.flatnonzero(ok[:-1] & ok[1:])
         dx, dy = np.diff(x)[seg], np.diff(y)[seg]
         n = np.ceil(np.hypot(dx, dy) / self.grid.cell).astype(np.int64) + 1
         owner = np.repeat(np.arange(len(seg)), n)
         start = np.repeat(np.cumsum(n) - n, n)
         frac = (np.arange(len(owner)) - start) / np.maximum(np.repeat(n, n) - 1, 1)
-        sx = x[seg][owner] + frac * dx[owner]
-        sy = y[seg][owner] + frac * dy[owner]
-        ids = self.grid.ids(sx, sy)
-        uniq, first = np.unique(ids, return_index=True)
-        fresh = ~np.isin(uniq, self.seen, assume_unique=True)
+        ids = self.grid.ids(x[seg][owner] + frac * dx[owner], y[seg][owner] + frac * dy[owner])
+        g = self.base + seg[owner]  # each sample's segment, counted over the whole line
+        uniq, inv = np.unique(ids, return_inverse=True)
+        first = np.full(len(uniq), np.iinfo(np.int64).max)
+        np.minimum.at(first, inv, g)
+        known = np.zeros(len(uniq), dtype=bool)
+        if len(self.seen):
+            at = np.minimum(np.searchsorted(self.seen, uniq), len(self.seen) - 1)
+            known = self.seen[at] == uniq
+            first[known] = self.first[at[known]]
+        young = first[inv] >= g - self.lag
         kept = np.zeros(m - 1, dtype=bool)
-        kept[seg[np.unique(owner[first[fresh]])]] = True
-        self.seen = np.union1d(self.seen, uniq[fresh])
+        kept[seg[np.unique(owner[young])]] = True
+        cells = np.r_[self.seen, uniq[~known]]
+        order = np.argsort(cells, kind="stable")
+        self.seen, self.first = cells[order], np.r_[self.first, first[~known]][order]
+        self.base += m - 1
+        self.kept += int(np.count_nonzero(kept))
         prev = np.r_[False, kept]  # vertex j ends kept segment j - 1
         nxt = np.r_[kept, False]  # vertex j starts kept segment j
         drawn = prev | nxt
@@ -111,17 +126,52 @@ class LineSketch:
             return np.zeros(0), np.zeros(0)
         return np.concatenate(self.xs), np.concatenate(self.ys)
 
+    def passes(self) -> float:
+        """Segments fed per segment kept: about how often the path was traced."""
+        return self.base / self.kept if self.kept else 1.0
 
-class PointSketch:
-    """A scatter fed in order, keeping a point while its grid cell holds fewer than ``cap``
-    kept points: translucent markers piled ``cap`` deep in a cell under a pixel wide look
-    as more would (alpha 0.3: 0.7¹⁶ < 1/255 of the colour left to add)."""
 
-    def __init__(self, grid: Grid, cap: int) -> None:
-        self.grid = grid
+class _Cells:
+    """Kept items per cell (sorted cell numbers and counts): `take` keeps, in order, the
+    items whose cell holds fewer than ``cap`` kept ones."""
+
+    def __init__(self, cap: int) -> None:
         self.cap = cap
         self.ids = np.zeros(0, dtype=np.int64)
         self.counts = np.zeros(0, dtype=np.int64)
+
+    def take(self, ids: np.ndarray) -> np.ndarray:
+        order = np.argsort(ids, kind="stable")
+        s = ids[order]
+        starts = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
+        rank = np.empty(len(s), dtype=np.int64)
+        rank[order] = np.arange(len(s)) - np.repeat(starts, np.diff(np.r_[starts, len(s)]))
+        prior = np.zeros(len(ids), dtype=np.int64)  # items kept in each one's cell before
+        if len(self.ids):
+            at = np.minimum(np.searchsorted(self.ids, ids), len(self.ids) - 1)
+            hit = self.ids[at] == ids
+            prior[hit] = self.counts[at[hit]]
+        keep = prior + rank < self.cap
+        self.ids, self.counts = _merge_counts(self.ids, self.counts, ids[keep], self.cap)
+        return keep
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def forget_below(self, cell: int) -> None:
+        """Drop the counts of the cells numbered below ``cell`` (no item will fall there)."""
+        at = int(np.searchsorted(self.ids, cell))
+        self.ids, self.counts = self.ids[at:].copy(), self.counts[at:].copy()
+
+
+class PointSketch:
+    """A scatter fed in order, keeping a point (as float32) while its grid cell holds fewer
+    than ``cap`` kept points: where a cell a few pixels wide is full, the markers (wider than the cell)
+    piled from it and its neighbours already cover each pixel many times over."""
+
+    def __init__(self, grid: Grid, cap: int) -> None:
+        self.grid = grid
+        self.cells = _Cells(cap)
         self.xs: list[np.ndarray] = []
         self.ys: list[np.ndarray] = []
 
@@ -130,21 +180,9 @@ class PointSketch:
         x, y = x[ok], y[ok]
         if not len(x):
             return
-        ids = self.grid.ids(x, y)
-        order = np.argsort(ids, kind="stable")
-        s = ids[order]
-        starts = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
-        rank = np.empty(len(s), dtype=np.int64)
-        rank[order] = np.arange(len(s)) - np.repeat(starts, np.diff(np.r_[starts, len(s)]))
-        prior = np.zeros(len(ids), dtype=np.int64)  # points kept in each one's cell before
-        if len(self.ids):
-            at = np.minimum(np.searchsorted(self.ids, ids), len(self.ids) - 1)
-            hit = self.ids[at] == ids
-            prior[hit] = self.counts[at[hit]]
-        keep = prior + rank < self.cap
-        self.xs.append(x[keep])
-        self.ys.append(y[keep])
-        self.ids, self.counts = _merge_counts(self.ids, self.counts, ids[keep], self.cap)
+        keep = self.cells.take(self.grid.ids(x, y))
+        self.xs.append(x[keep].astype(np.float32))
+        self.ys.append(y[keep].astype(np.float32))
 
     def xy(self) -> tuple[np.ndarray, np.ndarray]:
         if not self.xs:
@@ -153,14 +191,20 @@ class PointSketch:
 
 
 class DotSketch:
-    """Dots (time, value) fed in time order with a non-decreasing time bin per dot: the
-    first dot of each (bin, ``band``-high value band) is kept, across chunks too. At most
-    one dot per bin and band; ``count`` is every dot fed (drawn or not)."""
+    """Dots (time, value) fed in time order with a non-decreasing, non-negative time bin
+    each: a dot is kept while its cell, ``bins`` consecutive time bins by a ``band``-high
+    value band, holds fewer than ``cap`` kept dots (across chunks too; only the cells of
+    the current time cell are remembered). At most ``cap`` dots per cell, kept as float32
+    (a pixel is thousands of ms wide and high multiples of their error); ``count`` is every
+    dot fed (drawn or not)."""
 
-    def __init__(self, band: float) -> None:
+    #: Value bands per time cell in a cell number (values beyond are clipped to the last).
+    BANDS = 1 << 20
+
+    def __init__(self, band: float, bins: int = 1, cap: int = 1) -> None:
         self.band = band
-        self.bin = -1
-        self.bands: set[int] = set()  # bands of ``bin`` already kept
+        self.bins = bins
+        self.cells = _Cells(cap)
         self.ts: list[np.ndarray] = []
         self.vs: list[np.ndarray] = []
         self.count = 0
@@ -169,23 +213,12 @@ class DotSketch:
         self.count += len(v)
         if not len(v):
             return
-        band = np.floor(v / self.band).astype(np.int64)
-        first = np.unique(np.column_stack([bins, band]), axis=0, return_index=True)[1]
-        first = np.sort(first)
-        dup = np.array(
-            [
-                b == self.bin and k in self.bands
-                for b, k in zip(bins[first], band[first], strict=True)
-            ],
-            dtype=bool,
-        )
-        first = first[~dup]
-        last = int(bins[-1])
-        if last != self.bin:
-            self.bin, self.bands = last, set()
-        self.bands.update(int(k) for k in band[first][bins[first] == last])
-        self.ts.append(t[first])
-        self.vs.append(v[first])
+        band = np.clip(np.floor(v / self.band), -1, self.BANDS - 2).astype(np.int64) + 1
+        group = bins // self.bins
+        keep = self.cells.take(group * self.BANDS + band)
+        self.cells.forget_below(int(group[-1]) * self.BANDS)
+        self.ts.append(t[keep].astype(np.float32))
+        self.vs.append(v[keep].astype(np.float32))
 
     def tv(self) -> tuple[np.ndarray, np.ndarray]:
         if not self.ts:
@@ -202,6 +235,7 @@ class FigureSketch:
     value in ms) with ``counts`` (every window's dot, drawn or not)."""
 
     lines: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    passes: dict[str, float] = field(default_factory=dict)
     points: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     dots: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=dict)
