@@ -11,7 +11,9 @@ returns the exact columns each figure plots, so a figure can be redrawn from CSV
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
@@ -164,6 +166,24 @@ def _held(df: pd.DataFrame, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 #: every bin's extremes (`line_points`) travels up and down each pixel column, 150,000 px
 #: for 1 h of Test 2, 660,000 px (≈ 30 MB of cells) for 6 h.
 AGG_LINE_TRAVEL = 200_000
+#: The same for a sketched (long) run's figures, translucent lines too (`_line_pieces`):
+#: its lines travel further (each pixel column's range of more windows), and Agg's cells
+#: for one 200,000 px line were most of what its figures took beyond an hour's.
+SKETCH_LINE_TRAVEL = 50_000
+_TRAVEL: ContextVar[tuple[int | None, bool]] = ContextVar("_TRAVEL", default=(None, False))
+
+
+@contextmanager
+def _line_pieces(sketch: FigureSketch | None) -> Iterator[None]:
+    """Within: the lines `_step` draws are rasterized in pieces of `SKETCH_LINE_TRAVEL`,
+    translucent ones too, if ``sketch`` is given (a long run; where two pieces of a
+    translucent line join, its colour is laid twice over a few pixels: under half the
+    scale at alpha 0.3), else as `AGG_LINE_TRAVEL` says."""
+    token = _TRAVEL.set((SKETCH_LINE_TRAVEL, True) if sketch is not None else _TRAVEL.get())
+    try:
+        yield
+    finally:
+        _TRAVEL.reset(token)
 
 
 class _Pieces(AbstractPathEffect):
@@ -173,7 +193,13 @@ class _Pieces(AbstractPathEffect):
     differ in their antialiasing, and a dash pattern starts again at each piece). A
     shorter line, a translucent one (its pieces would blend twice where they join) or a
     vector format is drawn as it is, in one call: its image is the one drawn without this
-    effect."""
+    effect. ``travel`` replaces `AGG_LINE_TRAVEL`; with ``translucent`` a translucent line
+    is cut too (`_line_pieces`)."""
+
+    def __init__(self, travel: int | None = None, translucent: bool = False) -> None:
+        super().__init__()
+        self.travel = travel
+        self.translucent = translucent
 
     def draw_path(
         self,
@@ -185,13 +211,14 @@ class _Pieces(AbstractPathEffect):
     ) -> None:
         from matplotlib.backends.backend_agg import RendererAgg
 
+        limit = AGG_LINE_TRAVEL if self.travel is None else self.travel
         v = np.asarray(tpath.vertices)
         alpha = gc.get_alpha() if gc.get_forced_alpha() else gc.get_rgb()[3]
         if (
             not isinstance(renderer, RendererAgg)
             or tpath.codes is not None
             or len(v) < 3
-            or alpha < 1.0  # pieces of a translucent line would blend twice where they join
+            or (alpha < 1.0 and not self.translucent)  # its pieces blend twice where they join
         ):
             renderer.draw_path(gc, tpath, affine, rgbFace)
             return
@@ -201,10 +228,10 @@ class _Pieces(AbstractPathEffect):
             y = np.clip(y, box.y0, box.y1)
         dy = np.abs(np.diff(y))
         travel = np.r_[0.0, np.cumsum(np.where(np.isfinite(dy), dy, 0.0))]
-        if travel[-1] <= AGG_LINE_TRAVEL:
+        if travel[-1] <= limit:
             renderer.draw_path(gc, tpath, affine, rgbFace)
             return
-        piece = np.floor(travel / AGG_LINE_TRAVEL)
+        piece = np.floor(travel / limit)
         starts = np.flatnonzero(np.r_[True, piece[1:] != piece[:-1]])
         for a, b in zip(starts, np.r_[starts[1:], len(v) - 1], strict=True):
             if b > a:
@@ -254,7 +281,7 @@ def _step(ax: Axes, df: pd.DataFrame, y: np.ndarray, **kw: object) -> Line2D:
     x, yy = _held(df, y)
     keep = line_points(x, [yy])
     (line,) = ax.plot(x[keep], yy[keep], drawstyle="steps-post", **kw)  # type: ignore[arg-type]
-    line.set_path_effects([_Pieces()])
+    line.set_path_effects([_Pieces(*_TRAVEL.get())])
     return line
 
 
@@ -438,7 +465,9 @@ def _draw_paths(
     ax.grid(True, alpha=0.3)
 
 
-def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_window(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
     figure_data(df, "window_slack")
     t, w, slack = times_s(df), as_floats(df["w"]), as_floats(df["slack"])
     top = top if top is not None else _ylimit([w, slack], as_floats(df["w_sch"]), WINDOW_CLIP)
@@ -456,6 +485,7 @@ def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=1.5, label="processing window w")
     _wsch_line(ax, df)
     missed = as_bool(df["missed"])
+    count = int(missed.sum()) if sketch is None else sketch.counts.get("missed", 0)
     if missed.any():
         ax.plot(
             t[missed],
@@ -465,7 +495,7 @@ def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
             ms=7,
             mew=1.8,
             gid="miss",
-            label=f"deadline miss ({int(missed.sum())})",
+            label=f"deadline miss ({count})",
         )
     ax.set_ylim(0, top)
     _note_clip(ax, [w, slack], top)
@@ -772,9 +802,10 @@ def plot_window_slack(
     sketch: FigureSketch | None = None,
 ) -> Figure:
     """Figs 9/13: the processing window w and the slack (Eq 22) over time, w_sch for reference
-    (``sketch``: not needed, taken for a uniform call)."""
+    (``sketch``: a long run's, for its count of misses)."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
-    _draw_window(ax, df)
+    with _line_pieces(sketch):
+        _draw_window(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title)
 
 
@@ -790,7 +821,8 @@ def plot_bounds(
     each MSB kind (min over followers, estimates) and w over time; the dots from a long
     run's ``sketch`` if given."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 3.2))
-    _draw_bounds(ax, df, sketch=sketch)
+    with _line_pieces(sketch):
+        _draw_bounds(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title, note=BOUNDS_NOTE)
 
 
@@ -808,7 +840,8 @@ def plot_msb(
     The per-kind detail is [`plot_bounds`][rtsim.plots.scenario.plot_bounds]. The dots from
     a long run's ``sketch`` if given."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
-    _draw_msb(ax, df, sketch=sketch)
+    with _line_pieces(sketch):
+        _draw_msb(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title)
 
 
@@ -823,7 +856,8 @@ def plot_speed(
     """Figs 11/15: the desired and actual leader speed over time, turns shaded (``sketch``:
     not needed, taken for a uniform call)."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 2.5))
-    _draw_speed(ax, df)
+    with _line_pieces(sketch):
+        _draw_speed(ax, df)
     return _finish(fig, ax, own, title)
 
 
@@ -844,7 +878,8 @@ def plot_operating_space(
     """
     if ax is not None or not plane:
         fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
-        _draw_operating(ax, df, sketch=sketch)
+        with _line_pieces(sketch):
+            _draw_operating(ax, df, sketch=sketch)
         return _finish(fig, ax, own, title)
     fig = new_figure(figsize=(PAGE_IN, 2.8), layout="constrained")
     ax_t, ax_p = fig.subplots(1, 2, width_ratios=[3, 1.1])
@@ -852,7 +887,8 @@ def plot_operating_space(
     top = _ylimit(
         [as_floats(data["msb_min"]), as_floats(data["w"])], as_floats(data["w_sch"]), BOUNDS_CLIP
     )
-    _draw_operating(ax_t, df, top, sketch)
+    with _line_pieces(sketch):
+        _draw_operating(ax_t, df, top, sketch)
     _draw_plane(ax_p, df, top)
     return _finish(fig, ax_t, True, title)
 

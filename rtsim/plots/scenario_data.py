@@ -237,6 +237,9 @@ FIGURE_POINT_CELLS = 512
 FIGURE_POINTS_PER_CELL = 8
 #: A sketched dot series' cells (`DotSketch`): this many time bins by this many
 #: `FIGURE_DOT_CELL` bands, holding at most `FIGURE_DOTS_PER_CELL` dots each.
+#: The changes of ``critical`` and the misses a sketched run's table keeps at each end of a
+#: time bin (`keep_extremes`' ``events``).
+FIGURE_EVENTS = 2
 FIGURE_DOT_BINS = 1
 FIGURE_DOT_BANDS = 1
 FIGURE_DOTS_PER_CELL = 1
@@ -287,6 +290,7 @@ def keep_extremes(
     dot_top: float = np.inf,
     *,
     dot_rows: bool = True,
+    events: int | None = None,
 ) -> np.ndarray:
     """Which rows to draw (a boolean mask) when rows are grouped by ``bins`` (one
     non-decreasing bin number per row): per bin its first and last row and, for every
@@ -298,7 +302,10 @@ def keep_extremes(
     ``dot_top`` (ms; no dot is drawn above the y axis) one row per bin and
     ``dot_cell``-high band of values is kept too, so the dots cover what every row's dots
     cover to within that band (``dot_rows`` False: those rows are left to a `DotSketch`,
-    and the true values still left out of the lines' extremes)."""
+    and the true values still left out of the lines' extremes). With ``events``, of the
+    changes of ``critical`` and the misses only the first and last ``events`` of each bin
+    are kept (a bin is under a pixel column wide: the shading of the changes between
+    differs in that column only, by at most its alpha)."""
     m = len(df)
     keep = np.zeros(m, dtype=bool)
     if m == 0:
@@ -309,10 +316,15 @@ def keep_extremes(
     if "critical" in df.columns:
         f = as_bool(df["critical"])
         ch = np.flatnonzero(f[1:] != f[:-1])
+        if events is not None:
+            ch = ch[_ends_of_bins(bins[ch + 1], events)]
         keep[ch] = True
         keep[ch + 1] = True
     if "missed" in df.columns:
-        keep |= as_bool(df["missed"])
+        missed = np.flatnonzero(as_bool(df["missed"]))
+        if events is not None:
+            missed = missed[_ends_of_bins(bins[missed], events)]
+        keep[missed] = True
     dots = dot_cell is not None and dot_cell > 0
     for v in _guarded(df, dots):
         _keep_extremes_of(v, starts, keep)
@@ -320,6 +332,17 @@ def keep_extremes(
         assert dot_cell is not None
         keep |= dot_rows_of(df, bins, dot_cell, dot_top)
     return keep
+
+
+def _ends_of_bins(b: np.ndarray, k: int) -> np.ndarray:
+    """Of items with non-decreasing bins ``b``, which are among the first or last ``k`` of
+    their bin (a boolean mask)."""
+    if not len(b):
+        return np.zeros(0, dtype=bool)
+    starts = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
+    size = np.diff(np.r_[starts, len(b)])
+    pos = np.arange(len(b)) - np.repeat(starts, size)
+    return (pos < k) | (pos >= np.repeat(size, size) - k)
 
 
 def dot_rows_of(df: pd.DataFrame, bins: np.ndarray, dot_cell: float, dot_top: float) -> np.ndarray:
@@ -431,7 +454,7 @@ def read_figure_table(path: str | os.PathLike[str], n: int) -> pd.DataFrame:
     The file is read three times: the time span and w_sch, then which rows each chunk
     keeps, then the kept rows copied into columns allocated once at their final length
     (`_KeptColumns`), so nothing long-lived is allocated between the chunks' parses."""
-    return read_figures(path, n, max_rows=None)[0]
+    return read_figures(path, n, max_rows=np.inf)[0]
 
 
 def _position_columns(n: int) -> list[str]:
@@ -477,6 +500,7 @@ class _Sketcher:
         }
         self.dots: dict[str, DotSketch] = {}
         self.cell = cell
+        self.missed = 0
 
     def add(self, df: pd.DataFrame, bins: np.ndarray) -> None:
         for r, line in self.lines.items():
@@ -487,6 +511,7 @@ class _Sketcher:
         crit = as_bool(df["critical"])
         bx, by = binding_xy(df)
         self.points["critical"].add(bx[crit], by[crit])
+        self.missed += int(np.count_nonzero(as_bool(df["missed"])))
         if not self.cell:
             return
         t = as_floats(df["t"])
@@ -502,15 +527,15 @@ class _Sketcher:
             passes={r: s.passes() for r, s in self.lines.items()},
             points={r: s.xy() for r, s in self.points.items()},
             dots={r: s.tv() for r, s in self.dots.items()},
-            counts={r: s.count for r, s in self.dots.items()},
+            counts={"missed": self.missed, **{r: s.count for r, s in self.dots.items()}},
         )
 
 
 def read_figures(
-    path: str | os.PathLike[str], n: int, max_rows: int | None = FIGURE_ROWS
+    path: str | os.PathLike[str], n: int, max_rows: float | None = None
 ) -> tuple[pd.DataFrame, FigureSketch | None]:
     """The figures' table (`read_figure_table`) and None while it holds at most
-    ``max_rows`` rows (None: any number); above, the table of the rows the lines need
+    ``max_rows`` rows (default `FIGURE_ROWS`); above, the table of the rows the lines need
     (`keep_extremes` without the dots' rows: within ``FIGURE_BINS`` × (2 + 2 × plotted
     values) rows plus the critical changes and misses) and a `FigureSketch` of the paths
     and dots, built from every window (each of its parts bounded by its grid)."""
@@ -557,13 +582,14 @@ def read_figures(
                 bins = np.zeros(len(small), dtype=np.int64)
             lines = keep_extremes(small, bins, cell, top, dot_rows=False)
             dots = dot_rows_of(small, bins, cell, top) if cell else np.zeros_like(lines)
-            yield small, bins, lines, lines | dots
+            few = keep_extremes(small, bins, cell, top, dot_rows=False, events=FIGURE_EVENTS)
+            yield small, bins, few, lines | dots
 
     every, few = _KeptColumns(), _KeptColumns()
     for small, _, lines, keep in chunks():
         every.plan(small, keep)
         few.plan(small, lines)
-    if max_rows is None or every.rows <= max_rows:
+    if every.rows <= (FIGURE_ROWS if max_rows is None else max_rows):
         for small, _, _, keep in chunks():
             every.fill(small, keep)
         return every.frame(), None

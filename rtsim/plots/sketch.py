@@ -72,7 +72,14 @@ class LineSketch:
         self.xs: list[np.ndarray] = []
         self.ys: list[np.ndarray] = []
 
+    #: Points handled at a time (the samples along their segments are the transient arrays).
+    SLICE = 256
+
     def add(self, x: np.ndarray, y: np.ndarray) -> None:
+        for a in range(0, len(x), self.SLICE):
+            self._add(x[a : a + self.SLICE], y[a : a + self.SLICE])
+
+    def _add(self, x: np.ndarray, y: np.ndarray) -> None:
         carried = self.last is not None
         if self.last is not None:
             x, y = np.r_[self.last[0], x], np.r_[self.last[1], y]
@@ -166,8 +173,9 @@ class _Cells:
 
 class PointSketch:
     """A scatter fed in order, keeping a point (as float32) while its grid cell holds fewer
-    than ``cap`` kept points: where a cell a few pixels wide is full, the markers (wider than the cell)
-    piled from it and its neighbours already cover each pixel many times over."""
+    than ``cap`` kept points: where a cell a few pixels wide is full, the markers (wider
+    than the cell) piled from it and its neighbours already cover each pixel many times
+    over."""
 
     def __init__(self, grid: Grid, cap: int) -> None:
         self.grid = grid
@@ -232,7 +240,8 @@ class FigureSketch:
     read_figures`): the paths figure's lines (``leader``, ``f1``, …) and translucent
     scatters (``f1_est``, …, ``critical``) as (x, y) in cm, and the time figures' dots by
     series (``bound_<kind>_true``, ``msb_min_true``, ``binding_<kind>``) as (t in ms,
-    value in ms) with ``counts`` (every window's dot, drawn or not)."""
+    value in ms) with ``counts`` (every window's dot, drawn or not, and ``missed``: the
+    run's deadline misses)."""
 
     lines: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     passes: dict[str, float] = field(default_factory=dict)
