@@ -175,10 +175,10 @@ _TRAVEL: ContextVar[tuple[int | None, bool]] = ContextVar("_TRAVEL", default=(No
 
 @contextmanager
 def _line_pieces(sketch: FigureSketch | None) -> Iterator[None]:
-    """Within: the lines `_step` draws are rasterized in pieces of `SKETCH_LINE_TRAVEL`,
-    translucent ones too, if ``sketch`` is given (a long run; where two pieces of a
-    translucent line join, its colour is laid twice over a few pixels: under half the
-    scale at alpha 0.3), else as `AGG_LINE_TRAVEL` says."""
+    """Within: the solid lines `_step` draws are rasterized in pieces of
+    `SKETCH_LINE_TRAVEL`, translucent ones too, if ``sketch`` is given (a long run; where
+    two pieces of a translucent line join, its colour is laid twice over a few pixels:
+    under half the scale at alpha 0.3), else as `AGG_LINE_TRAVEL` says."""
     token = _TRAVEL.set((SKETCH_LINE_TRAVEL, True) if sketch is not None else _TRAVEL.get())
     try:
         yield
@@ -193,8 +193,9 @@ class _Pieces(AbstractPathEffect):
     differ in their antialiasing, and a dash pattern starts again at each piece). A
     shorter line, a translucent one (its pieces would blend twice where they join) or a
     vector format is drawn as it is, in one call: its image is the one drawn without this
-    effect. ``travel`` replaces `AGG_LINE_TRAVEL`; with ``translucent`` a translucent line
-    is cut too (`_line_pieces`)."""
+    effect. ``travel`` replaces `AGG_LINE_TRAVEL` for a solid line (a dashed one keeps it:
+    each piece starts its pattern again); with ``translucent`` a translucent line is cut
+    too (`_line_pieces`)."""
 
     def __init__(self, travel: int | None = None, translucent: bool = False) -> None:
         super().__init__()
@@ -211,7 +212,8 @@ class _Pieces(AbstractPathEffect):
     ) -> None:
         from matplotlib.backends.backend_agg import RendererAgg
 
-        limit = AGG_LINE_TRAVEL if self.travel is None else self.travel
+        dashed = gc.get_dashes()[1] is not None  # each piece starts its pattern again
+        limit = AGG_LINE_TRAVEL if self.travel is None or dashed else self.travel
         v = np.asarray(tpath.vertices)
         alpha = gc.get_alpha() if gc.get_forced_alpha() else gc.get_rgb()[3]
         if (
