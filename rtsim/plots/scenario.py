@@ -195,12 +195,22 @@ class _Pieces(AbstractPathEffect):
     vector format is drawn as it is, in one call: its image is the one drawn without this
     effect. ``travel`` replaces `AGG_LINE_TRAVEL` for a solid line (a dashed one keeps it:
     each piece starts its pattern again); with ``translucent`` a translucent line is cut
-    too (`_line_pieces`)."""
+    too (`_line_pieces`). With ``passes`` each piece is drawn that many times over itself:
+    a path a long run retraced lap after lap, drawn once from its sketch
+    (`rtsim.plots.sketch.LineSketch`), gets the edges its laps' opaque antialiased strokes
+    piled up to (each pass composites the edge pixels' coverage again)."""
 
-    def __init__(self, travel: int | None = None, translucent: bool = False) -> None:
+    def __init__(
+        self, travel: int | None = None, translucent: bool = False, passes: int = 1
+    ) -> None:
         super().__init__()
         self.travel = travel
         self.translucent = translucent
+        self.passes = passes
+
+    def _draw(self, renderer: Any, gc: Any, path: MplPath, affine: Any, face: Any) -> None:
+        for _ in range(self.passes):
+            renderer.draw_path(gc, path, affine, face)
 
     def draw_path(
         self,
@@ -222,7 +232,7 @@ class _Pieces(AbstractPathEffect):
             or len(v) < 3
             or (alpha < 1.0 and not self.translucent)  # its pieces blend twice where they join
         ):
-            renderer.draw_path(gc, tpath, affine, rgbFace)
+            self._draw(renderer, gc, tpath, affine, rgbFace)
             return
         y = affine.transform(v)[:, 1]
         box = gc.get_clip_rectangle()
@@ -231,7 +241,7 @@ class _Pieces(AbstractPathEffect):
         dy = np.abs(np.diff(y))
         travel = np.r_[0.0, np.cumsum(np.where(np.isfinite(dy), dy, 0.0))]
         if travel[-1] <= limit:
-            renderer.draw_path(gc, tpath, affine, rgbFace)
+            self._draw(renderer, gc, tpath, affine, rgbFace)
             return
         piece = np.floor(travel / limit)
         starts = np.flatnonzero(np.r_[True, piece[1:] != piece[:-1]])
@@ -240,41 +250,20 @@ class _Pieces(AbstractPathEffect):
                 p = MplPath(v[a : b + 1])
                 p.should_simplify = tpath.should_simplify
                 p.simplify_threshold = tpath.simplify_threshold
-                renderer.draw_path(gc, p, affine, rgbFace)
+                self._draw(renderer, gc, p, affine, rgbFace)
 
 
-#: Most times a sketched path is drawn over itself (`_Retraced`).
+#: Most times a sketched path is drawn over itself (`_sketched_line`).
 RETRACE_PASSES = 16
 
 
-class _Retraced(AbstractPathEffect):
-    """Draw a path ``k`` times over itself: a path a long run retraced lap after lap, drawn
-    once from its sketch (`rtsim.plots.sketch.LineSketch`), gets the edges its laps' opaque
-    antialiased strokes piled up to (each pass composites the edge pixels' coverage again)."""
-
-    def __init__(self, k: int) -> None:
-        super().__init__()
-        self.k = k
-
-    def draw_path(
-        self,
-        renderer: Any,
-        gc: Any,
-        tpath: MplPath,
-        affine: Any,
-        rgbFace: Any = None,  # noqa: N803 - matplotlib's name
-    ) -> None:
-        for _ in range(self.k):
-            renderer.draw_path(gc, tpath, affine, rgbFace)
-
-
 def _sketched_line(ax: Axes, sketch: FigureSketch, name: str, **kw: Any) -> None:
-    """A path of the ``sketch`` drawn as often over itself as its laps (at most
-    `RETRACE_PASSES`)."""
+    """A path of the ``sketch`` drawn as often over itself as it was traced (at most
+    `RETRACE_PASSES`; `_Pieces`)."""
     (line,) = ax.plot(*sketch.lines[name], **kw)
     k = int(min(RETRACE_PASSES, max(1, round(sketch.passes.get(name, 1.0)))))
     if k > 1:
-        line.set_path_effects([_Retraced(k)])
+        line.set_path_effects([_Pieces(passes=k)])
 
 
 def _step(ax: Axes, df: pd.DataFrame, y: np.ndarray, **kw: object) -> Line2D:

@@ -38,6 +38,13 @@ class Grid:
         return (cx + 1) * self.size + (cy + 1)
 
 
+def _joined(a: list[np.ndarray], b: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Two lists of per-chunk arrays, each concatenated."""
+    if not a:
+        return np.zeros(0), np.zeros(0)
+    return np.concatenate(a), np.concatenate(b)
+
+
 def _merge_counts(
     ids: np.ndarray, counts: np.ndarray, new: np.ndarray, cap: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -129,9 +136,7 @@ class LineSketch:
         self.open = bool(kept[-1])
 
     def xy(self) -> tuple[np.ndarray, np.ndarray]:
-        if not self.xs:
-            return np.zeros(0), np.zeros(0)
-        return np.concatenate(self.xs), np.concatenate(self.ys)
+        return _joined(self.xs, self.ys)
 
     def passes(self) -> float:
         """Segments fed per segment kept: about how often the path was traced."""
@@ -193,9 +198,7 @@ class PointSketch:
         self.ys.append(y[keep].astype(np.float32))
 
     def xy(self) -> tuple[np.ndarray, np.ndarray]:
-        if not self.xs:
-            return np.zeros(0), np.zeros(0)
-        return np.concatenate(self.xs), np.concatenate(self.ys)
+        return _joined(self.xs, self.ys)
 
 
 class DotSketch:
@@ -229,9 +232,7 @@ class DotSketch:
         self.vs.append(v[keep].astype(np.float32))
 
     def tv(self) -> tuple[np.ndarray, np.ndarray]:
-        if not self.ts:
-            return np.zeros(0), np.zeros(0)
-        return np.concatenate(self.ts), np.concatenate(self.vs)
+        return _joined(self.ts, self.vs)
 
 
 @dataclass
