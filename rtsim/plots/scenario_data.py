@@ -1,7 +1,8 @@
 """What a scenario figure shows, selected from a run's ``windows.csv`` table (docs/outputs.md):
 the followers present, the critical spans, the violation ratios, the columns each figure
 plots ([`figure_data`][rtsim.plots.scenario_data.figure_data]), the table a run's figures are
-drawn from, read back in chunks and thinned per pixel column (`read_figure_table`), and the
+drawn from, read back in chunks and thinned per pixel column (`read_figure_table`), with a
+long run's sketch of its paths and dots (`read_figures`, `rtsim.plots.sketch`), and the
 points of each line and dot series drawn (`line_points`, `dot_points`). No drawing here:
 `rtsim.plots.scenario` draws what these return.
 """
