@@ -7,7 +7,10 @@ the preemption at now, the completion at f = now + c and the dispatch at f in on
 the same float operations in the same order as the general path, then goes on to the top
 task's next release itself while that is the next thing to happen. Any other case goes back
 to the dispatcher's loop, in the state the loop would have there. The call is made for every
-run of inline jobs, so its constants are bound once per run (default arguments: locals).
+run of inline jobs, so its constants are bound once per run (default arguments: locals), and
+the sums it adds to (the CPU's busy time and switches; the task's completions, responses and
+releases) are kept in locals and stored when the booking ends: the same float additions in
+the same order, and nothing reads them meanwhile.
 """
 
 from __future__ import annotations
@@ -84,8 +87,8 @@ def top_jobs(
         limit = now + tol  # (what is due by limit happens at now)
         stats, c = st.stats, st.fast_start  # (constant for the run, as these:)
         first, period, rel_deadline = st.first, st.period, st.deadline
-        job, wins = None, True  # (it wins under fp; else if it comes first and preempts)
-        nxt_job, from_ready = running, False  # the first in the ready order after it, at f
+        # (job wins under fp; else if it comes first and preempts); nxt_job: the first in the
+        job, wins, nxt_job, from_ready = None, True, running, False  # ready order after it, at f
         if ready:  # (key, tie) < running's? (the common "key greater" case first)
             h = ready[0]
             if running is None or (
@@ -93,6 +96,7 @@ def top_jobs(
             ):
                 nxt_job, from_ready = h[2], True
         top_n, moved, nxt = 0, False, None  # (top_n: responses = top_resp not yet in the bin)
+        busy, switches, done, sum_resp, released = totals.busy, 0, 0, stats.sum_response, 0
         while True:
             if not top_first:  # (its key, a deadline, is compared with the others')
                 job = Job(st, k, r, r + rel_deadline, period, seq)
@@ -123,17 +127,17 @@ def top_jobs(
                 if running.rem is not None and now > work_start:
                     worked = now - work_start
                     running.executed += worked
-                    totals.busy += worked
+                    busy += worked
                     running.rem = running.rem - worked - (now_lag - work_lag)
                 running.preemptions += 1
                 if from_ready:
                     heappush(ready, (running.key, running.tie, running))
             if from_ready:
                 heappop(ready)
-            totals.busy += f - now  # its completion at f: step 1 and CPU._complete, no Job
+            busy += f - now  # its completion at f: step 1 and CPU._complete, no Job
             resp = f - r
-            stats.completed += 1
-            stats.sum_response += resp
+            done += 1
+            sum_resp += resp
             deadline = r + rel_deadline
             if f > deadline + tol:
                 stats.misses += 1
@@ -152,41 +156,38 @@ def top_jobs(
             now = work_start = f  # (env._now is set where the clock stops)
             now_lag = work_lag = f_lag
             if nxt_job is not None:  # it gets the CPU at f: a second switch
-                totals.switches += 2
+                switches += 2
                 x = nxt_job.rem + f_lag  # type: ignore[operator]
                 run_end = f + x
                 y = run_end - f
                 run_lag = (f - (run_end - y)) + (x - y)
             else:
-                totals.switches += 1
+                switches += 1
                 run_end, run_lag = _INF, 0.0
             running = nxt_job
-            # What nearly always comes next, as the loop would do it (4. the wait; 1.; 2. the
-            # top task's release alone: module doc); else on at the loop's top.
+            # Next, as the loop would: 4. the wait; 1.; 2. the top task's release alone (else on)
             if not (
                 timers
                 and (t_next := timers[0][0]) < run_end
                 and (not queue or t_next < queue[0][0])
             ):
-                env._now = now
-                moved = False
+                env._now, moved = now, False
                 break  # (to the wait)
             env._now = now = t_next
-            now_lag = 0.0
-            moved = True
+            now_lag, moved = 0.0, True
             limit = now + tol
             if now >= tol_next or timers[0][5] is not st or run_end <= limit:
                 break
             k = st.k  # the release of step 2's fast path (stats.max_backlog is 1 already)
-            st.k = k + 1
+            st.k = k1 = k + 1
             r = st.next_release
-            after = first + st.k * period
+            after = first + k1 * period
             if after < last_release:
                 st.next_release = after
                 heapreplace(timers, (after, st.rank, st.priority, st.index, _RELEASE, st))
             else:
                 heappop(timers)
-            stats.released += 1
+            released += 1
             seq = next(seqs)
             if timers and (t_next := timers[0][0]) <= limit:
                 nxt = (st, k, r, seq)
@@ -194,6 +195,9 @@ def top_jobs(
             from_ready = False  # (the job running comes first of the others, as before)
         if top_n:
             top_counts[top_bin] += top_n
+        totals.busy, totals.switches = busy, totals.switches + switches
+        stats.completed += done
+        stats.sum_response, stats.released = sum_resp, stats.released + released
         return moved, nxt, running, now, work_start, work_lag, run_end, run_lag
 
     return book
