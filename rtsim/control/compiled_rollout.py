@@ -81,7 +81,7 @@ class CompiledRollout:
         # follow the five that change, in RolloutScalars' order), and the kernels
         static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
         cached: Any = getattr(law, "_rollout_static", None)  # (a clone of the law shares it)
-        if cached is None or any(a is not b for a, b in zip(cached[0], static, strict=True)):
+        if cached is None or cached[0] != static:  # (the same objects: no field compared)
             scalars = K.RolloutScalars(
                 leader_s=0.0,  # the five that change: set per decision below
                 leader_speed=0.0,
@@ -108,32 +108,34 @@ class CompiledRollout:
             pends: dict[int, Any] = {}  # the no-sends-pending array per follower count
             # (compiled once per process and motion model: before the first rollout)
             ker = K.rollout_kernels(motion_model(p.motion_model))
-            cached = (static, [float(x) for x in scalars[_CHANGING:]], pends, ker)
+            # (the five that change are written over a copy per decision)
+            cached = (static, np.array(scalars, dtype=float), pends, ker)
             setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
         self._ker = cached[3]
-        fs = np.array(
-            [  # RolloutScalars' first five
-                state.leader_s,
-                state.leader_speed,
-                state.v_ld,
-                state.t_now,
-                state.next_scan,
-                *cached[1],
-            ],
-            dtype=float,
+        fs = cached[1].copy()
+        fs[:_CHANGING] = (  # RolloutScalars' first five
+            state.leader_s,
+            state.leader_speed,
+            state.v_ld,
+            state.t_now,
+            state.next_scan,
         )
         n = len(state.poses)
         # per follower, in F_* column order: x, y, θ, v, ω, held v, held ω, send offset, ρ_d
         # (a flat list: numpy reads it much faster than nested tuples)
-        flat: list[float] = []
         turns = state.turns or [h[1] for h in state.held]
-        for k in range(n):
-            flat += state.poses[k]
-            flat.append(state.speeds[k])
-            flat.append(turns[k])
-            flat += state.held[k]
-            flat.append(state.send_offsets[k])
-            flat.append(state.rho_d[k])
+        flat = [
+            x
+            for k in range(n)
+            for x in (
+                *state.poses[k],
+                state.speeds[k],
+                turns[k],
+                *state.held[k],
+                state.send_offsets[k],
+                state.rho_d[k],
+            )
+        ]
         fol = np.array(flat, dtype=float).reshape(n, K.F_SIZE)
         width = max([1, *map(len, state.pending)])
         if width == 1 and not any(state.pending):  # no sends pending: one array per n, kept
