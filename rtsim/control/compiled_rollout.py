@@ -16,7 +16,7 @@ import numpy as np
 
 from rtsim.control import kernels as K
 from rtsim.world.compiled import CompiledTraceFollower
-from rtsim.world.kernels import kernels
+from rtsim.world.kernels import entry, kernels
 from rtsim.world.motionmodels import motion_model
 
 __all__ = ["CompiledRollout", "as_changes", "compiled_rollout"]
@@ -46,6 +46,23 @@ _CHANGING = K.RolloutScalars._fields.index("accel")
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
+
+
+#: the compiled functions behind the rollout kernels' dispatchers, by dispatcher (`call`)
+_ENTRIES: dict[Any, Any] = {}
+
+
+def call(fn: Any, *args: Any) -> Any:
+    """``fn(*args)`` for a rollout kernel ``fn``, through its compiled function once it has
+    one for these arguments' types (`rtsim.world.kernels.entry`: the pack's nested tuple of
+    arrays is not typed again at every call); every call of a kernel here passes the same
+    types."""
+    f = _ENTRIES.get(fn)
+    if f is None:
+        f = entry(fn, args)
+        if f is not fn:
+            _ENTRIES[fn] = f
+    return f(*args)
 
 
 class _Rest:
@@ -162,8 +179,15 @@ class CompiledRollout:
         """One rollout whole on ``pack`` (`pack`'s arrays): its changes array."""
         out = np.empty((len(windows), self.n, 5))
         CompiledRollout.runs += 1
-        self._ker.rollout_changes(
-            float(v), np.array(windows, dtype=float), pack, out, 1.0, -math.inf, 0.0
+        call(
+            self._ker.rollout_changes,
+            float(v),
+            np.array(windows, dtype=float),
+            pack,
+            out,
+            1.0,
+            -math.inf,
+            0.0,
         )
         return out
 
@@ -194,7 +218,8 @@ class CompiledRollout:
         rows = np.empty((2, self.n, 4))
         out = np.empty(7)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
-        runs = self._ker.plan_decide(
+        runs = call(
+            self._ker.plan_decide,
             bool(search_only),
             float(keep),
             float(need),
