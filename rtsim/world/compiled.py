@@ -21,13 +21,10 @@ library for the functions and follows Python's rules for ``%``). CPython compute
 this interpreter disagrees, the controller and the rollout run in Python instead; numba has
 no ``math.remainder``, and the kernels carry CPython's (exact, with fmod).
 
-The classes call each kernel's compiled function directly, not through numba's dispatcher
-(`rtsim.world.kernels.entry`: the same machine code, without typing every argument at every
-call), as do the rangefinder, the Hough accumulator and the compiled rollout.
-
-numba is imported on first use (`available`); kernels are compiled once per machine
-and cached on disk (keyed by a hash of their sources: `rtsim.world.jit`), so a later
-process loads them in milliseconds.
+numba is imported on first use (`available`); kernels are compiled once per machine and
+cached on disk (keyed by a hash of their sources: `rtsim.world.jit`), so a later process
+loads them in milliseconds; the classes call each build directly, not through numba's
+dispatcher (`rtsim.world.kernels.entry`: the same machine code, no typing per call).
 """
 
 from __future__ import annotations
