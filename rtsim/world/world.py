@@ -52,7 +52,7 @@ __all__ = ["World", "Scan"]
 #: Standard normals `World._normals` takes from the stream at a time (its list of floats).
 NORMAL_BLOCK = 512
 #: Standard normals the world draws ahead from its generator at a time (`World._draw`): one
-#: numpy call per ≈ 45 scans' laser noise instead of one per scan (≈ 8 µs each).
+#: numpy call per ≈ 45 scans' laser noise instead of one per scan.
 STREAM_BLOCK = 16_384
 
 Array = NDArray[np.float64]
@@ -290,8 +290,8 @@ class World:
         return self._z[i:j]
 
     def _draw(self, m: int) -> Array:
-        """The next ``m`` standard normals of ``rng``'s stream (an array, valid while the
-        caller uses it), drawn ahead in blocks of `STREAM_BLOCK` (one numpy call per block
+        """The next ``m`` standard normals of ``rng``'s stream (a read-only view: never
+        written), drawn ahead in blocks of `STREAM_BLOCK` (one numpy call per block
         instead of per scan). A Generator's ``standard_normal(N)`` is the concatenation of
         consecutive smaller draws, so every reader sees the numbers one call per request
         would give, in the order they ask; ``rng`` itself runs ahead by up to a block."""
