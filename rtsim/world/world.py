@@ -290,8 +290,8 @@ class World:
         return self._z[i:j]
 
     def _draw(self, m: int) -> Array:
-        """The next ``m`` standard normals of ``rng``'s stream (a read-only view: never
-        written), drawn ahead in blocks of `STREAM_BLOCK` (one numpy call per block
+        """The next ``m`` standard normals of ``rng``'s stream (a view of the block drawn,
+        which nothing writes), drawn ahead in blocks of `STREAM_BLOCK` (one numpy call per block
         instead of per scan). A Generator's ``standard_normal(N)`` is the concatenation of
         consecutive smaller draws, so every reader sees the numbers one call per request
         would give, in the order they ask; ``rng`` itself runs ahead by up to a block."""
