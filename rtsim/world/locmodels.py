@@ -25,6 +25,7 @@ from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rtsim.analysis.kinematics import msb_localization_predicted
 from rtsim.errors import InputError, ScenarioError
@@ -34,15 +35,7 @@ from rtsim.world._check import plugin
 from rtsim.world.config import SensingParams, WorldConfig
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
-from rtsim.world.hough import (
-    OUT_FIX_X,
-    OUT_FIX_Y,
-    OUT_OWNER,
-    OUT_VOTERS,
-    OUT_VOTES,
-    Accumulator,
-    window_cells,
-)
+from rtsim.world.hough import Accumulator, window_cells
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.localization import locate_one
 from rtsim.world.motionmodels import motion_model
@@ -66,9 +59,10 @@ Fix = tuple[XY, bool, bool, bool, bool, bool]
 
 class LocalizationModel:
     """The interface of a localization model (module doc). One instance per world, made by
-    `World` with ``(config, n, rng, normals, fast)``: ``normals(m)`` draws the next ``m``
-    standard normals of the world's buffered stream; ``rng`` is the world's generator;
-    ``fast``: the compiled backend."""
+    `World` with ``(config, n, rng, normals, fast, draw)``: ``normals(m)`` draws the next
+    ``m`` standard normals of the world's buffered stream as a list, ``draw(m)`` as an array
+    (default: ``rng.standard_normal``); ``rng`` is the world's generator; ``fast``: the
+    compiled backend."""
 
     #: the name a scenario writes (set by subclasses)
     name: ClassVar[str] = ""
@@ -82,11 +76,13 @@ class LocalizationModel:
         rng: np.random.Generator,
         normals: Callable[[int], list[float]],
         fast: bool,
+        draw: Callable[[int], NDArray[np.float64]] | None = None,
     ) -> None:
         self.config = config
         self.n = n
         self.rng = rng
         self.normals = normals
+        self.draw = rng.standard_normal if draw is None else draw
         self.fast = fast
         self.start()
 
@@ -173,7 +169,7 @@ class HoughModel(LocalizationModel):
     def sense(self, truth_l: list[XY]) -> tuple[list[int], Any]:
         """The beams each follower returned and the scan (px, py, owner)."""
         xy = np.array(truth_l).T.copy()  # (contiguous rows, the kernel's one signature)
-        z = self.rng.standard_normal(LASER_POINTS)
+        z = self.draw(LASER_POINTS)
         beams = self.rangefinder.scan(xy[0], xy[1], z)
         return self.rangefinder.counts[: self.n].tolist(), beams
 
@@ -188,8 +184,8 @@ class HoughModel(LocalizationModel):
         c = np.array(centre).T.copy()
         px, py, owner = state
         r_H = self.config.thresholds.r_H
-        fixes = self.accumulator.locate(px, py, owner, c[0], c[1], r_H).tolist()
-        voted = [int(row[OUT_VOTERS]) for row in fixes]
+        fixes = self.accumulator.locate(px, py, owner, c[0], c[1], r_H)
+        voted = fixes["voters"].tolist()
         out = [self._fix(k, fixes[k], state, centre[k], expected) for k in range(self.n)]
         return out, voted
 
@@ -201,19 +197,19 @@ class HoughModel(LocalizationModel):
         (r_reacq) as with the gaussian model."""
         sens = self.config.sensing
         min_pts = sens.min_points
-        if row[OUT_VOTES] >= min_pts:
-            who = int(row[OUT_OWNER])
+        if row["votes"] >= min_pts:
+            who = int(row["owner"])
             neighbour = who >= 0 and who != k
-            fix = (float(row[OUT_FIX_X]), float(row[OUT_FIX_Y]))
+            fix = (float(row["fix_x"]), float(row["fix_y"]))
             return fix, True, neighbour, False, False, neighbour
         if not (expected is None or expected[k] >= min_pts):
             return centre, False, True, False, False, False
         px, py, owner = beams
         found = self.accumulator.search(px, py, owner, centre[0], centre[1], sens.r_reacq)
-        if found[OUT_VOTES] < min_pts:
+        if found["votes"] < min_pts:
             return centre, False, True, True, False, False
-        who = int(found[OUT_OWNER])
-        fix = (float(found[OUT_FIX_X]), float(found[OUT_FIX_Y]))
+        who = int(found["owner"])
+        fix = (float(found["fix_x"]), float(found["fix_y"]))
         return fix, False, True, True, True, who >= 0 and who != k
 
 
