@@ -21,8 +21,8 @@ are cached, with numba's CPython wrapper; a kernel only other kernels call is co
 without the wrappers and not cached on its own (its code is linked into each caller's, which
 is what a later process loads): about 2 s less CPU on the first run. Nor is it optimised
 as a module or emitted as machine code (`_linked_only_compiler`): its code never runs on its
-own, each caller links its IR in and optimises and emits the whole, as before, so the same
-instructions run; about 1.5 s less again. The directories live under
+own, each caller links its IR in and optimises and emits the whole, as before (the same
+arithmetic; LLVM may inline a little differently); about 2 s less again. The directories live under
 ``NUMBA_CACHE_DIR`` when the user sets it (numba's own setting), else in ``__pycache__`` next
 to this file, else in numba's user-wide cache directory.
 """
