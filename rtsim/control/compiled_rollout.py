@@ -192,7 +192,10 @@ class CompiledRollout:
         rows = np.empty((2, self.n, 4))
         out = np.empty(7)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
-        runs = self._ker.plan_decide(
+        runs = self._ker.roll_or_decide(  # (`_plan_decide`'s arguments after the first three)
+            False,
+            0.0,
+            K.NO_F1,
             bool(search_only),
             float(keep),
             float(need),
