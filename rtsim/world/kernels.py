@@ -67,7 +67,7 @@ MOTION_ENTRIES = ("advance_follower", "ekf_command")
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
 #: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
-COMPILE_S = 4.0
+COMPILE_S = 3.0
 
 _ANNOUNCED = False
 #: kernel sources compiled right after these as a rule, with their time (`follow_with`)
