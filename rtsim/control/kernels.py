@@ -643,13 +643,14 @@ def _plan_decide(
     traces = np.empty((speeds.shape[0], ev[0].shape[0], 2))
     ms = np.empty(speeds.shape[0])
     dones = np.zeros(speeds.shape[0], dtype=np.int64)
+    zero = 0 * nw  # (an int64, not the literal 0: one compiled _rollout_worst for every call)
     # (one call site of the search: the search-only decision and the plan's search share it)
     first = 0 if search_only else 1
     feasible = False
     if not search_only:
         speeds[0], lens[0] = v_ld, 1
         m_ld, done, _ = _rollout_worst(
-            v_ld, w, P, changes[0], contact, keep, need, ev, traces, ms, dones, 0, 0
+            v_ld, w, P, changes[0], contact, keep, need, ev, traces, ms, dones, zero, zero
         )
         if done < nw:
             cut[0] = 1
@@ -675,8 +676,8 @@ def _plan_decide(
                 traces,
                 ms,
                 dones,
-                -1,
-                0,
+                zero - 1,
+                zero,
             )[0]
             runs = 2
             out[5] = ww
