@@ -712,26 +712,10 @@ def _plan_decide(
 
 @kernel
 def _roll_or_decide(
-    whole: bool,
-    v: float,
-    lengths: Any,
-    search_only: bool,
-    keep: float,
-    need: float,
-    cap: float,
-    v_floor: float,
-    grid: int,
-    tol: float,
-    w: float,
-    P: Any,
-    speeds: Any,
-    lens: Any,
-    changes: Any,
-    cut: Any,
-    rows: Any,
-    out: Any,
-    contact: float,
-) -> int:
+    whole: bool, v: float, lengths: Any, search_only: bool, keep: float, need: float,
+    cap: float, v_floor: float, grid: int, tol: float, w: float, P: Any, speeds: Any,
+    lens: Any, changes: Any, cut: Any, rows: Any, out: Any, contact: float,
+) -> int:  # fmt: skip
     """The rollout's one entry from Python: with ``whole``, one rollout whole
     (`_rollout_changes` of target ``v`` over windows ``lengths`` into ``changes[0]``, with
     ``keep``, ``need`` and ``contact``); else the decision (`_plan_decide` with the
