@@ -5,8 +5,8 @@ EKF (`rtsim.world.ekf`), the follow-the-leader law (`rtsim.world.ftl`), CPython'
 and remainder (`rtsim.world.exactmath`). The controller's kernels, which call these, are in
 `rtsim.control.kernels`.
 
-`kernels` compiles `ENTRIES` (or loads them from the cache) once per process;
-numba is imported only then.
+`kernels` compiles `ENTRIES` (or loads them from the cache) once per process, and each of
+`LAZY_ENTRIES` when it is first read; numba is imported only then.
 """
 
 from __future__ import annotations
