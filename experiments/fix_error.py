@@ -25,7 +25,7 @@ import pandas as pd
 
 from rtsim.io.atomic import write_table, write_text
 from rtsim.validate.report import markdown_table
-from rtsim.world.hough import OUT_FIX_X, OUT_FIX_Y, OUT_VOTES, Accumulator
+from rtsim.world.hough import Accumulator
 from rtsim.world.rangefinder import Rangefinder
 
 R_F = 25.0
@@ -46,11 +46,11 @@ def measure(rho: float, scans: int, sd: float, r_H: float, seed: int = 0) -> dic
         beams.append(int((owner >= 0).sum()))
         c = rng.normal(0.0, 1.0, 2)
         out = acc.locate(px, py, owner, np.array([tx + c[0]]), np.array([ty + c[1]]), r_H)[0]
-        if out[OUT_VOTES] < MIN_POINTS:
+        if out["votes"] < MIN_POINTS:
             none += 1
             continue
-        dx.append(out[OUT_FIX_X] - tx)
-        dy.append(out[OUT_FIX_Y] - ty)
+        dx.append(out["fix_x"] - tx)
+        dy.append(out["fix_y"] - ty)
         errs.append(math.hypot(dx[-1], dy[-1]))
     e = np.asarray(errs)
     return {

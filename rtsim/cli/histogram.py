@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from rtsim.analysis.bounds import window_bounds
-from rtsim.cli._set import add_set_option, set_overrides
+from rtsim.cli._set import add_set_option
 from rtsim.cli.common import (
     add_figure_options,
     add_force,
@@ -32,8 +32,7 @@ from rtsim.cli.common import (
     figure_format,
 )
 from rtsim.cli.plausible import check_horizon, check_hough_radius, periods_ms, warn_short_horizon
-from rtsim.cli.simulate import require_bcet
-from rtsim.config.taskset import load_taskset
+from rtsim.cli.simulate import require_bcet, window_taskset
 from rtsim.errors import InputError
 from rtsim.io.atomic import dumps
 from rtsim.io.outdir import stage
@@ -100,20 +99,7 @@ def _source(args: argparse.Namespace) -> Any:
     if args.horizon is None or not (math.isfinite(args.horizon) and args.horizon > 0):
         raise InputError("histogram: FILE needs --horizon H, a positive number of ms")
 
-    ts = load_taskset(args.file, overrides=set_overrides(args))
-    changes: dict[str, Any] = {}
-    if args.followers is not None:
-        changes["n"] = args.followers
-    if args.hough_radius is not None:
-        changes["r_H"] = args.hough_radius
-    if (changes or args.window is not None) and ts.window is None:
-        raise InputError(
-            f"{args.file}: has no [window]; --followers, --hough-radius and "
-            f"--window apply to processing-window sets only"
-        )
-    if changes:
-        ts = ts.with_window(**changes)
-
+    ts = window_taskset(args)
     if args.hough_radius is not None:
         check_hough_radius(args, [args.hough_radius])
     if ts.window is not None:

@@ -353,13 +353,13 @@ def _write(
         )
 
         label = f"{res.inputs.name or Path(args.file).stem}, {args.mode}"
-        df = _figure_table(out / "windows.csv", int(res.summary["n"]), int(res.summary["windows"]))
+        df, sketch = _figure_table(out / "windows.csv", int(res.summary["n"]))
         from rtsim.plots.scenario import DPI  # lazy: CLI start-up (matplotlib)
 
         paths = write_scenario_figures(
-            df, out, label=label, fmt=args.fig_format or "png", dpi=args.dpi or DPI
+            df, out, label=label, fmt=args.fig_format or "png", dpi=args.dpi or DPI, sketch=sketch
         )
-        del df
+        del df, sketch
         outputs += [p.name for p in paths]
     inp = res.inputs
     timing = dict(res.timing)
@@ -388,9 +388,9 @@ def _write(
     return res
 
 
-def _figure_table(path: Path, n: int, rows: int) -> Any:
-    """The rows and columns the figures draw, read back from windows.csv in bounded chunks
-    (`rtsim.plots.scenario_data.read_figure_table`; ``rows`` is not needed)."""
-    from rtsim.plots.scenario_data import read_figure_table  # lazy: CLI start-up (matplotlib)
+def _figure_table(path: Path, n: int) -> tuple[Any, Any]:
+    """The rows and columns the figures draw, read back from windows.csv in bounded chunks,
+    and a long run's sketch of its paths and dots (`rtsim.plots.scenario_data.read_figures`)."""
+    from rtsim.plots.scenario_data import read_figures  # lazy: CLI start-up (matplotlib)
 
-    return read_figure_table(path, n)
+    return read_figures(path, n)

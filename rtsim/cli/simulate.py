@@ -221,23 +221,27 @@ def _manifest_names(names: dict[Path, list[str]]) -> dict[Path, list[str]]:
     return out
 
 
-def _taskset(args: argparse.Namespace) -> tuple[Any, float, str, Any, float | None]:
-    """The task set of ``rtsim simulate`` with its options applied and checked: (task set,
-    overhead, scheduler, window bounds or None, the window's estimate in ms or None)."""
+def window_taskset(args: argparse.Namespace) -> Any:
+    """The task set FILE with ``--set``, ``--followers`` and ``--hough-radius`` applied (the
+    last two and ``--window`` refused for a set without [window])."""
     ts = load_taskset(args.file, overrides=set_overrides(args))
     changes: dict[str, Any] = {}
     if args.followers is not None:
         changes["n"] = args.followers
     if args.hough_radius is not None:
         changes["r_H"] = args.hough_radius
-    if changes or args.window is not None:
-        if ts.window is None:
-            raise InputError(
-                f"{args.file}: has no [window]; --followers, --hough-radius and "
-                f"--window apply to processing-window sets only"
-            )
-    if changes:
-        ts = ts.with_window(**changes)
+    if (changes or args.window is not None) and ts.window is None:
+        raise InputError(
+            f"{args.file}: has no [window]; --followers, --hough-radius and "
+            f"--window apply to processing-window sets only"
+        )
+    return ts.with_window(**changes) if changes else ts
+
+
+def _taskset(args: argparse.Namespace) -> tuple[Any, float, str, Any, float | None]:
+    """The task set of ``rtsim simulate`` with its options applied and checked: (task set,
+    overhead, scheduler, window bounds or None, the window's estimate in ms or None)."""
+    ts = window_taskset(args)
     overhead = ts.overhead if args.overhead is None else args.overhead
     if not (math.isfinite(overhead) and overhead >= 0):
         raise InputError(f"--overhead must be a non-negative number of ms, got {overhead:g}")

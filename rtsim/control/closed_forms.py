@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 
-from rtsim.analysis.kinematics import Thresholds
+from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds
 from rtsim.errors import InputError
 
 __all__ = ["coupled_speed", "coupled_speeds", "paper_speed"]
@@ -114,23 +114,12 @@ def coupled_speed(
     then proportional to 1/V_L, so it holds exactly for V_L ≤ the returned speed (``inf`` when
     the bound does not depend on V_L at all).
     """
-    ws = _check_w(w)
-    a_rho = s * math.cos(beta + theta_f) - math.cos(beta)  # ρ̇ / V_L
-    a_beta = (math.sin(beta) - s * math.sin(beta + theta_f)) / rho - kappa  # β̇ / V_L
-    if kind == "path_diversion":
-        num, den = thr.T_eps * rho_d, s
-    elif kind == "bearing":
-        num, den = thr.T_beta, abs(a_beta)
-    elif kind == "separation":
-        num, den = thr.T_rho * rho_d, abs(a_rho)
-    elif kind == "localization":
-        if thr.localization == "predicted":  # independent of V_L
-            return math.inf if thr.predicted_ms >= 1000.0 * ws else 0.0
-        num = thr.r_H
-        den = abs(a_rho) if thr.localization == "radial" else math.hypot(a_rho, rho * a_beta)
-    else:
+    speeds = coupled_speeds(
+        rho=rho, beta=beta, s=s, theta_f=theta_f, kappa=kappa, rho_d=rho_d, thr=thr, w=w
+    )
+    if kind not in BOUND_KINDS:
         raise InputError(f"unknown bound kind {kind!r}")
-    return math.inf if den == 0.0 else num / (ws * den)
+    return speeds[BOUND_KINDS.index(kind)]
 
 
 def coupled_speeds(

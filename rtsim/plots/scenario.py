@@ -11,7 +11,9 @@ returns the exact columns each figure plots, so a figure can be redrawn from CSV
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +50,7 @@ from rtsim.plots.scenario_data import (
     times_s,
     violation_ratios,
 )
+from rtsim.plots.sketch import FigureSketch
 from rtsim.plots.style import COLUMN_IN, PAGE_IN, few, paper
 from rtsim.plots.style import DPI as _PRINT_DPI
 
@@ -163,6 +166,24 @@ def _held(df: pd.DataFrame, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 #: every bin's extremes (`line_points`) travels up and down each pixel column, 150,000 px
 #: for 1 h of Test 2, 660,000 px (≈ 30 MB of cells) for 6 h.
 AGG_LINE_TRAVEL = 200_000
+#: The same for a sketched (long) run's figures, translucent lines too (`_line_pieces`):
+#: its lines travel further (each pixel column's range of more windows), and Agg's cells
+#: for one 200,000 px line were most of what its figures took beyond an hour's.
+SKETCH_LINE_TRAVEL = 50_000
+_TRAVEL: ContextVar[tuple[int | None, bool]] = ContextVar("_TRAVEL", default=(None, False))
+
+
+@contextmanager
+def _line_pieces(sketch: FigureSketch | None) -> Iterator[None]:
+    """Within: the solid lines `_step` draws are rasterized in pieces of
+    `SKETCH_LINE_TRAVEL`, translucent ones too, if ``sketch`` is given (a long run; where
+    two pieces of a translucent line join, its colour is laid twice over a few pixels:
+    under half the scale at alpha 0.3), else as `AGG_LINE_TRAVEL` says."""
+    token = _TRAVEL.set((SKETCH_LINE_TRAVEL, True) if sketch is not None else _TRAVEL.get())
+    try:
+        yield
+    finally:
+        _TRAVEL.reset(token)
 
 
 class _Pieces(AbstractPathEffect):
@@ -172,7 +193,24 @@ class _Pieces(AbstractPathEffect):
     differ in their antialiasing, and a dash pattern starts again at each piece). A
     shorter line, a translucent one (its pieces would blend twice where they join) or a
     vector format is drawn as it is, in one call: its image is the one drawn without this
-    effect."""
+    effect. ``travel`` replaces `AGG_LINE_TRAVEL` for a solid line (a dashed one keeps it:
+    each piece starts its pattern again); with ``translucent`` a translucent line is cut
+    too (`_line_pieces`). With ``passes`` each piece is drawn that many times over itself:
+    a path a long run retraced lap after lap, drawn once from its sketch
+    (`rtsim.plots.sketch.LineSketch`), gets the edges its laps' opaque antialiased strokes
+    piled up to (each pass composites the edge pixels' coverage again)."""
+
+    def __init__(
+        self, travel: int | None = None, translucent: bool = False, passes: int = 1
+    ) -> None:
+        super().__init__()
+        self.travel = travel
+        self.translucent = translucent
+        self.passes = passes
+
+    def _draw(self, renderer: Any, gc: Any, path: MplPath, affine: Any, face: Any) -> None:
+        for _ in range(self.passes):
+            renderer.draw_path(gc, path, affine, face)
 
     def draw_path(
         self,
@@ -184,15 +222,17 @@ class _Pieces(AbstractPathEffect):
     ) -> None:
         from matplotlib.backends.backend_agg import RendererAgg
 
+        dashed = gc.get_dashes()[1] is not None  # each piece starts its pattern again
+        limit = AGG_LINE_TRAVEL if self.travel is None or dashed else self.travel
         v = np.asarray(tpath.vertices)
         alpha = gc.get_alpha() if gc.get_forced_alpha() else gc.get_rgb()[3]
         if (
             not isinstance(renderer, RendererAgg)
             or tpath.codes is not None
             or len(v) < 3
-            or alpha < 1.0  # pieces of a translucent line would blend twice where they join
+            or (alpha < 1.0 and not self.translucent)  # its pieces blend twice where they join
         ):
-            renderer.draw_path(gc, tpath, affine, rgbFace)
+            self._draw(renderer, gc, tpath, affine, rgbFace)
             return
         y = affine.transform(v)[:, 1]
         box = gc.get_clip_rectangle()
@@ -200,17 +240,30 @@ class _Pieces(AbstractPathEffect):
             y = np.clip(y, box.y0, box.y1)
         dy = np.abs(np.diff(y))
         travel = np.r_[0.0, np.cumsum(np.where(np.isfinite(dy), dy, 0.0))]
-        if travel[-1] <= AGG_LINE_TRAVEL:
-            renderer.draw_path(gc, tpath, affine, rgbFace)
+        if travel[-1] <= limit:
+            self._draw(renderer, gc, tpath, affine, rgbFace)
             return
-        piece = np.floor(travel / AGG_LINE_TRAVEL)
+        piece = np.floor(travel / limit)
         starts = np.flatnonzero(np.r_[True, piece[1:] != piece[:-1]])
         for a, b in zip(starts, np.r_[starts[1:], len(v) - 1], strict=True):
             if b > a:
                 p = MplPath(v[a : b + 1])
                 p.should_simplify = tpath.should_simplify
                 p.simplify_threshold = tpath.simplify_threshold
-                renderer.draw_path(gc, p, affine, rgbFace)
+                self._draw(renderer, gc, p, affine, rgbFace)
+
+
+#: Most times a sketched path is drawn over itself (`_sketched_line`).
+RETRACE_PASSES = 16
+
+
+def _sketched_line(ax: Axes, sketch: FigureSketch, name: str, **kw: Any) -> None:
+    """A path of the ``sketch`` drawn as often over itself as it was traced (at most
+    `RETRACE_PASSES`; `_Pieces`)."""
+    (line,) = ax.plot(*sketch.lines[name], **kw)
+    k = int(min(RETRACE_PASSES, max(1, round(sketch.passes.get(name, 1.0)))))
+    if k > 1:
+        line.set_path_effects([_Pieces(passes=k)])
 
 
 def _step(ax: Axes, df: pd.DataFrame, y: np.ndarray, **kw: object) -> Line2D:
@@ -219,14 +272,29 @@ def _step(ax: Axes, df: pd.DataFrame, y: np.ndarray, **kw: object) -> Line2D:
     x, yy = _held(df, y)
     keep = line_points(x, [yy])
     (line,) = ax.plot(x[keep], yy[keep], drawstyle="steps-post", **kw)  # type: ignore[arg-type]
-    line.set_path_effects([_Pieces()])
+    line.set_path_effects([_Pieces(*_TRAVEL.get())])
     return line
 
 
+#: Points of a band a sketched run's figure fills at a time (`_fill`).
+SKETCH_FILL_POINTS = 2048
+
+
 def _fill(ax: Axes, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, **kw: Any) -> None:
-    """A steps-post band from ``lo`` to ``hi`` through the points `line_points` keeps."""
+    """A steps-post band from ``lo`` to ``hi`` through the points `line_points` keeps;
+    within `_line_pieces` of a sketched run, in consecutive pieces of `SKETCH_FILL_POINTS`
+    points (each ends where the next begins: Agg's cells for a long band's outline were
+    4.4 MB of the operating-space figure at 6 hours; the pixel column of each joint is
+    laid twice, by under half the scale at alpha 0.25)."""
     keep = line_points(x, [lo, hi])
-    ax.fill_between(x[keep], lo[keep], hi[keep], step="post", **kw)
+    if not _TRAVEL.get()[1] or keep.sum() <= SKETCH_FILL_POINTS:
+        ax.fill_between(x[keep], lo[keep], hi[keep], step="post", **kw)
+        return
+    x, lo, hi = x[keep], lo[keep], hi[keep]
+    for a in range(0, len(x) - 1, SKETCH_FILL_POINTS):
+        b = min(a + SKETCH_FILL_POINTS, len(x) - 1) + 1
+        ax.fill_between(x[a:b], lo[a:b], hi[a:b], step="post", **kw)
+        kw.pop("label", None)
 
 
 def _dots(ax: Axes, t: np.ndarray, y: np.ndarray, top: float, fmt: str, **kw: Any) -> Line2D:
@@ -234,6 +302,17 @@ def _dots(ax: Axes, t: np.ndarray, y: np.ndarray, top: float, fmt: str, **kw: An
     keep = dot_points(t, y, top)
     (line,) = ax.plot(t[keep], y[keep], fmt, **kw)
     return line
+
+
+def _dot_data(
+    df: pd.DataFrame, sketch: FigureSketch | None, name: str, values: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """A dot series' times (s) and ``values``: the table's rows, or the ``sketch``'s dots
+    of series ``name`` (`FigureSketch`)."""
+    if sketch is None:
+        return times_s(df), values
+    t, v = sketch.dots.get(name, (np.zeros(0), np.zeros(0)))
+    return t / 1000.0, v
 
 
 def _ylimit(values: list[np.ndarray], w_sch: np.ndarray, factor: float) -> float:
@@ -312,15 +391,23 @@ def _wsch_line(ax: Axes, df: pd.DataFrame) -> None:
 # --- drawers (one axes each; shared by the single figures and plot_modes) ---------------
 
 
-def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_paths(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
+    """The paths; with a ``sketch`` (a long run) its lines and scatters instead of every
+    row's positions."""
     figure_data(df, "paths")  # validates the columns
-    crit = as_bool(df["critical"])
     lx, ly = as_floats(df["leader_x"]), as_floats(df["leader_y"])
-    bx, by = binding_xy(df)
+    if sketch is None:
+        crit = as_bool(df["critical"])
+        bx, by = binding_xy(df)
+        cx, cy = bx[crit], by[crit]
+    else:
+        cx, cy = sketch.points["critical"]
     where = "at the binding follower" if "binding" in df.columns else "on leader path"
     ax.scatter(
-        bx[crit],
-        by[crit],
+        cx,
+        cy,
         s=30,
         color=COLORS["critical"],
         alpha=0.5,
@@ -329,20 +416,24 @@ def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
         label=f"critical windows ({where})",
         zorder=1,
     )
-    ax.plot(lx, ly, color=COLORS["leader"], lw=1.4, label="leader", zorder=3)
+    leader: dict[str, Any] = {"color": COLORS["leader"], "lw": 1.4, "label": "leader", "zorder": 3}
+    if sketch is None:
+        ax.plot(lx, ly, **leader)
+    else:
+        _sketched_line(ax, sketch, "leader", **leader)
     for k, i in enumerate(followers(df)):
         c = FOLLOWER_COLORS[k % len(FOLLOWER_COLORS)]
-        ax.plot(
-            as_floats(df[f"f{i}_x"]),
-            as_floats(df[f"f{i}_y"]),
-            color=c,
-            lw=1.2,
-            label=f"follower {i}",
-            zorder=3,
-        )
+        line: dict[str, Any] = {"color": c, "lw": 1.2, "label": f"follower {i}", "zorder": 3}
+        if sketch is None:
+            ax.plot(as_floats(df[f"f{i}_x"]), as_floats(df[f"f{i}_y"]), **line)
+        else:
+            _sketched_line(ax, sketch, f"f{i}", **line)
         ax.scatter(
-            as_floats(df[f"f{i}_x_est"]),
-            as_floats(df[f"f{i}_y_est"]),
+            *(
+                (as_floats(df[f"f{i}_x_est"]), as_floats(df[f"f{i}_y_est"]))
+                if sketch is None
+                else sketch.points[f"f{i}_est"]
+            ),
             s=6,
             color=c,
             alpha=0.3,
@@ -380,7 +471,9 @@ def _draw_paths(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     ax.grid(True, alpha=0.3)
 
 
-def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_window(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
     figure_data(df, "window_slack")
     t, w, slack = times_s(df), as_floats(df["w"]), as_floats(df["slack"])
     top = top if top is not None else _ylimit([w, slack], as_floats(df["w_sch"]), WINDOW_CLIP)
@@ -398,6 +491,7 @@ def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     _step(ax, df, _offscale(w, top), color=COLORS["w"], lw=1.5, label="processing window w")
     _wsch_line(ax, df)
     missed = as_bool(df["missed"])
+    count = int(missed.sum()) if sketch is None else sketch.counts.get("missed", 0)
     if missed.any():
         ax.plot(
             t[missed],
@@ -407,7 +501,7 @@ def _draw_window(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
             ms=7,
             mew=1.8,
             gid="miss",
-            label=f"deadline miss ({int(missed.sum())})",
+            label=f"deadline miss ({count})",
         )
     ax.set_ylim(0, top)
     _note_clip(ax, [w, slack], top)
@@ -420,12 +514,13 @@ def _bounds_top(df: pd.DataFrame) -> float:
     return _ylimit(values, as_floats(data["w_sch"]), BOUNDS_CLIP)
 
 
-def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_bounds(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
     data = figure_data(df, "bounds")
     top = top if top is not None else _bounds_top(df)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
     values = []
-    t = times_s(df)
     for kind in BOUND_KINDS:
         y = as_floats(data[f"bound_{kind}_pred"])
         values.append(y)
@@ -440,11 +535,12 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
         )
         yt = as_floats(data[f"bound_{kind}_true"])
         values.append(yt)
-        shown = yt <= top
+        dt, dv = _dot_data(df, sketch, f"bound_{kind}_true", yt)
+        shown = dv <= top
         _dots(
             ax,
-            t[shown],
-            yt[shown],
+            dt[shown],
+            dv[shown],
             top,
             ".",
             color=COLORS[kind],
@@ -470,14 +566,15 @@ def _draw_bounds(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     _time_axes(ax, df, "bound on w (ms), min over followers")
 
 
-def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_msb(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
     data = figure_data(df, "msb")
     w_sch = as_floats(data["w_sch"])
     pred, true = as_floats(data["msb_min"]), as_floats(data["msb_min_true"])
     w = as_floats(data["w"])
     top = top if top is not None else _ylimit([pred, w], w_sch, BOUNDS_CLIP)
     _shade(ax, critical_spans(df), "critical", "critical (min MSB < $w_{sch}$)")
-    t = times_s(df)
     _step(
         ax,
         df,
@@ -487,11 +584,12 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
         gid="msb_pred",
         label="min MSB at $V_{Ld}$, predicted",
     )
-    shown = true <= top
+    dt, dv = _dot_data(df, sketch, "msb_min_true", true)
+    shown = dv <= top
     _dots(
         ax,
-        t[shown],
-        true[shown],
+        dt[shown],
+        dv[shown],
         top,
         ".",
         color=COLORS["msb_min"],
@@ -515,18 +613,24 @@ def _draw_msb(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     kinds = text_field(data["binding"])
     for kind in BOUND_KINDS:
         sel = crit & (kinds == kind) & (pred <= top)
-        if sel.any():
+        dt, dv = _dot_data(df, sketch, f"binding_{kind}", pred)
+        if sketch is None:
+            dt, dv, count = dt[sel], dv[sel], int(sel.sum())
+        else:
+            sel = dv <= top
+            dt, dv, count = dt[sel], dv[sel], sketch.counts.get(f"binding_{kind}", 0)
+        if count:
             _dots(
                 ax,
-                t[sel],
-                pred[sel],
+                dt,
+                dv,
                 top,
                 "o",
                 ms=3.5,
                 color=COLORS[kind],
                 mec="none",
                 gid=f"binding_{kind}",
-                label=f"binding: {kind.replace('_', ' ')} ({int(sel.sum())})",
+                label=f"binding: {kind.replace('_', ' ')} ({count})",
             )
     ax.set_ylim(0, top)
     _note_clip(ax, [pred, w], top)
@@ -556,7 +660,9 @@ def _draw_speed(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
     _time_axes(ax, df, "leader speed (cm/s)")
 
 
-def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> None:
+def _draw_operating(
+    ax: Axes, df: pd.DataFrame, top: float | None = None, sketch: FigureSketch | None = None
+) -> None:
     data = figure_data(df, "operating_space")
     w_sch = as_floats(data["w_sch"])
     msb, w = as_floats(data["msb_min"]), as_floats(data["w"])
@@ -605,11 +711,12 @@ def _draw_operating(ax: Axes, df: pd.DataFrame, top: float | None = None) -> Non
         gid="pred_min",
         label="min MSB predicted at the leader's speed",
     )
-    shown = true <= top
+    dt, dv = _dot_data(df, sketch, "msb_min_true", true)
+    shown = dv <= top
     _dots(
         ax,
-        times_s(df)[shown],
-        true[shown],
+        dt[shown],
+        dv[shown],
         top,
         ".",
         color="#333333",
@@ -677,64 +784,108 @@ def _draw_plane(ax: Axes, df: pd.DataFrame, top: float) -> None:
 
 
 @paper
-def plot_paths(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+def plot_paths(
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
+) -> Figure:
     """Figs 8/12: the leader's and followers' true paths, estimates faint, critical windows
-    drawn where the binding follower was (`binding_xy`)."""
+    drawn where the binding follower was (`binding_xy`); from a long run's ``sketch``
+    (`rtsim.plots.scenario_data.read_figures`) if given."""
     fig, ax, own = _new_figure(ax, (COLUMN_IN, COLUMN_IN + 1.6))
-    _draw_paths(ax, df)
+    _draw_paths(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title)
 
 
 @paper
 def plot_window_slack(
-    df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
 ) -> Figure:
-    """Figs 9/13: the processing window w and the slack (Eq 22) over time, w_sch for reference."""
+    """Figs 9/13: the processing window w and the slack (Eq 22) over time, w_sch for reference
+    (``sketch``: a long run's, for its count of misses)."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
-    _draw_window(ax, df)
+    with _line_pieces(sketch):
+        _draw_window(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title)
 
 
 @paper
-def plot_bounds(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+def plot_bounds(
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
+) -> Figure:
     """The per-kind detail of Figs 10/14 (`plot_msb` is the paper's picture): w_sch,
-    each MSB kind (min over followers, estimates) and w over time."""
+    each MSB kind (min over followers, estimates) and w over time; the dots from a long
+    run's ``sketch`` if given."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 3.2))
-    _draw_bounds(ax, df)
+    with _line_pieces(sketch):
+        _draw_bounds(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title, note=BOUNDS_NOTE)
 
 
 @paper
-def plot_msb(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
+def plot_msb(
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
+) -> Figure:
     """Figs 10/14 as the paper draws them: the minimum MSB over every follower and bound,
     predicted at the desired speed V_Ld (the decision's ``msb_min``) and as the truth showed
     it, against w_sch and w; in the critical windows a marker coloured by the binding bound.
-    The per-kind detail is [`plot_bounds`][rtsim.plots.scenario.plot_bounds]."""
+    The per-kind detail is [`plot_bounds`][rtsim.plots.scenario.plot_bounds]. The dots from
+    a long run's ``sketch`` if given."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
-    _draw_msb(ax, df)
+    with _line_pieces(sketch):
+        _draw_msb(ax, df, sketch=sketch)
     return _finish(fig, ax, own, title)
 
 
 @paper
-def plot_speed(df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None) -> Figure:
-    """Figs 11/15: the desired and actual leader speed over time, turns shaded."""
+def plot_speed(
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    sketch: FigureSketch | None = None,
+) -> Figure:
+    """Figs 11/15: the desired and actual leader speed over time, turns shaded (``sketch``:
+    not needed, taken for a uniform call)."""
     fig, ax, own = _new_figure(ax, (PAGE_IN, 2.5))
-    _draw_speed(ax, df)
+    with _line_pieces(sketch):
+        _draw_speed(ax, df)
     return _finish(fig, ax, own, title)
 
 
 @paper
 def plot_operating_space(
-    df: pd.DataFrame, *, title: str | None = None, ax: Axes | None = None, plane: bool = True
+    df: pd.DataFrame,
+    *,
+    title: str | None = None,
+    ax: Axes | None = None,
+    plane: bool = True,
+    sketch: FigureSketch | None = None,
 ) -> Figure:
     """Fig 2's operating space over time: w_sch ≤ w ≤ min MSB, the critical region shaded.
 
     With ``plane`` (and no ``ax`` given) a second panel shows the (w_sch, min MSB) plane with
     the diagonal min MSB = w_sch that separates the safe area from the critical region.
+    The dots from a long run's ``sketch`` if given.
     """
     if ax is not None or not plane:
         fig, ax, own = _new_figure(ax, (PAGE_IN, 2.8))
-        _draw_operating(ax, df)
+        with _line_pieces(sketch):
+            _draw_operating(ax, df, sketch=sketch)
         return _finish(fig, ax, own, title)
     fig = new_figure(figsize=(PAGE_IN, 2.8), layout="constrained")
     ax_t, ax_p = fig.subplots(1, 2, width_ratios=[3, 1.1])
@@ -742,7 +893,8 @@ def plot_operating_space(
     top = _ylimit(
         [as_floats(data["msb_min"]), as_floats(data["w"])], as_floats(data["w_sch"]), BOUNDS_CLIP
     )
-    _draw_operating(ax_t, df, top)
+    with _line_pieces(sketch):
+        _draw_operating(ax_t, df, top, sketch)
     _draw_plane(ax_p, df, top)
     return _finish(fig, ax_t, True, title)
 
@@ -905,11 +1057,13 @@ def write_scenario_figures(
     data: bool = False,
     dpi: int = DPI,
     fmt: str = "png",
+    sketch: FigureSketch | None = None,
 ) -> list[Path]:
     """Write every figure of `SCENARIO_FIGURES` as ``<prefix><stem>.png`` in ``out_dir``.
 
     ``label`` (e.g. ``"Test 2, adjust"``) heads each title; with ``data`` each figure's
-    [`figure_data`][rtsim.plots.scenario.figure_data] is also written as ``<prefix><stem>.csv``.
+    [`figure_data`][rtsim.plots.scenario.figure_data] is also written as ``<prefix><stem>.csv``;
+    ``sketch``: a long run's paths and dots (`rtsim.plots.scenario_data.read_figures`).
     Returns the paths written.
     """
     import gc
@@ -918,7 +1072,9 @@ def write_scenario_figures(
     written: list[Path] = []
     for stem, plot in SCENARIO_FIGURES.items():
         title = f"{label}: {_TITLES[stem]}" if label else _TITLES[stem]
-        written.append(save_figure(plot(df, title=title), out / f"{prefix}{stem}.{fmt}", dpi=dpi))
+        fig = plot(df, title=title, sketch=sketch)
+        written.append(save_figure(fig, out / f"{prefix}{stem}.{fmt}", dpi=dpi))
+        del fig
         # a figure is a web of reference cycles: freed here, before the next is drawn,
         # not when the collector next runs (six figures of a long run held at once)
         gc.collect()

@@ -1,7 +1,8 @@
 """What a scenario figure shows, selected from a run's ``windows.csv`` table (docs/outputs.md):
 the followers present, the critical spans, the violation ratios, the columns each figure
 plots ([`figure_data`][rtsim.plots.scenario_data.figure_data]), the table a run's figures are
-drawn from, read back in chunks and thinned per pixel column (`read_figure_table`), and the
+drawn from, read back in chunks and thinned per pixel column (`read_figure_table`), with a
+long run's sketch of its paths and dots (`read_figures`, `rtsim.plots.sketch`), and the
 points of each line and dot series drawn (`line_points`, `dot_points`). No drawing here:
 `rtsim.plots.scenario` draws what these return.
 """
@@ -18,6 +19,7 @@ import pandas as pd
 from rtsim.coupling.recorder import window_columns
 from rtsim.errors import InputError
 from rtsim.io.columns import iter_columns
+from rtsim.plots.sketch import DotSketch, FigureSketch, Grid, LineSketch, PointSketch
 
 __all__ = [
     "BOUND_KINDS",
@@ -26,16 +28,19 @@ __all__ = [
     "FIGURE_BINS",
     "FIGURE_DOT_CELL",
     "FIGURE_READ_ROWS",
+    "FIGURE_ROWS",
     "WINDOW_CLIP",
     "binding_xy",
     "critical_spans",
     "dot_points",
+    "dot_rows_of",
     "figure_columns",
     "figure_data",
     "followers",
     "keep_extremes",
     "line_points",
     "read_figure_table",
+    "read_figures",
     "reduce_chunk",
     "text_field",
     "thin_rows",
@@ -217,6 +222,28 @@ WINDOW_CLIP = 6.0
 #: `read_figure_table` keeps one dot per bin: the time figures' y axes reach at least 1.5 ×
 #: w_sch over about 500 px, so this is under 4 px; a dot is about 10 px wide.
 FIGURE_DOT_CELL = 0.01
+#: Most rows the figures' table holds as it is (`read_figures`): a longer run's figures
+#: draw its lines from fewer rows and its paths and dots from a `FigureSketch`. 1 hour of
+#: Test 2 keeps 13,202 rows, 6 hours 65,310.
+FIGURE_ROWS = 16_384
+#: Cells across the larger side of the paths' extent of a sketched path (`LineSketch`):
+#: the paths figure's axes are under 1,100 px wide at 300 dpi, so a cell is under half a
+#: pixel.
+FIGURE_PATH_CELLS = 2048
+#: Cells across the same extent for the translucent scatters (`PointSketch`), about two
+#: pixels, and the points each keeps at most: a marker is about 10 px wide, so a pixel in
+#: a full cell's neighbourhood lies under dozens of kept markers (alpha 0.3 or 0.5: under
+#: 1 % of the colour left to add).
+FIGURE_POINT_CELLS = 512
+FIGURE_POINTS_PER_CELL = 8
+#: A sketched dot series' cells (`DotSketch`): this many time bins by this many
+#: `FIGURE_DOT_CELL` bands, holding at most `FIGURE_DOTS_PER_CELL` dots each.
+#: The changes of ``critical`` and the misses a sketched run's table keeps at each end of a
+#: time bin (`keep_extremes`' ``events``).
+FIGURE_EVENTS = 2
+FIGURE_DOT_BINS = 1
+FIGURE_DOT_BANDS = 1
+FIGURE_DOTS_PER_CELL = 1
 
 #: The plotted values whose extremes a thinned table keeps, by name (each follower's bound
 #: columns too, and the minima over followers `reduce_chunk` adds).
@@ -258,7 +285,13 @@ def _dots(df: pd.DataFrame) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def keep_extremes(
-    df: pd.DataFrame, bins: np.ndarray, dot_cell: float | None = None, dot_top: float = np.inf
+    df: pd.DataFrame,
+    bins: np.ndarray,
+    dot_cell: float | None = None,
+    dot_top: float = np.inf,
+    *,
+    dot_rows: bool = True,
+    events: int | None = None,
 ) -> np.ndarray:
     """Which rows to draw (a boolean mask) when rows are grouped by ``bins`` (one
     non-decreasing bin number per row): per bin its first and last row and, for every
@@ -269,7 +302,11 @@ def keep_extremes(
     same picture. With ``dot_cell`` (ms), of the values drawn as dots (`_dots`) up to
     ``dot_top`` (ms; no dot is drawn above the y axis) one row per bin and
     ``dot_cell``-high band of values is kept too, so the dots cover what every row's dots
-    cover to within that band."""
+    cover to within that band (``dot_rows`` False: those rows are left to a `DotSketch`,
+    and the true values still left out of the lines' extremes). With ``events``, of the
+    changes of ``critical`` and the misses only the first and last ``events`` of each bin
+    are kept (a bin is under a pixel column wide: the shading of the changes between
+    differs in that column only, by at most its alpha)."""
     m = len(df)
     keep = np.zeros(m, dtype=bool)
     if m == 0:
@@ -280,22 +317,46 @@ def keep_extremes(
     if "critical" in df.columns:
         f = as_bool(df["critical"])
         ch = np.flatnonzero(f[1:] != f[:-1])
+        if events is not None:
+            ch = ch[_ends_of_bins(bins[ch + 1], events)]
         keep[ch] = True
         keep[ch + 1] = True
     if "missed" in df.columns:
-        keep |= as_bool(df["missed"])
+        missed = np.flatnonzero(as_bool(df["missed"]))
+        if events is not None:
+            missed = missed[_ends_of_bins(bins[missed], events)]
+        keep[missed] = True
     dots = dot_cell is not None and dot_cell > 0
     for v in _guarded(df, dots):
         _keep_extremes_of(v, starts, keep)
-    if dots:
+    if dots and dot_rows:
         assert dot_cell is not None
-        for v, group in _dots(df):
-            drawn = np.flatnonzero((v <= dot_top) & (group >= 0))
-            key = np.column_stack(
-                [bins[drawn], group[drawn], np.floor(v[drawn] / dot_cell).astype(np.int64)]
-            )
-            first = np.unique(key, axis=0, return_index=True)[1]
-            keep[drawn[first]] = True
+        keep |= dot_rows_of(df, bins, dot_cell, dot_top)
+    return keep
+
+
+def _ends_of_bins(b: np.ndarray, k: int) -> np.ndarray:
+    """Of items with non-decreasing bins ``b``, which are among the first or last ``k`` of
+    their bin (a boolean mask)."""
+    if not len(b):
+        return np.zeros(0, dtype=bool)
+    starts = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
+    size = np.diff(np.r_[starts, len(b)])
+    pos = np.arange(len(b)) - np.repeat(starts, size)
+    return (pos < k) | (pos >= np.repeat(size, size) - k)
+
+
+def dot_rows_of(df: pd.DataFrame, bins: np.ndarray, dot_cell: float, dot_top: float) -> np.ndarray:
+    """The rows `keep_extremes` keeps for the dots: of the values drawn as dots (`_dots`) up
+    to ``dot_top``, the first row of each bin, group and ``dot_cell``-high band."""
+    keep = np.zeros(len(df), dtype=bool)
+    for v, group in _dots(df):
+        drawn = np.flatnonzero((v <= dot_top) & (group >= 0))
+        key = np.column_stack(
+            [bins[drawn], group[drawn], np.floor(v[drawn] / dot_cell).astype(np.int64)]
+        )
+        first = np.unique(key, axis=0, return_index=True)[1]
+        keep[drawn[first]] = True
     return keep
 
 
@@ -388,15 +449,103 @@ def read_figure_table(path: str | os.PathLike[str], n: int) -> pd.DataFrame:
     grouped by `FIGURE_BINS` equal bins of the run's time span and thinned
     (`keep_extremes`, dots kept per `FIGURE_DOT_CELL` × w_sch band). The table stays
     within ``FIGURE_BINS`` × (2 + 2 × plotted values + the dot bands a bin's values span)
-    rows (plus the critical changes and misses, each kept) whatever the run's length; a run
-    with fewer windows than bins keeps every row.
+    rows (plus the critical changes and misses, each kept); a run with fewer windows than
+    bins keeps every row. `read_figures` bounds it by a constant.
 
     The file is read three times: the time span and w_sch, then which rows each chunk
     keeps, then the kept rows copied into columns allocated once at their final length
     (`_KeptColumns`), so nothing long-lived is allocated between the chunks' parses."""
+    return read_figures(path, n, max_rows=np.inf)[0]
+
+
+def _position_columns(n: int) -> list[str]:
+    cols = ["leader_x", "leader_y"]
+    for i in range(1, n + 1):
+        cols += [f"f{i}_x", f"f{i}_y", f"f{i}_x_est", f"f{i}_y_est"]
+    return cols
+
+
+def _dot_series(df: pd.DataFrame, top: float) -> Iterator[tuple[str, np.ndarray]]:
+    """The dot series the figures draw, by name (`FigureSketch`), each as the rows drawing
+    a dot (value ≤ ``top``): each bound kind's true value and their minimum, and
+    ``msb_min`` in the critical windows binding by each kind."""
+    true = {k: as_floats(df[f"bound_{k}_true"]) for k in BOUND_KINDS}
+    for k, v in true.items():
+        yield f"bound_{k}_true", v <= top
+    yield "msb_min_true", np.min(list(true.values()), axis=0) <= top
+    kinds = text_field(df["binding"])
+    crit = as_bool(df["critical"]) & (as_floats(df["msb_min"]) <= top)
+    for k in BOUND_KINDS:
+        yield f"binding_{k}", crit & (kinds == k)
+
+
+def _dot_values(df: pd.DataFrame, name: str) -> np.ndarray:
+    if name == "msb_min_true":
+        return np.min([as_floats(df[f"bound_{k}_true"]) for k in BOUND_KINDS], axis=0)
+    return as_floats(df["msb_min" if name.startswith("binding_") else name])
+
+
+class _Sketcher:
+    """A `FigureSketch` built chunk by chunk (`read_figures`' third pass)."""
+
+    def __init__(
+        self, n: int, lo: tuple[float, float], hi: tuple[float, float], cell: float, top: float
+    ) -> None:
+        lines = Grid.over(lo, hi, FIGURE_PATH_CELLS)
+        points = Grid.over(lo, hi, FIGURE_POINT_CELLS)
+        self.n, self.top = n, top
+        self.lines = {r: LineSketch(lines) for r in ["leader", *(f"f{i}" for i in range(1, n + 1))]}
+        self.points = {
+            r: PointSketch(points, FIGURE_POINTS_PER_CELL)
+            for r in ["critical", *(f"f{i}_est" for i in range(1, n + 1))]
+        }
+        self.dots: dict[str, DotSketch] = {}
+        self.cell = cell
+        self.missed = 0
+
+    def add(self, df: pd.DataFrame, bins: np.ndarray) -> None:
+        for r, line in self.lines.items():
+            x, y = ("leader_x", "leader_y") if r == "leader" else (f"{r}_x", f"{r}_y")
+            line.add(as_floats(df[x]), as_floats(df[y]))
+        for i in range(1, self.n + 1):
+            self.points[f"f{i}_est"].add(as_floats(df[f"f{i}_x_est"]), as_floats(df[f"f{i}_y_est"]))
+        crit = as_bool(df["critical"])
+        bx, by = binding_xy(df)
+        self.points["critical"].add(bx[crit], by[crit])
+        self.missed += int(np.count_nonzero(as_bool(df["missed"])))
+        if not self.cell:
+            return
+        t = as_floats(df["t"])
+        for name, drawn in _dot_series(df, self.top):
+            sk = self.dots.setdefault(
+                name, DotSketch(self.cell * FIGURE_DOT_BANDS, FIGURE_DOT_BINS, FIGURE_DOTS_PER_CELL)
+            )
+            sk.add(bins[drawn], t[drawn], _dot_values(df, name)[drawn])
+
+    def sketch(self) -> FigureSketch:
+        return FigureSketch(
+            lines={r: s.xy() for r, s in self.lines.items()},
+            passes={r: s.passes() for r, s in self.lines.items()},
+            points={r: s.xy() for r, s in self.points.items()},
+            dots={r: s.tv() for r, s in self.dots.items()},
+            counts={"missed": self.missed, **{r: s.count for r, s in self.dots.items()}},
+        )
+
+
+def read_figures(
+    path: str | os.PathLike[str], n: int, max_rows: float | None = None
+) -> tuple[pd.DataFrame, FigureSketch | None]:
+    """The figures' table (`read_figure_table`) and None while it holds at most
+    ``max_rows`` rows (default `FIGURE_ROWS`); above, the table of the rows the lines need
+    (`keep_extremes` without the dots' rows: within ``FIGURE_BINS`` × (2 + 2 × plotted
+    values) rows plus the critical changes and misses) and a `FigureSketch` of the paths
+    and dots, built from every window (each of its parts bounded by its grid)."""
     t0 = end = None
     w_sch = 0.0
-    for chunk in iter_columns(path, ["t", "w", "w_sch"], chunk_rows=FIGURE_READ_ROWS):
+    lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
+    for chunk in iter_columns(
+        path, ["t", "w", "w_sch", *_position_columns(n)], chunk_rows=FIGURE_READ_ROWS
+    ):
         if len(chunk):
             t = as_floats(chunk["t"])
             w = as_floats(chunk["w"])[-1]
@@ -405,12 +554,24 @@ def read_figure_table(path: str | os.PathLike[str], n: int) -> pd.DataFrame:
             r = as_floats(chunk["w_sch"])
             r = r[np.isfinite(r)]
             w_sch = max(w_sch, float(r.max())) if r.size else w_sch
+            for k, axis in enumerate("xy"):
+                v = np.concatenate(
+                    [
+                        as_floats(chunk[c])
+                        for c in chunk.columns
+                        if c.endswith(f"_{axis}") or c.endswith(f"_{axis}_est")
+                    ]
+                )
+                v = v[np.isfinite(v)]
+                if v.size:
+                    lo[k], hi[k] = min(lo[k], v.min()), max(hi[k], v.max())
     if t0 is None or end is None:
-        return reduce_chunk(pd.DataFrame(columns=figure_columns(n)))
+        return reduce_chunk(pd.DataFrame(columns=figure_columns(n))), None
     span = end - t0
     cell = FIGURE_DOT_CELL * w_sch if w_sch > 0 else None
+    top = BOUNDS_CLIP * w_sch
 
-    def kept_chunks() -> Iterator[tuple[pd.DataFrame, np.ndarray]]:
+    def chunks() -> Iterator[tuple[pd.DataFrame, np.ndarray, np.ndarray, np.ndarray]]:
         for chunk in iter_columns(path, figure_columns(n), chunk_rows=FIGURE_READ_ROWS):
             small = reduce_chunk(chunk)
             del chunk
@@ -420,14 +581,25 @@ def read_figure_table(path: str | os.PathLike[str], n: int) -> pd.DataFrame:
                 bins = np.floor(np.nan_to_num(bins)).astype(np.int64)
             else:
                 bins = np.zeros(len(small), dtype=np.int64)
-            yield small, keep_extremes(small, bins, cell, BOUNDS_CLIP * w_sch)
+            lines = keep_extremes(small, bins, cell, top, dot_rows=False)
+            dots = dot_rows_of(small, bins, cell, top) if cell else np.zeros_like(lines)
+            few = keep_extremes(small, bins, cell, top, dot_rows=False, events=FIGURE_EVENTS)
+            yield small, bins, few, lines | dots
 
-    kept = _KeptColumns()
-    for small, keep in kept_chunks():
-        kept.plan(small, keep)
-    for small, keep in kept_chunks():
-        kept.fill(small, keep)
-    return kept.frame()
+    every, few = _KeptColumns(), _KeptColumns()
+    for small, _, lines, keep in chunks():
+        every.plan(small, keep)
+        few.plan(small, lines)
+    if every.rows <= (FIGURE_ROWS if max_rows is None else max_rows):
+        for small, _, _, keep in chunks():
+            every.fill(small, keep)
+        return every.frame(), None
+    del every
+    sketcher = _Sketcher(n, (lo[0], lo[1]), (hi[0], hi[1]), cell or 0.0, top)
+    for small, bins, lines, _ in chunks():
+        few.fill(small, lines)
+        sketcher.add(small, bins)
+    return few.frame(), sketcher.sketch()
 
 
 class _KeptColumns:

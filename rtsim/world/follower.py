@@ -133,10 +133,8 @@ def lpsi_command(
 
     ``leader`` is the leader's pose (x, y, heading), ``v_l`` its speed, ``omega_l`` its
     turn rate; (l_d, ψ_d) the control point's targets from `control_targets`.
-    Floats use ``math`` (fast path for one follower); NumPy arrays are vectorised.
+    Floats use ``math``; NumPy arrays are vectorised (the same expressions).
     """
-    if x.__class__ is float and th.__class__ is float:
-        return _lpsi1(leader, v_l, omega_l, x, y, th, l_d, psi_d, p)
     xp: Any = np if isinstance(x, np.ndarray) else math
     xl, yl, hl = leader
     d = p.control_offset
@@ -156,39 +154,6 @@ def lpsi_command(
     vx = v_l - omega_l * ry + dl * el_x - ll * dpsi * el_y
     vy = omega_l * rx + dl * el_y + ll * dpsi * el_x
     # to the world frame
-    gx = c * vx - s * vy
-    gy = s * vx + c * vy
-    return gx * cth + gy * sth, (-gx * sth + gy * cth) / d
-
-
-def _lpsi1(
-    leader: tuple[float, float, float],
-    v_l: float,
-    omega_l: float,
-    x: float,
-    y: float,
-    th: float,
-    l_d: float,
-    psi_d: float,
-    p: FollowerParams,
-) -> tuple[float, float]:
-    """[`lpsi_command`][rtsim.world.follower.lpsi_command] for one follower given as floats (the
-    same expressions)."""
-    xl, yl, hl = leader
-    d = p.control_offset
-    c, s = math.cos(hl), math.sin(hl)
-    cth, sth = math.cos(th), math.sin(th)
-    wx = x + d * cth - xl
-    wy = y + d * sth - yl
-    rx = c * wx + s * wy
-    ry = -s * wx + c * wy
-    ll = math.hypot(rx, ry)
-    psi = math.atan2(ry, rx)
-    dl = p.gain_rho * (l_d - ll)
-    dpsi = p.gain_beta * ((psi_d - psi + math.pi) % (2 * math.pi) - math.pi)
-    el_x, el_y = rx / ll, ry / ll
-    vx = v_l - omega_l * ry + dl * el_x - ll * dpsi * el_y
-    vy = omega_l * rx + dl * el_y + ll * dpsi * el_x
     gx = c * vx - s * vy
     gy = s * vx + c * vy
     return gx * cth + gy * sth, (-gx * sth + gy * cth) / d

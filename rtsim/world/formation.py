@@ -160,6 +160,17 @@ def _pair_args(
     return n, sep, off, r_F
 
 
+def _pairs(n: int, sep: float, offs: list[float]) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """(ρ_d, β_d) of ``n`` followers in pairs: pair p at p·``sep`` cm, 180° ± ``offs[p − 1]``
+    (odd followers right, even left)."""
+    rho = tuple(sep * ((i + 1) // 2) for i in range(1, n + 1))
+    beta = tuple(
+        math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
+        for i in range(1, n + 1)
+    )
+    return rho, beta
+
+
 def chevron(
     n: int,
     separation: float,
@@ -183,12 +194,7 @@ def chevron(
             f"{math.degrees(offs[-1]):.4g} deg off the track, above 90); use a larger "
             f"separation, a smaller bearing_offset, or [[formation.slot]]"
         )
-    rho = tuple(sep * ((i + 1) // 2) for i in range(1, n + 1))
-    beta = tuple(
-        math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
-        for i in range(1, n + 1)
-    )
-    return Formation(rho, beta, clearance=clearance)
+    return Formation(*_pairs(n, sep, offs), clearance=clearance)
 
 
 def in_line_offsets(
@@ -229,12 +235,7 @@ def in_line(
             f"{math.degrees(offs[0]):.4g} deg off the track, above 90); use a larger "
             f"separation or [[formation.slot]]"
         )
-    rho = tuple(sep * ((i + 1) // 2) for i in range(1, n + 1))
-    beta = tuple(
-        math.pi + (offs[(i + 1) // 2 - 1] if i % 2 == 1 else -offs[(i + 1) // 2 - 1])
-        for i in range(1, n + 1)
-    )
-    return Formation(rho, beta, "follow-the-leader", clearance)
+    return Formation(*_pairs(n, sep, offs), "follow-the-leader", clearance)
 
 
 @dataclass(frozen=True)

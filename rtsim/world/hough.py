@@ -39,13 +39,7 @@ from rtsim.world.jit import build, kernel
 
 __all__ = [
     "CELL_CM",
-    "OUT_CELLS",
-    "OUT_FIX_X",
-    "OUT_FIX_Y",
-    "OUT_OWNER",
-    "OUT_SIZE",
-    "OUT_VOTERS",
-    "OUT_VOTES",
+    "WINDOW_ROW",
     "Accumulator",
     "compiled",
     "hough_window",
@@ -58,9 +52,19 @@ __all__ = [
 #: cells, Eq 1's first term.
 CELL_CM = 1.0
 
-# one row of locate_all's output per follower
-OUT_FIX_X, OUT_FIX_Y, OUT_VOTES, OUT_VOTERS, OUT_OWNER, OUT_CELLS = range(6)
-OUT_SIZE = 6
+#: One window's outcome, a record of `hough_window`'s output: the fix (cm; NaN, NaN when no
+#: point voted), the peak's votes, the points that voted, the follower whose points made the
+#: peak (−1: none) and the window's cells.
+WINDOW_ROW = np.dtype(
+    [
+        ("fix_x", np.float64),
+        ("fix_y", np.float64),
+        ("votes", np.int64),
+        ("voters", np.int64),
+        ("owner", np.int64),
+        ("cells", np.int64),
+    ]
+)
 
 _COMPILED: Any = None
 
@@ -106,7 +110,8 @@ def hough_window(
     cell: float,
     cells: int,
     work: Work,
-    out: NDArray[np.float64],
+    out: NDArray[np.void],
+    k: int,
 ) -> None:
     """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
@@ -114,9 +119,8 @@ def hough_window(
     directions (`ring`) and the scratch (`Accumulator`): ``acc``, ``epoch``,
     ``stamp`` of at least (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared — a cell counts only if
     its ``epoch`` is this call's (``state[0]``, advanced by each call), and a point votes for a
-    cell once (its ``stamp``) — and ``tally``, one entry per follower. Writes ``out``: the fix
-    (NaN, NaN when no point voted), the peak's votes, the points that voted, the follower whose
-    points made the peak (−1: none) and ``cells``."""
+    cell once (its ``stamp``) — and ``tally``, one entry per follower. Writes record ``k`` of
+    ``out`` (`WINDOW_ROW`)."""
     ring_cos, ring_sin, acc, epoch, stamp, tally, state = work
     h = int(math.floor(r_H / cell))
     m = 2 * h + 1
@@ -185,13 +189,14 @@ def hough_window(
                 best = v
                 bi = i
                 bj = j
-    out[OUT_VOTERS] = voters
-    out[OUT_CELLS] = cells
-    out[OUT_VOTES] = best
+    row = out[k]
+    row["voters"] = voters
+    row["cells"] = cells
+    row["votes"] = best
     if bi < 0:
-        out[OUT_FIX_X] = math.nan
-        out[OUT_FIX_Y] = math.nan
-        out[OUT_OWNER] = -1
+        row["fix_x"] = math.nan
+        row["fix_y"] = math.nan
+        row["owner"] = -1
         return
     si = 0.0
     sj = 0.0
@@ -204,8 +209,8 @@ def hough_window(
                 cnt += 1
     fx = cx + (si / cnt - h) * cell
     fy = cy + (sj / cnt - h) * cell
-    out[OUT_FIX_X] = fx
-    out[OUT_FIX_Y] = fy
+    row["fix_x"] = fx
+    row["fix_y"] = fy
     for k in range(tally.shape[0]):
         tally[k] = 0
     for p in range(px.shape[0]):
@@ -221,7 +226,7 @@ def hough_window(
         if tally[k] > most:
             most = tally[k]
             who = k
-    out[OUT_OWNER] = who
+    row["owner"] = who
 
 
 @kernel
@@ -236,12 +241,12 @@ def locate_all(
     cell: float,
     cells: int,
     work: Work,
-    out: NDArray[np.float64],
+    out: NDArray[np.void],
 ) -> None:
-    """`hough_window` for every follower's window (centres ``cxs``, ``cys``), one row
-    of ``out`` (n, `OUT_SIZE`) each."""
+    """`hough_window` for every follower's window (centres ``cxs``, ``cys``), one
+    `WINDOW_ROW` of ``out`` each."""
     for k in range(cxs.shape[0]):
-        hough_window(px, py, owner, cxs[k], cys[k], r_H, r_F, cell, cells, work, out[k])
+        hough_window(px, py, owner, cxs[k], cys[k], r_H, r_F, cell, cells, work, out, k)
 
 
 def compiled() -> Any:
@@ -273,10 +278,10 @@ def _dummy(every: bool) -> tuple[Any, ...]:
     c, s = ring(25.0, 1.0)
     acc = np.zeros((11, 11), dtype=np.int64)
     centre: Any = (np.zeros(1), np.zeros(1)) if every else (0.0, 0.0)
-    out = np.zeros((1, OUT_SIZE)) if every else np.zeros(OUT_SIZE)
     one = np.zeros(1, dtype=np.int64)
     work = (c, s, acc, acc.copy(), acc.copy(), one, one.copy())
-    return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, 81, work, out)
+    out = (np.zeros(1, WINDOW_ROW),) if every else (np.zeros(1, WINDOW_ROW), 0)
+    return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, 81, work, *out)
 
 
 class Accumulator:
@@ -298,8 +303,8 @@ class Accumulator:
             self.state,
         )  # fmt: skip
         self._cells: dict[float, int] = {}
-        self.out = np.zeros((n, OUT_SIZE))
-        self.one = np.zeros(OUT_SIZE)
+        self.out = np.zeros(n, WINDOW_ROW)
+        self.one = np.zeros(1, WINDOW_ROW)
         kernels: tuple[Any, Any] = compiled() if fast else (hough_window, locate_all)
         self._one, self._every = kernels
 
@@ -318,9 +323,8 @@ class Accumulator:
         cxs: NDArray[np.float64],
         cys: NDArray[np.float64],
         r_H: float,
-    ) -> NDArray[np.float64]:
-        """Every follower's window: the (n, `OUT_SIZE`) rows (valid until the next
-        call)."""
+    ) -> NDArray[np.void]:
+        """Every follower's window: its `WINDOW_ROW` records (valid until the next call)."""
         cells = self.cells(r_H)
         self._every(px, py, owner, cxs, cys, r_H, self.r_F, self.cell, cells, self.work, self.out)
         return self.out
@@ -333,9 +337,9 @@ class Accumulator:
         cx: float,
         cy: float,
         radius: float,
-    ) -> NDArray[np.float64]:
+    ) -> np.void:
         """One window of ``radius`` around (``cx``, ``cy``) (a re-acquisition search): its
-        `OUT_SIZE` values (valid until the next call)."""
+        `WINDOW_ROW` record (valid until the next call)."""
         cells = self.cells(radius)
-        self._one(px, py, owner, cx, cy, radius, self.r_F, self.cell, cells, self.work, self.one)
-        return self.one
+        self._one(px, py, owner, cx, cy, radius, self.r_F, self.cell, cells, self.work, self.one, 0)
+        return self.one[0]

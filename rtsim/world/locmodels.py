@@ -34,15 +34,7 @@ from rtsim.world._check import plugin
 from rtsim.world.config import SensingParams, WorldConfig
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
-from rtsim.world.hough import (
-    OUT_FIX_X,
-    OUT_FIX_Y,
-    OUT_OWNER,
-    OUT_VOTERS,
-    OUT_VOTES,
-    Accumulator,
-    window_cells,
-)
+from rtsim.world.hough import Accumulator, window_cells
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.localization import locate_one
 from rtsim.world.motionmodels import motion_model
@@ -188,8 +180,8 @@ class HoughModel(LocalizationModel):
         c = np.array(centre).T.copy()
         px, py, owner = state
         r_H = self.config.thresholds.r_H
-        fixes = self.accumulator.locate(px, py, owner, c[0], c[1], r_H).tolist()
-        voted = [int(row[OUT_VOTERS]) for row in fixes]
+        fixes = self.accumulator.locate(px, py, owner, c[0], c[1], r_H)
+        voted = fixes["voters"].tolist()
         out = [self._fix(k, fixes[k], state, centre[k], expected) for k in range(self.n)]
         return out, voted
 
@@ -201,19 +193,19 @@ class HoughModel(LocalizationModel):
         (r_reacq) as with the gaussian model."""
         sens = self.config.sensing
         min_pts = sens.min_points
-        if row[OUT_VOTES] >= min_pts:
-            who = int(row[OUT_OWNER])
+        if row["votes"] >= min_pts:
+            who = int(row["owner"])
             neighbour = who >= 0 and who != k
-            fix = (float(row[OUT_FIX_X]), float(row[OUT_FIX_Y]))
+            fix = (float(row["fix_x"]), float(row["fix_y"]))
             return fix, True, neighbour, False, False, neighbour
         if not (expected is None or expected[k] >= min_pts):
             return centre, False, True, False, False, False
         px, py, owner = beams
         found = self.accumulator.search(px, py, owner, centre[0], centre[1], sens.r_reacq)
-        if found[OUT_VOTES] < min_pts:
+        if found["votes"] < min_pts:
             return centre, False, True, True, False, False
-        who = int(found[OUT_OWNER])
-        fix = (float(found[OUT_FIX_X]), float(found[OUT_FIX_Y]))
+        who = int(found["owner"])
+        fix = (float(found["fix_x"]), float(found["fix_y"]))
         return fix, False, True, True, True, who >= 0 and who != k
 
 

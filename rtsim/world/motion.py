@@ -1,5 +1,5 @@
-"""The unicycle's motion, written once: the exact arc, the followers' speed ramp and the
-leader's (docs/model/world.md).
+"""The unicycle's motion, written once: the exact arc and the speed ramp that the followers and
+the leader share (docs/model/world.md).
 
 Each function is plain Python on floats and a kernel source (`rtsim.world.jit.kernel`):
 the ``python`` backend calls it as it is, the ``compiled`` backend's kernels call the same
@@ -11,16 +11,13 @@ c = v·dt·sin(Δθ/2)/(Δθ/2) (1 when Δθ = 0) and direction m = θ + Δθ/2,
 
     x' = x + c cos m,   y' = y + c sin m,   θ' = θ + Δθ.
 
-**Followers' ramp.** The wheel speed moves from v₀ toward the held command v_c at most a
-cm/s² (a = inf: at once); with τ = |v_c − v₀|/a the mean speed over dt is
-((v₀ + v_c)/2·τ + v_c·(dt − τ))/dt when τ ≤ dt (the speed reaches v_c), else (v₀ + v₁)/2
-with v₁ = v₀ ± a·dt.
-
-**Leader's ramp.** The leader's speed moves toward its target at ``accel`` cm/s² when
-speeding up and ``decel`` when slowing down; the arc length it drives over dt is the exact
-integral of that ramp-then-hold profile, (v₀ + v_t)/2·τ + v_t·(dt − τ) (τ ≤ dt) or
-(v₀ + v₁)/2·dt. (It is kept apart from the followers' ramp: the leader's arc length is
-summed directly, not as a mean speed times dt, and ties τ = dt round differently.)
+**Speed ramp.** The speed moves from v₀ toward a held target v_t at most a cm/s² (a = inf:
+at once). With τ = |v_t − v₀|/a, it reaches v_t when τ ≤ dt and the distance driven over dt
+is the exact integral of that ramp-then-hold profile, d = (v₀ + v_t)/2·τ + v_t·(dt − τ),
+the mean speed d/dt; otherwise it ends at v₁ = v₀ ± a·dt with mean speed (v₀ + v₁)/2 and
+d = that mean times dt (`speed_ramp`, written once). A follower reads the mean speed
+(`ramp`), the leader the distance along its path, its limit ``accel`` when speeding up and
+``decel`` when slowing down (`leader_travel`).
 """
 
 from __future__ import annotations
@@ -29,7 +26,16 @@ import math
 
 from rtsim.world.jit import kernel
 
-__all__ = ["arc", "chord", "clip", "follower_advance", "leader_travel", "ramp", "ramp_arc"]
+__all__ = [
+    "arc",
+    "chord",
+    "clip",
+    "follower_advance",
+    "leader_travel",
+    "ramp",
+    "ramp_arc",
+    "speed_ramp",
+]
 
 
 @kernel(inline=True)
@@ -48,17 +54,26 @@ def arc(x: float, y: float, th: float, v: float, w: float, dt: float) -> tuple[f
 
 
 @kernel(inline=True)
-def ramp(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
-    """A follower's speed ramp toward ``vc`` at most ``a`` cm/s² over ``dt`` s: (speed after
-    dt, mean speed over dt) (module docstring)."""
+def speed_ramp(v0: float, vt: float, a: float, dt: float) -> tuple[float, float, float]:
+    """The speed ramp toward ``vt`` at most ``a`` cm/s² over ``dt`` s: (speed after dt,
+    distance driven, mean speed) (module docstring)."""
     if dt <= 0.0:
-        return v0, v0
-    dv = vc - v0
+        return v0, v0 * dt, v0
+    dv = vt - v0
     if a == math.inf or abs(dv) <= a * dt:
         tau = 0.0 if a == math.inf else abs(dv) / a
-        return vc, ((v0 + vc) * 0.5 * tau + vc * (dt - tau)) / dt
+        d = 0.5 * (v0 + vt) * tau + vt * (dt - tau)
+        return vt, d, d / dt
     v1 = v0 + math.copysign(a * dt, dv)
-    return v1, 0.5 * (v0 + v1)
+    vm = 0.5 * (v0 + v1)
+    return v1, vm * dt, vm
+
+
+@kernel(inline=True)
+def ramp(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
+    """A follower's `speed_ramp` toward ``vc``: (speed after dt, mean speed over dt)."""
+    v1, _, vm = speed_ramp(v0, vc, a, dt)
+    return v1, vm
 
 
 @kernel(inline=True)
@@ -83,6 +98,7 @@ def follower_advance(
     one step (a shorter ramp is folded into one arc; the heading–speed coupling it ignores is
     below 1e-3 cm for a command's speed change): (x, y, θ, speed, turn rate, odometer)."""
     while t_ms - t0 > 1e-12:
+        # the ramp ends within a step (`speed_ramp`'s test; a·dt rounded as ever: bit-identical)
         short = v == vc or abs(vc - v) <= a * step_ms / 1000.0
         h = t_ms - t0 if short else min(step_ms, t_ms - t0)
         dt = h / 1000.0
@@ -96,16 +112,10 @@ def follower_advance(
 def leader_travel(
     v0: float, vt: float, accel: float, decel: float, dt: float
 ) -> tuple[float, float]:
-    """The leader's speed ramp toward its target ``vt`` over ``dt`` s: (speed after dt, arc
-    length driven) (module docstring)."""
-    if v0 == vt or dt <= 0.0:
-        return v0, v0 * dt
-    a = accel if vt > v0 else decel
-    tau = abs(vt - v0) / a
-    if tau <= dt:
-        return vt, 0.5 * (v0 + vt) * tau + vt * (dt - tau)
-    v1 = v0 + math.copysign(a * dt, vt - v0)
-    return v1, 0.5 * (v0 + v1) * dt
+    """The leader's `speed_ramp` toward its target ``vt``, at ``accel`` speeding up and
+    ``decel`` slowing down: (speed after dt, arc length driven)."""
+    v1, d, _ = speed_ramp(v0, vt, accel if vt > v0 else decel, dt)
+    return v1, d
 
 
 @kernel(inline=True)

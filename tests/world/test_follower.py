@@ -20,7 +20,7 @@ from rtsim.world import (
     rounded_rectangle,
 )
 from rtsim.world.formation import Formation
-from rtsim.world.motion import arc, clip, ramp
+from rtsim.world.motion import arc, clip, leader_travel, ramp, speed_ramp
 
 QUIET_EKF = EkfParams(init_position_sd=0.0, init_heading_sd=0.0)
 QUIET_SENSING = SensingParams(position_noise=0.0)
@@ -53,6 +53,21 @@ def test_ramp_mean_speed_by_hand() -> None:
     assert v1 == pytest.approx(20.0) and vm == pytest.approx(15.0)
     assert ramp(10.0, 30.0, math.inf, 0.1) == (30.0, pytest.approx(30.0))  # no limit: at once
     assert ramp(30.0, 10.0, 100.0, 0.1) == (pytest.approx(20.0), pytest.approx(25.0))
+
+
+def test_leader_and_follower_read_the_one_ramp() -> None:
+    """The leader's arc length is the followers' ramp's distance (mean speed × dt, by hand
+    as above), at ``accel`` speeding up and ``decel`` slowing down; dt ≤ 0 drives nothing."""
+    assert leader_travel(10.0, 30.0, 100.0, 1.0, 0.5) == (30.0, pytest.approx(13.0))
+    assert leader_travel(30.0, 10.0, 1.0, 100.0, 0.1) == (pytest.approx(20.0), pytest.approx(2.5))
+    assert leader_travel(10.0, 30.0, 1.0, 100.0, 0.5) == (10.5, pytest.approx(5.125))
+    assert leader_travel(20.0, 20.0, 1.0, 1.0, 0.5) == (20.0, 10.0)
+    assert leader_travel(10.0, 30.0, 100.0, 100.0, 0.0) == (10.0, 0.0)
+    assert ramp(10.0, 30.0, 100.0, 0.0) == (10.0, 10.0)
+    for v0, vt, a, dt in ((10.0, 30.0, 100.0, 0.5), (30.0, 10.0, 100.0, 0.1), (5.0, 7.0, 3.0, 0.3)):
+        v1, d, vm = speed_ramp(v0, vt, a, dt)
+        assert (v1, vm) == ramp(v0, vt, a, dt) and (v1, d) == leader_travel(v0, vt, a, a, dt)
+        assert d == pytest.approx(vm * dt, rel=1e-15)
 
 
 def test_clip_is_pythons_min_max() -> None:

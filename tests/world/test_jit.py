@@ -61,6 +61,7 @@ def test_dependencies_found_in_the_code() -> None:
     assert calls == {"ramp_arc": motion.ramp_arc}
     calls, _ = jit.dependencies(motion.ramp_arc)
     assert calls == {"ramp": motion.ramp, "arc": motion.arc}
+    assert jit.dependencies(motion.leader_travel)[0] == {"speed_ramp": motion.speed_ramp}
     calls, values = jit.dependencies(ftl.ftl_search)
     assert set(calls) == {"trace_frame", "_gap"}
     assert values["_NEWTON"] > 0 and "FTL_STEP" in values  # constants numba freezes
