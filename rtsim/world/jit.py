@@ -327,8 +327,10 @@ def _linked_only_compiler() -> Any:
         def finalize(self) -> None:
             require_global_compiler_lock()
             self._raise_if_finalized()
+            reload = getattr(self, "_reload_init", None)  # (not in every numba: 0.59 has none)
             for library in dict.fromkeys(self._linking_libraries):
-                self._reload_init.update(library._reload_init)
+                if reload is not None:
+                    reload.update(library._reload_init)
                 self._final_module.link_in(library._get_module_for_linking(), preserve=True)
             self._finalized = True
 
