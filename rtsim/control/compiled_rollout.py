@@ -16,7 +16,7 @@ import numpy as np
 
 from rtsim.control import kernels as K
 from rtsim.world.compiled import CompiledTraceFollower
-from rtsim.world.kernels import kernels
+from rtsim.world.kernels import entry, kernels
 from rtsim.world.motionmodels import motion_model
 
 __all__ = ["CompiledRollout", "as_changes", "compiled_rollout"]
@@ -46,6 +46,23 @@ _CHANGING = K.RolloutScalars._fields.index("accel")
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
+
+
+#: the compiled functions behind the rollout kernels' dispatchers, by dispatcher (`call`)
+_ENTRIES: dict[Any, Any] = {}
+
+
+def call(fn: Any, *args: Any) -> Any:
+    """``fn(*args)`` for a rollout kernel ``fn``, through its compiled function once it has
+    one for these arguments' types (`rtsim.world.kernels.entry`: the pack's nested tuple of
+    arrays is not typed again at every call); every call of a kernel here passes the same
+    types."""
+    f = _ENTRIES.get(fn)
+    if f is None:
+        f = entry(fn, args)
+        if f is not fn:
+            _ENTRIES[fn] = f
+    return f(*args)
 
 
 class _Rest:
@@ -81,7 +98,7 @@ class CompiledRollout:
         # follow the five that change, in RolloutScalars' order), and the kernels
         static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
         cached: Any = getattr(law, "_rollout_static", None)  # (a clone of the law shares it)
-        if cached is None or any(a is not b for a, b in zip(cached[0], static, strict=True)):
+        if cached is None or cached[0] != static:  # (the same objects: no field compared)
             scalars = K.RolloutScalars(
                 leader_s=0.0,  # the five that change: set per decision below
                 leader_speed=0.0,
@@ -108,32 +125,34 @@ class CompiledRollout:
             pends: dict[int, Any] = {}  # the no-sends-pending array per follower count
             # (compiled once per process and motion model: before the first rollout)
             ker = K.rollout_kernels(motion_model(p.motion_model))
-            cached = (static, [float(x) for x in scalars[_CHANGING:]], pends, ker)
+            # (the five that change are written over a copy per decision)
+            cached = (static, np.array(scalars, dtype=float), pends, ker)
             setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
         self._ker = cached[3]
-        fs = np.array(
-            [  # RolloutScalars' first five
-                state.leader_s,
-                state.leader_speed,
-                state.v_ld,
-                state.t_now,
-                state.next_scan,
-                *cached[1],
-            ],
-            dtype=float,
+        fs = cached[1].copy()
+        fs[:_CHANGING] = (  # RolloutScalars' first five
+            state.leader_s,
+            state.leader_speed,
+            state.v_ld,
+            state.t_now,
+            state.next_scan,
         )
         n = len(state.poses)
         # per follower, in F_* column order: x, y, θ, v, ω, held v, held ω, send offset, ρ_d
         # (a flat list: numpy reads it much faster than nested tuples)
-        flat: list[float] = []
         turns = state.turns or [h[1] for h in state.held]
-        for k in range(n):
-            flat += state.poses[k]
-            flat.append(state.speeds[k])
-            flat.append(turns[k])
-            flat += state.held[k]
-            flat.append(state.send_offsets[k])
-            flat.append(state.rho_d[k])
+        flat = [
+            x
+            for k in range(n)
+            for x in (
+                *state.poses[k],
+                state.speeds[k],
+                turns[k],
+                *state.held[k],
+                state.send_offsets[k],
+                state.rho_d[k],
+            )
+        ]
         fol = np.array(flat, dtype=float).reshape(n, K.F_SIZE)
         width = max([1, *map(len, state.pending)])
         if width == 1 and not any(state.pending):  # no sends pending: one array per n, kept
@@ -158,12 +177,14 @@ class CompiledRollout:
 
     def _whole(self, v: float, windows: tuple[float, ...], pack: tuple[Any, ...]) -> Any:
         """One rollout whole on ``pack`` (`pack`'s arrays): its changes array."""
-        out = np.empty((len(windows), self.n, 5))
+        out = np.empty((1, len(windows), self.n, 5))
         CompiledRollout.runs += 1
-        self._ker.rollout_changes(
-            float(v), np.array(windows, dtype=float), pack, out, 1.0, -math.inf, 0.0
-        )
-        return out
+        call(  # (`_rollout_changes` through the one entry: its buffers' types, unused)
+            self._ker.roll_or_decide, True, float(v), np.array(windows, dtype=float), False,
+            1.0, -math.inf, 0.0, 0.0, 0, 0.0, 0.0, pack, K.NO_F1, K.NO_I1, out, K.NO_I1,
+            K.NO_F3, K.NO_F1, 0.0,
+        )  # fmt: skip
+        return out[0]
 
     def decide(
         self,
@@ -192,7 +213,8 @@ class CompiledRollout:
         rows = np.empty((2, self.n, 4))
         out = np.empty(7)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
-        runs = self._ker.roll_or_decide(  # (`_plan_decide`'s arguments after the first three)
+        runs = call(  # (`_plan_decide`'s arguments after the first three)
+            self._ker.roll_or_decide,
             False,
             0.0,
             K.NO_F1,

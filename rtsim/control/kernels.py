@@ -736,8 +736,8 @@ ENTRIES: dict[str, Any] = {"roll_or_decide": _roll_or_decide}
 #: the unused buffers of a whole rollout's or a decision's call of `_roll_or_decide` (their
 #: types those of the used ones: one compiled specialisation)
 NO_F1 = np.empty(0)
-_NO_I1 = np.empty(0, dtype=np.int64)
-_NO_F3 = np.empty((0, 0, 0))
+NO_I1 = np.empty(0, dtype=np.int64)
+NO_F3 = np.empty((0, 0, 0))
 
 
 def _rollout_changes_via(
@@ -747,7 +747,7 @@ def _rollout_changes_via(
     C-contiguous [window, follower, change] array)."""
     return ns.roll_or_decide(  # type: ignore[no-any-return]
         True, v, lengths, False, keep, need, 0.0, 0.0, 0, 0.0, 0.0, P,
-        NO_F1, _NO_I1, out[None], _NO_I1, _NO_F3, NO_F1, contact,
+        NO_F1, NO_I1, out[None], NO_I1, NO_F3, NO_F1, contact,
     )  # fmt: skip
 
 

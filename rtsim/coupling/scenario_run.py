@@ -36,7 +36,7 @@ from rtsim.control.compiled import PaperSearch
 from rtsim.control.oracle import lap_oracle
 from rtsim.control.policy import AdjustOptions, PolicyInput, adjust_options, policy_class
 from rtsim.control.predict import trusted_estimate
-from rtsim.control.rollout import Rollout, RolloutState
+from rtsim.control.rollout import Rollout, rollout_state
 from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
 from rtsim.coupling.inputs import ScenarioInputs as ScenarioInputs
 from rtsim.coupling.inputs import _inputs as _inputs
@@ -434,7 +434,7 @@ class _Coupling:
         pending: bool = False,
         estimates: Sequence[tuple[Any, float]] | None = None,
     ) -> Any:
-        """What the leader knows for its rollout at ``now`` (`RolloutState`);
+        """What the leader knows for its rollout at ``now`` (`RolloutState`, `rollout_state`);
         ``estimates``: per follower ``World.estimate_at(i, now)`` if already computed."""
         world = self.world
         ld = world.leader
@@ -445,7 +445,7 @@ class _Coupling:
         held = [world.held_command(i) for i in range(1, self.n + 1)]
         cfg = self.cfg
         return Rollout(
-            RolloutState(
+            rollout_state(
                 cfg.path,
                 world.follow_law,
                 cfg.follower,

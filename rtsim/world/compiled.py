@@ -21,9 +21,10 @@ library for the functions and follows Python's rules for ``%``). CPython compute
 this interpreter disagrees, the controller and the rollout run in Python instead; numba has
 no ``math.remainder``, and the kernels carry CPython's (exact, with fmod).
 
-numba is imported on first use (`available`); kernels are compiled once per machine
-and cached on disk (keyed by a hash of their sources: `rtsim.world.jit`), so a later
-process loads them in milliseconds.
+numba is imported on first use (`available`); kernels are compiled once per machine and
+cached on disk (keyed by a hash of their sources: `rtsim.world.jit`), so a later process
+loads them in milliseconds; the classes call each build directly, not through numba's
+dispatcher (`rtsim.world.kernels.entry`: the same machine code, no typing per call).
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ import numpy as np
 from rtsim.world.ekf import EkfParams, FastFollowerEKF
 from rtsim.world.follower import FollowerGroup
 from rtsim.world.ftl import TraceFollower
-from rtsim.world.kernels import available, kernels
+from rtsim.world.kernels import available, entry, kernels
 from rtsim.world.motionmodels import MotionModel
 from rtsim.world.path import LeaderPath
 
@@ -53,7 +54,8 @@ class CompiledFollowerGroup(FollowerGroup):
 
     @staticmethod
     def _kernel(motion: MotionModel) -> Any:
-        return kernels(motion).advance_follower
+        # called directly (`entry`): twelve floats at every call
+        return entry(kernels(motion).advance_follower, (0.0,) * 12)
 
 
 class _Kernel:
@@ -84,11 +86,12 @@ class CompiledFollowerEKF(FastFollowerEKF):
         self, pose: tuple[float, float, float], params: EkfParams, motion: Any = None
     ) -> None:
         super().__init__(pose, params, motion)
-        self._update = kernels().ekf_update
+        # (called directly, `entry`: floats at every call)
+        self._update = entry(kernels().ekf_update, (0.0,) * 15)
 
     @staticmethod
     def _command_kernel(motion: Any) -> Any:
-        return kernels(motion).ekf_command
+        return entry(kernels(motion).ekf_command, (0.0,) * 19)
 
 
 class CompiledTraceFollower(TraceFollower):
@@ -114,6 +117,8 @@ class CompiledTraceFollower(TraceFollower):
         )
         self._sr = np.array(self._sr, dtype=float)
         self._sf = np.array(self._sf, dtype=float)
-        self._reference = ker.ftl_reference
-        self._command = ker.ftl_command
-        self._project = ker.ftl_project
+        # (the arguments' types at every call: these arrays, an int k, floats)
+        G, sr, sf, x = self._G, self._sr, self._sf, 0.0
+        self._reference = entry(ker.ftl_reference, (G, sr, 0, x, x, x, x, x))
+        self._command = entry(ker.ftl_command, (G, sr, sf, x, x, 0, x, x, x, x, x, x, x, x))
+        self._project = entry(ker.ftl_project, (G, 0, x, x, x))

@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.world.jit import build, kernel
+from rtsim.world.kernels import entry
 
 __all__ = [
     "CELL_CM",
@@ -305,8 +306,11 @@ class Accumulator:
         self._cells: dict[float, int] = {}
         self.out = np.zeros(n, WINDOW_ROW)
         self.one = np.zeros(1, WINDOW_ROW)
-        kernels: tuple[Any, Any] = compiled() if fast else (hough_window, locate_all)
-        self._one, self._every = kernels
+        one, every = compiled() if fast else (hough_window, locate_all)
+        # called directly (`rtsim.world.kernels.entry`: the work tuple is not typed again at
+        # every call), with the types of `_dummy`'s arguments, which every call passes
+        self._one = entry(one, _dummy(every=False))
+        self._every = entry(every, _dummy(every=True))
 
     def cells(self, r_H: float) -> int:
         """`window_cells` of a window of radius ``r_H`` (computed once per radius)."""

@@ -25,6 +25,7 @@ from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rtsim.analysis.kinematics import msb_localization_predicted
 from rtsim.errors import InputError, ScenarioError
@@ -58,9 +59,10 @@ Fix = tuple[XY, bool, bool, bool, bool, bool]
 
 class LocalizationModel:
     """The interface of a localization model (module doc). One instance per world, made by
-    `World` with ``(config, n, rng, normals, fast)``: ``normals(m)`` draws the next ``m``
-    standard normals of the world's buffered stream; ``rng`` is the world's generator;
-    ``fast``: the compiled backend."""
+    `World` with ``(config, n, rng, normals, fast, draw)``: ``normals(m)`` draws the next
+    ``m`` standard normals of the world's buffered stream as a list, ``draw(m)`` as an array
+    (default: ``rng.standard_normal``); ``rng`` is the world's generator; ``fast``: the
+    compiled backend."""
 
     #: the name a scenario writes (set by subclasses)
     name: ClassVar[str] = ""
@@ -74,11 +76,13 @@ class LocalizationModel:
         rng: np.random.Generator,
         normals: Callable[[int], list[float]],
         fast: bool,
+        draw: Callable[[int], NDArray[np.float64]] | None = None,
     ) -> None:
         self.config = config
         self.n = n
         self.rng = rng
         self.normals = normals
+        self.draw = rng.standard_normal if draw is None else draw
         self.fast = fast
         self.start()
 
@@ -165,7 +169,7 @@ class HoughModel(LocalizationModel):
     def sense(self, truth_l: list[XY]) -> tuple[list[int], Any]:
         """The beams each follower returned and the scan (px, py, owner)."""
         xy = np.array(truth_l).T.copy()  # (contiguous rows, the kernel's one signature)
-        z = self.rng.standard_normal(LASER_POINTS)
+        z = self.draw(LASER_POINTS)
         beams = self.rangefinder.scan(xy[0], xy[1], z)
         return self.rangefinder.counts[: self.n].tolist(), beams
 

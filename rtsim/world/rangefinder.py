@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 
 from rtsim.model.window import LASER_POINTS
 from rtsim.world.jit import build, kernel
+from rtsim.world.kernels import entry
 from rtsim.world.laser import BEAM_BEARINGS
 
 __all__ = ["BEAM_COS", "BEAM_SIN", "Rangefinder", "compiled", "scan_points"]
@@ -118,11 +119,20 @@ class Rangefinder:
         self.r_F = float(r_F)
         self.max_range = float(max_range)
         self.range_sd = float(range_sd)
-        self._fn = compiled() if fast else scan_points
         self.px = np.empty(LASER_POINTS)
         self.py = np.empty(LASER_POINTS)
         self.owner = np.empty(LASER_POINTS, dtype=np.int64)
         self.counts = np.zeros(n, dtype=np.int64)
+        self._fn: Any = scan_points
+        if fast:  # an empty scan (no follower) compiles or loads the kernel now; then it is
+            # called directly (`rtsim.world.kernels.entry`), the same types at every scan
+            none = np.zeros(0)
+            z = np.zeros(LASER_POINTS)
+            args: tuple[Any, ...] = (none, none, self.r_F, self.max_range, self.range_sd, z)
+            args += (BEAM_COS, BEAM_SIN, self.px, self.py, self.owner, self.counts)
+            fn = compiled()
+            fn(*args)
+            self._fn = entry(fn, args)
 
     def scan(
         self, xs: NDArray[np.float64], ys: NDArray[np.float64], z: NDArray[np.float64]

@@ -26,7 +26,7 @@ from rollout_states import world_state
 
 from rtsim.config.scenario import load_scenario
 from rtsim.control.adjust import search_rollout
-from rtsim.control.rollout import Rollout
+from rtsim.control.rollout import Rollout, RolloutState, rollout_state
 from rtsim.world import World
 
 QUIET = {
@@ -257,3 +257,24 @@ def test_a_users_policy_gets_the_rollout() -> None:
         ADJUSTMENT_POLICIES.pop("probe-rollout")
     assert seen and all(p == "commands" and same and ran for p, same, ran in seen)
     assert res.summary["predictor"] == "commands"
+
+
+def test_rollout_state_is_the_dataclass() -> None:
+    """`rollout_state` (the fields written at once) builds what `RolloutState` does: equal,
+    the same hash, every field and default the same, frozen; too few or too many fields
+    are refused as the dataclass refuses them."""
+    world = _quiet_world("test2")
+    st = world_state(world, 0.0, 0.0, OFFSETS, 240.0)
+    values = [getattr(st, f) for f in ("path", "law", "params", "step_ms", "t_now")]
+    values += [getattr(st, f) for f in RolloutState.__dataclass_fields__][5:19]
+    for given in (values, values + [st.group, st.beta_d, 12.5]):
+        made = rollout_state(*given, turns=(0.1, 0.2))
+        want = RolloutState(*given, turns=(0.1, 0.2))
+        assert made == want and hash(made) == hash(want) and vars(made) == vars(want)
+        with pytest.raises(AttributeError):
+            made.t_now = 1.0  # type: ignore[misc]
+    for bad in (values[:-1], [*values, st.group, st.beta_d, 12.5, 0.0]):
+        with pytest.raises(TypeError):
+            RolloutState(*bad)
+        with pytest.raises(TypeError):
+            rollout_state(*bad)

@@ -54,17 +54,23 @@ def _data(rng: np.random.Generator, kind: int, rows: int, width: int) -> np.ndar
     return rng.normal(0.0, 1.0, (rows, width))  # negatives
 
 
+@pytest.mark.parametrize("direct", [0, spill.DIRECT_ROWS])
 @pytest.mark.parametrize("limit", [0, 5, 1_000, spill.COLLECT_LIMIT])
 @pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # inf - inf, as numpy
-def test_selected_percentiles_are_numpys(monkeypatch: pytest.MonkeyPatch, limit: int) -> None:
+def test_selected_percentiles_are_numpys(
+    monkeypatch: pytest.MonkeyPatch, limit: int, direct: int
+) -> None:
     """Random tables of odd sizes (1 row, primes, a chunk's length ± 1), ties, negative
     values, infinities and NaN, read in chunks of random lengths: every column's and all
-    columns' p95/max equal numpy's on the whole arrays; ``limit`` 0 refines all 64 bits."""
+    columns' p95/max equal numpy's on the whole arrays; ``limit`` 0 refines all 64 bits;
+    ``direct`` 0 selects by the radix passes at every size, else tables up to that many
+    rows by one partition."""
     monkeypatch.setattr(spill, "COLLECT_LIMIT", limit)
+    monkeypatch.setattr(spill, "DIRECT_ROWS", direct)
     rng = np.random.default_rng(35 + limit)
     for trial in range(60):
         width = int(rng.integers(1, 5))
-        rows = int(rng.choice([0, 1, 2, 3, 19, 97, 128, 129, 1_000, 4_095, 4_096, 4_097]))
+        rows = int(rng.choice([0, 1, 2, 3, 19, 97, 128, 129, 1_000, 4_095, 4_096, 4_097, 8_193]))
         data = _data(rng, trial % 4, rows, width)
         if rows and trial % 5 == 0:
             data[rng.integers(0, rows), 0] = np.inf
@@ -82,6 +88,25 @@ def test_selected_percentiles_are_numpys(monkeypatch: pytest.MonkeyPatch, limit:
         finite = [c[np.isfinite(c)] for c in cols]
         got = p95_max_columns(chunks, width, finite_only=True)
         assert same(got, (plain(np.concatenate(finite)), [plain(c) for c in finite]))
+
+
+def test_the_direct_selection_is_the_passes_with_signed_zeros(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """-0.0 and 0.0 mixed (the keys take -0.0 as 0.0): the selection in memory gives what
+    the radix passes give, to the bit, at every p95 position among them."""
+    rng = np.random.default_rng(3)
+    for rows in (2, 20, 41, 300):
+        data = np.where(rng.random((rows, 2)) < 0.5, -0.0, 0.0)
+        data[rng.integers(0, rows), 1] = 1.0
+
+        def chunks(data: np.ndarray = data) -> Any:
+            return (data[i : i + 7] for i in range(0, len(data), 7))
+
+        monkeypatch.setattr(spill, "DIRECT_ROWS", 0)
+        passes = p95_max_columns(chunks, 2)
+        monkeypatch.setattr(spill, "DIRECT_ROWS", 10_000)
+        assert same(p95_max_columns(chunks, 2), passes)
 
 
 def test_the_interpolation_is_numpys_at_every_size() -> None:

@@ -10,7 +10,7 @@ import pytest
 from rtsim.config.scenario import load_scenario
 from rtsim.world import World
 from rtsim.world.follower import FollowerGroup
-from rtsim.world.world import NORMAL_BLOCK
+from rtsim.world.world import NORMAL_BLOCK, STREAM_BLOCK
 
 SCEN = Path(__file__).resolve().parents[2] / "experiments" / "scenarios"
 
@@ -27,6 +27,25 @@ def test_normals_are_the_generator_sequence(sizes: list[int]) -> None:
     ref.standard_normal((cfg.n, 3))
     want = [x for m in sizes for x in ref.standard_normal(m).tolist()]
     assert got == want
+
+
+def test_scans_and_commands_share_the_generator_sequence() -> None:
+    """The laser's draws (`World._draw`, 361 per scan) and the commands' (`_normals`, 2 at
+    a time from blocks of 512) interleaved, across the draw-ahead block's boundary: each
+    reader gets what one standard_normal call per request, in the same order, would give."""
+    cfg = load_scenario(SCEN / "test2.toml").world
+    world = World(cfg, np.random.default_rng(11))
+    ref = np.random.default_rng(11)
+    ref.standard_normal((cfg.n, 3))
+    ref_z: list[float] = []
+    for scan in range(2 * STREAM_BLOCK // 361 + 3):
+        got = world._draw(361)
+        assert got.tolist() == ref.standard_normal(361).tolist(), scan
+        for _ in range(scan % 5):
+            if not ref_z:
+                ref_z = ref.standard_normal(NORMAL_BLOCK).tolist()
+            want, ref_z = ref_z[:2], ref_z[2:]
+            assert world._normals(2) == want
 
 
 def test_apply_drawn_equals_apply() -> None:

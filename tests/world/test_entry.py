@@ -1,0 +1,62 @@
+"""`rtsim.world.kernels.entry`: a kernel called through its compiled function, not its
+dispatcher — the same numbers, and the dispatcher kept wherever the types are not built."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rtsim.config.scenario import load_scenario
+from rtsim.world import World
+from rtsim.world.ftl import ftl_project
+from rtsim.world.hough import Accumulator
+from rtsim.world.kernels import available, entry, kernels
+from rtsim.world.rangefinder import Rangefinder
+
+pytestmark = pytest.mark.skipif(not available(), reason="numba is not installed")
+
+
+def test_entry_is_the_dispatchers_build_or_the_dispatcher() -> None:
+    """Built types: the build's entry point, which gives the dispatcher's results on random
+    arguments; types without a build, or a plain function: the argument itself."""
+    disp = kernels().ftl_project
+    law = World(load_scenario("test2").world, np.random.default_rng(0)).follow_law
+    assert law is not None
+    G = law._G
+    direct = entry(disp, (G, 0, 0.0, 0.0, 0.0))
+    assert direct is not disp and not hasattr(direct, "overloads")
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        k = int(rng.integers(0, 2))
+        s, x, y = (rng.random(3) * [2000.0, 600.0, 600.0]).tolist()
+        assert direct(G, k, s, x, y) == disp(G, k, s, x, y)
+    unbuilt = (G, 0, np.float32(1.0), 0.0, 0.0)  # (a float32 s: no build for it)
+    assert entry(disp, unbuilt) is disp
+    assert entry(ftl_project, (G, 0, 0.0, 0.0, 0.0)) is ftl_project
+
+
+def test_the_compiled_worlds_calls_go_direct() -> None:
+    """The compiled world's law, rangefinder and Hough accumulator hold the builds' entry
+    points (the Python world its plain functions); both give the same fixes on a scan."""
+    cfg = load_scenario("test2").world
+    fast = World(cfg, np.random.default_rng(3))
+    law = fast.follow_law
+    assert law is not None
+    filters = [f._predict for f in fast.filters] + [f._update for f in fast.filters]
+    filters += [f._command for f in fast.filters] + [fast.followers._advance]
+    for fn in (law._command, law._project, law._reference, *filters):
+        assert not hasattr(fn, "overloads") and not hasattr(fn, "__code__")
+    assert not hasattr(Rangefinder(25.0, 300.0, 1.0, True)._fn, "__code__")
+    assert hasattr(Rangefinder(25.0, 300.0, 1.0, False)._fn, "__code__")
+    acc = Accumulator(2, 25.0, 30.0, True)
+    ref = Accumulator(2, 25.0, 30.0, False)
+    assert hasattr(ref._every, "__code__") and not hasattr(acc._every, "__code__")
+    a = np.linspace(0.0, math.pi, 40)
+    px, py = 150.0 + 25.0 * np.cos(a), 25.0 * np.sin(a)
+    owner = np.zeros(40, dtype=np.int64)
+    cx, cy = np.array([150.0, 0.0]), np.array([3.0, 80.0])
+    got = acc.locate(px, py, owner, cx, cy, 20.0).tolist()
+    assert got[0][2] > 0 and math.isnan(got[1][0])  # a peak in the first, none in the second
+    assert repr(got) == repr(ref.locate(px, py, owner, cx, cy, 20.0).tolist())  # (NaN too)
