@@ -59,28 +59,31 @@ class CompiledFollowerGroup(FollowerGroup):
 
 
 class _Kernel:
-    """A class attribute that reads kernel ``name`` of `kernels` on an instance's first use
-    and keeps it on the instance (a kernel compiled only where it runs)."""
+    """A class attribute that reads kernel ``name`` of `kernels` on an instance's first use,
+    compiles (or loads) it for ``args``' types and keeps its entry point on the instance
+    (`entry`: every call passes those types): a kernel compiled only where it runs."""
 
-    def __init__(self, name: str) -> None:
-        self.name = name
+    def __init__(self, name: str, args: tuple[Any, ...]) -> None:
+        self.name, self.args = name, args
 
     def __get__(self, obj: Any, cls: Any = None) -> Any:
         if obj is None:
             return self
         fn = getattr(kernels(), self.name)
-        setattr(obj, self.name_on_instance, fn)
+        fn(*self.args)
+        fn = entry(fn, self.args)
+        setattr(obj, self.attr, fn)
         return fn
 
     def __set_name__(self, owner: Any, name: str) -> None:
-        self.name_on_instance = name
+        self.attr = name
 
 
 class CompiledFollowerEKF(FastFollowerEKF):
     """`FastFollowerEKF` whose predict and update run compiled (the predict without a
     command compiled at its first call: the shipped scenarios never make one)."""
 
-    _predict = _Kernel("ekf_predict")
+    _predict = _Kernel("ekf_predict", (1.0,) * 16)
 
     def __init__(
         self, pose: tuple[float, float, float], params: EkfParams, motion: Any = None
