@@ -44,7 +44,7 @@ def time_rollouts() -> list[float]:
 
     ns = rollout_kernels()
     spent = [0.0]
-    for name in ("plan_decide", "rollout_changes"):
+    for name in ("roll_or_decide",):  # (the decision and a whole rollout: one entry)
         fn = getattr(ns, name)
 
         def timed(*a: Any, _fn: Any = fn) -> Any:

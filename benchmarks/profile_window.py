@@ -41,7 +41,7 @@ TIMED = [
 ]
 
 #: the compiled rollout's entries (`rtsim.control.kernels.rollout_kernels`), timed the same way
-ROLLOUT = ("plan_decide", "rollout_changes")
+ROLLOUT = ("roll_or_decide",)  # (the decision and a whole rollout: one entry)
 ROLLOUT_STAGE = "rollout kernels (compiled)"
 REST = "dispatcher, SimPy, set-up, tables"
 

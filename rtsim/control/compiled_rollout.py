@@ -177,19 +177,14 @@ class CompiledRollout:
 
     def _whole(self, v: float, windows: tuple[float, ...], pack: tuple[Any, ...]) -> Any:
         """One rollout whole on ``pack`` (`pack`'s arrays): its changes array."""
-        out = np.empty((len(windows), self.n, 5))
+        out = np.empty((1, len(windows), self.n, 5))
         CompiledRollout.runs += 1
-        call(
-            self._ker.rollout_changes,
-            float(v),
-            np.array(windows, dtype=float),
-            pack,
-            out,
-            1.0,
-            -math.inf,
-            0.0,
-        )
-        return out
+        call(  # (`_rollout_changes` through the one entry: its buffers' types, unused)
+            self._ker.roll_or_decide, True, float(v), np.array(windows, dtype=float), False,
+            1.0, -math.inf, 0.0, 0.0, 0, 0.0, 0.0, pack, K.NO_F1, K.NO_I1, out, K.NO_I1,
+            K.NO_F3, K.NO_F1, 0.0,
+        )  # fmt: skip
+        return out[0]
 
     def decide(
         self,
@@ -218,8 +213,11 @@ class CompiledRollout:
         rows = np.empty((2, self.n, 4))
         out = np.empty(7)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
-        runs = call(
-            self._ker.plan_decide,
+        runs = call(  # (`_plan_decide`'s arguments after the first three)
+            self._ker.roll_or_decide,
+            False,
+            0.0,
+            K.NO_F1,
             bool(search_only),
             float(keep),
             float(need),

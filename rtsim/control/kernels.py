@@ -12,6 +12,7 @@ motion model, when a run first rolls out.
 
 from __future__ import annotations
 
+import functools
 import math
 import types
 from typing import Any, NamedTuple
@@ -358,7 +359,7 @@ def _bound(S: RolloutScalars, rho_d: float, j: int, ci: float, w: float) -> floa
     return math.inf if ci <= 0.0 else lim * w / ci
 
 
-@kernel(inline=True)
+@kernel
 def _bounds_of(changes: Any, S: RolloutScalars, fol: Any, w: float, rows: Any, fill: bool) -> float:
     """Rollout.bounds(changes, w) — into ``rows`` [follower, kind] when ``fill`` — and
     min_bound_rows's bound of them (the first smallest)."""
@@ -395,7 +396,7 @@ def _same(a: Any, b: Any) -> bool:
     return True
 
 
-@kernel(inline=True)
+@kernel
 def _rollout_worst(
     v: float,
     w: float,
@@ -455,7 +456,7 @@ def _worst_after(ch: Any, S: RolloutScalars, fol: Any, w: float, first: float) -
     return worst
 
 
-@kernel(inline=True)
+@kernel
 def _search_into(
     keep: float,
     need: float,
@@ -642,14 +643,14 @@ def _plan_decide(
     traces = np.empty((speeds.shape[0], ev[0].shape[0], 2))
     ms = np.empty(speeds.shape[0])
     dones = np.zeros(speeds.shape[0], dtype=np.int64)
-    # (one call site of the inlined search: the search-only decision and the plan's search
-    # share it, which halves the compiled code)
+    zero = 0 * nw  # (an int64, not the literal 0: one compiled _rollout_worst for every call)
+    # (one call site of the search: the search-only decision and the plan's search share it)
     first = 0 if search_only else 1
     feasible = False
     if not search_only:
         speeds[0], lens[0] = v_ld, 1
         m_ld, done, _ = _rollout_worst(
-            v_ld, w, P, changes[0], contact, keep, need, ev, traces, ms, dones, 0, 0
+            v_ld, w, P, changes[0], contact, keep, need, ev, traces, ms, dones, zero, zero
         )
         if done < nw:
             cut[0] = 1
@@ -675,8 +676,8 @@ def _plan_decide(
                 traces,
                 ms,
                 dones,
-                -1,
-                0,
+                zero - 1,
+                zero,
             )[0]
             runs = 2
             out[5] = ww
@@ -709,16 +710,55 @@ def _plan_decide(
     return runs
 
 
+@kernel
+def _roll_or_decide(
+    whole: bool, v: float, lengths: Any, search_only: bool, keep: float, need: float,
+    cap: float, v_floor: float, grid: int, tol: float, w: float, P: Any, speeds: Any,
+    lens: Any, changes: Any, cut: Any, rows: Any, out: Any, contact: float,
+) -> int:  # fmt: skip
+    """The rollout's one entry from Python: with ``whole``, one rollout whole
+    (`_rollout_changes` of target ``v`` over windows ``lengths`` into ``changes[0]``, with
+    ``keep``, ``need`` and ``contact``); else the decision (`_plan_decide` with the
+    arguments after ``lengths``). One entry, not two: numba optimises and emits the code of
+    every kernel an entry links once per entry, and both link the whole rollout."""
+    if whole:
+        return _rollout_changes(v, lengths, P, changes[0], keep, need, contact)
+    return _plan_decide(
+        search_only, keep, need, cap, v_floor, grid, tol, w, P, speeds, lens, changes, cut,
+        rows, out, contact,
+    )  # fmt: skip
+
+
 #: the kernels `CompiledRollout` calls, by the name they have in `rollout_kernels`'s
 #: namespace (each compiled with the kernel sources it calls, the world's among them)
-ENTRIES: dict[str, Any] = {
-    "rollout_changes": _rollout_changes,
-    "plan_decide": _plan_decide,
-}
+ENTRIES: dict[str, Any] = {"roll_or_decide": _roll_or_decide}
+
+#: the unused buffers of a whole rollout's or a decision's call of `_roll_or_decide` (their
+#: types those of the used ones: one compiled specialisation)
+NO_F1 = np.empty(0)
+NO_I1 = np.empty(0, dtype=np.int64)
+NO_F3 = np.empty((0, 0, 0))
+
+
+def _rollout_changes_via(
+    ns: Any, v: float, lengths: Any, P: Any, out: Any, keep: float, need: float, contact: float
+) -> int:
+    """`_rollout_changes` (its arguments) through the entry of namespace ``ns`` (``out``: a
+    C-contiguous [window, follower, change] array)."""
+    return ns.roll_or_decide(  # type: ignore[no-any-return]
+        True, v, lengths, False, keep, need, 0.0, 0.0, 0, 0.0, 0.0, P,
+        NO_F1, NO_I1, out[None], NO_I1, NO_F3, NO_F1, contact,
+    )  # fmt: skip
+
+
+def _plan_decide_via(ns: Any, *args: Any) -> int:
+    """`_plan_decide` (its arguments) through the entry of namespace ``ns``."""
+    return ns.roll_or_decide(False, 0.0, NO_F1, *args)  # type: ignore[no-any-return]
+
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
 #: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
-COMPILE_S = 9.0
+COMPILE_S = 6.0
 
 # most runs roll out right after the world is built: the world's announcement counts these
 follow_with(ENTRIES.values(), COMPILE_S)
@@ -738,6 +778,9 @@ def rollout_kernels(motion: Any = None) -> Any:
         swap = dict(subs)
         announce([swap.get(fn, fn) for fn in ENTRIES.values()], COMPILE_S, subs)
         ns = types.SimpleNamespace(**{name: build(fn, subs) for name, fn in ENTRIES.items()})
+        # (the two kernels by their own arguments: the whole rollout's and the tests' calls)
+        ns.rollout_changes = functools.partial(_rollout_changes_via, ns)
+        ns.plan_decide = functools.partial(_plan_decide_via, ns)
         _warm(ns)
         _BY_MODEL[subs] = ns
     return ns

@@ -58,16 +58,39 @@ class CompiledFollowerGroup(FollowerGroup):
         return entry(kernels(motion).advance_follower, (0.0,) * 12)
 
 
+class _Kernel:
+    """A class attribute that reads kernel ``name`` of `kernels` on an instance's first use,
+    compiles (or loads) it for ``args``' types and keeps its entry point on the instance
+    (`entry`: every call passes those types): a kernel compiled only where it runs."""
+
+    def __init__(self, name: str, args: tuple[Any, ...]) -> None:
+        self.name, self.args = name, args
+
+    def __get__(self, obj: Any, cls: Any = None) -> Any:
+        if obj is None:
+            return self
+        fn = getattr(kernels(), self.name)
+        fn(*self.args)
+        fn = entry(fn, self.args)
+        setattr(obj, self.attr, fn)
+        return fn
+
+    def __set_name__(self, owner: Any, name: str) -> None:
+        self.attr = name
+
+
 class CompiledFollowerEKF(FastFollowerEKF):
-    """`FastFollowerEKF` whose predict and update run compiled."""
+    """`FastFollowerEKF` whose predict and update run compiled (the predict without a
+    command compiled at its first call: the shipped scenarios never make one)."""
+
+    _predict = _Kernel("ekf_predict", (1.0,) * 16)
 
     def __init__(
         self, pose: tuple[float, float, float], params: EkfParams, motion: Any = None
     ) -> None:
         super().__init__(pose, params, motion)
-        ker = kernels()  # (each called directly, `entry`: floats at every call)
-        self._predict = entry(ker.ekf_predict, (0.0,) * 16)
-        self._update = entry(ker.ekf_update, (0.0,) * 15)
+        # (called directly, `entry`: floats at every call)
+        self._update = entry(kernels().ekf_update, (0.0,) * 15)
 
     @staticmethod
     def _command_kernel(motion: Any) -> Any:

@@ -252,14 +252,25 @@ def locate_all(
 
 def compiled() -> Any:
     """(hough_window, locate_all) compiled with numba (`rtsim.world.jit.build`: once
-    per process, cached on disk by their sources), loaded or compiled now."""
+    per process, cached on disk by their sources), loaded or compiled now — hough_window,
+    which only a re-acquisition search runs, at its first call (`compiled_window`)."""
     global _COMPILED
     if _COMPILED is None:
-        one, every = build(hough_window), build(locate_all)
+        every = build(locate_all)
         every(*_dummy(every=True))
-        one(*_dummy(every=False))
-        _COMPILED = (one, every)
+        _COMPILED = (compiled_window, every)
     return _COMPILED
+
+
+def compiled_window(*args: Any) -> Any:
+    """`hough_window` compiled (or loaded) at the first call, then called."""
+    global _WINDOW
+    if _WINDOW is None:
+        _WINDOW = build(hough_window)
+    return _WINDOW(*args)
+
+
+_WINDOW: Any = None
 
 
 def _dummy(every: bool) -> tuple[Any, ...]:

@@ -5,8 +5,8 @@ EKF (`rtsim.world.ekf`), the follow-the-leader law (`rtsim.world.ftl`), CPython'
 and remainder (`rtsim.world.exactmath`). The controller's kernels, which call these, are in
 `rtsim.control.kernels`.
 
-`kernels` compiles `ENTRIES` (or loads them from the cache) once per process;
-numba is imported only then.
+`kernels` compiles `ENTRIES` (or loads them from the cache) once per process, and each of
+`LAZY_ENTRIES` when it is first read; numba is imported only then.
 """
 
 from __future__ import annotations
@@ -66,14 +66,17 @@ def entry(fn: Any, args: tuple[Any, ...]) -> Any:
 ENTRIES: dict[str, Any] = {
     "advance_follower": follower_advance,
     "ekf_command": ekf_command,
-    "ekf_predict": ekf_predict,
     "ekf_update": ekf_update,
     "ftl_command": ftl_command,
     "ftl_reference": ftl_reference,
     "ftl_project": ftl_project,
     "hypot": cpython_hypot,
-    "remainder": cpython_remainder,
 }
+
+#: the entries compiled (or loaded) only when first read from the namespace: the EKF's
+#: predict without a command, which the shipped scenarios never run, and the remainder,
+#: which only kernels call (`rtsim.control.kernels.warm_all` builds them too)
+LAZY_ENTRIES: dict[str, Any] = {"ekf_predict": ekf_predict, "remainder": cpython_remainder}
 
 #: the entries that run a motion model's parts (built again for a model other than the
 #: unicycle: `kernels`)
@@ -81,7 +84,7 @@ MOTION_ENTRIES = ("advance_follower", "ekf_command")
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
 #: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
-COMPILE_S = 4.0
+COMPILE_S = 3.0
 
 _ANNOUNCED = False
 #: kernel sources compiled right after these as a rule, with their time (`follow_with`)
@@ -117,6 +120,18 @@ def announce(sources: Iterable[Any], seconds: float, subs: Subs = ()) -> bool:
     return True
 
 
+class _Namespace(types.SimpleNamespace):
+    """The kernels by name; a name of `LAZY_ENTRIES` is built when it is first read."""
+
+    def __getattr__(self, name: str) -> Any:
+        fn = LAZY_ENTRIES.get(name)
+        if fn is None:
+            raise AttributeError(name)
+        built = build(fn)
+        setattr(self, name, built)
+        return built
+
+
 _BY_MODEL: dict[Subs, Any] = {}
 
 
@@ -131,7 +146,7 @@ def kernels(motion: Any = None) -> Any:
         if not all(cached(fn) for fn in ENTRIES.values()):
             later = sum(s for fns, s in _FOLLOWERS if not all(cached(fn) for fn in fns))
             announce(ENTRIES.values(), COMPILE_S + later)
-        ns = types.SimpleNamespace(**{name: build(fn) for name, fn in ENTRIES.items()})
+        ns = _Namespace(**{name: build(fn) for name, fn in ENTRIES.items()})
         _warm(ns)
         ns.exact_hypot = _hypot_matches(ns.hypot)
         _KERNELS = ns
@@ -143,7 +158,7 @@ def kernels(motion: Any = None) -> Any:
         swap = dict(subs)
         sources = [swap.get(ENTRIES[name], ENTRIES[name]) for name in MOTION_ENTRIES]
         announce(sources, COMPILE_S, subs)
-        model_ns = types.SimpleNamespace(**vars(_KERNELS))
+        model_ns = _Namespace(**vars(_KERNELS))
         for name, fn in zip(MOTION_ENTRIES, sources, strict=True):
             setattr(model_ns, name, build(fn, subs))
         model_ns.subs = subs
@@ -179,7 +194,6 @@ def _warm(ns: Any) -> None:
     the first window."""
     ns.advance_follower(0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
     ns.ekf_command(*([1.0] * 19))
-    ns.ekf_predict(*([1.0] * 16))
     ns.ekf_update(*([1.0] * 15))
     G = (np.zeros(1), np.zeros(3), np.zeros(1), 100.0, np.zeros(1), np.full(1, -1), np.ones(1))
     nan1 = np.full(1, math.nan)
