@@ -8,10 +8,10 @@ and the running job; at each instant it (1) ends the running segment if its work
 (2) handles the timers due (idle suspensions ending, aborts, the window's release, other
 releases by priority, ends of time slices), (3) gives the CPU to the first eligible job if
 the policy says it preempts, and (4) waits for the earlier of the segment's end and the
-next timer. Preemption is bookkeeping, not interrupts. Jobs of a simple top task may be
-booked inline, bit-identically (docs/cpu-events.md). The rooms: this module (dispatch and
-the jobs' bookkeeping), `rtsim.sim.resources` (the resource protocols) and
-`rtsim.sim.slices` (time slices).
+next timer. Preemption is bookkeeping, not interrupts. The rooms: this module (dispatch and
+the jobs' bookkeeping), `rtsim.sim.inline` (jobs of a simple top task booked inline,
+bit-identically), `rtsim.sim.resources` (the resource protocols) and `rtsim.sim.slices`
+(time slices).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ import simpy
 from rtsim.errors import InputError, RtsimError
 from rtsim.model.task import RESOURCE_PROTOCOLS, Task
 from rtsim.sim.execution import WCET, ExecSpec, jitter_rngs, resolve_exec_model, task_rngs
+from rtsim.sim.inline import Booked, Top, top_jobs
 from rtsim.sim.job import (
     _ABORT,
     _JREL,
@@ -39,6 +40,7 @@ from rtsim.sim.job import (
     PeriodProvider,
     SegmentHook,
     _TaskState,
+    _Totals,
 )
 from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_scheduler
 from rtsim.sim.records import (
@@ -92,18 +94,6 @@ def coincidence(t: float) -> tuple[float, float]:
     is constant over [2^(e−1), 2^e), the binade of t."""
     _, e = math.frexp(t)  # 2^(e−1) ≤ t < 2^e
     return max(EPS, math.ldexp(float(ULPS), e - 53)), math.ldexp(1.0, e)
-
-
-class _Totals:
-    """The CPU's running totals, which the dispatcher adds to at every job: in a slotted object
-    of their own (the CPU has too many attributes for CPython's fast instance layout, and its
-    attributes cost ≈ 6 % of `benchmarks/bench_sim.py` here)."""
-
-    __slots__ = ("busy", "switches")
-
-    def __init__(self) -> None:
-        self.busy = 0.0  # CPU time given to jobs, overheads included (ms)
-        self.switches = 0  # context switches
 
 
 class CPU(ResourceProtocols, TimeSlices):
@@ -192,6 +182,7 @@ class CPU(ResourceProtocols, TimeSlices):
         self._tol = EPS  # the coincidence window at the dispatcher's now
         self._t0 = 0.0
         self._horizon: float | None = None
+        self._last_release = 0.0  # t0 + horizon − EPS: the last time a job is released
         self.process: simpy.Process | None = None
         self._init_resources()  # critical sections (rtsim.sim.resources)
 
@@ -346,298 +337,124 @@ class CPU(ResourceProtocols, TimeSlices):
         self._t0 = self.env.now
         self._horizon = float(horizon)
         end = self._t0 + self._horizon
+        self._last_release = end - EPS  # (jobs are released in [t0, end))
         if self.jitter == "worst":  # the critical instant: all first releases at t0 = max J
             jmax = max(st.jitter for st in self._states)
             for st in self._states:
                 st.offset = st.task.offset + (jmax - st.jitter)
         for st in self._states:
             st.first = st.next_release = self._t0 + st.offset
-            if st.next_release < end - EPS:
+            if st.next_release < self._last_release:
                 heapq.heappush(
                     self._timers,
                     (st.next_release, st.rank, st.priority, next(self._seq), _RELEASE, st),
                 )
-        self.process = self.env.process(self._dispatcher(end))
+        self.process = self.env.process(self._dispatcher())
         return self.process
 
-    def _dispatcher(self, end: float) -> Any:
+    def _dispatcher(self) -> Any:
+        """The one SimPy process: steps 1-4 of each instant (docs/cpu-events.md). A job of a
+        simple top task is booked by `rtsim.sim.inline.top_jobs`; the cold paths are calls."""
         env = self.env
-        timeout = env.timeout
-        timers, ready = self._timers, self._ready
+        timers, ready, seqs, totals = self._timers, self._ready, self._seq, self._totals
         heappush, heappop, heapreplace = heapq.heappush, heapq.heappop, heapq.heapreplace
-        seqs = self._seq  # (next(seqs): job and timer sequence numbers)
-        totals = self._totals
-        ovh = self.overhead
-        plain = not self.record_trace and ovh == 0.0  # no trace, no overhead: book inline
-        has_abort = any(st.policy == "abort" for st in self._states)
-        # Jump ahead without yielding when nothing else is scheduled before the wake-up
-        # (only on the plain Environment: a RealtimeEnvironment must pace every step).
-        jump = type(env) is simpy.Environment and isinstance(getattr(env, "_queue", None), list)
-        queue: list[Any] = env._queue if jump else []  # type: ignore[attr-defined]
-        # Inline jobs of the top task (docs/cpu-events.md; step 3): only without trace, overhead and
-        # aborts, and only when the clock can be moved without SimPy.
-        inline_ok = plain and jump and not has_abort and not self._res_on
-        res = self._res_on  # critical sections: the protocol's lock, unlock and dispatch
-        # the policy's preemption test, inline when it is the default "strictly smaller key"
-        preempts = self.policy.preempts
-        by_key = self._by_key
-        top_first = self.policy.top_task_first
-        record_jobs = self.record_jobs
-        sliced = self.quantum is not None  # time slices (docs/cpu-events.md: Time slices)
-        # a job of the top task released at now (its k, release and seq) to book in step 3;
-        # still set after it when booked inline (the general dispatch is skipped)
-        top: _TaskState | None = None
-        top_k = top_seq = 0
-        top_r = 0.0
-        # the top task's latest response time booked inline, its histogram bin and counts
-        top_resp = math.nan
-        top_bin = 0
-        top_counts: dict[int, int] = {}
-        top_n = 0  # responses equal to top_resp booked in the current run, not yet in the bin
-        last_release = end - EPS  # (jobs are released in [t0, end): _release's test)
+        ovh, res, sliced = self.overhead, self._res_on, self.quantum is not None
+        preempts, by_key = self.policy.preempts, self._by_key  # (by_key: the test inline)
+        last_release = self._last_release  # (jobs are released in [t0, end))
+        plain, jump, queue, inline_ok, book = self._modes()
+        top: Top | None = None  # a job of the top task released at now, for step 3
         running: Job | None = None
-        last: Job | None = None
-        job: Job | None = None
-        run_end = _INF
-        # Compensated time (docs/time.md): the exact instant is now + now_lag, the exact end
-        # of the running segment run_end + run_lag, its work started at work_start + work_lag.
-        # A lag is the rounding error of a segment's end (Knuth's TwoSum); it is carried into
-        # the next segment so that a busy period never accumulates rounding, and is 0 at a
-        # timer (releases are exact: docs/cpu-events.md, Times).
-        now_lag = work_lag = run_lag = 0.0
+        last: Job | None = None  # (the job that ran last: a switch to another costs overhead)
+        # compensated time (docs/time.md): now + now_lag, run_end + run_lag, work_start + work_lag
+        run_end, now_lag, work_lag, run_lag = _INF, 0.0, 0.0, 0.0
         piece_start = work_start = now = env.now
-        tol, tol_next = coincidence(now)
-        self._tol = tol
+        tol_next = -_INF  # (the coincidence window is set at the loop's top)
         while True:
             if now >= tol_next:  # the clock entered the next binade: a wider window
                 tol, tol_next = coincidence(now)
                 self._tol = tol
             limit = now + tol  # what is due by limit happens at now
-            # 1. the running segment ends? (run_end is finite only while a started segment
-            # runs: the tests of running and its rem are implied)
+            # 1. the running segment ends (run_end is finite only while a started one runs)
             if run_end <= limit:
-                assert running is not None and running.rem is not None
+                job: Job = running  # type: ignore[assignment]  # (run_end finite: a job runs)
                 if plain:
                     worked = now - work_start
-                    running.executed += worked
+                    job.executed += worked
                     totals.busy += worked
-                    running.rem = 0.0
+                    job.rem = 0.0
                 else:
-                    self._close_piece(running, piece_start, work_start, now, done=True)
+                    self._close_piece(job, piece_start, work_start, now, done=True)
                 piece_start = work_start = now
-                run_end = _INF
-                work_lag = now_lag
-                st = running._st
+                run_end, work_lag = _INF, now_lag
+                st = job._st
                 if st.simple:
-                    self._complete(running, now)
+                    self._complete(job, now)
                     running = None
-                elif st.plain_next[running.seg_index]:  # _segment_done without a hook
-                    running.seg_index += 1
-                    running.rem = None
+                elif st.plain_next[job.seg_index]:  # _segment_done without a hook
+                    job.seg_index += 1
+                    job.rem = None
                 else:
-                    if res and st.res[running.seg_index] is not None:
-                        self._unlock(running)
-                    self._lag = now_lag
-                    running = self._segment_done(running, now)
-                    self._lag = 0.0
-                    if running is not None and running.rem is not None:
-                        # an empty step given work by an execution-time model (_continue)
-                        run_end, run_lag = _end_of(work_start, running.rem, work_lag)
-            # 2. timers due
-            while timers and (t_next := timers[0][0]) <= limit:  # (then t_next: the next)
+                    running, run_end, run_lag = self._segment_ends(job, now, now_lag, work_lag)
+            # 2. timers due (then t_next: the next timer)
+            while timers and (t_next := timers[0][0]) <= limit:
                 entry = timers[0]  # (popped below: a release's successor replaces it)
-                kind = entry[4]
-                if kind == _RELEASE:
-                    st = entry[5]
-                    if st.fast_release:  # fixed period, finish-late, no hook, no jitter
-                        k = st.k
-                        st.k = k + 1
-                        r = st.next_release
-                        p = st.period
-                        nxt = st.first + (k + 1) * p
-                        if nxt < last_release:
-                            st.next_release = nxt
-                            heapreplace(timers, (nxt, st.rank, st.priority, st.index, _RELEASE, st))
-                        else:
-                            heappop(timers)
-                        stats = st.stats
-                        stats.released += 1
-                        pending = st.pending
-                        if st.fast_top and inline_ok and not pending:  # its Job: see 3.
-                            if stats.max_backlog < 1:
-                                stats.max_backlog = 1
-                            top = st
-                            top_k = k
-                            top_r = r
-                            top_seq = next(seqs)
-                            continue
-                        job = Job(st, k, r, r + st.deadline, p, next(seqs))
-                        pending.append(job)
-                        n = len(pending)
-                        if n > stats.max_backlog:
-                            stats.max_backlog = n
-                        if n == 1:
-                            heappush(ready, (job.key, job.tie, job))
-                    else:
-                        heappop(timers)
-                        self._release(st, now, end)
+                st = entry[5]
+                if entry[4] != _RELEASE or not st.fast_release:  # (popped by _on_timer)
+                    if self._on_timer(
+                        entry, running, now, now_lag, piece_start, work_start, work_lag
+                    ):
+                        running, run_end = None, _INF  # it left the CPU
                     continue
-                heappop(timers)
-                if self._timer_due(entry, running, now, now_lag, piece_start, work_start, work_lag):
-                    running, run_end = None, _INF  # it left the CPU
-            # 3. dispatch
-            if top is not None:
-                st = top
+                k = st.k  # a release of a fixed period, finish-late, without hooks and jitter
+                st.k = k + 1
+                r, p = st.next_release, st.period
+                nxt = st.first + (k + 1) * p
+                if nxt < last_release:
+                    st.next_release = nxt
+                    heapreplace(timers, (nxt, st.rank, st.priority, st.index, _RELEASE, st))
+                else:
+                    heappop(timers)
                 stats = st.stats
-                # The top task's job gets the CPU now (under fp always; under another policy
-                # if it comes first in the ready order and preempts the running job) and runs
-                # uninterrupted to f = now + c.
-                job = None
-                wins = True
-                if not top_first:
-                    job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
-                    jk = job.key
-                    wins = (running is None or jk < running.key) and (
-                        not ready
-                        or jk < ready[0][0]
-                        or (jk == ready[0][0] and job.tie < ready[0][1])
-                    )
-                nxt_job = running  # the first in the ready order after it, at f
-                from_ready = False
-                if ready and (
-                    running is None
-                    or (  # (key, tie) < running's, the common "key greater" case first
-                        ready[0][0] <= running.key
-                        and (ready[0][0] < running.key or ready[0][1] < running.tie)
-                    )
-                ):
-                    nxt_job = ready[0][2]
-                    from_ready = True
-                moved = False  # (the clock moved on to the top task's next release, below)
-                while True:
-                    # If nothing happens in (now, f] (no timer, no other SimPy event) and the
-                    # job that gets the CPU at f has already started its segment (so no hook
-                    # runs at f), do both instants here with the same float operations, in the
-                    # same order, as the dispatch at now and the completion at f would.
-                    x = st.fast_start + now_lag  # type: ignore[operator]
-                    f = now + x
-                    y = f - now
-                    f_lag = (now - (f - y)) + (x - y)
-                    if not (
-                        wins
-                        and f > limit
-                        and timers
-                        and t_next > f + tol
-                        and (not queue or queue[0][0] > f)
-                        and (nxt_job is None or nxt_job.rem is not None)
-                    ):
-                        top = None  # (not booked: the general dispatch below)
-                        if job is None:
-                            job = Job(st, top_k, top_r, top_r + st.deadline, st.period, top_seq)
-                        st.pending.append(job)
-                        heappush(ready, (job.key, job.tie, job))
-                        break
-                    if running is not None:  # preempted at now
-                        if running.rem is not None and now > work_start:
-                            worked = now - work_start
-                            running.executed += worked
-                            totals.busy += worked
-                            running.rem = running.rem - worked - (now_lag - work_lag)
-                        running.preemptions += 1
-                        if from_ready:
-                            heappush(ready, (running.key, running.tie, running))
-                    if from_ready:
-                        heappop(ready)
-                    # its completion at f: the booking of step 1 and _complete, without a Job
-                    totals.busy += f - now
-                    resp = f - top_r
-                    stats.completed += 1
-                    stats.sum_response += resp
-                    deadline = top_r + st.deadline
-                    if f > deadline + tol:
-                        stats.misses += 1
-                    if resp == top_resp:  # (nearly always: its bin, counted before, exists,
-                        top_n += 1  # and the maximum is at least resp; top_n goes into the bin
-                    else:  # when the run ends, or before another bin is counted)
-                        if top_n:
-                            top_counts[top_bin] += top_n
-                            top_n = 0
-                        if stats.max_response is None or resp > stats.max_response:
-                            stats.max_response = resp
-                        top_resp = resp
-                        top_bin, top_counts = self._count_response(stats, resp, deadline - top_r)
-                    if record_jobs:
-                        self._top_record(st, top_k, top_r, now, f, f > deadline + tol)
-                    # the clock moves to f, as the wait would (tol is renewed at the loop's top:
-                    # nothing below uses it before; env._now is set where the clock stops)
-                    now = f
-                    now_lag = work_lag = f_lag
-                    piece_start = work_start = f
-                    if nxt_job is not None:  # it gets the CPU at f: a second switch
-                        totals.switches += 2
-                        x = nxt_job.rem + f_lag  # type: ignore[operator]
-                        run_end = f + x
-                        y = run_end - f
-                        run_lag = (f - (run_end - y)) + (x - y)
-                    else:
-                        totals.switches += 1
-                        run_end = _INF
-                    running = last = nxt_job
-                    # What nearly always comes next, done here as the loop would do it: 4.
-                    # the wait, for a timer before the end of the job now running; at the
-                    # loop's top, a new window if the clock entered the next binade; 1.
-                    # nothing ends; 2. the timer is the top task's next release (under fp,
-                    # whose top task has no backlog here), and no other timer is due with it.
-                    # Any other case goes on at the loop's top (step 1 or 2), as it would.
-                    if not (
-                        timers
-                        and (t_next := timers[0][0]) < run_end
-                        and (not queue or t_next < queue[0][0])
-                    ):
-                        env._now = now
-                        break  # (to the wait below)
-                    env._now = now = t_next
-                    now_lag = 0.0
-                    moved = True
-                    if now >= tol_next:
-                        tol, tol_next = coincidence(now)
-                        self._tol = tol
-                    limit = now + tol
-                    if not top_first or timers[0][5] is not st or run_end <= limit:
-                        top = None
-                        break
-                    # the release of step 2's fast path (stats.max_backlog is 1 already)
-                    top_k = st.k
-                    st.k = top_k + 1
-                    top_r = st.next_release
-                    after = st.first + st.k * st.period
-                    if after < last_release:
-                        st.next_release = after
-                        heapreplace(timers, (after, st.rank, st.priority, st.index, _RELEASE, st))
-                    else:
-                        heappop(timers)
-                    stats.released += 1
-                    top_seq = next(seqs)
-                    if timers and (t_next := timers[0][0]) <= limit:
-                        break  # (another timer is due: step 2 goes on, then the top task's job)
-                    moved = False
-                    # its job: the job now running comes first of the others (it did at the
-                    # last release, and nothing has joined the ready heap since)
-                    from_ready = False
-                if top_n:
-                    top_counts[top_bin] += top_n
-                    top_n = 0
-                if moved:
+                stats.released += 1
+                pending = st.pending
+                if st.fast_top and inline_ok and not pending:  # its Job: see 3.
+                    if stats.max_backlog < 1:
+                        stats.max_backlog = 1
+                    top = (st, k, r, next(seqs))
                     continue
-            if top is not None:  # a job of the top task booked inline: the instant is settled
+                job = Job(st, k, r, r + st.deadline, p, next(seqs))
+                pending.append(job)
+                n = len(pending)
+                if n > stats.max_backlog:
+                    stats.max_backlog = n
+                if n == 1:
+                    heappush(ready, (job.key, job.tie, job))
+            # 3. dispatch: the top task's job booked inline if it can be (rtsim.sim.inline)
+            if (
+                top is None
+                or (
+                    booked := book(
+                        top, running, now, now_lag, work_start, work_lag, t_next, tol, tol_next
+                    )
+                )
+                is None
+            ):
                 top = None
-            else:
-                if res:  # the resource protocol picks (rtsim.sim.resources)
-                    cand = self._res_pick(running, now)
-                    if cand is not None:  # (the same switch as below, not inline: see there)
+                if res:  # the resource protocol picks (rtsim.sim.resources), by calls
+                    state = (running, last, piece_start, work_start, work_lag, run_end, run_lag)
+                    state = self._res_dispatch(state, now, now_lag)
+                    running, last, piece_start, work_start, work_lag, run_end, run_lag = state
+                if ready and not res:  # the switch, inline on purpose (folding it with the
+                    key = ready[0][0]  # one above, by calls, costs 3-4 % in bench_sim)
+                    if running is None or (key < running.key if by_key else preempts(key, running)):
                         if running is not None:
-                            self._preempt(running, now, now_lag, piece_start, work_start, work_lag)
-                        running = cand
+                            if running.rem is not None:
+                                self._close_piece(running, piece_start, work_start, now, False)
+                                if now > work_start:
+                                    running.rem -= now_lag - work_lag
+                            running.preemptions += 1
+                            heappush(ready, (running.key, running.tie, running))
+                        running = heappop(ready)[2]
                         piece_start = work_start = now
                         work_lag = now_lag
                         if running is not last:
@@ -645,44 +462,10 @@ class CPU(ResourceProtocols, TimeSlices):
                             last = running
                             work_start = now + ovh
                         if running.rem is not None:
-                            run_end, run_lag = _end_of(work_start, running.rem, work_lag)
-                    if (
-                        running is not None
-                        and running.rem is None
-                        and running._st.res[running.seg_index] is not None
-                    ):
-                        self._lock(running)
-                while has_abort and ready and ready[0][2].aborted:
-                    heappop(ready)
-                # the switch for runs without sections, inline on purpose (the one above
-                # as calls: folding the two together costs 3-4 % in bench_sim)
-                if (
-                    not res
-                    and ready
-                    and (
-                        running is None
-                        or (ready[0][0] < running.key if by_key else preempts(ready[0][0], running))
-                    )
-                ):
-                    if running is not None:
-                        if running.rem is not None:
-                            self._close_piece(running, piece_start, work_start, now, done=False)
-                            if now > work_start:
-                                running.rem -= now_lag - work_lag
-                        running.preemptions += 1
-                        heappush(ready, (running.key, running.tie, running))
-                    running = heappop(ready)[2]
-                    piece_start = work_start = now
-                    work_lag = now_lag
-                    if running is not last:
-                        totals.switches += 1
-                        last = running
-                        work_start = now + ovh
-                    if running.rem is not None:
-                        x = running.rem + work_lag
-                        run_end = work_start + x
-                        y = run_end - work_start
-                        run_lag = (work_start - (run_end - y)) + (x - y)
+                            x = running.rem + work_lag
+                            run_end = work_start + x
+                            y = run_end - work_start
+                            run_lag = (work_start - (run_end - y)) + (x - y)
                 if running is not None and running.rem is None:
                     c = running._st.seg_const[running.seg_index]
                     if c is not None:  # _start_segment without a hook or an exec-time call
@@ -698,28 +481,88 @@ class CPU(ResourceProtocols, TimeSlices):
                     run_lag = (work_start - (run_end - y)) + (x - y)
                     if run_end <= limit:
                         continue
+            else:  # booked inline: the instant is settled, or the clock moved on (moved)
+                moved, top, running, now, work_start, work_lag, run_end, run_lag = booked
+                piece_start, last, now_lag = work_start, running, 0.0
+                if moved:
+                    continue
             if sliced and running is not self._slice_job:  # a new slice (rtsim.sim.slices)
                 self._new_slice(running, now)
-            # 4. wait
-            target = run_end  # (_INF when nothing runs)
-            now_lag = run_lag
+            target, now_lag = run_end, run_lag  # 4. wait (run_end: _INF when nothing runs)
             if timers and (t_next := timers[0][0]) < target:
-                target = t_next
-                now_lag = 0.0
+                target, now_lag = t_next, 0.0
             if target == _INF:
                 self._end_time = now
                 return
-            if jump and (not queue or target < queue[0][0]):
-                # nothing else in the environment is due up to target: move the clock
-                # there ourselves instead of a Timeout round trip through SimPy
-                env._now = target
-                now = target
+            if jump and (not queue or target < queue[0][0]):  # nothing else is due up to
+                env._now = now = target  # target: move the clock without a SimPy Timeout
                 continue
-            yield timeout(target - now if target > now else 0.0)
+            yield env.timeout(target - now if target > now else 0.0)
             now = target
 
+    def _modes(self) -> tuple[bool, bool, list[Any], bool, Callable[..., Booked | None]]:
+        """The dispatcher's set-up: (plain: no trace and no overhead, so progress is booked
+        inline; jump: the clock can be moved without SimPy; SimPy's queue; inline_ok: top-task
+        jobs may be booked inline; the function that books them, `rtsim.sim.inline`)."""
+        env = self.env
+        plain = not self.record_trace and self.overhead == 0.0
+        has_abort = any(st.policy == "abort" for st in self._states)
+        # Jump ahead without yielding when nothing else is scheduled before the wake-up
+        # (only on the plain Environment: a RealtimeEnvironment must pace every step).
+        jump = type(env) is simpy.Environment and isinstance(getattr(env, "_queue", None), list)
+        queue: list[Any] = env._queue if jump else []  # type: ignore[attr-defined]
+        # Inline jobs of the top task (docs/cpu-events.md; step 3): only without trace,
+        # overhead, aborts and sections, and only when the clock can be moved without SimPy.
+        inline_ok = plain and jump and not has_abort and not self._res_on
+        record = self._top_record if self.record_jobs else None
+        book = top_jobs(self, queue, self.policy.top_task_first, record)
+        return plain, jump, queue, inline_ok, book
+
+    def _segment_ends(
+        self, job: Job, now: float, now_lag: float, work_lag: float
+    ) -> tuple[Job | None, float, float]:
+        """Step 1 in general: the segment of ``job`` ends at ``now`` (its resource unlocked,
+        hooks, on to the next segment); (the job if it goes on to a CPU segment, the end of its
+        work and that end's lag if it has work: an empty step an execution-time model gave
+        work, docs/time.md; else _INF)."""
+        if self._res_on and job._st.res[job.seg_index] is not None:
+            self._unlock(job)
+        self._lag = now_lag
+        nxt = self._segment_done(job, now)
+        self._lag = 0.0
+        if nxt is not None and nxt.rem is not None:
+            return nxt, *_end_of(now, nxt.rem, work_lag)
+        return nxt, _INF, 0.0
+
+    def _res_dispatch(self, state: tuple[Any, ...], now: float, now_lag: float) -> tuple[Any, ...]:
+        """Step 3 under a resource protocol (docs/resources.md): the job `_res_pick` chooses
+        gets the CPU (the dispatcher's switch, by calls), and a section that starts locks its
+        resource. ``state``: the dispatcher's (running, last, piece_start, work_start,
+        work_lag, run_end, run_lag), returned as it is after."""
+        running, last, piece_start, work_start, work_lag, run_end, run_lag = state
+        cand = self._res_pick(running, now)
+        if cand is not None:
+            if running is not None:
+                self._preempt(running, now, now_lag, piece_start, work_start, work_lag)
+            running = cand
+            piece_start = work_start = now
+            work_lag = now_lag
+            if running is not last:
+                self._totals.switches += 1
+                last = running
+                work_start = now + self.overhead
+            if running.rem is not None:
+                run_end, run_lag = _end_of(work_start, running.rem, work_lag)
+        if (
+            running is not None
+            and running.rem is None
+            and running._st.res[running.seg_index] is not None
+        ):
+            self._lock(running)
+        return running, last, piece_start, work_start, work_lag, run_end, run_lag
+
     # -- the steps (internal) ------------------------------------------------------------
-    def _timer_due(
+    def _on_timer(
         self,
         entry: tuple[Any, ...],
         running: Job | None,
@@ -729,12 +572,16 @@ class CPU(ResourceProtocols, TimeSlices):
         work_start: float,
         work_lag: float,
     ) -> bool:
-        """A timer other than a release is due at ``now`` (step 2, popped): an idle
-        suspension ends, a jittered job is released, a time slice ends or a job is aborted
-        at its deadline. True if ``running`` left the CPU."""
+        """A timer is due at ``now`` (step 2; popped here) that the dispatcher does not handle
+        itself: a release (not of a fixed period, finish-late, without hooks and jitter), an
+        idle suspension ends, a jittered job is released, a time slice ends or a job is
+        aborted at its deadline. True if ``running`` left the CPU."""
+        heapq.heappop(self._timers)
         kind = entry[4]
         job = entry[5]
-        if kind == _RESUME:
+        if kind == _RELEASE:
+            self._release(job, now)
+        elif kind == _RESUME:
             if not job.aborted:
                 self._resume(job, now)
         elif kind == _JREL:
@@ -885,7 +732,7 @@ class CPU(ResourceProtocols, TimeSlices):
                 return
         heapq.heappush(self._ready, (job.key, job.tie, job))
 
-    def _release(self, st: _TaskState, now: float, end: float) -> None:
+    def _release(self, st: _TaskState, now: float) -> None:
         """Release job k of ``st`` (a task without ``fast_release``: the dispatcher does those)."""
         k = st.k
         st.k = k + 1
@@ -913,7 +760,7 @@ class CPU(ResourceProtocols, TimeSlices):
             nxt = st.first + (k + 1) * p
         if st.is_window:
             self._w = p
-        if nxt < end - EPS:
+        if nxt < self._last_release:
             st.next_release = nxt
             heapq.heappush(self._timers, (nxt, st.rank, st.priority, next(self._seq), _RELEASE, st))
         stats = st.stats
@@ -1103,6 +950,9 @@ class CPU(ResourceProtocols, TimeSlices):
             if job in self._blocked:
                 self._unblock(job, now)
         job.aborted = True
+        if any(e[2] is job for e in self._ready):  # it leaves the ready heap at once
+            self._ready[:] = [e for e in self._ready if e[2] is not job]
+            heapq.heapify(self._ready)
         st.stats.aborted += 1
         st.stats.misses += 1
         st.stats.preemptions += job.preemptions

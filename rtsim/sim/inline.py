@@ -1,0 +1,203 @@
+"""Jobs of a simple top task booked inline, without a `Job`: a room of the virtual CPU.
+
+The dispatcher (`rtsim.sim.cpu`) hands a job of its top task, released at now, to the
+function `top_jobs` made for its run (docs/cpu-events.md, step 3: inline jobs of the top
+task, runs of inline jobs). If nothing can happen while the job runs, that function books
+the preemption at now, the completion at f = now + c and the dispatch at f in one step, with
+the same float operations in the same order as the general path, then goes on to the top
+task's next release itself while that is the next thing to happen. Any other case goes back
+to the dispatcher's loop, in the state the loop would have there. The call is made for every
+run of inline jobs, so its constants are bound once per run (default arguments: locals), and
+the sums it adds to (the CPU's busy time and switches; the task's completions, responses and
+releases) are kept in locals and stored when the booking ends: the same float additions in
+the same order, and nothing reads them meanwhile.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from heapq import heappop, heappush, heapreplace
+from typing import Any, Protocol
+
+from rtsim.sim.job import _RELEASE, Job, _TaskState, _Totals
+from rtsim.sim.records import TaskStats
+
+__all__ = ["Booked", "Dispatcher", "Top", "top_jobs"]
+
+_INF = math.inf
+
+#: A job of the top task released at now and not booked yet: (its task, k, release, seq).
+Top = tuple[_TaskState, int, float, int]
+#: What the booking of a run of inline jobs leaves (module doc): (moved: the clock moved on
+#: to a later release, the top task's job released then and not booked yet, running, now,
+#: work_start, work_lag, run_end, run_lag).
+Booked = tuple[bool, Top | None, Job | None, float, float, float, float, float]
+
+
+class Dispatcher(Protocol):
+    """What `top_jobs` takes from the CPU whose run it books (`rtsim.sim.cpu.CPU`)."""
+
+    env: Any  # (a plain SimPy environment)
+    _timers: list[tuple[Any, ...]]
+    _ready: list[tuple[Any, Any, Job]]
+    _totals: _Totals
+    _last_release: float
+
+    @property
+    def _seq(self) -> Iterator[int]: ...
+
+    def _count_response(
+        self, stats: TaskStats, resp: float, rel_deadline: float
+    ) -> tuple[int, dict[int, int]]: ...
+
+
+def top_jobs(
+    cpu: Dispatcher,
+    queue: list[Any],
+    top_first: bool,
+    top_record: Callable[[_TaskState, int, float, float, float, bool], None] | None,
+) -> Callable[..., Booked | None]:
+    """The booking for a run of ``cpu`` (module doc; ``top_record`` None: no job records)."""
+    top_resp, top_bin, top_counts = math.nan, 0, dict[int, int]()  # the latest response, its bin
+
+    def book(  # (the dispatcher's state, then its constants bound as locals for the run)
+        top: Top,
+        running: Job | None,
+        now: float,
+        now_lag: float,
+        work_start: float,
+        work_lag: float,
+        t_next: float,
+        tol: float,
+        tol_next: float,
+        env: Any = cpu.env,
+        timers: list[tuple[Any, ...]] = cpu._timers,
+        ready: list[tuple[Any, Any, Job]] = cpu._ready,
+        queue: list[Any] = queue,
+        totals: _Totals = cpu._totals,
+        seqs: Iterator[int] = cpu._seq,
+        top_first: bool = top_first,
+        last_release: float = cpu._last_release,
+        top_record: Callable[..., None] | None = top_record,
+    ) -> Booked | None:
+        """Book ``top``'s job if it can be (module doc); None if not: its `Job` is ready."""
+        nonlocal top_resp, top_bin, top_counts
+        st, k, r, seq = top
+        limit = now + tol  # (what is due by limit happens at now)
+        stats, c = st.stats, st.fast_start  # (constant for the run, as these:)
+        first, period, rel_deadline = st.first, st.period, st.deadline
+        # (job wins under fp; else if it comes first and preempts); nxt_job: the first in the
+        job, wins, nxt_job, from_ready = None, True, running, False  # ready order after it, at f
+        if ready:  # (key, tie) < running's? (the common "key greater" case first)
+            h = ready[0]
+            if running is None or (
+                h[0] <= running.key and (h[0] < running.key or h[1] < running.tie)
+            ):
+                nxt_job, from_ready = h[2], True
+        top_n, moved, nxt = 0, False, None  # (top_n: responses = top_resp not yet in the bin)
+        busy, switches, done, sum_resp, released = totals.busy, 0, 0, stats.sum_response, 0
+        while True:
+            if not top_first:  # (its key, a deadline, is compared with the others')
+                job = Job(st, k, r, r + rel_deadline, period, seq)
+                jk = job.key
+                wins = (running is None or jk < running.key) and (
+                    not ready or jk < ready[0][0] or (jk == ready[0][0] and job.tie < ready[0][1])
+                )
+            x = c + now_lag  # type: ignore[operator]
+            f = now + x
+            y = f - now
+            f_lag = (now - (f - y)) + (x - y)
+            if not (  # nothing happens in (now, f], and no hook runs at f
+                wins
+                and f > limit
+                and timers
+                and t_next > f + tol
+                and (not queue or queue[0][0] > f)
+                and (nxt_job is None or nxt_job.rem is not None)
+            ):
+                if job is None:  # not booked: its Job is ready, for the general dispatch
+                    job = Job(st, k, r, r + rel_deadline, period, seq)
+                st.pending.append(job)
+                heappush(ready, (job.key, job.tie, job))
+                if moved:  # (at the new instant, where the loop's top finds nothing due)
+                    break
+                return None
+            if running is not None:  # preempted at now
+                if running.rem is not None and now > work_start:
+                    worked = now - work_start
+                    running.executed += worked
+                    busy += worked
+                    running.rem = running.rem - worked - (now_lag - work_lag)
+                running.preemptions += 1
+                if from_ready:
+                    heappush(ready, (running.key, running.tie, running))
+            if from_ready:
+                heappop(ready)
+            busy += f - now  # its completion at f: step 1 and CPU._complete, no Job
+            resp = f - r
+            done += 1
+            sum_resp += resp
+            deadline = r + rel_deadline
+            if f > deadline + tol:
+                stats.misses += 1
+            if resp == top_resp:  # (nearly always: its bin exists, the maximum is at least
+                top_n += 1  # resp; top_n goes into the bin when the booking ends, or before
+            else:  # another bin is counted)
+                if top_n:
+                    top_counts[top_bin] += top_n
+                    top_n = 0
+                if stats.max_response is None or resp > stats.max_response:
+                    stats.max_response = resp
+                top_resp = resp
+                top_bin, top_counts = cpu._count_response(stats, resp, deadline - r)
+            if top_record is not None:
+                top_record(st, k, r, now, f, f > deadline + tol)
+            now = work_start = f  # (env._now is set where the clock stops)
+            now_lag = work_lag = f_lag
+            if nxt_job is not None:  # it gets the CPU at f: a second switch
+                switches += 2
+                x = nxt_job.rem + f_lag  # type: ignore[operator]
+                run_end = f + x
+                y = run_end - f
+                run_lag = (f - (run_end - y)) + (x - y)
+            else:
+                switches += 1
+                run_end, run_lag = _INF, 0.0
+            running = nxt_job
+            # Next, as the loop would: 4. the wait; 1.; 2. the top task's release alone (else on)
+            if not (
+                timers
+                and (t_next := timers[0][0]) < run_end
+                and (not queue or t_next < queue[0][0])
+            ):
+                env._now, moved = now, False
+                break  # (to the wait)
+            env._now = now = t_next
+            now_lag, moved = 0.0, True
+            limit = now + tol
+            if now >= tol_next or timers[0][5] is not st or run_end <= limit:
+                break
+            k = st.k  # the release of step 2's fast path (stats.max_backlog is 1 already)
+            st.k = k1 = k + 1
+            r = st.next_release
+            after = first + k1 * period
+            if after < last_release:
+                st.next_release = after
+                heapreplace(timers, (after, st.rank, st.priority, st.index, _RELEASE, st))
+            else:
+                heappop(timers)
+            released += 1
+            seq = next(seqs)
+            if timers and (t_next := timers[0][0]) <= limit:
+                nxt = (st, k, r, seq)
+                break  # (another timer is due: step 2 goes on, then this job)
+            from_ready = False  # (the job running comes first of the others, as before)
+        if top_n:
+            top_counts[top_bin] += top_n
+        totals.busy, totals.switches = busy, totals.switches + switches
+        stats.completed += done
+        stats.sum_response, stats.released = sum_resp, stats.released + released
+        return moved, nxt, running, now, work_start, work_lag, run_end, run_lag
+
+    return book
