@@ -138,7 +138,7 @@ class CompiledRollout:
             state.next_scan,
         )
         n = len(state.poses)
-        # per follower, in F_* column order: x, y, θ, v, ω, held v, held ω, send offset, ρ_d
+        # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
         # (a flat list: numpy reads it much faster than nested tuples)
         turns = state.turns or [h[1] for h in state.held]
         flat = [
@@ -153,7 +153,7 @@ class CompiledRollout:
                 state.rho_d[k],
             )
         ]
-        fol = np.array(flat, dtype=float).reshape(n, K.F_SIZE)
+        fol = np.array(flat, dtype=float).reshape(n, len(K.FollowerColumns._fields))
         width = max([1, *map(len, state.pending)])
         if width == 1 and not any(state.pending):  # no sends pending: one array per n, kept
             pend = cached[2].get(n)

@@ -27,7 +27,16 @@ from rtsim.world.jit import Subs, build, kernel
 from rtsim.world.kernels import announce, follow_with, kernels
 from rtsim.world.motion import clip, follower_advance, leader_travel
 
-__all__ = ["ENTRIES", "RolloutScalars", "rollout_kernels", "scalars", "warm_all", "warm_rollout"]
+__all__ = [
+    "ENTRIES",
+    "FollowerColumns",
+    "RolloutScalars",
+    "columns",
+    "rollout_kernels",
+    "scalars",
+    "warm_all",
+    "warm_rollout",
+]
 
 
 @kernel
@@ -182,10 +191,31 @@ def scalars(fs: Any) -> RolloutScalars:
     )  # fmt: skip
 
 
-#: columns of a rollout's follower pack: the estimate, its speed and turn rate, the held
-#: command, the send offset after a window's scan, ρ_d (CompiledRollout builds the rows in
-#: this order)
-F_X, F_Y, F_TH, F_V, F_W, F_CMD_V, F_CMD_W, F_SEND, F_RHO_D, F_SIZE = range(10)
+class FollowerColumns(NamedTuple):
+    """A rollout's follower pack (one row per follower) by column, in the order of its
+    columns (`CompiledRollout` builds the rows, `columns` reads them inside the kernels): the
+    estimate (cm, cm, rad), its speed (cm/s) and turn rate (rad/s), the held command (cm/s,
+    rad/s), the send offset after a window's scan (ms), ρ_d (cm)."""
+
+    x: Any
+    y: Any
+    th: Any
+    v: Any
+    w: Any
+    cmd_v: Any
+    cmd_w: Any
+    send: Any
+    rho_d: Any
+
+
+@kernel
+def columns(fol: Any) -> FollowerColumns:
+    """The follower pack ``fol`` as its named columns (views; the field order of
+    FollowerColumns)."""
+    return FollowerColumns(
+        fol[:, 0], fol[:, 1], fol[:, 2], fol[:, 3], fol[:, 4], fol[:, 5], fol[:, 6], fol[:, 7],
+        fol[:, 8],
+    )  # fmt: skip
 
 
 @kernel
@@ -205,6 +235,7 @@ def _events(lengths: Any, P: Any) -> tuple[Any, Any, Any]:
     send, 1 a scan —, follower or scan index). The same for every target."""
     fs, fol, pend = P[0], P[1], P[2]
     S = scalars(fs)
+    send = columns(fol).send
     n = fol.shape[0]
     nw = lengths.shape[0]
     t_now = S.t_now
@@ -225,7 +256,7 @@ def _events(lengths: Any, P: Any) -> tuple[Any, Any, Any]:
                 ev_t[m], ev_kind[m], ev_k[m] = t, 0, k
                 m += 1
         for j in range(nw):
-            t = scans[j] + fol[k, F_SEND]
+            t = scans[j] + send[k]
             if t < last:
                 ev_t[m], ev_kind[m], ev_k[m] = t, 0, k
                 m += 1
@@ -288,13 +319,14 @@ def _roll(
     S = scalars(fs)
     n = fol.shape[0]
     nw = lengths.shape[0]
-    x = fol[:, F_X].copy()
-    y = fol[:, F_Y].copy()
-    th = fol[:, F_TH].copy()
-    vf = fol[:, F_V].copy()
-    wf = fol[:, F_W].copy()
-    cmd_v = fol[:, F_CMD_V].copy()
-    cmd_w = fol[:, F_CMD_W].copy()
+    C = columns(fol)
+    x = C.x.copy()
+    y = C.y.copy()
+    th = C.th.copy()
+    vf = C.v.copy()
+    wf = C.w.copy()
+    cmd_v = C.cmd_v.copy()
+    cmd_w = C.cmd_w.copy()
     odo = np.zeros(n)
     t_f = np.full(n, S.t_now)
     sr, sf = sr0.copy(), sf0.copy()
@@ -365,9 +397,10 @@ def _bounds_of(changes: Any, S: RolloutScalars, fol: Any, w: float, rows: Any, f
     """Rollout.bounds(changes, w) — into ``rows`` [follower, kind] when ``fill`` — and
     min_bound_rows's bound of them (the first smallest)."""
     best = math.inf
+    rho_d = columns(fol).rho_d
     for i in range(changes.shape[0]):
         for j in range(4):
-            b = _bound(S, fol[i, F_RHO_D], j, changes[i, j], w)
+            b = _bound(S, rho_d[i], j, changes[i, j], w)
             if fill:
                 rows[i, j] = b
             if b < best:
@@ -812,8 +845,9 @@ def _warm(ns: Any) -> None:
             predicted_ms=0.0,
         )
     )
-    fol = np.zeros((1, F_SIZE))
-    fol[0, F_X], fol[0, F_V], fol[0, F_SEND], fol[0, F_RHO_D] = -100.0, 30.0, 100.0, 100.0
+    fol = np.zeros((1, len(FollowerColumns._fields)))
+    c = columns(fol)  # (views: the Python build of the kernel)
+    c.x[0], c.v[0], c.send[0], c.rho_d[0] = -100.0, 30.0, 100.0, 100.0
     nan1 = np.full(1, math.nan)
     G = (np.zeros(1), np.zeros(3), np.zeros(1), 1e3, np.zeros(1), np.full(1, -1), np.full(1, 100.0))
     P = (fs, fol, np.full((1, 1), math.nan), G, nan1, nan1)
