@@ -21,7 +21,7 @@ and a Hough transform in each window, `rtsim.world.hough`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -106,10 +106,11 @@ class LocalizationModel:
         truth_l: list[XY],
         pts: list[int],
         centre: list[XY],
-        expected: list[int] | None,
+        expected: Sequence[int] | None,
     ) -> tuple[list[Fix], list[int] | None]:
         """Every follower's `Fix` from the scan ``state`` with its window at ``centre``
-        (``expected``: the beams the leader expects, ``search = "visible"``; None: search
+        (``expected``: the beams the leader expects, ``search = "visible"``, a sequence
+        counted on its first read, `rtsim.world.localization.ExpectedBeams`; None: search
         always), and the votes each window's peak had (None: not a voting model)."""
         raise NotImplementedError
 
@@ -131,7 +132,7 @@ class GaussianModel(LocalizationModel):
         truth_l: list[XY],
         pts: list[int],
         centre: list[XY],
-        expected: list[int] | None,
+        expected: Sequence[int] | None,
     ) -> tuple[list[Fix], list[int] | None]:
         z: list[float] = state
         sens = self.config.sensing
@@ -179,7 +180,7 @@ class HoughModel(LocalizationModel):
         truth_l: list[XY],
         pts: list[int],
         centre: list[XY],
-        expected: list[int] | None,
+        expected: Sequence[int] | None,
     ) -> tuple[list[Fix], list[int] | None]:
         c = np.array(centre).T.copy()
         px, py, owner = state
@@ -198,7 +199,7 @@ class HoughModel(LocalizationModel):
                 out.append(self._search(k, state, centre[k], expected))
         return out, [row[3] for row in rows]
 
-    def _search(self, k: int, beams: Any, centre: XY, expected: list[int] | None) -> Fix:
+    def _search(self, k: int, beams: Any, centre: XY, expected: Sequence[int] | None) -> Fix:
         """Follower index k's outcome when its window had no fix (fewer than ``min_points``
         votes at the peak, `locate`; else the peak is the fix, lost by a neighbour when
         another follower's points made it — the truth says so, the leader does not know):

@@ -40,9 +40,8 @@ from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
 from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
 from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
-from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
-from rtsim.world.localization import lost_cause
+from rtsim.world.localization import ExpectedBeams, lost_cause
 from rtsim.world.locmodels import localization_model
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.scan import Scan
@@ -360,8 +359,9 @@ class World:
         else:
             centre = list(self._centre)
         r_F, max_range = self._r_F, self._max_range
-        # the beams the leader expects from its own prediction (search = "visible")
-        expected = count_beams_xy(centre, r_F, max_range) if self._visible else None
+        # the beams the leader expects from its own prediction (search = "visible"), counted
+        # when a model first reads them (only for a window without a fix)
+        expected = ExpectedBeams(centre, r_F, max_range) if self._visible else None
         fixes, voted = model.locate(sensed, truth_l, pts, centre, expected)
         measured, in_ws, losts, searched, reacqs, neighbours = (
             map(list, zip(*fixes, strict=True)) if fixes else ([] for _ in range(6))
