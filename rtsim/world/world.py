@@ -42,7 +42,7 @@ from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.leader import Leader
 from rtsim.world.localization import ExpectedBeams, lost_cause
-from rtsim.world.locmodels import localization_model
+from rtsim.world.locmodels import Fix, localization_model
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.scan import Scan
 
@@ -363,9 +363,8 @@ class World:
         # when a model first reads them (only for a window without a fix)
         expected = ExpectedBeams(centre, r_F, max_range) if self._visible else None
         fixes, voted = model.locate(sensed, truth_l, pts, centre, expected)
-        measured, in_ws, losts, searched, reacqs, neighbours = (
-            map(list, zip(*fixes, strict=True)) if fixes else ([] for _ in range(6))
-        )
+        cols, errors, changes, violations = self._changes(truth_l, fol.odometer, fixes)
+        measured, in_ws, losts, searched, reacqs, neighbours = cols
         if True in losts:
             min_pts = self._min_pts
             causes = [
@@ -378,37 +377,39 @@ class World:
             ]
         else:
             causes = [""] * len(losts)
-        errors, changes, violations = self._changes(truth_l, fol.odometer, measured, in_ws, reacqs)
-        return Scan(
+        return Scan._of(
             t_ms,
             lp,
-            pts,
-            measured,
-            truth_l,
-            centre,
-            in_ws,
-            losts,
-            reacqs,
-            changes,
-            violations,
-            searched,
-            causes,
-            voted=voted or None,
-            fix_error=errors,
-            neighbour=neighbours if voted else None,
-            cells=model.cells,
+            {
+                "points": pts,
+                "measured": measured,
+                "truth": truth_l,
+                "centre": centre,
+                "in_window": in_ws,
+                "lost": losts,
+                "reacquired": reacqs,
+                "changes": changes,
+                "violations": violations,
+                "searched": searched,
+                "cause": causes,
+                "voted": voted or None,
+                "fix_error": errors,
+                "neighbour": neighbours if voted else None,
+                "cells": model.cells,
+            },
         )
 
     def _changes(
-        self,
-        truth_l: list[XY],
-        odometer: list[float],
-        measured: list[XY],
-        in_ws: list[bool],
-        reacqs: list[bool],
-    ) -> tuple[list[float], dict[str, list[Any]], dict[str, list[bool]]]:
-        """Each fix's distance from the truth (inf: none), the truth's change since the
-        previous scan (zeros at the first) and the violations it makes, per bound kind
+        self, truth_l: list[XY], odometer: list[float], fixes: list[Fix]
+    ) -> tuple[
+        tuple[list[XY], list[bool], list[bool], list[bool], list[bool], list[bool]],
+        list[float],
+        dict[str, list[Any]],
+        dict[str, list[bool]],
+    ]:
+        """The fixes' fields as lists (`Fix`: fix, in window, lost, searched, re-acquired,
+        neighbour), each fix's distance from the truth (inf: none), the truth's change since
+        the previous scan (zeros at the first) and the violations it makes, per bound kind
         (`Scan`); remembers this scan's truth for the next. (One loop: at a few followers a
         comprehension per list costs more than the arithmetic.)"""
         hypot, atan2, remainder, inf = math.hypot, math.atan2, math.remainder, math.inf
@@ -420,12 +421,25 @@ class World:
             p_truth, p_rho, p_beta, p_odo = prev
         r_H, T_beta = self._r_H, self._T_beta
         sep_lim, trav_lim = self._sep_limit_l, self._travel_limit_l
+        measured: list[XY] = []
+        in_ws: list[bool] = []
+        losts: list[bool] = []
+        searched: list[bool] = []
+        reacqs: list[bool] = []
+        neighbours: list[bool] = []
         errors, rhos, betas = [], [], []
         disps, d_rhos, travels, d_betas = [], [], [], []
         v_loc, v_sep, v_path, v_bear = [], [], [], []
         for k, (tx, ty) in enumerate(truth_l):
-            if in_ws[k] or reacqs[k]:
-                mx, my = measured[k]
+            fix, in_w, lost, search, reacq, neighbour = fixes[k]
+            measured.append(fix)
+            in_ws.append(in_w)
+            losts.append(lost)
+            searched.append(search)
+            reacqs.append(reacq)
+            neighbours.append(neighbour)
+            if in_w or reacq:
+                mx, my = fix
                 errors.append(hypot(mx - tx, my - ty))
             else:
                 errors.append(inf)
@@ -457,7 +471,8 @@ class World:
             "path_diversion": v_path,
             "bearing": v_bear,
         }
-        return errors, changes, violations
+        cols = (measured, in_ws, losts, searched, reacqs, neighbours)
+        return cols, errors, changes, violations
 
     def estimate(self, scan: Scan) -> None:
         """EKF predict (commands held since the last estimate) and update from ``scan``'s fixes;
