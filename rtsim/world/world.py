@@ -34,6 +34,7 @@ from rtsim.world.compiled import (
     CompiledFollowerEKF,
     CompiledFollowerGroup,
     CompiledTraceFollower,
+    compiled_motion,
 )
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
@@ -71,13 +72,21 @@ class World:
         self._stream = np.empty(0)  # standard normals drawn ahead from rng (see _draw)
         self._si = 0
         self.motion = motion_model(config.follower.motion_model)
+        self.backend = config.resolved_backend()
+        fast = self.backend == "compiled"
+        # the leader's travel and the belief's step: the motion model's parts, compiled
+        # in the compiled backend (called directly: floats only)
+        if fast:
+            self._step, travel = compiled_motion(self.motion)
+        else:
+            self._step, travel = self.motion.step, self.motion.leader
         self.leader = Leader(
             config.path,
             config.leader_speed,
             config.start_s,
             accel_max=config.leader_accel_max,
             decel_max=config.leader_decel_max,
-            travel=self.motion.leader,
+            travel=travel,
         )
         if config.start_speed is not None:  # a settled start below V_Ld
             self.leader.speed = self.leader.target_speed = config.start_speed
@@ -99,8 +108,6 @@ class World:
         c, s = math.cos(hl), math.sin(hl)
         x = xl + c * slots[:, 0] - s * slots[:, 1]
         y = yl + s * slots[:, 0] + c * slots[:, 1]
-        self.backend = config.resolved_backend()
-        fast = self.backend == "compiled"
         self._ftl: TraceFollower | None = None
         if follower_model(form.model).on_trace:
             ftl = CompiledTraceFollower if fast else TraceFollower
@@ -170,7 +177,6 @@ class World:
         self._r_H, self._T_beta = thr.r_H, thr.T_beta
         self._accel, self._step_ms = fp.max_accel, config.step_ms
         self._n = form.n
-        self._step = self.motion.step
 
     # -- time ------------------------------------------------------------------------
     @property
