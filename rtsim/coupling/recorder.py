@@ -49,6 +49,7 @@ __all__ = [
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
+    "changes_array",
     "contact_columns",
     "records_columns",
     "records_frame",
@@ -311,6 +312,14 @@ def _column(recs: list[WindowRecord], name: str, dtype: Any) -> NDArray[Any]:
     return np.fromiter(map(attrgetter(name), recs), dtype, len(recs))
 
 
+def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
+    """The observed changes of complete records ``recs`` of ``n`` followers, one (records,
+    `CHANGE_KEYS`, n) array (`WindowRecord.changes`)."""
+    nb = len(CHANGE_KEYS)
+    rows = ([r.changes[c] for c in CHANGE_KEYS] for r in recs)  # type: ignore[index]
+    return _flat(rows, np.float64, len(recs) * nb * n).reshape(len(recs), nb, n)
+
+
 def records_columns(
     recs: list[WindowRecord], n: int, limits: tuple[tuple[float, ...], ...]
 ) -> dict[str, Any]:
@@ -355,15 +364,7 @@ def records_columns(
     truth = _flat((r.truth for r in recs), float, m * n * k).reshape(m, n, k)
     est = _flat((r.est for r in recs), float, m * n * k).reshape(m, n, k)
     pred = _flat((r.pred for r in recs), float, m * n * nb).reshape(m, n, nb)
-    changes = (
-        _flat(
-            ([r.changes[c] for c in CHANGE_KEYS] for r in recs),  # type: ignore[index]
-            np.float64,
-            m * nb * n,
-        )
-        .reshape(m, nb, n)
-        .transpose(0, 2, 1)
-    )
+    changes = changes_array(recs, n).transpose(0, 2, 1)
     viol = (
         _flat(
             ([r.viol[k] for k in BOUND_KINDS] for r in recs),  # type: ignore[index]

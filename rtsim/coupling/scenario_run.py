@@ -46,8 +46,10 @@ from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.prepared import settled_speed, window_bound
 from rtsim.coupling.recorder import (
+    CHANGE_KEYS,
     WindowRecord,
     WindowRecorder,
+    changes_array,
     records_columns,
     records_frame,
 )
@@ -705,12 +707,10 @@ class _Coupling:
         out: dict[str, tuple[float, int]] = {}
         if not recs:
             return out
+        # every record's changes in CHANGE_KEYS order, one (records, kinds, n) array
+        ch = changes_array(recs, self.n)
         for kind, key, lim in self._limits:
-            ch = np.array(
-                [r.changes[key] for r in recs],  # type: ignore[index]
-                dtype=np.float64,
-            )
-            ratio = ch.reshape(len(recs), -1) / lim
+            ratio = ch[:, CHANGE_KEYS.index(key), :] / lim
             out[kind] = (float(ratio.max()), int((ratio > 1.0 + tolerance).sum()))
         return out
 
