@@ -321,11 +321,17 @@ def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
 
 
 def records_columns(
-    recs: list[WindowRecord], n: int, limits: tuple[tuple[float, ...], ...]
+    recs: list[WindowRecord],
+    n: int,
+    limits: tuple[tuple[float, ...], ...],
+    *,
+    state: bool = True,
 ) -> dict[str, Any]:
     """The columns of windows.csv (name -> array or list, in order) for complete records
     ``recs``: what `records_frame` holds, without the DataFrame (a writer's
-    `write_columns` formats them directly)."""
+    `write_columns` formats them directly). ``state`` False leaves out the followers'
+    state and estimate (``f{i}_x`` … ``f{i}_v_est``), bound (``_pred``, ``_true``) and
+    contact distance columns, which summary.json does not read (`_follower_state`)."""
     cols = window_columns(n)
     m = len(recs)
     data: dict[str, object] = {}
@@ -359,12 +365,9 @@ def records_columns(
     data["segment"] = [r.segment for r in recs]
     data["curvature"] = _column(recs, "curvature", float)
     data["leader_x"], data["leader_y"], data["leader_heading"] = leader.T
-    k = len(FOLLOWER_FIELDS)
+    if state:
+        _follower_state(recs, n, limits, w, data)
     nb = len(BOUND_KINDS)
-    truth = _flat((r.truth for r in recs), float, m * n * k).reshape(m, n, k)
-    est = _flat((r.est for r in recs), float, m * n * k).reshape(m, n, k)
-    pred = _flat((r.pred for r in recs), float, m * n * nb).reshape(m, n, nb)
-    changes = changes_array(recs, n).transpose(0, 2, 1)
     viol = (
         _flat(
             ([r.viol[k] for k in BOUND_KINDS] for r in recs),  # type: ignore[index]
@@ -376,12 +379,6 @@ def records_columns(
     )
     lost = np.fromiter(_chain(r.lost for r in recs), bool, m * n).reshape(m, n)  # type: ignore[arg-type]
     for i in range(n):
-        for j, f in enumerate(FOLLOWER_FIELDS):
-            data[f"f{i + 1}_{f}"] = truth[:, i, j]
-            data[f"f{i + 1}_{f}_est"] = est[:, i, j]
-        for j, kind in enumerate(BOUND_KINDS):
-            data[f"f{i + 1}_msb_{kind}_pred"] = pred[:, i, j]
-            data[f"f{i + 1}_msb_{kind}_true"] = true_bounds(w, changes[:, i, j], limits[j][i])
         for j, kind in enumerate(BOUND_KINDS):
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
         data[f"f{i + 1}_lost"] = lost[:, i]
@@ -406,14 +403,41 @@ def records_columns(
         data[f"f{i + 1}_fix_error_cm"] = err[:, i]
         data[f"f{i + 1}_neighbour"] = nb_[:, i]
     # (a record made by hand has no contact: inf, no break)
-    inf = (math.inf,) * n
-    near_p = np.fromiter(_chain(r.near_pred or inf for r in recs), float, m * n).reshape(m, n)
-    near_t = np.fromiter(_chain(r.near_true or inf for r in recs), float, m * n).reshape(m, n)
     broke = np.fromiter(_chain(r.viol_contact or (False,) * n for r in recs), bool, m * n).reshape(
         m, n
     )
     for i in range(n):
+        data[f"f{i + 1}_viol_contact"] = broke[:, i]
+    return {c: data[c] for c in cols if c in data}
+
+
+def _follower_state(
+    recs: list[WindowRecord],
+    n: int,
+    limits: tuple[tuple[float, ...], ...],
+    w: NDArray[np.float64],
+    data: dict[str, object],
+) -> None:
+    """Add to ``data`` the followers' state and estimate columns, their bounds (``_pred``,
+    and ``_true`` from the changes over the windows' lengths ``w``, `true_bounds`) and the
+    contact distances (``contact_cm_pred``, ``contact_cm_true``) of ``recs``."""
+    m = len(recs)
+    k = len(FOLLOWER_FIELDS)
+    nb = len(BOUND_KINDS)
+    truth = _flat((r.truth for r in recs), float, m * n * k).reshape(m, n, k)
+    est = _flat((r.est for r in recs), float, m * n * k).reshape(m, n, k)
+    pred = _flat((r.pred for r in recs), float, m * n * nb).reshape(m, n, nb)
+    changes = changes_array(recs, n).transpose(0, 2, 1)
+    for i in range(n):
+        for j, f in enumerate(FOLLOWER_FIELDS):
+            data[f"f{i + 1}_{f}"] = truth[:, i, j]
+            data[f"f{i + 1}_{f}_est"] = est[:, i, j]
+        for j, kind in enumerate(BOUND_KINDS):
+            data[f"f{i + 1}_msb_{kind}_pred"] = pred[:, i, j]
+            data[f"f{i + 1}_msb_{kind}_true"] = true_bounds(w, changes[:, i, j], limits[j][i])
+    inf = (math.inf,) * n
+    near_p = np.fromiter(_chain(r.near_pred or inf for r in recs), float, m * n).reshape(m, n)
+    near_t = np.fromiter(_chain(r.near_true or inf for r in recs), float, m * n).reshape(m, n)
+    for i in range(n):
         data[f"f{i + 1}_contact_cm_pred"] = near_p[:, i]
         data[f"f{i + 1}_contact_cm_true"] = near_t[:, i]
-        data[f"f{i + 1}_viol_contact"] = broke[:, i]
-    return {c: data[c] for c in cols}
