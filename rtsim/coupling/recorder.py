@@ -377,7 +377,8 @@ def records_columns(
         .reshape(m, nb, n)
         .transpose(0, 2, 1)
     )
-    lost = np.fromiter(_chain(r.lost for r in recs), bool, m * n).reshape(m, n)  # type: ignore[arg-type]
+    lost_rows: Any = (r.lost for r in recs)
+    lost = np.fromiter(_chain(lost_rows), np.bool_, m * n).reshape(m, n)
     for i in range(n):
         for j, kind in enumerate(BOUND_KINDS):
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]

@@ -104,8 +104,8 @@ class _Frame:
     and bound columns nor the DataFrame (≈ 4 ms of a Test 2 lap at n = 2). Reading it gives
     the frame built at once would have; until then the result holds the records."""
 
-    def __set_name__(self, owner: type, name: str) -> None:
-        self.key = f"_{name}"
+    def __init__(self, key: str) -> None:
+        self.key = key  # (where the instance keeps it)
 
     def __get__(self, obj: Any, owner: type | None = None) -> Any:
         if obj is None:  # (no default: the dataclass's field stays required)
@@ -127,7 +127,7 @@ class ScenarioResult(ResultDisplay):
     ``simulation_cpu_s``, the process CPU time of the loop — robust on a shared machine);
     ``trace`` (the execution trace, with ``record_trace=True``)."""
 
-    windows: pd.DataFrame | None = _Frame()  # type: ignore[assignment]
+    windows: pd.DataFrame | None  # (a `_Frame`, set below)
     jobs: pd.DataFrame | None
     summary: dict[str, Any]
     timing: dict[str, float]
@@ -162,6 +162,11 @@ class ScenarioResult(ResultDisplay):
         fix error, each bound ``_pred``/``_true``, violations, lost: `rtsim.coupling.tidy`;
         ``followers.csv``); None when the windows were streamed to a sink."""
         return None if self.windows is None else followers_frame(self.windows)
+
+
+# the field `windows` read and written through `_Frame` (set after the dataclass made its
+# __init__, which assigns it: a data descriptor's __set__)
+setattr(ScenarioResult, "windows", _Frame("_windows"))  # noqa: B010
 
 
 class _Decision(NamedTuple):
@@ -1089,9 +1094,8 @@ def run_scenario(
         "simulation_cpu_s": c2 - c1,
         "tables_s": t3 - t2,
     }
-    return ScenarioResult(
-        df if window_sink is None else None, res.jobs, summary, timing, inp, res.trace
-    )
+    frame: Any = df if window_sink is None else None  # (`_Records`: the frame when read)
+    return ScenarioResult(frame, res.jobs, summary, timing, inp, res.trace)
 
 
 def _length(
