@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from heapq import heappop, heappush, heapreplace
+from heapq import heappop, heappush
+from itertools import islice
 from typing import Any, Protocol
 
 from rtsim.sim.job import _RELEASE, Job, _TaskState, _Totals
@@ -80,6 +81,7 @@ def top_jobs(
         top_first: bool = top_first,
         last_release: float = cpu._last_release,
         top_record: Callable[..., None] | None = top_record,
+        inf: float = _INF,
     ) -> Booked | None:
         """Book ``top``'s job if it can be (module doc); None if not: its `Job` is ready."""
         nonlocal top_resp, top_bin, top_counts
@@ -95,9 +97,10 @@ def top_jobs(
                 h[0] <= running.key and (h[0] < running.key or h[1] < running.tie)
             ):
                 nxt_job, from_ready = h[2], True
-        top_n, moved, nxt = 0, False, None  # (top_n: responses = top_resp not yet in the bin)
-        busy, switches, done, sum_resp, released = totals.busy, 0, 0, stats.sum_response, 0
-        while True:
+        if not timers:  # (t_next: the next timer, inf if none)
+            t_next = inf
+        unbooked = moved = due = False  # (when the clock moved on: the job released then)
+        while True:  # (one pass for the first job, then after each release: the next)
             if not top_first:  # (its key, a deadline, is compared with the others')
                 job = Job(st, k, r, r + rel_deadline, period, seq)
                 jk = job.key
@@ -110,33 +113,42 @@ def top_jobs(
             f_lag = (now - (f - y)) + (x - y)
             if not (  # nothing happens in (now, f], and no hook runs at f
                 wins
-                and f > limit
-                and timers
-                and t_next > f + tol
-                and (not queue or queue[0][0] > f)
+                and limit < f
+                and f + tol < t_next < inf
                 and (nxt_job is None or nxt_job.rem is not None)
+                and (not queue or queue[0][0] > f)
             ):
-                if job is None:  # not booked: its Job is ready, for the general dispatch
-                    job = Job(st, k, r, r + rel_deadline, period, seq)
-                st.pending.append(job)
-                heappush(ready, (job.key, job.tie, job))
-                if moved:  # (at the new instant, where the loop's top finds nothing due)
-                    break
-                return None
-            if running is not None:  # preempted at now
-                if running.rem is not None and now > work_start:
+                unbooked = True
+                break
+            if moved:  # the job running since the last one's f is preempted at now (> f)
+                if nxt_job is not None:
                     worked = now - work_start
-                    running.executed += worked
+                    jex += worked
                     busy += worked
-                    running.rem = running.rem - worked - (now_lag - work_lag)
-                running.preemptions += 1
+                    jrem = jrem - worked - (now_lag - work_lag)
+                    jpre += 1
+            else:  # the first: the job running (if any) is preempted at now
+                if running is not None:
+                    if running.rem is not None and now > work_start:
+                        worked = now - work_start
+                        running.executed += worked
+                        totals.busy += worked
+                        running.rem = running.rem - worked - (now_lag - work_lag)
+                    running.preemptions += 1
+                    if from_ready:
+                        heappush(ready, (running.key, running.tie, running))
                 if from_ready:
-                    heappush(ready, (running.key, running.tie, running))
-            if from_ready:
-                heappop(ready)
+                    heappop(ready)
+                running = nxt_job  # (it runs after each job, its progress in locals)
+                if nxt_job is not None:
+                    jrem, jex, jpre = nxt_job.rem, nxt_job.executed, nxt_job.preemptions
+                # the top task's next release (k, time) in locals; once its timer is out of the
+                # heap (held; live: before the horizon), ot/other: the first timer left in it
+                kn, rn, held, live, ot, other = st.k, st.next_release, False, True, inf, None
+                top_n, released = 0, 0  # (top_n: responses = top_resp not yet in the bin)
+                busy, sum_resp = totals.busy, stats.sum_response
             busy += f - now  # its completion at f: step 1 and CPU._complete, no Job
             resp = f - r
-            done += 1
             sum_resp += resp
             deadline = r + rel_deadline
             if f > deadline + tol:
@@ -154,50 +166,92 @@ def top_jobs(
             if top_record is not None:
                 top_record(st, k, r, now, f, f > deadline + tol)
             now = work_start = f  # (env._now is set where the clock stops)
-            now_lag = work_lag = f_lag
-            if nxt_job is not None:  # it gets the CPU at f: a second switch
-                switches += 2
-                x = nxt_job.rem + f_lag  # type: ignore[operator]
-                run_end = f + x
-                y = run_end - f
-                run_lag = (f - (run_end - y)) + (x - y)
+            work_lag = f_lag
+            if nxt_job is not None:  # it gets the CPU at f (a second switch); run_lag at the end
+                xr = jrem + f_lag
+                run_end = f + xr
             else:
-                switches += 1
-                run_end, run_lag = _INF, 0.0
-            running = nxt_job
+                run_end = inf
             # Next, as the loop would: 4. the wait; 1.; 2. the top task's release alone (else on)
-            if not (
-                timers
-                and (t_next := timers[0][0]) < run_end
-                and (not queue or t_next < queue[0][0])
-            ):
-                env._now, moved = now, False
+            if not (t_next < run_end and (not queue or t_next < queue[0][0])):
+                moved = False
                 break  # (to the wait)
-            env._now = now = t_next
-            now_lag, moved = 0.0, True
+            now, now_lag, moved = t_next, 0.0, True
             limit = now + tol
-            if now >= tol_next or timers[0][5] is not st or run_end <= limit:
+            if now >= tol_next or run_end <= limit:
                 break
-            k = st.k  # the release of step 2's fast path (stats.max_backlog is 1 already)
-            st.k = k1 = k + 1
-            r = st.next_release
-            after = first + k1 * period
-            if after < last_release:
-                st.next_release = after
-                heapreplace(timers, (after, st.rank, st.priority, st.index, _RELEASE, st))
-            else:
+            if not held:  # the first timer must be the top task's release: out of the heap
+                if timers[0][5] is not st:
+                    break
                 heappop(timers)
-            released += 1
-            seq = next(seqs)
-            if timers and (t_next := timers[0][0]) <= limit:
-                nxt = (st, k, r, seq)
-                break  # (another timer is due: step 2 goes on, then this job)
-            from_ready = False  # (the job running comes first of the others, as before)
+                held = True
+                if timers:
+                    other = timers[0]
+                    ot = other[0]
+            elif not rel_first:  # (the first timer is another one)
+                break
+            k, r = kn, rn  # the release of step 2's fast path (stats.max_backlog is 1 already)
+            kn = k + 1
+            released += 1  # (its sequence number drawn at the end under fp)
+            if not top_first:
+                seq = next(seqs)
+            after = first + kn * period
+            if after < last_release:
+                rn = after  # (comes first if earlier, or at once with a later entry)
+                rel_first = after < ot or (
+                    after == ot and (after, st.rank, st.priority, st.index) < other
+                )
+                t_next = after if rel_first else ot
+            else:
+                live = rel_first = False
+                t_next = ot
+            if t_next <= limit:  # (another timer is due: step 2 goes on, then this job)
+                due = True
+                break
+        if unbooked and not moved:  # the first job is not booked: its Job is ready
+            _enqueue(job, st, k, r, period, seq, ready)
+            return None
+        if top_first and released:  # (the releases' sequence numbers, drawn in one call)
+            seq = next(islice(seqs, released - 1, None))
+        nxt = None
+        if unbooked:  # (the job released at now: not booked, ready; or booked at step 3)
+            _enqueue(job, st, k, r, period, seq, ready)
+        elif due:
+            nxt = (st, k, r, seq)
+        if held and live:  # (its timer back in the heap)
+            heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
+        st.k, st.next_release = kn, rn
+        if nxt_job is not None:  # (its progress, and the lag of its end)
+            nxt_job.rem, nxt_job.executed, nxt_job.preemptions = jrem, jex, jpre
+            y = run_end - work_start
+            run_lag = (work_start - (run_end - y)) + (xr - y)
+        else:
+            run_lag = 0.0
         if top_n:
             top_counts[top_bin] += top_n
-        totals.busy, totals.switches = busy, totals.switches + switches
+        done = released if unbooked or due else released + 1  # (jobs booked)
+        totals.busy = busy
+        totals.switches += 2 * done if nxt_job is not None else done
         stats.completed += done
         stats.sum_response, stats.released = sum_resp, stats.released + released
+        env._now = now
         return moved, nxt, running, now, work_start, work_lag, run_end, run_lag
 
     return book
+
+
+def _enqueue(
+    job: Job | None,
+    st: _TaskState,
+    k: int,
+    r: float,
+    period: float,
+    seq: int,
+    ready: list[tuple[Any, Any, Job]],
+) -> None:
+    """The top task's job ``k`` released at ``r`` is not booked: its `Job` (if not made yet)
+    joins its task's pending jobs and the ready heap."""
+    if job is None:
+        job = Job(st, k, r, r + st.deadline, period, seq)
+    st.pending.append(job)
+    heappush(ready, (job.key, job.tie, job))
