@@ -99,6 +99,7 @@ def top_jobs(
                 nxt_job, from_ready = h[2], True
         if not timers:  # (t_next: the next timer, inf if none)
             t_next = inf
+        nxt_ok = nxt_job is None or nxt_job.rem is not None  # (it has started: no hook at f)
         unbooked = moved = due = False  # (when the clock moved on: the job released then)
         while True:  # (one pass for the first job, then after each release: the next)
             if not top_first:  # (its key, a deadline, is compared with the others')
@@ -114,8 +115,9 @@ def top_jobs(
             if not (  # nothing happens in (now, f], and no hook runs at f
                 wins
                 and limit < f
-                and f + tol < t_next < inf
-                and (nxt_job is None or nxt_job.rem is not None)
+                and f + tol < t_next
+                and t_next < inf
+                and nxt_ok
                 and (not queue or queue[0][0] > f)
             ):
                 unbooked = True
@@ -139,7 +141,7 @@ def top_jobs(
                         heappush(ready, (running.key, running.tie, running))
                 if from_ready:
                     heappop(ready)
-                running = nxt_job  # (it runs after each job, its progress in locals)
+                running, now_lag, moved = nxt_job, 0.0, True  # (its progress in locals)
                 if nxt_job is not None:
                     jrem, jex, jpre = nxt_job.rem, nxt_job.executed, nxt_job.preemptions
                 # the top task's next release (k, time) in locals; once its timer is out of the
@@ -176,7 +178,7 @@ def top_jobs(
             if not (t_next < run_end and (not queue or t_next < queue[0][0])):
                 moved = False
                 break  # (to the wait)
-            now, now_lag, moved = t_next, 0.0, True
+            now = t_next
             limit = now + tol
             if now >= tol_next or run_end <= limit:
                 break
