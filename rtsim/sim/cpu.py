@@ -482,8 +482,8 @@ class CPU(ResourceProtocols, TimeSlices):
                     if run_end <= limit:
                         continue
             else:  # booked inline: the instant is settled, or the clock moved on (moved)
-                moved, top, running, now, work_start, work_lag, run_end, run_lag = booked
-                piece_start, last, now_lag = work_start, running, 0.0
+                moved, top, running, now, now_lag, work_start, work_lag, run_end, run_lag = booked
+                piece_start, last = work_start, running
                 if moved:
                     continue
             if sliced and running is not self._slice_job:  # a new slice (rtsim.sim.slices)
