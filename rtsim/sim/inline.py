@@ -44,6 +44,7 @@ class Dispatcher(Protocol):
     _ready: list[tuple[Any, Any, Job]]
     _totals: _Totals
     _last_release: float
+    _tol: float
 
     @property
     def _seq(self) -> Iterator[int]: ...
@@ -51,6 +52,8 @@ class Dispatcher(Protocol):
     def _count_response(
         self, stats: TaskStats, resp: float, rel_deadline: float
     ) -> tuple[int, dict[int, int]]: ...
+
+    def _complete(self, job: Job, now: float) -> None: ...
 
 
 def top_jobs(
@@ -61,60 +64,28 @@ def top_jobs(
 ) -> Callable[..., Booked | None]:
     """The booking for a run of ``cpu`` (module doc; ``top_record`` None: no job records)."""
     top_resp, top_bin, top_counts = math.nan, 0, dict[int, int]()  # the latest response, its bin
+    env, timers, ready, totals, seqs = cpu.env, cpu._timers, cpu._ready, cpu._totals, cpu._seq
+    last_release, inf = cpu._last_release, _INF  # (the run's constants, as closure cells)
 
-    def book(  # (the dispatcher's state, then its constants bound as locals for the run)
-        top: Top,
-        running: Job | None,
-        now: float,
-        now_lag: float,
-        work_start: float,
-        work_lag: float,
-        t_next: float,
-        tol: float,
-        tol_next: float,
-        env: Any = cpu.env,
-        timers: list[tuple[Any, ...]] = cpu._timers,
-        ready: list[tuple[Any, Any, Job]] = cpu._ready,
-        queue: list[Any] = queue,
-        totals: _Totals = cpu._totals,
-        seqs: Iterator[int] = cpu._seq,
-        top_first: bool = top_first,
-        last_release: float = cpu._last_release,
-        top_record: Callable[..., None] | None = top_record,
-        inf: float = _INF,
-    ) -> Booked | None:
-        """Book ``top``'s job if it can be (module doc); None if not: its `Job` is ready."""
+    def book(top, running, now, now_lag, work_start, work_lag, t_next, tol, tol_next):
+        """Book ``top``'s job if it can be (module doc): `Booked`; None if not: its Job is ready."""
         nonlocal top_resp, top_bin, top_counts
         st, k, r, seq = top
-        limit = now + tol  # (what is due by limit happens at now)
-        stats, c = st.stats, st.fast_start  # (constant for the run, as these:)
-        first, period, rel_deadline = st.first, st.period, st.deadline
-        # (job wins under fp; else if it comes first and preempts); nxt_job: the first in the
-        job, wins, nxt_job, from_ready = None, True, running, False  # ready order after it, at f
-        if ready:  # (key, tie) < running's? (the common "key greater" case first)
+        limit, stats, c = now + tol, st.stats, st.fast_start  # (due by limit: at now; the
+        first, period, rel_deadline = st.first, st.period, st.deadline  # run's constants)
+        job, wins, nxt_job, from_ready = None, True, running, False  # (wins: always under fp;
+        if ready:  # nxt_job: the first in the ready order after the top task's job, at f)
             h = ready[0]
             if running is None or (
                 h[0] <= running.key and (h[0] < running.key or h[1] < running.tie)
             ):
                 nxt_job, from_ready = h[2], True
-        if not timers:  # (t_next: the next timer, inf if none)
-            t_next = inf
+        t_next = t_next if timers else inf  # (the next timer)
         nxt_ok = nxt_job is None or nxt_job.rem is not None  # (it has started: no hook at f)
-        unbooked = moved = due = False  # (when the clock moved on: the job released then)
-        # the top task's next release (k, time) in locals; once its timer is out of the heap
-        # (held; live: before the horizon), ot/other: the first timer left in it
-        kn, rn, held, live, rel_first, ot, other = (
-            st.k,
-            st.next_release,
-            False,
-            True,
-            False,
-            inf,
-            None,
-        )
-        top_n, released, sum_resp = 0, 0, stats.sum_response  # (top_n: responses = top_resp
-        busy = jrem = jex = xr = 0.0  # not yet in its bin; the job after: its progress, set
-        switches = jpre = 0  # once the first job is booked)
+        unbooked = moved = due = held = rel_first = False  # (moved: the clock, to a release)
+        kn, rn, live, ot, other = st.k, st.next_release, True, inf, None  # the top task's next
+        top_n, released, sum_resp, switches, jpre = 0, 0, stats.sum_response, 0, 0  # release
+        busy = jrem = jex = xr = 0.0  # (k, t) in locals: its timer held out of the heap (live:
         while True:  # (one pass for the first job, then after each release: the next)
             if not top_first:  # (its key, a deadline, is compared with the others')
                 job = Job(st, k, r, r + rel_deadline, period, seq)
@@ -126,32 +97,26 @@ def top_jobs(
             f = now + x
             y = f - now
             f_lag = (now - (f - y)) + (x - y)
-            if not (  # nothing happens in (now, f], and no hook runs at f
-                wins
-                and limit < f
-                and f + tol < t_next
-                and t_next < inf
-                and nxt_ok
-                and (not queue or queue[0][0] > f)
-            ):
+            if not (wins and limit < f and f + tol < t_next and t_next < inf and nxt_ok) or (
+                queue and queue[0][0] <= f
+            ):  # (nothing happens in (now, f], and no hook runs at f)
                 unbooked = True
                 break
-            if moved:  # the job running since its last dispatch is preempted at now (> it)
+            if moved:  # (in the horizon), ot/other: the first timer left in it; top_n: responses
+                switches += 1  # = top_resp not in its bin yet) the job after is preempted at now
                 if nxt_job is not None:
                     worked = now - work_start
                     jex += worked
                     busy += worked
                     jrem = jrem - worked - (now_lag - work_lag)
                     jpre += 1
-                    switches += 2
-                else:
                     switches += 1
             else:  # the first: the job running (if any) is preempted at now
-                _preempted(running, nxt_job, from_ready, now, now_lag, work_start, work_lag, cpu)
+                busy, jrem, jex, jpre = _preempted(
+                    running, nxt_job, from_ready, now, now_lag, work_start, work_lag, cpu
+                )  # (the job after's progress in locals while it runs)
                 running, now_lag, moved, nxt_ok = nxt_job, 0.0, True, True
-                if nxt_job is not None:  # (its progress in locals while it runs)
-                    jrem, jex, jpre = nxt_job.rem, nxt_job.executed, nxt_job.preemptions
-                busy, switches = totals.busy, 2 if nxt_job is not None else 1
+                switches = 2 if nxt_job is not None else 1
             busy += f - now  # its completion at f: step 1 and CPU._complete, no Job
             resp = f - r
             sum_resp += resp
@@ -161,65 +126,29 @@ def top_jobs(
             if resp == top_resp:  # (nearly always: its bin exists, the maximum is at least
                 top_n += 1  # resp; top_n goes into the bin when the booking ends, or before
             else:  # another bin is counted)
-                top_bin, top_counts = _new_bin(
-                    cpu, stats, resp, deadline - r, top_n, top_bin, top_counts
-                )
+                if top_n:
+                    top_counts[top_bin] += top_n
+                top_bin, top_counts = _new_bin(cpu, stats, resp, deadline - r)
                 top_resp, top_n = resp, 0
             if top_record is not None:
                 top_record(st, k, r, now, f, f > deadline + tol)
-            now = work_start = f  # (env._now is set where the clock stops)
-            work_lag = f_lag
-            if nxt_job is not None:  # it gets the CPU at f (a second switch); run_lag at the end
-                xr = jrem + f_lag
-                run_end = f + xr
-            else:
-                run_end = inf
-            # Next, as the loop would: 4. the wait; 1. the job after ends (steps 1 and 3 here,
-            # it is simple and nothing else is due); 2. the top task's release alone (else on)
-            while not (t_next < run_end and (not queue or t_next < queue[0][0])):
-                if (
-                    nxt_job is None
-                    or t_next <= run_end + tol
-                    or run_end >= tol_next
-                    or (queue and queue[0][0] <= run_end)
-                    or not nxt_job._st.simple
-                    or nxt_job._st.job_end_hooks
-                ):
+            now, work_start, work_lag = f, f, f_lag  # (env._now is set where the clock stops)
+            run_end = f + (xr := jrem + f_lag) if nxt_job is not None else inf  # (the job after
+            # gets the CPU at f, its run_lag at the end) Next, as the loop would: 4. the wait; 1.
+            while not (t_next < run_end and (not queue or t_next < queue[0][0])):  # it ends (1, 3
+                if held and live:  # here: nothing else due); 2. the top task's release (else on)
+                    heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
+                held = False  # (the heap whole again: CPU._complete may add a timer)
+                e = _job_ends(cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol_next)
+                if e is None:
                     moved = False
                     break  # (to the wait)
-                y = run_end - work_start  # it ends at run_end (its lag: the wait's now_lag)
-                lag = (work_start - (run_end - y)) + (xr - y)
-                now = run_end
-                worked = now - work_start
-                busy += worked
-                nxt_job.rem, nxt_job.executed, nxt_job.preemptions = 0.0, jex + worked, jpre
-                if held:  # (the heap whole again: _complete may add a timer)
-                    if live:
-                        heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
-                    held = False
-                env._now = now
-                cpu._complete(nxt_job, now)
-                t_next = timers[0][0] if timers else inf
-                work_start = now  # (= now + overhead 0.0: now > 0)
-                work_lag, limit, run_end = lag, now + tol, inf
-                running = nxt_job = ready[0][2] if ready else None  # (step 3: it gets the CPU)
-                if t_next > limit:
-                    if nxt_job is None:
-                        continue  # (the CPU idles)
-                    if (
-                        nxt_job.rem is not None
-                        or nxt_job._st.seg_const[nxt_job.seg_index] is not None
-                    ):
-                        jrem, xr, run_end = _dispatch(nxt_job, now, lag, ready)
-                        jex, jpre = nxt_job.executed, nxt_job.preemptions
-                        switches += 1
-                        if run_end > limit:
-                            continue
-                        now_lag = lag  # (it ends at once: step 1 at now)
-                        break
-                running = nxt_job = None  # (a timer due at now, or a segment starts by a call:
-                now_lag = lag  # the loop goes on at now, at step 2)
-                break
+                go, now, lag, n, nxt_job, jrem, xr, run_end, t_next, jex, jpre = e
+                busy += now - work_start
+                running, work_start, work_lag, switches = nxt_job, now, lag, switches + n
+                if not go:  # (the loop goes on at now: a timer due, a job to start or ending)
+                    now_lag = lag
+                    break
             else:
                 now = t_next  # (now_lag is 0.0)
                 limit = now + tol
@@ -230,8 +159,7 @@ def top_jobs(
                         break
                     heappop(timers)
                     held = True
-                    other = timers[0] if timers else None
-                    ot = other[0] if other is not None else inf
+                    other, ot = (timers[0], timers[0][0]) if timers else (None, inf)
                 elif not rel_first:  # (the first timer is another one)
                     break
                 k, r = kn, rn  # the release of step 2's fast path (stats.max_backlog is 1 already)
@@ -240,12 +168,12 @@ def top_jobs(
                 if not top_first:
                     seq = next(seqs)
                 after = first + kn * period
-                if after < last_release:
-                    rn = after  # (comes first if earlier, or at once with a later entry)
-                    rel_first = after < ot or (
-                        after == ot and (after, st.rank, st.priority, st.index) < other
-                    )
-                    t_next = after if rel_first else ot
+                if after < last_release:  # (first if earlier, or at once with a later entry)
+                    if after < ot or (after == ot and _first(after, st, other)):
+                        rn = t_next = after
+                        rel_first = True
+                    else:
+                        rn, t_next, rel_first = after, ot, False
                 else:
                     live = rel_first = False
                     t_next = ot
@@ -253,32 +181,27 @@ def top_jobs(
                     continue  # (the next job: booked as the first was, or not)
                 due = True  # (another timer is due: step 2 goes on, then this job)
             break
-        if unbooked and not moved:  # the first job is not booked: its Job is ready
-            _enqueue(job, st, k, r, period, seq, ready)
-            return None
         if top_first and released:  # (the releases' sequence numbers, drawn in one call)
             seq = next(islice(seqs, released - 1, None))
-        nxt = None
         if unbooked:  # (the job released at now: not booked, ready; or booked at step 3)
             _enqueue(job, st, k, r, period, seq, ready)
-        elif due:
-            nxt = (st, k, r, seq)
+            if not moved:  # (the first)
+                return None
         if held and live:  # (its timer back in the heap)
             heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
         st.k, st.next_release = kn, rn
+        run_lag = 0.0
         if nxt_job is not None:  # (its progress, and the lag of its end)
             nxt_job.rem, nxt_job.executed, nxt_job.preemptions = jrem, jex, jpre
             y = run_end - work_start
             run_lag = (work_start - (run_end - y)) + (xr - y)
-        else:
-            run_lag = 0.0
         if top_n:
             top_counts[top_bin] += top_n
-        done = released if unbooked or due else released + 1  # (jobs booked)
         totals.busy, totals.switches = busy, totals.switches + switches
-        stats.completed += done
+        stats.completed += released if unbooked or due else released + 1  # (jobs booked)
         stats.sum_response, stats.released = sum_resp, stats.released + released
         env._now = now
+        nxt = (st, k, r, seq) if due else None
         return moved, nxt, running, now, now_lag, work_start, work_lag, run_end, run_lag
 
     return book
@@ -293,10 +216,11 @@ def _preempted(
     work_start: float,
     work_lag: float,
     cpu: Dispatcher,
-) -> None:
+) -> tuple[float, float, float, int]:
     """The first job of a run is booked: ``running`` (if any) is preempted at ``now``, its
     progress booked (the dispatcher's switch), and ``nxt_job`` leaves the ready heap if it
-    comes from it (``from_ready``)."""
+    comes from it (``from_ready``). Returns the CPU's busy time and ``nxt_job``'s remaining
+    work, CPU time and preemptions (zeros if None)."""
     if running is not None:
         if running.rem is not None and now > work_start:
             worked = now - work_start
@@ -308,39 +232,91 @@ def _preempted(
             heappush(cpu._ready, (running.key, running.tie, running))
     if from_ready:
         heappop(cpu._ready)
+    if nxt_job is None:
+        return cpu._totals.busy, 0.0, 0.0, 0
+    return cpu._totals.busy, nxt_job.rem, nxt_job.executed, nxt_job.preemptions  # type: ignore[return-value]
 
 
-def _dispatch(
-    job: Job, now: float, lag: float, ready: list[tuple[Any, Any, Job]]
-) -> tuple[float, float, float]:
-    """Step 3 at ``now`` (its lag ``lag``), nothing running: ``job``, the first in the ready
-    heap, gets the CPU; its segment starts if it has not (a constant time, no hook). Returns
-    (its remaining work, that plus ``lag``, the end of its work)."""
-    heappop(ready)
-    rem = job.rem
+def _job_ends(
+    cpu: Dispatcher,
+    job: Job | None,
+    start: float,
+    end: float,
+    x: float,
+    executed: float,
+    preemptions: int,
+    t_next: float,
+    tol_next: float,
+) -> tuple[bool, float, float, int, Job | None, float, float, float, float, float, int] | None:
+    """Steps 4, 1 and 3 of the dispatcher's loop, made as it would make them, when ``job``
+    (the job after the top task's, running since ``start``, its work ``x`` with the lag ends
+    at ``end``, its progress ``executed`` and ``preemptions``) ends before the next timer
+    ``t_next``: it completes (`CPU._complete`) and the first ready job gets the CPU, its
+    segment started (a constant time, no hook). None if not done here: no job, a wider
+    coincidence window (``tol_next``), a timer or SimPy event due at its end, not simple,
+    job-end hooks. Else (go on: nothing else happens at now; now, its lag, switches, the job
+    that runs or None, its remaining work, that plus the lag, its end or inf, the next timer,
+    its CPU time and preemptions): no job runs (it is not started) if a timer is due at now or
+    its segment starts by a call, and the loop goes on at now, as it does if the job ends at
+    once."""
+    tol, queue = cpu._tol, cpu.env._queue
+    if (
+        job is None
+        or end >= tol_next
+        or t_next <= end + tol
+        or (queue and queue[0][0] <= end)
+        or not job._st.simple
+        or job._st.job_end_hooks
+    ):
+        return None
+    y = end - start  # (the end's lag: the wait's now_lag)
+    lag = (start - (end - y)) + (x - y)
+    job.rem, job.executed, job.preemptions = 0.0, executed + (end - start), preemptions
+    cpu.env._now = end
+    cpu._complete(job, end)
+    timers, ready = cpu._timers, cpu._ready
+    t_next = timers[0][0] if timers else _INF
+    nxt = ready[0][2] if ready else None  # (step 3: it gets the CPU; now + overhead 0.0 = now)
+    if t_next <= end + tol or nxt is None:  # (the CPU idles if nothing is due)
+        return t_next > end + tol, end, lag, 0, None, 0.0, 0.0, _INF, t_next, 0.0, 0
+    rem = nxt.rem
     if rem is None:
-        if job.start is None:
-            job.start = now
-        job.seg_start = now
-        job.seg_exec = job.rem = rem = job._st.seg_const[job.seg_index]
-    x = rem + lag  # type: ignore[operator]
-    return rem, x, now + x  # type: ignore[return-value]
+        rem = nxt._st.seg_const[nxt.seg_index]
+        if rem is None:
+            return False, end, lag, 0, None, 0.0, 0.0, _INF, t_next, 0.0, 0
+        if nxt.start is None:
+            nxt.start = end
+        nxt.seg_start = end
+        nxt.seg_exec = nxt.rem = rem
+    heappop(ready)
+    x = rem + lag
+    run_end = end + x
+    return (
+        run_end > end + tol,
+        end,
+        lag,
+        1,
+        nxt,
+        rem,
+        x,
+        run_end,
+        t_next,
+        nxt.executed,
+        nxt.preemptions,
+    )
+
+
+def _first(t: float, st: _TaskState, other: tuple[Any, ...]) -> bool:
+    """Whether the top task's release timer at ``t`` comes before the timer ``other`` of the
+    same time in the heap's order."""
+    return (t, st.rank, st.priority, st.index) < other
 
 
 def _new_bin(
-    cpu: Dispatcher,
-    stats: TaskStats,
-    resp: float,
-    rel_deadline: float,
-    top_n: int,
-    top_bin: int,
-    top_counts: dict[int, int],
+    cpu: Dispatcher, stats: TaskStats, resp: float, rel_deadline: float
 ) -> tuple[int, dict[int, int]]:
-    """The top task's response ``resp`` differs from the last one: the ``top_n`` responses
-    equal to that are counted in its bin ``top_bin`` of ``top_counts``, the maximum is
-    updated, and ``resp`` is counted (`CPU._count_response`: its bin and the counts)."""
-    if top_n:
-        top_counts[top_bin] += top_n
+    """The top task's response ``resp`` differs from the last one: the maximum is updated, and
+    ``resp`` is counted (`CPU._count_response`: its bin and the counts)."""
     if stats.max_response is None or resp > stats.max_response:
         stats.max_response = resp
     return cpu._count_response(stats, resp, rel_deadline)
