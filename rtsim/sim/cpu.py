@@ -914,9 +914,11 @@ class CPU(ResourceProtocols, TimeSlices):
         stats.sum_response += resp
         if stats.max_response is None or resp > stats.max_response:
             stats.max_response = resp
-        missed = now > job.deadline + self._tol
-        if missed:
+        if now > job.deadline + self._tol:  # (a comparison the interpreter specializes in a jump)
+            missed = True
             stats.misses += 1
+        else:
+            missed = False
         stats.preemptions += job.preemptions
         self._count_response(stats, resp, job.deadline - job.arrival)
         if self.record_jobs:
