@@ -24,7 +24,7 @@ from typing import Any, Protocol
 from rtsim.sim.job import _RELEASE, Job, _TaskState, _Totals
 from rtsim.sim.records import TaskStats
 
-__all__ = ["Booked", "Dispatcher", "Top", "top_jobs"]
+__all__ = ["Book", "Booked", "Dispatcher", "Record", "Top", "top_jobs"]
 
 _INF = math.inf
 
@@ -34,6 +34,9 @@ Top = tuple[_TaskState, int, float, int]
 #: now, from its top; the top task's job released at now and not booked yet, running, now,
 #: now_lag, work_start, work_lag, run_end, run_lag).
 Booked = tuple[bool, Top | None, Job | None, float, float, float, float, float, float]
+#: The booking `top_jobs` makes for a run, and the job records' writer it may be given.
+Book = Callable[..., Booked | None]
+Record = Callable[[_TaskState, int, float, float, float, bool], None]
 
 
 class Dispatcher(Protocol):
@@ -56,12 +59,7 @@ class Dispatcher(Protocol):
     def _complete(self, job: Job, now: float) -> None: ...
 
 
-def top_jobs(
-    cpu: Dispatcher,
-    queue: list[Any],
-    top_first: bool,
-    top_record: Callable[[_TaskState, int, float, float, float, bool], None] | None,
-) -> Callable[..., Booked | None]:
+def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Record | None) -> Book:
     """The booking for a run of ``cpu`` (module doc; ``top_record`` None: no job records)."""
     top_resp, top_bin, top_counts = math.nan, 0, dict[int, int]()  # the latest response, its bin
     env, timers, ready, totals, seqs = cpu.env, cpu._timers, cpu._ready, cpu._totals, cpu._seq
@@ -139,7 +137,9 @@ def top_jobs(
                 if held and live:  # here: nothing else due); 2. the top task's release (else on)
                     heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
                 held = False  # (the heap whole again: CPU._complete may add a timer)
-                e = _job_ends(cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol_next)
+                e = _job_ends(
+                    cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol, tol_next, queue
+                )
                 if e is None:
                     moved = False
                     break  # (to the wait)
@@ -246,7 +246,9 @@ def _job_ends(
     executed: float,
     preemptions: int,
     t_next: float,
+    tol: float,
     tol_next: float,
+    queue: list[Any],
 ) -> tuple[bool, float, float, int, Job | None, float, float, float, float, float, int] | None:
     """Steps 4, 1 and 3 of the dispatcher's loop, made as it would make them, when ``job``
     (the job after the top task's, running since ``start``, its work ``x`` with the lag ends
@@ -259,7 +261,6 @@ def _job_ends(
     its CPU time and preemptions): no job runs (it is not started) if a timer is due at now or
     its segment starts by a call, and the loop goes on at now, as it does if the job ends at
     once."""
-    tol, queue = cpu._tol, cpu.env._queue
     if (
         job is None
         or end >= tol_next
