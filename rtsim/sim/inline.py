@@ -5,11 +5,13 @@ function `top_jobs` made for its run (docs/cpu-events.md, step 3: inline jobs of
 task, runs of inline jobs). If nothing can happen while the job runs, that function books
 the preemption at now, the completion at f = now + c and the dispatch at f in one step, with
 the same float operations in the same order as the general path, then goes on to the top
-task's next release itself while that is the next thing to happen. Any other case goes back
-to the dispatcher's loop, in the state the loop would have there. The call is made for every
-run of inline jobs, so its constants are bound once per run (default arguments: locals), and
-the sums it adds to (the CPU's busy time and switches; the task's completions, responses and
-releases) are kept in locals and stored when the booking ends: the same float additions in
+task's next release itself while that is the next thing to happen; when the job after it
+ends first, that job completes and the next gets the CPU there too (`_job_ends`). Any other
+case goes back to the dispatcher's loop, in the state the loop would have there. The call is
+made for every run of inline jobs, so its constants are bound once per run (closure cells),
+and what it adds to or moves (the CPU's busy time and switches; the task's completions,
+responses, releases and release timer; the progress of the job after it; the sequence
+numbers) is kept in locals and stored when the booking ends: the same float additions in
 the same order, and nothing reads them meanwhile.
 """
 
