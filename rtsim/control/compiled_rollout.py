@@ -43,6 +43,9 @@ def compiled_rollout(law: Any, state: Any) -> CompiledRollout | None:
 #: how many of RolloutScalars' fields change from one decision to the next (they come first)
 _CHANGING = K.RolloutScalars._fields.index("accel")
 
+#: the follower pack's columns (`rtsim.control.kernels.FollowerColumns`)
+_COLUMNS = len(K.FollowerColumns._fields)
+
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
@@ -140,27 +143,20 @@ class CompiledRollout:
         n = len(state.poses)
         # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
         # (a flat list: numpy reads it much faster than nested tuples)
-        turns = state.turns or [h[1] for h in state.held]
-        flat = [
-            x
-            for k in range(n)
-            for x in (
-                *state.poses[k],
-                state.speeds[k],
-                turns[k],
-                *state.held[k],
-                state.send_offsets[k],
-                state.rho_d[k],
-            )
-        ]
-        fol = np.array(flat, dtype=float).reshape(n, len(K.FollowerColumns._fields))
-        width = max([1, *map(len, state.pending)])
-        if width == 1 and not any(state.pending):  # no sends pending: one array per n, kept
+        held = state.held
+        turns = state.turns or [h[1] for h in held]
+        flat: list[float] = []
+        for pose, v, w, h, send, rho_d in zip(  # (one short: the reshape refuses it)
+            state.poses, state.speeds, turns, held, state.send_offsets, state.rho_d, strict=False
+        ):
+            flat += (*pose, v, w, *h, send, rho_d)
+        fol = np.array(flat, dtype=float).reshape(n, _COLUMNS)
+        if not any(state.pending):  # no sends pending: one array per n, kept
             pend = cached[2].get(n)
             if pend is None:
                 pend = cached[2][n] = np.full((n, 1), math.nan)
         else:
-            pend = np.full((n, width), math.nan)
+            pend = np.full((n, max(map(len, state.pending))), math.nan)
             for k, times in enumerate(state.pending):
                 pend[k, : len(times)] = times
         self._args = (fs, fol, pend, law._G)
@@ -235,7 +231,8 @@ class CompiledRollout:
             out,
             float(contact),
         )
-        CompiledRollout.runs += runs + int(out[6])
+        got = out.tolist()
+        CompiledRollout.runs += runs + int(got[6])
         runs = min(runs, _SEARCH_RUNS)
         w = float(w)
         horizon = (w,) * int(windows)
@@ -245,7 +242,7 @@ class CompiledRollout:
             zip(speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist(), strict=True)
         ):
             if code == 2:
-                ran.append((v, (float(out[5]),), changes[r, :1]))
+                ran.append((v, (got[5],), changes[r, :1]))
                 continue
             if short:  # stopped after its first window: whole only if asked (_Rest)
                 if not frozen:  # the law's search starts as they are at the decision
@@ -255,4 +252,4 @@ class CompiledRollout:
                 ran.append((v, horizon, changes[r]))
             if code == 1:
                 ran.append((v, (w,), changes[r, :1]))
-        return tuple(out[:5].tolist()), rows, ran
+        return tuple(got[:5]), rows, ran

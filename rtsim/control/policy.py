@@ -85,10 +85,12 @@ COMMON_KEYS: tuple[str, ...] = (
 class PolicyInput:
     """What the leader knows when a window completes (units: cm/s, ms, rad/s, 1/cm).
 
-    followers: its estimates; v_ld: the desired speed; w_sch: the window's lower bound;
-    omega_l: its turn rate; kappa: the path's curvature where it is; v_now: its actual speed;
-    cap: the largest window (None: CAP_FACTOR·w_sch); floor_frac: its speed when nothing
-    restores the bounds, as a fraction of v_ld; floor_w: the smallest window of ``min-msb``;
+    followers: its estimates (left empty by a coupled run for a policy whose class sets
+    ``needs_followers = False``, which reads them through ``rollout``); v_ld: the desired
+    speed; w_sch: the window's lower bound; omega_l: its turn rate; kappa: the path's
+    curvature where it is; v_now: its actual speed; cap: the largest window (None:
+    CAP_FACTOR·w_sch); floor_frac: its speed when nothing restores the bounds, as a fraction
+    of v_ld; floor_w: the smallest window of ``min-msb``;
     predictor, methods, scan_points: as in `rtsim.control.adjust.adjust`; ahead: the
     leader's known upcoming path commands as (distance from here to the command's start in
     cm, its curvature in 1/cm), nearest first (filled for a policy whose class sets
@@ -847,6 +849,9 @@ class PlanPolicy:
     options: ClassVar[type[PolicyOptions]] = PlanOptions
     #: the coupling fills PolicyInput.rollout for this policy
     needs_rollout: ClassVar[bool] = True
+    #: ... and leaves PolicyInput.followers empty: the plan reads the estimates only
+    #: through the rollout
+    needs_followers: ClassVar[bool] = False
 
     def __init__(self, *args: Any, **kw: Any) -> None:
         o = PlanOptions(*args, **kw)
