@@ -129,9 +129,16 @@ class CompiledRollout:
             # (compiled once per process and motion model: before the first rollout)
             ker = K.rollout_kernels(motion_model(p.motion_model))
             # (the five that change are written over a copy per decision)
-            cached = (static, np.array(scalars, dtype=float), pends, ker)
+            # (and the search's bookkeeping buffers, read before each decide returns)
+            bufs = (
+                np.empty(_SEARCH_RUNS),
+                np.empty(_SEARCH_RUNS, dtype=np.int64),
+                np.empty(_SEARCH_RUNS, dtype=np.int64),
+                np.empty(7),
+            )
+            cached = (static, np.array(scalars, dtype=float), pends, ker, bufs)
             setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
-        self._ker = cached[3]
+        self._ker, self._bufs = cached[3], cached[4]
         fs = cached[1].copy()
         fs[:_CHANGING] = (  # RolloutScalars' first five
             state.leader_s,
@@ -198,17 +205,16 @@ class CompiledRollout:
         """`PlanPolicy`'s decision, or with ``search_only``
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
         ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
-        in one call (`rtsim.control.kernels._plan_decide`, on fresh
-        buffers): ((w, V_L, method code, found, feasible), the rows
+        in one call (`rtsim.control.kernels._plan_decide`, on fresh arrays of
+        changes and rows): ((w, V_L, method code, found, feasible), the rows
         at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
         lengths, changes [window, follower, change]) for the rollout's memo)."""
-        speeds = np.empty(_SEARCH_RUNS)
-        lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
-        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))
-        cut = np.zeros(_SEARCH_RUNS, dtype=np.int64)
-        rows = np.empty((2, self.n, 4))
-        out = np.empty(7)
+        speeds, lens, cut, out = self._bufs  # (the law's: read before this returns)
+        lens.fill(0)
+        cut.fill(0)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
+        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))  # (kept by the memo)
+        rows = np.empty((2, self.n, 4))
         runs = call(  # (`_plan_decide`'s arguments after the first three)
             self._ker.roll_or_decide,
             False,

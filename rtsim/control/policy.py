@@ -868,16 +868,9 @@ class PlanPolicy:
                 "coupled run with follow-the-leader followers fills"
             )
         keep = 1.0 - self.margin
-        lengths = (ctx.w_sch,) * self.windows
         need = ctx.w_sch * (1.0 - TOL)
         # the contact bound's d_c (cm; 0: off)
         d_c = float(getattr(getattr(ro, "state", None), "contact_cm", 0.0)) if self.contact else 0.0
-
-        def worst(v: float) -> float:
-            per = ro.changes(v, lengths)
-            m = min(min_bound_rows(ro.bounds(c, ctx.w_sch))[0] for c in per)
-            return ro.contact(per, ctx.w_sch, d_c, m) if d_c > 0.0 else m  # type: ignore[no-any-return]
-
         v_floor = ctx.floor_frac * ctx.v_ld
         plan = getattr(ro, "plan", None)  # the rollout's compiled decision, if it has one
         hit = (
@@ -885,15 +878,35 @@ class PlanPolicy:
             if plan is None
             else plan(ctx.v_ld, keep, need, cap, v_floor, self.windows, ctx.w_sch, d_c)
         )
-        if hit is not None:
-            w, v_l, method, found, feasible, rows, after = hit
-            m1, kind, who = min_bound_rows(rows)
-            if method == "none":
-                return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})
-            m_after = min_bound_rows(after)[0]
-            return Decision(
-                w, v_l, m1, kind, who, method, feasible, rows, after, m_after, {"numeric": found}
-            )
+        if hit is None:  # the same decision in Python
+            return self._decide(ctx, ro, keep, need, cap, v_floor, d_c)
+        w, v_l, method, found, feasible, rows, after = hit
+        m1, kind, who = min_bound_rows(rows)
+        if method == "none":
+            return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})
+        m_after = min_bound_rows(after)[0]
+        return Decision(
+            w, v_l, m1, kind, who, method, feasible, rows, after, m_after, {"numeric": found}
+        )
+
+    def _decide(
+        self,
+        ctx: PolicyInput,
+        ro: Any,
+        keep: float,
+        need: float,
+        cap: float,
+        v_floor: float,
+        d_c: float,
+    ) -> Decision:
+        """`decide` on a rollout without a compiled decision (``plan``), in Python."""
+        lengths = (ctx.w_sch,) * self.windows
+
+        def worst(v: float) -> float:
+            per = ro.changes(v, lengths)
+            m = min(min_bound_rows(ro.bounds(c, ctx.w_sch))[0] for c in per)
+            return ro.contact(per, ctx.w_sch, d_c, m) if d_c > 0.0 else m  # type: ignore[no-any-return]
+
         rows = ro.rows(ctx.v_ld)
         m1, kind, who = min_bound_rows(rows)
         if keep * worst(ctx.v_ld) >= need:

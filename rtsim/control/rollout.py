@@ -284,13 +284,12 @@ class Rollout:
     def _remember(self, ran: Sequence[tuple[float, tuple[float, ...], Any]]) -> None:
         """Keep compiled rollouts (speed, window lengths, changes array) for `changes`."""
         memo, raw = self._memo, self._raw
-        added = 0
+        before = len(raw)
         for v, lengths, arr in ran:
             key = (v, lengths)
-            if key not in memo and key not in raw:
-                raw[key] = arr
-                added += 1
-        self.count += added
+            if not memo or key not in memo:  # (one hash of the key when nothing is memoised)
+                raw.setdefault(key, arr)  # (the first of equal keys, as ever)
+        self.count += len(raw) - before
 
     def _run(self, v: float, windows: tuple[float, ...]) -> list[list[Changes]]:
         if self._compiled is not None:  # the world's compiled law: one kernel call
