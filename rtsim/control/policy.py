@@ -55,6 +55,7 @@ __all__ = [
     "decide_rows",
     "PolicyInput",
     "adjust_options",
+    "input_maker",
     "make_policy",
     "policy_class",
     "register_adjustment_policy",
@@ -134,6 +135,30 @@ class PolicyInput:
     turn_error: TurnError = unicycle_turn_error
     pose_sd: tuple[tuple[float, float], ...] = ()
     rollout: Any = None
+
+
+def input_maker(template: PolicyInput, names: Sequence[str]) -> Callable[..., PolicyInput]:
+    """The `PolicyInput` of each decision of a run: ``make(*values)`` is
+    ``dataclasses.replace(template, **dict(zip(names, values)))``, the same object built
+    through its slots' descriptors (a frozen dataclass's ``__init__`` sets every field by
+    ``object.__setattr__``: twice the time, per decision)."""
+    new, cls = object.__new__, PolicyInput
+    kept = [
+        (getattr(cls, f.name).__set__, getattr(template, f.name))
+        for f in fields(cls)
+        if f.name not in names
+    ]
+    sets = [getattr(cls, name).__set__ for name in names]  # (an unknown name: AttributeError)
+
+    def make(*values: Any) -> PolicyInput:
+        obj = new(cls)
+        for put, value in kept:
+            put(obj, value)
+        for put, value in zip(sets, values, strict=True):
+            put(obj, value)
+        return obj  # type: ignore[no-any-return]
+
+    return make
 
 
 @runtime_checkable

@@ -19,7 +19,7 @@ import os
 import secrets
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -34,7 +34,13 @@ from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.compiled import PaperSearch
 from rtsim.control.oracle import lap_oracle
-from rtsim.control.policy import AdjustOptions, PolicyInput, adjust_options, policy_class
+from rtsim.control.policy import (
+    AdjustOptions,
+    PolicyInput,
+    adjust_options,
+    input_maker,
+    policy_class,
+)
 from rtsim.control.predict import trusted_estimate
 from rtsim.control.rollout import Rollout, decided_state, rollout_state
 from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
@@ -307,13 +313,10 @@ class _Coupling:
             scan_points=adj.scan_points,
             **fixed,
         )
-        # its fields less those each decision sets (a constructor call costs half a replace)
-        per_decision = {"followers", "omega_l", "kappa", "v_now", "ahead", "pose_sd", "rollout"}
-        self._input_kw = {
-            f.name: getattr(self._input, f.name)
-            for f in fields(PolicyInput)
-            if f.name not in per_decision
-        }
+        # each decision's: these fields set, the others the run's (a fast replace)
+        self._make_input = input_maker(
+            self._input, ("followers", "omega_l", "kappa", "v_now", "ahead", "pose_sd", "rollout")
+        )
 
     def _hook_window(self, where: str) -> None:
         """The window chain's constants and the CPU hooks that drive the world."""
@@ -526,15 +529,14 @@ class _Coupling:
                 estimates,
             )
         adj = self.policy.decide(
-            PolicyInput(
-                **self._input_kw,
-                followers=fols,
-                omega_l=kw["omega_l"],
-                kappa=kappa,
-                v_now=kw["v_now"],
-                ahead=() if self._path is None else self._ahead(),
-                pose_sd=self._pose_sd() if self._noise else (),
-                rollout=ro,
+            self._make_input(
+                fols,
+                kw["omega_l"],
+                kappa,
+                kw["v_now"],
+                () if self._path is None else self._ahead(),
+                self._pose_sd() if self._noise else (),
+                ro,
             )
         )
         v_l = max(adj.v_leader, self.v_floor)
