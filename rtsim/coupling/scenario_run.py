@@ -19,7 +19,7 @@ import os
 import secrets
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -34,9 +34,15 @@ from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.compiled import PaperSearch
 from rtsim.control.oracle import lap_oracle
-from rtsim.control.policy import AdjustOptions, PolicyInput, adjust_options, policy_class
+from rtsim.control.policy import (
+    AdjustOptions,
+    PolicyInput,
+    adjust_options,
+    input_maker,
+    policy_class,
+)
 from rtsim.control.predict import trusted_estimate
-from rtsim.control.rollout import Rollout, rollout_state
+from rtsim.control.rollout import Rollout, decided_state, rollout_state
 from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
 from rtsim.coupling.inputs import ScenarioInputs as ScenarioInputs
 from rtsim.coupling.inputs import _inputs as _inputs
@@ -302,6 +308,14 @@ class _Coupling:
         )
         if self._rollout:
             predictor = "commands"
+        # the estimates' FollowerEstimate rows: for the policy (unless its class sets
+        # needs_followers = False and the rollout carries the estimates) and the _pred
+        # columns of a decision without a rollout
+        self._fols = not self._rollout or bool(getattr(self.policy, "needs_followers", True))
+        # the rollout's per-run state (`decided_state`'s base, made at the first decision)
+        self._ro_base: Any = None
+        # the motion model keeps a turn rate of its own (RolloutState.turns; empty: none)
+        self._turn_state = bool(self.world.motion.subs)
         if (
             self.world.backend == "compiled"
             and type(predictor) is str
@@ -340,13 +354,10 @@ class _Coupling:
             scan_points=adj.scan_points,
             **fixed,
         )
-        # its fields less those each decision sets (a constructor call costs half a replace)
-        per_decision = {"followers", "omega_l", "kappa", "v_now", "ahead", "pose_sd", "rollout"}
-        self._input_kw = {
-            f.name: getattr(self._input, f.name)
-            for f in fields(PolicyInput)
-            if f.name not in per_decision
-        }
+        # each decision's: these fields set, the others the run's (a fast replace)
+        self._make_input = input_maker(
+            self._input, ("followers", "omega_l", "kappa", "v_now", "ahead", "pose_sd", "rollout")
+        )
 
     def _hook_window(self, where: str) -> None:
         """The window chain's constants and the CPU hooks that drive the world."""
@@ -476,41 +487,54 @@ class _Coupling:
         pending: bool = False,
         estimates: Sequence[tuple[Any, float]] | None = None,
     ) -> Any:
-        """What the leader knows for its rollout at ``now`` (`RolloutState`, `rollout_state`);
-        ``estimates``: per follower ``World.estimate_at(i, now)`` if already computed."""
+        """What the leader knows for its rollout at ``now`` (`RolloutState`, `decided_state`
+        of the run's fixed fields); ``estimates``: per follower ``World.estimate_at(i, now)``
+        if already computed."""
         world = self.world
-        ld = world.leader
+        ids = range(1, self.n + 1)
         if estimates is None:
-            estimates = [world.estimate_at(i, now) for i in range(1, self.n + 1)]
-        poses = [e[0] for e in estimates]
-        speeds = [e[1] for e in estimates]
-        held = [world.held_command(i) for i in range(1, self.n + 1)]
-        cfg = self.cfg
-        return Rollout(
-            rollout_state(
+            estimates = [world.estimate_at(i, now) for i in ids]
+        base = self._ro_base
+        if base is None:  # the fields that stay for the run (the others are set below)
+            cfg = self.cfg
+            base = self._ro_base = rollout_state(
                 cfg.path,
                 world.follow_law,
                 cfg.follower,
                 cfg.step_ms,
-                now,
-                ld.s,
-                ld.speed,
+                0.0,
+                0.0,
+                0.0,
                 self.v_ld,
                 cfg.leader_accel_max,
                 cfg.leader_decel_max,
-                tuple(poses),
-                tuple(speeds),
-                tuple(held),
-                self._pending(now) if pending else ((),) * self.n,
-                max(now, next_scan),
-                tuple(self._send_offsets),
+                (),
+                (),
+                (),
+                (),
+                0.0,
+                (),
                 self.thr,
                 tuple(self.rho_d),
                 self.w_sch,
                 type(world.followers),
                 tuple(self.beta_d),
                 self._contact_cm,
-                turns=world.expected_turn_rates(now),
+            )
+        ld = world.leader
+        return Rollout(
+            decided_state(
+                base,
+                now,
+                ld.s,
+                ld.speed,
+                tuple([e[0] for e in estimates]),
+                tuple([e[1] for e in estimates]),
+                tuple([world.held_command(i) for i in ids]),
+                self._pending(now) if pending else ((),) * self.n,
+                max(now, next_scan),
+                tuple(self._send_offsets),
+                world.expected_turn_rates(now) if self._turn_state else (),
             )
         )
 
@@ -527,43 +551,41 @@ class _Coupling:
         world.advance(now)
         lp = world.leader_pose
         _, kappa = world.segment_at()
-        state = []
-        fols: list[Any] = []
-        estimates = []
-        for k in range(self.n):
-            # the estimate propagated to now and its expected speed, in one pass (the same
-            # as World.estimated_pose(i) and World.relative(i, "estimate")[3])
-            pose, v_f = world.estimate_at(k + 1, now)
-            estimates.append((pose, v_f))
-            rho, beta, theta = relative_state(lp, pose)
-            state.append((*pose, rho, beta, theta, v_f))
-            fols.append(
-                trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k], self.beta_d[k])
-            )
+        # each follower's estimate propagated to now and its expected speed, in one pass (the
+        # same as World.estimated_pose(i) and World.relative(i, "estimate")[3])
+        estimates = [world.estimate_at(i, now) for i in range(1, self.n + 1)]
+        # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns
+        state = tuple([(*pose, *relative_state(lp, pose), v_f) for pose, v_f in estimates])
+        fols = self._followers(state) if self._fols else ()
         kw: dict[str, Any] = {
             "omega_l": world.leader_omega,
             "kappa": kappa,
             "v_now": self._v_actual(),
         }
-        ahead = () if self._path is None else self._ahead()
-        extra: dict[str, Any] = {"pose_sd": self._pose_sd()} if self._noise else {}
-        if self._rollout:
-            extra["rollout"] = self._rollout_state(
+        ro = None
+        if self._rollout:  # (the _pred columns evaluate the same rollout: kw)
+            ro = kw["rollout"] = self._rollout_state(
                 now,
                 now if next_scan is None else next_scan,
                 self.decide_at == "before-send" and now > 0,
                 estimates,
             )
         adj = self.policy.decide(
-            PolicyInput(**self._input_kw, followers=fols, **kw, ahead=ahead, **extra)
+            self._make_input(
+                fols,
+                kw["omega_l"],
+                kappa,
+                kw["v_now"],
+                () if self._path is None else self._ahead(),
+                self._pose_sd() if self._noise else (),
+                ro,
+            )
         )
         v_l = max(adj.v_leader, self.v_floor)
-        if self._rollout:  # the _pred columns evaluate the same rollout
-            kw = {**kw, "rollout": extra["rollout"]}
         # each follower's closest approach among the estimates: the contact prediction of a
         # decision without a rollout (`_close`; a rollout predicts its own)
         near: tuple[float, ...] = ()
-        if not self._rollout:
+        if ro is None:
             xs = [e[0][0] for e in estimates]
             ys = [e[0][1] for e in estimates]
             near = tuple(closest_to(xs, ys, k, lp[0], lp[1]) for k in range(self.n))
@@ -574,11 +596,21 @@ class _Coupling:
             adj.binding,
             adj.method,
             adj.feasible and v_l == adj.v_leader,
-            tuple(state),
-            tuple(fols),
+            state,
+            fols,
             kw,
             ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
             near,
+        )
+
+    def _followers(self, state: tuple[tuple[float, ...], ...]) -> tuple[Any, ...]:
+        """The policy's `FollowerEstimate` per follower from the est columns ``state``."""
+        rho_d, beta_d = self.rho_d, self.beta_d
+        return tuple(
+            [
+                trusted_estimate(s[3], s[4], s[5], max(s[6], 0.0), rho_d[k], beta_d[k])
+                for k, s in enumerate(state)
+            ]
         )
 
     def _pose_sd(self) -> tuple[tuple[float, float], ...]:
