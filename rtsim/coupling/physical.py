@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from rtsim.coupling.spill import ValueSpill, p95_max_columns
-from rtsim.world.contact import closest_to, contact_distance
+from rtsim.world.contact import closest_each, contact_distance
 from rtsim.world.ftl import TraceFollower
 
 __all__ = ["PhysicalLog", "p95_max_rows"]
@@ -81,6 +81,7 @@ class PhysicalLog:
         self.clearance_violations = 0
         self.rho_d = rho_d
         self.radius = float(radius)
+        self._contact = contact_distance(self.radius, self.clearance)  # d_c
         self._law = None if law is None else law.clone()  # its own projection starts
         self._guess = guesses
         # per scan, each follower's separation error then (with a trace law) its cross-track
@@ -97,21 +98,26 @@ class PhysicalLog:
         xl, yl, _ = leader
         law = self._law
         samples = self.samples
-        buf = samples.buf
-        put = buf.append
-        for k in range(self.n):
-            x, y = xs[k], ys[k]
-            put(abs(math.hypot(x - xl, y - yl) - self.rho_d[k]))
-            if law is not None:
-                s = law.project(k, x, y, 0.0 if self._guess is None else self._guess[k])
-                px, py, _ = law.point(k, s)
-                put(math.hypot(x - px, y - py))
+        put = samples.buf.append
+        hypot, rho_d = math.hypot, self.rho_d
+        if law is None:
+            for k in range(self.n):
+                put(abs(hypot(xs[k] - xl, ys[k] - yl) - rho_d[k]))
+        else:
+            guess = self._guess
+            project, point = law.project, law.point
+            for k in range(self.n):
+                x, y = xs[k], ys[k]
+                put(abs(hypot(x - xl, y - yl) - rho_d[k]))
+                px, py, _ = point(k, project(k, x, y, 0.0 if guess is None else guess[k]))
+                put(hypot(x - px, y - py))
         samples.full()  # a chunk's worth goes to the file (once per scan)
-        near = tuple(closest_to(xs, ys, k, xl, yl) for k in range(self.n))
+        near = closest_each(xs, ys, xl, yl)
         close = min(near, default=math.inf)  # (every pair has a follower in it)
-        self.min_dist = min(self.min_dist, close)
+        if close < self.min_dist:
+            self.min_dist = close
         self.collisions += close < 2.0 * self.radius
-        self.clearance_violations += close < contact_distance(self.radius, self.clearance)
+        self.clearance_violations += close < self._contact
         return near
 
     def spill_to(self, path: Any, label: Any = None) -> None:

@@ -9,7 +9,9 @@ Python ones (tests run both paths and compare whole runs):
 - `CompiledFollowerEKF`: the EKF's predict and update
   (`rtsim.world.ekf.ekf_predict` and `ekf_update` compiled);
 - `CompiledTraceFollower`: the follow-the-leader law's equations (`rtsim.world.ftl`:
-  a command in one call, the projection alone for the truth log's cross-track error).
+  a command in one call, the projection and the trace's point for the truth log's
+  cross-track error);
+- `compiled_motion`: the leader's travel and one piece of its belief of a follower.
 
 (The controller's rollout runs compiled on this law: `rtsim.control.compiled_rollout`.)
 
@@ -45,6 +47,7 @@ __all__ = [
     "CompiledFollowerGroup",
     "CompiledTraceFollower",
     "available",
+    "compiled_motion",
     "kernels",
 ]
 
@@ -56,6 +59,14 @@ class CompiledFollowerGroup(FollowerGroup):
     def _kernel(motion: MotionModel) -> Any:
         # called directly (`entry`): twelve floats at every call
         return entry(kernels(motion).advance_follower, (0.0,) * 12)
+
+
+def compiled_motion(motion: MotionModel) -> tuple[Any, Any]:
+    """A motion model's ``step`` (the leader's belief over one held piece:
+    `rtsim.world.motion.belief_step`) and ``leader`` (the leader's travel) compiled, each
+    called directly (`entry`: floats at every call), for `rtsim.world.world.World`."""
+    ker = kernels(motion)
+    return entry(ker.belief_step, (0.0,) * 9), entry(ker.leader_travel, (0.0,) * 5)
 
 
 class _Kernel:
@@ -125,3 +136,4 @@ class CompiledTraceFollower(TraceFollower):
         self._reference = entry(ker.ftl_reference, (G, sr, 0, x, x, x, x, x))
         self._command = entry(ker.ftl_command, (G, sr, sf, x, x, 0, x, x, x, x, x, x, x, x))
         self._project = entry(ker.ftl_project, (G, 0, x, x, x))
+        self._point = entry(ker.trace_point, (G, 0, x))

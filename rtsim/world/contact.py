@@ -30,6 +30,7 @@ from typing import Any
 from rtsim.world.jit import kernel
 
 __all__ = [
+    "closest_each",
     "closest_over",
     "closest_to",
     "contact_bound",
@@ -59,6 +60,27 @@ def closest_to(xs: Any, ys: Any, i: int, xl: float, yl: float) -> float:
             if d2 < best:
                 best = d2
     return math.sqrt(best)
+
+
+def closest_each(xs: Any, ys: Any, xl: float, yl: float) -> tuple[float, ...]:
+    """`closest_to` of every follower at once: each pair's squared distance computed once
+    and offered to both ends (the same float from either: a − b = −(b − a) exactly), then one
+    square root each; the same numbers as one `closest_to` per follower."""
+    n = len(xs)
+    best = []
+    for i in range(n):
+        dx, dy = xs[i] - xl, ys[i] - yl
+        best.append(dx * dx + dy * dy)
+    for i in range(n - 1):
+        xi, yi = xs[i], ys[i]
+        for j in range(i + 1, n):
+            dx, dy = xi - xs[j], yi - ys[j]
+            d2 = dx * dx + dy * dy
+            if d2 < best[i]:
+                best[i] = d2
+            if d2 < best[j]:
+                best[j] = d2
+    return tuple(map(math.sqrt, best))
 
 
 @kernel

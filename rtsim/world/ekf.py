@@ -325,7 +325,7 @@ def _squares(p: EkfParams) -> tuple[float, float, float, float]:
 
 class FastFollowerEKF:
     """The same filter as [`FollowerEKF`][rtsim.world.ekf.FollowerEKF] on plain floats (state x,
-    symmetric P):
+    P as its nine entries row by row, ``_q``):
     `ekf_predict` and `ekf_update` (compiled in the compiled backend's
     subclass)."""
 
@@ -339,40 +339,43 @@ class FastFollowerEKF:
         self._command = self._command_kernel(motion)
         self.x = [float(pose[0]), float(pose[1]), float(pose[2])]
         sp = max(params.init_position_sd, 0.01) ** 2
-        self._p = [
-            [sp, 0.0, 0.0],
-            [0.0, sp, 0.0],
-            [0.0, 0.0, max(params.init_heading_sd, 1e-4) ** 2],
-        ]
+        sh = max(params.init_heading_sd, 1e-4) ** 2
+        self._q: tuple[float, ...] = (sp, 0.0, 0.0, 0.0, sp, 0.0, 0.0, 0.0, sh)
         self.r = max(params.measurement_noise, 0.01) ** 2
         self._noise = _squares(params)
 
     @property
     def pose(self) -> tuple[float, float, float]:
-        return self.x[0], self.x[1], self.x[2]
+        x = self.x
+        return x[0], x[1], x[2]
 
     @property
     def P(self) -> NDArray[np.float64]:
-        return np.array(self._p)
+        return np.array(self._q).reshape(3, 3)
+
+    @property
+    def _p(self) -> list[list[float]]:
+        """P as three rows (lists)."""
+        q = self._q
+        return [list(q[0:3]), list(q[3:6]), list(q[6:9])]
 
     @property
     def heading_var(self) -> float:
         """P_θθ (rad²): the heading estimate's variance."""
-        return self._p[2][2]
+        return self._q[8]
 
     def set_state(self, pose: tuple[float, float, float], P: NDArray[np.float64]) -> None:
         self.x = [float(pose[0]), float(pose[1]), float(pose[2])]
-        self._p = [[float(P[i][j]) for j in range(3)] for i in range(3)]
+        self._q = tuple(float(P[i][j]) for i in range(3) for j in range(3))
 
     def predict(self, v: float, w: float, dt: float) -> None:
         if dt <= 0.0:
             return
-        x = self.x
-        (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._p
+        x, q = self.x, self._q
         x[0], x[1], x[2], n00, n01, n02, n11, n12, n22 = self._predict(
-            x[0], x[1], x[2], p00, p01, p02, p11, p12, p22, v, w, dt, *self._noise
+            x[0], x[1], x[2], q[0], q[1], q[2], q[4], q[5], q[8], v, w, dt, *self._noise
         )
-        self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
+        self._q = (n00, n01, n02, n01, n11, n12, n02, n12, n22)
 
     @staticmethod
     def _command_kernel(motion: Any) -> Any:
@@ -386,29 +389,23 @@ class FastFollowerEKF:
         """`FollowerEKF.predict_command` on floats (`ekf_command`)."""
         if dt <= 0.0:
             return v, w
-        x = self.x
-        (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._p
+        x, q = self.x, self._q
         x[0], x[1], x[2], n00, n01, n02, n11, n12, n22, v, w = self._command(
-            x[0], x[1], x[2], p00, p01, p02, p11, p12, p22, v, w, vc, wc, a, dt, *self._noise
+            x[0], x[1], x[2], q[0], q[1], q[2], q[4], q[5], q[8], v, w, vc, wc, a, dt, *self._noise
         )
-        self._p = [[n00, n01, n02], [n01, n11, n12], [n02, n12, n22]]
+        self._q = (n00, n01, n02, n01, n11, n12, n02, n12, n22)
         return v, w
 
     def update(self, z: tuple[float, float]) -> None:
         x = self.x
-        p0, p1, p2 = self._p
-        r = self._update(*x, *p0, *p1, *p2, self.r, float(z[0]), float(z[1]))
+        r = self._update(x[0], x[1], x[2], *self._q, self.r, float(z[0]), float(z[1]))
         x[0], x[1], x[2] = r[0], r[1], r[2]
-        self._p = [[r[3], r[4], r[5]], [r[6], r[7], r[8]], [r[9], r[10], r[11]]]
+        self._q = r[3:]
 
     def reset_position(self, z: tuple[float, float]) -> None:
         self.x[0], self.x[1] = float(z[0]), float(z[1])
-        P = self._p
-        for i in range(3):
-            for j in range(3):
-                if i < 2 or j < 2:
-                    P[i][j] = 0.0
-        P[0][0] = P[1][1] = self.r
+        r = self.r
+        self._q = (r, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, self._q[8])
 
 
 def make_filter(

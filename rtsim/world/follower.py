@@ -210,9 +210,9 @@ class FollowerGroup:
 
     def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
         """`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
-        sv, sw = self.saturate(v + self.p.speed_noise * nv, w + self.p.turn_noise * nw)
-        self.cmd_v[k] = sv
-        self.cmd_w[k] = sw
+        p = self.p
+        self.cmd_v[k] = sv = clip(v + p.speed_noise * nv, p.max_speed)
+        self.cmd_w[k] = sw = clip(w + p.turn_noise * nw, p.max_turn_rate)
         return sv, sw
 
     def pose(self, k: int) -> tuple[float, float, float]:
@@ -222,25 +222,19 @@ class FollowerGroup:
         """Integrate follower index ``k`` to ``t_ms`` (the motion model's ``advance``; the
         unicycle's `rtsim.world.motion.follower_advance`: exact arcs at the ramp's mean
         speed)."""
-        t0 = self.t[k]
+        t = self.t
+        t0 = t[k]
         if t_ms <= t0:
             return
-        (self.x[k], self.y[k], self.th[k], self.v[k], self.w[k], self.odometer[k]) = self._advance(
-            self.x[k],
-            self.y[k],
-            self.th[k],
-            self.v[k],
-            self.w[k],
-            self.cmd_v[k],
-            self.cmd_w[k],
-            self.p.max_accel,
-            self.odometer[k],
-            t0,
-            t_ms,
-            step_ms,
-        )
-        self.t[k] = t_ms
+        x, y, th, v, w, odo = self.x, self.y, self.th, self.v, self.w, self.odometer
+        x[k], y[k], th[k], v[k], w[k], odo[k] = self._advance(
+            x[k], y[k], th[k], v[k], w[k], self.cmd_v[k], self.cmd_w[k], self.p.max_accel,
+            odo[k], t0, t_ms, step_ms,
+        )  # fmt: skip
+        t[k] = t_ms
 
     def advance_all(self, t_ms: float, step_ms: float) -> None:
+        """`advance` every follower to ``t_ms``."""
+        advance = self.advance
         for k in range(len(self.x)):
-            self.advance(k, t_ms, step_ms)
+            advance(k, t_ms, step_ms)

@@ -301,6 +301,7 @@ class TraceFollower:
         self._reference: Any = _PY_REFERENCE
         self._command: Any = _PY_COMMAND
         self._project: Any = _PY_PROJECT
+        self._point: Any = _PY_POINT
 
     def clone(self) -> TraceFollower:
         """A copy with its own search starts (a rollout plays commands ahead on it without
@@ -324,7 +325,7 @@ class TraceFollower:
     # -- geometry --------------------------------------------------------------------
     def point(self, k: int, s: float) -> tuple[float, float, float]:
         """P_k(s) and the heading there: (x, y, heading) of follower index k's offset curve."""
-        return _PY_POINT(self.geometry, k, s)  # type: ignore[no-any-return]
+        return self._point(self._G, k, s)  # type: ignore[no-any-return]
 
     def reference(
         self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float

@@ -21,9 +21,9 @@ import numpy as np
 
 from rtsim.world.ekf import ekf_command, ekf_predict, ekf_update
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
-from rtsim.world.ftl import ftl_command, ftl_project, ftl_reference
+from rtsim.world.ftl import ftl_command, ftl_project, ftl_reference, trace_point
 from rtsim.world.jit import Subs, build, cached
-from rtsim.world.motion import follower_advance
+from rtsim.world.motion import belief_step, follower_advance, leader_travel
 
 __all__ = ["announce", "available", "entry", "follow_with", "kernels"]
 
@@ -101,7 +101,10 @@ ENTRIES: dict[str, Any] = {
     "ftl_command": ftl_command,
     "ftl_reference": ftl_reference,
     "ftl_project": ftl_project,
+    "trace_point": trace_point,
     "hypot": cpython_hypot,
+    "belief_step": belief_step,
+    "leader_travel": leader_travel,
 }
 
 #: the entries compiled (or loaded) only when first read from the namespace: the EKF's
@@ -111,7 +114,7 @@ LAZY_ENTRIES: dict[str, Any] = {"ekf_predict": ekf_predict, "remainder": cpython
 
 #: the entries that run a motion model's parts (built again for a model other than the
 #: unicycle: `kernels`)
-MOTION_ENTRIES = ("advance_follower", "ekf_command")
+MOTION_ENTRIES = ("advance_follower", "ekf_command", "belief_step", "leader_travel")
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
 #: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
@@ -231,4 +234,7 @@ def _warm(ns: Any) -> None:
     ns.ftl_command(G, nan1, nan1.copy(), 0.5, 10.0, 0, 50.0, 50.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     ns.ftl_reference(G, nan1, 0, 50.0, 50.0, 0.0, 0.0, 1.0)
     ns.ftl_project(G, 0, 10.0, 20.0, 1.0)
+    ns.trace_point(G, 0, 10.0)
+    ns.belief_step(0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.1, 10.0, 0.02)
+    ns.leader_travel(1.0, 2.0, 10.0, 10.0, 0.02)
     # (the rollout's kernels: rtsim.control.kernels, when a run first rolls out)

@@ -6,7 +6,8 @@ docs/model/lower-bound.md)."""
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from collections.abc import Sequence
+from typing import Protocol, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,7 +15,15 @@ from numpy.typing import NDArray
 from rtsim.analysis.window import LASER_POINTS, e_hough
 from rtsim.world.laser import count_beams_xy
 
-__all__ = ["LOST_CAUSES", "locate", "locate_one", "lost_cause", "hough_time", "search_time"]
+__all__ = [
+    "LOST_CAUSES",
+    "ExpectedBeams",
+    "locate",
+    "locate_one",
+    "lost_cause",
+    "hough_time",
+    "search_time",
+]
 
 #: Why a track is lost: the fix fell outside the Hough window; the follower returned too few
 #: beams although the laser could reach it alone (hidden by a nearer follower, or its disc
@@ -65,6 +74,38 @@ def lost_cause(
         return "outside_window"
     alone = count_beams_xy([rel_xy], r_F, max_range)[0]
     return "occluded" if alone > 0 else "out_of_range"
+
+
+class ExpectedBeams(Sequence[int]):
+    """The beams the leader expects of each follower at a scan (``search = "visible"``): the
+    laser's count for discs at the window ``centres`` (leader frame, cm), shadowing included
+    (`rtsim.world.laser.count_beams_xy`), counted on the first read — a model reads it only
+    for a follower whose window has no fix, which most scans have none of."""
+
+    __slots__ = ("_centres", "_r_F", "_max_range", "_counts")
+
+    def __init__(self, centres: list[tuple[float, float]], r_F: float, max_range: float) -> None:
+        self._centres, self._r_F, self._max_range = centres, r_F, max_range
+        self._counts: list[int] | None = None
+
+    def counts(self) -> list[int]:
+        """Every follower's expected beams (a list; counted once)."""
+        if self._counts is None:
+            self._counts = count_beams_xy(self._centres, self._r_F, self._max_range)
+        return self._counts
+
+    @overload
+    def __getitem__(self, i: int) -> int: ...
+    @overload
+    def __getitem__(self, i: slice) -> list[int]: ...
+    def __getitem__(self, i: int | slice) -> int | list[int]:
+        return self.counts()[i]
+
+    def __len__(self) -> int:
+        return len(self._centres)
+
+    def __repr__(self) -> str:
+        return f"ExpectedBeams({self.counts()!r})"
 
 
 def locate(

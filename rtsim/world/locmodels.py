@@ -21,7 +21,7 @@ and a Hough transform in each window, `rtsim.world.hough`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -106,10 +106,11 @@ class LocalizationModel:
         truth_l: list[XY],
         pts: list[int],
         centre: list[XY],
-        expected: list[int] | None,
+        expected: Sequence[int] | None,
     ) -> tuple[list[Fix], list[int] | None]:
         """Every follower's `Fix` from the scan ``state`` with its window at ``centre``
-        (``expected``: the beams the leader expects, ``search = "visible"``; None: search
+        (``expected``: the beams the leader expects, ``search = "visible"``, a sequence
+        counted on its first read, `rtsim.world.localization.ExpectedBeams`; None: search
         always), and the votes each window's peak had (None: not a voting model)."""
         raise NotImplementedError
 
@@ -131,7 +132,7 @@ class GaussianModel(LocalizationModel):
         truth_l: list[XY],
         pts: list[int],
         centre: list[XY],
-        expected: list[int] | None,
+        expected: Sequence[int] | None,
     ) -> tuple[list[Fix], list[int] | None]:
         z: list[float] = state
         sens = self.config.sensing
@@ -179,29 +180,33 @@ class HoughModel(LocalizationModel):
         truth_l: list[XY],
         pts: list[int],
         centre: list[XY],
-        expected: list[int] | None,
+        expected: Sequence[int] | None,
     ) -> tuple[list[Fix], list[int] | None]:
         c = np.array(centre).T.copy()
         px, py, owner = state
         r_H = self.config.thresholds.r_H
-        fixes = self.accumulator.locate(px, py, owner, c[0], c[1], r_H)
-        voted = fixes["voters"].tolist()
-        out = [self._fix(k, fixes[k], state, centre[k], expected) for k in range(self.n)]
-        return out, voted
+        # the windows' records as tuples (fix_x, fix_y, votes, voters, owner, cells): one
+        # conversion, not a numpy scalar per field
+        rows = self.accumulator.locate(px, py, owner, c[0], c[1], r_H).tolist()
+        min_pts = self.config.sensing.min_points
+        out: list[Fix] = []
+        for k, row in enumerate(rows):
+            if row[2] >= min_pts:  # the peak is the fix
+                who = row[4]
+                neighbour = who >= 0 and who != k
+                out.append(((row[0], row[1]), True, neighbour, False, False, neighbour))
+            else:
+                out.append(self._search(k, state, centre[k], expected))
+        return out, [row[3] for row in rows]
 
-    def _fix(self, k: int, row: Any, beams: Any, centre: XY, expected: list[int] | None) -> Fix:
-        """Follower index k's outcome from its window's row: the peak is the fix when it has
-        at least ``min_points`` votes; the track is lost by a neighbour when another
-        follower's points made it (the truth says so, the leader does not know). A window
-        without a fix loses the track, and the follower is searched for over the full scan
-        (r_reacq) as with the gaussian model."""
+    def _search(self, k: int, beams: Any, centre: XY, expected: Sequence[int] | None) -> Fix:
+        """Follower index k's outcome when its window had no fix (fewer than ``min_points``
+        votes at the peak, `locate`; else the peak is the fix, lost by a neighbour when
+        another follower's points made it — the truth says so, the leader does not know):
+        the track is lost, and the follower is searched for over the full scan (r_reacq) as
+        with the gaussian model, unless the leader expects too few beams of it."""
         sens = self.config.sensing
         min_pts = sens.min_points
-        if row["votes"] >= min_pts:
-            who = int(row["owner"])
-            neighbour = who >= 0 and who != k
-            fix = (float(row["fix_x"]), float(row["fix_y"]))
-            return fix, True, neighbour, False, False, neighbour
         if not (expected is None or expected[k] >= min_pts):
             return centre, False, True, False, False, False
         px, py, owner = beams

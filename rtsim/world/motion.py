@@ -28,6 +28,7 @@ from rtsim.world.jit import kernel
 
 __all__ = [
     "arc",
+    "belief_step",
     "chord",
     "clip",
     "follower_advance",
@@ -86,6 +87,16 @@ def ramp_arc(
     v, vm = ramp(v, vc, a, dt)
     x, y, th = arc(x, y, th, vm, wc, dt)
     return x, y, th, v, wc, vm
+
+
+@kernel
+def belief_step(
+    x: float, y: float, th: float, v: float, w: float, vc: float, wc: float, a: float, dt: float
+) -> tuple[float, float, float, float, float, float]:
+    """`ramp_arc` as an entry of its own (its callers inline it): one held command piece of
+    the leader's belief, which the compiled world calls for each piece it carries an estimate
+    over (another motion model's ``step`` in its variant, `rtsim.world.motionmodels`)."""
+    return ramp_arc(x, y, th, v, w, vc, wc, a, dt)
 
 
 @kernel

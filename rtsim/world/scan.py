@@ -23,6 +23,10 @@ Array = NDArray[np.float64]
 Pose = tuple[float, float, float]
 
 
+_NEW = object.__new__
+_SET = object.__setattr__
+
+
 def _as_list(x: Any) -> list[Any]:
     return x if isinstance(x, list) else np.asarray(x).tolist()
 
@@ -99,6 +103,20 @@ class Scan:
         )
         object.__setattr__(self, "_arrays", {})
 
+    @classmethod
+    def _of(cls, t_ms: float, leader_pose: Pose, raw: dict[str, Any]) -> Scan:
+        """A scan from its fields as the constructor would keep them, ``raw`` (every
+        key of `__init__`'s, ``searched`` and ``cause`` given, each field a list and each
+        mapping's values lists): the world's per-scan path, without the constructor's
+        keywords."""
+        raw["_plain"] = True
+        scan = _NEW(cls)
+        _SET(scan, "t_ms", t_ms)
+        _SET(scan, "leader_pose", leader_pose)
+        _SET(scan, "_raw", raw)
+        _SET(scan, "_arrays", {})
+        return scan
+
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"Scan is read-only: cannot set {name!r}")
 
@@ -117,8 +135,11 @@ class Scan:
 
     def as_lists(self, name: str) -> Any:
         """A field as plain lists, without making numpy arrays (a fast path; do not mutate)."""
-        raw = self._raw[name]
+        fields = self._raw
+        raw = fields[name]
         if name in ("changes", "violations"):
+            if "_plain" in fields:  # (lists already: a copy of the mapping)
+                return dict(raw)
             return {k: _as_list(v) for k, v in raw.items()}
         return _as_list(raw)
 

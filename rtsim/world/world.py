@@ -34,16 +34,16 @@ from rtsim.world.compiled import (
     CompiledFollowerEKF,
     CompiledFollowerGroup,
     CompiledTraceFollower,
+    compiled_motion,
 )
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
 from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
 from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
-from rtsim.world.laser import count_beams_xy
 from rtsim.world.leader import Leader
-from rtsim.world.localization import lost_cause
-from rtsim.world.locmodels import localization_model
+from rtsim.world.localization import ExpectedBeams, lost_cause
+from rtsim.world.locmodels import Fix, localization_model
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.scan import Scan
 
@@ -57,6 +57,8 @@ STREAM_BLOCK = 16_384
 
 Array = NDArray[np.float64]
 Pose = tuple[float, float, float]
+XY = tuple[float, float]
+Mark = tuple[int, float, Pose, tuple[float, float], Pose, float, float]
 
 
 class World:
@@ -70,13 +72,21 @@ class World:
         self._stream = np.empty(0)  # standard normals drawn ahead from rng (see _draw)
         self._si = 0
         self.motion = motion_model(config.follower.motion_model)
+        self.backend = config.resolved_backend()
+        fast = self.backend == "compiled"
+        # the leader's travel and the belief's step: the motion model's parts, compiled
+        # in the compiled backend (called directly: floats only)
+        if fast:
+            self._step, travel = compiled_motion(self.motion)
+        else:
+            self._step, travel = self.motion.step, self.motion.leader
         self.leader = Leader(
             config.path,
             config.leader_speed,
             config.start_s,
             accel_max=config.leader_accel_max,
             decel_max=config.leader_decel_max,
-            travel=self.motion.leader,
+            travel=travel,
         )
         if config.start_speed is not None:  # a settled start below V_Ld
             self.leader.speed = self.leader.target_speed = config.start_speed
@@ -98,8 +108,6 @@ class World:
         c, s = math.cos(hl), math.sin(hl)
         x = xl + c * slots[:, 0] - s * slots[:, 1]
         y = yl + s * slots[:, 0] + c * slots[:, 1]
-        self.backend = config.resolved_backend()
-        fast = self.backend == "compiled"
         self._ftl: TraceFollower | None = None
         if follower_model(form.model).on_trace:
             ftl = CompiledTraceFollower if fast else TraceFollower
@@ -145,8 +153,15 @@ class World:
         self._pieces: list[list[tuple[float, float, float]]] = [
             [(0.0, float(v_f[k]), w0)] for k in range(form.n)
         ]
+        # per follower, the estimate carried to its last piece's start (`_hold`, None: none
+        # since the last scan's estimate): (the piece's index, its start, the filter's
+        # pose, (v̂, ω̂) it was carried from, the pose, v and ω there)
+        self._marks: list[Mark | None] = [None] * form.n
+        # the Hough windows' centres with the ``previous`` centre: the estimates at the last
+        # scan (at first, the initial ones) in the leader's frame then
         self._centre = self._to_leader(self.leader.pose, *self._estimated_xy())
-        self._prev: dict[str, Any] | None = None
+        # the previous scan's truth in the leader's frame, ρ, β and odometers (`_changes`)
+        self._prev: tuple[list[XY], list[float], list[float], list[float]] | None = None
         model = localization_model(config.localization.model)
         self.localization = model(config, form.n, rng, self._normals, fast, self._draw)
         thr = config.thresholds
@@ -154,6 +169,14 @@ class World:
         self._travel_limit = thr.T_eps * self._rho_d
         self._sep_limit_l: list[float] = self._sep_limit.tolist()
         self._travel_limit_l: list[float] = self._travel_limit.tolist()
+        # per-run constants of the window's stages (the configuration is frozen)
+        loc, sens = config.localization, config.sensing
+        self._predicted = loc.centre == "predicted"
+        self._visible = loc.search == "visible"
+        self._r_F, self._max_range, self._min_pts = fp.radius, sens.max_range, sens.min_points
+        self._r_H, self._T_beta = thr.r_H, thr.T_beta
+        self._accel, self._step_ms = fp.max_accel, config.step_ms
+        self._n = form.n
 
     # -- time ------------------------------------------------------------------------
     @property
@@ -230,22 +253,41 @@ class World:
 
     def _propagate(self, k: int, t_ms: float) -> tuple[Pose, float, float]:
         """Estimate of follower index k at t_ms (mean only), its expected speed and turn rate
-        (by the motion model's ``step``)."""
-        pose = self._filters[k].pose
+        (by the motion model's ``step`` over each command piece held before ``t_ms``).
+
+        Carried from follower k's mark (`_hold`) when it holds and ``t_ms`` is not before
+        it: the same steps on the same numbers as from the filter, the pieces before the
+        mark's ending where the next begins whatever ``t_ms`` (they are in time order)."""
+        f = self._filters[k]
+        pose = f.pose
         v, w = self._vhat[k], self._what[k]
-        step = self.motion.step
-        a = self.config.follower.max_accel
         pieces = self._pieces[k]
-        n = len(pieces)
-        x, y, th = pose
-        for j, (t0, vc, wc) in enumerate(pieces):
-            t1 = pieces[j + 1][0] if j + 1 < n else t_ms
-            t1 = min(t1, t_ms)
-            if t1 <= t0:
-                continue
-            x, y, th, v, w, _ = step(x, y, th, v, w, vc, wc, a, (t1 - t0) / 1000.0)
-            pose = (x, y, th)
-        return pose, v, w
+        j0 = 0
+        mark = self._marks[k]
+        if mark is not None and t_ms >= mark[1] and mark[2] == pose and mark[3] == (v, w):
+            j0, _, _, _, (x, y, th), v, w = mark
+        else:
+            x, y, th = pose
+        step, a = self._step, self._accel
+        last = len(pieces) - 1
+        for j in range(j0, last + 1):
+            t0, vc, wc = pieces[j]
+            t1 = pieces[j + 1][0] if j < last else t_ms
+            if t1 > t_ms:
+                t1 = t_ms
+            if t1 > t0:
+                x, y, th, v, w, _ = step(x, y, th, v, w, vc, wc, a, (t1 - t0) / 1000.0)
+        return (x, y, th), v, w
+
+    def _carried(self, t_ms: float) -> tuple[list[float], list[float]]:
+        """Every estimate carried to ``t_ms`` (`_propagate`): the positions' x and y."""
+        prop = self._propagate
+        xs, ys = [], []
+        for k in range(len(self._filters)):
+            (x, y, _), _, _ = prop(k, t_ms)
+            xs.append(x)
+            ys.append(y)
+        return xs, ys
 
     def _estimated_xy(self) -> tuple[list[float], list[float]]:
         poses = [f.pose for f in self._filters]
@@ -255,10 +297,11 @@ class World:
     def _to_leader(leader: Pose, x: list[float], y: list[float]) -> list[tuple[float, float]]:
         xl, yl, hl = leader
         c, s = math.cos(hl), math.sin(hl)
-        return [
-            (c * (a - xl) + s * (b - yl), -s * (a - xl) + c * (b - yl))
-            for a, b in zip(x, y, strict=True)
-        ]
+        out = []
+        for a, b in zip(x, y, strict=True):
+            dx, dy = a - xl, b - yl
+            out.append((c * dx + s * dy, -s * dx + c * dy))
+        return out
 
     def estimated_pose(self, i: int) -> Pose:
         """The leader's estimate of follower i's pose (x, y, heading) now."""
@@ -310,70 +353,114 @@ class World:
         """Sample the truth at ``t_ms`` (advancing to it): beams, fixes, Hough windows,
         lost tracks and re-acquisitions, and the violations observed since the last scan."""
         self.advance(t_ms)
-        cfg = self.config
-        thr = cfg.thresholds
-        sens = cfg.sensing
         lp = self.leader.pose
         fol = self.followers
-        n = self.n
         truth_l = self._to_leader(lp, fol.x, fol.y)
-        loc = cfg.localization
         model = self.localization
         pts, sensed = model.sense(truth_l)
-        r_H, min_pts = thr.r_H, sens.min_points
-        T_beta = thr.T_beta
-        sep_lim, trav_lim = self._sep_limit_l, self._travel_limit_l
-        prev = self._prev
-        centre = self._centre
-        odo = fol.odometer
-        two_pi = 2 * math.pi
-        if loc.centre == "predicted":
+        if self._predicted:
             # the estimates carried to the scan with the commands held, in the leader's
             # frame now (the leader knows its own motion; never the followers' truth)
-            poses = [self._propagate(k, t_ms)[0] for k in range(n)]
-            centre = self._to_leader(lp, [p[0] for p in poses], [p[1] for p in poses])
-        r_F = cfg.follower.radius
-        expected: list[int] | None = None
-        if loc.search == "visible":  # the beams the leader expects from its own prediction
-            expected = count_beams_xy(centre, r_F, sens.max_range)
-        measured, in_ws, losts, reacqs, rhos, betas = [], [], [], [], [], []
-        searched: list[bool] = []
-        causes: list[str] = []
-        errors: list[float] = []
+            centre = self._to_leader(lp, *self._carried(t_ms))
+        else:
+            centre = list(self._centre)
+        r_F, max_range = self._r_F, self._max_range
+        # the beams the leader expects from its own prediction (search = "visible"), counted
+        # when a model first reads them (only for a window without a fix)
+        expected = ExpectedBeams(centre, r_F, max_range) if self._visible else None
         fixes, voted = model.locate(sensed, truth_l, pts, centre, expected)
+        cols, errors, changes, violations = self._changes(truth_l, fol.odometer, fixes)
+        measured, in_ws, losts, searched, reacqs, neighbours = cols
+        if True in losts:
+            min_pts = self._min_pts
+            causes = [
+                ""
+                if not lost
+                else "neighbour"
+                if nb
+                else lost_cause(p >= min_pts, tr, r_F, max_range, min_pts)
+                for lost, nb, p, tr in zip(losts, neighbours, pts, truth_l, strict=True)
+            ]
+        else:
+            causes = [""] * len(losts)
+        return Scan._of(
+            t_ms,
+            lp,
+            {
+                "points": pts,
+                "measured": measured,
+                "truth": truth_l,
+                "centre": centre,
+                "in_window": in_ws,
+                "lost": losts,
+                "reacquired": reacqs,
+                "changes": changes,
+                "violations": violations,
+                "searched": searched,
+                "cause": causes,
+                "voted": voted or None,
+                "fix_error": errors,
+                "neighbour": neighbours if voted else None,
+                "cells": model.cells,
+            },
+        )
+
+    def _changes(
+        self, truth_l: list[XY], odometer: list[float], fixes: list[Fix]
+    ) -> tuple[
+        tuple[list[XY], list[bool], list[bool], list[bool], list[bool], list[bool]],
+        list[float],
+        dict[str, list[Any]],
+        dict[str, list[bool]],
+    ]:
+        """The fixes' fields as lists (`Fix`: fix, in window, lost, searched, re-acquired,
+        neighbour), each fix's distance from the truth (inf: none), the truth's change since
+        the previous scan (zeros at the first) and the violations it makes, per bound kind
+        (`Scan`); remembers this scan's truth for the next. (One loop: at a few followers a
+        comprehension per list costs more than the arithmetic.)"""
+        hypot, atan2, remainder, inf = math.hypot, math.atan2, math.remainder, math.inf
+        two_pi = 2 * math.pi
+        odo = list(odometer)
+        prev = self._prev
+        first = prev is None
+        if prev is not None:
+            p_truth, p_rho, p_beta, p_odo = prev
+        r_H, T_beta = self._r_H, self._T_beta
+        sep_lim, trav_lim = self._sep_limit_l, self._travel_limit_l
+        measured: list[XY] = []
+        in_ws: list[bool] = []
+        losts: list[bool] = []
+        searched: list[bool] = []
+        reacqs: list[bool] = []
         neighbours: list[bool] = []
+        errors, rhos, betas = [], [], []
         disps, d_rhos, travels, d_betas = [], [], [], []
         v_loc, v_sep, v_path, v_bear = [], [], [], []
-        for k in range(n):
-            tx, ty = truth_l[k]
-            visible = pts[k] >= min_pts
-            (mx, my), in_w, lost, search, reacq, neighbour = fixes[k]
-            neighbours.append(neighbour)
-            measured.append((mx, my))
+        for k, (tx, ty) in enumerate(truth_l):
+            fix, in_w, lost, search, reacq, neighbour = fixes[k]
+            measured.append(fix)
             in_ws.append(in_w)
             losts.append(lost)
             searched.append(search)
             reacqs.append(reacq)
-            errors.append(math.hypot(mx - tx, my - ty) if in_w or reacq else math.inf)
-            causes.append(
-                ""
-                if not lost
-                else "neighbour"
-                if neighbour
-                else lost_cause(visible, truth_l[k], r_F, sens.max_range, min_pts)
-            )
-            rho = math.hypot(tx, ty)
-            beta = math.atan2(ty, tx) % two_pi
+            neighbours.append(neighbour)
+            if in_w or reacq:
+                mx, my = fix
+                errors.append(hypot(mx - tx, my - ty))
+            else:
+                errors.append(inf)
+            rho = hypot(tx, ty)
+            beta = atan2(ty, tx) % two_pi
             rhos.append(rho)
             betas.append(beta)
-            if prev is None:
+            if first:
                 disp = d_rho = travel = d_beta = 0.0
             else:
-                px, py = prev["truth"][k]
-                disp = math.hypot(tx - px, ty - py)
-                d_rho = abs(rho - prev["rho"][k])
-                travel = odo[k] - prev["odo"][k]
-                d_beta = abs(math.remainder(beta - prev["beta"][k], two_pi))
+                px, py = p_truth[k]
+                disp = hypot(tx - px, ty - py)
+                d_rho = abs(rho - p_rho[k])
+                travel = odo[k] - p_odo[k]
+                d_beta = abs(remainder(beta - p_beta[k], two_pi))
             disps.append(disp)
             d_rhos.append(d_rho)
             travels.append(travel)
@@ -382,6 +469,7 @@ class World:
             v_sep.append(d_rho > sep_lim[k])
             v_path.append(travel > trav_lim[k])
             v_bear.append(d_beta > T_beta)
+        self._prev = (truth_l, rhos, betas, odo)
         changes = {"displacement": disps, "d_rho": d_rhos, "travel": travels, "d_beta": d_betas}
         violations = {
             "localization": v_loc,
@@ -389,26 +477,8 @@ class World:
             "path_diversion": v_path,
             "bearing": v_bear,
         }
-        self._prev = {"truth": truth_l, "rho": rhos, "beta": betas, "odo": list(odo)}
-        return Scan(
-            t_ms,
-            lp,
-            pts,
-            measured,
-            truth_l,
-            list(centre),
-            in_ws,
-            losts,
-            reacqs,
-            changes,
-            violations,
-            searched,
-            causes,
-            voted=voted or None,
-            fix_error=errors,
-            neighbour=neighbours if voted else None,
-            cells=model.cells,
-        )
+        cols = (measured, in_ws, losts, searched, reacqs, neighbours)
+        return cols, errors, changes, violations
 
     def estimate(self, scan: Scan) -> None:
         """EKF predict (commands held since the last estimate) and update from ``scan``'s fixes;
@@ -417,38 +487,45 @@ class World:
         t = scan.t_ms
         if t < self._est_t:
             raise RtsimError(f"scan at {t} ms is older than the estimates ({self._est_t} ms)")
-        a = self.config.follower.max_accel
+        a = self._accel
         xl, yl, hl = scan.leader_pose
         c, s = math.cos(hl), math.sin(hl)
         measured = scan.as_lists("measured")
         in_window = scan.as_lists("in_window")
         reacquired = scan.as_lists("reacquired")
-        predicted = self.config.localization.centre == "predicted"
+        predicted = self._predicted
+        all_pieces, vhat, what = self._pieces, self._vhat, self._what
         for k, f in enumerate(self._filters):
-            pieces = self._pieces[k]
-            v, w = self._vhat[k], self._what[k]
+            pieces = all_pieces[k]
+            v, w = vhat[k], what[k]
             last = len(pieces) - 1
             keep: list[tuple[float, float, float]] = []
-            for j, (t0, vc, wc) in enumerate(pieces):
+            for j, piece in enumerate(pieces):
+                t0, vc, wc = piece
                 if t0 >= t:
-                    keep.append((t0, vc, wc))
+                    keep.append(piece)
                     continue
-                t1 = min(pieces[j + 1][0], t) if j < last else t
+                nxt = pieces[j + 1][0] if j < last else math.inf
+                t1 = nxt if nxt < t else t
                 v, w = f.predict_command(v, w, vc, wc, a, (t1 - t0) / 1000.0)
-                if t1 >= t and not (j < last and pieces[j + 1][0] <= t):
+                if nxt > t:  # (the piece held at t: what follows it starts later)
                     keep.insert(0, (t, vc, wc))
-            self._pieces[k] = keep or [(t, pieces[-1][1], pieces[-1][2])]
-            self._vhat[k], self._what[k] = v, w
-            mx, my = measured[k]
-            z = (xl + c * mx - s * my, yl + s * mx + c * my)
+            all_pieces[k] = keep or [(t, pieces[-1][1], pieces[-1][2])]
+            vhat[k], what[k] = v, w
             if in_window[k]:
-                f.update(z)
+                mx, my = measured[k]
+                f.update((xl + c * mx - s * my, yl + s * mx + c * my))
             elif reacquired[k]:
-                f.reset_position(z)
-            if predicted and f.heading_var > self.max_heading_var:
-                self.max_heading_var = f.heading_var
+                mx, my = measured[k]
+                f.reset_position((xl + c * mx - s * my, yl + s * mx + c * my))
+            if predicted:
+                var = f.heading_var
+                if var > self.max_heading_var:
+                    self.max_heading_var = var
         self._est_t = t
-        self._centre = self._to_leader(scan.leader_pose, *self._estimated_xy())
+        self._marks = [None] * len(self._marks)
+        if not predicted:  # (a predicted centre is carried from the estimates at each scan)
+            self._centre = self._to_leader(scan.leader_pose, *self._estimated_xy())
 
     # -- commands --------------------------------------------------------------------
     def command(self, i: int, t_ms: float) -> tuple[float, float]:
@@ -458,16 +535,24 @@ class World:
         Returns the command sent (saturated, before the actuation noise).
         """
         k = i - 1
-        if not 0 <= k < self.n:
+        if not 0 <= k < self._n:
             raise IndexError(f"follower {i} does not exist (1..{self.n})")
-        self._advance_leader(t_ms)
+        if t_ms != self._t:
+            self._advance_leader(t_ms)
         fol = self.followers
-        fol.advance(k, t_ms, self.config.step_ms)
-        (x, y, th), _, _ = self._propagate(k, t_ms)
+        fol.advance(k, t_ms, self._step_ms)
+        est = self._propagate(k, t_ms)
+        x, y, th = est[0]
         ld = self.leader
         if self._ftl is not None:
             v, w = self._ftl.command(k, ld.s, ld.pose, ld.speed, x, y, th)
-            return self._hold(k, t_ms, fol.saturate(v, w))
+        else:
+            v, w = self._lpsi(k, x, y, th)
+        return self._hold(k, t_ms, fol.saturate(v, w), est)
+
+    def _lpsi(self, k: int, x: float, y: float, th: float) -> tuple[float, float]:
+        """Follower index k's l-ψ command (unsaturated) for its estimate (x, y, θ)."""
+        ld = self.leader
         kappa = ld.curvature
         if kappa != self._kappa_targets:
             self._l_d, self._psi_d = control_targets(
@@ -476,20 +561,32 @@ class World:
             self._kappa_targets = kappa
             self._targets_l = (self._l_d.tolist(), self._psi_d.tolist())
         l_d, psi_d = self._targets_l
-        v, w = lpsi_command(
+        return lpsi_command(  # type: ignore[no-any-return]
             ld.pose, ld.speed, kappa * ld.speed, x, y, th, l_d[k], psi_d[k], self.config.follower
         )
-        return self._hold(k, t_ms, fol.saturate(v, w))
 
-    def _hold(self, k: int, t_ms: float, cmd: tuple[float, float]) -> tuple[float, float]:
-        """Record follower index k's command for the estimates and apply it with noise."""
-        fol = self.followers
+    def _hold(
+        self,
+        k: int,
+        t_ms: float,
+        cmd: tuple[float, float],
+        est: tuple[Pose, float, float] | None = None,
+    ) -> tuple[float, float]:
+        """Record follower index k's command for the estimates and apply it with noise;
+        ``est``: `_propagate` (k, t_ms), kept as the mark where the new piece begins."""
         pieces = self._pieces[k]
         if pieces and pieces[-1][0] >= t_ms:
             pieces.pop()
-        pieces.append((t_ms, cmd[0], cmd[1]))
+        mark: Mark | None = None
+        if est is not None and (not pieces or pieces[-1][0] < t_ms):
+            (x, y, th), v, w = est
+            f = self._filters[k]
+            mark = (len(pieces), t_ms, f.pose, (self._vhat[k], self._what[k]), (x, y, th), v, w)
+        self._marks[k] = mark
+        v, w = cmd
+        pieces.append((t_ms, v, w))
         nv, nw = self._normals(2)
-        fol.apply_drawn(k, cmd[0], cmd[1], nv, nw)
+        self.followers.apply_drawn(k, v, w, nv, nw)
         return cmd
 
     @property
