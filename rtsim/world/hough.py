@@ -75,11 +75,10 @@ WINDOW_ROW = np.dtype(
 _COMPILED: Any = None
 
 #: A window's working arrays: the ring's steps (`ring_steps`: x, y) and the scratch (acc,
-#: epoch, stamp, tally, state, cells) of `hough_window`.
+#: stamp, tally, state, cells) of `hough_window`.
 Work = tuple[
     NDArray[np.float64],
     NDArray[np.float64],
-    NDArray[np.int64],
     NDArray[np.int64],
     NDArray[np.int64],
     NDArray[np.int64],
@@ -189,15 +188,15 @@ def hough_window(
     """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
     radius ``r_H`` (``cells`` of side ``cell``: `window_cells`). ``work``: the ring's
-    steps (`ring_steps`) and the scratch (`Accumulator`): ``acc``, ``epoch``,
-    ``stamp`` of at least (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared — a cell counts only if
-    its ``epoch`` is this call's (``state[0]``, advanced by each call), and a point votes for a
-    cell once (its ``stamp``) —, ``tally``, one entry per follower, and ``cells``, one entry
-    per direction. Writes record ``k`` of ``out`` (`WINDOW_ROW`)."""
-    rx, ry, acc, epoch, stamp, tally, state, into = work
+    steps (`ring_steps`) and the scratch (`Accumulator`): ``acc`` and ``stamp`` of at least
+    (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared — each point p stamps the cells it votes for
+    with ep + p + 1, ep this call's epoch (``state[0]``, advanced by each call past every
+    stamp it gives), so a point votes for a cell once and a cell's ``acc`` counts only if its
+    stamp is above ep —, ``tally``, one entry per follower, and ``into``, one entry per
+    direction. Writes record ``k`` of ``out`` (`WINDOW_ROW`)."""
+    rx, ry, acc, stamp, tally, state, into = work
     row = acc.shape[1]
     va = acc.reshape(acc.size)  # (flat views: cell (i, j) at i·row + j)
-    ve = epoch.reshape(epoch.size)
     vs = stamp.reshape(stamp.size)
     ep = state[0] + 1
     state[0] = ep + px.shape[0] + 1
@@ -220,20 +219,22 @@ def hough_window(
         # only the arc of the ring that can reach a cell of the window
         a0, n = ring_arc(x, y, d, cx, cy, r_F, r_H + cell, na)
         ring_cells(x, y, cx, cy, rx, ry, a0 + 2 * na, n, cell, r_H, row, into)
+        # the cells in the window, less a step in the cell of the step before (the stamp
+        # would refuse it), to the front of ``into``, without a branch on the data
+        w = 0
         last = -2
         for t in range(n):
             f = into[t]
-            # a step in the cell of the step before adds nothing (the stamp would refuse it)
-            if f == last:
-                continue
+            into[w] = f
+            w += (f != last) & (f >= 0)
             last = f
-            if f < 0 or vs[f] == me:
+        for t in range(w):
+            f = into[t]
+            s = vs[f]
+            if s == me:  # (an earlier step of this point's ring)
                 continue
             vs[f] = me
-            if ve[f] != ep:
-                ve[f] = ep
-                va[f] = 0
-            v = va[f] + 1
+            v = (va[f] if s > ep else 0) + 1
             va[f] = v
             # the peak: the most votes, the first in row-major order (flat order) among equals
             if v > best or (v == best and f < bf):
@@ -265,7 +266,7 @@ def window_fix(
     peak (``best`` votes at flat cell ``bf``, −1: none), the fix (the mean of the tied cells
     within two cells of it) and the owner (the follower with the most points within one cell of the
     ring through the fix)."""
-    acc, epoch, tally = work[2], work[3], work[5]
+    acc, stamp, tally = work[2], work[3], work[4]
     h = int(math.floor(r_H / cell))
     m = 2 * h + 1
     rec = out[k]
@@ -284,7 +285,7 @@ def window_fix(
     cnt = 0
     for i in range(max(0, bi - 2), min(m, bi + 3)):
         for j in range(max(0, bj - 2), min(m, bj + 3)):
-            if epoch[i, j] == ep and acc[i, j] == best:
+            if stamp[i, j] > ep and acc[i, j] == best:
                 si += i
                 sj += j
                 cnt += 1
@@ -360,7 +361,7 @@ def _dummy(every: bool) -> tuple[Any, ...]:
     acc = np.zeros((11, 11), dtype=np.int64)
     centre: Any = (np.zeros(1), np.zeros(1)) if every else (0.0, 0.0)
     one = np.zeros(1, dtype=np.int64)
-    work = (c, s, acc, acc.copy(), acc.copy(), one, one.copy(), np.zeros(c.size, np.int64))
+    work = (c, s, acc, acc.copy(), one, one.copy(), np.zeros(c.size, np.int64))
     out = (np.zeros(1, WINDOW_ROW),) if every else (np.zeros(1, WINDOW_ROW), 0)
     return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, 81, work, *out)
 
@@ -375,13 +376,12 @@ class Accumulator:
         self.ring_x, self.ring_y = ring_steps(self.r_F, self.cell)
         m = 2 * int(math.floor(r_max / cell)) + 1
         self.acc = np.zeros((m, m), dtype=np.int64)
-        self.epoch = np.zeros((m, m), dtype=np.int64)
         self.stamp = np.zeros((m, m), dtype=np.int64)
         self.tally = np.zeros(max(n, 1), dtype=np.int64)
         self.state = np.zeros(1, dtype=np.int64)
         self.into = np.zeros(self.ring_x.size // TURNS, dtype=np.int64)
         self.work: Work = (
-            self.ring_x, self.ring_y, self.acc, self.epoch, self.stamp, self.tally,
+            self.ring_x, self.ring_y, self.acc, self.stamp, self.tally,
             self.state, self.into,
         )  # fmt: skip
         self._cells: dict[float, int] = {}
