@@ -151,12 +151,11 @@ def ring_cells(
     n: int,
     cell: float,
     r_H: float,
-    row: int,
     into: NDArray[np.int64],
 ) -> None:
     """The cells that ``n`` steps of a point's ring enter, from index ``b`` of ``rx``, ``ry``
     (`ring_steps`), into ``into[:n]``: cell (i, j) of the window of radius ``r_H`` as
-    i·``row`` + j (``row``: the scratch's row length), −1 where the step lands outside the
+    i·(2h+1) + j (h = ⌊r_H/cell⌋), −1 where the step lands outside the
     window. No branch on the data, so that the compiler can run the steps side by side."""
     h = int(math.floor(r_H / cell))
     m = 2 * h + 1
@@ -167,7 +166,7 @@ def ring_cells(
         di = i - h
         dj = j - h
         inside = (i >= 0) & (j >= 0) & (i < m) & (j < m) & (di * di + dj * dj <= lim)
-        into[t] = i * row + j if inside else -1
+        into[t] = i * m + j if inside else -1
 
 
 @kernel
@@ -188,16 +187,14 @@ def hough_window(
     """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
     radius ``r_H`` (``cells`` of side ``cell``: `window_cells`). ``work``: the ring's
-    steps (`ring_steps`) and the scratch (`Accumulator`): ``acc`` and ``stamp`` of at least
-    (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared — each point p stamps the cells it votes for
-    with ep + p + 1, ep this call's epoch (``state[0]``, advanced by each call past every
-    stamp it gives), so a point votes for a cell once and a cell's ``acc`` counts only if its
-    stamp is above ep —, ``tally``, one entry per follower, and ``into``, one entry per
-    direction. Writes record ``k`` of ``out`` (`WINDOW_ROW`)."""
+    steps (`ring_steps`) and the scratch (`Accumulator`): ``acc`` and ``stamp``, at least
+    (2h+1)² cells, h = ⌊r_H/cell⌋, cell (i, j) at i·(2h+1) + j, never cleared — each point
+    p stamps the cells it votes for with ep + p + 1, ep this call's epoch (``state[0]``,
+    advanced by each call past every stamp it gives), so a point votes for a cell once and a
+    cell's ``acc`` counts only if its stamp is above ep —, ``tally``, one entry per
+    follower, and ``into``, one entry per direction. Writes record ``k`` of ``out``
+    (`WINDOW_ROW`)."""
     rx, ry, acc, stamp, tally, state, into = work
-    row = acc.shape[1]
-    va = acc.reshape(acc.size)  # (flat views: cell (i, j) at i·row + j)
-    vs = stamp.reshape(stamp.size)
     ep = state[0] + 1
     state[0] = ep + px.shape[0] + 1
     lo = r_F - r_H
@@ -218,7 +215,7 @@ def hough_window(
         me = ep + p + 1
         # only the arc of the ring that can reach a cell of the window
         a0, n = ring_arc(x, y, d, cx, cy, r_F, r_H + cell, na)
-        ring_cells(x, y, cx, cy, rx, ry, a0 + 2 * na, n, cell, r_H, row, into)
+        ring_cells(x, y, cx, cy, rx, ry, a0 + 2 * na, n, cell, r_H, into)
         # the cells in the window, less a step in the cell of the step before (the stamp
         # would refuse it), to the front of ``into``, without a branch on the data
         w = 0
@@ -230,20 +227,20 @@ def hough_window(
             last = f
         for t in range(w):
             f = into[t]
-            s = vs[f]
+            s = stamp[f]
             if s == me:  # (an earlier step of this point's ring)
                 continue
-            vs[f] = me
-            v = (va[f] if s > ep else 0) + 1
-            va[f] = v
-            # the peak: the most votes, the first in row-major order (flat order) among equals
+            stamp[f] = me
+            v = (acc[f] if s > ep else 0) + 1
+            acc[f] = v
+            # the peak: the most votes, the first in row-major order (the cells') among equals
             if v > best or (v == best and f < bf):
                 best = v
                 bf = f
     window_fix(px, py, owner, cx, cy, r_H, r_F, cell, cells, work, ep, voters, best, bf, out, k)
 
 
-@kernel
+@kernel(inline=True)
 def window_fix(
     px: NDArray[np.float64],
     py: NDArray[np.float64],
@@ -278,14 +275,14 @@ def window_fix(
         rec["fix_y"] = math.nan
         rec["owner"] = -1
         return
-    bi = bf // acc.shape[1]
-    bj = bf - bi * acc.shape[1]
+    bi = bf // m
+    bj = bf - bi * m
     si = 0.0
     sj = 0.0
     cnt = 0
     for i in range(max(0, bi - 2), min(m, bi + 3)):
         for j in range(max(0, bj - 2), min(m, bj + 3)):
-            if stamp[i, j] > ep and acc[i, j] == best:
+            if stamp[i * m + j] > ep and acc[i * m + j] == best:
                 si += i
                 sj += j
                 cnt += 1
@@ -358,7 +355,7 @@ def _dummy(every: bool) -> tuple[Any, ...]:
     """Arguments that compile the kernels once (an empty scan)."""
     px = np.full(3, np.nan)
     c, s = ring_steps(25.0, 1.0)
-    acc = np.zeros((11, 11), dtype=np.int64)
+    acc = np.zeros(121, dtype=np.int64)
     centre: Any = (np.zeros(1), np.zeros(1)) if every else (0.0, 0.0)
     one = np.zeros(1, dtype=np.int64)
     work = (c, s, acc, acc.copy(), one, one.copy(), np.zeros(c.size, np.int64))
@@ -375,8 +372,8 @@ class Accumulator:
         self.cell = float(cell)
         self.ring_x, self.ring_y = ring_steps(self.r_F, self.cell)
         m = 2 * int(math.floor(r_max / cell)) + 1
-        self.acc = np.zeros((m, m), dtype=np.int64)
-        self.stamp = np.zeros((m, m), dtype=np.int64)
+        self.acc = np.zeros(m * m, dtype=np.int64)
+        self.stamp = np.zeros(m * m, dtype=np.int64)
         self.tally = np.zeros(max(n, 1), dtype=np.int64)
         self.state = np.zeros(1, dtype=np.int64)
         self.into = np.zeros(self.ring_x.size // TURNS, dtype=np.int64)
