@@ -51,7 +51,6 @@ __all__ = [
     "ring_cells",
     "ring_steps",
     "window_cells",
-    "window_fix",
 ]
 
 #: The accumulator's cell side (cm): 1 cm² cells make a window of radius r_H cover π·r_H²
@@ -195,6 +194,8 @@ def hough_window(
     follower, and ``into``, one entry per direction. Writes record ``k`` of ``out``
     (`WINDOW_ROW`)."""
     rx, ry, acc, stamp, tally, state, into = work
+    h = int(math.floor(r_H / cell))
+    m = 2 * h + 1
     ep = state[0] + 1
     state[0] = ep + px.shape[0] + 1
     lo = r_F - r_H
@@ -237,35 +238,8 @@ def hough_window(
             if v > best or (v == best and f < bf):
                 best = v
                 bf = f
-    window_fix(px, py, owner, cx, cy, r_H, r_F, cell, cells, work, ep, voters, best, bf, out, k)
-
-
-@kernel(inline=True)
-def window_fix(
-    px: NDArray[np.float64],
-    py: NDArray[np.float64],
-    owner: NDArray[np.int64],
-    cx: float,
-    cy: float,
-    r_H: float,
-    r_F: float,
-    cell: float,
-    cells: int,
-    work: Work,
-    ep: int,
-    voters: int,
-    best: int,
-    bf: int,
-    out: NDArray[np.void],
-    k: int,
-) -> None:
-    """`hough_window`'s record ``k`` of ``out`` from its accumulator (epoch ``ep``): the
-    peak (``best`` votes at flat cell ``bf``, −1: none), the fix (the mean of the tied cells
-    within two cells of it) and the owner (the follower with the most points within one cell of the
-    ring through the fix)."""
-    acc, stamp, tally = work[2], work[3], work[4]
-    h = int(math.floor(r_H / cell))
-    m = 2 * h + 1
+    # the record: the fix, the mean of the tied cells within two cells of the peak, and the
+    # owner, the follower with the most points within one cell of the ring through the fix
     rec = out[k]
     rec["voters"] = voters
     rec["cells"] = cells
