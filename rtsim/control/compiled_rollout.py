@@ -43,6 +43,9 @@ def compiled_rollout(law: Any, state: Any) -> CompiledRollout | None:
 #: how many of RolloutScalars' fields change from one decision to the next (they come first)
 _CHANGING = K.RolloutScalars._fields.index("accel")
 
+#: the follower pack's columns (`rtsim.control.kernels.FollowerColumns`)
+_COLUMNS = len(K.FollowerColumns._fields)
+
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
@@ -126,9 +129,16 @@ class CompiledRollout:
             # (compiled once per process and motion model: before the first rollout)
             ker = K.rollout_kernels(motion_model(p.motion_model))
             # (the five that change are written over a copy per decision)
-            cached = (static, np.array(scalars, dtype=float), pends, ker)
+            # (and the search's bookkeeping buffers, read before each decide returns)
+            bufs = (
+                np.empty(_SEARCH_RUNS),
+                np.empty(_SEARCH_RUNS, dtype=np.int64),
+                np.empty(_SEARCH_RUNS, dtype=np.int64),
+                np.empty(7),
+            )
+            cached = (static, np.array(scalars, dtype=float), pends, ker, bufs)
             setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
-        self._ker = cached[3]
+        self._ker, self._bufs = cached[3], cached[4]
         fs = cached[1].copy()
         fs[:_CHANGING] = (  # RolloutScalars' first five
             state.leader_s,
@@ -140,27 +150,20 @@ class CompiledRollout:
         n = len(state.poses)
         # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
         # (a flat list: numpy reads it much faster than nested tuples)
-        turns = state.turns or [h[1] for h in state.held]
-        flat = [
-            x
-            for k in range(n)
-            for x in (
-                *state.poses[k],
-                state.speeds[k],
-                turns[k],
-                *state.held[k],
-                state.send_offsets[k],
-                state.rho_d[k],
-            )
-        ]
-        fol = np.array(flat, dtype=float).reshape(n, len(K.FollowerColumns._fields))
-        width = max([1, *map(len, state.pending)])
-        if width == 1 and not any(state.pending):  # no sends pending: one array per n, kept
+        held = state.held
+        turns = state.turns or [h[1] for h in held]
+        flat: list[float] = []
+        for pose, v, w, h, send, rho_d in zip(  # (one short: the reshape refuses it)
+            state.poses, state.speeds, turns, held, state.send_offsets, state.rho_d, strict=False
+        ):
+            flat += (*pose, v, w, *h, send, rho_d)
+        fol = np.array(flat, dtype=float).reshape(n, _COLUMNS)
+        if not any(state.pending):  # no sends pending: one array per n, kept
             pend = cached[2].get(n)
             if pend is None:
                 pend = cached[2][n] = np.full((n, 1), math.nan)
         else:
-            pend = np.full((n, width), math.nan)
+            pend = np.full((n, max(map(len, state.pending))), math.nan)
             for k, times in enumerate(state.pending):
                 pend[k, : len(times)] = times
         self._args = (fs, fol, pend, law._G)
@@ -202,17 +205,16 @@ class CompiledRollout:
         """`PlanPolicy`'s decision, or with ``search_only``
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
         ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
-        in one call (`rtsim.control.kernels._plan_decide`, on fresh
-        buffers): ((w, V_L, method code, found, feasible), the rows
+        in one call (`rtsim.control.kernels._plan_decide`, on fresh arrays of
+        changes and rows): ((w, V_L, method code, found, feasible), the rows
         at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
         lengths, changes [window, follower, change]) for the rollout's memo)."""
-        speeds = np.empty(_SEARCH_RUNS)
-        lens = np.zeros(_SEARCH_RUNS, dtype=np.int64)
-        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))
-        cut = np.zeros(_SEARCH_RUNS, dtype=np.int64)
-        rows = np.empty((2, self.n, 4))
-        out = np.empty(7)
+        speeds, lens, cut, out = self._bufs  # (the law's: read before this returns)
+        lens.fill(0)
+        cut.fill(0)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
+        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))  # (kept by the memo)
+        rows = np.empty((2, self.n, 4))
         runs = call(  # (`_plan_decide`'s arguments after the first three)
             self._ker.roll_or_decide,
             False,
@@ -235,7 +237,8 @@ class CompiledRollout:
             out,
             float(contact),
         )
-        CompiledRollout.runs += runs + int(out[6])
+        got = out.tolist()
+        CompiledRollout.runs += runs + int(got[6])
         runs = min(runs, _SEARCH_RUNS)
         w = float(w)
         horizon = (w,) * int(windows)
@@ -245,7 +248,7 @@ class CompiledRollout:
             zip(speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist(), strict=True)
         ):
             if code == 2:
-                ran.append((v, (float(out[5]),), changes[r, :1]))
+                ran.append((v, (got[5],), changes[r, :1]))
                 continue
             if short:  # stopped after its first window: whole only if asked (_Rest)
                 if not frozen:  # the law's search starts as they are at the decision
@@ -255,4 +258,4 @@ class CompiledRollout:
                 ran.append((v, horizon, changes[r]))
             if code == 1:
                 ran.append((v, (w,), changes[r, :1]))
-        return tuple(out[:5].tolist()), rows, ran
+        return tuple(got[:5]), rows, ran

@@ -55,6 +55,7 @@ __all__ = [
     "decide_rows",
     "PolicyInput",
     "adjust_options",
+    "input_maker",
     "make_policy",
     "policy_class",
     "register_adjustment_policy",
@@ -85,10 +86,12 @@ COMMON_KEYS: tuple[str, ...] = (
 class PolicyInput:
     """What the leader knows when a window completes (units: cm/s, ms, rad/s, 1/cm).
 
-    followers: its estimates; v_ld: the desired speed; w_sch: the window's lower bound;
-    omega_l: its turn rate; kappa: the path's curvature where it is; v_now: its actual speed;
-    cap: the largest window (None: CAP_FACTOR·w_sch); floor_frac: its speed when nothing
-    restores the bounds, as a fraction of v_ld; floor_w: the smallest window of ``min-msb``;
+    followers: its estimates (left empty by a coupled run for a policy whose class sets
+    ``needs_followers = False``, which reads them through ``rollout``); v_ld: the desired
+    speed; w_sch: the window's lower bound; omega_l: its turn rate; kappa: the path's
+    curvature where it is; v_now: its actual speed; cap: the largest window (None:
+    CAP_FACTOR·w_sch); floor_frac: its speed when nothing restores the bounds, as a fraction
+    of v_ld; floor_w: the smallest window of ``min-msb``;
     predictor, methods, scan_points: as in `rtsim.control.adjust.adjust`; ahead: the
     leader's known upcoming path commands as (distance from here to the command's start in
     cm, its curvature in 1/cm), nearest first (filled for a policy whose class sets
@@ -132,6 +135,30 @@ class PolicyInput:
     turn_error: TurnError = unicycle_turn_error
     pose_sd: tuple[tuple[float, float], ...] = ()
     rollout: Any = None
+
+
+def input_maker(template: PolicyInput, names: Sequence[str]) -> Callable[..., PolicyInput]:
+    """The `PolicyInput` of each decision of a run: ``make(*values)`` is
+    ``dataclasses.replace(template, **dict(zip(names, values)))``, the same object built
+    through its slots' descriptors (a frozen dataclass's ``__init__`` sets every field by
+    ``object.__setattr__``: twice the time, per decision)."""
+    new, cls = object.__new__, PolicyInput
+    kept = [
+        (getattr(cls, f.name).__set__, getattr(template, f.name))
+        for f in fields(cls)
+        if f.name not in names
+    ]
+    sets = [getattr(cls, name).__set__ for name in names]  # (an unknown name: AttributeError)
+
+    def make(*values: Any) -> PolicyInput:
+        obj = new(cls)
+        for put, value in kept:
+            put(obj, value)
+        for put, value in zip(sets, values, strict=True):
+            put(obj, value)
+        return obj  # type: ignore[no-any-return]
+
+    return make
 
 
 @runtime_checkable
@@ -847,6 +874,9 @@ class PlanPolicy:
     options: ClassVar[type[PolicyOptions]] = PlanOptions
     #: the coupling fills PolicyInput.rollout for this policy
     needs_rollout: ClassVar[bool] = True
+    #: ... and leaves PolicyInput.followers empty: the plan reads the estimates only
+    #: through the rollout
+    needs_followers: ClassVar[bool] = False
 
     def __init__(self, *args: Any, **kw: Any) -> None:
         o = PlanOptions(*args, **kw)
@@ -863,16 +893,9 @@ class PlanPolicy:
                 "coupled run with follow-the-leader followers fills"
             )
         keep = 1.0 - self.margin
-        lengths = (ctx.w_sch,) * self.windows
         need = ctx.w_sch * (1.0 - TOL)
         # the contact bound's d_c (cm; 0: off)
         d_c = float(getattr(getattr(ro, "state", None), "contact_cm", 0.0)) if self.contact else 0.0
-
-        def worst(v: float) -> float:
-            per = ro.changes(v, lengths)
-            m = min(min_bound_rows(ro.bounds(c, ctx.w_sch))[0] for c in per)
-            return ro.contact(per, ctx.w_sch, d_c, m) if d_c > 0.0 else m  # type: ignore[no-any-return]
-
         v_floor = ctx.floor_frac * ctx.v_ld
         plan = getattr(ro, "plan", None)  # the rollout's compiled decision, if it has one
         hit = (
@@ -880,15 +903,35 @@ class PlanPolicy:
             if plan is None
             else plan(ctx.v_ld, keep, need, cap, v_floor, self.windows, ctx.w_sch, d_c)
         )
-        if hit is not None:
-            w, v_l, method, found, feasible, rows, after = hit
-            m1, kind, who = min_bound_rows(rows)
-            if method == "none":
-                return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})
-            m_after = min_bound_rows(after)[0]
-            return Decision(
-                w, v_l, m1, kind, who, method, feasible, rows, after, m_after, {"numeric": found}
-            )
+        if hit is None:  # the same decision in Python
+            return self._decide(ctx, ro, keep, need, cap, v_floor, d_c)
+        w, v_l, method, found, feasible, rows, after = hit
+        m1, kind, who = min_bound_rows(rows)
+        if method == "none":
+            return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})
+        m_after = min_bound_rows(after)[0]
+        return Decision(
+            w, v_l, m1, kind, who, method, feasible, rows, after, m_after, {"numeric": found}
+        )
+
+    def _decide(
+        self,
+        ctx: PolicyInput,
+        ro: Any,
+        keep: float,
+        need: float,
+        cap: float,
+        v_floor: float,
+        d_c: float,
+    ) -> Decision:
+        """`decide` on a rollout without a compiled decision (``plan``), in Python."""
+        lengths = (ctx.w_sch,) * self.windows
+
+        def worst(v: float) -> float:
+            per = ro.changes(v, lengths)
+            m = min(min_bound_rows(ro.bounds(c, ctx.w_sch))[0] for c in per)
+            return ro.contact(per, ctx.w_sch, d_c, m) if d_c > 0.0 else m  # type: ignore[no-any-return]
+
         rows = ro.rows(ctx.v_ld)
         m1, kind, who = min_bound_rows(rows)
         if keep * worst(ctx.v_ld) >= need:

@@ -31,7 +31,7 @@ from rtsim.world.leader import Leader
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.path import LeaderPath
 
-__all__ = ["Rollout", "RolloutState", "Changes", "rollout_state", "rollouts_run"]
+__all__ = ["Rollout", "RolloutState", "Changes", "decided_state", "rollout_state", "rollouts_run"]
 
 #: Per follower, the four predicted changes of one window: (displacement in the leader frame
 #: cm, |Δρ| cm, distance driven cm, |Δβ| rad), in BOUND_KINDS order, then its closest
@@ -117,6 +117,34 @@ def rollout_state(*values: Any, turns: tuple[float, ...] = ()) -> RolloutState:
     d.update(_STATE_DEFAULTS)
     d.update(zip(_STATE_FIELDS, values, strict=False))  # (the defaults stay for the rest)
     d["turns"] = turns
+    return state
+
+
+#: the fields of `RolloutState` a decision sets (`decided_state`); the others stay for a run
+DECIDED = (
+    "t_now",
+    "leader_s",
+    "leader_speed",
+    "poses",
+    "speeds",
+    "held",
+    "pending",
+    "next_scan",
+    "send_offsets",
+    "turns",
+)
+
+
+def decided_state(base: RolloutState, *values: Any) -> RolloutState:
+    """``dataclasses.replace(base, **dict(zip(DECIDED, values)))``: the state of a decision
+    from a run's ``base`` (its path, law, limits, thresholds and slots), the same object
+    built by copying ``base``'s fields at once (a run's decisions differ only in `DECIDED`)."""
+    if len(values) != len(DECIDED):
+        raise TypeError(f"decided_state takes the {len(DECIDED)} fields {DECIDED}")
+    state = object.__new__(RolloutState)
+    d = state.__dict__
+    d.update(base.__dict__)
+    d.update(zip(DECIDED, values, strict=False))  # (the lengths checked above)
     return state
 
 
@@ -255,11 +283,13 @@ class Rollout:
 
     def _remember(self, ran: Sequence[tuple[float, tuple[float, ...], Any]]) -> None:
         """Keep compiled rollouts (speed, window lengths, changes array) for `changes`."""
+        memo, raw = self._memo, self._raw
+        before = len(raw)
         for v, lengths, arr in ran:
             key = (v, lengths)
-            if key not in self._memo and key not in self._raw:
-                self._raw[key] = arr
-                self.count += 1
+            if not memo or key not in memo:  # (one hash of the key when nothing is memoised)
+                raw.setdefault(key, arr)  # (the first of equal keys, as ever)
+        self.count += len(raw) - before
 
     def _run(self, v: float, windows: tuple[float, ...]) -> list[list[Changes]]:
         if self._compiled is not None:  # the world's compiled law: one kernel call

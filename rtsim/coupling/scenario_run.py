@@ -19,7 +19,7 @@ import os
 import secrets
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -34,9 +34,15 @@ from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.compiled import PaperSearch
 from rtsim.control.oracle import lap_oracle
-from rtsim.control.policy import AdjustOptions, PolicyInput, adjust_options, policy_class
+from rtsim.control.policy import (
+    AdjustOptions,
+    PolicyInput,
+    adjust_options,
+    input_maker,
+    policy_class,
+)
 from rtsim.control.predict import trusted_estimate
-from rtsim.control.rollout import Rollout, rollout_state
+from rtsim.control.rollout import Rollout, decided_state, rollout_state
 from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
 from rtsim.coupling.inputs import ScenarioInputs as ScenarioInputs
 from rtsim.coupling.inputs import _inputs as _inputs
@@ -46,8 +52,10 @@ from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.prepared import settled_speed, window_bound
 from rtsim.coupling.recorder import (
+    CHANGE_KEYS,
     WindowRecord,
     WindowRecorder,
+    changes_array,
     records_columns,
     records_frame,
 )
@@ -84,6 +92,39 @@ __all__ = [
 VIOLATION_TOLERANCE = 0.05
 
 
+class _Records(NamedTuple):
+    """A run's complete window records, for the frame of a result that nobody has read yet
+    (`_Frame`)."""
+
+    recs: list[WindowRecord]
+    n: int
+    limits: tuple[tuple[float, ...], ...]
+
+    def frame(self) -> pd.DataFrame:
+        return records_frame(self.recs, self.n, self.limits)
+
+
+class _Frame:
+    """A result's ``windows``, built from its records when first read: a sweep point or a
+    benchmark that reads only the summary does not pay for the followers' state, estimate
+    and bound columns nor the DataFrame (≈ 4 ms of a Test 2 lap at n = 2). Reading it gives
+    the frame built at once would have; until then the result holds the records."""
+
+    def __init__(self, key: str) -> None:
+        self.key = key  # (where the instance keeps it)
+
+    def __get__(self, obj: Any, owner: type | None = None) -> Any:
+        if obj is None:  # (no default: the dataclass's field stays required)
+            raise AttributeError(self.key)
+        value = obj.__dict__[self.key]
+        if isinstance(value, _Records):
+            value = obj.__dict__[self.key] = value.frame()
+        return value
+
+    def __set__(self, obj: Any, value: Any) -> None:
+        obj.__dict__[self.key] = value
+
+
 @dataclass(repr=False)
 class ScenarioResult(ResultDisplay):
     """A coupled run: ``windows`` (windows.csv), ``jobs`` (job records or None), ``summary``
@@ -92,7 +133,7 @@ class ScenarioResult(ResultDisplay):
     ``simulation_cpu_s``, the process CPU time of the loop — robust on a shared machine);
     ``trace`` (the execution trace, with ``record_trace=True``)."""
 
-    windows: pd.DataFrame | None
+    windows: pd.DataFrame | None  # (a `_Frame`, set below)
     jobs: pd.DataFrame | None
     summary: dict[str, Any]
     timing: dict[str, float]
@@ -127,6 +168,11 @@ class ScenarioResult(ResultDisplay):
         fix error, each bound ``_pred``/``_true``, violations, lost: `rtsim.coupling.tidy`;
         ``followers.csv``); None when the windows were streamed to a sink."""
         return None if self.windows is None else followers_frame(self.windows)
+
+
+# the field `windows` read and written through `_Frame` (set after the dataclass made its
+# __init__, which assigns it: a data descriptor's __set__)
+setattr(ScenarioResult, "windows", _Frame("_windows"))  # noqa: B010
 
 
 class _Decision(NamedTuple):
@@ -249,6 +295,7 @@ class _Coupling:
         self.policy = adj.policy
         self.mode = str(self.policy.name)
         self.decide_at = adj.decide
+        self._decide_at_end = self.decide_at == "end"
         predictor = adj.predictor
         # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
         # predictor is for its own policy, unless [adjust] paper_predictor = false
@@ -261,6 +308,14 @@ class _Coupling:
         )
         if self._rollout:
             predictor = "commands"
+        # the estimates' FollowerEstimate rows: for the policy (unless its class sets
+        # needs_followers = False and the rollout carries the estimates) and the _pred
+        # columns of a decision without a rollout
+        self._fols = not self._rollout or bool(getattr(self.policy, "needs_followers", True))
+        # the rollout's per-run state (`decided_state`'s base, made at the first decision)
+        self._ro_base: Any = None
+        # the motion model keeps a turn rate of its own (RolloutState.turns; empty: none)
+        self._turn_state = bool(self.world.motion.subs)
         if (
             self.world.backend == "compiled"
             and type(predictor) is str
@@ -299,13 +354,10 @@ class _Coupling:
             scan_points=adj.scan_points,
             **fixed,
         )
-        # its fields less those each decision sets (a constructor call costs half a replace)
-        per_decision = {"followers", "omega_l", "kappa", "v_now", "ahead", "pose_sd", "rollout"}
-        self._input_kw = {
-            f.name: getattr(self._input, f.name)
-            for f in fields(PolicyInput)
-            if f.name not in per_decision
-        }
+        # each decision's: these fields set, the others the run's (a fast replace)
+        self._make_input = input_maker(
+            self._input, ("followers", "omega_l", "kappa", "v_now", "ahead", "pose_sd", "rollout")
+        )
 
     def _hook_window(self, where: str) -> None:
         """The window chain's constants and the CPU hooks that drive the world."""
@@ -326,6 +378,7 @@ class _Coupling:
         if self.decide_at == "before-send":
             cpu.on("segment_start", self._on_send_start, task=win.name, role="send")
         self._e_send = float(win.e_send)
+        self._loss = self.radio.loss if self.radio.loss > 0 else 0  # (0: no draw per send)
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
         self._delta_t = float(win.delta_t)
@@ -434,41 +487,54 @@ class _Coupling:
         pending: bool = False,
         estimates: Sequence[tuple[Any, float]] | None = None,
     ) -> Any:
-        """What the leader knows for its rollout at ``now`` (`RolloutState`, `rollout_state`);
-        ``estimates``: per follower ``World.estimate_at(i, now)`` if already computed."""
+        """What the leader knows for its rollout at ``now`` (`RolloutState`, `decided_state`
+        of the run's fixed fields); ``estimates``: per follower ``World.estimate_at(i, now)``
+        if already computed."""
         world = self.world
-        ld = world.leader
+        ids = range(1, self.n + 1)
         if estimates is None:
-            estimates = [world.estimate_at(i, now) for i in range(1, self.n + 1)]
-        poses = [e[0] for e in estimates]
-        speeds = [e[1] for e in estimates]
-        held = [world.held_command(i) for i in range(1, self.n + 1)]
-        cfg = self.cfg
-        return Rollout(
-            rollout_state(
+            estimates = [world.estimate_at(i, now) for i in ids]
+        base = self._ro_base
+        if base is None:  # the fields that stay for the run (the others are set below)
+            cfg = self.cfg
+            base = self._ro_base = rollout_state(
                 cfg.path,
                 world.follow_law,
                 cfg.follower,
                 cfg.step_ms,
-                now,
-                ld.s,
-                ld.speed,
+                0.0,
+                0.0,
+                0.0,
                 self.v_ld,
                 cfg.leader_accel_max,
                 cfg.leader_decel_max,
-                tuple(poses),
-                tuple(speeds),
-                tuple(held),
-                self._pending(now) if pending else ((),) * self.n,
-                max(now, next_scan),
-                tuple(self._send_offsets),
+                (),
+                (),
+                (),
+                (),
+                0.0,
+                (),
                 self.thr,
                 tuple(self.rho_d),
                 self.w_sch,
                 type(world.followers),
                 tuple(self.beta_d),
                 self._contact_cm,
-                turns=world.expected_turn_rates(now),
+            )
+        ld = world.leader
+        return Rollout(
+            decided_state(
+                base,
+                now,
+                ld.s,
+                ld.speed,
+                tuple([e[0] for e in estimates]),
+                tuple([e[1] for e in estimates]),
+                tuple([world.held_command(i) for i in ids]),
+                self._pending(now) if pending else ((),) * self.n,
+                max(now, next_scan),
+                tuple(self._send_offsets),
+                world.expected_turn_rates(now) if self._turn_state else (),
             )
         )
 
@@ -485,43 +551,41 @@ class _Coupling:
         world.advance(now)
         lp = world.leader_pose
         _, kappa = world.segment_at()
-        state = []
-        fols: list[Any] = []
-        estimates = []
-        for k in range(self.n):
-            # the estimate propagated to now and its expected speed, in one pass (the same
-            # as World.estimated_pose(i) and World.relative(i, "estimate")[3])
-            pose, v_f = world.estimate_at(k + 1, now)
-            estimates.append((pose, v_f))
-            rho, beta, theta = relative_state(lp, pose)
-            state.append((*pose, rho, beta, theta, v_f))
-            fols.append(
-                trusted_estimate(rho, beta, theta, max(v_f, 0.0), self.rho_d[k], self.beta_d[k])
-            )
+        # each follower's estimate propagated to now and its expected speed, in one pass (the
+        # same as World.estimated_pose(i) and World.relative(i, "estimate")[3])
+        estimates = [world.estimate_at(i, now) for i in range(1, self.n + 1)]
+        # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns
+        state = tuple([(*pose, *relative_state(lp, pose), v_f) for pose, v_f in estimates])
+        fols = self._followers(state) if self._fols else ()
         kw: dict[str, Any] = {
             "omega_l": world.leader_omega,
             "kappa": kappa,
             "v_now": self._v_actual(),
         }
-        ahead = () if self._path is None else self._ahead()
-        extra: dict[str, Any] = {"pose_sd": self._pose_sd()} if self._noise else {}
-        if self._rollout:
-            extra["rollout"] = self._rollout_state(
+        ro = None
+        if self._rollout:  # (the _pred columns evaluate the same rollout: kw)
+            ro = kw["rollout"] = self._rollout_state(
                 now,
                 now if next_scan is None else next_scan,
                 self.decide_at == "before-send" and now > 0,
                 estimates,
             )
         adj = self.policy.decide(
-            PolicyInput(**self._input_kw, followers=fols, **kw, ahead=ahead, **extra)
+            self._make_input(
+                fols,
+                kw["omega_l"],
+                kappa,
+                kw["v_now"],
+                () if self._path is None else self._ahead(),
+                self._pose_sd() if self._noise else (),
+                ro,
+            )
         )
         v_l = max(adj.v_leader, self.v_floor)
-        if self._rollout:  # the _pred columns evaluate the same rollout
-            kw = {**kw, "rollout": extra["rollout"]}
         # each follower's closest approach among the estimates: the contact prediction of a
         # decision without a rollout (`_close`; a rollout predicts its own)
         near: tuple[float, ...] = ()
-        if not self._rollout:
+        if ro is None:
             xs = [e[0][0] for e in estimates]
             ys = [e[0][1] for e in estimates]
             near = tuple(closest_to(xs, ys, k, lp[0], lp[1]) for k in range(self.n))
@@ -532,11 +596,21 @@ class _Coupling:
             adj.binding,
             adj.method,
             adj.feasible and v_l == adj.v_leader,
-            tuple(state),
-            tuple(fols),
+            state,
+            fols,
             kw,
             ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
             near,
+        )
+
+    def _followers(self, state: tuple[tuple[float, ...], ...]) -> tuple[Any, ...]:
+        """The policy's `FollowerEstimate` per follower from the est columns ``state``."""
+        rho_d, beta_d = self.rho_d, self.beta_d
+        return tuple(
+            [
+                trusted_estimate(s[3], s[4], s[5], max(s[6], 0.0), rho_d[k], beta_d[k])
+                for k, s in enumerate(state)
+            ]
         )
 
     def _pose_sd(self) -> tuple[tuple[float, float], ...]:
@@ -594,30 +668,31 @@ class _Coupling:
         return self.dec.w
 
     def _on_release(self, job: Job) -> None:
-        now = self.env.now
-        self.world.advance(now)
-        kind, kappa = self.world.segment_at()
+        world = self.world
+        world.advance(self.env.now)
+        kind, kappa = world.segment_at()
         d = self.dec
-        self._decisions[job.index] = d
-        self._open[job.index] = self.rec.add(
-            WindowRecord(
-                window=job.index,
-                t=job.release,
-                w=job.period,
-                w_sch=self.w_sch,
-                msb_min=d.msb_min,
-                binding=d.binding,
-                v_leader_desired=self.v_ld,
-                v_leader=self._v_actual(),
-                v_leader_target=self._v_target(),
-                method=d.method,
-                feasible=d.feasible,
-                segment=kind,
-                curvature=kappa,
-                est=d.est,
-                radio_ms=self._delta_t,  # (a drawn round trip replaces it)
-            )
+        i = job.index
+        self._decisions[i] = d
+        # (positional, in WindowRecord's field order: a call with keywords costs more)
+        rec = WindowRecord(
+            i,
+            job.release,
+            job.period,
+            self.w_sch,
+            d.msb_min,
+            d.binding,
+            self.v_ld,
+            world.leader_speed,  # (_v_actual)
+            world.leader_target_speed,  # (_v_target)
+            d.method,
+            d.feasible,
+            kind,
+            kappa,
+            d.est,
         )
+        rec.radio_ms = self._delta_t  # (a drawn round trip replaces it)
+        self._open[i] = self.rec.add(rec)
 
     def _on_scan(self, job: Job, seg: Segment) -> None:
         now = self.env.now
@@ -625,30 +700,32 @@ class _Coupling:
         rec = self._open[job.index]
         scan = world.scan(now)
         world.estimate(scan)
-        self._hough_ms = hough_time(scan, *self._hough_args)
+        hough_ms = self._hough_ms = hough_time(scan, *self._hough_args)
         rec.scan_t = now
-        rec.hough_ms = self._hough_ms
-        rec.points = scan.hough_points
-        no_search = self._hough_ms - scan.n_searched * self._search_ms
+        rec.hough_ms = hough_ms
+        voted = rec.voted = scan.voted
+        points = rec.points = int(sum(voted))  # (scan.hough_points)
+        searched = scan.n_searched
         rec.assumption_broken = (
-            rec.points > self._points_assumed or no_search > self._hough_assumed + 1e-9
+            points > self._points_assumed
+            or hough_ms - searched * self._search_ms > self._hough_assumed + 1e-9
         )
-        rec.tracks_lost = scan.n_lost
-        if rec.tracks_lost:
+        lost = rec.lost = scan.as_lists("lost")
+        tracks_lost = rec.tracks_lost = int(sum(lost))  # (scan.n_lost)
+        if tracks_lost:
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
-            rec.searches = scan.n_searched
+            rec.searches = searched
             rec.reacquisitions = scan.n_reacquired
-        rec.voted = scan.voted
         rec.fix_error = scan.fix_error
         rec.neighbour = scan.neighbour
-        rec.lost = scan.as_lists("lost")
-        rec.leader = scan.leader_pose
-        rec.truth = self._truth(scan.leader_pose)
+        lp = rec.leader = scan.leader_pose
+        rec.truth = self._truth(lp)
         fol = world.followers  # (the scan advanced every follower to now)
-        rec.near = self.phys.add(scan.leader_pose, fol.x, fol.y)
-        self._close(scan, rec.near)
+        near = rec.near = self.phys.add(lp, fol.x, fol.y)
+        if self._last_scanned is not None:
+            self._close(scan, near)
         self._last_scanned = rec
-        self._v_max = self._v_actual()
+        self._v_max = world.leader_speed  # (_v_actual)
 
     def _close(self, scan: Any, near: tuple[float, ...] = ()) -> None:
         """Close the previous window's observation interval with ``scan``'s violations (and
@@ -660,9 +737,10 @@ class _Coupling:
         last.changes = scan.as_lists("changes")
         # the bounds the window's decision predicts at the highest speed the leader had in
         # the interval the changes span (the world has advanced to the scan)
-        last.v_leader_max = max(self._v_max, self._v_actual())
+        v = self.world.leader_speed  # (_v_actual)
+        v_max = last.v_leader_max = v if v > self._v_max else self._v_max  # (max)
         d = self._decisions.pop(last.window)
-        last.pred = self._predicted(d, last.v_leader_max)
+        last.pred = self._predicted(d, v_max)
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
@@ -670,7 +748,7 @@ class _Coupling:
             d_c = self._contact_cm
             last.viol_contact = tuple(x < d_c for x in last.near_true)
         ro = d.kw.get("rollout")
-        last.near_pred = tuple(ro.closest(last.v_leader_max)) if ro is not None else d.near
+        last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
 
     def violation_ratios(
         self, tolerance: float = VIOLATION_TOLERANCE
@@ -699,12 +777,10 @@ class _Coupling:
         out: dict[str, tuple[float, int]] = {}
         if not recs:
             return out
+        # every record's changes in CHANGE_KEYS order, one (records, kinds, n) array
+        ch = changes_array(recs, self.n)
         for kind, key, lim in self._limits:
-            ch = np.array(
-                [r.changes[key] for r in recs],  # type: ignore[index]
-                dtype=np.float64,
-            )
-            ratio = ch.reshape(len(recs), -1) / lim
+            ratio = ch[:, CHANGE_KEYS.index(key), :] / lim
             out[kind] = (float(ratio.max()), int((ratio > 1.0 + tolerance).sum()))
         return out
 
@@ -743,13 +819,14 @@ class _Coupling:
     def _on_send(self, job: Job, seg: Segment) -> None:
         now = self.env.now
         i = int(seg.follower)  # type: ignore[arg-type]
-        if self.radio.loss > 0 and self._radio_rng.random() < self.radio.loss:  # type: ignore[union-attr]
+        rec = self._open[job.index]
+        if self._loss and self._radio_rng.random() < self._loss:  # type: ignore[union-attr]
             # lost: the follower keeps its previous command; the leader, missing the reply,
             # keeps it in its estimate too
-            self._open[job.index].radio_losses += 1
+            rec.radio_losses += 1
         else:
             self.world.command(i, now)
-        scan_t = self._open[job.index].scan_t
+        scan_t = rec.scan_t
         if scan_t == scan_t and 1 <= i <= self.n:  # (NaN before the scan)
             self._send_offsets[i - 1] = now - scan_t
 
@@ -768,13 +845,15 @@ class _Coupling:
 
     def _on_done(self, job: Job) -> None:
         now = self.env.now
-        rec = self._open.pop(job.index)
-        rec.finish = now
-        if self.decide_at == "end":
+        self._open.pop(job.index).finish = now
+        if self._decide_at_end:
             self._decide(job)
         else:
-            self.world.advance(now)
-            self._v_max = max(self._v_max, self._v_actual())
+            world = self.world
+            world.advance(now)
+            v = world.leader_speed  # (_v_actual)
+            if v > self._v_max:  # (max)
+                self._v_max = v
         if self.lap_ms is None:
             self._lap_check(now)
         if (
@@ -1047,9 +1126,8 @@ def run_scenario(
         "simulation_cpu_s": c2 - c1,
         "tables_s": t3 - t2,
     }
-    return ScenarioResult(
-        df if window_sink is None else None, res.jobs, summary, timing, inp, res.trace
-    )
+    frame: Any = df if window_sink is None else None  # (`_Records`: the frame when read)
+    return ScenarioResult(frame, res.jobs, summary, timing, inp, res.trace)
 
 
 def _length(
@@ -1075,13 +1153,15 @@ def _length(
     return length.horizon_ms, length.stop_s, length.stop_ms
 
 
-def _tables(run: _Coupling, window_sink: Any, windows: bool) -> tuple[pd.DataFrame | None, Any]:
-    """The windows' frame (None: streamed or not asked for) and the columns the summary
-    reads (in memory, or read back from the sink in chunks: memory stays flat at any
-    length and follower count)."""
+def _tables(run: _Coupling, window_sink: Any, windows: bool) -> tuple[_Records | None, Any]:
+    """The windows' records for the result's frame (None: streamed or not asked for; the
+    frame is built when first read, `_Frame`) and the columns the summary reads (in memory,
+    without the followers' state and bounds, or read back from the sink in chunks: memory
+    stays flat at any length and follower count)."""
     if window_sink is None:
-        table = records_columns([r for r in run.rec.records if r.complete], run.n, run.rec.limits)
-        return (pd.DataFrame(table, columns=list(table)) if windows else None), table
+        recs = [r for r in run.rec.records if r.complete]
+        table = records_columns(recs, run.n, run.rec.limits, state=False)
+        return (_Records(recs, run.n, run.rec.limits) if windows else None), table
     run.rec.flush()
     window_sink.close()
     return None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS)

@@ -482,8 +482,8 @@ class CPU(ResourceProtocols, TimeSlices):
                     if run_end <= limit:
                         continue
             else:  # booked inline: the instant is settled, or the clock moved on (moved)
-                moved, top, running, now, work_start, work_lag, run_end, run_lag = booked
-                piece_start, last, now_lag = work_start, running, 0.0
+                moved, top, running, now, now_lag, work_start, work_lag, run_end, run_lag = booked
+                piece_start, last = work_start, running
                 if moved:
                     continue
             if sliced and running is not self._slice_job:  # a new slice (rtsim.sim.slices)
@@ -914,9 +914,11 @@ class CPU(ResourceProtocols, TimeSlices):
         stats.sum_response += resp
         if stats.max_response is None or resp > stats.max_response:
             stats.max_response = resp
-        missed = now > job.deadline + self._tol
-        if missed:
+        if now > job.deadline + self._tol:  # (a comparison the interpreter specializes in a jump)
+            missed = True
             stats.misses += 1
+        else:
+            missed = False
         stats.preemptions += job.preemptions
         self._count_response(stats, resp, job.deadline - job.arrival)
         if self.record_jobs:

@@ -5,11 +5,13 @@ function `top_jobs` made for its run (docs/cpu-events.md, step 3: inline jobs of
 task, runs of inline jobs). If nothing can happen while the job runs, that function books
 the preemption at now, the completion at f = now + c and the dispatch at f in one step, with
 the same float operations in the same order as the general path, then goes on to the top
-task's next release itself while that is the next thing to happen. Any other case goes back
-to the dispatcher's loop, in the state the loop would have there. The call is made for every
-run of inline jobs, so its constants are bound once per run (default arguments: locals), and
-the sums it adds to (the CPU's busy time and switches; the task's completions, responses and
-releases) are kept in locals and stored when the booking ends: the same float additions in
+task's next release itself while that is the next thing to happen; when the job after it
+ends first, that job completes and the next gets the CPU there too (`_job_ends`). Any other
+case goes back to the dispatcher's loop, in the state the loop would have there. The call is
+made for every run of inline jobs, so its constants are bound once per run (closure cells),
+and what it adds to or moves (the CPU's busy time and switches; the task's completions,
+responses, releases and release timer; the progress of the job after it; the sequence
+numbers) is kept in locals and stored when the booking ends: the same float additions in
 the same order, and nothing reads them meanwhile.
 """
 
@@ -17,22 +19,26 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from heapq import heappop, heappush, heapreplace
+from heapq import heappop, heappush
+from itertools import islice
 from typing import Any, Protocol
 
 from rtsim.sim.job import _RELEASE, Job, _TaskState, _Totals
 from rtsim.sim.records import TaskStats
 
-__all__ = ["Booked", "Dispatcher", "Top", "top_jobs"]
+__all__ = ["Book", "Booked", "Dispatcher", "Record", "Top", "top_jobs"]
 
 _INF = math.inf
 
 #: A job of the top task released at now and not booked yet: (its task, k, release, seq).
 Top = tuple[_TaskState, int, float, int]
-#: What the booking of a run of inline jobs leaves (module doc): (moved: the clock moved on
-#: to a later release, the top task's job released then and not booked yet, running, now,
-#: work_start, work_lag, run_end, run_lag).
-Booked = tuple[bool, Top | None, Job | None, float, float, float, float, float]
+#: What the booking of a run of inline jobs leaves (module doc): (moved: the loop goes on at
+#: now, from its top; the top task's job released at now and not booked yet, running, now,
+#: now_lag, work_start, work_lag, run_end, run_lag).
+Booked = tuple[bool, Top | None, Job | None, float, float, float, float, float, float]
+#: The booking `top_jobs` makes for a run, and the job records' writer it may be given.
+Book = Callable[..., Booked | None]
+Record = Callable[[_TaskState, int, float, float, float, bool], None]
 
 
 class Dispatcher(Protocol):
@@ -43,6 +49,7 @@ class Dispatcher(Protocol):
     _ready: list[tuple[Any, Any, Job]]
     _totals: _Totals
     _last_release: float
+    _tol: float
 
     @property
     def _seq(self) -> Iterator[int]: ...
@@ -51,53 +58,35 @@ class Dispatcher(Protocol):
         self, stats: TaskStats, resp: float, rel_deadline: float
     ) -> tuple[int, dict[int, int]]: ...
 
+    def _complete(self, job: Job, now: float) -> None: ...
 
-def top_jobs(
-    cpu: Dispatcher,
-    queue: list[Any],
-    top_first: bool,
-    top_record: Callable[[_TaskState, int, float, float, float, bool], None] | None,
-) -> Callable[..., Booked | None]:
+
+def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Record | None) -> Book:
     """The booking for a run of ``cpu`` (module doc; ``top_record`` None: no job records)."""
     top_resp, top_bin, top_counts = math.nan, 0, dict[int, int]()  # the latest response, its bin
+    env, timers, ready, totals, seqs = cpu.env, cpu._timers, cpu._ready, cpu._totals, cpu._seq
+    last_release, inf = cpu._last_release, _INF  # (the run's constants, as closure cells)
 
-    def book(  # (the dispatcher's state, then its constants bound as locals for the run)
-        top: Top,
-        running: Job | None,
-        now: float,
-        now_lag: float,
-        work_start: float,
-        work_lag: float,
-        t_next: float,
-        tol: float,
-        tol_next: float,
-        env: Any = cpu.env,
-        timers: list[tuple[Any, ...]] = cpu._timers,
-        ready: list[tuple[Any, Any, Job]] = cpu._ready,
-        queue: list[Any] = queue,
-        totals: _Totals = cpu._totals,
-        seqs: Iterator[int] = cpu._seq,
-        top_first: bool = top_first,
-        last_release: float = cpu._last_release,
-        top_record: Callable[..., None] | None = top_record,
-    ) -> Booked | None:
-        """Book ``top``'s job if it can be (module doc); None if not: its `Job` is ready."""
+    def book(top, running, now, now_lag, work_start, work_lag, t_next, tol, tol_next):
+        """Book ``top``'s job if it can be (module doc): `Booked`; None if not: its Job is ready."""
         nonlocal top_resp, top_bin, top_counts
         st, k, r, seq = top
-        limit = now + tol  # (what is due by limit happens at now)
-        stats, c = st.stats, st.fast_start  # (constant for the run, as these:)
-        first, period, rel_deadline = st.first, st.period, st.deadline
-        # (job wins under fp; else if it comes first and preempts); nxt_job: the first in the
-        job, wins, nxt_job, from_ready = None, True, running, False  # ready order after it, at f
-        if ready:  # (key, tie) < running's? (the common "key greater" case first)
+        limit, stats, c = now + tol, st.stats, st.fast_start  # (due by limit: at now; the
+        first, period, rel_deadline = st.first, st.period, st.deadline  # run's constants)
+        job, wins, nxt_job, from_ready = None, True, running, False  # (wins: always under fp;
+        if ready:  # nxt_job: the first in the ready order after the top task's job, at f)
             h = ready[0]
             if running is None or (
                 h[0] <= running.key and (h[0] < running.key or h[1] < running.tie)
             ):
                 nxt_job, from_ready = h[2], True
-        top_n, moved, nxt = 0, False, None  # (top_n: responses = top_resp not yet in the bin)
-        busy, switches, done, sum_resp, released = totals.busy, 0, 0, stats.sum_response, 0
-        while True:
+        t_next = t_next if timers else inf  # (the next timer)
+        nxt_ok = nxt_job is None or nxt_job.rem is not None  # (it has started: no hook at f)
+        unbooked = moved = due = held = rel_first = False  # (moved: the clock, to a release)
+        kn, rn, live, ot, other = st.k, st.next_release, True, inf, None  # the top task's next
+        top_n, released, sum_resp, switches, jpre = 0, 0, stats.sum_response, 0, 0  # release
+        busy = jrem = jex = xr = 0.0  # (k, t) in locals: its timer held out of the heap (live:
+        while True:  # (one pass for the first job, then after each release: the next)
             if not top_first:  # (its key, a deadline, is compared with the others')
                 job = Job(st, k, r, r + rel_deadline, period, seq)
                 jk = job.key
@@ -108,35 +97,28 @@ def top_jobs(
             f = now + x
             y = f - now
             f_lag = (now - (f - y)) + (x - y)
-            if not (  # nothing happens in (now, f], and no hook runs at f
-                wins
-                and f > limit
-                and timers
-                and t_next > f + tol
-                and (not queue or queue[0][0] > f)
-                and (nxt_job is None or nxt_job.rem is not None)
-            ):
-                if job is None:  # not booked: its Job is ready, for the general dispatch
-                    job = Job(st, k, r, r + rel_deadline, period, seq)
-                st.pending.append(job)
-                heappush(ready, (job.key, job.tie, job))
-                if moved:  # (at the new instant, where the loop's top finds nothing due)
-                    break
-                return None
-            if running is not None:  # preempted at now
-                if running.rem is not None and now > work_start:
+            if not (wins and limit < f and f + tol < t_next and t_next < inf and nxt_ok) or (
+                queue and queue[0][0] <= f
+            ):  # (nothing happens in (now, f], and no hook runs at f)
+                unbooked = True
+                break
+            if moved:  # (in the horizon), ot/other: the first timer left in it; top_n: responses
+                switches += 1  # = top_resp not in its bin yet) the job after is preempted at now
+                if nxt_job is not None:
                     worked = now - work_start
-                    running.executed += worked
+                    jex += worked
                     busy += worked
-                    running.rem = running.rem - worked - (now_lag - work_lag)
-                running.preemptions += 1
-                if from_ready:
-                    heappush(ready, (running.key, running.tie, running))
-            if from_ready:
-                heappop(ready)
+                    jrem = jrem - worked - (now_lag - work_lag)
+                    jpre += 1
+                    switches += 1
+            else:  # the first: the job running (if any) is preempted at now
+                busy, jrem, jex, jpre = _preempted(
+                    running, nxt_job, from_ready, now, now_lag, work_start, work_lag, cpu
+                )  # (the job after's progress in locals while it runs)
+                running, now_lag, moved, nxt_ok = nxt_job, 0.0, True, True
+                switches = 2 if nxt_job is not None else 1
             busy += f - now  # its completion at f: step 1 and CPU._complete, no Job
             resp = f - r
-            done += 1
             sum_resp += resp
             deadline = r + rel_deadline
             if f > deadline + tol:
@@ -146,58 +128,215 @@ def top_jobs(
             else:  # another bin is counted)
                 if top_n:
                     top_counts[top_bin] += top_n
-                    top_n = 0
-                if stats.max_response is None or resp > stats.max_response:
-                    stats.max_response = resp
-                top_resp = resp
-                top_bin, top_counts = cpu._count_response(stats, resp, deadline - r)
+                top_bin, top_counts = _new_bin(cpu, stats, resp, deadline - r)
+                top_resp, top_n = resp, 0
             if top_record is not None:
                 top_record(st, k, r, now, f, f > deadline + tol)
-            now = work_start = f  # (env._now is set where the clock stops)
-            now_lag = work_lag = f_lag
-            if nxt_job is not None:  # it gets the CPU at f: a second switch
-                switches += 2
-                x = nxt_job.rem + f_lag  # type: ignore[operator]
-                run_end = f + x
-                y = run_end - f
-                run_lag = (f - (run_end - y)) + (x - y)
+            now, work_start, work_lag = f, f, f_lag  # (env._now is set where the clock stops)
+            run_end = f + (xr := jrem + f_lag) if nxt_job is not None else inf  # (the job after
+            # gets the CPU at f, its run_lag at the end) Next, as the loop would: 4. the wait; 1.
+            while not (t_next < run_end and (not queue or t_next < queue[0][0])):  # it ends (1, 3
+                if held and live:  # here: nothing else due); 2. the top task's release (else on)
+                    heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
+                held = False  # (the heap whole again: CPU._complete may add a timer)
+                e = _job_ends(
+                    cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol, tol_next, queue
+                )
+                if e is None:
+                    moved = False
+                    break  # (to the wait)
+                go, now, lag, n, nxt_job, jrem, xr, run_end, t_next, jex, jpre = e
+                busy += now - work_start
+                running, work_start, work_lag, switches = nxt_job, now, lag, switches + n
+                if not go:  # (the loop goes on at now: a timer due, a job to start or ending)
+                    now_lag = lag
+                    break
             else:
-                switches += 1
-                run_end, run_lag = _INF, 0.0
-            running = nxt_job
-            # Next, as the loop would: 4. the wait; 1.; 2. the top task's release alone (else on)
-            if not (
-                timers
-                and (t_next := timers[0][0]) < run_end
-                and (not queue or t_next < queue[0][0])
-            ):
-                env._now, moved = now, False
-                break  # (to the wait)
-            env._now = now = t_next
-            now_lag, moved = 0.0, True
-            limit = now + tol
-            if now >= tol_next or timers[0][5] is not st or run_end <= limit:
-                break
-            k = st.k  # the release of step 2's fast path (stats.max_backlog is 1 already)
-            st.k = k1 = k + 1
-            r = st.next_release
-            after = first + k1 * period
-            if after < last_release:
-                st.next_release = after
-                heapreplace(timers, (after, st.rank, st.priority, st.index, _RELEASE, st))
-            else:
-                heappop(timers)
-            released += 1
-            seq = next(seqs)
-            if timers and (t_next := timers[0][0]) <= limit:
-                nxt = (st, k, r, seq)
-                break  # (another timer is due: step 2 goes on, then this job)
-            from_ready = False  # (the job running comes first of the others, as before)
+                now = t_next  # (now_lag is 0.0)
+                limit = now + tol
+                if now >= tol_next or run_end <= limit:
+                    break
+                if not held:  # the first timer must be the top task's release: out of the heap
+                    if timers[0][5] is not st:
+                        break
+                    heappop(timers)
+                    held = True
+                    other, ot = (timers[0], timers[0][0]) if timers else (None, inf)
+                elif not rel_first:  # (the first timer is another one)
+                    break
+                k, r = kn, rn  # the release of step 2's fast path (stats.max_backlog is 1 already)
+                kn = k + 1
+                released += 1  # (its sequence number drawn at the end under fp)
+                if not top_first:
+                    seq = next(seqs)
+                after = first + kn * period
+                if after < last_release:  # (first if earlier, or at once with a later entry)
+                    if after < ot or (after == ot and _first(after, st, other)):
+                        rn = t_next = after
+                        rel_first = True
+                    else:
+                        rn, t_next, rel_first = after, ot, False
+                else:
+                    live = rel_first = False
+                    t_next = ot
+                if t_next > limit:
+                    continue  # (the next job: booked as the first was, or not)
+                due = True  # (another timer is due: step 2 goes on, then this job)
+            break
+        if top_first and released:  # (the releases' sequence numbers, drawn in one call)
+            seq = next(islice(seqs, released - 1, None))
+        if unbooked:  # (the job released at now: not booked, ready; or booked at step 3)
+            _enqueue(job, st, k, r, period, seq, ready)
+            if not moved:  # (the first)
+                return None
+        if held and live:  # (its timer back in the heap)
+            heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
+        st.k, st.next_release = kn, rn
+        run_lag = 0.0
+        if nxt_job is not None:  # (its progress, and the lag of its end)
+            nxt_job.rem, nxt_job.executed, nxt_job.preemptions = jrem, jex, jpre
+            y = run_end - work_start
+            run_lag = (work_start - (run_end - y)) + (xr - y)
         if top_n:
             top_counts[top_bin] += top_n
         totals.busy, totals.switches = busy, totals.switches + switches
-        stats.completed += done
+        stats.completed += released if unbooked or due else released + 1  # (jobs booked)
         stats.sum_response, stats.released = sum_resp, stats.released + released
-        return moved, nxt, running, now, work_start, work_lag, run_end, run_lag
+        env._now = now
+        nxt = (st, k, r, seq) if due else None
+        return moved, nxt, running, now, now_lag, work_start, work_lag, run_end, run_lag
 
     return book
+
+
+def _preempted(
+    running: Job | None,
+    nxt_job: Job | None,
+    from_ready: bool,
+    now: float,
+    now_lag: float,
+    work_start: float,
+    work_lag: float,
+    cpu: Dispatcher,
+) -> tuple[float, float, float, int]:
+    """The first job of a run is booked: ``running`` (if any) is preempted at ``now``, its
+    progress booked (the dispatcher's switch), and ``nxt_job`` leaves the ready heap if it
+    comes from it (``from_ready``). Returns the CPU's busy time and ``nxt_job``'s remaining
+    work, CPU time and preemptions (zeros if None)."""
+    if running is not None:
+        if running.rem is not None and now > work_start:
+            worked = now - work_start
+            running.executed += worked
+            cpu._totals.busy += worked
+            running.rem = running.rem - worked - (now_lag - work_lag)
+        running.preemptions += 1
+        if from_ready:
+            heappush(cpu._ready, (running.key, running.tie, running))
+    if from_ready:
+        heappop(cpu._ready)
+    if nxt_job is None:
+        return cpu._totals.busy, 0.0, 0.0, 0
+    return cpu._totals.busy, nxt_job.rem, nxt_job.executed, nxt_job.preemptions  # type: ignore[return-value]
+
+
+def _job_ends(
+    cpu: Dispatcher,
+    job: Job | None,
+    start: float,
+    end: float,
+    x: float,
+    executed: float,
+    preemptions: int,
+    t_next: float,
+    tol: float,
+    tol_next: float,
+    queue: list[Any],
+) -> tuple[bool, float, float, int, Job | None, float, float, float, float, float, int] | None:
+    """Steps 4, 1 and 3 of the dispatcher's loop, made as it would make them, when ``job``
+    (the job after the top task's, running since ``start``, its work ``x`` with the lag ends
+    at ``end``, its progress ``executed`` and ``preemptions``) ends before the next timer
+    ``t_next``: it completes (`CPU._complete`) and the first ready job gets the CPU, its
+    segment started (a constant time, no hook). None if not done here: no job, a wider
+    coincidence window (``tol_next``), a timer or SimPy event due at its end, not simple,
+    job-end hooks. Else (go on: nothing else happens at now; now, its lag, switches, the job
+    that runs or None, its remaining work, that plus the lag, its end or inf, the next timer,
+    its CPU time and preemptions): no job runs (it is not started) if a timer is due at now or
+    its segment starts by a call, and the loop goes on at now, as it does if the job ends at
+    once."""
+    if (
+        job is None
+        or end >= tol_next
+        or t_next <= end + tol
+        or (queue and queue[0][0] <= end)
+        or not job._st.simple
+        or job._st.job_end_hooks
+    ):
+        return None
+    y = end - start  # (the end's lag: the wait's now_lag)
+    lag = (start - (end - y)) + (x - y)
+    job.rem, job.executed, job.preemptions = 0.0, executed + (end - start), preemptions
+    cpu.env._now = end
+    cpu._complete(job, end)
+    timers, ready = cpu._timers, cpu._ready
+    t_next = timers[0][0] if timers else _INF
+    nxt = ready[0][2] if ready else None  # (step 3: it gets the CPU; now + overhead 0.0 = now)
+    if t_next <= end + tol or nxt is None:  # (the CPU idles if nothing is due)
+        return t_next > end + tol, end, lag, 0, None, 0.0, 0.0, _INF, t_next, 0.0, 0
+    rem = nxt.rem
+    if rem is None:
+        rem = nxt._st.seg_const[nxt.seg_index]
+        if rem is None:
+            return False, end, lag, 0, None, 0.0, 0.0, _INF, t_next, 0.0, 0
+        if nxt.start is None:
+            nxt.start = end
+        nxt.seg_start = end
+        nxt.seg_exec = nxt.rem = rem
+    heappop(ready)
+    x = rem + lag
+    run_end = end + x
+    return (
+        run_end > end + tol,
+        end,
+        lag,
+        1,
+        nxt,
+        rem,
+        x,
+        run_end,
+        t_next,
+        nxt.executed,
+        nxt.preemptions,
+    )
+
+
+def _first(t: float, st: _TaskState, other: tuple[Any, ...]) -> bool:
+    """Whether the top task's release timer at ``t`` comes before the timer ``other`` of the
+    same time in the heap's order."""
+    return (t, st.rank, st.priority, st.index) < other
+
+
+def _new_bin(
+    cpu: Dispatcher, stats: TaskStats, resp: float, rel_deadline: float
+) -> tuple[int, dict[int, int]]:
+    """The top task's response ``resp`` differs from the last one: the maximum is updated, and
+    ``resp`` is counted (`CPU._count_response`: its bin and the counts)."""
+    if stats.max_response is None or resp > stats.max_response:
+        stats.max_response = resp
+    return cpu._count_response(stats, resp, rel_deadline)
+
+
+def _enqueue(
+    job: Job | None,
+    st: _TaskState,
+    k: int,
+    r: float,
+    period: float,
+    seq: int,
+    ready: list[tuple[Any, Any, Job]],
+) -> None:
+    """The top task's job ``k`` released at ``r`` is not booked: its `Job` (if not made yet)
+    joins its task's pending jobs and the ready heap."""
+    if job is None:
+        job = Job(st, k, r, r + st.deadline, period, seq)
+    st.pending.append(job)
+    heappush(ready, (job.key, job.tie, job))

@@ -9,6 +9,7 @@ i.e. 100 ms at V_Ld = 25 cm/s. Each policy's window and speed follow by hand bel
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import subprocess
 import sys
@@ -27,6 +28,7 @@ from rtsim.control.policy import (
     PolicyInput,
     adjust_options,
     decide_rows,
+    input_maker,
     make_policy,
     policy_class,
 )
@@ -423,3 +425,23 @@ def test_policies_experiment_quick(tmp_path: Path) -> None:
     assert (tmp_path / "pareto.png").stat().st_size > 1000
     man = json.loads((tmp_path / "manifest.json").read_text())
     assert man["inputs"]["quick"] is True
+
+
+def test_input_maker_is_replace() -> None:
+    """`input_maker` (the run's fields kept, a decision's set through the slots) builds what
+    ``dataclasses.replace`` does: equal, the same hash, still frozen, the template unchanged;
+    a wrong count of values or an unknown field is refused."""
+    f = FollowerEstimate(100.0, 0.5, 0.1, 20.0, 100.0, 0.5)
+    base = PolicyInput((), 30.0, 240.0, THR, cap=700.0, predictor="paper", accel_max=40.0)
+    names = ("followers", "omega_l", "kappa", "v_now", "ahead", "pose_sd", "rollout")
+    values = ((f,), 0.2, 0.004, 28.0, ((10.0, 0.01),), ((1.0, 0.01),), None)
+    made = input_maker(base, names)(*values)
+    want = dataclasses.replace(base, **dict(zip(names, values, strict=True)))
+    assert made == want and hash(made) == hash(want) and made is not base
+    assert base.followers == () and base.omega_l == 0.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        made.kappa = 1.0  # type: ignore[misc]
+    with pytest.raises(ValueError):
+        input_maker(base, names)(*values[:-1])
+    with pytest.raises(AttributeError):
+        input_maker(base, ("followers", "no_such_field"))

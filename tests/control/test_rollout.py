@@ -16,6 +16,7 @@ the observed ones by at most 0.022 cm and 7e-5 rad (measured; elsewhere below 1e
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Callable
@@ -26,7 +27,7 @@ from rollout_states import world_state
 
 from rtsim.config.scenario import load_scenario
 from rtsim.control.adjust import search_rollout
-from rtsim.control.rollout import Rollout, RolloutState, rollout_state
+from rtsim.control.rollout import DECIDED, Rollout, RolloutState, decided_state, rollout_state
 from rtsim.world import World
 
 QUIET = {
@@ -245,6 +246,7 @@ def test_a_users_policy_gets_the_rollout() -> None:
             rows = ctx.rollout.rows(ctx.v_ld)
             d = PaperPolicy().decide(ctx)  # the paper's algorithm with predictor commands
             seen.append((ctx.predictor, rows == d.rows, ctx.rollout.count >= 1))
+            assert len(ctx.followers) == 2  # (no needs_followers = False: the estimates too)
             m = min_bound_rows(rows)[0]
             return Decision(ctx.w_sch, ctx.v_ld, m, "none", 0, "none", True, rows, rows, m, {})
 
@@ -257,6 +259,28 @@ def test_a_users_policy_gets_the_rollout() -> None:
         ADJUSTMENT_POLICIES.pop("probe-rollout")
     assert seen and all(p == "commands" and same and ran for p, same, ran in seen)
     assert res.summary["predictor"] == "commands"
+
+
+def test_plan_reads_no_followers(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``plan`` sets ``needs_followers = False``: a coupled run leaves its
+    ``PolicyInput.followers`` empty (it reads the estimates through the rollout), and the
+    decisions are those it makes with them (the pinned digests hold the runs bit for bit)."""
+    from rtsim.control.policy import PlanPolicy
+    from rtsim.coupling import run_scenario
+
+    seen: list[int] = []
+    decide = PlanPolicy.decide
+
+    def probe(self, ctx):  # type: ignore[no-untyped-def]
+        seen.append(len(ctx.followers))
+        full = dataclasses.replace(ctx, followers=tuple(range(5)))  # (never read)
+        made = decide(self, ctx)
+        assert repr(decide(self, full)) == repr(made)  # (repr: a NaN found speed is equal)
+        return made
+
+    monkeypatch.setattr(PlanPolicy, "decide", probe)
+    run_scenario("test2", policy="plan", duration_s=3.0, seed=0, record_jobs=False)
+    assert seen and set(seen) == {0}
 
 
 def test_rollout_state_is_the_dataclass() -> None:
@@ -278,3 +302,32 @@ def test_rollout_state_is_the_dataclass() -> None:
             RolloutState(*bad)
         with pytest.raises(TypeError):
             rollout_state(*bad)
+
+
+def test_decided_state_is_replace() -> None:
+    """`decided_state` (a run's fixed fields copied, a decision's written in) builds what
+    ``dataclasses.replace`` does: equal, the same hash and fields, frozen; the base is not
+    changed; a wrong count of decision fields is refused."""
+    world = _quiet_world("test2")
+    base = world_state(world, 0.0, 0.0, OFFSETS, 240.0)
+    keep = dict(vars(base))
+    values = (
+        12.5,
+        base.leader_s + 3.0,
+        17.0,
+        ((1.0, 2.0, 0.1), (3.0, 4.0, 0.2)),
+        (10.0, 11.0),
+        ((10.0, 0.01), (11.0, 0.02)),
+        ((20.0,), ()),
+        40.0,
+        (131.0, 137.0),
+        (0.01, 0.02),
+    )
+    made = decided_state(base, *values)
+    want = dataclasses.replace(base, **dict(zip(DECIDED, values, strict=True)))
+    assert made == want and hash(made) == hash(want) and vars(made) == vars(want)
+    assert made != base and vars(base) == keep
+    with pytest.raises(AttributeError):
+        made.t_now = 1.0  # type: ignore[misc]
+    with pytest.raises(TypeError):
+        decided_state(base, *values[:-1])

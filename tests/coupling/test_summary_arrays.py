@@ -110,3 +110,54 @@ def test_violation_ratios_equal_per_kind_arrays(run: tuple[Any, Any]) -> None:
         ratio = np.array([r.changes[key] for r in recs], dtype=float).reshape(len(recs), -1) / lim
         assert ratios[kind] == float(ratio.max())
         assert beyond[kind] == int((ratio > 1.0 + sr.VIOLATION_TOLERANCE).sum())
+
+
+def test_summary_columns_without_state_are_the_tables(run: tuple[Any, Any]) -> None:
+    """The summary reads columns built without the followers' state, estimates and bounds
+    (`records_columns(state=False)`): each of them the full table's array, dtype and bytes,
+    and the summary of the full table is the run's."""
+    from rtsim.coupling.recorder import records_columns, window_columns
+    from rtsim.coupling.summary import summary_columns
+
+    coupling, res = run
+    n = coupling.n
+    recs = [r for r in coupling.rec.records if r.complete]
+    full = records_columns(recs, n, coupling.rec.limits)
+    part = records_columns(recs, n, coupling.rec.limits, state=False)
+    assert set(summary_columns(n)) <= set(part) and set(part) < set(full)
+    assert list(part) == [c for c in window_columns(n) if c in part]  # (in the table's order)
+    assert f"f{n}_x" not in part and "f1_msb_bearing_true" not in part
+    for c, v in part.items():
+        w = full[c]
+        if isinstance(v, list):
+            assert v == w
+        else:
+            assert v.dtype == w.dtype and v.tobytes() == w.tobytes(), c
+    again = sr.summarize(
+        full,
+        mode=res.summary["mode"],
+        w_sch=res.summary["w_sch"],
+        duration_s=res.summary["duration_s"],
+        seed=res.summary["seed"],
+        scenario=res.summary["scenario"],
+        n=n,
+    )
+    assert {k: again[k] for k in again if k in res.summary} == {
+        k: res.summary[k] for k in again if k in res.summary
+    }
+
+
+def test_windows_frame_built_when_first_read(run: tuple[Any, Any]) -> None:
+    """A result holds its records until ``windows`` is read, then the frame of the full
+    columns, built once (the same object at every read)."""
+    from rtsim.coupling.recorder import records_frame
+
+    coupling, res = run
+    held = res.__dict__["_windows"]
+    if isinstance(held, sr._Records):  # (not read yet by an earlier test of this run)
+        assert held.recs == [r for r in coupling.rec.records if r.complete]
+    df = res.windows
+    assert res.windows is df and isinstance(res.__dict__["_windows"], type(df))
+    recs = [r for r in coupling.rec.records if r.complete]
+    ref = records_frame(recs, coupling.n, coupling.rec.limits)
+    assert list(df.columns) == list(ref.columns) and df.to_csv() == ref.to_csv()

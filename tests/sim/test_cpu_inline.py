@@ -93,7 +93,7 @@ def specs(draw: st.DrawFn) -> Spec:
     )
 
 
-def run(spec: Spec, inline: bool, scheduler: str = "fp") -> dict[str, Any]:
+def run(spec: Spec, inline: bool, scheduler: str = "fp", hooks: bool = True) -> dict[str, Any]:
     env = simpy.Environment()
     cpu = CPU(
         env,
@@ -149,14 +149,17 @@ def run(spec: Spec, inline: bool, scheduler: str = "fp") -> dict[str, Any]:
 
         return h
 
-    # hooks on every task but the top one (a hook on it switches the inline path off)
+    # hooks on every task but the top one (a hook on it switches the inline path off); none
+    # and constant execution times: the jobs after the top task's may end inside a run too
     names = [t.name for t in (spec.window, spec.per_window, *spec.others) if t is not None]
+    if not hooks:
+        names = []
     for name in names:
         for ev in ("segment_start", "segment_end"):
             cpu.on(ev, seg_hook(ev), task=name)  # type: ignore[arg-type]
         for ev in ("release", "job_end"):
             cpu.on(ev, job_hook(ev), task=name)  # type: ignore[arg-type]
-    for t in spec.others:
+    for t in spec.others if hooks else ():
         for i, s in enumerate(t.segments):
 
             def fn(job, seg, rng, i=i, t=t) -> float:  # noqa: ANN001
@@ -221,6 +224,43 @@ def test_inline_top_jobs_are_unobservable_under_edf(spec: Spec) -> None:
     """Under EDF the top task's job is booked inline only when it comes first (its deadline,
     then creation order) and preempts; the job after it is the first of the others."""
     assert_same(run(spec, inline=True, scheduler="edf"), run(spec, inline=False, scheduler="edf"))
+
+
+@st.composite
+def plain_specs(draw: st.DrawFn) -> Spec:
+    """Sets of one-segment tasks of constant time below the top task, periods long beside
+    its: the jobs after the top task's end inside runs of inline jobs."""
+    period = float(draw(st.sampled_from([4, 5, 8, 10, 40])))
+    top = Task("top", draw(st.sampled_from([0.5, 1.0, 1.5, 3.3])), period, priority=1)
+    others = []
+    for k in range(draw(st.integers(1, 3))):
+        p = period * draw(st.integers(2, 12)) + draw(st.sampled_from([0.0, 0.0, 0.1, 1 / 3]))
+        c = p * draw(st.sampled_from([0.05, 0.1, 0.2, 0.3])) + draw(st.sampled_from([0.0, 0.7]))
+        others.append(
+            Task(
+                f"t{k}",
+                c,
+                p,
+                priority=k + 3,
+                offset=draw(st.sampled_from([0.0, 0.0, p / 3, 2.5])),
+                overload=draw(st.sampled_from(["finish-late", "finish-late", "skip"])),
+            )
+        )
+    probes = draw(st.lists(st.floats(0, 300), max_size=2))
+    h = float(draw(st.integers(100, 2000)))
+    mode = draw(st.sampled_from(["cpu", "idle"]))
+    return Spec(top, others, None, [], None, [1.0], h, mode, probes)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.one_of(specs(), plain_specs()), st.sampled_from(["fp", "edf"]))
+def test_inline_runs_across_the_jobs_after_are_unobservable(spec: Spec, scheduler: str) -> None:
+    """Without hooks and with constant execution times, a run of inline jobs also ends the job
+    after the top task's (a simple one) and gives the CPU to the next (steps 1 and 3)."""
+    assert_same(
+        run(spec, inline=True, scheduler=scheduler, hooks=False),
+        run(spec, inline=False, scheduler=scheduler, hooks=False),
+    )
 
 
 def test_inline_path_is_taken_and_exact(monkeypatch: pytest.MonkeyPatch) -> None:

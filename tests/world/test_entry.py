@@ -60,3 +60,38 @@ def test_the_compiled_worlds_calls_go_direct() -> None:
     got = acc.locate(px, py, owner, cx, cy, 20.0).tolist()
     assert got[0][2] > 0 and math.isnan(got[1][0])  # a peak in the first, none in the second
     assert repr(got) == repr(ref.locate(px, py, owner, cx, cy, 20.0).tolist())  # (NaN too)
+
+
+def test_entry_types_a_changed_argument_again() -> None:
+    """The types `entry` keeps per dispatcher and argument kinds (a sweep's next world) are
+    numba's own typing of the same arguments, and an argument whose dtype, dimensions,
+    layout, writability, int size or tuple shape changed is typed again, not served the kept
+    types (`_type_key`)."""
+    from rtsim.world.kernels import _TYPED, _type_key
+
+    disp = kernels().hypot
+    a = np.zeros(4)
+    ro = np.zeros(4)
+    ro.flags.writeable = False
+    variants = [
+        (0.0, 0.0),
+        (a, 0.0),
+        (a.astype(np.float32), 0.0),
+        (np.zeros((2, 2)), 0.0),
+        (np.zeros((4, 4))[:, 0], 0.0),  # strided: layout A
+        (np.zeros((4, 4), order="F"), 0.0),
+        (ro, 0.0),
+        ((a, a), 1),
+        ((a, a, a), 1),
+        (True, 1),
+    ]
+    keys = [_type_key(v) for v in variants]
+    assert len(set(keys)) == len(keys) and None not in keys
+    assert _type_key((2**40,)) is None and _type_key(([1.0],)) is None  # typed every time
+    for v in variants:
+        entry(disp, v)
+        entry(disp, v)  # (the second from the kept types)
+        assert _TYPED[(disp, _type_key(v))] == tuple(disp.typeof_pyval(x) for x in v)
+    # a build looked up at every call: the kept types of an unbuilt signature find no build
+    unbuilt = (np.float32(1.0), 0.0)
+    assert entry(disp, unbuilt) is disp
