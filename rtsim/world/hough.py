@@ -43,9 +43,13 @@ __all__ = [
     "WINDOW_ROW",
     "Accumulator",
     "compiled",
+    "TURNS",
     "hough_window",
     "locate_all",
     "ring",
+    "ring_arc",
+    "ring_cells",
+    "ring_steps",
     "window_cells",
 ]
 
@@ -69,8 +73,8 @@ WINDOW_ROW = np.dtype(
 
 _COMPILED: Any = None
 
-#: A window's working arrays: the ring's directions (cos, sin) and the scratch (acc, epoch,
-#: stamp, tally, state) of `hough_window`.
+#: A window's working arrays: the ring's steps (`ring_steps`: x, y) and the scratch (acc,
+#: stamp, tally, state, cells) of `hough_window`.
 Work = tuple[
     NDArray[np.float64],
     NDArray[np.float64],
@@ -81,6 +85,10 @@ Work = tuple[
     NDArray[np.int64],
 ]
 
+#: `ring_steps` repeats the ring this many turns: an arc's direction indices a0 … a1 lie in
+#: [−2·na, 3·na) (θ ± γ within ±2π, a step of margin each side), read at a + 2·na
+TURNS = 5
+
 
 def ring(r_F: float, cell: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The unit directions a point's ring of radius ``r_F`` is walked along: half-cell
@@ -90,6 +98,15 @@ def ring(r_F: float, cell: float) -> tuple[NDArray[np.float64], NDArray[np.float
     return np.cos(a), np.sin(a)
 
 
+def ring_steps(r_F: float, cell: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The ring's points relative to its centre, r_F·cos and r_F·sin of each direction of
+    `ring` (the products the walk would form at each step, formed once), `TURNS` turns
+    over: direction a (any a in [−2·na, 3·na)) at index a + 2·na, so an arc is one run of
+    indices."""
+    c, s = ring(r_F, cell)
+    return np.tile(r_F * c, TURNS), np.tile(r_F * s, TURNS)
+
+
 def window_cells(r_H: float, cell: float = CELL_CM) -> int:
     """The cells of a window of radius ``r_H``: cell centres within r_H of the window centre
     (≈ π·r_H²/cell²; the Gauss circle count)."""
@@ -97,6 +114,58 @@ def window_cells(r_H: float, cell: float = CELL_CM) -> int:
     lim = (r_H / cell) ** 2
     i = np.arange(-h, h + 1)
     return int(((i[:, None] ** 2 + i[None, :] ** 2) <= lim).sum())
+
+
+@kernel
+def ring_arc(
+    x: float, y: float, d: float, cx: float, cy: float, r_F: float, reach: float, na: int
+) -> tuple[int, int]:
+    """The arc of the ring around (``x``, ``y``) (``na`` directions, ``d`` from the window
+    centre (``cx``, ``cy``)) that can reach a cell of the window: the directions u with
+    |p + r_F·u − c| ≤ ``reach``, within γ of the direction from p to c, a step of margin
+    each side (the whole ring when that is all of it or d = 0). Returns its first direction
+    index a0 (in [−2·na, 3·na)) and its length."""
+    if d > 0.0:
+        cg = (r_F * r_F + d * d - reach * reach) / (2.0 * r_F * d)
+        if cg > -1.0:
+            step = 2.0 * math.pi / na
+            gamma = math.acos(min(cg, 1.0))
+            theta = math.atan2(cy - y, cx - x)
+            a0 = int(math.floor((theta - gamma) / step)) - 1
+            a1 = int(math.ceil((theta + gamma) / step)) + 1
+            if a1 - a0 + 1 < na:
+                return a0, a1 - a0 + 1
+    return 0, na
+
+
+@kernel
+def ring_cells(
+    x: float,
+    y: float,
+    cx: float,
+    cy: float,
+    rx: NDArray[np.float64],
+    ry: NDArray[np.float64],
+    b: int,
+    n: int,
+    cell: float,
+    r_H: float,
+    into: NDArray[np.int64],
+) -> None:
+    """The cells that ``n`` steps of a point's ring enter, from index ``b`` of ``rx``, ``ry``
+    (`ring_steps`), into ``into[:n]``: cell (i, j) of the window of radius ``r_H`` as
+    i·(2h+1) + j (h = ⌊r_H/cell⌋), −1 where the step lands outside the
+    window. No branch on the data, so that the compiler can run the steps side by side."""
+    h = int(math.floor(r_H / cell))
+    m = 2 * h + 1
+    lim = (r_H / cell) * (r_H / cell)
+    for t in range(n):
+        i = int(math.floor((x + rx[b + t] - cx) / cell + 0.5)) + h
+        j = int(math.floor((y + ry[b + t] - cy) / cell + 0.5)) + h
+        di = i - h
+        dj = j - h
+        inside = (i >= 0) & (j >= 0) & (i < m) & (j < m) & (di * di + dj * dj <= lim)
+        into[t] = i * m + j if inside else -1
 
 
 @kernel
@@ -117,26 +186,24 @@ def hough_window(
     """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
     radius ``r_H`` (``cells`` of side ``cell``: `window_cells`). ``work``: the ring's
-    directions (`ring`) and the scratch (`Accumulator`): ``acc``, ``epoch``,
-    ``stamp`` of at least (2h+1)² cells, h = ⌊r_H/cell⌋, never cleared — a cell counts only if
-    its ``epoch`` is this call's (``state[0]``, advanced by each call), and a point votes for a
-    cell once (its ``stamp``) — and ``tally``, one entry per follower. Writes record ``k`` of
-    ``out`` (`WINDOW_ROW`)."""
-    ring_cos, ring_sin, acc, epoch, stamp, tally, state = work
+    steps (`ring_steps`) and the scratch (`Accumulator`): ``acc`` and ``stamp``, at least
+    (2h+1)² cells, h = ⌊r_H/cell⌋, cell (i, j) at i·(2h+1) + j, never cleared — each point
+    p stamps the cells it votes for with ep + p + 1, ep this call's epoch (``state[0]``,
+    advanced by each call past every stamp it gives), so a point votes for a cell once and a
+    cell's ``acc`` counts only if its stamp is above ep —, ``tally``, one entry per
+    follower, and ``into``, one entry per direction. Writes record ``k`` of ``out``
+    (`WINDOW_ROW`)."""
+    rx, ry, acc, stamp, tally, state, into = work
     h = int(math.floor(r_H / cell))
     m = 2 * h + 1
-    lim = (r_H / cell) * (r_H / cell)
     ep = state[0] + 1
     state[0] = ep + px.shape[0] + 1
     lo = r_F - r_H
     hi = r_F + r_H
     voters = 0
     best = 0
-    bi = -1
-    bj = -1
-    na = ring_cos.shape[0]
-    step = 2.0 * math.pi / na
-    reach = r_H + cell
+    bf = -1
+    na = rx.shape[0] // TURNS
     for p in range(px.shape[0]):
         x = px[p]
         y = py[p]
@@ -147,87 +214,72 @@ def hough_window(
             continue
         voters += 1
         me = ep + p + 1
-        # only the arc of the ring that can reach a cell of the window: the directions u with
-        # |p + r_F·u − c| ≤ r_H + cell, within γ of the direction from p to c
-        a0 = 0
-        a1 = na - 1
-        if d > 0.0:
-            cg = (r_F * r_F + d * d - reach * reach) / (2.0 * r_F * d)
-            if cg > -1.0:
-                gamma = math.acos(min(cg, 1.0))
-                theta = math.atan2(cy - y, cx - x)
-                a0 = int(math.floor((theta - gamma) / step)) - 1
-                a1 = int(math.ceil((theta + gamma) / step)) + 1
-                if a1 - a0 + 1 >= na:
-                    a0 = 0
-                    a1 = na - 1
-        for aa in range(a0, a1 + 1):
-            a = aa  # aa % na (θ ± γ lies within ±2π, so −2·na ≤ aa < 3·na), without a division
-            if a < 0:
-                a += na
-                if a < 0:
-                    a += na
-            elif a >= na:
-                a -= na
-                if a >= na:
-                    a -= na
-            i = int(math.floor((x + r_F * ring_cos[a] - cx) / cell + 0.5)) + h
-            j = int(math.floor((y + r_F * ring_sin[a] - cy) / cell + 0.5)) + h
-            if i < 0 or j < 0 or i >= m or j >= m:
+        # only the arc of the ring that can reach a cell of the window
+        a0, n = ring_arc(x, y, d, cx, cy, r_F, r_H + cell, na)
+        ring_cells(x, y, cx, cy, rx, ry, a0 + 2 * na, n, cell, r_H, into)
+        # the cells in the window, less a step in the cell of the step before (the stamp
+        # would refuse it), to the front of ``into``, without a branch on the data
+        w = 0
+        last = -2
+        for t in range(n):
+            f = into[t]
+            into[w] = f
+            w += (f != last) & (f >= 0)
+            last = f
+        for t in range(w):
+            f = into[t]
+            s = stamp[f]
+            if s == me:  # (an earlier step of this point's ring)
                 continue
-            di = i - h
-            dj = j - h
-            if di * di + dj * dj > lim or stamp[i, j] == me:
-                continue
-            stamp[i, j] = me
-            if epoch[i, j] != ep:
-                epoch[i, j] = ep
-                acc[i, j] = 0
-            v = acc[i, j] + 1
-            acc[i, j] = v
-            # the peak: the most votes, the first in row-major order among equals
-            if v > best or (v == best and (i < bi or (i == bi and j < bj))):
+            stamp[f] = me
+            v = (acc[f] if s > ep else 0) + 1
+            acc[f] = v
+            # the peak: the most votes, the first in row-major order (the cells') among equals
+            if v > best or (v == best and f < bf):
                 best = v
-                bi = i
-                bj = j
-    row = out[k]
-    row["voters"] = voters
-    row["cells"] = cells
-    row["votes"] = best
-    if bi < 0:
-        row["fix_x"] = math.nan
-        row["fix_y"] = math.nan
-        row["owner"] = -1
+                bf = f
+    # the record: the fix, the mean of the tied cells within two cells of the peak, and the
+    # owner, the follower with the most points within one cell of the ring through the fix
+    rec = out[k]
+    rec["voters"] = voters
+    rec["cells"] = cells
+    rec["votes"] = best
+    if bf < 0:
+        rec["fix_x"] = math.nan
+        rec["fix_y"] = math.nan
+        rec["owner"] = -1
         return
+    bi = bf // m
+    bj = bf - bi * m
     si = 0.0
     sj = 0.0
     cnt = 0
     for i in range(max(0, bi - 2), min(m, bi + 3)):
         for j in range(max(0, bj - 2), min(m, bj + 3)):
-            if epoch[i, j] == ep and acc[i, j] == best:
+            if stamp[i * m + j] > ep and acc[i * m + j] == best:
                 si += i
                 sj += j
                 cnt += 1
     fx = cx + (si / cnt - h) * cell
     fy = cy + (sj / cnt - h) * cell
-    row["fix_x"] = fx
-    row["fix_y"] = fy
-    for k in range(tally.shape[0]):
-        tally[k] = 0
+    rec["fix_x"] = fx
+    rec["fix_y"] = fy
+    for q in range(tally.shape[0]):
+        tally[q] = 0
     for p in range(px.shape[0]):
-        k = owner[p]
-        if k < 0:
+        q = owner[p]
+        if q < 0:
             continue
         d = math.sqrt((px[p] - fx) * (px[p] - fx) + (py[p] - fy) * (py[p] - fy))
         if abs(d - r_F) <= cell:
-            tally[k] += 1
+            tally[q] += 1
     who = -1
     most = 0
-    for k in range(tally.shape[0]):
-        if tally[k] > most:
-            most = tally[k]
-            who = k
-    row["owner"] = who
+    for q in range(tally.shape[0]):
+        if tally[q] > most:
+            most = tally[q]
+            who = q
+    rec["owner"] = who
 
 
 @kernel
@@ -276,11 +328,11 @@ _WINDOW: Any = None
 def _dummy(every: bool) -> tuple[Any, ...]:
     """Arguments that compile the kernels once (an empty scan)."""
     px = np.full(3, np.nan)
-    c, s = ring(25.0, 1.0)
-    acc = np.zeros((11, 11), dtype=np.int64)
+    c, s = ring_steps(25.0, 1.0)
+    acc = np.zeros(121, dtype=np.int64)
     centre: Any = (np.zeros(1), np.zeros(1)) if every else (0.0, 0.0)
     one = np.zeros(1, dtype=np.int64)
-    work = (c, s, acc, acc.copy(), acc.copy(), one, one.copy())
+    work = (c, s, acc, acc.copy(), one, one.copy(), np.zeros(c.size, np.int64))
     out = (np.zeros(1, WINDOW_ROW),) if every else (np.zeros(1, WINDOW_ROW), 0)
     return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, 81, work, *out)
 
@@ -292,16 +344,16 @@ class Accumulator:
     def __init__(self, n: int, r_F: float, r_max: float, fast: bool, cell: float = CELL_CM):
         self.r_F = float(r_F)
         self.cell = float(cell)
-        self.ring_cos, self.ring_sin = ring(self.r_F, self.cell)
+        self.ring_x, self.ring_y = ring_steps(self.r_F, self.cell)
         m = 2 * int(math.floor(r_max / cell)) + 1
-        self.acc = np.zeros((m, m), dtype=np.int64)
-        self.epoch = np.zeros((m, m), dtype=np.int64)
-        self.stamp = np.zeros((m, m), dtype=np.int64)
+        self.acc = np.zeros(m * m, dtype=np.int64)
+        self.stamp = np.zeros(m * m, dtype=np.int64)
         self.tally = np.zeros(max(n, 1), dtype=np.int64)
         self.state = np.zeros(1, dtype=np.int64)
+        self.into = np.zeros(self.ring_x.size // TURNS, dtype=np.int64)
         self.work: Work = (
-            self.ring_cos, self.ring_sin, self.acc, self.epoch, self.stamp, self.tally,
-            self.state,
+            self.ring_x, self.ring_y, self.acc, self.stamp, self.tally,
+            self.state, self.into,
         )  # fmt: skip
         self._cells: dict[float, int] = {}
         self.out = np.zeros(n, WINDOW_ROW)

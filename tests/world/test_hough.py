@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from rtsim.world import kernels
-from rtsim.world.hough import WINDOW_ROW, Accumulator, window_cells
+from rtsim.world.hough import TURNS, WINDOW_ROW, Accumulator, ring, ring_steps, window_cells
 from rtsim.world.rangefinder import Rangefinder
 
 R_F = 25.0
@@ -96,3 +96,118 @@ def test_compiled_hough_is_the_python_hough() -> None:
     for rows in ((_locate(scan, win, 25.0), _locate(scan, win, 25.0, fast=True)), s):
         for field in WINDOW_ROW.names:  # (NaN fixes compare equal field by field)
             np.testing.assert_array_equal(rows[0][field], rows[1][field])
+
+
+def _plain(scan, cx, cy, r_H, cell, n):  # type: ignore[no-untyped-def]
+    """The window's row by the module docstring's definition, straight: every voting point's
+    whole ring (all of `ring`'s directions, no arc, no skipping), the set of window cells it
+    enters, one vote each; the peak, the tied cells' mean and the owner's tally."""
+    px, py, owner = scan
+    c, s = ring(R_F, cell)
+    h = math.floor(r_H / cell)
+    lim = (r_H / cell) ** 2
+    votes: dict[tuple[int, int], int] = {}
+    voters = 0
+    for x, y in zip(px, py, strict=True):
+        if math.isnan(x):
+            continue
+        d = math.sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy))
+        if d < R_F - r_H or d > R_F + r_H:
+            continue
+        voters += 1
+        i = np.floor((x + R_F * c - cx) / cell + 0.5).astype(np.int64)
+        j = np.floor((y + R_F * s - cy) / cell + 0.5).astype(np.int64)
+        for ij in {(a, b) for a, b in zip(i.tolist(), j.tolist(), strict=True)}:
+            if ij[0] ** 2 + ij[1] ** 2 <= lim:
+                votes[ij] = votes.get(ij, 0) + 1
+    row = {"voters": voters, "votes": max(votes.values(), default=0), "owner": -1}
+    row["cells"] = window_cells(r_H, cell)
+    row["fix_x"] = row["fix_y"] = math.nan
+    if not votes:
+        return row
+    bi, bj = min(ij for ij, v in votes.items() if v == row["votes"])
+    tied = [
+        (a + h, b + h)
+        for (a, b), v in votes.items()
+        if v == row["votes"] and abs(a - bi) <= 2 and abs(b - bj) <= 2
+    ]
+    si = sj = 0.0
+    for a, b in sorted(tied):  # (the kernel sums them in row-major order)
+        si += a
+        sj += b
+    fx = cx + (si / len(tied) - h) * cell
+    fy = cy + (sj / len(tied) - h) * cell
+    row["fix_x"], row["fix_y"] = fx, fy
+    tally = np.zeros(n, dtype=np.int64)
+    for x, y, k in zip(px, py, owner, strict=True):
+        if k >= 0 and abs(math.sqrt((x - fx) * (x - fx) + (y - fy) * (y - fy)) - R_F) <= cell:
+            tally[k] += 1
+    if tally.max() > 0:
+        row["owner"] = int(np.argmax(tally))
+    return row
+
+
+def _random_case(rng: np.random.Generator):  # type: ignore[no-untyped-def]
+    """A random scan and windows: 1–4 followers behind the leader (range noise 0–2 cm) with
+    windows off their centres by up to r_H, or scattered points with random owners around
+    the windows (some of them NaN); r_H from 2 to 60 cm, cells of 0.5, 1 or 2 cm, and now
+    and then a point at the window centre (its whole ring)."""
+    n = int(rng.integers(1, 5))
+    r_H = float(rng.choice([float(rng.uniform(2.0, 60.0)), 25.0, 10.0]))
+    cell = float(rng.choice([1.0, 1.0, 0.5, 2.0]))
+    centres = np.column_stack([-rng.uniform(60.0, 600.0, n), rng.uniform(-150.0, 150.0, n)])
+    off = rng.uniform(-1.0, 1.0, (n, 2)) * r_H / math.sqrt(2.0)
+    win = centres + off
+    if rng.random() < 0.5:
+        scan = _scan(
+            centres.tolist(), sd=float(rng.uniform(0.0, 2.0)), seed=int(rng.integers(1 << 30))
+        )
+    else:
+        k = rng.integers(0, n, 361)
+        ang = rng.uniform(0.0, 2.0 * math.pi, 361)
+        rad = rng.uniform(0.0, R_F + r_H + 5.0, 361)
+        px = win[k, 0] + rad * np.cos(ang)
+        py = win[k, 1] + rad * np.sin(ang)
+        px[rng.random(361) < 0.3] = np.nan
+        px[: int(rng.integers(0, 3))] = win[0, 0]  # (at the window centre: d = 0)
+        py[: int(rng.integers(0, 3))] = win[0, 1]
+        owner = np.where(rng.random(361) < 0.8, k, -1).astype(np.int64)
+        scan = (px, np.where(np.isnan(px), np.nan, py), owner)
+    return scan, win, r_H, cell, n
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_the_accumulator_is_the_plain_accumulator(fast: bool) -> None:
+    """On random scans (`_random_case`), every window's row (fix to the bit, votes, voters,
+    owner, cells) is the straightforward accumulator's (`_plain`: all directions of the
+    ring, each cell a point's ring enters counted once), for the Python kernel and the
+    compiled one: the arc, the ring's steps formed once, the skipped repeats and the flat
+    cells change nothing."""
+    if fast and not kernels.available():
+        pytest.skip("numba not installed")
+    rng = np.random.default_rng(36)
+    windows = 0
+    for _ in range(60 if fast else 12):
+        scan, win, r_H, cell, n = _random_case(rng)
+        acc = Accumulator(n, R_F, 100.0, fast, cell)
+        rows = acc.locate(*scan, win[:, 0].copy(), win[:, 1].copy(), r_H).copy()
+        for k in range(n):
+            want = _plain(scan, win[k, 0], win[k, 1], r_H, cell, n)
+            got = {f: rows[k][f].item() for f in WINDOW_ROW.names}
+            for f in ("fix_x", "fix_y"):  # (bit for bit; NaN when no point voted)
+                assert np.float64(got[f]).tobytes() == np.float64(want[f]).tobytes(), (f, got, want)
+            assert {f: got[f] for f in ("votes", "voters", "owner", "cells")} == {
+                f: want[f] for f in ("votes", "voters", "owner", "cells")
+            }
+            windows += 1
+    assert windows > 30
+
+
+def test_ring_steps_are_the_ring_times_r_F() -> None:
+    """`ring_steps` is r_F·cos and r_F·sin of `ring`'s directions, `TURNS` turns over."""
+    c, s = ring(R_F, 1.0)
+    rx, ry = ring_steps(R_F, 1.0)
+    a = np.arange(-2 * c.size, 3 * c.size)
+    assert rx.size == TURNS * c.size
+    np.testing.assert_array_equal(rx[a + 2 * c.size], R_F * c[a % c.size])
+    np.testing.assert_array_equal(ry[a + 2 * c.size], R_F * s[a % c.size])
