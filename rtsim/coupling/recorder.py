@@ -307,6 +307,12 @@ def _flat(rows: Any, dtype: Any, count: int) -> NDArray[Any]:
     return np.fromiter(_chain(_chain(rows)), dtype, count)
 
 
+def _rows(rows: Any, dtype: Any, m: int, width: int) -> NDArray[Any]:
+    """``m`` rows of ``width`` numbers (an iterable of sequences: one per record) as an
+    (m, width) array of ``dtype``, as ``np.array(list(rows), dtype)`` gives them."""
+    return np.fromiter(_chain(rows), dtype, m * width).reshape(m, width)
+
+
 def _column(recs: list[WindowRecord], name: str, dtype: Any) -> NDArray[Any]:
     """One scalar field of every record, as an array of ``dtype``."""
     return np.fromiter(map(attrgetter(name), recs), dtype, len(recs))
@@ -340,7 +346,7 @@ def records_columns(
     w_sch = _column(recs, "w_sch", float)
     msb = _column(recs, "msb_min", float)
     finish = _column(recs, "finish", float)
-    leader = np.fromiter(_chain(r.leader for r in recs), float, 3 * m).reshape(m, 3)
+    leader = _rows((r.leader for r in recs), float, m, 3)
     data["window"] = _column(recs, "window", np.int64)
     data["t"] = t
     data["w"] = w
@@ -377,25 +383,22 @@ def records_columns(
         .reshape(m, nb, n)
         .transpose(0, 2, 1)
     )
-    lost_rows: Any = (r.lost for r in recs)
-    lost = np.fromiter(_chain(lost_rows), np.bool_, m * n).reshape(m, n)
+    lost = _rows((r.lost for r in recs), np.bool_, m, n)
     for i in range(n):
         for j, kind in enumerate(BOUND_KINDS):
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
         data[f"f{i + 1}_lost"] = lost[:, i]
     data["assumption_broken"] = _column(recs, "assumption_broken", bool)
     nc = len(LOST_CAUSES)
-    causes = np.fromiter(_chain(r.lost_by_cause for r in recs), np.int64, m * nc).reshape(m, nc)
+    causes = _rows((r.lost_by_cause for r in recs), np.int64, m, nc)
     for j, col in enumerate(LOCALIZATION_COLUMNS[:nc]):
         data[col] = causes[:, j]
     data["searches"] = _column(recs, "searches", np.int64)
     data["reacquisitions"] = _column(recs, "reacquisitions", np.int64)
     # (a record made without a scan's sensing, by hand, has none: 0 points, no fix)
-    voted = np.fromiter(_chain(r.voted or (0,) * n for r in recs), np.int64, m * n).reshape(m, n)
-    err = np.fromiter(_chain(r.fix_error or (math.inf,) * n for r in recs), float, m * n).reshape(
-        m, n
-    )
-    nb_ = np.fromiter(_chain(r.neighbour or (False,) * n for r in recs), bool, m * n).reshape(m, n)
+    voted = _rows((r.voted or (0,) * n for r in recs), np.int64, m, n)
+    err = _rows((r.fix_error or (math.inf,) * n for r in recs), float, m, n)
+    nb_ = _rows((r.neighbour or (False,) * n for r in recs), bool, m, n)
     data["confusions"] = nb_.sum(axis=1).astype(np.int64)
     data["radio_ms"] = _column(recs, "radio_ms", float)
     data["radio_losses"] = _column(recs, "radio_losses", np.int64)
@@ -404,9 +407,7 @@ def records_columns(
         data[f"f{i + 1}_fix_error_cm"] = err[:, i]
         data[f"f{i + 1}_neighbour"] = nb_[:, i]
     # (a record made by hand has no contact: inf, no break)
-    broke = np.fromiter(_chain(r.viol_contact or (False,) * n for r in recs), bool, m * n).reshape(
-        m, n
-    )
+    broke = _rows((r.viol_contact or (False,) * n for r in recs), bool, m, n)
     for i in range(n):
         data[f"f{i + 1}_viol_contact"] = broke[:, i]
     return {c: data[c] for c in cols if c in data}
@@ -437,8 +438,8 @@ def _follower_state(
             data[f"f{i + 1}_msb_{kind}_pred"] = pred[:, i, j]
             data[f"f{i + 1}_msb_{kind}_true"] = true_bounds(w, changes[:, i, j], limits[j][i])
     inf = (math.inf,) * n
-    near_p = np.fromiter(_chain(r.near_pred or inf for r in recs), float, m * n).reshape(m, n)
-    near_t = np.fromiter(_chain(r.near_true or inf for r in recs), float, m * n).reshape(m, n)
+    near_p = _rows((r.near_pred or inf for r in recs), float, m, n)
+    near_t = _rows((r.near_true or inf for r in recs), float, m, n)
     for i in range(n):
         data[f"f{i + 1}_contact_cm_pred"] = near_p[:, i]
         data[f"f{i + 1}_contact_cm_true"] = near_t[:, i]

@@ -74,7 +74,7 @@ from rtsim.sim.cpu import Job
 from rtsim.sim.execution import ExecSpec
 from rtsim.sim.progress import TICKS, start_ticker
 from rtsim.sim.run import build_cpu
-from rtsim.world.contact import closest_to, contact_distance
+from rtsim.world.contact import closest_each, contact_distance
 from rtsim.world.localization import hough_time, search_time
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.world import World
@@ -588,7 +588,7 @@ class _Coupling:
         if ro is None:
             xs = [e[0][0] for e in estimates]
             ys = [e[0][1] for e in estimates]
-            near = tuple(closest_to(xs, ys, k, lp[0], lp[1]) for k in range(self.n))
+            near = closest_each(xs, ys, lp[0], lp[1])
         return _Decision(
             adj.w,
             v_l,
@@ -955,7 +955,7 @@ class _Coupling:
         if last is not None and last.viol is None:  # close the last observation interval
             scan = self.world.scan(max(self.env.now, self.world.t_ms))
             fol, (xl, yl, _) = self.world.followers, scan.leader_pose
-            self._close(scan, tuple(closest_to(fol.x, fol.y, k, xl, yl) for k in range(self.n)))
+            self._close(scan, closest_each(fol.x, fol.y, xl, yl))
 
 
 #: The relative excess of the filters' heading SD over the predicted-centre bound's assumed
