@@ -211,8 +211,9 @@ class FollowerGroup:
     def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
         """`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
         p = self.p
-        self.cmd_v[k] = sv = clip(v + p.speed_noise * nv, p.max_speed)
-        self.cmd_w[k] = sw = clip(w + p.turn_noise * nw, p.max_turn_rate)
+        sv, sw = self.saturate(v + p.speed_noise * nv, w + p.turn_noise * nw)
+        self.cmd_v[k] = sv
+        self.cmd_w[k] = sw
         return sv, sw
 
     def pose(self, k: int) -> tuple[float, float, float]:

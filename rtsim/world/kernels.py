@@ -76,8 +76,8 @@ _TYPED: dict[tuple[Any, Any], tuple[Any, ...]] = {}
 
 def _type_key(a: Any) -> Any:
     """What numba's ``typeof`` reads of an argument of `entry` (its Python type; an int's
-    size; an array's dtype, dimensions, layout and writability; a tuple's items'), or None
-    for a value it does not cover (typed every time)."""
+    size; an array's dtype, dimensions, layout, writability and alignment; a tuple's
+    items'), or None for a value it does not cover (typed every time)."""
     t = type(a)
     if t is float or t is bool:
         return t
@@ -85,7 +85,7 @@ def _type_key(a: Any) -> Any:
         return t if a.bit_length() < 32 else None  # (numba's intp)
     if t is np.ndarray:
         f = a.flags
-        return (t, a.dtype, a.ndim, f.c_contiguous, f.f_contiguous, f.writeable)
+        return (t, a.dtype, a.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
     if t is tuple:
         keys = tuple(_type_key(x) for x in a)
         return None if any(k is None for k in keys) else keys
