@@ -20,6 +20,14 @@ from typing import Any
 import numpy as np
 
 from rtsim.world.ekf import ekf_command, ekf_predict, ekf_update
+from rtsim.world.estimates import (
+    est_carry,
+    est_carry_all,
+    est_command_ftl,
+    est_hold,
+    est_scan,
+    new_estimates,
+)
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
 from rtsim.world.ftl import ftl_command, ftl_project, ftl_reference, trace_point
 from rtsim.world.jit import Subs, build, cached
@@ -105,6 +113,11 @@ ENTRIES: dict[str, Any] = {
     "hypot": cpython_hypot,
     "belief_step": belief_step,
     "leader_travel": leader_travel,
+    "est_scan": est_scan,
+    "est_carry": est_carry,
+    "est_carry_all": est_carry_all,
+    "est_hold": est_hold,
+    "est_command_ftl": est_command_ftl,
 }
 
 #: the entries compiled (or loaded) only when first read from the namespace: the EKF's
@@ -114,7 +127,16 @@ LAZY_ENTRIES: dict[str, Any] = {"ekf_predict": ekf_predict, "remainder": cpython
 
 #: the entries that run a motion model's parts (built again for a model other than the
 #: unicycle: `kernels`)
-MOTION_ENTRIES = ("advance_follower", "ekf_command", "belief_step", "leader_travel")
+MOTION_ENTRIES = (
+    "advance_follower",
+    "ekf_command",
+    "belief_step",
+    "leader_travel",
+    "est_scan",
+    "est_carry",
+    "est_carry_all",
+    "est_command_ftl",
+)
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
 #: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
@@ -237,4 +259,13 @@ def _warm(ns: Any) -> None:
     ns.trace_point(G, 0, 10.0)
     ns.belief_step(0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.1, 10.0, 0.02)
     ns.leader_travel(1.0, 2.0, 10.0, 10.0, 0.02)
+    E = new_estimates(1)
+    E[0, 3] = E[0, 7] = E[0, 11] = E[0, 14] = 1.0
+    ns.est_scan(E, np.array([[1.0, 0.0, 1.0]]), 10.0, *([1.0] * 10), True)
+    ns.est_carry(E, 0, 20.0, 1.0)
+    ns.est_carry_all(E, 20.0, 1.0)
+    ns.est_hold(E, 0, 20.0, 1.0, 0.0)
+    ns.est_command_ftl(
+        E, 0, 30.0, 1.0, G, nan1, nan1.copy(), 0.5, 10.0, 0.0, 50.0, 50.0, 0.0, 1.0, 1.0, 1.0
+    )
     # (the rollout's kernels: rtsim.control.kernels, when a run first rolls out)
