@@ -11,7 +11,7 @@ Python ones (tests run both paths and compare whole runs):
 - `CompiledTraceFollower`: the follow-the-leader law's equations (`rtsim.world.ftl`:
   a command in one call, the projection and the trace's point for the truth log's
   cross-track error);
-- `compiled_motion`: the leader's travel and one piece of its belief of a follower.
+- `compiled_motion`: the leader's travel.
 
 (The controller's rollout runs compiled on this law: `rtsim.control.compiled_rollout`.)
 
@@ -63,12 +63,11 @@ class CompiledFollowerGroup(FollowerGroup):
         return entry(kernels(motion).advance_follower, (0.0,) * 12)
 
 
-def compiled_motion(motion: MotionModel) -> tuple[Any, Any]:
-    """A motion model's ``step`` (the leader's belief over one held piece:
-    `rtsim.world.motion.belief_step`) and ``leader`` (the leader's travel) compiled, each
-    called directly (`entry`: floats at every call), for `rtsim.world.world.World`."""
-    ker = kernels(motion)
-    return entry(ker.belief_step, (0.0,) * 9), entry(ker.leader_travel, (0.0,) * 5)
+def compiled_motion(motion: MotionModel) -> Any:
+    """A motion model's ``leader`` (the leader's travel) compiled, called directly (`entry`:
+    floats at every call), for `rtsim.world.world.World` (whose estimates carry the belief
+    in `CompiledEstimates`' kernels)."""
+    return entry(kernels(motion).leader_travel, (0.0,) * 5)
 
 
 class _Kernel:
@@ -82,7 +81,7 @@ class _Kernel:
     def __get__(self, obj: Any, cls: Any = None) -> Any:
         if obj is None:
             return self
-        fn = getattr(kernels(), self.name)
+        fn = getattr(kernels(getattr(obj, "_motion", None)), self.name)
         fn(*self.args)
         fn = entry(fn, self.args)
         setattr(obj, self.attr, fn)
@@ -98,19 +97,23 @@ class CompiledFollowerEKF(FastFollowerEKF):
     row of `CompiledEstimates` (`bind`), that row is its state: it reads the row, and each
     of its own steps loads it, runs and writes it back."""
 
+    # (each compiled at its first call, then called directly, `entry`: floats at every call;
+    # the world's own steps run in `CompiledEstimates`' kernels)
     _predict = _Kernel("ekf_predict", (1.0,) * 16)
+    _update = _Kernel("ekf_update", (1.0,) * 15)
+    _command = _Kernel("ekf_command", (1.0,) * 19)
 
     def __init__(
         self, pose: tuple[float, float, float], params: EkfParams, motion: Any = None
     ) -> None:
+        self._motion = motion
         super().__init__(pose, params, motion)
-        # (called directly, `entry`: floats at every call)
-        self._update = entry(kernels().ekf_update, (0.0,) * 15)
+        del self._command  # (the class's, for ``motion``)
         self._row: tuple[CompiledEstimates, int] | None = None
 
     @staticmethod
     def _command_kernel(motion: Any) -> Any:
-        return entry(kernels(motion).ekf_command, (0.0,) * 19)
+        return None
 
     def bind(self, est: CompiledEstimates, k: int) -> None:
         """Keep the state in row ``k`` of ``est`` from now on (written with this filter's)."""
@@ -202,8 +205,8 @@ class CompiledEstimates:
         ker = kernels(motion)
         x = 0.0
         self._scan = entry(ker.est_scan, (E, np.zeros((n, 3)), *(x,) * 10, True))
-        self._carry = entry(ker.est_carry, (E, 0, x, x))
-        self._carry_all = entry(ker.est_carry_all, (E, x, x))
+        self._one, self._all = np.empty((1, 7)), np.empty((n, 7))  # (`est_carry`'s rows)
+        self._carry = entry(ker.est_carry, (E, 0, x, x, self._all))
         self._hold = entry(ker.est_hold, (E, 0, x, x, x))
         self._ftl = ker.est_command_ftl
 
@@ -217,12 +220,16 @@ class CompiledEstimates:
 
     def carry(self, k: int, t: float) -> tuple[tuple[float, float, float], float, float]:
         """Follower index ``k``'s estimate at ``t`` ms: (pose, v̂, ω̂) (`est_carry`)."""
-        x, y, th, v, w = self._carry(self.E, k, t, self.accel)
+        one = self._one
+        self._carry(self.E, k, t, self.accel, one)
+        x, y, th, v, w, _, _ = one.tolist()[0]
         return (x, y, th), v, w
 
     def carry_all(self, t: float) -> list[list[float]]:
-        """Every estimate at ``t`` ms: per follower [x, y, θ, v̂, ω̂, v_c, ω_c] (`est_carry_all`)."""
-        return self._carry_all(self.E, t, self.accel).tolist()  # type: ignore[no-any-return]
+        """Every estimate at ``t`` ms: per follower [x, y, θ, v̂, ω̂, v_c, ω_c] (`est_carry`)."""
+        out = self._all
+        self._carry(self.E, 0, t, self.accel, out)
+        return out.tolist()  # type: ignore[no-any-return]
 
     def hold(self, k: int, t: float, v: float, w: float) -> None:
         """Hold (v, ω) from ``t`` ms in follower index ``k``'s row (`est_hold`), growing the

@@ -14,7 +14,7 @@ expressions the Python runs:
 
 - `est_scan`: `World.estimate` for every follower (carry, predict, update or reset, the
   heading variance's maximum);
-- `est_carry`, `est_carry_all`: `World._propagate` for one follower or all;
+- `est_carry`: `World._propagate` for one follower or all;
 - `est_hold`: `World._hold`'s record of a command;
 - `est_command_ftl`: `World.command` with the follow-the-leader law (carry, law, clip, hold).
 """
@@ -35,7 +35,6 @@ from rtsim.world.motion import clip, ramp_arc
 __all__ = [
     "BASE",
     "est_carry",
-    "est_carry_all",
     "est_command_ftl",
     "est_hold",
     "est_scan",
@@ -54,7 +53,7 @@ def new_estimates(n: int, room: int = HELD_ROOM) -> NDArray[np.float64]:
     return np.zeros((n, BASE + 3 * room))
 
 
-@kernel(inline=True)
+@kernel
 def carry_row(E: Any, k: int, t: float, a: float) -> tuple[float, float, float, float, float]:
     """Row ``k``'s mean carried to ``t`` ms over its held commands (the motion model's
     ``step``, acceleration limit ``a``): (x, y, θ, v, ω) (`World._propagate`)."""
@@ -74,23 +73,15 @@ def carry_row(E: Any, k: int, t: float, a: float) -> tuple[float, float, float, 
 
 
 @kernel
-def est_carry(E: Any, k: int, t: float, a: float) -> tuple[float, float, float, float, float]:
-    """`carry_row` as an entry: one follower's estimate at ``t`` ms."""
-    return carry_row(E, k, t, a)
-
-
-@kernel
-def est_carry_all(E: Any, t: float, a: float) -> Any:
-    """Every row carried to ``t`` ms (`carry_row`), with the command held last: an (n, 7)
-    array of (x, y, θ, v, ω, v_c, ω_c)."""
-    n = E.shape[0]
-    out = np.empty((n, 7))
-    for k in range(n):
+def est_carry(E: Any, k0: int, t: float, a: float, out: Any) -> None:
+    """Rows ``k0`` … ``k0`` + len(``out``) − 1 carried to ``t`` ms (`carry_row`), with the
+    command each holds last, into ``out``: one row of (x, y, θ, v, ω, v_c, ω_c) each."""
+    for i in range(out.shape[0]):
+        k = k0 + i
         x, y, th, v, w = carry_row(E, k, t, a)
         o = BASE + 3 * (int(E[k, M]) - 1)
-        out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 4] = x, y, th, v, w
-        out[k, 5], out[k, 6] = E[k, o + 1], E[k, o + 2]
-    return out
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4] = x, y, th, v, w
+        out[i, 5], out[i, 6] = E[k, o + 1], E[k, o + 2]
 
 
 @kernel
@@ -110,11 +101,12 @@ def est_hold(E: Any, k: int, t: float, v: float, w: float) -> bool:
 
 
 @kernel(inline=True)
-def predict_held(E: Any, k: int, t: float, a: float, noise: Any, buf: Any) -> None:
+def predict_held(E: Any, k: int, t: float, a: float, noise: Any) -> None:
     """Row ``k``'s filter predicted over its held commands up to ``t`` ms (`ekf_command`,
-    ``noise`` = σ_v², σ_ω², q_p², q_θ²), and the commands kept from ``t`` on: the one held at
-    ``t`` restarted there in front, those starting at or after ``t`` behind, in order
-    (`World.estimate`'s loop; ``buf``: scratch of the row's length)."""
+    ``noise`` = σ_v², σ_ω², q_p², q_θ²), and the commands kept from ``t`` on: the one held
+    at ``t`` restarted there, then those starting at or after ``t`` (`World.estimate`'s loop;
+    the commands' starts rise, as `World` holds them: a command's time never precedes the
+    world's, nor the start of any command it does not replace)."""
     sv2, sw2, qp2, qh2 = noise
     m = int(E[k, M])
     last = m - 1
@@ -128,16 +120,14 @@ def predict_held(E: Any, k: int, t: float, a: float, noise: Any, buf: Any) -> No
         E[k, Q + 8],
     )
     q3, q6, q7 = E[k, Q + 3], E[k, Q + 6], E[k, Q + 7]
-    front = 0  # the pieces restarted at t, newest first (the list's insert(0, ...))
-    back = 0  # the pieces from t on, in order, stored from the end of buf
-    width = buf.shape[0]
+    out = 0  # the commands kept, written from the row's first
     for j in range(m):
         o = BASE + 3 * j
         t0, vc, wc = E[k, o], E[k, o + 1], E[k, o + 2]
-        if t0 >= t:
-            back += 1
-            b = width - 3 * back
-            buf[b], buf[b + 1], buf[b + 2] = t0, vc, wc
+        if t0 >= t:  # (behind the one restarted at t, if any: the kept ones move forward)
+            p = BASE + 3 * out
+            E[k, p], E[k, p + 1], E[k, p + 2] = t0, vc, wc
+            out += 1
             continue
         nxt = E[k, o + 3] if j < last else math.inf
         t1 = nxt if nxt < t else t
@@ -147,26 +137,14 @@ def predict_held(E: Any, k: int, t: float, a: float, noise: Any, buf: Any) -> No
                 x0, x1, x2, q0, q1, q2, q4, q5, q8, v, w, vc, wc, a, dt, sv2, sw2, qp2, qh2
             )
             q3, q6, q7 = q1, q2, q5
-        if nxt > t:
-            for i in range(3 * front - 1, -1, -1):  # (insert at the front)
-                buf[i + 3] = buf[i]
-            buf[0], buf[1], buf[2] = t, vc, wc
-            front += 1
-    if front + back == 0:
-        E[k, BASE], E[k, BASE + 1], E[k, BASE + 2] = (
-            t,
-            E[k, BASE + 3 * last + 1],
-            E[k, BASE + 3 * last + 2],
-        )
-        E[k, M] = 1
-    else:
-        for i in range(3 * front):
-            E[k, BASE + i] = buf[i]
-        for i in range(back):
-            b = width - 3 * (back - i)
-            o = BASE + 3 * (front + i)
-            E[k, o], E[k, o + 1], E[k, o + 2] = buf[b], buf[b + 1], buf[b + 2]
-        E[k, M] = front + back
+        if nxt > t:  # (held at t: the last before t, so the first kept)
+            E[k, BASE], E[k, BASE + 1], E[k, BASE + 2] = t, vc, wc
+            out = 1
+    if out == 0:
+        o = BASE + 3 * last
+        E[k, BASE], E[k, BASE + 1], E[k, BASE + 2] = t, E[k, o + 1], E[k, o + 2]
+        out = 1
+    E[k, M] = out
     E[k, X], E[k, X + 1], E[k, X + 2], E[k, V], E[k, W] = x0, x1, x2, v, w
     E[k, Q], E[k, Q + 1], E[k, Q + 2], E[k, Q + 3], E[k, Q + 4] = q0, q1, q2, q3, q4
     E[k, Q + 5], E[k, Q + 6], E[k, Q + 7], E[k, Q + 8] = q5, q6, q7, q8
@@ -183,10 +161,9 @@ def est_scan(
     re-acquired, the position reset to it with covariance R, the heading kept; 0: none).
     Returns the largest heading variance P_θθ of ``var`` and, when ``track``, the rows'."""
     c, s = math.cos(hl), math.sin(hl)
-    buf = np.empty(E.shape[1])
     noise = (sv2, sw2, qp2, qh2)
     for k in range(E.shape[0]):
-        predict_held(E, k, t, a, noise, buf)
+        predict_held(E, k, t, a, noise)
         how = F[k, 2]
         if how != 0.0:
             mx, my = F[k, 0], F[k, 1]

@@ -75,12 +75,11 @@ class World:
         self.motion = motion_model(config.follower.motion_model)
         self.backend = config.resolved_backend()
         fast = self.backend == "compiled"
-        # the leader's travel and the belief's step: the motion model's parts, compiled
-        # in the compiled backend (called directly: floats only)
-        if fast:
-            self._step, travel = compiled_motion(self.motion)
-        else:
-            self._step, travel = self.motion.step, self.motion.leader
+        # the leader's travel: the motion model's part, compiled in the compiled backend
+        # (called directly: floats only)
+        self._step = self.motion.step  # (the Python world's; the compiled one's estimates
+        # carry it in `CompiledEstimates`' kernels)
+        travel = compiled_motion(self.motion) if fast else self.motion.leader
         self.leader = Leader(
             config.path,
             config.leader_speed,
