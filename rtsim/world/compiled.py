@@ -252,13 +252,17 @@ class CompiledEstimates:
         """`World.command`'s estimate, follow-the-leader law, saturation and hold in one call
         (`est_command_ftl`) on the compiled law ``law``'s arrays: the command (v, ω)."""
         xl, yl, hl = lp
-        args = (
+        fn = self._ftl_entry
+        if fn is None:  # (typed on its first call's arguments)
+            fn = self._ftl_entry = entry(
+                self._ftl, (self.E, k, t, self.accel, law._G, law._sr, law._sf, law.gain,
+                law.lookahead, s_l, xl, yl, hl, v_l, *limits),
+            )  # fmt: skip
+        vmax, wmax = limits
+        v, w, held = fn(
             self.E, k, t, self.accel, law._G, law._sr, law._sf, law.gain, law.lookahead,
-            s_l, xl, yl, hl, v_l, *limits,
+            s_l, xl, yl, hl, v_l, vmax, wmax,
         )  # fmt: skip
-        if self._ftl_entry is None:  # (typed on its first call's arguments)
-            self._ftl_entry = entry(self._ftl, args)
-        v, w, held = self._ftl_entry(*args)
         if not held:
             self.hold(k, t, v, w)
         self.last[k] = (v, w)
