@@ -596,9 +596,7 @@ class World:
             cmd = self._arr.command_ftl(  # type: ignore[union-attr]
                 k, t_ms, self._ftl, ld.s, ld.pose, ld.speed, self._limits
             )
-            nv, nw = self._normals(2)
-            fol.apply_drawn(k, cmd[0], cmd[1], nv, nw)
-            return cmd
+            return self._actuate(k, cmd)
         est = self._propagate(k, t_ms)
         x, y, th = est[0]
         ld = self.leader
@@ -634,9 +632,7 @@ class World:
         ``est``: `_propagate` (k, t_ms), kept as the mark where the new piece begins."""
         if self._arr is not None:
             self._arr.hold(k, t_ms, *cmd)
-            nv, nw = self._normals(2)
-            self.followers.apply_drawn(k, cmd[0], cmd[1], nv, nw)
-            return cmd
+            return self._actuate(k, cmd)
         pieces = self._pieces[k]
         if pieces and pieces[-1][0] >= t_ms:
             pieces.pop()
@@ -648,8 +644,13 @@ class World:
         self._marks[k] = mark
         v, w = cmd
         pieces.append((t_ms, v, w))
+        return self._actuate(k, cmd)
+
+    def _actuate(self, k: int, cmd: tuple[float, float]) -> tuple[float, float]:
+        """Apply follower index k's command with its actuation noise (two normals drawn);
+        returns it."""
         nv, nw = self._normals(2)
-        self.followers.apply_drawn(k, v, w, nv, nw)
+        self.followers.apply_drawn(k, cmd[0], cmd[1], nv, nw)
         return cmd
 
     @property
