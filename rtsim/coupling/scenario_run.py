@@ -71,7 +71,7 @@ from rtsim.model.task import Segment
 from rtsim.model.taskset import TaskSet
 from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
-from rtsim.sim.execution import ExecSpec
+from rtsim.sim.execution import ExecSpec, uniforms
 from rtsim.sim.progress import TICKS, start_ticker
 from rtsim.sim.run import build_cpu
 from rtsim.world.contact import closest_each, contact_distance
@@ -379,6 +379,9 @@ class _Coupling:
             cpu.on("segment_start", self._on_send_start, task=win.name, role="send")
         self._e_send = float(win.e_send)
         self._loss = self.radio.loss if self.radio.loss > 0 else 0  # (0: no draw per send)
+        # the link's draws (a round trip, a loss) in the order the hooks ask, taken ahead
+        rng = self._radio_rng
+        self._uniform = uniforms(rng).__next__ if rng is not None else None
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
         self._delta_t = float(win.delta_t)
@@ -809,8 +812,8 @@ class _Coupling:
         """The window's radio round trip: uniform on [radio.min_ms, delta_t] (its maximum,
         what the analyses use), drawn from the link's own generator."""
         lo = self.radio.min_ms
-        assert lo is not None and self._radio_rng is not None
-        dt = lo + (self._delta_t - lo) * float(self._radio_rng.random())
+        assert lo is not None and self._uniform is not None
+        dt = lo + (self._delta_t - lo) * self._uniform()
         rec = self._open.get(job.index)
         if rec is not None:
             rec.radio_ms = dt
@@ -820,7 +823,7 @@ class _Coupling:
         now = self.env.now
         i = int(seg.follower)  # type: ignore[arg-type]
         rec = self._open[job.index]
-        if self._loss and self._radio_rng.random() < self._loss:  # type: ignore[union-attr]
+        if self._loss and self._uniform() < self._loss:  # type: ignore[misc]
             # lost: the follower keeps its previous command; the leader, missing the reply,
             # keeps it in its estimate too
             rec.radio_losses += 1
