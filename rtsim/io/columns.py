@@ -31,11 +31,12 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from rtsim.errors import InputError
 from rtsim.io.atomic import naming
 
-__all__ = ["ChunkWriter", "csv_text", "iter_columns", "read_columns"]
+__all__ = ["ChunkWriter", "csv_text", "float_texts", "iter_columns", "read_columns"]
 
 #: Rows parsed at a time when a CSV is read back (the parser's buffers stay small).
 READ_ROWS = 65536
@@ -87,12 +88,45 @@ def _quote(v: str) -> str:
     return f'"{v}"'
 
 
+#: Below this many values a float column is formatted by ``repr`` alone (Arrow's calls cost
+#: a few µs each, `float_texts`).
+ARROW_MIN = 64
+#: The magnitudes [lo, hi) where Arrow's shortest form of a float is ``repr``'s, less the
+#: ``.0`` that ``repr`` adds to a whole number (Arrow writes 1e-05 as 0.00001 and 1e10 as
+#: 1e+10; ``repr`` switches to an exponent below 1e-4 and from 1e16 on).
+ARROW_RANGE = (1e-4, 1e10)
+
+
+def float_texts(a: NDArray[np.float64]) -> list[str]:
+    """``repr`` of every value of ``a`` (float64), as ``list(map(repr, a.tolist()))``
+    gives it, ≈ 3-5× faster for a long column: Arrow's float-to-string cast writes the
+    same shortest round-trip digits (both give the shortest string that reads back as the
+    same double, the closest one of them), so within `ARROW_RANGE` (and for zeros) its
+    text is ``repr``'s once a whole number gets its ``.0``; the values outside it (NaN,
+    infinities, huge or tiny ones) are formatted by ``repr``. (Tested against ``repr`` on
+    random doubles of every magnitude and the runs' own columns.)"""
+    if len(a) < ARROW_MIN:
+        return list(map(repr, a.tolist()))
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    m = np.abs(a)
+    lo, hi = ARROW_RANGE
+    other = np.flatnonzero(~(((m >= lo) & (m < hi)) | (m == 0.0)))
+    s = pc.cast(pa.array(a), pa.string())
+    s = pc.if_else(pc.match_substring(s, "."), s, pc.binary_join_element_wise(s, ".0", ""))
+    out: list[str] = s.to_pylist()
+    for i in other.tolist():
+        out[i] = repr(float(a[i]))
+    return out
+
+
 def _texts(values: Any, kind: str) -> list[str] | None:
     """One column as the strings ``to_csv`` writes (None: a value `csv_text` does not
     format exactly as pandas, e.g. a number in a string column)."""
     if kind == "f":
         a = np.asarray(values, dtype=np.float64)
-        out = list(map(repr, a.tolist()))
+        out = float_texts(a)
         nan = np.isnan(a)
         if nan.any():
             for i in np.flatnonzero(nan).tolist():
