@@ -68,6 +68,10 @@ def _ours(df: pd.DataFrame) -> str | None:
 @settings(max_examples=150, deadline=None)
 @given(data=st.data(), m=st.integers(0, 40))
 def test_random_tables_give_pandas_bytes(data: st.DataObject, m: int) -> None:
+    _random_table_gives_pandas_bytes(data, m)
+
+
+def _random_table_gives_pandas_bytes(data: st.DataObject, m: int) -> None:
     f = data.draw(st.lists(floats, min_size=m, max_size=m))
     i = data.draw(st.lists(st.integers(-(2**63), 2**63 - 1), min_size=m, max_size=m))
     b = data.draw(st.lists(st.booleans(), min_size=m, max_size=m))
@@ -115,6 +119,13 @@ def test_floats_of_every_magnitude_are_repr() -> None:
         ]
     )
     assert float_texts(a) == list(map(repr, a.tolist()))
+
+
+@settings(max_examples=40, deadline=None)
+@given(data=st.data(), m=st.integers(ARROW_MIN, ARROW_MIN + 150))
+def test_long_random_tables_give_pandas_bytes(data: st.DataObject, m: int) -> None:
+    """A table long enough to be formatted by Arrow: every kind of column, pandas' bytes."""
+    _random_table_gives_pandas_bytes(data, m)
 
 
 def test_edge_floats_one_by_one() -> None:
