@@ -182,13 +182,21 @@ def _arrow_lines(columns: Sequence[Any], kinds: Sequence[str]) -> list[str] | No
     and the rows joined by Arrow (`_arrow_cells`); None as `csv_text`."""
     import pyarrow.compute as pc
 
-    cells = []
+    cells = _each(columns, kinds, _arrow_cells)
+    if cells is None:
+        return None
+    return pc.binary_join_element_wise(*cells, ",").to_pylist()  # type: ignore[no-any-return]
+
+
+def _each(columns: Sequence[Any], kinds: Sequence[str], cells: Any) -> list[Any] | None:
+    """Every column's cells by ``cells`` (`_texts` or `_arrow_cells`); None if one is."""
+    out = []
     for values, kind in zip(columns, kinds, strict=True):
-        c = _arrow_cells(values, kind)
+        c = cells(values, kind)
         if c is None:
             return None
-        cells.append(c)
-    return pc.binary_join_element_wise(*cells, ",").to_pylist()  # type: ignore[no-any-return]
+        out.append(c)
+    return out
 
 
 def csv_text(
@@ -203,12 +211,9 @@ def csv_text(
         return None
     n = len(columns[0])
     if n < ARROW_MIN:
-        texts = []
-        for values, kind in zip(columns, kinds, strict=True):
-            t = _texts(values, kind)
-            if t is None:
-                return None
-            texts.append(t)
+        texts = _each(columns, kinds, _texts)
+        if texts is None:
+            return None
         lines = list(map(",".join, zip(*texts, strict=True)))
     else:  # (by Arrow, ARROW_ROWS rows at a time: its strings hold up to 2 GB)
         lines = []
