@@ -747,9 +747,9 @@ class _Coupling:
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
-            last.near_true = tuple(b if b < a else a for a, b in zip(last.near, near, strict=True))
-            d_c = self._contact_cm
-            last.viol_contact = tuple(x < d_c for x in last.near_true)
+            # (min(a, b) is a unless b < a, as before, NaN included)
+            last.near_true = near_true = tuple(map(min, last.near, near))
+            last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
         ro = d.kw.get("rollout")
         last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
 
