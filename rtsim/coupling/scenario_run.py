@@ -556,7 +556,7 @@ class _Coupling:
         _, kappa = world.segment_at()
         # each follower's estimate propagated to now and its expected speed, in one pass (the
         # same as World.estimated_pose(i) and World.relative(i, "estimate")[3])
-        estimates = [world.estimate_at(i, now) for i in range(1, self.n + 1)]
+        estimates = world.estimates_at(now)
         # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns
         state = tuple([(*pose, *relative_state(lp, pose), v_f) for pose, v_f in estimates])
         fols = self._followers(state) if self._fols else ()
