@@ -165,9 +165,19 @@ class Rollout:
         default_factory=dict, init=False, repr=False, compare=False
     )
 
-    def __post_init__(self) -> None:
+    def __init__(
+        self,
+        state: RolloutState,
+        count: int = 0,
+        _memo: dict[tuple[float, tuple[float, ...]], list[list[Changes]]] | None = None,
+    ) -> None:
+        # (the dataclass's own __init__, written out: no default factories per decision)
+        self.state = state
+        self.count = count
+        self._memo = {} if _memo is None else _memo
+        self._raw = {}
         # a law of the world's compiled backend plays whole rollouts in compiled calls
-        self._compiled = compiled_rollout(self.state.law, self.state)
+        self._compiled = compiled_rollout(state.law, state)
 
     def changes(self, v: float, windows: Sequence[float]) -> list[list[Changes]]:
         """The predicted changes per window (lengths ``windows``, ms, the first opening at
