@@ -653,6 +653,9 @@ class _Coupling:
         for speed, rows in d.known:
             if speed == v:
                 return rows
+        ro = d.kw.get("rollout")
+        if ro is not None:  # the commands predictor: its rows are the rollout's (bound_rows_at)
+            return ro.rows(v)
         return predicted_rows(d.fols, v, thresholds=self.thr, predictor=self.predictor, **d.kw)
 
     # -- the leader's speed, as the world has it ---------------------------------------
