@@ -794,7 +794,7 @@ class _Coupling:
         else:
             sink.write(records_frame(records, self.n, self.rec.limits))
 
-    def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
+    def _truth(self, lp: tuple[float, float, float]) -> tuple[Sequence[float], ...]:
         # the scan has just advanced every follower to now
         return tuple(self.world.followers.relative_rows(lp))
 

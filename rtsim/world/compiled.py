@@ -31,6 +31,7 @@ dispatcher (`rtsim.world.kernels.entry`: the same machine code, no typing per ca
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -59,7 +60,7 @@ def _row(i: int, name: str) -> Any:
     writes the row, n values)."""
 
     def get(self: CompiledFollowerGroup) -> Any:
-        return self._s[i]
+        return self._rows[i]
 
     def put(self: CompiledFollowerGroup, value: Any) -> None:
         row = np.asarray(value, dtype=np.float64)
@@ -100,6 +101,7 @@ class CompiledFollowerGroup(FollowerGroup):
         w0: float = 0.0,
     ) -> None:
         self._s = np.zeros((len(ROWS), len(x)))
+        self._rows = tuple(self._s)  # (each row's view, made once)
         super().__init__(x, y, th, v, params, t_ms, w0)
         ker = kernels(self.motion)
         # (called directly, `entry`: this array, an int and floats at every call)
@@ -159,21 +161,21 @@ class CompiledFollowerGroup(FollowerGroup):
         return x, y, th
 
     def values(self, name: str) -> list[float]:
-        return self._s[ROWS.index(name)].tolist()  # type: ignore[no-any-return]
+        return self._rows[ROWS.index(name)].tolist()  # type: ignore[no-any-return]
 
     def positions(self) -> tuple[list[float], list[float]]:
-        x, y = self._s[:2].tolist()
-        return x, y
+        rows = self._rows
+        return rows[0].tolist(), rows[1].tolist()
 
     def states(self) -> list[tuple[float, float, float, float]]:
         return list(zip(*self._s[:4].tolist(), strict=True))
 
-    def relative_rows(self, leader: tuple[float, float, float]) -> list[tuple[float, ...]]:
+    def relative_rows(self, leader: tuple[float, float, float]) -> Sequence[Sequence[float]]:
         if self._rel is None:
             return super().relative_rows(leader)
-        out = np.empty((7, self._s.shape[1]))
+        out = np.empty((self._s.shape[1], 7))
         self._rel(self._s, leader[0], leader[1], leader[2], out)
-        return list(zip(*out.tolist(), strict=True))
+        return out.tolist()  # type: ignore[no-any-return]
 
 
 def truth_looker(motion: MotionModel, state: Any, limits: Any) -> Any:

@@ -29,6 +29,7 @@ immediate. Drawing the noise per command keeps the truth independent of the step
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -245,7 +246,7 @@ class FollowerGroup:
         """Every follower's (x, y, θ, speed) as it stands."""
         return list(zip(self.x, self.y, self.th, self.v, strict=True))
 
-    def relative_rows(self, leader: tuple[float, float, float]) -> list[tuple[float, ...]]:
+    def relative_rows(self, leader: tuple[float, float, float]) -> Sequence[Sequence[float]]:
         """Every follower's (x, y, θ, ρ, β, θ_rel, speed) as it stands, (ρ, β, θ_rel) its
         `rtsim.analysis.kinematics.relative_state` to the ``leader``'s pose."""
         return [(x, y, th, *relative_state(leader, (x, y, th)), v) for x, y, th, v in self.states()]
@@ -316,9 +317,10 @@ def _fmod(a: float, b: float) -> float:
 
 @kernel
 def group_relative(s: Array, xl: float, yl: float, hl: float, out: Array) -> None:
-    """`FollowerGroup.relative_rows` on a state array ``s`` into ``out`` (rows x, y, θ, ρ,
-    β, θ_rel, speed): `rtsim.analysis.kinematics.relative_state`'s expressions for floats
-    (its ``wrap_positive`` and ``wrap_angle`` with `_fmod`), in its order."""
+    """`FollowerGroup.relative_rows` on a state array ``s`` into ``out`` (a row per
+    follower: x, y, θ, ρ, β, θ_rel, speed): `rtsim.analysis.kinematics.relative_state`'s
+    expressions for floats (its ``wrap_positive`` and ``wrap_angle`` with `_fmod`), in its
+    order."""
     for k in range(s.shape[1]):
         xf, yf, hf = s[0, k], s[1, k], s[2, k]
         dx, dy = xf - xl, yf - yl
@@ -336,10 +338,10 @@ def group_relative(s: Array, xl: float, yl: float, hl: float, out: Array) -> Non
         th -= math.pi
         if th == -math.pi:
             th = math.pi
-        out[0, k] = xf
-        out[1, k] = yf
-        out[2, k] = hf
-        out[3, k] = rho
-        out[4, k] = beta
-        out[5, k] = th
-        out[6, k] = s[3, k]
+        out[k, 0] = xf
+        out[k, 1] = yf
+        out[k, 2] = hf
+        out[k, 3] = rho
+        out[k, 4] = beta
+        out[k, 5] = th
+        out[k, 6] = s[3, k]

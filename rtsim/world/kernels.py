@@ -241,7 +241,7 @@ def _warm(ns: Any) -> None:
     state = np.array([[0.0], [0.0], [0.0], [1.0], [0.0], [2.0], [0.1], [0.0], [0.0]])
     ns.group_advance(state, 0, 20.0, 10.0, 10.0)
     ns.group_advance_all(state, 40.0, 10.0, 10.0)
-    ns.group_relative(state, 0.0, 0.0, 0.0, np.zeros((7, 1)))
+    ns.group_relative(state, 0.0, 0.0, 0.0, np.zeros((1, 7)))
     look, viol, lim = np.zeros((9, 1)), np.zeros((4, 1), dtype=np.bool_), np.ones(1)
     ns.truth_look(
         state, 60.0, 10.0, 10.0, 0.0, 0.0, 0.0, look, True, look, viol, 1.0, 1.0, lim, lim
