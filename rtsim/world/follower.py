@@ -49,6 +49,7 @@ __all__ = [
     "FollowerGroup",
     "lpsi_command",
     "control_targets",
+    "advance_column",
     "group_advance",
     "group_advance_all",
     "group_relative",
@@ -278,10 +279,14 @@ class FollowerGroup:
 ROWS = ("x", "y", "th", "v", "w", "cmd_v", "cmd_w", "odometer", "t")
 
 
-@kernel
-def group_advance(s: Array, k: int, t_ms: float, step_ms: float, a: float) -> None:
+@kernel(inline=True)
+def advance_column(s: Array, k: int, t_ms: float, step_ms: float, a: float) -> None:
     """`FollowerGroup.advance` on a state array ``s`` (rows `ROWS`): follower index ``k`` to
-    ``t_ms`` with wheel acceleration limit ``a``."""
+    ``t_ms`` with wheel acceleration limit ``a`` (the motion model's ``advance``). Inlined
+    into its callers (`group_advance`, `group_advance_all`, `rtsim.world.scan.truth_look`),
+    which are built once per motion model: a kernel of one name built per model and
+    linked into others by name would be mistaken for another model's build when one of
+    them loads from the cache (seen: the turn-lag run took the unicycle's arcs)."""
     t0 = s[8, k]
     if t_ms <= t0:
         return
@@ -299,10 +304,16 @@ def group_advance(s: Array, k: int, t_ms: float, step_ms: float, a: float) -> No
 
 
 @kernel
+def group_advance(s: Array, k: int, t_ms: float, step_ms: float, a: float) -> None:
+    """`advance_column` for Python callers (`rtsim.world.compiled.CompiledFollowerGroup`)."""
+    advance_column(s, k, t_ms, step_ms, a)
+
+
+@kernel
 def group_advance_all(s: Array, t_ms: float, step_ms: float, a: float) -> None:
-    """`FollowerGroup.advance_all` on a state array ``s`` (`group_advance`)."""
+    """`FollowerGroup.advance_all` on a state array ``s`` (`advance_column`)."""
     for k in range(s.shape[1]):
-        group_advance(s, k, t_ms, step_ms, a)
+        advance_column(s, k, t_ms, step_ms, a)
 
 
 _TWO_PI = 2.0 * math.pi

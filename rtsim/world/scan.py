@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
-from rtsim.world.follower import group_advance_all
+from rtsim.world.follower import advance_column
 from rtsim.world.jit import kernel
 from rtsim.world.localization import LOST_CAUSES
 
@@ -49,16 +49,17 @@ def truth_look(
     sep_lim: Array, trav_lim: Array,
 ) -> None:  # fmt: skip
     """The scan's look at the truth, in one call: every follower of the state array ``s``
-    (`rtsim.world.follower.ROWS`) advanced to ``t_ms`` (`group_advance_all`), then written
+    (`rtsim.world.follower.ROWS`) advanced to ``t_ms`` (`advance_column`), then written
     into ``look`` (rows `LOOK`): its position in the frame of the leader at (xl, yl, hl),
     ρ = hypot, β = atan2 mod 2π, its odometer, and the changes since the previous scan's look
     ``prev`` (zeros when ``first``): displacement in the leader's frame, |Δρ|, the odometer's
     travel, |remainder(Δβ, 2π)|; ``viol`` (rows `BOUNDS`): the changes beyond r_H, the
     separation limits ``sep_lim``, the travel limits ``trav_lim`` and T_β. The same
     expressions, in the same order, as `rtsim.world.world.World._changes` in Python."""
-    group_advance_all(s, t_ms, step_ms, a)
     c, sn = math.cos(hl), math.sin(hl)
     two_pi = 2 * math.pi
+    for k in range(s.shape[1]):
+        advance_column(s, k, t_ms, step_ms, a)
     for k in range(s.shape[1]):
         dx, dy = s[0, k] - xl, s[1, k] - yl
         tx, ty = c * dx + sn * dy, -sn * dx + c * dy
