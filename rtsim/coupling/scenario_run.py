@@ -71,7 +71,7 @@ from rtsim.model.task import Segment
 from rtsim.model.taskset import TaskSet
 from rtsim.notebook import ResultDisplay, flatten
 from rtsim.sim.cpu import Job
-from rtsim.sim.execution import ExecSpec
+from rtsim.sim.execution import ExecSpec, uniforms
 from rtsim.sim.progress import TICKS, start_ticker
 from rtsim.sim.run import build_cpu
 from rtsim.world.contact import closest_each, contact_distance
@@ -379,6 +379,9 @@ class _Coupling:
             cpu.on("segment_start", self._on_send_start, task=win.name, role="send")
         self._e_send = float(win.e_send)
         self._loss = self.radio.loss if self.radio.loss > 0 else 0  # (0: no draw per send)
+        # the link's draws (a round trip, a loss) in the order the hooks ask, taken ahead
+        rng = self._radio_rng
+        self._uniform = uniforms(rng).__next__ if rng is not None else None
         cpu.on("job_end", self._on_done, task=win.name)
         cpu.set_exec_time(win.name, "hough", self._hough_exec)
         self._delta_t = float(win.delta_t)
@@ -553,7 +556,7 @@ class _Coupling:
         _, kappa = world.segment_at()
         # each follower's estimate propagated to now and its expected speed, in one pass (the
         # same as World.estimated_pose(i) and World.relative(i, "estimate")[3])
-        estimates = [world.estimate_at(i, now) for i in range(1, self.n + 1)]
+        estimates = world.estimates_at(now)
         # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns
         state = tuple([(*pose, *relative_state(lp, pose), v_f) for pose, v_f in estimates])
         fols = self._followers(state) if self._fols else ()
@@ -744,9 +747,9 @@ class _Coupling:
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
-            last.near_true = tuple(b if b < a else a for a, b in zip(last.near, near, strict=True))
-            d_c = self._contact_cm
-            last.viol_contact = tuple(x < d_c for x in last.near_true)
+            # (min(a, b) is a unless b < a, as before, NaN included)
+            last.near_true = near_true = tuple(map(min, last.near, near))
+            last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
         ro = d.kw.get("rollout")
         last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
 
@@ -805,8 +808,8 @@ class _Coupling:
         """The window's radio round trip: uniform on [radio.min_ms, delta_t] (its maximum,
         what the analyses use), drawn from the link's own generator."""
         lo = self.radio.min_ms
-        assert lo is not None and self._radio_rng is not None
-        dt = lo + (self._delta_t - lo) * float(self._radio_rng.random())
+        assert lo is not None and self._uniform is not None
+        dt = lo + (self._delta_t - lo) * self._uniform()
         rec = self._open.get(job.index)
         if rec is not None:
             rec.radio_ms = dt
@@ -816,7 +819,7 @@ class _Coupling:
         now = self.env.now
         i = int(seg.follower)  # type: ignore[arg-type]
         rec = self._open[job.index]
-        if self._loss and self._radio_rng.random() < self._loss:  # type: ignore[union-attr]
+        if self._loss and self._uniform() < self._loss:  # type: ignore[misc]
             # lost: the follower keeps its previous command; the leader, missing the reply,
             # keeps it in its estimate too
             rec.radio_losses += 1
@@ -934,13 +937,14 @@ class _Coupling:
 
     def run(self) -> None:
         proc = self.cpu.start(self.horizon_ms)
-        # Objects alive before the run (modules, pandas, matplotlib, ...) are moved out of
-        # the collector's reach while it runs: full collections then traverse only what the
-        # run allocates (gen-2 time in an hour of Test 2 after the CLI's imports: ~4% of the
-        # loop -> <1%). No effect on results; unfrozen afterwards unless already frozen.
-        frozen = gc.get_freeze_count() == 0
-        if frozen:
-            gc.freeze()
+        # The cyclic collector is off while the loop runs: the loop makes no reference
+        # cycles (tests/coupling/test_no_cycles.py), so its passes only traversed the
+        # records the run keeps, twice each (≈ 2 % of a Test 2 lap). Afterwards what the
+        # run allocated joins the oldest generation with the objects alive before it
+        # (frozen, then unfrozen), as a full collection would have left them, unless the
+        # caller had frozen objects of its own. No effect on results.
+        enabled, frozen = gc.isenabled(), gc.get_freeze_count() == 0
+        gc.disable()
         try:
             if self._stop_s is None:
                 self.env.run(until=self.horizon_ms)
@@ -948,7 +952,10 @@ class _Coupling:
                 self.env.run(until=self.stop | proc)
         finally:
             if frozen:
+                gc.freeze()
                 gc.unfreeze()
+            if enabled:
+                gc.enable()
         last = self._last_scanned
         if last is not None and last.viol is None:  # close the last observation interval
             scan = self.world.scan(max(self.env.now, self.world.t_ms))

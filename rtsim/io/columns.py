@@ -31,11 +31,12 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from rtsim.errors import InputError
 from rtsim.io.atomic import naming
 
-__all__ = ["ChunkWriter", "csv_text", "iter_columns", "read_columns"]
+__all__ = ["ChunkWriter", "csv_text", "float_texts", "iter_columns", "read_columns"]
 
 #: Rows parsed at a time when a CSV is read back (the parser's buffers stay small).
 READ_ROWS = 65536
@@ -87,6 +88,49 @@ def _quote(v: str) -> str:
     return f'"{v}"'
 
 
+#: From this many rows a chunk is formatted by Arrow (`_arrow_cells`; its calls cost a few
+#: µs each, so a short chunk is formatted in Python).
+ARROW_MIN = 64
+#: Rows formatted by one round of Arrow calls (a chunk's text stays far below 2 GB).
+ARROW_ROWS = 16384
+#: The magnitudes [lo, hi) where Arrow's shortest form of a float is ``repr``'s, less the
+#: ``.0`` that ``repr`` adds to a whole number (Arrow writes 1e-05 as 0.00001 and 1e10 as
+#: 1e+10; ``repr`` switches to an exponent below 1e-4 and from 1e16 on).
+ARROW_RANGE = (1e-4, 1e10)
+
+
+def _arrow_floats(a: NDArray[np.float64], nan: str | None) -> Any:
+    """``repr`` of every value of ``a`` (float64) as an Arrow string array (NaN as ``nan``
+    when given): Arrow's float-to-string cast writes the same shortest round-trip digits
+    (both give the shortest string that reads back as the same double, the closest one of
+    them), so within `ARROW_RANGE` (and for zeros) its text is ``repr``'s once a whole
+    number gets its ``.0``; the values outside it (NaN, infinities, huge or tiny ones) are
+    formatted by ``repr``. (Tested against ``repr`` on random doubles of every magnitude
+    and on the runs' own columns.)"""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    m = np.abs(a)
+    lo, hi = ARROW_RANGE
+    other = ~(((m >= lo) & (m < hi)) | (m == 0.0))
+    s = pc.cast(pa.array(a), pa.string())
+    s = pc.if_else(pc.match_substring(s, "."), s, pc.binary_join_element_wise(s, ".0", ""))
+    if other.any():
+        texts = [repr(x) for x in a[other].tolist()]
+        if nan is not None:
+            texts = [nan if t == "nan" else t for t in texts]
+        s = pc.replace_with_mask(s, pa.array(other), pa.array(texts, pa.string()))
+    return s
+
+
+def float_texts(a: NDArray[np.float64]) -> list[str]:
+    """``repr`` of every value of ``a`` (float64), as ``list(map(repr, a.tolist()))`` gives
+    it: by Arrow from `ARROW_MIN` values on (`_arrow_floats`, ≈ 2-3× faster)."""
+    if len(a) < ARROW_MIN:
+        return list(map(repr, a.tolist()))
+    return _arrow_floats(a, None).to_pylist()  # type: ignore[no-any-return]
+
+
 def _texts(values: Any, kind: str) -> list[str] | None:
     """One column as the strings ``to_csv`` writes (None: a value `csv_text` does not
     format exactly as pandas, e.g. a number in a string column)."""
@@ -116,6 +160,45 @@ def _texts(values: Any, kind: str) -> list[str] | None:
     return out
 
 
+def _arrow_cells(values: Any, kind: str) -> Any:
+    """One column as `_texts` gives it, as an Arrow string array (None as `_texts`):
+    floats by `_arrow_floats`, integers by Arrow's cast (the digits ``str`` writes),
+    booleans as True/False, strings by `_texts`."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    if kind == "f":
+        return _arrow_floats(np.asarray(values, dtype=np.float64), "")
+    if kind == "i":
+        return pc.cast(pa.array(np.asarray(values, dtype=np.int64)), pa.string())
+    if kind == "b":
+        return pc.if_else(pa.array(np.asarray(values, dtype=bool)), "True", "False")
+    t = _texts(values, kind)
+    return None if t is None else pa.array(t, pa.string())
+
+
+def _arrow_lines(columns: Sequence[Any], kinds: Sequence[str]) -> list[str] | None:
+    """The rows of `csv_text` for ``columns`` (without the header), each column's cells
+    and the rows joined by Arrow (`_arrow_cells`); None as `csv_text`."""
+    import pyarrow.compute as pc
+
+    cells = _each(columns, kinds, _arrow_cells)
+    if cells is None:
+        return None
+    return pc.binary_join_element_wise(*cells, ",").to_pylist()  # type: ignore[no-any-return]
+
+
+def _each(columns: Sequence[Any], kinds: Sequence[str], cells: Any) -> list[Any] | None:
+    """Every column's cells by ``cells`` (`_texts` or `_arrow_cells`); None if one is."""
+    out = []
+    for values, kind in zip(columns, kinds, strict=True):
+        c = cells(values, kind)
+        if c is None:
+            return None
+        out.append(c)
+    return out
+
+
 def csv_text(
     columns: Sequence[Any], kinds: Sequence[str], header: Sequence[str] | None = None
 ) -> str | None:
@@ -126,13 +209,19 @@ def csv_text(
     sep = os.linesep
     if len(columns) < 2:  # a lone empty field is quoted by the csv module: leave it to pandas
         return None
-    texts = []
-    for values, kind in zip(columns, kinds, strict=True):
-        t = _texts(values, kind)
-        if t is None:
+    n = len(columns[0])
+    if n < ARROW_MIN:
+        texts = _each(columns, kinds, _texts)
+        if texts is None:
             return None
-        texts.append(t)
-    lines = list(map(",".join, zip(*texts, strict=True)))
+        lines = list(map(",".join, zip(*texts, strict=True)))
+    else:  # (by Arrow, ARROW_ROWS rows at a time: its strings hold up to 2 GB)
+        lines = []
+        for i in range(0, n, ARROW_ROWS):
+            part = _arrow_lines([c[i : i + ARROW_ROWS] for c in columns], kinds)
+            if part is None:
+                return None
+            lines += part
     if header is not None:
         lines.insert(0, ",".join(_quote(str(h)) for h in header))
     if not lines:

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import os
 import zlib
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
@@ -57,7 +57,12 @@ __all__ = [
     "base_seed_sequence",
     "task_rngs",
     "jitter_rngs",
+    "UNIFORM_BLOCK",
+    "uniforms",
 ]
+
+#: How many uniforms `uniforms` takes from its generator at a time.
+UNIFORM_BLOCK = 1024
 
 
 class ExecModel(Protocol):
@@ -231,6 +236,15 @@ def jitter_rngs(
         child = np.random.SeedSequence(entropy=base.entropy, spawn_key=key)
         out[name] = np.random.Generator(np.random.PCG64(child))
     return out
+
+
+def uniforms(rng: np.random.Generator, block: int = UNIFORM_BLOCK) -> Iterator[float]:
+    """``rng``'s uniforms on [0, 1) as floats, one per ``next``: the numbers one
+    ``rng.random()`` call per draw gives, in the same order (a Generator's ``random(N)`` is
+    its N single draws concatenated), taken ``block`` at a time, so that a draw costs a
+    ``next`` instead of a numpy call; ``rng`` itself runs ahead by up to a block."""
+    while True:
+        yield from rng.random(block).tolist()
 
 
 def task_rngs(

@@ -227,6 +227,9 @@ class SimResult(ResultDisplay):
         return out
 
 
+_list_append = list.append
+
+
 class RowBuffer(list):  # type: ignore[type-arg]
     """Job records as tuples, turned into a column chunk every ``chunk_rows`` rows.
 
@@ -247,7 +250,7 @@ class RowBuffer(list):  # type: ignore[type-arg]
 
     def append(self, row: tuple[Any, ...]) -> None:  # type: ignore[override]
         """Add one record (a tuple in column order)."""
-        super().append(row)
+        _list_append(self, row)  # (list.append itself: no super() object per record)
         if len(self) >= self.chunk_rows:
             self.flush()
 

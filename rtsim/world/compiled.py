@@ -6,12 +6,12 @@ Python ones (tests run both paths and compare whole runs):
 
 - `CompiledFollowerGroup`: the followers' truth as one array, integrated to a time
   (`rtsim.world.motion.follower_advance` compiled) in one call, and `truth_looker`;
-- `CompiledFollowerEKF`: the EKF's predict and update
-  (`rtsim.world.ekf.ekf_predict` and `ekf_update` compiled);
+- `CompiledEstimates`: the leader's estimates as one array the world owns, each reader one
+  compiled call (`rtsim.world.estimates`); `CompiledFollowerEKF` views a row of it;
 - `CompiledTraceFollower`: the follow-the-leader law's equations (`rtsim.world.ftl`:
   a command in one call, the projection and the trace's point for the truth log's
   cross-track error);
-- `compiled_motion`: the leader's travel and one piece of its belief of a follower.
+- `compiled_motion`: the leader's travel.
 
 (The controller's rollout runs compiled on this law: `rtsim.control.compiled_rollout`.)
 
@@ -36,7 +36,8 @@ from typing import Any
 
 import numpy as np
 
-from rtsim.world.ekf import EkfParams, FastFollowerEKF
+from rtsim.world.ekf import EkfParams, FastFollowerEKF, _squares
+from rtsim.world.estimates import BASE, HELD_ROOM, new_estimates
 from rtsim.world.follower import ROWS, FollowerGroup, FollowerParams
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.kernels import available, entry, kernels
@@ -45,6 +46,7 @@ from rtsim.world.path import LeaderPath
 from rtsim.world.scan import BOUNDS, LOOK
 
 __all__ = [
+    "CompiledEstimates",
     "CompiledFollowerEKF",
     "CompiledFollowerGroup",
     "CompiledTraceFollower",
@@ -193,12 +195,11 @@ def truth_looker(motion: MotionModel, state: Any, limits: Any) -> Any:
     return entry(ker.truth_look, args)
 
 
-def compiled_motion(motion: MotionModel) -> tuple[Any, Any]:
-    """A motion model's ``step`` (the leader's belief over one held piece:
-    `rtsim.world.motion.belief_step`) and ``leader`` (the leader's travel) compiled, each
-    called directly (`entry`: floats at every call), for `rtsim.world.world.World`."""
-    ker = kernels(motion)
-    return entry(ker.belief_step, (0.0,) * 9), entry(ker.leader_travel, (0.0,) * 5)
+def compiled_motion(motion: MotionModel) -> Any:
+    """A motion model's ``leader`` (the leader's travel) compiled, called directly (`entry`:
+    floats at every call), for `rtsim.world.world.World` (whose estimates carry the belief
+    in `CompiledEstimates`' kernels)."""
+    return entry(kernels(motion).leader_travel, (0.0,) * 5)
 
 
 class _Kernel:
@@ -212,7 +213,7 @@ class _Kernel:
     def __get__(self, obj: Any, cls: Any = None) -> Any:
         if obj is None:
             return self
-        fn = getattr(kernels(), self.name)
+        fn = getattr(kernels(getattr(obj, "_motion", None)), self.name)
         fn(*self.args)
         fn = entry(fn, self.args)
         setattr(obj, self.attr, fn)
@@ -224,20 +225,182 @@ class _Kernel:
 
 class CompiledFollowerEKF(FastFollowerEKF):
     """`FastFollowerEKF` whose predict and update run compiled (the predict without a
-    command compiled at its first call: the shipped scenarios never make one)."""
+    command compiled at its first call: the shipped scenarios never make one). Bound to a
+    row of `CompiledEstimates` (`bind`), that row is its state: it reads the row, and each
+    of its own steps loads it, runs and writes it back."""
 
+    # (each compiled at its first call, then called directly, `entry`: floats at every call;
+    # the world's own steps run in `CompiledEstimates`' kernels)
     _predict = _Kernel("ekf_predict", (1.0,) * 16)
+    _update = _Kernel("ekf_update", (1.0,) * 15)
+    _command = _Kernel("ekf_command", (1.0,) * 19)
 
     def __init__(
         self, pose: tuple[float, float, float], params: EkfParams, motion: Any = None
     ) -> None:
+        self._motion = motion
         super().__init__(pose, params, motion)
-        # (called directly, `entry`: floats at every call)
-        self._update = entry(kernels().ekf_update, (0.0,) * 15)
+        del self._command  # (the class's, for ``motion``)
+        self._row: tuple[CompiledEstimates, int] | None = None
 
     @staticmethod
     def _command_kernel(motion: Any) -> Any:
-        return entry(kernels(motion).ekf_command, (0.0,) * 19)
+        return None
+
+    def bind(self, est: CompiledEstimates, k: int) -> None:
+        """Keep the state in row ``k`` of ``est`` from now on (written with this filter's)."""
+        self._row = (est, k)
+        self._store()
+
+    def _load(self) -> None:
+        if self._row is not None:
+            est, k = self._row
+            r = est.E[k, :12].tolist()
+            self.x = r[:3]
+            self._q = tuple(r[3:])
+
+    def _store(self) -> None:
+        if self._row is not None:
+            est, k = self._row
+            est.E[k, :12] = (*self.x, *self._q)
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        self._load()
+        return super().pose
+
+    @property
+    def P(self) -> Any:
+        self._load()
+        return super().P
+
+    @property
+    def heading_var(self) -> float:
+        self._load()
+        return super().heading_var
+
+    def set_state(self, pose: tuple[float, float, float], P: Any) -> None:
+        super().set_state(pose, P)
+        self._store()
+
+    def predict(self, v: float, w: float, dt: float) -> None:
+        self._load()
+        super().predict(v, w, dt)
+        self._store()
+
+    def predict_command(
+        self, v: float, w: float, vc: float, wc: float, a: float, dt: float
+    ) -> tuple[float, float]:
+        self._load()
+        out = super().predict_command(v, w, vc, wc, a, dt)
+        self._store()
+        return out
+
+    def update(self, z: tuple[float, float]) -> None:
+        self._load()
+        super().update(z)
+        self._store()
+
+    def reset_position(self, z: tuple[float, float]) -> None:
+        self._load()
+        super().reset_position(z)
+        self._store()
+
+
+class CompiledEstimates:
+    """The leader's estimates of the ``n`` followers as one array ``E`` (rows:
+    `rtsim.world.estimates`), the compiled world's state in place of its filters' floats and
+    its lists of held commands: each of `rtsim.world.world.World`'s readers is one compiled
+    call on it (bit for bit the Python rules). The filters become views of their rows.
+    ``last``: per follower the command held last (speed, turn rate), a list for Python
+    readers."""
+
+    def __init__(
+        self,
+        filters: list[CompiledFollowerEKF],
+        vw: list[tuple[float, float]],
+        held: list[tuple[float, float, float]],
+        motion: MotionModel,
+        params: EkfParams,
+        accel: float,
+    ) -> None:
+        n = len(filters)
+        self.E = E = new_estimates(n, HELD_ROOM)
+        for k, (v, w) in enumerate(vw):
+            E[k, 12], E[k, 13], E[k, 14] = v, w, 1.0
+            E[k, BASE : BASE + 3] = held[k]
+        self.last = [(h[1], h[2]) for h in held]
+        for k, f in enumerate(filters):
+            f.bind(self, k)
+        self.accel = accel
+        self.ekf_args = (accel, *_squares(params), max(params.measurement_noise, 0.01) ** 2)
+        ker = kernels(motion)
+        x = 0.0
+        self._scan = entry(ker.est_scan, (E, np.zeros((n, 3)), *(x,) * 10, True))
+        self._one, self._all = np.empty((1, 7)), np.empty((n, 7))  # (`est_carry`'s rows)
+        self._carry = entry(ker.est_carry, (E, 0, x, x, self._all))
+        self._hold = entry(ker.est_hold, (E, 0, x, x, x))
+        self._ftl = ker.est_command_ftl
+
+    def scan(
+        self, t: float, lp: tuple[float, float, float], fixes: list[float], var: float, track: bool
+    ) -> float:
+        """`World.estimate` for every follower (`est_scan`): ``fixes`` flat, (mx, my, 1 in
+        its window, 2 re-acquired, else 0) per follower; returns the heading variance's max."""
+        F = np.array(fixes).reshape(-1, 3)
+        return self._scan(self.E, F, t, *self.ekf_args, *lp, var, track)  # type: ignore[no-any-return]
+
+    def carry(self, k: int, t: float) -> tuple[tuple[float, float, float], float, float]:
+        """Follower index ``k``'s estimate at ``t`` ms: (pose, v̂, ω̂) (`est_carry`)."""
+        one = self._one
+        self._carry(self.E, k, t, self.accel, one)
+        x, y, th, v, w, _, _ = one.tolist()[0]
+        return (x, y, th), v, w
+
+    def carry_all(self, t: float) -> list[list[float]]:
+        """Every estimate at ``t`` ms: per follower [x, y, θ, v̂, ω̂, v_c, ω_c] (`est_carry`)."""
+        out = self._all
+        self._carry(self.E, 0, t, self.accel, out)
+        return out.tolist()  # type: ignore[no-any-return]
+
+    def hold(self, k: int, t: float, v: float, w: float) -> None:
+        """Hold (v, ω) from ``t`` ms in follower index ``k``'s row (`est_hold`), growing the
+        array when the row is full."""
+        while not self._hold(self.E, k, t, v, w):
+            self._grow()
+        self.last[k] = (v, w)
+
+    def _grow(self) -> None:
+        """Twice the room for held commands (the filters' views follow: they read ``E``)."""
+        E = self.E
+        grown = np.zeros((E.shape[0], BASE + 2 * (E.shape[1] - BASE)))
+        grown[:, : E.shape[1]] = E
+        self.E = grown
+
+    def command_ftl(
+        self, k: int, t: float, law: Any, s_l: float, lp: tuple[float, float, float],
+        v_l: float, limits: tuple[float, float],
+    ) -> tuple[float, float]:  # fmt: skip
+        """`World.command`'s estimate, follow-the-leader law, saturation and hold in one call
+        (`est_command_ftl`) on the compiled law ``law``'s arrays: the command (v, ω)."""
+        xl, yl, hl = lp
+        fn = self._ftl_entry
+        if fn is None:  # (typed on its first call's arguments)
+            fn = self._ftl_entry = entry(
+                self._ftl, (self.E, k, t, self.accel, law._G, law._sr, law._sf, law.gain,
+                law.lookahead, s_l, xl, yl, hl, v_l, *limits),
+            )  # fmt: skip
+        vmax, wmax = limits
+        v, w, held = fn(
+            self.E, k, t, self.accel, law._G, law._sr, law._sf, law.gain, law.lookahead,
+            s_l, xl, yl, hl, v_l, vmax, wmax,
+        )  # fmt: skip
+        if not held:
+            self.hold(k, t, v, w)
+        self.last[k] = (v, w)
+        return v, w
+
+    _ftl_entry: Any = None
 
 
 class CompiledTraceFollower(TraceFollower):

@@ -20,6 +20,13 @@ from typing import Any
 import numpy as np
 
 from rtsim.world.ekf import ekf_command, ekf_predict, ekf_update
+from rtsim.world.estimates import (
+    est_carry,
+    est_command_ftl,
+    est_hold,
+    est_scan,
+    new_estimates,
+)
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
 from rtsim.world.follower import group_advance, group_advance_all, group_relative
 from rtsim.world.ftl import ftl_command, ftl_project, ftl_reference, trace_point
@@ -101,21 +108,33 @@ ENTRIES: dict[str, Any] = {
     "group_advance_all": group_advance_all,
     "truth_look": truth_look,
     "group_relative": group_relative,
-    "ekf_command": ekf_command,
-    "ekf_update": ekf_update,
     "ftl_command": ftl_command,
     "ftl_reference": ftl_reference,
     "ftl_project": ftl_project,
     "trace_point": trace_point,
     "hypot": cpython_hypot,
-    "belief_step": belief_step,
     "leader_travel": leader_travel,
+    "est_scan": est_scan,
+    "est_carry": est_carry,
+    "est_hold": est_hold,
+    "est_command_ftl": est_command_ftl,
 }
 
 #: the entries compiled (or loaded) only when first read from the namespace: the EKF's
-#: predict without a command, which the shipped scenarios never run, and the remainder,
-#: which only kernels call (`rtsim.control.kernels.warm_all` builds them too)
-LAZY_ENTRIES: dict[str, Any] = {"ekf_predict": ekf_predict, "remainder": cpython_remainder}
+#: predict without a command, which the shipped scenarios never run; the remainder, which
+#: only kernels call (`rtsim.control.kernels.warm_all` builds them too); one filter's
+#: steps and one piece of the belief, which the compiled world runs inside its estimates'
+#: kernels (`rtsim.world.estimates`) and only a filter driven on its own calls
+LAZY_ENTRIES: dict[str, Any] = {
+    "ekf_predict": ekf_predict,
+    "remainder": cpython_remainder,
+    "ekf_command": ekf_command,
+    "ekf_update": ekf_update,
+    "belief_step": belief_step,
+}
+
+#: the lazy entries that run a motion model's parts (built with its substitutions)
+LAZY_MOTION = ("ekf_command", "belief_step")
 
 #: the entries that run a motion model's parts (built again for a model other than the
 #: unicycle: `kernels`)
@@ -123,9 +142,10 @@ MOTION_ENTRIES = (
     "group_advance",
     "group_advance_all",
     "truth_look",
-    "ekf_command",
-    "belief_step",
     "leader_travel",
+    "est_scan",
+    "est_carry",
+    "est_command_ftl",
 )
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
@@ -173,7 +193,7 @@ class _Namespace(types.SimpleNamespace):
         fn = LAZY_ENTRIES.get(name)
         if fn is None:
             raise AttributeError(name)
-        built = build(fn)
+        built = build(fn, vars(self).get("subs", ()) if name in LAZY_MOTION else ())
         setattr(self, name, built)
         return built
 
@@ -204,7 +224,8 @@ def kernels(motion: Any = None) -> Any:
         swap = dict(subs)
         sources = [swap.get(ENTRIES[name], ENTRIES[name]) for name in MOTION_ENTRIES]
         announce(sources, COMPILE_S, subs)
-        model_ns = _Namespace(**vars(_KERNELS))
+        base = {k: v for k, v in vars(_KERNELS).items() if k not in LAZY_MOTION}
+        model_ns = _Namespace(**base)
         for name, fn in zip(MOTION_ENTRIES, sources, strict=True):
             setattr(model_ns, name, build(fn, subs))
         model_ns.subs = subs
@@ -246,14 +267,19 @@ def _warm(ns: Any) -> None:
     ns.truth_look(
         state, 60.0, 10.0, 10.0, 0.0, 0.0, 0.0, look, True, look, viol, 1.0, 1.0, lim, lim
     )
-    ns.ekf_command(*([1.0] * 19))
-    ns.ekf_update(*([1.0] * 15))
     G = (np.zeros(1), np.zeros(3), np.zeros(1), 100.0, np.zeros(1), np.full(1, -1), np.ones(1))
     nan1 = np.full(1, math.nan)
     ns.ftl_command(G, nan1, nan1.copy(), 0.5, 10.0, 0, 50.0, 50.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     ns.ftl_reference(G, nan1, 0, 50.0, 50.0, 0.0, 0.0, 1.0)
     ns.ftl_project(G, 0, 10.0, 20.0, 1.0)
     ns.trace_point(G, 0, 10.0)
-    ns.belief_step(0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.1, 10.0, 0.02)
     ns.leader_travel(1.0, 2.0, 10.0, 10.0, 0.02)
+    E = new_estimates(1)
+    E[0, 3] = E[0, 7] = E[0, 11] = E[0, 14] = 1.0
+    ns.est_scan(E, np.array([[1.0, 0.0, 1.0]]), 10.0, *([1.0] * 10), True)
+    ns.est_carry(E, 0, 20.0, 1.0, np.empty((1, 7)))
+    ns.est_hold(E, 0, 20.0, 1.0, 0.0)
+    ns.est_command_ftl(
+        E, 0, 30.0, 1.0, G, nan1, nan1.copy(), 0.5, 10.0, 0.0, 50.0, 50.0, 0.0, 1.0, 1.0, 1.0
+    )
     # (the rollout's kernels: rtsim.control.kernels, when a run first rolls out)

@@ -31,6 +31,7 @@ from rtsim.analysis.kinematics import (
 )
 from rtsim.errors import RtsimError
 from rtsim.world.compiled import (
+    CompiledEstimates,
     CompiledFollowerEKF,
     CompiledFollowerGroup,
     CompiledTraceFollower,
@@ -76,12 +77,11 @@ class World:
         self.motion = motion_model(config.follower.motion_model)
         self.backend = config.resolved_backend()
         fast = self.backend == "compiled"
-        # the leader's travel and the belief's step: the motion model's parts, compiled
-        # in the compiled backend (called directly: floats only)
-        if fast:
-            self._step, travel = compiled_motion(self.motion)
-        else:
-            self._step, travel = self.motion.step, self.motion.leader
+        # the leader's travel: the motion model's part, compiled in the compiled backend
+        # (called directly: floats only)
+        self._step = self.motion.step  # (the Python world's; the compiled one's estimates
+        # carry it in `CompiledEstimates`' kernels)
+        travel = compiled_motion(self.motion) if fast else self.motion.leader
         self.leader = Leader(
             config.path,
             config.leader_speed,
@@ -158,6 +158,18 @@ class World:
         # since the last scan's estimate): (the piece's index, its start, the filter's
         # pose, (v̂, ω̂) it was carried from, the pose, v and ω there)
         self._marks: list[Mark | None] = [None] * form.n
+        # the compiled backend's estimates: one array, the filters views of its rows, every
+        # reader one compiled call (`CompiledEstimates`; the lists above stay unread)
+        self._arr: CompiledEstimates | None = None
+        if fast:
+            self._arr = CompiledEstimates(
+                self._filters,  # type: ignore[arg-type]
+                list(zip(self._vhat, self._what, strict=True)),
+                [p[0] for p in self._pieces],
+                motion,
+                ep,
+                fp.max_accel,
+            )
         # the Hough windows' centres with the ``previous`` centre: the estimates at the last
         # scan (at first, the initial ones) in the leader's frame then
         self._centre = self._to_leader(self.leader.pose, *self._estimated_xy())
@@ -178,6 +190,9 @@ class World:
         self._r_H, self._T_beta = thr.r_H, thr.T_beta
         self._accel, self._step_ms = fp.max_accel, config.step_ms
         self._n = form.n
+        # the compiled backend's command with the compiled law: one call (`command_ftl`)
+        self._ftl_fused = self._arr is not None and hasattr(self._ftl, "_G")
+        self._limits = (fp.max_speed, fp.max_turn_rate)
         # the compiled backend's look at the truth at a scan (`_looked`; None: the Python
         # reference, `_changes`) and the previous scan's look
         self._look: Any = None
@@ -269,6 +284,8 @@ class World:
         Carried from follower k's mark (`_hold`) when it holds and ``t_ms`` is not before
         it: the same steps on the same numbers as from the filter, the pieces before the
         mark's ending where the next begins whatever ``t_ms`` (they are in time order)."""
+        if self._arr is not None:
+            return self._arr.carry(k, t_ms)
         f = self._filters[k]
         pose = f.pose
         v, w = self._vhat[k], self._what[k]
@@ -292,6 +309,9 @@ class World:
 
     def _carried(self, t_ms: float) -> tuple[list[float], list[float]]:
         """Every estimate carried to ``t_ms`` (`_propagate`): the positions' x and y."""
+        if self._arr is not None:
+            rows = self._arr.carry_all(t_ms)
+            return [r[0] for r in rows], [r[1] for r in rows]
         prop = self._propagate
         xs, ys = [], []
         for k in range(len(self._filters)):
@@ -301,6 +321,9 @@ class World:
         return xs, ys
 
     def _estimated_xy(self) -> tuple[list[float], list[float]]:
+        if self._arr is not None:
+            E = self._arr.E
+            return E[:, 0].tolist(), E[:, 1].tolist()
         poses = [f.pose for f in self._filters]
         return [p[0] for p in poses], [p[1] for p in poses]
 
@@ -323,6 +346,13 @@ class World:
         it holds: its pose (x, y, heading) and its expected speed (cm/s)."""
         pose, v, _ = self._propagate(i - 1, t_ms)
         return pose, v
+
+    def estimates_at(self, t_ms: float) -> list[tuple[Pose, float]]:
+        """Every follower's `estimate_at` (``t_ms``), in one compiled call in the compiled
+        backend."""
+        if self._arr is not None:
+            return [((r[0], r[1], r[2]), r[3]) for r in self._arr.carry_all(t_ms)]
+        return [self.estimate_at(i, t_ms) for i in range(1, self._n + 1)]
 
     def expected_turn_rates(self, t_ms: float) -> tuple[float, ...]:
         """The turn rate the leader expects of each follower at ``t_ms`` (the motion model's
@@ -551,6 +581,9 @@ class World:
         in_window = scan.as_lists("in_window")
         reacquired = scan.as_lists("reacquired")
         predicted = self._predicted
+        if self._arr is not None:
+            self._estimate_arrays(scan, measured, in_window, reacquired)
+            return
         all_pieces, vhat, what = self._pieces, self._vhat, self._what
         for k, f in enumerate(self._filters):
             pieces = all_pieces[k]
@@ -584,6 +617,23 @@ class World:
         if not predicted:  # (a predicted centre is carried from the estimates at each scan)
             self._centre = self._to_leader(scan.leader_pose, *self._estimated_xy())
 
+    def _estimate_arrays(
+        self, scan: Scan, measured: list[XY], in_window: list[bool], reacquired: list[bool]
+    ) -> None:
+        """`estimate`'s loop and its ending as one compiled call on the compiled backend's
+        estimates (`CompiledEstimates.scan`)."""
+        fixes: list[float] = []
+        for (mx, my), w, r in zip(measured, in_window, reacquired, strict=True):
+            fixes += (mx, my, 1.0 if w else 2.0 if r else 0.0)
+        arr = self._arr
+        assert arr is not None
+        self.max_heading_var = arr.scan(
+            scan.t_ms, scan.leader_pose, fixes, self.max_heading_var, self._predicted
+        )
+        self._est_t = scan.t_ms
+        if not self._predicted:
+            self._centre = self._to_leader(scan.leader_pose, *self._estimated_xy())
+
     # -- commands --------------------------------------------------------------------
     def command(self, i: int, t_ms: float) -> tuple[float, float]:
         """Compute follower i's (speed, turn rate) by l-ψ or follow-the-leader control on the
@@ -598,6 +648,12 @@ class World:
             self._advance_leader(t_ms)
         fol = self.followers
         fol.advance(k, t_ms, self._step_ms)
+        if self._ftl_fused:
+            ld = self.leader
+            cmd = self._arr.command_ftl(  # type: ignore[union-attr]
+                k, t_ms, self._ftl, ld.s, ld.pose, ld.speed, self._limits
+            )
+            return self._actuate(k, cmd)
         est = self._propagate(k, t_ms)
         x, y, th = est[0]
         ld = self.leader
@@ -631,6 +687,9 @@ class World:
     ) -> tuple[float, float]:
         """Record follower index k's command for the estimates and apply it with noise;
         ``est``: `_propagate` (k, t_ms), kept as the mark where the new piece begins."""
+        if self._arr is not None:
+            self._arr.hold(k, t_ms, *cmd)
+            return self._actuate(k, cmd)
         pieces = self._pieces[k]
         if pieces and pieces[-1][0] >= t_ms:
             pieces.pop()
@@ -642,8 +701,13 @@ class World:
         self._marks[k] = mark
         v, w = cmd
         pieces.append((t_ms, v, w))
+        return self._actuate(k, cmd)
+
+    def _actuate(self, k: int, cmd: tuple[float, float]) -> tuple[float, float]:
+        """Apply follower index k's command with its actuation noise (two normals drawn);
+        returns it."""
         nv, nw = self._normals(2)
-        self.followers.apply_drawn(k, v, w, nv, nw)
+        self.followers.apply_drawn(k, cmd[0], cmd[1], nv, nw)
         return cmd
 
     @property
@@ -655,6 +719,8 @@ class World:
     def held_command(self, i: int) -> tuple[float, float]:
         """The command (speed, turn rate) the leader last sent follower i, as its estimate
         holds it (before the actuation noise)."""
+        if self._arr is not None:
+            return self._arr.last[i - 1]
         _, v, w = self._pieces[i - 1][-1]
         return v, w
 

@@ -17,7 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rtsim.io.columns import ChunkWriter, column_kind, csv_text
+from rtsim.io.columns import ARROW_MIN, ARROW_RANGE, ChunkWriter, column_kind, csv_text, float_texts
 from rtsim.sim.records import JOB_COLUMNS, RowBuffer, jobs_frame
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -68,6 +68,10 @@ def _ours(df: pd.DataFrame) -> str | None:
 @settings(max_examples=150, deadline=None)
 @given(data=st.data(), m=st.integers(0, 40))
 def test_random_tables_give_pandas_bytes(data: st.DataObject, m: int) -> None:
+    _random_table_gives_pandas_bytes(data, m)
+
+
+def _random_table_gives_pandas_bytes(data: st.DataObject, m: int) -> None:
     f = data.draw(st.lists(floats, min_size=m, max_size=m))
     i = data.draw(st.lists(st.integers(-(2**63), 2**63 - 1), min_size=m, max_size=m))
     b = data.draw(st.lists(st.booleans(), min_size=m, max_size=m))
@@ -85,6 +89,43 @@ def test_random_tables_give_pandas_bytes(data: st.DataObject, m: int) -> None:
     )
     assert [column_kind(t) for t in df.dtypes] == ["f", "i", "b", "s", "s", "f"]
     assert _ours(df) == _pandas(df)
+
+
+@settings(max_examples=60, deadline=None)
+@given(f=st.lists(floats, min_size=ARROW_MIN, max_size=400))
+def test_long_float_columns_are_repr(f: list[float]) -> None:
+    """A column long enough for Arrow's formatting gives repr's text, value by value."""
+    a = np.array(f, dtype=float)
+    assert float_texts(a) == list(map(repr, a.tolist()))
+
+
+def test_floats_of_every_magnitude_are_repr() -> None:
+    """Random doubles (random bits, and random digits at every power of ten from 1e-7 to
+    1e17, both signs, whole numbers, the range's edges and their neighbours) through
+    `float_texts` against repr: Arrow's digits and repr's agree, and the values Arrow
+    writes in another form are left to repr."""
+    rng = np.random.default_rng(36)
+    lo, hi = ARROW_RANGE
+    edges = [lo, hi, -lo, -hi, 1e15, 1e16, 1e-5, 2.0**53, 0.0, -0.0]
+    near = [np.nextafter(x, d) for x in edges for d in (-math.inf, math.inf)]
+    a = np.concatenate(
+        [
+            rng.integers(0, 2**63, 20_000, dtype=np.uint64).view(np.float64),
+            rng.random(60_000) * 10.0 ** rng.integers(-7, 18, 60_000),
+            -rng.random(20_000) * 10.0 ** rng.integers(-7, 18, 20_000),
+            np.floor(rng.random(20_000) * 10.0 ** rng.integers(0, 17, 20_000)),
+            np.round(rng.random(20_000) * 1e4, 3),
+            np.array(edges + near + EDGE),
+        ]
+    )
+    assert float_texts(a) == list(map(repr, a.tolist()))
+
+
+@settings(max_examples=40, deadline=None)
+@given(data=st.data(), m=st.integers(ARROW_MIN, ARROW_MIN + 150))
+def test_long_random_tables_give_pandas_bytes(data: st.DataObject, m: int) -> None:
+    """A table long enough to be formatted by Arrow: every kind of column, pandas' bytes."""
+    _random_table_gives_pandas_bytes(data, m)
 
 
 def test_edge_floats_one_by_one() -> None:

@@ -381,3 +381,32 @@ def test_the_predicted_bound_holds_in_a_turn_lag_run(turnlag: Any) -> None:
         for i in range(1, world.n + 1):
             world.command(i, j * w + 130.0 + 3 * i)
     assert 10.0 < worst <= cfg.thresholds.r_H, worst
+
+
+@pytest.mark.skipif(not compiled.available(), reason="numba is not importable")
+def test_the_compiled_estimates_carry_the_turn_lag_bit_for_bit(turnlag: Any) -> None:
+    """The compiled world's estimates (one array, `rtsim.world.estimates`' kernels built with
+    the model's parts) give the Python world's filters, beliefs and expected turn rates bit
+    for bit on a turn-lag world with its noise."""
+    seen = []
+    for backend in ("python", "compiled"):
+        over = {"follower.motion_model": "turn-lag", "world.backend": backend}
+        world = World(load_scenario("test2", overrides=over).world, np.random.default_rng(4))
+        out = []
+        for j in range(40):
+            t = j * 237.0
+            world.estimate(world.scan(t))
+            for i, off in enumerate((130.0, 136.0), start=1):
+                world.command(i, t + off)
+            t_d = t + 210.0
+            world.advance(t_d)
+            out.append(
+                [
+                    [f.pose for f in world.filters],
+                    [f.P.ravel().tolist() for f in world.filters],
+                    world.estimates_at(t_d),
+                    world.expected_turn_rates(t_d),
+                ]
+            )
+        seen.append(repr(out))
+    assert seen[0] == seen[1]
