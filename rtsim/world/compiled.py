@@ -38,7 +38,7 @@ import numpy as np
 
 from rtsim.world.ekf import EkfParams, FastFollowerEKF, _squares
 from rtsim.world.estimates import BASE, HELD_ROOM, new_estimates
-from rtsim.world.follower import ROWS, FollowerGroup, FollowerParams
+from rtsim.world.follower import ROWS, FollowerGroup
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.kernels import available, entry, kernels
 from rtsim.world.motionmodels import MotionModel
@@ -92,24 +92,15 @@ class CompiledFollowerGroup(FollowerGroup):
     odometer = _row(7, "odometer")
     t = _row(8, "t")
 
-    def __init__(
-        self,
-        x: Any,
-        y: Any,
-        th: Any,
-        v: Any,
-        params: FollowerParams,
-        t_ms: float = 0.0,
-        w0: float = 0.0,
-    ) -> None:
+    def __init__(self, x: Any, *args: Any, **kw: Any) -> None:
+        """`FollowerGroup`'s arguments."""
         self._s = np.zeros((len(ROWS), len(x)))
         self._rows = tuple(self._s)  # (each row's view, made once)
-        super().__init__(x, y, th, v, params, t_ms, w0)
+        super().__init__(x, *args, **kw)
         ker = kernels(self.motion)
         # (called directly, `entry`: this array, an int and floats at every call)
         s, f = self._s, 0.0
         self._one = entry(ker.group_advance, (s, 0, f, f, f))
-        self._all = entry(ker.group_advance_all, (s, f, f, f))
         # (the kernels that carry CPython's hypot only where it is this interpreter's:
         # module docstring; else the Python methods, on lists of floats)
         self._rel = entry(ker.group_relative, (s, f, f, f, s)) if ker.exact_hypot else None
@@ -148,7 +139,7 @@ class CompiledFollowerGroup(FollowerGroup):
         self._one(self._s, k, t_ms, step_ms, self.p.max_accel)
 
     def advance_all(self, t_ms: float, step_ms: float) -> None:
-        self._all(self._s, t_ms, step_ms, self.p.max_accel)
+        self._one(self._s, -1, t_ms, step_ms, self.p.max_accel)
 
     def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
         p = self.p

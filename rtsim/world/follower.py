@@ -51,7 +51,6 @@ __all__ = [
     "control_targets",
     "advance_column",
     "group_advance",
-    "group_advance_all",
     "group_relative",
     "ROWS",
 ]
@@ -283,7 +282,7 @@ ROWS = ("x", "y", "th", "v", "w", "cmd_v", "cmd_w", "odometer", "t")
 def advance_column(s: Array, k: int, t_ms: float, step_ms: float, a: float) -> None:
     """`FollowerGroup.advance` on a state array ``s`` (rows `ROWS`): follower index ``k`` to
     ``t_ms`` with wheel acceleration limit ``a`` (the motion model's ``advance``). Inlined
-    into its callers (`group_advance`, `group_advance_all`, `rtsim.world.scan.truth_look`),
+    into its callers (`group_advance`, `rtsim.world.scan.truth_look`),
     which are built once per motion model: a kernel of one name built per model and
     linked into others by name would be mistaken for another model's build when one of
     them loads from the cache (seen: the turn-lag run took the unicycle's arcs)."""
@@ -305,15 +304,14 @@ def advance_column(s: Array, k: int, t_ms: float, step_ms: float, a: float) -> N
 
 @kernel
 def group_advance(s: Array, k: int, t_ms: float, step_ms: float, a: float) -> None:
-    """`advance_column` for Python callers (`rtsim.world.compiled.CompiledFollowerGroup`)."""
-    advance_column(s, k, t_ms, step_ms, a)
-
-
-@kernel
-def group_advance_all(s: Array, t_ms: float, step_ms: float, a: float) -> None:
-    """`FollowerGroup.advance_all` on a state array ``s`` (`advance_column`)."""
-    for k in range(s.shape[1]):
+    """`advance_column` for Python callers (`rtsim.world.compiled.CompiledFollowerGroup`):
+    follower index ``k``, or every follower when ``k`` < 0 (`FollowerGroup.advance_all`;
+    one kernel for both, one compile)."""
+    if k >= 0:
         advance_column(s, k, t_ms, step_ms, a)
+        return
+    for j in range(s.shape[1]):
+        advance_column(s, j, t_ms, step_ms, a)
 
 
 _TWO_PI = 2.0 * math.pi

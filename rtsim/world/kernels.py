@@ -28,7 +28,7 @@ from rtsim.world.estimates import (
     new_estimates,
 )
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
-from rtsim.world.follower import group_advance, group_advance_all, group_relative
+from rtsim.world.follower import group_advance, group_relative
 from rtsim.world.ftl import ftl_command, ftl_project, ftl_reference, trace_point
 from rtsim.world.jit import Subs, build, cached
 from rtsim.world.motion import belief_step, leader_travel
@@ -105,7 +105,6 @@ def _type_key(a: Any) -> Any:
 #: compiled with the kernel sources it calls: `rtsim.world.jit.build`)
 ENTRIES: dict[str, Any] = {
     "group_advance": group_advance,
-    "group_advance_all": group_advance_all,
     "truth_look": truth_look,
     "group_relative": group_relative,
     "ftl_command": ftl_command,
@@ -140,7 +139,6 @@ LAZY_MOTION = ("ekf_command", "belief_step")
 #: unicycle: `kernels`)
 MOTION_ENTRIES = (
     "group_advance",
-    "group_advance_all",
     "truth_look",
     "leader_travel",
     "est_scan",
@@ -261,7 +259,7 @@ def _warm(ns: Any) -> None:
     the first window."""
     state = np.array([[0.0], [0.0], [0.0], [1.0], [0.0], [2.0], [0.1], [0.0], [0.0]])
     ns.group_advance(state, 0, 20.0, 10.0, 10.0)
-    ns.group_advance_all(state, 40.0, 10.0, 10.0)
+    ns.group_advance(state, -1, 40.0, 10.0, 10.0)
     ns.group_relative(state, 0.0, 0.0, 0.0, np.zeros((1, 7)))
     look, viol, lim = np.zeros((9, 1)), np.zeros((4, 1), dtype=np.bool_), np.ones(1)
     ns.truth_look(
