@@ -68,6 +68,22 @@ def call(fn: Any, *args: Any) -> Any:
     return f(*args)
 
 
+#: the window lengths of whole rollouts as arrays, by their tuple (the kernels read them only;
+#: a run asks for few: w_sch and the horizon)
+_LENGTHS: dict[tuple[float, ...], Any] = {}
+
+
+def _lengths(windows: tuple[float, ...]) -> Any:
+    """``windows`` (a tuple of floats) as a float array, kept for the next ask (writeable,
+    as the kernel's build is typed; no kernel writes it)."""
+    arr = _LENGTHS.get(windows)
+    if arr is None:
+        if len(_LENGTHS) >= 256:  # (bounded: a long run's windows vary)
+            _LENGTHS.clear()
+        arr = _LENGTHS[windows] = np.array(windows, dtype=float)
+    return arr
+
+
 class _Rest:
     """A search's rollout that stopped after its first window (its speed failed there, and
     the decision needed no more), kept for the rollout's memo: called, it rolls the whole
@@ -140,24 +156,23 @@ class CompiledRollout:
             setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
         self._ker, self._bufs = cached[3], cached[4]
         fs = cached[1].copy()
-        fs[:_CHANGING] = (  # RolloutScalars' first five
-            state.leader_s,
-            state.leader_speed,
-            state.v_ld,
-            state.t_now,
-            state.next_scan,
-        )
+        # RolloutScalars' first five (item by item: a slice from a tuple converts it first)
+        fs[0] = state.leader_s
+        fs[1] = state.leader_speed
+        fs[2] = state.v_ld
+        fs[3] = state.t_now
+        fs[4] = state.next_scan
         n = len(state.poses)
         # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
-        # (a flat list: numpy reads it much faster than nested tuples)
+        # (a flat list of floats read by fromiter: no shape or type to discover)
         held = state.held
         turns = state.turns or [h[1] for h in held]
         flat: list[float] = []
-        for pose, v, w, h, send, rho_d in zip(  # (one short: the reshape refuses it)
+        for pose, v, w, h, send, rho_d in zip(  # (one short: fromiter's count refuses it)
             state.poses, state.speeds, turns, held, state.send_offsets, state.rho_d, strict=False
         ):
             flat += (*pose, v, w, *h, send, rho_d)
-        fol = np.array(flat, dtype=float).reshape(n, _COLUMNS)
+        fol = np.fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS)
         if not any(state.pending):  # no sends pending: one array per n, kept
             pend = cached[2].get(n)
             if pend is None:
@@ -183,7 +198,7 @@ class CompiledRollout:
         out = np.empty((1, len(windows), self.n, 5))
         CompiledRollout.runs += 1
         call(  # (`_rollout_changes` through the one entry: its buffers' types, unused)
-            self._ker.roll_or_decide, True, float(v), np.array(windows, dtype=float), False,
+            self._ker.roll_or_decide, True, float(v), _lengths(windows), False,
             1.0, -math.inf, 0.0, 0.0, 0, 0.0, 0.0, pack, K.NO_F1, K.NO_I1, out, K.NO_I1,
             K.NO_F3, K.NO_F1, 0.0,
         )  # fmt: skip
@@ -210,8 +225,7 @@ class CompiledRollout:
         at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
         lengths, changes [window, follower, change]) for the rollout's memo)."""
         speeds, lens, cut, out = self._bufs  # (the law's: read before this returns)
-        lens.fill(0)
-        cut.fill(0)
+        cut.fill(0)  # (lens: the kernel writes each of the rollouts it returns)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
         changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))  # (kept by the memo)
         rows = np.empty((2, self.n, 4))

@@ -290,7 +290,24 @@ def _rollout_changes(
     ev_t, ev_kind, ev_k = _events(lengths, P)
     trace = np.empty((ev_t.shape[0], 2))
     _lead(v, P, ev_t, trace)
-    return _roll(lengths, P, ev_t, ev_kind, ev_k, trace, out, keep, need, contact)
+    W = _work(P, lengths.shape[0])
+    return _roll(lengths, P, ev_t, ev_kind, ev_k, trace, out, keep, need, contact, W)
+
+
+@kernel
+def _work(P: Any, nw: int) -> tuple[Any, Any, Any, Any]:
+    """`_roll`'s scratch for rollouts of up to ``nw`` windows on pack ``P``, made once per
+    call from Python and reused by each rollout of it (fresh arrays per rollout cost more than
+    the rollout's own arithmetic at two followers): the group's nine columns (x, y, θ, v, ω,
+    held v, held ω, odometer, time), the samples at the scans, the closest approaches at the
+    scans, and the law's search starts (two rows)."""
+    n = P[1].shape[0]
+    return (
+        np.empty((9, n)),
+        np.empty((nw + 1, n, 3)),
+        np.empty((nw + 1, n)),
+        np.empty((2, P[4].shape[0])),
+    )
 
 
 @kernel
@@ -305,10 +322,11 @@ def _roll(
     keep: float,
     need: float,
     contact: float,
+    W: Any,
 ) -> int:
-    """`_rollout` over the events on copies of the group and the law's search starts, the
-    leader at ``trace``, and the changes per window and follower (``out[window,
-    follower]``: displacement, |Δρ|, distance, |Δβ|, closest approach).
+    """`_rollout` over the events on copies of the group and the law's search starts (in the
+    scratch ``W``, `_work`), the leader at ``trace``, and the changes per window and follower
+    (``out[window, follower]``: displacement, |Δρ|, distance, |Δβ|, closest approach).
 
     Returns how many windows it filled: all of them, or, for a pass/fail question (``need``
     finite) whose first window alone fails (keep · its smallest bound, lowered by its contact
@@ -319,19 +337,22 @@ def _roll(
     S = scalars(fs)
     n = fol.shape[0]
     nw = lengths.shape[0]
-    C = columns(fol)
-    x = C.x.copy()
-    y = C.y.copy()
-    th = C.th.copy()
-    vf = C.v.copy()
-    wf = C.w.copy()
-    cmd_v = C.cmd_v.copy()
-    cmd_w = C.cmd_w.copy()
-    odo = np.zeros(n)
-    t_f = np.full(n, S.t_now)
-    sr, sf = sr0.copy(), sf0.copy()
-    samples = np.zeros((nw + 1, n, 3))
-    near = np.empty((nw + 1, n))  # (contact: each follower's closest approach at each scan)
+    grp, samples, near, srf = W  # (near: each follower's closest approach at each scan)
+    for i in range(n):  # the pack's columns copied in, the odometers at 0, the time now
+        for c in range(7):
+            grp[c, i] = fol[i, c]
+        grp[7, i] = 0.0
+        grp[8, i] = S.t_now
+        for j in range(nw + 1):
+            for c in range(3):
+                samples[j, i, c] = 0.0
+    x, y, th, vf, wf, cmd_v, cmd_w, odo, t_f = (
+        grp[0], grp[1], grp[2], grp[3], grp[4], grp[5], grp[6], grp[7], grp[8],
+    )  # fmt: skip
+    for i in range(sr0.shape[0]):
+        srf[0, i] = sr0[i]
+        srf[1, i] = sf0[i]
+    sr, sf = srf[0], srf[1]
     # a pass/fail question stops after the first window if that one already fails
     first = 1 if nw > 1 and need > -math.inf else nw
     e = 0 * nw  # (an int64, not the literal 0: one compiled _rollout)
@@ -433,7 +454,7 @@ def _same(a: Any, b: Any) -> bool:
 @kernel
 def _rollout_worst(
     v: float,
-    w: float,
+    lengths: Any,
     P: Any,
     ch: Any,
     contact: float,
@@ -445,9 +466,11 @@ def _rollout_worst(
     dones: Any,
     r: int,
     upto: int,
+    W: Any,
 ) -> tuple[float, int, int]:
     """PlanPolicy's m(V): the smallest bound of every follower in ``ch.shape[0]`` windows of
-    ``w`` ms (Python's ``min`` over the windows: the first, then any smaller), then the
+    w = ``lengths[0]`` ms (``lengths``: as many, all w; Python's ``min`` over the windows:
+    the first, then any smaller; scratch ``W``, `_work`), then the
     contact bound at d_c = ``contact`` (0: off); the changes are left in ``ch``. With ``need``
     finite, only whether keep · m(V) ≥ ``need`` is asked: a first window that already fails
     ends the rollout there (`_roll`) and m is that window's, still below.
@@ -462,6 +485,7 @@ def _rollout_worst(
     S, fol = scalars(P[0]), P[1]
     ev_t, ev_kind, ev_k = ev
     nw = ch.shape[0]
+    w = lengths[0]
     tr = traces[r] if r >= 0 else np.empty((ev_t.shape[0], 2))
     _lead(v, P, ev_t, tr)
     for q in range(upto):
@@ -469,7 +493,7 @@ def _rollout_worst(
             if r >= 0:
                 ms[r], dones[r] = ms[q], dones[q]
             return ms[q], dones[q], q
-    done = _roll(np.full(nw, w), P, ev_t, ev_kind, ev_k, tr, ch, keep, need, contact)
+    done = _roll(lengths, P, ev_t, ev_kind, ev_k, tr, ch, keep, need, contact, W)
     part = ch[:done]
     m = _worst_after(part, S, fol, w, _min_bound(ch[0], S, fol, w))
     m = lowest_contact(part, w, contact, m)
@@ -497,7 +521,7 @@ def _search_into(
     v_floor: float,
     grid: int,
     tol: float,
-    w: float,
+    lengths: Any,
     P: Any,
     speeds: Any,
     changes: Any,
@@ -509,9 +533,10 @@ def _search_into(
     traces: Any,
     ms: Any,
     dones: Any,
+    W: Any,
 ) -> int:
     """search_rollout(m, V_Ld, need, v_floor) with m(V) = keep · `_rollout_worst` over
-    ``changes.shape[1]`` windows of ``w`` (contact bound at ``contact``); rollout r's speed
+    ``changes.shape[1]`` windows ``lengths`` (contact bound at ``contact``); rollout r's speed
     and changes go to ``speeds[r]`` and ``changes[r]`` from r = ``first`` (as many as they
     hold), ``cut[r]`` ← 1 when it stopped after its first window. ``found_out`` ← (speed, 1
     for ``numeric`` or 0 for ``best``, the found speed or NaN, the index of the speed's
@@ -519,7 +544,7 @@ def _search_into(
     less the speeds that were an earlier rollout's); returns the next free index (rollouts
     run: it − first, plus ``found_out[4]``). ``ev``, ``traces``, ``ms``, ``dones``: the
     horizon's events and the kept leaders of the decision's rollouts from index 0
-    (`_rollout_worst`).
+    (`_rollout_worst`); ``W``: its scratch (`_work`).
 
     Only pass or fail matters for a speed of the bisection, and for a scanned speed unless
     none passes: those rollouts stop after a first window that fails (`_rollout_worst`).
@@ -583,7 +608,7 @@ def _search_into(
         if phase == 3:
             upto = r if r < cap else cap  # every rollout so far
         mm, done, q = _rollout_worst(
-            v, w, P, ch, contact, keep, ask, ev, traces, ms, dones, slot, upto
+            v, lengths, P, ch, contact, keep, ask, ev, traces, ms, dones, slot, upto, W
         )
         if q >= 0:  # an earlier rollout's leader: its changes
             src = changes[q]
@@ -672,8 +697,11 @@ def _plan_decide(
     res = np.empty(5)
     out[6] = 0.0
     nw = changes.shape[1]
-    # the horizon's events, the same for every speed; the leaders of its rollouts
-    ev = _events(np.full(nw, w), P)
+    # the horizon's events, the same for every speed; the leaders of its rollouts; the
+    # rollouts' scratch
+    hl = np.full(nw, w)
+    ev = _events(hl, P)
+    W = _work(P, nw)
     traces = np.empty((speeds.shape[0], ev[0].shape[0], 2))
     ms = np.empty(speeds.shape[0])
     dones = np.zeros(speeds.shape[0], dtype=np.int64)
@@ -684,7 +712,7 @@ def _plan_decide(
     if not search_only:
         speeds[0], lens[0] = v_ld, 1
         m_ld, done, _ = _rollout_worst(
-            v_ld, w, P, changes[0], contact, keep, need, ev, traces, ms, dones, zero, zero
+            v_ld, hl, P, changes[0], contact, keep, need, ev, traces, ms, dones, zero, zero, W
         )
         if done < nw:
             cut[0] = 1
@@ -697,10 +725,11 @@ def _plan_decide(
         runs = 1
         if ww > w:  # the longer first window, checked by its own rollout
             speeds[1], lens[1] = v_ld, 2
-            ev_w = _events(np.full(1, ww), P)
+            one = np.full(1, ww)
+            ev_w = _events(one, P)
             m_w = _rollout_worst(
                 v_ld,
-                ww,
+                one,
                 P,
                 changes[1, 0:1],
                 contact,
@@ -712,6 +741,7 @@ def _plan_decide(
                 dones,
                 zero - 1,
                 zero,
+                W,
             )[0]
             runs = 2
             out[5] = ww
@@ -724,8 +754,8 @@ def _plan_decide(
         out[0], out[1], out[2], out[3], out[4] = ww, v_ld, 0.0, math.nan, 1.0
         return runs
     runs = _search_into(
-        keep, need, v_floor, grid, tol, w, P, speeds, changes, cut, first, res, contact,
-        ev, traces, ms, dones,
+        keep, need, v_floor, grid, tol, hl, P, speeds, changes, cut, first, res, contact,
+        ev, traces, ms, dones, W,
     )  # fmt: skip
     out[6] = res[4]
     for r in range(first, min(runs, speeds.shape[0])):

@@ -22,7 +22,7 @@ import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
-from rtsim.control.compiled_rollout import CompiledRollout, as_changes, compiled_rollout
+from rtsim.control.compiled_rollout import CompiledRollout, _Rest, as_changes, compiled_rollout
 from rtsim.control.predict import min_bound_rows
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
@@ -165,9 +165,19 @@ class Rollout:
         default_factory=dict, init=False, repr=False, compare=False
     )
 
-    def __post_init__(self) -> None:
+    def __init__(
+        self,
+        state: RolloutState,
+        count: int = 0,
+        _memo: dict[tuple[float, tuple[float, ...]], list[list[Changes]]] | None = None,
+    ) -> None:
+        # (the dataclass's own __init__, written out: no default factories per decision)
+        self.state = state
+        self.count = count
+        self._memo = {} if _memo is None else _memo
+        self._raw = {}
         # a law of the world's compiled backend plays whole rollouts in compiled calls
-        self._compiled = compiled_rollout(self.state.law, self.state)
+        self._compiled = compiled_rollout(state.law, state)
 
     def changes(self, v: float, windows: Sequence[float]) -> list[list[Changes]]:
         """The predicted changes per window (lengths ``windows``, ms, the first opening at
@@ -211,6 +221,10 @@ class Rollout:
         of length ``w`` (default w_sch) that the decision governs, with the leader's target
         ``v``."""
         w = self.state.w_sch if w is None else float(w)
+        key = (float(v), (w,))
+        raw = self._raw.get(key) if self._raw and key not in self._memo else None
+        if raw is not None and not isinstance(raw, _Rest):  # the search's array, read as is
+            return raw[0, :, 4].tolist()  # type: ignore[no-any-return]
         return [c[4] for c in self.changes(v, (w,))[0]]
 
     @staticmethod
