@@ -619,16 +619,12 @@ class _Coupling:
     def _pose_sd(self) -> tuple[tuple[float, float], ...]:
         """Per follower (σ_p, σ_θ) from the leader's EKF covariance at its last update:
         σ_p = √((P_xx + P_yy)/2) cm, σ_θ = √P_θθ rad (PolicyInput.pose_sd)."""
-        out = []
-        for f in self.world.filters:
-            p = f.P
-            out.append(
-                (
-                    math.sqrt(max(0.5 * (float(p[0, 0]) + float(p[1, 1])), 0.0)),
-                    math.sqrt(max(float(p[2, 2]), 0.0)),
-                )
-            )
-        return tuple(out)
+        return tuple(
+            [
+                (math.sqrt(max(0.5 * (p[0] + p[4]), 0.0)), math.sqrt(max(p[8], 0.0)))
+                for p in self.world.covariances()
+            ]
+        )
 
     def _ahead(self) -> tuple[tuple[float, float], ...]:
         """The leader's next path commands, one lap ahead: (distance to its start in cm, its

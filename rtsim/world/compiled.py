@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from rtsim.world.ekf import EkfParams, FastFollowerEKF, _squares
-from rtsim.world.estimates import BASE, HELD_ROOM, new_estimates
+from rtsim.world.estimates import BASE, HELD_ROOM, Q, new_estimates
 from rtsim.world.follower import ROWS, FollowerGroup
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.kernels import available, entry, kernels
@@ -353,6 +353,10 @@ class CompiledEstimates:
         out = self._all
         self._carry(self.E, 0, t, self.accel, out)
         return out.tolist()  # type: ignore[no-any-return]
+
+    def covariances(self) -> list[list[float]]:
+        """Each row's covariance, its nine entries row by row."""
+        return self.E[:, Q : Q + 9].tolist()  # type: ignore[no-any-return]
 
     def hold(self, k: int, t: float, v: float, w: float) -> None:
         """Hold (v, ω) from ``t`` ms in follower index ``k``'s row (`est_hold`), growing the

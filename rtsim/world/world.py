@@ -277,6 +277,13 @@ class World:
         """The leader's filters, one per follower (index i − 1)."""
         return tuple(self._filters)
 
+    def covariances(self) -> list[list[float]]:
+        """Each filter's covariance P (its nine entries row by row, floats), as the filters
+        hold it now (one read of the array in the compiled backend)."""
+        if self._arr is not None:
+            return self._arr.covariances()
+        return [np.asarray(f.P, dtype=float).ravel().tolist() for f in self._filters]
+
     def _propagate(self, k: int, t_ms: float) -> tuple[Pose, float, float]:
         """Estimate of follower index k at t_ms (mean only), its expected speed and turn rate
         (by the motion model's ``step`` over each command piece held before ``t_ms``).

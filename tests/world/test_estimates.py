@@ -36,6 +36,7 @@ def _seen(world: World, t: float) -> Any:
         [
             [f.pose for f in world.filters],
             [f.P.ravel().tolist() for f in world.filters],
+            world.covariances(),
             [world.estimate_at(i, t) for i in range(1, n + 1)],
             world.estimates_at(t),
             [world.held_command(i) for i in range(1, n + 1)],
