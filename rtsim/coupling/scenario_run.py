@@ -723,7 +723,7 @@ class _Coupling:
         lp = rec.leader = scan.leader_pose
         rec.truth = self._truth(lp)
         fol = world.followers  # (the scan advanced every follower to now)
-        near = rec.near = self.phys.add(lp, *fol.positions())
+        near = rec.near = self.phys.add(lp, fol.x, fol.y)
         if self._last_scanned is not None:
             self._close(scan, near)
         self._last_scanned = rec
@@ -796,9 +796,13 @@ class _Coupling:
         else:
             sink.write(records_frame(records, self.n, self.rec.limits))
 
-    def _truth(self, lp: tuple[float, float, float]) -> tuple[Sequence[float], ...]:
+    def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
+        fol = self.world.followers
+        out = []
         # the scan has just advanced every follower to now
-        return tuple(self.world.followers.relative_rows(lp))
+        for x, y, th, v_f in zip(fol.x, fol.y, fol.th, fol.v, strict=True):
+            out.append((x, y, th, *relative_state(lp, (x, y, th)), v_f))
+        return tuple(out)
 
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms
@@ -911,9 +915,7 @@ class _Coupling:
             None if oracle is None or self.lap_ms is None else self.lap_ms / 1000.0 / oracle
         )
         world.followers.advance_all(world.t_ms, cfg.step_ms)
-        extra.update(
-            self.phys.summary(world.leader.s - self._s0, world.followers.values("odometer"))
-        )
+        extra.update(self.phys.summary(world.leader.s - self._s0, list(world.followers.odometer)))
         return extra
 
     # -- running ---------------------------------------------------------------------
@@ -959,7 +961,7 @@ class _Coupling:
         if last is not None and last.viol is None:  # close the last observation interval
             scan = self.world.scan(max(self.env.now, self.world.t_ms))
             fol, (xl, yl, _) = self.world.followers, scan.leader_pose
-            self._close(scan, closest_each(*fol.positions(), xl, yl))
+            self._close(scan, closest_each(fol.x, fol.y, xl, yl))
 
 
 #: The relative excess of the filters' heading SD over the predicted-centre bound's assumed

@@ -4,8 +4,8 @@ The Python classes stay the reference; the classes here are subclasses that hand
 expressions, in the same order, to compiled kernels, so the results are bit for bit the
 Python ones (tests run both paths and compare whole runs):
 
-- `CompiledFollowerGroup`: the followers' truth as one array, integrated to a time
-  (`rtsim.world.motion.follower_advance` compiled) in one call, and `truth_looker`;
+- `CompiledFollowerGroup`: a follower's held command integrated to a time
+  (`rtsim.world.motion.follower_advance` compiled) in one call;
 - `CompiledEstimates`: the leader's estimates as one array the world owns, each reader one
   compiled call (`rtsim.world.estimates`); `CompiledFollowerEKF` views a row of it;
 - `CompiledTraceFollower`: the follow-the-leader law's equations (`rtsim.world.ftl`:
@@ -31,19 +31,17 @@ dispatcher (`rtsim.world.kernels.entry`: the same machine code, no typing per ca
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from rtsim.world.ekf import EkfParams, FastFollowerEKF, _squares
 from rtsim.world.estimates import BASE, HELD_ROOM, Q, new_estimates
-from rtsim.world.follower import ROWS, FollowerGroup
+from rtsim.world.follower import FollowerGroup
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.kernels import available, entry, kernels
 from rtsim.world.motionmodels import MotionModel
 from rtsim.world.path import LeaderPath
-from rtsim.world.scan import BOUNDS, LOOK
 
 __all__ = [
     "CompiledEstimates",
@@ -53,137 +51,16 @@ __all__ = [
     "available",
     "compiled_motion",
     "kernels",
-    "truth_looker",
 ]
 
 
-def _row(i: int, name: str) -> Any:
-    """Row ``i`` of a `CompiledFollowerGroup`'s state as an attribute (a view; setting it
-    writes the row, n values)."""
-
-    def get(self: CompiledFollowerGroup) -> Any:
-        return self._rows[i]
-
-    def put(self: CompiledFollowerGroup, value: Any) -> None:
-        row = np.asarray(value, dtype=np.float64)
-        if row.shape != (self._s.shape[1],):
-            raise ValueError(
-                f"followers.{name}: {self._s.shape[1]} values expected, got shape {row.shape}"
-            )
-        self._s[i] = row
-
-    return property(get, put, doc=f"every follower's {name} (a view of the state's row)")
-
-
 class CompiledFollowerGroup(FollowerGroup):
-    """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose state is one float64 array
-    it owns, ``state`` (rows `ROWS`, one column per follower; each row an attribute, a view),
-    advanced by compiled kernels (`rtsim.world.follower.group_advance`: one call per
-    follower, or for all), and read by the world's scan in one compiled call
-    (`rtsim.world.scan.truth_look`)."""
-
-    x = _row(0, "x")
-    y = _row(1, "y")
-    th = _row(2, "th")
-    v = _row(3, "v")
-    w = _row(4, "w")
-    cmd_v = _row(5, "cmd_v")
-    cmd_w = _row(6, "cmd_w")
-    odometer = _row(7, "odometer")
-    t = _row(8, "t")
-
-    def __init__(self, x: Any, *args: Any, **kw: Any) -> None:
-        """`FollowerGroup`'s arguments."""
-        self._s = np.zeros((len(ROWS), len(x)))
-        self._rows = tuple(self._s)  # (each row's view, made once)
-        super().__init__(x, *args, **kw)
-        ker = kernels(self.motion)
-        # (called directly, `entry`: this array, an int and floats at every call)
-        s, f = self._s, 0.0
-        self._one = entry(ker.group_advance, (s, 0, f, f, f))
-        # (the kernels that carry CPython's hypot only where it is this interpreter's:
-        # module docstring; else the Python methods, on lists of floats)
-        self._rel = entry(ker.group_relative, (s, f, f, f, s)) if ker.exact_hypot else None
+    """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose `advance` runs compiled."""
 
     @staticmethod
     def _kernel(motion: MotionModel) -> Any:
-        return None  # (`advance` runs the state's kernels)
-
-    @property
-    def n(self) -> int:
-        return int(self._s.shape[1])
-
-    @property
-    def state(self) -> Any:
-        """The followers' state, a (len(`ROWS`), n) float64 C-contiguous array (the kernels'
-        one signature); set it only with an array of that dtype, shape and layout."""
-        return self._s
-
-    @state.setter
-    def state(self, value: Any) -> None:
-        s = self._s
-        if (
-            not isinstance(value, np.ndarray)
-            or value.dtype != np.float64
-            or value.shape != s.shape
-            or not value.flags.c_contiguous
-        ):
-            got = (getattr(value, "dtype", type(value).__name__), np.shape(value))
-            raise ValueError(
-                f"followers.state: a C-contiguous float64 array of shape {s.shape} expected, "
-                f"got {got[0]} of shape {got[1]}"
-            )
-        s[...] = value
-
-    def advance(self, k: int, t_ms: float, step_ms: float) -> None:
-        self._one(self._s, k, t_ms, step_ms, self.p.max_accel)
-
-    def advance_all(self, t_ms: float, step_ms: float) -> None:
-        self._one(self._s, -1, t_ms, step_ms, self.p.max_accel)
-
-    def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
-        p = self.p
-        sv, sw = self.saturate(v + p.speed_noise * nv, w + p.turn_noise * nw)
-        s = self._s
-        s[5, k] = sv
-        s[6, k] = sw
-        return sv, sw
-
-    def pose(self, k: int) -> tuple[float, float, float]:
-        x, y, th = self._s[:3, k].tolist()
-        return x, y, th
-
-    def values(self, name: str) -> list[float]:
-        return self._rows[ROWS.index(name)].tolist()  # type: ignore[no-any-return]
-
-    def positions(self) -> tuple[list[float], list[float]]:
-        rows = self._rows
-        return rows[0].tolist(), rows[1].tolist()
-
-    def states(self) -> list[tuple[float, float, float, float]]:
-        return list(zip(*self._s[:4].tolist(), strict=True))
-
-    def relative_rows(self, leader: tuple[float, float, float]) -> Sequence[Sequence[float]]:
-        if self._rel is None:
-            return super().relative_rows(leader)
-        out = np.empty((self._s.shape[1], 7))
-        self._rel(self._s, leader[0], leader[1], leader[2], out)
-        return out.tolist()  # type: ignore[no-any-return]
-
-
-def truth_looker(motion: MotionModel, state: Any, limits: Any) -> Any:
-    """`rtsim.world.scan.truth_look` for ``motion``, called directly (`entry`: the state
-    array ``state`` of a `CompiledFollowerGroup`, limit arrays as ``limits``, look arrays
-    of float64 and bool, floats and a bool at every call); None where the kernels' hypot is
-    not this interpreter's (the world looks in Python)."""
-    ker = kernels(motion)
-    if not ker.exact_hypot:  # (the Python look: module docstring)
-        return None
-    n = state.shape[1]
-    look, viol = np.zeros((len(LOOK), n)), np.zeros((len(BOUNDS), n), dtype=np.bool_)
-    f = 0.0
-    args = (state, f, f, f, f, f, f, look, True, look, viol, f, f, limits, limits)
-    return entry(ker.truth_look, args)
+        # called directly (`entry`): twelve floats at every call
+        return entry(kernels(motion).advance_follower, (0.0,) * 12)
 
 
 def compiled_motion(motion: MotionModel) -> Any:

@@ -29,19 +29,15 @@ immediate. Drawing the noise per command keeps the truth independent of the step
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from rtsim.analysis.kinematics import relative_state
 from rtsim.io.limits import Range
 from rtsim.world._check import NOISE, in_ranges, spec
-from rtsim.world.exactmath import cpython_hypot
-from rtsim.world.jit import kernel
-from rtsim.world.motion import clip, follower_advance
+from rtsim.world.motion import clip
 from rtsim.world.motionmodels import MotionModel, motion_model
 
 __all__ = [
@@ -49,10 +45,6 @@ __all__ = [
     "FollowerGroup",
     "lpsi_command",
     "control_targets",
-    "advance_column",
-    "group_advance",
-    "group_relative",
-    "ROWS",
 ]
 
 Array = NDArray[np.float64]
@@ -177,14 +169,7 @@ class FollowerGroup:
     """
 
     def __init__(
-        self,
-        x: Any,
-        y: Any,
-        th: Any,
-        v: Any,
-        params: FollowerParams,
-        t_ms: float = 0.0,
-        w0: float = 0.0,
+        self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
     ) -> None:
         self.p = params
         self.x = [float(a) for a in x]
@@ -192,8 +177,8 @@ class FollowerGroup:
         self.th = [float(a) for a in th]
         self.v = [float(a) for a in v]
         self.cmd_v = list(self.v)
-        self.cmd_w = [float(w0)] * len(self.x)
-        self.w = [float(w0)] * len(self.x)
+        self.cmd_w = [0.0] * len(self.x)
+        self.w = [0.0] * len(self.x)
         self.odometer = [0.0] * len(self.x)
         self.t = [float(t_ms)] * len(self.x)
         self.motion: MotionModel = motion_model(params.motion_model)
@@ -234,23 +219,6 @@ class FollowerGroup:
     def pose(self, k: int) -> tuple[float, float, float]:
         return self.x[k], self.y[k], self.th[k]
 
-    def values(self, name: str) -> list[float]:
-        """Row ``name`` of `ROWS` (every follower's, as it stands) as a new list of floats."""
-        return list(getattr(self, name))
-
-    def positions(self) -> tuple[list[float], list[float]]:
-        """Every follower's (x, y) as it stands: two lists (do not mutate)."""
-        return self.x, self.y
-
-    def states(self) -> list[tuple[float, float, float, float]]:
-        """Every follower's (x, y, θ, speed) as it stands."""
-        return list(zip(self.x, self.y, self.th, self.v, strict=True))
-
-    def relative_rows(self, leader: tuple[float, float, float]) -> Sequence[Sequence[float]]:
-        """Every follower's (x, y, θ, ρ, β, θ_rel, speed) as it stands, (ρ, β, θ_rel) its
-        `rtsim.analysis.kinematics.relative_state` to the ``leader``'s pose."""
-        return [(x, y, th, *relative_state(leader, (x, y, th)), v) for x, y, th, v in self.states()]
-
     def advance(self, k: int, t_ms: float, step_ms: float) -> None:
         """Integrate follower index ``k`` to ``t_ms`` (the motion model's ``advance``; the
         unicycle's `rtsim.world.motion.follower_advance`: exact arcs at the ramp's mean
@@ -271,86 +239,3 @@ class FollowerGroup:
         advance = self.advance
         for k in range(len(self.x)):
             advance(k, t_ms, step_ms)
-
-
-#: the rows of a compiled group's state, an (len(ROWS), n) float64 array
-#: (`rtsim.world.compiled.CompiledFollowerGroup`), by the attribute each row is
-ROWS = ("x", "y", "th", "v", "w", "cmd_v", "cmd_w", "odometer", "t")
-
-
-@kernel(inline=True)
-def advance_column(s: Array, k: int, t_ms: float, step_ms: float, a: float) -> None:
-    """`FollowerGroup.advance` on a state array ``s`` (rows `ROWS`): follower index ``k`` to
-    ``t_ms`` with wheel acceleration limit ``a`` (the motion model's ``advance``). Inlined
-    into its callers (`group_advance`, `rtsim.world.scan.truth_look`),
-    which are built once per motion model: a kernel of one name built per model and
-    linked into others by name would be mistaken for another model's build when one of
-    them loads from the cache (seen: the turn-lag run took the unicycle's arcs)."""
-    t0 = s[8, k]
-    if t_ms <= t0:
-        return
-    x, y, th, v, w, odo = follower_advance(
-        s[0, k], s[1, k], s[2, k], s[3, k], s[4, k], s[5, k], s[6, k], a, s[7, k], t0, t_ms,
-        step_ms,
-    )  # fmt: skip
-    s[0, k] = x
-    s[1, k] = y
-    s[2, k] = th
-    s[3, k] = v
-    s[4, k] = w
-    s[7, k] = odo
-    s[8, k] = t_ms
-
-
-@kernel
-def group_advance(s: Array, k: int, t_ms: float, step_ms: float, a: float) -> None:
-    """`advance_column` for Python callers (`rtsim.world.compiled.CompiledFollowerGroup`):
-    follower index ``k``, or every follower when ``k`` < 0 (`FollowerGroup.advance_all`;
-    one kernel for both, one compile)."""
-    if k >= 0:
-        advance_column(s, k, t_ms, step_ms, a)
-        return
-    for j in range(s.shape[1]):
-        advance_column(s, j, t_ms, step_ms, a)
-
-
-_TWO_PI = 2.0 * math.pi
-
-
-@kernel
-def _fmod(a: float, b: float) -> float:
-    """``math.fmod(a, b)`` for finite ``a`` and ``b`` > 0 (numba has none): ``%`` of
-    non-negative operands is fmod, exact, and fmod takes the sign of ``a``."""
-    return math.copysign(abs(a) % b, a)
-
-
-@kernel
-def group_relative(s: Array, xl: float, yl: float, hl: float, out: Array) -> None:
-    """`FollowerGroup.relative_rows` on a state array ``s`` into ``out`` (a row per
-    follower: x, y, θ, ρ, β, θ_rel, speed): `rtsim.analysis.kinematics.relative_state`'s
-    expressions for floats (its ``wrap_positive`` and ``wrap_angle`` with `_fmod`), in its
-    order."""
-    for k in range(s.shape[1]):
-        xf, yf, hf = s[0, k], s[1, k], s[2, k]
-        dx, dy = xf - xl, yf - yl
-        rho = cpython_hypot(dx, dy)
-        beta = 0.0
-        if rho > 0.0:
-            beta = _fmod(math.atan2(dy, dx) - hl, _TWO_PI)
-            if beta < 0.0:
-                beta += _TWO_PI
-            if beta >= _TWO_PI:
-                beta = 0.0
-        th = _fmod(hl - hf + math.pi, _TWO_PI)
-        if th < 0.0:
-            th += _TWO_PI
-        th -= math.pi
-        if th == -math.pi:
-            th = math.pi
-        out[k, 0] = xf
-        out[k, 1] = yf
-        out[k, 2] = hf
-        out[k, 3] = rho
-        out[k, 4] = beta
-        out[k, 5] = th
-        out[k, 6] = s[3, k]

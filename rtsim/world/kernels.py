@@ -28,11 +28,9 @@ from rtsim.world.estimates import (
     new_estimates,
 )
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
-from rtsim.world.follower import group_advance, group_relative
 from rtsim.world.ftl import ftl_command, ftl_project, ftl_reference, trace_point
 from rtsim.world.jit import Subs, build, cached
-from rtsim.world.motion import belief_step, leader_travel
-from rtsim.world.scan import truth_look
+from rtsim.world.motion import belief_step, follower_advance, leader_travel
 
 __all__ = ["announce", "available", "entry", "follow_with", "kernels"]
 
@@ -104,9 +102,7 @@ def _type_key(a: Any) -> Any:
 #: the kernels the classes call, by the name they have in `kernels`'s namespace (each
 #: compiled with the kernel sources it calls: `rtsim.world.jit.build`)
 ENTRIES: dict[str, Any] = {
-    "group_advance": group_advance,
-    "truth_look": truth_look,
-    "group_relative": group_relative,
+    "advance_follower": follower_advance,
     "ftl_command": ftl_command,
     "ftl_reference": ftl_reference,
     "ftl_project": ftl_project,
@@ -138,8 +134,7 @@ LAZY_MOTION = ("ekf_command", "belief_step")
 #: the entries that run a motion model's parts (built again for a model other than the
 #: unicycle: `kernels`)
 MOTION_ENTRIES = (
-    "group_advance",
-    "truth_look",
+    "advance_follower",
     "leader_travel",
     "est_scan",
     "est_carry",
@@ -257,14 +252,7 @@ def _warm(ns: Any) -> None:
     """Call every kernel once on dummy values, so that compiling it (the first time on a
     machine) or loading it from numba's cache happens when the world is built, not inside
     the first window."""
-    state = np.array([[0.0], [0.0], [0.0], [1.0], [0.0], [2.0], [0.1], [0.0], [0.0]])
-    ns.group_advance(state, 0, 20.0, 10.0, 10.0)
-    ns.group_advance(state, -1, 40.0, 10.0, 10.0)
-    ns.group_relative(state, 0.0, 0.0, 0.0, np.zeros((1, 7)))
-    look, viol, lim = np.zeros((9, 1)), np.zeros((4, 1), dtype=np.bool_), np.ones(1)
-    ns.truth_look(
-        state, 60.0, 10.0, 10.0, 0.0, 0.0, 0.0, look, True, look, viol, 1.0, 1.0, lim, lim
-    )
+    ns.advance_follower(0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
     G = (np.zeros(1), np.zeros(3), np.zeros(1), 100.0, np.zeros(1), np.full(1, -1), np.ones(1))
     nan1 = np.full(1, math.nan)
     ns.ftl_command(G, nan1, nan1.copy(), 0.5, 10.0, 0, 50.0, 50.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)

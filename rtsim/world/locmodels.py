@@ -100,12 +100,6 @@ class LocalizationModel:
         model's state for `locate` (its draws)."""
         raise NotImplementedError
 
-    def sense_rows(self, truth_l: list[XY], xs: Any, ys: Any) -> tuple[list[int], Any]:
-        """`sense` with the positions also as two float64 arrays ``xs``, ``ys`` (contiguous:
-        the compiled look's rows, `rtsim.world.scan.truth_look`), for a model that reads
-        arrays; default: `sense` (``truth_l``)."""
-        return self.sense(truth_l)
-
     def locate(
         self,
         state: Any,
@@ -176,12 +170,8 @@ class HoughModel(LocalizationModel):
     def sense(self, truth_l: list[XY]) -> tuple[list[int], Any]:
         """The beams each follower returned and the scan (px, py, owner)."""
         xy = np.array(truth_l).T.copy()  # (contiguous rows, the kernel's one signature)
-        return self.sense_rows(truth_l, xy[0], xy[1])
-
-    def sense_rows(self, truth_l: list[XY], xs: Any, ys: Any) -> tuple[list[int], Any]:
-        """`sense` on the rows ``xs``, ``ys`` (contiguous float64, the kernel's signature)."""
         z = self.draw(LASER_POINTS)
-        beams = self.rangefinder.scan(xs, ys, z)
+        beams = self.rangefinder.scan(xy[0], xy[1], z)
         return self.rangefinder.counts[: self.n].tolist(), beams
 
     def locate(

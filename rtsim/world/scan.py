@@ -15,20 +15,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rtsim.world.exactmath import cpython_hypot, cpython_remainder
-from rtsim.world.follower import advance_column
-from rtsim.world.jit import kernel
 from rtsim.world.localization import LOST_CAUSES
 
-__all__ = ["LOOK", "Scan", "truth_look"]
-
-#: the rows of `truth_look`'s look at the truth, per follower: its position in the leader's
-#: frame (tx, ty), ρ, β, odometer, and its changes since the previous scan (`CHANGES`)
-LOOK = ("tx", "ty", "rho", "beta", "odometer", "displacement", "d_rho", "travel", "d_beta")
-#: the changes (`Scan.changes`' keys, rows 5–8 of `LOOK`) and the bound kinds they violate
-#: (`Scan.violations`' keys, the rows of `truth_look`'s ``viol``), in order
-CHANGES = LOOK[5:]
-BOUNDS = ("localization", "separation", "path_diversion", "bearing")
+__all__ = ["Scan"]
 
 Array = NDArray[np.float64]
 Pose = tuple[float, float, float]
@@ -40,74 +29,6 @@ _SET = object.__setattr__
 
 def _as_list(x: Any) -> list[Any]:
     return x if isinstance(x, list) else np.asarray(x).tolist()
-
-
-@kernel
-def truth_look(
-    s: Array, t_ms: float, step_ms: float, a: float, xl: float, yl: float, hl: float,
-    prev: Array, first: bool, look: Array, viol: Any, r_H: float, T_beta: float,
-    sep_lim: Array, trav_lim: Array,
-) -> None:  # fmt: skip
-    """The scan's look at the truth, in one call: every follower of the state array ``s``
-    (`rtsim.world.follower.ROWS`) advanced to ``t_ms`` (`advance_column`), then written
-    into ``look`` (rows `LOOK`): its position in the frame of the leader at (xl, yl, hl),
-    ρ = hypot, β = atan2 mod 2π, its odometer, and the changes since the previous scan's look
-    ``prev`` (zeros when ``first``): displacement in the leader's frame, |Δρ|, the odometer's
-    travel, |remainder(Δβ, 2π)|; ``viol`` (rows `BOUNDS`): the changes beyond r_H, the
-    separation limits ``sep_lim``, the travel limits ``trav_lim`` and T_β. The same
-    expressions, in the same order, as `rtsim.world.world.World._changes` in Python."""
-    c, sn = math.cos(hl), math.sin(hl)
-    two_pi = 2 * math.pi
-    for k in range(s.shape[1]):
-        advance_column(s, k, t_ms, step_ms, a)
-    for k in range(s.shape[1]):
-        dx, dy = s[0, k] - xl, s[1, k] - yl
-        tx, ty = c * dx + sn * dy, -sn * dx + c * dy
-        rho = cpython_hypot(tx, ty)
-        beta = math.atan2(ty, tx) % two_pi
-        odo = s[7, k]
-        if first:
-            disp = d_rho = travel = d_beta = 0.0
-        else:
-            disp = cpython_hypot(tx - prev[0, k], ty - prev[1, k])
-            d_rho = abs(rho - prev[2, k])
-            travel = odo - prev[4, k]
-            d_beta = abs(cpython_remainder(beta - prev[3, k], two_pi))
-        look[0, k] = tx
-        look[1, k] = ty
-        look[2, k] = rho
-        look[3, k] = beta
-        look[4, k] = odo
-        look[5, k] = disp
-        look[6, k] = d_rho
-        look[7, k] = travel
-        look[8, k] = d_beta
-        viol[0, k] = disp > r_H
-        viol[1, k] = d_rho > sep_lim[k]
-        viol[2, k] = travel > trav_lim[k]
-        viol[3, k] = d_beta > T_beta
-
-
-class _Table(Mapping[str, Any]):
-    """A mapping of ``keys`` to the rows of a 2-D array (a scan's changes or violations as
-    `truth_look` wrote them): rows as arrays (views), or all as lists at once (`lists`)."""
-
-    __slots__ = ("keys_", "rows")
-
-    def __init__(self, keys: tuple[str, ...], rows: Any) -> None:
-        self.keys_, self.rows = keys, rows
-
-    def __getitem__(self, key: str) -> Any:
-        return self.rows[self.keys_.index(key)]
-
-    def __iter__(self) -> Any:
-        return iter(self.keys_)
-
-    def __len__(self) -> int:
-        return len(self.keys_)
-
-    def lists(self) -> dict[str, list[Any]]:
-        return dict(zip(self.keys_, self.rows.tolist(), strict=True))
 
 
 class Scan:
@@ -183,16 +104,6 @@ class Scan:
         object.__setattr__(self, "_arrays", {})
 
     @classmethod
-    def _looked(
-        cls, t_ms: float, leader_pose: Pose, look: Any, viol: Any, raw: dict[str, Any]
-    ) -> Scan:
-        """`_of` with the changes and violations the compiled look wrote (`truth_look`:
-        ``look``'s rows 5–8 and ``viol``), lists made when a reader asks (`as_lists`)."""
-        raw["changes"] = _Table(CHANGES, look[5:])
-        raw["violations"] = _Table(BOUNDS, viol)
-        return cls._of(t_ms, leader_pose, raw)
-
-    @classmethod
     def _of(cls, t_ms: float, leader_pose: Pose, raw: dict[str, Any]) -> Scan:
         """A scan from its fields as the constructor would keep them, ``raw`` (every
         key of `__init__`'s, ``searched`` and ``cause`` given, each field a list and each
@@ -227,8 +138,6 @@ class Scan:
         fields = self._raw
         raw = fields[name]
         if name in ("changes", "violations"):
-            if type(raw) is _Table:  # (rows of the compiled look: lists made now)
-                return raw.lists()
             if "_plain" in fields:  # (lists already: a copy of the mapping)
                 return dict(raw)
             return {k: _as_list(v) for k, v in raw.items()}

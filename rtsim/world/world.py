@@ -36,7 +36,6 @@ from rtsim.world.compiled import (
     CompiledFollowerGroup,
     CompiledTraceFollower,
     compiled_motion,
-    truth_looker,
 )
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
@@ -47,11 +46,10 @@ from rtsim.world.leader import Leader
 from rtsim.world.localization import ExpectedBeams, lost_cause
 from rtsim.world.locmodels import Fix, localization_model
 from rtsim.world.motionmodels import motion_model
-from rtsim.world.scan import BOUNDS, LOOK, Scan
+from rtsim.world.scan import Scan
 
 __all__ = ["World", "Scan"]
 
-N_LOOK, N_BOUNDS = len(LOOK), len(BOUNDS)
 #: Standard normals `World._normals` takes from the stream at a time (its list of floats).
 NORMAL_BLOCK = 512
 #: Standard normals the world draws ahead from its generator at a time (`World._draw`): one
@@ -125,8 +123,9 @@ class World:
             v_f = np.asarray(v_f, dtype=float)
             th = hl - np.asarray(theta, dtype=float)
             w0 = float(w_l)
-        group = CompiledFollowerGroup if fast else FollowerGroup
-        self.followers = group(x, y, th, v_f, fp, w0=w0)
+        self.followers = (CompiledFollowerGroup if fast else FollowerGroup)(x, y, th, v_f, fp)
+        self.followers.cmd_w = [w0] * form.n
+        self.followers.w = [w0] * form.n
         self._t = 0.0
         self._est_t = 0.0
         #: the largest heading variance P_θθ (rad²) the filters carried from a scan's
@@ -193,16 +192,6 @@ class World:
         # the compiled backend's command with the compiled law: one call (`command_ftl`)
         self._ftl_fused = self._arr is not None and hasattr(self._ftl, "_G")
         self._limits = (fp.max_speed, fp.max_turn_rate)
-        # the compiled backend's look at the truth at a scan (`_looked`; None: the Python
-        # reference, `_changes`) and the previous scan's look
-        self._look: Any = None
-        self._prev_look: Array | None = None
-        fol = self.followers
-        if isinstance(fol, CompiledFollowerGroup):  # (its state: the array it keeps)
-            self._state = fol.state
-            self._sep_limit = np.ascontiguousarray(self._sep_limit, dtype=np.float64)
-            self._travel_limit = np.ascontiguousarray(self._travel_limit, dtype=np.float64)
-            self._look = truth_looker(self.motion, self._state, self._sep_limit)
 
     # -- time ------------------------------------------------------------------------
     @property
@@ -400,17 +389,12 @@ class World:
     def scan(self, t_ms: float) -> Scan:
         """Sample the truth at ``t_ms`` (advancing to it): beams, fixes, Hough windows,
         lost tracks and re-acquisitions, and the violations observed since the last scan."""
+        self.advance(t_ms)
+        lp = self.leader.pose
+        fol = self.followers
+        truth_l = self._to_leader(lp, fol.x, fol.y)
         model = self.localization
-        look = viol = None
-        if self._look is None:
-            self.advance(t_ms)
-            lp = self.leader.pose
-            fol = self.followers
-            truth_l = self._to_leader(lp, *fol.positions())
-            pts, sensed = model.sense(truth_l)
-        else:  # (the compiled backend: the look at the truth in one call, `_looked`)
-            lp, truth_l, look, viol = self._looked(t_ms)
-            pts, sensed = model.sense_rows(truth_l, look[0], look[1])
+        pts, sensed = model.sense(truth_l)
         if self._predicted:
             # the estimates carried to the scan with the commands held, in the leader's
             # frame now (the leader knows its own motion; never the followers' truth)
@@ -422,12 +406,7 @@ class World:
         # when a model first reads them (only for a window without a fix)
         expected = ExpectedBeams(centre, r_F, max_range) if self._visible else None
         fixes, voted = model.locate(sensed, truth_l, pts, centre, expected)
-        if look is None:
-            cols, errors, changes, violations = self._changes(
-                truth_l, fol.values("odometer"), fixes
-            )
-        else:
-            cols, errors = self._fix_fields(truth_l, fixes)
+        cols, errors, changes, violations = self._changes(truth_l, fol.odometer, fixes)
         measured, in_ws, losts, searched, reacqs, neighbours = cols
         if True in losts:
             min_pts = self._min_pts
@@ -441,63 +420,27 @@ class World:
             ]
         else:
             causes = [""] * len(losts)
-        raw = {
-            "points": pts,
-            "measured": measured,
-            "truth": truth_l,
-            "centre": centre,
-            "in_window": in_ws,
-            "lost": losts,
-            "reacquired": reacqs,
-            "searched": searched,
-            "cause": causes,
-            "voted": voted or None,
-            "fix_error": errors,
-            "neighbour": neighbours if voted else None,
-            "cells": model.cells,
-        }
-        if look is not None:
-            return Scan._looked(t_ms, lp, look, viol, raw)
-        raw["changes"], raw["violations"] = changes, violations
-        return Scan._of(t_ms, lp, raw)
-
-    def _looked(self, t_ms: float) -> tuple[Pose, list[XY], Array, Any]:
-        """The compiled backend's look at the truth at ``t_ms`` (`rtsim.world.scan.truth_look`:
-        the followers advanced to it, their positions in the leader's frame, ρ, β and the
-        changes and violations since the previous scan, in one call): the leader's pose, the
-        positions as a list, the look (rows `rtsim.world.scan.LOOK`) and the violations;
-        remembers the look for the next scan."""
-        self._advance_leader(t_ms)
-        lp = self.leader.pose
-        n = self._n
-        look = np.empty((N_LOOK, n))
-        viol = np.empty((N_BOUNDS, n), dtype=np.bool_)
-        prev = self._prev_look
-        first = prev is None
-        self._look(
-            self._state, t_ms, self._step_ms, self._accel, lp[0], lp[1], lp[2],
-            look if prev is None else prev, first, look, viol, self._r_H, self._T_beta,
-            self._sep_limit, self._travel_limit,
-        )  # fmt: skip
-        self._prev_look = look
-        tx, ty = look[:2].tolist()
-        return lp, list(zip(tx, ty, strict=True)), look, viol
-
-    @staticmethod
-    def _fix_fields(
-        truth_l: list[XY], fixes: list[Fix]
-    ) -> tuple[
-        tuple[list[XY], list[bool], list[bool], list[bool], list[bool], list[bool]], list[float]
-    ]:
-        """`_changes`' first two results (the fixes' fields as lists, each fix's distance from
-        the truth, inf: none), for the compiled look, which wrote the changes."""
-        hypot, inf = math.hypot, math.inf
-        measured, in_ws, losts, searched, reacqs, neighbours = map(list, zip(*fixes, strict=True))
-        errors = [
-            hypot(m[0] - t[0], m[1] - t[1]) if w or r else inf
-            for m, w, r, t in zip(measured, in_ws, reacqs, truth_l, strict=True)
-        ]
-        return (measured, in_ws, losts, searched, reacqs, neighbours), errors
+        return Scan._of(
+            t_ms,
+            lp,
+            {
+                "points": pts,
+                "measured": measured,
+                "truth": truth_l,
+                "centre": centre,
+                "in_window": in_ws,
+                "lost": losts,
+                "reacquired": reacqs,
+                "changes": changes,
+                "violations": violations,
+                "searched": searched,
+                "cause": causes,
+                "voted": voted or None,
+                "fix_error": errors,
+                "neighbour": neighbours if voted else None,
+                "cells": model.cells,
+            },
+        )
 
     def _changes(
         self, truth_l: list[XY], odometer: list[float], fixes: list[Fix]
@@ -745,7 +688,7 @@ class World:
             fol = self.followers
             fol.advance(k, self._t, self.config.step_ms)
             pose: Pose = fol.pose(k)
-            v_f = float(fol.v[k])
+            v_f = fol.v[k]
         elif source == "estimate":
             pose, v_f, _ = self._propagate(k, self._t)
         else:
@@ -776,11 +719,11 @@ class World:
                 "curvature": kappa,
             },
             "truth": {
-                "x": fol.values("x"),
-                "y": fol.values("y"),
-                "heading": fol.values("th"),
-                "speed": fol.values("v"),
-                "odometer": fol.values("odometer"),
+                "x": list(fol.x),
+                "y": list(fol.y),
+                "heading": list(fol.th),
+                "speed": list(fol.v),
+                "odometer": list(fol.odometer),
             },
             "estimate": {
                 "x": [e[0][0] for e in est],
