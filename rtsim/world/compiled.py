@@ -267,9 +267,10 @@ class CompiledEstimates:
             self.E, k, t, self.accel, law._G, law._sr, law._sf, law.gain, law.lookahead,
             s_l, xl, yl, hl, v_l, vmax, wmax,
         )  # fmt: skip
-        if not held:
+        if held:
+            self.last[k] = (v, w)
+        else:  # (the row was full: held once it has grown)
             self.hold(k, t, v, w)
-        self.last[k] = (v, w)
         return v, w
 
     _ftl_entry: Any = None
