@@ -278,7 +278,10 @@ class CompiledEstimates:
 
 class CompiledTraceFollower(TraceFollower):
     """`TraceFollower` whose equations run compiled, on arrays it owns (the Python twins, as
-    `TraceFollower`, when the kernels' hypot is not this interpreter's: module docstring)."""
+    `TraceFollower`, when the kernels' hypot is not this interpreter's: module docstring).
+    ``compiled``: whether its equations run compiled (its arrays are the kernels')."""
+
+    compiled = False
 
     def __init__(
         self, path: LeaderPath, rho_d: Any, lateral: Any, gain: float, lookahead: float
@@ -305,3 +308,4 @@ class CompiledTraceFollower(TraceFollower):
         self._command = entry(ker.ftl_command, (G, sr, sf, x, x, 0, x, x, x, x, x, x, x, x))
         self._project = entry(ker.ftl_project, (G, 0, x, x, x))
         self._point = entry(ker.trace_point, (G, 0, x))
+        self.compiled = True

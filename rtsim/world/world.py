@@ -189,8 +189,9 @@ class World:
         self._r_H, self._T_beta = thr.r_H, thr.T_beta
         self._accel, self._step_ms = fp.max_accel, config.step_ms
         self._n = form.n
-        # the compiled backend's command with the compiled law: one call (`command_ftl`)
-        self._ftl_fused = self._arr is not None and hasattr(self._ftl, "_G")
+        # the compiled backend's command with the compiled law: one call (`command_ftl`;
+        # not where the law stays Python, `CompiledTraceFollower.compiled`)
+        self._ftl_fused = self._arr is not None and getattr(self._ftl, "compiled", False)
         self._limits = (fp.max_speed, fp.max_turn_rate)
 
     # -- time ------------------------------------------------------------------------
