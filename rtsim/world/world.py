@@ -211,7 +211,7 @@ class World:
         with their held commands in exact arcs, sub-stepped at ``step_ms`` while a wheel
         speed ramps toward its command for longer than one step."""
         self._advance_leader(t_ms)
-        self.followers.advance_all(t_ms, self.config.step_ms)
+        self.followers.advance_all(t_ms, self._step_ms)
 
     def _advance_leader(self, t_ms: float) -> None:
         if t_ms < self._t - 1e-9:
