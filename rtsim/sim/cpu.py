@@ -312,6 +312,17 @@ class CPU(ResourceProtocols, TimeSlices):
                 and not st.zero_tail[i + 1]
                 for i in range(len(segs))
             ]
+            # segment i has end hooks and i + 1 is a CPU segment: the hooks, called by the
+            # dispatcher itself (what `_segment_done` and `_continue` do there)
+            st.hooked_next = [
+                st.end_hooks[i]
+                if st.end_hooks[i]
+                and i + 1 < len(segs)
+                and not st.idle_kind[i + 1]
+                and not st.zero_tail[i + 1]
+                else None
+                for i in range(len(segs))
+            ]
         top = min(self._states, key=lambda x: x.priority, default=None)
         for st in self._states:
             st.fast_top = (
@@ -393,6 +404,13 @@ class CPU(ResourceProtocols, TimeSlices):
                 elif st.plain_next[job.seg_index]:  # _segment_done without a hook
                     job.seg_index += 1
                     job.rem = None
+                elif (hooks := st.hooked_next[i := job.seg_index]) is not None:
+                    seg = st.segs[i]  # _segment_done and _continue, by no calls but the hooks'
+                    for h in hooks:
+                        h(job, seg)
+                    job.seg_index = i + 1
+                    job.rem = None
+                    run_lag = 0.0
                 else:
                     running, run_end, run_lag = self._segment_ends(job, now, now_lag, work_lag)
             # 2. timers due (then t_next: the next timer)

@@ -93,6 +93,7 @@ class ResourceProtocols:
                     if r is not None:
                         st.seg_const[i] = None
                         st.plain_next[i] = False
+                        st.hooked_next[i] = None
 
     def _level(self, job: Job) -> float:
         """The job's preemption level (larger = higher): −priority, or −relative deadline."""
