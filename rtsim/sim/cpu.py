@@ -314,6 +314,13 @@ class CPU(ResourceProtocols, TimeSlices):
             ]
             # segment i has end hooks and i + 1 is a CPU segment: the hooks, called by the
             # dispatcher itself (what `_segment_done` and `_continue` do there)
+            # segment i is the last and has no end hooks: its end completes the job (and the
+            # next job of the task does not start with an idle suspension: `_continue` would
+            # time it with the dispatcher's lag)
+            st.last_plain = [
+                i + 1 == len(segs) and not st.end_hooks[i] and not st.idle_kind[0]
+                for i in range(len(segs))
+            ]
             st.hooked_next = [
                 st.end_hooks[i]
                 if st.end_hooks[i]
@@ -411,6 +418,11 @@ class CPU(ResourceProtocols, TimeSlices):
                     job.seg_index = i + 1
                     job.rem = None
                     run_lag = 0.0
+                elif st.last_plain[i]:  # the job completes (_segment_done, _continue)
+                    job.seg_index = i + 1
+                    job.rem = None
+                    self._complete(job, now)
+                    running, run_lag = None, 0.0
                 else:
                     running, run_end, run_lag = self._segment_ends(job, now, now_lag, work_lag)
             # 2. timers due (then t_next: the next timer)

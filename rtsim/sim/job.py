@@ -162,6 +162,7 @@ class _TaskState:
         "seg_const",
         "plain_next",
         "hooked_next",
+        "last_plain",
         "zero_tail",
         "index",
         "jitter",
@@ -207,6 +208,7 @@ class _TaskState:
         self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
         # segment i's end hooks where i + 1 is a CPU segment (else None)
         self.hooked_next: list[list[SegmentHook] | None] = []
+        self.last_plain: list[bool] = []  # segment i is the last, without end hooks
         # segment i > 0 and every one after it are empty (no time, no resource): run at once
         self.zero_tail: list[bool] = []
         self.index = 0  # the order in which the CPU got the task

@@ -94,6 +94,7 @@ class ResourceProtocols:
                         st.seg_const[i] = None
                         st.plain_next[i] = False
                         st.hooked_next[i] = None
+                        st.last_plain[i] = False
 
     def _level(self, job: Job) -> float:
         """The job's preemption level (larger = higher): −priority, or −relative deadline."""
