@@ -429,8 +429,15 @@ class CPU(ResourceProtocols, TimeSlices):
             while timers and (t_next := timers[0][0]) <= limit:
                 entry = timers[0]  # (popped below: a release's successor replaces it)
                 st = entry[5]
-                if entry[4] != _RELEASE or not st.fast_release:  # (popped by _on_timer)
-                    if self._on_timer(
+                if entry[4] != _RELEASE or not st.fast_release:
+                    if entry[4] == _RELEASE:  # (what _on_timer does for these two, by no call)
+                        heappop(timers)
+                        self._release(st, now)
+                    elif entry[4] == _RESUME:  # (st: the job)
+                        heappop(timers)
+                        if not st.aborted:
+                            self._resume(st, now)
+                    elif self._on_timer(  # (popped there)
                         entry, running, now, now_lag, piece_start, work_start, work_lag
                     ):
                         running, run_end = None, _INF  # it left the CPU
