@@ -408,19 +408,14 @@ class CPU(ResourceProtocols, TimeSlices):
                 if st.simple:
                     self._complete(job, now)
                     running = None
-                elif st.plain_next[job.seg_index]:  # _segment_done without a hook
-                    job.seg_index += 1
-                    job.rem = None
-                elif (hooks := st.hooked_next[i := job.seg_index]) is not None:
-                    seg = st.segs[i]  # _segment_done and _continue, by no calls but the hooks'
-                    for h in hooks:
-                        h(job, seg)
-                    job.seg_index = i + 1
-                    job.rem = None
-                    run_lag = 0.0
+                elif st.plain_next[i := job.seg_index]:  # _segment_done without a hook
+                    job.seg_index, job.rem = i + 1, None
+                elif (hooks := st.hooked_next[i]) is not None:  # _segment_done, _continue:
+                    for h in hooks:  # no calls but the hooks'
+                        h(job, st.segs[i])
+                    job.seg_index, job.rem, run_lag = i + 1, None, 0.0
                 elif st.last_plain[i]:  # the job completes (_segment_done, _continue)
-                    job.seg_index = i + 1
-                    job.rem = None
+                    job.seg_index, job.rem = i + 1, None
                     self._complete(job, now)
                     running, run_lag = None, 0.0
                 else:
@@ -429,15 +424,8 @@ class CPU(ResourceProtocols, TimeSlices):
             while timers and (t_next := timers[0][0]) <= limit:
                 entry = timers[0]  # (popped below: a release's successor replaces it)
                 st = entry[5]
-                if entry[4] != _RELEASE or not st.fast_release:
-                    if entry[4] == _RELEASE:  # (what _on_timer does for these two, by no call)
-                        heappop(timers)
-                        self._release(st, now)
-                    elif entry[4] == _RESUME:  # (st: the job)
-                        heappop(timers)
-                        if not st.aborted:
-                            self._resume(st, now)
-                    elif self._on_timer(  # (popped there)
+                if entry[4] != _RELEASE or not st.fast_release:  # (popped by _on_timer)
+                    if self._on_timer(
                         entry, running, now, now_lag, piece_start, work_start, work_lag
                     ):
                         running, run_end = None, _INF  # it left the CPU
@@ -485,12 +473,7 @@ class CPU(ResourceProtocols, TimeSlices):
                     key = ready[0][0]  # one above, by calls, costs 3-4 % in bench_sim)
                     if running is None or (key < running.key if by_key else preempts(key, running)):
                         if running is not None:
-                            if running.rem is not None:
-                                self._close_piece(running, piece_start, work_start, now, False)
-                                if now > work_start:
-                                    running.rem -= now_lag - work_lag
-                            running.preemptions += 1
-                            heappush(ready, (running.key, running.tie, running))
+                            self._preempt(running, now, now_lag, piece_start, work_start, work_lag)
                         running = heappop(ready)[2]
                         piece_start = work_start = now
                         work_lag = now_lag
