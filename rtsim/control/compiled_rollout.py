@@ -9,6 +9,7 @@ bit for bit (`rtsim.world.compiled` says which operations may be compiled).
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, ClassVar
 
@@ -215,22 +216,30 @@ class CompiledRollout:
         tol: float,
         windows: int,
         w: float,
-        contact: float = 0.0,
-    ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
+        contact: float,
+        raw: dict[tuple[float, tuple[float, ...]], Any],
+        memo: Any,
+    ) -> tuple[list[float], Any, int]:
         """`PlanPolicy`'s decision, or with ``search_only``
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
         ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
         in one call (`rtsim.control.kernels._plan_decide`, on fresh arrays of
-        changes and rows): ((w, V_L, method code, found, feasible), the rows
-        at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
-        lengths, changes [window, follower, change]) for the rollout's memo)."""
+        changes and rows): ([w, V_L, method code, found, feasible, ...], the rows
+        at V_Ld and at V_L [2, follower, kind]). The rollouts it ran go to ``raw`` for the
+        rollout's memo, keyed (speed, window lengths), their changes [window, follower,
+        change] as arrays (the first of equal keys, none whose key ``memo`` has); the third item:
+        how many it added."""
         speeds, lens, cut, out = self._bufs  # (the law's: read before this returns)
         cut.fill(0)  # (lens: the kernel writes each of the rollouts it returns)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
-        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))  # (kept by the memo)
-        rows = np.empty((2, self.n, 4))
-        runs = call(  # (`_plan_decide`'s arguments after the first three)
-            self._ker.roll_or_decide,
+        n = self.n
+        changes = np.empty((_SEARCH_RUNS, int(windows), n, 5))  # (kept by the memo)
+        rows = np.empty((2, n, 4))
+        fn = self._ker.roll_or_decide
+        f = _ENTRIES.get(fn)
+        if f is None:  # (the first call: `call` finds the entry)
+            f = functools.partial(call, fn)
+        runs = f(
             False,
             0.0,
             K.NO_F1,
@@ -242,7 +251,7 @@ class CompiledRollout:
             int(grid),
             float(tol),
             float(w),
-            self.pack(),
+            (*self._args, self._law._sr, self._law._sf),  # (`pack`)
             speeds,
             lens,
             changes,
@@ -256,20 +265,27 @@ class CompiledRollout:
         runs = min(runs, _SEARCH_RUNS)
         w = float(w)
         horizon = (w,) * int(windows)
-        ran: list[tuple[float, tuple[float, ...], Any]] = []
         frozen: tuple[Any, ...] = ()
-        for r, (v, code, short) in enumerate(
-            zip(speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist(), strict=True)
+        before = len(raw)
+        put = raw.setdefault  # (the first of equal keys, as ever)
+        for r, v, code, short in zip(
+            range(runs), speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist()
         ):
             if code == 2:
-                ran.append((v, (got[5],), changes[r, :1]))
+                key = (v, (got[5],))
+                if not memo or key not in memo:
+                    put(key, changes[r, :1])
                 continue
-            if short:  # stopped after its first window: whole only if asked (_Rest)
-                if not frozen:  # the law's search starts as they are at the decision
-                    frozen = (*self._args, self._law._sr.copy(), self._law._sf.copy())
-                ran.append((v, horizon, _Rest(self, v, horizon, frozen)))
-            else:
-                ran.append((v, horizon, changes[r]))
+            key = (v, horizon)
+            if not memo or key not in memo:
+                if short:  # stopped after its first window: whole only if asked (_Rest)
+                    if not frozen:  # the law's search starts as they are at the decision
+                        frozen = (*self._args, self._law._sr.copy(), self._law._sf.copy())
+                    put(key, _Rest(self, v, horizon, frozen))
+                else:
+                    put(key, changes[r])
             if code == 1:
-                ran.append((v, (w,), changes[r, :1]))
-        return tuple(got[:5]), rows, ran
+                key = (v, (w,))
+                if not memo or key not in memo:
+                    put(key, changes[r, :1])
+        return got, rows, len(raw) - before
