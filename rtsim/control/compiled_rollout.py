@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
@@ -20,7 +21,7 @@ from rtsim.world.compiled import CompiledTraceFollower
 from rtsim.world.kernels import entry, kernels
 from rtsim.world.motionmodels import motion_model
 
-__all__ = ["CompiledRollout", "as_changes", "compiled_rollout"]
+__all__ = ["CompiledRollout", "as_changes", "compiled_rollout", "compiles"]
 
 
 def as_changes(arr: Any) -> list[list[Any]]:
@@ -36,13 +37,20 @@ def compiled_rollout(law: Any, state: Any) -> CompiledRollout | None:
     """The compiled rollout of ``state`` (a `RolloutState` whose law is ``law``) when the
     law is the compiled backend's and the compiled hypot is this interpreter's; else None
     (the caller plays the rollout in Python)."""
-    if isinstance(law, CompiledTraceFollower) and kernels().exact_hypot:
-        return CompiledRollout(law, state)
-    return None
+    return CompiledRollout(law, state) if compiles(law) else None
+
+
+def compiles(law: Any) -> bool:
+    """Whether a rollout on ``law`` runs compiled (`compiled_rollout`): the law is the
+    compiled backend's and the compiled hypot is this interpreter's."""
+    return isinstance(law, CompiledTraceFollower) and kernels().exact_hypot
 
 
 #: how many of RolloutScalars' fields change from one decision to the next (they come first)
 _CHANGING = K.RolloutScalars._fields.index("accel")
+
+#: the float pack's scalars (`rtsim.control.kernels.RolloutScalars`)
+_SCALARS = len(K.RolloutScalars._fields)
 
 #: the follower pack's columns (`rtsim.control.kernels.FollowerColumns`)
 _COLUMNS = len(K.FollowerColumns._fields)
@@ -100,6 +108,55 @@ class _Rest:
         return self.ro._whole(self.v, self.windows, self.pack)
 
 
+def _static(law: CompiledTraceFollower, state: Any) -> Any:
+    """The law's cache for rollouts of ``state``'s params, thresholds, ramp limits and step:
+    (those five, the scalars that stay from one decision to the next as floats, in
+    RolloutScalars' order after the five that change, the no-sends-pending array per
+    follower count, the kernels, the search's bookkeeping buffers); made once per law (a
+    clone of the law shares it) and kept while the five are the same objects."""
+    p, thr = state.params, state.thresholds
+    static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
+    cached: Any = getattr(law, "_rollout_static", None)
+    if cached is not None and cached[0] == static:  # (the same objects: no field compared)
+        return cached
+    scalars = K.RolloutScalars(
+        leader_s=0.0,  # the five that change: set per decision (`CompiledRollout._made`)
+        leader_speed=0.0,
+        v_ld=0.0,
+        t_now=0.0,
+        next_scan=0.0,
+        accel=state.accel_max,
+        decel=state.decel_max,
+        max_accel=p.max_accel,
+        max_speed=p.max_speed,
+        max_turn=p.max_turn_rate,
+        speed_noise=p.speed_noise,
+        turn_noise=p.turn_noise,
+        step=state.step_ms,
+        gain=law.gain,
+        lookahead=law.lookahead,
+        r_H=thr.r_H,
+        T_rho=thr.T_rho,
+        T_eps=thr.T_eps,
+        T_beta=thr.T_beta,
+        predicted=1.0 if thr.localization == "predicted" else 0.0,
+        predicted_ms=thr.predicted_ms,
+    )
+    # (compiled once per process and motion model: before the first rollout)
+    ker = K.rollout_kernels(motion_model(p.motion_model))
+    # (the search's bookkeeping buffers, read before each decide returns)
+    bufs = (
+        np.empty(_SEARCH_RUNS),
+        np.empty(_SEARCH_RUNS, dtype=np.int64),
+        np.empty(_SEARCH_RUNS, dtype=np.int64),
+        np.empty(7),
+    )
+    fixed = tuple(np.array(scalars, dtype=float)[_CHANGING:].tolist())
+    cached = (static, fixed, {}, ker, bufs)
+    setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
+    return cached
+
+
 class CompiledRollout:
     """`Rollout`'s arithmetic for one state in compiled calls:
     the state packed into arrays once (`RolloutScalars`, a row per
@@ -112,57 +169,41 @@ class CompiledRollout:
     runs: ClassVar[int] = 0
 
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
-        p, thr = state.params, state.thresholds
+        self._made(law, _static(law, state), state)
+
+    @staticmethod
+    def maker(law: Any, state: Any) -> Callable[[Any], CompiledRollout]:
+        """``CompiledRollout(law, s)`` for the states ``s`` of a run, which share ``state``'s
+        params, thresholds, ramp limits and step (`rtsim.control.rollout.decided_state`):
+        the law's cache looked up once."""
+        cached = _static(law, state)
+        new, made = object.__new__, CompiledRollout._made
+
+        def make(s: Any) -> CompiledRollout:
+            ro: CompiledRollout = new(CompiledRollout)
+            made(ro, law, cached, s)
+            return ro
+
+        return make
+
+    def _made(self, law: CompiledTraceFollower, cached: Any, state: Any) -> None:
+        """Pack ``state`` (the law's cache ``cached``, `_static`)."""
         self._law = law
-        # the scalars that stay from one decision to the next, packed once per law (they
-        # follow the five that change, in RolloutScalars' order), and the kernels
-        static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
-        cached: Any = getattr(law, "_rollout_static", None)  # (a clone of the law shares it)
-        if cached is None or cached[0] != static:  # (the same objects: no field compared)
-            scalars = K.RolloutScalars(
-                leader_s=0.0,  # the five that change: set per decision below
-                leader_speed=0.0,
-                v_ld=0.0,
-                t_now=0.0,
-                next_scan=0.0,
-                accel=state.accel_max,
-                decel=state.decel_max,
-                max_accel=p.max_accel,
-                max_speed=p.max_speed,
-                max_turn=p.max_turn_rate,
-                speed_noise=p.speed_noise,
-                turn_noise=p.turn_noise,
-                step=state.step_ms,
-                gain=law.gain,
-                lookahead=law.lookahead,
-                r_H=thr.r_H,
-                T_rho=thr.T_rho,
-                T_eps=thr.T_eps,
-                T_beta=thr.T_beta,
-                predicted=1.0 if thr.localization == "predicted" else 0.0,
-                predicted_ms=thr.predicted_ms,
-            )
-            pends: dict[int, Any] = {}  # the no-sends-pending array per follower count
-            # (compiled once per process and motion model: before the first rollout)
-            ker = K.rollout_kernels(motion_model(p.motion_model))
-            # (the five that change are written over a copy per decision)
-            # (and the search's bookkeeping buffers, read before each decide returns)
-            bufs = (
-                np.empty(_SEARCH_RUNS),
-                np.empty(_SEARCH_RUNS, dtype=np.int64),
-                np.empty(_SEARCH_RUNS, dtype=np.int64),
-                np.empty(7),
-            )
-            cached = (static, np.array(scalars, dtype=float), pends, ker, bufs)
-            setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
         self._ker, self._bufs = cached[3], cached[4]
-        fs = cached[1].copy()
-        # RolloutScalars' first five (item by item: a slice from a tuple converts it first)
-        fs[0] = state.leader_s
-        fs[1] = state.leader_speed
-        fs[2] = state.v_ld
-        fs[3] = state.t_now
-        fs[4] = state.next_scan
+        # RolloutScalars: the five that change, then the run's (one fromiter: the same
+        # doubles as the array the run's were read from)
+        fs = np.fromiter(
+            (
+                state.leader_s,
+                state.leader_speed,
+                state.v_ld,
+                state.t_now,
+                state.next_scan,
+                *cached[1],
+            ),
+            float,
+            _SCALARS,
+        )
         n = len(state.poses)
         # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
         # (a flat list of floats read by fromiter: no shape or type to discover)
@@ -269,8 +310,13 @@ class CompiledRollout:
         before = len(raw)
         put = raw.setdefault  # (the first of equal keys, as ever)
         for r, v, code, short in zip(
-            range(runs), speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist()
+            range(runs),
+            speeds[:runs].tolist(),
+            lens[:runs].tolist(),
+            cut[:runs].tolist(),
+            strict=True,
         ):
+            key: tuple[float, tuple[float, ...]]
             if code == 2:
                 key = (v, (got[5],))
                 if not memo or key not in memo:

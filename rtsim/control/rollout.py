@@ -14,7 +14,7 @@ bound MSB = L·w / c (ms; ∞ when c = 0). Used by the ``commands`` predictor
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any
 
@@ -22,7 +22,13 @@ import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
-from rtsim.control.compiled_rollout import CompiledRollout, _Rest, as_changes, compiled_rollout
+from rtsim.control.compiled_rollout import (
+    CompiledRollout,
+    _Rest,
+    as_changes,
+    compiled_rollout,
+    compiles,
+)
 from rtsim.control.predict import min_bound_rows
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
@@ -178,6 +184,24 @@ class Rollout:
         self._raw = {}
         # a law of the world's compiled backend plays whole rollouts in compiled calls
         self._compiled = compiled_rollout(state.law, state)
+
+    @classmethod
+    def maker(cls, base: RolloutState) -> Callable[[RolloutState], Rollout]:
+        """``Rollout(state)`` for the states of a run, ``decided_state(base, ...)``: whether
+        its law rolls out compiled, and the law's cache, asked once (`CompiledRollout.maker`)."""
+        comp = CompiledRollout.maker(base.law, base) if compiles(base.law) else None
+        new = object.__new__
+
+        def make(state: RolloutState) -> Rollout:
+            ro: Rollout = new(cls)
+            ro.state = state
+            ro.count = 0
+            ro._memo = {}
+            ro._raw = {}
+            ro._compiled = None if comp is None else comp(state)
+            return ro
+
+        return make
 
     def changes(self, v: float, windows: Sequence[float]) -> list[list[Changes]]:
         """The predicted changes per window (lengths ``windows``, ms, the first opening at
