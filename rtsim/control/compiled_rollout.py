@@ -49,9 +49,6 @@ def compiles(law: Any) -> bool:
 #: how many of RolloutScalars' fields change from one decision to the next (they come first)
 _CHANGING = K.RolloutScalars._fields.index("accel")
 
-#: the float pack's scalars (`rtsim.control.kernels.RolloutScalars`)
-_SCALARS = len(K.RolloutScalars._fields)
-
 #: the follower pack's columns (`rtsim.control.kernels.FollowerColumns`)
 _COLUMNS = len(K.FollowerColumns._fields)
 
@@ -110,8 +107,8 @@ class _Rest:
 
 def _static(law: CompiledTraceFollower, state: Any) -> Any:
     """The law's cache for rollouts of ``state``'s params, thresholds, ramp limits and step:
-    (those five, the scalars that stay from one decision to the next as floats, in
-    RolloutScalars' order after the five that change, the no-sends-pending array per
+    (those five, the float pack with the scalars that stay from one decision to the next,
+    in RolloutScalars' order after the five that change, the no-sends-pending array per
     follower count, the kernels, the search's bookkeeping buffers); made once per law (a
     clone of the law shares it) and kept while the five are the same objects."""
     p, thr = state.params, state.thresholds
@@ -151,8 +148,8 @@ def _static(law: CompiledTraceFollower, state: Any) -> Any:
         np.empty(_SEARCH_RUNS, dtype=np.int64),
         np.empty(7),
     )
-    fixed = tuple(np.array(scalars, dtype=float)[_CHANGING:].tolist())
-    cached = (static, fixed, {}, ker, bufs)
+    # (the five that change are written over a copy per decision)
+    cached = (static, np.array(scalars, dtype=float), {}, ker, bufs)
     setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
     return cached
 
@@ -190,20 +187,14 @@ class CompiledRollout:
         """Pack ``state`` (the law's cache ``cached``, `_static`)."""
         self._law = law
         self._ker, self._bufs = cached[3], cached[4]
-        # RolloutScalars: the five that change, then the run's (one fromiter: the same
-        # doubles as the array the run's were read from)
-        fs = np.fromiter(
-            (
-                state.leader_s,
-                state.leader_speed,
-                state.v_ld,
-                state.t_now,
-                state.next_scan,
-                *cached[1],
-            ),
-            float,
-            _SCALARS,
-        )
+        fs = cached[1].copy()
+        # RolloutScalars' first five (item by item: a slice from a tuple converts it first;
+        # one fromiter of all 21 is 2.5x the copy)
+        fs[0] = state.leader_s
+        fs[1] = state.leader_speed
+        fs[2] = state.v_ld
+        fs[3] = state.t_now
+        fs[4] = state.next_scan
         n = len(state.poses)
         # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
         # (a flat list of floats read by fromiter: no shape or type to discover)
