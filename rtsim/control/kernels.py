@@ -218,6 +218,11 @@ def columns(fol: Any) -> FollowerColumns:
     )  # fmt: skip
 
 
+#: the follower pack's send-offset and ρ_d columns (the kernels index them: no view per call)
+_SEND = FollowerColumns._fields.index("send")
+_RHO_D = FollowerColumns._fields.index("rho_d")
+
+
 @kernel
 def _before(t1: float, k1: int, j1: int, t2: float, k2: int, j2: int) -> bool:
     """(t1, k1, j1) < (t2, k2, j2) as Python compares tuples."""
@@ -235,7 +240,6 @@ def _events(lengths: Any, P: Any) -> tuple[Any, Any, Any]:
     send, 1 a scan —, follower or scan index). The same for every target."""
     fs, fol, pend = P[0], P[1], P[2]
     S = scalars(fs)
-    send = columns(fol).send
     n = fol.shape[0]
     nw = lengths.shape[0]
     t_now = S.t_now
@@ -256,7 +260,7 @@ def _events(lengths: Any, P: Any) -> tuple[Any, Any, Any]:
                 ev_t[m], ev_kind[m], ev_k[m] = t, 0, k
                 m += 1
         for j in range(nw):
-            t = scans[j] + send[k]
+            t = scans[j] + fol[k, _SEND]
             if t < last:
                 ev_t[m], ev_kind[m], ev_k[m] = t, 0, k
                 m += 1
@@ -418,10 +422,10 @@ def _bounds_of(changes: Any, S: RolloutScalars, fol: Any, w: float, rows: Any, f
     """Rollout.bounds(changes, w) — into ``rows`` [follower, kind] when ``fill`` — and
     min_bound_rows's bound of them (the first smallest)."""
     best = math.inf
-    rho_d = columns(fol).rho_d
     for i in range(changes.shape[0]):
+        rho_d = fol[i, _RHO_D]
         for j in range(4):
-            b = _bound(S, rho_d[i], j, changes[i, j], w)
+            b = _bound(S, rho_d, j, changes[i, j], w)
             if fill:
                 rows[i, j] = b
             if b < best:
@@ -563,7 +567,7 @@ def _search_into(
     # floor when none passes
     scan_m = np.empty(grid)
     scan_r = np.empty(grid, dtype=np.int64)
-    scan_cut = np.zeros(grid, dtype=np.bool_)
+    scan_cut = np.zeros(grid, dtype=np.int64)  # (0/1: the int64 zeros _plan_decide compiles)
     m_floor, r_floor = -math.inf, -1
     r = first
     r_v = -1

@@ -79,7 +79,7 @@ def trace_scale(G: Any, k: int, s: float) -> float:
     return trace_frame(G, k, s)[3]  # type: ignore[no-any-return]
 
 
-@kernel
+@kernel(inline=True)
 def trace_frame(G: Any, k: int, s: float) -> tuple[float, float, float, float]:
     """P_k(s), the heading there and `trace_scale` (one segment lookup): the path's pose at
     ``s`` moved follower k's offset to the left."""
