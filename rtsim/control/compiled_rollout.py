@@ -9,7 +9,9 @@ bit for bit (`rtsim.world.compiled` says which operations may be compiled).
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
@@ -19,7 +21,7 @@ from rtsim.world.compiled import CompiledTraceFollower
 from rtsim.world.kernels import entry, kernels
 from rtsim.world.motionmodels import motion_model
 
-__all__ = ["CompiledRollout", "as_changes", "compiled_rollout"]
+__all__ = ["CompiledRollout", "as_changes", "compiled_rollout", "compiles"]
 
 
 def as_changes(arr: Any) -> list[list[Any]]:
@@ -35,9 +37,13 @@ def compiled_rollout(law: Any, state: Any) -> CompiledRollout | None:
     """The compiled rollout of ``state`` (a `RolloutState` whose law is ``law``) when the
     law is the compiled backend's and the compiled hypot is this interpreter's; else None
     (the caller plays the rollout in Python)."""
-    if isinstance(law, CompiledTraceFollower) and kernels().exact_hypot:
-        return CompiledRollout(law, state)
-    return None
+    return CompiledRollout(law, state) if compiles(law) else None
+
+
+def compiles(law: Any) -> bool:
+    """Whether a rollout on ``law`` runs compiled (`compiled_rollout`): the law is the
+    compiled backend's and the compiled hypot is this interpreter's."""
+    return isinstance(law, CompiledTraceFollower) and kernels().exact_hypot
 
 
 #: how many of RolloutScalars' fields change from one decision to the next (they come first)
@@ -99,6 +105,55 @@ class _Rest:
         return self.ro._whole(self.v, self.windows, self.pack)
 
 
+def _static(law: CompiledTraceFollower, state: Any) -> Any:
+    """The law's cache for rollouts of ``state``'s params, thresholds, ramp limits and step:
+    (those five, the float pack with the scalars that stay from one decision to the next,
+    in RolloutScalars' order after the five that change, the no-sends-pending array per
+    follower count, the kernels, the search's bookkeeping buffers); made once per law (a
+    clone of the law shares it) and kept while the five are the same objects."""
+    p, thr = state.params, state.thresholds
+    static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
+    cached: Any = getattr(law, "_rollout_static", None)
+    if cached is not None and cached[0] == static:  # (the same objects: no field compared)
+        return cached
+    scalars = K.RolloutScalars(
+        leader_s=0.0,  # the five that change: set per decision (`CompiledRollout._made`)
+        leader_speed=0.0,
+        v_ld=0.0,
+        t_now=0.0,
+        next_scan=0.0,
+        accel=state.accel_max,
+        decel=state.decel_max,
+        max_accel=p.max_accel,
+        max_speed=p.max_speed,
+        max_turn=p.max_turn_rate,
+        speed_noise=p.speed_noise,
+        turn_noise=p.turn_noise,
+        step=state.step_ms,
+        gain=law.gain,
+        lookahead=law.lookahead,
+        r_H=thr.r_H,
+        T_rho=thr.T_rho,
+        T_eps=thr.T_eps,
+        T_beta=thr.T_beta,
+        predicted=1.0 if thr.localization == "predicted" else 0.0,
+        predicted_ms=thr.predicted_ms,
+    )
+    # (compiled once per process and motion model: before the first rollout)
+    ker = K.rollout_kernels(motion_model(p.motion_model))
+    # (the search's bookkeeping buffers, read before each decide returns)
+    bufs = (
+        np.empty(_SEARCH_RUNS),
+        np.empty(_SEARCH_RUNS, dtype=np.int64),
+        np.empty(_SEARCH_RUNS, dtype=np.int64),
+        np.empty(7),
+    )
+    # (the five that change are written over a copy per decision)
+    cached = (static, np.array(scalars, dtype=float), {}, ker, bufs)
+    setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
+    return cached
+
+
 class CompiledRollout:
     """`Rollout`'s arithmetic for one state in compiled calls:
     the state packed into arrays once (`RolloutScalars`, a row per
@@ -111,52 +166,30 @@ class CompiledRollout:
     runs: ClassVar[int] = 0
 
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
-        p, thr = state.params, state.thresholds
+        self._made(law, _static(law, state), state)
+
+    @staticmethod
+    def maker(law: Any, state: Any) -> Callable[[Any], CompiledRollout]:
+        """``CompiledRollout(law, s)`` for the states ``s`` of a run, which share ``state``'s
+        params, thresholds, ramp limits and step (`rtsim.control.rollout.decided_state`):
+        the law's cache looked up once."""
+        cached = _static(law, state)
+        new, made = object.__new__, CompiledRollout._made
+
+        def make(s: Any) -> CompiledRollout:
+            ro: CompiledRollout = new(CompiledRollout)
+            made(ro, law, cached, s)
+            return ro
+
+        return make
+
+    def _made(self, law: CompiledTraceFollower, cached: Any, state: Any) -> None:
+        """Pack ``state`` (the law's cache ``cached``, `_static`)."""
         self._law = law
-        # the scalars that stay from one decision to the next, packed once per law (they
-        # follow the five that change, in RolloutScalars' order), and the kernels
-        static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
-        cached: Any = getattr(law, "_rollout_static", None)  # (a clone of the law shares it)
-        if cached is None or cached[0] != static:  # (the same objects: no field compared)
-            scalars = K.RolloutScalars(
-                leader_s=0.0,  # the five that change: set per decision below
-                leader_speed=0.0,
-                v_ld=0.0,
-                t_now=0.0,
-                next_scan=0.0,
-                accel=state.accel_max,
-                decel=state.decel_max,
-                max_accel=p.max_accel,
-                max_speed=p.max_speed,
-                max_turn=p.max_turn_rate,
-                speed_noise=p.speed_noise,
-                turn_noise=p.turn_noise,
-                step=state.step_ms,
-                gain=law.gain,
-                lookahead=law.lookahead,
-                r_H=thr.r_H,
-                T_rho=thr.T_rho,
-                T_eps=thr.T_eps,
-                T_beta=thr.T_beta,
-                predicted=1.0 if thr.localization == "predicted" else 0.0,
-                predicted_ms=thr.predicted_ms,
-            )
-            pends: dict[int, Any] = {}  # the no-sends-pending array per follower count
-            # (compiled once per process and motion model: before the first rollout)
-            ker = K.rollout_kernels(motion_model(p.motion_model))
-            # (the five that change are written over a copy per decision)
-            # (and the search's bookkeeping buffers, read before each decide returns)
-            bufs = (
-                np.empty(_SEARCH_RUNS),
-                np.empty(_SEARCH_RUNS, dtype=np.int64),
-                np.empty(_SEARCH_RUNS, dtype=np.int64),
-                np.empty(7),
-            )
-            cached = (static, np.array(scalars, dtype=float), pends, ker, bufs)
-            setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
         self._ker, self._bufs = cached[3], cached[4]
         fs = cached[1].copy()
-        # RolloutScalars' first five (item by item: a slice from a tuple converts it first)
+        # RolloutScalars' first five (item by item: a slice from a tuple converts it first;
+        # one fromiter of all 21 is 2.5x the copy)
         fs[0] = state.leader_s
         fs[1] = state.leader_speed
         fs[2] = state.v_ld
@@ -215,22 +248,30 @@ class CompiledRollout:
         tol: float,
         windows: int,
         w: float,
-        contact: float = 0.0,
-    ) -> tuple[tuple[float, ...], Any, list[tuple[float, tuple[float, ...], Any]]]:
+        contact: float,
+        raw: dict[tuple[float, tuple[float, ...]], Any],
+        memo: Any,
+    ) -> tuple[list[float], Any, int]:
         """`PlanPolicy`'s decision, or with ``search_only``
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
         ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
         in one call (`rtsim.control.kernels._plan_decide`, on fresh arrays of
-        changes and rows): ((w, V_L, method code, found, feasible), the rows
-        at V_Ld and at V_L [2, follower, kind], and the rollouts it ran as (speed, window
-        lengths, changes [window, follower, change]) for the rollout's memo)."""
+        changes and rows): ([w, V_L, method code, found, feasible, ...], the rows
+        at V_Ld and at V_L [2, follower, kind]). The rollouts it ran go to ``raw`` for the
+        rollout's memo, keyed (speed, window lengths), their changes [window, follower,
+        change] as arrays (the first of equal keys, none whose key ``memo`` has); the third item:
+        how many it added."""
         speeds, lens, cut, out = self._bufs  # (the law's: read before this returns)
         cut.fill(0)  # (lens: the kernel writes each of the rollouts it returns)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
-        changes = np.empty((_SEARCH_RUNS, int(windows), self.n, 5))  # (kept by the memo)
-        rows = np.empty((2, self.n, 4))
-        runs = call(  # (`_plan_decide`'s arguments after the first three)
-            self._ker.roll_or_decide,
+        n = self.n
+        changes = np.empty((_SEARCH_RUNS, int(windows), n, 5))  # (kept by the memo)
+        rows = np.empty((2, n, 4))
+        fn = self._ker.roll_or_decide
+        f = _ENTRIES.get(fn)
+        if f is None:  # (the first call: `call` finds the entry)
+            f = functools.partial(call, fn)
+        runs = f(
             False,
             0.0,
             K.NO_F1,
@@ -242,7 +283,7 @@ class CompiledRollout:
             int(grid),
             float(tol),
             float(w),
-            self.pack(),
+            (*self._args, self._law._sr, self._law._sf),  # (`pack`)
             speeds,
             lens,
             changes,
@@ -256,20 +297,32 @@ class CompiledRollout:
         runs = min(runs, _SEARCH_RUNS)
         w = float(w)
         horizon = (w,) * int(windows)
-        ran: list[tuple[float, tuple[float, ...], Any]] = []
         frozen: tuple[Any, ...] = ()
-        for r, (v, code, short) in enumerate(
-            zip(speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist(), strict=True)
+        before = len(raw)
+        put = raw.setdefault  # (the first of equal keys, as ever)
+        for r, v, code, short in zip(
+            range(runs),
+            speeds[:runs].tolist(),
+            lens[:runs].tolist(),
+            cut[:runs].tolist(),
+            strict=True,
         ):
+            key: tuple[float, tuple[float, ...]]
             if code == 2:
-                ran.append((v, (got[5],), changes[r, :1]))
+                key = (v, (got[5],))
+                if not memo or key not in memo:
+                    put(key, changes[r, :1])
                 continue
-            if short:  # stopped after its first window: whole only if asked (_Rest)
-                if not frozen:  # the law's search starts as they are at the decision
-                    frozen = (*self._args, self._law._sr.copy(), self._law._sf.copy())
-                ran.append((v, horizon, _Rest(self, v, horizon, frozen)))
-            else:
-                ran.append((v, horizon, changes[r]))
+            key = (v, horizon)
+            if not memo or key not in memo:
+                if short:  # stopped after its first window: whole only if asked (_Rest)
+                    if not frozen:  # the law's search starts as they are at the decision
+                        frozen = (*self._args, self._law._sr.copy(), self._law._sf.copy())
+                    put(key, _Rest(self, v, horizon, frozen))
+                else:
+                    put(key, changes[r])
             if code == 1:
-                ran.append((v, (w,), changes[r, :1]))
-        return tuple(got[:5]), rows, ran
+                key = (v, (w,))
+                if not memo or key not in memo:
+                    put(key, changes[r, :1])
+        return got, rows, len(raw) - before

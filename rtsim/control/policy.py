@@ -885,18 +885,41 @@ class PlanPolicy:
         self.contact = o.contact
 
     def decide(self, ctx: PolicyInput) -> Decision:
+        return self._planned(ctx.rollout, ctx, *self._fixed(ctx))
+
+    def on_rollout(self, ctx: PolicyInput) -> Callable[[Any], Decision] | None:
+        """``decide`` for every decision of a run whose `PolicyInput` other than its
+        ``rollout`` is ``ctx`` (`decide`'s inputs checked once): ``decider(rollout)`` is
+        ``decide(dataclasses.replace(ctx, rollout=rollout))``, without the `PolicyInput` per
+        decision (plan reads of a `PolicyInput` only v_ld, w_sch, cap, floor_frac and the
+        rollout); None when ``decide`` is not this class's own (a subclass's, or replaced). A
+        coupled run asks for it (`rtsim.coupling.scenario_run`)."""
+        if type(self).decide is not _PLAN_DECIDE:  # (overridden, or replaced since)
+            return None
+        fixed = self._fixed(ctx)
+        planned = self._planned
+
+        def decider(ro: Any) -> Decision:
+            return planned(ro, ctx, *fixed)
+
+        return decider
+
+    def _fixed(self, ctx: PolicyInput) -> tuple[float, float, float, float]:
+        """(keep = 1 − μ, need, cap, v_floor) of ``ctx`` (checked: `_check`)."""
         cap = _check(ctx, "plan")
-        ro = ctx.rollout
+        return 1.0 - self.margin, ctx.w_sch * (1.0 - TOL), cap, ctx.floor_frac * ctx.v_ld
+
+    def _planned(
+        self, ro: Any, ctx: PolicyInput, keep: float, need: float, cap: float, v_floor: float
+    ) -> Decision:
+        """`decide` on rollout ``ro`` (``ctx``'s other fields, `_fixed`'s numbers)."""
         if ro is None:
             raise InputError(
                 "plan: needs the leader's rollout (PolicyInput.rollout), which a "
                 "coupled run with follow-the-leader followers fills"
             )
-        keep = 1.0 - self.margin
-        need = ctx.w_sch * (1.0 - TOL)
         # the contact bound's d_c (cm; 0: off)
         d_c = float(getattr(getattr(ro, "state", None), "contact_cm", 0.0)) if self.contact else 0.0
-        v_floor = ctx.floor_frac * ctx.v_ld
         plan = getattr(ro, "plan", None)  # the rollout's compiled decision, if it has one
         hit = (
             None
@@ -960,6 +983,10 @@ class PlanPolicy:
             m_after,
             {"numeric": found},
         )
+
+
+#: `PlanPolicy.decide` as defined (`PlanPolicy.on_rollout` stands for it only)
+_PLAN_DECIDE = PlanPolicy.decide
 
 
 def decide_rows(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Decision:

@@ -14,7 +14,7 @@ bound MSB = L·w / c (ms; ∞ when c = 0). Used by the ``commands`` predictor
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any
 
@@ -22,7 +22,13 @@ import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
-from rtsim.control.compiled_rollout import CompiledRollout, _Rest, as_changes, compiled_rollout
+from rtsim.control.compiled_rollout import (
+    CompiledRollout,
+    _Rest,
+    as_changes,
+    compiled_rollout,
+    compiles,
+)
 from rtsim.control.predict import min_bound_rows
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.follower import FollowerGroup, FollowerParams, control_targets, lpsi_command
@@ -179,6 +185,24 @@ class Rollout:
         # a law of the world's compiled backend plays whole rollouts in compiled calls
         self._compiled = compiled_rollout(state.law, state)
 
+    @classmethod
+    def maker(cls, base: RolloutState) -> Callable[[RolloutState], Rollout]:
+        """``Rollout(state)`` for the states of a run, ``decided_state(base, ...)``: whether
+        its law rolls out compiled, and the law's cache, asked once (`CompiledRollout.maker`)."""
+        comp = CompiledRollout.maker(base.law, base) if compiles(base.law) else None
+        new = object.__new__
+
+        def make(state: RolloutState) -> Rollout:
+            ro: Rollout = new(cls)
+            ro.state = state
+            ro.count = 0
+            ro._memo = {}
+            ro._raw = {}
+            ro._compiled = None if comp is None else comp(state)
+            return ro
+
+        return make
+
     def changes(self, v: float, windows: Sequence[float]) -> list[list[Changes]]:
         """The predicted changes per window (lengths ``windows``, ms, the first opening at
         ``next_scan``) and per follower, with the leader's target ``v`` from now on."""
@@ -246,10 +270,11 @@ class Rollout:
         `changes` of one of its speeds is that rollout)."""
         if self._compiled is None or v_ld != self.state.v_ld:
             return None
-        out, _, ran = self._compiled.decide(
-            True, keep, need, 0.0, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, 0.0
-        )
-        self._remember(ran)
+        out, _, added = self._compiled.decide(
+            True, keep, need, 0.0, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, 0.0,
+            self._raw, self._memo,
+        )  # fmt: skip
+        self.count += added
         return out[1], "numeric" if out[2] == 1.0 else "best", out[3]
 
     def plan(
@@ -272,13 +297,14 @@ class Rollout:
         st = self.state
         if self._compiled is None or v_ld != st.v_ld or w != st.w_sch:
             return None
-        out, rows, ran = self._compiled.decide(
-            False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact
-        )
-        self._remember(ran)
-        w_out, v_l, method, found, feasible = out
+        out, rows, added = self._compiled.decide(
+            False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact,
+            self._raw, self._memo,
+        )  # fmt: skip
+        self.count += added
+        w_out, v_l, method, found, feasible = out[:5]
         r = rows.tolist()
-        after = [tuple(x) for x in r[1]]
+        after = list(map(tuple, r[1]))
         if math.isnan(feasible):  # the search did not roll the chosen speed out: here
             after = self.rows(v_l)
             horizon = self.changes(v_l, (w,) * windows)
@@ -291,19 +317,9 @@ class Rollout:
             ("none", "numeric", "best")[int(method)],
             found,
             feasible == 1.0,
-            [tuple(x) for x in r[0]],
+            list(map(tuple, r[0])),
             after,
         )
-
-    def _remember(self, ran: Sequence[tuple[float, tuple[float, ...], Any]]) -> None:
-        """Keep compiled rollouts (speed, window lengths, changes array) for `changes`."""
-        memo, raw = self._memo, self._raw
-        before = len(raw)
-        for v, lengths, arr in ran:
-            key = (v, lengths)
-            if not memo or key not in memo:  # (one hash of the key when nothing is memoised)
-                raw.setdefault(key, arr)  # (the first of equal keys, as ever)
-        self.count += len(raw) - before
 
     def _run(self, v: float, windows: tuple[float, ...]) -> list[list[Changes]]:
         if self._compiled is not None:  # the world's compiled law: one kernel call

@@ -314,6 +314,7 @@ class _Coupling:
         self._fols = not self._rollout or bool(getattr(self.policy, "needs_followers", True))
         # the rollout's per-run state (`decided_state`'s base, made at the first decision)
         self._ro_base: Any = None
+        self._ro_make: Any = None  # (Rollout.maker of the base)
         # the motion model keeps a turn rate of its own (RolloutState.turns; empty: none)
         self._turn_state = bool(self.world.motion.subs)
         if (
@@ -358,6 +359,10 @@ class _Coupling:
         self._make_input = input_maker(
             self._input, ("followers", "omega_l", "kappa", "v_now", "ahead", "pose_sd", "rollout")
         )
+        # a policy that decides on the rollout alone (plan: `PlanPolicy.on_rollout`) skips
+        # the PolicyInput per decision
+        on_rollout = getattr(self.policy, "on_rollout", None) if self._rollout else None
+        self._on_rollout = None if on_rollout is None else on_rollout(self._input)
 
     def _hook_window(self, where: str) -> None:
         """The window chain's constants and the CPU hooks that drive the world."""
@@ -524,8 +529,9 @@ class _Coupling:
                 tuple(self.beta_d),
                 self._contact_cm,
             )
+            self._ro_make = Rollout.maker(base)
         ld = world.leader
-        return Rollout(
+        return self._ro_make(
             decided_state(
                 base,
                 now,
@@ -573,17 +579,20 @@ class _Coupling:
                 self.decide_at == "before-send" and now > 0,
                 estimates,
             )
-        adj = self.policy.decide(
-            self._make_input(
-                fols,
-                kw["omega_l"],
-                kappa,
-                kw["v_now"],
-                () if self._path is None else self._ahead(),
-                self._pose_sd() if self._noise else (),
-                ro,
+        if self._on_rollout is not None:
+            adj = self._on_rollout(ro)
+        else:
+            adj = self.policy.decide(
+                self._make_input(
+                    fols,
+                    kw["omega_l"],
+                    kappa,
+                    kw["v_now"],
+                    () if self._path is None else self._ahead(),
+                    self._pose_sd() if self._noise else (),
+                    ro,
+                )
             )
-        )
         v_l = max(adj.v_leader, self.v_floor)
         # each follower's closest approach among the estimates: the contact prediction of a
         # decision without a rollout (`_close`; a rollout predicts its own)

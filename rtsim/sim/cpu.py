@@ -312,6 +312,24 @@ class CPU(ResourceProtocols, TimeSlices):
                 and not st.zero_tail[i + 1]
                 for i in range(len(segs))
             ]
+            # segment i has end hooks and i + 1 is a CPU segment: the hooks, called by the
+            # dispatcher itself (what `_segment_done` and `_continue` do there)
+            # segment i is the last and has no end hooks: its end completes the job (and the
+            # next job of the task does not start with an idle suspension: `_continue` would
+            # time it with the dispatcher's lag)
+            st.last_plain = [
+                i + 1 == len(segs) and not st.end_hooks[i] and not st.idle_kind[0]
+                for i in range(len(segs))
+            ]
+            st.hooked_next = [
+                st.end_hooks[i]
+                if st.end_hooks[i]
+                and i + 1 < len(segs)
+                and not st.idle_kind[i + 1]
+                and not st.zero_tail[i + 1]
+                else None
+                for i in range(len(segs))
+            ]
         top = min(self._states, key=lambda x: x.priority, default=None)
         for st in self._states:
             st.fast_top = (
@@ -390,9 +408,16 @@ class CPU(ResourceProtocols, TimeSlices):
                 if st.simple:
                     self._complete(job, now)
                     running = None
-                elif st.plain_next[job.seg_index]:  # _segment_done without a hook
-                    job.seg_index += 1
-                    job.rem = None
+                elif st.plain_next[i := job.seg_index]:  # _segment_done without a hook
+                    job.seg_index, job.rem = i + 1, None
+                elif (hooks := st.hooked_next[i]) is not None:  # _segment_done, _continue:
+                    for h in hooks:  # no calls but the hooks'
+                        h(job, st.segs[i])
+                    job.seg_index, job.rem, run_lag = i + 1, None, 0.0
+                elif st.last_plain[i]:  # the job completes (_segment_done, _continue)
+                    job.seg_index, job.rem = i + 1, None
+                    self._complete(job, now)
+                    running, run_lag = None, 0.0
                 else:
                     running, run_end, run_lag = self._segment_ends(job, now, now_lag, work_lag)
             # 2. timers due (then t_next: the next timer)
@@ -448,12 +473,7 @@ class CPU(ResourceProtocols, TimeSlices):
                     key = ready[0][0]  # one above, by calls, costs 3-4 % in bench_sim)
                     if running is None or (key < running.key if by_key else preempts(key, running)):
                         if running is not None:
-                            if running.rem is not None:
-                                self._close_piece(running, piece_start, work_start, now, False)
-                                if now > work_start:
-                                    running.rem -= now_lag - work_lag
-                            running.preemptions += 1
-                            heappush(ready, (running.key, running.tie, running))
+                            self._preempt(running, now, now_lag, piece_start, work_start, work_lag)
                         running = heappop(ready)[2]
                         piece_start = work_start = now
                         work_lag = now_lag

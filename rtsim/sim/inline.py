@@ -184,7 +184,7 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                 due = True  # (another timer is due: step 2 goes on, then this job)
             break
         if top_first and released:  # (the releases' sequence numbers, drawn in one call)
-            seq = next(islice(seqs, released - 1, None))
+            seq = next(seqs) if released == 1 else next(islice(seqs, released - 1, None))
         if unbooked:  # (the job released at now: not booked, ready; or booked at step 3)
             _enqueue(job, st, k, r, period, seq, ready)
             if not moved:  # (the first)

@@ -161,6 +161,8 @@ class _TaskState:
         "fast_top",
         "seg_const",
         "plain_next",
+        "hooked_next",
+        "last_plain",
         "zero_tail",
         "index",
         "jitter",
@@ -204,6 +206,9 @@ class _TaskState:
         self.fast_top = False  # highest priority, fast release and start, no hooks at all
         self.seg_const: list[float | None] = []  # constant time of segment i, no start hooks
         self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
+        # segment i's end hooks where i + 1 is a CPU segment (else None)
+        self.hooked_next: list[list[SegmentHook] | None] = []
+        self.last_plain: list[bool] = []  # segment i is the last, without end hooks
         # segment i > 0 and every one after it are empty (no time, no resource): run at once
         self.zero_tail: list[bool] = []
         self.index = 0  # the order in which the CPU got the task

@@ -93,6 +93,8 @@ class ResourceProtocols:
                     if r is not None:
                         st.seg_const[i] = None
                         st.plain_next[i] = False
+                        st.hooked_next[i] = None
+                        st.last_plain[i] = False
 
     def _level(self, job: Job) -> float:
         """The job's preemption level (larger = higher): −priority, or −relative deadline."""

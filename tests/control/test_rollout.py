@@ -20,6 +20,7 @@ import dataclasses
 import functools
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -331,3 +332,39 @@ def test_decided_state_is_replace() -> None:
         made.t_now = 1.0  # type: ignore[misc]
     with pytest.raises(TypeError):
         decided_state(base, *values[:-1])
+
+
+@pytest.mark.parametrize("backend", ["python", "compiled"])
+def test_plan_on_rollout_is_its_decide(backend: str) -> None:
+    """`PlanPolicy.on_rollout` (a run's decisions without a `PolicyInput` each) decides as
+    `decide` on the same input with the rollout in it, on `Rollout.maker`'s rollouts: the
+    same decision (repr: a NaN found speed) and the same memo, for margins that keep V_Ld,
+    search or find nothing; None once ``decide`` is not the class's own."""
+    from rtsim.control.policy import PlanPolicy, PolicyInput
+
+    sc = load_scenario("test2", overrides={**QUIET, "world.backend": backend})
+    world = World(sc.world, np.random.default_rng(1))
+    w = 237.0
+    for j in range(40):
+        _window(world, j * w, w)
+    t = 39 * w + 210.0
+    world.advance(t)
+    st = world_state(world, t, 40 * w, OFFSETS, w)
+    make = Rollout.maker(st)
+    for margin in (0.0, 0.4, 0.9):
+        pol = PlanPolicy(windows=2, margin=margin)
+        ctx = PolicyInput((), st.v_ld, st.w_sch, st.thresholds)
+        ro_a, ro_b = Rollout(st), make(st)
+        assert ro_b == ro_a and (ro_b._compiled is None) == (backend == "python")
+        decider = pol.on_rollout(ctx)
+        assert decider is not None
+        a = pol.decide(dataclasses.replace(ctx, rollout=ro_a))
+        assert repr(decider(ro_b)) == repr(a), margin
+        assert ro_b.count == ro_a.count and set(ro_b._memo) == set(ro_a._memo)
+        assert set(ro_b._raw) == set(ro_a._raw)
+
+    class Own(PlanPolicy):
+        def decide(self, ctx: PolicyInput) -> Any:
+            return super().decide(ctx)
+
+    assert Own().on_rollout(PolicyInput((), st.v_ld, st.w_sch, st.thresholds)) is None

@@ -319,3 +319,71 @@ def test_inline_path_is_taken_and_exact(monkeypatch: pytest.MonkeyPatch) -> None
         5.0,
         5.0,
     )
+
+
+def _through_calls(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Switch off the dispatcher's direct segment ends (a segment's end hooks before a CPU
+    segment, the last segment's end without hooks): every such end goes through
+    `CPU._segment_ends`, as before they existed."""
+    orig = CPU._compile
+
+    def compile_(self: CPU) -> None:
+        orig(self)
+        for s in self._states:
+            s.hooked_next = [None] * len(s.segs)
+            s.last_plain = [False] * len(s.segs)
+
+    monkeypatch.setattr(CPU, "_compile", compile_)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.one_of(specs(), plain_specs()), st.sampled_from(["fp", "edf"]), st.booleans())
+def test_direct_segment_ends_are_unobservable(spec: Spec, scheduler: str, hooks: bool) -> None:
+    """The dispatcher ends a segment whose end hooks come before a CPU segment, and the last
+    segment of a job without end hooks, in its loop (no `_segment_ends` call): the same job
+    tables, statistics, hook calls and probes as through the calls."""
+    a = run(spec, inline=True, scheduler=scheduler, hooks=hooks)
+    with pytest.MonkeyPatch.context() as mp:
+        _through_calls(mp)
+        b = run(spec, inline=True, scheduler=scheduler, hooks=hooks)
+    assert_same(a, b)
+
+
+def test_direct_segment_ends_are_taken(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A segment whose end hooks come before a CPU segment ends in the dispatcher's loop:
+    with hooks on every segment's end, of a chain of three only the last one's end (hooks,
+    then the job's completion) goes through `_segment_ends`."""
+    calls = []
+    orig = CPU._segment_ends
+
+    def counting(self, *args):  # noqa: ANN001, ANN202
+        calls.append(args)
+        return orig(self, *args)
+
+    monkeypatch.setattr(CPU, "_segment_ends", counting)
+    segs = (Segment("scan", 3.0), Segment("send", 1.0), Segment("recv", 1.0))
+    spec = Spec(
+        Task("top", 1.0, 7.0, priority=1),
+        [],
+        Task("win", 5.0, 10.0, priority=2, segments=segs),
+        [10.0],
+        None,
+        [1.0],
+        100.0,
+        "cpu",
+        [],
+    )
+    counts, outs = [], []
+    for through in (False, True):
+        if through:
+            _through_calls(monkeypatch)
+        for hooks in (True, False):
+            calls.clear()
+            outs.append(run(spec, inline=True, hooks=hooks))
+            counts.append(len(calls))
+    assert_same(outs[0], outs[2])
+    assert_same(outs[1], outs[3])
+    jobs = counts[2] // 3  # (through the calls, with hooks: every segment's end, 3 a job)
+    assert jobs > 0
+    # with hooks, scan's and send's ends are made in the loop; without, the last one's too
+    assert counts == [jobs, 0, 3 * jobs, jobs]
