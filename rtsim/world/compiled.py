@@ -249,36 +249,39 @@ class CompiledEstimates:
         grown[:, : E.shape[1]] = E
         self.E = grown
 
+    def fuse_ftl(self, law: Any, limits: tuple[float, float], noise: tuple[float, float]) -> None:
+        """Make `command_ftl` run the compiled follow-the-leader law ``law`` (its arrays),
+        saturate to ``limits`` (speed, turn rate) and realise the command with the actuation
+        noise's scales ``noise`` (speed, turn rate)."""
+        self._ftl_run = (self.accel, law._G, law._sr, law._sf, law.gain, law.lookahead)
+        self._ftl_run += (*limits, *noise)
+        x = 0.0
+        self._ftl_entry = entry(self._ftl, (0, x, x, x, x, x, self.E, *self._ftl_run))
+
     def command_ftl(
-        self, k: int, t: float, law: Any, s_l: float, lp: tuple[float, float, float],
-        v_l: float, limits: tuple[float, float],
-    ) -> tuple[float, float]:  # fmt: skip
-        """`World.command`'s estimate, follow-the-leader law, saturation and hold in one call
-        (`est_command_ftl`) on the compiled law ``law``'s arrays: the command (v, ω)."""
-        xl, yl, hl = lp
-        fn = self._ftl_entry
-        if fn is None:  # (typed on its first call's arguments)
-            fn = self._ftl_entry = entry(
-                self._ftl, (self.E, k, t, self.accel, law._G, law._sr, law._sf, law.gain,
-                law.lookahead, s_l, xl, yl, hl, v_l, *limits),
-            )  # fmt: skip
-        vmax, wmax = limits
-        v, w, held = fn(
-            self.E, k, t, self.accel, law._G, law._sr, law._sf, law.gain, law.lookahead,
-            s_l, xl, yl, hl, v_l, vmax, wmax,
-        )  # fmt: skip
+        self, k: int, t: float, s_l: float, v_l: float, nv: float, nw: float
+    ) -> tuple[float, float, float, float]:
+        """`World.command`'s leader pose, estimate, follow-the-leader law, saturation, hold
+        and actuation in one call (`est_command_ftl`, as `fuse_ftl` set it); ``nv``, ``nw``:
+        the actuation noise's two standard normals. The command (v, ω) and the command the
+        follower realises."""
+        v, w, rv, rw, held = self._ftl_entry(k, t, s_l, v_l, nv, nw, self.E, *self._ftl_run)
         if held:
             self.last[k] = (v, w)
         else:  # (the row was full: held once it has grown)
             self.hold(k, t, v, w)
-        return v, w
+        return v, w, rv, rw
 
     _ftl_entry: Any = None
+    _ftl_run: tuple[Any, ...] = ()
 
 
 class CompiledTraceFollower(TraceFollower):
     """`TraceFollower` whose equations run compiled, on arrays it owns (the Python twins, as
-    `TraceFollower`, when the kernels' hypot is not this interpreter's: module docstring)."""
+    `TraceFollower`, when the kernels' hypot is not this interpreter's: module docstring).
+    ``compiled``: whether its equations run compiled (its arrays are the kernels')."""
+
+    compiled = False
 
     def __init__(
         self, path: LeaderPath, rho_d: Any, lateral: Any, gain: float, lookahead: float
@@ -305,3 +308,4 @@ class CompiledTraceFollower(TraceFollower):
         self._command = entry(ker.ftl_command, (G, sr, sf, x, x, 0, x, x, x, x, x, x, x, x))
         self._project = entry(ker.ftl_project, (G, 0, x, x, x))
         self._point = entry(ker.trace_point, (G, 0, x))
+        self.compiled = True

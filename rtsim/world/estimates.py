@@ -16,7 +16,8 @@ expressions the Python runs:
   heading variance's maximum);
 - `est_carry`: `World._propagate` for one follower or all;
 - `est_hold`: `World._hold`'s record of a command;
-- `est_command_ftl`: `World.command` with the follow-the-leader law (carry, law, clip, hold).
+- `est_command_ftl`: `World.command` with the follow-the-leader law (the leader's pose, carry,
+  law, clip, hold, the command realised with its actuation noise).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.world.ekf import ekf_command, ekf_update
-from rtsim.world.ftl import ftl_command
+from rtsim.world.ftl import ftl_command, path_pose
 from rtsim.world.jit import kernel
 from rtsim.world.motion import clip, ramp_arc
 
@@ -187,15 +188,21 @@ def est_scan(
 
 @kernel
 def est_command_ftl(
-    E: Any, k: int, t: float, a: float, G: Any, s_ref: Any, s_f: Any, gain: float,
-    lookahead: float, s_l: float, xl: float, yl: float, hl: float, v_l: float,
-    v_max: float, w_max: float,
-) -> tuple[float, float, bool]:  # fmt: skip
-    """`World.command` for row ``k`` at ``t`` ms with the follow-the-leader law: the estimate
-    carried there (`carry_row`), the law (`ftl_command`, which updates ``s_ref`` and
-    ``s_f``), the command clipped to ``v_max``, ``w_max`` (`clip`, the followers'
-    saturation) and held (`est_hold`): (v, ω, whether it was held; False: the row was full)."""
+    k: int, t: float, s_l: float, v_l: float, nv: float, nw: float, E: Any, a: float,
+    G: Any, s_ref: Any, s_f: Any, gain: float, lookahead: float, v_max: float, w_max: float,
+    sv: float, sw: float,
+) -> tuple[float, float, float, float, bool]:  # fmt: skip
+    """`World.command` for row ``k`` at ``t`` ms with the follow-the-leader law: the leader's
+    pose at arc length ``s_l`` (`path_pose`, `LeaderPath.pose`), the estimate carried there
+    (`carry_row`), the law (`ftl_command`, which updates ``s_ref`` and ``s_f``), the command
+    clipped to ``v_max``, ``w_max`` (`clip`, the followers' saturation) and held (`est_hold`),
+    and the command the follower realises with its actuation noise, standard normals ``nv``,
+    ``nw`` times ``sv``, ``sw``, saturated (`FollowerGroup.apply_drawn`): (v, ω, the realised
+    v and ω, whether it was held; False: the row was full). (What changes per call first,
+    the run's constants after: the caller passes those as one tuple.)"""
+    xl, yl, hl = path_pose(G, s_l)
     x, y, th, _, _ = carry_row(E, k, t, a)
     v, w = ftl_command(G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, hl, v_l, x, y, th)
     v, w = clip(v, v_max), clip(w, w_max)
-    return v, w, est_hold(E, k, t, v, w)
+    rv, rw = clip(v + sv * nv, v_max), clip(w + sw * nw, w_max)
+    return v, w, rv, rw, est_hold(E, k, t, v, w)

@@ -235,7 +235,15 @@ class FollowerGroup:
         t[k] = t_ms
 
     def advance_all(self, t_ms: float, step_ms: float) -> None:
-        """`advance` every follower to ``t_ms``."""
-        advance = self.advance
-        for k in range(len(self.x)):
-            advance(k, t_ms, step_ms)
+        """`advance` every follower to ``t_ms`` (its loop inline: no call per follower)."""
+        t, fn, a = self.t, self._advance, self.p.max_accel
+        x, y, th, v, w, odo = self.x, self.y, self.th, self.v, self.w, self.odometer
+        cmd_v, cmd_w = self.cmd_v, self.cmd_w
+        for k in range(len(x)):
+            t0 = t[k]
+            if t_ms <= t0:
+                continue
+            x[k], y[k], th[k], v[k], w[k], odo[k] = fn(
+                x[k], y[k], th[k], v[k], w[k], cmd_v[k], cmd_w[k], a, odo[k], t0, t_ms, step_ms
+            )
+            t[k] = t_ms

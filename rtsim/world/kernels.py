@@ -267,6 +267,6 @@ def _warm(ns: Any) -> None:
     ns.est_carry(E, 0, 20.0, 1.0, np.empty((1, 7)))
     ns.est_hold(E, 0, 20.0, 1.0, 0.0)
     ns.est_command_ftl(
-        E, 0, 30.0, 1.0, G, nan1, nan1.copy(), 0.5, 10.0, 0.0, 50.0, 50.0, 0.0, 1.0, 1.0, 1.0
+        0, 30.0, 0.0, 1.0, 0.0, 0.0, E, 1.0, G, nan1, nan1.copy(), 0.5, 10.0, 1.0, 1.0, 0.5, 0.1
     )
     # (the rollout's kernels: rtsim.control.kernels, when a run first rolls out)

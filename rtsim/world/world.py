@@ -189,9 +189,12 @@ class World:
         self._r_H, self._T_beta = thr.r_H, thr.T_beta
         self._accel, self._step_ms = fp.max_accel, config.step_ms
         self._n = form.n
-        # the compiled backend's command with the compiled law: one call (`command_ftl`)
-        self._ftl_fused = self._arr is not None and hasattr(self._ftl, "_G")
+        # the compiled backend's command with the compiled law: one call (`command_ftl`;
+        # not where the law stays Python, `CompiledTraceFollower.compiled`)
+        self._ftl_fused = self._arr is not None and getattr(self._ftl, "compiled", False)
         self._limits = (fp.max_speed, fp.max_turn_rate)
+        if self._ftl_fused:
+            self._arr.fuse_ftl(self._ftl, self._limits, (fp.speed_noise, fp.turn_noise))  # type: ignore[union-attr]
 
     # -- time ------------------------------------------------------------------------
     @property
@@ -208,7 +211,7 @@ class World:
         with their held commands in exact arcs, sub-stepped at ``step_ms`` while a wheel
         speed ramps toward its command for longer than one step."""
         self._advance_leader(t_ms)
-        self.followers.advance_all(t_ms, self.config.step_ms)
+        self.followers.advance_all(t_ms, self._step_ms)
 
     def _advance_leader(self, t_ms: float) -> None:
         if t_ms < self._t - 1e-9:
@@ -598,12 +601,17 @@ class World:
             self._advance_leader(t_ms)
         fol = self.followers
         fol.advance(k, t_ms, self._step_ms)
-        if self._ftl_fused:
+        if self._ftl_fused:  # (`_actuate`'s draws and realised command in the same call)
+            i, z = self._zi, self._z
+            if i + 2 <= len(z):  # (`_normals` (2), inline)
+                nv, nw = z[i], z[i + 1]
+                self._zi = i + 2
+            else:
+                nv, nw = self._normals(2)
             ld = self.leader
-            cmd = self._arr.command_ftl(  # type: ignore[union-attr]
-                k, t_ms, self._ftl, ld.s, ld.pose, ld.speed, self._limits
-            )
-            return self._actuate(k, cmd)
+            v, w, rv, rw = self._arr.command_ftl(k, t_ms, ld.s, ld.speed, nv, nw)  # type: ignore[union-attr]
+            fol.cmd_v[k], fol.cmd_w[k] = rv, rw  # (`FollowerGroup.apply_drawn`)
+            return v, w
         est = self._propagate(k, t_ms)
         x, y, th = est[0]
         ld = self.leader

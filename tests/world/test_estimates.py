@@ -97,3 +97,18 @@ def test_array_estimates_are_the_filters_bit_for_bit(model: str, centre: str) ->
     assert n_want == n_got == 1
     assert fast._arr.E.shape[1] > BASE + 3 * HELD_ROOM  # (the row grew)
     assert got == want
+
+
+@needs_numba
+def test_a_python_law_is_not_handed_to_the_fused_command(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where the kernels' hypot is not this interpreter's, the follow-the-leader law stays
+    Python (its search starts are lists) and the compiled world's command runs it between
+    two calls on the array (`est_carry`, `est_hold`), not inside `est_command_ftl` (which
+    would take those lists as numba's deprecated reflected lists, and the kernels' hypot)."""
+    monkeypatch.setattr(compiled_world.kernels(), "exact_hypot", False)
+    ref = World(_config("follow-the-leader", "predicted", "python"), np.random.default_rng(5))
+    fast = World(_config("follow-the-leader", "predicted", "compiled"), np.random.default_rng(5))
+    assert fast.follow_law is not None and not fast.follow_law.compiled
+    assert fast._arr is not None and fast._arr._ftl_entry is None
+    assert _drive(fast) == _drive(ref)
+    assert fast._arr._ftl_entry is None  # (the fused command never ran)
