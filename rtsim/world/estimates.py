@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from rtsim.world.ekf import ekf_command, ekf_update
 from rtsim.world.ftl import ftl_command, path_pose
 from rtsim.world.jit import kernel
-from rtsim.world.motion import clip, ramp_arc
+from rtsim.world.motion import actuated, clip, ramp_arc
 
 __all__ = [
     "BASE",
@@ -197,12 +197,12 @@ def est_command_ftl(
     (`carry_row`), the law (`ftl_command`, which updates ``s_ref`` and ``s_f``), the command
     clipped to ``v_max``, ``w_max`` (`clip`, the followers' saturation) and held (`est_hold`),
     and the command the follower realises with its actuation noise, standard normals ``nv``,
-    ``nw`` times ``sv``, ``sw``, saturated (`FollowerGroup.apply_drawn`): (v, ω, the realised
-    v and ω, whether it was held; False: the row was full). (What changes per call first,
+    ``nw`` times ``sv``, ``sw`` (`actuated`, as `FollowerGroup.apply_drawn`): (v, ω, the
+    realised v and ω, whether it was held; False: the row was full). (What changes per call first,
     the run's constants after: the caller passes those as one tuple.)"""
     xl, yl, hl = path_pose(G, s_l)
     x, y, th, _, _ = carry_row(E, k, t, a)
     v, w = ftl_command(G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, hl, v_l, x, y, th)
     v, w = clip(v, v_max), clip(w, w_max)
-    rv, rw = clip(v + sv * nv, v_max), clip(w + sw * nw, w_max)
+    rv, rw = actuated(v, w, nv, nw, sv, sw, v_max, w_max)
     return v, w, rv, rw, est_hold(E, k, t, v, w)

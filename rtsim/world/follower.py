@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from rtsim.io.limits import Range
 from rtsim.world._check import NOISE, in_ranges, spec
-from rtsim.world.motion import clip
+from rtsim.world.motion import actuated, clip
 from rtsim.world.motionmodels import MotionModel, motion_model
 
 __all__ = [
@@ -211,7 +211,7 @@ class FollowerGroup:
     def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
         """`apply` with its two standard-normal draws (``nv``, ``nw``) given."""
         p = self.p
-        sv, sw = self.saturate(v + p.speed_noise * nv, w + p.turn_noise * nw)
+        sv, sw = actuated(v, w, nv, nw, p.speed_noise, p.turn_noise, p.max_speed, p.max_turn_rate)
         self.cmd_v[k] = sv
         self.cmd_w[k] = sw
         return sv, sw

@@ -27,6 +27,7 @@ import math
 from rtsim.world.jit import kernel
 
 __all__ = [
+    "actuated",
     "arc",
     "belief_step",
     "chord",
@@ -139,3 +140,13 @@ def clip(v: float, lim: float) -> float:
     if lim < m:
         m = lim
     return m
+
+
+@kernel(inline=True)
+def actuated(
+    v: float, w: float, nv: float, nw: float, sv: float, sw: float, v_max: float, w_max: float
+) -> tuple[float, float]:
+    """The command (v, ω) a follower realises: its actuation noise, standard normals ``nv``,
+    ``nw`` times the scales ``sv``, ``sw``, added and the sum saturated to ``v_max``,
+    ``w_max`` (`clip`)."""
+    return clip(v + sv * nv, v_max), clip(w + sw * nw, w_max)
