@@ -29,6 +29,7 @@ immediate. Drawing the noise per command keeps the truth independent of the step
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -223,23 +224,18 @@ class FollowerGroup:
         """Integrate follower index ``k`` to ``t_ms`` (the motion model's ``advance``; the
         unicycle's `rtsim.world.motion.follower_advance`: exact arcs at the ramp's mean
         speed)."""
-        t = self.t
-        t0 = t[k]
-        if t_ms <= t0:
-            return
-        x, y, th, v, w, odo = self.x, self.y, self.th, self.v, self.w, self.odometer
-        x[k], y[k], th[k], v[k], w[k], odo[k] = self._advance(
-            x[k], y[k], th[k], v[k], w[k], self.cmd_v[k], self.cmd_w[k], self.p.max_accel,
-            odo[k], t0, t_ms, step_ms,
-        )  # fmt: skip
-        t[k] = t_ms
+        self._advance_each((k,), t_ms, step_ms)
 
     def advance_all(self, t_ms: float, step_ms: float) -> None:
-        """`advance` every follower to ``t_ms`` (its loop inline: no call per follower)."""
+        """`advance` every follower to ``t_ms``."""
+        self._advance_each(range(len(self.x)), t_ms, step_ms)
+
+    def _advance_each(self, ks: Iterable[int], t_ms: float, step_ms: float) -> None:
+        """`advance` followers ``ks`` to ``t_ms`` (one loop: no call per follower)."""
         t, fn, a = self.t, self._advance, self.p.max_accel
         x, y, th, v, w, odo = self.x, self.y, self.th, self.v, self.w, self.odometer
         cmd_v, cmd_w = self.cmd_v, self.cmd_w
-        for k in range(len(x)):
+        for k in ks:
             t0 = t[k]
             if t_ms <= t0:
                 continue

@@ -602,12 +602,7 @@ class World:
         fol = self.followers
         fol.advance(k, t_ms, self._step_ms)
         if self._ftl_fused:  # (`_actuate`'s draws and realised command in the same call)
-            i, z = self._zi, self._z
-            if i + 2 <= len(z):  # (`_normals` (2), inline)
-                nv, nw = z[i], z[i + 1]
-                self._zi = i + 2
-            else:
-                nv, nw = self._normals(2)
+            nv, nw = self._normals(2)
             ld = self.leader
             v, w, rv, rw = self._arr.command_ftl(k, t_ms, ld.s, ld.speed, nv, nw)  # type: ignore[union-attr]
             fol.cmd_v[k], fol.cmd_w[k] = rv, rw  # (`FollowerGroup.apply_drawn`)
