@@ -36,6 +36,7 @@ from rtsim.world.contact import closest_each, closest_into, contact_distance
 from rtsim.world.exactmath import cpython_hypot
 from rtsim.world.ftl import _PY_SUBS, TraceFollower, ftl_project, trace_point
 from rtsim.world.jit import build, kernel, specialise
+from rtsim.world.kernels import entry, follow_with
 
 __all__ = ["PhysicalLog", "p95_max_rows"]
 
@@ -99,6 +100,10 @@ def trace_samples(
 
 #: `trace_samples` as Python (``math.hypot``, the law's Python twins)
 _PY_SAMPLES = specialise(trace_samples, _PY_SUBS)
+#: about how long compiling `trace_samples` takes, CPU s (`bench_cold.py --kernels`, a 2-core
+#: machine at load 12: 0.47 s); said in the world's announcement (`follow_with`)
+COMPILE_S = 0.5
+follow_with((trace_samples,), COMPILE_S)
 
 
 class PhysicalLog:
@@ -135,8 +140,6 @@ class PhysicalLog:
         guess = [0.0] * n if self._guess is None else [float(g) for g in self._guess]
         if not getattr(law, "compiled", False):
             return _PY_SAMPLES, law._G, law._sf, self.rho_d, guess, [0.0] * (2 * n), [0.0] * n
-        from rtsim.world.kernels import entry  # lazy: the compiled backend's (numba)
-
         args = (law._G, law._sf, np.asarray(self.rho_d, dtype=float), np.asarray(guess))
         out, near = np.zeros(2 * n), np.zeros(n)
         fn = build(trace_samples)
