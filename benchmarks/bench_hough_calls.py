@@ -38,7 +38,9 @@ def capture(path: str, scenario: str, followers: int) -> int:
     real = Accumulator.locate, Accumulator.search
 
     def shape(acc: Any) -> tuple[Any, ...]:
-        r_max = (int(np.sqrt(acc.acc.size)) - 1) // 2 * acc.cell
+        cells = getattr(acc, "word", None)  # (before hough36: acc and stamp)
+        size = (acc.acc if cells is None else cells).size
+        r_max = (int(np.sqrt(size)) - 1) // 2 * acc.cell
         return acc.r_F, acc.cell, acc.out.shape[0], r_max
 
     def locate(acc: Any, *args: Any) -> Any:
