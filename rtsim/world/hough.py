@@ -167,9 +167,18 @@ def ring_cells(
     h = int(math.floor(r_H / cell))
     m = 2 * h + 1
     lim = (r_H / cell) * (r_H / cell)
+    # a cell of a power of two (1 cm): times 1/cell is over cell, exactly, and cheaper
+    inv = 1.0 / cell
+    mul = math.frexp(cell)[0] == 0.5
+    # the steps as views indexed from 0 (numba then knows the index is not negative and
+    # loads the steps side by side, not one by one)
+    sx = rx[b : b + n]
+    sy = ry[b : b + n]
     for t in range(n):
-        i = int(math.floor((x + rx[b + t] - cx) / cell + 0.5)) + h
-        j = int(math.floor((y + ry[b + t] - cy) / cell + 0.5)) + h
+        u = x + sx[t] - cx
+        v = y + sy[t] - cy
+        i = int(math.floor((u * inv if mul else u / cell) + 0.5)) + h
+        j = int(math.floor((v * inv if mul else v / cell) + 0.5)) + h
         di = i - h
         dj = j - h
         inside = (i >= 0) & (j >= 0) & (i < m) & (j < m) & (di * di + dj * dj <= lim)
