@@ -328,23 +328,9 @@ def locate_all(
     out: NDArray[np.void],
 ) -> None:
     """`hough_window` for every follower's window (centres ``cxs``, ``cys``), one
-    `WINDOW_ROW` of ``out`` each, on the scan's returns alone (the points without one, NaN,
-    neither vote nor count for an owner: the same records, fewer points per window)."""
-    n = px.shape[0]
-    qx = np.empty(n)
-    qy = np.empty(n)
-    qo = np.empty(n, np.int64)
-    m = 0
-    for p in range(n):
-        x = px[p]
-        if x == x:
-            qx[m] = x
-            qy[m] = py[p]
-            qo[m] = owner[p]
-            m += 1
-    qx, qy, qo = qx[:m], qy[:m], qo[:m]
+    `WINDOW_ROW` of ``out`` each."""
     for k in range(cxs.shape[0]):
-        hough_window(qx, qy, qo, cxs[k], cys[k], r_H, r_F, cell, cells, work, out, k)
+        hough_window(px, py, owner, cxs[k], cys[k], r_H, r_F, cell, cells, work, out, k)
 
 
 def compiled() -> Any:
