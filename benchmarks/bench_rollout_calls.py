@@ -33,18 +33,23 @@ def capture(path: str, scenario: str, followers: int) -> int:
 
     ov = {"formation.followers": followers}
     run_scenario(scenario, record_jobs=False, overrides=ov)  # warm-up: imports, compile
-    real = cr.call
+    # (the entries' compiled functions, which `call` and `CompiledRollout.decide` both
+    # look up in `_ENTRIES` once the warm-up has filled it, wrapped by a recorder)
+    real = dict(cr._ENTRIES)
     got: list[tuple[Any, ...]] = []
 
-    def record(fn: Any, *args: Any) -> Any:
-        got.append(copy.deepcopy(args))
-        return real(fn, *args)
+    def recorder(f: Any) -> Any:
+        def record(*args: Any) -> Any:
+            got.append(copy.deepcopy(args))
+            return f(*args)
 
-    cr.call = record
+        return record
+
+    cr._ENTRIES.update({fn: recorder(f) for fn, f in real.items()})
     try:
         run_scenario(scenario, record_jobs=False, overrides=ov)
     finally:
-        cr.call = real
+        cr._ENTRIES.update(real)
     with open(path, "wb") as f:
         pickle.dump(got, f)
     return len(got)
