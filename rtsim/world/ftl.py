@@ -34,7 +34,7 @@ _SCALE_MIN = 0.05
 # whom it follows (-1: the leader) and at what spacing (cm). Tuples in Python, arrays compiled.
 
 
-@kernel
+@kernel(inline=True)
 def path_segment(G: Any, s: float) -> tuple[int, float]:
     """`LeaderPath.index` (s), the segment's index (bisect_right − 1 of the starts), and u = s
     mod lap (Python's ``%``; within one lap either side of 0 its result without the fmod:
@@ -56,7 +56,7 @@ def path_segment(G: Any, s: float) -> tuple[int, float]:
     return lo - 1, u
 
 
-@kernel
+@kernel(inline=True)
 def _pose_at(G: Any, k: int, u: float) -> tuple[float, float, float]:
     """The pose `along` segment k at u − its start (u: s mod lap)."""
     poses = G[1]
