@@ -56,7 +56,7 @@ def path_segment(G: Any, s: float) -> tuple[int, float]:
     return lo - 1, u
 
 
-@kernel(inline=True)
+@kernel
 def _pose_at(G: Any, k: int, u: float) -> tuple[float, float, float]:
     """The pose `along` segment k at u − its start (u: s mod lap)."""
     poses = G[1]
