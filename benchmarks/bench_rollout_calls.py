@@ -5,13 +5,14 @@
 
 ``capture`` runs one warm lap (``run_scenario(..., record_jobs=False)`` after a warm-up
 lap) and pickles every call of the compiled rollout's entry (the decisions and the whole
-rollouts of the ``_pred`` columns; `rtsim.control.compiled_rollout.call`), its arguments as
-they were at the call. ``replay`` calls the entry of this checkout on copies of them: once
-to hash the outputs and count the rollouts (the kernels' return values, as
-`CompiledRollout` counts them), then ``--rounds`` times over chunks of ``--chunk`` calls,
-and prints the sum of each chunk's minimum (CPU): compare two checkouts by replaying the
-same file with each, alternated; equal hashes mean bit-for-bit equal outputs.
-(docs/performance.md, "The rollout kernels, measured inside".)
+rollouts of the ``_pred`` columns: the compiled functions in
+`rtsim.control.compiled_rollout._ENTRIES`, which `call` and `CompiledRollout.decide` both
+use), its arguments as they were at the call. ``replay`` calls the entry of this checkout
+on copies of them: once to hash the outputs and count the rollouts (the kernels' return
+values, as `CompiledRollout` counts them), then ``--rounds`` times over chunks of
+``--chunk`` calls, and prints the sum of each chunk's minimum (CPU): compare two checkouts
+by replaying the same file with each, alternated; equal hashes mean bit-for-bit equal
+outputs. (docs/performance.md, "The rollout kernels, measured inside".)
 """
 
 from __future__ import annotations
