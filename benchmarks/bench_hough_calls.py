@@ -93,26 +93,25 @@ def replay(path: str, rounds: int, chunk: int) -> dict[str, Any]:
     return {"calls": len(calls), "windows": windows, "ms": ms, "hash": h.hexdigest()[:16]}
 
 
+#: the command line's options past the mode and the file: name → default
+OPTIONS: dict[str, Any] = {"scenario": "test1", "followers": 9, "rounds": 10, "chunk": 25}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("mode", choices=("capture", "replay"))
     ap.add_argument("file")
-    ap.add_argument("--scenario", default="test1")
-    ap.add_argument("--followers", type=int, default=9)
-    ap.add_argument("--rounds", type=int, default=10)
-    ap.add_argument("--chunk", type=int, default=25)
-    args = ap.parse_args(argv)
+    for name, default in OPTIONS.items():
+        ap.add_argument(f"--{name}", type=type(default), default=default)
+    a = ap.parse_args(argv)
     print_machine()
-    if args.mode == "capture":
-        n = capture(args.file, args.scenario, args.followers)
-        print(f"{n} calls of the accumulator captured to {args.file}")
+    if a.mode == "capture":
+        print(f"{capture(a.file, a.scenario, a.followers)} calls captured to {a.file}")
         return 0
-    out = replay(args.file, args.rounds, args.chunk)
-    print(
-        f"{out['calls']} calls, {out['windows']:,} windows: {out['ms']:.2f} ms "
-        f"(sum of chunk minima, {1e3 * out['ms'] / out['windows']:.2f} us a window), "
-        f"records {out['hash']}"
-    )
+    r = replay(a.file, a.rounds, a.chunk)
+    us = 1e3 * r["ms"] / r["windows"]
+    print(f"{r['calls']} calls, {r['windows']:,} windows: {r['ms']:.2f} ms (sum of chunk")
+    print(f"minima, {us:.2f} us a window), records {r['hash']}")
     return 0
 
 
