@@ -30,7 +30,6 @@ import simpy
 import rtsim.coupling.duration as run_duration
 from rtsim._numbers import is_int, is_real
 from rtsim._suggest import did_you_mean
-from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.compiled import PaperSearch
 from rtsim.control.oracle import lap_oracle
@@ -53,6 +52,7 @@ from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.prepared import settled_speed, window_bound
 from rtsim.coupling.recorder import (
     CHANGE_KEYS,
+    StateRows,
     WindowRecord,
     WindowRecorder,
     changes_array,
@@ -182,7 +182,7 @@ class _Decision(NamedTuple):
     binding: str
     method: str
     feasible: bool
-    est: tuple[tuple[float, ...], ...]
+    est: StateRows  # (the est columns' rows)
     # the decision's belief, to evaluate its bounds at another leader speed (_pred columns):
     # the followers' estimates, predictor options, and the rows it computed at two speeds
     fols: tuple[Any, ...] = ()
@@ -563,8 +563,9 @@ class _Coupling:
         # each follower's estimate propagated to now and its expected speed, in one pass (the
         # same as World.estimated_pose(i) and World.relative(i, "estimate")[3])
         estimates = world.estimates_at(now)
-        # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns
-        state = tuple([(*pose, *relative_state(lp, pose), v_f) for pose, v_f in estimates])
+        # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
+        # relative states made when read: StateRows)
+        state = StateRows(lp, [e[0] for e in estimates], [e[1] for e in estimates])
         fols = self._followers(state) if self._fols else ()
         kw: dict[str, Any] = {
             "omega_l": world.leader_omega,
@@ -805,13 +806,12 @@ class _Coupling:
         else:
             sink.write(records_frame(records, self.n, self.rec.limits))
 
-    def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
+    def _truth(self, lp: tuple[float, float, float]) -> StateRows:
+        """The followers' truth now, (x, y, θ, ρ, β, θ_L − θ_F, V_F) per follower (the
+        relative states made when read: StateRows)."""
         fol = self.world.followers
-        out = []
-        # the scan has just advanced every follower to now
-        for x, y, th, v_f in zip(fol.x, fol.y, fol.th, fol.v, strict=True):
-            out.append((x, y, th, *relative_state(lp, (x, y, th)), v_f))
-        return tuple(out)
+        # the scan has just advanced every follower to now (copies: the lists change)
+        return StateRows(lp, list(zip(fol.x, fol.y, fol.th, strict=True)), list(fol.v))
 
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms
