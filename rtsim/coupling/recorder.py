@@ -22,7 +22,7 @@ chunks of records in memory; `records_frame` turns a chunk into its rows of the 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import chain
 from operator import attrgetter
@@ -173,7 +173,7 @@ def true_bounds(
     return out
 
 
-class StateRows:
+class StateRows(Sequence[tuple[float, ...]]):
     """n rows of 7 floats in `FOLLOWER_FIELDS` order, (x, y, θ, ρ, β, θ_L − θ_F, V_F) per
     follower, from the leader's pose and each follower's pose and speed; the relative
     state (`relative_state`) is computed when the rows are first read (the windows table,
@@ -203,7 +203,7 @@ class StateRows:
             self._poses = self._speeds = ()
         return out
 
-    def __iter__(self) -> Any:
+    def __iter__(self) -> Iterator[tuple[float, ...]]:
         return iter(self.rows())
 
     def __len__(self) -> int:

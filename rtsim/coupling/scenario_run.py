@@ -616,7 +616,7 @@ class _Coupling:
             near,
         )
 
-    def _followers(self, state: tuple[tuple[float, ...], ...]) -> tuple[Any, ...]:
+    def _followers(self, state: Sequence[tuple[float, ...]]) -> tuple[Any, ...]:
         """The policy's `FollowerEstimate` per follower from the est columns ``state``."""
         rho_d, beta_d = self.rho_d, self.beta_d
         return tuple(
