@@ -493,15 +493,18 @@ class _Coupling:
         now: float,
         next_scan: float,
         pending: bool = False,
-        estimates: Sequence[tuple[Any, float]] | None = None,
+        poses: Sequence[Any] | None = None,
+        speeds: Sequence[float] | None = None,
     ) -> Any:
         """What the leader knows for its rollout at ``now`` (`RolloutState`, `decided_state`
-        of the run's fixed fields); ``estimates``: per follower ``World.estimate_at(i, now)``
-        if already computed."""
+        of the run's fixed fields); ``poses``, ``speeds``: per follower
+        ``World.estimate_at(i, now)``'s pose and speed if already computed."""
         world = self.world
         ids = range(1, self.n + 1)
-        if estimates is None:
+        if poses is None or speeds is None:
             estimates = [world.estimate_at(i, now) for i in ids]
+            poses = tuple([e[0] for e in estimates])
+            speeds = tuple([e[1] for e in estimates])
         base = self._ro_base
         if base is None:  # the fields that stay for the run (the others are set below)
             cfg = self.cfg
@@ -537,8 +540,8 @@ class _Coupling:
                 now,
                 ld.s,
                 ld.speed,
-                tuple([e[0] for e in estimates]),
-                tuple([e[1] for e in estimates]),
+                tuple(poses),
+                tuple(speeds),
                 tuple([world.held_command(i) for i in ids]),
                 self._pending(now) if pending else ((),) * self.n,
                 max(now, next_scan),
@@ -559,26 +562,29 @@ class _Coupling:
         world = self.world
         world.advance(now)
         lp = world.leader_pose
-        _, kappa = world.segment_at()
         # each follower's estimate propagated to now and its expected speed, in one pass (the
         # same as World.estimated_pose(i) and World.relative(i, "estimate")[3])
         estimates = world.estimates_at(now)
+        poses = tuple([e[0] for e in estimates])
+        speeds = tuple([e[1] for e in estimates])
         # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
         # relative states made when read: StateRows)
-        state = StateRows(lp, [e[0] for e in estimates], [e[1] for e in estimates])
+        state = StateRows(lp, poses, speeds)
         fols = self._followers(state) if self._fols else ()
-        kw: dict[str, Any] = {
-            "omega_l": world.leader_omega,
-            "kappa": kappa,
-            "v_now": self._v_actual(),
-        }
+        # the predictor's options: for the policy's input and the _pred columns of a decision
+        # without a rollout (one decided on the rollout alone reads only the rollout)
+        kw: dict[str, Any] = {}
+        if self._on_rollout is None:
+            _, kappa = world.segment_at()
+            kw.update(omega_l=world.leader_omega, kappa=kappa, v_now=self._v_actual())
         ro = None
         if self._rollout:  # (the _pred columns evaluate the same rollout: kw)
             ro = kw["rollout"] = self._rollout_state(
                 now,
                 now if next_scan is None else next_scan,
                 self.decide_at == "before-send" and now > 0,
-                estimates,
+                poses,
+                speeds,
             )
         if self._on_rollout is not None:
             adj = self._on_rollout(ro)
@@ -587,7 +593,7 @@ class _Coupling:
                 self._make_input(
                     fols,
                     kw["omega_l"],
-                    kappa,
+                    kw["kappa"],
                     kw["v_now"],
                     () if self._path is None else self._ahead(),
                     self._pose_sd() if self._noise else (),
