@@ -234,7 +234,10 @@ class Rollout:
         loc = thr.predicted_ms if thr.localization == "predicted" else None
         out = []
         # (each bound written out, lim · w / c: a generator per follower was ≈ 2x the time)
-        for c, rho_d in zip(changes, self.state.rho_d, strict=True):
+        rho_ds = self.state.rho_d
+        if len(changes) != len(rho_ds):  # (zip's strict=, checked once: its keyword is slow)
+            raise ValueError(f"{len(changes)} followers' changes for {len(rho_ds)} followers")
+        for c, rho_d in zip(changes, rho_ds):  # noqa: B905
             c0, c1, c2, c3 = c[0], c[1], c[2], c[3]  # (c[4] is the contact's)
             l1, l2 = t_rho * rho_d, t_eps * rho_d
             out.append(

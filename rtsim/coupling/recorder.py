@@ -180,8 +180,8 @@ class StateRows(Sequence[tuple[float, ...]]):
     or a policy's `FollowerEstimate`), not per window: a sweep point's tables never read
     them. Iterates and indexes as the tuple of rows it stands for.
 
-    ``poses``: (x, y, θ) per follower, and ``speeds`` their V_F (sequences the caller no
-    longer changes)."""
+    ``poses``: (x, y, θ) per follower, and ``speeds`` their V_F (iterables the caller no
+    longer changes, read once)."""
 
     __slots__ = ("_lp", "_poses", "_speeds", "_rows")
 

@@ -763,7 +763,9 @@ class _Coupling:
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
             # (min(a, b) is a unless b < a, as before, NaN included)
-            last.near_true = near_true = tuple(map(min, last.near, near))
+            last.near_true = near_true = tuple(
+                [b if b < a else a for a, b in zip(last.near, near)]  # noqa: B905 (n each)
+            )
             last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
         ro = d.kw.get("rollout")
         last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
@@ -816,8 +818,9 @@ class _Coupling:
         """The followers' truth now, (x, y, θ, ρ, β, θ_L − θ_F, V_F) per follower (the
         relative states made when read: StateRows)."""
         fol = self.world.followers
-        # the scan has just advanced every follower to now (copies: the lists change)
-        return StateRows(lp, list(zip(fol.x, fol.y, fol.th, strict=True)), list(fol.v))
+        # the scan has just advanced every follower to now (copies: the lists change; the
+        # poses zipped when read, strict there)
+        return StateRows(lp, zip(list(fol.x), list(fol.y), list(fol.th)), list(fol.v))  # noqa: B905
 
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms

@@ -48,6 +48,7 @@ def test_run_records_equal_eager_rows(monkeypatch: pytest.MonkeyPatch) -> None:
     real = scenario_run.StateRows
 
     def capture(lp, poses, speeds):  # type: ignore[no-untyped-def]
+        poses, speeds = list(poses), list(speeds)  # (the truth's poses come as a zip)
         eager = tuple((*p, *relative_state(lp, p), v) for p, v in zip(poses, speeds, strict=True))
         out = real(lp, poses, speeds)
         made.append((out, eager))
