@@ -150,7 +150,7 @@ def decided_state(base: RolloutState, *values: Any) -> RolloutState:
     state = object.__new__(RolloutState)
     d = state.__dict__
     d.update(base.__dict__)
-    d.update(zip(DECIDED, values, strict=False))  # (the lengths checked above)
+    d.update(zip(DECIDED, values))  # noqa: B905 (lengths checked above)
     return state
 
 

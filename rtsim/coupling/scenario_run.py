@@ -854,10 +854,15 @@ class _Coupling:
         """The decision on the estimates now; it governs the next window (released at
         job.release + job.period) and sets the leader's target at once."""
         now = self.env.now
+        world = self.world
         self.dec = self._estimates(now, job.release + job.period)  # advances the world
-        self._v_max = max(self._v_max, self._v_actual())
-        self.world.set_leader_speed(self.dec.v_leader)
-        self._v_max = max(self._v_max, self._v_actual())
+        v = world.leader_speed  # (_v_actual; max(a, b) is b only when b > a)
+        if v > self._v_max:
+            self._v_max = v
+        world.set_leader_speed(self.dec.v_leader)
+        v = world.leader_speed
+        if v > self._v_max:
+            self._v_max = v
 
     def _on_send_start(self, job: Job, seg: Segment) -> None:
         if seg.follower == 1:  # adjust.decide = "before-send": before the first send
