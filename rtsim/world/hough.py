@@ -40,6 +40,8 @@ from rtsim.world.kernels import entry
 
 __all__ = [
     "CELL_CM",
+    "EPOCHS",
+    "VOTE_BITS",
     "WINDOW_ROW",
     "Accumulator",
     "compiled",
@@ -73,8 +75,8 @@ WINDOW_ROW = np.dtype(
 
 _COMPILED: Any = None
 
-#: A window's working arrays: the ring's steps (`ring_steps`: x, y) and the scratch (acc,
-#: stamp, tally, state, cells) of `hough_window`.
+#: A window's working arrays: the ring's steps (`ring_steps`: x, y) and the scratch (cell
+#: words, tally, state, cells) of `hough_window`.
 Work = tuple[
     NDArray[np.float64],
     NDArray[np.float64],
@@ -82,8 +84,14 @@ Work = tuple[
     NDArray[np.int64],
     NDArray[np.int64],
     NDArray[np.int64],
-    NDArray[np.int64],
 ]
+
+#: A cell's word in `hough_window`'s scratch: the stamp of the last point that voted for it
+#: in the bits above `VOTE_BITS`, its votes below (one load and one store a vote, half the
+#: footprint of two arrays); stamps stay below 2**(63 − VOTE_BITS) (`EPOCHS`).
+VOTE_BITS = 32
+#: The epoch past which `hough_window` clears the words and starts again from 0.
+EPOCHS = 2 ** (63 - VOTE_BITS) - 1
 
 #: `ring_steps` repeats the ring this many turns: an arc's direction indices a0 … a1 lie in
 #: [−2·na, 3·na) (θ ± γ within ±2π, a step of margin each side), read at a + 2·na
@@ -159,9 +167,18 @@ def ring_cells(
     h = int(math.floor(r_H / cell))
     m = 2 * h + 1
     lim = (r_H / cell) * (r_H / cell)
+    # a cell of a power of two (1 cm): times 1/cell is over cell, exactly, and cheaper
+    inv = 1.0 / cell
+    mul = math.frexp(cell)[0] == 0.5
+    # the steps as views indexed from 0 (numba then knows the index is not negative and
+    # loads the steps side by side, not one by one)
+    sx = rx[b : b + n]
+    sy = ry[b : b + n]
     for t in range(n):
-        i = int(math.floor((x + rx[b + t] - cx) / cell + 0.5)) + h
-        j = int(math.floor((y + ry[b + t] - cy) / cell + 0.5)) + h
+        u = x + sx[t] - cx
+        v = y + sy[t] - cy
+        i = int(math.floor((u * inv if mul else u / cell) + 0.5)) + h
+        j = int(math.floor((v * inv if mul else v / cell) + 0.5)) + h
         di = i - h
         dj = j - h
         inside = (i >= 0) & (j >= 0) & (i < m) & (j < m) & (di * di + dj * dj <= lim)
@@ -186,20 +203,29 @@ def hough_window(
     """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
     radius ``r_H`` (``cells`` of side ``cell``: `window_cells`). ``work``: the ring's
-    steps (`ring_steps`) and the scratch (`Accumulator`): ``acc`` and ``stamp``, at least
-    (2h+1)² cells, h = ⌊r_H/cell⌋, cell (i, j) at i·(2h+1) + j, never cleared — each point
-    p stamps the cells it votes for with ep + p + 1, ep this call's epoch (``state[0]``,
-    advanced by each call past every stamp it gives), so a point votes for a cell once and a
-    cell's ``acc`` counts only if its stamp is above ep —, ``tally``, one entry per
-    follower, and ``into``, one entry per direction. Writes record ``k`` of ``out``
-    (`WINDOW_ROW`)."""
-    rx, ry, acc, stamp, tally, state, into = work
+    steps (`ring_steps`) and the scratch (`Accumulator`): ``word``, at least (2h+1)² cells,
+    h = ⌊r_H/cell⌋, cell (i, j) at i·(2h+1) + j, cleared only when the epochs run out
+    (`EPOCHS`) — each point p stamps the cells it votes for with ep + p + 1 (`VOTE_BITS`),
+    ep this call's epoch (``state[0]``, advanced by each call past every stamp it gives), so
+    a point votes for a cell once and a cell's votes count only if its stamp is above ep —,
+    ``tally``, one entry per follower, and ``into``, one entry per direction. Writes record
+    ``k`` of ``out`` (`WINDOW_ROW`)."""
+    rx, ry, word, tally, state, into = work
     h = int(math.floor(r_H / cell))
     m = 2 * h + 1
+    if state[0] + px.shape[0] + 2 > EPOCHS:
+        word[:] = 0
+        state[0] = 0
     ep = state[0] + 1
     state[0] = ep + px.shape[0] + 1
+    low = (1 << VOTE_BITS) - 1
     lo = r_F - r_H
     hi = r_F + r_H
+    # the points that can count for the owner (|p − fix| ≤ r_F + cell, the fix within r_H
+    # of the centre), a cell to spare
+    far = hi + 2.0 * cell
+    near = np.empty(px.shape[0], np.int64)
+    nn = 0
     voters = 0
     best = 0
     bf = -1
@@ -210,6 +236,9 @@ def hough_window(
         if not (x == x):  # no return
             continue
         d = math.sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy))
+        if d <= far:
+            near[nn] = p
+            nn += 1
         if d < lo or d > hi:
             continue
         voters += 1
@@ -228,12 +257,12 @@ def hough_window(
             last = f
         for t in range(w):
             f = into[t]
-            s = stamp[f]
+            sw = word[f]
+            s = sw >> VOTE_BITS
             if s == me:  # (an earlier step of this point's ring)
                 continue
-            stamp[f] = me
-            v = (acc[f] if s > ep else 0) + 1
-            acc[f] = v
+            v = ((sw & low) if s > ep else 0) + 1
+            word[f] = (me << VOTE_BITS) | v
             # the peak: the most votes, the first in row-major order (the cells') among equals
             if v > best or (v == best and f < bf):
                 best = v
@@ -256,7 +285,8 @@ def hough_window(
     cnt = 0
     for i in range(max(0, bi - 2), min(m, bi + 3)):
         for j in range(max(0, bj - 2), min(m, bj + 3)):
-            if stamp[i * m + j] > ep and acc[i * m + j] == best:
+            sw = word[i * m + j]
+            if (sw >> VOTE_BITS) > ep and (sw & low) == best:
                 si += i
                 sj += j
                 cnt += 1
@@ -266,7 +296,8 @@ def hough_window(
     rec["fix_y"] = fy
     for q in range(tally.shape[0]):
         tally[q] = 0
-    for p in range(px.shape[0]):
+    for t in range(nn):
+        p = near[t]
         q = owner[p]
         if q < 0:
             continue
@@ -329,10 +360,10 @@ def _dummy(every: bool) -> tuple[Any, ...]:
     """Arguments that compile the kernels once (an empty scan)."""
     px = np.full(3, np.nan)
     c, s = ring_steps(25.0, 1.0)
-    acc = np.zeros(121, dtype=np.int64)
+    word = np.zeros(121, dtype=np.int64)
     centre: Any = (np.zeros(1), np.zeros(1)) if every else (0.0, 0.0)
     one = np.zeros(1, dtype=np.int64)
-    work = (c, s, acc, acc.copy(), one, one.copy(), np.zeros(c.size, np.int64))
+    work = (c, s, word, one, one.copy(), np.zeros(c.size, np.int64))
     out = (np.zeros(1, WINDOW_ROW),) if every else (np.zeros(1, WINDOW_ROW), 0)
     return (px, px, np.full(3, -1, dtype=np.int64), *centre, 5.0, 25.0, 1.0, 81, work, *out)
 
@@ -346,14 +377,12 @@ class Accumulator:
         self.cell = float(cell)
         self.ring_x, self.ring_y = ring_steps(self.r_F, self.cell)
         m = 2 * int(math.floor(r_max / cell)) + 1
-        self.acc = np.zeros(m * m, dtype=np.int64)
-        self.stamp = np.zeros(m * m, dtype=np.int64)
+        self.word = np.zeros(m * m, dtype=np.int64)
         self.tally = np.zeros(max(n, 1), dtype=np.int64)
         self.state = np.zeros(1, dtype=np.int64)
         self.into = np.zeros(self.ring_x.size // TURNS, dtype=np.int64)
         self.work: Work = (
-            self.ring_x, self.ring_y, self.acc, self.stamp, self.tally,
-            self.state, self.into,
+            self.ring_x, self.ring_y, self.word, self.tally, self.state, self.into,
         )  # fmt: skip
         self._cells: dict[float, int] = {}
         self.out = np.zeros(n, WINDOW_ROW)

@@ -9,7 +9,15 @@ import numpy as np
 import pytest
 
 from rtsim.world import kernels
-from rtsim.world.hough import TURNS, WINDOW_ROW, Accumulator, ring, ring_steps, window_cells
+from rtsim.world.hough import (
+    EPOCHS,
+    TURNS,
+    WINDOW_ROW,
+    Accumulator,
+    ring,
+    ring_steps,
+    window_cells,
+)
 from rtsim.world.rangefinder import Rangefinder
 
 R_F = 25.0
@@ -211,3 +219,27 @@ def test_ring_steps_are_the_ring_times_r_F() -> None:
     assert rx.size == TURNS * c.size
     np.testing.assert_array_equal(rx[a + 2 * c.size], R_F * c[a % c.size])
     np.testing.assert_array_equal(ry[a + 2 * c.size], R_F * s[a % c.size])
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_the_epochs_running_out_change_no_record(fast: bool) -> None:
+    """An accumulator whose epoch counter is about to pass `EPOCHS` (the stamps would no
+    longer fit a cell's word) clears its words and starts again: the records of its next
+    calls are a fresh accumulator's, bit for bit, and the counter is back near 0."""
+    if fast and not kernels.available():
+        pytest.skip("numba not installed")
+    rng = np.random.default_rng(7)
+    old = Accumulator(4, R_F, 100.0, fast)
+    new = Accumulator(4, R_F, 100.0, fast)
+    for _ in range(3):  # (dirty the old one's words with votes of past epochs)
+        scan, win, r_H, _, n = _random_case(rng)
+        old.locate(*scan, win[:, 0].copy(), win[:, 1].copy(), r_H)
+    old.state[0] = EPOCHS - 400
+    for _ in range(4):
+        scan, win, r_H, cell, n = _random_case(rng)
+        if cell != 1.0:
+            continue
+        args = (*scan, win[:, 0].copy(), win[:, 1].copy(), r_H)
+        a, b = old.locate(*args)[:n].copy(), new.locate(*args)[:n].copy()
+        assert a.tobytes() == b.tobytes()
+    assert old.state[0] < 4 * 400
