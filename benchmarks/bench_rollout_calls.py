@@ -5,13 +5,14 @@
 
 ``capture`` runs one warm lap (``run_scenario(..., record_jobs=False)`` after a warm-up
 lap) and pickles every call of the compiled rollout's entry (the decisions and the whole
-rollouts of the ``_pred`` columns; `rtsim.control.compiled_rollout.call`), its arguments as
-they were at the call. ``replay`` calls the entry of this checkout on copies of them: once
-to hash the outputs and count the rollouts (the kernels' return values, as
-`CompiledRollout` counts them), then ``--rounds`` times over chunks of ``--chunk`` calls,
-and prints the sum of each chunk's minimum (CPU): compare two checkouts by replaying the
-same file with each, alternated; equal hashes mean bit-for-bit equal outputs.
-(docs/performance.md, "The rollout kernels, measured inside".)
+rollouts of the ``_pred`` columns: the compiled functions in
+`rtsim.control.compiled_rollout._ENTRIES`, which `call` and `CompiledRollout.decide` both
+use), its arguments as they were at the call. ``replay`` calls the entry of this checkout
+on copies of them: once to hash the outputs and count the rollouts (the kernels' return
+values, as `CompiledRollout` counts them), then ``--rounds`` times over chunks of
+``--chunk`` calls, and prints the sum of each chunk's minimum (CPU): compare two checkouts
+by replaying the same file with each, alternated; equal hashes mean bit-for-bit equal
+outputs. (docs/performance.md, "The rollout kernels, measured inside".)
 """
 
 from __future__ import annotations
@@ -33,18 +34,23 @@ def capture(path: str, scenario: str, followers: int) -> int:
 
     ov = {"formation.followers": followers}
     run_scenario(scenario, record_jobs=False, overrides=ov)  # warm-up: imports, compile
-    real = cr.call
+    # (the entries' compiled functions, which `call` and `CompiledRollout.decide` both
+    # look up in `_ENTRIES` once the warm-up has filled it, wrapped by a recorder)
+    real = dict(cr._ENTRIES)
     got: list[tuple[Any, ...]] = []
 
-    def record(fn: Any, *args: Any) -> Any:
-        got.append(copy.deepcopy(args))
-        return real(fn, *args)
+    def recorder(f: Any) -> Any:
+        def record(*args: Any) -> Any:
+            got.append(copy.deepcopy(args))
+            return f(*args)
 
-    cr.call = record
+        return record
+
+    cr._ENTRIES.update({fn: recorder(f) for fn, f in real.items()})
     try:
         run_scenario(scenario, record_jobs=False, overrides=ov)
     finally:
-        cr.call = real
+        cr._ENTRIES.update(real)
     with open(path, "wb") as f:
         pickle.dump(got, f)
     return len(got)

@@ -34,12 +34,18 @@ _SCALE_MIN = 0.05
 # whom it follows (-1: the leader) and at what spacing (cm). Tuples in Python, arrays compiled.
 
 
-@kernel
+@kernel(inline=True)
 def path_segment(G: Any, s: float) -> tuple[int, float]:
     """`LeaderPath.index` (s), the segment's index (bisect_right − 1 of the starts), and u = s
-    mod lap."""
-    s0 = G[0]
-    u = s % G[3]
+    mod lap (Python's ``%``; within one lap either side of 0 its result without the fmod:
+    fmod(s, lap) is s exactly there, and ``%`` adds lap to a negative one)."""
+    s0, lap = G[0], G[3]
+    if 0.0 < s < lap:
+        u = s
+    elif -lap < s < 0.0:
+        u = s + lap
+    else:
+        u = s % lap
     lo, hi = 0, len(s0)
     while lo < hi:
         mid = (lo + hi) // 2

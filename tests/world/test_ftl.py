@@ -304,3 +304,26 @@ def test_the_python_law_runs_the_kernel_sources() -> None:
     built = {**kernels.ENTRIES, **kernels.LAZY_ENTRIES}  # (the command: at its first call)
     for name in ("ftl_command", "ftl_reference", "ftl_project"):
         assert built[name] is getattr(ftl, name)
+
+
+def test_compiled_trace_points_match_python_across_laps() -> None:
+    """`path_segment` takes s mod lap without the fmod within one lap either side of 0: the
+    compiled trace points equal the Python law's (``%`` and ``bisect``) bit for bit at arc
+    lengths inside a lap, behind its start, at and beyond its end, at ±0, a hair below 0
+    (where s + lap rounds to the lap) and on segment boundaries."""
+    from rtsim.world.compiled import CompiledTraceFollower  # lazy: numba on import
+
+    path = rounded_rectangle(800, 400, 120)
+    args = (path, [325.0, 650.0], [0.0, 40.0], 0.5, 40.0)
+    fast, slow = CompiledTraceFollower(*args), ftl.TraceFollower(*args)
+    assert fast.compiled
+    lap = path.lap_length
+    starts = list(path._s0)
+    rng = np.random.default_rng(36)
+    ss = [0.0, -0.0, 5e-324, -5e-324, -1e-300, lap, -lap, 2 * lap, -2 * lap, 1e9, -1e9]
+    ss += [lap - 1e-12, -lap + 1e-12, *starts, *(-lap + b for b in starts)]
+    ss += [*(b + lap for b in starts), *rng.uniform(-3 * lap, 3 * lap, 400)]
+    for s in ss:
+        for k in (0, 1):
+            got, want = fast.point(k, float(s)), slow.point(k, float(s))
+            assert got == want, (s, k, got, want)
