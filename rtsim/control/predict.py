@@ -302,12 +302,21 @@ def predict_msb_rows(
 
 
 def min_bound_rows(rows: Sequence[Sequence[float]]) -> tuple[float, str, int]:
-    """[`min_bound`][rtsim.control.predict.min_bound] over rows in `BOUND_KINDS` order."""
+    """[`min_bound`][rtsim.control.predict.min_bound] over rows of the four bounds in
+    `BOUND_KINDS` order (the first smallest, in row then kind order; NaN never is)."""
     best, kind, who = math.inf, "none", 0
-    for i, m in enumerate(rows, start=1):
-        for j in range(4):
-            if m[j] < best:
-                best, kind, who = m[j], BOUND_KINDS[j], i
+    k0, k1, k2, k3 = BOUND_KINDS
+    i = 0
+    for a, b, c, d in rows:  # (unrolled: a loop over the four was 2-3x the time)
+        i += 1
+        if a < best:
+            best, kind, who = a, k0, i
+        if b < best:
+            best, kind, who = b, k1, i
+        if c < best:
+            best, kind, who = c, k2, i
+        if d < best:
+            best, kind, who = d, k3, i
     return best, kind, who
 
 

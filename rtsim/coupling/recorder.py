@@ -22,7 +22,7 @@ chunks of records in memory; `records_frame` turns a chunk into its rows of the 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import chain
 from operator import attrgetter
@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rtsim.analysis.kinematics import BOUND_KINDS
+from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
 from rtsim.sim.records import EPS
 from rtsim.world.localization import LOST_CAUSES
 
@@ -46,6 +46,7 @@ __all__ = [
     "WINDOW_COLUMNS",
     "FOLLOWER_FIELDS",
     "LOCALIZATION_COLUMNS",
+    "StateRows",
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
@@ -170,6 +171,56 @@ def true_bounds(
     with np.errstate(divide="ignore", invalid="ignore"):
         out = np.where(change > 0.0, (np.asarray(limit, dtype=float) * w) / change, np.inf)
     return out
+
+
+class StateRows(Sequence[tuple[float, ...]]):
+    """n rows of 7 floats in `FOLLOWER_FIELDS` order, (x, y, θ, ρ, β, θ_L − θ_F, V_F) per
+    follower, from the leader's pose and each follower's pose and speed; the relative
+    state (`relative_state`) is computed when the rows are first read (the windows table,
+    or a policy's `FollowerEstimate`), not per window: a sweep point's tables never read
+    them. Iterates and indexes as the tuple of rows it stands for.
+
+    ``poses``: (x, y, θ) per follower, and ``speeds`` their V_F (iterables the caller no
+    longer changes, read once)."""
+
+    __slots__ = ("_lp", "_poses", "_speeds", "_rows")
+
+    def __init__(self, lp: tuple[float, float, float], poses: Any, speeds: Any) -> None:
+        self._lp, self._poses, self._speeds = lp, poses, speeds
+        self._rows: tuple[tuple[float, ...], ...] | None = None
+
+    def rows(self) -> tuple[tuple[float, ...], ...]:
+        """The rows as a tuple (made once)."""
+        out = self._rows
+        if out is None:
+            lp = self._lp
+            out = self._rows = tuple(
+                [
+                    (*pose, *relative_state(lp, pose), v)
+                    for pose, v in zip(self._poses, self._speeds, strict=True)
+                ]
+            )
+            self._poses = self._speeds = ()
+        return out
+
+    def __iter__(self) -> Iterator[tuple[float, ...]]:
+        return iter(self.rows())
+
+    def __len__(self) -> int:
+        return len(self.rows())
+
+    def __getitem__(self, k: Any) -> Any:
+        return self.rows()[k]
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, StateRows):
+            other = other.rows()
+        return self.rows() == other
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"StateRows({self.rows()!r})"
 
 
 @dataclass(slots=True)

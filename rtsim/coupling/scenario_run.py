@@ -30,7 +30,6 @@ import simpy
 import rtsim.coupling.duration as run_duration
 from rtsim._numbers import is_int, is_real
 from rtsim._suggest import did_you_mean
-from rtsim.analysis.kinematics import relative_state
 from rtsim.control.adjust import predicted_rows
 from rtsim.control.compiled import PaperSearch
 from rtsim.control.oracle import lap_oracle
@@ -53,6 +52,7 @@ from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.prepared import settled_speed, window_bound
 from rtsim.coupling.recorder import (
     CHANGE_KEYS,
+    StateRows,
     WindowRecord,
     WindowRecorder,
     changes_array,
@@ -182,7 +182,7 @@ class _Decision(NamedTuple):
     binding: str
     method: str
     feasible: bool
-    est: tuple[tuple[float, ...], ...]
+    est: StateRows  # (the est columns' rows)
     # the decision's belief, to evaluate its bounds at another leader speed (_pred columns):
     # the followers' estimates, predictor options, and the rows it computed at two speeds
     fols: tuple[Any, ...] = ()
@@ -493,15 +493,18 @@ class _Coupling:
         now: float,
         next_scan: float,
         pending: bool = False,
-        estimates: Sequence[tuple[Any, float]] | None = None,
+        poses: Sequence[Any] | None = None,
+        speeds: Sequence[float] | None = None,
     ) -> Any:
         """What the leader knows for its rollout at ``now`` (`RolloutState`, `decided_state`
-        of the run's fixed fields); ``estimates``: per follower ``World.estimate_at(i, now)``
-        if already computed."""
+        of the run's fixed fields); ``poses``, ``speeds``: per follower
+        ``World.estimate_at(i, now)``'s pose and speed if already computed."""
         world = self.world
         ids = range(1, self.n + 1)
-        if estimates is None:
+        if poses is None or speeds is None:
             estimates = [world.estimate_at(i, now) for i in ids]
+            poses = tuple([e[0] for e in estimates])
+            speeds = tuple([e[1] for e in estimates])
         base = self._ro_base
         if base is None:  # the fields that stay for the run (the others are set below)
             cfg = self.cfg
@@ -537,8 +540,8 @@ class _Coupling:
                 now,
                 ld.s,
                 ld.speed,
-                tuple([e[0] for e in estimates]),
-                tuple([e[1] for e in estimates]),
+                tuple(poses),
+                tuple(speeds),
                 tuple([world.held_command(i) for i in ids]),
                 self._pending(now) if pending else ((),) * self.n,
                 max(now, next_scan),
@@ -559,25 +562,29 @@ class _Coupling:
         world = self.world
         world.advance(now)
         lp = world.leader_pose
-        _, kappa = world.segment_at()
         # each follower's estimate propagated to now and its expected speed, in one pass (the
         # same as World.estimated_pose(i) and World.relative(i, "estimate")[3])
         estimates = world.estimates_at(now)
-        # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns
-        state = tuple([(*pose, *relative_state(lp, pose), v_f) for pose, v_f in estimates])
+        poses = tuple([e[0] for e in estimates])
+        speeds = tuple([e[1] for e in estimates])
+        # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
+        # relative states made when read: StateRows)
+        state = StateRows(lp, poses, speeds)
         fols = self._followers(state) if self._fols else ()
-        kw: dict[str, Any] = {
-            "omega_l": world.leader_omega,
-            "kappa": kappa,
-            "v_now": self._v_actual(),
-        }
+        # the predictor's options: for the policy's input and the _pred columns of a decision
+        # without a rollout (one decided on the rollout alone reads only the rollout)
+        kw: dict[str, Any] = {}
+        if self._on_rollout is None:
+            _, kappa = world.segment_at()
+            kw.update(omega_l=world.leader_omega, kappa=kappa, v_now=self._v_actual())
         ro = None
         if self._rollout:  # (the _pred columns evaluate the same rollout: kw)
             ro = kw["rollout"] = self._rollout_state(
                 now,
                 now if next_scan is None else next_scan,
                 self.decide_at == "before-send" and now > 0,
-                estimates,
+                poses,
+                speeds,
             )
         if self._on_rollout is not None:
             adj = self._on_rollout(ro)
@@ -586,7 +593,7 @@ class _Coupling:
                 self._make_input(
                     fols,
                     kw["omega_l"],
-                    kappa,
+                    kw["kappa"],
                     kw["v_now"],
                     () if self._path is None else self._ahead(),
                     self._pose_sd() if self._noise else (),
@@ -615,7 +622,7 @@ class _Coupling:
             near,
         )
 
-    def _followers(self, state: tuple[tuple[float, ...], ...]) -> tuple[Any, ...]:
+    def _followers(self, state: Sequence[tuple[float, ...]]) -> tuple[Any, ...]:
         """The policy's `FollowerEstimate` per follower from the est columns ``state``."""
         rho_d, beta_d = self.rho_d, self.beta_d
         return tuple(
@@ -756,7 +763,9 @@ class _Coupling:
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
             # (min(a, b) is a unless b < a, as before, NaN included)
-            last.near_true = near_true = tuple(map(min, last.near, near))
+            last.near_true = near_true = tuple(
+                [b if b < a else a for a, b in zip(last.near, near)]  # noqa: B905 (n each)
+            )
             last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
         ro = d.kw.get("rollout")
         last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
@@ -805,13 +814,13 @@ class _Coupling:
         else:
             sink.write(records_frame(records, self.n, self.rec.limits))
 
-    def _truth(self, lp: tuple[float, float, float]) -> tuple[tuple[float, ...], ...]:
+    def _truth(self, lp: tuple[float, float, float]) -> StateRows:
+        """The followers' truth now, (x, y, θ, ρ, β, θ_L − θ_F, V_F) per follower (the
+        relative states made when read: StateRows)."""
         fol = self.world.followers
-        out = []
-        # the scan has just advanced every follower to now
-        for x, y, th, v_f in zip(fol.x, fol.y, fol.th, fol.v, strict=True):
-            out.append((x, y, th, *relative_state(lp, (x, y, th)), v_f))
-        return tuple(out)
+        # the scan has just advanced every follower to now (copies: the lists change; the
+        # poses zipped when read, strict there)
+        return StateRows(lp, zip(list(fol.x), list(fol.y), list(fol.th)), list(fol.v))  # noqa: B905
 
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms
@@ -845,10 +854,15 @@ class _Coupling:
         """The decision on the estimates now; it governs the next window (released at
         job.release + job.period) and sets the leader's target at once."""
         now = self.env.now
+        world = self.world
         self.dec = self._estimates(now, job.release + job.period)  # advances the world
-        self._v_max = max(self._v_max, self._v_actual())
-        self.world.set_leader_speed(self.dec.v_leader)
-        self._v_max = max(self._v_max, self._v_actual())
+        v = world.leader_speed  # (_v_actual; max(a, b) is b only when b > a)
+        if v > self._v_max:
+            self._v_max = v
+        world.set_leader_speed(self.dec.v_leader)
+        v = world.leader_speed
+        if v > self._v_max:
+            self._v_max = v
 
     def _on_send_start(self, job: Job, seg: Segment) -> None:
         if seg.follower == 1:  # adjust.decide = "before-send": before the first send

@@ -17,8 +17,10 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from rtsim.analysis.kinematics import Thresholds
+from rtsim.analysis.kinematics import BOUND_KINDS, Thresholds
 from rtsim.config.scenario import load_scenario
 from rtsim.control import FollowerEstimate, decide
 from rtsim.control.adjust import Decision
@@ -32,6 +34,7 @@ from rtsim.control.policy import (
     make_policy,
     policy_class,
 )
+from rtsim.control.predict import min_bound, min_bound_rows
 from rtsim.coupling.scenario_run import run_scenario
 from rtsim.errors import InputError, ScenarioError
 
@@ -445,3 +448,20 @@ def test_input_maker_is_replace() -> None:
         input_maker(base, names)(*values[:-1])
     with pytest.raises(AttributeError):
         input_maker(base, ("followers", "no_such_field"))
+
+
+_BOUND_VALUES = st.sampled_from([math.inf, -math.inf, math.nan, 0.0, -0.0, 1.0, 2.0, 1e300])
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.tuples(*[_BOUND_VALUES | st.floats(0.0, 100.0)] * 4),
+        max_size=10,
+    )
+)
+def test_min_bound_rows_is_min_bound(rows: list[tuple[float, float, float, float]]) -> None:
+    """The rows' minimum (unrolled) is `min_bound`'s over the same bounds as dicts: the
+    first smallest in follower then kind order, NaN never smallest, -0.0 kept as found."""
+    want = min_bound([dict(zip(BOUND_KINDS, r, strict=True)) for r in rows])
+    assert repr(min_bound_rows(rows)) == repr(want)

@@ -368,3 +368,33 @@ def test_plan_on_rollout_is_its_decide(backend: str) -> None:
             return super().decide(ctx)
 
     assert Own().on_rollout(PolicyInput((), st.v_ld, st.w_sch, st.thresholds)) is None
+
+
+@pytest.mark.parametrize("localization", ["radial", "predicted"])
+def test_bounds_are_limit_times_w_over_change(localization: str) -> None:
+    """`Rollout.bounds`: per follower (r_H, T_ρ·ρ_d, T_ε·ρ_d, T_β) · w / change, inf where
+    a change is ≤ 0 (NaN stays NaN), the localization bound the predicted one when the
+    window follows the predicted motion; checked against `true_bounds` (the windows
+    table's own formula) on the finite changes."""
+    from rtsim.coupling.recorder import true_bounds
+
+    world = _quiet_world("test2")
+    world.advance(100.0)
+    st = world_state(world, 100.0, 237.0, OFFSETS, 237.0)
+    thr = dataclasses.replace(st.thresholds, localization=localization, predicted_ms=123.0)
+    ro = Rollout(dataclasses.replace(st, thresholds=thr))
+    w = 211.0
+    rng = np.random.default_rng(5)
+    changes = [tuple(rng.uniform(-1.0, 3.0, 5).tolist()) for _ in st.rho_d]
+    changes[0] = (0.0, -0.0, math.nan, 2.5, 7.0)
+    rows = ro.bounds(changes, w)
+    for k, (c, rho_d) in enumerate(zip(changes, st.rho_d, strict=True)):
+        lims = (thr.r_H, thr.T_rho * rho_d, thr.T_eps * rho_d, thr.T_beta)
+        for j in range(4):
+            got = rows[k][j]
+            if j == 0 and localization == "predicted":
+                assert got == 123.0
+            elif math.isnan(c[j]):
+                assert math.isnan(got)
+            else:
+                assert got == float(true_bounds(np.array(w), np.array(c[j]), lims[j]))

@@ -1,0 +1,64 @@
+"""The window record's follower rows made when read (`StateRows`) are the rows made at once.
+
+The windows table's truth and est columns hold (x, y, θ, ρ, β, θ_L − θ_F, V_F) per
+follower; the relative state is computed when the table (or a policy's `FollowerEstimate`)
+first reads them, from copies of the poses taken in the window. These tests check the rows
+against hand-derived geometry, against the eager formula on a run's own records, and that a
+change to the world's lists after the window does not reach them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from rtsim.analysis.kinematics import relative_state
+from rtsim.coupling import scenario_run
+from rtsim.coupling.recorder import StateRows
+
+
+def test_rows_match_hand_geometry() -> None:
+    # leader at the origin heading +x; follower 1 straight behind at 10 cm heading +x,
+    # follower 2 at 5 cm to its left heading +y (θ_L − θ_F = −π/2)
+    rows = StateRows((0.0, 0.0, 0.0), [(-10.0, 0.0, 0.0), (0.0, 5.0, math.pi / 2)], [3.0, 4.0])
+    (r1, r2) = rows
+    assert r1 == (-10.0, 0.0, 0.0, 10.0, math.pi, 0.0, 3.0)
+    assert r2[:3] == (0.0, 5.0, math.pi / 2) and r2[6] == 4.0
+    assert r2[3] == pytest.approx(5.0) and r2[4] == pytest.approx(math.pi / 2)
+    assert r2[5] == pytest.approx(-math.pi / 2)
+    assert len(rows) == 2 and rows[1] == r2 and rows == (r1, r2)
+
+
+def test_rows_are_the_copies_taken() -> None:
+    xs, ys, ths, vs = [1.0, 2.0], [3.0, 4.0], [0.1, 0.2], [5.0, 6.0]
+    rows = StateRows((0.0, 0.0, 0.3), list(zip(xs, ys, ths, strict=True)), list(vs))
+    want = tuple(
+        (x, y, th, *relative_state((0.0, 0.0, 0.3), (x, y, th)), v)
+        for x, y, th, v in zip(xs, ys, ths, vs, strict=True)
+    )
+    xs[0], vs[1] = 99.0, 99.0  # the world's lists move on after the window
+    assert tuple(rows) == want
+
+
+def test_run_records_equal_eager_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A short Test 2 run: every record's truth and est rows, read after the run, are the
+    eager formula on the poses of their window (captured when the rows were made)."""
+    made: list[tuple[StateRows, tuple[tuple[float, ...], ...]]] = []
+    real = scenario_run.StateRows
+
+    def capture(lp, poses, speeds):  # type: ignore[no-untyped-def]
+        poses, speeds = list(poses), list(speeds)  # (the truth's poses come as a zip)
+        eager = tuple((*p, *relative_state(lp, p), v) for p, v in zip(poses, speeds, strict=True))
+        out = real(lp, poses, speeds)
+        made.append((out, eager))
+        return out
+
+    monkeypatch.setattr(scenario_run, "StateRows", capture)
+    res = scenario_run.run_scenario(
+        "test2", record_jobs=False, overrides={"formation.followers": 3}, duration_s=20.0
+    )
+    assert len(res.windows) > 10 and len(made) > 2 * len(res.windows)
+    for rows, eager in made:
+        assert rows.rows() == eager
+    assert res.windows["f3_rho_est"].notna().all()
