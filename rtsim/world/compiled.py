@@ -31,6 +31,7 @@ dispatcher (`rtsim.world.kernels.entry`: the same machine code, no typing per ca
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -72,18 +73,20 @@ def compiled_motion(motion: MotionModel) -> Any:
 
 class _Kernel:
     """A class attribute that reads kernel ``name`` of `kernels` on an instance's first use,
-    compiles (or loads) it for ``args``' types and keeps its entry point on the instance
-    (`entry`: every call passes those types): a kernel compiled only where it runs."""
+    compiles (or loads) it for ``args``' types — a tuple, or a function of the instance —
+    without running it, and keeps its entry point on the instance (`entry`: every call
+    passes those types): a kernel compiled only where it runs."""
 
-    def __init__(self, name: str, args: tuple[Any, ...]) -> None:
+    def __init__(self, name: str, args: tuple[Any, ...] | Callable[[Any], tuple[Any, ...]]):
         self.name, self.args = name, args
 
     def __get__(self, obj: Any, cls: Any = None) -> Any:
         if obj is None:
             return self
         fn = getattr(kernels(getattr(obj, "_motion", None)), self.name)
-        fn(*self.args)
-        fn = entry(fn, self.args)
+        args = self.args(obj) if callable(self.args) else self.args
+        fn.compile(tuple(map(fn.typeof_pyval, args)))  # (a no-op when it has that build)
+        fn = entry(fn, args)
         setattr(obj, self.attr, fn)
         return fn
 
@@ -207,8 +210,11 @@ class CompiledEstimates:
         self._scan = entry(ker.est_scan, (E, np.zeros((n, 3)), *(x,) * 10, True))
         self._one, self._all = np.empty((1, 7)), np.empty((n, 7))  # (`est_carry`'s rows)
         self._carry = entry(ker.est_carry, (E, 0, x, x, self._all))
-        self._hold = entry(ker.est_hold, (E, 0, x, x, x))
         self._ftl = ker.est_command_ftl
+
+    # (compiled at its first call: the law's fused command, `est_command_ftl`, holds its
+    # commands inside its kernel, and the shipped scenarios' runs never call this one)
+    _hold = _Kernel("est_hold", lambda self: (self.E, 0, 0.0, 0.0, 0.0))
 
     def scan(
         self, t: float, lp: tuple[float, float, float], fixes: list[float], var: float, track: bool
@@ -303,9 +309,16 @@ class CompiledTraceFollower(TraceFollower):
         self._sr = np.array(self._sr, dtype=float)
         self._sf = np.array(self._sf, dtype=float)
         # (the arguments' types at every call: these arrays, an int k, floats)
-        G, sr, sf, x = self._G, self._sr, self._sf, 0.0
+        G, sr, x = self._G, self._sr, 0.0
         self._reference = entry(ker.ftl_reference, (G, sr, 0, x, x, x, x, x))
-        self._command = entry(ker.ftl_command, (G, sr, sf, x, x, 0, x, x, x, x, x, x, x, x))
+        del self._command  # (the class's: compiled at its first call)
         self._project = entry(ker.ftl_project, (G, 0, x, x, x))
         self._point = entry(ker.trace_point, (G, 0, x))
         self.compiled = True
+
+    # (compiled at its first call: the compiled world runs the law's command fused into its
+    # estimates' kernel, `est_command_ftl`, so the shipped scenarios' runs never call this one)
+    _command = _Kernel(
+        "ftl_command",
+        lambda self: (self._G, self._sr, self._sf, 0.0, 0.0, 0, *(0.0,) * 8),
+    )

@@ -103,7 +103,6 @@ def _type_key(a: Any) -> Any:
 #: compiled with the kernel sources it calls: `rtsim.world.jit.build`)
 ENTRIES: dict[str, Any] = {
     "advance_follower": follower_advance,
-    "ftl_command": ftl_command,
     "ftl_reference": ftl_reference,
     "ftl_project": ftl_project,
     "trace_point": trace_point,
@@ -111,17 +110,22 @@ ENTRIES: dict[str, Any] = {
     "leader_travel": leader_travel,
     "est_scan": est_scan,
     "est_carry": est_carry,
-    "est_hold": est_hold,
     "est_command_ftl": est_command_ftl,
 }
 
 #: the entries compiled (or loaded) only when first read from the namespace: the EKF's
 #: predict without a command, which the shipped scenarios never run; the remainder, which
 #: only kernels call (`rtsim.control.kernels.warm_all` builds them too); one filter's
-#: steps and one piece of the belief, which the compiled world runs inside its estimates'
-#: kernels (`rtsim.world.estimates`) and only a filter driven on its own calls
+#: steps, one piece of the belief, the law's command and the record of a held command,
+#: which the compiled world runs inside its estimates' kernels (`rtsim.world.estimates`:
+#: `est_command_ftl` holds the command the law gives) and only a filter or a law driven on
+#: its own calls (each an entry of its own only then: inside the kernels that call it, it
+#: is compiled without numba's wrappers, not optimised nor emitted on its own,
+#: `rtsim.world.jit`)
 LAZY_ENTRIES: dict[str, Any] = {
     "ekf_predict": ekf_predict,
+    "ftl_command": ftl_command,
+    "est_hold": est_hold,
     "remainder": cpython_remainder,
     "ekf_command": ekf_command,
     "ekf_update": ekf_update,
@@ -256,7 +260,6 @@ def _warm(ns: Any) -> None:
     ns.advance_follower(0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
     G = (np.zeros(1), np.zeros(3), np.zeros(1), 100.0, np.zeros(1), np.full(1, -1), np.ones(1))
     nan1 = np.full(1, math.nan)
-    ns.ftl_command(G, nan1, nan1.copy(), 0.5, 10.0, 0, 50.0, 50.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     ns.ftl_reference(G, nan1, 0, 50.0, 50.0, 0.0, 0.0, 1.0)
     ns.ftl_project(G, 0, 10.0, 20.0, 1.0)
     ns.trace_point(G, 0, 10.0)
@@ -265,7 +268,6 @@ def _warm(ns: Any) -> None:
     E[0, 3] = E[0, 7] = E[0, 11] = E[0, 14] = 1.0
     ns.est_scan(E, np.array([[1.0, 0.0, 1.0]]), 10.0, *([1.0] * 10), True)
     ns.est_carry(E, 0, 20.0, 1.0, np.empty((1, 7)))
-    ns.est_hold(E, 0, 20.0, 1.0, 0.0)
     ns.est_command_ftl(
         0, 30.0, 0.0, 1.0, 0.0, 0.0, E, 1.0, G, nan1, nan1.copy(), 0.5, 10.0, 1.0, 1.0, 0.5, 0.1
     )
