@@ -32,8 +32,11 @@ from typing import Any
 import numpy as np
 
 from rtsim.coupling.spill import ValueSpill, p95_max_columns
-from rtsim.world.contact import closest_each, contact_distance
-from rtsim.world.ftl import TraceFollower
+from rtsim.world.contact import closest_each, closest_into, contact_distance
+from rtsim.world.exactmath import cpython_hypot
+from rtsim.world.ftl import _PY_SUBS, TraceFollower, ftl_project, trace_point
+from rtsim.world.jit import build, kernel, specialise
+from rtsim.world.kernels import entry, follow_with
 
 __all__ = ["PhysicalLog", "p95_max_rows"]
 
@@ -64,6 +67,45 @@ def p95_max_rows(rows: Any) -> tuple[Stats, list[Stats]]:
     return _p95_max(every), [_p95_max(a) for a in arrs]
 
 
+@kernel
+def trace_samples(
+    G: Any,
+    sf: Any,
+    xs: Any,
+    ys: Any,
+    xl: float,
+    yl: float,
+    rho_d: Any,
+    guess: Any,
+    out: Any,
+    near: Any,
+) -> None:
+    """One scan's samples of every follower with a trace law (`PhysicalLog.add`): into
+    ``out``, follower k's separation error |ρ − ρ_d| at 2k and its cross-track distance at
+    2k + 1 (from its projection on the trace, `ftl_project`, started at its last, ``sf[k]``,
+    or at ``guess[k]`` before the first; ``sf[k]`` kept), and into ``near`` each one's
+    closest approach (`rtsim.world.contact.closest_into`). The law's geometry ``G``."""
+    for k in range(len(xs)):
+        x, y = xs[k], ys[k]
+        out[2 * k] = abs(cpython_hypot(x - xl, y - yl) - rho_d[k])
+        s = sf[k]
+        if s != s:
+            s = guess[k]
+        s = ftl_project(G, k, s, x, y)
+        sf[k] = s
+        px, py, _ = trace_point(G, k, s)
+        out[2 * k + 1] = cpython_hypot(x - px, y - py)
+    closest_into(xs, ys, xl, yl, near)
+
+
+#: `trace_samples` as Python (``math.hypot``, the law's Python twins)
+_PY_SAMPLES = specialise(trace_samples, _PY_SUBS)
+#: about how long compiling `trace_samples` takes, CPU s (`bench_cold.py --kernels`, a 2-core
+#: machine at load 12: 0.47 s); said in the world's announcement (`follow_with`)
+COMPILE_S = 0.5
+follow_with((trace_samples,), COMPILE_S)
+
+
 class PhysicalLog:
     """Accumulates the physical outcomes at each scan (module docstring)."""
 
@@ -88,6 +130,22 @@ class PhysicalLog:
         self.samples = ValueSpill(n * (1 if law is None else 2))
         self.min_dist = math.inf
         self.collisions = 0
+        self._trace: Any = None
+        if self._law is not None:
+            self._trace = self._trace_run(self._law, n)
+
+    def _trace_run(self, law: TraceFollower, n: int) -> tuple[Any, ...]:
+        """`trace_samples` and its arguments but the positions: compiled (one call per scan,
+        on arrays) when the law runs compiled, else its Python twin (on lists)."""
+        guess = [0.0] * n if self._guess is None else [float(g) for g in self._guess]
+        if not getattr(law, "compiled", False):
+            return _PY_SAMPLES, law._G, law._sf, self.rho_d, guess, [0.0] * (2 * n), [0.0] * n
+        args = (law._G, law._sf, np.asarray(self.rho_d, dtype=float), np.asarray(guess))
+        out, near = np.zeros(2 * n), np.zeros(n)
+        fn = build(trace_samples)
+        x = np.zeros(n)  # (a first call on a copy of the projections: compiles or loads)
+        fn(args[0], args[1].copy(), x, x, 0.0, 0.0, *args[2:], out, near)
+        return entry(fn, (args[0], args[1], x, x, 0.0, 0.0, *args[2:], out, near)), *args, out, near
 
     def add(
         self, leader: tuple[float, float, float], xs: list[float], ys: list[float]
@@ -96,23 +154,25 @@ class PhysicalLog:
         follower's centre distance to the nearest other robot, leader included (cm,
         `rtsim.world.contact.closest_to`: the planner's contact bound measures the same)."""
         xl, yl, _ = leader
-        law = self._law
         samples = self.samples
-        put = samples.buf.append
-        hypot, rho_d = math.hypot, self.rho_d
-        if law is None:
+        trace = self._trace
+        if trace is None:
+            put = samples.buf.append
+            hypot, rho_d = math.hypot, self.rho_d
             for k in range(self.n):
                 put(abs(hypot(xs[k] - xl, ys[k] - yl) - rho_d[k]))
+            near = closest_each(xs, ys, xl, yl)
         else:
-            guess = self._guess
-            project, point = law.project, law.point
-            for k in range(self.n):
-                x, y = xs[k], ys[k]
-                put(abs(hypot(x - xl, y - yl) - rho_d[k]))
-                px, py, _ = point(k, project(k, x, y, 0.0 if guess is None else guess[k]))
-                put(hypot(x - px, y - py))
+            fn, G, sf, rho_d, guess, out, near_k = trace
+            if fn is _PY_SAMPLES:
+                fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
+                samples.buf += out
+                near = tuple(near_k)
+            else:
+                fn(G, sf, np.array(xs), np.array(ys), xl, yl, rho_d, guess, out, near_k)
+                samples.buf += out.tolist()
+                near = tuple(near_k.tolist())
         samples.full()  # a chunk's worth goes to the file (once per scan)
-        near = closest_each(xs, ys, xl, yl)
         close = min(near, default=math.inf)  # (every pair has a follower in it)
         if close < self.min_dist:
             self.min_dist = close

@@ -31,6 +31,7 @@ from rtsim.world.jit import kernel
 
 __all__ = [
     "closest_each",
+    "closest_into",
     "closest_over",
     "closest_to",
     "contact_bound",
@@ -63,14 +64,22 @@ def closest_to(xs: Any, ys: Any, i: int, xl: float, yl: float) -> float:
 
 
 def closest_each(xs: Any, ys: Any, xl: float, yl: float) -> tuple[float, ...]:
-    """`closest_to` of every follower at once: each pair's squared distance computed once
-    and offered to both ends (the same float from either: a − b = −(b − a) exactly), then one
-    square root each; the same numbers as one `closest_to` per follower."""
+    """`closest_to` of every follower at once (`closest_into`), as a tuple."""
+    best = [0.0] * len(xs)
+    closest_into(xs, ys, xl, yl, best)
+    return tuple(best)
+
+
+@kernel
+def closest_into(xs: Any, ys: Any, xl: float, yl: float, best: Any) -> None:
+    """`closest_to` of every follower at once, written into ``best`` (one per follower):
+    each pair's squared distance computed once and offered to both ends (the same float
+    from either: a − b = −(b − a) exactly), then one square root each; the same numbers as
+    one `closest_to` per follower."""
     n = len(xs)
-    best = []
     for i in range(n):
         dx, dy = xs[i] - xl, ys[i] - yl
-        best.append(dx * dx + dy * dy)
+        best[i] = dx * dx + dy * dy
     for i in range(n - 1):
         xi, yi = xs[i], ys[i]
         for j in range(i + 1, n):
@@ -80,7 +89,8 @@ def closest_each(xs: Any, ys: Any, xl: float, yl: float) -> tuple[float, ...]:
                 best[i] = d2
             if d2 < best[j]:
                 best[j] = d2
-    return tuple(map(math.sqrt, best))
+    for i in range(n):
+        best[i] = math.sqrt(best[i])
 
 
 @kernel
