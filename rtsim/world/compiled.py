@@ -311,8 +311,7 @@ class CompiledTraceFollower(TraceFollower):
         # (the arguments' types at every call: these arrays, an int k, floats)
         G, sr, x = self._G, self._sr, 0.0
         self._reference = entry(ker.ftl_reference, (G, sr, 0, x, x, x, x, x))
-        del self._command  # (the class's: compiled at its first call)
-        self._project = entry(ker.ftl_project, (G, 0, x, x, x))
+        del self._command, self._project  # (the class's: compiled at their first call)
         self._point = entry(ker.trace_point, (G, 0, x))
         self.compiled = True
 
@@ -322,3 +321,5 @@ class CompiledTraceFollower(TraceFollower):
         "ftl_command",
         lambda self: (self._G, self._sr, self._sf, 0.0, 0.0, 0, *(0.0,) * 8),
     )
+    # (likewise: the truth log projects in its own kernel, `rtsim.coupling.physical`)
+    _project = _Kernel("ftl_project", lambda self: (self._G, 0, 0.0, 0.0, 0.0))

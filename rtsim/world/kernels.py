@@ -104,7 +104,6 @@ def _type_key(a: Any) -> Any:
 ENTRIES: dict[str, Any] = {
     "advance_follower": follower_advance,
     "ftl_reference": ftl_reference,
-    "ftl_project": ftl_project,
     "trace_point": trace_point,
     "hypot": cpython_hypot,
     "leader_travel": leader_travel,
@@ -118,13 +117,15 @@ ENTRIES: dict[str, Any] = {
 #: only kernels call (`rtsim.control.kernels.warm_all` builds them too); one filter's
 #: steps, one piece of the belief, the law's command and the record of a held command,
 #: which the compiled world runs inside its estimates' kernels (`rtsim.world.estimates`:
-#: `est_command_ftl` holds the command the law gives) and only a filter or a law driven on
+#: `est_command_ftl` holds the command the law gives), the law's projection, which the
+#: truth log runs inside its own (`rtsim.coupling.physical`), and only a filter or a law driven on
 #: its own calls (each an entry of its own only then: inside the kernels that call it, it
 #: is compiled without numba's wrappers, not optimised nor emitted on its own,
 #: `rtsim.world.jit`)
 LAZY_ENTRIES: dict[str, Any] = {
     "ekf_predict": ekf_predict,
     "ftl_command": ftl_command,
+    "ftl_project": ftl_project,
     "est_hold": est_hold,
     "remainder": cpython_remainder,
     "ekf_command": ekf_command,
@@ -261,7 +262,6 @@ def _warm(ns: Any) -> None:
     G = (np.zeros(1), np.zeros(3), np.zeros(1), 100.0, np.zeros(1), np.full(1, -1), np.ones(1))
     nan1 = np.full(1, math.nan)
     ns.ftl_reference(G, nan1, 0, 50.0, 50.0, 0.0, 0.0, 1.0)
-    ns.ftl_project(G, 0, 10.0, 20.0, 1.0)
     ns.trace_point(G, 0, 10.0)
     ns.leader_travel(1.0, 2.0, 10.0, 10.0, 0.02)
     E = new_estimates(1)

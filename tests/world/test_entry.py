@@ -21,9 +21,10 @@ pytestmark = pytest.mark.skipif(not available(), reason="numba is not installed"
 def test_entry_is_the_dispatchers_build_or_the_dispatcher() -> None:
     """Built types: the build's entry point, which gives the dispatcher's results on random
     arguments; types without a build, or a plain function: the argument itself."""
-    disp = kernels().ftl_project
     law = World(load_scenario("test2").world, np.random.default_rng(0)).follow_law
     assert law is not None
+    assert not hasattr(law._project, "overloads")  # (a lazy entry: built at its first read)
+    disp = kernels().ftl_project
     G = law._G
     direct = entry(disp, (G, 0, 0.0, 0.0, 0.0))
     assert direct is not disp and not hasattr(direct, "overloads")
