@@ -36,7 +36,7 @@ from rtsim.world.contact import closest_each, closest_into, contact_distance
 from rtsim.world.exactmath import cpython_hypot
 from rtsim.world.ftl import _PY_SUBS, TraceFollower, ftl_project, trace_point
 from rtsim.world.jit import build, kernel, specialise
-from rtsim.world.kernels import entry, follow_with
+from rtsim.world.kernels import built_entry, follow_with
 
 __all__ = ["PhysicalLog", "p95_max_rows"]
 
@@ -142,10 +142,11 @@ class PhysicalLog:
             return _PY_SAMPLES, law._G, law._sf, self.rho_d, guess, [0.0] * (2 * n), [0.0] * n
         args = (law._G, law._sf, np.asarray(self.rho_d, dtype=float), np.asarray(guess))
         out, near = np.zeros(2 * n), np.zeros(n)
-        fn = build(trace_samples)
-        x = np.zeros(n)  # (a first call on a copy of the projections: compiles or loads)
-        fn(args[0], args[1].copy(), x, x, 0.0, 0.0, *args[2:], out, near)
-        return entry(fn, (args[0], args[1], x, x, 0.0, 0.0, *args[2:], out, near)), *args, out, near
+        x = np.zeros(n)  # (the positions' type: float arrays of n)
+        fn = built_entry(
+            build(trace_samples), (args[0], args[1], x, x, 0.0, 0.0, *args[2:], out, near)
+        )
+        return fn, *args, out, near
 
     def add(
         self, leader: tuple[float, float, float], xs: list[float], ys: list[float]

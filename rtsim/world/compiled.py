@@ -40,7 +40,7 @@ from rtsim.world.ekf import EkfParams, FastFollowerEKF, _squares
 from rtsim.world.estimates import BASE, HELD_ROOM, Q, new_estimates
 from rtsim.world.follower import FollowerGroup
 from rtsim.world.ftl import TraceFollower
-from rtsim.world.kernels import available, entry, kernels
+from rtsim.world.kernels import available, built_entry, entry, kernels
 from rtsim.world.motionmodels import MotionModel
 from rtsim.world.path import LeaderPath
 
@@ -84,9 +84,7 @@ class _Kernel:
         if obj is None:
             return self
         fn = getattr(kernels(getattr(obj, "_motion", None)), self.name)
-        args = self.args(obj) if callable(self.args) else self.args
-        fn.compile(tuple(map(fn.typeof_pyval, args)))  # (a no-op when it has that build)
-        fn = entry(fn, args)
+        fn = built_entry(fn, self.args(obj) if callable(self.args) else self.args)
         setattr(obj, self.attr, fn)
         return fn
 

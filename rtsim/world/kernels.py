@@ -32,7 +32,7 @@ from rtsim.world.ftl import ftl_command, ftl_project, ftl_reference, trace_point
 from rtsim.world.jit import Subs, build, cached
 from rtsim.world.motion import belief_step, follower_advance, leader_travel
 
-__all__ = ["announce", "available", "entry", "follow_with", "kernels"]
+__all__ = ["announce", "available", "built_entry", "entry", "follow_with", "kernels"]
 
 _KERNELS: Any = None
 _AVAILABLE: bool | None = None
@@ -72,6 +72,15 @@ def entry(fn: Any, args: tuple[Any, ...]) -> Any:
             _TYPED[(fn, key)] = typed
     built = overloads.get(typed)
     return fn if built is None else built.entry_point
+
+
+def built_entry(fn: Any, args: tuple[Any, ...]) -> Any:
+    """`entry` of ``fn`` for ``args``' types after compiling (or loading from the cache) its
+    build for them, without running it (a no-op when it has that build; ``fn`` itself when
+    it is not a dispatcher)."""
+    if getattr(fn, "overloads", None) is not None:
+        fn.compile(tuple(map(fn.typeof_pyval, args)))
+    return entry(fn, args)
 
 
 #: numba's types of `entry`'s arguments, by the dispatcher and `_type_key` of the
