@@ -48,6 +48,7 @@ __all__ = [
     "TURNS",
     "hough_window",
     "locate_all",
+    "peak_fix",
     "ring",
     "ring_arc",
     "ring_cells",
@@ -311,6 +312,16 @@ def hough_window(
             most = tally[q]
             who = q
     rec["owner"] = who
+
+
+@kernel
+def peak_fix(votes: int, who: int, k: int, min_pts: int) -> tuple[bool, bool]:
+    """Window ``k``'s outcome from its peak's ``votes`` and the follower ``who`` made it
+    (`WINDOW_ROW`): whether the peak is the fix (at least ``min_pts`` votes), and whether
+    another follower's points made it (the track is lost to a neighbour)."""
+    if votes >= min_pts:
+        return True, who >= 0 and who != k
+    return False, False
 
 
 @kernel

@@ -35,7 +35,7 @@ from rtsim.world._check import plugin
 from rtsim.world.config import SensingParams, WorldConfig
 from rtsim.world.ekf import EkfParams
 from rtsim.world.follower import FollowerParams
-from rtsim.world.hough import Accumulator, window_cells
+from rtsim.world.hough import Accumulator, peak_fix, window_cells
 from rtsim.world.laser import count_beams_xy
 from rtsim.world.localization import locate_one
 from rtsim.world.motionmodels import motion_model
@@ -191,9 +191,8 @@ class HoughModel(LocalizationModel):
         min_pts = self.config.sensing.min_points
         out: list[Fix] = []
         for k, row in enumerate(rows):
-            if row[2] >= min_pts:  # the peak is the fix
-                who = row[4]
-                neighbour = who >= 0 and who != k
+            found, neighbour = peak_fix(row[2], row[4], k, min_pts)
+            if found:  # the peak is the fix
                 out.append(((row[0], row[1]), True, neighbour, False, False, neighbour))
             else:
                 out.append(self._search(k, state, centre[k], expected))
@@ -211,11 +210,11 @@ class HoughModel(LocalizationModel):
             return centre, False, True, False, False, False
         px, py, owner = beams
         found = self.accumulator.search(px, py, owner, centre[0], centre[1], sens.r_reacq)
-        if found["votes"] < min_pts:
+        hit, neighbour = peak_fix(int(found["votes"]), int(found["owner"]), k, min_pts)
+        if not hit:
             return centre, False, True, True, False, False
-        who = int(found["owner"])
         fix = (float(found["fix_x"]), float(found["fix_y"]))
-        return fix, False, True, True, True, who >= 0 and who != k
+        return fix, False, True, True, True, neighbour
 
 
 def _model_class(obj: Any, spec: str, where: str) -> type[LocalizationModel]:

@@ -47,8 +47,15 @@ from rtsim.world.localization import ExpectedBeams, lost_cause
 from rtsim.world.locmodels import Fix, localization_model
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.scan import Scan
+from rtsim.world.scanstep import PY
 
 __all__ = ["World", "Scan"]
+
+# the scan's per-follower arithmetic, the kernel sources' Python twins (`rtsim.world.scanstep`)
+_TO_LEADER = PY["to_leader_xy"]
+_TRUTH_CHANGE = PY["truth_change"]
+_VIOLATIONS = PY["bound_violations"]
+_FIX_ERROR = PY["fix_error"]
 
 #: Standard normals `World._normals` takes from the stream at a time (its list of floats).
 NORMAL_BLOCK = 512
@@ -330,11 +337,8 @@ class World:
     def _to_leader(leader: Pose, x: list[float], y: list[float]) -> list[tuple[float, float]]:
         xl, yl, hl = leader
         c, s = math.cos(hl), math.sin(hl)
-        out = []
-        for a, b in zip(x, y, strict=True):
-            dx, dy = a - xl, b - yl
-            out.append((c * dx + s * dy, -s * dx + c * dy))
-        return out
+        to_leader = _TO_LEADER
+        return [to_leader(xl, yl, c, s, a, b) for a, b in zip(x, y, strict=True)]
 
     def estimated_pose(self, i: int) -> Pose:
         """The leader's estimate of follower i's pose (x, y, heading) now."""
@@ -458,12 +462,14 @@ class World:
         the previous scan (zeros at the first) and the violations it makes, per bound kind
         (`Scan`); remembers this scan's truth for the next. (One loop: at a few followers a
         comprehension per list costs more than the arithmetic.)"""
-        hypot, atan2, remainder, inf = math.hypot, math.atan2, math.remainder, math.inf
-        two_pi = 2 * math.pi
+        inf = math.inf
+        change, violated, error = _TRUTH_CHANGE, _VIOLATIONS, _FIX_ERROR
         odo = list(odometer)
         prev = self._prev
         first = prev is None
-        if prev is not None:
+        if prev is None:
+            p_truth, p_rho, p_beta, p_odo = truth_l, odo, odo, odo  # (unread at the first)
+        else:
             p_truth, p_rho, p_beta, p_odo = prev
         r_H, T_beta = self._r_H, self._T_beta
         sep_lim, trav_lim = self._sep_limit_l, self._travel_limit_l
@@ -486,29 +492,26 @@ class World:
             neighbours.append(neighbour)
             if in_w or reacq:
                 mx, my = fix
-                errors.append(hypot(mx - tx, my - ty))
+                errors.append(error(mx, my, tx, ty))
             else:
                 errors.append(inf)
-            rho = hypot(tx, ty)
-            beta = atan2(ty, tx) % two_pi
+            px, py = p_truth[k]
+            rho, beta, disp, d_rho, travel, d_beta = change(
+                tx, ty, odo[k], px, py, p_rho[k], p_beta[k], p_odo[k], first
+            )
             rhos.append(rho)
             betas.append(beta)
-            if first:
-                disp = d_rho = travel = d_beta = 0.0
-            else:
-                px, py = p_truth[k]
-                disp = hypot(tx - px, ty - py)
-                d_rho = abs(rho - p_rho[k])
-                travel = odo[k] - p_odo[k]
-                d_beta = abs(remainder(beta - p_beta[k], two_pi))
             disps.append(disp)
             d_rhos.append(d_rho)
             travels.append(travel)
             d_betas.append(d_beta)
-            v_loc.append(disp > r_H)
-            v_sep.append(d_rho > sep_lim[k])
-            v_path.append(travel > trav_lim[k])
-            v_bear.append(d_beta > T_beta)
+            vl, vs, vp, vb = violated(
+                disp, d_rho, travel, d_beta, r_H, sep_lim[k], trav_lim[k], T_beta
+            )
+            v_loc.append(vl)
+            v_sep.append(vs)
+            v_path.append(vp)
+            v_bear.append(vb)
         self._prev = (truth_l, rhos, betas, odo)
         changes = {"displacement": disps, "d_rho": d_rhos, "travel": travels, "d_beta": d_betas}
         violations = {

@@ -1,0 +1,240 @@
+"""The leader's scan in one compiled call: the ``compiled`` backend's `World.scan` with the
+``hough`` localization model (docs/performance.md).
+
+The per-follower arithmetic of a scan is written here once, as kernel sources
+(`rtsim.world.jit`) that the Python reference (`rtsim.world.world.World._changes`,
+`World._to_leader`) runs as Python (`PY`: their twins with ``math.hypot`` and
+``math.remainder``) and that `scan_step` compiles:
+
+- `to_leader_xy`: a point in the leader's frame;
+- `truth_change`: a follower's range and bearing, and the truth's change since the previous
+  scan (displacement, Δρ, odometer travel, Δβ);
+- `bound_violations`: whether that change exceeds each bound kind's threshold;
+- `fix_error`: a fix's distance from the truth.
+
+`scan_step` composes them with the laser (`rtsim.world.rangefinder.scan_points`), the
+predicted window centres (`rtsim.world.estimates.carry_row`), the Hough windows
+(`rtsim.world.hough.locate_all`) and each window's outcome (`rtsim.world.hough.peak_fix`):
+one call per scan fills the columns `FusedScan` hands to `World` as lists. The rare
+window without a fix is searched for in Python afterwards (the model's own ``_search``),
+as the reference does.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rtsim.world.estimates import carry_row
+from rtsim.world.exactmath import HYPOT_SUBS, cpython_hypot, cpython_remainder
+from rtsim.world.hough import locate_all, peak_fix
+from rtsim.world.jit import build, kernel, specialise
+from rtsim.world.kernels import built_entry
+from rtsim.world.rangefinder import BEAM_COS, BEAM_SIN, scan_points
+
+__all__ = [
+    "FLOAT_ROWS",
+    "FLAG_ROWS",
+    "PY",
+    "FusedScan",
+    "bound_violations",
+    "fix_error",
+    "scan_step",
+    "to_leader_xy",
+    "truth_change",
+]
+
+TWO_PI = 2 * math.pi
+
+#: `scan_step`'s float columns (one row of ``T`` each, one entry per follower)
+FLOAT_ROWS = (
+    "tx", "ty", "cx", "cy", "mx", "my", "error",
+    "rho", "beta", "displacement", "d_rho", "travel", "d_beta",
+)  # fmt: skip
+#: its flag columns (``B``): in the window, lost, lost to a neighbour's points, no fix in
+#: the window (searched for in Python), then the four bound kinds' violations
+FLAG_ROWS = (
+    "in_window", "lost", "neighbour", "unfixed",
+    "localization", "separation", "path_diversion", "bearing",
+)  # fmt: skip
+
+
+@kernel
+def to_leader_xy(
+    xl: float, yl: float, c: float, s: float, a: float, b: float
+) -> tuple[float, float]:
+    """Point (``a``, ``b``) in the frame of the leader at (``xl``, ``yl``) whose heading has
+    cosine ``c`` and sine ``s``."""
+    dx, dy = a - xl, b - yl
+    return c * dx + s * dy, -s * dx + c * dy
+
+
+@kernel
+def truth_change(
+    tx: float, ty: float, odo: float, px: float, py: float, p_rho: float, p_beta: float,
+    p_odo: float, first: bool,
+) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """A follower at (``tx``, ``ty``) in the leader's frame with odometer ``odo``, which was at
+    (``px``, ``py``), range ``p_rho``, bearing ``p_beta`` and odometer ``p_odo`` at the previous
+    scan: its range ρ, bearing β ∈ [0, 2π), and the change since (displacement in the
+    leader's frame, |Δρ|, travel, |Δβ| wrapped to [0, π]; zeros at the ``first`` scan)."""
+    rho = cpython_hypot(tx, ty)
+    beta = math.atan2(ty, tx) % TWO_PI
+    if first:
+        return rho, beta, 0.0, 0.0, 0.0, 0.0
+    disp = cpython_hypot(tx - px, ty - py)
+    d_rho = abs(rho - p_rho)
+    travel = odo - p_odo
+    d_beta = abs(cpython_remainder(beta - p_beta, TWO_PI))
+    return rho, beta, disp, d_rho, travel, d_beta
+
+
+@kernel
+def bound_violations(
+    disp: float, d_rho: float, travel: float, d_beta: float, r_H: float, sep: float,
+    trav: float, T_beta: float,
+) -> tuple[bool, bool, bool, bool]:  # fmt: skip
+    """Whether the truth's change (`truth_change`) violates the localization (``r_H``),
+    separation (``sep``), path-diversion (``trav``) and bearing (``T_beta``) bounds."""
+    return disp > r_H, d_rho > sep, travel > trav, d_beta > T_beta
+
+
+@kernel
+def fix_error(mx: float, my: float, tx: float, ty: float) -> float:
+    """A fix's distance from the truth (cm)."""
+    return cpython_hypot(mx - tx, my - ty)
+
+
+@kernel
+def math_remainder(x: float, y: float) -> float:
+    """``math.remainder`` (the plain-Python twin's `cpython_remainder`)."""
+    return math.remainder(x, y)
+
+
+_PY_SUBS = (*HYPOT_SUBS, (cpython_remainder, math_remainder))
+#: the Python twins the reference runs (the interpreter's hypot and remainder)
+PY = {
+    fn.__name__: specialise(fn, _PY_SUBS)
+    for fn in (to_leader_xy, truth_change, bound_violations, fix_error)
+}
+
+
+@kernel
+def scan_step(
+    W: Any, xl: float, yl: float, hl: float, z: Any, laser: Any, beams: Any, E: Any,
+    t: float, a: float, predicted: bool, hough: Any, work: Any, windows: Any, P: Any,
+    first: bool, limits: Any, T: Any, B: Any, N: Any, F: Any,
+) -> None:  # fmt: skip
+    """One scan (module docstring) of the followers whose truth is ``W`` (rows x, y,
+    odometer) seen by the leader at (``xl``, ``yl``, ``hl``): ``laser`` = (r_F, max range,
+    range σ, the beams' cos and sin) with the standard normals ``z``, into ``beams`` = (px,
+    py, owner, counts); the window centres carried from the estimates ``E`` to ``t`` ms
+    (acceleration limit ``a``) when ``predicted``, else ``T``'s rows cx, cy as given;
+    ``hough`` = (r_H, cell, cells, min_points) with the accumulator's ``work`` into
+    ``windows``; the previous scan's ``P`` (rows x, y, ρ, β, odometer; written with this
+    scan's; ignored at the ``first``) and ``limits`` = (separation and travel limits per
+    follower, T_β). Fills ``T`` (`FLOAT_ROWS`), ``B`` (`FLAG_ROWS`), ``N`` (beams returned,
+    points that voted) and ``F`` (per follower mx, my, 1 in its window else 0: `est_scan`'s
+    fixes)."""
+    n = W.shape[1]
+    c, s = math.cos(hl), math.sin(hl)
+    for k in range(n):
+        T[0, k], T[1, k] = to_leader_xy(xl, yl, c, s, W[0, k], W[1, k])
+        if predicted:
+            x, y, _, _, _ = carry_row(E, k, t, a)
+            T[2, k], T[3, k] = to_leader_xy(xl, yl, c, s, x, y)
+    r_F, max_range, range_sd, cos_b, sin_b = laser
+    px, py, owner, counts = beams
+    scan_points(T[0], T[1], r_F, max_range, range_sd, z, cos_b, sin_b, px, py, owner, counts)
+    r_H, cell, cells, min_pts = hough
+    locate_all(px, py, owner, T[2], T[3], r_H, r_F, cell, cells, work, windows)
+    sep, trav, T_beta = limits
+    for k in range(n):
+        tx, ty = T[0, k], T[1, k]
+        rec = windows[k]
+        N[0, k] = counts[k]
+        N[1, k] = rec["voters"]
+        found, neighbour = peak_fix(rec["votes"], rec["owner"], k, min_pts)
+        if found:
+            mx, my = rec["fix_x"], rec["fix_y"]
+            T[6, k] = fix_error(mx, my, tx, ty)
+            F[k, 2] = 1.0
+        else:  # (the centre, until the search in Python)
+            mx, my = T[2, k], T[3, k]
+            T[6, k] = math.inf
+            F[k, 2] = 0.0
+        T[4, k], T[5, k] = mx, my
+        F[k, 0], F[k, 1] = mx, my
+        B[0, k], B[1, k], B[2, k], B[3, k] = found, neighbour or not found, neighbour, not found
+        odo = W[2, k]
+        rho, beta, disp, d_rho, travel, d_beta = truth_change(
+            tx, ty, odo, P[0, k], P[1, k], P[2, k], P[3, k], P[4, k], first
+        )
+        T[7, k], T[8, k], T[9, k], T[10, k], T[11, k], T[12, k] = (
+            rho, beta, disp, d_rho, travel, d_beta,
+        )  # fmt: skip
+        B[4, k], B[5, k], B[6, k], B[7, k] = bound_violations(
+            disp, d_rho, travel, d_beta, r_H, sep[k], trav[k], T_beta
+        )
+        P[0, k], P[1, k], P[2, k], P[3, k], P[4, k] = tx, ty, rho, beta, odo
+
+
+class FusedScan:
+    """A world's buffers for `scan_step` and its compiled entry (``motion``: the motion
+    model whose parts carry the estimates). ``model``: the world's `HoughModel` (its
+    rangefinder's and accumulator's buffers); ``limits``: the separation and travel
+    limits per follower, lists; ``T_beta``."""
+
+    def __init__(
+        self,
+        model: Any,
+        n: int,
+        motion: Any,
+        E: NDArray[np.float64],
+        limits: tuple[list[float], list[float]],
+        T_beta: float,
+    ) -> None:
+        config = model.config
+        rf, acc = model.rangefinder, model.accumulator
+        if rf.counts.shape[0] < n:
+            rf.counts = np.zeros(n, dtype=np.int64)
+        r_H = config.thresholds.r_H
+        self.laser = (rf.r_F, rf.max_range, rf.range_sd, BEAM_COS, BEAM_SIN)
+        self.beams = (rf.px, rf.py, rf.owner, rf.counts)
+        self.hough = (float(r_H), acc.cell, acc.cells(r_H), int(config.sensing.min_points))
+        self.work, self.windows = acc.work, acc.out
+        self.P = np.zeros((5, n))
+        self.limits = (np.array(limits[0], dtype=float), np.array(limits[1], dtype=float))
+        self.limits += (float(T_beta),)
+        self.T = np.zeros((len(FLOAT_ROWS), n))
+        self.B = np.zeros((len(FLAG_ROWS), n), dtype=np.bool_)
+        self.N = np.zeros((2, n), dtype=np.int64)
+        self.F = np.zeros((n, 3))
+        self.first = True
+        x = 0.0
+        args = (np.zeros((3, n)), x, x, x, np.zeros(361), self.laser, self.beams, E, x, x)
+        args += (True, self.hough, self.work, self.windows, self.P, True, self.limits)
+        args += (self.T, self.B, self.N, self.F)
+        self._step = built_entry(build(scan_step, motion.subs), args)
+
+    def run(
+        self,
+        W: NDArray[np.float64],
+        lp: tuple[float, float, float],
+        z: NDArray[np.float64],
+        E: NDArray[np.float64],
+        t: float,
+        a: float,
+        predicted: bool,
+    ) -> None:
+        """`scan_step` on these buffers (the previous scan's state kept between calls)."""
+        xl, yl, hl = lp
+        self._step(
+            W, xl, yl, hl, z, self.laser, self.beams, E, t, a, predicted, self.hough,
+            self.work, self.windows, self.P, self.first, self.limits,
+            self.T, self.B, self.N, self.F,
+        )  # fmt: skip
+        self.first = False
