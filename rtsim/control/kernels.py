@@ -19,7 +19,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rtsim.world import hough, rangefinder
+from rtsim.world import scanstep
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
 from rtsim.world.ftl import ftl_command, path_pose
@@ -906,8 +906,7 @@ def warm_all() -> None:
     rollout's), or load them from the cache, in this process: called before a process pool
     starts (``rtsim reproduce``, the sweep engine), so that workers forked after it inherit
     them and spawned ones load what it cached: the first run pays the compile once, not once
-    per worker. The laser's and the Hough accumulator's kernels too: every scan runs them
-    (the re-acquisition search's `hough_window` stays lazy: most runs never search)."""
+    per worker. The scan's kernel too (`rtsim.world.scanstep`: the laser and the Hough
+    windows; the re-acquisition search's `hough_window` stays lazy: most runs never search)."""
     warm_rollout()
-    rangefinder.Rangefinder(1.0, 1.0, 0.0, fast=True)  # (its empty scan compiles the kernel)
-    hough.compiled()
+    scanstep.warm()

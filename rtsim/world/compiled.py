@@ -215,11 +215,12 @@ class CompiledEstimates:
     _hold = _Kernel("est_hold", lambda self: (self.E, 0, 0.0, 0.0, 0.0))
 
     def scan(
-        self, t: float, lp: tuple[float, float, float], fixes: list[float], var: float, track: bool
+        self, t: float, lp: tuple[float, float, float], fixes: Any, var: float, track: bool
     ) -> float:
         """`World.estimate` for every follower (`est_scan`): ``fixes`` flat, (mx, my, 1 in
-        its window, 2 re-acquired, else 0) per follower; returns the heading variance's max."""
-        F = np.array(fixes).reshape(-1, 3)
+        its window, 2 re-acquired, else 0) per follower, or an (n, 3) array of them (read
+        only); returns the heading variance's max."""
+        F = fixes if isinstance(fixes, np.ndarray) else np.array(fixes).reshape(-1, 3)
         return self._scan(self.E, F, t, *self.ekf_args, *lp, var, track)  # type: ignore[no-any-return]
 
     def carry(self, k: int, t: float) -> tuple[tuple[float, float, float], float, float]:

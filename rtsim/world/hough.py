@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.world.jit import build, kernel
-from rtsim.world.kernels import entry
+from rtsim.world.kernels import built_entry
 
 __all__ = [
     "CELL_CM",
@@ -398,11 +398,12 @@ class Accumulator:
         self._cells: dict[float, int] = {}
         self.out = np.zeros(n, WINDOW_ROW)
         self.one = np.zeros(1, WINDOW_ROW)
-        one, every = compiled() if fast else (hough_window, locate_all)
         # called directly (`rtsim.world.kernels.entry`: the work tuple is not typed again at
-        # every call), with the types of `_dummy`'s arguments, which every call passes
-        self._one = entry(one, _dummy(every=False))
-        self._every = entry(every, _dummy(every=True))
+        # every call), with the types of `_dummy`'s arguments, which every call passes; in
+        # ``fast``, each compiled at its first call (the compiled world runs the windows in
+        # its scan's kernel, `rtsim.world.scanstep`, and searches rarely)
+        self._one: Any = compiled_window if fast else hough_window
+        self._every: Any = None if fast else locate_all
 
     def cells(self, r_H: float) -> int:
         """`window_cells` of a window of radius ``r_H`` (computed once per radius)."""
@@ -422,6 +423,8 @@ class Accumulator:
     ) -> NDArray[np.void]:
         """Every follower's window: its `WINDOW_ROW` records (valid until the next call)."""
         cells = self.cells(r_H)
+        if self._every is None:
+            self._every = built_entry(build(locate_all), _dummy(every=True))
         self._every(px, py, owner, cxs, cys, r_H, self.r_F, self.cell, cells, self.work, self.out)
         return self.out
 

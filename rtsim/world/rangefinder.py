@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from rtsim.model.window import LASER_POINTS
 from rtsim.world.jit import build, kernel
-from rtsim.world.kernels import entry
+from rtsim.world.kernels import built_entry
 from rtsim.world.laser import BEAM_BEARINGS
 
 __all__ = ["BEAM_COS", "BEAM_SIN", "Rangefinder", "compiled", "scan_points"]
@@ -123,16 +123,18 @@ class Rangefinder:
         self.py = np.empty(LASER_POINTS)
         self.owner = np.empty(LASER_POINTS, dtype=np.int64)
         self.counts = np.zeros(n, dtype=np.int64)
-        self._fn: Any = scan_points
-        if fast:  # an empty scan (no follower) compiles or loads the kernel now; then it is
-            # called directly (`rtsim.world.kernels.entry`), the same types at every scan
-            none = np.zeros(0)
-            z = np.zeros(LASER_POINTS)
-            args: tuple[Any, ...] = (none, none, self.r_F, self.max_range, self.range_sd, z)
-            args += (BEAM_COS, BEAM_SIN, self.px, self.py, self.owner, self.counts)
-            fn = compiled()
-            fn(*args)
-            self._fn = entry(fn, args)
+        # compiled at the first `scan` in ``fast`` (the compiled world scans in its own
+        # kernel, `rtsim.world.scanstep`), then called directly (`rtsim.world.kernels.entry`):
+        # the same types at every scan
+        self._fn: Any = None if fast else scan_points
+
+    def _compiled(self) -> Any:
+        """`scan_points` compiled (or loaded) for this rangefinder's buffers' types."""
+        none = np.zeros(0)
+        z = np.zeros(LASER_POINTS)
+        args: tuple[Any, ...] = (none, none, self.r_F, self.max_range, self.range_sd, z)
+        args += (BEAM_COS, BEAM_SIN, self.px, self.py, self.owner, self.counts)
+        return built_entry(compiled(), args)
 
     def scan(
         self, xs: NDArray[np.float64], ys: NDArray[np.float64], z: NDArray[np.float64]
@@ -142,6 +144,8 @@ class Rangefinder:
         scan; `counts` holds the beams each follower returned."""
         if self.counts.shape[0] < xs.shape[0]:
             self.counts = np.zeros(xs.shape[0], dtype=np.int64)
+        if self._fn is None:
+            self._fn = self._compiled()
         self._fn(
             xs,
             ys,

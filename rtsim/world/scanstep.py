@@ -28,9 +28,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rtsim.world.estimates import carry_row
+from rtsim.model.window import LASER_POINTS
+from rtsim.world.estimates import carry_row, new_estimates
 from rtsim.world.exactmath import HYPOT_SUBS, cpython_hypot, cpython_remainder
-from rtsim.world.hough import locate_all, peak_fix
+from rtsim.world.hough import _dummy, locate_all, peak_fix
 from rtsim.world.jit import build, kernel, specialise
 from rtsim.world.kernels import built_entry
 from rtsim.world.rangefinder import BEAM_COS, BEAM_SIN, scan_points
@@ -45,9 +46,12 @@ __all__ = [
     "scan_step",
     "to_leader_xy",
     "truth_change",
+    "warm",
 ]
 
 TWO_PI = 2 * math.pi
+
+Array = NDArray[np.float64]
 
 #: `scan_step`'s float columns (one row of ``T`` each, one entry per follower)
 FLOAT_ROWS = (
@@ -182,6 +186,30 @@ def scan_step(
         P[0, k], P[1, k], P[2, k], P[3, k], P[4, k] = tx, ty, rho, beta, odo
 
 
+def _arguments(n: int, E: Any, laser: Any, beams: Any, hough: Any, work: Any, windows: Any) -> Any:
+    """Arguments of `scan_step`'s types at every call for ``n`` followers, with these
+    parts (the others zeros)."""
+    x = 0.0
+    limits = (np.zeros(n), np.zeros(n), x)
+    T, B = np.zeros((len(FLOAT_ROWS), n)), np.zeros((len(FLAG_ROWS), n), dtype=np.bool_)
+    N, F = np.zeros((2, n), dtype=np.int64), np.zeros((n, 3))
+    args = (np.zeros((3, n)), x, x, x, np.zeros(LASER_POINTS), laser, beams, E, x, x, True)
+    return (*args, hough, work, windows, np.zeros((5, n)), True, limits, T, B, N, F)
+
+
+def warm() -> None:
+    """Compile `scan_step` (the unicycle's) or load it from the cache, without running it:
+    for a pool's parent (`rtsim.control.kernels.warm_all`)."""
+    px = np.zeros(LASER_POINTS)
+    owner = np.zeros(LASER_POINTS, dtype=np.int64)
+    dummy = _dummy(every=True)  # (the accumulator's work and records)
+    laser = (1.0, 1.0, 0.0, BEAM_COS, BEAM_SIN)
+    args = _arguments(
+        1, new_estimates(1), laser, (px, px, owner, owner), (1.0, 1.0, 1, 1), *dummy[9:]
+    )
+    built_entry(build(scan_step), args)
+
+
 class FusedScan:
     """A world's buffers for `scan_step` and its compiled entry (``motion``: the motion
     model whose parts carry the estimates). ``model``: the world's `HoughModel` (its
@@ -206,18 +234,15 @@ class FusedScan:
         self.beams = (rf.px, rf.py, rf.owner, rf.counts)
         self.hough = (float(r_H), acc.cell, acc.cells(r_H), int(config.sensing.min_points))
         self.work, self.windows = acc.work, acc.out
-        self.P = np.zeros((5, n))
-        self.limits = (np.array(limits[0], dtype=float), np.array(limits[1], dtype=float))
-        self.limits += (float(T_beta),)
-        self.T = np.zeros((len(FLOAT_ROWS), n))
-        self.B = np.zeros((len(FLAG_ROWS), n), dtype=np.bool_)
-        self.N = np.zeros((2, n), dtype=np.int64)
-        self.F = np.zeros((n, 3))
+        args = _arguments(n, E, self.laser, self.beams, self.hough, self.work, self.windows)
+        self.P: Array = args[14]
+        self.T: Array = args[17]
+        self.B: NDArray[np.bool_] = args[18]
+        self.N: NDArray[np.int64] = args[19]
+        self.F: Array = args[20]
+        sep, trav = limits
+        self.limits = (np.array(sep, dtype=float), np.array(trav, dtype=float), float(T_beta))
         self.first = True
-        x = 0.0
-        args = (np.zeros((3, n)), x, x, x, np.zeros(361), self.laser, self.beams, E, x, x)
-        args += (True, self.hough, self.work, self.windows, self.P, True, self.limits)
-        args += (self.T, self.B, self.N, self.F)
         self._step = built_entry(build(scan_step, motion.subs), args)
 
     def run(

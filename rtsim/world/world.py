@@ -30,12 +30,14 @@ from rtsim.analysis.kinematics import (
     relative_state,
 )
 from rtsim.errors import RtsimError
+from rtsim.model.window import LASER_POINTS
 from rtsim.world.compiled import (
     CompiledEstimates,
     CompiledFollowerEKF,
     CompiledFollowerGroup,
     CompiledTraceFollower,
     compiled_motion,
+    kernels,
 )
 from rtsim.world.config import WorldConfig
 from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
@@ -44,10 +46,10 @@ from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
 from rtsim.world.leader import Leader
 from rtsim.world.localization import ExpectedBeams, lost_cause
-from rtsim.world.locmodels import Fix, localization_model
+from rtsim.world.locmodels import Fix, HoughModel, localization_model
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.scan import Scan
-from rtsim.world.scanstep import PY
+from rtsim.world.scanstep import PY, FusedScan
 
 __all__ = ["World", "Scan"]
 
@@ -196,6 +198,19 @@ class World:
         self._r_H, self._T_beta = thr.r_H, thr.T_beta
         self._accel, self._step_ms = fp.max_accel, config.step_ms
         self._n = form.n
+        # the compiled backend's scan with the hough model: one compiled call
+        # (`rtsim.world.scanstep`; where the kernels' hypot is the interpreter's)
+        self._fused: FusedScan | None = None
+        if (
+            self._arr is not None
+            and type(self.localization) is HoughModel
+            and kernels().exact_hypot
+        ):
+            limits = (self._sep_limit_l, self._travel_limit_l)
+            self._fused = FusedScan(
+                self.localization, form.n, motion, self._arr.E, limits, thr.T_beta
+            )
+        self._fixes_of: tuple[Scan, Array] | None = None  # the last fused scan's fixes
         # the compiled backend's command with the compiled law: one call (`command_ftl`;
         # not where the law stays Python, `CompiledTraceFollower.compiled`)
         self._ftl_fused = self._arr is not None and getattr(self._ftl, "compiled", False)
@@ -397,6 +412,8 @@ class World:
         """Sample the truth at ``t_ms`` (advancing to it): beams, fixes, Hough windows,
         lost tracks and re-acquisitions, and the violations observed since the last scan."""
         self.advance(t_ms)
+        if self._fused is not None:
+            return self._scan_fused(t_ms)
         lp = self.leader.pose
         fol = self.followers
         truth_l = self._to_leader(lp, fol.x, fol.y)
@@ -415,18 +432,7 @@ class World:
         fixes, voted = model.locate(sensed, truth_l, pts, centre, expected)
         cols, errors, changes, violations = self._changes(truth_l, fol.odometer, fixes)
         measured, in_ws, losts, searched, reacqs, neighbours = cols
-        if True in losts:
-            min_pts = self._min_pts
-            causes = [
-                ""
-                if not lost
-                else "neighbour"
-                if nb
-                else lost_cause(p >= min_pts, tr, r_F, max_range, min_pts)
-                for lost, nb, p, tr in zip(losts, neighbours, pts, truth_l, strict=True)
-            ]
-        else:
-            causes = [""] * len(losts)
+        causes = self._causes(losts, neighbours, pts, truth_l)
         return Scan._of(
             t_ms,
             lp,
@@ -448,6 +454,99 @@ class World:
                 "cells": model.cells,
             },
         )
+
+    def _causes(
+        self, losts: list[bool], neighbours: list[bool], pts: list[int], truth_l: list[XY]
+    ) -> list[str]:
+        """Why each follower's track was lost ("": it was not; `lost_cause`)."""
+        if True not in losts:
+            return [""] * len(losts)
+        r_F, max_range, min_pts = self._r_F, self._max_range, self._min_pts
+        return [
+            ""
+            if not lost
+            else "neighbour"
+            if nb
+            else lost_cause(p >= min_pts, tr, r_F, max_range, min_pts)
+            for lost, nb, p, tr in zip(losts, neighbours, pts, truth_l, strict=True)
+        ]
+
+    def _scan_fused(self, t_ms: float) -> Scan:
+        """`scan` (advanced to ``t_ms``) with the hough model in the compiled backend: the
+        laser, the windows' centres, the Hough windows, the fixes and the truth's change in
+        one compiled call (`FusedScan`), its columns made the lists `scan` gives; a window
+        without a fix searched for as `HoughModel.locate` does."""
+        lp = self.leader.pose
+        fol = self.followers
+        fused = self._fused
+        model = self.localization
+        assert fused is not None and self._arr is not None and isinstance(model, HoughModel)
+        predicted = self._predicted
+        if not predicted:
+            fused.T[2:4] = np.array(self._centre).T
+        W = np.array((fol.x, fol.y, fol.odometer))
+        z = model.draw(LASER_POINTS)
+        fused.run(W, lp, z, self._arr.E, t_ms, self._accel, predicted)
+        tx, ty, cx, cy, mx, my, errors, _, _, disps, d_rhos, travels, d_betas = fused.T.tolist()
+        in_ws, losts, neighbours, unfixed, v_loc, v_sep, v_path, v_bear = fused.B.tolist()
+        pts, voted = fused.N.tolist()
+        truth_l = list(zip(tx, ty, strict=True))
+        centre = list(zip(cx, cy, strict=True))
+        measured = list(zip(mx, my, strict=True))
+        searched = [False] * len(pts)
+        reacqs = [False] * len(pts)
+        if True in unfixed:
+            expected = ExpectedBeams(centre, self._r_F, self._max_range) if self._visible else None
+            rf = model.rangefinder
+            beams, F = (rf.px, rf.py, rf.owner), fused.F
+            for k, u in enumerate(unfixed):
+                if not u:
+                    continue
+                fix, in_w, lost, search, reacq, nb = model._search(k, beams, centre[k], expected)
+                measured[k], in_ws[k], losts[k], searched[k], reacqs[k] = (
+                    fix,
+                    in_w,
+                    lost,
+                    search,
+                    reacq,
+                )
+                neighbours[k] = nb
+                if in_w or reacq:
+                    errors[k] = _FIX_ERROR(fix[0], fix[1], tx[k], ty[k])
+                F[k] = (fix[0], fix[1], 1.0 if in_w else 2.0 if reacq else 0.0)
+        scan = Scan._of(
+            t_ms,
+            lp,
+            {
+                "points": pts,
+                "measured": measured,
+                "truth": truth_l,
+                "centre": centre,
+                "in_window": in_ws,
+                "lost": losts,
+                "reacquired": reacqs,
+                "changes": {
+                    "displacement": disps,
+                    "d_rho": d_rhos,
+                    "travel": travels,
+                    "d_beta": d_betas,
+                },
+                "violations": {
+                    "localization": v_loc,
+                    "separation": v_sep,
+                    "path_diversion": v_path,
+                    "bearing": v_bear,
+                },
+                "searched": searched,
+                "cause": self._causes(losts, neighbours, pts, truth_l),
+                "voted": voted or None,
+                "fix_error": errors,
+                "neighbour": neighbours if voted else None,
+                "cells": model.cells,
+            },
+        )
+        self._fixes_of = (scan, fused.F)
+        return scan
 
     def _changes(
         self, truth_l: list[XY], odometer: list[float], fixes: list[Fix]
@@ -530,6 +629,9 @@ class World:
         t = scan.t_ms
         if t < self._est_t:
             raise RtsimError(f"scan at {t} ms is older than the estimates ({self._est_t} ms)")
+        if self._arr is not None:
+            self._estimate_arrays(scan)
+            return
         a = self._accel
         xl, yl, hl = scan.leader_pose
         c, s = math.cos(hl), math.sin(hl)
@@ -537,9 +639,6 @@ class World:
         in_window = scan.as_lists("in_window")
         reacquired = scan.as_lists("reacquired")
         predicted = self._predicted
-        if self._arr is not None:
-            self._estimate_arrays(scan, measured, in_window, reacquired)
-            return
         all_pieces, vhat, what = self._pieces, self._vhat, self._what
         for k, f in enumerate(self._filters):
             pieces = all_pieces[k]
@@ -573,14 +672,21 @@ class World:
         if not predicted:  # (a predicted centre is carried from the estimates at each scan)
             self._centre = self._to_leader(scan.leader_pose, *self._estimated_xy())
 
-    def _estimate_arrays(
-        self, scan: Scan, measured: list[XY], in_window: list[bool], reacquired: list[bool]
-    ) -> None:
+    def _estimate_arrays(self, scan: Scan) -> None:
         """`estimate`'s loop and its ending as one compiled call on the compiled backend's
-        estimates (`CompiledEstimates.scan`)."""
-        fixes: list[float] = []
-        for (mx, my), w, r in zip(measured, in_window, reacquired, strict=True):
-            fixes += (mx, my, 1.0 if w else 2.0 if r else 0.0)
+        estimates (`CompiledEstimates.scan`), with the fixes the fused scan packed when
+        ``scan`` is its last (`_scan_fused`)."""
+        fixes: list[float] | Array
+        last = self._fixes_of
+        if last is not None and last[0] is scan:
+            fixes = last[1]
+        else:
+            fixes = []
+            measured = scan.as_lists("measured")
+            in_window = scan.as_lists("in_window")
+            reacquired = scan.as_lists("reacquired")
+            for (mx, my), w, r in zip(measured, in_window, reacquired, strict=True):
+                fixes += (mx, my, 1.0 if w else 2.0 if r else 0.0)
         arr = self._arr
         assert arr is not None
         self.max_heading_var = arr.scan(

@@ -111,8 +111,8 @@ def test_a_kernel_only_kernels_call_compiles_without_wrappers_and_is_not_cached(
 @pytest.mark.slow
 def test_first_run_says_it_compiles_and_the_next_loads_silently(tmp_path: Path) -> None:
     """Two processes on one fresh NUMBA_CACHE_DIR: the first compiles every kernel a run
-    uses (the laser's and the Hough accumulator's included, which each worker of a pool
-    compiled again before) and says so in one line; the second loads them all, silently."""
+    uses (the scan's, with the laser and the Hough windows, included, which each worker of a
+    pool compiled again before) and says so in one line; the second loads them all, silently."""
     env = {
         **os.environ,
         "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
@@ -121,10 +121,10 @@ def test_first_run_says_it_compiles_and_the_next_loads_silently(tmp_path: Path) 
     }
     code = (
         "from rtsim.control import kernels as C; from rtsim.world import kernels as K; "
-        "from rtsim.world import hough as H, rangefinder as R; "
+        "from rtsim.world import scanstep as S; "
         "C.warm_all(); "
         "print(all(K.cached(fn) for fn in "
-        "[*K.ENTRIES.values(), *C.ENTRIES.values(), H.locate_all, R.scan_points]))"
+        "[*K.ENTRIES.values(), *C.ENTRIES.values(), S.scan_step]))"
     )
     runs = [
         subprocess.run(

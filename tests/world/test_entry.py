@@ -47,13 +47,14 @@ def test_the_compiled_worlds_calls_go_direct() -> None:
     assert law is not None
     filters = [f._predict for f in fast.filters] + [f._update for f in fast.filters]
     filters += [f._command for f in fast.filters] + [fast.followers._advance]
-    for fn in (law._command, law._project, law._reference, *filters):
+    assert fast._fused is not None  # (the scan: one compiled call, `rtsim.world.scanstep`)
+    for fn in (law._command, law._project, law._reference, fast._fused._step, *filters):
         assert not hasattr(fn, "overloads") and not hasattr(fn, "__code__")
     assert not hasattr(Rangefinder(25.0, 300.0, 1.0, True)._fn, "__code__")
     assert hasattr(Rangefinder(25.0, 300.0, 1.0, False)._fn, "__code__")
     acc = Accumulator(2, 25.0, 30.0, True)
     ref = Accumulator(2, 25.0, 30.0, False)
-    assert hasattr(ref._every, "__code__") and not hasattr(acc._every, "__code__")
+    assert hasattr(ref._every, "__code__") and acc._every is None  # (built at its first call)
     a = np.linspace(0.0, math.pi, 40)
     px, py = 150.0 + 25.0 * np.cos(a), 25.0 * np.sin(a)
     owner = np.zeros(40, dtype=np.int64)
@@ -61,6 +62,7 @@ def test_the_compiled_worlds_calls_go_direct() -> None:
     got = acc.locate(px, py, owner, cx, cy, 20.0).tolist()
     assert got[0][2] > 0 and math.isnan(got[1][0])  # a peak in the first, none in the second
     assert repr(got) == repr(ref.locate(px, py, owner, cx, cy, 20.0).tolist())  # (NaN too)
+    assert not hasattr(acc._every, "overloads") and not hasattr(acc._every, "__code__")
 
 
 def test_entry_types_a_changed_argument_again() -> None:
