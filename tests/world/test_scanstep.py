@@ -136,3 +136,18 @@ def test_scan_kernels_compiled_are_the_twins() -> None:
         args2 = (abs(a[0]), abs(a[1]), a[2], abs(a[3]) / 100, 25.0, 30.0, 40.0, 0.3)
         assert built["bound_violations"](*args2) == PY["bound_violations"](*args2)
         assert _bits(built["fix_error"](*a[:4])) == _bits(PY["fix_error"](*a[:4]))
+
+
+@needs_numba
+def test_estimate_from_an_earlier_scan() -> None:
+    """`World.estimate` with a scan other than the last (its fixes packed from the scan's
+    lists, not the fused scan's buffer) is the reference's too."""
+    out = []
+    for backend in ("python", "compiled"):
+        cfg = load_scenario("test2", overrides={"world.backend": backend}).world
+        world = World(cfg, np.random.default_rng(4))
+        first = world.scan(120.0)
+        world.scan(240.0)
+        world.estimate(first)
+        out.append(_bits([world.covariances(), world.state()]))
+    assert out[0] == out[1]
