@@ -27,6 +27,8 @@ TIMED = [
     ("rtsim.world.hough", "Accumulator", "locate", "Hough accumulator (compiled)"),
     ("rtsim.world.hough", "Accumulator", "search", "Hough accumulator (compiled)"),
     ("rtsim.world.rangefinder", "Rangefinder", "scan", "laser scan (compiled)"),
+    # (the compiled world's scan: laser, centres, Hough windows and changes in one call)
+    ("rtsim.world.scanstep", "FusedScan", "run", "scan kernel: laser + Hough (compiled)"),
     ("rtsim.world.world", "World", "scan", "scan + localization (Python)"),
     ("rtsim.world.world", "World", "estimate", "EKF"),
     ("rtsim.world.world", "World", "command", "commands"),
