@@ -13,9 +13,6 @@ Python ones (tests run both paths and compare whole runs):
   cross-track error);
 - `compiled_motion`: the leader's travel.
 
-(The leader's scan with the ``hough`` model runs in one compiled call of its own:
-`rtsim.world.scanstep`.)
-
 (The controller's rollout runs compiled on this law: `rtsim.control.compiled_rollout`.)
 
 Only the operations whose compiled result is the interpreter's are compiled: + − × ÷,
