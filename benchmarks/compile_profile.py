@@ -14,8 +14,9 @@ Runs the first run after an install (`bench_cold.py`'s command, ``rtsim scenario
 - how many times it was compiled (a second signature, or an inlined copy and a compiled one,
   are both counted), and what kind: ``entry`` (Python calls it: numba's wrappers, cached),
   ``linked`` (only kernels call it: `rtsim.world.jit`'s linked-only build), ``inline``
-  (numba inlines it into its callers: typed and lowered again in each), or ``numba`` (one of
-  numba's own overloads).
+  (compiled on its own as well as inlined), or ``numba`` (one of numba's own overloads). A
+  kernel numba inlines (``kernel(inline=True)``) has no row of its own: it is typed and
+  lowered again inside each caller, whose row holds it.
 
 ``--passes`` adds numba's compiler passes summed over every function (each pass's own time,
 nested compiles subtracted). The CPU totals of a run on a loaded machine are noisy; the
