@@ -34,7 +34,7 @@ _SCALE_MIN = 0.05
 # whom it follows (-1: the leader) and at what spacing (cm). Tuples in Python, arrays compiled.
 
 
-@kernel
+@kernel(inline=True)
 def path_segment(G: Any, s: float) -> tuple[int, float]:
     """`LeaderPath.index` (s), the segment's index (bisect_right − 1 of the starts), and u = s
     mod lap (Python's ``%``; within one lap either side of 0 its result without the fmod:
@@ -85,7 +85,7 @@ def trace_scale(G: Any, k: int, s: float) -> float:
     return trace_frame(G, k, s)[3]  # type: ignore[no-any-return]
 
 
-@kernel
+@kernel(inline=True)
 def trace_frame(G: Any, k: int, s: float) -> tuple[float, float, float, float]:
     """P_k(s), the heading there and `trace_scale` (one segment lookup): the path's pose at
     ``s`` moved follower k's offset to the left."""

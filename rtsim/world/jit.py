@@ -61,9 +61,10 @@ _CALLERS: dict[int, list[tuple[dict[str, Any], str]]] = {}
 
 def kernel(fn: F | None = None, *, inline: bool = False) -> Any:
     """Mark ``fn`` as a kernel source (returned unchanged). ``inline``: numba inlines it into
-    its callers instead of compiling it on its own (typed and lowered again in each caller,
-    which the first run pays for; LLVM inlines a small kernel called from a kernel anyway,
-    so no kernel of rtsim asks for it)."""
+    its callers instead of compiling it on its own: typed and lowered again in each caller,
+    which the first run pays for (LLVM inlines a small kernel called from a kernel anyway),
+    worth it only where numba's reference-count pruning then drops the increfs of arrays
+    the kernel reads (the law's geometry: `rtsim.world.ftl.path_segment`)."""
 
     def mark(f: F) -> F:
         setattr(f, _MARK, {"inline": inline})
