@@ -75,7 +75,7 @@ from rtsim.sim.execution import ExecSpec, uniforms
 from rtsim.sim.progress import TICKS, start_ticker
 from rtsim.sim.run import build_cpu
 from rtsim.world.contact import closest_each, contact_distance
-from rtsim.world.localization import hough_time, search_time
+from rtsim.world.localization import counted_time, search_time
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.world import World
 
@@ -718,19 +718,22 @@ class _Coupling:
         rec = self._open[job.index]
         scan = world.scan(now)
         world.estimate(scan)
-        hough_ms = self._hough_ms = hough_time(scan, *self._hough_args)
         rec.scan_t = now
-        rec.hough_ms = hough_ms
         voted = rec.voted = scan.voted
-        points = rec.points = int(sum(voted))  # (scan.hough_points)
+        points = rec.points = int(sum(voted))  # (scan.hough_points, scan.total_points)
         searched = scan.n_searched
+        # (hough_time on the counts just made: each counted once)
+        e_cal, e_trans, r_H, _ = self._hough_args
+        hough_ms = self._hough_ms = rec.hough_ms = counted_time(
+            len(voted), scan.cells, points, searched, e_cal, e_trans, r_H, self._search_ms
+        )
         rec.assumption_broken = (
             points > self._points_assumed
             or hough_ms - searched * self._search_ms > self._hough_assumed + 1e-9
         )
         lost = rec.lost = scan.as_lists("lost")
-        tracks_lost = rec.tracks_lost = int(sum(lost))  # (scan.n_lost)
-        if tracks_lost:
+        if True in lost:  # (else tracks_lost, searches, ... keep their 0)
+            rec.tracks_lost = int(sum(lost))  # (scan.n_lost)
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = searched
             rec.reacquisitions = scan.n_reacquired
