@@ -383,12 +383,14 @@ def records_columns(
     limits: tuple[tuple[float, ...], ...],
     *,
     state: bool = True,
+    changes: NDArray[np.float64] | None = None,
 ) -> dict[str, Any]:
     """The columns of windows.csv (name -> array or list, in order) for complete records
     ``recs``: what `records_frame` holds, without the DataFrame (a writer's
     `write_columns` formats them directly). ``state`` False leaves out the followers'
     state and estimate (``f{i}_x`` … ``f{i}_v_est``), bound (``_pred``, ``_true``) and
-    contact distance columns, which summary.json does not read (`_follower_state`)."""
+    contact distance columns, which summary.json does not read (`_follower_state`).
+    ``changes``: `changes_array` of ``recs`` when the caller has made it (else made here)."""
     cols = window_columns(n)
     m = len(recs)
     data: dict[str, object] = {}
@@ -423,7 +425,7 @@ def records_columns(
     data["curvature"] = _column(recs, "curvature", float)
     data["leader_x"], data["leader_y"], data["leader_heading"] = leader.T
     if state:
-        _follower_state(recs, n, limits, w, data)
+        _follower_state(recs, n, limits, w, data, changes)
     nb = len(BOUND_KINDS)
     viol = (
         _flat(
@@ -470,17 +472,19 @@ def _follower_state(
     limits: tuple[tuple[float, ...], ...],
     w: NDArray[np.float64],
     data: dict[str, object],
+    ch: NDArray[np.float64] | None = None,
 ) -> None:
     """Add to ``data`` the followers' state and estimate columns, their bounds (``_pred``,
     and ``_true`` from the changes over the windows' lengths ``w``, `true_bounds`) and the
-    contact distances (``contact_cm_pred``, ``contact_cm_true``) of ``recs``."""
+    contact distances (``contact_cm_pred``, ``contact_cm_true``) of ``recs`` (``ch``: their
+    `changes_array`, or None to make it)."""
     m = len(recs)
     k = len(FOLLOWER_FIELDS)
     nb = len(BOUND_KINDS)
     truth = _flat((r.truth for r in recs), float, m * n * k).reshape(m, n, k)
     est = _flat((r.est for r in recs), float, m * n * k).reshape(m, n, k)
     pred = _flat((r.pred for r in recs), float, m * n * nb).reshape(m, n, nb)
-    changes = changes_array(recs, n).transpose(0, 2, 1)
+    changes = (changes_array(recs, n) if ch is None else ch).transpose(0, 2, 1)
     for i in range(n):
         for j, f in enumerate(FOLLOWER_FIELDS):
             data[f"f{i + 1}_{f}"] = truth[:, i, j]

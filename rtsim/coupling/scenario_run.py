@@ -765,10 +765,8 @@ class _Coupling:
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
-            # (min(a, b) is a unless b < a, as before, NaN included)
-            last.near_true = near_true = tuple(
-                [b if b < a else a for a, b in zip(last.near, near)]  # noqa: B905 (n each)
-            )
+            # (min(a, b) is a unless b < a, NaN included)
+            last.near_true = near_true = tuple(map(min, last.near, near))
             last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
         ro = d.kw.get("rollout")
         last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
@@ -792,16 +790,23 @@ class _Coupling:
         return ratios, beyond
 
     def _fold(
-        self, records: list[WindowRecord], tolerance: float = VIOLATION_TOLERANCE
+        self,
+        records: list[WindowRecord],
+        tolerance: float = VIOLATION_TOLERANCE,
+        ch: np.ndarray | None = None,
     ) -> dict[str, tuple[float, int]]:
         """Per bound kind, (largest change / threshold, changes beyond ``tolerance``) over the
-        complete ``records`` (none: an empty dict)."""
-        recs = [r for r in records if r.complete and r.changes is not None]
+        complete ``records`` (none: an empty dict); ``ch``: their changes (`changes_array`
+        of those records) when the caller has them."""
         out: dict[str, tuple[float, int]] = {}
-        if not recs:
+        if ch is None:
+            recs = _closed(records)
+            if not recs:
+                return out
+            # every record's changes in CHANGE_KEYS order, one (records, kinds, n) array
+            ch = changes_array(recs, self.n)
+        elif not len(ch):
             return out
-        # every record's changes in CHANGE_KEYS order, one (records, kinds, n) array
-        ch = changes_array(recs, self.n)
         for kind, key, lim in self._limits:
             ratio = ch[:, CHANGE_KEYS.index(key), :] / lim
             out[kind] = (float(ratio.max()), int((ratio > 1.0 + tolerance).sum()))
@@ -809,11 +814,16 @@ class _Coupling:
 
     def hand_over(self, records: list[WindowRecord], sink: Any) -> None:
         """The recorder's sink: fold the records' changes, then write their rows."""
-        for kind, (m, c) in self._fold(records).items():
+        recs = _closed(records)
+        # the changes as one array once, for the fold and (every record closed: the
+        # recorder hands over no other) the rows' _true columns
+        ch = changes_array(recs, self.n) if recs else None
+        for kind, (m, c) in self._fold(recs, VIOLATION_TOLERANCE, ch).items():
             m0, c0 = self._folded.get(kind, (m, 0))
             self._folded[kind] = (float(np.max([m0, m])), c0 + c)
         if hasattr(sink, "write_columns"):  # a ChunkWriter: no DataFrame for the CSV
-            sink.write_columns(records_columns(records, self.n, self.rec.limits))
+            same = ch if len(recs) == len(records) else None
+            sink.write_columns(records_columns(records, self.n, self.rec.limits, changes=same))
         else:
             sink.write(records_frame(records, self.n, self.rec.limits))
 
@@ -886,8 +896,8 @@ class _Coupling:
             self._lap_check(now)
         if (
             self._stop_s is not None
-            and not self.stop.triggered
             and now >= self._stop_ms
+            and not self.stop.triggered
             and self.world.leader.s - self._s0 >= self._stop_s
         ):
             self.stop.succeed()
@@ -988,6 +998,11 @@ class _Coupling:
             scan = self.world.scan(max(self.env.now, self.world.t_ms))
             fol, (xl, yl, _) = self.world.followers, scan.leader_pose
             self._close(scan, closest_each(fol.x, fol.y, xl, yl))
+
+
+def _closed(records: list[WindowRecord]) -> list[WindowRecord]:
+    """The complete ``records`` whose changes are known (those the violation ratios fold)."""
+    return [r for r in records if r.complete and r.changes is not None]
 
 
 #: The relative excess of the filters' heading SD over the predicted-centre bound's assumed
