@@ -765,8 +765,10 @@ class _Coupling:
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
-            # (min(a, b) is a unless b < a, NaN included)
-            last.near_true = near_true = tuple(map(min, last.near, near))
+            # (min(a, b) is a unless b < a, as before, NaN included)
+            last.near_true = near_true = tuple(
+                [b if b < a else a for a, b in zip(last.near, near)]  # noqa: B905 (n each)
+            )
             last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
         ro = d.kw.get("rollout")
         last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
