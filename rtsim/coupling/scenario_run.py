@@ -193,6 +193,10 @@ class _Decision(NamedTuple):
     near: tuple[float, ...] = ()
 
 
+#: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
+_DECISION = _Decision._make
+
+
 class _Coupling:
     """The run's state and the CPU hooks (internal; see the module docstring)."""
 
@@ -608,18 +612,20 @@ class _Coupling:
             xs = [e[0][0] for e in estimates]
             ys = [e[0][1] for e in estimates]
             near = closest_each(xs, ys, lp[0], lp[1])
-        return _Decision(
-            adj.w,
-            v_l,
-            adj.msb_min,
-            adj.binding,
-            adj.method,
-            adj.feasible and v_l == adj.v_leader,
-            state,
-            fols,
-            kw,
-            ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
-            near,
+        return _DECISION(  # (_Decision's fields in order: the tuple made in C)
+            (
+                adj.w,
+                v_l,
+                adj.msb_min,
+                adj.binding,
+                adj.method,
+                adj.feasible and v_l == adj.v_leader,
+                state,
+                fols,
+                kw,
+                ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
+                near,
+            )
         )
 
     def _followers(self, state: Sequence[tuple[float, ...]]) -> tuple[Any, ...]:
