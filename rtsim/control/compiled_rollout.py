@@ -184,7 +184,6 @@ class CompiledRollout:
 
     def _made(self, law: CompiledTraceFollower, cached: Any, state: Any) -> None:
         """Pack ``state`` (the law's cache ``cached``, `_static`)."""
-        self._law = law
         self._ker, self._bufs = cached[3], cached[4]
         fs = cached[1].copy()
         # RolloutScalars' first five (item by item: a slice from a tuple converts it first;
@@ -220,13 +219,14 @@ class CompiledRollout:
             pend = np.full((n, max(map(len, state.pending))), math.nan)
             for k, times in enumerate(state.pending):
                 pend[k, : len(times)] = times
-        self._args = (fs, fol, pend, law._G)
+        # (the law's search starts: its arrays, changed only in place, read at each call)
+        self._pack = (fs, fol, pend, law._G, law._sr, law._sf)
         self.n = n
 
     def pack(self) -> tuple[Any, ...]:
         """The kernels' ``P``: the state's arrays, the path's, the law's geometry and its
         search starts as they are now."""
-        return (*self._args, self._law._sr, self._law._sf)
+        return self._pack
 
     def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
         """`Rollout.changes` uncached: per window, per follower the four changes."""
@@ -289,7 +289,7 @@ class CompiledRollout:
             int(grid),
             float(tol),
             float(w),
-            (*self._args, self._law._sr, self._law._sf),  # (`pack`)
+            self._pack,
             speeds,
             lens,
             changes,
@@ -307,12 +307,8 @@ class CompiledRollout:
         before = len(raw)
         put = raw.setdefault  # (the first of equal keys, as ever)
         rest = _Rest
-        for r, v, code, short in zip(
-            range(runs),
-            speeds[:runs].tolist(),
-            lens[:runs].tolist(),
-            cut[:runs].tolist(),
-            strict=True,
+        for r, v, code, short in zip(  # noqa: B905 (runs ≤ the buffers' length: equal)
+            range(runs), speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist()
         ):
             key: tuple[float, tuple[float, ...]]
             if code == 2:
@@ -324,7 +320,8 @@ class CompiledRollout:
             if not memo or key not in memo:
                 if short:  # stopped after its first window: whole only if asked (_Rest)
                     if not frozen:  # the law's search starts as they are at the decision
-                        frozen = (*self._args, self._law._sr.copy(), self._law._sf.copy())
+                        p = self._pack
+                        frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
                     put(key, rest((self, v, horizon, frozen)))
                 else:
                     put(key, changes[r])

@@ -319,6 +319,7 @@ class _Coupling:
         # the rollout's per-run state (`decided_state`'s base, made at the first decision)
         self._ro_base: Any = None
         self._ro_make: Any = None  # (Rollout.maker of the base)
+        self._ro_idle: tuple[tuple[float, ...], ...] = ()  # (its no-sends-pending tuple)
         # the motion model keeps a turn rate of its own (RolloutState.turns; empty: none)
         self._turn_state = bool(self.world.motion.subs)
         if (
@@ -537,6 +538,7 @@ class _Coupling:
                 self._contact_cm,
             )
             self._ro_make = Rollout.maker(base)
+            self._ro_idle = ((),) * self.n  # (no sends pending)
         ld = world.leader
         return self._ro_make(
             decided_state(
@@ -547,7 +549,7 @@ class _Coupling:
                 tuple(poses),
                 tuple(speeds),
                 tuple([world.held_command(i) for i in ids]),
-                self._pending(now) if pending else ((),) * self.n,
+                self._pending(now) if pending else self._ro_idle,
                 max(now, next_scan),
                 tuple(self._send_offsets),
                 world.expected_turn_rates(now) if self._turn_state else (),
