@@ -193,6 +193,10 @@ class _Decision(NamedTuple):
     near: tuple[float, ...] = ()
 
 
+#: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
+_DECISION = _Decision._make
+
+
 class _Coupling:
     """The run's state and the CPU hooks (internal; see the module docstring)."""
 
@@ -315,6 +319,7 @@ class _Coupling:
         # the rollout's per-run state (`decided_state`'s base, made at the first decision)
         self._ro_base: Any = None
         self._ro_make: Any = None  # (Rollout.maker of the base)
+        self._ro_idle: tuple[tuple[float, ...], ...] = ()  # (its no-sends-pending tuple)
         # the motion model keeps a turn rate of its own (RolloutState.turns; empty: none)
         self._turn_state = bool(self.world.motion.subs)
         if (
@@ -533,6 +538,7 @@ class _Coupling:
                 self._contact_cm,
             )
             self._ro_make = Rollout.maker(base)
+            self._ro_idle = ((),) * self.n  # (no sends pending)
         ld = world.leader
         return self._ro_make(
             decided_state(
@@ -543,7 +549,7 @@ class _Coupling:
                 tuple(poses),
                 tuple(speeds),
                 tuple([world.held_command(i) for i in ids]),
-                self._pending(now) if pending else ((),) * self.n,
+                self._pending(now) if pending else self._ro_idle,
                 max(now, next_scan),
                 tuple(self._send_offsets),
                 world.expected_turn_rates(now) if self._turn_state else (),
@@ -608,18 +614,20 @@ class _Coupling:
             xs = [e[0][0] for e in estimates]
             ys = [e[0][1] for e in estimates]
             near = closest_each(xs, ys, lp[0], lp[1])
-        return _Decision(
-            adj.w,
-            v_l,
-            adj.msb_min,
-            adj.binding,
-            adj.method,
-            adj.feasible and v_l == adj.v_leader,
-            state,
-            fols,
-            kw,
-            ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
-            near,
+        return _DECISION(  # (_Decision's fields in order: the tuple made in C)
+            (
+                adj.w,
+                v_l,
+                adj.msb_min,
+                adj.binding,
+                adj.method,
+                adj.feasible and v_l == adj.v_leader,
+                state,
+                fols,
+                kw,
+                ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
+                near,
+            )
         )
 
     def _followers(self, state: Sequence[tuple[float, ...]]) -> tuple[Any, ...]:
