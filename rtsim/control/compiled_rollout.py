@@ -90,19 +90,18 @@ def _lengths(windows: tuple[float, ...]) -> Any:
     return arr
 
 
-class _Rest:
+class _Rest(tuple):  # type: ignore[type-arg]
     """A search's rollout that stopped after its first window (its speed failed there, and
-    the decision needed no more), kept for the rollout's memo: called, it rolls the whole
-    horizon out on the pack of the decision (the law's search starts copied then), the
-    numbers the search would have had."""
+    the decision needed no more), kept for the rollout's memo as the tuple (the
+    `CompiledRollout`, the speed, the window lengths, the pack of the decision with the law's
+    search starts copied then): called, it rolls the whole horizon out on that pack, the
+    numbers the search would have had. (A tuple: made in C, a decision keeps several.)"""
 
-    __slots__ = ("ro", "v", "windows", "pack")
-
-    def __init__(self, ro: CompiledRollout, v: float, windows: tuple[float, ...], pack: Any):
-        self.ro, self.v, self.windows, self.pack = ro, v, windows, pack
+    __slots__ = ()
 
     def __call__(self) -> Any:
-        return self.ro._whole(self.v, self.windows, self.pack)
+        ro, v, windows, pack = self
+        return ro._whole(v, windows, pack)
 
 
 def _static(law: CompiledTraceFollower, state: Any) -> Any:
@@ -185,7 +184,6 @@ class CompiledRollout:
 
     def _made(self, law: CompiledTraceFollower, cached: Any, state: Any) -> None:
         """Pack ``state`` (the law's cache ``cached``, `_static`)."""
-        self._law = law
         self._ker, self._bufs = cached[3], cached[4]
         fs = cached[1].copy()
         # RolloutScalars' first five (item by item: a slice from a tuple converts it first;
@@ -195,16 +193,23 @@ class CompiledRollout:
         fs[2] = state.v_ld
         fs[3] = state.t_now
         fs[4] = state.next_scan
-        n = len(state.poses)
+        poses = state.poses
+        n = len(poses)
         # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
-        # (a flat list of floats read by fromiter: no shape or type to discover)
-        held = state.held
-        turns = state.turns or [h[1] for h in held]
+        # (a flat list of floats read by fromiter: no shape or type to discover; zip one
+        # short leaves fromiter short of its count, which it refuses)
         flat: list[float] = []
-        for pose, v, w, h, send, rho_d in zip(  # (one short: fromiter's count refuses it)
-            state.poses, state.speeds, turns, held, state.send_offsets, state.rho_d, strict=False
-        ):
-            flat += (*pose, v, w, *h, send, rho_d)
+        turns = state.turns
+        if turns:
+            for pose, v, w, h, send, rho_d in zip(  # noqa: B905
+                poses, state.speeds, turns, state.held, state.send_offsets, state.rho_d
+            ):
+                flat += (*pose, v, w, *h, send, rho_d)
+        else:  # (the unicycle: ω is the held command's)
+            for pose, v, h, send, rho_d in zip(  # noqa: B905
+                poses, state.speeds, state.held, state.send_offsets, state.rho_d
+            ):
+                flat += (*pose, v, h[1], *h, send, rho_d)
         fol = np.fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS)
         if not any(state.pending):  # no sends pending: one array per n, kept
             pend = cached[2].get(n)
@@ -214,13 +219,14 @@ class CompiledRollout:
             pend = np.full((n, max(map(len, state.pending))), math.nan)
             for k, times in enumerate(state.pending):
                 pend[k, : len(times)] = times
-        self._args = (fs, fol, pend, law._G)
+        # (the law's search starts: its arrays, changed only in place, read at each call)
+        self._pack = (fs, fol, pend, law._G, law._sr, law._sf)
         self.n = n
 
     def pack(self) -> tuple[Any, ...]:
         """The kernels' ``P``: the state's arrays, the path's, the law's geometry and its
         search starts as they are now."""
-        return (*self._args, self._law._sr, self._law._sf)
+        return self._pack
 
     def changes(self, v: float, windows: tuple[float, ...]) -> list[list[Any]]:
         """`Rollout.changes` uncached: per window, per follower the four changes."""
@@ -283,7 +289,7 @@ class CompiledRollout:
             int(grid),
             float(tol),
             float(w),
-            (*self._args, self._law._sr, self._law._sf),  # (`pack`)
+            self._pack,
             speeds,
             lens,
             changes,
@@ -300,12 +306,9 @@ class CompiledRollout:
         frozen: tuple[Any, ...] = ()
         before = len(raw)
         put = raw.setdefault  # (the first of equal keys, as ever)
-        for r, v, code, short in zip(
-            range(runs),
-            speeds[:runs].tolist(),
-            lens[:runs].tolist(),
-            cut[:runs].tolist(),
-            strict=True,
+        rest = _Rest
+        for r, v, code, short in zip(  # noqa: B905 (runs ≤ the buffers' length: equal)
+            range(runs), speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist()
         ):
             key: tuple[float, tuple[float, ...]]
             if code == 2:
@@ -317,8 +320,9 @@ class CompiledRollout:
             if not memo or key not in memo:
                 if short:  # stopped after its first window: whole only if asked (_Rest)
                     if not frozen:  # the law's search starts as they are at the decision
-                        frozen = (*self._args, self._law._sr.copy(), self._law._sf.copy())
-                    put(key, _Rest(self, v, horizon, frozen))
+                        p = self._pack
+                        frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
+                    put(key, rest((self, v, horizon, frozen)))
                 else:
                     put(key, changes[r])
             if code == 1:

@@ -930,11 +930,12 @@ class PlanPolicy:
             return self._decide(ctx, ro, keep, need, cap, v_floor, d_c)
         w, v_l, method, found, feasible, rows, after = hit
         m1, kind, who = min_bound_rows(rows)
+        # (Decision's fields in order, through namedtuple's _make: no Python __new__)
         if method == "none":
-            return Decision(w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {})
+            return _DECISION((w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {}))
         m_after = min_bound_rows(after)[0]
-        return Decision(
-            w, v_l, m1, kind, who, method, feasible, rows, after, m_after, {"numeric": found}
+        return _DECISION(
+            (w, v_l, m1, kind, who, method, feasible, rows, after, m_after, {"numeric": found})
         )
 
     def _decide(
@@ -987,6 +988,9 @@ class PlanPolicy:
 
 #: `PlanPolicy.decide` as defined (`PlanPolicy.on_rollout` stands for it only)
 _PLAN_DECIDE = PlanPolicy.decide
+
+#: `Decision` from its eleven fields in order (namedtuple's ``_make``)
+_DECISION = Decision._make
 
 
 def decide_rows(mode: str, followers: Sequence[FollowerEstimate], **options: Any) -> Decision:

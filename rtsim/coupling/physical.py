@@ -174,7 +174,7 @@ class PhysicalLog:
                 samples.buf += out.tolist()
                 near = tuple(near_k.tolist())
         samples.full()  # a chunk's worth goes to the file (once per scan)
-        close = min(near, default=math.inf)  # (every pair has a follower in it)
+        close = min(near) if near else math.inf  # (every pair has a follower in it)
         if close < self.min_dist:
             self.min_dist = close
         self.collisions += close < 2.0 * self.radius

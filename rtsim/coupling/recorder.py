@@ -25,7 +25,7 @@ import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import chain
-from operator import attrgetter
+from operator import attrgetter, itemgetter
 from typing import Any
 
 import numpy as np
@@ -369,11 +369,18 @@ def _column(recs: list[WindowRecord], name: str, dtype: Any) -> NDArray[Any]:
     return np.fromiter(map(attrgetter(name), recs), dtype, len(recs))
 
 
+def _each(recs: list[WindowRecord], name: str, keys: tuple[str, ...] = ()) -> Any:
+    """Every record's field ``name`` (with ``keys``, the tuple of its values at those keys,
+    in that order), an iterator for `_rows` and `_flat` that runs no Python per record."""
+    out = map(attrgetter(name), recs)
+    return out if not keys else map(itemgetter(*keys), out)
+
+
 def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
     """The observed changes of complete records ``recs`` of ``n`` followers, one (records,
     `CHANGE_KEYS`, n) array (`WindowRecord.changes`)."""
     nb = len(CHANGE_KEYS)
-    rows = ([r.changes[c] for c in CHANGE_KEYS] for r in recs)  # type: ignore[index]
+    rows = _each(recs, "changes", CHANGE_KEYS)
     return _flat(rows, np.float64, len(recs) * nb * n).reshape(len(recs), nb, n)
 
 
@@ -383,12 +390,14 @@ def records_columns(
     limits: tuple[tuple[float, ...], ...],
     *,
     state: bool = True,
+    changes: NDArray[np.float64] | None = None,
 ) -> dict[str, Any]:
     """The columns of windows.csv (name -> array or list, in order) for complete records
     ``recs``: what `records_frame` holds, without the DataFrame (a writer's
     `write_columns` formats them directly). ``state`` False leaves out the followers'
     state and estimate (``f{i}_x`` … ``f{i}_v_est``), bound (``_pred``, ``_true``) and
-    contact distance columns, which summary.json does not read (`_follower_state`)."""
+    contact distance columns, which summary.json does not read (`_follower_state`).
+    ``changes``: `changes_array` of ``recs`` when the caller has made it (else made here)."""
     cols = window_columns(n)
     m = len(recs)
     data: dict[str, object] = {}
@@ -397,20 +406,20 @@ def records_columns(
     w_sch = _column(recs, "w_sch", float)
     msb = _column(recs, "msb_min", float)
     finish = _column(recs, "finish", float)
-    leader = _rows((r.leader for r in recs), float, m, 3)
+    leader = _rows(_each(recs, "leader"), float, m, 3)
     data["window"] = _column(recs, "window", np.int64)
     data["t"] = t
     data["w"] = w
     data["deadline"] = t + w
     data["w_sch"] = w_sch
     data["msb_min"] = msb
-    data["binding"] = [r.binding for r in recs]
+    data["binding"] = list(_each(recs, "binding"))
     with np.errstate(invalid="ignore"):
         data["margin"] = msb - w_sch
     data["slack"] = np.maximum(0.0, w - w_sch)
     for name in ("v_leader_desired", "v_leader", "v_leader_target", "v_leader_max"):
         data[name] = _column(recs, name, float)
-    data["method"] = [r.method for r in recs]
+    data["method"] = list(_each(recs, "method"))
     data["feasible"] = _column(recs, "feasible", bool)
     data["critical"] = msb < w_sch
     data["missed"] = finish > t + w + EPS
@@ -419,29 +428,25 @@ def records_columns(
     data["points"] = _column(recs, "points", np.int64)
     data["hough_ms"] = _column(recs, "hough_ms", float)
     data["tracks_lost"] = _column(recs, "tracks_lost", np.int64)
-    data["segment"] = [r.segment for r in recs]
+    data["segment"] = list(_each(recs, "segment"))
     data["curvature"] = _column(recs, "curvature", float)
     data["leader_x"], data["leader_y"], data["leader_heading"] = leader.T
     if state:
-        _follower_state(recs, n, limits, w, data)
+        _follower_state(recs, n, limits, w, data, changes)
     nb = len(BOUND_KINDS)
     viol = (
-        _flat(
-            ([r.viol[k] for k in BOUND_KINDS] for r in recs),  # type: ignore[index]
-            np.bool_,
-            m * nb * n,
-        )
+        _flat(_each(recs, "viol", BOUND_KINDS), np.bool_, m * nb * n)
         .reshape(m, nb, n)
         .transpose(0, 2, 1)
     )
-    lost = _rows((r.lost for r in recs), np.bool_, m, n)
+    lost = _rows(_each(recs, "lost"), np.bool_, m, n)
     for i in range(n):
         for j, kind in enumerate(BOUND_KINDS):
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
         data[f"f{i + 1}_lost"] = lost[:, i]
     data["assumption_broken"] = _column(recs, "assumption_broken", bool)
     nc = len(LOST_CAUSES)
-    causes = _rows((r.lost_by_cause for r in recs), np.int64, m, nc)
+    causes = _rows(_each(recs, "lost_by_cause"), np.int64, m, nc)
     for j, col in enumerate(LOCALIZATION_COLUMNS[:nc]):
         data[col] = causes[:, j]
     data["searches"] = _column(recs, "searches", np.int64)
@@ -470,17 +475,19 @@ def _follower_state(
     limits: tuple[tuple[float, ...], ...],
     w: NDArray[np.float64],
     data: dict[str, object],
+    ch: NDArray[np.float64] | None = None,
 ) -> None:
     """Add to ``data`` the followers' state and estimate columns, their bounds (``_pred``,
     and ``_true`` from the changes over the windows' lengths ``w``, `true_bounds`) and the
-    contact distances (``contact_cm_pred``, ``contact_cm_true``) of ``recs``."""
+    contact distances (``contact_cm_pred``, ``contact_cm_true``) of ``recs`` (``ch``: their
+    `changes_array`, or None to make it)."""
     m = len(recs)
     k = len(FOLLOWER_FIELDS)
     nb = len(BOUND_KINDS)
-    truth = _flat((r.truth for r in recs), float, m * n * k).reshape(m, n, k)
-    est = _flat((r.est for r in recs), float, m * n * k).reshape(m, n, k)
-    pred = _flat((r.pred for r in recs), float, m * n * nb).reshape(m, n, nb)
-    changes = changes_array(recs, n).transpose(0, 2, 1)
+    truth = _flat(_each(recs, "truth"), float, m * n * k).reshape(m, n, k)
+    est = _flat(_each(recs, "est"), float, m * n * k).reshape(m, n, k)
+    pred = _flat(_each(recs, "pred"), float, m * n * nb).reshape(m, n, nb)
+    changes = (changes_array(recs, n) if ch is None else ch).transpose(0, 2, 1)
     for i in range(n):
         for j, f in enumerate(FOLLOWER_FIELDS):
             data[f"f{i + 1}_{f}"] = truth[:, i, j]

@@ -75,7 +75,7 @@ from rtsim.sim.execution import ExecSpec, uniforms
 from rtsim.sim.progress import TICKS, start_ticker
 from rtsim.sim.run import build_cpu
 from rtsim.world.contact import closest_each, contact_distance
-from rtsim.world.localization import hough_time, search_time
+from rtsim.world.localization import counted_time, search_time
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.world import World
 
@@ -191,6 +191,10 @@ class _Decision(NamedTuple):
     # each follower's closest approach among the estimates it decided on (the contact
     # columns' prediction when the decision has no rollout)
     near: tuple[float, ...] = ()
+
+
+#: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
+_DECISION = _Decision._make
 
 
 class _Coupling:
@@ -315,6 +319,7 @@ class _Coupling:
         # the rollout's per-run state (`decided_state`'s base, made at the first decision)
         self._ro_base: Any = None
         self._ro_make: Any = None  # (Rollout.maker of the base)
+        self._ro_idle: tuple[tuple[float, ...], ...] = ()  # (its no-sends-pending tuple)
         # the motion model keeps a turn rate of its own (RolloutState.turns; empty: none)
         self._turn_state = bool(self.world.motion.subs)
         if (
@@ -533,6 +538,7 @@ class _Coupling:
                 self._contact_cm,
             )
             self._ro_make = Rollout.maker(base)
+            self._ro_idle = ((),) * self.n  # (no sends pending)
         ld = world.leader
         return self._ro_make(
             decided_state(
@@ -543,7 +549,7 @@ class _Coupling:
                 tuple(poses),
                 tuple(speeds),
                 tuple([world.held_command(i) for i in ids]),
-                self._pending(now) if pending else ((),) * self.n,
+                self._pending(now) if pending else self._ro_idle,
                 max(now, next_scan),
                 tuple(self._send_offsets),
                 world.expected_turn_rates(now) if self._turn_state else (),
@@ -608,18 +614,20 @@ class _Coupling:
             xs = [e[0][0] for e in estimates]
             ys = [e[0][1] for e in estimates]
             near = closest_each(xs, ys, lp[0], lp[1])
-        return _Decision(
-            adj.w,
-            v_l,
-            adj.msb_min,
-            adj.binding,
-            adj.method,
-            adj.feasible and v_l == adj.v_leader,
-            state,
-            fols,
-            kw,
-            ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
-            near,
+        return _DECISION(  # (_Decision's fields in order: the tuple made in C)
+            (
+                adj.w,
+                v_l,
+                adj.msb_min,
+                adj.binding,
+                adj.method,
+                adj.feasible and v_l == adj.v_leader,
+                state,
+                fols,
+                kw,
+                ((self.v_ld, adj.rows), (adj.v_leader, adj.rows_after)),
+                near,
+            )
         )
 
     def _followers(self, state: Sequence[tuple[float, ...]]) -> tuple[Any, ...]:
@@ -718,19 +726,22 @@ class _Coupling:
         rec = self._open[job.index]
         scan = world.scan(now)
         world.estimate(scan)
-        hough_ms = self._hough_ms = hough_time(scan, *self._hough_args)
         rec.scan_t = now
-        rec.hough_ms = hough_ms
         voted = rec.voted = scan.voted
-        points = rec.points = int(sum(voted))  # (scan.hough_points)
+        points = rec.points = int(sum(voted))  # (scan.hough_points, scan.total_points)
         searched = scan.n_searched
+        # (hough_time on the counts just made: each counted once)
+        e_cal, e_trans, r_H, _ = self._hough_args
+        hough_ms = self._hough_ms = rec.hough_ms = counted_time(
+            len(voted), scan.cells, points, searched, e_cal, e_trans, r_H, self._search_ms
+        )
         rec.assumption_broken = (
             points > self._points_assumed
             or hough_ms - searched * self._search_ms > self._hough_assumed + 1e-9
         )
         lost = rec.lost = scan.as_lists("lost")
-        tracks_lost = rec.tracks_lost = int(sum(lost))  # (scan.n_lost)
-        if tracks_lost:
+        if True in lost:  # (else tracks_lost, searches, ... keep their 0)
+            rec.tracks_lost = int(sum(lost))  # (scan.n_lost)
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = searched
             rec.reacquisitions = scan.n_reacquired
@@ -789,16 +800,23 @@ class _Coupling:
         return ratios, beyond
 
     def _fold(
-        self, records: list[WindowRecord], tolerance: float = VIOLATION_TOLERANCE
+        self,
+        records: list[WindowRecord],
+        tolerance: float = VIOLATION_TOLERANCE,
+        ch: np.ndarray | None = None,
     ) -> dict[str, tuple[float, int]]:
         """Per bound kind, (largest change / threshold, changes beyond ``tolerance``) over the
-        complete ``records`` (none: an empty dict)."""
-        recs = [r for r in records if r.complete and r.changes is not None]
+        complete ``records`` (none: an empty dict); ``ch``: their changes (`changes_array`
+        of those records) when the caller has them."""
         out: dict[str, tuple[float, int]] = {}
-        if not recs:
+        if ch is None:
+            recs = _closed(records)
+            if not recs:
+                return out
+            # every record's changes in CHANGE_KEYS order, one (records, kinds, n) array
+            ch = changes_array(recs, self.n)
+        elif not len(ch):
             return out
-        # every record's changes in CHANGE_KEYS order, one (records, kinds, n) array
-        ch = changes_array(recs, self.n)
         for kind, key, lim in self._limits:
             ratio = ch[:, CHANGE_KEYS.index(key), :] / lim
             out[kind] = (float(ratio.max()), int((ratio > 1.0 + tolerance).sum()))
@@ -806,11 +824,16 @@ class _Coupling:
 
     def hand_over(self, records: list[WindowRecord], sink: Any) -> None:
         """The recorder's sink: fold the records' changes, then write their rows."""
-        for kind, (m, c) in self._fold(records).items():
+        recs = _closed(records)
+        # the changes as one array once, for the fold and (every record closed: the
+        # recorder hands over no other) the rows' _true columns
+        ch = changes_array(recs, self.n) if recs else None
+        for kind, (m, c) in self._fold(recs, VIOLATION_TOLERANCE, ch).items():
             m0, c0 = self._folded.get(kind, (m, 0))
             self._folded[kind] = (float(np.max([m0, m])), c0 + c)
         if hasattr(sink, "write_columns"):  # a ChunkWriter: no DataFrame for the CSV
-            sink.write_columns(records_columns(records, self.n, self.rec.limits))
+            same = ch if len(recs) == len(records) else None
+            sink.write_columns(records_columns(records, self.n, self.rec.limits, changes=same))
         else:
             sink.write(records_frame(records, self.n, self.rec.limits))
 
@@ -883,8 +906,8 @@ class _Coupling:
             self._lap_check(now)
         if (
             self._stop_s is not None
-            and not self.stop.triggered
             and now >= self._stop_ms
+            and not self.stop.triggered
             and self.world.leader.s - self._s0 >= self._stop_s
         ):
             self.stop.succeed()
@@ -985,6 +1008,11 @@ class _Coupling:
             scan = self.world.scan(max(self.env.now, self.world.t_ms))
             fol, (xl, yl, _) = self.world.followers, scan.leader_pose
             self._close(scan, closest_each(fol.x, fol.y, xl, yl))
+
+
+def _closed(records: list[WindowRecord]) -> list[WindowRecord]:
+    """The complete ``records`` whose changes are known (those the violation ratios fold)."""
+    return [r for r in records if r.complete and r.changes is not None]
 
 
 #: The relative excess of the filters' heading SD over the predicted-centre bound's assumed

@@ -671,12 +671,13 @@ class CPU(ResourceProtocols, TimeSlices):
         c = st.const_exec[i]
         if c is None:
             c = st.exec_fns[i](job, seg, st.rng)
-            if not isinstance(c, int | float) or not math.isfinite(c) or c < 0:
-                raise RtsimError(
-                    f"task '{st.name}' segment '{seg.name}': execution time must "
-                    f"be a non-negative number of ms, got {c!r}"
-                )
-            c = float(c)
+            if type(c) is not float or not 0.0 <= c < _INF:  # (a finite float >= 0 as it is)
+                if not isinstance(c, int | float) or not math.isfinite(c) or c < 0:
+                    raise RtsimError(
+                        f"task '{st.name}' segment '{seg.name}': execution time must "
+                        f"be a non-negative number of ms, got {c!r}"
+                    )
+                c = float(c)
         job.seg_exec = c
         job.rem = c
 
@@ -759,12 +760,13 @@ class CPU(ResourceProtocols, TimeSlices):
         r = st.next_release
         if st.provider is not None:
             p = st.provider()
-            if not isinstance(p, int | float) or not math.isfinite(p) or p <= 0:
-                raise RtsimError(
-                    f"task '{st.name}': period provider returned {p!r} at "
-                    f"t={now:g} ms; need a positive number of ms"
-                )
-            p = float(p)
+            if type(p) is not float or not 0.0 < p < _INF:  # (a finite float > 0 as it is)
+                if not isinstance(p, int | float) or not math.isfinite(p) or p <= 0:
+                    raise RtsimError(
+                        f"task '{st.name}': period provider returned {p!r} at "
+                        f"t={now:g} ms; need a positive number of ms"
+                    )
+                p = float(p)
             d = st.deadline / st.period * p
             nxt = self._stream_next(st, k, r, p)
         elif st.per_window:

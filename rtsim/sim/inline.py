@@ -102,21 +102,24 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
             ):  # (nothing happens in (now, f], and no hook runs at f)
                 unbooked = True
                 break
-            if moved:  # (in the horizon), ot/other: the first timer left in it; top_n: responses
-                switches += 1  # = top_resp not in its bin yet) the job after is preempted at now
+            if not moved and from_ready:  # the first: the job running (if any) is preempted
+                busy, jrem, jex, jpre = _preempted(  # at now; the job after, from the ready heap
+                    running, nxt_job, now, now_lag, work_start, work_lag, cpu
+                )  # (its progress in locals while it runs)
+                running, now_lag, moved, switches = nxt_job, 0.0, True, 2
+            else:  # (in the horizon), ot/other: the first timer left in it; top_n: responses
+                if not moved:  # = top_resp not in its bin yet) the first: the job after, if
+                    busy, moved = totals.busy, True  # any, is the one running (it has started:
+                    if running is not None:  # nxt_ok); its progress in locals while it runs
+                        jrem, jex, jpre = running.rem, running.executed, running.preemptions
+                switches += 1  # the job after is preempted at now
                 if nxt_job is not None:
-                    worked = now - work_start
-                    jex += worked
-                    busy += worked
-                    jrem = jrem - worked - (now_lag - work_lag)
-                    jpre += 1
-                    switches += 1
-            else:  # the first: the job running (if any) is preempted at now
-                busy, jrem, jex, jpre = _preempted(
-                    running, nxt_job, from_ready, now, now_lag, work_start, work_lag, cpu
-                )  # (the job after's progress in locals while it runs)
-                running, now_lag, moved, nxt_ok = nxt_job, 0.0, True, True
-                switches = 2 if nxt_job is not None else 1
+                    jpre, switches = jpre + 1, switches + 1
+                    if now > work_start:  # (always, but at the first)
+                        worked = now - work_start
+                        jex, busy = jex + worked, busy + worked
+                        jrem = jrem - worked - (now_lag - work_lag)
+                now_lag = 0.0
             busy += f - now  # its completion at f: step 1 and CPU._complete, no Job
             resp = f - r
             sum_resp += resp
@@ -211,18 +214,18 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
 
 def _preempted(
     running: Job | None,
-    nxt_job: Job | None,
-    from_ready: bool,
+    nxt_job: Job,
     now: float,
     now_lag: float,
     work_start: float,
     work_lag: float,
     cpu: Dispatcher,
 ) -> tuple[float, float, float, int]:
-    """The first job of a run is booked: ``running`` (if any) is preempted at ``now``, its
-    progress booked (the dispatcher's switch), and ``nxt_job`` leaves the ready heap if it
-    comes from it (``from_ready``). Returns the CPU's busy time and ``nxt_job``'s remaining
-    work, CPU time and preemptions (zeros if None)."""
+    """The first job of a run is booked and ``nxt_job``, the first ready job, gets the CPU
+    after it: ``running`` (if any) is preempted at ``now``, its progress booked (the
+    dispatcher's switch), and ``nxt_job`` leaves the ready heap. Returns the CPU's busy time
+    and ``nxt_job``'s remaining work, CPU time and preemptions. (When the job after is the
+    one running, or none, `top_jobs` books the same in its locals.)"""
     if running is not None:
         if running.rem is not None and now > work_start:
             worked = now - work_start
@@ -230,12 +233,8 @@ def _preempted(
             cpu._totals.busy += worked
             running.rem = running.rem - worked - (now_lag - work_lag)
         running.preemptions += 1
-        if from_ready:
-            heappush(cpu._ready, (running.key, running.tie, running))
-    if from_ready:
-        heappop(cpu._ready)
-    if nxt_job is None:
-        return cpu._totals.busy, 0.0, 0.0, 0
+        heappush(cpu._ready, (running.key, running.tie, running))
+    heappop(cpu._ready)
     return cpu._totals.busy, nxt_job.rem, nxt_job.executed, nxt_job.preemptions  # type: ignore[return-value]
 
 

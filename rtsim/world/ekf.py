@@ -191,7 +191,7 @@ class FollowerEKF:
         P[0:2, 0:2] = self.kf.R
 
 
-@kernel(inline=True)
+@kernel
 def process(
     th: float, v: float, w: float, dt: float, sv2: float, sw2: float, qp2: float, qh2: float
 ) -> tuple[float, ...]:
@@ -220,7 +220,7 @@ def process(
     )
 
 
-@kernel(inline=True)
+@kernel
 def ekf_apply(
     x0: float, x1: float, x2: float, p00: float, p01: float, p02: float, p11: float, p12: float,
     p22: float, dx: float, dy: float, dth: float, a: float, b: float, q00: float, q01: float,

@@ -101,7 +101,7 @@ def est_hold(E: Any, k: int, t: float, v: float, w: float) -> bool:
     return True
 
 
-@kernel(inline=True)
+@kernel
 def predict_held(E: Any, k: int, t: float, a: float, noise: Any) -> None:
     """Row ``k``'s filter predicted over its held commands up to ``t`` ms (`ekf_command`,
     ``noise`` = σ_v², σ_ω², q_p², q_θ²), and the commands kept from ``t`` on: the one held

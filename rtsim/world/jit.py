@@ -61,7 +61,10 @@ _CALLERS: dict[int, list[tuple[dict[str, Any], str]]] = {}
 
 def kernel(fn: F | None = None, *, inline: bool = False) -> Any:
     """Mark ``fn`` as a kernel source (returned unchanged). ``inline``: numba inlines it into
-    its callers instead of compiling it on its own (a large helper called once)."""
+    its callers instead of compiling it on its own: typed and lowered again in each caller,
+    which the first run pays for (LLVM inlines a small kernel called from a kernel anyway),
+    worth it only where numba's reference-count pruning then drops the increfs of arrays
+    the kernel reads (the law's geometry: `rtsim.world.ftl.path_segment`)."""
 
     def mark(f: F) -> F:
         setattr(f, _MARK, {"inline": inline})
@@ -185,6 +188,7 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
             key = source_key(fn, subs)
             clone.__rtsim_cache__ = os.path.join(root, key)  # type: ignore[attr-defined]
             out._cache = _keyed_cache_class()(clone)
+    out.get_call_template = functools.partial(_unliteral_call, out.get_call_template)
     _COMPILED[fn, subs, entry or inline] = out
     bare = None if inline or not entry else _COMPILED.get((fn, subs, False))
     if bare is not None and not bare.overloads:  # no caller compiled against it yet:
@@ -192,6 +196,15 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
             caller_glob[name] = out
         del _COMPILED[fn, subs, False]
     return out
+
+
+def _unliteral_call(template: Any, args: Any, kws: Any) -> Any:
+    """numba's call template of a kernel called from a kernel, for the arguments' types
+    without their literal values: a constant argument (``True``, ``0``) would otherwise
+    compile one more build per value, not one per signature."""
+    from numba.core import types as nbtypes
+
+    return template(tuple(nbtypes.unliteral(a) for a in args), kws)
 
 
 def specialise(fn: Callable[..., Any], subs: Subs = ()) -> Callable[..., Any]:

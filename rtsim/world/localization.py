@@ -21,6 +21,7 @@ __all__ = [
     "locate",
     "locate_one",
     "lost_cause",
+    "counted_time",
     "hough_time",
     "search_time",
 ]
@@ -133,11 +134,30 @@ def hough_time(scan: _ScanLike, e_cal: float, e_trans: float, r_H: float, r_reac
     ``hough``: C·e_cal + min(361, P)·e_trans with the scan's own counts, C the cells the
     windows' accumulators covered and P the points that voted in them."""
     cells = scan.cells
+    points = scan.total_points if cells is None else scan.hough_points
+    search_ms = search_time(e_cal, e_trans, r_reacq)
+    return counted_time(scan.n, cells, points, scan.n_searched, e_cal, e_trans, r_H, search_ms)
+
+
+def counted_time(
+    n: int,
+    cells: int | None,
+    points: int,
+    searched: int,
+    e_cal: float,
+    e_trans: float,
+    r_H: float,
+    search_ms: float,
+) -> float:
+    """`hough_time` from a scan's counts, for a caller that has them: ``n`` followers,
+    the ``cells`` its windows' accumulators covered (None: ``gaussian``), its ``points``
+    (``Scan.hough_points``; with ``gaussian``, ``Scan.total_points``: the same count), and
+    ``searched`` searches (``Scan.n_searched``) of ``search_ms`` each (`search_time`)."""
     if cells is None:
-        base = e_hough(scan.n, r_H, e_cal, e_trans, k=0.0, points=scan.total_points)
+        base = e_hough(n, r_H, e_cal, e_trans, k=0.0, points=points)
     else:
-        base = cells * e_cal + min(LASER_POINTS, scan.hough_points) * e_trans
-    return base + scan.n_searched * search_time(e_cal, e_trans, r_reacq)
+        base = cells * e_cal + min(LASER_POINTS, points) * e_trans
+    return base + searched * search_ms
 
 
 def search_time(e_cal: float, e_trans: float, r_reacq: float) -> float:

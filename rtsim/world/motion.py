@@ -40,7 +40,7 @@ __all__ = [
 ]
 
 
-@kernel(inline=True)
+@kernel
 def chord(th: float, v: float, w: float, dt: float) -> tuple[float, float, float, float]:
     """The exact arc's (Δθ, chord c, mid-heading m, sinc term s = sin(Δθ/2)/(Δθ/2))."""
     dth = w * dt
@@ -48,14 +48,14 @@ def chord(th: float, v: float, w: float, dt: float) -> tuple[float, float, float
     return dth, v * dt * s, th + 0.5 * dth, s
 
 
-@kernel(inline=True)
+@kernel
 def arc(x: float, y: float, th: float, v: float, w: float, dt: float) -> tuple[float, float, float]:
     """The pose after holding (v, ω) for ``dt`` s: the exact arc (module docstring)."""
     dth, c, m, _ = chord(th, v, w, dt)
     return x + c * math.cos(m), y + c * math.sin(m), th + dth
 
 
-@kernel(inline=True)
+@kernel
 def speed_ramp(v0: float, vt: float, a: float, dt: float) -> tuple[float, float, float]:
     """The speed ramp toward ``vt`` at most ``a`` cm/s² over ``dt`` s: (speed after dt,
     distance driven, mean speed) (module docstring)."""
@@ -71,14 +71,14 @@ def speed_ramp(v0: float, vt: float, a: float, dt: float) -> tuple[float, float,
     return v1, vm * dt, vm
 
 
-@kernel(inline=True)
+@kernel
 def ramp(v0: float, vc: float, a: float, dt: float) -> tuple[float, float]:
     """A follower's `speed_ramp` toward ``vc``: (speed after dt, mean speed over dt)."""
     v1, _, vm = speed_ramp(v0, vc, a, dt)
     return v1, vm
 
 
-@kernel(inline=True)
+@kernel
 def ramp_arc(
     x: float, y: float, th: float, v: float, w: float, vc: float, wc: float, a: float, dt: float
 ) -> tuple[float, float, float, float, float, float]:
@@ -130,7 +130,7 @@ def leader_travel(
     return v1, d
 
 
-@kernel(inline=True)
+@kernel
 def clip(v: float, lim: float) -> float:
     """``min(max(v, −lim), lim)``, a command's saturation, with Python's choice among equal
     values and its NaN rule (the value itself), written out so that numba compiles the same."""
@@ -142,7 +142,7 @@ def clip(v: float, lim: float) -> float:
     return m
 
 
-@kernel(inline=True)
+@kernel
 def actuated(
     v: float, w: float, nv: float, nw: float, sv: float, sw: float, v_max: float, w_max: float
 ) -> tuple[float, float]:

@@ -86,7 +86,7 @@ Segment = Straight | Turn
 Pose = tuple[float, float, float]
 
 
-@kernel(inline=True)
+@kernel
 def along(x0: float, y0: float, h0: float, kappa: float, s: float) -> Pose:
     """Pose after arc length ``s`` along curvature ``kappa`` from pose (x0, y0, h0) (exact;
     the compiled kernels call it too)."""

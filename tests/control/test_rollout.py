@@ -398,3 +398,47 @@ def test_bounds_are_limit_times_w_over_change(localization: str) -> None:
                 assert math.isnan(got)
             else:
                 assert got == float(true_bounds(np.array(w), np.array(c[j]), lims[j]))
+
+
+@pytest.mark.parametrize("pending", [False, True])
+def test_compiled_plan_is_the_python_plan(pending: bool) -> None:
+    """The compiled decision (its pack of the state, made per decision, and its kernel) is
+    the Python reference's bit for bit: on the same world on both backends, `PlanPolicy`
+    decides the same (repr: a NaN found speed), and every rollout the compiled search left
+    for the memo (arrays, and the ones it stopped after a window, rolled out whole when
+    asked) gives the Python rollout's changes of the same target and windows; with and
+    without sends pending."""
+    from rtsim.control.compiled_rollout import _Rest
+    from rtsim.control.policy import PlanPolicy, PolicyInput
+
+    states = []
+    for backend in ("python", "compiled"):
+        sc = load_scenario("test2", overrides={**QUIET, "world.backend": backend})
+        world = World(sc.world, np.random.default_rng(1))
+        w = 237.0
+        for j in range(39):
+            _window(world, j * w, w)
+        if pending:  # the last window's scan, its sends still to come
+            world.estimate(world.scan(39 * w))
+        else:
+            _window(world, 39 * w, w)
+        t = 39 * w + (100.0 if pending else 210.0)
+        world.advance(t)
+        sends = tuple((39 * w + o,) for o in OFFSETS) if pending else None
+        states.append(world_state(world, t, 40 * w, OFFSETS, w, sends))
+    st_py, st_c = states
+    assert vars(st_py).keys() == vars(st_c).keys()
+    rested = 0
+    for margin in (0.0, 0.4, 0.9):
+        pol = PlanPolicy(windows=2, margin=margin)
+        ro_py, ro_c = Rollout(st_py), Rollout(st_c)
+        ro_py._compiled = None  # (the Python reference on the compiled law's numbers)
+        assert ro_c._compiled is not None
+        ctx = PolicyInput((), st_c.v_ld, st_c.w_sch, st_c.thresholds)
+        made_c = pol.decide(dataclasses.replace(ctx, rollout=ro_c))
+        made_py = pol.decide(dataclasses.replace(ctx, rollout=ro_py))
+        assert repr(made_c) == repr(made_py), margin
+        for key, raw in list(ro_c._raw.items()):
+            rested += isinstance(raw, _Rest)
+            assert ro_c.changes(*key) == ro_py.changes(*key), key
+    assert rested
