@@ -53,6 +53,10 @@ F = TypeVar("F", bound=Callable[..., Any])
 Subs = tuple[tuple[Callable[..., Any], Callable[..., Any]], ...]
 
 _MARK = "__rtsim_kernel__"
+#: How `_build` compiles (what a kernel source's text does not say: the variants' names, which
+#: kernels are linked-only, literal arguments): part of every `source_key`, so a build cached
+#: under an earlier scheme is never loaded. Bump it when `_build` changes what it emits.
+BUILD_SCHEME = 2
 _COMPILED: dict[tuple[Callable[..., Any], Subs, bool], Any] = {}
 _PYTHON: dict[tuple[Callable[..., Any], Subs], Callable[..., Any]] = {}
 #: id of a callee's dispatcher -> the (globals, name) of the kernels built to call it
@@ -136,7 +140,9 @@ def source_key(fn: Callable[..., Any], subs: Subs = ()) -> str:
     names; ``subs`` applied), and of the values of the other globals they read (module
     docstring)."""
     seen, _ = _reach(fn, subs)
-    return hashlib.sha256(b"".join(sorted(map(_digest, seen)))).hexdigest()[:24]
+    h = hashlib.sha256(b"".join(sorted(map(_digest, seen))))
+    h.update(f"scheme {BUILD_SCHEME}".encode())
+    return h.hexdigest()[:24]
 
 
 def build(fn: Callable[..., Any], subs: Subs = ()) -> Any:
@@ -169,7 +175,7 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
         _CALLERS.setdefault(id(callee), []).append((glob, name))
     f: Any = fn
     clone = types.FunctionType(f.__code__, glob, f.__name__, f.__defaults__, f.__closure__)
-    clone.__qualname__, clone.__module__ = fn.__qualname__, fn.__module__
+    clone.__qualname__, clone.__module__ = _variant_name(fn, subs), fn.__module__
     out: Any
     if inline:
         out = numba.njit(nogil=True, inline="always")(clone)
@@ -196,6 +202,26 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
             caller_glob[name] = out
         del _COMPILED[fn, subs, False]
     return out
+
+
+def _variant_name(fn: Callable[..., Any], subs: Subs) -> str:
+    """The qualified name a build of ``fn`` with ``subs`` compiles under: ``fn``'s own, and
+    for a variant a suffix naming its substitutions. numba names a function's machine code
+    by its module, qualified name, types and a counter of the process that compiled it, and
+    links same-named code as one (the first loaded serves every caller): builds loaded from
+    the cache were compiled by different processes, so two variants of one kernel (a
+    motion model's and the unicycle's) could share a name and one run the other's code."""
+    if not subs:
+        return fn.__qualname__
+    tag = hashlib.sha256(
+        repr(
+            [
+                (f"{a.__module__}.{a.__qualname__}", f"{b.__module__}.{b.__qualname__}")
+                for a, b in subs
+            ]
+        ).encode()
+    ).hexdigest()[:12]
+    return f"{fn.__qualname__}__v{tag}"
 
 
 def _unliteral_call(template: Any, args: Any, kws: Any) -> Any:

@@ -125,6 +125,36 @@ def test_compiled_kernel_sees_an_edit_in_another_module(
     assert jit.source_key(caller.f) != key1
 
 
+@pytest.mark.skipif(not available(), reason="numba is not importable")
+def test_variants_compile_under_names_of_their_own(
+    tmp_path: Path, isolated: pytest.MonkeyPatch
+) -> None:
+    """A kernel built with substitutions (a motion model's variant) compiles under a name of
+    its own: numba links same-named machine code as one, and builds loaded from the cache
+    come from different processes, whose counters in the names can coincide (a run after
+    another model's, in one process, ran the first model's code)."""
+    from numba.core import config
+
+    isolated.setattr(config, "CACHE_DIR", str(tmp_path / "numba-cache"))
+    caller, pkg = _package(tmp_path, "kpkg_var", "2 * x")
+    (pkg / "other.py").write_text(textwrap.dedent(CALLEE.format(body="3 * x")))
+    importlib.invalidate_caches()
+    other = importlib.import_module("kpkg_var.other")
+    subs = ((sys.modules["kpkg_var.callee"].double, other.double),)
+    plain, variant = jit.build(caller.f), jit.build(caller.f, subs)
+    assert plain(3) == 16 and variant(3) == 19
+    names = [next(iter(d.overloads.values())).fndesc.qualname for d in (plain, variant)]
+    assert names[0] == "f" and names[1].startswith("f__v") and names[1] != names[0]
+    assert jit.build(caller.f, subs) is variant  # one build per variant per process
+
+
+def test_the_build_scheme_is_in_the_key(isolated: pytest.MonkeyPatch) -> None:
+    """A build cached by an earlier way of compiling (`jit.BUILD_SCHEME`) is never loaded."""
+    before = jit.source_key(motion.follower_advance)
+    isolated.setattr(jit, "BUILD_SCHEME", jit.BUILD_SCHEME + 1)
+    assert jit.source_key(motion.follower_advance) != before
+
+
 def test_a_control_kernel_keys_the_world_sources_it_calls(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
