@@ -431,8 +431,30 @@ class World:
         expected = ExpectedBeams(centre, r_F, max_range) if self._visible else None
         fixes, voted = model.locate(sensed, truth_l, pts, centre, expected)
         cols, errors, changes, violations = self._changes(truth_l, fol.odometer, fixes)
+        return self._scan_of(
+            t_ms, lp, truth_l, centre, pts, cols, errors, changes, violations, voted
+        )
+
+    def _scan_of(
+        self,
+        t_ms: float,
+        lp: Pose,
+        truth_l: list[XY],
+        centre: list[XY],
+        pts: list[int],
+        cols: tuple[list[XY], list[bool], list[bool], list[bool], list[bool], list[bool]],
+        errors: list[float],
+        changes: tuple[list[float], list[float], list[float], list[float]],
+        violations: tuple[list[bool], list[bool], list[bool], list[bool]],
+        voted: list[int] | None,
+    ) -> Scan:
+        """The `Scan` of these columns (``cols``: the fixes' fields; ``changes``: the truth's
+        displacement, Δρ, travel and Δβ; ``violations``: the localization, separation, path
+        diversion and bearing bounds', as `_changes` gives them), with each lost track's
+        cause; the Python and the compiled scan both end here."""
         measured, in_ws, losts, searched, reacqs, neighbours = cols
-        causes = self._causes(losts, neighbours, pts, truth_l)
+        disps, d_rhos, travels, d_betas = changes
+        v_loc, v_sep, v_path, v_bear = violations
         return Scan._of(
             t_ms,
             lp,
@@ -444,14 +466,24 @@ class World:
                 "in_window": in_ws,
                 "lost": losts,
                 "reacquired": reacqs,
-                "changes": changes,
-                "violations": violations,
+                "changes": {
+                    "displacement": disps,
+                    "d_rho": d_rhos,
+                    "travel": travels,
+                    "d_beta": d_betas,
+                },
+                "violations": {
+                    "localization": v_loc,
+                    "separation": v_sep,
+                    "path_diversion": v_path,
+                    "bearing": v_bear,
+                },
                 "searched": searched,
-                "cause": causes,
+                "cause": self._causes(losts, neighbours, pts, truth_l),
                 "voted": voted or None,
                 "fix_error": errors,
                 "neighbour": neighbours if voted else None,
-                "cells": model.cells,
+                "cells": self.localization.cells,
             },
         )
 
@@ -514,36 +546,11 @@ class World:
                 if in_w or reacq:
                     errors[k] = _FIX_ERROR(fix[0], fix[1], tx[k], ty[k])
                 F[k] = (fix[0], fix[1], 1.0 if in_w else 2.0 if reacq else 0.0)
-        scan = Scan._of(
-            t_ms,
-            lp,
-            {
-                "points": pts,
-                "measured": measured,
-                "truth": truth_l,
-                "centre": centre,
-                "in_window": in_ws,
-                "lost": losts,
-                "reacquired": reacqs,
-                "changes": {
-                    "displacement": disps,
-                    "d_rho": d_rhos,
-                    "travel": travels,
-                    "d_beta": d_betas,
-                },
-                "violations": {
-                    "localization": v_loc,
-                    "separation": v_sep,
-                    "path_diversion": v_path,
-                    "bearing": v_bear,
-                },
-                "searched": searched,
-                "cause": self._causes(losts, neighbours, pts, truth_l),
-                "voted": voted or None,
-                "fix_error": errors,
-                "neighbour": neighbours if voted else None,
-                "cells": model.cells,
-            },
+        changes = (disps, d_rhos, travels, d_betas)
+        violations = (v_loc, v_sep, v_path, v_bear)
+        cols = (measured, in_ws, losts, searched, reacqs, neighbours)
+        scan = self._scan_of(
+            t_ms, lp, truth_l, centre, pts, cols, errors, changes, violations, voted
         )
         self._fixes_of = (scan, fused.F)
         return scan
@@ -553,14 +560,14 @@ class World:
     ) -> tuple[
         tuple[list[XY], list[bool], list[bool], list[bool], list[bool], list[bool]],
         list[float],
-        dict[str, list[Any]],
-        dict[str, list[bool]],
+        tuple[list[float], list[float], list[float], list[float]],
+        tuple[list[bool], list[bool], list[bool], list[bool]],
     ]:
         """The fixes' fields as lists (`Fix`: fix, in window, lost, searched, re-acquired,
         neighbour), each fix's distance from the truth (inf: none), the truth's change since
         the previous scan (zeros at the first) and the violations it makes, per bound kind
-        (`Scan`); remembers this scan's truth for the next. (One loop: at a few followers a
-        comprehension per list costs more than the arithmetic.)"""
+        (`_scan_of`'s order); remembers this scan's truth for the next. (One loop: at a few
+        followers a comprehension per list costs more than the arithmetic.)"""
         inf = math.inf
         change, violated, error = _TRUTH_CHANGE, _VIOLATIONS, _FIX_ERROR
         odo = list(odometer)
@@ -612,13 +619,8 @@ class World:
             v_path.append(vp)
             v_bear.append(vb)
         self._prev = (truth_l, rhos, betas, odo)
-        changes = {"displacement": disps, "d_rho": d_rhos, "travel": travels, "d_beta": d_betas}
-        violations = {
-            "localization": v_loc,
-            "separation": v_sep,
-            "path_diversion": v_path,
-            "bearing": v_bear,
-        }
+        changes = (disps, d_rhos, travels, d_betas)
+        violations = (v_loc, v_sep, v_path, v_bear)
         cols = (measured, in_ws, losts, searched, reacqs, neighbours)
         return cols, errors, changes, violations
 
