@@ -66,18 +66,13 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
     top_resp, top_bin, top_counts = math.nan, 0, dict[int, int]()  # the latest response, its bin
     env, timers, ready, totals, seqs = cpu.env, cpu._timers, cpu._ready, cpu._totals, cpu._seq
     last_release, inf = cpu._last_release, _INF  # (the run's constants, as closure cells)
-    # the top task's constants, bound at its first job (its time: its segment's wcet)
-    top_st: _TaskState | None = None
-    stats, c, first, period, rel_deadline = TaskStats("", 0), 0.0, 0.0, 0.0, 0.0
 
     def book(top, running, now, now_lag, work_start, work_lag, t_next, tol, tol_next):
         """Book ``top``'s job if it can be (module doc): `Booked`; None if not: its Job is ready."""
-        nonlocal top_resp, top_bin, top_counts, top_st, stats, c, first, period, rel_deadline
+        nonlocal top_resp, top_bin, top_counts
         st, k, r, seq = top
-        if st is not top_st:
-            top_st, stats, c = st, st.stats, st.fast_start
-            first, period, rel_deadline = st.first, st.period, st.deadline
-        limit = now + tol  # (due by limit: at now)
+        limit, stats, c = now + tol, st.stats, st.fast_start  # (due by limit: at now; the
+        first, period, rel_deadline = st.first, st.period, st.deadline  # run's constants)
         job, wins, nxt_job, from_ready = None, True, running, False  # (wins: always under fp;
         if ready:  # nxt_job: the first in the ready order after the top task's job, at f)
             h = ready[0]
