@@ -308,14 +308,18 @@ class WindowRecorder:
     chunk: int = field(default_factory=lambda: CHUNK_WINDOWS)
 
     def add(self, rec: WindowRecord) -> WindowRecord:
+        """Keep ``rec`` (the last record); at every `chunk`-th window, `settle`."""
         self.records.append(rec)
-        if (
-            self.sink is not None
-            and len(self.records) >= 2 * self.chunk
-            and rec.window % self.chunk == 0
-        ):
-            self._flush_settled()
+        if rec.window % self.chunk == 0:
+            self.settle()
         return rec
+
+    def settle(self) -> None:
+        """With a sink and two chunks of records kept, hand the complete ones at the front
+        to the sink (`add` calls it at every `chunk`-th window; a caller that appends to
+        `records` itself calls it then)."""
+        if self.sink is not None and len(self.records) >= 2 * self.chunk:
+            self._flush_settled()
 
     def _flush_settled(self) -> None:
         recs = self.records
