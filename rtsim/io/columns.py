@@ -63,6 +63,7 @@ def _special_chars() -> frozenset[str]:
 #: Characters that make the csv module (QUOTE_MINIMAL) quote a field.
 _SPECIAL = _special_chars()
 _BOOL_TEXT = {True: "True", False: "False"}
+_STR = {str}
 
 
 def column_kind(dtype: Any) -> str | None:
@@ -153,14 +154,17 @@ def _texts(values: Any, kind: str) -> list[str] | None:
     if kind == "b":
         return list(map(_BOOL_TEXT.__getitem__, np.asarray(values, dtype=bool).tolist()))
     vals = values.tolist() if isinstance(values, np.ndarray) else list(values)
-    out = []
-    for v in vals:
-        if type(v) is str:
-            out.append(v)
-        elif v is None or v is pd.NA or (type(v) is float and v != v):
-            out.append("")
-        else:
-            return None
+    if set(map(type, vals)) == _STR:  # every value a str: written as it is (no loop here)
+        out = vals
+    else:
+        out = []
+        for v in vals:
+            if type(v) is str:
+                out.append(v)
+            elif v is None or v is pd.NA or (type(v) is float and v != v):
+                out.append("")
+            else:
+                return None
     if not _SPECIAL.isdisjoint("".join(out)):
         out = [_quote(v) for v in out]
     return out
