@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from rtsim.config.scenario import load_scenario
@@ -50,3 +51,46 @@ def test_sender_is_command_bit_for_bit(name: str) -> None:
     assert b._arr is not None and b._arr.E.shape[1] > 39  # (the rows grew on the way)
     with pytest.raises(IndexError):
         send(cfg.n, t + 100.0)
+
+
+def test_hooks_read_a_constructed_scan_as_the_worlds(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The scan hook reads the world's scans' field lists at once (`scenario_run._fields`);
+    a `Scan` made by its constructor, with arrays, gives the same windows table."""
+    from rtsim.coupling import scenario_run
+    from rtsim.world.scan import Scan
+
+    def run() -> object:
+        return scenario_run.run_scenario("test2", record_jobs=False, duration_s=15.0).windows
+
+    want = run()
+    real = World.scan
+
+    def rebuilt(self: World, t_ms: float) -> Scan:
+        s = real(self, t_ms)
+        raw = s._raw
+        arrays = {k: np.asarray(raw[k]) for k in ("points", "lost", "reacquired", "searched")}
+        return Scan(
+            s.t_ms,
+            s.leader_pose,
+            arrays["points"],
+            s.measured,
+            s.truth,
+            s.centre,
+            s.in_window,
+            arrays["lost"],
+            arrays["reacquired"],
+            s.changes,
+            s.violations,
+            arrays["searched"],
+            list(raw["cause"]),
+            voted=None if raw["voted"] is None else np.asarray(raw["voted"]),
+            fix_error=None if raw["fix_error"] is None else np.asarray(raw["fix_error"]),
+            neighbour=None if raw["neighbour"] is None else np.asarray(raw["neighbour"]),
+            cells=raw["cells"],
+        )
+
+    monkeypatch.setattr(World, "scan", rebuilt)
+    got = run()
+    world = World(load_scenario(SCEN / "test2.toml").world, np.random.default_rng(0))
+    assert "_plain" not in world.scan(0.0)._raw  # (the constructor's: the slower reads)
+    pd.testing.assert_frame_equal(got, want, check_exact=True)
