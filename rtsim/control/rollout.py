@@ -186,19 +186,21 @@ class Rollout:
         self._compiled = compiled_rollout(state.law, state)
 
     @classmethod
-    def maker(cls, base: RolloutState) -> Callable[[RolloutState], Rollout]:
+    def maker(cls, base: RolloutState) -> Callable[..., Rollout]:
         """``Rollout(state)`` for the states of a run, ``decided_state(base, ...)``: whether
-        its law rolls out compiled, and the law's cache, asked once (`CompiledRollout.maker`)."""
+        its law rolls out compiled, and the law's cache, asked once (`CompiledRollout.maker`).
+        ``make(state, rows)``: the compiled rollout packs the followers from ``rows``, the
+        `rtsim.world.world.World.estimate_rows` ``state`` was made of."""
         comp = CompiledRollout.maker(base.law, base) if compiles(base.law) else None
         new = object.__new__
 
-        def make(state: RolloutState) -> Rollout:
+        def make(state: RolloutState, rows: Any = None) -> Rollout:
             ro: Rollout = new(cls)
             ro.state = state
             ro.count = 0
             ro._memo = {}
             ro._raw = {}
-            ro._compiled = None if comp is None else comp(state)
+            ro._compiled = None if comp is None else comp(state, rows)
             return ro
 
         return make
