@@ -10,6 +10,7 @@ bit for bit (`rtsim.world.compiled` says which operations may be compiled).
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Callable
 from typing import Any, ClassVar
@@ -48,6 +49,9 @@ def compiles(law: Any) -> bool:
 
 #: how many of RolloutScalars' fields change from one decision to the next (they come first)
 _CHANGING = K.RolloutScalars._fields.index("accel")
+
+#: the items of iterables in turn
+_chain = itertools.chain.from_iterable
 
 #: the follower pack's columns (`rtsim.control.kernels.FollowerColumns`)
 _COLUMNS = len(K.FollowerColumns._fields)
@@ -221,14 +225,20 @@ class CompiledRollout:
             ):
                 flat += (*pose, v, h[1], *h, send, rho_d)
         fol = np.fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS)
-        if not any(state.pending):  # no sends pending: one array per n, kept
+        pending = state.pending
+        if not any(pending):  # no sends pending: one array per n, kept
             pend = cached[2].get(n)
             if pend is None:
                 pend = cached[2][n] = np.full((n, 1), math.nan)
         else:
-            pend = np.full((n, max(map(len, state.pending))), math.nan)
-            for k, times in enumerate(state.pending):
-                pend[k, : len(times)] = times
+            counts = list(map(len, pending))
+            m = max(counts)
+            if min(counts) == m:  # (as many for each: read flat, as the followers)
+                pend = np.fromiter(_chain(pending), float, n * m).reshape(n, m)
+            else:
+                pend = np.full((n, m), math.nan)
+                for k, times in enumerate(pending):
+                    pend[k, : len(times)] = times
         # (the law's search starts: its arrays, changed only in place, read at each call)
         self._pack = (fs, fol, pend, law._G, law._sr, law._sf)
         self.n = n

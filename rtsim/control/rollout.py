@@ -303,7 +303,8 @@ class Rollout:
         """`PlanPolicy`'s decision (margin 1 − ``keep``, horizon
         ``windows`` windows of ``w`` ms, the contact bound at d_c = ``contact`` cm, 0: off)
         in one compiled call: (w, V_L, method, the found
-        speed or NaN, feasible, the rows at V_Ld, the rows at V_L); None when this rollout
+        speed or NaN, feasible, the rows at V_Ld, the rows at V_L: the same list when the
+        method is none, as the Python decision's); None when this rollout
         is not compiled, or ``v_ld`` or ``w`` are not the state's (its V_Ld and w_sch,
         which `rows` uses). Its rollouts join the memo, as the Python policy's do."""
         st = self.state
@@ -316,6 +317,9 @@ class Rollout:
         self.count += added
         w_out, v_l, method, found, feasible = out[:5]
         r = rows.tolist()
+        before = list(map(tuple, r[0]))
+        if method == 0.0:  # V_Ld kept: its rows (the kernel copied them to rows[1])
+            return w_out, v_l, "none", found, feasible == 1.0, before, before
         after = list(map(tuple, r[1]))
         if math.isnan(feasible):  # the search did not roll the chosen speed out: here
             after = self.rows(v_l)
@@ -329,7 +333,7 @@ class Rollout:
             ("none", "numeric", "best")[int(method)],
             found,
             feasible == 1.0,
-            list(map(tuple, r[0])),
+            before,
             after,
         )
 

@@ -562,7 +562,8 @@ class _Coupling:
         """The current window's sends still to come at its first send's start (``now``):
         follower i's at now + e_send + (its offset − the first's), the last window's spacing."""
         offs = self._send_offsets
-        return tuple((now + self._e_send + (o - offs[0]),) for o in offs)
+        e, o0 = self._e_send, offs[0]
+        return tuple([(now + e + (o - o0),) for o in offs])
 
     def _estimates(self, now: float, next_scan: float | None = None) -> _Decision:
         """Run the mode's decision on the leader's estimates at ``now``; ``next_scan``: when

@@ -486,4 +486,12 @@ def test_estimate_rows_are_the_decisions_reads() -> None:
             turned = dataclasses.replace(state, turns=tuple([r[4] for r in rows]))
             a, b = make(turned)._compiled.pack(), make(turned, rows)._compiled.pack()
             assert a[1].tobytes() == b[1].tobytes()
+            # the pending sends' pack: NaN-padded rows, read flat when as many for each
+            for pending, want in (
+                (((1.5,), (2.5, 3.5)), [[1.5, math.nan], [2.5, 3.5]]),
+                (((1.5, 4.5), (2.5, 3.5)), [[1.5, 4.5], [2.5, 3.5]]),
+                (((1.5,), (2.5,)), [[1.5], [2.5]]),
+            ):
+                got = make(dataclasses.replace(state, pending=pending))._compiled.pack()[2]
+                assert got.tobytes() == np.array(want).tobytes(), pending
     assert seen[0] == seen[1]
