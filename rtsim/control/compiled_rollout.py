@@ -312,9 +312,14 @@ class CompiledRollout:
         horizon = (w,) * windows
         frozen: tuple[Any, ...] = ()
         put = raw.setdefault  # (the first of equal keys, as ever)
-        # (item by item: a decision runs few rollouts, and .item is cheaper than a slice's
-        # tolist for each of the three)
-        sp, ln, ct = speeds.item, lens.item, cut.item
+        # (V_Ld kept, one or two rollouts: read item by item; a search's ≈ 10: each column
+        # converted once, then indexed)
+        if runs > 4:
+            sp = speeds[:runs].tolist().__getitem__
+            ln = lens[:runs].tolist().__getitem__
+            ct = cut[:runs].tolist().__getitem__
+        else:
+            sp, ln, ct = speeds.item, lens.item, cut.item
         for r in range(runs):
             v = sp(r)
             code = ln(r)
