@@ -46,7 +46,10 @@ def _kind(dispatcher: Any) -> str:
         return "numba"
     if opts.get("inline") == "always":
         return "inline"
-    if opts.get("no_cpython_wrapper"):
+    from rtsim.world import jit
+
+    linked_only = jit._linked_only_compiler()
+    if getattr(getattr(dispatcher, "_compiler", None), "pipeline_class", None) is linked_only:
         return "linked"
     return "entry"
 

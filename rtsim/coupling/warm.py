@@ -12,8 +12,14 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+import numpy as np
+
 from rtsim.config.scenario import Scenario
 from rtsim.control import kernels
+from rtsim.coupling.physical import trace_samples
+from rtsim.world.formation import follower_model
+from rtsim.world.jit import build
+from rtsim.world.kernels import built_entry
 
 __all__ = ["warm_world"]
 
@@ -21,10 +27,22 @@ __all__ = ["warm_world"]
 def warm_world(scenarios: Iterable[Scenario]) -> bool:
     """Compile (or load) the kernels when any of ``scenarios`` runs on the compiled backend
     (`rtsim.world.config.WorldConfig.resolved_backend`); returns whether it did. The
-    world's and the rollout's kernels (`rtsim.control.kernels.warm_all`); the ``paper``
-    predictor's compiles lazily where it is used."""
-    if not any(sc.world.resolved_backend() == "compiled" for sc in scenarios):
+    world's and the rollout's kernels (`rtsim.control.kernels.warm_all`) and the truth
+    log's (when a world follows the trace); the ``paper`` predictor's compiles lazily where
+    it is used."""
+    compiled = [sc for sc in scenarios if sc.world.resolved_backend() == "compiled"]
+    if not compiled:
         return False
-
     kernels.warm_all()
+    if any(follower_model(sc.world.formation.model).on_trace for sc in compiled):
+        _warm_truth_log()
     return True
+
+
+def _warm_truth_log() -> None:
+    """Compile the truth log's kernel (`rtsim.coupling.physical.trace_samples`: a world
+    on the follow-the-leader law's trace) or load it, for the types of its every call
+    (`rtsim.coupling.physical.PhysicalLog`), without running it."""
+    G = (np.zeros(1), np.zeros(3), np.zeros(1), 1e3, np.zeros(1), np.full(1, -1), np.ones(1))
+    f = np.zeros(1)
+    built_entry(build(trace_samples), (G, f, f, f, 0.0, 0.0, f, f, np.zeros(2), f))

@@ -39,7 +39,7 @@ import numpy as np
 from rtsim.world.ekf import EkfParams, FastFollowerEKF, _squares
 from rtsim.world.estimates import BASE, HELD_ROOM, Q, new_estimates
 from rtsim.world.follower import FollowerGroup
-from rtsim.world.ftl import TraceFollower
+from rtsim.world.ftl import _PY_POINT, _PY_REFERENCE, TraceFollower
 from rtsim.world.kernels import available, built_entry, entry, kernels
 from rtsim.world.motionmodels import MotionModel
 from rtsim.world.path import LeaderPath
@@ -307,12 +307,26 @@ class CompiledTraceFollower(TraceFollower):
         )
         self._sr = np.array(self._sr, dtype=float)
         self._sf = np.array(self._sf, dtype=float)
-        # (the arguments' types at every call: these arrays, an int k, floats)
-        G, sr, x = self._G, self._sr, 0.0
-        self._reference = entry(ker.ftl_reference, (G, sr, 0, x, x, x, x, x))
-        del self._command, self._project  # (the class's: compiled at their first call)
-        self._point = entry(ker.trace_point, (G, 0, x))
+        del self._command, self._project, self._reference, self._point  # (the class's)
         self.compiled = True
+
+    def initial(
+        self, k: int, s_l: float, leader: tuple[float, float, float], v_l: float
+    ) -> tuple[float, float, float, float]:
+        """`TraceFollower.initial` by the Python twins (bit for bit the kernels' numbers):
+        once per follower at start-up, so a first run does not compile two entries for it."""
+        if not self.compiled:
+            return super().initial(k, s_l, leader, v_l)
+        sr = self._sr.tolist()
+        s_ref, v_ref = _PY_REFERENCE(self.geometry, sr, k, s_l, *leader, v_l)
+        self._sr[:] = sr
+        x, y, h = _PY_POINT(self.geometry, k, s_ref)
+        self._sf[k] = s_ref
+        return x, y, h, v_ref
+
+    # (compiled at their first call; `initial` runs the Python twins)
+    _reference = _Kernel("ftl_reference", lambda self: (self._G, self._sr, 0, *(0.0,) * 5))
+    _point = _Kernel("trace_point", lambda self: (self._G, 0, 0.0))
 
     # (compiled at its first call: the compiled world runs the law's command fused into its
     # estimates' kernel, `est_command_ftl`, so the shipped scenarios' runs never call this one)

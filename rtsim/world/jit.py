@@ -48,6 +48,12 @@ __all__ = [
     "specialise",
 ]
 
+# numba formats a typing error for each overload it tries and rejects (thousands while the
+# kernels compile), each in a colour shell (colorama's init and deinit, ≈ 0.2 s CPU of a first
+# run) unless this is set; its default colour scheme prints no colour anyway. Set before
+# numba is imported (rtsim imports it only through this module).
+os.environ.setdefault("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING", "1")
+
 F = TypeVar("F", bound=Callable[..., Any])
 #: substitutions (callee source, replacement source), hashable
 Subs = tuple[tuple[Callable[..., Any], Callable[..., Any]], ...]
@@ -56,7 +62,7 @@ _MARK = "__rtsim_kernel__"
 #: How `_build` compiles (what a kernel source's text does not say: the variants' names, which
 #: kernels are linked-only, literal arguments): part of every `source_key`, so a build cached
 #: under an earlier scheme is never loaded. Bump it when `_build` changes what it emits.
-BUILD_SCHEME = 2
+BUILD_SCHEME = 3
 _COMPILED: dict[tuple[Callable[..., Any], Subs, bool], Any] = {}
 _PYTHON: dict[tuple[Callable[..., Any], Subs], Callable[..., Any]] = {}
 #: id of a callee's dispatcher -> the (globals, name) of the kernels built to call it
@@ -180,15 +186,10 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
     if inline:
         out = numba.njit(nogil=True, inline="always")(clone)
     elif not entry:
-        njit: Any = numba.njit  # (numba's stubs omit these two of its target options)
-        out = njit(
-            nogil=True,
-            no_cpython_wrapper=True,
-            no_cfunc_wrapper=True,
-            pipeline_class=_linked_only_compiler(),
-        )(clone)
+        njit: Any = numba.njit  # (numba's stubs omit no_cfunc_wrapper)
+        out = njit(pipeline_class=_linked_only_compiler(), **_OPTIONS)(clone)
     else:
-        out = numba.njit(nogil=True)(clone)
+        out = numba.njit(pipeline_class=_entry_compiler(), **_OPTIONS)(clone)
         root = cache_root()
         if root is not None:  # else uncached, as numba leaves a kernel it cannot cache
             key = source_key(fn, subs)
@@ -202,6 +203,13 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
             caller_glob[name] = out
         del _COMPILED[fn, subs, False]
     return out
+
+
+#: numba's options of every kernel it compiles on its own, an entry or linked-only (the
+#: latter without numba's CPython wrapper: `_linked_only_compiler`): one set of flags, so
+#: that numba types its own helpers (``np.empty``, ``min``: compiled per signature *and*
+#: flags) once for both; no C-callable wrapper, which nothing here calls
+_OPTIONS: dict[str, Any] = {"nogil": True, "no_cfunc_wrapper": True}
 
 
 def _variant_name(fn: Callable[..., Any], subs: Subs) -> str:
@@ -334,6 +342,80 @@ def _keyed_cache_class() -> Any:
     return _CACHE_CLASS
 
 
+_ENTRY: Any = None
+
+
+def _entry_compiler() -> Any:
+    """numba's compiler with flags whose values are computed once per change: numba looks
+    each overload up by the flags of the function it types (hashed and compared, each time
+    every option read through its property: ≈ 25,000 look-ups, ≈ 0.4 s CPU of a first run).
+    The same flags, the same code."""
+    global _ENTRY
+    if _ENTRY is not None:
+        return _ENTRY
+    from numba.core import compiler
+
+    class _Watched(dict):  # type: ignore[type-arg]
+        """The flags' set options, counting their changes."""
+
+        version = 0
+
+        def __setitem__(self, key: Any, value: Any) -> None:
+            self.version += 1
+            super().__setitem__(key, value)
+
+        def __delitem__(self, key: Any) -> None:
+            self.version += 1
+            super().__delitem__(key)
+
+        def pop(self, *args: Any) -> Any:
+            self.version += 1
+            return super().pop(*args)
+
+        def update(self, *args: Any, **kwargs: Any) -> None:
+            self.version += 1
+            super().update(*args, **kwargs)
+
+        def clear(self) -> None:
+            self.version += 1
+            super().clear()
+
+        def setdefault(self, *args: Any) -> Any:
+            self.version += 1
+            return super().setdefault(*args)
+
+        def popitem(self) -> Any:
+            self.version += 1
+            return super().popitem()
+
+    class Flags(compiler.Flags):  # type: ignore[misc]
+        """numba's Flags (the same name: it is part of the mangled symbols), their values
+        kept until an option changes (a default is a constant)."""
+
+        def __init__(self, copy_from: Any = None) -> None:
+            super().__init__(copy_from)
+            self._values = _Watched(self._values)
+            self._memo: tuple[int, dict[str, Any]] = (-1, {})
+
+        def values(self) -> dict[str, Any]:
+            version, values = self._memo
+            if version != self._values.version:
+                values = super().values()
+                self._memo = (self._values.version, values)
+            return dict(values)
+
+    class _Compiler(compiler.Compiler):  # type: ignore[misc]
+        flags_class = Flags
+
+        def __init__(self, typingctx: Any, targetctx: Any, library: Any, args: Any,
+                     return_type: Any, flags: Any, locals: Any) -> None:  # fmt: skip
+            flags = Flags(flags)
+            super().__init__(typingctx, targetctx, library, args, return_type, flags, locals)
+
+    _ENTRY = _Compiler
+    return _ENTRY
+
+
 _LINKED_ONLY: Any = None
 
 
@@ -343,8 +425,9 @@ def _linked_only_compiler() -> Any:
     global _LINKED_ONLY
     if _LINKED_ONLY is not None:
         return _LINKED_ONLY
-    from numba.core import codegen, compiler
+    from numba.core import codegen, compiler, typed_passes
     from numba.core.compiler_lock import require_global_compiler_lock
+    from numba.core.compiler_machinery import LoweringPass, register_pass
 
     class _NoEnv:
         """The codegen, except that it sets no environment (the kernel has no machine code
@@ -381,12 +464,32 @@ def _linked_only_compiler() -> Any:
         def codegen(self) -> Any:
             return _NoEnv(self._codegen)
 
-    class _Compiler(compiler.Compiler):  # type: ignore[misc]
+    @register_pass(mutates_CFG=False, analysis_only=True)
+    class _Unwrapped(LoweringPass):  # type: ignore[misc]
+        """Before lowering: no CPython wrapper. (Set here, not in the kernel's options, so
+        that it types its callees under the entries' flags: `_OPTIONS`.)"""
+
+        _name = "rtsim_linked_only_unwrapped"
+
+        def __init__(self) -> None:
+            LoweringPass.__init__(self)
+
+        def run_pass(self, state: Any) -> bool:
+            state.flags.no_cpython_wrapper = True
+            return False
+
+    class _Compiler(_entry_compiler()):  # type: ignore[misc]
         def compile_extra(self, func: Any) -> Any:
             if self.state.library is None:
                 cg = self.state.targetctx.codegen()
                 self.state.library = _LinkedOnly(cg, func.__qualname__)
             return super().compile_extra(func)
+
+        def define_pipelines(self) -> list[Any]:
+            pm = compiler.DefaultPassBuilder.define_nopython_pipeline(self.state)
+            pm.add_pass_after(_Unwrapped, typed_passes.IRLegalization)
+            pm.finalize()
+            return [pm]
 
     _LINKED_ONLY = _Compiler
     return _LINKED_ONLY

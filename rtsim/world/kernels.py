@@ -112,8 +112,6 @@ def _type_key(a: Any) -> Any:
 #: compiled with the kernel sources it calls: `rtsim.world.jit.build`)
 ENTRIES: dict[str, Any] = {
     "advance_follower": follower_advance,
-    "ftl_reference": ftl_reference,
-    "trace_point": trace_point,
     "hypot": cpython_hypot,
     "leader_travel": leader_travel,
     "est_scan": est_scan,
@@ -121,7 +119,10 @@ ENTRIES: dict[str, Any] = {
     "est_command_ftl": est_command_ftl,
 }
 
-#: the entries compiled (or loaded) only when first read from the namespace: the EKF's
+#: the entries compiled (or loaded) only when first read from the namespace: the law's
+#: reference and trace point, which a world reads only while it is set up (by their Python
+#: twins: `rtsim.world.compiled.CompiledTraceFollower.initial`; inside the estimates' and
+#: the rollout's kernels they are compiled anyway); the EKF's
 #: predict without a command, which the shipped scenarios never run; the remainder, which
 #: only kernels call (`rtsim.control.kernels.warm_all` builds them too); one filter's
 #: steps, one piece of the belief, the law's command and the record of a held command,
@@ -132,6 +133,8 @@ ENTRIES: dict[str, Any] = {
 #: is compiled without numba's wrappers, not optimised nor emitted on its own,
 #: `rtsim.world.jit`)
 LAZY_ENTRIES: dict[str, Any] = {
+    "ftl_reference": ftl_reference,
+    "trace_point": trace_point,
     "ekf_predict": ekf_predict,
     "ftl_command": ftl_command,
     "ftl_project": ftl_project,
@@ -270,8 +273,6 @@ def _warm(ns: Any) -> None:
     ns.advance_follower(0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.1, 10.0, 0.0, 0.0, 20.0, 10.0)
     G = (np.zeros(1), np.zeros(3), np.zeros(1), 100.0, np.zeros(1), np.full(1, -1), np.ones(1))
     nan1 = np.full(1, math.nan)
-    ns.ftl_reference(G, nan1, 0, 50.0, 50.0, 0.0, 0.0, 1.0)
-    ns.trace_point(G, 0, 10.0)
     ns.leader_travel(1.0, 2.0, 10.0, 10.0, 0.02)
     E = new_estimates(1)
     E[0, 3] = E[0, 7] = E[0, 11] = E[0, 14] = 1.0

@@ -90,8 +90,9 @@ def test_a_kernel_only_kernels_call_compiles_without_wrappers_and_is_not_cached(
     twice = jit.build(mod.twice)
     assert twice(3.0) == 6.0
     inner = twice.py_func.__globals__["half"]
-    assert inner.targetoptions.get("no_cpython_wrapper") is True
-    assert "no_cpython_wrapper" not in twice.targetoptions
+    linked_only = jit._linked_only_compiler()
+    assert inner._compiler.pipeline_class is linked_only
+    assert twice._compiler.pipeline_class is not linked_only
     assert jit.cached(mod.twice) and not jit.cached(mod.half)
     half = jit.build(mod.half)
     assert half is not inner and half(3.0) == 1.5 and jit.cached(mod.half)
@@ -101,7 +102,7 @@ def test_a_kernel_only_kernels_call_compiles_without_wrappers_and_is_not_cached(
     twice = jit.build(mod.twice)
     half = jit.build(mod.half)
     assert twice.py_func.__globals__["half"] is half
-    assert twice(3.0) == 6.0 and not half.targetoptions.get("no_cpython_wrapper")
+    assert twice(3.0) == 6.0 and half._compiler.pipeline_class is not linked_only
     monkeypatch.setattr(jit, "_COMPILED", {})
     half = jit.build(mod.half)
     assert jit.build(mod.twice).py_func.__globals__["half"] is half  # the entry serves

@@ -199,3 +199,43 @@ def test_rollout_pack_reads_back_as_its_named_scalars() -> None:
     named = control_kernels.RolloutScalars(*(float(i) + 0.5 for i in range(len(fields))))
     assert control_kernels.scalars(np.array(named)) == named
     assert fields[:_CHANGING] == ("leader_s", "leader_speed", "v_ld", "t_now", "next_scan")
+
+
+@pytest.mark.skipif(not available(), reason="numba is not importable")
+def test_compiled_kernels_carry_one_set_of_flags_kept_until_an_option_changes() -> None:
+    """Entries and linked-only kernels are typed under the same options (numba's own helpers
+    compile once for both); the flags' memoised values follow every change and compare and
+    hash as numba's own flags do."""
+    from numba.core.compiler import Flags
+
+    compiler = jit._entry_compiler()
+    assert issubclass(jit._linked_only_compiler(), compiler)
+    plain = Flags()
+    plain.nrt = True
+    mine = compiler.flags_class(plain)
+    assert type(mine).__name__ == "Flags" and mine is not plain
+    assert mine == plain and hash(mine) == hash(plain) and mine.values() == plain.values()
+    mine.nrt = False
+    assert mine.values()["nrt"] is False and mine != plain
+    copy = mine.copy()
+    copy.discard("nrt")
+    assert copy.values()["nrt"] == Flags().nrt and mine.values()["nrt"] is False
+
+
+def test_warm_world_compiles_the_truth_log_only_for_a_trace_follower(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A pool's parent compiles the truth log's kernel too (a world on the trace law logs
+    through it), so that its workers do not each compile it."""
+    from rtsim.config.scenario import load_scenario
+    from rtsim.control import kernels as control_kernels
+    from rtsim.coupling import warm
+
+    calls: list[str] = []
+    monkeypatch.setattr(control_kernels, "warm_all", lambda: calls.append("all"))
+    monkeypatch.setattr(warm, "_warm_truth_log", lambda: calls.append("truth"))
+    trace = load_scenario("test2", {"world.backend": "compiled"})
+    assert warm.warm_world([trace]) and calls == ["all", "truth"]
+    calls.clear()
+    l_psi = load_scenario("test2", {"world.backend": "compiled", "formation.model": "l-psi"})
+    assert warm.warm_world([l_psi]) and calls == ["all"]
