@@ -724,8 +724,7 @@ class _Coupling:
         now = self.env.now
         world = self.world
         rec = self._open[job.index]
-        scan = world.scan(now)
-        world.estimate(scan)
+        scan = world.scan_estimate(now)  # (scan, then estimate)
         rec.scan_t = now
         voted = rec.voted = scan.voted
         points = rec.points = int(sum(voted))  # (scan.hough_points, scan.total_points)
