@@ -30,7 +30,10 @@ TIMED = [
     # (the compiled world's scan: laser, centres, Hough windows and changes in one call)
     ("rtsim.world.scanstep", "FusedScan", "run", "scan kernel: laser + Hough (compiled)"),
     ("rtsim.world.world", "World", "scan", "scan + localization (Python)"),
+    # (the run's scan and estimate in one call: the compiled world's EKF inside its kernel)
+    ("rtsim.world.world", "World", "scan_estimate", "scan + localization (Python)"),
     ("rtsim.world.world", "World", "estimate", "EKF"),
+    ("rtsim.world.world", "World", "_estimated", "EKF"),
     ("rtsim.world.world", "World", "command", "commands"),
     ("rtsim.coupling.scenario_run", "_Coupling", "_decide", "decision set-up (Python)"),
     ("rtsim.coupling.scenario_run", "_Coupling", "_truth", "truth log"),
