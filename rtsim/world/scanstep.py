@@ -15,9 +15,10 @@ The per-follower arithmetic of a scan is written here once, as kernel sources
 `scan_step` composes them with the laser (`rtsim.world.rangefinder.scan_points`), the
 predicted window centres (`rtsim.world.estimates.carry_row`), the Hough windows
 (`rtsim.world.hough.locate_all`) and each window's outcome (`rtsim.world.hough.peak_fix`):
-one call per scan fills the columns `FusedScan` hands to `World` as lists. The rare
-window without a fix is searched for in Python afterwards (the model's own ``_search``),
-as the reference does.
+one call per scan fills the columns `FusedScan` hands to `World` as lists and, asked for
+(`World.scan_estimate`), runs the estimate on the fixes too (`rtsim.world.estimates.est_scan`).
+The rare window without a fix is searched for in Python afterwards (the model's own
+``_search``), as the reference does, and the estimate then made by a second call.
 """
 
 from __future__ import annotations

@@ -4,7 +4,8 @@ Plain numpy + filterpy, no engine: whoever owns time calls, in simulated **milli
 `World.advance` (the truth up to t), `World.scan` at a window's scan (beams, fixes, Hough
 windows, lost tracks, the bound violations since the previous scan: a `Scan`),
 `World.estimate` with it (the EKFs predict with the commands sent and update with the
-fixes; the estimates centre the next windows, ``[localization] centre``), `World.command`
+fixes; the estimates centre the next windows, ``[localization] centre``) — or both at once,
+`World.scan_estimate` (one compiled call in the compiled world) —, `World.command`
 at the end of follower i's send segment (l-ψ or follow-the-leader on the leader's
 estimate, held until the next command: a late window means stale commands) and
 `World.set_leader_speed` (the target the leader's speed ramps toward).
