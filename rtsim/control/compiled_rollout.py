@@ -10,6 +10,7 @@ bit for bit (`rtsim.world.compiled` says which operations may be compiled).
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Callable
 from typing import Any, ClassVar
@@ -48,6 +49,9 @@ def compiles(law: Any) -> bool:
 
 #: how many of RolloutScalars' fields change from one decision to the next (they come first)
 _CHANGING = K.RolloutScalars._fields.index("accel")
+
+#: the items of iterables in turn
+_chain = itertools.chain.from_iterable
 
 #: the follower pack's columns (`rtsim.control.kernels.FollowerColumns`)
 _COLUMNS = len(K.FollowerColumns._fields)
@@ -168,22 +172,24 @@ class CompiledRollout:
         self._made(law, _static(law, state), state)
 
     @staticmethod
-    def maker(law: Any, state: Any) -> Callable[[Any], CompiledRollout]:
+    def maker(law: Any, state: Any) -> Callable[..., CompiledRollout]:
         """``CompiledRollout(law, s)`` for the states ``s`` of a run, which share ``state``'s
         params, thresholds, ramp limits and step (`rtsim.control.rollout.decided_state`):
-        the law's cache looked up once."""
+        the law's cache looked up once; ``make(s, rows)`` packs the followers from ``rows``,
+        `rtsim.world.world.World.estimate_rows` of the decision (the rows ``s`` was made
+        of), instead of ``s``'s tuples."""
         cached = _static(law, state)
         new, made = object.__new__, CompiledRollout._made
 
-        def make(s: Any) -> CompiledRollout:
+        def make(s: Any, rows: Any = None) -> CompiledRollout:
             ro: CompiledRollout = new(CompiledRollout)
-            made(ro, law, cached, s)
+            made(ro, law, cached, s, rows)
             return ro
 
         return make
 
-    def _made(self, law: CompiledTraceFollower, cached: Any, state: Any) -> None:
-        """Pack ``state`` (the law's cache ``cached``, `_static`)."""
+    def _made(self, law: CompiledTraceFollower, cached: Any, state: Any, rows: Any = None) -> None:
+        """Pack ``state`` (the law's cache ``cached``, `_static`; ``rows``: `maker`'s)."""
         self._ker, self._bufs = cached[3], cached[4]
         fs = cached[1].copy()
         # RolloutScalars' first five (item by item: a slice from a tuple converts it first;
@@ -193,32 +199,46 @@ class CompiledRollout:
         fs[2] = state.v_ld
         fs[3] = state.t_now
         fs[4] = state.next_scan
-        poses = state.poses
-        n = len(poses)
+        rho = state.rho_d
+        n = len(state.poses)
         # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
         # (a flat list of floats read by fromiter: no shape or type to discover; zip one
         # short leaves fromiter short of its count, which it refuses)
         flat: list[float] = []
         turns = state.turns
-        if turns:
+        if rows is not None:  # (x, y, θ, v̂, ω̂, v_c, ω_c) per follower: the state's numbers
+            if turns:
+                for r, send, rho_d in zip(rows, state.send_offsets, rho):  # noqa: B905
+                    flat += r
+                    flat += (send, rho_d)
+            else:  # (the unicycle: ω is the held command's)
+                for r, send, rho_d in zip(rows, state.send_offsets, rho):  # noqa: B905
+                    flat += (r[0], r[1], r[2], r[3], r[6], r[5], r[6], send, rho_d)
+        elif turns:
             for pose, v, w, h, send, rho_d in zip(  # noqa: B905
-                poses, state.speeds, turns, state.held, state.send_offsets, state.rho_d
+                state.poses, state.speeds, turns, state.held, state.send_offsets, rho
             ):
                 flat += (*pose, v, w, *h, send, rho_d)
         else:  # (the unicycle: ω is the held command's)
             for pose, v, h, send, rho_d in zip(  # noqa: B905
-                poses, state.speeds, state.held, state.send_offsets, state.rho_d
+                state.poses, state.speeds, state.held, state.send_offsets, rho
             ):
                 flat += (*pose, v, h[1], *h, send, rho_d)
         fol = np.fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS)
-        if not any(state.pending):  # no sends pending: one array per n, kept
+        pending = state.pending
+        if not any(pending):  # no sends pending: one array per n, kept
             pend = cached[2].get(n)
             if pend is None:
                 pend = cached[2][n] = np.full((n, 1), math.nan)
         else:
-            pend = np.full((n, max(map(len, state.pending))), math.nan)
-            for k, times in enumerate(state.pending):
-                pend[k, : len(times)] = times
+            counts = list(map(len, pending))
+            m = max(counts)
+            if min(counts) == m:  # (as many for each: read flat, as the followers)
+                pend = np.fromiter(_chain(pending), float, n * m).reshape(n, m)
+            else:
+                pend = np.full((n, m), math.nan)
+                for k, times in enumerate(pending):
+                    pend[k, : len(times)] = times
         # (the law's search starts: its arrays, changed only in place, read at each call)
         self._pack = (fs, fol, pend, law._G, law._sr, law._sf)
         self.n = n
@@ -271,45 +291,38 @@ class CompiledRollout:
         cut.fill(0)  # (lens: the kernel writes each of the rollouts it returns)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
         n = self.n
-        changes = np.empty((_SEARCH_RUNS, int(windows), n, 5))  # (kept by the memo)
+        windows = int(windows)
+        changes = np.empty((_SEARCH_RUNS, windows, n, 5))  # (kept by the memo)
         rows = np.empty((2, n, 4))
-        fn = self._ker.roll_or_decide
-        f = _ENTRIES.get(fn)
+        f = _ENTRIES.get(self._ker.roll_or_decide)
         if f is None:  # (the first call: `call` finds the entry)
-            f = functools.partial(call, fn)
+            f = functools.partial(call, self._ker.roll_or_decide)
+        w = float(w)
+        # (the kernel's scalars as it is typed: Python floats, an int, bools)
         runs = f(
-            False,
-            0.0,
-            K.NO_F1,
-            bool(search_only),
-            float(keep),
-            float(need),
-            float(cap),
-            float(v_floor),
-            int(grid),
-            float(tol),
-            float(w),
-            self._pack,
-            speeds,
-            lens,
-            changes,
-            cut,
-            rows,
-            out,
-            float(contact),
-        )
+            False, 0.0, K.NO_F1, bool(search_only), float(keep), float(need), float(cap),
+            float(v_floor), int(grid), float(tol), w, self._pack, speeds, lens, changes, cut,
+            rows, out, float(contact),
+        )  # fmt: skip
         got = out.tolist()
         CompiledRollout.runs += runs + int(got[6])
-        runs = min(runs, _SEARCH_RUNS)
-        w = float(w)
-        horizon = (w,) * int(windows)
-        frozen: tuple[Any, ...] = ()
+        if runs > _SEARCH_RUNS:
+            runs = _SEARCH_RUNS
         before = len(raw)
+        horizon = (w,) * windows
+        frozen: tuple[Any, ...] = ()
         put = raw.setdefault  # (the first of equal keys, as ever)
-        rest = _Rest
-        for r, v, code, short in zip(  # noqa: B905 (runs ≤ the buffers' length: equal)
-            range(runs), speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist()
-        ):
+        # (V_Ld kept, one or two rollouts: read item by item; a search's ≈ 10: each column
+        # converted once, then indexed)
+        if runs > 4:
+            sp = speeds[:runs].tolist().__getitem__
+            ln = lens[:runs].tolist().__getitem__
+            ct = cut[:runs].tolist().__getitem__
+        else:
+            sp, ln, ct = speeds.item, lens.item, cut.item
+        for r in range(runs):
+            v = sp(r)
+            code = ln(r)
             key: tuple[float, tuple[float, ...]]
             if code == 2:
                 key = (v, (got[5],))
@@ -318,11 +331,11 @@ class CompiledRollout:
                 continue
             key = (v, horizon)
             if not memo or key not in memo:
-                if short:  # stopped after its first window: whole only if asked (_Rest)
+                if ct(r):  # stopped after its first window: whole only if asked (_Rest)
                     if not frozen:  # the law's search starts as they are at the decision
                         p = self._pack
                         frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
-                    put(key, rest((self, v, horizon, frozen)))
+                    put(key, _Rest((self, v, horizon, frozen)))
                 else:
                     put(key, changes[r])
             if code == 1:

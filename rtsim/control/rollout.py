@@ -186,19 +186,21 @@ class Rollout:
         self._compiled = compiled_rollout(state.law, state)
 
     @classmethod
-    def maker(cls, base: RolloutState) -> Callable[[RolloutState], Rollout]:
+    def maker(cls, base: RolloutState) -> Callable[..., Rollout]:
         """``Rollout(state)`` for the states of a run, ``decided_state(base, ...)``: whether
-        its law rolls out compiled, and the law's cache, asked once (`CompiledRollout.maker`)."""
+        its law rolls out compiled, and the law's cache, asked once (`CompiledRollout.maker`).
+        ``make(state, rows)``: the compiled rollout packs the followers from ``rows``, the
+        `rtsim.world.world.World.estimate_rows` ``state`` was made of."""
         comp = CompiledRollout.maker(base.law, base) if compiles(base.law) else None
         new = object.__new__
 
-        def make(state: RolloutState) -> Rollout:
+        def make(state: RolloutState, rows: Any = None) -> Rollout:
             ro: Rollout = new(cls)
             ro.state = state
             ro.count = 0
             ro._memo = {}
             ro._raw = {}
-            ro._compiled = None if comp is None else comp(state)
+            ro._compiled = None if comp is None else comp(state, rows)
             return ro
 
         return make
@@ -301,7 +303,8 @@ class Rollout:
         """`PlanPolicy`'s decision (margin 1 − ``keep``, horizon
         ``windows`` windows of ``w`` ms, the contact bound at d_c = ``contact`` cm, 0: off)
         in one compiled call: (w, V_L, method, the found
-        speed or NaN, feasible, the rows at V_Ld, the rows at V_L); None when this rollout
+        speed or NaN, feasible, the rows at V_Ld, the rows at V_L: the same list when the
+        method is none, as the Python decision's); None when this rollout
         is not compiled, or ``v_ld`` or ``w`` are not the state's (its V_Ld and w_sch,
         which `rows` uses). Its rollouts join the memo, as the Python policy's do."""
         st = self.state
@@ -314,6 +317,9 @@ class Rollout:
         self.count += added
         w_out, v_l, method, found, feasible = out[:5]
         r = rows.tolist()
+        before = list(map(tuple, r[0]))
+        if method == 0.0:  # V_Ld kept: its rows (the kernel copied them to rows[1])
+            return w_out, v_l, "none", found, feasible == 1.0, before, before
         after = list(map(tuple, r[1]))
         if math.isnan(feasible):  # the search did not roll the chosen speed out: here
             after = self.rows(v_l)
@@ -327,7 +333,7 @@ class Rollout:
             ("none", "numeric", "best")[int(method)],
             found,
             feasible == 1.0,
-            list(map(tuple, r[0])),
+            before,
             after,
         )
 

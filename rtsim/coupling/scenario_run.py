@@ -498,18 +498,19 @@ class _Coupling:
         now: float,
         next_scan: float,
         pending: bool = False,
-        poses: Sequence[Any] | None = None,
-        speeds: Sequence[float] | None = None,
+        rows: list[list[float]] | None = None,
+        poses: tuple[Any, ...] | None = None,
+        speeds: tuple[float, ...] | None = None,
     ) -> Any:
         """What the leader knows for its rollout at ``now`` (`RolloutState`, `decided_state`
-        of the run's fixed fields); ``poses``, ``speeds``: per follower
-        ``World.estimate_at(i, now)``'s pose and speed if already computed."""
+        of the run's fixed fields); ``rows``: ``World.estimate_rows(now)`` if already read,
+        and ``poses``, ``speeds`` its poses and speeds if already made."""
         world = self.world
-        ids = range(1, self.n + 1)
+        if rows is None:
+            rows = world.estimate_rows(now)
         if poses is None or speeds is None:
-            estimates = [world.estimate_at(i, now) for i in ids]
-            poses = tuple([e[0] for e in estimates])
-            speeds = tuple([e[1] for e in estimates])
+            poses = tuple([(r[0], r[1], r[2]) for r in rows])
+            speeds = tuple([r[3] for r in rows])
         base = self._ro_base
         if base is None:  # the fields that stay for the run (the others are set below)
             cfg = self.cfg
@@ -546,21 +547,23 @@ class _Coupling:
                 now,
                 ld.s,
                 ld.speed,
-                tuple(poses),
-                tuple(speeds),
-                tuple([world.held_command(i) for i in ids]),
+                poses,
+                speeds,
+                tuple([(r[5], r[6]) for r in rows]),  # (World.held_command's)
                 self._pending(now) if pending else self._ro_idle,
                 max(now, next_scan),
                 tuple(self._send_offsets),
-                world.expected_turn_rates(now) if self._turn_state else (),
-            )
+                tuple([r[4] for r in rows]) if self._turn_state else (),  # (expected_turn_rates)
+            ),
+            rows,
         )
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
         """The current window's sends still to come at its first send's start (``now``):
         follower i's at now + e_send + (its offset − the first's), the last window's spacing."""
         offs = self._send_offsets
-        return tuple((now + self._e_send + (o - offs[0]),) for o in offs)
+        e, o0 = self._e_send, offs[0]
+        return tuple([(now + e + (o - o0),) for o in offs])
 
     def _estimates(self, now: float, next_scan: float | None = None) -> _Decision:
         """Run the mode's decision on the leader's estimates at ``now``; ``next_scan``: when
@@ -568,11 +571,12 @@ class _Coupling:
         world = self.world
         world.advance(now)
         lp = world.leader_pose
-        # each follower's estimate propagated to now and its expected speed, in one pass (the
-        # same as World.estimated_pose(i) and World.relative(i, "estimate")[3])
-        estimates = world.estimates_at(now)
-        poses = tuple([e[0] for e in estimates])
-        speeds = tuple([e[1] for e in estimates])
+        # each follower's estimate propagated to now, its expected speed and turn rate and its
+        # held command, in one pass (the same as World.estimated_pose(i) and
+        # World.relative(i, "estimate")[3]; World.estimate_rows)
+        rows = world.estimate_rows(now)
+        poses = tuple([(r[0], r[1], r[2]) for r in rows])
+        speeds = tuple([r[3] for r in rows])
         # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
         # relative states made when read: StateRows)
         state = StateRows(lp, poses, speeds)
@@ -589,6 +593,7 @@ class _Coupling:
                 now,
                 now if next_scan is None else next_scan,
                 self.decide_at == "before-send" and now > 0,
+                rows,
                 poses,
                 speeds,
             )
@@ -611,8 +616,8 @@ class _Coupling:
         # decision without a rollout (`_close`; a rollout predicts its own)
         near: tuple[float, ...] = ()
         if ro is None:
-            xs = [e[0][0] for e in estimates]
-            ys = [e[0][1] for e in estimates]
+            xs = [r[0] for r in rows]
+            ys = [r[1] for r in rows]
             near = closest_each(xs, ys, lp[0], lp[1])
         return _DECISION(  # (_Decision's fields in order: the tuple made in C)
             (

@@ -374,6 +374,15 @@ class World:
             return [((r[0], r[1], r[2]), r[3]) for r in self._arr.carry_all(t_ms)]
         return [self.estimate_at(i, t_ms) for i in range(1, self._n + 1)]
 
+    def estimate_rows(self, t_ms: float) -> list[list[float]]:
+        """Per follower [x, y, θ, v̂, ω̂, v_c, ω_c]: its `estimate_at` (``t_ms``), the turn
+        rate the leader expects of it then and the command it holds (`held_command`), the
+        decision's reads in one compiled call in the compiled backend (`est_carry`'s rows)."""
+        if self._arr is not None:
+            return self._arr.carry_all(t_ms)
+        prop, held = self._propagate, self.held_command
+        return [[*p, v, w, *held(k + 1)] for k in range(self._n) for p, v, w in (prop(k, t_ms),)]
+
     def expected_turn_rates(self, t_ms: float) -> tuple[float, ...]:
         """The turn rate the leader expects of each follower at ``t_ms`` (the motion model's
         state), for the rollout (`RolloutState.turns`); empty for the unicycle, whose turn

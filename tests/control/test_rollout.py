@@ -442,3 +442,56 @@ def test_compiled_plan_is_the_python_plan(pending: bool) -> None:
             rested += isinstance(raw, _Rest)
             assert ro_c.changes(*key) == ro_py.changes(*key), key
     assert rested
+
+
+def test_estimate_rows_are_the_decisions_reads() -> None:
+    """`World.estimate_rows` (what a coupled run's decision reads in one call) is, per
+    follower, its `estimate_at`, the turn rate `_propagate` carries and `held_command`, on
+    both backends and the same bits on both (a noisy world, decided mid-window, some sends
+    done); a compiled rollout packed from those rows (`Rollout.maker`'s ``make(state,
+    rows)``) is the one packed from the state's tuples made of them."""
+    from rtsim.control.rollout import decided_state
+
+    seen = []
+    for backend in ("python", "compiled"):
+        sc = load_scenario("test2", overrides={"world.backend": backend})
+        world = World(sc.world, np.random.default_rng(3))
+        w = 237.0
+        for j in range(30):
+            _window(world, j * w, w)
+        world.estimate(world.scan(30 * w))
+        world.command(1, 30 * w + OFFSETS[0])
+        t = 30 * w + 133.0
+        world.advance(t)
+        rows = world.estimate_rows(t)
+        n = world.n
+        assert rows == [
+            [*world.estimate_at(i, t)[0], world.estimate_at(i, t)[1],
+             world._propagate(i - 1, t)[2], *world.held_command(i)]
+            for i in range(1, n + 1)
+        ]  # fmt: skip
+        seen.append([[x.hex() for x in r] for r in rows])
+        if backend == "compiled":
+            base = world_state(world, t, 31 * w, OFFSETS, w)
+            state = decided_state(
+                base, t, base.leader_s, base.leader_speed,
+                tuple([(r[0], r[1], r[2]) for r in rows]), tuple([r[3] for r in rows]),
+                tuple([(r[5], r[6]) for r in rows]), base.pending, base.next_scan,
+                base.send_offsets, (),
+            )  # fmt: skip
+            make = Rollout.maker(base)
+            a, b = make(state)._compiled.pack(), make(state, rows)._compiled.pack()
+            assert [x.tobytes() for x in a[:3]] == [y.tobytes() for y in b[:3]]
+            # the turn-rate column from the rows when the state has turns
+            turned = dataclasses.replace(state, turns=tuple([r[4] for r in rows]))
+            a, b = make(turned)._compiled.pack(), make(turned, rows)._compiled.pack()
+            assert a[1].tobytes() == b[1].tobytes()
+            # the pending sends' pack: NaN-padded rows, read flat when as many for each
+            for pending, want in (
+                (((1.5,), (2.5, 3.5)), [[1.5, math.nan], [2.5, 3.5]]),
+                (((1.5, 4.5), (2.5, 3.5)), [[1.5, 4.5], [2.5, 3.5]]),
+                (((1.5,), (2.5,)), [[1.5], [2.5]]),
+            ):
+                got = make(dataclasses.replace(state, pending=pending))._compiled.pack()[2]
+                assert got.tobytes() == np.array(want).tobytes(), pending
+    assert seen[0] == seen[1]

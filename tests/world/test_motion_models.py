@@ -406,6 +406,7 @@ def test_the_compiled_estimates_carry_the_turn_lag_bit_for_bit(turnlag: Any) -> 
                     [f.P.ravel().tolist() for f in world.filters],
                     world.estimates_at(t_d),
                     world.expected_turn_rates(t_d),
+                    world.estimate_rows(t_d),
                 ]
             )
         seen.append(repr(out))
