@@ -85,7 +85,8 @@ def install(timers: Timers) -> None:
 
     for mod, cls, attr, stage in TIMED:
         owner = getattr(importlib.import_module(mod), cls)
-        setattr(owner, attr, timers.wrap(getattr(owner, attr), stage))
+        if hasattr(owner, attr):  # (an older checkout may lack one: its stage is then 0)
+            setattr(owner, attr, timers.wrap(getattr(owner, attr), stage))
     ns = rollout_kernels()
     for name in ROLLOUT:  # (each through its compiled function, as the run calls it)
         fn = functools.partial(call, getattr(ns, name))
