@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rtsim.analysis.kinematics import BOUND_KINDS, relative_state
+from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, relative_states
 from rtsim.sim.records import EPS
 from rtsim.world.localization import LOST_CAUSES
 
@@ -308,14 +308,18 @@ class WindowRecorder:
     chunk: int = field(default_factory=lambda: CHUNK_WINDOWS)
 
     def add(self, rec: WindowRecord) -> WindowRecord:
+        """Keep ``rec`` (the last record); at every `chunk`-th window, `settle`."""
         self.records.append(rec)
-        if (
-            self.sink is not None
-            and len(self.records) >= 2 * self.chunk
-            and rec.window % self.chunk == 0
-        ):
-            self._flush_settled()
+        if rec.window % self.chunk == 0:
+            self.settle()
         return rec
+
+    def settle(self) -> None:
+        """With a sink and two chunks of records kept, hand the complete ones at the front
+        to the sink (`add` calls it at every `chunk`-th window; a caller that appends to
+        `records` itself calls it then)."""
+        if self.sink is not None and len(self.records) >= 2 * self.chunk:
+            self._flush_settled()
 
     def _flush_settled(self) -> None:
         recs = self.records
@@ -469,6 +473,33 @@ def records_columns(
     return {c: data[c] for c in cols if c in data}
 
 
+def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:
+    """``m`` records' state rows (`StateRows`, or n rows of 7 floats each), one (m, n, 7)
+    array: `StateRows` not read yet, in one pass over their poses (`relative_states`),
+    without making their rows; the values `_flat` of their rows gives."""
+    objs = list(rows)
+    k = len(FOLLOWER_FIELDS)
+    lps: list[tuple[float, float, float]] = []
+    poses: list[Any] = []
+    speeds: list[Any] = []
+    for o in objs:
+        if type(o) is not StateRows or o._rows is not None:
+            break
+        p = o._poses = list(o._poses)  # (kept for a later `rows`: poses may be an iterator)
+        if len(p) != n or len(o._speeds) != n:
+            break
+        lps += [o._lp] * n
+        poses += p
+        speeds += o._speeds
+    else:
+        if m:
+            rho, beta, theta = relative_states(lps, poses)
+            x, y, th = zip(*poses)  # noqa: B905 (3 each)
+            cols = np.array([x, y, th, rho, beta, theta, speeds], dtype=float)
+            return cols.T.reshape(m, n, k)
+    return _flat(objs, float, m * n * k).reshape(m, n, k)
+
+
 def _follower_state(
     recs: list[WindowRecord],
     n: int,
@@ -482,10 +513,9 @@ def _follower_state(
     contact distances (``contact_cm_pred``, ``contact_cm_true``) of ``recs`` (``ch``: their
     `changes_array`, or None to make it)."""
     m = len(recs)
-    k = len(FOLLOWER_FIELDS)
     nb = len(BOUND_KINDS)
-    truth = _flat(_each(recs, "truth"), float, m * n * k).reshape(m, n, k)
-    est = _flat(_each(recs, "est"), float, m * n * k).reshape(m, n, k)
+    truth = _states(_each(recs, "truth"), m, n)
+    est = _states(_each(recs, "est"), m, n)
     pred = _flat(_each(recs, "pred"), float, m * n * nb).reshape(m, n, nb)
     changes = (changes_array(recs, n) if ch is None else ch).transpose(0, 2, 1)
     for i in range(n):

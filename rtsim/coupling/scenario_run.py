@@ -388,6 +388,7 @@ class _Coupling:
         if self.decide_at == "before-send":
             cpu.on("segment_start", self._on_send_start, task=win.name, role="send")
         self._e_send = float(win.e_send)
+        self._send = self.world.sender()  # (None: each send through World.command)
         self._loss = self.radio.loss if self.radio.loss > 0 else 0  # (0: no draw per send)
         # the link's draws (a round trip, a loss) in the order the hooks ask, taken ahead
         rng = self._radio_rng
@@ -440,6 +441,7 @@ class _Coupling:
                 tuple(float(x) for x in np.broadcast_to(lim, self.n)) for _, _, lim in self._limits
             ),
         )
+        self._records, self._chunk = self.rec.records, self.rec.chunk  # (`_on_release`)
 
     def _unrestorable(self) -> str | None:
         """A bound below w_sch whatever the leader's speed cannot be restored by slowing: the
@@ -701,7 +703,8 @@ class _Coupling:
     def _on_release(self, job: Job) -> None:
         world = self.world
         world.advance(self.env.now)
-        kind, kappa = world.segment_at()
+        ld = world.leader
+        kind, kappa = ld.segment()  # (world.segment_at)
         d = self.dec
         i = job.index
         self._decisions[i] = d
@@ -714,8 +717,8 @@ class _Coupling:
             d.msb_min,
             d.binding,
             self.v_ld,
-            world.leader_speed,  # (_v_actual)
-            world.leader_target_speed,  # (_v_target)
+            ld.speed,  # (_v_actual)
+            ld.target_speed,  # (_v_target)
             d.method,
             d.feasible,
             kind,
@@ -723,54 +726,65 @@ class _Coupling:
             d.est,
         )
         rec.radio_ms = self._delta_t  # (a drawn round trip replaces it)
-        self._open[i] = self.rec.add(rec)
+        self._open[i] = rec
+        self._records.append(rec)
+        if not i % self._chunk:  # (the recorder's hand-over, at most once a chunk)
+            self.rec.settle()
 
     def _on_scan(self, job: Job, seg: Segment) -> None:
         now = self.env.now
         world = self.world
         rec = self._open[job.index]
         scan = world.scan_estimate(now)  # (scan, then estimate)
+        # the scan's fields as its lists, read once (not a property call each: `_fields`)
+        raw = _fields(scan)
         rec.scan_t = now
-        voted = rec.voted = scan.voted
-        points = rec.points = int(sum(voted))  # (scan.hough_points, scan.total_points)
-        searched = scan.n_searched
+        voted = raw["voted"]
+        voted = rec.voted = tuple(raw["points"] if voted is None else voted)
+        points = rec.points = sum(voted)  # (scan.hough_points, scan.total_points)
+        searched = sum(raw["searched"])  # (scan.n_searched)
         # (hough_time on the counts just made: each counted once)
         e_cal, e_trans, r_H, _ = self._hough_args
         hough_ms = self._hough_ms = rec.hough_ms = counted_time(
-            len(voted), scan.cells, points, searched, e_cal, e_trans, r_H, self._search_ms
+            len(voted), raw["cells"], points, searched, e_cal, e_trans, r_H, self._search_ms
         )
         rec.assumption_broken = (
             points > self._points_assumed
             or hough_ms - searched * self._search_ms > self._hough_assumed + 1e-9
         )
-        lost = rec.lost = scan.as_lists("lost")
+        lost = rec.lost = raw["lost"]
         if True in lost:  # (else tracks_lost, searches, ... keep their 0)
-            rec.tracks_lost = int(sum(lost))  # (scan.n_lost)
+            rec.tracks_lost = sum(lost)  # (scan.n_lost)
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = searched
             rec.reacquisitions = scan.n_reacquired
-        rec.fix_error = scan.fix_error
-        rec.neighbour = scan.neighbour
+        fix_error, neighbour = raw["fix_error"], raw["neighbour"]
+        n = len(voted)
+        rec.fix_error = (math.inf,) * n if fix_error is None else tuple(fix_error)
+        rec.neighbour = (False,) * n if neighbour is None else tuple(neighbour)
         lp = rec.leader = scan.leader_pose
         rec.truth = self._truth(lp)
         fol = world.followers  # (the scan advanced every follower to now)
         near = rec.near = self.phys.add(lp, fol.x, fol.y)
         if self._last_scanned is not None:
-            self._close(scan, near)
+            self._close(scan, near, raw)
         self._last_scanned = rec
-        self._v_max = world.leader_speed  # (_v_actual)
+        self._v_max = world.leader.speed  # (_v_actual)
 
-    def _close(self, scan: Any, near: tuple[float, ...] = ()) -> None:
+    def _close(self, scan: Any, near: tuple[float, ...] = (), raw: Any = None) -> None:
         """Close the previous window's observation interval with ``scan``'s violations (and
-        ``near``, each follower's closest approach at it)."""
+        ``near``, each follower's closest approach at it; ``raw``: the scan's `_fields`
+        when the caller has them)."""
         last = self._last_scanned
         if last is None:
             return
-        last.viol = scan.as_lists("violations")
-        last.changes = scan.as_lists("changes")
+        if raw is None:
+            raw = _fields(scan)
+        last.viol = dict(raw["violations"])
+        last.changes = dict(raw["changes"])
         # the bounds the window's decision predicts at the highest speed the leader had in
         # the interval the changes span (the world has advanced to the scan)
-        v = self.world.leader_speed  # (_v_actual)
+        v = self.world.leader.speed  # (_v_actual)
         v_max = last.v_leader_max = v if v > self._v_max else self._v_max  # (max)
         d = self._decisions.pop(last.window)
         last.pred = self._predicted(d, v_max)
@@ -871,6 +885,8 @@ class _Coupling:
             # lost: the follower keeps its previous command; the leader, missing the reply,
             # keeps it in its estimate too
             rec.radio_losses += 1
+        elif self._send is not None:  # (World.command's, one call: World.sender)
+            self._send(i - 1, now)
         else:
             self.world.command(i, now)
         scan_t = rec.scan_t
@@ -898,21 +914,25 @@ class _Coupling:
     def _on_done(self, job: Job) -> None:
         now = self.env.now
         self._open.pop(job.index).finish = now
+        world = self.world
         if self._decide_at_end:
             self._decide(job)
         else:
-            world = self.world
             world.advance(now)
-            v = world.leader_speed  # (_v_actual)
+            v = world.leader.speed  # (_v_actual)
             if v > self._v_max:  # (max)
                 self._v_max = v
         if self.lap_ms is None:
-            self._lap_check(now)
+            d = world.leader.s - self._s0  # (`_lap_check`'s common case inline)
+            if d < self._lap_cm:
+                self._lap_prev = (now, d)
+            else:
+                self._lap_check(now)
         if (
             self._stop_s is not None
             and now >= self._stop_ms
             and not self.stop.triggered
-            and self.world.leader.s - self._s0 >= self._stop_s
+            and world.leader.s - self._s0 >= self._stop_s
         ):
             self.stop.succeed()
 
@@ -1012,6 +1032,15 @@ class _Coupling:
             scan = self.world.scan(max(self.env.now, self.world.t_ms))
             fol, (xl, yl, _) = self.world.followers, scan.leader_pose
             self._close(scan, closest_each(fol.x, fol.y, xl, yl))
+
+
+def _fields(scan: Any) -> Mapping[str, Any]:
+    """A `Scan`'s fields as lists, by name (its raw mapping, as the world's scans keep
+    them; a scan made by its constructor: each field through `Scan.as_lists`)."""
+    raw = scan._raw
+    if "_plain" in raw:
+        return raw  # type: ignore[no-any-return]
+    return {k: v if v is None or k == "cells" else scan.as_lists(k) for k, v in raw.items()}
 
 
 def _closed(records: list[WindowRecord]) -> list[WindowRecord]:

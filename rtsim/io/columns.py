@@ -63,6 +63,7 @@ def _special_chars() -> frozenset[str]:
 #: Characters that make the csv module (QUOTE_MINIMAL) quote a field.
 _SPECIAL = _special_chars()
 _BOOL_TEXT = {True: "True", False: "False"}
+_STR = {str}
 
 
 def column_kind(dtype: Any) -> str | None:
@@ -118,15 +119,27 @@ def _arrow_floats(a: NDArray[np.float64], nan: str | None) -> Any:
     # with one: the whole ones get their .0 (found by numpy, not in the text)
     with np.errstate(invalid="ignore"):  # (a signalling NaN's floor)
         whole = (np.floor(a) == a) & ~other
-    if whole.any():
-        w = pa.array(whole)
-        s = pc.replace_with_mask(s, w, pc.binary_join_element_wise(pc.filter(s, w), ".0", ""))
-    if other.any():
-        texts = [repr(x) for x in a[other].tolist()]
-        if nan is not None:
-            texts = [nan if t == "nan" else t for t in texts]
-        s = pc.replace_with_mask(s, pa.array(other), pa.array(texts, pa.string()))
-    return s
+    n_whole = int(np.count_nonzero(whole))
+    if not other.any():
+        if 2 * n_whole > len(a):  # (mostly whole: a suffix for every cell, "" or ".0")
+            return pc.binary_join_element_wise(s, pc.if_else(pa.array(whole), ".0", ""), "")
+        if n_whole:
+            w = pa.array(whole)
+            s = pc.replace_with_mask(s, w, pc.binary_join_element_wise(pc.filter(s, w), ".0", ""))
+        return s
+    # the cells to rewrite (whole numbers and the others) in one pass over the column: a
+    # whole one's text and ".0", another's repr (NaN as ``nan``)
+    texts = [repr(x) for x in a[other].tolist()]
+    if nan is not None:
+        texts = [nan if t == "nan" else t for t in texts]
+    fix = whole | other
+    sub = pa.array(texts, pa.string())
+    if n_whole:
+        is_other = pa.array(other[fix])
+        sub = pc.filter(s, pa.array(fix))
+        sub = pc.binary_join_element_wise(sub, ".0", "")  # (the others' replaced next)
+        sub = pc.replace_with_mask(sub, is_other, pa.array(texts, pa.string()))
+    return pc.replace_with_mask(s, pa.array(fix), sub)
 
 
 def float_texts(a: NDArray[np.float64]) -> list[str]:
@@ -153,14 +166,17 @@ def _texts(values: Any, kind: str) -> list[str] | None:
     if kind == "b":
         return list(map(_BOOL_TEXT.__getitem__, np.asarray(values, dtype=bool).tolist()))
     vals = values.tolist() if isinstance(values, np.ndarray) else list(values)
-    out = []
-    for v in vals:
-        if type(v) is str:
-            out.append(v)
-        elif v is None or v is pd.NA or (type(v) is float and v != v):
-            out.append("")
-        else:
-            return None
+    if set(map(type, vals)) == _STR:  # every value a str: written as it is (no loop here)
+        out = vals
+    else:
+        out = []
+        for v in vals:
+            if type(v) is str:
+                out.append(v)
+            elif v is None or v is pd.NA or (type(v) is float and v != v):
+                out.append("")
+            else:
+                return None
     if not _SPECIAL.isdisjoint("".join(out)):
         out = [_quote(v) for v in out]
     return out
@@ -191,10 +207,7 @@ def _arrow_lines(columns: Sequence[Any], kinds: Sequence[str]) -> list[str] | No
     floats = [i for i, k in enumerate(kinds) if k == "f"]
     done: dict[int, Any] = {}
     if len(floats) > 1:  # every float column formatted in one call (the calls cost more
-        n = len(columns[0])  # than the cells), then sliced (no copy)
-        a = np.concatenate([np.asarray(columns[i], dtype=np.float64) for i in floats])
-        s = _arrow_floats(a, "")
-        done = {i: s.slice(j * n, n) for j, i in enumerate(floats)}
+        done = _float_cells(columns, floats)  # than the cells), then sliced (no copy)
     cells = []
     for i, (values, kind) in enumerate(zip(columns, kinds, strict=True)):
         c = done[i] if i in done else _arrow_cells(values, kind)
@@ -202,6 +215,35 @@ def _arrow_lines(columns: Sequence[Any], kinds: Sequence[str]) -> list[str] | No
             return None
         cells.append(c)
     return pc.binary_join_element_wise(*cells, ",").to_pylist()  # type: ignore[no-any-return]
+
+
+def _float_cells(columns: Sequence[Any], floats: list[int]) -> dict[int, Any]:
+    """The cells of the float columns ``floats`` of ``columns`` (index -> Arrow strings),
+    formatted in one `_arrow_floats` call: each distinct column once (the same bits give
+    the same text: a copy of another column is its slice again) and a column of one value
+    by that value, repeated (a run's constant columns, the jobs' arrival and release)."""
+    import pyarrow as pa
+
+    n = len(columns[0])
+    arrays = [np.asarray(columns[i], dtype=np.float64) for i in floats]
+    keys = [a.tobytes() for a in arrays]
+    slot: dict[bytes, tuple[int, int]] = {}  # (offset in the formatted values, how many)
+    todo = []
+    off = 0
+    for a, key in zip(arrays, keys, strict=True):
+        if key in slot:
+            continue
+        bits = a.view(np.int64)
+        m = 1 if n and bool((bits == bits[0]).all()) else n
+        slot[key] = (off, m)
+        todo.append(a[:m])
+        off += m
+    s = _arrow_floats(np.concatenate(todo), "")
+    out = {}
+    for i, key in zip(floats, keys, strict=True):
+        o, m = slot[key]
+        out[i] = s.slice(o, n) if m == n else pa.repeat(s[o], n)
+    return out
 
 
 def _each(columns: Sequence[Any], kinds: Sequence[str], cells: Any) -> list[Any] | None:

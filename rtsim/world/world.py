@@ -20,6 +20,7 @@ heading. Followers are numbered from 1 in every method; arrays are indexed i −
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any, Literal
 
@@ -814,6 +815,36 @@ class World:
         else:
             v, w = self._lpsi(k, x, y, th)
         return self._hold(k, t_ms, fol.saturate(v, w), est)
+
+    def sender(self) -> Callable[[int, float], None] | None:
+        """`command` as one Python call for a caller that sends many (the coupling's send
+        hook): ``send(k, t_ms)`` applies follower index ``k``'s command at ``t_ms`` (not
+        returned), with the same draws and the same state as ``command(k + 1, t_ms)``, the
+        compiled law's fused kernel called directly (`CompiledEstimates.command_ftl`'s
+        call). None where `command` does not fuse: the caller uses `command`."""
+        if not self._ftl_fused:
+            return None
+        arr, fol, ld, n = self._arr, self.followers, self.leader, self._n
+        assert arr is not None
+        entry, run, last = arr._ftl_entry, arr._ftl_run, arr.last
+        advance, step, cmd_v, cmd_w = fol._advance_each, self._step_ms, fol.cmd_v, fol.cmd_w
+        normals, leader_to, command = self._normals, self._advance_leader, self.command
+
+        def send(k: int, t_ms: float) -> None:
+            if not 0 <= k < n:
+                command(k + 1, t_ms)  # (raises its IndexError)
+            if t_ms != self._t:
+                leader_to(t_ms)
+            advance((k,), t_ms, step)
+            nv, nw = normals(2)
+            v, w, rv, rw, held = entry(k, t_ms, ld.s, ld.speed, nv, nw, arr.E, *run)
+            if held:
+                last[k] = (v, w)
+            else:  # (the row was full: held once it has grown)
+                arr.hold(k, t_ms, v, w)
+            cmd_v[k], cmd_w[k] = rv, rw
+
+        return send
 
     def _lpsi(self, k: int, x: float, y: float, th: float) -> tuple[float, float]:
         """Follower index k's l-ψ command (unsaturated) for its estimate (x, y, θ)."""

@@ -62,3 +62,49 @@ def test_run_records_equal_eager_rows(monkeypatch: pytest.MonkeyPatch) -> None:
     for rows, eager in made:
         assert rows.rows() == eager
     assert res.windows["f3_rho_est"].notna().all()
+
+
+def _bits(rows: object) -> bytes:
+    import numpy as np
+
+    return np.asarray(rows, dtype=float).tobytes()
+
+
+def test_relative_states_is_relative_state_pair_by_pair() -> None:
+    """The table's one-pass form (`relative_states`) gives `relative_state`'s floats, bit
+    for bit: random poses, a follower on the leader (ρ = 0), headings at the wraps, NaN."""
+    import numpy as np
+
+    from rtsim.analysis.kinematics import relative_states
+
+    rng = np.random.default_rng(7)
+    lps = [tuple(v) for v in rng.normal(0, 300, (400, 3)).tolist()]
+    fps = [tuple(v) for v in rng.normal(0, 300, (400, 3)).tolist()]
+    lps += [(1.0, 2.0, 0.5), (0.0, 0.0, math.pi), (3.0, 4.0, -math.pi), (0.0, 0.0, 0.0)]
+    fps += [(1.0, 2.0, 0.1), (-1.0, 0.0, -math.pi), (3.0, 5.0, math.pi), (math.nan, 1.0, 0.0)]
+    want = [relative_state(lp, fp) for lp, fp in zip(lps, fps, strict=True)]
+    got = list(zip(*relative_states(lps, fps), strict=True))
+    assert _bits(got) == _bits(want)
+    assert relative_states([], []) == ([], [], [])
+
+
+def test_table_states_are_the_rows() -> None:
+    """The windows table's truth and est columns made in one pass from records not read yet
+    (`recorder._states`) are those of their rows made one by one (`StateRows.rows`)."""
+    import numpy as np
+
+    from rtsim.coupling.recorder import _flat, _states
+
+    res = scenario_run.run_scenario(
+        "test2", record_jobs=False, overrides={"formation.followers": 3}, duration_s=20.0
+    )
+    held = res.__dict__["_windows"]  # (the records, the frame not built yet: `_Frame`)
+    recs, n = held.recs, held.n
+    for name in ("truth", "est"):
+        objs = [getattr(r, name) for r in recs]
+        fresh = [StateRows(o._lp, list(o._poses), list(o._speeds)) for o in objs]
+        a = _states(iter(fresh), len(fresh), n)
+        assert all(o._rows is None for o in fresh)  # (not made: one pass over the poses)
+        b = _flat(iter(fresh), float, len(fresh) * n * 7).reshape(len(fresh), n, 7)
+        assert a.tobytes() == b.tobytes() and a.dtype == np.float64
+        assert _states(iter(fresh), len(fresh), n).tobytes() == b.tobytes()  # (rows made)

@@ -232,3 +232,33 @@ def test_scenario_windows_as_columns_equal_pandas(scenario: str) -> None:
         csv_text([df[c].to_numpy() for c in df.columns], kinds, list(df.columns)) == buf.getvalue()
     )
     assert _ours(res.jobs) == _pandas(res.jobs)
+
+
+def test_repeated_constant_and_whole_columns_give_pandas_bytes() -> None:
+    """Float columns formatted once per distinct column and once per constant column, and
+    the whole numbers' and the others' cells rewritten in one pass (mostly whole, a few
+    whole among others, none): pandas' bytes."""
+    m = 3 * ARROW_MIN
+    rng = np.random.default_rng(3)
+    x = rng.normal(0, 100, m)
+    whole = np.round(rng.normal(0, 1e4, m))
+    mixed = whole.copy()
+    mixed[::7] = rng.choice(EDGE, len(mixed[::7]))  # (others: inf, nan, 1e16, tiny, -0.0)
+    df = pd.DataFrame(
+        {
+            "x": x,
+            "x_again": x.copy(),  # (the same bits: formatted once)
+            "whole": whole,
+            "mixed": mixed,
+            "mixed_again": mixed.copy(),
+            "c": np.full(m, 2.5),
+            "zero": np.zeros(m),
+            "neg_zero": np.full(m, -0.0),  # (equal to zero, not the same bits)
+            "inf": np.full(m, math.inf),
+            "nan": np.full(m, math.nan),
+            "tiny": np.full(m, 1e-7),
+            "i": np.arange(m),
+        }
+    )
+    assert _ours(df) == _pandas(df)
+    assert _ours(df.iloc[:1]) == _pandas(df.iloc[:1])
