@@ -30,7 +30,10 @@ TIMED = [
     # (the compiled world's scan: laser, centres, Hough windows and changes in one call)
     ("rtsim.world.scanstep", "FusedScan", "run", "scan kernel: laser + Hough (compiled)"),
     ("rtsim.world.world", "World", "scan", "scan + localization (Python)"),
+    # (the run's scan and estimate in one call: the compiled world's EKF inside its kernel)
+    ("rtsim.world.world", "World", "scan_estimate", "scan + localization (Python)"),
     ("rtsim.world.world", "World", "estimate", "EKF"),
+    ("rtsim.world.world", "World", "_estimated", "EKF"),
     ("rtsim.world.world", "World", "command", "commands"),
     ("rtsim.coupling.scenario_run", "_Coupling", "_decide", "decision set-up (Python)"),
     ("rtsim.coupling.scenario_run", "_Coupling", "_truth", "truth log"),
@@ -82,7 +85,8 @@ def install(timers: Timers) -> None:
 
     for mod, cls, attr, stage in TIMED:
         owner = getattr(importlib.import_module(mod), cls)
-        setattr(owner, attr, timers.wrap(getattr(owner, attr), stage))
+        if hasattr(owner, attr):  # (an older checkout may lack one: its stage is then 0)
+            setattr(owner, attr, timers.wrap(getattr(owner, attr), stage))
     ns = rollout_kernels()
     for name in ROLLOUT:  # (each through its compiled function, as the run calls it)
         fn = functools.partial(call, getattr(ns, name))

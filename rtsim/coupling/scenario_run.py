@@ -735,8 +735,7 @@ class _Coupling:
         now = self.env.now
         world = self.world
         rec = self._open[job.index]
-        scan = world.scan(now)
-        world.estimate(scan)
+        scan = world.scan_estimate(now)  # (scan, then estimate)
         # the scan's fields as its lists, read once (not a property call each: `_fields`)
         raw = _fields(scan)
         rec.scan_t = now

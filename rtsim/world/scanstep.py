@@ -15,9 +15,10 @@ The per-follower arithmetic of a scan is written here once, as kernel sources
 `scan_step` composes them with the laser (`rtsim.world.rangefinder.scan_points`), the
 predicted window centres (`rtsim.world.estimates.carry_row`), the Hough windows
 (`rtsim.world.hough.locate_all`) and each window's outcome (`rtsim.world.hough.peak_fix`):
-one call per scan fills the columns `FusedScan` hands to `World` as lists. The rare
-window without a fix is searched for in Python afterwards (the model's own ``_search``),
-as the reference does.
+one call per scan fills the columns `FusedScan` hands to `World` as lists and, asked for
+(`World.scan_estimate`), runs the estimate on the fixes too (`rtsim.world.estimates.est_scan`).
+The rare window without a fix is searched for in Python afterwards (the model's own
+``_search``), as the reference does, and the estimate then made by a second call.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.model.window import LASER_POINTS
-from rtsim.world.estimates import carry_row, new_estimates
+from rtsim.world.estimates import carry_row, est_scan, new_estimates
 from rtsim.world.exactmath import HYPOT_SUBS, cpython_hypot, cpython_remainder
 from rtsim.world.hough import _dummy, locate_all, peak_fix
 from rtsim.world.jit import build, kernel, specialise
@@ -40,6 +41,7 @@ __all__ = [
     "FLOAT_ROWS",
     "FLAG_ROWS",
     "PY",
+    "FusedFields",
     "FusedScan",
     "bound_violations",
     "fix_error",
@@ -130,8 +132,9 @@ PY = {
 def scan_step(
     W: Any, xl: float, yl: float, hl: float, z: Any, laser: Any, beams: Any, E: Any,
     t: float, a: float, predicted: bool, hough: Any, work: Any, windows: Any, P: Any,
-    first: bool, limits: Any, T: Any, B: Any, N: Any, F: Any,
-) -> None:  # fmt: skip
+    first: bool, limits: Any, T: Any, B: Any, N: Any, F: Any, mode: int, ekf: Any,
+    var: float, track: bool,
+) -> float:  # fmt: skip
     """One scan (module docstring) of the followers whose truth is ``W`` (rows x, y,
     odometer) seen by the leader at (``xl``, ``yl``, ``hl``): ``laser`` = (r_F, max range,
     range σ, the beams' cos and sin) with the standard normals ``z``, into ``beams`` = (px,
@@ -142,7 +145,14 @@ def scan_step(
     scan's; ignored at the ``first``) and ``limits`` = (separation and travel limits per
     follower, T_β). Fills ``T`` (`FLOAT_ROWS`), ``B`` (`FLAG_ROWS`), ``N`` (beams returned,
     points that voted) and ``F`` (per follower mx, my, 1 in its window else 0: `est_scan`'s
-    fixes)."""
+    fixes). ``mode`` 0: the scan alone, returns −1; 1: then, when every window has its fix,
+    `World.estimate` with them (`est_scan` on ``E`` at ``t`` with ``ekf`` = (a, σ_v², σ_ω²,
+    q_p², q_θ², r), the heading variance's max so far ``var``, ``track``), returning its
+    result (else −1: the caller searches and asks for mode 2); 2: `est_scan` with ``F`` as
+    given, alone."""
+    ea, sv2, sw2, qp2, qh2, r = ekf
+    if mode == 2:
+        return est_scan(E, F, t, ea, sv2, sw2, qp2, qh2, r, xl, yl, hl, var, track)
     n = W.shape[1]
     c, s = math.cos(hl), math.sin(hl)
     for k in range(n):
@@ -184,6 +194,12 @@ def scan_step(
             disp, d_rho, travel, d_beta, r_H, sep[k], trav[k], T_beta
         )
         P[0, k], P[1, k], P[2, k], P[3, k], P[4, k] = tx, ty, rho, beta, odo
+    if mode == 1:
+        for k in range(n):
+            if B[3, k]:
+                return -1.0
+        return est_scan(E, F, t, ea, sv2, sw2, qp2, qh2, r, xl, yl, hl, var, track)
+    return -1.0
 
 
 def _arguments(n: int, E: Any, laser: Any, beams: Any, hough: Any, work: Any, windows: Any) -> Any:
@@ -194,7 +210,8 @@ def _arguments(n: int, E: Any, laser: Any, beams: Any, hough: Any, work: Any, wi
     T, B = np.zeros((len(FLOAT_ROWS), n)), np.zeros((len(FLAG_ROWS), n), dtype=np.bool_)
     N, F = np.zeros((2, n), dtype=np.int64), np.zeros((n, 3))
     args = (np.zeros((3, n)), x, x, x, np.zeros(LASER_POINTS), laser, beams, E, x, x, True)
-    return (*args, hough, work, windows, np.zeros((5, n)), True, limits, T, B, N, F)
+    est = (0, (x,) * 6, x, True)
+    return (*args, hough, work, windows, np.zeros((5, n)), True, limits, T, B, N, F, *est)
 
 
 def warm() -> None:
@@ -208,6 +225,26 @@ def warm() -> None:
         1, new_estimates(1), laser, (px, px, owner, owner), (1.0, 1.0, 1, 1), *dummy[9:]
     )
     built_entry(build(scan_step), args)
+
+
+class FusedFields(dict[str, Any]):
+    """A fused scan's fields for its `rtsim.world.scan.Scan` (``_raw``): the columns
+    `scan_step` gives as lists, with ``T`` its float columns (`FLOAT_ROWS`, lists) from which
+    the pairs a reader seldom asks for — ``truth``, ``centre``, ``measured`` — are zipped on
+    their first read."""
+
+    __slots__ = ("T",)
+    T: list[list[float]]
+
+    #: a pair field's rows of ``T`` (`FLOAT_ROWS`)
+    PAIRS = {"truth": (0, 1), "centre": (2, 3), "measured": (4, 5)}
+
+    def __missing__(self, name: str) -> list[tuple[float, float]]:
+        i, j = self.PAIRS[name]
+        T = self.T
+        value = list(zip(T[i], T[j], strict=True))
+        self[name] = value
+        return value
 
 
 class FusedScan:
@@ -244,6 +281,8 @@ class FusedScan:
         self.limits = (np.array(sep, dtype=float), np.array(trav, dtype=float), float(T_beta))
         self.first = True
         self._step = built_entry(build(scan_step, motion.subs), args)
+        #: `scan_step`'s EKF constants (`CompiledEstimates.ekf_args`), set by the world
+        self.ekf: tuple[float, ...] = (0.0,) * 6
 
     def run(
         self,
@@ -254,12 +293,20 @@ class FusedScan:
         t: float,
         a: float,
         predicted: bool,
-    ) -> None:
-        """`scan_step` on these buffers (the previous scan's state kept between calls)."""
+        mode: int = 0,
+        var: float = 0.0,
+        track: bool = False,
+    ) -> float:
+        """`scan_step` on these buffers (the previous scan's state kept between calls) in
+        ``mode`` (0: the scan; 1: the scan and, every window fixed, the estimate; 2: the
+        estimate alone) with the heading variance's max ``var``, ``track``: the estimate's
+        result, or −1 when none was made."""
         xl, yl, hl = lp
-        self._step(
+        out: float = self._step(
             W, xl, yl, hl, z, self.laser, self.beams, E, t, a, predicted, self.hough,
             self.work, self.windows, self.P, self.first, self.limits,
-            self.T, self.B, self.N, self.F,
+            self.T, self.B, self.N, self.F, mode, self.ekf, var, track,
         )  # fmt: skip
-        self.first = False
+        if mode != 2:
+            self.first = False
+        return out

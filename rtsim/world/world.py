@@ -4,7 +4,8 @@ Plain numpy + filterpy, no engine: whoever owns time calls, in simulated **milli
 `World.advance` (the truth up to t), `World.scan` at a window's scan (beams, fixes, Hough
 windows, lost tracks, the bound violations since the previous scan: a `Scan`),
 `World.estimate` with it (the EKFs predict with the commands sent and update with the
-fixes; the estimates centre the next windows, ``[localization] centre``), `World.command`
+fixes; the estimates centre the next windows, ``[localization] centre``) — or both at once,
+`World.scan_estimate` (one compiled call in the compiled world) —, `World.command`
 at the end of follower i's send segment (l-ψ or follow-the-leader on the leader's
 estimate, held until the next command: a late window means stale commands) and
 `World.set_leader_speed` (the target the leader's speed ramps toward).
@@ -50,7 +51,7 @@ from rtsim.world.localization import ExpectedBeams, lost_cause
 from rtsim.world.locmodels import Fix, HoughModel, localization_model
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.scan import Scan
-from rtsim.world.scanstep import PY, FusedScan
+from rtsim.world.scanstep import PY, FusedFields, FusedScan
 
 __all__ = ["World", "Scan"]
 
@@ -211,6 +212,7 @@ class World:
             self._fused = FusedScan(
                 self.localization, form.n, motion, self._arr.E, limits, thr.T_beta
             )
+            self._fused.ekf = tuple(float(v) for v in self._arr.ekf_args)
         self._fixes_of: tuple[Scan, Array] | None = None  # the last fused scan's fixes
         # the compiled backend's command with the compiled law: one call (`command_ftl`;
         # not where the law stays Python, `CompiledTraceFollower.compiled`)
@@ -514,11 +516,26 @@ class World:
             for lost, nb, p, tr in zip(losts, neighbours, pts, truth_l, strict=True)
         ]
 
-    def _scan_fused(self, t_ms: float) -> Scan:
+    def scan_estimate(self, t_ms: float) -> Scan:
+        """`scan` at ``t_ms``, then `estimate` with it: one compiled call for both in the
+        compiled backend with the hough model when every window has its fix (`scan_step`'s
+        mode 1); the scan."""
+        if self._fused is None:
+            scan = self.scan(t_ms)
+            self.estimate(scan)
+            return scan
+        if t_ms < self._est_t:
+            raise RtsimError(f"scan at {t_ms} ms is older than the estimates ({self._est_t} ms)")
+        self.advance(t_ms)
+        return self._scan_fused(t_ms, True)
+
+    def _scan_fused(self, t_ms: float, estimate: bool = False) -> Scan:
         """`scan` (advanced to ``t_ms``) with the hough model in the compiled backend: the
         laser, the windows' centres, the Hough windows, the fixes and the truth's change in
-        one compiled call (`FusedScan`), its columns made the lists `scan` gives; a window
-        without a fix searched for as `HoughModel.locate` does."""
+        one compiled call (`FusedScan`), and with ``estimate`` the estimate too
+        (`scan_estimate`). When every window has its fix (the rule), the scan's fields are
+        the kernel's columns as lists, the pairs (fixes, truth, centres) zipped when first
+        read (`FusedFields`); else `_scan_searched`, then the estimate."""
         lp = self.leader.pose
         fol = self.followers
         fused = self._fused
@@ -529,42 +546,100 @@ class World:
             fused.T[2:4] = np.array(self._centre).T
         W = np.array((fol.x, fol.y, fol.odometer))
         z = model.draw(LASER_POINTS)
-        fused.run(W, lp, z, self._arr.E, t_ms, self._accel, predicted)
-        tx, ty, cx, cy, mx, my, errors, _, _, disps, d_rhos, travels, d_betas = fused.T.tolist()
-        in_ws, losts, neighbours, unfixed, v_loc, v_sep, v_path, v_bear = fused.B.tolist()
+        E, a, var = self._arr.E, self._accel, self.max_heading_var
+        est = fused.run(W, lp, z, E, t_ms, a, predicted, 1 if estimate else 0, var, predicted)
+        T = fused.T.tolist()
+        B = fused.B.tolist()
         pts, voted = fused.N.tolist()
+        if True in B[3]:  # a window without a fix
+            scan = self._scan_searched(t_ms, lp, T, B, pts, voted)
+        else:
+            _, losts, neighbours, _, v_loc, v_sep, v_path, v_bear = B
+            n = len(pts)
+            raw = FusedFields(
+                points=pts,
+                in_window=B[0],
+                lost=losts,
+                reacquired=[False] * n,
+                changes={
+                    "displacement": T[9],
+                    "d_rho": T[10],
+                    "travel": T[11],
+                    "d_beta": T[12],
+                },
+                violations={
+                    "localization": v_loc,
+                    "separation": v_sep,
+                    "path_diversion": v_path,
+                    "bearing": v_bear,
+                },
+                searched=[False] * n,
+                voted=voted or None,
+                fix_error=T[6],
+                neighbour=neighbours if voted else None,
+                cells=model.cells,
+            )
+            raw.T = T
+            # (every window has its fix: a lost track is a neighbour's, `_causes`)
+            raw["cause"] = (
+                [""] * n
+                if True not in losts
+                else self._causes(losts, neighbours, pts, raw["truth"])
+            )
+            scan = Scan._of(t_ms, lp, raw)
+        if not estimate:
+            self._fixes_of = (scan, fused.F)
+            return scan
+        if est < 0.0:  # (a window was searched for: its fix packed since)
+            est = fused.run(W, lp, z, E, t_ms, a, predicted, 2, var, predicted)
+        self._estimated(scan, est)
+        return scan
+
+    def _scan_searched(
+        self,
+        t_ms: float,
+        lp: Pose,
+        T: list[list[float]],
+        B: list[list[bool]],
+        pts: list[int],
+        voted: list[int],
+    ) -> Scan:
+        """`_scan_fused`'s scan when a window has no fix (the kernel's columns ``T``, ``B``,
+        ``pts``, ``voted`` as lists): each such window searched for as `HoughModel.locate`
+        does, its fix packed for the estimate (`FusedScan.F`)."""
+        fused, model = self._fused, self.localization
+        assert fused is not None and isinstance(model, HoughModel)
+        tx, ty, cx, cy, mx, my, errors, _, _, disps, d_rhos, travels, d_betas = T
+        in_ws, losts, neighbours, unfixed, v_loc, v_sep, v_path, v_bear = B
         truth_l = list(zip(tx, ty, strict=True))
         centre = list(zip(cx, cy, strict=True))
         measured = list(zip(mx, my, strict=True))
         searched = [False] * len(pts)
         reacqs = [False] * len(pts)
-        if True in unfixed:
-            expected = ExpectedBeams(centre, self._r_F, self._max_range) if self._visible else None
-            rf = model.rangefinder
-            beams, F = (rf.px, rf.py, rf.owner), fused.F
-            for k, u in enumerate(unfixed):
-                if not u:
-                    continue
-                fix, in_w, lost, search, reacq, nb = model._search(k, beams, centre[k], expected)
-                measured[k], in_ws[k], losts[k], searched[k], reacqs[k] = (
-                    fix,
-                    in_w,
-                    lost,
-                    search,
-                    reacq,
-                )
-                neighbours[k] = nb
-                if in_w or reacq:
-                    errors[k] = _FIX_ERROR(fix[0], fix[1], tx[k], ty[k])
-                F[k] = (fix[0], fix[1], 1.0 if in_w else 2.0 if reacq else 0.0)
+        expected = ExpectedBeams(centre, self._r_F, self._max_range) if self._visible else None
+        rf = model.rangefinder
+        beams, F = (rf.px, rf.py, rf.owner), fused.F
+        for k, u in enumerate(unfixed):
+            if not u:
+                continue
+            fix, in_w, lost, search, reacq, nb = model._search(k, beams, centre[k], expected)
+            measured[k], in_ws[k], losts[k], searched[k], reacqs[k] = (
+                fix,
+                in_w,
+                lost,
+                search,
+                reacq,
+            )
+            neighbours[k] = nb
+            if in_w or reacq:
+                errors[k] = _FIX_ERROR(fix[0], fix[1], tx[k], ty[k])
+            F[k] = (fix[0], fix[1], 1.0 if in_w else 2.0 if reacq else 0.0)
         changes = (disps, d_rhos, travels, d_betas)
         violations = (v_loc, v_sep, v_path, v_bear)
         cols = (measured, in_ws, losts, searched, reacqs, neighbours)
-        scan = self._scan_of(
+        return self._scan_of(
             t_ms, lp, truth_l, centre, pts, cols, errors, changes, violations, voted
         )
-        self._fixes_of = (scan, fused.F)
-        return scan
 
     def _changes(
         self, truth_l: list[XY], odometer: list[float], fixes: list[Fix]
@@ -702,9 +777,13 @@ class World:
                 fixes += (mx, my, 1.0 if w else 2.0 if r else 0.0)
         arr = self._arr
         assert arr is not None
-        self.max_heading_var = arr.scan(
-            scan.t_ms, scan.leader_pose, fixes, self.max_heading_var, self._predicted
-        )
+        var = arr.scan(scan.t_ms, scan.leader_pose, fixes, self.max_heading_var, self._predicted)
+        self._estimated(scan, var)
+
+    def _estimated(self, scan: Scan, var: float) -> None:
+        """The compiled estimate's ending: the heading variance's max ``var``, the estimates'
+        time, and the next windows' centres (``previous``)."""
+        self.max_heading_var = var
         self._est_t = scan.t_ms
         if not self._predicted:
             self._centre = self._to_leader(scan.leader_pose, *self._estimated_xy())

@@ -93,3 +93,53 @@ def test_compiled_scan_is_the_python_scan() -> None:
     b = _scan(centres, sd=1.0, fast=True, seed=5)
     for x, y in zip(a, b, strict=True):
         np.testing.assert_array_equal(x, y)
+
+
+def _every_beam(xs, ys, r_F, max_range, sd, z):  # type: ignore[no-untyped-def]
+    """The scan with every follower tried on every beam (the rule `scan_points` keeps with
+    each follower's span of beams only): per beam, the nearest hit, the first of equals."""
+    from rtsim.world.rangefinder import BEAM_COS, BEAM_SIN
+
+    n = len(xs)
+    px, py, owner, counts = [math.nan] * 361, [math.nan] * 361, [-1] * 361, [0] * n
+    for j in range(361):
+        c, s = float(BEAM_COS[j]), float(BEAM_SIN[j])
+        best, who = math.inf, -1
+        for k in range(n):
+            p = xs[k] * c + ys[k] * s
+            q = xs[k] * s - ys[k] * c
+            half2 = r_F * r_F - q * q
+            if half2 >= 0.0 and p > 0.0:
+                r = max(p - math.sqrt(half2), 0.0)
+                if r < best:
+                    best, who = r, k
+        if who >= 0 and best <= max_range:
+            r = best + sd * z[j]
+            owner[j], px[j], py[j] = who, r * c, r * s
+            counts[who] += 1
+    return px, py, owner, counts
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_spans_are_every_beam(fast: bool) -> None:
+    """The beams' spans leave no hit out, bit for bit: random formations (discs side by side,
+    shadowing one another, around the leader, straddling the scan's ends, touching or
+    overlapping the leader, beyond the range) against every follower on every beam."""
+    if fast and not kernels.available():
+        pytest.skip("numba is not importable")
+    rng = np.random.default_rng(8)
+    for trial in range(400):
+        n = int(rng.integers(1, 7))
+        rho = rng.uniform(0.0, 3.0 * R_F, n) if trial % 4 == 0 else rng.uniform(20.0, 400.0, n)
+        bearing = rng.uniform(0.0, 2 * math.pi, n)
+        if trial % 5 == 0:  # (near the scan's ends, 90° and 270°)
+            bearing = rng.choice([0.5, 1.5], n) * math.pi + rng.normal(0.0, 0.05, n)
+        xs = (rho * np.cos(bearing)).tolist()
+        ys = (rho * np.sin(bearing)).tolist()
+        max_range = float(rng.choice([8000.0, 150.0]))
+        z = np.random.default_rng(trial).standard_normal(361)
+        rf = Rangefinder(R_F, max_range, 0.7, fast)
+        px, py, owner = rf.scan(np.array(xs), np.array(ys), z)
+        want = _every_beam(xs, ys, R_F, max_range, 0.7, z.tolist())
+        got = (px.tolist(), py.tolist(), owner.tolist(), rf.counts[:n].tolist())
+        assert repr(got) == repr(want), trial

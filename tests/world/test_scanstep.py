@@ -48,7 +48,11 @@ def _seen(scan: Any) -> Any:
     return _bits(out)
 
 
-def _drive(backend: str, over: dict[str, Any], scans: int, gap_ms: float) -> list[Any]:
+def _drive(
+    backend: str, over: dict[str, Any], scans: int, gap_ms: float, both: bool = False
+) -> list[Any]:
+    """``scans`` scans, each estimated (``both``: in one call, `World.scan_estimate`), and
+    commands between them: everything a reader sees of each scan, then the estimates."""
     cfg = load_scenario("test2", overrides={**over, "world.backend": backend}).world
     world = World(cfg, np.random.default_rng(11))
     if backend == "compiled":
@@ -57,9 +61,13 @@ def _drive(backend: str, over: dict[str, Any], scans: int, gap_ms: float) -> lis
     t = 0.0
     for j in range(scans):
         t += gap_ms * (1.0 + 0.5 * (j % 3))
-        scan = world.scan(t)
-        world.estimate(scan)
+        if both:
+            scan = world.scan_estimate(t)
+        else:
+            scan = world.scan(t)
+            world.estimate(scan)
         seen.append(_seen(scan))
+        seen.append(_bits([world.covariances(), world.max_heading_var]))
         for i in range(1, world.n + 1):
             world.command(i, t + 3.0 * i)
     seen.append(_bits([world.covariances(), world.state()]))
@@ -90,6 +98,10 @@ def test_fused_scan_is_the_reference(case: str) -> None:
     py = _drive("python", over, 40, 250.0)
     co = _drive("compiled", over, 40, 250.0)
     assert py == co
+    # the scan and the estimate in one compiled call: the same, and the Python world's
+    # `scan_estimate` is its `scan` then `estimate`
+    assert _drive("compiled", over, 40, 250.0, both=True) == py
+    assert _drive("python", over, 40, 250.0, both=True) == py
     if case != "shipped":  # (the cases reach the search and its outcomes)
         flat = repr(py)
         assert "('b', True)" in flat
@@ -151,3 +163,19 @@ def test_estimate_from_an_earlier_scan() -> None:
         world.estimate(first)
         out.append(_bits([world.covariances(), world.state()]))
     assert out[0] == out[1]
+
+
+@needs_numba
+def test_fused_fields_zip_on_first_read() -> None:
+    """A fused scan's pairs (truth, centre, fixes) are zipped from its columns when first
+    read, once; its other fields are the kernel's columns as lists."""
+    cfg = load_scenario("test2", overrides={"world.backend": "compiled"}).world
+    world = World(cfg, np.random.default_rng(3))
+    scan = world.scan_estimate(240.0)
+    raw = scan._raw
+    assert "truth" not in raw and "measured" not in raw and "centre" not in raw
+    truth = scan.as_lists("truth")
+    assert raw["truth"] is truth and scan.as_lists("truth") is truth
+    assert all(type(p) is tuple and type(p[0]) is float for p in truth)
+    assert scan.truth.shape == (world.n, 2)
+    assert scan.as_lists("searched") == [False] * world.n
