@@ -371,22 +371,19 @@ class CPU(ResourceProtocols, TimeSlices):
         return self.process
 
     def _dispatcher(self) -> Any:
-        """The one SimPy process: steps 1-4 of each instant (docs/cpu-events.md). A job of a
-        simple top task is booked by `rtsim.sim.inline.top_jobs`; the cold paths are calls."""
+        """The one SimPy process: steps 1-4 of each instant, docs/cpu-events.md (by calls: the
+        cold paths, the top task's inline jobs)."""
         env = self.env
         timers, ready, seqs, totals = self._timers, self._ready, self._seq, self._totals
         heappush, heappop, heapreplace = heapq.heappush, heapq.heappop, heapq.heapreplace
         ovh, res, sliced = self.overhead, self._res_on, self.quantum is not None
-        preempts, by_key = self.policy.preempts, self._by_key  # (by_key: the test inline)
-        last_release = self._last_release  # (jobs are released in [t0, end))
+        preempts, by_key, last_release = self.policy.preempts, self._by_key, self._last_release
         plain, jump, queue, inline_ok, book = self._modes()
         top: Top | None = None  # a job of the top task released at now, for step 3
         running: Job | None = None
         last: Job | None = None  # (the job that ran last: a switch to another costs overhead)
-        # compensated time (docs/time.md): now + now_lag, run_end + run_lag, work_start + work_lag
-        run_end, now_lag, work_lag, run_lag = _INF, 0.0, 0.0, 0.0
+        run_end, now_lag, work_lag, run_lag, tol_next = _INF, 0.0, 0.0, 0.0, -_INF  # (time.md)
         piece_start = work_start = now = env.now
-        tol_next = -_INF  # (the coincidence window is set at the loop's top)
         while True:
             if now >= tol_next:  # the clock entered the next binade: a wider window
                 tol, tol_next = coincidence(now)
@@ -425,7 +422,10 @@ class CPU(ResourceProtocols, TimeSlices):
                 entry = timers[0]  # (popped below: a release's successor replaces it)
                 st = entry[5]
                 if entry[4] != _RELEASE or not st.fast_release:  # (popped by _on_timer)
-                    if self._on_timer(
+                    if entry[4] == _RELEASE:  # (a release without the fast path: one call less)
+                        heappop(timers)
+                        self._release(st, now)
+                    elif self._on_timer(
                         entry, running, now, now_lag, piece_start, work_start, work_lag
                     ):
                         running, run_end = None, _INF  # it left the CPU
@@ -758,28 +758,35 @@ class CPU(ResourceProtocols, TimeSlices):
         k = st.k
         st.k = k + 1
         r = st.next_release
-        if st.provider is not None:
-            p = st.provider()
-            if type(p) is not float or not 0.0 < p < _INF:  # (a finite float > 0 as it is)
-                if not isinstance(p, int | float) or not math.isfinite(p) or p <= 0:
-                    raise RtsimError(
-                        f"task '{st.name}': period provider returned {p!r} at "
-                        f"t={now:g} ms; need a positive number of ms"
-                    )
-                p = float(p)
-            d = st.deadline / st.period * p
-            nxt = self._stream_next(st, k, r, p)
-        elif st.per_window:
-            w = self._w
-            if w is None:
-                raise RtsimError(
-                    f"task '{st.name}': released at t={now:g} ms before the first window release"
-                )
-            p, d = st.period * w, st.deadline * w
-            nxt = self._stream_next(st, k, r, p)
-        else:
+        if st.provider is None and not st.per_window:
             p, d = st.period, st.deadline
             nxt = st.first + (k + 1) * p
+        else:
+            if st.provider is not None:
+                p = st.provider()
+                if type(p) is not float or not 0.0 < p < _INF:  # (a finite float > 0 as it is)
+                    if not isinstance(p, int | float) or not math.isfinite(p) or p <= 0:
+                        raise RtsimError(
+                            f"task '{st.name}': period provider returned {p!r} at "
+                            f"t={now:g} ms; need a positive number of ms"
+                        )
+                    p = float(p)
+                d = st.deadline / st.period * p
+            else:
+                w = self._w
+                if w is None:
+                    raise RtsimError(
+                        f"task '{st.name}': released at t={now:g} ms before the first window "
+                        "release"
+                    )
+                p, d = st.period * w, st.deadline * w
+            # a period decided at each arrival: the arrival after job k is anchor + (k + 1 −
+            # k_anchor)·p, the stream restarting (anchor = r, k_anchor = k) whenever p differs
+            # from the period in force; a constant period therefore gives t0 + k·p exactly,
+            # never a running sum (docs/cpu-events.md: Times)
+            if p != st.stream_p:
+                st.stream_p, st.stream_t, st.stream_k = p, r, k
+            nxt = st.stream_t + (k + 1 - st.stream_k) * p
         if st.is_window:
             self._w = p
         if nxt < self._last_release:
@@ -813,28 +820,20 @@ class CPU(ResourceProtocols, TimeSlices):
             self._jittered(st, k, r, d, p, now)
             return
         job = Job(st, k, r, r + d, p, next(self._seq))
-        st.pending.append(job)
+        pending = st.pending
+        pending.append(job)
         stats.released += 1
-        if len(st.pending) > stats.max_backlog:
-            stats.max_backlog = len(st.pending)
+        if len(pending) > stats.max_backlog:
+            stats.max_backlog = len(pending)
         if st.policy == "abort":
             heapq.heappush(self._timers, (r + d, _ABORT, st.priority, job.seq, _ABORT, job))
         for h in st.release_hooks:
             h(job)
-        if len(st.pending) == 1:
-            self._eligible(job, now)
-
-    @staticmethod
-    def _stream_next(st: _TaskState, k: int, r: float, p: float) -> float:
-        """The arrival after job ``k`` (arrived at ``r``) of a stream whose period ``p`` is
-        decided at each arrival: anchor + (k + 1 − k_anchor)·p, the stream restarting
-        (anchor = r, k_anchor = k) whenever p differs from the period in force. A constant
-        period therefore gives t0 + k·p exactly, never a running sum (docs/cpu-events.md: Times)."""
-        if p != st.stream_p:
-            st.stream_p = p
-            st.stream_t = r
-            st.stream_k = k
-        return st.stream_t + (k + 1 - st.stream_k) * p
+        if len(pending) == 1:
+            if st.idle_kind[0]:
+                self._eligible(job, now)
+            else:  # (`_eligible` of a job just released: not held, not started)
+                heapq.heappush(self._ready, (job.key, job.tie, job))
 
     def _jittered(self, st: _TaskState, k: int, r: float, d: float, p: float, now: float) -> None:
         """Job ``k`` arrives at ``r`` and is released after its drawn delay (docs/cpu-events.md)."""

@@ -216,7 +216,7 @@ class _TaskState:
         self.jrng: np.random.Generator | None = None  # release delays, own stream
         self.order: Callable[[Job], tuple[Any, Any]] = _unset_order  # the policy's (key, tie)
         # a provided or per-window period: the arrival (and its index) where the period in
-        # force, stream_p, started (cpu.CPU._stream_next)
+        # force, stream_p, started (cpu.CPU._release)
         self.stream_t = 0.0
         self.stream_k = 0
         self.stream_p = math.nan

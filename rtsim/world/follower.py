@@ -182,6 +182,7 @@ class FollowerGroup:
         self.w = [0.0] * len(self.x)
         self.odometer = [0.0] * len(self.x)
         self.t = [float(t_ms)] * len(self.x)
+        self._all = tuple(range(len(self.x)))  # (every follower's index, for advance_all)
         self.motion: MotionModel = motion_model(params.motion_model)
         self._advance = self._kernel(self.motion)
 
@@ -228,7 +229,7 @@ class FollowerGroup:
 
     def advance_all(self, t_ms: float, step_ms: float) -> None:
         """`advance` every follower to ``t_ms``."""
-        self._advance_each(range(len(self.x)), t_ms, step_ms)
+        self._advance_each(self._all, t_ms, step_ms)
 
     def _advance_each(self, ks: Iterable[int], t_ms: float, step_ms: float) -> None:
         """`advance` followers ``ks`` to ``t_ms`` (one loop: no call per follower)."""

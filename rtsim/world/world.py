@@ -235,7 +235,8 @@ class World:
         """Integrate the truth to ``t_ms``: the leader exactly along its path, the followers
         with their held commands in exact arcs, sub-stepped at ``step_ms`` while a wheel
         speed ramps toward its command for longer than one step."""
-        self._advance_leader(t_ms)
+        if t_ms != self._t:  # (the world is often at t_ms already)
+            self._advance_leader(t_ms)
         self.followers.advance_all(t_ms, self._step_ms)
 
     def _advance_leader(self, t_ms: float) -> None:
