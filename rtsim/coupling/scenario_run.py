@@ -736,8 +736,8 @@ class _Coupling:
         world = self.world
         rec = self._open[job.index]
         scan = world.scan_estimate(now)  # (scan, then estimate)
-        # the scan's fields as its lists, read once (not a property call each: `_fields`)
-        raw = _fields(scan)
+        # the scan's fields as its lists, read once (not a property call each: `Scan.fields`)
+        raw = scan.fields()
         rec.scan_t = now
         voted = raw["voted"]
         voted = rec.voted = tuple(raw["points"] if voted is None else voted)
@@ -773,13 +773,13 @@ class _Coupling:
 
     def _close(self, scan: Any, near: tuple[float, ...] = (), raw: Any = None) -> None:
         """Close the previous window's observation interval with ``scan``'s violations (and
-        ``near``, each follower's closest approach at it; ``raw``: the scan's `_fields`
+        ``near``, each follower's closest approach at it; ``raw``: the scan's `Scan.fields`
         when the caller has them)."""
         last = self._last_scanned
         if last is None:
             return
         if raw is None:
-            raw = _fields(scan)
+            raw = scan.fields()
         last.viol = dict(raw["violations"])
         last.changes = dict(raw["changes"])
         # the bounds the window's decision predicts at the highest speed the leader had in
@@ -1032,15 +1032,6 @@ class _Coupling:
             scan = self.world.scan(max(self.env.now, self.world.t_ms))
             fol, (xl, yl, _) = self.world.followers, scan.leader_pose
             self._close(scan, closest_each(fol.x, fol.y, xl, yl))
-
-
-def _fields(scan: Any) -> Mapping[str, Any]:
-    """A `Scan`'s fields as lists, by name (its raw mapping, as the world's scans keep
-    them; a scan made by its constructor: each field through `Scan.as_lists`)."""
-    raw = scan._raw
-    if "_plain" in raw:
-        return raw  # type: ignore[no-any-return]
-    return {k: v if v is None or k == "cells" else scan.as_lists(k) for k, v in raw.items()}
 
 
 def _closed(records: list[WindowRecord]) -> list[WindowRecord]:

@@ -255,27 +255,13 @@ class CompiledEstimates:
         self.E = grown
 
     def fuse_ftl(self, law: Any, limits: tuple[float, float], noise: tuple[float, float]) -> None:
-        """Make `command_ftl` run the compiled follow-the-leader law ``law`` (its arrays),
-        saturate to ``limits`` (speed, turn rate) and realise the command with the actuation
-        noise's scales ``noise`` (speed, turn rate)."""
+        """Make `est_command_ftl` (called by `World.command`, `World._fused_sender`) run the
+        compiled follow-the-leader law ``law`` (its arrays), saturate to ``limits`` (speed,
+        turn rate) and realise the command with the actuation noise's scales ``noise``."""
         self._ftl_run = (self.accel, law._G, law._sr, law._sf, law.gain, law.lookahead)
         self._ftl_run += (*limits, *noise)
         x = 0.0
         self._ftl_entry = entry(self._ftl, (0, x, x, x, x, x, self.E, *self._ftl_run))
-
-    def command_ftl(
-        self, k: int, t: float, s_l: float, v_l: float, nv: float, nw: float
-    ) -> tuple[float, float, float, float]:
-        """`World.command`'s leader pose, estimate, follow-the-leader law, saturation, hold
-        and actuation in one call (`est_command_ftl`, as `fuse_ftl` set it); ``nv``, ``nw``:
-        the actuation noise's two standard normals. The command (v, ω) and the command the
-        follower realises."""
-        v, w, rv, rw, held = self._ftl_entry(k, t, s_l, v_l, nv, nw, self.E, *self._ftl_run)
-        if held:
-            self.last[k] = (v, w)
-        else:  # (the row was full: held once it has grown)
-            self.hold(k, t, v, w)
-        return v, w, rv, rw
 
     _ftl_entry: Any = None
     _ftl_run: tuple[Any, ...] = ()

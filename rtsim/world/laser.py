@@ -26,6 +26,7 @@ from rtsim.analysis.window import LASER_POINTS
 
 __all__ = [
     "BEAM_BEARINGS",
+    "FIRST_BEARING",
     "BEAM_SPACING",
     "count_beams",
     "count_beams_xy",
@@ -37,7 +38,8 @@ __all__ = [
 BEAM_SPACING = math.radians(0.5)
 #: Bearing of every beam in the leader frame (rad), 90° … 270°.
 BEAM_BEARINGS: NDArray[np.float64] = np.radians(90.0 + 0.5 * np.arange(LASER_POINTS))
-_FIRST = math.pi / 2
+#: Bearing of the first beam (rad): 90°.
+FIRST_BEARING = math.pi / 2
 _COS = np.cos(BEAM_BEARINGS)
 _SIN = np.sin(BEAM_BEARINGS)
 
@@ -98,8 +100,8 @@ def count_beams_xy(
             continue
         alpha = math.asin(r_F / rho)
         beta = math.atan2(y, x) % (2 * math.pi)
-        lo = max(0, math.ceil((beta - alpha - _FIRST) / BEAM_SPACING))
-        hi = min(LASER_POINTS - 1, math.floor((beta + alpha - _FIRST) / BEAM_SPACING))
+        lo = max(0, math.ceil((beta - alpha - FIRST_BEARING) / BEAM_SPACING))
+        hi = min(LASER_POINTS - 1, math.floor((beta + alpha - FIRST_BEARING) / BEAM_SPACING))
         if hi >= lo:
             spans.append((lo, hi, k))
     else:

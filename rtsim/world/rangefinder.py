@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from rtsim.model.window import LASER_POINTS
 from rtsim.world.jit import build, kernel
 from rtsim.world.kernels import built_entry
-from rtsim.world.laser import BEAM_BEARINGS
+from rtsim.world.laser import BEAM_BEARINGS, BEAM_SPACING, FIRST_BEARING
 
 __all__ = ["BEAM_COS", "BEAM_SIN", "Rangefinder", "beam_span", "compiled", "scan_points"]
 
@@ -112,7 +112,8 @@ def scan_points(
 
 @kernel
 def beam_span(x: float, y: float, r_F: float, nb: int) -> tuple[int, int]:
-    """The beams [lo, hi) of the ``nb`` (bearings 90° + 0.5°·j) that can meet the disc of
+    """The beams [lo, hi) of the ``nb`` (bearings `FIRST_BEARING` + j·`BEAM_SPACING`, the
+    laser's: `rtsim.world.laser`) that can meet the disc of
     radius ``r_F`` centred at (``x``, ``y``): those within arcsin(r_F/ρ) of its bearing, two
     beams of margin each side (so that the bounds' rounding never leaves one out); every beam
     when the disc is within 1 % of the leader (ρ ≤ 1.01·r_F: the arc's wrap-around is then
@@ -121,10 +122,9 @@ def beam_span(x: float, y: float, r_F: float, nb: int) -> tuple[int, int]:
     if rho <= 1.01 * r_F:
         return 0, nb
     alpha = math.asin(r_F / rho)
-    beta = math.atan2(y, x) % (2.0 * math.pi) - 0.5 * math.pi
-    step = math.pi / 360.0
-    lo = int(math.floor((beta - alpha) / step)) - 2
-    hi = int(math.ceil((beta + alpha) / step)) + 3
+    beta = math.atan2(y, x) % (2.0 * math.pi) - FIRST_BEARING
+    lo = int(math.floor((beta - alpha) / BEAM_SPACING)) - 2
+    hi = int(math.ceil((beta + alpha) / BEAM_SPACING)) + 3
     return max(lo, 0), min(hi, nb)
 
 

@@ -143,6 +143,15 @@ class Scan:
             return {k: _as_list(v) for k, v in raw.items()}
         return _as_list(raw)
 
+    def fields(self) -> Mapping[str, Any]:
+        """Every field by name as plain lists (`as_lists`'s; ``changes`` and ``violations``
+        mappings of lists, ``cells``, ``voted``, ``fix_error``, ``neighbour`` as kept, None
+        included): the world's scans hand over the mapping they keep (do not mutate)."""
+        raw = self._raw
+        if "_plain" in raw:
+            return raw
+        return {k: v if v is None or k == "cells" else self.as_lists(k) for k, v in raw.items()}
+
     @property
     def points(self) -> NDArray[np.int64]:
         return self._array("points", np.int64)  # type: ignore[no-any-return]

@@ -214,12 +214,14 @@ class World:
             )
             self._fused.ekf = tuple(float(v) for v in self._arr.ekf_args)
         self._fixes_of: tuple[Scan, Array] | None = None  # the last fused scan's fixes
-        # the compiled backend's command with the compiled law: one call (`command_ftl`;
+        # the compiled backend's command with the compiled law: one call (`_fused_sender`;
         # not where the law stays Python, `CompiledTraceFollower.compiled`)
         self._ftl_fused = self._arr is not None and getattr(self._ftl, "compiled", False)
         self._limits = (fp.max_speed, fp.max_turn_rate)
+        self._fused_send: Callable[[int, float], tuple[float, float]] | None = None
         if self._ftl_fused:
             self._arr.fuse_ftl(self._ftl, self._limits, (fp.speed_noise, fp.turn_noise))  # type: ignore[union-attr]
+            self._fused_send = self._fused_sender()
 
     # -- time ------------------------------------------------------------------------
     @property
@@ -798,16 +800,12 @@ class World:
         k = i - 1
         if not 0 <= k < self._n:
             raise IndexError(f"follower {i} does not exist (1..{self.n})")
+        if self._fused_send is not None:  # (`_actuate`'s draws and realised command in it)
+            return self._fused_send(k, t_ms)
         if t_ms != self._t:
             self._advance_leader(t_ms)
         fol = self.followers
         fol.advance(k, t_ms, self._step_ms)
-        if self._ftl_fused:  # (`_actuate`'s draws and realised command in the same call)
-            nv, nw = self._normals(2)
-            ld = self.leader
-            v, w, rv, rw = self._arr.command_ftl(k, t_ms, ld.s, ld.speed, nv, nw)  # type: ignore[union-attr]
-            fol.cmd_v[k], fol.cmd_w[k] = rv, rw  # (`FollowerGroup.apply_drawn`)
-            return v, w
         est = self._propagate(k, t_ms)
         x, y, th = est[0]
         ld = self.leader
@@ -817,23 +815,25 @@ class World:
             v, w = self._lpsi(k, x, y, th)
         return self._hold(k, t_ms, fol.saturate(v, w), est)
 
-    def sender(self) -> Callable[[int, float], None] | None:
+    def sender(self) -> Callable[[int, float], tuple[float, float]] | None:
         """`command` as one Python call for a caller that sends many (the coupling's send
-        hook): ``send(k, t_ms)`` applies follower index ``k``'s command at ``t_ms`` (not
-        returned), with the same draws and the same state as ``command(k + 1, t_ms)``, the
-        compiled law's fused kernel called directly (`CompiledEstimates.command_ftl`'s
-        call). None where `command` does not fuse: the caller uses `command`."""
-        if not self._ftl_fused:
-            return None
-        arr, fol, ld, n = self._arr, self.followers, self.leader, self._n
+        hook): ``send(k, t_ms)`` is ``command(k + 1, t_ms)`` for follower index ``k`` (no
+        index check). None where `command` does not fuse: the caller uses `command`."""
+        return self._fused_send
+
+    def _fused_sender(self) -> Callable[[int, float], tuple[float, float]]:
+        """`command`'s path with the compiled law (`CompiledEstimates.fuse_ftl`): the leader
+        and the follower advanced, the actuation's two normals, then the estimate, the law,
+        saturation, hold and actuation in one compiled call (`est_command_ftl`); returns the
+        command sent. Made once per world: its lists and arrays are read through the
+        objects that keep them where they can grow (``arr.E``)."""
+        arr, fol, ld = self._arr, self.followers, self.leader
         assert arr is not None
         entry, run, last = arr._ftl_entry, arr._ftl_run, arr.last
         advance, step, cmd_v, cmd_w = fol._advance_each, self._step_ms, fol.cmd_v, fol.cmd_w
-        normals, leader_to, command = self._normals, self._advance_leader, self.command
+        normals, leader_to = self._normals, self._advance_leader
 
-        def send(k: int, t_ms: float) -> None:
-            if not 0 <= k < n:
-                command(k + 1, t_ms)  # (raises its IndexError)
+        def send(k: int, t_ms: float) -> tuple[float, float]:
             if t_ms != self._t:
                 leader_to(t_ms)
             advance((k,), t_ms, step)
@@ -843,7 +843,8 @@ class World:
                 last[k] = (v, w)
             else:  # (the row was full: held once it has grown)
                 arr.hold(k, t_ms, v, w)
-            cmd_v[k], cmd_w[k] = rv, rw
+            cmd_v[k], cmd_w[k] = rv, rw  # (`FollowerGroup.apply_drawn`)
+            return v, w
 
         return send
 
