@@ -830,10 +830,7 @@ class CPU(ResourceProtocols, TimeSlices):
         for h in st.release_hooks:
             h(job)
         if len(pending) == 1:
-            if st.idle_kind[0]:
-                self._eligible(job, now)
-            else:  # (`_eligible` of a job just released: not held, not started)
-                heapq.heappush(self._ready, (job.key, job.tie, job))
+            self._eligible(job, now)
 
     def _jittered(self, st: _TaskState, k: int, r: float, d: float, p: float, now: float) -> None:
         """Job ``k`` arrives at ``r`` and is released after its drawn delay (docs/cpu-events.md)."""

@@ -526,10 +526,14 @@ class World:
             scan = self.scan(t_ms)
             self.estimate(scan)
             return scan
-        if t_ms < self._est_t:
-            raise RtsimError(f"scan at {t_ms} ms is older than the estimates ({self._est_t} ms)")
+        self._not_older(t_ms)
         self.advance(t_ms)
         return self._scan_fused(t_ms, True)
+
+    def _not_older(self, t_ms: float) -> None:
+        """Refuse a scan at ``t_ms`` older than the estimates (`estimate`, `scan_estimate`)."""
+        if t_ms < self._est_t:
+            raise RtsimError(f"scan at {t_ms} ms is older than the estimates ({self._est_t} ms)")
 
     def _scan_fused(self, t_ms: float, estimate: bool = False) -> Scan:
         """`scan` (advanced to ``t_ms``) with the hough model in the compiled backend: the
@@ -717,8 +721,7 @@ class World:
         the estimates at the scan centre the next Hough windows (``previous``) or are
         carried from there (``predicted``)."""
         t = scan.t_ms
-        if t < self._est_t:
-            raise RtsimError(f"scan at {t} ms is older than the estimates ({self._est_t} ms)")
+        self._not_older(t)
         if self._arr is not None:
             self._estimate_arrays(scan)
             return

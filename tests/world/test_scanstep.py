@@ -179,3 +179,22 @@ def test_fused_fields_zip_on_first_read() -> None:
     assert all(type(p) is tuple and type(p[0]) is float for p in truth)
     assert scan.truth.shape == (world.n, 2)
     assert scan.as_lists("searched") == [False] * world.n
+
+
+@pytest.mark.parametrize("backend", ["python", pytest.param("compiled", marks=needs_numba)])
+def test_a_scan_older_than_the_estimates_is_refused(backend: str) -> None:
+    """`World.estimate` refuses a scan older than the estimates (`World._not_older`, which
+    `World.scan_estimate` asks too, or the world's clock refuses the past first), and the
+    refusals leave the estimates as they were."""
+    from rtsim.errors import RtsimError
+
+    cfg = load_scenario("test2", overrides={"world.backend": backend}).world
+    world = World(cfg, np.random.default_rng(3))
+    old = world.scan(500.0)
+    world.scan_estimate(1000.0)
+    before = [world.estimate_at(i, 1000.0) for i in range(1, cfg.n + 1)]
+    with pytest.raises(RtsimError, match="older than the estimates"):
+        world.estimate(old)
+    with pytest.raises(RtsimError, match="older than the estimates|back in time"):
+        world.scan_estimate(800.0)
+    assert [world.estimate_at(i, 1000.0) for i in range(1, cfg.n + 1)] == before
