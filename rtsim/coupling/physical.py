@@ -148,31 +148,36 @@ class PhysicalLog:
         )
         return fn, *args, out, near
 
-    def add(
-        self, leader: tuple[float, float, float], xs: list[float], ys: list[float]
-    ) -> tuple[float, ...]:
-        """One scan: the leader's pose and the followers' true positions (cm). Returns each
-        follower's centre distance to the nearest other robot, leader included (cm,
-        `rtsim.world.contact.closest_to`: the planner's contact bound measures the same)."""
+    def add(self, leader: tuple[float, float, float], xs: Any, ys: Any) -> tuple[float, ...]:
+        """One scan: the leader's pose and the followers' true positions (cm: lists of
+        floats, or float arrays, such as the compiled world's rows `FollowerGroup.xy`, which
+        the compiled samples read as they are). Returns each follower's centre distance to
+        the nearest other robot, leader included (cm, `rtsim.world.contact.closest_to`: the
+        planner's contact bound measures the same)."""
         xl, yl, _ = leader
         samples = self.samples
         trace = self._trace
-        if trace is None:
-            put = samples.buf.append
-            hypot, rho_d = math.hypot, self.rho_d
-            for k in range(self.n):
-                put(abs(hypot(xs[k] - xl, ys[k] - yl) - rho_d[k]))
-            near = closest_each(xs, ys, xl, yl)
-        else:
+        if trace is not None and trace[0] is not _PY_SAMPLES:
             fn, G, sf, rho_d, guess, out, near_k = trace
-            if fn is _PY_SAMPLES:
+            if type(xs) is not np.ndarray:
+                xs, ys = np.array(xs, dtype=float), np.array(ys, dtype=float)
+            fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
+            samples.buf += out.tolist()
+            near = tuple(near_k.tolist())
+        else:
+            if type(xs) is np.ndarray:
+                xs, ys = xs.tolist(), ys.tolist()
+            if trace is None:
+                put = samples.buf.append
+                hypot, rho_d = math.hypot, self.rho_d
+                for k in range(self.n):
+                    put(abs(hypot(xs[k] - xl, ys[k] - yl) - rho_d[k]))
+                near = closest_each(xs, ys, xl, yl)
+            else:
+                fn, G, sf, rho_d, guess, out, near_k = trace
                 fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
                 samples.buf += out
                 near = tuple(near_k)
-            else:
-                fn(G, sf, np.array(xs), np.array(ys), xl, yl, rho_d, guess, out, near_k)
-                samples.buf += out.tolist()
-                near = tuple(near_k.tolist())
         samples.full()  # a chunk's worth goes to the file (once per scan)
         close = min(near) if near else math.inf  # (every pair has a follower in it)
         if close < self.min_dist:

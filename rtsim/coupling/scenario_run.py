@@ -765,7 +765,7 @@ class _Coupling:
         lp = rec.leader = scan.leader_pose
         rec.truth = self._truth(lp)
         fol = world.followers  # (the scan advanced every follower to now)
-        near = rec.near = self.phys.add(lp, fol.x, fol.y)
+        near = rec.near = self.phys.add(lp, *fol.xy)
         if self._last_scanned is not None:
             self._close(scan, near, raw)
         self._last_scanned = rec
@@ -858,10 +858,10 @@ class _Coupling:
     def _truth(self, lp: tuple[float, float, float]) -> StateRows:
         """The followers' truth now, (x, y, θ, ρ, β, θ_L − θ_F, V_F) per follower (the
         relative states made when read: StateRows)."""
-        fol = self.world.followers
         # the scan has just advanced every follower to now (copies: the lists change; the
         # poses zipped when read, strict there)
-        return StateRows(lp, zip(list(fol.x), list(fol.y), list(fol.th)), list(fol.v))  # noqa: B905
+        x, y, th, v = self.world.followers.truth()
+        return StateRows(lp, zip(x, y, th), v)  # noqa: B905
 
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms

@@ -4,8 +4,8 @@ The Python classes stay the reference; the classes here are subclasses that hand
 expressions, in the same order, to compiled kernels, so the results are bit for bit the
 Python ones (tests run both paths and compare whole runs):
 
-- `CompiledFollowerGroup`: a follower's held command integrated to a time
-  (`rtsim.world.motion.follower_advance` compiled) in one call;
+- `CompiledFollowerGroup`: the followers' truth as one array, their held commands integrated
+  to a time (`rtsim.world.motion.follower_advance` compiled) in one call for all of them;
 - `CompiledEstimates`: the leader's estimates as one array the world owns, each reader one
   compiled call (`rtsim.world.estimates`); `CompiledFollowerEKF` views a row of it;
 - `CompiledTraceFollower`: the follow-the-leader law's equations (`rtsim.world.ftl`:
@@ -31,16 +31,18 @@ dispatcher (`rtsim.world.kernels.entry`: the same machine code, no typing per ca
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import numpy as np
 
 from rtsim.world.ekf import EkfParams, FastFollowerEKF, _squares
 from rtsim.world.estimates import BASE, HELD_ROOM, Q, new_estimates
-from rtsim.world.follower import FollowerGroup
+from rtsim.world.follower import FollowerGroup, FollowerParams
 from rtsim.world.ftl import _PY_POINT, _PY_REFERENCE, TraceFollower
 from rtsim.world.kernels import available, built_entry, entry, kernels
+from rtsim.world.motion import GCV, GCW, GODO, GROUP_ROWS, GT, GTH, GV, GW, GX, GY, actuated
 from rtsim.world.motionmodels import MotionModel
 from rtsim.world.path import LeaderPath
 
@@ -55,13 +57,112 @@ __all__ = [
 ]
 
 
+class _RowList(list[float]):
+    """A follower group's field as a list of floats: a copy of its row of the state array
+    that writes an item assigned to it through to the array (``fol.cmd_v[k] += dv`` does
+    what it does on `FollowerGroup`'s lists)."""
+
+    __slots__ = ("_group", "_i")
+
+    def __init__(self, group: CompiledFollowerGroup, i: int) -> None:
+        super().__init__(group.S[i].tolist())
+        self._group, self._i = group, i
+
+    def __setitem__(self, k: Any, value: Any) -> None:
+        super().__setitem__(k, value)
+        self._group.S[self._i, k] = value
+        self._group._t_all = -math.inf  # (every follower's time unknown: `advance_all` looks)
+
+
+class _Row:
+    """A field of `CompiledFollowerGroup` (row ``i`` of its state ``S``): read, a `_RowList`;
+    assigned a sequence of n floats, the row."""
+
+    def __init__(self, i: int) -> None:
+        self.i = i
+
+    def __get__(self, obj: Any, cls: Any = None) -> Any:
+        if obj is None:
+            return self
+        return _RowList(obj, self.i)
+
+    def __set__(self, obj: Any, value: Any) -> None:
+        obj.S[self.i] = value
+        obj._t_all = -math.inf  # (every follower's time unknown: `advance_all` looks)
+
+
 class CompiledFollowerGroup(FollowerGroup):
-    """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose `advance` runs compiled."""
+    """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose fields are the rows of one
+    array ``S`` (`rtsim.world.motion.GROUP_ROWS`, a column per follower), which compiled
+    kernels read and write: `advance` and `advance_all` are one compiled call
+    (`rtsim.world.motion.group_advance`, the same `follower_advance` per follower), the scan
+    reads ``W`` (the rows x, y, odometer) and the truth log ``xy``, as they are, and the
+    compiled world's send advances and commands a follower inside its own kernel
+    (`rtsim.world.estimates.est_command_ftl`). A field read is a list, a copy of its row
+    whose items assigned write through (`_RowList`); assigned a sequence, the row."""
+
+    x = _Row(GX)
+    y = _Row(GY)
+    odometer = _Row(GODO)
+    th = _Row(GTH)
+    v = _Row(GV)
+    w = _Row(GW)
+    cmd_v = _Row(GCV)
+    cmd_w = _Row(GCW)
+    t = _Row(GT)
+
+    def __init__(
+        self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
+    ) -> None:
+        self.S = np.zeros((len(GROUP_ROWS), len(x)))
+        super().__init__(x, y, th, v, params, t_ms)
+        self.W = self.S[: GODO + 1]  # (rows x, y, odometer: a view)
+        self._xy = (self.S[GX], self.S[GY])
+        self._t_all = float(t_ms)  # every follower's time is at least this (ms)
 
     @staticmethod
     def _kernel(motion: MotionModel) -> Any:
-        # called directly (`entry`): twelve floats at every call
-        return entry(kernels(motion).advance_follower, (0.0,) * 12)
+        # called directly (`entry`): the state array, two ints and three floats at every call
+        return entry(kernels(motion).advance_group, (np.zeros((1, 1)), 0, 0, *(0.0,) * 3))
+
+    @property
+    def n(self) -> int:
+        return int(self.S.shape[1])
+
+    @property
+    def xy(self) -> tuple[Any, Any]:
+        """The rows x and y of ``S`` (views: read, do not write)."""
+        return self._xy
+
+    def truth(self) -> tuple[list[float], list[float], list[float], list[float]]:
+        x, y, _, th, v = self.S[: GV + 1].tolist()
+        return x, y, th, v
+
+    def pose(self, k: int) -> tuple[float, float, float]:
+        x, y, _, th = self.S[: GTH + 1, k].tolist()
+        return x, y, th
+
+    def apply_drawn(self, k: int, v: float, w: float, nv: float, nw: float) -> tuple[float, float]:
+        p = self.p
+        sv, sw = actuated(v, w, nv, nw, p.speed_noise, p.turn_noise, p.max_speed, p.max_turn_rate)
+        S = self.S
+        S[GCV, k] = sv
+        S[GCW, k] = sw
+        return sv, sw
+
+    def advance(self, k: int, t_ms: float, step_ms: float) -> None:
+        self._advance(self.S, k, k + 1, t_ms, step_ms, self.p.max_accel)
+
+    def advance_all(self, t_ms: float, step_ms: float) -> None:
+        if t_ms <= self._t_all:  # (every follower is there: nothing to do)
+            return
+        S = self.S
+        self._advance(S, 0, S.shape[1], t_ms, step_ms, self.p.max_accel)
+        self._t_all = t_ms
+
+    def _advance_each(self, ks: Iterable[int], t_ms: float, step_ms: float) -> None:
+        for k in ks:
+            self.advance(k, t_ms, step_ms)
 
 
 def compiled_motion(motion: MotionModel) -> Any:
@@ -254,12 +355,20 @@ class CompiledEstimates:
         grown[:, : E.shape[1]] = E
         self.E = grown
 
-    def fuse_ftl(self, law: Any, limits: tuple[float, float], noise: tuple[float, float]) -> None:
-        """Make `est_command_ftl` (called by `World.command`, `World._fused_sender`) run the
-        compiled follow-the-leader law ``law`` (its arrays), saturate to ``limits`` (speed,
-        turn rate) and realise the command with the actuation noise's scales ``noise``."""
+    def fuse_ftl(
+        self,
+        law: Any,
+        limits: tuple[float, float],
+        noise: tuple[float, float],
+        group: CompiledFollowerGroup,
+        step_ms: float,
+    ) -> None:
+        """Make `est_command_ftl` (called by `World.command`, `World._fused_sender`) advance
+        the follower's truth in ``group`` (sub-steps ``step_ms``), run the compiled
+        follow-the-leader law ``law`` (its arrays), saturate to ``limits`` (speed, turn
+        rate) and realise the command with the actuation noise's scales ``noise``."""
         self._ftl_run = (self.accel, law._G, law._sr, law._sf, law.gain, law.lookahead)
-        self._ftl_run += (*limits, *noise)
+        self._ftl_run += (*limits, *noise, group.S, step_ms)
         x = 0.0
         self._ftl_entry = entry(self._ftl, (0, x, x, x, x, x, self.E, *self._ftl_run))
 

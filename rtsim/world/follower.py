@@ -221,6 +221,16 @@ class FollowerGroup:
     def pose(self, k: int) -> tuple[float, float, float]:
         return self.x[k], self.y[k], self.th[k]
 
+    def truth(self) -> tuple[list[float], list[float], list[float], list[float]]:
+        """Copies of the positions x, y, the headings θ and the speeds (lists of floats)."""
+        return list(self.x), list(self.y), list(self.th), list(self.v)
+
+    @property
+    def xy(self) -> tuple[Any, Any]:
+        """The positions (x, y), each a sequence of floats as the group keeps it (the lists
+        themselves: read, do not write)."""
+        return self.x, self.y
+
     def advance(self, k: int, t_ms: float, step_ms: float) -> None:
         """Integrate follower index ``k`` to ``t_ms`` (the motion model's ``advance``; the
         unicycle's `rtsim.world.motion.follower_advance`: exact arcs at the ramp's mean

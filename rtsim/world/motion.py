@@ -23,6 +23,7 @@ d = that mean times dt (`speed_ramp`, written once). A follower reads the mean s
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from rtsim.world.jit import kernel
 
@@ -33,6 +34,8 @@ __all__ = [
     "chord",
     "clip",
     "follower_advance",
+    "GROUP_ROWS",
+    "group_advance",
     "leader_travel",
     "ramp",
     "ramp_arc",
@@ -118,6 +121,31 @@ def follower_advance(
         odo += abs(vm) * dt
         t0 += h
     return x, y, th, v, w, odo
+
+
+#: the rows of a follower group's state array (one column per follower), the compiled
+#: backend's truth (`rtsim.world.compiled.CompiledFollowerGroup`): x, y, odometer first (the
+#: scan's and the truth log's reads, one view), then θ, speed, turn rate, the realised
+#: command held and the time (ms) each follower has been integrated to
+GROUP_ROWS = ("x", "y", "odometer", "th", "v", "w", "cmd_v", "cmd_w", "t")
+GX, GY, GODO, GTH, GV, GW, GCV, GCW, GT = range(len(GROUP_ROWS))
+
+
+@kernel
+def group_advance(S: Any, lo: int, hi: int, t_ms: float, step_ms: float, a: float) -> None:
+    """Followers ``lo`` to ``hi`` − 1 of the group state ``S`` (`GROUP_ROWS`) each integrated
+    to ``t_ms`` with the command it holds (`follower_advance`, acceleration limit ``a``)
+    unless it is there already: `rtsim.world.follower.FollowerGroup`'s loop on its lists,
+    on the array in one call."""
+    for k in range(lo, hi):
+        t0 = S[GT, k]
+        if t_ms <= t0:
+            continue
+        S[GX, k], S[GY, k], S[GTH, k], S[GV, k], S[GW, k], S[GODO, k] = follower_advance(
+            S[GX, k], S[GY, k], S[GTH, k], S[GV, k], S[GW, k], S[GCV, k], S[GCW, k], a,
+            S[GODO, k], t0, t_ms, step_ms,
+        )  # fmt: skip
+        S[GT, k] = t_ms
 
 
 @kernel

@@ -220,7 +220,8 @@ class World:
         self._limits = (fp.max_speed, fp.max_turn_rate)
         self._fused_send: Callable[[int, float], tuple[float, float]] | None = None
         if self._ftl_fused:
-            self._arr.fuse_ftl(self._ftl, self._limits, (fp.speed_noise, fp.turn_noise))  # type: ignore[union-attr]
+            scales = (fp.speed_noise, fp.turn_noise)
+            self._arr.fuse_ftl(self._ftl, self._limits, scales, self.followers, self._step_ms)  # type: ignore[union-attr, arg-type]
             self._fused_send = self._fused_sender()
 
     # -- time ------------------------------------------------------------------------
@@ -550,7 +551,7 @@ class World:
         predicted = self._predicted
         if not predicted:
             fused.T[2:4] = np.array(self._centre).T
-        W = np.array((fol.x, fol.y, fol.odometer))
+        W = fol.W  # type: ignore[attr-defined]  # (the truth's rows x, y, odometer)
         z = model.draw(LASER_POINTS)
         E, a, var = self._arr.E, self._accel, self.max_heading_var
         est = fused.run(W, lp, z, E, t_ms, a, predicted, 1 if estimate else 0, var, predicted)
@@ -826,27 +827,24 @@ class World:
 
     def _fused_sender(self) -> Callable[[int, float], tuple[float, float]]:
         """`command`'s path with the compiled law (`CompiledEstimates.fuse_ftl`): the leader
-        and the follower advanced, the actuation's two normals, then the estimate, the law,
-        saturation, hold and actuation in one compiled call (`est_command_ftl`); returns the
-        command sent. Made once per world: its lists and arrays are read through the
-        objects that keep them where they can grow (``arr.E``)."""
-        arr, fol, ld = self._arr, self.followers, self.leader
+        advanced, the actuation's two normals, then the follower advanced, the estimate, the
+        law, saturation, hold and actuation in one compiled call (`est_command_ftl`, on the
+        followers' array); returns the command sent. Made once per world: its lists and
+        arrays are read through the objects that keep them where they can grow (``arr.E``)."""
+        arr, ld = self._arr, self.leader
         assert arr is not None
         entry, run, last = arr._ftl_entry, arr._ftl_run, arr.last
-        advance, step, cmd_v, cmd_w = fol._advance_each, self._step_ms, fol.cmd_v, fol.cmd_w
         normals, leader_to = self._normals, self._advance_leader
 
         def send(k: int, t_ms: float) -> tuple[float, float]:
             if t_ms != self._t:
                 leader_to(t_ms)
-            advance((k,), t_ms, step)
             nv, nw = normals(2)
-            v, w, rv, rw, held = entry(k, t_ms, ld.s, ld.speed, nv, nw, arr.E, *run)
+            v, w, held = entry(k, t_ms, ld.s, ld.speed, nv, nw, arr.E, *run)
             if held:
                 last[k] = (v, w)
             else:  # (the row was full: held once it has grown)
                 arr.hold(k, t_ms, v, w)
-            cmd_v[k], cmd_w[k] = rv, rw  # (`FollowerGroup.apply_drawn`)
             return v, w
 
         return send

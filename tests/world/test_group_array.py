@@ -1,0 +1,99 @@
+"""The compiled world's follower group: its truth as one array that compiled kernels advance
+(`rtsim.world.compiled.CompiledFollowerGroup`, `rtsim.world.motion.group_advance`), bit for
+bit the Python group's lists (`rtsim.world.follower.FollowerGroup`, the reference)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from rtsim.world import compiled
+from rtsim.world.follower import FollowerGroup, FollowerParams
+from rtsim.world.motion import GROUP_ROWS
+
+needs_numba = pytest.mark.skipif(not compiled.available(), reason="numba is not importable")
+FIELDS = ("x", "y", "th", "v", "w", "cmd_v", "cmd_w", "odometer", "t")
+
+
+def _hex(group: FollowerGroup) -> dict[str, list[str]]:
+    out = {}
+    for f in FIELDS:
+        values = getattr(group, f)
+        assert all(type(v) is float for v in values), f
+        out[f] = [v.hex() for v in values]
+    return out
+
+
+def _pair(rng: np.random.Generator, n: int, p: FollowerParams) -> tuple[Any, Any]:
+    args = (
+        rng.uniform(-500, 500, n),
+        rng.uniform(-500, 500, n),
+        rng.uniform(-7, 7, n),
+        rng.uniform(0, 60, n),
+    )
+    t0 = float(rng.uniform(0, 50))
+    return FollowerGroup(*args, p, t0), compiled.CompiledFollowerGroup(*args, p, t0)
+
+
+@needs_numba
+@pytest.mark.parametrize("seed", range(6))
+def test_group_array_matches_the_lists(seed: int) -> None:
+    """Random interleavings of one follower's advance, every follower's (again at a time
+    reached: nothing to do), commands realised with noise and held, as the world makes
+    them: every field bit for bit the Python group's, floats, at every step."""
+    rng = np.random.default_rng(seed)
+    p = FollowerParams(max_accel=float(rng.choice([40.0, 100.0, 1e5])))
+    n = int(rng.integers(1, 10))
+    a, b = _pair(rng, n, p)
+    assert _hex(a) == _hex(b)
+    t = 50.0
+    for _ in range(300):
+        step = float(rng.choice([1.0, 10.0, 33.3]))
+        op = rng.integers(0, 4)
+        if op == 0:
+            t += float(rng.uniform(0, 60))
+            for g in (a, b):
+                g.advance_all(t, step)
+        elif op == 1:
+            k, tk = int(rng.integers(0, n)), t + float(rng.uniform(0, 60))
+            for g in (a, b):
+                g.advance(k, tk, step)
+        elif op == 2:
+            back = t - float(rng.uniform(0, 5))
+            for g in (a, b):
+                g.advance_all(back, step)  # (there already, but after `advance` at first)
+        else:
+            k = int(rng.integers(0, n))
+            cmd = float(rng.uniform(-20, 200)), float(rng.uniform(-1, 1))
+            nv, nw = rng.standard_normal(2).tolist()
+            assert a.apply_drawn(k, *cmd, nv, nw) == b.apply_drawn(k, *cmd, nv, nw)
+        assert _hex(a) == _hex(b)
+        assert a.truth() == b.truth()
+        assert [list(r) for r in a.xy] == [r.tolist() for r in b.xy]
+        assert all(a.pose(k) == b.pose(k) for k in range(n))
+
+
+@needs_numba
+def test_group_fields_write_through() -> None:
+    """A field read is a copy of its row; an item assigned to it, or a whole field
+    assigned, writes the array (as on the Python group's lists), and a time moved back
+    makes `advance_all` integrate again."""
+    rng = np.random.default_rng(3)
+    p = FollowerParams()
+    a, b = _pair(rng, 3, p)
+    for g in (a, b):
+        g.advance_all(100.0, 10.0)
+        g.cmd_v[1] += 15.0
+        g.cmd_w = [0.1, -0.2, 0.3]
+        g.t[2] = 60.0
+        g.advance_all(100.0, 10.0)  # (follower 3 again, from 60 ms)
+    assert _hex(a) == _hex(b)
+    S = b.S
+    assert S.shape == (len(GROUP_ROWS), 3)
+    assert b.W.base is S and b.W.shape == (3, 3)
+    assert S[GROUP_ROWS.index("cmd_v"), 1] == a.cmd_v[1]
+    copy = b.x
+    copy.append(1.0)  # (a copy: the group keeps n)
+    assert b.n == 3 and len(b.x) == 3
