@@ -362,15 +362,17 @@ class CompiledEstimates:
         noise: tuple[float, float],
         group: CompiledFollowerGroup,
         step_ms: float,
+        leader: tuple[float, float],
     ) -> None:
-        """Make `est_command_ftl` (called by `World.command`, `World._fused_sender`) advance
-        the follower's truth in ``group`` (sub-steps ``step_ms``), run the compiled
+        """Make `est_command_ftl` (called by `World.command`, `World._fused_sender`) drive
+        the leader (its acceleration and deceleration limits ``leader``), advance the
+        follower's truth in ``group`` (sub-steps ``step_ms``), run the compiled
         follow-the-leader law ``law`` (its arrays), saturate to ``limits`` (speed, turn
         rate) and realise the command with the actuation noise's scales ``noise``."""
         self._ftl_run = (self.accel, law._G, law._sr, law._sf, law.gain, law.lookahead)
-        self._ftl_run += (*limits, *noise, group.S, step_ms)
+        self._ftl_run += (*limits, *noise, group.S, step_ms, *leader)
         x = 0.0
-        self._ftl_entry = entry(self._ftl, (0, x, x, x, x, x, self.E, *self._ftl_run))
+        self._ftl_entry = entry(self._ftl, (0, *(x,) * 7, self.E, *self._ftl_run))
 
     _ftl_entry: Any = None
     _ftl_run: tuple[Any, ...] = ()

@@ -16,9 +16,9 @@ expressions the Python runs:
   heading variance's maximum);
 - `est_carry`: `World._propagate` for one follower or all;
 - `est_hold`: `World._hold`'s record of a command;
-- `est_command_ftl`: `World.command` with the follow-the-leader law (the follower's truth
-  advanced, the leader's pose, carry, law, clip, hold, the command realised with its actuation
-  noise).
+- `est_command_ftl`: `World.command` with the follow-the-leader law (the leader and the
+  follower's truth advanced, the leader's pose, carry, law, clip, hold, the command realised
+  with its actuation noise).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from rtsim.world.ekf import ekf_command, ekf_update
 from rtsim.world.ftl import ftl_command, path_pose
 from rtsim.world.jit import kernel
-from rtsim.world.motion import GCV, GCW, actuated, clip, group_advance, ramp_arc
+from rtsim.world.motion import GCV, GCW, actuated, clip, group_advance, leader_travel, ramp_arc
 
 __all__ = [
     "BASE",
@@ -189,24 +189,30 @@ def est_scan(
 
 @kernel
 def est_command_ftl(
-    k: int, t: float, s_l: float, v_l: float, nv: float, nw: float, E: Any, a: float,
-    G: Any, s_ref: Any, s_f: Any, gain: float, lookahead: float, v_max: float, w_max: float,
-    sv: float, sw: float, S: Any, step_ms: float,
-) -> tuple[float, float, bool]:  # fmt: skip
-    """`World.command` for row ``k`` at ``t`` ms with the follow-the-leader law: the
-    follower's truth in the group state ``S`` advanced to ``t`` with the command it held
-    (`group_advance`, sub-steps ``step_ms``), the leader's pose at arc length ``s_l``
-    (`path_pose`, `LeaderPath.pose`), the estimate carried there (`carry_row`), the law
-    (`ftl_command`, which updates ``s_ref`` and ``s_f``), the command clipped to ``v_max``,
-    ``w_max`` (`clip`, the followers' saturation) and held (`est_hold`), and the command the
-    follower realises with its actuation noise, standard normals ``nv``, ``nw`` times ``sv``,
-    ``sw`` (`actuated`, as `FollowerGroup.apply_drawn`), written to ``S``: (v, ω, whether it
-    was held; False: the row was full). (What changes per call first, the run's constants
-    after: the caller passes those as one tuple.)"""
+    k: int, t: float, s: float, v0: float, vt: float, dt: float, nv: float, nw: float, E: Any,
+    a: float, G: Any, s_ref: Any, s_f: Any, gain: float, lookahead: float, v_max: float,
+    w_max: float, sv: float, sw: float, S: Any, step_ms: float, accel: float, decel: float,
+) -> tuple[float, float, bool, float, float]:  # fmt: skip
+    """`World.command` for row ``k`` at ``t`` ms with the follow-the-leader law: the leader
+    at arc length ``s`` and speed ``v0`` driven ``dt`` s toward ``vt`` (`leader_travel`, at
+    most ``accel`` / ``decel``; none when ``dt`` is 0), the follower's truth in the group
+    state ``S`` advanced to ``t`` with the command it held (`group_advance`, sub-steps
+    ``step_ms``), the leader's pose then (`path_pose`, `LeaderPath.pose`), the estimate
+    carried there (`carry_row`), the law (`ftl_command`, which updates ``s_ref`` and
+    ``s_f``), the command clipped to ``v_max``, ``w_max`` (`clip`, the followers'
+    saturation) and held (`est_hold`), and the command the follower realises with its
+    actuation noise, standard normals ``nv``, ``nw`` times ``sv``, ``sw`` (`actuated`, as
+    `FollowerGroup.apply_drawn`), written to ``S``: (v, ω, whether it was held — False: the
+    row was full —, the leader's speed and arc length). (What changes per call first, the
+    run's constants after: the caller passes those as one tuple.)"""
+    v_l, s_l = v0, s
+    if dt > 0.0:  # (`rtsim.world.leader.Leader.advance`)
+        v_l, ds = leader_travel(v0, vt, accel, decel, dt)
+        s_l = s + ds
     group_advance(S, k, k + 1, t, step_ms, a)
     xl, yl, hl = path_pose(G, s_l)
     x, y, th, _, _ = carry_row(E, k, t, a)
     v, w = ftl_command(G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, hl, v_l, x, y, th)
     v, w = clip(v, v_max), clip(w, w_max)
     S[GCV, k], S[GCW, k] = actuated(v, w, nv, nw, sv, sw, v_max, w_max)
-    return v, w, est_hold(E, k, t, v, w)
+    return v, w, est_hold(E, k, t, v, w), v_l, s_l

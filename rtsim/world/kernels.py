@@ -30,7 +30,13 @@ from rtsim.world.estimates import (
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
 from rtsim.world.ftl import ftl_command, ftl_project, ftl_reference, trace_point
 from rtsim.world.jit import Subs, build, cached
-from rtsim.world.motion import GROUP_ROWS, belief_step, group_advance, leader_travel
+from rtsim.world.motion import (
+    GROUP_ROWS,
+    belief_step,
+    group_advance,
+    leader_travel,
+    world_advance,
+)
 
 __all__ = ["announce", "available", "built_entry", "entry", "follow_with", "kernels"]
 
@@ -112,6 +118,7 @@ def _type_key(a: Any) -> Any:
 #: compiled with the kernel sources it calls: `rtsim.world.jit.build`)
 ENTRIES: dict[str, Any] = {
     "advance_group": group_advance,
+    "advance_world": world_advance,
     "hypot": cpython_hypot,
     "leader_travel": leader_travel,
     "est_scan": est_scan,
@@ -152,6 +159,7 @@ LAZY_MOTION = ("ekf_command", "belief_step")
 #: unicycle: `kernels`)
 MOTION_ENTRIES = (
     "advance_group",
+    "advance_world",
     "leader_travel",
     "est_scan",
     "est_carry",
@@ -272,6 +280,7 @@ def _warm(ns: Any) -> None:
     the first window."""
     S = np.zeros((len(GROUP_ROWS), 1))
     ns.advance_group(S, 0, 1, 20.0, 10.0, 10.0)
+    ns.advance_world(S, 1, 30.0, 10.0, 10.0, 1.0, 2.0, 10.0, 10.0, 0.01)
     G = (np.zeros(1), np.zeros(3), np.zeros(1), 100.0, np.zeros(1), np.full(1, -1), np.ones(1))
     nan1 = np.full(1, math.nan)
     ns.leader_travel(1.0, 2.0, 10.0, 10.0, 0.02)
@@ -280,7 +289,7 @@ def _warm(ns: Any) -> None:
     ns.est_scan(E, np.array([[1.0, 0.0, 1.0]]), 10.0, *([1.0] * 10), True)
     ns.est_carry(E, 0, 20.0, 1.0, np.empty((1, 7)))
     ns.est_command_ftl(
-        0, 30.0, 0.0, 1.0, 0.0, 0.0, E, 1.0, G, nan1, nan1.copy(), 0.5, 10.0, 1.0, 1.0, 0.5,
-        0.1, S, 10.0,
+        0, 30.0, 0.0, 1.0, 2.0, 0.01, 0.0, 0.0, E, 1.0, G, nan1, nan1.copy(), 0.5, 10.0, 1.0,
+        1.0, 0.5, 0.1, S, 10.0, 10.0, 10.0,
     )  # fmt: skip
     # (the rollout's kernels: rtsim.control.kernels, when a run first rolls out)

@@ -36,6 +36,7 @@ __all__ = [
     "follower_advance",
     "GROUP_ROWS",
     "group_advance",
+    "world_advance",
     "leader_travel",
     "ramp",
     "ramp_arc",
@@ -156,6 +157,18 @@ def leader_travel(
     ``decel`` slowing down: (speed after dt, arc length driven)."""
     v1, d, _ = speed_ramp(v0, vt, accel if vt > v0 else decel, dt)
     return v1, d
+
+
+@kernel
+def world_advance(
+    S: Any, n: int, t_ms: float, step_ms: float, a: float, v0: float, vt: float, accel: float,
+    decel: float, dt: float,
+) -> tuple[float, float]:  # fmt: skip
+    """`rtsim.world.world.World.advance` in one call: the ``n`` followers of the group state
+    ``S`` to ``t_ms`` (`group_advance`), then the leader's travel over ``dt`` s from speed
+    ``v0`` toward ``vt`` (`leader_travel`): (its speed after, the arc length it drove)."""
+    group_advance(S, 0, n, t_ms, step_ms, a)
+    return leader_travel(v0, vt, accel, decel, dt)
 
 
 @kernel

@@ -46,6 +46,7 @@ from rtsim.world.ekf import FastFollowerEKF, FollowerEKF, make_filter
 from rtsim.world.follower import FollowerGroup, control_targets, lpsi_command
 from rtsim.world.formation import follower_model
 from rtsim.world.ftl import TraceFollower
+from rtsim.world.kernels import entry
 from rtsim.world.leader import Leader
 from rtsim.world.localization import ExpectedBeams, lost_cause
 from rtsim.world.locmodels import Fix, HoughModel, localization_model
@@ -137,6 +138,12 @@ class World:
         self.followers = (CompiledFollowerGroup if fast else FollowerGroup)(x, y, th, v_f, fp)
         self.followers.cmd_w = [w0] * form.n
         self.followers.w = [w0] * form.n
+        # the compiled world's `advance`: the leader's travel and the followers' in one call
+        # (`rtsim.world.motion.world_advance`, the motion model's parts)
+        self._advance_both: Any = None
+        if fast:
+            S = self.followers.S  # type: ignore[attr-defined]
+            self._advance_both = entry(kernels(self.motion).advance_world, (S, 0, *(0.0,) * 8))
         self._t = 0.0
         self._est_t = 0.0
         #: the largest heading variance P_θθ (rad²) the filters carried from a scan's
@@ -221,7 +228,9 @@ class World:
         self._fused_send: Callable[[int, float], tuple[float, float]] | None = None
         if self._ftl_fused:
             scales = (fp.speed_noise, fp.turn_noise)
-            self._arr.fuse_ftl(self._ftl, self._limits, scales, self.followers, self._step_ms)  # type: ignore[union-attr, arg-type]
+            ramps = (self.leader.accel_max, self.leader.decel_max)
+            group = self.followers
+            self._arr.fuse_ftl(self._ftl, self._limits, scales, group, self._step_ms, ramps)  # type: ignore[union-attr, arg-type]
             self._fused_send = self._fused_sender()
 
     # -- time ------------------------------------------------------------------------
@@ -238,6 +247,17 @@ class World:
         """Integrate the truth to ``t_ms``: the leader exactly along its path, the followers
         with their held commands in exact arcs, sub-stepped at ``step_ms`` while a wheel
         speed ramps toward its command for longer than one step."""
+        both = self._advance_both
+        if both is not None and t_ms > self._t:  # (the compiled world's, in one call)
+            ld, fol = self.leader, self.followers
+            dt = (t_ms - self._t) / 1000.0  # (`_advance_leader`'s)
+            ld.speed, ds = both(
+                fol.S, fol.n, t_ms, self._step_ms, self._accel, ld.speed, ld.target_speed,  # type: ignore[attr-defined]
+                ld.accel_max, ld.decel_max, dt,
+            )  # fmt: skip
+            ld.s += ds  # (`Leader.advance`'s)
+            self._t = fol._t_all = t_ms  # type: ignore[attr-defined]  # (every follower there)
+            return
         if t_ms != self._t:  # (the world is often at t_ms already)
             self._advance_leader(t_ms)
         self.followers.advance_all(t_ms, self._step_ms)
@@ -826,21 +846,37 @@ class World:
         return self._fused_send
 
     def _fused_sender(self) -> Callable[[int, float], tuple[float, float]]:
-        """`command`'s path with the compiled law (`CompiledEstimates.fuse_ftl`): the leader
-        advanced, the actuation's two normals, then the follower advanced, the estimate, the
-        law, saturation, hold and actuation in one compiled call (`est_command_ftl`, on the
-        followers' array); returns the command sent. Made once per world: its lists and
-        arrays are read through the objects that keep them where they can grow (``arr.E``)."""
+        """`command`'s path with the compiled law (`CompiledEstimates.fuse_ftl`): the
+        actuation's two normals (as `_normals` takes them: its call when the block is used
+        up), then the leader and the follower advanced, the estimate, the law, saturation,
+        hold and actuation in one compiled call (`est_command_ftl`, on the followers' array;
+        `_advance_leader`'s check first); returns the command sent. Made once per world: its
+        lists and arrays are read through the objects that keep them where they can grow
+        (``arr.E``)."""
         arr, ld = self._arr, self.leader
         assert arr is not None
         entry, run, last = arr._ftl_entry, arr._ftl_run, arr.last
         normals, leader_to = self._normals, self._advance_leader
 
         def send(k: int, t_ms: float) -> tuple[float, float]:
-            if t_ms != self._t:
-                leader_to(t_ms)
-            nv, nw = normals(2)
-            v, w, held = entry(k, t_ms, ld.s, ld.speed, nv, nw, arr.E, *run)
+            t0 = self._t
+            if t_ms > t0:  # (the leader driven in the call: `_advance_leader`)
+                dt = (t_ms - t0) / 1000.0
+                self._t = t_ms
+            else:
+                leader_to(t_ms)  # (a time before the world's is refused)
+                dt = 0.0
+            i = self._zi
+            z = self._z
+            if i + 2 <= len(z):
+                nv = z[i]
+                nw = z[i + 1]
+                self._zi = i + 2
+            else:
+                nv, nw = normals(2)
+            v, w, held, ld.speed, ld.s = entry(
+                k, t_ms, ld.s, ld.speed, ld.target_speed, dt, nv, nw, arr.E, *run
+            )
             if held:
                 last[k] = (v, w)
             else:  # (the row was full: held once it has grown)
