@@ -358,19 +358,20 @@ class CompiledEstimates:
     def fuse_ftl(
         self,
         law: Any,
-        limits: tuple[float, float],
-        noise: tuple[float, float],
+        params: FollowerParams,
         group: CompiledFollowerGroup,
         step_ms: float,
-        leader: tuple[float, float],
+        leader: Any,
     ) -> None:
         """Make `est_command_ftl` (called by `World.command`, `World._fused_sender`) drive
-        the leader (its acceleration and deceleration limits ``leader``), advance the
-        follower's truth in ``group`` (sub-steps ``step_ms``), run the compiled
-        follow-the-leader law ``law`` (its arrays), saturate to ``limits`` (speed, turn
-        rate) and realise the command with the actuation noise's scales ``noise``."""
+        the ``leader`` (its acceleration and deceleration limits), advance the follower's
+        truth in ``group`` (sub-steps ``step_ms``), run the compiled follow-the-leader law
+        ``law`` (its arrays), saturate to the followers' speed and turn-rate limits and
+        realise the command with their actuation noise (``params``)."""
+        p = params
         self._ftl_run = (self.accel, law._G, law._sr, law._sf, law.gain, law.lookahead)
-        self._ftl_run += (*limits, *noise, group.S, step_ms, *leader)
+        self._ftl_run += (p.max_speed, p.max_turn_rate, p.speed_noise, p.turn_noise)
+        self._ftl_run += (group.S, step_ms, leader.accel_max, leader.decel_max)
         x = 0.0
         self._ftl_entry = entry(self._ftl, (0, *(x,) * 7, self.E, *self._ftl_run))
 

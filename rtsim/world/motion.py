@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from rtsim.world.ftl import path_pose
 from rtsim.world.jit import kernel
 
 __all__ = [
@@ -162,13 +163,18 @@ def leader_travel(
 @kernel
 def world_advance(
     S: Any, n: int, t_ms: float, step_ms: float, a: float, v0: float, vt: float, accel: float,
-    decel: float, dt: float,
-) -> tuple[float, float]:  # fmt: skip
+    decel: float, dt: float, s: float, G: Any,
+) -> tuple[float, float, float, float, float]:  # fmt: skip
     """`rtsim.world.world.World.advance` in one call: the ``n`` followers of the group state
-    ``S`` to ``t_ms`` (`group_advance`), then the leader's travel over ``dt`` s from speed
-    ``v0`` toward ``vt`` (`leader_travel`): (its speed after, the arc length it drove)."""
+    ``S`` to ``t_ms`` (`group_advance`), then the leader at arc length ``s`` driven ``dt`` s
+    from speed ``v0`` toward ``vt`` (`leader_travel`, `rtsim.world.leader.Leader.advance`)
+    on the path ``G`` (s0, poses, κ, lap: `rtsim.world.path.LeaderPath.arrays`): (its speed
+    after, its arc length, its pose there, `rtsim.world.ftl.path_pose`)."""
     group_advance(S, 0, n, t_ms, step_ms, a)
-    return leader_travel(v0, vt, accel, decel, dt)
+    v1, ds = leader_travel(v0, vt, accel, decel, dt)
+    s1 = s + ds
+    x, y, h = path_pose(G, s1)
+    return v1, s1, x, y, h
 
 
 @kernel

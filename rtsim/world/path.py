@@ -18,7 +18,9 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
+
+import numpy as np
 
 from rtsim.errors import ScenarioError
 from rtsim.world._check import number, positive
@@ -189,6 +191,23 @@ class LeaderPath:
         pose = along(*self._poses[k], self._kappa[k], u - self._s0[k])
         self._memo_pose_s, self._memo_pose = s, pose
         return pose
+
+    def remember(self, s: float, pose: tuple[float, float, float]) -> None:
+        """Take ``pose`` as `pose` (``s``) from now on (`pose`'s memo): the pose at ``s`` a
+        compiled kernel computed (`rtsim.world.ftl.path_pose` on `arrays`, bit for bit)."""
+        self._memo_pose_s, self._memo_pose = s, pose
+
+    def arrays(self) -> tuple[Any, Any, Any, float]:
+        """The path as the kernels read it (`rtsim.world.ftl.path_pose`): the segments'
+        starts (cm), their start poses (x, y, heading, flat), their curvatures, and the lap
+        length."""
+        flat = [c for pose in self._poses for c in pose]
+        return (
+            np.array(self._s0, dtype=float),
+            np.array(flat, dtype=float),
+            np.array(self._kappa, dtype=float),
+            float(self._lap),
+        )
 
     def __repr__(self) -> str:
         return f"LeaderPath({len(self._segments)} segments, lap {self._lap:.6g} cm)"

@@ -138,12 +138,7 @@ class World:
         self.followers = (CompiledFollowerGroup if fast else FollowerGroup)(x, y, th, v_f, fp)
         self.followers.cmd_w = [w0] * form.n
         self.followers.w = [w0] * form.n
-        # the compiled world's `advance`: the leader's travel and the followers' in one call
-        # (`rtsim.world.motion.world_advance`, the motion model's parts)
-        self._advance_both: Any = None
-        if fast:
-            S = self.followers.S  # type: ignore[attr-defined]
-            self._advance_both = entry(kernels(self.motion).advance_world, (S, 0, *(0.0,) * 8))
+        self._advance_both = self._advance_kernel() if fast else None
         self._t = 0.0
         self._est_t = 0.0
         #: the largest heading variance P_θθ (rad²) the filters carried from a scan's
@@ -224,14 +219,18 @@ class World:
         # the compiled backend's command with the compiled law: one call (`_fused_sender`;
         # not where the law stays Python, `CompiledTraceFollower.compiled`)
         self._ftl_fused = self._arr is not None and getattr(self._ftl, "compiled", False)
-        self._limits = (fp.max_speed, fp.max_turn_rate)
         self._fused_send: Callable[[int, float], tuple[float, float]] | None = None
         if self._ftl_fused:
-            scales = (fp.speed_noise, fp.turn_noise)
-            ramps = (self.leader.accel_max, self.leader.decel_max)
-            group = self.followers
-            self._arr.fuse_ftl(self._ftl, self._limits, scales, group, self._step_ms, ramps)  # type: ignore[union-attr, arg-type]
+            self._arr.fuse_ftl(self._ftl, fp, self.followers, self._step_ms, self.leader)  # type: ignore[union-attr, arg-type]
             self._fused_send = self._fused_sender()
+
+    def _advance_kernel(self) -> Any:
+        """The compiled world's `advance`: the followers', the leader's travel and its pose in
+        one call (`rtsim.world.motion.world_advance`, the motion model's parts), on the
+        path's arrays (`LeaderPath.arrays`)."""
+        self._path_G = self.config.path.arrays()
+        args = (self.followers.S, 0, *(0.0,) * 9, self._path_G)  # type: ignore[attr-defined]
+        return entry(kernels(self.motion).advance_world, args)
 
     # -- time ------------------------------------------------------------------------
     @property
@@ -251,11 +250,11 @@ class World:
         if both is not None and t_ms > self._t:  # (the compiled world's, in one call)
             ld, fol = self.leader, self.followers
             dt = (t_ms - self._t) / 1000.0  # (`_advance_leader`'s)
-            ld.speed, ds = both(
+            ld.speed, ld.s, x, y, h = both(
                 fol.S, fol.n, t_ms, self._step_ms, self._accel, ld.speed, ld.target_speed,  # type: ignore[attr-defined]
-                ld.accel_max, ld.decel_max, dt,
+                ld.accel_max, ld.decel_max, dt, ld.s, self._path_G,
             )  # fmt: skip
-            ld.s += ds  # (`Leader.advance`'s)
+            ld.path.remember(ld.s, (x, y, h))  # (its pose, which the scan and the decision read)
             self._t = fol._t_all = t_ms  # type: ignore[attr-defined]  # (every follower there)
             return
         if t_ms != self._t:  # (the world is often at t_ms already)

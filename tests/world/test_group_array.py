@@ -4,14 +4,19 @@ bit the Python group's lists (`rtsim.world.follower.FollowerGroup`, the referenc
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 import pytest
 
 from rtsim.world import compiled
+from rtsim.world.config import WorldConfig
 from rtsim.world.follower import FollowerGroup, FollowerParams
+from rtsim.world.formation import chevron
 from rtsim.world.motion import GROUP_ROWS
+from rtsim.world.path import rounded_rectangle
+from rtsim.world.world import World
 
 needs_numba = pytest.mark.skipif(not compiled.available(), reason="numba is not importable")
 FIELDS = ("x", "y", "th", "v", "w", "cmd_v", "cmd_w", "odometer", "t")
@@ -97,3 +102,39 @@ def test_group_fields_write_through() -> None:
     copy = b.x
     copy.append(1.0)  # (a copy: the group keeps n)
     assert b.n == 3 and len(b.x) == 3
+
+
+@needs_numba
+@pytest.mark.parametrize("accel", [math.inf, 30.0])
+def test_world_advance_in_one_call_matches_the_python_world(accel: float) -> None:
+    """The compiled `World.advance` (`rtsim.world.motion.world_advance`: followers, leader
+    and the leader's pose in one call) against the Python world's, through turns, speed
+    changes and times already reached: the leader's arc length, speed and pose (the pose
+    the kernel computed, which `LeaderPath.pose` then returns, is the path's own) and the
+    followers' truth, bit for bit (each world on a path of its own)."""
+    worlds = [
+        World(
+            WorldConfig(
+                rounded_rectangle(300, 300, 150), 25.0, chevron(3, 390), follower=FollowerParams(), step_ms=10.0,
+                start_s=250.0, backend=backend, leader_accel_max=accel, leader_decel_max=accel,
+            ),
+            np.random.default_rng(5),
+        )
+        for backend in ("python", "compiled")
+    ]  # fmt: skip
+    rng = np.random.default_rng(8)
+    t = 0.0
+    for _ in range(400):
+        t += float(rng.choice([0.0, rng.uniform(0.0, 80.0)]))
+        speed = float(rng.uniform(0.0, 25.0)) if rng.random() < 0.1 else None
+        for w in worlds:
+            if speed is not None:
+                w.set_leader_speed(speed)
+            w.advance(t)
+        a, b = worlds
+        la, lb = a.leader, b.leader
+        assert (la.s.hex(), la.speed.hex()) == (lb.s.hex(), lb.speed.hex())
+        pose = lb.pose  # (the kernel's)
+        lb.path.remember(math.nan, pose)  # (forgotten: the path computes it again)
+        assert [v.hex() for v in pose] == [v.hex() for v in lb.pose] == [v.hex() for v in la.pose]
+        assert _hex(a.followers) == _hex(b.followers)
