@@ -4,8 +4,8 @@ The Python classes stay the reference; the classes here are subclasses that hand
 expressions, in the same order, to compiled kernels, so the results are bit for bit the
 Python ones (tests run both paths and compare whole runs):
 
-- `CompiledFollowerGroup`: the followers' truth as one array, their held commands integrated
-  to a time (`rtsim.world.motion.follower_advance` compiled) in one call for all of them;
+- `FollowerArrays`: the followers' truth as one array, integrated (`follower_advance`) in one
+  call for all (`CompiledFollowerGroup`: on lists, one call per follower);
 - `CompiledEstimates`: the leader's estimates as one array the world owns, each reader one
   compiled call (`rtsim.world.estimates`); `CompiledFollowerEKF` views a row of it;
 - `CompiledTraceFollower`: the follow-the-leader law's equations (`rtsim.world.ftl`:
@@ -51,32 +51,61 @@ __all__ = [
     "CompiledFollowerEKF",
     "CompiledFollowerGroup",
     "CompiledTraceFollower",
+    "FollowerArrays",
     "available",
     "compiled_motion",
     "kernels",
 ]
 
 
+class CompiledFollowerGroup(FollowerGroup):
+    """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose `advance` runs compiled
+    (its lists, a follower per call: `rtsim.world.motion.follower_advance`). The compiled
+    world's own group is `FollowerArrays`, whose class makes one of these when called alone
+    (as the rollout makes a group to play commands ahead on)."""
+
+    @staticmethod
+    def _kernel(motion: MotionModel) -> Any:
+        # called directly (`entry`): twelve floats at every call; compiled (or loaded) when
+        # a group is first made, once per motion model
+        subs = motion.subs
+        fn = _ADVANCE_ONE.get(subs)
+        if fn is None:
+            fn = _ADVANCE_ONE[subs] = built_entry(kernels(motion).advance_follower, (0.0,) * 12)
+        return fn
+
+
+#: `CompiledFollowerGroup`'s kernel per motion model (its substitutions)
+_ADVANCE_ONE: dict[Any, Any] = {}
+
+
+#: how many rows a follower group's state has (`rtsim.world.motion.GROUP_ROWS`)
+ROWS = len(GROUP_ROWS)
+
+
 class _RowList(list[float]):
-    """A follower group's field as a list of floats: a copy of its row of the state array
-    that writes an item assigned to it through to the array (``fol.cmd_v[k] += dv`` does
-    what it does on `FollowerGroup`'s lists)."""
+    """A follower group's field as a list of floats: its row of the state array as it is
+    now (read, do not resize), which writes an item assigned to it through to the array
+    (``fol.cmd_v[k] += dv`` does what it does on `FollowerGroup`'s lists)."""
 
     __slots__ = ("_group", "_i")
 
-    def __init__(self, group: CompiledFollowerGroup, i: int) -> None:
+    def __init__(self, group: FollowerArrays, i: int) -> None:
         super().__init__(group.S[i].tolist())
         self._group, self._i = group, i
 
     def __setitem__(self, k: Any, value: Any) -> None:
+        group = self._group
+        group.S[self._i, k] = value
+        group.changed()
+        group._rows[self._i] = self  # (the others read the array again)
         super().__setitem__(k, value)
-        self._group.S[self._i, k] = value
-        self._group._t_all = -math.inf  # (every follower's time unknown: `advance_all` looks)
 
 
 class _Row:
-    """A field of `CompiledFollowerGroup` (row ``i`` of its state ``S``): read, a `_RowList`;
-    assigned a sequence of n floats, the row."""
+    """A field of `FollowerArrays` (row ``i`` of its state ``S``): read, a `_RowList`
+    (made once per change of the array, `FollowerArrays.changed`); assigned a
+    sequence of n floats, the row."""
 
     def __init__(self, i: int) -> None:
         self.i = i
@@ -84,22 +113,35 @@ class _Row:
     def __get__(self, obj: Any, cls: Any = None) -> Any:
         if obj is None:
             return self
-        return _RowList(obj, self.i)
+        rows = obj._rows
+        row = rows[self.i]
+        if row is None:
+            row = rows[self.i] = _RowList(obj, self.i)
+        return row
 
     def __set__(self, obj: Any, value: Any) -> None:
         obj.S[self.i] = value
-        obj._t_all = -math.inf  # (every follower's time unknown: `advance_all` looks)
+        obj.changed()
 
 
-class CompiledFollowerGroup(FollowerGroup):
+class FollowerArrays(CompiledFollowerGroup):
     """[`FollowerGroup`][rtsim.world.compiled.FollowerGroup] whose fields are the rows of one
     array ``S`` (`rtsim.world.motion.GROUP_ROWS`, a column per follower), which compiled
     kernels read and write: `advance` and `advance_all` are one compiled call
     (`rtsim.world.motion.group_advance`, the same `follower_advance` per follower), the scan
     reads ``W`` (the rows x, y, odometer) and the truth log ``xy``, as they are, and the
-    compiled world's send advances and commands a follower inside its own kernel
-    (`rtsim.world.estimates.est_command_ftl`). A field read is a list, a copy of its row
-    whose items assigned write through (`_RowList`); assigned a sequence, the row."""
+    compiled world integrates, drives and commands them inside its own kernels
+    (`rtsim.world.motion.world_advance`, `rtsim.world.estimates.est_command_ftl`; it calls
+    `changed` after). A field read is a list of floats, the row as it is until the array
+    changes, whose items assigned write through (`_RowList`); assigned a sequence, the row.
+    Made with ``arrays=True`` (the compiled world's); the class called without it makes a
+    `CompiledFollowerGroup` (lists: the Python rollout's group, whose every step Python
+    reads)."""
+
+    def __new__(cls, *args: Any, arrays: bool = False, **kw: Any) -> Any:
+        if not arrays:
+            return CompiledFollowerGroup(*args, **kw)
+        return super().__new__(cls)
 
     x = _Row(GX)
     y = _Row(GY)
@@ -112,13 +154,28 @@ class CompiledFollowerGroup(FollowerGroup):
     t = _Row(GT)
 
     def __init__(
-        self, x: Any, y: Any, th: Any, v: Any, params: FollowerParams, t_ms: float = 0.0
+        self,
+        x: Any,
+        y: Any,
+        th: Any,
+        v: Any,
+        params: FollowerParams,
+        t_ms: float = 0.0,
+        *,
+        arrays: bool = True,
     ) -> None:
-        self.S = np.zeros((len(GROUP_ROWS), len(x)))
+        self.S = np.zeros((ROWS, len(x)))
+        self._rows: list[Any] = [None] * ROWS  # (the fields read since the array changed)
         super().__init__(x, y, th, v, params, t_ms)
         self.W = self.S[: GODO + 1]  # (rows x, y, odometer: a view)
         self._xy = (self.S[GX], self.S[GY])
         self._t_all = float(t_ms)  # every follower's time is at least this (ms)
+
+    def changed(self) -> None:
+        """Say that ``S`` was written other than by the group's kernels (the fields are read
+        from it again; every follower's time may be any: `advance_all` looks)."""
+        self._rows = [None] * ROWS
+        self._t_all = -math.inf
 
     @staticmethod
     def _kernel(motion: MotionModel) -> Any:
@@ -148,10 +205,12 @@ class CompiledFollowerGroup(FollowerGroup):
         S = self.S
         S[GCV, k] = sv
         S[GCW, k] = sw
+        self._rows = [None] * ROWS
         return sv, sw
 
     def advance(self, k: int, t_ms: float, step_ms: float) -> None:
         self._advance(self.S, k, k + 1, t_ms, step_ms, self.p.max_accel)
+        self._rows = [None] * ROWS
 
     def advance_all(self, t_ms: float, step_ms: float) -> None:
         if t_ms <= self._t_all:  # (every follower is there: nothing to do)
@@ -159,6 +218,7 @@ class CompiledFollowerGroup(FollowerGroup):
         S = self.S
         self._advance(S, 0, S.shape[1], t_ms, step_ms, self.p.max_accel)
         self._t_all = t_ms
+        self._rows = [None] * ROWS
 
     def _advance_each(self, ks: Iterable[int], t_ms: float, step_ms: float) -> None:
         for k in ks:
@@ -359,7 +419,7 @@ class CompiledEstimates:
         self,
         law: Any,
         params: FollowerParams,
-        group: CompiledFollowerGroup,
+        group: FollowerArrays,
         step_ms: float,
         leader: Any,
     ) -> None:

@@ -33,6 +33,7 @@ from rtsim.world.jit import Subs, build, cached
 from rtsim.world.motion import (
     GROUP_ROWS,
     belief_step,
+    follower_advance,
     group_advance,
     leader_travel,
     world_advance,
@@ -140,6 +141,7 @@ ENTRIES: dict[str, Any] = {
 #: is compiled without numba's wrappers, not optimised nor emitted on its own,
 #: `rtsim.world.jit`)
 LAZY_ENTRIES: dict[str, Any] = {
+    "advance_follower": follower_advance,
     "ftl_reference": ftl_reference,
     "trace_point": trace_point,
     "ekf_predict": ekf_predict,
@@ -153,7 +155,7 @@ LAZY_ENTRIES: dict[str, Any] = {
 }
 
 #: the lazy entries that run a motion model's parts (built with its substitutions)
-LAZY_MOTION = ("ekf_command", "belief_step")
+LAZY_MOTION = ("ekf_command", "belief_step", "advance_follower")
 
 #: the entries that run a motion model's parts (built again for a model other than the
 #: unicycle: `kernels`)
@@ -212,7 +214,8 @@ class _Namespace(types.SimpleNamespace):
         fn = LAZY_ENTRIES.get(name)
         if fn is None:
             raise AttributeError(name)
-        built = build(fn, vars(self).get("subs", ()) if name in LAZY_MOTION else ())
+        subs: Subs = vars(self).get("subs", ()) if name in LAZY_MOTION else ()
+        built = build(dict(subs).get(fn, fn), subs)  # (a part the model replaces: its own)
         setattr(self, name, built)
         return built
 

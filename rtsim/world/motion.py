@@ -126,7 +126,7 @@ def follower_advance(
 
 
 #: the rows of a follower group's state array (one column per follower), the compiled
-#: backend's truth (`rtsim.world.compiled.CompiledFollowerGroup`): x, y, odometer first (the
+#: backend's truth (`rtsim.world.compiled.FollowerArrays`): x, y, odometer first (the
 #: scan's and the truth log's reads, one view), then θ, speed, turn rate, the realised
 #: command held and the time (ms) each follower has been integrated to
 GROUP_ROWS = ("x", "y", "odometer", "th", "v", "w", "cmd_v", "cmd_w", "t")

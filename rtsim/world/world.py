@@ -34,10 +34,11 @@ from rtsim.analysis.kinematics import (
 from rtsim.errors import RtsimError
 from rtsim.model.window import LASER_POINTS
 from rtsim.world.compiled import (
+    ROWS,
     CompiledEstimates,
     CompiledFollowerEKF,
-    CompiledFollowerGroup,
     CompiledTraceFollower,
+    FollowerArrays,
     compiled_motion,
     kernels,
 )
@@ -135,7 +136,8 @@ class World:
             v_f = np.asarray(v_f, dtype=float)
             th = hl - np.asarray(theta, dtype=float)
             w0 = float(w_l)
-        self.followers = (CompiledFollowerGroup if fast else FollowerGroup)(x, y, th, v_f, fp)
+        group = FollowerArrays if fast else FollowerGroup  # (the arrays: with ``arrays``)
+        self.followers = group(x, y, th, v_f, fp, **({"arrays": True} if fast else {}))
         self.followers.cmd_w = [w0] * form.n
         self.followers.w = [w0] * form.n
         self._advance_both = self._advance_kernel() if fast else None
@@ -256,6 +258,7 @@ class World:
             )  # fmt: skip
             ld.path.remember(ld.s, (x, y, h))  # (its pose, which the scan and the decision read)
             self._t = fol._t_all = t_ms  # type: ignore[attr-defined]  # (every follower there)
+            fol._rows = [None] * ROWS  # type: ignore[attr-defined]  # (the array changed)
             return
         if t_ms != self._t:  # (the world is often at t_ms already)
             self._advance_leader(t_ms)
@@ -852,7 +855,7 @@ class World:
         `_advance_leader`'s check first); returns the command sent. Made once per world: its
         lists and arrays are read through the objects that keep them where they can grow
         (``arr.E``)."""
-        arr, ld = self._arr, self.leader
+        arr, ld, fol = self._arr, self.leader, self.followers
         assert arr is not None
         entry, run, last = arr._ftl_entry, arr._ftl_run, arr.last
         normals, leader_to = self._normals, self._advance_leader
@@ -876,6 +879,7 @@ class World:
             v, w, held, ld.speed, ld.s = entry(
                 k, t_ms, ld.s, ld.speed, ld.target_speed, dt, nv, nw, arr.E, *run
             )
+            fol._rows = [None] * ROWS  # type: ignore[attr-defined]  # (the array changed)
             if held:
                 last[k] = (v, w)
             else:  # (the row was full: held once it has grown)

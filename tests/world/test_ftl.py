@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -82,7 +83,23 @@ def test_leader_speed_never_changes_faster_than_its_limits_in_adjust(monkeypatch
         orig(self, dt)
         steps.append((dt, v0, self.speed))
 
+    def observed(world: World, fn: Any, *args: Any) -> Any:
+        # (the compiled world drives the leader inside its kernels, not by Leader.advance)
+        v0, t0 = world.leader.speed, world.t_ms
+        out = fn(*args)
+        if world.t_ms > t0:
+            steps.append(((world.t_ms - t0) / 1000.0, v0, world.leader.speed))
+        return out
+
+    world_advance, sender = World.advance, World.sender
+
+    def send_of(self: World) -> Any:
+        send = sender(self)
+        return None if send is None else lambda k, t: observed(self, send, k, t)
+
     monkeypatch.setattr(Leader, "advance", advance)
+    monkeypatch.setattr(World, "advance", lambda w, t: observed(w, world_advance, w, t))
+    monkeypatch.setattr(World, "sender", send_of)
     res = run_scenario("test2", policy="adjust", duration_s=60, record_jobs=False)
     cfg = res.inputs.world
     arr = np.array(steps)

@@ -1,5 +1,5 @@
 """The compiled world's follower group: its truth as one array that compiled kernels advance
-(`rtsim.world.compiled.CompiledFollowerGroup`, `rtsim.world.motion.group_advance`), bit for
+(`rtsim.world.compiled.FollowerArrays`, `rtsim.world.motion.group_advance`), bit for
 bit the Python group's lists (`rtsim.world.follower.FollowerGroup`, the reference)."""
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def _pair(rng: np.random.Generator, n: int, p: FollowerParams) -> tuple[Any, Any
         rng.uniform(0, 60, n),
     )
     t0 = float(rng.uniform(0, 50))
-    return FollowerGroup(*args, p, t0), compiled.CompiledFollowerGroup(*args, p, t0)
+    return FollowerGroup(*args, p, t0), compiled.FollowerArrays(*args, p, t0, arrays=True)
 
 
 @needs_numba
@@ -82,9 +82,9 @@ def test_group_array_matches_the_lists(seed: int) -> None:
 
 @needs_numba
 def test_group_fields_write_through() -> None:
-    """A field read is a copy of its row; an item assigned to it, or a whole field
+    """A field read is its row as a list; an item assigned to it, or a whole field
     assigned, writes the array (as on the Python group's lists), and a time moved back
-    makes `advance_all` integrate again."""
+    makes `advance_all` integrate again; the lists are read again once the array changed."""
     rng = np.random.default_rng(3)
     p = FollowerParams()
     a, b = _pair(rng, 3, p)
@@ -99,9 +99,13 @@ def test_group_fields_write_through() -> None:
     assert S.shape == (len(GROUP_ROWS), 3)
     assert b.W.base is S and b.W.shape == (3, 3)
     assert S[GROUP_ROWS.index("cmd_v"), 1] == a.cmd_v[1]
-    copy = b.x
-    copy.append(1.0)  # (a copy: the group keeps n)
-    assert b.n == 3 and len(b.x) == 3
+    x = b.x
+    assert b.x is x  # (one list until the array changes)
+    b.advance_all(200.0, 10.0)
+    assert b.x is not x and b.x == S[GROUP_ROWS.index("x")].tolist()
+    S[GROUP_ROWS.index("x"), 0] = 7.0  # (written by another: said with `changed`)
+    b.changed()
+    assert b.x[0] == 7.0
 
 
 @needs_numba
@@ -115,8 +119,9 @@ def test_world_advance_in_one_call_matches_the_python_world(accel: float) -> Non
     worlds = [
         World(
             WorldConfig(
-                rounded_rectangle(300, 300, 150), 25.0, chevron(3, 390), follower=FollowerParams(), step_ms=10.0,
-                start_s=250.0, backend=backend, leader_accel_max=accel, leader_decel_max=accel,
+                rounded_rectangle(300, 300, 150), 25.0, chevron(3, 390),
+                follower=FollowerParams(), step_ms=10.0, start_s=250.0, backend=backend,
+                leader_accel_max=accel, leader_decel_max=accel,
             ),
             np.random.default_rng(5),
         )
