@@ -168,8 +168,9 @@ def world_advance(
     """`rtsim.world.world.World.advance` in one call: the ``n`` followers of the group state
     ``S`` to ``t_ms`` (`group_advance`), then the leader at arc length ``s`` driven ``dt`` s
     from speed ``v0`` toward ``vt`` (`leader_travel`, `rtsim.world.leader.Leader.advance`)
-    on the path ``G`` (s0, poses, κ, lap: `rtsim.world.path.LeaderPath.arrays`): (its speed
-    after, its arc length, its pose there, `rtsim.world.ftl.path_pose`)."""
+    on the path ``G`` (the law's geometry, of which `rtsim.world.ftl.path_pose` reads the
+    path: `rtsim.world.path.LeaderPath.arrays`): (its speed after, its arc length, its
+    pose there)."""
     group_advance(S, 0, n, t_ms, step_ms, a)
     v1, ds = leader_travel(v0, vt, accel, decel, dt)
     s1 = s + ds

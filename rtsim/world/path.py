@@ -197,16 +197,21 @@ class LeaderPath:
         compiled kernel computed (`rtsim.world.ftl.path_pose` on `arrays`, bit for bit)."""
         self._memo_pose_s, self._memo_pose = s, pose
 
-    def arrays(self) -> tuple[Any, Any, Any, float]:
-        """The path as the kernels read it (`rtsim.world.ftl.path_pose`): the segments'
-        starts (cm), their start poses (x, y, heading, flat), their curvatures, and the lap
-        length."""
+    def arrays(self) -> tuple[Any, ...]:
+        """The path as the kernels read it (`rtsim.world.ftl.path_pose`), in the shape of the
+        follow-the-leader law's geometry (`rtsim.world.ftl.TraceFollower.geometry`, which
+        compiled kernels share: one build of `path_pose`): the segments' starts (cm), their
+        start poses (x, y, heading, flat), their curvatures, the lap length, then no
+        follower's offsets (placeholders of their types)."""
         flat = [c for pose in self._poses for c in pose]
         return (
             np.array(self._s0, dtype=float),
             np.array(flat, dtype=float),
             np.array(self._kappa, dtype=float),
             float(self._lap),
+            np.zeros(1),
+            np.full(1, -1, dtype=np.int64),
+            np.ones(1),
         )
 
     def __repr__(self) -> str:

@@ -229,8 +229,10 @@ class World:
     def _advance_kernel(self) -> Any:
         """The compiled world's `advance`: the followers', the leader's travel and its pose in
         one call (`rtsim.world.motion.world_advance`, the motion model's parts), on the
-        path's arrays (`LeaderPath.arrays`)."""
-        self._path_G = self.config.path.arrays()
+        path's arrays (`LeaderPath.arrays`, or the compiled law's, which hold them)."""
+        law = self._ftl
+        # (the law's geometry when it runs compiled: the same path, one array less to make)
+        self._path_G = law._G if getattr(law, "compiled", False) else self.config.path.arrays()  # type: ignore[union-attr]
         args = (self.followers.S, 0, *(0.0,) * 9, self._path_G)  # type: ignore[attr-defined]
         return entry(kernels(self.motion).advance_world, args)
 
