@@ -375,7 +375,7 @@ class _Coupling:
         win = self.ts.window
         assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
-        self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
+        self._hough_args = (win.e_cal, win.e_trans, win.r_H)  # (`counted_time`'s)
         self._search_ms = search_time(win.e_cal, win.e_trans, cfg.sensing.r_reacq)
         # Eq 1's assumption: a scan counts at most min(361, k·n) points (checked per window)
         self._points_assumed = min(361.0, win.k * win.n)
@@ -704,7 +704,7 @@ class _Coupling:
         world = self.world
         world.advance(self.env.now)
         ld = world.leader
-        kind, kappa = ld.segment()  # (world.segment_at)
+        kind, kappa = ld.path.segment_at(ld.s)  # (ld.segment(), world.segment_at)
         d = self.dec
         i = job.index
         self._decisions[i] = d
@@ -739,18 +739,22 @@ class _Coupling:
         # the scan's fields as its lists, read once (not a property call each: `Scan.fields`)
         raw = scan.fields()
         rec.scan_t = now
+        # (the scan's lists are its own, made for it and never changed: the record keeps
+        # them as they are, no copy)
         voted = raw["voted"]
-        voted = rec.voted = tuple(raw["points"] if voted is None else voted)
+        if voted is None:
+            voted = raw["points"]
+        rec.voted = voted
         points = rec.points = sum(voted)  # (scan.hough_points, scan.total_points)
         searched = sum(raw["searched"])  # (scan.n_searched)
         # (hough_time on the counts just made: each counted once)
-        e_cal, e_trans, r_H, _ = self._hough_args
+        search_ms = self._search_ms
         hough_ms = self._hough_ms = rec.hough_ms = counted_time(
-            len(voted), raw["cells"], points, searched, e_cal, e_trans, r_H, self._search_ms
+            len(voted), raw["cells"], points, searched, *self._hough_args, search_ms
         )
         rec.assumption_broken = (
             points > self._points_assumed
-            or hough_ms - searched * self._search_ms > self._hough_assumed + 1e-9
+            or hough_ms - searched * search_ms > self._hough_assumed + 1e-9
         )
         lost = rec.lost = raw["lost"]
         if True in lost:  # (else tracks_lost, searches, ... keep their 0)
@@ -758,10 +762,10 @@ class _Coupling:
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = searched
             rec.reacquisitions = scan.n_reacquired
-        fix_error, neighbour = raw["fix_error"], raw["neighbour"]
-        n = len(voted)
-        rec.fix_error = (math.inf,) * n if fix_error is None else tuple(fix_error)
-        rec.neighbour = (False,) * n if neighbour is None else tuple(neighbour)
+        fix_error = raw["fix_error"]
+        rec.fix_error = (math.inf,) * len(voted) if fix_error is None else fix_error
+        neighbour = raw["neighbour"]
+        rec.neighbour = (False,) * len(voted) if neighbour is None else neighbour
         lp = rec.leader = scan.leader_pose
         rec.truth = self._truth(lp)
         fol = world.followers  # (the scan advanced every follower to now)
@@ -780,8 +784,9 @@ class _Coupling:
             return
         if raw is None:
             raw = scan.fields()
-        last.viol = dict(raw["violations"])
-        last.changes = dict(raw["changes"])
+        # (the scan's mappings are its own, made for it and never changed: kept, no copy)
+        last.viol = raw["violations"]
+        last.changes = raw["changes"]
         # the bounds the window's decision predicts at the highest speed the leader had in
         # the interval the changes span (the world has advanced to the scan)
         v = self.world.leader.speed  # (_v_actual)
@@ -791,10 +796,8 @@ class _Coupling:
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
-            # (min(a, b) is a unless b < a, as before, NaN included)
-            last.near_true = near_true = tuple(
-                [b if b < a else a for a, b in zip(last.near, near)]  # noqa: B905 (n each)
-            )
+            # (min(a, b) is a unless b < a, NaN included)
+            last.near_true = near_true = tuple(map(min, last.near, near))
             last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
         ro = d.kw.get("rollout")
         last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
@@ -861,7 +864,7 @@ class _Coupling:
         fol = self.world.followers
         # the scan has just advanced every follower to now (copies: the lists change; the
         # poses zipped when read, strict there)
-        return StateRows(lp, zip(list(fol.x), list(fol.y), list(fol.th)), list(fol.v))  # noqa: B905
+        return StateRows(lp, zip(fol.x[:], fol.y[:], fol.th[:]), fol.v[:])  # noqa: B905
 
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms

@@ -833,14 +833,33 @@ class World:
         arr, fol, ld = self._arr, self.followers, self.leader
         assert arr is not None
         entry, run, last = arr._ftl_entry, arr._ftl_run, arr.last
-        advance, step, cmd_v, cmd_w = fol._advance_each, self._step_ms, fol.cmd_v, fol.cmd_w
+        step, cmd_v, cmd_w = self._step_ms, fol.cmd_v, fol.cmd_w
         normals, leader_to = self._normals, self._advance_leader
+        # the follower's integration as `FollowerGroup._advance_each` runs it for one
+        # follower (its kernel on its lists, which stay the group's for its life), and the
+        # actuation's two normals as `_normals` takes them (its call when the block is used
+        # up), inline: two Python calls fewer per send
+        fn, accel = fol._advance, fol.p.max_accel
+        ft, fx, fy, fth, fv, fw, odo = fol.t, fol.x, fol.y, fol.th, fol.v, fol.w, fol.odometer
 
         def send(k: int, t_ms: float) -> tuple[float, float]:
             if t_ms != self._t:
                 leader_to(t_ms)
-            advance((k,), t_ms, step)
-            nv, nw = normals(2)
+            t0 = ft[k]
+            if t_ms > t0:  # (`_advance_each`: a follower at t_ms or later is left as it is)
+                fx[k], fy[k], fth[k], fv[k], fw[k], odo[k] = fn(
+                    fx[k], fy[k], fth[k], fv[k], fw[k], cmd_v[k], cmd_w[k], accel, odo[k], t0,
+                    t_ms, step,
+                )  # fmt: skip
+                ft[k] = t_ms
+            i = self._zi
+            z = self._z
+            if i + 2 <= len(z):
+                nv = z[i]
+                nw = z[i + 1]
+                self._zi = i + 2
+            else:
+                nv, nw = normals(2)
             v, w, rv, rw, held = entry(k, t_ms, ld.s, ld.speed, nv, nw, arr.E, *run)
             if held:
                 last[k] = (v, w)
