@@ -90,6 +90,8 @@ __all__ = [
 
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
+#: The scans' counts whose Hough time a run keeps (`_Coupling._hough_of`) at most.
+HOUGH_MEMO = 4096
 
 
 class _Records(NamedTuple):
@@ -376,6 +378,7 @@ class _Coupling:
         assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
         self._hough_args = (win.e_cal, win.e_trans, win.r_H)  # (`counted_time`'s)
+        self._hough_memo: dict[tuple[int, Any, int, int], tuple[float, bool]] = {}
         self._search_ms = search_time(win.e_cal, win.e_trans, cfg.sensing.r_reacq)
         # Eq 1's assumption: a scan counts at most min(361, k·n) points (checked per window)
         self._points_assumed = min(361.0, win.k * win.n)
@@ -747,15 +750,13 @@ class _Coupling:
         rec.voted = voted
         points = rec.points = sum(voted)  # (scan.hough_points, scan.total_points)
         searched = sum(raw["searched"])  # (scan.n_searched)
-        # (hough_time on the counts just made: each counted once)
-        search_ms = self._search_ms
-        hough_ms = self._hough_ms = rec.hough_ms = counted_time(
-            len(voted), raw["cells"], points, searched, *self._hough_args, search_ms
-        )
-        rec.assumption_broken = (
-            points > self._points_assumed
-            or hough_ms - searched * search_ms > self._hough_assumed + 1e-9
-        )
+        # (hough_time on the counts just made: each counted once; `_hough_of`, by its counts)
+        key = (len(voted), raw["cells"], points, searched)
+        got = self._hough_memo.get(key)
+        if got is None:
+            got = self._hough_of(key)
+        self._hough_ms = rec.hough_ms = got[0]
+        rec.assumption_broken = got[1]
         lost = rec.lost = raw["lost"]
         if True in lost:  # (else tracks_lost, searches, ... keep their 0)
             rec.tracks_lost = sum(lost)  # (scan.n_lost)
@@ -774,6 +775,24 @@ class _Coupling:
             self._close(scan, near, raw)
         self._last_scanned = rec
         self._v_max = world.leader.speed  # (_v_actual)
+
+    def _hough_of(self, key: tuple[int, Any, int, int]) -> tuple[float, bool]:
+        """A scan's Hough time (`counted_time`) from its counts ``key`` (followers, cells,
+        points, searches) and whether it broke Eq 1's assumption (more points than it
+        assumes, or more time without the searches), kept for the next scan with the same
+        counts (a few hundred kinds in a run; cleared when they pass `HOUGH_MEMO`)."""
+        n, cells, points, searched = key
+        search_ms = self._search_ms
+        hough_ms = counted_time(n, cells, points, searched, *self._hough_args, search_ms)
+        broken = (
+            points > self._points_assumed
+            or hough_ms - searched * search_ms > self._hough_assumed + 1e-9
+        )
+        memo = self._hough_memo
+        if len(memo) >= HOUGH_MEMO:
+            memo.clear()
+        got = memo[key] = (hough_ms, broken)
+        return got
 
     def _close(self, scan: Any, near: tuple[float, ...] = (), raw: Any = None) -> None:
         """Close the previous window's observation interval with ``scan``'s violations (and
@@ -1244,7 +1263,7 @@ def _tables(run: _Coupling, window_sink: Any, windows: bool) -> tuple[_Records |
     stays flat at any length and follower count)."""
     if window_sink is None:
         recs = [r for r in run.rec.records if r.complete]
-        table = records_columns(recs, run.n, run.rec.limits, state=False)
+        table = records_columns(recs, run.n, run.rec.limits, state=False, summary=True)
         return (_Records(recs, run.n, run.rec.limits) if windows else None), table
     run.rec.flush()
     window_sink.close()
