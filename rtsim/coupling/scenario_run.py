@@ -819,7 +819,8 @@ class _Coupling:
             last.near_true = near_true = tuple(map(min, last.near, near))
             last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
         ro = d.kw.get("rollout")
-        last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
+        # (the rollout's closest approaches: a list made for the call, kept as it is)
+        last.near_pred = ro.closest(v_max) if ro is not None else d.near
 
     def violation_ratios(
         self, tolerance: float = VIOLATION_TOLERANCE
