@@ -50,9 +50,16 @@ def test_hough_time_kept_by_counts_is_the_computed_one(
     assert kept.summary == every.summary
 
 
-def test_records_keep_what_their_scan_reported(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize(
+    ("scenario", "overrides"),
+    [("test2", None), ("test1", {"world.backend": "python", "formation.followers": 3})],
+)
+def test_records_keep_what_their_scan_reported(
+    monkeypatch: pytest.MonkeyPatch, scenario: str, overrides: Any
+) -> None:
     """Each record's points, fix errors, neighbours, changes and violations are its scans'
-    as they were made (copies taken in the hook), not changed by the scans after them."""
+    as they were made (copies taken in the hook), not changed by the scans after them: the
+    compiled world's scans and the Python reference's."""
     fields: dict[int, Any] = {}
     closed: dict[int, Any] = {}
     on_scan = sr._Coupling._on_scan
@@ -69,7 +76,7 @@ def test_records_keep_what_their_scan_reported(monkeypatch: pytest.MonkeyPatch) 
             )
 
     monkeypatch.setattr(sr._Coupling, "_on_scan", watched)
-    res = run_scenario("test2", duration_s=30.0, record_jobs=False)
+    res = run_scenario(scenario, duration_s=30.0, record_jobs=False, overrides=overrides)
     recs = res.__dict__["_windows"].recs
     assert len(recs) > 10 and len(closed) >= len(recs) - 1
     for r in recs:
