@@ -348,10 +348,15 @@ def _custom() -> _Custom:
     if missing:
         import numba
 
+        cost = (
+            "every run compiling its kernels (none cached)"
+            if cache is None
+            else "a slower first run"
+        )
         print(
             f"rtsim: numba {numba.__version__} lacks internals rtsim's compile set-up uses "
             f"({'; '.join(missing)}); compiling with numba's own instead: the same results, "
-            f"a slower first run{', kernels not cached' if cache is None else ''}",
+            + cost,
             file=sys.stderr,
             flush=True,
         )
