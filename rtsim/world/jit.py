@@ -22,14 +22,11 @@ without the wrappers and not cached on its own (its code is linked into each cal
 is what a later process loads): about 2 s less CPU on the first run. Nor is it optimised
 as a module or emitted as machine code (`_linked_only_compiler`): its code never runs on its
 own, each caller links its IR in and optimises and emits the whole, as before (the same
-arithmetic; LLVM may inline a little differently); about 2 s less again. The directories live under
-``NUMBA_CACHE_DIR`` when the user sets it (numba's own setting), else in ``__pycache__`` next
-to this file, else in numba's user-wide cache directory.
+arithmetic; LLVM may inline a little differently); about 2 s less again. The directories live
+under ``NUMBA_CACHE_DIR`` when set, else ``__pycache__`` here, else numba's user-wide cache.
 
-**Stock numba.** The compilers and the cache above subclass numba internals (not its public
-API; numba is not pinned above). When a numba lacks them (`_custom`), each piece that cannot
-be built falls back to numba as shipped: the same kernels and results, a slower first run,
-no cache across processes; one line on stderr says so, once per process.
+**Stock numba.** These compilers and this cache subclass numba internals; a piece a numba
+cannot build falls back to numba's own (`_custom`: same results, slower), said once on stderr.
 """
 
 from __future__ import annotations
