@@ -13,7 +13,7 @@ import functools
 import itertools
 import math
 from collections.abc import Callable
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
@@ -60,6 +60,10 @@ _COLUMNS = len(K.FollowerColumns._fields)
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
 
+
+#: the rollouts every `CompiledRollout` has run in this process (each kernel call's; a list,
+#: not a class attribute: writing a class's attribute empties the type's method cache)
+RUNS = [0]
 
 #: the compiled functions behind the rollout kernels' dispatchers, by dispatcher (`call`)
 _ENTRIES: dict[Any, Any] = {}
@@ -159,10 +163,8 @@ class CompiledRollout:
     follower, the pending sends NaN-padded), the law's search starts read at each call (the
     live law's, as the Python rollout clones it then).
 
-    ``runs``: the rollouts every instance has run in this process (each kernel call's; read
-    through `rtsim.control.rollout.rollouts_run`)."""
-
-    runs: ClassVar[int] = 0
+    The rollouts every instance has run in this process (each kernel call's) are counted in
+    `RUNS` (read through `rtsim.control.rollout.rollouts_run`)."""
 
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
         self._made(law, _static(law, state), state)
@@ -281,7 +283,7 @@ class CompiledRollout:
     def _whole(self, v: float, windows: tuple[float, ...], pack: tuple[Any, ...]) -> Any:
         """One rollout whole on ``pack`` (`pack`'s arrays): its changes array."""
         out = np.empty((1, len(windows), self.n, 5))
-        CompiledRollout.runs += 1
+        RUNS[0] += 1
         call(  # (`_rollout_changes` through the one entry: its buffers' types, unused)
             self._ker.roll_or_decide, True, float(v), _lengths(windows), False,
             1.0, -math.inf, 0.0, 0.0, 0, 0.0, 0.0, pack, K.NO_F1, K.NO_I1, out, K.NO_I1,
@@ -330,7 +332,7 @@ class CompiledRollout:
             rows, out, float(contact),
         )  # fmt: skip
         got = out.tolist()
-        CompiledRollout.runs += runs + int(got[6])
+        RUNS[0] += runs + int(got[6])
         frozen: tuple[Any, ...] = ()
         if got[2] != 0.0:  # a search (only one stops a rollout after its first window):
             # the law's search starts as they are at the decision, for those rolled out
@@ -401,22 +403,24 @@ class _Kept(tuple):  # type: ignore[type-arg]
                     put(key, changes[r, :1])
         return len(raw) - before
 
-    def first(self, v: float, w: float) -> Any:
-        """What `put` leaves under the key (``v``, (``w``,)), a one-window rollout, in an
-        empty ``raw`` and ``memo``: its changes array or its `_Rest`; None when no rollout
-        of the decision has that key."""
-        ro, speeds, lens, cut, runs, changes, w0, windows, checked, frozen = self
+    def first(self, key: tuple[float, tuple[float, ...]]) -> Any:
+        """What `put` leaves under ``key`` (speed, window lengths) in an empty ``raw`` and
+        ``memo``: its changes array or its `_Rest`; None when no rollout of the decision
+        has that key."""
+        ro, speeds, lens, cut, runs, changes, w, windows, checked, frozen = self
+        v, lengths = key
+        horizon = (w,) * windows
         sp = speeds[:runs].tolist()
         for r in range(runs):
             if sp[r] != v:
                 continue
             code = lens.item(r)
             if code == 2:
-                if checked == w:
+                if lengths == (checked,):
                     return changes[r, :1]
                 continue
-            if w0 == w and (windows == 1 or code == 1):  # (the horizon's key first)
-                if windows == 1 and cut.item(r):
-                    return _Rest((ro, v, (w0,), frozen))
-                return changes[r] if windows == 1 else changes[r, :1]
+            if lengths == horizon:  # (its key before its first window's)
+                return _Rest((ro, v, horizon, frozen)) if cut.item(r) else changes[r]
+            if code == 1 and lengths == (w,):
+                return changes[r, :1]
         return None

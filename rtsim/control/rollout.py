@@ -22,6 +22,7 @@ import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
+from rtsim.control.compiled_rollout import RUNS as COMPILED_RUNS
 from rtsim.control.compiled_rollout import (
     CompiledRollout,
     _Rest,
@@ -62,7 +63,7 @@ def rollouts_run() -> int:
     """How many rollouts this process has run so far, compiled and Python (each one a leader
     target played over its windows; a memoised one is not run again): a benchmark reads it
     before and after a run for its rollouts per lap (one integer add per decision)."""
-    return _PYTHON_RUNS[0] + CompiledRollout.runs
+    return _PYTHON_RUNS[0] + COMPILED_RUNS[0]
 
 
 @dataclass(frozen=True)
@@ -343,9 +344,15 @@ class Rollout:
         key = (float(v), tuple(map(float, windows)))  # (map: no generator frame)
         out = self._memo.get(key)
         if out is None:
-            if self._kept is not None:
-                self._settle()
-            raw = self._raw_d.pop(key, None) if self._raw_d else None
+            kept = self._kept
+            if kept is not None and not self._raw_d:  # the decision's, read directly
+                raw = kept.first(key)
+                if raw is not None:  # (`_settle` will not count it again: it is in the memo)
+                    self._count += 1
+            else:
+                if kept is not None:
+                    self._settle()
+                raw = self._raw_d.pop(key, None) if self._raw_d else None
             if raw is None:
                 out = self._memo[key] = self._run(key[0], key[1])
                 self._count += 1
@@ -396,7 +403,7 @@ class Rollout:
         if key not in self._memo:
             kept = self._kept
             if kept is not None and not self._raw_d:  # (the decision's rollouts, asked once)
-                raw = kept.first(key[0], w)
+                raw = kept.first(key)
             elif self._raw:
                 raw = self._raw_d.get(key)
         if raw is not None and not isinstance(raw, _Rest):  # the search's array, read as is
