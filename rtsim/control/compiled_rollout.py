@@ -116,8 +116,9 @@ def _static(law: CompiledTraceFollower, state: Any) -> Any:
     """The law's cache for rollouts of ``state``'s params, thresholds, ramp limits and step:
     (those five, the float pack with the scalars that stay from one decision to the next,
     in RolloutScalars' order after the five that change, the no-sends-pending array per
-    follower count, the kernels, the decision's out buffer); made once per law (a clone of
-    the law shares it) and kept while the five are the same objects."""
+    follower count, the kernels, the decision's out buffer and its rows' per follower
+    count); made once per law (a clone of the law shares it) and kept while the five are
+    the same objects."""
     p, thr = state.params, state.thresholds
     static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
     cached: Any = getattr(law, "_rollout_static", None)
@@ -148,11 +149,11 @@ def _static(law: CompiledTraceFollower, state: Any) -> Any:
     )
     # (compiled once per process and motion model: before the first rollout)
     ker = K.rollout_kernels(motion_model(p.motion_model))
-    # (the decision's out buffer, read before each decide returns; the search's bookkeeping
-    # arrays are the decision's own: `_Kept` reads them when the memo asks)
+    # (the decision's out buffer and its rows', read before each decide returns; the
+    # search's bookkeeping arrays are the decision's own: `_Kept` reads them when asked)
     bufs = np.empty(7)
     # (the five that change are written over a copy per decision)
-    cached = (static, np.array(scalars, dtype=float), {}, ker, bufs)
+    cached = (static, np.array(scalars, dtype=float), {}, ker, bufs, {})
     setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
     return cached
 
@@ -247,7 +248,7 @@ class CompiledRollout:
     ) -> None:
         """The pack of RolloutScalars' first ``five``, the ``n`` followers' columns ``flat``
         (row by row) and the ``pending`` sends (the law's cache ``cached``, `_static`)."""
-        self._ker, self._out = cached[3], cached[4]
+        self._ker, self._out, self._rows = cached[3], cached[4], cached[5]
         fs = cached[1].copy()
         # RolloutScalars' first five (item by item: a slice from a tuple converts it first;
         # one fromiter of all 21 is 2.5x the copy)
@@ -308,8 +309,9 @@ class CompiledRollout:
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
         ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
         in one call (`rtsim.control.kernels._plan_decide`, on fresh arrays of
-        changes and rows): ([w, V_L, method code, found, feasible, ...], the rows
-        at V_Ld and at V_L [2, follower, kind], the rollouts it ran for the rollout's memo
+        changes): ([w, V_L, method code, found, feasible, ...], the rows
+        at V_Ld and at V_L [2, follower, kind] (the law's array: read it before the next
+        decision), the rollouts it ran for the rollout's memo
         as the kernel left them, `_Kept`)."""
         out = self._out  # (the law's: read before this returns)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
@@ -320,7 +322,9 @@ class CompiledRollout:
         lens = np.empty(_SEARCH_RUNS, np.int64)  # (the kernel writes each rollout's)
         cut = np.zeros(_SEARCH_RUNS, np.int64)
         changes = np.empty((_SEARCH_RUNS, windows, n, 5))
-        rows = np.empty((2, n, 4))
+        rows = self._rows.get(n)  # (the law's, per follower count)
+        if rows is None:
+            rows = self._rows[n] = np.empty((2, n, 4))
         f = _ENTRIES.get(self._ker.roll_or_decide)
         if f is None:  # (the first call: `call` finds the entry)
             f = functools.partial(call, self._ker.roll_or_decide)
@@ -339,10 +343,8 @@ class CompiledRollout:
             # whole when asked (`_Rest`)
             p = self._pack
             frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
-        kept = _Kept(
-            (self, speeds, lens, cut, min(runs, _SEARCH_RUNS), changes, w, windows, got[5], frozen)
-        )
-        return got, rows, kept
+        m = runs if runs < _SEARCH_RUNS else _SEARCH_RUNS  # (those it kept)
+        return got, rows, _Kept((self, speeds, lens, cut, m, changes, w, windows, got[5], frozen))
 
 
 def _rows_flat(rows: Any, sends: Any, rho: Any, turned: bool) -> list[float]:

@@ -20,6 +20,7 @@ import secrets
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from operator import itemgetter
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -195,6 +196,9 @@ class _Decision(NamedTuple):
 
 #: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
 _DECISION = _Decision._make
+
+#: a `World.estimate_rows` row's pose (x, y, θ), as a tuple
+_POSE = itemgetter(0, 1, 2)
 
 
 class _Coupling:
@@ -566,11 +570,10 @@ class _Coupling:
         # held command, in one pass (the same as World.estimated_pose(i) and
         # World.relative(i, "estimate")[3]; World.estimate_rows)
         rows = world.estimate_rows(now)
-        poses = tuple([(r[0], r[1], r[2]) for r in rows])
-        speeds = tuple([r[3] for r in rows])
         # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
-        # relative states made when read: StateRows)
-        state = StateRows(lp, poses, speeds)
+        # relative states made when read: StateRows; its poses read once, from the rows,
+        # which no one changes)
+        state = StateRows(lp, map(_POSE, rows), [r[3] for r in rows])
         fols = self._followers(state) if self._fols else ()
         # the predictor's options: for the policy's input and the _pred columns of a decision
         # without a rollout (one decided on the rollout alone reads only the rollout)
