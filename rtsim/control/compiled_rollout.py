@@ -412,9 +412,9 @@ class _Kept(tuple):  # type: ignore[type-arg]
         ro, speeds, lens, cut, runs, changes, w, windows, checked, frozen = self
         v, lengths = key
         horizon = (w,) * windows
-        sp = speeds[:runs].tolist()
+        sp = speeds.item  # (item by item: the key is most often an early rollout's)
         for r in range(runs):
-            if sp[r] != v:
+            if sp(r) != v:
                 continue
             code = lens.item(r)
             if code == 2:

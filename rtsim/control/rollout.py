@@ -201,10 +201,10 @@ class Rollout:
     base of `decided`, whose rollouts make ``state`` only when it is read): what the
     rollout reads of its state per decision.
 
-    A compiled decision's rollouts (`search`, `plan`) stay as the kernel left them until
-    the memo needs them (`rtsim.control.compiled_rollout._Kept`): reading ``count`` or
-    ``_raw``, or `changes` of a target not in the memo, puts them in ``_raw`` then, the
-    same entries and count as at the decision.
+    A compiled decision's rollouts (`search`, `plan`) stay as the kernel left them
+    (`rtsim.control.compiled_rollout._Kept`): `changes` and `closest` read the key they
+    ask for from them, and reading ``count`` or ``_raw`` puts them all in ``_raw``, the
+    entries and count the decision would have put there.
     """
 
     #: (compared by value, as a dataclass: no hash)
