@@ -405,24 +405,38 @@ class _Kept(tuple):  # type: ignore[type-arg]
                     put(key, changes[r, :1])
         return len(raw) - before
 
+    def find(self, key: tuple[float, tuple[float, ...]]) -> tuple[int, int]:
+        """Which entry `put` leaves under ``key`` (speed, window lengths) in an empty ``raw``
+        and ``memo``: (the rollout, 0 its changes whole, 1 its first window's, 2 its `_Rest`),
+        or (−1, 0) when no rollout of the decision has that key."""
+        v, lengths = key
+        w, windows, checked = self[6], self[7], self[8]
+        sp, ln = self[1].item, self[2].item  # (item by item: most often an early rollout's)
+        for r in range(self[4]):
+            if sp(r) != v:
+                continue
+            code = ln(r)
+            if code == 2:
+                if lengths == (checked,):
+                    return r, 1
+                continue
+            if len(lengths) == windows and lengths == (w,) * windows:  # (its first key)
+                return r, 2 if self[3].item(r) else 0
+            if code == 1 and lengths == (w,):
+                return r, 1
+        return -1, 0
+
     def first(self, key: tuple[float, tuple[float, ...]]) -> Any:
         """What `put` leaves under ``key`` (speed, window lengths) in an empty ``raw`` and
         ``memo``: its changes array or its `_Rest`; None when no rollout of the decision
-        has that key."""
-        ro, speeds, lens, cut, runs, changes, w, windows, checked, frozen = self
-        v, lengths = key
-        horizon = (w,) * windows
-        sp = speeds.item  # (item by item: the key is most often an early rollout's)
-        for r in range(runs):
-            if sp(r) != v:
-                continue
-            code = lens.item(r)
-            if code == 2:
-                if lengths == (checked,):
-                    return changes[r, :1]
-                continue
-            if lengths == horizon:  # (its key before its first window's)
-                return _Rest((ro, v, horizon, frozen)) if cut.item(r) else changes[r]
-            if code == 1 and lengths == (w,):
-                return changes[r, :1]
-        return None
+        has that key (`find`)."""
+        r, how = self.find(key)
+        if r < 0:
+            return None
+        changes = self[5]
+        if how == 0:
+            return changes[r]
+        if how == 1:
+            return changes[r, :1]
+        horizon = (self[6],) * self[7]  # (the rollout's own speed and windows, as `put`'s)
+        return _Rest((self[0], self[1].item(r), horizon, self[9]))

@@ -402,8 +402,10 @@ class Rollout:
         raw = None
         if key not in self._memo:
             kept = self._kept
-            if kept is not None and not self._raw_d:  # (the decision's rollouts, asked once)
-                raw = kept.first(key)
+            if kept is not None and not self._raw_d:  # the decision's rollouts, read as is
+                r, how = kept.find(key)
+                if r >= 0 and how != 2:  # (an array: its first window, whole or alone)
+                    return kept[5][r, 0, :, 4].tolist()  # type: ignore[no-any-return]
             elif self._raw:
                 raw = self._raw_d.get(key)
         if raw is not None and not isinstance(raw, _Rest):  # the search's array, read as is
