@@ -20,6 +20,7 @@ import secrets
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from operator import itemgetter
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -41,7 +42,7 @@ from rtsim.control.policy import (
     policy_class,
 )
 from rtsim.control.predict import trusted_estimate
-from rtsim.control.rollout import Rollout, decided_state, rollout_state
+from rtsim.control.rollout import Rollout, rollout_state
 from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
 from rtsim.coupling.inputs import ScenarioInputs as ScenarioInputs
 from rtsim.coupling.inputs import _inputs as _inputs
@@ -198,6 +199,9 @@ class _Decision(NamedTuple):
 #: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
 _DECISION = _Decision._make
 
+#: a `World.estimate_rows` row's pose (x, y, θ), as a tuple
+_POSE = itemgetter(0, 1, 2)
+
 
 class _Coupling:
     """The run's state and the CPU hooks (internal; see the module docstring)."""
@@ -318,9 +322,9 @@ class _Coupling:
         # needs_followers = False and the rollout carries the estimates) and the _pred
         # columns of a decision without a rollout
         self._fols = not self._rollout or bool(getattr(self.policy, "needs_followers", True))
-        # the rollout's per-run state (`decided_state`'s base, made at the first decision)
+        # the rollout's per-run state (`rows_state`'s base, made at the first decision)
         self._ro_base: Any = None
-        self._ro_make: Any = None  # (Rollout.maker of the base)
+        self._ro_make: Any = None  # (Rollout.decided of the base)
         self._ro_idle: tuple[tuple[float, ...], ...] = ()  # (its no-sends-pending tuple)
         # the motion model keeps a turn rate of its own (RolloutState.turns; empty: none)
         self._turn_state = bool(self.world.motion.subs)
@@ -504,20 +508,15 @@ class _Coupling:
         next_scan: float,
         pending: bool = False,
         rows: list[list[float]] | None = None,
-        poses: tuple[Any, ...] | None = None,
-        speeds: tuple[float, ...] | None = None,
     ) -> Any:
-        """What the leader knows for its rollout at ``now`` (`RolloutState`, `decided_state`
-        of the run's fixed fields); ``rows``: ``World.estimate_rows(now)`` if already read,
-        and ``poses``, ``speeds`` its poses and speeds if already made."""
+        """What the leader knows for its rollout at ``now``: the `Rollout` of a `RolloutState`
+        (`rows_state` of the run's fixed fields, its state made when read: `Rollout.decided`);
+        ``rows``: ``World.estimate_rows(now)`` if already read."""
         world = self.world
         if rows is None:
             rows = world.estimate_rows(now)
-        if poses is None or speeds is None:
-            poses = tuple([(r[0], r[1], r[2]) for r in rows])
-            speeds = tuple([r[3] for r in rows])
-        base = self._ro_base
-        if base is None:  # the fields that stay for the run (the others are set below)
+        make = self._ro_make
+        if make is None:  # the fields that stay for the run (the others are set below)
             cfg = self.cfg
             base = self._ro_base = rollout_state(
                 cfg.path,
@@ -543,24 +542,18 @@ class _Coupling:
                 tuple(self.beta_d),
                 self._contact_cm,
             )
-            self._ro_make = Rollout.maker(base)
+            make = self._ro_make = Rollout.decided(base)
             self._ro_idle = ((),) * self.n  # (no sends pending)
         ld = world.leader
-        return self._ro_make(
-            decided_state(
-                base,
-                now,
-                ld.s,
-                ld.speed,
-                poses,
-                speeds,
-                tuple([(r[5], r[6]) for r in rows]),  # (World.held_command's)
-                self._pending(now) if pending else self._ro_idle,
-                max(now, next_scan),
-                tuple(self._send_offsets),
-                tuple([r[4] for r in rows]) if self._turn_state else (),  # (expected_turn_rates)
-            ),
-            rows,
+        return make(
+            now,
+            ld.s,
+            ld.speed,
+            rows,  # (the held commands World.held_command's; turns expected_turn_rates)
+            self._pending(now) if pending else self._ro_idle,
+            max(now, next_scan),
+            tuple(self._send_offsets),
+            self._turn_state,
         )
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
@@ -580,11 +573,10 @@ class _Coupling:
         # held command, in one pass (the same as World.estimated_pose(i) and
         # World.relative(i, "estimate")[3]; World.estimate_rows)
         rows = world.estimate_rows(now)
-        poses = tuple([(r[0], r[1], r[2]) for r in rows])
-        speeds = tuple([r[3] for r in rows])
         # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
-        # relative states made when read: StateRows)
-        state = StateRows(lp, poses, speeds)
+        # relative states made when read: StateRows; its poses read once, from the rows,
+        # which no one changes)
+        state = StateRows(lp, map(_POSE, rows), [r[3] for r in rows])
         fols = self._followers(state) if self._fols else ()
         # the predictor's options: for the policy's input and the _pred columns of a decision
         # without a rollout (one decided on the rollout alone reads only the rollout)
@@ -599,8 +591,6 @@ class _Coupling:
                 now if next_scan is None else next_scan,
                 self.decide_at == "before-send" and now > 0,
                 rows,
-                poses,
-                speeds,
             )
         if self._on_rollout is not None:
             adj = self._on_rollout(ro)
