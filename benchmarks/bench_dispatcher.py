@@ -1,7 +1,7 @@
 """Benchmark: the virtual CPU's dispatcher alone on Test 2's task set (not a test).
 
     python benchmarks/bench_dispatcher.py [--repeat 15] [--without dead_reckoning,command]
-        [--no-hooks]
+        [--no-hooks] [--opcodes]
 
 What `benchmarks/profile_window.py` cannot separate from the run's set-up and tables: the
 dispatcher's own cost per window. Builds the CPU of a sweep point's task set
@@ -12,13 +12,17 @@ step, a drawn radio round trip), and a window provider drawn from a seeded gener
 (180-230 ms). Runs about 514 windows (105 s simulated) ``--repeat`` times and prints the best
 lap in CPU time, µs per window, and a digest of the statistics and of the job records (equal
 digests across two checkouts: the same schedule, bit for bit). ``--without`` drops tasks and
-``--no-hooks`` the segment and job-end hooks: the share of each in the cost.
+``--no-hooks`` the segment and job-end hooks: the share of each in the cost. ``--opcodes``
+also counts the bytecodes the interpreter runs per window, by function (a trace of one lap:
+a count that does not depend on the machine's load, to compare two checkouts with).
 """
 
 from __future__ import annotations
 
 import argparse
+import collections
 import hashlib
+import sys
 import time
 from dataclasses import replace
 from typing import Any
@@ -81,11 +85,37 @@ def digest(cpu: Any) -> str:
     return hashlib.sha1(text.encode()).hexdigest()[:12]
 
 
+def opcodes(ts: Any, hooks: bool) -> tuple[collections.Counter[str], int]:
+    """Bytecodes run per function (``file:name``) in one lap, traced; and the windows."""
+    counts: collections.Counter[str] = collections.Counter()
+
+    def tracer(frame: Any, event: str, arg: Any) -> Any:
+        frame.f_trace_opcodes = True
+        frame.f_trace_lines = False
+        code = frame.f_code
+        key = f"{code.co_filename.rsplit('/', 1)[-1]}:{code.co_name}"
+
+        def count(frame: Any, event: str, arg: Any) -> Any:
+            if event == "opcode":
+                counts[key] += 1
+            return count
+
+        return count
+
+    sys.settrace(tracer)
+    try:
+        _, windows = lap(ts, HORIZON_MS, hooks)
+    finally:
+        sys.settrace(None)
+    return counts, windows
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--without", default="", help="comma-separated task names to drop")
     ap.add_argument("--no-hooks", action="store_true", help="no segment or job-end hooks")
+    ap.add_argument("--opcodes", action="store_true", help="count bytecodes per window")
     args = ap.parse_args(argv)
     print_machine()
     ts = load_taskset(taskset_file("barrel_robots"))
@@ -104,6 +134,12 @@ def main(argv: list[str] | None = None) -> int:
         f"dispatcher: {1e6 * best / windows:.2f} us/window ({windows} windows, best lap "
         f"{1e3 * best:.2f} ms CPU of {args.repeat}); digest {digest(cpu)}, jobs {digest(jobs)}"
     )
+    if args.opcodes:
+        counts, windows = opcodes(ts, hooks)
+        total = sum(counts.values())
+        print(f"bytecodes: {total / windows:.0f} per window; by function (per window):")
+        for key, n in counts.most_common(15):
+            print(f"  {n / windows:8.1f}  {key}")
     return 0
 
 
