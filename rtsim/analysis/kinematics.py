@@ -142,7 +142,8 @@ def relative_states(
 ) -> tuple[list[float], list[float], list[float]]:
     """`relative_state` of each pair (leader pose, follower pose), as the lists (ρ, β, θ):
     the same operations on the same floats pair by pair (equal bit for bit: tests), with
-    the loops in C where they can be (a table's columns: no call per pair but the wraps')."""
+    the loops in C (a table's columns: no call per pair; the wraps on arrays, numpy's
+    remainder being `math.fmod` and the float path's correction of a negative one)."""
     if not follower_poses:
         return [], [], []
     xl, yl, hl = zip(*leader_poses)  # noqa: B905 (3 each)
@@ -150,11 +151,12 @@ def relative_states(
     dx = list(map(_sub, xf, xl))
     dy = list(map(_sub, yf, yl))
     rho = list(map(math.hypot, dx, dy))
-    beta = [
-        wrap_positive(a - h) if r > 0.0 else 0.0
-        for a, h, r in zip(map(math.atan2, dy, dx), hl, rho)  # noqa: B905 (one each)
-    ]
-    return rho, beta, list(map(wrap_angle, map(_sub, hl, hf)))
+    m = len(rho)
+    h = np.array(hl, dtype=float)
+    a = np.fromiter(map(math.atan2, dy, dx), float, m) - h
+    beta = np.where(np.array(rho) > 0.0, wrap_positive(a), 0.0)
+    theta = wrap_angle(h - np.array(hf, dtype=float))
+    return rho, beta.tolist(), theta.tolist()
 
 
 def formation_velocity(v_l: Any, omega_l: Any, rho: Any, beta: Any) -> tuple[Any, Any]:

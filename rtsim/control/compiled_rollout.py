@@ -13,7 +13,7 @@ import functools
 import itertools
 import math
 from collections.abc import Callable
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
@@ -60,6 +60,10 @@ _COLUMNS = len(K.FollowerColumns._fields)
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
 _SEARCH_RUNS = 64
 
+
+#: the rollouts every `CompiledRollout` has run in this process (each kernel call's; a list,
+#: not a class attribute: writing a class's attribute empties the type's method cache)
+RUNS = [0]
 
 #: the compiled functions behind the rollout kernels' dispatchers, by dispatcher (`call`)
 _ENTRIES: dict[Any, Any] = {}
@@ -112,8 +116,9 @@ def _static(law: CompiledTraceFollower, state: Any) -> Any:
     """The law's cache for rollouts of ``state``'s params, thresholds, ramp limits and step:
     (those five, the float pack with the scalars that stay from one decision to the next,
     in RolloutScalars' order after the five that change, the no-sends-pending array per
-    follower count, the kernels, the search's bookkeeping buffers); made once per law (a
-    clone of the law shares it) and kept while the five are the same objects."""
+    follower count, the kernels, the decision's out buffer and its rows' per follower
+    count); made once per law (a clone of the law shares it) and kept while the five are
+    the same objects."""
     p, thr = state.params, state.thresholds
     static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
     cached: Any = getattr(law, "_rollout_static", None)
@@ -144,15 +149,11 @@ def _static(law: CompiledTraceFollower, state: Any) -> Any:
     )
     # (compiled once per process and motion model: before the first rollout)
     ker = K.rollout_kernels(motion_model(p.motion_model))
-    # (the search's bookkeeping buffers, read before each decide returns)
-    bufs = (
-        np.empty(_SEARCH_RUNS),
-        np.empty(_SEARCH_RUNS, dtype=np.int64),
-        np.empty(_SEARCH_RUNS, dtype=np.int64),
-        np.empty(7),
-    )
+    # (the decision's out buffer and its rows', read before each decide returns; the
+    # search's bookkeeping arrays are the decision's own: `_Kept` reads them when asked)
+    bufs = np.empty(7)
     # (the five that change are written over a copy per decision)
-    cached = (static, np.array(scalars, dtype=float), {}, ker, bufs)
+    cached = (static, np.array(scalars, dtype=float), {}, ker, bufs, {})
     setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
     return cached
 
@@ -163,10 +164,8 @@ class CompiledRollout:
     follower, the pending sends NaN-padded), the law's search starts read at each call (the
     live law's, as the Python rollout clones it then).
 
-    ``runs``: the rollouts every instance has run in this process (each kernel call's; read
-    through `rtsim.control.rollout.rollouts_run`)."""
-
-    runs: ClassVar[int] = 0
+    The rollouts every instance has run in this process (each kernel call's) are counted in
+    `RUNS` (read through `rtsim.control.rollout.rollouts_run`)."""
 
     def __init__(self, law: CompiledTraceFollower, state: Any) -> None:
         self._made(law, _static(law, state), state)
@@ -188,44 +187,74 @@ class CompiledRollout:
 
         return make
 
+    @staticmethod
+    def direct(law: Any, base: Any) -> Callable[..., CompiledRollout]:
+        """`maker`'s ``make(s, rows)`` without the state ``s``: ``make(t_now, leader_s,
+        leader_speed, rows, pending, next_scan, send_offsets, turned)`` packs the state that
+        `rtsim.control.rollout.rows_state` makes of ``base`` and these (the same arrays), for
+        a rollout that makes its state only when read."""
+        cached = _static(law, base)
+        new, packed = object.__new__, CompiledRollout._packed
+        v_ld, rho = base.v_ld, base.rho_d
+
+        def make(
+            t_now: float,
+            leader_s: float,
+            leader_speed: float,
+            rows: Any,
+            pending: Any,
+            next_scan: float,
+            sends: Any,
+            turned: bool,
+        ) -> CompiledRollout:
+            ro: CompiledRollout = new(CompiledRollout)
+            flat = _rows_flat(rows, sends, rho, turned)
+            five = (leader_s, leader_speed, v_ld, t_now, next_scan)
+            packed(ro, law, cached, five, flat, len(rows), pending)
+            return ro
+
+        return make
+
     def _made(self, law: CompiledTraceFollower, cached: Any, state: Any, rows: Any = None) -> None:
         """Pack ``state`` (the law's cache ``cached``, `_static`; ``rows``: `maker`'s)."""
-        self._ker, self._bufs = cached[3], cached[4]
-        fs = cached[1].copy()
-        # RolloutScalars' first five (item by item: a slice from a tuple converts it first;
-        # one fromiter of all 21 is 2.5x the copy)
-        fs[0] = state.leader_s
-        fs[1] = state.leader_speed
-        fs[2] = state.v_ld
-        fs[3] = state.t_now
-        fs[4] = state.next_scan
         rho = state.rho_d
-        n = len(state.poses)
         # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
-        # (a flat list of floats read by fromiter: no shape or type to discover; zip one
-        # short leaves fromiter short of its count, which it refuses)
-        flat: list[float] = []
         turns = state.turns
         if rows is not None:  # (x, y, θ, v̂, ω̂, v_c, ω_c) per follower: the state's numbers
-            if turns:
-                for r, send, rho_d in zip(rows, state.send_offsets, rho):  # noqa: B905
-                    flat += r
-                    flat += (send, rho_d)
-            else:  # (the unicycle: ω is the held command's)
-                for r, send, rho_d in zip(rows, state.send_offsets, rho):  # noqa: B905
-                    flat += (r[0], r[1], r[2], r[3], r[6], r[5], r[6], send, rho_d)
+            flat = _rows_flat(rows, state.send_offsets, rho, bool(turns))
         elif turns:
+            flat = []
             for pose, v, w, h, send, rho_d in zip(  # noqa: B905
                 state.poses, state.speeds, turns, state.held, state.send_offsets, rho
             ):
                 flat += (*pose, v, w, *h, send, rho_d)
         else:  # (the unicycle: ω is the held command's)
+            flat = []
             for pose, v, h, send, rho_d in zip(  # noqa: B905
                 state.poses, state.speeds, state.held, state.send_offsets, rho
             ):
                 flat += (*pose, v, h[1], *h, send, rho_d)
+        five = (state.leader_s, state.leader_speed, state.v_ld, state.t_now, state.next_scan)
+        self._packed(law, cached, five, flat, len(state.poses), state.pending)
+
+    def _packed(
+        self,
+        law: CompiledTraceFollower,
+        cached: Any,
+        five: Any,
+        flat: list[float],
+        n: int,
+        pending: Any,
+    ) -> None:
+        """The pack of RolloutScalars' first ``five``, the ``n`` followers' columns ``flat``
+        (row by row) and the ``pending`` sends (the law's cache ``cached``, `_static`)."""
+        self._ker, self._out, self._rows = cached[3], cached[4], cached[5]
+        fs = cached[1].copy()
+        # RolloutScalars' first five (item by item: a slice from a tuple converts it first;
+        # one fromiter of all 21 is 2.5x the copy)
+        fs[0], fs[1], fs[2], fs[3], fs[4] = five
+        # (a flat list of floats read by fromiter: no shape or type to discover)
         fol = np.fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS)
-        pending = state.pending
         if not any(pending):  # no sends pending: one array per n, kept
             pend = cached[2].get(n)
             if pend is None:
@@ -255,7 +284,7 @@ class CompiledRollout:
     def _whole(self, v: float, windows: tuple[float, ...], pack: tuple[Any, ...]) -> Any:
         """One rollout whole on ``pack`` (`pack`'s arrays): its changes array."""
         out = np.empty((1, len(windows), self.n, 5))
-        CompiledRollout.runs += 1
+        RUNS[0] += 1
         call(  # (`_rollout_changes` through the one entry: its buffers' types, unused)
             self._ker.roll_or_decide, True, float(v), _lengths(windows), False,
             1.0, -math.inf, 0.0, 0.0, 0, 0.0, 0.0, pack, K.NO_F1, K.NO_I1, out, K.NO_I1,
@@ -275,25 +304,27 @@ class CompiledRollout:
         windows: int,
         w: float,
         contact: float,
-        raw: dict[tuple[float, tuple[float, ...]], Any],
-        memo: Any,
-    ) -> tuple[list[float], Any, int]:
+    ) -> tuple[list[float], Any, _Kept]:
         """`PlanPolicy`'s decision, or with ``search_only``
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
         ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
         in one call (`rtsim.control.kernels._plan_decide`, on fresh arrays of
-        changes and rows): ([w, V_L, method code, found, feasible, ...], the rows
-        at V_Ld and at V_L [2, follower, kind]). The rollouts it ran go to ``raw`` for the
-        rollout's memo, keyed (speed, window lengths), their changes [window, follower,
-        change] as arrays (the first of equal keys, none whose key ``memo`` has); the third item:
-        how many it added."""
-        speeds, lens, cut, out = self._bufs  # (the law's: read before this returns)
-        cut.fill(0)  # (lens: the kernel writes each of the rollouts it returns)
+        changes): ([w, V_L, method code, found, feasible, ...], the rows
+        at V_Ld and at V_L [2, follower, kind] (the law's array: read it before the next
+        decision), the rollouts it ran for the rollout's memo
+        as the kernel left them, `_Kept`)."""
+        out = self._out  # (the law's: read before this returns)
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
         n = self.n
         windows = int(windows)
-        changes = np.empty((_SEARCH_RUNS, windows, n, 5))  # (kept by the memo)
-        rows = np.empty((2, n, 4))
+        # (the decision's own: `_Kept` reads them when the memo asks)
+        speeds = np.empty(_SEARCH_RUNS)
+        lens = np.empty(_SEARCH_RUNS, np.int64)  # (the kernel writes each rollout's)
+        cut = np.zeros(_SEARCH_RUNS, np.int64)
+        changes = np.empty((_SEARCH_RUNS, windows, n, 5))
+        rows = self._rows.get(n)  # (the law's, per follower count)
+        if rows is None:
+            rows = self._rows[n] = np.empty((2, n, 4))
         f = _ENTRIES.get(self._ker.roll_or_decide)
         if f is None:  # (the first call: `call` finds the entry)
             f = functools.partial(call, self._ker.roll_or_decide)
@@ -305,41 +336,107 @@ class CompiledRollout:
             rows, out, float(contact),
         )  # fmt: skip
         got = out.tolist()
-        CompiledRollout.runs += runs + int(got[6])
-        if runs > _SEARCH_RUNS:
-            runs = _SEARCH_RUNS
+        RUNS[0] += runs + int(got[6])
+        frozen: tuple[Any, ...] = ()
+        if got[2] != 0.0:  # a search (only one stops a rollout after its first window):
+            # the law's search starts as they are at the decision, for those rolled out
+            # whole when asked (`_Rest`)
+            p = self._pack
+            frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
+        m = runs if runs < _SEARCH_RUNS else _SEARCH_RUNS  # (those it kept)
+        return got, rows, _Kept((self, speeds, lens, cut, m, changes, w, windows, got[5], frozen))
+
+
+def _rows_flat(rows: Any, sends: Any, rho: Any, turned: bool) -> list[float]:
+    """The followers' pack columns (FollowerColumns' order: x, y, θ, v, ω, held v, held ω,
+    send, ρ_d), row after row, of `rtsim.world.world.World.estimate_rows`' ``rows`` (x, y, θ,
+    v̂, ω̂, v_c, ω_c per follower), the sends ``sends`` and the slots ``rho``; ω the rows'
+    ω̂ when ``turned`` (the motion model keeps a turn rate), else the held command's."""
+    flat: list[float] = []
+    # (zip one short leaves fromiter short of its count, which it refuses)
+    if turned:
+        for r, send, rho_d in zip(rows, sends, rho):  # noqa: B905
+            flat += r
+            flat += (send, rho_d)
+    else:  # (the unicycle: ω is the held command's)
+        for r, send, rho_d in zip(rows, sends, rho):  # noqa: B905
+            flat += (r[0], r[1], r[2], r[3], r[6], r[5], r[6], send, rho_d)
+    return flat
+
+
+class _Kept(tuple):  # type: ignore[type-arg]
+    """A decision's rollouts for the rollout's memo, as the kernel left them: (the
+    `CompiledRollout`, their speeds, their codes — 0 the horizon, 1 the horizon and its
+    first window, 2 one window of the checked length —, whether each stopped after its
+    first window, how many, their changes [rollout, window, follower, change], w, the
+    horizon's windows, the checked window's length, the pack with the law's search starts
+    copied at the decision — () when no rollout stopped early). The rollout's memo asks
+    for them when it needs them (`put`, `first`), not at every decision. (A tuple: made in
+    C.)"""
+
+    __slots__ = ()
+
+    def put(self, raw: dict[tuple[float, tuple[float, ...]], Any], memo: Any) -> int:
+        """Put the rollouts in ``raw``, keyed (speed, window lengths), their changes
+        [window, follower, change] as arrays, one stopped after its first window as `_Rest`
+        (the first of equal keys, none whose key ``memo`` has); returns how many keys it
+        added."""
+        ro, speeds, lens, cut, runs, changes, w, windows, checked, frozen = self
         before = len(raw)
         horizon = (w,) * windows
-        frozen: tuple[Any, ...] = ()
         put = raw.setdefault  # (the first of equal keys, as ever)
-        # (V_Ld kept, one or two rollouts: read item by item; a search's ≈ 10: each column
-        # converted once, then indexed)
-        if runs > 4:
-            sp = speeds[:runs].tolist().__getitem__
-            ln = lens[:runs].tolist().__getitem__
-            ct = cut[:runs].tolist().__getitem__
-        else:
-            sp, ln, ct = speeds.item, lens.item, cut.item
+        sp, ln, ct = speeds[:runs].tolist(), lens[:runs].tolist(), cut[:runs].tolist()
         for r in range(runs):
-            v = sp(r)
-            code = ln(r)
+            v = sp[r]
+            code = ln[r]
             key: tuple[float, tuple[float, ...]]
             if code == 2:
-                key = (v, (got[5],))
+                key = (v, (checked,))
                 if not memo or key not in memo:
                     put(key, changes[r, :1])
                 continue
             key = (v, horizon)
             if not memo or key not in memo:
-                if ct(r):  # stopped after its first window: whole only if asked (_Rest)
-                    if not frozen:  # the law's search starts as they are at the decision
-                        p = self._pack
-                        frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
-                    put(key, _Rest((self, v, horizon, frozen)))
-                else:
-                    put(key, changes[r])
+                # (stopped after its first window: whole only if asked)
+                put(key, _Rest((ro, v, horizon, frozen)) if ct[r] else changes[r])
             if code == 1:
                 key = (v, (w,))
                 if not memo or key not in memo:
                     put(key, changes[r, :1])
-        return got, rows, len(raw) - before
+        return len(raw) - before
+
+    def find(self, key: tuple[float, tuple[float, ...]]) -> tuple[int, int]:
+        """Which entry `put` leaves under ``key`` (speed, window lengths) in an empty ``raw``
+        and ``memo``: (the rollout, 0 its changes whole, 1 its first window's, 2 its `_Rest`),
+        or (−1, 0) when no rollout of the decision has that key."""
+        v, lengths = key
+        w, windows, checked = self[6], self[7], self[8]
+        sp, ln = self[1].item, self[2].item  # (item by item: most often an early rollout's)
+        for r in range(self[4]):
+            if sp(r) != v:
+                continue
+            code = ln(r)
+            if code == 2:
+                if lengths == (checked,):
+                    return r, 1
+                continue
+            if len(lengths) == windows and lengths == (w,) * windows:  # (its first key)
+                return r, 2 if self[3].item(r) else 0
+            if code == 1 and lengths == (w,):
+                return r, 1
+        return -1, 0
+
+    def first(self, key: tuple[float, tuple[float, ...]]) -> Any:
+        """What `put` leaves under ``key`` (speed, window lengths) in an empty ``raw`` and
+        ``memo``: its changes array or its `_Rest`; None when no rollout of the decision
+        has that key (`find`)."""
+        r, how = self.find(key)
+        if r < 0:
+            return None
+        changes = self[5]
+        if how == 0:
+            return changes[r]
+        if how == 1:
+            return changes[r, :1]
+        horizon = (self[6],) * self[7]  # (the rollout's own speed and windows, as `put`'s)
+        return _Rest((self[0], self[1].item(r), horizon, self[9]))

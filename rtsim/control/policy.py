@@ -919,7 +919,11 @@ class PlanPolicy:
                 "coupled run with follow-the-leader followers fills"
             )
         # the contact bound's d_c (cm; 0: off)
-        d_c = float(getattr(getattr(ro, "state", None), "contact_cm", 0.0)) if self.contact else 0.0
+        d_c = 0.0
+        if self.contact:  # (a `Rollout`'s base: its state's fields that stay for a run)
+            st = getattr(ro, "base", None)
+            st = getattr(ro, "state", None) if st is None else st
+            d_c = float(getattr(st, "contact_cm", 0.0))
         plan = getattr(ro, "plan", None)  # the rollout's compiled decision, if it has one
         hit = (
             None

@@ -22,6 +22,7 @@ import numpy as np
 
 from rtsim.analysis.kinematics import Thresholds
 from rtsim.control.adjust import ROLLOUT_GRID, ROLLOUT_TOL
+from rtsim.control.compiled_rollout import RUNS as COMPILED_RUNS
 from rtsim.control.compiled_rollout import (
     CompiledRollout,
     _Rest,
@@ -37,7 +38,15 @@ from rtsim.world.leader import Leader
 from rtsim.world.motionmodels import motion_model
 from rtsim.world.path import LeaderPath
 
-__all__ = ["Rollout", "RolloutState", "Changes", "decided_state", "rollout_state", "rollouts_run"]
+__all__ = [
+    "Rollout",
+    "RolloutState",
+    "Changes",
+    "decided_state",
+    "rollout_state",
+    "rollouts_run",
+    "rows_state",
+]
 
 #: Per follower, the four predicted changes of one window: (displacement in the leader frame
 #: cm, |Δρ| cm, distance driven cm, |Δβ| rad), in BOUND_KINDS order, then its closest
@@ -54,7 +63,7 @@ def rollouts_run() -> int:
     """How many rollouts this process has run so far, compiled and Python (each one a leader
     target played over its windows; a memoised one is not run again): a benchmark reads it
     before and after a run for its rollouts per lap (one integer add per decision)."""
-    return _PYTHON_RUNS[0] + CompiledRollout.runs
+    return _PYTHON_RUNS[0] + COMPILED_RUNS[0]
 
 
 @dataclass(frozen=True)
@@ -154,22 +163,57 @@ def decided_state(base: RolloutState, *values: Any) -> RolloutState:
     return state
 
 
-@dataclass
+def rows_state(
+    base: RolloutState,
+    t_now: float,
+    leader_s: float,
+    leader_speed: float,
+    rows: Sequence[Sequence[float]],
+    pending: tuple[tuple[float, ...], ...],
+    next_scan: float,
+    send_offsets: tuple[float, ...],
+    turned: bool,
+) -> RolloutState:
+    """`decided_state` of ``base`` at a decision that read ``rows``
+    (`rtsim.world.world.World.estimate_rows`: per follower x, y, θ, v̂, ω̂, v_c, ω_c): the
+    poses, speeds and held commands (v_c, ω_c) are theirs, and the turns their ω̂ when
+    ``turned`` (the motion model keeps a turn rate: `RolloutState.turns`), else none."""
+    return decided_state(
+        base,
+        t_now,
+        leader_s,
+        leader_speed,
+        tuple([(r[0], r[1], r[2]) for r in rows]),
+        tuple([r[3] for r in rows]),
+        tuple([(r[5], r[6]) for r in rows]),
+        pending,
+        next_scan,
+        send_offsets,
+        tuple([r[4] for r in rows]) if turned else (),
+    )
+
+
 class Rollout:
     """Rollouts from one `RolloutState`, memoised per (target, windows).
 
-    ``count``: the rollouts actually run (one per distinct (target, windows)).
+    ``count``: the rollouts actually run (one per distinct (target, windows)). ``base``: a
+    state whose fields other than `DECIDED` are ``state``'s (``state`` itself, or the run's
+    base of `decided`, whose rollouts make ``state`` only when it is read): what the
+    rollout reads of its state per decision.
+
+    A compiled decision's rollouts (`search`, `plan`) stay as the kernel left them
+    (`rtsim.control.compiled_rollout._Kept`): `changes` and `closest` read the key they
+    ask for from them, and reading ``count`` or ``_raw`` puts them all in ``_raw``, the
+    entries and count the decision would have put there.
     """
 
-    state: RolloutState
-    count: int = 0
-    _memo: dict[tuple[float, tuple[float, ...]], list[list[Changes]]] = field(
-        default_factory=dict, repr=False
-    )
-    _compiled: Any = field(default=None, init=False, repr=False, compare=False)
-    _raw: dict[tuple[float, tuple[float, ...]], Any] = field(
-        default_factory=dict, init=False, repr=False, compare=False
-    )
+    #: (compared by value, as a dataclass: no hash)
+    __hash__ = None  # type: ignore[assignment]
+
+    #: the last compiled decision's rollouts not yet put in ``_raw`` (`_settle`), or None
+    _kept: Any = None
+    #: a rollout of `decided`: its base and the values its ``state`` is made of when read
+    _lazy: Any = None
 
     def __init__(
         self,
@@ -177,13 +221,64 @@ class Rollout:
         count: int = 0,
         _memo: dict[tuple[float, tuple[float, ...]], list[list[Changes]]] | None = None,
     ) -> None:
-        # (the dataclass's own __init__, written out: no default factories per decision)
         self.state = state
-        self.count = count
+        self.base = state
+        self._count = count
         self._memo = {} if _memo is None else _memo
-        self._raw = {}
+        self._raw_d: dict[tuple[float, tuple[float, ...]], Any] = {}
         # a law of the world's compiled backend plays whole rollouts in compiled calls
         self._compiled = compiled_rollout(state.law, state)
+
+    def __getattr__(self, name: str) -> Any:
+        """``state``, made when first read for a rollout of `decided` (attributes the
+        instance has are found before this is asked)."""
+        if name == "state":
+            lazy = self.__dict__.get("_lazy")
+            if lazy is not None:
+                state = self.__dict__["state"] = rows_state(*lazy)
+                return state
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        assert isinstance(other, Rollout)
+        return (self.state, self.count, self._memo) == (other.state, other.count, other._memo)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__qualname__}(state={self.state!r}, count={self.count!r})"
+
+    @property
+    def count(self) -> int:
+        """The rollouts actually run (one per distinct (target, windows))."""
+        if self._kept is not None:
+            self._settle()
+        return self._count
+
+    @count.setter
+    def count(self, value: int) -> None:
+        if self._kept is not None:
+            self._settle()
+        self._count = value
+
+    @property
+    def _raw(self) -> dict[tuple[float, tuple[float, ...]], Any]:
+        """The compiled search's rollouts kept for the memo, keyed (target, windows), as
+        arrays (or `rtsim.control.compiled_rollout._Rest`) until `changes` asks for one."""
+        if self._kept is not None:
+            self._settle()
+        return self._raw_d
+
+    def _settle(self) -> None:
+        """Put the last compiled decision's rollouts in ``_raw`` (and count them)."""
+        kept, self._kept = self._kept, None
+        self._count += kept.put(self._raw_d, self._memo)
+
+    def _keep(self, kept: Any) -> None:
+        """Keep a compiled decision's rollouts (`_Kept`) for the memo, after the last's."""
+        if self._kept is not None:
+            self._settle()
+        self._kept = kept
 
     @classmethod
     def maker(cls, base: RolloutState) -> Callable[..., Rollout]:
@@ -196,11 +291,49 @@ class Rollout:
 
         def make(state: RolloutState, rows: Any = None) -> Rollout:
             ro: Rollout = new(cls)
-            ro.state = state
-            ro.count = 0
+            ro.state = ro.base = state
+            ro._count = 0
             ro._memo = {}
-            ro._raw = {}
+            ro._raw_d = {}
             ro._compiled = None if comp is None else comp(state, rows)
+            return ro
+
+        return make
+
+    @classmethod
+    def decided(cls, base: RolloutState) -> Callable[..., Rollout]:
+        """``make(t_now, leader_s, leader_speed, rows, pending, next_scan, send_offsets,
+        turned)``: the rollout of ``rows_state(base, ...)`` of these, for the decisions of a
+        run (a coupled run's), its state made only when read (the compiled rollout packs
+        the rows themselves: `CompiledRollout.direct`); ``Rollout(rows_state(base, ...))``
+        when the law does not roll out compiled."""
+        if not compiles(base.law):
+
+            def plain(*values: Any) -> Rollout:
+                return cls(rows_state(base, *values))
+
+            return plain
+        comp = CompiledRollout.direct(base.law, base)
+        new = object.__new__
+
+        def make(
+            t_now: float,
+            leader_s: float,
+            leader_speed: float,
+            rows: Any,
+            pending: tuple[tuple[float, ...], ...],
+            next_scan: float,
+            sends: tuple[float, ...],
+            turned: bool,
+        ) -> Rollout:
+            ro: Rollout = new(cls)
+            values = (t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned)
+            ro._lazy = (base, *values)
+            ro.base = base
+            ro._count = 0
+            ro._memo = {}
+            ro._raw_d = {}
+            ro._compiled = comp(*values)
             return ro
 
         return make
@@ -211,10 +344,18 @@ class Rollout:
         key = (float(v), tuple(map(float, windows)))  # (map: no generator frame)
         out = self._memo.get(key)
         if out is None:
-            raw = self._raw.pop(key, None) if self._raw else None
+            kept = self._kept
+            if kept is not None and not self._raw_d:  # the decision's, read directly
+                raw = kept.first(key)
+                if raw is not None:  # (`_settle` will not count it again: it is in the memo)
+                    self._count += 1
+            else:
+                if kept is not None:
+                    self._settle()
+                raw = self._raw_d.pop(key, None) if self._raw_d else None
             if raw is None:
                 out = self._memo[key] = self._run(key[0], key[1])
-                self.count += 1
+                self._count += 1
             else:  # a rollout of the compiled search, kept as its array until asked for
                 out = self._memo[key] = as_changes(raw)
         return out
@@ -222,21 +363,21 @@ class Rollout:
     def rows(self, v: float, w: float | None = None) -> list[tuple[float, float, float, float]]:
         """Every follower's four bounds (ms, BOUND_KINDS order) in the window of length ``w``
         (default w_sch) that the decision governs, with the leader's target ``v``."""
-        w = self.state.w_sch if w is None else float(w)
+        w = self.base.w_sch if w is None else float(w)
         return self.bounds(self.changes(v, (w,))[0], w)
 
     def bounds(
         self, changes: Sequence[Changes], w: float
     ) -> list[tuple[float, float, float, float]]:
         """The bounds L·w / c of one window's ``changes`` (module docstring)."""
-        thr = self.state.thresholds
+        thr = self.base.thresholds
         inf = math.inf
         r_h, t_rho, t_eps, t_beta = thr.r_H, thr.T_rho, thr.T_eps, thr.T_beta
         # the window follows the predicted motion: what is left is the residual's bound
         loc = thr.predicted_ms if thr.localization == "predicted" else None
         out = []
         # (each bound written out, lim · w / c: a generator per follower was ≈ 2x the time)
-        rho_ds = self.state.rho_d
+        rho_ds = self.base.rho_d
         if len(changes) != len(rho_ds):  # (zip's strict=, checked once: its keyword is slow)
             raise ValueError(f"{len(changes)} followers' changes for {len(rho_ds)} followers")
         for c, rho_d in zip(changes, rho_ds):  # noqa: B905
@@ -256,9 +397,17 @@ class Rollout:
         """Every follower's predicted closest approach to any other robot (cm) in the window
         of length ``w`` (default w_sch) that the decision governs, with the leader's target
         ``v``."""
-        w = self.state.w_sch if w is None else float(w)
+        w = self.base.w_sch if w is None else float(w)
         key = (float(v), (w,))
-        raw = self._raw.get(key) if self._raw and key not in self._memo else None
+        raw = None
+        if key not in self._memo:
+            kept = self._kept
+            if kept is not None and not self._raw_d:  # the decision's rollouts, read as is
+                r, how = kept.find(key)
+                if r >= 0 and how != 2:  # (an array: its first window, whole or alone)
+                    return kept[5][r, 0, :, 4].tolist()  # type: ignore[no-any-return]
+            elif self._raw:
+                raw = self._raw_d.get(key)
         if raw is not None and not isinstance(raw, _Rest):  # the search's array, read as is
             return raw[0, :, 4].tolist()  # type: ignore[no-any-return]
         return [c[4] for c in self.changes(v, (w,))[0]]
@@ -280,13 +429,12 @@ class Rollout:
         Python, with the same result; also when ``v_ld``, the top of the search, is not the
         state's). The rollouts it ran join the memo, as the Python search's do (a later
         `changes` of one of its speeds is that rollout)."""
-        if self._compiled is None or v_ld != self.state.v_ld:
+        if self._compiled is None or v_ld != self.base.v_ld:
             return None
-        out, _, added = self._compiled.decide(
-            True, keep, need, 0.0, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, 0.0,
-            self._raw, self._memo,
-        )  # fmt: skip
-        self.count += added
+        out, _, kept = self._compiled.decide(
+            True, keep, need, 0.0, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, 0.0
+        )
+        self._keep(kept)
         return out[1], "numeric" if out[2] == 1.0 else "best", out[3]
 
     def plan(
@@ -307,14 +455,13 @@ class Rollout:
         method is none, as the Python decision's); None when this rollout
         is not compiled, or ``v_ld`` or ``w`` are not the state's (its V_Ld and w_sch,
         which `rows` uses). Its rollouts join the memo, as the Python policy's do."""
-        st = self.state
+        st = self.base
         if self._compiled is None or v_ld != st.v_ld or w != st.w_sch:
             return None
-        out, rows, added = self._compiled.decide(
-            False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact,
-            self._raw, self._memo,
-        )  # fmt: skip
-        self.count += added
+        out, rows, kept = self._compiled.decide(
+            False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact
+        )
+        self._keep(kept)
         w_out, v_l, method, found, feasible = out[:5]
         r = rows.tolist()
         before = list(map(tuple, r[0]))

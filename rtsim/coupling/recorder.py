@@ -395,12 +395,15 @@ def records_columns(
     *,
     state: bool = True,
     changes: NDArray[np.float64] | None = None,
+    summary: bool = False,
 ) -> dict[str, Any]:
     """The columns of windows.csv (name -> array or list, in order) for complete records
     ``recs``: what `records_frame` holds, without the DataFrame (a writer's
     `write_columns` formats them directly). ``state`` False leaves out the followers'
     state and estimate (``f{i}_x`` … ``f{i}_v_est``), bound (``_pred``, ``_true``) and
-    contact distance columns, which summary.json does not read (`_follower_state`).
+    contact distance columns, which summary.json does not read (`_follower_state`);
+    ``summary`` True (with ``state`` False) also the window-level columns it does not read
+    (the others of `rtsim.coupling.summary.summary_columns` are the same either way).
     ``changes``: `changes_array` of ``recs`` when the caller has made it (else made here)."""
     cols = window_columns(n)
     m = len(recs)
@@ -410,31 +413,20 @@ def records_columns(
     w_sch = _column(recs, "w_sch", float)
     msb = _column(recs, "msb_min", float)
     finish = _column(recs, "finish", float)
-    leader = _rows(_each(recs, "leader"), float, m, 3)
-    data["window"] = _column(recs, "window", np.int64)
-    data["t"] = t
     data["w"] = w
-    data["deadline"] = t + w
     data["w_sch"] = w_sch
     data["msb_min"] = msb
     data["binding"] = list(_each(recs, "binding"))
-    with np.errstate(invalid="ignore"):
-        data["margin"] = msb - w_sch
-    data["slack"] = np.maximum(0.0, w - w_sch)
-    for name in ("v_leader_desired", "v_leader", "v_leader_target", "v_leader_max"):
+    for name in ("v_leader_desired", "v_leader"):
         data[name] = _column(recs, name, float)
     data["method"] = list(_each(recs, "method"))
     data["feasible"] = _column(recs, "feasible", bool)
     data["critical"] = msb < w_sch
     data["missed"] = finish > t + w + EPS
     data["response"] = finish - t
-    data["finish"] = finish
-    data["points"] = _column(recs, "points", np.int64)
-    data["hough_ms"] = _column(recs, "hough_ms", float)
     data["tracks_lost"] = _column(recs, "tracks_lost", np.int64)
-    data["segment"] = list(_each(recs, "segment"))
-    data["curvature"] = _column(recs, "curvature", float)
-    data["leader_x"], data["leader_y"], data["leader_heading"] = leader.T
+    if not (summary and not state):
+        _window_rest(recs, t, w, w_sch, msb, finish, data)
     if state:
         _follower_state(recs, n, limits, w, data, changes)
     nb = len(BOUND_KINDS)
@@ -443,11 +435,12 @@ def records_columns(
         .reshape(m, nb, n)
         .transpose(0, 2, 1)
     )
-    lost = _rows(_each(recs, "lost"), np.bool_, m, n)
+    lost = None if summary and not state else _rows(_each(recs, "lost"), np.bool_, m, n)
     for i in range(n):
         for j, kind in enumerate(BOUND_KINDS):
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
-        data[f"f{i + 1}_lost"] = lost[:, i]
+        if lost is not None:
+            data[f"f{i + 1}_lost"] = lost[:, i]
     data["assumption_broken"] = _column(recs, "assumption_broken", bool)
     nc = len(LOST_CAUSES)
     causes = _rows(_each(recs, "lost_by_cause"), np.int64, m, nc)
@@ -471,6 +464,34 @@ def records_columns(
     for i in range(n):
         data[f"f{i + 1}_viol_contact"] = broke[:, i]
     return {c: data[c] for c in cols if c in data}
+
+
+def _window_rest(
+    recs: list[WindowRecord],
+    t: NDArray[np.float64],
+    w: NDArray[np.float64],
+    w_sch: NDArray[np.float64],
+    msb: NDArray[np.float64],
+    finish: NDArray[np.float64],
+    data: dict[str, object],
+) -> None:
+    """Add to ``data`` the window-level columns of ``recs`` that summary.json does not read
+    (`records_columns`; ``t`` … ``finish`` its columns)."""
+    data["window"] = _column(recs, "window", np.int64)
+    data["t"] = t
+    data["deadline"] = t + w
+    with np.errstate(invalid="ignore"):
+        data["margin"] = msb - w_sch
+    data["slack"] = np.maximum(0.0, w - w_sch)
+    for name in ("v_leader_target", "v_leader_max"):
+        data[name] = _column(recs, name, float)
+    data["finish"] = finish
+    data["points"] = _column(recs, "points", np.int64)
+    data["hough_ms"] = _column(recs, "hough_ms", float)
+    data["segment"] = list(_each(recs, "segment"))
+    data["curvature"] = _column(recs, "curvature", float)
+    leader = _rows(_each(recs, "leader"), float, len(recs), 3)
+    data["leader_x"], data["leader_y"], data["leader_heading"] = leader.T
 
 
 def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:

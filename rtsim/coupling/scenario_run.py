@@ -20,6 +20,7 @@ import secrets
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from operator import itemgetter
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -41,7 +42,7 @@ from rtsim.control.policy import (
     policy_class,
 )
 from rtsim.control.predict import trusted_estimate
-from rtsim.control.rollout import Rollout, decided_state, rollout_state
+from rtsim.control.rollout import Rollout, rollout_state
 from rtsim.coupling.duration import LAP_CAP_FACTOR, run_length
 from rtsim.coupling.inputs import ScenarioInputs as ScenarioInputs
 from rtsim.coupling.inputs import _inputs as _inputs
@@ -90,6 +91,8 @@ __all__ = [
 
 #: Relative overshoot left out of ``summary['violations_beyond_5pct']``.
 VIOLATION_TOLERANCE = 0.05
+#: The scans' counts whose Hough time a run keeps (`_Coupling._hough_of`) at most.
+HOUGH_MEMO = 4096
 
 
 class _Records(NamedTuple):
@@ -195,6 +198,9 @@ class _Decision(NamedTuple):
 
 #: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
 _DECISION = _Decision._make
+
+#: a `World.estimate_rows` row's pose (x, y, θ), as a tuple
+_POSE = itemgetter(0, 1, 2)
 
 
 class _Coupling:
@@ -316,9 +322,9 @@ class _Coupling:
         # needs_followers = False and the rollout carries the estimates) and the _pred
         # columns of a decision without a rollout
         self._fols = not self._rollout or bool(getattr(self.policy, "needs_followers", True))
-        # the rollout's per-run state (`decided_state`'s base, made at the first decision)
+        # the rollout's per-run state (`rows_state`'s base, made at the first decision)
         self._ro_base: Any = None
-        self._ro_make: Any = None  # (Rollout.maker of the base)
+        self._ro_make: Any = None  # (Rollout.decided of the base)
         self._ro_idle: tuple[tuple[float, ...], ...] = ()  # (its no-sends-pending tuple)
         # the motion model keeps a turn rate of its own (RolloutState.turns; empty: none)
         self._turn_state = bool(self.world.motion.subs)
@@ -375,7 +381,8 @@ class _Coupling:
         win = self.ts.window
         assert win is not None  # (a scenario's task set has a [window])
         self.wname = win.name
-        self._hough_args = (win.e_cal, win.e_trans, win.r_H, cfg.sensing.r_reacq)
+        self._hough_args = (win.e_cal, win.e_trans, win.r_H)  # (`counted_time`'s)
+        self._hough_memo: dict[tuple[int, Any, int, int], tuple[float, bool]] = {}
         self._search_ms = search_time(win.e_cal, win.e_trans, cfg.sensing.r_reacq)
         # Eq 1's assumption: a scan counts at most min(361, k·n) points (checked per window)
         self._points_assumed = min(361.0, win.k * win.n)
@@ -501,20 +508,15 @@ class _Coupling:
         next_scan: float,
         pending: bool = False,
         rows: list[list[float]] | None = None,
-        poses: tuple[Any, ...] | None = None,
-        speeds: tuple[float, ...] | None = None,
     ) -> Any:
-        """What the leader knows for its rollout at ``now`` (`RolloutState`, `decided_state`
-        of the run's fixed fields); ``rows``: ``World.estimate_rows(now)`` if already read,
-        and ``poses``, ``speeds`` its poses and speeds if already made."""
+        """What the leader knows for its rollout at ``now``: the `Rollout` of a `RolloutState`
+        (`rows_state` of the run's fixed fields, its state made when read: `Rollout.decided`);
+        ``rows``: ``World.estimate_rows(now)`` if already read."""
         world = self.world
         if rows is None:
             rows = world.estimate_rows(now)
-        if poses is None or speeds is None:
-            poses = tuple([(r[0], r[1], r[2]) for r in rows])
-            speeds = tuple([r[3] for r in rows])
-        base = self._ro_base
-        if base is None:  # the fields that stay for the run (the others are set below)
+        make = self._ro_make
+        if make is None:  # the fields that stay for the run (the others are set below)
             cfg = self.cfg
             base = self._ro_base = rollout_state(
                 cfg.path,
@@ -540,24 +542,18 @@ class _Coupling:
                 tuple(self.beta_d),
                 self._contact_cm,
             )
-            self._ro_make = Rollout.maker(base)
+            make = self._ro_make = Rollout.decided(base)
             self._ro_idle = ((),) * self.n  # (no sends pending)
         ld = world.leader
-        return self._ro_make(
-            decided_state(
-                base,
-                now,
-                ld.s,
-                ld.speed,
-                poses,
-                speeds,
-                tuple([(r[5], r[6]) for r in rows]),  # (World.held_command's)
-                self._pending(now) if pending else self._ro_idle,
-                max(now, next_scan),
-                tuple(self._send_offsets),
-                tuple([r[4] for r in rows]) if self._turn_state else (),  # (expected_turn_rates)
-            ),
-            rows,
+        return make(
+            now,
+            ld.s,
+            ld.speed,
+            rows,  # (the held commands World.held_command's; turns expected_turn_rates)
+            self._pending(now) if pending else self._ro_idle,
+            max(now, next_scan),
+            tuple(self._send_offsets),
+            self._turn_state,
         )
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
@@ -577,11 +573,10 @@ class _Coupling:
         # held command, in one pass (the same as World.estimated_pose(i) and
         # World.relative(i, "estimate")[3]; World.estimate_rows)
         rows = world.estimate_rows(now)
-        poses = tuple([(r[0], r[1], r[2]) for r in rows])
-        speeds = tuple([r[3] for r in rows])
         # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
-        # relative states made when read: StateRows)
-        state = StateRows(lp, poses, speeds)
+        # relative states made when read: StateRows; its poses read once, from the rows,
+        # which no one changes)
+        state = StateRows(lp, map(_POSE, rows), [r[3] for r in rows])
         fols = self._followers(state) if self._fols else ()
         # the predictor's options: for the policy's input and the _pred columns of a decision
         # without a rollout (one decided on the rollout alone reads only the rollout)
@@ -596,8 +591,6 @@ class _Coupling:
                 now if next_scan is None else next_scan,
                 self.decide_at == "before-send" and now > 0,
                 rows,
-                poses,
-                speeds,
             )
         if self._on_rollout is not None:
             adj = self._on_rollout(ro)
@@ -704,7 +697,7 @@ class _Coupling:
         world = self.world
         world.advance(self.env.now)
         ld = world.leader
-        kind, kappa = ld.segment()  # (world.segment_at)
+        kind, kappa = ld.path.segment_at(ld.s)  # (ld.segment(), world.segment_at)
         d = self.dec
         i = job.index
         self._decisions[i] = d
@@ -739,29 +732,31 @@ class _Coupling:
         # the scan's fields as its lists, read once (not a property call each: `Scan.fields`)
         raw = scan.fields()
         rec.scan_t = now
+        # (the scan's lists are its own, made for it and never changed: the record keeps
+        # them as they are, no copy)
         voted = raw["voted"]
-        voted = rec.voted = tuple(raw["points"] if voted is None else voted)
+        if voted is None:
+            voted = raw["points"]
+        rec.voted = voted
         points = rec.points = sum(voted)  # (scan.hough_points, scan.total_points)
         searched = sum(raw["searched"])  # (scan.n_searched)
-        # (hough_time on the counts just made: each counted once)
-        e_cal, e_trans, r_H, _ = self._hough_args
-        hough_ms = self._hough_ms = rec.hough_ms = counted_time(
-            len(voted), raw["cells"], points, searched, e_cal, e_trans, r_H, self._search_ms
-        )
-        rec.assumption_broken = (
-            points > self._points_assumed
-            or hough_ms - searched * self._search_ms > self._hough_assumed + 1e-9
-        )
+        # (hough_time on the counts just made: each counted once; `_hough_of`, by its counts)
+        key = (len(voted), raw["cells"], points, searched)
+        got = self._hough_memo.get(key)
+        if got is None:
+            got = self._hough_of(key)
+        self._hough_ms = rec.hough_ms = got[0]
+        rec.assumption_broken = got[1]
         lost = rec.lost = raw["lost"]
         if True in lost:  # (else tracks_lost, searches, ... keep their 0)
             rec.tracks_lost = sum(lost)  # (scan.n_lost)
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = searched
             rec.reacquisitions = scan.n_reacquired
-        fix_error, neighbour = raw["fix_error"], raw["neighbour"]
-        n = len(voted)
-        rec.fix_error = (math.inf,) * n if fix_error is None else tuple(fix_error)
-        rec.neighbour = (False,) * n if neighbour is None else tuple(neighbour)
+        fix_error = raw["fix_error"]
+        rec.fix_error = (math.inf,) * len(voted) if fix_error is None else fix_error
+        neighbour = raw["neighbour"]
+        rec.neighbour = (False,) * len(voted) if neighbour is None else neighbour
         lp = rec.leader = scan.leader_pose
         rec.truth = self._truth(lp)
         fol = world.followers  # (the scan advanced every follower to now)
@@ -770,6 +765,24 @@ class _Coupling:
             self._close(scan, near, raw)
         self._last_scanned = rec
         self._v_max = world.leader.speed  # (_v_actual)
+
+    def _hough_of(self, key: tuple[int, Any, int, int]) -> tuple[float, bool]:
+        """A scan's Hough time (`counted_time`) from its counts ``key`` (followers, cells,
+        points, searches) and whether it broke Eq 1's assumption (more points than it
+        assumes, or more time without the searches), kept for the next scan with the same
+        counts (a few hundred kinds in a run; cleared when they pass `HOUGH_MEMO`)."""
+        n, cells, points, searched = key
+        search_ms = self._search_ms
+        hough_ms = counted_time(n, cells, points, searched, *self._hough_args, search_ms)
+        broken = (
+            points > self._points_assumed
+            or hough_ms - searched * search_ms > self._hough_assumed + 1e-9
+        )
+        memo = self._hough_memo
+        if len(memo) >= HOUGH_MEMO:
+            memo.clear()
+        got = memo[key] = (hough_ms, broken)
+        return got
 
     def _close(self, scan: Any, near: tuple[float, ...] = (), raw: Any = None) -> None:
         """Close the previous window's observation interval with ``scan``'s violations (and
@@ -780,8 +793,9 @@ class _Coupling:
             return
         if raw is None:
             raw = scan.fields()
-        last.viol = dict(raw["violations"])
-        last.changes = dict(raw["changes"])
+        # (the scan's mappings are its own, made for it and never changed: kept, no copy)
+        last.viol = raw["violations"]
+        last.changes = raw["changes"]
         # the bounds the window's decision predicts at the highest speed the leader had in
         # the interval the changes span (the world has advanced to the scan)
         v = self.world.leader.speed  # (_v_actual)
@@ -791,13 +805,12 @@ class _Coupling:
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
-            # (min(a, b) is a unless b < a, as before, NaN included)
-            last.near_true = near_true = tuple(
-                [b if b < a else a for a, b in zip(last.near, near)]  # noqa: B905 (n each)
-            )
+            # (min(a, b) is a unless b < a, NaN included)
+            last.near_true = near_true = tuple(map(min, last.near, near))
             last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
         ro = d.kw.get("rollout")
-        last.near_pred = tuple(ro.closest(v_max)) if ro is not None else d.near
+        # (the rollout's closest approaches: a list made for the call, kept as it is)
+        last.near_pred = ro.closest(v_max) if ro is not None else d.near
 
     def violation_ratios(
         self, tolerance: float = VIOLATION_TOLERANCE
@@ -1241,7 +1254,7 @@ def _tables(run: _Coupling, window_sink: Any, windows: bool) -> tuple[_Records |
     stays flat at any length and follower count)."""
     if window_sink is None:
         recs = [r for r in run.rec.records if r.complete]
-        table = records_columns(recs, run.n, run.rec.limits, state=False)
+        table = records_columns(recs, run.n, run.rec.limits, state=False, summary=True)
         return (_Records(recs, run.n, run.rec.limits) if windows else None), table
     run.rec.flush()
     window_sink.close()

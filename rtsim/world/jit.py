@@ -22,9 +22,11 @@ without the wrappers and not cached on its own (its code is linked into each cal
 is what a later process loads): about 2 s less CPU on the first run. Nor is it optimised
 as a module or emitted as machine code (`_linked_only_compiler`): its code never runs on its
 own, each caller links its IR in and optimises and emits the whole, as before (the same
-arithmetic; LLVM may inline a little differently); about 2 s less again. The directories live under
-``NUMBA_CACHE_DIR`` when the user sets it (numba's own setting), else in ``__pycache__`` next
-to this file, else in numba's user-wide cache directory.
+arithmetic; LLVM may inline a little differently); about 2 s less again. The directories live
+under ``NUMBA_CACHE_DIR`` when set, else ``__pycache__`` here, else numba's user-wide cache.
+
+**Stock numba.** These compilers and this cache subclass numba internals; a piece a numba
+cannot build falls back to numba's own (`_custom`: same results, slower), said once on stderr.
 """
 
 from __future__ import annotations
@@ -33,9 +35,10 @@ import functools
 import hashlib
 import inspect
 import os
+import sys
 import types
 from collections.abc import Callable, Iterator
-from typing import Any, TypeVar
+from typing import Any, NamedTuple, TypeVar
 
 __all__ = [
     "build",
@@ -171,6 +174,7 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
         return done
     import numba
 
+    custom = _custom()
     swap = dict(subs)
     glob = dict(fn.__globals__)  # type: ignore[attr-defined]
     for name, dep in dependencies(fn)[0].items():
@@ -185,17 +189,17 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
     out: Any
     if inline:
         out = numba.njit(nogil=True, inline="always")(clone)
-    elif not entry:
-        njit: Any = numba.njit  # (numba's stubs omit no_cfunc_wrapper)
-        out = njit(pipeline_class=_linked_only_compiler(), **_OPTIONS)(clone)
     else:
-        out = numba.njit(pipeline_class=_entry_compiler(), **_OPTIONS)(clone)
-        root = cache_root()
+        njit: Any = numba.njit  # (numba's stubs omit no_cfunc_wrapper)
+        pipeline = custom.entry if entry else custom.linked_only or custom.entry
+        out = njit(**({"pipeline_class": pipeline} if pipeline else {}), **_OPTIONS)(clone)
+        root = cache_root() if entry and custom.cache else None
         if root is not None:  # else uncached, as numba leaves a kernel it cannot cache
             key = source_key(fn, subs)
             clone.__rtsim_cache__ = os.path.join(root, key)  # type: ignore[attr-defined]
-            out._cache = _keyed_cache_class()(clone)
-    out.get_call_template = functools.partial(_unliteral_call, out.get_call_template)
+            out._cache = custom.cache(clone)
+    if custom.unliteral:
+        out.get_call_template = functools.partial(_unliteral_call, out.get_call_template)
     _COMPILED[fn, subs, entry or inline] = out
     bare = None if inline or not entry else _COMPILED.get((fn, subs, False))
     if bare is not None and not bare.overloads:  # no caller compiled against it yet:
@@ -268,7 +272,7 @@ def cached(fn: Callable[..., Any], subs: Subs = ()) -> bool:
     file in its source key's directory), so that `build` loads it rather than compiles it;
     False when nothing can be cached."""
     root = cache_root()
-    if root is None:
+    if root is None or _custom().cache is None:
         return False
     try:
         names = os.listdir(os.path.join(root, source_key(fn, subs)))
@@ -282,12 +286,16 @@ def cache_root() -> str | None:
     else ``__pycache__/rtsim-kernels`` next to this file when writable, else numba's
     user-wide cache directory's rtsim-kernels; None when none is writable."""
     from numba.core import config
-    from numba.misc.appdirs import AppDirs
 
     user_dir = getattr(config, "CACHE_DIR", "")  # NUMBA_CACHE_DIR, read by numba
     dirs = [user_dir] if user_dir else [os.path.join(os.path.dirname(__file__), "__pycache__")]
     if not user_dir:
-        dirs.append(AppDirs(appname="numba", appauthor=False).user_cache_dir)
+        try:
+            from numba.misc.appdirs import AppDirs
+        except ImportError:  # (an internal of numba's: without it, no user-wide directory)
+            pass
+        else:
+            dirs.append(AppDirs(appname="numba", appauthor=False).user_cache_dir)
     for path in (os.path.join(d, "rtsim-kernels") for d in dirs):
         try:
             os.makedirs(path, exist_ok=True)
@@ -296,6 +304,78 @@ def cache_root() -> str | None:
         if os.access(path, os.W_OK):
             return path
     return None
+
+
+class _Custom(NamedTuple):
+    """What `_build` compiles with beyond numba's public API (None/False: numba's own)."""
+
+    entry: Any  #: `_entry_compiler`
+    linked_only: Any  #: `_linked_only_compiler`
+    cache: Any  #: `_keyed_cache_class`
+    unliteral: bool  #: `_unliteral_call` (numba.core.types.unliteral, get_call_template)
+
+
+_CUSTOM: _Custom | None = None
+#: the errors that mean "this numba has no such internal" when a piece is set up
+_MISSING = (ImportError, AttributeError, TypeError)
+
+
+def _custom() -> _Custom:
+    """The pieces of `_build` that use numba internals, each set up once per process; one
+    that this numba cannot build (a name gone or changed: `_MISSING`) is None and numba's
+    own stands in (the same results: a slower first run, no cache), said on stderr in one
+    line for all of them (module docstring)."""
+    global _CUSTOM
+    if _CUSTOM is not None:
+        return _CUSTOM
+    missing: list[str] = []
+
+    def attempt(make: Callable[[], Any]) -> Any:
+        try:
+            return make()
+        except _MISSING as exc:
+            missing.append(f"{make.__name__}: {type(exc).__name__}: {exc}")
+            return None
+
+    entry = attempt(_entry_compiler)
+    linked = attempt(_linked_only_compiler) if entry is not None else None  # (its subclass)
+    cache = attempt(_keyed_cache_class)
+    unliteral = attempt(_unliteral_ready) is not None
+    _CUSTOM = _Custom(entry, linked, cache, unliteral)
+    if missing:
+        import numba
+
+        cost = (
+            "every run compiling its kernels (none cached)"
+            if cache is None
+            else "a slower first run"
+        )
+        print(
+            f"rtsim: numba {numba.__version__} lacks internals rtsim's compile set-up uses "
+            f"({'; '.join(missing)}); compiling with numba's own instead: the same results, "
+            + cost,
+            file=sys.stderr,
+            flush=True,
+        )
+    return _CUSTOM
+
+
+def _require(owner: Any, *names: str) -> None:
+    """Raise AttributeError unless ``owner`` has every attribute ``names`` (the internals a
+    subclass's methods call, checked when it is set up rather than when a kernel compiles)."""
+    for name in names:
+        if not hasattr(owner, name):
+            raise AttributeError(f"{getattr(owner, '__name__', owner)} has no {name!r}")
+
+
+def _unliteral_ready() -> bool:
+    """Set-up check of `_unliteral_call`'s internals."""
+    from numba.core import types as nbtypes
+    from numba.core.dispatcher import Dispatcher
+
+    _require(nbtypes, "unliteral")
+    _require(Dispatcher, "get_call_template")
+    return True
 
 
 _CACHE_CLASS: Any = None
@@ -308,6 +388,9 @@ def _keyed_cache_class() -> Any:
     if _CACHE_CLASS is not None:
         return _CACHE_CLASS
     from numba.core import caching
+
+    _require(caching._CacheLocator, "ensure_cache_path")
+    _require(caching.FunctionCache, "_impl_class")
 
     class _KeyedLocator(caching._CacheLocator):
         def __init__(self, py_func: Any) -> None:
@@ -412,6 +495,7 @@ def _entry_compiler() -> Any:
             flags = Flags(flags)
             super().__init__(typingctx, targetctx, library, args, return_type, flags, locals)
 
+    Flags(compiler.Flags()).values()  # (set up: numba's Flags as this subclass reads them)
     _ENTRY = _Compiler
     return _ENTRY
 
@@ -428,6 +512,11 @@ def _linked_only_compiler() -> Any:
     from numba.core import codegen, compiler, typed_passes
     from numba.core.compiler_lock import require_global_compiler_lock
     from numba.core.compiler_machinery import LoweringPass, register_pass
+
+    _require(codegen.JITCodeLibrary, "_raise_if_finalized", "_get_module_for_linking",
+             "_ensure_finalized", "finalize", "get_pointer_to_function")  # fmt: skip
+    _require(compiler.DefaultPassBuilder, "define_nopython_pipeline")
+    _require(typed_passes, "IRLegalization")
 
     class _NoEnv:
         """The codegen, except that it sets no environment (the kernel has no machine code

@@ -495,3 +495,84 @@ def test_estimate_rows_are_the_decisions_reads() -> None:
                 got = make(dataclasses.replace(state, pending=pending))._compiled.pack()[2]
                 assert got.tobytes() == np.array(want).tobytes(), pending
     assert seen[0] == seen[1]
+
+
+def _mid_run(backend: str, pending: bool = False) -> tuple[World, float, RolloutState]:
+    """A test2 world 39 windows in on ``backend``, decided mid-window (sends done, or the
+    last window's still to come), and its state (`world_state`)."""
+    sc = load_scenario("test2", overrides={**QUIET, "world.backend": backend})
+    world = World(sc.world, np.random.default_rng(1))
+    w = 237.0
+    for j in range(39):
+        _window(world, j * w, w)
+    if pending:
+        world.estimate(world.scan(39 * w))
+    else:
+        _window(world, 39 * w, w)
+    t = 39 * w + (100.0 if pending else 210.0)
+    world.advance(t)
+    sends = tuple((39 * w + o,) for o in OFFSETS) if pending else None
+    return world, t, world_state(world, t, 40 * w, OFFSETS, w, sends)
+
+
+@pytest.mark.parametrize("backend", ["python", "compiled"])
+@pytest.mark.parametrize("pending", [False, True])
+def test_decided_rollout_is_the_rows_state(backend: str, pending: bool) -> None:
+    """`Rollout.decided` (a coupled run's rollouts) is the rollout of `rows_state`: its
+    state, read, is that state (made only when read on the compiled backend), and its
+    compiled pack the one `Rollout.maker` packs of that state and the rows, with the rows'
+    turn rates as the turns or the held commands' (``turned``)."""
+    from rtsim.control.rollout import rows_state
+
+    world, t, st = _mid_run(backend, pending)
+    rows = world.estimate_rows(t)
+    make = Rollout.decided(st)
+    for turned in (False, True):
+        values = (t, st.leader_s, st.leader_speed, rows, st.pending, st.next_scan)
+        values += (st.send_offsets, turned)
+        ro = make(*values)
+        want = rows_state(st, *values)
+        assert ("state" in vars(ro)) == (backend == "python")
+        assert ro.state == want and ro.base.w_sch == want.w_sch
+        assert want.turns == (tuple([r[4] for r in rows]) if turned else ())
+        if backend == "compiled":
+            a, b = ro._compiled.pack(), Rollout.maker(st)(want, rows)._compiled.pack()
+            assert [x.tobytes() for x in a[:3]] == [y.tobytes() for y in b[:3]]
+            assert a[3:] == b[3:]
+        else:
+            assert ro._compiled is None
+
+
+@pytest.mark.parametrize("pending", [False, True])
+def test_kept_rollouts_read_as_put(pending: bool) -> None:
+    """A compiled decision's rollouts kept as the kernel left them (`_Kept`) read as the
+    memo's entries they make when put (`Rollout._raw`): every key's `_Kept.first` is the
+    entry (the same array, or a `_Rest` of the same rollout), other keys none; a rollout
+    that reads a key directly (`changes`, `closest`) ends with the memo, entries and count
+    of one that put them all first, for margins that keep V_Ld, search or find nothing."""
+    from rtsim.control.compiled_rollout import _Rest
+    from rtsim.control.policy import PlanPolicy, PolicyInput
+
+    world, t, st = _mid_run("compiled", pending)
+    ctx = PolicyInput((), st.v_ld, st.w_sch, st.thresholds)
+    for margin in (0.0, 0.4, 0.9):
+        pol = PlanPolicy(windows=2, margin=margin)
+        lazy, put = Rollout(st), Rollout(st)
+        a = pol.decide(dataclasses.replace(ctx, rollout=lazy))
+        assert repr(pol.decide(dataclasses.replace(ctx, rollout=put))) == repr(a)
+        kept = lazy._kept
+        assert kept is not None and put._raw  # (read: put)
+        for key, entry in put._raw.items():
+            got = kept.first(key)
+            if isinstance(entry, _Rest):
+                assert isinstance(got, _Rest) and got[1:3] == entry[1:3]
+            else:
+                assert got.tobytes() == entry.tobytes() and got.shape == entry.shape
+        assert kept.first((-1.0, (st.w_sch,))) is None
+        keys = list(put._raw)
+        for key in [keys[0], keys[-1], (st.v_ld, (st.w_sch,)), (0.5 * st.v_ld, (st.w_sch,))]:
+            assert lazy.closest(key[0], key[1][0]) == put.closest(key[0], key[1][0])
+            assert lazy.changes(*key) == put.changes(*key), key
+            assert lazy._kept is not None  # (not put: read directly)
+        assert lazy.count == put.count and lazy._memo == put._memo
+        assert lazy._raw.keys() == put._raw.keys()

@@ -114,8 +114,9 @@ def test_violation_ratios_equal_per_kind_arrays(run: tuple[Any, Any]) -> None:
 
 def test_summary_columns_without_state_are_the_tables(run: tuple[Any, Any]) -> None:
     """The summary reads columns built without the followers' state, estimates and bounds
-    (`records_columns(state=False)`): each of them the full table's array, dtype and bytes,
-    and the summary of the full table is the run's."""
+    (`records_columns(state=False)`; with ``summary=True``, the run's, just the columns
+    summary.json reads): each of them the full table's array, dtype and bytes, and the
+    summary of the full table is the run's."""
     from rtsim.coupling.recorder import records_columns, window_columns
     from rtsim.coupling.summary import summary_columns
 
@@ -124,10 +125,12 @@ def test_summary_columns_without_state_are_the_tables(run: tuple[Any, Any]) -> N
     recs = [r for r in coupling.rec.records if r.complete]
     full = records_columns(recs, n, coupling.rec.limits)
     part = records_columns(recs, n, coupling.rec.limits, state=False)
+    least = records_columns(recs, n, coupling.rec.limits, state=False, summary=True)
     assert set(summary_columns(n)) <= set(part) and set(part) < set(full)
+    assert set(least) == set(summary_columns(n)) < set(part)
     assert list(part) == [c for c in window_columns(n) if c in part]  # (in the table's order)
     assert f"f{n}_x" not in part and "f1_msb_bearing_true" not in part
-    for c, v in part.items():
+    for c, v in [*part.items(), *least.items()]:
         w = full[c]
         if isinstance(v, list):
             assert v == w
