@@ -83,8 +83,9 @@ def _xp(*args: Any) -> Any:
 
 def wrap_angle(a: Any) -> Any:
     """Wrap an angle (rad) to (−π, π]."""
-    if a.__class__ is not float and _xp(a) is np:
-        w = np.mod(a + math.pi, _TWO_PI) - math.pi
+    if a.__class__ is not float and _xp(a) is np:  # (the float path's operations, each)
+        w = np.fmod(a + math.pi, _TWO_PI)
+        w = np.where(w < 0.0, w + _TWO_PI, w) - math.pi
         return np.where(w == -math.pi, math.pi, w)
     w = math.fmod(float(a) + math.pi, _TWO_PI)
     if w < 0.0:
@@ -95,8 +96,9 @@ def wrap_angle(a: Any) -> Any:
 
 def wrap_positive(a: Any) -> Any:
     """Wrap an angle (rad) to [0, 2π)."""
-    if a.__class__ is not float and _xp(a) is np:
-        w = np.mod(a, _TWO_PI)
+    if a.__class__ is not float and _xp(a) is np:  # (the float path's operations, each)
+        w = np.fmod(a, _TWO_PI)
+        w = np.where(w < 0.0, w + _TWO_PI, w)
         return np.where(w >= _TWO_PI, 0.0, w)
     w = math.fmod(float(a), _TWO_PI)
     if w < 0.0:
@@ -142,8 +144,8 @@ def relative_states(
 ) -> tuple[list[float], list[float], list[float]]:
     """`relative_state` of each pair (leader pose, follower pose), as the lists (ρ, β, θ):
     the same operations on the same floats pair by pair (equal bit for bit: tests), with
-    the loops in C (a table's columns: no call per pair; the wraps on arrays, numpy's
-    remainder being `math.fmod` and the float path's correction of a negative one)."""
+    the loops in C (a table's columns: no call per pair; the wraps on arrays, with the
+    float path's operations: `fmod`, then 2π added to a negative remainder)."""
     if not follower_poses:
         return [], [], []
     xl, yl, hl = zip(*leader_poses)  # noqa: B905 (3 each)

@@ -109,6 +109,8 @@ class _Rest(tuple):  # type: ignore[type-arg]
 
     def __call__(self) -> Any:
         ro, v, windows, pack = self
+        if not pack:  # (the kernel stops a rollout early only in a search: `decide` keeps it)
+            raise RuntimeError("a rollout stopped early outside a search: its pack was not kept")
         return ro._whole(v, windows, pack)
 
 

@@ -257,8 +257,8 @@ class WindowRecord:
     leader: tuple[float, float, float] = (math.nan, math.nan, math.nan)
     truth: Any = None
     lost: NDArray[np.bool_] | None = None
-    viol: Mapping[str, NDArray[np.bool_]] | None = None
-    changes: Mapping[str, NDArray[np.float64]] | None = None
+    viol: Mapping[str, Sequence[bool]] | None = None  # (the scan's lists, as they are)
+    changes: Mapping[str, Sequence[float]] | None = None
     v_leader_max: float = math.nan
     pred: Any = None
     finish: float = math.nan
@@ -267,16 +267,16 @@ class WindowRecord:
     lost_by_cause: tuple[int, ...] = (0,) * len(LOST_CAUSES)
     searches: int = 0
     reacquisitions: int = 0
-    voted: tuple[int, ...] = ()
-    fix_error: tuple[float, ...] = ()
-    neighbour: tuple[bool, ...] = ()
+    voted: Sequence[int] = ()
+    fix_error: Sequence[float] = ()
+    neighbour: Sequence[bool] = ()
     radio_ms: float = math.nan  # (set at the release: delta_t, or the drawn round trip)
     radio_losses: int = 0
     # contact (CONTACT_FIELDS), per follower: the truth's closest approach at this window's
     # scan, then (at the next scan) over both; the decision's prediction; the breaks
-    near: tuple[float, ...] = ()
+    near: Sequence[float] = ()
     near_true: tuple[float, ...] = ()
-    near_pred: tuple[float, ...] = ()
+    near_pred: Sequence[float] = ()
     viol_contact: tuple[bool, ...] = ()
 
     @property

@@ -538,7 +538,7 @@ class _Coupling:
                 self.thr,
                 tuple(self.rho_d),
                 self.w_sch,
-                type(world.followers),
+                world.followers.rollout_group,
                 tuple(self.beta_d),
                 self._contact_cm,
             )

@@ -32,7 +32,7 @@ dispatcher (`rtsim.world.kernels.entry`: the same machine code, no typing per ca
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -44,7 +44,7 @@ from rtsim.world.ftl import _PY_POINT, _PY_REFERENCE, TraceFollower
 from rtsim.world.kernels import available, built_entry, entry, kernels
 from rtsim.world.motion import GCV, GCW, GODO, GROUP_ROWS, GT, GTH, GV, GW, GX, GY, actuated
 from rtsim.world.motionmodels import MotionModel
-from rtsim.world.path import LeaderPath
+from rtsim.world.path import LeaderPath, geometry_arrays
 
 __all__ = [
     "CompiledEstimates",
@@ -96,10 +96,20 @@ class _RowList(list[float]):
 
     def __setitem__(self, k: Any, value: Any) -> None:
         group = self._group
+        current = group._rows[self._i] is self  # (a list read before the array moved is not)
         group.S[self._i, k] = value
         group.changed()
-        group._rows[self._i] = self  # (the others read the array again)
         super().__setitem__(k, value)
+        if current:
+            group._rows[self._i] = self  # (the others read the array again)
+
+    def _resized(self, *args: Any, **kw: Any) -> Any:
+        raise TypeError(
+            "a follower group's field is a row of its state array: assign an item or the row"
+        )
+
+    append = extend = insert = pop = remove = clear = sort = reverse = _resized
+    __delitem__ = __iadd__ = __imul__ = _resized
 
 
 class _Row:
@@ -134,14 +144,12 @@ class FollowerArrays(CompiledFollowerGroup):
     (`rtsim.world.motion.world_advance`, `rtsim.world.estimates.est_command_ftl`; it calls
     `changed` after). A field read is a list of floats, the row as it is until the array
     changes, whose items assigned write through (`_RowList`); assigned a sequence, the row.
-    Made with ``arrays=True`` (the compiled world's); the class called without it makes a
-    `CompiledFollowerGroup` (lists: the Python rollout's group, whose every step Python
-    reads)."""
+    The Python rollout plays commands ahead on a `CompiledFollowerGroup` (`rollout_group`:
+    lists, whose every step Python reads)."""
 
-    def __new__(cls, *args: Any, arrays: bool = False, **kw: Any) -> Any:
-        if not arrays:
-            return CompiledFollowerGroup(*args, **kw)
-        return super().__new__(cls)
+    @property
+    def rollout_group(self) -> type[FollowerGroup]:
+        return CompiledFollowerGroup
 
     x = _Row(GX)
     y = _Row(GY)
@@ -161,8 +169,6 @@ class FollowerArrays(CompiledFollowerGroup):
         v: Any,
         params: FollowerParams,
         t_ms: float = 0.0,
-        *,
-        arrays: bool = True,
     ) -> None:
         self.S = np.zeros((ROWS, len(x)))
         self._rows: list[Any] = [None] * ROWS  # (the fields read since the array changed)
@@ -170,6 +176,18 @@ class FollowerArrays(CompiledFollowerGroup):
         self.W = self.S[: GODO + 1]  # (rows x, y, odometer: a view)
         self._xy = (self.S[GX], self.S[GY])
         self._t_all = float(t_ms)  # every follower's time is at least this (ms)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)  # (copies and pickles: the array, not its views or lists)
+        for name in ("W", "_xy", "_rows"):
+            del state[name]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._rows = [None] * ROWS
+        self.W = self.S[: GODO + 1]
+        self._xy = (self.S[GX], self.S[GY])
 
     def changed(self) -> None:
         """Say that ``S`` was written other than by the group's kernels (the fields are read
@@ -219,10 +237,6 @@ class FollowerArrays(CompiledFollowerGroup):
         self._advance(S, 0, S.shape[1], t_ms, step_ms, self.p.max_accel)
         self._t_all = t_ms
         self._rows = [None] * ROWS
-
-    def _advance_each(self, ks: Iterable[int], t_ms: float, step_ms: float) -> None:
-        for k in ks:
-            self.advance(k, t_ms, step_ms)
 
 
 def compiled_motion(motion: MotionModel) -> Any:
@@ -453,16 +467,7 @@ class CompiledTraceFollower(TraceFollower):
         ker = kernels()
         if not ker.exact_hypot:  # this interpreter's hypot is not the kernels': Python
             return
-        s0, poses, kappa, lap, lat, ahead, spacing = self.geometry
-        self._G = (
-            np.array(s0, dtype=float),
-            np.array(poses, dtype=float),
-            np.array(kappa, dtype=float),
-            lap,
-            np.array(lat, dtype=float),
-            np.array(ahead, dtype=np.int64),
-            np.array(spacing, dtype=float),
-        )
+        self._G = geometry_arrays(self.geometry)
         self._sr = np.array(self._sr, dtype=float)
         self._sf = np.array(self._sf, dtype=float)
         del self._command, self._project, self._reference, self._point  # (the class's)

@@ -196,6 +196,11 @@ class FollowerGroup:
     def n(self) -> int:
         return len(self.x)
 
+    @property
+    def rollout_group(self) -> type[FollowerGroup]:
+        """The group the Python rollout plays commands ahead on: one of this class."""
+        return type(self)
+
     def saturate(self, v: float, w: float) -> tuple[float, float]:
         """Clip a command to the speed and turn-rate limits."""
         p = self.p

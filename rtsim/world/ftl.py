@@ -291,10 +291,7 @@ class TraceFollower:
         self.lookahead = float(lookahead)
         #: the geometry G the equations read, as Python tuples (module comment)
         self.geometry: tuple[Any, ...] = (
-            path._s0,
-            tuple(c for pose in path._poses for c in pose),
-            path._kappa,
-            path.lap_length,
+            *path.geometry(),
             tuple(self.lateral),
             tuple(self.ahead),
             tuple(self.spacing),

@@ -26,7 +26,15 @@ from rtsim.errors import ScenarioError
 from rtsim.world._check import number, positive
 from rtsim.world.jit import kernel
 
-__all__ = ["Straight", "Turn", "Segment", "LeaderPath", "rounded_rectangle", "CLOSURE_TOL"]
+__all__ = [
+    "Straight",
+    "Turn",
+    "Segment",
+    "LeaderPath",
+    "rounded_rectangle",
+    "geometry_arrays",
+    "CLOSURE_TOL",
+]
 
 #: Largest gap (cm) between a closed path's end and its start.
 CLOSURE_TOL = 1e-6
@@ -197,22 +205,17 @@ class LeaderPath:
         compiled kernel computed (`rtsim.world.ftl.path_pose` on `arrays`, bit for bit)."""
         self._memo_pose_s, self._memo_pose = s, pose
 
+    def geometry(self) -> tuple[Any, ...]:
+        """The path as the kernels read it (`rtsim.world.ftl.path_pose`), Python tuples: the
+        segments' starts (cm), their start poses (x, y, heading, flat), their curvatures and
+        the lap length (the head of the follow-the-leader law's geometry,
+        `rtsim.world.ftl.TraceFollower.geometry`)."""
+        return (self._s0, tuple(c for pose in self._poses for c in pose), self._kappa, self._lap)
+
     def arrays(self) -> tuple[Any, ...]:
-        """The path as the kernels read it (`rtsim.world.ftl.path_pose`), in the shape of the
-        follow-the-leader law's geometry (`rtsim.world.ftl.TraceFollower.geometry`, which
-        compiled kernels share: one build of `path_pose`): the segments' starts (cm), their
-        start poses (x, y, heading, flat), their curvatures, the lap length, then no
-        follower's offsets (placeholders of their types)."""
-        flat = [c for pose in self._poses for c in pose]
-        return (
-            np.array(self._s0, dtype=float),
-            np.array(flat, dtype=float),
-            np.array(self._kappa, dtype=float),
-            float(self._lap),
-            np.zeros(1),
-            np.full(1, -1, dtype=np.int64),
-            np.ones(1),
-        )
+        """`geometry` as the kernels' arrays, in the shape of the law's (`geometry_arrays`:
+        compiled kernels share one build of `rtsim.world.ftl.path_pose`)."""
+        return geometry_arrays(self.geometry())
 
     def __repr__(self) -> str:
         return f"LeaderPath({len(self._segments)} segments, lap {self._lap:.6g} cm)"
@@ -244,3 +247,21 @@ def rounded_rectangle(
             segs.append(Straight(side))
         segs.append(turn)
     return LeaderPath(segs, start)
+
+
+def geometry_arrays(G: tuple[Any, ...]) -> tuple[Any, ...]:
+    """A geometry (`LeaderPath.geometry`, then the followers' lateral offsets, the follower
+    each keeps its spacing from and that spacing, as `rtsim.world.ftl.TraceFollower.geometry`)
+    as the kernels read it: float arrays, the lap a float, the followers' indices int64; a
+    path alone gets one placeholder follower (no offset, none ahead, spacing 1)."""
+    s0, poses, kappa, lap, *followers = G
+    lateral, ahead, spacing = followers or ((0.0,), (-1,), (1.0,))
+    return (
+        np.array(s0, dtype=float),
+        np.array(poses, dtype=float),
+        np.array(kappa, dtype=float),
+        float(lap),
+        np.array(lateral, dtype=float),
+        np.array(ahead, dtype=np.int64),
+        np.array(spacing, dtype=float),
+    )

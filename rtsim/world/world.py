@@ -136,8 +136,8 @@ class World:
             v_f = np.asarray(v_f, dtype=float)
             th = hl - np.asarray(theta, dtype=float)
             w0 = float(w_l)
-        group = FollowerArrays if fast else FollowerGroup  # (the arrays: with ``arrays``)
-        self.followers = group(x, y, th, v_f, fp, **({"arrays": True} if fast else {}))
+        group = FollowerArrays if fast else FollowerGroup
+        self.followers = group(x, y, th, v_f, fp)
         self.followers.cmd_w = [w0] * form.n
         self.followers.w = [w0] * form.n
         self._advance_both = self._advance_kernel() if fast else None

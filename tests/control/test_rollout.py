@@ -411,22 +411,7 @@ def test_compiled_plan_is_the_python_plan(pending: bool) -> None:
     from rtsim.control.compiled_rollout import _Rest
     from rtsim.control.policy import PlanPolicy, PolicyInput
 
-    states = []
-    for backend in ("python", "compiled"):
-        sc = load_scenario("test2", overrides={**QUIET, "world.backend": backend})
-        world = World(sc.world, np.random.default_rng(1))
-        w = 237.0
-        for j in range(39):
-            _window(world, j * w, w)
-        if pending:  # the last window's scan, its sends still to come
-            world.estimate(world.scan(39 * w))
-        else:
-            _window(world, 39 * w, w)
-        t = 39 * w + (100.0 if pending else 210.0)
-        world.advance(t)
-        sends = tuple((39 * w + o,) for o in OFFSETS) if pending else None
-        states.append(world_state(world, t, 40 * w, OFFSETS, w, sends))
-    st_py, st_c = states
+    st_py, st_c = (_mid_run(backend, pending)[2] for backend in ("python", "compiled"))
     assert vars(st_py).keys() == vars(st_c).keys()
     rested = 0
     for margin in (0.0, 0.4, 0.9):

@@ -82,6 +82,9 @@ def test_relative_states_is_relative_state_pair_by_pair() -> None:
     fps = [tuple(v) for v in rng.normal(0, 300, (400, 3)).tolist()]
     lps += [(1.0, 2.0, 0.5), (0.0, 0.0, math.pi), (3.0, 4.0, -math.pi), (0.0, 0.0, 0.0)]
     fps += [(1.0, 2.0, 0.1), (-1.0, 0.0, -math.pi), (3.0, 5.0, math.pi), (math.nan, 1.0, 0.0)]
+    tau = 2.0 * math.pi  # (signed zeros: β of a follower dead ahead, θ at multiples of 2π)
+    lps += [(0.0, 0.0, 0.0), (0.0, 0.0, tau), (0.0, 0.0, -tau), (0.0, 0.0, -0.0), (0, 0, 4 * tau)]
+    fps += [(1.0, -0.0, 0.0), (1.0, 0.0, -tau), (1.0, -0.0, tau), (1.0, 0.0, 0.0), (1, 0, -0.0)]
     want = [relative_state(lp, fp) for lp, fp in zip(lps, fps, strict=True)]
     got = list(zip(*relative_states(lps, fps), strict=True))
     assert _bits(got) == _bits(want)

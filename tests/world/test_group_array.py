@@ -39,7 +39,7 @@ def _pair(rng: np.random.Generator, n: int, p: FollowerParams) -> tuple[Any, Any
         rng.uniform(0, 60, n),
     )
     t0 = float(rng.uniform(0, 50))
-    return FollowerGroup(*args, p, t0), compiled.FollowerArrays(*args, p, t0, arrays=True)
+    return FollowerGroup(*args, p, t0), compiled.FollowerArrays(*args, p, t0)
 
 
 @needs_numba
@@ -109,13 +109,52 @@ def test_group_fields_write_through() -> None:
 
 
 @needs_numba
+def test_a_field_read_before_the_array_moved_stays_out_of_it() -> None:
+    """A list read before a step, assigned an item after it, writes that item through but
+    is not taken as the field again (its other items are the old ones); a field cannot be
+    resized or reordered in place (the row would silently disagree with the array)."""
+    b = _pair(np.random.default_rng(5), 2, FollowerParams())[1]
+    x = b.x
+    b.advance_all(500.0, 10.0)
+    moved = b.S[GROUP_ROWS.index("x")].tolist()
+    assert x != moved
+    x[0] = 123.0
+    assert b.x == [123.0, moved[1]] and b.x is not x
+    cmd_v = b.cmd_v
+    for change in (cmd_v.reverse, cmd_v.sort, lambda: cmd_v.append(1.0), cmd_v.clear):
+        with pytest.raises(TypeError, match="row of its state array"):
+            change()
+    with pytest.raises(TypeError):
+        cmd_v += [1.0]
+    assert b.cmd_v == b.S[GROUP_ROWS.index("cmd_v")].tolist()
+
+
+@needs_numba
+def test_the_rollout_plays_ahead_on_lists() -> None:
+    """The compiled world's group is `FollowerArrays` (an instance of its class: a copy of
+    it is one, on its own array); the Python rollout's group is the list-based compiled
+    group."""
+    import copy
+
+    a, b = _pair(np.random.default_rng(6), 2, FollowerParams())
+    assert isinstance(b, compiled.FollowerArrays)
+    assert b.rollout_group is compiled.CompiledFollowerGroup
+    assert a.rollout_group is FollowerGroup
+    c = copy.deepcopy(b)
+    assert _hex(c) == _hex(b) and c.W.base is c.S and c.xy[0].base is c.S
+    c.advance_all(300.0, 10.0)
+    b.advance_all(300.0, 10.0)
+    assert _hex(c) == _hex(b)
+
+
+@needs_numba
 @pytest.mark.parametrize("accel", [math.inf, 30.0])
 def test_world_advance_in_one_call_matches_the_python_world(accel: float) -> None:
     """The compiled `World.advance` (`rtsim.world.motion.world_advance`: followers, leader
     and the leader's pose in one call) against the Python world's, through turns, speed
-    changes and times already reached: the leader's arc length, speed and pose (the pose
-    the kernel computed, which `LeaderPath.pose` then returns, is the path's own) and the
-    followers' truth, bit for bit (each world on a path of its own)."""
+    changes, commands held and times already reached: the leader's arc length, speed and
+    pose (the pose the kernel computed, which `LeaderPath.pose` then returns, is the path's
+    own) and the followers' truth, bit for bit (each world on a path of its own)."""
     worlds = [
         World(
             WorldConfig(
@@ -132,10 +171,16 @@ def test_world_advance_in_one_call_matches_the_python_world(accel: float) -> Non
     for _ in range(400):
         t += float(rng.choice([0.0, rng.uniform(0.0, 80.0)]))
         speed = float(rng.uniform(0.0, 25.0)) if rng.random() < 0.1 else None
+        cmd = None  # (now and then a follower's command, realised with noise, held)
+        if rng.random() < 0.2:
+            k, v, w_, nv, nw = int(rng.integers(0, 3)), *rng.uniform(-1, 1, 4).tolist()
+            cmd = (k, 40.0 * v, w_, nv, nw)
         for w in worlds:
             if speed is not None:
                 w.set_leader_speed(speed)
             w.advance(t)
+            if cmd is not None:
+                w.followers.apply_drawn(*cmd)
         a, b = worlds
         la, lb = a.leader, b.leader
         assert (la.s.hex(), la.speed.hex()) == (lb.s.hex(), lb.speed.hex())
