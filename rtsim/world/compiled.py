@@ -42,6 +42,7 @@ from rtsim.world.estimates import BASE, HELD_ROOM, Q, new_estimates
 from rtsim.world.follower import FollowerGroup, FollowerParams
 from rtsim.world.ftl import _PY_POINT, _PY_REFERENCE, TraceFollower
 from rtsim.world.kernels import available, built_entry, entry, kernels
+from rtsim.world.leader import Leader
 from rtsim.world.motion import GCV, GCW, GODO, GROUP_ROWS, GT, GTH, GV, GW, GX, GY, actuated
 from rtsim.world.motionmodels import MotionModel
 from rtsim.world.path import LeaderPath, geometry_arrays
@@ -431,11 +432,11 @@ class CompiledEstimates:
 
     def fuse_ftl(
         self,
-        law: Any,
+        law: CompiledTraceFollower,
         params: FollowerParams,
         group: FollowerArrays,
         step_ms: float,
-        leader: Any,
+        leader: Leader,
     ) -> None:
         """Make `est_command_ftl` (called by `World.command`, `World._fused_sender`) drive
         the ``leader`` (its acceleration and deceleration limits), advance the follower's
