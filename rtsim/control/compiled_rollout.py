@@ -173,28 +173,12 @@ class CompiledRollout:
         self._made(law, _static(law, state), state)
 
     @staticmethod
-    def maker(law: Any, state: Any) -> Callable[..., CompiledRollout]:
-        """``CompiledRollout(law, s)`` for the states ``s`` of a run, which share ``state``'s
-        params, thresholds, ramp limits and step (`rtsim.control.rollout.decided_state`):
-        the law's cache looked up once; ``make(s, rows)`` packs the followers from ``rows``,
-        `rtsim.world.world.World.estimate_rows` of the decision (the rows ``s`` was made
-        of), instead of ``s``'s tuples."""
-        cached = _static(law, state)
-        new, made = object.__new__, CompiledRollout._made
-
-        def make(s: Any, rows: Any = None) -> CompiledRollout:
-            ro: CompiledRollout = new(CompiledRollout)
-            made(ro, law, cached, s, rows)
-            return ro
-
-        return make
-
-    @staticmethod
     def direct(law: Any, base: Any) -> Callable[..., CompiledRollout]:
-        """`maker`'s ``make(s, rows)`` without the state ``s``: ``make(t_now, leader_s,
-        leader_speed, rows, pending, next_scan, send_offsets, turned)`` packs the state that
-        `rtsim.control.rollout.rows_state` makes of ``base`` and these (the same arrays), for
-        a rollout that makes its state only when read."""
+        """``CompiledRollout(law, s)`` for the states ``s`` of a run's decisions without
+        ``s``: the law's cache looked up once; ``make(t_now, leader_s, leader_speed, rows,
+        pending, next_scan, send_offsets, turned)`` packs the state that
+        `rtsim.control.rollout.rows_state` makes of ``base`` and these (the same arrays),
+        from ``rows`` themselves, for a rollout that makes its state only when read."""
         cached = _static(law, base)
         new, packed = object.__new__, CompiledRollout._packed
         v_ld, rho = base.v_ld, base.rho_d
@@ -217,21 +201,18 @@ class CompiledRollout:
 
         return make
 
-    def _made(self, law: CompiledTraceFollower, cached: Any, state: Any, rows: Any = None) -> None:
-        """Pack ``state`` (the law's cache ``cached``, `_static`; ``rows``: `maker`'s)."""
+    def _made(self, law: CompiledTraceFollower, cached: Any, state: Any) -> None:
+        """Pack ``state`` (the law's cache ``cached``, `_static`)."""
         rho = state.rho_d
         # per follower, in FollowerColumns' order (x, y, θ, v, ω, held v, held ω, send, ρ_d)
         turns = state.turns
-        if rows is not None:  # (x, y, θ, v̂, ω̂, v_c, ω_c) per follower: the state's numbers
-            flat = _rows_flat(rows, state.send_offsets, rho, bool(turns))
-        elif turns:
-            flat = []
+        flat: list[float] = []
+        if turns:
             for pose, v, w, h, send, rho_d in zip(  # noqa: B905
                 state.poses, state.speeds, turns, state.held, state.send_offsets, rho
             ):
                 flat += (*pose, v, w, *h, send, rho_d)
         else:  # (the unicycle: ω is the held command's)
-            flat = []
             for pose, v, h, send, rho_d in zip(  # noqa: B905
                 state.poses, state.speeds, state.held, state.send_offsets, rho
             ):

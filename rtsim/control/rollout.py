@@ -281,26 +281,6 @@ class Rollout:
         self._kept = kept
 
     @classmethod
-    def maker(cls, base: RolloutState) -> Callable[..., Rollout]:
-        """``Rollout(state)`` for the states of a run, ``decided_state(base, ...)``: whether
-        its law rolls out compiled, and the law's cache, asked once (`CompiledRollout.maker`).
-        ``make(state, rows)``: the compiled rollout packs the followers from ``rows``, the
-        `rtsim.world.world.World.estimate_rows` ``state`` was made of."""
-        comp = CompiledRollout.maker(base.law, base) if compiles(base.law) else None
-        new = object.__new__
-
-        def make(state: RolloutState, rows: Any = None) -> Rollout:
-            ro: Rollout = new(cls)
-            ro.state = ro.base = state
-            ro._count = 0
-            ro._memo = {}
-            ro._raw_d = {}
-            ro._compiled = None if comp is None else comp(state, rows)
-            return ro
-
-        return make
-
-    @classmethod
     def decided(cls, base: RolloutState) -> Callable[..., Rollout]:
         """``make(t_now, leader_s, leader_speed, rows, pending, next_scan, send_offsets,
         turned)``: the rollout of ``rows_state(base, ...)`` of these, for the decisions of a

@@ -196,6 +196,13 @@ class FollowerArrays(CompiledFollowerGroup):
         self._rows = [None] * ROWS
         self._t_all = -math.inf
 
+    def moved(self, t_all: float | None = None) -> None:
+        """Say that a compiled kernel moved followers in ``S`` (the fields are read from it
+        again); ``t_all``: every follower is at that time now (ms), else unchanged."""
+        self._rows = [None] * ROWS
+        if t_all is not None:
+            self._t_all = t_all
+
     @staticmethod
     def _kernel(motion: MotionModel) -> Any:
         # called directly (`entry`): the state array, two ints and three floats at every call
@@ -229,15 +236,14 @@ class FollowerArrays(CompiledFollowerGroup):
 
     def advance(self, k: int, t_ms: float, step_ms: float) -> None:
         self._advance(self.S, k, k + 1, t_ms, step_ms, self.p.max_accel)
-        self._rows = [None] * ROWS
+        self.moved()
 
     def advance_all(self, t_ms: float, step_ms: float) -> None:
         if t_ms <= self._t_all:  # (every follower is there: nothing to do)
             return
         S = self.S
         self._advance(S, 0, S.shape[1], t_ms, step_ms, self.p.max_accel)
-        self._t_all = t_ms
-        self._rows = [None] * ROWS
+        self.moved(t_ms)
 
 
 def compiled_motion(motion: MotionModel) -> Any:

@@ -34,7 +34,6 @@ from rtsim.analysis.kinematics import (
 from rtsim.errors import RtsimError
 from rtsim.model.window import LASER_POINTS
 from rtsim.world.compiled import (
-    ROWS,
     CompiledEstimates,
     CompiledFollowerEKF,
     CompiledTraceFollower,
@@ -259,8 +258,8 @@ class World:
                 ld.accel_max, ld.decel_max, dt, ld.s, self._path_G,
             )  # fmt: skip
             ld.path.remember(ld.s, (x, y, h))  # (its pose, which the scan and the decision read)
-            self._t = fol._t_all = t_ms  # type: ignore[attr-defined]  # (every follower there)
-            fol._rows = [None] * ROWS  # type: ignore[attr-defined]  # (the array changed)
+            self._t = t_ms
+            fol.moved(t_ms)  # type: ignore[attr-defined]  # (every follower there)
             return
         if t_ms != self._t:  # (the world is often at t_ms already)
             self._advance_leader(t_ms)
@@ -860,7 +859,7 @@ class World:
         arr, ld, fol = self._arr, self.leader, self.followers
         assert arr is not None
         entry, run, last = arr._ftl_entry, arr._ftl_run, arr.last
-        normals, leader_to = self._normals, self._advance_leader
+        normals, leader_to, moved = self._normals, self._advance_leader, fol.moved  # type: ignore[attr-defined]
 
         def send(k: int, t_ms: float) -> tuple[float, float]:
             t0 = self._t
@@ -881,7 +880,7 @@ class World:
             v, w, held, ld.speed, ld.s = entry(
                 k, t_ms, ld.s, ld.speed, ld.target_speed, dt, nv, nw, arr.E, *run
             )
-            fol._rows = [None] * ROWS  # type: ignore[attr-defined]  # (the array changed)
+            moved()  # (the follower and its command in the array)
             if held:
                 last[k] = (v, w)
             else:  # (the row was full: held once it has grown)

@@ -337,7 +337,7 @@ def test_decided_state_is_replace() -> None:
 @pytest.mark.parametrize("backend", ["python", "compiled"])
 def test_plan_on_rollout_is_its_decide(backend: str) -> None:
     """`PlanPolicy.on_rollout` (a run's decisions without a `PolicyInput` each) decides as
-    `decide` on the same input with the rollout in it, on `Rollout.maker`'s rollouts: the
+    `decide` on the same input with the rollout in it, on two rollouts of one state: the
     same decision (repr: a NaN found speed) and the same memo, for margins that keep V_Ld,
     search or find nothing; None once ``decide`` is not the class's own."""
     from rtsim.control.policy import PlanPolicy, PolicyInput
@@ -350,11 +350,10 @@ def test_plan_on_rollout_is_its_decide(backend: str) -> None:
     t = 39 * w + 210.0
     world.advance(t)
     st = world_state(world, t, 40 * w, OFFSETS, w)
-    make = Rollout.maker(st)
     for margin in (0.0, 0.4, 0.9):
         pol = PlanPolicy(windows=2, margin=margin)
         ctx = PolicyInput((), st.v_ld, st.w_sch, st.thresholds)
-        ro_a, ro_b = Rollout(st), make(st)
+        ro_a, ro_b = Rollout(st), Rollout(st)
         assert ro_b == ro_a and (ro_b._compiled is None) == (backend == "python")
         decider = pol.on_rollout(ctx)
         assert decider is not None
@@ -433,8 +432,8 @@ def test_estimate_rows_are_the_decisions_reads() -> None:
     """`World.estimate_rows` (what a coupled run's decision reads in one call) is, per
     follower, its `estimate_at`, the turn rate `_propagate` carries and `held_command`, on
     both backends and the same bits on both (a noisy world, decided mid-window, some sends
-    done); a compiled rollout packed from those rows (`Rollout.maker`'s ``make(state,
-    rows)``) is the one packed from the state's tuples made of them."""
+    done); a compiled rollout packed from those rows (`Rollout.decided`, a run's) is the
+    one packed from the state's tuples made of them."""
     from rtsim.control.rollout import decided_state
 
     seen = []
@@ -464,12 +463,14 @@ def test_estimate_rows_are_the_decisions_reads() -> None:
                 tuple([(r[5], r[6]) for r in rows]), base.pending, base.next_scan,
                 base.send_offsets, (),
             )  # fmt: skip
-            make = Rollout.maker(base)
-            a, b = make(state)._compiled.pack(), make(state, rows)._compiled.pack()
+            decided = Rollout.decided(base)
+            values = (t, base.leader_s, base.leader_speed, rows, base.pending, base.next_scan)
+            values += (base.send_offsets,)
+            a, b = Rollout(state)._compiled.pack(), decided(*values, False)._compiled.pack()
             assert [x.tobytes() for x in a[:3]] == [y.tobytes() for y in b[:3]]
             # the turn-rate column from the rows when the state has turns
             turned = dataclasses.replace(state, turns=tuple([r[4] for r in rows]))
-            a, b = make(turned)._compiled.pack(), make(turned, rows)._compiled.pack()
+            a, b = Rollout(turned)._compiled.pack(), decided(*values, True)._compiled.pack()
             assert a[1].tobytes() == b[1].tobytes()
             # the pending sends' pack: NaN-padded rows, read flat when as many for each
             for pending, want in (
@@ -477,7 +478,7 @@ def test_estimate_rows_are_the_decisions_reads() -> None:
                 (((1.5, 4.5), (2.5, 3.5)), [[1.5, 4.5], [2.5, 3.5]]),
                 (((1.5,), (2.5,)), [[1.5], [2.5]]),
             ):
-                got = make(dataclasses.replace(state, pending=pending))._compiled.pack()[2]
+                got = Rollout(dataclasses.replace(state, pending=pending))._compiled.pack()[2]
                 assert got.tobytes() == np.array(want).tobytes(), pending
     assert seen[0] == seen[1]
 
@@ -505,7 +506,7 @@ def _mid_run(backend: str, pending: bool = False) -> tuple[World, float, Rollout
 def test_decided_rollout_is_the_rows_state(backend: str, pending: bool) -> None:
     """`Rollout.decided` (a coupled run's rollouts) is the rollout of `rows_state`: its
     state, read, is that state (made only when read on the compiled backend), and its
-    compiled pack the one `Rollout.maker` packs of that state and the rows, with the rows'
+    compiled pack the one `Rollout` packs of that state, with the rows'
     turn rates as the turns or the held commands' (``turned``)."""
     from rtsim.control.rollout import rows_state
 
@@ -521,7 +522,7 @@ def test_decided_rollout_is_the_rows_state(backend: str, pending: bool) -> None:
         assert ro.state == want and ro.base.w_sch == want.w_sch
         assert want.turns == (tuple([r[4] for r in rows]) if turned else ())
         if backend == "compiled":
-            a, b = ro._compiled.pack(), Rollout.maker(st)(want, rows)._compiled.pack()
+            a, b = ro._compiled.pack(), Rollout(want)._compiled.pack()
             assert [x.tobytes() for x in a[:3]] == [y.tobytes() for y in b[:3]]
             assert a[3:] == b[3:]
         else:
