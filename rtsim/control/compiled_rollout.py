@@ -180,8 +180,12 @@ class CompiledRollout:
         `rtsim.control.rollout.rows_state` makes of ``base`` and these (the same arrays),
         from ``rows`` themselves, for a rollout that makes its state only when read."""
         cached = _static(law, base)
-        new, packed = object.__new__, CompiledRollout._packed
-        v_ld, rho = base.v_ld, base.rho_d
+        new, fromiter = object.__new__, np.fromiter
+        rho = base.rho_d
+        ker, out, rows_n, no_pend = cached[3], cached[4], cached[5], cached[2]
+        # RolloutScalars with the run's V_Ld: a decision writes the other four that change
+        scalars = cached[1].copy()
+        scalars[2] = base.v_ld
 
         def make(
             t_now: float,
@@ -193,10 +197,40 @@ class CompiledRollout:
             sends: Any,
             turned: bool,
         ) -> CompiledRollout:
+            # (`_packed` written out, one call a decision: the followers' pack columns in
+            # FollowerColumns' order, row after row, of `World.estimate_rows`' rows — x, y,
+            # θ, v̂, ω̂, v_c, ω_c — the sends and the slots; ω the rows' ω̂ when ``turned``,
+            # the motion model keeps a turn rate, else the held command's)
+            flat: list[float] = []
+            if turned:
+                for r, send, rho_d in zip(rows, sends, rho):  # noqa: B905
+                    flat += r
+                    flat += (send, rho_d)
+            else:  # (the unicycle: ω is the held command's)
+                for r, send, rho_d in zip(rows, sends, rho):  # noqa: B905
+                    flat += (r[0], r[1], r[2], r[3], r[6], r[5], r[6], send, rho_d)
+            fs = scalars.copy()
+            fs[0] = leader_s
+            fs[1] = leader_speed
+            fs[3] = t_now
+            fs[4] = next_scan
+            n = len(rows)
+            pend = no_pend.get(n) if not any(pending) else None
+            if pend is None:
+                pend = _pending_pack(cached, n, pending)
             ro: CompiledRollout = new(CompiledRollout)
-            flat = _rows_flat(rows, sends, rho, turned)
-            five = (leader_s, leader_speed, v_ld, t_now, next_scan)
-            packed(ro, law, cached, five, flat, len(rows), pending)
+            ro._ker = ker
+            ro._out = out
+            ro._rows = rows_n
+            ro._pack = (
+                fs,
+                fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS),
+                pend,
+                law._G,
+                law._sr,
+                law._sf,
+            )
+            ro.n = n
             return ro
 
         return make
@@ -238,19 +272,7 @@ class CompiledRollout:
         fs[0], fs[1], fs[2], fs[3], fs[4] = five
         # (a flat list of floats read by fromiter: no shape or type to discover)
         fol = np.fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS)
-        if not any(pending):  # no sends pending: one array per n, kept
-            pend = cached[2].get(n)
-            if pend is None:
-                pend = cached[2][n] = np.full((n, 1), math.nan)
-        else:
-            counts = list(map(len, pending))
-            m = max(counts)
-            if min(counts) == m:  # (as many for each: read flat, as the followers)
-                pend = np.fromiter(_chain(pending), float, n * m).reshape(n, m)
-            else:
-                pend = np.full((n, m), math.nan)
-                for k, times in enumerate(pending):
-                    pend[k, : len(times)] = times
+        pend = _pending_pack(cached, n, pending)
         # (the law's search starts: its arrays, changed only in place, read at each call)
         self._pack = (fs, fol, pend, law._G, law._sr, law._sf)
         self.n = n
@@ -300,6 +322,7 @@ class CompiledRollout:
         out.fill(math.nan)  # (np.full is a Python function: 3x slower)
         n = self.n
         windows = int(windows)
+        w = float(w)
         # (the decision's own: `_Kept` reads them when the memo asks)
         speeds = np.empty(_SEARCH_RUNS)
         lens = np.empty(_SEARCH_RUNS, np.int64)  # (the kernel writes each rollout's)
@@ -309,14 +332,14 @@ class CompiledRollout:
         if rows is None:
             rows = self._rows[n] = np.empty((2, n, 4))
         f = _ENTRIES.get(self._ker.roll_or_decide)
-        if f is None:  # (the first call: `call` finds the entry)
+        if f is None:  # (the first call: `call` finds the entry for these types)
             f = functools.partial(call, self._ker.roll_or_decide)
-        w = float(w)
-        # (the kernel's scalars as it is typed: Python floats, an int, bools)
+            search_only, keep, need, cap = bool(search_only), float(keep), float(need), float(cap)
+            v_floor, grid, tol, contact = float(v_floor), int(grid), float(tol), float(contact)
+        # (the compiled entry converts its scalars as it is typed: no float() here)
         runs = f(
-            False, 0.0, K.NO_F1, bool(search_only), float(keep), float(need), float(cap),
-            float(v_floor), int(grid), float(tol), w, self._pack, speeds, lens, changes, cut,
-            rows, out, float(contact),
+            False, 0.0, K.NO_F1, search_only, keep, need, cap, v_floor, grid, tol, w,
+            self._pack, speeds, lens, changes, cut, rows, out, contact,
         )  # fmt: skip
         got = out.tolist()
         RUNS[0] += runs + int(got[6])
@@ -327,24 +350,26 @@ class CompiledRollout:
             p = self._pack
             frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
         m = runs if runs < _SEARCH_RUNS else _SEARCH_RUNS  # (those it kept)
-        return got, rows, _Kept((self, speeds, lens, cut, m, changes, w, windows, got[5], frozen))
+        kept = _Kept((self, speeds, lens, cut, m, changes, w, windows, got[5], frozen))
+        return got, rows, kept
 
 
-def _rows_flat(rows: Any, sends: Any, rho: Any, turned: bool) -> list[float]:
-    """The followers' pack columns (FollowerColumns' order: x, y, θ, v, ω, held v, held ω,
-    send, ρ_d), row after row, of `rtsim.world.world.World.estimate_rows`' ``rows`` (x, y, θ,
-    v̂, ω̂, v_c, ω_c per follower), the sends ``sends`` and the slots ``rho``; ω the rows'
-    ω̂ when ``turned`` (the motion model keeps a turn rate), else the held command's."""
-    flat: list[float] = []
-    # (zip one short leaves fromiter short of its count, which it refuses)
-    if turned:
-        for r, send, rho_d in zip(rows, sends, rho):  # noqa: B905
-            flat += r
-            flat += (send, rho_d)
-    else:  # (the unicycle: ω is the held command's)
-        for r, send, rho_d in zip(rows, sends, rho):  # noqa: B905
-            flat += (r[0], r[1], r[2], r[3], r[6], r[5], r[6], send, rho_d)
-    return flat
+def _pending_pack(cached: Any, n: int, pending: Any) -> Any:
+    """The pack's pending sends of ``n`` followers: ``pending`` NaN-padded to as many per
+    follower, or when none is pending the law's one array for ``n`` (``cached``: `_static`'s)."""
+    if not any(pending):  # no sends pending: one array per n, kept
+        pend = cached[2].get(n)
+        if pend is None:
+            pend = cached[2][n] = np.full((n, 1), math.nan)
+        return pend
+    counts = list(map(len, pending))
+    m = max(counts)
+    if min(counts) == m:  # (as many for each: read flat, as the followers)
+        return np.fromiter(_chain(pending), float, n * m).reshape(n, m)
+    pend = np.full((n, m), math.nan)
+    for k, times in enumerate(pending):
+        pend[k, : len(times)] = times
+    return pend
 
 
 class _Kept(tuple):  # type: ignore[type-arg]

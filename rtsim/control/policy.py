@@ -898,9 +898,23 @@ class PlanPolicy:
             return None
         fixed = self._fixed(ctx)
         planned = self._planned
+        keep, need, cap, v_floor = fixed
+        v_ld, w_sch, windows, contact = ctx.v_ld, ctx.w_sch, self.windows, self.contact
+        seen: list[Any] = [None, 0.0]  # (the last rollout's base and its d_c: a run's one)
 
         def decider(ro: Any) -> Decision:
-            return planned(ro, ctx, *fixed)
+            # (`_planned` written out for a rollout with a compiled decision: d_c read once
+            # per base, no Decision's fields looked up again)
+            base = getattr(ro, "base", None)
+            plan = getattr(ro, "plan", None)
+            if base is None or plan is None:
+                return planned(ro, ctx, *fixed)
+            if base is not seen[0]:
+                seen[0], seen[1] = base, _contact_cm(ro) if contact else 0.0
+            hit = plan(v_ld, keep, need, cap, v_floor, windows, w_sch, seen[1])
+            if hit is None:  # the same decision in Python
+                return self._decide(ctx, ro, keep, need, cap, v_floor, seen[1])
+            return _planned_decision(hit, v_ld)
 
         return decider
 
@@ -919,11 +933,7 @@ class PlanPolicy:
                 "coupled run with follow-the-leader followers fills"
             )
         # the contact bound's d_c (cm; 0: off)
-        d_c = 0.0
-        if self.contact:  # (a `Rollout`'s base: its state's fields that stay for a run)
-            st = getattr(ro, "base", None)
-            st = getattr(ro, "state", None) if st is None else st
-            d_c = float(getattr(st, "contact_cm", 0.0))
+        d_c = _contact_cm(ro) if self.contact else 0.0
         plan = getattr(ro, "plan", None)  # the rollout's compiled decision, if it has one
         hit = (
             None
@@ -932,15 +942,7 @@ class PlanPolicy:
         )
         if hit is None:  # the same decision in Python
             return self._decide(ctx, ro, keep, need, cap, v_floor, d_c)
-        w, v_l, method, found, feasible, rows, after = hit
-        m1, kind, who = min_bound_rows(rows)
-        # (Decision's fields in order, through namedtuple's _make: no Python __new__)
-        if method == "none":
-            return _DECISION((w, ctx.v_ld, m1, kind, who, "none", True, rows, rows, m1, {}))
-        m_after = min_bound_rows(after)[0]
-        return _DECISION(
-            (w, v_l, m1, kind, who, method, feasible, rows, after, m_after, {"numeric": found})
-        )
+        return _planned_decision(hit, ctx.v_ld)
 
     def _decide(
         self,
@@ -988,6 +990,28 @@ class PlanPolicy:
             m_after,
             {"numeric": found},
         )
+
+
+def _contact_cm(ro: Any) -> float:
+    """The contact bound's d_c (cm; 0: none known) of rollout ``ro``: its state's (a
+    `Rollout`'s base: its state's fields that stay for a run)."""
+    st = getattr(ro, "base", None)
+    st = getattr(ro, "state", None) if st is None else st
+    return float(getattr(st, "contact_cm", 0.0))
+
+
+def _planned_decision(hit: Any, v_ld: float) -> Decision:
+    """The `Decision` of a compiled plan's ``hit`` (`rtsim.control.rollout.Rollout.plan`'s
+    numbers) at desired speed ``v_ld``."""
+    w, v_l, method, found, feasible, rows, after = hit
+    m1, kind, who = min_bound_rows(rows)
+    # (Decision's fields in order, through namedtuple's _make: no Python __new__)
+    if method == "none":
+        return _DECISION((w, v_ld, m1, kind, who, "none", True, rows, rows, m1, {}))
+    m_after = min_bound_rows(after)[0]
+    return _DECISION(
+        (w, v_l, m1, kind, who, method, feasible, rows, after, m_after, {"numeric": found})
+    )
 
 
 #: `PlanPolicy.decide` as defined (`PlanPolicy.on_rollout` stands for it only)

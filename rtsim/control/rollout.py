@@ -441,7 +441,9 @@ class Rollout:
         out, rows, kept = self._compiled.decide(
             False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact
         )
-        self._keep(kept)
+        if self._kept is not None:  # (`_keep`)
+            self._settle()
+        self._kept = kept
         w_out, v_l, method, found, feasible = out[:5]
         r = rows.tolist()
         before = list(map(tuple, r[0]))
