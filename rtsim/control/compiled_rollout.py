@@ -151,11 +151,10 @@ def _static(law: CompiledTraceFollower, state: Any) -> Any:
     )
     # (compiled once per process and motion model: before the first rollout)
     ker = K.rollout_kernels(motion_model(p.motion_model))
-    # (the decision's out buffer and its rows', read before each decide returns; the
-    # search's bookkeeping arrays are the decision's own: `_Kept` reads them when asked)
-    bufs = np.empty(7)
-    # (the five that change are written over a copy per decision)
-    cached = (static, np.array(scalars, dtype=float), {}, ker, bufs, {})
+    # (the decision's out buffers, per follower count, read before each decide returns:
+    # `_buffers`; the search's bookkeeping arrays are the decision's own: `_Kept` reads them
+    # when asked; the five that change are written over a copy per decision)
+    cached = (static, np.array(scalars, dtype=float), {}, ker, None, {})
     setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
     return cached
 
@@ -182,7 +181,7 @@ class CompiledRollout:
         cached = _static(law, base)
         new, fromiter = object.__new__, np.fromiter
         rho = base.rho_d
-        ker, out, rows_n, no_pend = cached[3], cached[4], cached[5], cached[2]
+        ker, bufs, no_pend = cached[3], cached[5], cached[2]
         # RolloutScalars with the run's V_Ld: a decision writes the other four that change
         scalars = cached[1].copy()
         scalars[2] = base.v_ld
@@ -220,8 +219,7 @@ class CompiledRollout:
                 pend = _pending_pack(cached, n, pending)
             ro: CompiledRollout = new(CompiledRollout)
             ro._ker = ker
-            ro._out = out
-            ro._rows = rows_n
+            ro._bufs = bufs
             ro._pack = (
                 fs,
                 fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS),
@@ -265,7 +263,7 @@ class CompiledRollout:
     ) -> None:
         """The pack of RolloutScalars' first ``five``, the ``n`` followers' columns ``flat``
         (row by row) and the ``pending`` sends (the law's cache ``cached``, `_static`)."""
-        self._ker, self._out, self._rows = cached[3], cached[4], cached[5]
+        self._ker, self._bufs = cached[3], cached[5]
         fs = cached[1].copy()
         # RolloutScalars' first five (item by item: a slice from a tuple converts it first;
         # one fromiter of all 21 is 2.5x the copy)
@@ -309,18 +307,21 @@ class CompiledRollout:
         windows: int,
         w: float,
         contact: float,
-    ) -> tuple[list[float], Any, _Kept]:
+    ) -> tuple[list[float], _Kept]:
         """`PlanPolicy`'s decision, or with ``search_only``
         `rtsim.control.adjust.search_rollout` over keep · (the smallest bound of
         ``windows`` windows of ``w`` ms; the contact bound at d_c = ``contact`` cm, 0: off),
         in one call (`rtsim.control.kernels._plan_decide`, on fresh arrays of
-        changes): ([w, V_L, method code, found, feasible, ...], the rows
-        at V_Ld and at V_L [2, follower, kind] (the law's array: read it before the next
-        decision), the rollouts it ran for the rollout's memo
-        as the kernel left them, `_Kept`)."""
-        out = self._out  # (the law's: read before this returns)
-        out.fill(math.nan)  # (np.full is a Python function: 3x slower)
+        changes): ([w, V_L, method code, found, feasible, the checked window, the rollouts
+        run beyond the count, then the rows at V_Ld and at V_L, follower then kind, each
+        follower's four in turn], the rollouts it ran for the rollout's memo as the kernel
+        left them, `_Kept`)."""
         n = self.n
+        bufs = self._bufs.get(n)  # (the law's, per follower count: `_buffers`)
+        if bufs is None:
+            bufs = self._bufs[n] = _buffers(n)
+        buf, out, rows = bufs
+        buf.fill(math.nan)  # (np.full is a Python function: 3x slower)
         windows = int(windows)
         w = float(w)
         # (the decision's own: `_Kept` reads them when the memo asks)
@@ -328,9 +329,6 @@ class CompiledRollout:
         lens = np.empty(_SEARCH_RUNS, np.int64)  # (the kernel writes each rollout's)
         cut = np.zeros(_SEARCH_RUNS, np.int64)
         changes = np.empty((_SEARCH_RUNS, windows, n, 5))
-        rows = self._rows.get(n)  # (the law's, per follower count)
-        if rows is None:
-            rows = self._rows[n] = np.empty((2, n, 4))
         f = _ENTRIES.get(self._ker.roll_or_decide)
         if f is None:  # (the first call: `call` finds the entry for these types)
             f = functools.partial(call, self._ker.roll_or_decide)
@@ -341,7 +339,7 @@ class CompiledRollout:
             False, 0.0, K.NO_F1, search_only, keep, need, cap, v_floor, grid, tol, w,
             self._pack, speeds, lens, changes, cut, rows, out, contact,
         )  # fmt: skip
-        got = out.tolist()
+        got = buf.tolist()
         RUNS[0] += runs + int(got[6])
         frozen: tuple[Any, ...] = ()
         if got[2] != 0.0:  # a search (only one stops a rollout after its first window):
@@ -350,8 +348,19 @@ class CompiledRollout:
             p = self._pack
             frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
         m = runs if runs < _SEARCH_RUNS else _SEARCH_RUNS  # (those it kept)
-        kept = _Kept((self, speeds, lens, cut, m, changes, w, windows, got[5], frozen))
-        return got, rows, kept
+        return got, _Kept((self, speeds, lens, cut, m, changes, w, windows, got[5], frozen))
+
+
+#: the decision kernel's out values (`rtsim.control.kernels._plan_decide`'s ``out``)
+_OUTS = 7
+
+
+def _buffers(n: int) -> tuple[Any, Any, Any]:
+    """A decision's out buffer for ``n`` followers, one array: (it, its first `_OUTS` — the
+    kernel's ``out`` —, the rest as the kernel's ``rows`` [2, follower, kind]), one tolist
+    reading both."""
+    buf = np.empty(_OUTS + 2 * n * 4)
+    return buf, buf[:_OUTS], buf[_OUTS:].reshape(2, n, 4)
 
 
 def _pending_pack(cached: Any, n: int, pending: Any) -> Any:

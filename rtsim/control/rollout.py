@@ -386,6 +386,10 @@ class Rollout:
                 r, how = kept.find(key)
                 if r >= 0 and how != 2:  # (an array: its first window, whole or alone)
                     return kept[5][r, 0, :, 4].tolist()  # type: ignore[no-any-return]
+                if r < 0:  # not the decision's: rolled out now (as `changes` would)
+                    out = self._memo[key] = self._run(key[0], key[1])
+                    self._count += 1
+                    return [c[4] for c in out[0]]
             elif self._raw:
                 raw = self._raw_d.get(key)
         if raw is not None and not isinstance(raw, _Rest):  # the search's array, read as is
@@ -411,7 +415,7 @@ class Rollout:
         `changes` of one of its speeds is that rollout)."""
         if self._compiled is None or v_ld != self.base.v_ld:
             return None
-        out, _, kept = self._compiled.decide(
+        out, kept = self._compiled.decide(
             True, keep, need, 0.0, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, 0.0
         )
         self._keep(kept)
@@ -438,18 +442,22 @@ class Rollout:
         st = self.base
         if self._compiled is None or v_ld != st.v_ld or w != st.w_sch:
             return None
-        out, rows, kept = self._compiled.decide(
+        out, kept = self._compiled.decide(
             False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact
         )
         if self._kept is not None:  # (`_keep`)
             self._settle()
         self._kept = kept
         w_out, v_l, method, found, feasible = out[:5]
-        r = rows.tolist()
-        before = list(map(tuple, r[0]))
+        # the rows after the kernel's seven numbers, each follower's four bounds in turn
+        # (zip of one iterator four times: its items four by four)
+        half = (len(out) + 7) >> 1
+        it = iter(out[7:half])
+        before = list(zip(it, it, it, it))  # noqa: B905 (a multiple of four)
         if method == 0.0:  # V_Ld kept: its rows (the kernel copied them to rows[1])
             return w_out, v_l, "none", found, feasible == 1.0, before, before
-        after = list(map(tuple, r[1]))
+        it = iter(out[half:])
+        after = list(zip(it, it, it, it))  # noqa: B905
         if math.isnan(feasible):  # the search did not roll the chosen speed out: here
             after = self.rows(v_l)
             horizon = self.changes(v_l, (w,) * windows)

@@ -501,10 +501,10 @@ def test_plan_decision_rolls_out_an_unsearched_speed_in_python(
     real = CompiledRollout.decide
 
     def unsearched(self: Any, *a: Any) -> Any:
-        out, rows, ran = real(self, *a)
+        out, ran = real(self, *a)
         if out[2] == 0.0:  # V_Ld kept: nothing searched
-            return out, rows, ran
-        return (*out[:4], math.nan), rows, ran
+            return out, ran
+        return [*out[:4], math.nan, *out[5:]], ran  # (the rows after the numbers kept)
 
     monkeypatch.setattr(CompiledRollout, "decide", unsearched)
     st_py, st_co = _twin_states("test2", 100, 1)
