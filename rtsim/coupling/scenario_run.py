@@ -269,6 +269,7 @@ class _Coupling:
             self.world.follow_law,
             clearance=cfg.formation.clearance,
         )
+        self._phys_add = self.phys.add  # (`_on_scan`'s, bound once)
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
         self.env = simpy.Environment()
         self.cpu, _ = build_cpu(
@@ -413,7 +414,6 @@ class _Coupling:
 
     def _start_state(self, horizon_ms: float, stop_s: float | None, stop_ms: float) -> None:
         """The run's state before its first window: open records, the stop and the lap."""
-        self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
         self._v_max = self._v_actual()  # highest leader speed since the last scan
         self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
         self._open: dict[int, WindowRecord] = {}
@@ -695,13 +695,13 @@ class _Coupling:
 
     def _on_release(self, job: Job) -> None:
         world = self.world
-        world.advance(self.env.now)
+        world.advance(self.env._now)  # (SimPy's clock: the CPU moves it the same way)
         ld = world.leader
-        kind, kappa = ld.path.segment_at(ld.s)  # (ld.segment(), world.segment_at)
         d = self.dec
         i = job.index
-        self._decisions[i] = d
-        # (positional, in WindowRecord's field order: a call with keywords costs more)
+        # (positional, in WindowRecord's field order: a call with keywords costs more; the
+        # segment's kind and curvature as the leader's path and arc length, which the table
+        # reads: `rtsim.coupling.recorder.WindowRecord.segment`)
         rec = WindowRecord(
             i,
             job.release,
@@ -714,18 +714,19 @@ class _Coupling:
             ld.target_speed,  # (_v_target)
             d.method,
             d.feasible,
-            kind,
-            kappa,
+            ld.path,  # type: ignore[arg-type]  # (its segment at ld.s: read with the table)
+            ld.s,
             d.est,
         )
         rec.radio_ms = self._delta_t  # (a drawn round trip replaces it)
+        rec.decision = d  # (until `_close` has read it)
         self._open[i] = rec
         self._records.append(rec)
         if not i % self._chunk:  # (the recorder's hand-over, at most once a chunk)
             self.rec.settle()
 
     def _on_scan(self, job: Job, seg: Segment) -> None:
-        now = self.env.now
+        now = self.env._now
         world = self.world
         rec = self._open[job.index]
         scan = world.scan_estimate(now)  # (scan, then estimate)
@@ -733,7 +734,8 @@ class _Coupling:
         raw = scan.fields()
         rec.scan_t = now
         # (the scan's lists are its own, made for it and never changed: the record keeps
-        # them as they are, no copy)
+        # them as they are, no copy; a fix error or neighbour list of None is the table's
+        # inf or False for every follower)
         voted = raw["voted"]
         if voted is None:
             voted = raw["points"]
@@ -753,14 +755,15 @@ class _Coupling:
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = searched
             rec.reacquisitions = scan.n_reacquired
-        fix_error = raw["fix_error"]
-        rec.fix_error = (math.inf,) * len(voted) if fix_error is None else fix_error
-        neighbour = raw["neighbour"]
-        rec.neighbour = (False,) * len(voted) if neighbour is None else neighbour
+        rec.fix_error = raw["fix_error"]
+        rec.neighbour = raw["neighbour"]
         lp = rec.leader = scan.leader_pose
-        rec.truth = self._truth(lp)
-        fol = world.followers  # (the scan advanced every follower to now)
-        near = rec.near = self.phys.add(lp, *fol.xy)
+        # the followers' truth now (`_truth`, inline: the scan has just advanced every
+        # follower to now; copies, the poses zipped when read)
+        fol = world.followers
+        x, y, th, v = fol.truth()
+        rec.truth = StateRows(lp, zip(x, y, th), v)  # noqa: B905
+        near = rec.near = self._phys_add(lp, *fol.xy)
         if self._last_scanned is not None:
             self._close(scan, near, raw)
         self._last_scanned = rec
@@ -784,7 +787,7 @@ class _Coupling:
         got = memo[key] = (hough_ms, broken)
         return got
 
-    def _close(self, scan: Any, near: tuple[float, ...] = (), raw: Any = None) -> None:
+    def _close(self, scan: Any, near: Sequence[float] = (), raw: Any = None) -> None:
         """Close the previous window's observation interval with ``scan``'s violations (and
         ``near``, each follower's closest approach at it; ``raw``: the scan's `Scan.fields`
         when the caller has them)."""
@@ -800,8 +803,14 @@ class _Coupling:
         # the interval the changes span (the world has advanced to the scan)
         v = self.world.leader.speed  # (_v_actual)
         v_max = last.v_leader_max = v if v > self._v_max else self._v_max  # (max)
-        d = self._decisions.pop(last.window)
-        last.pred = self._predicted(d, v_max)
+        d = last.decision
+        last.decision = None  # (the record keeps no decision: its rollout is large)
+        for speed, rows in d.known:  # (`_predicted`'s rows it computed, inline)
+            if speed == v_max:
+                last.pred = rows
+                break
+        else:
+            last.pred = self._predicted(d, v_max)
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
@@ -868,14 +877,6 @@ class _Coupling:
         else:
             sink.write(records_frame(records, self.n, self.rec.limits))
 
-    def _truth(self, lp: tuple[float, float, float]) -> StateRows:
-        """The followers' truth now, (x, y, θ, ρ, β, θ_L − θ_F, V_F) per follower (the
-        relative states made when read: StateRows)."""
-        # the scan has just advanced every follower to now (copies: the lists change; the
-        # poses zipped when read, strict there)
-        x, y, th, v = self.world.followers.truth()
-        return StateRows(lp, zip(x, y, th), v)  # noqa: B905
-
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms
 
@@ -891,7 +892,7 @@ class _Coupling:
         return dt
 
     def _on_send(self, job: Job, seg: Segment) -> None:
-        now = self.env.now
+        now = self.env._now
         i = int(seg.follower)  # type: ignore[arg-type]
         rec = self._open[job.index]
         if self._loss and self._uniform() < self._loss:  # type: ignore[misc]
@@ -909,14 +910,14 @@ class _Coupling:
     def _decide(self, job: Job) -> None:
         """The decision on the estimates now; it governs the next window (released at
         job.release + job.period) and sets the leader's target at once."""
-        now = self.env.now
-        world = self.world
+        now = self.env._now
+        ld = self.world.leader
         self.dec = self._estimates(now, job.release + job.period)  # advances the world
-        v = world.leader_speed  # (_v_actual; max(a, b) is b only when b > a)
+        v = ld.speed  # (_v_actual; max(a, b) is b only when b > a)
         if v > self._v_max:
             self._v_max = v
-        world.set_leader_speed(self.dec.v_leader)
-        v = world.leader_speed
+        ld.set_speed(self.dec.v_leader)  # (World.set_leader_speed now)
+        v = ld.speed
         if v > self._v_max:
             self._v_max = v
 
@@ -925,7 +926,7 @@ class _Coupling:
             self._decide(job)
 
     def _on_done(self, job: Job) -> None:
-        now = self.env.now
+        now = self.env._now
         self._open.pop(job.index).finish = now
         world = self.world
         if self._decide_at_end:
@@ -944,8 +945,8 @@ class _Coupling:
         if (
             self._stop_s is not None
             and now >= self._stop_ms
-            and not self.stop.triggered
             and world.leader.s - self._s0 >= self._stop_s
+            and not self.stop.triggered
         ):
             self.stop.succeed()
 
