@@ -27,7 +27,7 @@ has a directory for one), and the percentiles are selected from it exactly in bo
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -187,33 +187,11 @@ class PhysicalLog:
         the compiled samples read as they are). Returns each follower's centre distance to
         the nearest other robot, leader included (cm, `rtsim.world.contact.closest_to`: the
         planner's contact bound measures the same), a list."""
+        if self._compiled:
+            return self.adder()(leader, xs, ys)
         xl, yl, _ = leader
         samples = self.samples
         trace = self._trace
-        if self._compiled:
-            fn, G, sf, rho_d, guess, out, near_k = trace
-            if type(xs) is not np.ndarray:
-                xs, ys = np.array(xs, dtype=float), np.array(ys, dtype=float)
-            fn(
-                G,
-                sf,
-                xs,
-                ys,
-                xl,
-                yl,
-                rho_d,
-                guess,
-                out,
-                near_k,
-                self._tally,
-                self._hit,
-                self._contact,
-            )
-            buf = samples.buf
-            buf += out.tolist()
-            if len(buf) >= samples.limit:  # (`ValueSpill.full`: a chunk's worth to the file)
-                samples.flush()
-            return near_k.tolist()  # type: ignore[no-any-return]
         if type(xs) is np.ndarray:
             xs, ys = xs.tolist(), ys.tolist()
         if trace is None:
@@ -260,6 +238,31 @@ class PhysicalLog:
     def clearance_violations(self) -> int:
         """Scans at which some two robots' centres were closer than 2·r_F + clearance."""
         return int(self._tally[2])
+
+    def adder(self) -> Callable[[tuple[float, float, float], Any, Any], Sequence[float]]:
+        """`add` as one call for a caller that adds every scan (a coupled run): with the
+        compiled samples, a function that has their arguments at hand (not looked up per
+        scan); else `add`."""
+        if not self._compiled:
+            return self.add
+        fn, G, sf, rho_d, guess, out, near_k = self._trace
+        tally, hit, contact = self._tally, self._hit, self._contact
+        row, near = out.tolist, near_k.tolist
+        log = self  # (its samples: `spill_to` replaces them)
+
+        def add(leader: tuple[float, float, float], xs: Any, ys: Any) -> Sequence[float]:
+            xl, yl, _ = leader
+            if type(xs) is not np.ndarray:
+                xs, ys = np.array(xs, dtype=float), np.array(ys, dtype=float)
+            fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k, tally, hit, contact)
+            samples = log.samples
+            buf = samples.buf
+            buf += row()
+            if len(buf) >= samples.limit:  # (`ValueSpill.full`: a chunk's worth to the file)
+                samples.flush()
+            return near()  # type: ignore[no-any-return]
+
+        return add
 
     def spill_to(self, path: Any, label: Any = None) -> None:
         """Keep the samples in the scratch file ``path`` from now on (before the first

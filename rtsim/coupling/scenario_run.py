@@ -201,6 +201,8 @@ _DECISION = _Decision._make
 
 #: a `World.estimate_rows` row's pose (x, y, θ), as a tuple
 _POSE = itemgetter(0, 1, 2)
+#: ... and its speed V_F
+_SPEED = itemgetter(3)
 
 
 class _Coupling:
@@ -269,7 +271,7 @@ class _Coupling:
             self.world.follow_law,
             clearance=cfg.formation.clearance,
         )
-        self._phys_add = self.phys.add  # (`_on_scan`'s, bound once)
+        self._phys_add = self.phys.adder()  # (`_on_scan`'s, its arguments bound once)
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
         self.env = simpy.Environment()
         self.cpu, _ = build_cpu(
@@ -290,6 +292,9 @@ class _Coupling:
         # each follower's send, ms after its window's scan (measured in the last window; the
         # chain's nominal offsets until then)
         self._send_offsets = self._nominal_offsets(ts)
+        # (what `_on_send` reads, in one attribute: the clock, the open records, the fused
+        # send or None, the offsets it measures, n)
+        self._send_with = (self.env, self._open, self._send, self._send_offsets, self.n)
         first = self._estimates(0.0)
         self.dec = first._replace(
             w=self.w_sch,
@@ -576,7 +581,7 @@ class _Coupling:
         # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
         # relative states made when read: StateRows; its poses read once, from the rows,
         # which no one changes)
-        state = StateRows(lp, map(_POSE, rows), [r[3] for r in rows])
+        state = StateRows(lp, map(_POSE, rows), list(map(_SPEED, rows)))
         fols = self._followers(state) if self._fols else ()
         # the predictor's options: for the policy's input and the _pred columns of a decision
         # without a rollout (one decided on the rollout alone reads only the rollout)
@@ -892,20 +897,21 @@ class _Coupling:
         return dt
 
     def _on_send(self, job: Job, seg: Segment) -> None:
-        now = self.env._now
-        i = int(seg.follower)  # type: ignore[arg-type]
-        rec = self._open[job.index]
+        env, opened, send, offsets, n = self._send_with  # (bound once: `__init__`)
+        now = env._now
+        i: int = seg.follower  # type: ignore[assignment]
+        rec = opened[job.index]
         if self._loss and self._uniform() < self._loss:  # type: ignore[misc]
             # lost: the follower keeps its previous command; the leader, missing the reply,
             # keeps it in its estimate too
             rec.radio_losses += 1
-        elif self._send is not None:  # (World.command's, one call: World.sender)
-            self._send(i - 1, now)
+        elif send is not None:  # (World.command's, one call: World.sender)
+            send(i - 1, now)
         else:
             self.world.command(i, now)
         scan_t = rec.scan_t
-        if scan_t == scan_t and 1 <= i <= self.n:  # (NaN before the scan)
-            self._send_offsets[i - 1] = now - scan_t
+        if scan_t == scan_t and 1 <= i <= n:  # (NaN before the scan)
+            offsets[i - 1] = now - scan_t
 
     def _decide(self, job: Job) -> None:
         """The decision on the estimates now; it governs the next window (released at
