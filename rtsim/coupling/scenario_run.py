@@ -312,6 +312,7 @@ class _Coupling:
         self.mode = str(self.policy.name)
         self.decide_at = adj.decide
         self._decide_at_end = self.decide_at == "end"
+        self._before_send = self.decide_at == "before-send"
         predictor = adj.predictor
         # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
         # predictor is for its own policy, unless [adjust] paper_predictor = false
@@ -573,7 +574,7 @@ class _Coupling:
         the window it governs scans (for the rollout; default now)."""
         world = self.world
         world.advance(now)
-        lp = world.leader_pose
+        lp = world.leader.pose  # (World.leader_pose)
         # each follower's estimate propagated to now, its expected speed and turn rate and its
         # held command, in one pass (the same as World.estimated_pose(i) and
         # World.relative(i, "estimate")[3]; World.estimate_rows)
@@ -594,7 +595,7 @@ class _Coupling:
             ro = kw["rollout"] = self._rollout_state(
                 now,
                 now if next_scan is None else next_scan,
-                self.decide_at == "before-send" and now > 0,
+                self._before_send and now > 0,
                 rows,
             )
         if self._on_rollout is not None:
