@@ -80,18 +80,12 @@ def trace_samples(
     guess: Any,
     out: Any,
     near: Any,
-    tally: Any,
-    d_hit: float,
-    d_c: float,
 ) -> None:
     """One scan's samples of every follower with a trace law (`PhysicalLog.add`): into
     ``out``, follower k's separation error |ρ − ρ_d| at 2k and its cross-track distance at
     2k + 1 (from its projection on the trace, `ftl_project`, started at its last, ``sf[k]``,
     or at ``guess[k]`` before the first; ``sf[k]`` kept), and into ``near`` each one's
-    closest approach (`rtsim.world.contact.closest_into`). The law's geometry ``G``.
-    ``tally`` (`PhysicalLog`'s): the closest approach of the run so far, then the scans
-    whose closest pair came nearer than ``d_hit`` (2·r_F) and than ``d_c`` (with the
-    clearance), updated with this scan's (`tally_scan`)."""
+    closest approach (`rtsim.world.contact.closest_into`). The law's geometry ``G``."""
     for k in range(len(xs)):
         x, y = xs[k], ys[k]
         out[2 * k] = abs(cpython_hypot(x - xl, y - yl) - rho_d[k])
@@ -103,27 +97,6 @@ def trace_samples(
         px, py, _ = trace_point(G, k, s)
         out[2 * k + 1] = cpython_hypot(x - px, y - py)
     closest_into(xs, ys, xl, yl, near)
-    tally_scan(near, tally, d_hit, d_c)
-
-
-@kernel
-def tally_scan(near: Any, tally: Any, d_hit: float, d_c: float) -> None:
-    """Count one scan's closest approaches ``near`` into ``tally`` (closest so far,
-    collisions, clearance violations): the scan's closest pair is the first of the least
-    (as Python's ``min``: NaN only when first), inf without followers; a collision when it
-    is below ``d_hit``, a clearance violation below ``d_c``."""
-    close = math.inf
-    if len(near):
-        close = near[0]
-        for k in range(1, len(near)):
-            if near[k] < close:
-                close = near[k]
-    if close < tally[0]:
-        tally[0] = close
-    if close < d_hit:
-        tally[1] += 1.0
-    if close < d_c:
-        tally[2] += 1.0
 
 
 #: `trace_samples` as Python (``math.hypot``, the law's Python twins)
@@ -148,6 +121,7 @@ class PhysicalLog:
     ) -> None:
         self.n = n
         self.clearance = float(clearance)
+        self.clearance_violations = 0
         self.rho_d = rho_d
         self.radius = float(radius)
         self._contact = contact_distance(self.radius, self.clearance)  # d_c
@@ -155,15 +129,11 @@ class PhysicalLog:
         self._guess = guesses
         # per scan, each follower's separation error then (with a trace law) its cross-track
         self.samples = ValueSpill(n * (1 if law is None else 2))
-        self._hit = 2.0 * self.radius
+        self.min_dist = math.inf
+        self.collisions = 0
         self._trace: Any = None
         if self._law is not None:
             self._trace = self._trace_run(self._law, n)
-        # the scans' tally (`tally_scan`): closest approach, collisions, clearance violations
-        self._compiled = self._trace is not None and self._trace[0] is not _PY_SAMPLES
-        self._tally: Any = (
-            np.array([math.inf, 0.0, 0.0]) if self._compiled else [math.inf, 0.0, 0.0]
-        )
 
     def _trace_run(self, law: TraceFollower, n: int) -> tuple[Any, ...]:
         """`trace_samples` and its arguments but the positions: compiled (one call per scan,
@@ -174,10 +144,8 @@ class PhysicalLog:
         args = (law._G, law._sf, np.asarray(self.rho_d, dtype=float), np.asarray(guess))
         out, near = np.zeros(2 * n), np.zeros(n)
         x = np.zeros(n)  # (the positions' type: float arrays of n)
-        tally = np.zeros(3)  # (`_tally`'s type)
         fn = built_entry(
-            build(trace_samples),
-            (args[0], args[1], x, x, 0.0, 0.0, *args[2:], out, near, tally, 0.0, 0.0),
+            build(trace_samples), (args[0], args[1], x, x, 0.0, 0.0, *args[2:], out, near)
         )
         return fn, *args, out, near
 
@@ -187,11 +155,11 @@ class PhysicalLog:
         the compiled samples read as they are). Returns each follower's centre distance to
         the nearest other robot, leader included (cm, `rtsim.world.contact.closest_to`: the
         planner's contact bound measures the same), a list."""
-        if self._compiled:
+        trace = self._trace
+        if trace is not None and trace[0] is not _PY_SAMPLES:
             return self.adder()(leader, xs, ys)
         xl, yl, _ = leader
         samples = self.samples
-        trace = self._trace
         if type(xs) is np.ndarray:
             xs, ys = xs.tolist(), ys.tolist()
         if trace is None:
@@ -202,65 +170,46 @@ class PhysicalLog:
             near = list(closest_each(xs, ys, xl, yl))
         else:
             fn, G, sf, rho_d, guess, out, near_k = trace
-            fn(
-                G,
-                sf,
-                xs,
-                ys,
-                xl,
-                yl,
-                rho_d,
-                guess,
-                out,
-                near_k,
-                self._tally,
-                self._hit,
-                self._contact,
-            )
+            fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
             samples.buf += out
             near = list(near_k)
-        if trace is None:
-            tally_scan(near, self._tally, self._hit, self._contact)
         samples.full()  # a chunk's worth goes to the file (once per scan)
+        self.count(near)
         return near
 
-    @property
-    def min_dist(self) -> float:
-        """The closest any two robots' centres came (cm; inf before a scan)."""
-        return float(self._tally[0])
-
-    @property
-    def collisions(self) -> int:
-        """Scans at which some two robots' centres were closer than 2·r_F."""
-        return int(self._tally[1])
-
-    @property
-    def clearance_violations(self) -> int:
-        """Scans at which some two robots' centres were closer than 2·r_F + clearance."""
-        return int(self._tally[2])
+    def count(self, near: Sequence[float]) -> None:
+        """Count one scan's closest approaches ``near`` (`add`'s): the closest pair of the
+        run, the collisions and the clearance violations."""
+        close = min(near) if near else math.inf  # (every pair has a follower in it)
+        if close < self.min_dist:
+            self.min_dist = close
+        self.collisions += close < 2.0 * self.radius
+        self.clearance_violations += close < self._contact
 
     def adder(self) -> Callable[[tuple[float, float, float], Any, Any], Sequence[float]]:
         """`add` as one call for a caller that adds every scan (a coupled run): with the
         compiled samples, a function that has their arguments at hand (not looked up per
         scan); else `add`."""
-        if not self._compiled:
+        trace = self._trace
+        if trace is None or trace[0] is _PY_SAMPLES:
             return self.add
-        fn, G, sf, rho_d, guess, out, near_k = self._trace
-        tally, hit, contact = self._tally, self._hit, self._contact
-        row, near = out.tolist, near_k.tolist
+        fn, G, sf, rho_d, guess, out, near_k = trace
+        row, near_list, count = out.tolist, near_k.tolist, self.count
         log = self  # (its samples: `spill_to` replaces them)
 
         def add(leader: tuple[float, float, float], xs: Any, ys: Any) -> Sequence[float]:
             xl, yl, _ = leader
             if type(xs) is not np.ndarray:
                 xs, ys = np.array(xs, dtype=float), np.array(ys, dtype=float)
-            fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k, tally, hit, contact)
+            fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
             samples = log.samples
             buf = samples.buf
             buf += row()
             if len(buf) >= samples.limit:  # (`ValueSpill.full`: a chunk's worth to the file)
                 samples.flush()
-            return near()  # type: ignore[no-any-return]
+            near: list[float] = near_list()
+            count(near)
+            return near
 
         return add
 
