@@ -764,8 +764,8 @@ class _Coupling:
         rec.fix_error = raw["fix_error"]
         rec.neighbour = raw["neighbour"]
         lp = rec.leader = scan.leader_pose
-        # the followers' truth now (`_truth`, inline: the scan has just advanced every
-        # follower to now; copies, the poses zipped when read)
+        # the followers' truth now (the scan has just advanced every follower to now;
+        # copies, the poses zipped when read)
         fol = world.followers
         x, y, th, v = fol.truth()
         rec.truth = StateRows(lp, zip(x, y, th), v)  # noqa: B905
