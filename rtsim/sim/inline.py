@@ -145,9 +145,7 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                 if held and live:  # here: nothing else due); 2. the top task's release (else on)
                     heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
                 held = False  # (the heap whole again: CPU._complete may add a timer)
-                e = _job_ends(
-                    cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol, tol_next, queue
-                )
+                e = _job_ends(cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol_next)
                 if e is None:
                     moved = False
                     break  # (to the wait)
@@ -197,8 +195,7 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                 return None
         if held and live:  # (its timer back in the heap)
             heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
-        st.k, st.next_release = kn, rn
-        run_lag = 0.0
+        st.k, st.next_release, run_lag = kn, rn, 0.0
         if nxt_job is not None:  # (its progress, and the lag of its end)
             nxt_job.rem, nxt_job.executed, nxt_job.preemptions = jrem, jex, jpre
             y = run_end - work_start
@@ -250,9 +247,7 @@ def _job_ends(
     executed: float,
     preemptions: int,
     t_next: float,
-    tol: float,
     tol_next: float,
-    queue: list[Any],
 ) -> tuple[bool, float, float, int, Job | None, float, float, float, float, float, int] | None:
     """Steps 4, 1 and 3 of the dispatcher's loop, made as it would make them, when ``job``
     (the job after the top task's, simple and without job-end hooks: the caller checks that;
@@ -265,6 +260,8 @@ def _job_ends(
     inf, the next timer, its CPU time and preemptions): no job runs (it is not started) if a
     timer is due at now or its segment starts by a call, and the loop goes on at now, as it
     does if the job ends at once."""
+    queue, tol = cpu.env._queue, cpu._tol  # (SimPy's: runs are booked where the clock jumps;
+    # the coincidence window at ``start``, as in the run: it ends where the window widens)
     if end >= tol_next or t_next <= end + tol or (queue and queue[0][0] <= end):
         return None
     y = end - start  # (the end's lag: the wait's now_lag)
