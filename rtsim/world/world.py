@@ -250,18 +250,20 @@ class World:
         with their held commands in exact arcs, sub-stepped at ``step_ms`` while a wheel
         speed ramps toward its command for longer than one step."""
         both = self._advance_both
-        if both is not None and t_ms > self._t:  # (the compiled world's, in one call)
+        t0 = self._t
+        if both is not None and t_ms > t0:  # (the compiled world's, in one call)
             ld, fol = self.leader, self.followers
-            dt = (t_ms - self._t) / 1000.0  # (`_advance_leader`'s)
+            dt = (t_ms - t0) / 1000.0  # (`_advance_leader`'s)
+            # (``n``: the formation's, the group's columns, read without its property)
             ld.speed, ld.s, x, y, h = both(
-                fol.S, fol.n, t_ms, self._step_ms, self._accel, ld.speed, ld.target_speed,  # type: ignore[attr-defined]
+                fol.S, self._n, t_ms, self._step_ms, self._accel, ld.speed, ld.target_speed,  # type: ignore[attr-defined]
                 ld.accel_max, ld.decel_max, dt, ld.s, self._path_G,
             )  # fmt: skip
             ld.path.remember(ld.s, (x, y, h))  # (its pose, which the scan and the decision read)
             self._t = t_ms
             fol.moved(t_ms)  # type: ignore[attr-defined]  # (every follower there)
             return
-        if t_ms != self._t:  # (the world is often at t_ms already)
+        if t_ms != t0:  # (the world is often at t_ms already)
             self._advance_leader(t_ms)
         self.followers.advance_all(t_ms, self._step_ms)
 
