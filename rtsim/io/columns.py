@@ -16,10 +16,11 @@ strings at once (a float by ``repr``, which is what pandas writes — numpy's ``
 float64 is the same shortest round-trip form —, NaN and None as empty cells, a string
 quoted only when it holds a comma, a quote or a line break, as the ``csv`` module's
 QUOTE_MINIMAL does) and the rows joined, which gives the bytes of ``to_csv`` several times
-faster; from `ARROW_MIN` rows on Arrow formats and joins the cells, and the joined rows'
-data is written as it is (`csv_parts`). A producer that has its chunk as columns (`ChunkWriter.write_columns`) or as
-row tuples (`ChunkWriter.write_rows`) skips the DataFrame altogether; a column type
-the formatter does not know (categoricals, dates, ...) is written by pandas.
+faster; from `ARROW_MIN` rows on, Arrow formats and joins the cells, and the joined rows'
+data is written as it is (`csv_parts`). A producer that has its chunk as columns
+(`ChunkWriter.write_columns`) or as row tuples (`ChunkWriter.write_rows`) skips the
+DataFrame altogether; a column type the formatter does not know (categoricals, dates,
+...) is written by pandas.
 """
 
 from __future__ import annotations
@@ -261,8 +262,11 @@ def _float_cells(columns: Sequence[Any], floats: list[int]) -> dict[int, Any]:
     """The cells of the float columns ``floats`` of ``columns`` (index -> Arrow strings),
     formatted in one `_float_cells_of` call: each distinct column once (the same bits give
     the same text: a copy of another column is its slice again) and a column of one value
-    by that value, repeated (a run's constant columns, the jobs' arrival and release)."""
+    by that value, repeated (a run's constant columns, the jobs' arrival and release);
+    values mostly whole (the jobs' times: a job's deadline is often the next one's
+    release) each distinct one once, put in place by a ``take``."""
     import pyarrow as pa
+    import pyarrow.compute as pc
 
     n = len(columns[0])
     arrays = [np.asarray(columns[i], dtype=np.float64) for i in floats]
@@ -278,7 +282,14 @@ def _float_cells(columns: Sequence[Any], floats: list[int]) -> dict[int, Any]:
         slot[key] = (off, m)
         todo.append(a[:m])
         off += m
-    s = _arrow_floats(np.concatenate(todo), "")
+    a = np.concatenate(todo)
+    with np.errstate(invalid="ignore"):  # (a signalling NaN's floor)
+        repeats = 2 * int(np.count_nonzero(np.floor(a) == a)) > len(a)
+    if repeats:  # mostly whole numbers (times on a grid): each distinct value once
+        enc = pc.dictionary_encode(pa.array(a.view(np.int64)))  # (by bits: -0.0 is not 0.0)
+        s = pc.take(_arrow_floats(enc.dictionary.to_numpy().view(np.float64), ""), enc.indices)
+    else:
+        s = _arrow_floats(a, "")
     made = {key: s.slice(o, n) if m == n else pa.repeat(s[o], n) for key, (o, m) in slot.items()}
     return {i: made[key] for i, key in zip(floats, keys, strict=True)}
 
