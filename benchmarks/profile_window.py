@@ -36,7 +36,6 @@ TIMED = [
     ("rtsim.world.world", "World", "_estimated", "EKF"),
     ("rtsim.world.world", "World", "command", "commands"),
     ("rtsim.coupling.scenario_run", "_Coupling", "_decide", "decision set-up (Python)"),
-    ("rtsim.coupling.scenario_run", "_Coupling", "_truth", "truth log"),
     ("rtsim.coupling.physical", "PhysicalLog", "add", "truth log"),
     ("rtsim.coupling.scenario_run", "_Coupling", "_on_scan", "hooks and records"),
     ("rtsim.coupling.scenario_run", "_Coupling", "_on_release", "hooks and records"),
@@ -44,6 +43,10 @@ TIMED = [
     ("rtsim.coupling.scenario_run", "_Coupling", "_on_done", "hooks and records"),
     ("rtsim.coupling.scenario_run", "_Coupling", "_close", "hooks and records"),
 ]
+
+#: methods that return the function a run calls per window (bound once per run): that function
+#: is timed, (module, class, attribute, stage)
+MADE = [("rtsim.coupling.physical", "PhysicalLog", "adder", "truth log")]
 
 #: the compiled rollout's entries (`rtsim.control.kernels.rollout_kernels`), timed the same way
 ROLLOUT = ("roll_or_decide",)  # (the decision and a whole rollout: one entry)
@@ -87,10 +90,24 @@ def install(timers: Timers) -> None:
         owner = getattr(importlib.import_module(mod), cls)
         if hasattr(owner, attr):  # (an older checkout may lack one: its stage is then 0)
             setattr(owner, attr, timers.wrap(getattr(owner, attr), stage))
+    for mod, cls, attr, stage in MADE:
+        owner = getattr(importlib.import_module(mod), cls)
+        if hasattr(owner, attr):
+            setattr(owner, attr, _timed_maker(timers, getattr(owner, attr), stage))
     ns = rollout_kernels()
     for name in ROLLOUT:  # (each through its compiled function, as the run calls it)
         fn = functools.partial(call, getattr(ns, name))
         setattr(ns, name, timers.wrap(fn, ROLLOUT_STAGE))
+
+
+def _timed_maker(timers: Timers, make: Callable[..., Any], stage: str) -> Callable[..., Any]:
+    """``make`` whose returned function is wrapped in ``stage``'s timer (`MADE`)."""
+
+    @functools.wraps(make)
+    def made(*args: Any, **kw: Any) -> Any:
+        return timers.wrap(make(*args, **kw), stage)
+
+    return made
 
 
 def laps(scenario: str, followers: int, repeat: int, timers: Timers | None = None) -> Any:

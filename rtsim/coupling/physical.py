@@ -27,6 +27,7 @@ has a directory for one), and the percentiles are selected from it exactly in bo
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -148,43 +149,69 @@ class PhysicalLog:
         )
         return fn, *args, out, near
 
-    def add(self, leader: tuple[float, float, float], xs: Any, ys: Any) -> tuple[float, ...]:
+    def add(self, leader: tuple[float, float, float], xs: Any, ys: Any) -> Sequence[float]:
         """One scan: the leader's pose and the followers' true positions (cm: lists of
         floats, or float arrays, such as the compiled world's rows `FollowerGroup.xy`, which
         the compiled samples read as they are). Returns each follower's centre distance to
         the nearest other robot, leader included (cm, `rtsim.world.contact.closest_to`: the
-        planner's contact bound measures the same)."""
-        xl, yl, _ = leader
-        samples = self.samples
+        planner's contact bound measures the same), a list."""
         trace = self._trace
         if trace is not None and trace[0] is not _PY_SAMPLES:
-            fn, G, sf, rho_d, guess, out, near_k = trace
-            if type(xs) is not np.ndarray:
-                xs, ys = np.array(xs, dtype=float), np.array(ys, dtype=float)
-            fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
-            samples.buf += out.tolist()
-            near = tuple(near_k.tolist())
+            return self.adder()(leader, xs, ys)
+        xl, yl, _ = leader
+        samples = self.samples
+        if type(xs) is np.ndarray:
+            xs, ys = xs.tolist(), ys.tolist()
+        if trace is None:
+            put = samples.buf.append
+            hypot, rho_d = math.hypot, self.rho_d
+            for k in range(self.n):
+                put(abs(hypot(xs[k] - xl, ys[k] - yl) - rho_d[k]))
+            near = list(closest_each(xs, ys, xl, yl))
         else:
-            if type(xs) is np.ndarray:
-                xs, ys = xs.tolist(), ys.tolist()
-            if trace is None:
-                put = samples.buf.append
-                hypot, rho_d = math.hypot, self.rho_d
-                for k in range(self.n):
-                    put(abs(hypot(xs[k] - xl, ys[k] - yl) - rho_d[k]))
-                near = closest_each(xs, ys, xl, yl)
-            else:
-                fn, G, sf, rho_d, guess, out, near_k = trace
-                fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
-                samples.buf += out
-                near = tuple(near_k)
+            fn, G, sf, rho_d, guess, out, near_k = trace
+            fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
+            samples.buf += out
+            near = list(near_k)
         samples.full()  # a chunk's worth goes to the file (once per scan)
+        self.count(near)
+        return near
+
+    def count(self, near: Sequence[float]) -> None:
+        """Count one scan's closest approaches ``near`` (`add`'s): the closest pair of the
+        run, the collisions and the clearance violations."""
         close = min(near) if near else math.inf  # (every pair has a follower in it)
         if close < self.min_dist:
             self.min_dist = close
         self.collisions += close < 2.0 * self.radius
         self.clearance_violations += close < self._contact
-        return near
+
+    def adder(self) -> Callable[[tuple[float, float, float], Any, Any], Sequence[float]]:
+        """`add` as one call for a caller that adds every scan (a coupled run): with the
+        compiled samples, a function that has their arguments at hand (not looked up per
+        scan); else `add`."""
+        trace = self._trace
+        if trace is None or trace[0] is _PY_SAMPLES:
+            return self.add
+        fn, G, sf, rho_d, guess, out, near_k = trace
+        row, near_list, count = out.tolist, near_k.tolist, self.count
+        log = self  # (its samples: `spill_to` replaces them)
+
+        def add(leader: tuple[float, float, float], xs: Any, ys: Any) -> Sequence[float]:
+            xl, yl, _ = leader
+            if type(xs) is not np.ndarray:
+                xs, ys = np.array(xs, dtype=float), np.array(ys, dtype=float)
+            fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
+            samples = log.samples
+            buf = samples.buf
+            buf += row()
+            if len(buf) >= samples.limit:  # (`ValueSpill.full`: a chunk's worth to the file)
+                samples.flush()
+            near: list[float] = near_list()
+            count(near)
+            return near
+
+        return add
 
     def spill_to(self, path: Any, label: Any = None) -> None:
         """Keep the samples in the scratch file ``path`` from now on (before the first

@@ -234,7 +234,11 @@ class WindowRecord:
     order) at ``v_leader_max``, the highest speed the leader had between this window's scan
     and the next; ``viol`` maps each of `BOUND_KINDS`
     to an (n,) bool array (``World.scan(...).violations``), ``changes`` the observed changes
-    (``Scan.changes``), ``lost`` is (n,) bool.
+    (``Scan.changes``), ``lost`` is (n,) bool. ``segment`` and ``curvature`` are the leader's
+    segment kind and curvature, or (a coupled run's, until the table reads them) its path
+    and its arc length then (`segments`); ``fix_error`` and ``neighbour`` None: no fix and
+    no neighbour for any follower. ``decision``: the decision that governs the window, kept
+    by a coupled run until the next scan has read it.
     """
 
     window: int
@@ -268,8 +272,8 @@ class WindowRecord:
     searches: int = 0
     reacquisitions: int = 0
     voted: Sequence[int] = ()
-    fix_error: Sequence[float] = ()
-    neighbour: Sequence[bool] = ()
+    fix_error: Sequence[float] | None = ()
+    neighbour: Sequence[bool] | None = ()
     radio_ms: float = math.nan  # (set at the release: delta_t, or the drawn round trip)
     radio_losses: int = 0
     # contact (CONTACT_FIELDS), per follower: the truth's closest approach at this window's
@@ -278,6 +282,7 @@ class WindowRecord:
     near_true: tuple[float, ...] = ()
     near_pred: Sequence[float] = ()
     viol_contact: tuple[bool, ...] = ()
+    decision: Any = None
 
     @property
     def complete(self) -> bool:
@@ -488,10 +493,29 @@ def _window_rest(
     data["finish"] = finish
     data["points"] = _column(recs, "points", np.int64)
     data["hough_ms"] = _column(recs, "hough_ms", float)
-    data["segment"] = list(_each(recs, "segment"))
-    data["curvature"] = _column(recs, "curvature", float)
+    kinds, kappas = segments(recs)
+    data["segment"] = kinds
+    data["curvature"] = np.array(kappas, dtype=float)
     leader = _rows(_each(recs, "leader"), float, len(recs), 3)
     data["leader_x"], data["leader_y"], data["leader_heading"] = leader.T
+
+
+def segments(recs: list[WindowRecord]) -> tuple[list[str], list[float]]:
+    """Each record's segment kind and curvature: its own, or those of the path it holds at
+    its arc length (``path.segment_at(curvature)``: a coupled run leaves the lookup to the
+    table, which a sweep point that reads only the summary never makes)."""
+    kinds: list[str] = []
+    kappas: list[float] = []
+    for r in recs:
+        kind = r.segment
+        if type(kind) is str:
+            kinds.append(kind)
+            kappas.append(r.curvature)
+        else:
+            k, kappa = kind.segment_at(r.curvature)  # type: ignore[attr-defined]
+            kinds.append(k)
+            kappas.append(kappa)
+    return kinds, kappas
 
 
 def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:

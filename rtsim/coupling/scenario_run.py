@@ -201,6 +201,8 @@ _DECISION = _Decision._make
 
 #: a `World.estimate_rows` row's pose (x, y, θ), as a tuple
 _POSE = itemgetter(0, 1, 2)
+#: ... and its speed V_F
+_SPEED = itemgetter(3)
 
 
 class _Coupling:
@@ -269,6 +271,7 @@ class _Coupling:
             self.world.follow_law,
             clearance=cfg.formation.clearance,
         )
+        self._phys_add = self.phys.adder()  # (`_on_scan`'s, its arguments bound once)
         self.beta_d = [float(b) for b in cfg.formation.beta_d]
         self.env = simpy.Environment()
         self.cpu, _ = build_cpu(
@@ -289,6 +292,9 @@ class _Coupling:
         # each follower's send, ms after its window's scan (measured in the last window; the
         # chain's nominal offsets until then)
         self._send_offsets = self._nominal_offsets(ts)
+        # (what `_on_send` reads, in one attribute: the clock, the open records, the fused
+        # send or None, the offsets it measures, n)
+        self._send_with = (self.env, self._open, self._send, self._send_offsets, self.n)
         first = self._estimates(0.0)
         self.dec = first._replace(
             w=self.w_sch,
@@ -306,6 +312,7 @@ class _Coupling:
         self.mode = str(self.policy.name)
         self.decide_at = adj.decide
         self._decide_at_end = self.decide_at == "end"
+        self._before_send = self.decide_at == "before-send"
         predictor = adj.predictor
         # the paper's algorithm on the paper's predictor (its §3.3), whatever the file's
         # predictor is for its own policy, unless [adjust] paper_predictor = false
@@ -413,7 +420,6 @@ class _Coupling:
 
     def _start_state(self, horizon_ms: float, stop_s: float | None, stop_ms: float) -> None:
         """The run's state before its first window: open records, the stop and the lap."""
-        self._decisions: dict[int, _Decision] = {}  # the decision governing each open window
         self._v_max = self._v_actual()  # highest leader speed since the last scan
         self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
         self._open: dict[int, WindowRecord] = {}
@@ -568,7 +574,7 @@ class _Coupling:
         the window it governs scans (for the rollout; default now)."""
         world = self.world
         world.advance(now)
-        lp = world.leader_pose
+        lp = world.leader.pose  # (World.leader_pose)
         # each follower's estimate propagated to now, its expected speed and turn rate and its
         # held command, in one pass (the same as World.estimated_pose(i) and
         # World.relative(i, "estimate")[3]; World.estimate_rows)
@@ -576,7 +582,7 @@ class _Coupling:
         # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
         # relative states made when read: StateRows; its poses read once, from the rows,
         # which no one changes)
-        state = StateRows(lp, map(_POSE, rows), [r[3] for r in rows])
+        state = StateRows(lp, map(_POSE, rows), list(map(_SPEED, rows)))
         fols = self._followers(state) if self._fols else ()
         # the predictor's options: for the policy's input and the _pred columns of a decision
         # without a rollout (one decided on the rollout alone reads only the rollout)
@@ -589,7 +595,7 @@ class _Coupling:
             ro = kw["rollout"] = self._rollout_state(
                 now,
                 now if next_scan is None else next_scan,
-                self.decide_at == "before-send" and now > 0,
+                self._before_send and now > 0,
                 rows,
             )
         if self._on_rollout is not None:
@@ -695,13 +701,13 @@ class _Coupling:
 
     def _on_release(self, job: Job) -> None:
         world = self.world
-        world.advance(self.env.now)
+        world.advance(self.env._now)  # (SimPy's clock: the CPU moves it the same way)
         ld = world.leader
-        kind, kappa = ld.path.segment_at(ld.s)  # (ld.segment(), world.segment_at)
         d = self.dec
         i = job.index
-        self._decisions[i] = d
-        # (positional, in WindowRecord's field order: a call with keywords costs more)
+        # (positional, in WindowRecord's field order: a call with keywords costs more; the
+        # segment's kind and curvature as the leader's path and arc length, which the table
+        # reads: `rtsim.coupling.recorder.WindowRecord.segment`)
         rec = WindowRecord(
             i,
             job.release,
@@ -714,18 +720,19 @@ class _Coupling:
             ld.target_speed,  # (_v_target)
             d.method,
             d.feasible,
-            kind,
-            kappa,
+            ld.path,  # type: ignore[arg-type]  # (its segment at ld.s: read with the table)
+            ld.s,
             d.est,
         )
         rec.radio_ms = self._delta_t  # (a drawn round trip replaces it)
+        rec.decision = d  # (until `_close` has read it)
         self._open[i] = rec
         self._records.append(rec)
         if not i % self._chunk:  # (the recorder's hand-over, at most once a chunk)
             self.rec.settle()
 
     def _on_scan(self, job: Job, seg: Segment) -> None:
-        now = self.env.now
+        now = self.env._now
         world = self.world
         rec = self._open[job.index]
         scan = world.scan_estimate(now)  # (scan, then estimate)
@@ -733,7 +740,8 @@ class _Coupling:
         raw = scan.fields()
         rec.scan_t = now
         # (the scan's lists are its own, made for it and never changed: the record keeps
-        # them as they are, no copy)
+        # them as they are, no copy; a fix error or neighbour list of None is the table's
+        # inf or False for every follower)
         voted = raw["voted"]
         if voted is None:
             voted = raw["points"]
@@ -753,14 +761,15 @@ class _Coupling:
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = searched
             rec.reacquisitions = scan.n_reacquired
-        fix_error = raw["fix_error"]
-        rec.fix_error = (math.inf,) * len(voted) if fix_error is None else fix_error
-        neighbour = raw["neighbour"]
-        rec.neighbour = (False,) * len(voted) if neighbour is None else neighbour
+        rec.fix_error = raw["fix_error"]
+        rec.neighbour = raw["neighbour"]
         lp = rec.leader = scan.leader_pose
-        rec.truth = self._truth(lp)
-        fol = world.followers  # (the scan advanced every follower to now)
-        near = rec.near = self.phys.add(lp, *fol.xy)
+        # the followers' truth now (the scan has just advanced every follower to now;
+        # copies, the poses zipped when read)
+        fol = world.followers
+        x, y, th, v = fol.truth()
+        rec.truth = StateRows(lp, zip(x, y, th), v)  # noqa: B905
+        near = rec.near = self._phys_add(lp, *fol.xy)
         if self._last_scanned is not None:
             self._close(scan, near, raw)
         self._last_scanned = rec
@@ -784,7 +793,7 @@ class _Coupling:
         got = memo[key] = (hough_ms, broken)
         return got
 
-    def _close(self, scan: Any, near: tuple[float, ...] = (), raw: Any = None) -> None:
+    def _close(self, scan: Any, near: Sequence[float] = (), raw: Any = None) -> None:
         """Close the previous window's observation interval with ``scan``'s violations (and
         ``near``, each follower's closest approach at it; ``raw``: the scan's `Scan.fields`
         when the caller has them)."""
@@ -800,8 +809,14 @@ class _Coupling:
         # the interval the changes span (the world has advanced to the scan)
         v = self.world.leader.speed  # (_v_actual)
         v_max = last.v_leader_max = v if v > self._v_max else self._v_max  # (max)
-        d = self._decisions.pop(last.window)
-        last.pred = self._predicted(d, v_max)
+        d = last.decision
+        last.decision = None  # (the record keeps no decision: its rollout is large)
+        for speed, rows in d.known:  # (`_predicted`'s rows it computed, inline)
+            if speed == v_max:
+                last.pred = rows
+                break
+        else:
+            last.pred = self._predicted(d, v_max)
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
@@ -868,14 +883,6 @@ class _Coupling:
         else:
             sink.write(records_frame(records, self.n, self.rec.limits))
 
-    def _truth(self, lp: tuple[float, float, float]) -> StateRows:
-        """The followers' truth now, (x, y, θ, ρ, β, θ_L − θ_F, V_F) per follower (the
-        relative states made when read: StateRows)."""
-        # the scan has just advanced every follower to now (copies: the lists change; the
-        # poses zipped when read, strict there)
-        x, y, th, v = self.world.followers.truth()
-        return StateRows(lp, zip(x, y, th), v)  # noqa: B905
-
     def _hough_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         return self._hough_ms
 
@@ -891,32 +898,33 @@ class _Coupling:
         return dt
 
     def _on_send(self, job: Job, seg: Segment) -> None:
-        now = self.env.now
-        i = int(seg.follower)  # type: ignore[arg-type]
-        rec = self._open[job.index]
+        env, opened, send, offsets, n = self._send_with  # (bound once: `__init__`)
+        now = env._now
+        i: int = seg.follower  # type: ignore[assignment]
+        rec = opened[job.index]
         if self._loss and self._uniform() < self._loss:  # type: ignore[misc]
             # lost: the follower keeps its previous command; the leader, missing the reply,
             # keeps it in its estimate too
             rec.radio_losses += 1
-        elif self._send is not None:  # (World.command's, one call: World.sender)
-            self._send(i - 1, now)
+        elif send is not None:  # (World.command's, one call: World.sender)
+            send(i - 1, now)
         else:
             self.world.command(i, now)
         scan_t = rec.scan_t
-        if scan_t == scan_t and 1 <= i <= self.n:  # (NaN before the scan)
-            self._send_offsets[i - 1] = now - scan_t
+        if scan_t == scan_t and 1 <= i <= n:  # (NaN before the scan)
+            offsets[i - 1] = now - scan_t
 
     def _decide(self, job: Job) -> None:
         """The decision on the estimates now; it governs the next window (released at
         job.release + job.period) and sets the leader's target at once."""
-        now = self.env.now
-        world = self.world
+        now = self.env._now
+        ld = self.world.leader
         self.dec = self._estimates(now, job.release + job.period)  # advances the world
-        v = world.leader_speed  # (_v_actual; max(a, b) is b only when b > a)
+        v = ld.speed  # (_v_actual; max(a, b) is b only when b > a)
         if v > self._v_max:
             self._v_max = v
-        world.set_leader_speed(self.dec.v_leader)
-        v = world.leader_speed
+        ld.set_speed(self.dec.v_leader)  # (World.set_leader_speed now)
+        v = ld.speed
         if v > self._v_max:
             self._v_max = v
 
@@ -925,7 +933,7 @@ class _Coupling:
             self._decide(job)
 
     def _on_done(self, job: Job) -> None:
-        now = self.env.now
+        now = self.env._now
         self._open.pop(job.index).finish = now
         world = self.world
         if self._decide_at_end:
@@ -944,8 +952,8 @@ class _Coupling:
         if (
             self._stop_s is not None
             and now >= self._stop_ms
-            and not self.stop.triggered
             and world.leader.s - self._s0 >= self._stop_s
+            and not self.stop.triggered
         ):
             self.stop.succeed()
 

@@ -42,7 +42,7 @@ from rtsim.sim.job import (
     _TaskState,
     _Totals,
 )
-from rtsim.sim.policy import PolicySpec, SchedulingPolicy, resolve_scheduler
+from rtsim.sim.policy import FixedPriority, PolicySpec, SchedulingPolicy, resolve_scheduler
 from rtsim.sim.records import (
     EPS,
     ResponseHistogram,
@@ -260,8 +260,10 @@ class CPU(ResourceProtocols, TimeSlices):
         rngs = task_rngs(self.seed, [st.name for st in self._states]) if self._states else {}
         jittered = [st.name for st in self._states if st.task.jitter > 0]
         jrngs = jitter_rngs(self.seed, jittered) if jittered and self.jitter == "random" else {}
+        by_priority = getattr(self.policy.order, "__func__", None) is FixedPriority.order
         for st in self._states:
             st.order = self.policy.order
+            st.by_priority = by_priority
             if st.rng is None:
                 st.rng = rngs[st.name]
             st.jitter = 0.0 if self.jitter == "none" else st.task.jitter
@@ -319,6 +321,11 @@ class CPU(ResourceProtocols, TimeSlices):
             # time it with the dispatcher's lag)
             st.last_plain = [
                 i + 1 == len(segs) and not st.end_hooks[i] and not st.idle_kind[0]
+                for i in range(len(segs))
+            ]
+            # segment i + 1 is an idle suspension (not an empty step): `_segment_ends` starts it
+            st.idle_next = [
+                i + 1 < len(segs) and st.idle_kind[i + 1] and not st.zero_tail[i + 1]
                 for i in range(len(segs))
             ]
             st.hooked_next = [
@@ -547,6 +554,18 @@ class CPU(ResourceProtocols, TimeSlices):
         work, docs/time.md; else _INF)."""
         if self._res_on and job._st.res[job.seg_index] is not None:
             self._unlock(job)
+        st = job._st
+        if st.idle_next[i := job.seg_index]:  # into an idle suspension: _segment_done and
+            seg = st.segs[i]  # _continue without their calls
+            for h in st.end_hooks[i]:
+                h(job, seg)
+            job.seg_index, job.rem = i + 1, None
+            self._start_segment(job, now)
+            heapq.heappush(
+                self._timers,
+                (now + (job.rem + now_lag), _RESUME, job.priority, next(self._seq), _RESUME, job),  # type: ignore[operator]
+            )
+            return None, _INF, 0.0
         self._lag = now_lag
         nxt = self._segment_done(job, now)
         self._lag = 0.0
@@ -738,7 +757,18 @@ class CPU(ResourceProtocols, TimeSlices):
                 (job.name, job.index, seg.name, seg.kind, False, job.seg_start, now)
             )
         job.rem = 0.0
-        nxt = self._segment_done(job, now)
+        st = job._st
+        if st.plain_next[i := job.seg_index]:  # on to a CPU segment: _segment_done and
+            job.seg_index, job.rem = i + 1, None  # _continue without their calls
+            nxt: Job | None = job
+        elif (hooks := st.hooked_next[i]) is not None:
+            seg = st.segs[i]
+            for h in hooks:
+                h(job, seg)
+            job.seg_index, job.rem = i + 1, None
+            nxt = job
+        else:
+            nxt = self._segment_done(job, now)
         if nxt is not None:
             if self.quantum is not None:  # back from a suspension (rtsim.sim.slices)
                 self._requeue_resumed(nxt)
@@ -830,7 +860,10 @@ class CPU(ResourceProtocols, TimeSlices):
         for h in st.release_hooks:
             h(job)
         if len(pending) == 1:
-            self._eligible(job, now)
+            if st.idle_kind[0]:
+                self._eligible(job, now)
+            else:  # (_eligible of a job just released: it joins the ready heap)
+                heapq.heappush(self._ready, (job.key, job.tie, job))
 
     def _jittered(self, st: _TaskState, k: int, r: float, d: float, p: float, now: float) -> None:
         """Job ``k`` arrives at ``r`` and is released after its drawn delay (docs/cpu-events.md)."""
@@ -938,12 +971,21 @@ class CPU(ResourceProtocols, TimeSlices):
         else:
             missed = False
         stats.preemptions += job.preemptions
-        self._count_response(stats, resp, job.deadline - job.arrival)
+        hist = stats.histogram  # (_count_response, without its call)
+        if hist is None:
+            hist = stats.histogram = ResponseHistogram(
+                self.hist_bin or (job.deadline - job.arrival) / 100.0
+            )
+        b = int(resp / hist.bin_width)
+        counts = hist.counts
+        counts[b] = counts.get(b, 0) + 1
         if self.record_jobs:
             self._record(job, missed)
         pending = st.pending
-        if pending[0] is job and not st.job_end_hooks:
+        if pending[0] is job:  # (_retire of its task's oldest job, without its call)
             pending.popleft()
+            for h in st.job_end_hooks:
+                h(job)
             if pending:
                 self._eligible(pending[0], now)
         else:

@@ -139,12 +139,13 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
             run_end = f + (xr := jrem + f_lag) if nxt_job is not None else inf  # (the job after
             # gets the CPU at f, its run_lag at the end) Next, as the loop would: 4. the wait; 1.
             while not (t_next < run_end and (not queue or t_next < queue[0][0])):  # it ends (1, 3
+                if nxt_job is None or not (js := nxt_job._st).simple or js.job_end_hooks:
+                    moved = False  # (not here, as `_job_ends` would find: to the wait)
+                    break
                 if held and live:  # here: nothing else due); 2. the top task's release (else on)
                     heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
                 held = False  # (the heap whole again: CPU._complete may add a timer)
-                e = _job_ends(
-                    cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol, tol_next, queue
-                )
+                e = _job_ends(cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol_next)
                 if e is None:
                     moved = False
                     break  # (to the wait)
@@ -194,8 +195,7 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                 return None
         if held and live:  # (its timer back in the heap)
             heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
-        st.k, st.next_release = kn, rn
-        run_lag = 0.0
+        st.k, st.next_release, run_lag = kn, rn, 0.0
         if nxt_job is not None:  # (its progress, and the lag of its end)
             nxt_job.rem, nxt_job.executed, nxt_job.preemptions = jrem, jex, jpre
             y = run_end - work_start
@@ -240,36 +240,29 @@ def _preempted(
 
 def _job_ends(
     cpu: Dispatcher,
-    job: Job | None,
+    job: Job,
     start: float,
     end: float,
     x: float,
     executed: float,
     preemptions: int,
     t_next: float,
-    tol: float,
     tol_next: float,
-    queue: list[Any],
 ) -> tuple[bool, float, float, int, Job | None, float, float, float, float, float, int] | None:
     """Steps 4, 1 and 3 of the dispatcher's loop, made as it would make them, when ``job``
-    (the job after the top task's, running since ``start``, its work ``x`` with the lag ends
-    at ``end``, its progress ``executed`` and ``preemptions``) ends before the next timer
-    ``t_next``: it completes (`CPU._complete`) and the first ready job gets the CPU, its
-    segment started (a constant time, no hook). None if not done here: no job, a wider
-    coincidence window (``tol_next``), a timer or SimPy event due at its end, not simple,
-    job-end hooks. Else (go on: nothing else happens at now; now, its lag, switches, the job
-    that runs or None, its remaining work, that plus the lag, its end or inf, the next timer,
-    its CPU time and preemptions): no job runs (it is not started) if a timer is due at now or
-    its segment starts by a call, and the loop goes on at now, as it does if the job ends at
-    once."""
-    if (
-        job is None
-        or end >= tol_next
-        or t_next <= end + tol
-        or (queue and queue[0][0] <= end)
-        or not job._st.simple
-        or job._st.job_end_hooks
-    ):
+    (the job after the top task's, simple and without job-end hooks: the caller checks that;
+    running since ``start``, its work ``x`` with the lag ends at ``end``, its progress
+    ``executed`` and ``preemptions``) ends before the next timer ``t_next``: it completes
+    (`CPU._complete`) and the first ready job gets the CPU, its segment started (a constant
+    time, no hook). None if not done here: a wider coincidence window (``tol_next``), a timer
+    or SimPy event due at its end. Else (go on: nothing else happens at now; now, its lag,
+    switches, the job that runs or None, its remaining work, that plus the lag, its end or
+    inf, the next timer, its CPU time and preemptions): no job runs (it is not started) if a
+    timer is due at now or its segment starts by a call, and the loop goes on at now, as it
+    does if the job ends at once."""
+    queue, tol = cpu.env._queue, cpu._tol  # (SimPy's: runs are booked where the clock jumps;
+    # the coincidence window at ``start``, as in the run: it ends where the window widens)
+    if end >= tol_next or t_next <= end + tol or (queue and queue[0][0] <= end):
         return None
     y = end - start  # (the end's lag: the wait's now_lag)
     lag = (start - (end - y)) + (x - y)

@@ -109,7 +109,10 @@ class Job:
         self.executed = 0.0
         self.arrival = release if arrival is None else arrival
         self.held = False
-        self.key, self.tie = st.order(self)
+        if st.by_priority:  # (FixedPriority.order, without its call)
+            self.key, self.tie = st.priority, seq
+        else:
+            self.key, self.tie = st.order(self)
 
     @property
     def segment(self) -> Segment | None:
@@ -162,12 +165,14 @@ class _TaskState:
         "seg_const",
         "plain_next",
         "hooked_next",
+        "idle_next",
         "last_plain",
         "zero_tail",
         "index",
         "jitter",
         "jrng",
         "order",
+        "by_priority",
         "stream_t",
         "stream_k",
         "stream_p",
@@ -208,6 +213,7 @@ class _TaskState:
         self.plain_next: list[bool] = []  # segment i has no end hooks, i + 1 is a CPU segment
         # segment i's end hooks where i + 1 is a CPU segment (else None)
         self.hooked_next: list[list[SegmentHook] | None] = []
+        self.idle_next: list[bool] = []  # segment i + 1 is an idle suspension (no empty step)
         self.last_plain: list[bool] = []  # segment i is the last, without end hooks
         # segment i > 0 and every one after it are empty (no time, no resource): run at once
         self.zero_tail: list[bool] = []
@@ -215,6 +221,7 @@ class _TaskState:
         self.jitter = 0.0  # release jitter in force (0 under jitter="none")
         self.jrng: np.random.Generator | None = None  # release delays, own stream
         self.order: Callable[[Job], tuple[Any, Any]] = _unset_order  # the policy's (key, tie)
+        self.by_priority = False  # the order is the fixed-priority one: (priority, seq)
         # a provided or per-window period: the arrival (and its index) where the period in
         # force, stream_p, started (cpu.CPU._release)
         self.stream_t = 0.0
