@@ -249,17 +249,8 @@ class FollowerArrays(CompiledFollowerGroup):
 def compiled_motion(motion: MotionModel) -> Any:
     """A motion model's ``leader`` (the leader's travel) compiled, called directly (`entry`:
     floats at every call), for `rtsim.world.world.World` (whose estimates carry the belief
-    in `CompiledEstimates`' kernels): compiled (or loaded) at its first call, as the
-    compiled world advances its leader inside its own kernel (`world_advance`) and never
-    calls it."""
-    built: list[Any] = []
-
-    def travel(v0: float, vt: float, accel: float, decel: float, dt: float) -> Any:
-        if not built:
-            built.append(built_entry(kernels(motion).leader_travel, (0.0,) * 5))
-        return built[0](v0, vt, accel, decel, dt)
-
-    return travel
+    in `CompiledEstimates`' kernels)."""
+    return entry(kernels(motion).leader_travel, (0.0,) * 5)
 
 
 class _Kernel:
@@ -394,9 +385,9 @@ class CompiledEstimates:
             f.bind(self, k)
         self.accel = accel
         self.ekf_args = (accel, *_squares(params), max(params.measurement_noise, 0.01) ** 2)
-        self._motion = motion
         ker = kernels(motion)
         x = 0.0
+        self._scan = entry(ker.est_scan, (E, np.zeros((n, 3)), *(x,) * 10, True))
         self._one, self._all = np.empty((1, 7)), np.empty((n, 7))  # (`est_carry`'s rows)
         self._carry = entry(ker.est_carry, (E, 0, x, x, self._all))
         self._ftl = ker.est_command_ftl
@@ -404,10 +395,6 @@ class CompiledEstimates:
     # (compiled at its first call: the law's fused command, `est_command_ftl`, holds its
     # commands inside its kernel, and the shipped scenarios' runs never call this one)
     _hold = _Kernel("est_hold", lambda self: (self.E, 0, 0.0, 0.0, 0.0))
-    # (likewise: the compiled world's fused scan runs it inside its kernel, `scan_step`)
-    _scan = _Kernel(
-        "est_scan", lambda self: (self.E, np.zeros((len(self.E), 3)), *(0.0,) * 11, True)
-    )
 
     def scan(
         self, t: float, lp: tuple[float, float, float], fixes: Any, var: float, track: bool

@@ -121,6 +121,8 @@ ENTRIES: dict[str, Any] = {
     "advance_group": group_advance,
     "advance_world": world_advance,
     "hypot": cpython_hypot,
+    "leader_travel": leader_travel,
+    "est_scan": est_scan,
     "est_carry": est_carry,
     "est_command_ftl": est_command_ftl,
 }
@@ -135,12 +137,9 @@ ENTRIES: dict[str, Any] = {
 #: which the compiled world runs inside its estimates' kernels (`rtsim.world.estimates`:
 #: `est_command_ftl` holds the command the law gives), the law's projection, which the
 #: truth log runs inside its own (`rtsim.coupling.physical`), and only a filter or a law driven on
-#: its own calls; the leader's travel and the estimates' scan step, which the compiled
-#: world runs inside its kernels (`world_advance`, `rtsim.world.scanstep`) and only a
-#: leader driven on its own (`rtsim.world.compiled.compiled_motion`) or a scan estimated
-#: apart from the fused scan (`CompiledEstimates.scan`) calls (each an entry of its own
-#: only then: inside the kernels that call it, it is compiled without numba's wrappers,
-#: not optimised nor emitted on its own, `rtsim.world.jit`)
+#: its own calls (each an entry of its own only then: inside the kernels that call it, it
+#: is compiled without numba's wrappers, not optimised nor emitted on its own,
+#: `rtsim.world.jit`)
 LAZY_ENTRIES: dict[str, Any] = {
     "advance_follower": follower_advance,
     "ftl_reference": ftl_reference,
@@ -153,18 +152,18 @@ LAZY_ENTRIES: dict[str, Any] = {
     "ekf_command": ekf_command,
     "ekf_update": ekf_update,
     "belief_step": belief_step,
-    "leader_travel": leader_travel,
-    "est_scan": est_scan,
 }
 
 #: the lazy entries that run a motion model's parts (built with its substitutions)
-LAZY_MOTION = ("ekf_command", "belief_step", "advance_follower", "leader_travel", "est_scan")
+LAZY_MOTION = ("ekf_command", "belief_step", "advance_follower")
 
 #: the entries that run a motion model's parts (built again for a model other than the
 #: unicycle: `kernels`)
 MOTION_ENTRIES = (
     "advance_group",
     "advance_world",
+    "leader_travel",
+    "est_scan",
     "est_carry",
     "est_command_ftl",
 )
@@ -287,8 +286,10 @@ def _warm(ns: Any) -> None:
     G = (np.zeros(1), np.zeros(3), np.zeros(1), 100.0, np.zeros(1), np.full(1, -1), np.ones(1))
     ns.advance_world(S, 1, 30.0, 10.0, 10.0, 1.0, 2.0, 10.0, 10.0, 0.01, 0.0, G)
     nan1 = np.full(1, math.nan)
+    ns.leader_travel(1.0, 2.0, 10.0, 10.0, 0.02)
     E = new_estimates(1)
     E[0, 3] = E[0, 7] = E[0, 11] = E[0, 14] = 1.0
+    ns.est_scan(E, np.array([[1.0, 0.0, 1.0]]), 10.0, *([1.0] * 10), True)
     ns.est_carry(E, 0, 20.0, 1.0, np.empty((1, 7)))
     ns.est_command_ftl(
         0, 30.0, 0.0, 1.0, 2.0, 0.01, 0.0, 0.0, E, 1.0, G, nan1, nan1.copy(), 0.5, 10.0, 1.0,
