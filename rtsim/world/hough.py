@@ -54,6 +54,7 @@ __all__ = [
     "ring_cells",
     "ring_steps",
     "window_cells",
+    "window_votes",
 ]
 
 #: The accumulator's cell side (cm): 1 cm² cells make a window of radius r_H cover π·r_H²
@@ -203,7 +204,33 @@ def hough_window(
 ) -> None:
     """One window's Hough transform (module docstring) on the scan points (``px``, ``py``;
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
-    radius ``r_H`` (``cells`` of side ``cell``: `window_cells`). ``work``: the ring's
+    radius ``r_H`` (``cells`` of side ``cell``: `window_cells`), into record ``k`` of
+    ``out`` (`WINDOW_ROW`): `locate_all` with this one window."""
+    locate_all(
+        px, py, owner, np.full(1, cx), np.full(1, cy), r_H, r_F, cell, cells, work,
+        out[k : k + 1],
+    )  # fmt: skip
+
+
+@kernel
+def window_votes(
+    px: NDArray[np.float64],
+    py: NDArray[np.float64],
+    owner: NDArray[np.int64],
+    hits: NDArray[np.int64],
+    nh: int,
+    cx: float,
+    cy: float,
+    r_H: float,
+    r_F: float,
+    cell: float,
+    cells: int,
+    work: Work,
+    out: NDArray[np.void],
+    k: int,
+) -> None:
+    """`hough_window` on the scan points of the beams ``hits[:nh]`` (`locate_all`: the
+    others returned nothing). ``work``: the ring's
     steps (`ring_steps`) and the scratch (`Accumulator`): ``word``, at least (2h+1)² cells,
     h = ⌊r_H/cell⌋, cell (i, j) at i·(2h+1) + j, cleared only when the epochs run out
     (`EPOCHS`) — each point p stamps the cells it votes for with ep + p + 1 (`VOTE_BITS`),
@@ -222,24 +249,15 @@ def hough_window(
     low = (1 << VOTE_BITS) - 1
     lo = r_F - r_H
     hi = r_F + r_H
-    # the points that can count for the owner (|p − fix| ≤ r_F + cell, the fix within r_H
-    # of the centre), a cell to spare
-    far = hi + 2.0 * cell
-    near = np.empty(px.shape[0], np.int64)
-    nn = 0
     voters = 0
     best = 0
     bf = -1
     na = rx.shape[0] // TURNS
-    for p in range(px.shape[0]):
+    for e in range(nh):
+        p = hits[e]
         x = px[p]
         y = py[p]
-        if not (x == x):  # no return
-            continue
         d = math.sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy))
-        if d <= far:
-            near[nn] = p
-            nn += 1
         if d < lo or d > hi:
             continue
         voters += 1
@@ -297,8 +315,10 @@ def hough_window(
     rec["fix_y"] = fy
     for q in range(tally.shape[0]):
         tally[q] = 0
-    for t in range(nn):
-        p = near[t]
+    # (a point that counts lies within r_F + cell of the fix, the fix within r_H of the
+    # centre: every such point is one of the scan's)
+    for e in range(nh):
+        p = hits[e]
         q = owner[p]
         if q < 0:
             continue
@@ -339,9 +359,16 @@ def locate_all(
     out: NDArray[np.void],
 ) -> None:
     """`hough_window` for every follower's window (centres ``cxs``, ``cys``), one
-    `WINDOW_ROW` of ``out`` each."""
+    `WINDOW_ROW` of ``out`` each: `window_votes` on the beams that returned (``px`` not
+    NaN), found once for every window."""
+    hits = np.empty(px.shape[0], np.int64)
+    nh = 0
+    for p in range(px.shape[0]):
+        if px[p] == px[p]:
+            hits[nh] = p
+            nh += 1
     for k in range(cxs.shape[0]):
-        hough_window(px, py, owner, cxs[k], cys[k], r_H, r_F, cell, cells, work, out, k)
+        window_votes(px, py, owner, hits, nh, cxs[k], cys[k], r_H, r_F, cell, cells, work, out, k)
 
 
 def compiled() -> Any:

@@ -130,10 +130,10 @@ PY = {
 
 @kernel
 def scan_step(
-    W: Any, xl: float, yl: float, hl: float, z: Any, laser: Any, beams: Any, E: Any,
-    t: float, a: float, predicted: bool, hough: Any, work: Any, windows: Any, P: Any,
-    first: bool, limits: Any, T: Any, B: Any, N: Any, F: Any, mode: int, ekf: Any,
-    var: float, track: bool,
+    W: Any, xl: float, yl: float, hl: float, z: Any, E: Any, t: float, a: float,
+    predicted: bool, first: bool, mode: int, var: float, track: bool, laser: Any,
+    beams: Any, hough: Any, work: Any, windows: Any, P: Any, limits: Any, T: Any, B: Any,
+    N: Any, F: Any, ekf: Any,
 ) -> float:  # fmt: skip
     """One scan (module docstring) of the followers whose truth is ``W`` (rows x, y,
     odometer) seen by the leader at (``xl``, ``yl``, ``hl``): ``laser`` = (r_F, max range,
@@ -149,7 +149,8 @@ def scan_step(
     `World.estimate` with them (`est_scan` on ``E`` at ``t`` with ``ekf`` = (a, σ_v², σ_ω²,
     q_p², q_θ², r), the heading variance's max so far ``var``, ``track``), returning its
     result (else −1: the caller searches and asks for mode 2); 2: `est_scan` with ``F`` as
-    given, alone."""
+    given, alone. The arguments from ``laser`` on are the same at every call of a world
+    (`FusedScan`: one tuple)."""
     ea, sv2, sw2, qp2, qh2, r = ekf
     if mode == 2:
         return est_scan(E, F, t, ea, sv2, sw2, qp2, qh2, r, xl, yl, hl, var, track)
@@ -204,14 +205,15 @@ def scan_step(
 
 def _arguments(n: int, E: Any, laser: Any, beams: Any, hough: Any, work: Any, windows: Any) -> Any:
     """Arguments of `scan_step`'s types at every call for ``n`` followers, with these
-    parts (the others zeros)."""
+    parts (the others zeros): the ones that change per call, then the fixed ones (``P``,
+    ``limits``, ``T``, ``B``, ``N``, ``F`` at 5, 6, 7, 8, 9, 10 of them)."""
     x = 0.0
     limits = (np.zeros(n), np.zeros(n), x)
     T, B = np.zeros((len(FLOAT_ROWS), n)), np.zeros((len(FLAG_ROWS), n), dtype=np.bool_)
     N, F = np.zeros((2, n), dtype=np.int64), np.zeros((n, 3))
-    args = (np.zeros((3, n)), x, x, x, np.zeros(LASER_POINTS), laser, beams, E, x, x, True)
-    est = (0, (x,) * 6, x, True)
-    return (*args, hough, work, windows, np.zeros((5, n)), True, limits, T, B, N, F, *est)
+    each = (np.zeros((3, n)), x, x, x, np.zeros(LASER_POINTS), E, x, x, True, True, 0, x, True)
+    fixed = (laser, beams, hough, work, windows, np.zeros((5, n)), limits, T, B, N, F, (x,) * 6)
+    return each, fixed
 
 
 def warm() -> None:
@@ -221,10 +223,10 @@ def warm() -> None:
     owner = np.zeros(LASER_POINTS, dtype=np.int64)
     dummy = _dummy(every=True)  # (the accumulator's work and records)
     laser = (1.0, 1.0, 0.0, BEAM_COS, BEAM_SIN)
-    args = _arguments(
+    each, fixed = _arguments(
         1, new_estimates(1), laser, (px, px, owner, owner), (1.0, 1.0, 1, 1), *dummy[9:]
     )
-    built_entry(build(scan_step), args)
+    built_entry(build(scan_step), (*each, *fixed))
 
 
 class FusedFields(dict[str, Any]):
@@ -271,18 +273,30 @@ class FusedScan:
         self.beams = (rf.px, rf.py, rf.owner, rf.counts)
         self.hough = (float(r_H), acc.cell, acc.cells(r_H), int(config.sensing.min_points))
         self.work, self.windows = acc.work, acc.out
-        args = _arguments(n, E, self.laser, self.beams, self.hough, self.work, self.windows)
-        self.P: Array = args[14]
-        self.T: Array = args[17]
-        self.B: NDArray[np.bool_] = args[18]
-        self.N: NDArray[np.int64] = args[19]
-        self.F: Array = args[20]
+        each, fixed = _arguments(n, E, self.laser, self.beams, self.hough, self.work, self.windows)
+        self.P: Array = fixed[5]
+        self.T: Array = fixed[7]
+        self.B: NDArray[np.bool_] = fixed[8]
+        self.N: NDArray[np.int64] = fixed[9]
+        self.F: Array = fixed[10]
         sep, trav = limits
         self.limits = (np.array(sep, dtype=float), np.array(trav, dtype=float), float(T_beta))
         self.first = True
-        self._step = built_entry(build(scan_step, motion.subs), args)
-        #: `scan_step`'s EKF constants (`CompiledEstimates.ekf_args`), set by the world
-        self.ekf: tuple[float, ...] = (0.0,) * 6
+        self._step = built_entry(build(scan_step, motion.subs), (*each, *fixed))
+        self.ekf = fixed[-1]
+
+    @property
+    def ekf(self) -> tuple[float, ...]:
+        """`scan_step`'s EKF constants (`CompiledEstimates.ekf_args`), set by the world."""
+        return self._fixed[-1]  # type: ignore[no-any-return]
+
+    @ekf.setter
+    def ekf(self, value: tuple[float, ...]) -> None:
+        #: `scan_step`'s arguments that are the same at every call, with ``value``
+        self._fixed: tuple[Any, ...] = (
+            self.laser, self.beams, self.hough, self.work, self.windows, self.P,
+            self.limits, self.T, self.B, self.N, self.F, value,
+        )  # fmt: skip
 
     def run(
         self,
@@ -303,9 +317,7 @@ class FusedScan:
         result, or −1 when none was made."""
         xl, yl, hl = lp
         out: float = self._step(
-            W, xl, yl, hl, z, self.laser, self.beams, E, t, a, predicted, self.hough,
-            self.work, self.windows, self.P, self.first, self.limits,
-            self.T, self.B, self.N, self.F, mode, self.ekf, var, track,
+            W, xl, yl, hl, z, E, t, a, predicted, self.first, mode, var, track, *self._fixed
         )  # fmt: skip
         if mode != 2:
             self.first = False

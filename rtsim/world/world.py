@@ -550,7 +550,8 @@ class World:
             scan = self.scan(t_ms)
             self.estimate(scan)
             return scan
-        self._not_older(t_ms)
+        if t_ms < self._est_t:
+            self._not_older(t_ms)  # (raises)
         self.advance(t_ms)
         return self._scan_fused(t_ms, True)
 
@@ -575,7 +576,7 @@ class World:
         if not predicted:
             fused.T[2:4] = np.array(self._centre).T
         W = fol.W  # type: ignore[attr-defined]  # (the truth's rows x, y, odometer)
-        z = model.draw(LASER_POINTS)
+        z = self._draw(LASER_POINTS)  # (the model's draw)
         E, a, var = self._arr.E, self._accel, self.max_heading_var
         est = fused.run(W, lp, z, E, t_ms, a, predicted, 1 if estimate else 0, var, predicted)
         T = fused.T.tolist()

@@ -98,3 +98,22 @@ def test_entry_types_a_changed_argument_again() -> None:
     # a build looked up at every call: the kept types of an unbuilt signature find no build
     unbuilt = (np.float32(1.0), 0.0)
     assert entry(disp, unbuilt) is disp
+
+
+def test_built_entry_compiles_only_a_signature_it_has_not_built(monkeypatch) -> None:
+    """`built_entry` asks numba to compile only when the arguments' types have no build yet
+    (a sweep's next point finds its builds by the kept types, without typing again), and
+    returns the build's entry either way."""
+    import numba
+
+    from rtsim.world.kernels import built_entry
+
+    disp = numba.njit(lambda x, y: x + y)  # (a dispatcher of its own: no build yet)
+    calls: list[object] = []
+    real = disp.compile
+    monkeypatch.setattr(disp, "compile", lambda sig: calls.append(sig) or real(sig))
+    first = built_entry(disp, (1.0, 2.0))
+    assert len(calls) == 1 and first is not disp and first(1.0, 2.0) == 3.0
+    assert built_entry(disp, (1.0, 2.0)) is first and len(calls) == 1  # (kept: no compile)
+    other = built_entry(disp, (np.zeros(2), 2.0))  # (other types: compiled, then its entry)
+    assert len(calls) == 2 and other is not first and other(np.ones(2), 2.0).tolist() == [3.0, 3.0]
