@@ -16,9 +16,11 @@ strings at once (a float by ``repr``, which is what pandas writes — numpy's ``
 float64 is the same shortest round-trip form —, NaN and None as empty cells, a string
 quoted only when it holds a comma, a quote or a line break, as the ``csv`` module's
 QUOTE_MINIMAL does) and the rows joined, which gives the bytes of ``to_csv`` several times
-faster. A producer that has its chunk as columns (`ChunkWriter.write_columns`) or as
-row tuples (`ChunkWriter.write_rows`) skips the DataFrame altogether; a column type
-the formatter does not know (categoricals, dates, ...) is written by pandas.
+faster; from `ARROW_MIN` rows on, Arrow formats and joins the cells, and the joined rows'
+data is written as it is (`csv_parts`). A producer that has its chunk as columns
+(`ChunkWriter.write_columns`) or as row tuples (`ChunkWriter.write_rows`) skips the
+DataFrame altogether; a column type the formatter does not know (categoricals, dates,
+...) is written by pandas.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ from numpy.typing import NDArray
 from rtsim.errors import InputError
 from rtsim.io.atomic import naming
 
-__all__ = ["ChunkWriter", "csv_text", "float_texts", "iter_columns", "read_columns"]
+__all__ = ["ChunkWriter", "csv_parts", "csv_text", "float_texts", "iter_columns", "read_columns"]
 
 #: Rows parsed at a time when a CSV is read back (the parser's buffers stay small).
 READ_ROWS = 65536
@@ -98,48 +100,75 @@ ARROW_ROWS = 16384
 #: ``.0`` that ``repr`` adds to a whole number (Arrow writes 1e-05 as 0.00001 and 1e10 as
 #: 1e+10; ``repr`` switches to an exponent below 1e-4 and from 1e16 on).
 ARROW_RANGE = (1e-4, 1e10)
+#: Whole numbers below this magnitude are written from their integer: ``repr`` of one is
+#: ``str(int(x)) + ".0"`` up to 1e16, where it turns to an exponent (-0.0 aside).
+WHOLE_MAX = 1e16
 
 
-def _arrow_floats(a: NDArray[np.float64], nan: str | None) -> Any:
+def _whole_texts(x: NDArray[np.float64]) -> Any:
+    """``repr`` of whole numbers below `WHOLE_MAX` as Arrow strings: the digits of ten
+    times the integer (Arrow's integer cast, 2-3x faster than a float's) with a point put
+    before the last one (``40.0`` from ``400``); zeros as ``0.0`` and ``-0.0``."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    digits = pc.cast(pa.array(x.astype(np.int64) * 10), pa.string())
+    s = pc.binary_replace_slice(digits, -1, -1, ".")
+    zero = x == 0.0
+    if zero.any():  # (its digits "0" would give ".0")
+        s = pc.if_else(pa.array(zero), "0.0", s)
+        neg = zero & np.signbit(x)
+        if neg.any():
+            s = pc.if_else(pa.array(neg), "-0.0", s)
+    return s
+
+
+def _float_cells_of(a: NDArray[np.float64], nan: str | None) -> Any:
     """``repr`` of every value of ``a`` (float64) as an Arrow string array (NaN as ``nan``
-    when given): Arrow's float-to-string cast writes the same shortest round-trip digits
-    (both give the shortest string that reads back as the same double, the closest one of
-    them), so within `ARROW_RANGE` (and for zeros) its text is ``repr``'s once a whole
-    number gets its ``.0``; the values outside it (NaN, infinities, huge or tiny ones) are
-    formatted by ``repr``. (Tested against ``repr`` on random doubles of every magnitude
+    when given).
+
+    Three kinds of values: a whole number below `WHOLE_MAX` by `_whole_texts`; another
+    within `ARROW_RANGE` by Arrow's float-to-string cast, which writes the same shortest
+    round-trip digits as ``repr`` (both give the shortest string that reads back as the
+    same double, the closest one of them; the range is where it writes them in ``repr``'s
+    form, whole numbers aside); any other (NaN, infinities, tiny or huge values) by
+    ``repr``. The more common of the first two is formatted over the whole array, the
+    values of the other kinds apart (this function again), and their texts put in their
+    places by one ``take``. (Tested against ``repr`` on random doubles of every magnitude
     and on the runs' own columns.)"""
     import pyarrow as pa
     import pyarrow.compute as pc
 
-    m = np.abs(a)
     lo, hi = ARROW_RANGE
-    other = ~(((m >= lo) & (m < hi)) | (m == 0.0))
-    s = pc.cast(pa.array(a), pa.string())
-    # within the range Arrow writes a whole number (zeros too) without a point, any other
-    # with one: the whole ones get their .0 (found by numpy, not in the text)
+    m = np.abs(a)
     with np.errstate(invalid="ignore"):  # (a signalling NaN's floor)
-        whole = (np.floor(a) == a) & ~other
+        whole = (np.floor(a) == a) & (m < WHOLE_MAX)
+    plain = (m >= lo) & (m < hi) & ~whole
     n_whole = int(np.count_nonzero(whole))
-    if not other.any():
-        if 2 * n_whole > len(a):  # (mostly whole: a suffix for every cell, "" or ".0")
-            return pc.binary_join_element_wise(s, pc.if_else(pa.array(whole), ".0", ""), "")
-        if n_whole:
-            w = pa.array(whole)
-            s = pc.replace_with_mask(s, w, pc.binary_join_element_wise(pc.filter(s, w), ".0", ""))
-        return s
-    # the cells to rewrite (whole numbers and the others) in one pass over the column: a
-    # whole one's text and ".0", another's repr (NaN as ``nan``)
-    texts = [repr(x) for x in a[other].tolist()]
-    if nan is not None:
-        texts = [nan if t == "nan" else t for t in texts]
-    fix = whole | other
-    sub = pa.array(texts, pa.string())
-    if n_whole:
-        is_other = pa.array(other[fix])
-        sub = pc.filter(s, pa.array(fix))
-        sub = pc.binary_join_element_wise(sub, ".0", "")  # (the others' replaced next)
-        sub = pc.replace_with_mask(sub, is_other, pa.array(texts, pa.string()))
-    return pc.replace_with_mask(s, pa.array(fix), sub)
+    n_plain = int(np.count_nonzero(plain))
+    if not (n_whole or n_plain):
+        texts = [repr(x) for x in a.tolist()]
+        if nan is not None:
+            texts = [nan if t == "nan" else t for t in texts]
+        return pa.array(texts, pa.string())
+    if n_plain >= n_whole:
+        base, fix = pc.cast(pa.array(a), pa.string()), ~plain
+    else:
+        base, fix = _whole_texts(np.where(whole, a, 0.0)), ~whole
+    n = len(a)
+    k = n - max(n_whole, n_plain)
+    if not k:
+        return base
+    sub = _float_cells_of(a[fix], nan)
+    at = np.arange(n)
+    at[fix] = np.arange(n, n + k)
+    return pc.take(pa.concat_arrays([base, sub]), pa.array(at))
+
+
+def _arrow_floats(a: NDArray[np.float64], nan: str | None) -> Any:
+    """``repr`` of every value of ``a`` (float64) as an Arrow string array (NaN as ``nan``
+    when given): `_float_cells_of`."""
+    return _float_cells_of(a, nan)
 
 
 def float_texts(a: NDArray[np.float64]) -> list[str]:
@@ -166,8 +195,14 @@ def _texts(values: Any, kind: str) -> list[str] | None:
     if kind == "b":
         return list(map(_BOOL_TEXT.__getitem__, np.asarray(values, dtype=bool).tolist()))
     vals = values.tolist() if isinstance(values, np.ndarray) else list(values)
-    if set(map(type, vals)) == _STR:  # every value a str: written as it is (no loop here)
-        out = vals
+    try:
+        distinct = set(vals)  # (a run's names: a few, checked once each)
+    except TypeError:  # (an unhashable value: the loop below)
+        distinct = {None}  # type: ignore[arg-type]
+    if set(map(type, distinct)) == _STR:  # every value a str: written as it is
+        if _SPECIAL.isdisjoint("".join(distinct)):
+            return vals
+        return [_quote(v) for v in vals]
     else:
         out = []
         for v in vals:
@@ -199,9 +234,11 @@ def _arrow_cells(values: Any, kind: str) -> Any:
     return None if t is None else pa.array(t, pa.string())
 
 
-def _arrow_lines(columns: Sequence[Any], kinds: Sequence[str]) -> list[str] | None:
-    """The rows of `csv_text` for ``columns`` (without the header), each column's cells
-    and the rows joined by Arrow (`_arrow_cells`); None as `csv_text`."""
+def _arrow_block(columns: Sequence[Any], kinds: Sequence[str], sep: str) -> Any:
+    """The rows of `csv_text` for ``columns`` (without the header) as UTF-8 bytes (an Arrow
+    buffer): each column's cells (`_arrow_cells`) and the rows joined by Arrow, each row
+    ended by ``sep``, the joined strings' data being the text itself; None as
+    `csv_text`."""
     import pyarrow.compute as pc
 
     floats = [i for i, k in enumerate(kinds) if k == "f"]
@@ -214,15 +251,22 @@ def _arrow_lines(columns: Sequence[Any], kinds: Sequence[str]) -> list[str] | No
         if c is None:
             return None
         cells.append(c)
-    return pc.binary_join_element_wise(*cells, ",").to_pylist()  # type: ignore[no-any-return]
+    cells[-1] = pc.binary_join_element_wise(cells[-1], "", sep)  # (the last cell, sep)
+    rows = pc.binary_join_element_wise(*cells, ",")
+    _, offsets, data = rows.buffers()
+    at = np.frombuffer(offsets, dtype=np.int32)[[rows.offset, rows.offset + len(rows)]]
+    return data.slice(int(at[0]), int(at[1] - at[0]))
 
 
 def _float_cells(columns: Sequence[Any], floats: list[int]) -> dict[int, Any]:
     """The cells of the float columns ``floats`` of ``columns`` (index -> Arrow strings),
-    formatted in one `_arrow_floats` call: each distinct column once (the same bits give
+    formatted in one `_float_cells_of` call: each distinct column once (the same bits give
     the same text: a copy of another column is its slice again) and a column of one value
-    by that value, repeated (a run's constant columns, the jobs' arrival and release)."""
+    by that value, repeated (a run's constant columns, the jobs' arrival and release);
+    values mostly whole (the jobs' times: a job's deadline is often the next one's
+    release) each distinct one once, put in place by a ``take``."""
     import pyarrow as pa
+    import pyarrow.compute as pc
 
     n = len(columns[0])
     arrays = [np.asarray(columns[i], dtype=np.float64) for i in floats]
@@ -238,12 +282,16 @@ def _float_cells(columns: Sequence[Any], floats: list[int]) -> dict[int, Any]:
         slot[key] = (off, m)
         todo.append(a[:m])
         off += m
-    s = _arrow_floats(np.concatenate(todo), "")
-    out = {}
-    for i, key in zip(floats, keys, strict=True):
-        o, m = slot[key]
-        out[i] = s.slice(o, n) if m == n else pa.repeat(s[o], n)
-    return out
+    a = np.concatenate(todo)
+    with np.errstate(invalid="ignore"):  # (a signalling NaN's floor)
+        repeats = 2 * int(np.count_nonzero(np.floor(a) == a)) > len(a)
+    if repeats:  # mostly whole numbers (times on a grid): each distinct value once
+        enc = pc.dictionary_encode(pa.array(a.view(np.int64)))  # (by bits: -0.0 is not 0.0)
+        s = pc.take(_arrow_floats(enc.dictionary.to_numpy().view(np.float64), ""), enc.indices)
+    else:
+        s = _arrow_floats(a, "")
+    made = {key: s.slice(o, n) if m == n else pa.repeat(s[o], n) for key, (o, m) in slot.items()}
+    return {i: made[key] for i, key in zip(floats, keys, strict=True)}
 
 
 def _each(columns: Sequence[Any], kinds: Sequence[str], cells: Any) -> list[Any] | None:
@@ -264,28 +312,35 @@ def csv_text(
     ``columns`` (equal-length sequences or arrays, one per column) of `column_kind`
     ``kinds``; None when a value is not one the fast path formats exactly (the caller then
     uses pandas)."""
+    parts = csv_parts(columns, kinds, header)
+    return None if parts is None else b"".join(parts).decode("utf-8")
+
+
+def csv_parts(
+    columns: Sequence[Any], kinds: Sequence[str], header: Sequence[str] | None = None
+) -> list[Any] | None:
+    """`csv_text` as UTF-8 bytes, in parts (bytes-like objects: Arrow's own buffers, not
+    copied) to write one after another."""
     sep = os.linesep
     if len(columns) < 2:  # a lone empty field is quoted by the csv module: leave it to pandas
         return None
     n = len(columns[0])
+    parts: list[Any] = []
+    if header is not None:
+        parts.append((",".join(_quote(str(h)) for h in header) + sep).encode("utf-8"))
     if n < ARROW_MIN:
         texts = _each(columns, kinds, _texts)
         if texts is None:
             return None
-        lines = list(map(",".join, zip(*texts, strict=True)))
+        if n:
+            parts.append((sep.join(map(",".join, zip(*texts, strict=True))) + sep).encode())
     else:  # (by Arrow, ARROW_ROWS rows at a time: its strings hold up to 2 GB)
-        lines = []
         for i in range(0, n, ARROW_ROWS):
-            part = _arrow_lines([c[i : i + ARROW_ROWS] for c in columns], kinds)
+            part = _arrow_block([c[i : i + ARROW_ROWS] for c in columns], kinds, sep)
             if part is None:
                 return None
-            lines += part
-    if header is not None:
-        lines.insert(0, ",".join(_quote(str(h)) for h in header))
-    if not lines:
-        return ""
-    lines.append("")
-    return sep.join(lines)
+            parts.append(part)
+    return parts
 
 
 class ChunkWriter:
@@ -368,7 +423,7 @@ class ChunkWriter:
         """Write one chunk: ``frame`` a DataFrame or a function making it (pandas' CSV path,
         Parquet), ``columns`` a function giving the columns for `csv_text`."""
         df = frame if isinstance(frame, pd.DataFrame) else None
-        text: str | None = None
+        text: list[Any] | None = None
         tried = None in kinds
         for p in self.paths:
             with naming(p):
@@ -383,9 +438,9 @@ class ChunkWriter:
         frame: Any,
         columns: Any,
         kinds: list[str | None],
-        text: str | None,
+        text: list[Any] | None,
         tried: bool,
-    ) -> tuple[Any, str | None, bool]:
+    ) -> tuple[Any, list[Any] | None, bool]:
         """One file's part of `_append`; returns (the frame, the CSV text, tried)."""
         if p.suffix.lower() == ".csv":
             if not tried:
@@ -395,11 +450,13 @@ class ChunkWriter:
                     table = self.empty if df is None else df
                     assert table is not None  # (the empty table, or the frame written)
                     header = list(table.columns)
-                text = csv_text(columns(), kinds, header)  # type: ignore[arg-type]
-            with open(p, "w" if self.chunks == 0 else "a", encoding="utf-8", newline="") as fh:
-                if text is not None:
-                    fh.write(text)
-                else:
+                text = csv_parts(columns(), kinds, header)  # type: ignore[arg-type]
+            if text is not None:
+                with open(p, "wb" if self.chunks == 0 else "ab") as fb:
+                    for part in text:
+                        fb.write(part)
+            else:
+                with open(p, "w" if self.chunks == 0 else "a", encoding="utf-8", newline="") as fh:
                     if df is None:
                         df = frame()
                     df.to_csv(fh, index=False, header=self.chunks == 0)

@@ -262,3 +262,21 @@ def test_repeated_constant_and_whole_columns_give_pandas_bytes() -> None:
     )
     assert _ours(df) == _pandas(df)
     assert _ours(df.iloc[:1]) == _pandas(df.iloc[:1])
+
+
+def test_mostly_whole_floats_are_repr() -> None:
+    """Whole numbers of every magnitude below and around 1e16 (both signs, zeros, -0.0)
+    as most of an array, the others among them: their texts (from the integers) and the
+    others' are repr's; the same as columns of a table (each distinct value formatted
+    once) give pandas' bytes."""
+    rng = np.random.default_rng(45)
+    whole = np.floor(rng.random(30_000) * 10.0 ** rng.integers(0, 17, 30_000))
+    whole *= rng.choice([-1.0, 1.0], len(whole))
+    edges = [0.0, -0.0, 1.0, -1.0, 9.0, 10.0, 1e15, 1e16, 9999999999999998.0, 2.0**53]
+    a = np.concatenate([whole, np.array(edges * 50), rng.random(5_000) * 1e3, np.array(EDGE)])
+    rng.shuffle(a)
+    assert float_texts(a) == list(map(repr, a.tolist()))
+    times = np.round(rng.random(4 * ARROW_MIN) * 40) * 40.0  # (repeated: formatted once)
+    df = pd.DataFrame({"r": times, "d": times + 40.0, "z": np.where(times > 600, -0.0, 0.0)})
+    df["x"] = np.where(np.arange(len(df)) % 9 == 0, times + 0.25, times)
+    assert _ours(df) == _pandas(df)
