@@ -567,7 +567,9 @@ def _search_into(
     # floor when none passes
     scan_m = np.empty(grid)
     scan_r = np.empty(grid, dtype=np.int64)
-    scan_cut = np.zeros(grid, dtype=np.int64)  # (0/1: the int64 zeros _plan_decide compiles)
+    scan_cut = np.empty(grid, dtype=np.int64)  # 0/1 (np.empty filled: `_plan_decide`'s note)
+    for j in range(grid):
+        scan_cut[j] = 0
     m_floor, r_floor = -math.inf, -1
     r = first
     r_v = -1
@@ -702,13 +704,19 @@ def _plan_decide(
     out[6] = 0.0
     nw = changes.shape[1]
     # the horizon's events, the same for every speed; the leaders of its rollouts; the
-    # rollouts' scratch
-    hl = np.full(nw, w)
+    # rollouts' scratch. (Arrays as np.empty filled by loops, its dtype by keyword, in every
+    # kernel: numba compiles np.empty once per calling style, and np.zeros and np.full each
+    # compile one more of their own.)
+    hl = np.empty(nw)
+    for j in range(nw):
+        hl[j] = w
     ev = _events(hl, P)
     W = _work(P, nw)
     traces = np.empty((speeds.shape[0], ev[0].shape[0], 2))
     ms = np.empty(speeds.shape[0])
-    dones = np.zeros(speeds.shape[0], dtype=np.int64)
+    dones = np.empty(speeds.shape[0], dtype=np.int64)
+    for j in range(speeds.shape[0]):
+        dones[j] = 0
     zero = 0 * nw  # (an int64, not the literal 0: one compiled _rollout_worst for every call)
     # (one call site of the search: the search-only decision and the plan's search share it)
     first = 0 if search_only else 1
@@ -729,7 +737,8 @@ def _plan_decide(
         runs = 1
         if ww > w:  # the longer first window, checked by its own rollout
             speeds[1], lens[1] = v_ld, 2
-            one = np.full(1, ww)
+            one = np.empty(1)
+            one[0] = ww
             ev_w = _events(one, P)
             m_w = _rollout_worst(
                 v_ld,

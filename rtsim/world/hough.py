@@ -206,10 +206,9 @@ def hough_window(
     NaN: no return) whose beams hit ``owner`` (−1: none), window centre (``cx``, ``cy``),
     radius ``r_H`` (``cells`` of side ``cell``: `window_cells`), into record ``k`` of
     ``out`` (`WINDOW_ROW`): `locate_all` with this one window."""
-    locate_all(
-        px, py, owner, np.full(1, cx), np.full(1, cy), r_H, r_F, cell, cells, work,
-        out[k : k + 1],
-    )  # fmt: skip
+    cxs, cys = np.empty(1), np.empty(1)  # (not np.full: `locate_all`'s note on np.empty)
+    cxs[0], cys[0] = cx, cy
+    locate_all(px, py, owner, cxs, cys, r_H, r_F, cell, cells, work, out[k : k + 1])
 
 
 @kernel
@@ -361,7 +360,9 @@ def locate_all(
     """`hough_window` for every follower's window (centres ``cxs``, ``cys``), one
     `WINDOW_ROW` of ``out`` each: `window_votes` on the beams that returned (``px`` not
     NaN), found once for every window."""
-    hits = np.empty(px.shape[0], np.int64)
+    # (np.empty's dtype by keyword, as every kernel writes it: numba compiles np.empty once
+    # per calling style, not per signature; np.zeros and np.full each compile one more)
+    hits = np.empty(px.shape[0], dtype=np.int64)
     nh = 0
     for p in range(px.shape[0]):
         if px[p] == px[p]:
