@@ -896,25 +896,18 @@ class PlanPolicy:
         coupled run asks for it (`rtsim.coupling.scenario_run`)."""
         if type(self).decide is not _PLAN_DECIDE:  # (overridden, or replaced since)
             return None
-        fixed = self._fixed(ctx)
         planned = self._planned
-        keep, need, cap, v_floor = fixed
-        v_ld, w_sch, windows, contact = ctx.v_ld, ctx.w_sch, self.windows, self.contact
+        keep, need, cap, v_floor = self._fixed(ctx)
+        contact = self.contact
         seen: list[Any] = [None, 0.0]  # (the last rollout's base and its d_c: a run's one)
 
         def decider(ro: Any) -> Decision:
-            # (`_planned` written out for a rollout with a compiled decision: d_c read once
-            # per base, no Decision's fields looked up again)
-            base = getattr(ro, "base", None)
-            plan = getattr(ro, "plan", None)
-            if base is None or plan is None:
-                return planned(ro, ctx, *fixed)
+            base = getattr(ro, "base", None)  # (d_c read once per base)
+            if base is None:
+                return planned(ro, ctx, keep, need, cap, v_floor)
             if base is not seen[0]:
                 seen[0], seen[1] = base, _contact_cm(ro) if contact else 0.0
-            hit = plan(v_ld, keep, need, cap, v_floor, windows, w_sch, seen[1])
-            if hit is None:  # the same decision in Python
-                return self._decide(ctx, ro, keep, need, cap, v_floor, seen[1])
-            return _planned_decision(hit, v_ld)
+            return planned(ro, ctx, keep, need, cap, v_floor, seen[1])
 
         return decider
 
@@ -924,16 +917,24 @@ class PlanPolicy:
         return 1.0 - self.margin, ctx.w_sch * (1.0 - TOL), cap, ctx.floor_frac * ctx.v_ld
 
     def _planned(
-        self, ro: Any, ctx: PolicyInput, keep: float, need: float, cap: float, v_floor: float
+        self,
+        ro: Any,
+        ctx: PolicyInput,
+        keep: float,
+        need: float,
+        cap: float,
+        v_floor: float,
+        d_c: float | None = None,
     ) -> Decision:
-        """`decide` on rollout ``ro`` (``ctx``'s other fields, `_fixed`'s numbers)."""
+        """`decide` on rollout ``ro`` (``ctx``'s other fields, `_fixed`'s numbers; ``d_c``,
+        the contact bound's, when the caller has read it)."""
         if ro is None:
             raise InputError(
                 "plan: needs the leader's rollout (PolicyInput.rollout), which a "
                 "coupled run with follow-the-leader followers fills"
             )
-        # the contact bound's d_c (cm; 0: off)
-        d_c = _contact_cm(ro) if self.contact else 0.0
+        if d_c is None:  # the contact bound's d_c (cm; 0: off)
+            d_c = _contact_cm(ro) if self.contact else 0.0
         plan = getattr(ro, "plan", None)  # the rollout's compiled decision, if it has one
         hit = (
             None

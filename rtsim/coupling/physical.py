@@ -203,10 +203,8 @@ class PhysicalLog:
                 xs, ys = np.array(xs, dtype=float), np.array(ys, dtype=float)
             fn(G, sf, xs, ys, xl, yl, rho_d, guess, out, near_k)
             samples = log.samples
-            buf = samples.buf
-            buf += row()
-            if len(buf) >= samples.limit:  # (`ValueSpill.full`: a chunk's worth to the file)
-                samples.flush()
+            samples.buf += row()
+            samples.full()  # (a chunk's worth to the file)
             near: list[float] = near_list()
             count(near)
             return near

@@ -323,7 +323,7 @@ class CPU(ResourceProtocols, TimeSlices):
                 i + 1 == len(segs) and not st.end_hooks[i] and not st.idle_kind[0]
                 for i in range(len(segs))
             ]
-            # segment i + 1 is an idle suspension (not an empty step): `_segment_ends` starts it
+            # segment i + 1 is an idle suspension (not an empty step): `_segment_done` starts it
             st.idle_next = [
                 i + 1 < len(segs) and st.idle_kind[i + 1] and not st.zero_tail[i + 1]
                 for i in range(len(segs))
@@ -554,18 +554,6 @@ class CPU(ResourceProtocols, TimeSlices):
         work, docs/time.md; else _INF)."""
         if self._res_on and job._st.res[job.seg_index] is not None:
             self._unlock(job)
-        st = job._st
-        if st.idle_next[i := job.seg_index]:  # into an idle suspension: _segment_done and
-            seg = st.segs[i]  # _continue without their calls
-            for h in st.end_hooks[i]:
-                h(job, seg)
-            job.seg_index, job.rem = i + 1, None
-            self._start_segment(job, now)
-            heapq.heappush(
-                self._timers,
-                (now + (job.rem + now_lag), _RESUME, job.priority, next(self._seq), _RESUME, job),  # type: ignore[operator]
-            )
-            return None, _INF, 0.0
         self._lag = now_lag
         nxt = self._segment_done(job, now)
         self._lag = 0.0
@@ -703,11 +691,16 @@ class CPU(ResourceProtocols, TimeSlices):
     def _segment_done(self, job: Job, now: float) -> Job | None:
         """End the current segment; return the job if it goes on to a CPU segment."""
         st = job._st
-        seg = st.segs[job.seg_index]
-        for h in st.end_hooks[job.seg_index]:
+        i = job.seg_index
+        seg = st.segs[i]
+        for h in st.end_hooks[i]:
             h(job, seg)
-        job.seg_index += 1
-        job.rem = None
+        job.seg_index, job.rem = i + 1, None
+        if st.plain_next[i] or st.hooked_next[i] is not None:  # on to a CPU segment
+            return job
+        if st.idle_next[i]:  # into an idle suspension (`_continue` without its call)
+            self._suspend(job, now)
+            return None
         return self._continue(job, now)
 
     def _continue(self, job: Job, now: float) -> Job | None:
@@ -733,21 +726,27 @@ class CPU(ResourceProtocols, TimeSlices):
             self._complete(job, now)
             return None
         if st.idle_kind[i]:
-            if not started:
-                self._start_segment(job, now)
-            heapq.heappush(
-                self._timers,
-                (
-                    now + (job.rem + self._lag),  # type: ignore[operator]
-                    _RESUME,
-                    job.priority,
-                    next(self._seq),
-                    _RESUME,
-                    job,
-                ),
-            )
+            self._suspend(job, now, start=not started)
             return None
         return job
+
+    def _suspend(self, job: Job, now: float, start: bool = True) -> None:
+        """``job``'s current segment, an idle suspension, starts at ``now`` (``start`` False:
+        started already); a timer resumes the job at its end (with the dispatcher's lag
+        ``_lag``, docs/time.md)."""
+        if start:
+            self._start_segment(job, now)
+        heapq.heappush(
+            self._timers,
+            (
+                now + (job.rem + self._lag),  # type: ignore[operator]
+                _RESUME,
+                job.priority,
+                next(self._seq),
+                _RESUME,
+                job,
+            ),
+        )
 
     def _resume(self, job: Job, now: float) -> None:
         """An idle-mode suspension ends: trace it, then the job is eligible again."""
@@ -757,18 +756,7 @@ class CPU(ResourceProtocols, TimeSlices):
                 (job.name, job.index, seg.name, seg.kind, False, job.seg_start, now)
             )
         job.rem = 0.0
-        st = job._st
-        if st.plain_next[i := job.seg_index]:  # on to a CPU segment: _segment_done and
-            job.seg_index, job.rem = i + 1, None  # _continue without their calls
-            nxt: Job | None = job
-        elif (hooks := st.hooked_next[i]) is not None:
-            seg = st.segs[i]
-            for h in hooks:
-                h(job, seg)
-            job.seg_index, job.rem = i + 1, None
-            nxt = job
-        else:
-            nxt = self._segment_done(job, now)
+        nxt = self._segment_done(job, now)
         if nxt is not None:
             if self.quantum is not None:  # back from a suspension (rtsim.sim.slices)
                 self._requeue_resumed(nxt)
@@ -971,14 +959,7 @@ class CPU(ResourceProtocols, TimeSlices):
         else:
             missed = False
         stats.preemptions += job.preemptions
-        hist = stats.histogram  # (_count_response, without its call)
-        if hist is None:
-            hist = stats.histogram = ResponseHistogram(
-                self.hist_bin or (job.deadline - job.arrival) / 100.0
-            )
-        b = int(resp / hist.bin_width)
-        counts = hist.counts
-        counts[b] = counts.get(b, 0) + 1
+        self._count_response(stats, resp, job.deadline - job.arrival)
         if self.record_jobs:
             self._record(job, missed)
         pending = st.pending
