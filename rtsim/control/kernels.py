@@ -39,7 +39,7 @@ __all__ = [
 ]
 
 
-@kernel
+@kernel(inline=True)
 def _rollout(
     G: Any,
     x: Any,
@@ -359,7 +359,7 @@ def _roll(
     sr, sf = srf[0], srf[1]
     # a pass/fail question stops after the first window if that one already fails
     first = 1 if nw > 1 and need > -math.inf else nw
-    e = 0 * nw  # (an int64, not the literal 0: one compiled _rollout)
+    e = 0 * nw  # (an int64, not the literal 0)
     done = 0  # windows whose changes are in ``out``
     while True:
         stop = first if done == 0 else nw
