@@ -834,8 +834,8 @@ def _plan_decide_via(ns: Any, *args: Any) -> int:
 
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
-#: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
-COMPILE_S = 6.0
+#: with a fresh NUMBA_CACHE_DIR, docs/performance.md; 5.0-5.1 s at load 6 on 2026-11-29)
+COMPILE_S = 5.0
 
 # most runs roll out right after the world is built: the world's announcement counts these
 follow_with(ENTRIES.values(), COMPILE_S)
