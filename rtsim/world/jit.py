@@ -510,20 +510,26 @@ def _entry_compiler() -> Any:
 
 #: how many kernel compiles are under way (a kernel's callees compile inside it): `_compiling`
 _DEPTH = 0
+#: whether `_compiling` froze the collector's objects (`_freeze_survivors` freezes more)
+_FROZEN = False
 _GC_HOOKED = False
 
 
 @contextlib.contextmanager
 def _compiling() -> Iterator[None]:
     """While a kernel compiles (the outermost of nested compiles): numba's typing memoised
-    (`_typing_memo`), and the objects a full collection of the cyclic collector leaves
-    frozen (`_freeze_survivors`)."""
-    global _DEPTH, _GC_HOOKED
+    (`_typing_memo`), and the cyclic collector's objects frozen (`_freeze_survivors`), then
+    unfrozen, unless the caller had frozen objects of its own."""
+    global _DEPTH, _FROZEN, _GC_HOOKED
     memo = _CUSTOM.typing_memo if _CUSTOM is not None else None
-    if _DEPTH == 0:
+    outermost = _DEPTH == 0
+    if outermost:
         if not _GC_HOOKED:
             gc.callbacks.append(_freeze_survivors)
             _GC_HOOKED = True
+        if gc.get_freeze_count() == 0:
+            gc.freeze()
+            _FROZEN = True
         if memo is not None:
             memo.install()
     _DEPTH += 1
@@ -531,18 +537,23 @@ def _compiling() -> Iterator[None]:
         yield
     finally:
         _DEPTH -= 1
-        if _DEPTH == 0 and memo is not None:
-            memo.remove()
+        if outermost:
+            if memo is not None:
+                memo.remove()
+            if _FROZEN:
+                _FROZEN = False
+                gc.unfreeze()
 
 
 def _freeze_survivors(phase: str, info: dict[str, Any]) -> None:
-    """gc callback: after a full collection while a kernel compiles, what it left (alive
-    then) is frozen, so that the next full collections traverse only what came after. A first
-    run's compiles collect fully about 12 times over a heap that grows to ≈ 340,000 objects
-    (numba's typing tables, each kernel's compiled result): 1.4 s CPU, 0.3 s so. What was
-    alive then and dropped later (the compile in progress) is never collected: ≈ 16 MB more
-    at the most, once per install (a run that loads its kernels compiles nothing)."""
-    if _DEPTH and phase == "stop" and info.get("generation") == 2:
+    """gc callback: while a kernel compiles (`_compiling`), the objects alive before it are
+    frozen and so is what each full collection leaves, so that a full collection traverses
+    only what came after the last one. A first run's compiles collect fully about 12 times
+    over a heap that grows to ≈ 340,000 objects (numba's typing tables, each kernel's compiled
+    result): 1.4 s CPU, ≈ 0.4 s so. Once the compile ends they are unfrozen (the oldest
+    generation, as a full collection leaves them): what was dropped meanwhile is collected at
+    the next full collection after it."""
+    if _FROZEN and phase == "stop" and info.get("generation") == 2:
         gc.freeze()
 
 
@@ -558,7 +569,7 @@ class _TypingMemo(NamedTuple):
         self.owner.get_call_type = self.memoised
 
     def remove(self) -> None:
-        self.owner.get_call_type = self.original
+        del self.owner.get_call_type  # (numba's, inherited, again)
 
 
 def _typing_memo() -> _TypingMemo:
@@ -577,6 +588,8 @@ def _typing_memo() -> _TypingMemo:
     from numba.core.types.functions import Function
 
     _require(Function, "get_call_type")
+    if "get_call_type" in vars(Function):  # (numba's own is inherited: `remove` deletes ours)
+        raise TypeError("numba.core.types.functions.Function defines get_call_type itself")
     _require(targetconfig.ConfigStack, "top_or_none")
     original = Function.get_call_type
     memo: dict[tuple[Any, ...], Any] = {}

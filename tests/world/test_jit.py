@@ -274,13 +274,27 @@ def test_typing_memo_answers_as_numba_and_only_while_a_kernel_compiles() -> None
 def test_full_collections_freeze_their_survivors_only_while_a_kernel_compiles(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """The collector's callback freezes after a full collection inside a compile, not else."""
+    """The collector's callback freezes after a full collection inside a compile, not else;
+    a compile leaves nothing frozen, nor unfreezes what its caller froze."""
     import gc
 
     frozen: list[int] = []
     monkeypatch.setattr(gc, "freeze", lambda: frozen.append(1))
-    for depth, gen in ((0, 2), (1, 0), (1, 1), (2, 2)):
-        monkeypatch.setattr(jit, "_DEPTH", depth)
+    for on, gen in ((False, 2), (True, 0), (True, 1), (True, 2)):
+        monkeypatch.setattr(jit, "_FROZEN", on)
         jit._freeze_survivors("start", {"generation": gen})
         jit._freeze_survivors("stop", {"generation": gen})
     assert frozen == [1]
+    monkeypatch.undo()
+    if available():
+        assert gc.get_freeze_count() == 0
+        jit.build(motion.arc)(0.0, 0.0, 0.1, 1.0, 0.0, 2.0)  # (compiled, or loaded: either)
+        assert gc.get_freeze_count() == 0 and not jit._FROZEN
+        gc.freeze()
+        try:
+            mine = gc.get_freeze_count()
+            with jit._compiling():
+                assert not jit._FROZEN
+            assert gc.get_freeze_count() == mine
+        finally:
+            gc.unfreeze()
