@@ -167,7 +167,8 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
     """`build` for Python callers (``entry``) or for the kernels that call ``fn`` (module
     docstring: compiled without numba's wrappers, not cached; an entry's dispatcher serves
     when there is one already, or when it is built before any caller compiles)."""
-    subs = _reach(fn, subs)[1]  # (only those it meets: a kernel they miss is shared)
+    if subs:  # (only those it meets: a kernel they miss is shared)
+        subs = _reach(fn, subs)[1]
     inline = getattr(fn, _MARK)["inline"]
     done = _COMPILED.get((fn, subs, entry or inline))
     if done is None and not entry:
@@ -251,7 +252,8 @@ def specialise(fn: Callable[..., Any], subs: Subs = ()) -> Callable[..., Any]:
     """The plain-Python twin of `build` ``(fn, subs)``: ``fn`` itself when ``subs`` meets
     nothing it reaches, else a copy of it whose globals (and its callees', copied the same
     way) name the replacements (made once per process). The ``python`` backend runs it."""
-    subs = _reach(fn, subs)[1]
+    if subs:
+        subs = _reach(fn, subs)[1]
     if not subs:
         return fn
     done = _PYTHON.get((fn, subs))
