@@ -33,8 +33,9 @@ from rtsim.control.oracle import start_speed
 from rtsim.errors import InputError
 from rtsim.model.taskset import TaskSet
 from rtsim.world.config import WorldConfig
+from rtsim.world.world import forget_starts
 
-__all__ = ["prepared", "clear", "settled_speed", "window_bound"]
+__all__ = ["prepared", "clear", "settled_speed", "threshold_rows", "window_bound"]
 
 #: files prepared and kept per process, most recent last
 PREPARED_MAX = 8
@@ -66,10 +67,13 @@ def _fresh_policy(inp: Any) -> Any:
 
 
 def clear() -> None:
-    """Forget every prepared scenario (and the bounds and settled speeds)."""
+    """Forget every prepared scenario (and the bounds, settled speeds, thresholds per
+    follower and the followers' starting states on the leader's trace)."""
     _CACHE.clear()
     _SETTLED.clear()
     _BOUNDS.clear()
+    _ROWS.clear()
+    forget_starts()
 
 
 #: Settled start speeds kept per process (`settled_speed`)
@@ -101,11 +105,11 @@ _LOCK = threading.Lock()  # (points may run in threads: a Dask worker's)
 
 
 def _kept(
-    cache: OrderedDict[tuple[Any, ...], float],
+    cache: OrderedDict[tuple[Any, ...], Any],
     limit: int,
     key: tuple[Any, ...],
-    compute: Callable[[], float],
-) -> float:
+    compute: Callable[[], Any],
+) -> Any:
     """``cache[key]``, else ``compute()`` kept there, the least recently used entry dropped
     beyond ``limit`` (an exception is raised and nothing kept)."""
     with _LOCK:
@@ -156,6 +160,18 @@ def prepared(
         while len(_CACHE) > PREPARED_MAX:
             _CACHE.popitem(last=False)
     return inp
+
+
+#: Thresholds per follower kept per process (`threshold_rows`)
+ROWS_MAX = 16
+_ROWS: OrderedDict[tuple[Any, ...], Any] = OrderedDict()
+
+
+def threshold_rows(key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
+    """A run's thresholds per follower (`rtsim.coupling.recorder.WindowRecorder`'s
+    ``limits``: tuples of floats), ``make()`` once per process for ``key``, the values they
+    are made of (the thresholds and the followers' spacings)."""
+    return _kept(_ROWS, ROWS_MAX, key, make)
 
 
 #: Window bounds kept per process (`window_bound`)
