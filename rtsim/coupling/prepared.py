@@ -35,7 +35,7 @@ from rtsim.model.taskset import TaskSet
 from rtsim.world.config import WorldConfig
 from rtsim.world.world import forget_starts
 
-__all__ = ["prepared", "clear", "settled_speed", "threshold_rows", "window_bound"]
+__all__ = ["prepared", "clear", "run_constant", "settled_speed", "window_bound"]
 
 #: files prepared and kept per process, most recent last
 PREPARED_MAX = 8
@@ -67,12 +67,12 @@ def _fresh_policy(inp: Any) -> Any:
 
 
 def clear() -> None:
-    """Forget every prepared scenario (and the bounds, settled speeds, thresholds per
-    follower and the followers' starting states on the leader's trace)."""
+    """Forget every prepared scenario (and the bounds, settled speeds, runs' constants
+    and the followers' starting states on the leader's trace)."""
     _CACHE.clear()
     _SETTLED.clear()
     _BOUNDS.clear()
-    _ROWS.clear()
+    _CONSTANTS.clear()
     forget_starts()
 
 
@@ -162,16 +162,17 @@ def prepared(
     return inp
 
 
-#: Thresholds per follower kept per process (`threshold_rows`)
-ROWS_MAX = 16
-_ROWS: OrderedDict[tuple[Any, ...], Any] = OrderedDict()
+#: A run's constants kept per process (`run_constant`)
+CONSTANTS_MAX = 32
+_CONSTANTS: OrderedDict[tuple[Any, ...], Any] = OrderedDict()
 
 
-def threshold_rows(key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
-    """A run's thresholds per follower (`rtsim.coupling.recorder.WindowRecorder`'s
-    ``limits``: tuples of floats), ``make()`` once per process for ``key``, the values they
-    are made of (the thresholds and the followers' spacings)."""
-    return _kept(_ROWS, ROWS_MAX, key, make)
+def run_constant(key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
+    """One of a run's constants that a sweep's next point would make again, ``make()``
+    once per process for ``key``: what it is (a name first) and every value it is made of
+    (`rtsim.coupling.scenario_run`: the thresholds per follower, the sends' nominal
+    offsets). Immutable (tuples of numbers): a caller that changes it copies it."""
+    return _kept(_CONSTANTS, CONSTANTS_MAX, key, make)
 
 
 #: Window bounds kept per process (`window_bound`)

@@ -50,7 +50,7 @@ from rtsim.coupling.inputs import fitted_taskset
 from rtsim.coupling.inputs import resolved as resolved
 from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
-from rtsim.coupling.prepared import settled_speed, threshold_rows, window_bound
+from rtsim.coupling.prepared import run_constant, settled_speed, window_bound
 from rtsim.coupling.recorder import (
     CHANGE_KEYS,
     StateRows,
@@ -452,8 +452,8 @@ class _Coupling:
         # the spacings' count)
         self.rec = WindowRecorder(
             self.n,
-            threshold_rows(
-                (thr.r_H, thr.T_rho, thr.T_eps, thr.T_beta, tuple(self.rho_d)),
+            run_constant(
+                ("limits", thr.r_H, thr.T_rho, thr.T_eps, thr.T_beta, tuple(self.rho_d)),
                 lambda: tuple(
                     tuple(float(x) for x in np.broadcast_to(lim, self.n))
                     for _, _, lim in self._limits
@@ -505,14 +505,20 @@ class _Coupling:
     # -- the decision ----------------------------------------------------------------
     def _nominal_offsets(self, ts: TaskSet) -> list[float]:
         """Each follower's send, ms after the scan starts, with the chain's WCETs and the
-        Hough time of Eq 1 at its assumed points (before any window has run)."""
-        out: list[float] = []
-        t = 0.0
-        for seg in ts.window.segments():  # type: ignore[union-attr]
-            t += seg.wcet
-            if seg.role == "send":
-                out.append(t)
-        return out[: self.n] + [out[-1] if out else 0.0] * (self.n - len(out))
+        Hough time of Eq 1 at its assumed points (before any window has run; made once per
+        process for the window's values, `run_constant`: the run measures into its copy)."""
+        win, n = ts.window, self.n
+
+        def make() -> tuple[float, ...]:
+            out: list[float] = []
+            t = 0.0
+            for seg in win.segments():  # type: ignore[union-attr]
+                t += seg.wcet
+                if seg.role == "send":
+                    out.append(t)
+            return (*out[:n], *[out[-1] if out else 0.0] * (n - len(out)))
+
+        return list(run_constant(("sends", win, n), make))
 
     def _rollout_state(
         self,

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from rtsim.analysis.kinematics import BOUND_KINDS
-from rtsim.coupling.recorder import LOCALIZATION_COLUMNS, sensing_columns
+from rtsim.coupling.recorder import LOCALIZATION_COLUMNS
 from rtsim.coupling.spill import ValueSpill, p95_max_columns
 from rtsim.world.config import WorldConfig
 from rtsim.world.localization import LOST_CAUSES
@@ -50,8 +50,8 @@ def summary_columns(n: int) -> list[str]:
         "feasible",
         "response",
         *(f"f{i}_viol_{k}" for i in range(1, n + 1) for k in BOUND_KINDS),
-        *LOCALIZATION_COLUMNS,
-        *sensing_columns(n),
+        *(c for c in LOCALIZATION_COLUMNS if c != "radio_ms"),
+        *(f"f{i}_fix_error_cm" for i in range(1, n + 1)),
         *(f"f{i}_viol_contact" for i in range(1, n + 1)),
     ]
 

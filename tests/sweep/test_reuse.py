@@ -210,11 +210,11 @@ def test_run_state_kept_changes_no_result() -> None:
     alone = {}
     for name in runs:
         prepared_mod.clear()
-        assert not world_mod._INITIAL and not prepared_mod._ROWS
+        assert not world_mod._INITIAL and not prepared_mod._CONSTANTS
         alone[name] = one(name)
-    assert len(world_mod._INITIAL) == len(prepared_mod._ROWS) == 1
+    assert len(world_mod._INITIAL) == 1 and len(prepared_mod._CONSTANTS) == 2
     for name in ("a", "b", "a", "b"):  # each after the other's state was kept
         summary, windows = one(name)
         assert summary == alone[name][0]
         pd.testing.assert_frame_equal(windows, alone[name][1], check_exact=True)
-    assert len(world_mod._INITIAL) == len(prepared_mod._ROWS) == 2
+    assert len(world_mod._INITIAL) == 2 and len(prepared_mod._CONSTANTS) == 4
