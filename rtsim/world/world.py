@@ -20,6 +20,7 @@ heading. Followers are numbered from 1 in every method; arrays are indexed i −
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any, Literal
@@ -77,6 +78,7 @@ Mark = tuple[int, float, Pose, tuple[float, float], Pose, float, float]
 #: Followers' starting states on the leader's trace kept per process (`_initial_on_trace`)
 INITIAL_KEPT = 16
 _INITIAL: dict[tuple[Any, ...], tuple[Any, ...]] = {}
+_INITIAL_LOCK = threading.Lock()
 
 
 def _initial_on_trace(
@@ -92,13 +94,15 @@ def _initial_on_trace(
         rows = [ftl.initial(k, s_l, pose, v_l) for k in range(n)]
         return np.array(rows, dtype=float).reshape(n, 4)
     key = (ftl.path, (*ftl.rho_d,), (*ftl.lateral,), ftl.gain, ftl.lookahead, n, s_l, pose, v_l)
-    hit = _INITIAL.get(key)
+    with _INITIAL_LOCK:
+        hit = _INITIAL.get(key)
     if hit is None:
         rows = [ftl.initial(k, s_l, pose, v_l) for k in range(n)]
         hit = (tuple(rows), tuple(ftl._sr.tolist()), tuple(ftl._sf.tolist()))
-        if len(_INITIAL) >= INITIAL_KEPT:
-            _INITIAL.pop(next(iter(_INITIAL)), None)
-        _INITIAL[key] = hit
+        with _INITIAL_LOCK:  # (points may run in threads: a Dask worker's)
+            _INITIAL[key] = hit
+            while len(_INITIAL) > INITIAL_KEPT:
+                del _INITIAL[next(iter(_INITIAL))]
     else:
         ftl._sr[:] = hit[1]
         ftl._sf[:] = hit[2]
@@ -107,7 +111,8 @@ def _initial_on_trace(
 
 def forget_starts() -> None:
     """Forget the followers' starting states kept (`_initial_on_trace`)."""
-    _INITIAL.clear()
+    with _INITIAL_LOCK:
+        _INITIAL.clear()
 
 
 class World:
