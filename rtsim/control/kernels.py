@@ -39,7 +39,7 @@ __all__ = [
 ]
 
 
-@kernel
+@kernel(inline=True)
 def _rollout(
     G: Any,
     x: Any,
@@ -359,7 +359,7 @@ def _roll(
     sr, sf = srf[0], srf[1]
     # a pass/fail question stops after the first window if that one already fails
     first = 1 if nw > 1 and need > -math.inf else nw
-    e = 0 * nw  # (an int64, not the literal 0: one compiled _rollout)
+    e = 0 * nw  # (an int64, not the literal 0)
     done = 0  # windows whose changes are in ``out``
     while True:
         stop = first if done == 0 else nw
@@ -834,8 +834,8 @@ def _plan_decide_via(ns: Any, *args: Any) -> int:
 
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
-#: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
-COMPILE_S = 6.0
+#: with a fresh NUMBA_CACHE_DIR, docs/performance.md; 5.0-5.1 s at load 6 on 2026-11-29)
+COMPILE_S = 5.0
 
 # most runs roll out right after the world is built: the world's announcement counts these
 follow_with(ENTRIES.values(), COMPILE_S)

@@ -174,9 +174,9 @@ MOTION_ENTRIES = (
 )
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
-#: with a fresh NUMBA_CACHE_DIR, docs/performance.md: the first run's 13.1 s less the cached
-#: run's 1.9 s, less the rollout's `rtsim.control.kernels.COMPILE_S`, with the estimates' kernels)
-COMPILE_S = 5.0
+#: with a fresh NUMBA_CACHE_DIR, docs/performance.md: the first run's 11.4 s less the cached
+#: run's 1.9 s, less the rollout's `rtsim.control.kernels.COMPILE_S`, with the scan's kernel)
+COMPILE_S = 4.5
 
 _ANNOUNCED = False
 #: kernel sources compiled right after these as a rule, with their time (`follow_with`)
