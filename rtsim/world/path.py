@@ -213,10 +213,11 @@ class LeaderPath:
 
     def geometry(self) -> tuple[Any, ...]:
         """The path as the kernels read it (`rtsim.world.ftl.path_pose`), Python tuples: the
-        segments' starts (cm), their start frames (x, y, heading, its cosine and sine: five
-        a segment, flat; `along`), their curvatures and the lap length (the head of the
-        follow-the-leader law's geometry, `rtsim.world.ftl.TraceFollower.geometry`)."""
-        return (self._s0, tuple(c for pose in self._poses for c in pose), self._kappa, self._lap)
+        segments' starts (cm); per segment its start frame (x, y, heading, the heading's cosine
+        and sine: `along`) and its curvature, six a segment, flat; the lap length (the head
+        of the follow-the-leader law's geometry, `rtsim.world.ftl.TraceFollower.geometry`)."""
+        frames = zip(self._poses, self._kappa, strict=True)
+        return (self._s0, tuple(c for f, kappa in frames for c in (*f, kappa)), self._lap)
 
     def arrays(self) -> tuple[Any, ...]:
         """`geometry` as the kernels' arrays, in the shape of the law's (`geometry_arrays`:
@@ -256,18 +257,13 @@ def rounded_rectangle(
 
 
 def geometry_arrays(G: tuple[Any, ...]) -> tuple[Any, ...]:
-    """A geometry (`LeaderPath.geometry`, then the followers' lateral offsets, the follower
-    each keeps its spacing from and that spacing, as `rtsim.world.ftl.TraceFollower.geometry`)
-    as the kernels read it: float arrays, the lap a float, the followers' indices int64; a
-    path alone gets one placeholder follower (no offset, none ahead, spacing 1)."""
-    s0, poses, kappa, lap, *followers = G
-    lateral, ahead, spacing = followers or ((0.0,), (-1,), (1.0,))
-    return (
-        np.array(s0, dtype=float),
-        np.array(poses, dtype=float),
-        np.array(kappa, dtype=float),
-        float(lap),
-        np.array(lateral, dtype=float),
-        np.array(ahead, dtype=np.int64),
-        np.array(spacing, dtype=float),
-    )
+    """A geometry (`LeaderPath.geometry`, then per follower its lateral offset, the follower
+    it keeps its spacing from and that spacing, three a follower, flat, as
+    `rtsim.world.ftl.TraceFollower.geometry`) as the kernels read it: float arrays and the
+    lap a float (three arrays: each is unboxed at a call from Python and reference-counted
+    at a call between kernels); a path alone gets one placeholder follower (no offset, none
+    ahead, spacing 1)."""
+    s0, seg, lap, *followers = G
+    (fol,) = followers or ((0.0, -1.0, 1.0),)
+    s0, seg, fol = (np.array(a, dtype=float) for a in (s0, seg, fol))
+    return (s0, seg, float(lap), fol)
