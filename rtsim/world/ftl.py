@@ -189,7 +189,8 @@ def ftl_reference(
             q = int(fol[3 * q + 1])
         sr = ftl_search(G, q, s_ref[q], s_t, tx, ty, fol[3 * q + 2])
         s_ref[q] = sr
-        px, py, _, _, cp, sp = trace_frame(G, q, sr)
+        px, py, hp = trace_point(G, q, sr)
+        cp, sp = math.cos(hp), math.sin(hp)
         dx, dy = tx - px, ty - py
         den = dx * cp + dy * sp
         if den <= 0.1 * cpython_hypot(dx, dy):
