@@ -162,7 +162,7 @@ def ftl_project(G: Any, k: int, s: float, x: float, y: float) -> float:
         ds = ((x - px) * c + (y - py) * sn) / scale
         s += ds
         if abs(ds) < 1e-3:
-            break
+            return s  # (not ``break``: after a break numba keeps G's increfs and decrefs)
     return s
 
 
