@@ -892,7 +892,8 @@ def _warm(ns: Any) -> None:
     c = columns(fol)  # (views: the Python build of the kernel)
     c.x[0], c.v[0], c.send[0], c.rho_d[0] = -100.0, 30.0, 100.0, 100.0
     nan1 = np.full(1, math.nan)
-    G = (np.zeros(1), np.zeros(3), np.zeros(1), 1e3, np.zeros(1), np.full(1, -1), np.full(1, 100.0))
+    seg = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0])  # (x, y, heading, cos, sin, curvature)
+    G = (np.zeros(1), seg, 1e3, np.array([0.0, -1.0, 100.0]))  # (path.geometry_arrays)
     P = (fs, fol, np.full((1, 1), math.nan), G, nan1, nan1)
     ch = np.empty((64, 2, 1, 5))
     ns.rollout_changes(20.0, np.full(2, 240.0), P, ch[0], 1.0, -math.inf, 0.0)
