@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from itertools import chain
+from itertools import chain, repeat
 from operator import attrgetter, itemgetter
 from typing import Any
 
@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, relative_states
 from rtsim.sim.records import EPS
 from rtsim.world.localization import LOST_CAUSES
+from rtsim.world.path import LeaderPath
 
 _chain = chain.from_iterable
 
@@ -393,6 +394,54 @@ def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
     return _flat(rows, np.float64, len(recs) * nb * n).reshape(len(recs), nb, n)
 
 
+#: A record's float fields that `records_columns` reads in one pass (`_fields`).
+_FLOAT_FIELDS: tuple[str, ...] = (
+    "t",
+    "w",
+    "w_sch",
+    "msb_min",
+    "finish",
+    "v_leader_desired",
+    "v_leader",
+    "v_leader_target",
+    "v_leader_max",
+    "hough_ms",
+    "radio_ms",
+)
+#: Its integer and boolean fields, read in one pass as integers.
+_INT_FIELDS: tuple[str, ...] = (
+    "window",
+    "tracks_lost",
+    "points",
+    "searches",
+    "reacquisitions",
+    "radio_losses",
+    "feasible",
+    "assumption_broken",
+)
+
+
+def _fields(recs: list[WindowRecord], names: tuple[str, ...], dtype: Any) -> dict[str, Any]:
+    """Every record's fields ``names`` (two or more) as arrays of ``dtype`` (name -> array),
+    read in one pass over the records (each record's fields together, not one pass per
+    field: the records of a chunk are no longer in the cache), the values `_column` gives."""
+    m, k = len(recs), len(names)
+    flat = np.fromiter(_chain(map(attrgetter(*names), recs)), dtype, m * k)
+    rows = flat.reshape(m, k).T.copy()  # (one contiguous row per field)
+    return dict(zip(names, rows, strict=True))
+
+
+def _rows_or(recs: list[WindowRecord], name: str, default: tuple[Any, ...], dtype: Any) -> Any:
+    """Every record's field ``name`` (n values) as an (m, n) array of ``dtype``, ``default``
+    (n values) where a record's is empty or None (a record made by hand: no scan's
+    sensing, no contact); the values `_rows` of ``r.name or default`` gives."""
+    m, n = len(recs), len(default)
+    try:  # (every record has its n values: one pass without Python per record)
+        return np.fromiter(_chain(map(attrgetter(name), recs)), dtype, m * n).reshape(m, n)
+    except (TypeError, ValueError):  # (None, or too few values: a record without them)
+        return _rows((getattr(r, name) or default for r in recs), dtype, m, n)
+
+
 def records_columns(
     recs: list[WindowRecord],
     n: int,
@@ -413,25 +462,23 @@ def records_columns(
     cols = window_columns(n)
     m = len(recs)
     data: dict[str, object] = {}
-    t = _column(recs, "t", float)
-    w = _column(recs, "w", float)
-    w_sch = _column(recs, "w_sch", float)
-    msb = _column(recs, "msb_min", float)
-    finish = _column(recs, "finish", float)
+    f = _fields(recs, _FLOAT_FIELDS, float)
+    ints = _fields(recs, _INT_FIELDS, np.int64)
+    t, w, w_sch, msb, finish = f["t"], f["w"], f["w_sch"], f["msb_min"], f["finish"]
     data["w"] = w
     data["w_sch"] = w_sch
     data["msb_min"] = msb
     data["binding"] = list(_each(recs, "binding"))
     for name in ("v_leader_desired", "v_leader"):
-        data[name] = _column(recs, name, float)
+        data[name] = f[name]
     data["method"] = list(_each(recs, "method"))
-    data["feasible"] = _column(recs, "feasible", bool)
+    data["feasible"] = ints["feasible"] != 0
     data["critical"] = msb < w_sch
     data["missed"] = finish > t + w + EPS
     data["response"] = finish - t
-    data["tracks_lost"] = _column(recs, "tracks_lost", np.int64)
+    data["tracks_lost"] = ints["tracks_lost"]
     if not (summary and not state):
-        _window_rest(recs, t, w, w_sch, msb, finish, data)
+        _window_rest(recs, f, ints, data)
     if state:
         _follower_state(recs, n, limits, w, data, changes)
     nb = len(BOUND_KINDS)
@@ -446,26 +493,26 @@ def records_columns(
             data[f"f{i + 1}_viol_{kind}"] = viol[:, i, j]
         if lost is not None:
             data[f"f{i + 1}_lost"] = lost[:, i]
-    data["assumption_broken"] = _column(recs, "assumption_broken", bool)
+    data["assumption_broken"] = ints["assumption_broken"] != 0
     nc = len(LOST_CAUSES)
     causes = _rows(_each(recs, "lost_by_cause"), np.int64, m, nc)
     for j, col in enumerate(LOCALIZATION_COLUMNS[:nc]):
         data[col] = causes[:, j]
-    data["searches"] = _column(recs, "searches", np.int64)
-    data["reacquisitions"] = _column(recs, "reacquisitions", np.int64)
+    data["searches"] = ints["searches"]
+    data["reacquisitions"] = ints["reacquisitions"]
     # (a record made without a scan's sensing, by hand, has none: 0 points, no fix)
-    voted = _rows((r.voted or (0,) * n for r in recs), np.int64, m, n)
-    err = _rows((r.fix_error or (math.inf,) * n for r in recs), float, m, n)
-    nb_ = _rows((r.neighbour or (False,) * n for r in recs), bool, m, n)
+    voted = _rows_or(recs, "voted", (0,) * n, np.int64)
+    err = _rows_or(recs, "fix_error", (math.inf,) * n, float)
+    nb_ = _rows_or(recs, "neighbour", (False,) * n, bool)
     data["confusions"] = nb_.sum(axis=1).astype(np.int64)
-    data["radio_ms"] = _column(recs, "radio_ms", float)
-    data["radio_losses"] = _column(recs, "radio_losses", np.int64)
+    data["radio_ms"] = f["radio_ms"]
+    data["radio_losses"] = ints["radio_losses"]
     for i in range(n):
         data[f"f{i + 1}_points"] = voted[:, i]
         data[f"f{i + 1}_fix_error_cm"] = err[:, i]
         data[f"f{i + 1}_neighbour"] = nb_[:, i]
     # (a record made by hand has no contact: inf, no break)
-    broke = _rows((r.viol_contact or (False,) * n for r in recs), bool, m, n)
+    broke = _rows_or(recs, "viol_contact", (False,) * n, bool)
     for i in range(n):
         data[f"f{i + 1}_viol_contact"] = broke[:, i]
     return {c: data[c] for c in cols if c in data}
@@ -473,26 +520,25 @@ def records_columns(
 
 def _window_rest(
     recs: list[WindowRecord],
-    t: NDArray[np.float64],
-    w: NDArray[np.float64],
-    w_sch: NDArray[np.float64],
-    msb: NDArray[np.float64],
-    finish: NDArray[np.float64],
+    f: dict[str, NDArray[np.float64]],
+    ints: dict[str, NDArray[np.int64]],
     data: dict[str, object],
 ) -> None:
     """Add to ``data`` the window-level columns of ``recs`` that summary.json does not read
-    (`records_columns`; ``t`` … ``finish`` its columns)."""
-    data["window"] = _column(recs, "window", np.int64)
+    (`records_columns`; ``f`` and ``ints`` the records' float and integer fields,
+    `_fields`)."""
+    t, w, w_sch, msb = f["t"], f["w"], f["w_sch"], f["msb_min"]
+    data["window"] = ints["window"]
     data["t"] = t
     data["deadline"] = t + w
     with np.errstate(invalid="ignore"):
         data["margin"] = msb - w_sch
     data["slack"] = np.maximum(0.0, w - w_sch)
     for name in ("v_leader_target", "v_leader_max"):
-        data[name] = _column(recs, name, float)
-    data["finish"] = finish
-    data["points"] = _column(recs, "points", np.int64)
-    data["hough_ms"] = _column(recs, "hough_ms", float)
+        data[name] = f[name]
+    data["finish"] = f["finish"]
+    data["points"] = ints["points"]
+    data["hough_ms"] = f["hough_ms"]
     kinds, kappas = segments(recs)
     data["segment"] = kinds
     data["curvature"] = np.array(kappas, dtype=float)
@@ -503,7 +549,11 @@ def _window_rest(
 def segments(recs: list[WindowRecord]) -> tuple[list[str], list[float]]:
     """Each record's segment kind and curvature: its own, or those of the path it holds at
     its arc length (``path.segment_at(curvature)``: a coupled run leaves the lookup to the
-    table, which a sweep point that reads only the summary never makes)."""
+    table, which a sweep point that reads only the summary never makes; records that all
+    hold one `LeaderPath` are looked up together, `_path_segments`)."""
+    held = list(map(attrgetter("segment"), recs))
+    if held and type(held[0]) is LeaderPath and held.count(held[0]) == len(held):
+        return _path_segments(held[0], _column(recs, "curvature", float))
     kinds: list[str] = []
     kappas: list[float] = []
     for r in recs:
@@ -518,31 +568,44 @@ def segments(recs: list[WindowRecord]) -> tuple[list[str], list[float]]:
     return kinds, kappas
 
 
+def _path_segments(path: LeaderPath, s: NDArray[np.float64]) -> tuple[list[str], list[float]]:
+    """`LeaderPath.segment_at` of every arc length ``s`` at once: the segment of ``s`` mod
+    the lap (numpy's remainder is Python's ``%``: the same double) by its start, as
+    `LeaderPath.index` finds it (``bisect_right`` less one)."""
+    s0, _, kappa, lap = path.geometry()
+    k = np.searchsorted(np.asarray(s0, dtype=float), np.remainder(s, lap), side="right") - 1
+    kinds = np.array([seg.kind for seg in path.segments], dtype=object)
+    return kinds[k].tolist(), np.asarray(kappa, dtype=float)[k].tolist()
+
+
 def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:
     """``m`` records' state rows (`StateRows`, or n rows of 7 floats each), one (m, n, 7)
     array: `StateRows` not read yet, in one pass over their poses (`relative_states`),
-    without making their rows; the values `_flat` of their rows gives."""
+    without making their rows (their poses kept as lists, for a later `StateRows.rows`);
+    the values `_flat` of their rows gives."""
     objs = list(rows)
     k = len(FOLLOWER_FIELDS)
-    lps: list[tuple[float, float, float]] = []
-    poses: list[Any] = []
-    speeds: list[Any] = []
-    for o in objs:
-        if type(o) is not StateRows or o._rows is not None:
-            break
-        p = o._poses = list(o._poses)  # (kept for a later `rows`: poses may be an iterator)
-        if len(p) != n or len(o._speeds) != n:
-            break
-        lps += [o._lp] * n
-        poses += p
-        speeds += o._speeds
-    else:
-        if m:
-            rho, beta, theta = relative_states(lps, poses)
-            x, y, th = zip(*poses)  # noqa: B905 (3 each)
-            cols = np.array([x, y, th, rho, beta, theta, speeds], dtype=float)
+    if m and n and set(map(type, objs)) == {StateRows} and not any(map(_ROWS_MADE, objs)):
+        poses = list(map(list, map(_POSES, objs)))  # (poses may be iterators: read once)
+        list(map(setattr, objs, repeat("_poses"), poses))
+        speeds = list(map(_SPEEDS, objs))
+        if set(map(len, poses)) == {n} and set(map(len, speeds)) == {n}:
+            flat = list(_chain(poses))
+            lps = list(_chain(map(repeat, map(_LP, objs), repeat(n))))
+            rho, beta, theta = relative_states(lps, flat)
+            x, y, th = zip(*flat)  # noqa: B905 (3 each)
+            cols = np.fromiter(
+                _chain((x, y, th, rho, beta, theta, _chain(speeds))), float, k * m * n
+            )
+            cols = cols.reshape(k, m * n)
             return cols.T.reshape(m, n, k)
     return _flat(objs, float, m * n * k).reshape(m, n, k)
+
+
+_ROWS_MADE = attrgetter("_rows")
+_POSES = attrgetter("_poses")
+_SPEEDS = attrgetter("_speeds")
+_LP = attrgetter("_lp")
 
 
 def _follower_state(
