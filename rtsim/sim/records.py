@@ -285,29 +285,45 @@ class RowBuffer(list):  # type: ignore[type-arg]
         return pd.concat(self.chunks, ignore_index=True)
 
 
+#: The dtypes of `jobs_frame`'s columns.
+JOB_DTYPES: dict[str, str] = {
+    "task": "string",
+    "job": "int64",
+    "release": "float64",
+    "start": "float64",
+    "finish": "float64",
+    "response": "float64",
+    "deadline": "float64",
+    "period": "float64",
+    "missed": "bool",
+    "preemptions": "int64",
+    "aborted": "bool",
+    "skipped": "bool",
+    "exec_time": "float64",
+    "arrival": "float64",
+}
+
+
 def jobs_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
-    """Job records (tuples in `JOB_COLUMNS` order) as a typed DataFrame."""
+    """Job records (tuples in `JOB_COLUMNS` order) as a typed DataFrame: each column
+    converted by itself (`np.fromiter`, the task names as a ``string`` array: the frame
+    ``DataFrame(rows).astype(JOB_DTYPES)`` gives, in half its time); a value that is not
+    a number of its column's type (None, say) through that frame."""
     import pandas as pd
 
+    if len(rows):
+        try:
+            data: dict[str, Any] = {}
+            for (name, dtype), col in zip(JOB_DTYPES.items(), zip(*rows, strict=True), strict=True):
+                if dtype == "string":
+                    data[name] = pd.array(list(col), dtype="string")
+                else:
+                    data[name] = np.fromiter(col, dtype, len(col))
+            return pd.DataFrame(data)
+        except (TypeError, ValueError):
+            pass
     df = pd.DataFrame(rows, columns=list(JOB_COLUMNS))
-    return df.astype(
-        {
-            "task": "string",
-            "job": "int64",
-            "release": "float64",
-            "start": "float64",
-            "finish": "float64",
-            "response": "float64",
-            "deadline": "float64",
-            "period": "float64",
-            "missed": "bool",
-            "preemptions": "int64",
-            "aborted": "bool",
-            "skipped": "bool",
-            "exec_time": "float64",
-            "arrival": "float64",
-        }
-    )
+    return df.astype(JOB_DTYPES)
 
 
 def trace_frame(rows: list[tuple[Any, ...]]) -> pd.DataFrame:
