@@ -16,7 +16,6 @@ import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields, replace
 from functools import lru_cache, partial
-from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, NamedTuple, TypeVar
 
@@ -41,7 +40,7 @@ from rtsim.config.fields import (
     text,
 )
 from rtsim.config.load import parse_toml, validate, with_overrides
-from rtsim.config.taskset import taskset_bytes, taskset_from_bytes
+from rtsim.config.taskset import packaged_data, taskset_bytes, taskset_from_bytes
 from rtsim.control.policy import DECIDE, AdjustOptions, make_policy
 from rtsim.control.predict import PREDICTORS
 from rtsim.errors import InputError, ScenarioError
@@ -905,7 +904,7 @@ def scenario_bytes(path: str | os.PathLike[str]) -> tuple[bytes, Path]:
     """
     p = Path(path)
     if not p.exists() and str(path) in PACKAGED_SCENARIOS:
-        res = resources.files("rtsim") / "data" / "scenarios" / f"{path}.toml"
+        res = packaged_data("scenarios", f"{path}.toml")
         return res.read_bytes(), Path(f"{path}.toml")
     try:
         return read_input(p, "scenario"), p

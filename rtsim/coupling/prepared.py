@@ -33,8 +33,9 @@ from rtsim.control.oracle import start_speed
 from rtsim.errors import InputError
 from rtsim.model.taskset import TaskSet
 from rtsim.world.config import WorldConfig
+from rtsim.world.world import forget_starts
 
-__all__ = ["prepared", "clear", "settled_speed", "window_bound"]
+__all__ = ["prepared", "clear", "run_constant", "settled_speed", "window_bound"]
 
 #: files prepared and kept per process, most recent last
 PREPARED_MAX = 8
@@ -66,10 +67,13 @@ def _fresh_policy(inp: Any) -> Any:
 
 
 def clear() -> None:
-    """Forget every prepared scenario (and the bounds and settled speeds)."""
+    """Forget every prepared scenario (and the bounds, settled speeds, runs' constants
+    and the followers' starting states on the leader's trace)."""
     _CACHE.clear()
     _SETTLED.clear()
     _BOUNDS.clear()
+    _CONSTANTS.clear()
+    forget_starts()
 
 
 #: Settled start speeds kept per process (`settled_speed`)
@@ -101,11 +105,11 @@ _LOCK = threading.Lock()  # (points may run in threads: a Dask worker's)
 
 
 def _kept(
-    cache: OrderedDict[tuple[Any, ...], float],
+    cache: OrderedDict[tuple[Any, ...], Any],
     limit: int,
     key: tuple[Any, ...],
-    compute: Callable[[], float],
-) -> float:
+    compute: Callable[[], Any],
+) -> Any:
     """``cache[key]``, else ``compute()`` kept there, the least recently used entry dropped
     beyond ``limit`` (an exception is raised and nothing kept)."""
     with _LOCK:
@@ -156,6 +160,19 @@ def prepared(
         while len(_CACHE) > PREPARED_MAX:
             _CACHE.popitem(last=False)
     return inp
+
+
+#: A run's constants kept per process (`run_constant`)
+CONSTANTS_MAX = 32
+_CONSTANTS: OrderedDict[tuple[Any, ...], Any] = OrderedDict()
+
+
+def run_constant(key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
+    """One of a run's constants that a sweep's next point would make again, ``make()``
+    once per process for ``key``: what it is (a name first) and every value it is made of
+    (`rtsim.coupling.scenario_run`: the thresholds per follower, the sends' nominal
+    offsets). Immutable (tuples of numbers): a caller that changes it copies it."""
+    return _kept(_CONSTANTS, CONSTANTS_MAX, key, make)
 
 
 #: Window bounds kept per process (`window_bound`)

@@ -456,8 +456,9 @@ def records_columns(
     `write_columns` formats them directly). ``state`` False leaves out the followers'
     state and estimate (``f{i}_x`` … ``f{i}_v_est``), bound (``_pred``, ``_true``) and
     contact distance columns, which summary.json does not read (`_follower_state`);
-    ``summary`` True (with ``state`` False) also the window-level columns it does not read
-    (the others of `rtsim.coupling.summary.summary_columns` are the same either way).
+    ``summary`` True (with ``state`` False) also the window-level and sensing columns it
+    does not read (the points, round trips and neighbours' flags among them; the others of
+    `rtsim.coupling.summary.summary_columns` are the same either way).
     ``changes``: `changes_array` of ``recs`` when the caller has made it (else made here)."""
     cols = window_columns(n)
     m = len(recs)
@@ -500,17 +501,22 @@ def records_columns(
         data[col] = causes[:, j]
     data["searches"] = ints["searches"]
     data["reacquisitions"] = ints["reacquisitions"]
-    # (a record made without a scan's sensing, by hand, has none: 0 points, no fix)
-    voted = _rows_or(recs, "voted", (0,) * n, np.int64)
+    # (a record made without a scan's sensing, by hand, has none: 0 points, no fix; the
+    # summary's columns leave out the points, the round trips and the neighbours' flags,
+    # which it does not read)
+    least = summary and not state
     err = _rows_or(recs, "fix_error", (math.inf,) * n, float)
     nb_ = _rows_or(recs, "neighbour", (False,) * n, bool)
     data["confusions"] = nb_.sum(axis=1).astype(np.int64)
-    data["radio_ms"] = f["radio_ms"]
+    if not least:
+        data["radio_ms"] = f["radio_ms"]
     data["radio_losses"] = ints["radio_losses"]
+    voted = None if least else _rows_or(recs, "voted", (0,) * n, np.int64)
     for i in range(n):
-        data[f"f{i + 1}_points"] = voted[:, i]
+        if voted is not None:
+            data[f"f{i + 1}_points"] = voted[:, i]
+            data[f"f{i + 1}_neighbour"] = nb_[:, i]
         data[f"f{i + 1}_fix_error_cm"] = err[:, i]
-        data[f"f{i + 1}_neighbour"] = nb_[:, i]
     # (a record made by hand has no contact: inf, no break)
     broke = _rows_or(recs, "viol_contact", (False,) * n, bool)
     for i in range(n):

@@ -50,7 +50,7 @@ from rtsim.coupling.inputs import fitted_taskset
 from rtsim.coupling.inputs import resolved as resolved
 from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
-from rtsim.coupling.prepared import settled_speed, window_bound
+from rtsim.coupling.prepared import run_constant, settled_speed, window_bound
 from rtsim.coupling.recorder import (
     CHANGE_KEYS,
     StateRows,
@@ -447,11 +447,17 @@ class _Coupling:
             ("path_diversion", "travel", thr.T_eps * rho_d),
             ("bearing", "d_beta", thr.T_beta),
         )
-        # the same thresholds per follower, for the recorder's _true columns
+        # the same thresholds per follower, for the recorder's _true columns (kept per
+        # process by the values they are made of: a sweep's next point makes none; n is
+        # the spacings' count)
         self.rec = WindowRecorder(
             self.n,
-            tuple(
-                tuple(float(x) for x in np.broadcast_to(lim, self.n)) for _, _, lim in self._limits
+            run_constant(
+                ("limits", thr.r_H, thr.T_rho, thr.T_eps, thr.T_beta, tuple(self.rho_d)),
+                lambda: tuple(
+                    tuple(float(x) for x in np.broadcast_to(lim, self.n))
+                    for _, _, lim in self._limits
+                ),
             ),
         )
         self._records, self._chunk = self.rec.records, self.rec.chunk  # (`_on_release`)
@@ -499,14 +505,20 @@ class _Coupling:
     # -- the decision ----------------------------------------------------------------
     def _nominal_offsets(self, ts: TaskSet) -> list[float]:
         """Each follower's send, ms after the scan starts, with the chain's WCETs and the
-        Hough time of Eq 1 at its assumed points (before any window has run)."""
-        out: list[float] = []
-        t = 0.0
-        for seg in ts.window.segments():  # type: ignore[union-attr]
-            t += seg.wcet
-            if seg.role == "send":
-                out.append(t)
-        return out[: self.n] + [out[-1] if out else 0.0] * (self.n - len(out))
+        Hough time of Eq 1 at its assumed points (before any window has run; made once per
+        process for the window's values, `run_constant`: the run measures into its copy)."""
+        win, n = ts.window, self.n
+
+        def make() -> tuple[float, ...]:
+            out: list[float] = []
+            t = 0.0
+            for seg in win.segments():  # type: ignore[union-attr]
+                t += seg.wcet
+                if seg.role == "send":
+                    out.append(t)
+            return (*out[:n], *[out[-1] if out else 0.0] * (n - len(out)))
+
+        return list(run_constant(("sends", win, n), make))
 
     def _rollout_state(
         self,
@@ -828,14 +840,21 @@ class _Coupling:
         last.near_pred = ro.closest(v_max) if ro is not None else d.near
 
     def violation_ratios(
-        self, tolerance: float = VIOLATION_TOLERANCE
+        self,
+        tolerance: float = VIOLATION_TOLERANCE,
+        complete: list[WindowRecord] | None = None,
     ) -> tuple[dict[str, float], dict[str, int]]:
         """Per bound kind over the kept windows: the largest observed change / its threshold,
         and the (window, follower) pairs whose change exceeds the threshold by more than
-        ``tolerance`` (a violation count that leaves out overshoots of a few per cent)."""
+        ``tolerance`` (a violation count that leaves out overshoots of a few per cent).
+        ``complete``: the kept records that are complete, when the caller has them."""
         if self._folded and tolerance != VIOLATION_TOLERANCE:
             raise ValueError("records were handed over: only the default tolerance is known")
-        left = self._fold(self.rec.records, tolerance)
+        if complete is None:
+            left = self._fold(self.rec.records, tolerance)
+        else:  # (the closed ones: `_closed` without asking each again whether complete)
+            recs = [r for r in complete if r.changes is not None]
+            left = self._fold(recs, tolerance, changes_array(recs, self.n)) if recs else {}
         ratios: dict[str, float] = {}
         beyond: dict[str, int] = {}
         for kind, _, _ in self._limits:
@@ -967,10 +986,17 @@ class _Coupling:
         t0, d0 = self._lap_prev
         self.lap_ms = t0 + (now - t0) * (self._lap_cm - d0) / (d - d0) if d > d0 else now
 
-    def summary_extra(self, res: Any, horizon_ms: float, stop_s: float | None) -> dict[str, Any]:
+    def summary_extra(
+        self,
+        res: Any,
+        horizon_ms: float,
+        stop_s: float | None,
+        complete: list[WindowRecord] | None = None,
+    ) -> dict[str, Any]:
         """summary.json's keys beyond the windows' (`summarize`): the lap, the policy and
         models, the violation ratios, the oracle's lap and the physical log; ``res``: the
-        CPU's result."""
+        CPU's result; ``complete``: the kept records that are complete, if the caller has
+        them (`violation_ratios`)."""
         cfg, world = self._given, self.world  # (the scenario's world, before a settled start)
         extra: dict[str, Any] = {
             "laps": (world.leader.s - self._s0) / cfg.path.lap_length,
@@ -998,7 +1024,9 @@ class _Coupling:
                 else f"the run's duration ({horizon_ms / 1000.0:g} s) ended before the leader "
                 f"completed its lap"
             )
-        extra["max_violation_ratio"], extra["violations_beyond_5pct"] = self.violation_ratios()
+        extra["max_violation_ratio"], extra["violations_beyond_5pct"] = self.violation_ratios(
+            complete=complete
+        )
         # the fastest lap that keeps every bound, offline (rtsim.control.oracle; cached)
         oracle = lap_oracle(cfg, self.w_sch)
         extra["lap_oracle_s"] = oracle
@@ -1206,7 +1234,7 @@ def run_scenario(
         if progress is not None:
             progress(1.0, float(run.env.now))
         t2, c2 = time.perf_counter(), time.process_time()
-        df, table = _tables(run, window_sink, windows)
+        df, table, complete = _tables(run, window_sink, windows)
         res = run.cpu.result()
         summary = summarize(
             table,
@@ -1216,7 +1244,7 @@ def run_scenario(
             seed=int(seed),
             scenario=inp.name,
             n=run.n,
-            extra=run.summary_extra(res, horizon_ms, stop_s),
+            extra=run.summary_extra(res, horizon_ms, stop_s, complete),
             scratch=None if scratch is None else f"{scratch}-fixes",
         )
     finally:
@@ -1255,15 +1283,18 @@ def _length(
     return length.horizon_ms, length.stop_s, length.stop_ms
 
 
-def _tables(run: _Coupling, window_sink: Any, windows: bool) -> tuple[_Records | None, Any]:
+def _tables(
+    run: _Coupling, window_sink: Any, windows: bool
+) -> tuple[_Records | None, Any, list[WindowRecord] | None]:
     """The windows' records for the result's frame (None: streamed or not asked for; the
-    frame is built when first read, `_Frame`) and the columns the summary reads (in memory,
+    frame is built when first read, `_Frame`), the columns the summary reads (in memory,
     without the followers' state and bounds, or read back from the sink in chunks: memory
-    stays flat at any length and follower count)."""
+    stays flat at any length and follower count) and the complete records kept (None:
+    streamed)."""
     if window_sink is None:
         recs = [r for r in run.rec.records if r.complete]
         table = records_columns(recs, run.n, run.rec.limits, state=False, summary=True)
-        return (_Records(recs, run.n, run.rec.limits) if windows else None), table
+        return (_Records(recs, run.n, run.rec.limits) if windows else None), table, recs
     run.rec.flush()
     window_sink.close()
-    return None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS)
+    return None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS), None

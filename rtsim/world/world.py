@@ -20,6 +20,7 @@ heading. Followers are numbered from 1 in every method; arrays are indexed i −
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any, Literal
@@ -54,7 +55,7 @@ from rtsim.world.motionmodels import motion_model
 from rtsim.world.scan import Scan
 from rtsim.world.scanstep import PY, FusedFields, FusedScan
 
-__all__ = ["World", "Scan"]
+__all__ = ["World", "Scan", "forget_starts"]
 
 # the scan's per-follower arithmetic, the kernel sources' Python twins (`rtsim.world.scanstep`)
 _TO_LEADER = PY["to_leader_xy"]
@@ -72,6 +73,46 @@ Array = NDArray[np.float64]
 Pose = tuple[float, float, float]
 XY = tuple[float, float]
 Mark = tuple[int, float, Pose, tuple[float, float], Pose, float, float]
+
+
+#: Followers' starting states on the leader's trace kept per process (`_initial_on_trace`)
+INITIAL_KEPT = 16
+_INITIAL: dict[tuple[Any, ...], tuple[Any, ...]] = {}
+_INITIAL_LOCK = threading.Lock()
+
+
+def _initial_on_trace(
+    ftl: TraceFollower, n: int, s_l: float, pose: Pose, v_l: float
+) -> NDArray[np.float64]:
+    """The ``n`` followers' (x, y, heading, speed) on their references for the leader at
+    ``s_l``, ``pose``, ``v_l`` (`TraceFollower.initial` of each in turn, which also sets the
+    law's references), an (n, 4) array. A compiled law's are kept per process by the law's
+    inputs (its path, the object itself: alive while kept) and the leader's start: a
+    sweep's next point sets the same references and gets the same numbers without the
+    search (≈ 0.13 ms of a Test 2 lap's set-up)."""
+    if type(ftl) is not CompiledTraceFollower or not ftl.compiled:
+        rows = [ftl.initial(k, s_l, pose, v_l) for k in range(n)]
+        return np.array(rows, dtype=float).reshape(n, 4)
+    key = (ftl.path, (*ftl.rho_d,), (*ftl.lateral,), ftl.gain, ftl.lookahead, n, s_l, pose, v_l)
+    with _INITIAL_LOCK:
+        hit = _INITIAL.get(key)
+    if hit is None:
+        rows = [ftl.initial(k, s_l, pose, v_l) for k in range(n)]
+        hit = (tuple(rows), tuple(ftl._sr.tolist()), tuple(ftl._sf.tolist()))
+        with _INITIAL_LOCK:  # (points may run in threads: a Dask worker's)
+            _INITIAL[key] = hit
+            while len(_INITIAL) > INITIAL_KEPT:
+                del _INITIAL[next(iter(_INITIAL))]
+    else:
+        ftl._sr[:] = hit[1]
+        ftl._sf[:] = hit[2]
+    return np.array(hit[0], dtype=float).reshape(n, 4)
+
+
+def forget_starts() -> None:
+    """Forget the followers' starting states kept (`_initial_on_trace`)."""
+    with _INITIAL_LOCK:
+        _INITIAL.clear()
 
 
 class World:
@@ -124,10 +165,7 @@ class World:
         if follower_model(form.model).on_trace:
             ftl = CompiledTraceFollower if fast else TraceFollower
             self._ftl = ftl(config.path, form.rho_d, form.lateral, fp.gain_rho, fp.lookahead)
-            init = np.array(
-                [self._ftl.initial(k, self.leader.s, (xl, yl, hl), v_l) for k in range(form.n)],
-                dtype=float,
-            ).reshape(form.n, 4)
+            init = _initial_on_trace(self._ftl, form.n, self.leader.s, (xl, yl, hl), v_l)
             x, y, th, v_f = init.T
             w0 = 0.0
         else:

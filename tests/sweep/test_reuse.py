@@ -188,3 +188,33 @@ def test_caches_stay_bounded_over_many_contents(tmp_path: Path) -> None:
     assert base_mod._parsed.cache_info().currsize == 1
     # the first point again, prepared anew after its eviction: the same metrics
     assert execute_point(point_input(spec, points(spec)[0]))["metrics"] == recs[0]["metrics"]
+
+
+def test_run_state_kept_changes_no_result() -> None:
+    """The followers' starting states on the trace and the thresholds per follower, kept
+    per process by their inputs: two scenarios run in turn give what each gives alone, on
+    a fresh process's state (`prepared.clear`)."""
+    import pandas as pd
+
+    import rtsim.world.world as world_mod
+    from rtsim.coupling import run_scenario
+
+    kw = {"record_jobs": False, "duration_s": 3.0}
+    runs = {"a": {"formation.followers": 2}, "b": {"formation.followers": 3, "sensing.r_H": 25}}
+
+    def one(name: str) -> tuple[str, pd.DataFrame]:
+        res = run_scenario("test2", overrides=runs[name], **kw)
+        assert res.windows is not None
+        return json.dumps(res.summary, sort_keys=True, default=str), res.windows
+
+    alone = {}
+    for name in runs:
+        prepared_mod.clear()
+        assert not world_mod._INITIAL and not prepared_mod._CONSTANTS
+        alone[name] = one(name)
+    assert len(world_mod._INITIAL) == 1 and len(prepared_mod._CONSTANTS) == 2
+    for name in ("a", "b", "a", "b"):  # each after the other's state was kept
+        summary, windows = one(name)
+        assert summary == alone[name][0]
+        pd.testing.assert_frame_equal(windows, alone[name][1], check_exact=True)
+    assert len(world_mod._INITIAL) == 2 and len(prepared_mod._CONSTANTS) == 4
