@@ -39,7 +39,7 @@ __all__ = [
 ]
 
 
-@kernel
+@kernel(inline=True)
 def _rollout(
     G: Any,
     x: Any,
@@ -359,7 +359,7 @@ def _roll(
     sr, sf = srf[0], srf[1]
     # a pass/fail question stops after the first window if that one already fails
     first = 1 if nw > 1 and need > -math.inf else nw
-    e = 0 * nw  # (an int64, not the literal 0: one compiled _rollout)
+    e = 0 * nw  # (an int64, not the literal 0)
     done = 0  # windows whose changes are in ``out``
     while True:
         stop = first if done == 0 else nw
@@ -834,8 +834,8 @@ def _plan_decide_via(ns: Any, *args: Any) -> int:
 
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
-#: with a fresh NUMBA_CACHE_DIR, docs/performance.md)
-COMPILE_S = 6.0
+#: with a fresh NUMBA_CACHE_DIR, docs/performance.md; 5.0-5.1 s at load 6 on 2026-11-29)
+COMPILE_S = 5.0
 
 # most runs roll out right after the world is built: the world's announcement counts these
 follow_with(ENTRIES.values(), COMPILE_S)
@@ -892,7 +892,8 @@ def _warm(ns: Any) -> None:
     c = columns(fol)  # (views: the Python build of the kernel)
     c.x[0], c.v[0], c.send[0], c.rho_d[0] = -100.0, 30.0, 100.0, 100.0
     nan1 = np.full(1, math.nan)
-    G = (np.zeros(1), np.zeros(3), np.zeros(1), 1e3, np.zeros(1), np.full(1, -1), np.full(1, 100.0))
+    seg = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0])  # (x, y, heading, cos, sin, curvature)
+    G = (np.zeros(1), seg, 1e3, np.array([0.0, -1.0, 100.0]))  # (path.geometry_arrays)
     P = (fs, fol, np.full((1, 1), math.nan), G, nan1, nan1)
     ch = np.empty((64, 2, 1, 5))
     ns.rollout_changes(20.0, np.full(2, 240.0), P, ch[0], 1.0, -math.inf, 0.0)

@@ -43,6 +43,6 @@ def _warm_truth_log() -> None:
     """Compile the truth log's kernel (`rtsim.coupling.physical.trace_samples`: a world
     on the follow-the-leader law's trace) or load it, for the types of its every call
     (`rtsim.coupling.physical.PhysicalLog`), without running it."""
-    G = (np.zeros(1), np.zeros(3), np.zeros(1), 1e3, np.zeros(1), np.full(1, -1), np.ones(1))
+    G = (np.zeros(1), np.zeros(6), 1e3, np.zeros(3))  # (the types of path.geometry_arrays)
     f = np.zeros(1)
     built_entry(build(trace_samples), (G, f, f, f, 0.0, 0.0, f, f, np.zeros(2), f))

@@ -17,7 +17,7 @@ from typing import Any
 
 from rtsim.world.exactmath import HYPOT_SUBS, cpython_hypot
 from rtsim.world.jit import kernel, specialise
-from rtsim.world.path import LeaderPath, along
+from rtsim.world.path import Frame, LeaderPath, along
 
 __all__ = ["TraceFollower", "FTL_STEP", "ftl_command", "ftl_project", "ftl_reference"]
 
@@ -28,10 +28,12 @@ _NEWTON = 8
 _NEWTON_REACH = 50.0
 _SCALE_MIN = 0.05
 
-# -- the equations, on the geometry G = (s0, poses, kappa, lap, lateral, ahead, spacing):
-# the path's segment starts (cm), their start poses (x, y, heading, three per segment, flat)
-# and curvatures (1/cm), its lap (cm); per follower its lateral offset (cm, left positive),
-# whom it follows (-1: the leader) and at what spacing (cm). Tuples in Python, arrays compiled.
+# -- the equations, on the geometry G = (s0, seg, lap, fol): the path's segment starts (cm);
+# per segment its start frame (x, y, heading, the heading's cosine and sine:
+# `rtsim.world.path.along`) and curvature (1/cm), six a segment, flat; its lap (cm); per
+# follower its lateral offset (cm, left positive), whom it follows (-1: the leader; an index
+# held as a float) and at what spacing (cm), three a follower, flat. Tuples in Python, arrays
+# compiled (`rtsim.world.path.geometry_arrays`).
 
 
 @kernel(inline=True)
@@ -39,7 +41,7 @@ def path_segment(G: Any, s: float) -> tuple[int, float]:
     """`LeaderPath.index` (s), the segment's index (bisect_right − 1 of the starts), and u = s
     mod lap (Python's ``%``; within one lap either side of 0 its result without the fmod:
     fmod(s, lap) is s exactly there, and ``%`` adds lap to a negative one)."""
-    s0, lap = G[0], G[3]
+    s0, lap = G[0], G[2]
     if 0.0 < s < lap:
         u = s
     elif -lap < s < 0.0:
@@ -57,24 +59,26 @@ def path_segment(G: Any, s: float) -> tuple[int, float]:
 
 
 @kernel
-def _pose_at(G: Any, k: int, u: float) -> tuple[float, float, float]:
-    """The pose `along` segment k at u − its start (u: s mod lap)."""
-    poses = G[1]
-    return along(poses[3 * k], poses[3 * k + 1], poses[3 * k + 2], G[2][k], u - G[0][k])
+def _pose_at(G: Any, k: int, u: float) -> Frame:
+    """The frame (pose, cos and sin of its heading) `along` segment k at u − its start (u: s
+    mod lap), from the segment's start frame."""
+    p, j = G[1], 6 * k
+    return along(p[j], p[j + 1], p[j + 2], p[j + 3], p[j + 4], p[j + 5], u - G[0][k])
 
 
 @kernel
 def path_pose(G: Any, s: float) -> tuple[float, float, float]:
     """`LeaderPath.pose` (s): `along` the segment at ``s`` from its start pose."""
     k, u = path_segment(G, s)
-    return _pose_at(G, k, u)
+    x, y, h, _, _ = _pose_at(G, k, u)
+    return x, y, h
 
 
 @kernel
 def trace_point(G: Any, k: int, s: float) -> tuple[float, float, float]:
     """P_k(s) and the heading there: the path's pose at ``s`` moved follower k's offset to
     the left (`trace_frame`'s first three)."""
-    x, y, h, _ = trace_frame(G, k, s)
+    x, y, h, _, _, _ = trace_frame(G, k, s)
     return x, y, h
 
 
@@ -86,13 +90,13 @@ def trace_scale(G: Any, k: int, s: float) -> float:
 
 
 @kernel(inline=True)
-def trace_frame(G: Any, k: int, s: float) -> tuple[float, float, float, float]:
-    """P_k(s), the heading there and `trace_scale` (one segment lookup): the path's pose at
-    ``s`` moved follower k's offset to the left."""
+def trace_frame(G: Any, k: int, s: float) -> tuple[float, float, float, float, float, float]:
+    """P_k(s), the heading there, `trace_scale`, the heading's cosine and sine (one segment
+    lookup): the path's pose at ``s`` moved follower k's offset to the left."""
     i, u = path_segment(G, s)
-    x, y, h = _pose_at(G, i, u)
-    o = G[4][k]
-    return x - o * math.sin(h), y + o * math.cos(h), h, max(_SCALE_MIN, 1.0 - G[2][i] * o)
+    x, y, h, c, sn = _pose_at(G, i, u)
+    o = G[3][3 * k]
+    return x - o * sn, y + o * c, h, max(_SCALE_MIN, 1.0 - G[1][6 * i + 5] * o), c, sn
 
 
 @kernel
@@ -111,9 +115,9 @@ def ftl_search(G: Any, k: int, s: float, s_l: float, xl: float, yl: float, rho: 
     if not math.isnan(s) and s <= s_l:
         s_n = s
         for _ in range(_NEWTON):
-            x, y, h, scale = trace_frame(G, k, s_n)
+            x, y, _, scale, c, sn = trace_frame(G, k, s_n)
             dx, dy = x - xl, y - yl
-            dg = 2.0 * (dx * math.cos(h) + dy * math.sin(h)) * scale
+            dg = 2.0 * (dx * c + dy * sn) * scale
             if dg > -1e-6 * rho:
                 break
             step = (dx * dx + dy * dy - rho2) / dg
@@ -122,7 +126,7 @@ def ftl_search(G: Any, k: int, s: float, s_l: float, xl: float, yl: float, rho: 
                 break
             if abs(step) < 1e-9:
                 return s_n
-    limit = int(G[3] / FTL_STEP) + 2
+    limit = int(G[2] / FTL_STEP) + 2
     if math.isnan(s) or s > s_l:
         s = s_l
     lo = hi = s
@@ -154,11 +158,11 @@ def ftl_project(G: Any, k: int, s: float, x: float, y: float) -> float:
     """Arc length of the trace whose follower-k offset point is nearest (x, y): Newton steps
     on (p − P)·t / (1 − κo) from ``s``."""
     for _ in range(6):
-        px, py, h, scale = trace_frame(G, k, s)
-        ds = ((x - px) * math.cos(h) + (y - py) * math.sin(h)) / scale
+        px, py, _, scale, c, sn = trace_frame(G, k, s)
+        ds = ((x - px) * c + (y - py) * sn) / scale
         s += ds
         if abs(ds) < 1e-3:
-            break
+            return s  # (not ``break``: after a break numba keeps G's increfs and decrefs)
     return s
 
 
@@ -170,28 +174,30 @@ def ftl_reference(
     speed ``v_l``: down the chain of whom it follows, each one's reference behind the point it
     follows at its spacing (`ftl_search`) and that point's speed by (FTL-1) — V_T where the
     reference's tangent is nearly across the line. Updates ``s_ref`` (NaN: none yet) of each."""
-    ahead, spacing = G[5], G[6]
+    fol = G[3]  # (offset, whom it follows, spacing) per follower
     depth = 0  # how many followers k follows through
-    j = ahead[k]
+    j = int(fol[3 * k + 1])
     while j >= 0:
         depth += 1
-        j = ahead[j]
-    s_t, tx, ty, th_t, v_t = s_l, xl, yl, hl, v_l
+        j = int(fol[3 * j + 1])
+    # the point followed: arc length, position, its heading's cosine and sine, speed
+    s_t, tx, ty, ct, st, v_t = s_l, xl, yl, math.cos(hl), math.sin(hl), v_l
     sr = v_ref = 0.0
     for c in range(depth, -1, -1):
         q = k
         for _ in range(c):
-            q = ahead[q]
-        sr = ftl_search(G, q, s_ref[q], s_t, tx, ty, spacing[q])
+            q = int(fol[3 * q + 1])
+        sr = ftl_search(G, q, s_ref[q], s_t, tx, ty, fol[3 * q + 2])
         s_ref[q] = sr
         px, py, hp = trace_point(G, q, sr)
+        cp, sp = math.cos(hp), math.sin(hp)
         dx, dy = tx - px, ty - py
-        den = dx * math.cos(hp) + dy * math.sin(hp)
+        den = dx * cp + dy * sp
         if den <= 0.1 * cpython_hypot(dx, dy):
             v_ref = v_t
         else:
-            v_ref = v_t * (dx * math.cos(th_t) + dy * math.sin(th_t)) / den
-        s_t, tx, ty, th_t, v_t = sr, px, py, hp, v_ref  # the next one follows this one
+            v_ref = v_t * (dx * ct + dy * st) / den
+        s_t, tx, ty, ct, st, v_t = sr, px, py, cp, sp, v_ref  # the next one follows this one
     return sr, v_ref
 
 
@@ -240,7 +246,7 @@ def ftl_command(
 @kernel
 def _bisect_segment(G: Any, s: float) -> tuple[int, float]:
     """`path_segment` by the standard library's bisect_right (the Python twins')."""
-    u = s % G[3]
+    u = s % G[2]
     return bisect.bisect_right(G[0], u) - 1, u
 
 
@@ -290,11 +296,10 @@ class TraceFollower:
         self.gain = float(gain)
         self.lookahead = float(lookahead)
         #: the geometry G the equations read, as Python tuples (module comment)
+        fol = zip(self.lateral, self.ahead, self.spacing, strict=True)
         self.geometry: tuple[Any, ...] = (
             *path.geometry(),
-            tuple(self.lateral),
-            tuple(self.ahead),
-            tuple(self.spacing),
+            tuple(float(c) for row in fol for c in row),
         )
         n = len(self.rho_d)
         self._sr: Any = [math.nan] * n

@@ -174,9 +174,9 @@ MOTION_ENTRIES = (
 )
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured
-#: with a fresh NUMBA_CACHE_DIR, docs/performance.md: the first run's 13.1 s less the cached
-#: run's 1.9 s, less the rollout's `rtsim.control.kernels.COMPILE_S`, with the estimates' kernels)
-COMPILE_S = 5.0
+#: with a fresh NUMBA_CACHE_DIR, docs/performance.md: the first run's 11.4 s less the cached
+#: run's 1.9 s, less the rollout's `rtsim.control.kernels.COMPILE_S`, with the scan's kernel)
+COMPILE_S = 4.5
 
 _ANNOUNCED = False
 #: kernel sources compiled right after these as a rule, with their time (`follow_with`)
@@ -288,7 +288,8 @@ def _warm(ns: Any) -> None:
     the first window."""
     S = np.zeros((len(GROUP_ROWS), 1))
     ns.advance_group(S, 0, 1, 20.0, 10.0, 10.0)
-    G = (np.zeros(1), np.zeros(3), np.zeros(1), 100.0, np.zeros(1), np.full(1, -1), np.ones(1))
+    seg = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0])  # (x, y, heading, cos, sin, curvature)
+    G = (np.zeros(1), seg, 100.0, np.array([0.0, -1.0, 1.0]))  # (path.geometry_arrays)
     ns.advance_world(S, 1, 30.0, 10.0, 10.0, 1.0, 2.0, 10.0, 10.0, 0.01, 0.0, G)
     nan1 = np.full(1, math.nan)
     ns.leader_travel(1.0, 2.0, 10.0, 10.0, 0.02)

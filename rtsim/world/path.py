@@ -93,17 +93,21 @@ class Turn:
 Segment = Straight | Turn
 
 
-Pose = tuple[float, float, float]
+#: a pose and its heading's cosine and sine: (x, y, h, cos h, sin h)
+Frame = tuple[float, float, float, float, float]
 
 
 @kernel
-def along(x0: float, y0: float, h0: float, kappa: float, s: float) -> Pose:
-    """Pose after arc length ``s`` along curvature ``kappa`` from pose (x0, y0, h0) (exact;
-    the compiled kernels call it too)."""
+def along(x0: float, y0: float, h0: float, c0: float, s0: float, kappa: float, s: float) -> Frame:
+    """The frame after arc length ``s`` along curvature ``kappa`` from the frame (x0, y0, h0,
+    c0 = cos h0, s0 = sin h0) (exact; the compiled kernels call it too): a segment's start
+    frame is computed once, with its path, and on a straight the heading's cosine and sine
+    are its start's, the doubles ``math.cos``/``math.sin`` give there."""
     if kappa == 0.0:
-        return (x0 + s * math.cos(h0), y0 + s * math.sin(h0), h0)
+        return (x0 + s * c0, y0 + s * s0, h0, c0, s0)
     h = h0 + kappa * s
-    return (x0 + (math.sin(h) - math.sin(h0)) / kappa, y0 - (math.cos(h) - math.cos(h0)) / kappa, h)
+    c, sn = math.cos(h), math.sin(h)
+    return (x0 + (sn - s0) / kappa, y0 - (c - c0) / kappa, h, c, sn)
 
 
 class LeaderPath:
@@ -135,7 +139,8 @@ class LeaderPath:
         self._memo_pose_s: float = math.nan
         self._memo_pose: tuple[float, float, float] = (math.nan, math.nan, math.nan)
         self._kappa = tuple(seg.curvature for seg in segs)
-        poses = [self._start]
+        # each segment's start frame (`along`): its pose and its heading's cosine and sine
+        poses: list[Frame] = [(x0, y0, h0, math.cos(h0), math.sin(h0))]
         s0 = [0.0]
         for seg, kappa in zip(segs, self._kappa, strict=True):
             poses.append(along(*poses[-1], kappa, seg.length))
@@ -143,7 +148,7 @@ class LeaderPath:
         self._poses = tuple(poses[:-1])
         self._s0 = tuple(s0[:-1])
         self._lap = s0[-1]
-        xe, ye, he = poses[-1]
+        xe, ye, he, _, _ = poses[-1]
         gap = math.hypot(xe - x0, ye - y0)
         turns = (he - h0) / (2 * math.pi)
         if gap > CLOSURE_TOL or abs(turns - round(turns)) * 2 * math.pi > _HEADING_TOL:
@@ -196,7 +201,8 @@ class LeaderPath:
             return self._memo_pose
         u = s % self._lap
         k = bisect.bisect_right(self._s0, u) - 1
-        pose = along(*self._poses[k], self._kappa[k], u - self._s0[k])
+        x, y, h, _, _ = along(*self._poses[k], self._kappa[k], u - self._s0[k])
+        pose = (x, y, h)
         self._memo_pose_s, self._memo_pose = s, pose
         return pose
 
@@ -207,10 +213,11 @@ class LeaderPath:
 
     def geometry(self) -> tuple[Any, ...]:
         """The path as the kernels read it (`rtsim.world.ftl.path_pose`), Python tuples: the
-        segments' starts (cm), their start poses (x, y, heading, flat), their curvatures and
-        the lap length (the head of the follow-the-leader law's geometry,
-        `rtsim.world.ftl.TraceFollower.geometry`)."""
-        return (self._s0, tuple(c for pose in self._poses for c in pose), self._kappa, self._lap)
+        segments' starts (cm); per segment its start frame (x, y, heading, the heading's cosine
+        and sine: `along`) and its curvature, six a segment, flat; the lap length (the head
+        of the follow-the-leader law's geometry, `rtsim.world.ftl.TraceFollower.geometry`)."""
+        frames = zip(self._poses, self._kappa, strict=True)
+        return (self._s0, tuple(c for f, kappa in frames for c in (*f, kappa)), self._lap)
 
     def arrays(self) -> tuple[Any, ...]:
         """`geometry` as the kernels' arrays, in the shape of the law's (`geometry_arrays`:
@@ -250,18 +257,13 @@ def rounded_rectangle(
 
 
 def geometry_arrays(G: tuple[Any, ...]) -> tuple[Any, ...]:
-    """A geometry (`LeaderPath.geometry`, then the followers' lateral offsets, the follower
-    each keeps its spacing from and that spacing, as `rtsim.world.ftl.TraceFollower.geometry`)
-    as the kernels read it: float arrays, the lap a float, the followers' indices int64; a
-    path alone gets one placeholder follower (no offset, none ahead, spacing 1)."""
-    s0, poses, kappa, lap, *followers = G
-    lateral, ahead, spacing = followers or ((0.0,), (-1,), (1.0,))
-    return (
-        np.array(s0, dtype=float),
-        np.array(poses, dtype=float),
-        np.array(kappa, dtype=float),
-        float(lap),
-        np.array(lateral, dtype=float),
-        np.array(ahead, dtype=np.int64),
-        np.array(spacing, dtype=float),
-    )
+    """A geometry (`LeaderPath.geometry`, then per follower its lateral offset, the follower
+    it keeps its spacing from and that spacing, three a follower, flat, as
+    `rtsim.world.ftl.TraceFollower.geometry`) as the kernels read it: float arrays and the
+    lap a float (three arrays: each is unboxed at a call from Python and reference-counted
+    at a call between kernels); a path alone gets one placeholder follower (no offset, none
+    ahead, spacing 1)."""
+    s0, seg, lap, *followers = G
+    (fol,) = followers or ((0.0, -1.0, 1.0),)
+    s0, seg, fol = (np.array(a, dtype=float) for a in (s0, seg, fol))
+    return (s0, seg, float(lap), fol)

@@ -239,3 +239,62 @@ def test_warm_world_compiles_the_truth_log_only_for_a_trace_follower(
     calls.clear()
     l_psi = load_scenario("test2", {"world.backend": "compiled", "formation.model": "l-psi"})
     assert warm.warm_world([l_psi]) and calls == ["all"]
+
+
+@pytest.mark.skipif(not available(), reason="numba is not importable")
+def test_typing_memo_answers_as_numba_and_only_while_a_kernel_compiles() -> None:
+    """The memoised typing gives numba's signature and implementation key, remembers only what
+    a plain template typed (an `overload`'s compiles an implementation: asked again), and
+    stands in for numba's only while a kernel compiles."""
+    import operator
+
+    import numpy as np
+    from numba.core import types as nbt
+    from numba.core.registry import cpu_target
+    from numba.core.types.functions import Function
+
+    jit.build(motion.ramp)(0.0, 1.0, 2.0, 3.0)
+    memo = jit._custom().typing_memo
+    assert memo is not None and Function.get_call_type is memo.original
+    ctx = cpu_target.typing_context
+    ctx.refresh()
+    arr = nbt.Array(nbt.float64, 1, "C")
+    for fn, args in ((operator.mul, (nbt.float64,) * 2), (operator.getitem, (arr, nbt.int64))):
+        fnty = ctx.resolve_value_type(fn)
+        want = memo.original(fnty, ctx, args, {})
+        for _ in range(2):  # computed, then remembered
+            got = memo.memoised(fnty, ctx, args, {})
+            assert got == want and fnty.get_impl_key(got) is fnty.typing_key
+    empty = ctx.resolve_value_type(np.empty)  # an overload: its key is its implementation
+    sig = memo.memoised(empty, ctx, (nbt.int64,), {})
+    assert sig is not None and empty.get_impl_key(sig) is not empty.typing_key
+    assert not any(key[0] is empty for key in memo.answers)
+
+
+def test_full_collections_freeze_their_survivors_only_while_a_kernel_compiles(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The collector's callback freezes after a full collection inside a compile, not else;
+    a compile leaves nothing frozen, nor unfreezes what its caller froze."""
+    import gc
+
+    frozen: list[int] = []
+    monkeypatch.setattr(gc, "freeze", lambda: frozen.append(1))
+    for on, gen in ((False, 2), (True, 0), (True, 1), (True, 2)):
+        monkeypatch.setattr(jit, "_FROZEN", on)
+        jit._freeze_survivors("start", {"generation": gen})
+        jit._freeze_survivors("stop", {"generation": gen})
+    assert frozen == [1]
+    monkeypatch.undo()
+    if available():
+        assert gc.get_freeze_count() == 0
+        jit.build(motion.arc)(0.0, 0.0, 0.1, 1.0, 0.0, 2.0)  # (compiled, or loaded: either)
+        assert gc.get_freeze_count() == 0 and not jit._FROZEN
+        gc.freeze()
+        try:
+            mine = gc.get_freeze_count()
+            with jit._compiling():
+                assert not jit._FROZEN
+            assert gc.get_freeze_count() == mine
+        finally:
+            gc.unfreeze()
