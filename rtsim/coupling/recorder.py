@@ -578,7 +578,7 @@ def _path_segments(path: LeaderPath, s: NDArray[np.float64]) -> tuple[list[str],
     """`LeaderPath.segment_at` of every arc length ``s`` at once: the segment of ``s`` mod
     the lap (numpy's remainder is Python's ``%``: the same double) by its start, as
     `LeaderPath.index` finds it (``bisect_right`` less one)."""
-    s0, _, kappa, lap = path.geometry()
+    s0, kappa, lap = path._s0, path._kappa, path.lap_length  # (as `index` reads them)
     k = np.searchsorted(np.asarray(s0, dtype=float), np.remainder(s, lap), side="right") - 1
     kinds = np.array([seg.kind for seg in path.segments], dtype=object)
     return kinds[k].tolist(), np.asarray(kappa, dtype=float)[k].tolist()
