@@ -266,7 +266,7 @@ def _arrow_block(columns: Sequence[Any], kinds: Sequence[str], sep: str) -> Any:
         cells.append(c)
     try:  # (Arrow's CSV writer puts the cells as they are: half the join's time)
         return _written(cells, sep)
-    except pa.ArrowInvalid:  # (a quoted cell: its quote is a character the writer refuses)
+    except pa.ArrowInvalid:  # (a quoted cell, or an older pyarrow: `_written`)
         pass
     cells[-1] = pc.binary_join_element_wise(cells[-1], "", sep)  # (the last cell, sep)
     rows = pc.binary_join_element_wise(*cells, ",")
@@ -279,15 +279,18 @@ def _written(cells: list[Any], sep: str) -> Any:
     """The rows of ``cells`` (Arrow strings, one array per column, no nulls) joined by
     commas, each ended by ``sep``, as Arrow's CSV writer writes them without quoting (the
     cells as they are: the bytes of `_arrow_block`'s join); raises ``ArrowInvalid`` for a
-    cell holding a quote, a comma or a line break."""
+    cell holding a quote, a comma or a line break, and where the writer cannot end rows by
+    ``sep`` (an older pyarrow's `WriteOptions` has no ``eol``)."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
 
+    try:
+        options = pcsv.WriteOptions(include_header=False, quoting_style="none", eol=sep)
+    except TypeError as e:  # (pyarrow 14: no eol)
+        raise pa.ArrowInvalid(str(e)) from e
     table = pa.Table.from_arrays(cells, names=[str(i) for i in range(len(cells))])
     out = pa.BufferOutputStream()
-    pcsv.write_csv(
-        table, out, pcsv.WriteOptions(include_header=False, quoting_style="none", eol=sep)
-    )
+    pcsv.write_csv(table, out, options)
     return out.getvalue()
 
 
