@@ -280,3 +280,33 @@ def test_mostly_whole_floats_are_repr() -> None:
     df = pd.DataFrame({"r": times, "d": times + 40.0, "z": np.where(times > 600, -0.0, 0.0)})
     df["x"] = np.where(np.arange(len(df)) % 9 == 0, times + 0.25, times)
     assert _ours(df) == _pandas(df)
+
+
+def test_long_tables_with_cells_to_quote_give_pandas_bytes() -> None:
+    """A long chunk whose strings need quotes (a comma, a quote, a line break) leaves Arrow's
+    CSV writer, which refuses them, for the join: pandas' bytes either way."""
+    m = 2 * ARROW_MIN
+    x = np.linspace(0.1, 7.3, m)
+    for odd in ("a,b", 'say "hi"', "two\nlines", "plain"):
+        names = ["t1", odd] * (m // 2)
+        df = pd.DataFrame({"task": pd.array(names, dtype="string"), "x": x, "k": np.arange(m)})
+        assert _ours(df) == _pandas(df)
+
+
+def test_a_writer_without_eol_falls_back_to_the_join(monkeypatch: pytest.MonkeyPatch) -> None:
+    """pyarrow 14's CSV `WriteOptions` has no ``eol``: the rows are then joined as before,
+    pandas' bytes still."""
+    import pyarrow.csv as pcsv
+
+    real = pcsv.WriteOptions
+
+    def no_eol(*args: object, **kws: object) -> object:
+        if "eol" in kws:
+            raise TypeError("__init__() got an unexpected keyword argument 'eol'")
+        return real(*args, **kws)
+
+    m = 2 * ARROW_MIN
+    df = pd.DataFrame({"x": np.linspace(0.1, 7.3, m), "k": np.arange(m)})
+    want = _pandas(df)
+    monkeypatch.setattr(pcsv, "WriteOptions", no_eol)
+    assert _ours(df) == want
