@@ -32,9 +32,9 @@ def _dl_mul(x: float, y: float) -> tuple[float, float]:
 
 
 @kernel
-def _hypot_core(ax: float, ay: float, mx: float) -> float:
-    _, e = math.frexp(mx)
-    scale = math.ldexp(1.0, -e)
+def _hypot_core(ax: float, ay: float, scale: float) -> float:
+    """CPython's vector_norm of (ax, ay) scaled by ``scale``: 2^-e, e the exponent
+    ``math.frexp`` gives the larger, a normal number."""
     csum, frac1, frac2 = 1.0, 0.0, 0.0
     for v in (ax, ay):
         v *= scale
@@ -61,16 +61,20 @@ def cpython_hypot(x: float, y: float) -> float:
     correction); `rtsim.world.kernels.kernels` checks it against ``math.hypot`` before a
     kernel uses it."""
     ax, ay = abs(x), abs(y)
+    if math.isinf(ax) or math.isinf(ay):  # before NaN, as CPython: hypot(inf, nan) = inf
+        return math.inf
     if math.isnan(ax) or math.isnan(ay):
         return math.nan
     mx = ax if ax > ay else ay
-    if math.isinf(mx) or mx == 0.0:
+    if mx == 0.0:
         return mx
-    _, e = math.frexp(mx)
+    # one frexp: mx = m·2^e exactly, so m / mx is 2^-e exactly (ldexp(1.0, -e) without
+    # calling it), and mx / DBL_MIN (exact) has the same m
+    m, e = math.frexp(mx)
     if e < -1021:  # subnormal: CPython divides by DBL_MIN first
         dmin = 2.2250738585072014e-308
-        return dmin * _hypot_core(ax / dmin, ay / dmin, mx / dmin)
-    return _hypot_core(ax, ay, mx)
+        return dmin * _hypot_core(ax / dmin, ay / dmin, m / (mx / dmin))
+    return _hypot_core(ax, ay, m / mx)
 
 
 @kernel
