@@ -850,11 +850,7 @@ class _Coupling:
         ``complete``: the kept records that are complete, when the caller has them."""
         if self._folded and tolerance != VIOLATION_TOLERANCE:
             raise ValueError("records were handed over: only the default tolerance is known")
-        if complete is None:
-            left = self._fold(self.rec.records, tolerance)
-        else:  # (the closed ones: `_closed` without asking each again whether complete)
-            recs = [r for r in complete if r.changes is not None]
-            left = self._fold(recs, tolerance, changes_array(recs, self.n)) if recs else {}
+        left = self._fold(self.rec.records if complete is None else complete, tolerance)
         ratios: dict[str, float] = {}
         beyond: dict[str, int] = {}
         for kind, _, _ in self._limits:
