@@ -103,9 +103,14 @@ def test_rows_of_unequal_lengths() -> None:
 
 
 def test_violation_ratios_equal_per_kind_arrays(run: tuple[Any, Any]) -> None:
-    coupling, _ = run
+    coupling, res = run
     recs = [r for r in coupling.rec.records if r.complete and r.changes is not None]
     ratios, beyond = coupling.violation_ratios()
+    # (the summary's, folded from the records `_tables` picked as complete: the same)
+    assert res.summary["max_violation_ratio"] == ratios
+    assert res.summary["violations_beyond_5pct"] == beyond
+    complete = [r for r in coupling.rec.records if r.complete]
+    assert sr._closed(sr._Complete(complete)) == sr._closed(complete) == recs
     for kind, key, lim in coupling._limits:
         ratio = np.array([r.changes[key] for r in recs], dtype=float).reshape(len(recs), -1) / lim
         assert ratios[kind] == float(ratio.max())
