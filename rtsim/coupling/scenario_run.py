@@ -1255,6 +1255,9 @@ def run_scenario(
         )
     finally:
         run.phys.close()
+        # (the run's state dropped now, not left to a full collection: its hooks and CPU
+        # are a cycle, and a sweep's points piled up; docs/performance.md, Memory)
+        run.__dict__.clear()
     t3 = time.perf_counter()
     timing = {
         "setup_s": t1 - t0,

@@ -26,14 +26,16 @@ RUNS = [
 
 @pytest.fixture(scope="module", params=range(len(RUNS)), ids=lambda i: f"run{i}")
 def run(request: pytest.FixtureRequest) -> tuple[Any, Any]:
-    """(the run's _Coupling after its loop, its ScenarioResult)."""
+    """(the run's _Coupling after its loop, a copy, and its ScenarioResult)."""
     name, kw = RUNS[request.param]
     kept: list[Any] = []
     real = sr._Coupling.run
 
     def keep(self: Any) -> None:
         real(self)
-        kept.append(self)
+        copy = object.__new__(sr._Coupling)  # (run_scenario drops the run's state after)
+        copy.__dict__.update(vars(self))
+        kept.append(copy)
 
     mp = pytest.MonkeyPatch()
     mp.setattr(sr._Coupling, "run", keep)
