@@ -35,6 +35,7 @@ from rtsim.world.exactmath import HYPOT_SUBS, cpython_hypot, cpython_remainder
 from rtsim.world.hough import _dummy, locate_all, peak_fix
 from rtsim.world.jit import build, kernel, specialise
 from rtsim.world.kernels import built_entry
+from rtsim.world.normals import standard_normals
 from rtsim.world.rangefinder import BEAM_COS, BEAM_SIN, scan_points
 
 __all__ = [
@@ -133,13 +134,14 @@ def scan_step(
     W: Any, xl: float, yl: float, hl: float, z: Any, E: Any, t: float, a: float,
     predicted: bool, first: bool, mode: int, var: float, track: bool, laser: Any,
     beams: Any, hough: Any, work: Any, windows: Any, P: Any, limits: Any, T: Any, B: Any,
-    N: Any, F: Any, ekf: Any,
+    N: Any, F: Any, ekf: Any, G: Any,
 ) -> float:  # fmt: skip
     """One scan (module docstring) of the followers whose truth is ``W`` (rows x, y,
     odometer) seen by the leader at (``xl``, ``yl``, ``hl``): ``laser`` = (r_F, max range,
-    range σ, the beams' cos and sin) with the standard normals ``z``, into ``beams`` = (px,
-    py, owner, counts); the window centres carried from the estimates ``E`` to ``t`` ms
-    (acceleration limit ``a``) when ``predicted``, else ``T``'s rows cx, cy as given;
+    range σ, the beams' cos and sin) with the standard normals ``z`` (drawn into it first
+    from the PCG64 whose state is ``G``, `rtsim.world.normals`, unless ``G`` is empty), into
+    ``beams`` = (px, py, owner, counts); the window centres carried from the estimates ``E``
+    to ``t`` ms (acceleration limit ``a``) when ``predicted``, else ``T``'s rows cx, cy as given;
     ``hough`` = (r_H, cell, cells, min_points) with the accumulator's ``work`` into
     ``windows``; the previous scan's ``P`` (rows x, y, ρ, β, odometer; written with this
     scan's; ignored at the ``first``) and ``limits`` = (separation and travel limits per
@@ -162,6 +164,8 @@ def scan_step(
             x, y, _, _, _ = carry_row(E, k, t, a)
             T[2, k], T[3, k] = to_leader_xy(xl, yl, c, s, x, y)
     r_F, max_range, range_sd, cos_b, sin_b = laser
+    if G.shape[0] != 0:
+        standard_normals(G, z, z.shape[0])
     px, py, owner, counts = beams
     scan_points(T[0], T[1], r_F, max_range, range_sd, z, cos_b, sin_b, px, py, owner, counts)
     r_H, cell, cells, min_pts = hough
@@ -206,14 +210,14 @@ def scan_step(
 def _arguments(n: int, E: Any, laser: Any, beams: Any, hough: Any, work: Any, windows: Any) -> Any:
     """Arguments of `scan_step`'s types at every call for ``n`` followers, with these
     parts (the others zeros): the ones that change per call, then the fixed ones (``P``,
-    ``limits``, ``T``, ``B``, ``N``, ``F`` at 5, 6, 7, 8, 9, 10 of them)."""
+    ``limits``, ``T``, ``B``, ``N``, ``F`` at 5, 6, 7, 8, 9, 10 of them; ``G`` last)."""
     x = 0.0
     limits = (np.zeros(n), np.zeros(n), x)
     T, B = np.zeros((len(FLOAT_ROWS), n)), np.zeros((len(FLAG_ROWS), n), dtype=np.bool_)
     N, F = np.zeros((2, n), dtype=np.int64), np.zeros((n, 3))
     each = (np.zeros((3, n)), x, x, x, np.zeros(LASER_POINTS), E, x, x, True, True, 0, x, True)
     fixed = (laser, beams, hough, work, windows, np.zeros((5, n)), limits, T, B, N, F, (x,) * 6)
-    return each, fixed
+    return each, (*fixed, np.zeros(0, dtype=np.uint64))
 
 
 def warm() -> None:
@@ -253,7 +257,9 @@ class FusedScan:
     """A world's buffers for `scan_step` and its compiled entry (``motion``: the motion
     model whose parts carry the estimates). ``model``: the world's `HoughModel` (its
     rangefinder's and accumulator's buffers); ``limits``: the separation and travel
-    limits per follower, lists; ``T_beta``."""
+    limits per follower, lists; ``T_beta``; ``pcg``: the world's PCG64 state
+    (`rtsim.world.normals`), from which the kernel draws each scan's normals into `z`
+    (None: the caller passes them)."""
 
     def __init__(
         self,
@@ -263,6 +269,7 @@ class FusedScan:
         E: NDArray[np.float64],
         limits: tuple[list[float], list[float]],
         T_beta: float,
+        pcg: NDArray[np.uint64] | None = None,
     ) -> None:
         config = model.config
         rf, acc = model.rangefinder, model.accumulator
@@ -283,26 +290,29 @@ class FusedScan:
         self.limits = (np.array(sep, dtype=float), np.array(trav, dtype=float), float(T_beta))
         self.first = True
         self._step = built_entry(build(scan_step, motion.subs), (*each, *fixed))
-        self.ekf = fixed[-1]
+        #: the scan's normals: the kernel's draws (``pcg``), else the caller's
+        self.z: Array = np.zeros(LASER_POINTS)
+        self.G: NDArray[np.uint64] = fixed[-1] if pcg is None else pcg
+        self.ekf = fixed[-2]
 
     @property
     def ekf(self) -> tuple[float, ...]:
         """`scan_step`'s EKF constants (`CompiledEstimates.ekf_args`), set by the world."""
-        return self._fixed[-1]  # type: ignore[no-any-return]
+        return self._fixed[-2]  # type: ignore[no-any-return]
 
     @ekf.setter
     def ekf(self, value: tuple[float, ...]) -> None:
         #: `scan_step`'s arguments that are the same at every call, with ``value``
         self._fixed: tuple[Any, ...] = (
             self.laser, self.beams, self.hough, self.work, self.windows, self.P,
-            self.limits, self.T, self.B, self.N, self.F, value,
+            self.limits, self.T, self.B, self.N, self.F, value, self.G,
         )  # fmt: skip
 
     def run(
         self,
         W: NDArray[np.float64],
         lp: tuple[float, float, float],
-        z: NDArray[np.float64],
+        z: NDArray[np.float64] | None,
         E: NDArray[np.float64],
         t: float,
         a: float,
@@ -314,8 +324,11 @@ class FusedScan:
         """`scan_step` on these buffers (the previous scan's state kept between calls) in
         ``mode`` (0: the scan; 1: the scan and, every window fixed, the estimate; 2: the
         estimate alone) with the heading variance's max ``var``, ``track``: the estimate's
-        result, or −1 when none was made."""
+        result, or −1 when none was made. ``z``: the scan's normals (None: the kernel draws
+        them into `z` from ``pcg``)."""
         xl, yl, hl = lp
+        if z is None:
+            z = self.z
         out: float = self._step(
             W, xl, yl, hl, z, E, t, a, predicted, self.first, mode, var, track, *self._fixed
         )  # fmt: skip

@@ -52,6 +52,7 @@ from rtsim.world.leader import Leader
 from rtsim.world.localization import ExpectedBeams, lost_cause
 from rtsim.world.locmodels import Fix, HoughModel, localization_model
 from rtsim.world.motionmodels import motion_model
+from rtsim.world.normals import set_state, state_of
 from rtsim.world.scan import Scan
 from rtsim.world.scanstep import PY, FusedFields, FusedScan
 
@@ -125,6 +126,8 @@ class World:
         self._zi = 0
         self._stream = np.empty(0)  # standard normals drawn ahead from rng (see _draw)
         self._si = 0
+        #: the stream's PCG64 state when the fused scan draws its own normals (`_draw`)
+        self._pcg: NDArray[np.uint64] | None = None
         self.motion = motion_model(config.follower.motion_model)
         self.backend = config.resolved_backend()
         fast = self.backend == "compiled"
@@ -250,8 +253,12 @@ class World:
             and kernels().exact_hypot
         ):
             limits = (self._sep_limit_l, self._travel_limit_l)
+            # the stream's state, for the scan's kernel to draw its normals from
+            # (`rtsim.world.normals`: numpy's PCG64 and ziggurat) and `_draw` through numpy
+            if type(rng.bit_generator) is np.random.PCG64:
+                self._pcg = state_of(rng.bit_generator)
             self._fused = FusedScan(
-                self.localization, form.n, motion, self._arr.E, limits, thr.T_beta
+                self.localization, form.n, motion, self._arr.E, limits, thr.T_beta, self._pcg
             )
             self._fused.ekf = tuple(float(v) for v in self._arr.ekf_args)
         self._fixes_of: tuple[Scan, Array] | None = None  # the last fused scan's fixes
@@ -475,7 +482,16 @@ class World:
         which nothing writes), drawn ahead in blocks of `STREAM_BLOCK` (one numpy call per block
         instead of per scan). A Generator's ``standard_normal(N)`` is the concatenation of
         consecutive smaller draws, so every reader sees the numbers one call per request
-        would give, in the order they ask; ``rng`` itself runs ahead by up to a block."""
+        would give, in the order they ask; ``rng`` itself runs ahead by up to a block. Where
+        the fused scan draws its normals in its kernel from the stream's state (``_pcg``),
+        each request is drawn as asked, from and back to that state."""
+        G = self._pcg
+        if G is not None:
+            bits = self.rng.bit_generator
+            set_state(bits, G)
+            out = self.rng.standard_normal(m)
+            state_of(bits, G)
+            return out
         i = self._si
         j = i + m
         if j > self._stream.shape[0]:
@@ -616,7 +632,8 @@ class World:
         if not predicted:
             fused.T[2:4] = np.array(self._centre).T
         W = fol.W  # type: ignore[attr-defined]  # (the truth's rows x, y, odometer)
-        z = self._draw(LASER_POINTS)  # (the model's draw)
+        # (the model's draw: in the kernel from the stream's state, else here)
+        z = None if self._pcg is not None else self._draw(LASER_POINTS)
         E, a, var = self._arr.E, self._accel, self.max_heading_var
         est = fused.run(W, lp, z, E, t_ms, a, predicted, 1 if estimate else 0, var, predicted)
         T = fused.T.tolist()
