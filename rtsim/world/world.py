@@ -639,14 +639,14 @@ class World:
         T = fused.T.tolist()
         B = fused.B.tolist()
         pts, voted = fused.N.tolist()
-        if True in B[3]:  # a window without a fix
+        in_ws, losts, neighbours, unfixed, v_loc, v_sep, v_path, v_bear = B
+        if True in unfixed:  # a window without a fix
             scan = self._scan_searched(t_ms, lp, T, B, pts, voted)
         else:
-            _, losts, neighbours, _, v_loc, v_sep, v_path, v_bear = B
             n = len(pts)
             raw = FusedFields(
                 points=pts,
-                in_window=B[0],
+                in_window=in_ws,
                 lost=losts,
                 reacquired=[False] * n,
                 changes={
@@ -666,14 +666,13 @@ class World:
                 fix_error=T[6],
                 neighbour=neighbours if voted else None,
                 cells=model.cells,
+                # (every window has its fix: a lost track is a neighbour's, `_causes`,
+                # asked for below)
+                cause=[""] * n,
             )
             raw.T = T
-            # (every window has its fix: a lost track is a neighbour's, `_causes`)
-            raw["cause"] = (
-                [""] * n
-                if True not in losts
-                else self._causes(losts, neighbours, pts, raw["truth"])
-            )
+            if True in losts:
+                raw["cause"] = self._causes(losts, neighbours, pts, raw["truth"])
             scan = Scan._of(t_ms, lp, raw)
         if not estimate:
             self._fixes_of = (scan, fused.F)
