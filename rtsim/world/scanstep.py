@@ -61,6 +61,7 @@ FLOAT_ROWS = (
     "tx", "ty", "cx", "cy", "mx", "my", "error",
     "rho", "beta", "displacement", "d_rho", "travel", "d_beta",
 )  # fmt: skip
+#: ``T``'s rows
 FLOAT_COUNT = len(FLOAT_ROWS)
 #: its flag columns (``B``): in the window, lost, lost to a neighbour's points, no fix in
 #: the window (searched for in Python), then the four bound kinds' violations
@@ -170,9 +171,8 @@ def buffer_views(FB: Any, IB: Any) -> tuple[Any, ...]:
 def buffer_sizes(n: int, nr: int, nw: int, ni: int) -> tuple[int, int]:
     """The lengths of `buffer_views`' ``FB`` and ``IB`` for n followers, a ring of ``nr``
     steps, a word of ``nw`` and an into of ``ni``."""
-    return 5 * LASER_POINTS + (
-        10 + FLOAT_COUNT
-    ) * n + 2 * nr, 4 + LASER_POINTS + 4 * n + nw + 1 + ni
+    floats = 5 * LASER_POINTS + (10 + FLOAT_COUNT) * n + 2 * nr
+    return floats, 4 + LASER_POINTS + 4 * n + nw + 1 + ni
 
 
 @kernel

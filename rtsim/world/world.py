@@ -119,6 +119,9 @@ def forget_starts() -> None:
 class World:
     """Leader, followers (truth), laser, Hough localization and one EKF per follower."""
 
+    #: the stream's PCG64 state when the fused scan draws its own normals (`_draw`)
+    _pcg: NDArray[np.uint64] | None = None
+
     def __init__(self, config: WorldConfig, rng: np.random.Generator) -> None:
         self.config = config
         self.rng = rng
@@ -126,8 +129,6 @@ class World:
         self._zi = 0
         self._stream = np.empty(0)  # standard normals drawn ahead from rng (see _draw)
         self._si = 0
-        #: the stream's PCG64 state when the fused scan draws its own normals (`_draw`)
-        self._pcg: NDArray[np.uint64] | None = None
         self.motion = motion_model(config.follower.motion_model)
         self.backend = config.resolved_backend()
         fast = self.backend == "compiled"
@@ -253,8 +254,7 @@ class World:
             and kernels().exact_hypot
         ):
             limits = (self._sep_limit_l, self._travel_limit_l)
-            # the stream's state, for the scan's kernel to draw its normals from
-            # (`rtsim.world.normals`: numpy's PCG64 and ziggurat) and `_draw` through numpy
+            # (the scan's kernel draws its normals from the stream's state: `_draw`)
             if type(rng.bit_generator) is np.random.PCG64:
                 self._pcg = state_of(rng.bit_generator)
             self._fused = FusedScan(
