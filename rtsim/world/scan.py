@@ -111,17 +111,23 @@ class Scan:
         keywords."""
         raw["_plain"] = True
         scan = _NEW(cls)
-        _SET(scan, "t_ms", t_ms)
-        _SET(scan, "leader_pose", leader_pose)
-        _SET(scan, "_raw", raw)
-        _SET(scan, "_arrays", {})
+        # (the slots' own setters, half object.__setattr__'s cost; ``_arrays`` made when
+        # first asked for, `_array`)
+        _SET_T(scan, t_ms)
+        _SET_POSE(scan, leader_pose)
+        _SET_RAW(scan, raw)
         return scan
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"Scan is read-only: cannot set {name!r}")
 
     def _array(self, name: str, dtype: Any = None) -> Any:
-        arr = self._arrays.get(name)
+        try:
+            arrays = self._arrays
+        except AttributeError:  # (a scan `_of` the world's: made on the first call)
+            arrays = {}
+            _SET(self, "_arrays", arrays)
+        arr = arrays.get(name)
         if arr is None:
             raw = self._raw[name]
             if name in ("changes", "violations"):
@@ -130,7 +136,7 @@ class Scan:
                 arr = raw
             else:
                 arr = np.array(raw) if dtype is None else np.array(raw, dtype=dtype)
-            self._arrays[name] = arr
+            arrays[name] = arr
         return arr
 
     def as_lists(self, name: str) -> Any:
@@ -278,3 +284,9 @@ class Scan:
 
     def __repr__(self) -> str:
         return f"Scan(t_ms={self.t_ms!r}, n={self.n}, points={_as_list(self._raw['points'])})"
+
+
+#: `Scan`'s slots' setters (`Scan._of`)
+_SET_T = Scan.__dict__["t_ms"].__set__
+_SET_POSE = Scan.__dict__["leader_pose"].__set__
+_SET_RAW = Scan.__dict__["_raw"].__set__

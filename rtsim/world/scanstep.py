@@ -35,6 +35,7 @@ from rtsim.world.exactmath import HYPOT_SUBS, cpython_hypot, cpython_remainder
 from rtsim.world.hough import _dummy, locate_all, peak_fix
 from rtsim.world.jit import build, kernel, specialise
 from rtsim.world.kernels import built_entry
+from rtsim.world.normals import standard_normals
 from rtsim.world.rangefinder import BEAM_COS, BEAM_SIN, scan_points
 
 __all__ = [
@@ -60,6 +61,8 @@ FLOAT_ROWS = (
     "tx", "ty", "cx", "cy", "mx", "my", "error",
     "rho", "beta", "displacement", "d_rho", "travel", "d_beta",
 )  # fmt: skip
+#: ``T``'s rows
+FLOAT_COUNT = len(FLOAT_ROWS)
 #: its flag columns (``B``): in the window, lost, lost to a neighbour's points, no fix in
 #: the window (searched for in Python), then the four bound kinds' violations
 FLAG_ROWS = (
@@ -129,29 +132,77 @@ PY = {
 
 
 @kernel
+def buffer_views(FB: Any, IB: Any) -> tuple[Any, ...]:
+    """`scan_step`'s buffers as views of one float array ``FB`` and one integer array ``IB``
+    (`FusedScan`: numba unboxes two arrays at a call, not nineteen), ``IB`` beginning with
+    the lengths: the followers n, the ring's steps, the accumulator's word and its into.
+    From ``FB``: the normals z, the beams' cos and sin, px, py (`LASER_POINTS` each), ``P``
+    (5, n), the separation and travel limits (n each), ``T`` (`FLOAT_ROWS`, n), ``F`` (n, 3),
+    the ring's x and y steps; from ``IB``: the beams' owner, the counts (n), the
+    accumulator's word, tally (n), state (1) and into, ``N`` (2, n)."""
+    n, nr, nw, ni = IB[0], IB[1], IB[2], IB[3]
+    L = LASER_POINTS
+    z, cos_b, sin_b = FB[:L], FB[L : 2 * L], FB[2 * L : 3 * L]
+    px, py = FB[3 * L : 4 * L], FB[4 * L : 5 * L]
+    o = 5 * L
+    P = FB[o : o + 5 * n].reshape((5, n))
+    o += 5 * n
+    sep, trav = FB[o : o + n], FB[o + n : o + 2 * n]
+    o += 2 * n
+    T = FB[o : o + FLOAT_COUNT * n].reshape((FLOAT_COUNT, n))
+    o += FLOAT_COUNT * n
+    F = FB[o : o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    rx, ry = FB[o : o + nr], FB[o + nr : o + 2 * nr]
+    j = 4
+    owner, counts = IB[j : j + L], IB[j + L : j + L + n]
+    j += L + n
+    word, tally, state = IB[j : j + nw], IB[j + nw : j + nw + n], IB[j + nw + n : j + nw + n + 1]
+    j += nw + n + 1
+    into = IB[j : j + ni]
+    j += ni
+    N = IB[j : j + 2 * n].reshape((2, n))
+    return (
+        z, cos_b, sin_b, px, py, P, sep, trav, T, F, rx, ry, owner, counts, word, tally,
+        state, into, N,
+    )  # fmt: skip
+
+
+def buffer_sizes(n: int, nr: int, nw: int, ni: int) -> tuple[int, int]:
+    """The lengths of `buffer_views`' ``FB`` and ``IB`` for n followers, a ring of ``nr``
+    steps, a word of ``nw`` and an into of ``ni``."""
+    floats = 5 * LASER_POINTS + (10 + FLOAT_COUNT) * n + 2 * nr
+    return floats, 4 + LASER_POINTS + 4 * n + nw + 1 + ni
+
+
+@kernel
 def scan_step(
-    W: Any, xl: float, yl: float, hl: float, z: Any, E: Any, t: float, a: float,
-    predicted: bool, first: bool, mode: int, var: float, track: bool, laser: Any,
-    beams: Any, hough: Any, work: Any, windows: Any, P: Any, limits: Any, T: Any, B: Any,
-    N: Any, F: Any, ekf: Any,
+    W: Any, xl: float, yl: float, hl: float, E: Any, t: float, a: float, predicted: bool,
+    first: bool, mode: int, var: float, track: bool, FB: Any, IB: Any, B: Any, windows: Any,
+    G: Any, laser: Any, hough: Any, ekf: Any,
 ) -> float:  # fmt: skip
     """One scan (module docstring) of the followers whose truth is ``W`` (rows x, y,
-    odometer) seen by the leader at (``xl``, ``yl``, ``hl``): ``laser`` = (r_F, max range,
-    range σ, the beams' cos and sin) with the standard normals ``z``, into ``beams`` = (px,
-    py, owner, counts); the window centres carried from the estimates ``E`` to ``t`` ms
-    (acceleration limit ``a``) when ``predicted``, else ``T``'s rows cx, cy as given;
-    ``hough`` = (r_H, cell, cells, min_points) with the accumulator's ``work`` into
-    ``windows``; the previous scan's ``P`` (rows x, y, ρ, β, odometer; written with this
-    scan's; ignored at the ``first``) and ``limits`` = (separation and travel limits per
-    follower, T_β). Fills ``T`` (`FLOAT_ROWS`), ``B`` (`FLAG_ROWS`), ``N`` (beams returned,
-    points that voted) and ``F`` (per follower mx, my, 1 in its window else 0: `est_scan`'s
-    fixes). ``mode`` 0: the scan alone, returns −1; 1: then, when every window has its fix,
-    `World.estimate` with them (`est_scan` on ``E`` at ``t`` with ``ekf`` = (a, σ_v², σ_ω²,
-    q_p², q_θ², r), the heading variance's max so far ``var``, ``track``), returning its
-    result (else −1: the caller searches and asks for mode 2); 2: `est_scan` with ``F`` as
-    given, alone. The arguments from ``laser`` on are the same at every call of a world
-    (`FusedScan`: one tuple)."""
+    odometer) seen by the leader at (``xl``, ``yl``, ``hl``), on the buffers of ``FB`` and
+    ``IB`` (`buffer_views`): ``laser`` = (r_F, max range, range σ, T_β) with the standard
+    normals z (drawn into it first from the PCG64 whose state is ``G``,
+    `rtsim.world.normals`, unless ``G`` is empty), into the beams' px, py, owner, counts;
+    the window centres carried from the estimates ``E`` to ``t`` ms (acceleration limit
+    ``a``) when ``predicted``, else ``T``'s rows cx, cy as given; ``hough`` = (r_H, cell,
+    cells, min_points) with the accumulator's work into ``windows``; the previous scan's
+    ``P`` (rows x, y, ρ, β, odometer; written with this scan's; ignored at the ``first``)
+    and the separation and travel limits per follower. Fills ``T`` (`FLOAT_ROWS`), ``B``
+    (`FLAG_ROWS`), ``N`` (beams returned, points that voted) and ``F`` (per follower mx,
+    my, 1 in its window else 0: `est_scan`'s fixes). ``mode`` 0: the scan alone, returns
+    −1; 1: then, when every window has its fix, `World.estimate` with them (`est_scan` on
+    ``E`` at ``t`` with ``ekf`` = (a, σ_v², σ_ω², q_p², q_θ², r), the heading variance's max
+    so far ``var``, ``track``), returning its result (else −1: the caller searches and asks
+    for mode 2); 2: `est_scan` with ``F`` as given, alone. The arguments from ``FB`` on are
+    the same at every call of a world (`FusedScan`: one tuple)."""
     ea, sv2, sw2, qp2, qh2, r = ekf
+    (
+        z, cos_b, sin_b, px, py, P, sep, trav, T, F, rx, ry, owner, counts, word, tally,
+        state, into, N,
+    ) = buffer_views(FB, IB)  # fmt: skip
     if mode == 2:
         return est_scan(E, F, t, ea, sv2, sw2, qp2, qh2, r, xl, yl, hl, var, track)
     n = W.shape[1]
@@ -161,12 +212,13 @@ def scan_step(
         if predicted:
             x, y, _, _, _ = carry_row(E, k, t, a)
             T[2, k], T[3, k] = to_leader_xy(xl, yl, c, s, x, y)
-    r_F, max_range, range_sd, cos_b, sin_b = laser
-    px, py, owner, counts = beams
+    r_F, max_range, range_sd, T_beta = laser
+    if G.shape[0] != 0:
+        standard_normals(G, z, z.shape[0])
     scan_points(T[0], T[1], r_F, max_range, range_sd, z, cos_b, sin_b, px, py, owner, counts)
     r_H, cell, cells, min_pts = hough
+    work = (rx, ry, word, tally, state, into)
     locate_all(px, py, owner, T[2], T[3], r_H, r_F, cell, cells, work, windows)
-    sep, trav, T_beta = limits
     for k in range(n):
         tx, ty = T[0, k], T[1, k]
         rec = windows[k]
@@ -203,28 +255,29 @@ def scan_step(
     return -1.0
 
 
-def _arguments(n: int, E: Any, laser: Any, beams: Any, hough: Any, work: Any, windows: Any) -> Any:
-    """Arguments of `scan_step`'s types at every call for ``n`` followers, with these
-    parts (the others zeros): the ones that change per call, then the fixed ones (``P``,
-    ``limits``, ``T``, ``B``, ``N``, ``F`` at 5, 6, 7, 8, 9, 10 of them)."""
+def _arguments(n: int, E: Any, windows: Any, ring: int, word: int, into: int) -> Any:
+    """Arguments of `scan_step`'s types at every call for ``n`` followers (zeros, but for
+    ``E``, ``windows`` and the lengths at the head of ``IB``): the ones that change per
+    call, then the fixed ones (``FB``, ``IB``, ``B``, ``windows``, ``G``, laser, hough,
+    ekf)."""
     x = 0.0
-    limits = (np.zeros(n), np.zeros(n), x)
-    T, B = np.zeros((len(FLOAT_ROWS), n)), np.zeros((len(FLAG_ROWS), n), dtype=np.bool_)
-    N, F = np.zeros((2, n), dtype=np.int64), np.zeros((n, 3))
-    each = (np.zeros((3, n)), x, x, x, np.zeros(LASER_POINTS), E, x, x, True, True, 0, x, True)
-    fixed = (laser, beams, hough, work, windows, np.zeros((5, n)), limits, T, B, N, F, (x,) * 6)
+    nf, ni = buffer_sizes(n, ring, word, into)
+    IB = np.zeros(ni, dtype=np.int64)
+    IB[:4] = n, ring, word, into
+    B = np.zeros((len(FLAG_ROWS), n), dtype=np.bool_)
+    each = (np.zeros((3, n)), x, x, x, E, x, x, True, True, 0, x, True)
+    G = np.zeros(0, dtype=np.uint64)
+    fixed = (np.zeros(nf), IB, B, windows, G, (x,) * 4, (x, x, 0, 0), (x,) * 6)
     return each, fixed
 
 
 def warm() -> None:
     """Compile `scan_step` (the unicycle's) or load it from the cache, without running it:
     for a pool's parent (`rtsim.control.kernels.warm_all`)."""
-    px = np.zeros(LASER_POINTS)
-    owner = np.zeros(LASER_POINTS, dtype=np.int64)
     dummy = _dummy(every=True)  # (the accumulator's work and records)
-    laser = (1.0, 1.0, 0.0, BEAM_COS, BEAM_SIN)
+    work = dummy[9]
     each, fixed = _arguments(
-        1, new_estimates(1), laser, (px, px, owner, owner), (1.0, 1.0, 1, 1), *dummy[9:]
+        1, new_estimates(1), dummy[10], work[0].size, work[2].size, work[5].size
     )
     built_entry(build(scan_step), (*each, *fixed))
 
@@ -251,9 +304,11 @@ class FusedFields(dict[str, Any]):
 
 class FusedScan:
     """A world's buffers for `scan_step` and its compiled entry (``motion``: the motion
-    model whose parts carry the estimates). ``model``: the world's `HoughModel` (its
-    rangefinder's and accumulator's buffers); ``limits``: the separation and travel
-    limits per follower, lists; ``T_beta``."""
+    model whose parts carry the estimates). ``model``: the world's `HoughModel`, whose
+    rangefinder's and accumulator's buffers become views of the kernel's (`buffer_views`);
+    ``limits``: the separation and travel limits per follower, lists; ``T_beta``; ``pcg``:
+    the world's PCG64 state (`rtsim.world.normals`), from which the kernel draws each
+    scan's normals into `z` (None: the caller passes them)."""
 
     def __init__(
         self,
@@ -263,26 +318,32 @@ class FusedScan:
         E: NDArray[np.float64],
         limits: tuple[list[float], list[float]],
         T_beta: float,
+        pcg: NDArray[np.uint64] | None = None,
     ) -> None:
         config = model.config
         rf, acc = model.rangefinder, model.accumulator
-        if rf.counts.shape[0] < n:
-            rf.counts = np.zeros(n, dtype=np.int64)
         r_H = config.thresholds.r_H
-        self.laser = (rf.r_F, rf.max_range, rf.range_sd, BEAM_COS, BEAM_SIN)
-        self.beams = (rf.px, rf.py, rf.owner, rf.counts)
+        nr, nw, ni = acc.ring_x.size, acc.word.size, acc.into.size
+        self.windows = acc.out
+        each, fixed = _arguments(n, E, self.windows, nr, nw, ni)
+        FB, IB = fixed[0], fixed[1]
+        ring = (acc.ring_x, acc.ring_y)
+        (
+            self.z, cos_b, sin_b, rf.px, rf.py, self.P, sep, trav, self.T, self.F,
+            acc.ring_x, acc.ring_y, rf.owner, rf.counts, acc.word, acc.tally, acc.state,
+            acc.into, self.N,
+        ) = buffer_views(FB, IB)  # fmt: skip
+        cos_b[:], sin_b[:] = BEAM_COS, BEAM_SIN
+        acc.ring_x[:], acc.ring_y[:] = ring
+        acc.work = (acc.ring_x, acc.ring_y, acc.word, acc.tally, acc.state, acc.into)
+        sep[:], trav[:] = limits
+        self.B: NDArray[np.bool_] = fixed[2]
+        self.G: NDArray[np.uint64] = fixed[4] if pcg is None else pcg
+        self.laser = (rf.r_F, rf.max_range, rf.range_sd, float(T_beta))
         self.hough = (float(r_H), acc.cell, acc.cells(r_H), int(config.sensing.min_points))
-        self.work, self.windows = acc.work, acc.out
-        each, fixed = _arguments(n, E, self.laser, self.beams, self.hough, self.work, self.windows)
-        self.P: Array = fixed[5]
-        self.T: Array = fixed[7]
-        self.B: NDArray[np.bool_] = fixed[8]
-        self.N: NDArray[np.int64] = fixed[9]
-        self.F: Array = fixed[10]
-        sep, trav = limits
-        self.limits = (np.array(sep, dtype=float), np.array(trav, dtype=float), float(T_beta))
         self.first = True
         self._step = built_entry(build(scan_step, motion.subs), (*each, *fixed))
+        self._FB, self._IB = FB, IB
         self.ekf = fixed[-1]
 
     @property
@@ -294,15 +355,14 @@ class FusedScan:
     def ekf(self, value: tuple[float, ...]) -> None:
         #: `scan_step`'s arguments that are the same at every call, with ``value``
         self._fixed: tuple[Any, ...] = (
-            self.laser, self.beams, self.hough, self.work, self.windows, self.P,
-            self.limits, self.T, self.B, self.N, self.F, value,
+            self._FB, self._IB, self.B, self.windows, self.G, self.laser, self.hough, value,
         )  # fmt: skip
 
     def run(
         self,
         W: NDArray[np.float64],
         lp: tuple[float, float, float],
-        z: NDArray[np.float64],
+        z: NDArray[np.float64] | None,
         E: NDArray[np.float64],
         t: float,
         a: float,
@@ -314,10 +374,13 @@ class FusedScan:
         """`scan_step` on these buffers (the previous scan's state kept between calls) in
         ``mode`` (0: the scan; 1: the scan and, every window fixed, the estimate; 2: the
         estimate alone) with the heading variance's max ``var``, ``track``: the estimate's
-        result, or −1 when none was made."""
+        result, or −1 when none was made. ``z``: the scan's normals, copied into `z` (None:
+        the kernel draws them there from ``pcg``)."""
         xl, yl, hl = lp
+        if z is not None:
+            self.z[:] = z
         out: float = self._step(
-            W, xl, yl, hl, z, E, t, a, predicted, self.first, mode, var, track, *self._fixed
+            W, xl, yl, hl, E, t, a, predicted, self.first, mode, var, track, *self._fixed
         )  # fmt: skip
         if mode != 2:
             self.first = False

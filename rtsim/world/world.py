@@ -52,6 +52,7 @@ from rtsim.world.leader import Leader
 from rtsim.world.localization import ExpectedBeams, lost_cause
 from rtsim.world.locmodels import Fix, HoughModel, localization_model
 from rtsim.world.motionmodels import motion_model
+from rtsim.world.normals import set_state, state_of
 from rtsim.world.scan import Scan
 from rtsim.world.scanstep import PY, FusedFields, FusedScan
 
@@ -117,6 +118,9 @@ def forget_starts() -> None:
 
 class World:
     """Leader, followers (truth), laser, Hough localization and one EKF per follower."""
+
+    #: the stream's PCG64 state when the fused scan draws its own normals (`_draw`)
+    _pcg: NDArray[np.uint64] | None = None
 
     def __init__(self, config: WorldConfig, rng: np.random.Generator) -> None:
         self.config = config
@@ -250,8 +254,11 @@ class World:
             and kernels().exact_hypot
         ):
             limits = (self._sep_limit_l, self._travel_limit_l)
+            # (the scan's kernel draws its normals from the stream's state: `_draw`)
+            if type(rng.bit_generator) is np.random.PCG64:
+                self._pcg = state_of(rng.bit_generator)
             self._fused = FusedScan(
-                self.localization, form.n, motion, self._arr.E, limits, thr.T_beta
+                self.localization, form.n, motion, self._arr.E, limits, thr.T_beta, self._pcg
             )
             self._fused.ekf = tuple(float(v) for v in self._arr.ekf_args)
         self._fixes_of: tuple[Scan, Array] | None = None  # the last fused scan's fixes
@@ -475,7 +482,16 @@ class World:
         which nothing writes), drawn ahead in blocks of `STREAM_BLOCK` (one numpy call per block
         instead of per scan). A Generator's ``standard_normal(N)`` is the concatenation of
         consecutive smaller draws, so every reader sees the numbers one call per request
-        would give, in the order they ask; ``rng`` itself runs ahead by up to a block."""
+        would give, in the order they ask; ``rng`` itself runs ahead by up to a block. Where
+        the fused scan draws its normals in its kernel from the stream's state (``_pcg``),
+        each request is drawn as asked, from and back to that state."""
+        G = self._pcg
+        if G is not None:
+            bits = self.rng.bit_generator
+            set_state(bits, G)
+            out = self.rng.standard_normal(m)
+            state_of(bits, G)
+            return out
         i = self._si
         j = i + m
         if j > self._stream.shape[0]:
@@ -616,20 +632,21 @@ class World:
         if not predicted:
             fused.T[2:4] = np.array(self._centre).T
         W = fol.W  # type: ignore[attr-defined]  # (the truth's rows x, y, odometer)
-        z = self._draw(LASER_POINTS)  # (the model's draw)
+        # (the model's draw: in the kernel from the stream's state, else here)
+        z = None if self._pcg is not None else self._draw(LASER_POINTS)
         E, a, var = self._arr.E, self._accel, self.max_heading_var
         est = fused.run(W, lp, z, E, t_ms, a, predicted, 1 if estimate else 0, var, predicted)
         T = fused.T.tolist()
         B = fused.B.tolist()
         pts, voted = fused.N.tolist()
-        if True in B[3]:  # a window without a fix
+        in_ws, losts, neighbours, unfixed, v_loc, v_sep, v_path, v_bear = B
+        if True in unfixed:  # a window without a fix
             scan = self._scan_searched(t_ms, lp, T, B, pts, voted)
         else:
-            _, losts, neighbours, _, v_loc, v_sep, v_path, v_bear = B
             n = len(pts)
             raw = FusedFields(
                 points=pts,
-                in_window=B[0],
+                in_window=in_ws,
                 lost=losts,
                 reacquired=[False] * n,
                 changes={
@@ -649,14 +666,13 @@ class World:
                 fix_error=T[6],
                 neighbour=neighbours if voted else None,
                 cells=model.cells,
+                # (every window has its fix: a lost track is a neighbour's, `_causes`,
+                # asked for below)
+                cause=[""] * n,
             )
             raw.T = T
-            # (every window has its fix: a lost track is a neighbour's, `_causes`)
-            raw["cause"] = (
-                [""] * n
-                if True not in losts
-                else self._causes(losts, neighbours, pts, raw["truth"])
-            )
+            if True in losts:
+                raw["cause"] = self._causes(losts, neighbours, pts, raw["truth"])
             scan = Scan._of(t_ms, lp, raw)
         if not estimate:
             self._fixes_of = (scan, fused.F)
