@@ -69,9 +69,9 @@ def replay(path: str, rounds: int, chunk: int) -> dict[str, Any]:
     for a in calls:
         b = copy.deepcopy(a)
         r = call(fn, *b)
-        rollouts += 1 if b[0] else r + int(b[17][6])  # (a whole rollout; a decision's)
+        rollouts += 1 if b[0] else r + int(b[13][6])  # (a whole rollout; a decision's)
         h.update(repr(r).encode())
-        for x in b[12:18]:  # speeds, lens, changes, cut, rows, out
+        for x in b[13:15]:  # the float and integer buffers (out first: `_roll_or_decide`)
             h.update(x.tobytes())
     work = [copy.deepcopy(a) for a in calls]
     chunks = [work[i : i + chunk] for i in range(0, len(work), chunk)]

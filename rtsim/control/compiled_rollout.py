@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+import operator
 from collections.abc import Callable
 from typing import Any
 
@@ -55,6 +56,10 @@ _chain = itertools.chain.from_iterable
 
 #: the follower pack's columns (`rtsim.control.kernels.FollowerColumns`)
 _COLUMNS = len(K.FollowerColumns._fields)
+
+#: a `World.estimate_rows` row's pack columns before the send and ρ_d, for a motion model
+#: without a turn rate of its own (x, y, θ, v̂, then ω = the held command's ω_c, v_c, ω_c)
+_UNICYCLE = operator.itemgetter(0, 1, 2, 3, 6, 5, 6)
 
 #: rollouts of one search kept for the memo: v_floor, 7 scanned speeds and the bisection (5 at
 #: ROLLOUT_TOL = 0.005; room for any tolerance down to 2^-50)
@@ -118,8 +123,8 @@ def _static(law: CompiledTraceFollower, state: Any) -> Any:
     """The law's cache for rollouts of ``state``'s params, thresholds, ramp limits and step:
     (those five, the float pack with the scalars that stay from one decision to the next,
     in RolloutScalars' order after the five that change, the no-sends-pending array per
-    follower count, the kernels, the decision's out buffer and its rows' per follower
-    count); made once per law (a clone of the law shares it) and kept while the five are
+    follower count, the kernels, the size of a decision's float buffer per follower count
+    and horizon); made once per law (a clone of the law shares it) and kept while the five are
     the same objects."""
     p, thr = state.params, state.thresholds
     static = (p, thr, state.accel_max, state.decel_max, state.step_ms)
@@ -151,9 +156,9 @@ def _static(law: CompiledTraceFollower, state: Any) -> Any:
     )
     # (compiled once per process and motion model: before the first rollout)
     ker = K.rollout_kernels(motion_model(p.motion_model))
-    # (the decision's out buffers, per follower count, read before each decide returns:
-    # `_buffers`; the search's bookkeeping arrays are the decision's own: `_Kept` reads them
-    # when asked; the five that change are written over a copy per decision)
+    # (the sizes of the decision's float buffer, by follower count and horizon: each
+    # decision's buffers are its own, `_Kept` reads them when asked; the five that change
+    # are written over a copy per decision)
     cached = (static, np.array(scalars, dtype=float), {}, ker, None, {})
     setattr(law, "_rollout_static", cached)  # noqa: B010 (a cache the law carries)
     return cached
@@ -207,7 +212,8 @@ class CompiledRollout:
                     flat += (send, rho_d)
             else:  # (the unicycle: ω is the held command's)
                 for r, send, rho_d in zip(rows, sends, rho):  # noqa: B905
-                    flat += (r[0], r[1], r[2], r[3], r[6], r[5], r[6], send, rho_d)
+                    flat += _UNICYCLE(r)
+                    flat += (send, rho_d)
             fs = scalars.copy()
             fs[0] = leader_s
             fs[1] = leader_speed
@@ -286,14 +292,13 @@ class CompiledRollout:
 
     def _whole(self, v: float, windows: tuple[float, ...], pack: tuple[Any, ...]) -> Any:
         """One rollout whole on ``pack`` (`pack`'s arrays): its changes array."""
-        out = np.empty((1, len(windows), self.n, 5))
+        out = np.empty((len(windows), self.n, 5))
         RUNS[0] += 1
-        call(  # (`_rollout_changes` through the one entry: its buffers' types, unused)
-            self._ker.roll_or_decide, True, float(v), _lengths(windows), False,
-            1.0, -math.inf, 0.0, 0.0, 0, 0.0, 0.0, pack, K.NO_F1, K.NO_I1, out, K.NO_I1,
-            K.NO_F3, K.NO_F1, 0.0,
+        call(  # (`_rollout_changes` through the one entry: the decision's buffers unused)
+            self._ker.roll_or_decide, True, float(v), False, 1.0, -math.inf, 0.0, 0.0, 0,
+            0.0, 0.0, 0.0, _lengths(windows), pack, out.reshape(-1), K.NO_I1,
         )  # fmt: skip
-        return out[0]
+        return out
 
     def decide(
         self,
@@ -317,18 +322,16 @@ class CompiledRollout:
         follower's four in turn], the rollouts it ran for the rollout's memo as the kernel
         left them, `_Kept`)."""
         n = self.n
-        bufs = self._bufs.get(n)  # (the law's, per follower count: `_buffers`)
-        if bufs is None:
-            bufs = self._bufs[n] = _buffers(n)
-        buf, out, rows = bufs
-        buf.fill(math.nan)  # (np.full is a Python function: 3x slower)
         windows = int(windows)
         w = float(w)
-        # (the decision's own: `_Kept` reads them when the memo asks)
-        speeds = np.empty(_SEARCH_RUNS)
-        lens = np.empty(_SEARCH_RUNS, np.int64)  # (the kernel writes each rollout's)
-        cut = np.zeros(_SEARCH_RUNS, np.int64)
-        changes = np.empty((_SEARCH_RUNS, windows, n, 5))
+        # the decision's own two buffers (`rtsim.control.kernels._roll_or_decide`: the out
+        # values, the rows and the rollouts' speeds and changes in one float array, their
+        # codes and cuts in one integer array; `_Kept` reads them when the memo asks)
+        size = self._bufs.get((n, windows))  # (the law's, per follower count and horizon)
+        if size is None:
+            size = self._bufs[n, windows] = K.decision_buffers(n, windows, _SEARCH_RUNS)[0].size
+        fb = np.empty(size)
+        ib = np.empty(2 * _SEARCH_RUNS, np.int64)
         f = _ENTRIES.get(self._ker.roll_or_decide)
         if f is None:  # (the first call: `call` finds the entry for these types)
             f = functools.partial(call, self._ker.roll_or_decide)
@@ -336,10 +339,10 @@ class CompiledRollout:
             v_floor, grid, tol, contact = float(v_floor), int(grid), float(tol), float(contact)
         # (the compiled entry converts its scalars as it is typed: no float() here)
         runs = f(
-            False, 0.0, K.NO_F1, search_only, keep, need, cap, v_floor, grid, tol, w,
-            self._pack, speeds, lens, changes, cut, rows, out, contact,
+            False, 0.0, search_only, keep, need, cap, v_floor, grid, tol, w, contact, K.NO_F1,
+            self._pack, fb, ib,
         )  # fmt: skip
-        got = buf.tolist()
+        got = fb[: _HEAD + 8 * n].tolist()
         RUNS[0] += runs + int(got[6])
         frozen: tuple[Any, ...] = ()
         if got[2] != 0.0:  # a search (only one stops a rollout after its first window):
@@ -348,19 +351,11 @@ class CompiledRollout:
             p = self._pack
             frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
         m = runs if runs < _SEARCH_RUNS else _SEARCH_RUNS  # (those it kept)
-        return got, _Kept((self, speeds, lens, cut, m, changes, w, windows, got[5], frozen))
+        return got, _Kept((self, fb, ib, m, w, windows, got[5], frozen))
 
 
-#: the decision kernel's out values (`rtsim.control.kernels._plan_decide`'s ``out``)
-_OUTS = 7
-
-
-def _buffers(n: int) -> tuple[Any, Any, Any]:
-    """A decision's out buffer for ``n`` followers, one array: (it, its first `_OUTS` — the
-    kernel's ``out`` —, the rest as the kernel's ``rows`` [2, follower, kind]), one tolist
-    reading both."""
-    buf = np.empty(_OUTS + 2 * n * 4)
-    return buf, buf[:_OUTS], buf[_OUTS:].reshape(2, n, 4)
+#: the decision's out values, first in its float buffer (`rtsim.control.kernels.OUTS`)
+_HEAD = K.OUTS
 
 
 def _pending_pack(cached: Any, n: int, pending: Any) -> Any:
@@ -383,22 +378,27 @@ def _pending_pack(cached: Any, n: int, pending: Any) -> Any:
 
 class _Kept(tuple):  # type: ignore[type-arg]
     """A decision's rollouts for the rollout's memo, as the kernel left them: (the
-    `CompiledRollout`, their speeds, their codes — 0 the horizon, 1 the horizon and its
-    first window, 2 one window of the checked length —, whether each stopped after its
-    first window, how many, their changes [rollout, window, follower, change], w, the
-    horizon's windows, the checked window's length, the pack with the law's search starts
-    copied at the decision — () when no rollout stopped early). The rollout's memo asks
-    for them when it needs them (`put`, `first`), not at every decision. (A tuple: made in
-    C.)"""
+    `CompiledRollout`, the decision's float and integer buffers — their speeds and changes
+    [rollout, window, follower, change], their codes: 0 the horizon, 1 the horizon and its
+    first window, 2 one window of the checked length, and whether each stopped after its
+    first window; `rtsim.control.kernels.decision_views` —, how many, w, the horizon's
+    windows, the checked window's length, the pack with the law's search starts copied at
+    the decision — () when no rollout stopped early). The rollout's memo asks for them when
+    it needs them (`put`, `first`), not at every decision. (A tuple: made in C.)"""
 
     __slots__ = ()
+
+    def changes(self) -> Any:
+        """The rollouts' changes [rollout, window, follower, change] (a view)."""
+        return K.decision_views(self[1], self[2], self[0].n)[2]
 
     def put(self, raw: dict[tuple[float, tuple[float, ...]], Any], memo: Any) -> int:
         """Put the rollouts in ``raw``, keyed (speed, window lengths), their changes
         [window, follower, change] as arrays, one stopped after its first window as `_Rest`
         (the first of equal keys, none whose key ``memo`` has); returns how many keys it
         added."""
-        ro, speeds, lens, cut, runs, changes, w, windows, checked, frozen = self
+        ro, fb, ib, runs, w, windows, checked, frozen = self
+        speeds, lens, changes, cut = K.decision_views(fb, ib, ro.n)[:4]
         before = len(raw)
         horizon = (w,) * windows
         put = raw.setdefault  # (the first of equal keys, as ever)
@@ -427,18 +427,20 @@ class _Kept(tuple):  # type: ignore[type-arg]
         and ``memo``: (the rollout, 0 its changes whole, 1 its first window's, 2 its `_Rest`),
         or (−1, 0) when no rollout of the decision has that key."""
         v, lengths = key
-        w, windows, checked = self[6], self[7], self[8]
-        sp, ln = self[1].item, self[2].item  # (item by item: most often an early rollout's)
-        for r in range(self[4]):
-            if sp(r) != v:
+        fb, ib, runs, w, windows, checked = self[1], self[2], self[3], self[4], self[5], self[6]
+        # (item by item: most often an early rollout's; the speeds after the out values and
+        # rows, the codes first in ib, the cuts after them)
+        at, cut = _HEAD + 8 * self[0].n, ib.shape[0] >> 1
+        for r in range(runs):
+            if fb.item(at + r) != v:
                 continue
-            code = ln(r)
+            code = ib.item(r)
             if code == 2:
                 if lengths == (checked,):
                     return r, 1
                 continue
             if len(lengths) == windows and lengths == (w,) * windows:  # (its first key)
-                return r, 2 if self[3].item(r) else 0
+                return r, 2 if ib.item(cut + r) else 0
             if code == 1 and lengths == (w,):
                 return r, 1
         return -1, 0
@@ -450,10 +452,9 @@ class _Kept(tuple):  # type: ignore[type-arg]
         r, how = self.find(key)
         if r < 0:
             return None
-        changes = self[5]
         if how == 0:
-            return changes[r]
+            return self.changes()[r]
         if how == 1:
-            return changes[r, :1]
-        horizon = (self[6],) * self[7]  # (the rollout's own speed and windows, as `put`'s)
-        return _Rest((self[0], self[1].item(r), horizon, self[9]))
+            return self.changes()[r, :1]
+        horizon = (self[4],) * self[5]  # (the rollout's own speed and windows, as `put`'s)
+        return _Rest((self[0], self[1].item(_HEAD + 8 * self[0].n + r), horizon, self[7]))

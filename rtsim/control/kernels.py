@@ -787,22 +787,41 @@ def _plan_decide(
     return runs
 
 
+#: the decision's out values (`_plan_decide`'s ``out``), first in its float buffer
+OUTS = 7
+
+
 @kernel
 def _roll_or_decide(
-    whole: bool, v: float, lengths: Any, search_only: bool, keep: float, need: float,
-    cap: float, v_floor: float, grid: int, tol: float, w: float, P: Any, speeds: Any,
-    lens: Any, changes: Any, cut: Any, rows: Any, out: Any, contact: float,
+    whole: bool, v: float, search_only: bool, keep: float, need: float, cap: float,
+    v_floor: float, grid: int, tol: float, w: float, contact: float, lengths: Any, P: Any,
+    fb: Any, ib: Any,
 ) -> int:  # fmt: skip
     """The rollout's one entry from Python: with ``whole``, one rollout whole
-    (`_rollout_changes` of target ``v`` over windows ``lengths`` into ``changes[0]``, with
-    ``keep``, ``need`` and ``contact``); else the decision (`_plan_decide` with the
-    arguments after ``lengths``). One entry, not two: numba optimises and emits the code of
-    every kernel an entry links once per entry, and both link the whole rollout."""
+    (`_rollout_changes` of target ``v`` over windows ``lengths`` into ``fb``, its changes
+    [window, follower, change] flat, with ``keep``, ``need`` and ``contact``); else the
+    decision (`_plan_decide` with the arguments after ``v`` but ``lengths``, its arrays
+    views of two: ``fb`` = [out (`OUTS`), rows (2·n·4), speeds (R), changes (R·H·n·5)] with
+    R = ``ib.shape[0] // 2`` and the horizon H what is left, ``ib`` = [lens (R), cut (R)]:
+    out and rows start NaN, cut zero). One entry, not two: numba optimises and emits the code
+    of every kernel an entry links once per entry, and both link the whole rollout. (Two
+    buffers, not six arrays: numba unboxes every array argument at every call.)"""
+    n = P[1].shape[0]
     if whole:
-        return _rollout_changes(v, lengths, P, changes[0], keep, need, contact)
+        return _rollout_changes(
+            v, lengths, P, fb.reshape((lengths.shape[0], n, 5)), keep, need, contact
+        )
+    runs = ib.shape[0] // 2
+    head = OUTS + 8 * n
+    for i in range(head):
+        fb[i] = math.nan
+    for i in range(runs, 2 * runs):
+        ib[i] = 0
+    nw = (fb.shape[0] - head - runs) // (runs * n * 5)
     return _plan_decide(
-        search_only, keep, need, cap, v_floor, grid, tol, w, P, speeds, lens, changes, cut,
-        rows, out, contact,
+        search_only, keep, need, cap, v_floor, grid, tol, w, P, fb[head : head + runs],
+        ib[:runs], fb[head + runs :].reshape((runs, nw, n, 5)), ib[runs:],
+        fb[OUTS:head].reshape((2, n, 4)), fb[:OUTS], contact,
     )  # fmt: skip
 
 
@@ -810,11 +829,32 @@ def _roll_or_decide(
 #: namespace (each compiled with the kernel sources it calls, the world's among them)
 ENTRIES: dict[str, Any] = {"roll_or_decide": _roll_or_decide}
 
-#: the unused buffers of a whole rollout's or a decision's call of `_roll_or_decide` (their
-#: types those of the used ones: one compiled specialisation)
+#: the unused lengths of a decision's call of `_roll_or_decide` (their type the whole
+#: rollout's: one compiled specialisation)
 NO_F1 = np.empty(0)
-NO_I1 = np.empty(0, dtype=np.int64)
-NO_F3 = np.empty((0, 0, 0))
+
+
+def decision_buffers(n: int, windows: int, runs: int) -> tuple[Any, Any]:
+    """Fresh float and integer buffers (``fb``, ``ib``) of `_roll_or_decide`'s decision for
+    ``n`` followers, a horizon of ``windows`` windows and room for ``runs`` rollouts."""
+    return np.empty(OUTS + 8 * n + runs * (1 + windows * n * 5)), np.empty(2 * runs, np.int64)
+
+
+def decision_views(fb: Any, ib: Any, n: int) -> tuple[Any, Any, Any, Any, Any, Any]:
+    """The views of `_roll_or_decide`'s decision buffers ``fb`` and ``ib`` (``n``
+    followers): (speeds, lens, changes [rollout, window, follower, change], cut, rows, out),
+    as `_plan_decide` reads them."""
+    runs = ib.shape[0] // 2
+    head = OUTS + 8 * n
+    nw = (fb.shape[0] - head - runs) // (runs * n * 5)
+    return (
+        fb[head : head + runs],
+        ib[:runs],
+        fb[head + runs :].reshape(runs, nw, n, 5),
+        ib[runs:],
+        fb[OUTS:head].reshape(2, n, 4),
+        fb[:OUTS],
+    )
 
 
 def _rollout_changes_via(
@@ -822,15 +862,35 @@ def _rollout_changes_via(
 ) -> int:
     """`_rollout_changes` (its arguments) through the entry of namespace ``ns`` (``out``: a
     C-contiguous [window, follower, change] array)."""
+    if not out.flags.c_contiguous:
+        raise ValueError("the changes' out array must be C-contiguous")
     return ns.roll_or_decide(  # type: ignore[no-any-return]
-        True, v, lengths, False, keep, need, 0.0, 0.0, 0, 0.0, 0.0, P,
-        NO_F1, NO_I1, out[None], NO_I1, NO_F3, NO_F1, contact,
+        True, v, False, keep, need, 0.0, 0.0, 0, 0.0, 0.0, contact, lengths, P,
+        out.reshape(-1), NO_I1,
     )  # fmt: skip
 
 
-def _plan_decide_via(ns: Any, *args: Any) -> int:
-    """`_plan_decide` (its arguments) through the entry of namespace ``ns``."""
-    return ns.roll_or_decide(False, 0.0, NO_F1, *args)  # type: ignore[no-any-return]
+def _plan_decide_via(
+    ns: Any, search_only: bool, keep: float, need: float, cap: float, v_floor: float,
+    grid: int, tol: float, w: float, P: Any, speeds: Any, lens: Any, changes: Any, cut: Any,
+    rows: Any, out: Any, contact: float,
+) -> int:  # fmt: skip
+    """`_plan_decide` (its arguments) through the entry of namespace ``ns``: its arrays
+    copied out of the entry's two buffers (``out`` and ``rows`` start NaN there, ``cut``
+    zero)."""
+    n, runs = P[1].shape[0], speeds.shape[0]
+    fb, ib = decision_buffers(n, changes.shape[1], runs)
+    got = ns.roll_or_decide(
+        False, 0.0, search_only, keep, need, cap, v_floor, grid, tol, w, contact, NO_F1, P,
+        fb, ib,
+    )  # fmt: skip
+    for dst, src in zip((speeds, lens, changes, cut, rows, out), decision_views(fb, ib, n)):  # noqa: B905
+        dst[...] = src
+    return got  # type: ignore[no-any-return]
+
+
+#: an unused integer buffer (a whole rollout's call of `_roll_or_decide`)
+NO_I1 = np.empty(0, dtype=np.int64)
 
 
 #: about how long compiling `ENTRIES` takes, CPU s on a 2-core machine (numba 0.68; measured

@@ -307,13 +307,17 @@ class Rollout:
             turned: bool,
         ) -> Rollout:
             ro: Rollout = new(cls)
-            values = (t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned)
-            ro._lazy = (base, *values)
+            # (the values written out, twice: no tuple of them unpacked)
+            ro._lazy = (
+                base, t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned,
+            )  # fmt: skip
             ro.base = base
             ro._count = 0
             ro._memo = {}
             ro._raw_d = {}
-            ro._compiled = comp(*values)
+            ro._compiled = comp(
+                t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned
+            )
             return ro
 
         return make
@@ -385,7 +389,7 @@ class Rollout:
             if kept is not None and not self._raw_d:  # the decision's rollouts, read as is
                 r, how = kept.find(key)
                 if r >= 0 and how != 2:  # (an array: its first window, whole or alone)
-                    return kept[5][r, 0, :, 4].tolist()  # type: ignore[no-any-return]
+                    return kept.changes()[r, 0, :, 4].tolist()  # type: ignore[no-any-return]
                 if r < 0:  # not the decision's: rolled out now (as `changes` would)
                     out = self._memo[key] = self._run(key[0], key[1])
                     self._count += 1

@@ -535,33 +535,7 @@ class _Coupling:
             rows = world.estimate_rows(now)
         make = self._ro_make
         if make is None:  # the fields that stay for the run (the others are set below)
-            cfg = self.cfg
-            base = self._ro_base = rollout_state(
-                cfg.path,
-                world.follow_law,
-                cfg.follower,
-                cfg.step_ms,
-                0.0,
-                0.0,
-                0.0,
-                self.v_ld,
-                cfg.leader_accel_max,
-                cfg.leader_decel_max,
-                (),
-                (),
-                (),
-                (),
-                0.0,
-                (),
-                self.thr,
-                tuple(self.rho_d),
-                self.w_sch,
-                world.followers.rollout_group,
-                tuple(self.beta_d),
-                self._contact_cm,
-            )
-            make = self._ro_make = Rollout.decided(base)
-            self._ro_idle = ((),) * self.n  # (no sends pending)
+            make = self._rollout_maker()
         ld = world.leader
         return make(
             now,
@@ -569,10 +543,42 @@ class _Coupling:
             ld.speed,
             rows,  # (the held commands World.held_command's; turns expected_turn_rates)
             self._pending(now) if pending else self._ro_idle,
-            max(now, next_scan),
+            next_scan if next_scan > now else now,  # (max(now, next_scan))
             tuple(self._send_offsets),
             self._turn_state,
         )
+
+    def _rollout_maker(self) -> Any:
+        """`Rollout.decided` of the run's base state (the `RolloutState` fields that stay for
+        the run), made at the first decision and kept (``_ro_make``)."""
+        cfg, world = self.cfg, self.world
+        base = self._ro_base = rollout_state(
+            cfg.path,
+            world.follow_law,
+            cfg.follower,
+            cfg.step_ms,
+            0.0,
+            0.0,
+            0.0,
+            self.v_ld,
+            cfg.leader_accel_max,
+            cfg.leader_decel_max,
+            (),
+            (),
+            (),
+            (),
+            0.0,
+            (),
+            self.thr,
+            tuple(self.rho_d),
+            self.w_sch,
+            world.followers.rollout_group,
+            tuple(self.beta_d),
+            self._contact_cm,
+        )
+        make = self._ro_make = Rollout.decided(base)
+        self._ro_idle = ((),) * self.n  # (no sends pending)
+        return make
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
         """The current window's sends still to come at its first send's start (``now``):
@@ -624,7 +630,9 @@ class _Coupling:
                     ro,
                 )
             )
-        v_l = max(adj.v_leader, self.v_floor)
+        v_l = adj.v_leader
+        if self.v_floor > v_l:  # (max(v_leader, v_floor): v_floor only when larger)
+            v_l = self.v_floor
         # each follower's closest approach among the estimates: the contact prediction of a
         # decision without a rollout (`_close`; a rollout predicts its own)
         near: tuple[float, ...] = ()
