@@ -181,7 +181,15 @@ class PhysicalLog:
     def count(self, near: Sequence[float]) -> None:
         """Count one scan's closest approaches ``near`` (`add`'s): the closest pair of the
         run, the collisions and the clearance violations."""
-        close = min(near) if near else math.inf  # (every pair has a follower in it)
+        # the smallest, as min(near) (every pair has a follower in it): the first item
+        # unless a later one is less, NaN included; a loop, not min(), which parses keyword
+        # arguments at every call (≈ 1.6x the instructions at n = 2)
+        close = math.inf
+        if near:
+            close = near[0]
+            for x in near:
+                if x < close:
+                    close = x
         if close < self.min_dist:
             self.min_dist = close
         # (a count goes up only when a scan breaks: branches, not a bool added every scan)
