@@ -58,3 +58,24 @@ def test_the_collector_is_on_again_after_a_run() -> None:
     run_scenario("test2", duration_s=5, record_jobs=False)
     assert gc.isenabled()
     assert gc.get_freeze_count() == 0
+
+
+def test_a_runs_state_is_freed_when_it_returns() -> None:
+    """The run's objects (its window records above all) are freed by reference counting
+    when `run_scenario` returns and the caller drops the result: none waits for a full
+    collection, which the points of a sweep would pile up for (a Test 2 point left ≈ 22,600
+    objects, ≈ 3.4 MB)."""
+    run_scenario("test2", duration_s=5, record_jobs=False)  # (warm)
+    gc.collect()
+    gc.set_debug(gc.DEBUG_SAVEALL)
+    try:
+        res = run_scenario("test2", duration_s=30, record_jobs=False)
+        assert res.summary["windows"] > 50
+        del res
+        gc.collect()
+        left = Counter(type(o).__name__ for o in gc.garbage)
+    finally:
+        gc.set_debug(0)
+        gc.garbage.clear()
+    assert left["WindowRecord"] == 0 and left["StateRows"] == 0
+    assert sum(left.values()) < 1_000, left.most_common(10)

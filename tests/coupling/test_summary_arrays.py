@@ -26,14 +26,16 @@ RUNS = [
 
 @pytest.fixture(scope="module", params=range(len(RUNS)), ids=lambda i: f"run{i}")
 def run(request: pytest.FixtureRequest) -> tuple[Any, Any]:
-    """(the run's _Coupling after its loop, its ScenarioResult)."""
+    """(the run's _Coupling after its loop, a copy, and its ScenarioResult)."""
     name, kw = RUNS[request.param]
     kept: list[Any] = []
     real = sr._Coupling.run
 
     def keep(self: Any) -> None:
         real(self)
-        kept.append(self)
+        copy = object.__new__(sr._Coupling)  # (run_scenario drops the run's state after)
+        copy.__dict__.update(vars(self))
+        kept.append(copy)
 
     mp = pytest.MonkeyPatch()
     mp.setattr(sr._Coupling, "run", keep)
@@ -103,9 +105,14 @@ def test_rows_of_unequal_lengths() -> None:
 
 
 def test_violation_ratios_equal_per_kind_arrays(run: tuple[Any, Any]) -> None:
-    coupling, _ = run
+    coupling, res = run
     recs = [r for r in coupling.rec.records if r.complete and r.changes is not None]
     ratios, beyond = coupling.violation_ratios()
+    # (the summary's, folded from the records `_tables` picked as complete: the same)
+    assert res.summary["max_violation_ratio"] == ratios
+    assert res.summary["violations_beyond_5pct"] == beyond
+    complete = [r for r in coupling.rec.records if r.complete]
+    assert sr._closed(sr._Complete(complete)) == sr._closed(complete) == recs
     for kind, key, lim in coupling._limits:
         ratio = np.array([r.changes[key] for r in recs], dtype=float).reshape(len(recs), -1) / lim
         assert ratios[kind] == float(ratio.max())
