@@ -416,6 +416,7 @@ class _Coupling:
                     f"{where}: radio.min_ms: {self.radio.min_ms:g} ms is above the task set's "
                     f"delta_t ({self._delta_t:g} ms, the round trip's maximum)"
                 )
+            self._radio_span = (self.radio.min_ms, self._delta_t - self.radio.min_ms)
             cpu.set_exec_time(win.name, "radio", self._radio_exec)
 
     def _start_state(self, horizon_ms: float, stop_s: float | None, stop_ms: float) -> None:
@@ -840,9 +841,17 @@ class _Coupling:
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
-            # (min(a, b) is a unless b < a, NaN included)
-            last.near_true = near_true = tuple(map(min, last.near, near))
-            last.viol_contact = tuple(map(self._contact_cm.__gt__, near_true))  # (x < d_c)
+            # (min(a, b) is a unless b < a, NaN included; the break x < d_c. One loop:
+            # map(min, ...) parses its arguments at every call and a comprehension is a
+            # function call, ≈ 1.7x the instructions at n = 2)
+            d_c = self._contact_cm
+            near_true, broke = [], []
+            for a, b in zip(last.near, near):  # noqa: B905
+                x = b if b < a else a
+                near_true.append(x)
+                broke.append(x < d_c)
+            last.near_true = tuple(near_true)
+            last.viol_contact = tuple(broke)
         ro = d.kw.get("rollout")
         # (the rollout's closest approaches: a list made for the call, kept as it is)
         last.near_pred = ro.closest(v_max) if ro is not None else d.near
@@ -912,9 +921,8 @@ class _Coupling:
     def _radio_exec(self, job: Job, seg: Segment, rng: np.random.Generator) -> float:
         """The window's radio round trip: uniform on [radio.min_ms, delta_t] (its maximum,
         what the analyses use), drawn from the link's own generator."""
-        lo = self.radio.min_ms
-        assert lo is not None and self._uniform is not None
-        dt = lo + (self._delta_t - lo) * self._uniform()
+        lo, span = self._radio_span  # (min_ms and delta_t − min_ms: `_hook_window`)
+        dt = lo + span * self._uniform()  # type: ignore[misc]
         rec = self._open.get(job.index)
         if rec is not None:
             rec.radio_ms = dt
