@@ -1273,7 +1273,10 @@ def run_scenario(
         run.phys.close()
         # (the run's state dropped now, not left to a full collection: its hooks and CPU
         # are a cycle, and a sweep's points piled up; docs/performance.md, Memory)
+        world = run.__dict__.get("world")
         run.__dict__.clear()
+        if world is not None:  # (its own cycle: bound methods of itself)
+            world.__dict__.clear()
     t3 = time.perf_counter()
     timing = {
         "setup_s": t1 - t0,

@@ -35,6 +35,8 @@ def run(request: pytest.FixtureRequest) -> tuple[Any, Any]:
         real(self)
         copy = object.__new__(sr._Coupling)  # (run_scenario drops the run's state after)
         copy.__dict__.update(vars(self))
+        copy.world = object.__new__(type(self.world))  # (and the world's, for the same reason)
+        copy.world.__dict__.update(vars(self.world))
         kept.append(copy)
 
     mp = pytest.MonkeyPatch()
