@@ -22,7 +22,7 @@ import numpy as np
 from rtsim.world import scanstep
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
-from rtsim.world.ftl import ftl_command, path_pose
+from rtsim.world.ftl import ftl_command_frame, path_frame
 from rtsim.world.jit import Subs, build, kernel
 from rtsim.world.kernels import announce, follow_with, kernels
 from rtsim.world.motion import clip, follower_advance, leader_travel
@@ -101,17 +101,17 @@ def _rollout(
                 )
                 t_f[k] = t
         s_l, v0 = trace[e, 0], trace[e, 1]
-        xl, yl, hl = path_pose(G, s_l)
+        # (the leader's frame: its heading's cosine and sine are math.cos/math.sin of it)
+        xl, yl, _, c, s = path_frame(G, s_l)
         if ev_kind[e] == 0:
             k = ev_k[e]
-            vc, wc = ftl_command(
-                G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, hl, v0, x[k], y[k], th[k]
+            vc, wc = ftl_command_frame(
+                G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, c, s, v0, x[k], y[k], th[k]
             )
             vc, wc = clip(vc, max_speed), clip(wc, max_turn)
             cmd_v[k] = clip(vc + speed_noise * 0.0, max_speed)
             cmd_w[k] = clip(wc + turn_noise * 0.0, max_turn)
             continue
-        c, s = math.cos(hl), math.sin(hl)
         for i in range(n):
             dx, dy = x[i] - xl, y[i] - yl
             out[scan, i, 0] = c * dx + s * dy
@@ -303,12 +303,13 @@ def _work(P: Any, nw: int) -> tuple[Any, Any, Any, Any]:
     """`_roll`'s scratch for rollouts of up to ``nw`` windows on pack ``P``, made once per
     call from Python and reused by each rollout of it (fresh arrays per rollout cost more than
     the rollout's own arithmetic at two followers): the group's nine columns (x, y, θ, v, ω,
-    held v, held ω, odometer, time), the samples at the scans, the closest approaches at the
-    scans, and the law's search starts (two rows)."""
+    held v, held ω, odometer, time), the samples at the scans (leader-frame x, y, odometer,
+    range, bearing), the closest approaches at the scans, and the law's search starts (two
+    rows)."""
     n = P[1].shape[0]
     return (
         np.empty((9, n)),
-        np.empty((nw + 1, n, 3)),
+        np.empty((nw + 1, n, 5)),
         np.empty((nw + 1, n)),
         np.empty((2, P[4].shape[0])),
     )
@@ -372,6 +373,11 @@ def _roll(
         for j in range(scan, stop + 1):
             for i in range(n):
                 near[j, i] = closest_to(samples[j, :, 0], samples[j, :, 1], i, 0.0, 0.0)
+                # (each sample's range and bearing once, as Rollout._run's row: a window
+                # reads those of both its scans)
+                px, py = samples[j, i, 0], samples[j, i, 1]
+                samples[j, i, 3] = cpython_hypot(px, py)
+                samples[j, i, 4] = _bearing(py, px)
         for j in range(done, stop):
             _window_changes(samples, near, j, out)
         done = stop
@@ -383,19 +389,31 @@ def _roll(
 
 
 @kernel
+def _bearing(y: float, x: float) -> float:
+    """``math.atan2(y, x) % 2π`` as Python computes it, without its fmod: atan2 is within
+    [−π, π], where fmod(b, 2π) is b, so Python's ``%`` gives b when b > 0, b + 2π when b < 0
+    and +0.0 for a zero of either sign (b − b: NaN stays NaN)."""
+    b = math.atan2(y, x)
+    if b > 0.0:
+        return b
+    if b < 0.0:
+        return b + 2.0 * math.pi
+    return b - b
+
+
+@kernel
 def _window_changes(samples: Any, near: Any, j: int, out: Any) -> None:
     """Window ``j``'s changes per follower into ``out[j]`` from the samples (leader-frame
-    position, odometer) and closest approaches at its two scans (Rollout._run's last loop)."""
+    position, odometer, range, bearing: `_roll`) and closest approaches at its two scans
+    (Rollout._run's last loop)."""
     two_pi = 2.0 * math.pi
     for i in range(samples.shape[1]):
         px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
         qx, qy, qo = samples[j + 1, i, 0], samples[j + 1, i, 1], samples[j + 1, i, 2]
         out[j, i, 0] = cpython_hypot(qx - px, qy - py)
-        out[j, i, 1] = abs(cpython_hypot(qx, qy) - cpython_hypot(px, py))
+        out[j, i, 1] = abs(samples[j + 1, i, 3] - samples[j, i, 3])
         out[j, i, 2] = qo - po
-        b_q = math.atan2(qy, qx) % two_pi
-        b_p = math.atan2(py, px) % two_pi
-        out[j, i, 3] = abs(cpython_remainder(b_q - b_p, two_pi))
+        out[j, i, 3] = abs(cpython_remainder(samples[j + 1, i, 4] - samples[j, i, 4], two_pi))
         out[j, i, 4] = closest_over(near[j, i], near[j + 1, i])
 
 

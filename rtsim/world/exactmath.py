@@ -92,11 +92,12 @@ HYPOT_SUBS: Subs = ((cpython_hypot, math_hypot),)
 def cpython_remainder(x: float, y: float) -> float:
     """CPython's ``math.remainder`` (its m_remainder) for finite ``y`` ≠ 0: x − n·y with n the
     integer nearest x / y, ties to even, computed exactly with fmod (``%`` of non-negative
-    operands, which is fmod)."""
+    operands, which is fmod; fmod(|x|, |y|) is |x| itself when |x| < |y|, a bearing's
+    change within a turn: no call then)."""
     if math.isnan(x):
         return x
     absx, absy = abs(x), abs(y)
-    m = absx % absy
+    m = absx if absx < absy else absx % absy
     c = absy - m
     if m < c:
         r = m
