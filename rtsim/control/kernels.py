@@ -42,15 +42,7 @@ __all__ = [
 @kernel(inline=True)
 def _rollout(
     G: Any,
-    x: Any,
-    y: Any,
-    th: Any,
-    v: Any,
-    w: Any,
-    cmd_v: Any,
-    cmd_w: Any,
-    odo: Any,
-    t_f: Any,
+    grp: Any,
     max_accel: float,
     max_speed: float,
     max_turn: float,
@@ -73,50 +65,45 @@ def _rollout(
     """Rollout._run's event loop: the followers' held commands, the follow-the-leader
     commands at the sends (no noise), and at each scan every follower's position in the
     leader frame and odometer (``out[scan, follower]``), the leader at each event where
-    `_lead` put it (``trace``); the arrays of the group and the law are updated in place.
+    `_lead` put it (``trace``); the group ``grp`` (its rows x, y, θ, v, ω, held v, held ω,
+    odometer, time: `_work`; indexed, not viewed: a view of a row is a reference count at
+    each entry) and the law's arrays are updated in place.
 
     From event ``e0``, ``scan`` scans written, until the sample of scan ``stop`` is written
     (then the next event's index is returned: a later call resumes there with the same
     numbers) or the events end."""
-    n = x.shape[0]
+    n = grp.shape[1]
     for e in range(e0, ev_t.shape[0]):
         t = ev_t[e]
         lo_k = ev_k[e] if ev_kind[e] == 0 else 0
         hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
         for k in range(lo_k, hi_k):
-            if t > t_f[k]:
-                x[k], y[k], th[k], v[k], w[k], odo[k] = follower_advance(
-                    x[k],
-                    y[k],
-                    th[k],
-                    v[k],
-                    w[k],
-                    cmd_v[k],
-                    cmd_w[k],
-                    max_accel,
-                    odo[k],
-                    t_f[k],
-                    t,
-                    step_ms,
-                )
-                t_f[k] = t
+            if t > grp[8, k]:
+                (
+                    grp[0, k], grp[1, k], grp[2, k], grp[3, k], grp[4, k], grp[7, k]
+                ) = follower_advance(
+                    grp[0, k], grp[1, k], grp[2, k], grp[3, k], grp[4, k], grp[5, k], grp[6, k],
+                    max_accel, grp[7, k], grp[8, k], t, step_ms,
+                )  # fmt: skip
+                grp[8, k] = t
         s_l, v0 = trace[e, 0], trace[e, 1]
         # (the leader's frame: its heading's cosine and sine are math.cos/math.sin of it)
         xl, yl, _, c, s = path_frame(G, s_l)
         if ev_kind[e] == 0:
             k = ev_k[e]
             vc, wc = ftl_command_frame(
-                G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, c, s, v0, x[k], y[k], th[k]
-            )
+                G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, c, s, v0,
+                grp[0, k], grp[1, k], grp[2, k],
+            )  # fmt: skip
             vc, wc = clip(vc, max_speed), clip(wc, max_turn)
-            cmd_v[k] = clip(vc + speed_noise * 0.0, max_speed)
-            cmd_w[k] = clip(wc + turn_noise * 0.0, max_turn)
+            grp[5, k] = clip(vc + speed_noise * 0.0, max_speed)
+            grp[6, k] = clip(wc + turn_noise * 0.0, max_turn)
             continue
         for i in range(n):
-            dx, dy = x[i] - xl, y[i] - yl
+            dx, dy = grp[0, i] - xl, grp[1, i] - yl
             out[scan, i, 0] = c * dx + s * dy
             out[scan, i, 1] = -s * dx + c * dy
-            out[scan, i, 2] = odo[i]
+            out[scan, i, 2] = grp[7, i]
         scan += 1
         if scan > stop:
             return e + 1
@@ -351,9 +338,6 @@ def _roll(
         for j in range(nw + 1):
             for c in range(3):
                 samples[j, i, c] = 0.0
-    x, y, th, vf, wf, cmd_v, cmd_w, odo, t_f = (
-        grp[0], grp[1], grp[2], grp[3], grp[4], grp[5], grp[6], grp[7], grp[8],
-    )  # fmt: skip
     for i in range(sr0.shape[0]):
         srf[0, i] = sr0[i]
         srf[1, i] = sf0[i]
@@ -366,8 +350,7 @@ def _roll(
         stop = first if done == 0 else nw
         scan = 0 if done == 0 else done + 1
         e = _rollout(
-            G, x, y, th, vf, wf, cmd_v, cmd_w, odo, t_f,
-            S.max_accel, S.max_speed, S.max_turn, S.speed_noise, S.turn_noise, S.step,
+            G, grp, S.max_accel, S.max_speed, S.max_turn, S.speed_noise, S.turn_noise, S.step,
             sr, sf, S.gain, S.lookahead, ev_t, ev_kind, ev_k, trace, e, scan, stop, samples,
         )  # fmt: skip
         for j in range(scan, stop + 1):
