@@ -31,7 +31,7 @@ def _dl_mul(x: float, y: float) -> tuple[float, float]:
     return z, ((xh * yh - z) + xh * yl + xl * yh) + xl * yl
 
 
-@kernel
+@kernel(inline=True)
 def _hypot_core(ax: float, ay: float, scale: float) -> float:
     """CPython's vector_norm of (ax, ay) scaled by ``scale`` (2^-e, e the exponent
     ``math.frexp`` gives the larger, a normal number), before it is scaled back: the
