@@ -58,6 +58,7 @@ def _rollout(
     ev_k: Any,
     trace: Any,
     e0: int,
+    e_end: int,
     scan: int,
     stop: int,
     out: Any,
@@ -71,9 +72,9 @@ def _rollout(
 
     From event ``e0``, ``scan`` scans written, until the sample of scan ``stop`` is written
     (then the next event's index is returned: a later call resumes there with the same
-    numbers) or the events end."""
+    numbers) or event ``e_end`` is reached (returned)."""
     n = grp.shape[1]
-    for e in range(e0, ev_t.shape[0]):
+    for e in range(e0, e_end):
         t = ev_t[e]
         lo_k = ev_k[e] if ev_kind[e] == 0 else 0
         hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
@@ -107,7 +108,7 @@ def _rollout(
         scan += 1
         if scan > stop:
             return e + 1
-    return ev_t.shape[0]
+    return e_end
 
 
 @kernel
@@ -281,25 +282,109 @@ def _rollout_changes(
     ev_t, ev_kind, ev_k = _events(lengths, P)
     trace = np.empty((ev_t.shape[0], 2))
     _lead(v, P, ev_t, trace)
-    W = _work(P, lengths.shape[0])
+    W = _work(P, lengths.shape[0], 0)
     return _roll(lengths, P, ev_t, ev_kind, ev_k, trace, out, keep, need, contact, W)
 
 
 @kernel
-def _work(P: Any, nw: int) -> tuple[Any, Any, Any, Any]:
+def _work(P: Any, nw: int, n_ev: int) -> tuple[Any, Any, Any, Any, Any]:
     """`_roll`'s scratch for rollouts of up to ``nw`` windows on pack ``P``, made once per
     call from Python and reused by each rollout of it (fresh arrays per rollout cost more than
     the rollout's own arithmetic at two followers): the group's nine columns (x, y, θ, v, ω,
     held v, held ω, odometer, time), the samples at the scans (leader-frame x, y, odometer,
-    range, bearing), the closest approaches at the scans, and the law's search starts (two
-    rows)."""
+    range, bearing), the closest approaches at the scans, the law's search starts (two
+    rows), and the first window's prefix (`_keep_prefix`) of a rollout over up to ``n_ev``
+    events (0: none kept; its first element, the mode, 0)."""
     n = P[1].shape[0]
+    ns = P[4].shape[0]
+    pre = np.empty(_PREFIX + 12 * n + 2 * ns + 5 * n_ev)
+    pre[0], pre[1] = 0.0, 0.0
     return (
         np.empty((9, n)),
         np.empty((nw + 1, n, 5)),
         np.empty((nw + 1, n)),
-        np.empty((2, P[4].shape[0])),
+        np.empty((2, ns)),
+        pre,
     )
+
+
+@kernel
+def _scans_before(ev_kind: Any, e: int) -> int:
+    """How many of the first ``e`` events are scans."""
+    m = 0
+    for i in range(e):
+        m += ev_kind[i]
+    return m  # type: ignore[no-any-return]
+
+
+#: the prefix scratch's header: (mode — 0 none, 1 keep it, 2 start from it —, its events)
+_PREFIX = 2
+
+
+@kernel
+def _keep_prefix(pre: Any, grp: Any, srf: Any, samples: Any, ev: Any, trace: Any, p: int) -> None:
+    """Keep in ``pre`` a rollout's state after its first ``p`` events (those before its
+    second scan, ``ev`` = its events, ``trace`` its leader): the group, the law's search
+    starts, the first scan's samples, and the events and leader they came from."""
+    ev_t, ev_kind, ev_k = ev
+    n, ns = grp.shape[1], srf.shape[1]
+    pre[1] = p
+    o = _PREFIX
+    for c in range(9):
+        for i in range(n):
+            pre[o] = grp[c, i]
+            o += 1
+    for c in range(2):
+        for i in range(ns):
+            pre[o] = srf[c, i]
+            o += 1
+    for i in range(n):
+        for c in range(3):
+            pre[o] = samples[0, i, c]
+            o += 1
+    for e in range(p):
+        pre[o], pre[o + 1], pre[o + 2] = ev_t[e], ev_kind[e], ev_k[e]
+        pre[o + 3], pre[o + 4] = trace[e, 0], trace[e, 1]
+        o += 5
+
+
+@kernel
+def _from_prefix(pre: Any, grp: Any, srf: Any, samples: Any, ev: Any, trace: Any) -> int:
+    """The events kept in ``pre`` (`_keep_prefix`) when this rollout's first ones (events
+    ``ev``, leader ``trace``) are the same bit for bit: its state restored from there (the
+    group, the search starts, the first scan's samples) and their count returned, else 0
+    (nothing restored). The rollout's numbers go on from there as they would have: the same
+    events on the same state give the same floats."""
+    ev_t, ev_kind, ev_k = ev
+    n, ns = grp.shape[1], srf.shape[1]
+    p = int(pre[1])
+    if p > ev_t.shape[0]:
+        return 0
+    o = _PREFIX + 12 * n + 2 * ns
+    for e in range(p):
+        if not (
+            pre[o] == ev_t[e]
+            and pre[o + 1] == ev_kind[e]
+            and pre[o + 2] == ev_k[e]
+            and pre[o + 3] == trace[e, 0]
+            and pre[o + 4] == trace[e, 1]
+        ):
+            return 0
+        o += 5
+    o = _PREFIX
+    for c in range(9):
+        for i in range(n):
+            grp[c, i] = pre[o]
+            o += 1
+    for c in range(2):
+        for i in range(ns):
+            srf[c, i] = pre[o]
+            o += 1
+    for i in range(n):
+        for c in range(3):
+            samples[0, i, c] = pre[o]
+            o += 1
+    return p
 
 
 @kernel
@@ -329,7 +414,7 @@ def _roll(
     S = scalars(fs)
     n = fol.shape[0]
     nw = lengths.shape[0]
-    grp, samples, near, srf = W  # (near: each follower's closest approach at each scan)
+    grp, samples, near, srf, pre = W  # (near: each follower's closest approach at each scan)
     for i in range(n):  # the pack's columns copied in, the odometers at 0, the time now
         for c in range(7):
             grp[c, i] = fol[i, c]
@@ -345,15 +430,34 @@ def _roll(
     # a pass/fail question stops after the first window if that one already fails
     first = 1 if nw > 1 and need > -math.inf else nw
     e = 0 * nw  # (an int64, not the literal 0)
+    n_ev = ev_t.shape[0]
+    e_end = n_ev
+    scan = 0  # scans written
+    mode = pre[0]
+    if mode == 2.0:  # from a kept prefix when its events and leader are these
+        e = _from_prefix(pre, grp, srf, samples, (ev_t, ev_kind, ev_k), trace)
+        scan = _scans_before(ev_kind, e)
+    elif mode == 1.0:  # keep the events before the second scan (`_keep_prefix`)
+        t1 = S.next_scan + lengths[0]  # (the second scan's time as `_events` sums it)
+        e_end = 0 * nw
+        while e_end < n_ev and ev_t[e_end] < t1:
+            e_end += 1
     done = 0  # windows whose changes are in ``out``
+    s_from = 0  # the first scan whose closest approaches, range and bearing are to come
     while True:
         stop = first if done == 0 else nw
-        scan = 0 if done == 0 else done + 1
         e = _rollout(
             G, grp, S.max_accel, S.max_speed, S.max_turn, S.speed_noise, S.turn_noise, S.step,
-            sr, sf, S.gain, S.lookahead, ev_t, ev_kind, ev_k, trace, e, scan, stop, samples,
+            sr, sf, S.gain, S.lookahead, ev_t, ev_kind, ev_k, trace, e, e_end, scan, stop,
+            samples,
         )  # fmt: skip
-        for j in range(scan, stop + 1):
+        if e_end < n_ev:  # the prefix ran (its one scan, the first, written): keep it
+            _keep_prefix(pre, grp, srf, samples, (ev_t, ev_kind, ev_k), trace, e_end)
+            scan = _scans_before(ev_kind, e_end)
+            e_end = n_ev
+            continue
+        scan = stop + 1
+        for j in range(s_from, stop + 1):
             for i in range(n):
                 near[j, i] = closest_to(samples[j, :, 0], samples[j, :, 1], i, 0.0, 0.0)
                 # (each sample's range and bearing once, as Rollout._run's row: a window
@@ -361,6 +465,7 @@ def _roll(
                 px, py = samples[j, i, 0], samples[j, i, 1]
                 samples[j, i, 3] = cpython_hypot(px, py)
                 samples[j, i, 4] = _bearing(py, px)
+        s_from = stop + 1
         for j in range(done, stop):
             _window_changes(samples, near, j, out)
         done = stop
@@ -712,7 +817,7 @@ def _plan_decide(
     for j in range(nw):
         hl[j] = w
     ev = _events(hl, P)
-    W = _work(P, nw)
+    W = _work(P, nw, ev[0].shape[0])
     traces = np.empty((speeds.shape[0], ev[0].shape[0], 2))
     ms = np.empty(speeds.shape[0])
     dones = np.empty(speeds.shape[0], dtype=np.int64)
@@ -724,9 +829,11 @@ def _plan_decide(
     feasible = False
     if not search_only:
         speeds[0], lens[0] = v_ld, 1
+        W[4][0] = 1.0  # (its events before the second scan kept: the longer window's start)
         m_ld, done, _ = _rollout_worst(
             v_ld, hl, P, changes[0], contact, keep, need, ev, traces, ms, dones, zero, zero, W
         )
+        W[4][0] = 0.0
         if done < nw:
             cut[0] = 1
         m1 = _rows(changes[0, 0], S, fol, w, rows[0])
@@ -741,6 +848,9 @@ def _plan_decide(
             one = np.empty(1)
             one[0] = ww
             ev_w = _events(one, P)
+            # its events before V_Ld's second scan are V_Ld's first ones (the same leader):
+            # it goes on from V_Ld's state there (`_from_prefix` checks them bit for bit)
+            W[4][0] = 2.0
             m_w = _rollout_worst(
                 v_ld,
                 one,
@@ -757,6 +867,7 @@ def _plan_decide(
                 zero,
                 W,
             )[0]
+            W[4][0] = 0.0
             runs = 2
             out[5] = ww
             if keep * m_w < ww:
