@@ -409,7 +409,11 @@ def _roll(
     finite) whose first window alone fails (keep · its smallest bound, lowered by its contact
     bound at d_c = ``contact``, below ``need``: later windows can only lower it), 1 — the
     rollout stops at that window's closing scan, its first window the numbers it would have
-    had (the events up to that scan are the whole rollout's, in the same order)."""
+    had (the events up to that scan are the whole rollout's, in the same order).
+
+    The scratch's prefix mode (``W[4][0]``, `_plan_decide` sets it): 1 keeps the state after
+    the events before the second scan (`_keep_prefix`), 2 starts from a kept one when its
+    events and leader are this rollout's first ones (`_from_prefix`), 0 neither."""
     fs, fol, pend, G, sr0, sf0 = P
     S = scalars(fs)
     n = fol.shape[0]
