@@ -29,10 +29,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from operator import sub as _sub
 from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rtsim._numbers import is_real
 from rtsim.errors import InputError
@@ -54,6 +54,7 @@ __all__ = [
     "msb_separation",
     "relative_state",
     "relative_states",
+    "relative_states_of",
     "rho_dot",
     "scalar_msbs",
     "unicycle_turn_error",
@@ -144,21 +145,38 @@ def relative_states(
 ) -> tuple[list[float], list[float], list[float]]:
     """`relative_state` of each pair (leader pose, follower pose), as the lists (ρ, β, θ):
     the same operations on the same floats pair by pair (equal bit for bit: tests), with
-    the loops in C (a table's columns: no call per pair; the wraps on arrays, with the
-    float path's operations: `fmod`, then 2π added to a negative remainder)."""
+    the loops in C (`relative_states_of` on the poses' columns)."""
     if not follower_poses:
         return [], [], []
-    xl, yl, hl = zip(*leader_poses)  # noqa: B905 (3 each)
-    xf, yf, hf = zip(*follower_poses)  # noqa: B905 (3 each)
-    dx = list(map(_sub, xf, xl))
-    dy = list(map(_sub, yf, yl))
-    rho = list(map(math.hypot, dx, dy))
-    m = len(rho)
-    h = np.array(hl, dtype=float)
-    a = np.fromiter(map(math.atan2, dy, dx), float, m) - h
-    beta = np.where(np.array(rho) > 0.0, wrap_positive(a), 0.0)
-    theta = wrap_angle(h - np.array(hf, dtype=float))
-    return rho, beta.tolist(), theta.tolist()
+    lp = np.array(leader_poses, dtype=float)
+    fp = np.array(follower_poses, dtype=float)
+    rho, beta, theta = relative_states_of(
+        lp[:, 0], lp[:, 1], lp[:, 2], fp[:, 0], fp[:, 1], fp[:, 2]
+    )
+    return rho.tolist(), beta.tolist(), theta.tolist()
+
+
+def relative_states_of(
+    xl: NDArray[np.float64],
+    yl: NDArray[np.float64],
+    hl: NDArray[np.float64],
+    xf: NDArray[np.float64],
+    yf: NDArray[np.float64],
+    hf: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """`relative_state` of each pair, from the leaders' and the followers' poses as float64
+    arrays (x, y, heading each; equal lengths), as arrays (ρ, β, θ): the differences by
+    numpy (the same IEEE subtraction as Python's), ρ and the bearing by ``math.hypot`` and
+    ``math.atan2`` on them as Python floats, the wraps on arrays (with the float path's
+    operations: `fmod`, then 2π added to a negative remainder)."""
+    dx = (xf - xl).tolist()
+    dy = (yf - yl).tolist()
+    m = len(dx)
+    rho = np.fromiter(map(math.hypot, dx, dy), float, m)
+    a = np.fromiter(map(math.atan2, dy, dx), float, m) - hl
+    beta = np.where(rho > 0.0, wrap_positive(a), 0.0)
+    theta = wrap_angle(hl - hf)
+    return rho, beta, theta
 
 
 def formation_velocity(v_l: Any, omega_l: Any, rho: Any, beta: Any) -> tuple[Any, Any]:

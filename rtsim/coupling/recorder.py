@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, relative_states
+from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, relative_states_of
 from rtsim.sim.records import EPS
 from rtsim.world.localization import LOST_CAUSES
 
@@ -373,6 +373,21 @@ def _rows(rows: Any, dtype: Any, m: int, width: int) -> NDArray[Any]:
     return np.fromiter(_chain(rows), dtype, m * width).reshape(m, width)
 
 
+def _filled(recs: list[WindowRecord], name: str, empty: Any, dtype: Any, n: int) -> NDArray[Any]:
+    """Every record's field ``name`` (``n`` values each) as an (m, n) array of ``dtype``,
+    ``n`` times ``empty`` for a record whose field is empty or None (``r.name or (empty,) *
+    n``: a record made without a scan's sensing or contact); no Python per record when
+    every record has its values, or none has."""
+    vals = list(map(attrgetter(name), recs))
+    m = len(vals)
+    if all(vals):
+        return _rows(vals, dtype, m, n)
+    if not any(vals):
+        return np.full((m, n), empty, dtype=dtype)
+    none = (empty,) * n
+    return _rows([v or none for v in vals], dtype, m, n)
+
+
 def _column(recs: list[WindowRecord], name: str, dtype: Any) -> NDArray[Any]:
     """One scalar field of every record, as an array of ``dtype``."""
     return np.fromiter(map(attrgetter(name), recs), dtype, len(recs))
@@ -458,20 +473,20 @@ def records_columns(
     # summary's columns leave out the points, the round trips and the neighbours' flags,
     # which it does not read: each a pass over cold records, ≈ 0.2 ms of a Test 2 lap)
     least = summary and not state
-    err = _rows((r.fix_error or (math.inf,) * n for r in recs), float, m, n)
-    nb_ = _rows((r.neighbour or (False,) * n for r in recs), bool, m, n)
+    err = _filled(recs, "fix_error", math.inf, float, n)
+    nb_ = _filled(recs, "neighbour", False, bool, n)
     data["confusions"] = nb_.sum(axis=1).astype(np.int64)
     if not least:
         data["radio_ms"] = _column(recs, "radio_ms", float)
     data["radio_losses"] = _column(recs, "radio_losses", np.int64)
-    voted = None if least else _rows((r.voted or (0,) * n for r in recs), np.int64, m, n)
+    voted = None if least else _filled(recs, "voted", 0, np.int64, n)
     for i in range(n):
         if voted is not None:
             data[f"f{i + 1}_points"] = voted[:, i]
             data[f"f{i + 1}_neighbour"] = nb_[:, i]
         data[f"f{i + 1}_fix_error_cm"] = err[:, i]
     # (a record made by hand has no contact: inf, no break)
-    broke = _rows((r.viol_contact or (False,) * n for r in recs), bool, m, n)
+    broke = _filled(recs, "viol_contact", False, bool, n)
     for i in range(n):
         data[f"f{i + 1}_viol_contact"] = broke[:, i]
     return {c: data[c] for c in cols if c in data}
@@ -524,30 +539,38 @@ def segments(recs: list[WindowRecord]) -> tuple[list[str], list[float]]:
     return kinds, kappas
 
 
+_LP = attrgetter("_lp")
+_POSES = attrgetter("_poses")
+_SPEEDS = attrgetter("_speeds")
+
+
 def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:
     """``m`` records' state rows (`StateRows`, or n rows of 7 floats each), one (m, n, 7)
-    array: `StateRows` not read yet, in one pass over their poses (`relative_states`),
-    without making their rows; the values `_flat` of their rows gives."""
+    array: `StateRows` not read yet from their poses and speeds read once into arrays
+    (`relative_states_of`), without making their rows; the values `_flat` of their rows
+    gives."""
     objs = list(rows)
     k = len(FOLLOWER_FIELDS)
-    lps: list[tuple[float, float, float]] = []
-    poses: list[Any] = []
-    speeds: list[Any] = []
     for o in objs:
         if type(o) is not StateRows or o._rows is not None:
             break
-        p = o._poses = list(o._poses)  # (kept for a later `rows`: poses may be an iterator)
+        p = o._poses
+        if type(p) is not list:  # (kept for a later `rows`: poses may be an iterator)
+            p = o._poses = list(p)
         if len(p) != n or len(o._speeds) != n:
             break
-        lps += [o._lp] * n
-        poses += p
-        speeds += o._speeds
     else:
         if m:
-            rho, beta, theta = relative_states(lps, poses)
-            x, y, th = zip(*poses)  # noqa: B905 (3 each)
-            cols = np.array([x, y, th, rho, beta, theta, speeds], dtype=float)
-            return cols.T.reshape(m, n, k)
+            mn = m * n
+            pose = np.fromiter(_chain(_chain(map(_POSES, objs))), float, 3 * mn).reshape(mn, 3)
+            lead = np.fromiter(_chain(map(_LP, objs)), float, 3 * m).reshape(m, 3)
+            lead = np.repeat(lead, n, axis=0)
+            out = np.empty((mn, k))
+            out[:, :3] = pose
+            xl, yl, hl = lead.T
+            out[:, 3:6] = np.transpose(relative_states_of(xl, yl, hl, *pose.T))
+            out[:, 6] = np.fromiter(_chain(map(_SPEEDS, objs)), float, mn)
+            return out.reshape(m, n, k)
     return _flat(objs, float, m * n * k).reshape(m, n, k)
 
 
@@ -576,9 +599,8 @@ def _follower_state(
         for j, kind in enumerate(BOUND_KINDS):
             data[f"f{i + 1}_msb_{kind}_pred"] = pred[:, i, j]
             data[f"f{i + 1}_msb_{kind}_true"] = true_bounds(w, changes[:, i, j], limits[j][i])
-    inf = (math.inf,) * n
-    near_p = _rows((r.near_pred or inf for r in recs), float, m, n)
-    near_t = _rows((r.near_true or inf for r in recs), float, m, n)
+    near_p = _filled(recs, "near_pred", math.inf, float, n)
+    near_t = _filled(recs, "near_true", math.inf, float, n)
     for i in range(n):
         data[f"f{i + 1}_contact_cm_pred"] = near_p[:, i]
         data[f"f{i + 1}_contact_cm_true"] = near_t[:, i]
