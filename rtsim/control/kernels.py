@@ -22,7 +22,7 @@ import numpy as np
 from rtsim.world import scanstep
 from rtsim.world.contact import closest_over, closest_to, lowest_contact
 from rtsim.world.exactmath import cpython_hypot, cpython_remainder
-from rtsim.world.ftl import ftl_command, path_pose
+from rtsim.world.ftl import ftl_command_frame, path_frame
 from rtsim.world.jit import Subs, build, kernel
 from rtsim.world.kernels import announce, follow_with, kernels
 from rtsim.world.motion import clip, follower_advance, leader_travel
@@ -42,15 +42,7 @@ __all__ = [
 @kernel(inline=True)
 def _rollout(
     G: Any,
-    x: Any,
-    y: Any,
-    th: Any,
-    v: Any,
-    w: Any,
-    cmd_v: Any,
-    cmd_w: Any,
-    odo: Any,
-    t_f: Any,
+    grp: Any,
     max_accel: float,
     max_speed: float,
     max_turn: float,
@@ -66,6 +58,7 @@ def _rollout(
     ev_k: Any,
     trace: Any,
     e0: int,
+    e_end: int,
     scan: int,
     stop: int,
     out: Any,
@@ -73,54 +66,49 @@ def _rollout(
     """Rollout._run's event loop: the followers' held commands, the follow-the-leader
     commands at the sends (no noise), and at each scan every follower's position in the
     leader frame and odometer (``out[scan, follower]``), the leader at each event where
-    `_lead` put it (``trace``); the arrays of the group and the law are updated in place.
+    `_lead` put it (``trace``); the group ``grp`` (its rows x, y, θ, v, ω, held v, held ω,
+    odometer, time: `_work`; indexed, not viewed: a view of a row is a reference count at
+    each entry) and the law's arrays are updated in place.
 
     From event ``e0``, ``scan`` scans written, until the sample of scan ``stop`` is written
     (then the next event's index is returned: a later call resumes there with the same
-    numbers) or the events end."""
-    n = x.shape[0]
-    for e in range(e0, ev_t.shape[0]):
+    numbers) or event ``e_end`` is reached (returned)."""
+    n = grp.shape[1]
+    for e in range(e0, e_end):
         t = ev_t[e]
         lo_k = ev_k[e] if ev_kind[e] == 0 else 0
         hi_k = ev_k[e] + 1 if ev_kind[e] == 0 else n
         for k in range(lo_k, hi_k):
-            if t > t_f[k]:
-                x[k], y[k], th[k], v[k], w[k], odo[k] = follower_advance(
-                    x[k],
-                    y[k],
-                    th[k],
-                    v[k],
-                    w[k],
-                    cmd_v[k],
-                    cmd_w[k],
-                    max_accel,
-                    odo[k],
-                    t_f[k],
-                    t,
-                    step_ms,
-                )
-                t_f[k] = t
+            if t > grp[8, k]:
+                (
+                    grp[0, k], grp[1, k], grp[2, k], grp[3, k], grp[4, k], grp[7, k]
+                ) = follower_advance(
+                    grp[0, k], grp[1, k], grp[2, k], grp[3, k], grp[4, k], grp[5, k], grp[6, k],
+                    max_accel, grp[7, k], grp[8, k], t, step_ms,
+                )  # fmt: skip
+                grp[8, k] = t
         s_l, v0 = trace[e, 0], trace[e, 1]
-        xl, yl, hl = path_pose(G, s_l)
+        # (the leader's frame: its heading's cosine and sine are math.cos/math.sin of it)
+        xl, yl, _, c, s = path_frame(G, s_l)
         if ev_kind[e] == 0:
             k = ev_k[e]
-            vc, wc = ftl_command(
-                G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, hl, v0, x[k], y[k], th[k]
-            )
+            vc, wc = ftl_command_frame(
+                G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, c, s, v0,
+                grp[0, k], grp[1, k], grp[2, k],
+            )  # fmt: skip
             vc, wc = clip(vc, max_speed), clip(wc, max_turn)
-            cmd_v[k] = clip(vc + speed_noise * 0.0, max_speed)
-            cmd_w[k] = clip(wc + turn_noise * 0.0, max_turn)
+            grp[5, k] = clip(vc + speed_noise * 0.0, max_speed)
+            grp[6, k] = clip(wc + turn_noise * 0.0, max_turn)
             continue
-        c, s = math.cos(hl), math.sin(hl)
         for i in range(n):
-            dx, dy = x[i] - xl, y[i] - yl
+            dx, dy = grp[0, i] - xl, grp[1, i] - yl
             out[scan, i, 0] = c * dx + s * dy
             out[scan, i, 1] = -s * dx + c * dy
-            out[scan, i, 2] = odo[i]
+            out[scan, i, 2] = grp[7, i]
         scan += 1
         if scan > stop:
             return e + 1
-    return ev_t.shape[0]
+    return e_end
 
 
 @kernel
@@ -294,24 +282,109 @@ def _rollout_changes(
     ev_t, ev_kind, ev_k = _events(lengths, P)
     trace = np.empty((ev_t.shape[0], 2))
     _lead(v, P, ev_t, trace)
-    W = _work(P, lengths.shape[0])
+    W = _work(P, lengths.shape[0], 0)
     return _roll(lengths, P, ev_t, ev_kind, ev_k, trace, out, keep, need, contact, W)
 
 
 @kernel
-def _work(P: Any, nw: int) -> tuple[Any, Any, Any, Any]:
+def _work(P: Any, nw: int, n_ev: int) -> tuple[Any, Any, Any, Any, Any]:
     """`_roll`'s scratch for rollouts of up to ``nw`` windows on pack ``P``, made once per
     call from Python and reused by each rollout of it (fresh arrays per rollout cost more than
     the rollout's own arithmetic at two followers): the group's nine columns (x, y, θ, v, ω,
-    held v, held ω, odometer, time), the samples at the scans, the closest approaches at the
-    scans, and the law's search starts (two rows)."""
+    held v, held ω, odometer, time), the samples at the scans (leader-frame x, y, odometer,
+    range, bearing), the closest approaches at the scans, the law's search starts (two
+    rows), and the first window's prefix (`_keep_prefix`) of a rollout over up to ``n_ev``
+    events (0: none kept; its first element, the mode, 0)."""
     n = P[1].shape[0]
+    ns = P[4].shape[0]
+    pre = np.empty(_PREFIX + 12 * n + 2 * ns + 5 * n_ev)
+    pre[0], pre[1] = 0.0, 0.0
     return (
         np.empty((9, n)),
-        np.empty((nw + 1, n, 3)),
+        np.empty((nw + 1, n, 5)),
         np.empty((nw + 1, n)),
-        np.empty((2, P[4].shape[0])),
+        np.empty((2, ns)),
+        pre,
     )
+
+
+@kernel
+def _scans_before(ev_kind: Any, e: int) -> int:
+    """How many of the first ``e`` events are scans."""
+    m = 0
+    for i in range(e):
+        m += ev_kind[i]
+    return m  # type: ignore[no-any-return]
+
+
+#: the prefix scratch's header: (mode — 0 none, 1 keep it, 2 start from it —, its events)
+_PREFIX = 2
+
+
+@kernel
+def _keep_prefix(pre: Any, grp: Any, srf: Any, samples: Any, ev: Any, trace: Any, p: int) -> None:
+    """Keep in ``pre`` a rollout's state after its first ``p`` events (those before its
+    second scan, ``ev`` = its events, ``trace`` its leader): the group, the law's search
+    starts, the first scan's samples, and the events and leader they came from."""
+    ev_t, ev_kind, ev_k = ev
+    n, ns = grp.shape[1], srf.shape[1]
+    pre[1] = p
+    o = _PREFIX
+    for c in range(9):
+        for i in range(n):
+            pre[o] = grp[c, i]
+            o += 1
+    for c in range(2):
+        for i in range(ns):
+            pre[o] = srf[c, i]
+            o += 1
+    for i in range(n):
+        for c in range(3):
+            pre[o] = samples[0, i, c]
+            o += 1
+    for e in range(p):
+        pre[o], pre[o + 1], pre[o + 2] = ev_t[e], ev_kind[e], ev_k[e]
+        pre[o + 3], pre[o + 4] = trace[e, 0], trace[e, 1]
+        o += 5
+
+
+@kernel
+def _from_prefix(pre: Any, grp: Any, srf: Any, samples: Any, ev: Any, trace: Any) -> int:
+    """The events kept in ``pre`` (`_keep_prefix`) when this rollout's first ones (events
+    ``ev``, leader ``trace``) are the same bit for bit: its state restored from there (the
+    group, the search starts, the first scan's samples) and their count returned, else 0
+    (nothing restored). The rollout's numbers go on from there as they would have: the same
+    events on the same state give the same floats."""
+    ev_t, ev_kind, ev_k = ev
+    n, ns = grp.shape[1], srf.shape[1]
+    p = int(pre[1])
+    if p > ev_t.shape[0]:
+        return 0
+    o = _PREFIX + 12 * n + 2 * ns
+    for e in range(p):
+        if not (
+            pre[o] == ev_t[e]
+            and pre[o + 1] == ev_kind[e]
+            and pre[o + 2] == ev_k[e]
+            and pre[o + 3] == trace[e, 0]
+            and pre[o + 4] == trace[e, 1]
+        ):
+            return 0
+        o += 5
+    o = _PREFIX
+    for c in range(9):
+        for i in range(n):
+            grp[c, i] = pre[o]
+            o += 1
+    for c in range(2):
+        for i in range(ns):
+            srf[c, i] = pre[o]
+            o += 1
+    for i in range(n):
+        for c in range(3):
+            samples[0, i, c] = pre[o]
+            o += 1
+    return p
 
 
 @kernel
@@ -336,12 +409,16 @@ def _roll(
     finite) whose first window alone fails (keep · its smallest bound, lowered by its contact
     bound at d_c = ``contact``, below ``need``: later windows can only lower it), 1 — the
     rollout stops at that window's closing scan, its first window the numbers it would have
-    had (the events up to that scan are the whole rollout's, in the same order)."""
+    had (the events up to that scan are the whole rollout's, in the same order).
+
+    The scratch's prefix mode (``W[4][0]``, `_plan_decide` sets it): 1 keeps the state after
+    the events before the second scan (`_keep_prefix`), 2 starts from a kept one when its
+    events and leader are this rollout's first ones (`_from_prefix`), 0 neither."""
     fs, fol, pend, G, sr0, sf0 = P
     S = scalars(fs)
     n = fol.shape[0]
     nw = lengths.shape[0]
-    grp, samples, near, srf = W  # (near: each follower's closest approach at each scan)
+    grp, samples, near, srf, pre = W  # (near: each follower's closest approach at each scan)
     for i in range(n):  # the pack's columns copied in, the odometers at 0, the time now
         for c in range(7):
             grp[c, i] = fol[i, c]
@@ -350,9 +427,6 @@ def _roll(
         for j in range(nw + 1):
             for c in range(3):
                 samples[j, i, c] = 0.0
-    x, y, th, vf, wf, cmd_v, cmd_w, odo, t_f = (
-        grp[0], grp[1], grp[2], grp[3], grp[4], grp[5], grp[6], grp[7], grp[8],
-    )  # fmt: skip
     for i in range(sr0.shape[0]):
         srf[0, i] = sr0[i]
         srf[1, i] = sf0[i]
@@ -360,18 +434,42 @@ def _roll(
     # a pass/fail question stops after the first window if that one already fails
     first = 1 if nw > 1 and need > -math.inf else nw
     e = 0 * nw  # (an int64, not the literal 0)
+    n_ev = ev_t.shape[0]
+    e_end = n_ev
+    scan = 0  # scans written
+    mode = pre[0]
+    if mode == 2.0:  # from a kept prefix when its events and leader are these
+        e = _from_prefix(pre, grp, srf, samples, (ev_t, ev_kind, ev_k), trace)
+        scan = _scans_before(ev_kind, e)
+    elif mode == 1.0:  # keep the events before the second scan (`_keep_prefix`)
+        t1 = S.next_scan + lengths[0]  # (the second scan's time as `_events` sums it)
+        e_end = 0 * nw
+        while e_end < n_ev and ev_t[e_end] < t1:
+            e_end += 1
     done = 0  # windows whose changes are in ``out``
+    s_from = 0  # the first scan whose closest approaches, range and bearing are to come
     while True:
         stop = first if done == 0 else nw
-        scan = 0 if done == 0 else done + 1
         e = _rollout(
-            G, x, y, th, vf, wf, cmd_v, cmd_w, odo, t_f,
-            S.max_accel, S.max_speed, S.max_turn, S.speed_noise, S.turn_noise, S.step,
-            sr, sf, S.gain, S.lookahead, ev_t, ev_kind, ev_k, trace, e, scan, stop, samples,
+            G, grp, S.max_accel, S.max_speed, S.max_turn, S.speed_noise, S.turn_noise, S.step,
+            sr, sf, S.gain, S.lookahead, ev_t, ev_kind, ev_k, trace, e, e_end, scan, stop,
+            samples,
         )  # fmt: skip
-        for j in range(scan, stop + 1):
+        if e_end < n_ev:  # the prefix ran (its one scan, the first, written): keep it
+            _keep_prefix(pre, grp, srf, samples, (ev_t, ev_kind, ev_k), trace, e_end)
+            scan = _scans_before(ev_kind, e_end)
+            e_end = n_ev
+            continue
+        scan = stop + 1
+        for j in range(s_from, stop + 1):
             for i in range(n):
                 near[j, i] = closest_to(samples[j, :, 0], samples[j, :, 1], i, 0.0, 0.0)
+                # (each sample's range and bearing once, as Rollout._run's row: a window
+                # reads those of both its scans)
+                px, py = samples[j, i, 0], samples[j, i, 1]
+                samples[j, i, 3] = cpython_hypot(px, py)
+                samples[j, i, 4] = _bearing(py, px)
+        s_from = stop + 1
         for j in range(done, stop):
             _window_changes(samples, near, j, out)
         done = stop
@@ -383,19 +481,31 @@ def _roll(
 
 
 @kernel
+def _bearing(y: float, x: float) -> float:
+    """``math.atan2(y, x) % 2π`` as Python computes it, without its fmod: atan2 is within
+    [−π, π], where fmod(b, 2π) is b, so Python's ``%`` gives b when b > 0, b + 2π when b < 0
+    and +0.0 for a zero of either sign (b − b: NaN stays NaN)."""
+    b = math.atan2(y, x)
+    if b > 0.0:
+        return b
+    if b < 0.0:
+        return b + 2.0 * math.pi
+    return b - b
+
+
+@kernel
 def _window_changes(samples: Any, near: Any, j: int, out: Any) -> None:
     """Window ``j``'s changes per follower into ``out[j]`` from the samples (leader-frame
-    position, odometer) and closest approaches at its two scans (Rollout._run's last loop)."""
+    position, odometer, range, bearing: `_roll`) and closest approaches at its two scans
+    (Rollout._run's last loop)."""
     two_pi = 2.0 * math.pi
     for i in range(samples.shape[1]):
         px, py, po = samples[j, i, 0], samples[j, i, 1], samples[j, i, 2]
         qx, qy, qo = samples[j + 1, i, 0], samples[j + 1, i, 1], samples[j + 1, i, 2]
         out[j, i, 0] = cpython_hypot(qx - px, qy - py)
-        out[j, i, 1] = abs(cpython_hypot(qx, qy) - cpython_hypot(px, py))
+        out[j, i, 1] = abs(samples[j + 1, i, 3] - samples[j, i, 3])
         out[j, i, 2] = qo - po
-        b_q = math.atan2(qy, qx) % two_pi
-        b_p = math.atan2(py, px) % two_pi
-        out[j, i, 3] = abs(cpython_remainder(b_q - b_p, two_pi))
+        out[j, i, 3] = abs(cpython_remainder(samples[j + 1, i, 4] - samples[j, i, 4], two_pi))
         out[j, i, 4] = closest_over(near[j, i], near[j + 1, i])
 
 
@@ -711,7 +821,7 @@ def _plan_decide(
     for j in range(nw):
         hl[j] = w
     ev = _events(hl, P)
-    W = _work(P, nw)
+    W = _work(P, nw, ev[0].shape[0])
     traces = np.empty((speeds.shape[0], ev[0].shape[0], 2))
     ms = np.empty(speeds.shape[0])
     dones = np.empty(speeds.shape[0], dtype=np.int64)
@@ -723,9 +833,11 @@ def _plan_decide(
     feasible = False
     if not search_only:
         speeds[0], lens[0] = v_ld, 1
+        W[4][0] = 1.0  # (its events before the second scan kept: the longer window's start)
         m_ld, done, _ = _rollout_worst(
             v_ld, hl, P, changes[0], contact, keep, need, ev, traces, ms, dones, zero, zero, W
         )
+        W[4][0] = 0.0
         if done < nw:
             cut[0] = 1
         m1 = _rows(changes[0, 0], S, fol, w, rows[0])
@@ -740,6 +852,9 @@ def _plan_decide(
             one = np.empty(1)
             one[0] = ww
             ev_w = _events(one, P)
+            # its events before V_Ld's second scan are V_Ld's first ones (the same leader):
+            # it goes on from V_Ld's state there (`_from_prefix` checks them bit for bit)
+            W[4][0] = 2.0
             m_w = _rollout_worst(
                 v_ld,
                 one,
@@ -756,6 +871,7 @@ def _plan_decide(
                 zero,
                 W,
             )[0]
+            W[4][0] = 0.0
             runs = 2
             out[5] = ww
             if keep * m_w < ww:

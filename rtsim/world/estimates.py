@@ -9,7 +9,7 @@ turn rate. The kernels are the rules of `rtsim.world.world.World`'s Python metho
 reference, which the ``python`` backend runs and the backend tests compare with bit for
 bit) on that row, composed of the same single-source kernels — the EKF's `ekf_command` and
 `ekf_update`, the motion model's ``step`` (`rtsim.world.motion.ramp_arc`), the
-follow-the-leader law's `ftl_command`, a command's `clip` — so numba compiles the
+follow-the-leader law's `ftl_command_frame`, a command's `clip` — so numba compiles the
 expressions the Python runs:
 
 - `est_scan`: `World.estimate` for every follower (carry, predict, update or reset, the
@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rtsim.world.ekf import ekf_command, ekf_update
-from rtsim.world.ftl import ftl_command, path_pose
+from rtsim.world.ftl import ftl_command_frame, path_frame
 from rtsim.world.jit import kernel
 from rtsim.world.motion import GCV, GCW, actuated, clip, group_advance, leader_travel, ramp_arc
 
@@ -197,8 +197,8 @@ def est_command_ftl(
     at arc length ``s`` and speed ``v0`` driven ``dt`` s toward ``vt`` (`leader_travel`, at
     most ``accel`` / ``decel``; none when ``dt`` is 0), the follower's truth in the group
     state ``S`` advanced to ``t`` with the command it held (`group_advance`, sub-steps
-    ``step_ms``), the leader's pose then (`path_pose`, `LeaderPath.pose`), the estimate
-    carried there (`carry_row`), the law (`ftl_command`, which updates ``s_ref`` and
+    ``step_ms``), the leader's pose then (`path_frame`, `LeaderPath.pose`), the estimate
+    carried there (`carry_row`), the law (`ftl_command_frame`, which updates ``s_ref`` and
     ``s_f``), the command clipped to ``v_max``, ``w_max`` (`clip`, the followers'
     saturation) and held (`est_hold`), and the command the follower realises with its
     actuation noise, standard normals ``nv``, ``nw`` times ``sv``, ``sw`` (`actuated`, as
@@ -210,9 +210,9 @@ def est_command_ftl(
         v_l, ds = leader_travel(v0, vt, accel, decel, dt)
         s_l = s + ds
     group_advance(S, k, k + 1, t, step_ms, a)
-    xl, yl, hl = path_pose(G, s_l)
+    xl, yl, _, cl, sl = path_frame(G, s_l)
     x, y, th, _, _ = carry_row(E, k, t, a)
-    v, w = ftl_command(G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, hl, v_l, x, y, th)
+    v, w = ftl_command_frame(G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, cl, sl, v_l, x, y, th)
     v, w = clip(v, v_max), clip(w, w_max)
     S[GCV, k], S[GCW, k] = actuated(v, w, nv, nw, sv, sw, v_max, w_max)
     return v, w, est_hold(E, k, t, v, w), v_l, s_l

@@ -31,10 +31,11 @@ def _dl_mul(x: float, y: float) -> tuple[float, float]:
     return z, ((xh * yh - z) + xh * yl + xl * yh) + xl * yl
 
 
-@kernel
+@kernel(inline=True)
 def _hypot_core(ax: float, ay: float, scale: float) -> float:
-    """CPython's vector_norm of (ax, ay) scaled by ``scale``: 2^-e, e the exponent
-    ``math.frexp`` gives the larger, a normal number."""
+    """CPython's vector_norm of (ax, ay) scaled by ``scale`` (2^-e, e the exponent
+    ``math.frexp`` gives the larger, a normal number), before it is scaled back: the
+    caller divides by ``scale``."""
     csum, frac1, frac2 = 1.0, 0.0, 0.0
     for v in (ax, ay):
         v *= scale
@@ -50,8 +51,7 @@ def _hypot_core(ax: float, ay: float, scale: float) -> float:
     csum = t
     frac1 += lo
     v = csum - 1.0 + (frac1 + frac2)
-    h += v / (2.0 * h)
-    return h / scale
+    return h + v / (2.0 * h)
 
 
 @kernel
@@ -73,8 +73,13 @@ def cpython_hypot(x: float, y: float) -> float:
     m, e = math.frexp(mx)
     if e < -1021:  # subnormal: CPython divides by DBL_MIN first
         dmin = 2.2250738585072014e-308
-        return dmin * _hypot_core(ax / dmin, ay / dmin, m / (mx / dmin))
-    return _hypot_core(ax, ay, m / mx)
+        scale = m / (mx / dmin)
+        return dmin * (_hypot_core(ax / dmin, ay / dmin, scale) / scale)
+    scale = m / mx
+    h = _hypot_core(ax, ay, scale)
+    if e < 1024:  # h / 2^-e is h · 2^e (both exact scalings, one rounding): 2^e = mx / m
+        return h * (mx / m)
+    return h / scale  # (2^1024 overflows)
 
 
 @kernel
@@ -92,11 +97,12 @@ HYPOT_SUBS: Subs = ((cpython_hypot, math_hypot),)
 def cpython_remainder(x: float, y: float) -> float:
     """CPython's ``math.remainder`` (its m_remainder) for finite ``y`` ≠ 0: x − n·y with n the
     integer nearest x / y, ties to even, computed exactly with fmod (``%`` of non-negative
-    operands, which is fmod)."""
+    operands, which is fmod; fmod(|x|, |y|) is |x| itself when |x| < |y|, a bearing's
+    change within a turn: no call then)."""
     if math.isnan(x):
         return x
     absx, absy = abs(x), abs(y)
-    m = absx % absy
+    m = absx if absx < absy else absx % absy
     c = absy - m
     if m < c:
         r = m

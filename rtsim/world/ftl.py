@@ -19,7 +19,16 @@ from rtsim.world.exactmath import HYPOT_SUBS, cpython_hypot
 from rtsim.world.jit import kernel, specialise
 from rtsim.world.path import Frame, LeaderPath, along
 
-__all__ = ["TraceFollower", "FTL_STEP", "ftl_command", "ftl_project", "ftl_reference"]
+__all__ = [
+    "TraceFollower",
+    "FTL_STEP",
+    "ftl_command",
+    "ftl_command_frame",
+    "ftl_project",
+    "ftl_reference",
+    "ftl_reference_frame",
+    "path_frame",
+]
 
 #: Bracketing step (cm) of the search for the reference point along the trace.
 FTL_STEP = 10.0
@@ -72,6 +81,14 @@ def path_pose(G: Any, s: float) -> tuple[float, float, float]:
     k, u = path_segment(G, s)
     x, y, h, _, _ = _pose_at(G, k, u)
     return x, y, h
+
+
+@kernel
+def path_frame(G: Any, s: float) -> Frame:
+    """`path_pose` and the cosine and sine of its heading (``math.cos``/``math.sin`` of it:
+    `along`), for the law's and a scan's reads of the leader (`ftl_command_frame`)."""
+    k, u = path_segment(G, s)
+    return _pose_at(G, k, u)
 
 
 @kernel
@@ -171,6 +188,16 @@ def ftl_reference(
     G: Any, s_ref: Any, k: int, s_l: float, xl: float, yl: float, hl: float, v_l: float
 ) -> tuple[float, float]:
     """(s_ref, V_ref) of follower k for the leader at arc length ``s_l``, pose (xl, yl, hl),
+    speed ``v_l``: `ftl_reference_frame` with the heading's cosine and sine."""
+    return ftl_reference_frame(G, s_ref, k, s_l, xl, yl, math.cos(hl), math.sin(hl), v_l)
+
+
+@kernel
+def ftl_reference_frame(
+    G: Any, s_ref: Any, k: int, s_l: float, xl: float, yl: float, cl: float, sl: float, v_l: float
+) -> tuple[float, float]:
+    """(s_ref, V_ref) of follower k for the leader at arc length ``s_l``, position (xl, yl),
+    heading hl given by its cosine ``cl`` and sine ``sl`` (``math.cos``/``math.sin`` of it),
     speed ``v_l``: down the chain of whom it follows, each one's reference behind the point it
     follows at its spacing (`ftl_search`) and that point's speed by (FTL-1) — V_T where the
     reference's tangent is nearly across the line. Updates ``s_ref`` (NaN: none yet) of each."""
@@ -181,7 +208,7 @@ def ftl_reference(
         depth += 1
         j = int(fol[3 * j + 1])
     # the point followed: arc length, position, its heading's cosine and sine, speed
-    s_t, tx, ty, ct, st, v_t = s_l, xl, yl, math.cos(hl), math.sin(hl), v_l
+    s_t, tx, ty, ct, st, v_t = s_l, xl, yl, cl, sl, v_l
     sr = v_ref = 0.0
     for c in range(depth, -1, -1):
         q = k
@@ -189,8 +216,9 @@ def ftl_reference(
             q = int(fol[3 * q + 1])
         sr = ftl_search(G, q, s_ref[q], s_t, tx, ty, fol[3 * q + 2])
         s_ref[q] = sr
-        px, py, hp = trace_point(G, q, sr)
-        cp, sp = math.cos(hp), math.sin(hp)
+        # (the reference point and its heading's cosine and sine: `trace_frame`'s, the
+        # doubles ``math.cos``/``math.sin`` give for its heading)
+        px, py, _, _, cp, sp = trace_frame(G, q, sr)
         dx, dy = tx - px, ty - py
         den = dx * cp + dy * sp
         if den <= 0.1 * cpython_hypot(dx, dy):
@@ -218,11 +246,39 @@ def ftl_command(
     y: float,
     th: float,
 ) -> tuple[float, float]:
-    """(v, ω) of follower k at (x, y, θ) (the leader's estimate), unsaturated: its reference
-    (`ftl_reference`), its projection (`ftl_project`, from the last one, NaN: from the
-    reference), the speed V_ref + k_ρ·(s_ref − s_f)·(1 − κo) (not below 0) and pure pursuit
-    of the point ``lookahead`` ahead (not beyond the leader). Updates ``s_ref`` and ``s_f``."""
-    sr, v_ref = ftl_reference(G, s_ref, k, s_l, xl, yl, hl, v_l)
+    """(v, ω) of follower k at (x, y, θ) (the leader's estimate), unsaturated:
+    `ftl_command_frame` with the leader's heading ``hl`` as its cosine and sine."""
+    return ftl_command_frame(
+        G, s_ref, s_f, gain, lookahead, k, s_l, xl, yl, math.cos(hl), math.sin(hl), v_l, x, y, th
+    )
+
+
+@kernel
+def ftl_command_frame(
+    G: Any,
+    s_ref: Any,
+    s_f: Any,
+    gain: float,
+    lookahead: float,
+    k: int,
+    s_l: float,
+    xl: float,
+    yl: float,
+    cl: float,
+    sl: float,
+    v_l: float,
+    x: float,
+    y: float,
+    th: float,
+) -> tuple[float, float]:
+    """(v, ω) of follower k at (x, y, θ) (the leader's estimate), unsaturated, for the leader
+    at (xl, yl) with the cosine and sine of its heading (``cl``, ``sl``: a kernel that has
+    them from the leader's frame, `path_frame`, passes them rather than computing them
+    again): its reference (`ftl_reference_frame`), its projection (`ftl_project`, from the
+    last one, NaN: from the reference), the speed V_ref + k_ρ·(s_ref − s_f)·(1 − κo) (not
+    below 0) and pure pursuit of the point ``lookahead`` ahead (not beyond the leader).
+    Updates ``s_ref`` and ``s_f``."""
+    sr, v_ref = ftl_reference_frame(G, s_ref, k, s_l, xl, yl, cl, sl, v_l)
     sf = s_f[k]
     if math.isnan(sf):
         sf = sr

@@ -562,3 +562,26 @@ def test_kept_rollouts_read_as_put(pending: bool) -> None:
             assert lazy._kept is not None  # (not put: read directly)
         assert lazy.count == put.count and lazy._memo == put._memo
         assert lazy._raw.keys() == put._raw.keys()
+
+
+def test_bearing_is_atan2_mod_two_pi() -> None:
+    """The rollout's bearing of a sample (`_bearing`: no fmod) is ``math.atan2(y, x) % 2π``
+    bit for bit, as plain Python and compiled: random points, the axes, zeros of either
+    sign (+0.0 out), NaN."""
+    from rtsim.control.kernels import _bearing
+    from rtsim.world.compiled import available
+
+    rng = np.random.default_rng(48)
+    pts = rng.standard_normal((5000, 2)) * 10.0 ** rng.integers(-6, 6, (5000, 1))
+    pairs = [(y, x) for x, y in pts.tolist()]
+    edge = [0.0, -0.0, 1.0, -1.0, 1e-320, -1e-320, math.inf, -math.inf]
+    pairs += [(y, x) for y in edge for x in edge]
+    fns = [_bearing]
+    if available():
+        from rtsim.world.jit import build  # lazy: imports numba
+
+        fns.append(build(_bearing))
+    for fn in fns:
+        for y, x in pairs:
+            assert fn(y, x).hex() == (math.atan2(y, x) % (2.0 * math.pi)).hex(), (y, x)
+        assert math.isnan(fn(math.nan, 1.0)) and math.isnan(fn(1.0, math.nan))

@@ -165,7 +165,7 @@ def test_a_control_kernel_keys_the_world_sources_it_calls(
     from rtsim.control import kernels as control_kernels
 
     reached, _ = jit._reach(control_kernels._rollout_changes)
-    assert {motion.follower_advance, motion.ramp_arc, ftl.ftl_command} <= reached
+    assert {motion.follower_advance, motion.ramp_arc, ftl.ftl_command_frame} <= reached
     rollout, hypot = (
         jit.source_key(control_kernels._rollout_changes),
         jit.source_key(exactmath.cpython_hypot),
