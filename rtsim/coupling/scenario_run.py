@@ -1271,12 +1271,7 @@ def run_scenario(
         )
     finally:
         run.phys.close()
-        # (the run's state dropped now, not left to a full collection: its hooks and CPU
-        # are a cycle, and a sweep's points piled up; docs/performance.md, Memory)
-        world = run.__dict__.get("world")
-        run.__dict__.clear()
-        if world is not None:  # (its own cycle: bound methods of itself)
-            world.__dict__.clear()
+        _drop(run)
     t3 = time.perf_counter()
     timing = {
         "setup_s": t1 - t0,
@@ -1286,6 +1281,16 @@ def run_scenario(
     }
     frame: Any = df if window_sink is None else None  # (`_Records`: the frame when read)
     return ScenarioResult(frame, res.jobs, summary, timing, inp, res.trace)
+
+
+def _drop(run: _Coupling) -> None:
+    """The run's state and its world's dropped when the run returns, not left to a full
+    collection: the CPU's hooks are the run's bound methods and the world keeps bound methods
+    of itself (two cycles), and a sweep's points piled up (docs/performance.md, Memory)."""
+    world = run.__dict__.get("world")
+    run.__dict__.clear()
+    if world is not None:
+        world.__dict__.clear()
 
 
 def _length(
