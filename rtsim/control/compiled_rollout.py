@@ -342,7 +342,7 @@ class CompiledRollout:
             False, 0.0, search_only, keep, need, cap, v_floor, grid, tol, w, contact, K.NO_F1,
             self._pack, fb, ib,
         )  # fmt: skip
-        got = fb[: _HEAD + 8 * n].tolist()
+        got = fb[: K.decision_head(n)].tolist()
         RUNS[0] += runs + int(got[6])
         frozen: tuple[Any, ...] = ()
         if got[2] != 0.0:  # a search (only one stops a rollout after its first window):
@@ -352,10 +352,6 @@ class CompiledRollout:
             frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
         m = runs if runs < _SEARCH_RUNS else _SEARCH_RUNS  # (those it kept)
         return got, _Kept((self, fb, ib, m, w, windows, got[5], frozen))
-
-
-#: the decision's out values, first in its float buffer (`rtsim.control.kernels.OUTS`)
-_HEAD = K.OUTS
 
 
 def _pending_pack(cached: Any, n: int, pending: Any) -> Any:
@@ -430,7 +426,7 @@ class _Kept(tuple):  # type: ignore[type-arg]
         fb, ib, runs, w, windows, checked = self[1], self[2], self[3], self[4], self[5], self[6]
         # (item by item: most often an early rollout's; the speeds after the out values and
         # rows, the codes first in ib, the cuts after them)
-        at, cut = _HEAD + 8 * self[0].n, ib.shape[0] >> 1
+        at, cut = K.decision_head(self[0].n), ib.shape[0] >> 1
         for r in range(runs):
             if fb.item(at + r) != v:
                 continue
@@ -457,4 +453,4 @@ class _Kept(tuple):  # type: ignore[type-arg]
         if how == 1:
             return self.changes()[r, :1]
         horizon = (self[4],) * self[5]  # (the rollout's own speed and windows, as `put`'s)
-        return _Rest((self[0], self[1].item(_HEAD + 8 * self[0].n + r), horizon, self[7]))
+        return _Rest((self[0], self[1].item(K.decision_head(self[0].n) + r), horizon, self[7]))

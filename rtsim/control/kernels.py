@@ -950,10 +950,16 @@ ENTRIES: dict[str, Any] = {"roll_or_decide": _roll_or_decide}
 NO_F1 = np.empty(0)
 
 
+def decision_head(n: int) -> int:
+    """Where the rollouts' speeds start in a decision's float buffer for ``n`` followers:
+    after the out values (`OUTS`) and the rows (2·n·4), as `_roll_or_decide` lays it out."""
+    return OUTS + 8 * n
+
+
 def decision_buffers(n: int, windows: int, runs: int) -> tuple[Any, Any]:
     """Fresh float and integer buffers (``fb``, ``ib``) of `_roll_or_decide`'s decision for
     ``n`` followers, a horizon of ``windows`` windows and room for ``runs`` rollouts."""
-    return np.empty(OUTS + 8 * n + runs * (1 + windows * n * 5)), np.empty(2 * runs, np.int64)
+    return np.empty(decision_head(n) + runs * (1 + windows * n * 5)), np.empty(2 * runs, np.int64)
 
 
 def decision_views(fb: Any, ib: Any, n: int) -> tuple[Any, Any, Any, Any, Any, Any]:
@@ -961,7 +967,7 @@ def decision_views(fb: Any, ib: Any, n: int) -> tuple[Any, Any, Any, Any, Any, A
     followers): (speeds, lens, changes [rollout, window, follower, change], cut, rows, out),
     as `_plan_decide` reads them."""
     runs = ib.shape[0] // 2
-    head = OUTS + 8 * n
+    head = decision_head(n)
     nw = (fb.shape[0] - head - runs) // (runs * n * 5)
     return (
         fb[head : head + runs],

@@ -898,7 +898,7 @@ class PlanPolicy:
             return None
         planned = self._planned
         keep, need, cap, v_floor = self._fixed(ctx)
-        contact, windows, v_ld, w_sch = self.contact, self.windows, ctx.v_ld, ctx.w_sch
+        contact = self.contact
         seen: list[Any] = [None, 0.0]  # (the last rollout's base and its d_c: a run's one)
 
         def decider(ro: Any) -> Decision:
@@ -907,15 +907,7 @@ class PlanPolicy:
                 return planned(ro, ctx, keep, need, cap, v_floor)
             if base is not seen[0]:
                 seen[0], seen[1] = base, _contact_cm(ro) if contact else 0.0
-            plan = getattr(ro, "plan", None)  # (`_planned`'s compiled decision, inline)
-            hit = (
-                None
-                if plan is None
-                else plan(v_ld, keep, need, cap, v_floor, windows, w_sch, seen[1])
-            )
-            if hit is None:
-                return planned(ro, ctx, keep, need, cap, v_floor, seen[1])
-            return _planned_decision(hit, v_ld)
+            return planned(ro, ctx, keep, need, cap, v_floor, seen[1])
 
         return decider
 
