@@ -67,11 +67,8 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
     top_resp, top_bin, top_counts = math.nan, 0, dict[int, int]()  # the latest response, its bin
     env, timers, ready, totals, seqs = cpu.env, cpu._timers, cpu._ready, cpu._totals, cpu._seq
     last_release, inf = cpu._last_release, _INF  # (the run's constants, as closure cells)
-    # the top task's: the only task booked (`CPU._compile`'s fast_top: the first of the lowest
-    # priority, as here), its first arrival set by `CPU.start`
-    top_st = min(cpu._states, key=lambda x: x.priority)
-    stats, first, period = top_st.stats, top_st.first, top_st.period
-    rel_deadline = top_st.deadline
+    tst = min(cpu._states, key=lambda x: x.priority)  # the one task booked (CPU's fast_top)
+    stats, first, period, rel_deadline = tst.stats, tst.first, tst.period, tst.deadline
 
     def book(top, running, now, now_lag, work_start, work_lag, t_next, tol, tol_next):
         """Book ``top``'s job if it can be (module doc): `Booked`; None if not: its Job is ready."""
