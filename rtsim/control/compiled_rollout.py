@@ -481,7 +481,6 @@ class _Kept(tuple):  # type: ignore[type-arg]
         """Rollout ``r``'s closest approaches in its first window, per follower: ``changes()
         [r, 0, :, 4]`` read without the views (`rtsim.control.kernels.decision_at`)."""
         fb, n = self[1], self[0].n
-        # (`rtsim.control.kernels.decision_at`: after the head and the speeds)
         at = K.decision_at(n, self[2].shape[0] >> 1, self[5], r) + 4
         return fb[at : at + 5 * n : 5].tolist()  # type: ignore[no-any-return]
 
