@@ -239,6 +239,88 @@ class CompiledRollout:
 
         return make
 
+    @staticmethod
+    def planner(
+        law: Any, base: Any, turned: bool, *decision: Any
+    ) -> Callable[..., tuple[CompiledRollout, list[float], _Kept, list[list[float]]]]:
+        """`direct`'s state and `decide` on it (``decision``: `decide`'s arguments) in one
+        step, for the decisions of a run (``turned``: `direct`'s): ``step(carry, t_now,
+        leader_s, leader_speed, pending, next_scan, sends)`` → (the `CompiledRollout`,
+        `decide`'s two answers, the follower pack's rows as lists). ``carry(t_now, out)``
+        writes the estimates' rows (x, y, θ, v̂, ω̂, v_c, ω_c:
+        `rtsim.world.world.World.estimate_rows`) into the first seven columns of the pack's
+        rows ``out`` in place: the pack is made with no list of the rows between (its send
+        and ρ_d columns copied from a template per ``sends``, ω the held command's for the
+        unicycle)."""
+        cached = _static(law, base)
+        new = object.__new__
+        ker, bufs, no_pend = cached[3], cached[5], cached[2]
+        scalars = cached[1].copy()  # (RolloutScalars with the run's V_Ld, as `direct`'s)
+        scalars[2] = base.v_ld
+        n = len(base.rho_d)
+        rho = base.rho_d
+        # the pack's rows with their send and ρ_d columns, by send offsets (a run's windows
+        # repeat a few: Test 2 at n = 2, 31 in 516 decisions)
+        fixed: dict[tuple[float, ...], Any] = {}
+        unturned = range(0) if turned else range(n)
+        search_only, keep, need, cap, v_floor, grid, tol, windows, w, contact = decision
+        # (as the compiled entry is typed: `decide`'s first call's conversions)
+        search_only, keep, need, cap = bool(search_only), float(keep), float(need), float(cap)
+        v_floor, grid, tol, contact = float(v_floor), int(grid), float(tol), float(contact)
+        windows, w, no_f1 = int(windows), float(w), K.NO_F1
+        size = bufs.get((n, windows))
+        if size is None:
+            size = bufs[n, windows] = K.decision_buffers(n, windows, _SEARCH_RUNS)[0].size
+        empty, int64, m2 = np.empty, np.int64, 2 * _SEARCH_RUNS
+        entry_of: list[Any] = [None]  # (the compiled entry, found at the first call: `call`)
+
+        def step(
+            carry: Any,
+            t_now: float,
+            leader_s: float,
+            leader_speed: float,
+            pending: Any,
+            next_scan: float,
+            sends: tuple[float, ...],
+        ) -> tuple[CompiledRollout, list[float], _Kept, list[list[float]]]:
+            fs = scalars.copy()
+            fs[0] = leader_s
+            fs[1] = leader_speed
+            fs[3] = t_now
+            fs[4] = next_scan
+            fol = fixed.get(sends)
+            if fol is None:
+                if len(fixed) >= 256:  # (bounded: a long run's offsets vary)
+                    fixed.clear()
+                fol = fixed[sends] = np.empty((n, _COLUMNS))
+                fol[:, 7], fol[:, 8] = sends, rho
+            fol = fol.copy()
+            carry(t_now, fol)
+            for k in unturned:  # (the unicycle: ω is the held command's)
+                fol[k, 4] = fol[k, 6]
+            pend = no_pend.get(n) if not any(pending) else None
+            if pend is None:
+                pend = _pending_pack(cached, n, pending)
+            ro: CompiledRollout = new(CompiledRollout)
+            ro._ker = ker
+            ro._bufs = bufs
+            ro._pack = pack = (fs, fol, pend, law._G, law._sr, law._sf)
+            ro.n = n
+            fb, ib = empty(size), empty(m2, int64)
+            f = entry_of[0]
+            if f is None:  # (the first call: `call` finds the entry for these types)
+                f = functools.partial(call, ker.roll_or_decide)
+            runs = f(
+                False, 0.0, search_only, keep, need, cap, v_floor, grid, tol, w, contact,
+                no_f1, pack, fb, ib,
+            )  # fmt: skip
+            if entry_of[0] is None:
+                entry_of[0] = _ENTRIES.get(ker.roll_or_decide, f)
+            got, kept = ro._decided(runs, fb, ib, w, windows)
+            return ro, got, kept, fol.tolist()
+
+        return step
+
     def _made(self, law: CompiledTraceFollower, cached: Any, state: Any) -> None:
         """Pack ``state`` (the law's cache ``cached``, `_static`)."""
         rho = state.rho_d
@@ -342,7 +424,13 @@ class CompiledRollout:
             False, 0.0, search_only, keep, need, cap, v_floor, grid, tol, w, contact, K.NO_F1,
             self._pack, fb, ib,
         )  # fmt: skip
-        got = fb[: K.decision_head(n)].tolist()
+        return self._decided(runs, fb, ib, w, windows)
+
+    def _decided(self, runs: int, fb: Any, ib: Any, w: float, windows: int) -> tuple[Any, Any]:
+        """`decide`'s answer from the kernel's ``runs`` and its buffers ``fb``, ``ib`` (a
+        decision of ``windows`` windows of ``w`` ms on this pack)."""
+        head = K.decision_head(self.n)
+        got = fb[:head].tolist()
         RUNS[0] += runs + int(got[6])
         frozen: tuple[Any, ...] = ()
         if got[2] != 0.0:  # a search (only one stops a rollout after its first window):
@@ -351,7 +439,7 @@ class CompiledRollout:
             p = self._pack
             frozen = (p[0], p[1], p[2], p[3], p[4].copy(), p[5].copy())
         m = runs if runs < _SEARCH_RUNS else _SEARCH_RUNS  # (those it kept)
-        return got, _Kept((self, fb, ib, m, w, windows, got[5], frozen))
+        return got, _Kept((self, fb, ib, m, w, windows, got[5], frozen, head))
 
 
 def _pending_pack(cached: Any, n: int, pending: Any) -> Any:
@@ -379,7 +467,8 @@ class _Kept(tuple):  # type: ignore[type-arg]
     first window, 2 one window of the checked length, and whether each stopped after its
     first window; `rtsim.control.kernels.decision_views` —, how many, w, the horizon's
     windows, the checked window's length, the pack with the law's search starts copied at
-    the decision — () when no rollout stopped early). The rollout's memo asks for them when
+    the decision — () when no rollout stopped early —, where the speeds start in the float
+    buffer: `rtsim.control.kernels.decision_head`). The rollout's memo asks for them when
     it needs them (`put`, `first`), not at every decision. (A tuple: made in C.)"""
 
     __slots__ = ()
@@ -388,12 +477,19 @@ class _Kept(tuple):  # type: ignore[type-arg]
         """The rollouts' changes [rollout, window, follower, change] (a view)."""
         return K.decision_views(self[1], self[2], self[0].n)[2]
 
+    def near(self, r: int) -> list[float]:
+        """Rollout ``r``'s closest approaches in its first window, per follower: ``changes()
+        [r, 0, :, 4]`` read without the views (`rtsim.control.kernels.decision_at`)."""
+        fb, n = self[1], self[0].n
+        at = K.decision_at(n, self[2].shape[0] >> 1, self[5], r) + 4
+        return fb[at : at + 5 * n : 5].tolist()  # type: ignore[no-any-return]
+
     def put(self, raw: dict[tuple[float, tuple[float, ...]], Any], memo: Any) -> int:
         """Put the rollouts in ``raw``, keyed (speed, window lengths), their changes
         [window, follower, change] as arrays, one stopped after its first window as `_Rest`
         (the first of equal keys, none whose key ``memo`` has); returns how many keys it
         added."""
-        ro, fb, ib, runs, w, windows, checked, frozen = self
+        ro, fb, ib, runs, w, windows, checked, frozen, _ = self
         speeds, lens, changes, cut = K.decision_views(fb, ib, ro.n)[:4]
         before = len(raw)
         horizon = (w,) * windows
@@ -424,11 +520,14 @@ class _Kept(tuple):  # type: ignore[type-arg]
         or (−1, 0) when no rollout of the decision has that key."""
         v, lengths = key
         fb, ib, runs, w, windows, checked = self[1], self[2], self[3], self[4], self[5], self[6]
-        # (item by item: most often an early rollout's; the speeds after the out values and
-        # rows, the codes first in ib, the cuts after them)
-        at, cut = K.decision_head(self[0].n), ib.shape[0] >> 1
-        for r in range(runs):
-            if fb.item(at + r) != v:
+        # (the speeds after the out values and rows, as a list: its search in C; the codes
+        # first in ib, the cuts after them)
+        at, cut = self[8], ib.shape[0] >> 1
+        speeds = fb[at : at + runs].tolist()
+        if v not in speeds:  # (== as `!=` below: a NaN is no speed's)
+            return -1, 0
+        for r in range(speeds.index(v), runs):
+            if speeds[r] != v:
                 continue
             code = ib.item(r)
             if code == 2:
@@ -453,4 +552,4 @@ class _Kept(tuple):  # type: ignore[type-arg]
         if how == 1:
             return self.changes()[r, :1]
         horizon = (self[4],) * self[5]  # (the rollout's own speed and windows, as `put`'s)
-        return _Rest((self[0], self[1].item(K.decision_head(self[0].n) + r), horizon, self[7]))
+        return _Rest((self[0], self[1].item(self[8] + r), horizon, self[7]))

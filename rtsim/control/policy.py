@@ -909,6 +909,20 @@ class PlanPolicy:
                 seen[0], seen[1] = base, _contact_cm(ro) if contact else 0.0
             return planned(ro, ctx, keep, need, cap, v_floor, seen[1])
 
+        def plan_args(base: Any) -> tuple[float, float, float, float, int, float]:
+            """(keep, need, cap, v_floor, windows, d_c) of the decisions on rollouts whose
+            base is ``base`` (`rtsim.control.rollout.Rollout.planned`'s)."""
+            d_c = float(getattr(base, "contact_cm", 0.0)) if contact else 0.0
+            return keep, need, cap, v_floor, self.windows, d_c
+
+        def decision(hit: Any) -> Decision:
+            """The decision of a compiled plan's ``hit`` (`Rollout.plan`'s answer)."""
+            return _planned_decision(hit, ctx.v_ld)
+
+        # (a coupled run whose rollout plans in one step reads these: `Rollout.planned`)
+        if type(self)._planned is _PLANNED:  # (not a subclass's own `_planned`)
+            decider.plan_args = plan_args  # type: ignore[attr-defined]
+            decider.decision = decision  # type: ignore[attr-defined]
         return decider
 
     def _fixed(self, ctx: PolicyInput) -> tuple[float, float, float, float]:
@@ -1017,6 +1031,8 @@ def _planned_decision(hit: Any, v_ld: float) -> Decision:
 
 #: `PlanPolicy.decide` as defined (`PlanPolicy.on_rollout` stands for it only)
 _PLAN_DECIDE = PlanPolicy.decide
+#: `PlanPolicy._planned` as defined (`PlanPolicy.on_rollout`)
+_PLANNED = PlanPolicy._planned
 
 #: `Decision` from its eleven fields in order (namedtuple's ``_make``)
 _DECISION = Decision._make

@@ -322,6 +322,59 @@ class Rollout:
 
         return make
 
+    @classmethod
+    def planned(
+        cls,
+        base: RolloutState,
+        turned: bool,
+        keep: float,
+        need: float,
+        cap: float,
+        v_floor: float,
+        windows: int,
+        contact: float,
+    ) -> Callable[..., tuple[Rollout, Any, list[list[float]]]] | None:
+        """`decided`'s rollout and its `plan` (V_Ld and w_sch ``base``'s, the other numbers
+        these) in one step, for the decisions of a run (``turned``: `decided`'s):
+        ``step(carry, t_now, leader_s, leader_speed, pending, next_scan, sends)`` → (the
+        rollout, `plan`'s answer, the estimates' rows it read: per follower x, y, θ,
+        v̂, then more), ``carry(t_now, out)`` writing the estimates' rows into the pack's
+        rows ``out`` (`rtsim.control.compiled_rollout.CompiledRollout.planner`); None when
+        the law does not roll out compiled (the caller makes the rollout and plans)."""
+        if not compiles(base.law):
+            return None
+        w = base.w_sch
+        inner = CompiledRollout.planner(
+            base.law, base, turned,
+            False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact,
+        )  # fmt: skip
+        new = object.__new__
+
+        def step(
+            carry: Any,
+            t_now: float,
+            leader_s: float,
+            leader_speed: float,
+            pending: tuple[tuple[float, ...], ...],
+            next_scan: float,
+            sends: tuple[float, ...],
+        ) -> tuple[Rollout, Any, list[list[float]]]:
+            comp, out, kept, rows = inner(
+                carry, t_now, leader_s, leader_speed, pending, next_scan, sends
+            )
+            ro: Rollout = new(cls)  # (`decided`'s make, its state made when read)
+            ro._lazy = (
+                base, t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned,
+            )  # fmt: skip
+            ro.base = base
+            ro._count = 0
+            ro._memo = {}
+            ro._raw_d = {}
+            ro._compiled = comp
+            return ro, ro._planned(out, kept, keep, need, windows, w, contact), rows
+
+        return step
+
     def changes(self, v: float, windows: Sequence[float]) -> list[list[Changes]]:
         """The predicted changes per window (lengths ``windows``, ms, the first opening at
         ``next_scan``) and per follower, with the leader's target ``v`` from now on."""
@@ -389,7 +442,7 @@ class Rollout:
             if kept is not None and not self._raw_d:  # the decision's rollouts, read as is
                 r, how = kept.find(key)
                 if r >= 0 and how != 2:  # (an array: its first window, whole or alone)
-                    return kept.changes()[r, 0, :, 4].tolist()  # type: ignore[no-any-return]
+                    return kept.near(r)  # type: ignore[no-any-return]
                 if r < 0:  # not the decision's: rolled out now (as `changes` would)
                     out = self._memo[key] = self._run(key[0], key[1])
                     self._count += 1
@@ -449,6 +502,21 @@ class Rollout:
         out, kept = self._compiled.decide(
             False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact
         )
+        return self._planned(out, kept, keep, need, windows, w, contact)
+
+    def _planned(
+        self,
+        out: list[float],
+        kept: Any,
+        keep: float,
+        need: float,
+        windows: int,
+        w: float,
+        contact: float,
+    ) -> tuple[float, float, str, float, bool, list[Any], list[Any]]:
+        """`plan`'s answer from the compiled decision's ``out`` and rollouts ``kept``
+        (`rtsim.control.compiled_rollout.CompiledRollout.decide`'s), its rollouts kept for
+        the memo."""
         if self._kept is not None:  # (`_keep`)
             self._settle()
         self._kept = kept

@@ -579,6 +579,13 @@ class _Coupling:
         )
         make = self._ro_make = Rollout.decided(base)
         self._ro_idle = ((),) * self.n  # (no sends pending)
+        # a policy that plans on the compiled rollout alone (`PlanPolicy.on_rollout`): the
+        # rollout and its plan in one step a decision (`Rollout.planned`; `_estimates`)
+        args = getattr(self._on_rollout, "plan_args", None)
+        ctx = self._input  # (`Rollout.plan` plans on its base's V_Ld and w_sch only)
+        same = (ctx.v_ld, ctx.w_sch) == (base.v_ld, base.w_sch)
+        if args is not None and not self._fols and same:
+            self._ro_step = Rollout.planned(base, self._turn_state, *args(base))
         return make
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
@@ -588,49 +595,76 @@ class _Coupling:
         e, o0 = self._e_send, offs[0]
         return tuple([(now + e + (o - o0),) for o in offs])
 
+    #: the rollout and the policy's plan on it in one step (`_rollout_maker`), or None
+    _ro_step: Any = None
+
     def _estimates(self, now: float, next_scan: float | None = None) -> _Decision:
         """Run the mode's decision on the leader's estimates at ``now``; ``next_scan``: when
         the window it governs scans (for the rollout; default now)."""
         world = self.world
         world.advance(now)
         lp = world.leader.pose  # (World.leader_pose)
-        # each follower's estimate propagated to now, its expected speed and turn rate and its
-        # held command, in one pass (the same as World.estimated_pose(i) and
-        # World.relative(i, "estimate")[3]; World.estimate_rows)
-        rows = world.estimate_rows(now)
-        # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
-        # relative states made when read: StateRows; its poses read once, from the rows,
-        # which no one changes)
-        state = StateRows(lp, map(_POSE, rows), list(map(_SPEED, rows)))
-        fols = self._followers(state) if self._fols else ()
-        # the predictor's options: for the policy's input and the _pred columns of a decision
-        # without a rollout (one decided on the rollout alone reads only the rollout)
-        kw: dict[str, Any] = {}
-        if self._on_rollout is None:
-            _, kappa = world.segment_at()
-            kw.update(omega_l=world.leader_omega, kappa=kappa, v_now=self._v_actual())
-        ro = None
-        if self._rollout:  # (the _pred columns evaluate the same rollout: kw)
-            ro = kw["rollout"] = self._rollout_state(
+        if self._ro_make is None and self._rollout:  # (the first decision: the run's maker)
+            self._rollout_maker()
+        kw: dict[str, Any]
+        step = self._ro_step
+        if step is not None:  # the policy plans on the compiled rollout alone: the
+            # estimates' rows, the rollout and its plan in one step (`Rollout.planned`)
+            ld = world.leader
+            if next_scan is None or not next_scan > now:  # (max(now, next_scan))
+                next_scan = now
+            ro, hit, rows = step(
+                world.estimate_rows,
                 now,
-                now if next_scan is None else next_scan,
-                self._before_send and now > 0,
-                rows,
+                ld.s,
+                ld.speed,
+                self._pending(now) if self._before_send and now > 0 else self._ro_idle,
+                next_scan,
+                tuple(self._send_offsets),
             )
-        if self._on_rollout is not None:
-            adj = self._on_rollout(ro)
+            adj = self._on_rollout.decision(hit)  # type: ignore[union-attr]
+            state = StateRows(lp, map(_POSE, rows), list(map(_SPEED, rows)))  # (as below)
+            fols: tuple[Any, ...] = ()
+            kw = {"rollout": ro}
         else:
-            adj = self.policy.decide(
-                self._make_input(
-                    fols,
-                    kw["omega_l"],
-                    kw["kappa"],
-                    kw["v_now"],
-                    () if self._path is None else self._ahead(),
-                    self._pose_sd() if self._noise else (),
-                    ro,
+            # each follower's estimate propagated to now, its expected speed and turn rate
+            # and its held command, in one pass (the same as World.estimated_pose(i) and
+            # World.relative(i, "estimate")[3]; World.estimate_rows)
+            rows = world.estimate_rows(now)
+            # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
+            # relative states made when read: StateRows; its poses read once, from the rows,
+            # which no one changes)
+            state = StateRows(lp, map(_POSE, rows), list(map(_SPEED, rows)))
+            fols = self._followers(state) if self._fols else ()
+            # the predictor's options: for the policy's input and the _pred columns of a
+            # decision without a rollout (one decided on the rollout alone reads only the
+            # rollout)
+            kw = {}
+            if self._on_rollout is None:
+                _, kappa = world.segment_at()
+                kw.update(omega_l=world.leader_omega, kappa=kappa, v_now=self._v_actual())
+            ro = None
+            if self._rollout:  # (the _pred columns evaluate the same rollout: kw)
+                ro = kw["rollout"] = self._rollout_state(
+                    now,
+                    now if next_scan is None else next_scan,
+                    self._before_send and now > 0,
+                    rows,
                 )
-            )
+            if self._on_rollout is not None:
+                adj = self._on_rollout(ro)
+            else:
+                adj = self.policy.decide(
+                    self._make_input(
+                        fols,
+                        kw["omega_l"],
+                        kw["kappa"],
+                        kw["v_now"],
+                        () if self._path is None else self._ahead(),
+                        self._pose_sd() if self._noise else (),
+                        ro,
+                    )
+                )
         v_l = adj.v_leader
         if self.v_floor > v_l:  # (max(v_leader, v_floor): v_floor only when larger)
             v_l = self.v_floor

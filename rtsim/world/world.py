@@ -449,12 +449,22 @@ class World:
             return [((r[0], r[1], r[2]), r[3]) for r in self._arr.carry_all(t_ms)]
         return [self.estimate_at(i, t_ms) for i in range(1, self._n + 1)]
 
-    def estimate_rows(self, t_ms: float) -> list[list[float]]:
+    def estimate_rows(self, t_ms: float, out: Any = None) -> Any:
         """Per follower [x, y, θ, v̂, ω̂, v_c, ω_c]: its `estimate_at` (``t_ms``), the turn
         rate the leader expects of it then and the command it holds (`held_command`), the
-        decision's reads in one compiled call in the compiled backend (`est_carry`'s rows)."""
-        if self._arr is not None:
-            return self._arr.carry_all(t_ms)
+        decision's reads in one compiled call in the compiled backend (`est_carry`'s rows).
+        With ``out`` (a float array of a row per follower, at least seven columns, C order)
+        the rows are written into its first seven columns instead, and ``out`` returned."""
+        arr = self._arr
+        if out is not None:
+            if arr is not None:  # (`est_carry` writes those seven columns of each row)
+                arr._carry(arr.E, 0, t_ms, arr.accel, out)
+            else:
+                for k, row in enumerate(self.estimate_rows(t_ms)):
+                    out[k, :7] = row
+            return out
+        if arr is not None:
+            return arr.carry_all(t_ms)
         prop, held = self._propagate, self.held_command
         return [[*p, v, w, *held(k + 1)] for k in range(self._n) for p, v, w in (prop(k, t_ms),)]
 

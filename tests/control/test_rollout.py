@@ -530,6 +530,45 @@ def test_decided_rollout_is_the_rows_state(backend: str, pending: bool) -> None:
 
 
 @pytest.mark.parametrize("pending", [False, True])
+def test_planned_step_is_decided_then_plan(pending: bool) -> None:
+    """`Rollout.planned`'s step (the pack written by the estimates' carry in place, the plan
+    in the same step) is `Rollout.decided`'s rollout of the world's `estimate_rows` and its
+    `plan`, bit for bit: the pack's arrays, the state read, the plan's answer, and the memo
+    its rollouts leave, with and without turns, for margins that keep V_Ld or search; the
+    rows the step hands back start with the estimates' rows. ``World.estimate_rows`` with an
+    ``out`` array writes those rows into its first seven columns, on either backend."""
+    for backend in ("python", "compiled"):
+        world, t, st = _mid_run(backend, pending)
+        out = np.full((world.n, 9), 7.5)
+        assert world.estimate_rows(t, out) is out
+        assert out[:, :7].tolist() == world.estimate_rows(t) and (out[:, 7:] == 7.5).all()
+    assert Rollout.planned(dataclasses.replace(st, law=None), False, 1, 1, 1, 1, 2, 0) is None
+    rows = world.estimate_rows(t)
+    make = Rollout.decided(st)
+    need, cap, v_floor = st.w_sch * 0.999, 3.0 * st.w_sch, 0.3 * st.v_ld
+    methods = set()
+    for turned in (False, True):
+        for margin in (0.0, 0.9):
+            step = Rollout.planned(st, turned, 1.0 - margin, need, cap, v_floor, 2, 60.0)
+            assert step is not None
+            values = (t, st.leader_s, st.leader_speed, st.pending, st.next_scan)
+            step(world.estimate_rows, *values, st.send_offsets)  # (its template kept)
+            ro, hit, got = step(world.estimate_rows, *values, st.send_offsets)
+            want = make(*values[:3], rows, *values[3:], st.send_offsets, turned)
+            a, b = ro._compiled.pack(), want._compiled.pack()
+            assert [x.tobytes() for x in a[:3]] == [y.tobytes() for y in b[:3]]
+            assert a[3:] == b[3:]
+            assert [r[:4] for r in got] == [r[:4] for r in rows]
+            assert ro.state == want.state
+            plan = want.plan(st.v_ld, 1.0 - margin, need, cap, v_floor, 2, st.w_sch, 60.0)
+            assert repr(hit) == repr(plan)
+            methods.add(hit[2])
+            assert ro.count == want.count and ro._memo == want._memo
+            assert ro._raw.keys() == want._raw.keys()
+    assert "none" in methods and len(methods) > 1  # (V_Ld kept, and a search)
+
+
+@pytest.mark.parametrize("pending", [False, True])
 def test_kept_rollouts_read_as_put(pending: bool) -> None:
     """A compiled decision's rollouts kept as the kernel left them (`_Kept`) read as the
     memo's entries they make when put (`Rollout._raw`): every key's `_Kept.first` is the
@@ -555,6 +594,8 @@ def test_kept_rollouts_read_as_put(pending: bool) -> None:
             else:
                 assert got.tobytes() == entry.tobytes() and got.shape == entry.shape
         assert kept.first((-1.0, (st.w_sch,))) is None
+        for r in range(kept[3]):  # (each rollout's first window's closest approaches)
+            assert kept.near(r) == kept.changes()[r, 0, :, 4].tolist()
         keys = list(put._raw)
         for key in [keys[0], keys[-1], (st.v_ld, (st.w_sch,)), (0.5 * st.v_ld, (st.w_sch,))]:
             assert lazy.closest(key[0], key[1][0]) == put.closest(key[0], key[1][0])
