@@ -25,11 +25,6 @@ own, each caller links its IR in and optimises and emits the whole, as before (t
 arithmetic; LLVM may inline a little differently); about 2 s less again. The directories live
 under ``NUMBA_CACHE_DIR`` when set, else ``__pycache__`` here, else numba's user-wide cache.
 
-**LLVM's passes.** A kernel's code runs LLVM's function passes at level 1 when numba adds it
-to its library (the entry that links it in optimises it again at level 3), and an entry
-may have LLVM's loop unrolling off (`kernel`'s ``unroll``): `_tuned_library`. Neither
-reorders a floating-point operation: the same numbers, ≈ 0.45 s less CPU on a first run.
-
 **Stock numba.** These compilers and this cache subclass numba internals; a piece a numba
 cannot build falls back to numba's own (`_custom`: same results, slower), said once on stderr.
 """
