@@ -64,25 +64,29 @@ F = TypeVar("F", bound=Callable[..., Any])
 Subs = tuple[tuple[Callable[..., Any], Callable[..., Any]], ...]
 
 _MARK = "__rtsim_kernel__"
+#: a build's `kernel` ``unroll``, on the function numba compiles (`_entry_compiler`)
+_UNROLL = "__rtsim_unroll__"
 #: How `_build` compiles (what a kernel source's text does not say: the variants' names, which
 #: kernels are linked-only, literal arguments): part of every `source_key`, so a build cached
 #: under an earlier scheme is never loaded. Bump it when `_build` changes what it emits.
-BUILD_SCHEME = 3
+BUILD_SCHEME = 4
 _COMPILED: dict[tuple[Callable[..., Any], Subs, bool], Any] = {}
 _PYTHON: dict[tuple[Callable[..., Any], Subs], Callable[..., Any]] = {}
 #: id of a callee's dispatcher -> the (globals, name) of the kernels built to call it
 _CALLERS: dict[int, list[tuple[dict[str, Any], str]]] = {}
 
 
-def kernel(fn: F | None = None, *, inline: bool = False) -> Any:
+def kernel(fn: F | None = None, *, inline: bool = False, unroll: bool = True) -> Any:
     """Mark ``fn`` as a kernel source (returned unchanged). ``inline``: numba inlines it into
     its callers instead of compiling it on its own: typed and lowered again in each caller,
     which the first run pays for (LLVM inlines a small kernel called from a kernel anyway),
     worth it only where numba's reference-count pruning then drops the increfs of arrays
-    the kernel reads (the law's geometry: `rtsim.world.ftl.path_segment`)."""
+    the kernel reads (the law's geometry: `rtsim.world.ftl.path_segment`). ``unroll``
+    (an entry's): whether LLVM unrolls loops when it optimises the entry with the kernels
+    it calls (`_Tuning`; off where that costs compile time and gains no run time)."""
 
     def mark(f: F) -> F:
-        setattr(f, _MARK, {"inline": inline})
+        setattr(f, _MARK, {"inline": inline, "unroll": unroll})
         return f
 
     return mark if fn is None else mark(fn)
@@ -196,6 +200,7 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
         njit: Any = numba.njit  # (numba's stubs omit no_cfunc_wrapper)
         pipeline = custom.entry if entry else custom.linked_only or custom.entry
         out = njit(**({"pipeline_class": pipeline} if pipeline else {}), **_OPTIONS)(clone)
+        setattr(clone, _UNROLL, getattr(fn, _MARK)["unroll"])
         root = cache_root() if entry and custom.cache else None
         if root is not None:  # else uncached, as numba leaves a kernel it cannot cache
             key = source_key(fn, subs)
@@ -342,6 +347,8 @@ def _custom() -> _Custom:
             missing.append(f"{make.__name__}: {type(exc).__name__}: {exc}")
             return None
 
+    global _TUNED
+    _TUNED = attempt(_tuned_library)
     entry = attempt(_entry_compiler)
     linked = attempt(_linked_only_compiler) if entry is not None else None  # (its subclass)
     cache = attempt(_keyed_cache_class)
@@ -431,6 +438,93 @@ def _keyed_cache_class() -> Any:
     return _CACHE_CLASS
 
 
+class _Tuning(NamedTuple):
+    """LLVM's options while one of the kernels' code libraries is optimised (`_tuned_library`)."""
+
+    speed: int  #: the highest optimisation level of the pass pipelines
+    unroll: bool  #: whether loops are unrolled
+
+
+class _Tuned(NamedTuple):
+    """`_tuned_library`'s code library class, and numba's pass builder it stands in for."""
+
+    entry: Any
+    numbas: Any
+
+
+_TUNED: _Tuned | None = None
+#: the options in force (None: numba's own), set only while a kernel's library optimises
+_TUNING: _Tuning | None = None
+#: the level of the function passes each function of a kernel's code runs when numba adds
+#: it to the kernel's library, before the kernel is linked into an entry, where the module
+#: passes at numba's level (3) optimise it again with the kernels it calls and its callers:
+#: level 1 there, less CPU of a first run and the same speed of the kernels (measured:
+#: docs/performance.md, "The first run within 15 s")
+_FUNCTION_SPEED = 1
+
+
+@contextlib.contextmanager
+def _tuned(tuning: _Tuning) -> Iterator[None]:
+    global _TUNING
+    before, _TUNING = _TUNING, tuning
+    try:
+        yield
+    finally:
+        _TUNING = before
+
+
+def _tuned_library() -> _Tuned:
+    """numba's JIT code library with the kernels' LLVM options (`_Tuning`): the function
+    passes at `_FUNCTION_SPEED`, and the module passes of an entry with loops unrolled or
+    not (its ``unroll``: `kernel`). Pass pipelines are built by numba's
+    ``create_pass_builder``, looked up in numba's codegen module at each build: the stand-in
+    set there builds numba's own unless a kernel's library is optimising. The same
+    arithmetic in a different order of passes: the same floats (no fast-math: LLVM
+    reorders no floating-point operation), machine code that may differ."""
+    global _TUNED
+    if _TUNED is not None:
+        return _TUNED
+    from numba.core import codegen
+
+    _require(codegen, "create_pass_builder", "ll")
+    llvm = codegen.ll  # (llvmlite.binding)
+    _require(codegen.CPUCodeLibrary, "_optimize_functions", "_optimize_final_module")
+    _require(llvm, "create_pipeline_tuning_options", "create_pass_builder")
+    # (numba's own: the stand-in's, when one was set up before)
+    numbas = getattr(codegen.create_pass_builder, "numbas", codegen.create_pass_builder)
+    _require(llvm.create_pipeline_tuning_options(), "loop_unrolling", "speed_level")
+
+    def create_pass_builder(tm: Any, opt: int = 2, loop_vectorize: bool = False,
+                            slp_vectorize: bool = False) -> Any:  # fmt: skip
+        tuning = _TUNING
+        if tuning is None:
+            return numbas(tm, opt=opt, loop_vectorize=loop_vectorize, slp_vectorize=slp_vectorize)
+        pto = llvm.create_pipeline_tuning_options()
+        pto.speed_level = min(opt, tuning.speed)
+        pto.slp_vectorization = slp_vectorize
+        pto.loop_vectorization = loop_vectorize
+        pto.loop_unrolling = tuning.unroll
+        return llvm.create_pass_builder(tm, pto)
+
+    class _Library(codegen.JITCodeLibrary):  # type: ignore[misc]
+        """A kernel's code library: its LLVM passes tuned (`_tuned_library`)."""
+
+        unroll = True  #: the entry's `kernel` ``unroll``
+
+        def _optimize_functions(self, ll_module: Any) -> None:
+            with _tuned(_Tuning(_FUNCTION_SPEED, True)):
+                super()._optimize_functions(ll_module)
+
+        def _optimize_final_module(self) -> None:
+            with _tuned(_Tuning(3, self.unroll)):
+                super()._optimize_final_module()
+
+    create_pass_builder.numbas = numbas  # type: ignore[attr-defined]
+    codegen.create_pass_builder = create_pass_builder
+    _TUNED = _Tuned(_Library, numbas)
+    return _TUNED
+
+
 _ENTRY: Any = None
 
 
@@ -502,6 +596,11 @@ def _entry_compiler() -> Any:
             super().__init__(typingctx, targetctx, library, args, return_type, flags, locals)
 
         def compile_extra(self, func: Any) -> Any:
+            if self.state.library is None and _TUNED is not None:
+                cg = self.state.targetctx.codegen()
+                self.state.library = _TUNED.entry(cg, func.__qualname__)
+                self.state.library.enable_object_caching()  # (as numba's lowering does)
+                self.state.library.unroll = getattr(func, _UNROLL, True)
             with _compiling():
                 return super().compile_extra(func)
 
@@ -642,7 +741,7 @@ def _linked_only_compiler() -> Any:
         def __getattr__(self, name: str) -> Any:
             return getattr(self._cg, name)
 
-    class _LinkedOnly(codegen.JITCodeLibrary):  # type: ignore[misc]
+    class _LinkedOnly(_TUNED.entry if _TUNED is not None else codegen.JITCodeLibrary):  # type: ignore[misc]
         """A library only linked into others: finalizing it links in its callees' IR,
         nothing more (each caller optimises and emits the whole with its own code)."""
 

@@ -202,6 +202,32 @@ def test_rollout_pack_reads_back_as_its_named_scalars() -> None:
 
 
 @pytest.mark.skipif(not available(), reason="numba is not importable")
+def test_llvm_options_are_tuned_only_while_a_kernels_library_optimises() -> None:
+    """numba's pass builder is numba's own except while a kernel's code library optimises
+    (`jit._tuned_library`: level 1 for the function passes, an entry's ``unroll``); the
+    rollout's entry compiles without loop unrolling, the scan's with it."""
+    from numba.core import codegen
+    from numba.core.registry import cpu_target
+
+    from rtsim.control.kernels import rollout_kernels
+    from rtsim.world.scanstep import scan_step
+
+    jit._custom()
+    assert jit._TUNED is not None and jit._TUNING is None
+    assert issubclass(jit._TUNED.entry, codegen.JITCodeLibrary)
+    machine = cpu_target.target_context.codegen()._tm
+    own = codegen.create_pass_builder(machine, opt=3)
+    assert own._pto.speed_level == 3 and own._pto.loop_unrolling
+    with jit._tuned(jit._Tuning(1, False)):
+        tuned = codegen.create_pass_builder(machine, opt=3)
+        assert codegen.create_pass_builder(machine, opt=0)._pto.speed_level == 0
+    assert tuned._pto.speed_level == 1 and not tuned._pto.loop_unrolling
+    assert jit._TUNING is None
+    assert rollout_kernels().roll_or_decide.py_func.__rtsim_unroll__ is False
+    assert jit.build(scan_step).py_func.__rtsim_unroll__ is True
+
+
+@pytest.mark.skipif(not available(), reason="numba is not importable")
 def test_compiled_kernels_carry_one_set_of_flags_kept_until_an_option_changes() -> None:
     """Entries and linked-only kernels are typed under the same options (numba's own helpers
     compile once for both); the flags' memoised values follow every change and compare and
