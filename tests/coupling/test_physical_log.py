@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from rtsim.coupling import run_scenario
 from rtsim.coupling.physical import PhysicalLog
 from rtsim.world import compiled
 from rtsim.world.contact import closest_each, closest_to
@@ -92,8 +93,6 @@ def test_samples_made_in_the_scan_are_the_logs_own(n: int, monkeypatch: Any) -> 
     `trace_samples` inside `rtsim.world.scanstep.scan_step`) and one whose log makes them by
     its own compiled call: the same physical outcomes and windows (closest approaches
     included), bit for bit."""
-    from rtsim.coupling import run_scenario
-
     if not compiled.CompiledTraceFollower(
         rounded_rectangle(800, 400, 120), [1.0], [0.0], 0.5, 40.0
     ).compiled:
