@@ -253,24 +253,7 @@ class World:
             and type(self.localization) is HoughModel
             and kernels().exact_hypot
         ):
-            limits = (self._sep_limit_l, self._travel_limit_l)
-            # (the scan's kernel draws its normals from the stream's state: `_draw`)
-            if type(rng.bit_generator) is np.random.PCG64:
-                self._pcg = state_of(rng.bit_generator)
-            # (the law's geometry, for the truth log's samples in the scan: `log_truth`)
-            law = self._ftl
-            geometry = law._G if getattr(law, "compiled", False) else None  # type: ignore[union-attr]
-            self._fused = FusedScan(
-                self.localization,
-                form.n,
-                motion,
-                self._arr.E,
-                limits,
-                thr.T_beta,
-                self._pcg,
-                geometry,
-            )
-            self._fused.ekf = tuple(float(v) for v in self._arr.ekf_args)
+            self._fused = self._fused_scan(rng, motion)
         self._fixes_of: tuple[Scan, Array] | None = None  # the last fused scan's fixes
         #: the last fused scan's float rows as lists (`rtsim.world.scanstep.FLOAT_ROWS`: the
         #: followers' truth then, `TRUTH_ROW`, and the truth log's samples, `log_truth`);
@@ -283,6 +266,23 @@ class World:
         if self._ftl_fused:
             self._arr.fuse_ftl(self._ftl, fp, self.followers, self._step_ms, self.leader)  # type: ignore[union-attr, arg-type]
             self._fused_send = self._fused_sender()
+
+    def _fused_scan(self, rng: np.random.Generator, motion: Any) -> FusedScan:
+        """The compiled backend's scan with the hough model (`FusedScan`), drawing its
+        normals from the stream's state where the stream is a PCG64 (`_draw`), with the
+        law's geometry where the law runs compiled (the truth log's samples: `log_truth`)."""
+        assert self._arr is not None
+        if type(rng.bit_generator) is np.random.PCG64:
+            self._pcg = state_of(rng.bit_generator)
+        law = self._ftl
+        geometry = law._G if getattr(law, "compiled", False) else None  # type: ignore[union-attr]
+        limits = (self._sep_limit_l, self._travel_limit_l)
+        fused = FusedScan(
+            self.localization, self._n, motion, self._arr.E, limits, self._T_beta, self._pcg,
+            geometry,
+        )  # fmt: skip
+        fused.ekf = tuple(float(v) for v in self._arr.ekf_args)
+        return fused
 
     def _advance_kernel(self) -> Any:
         """The compiled world's `advance`: the followers', the leader's travel and its pose in
