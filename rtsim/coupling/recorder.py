@@ -279,9 +279,9 @@ class WindowRecord:
     # contact (CONTACT_FIELDS), per follower: the truth's closest approach at this window's
     # scan, then (at the next scan) over both; the decision's prediction; the breaks
     near: Sequence[float] = ()
-    near_true: tuple[float, ...] = ()
+    near_true: Sequence[float] = ()
     near_pred: Sequence[float] = ()
-    viol_contact: tuple[bool, ...] = ()
+    viol_contact: Sequence[bool] = ()
     decision: Any = None
 
     @property

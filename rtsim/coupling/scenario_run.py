@@ -294,8 +294,8 @@ class _Coupling:
         # chain's nominal offsets until then)
         self._send_offsets = self._nominal_offsets(ts)
         # (what `_on_send` reads, in one attribute: the clock, the open records, the fused
-        # send or None, the offsets it measures, n)
-        self._send_with = (self.env, self._open, self._send, self._send_offsets, self.n)
+        # send or None, the offsets it measures, n, the link's loss)
+        self._send_with = (self.env, self._open, self._send, self._send_offsets, self.n, self._loss)
         first = self._estimates(0.0)
         self.dec = first._replace(
             w=self.w_sch,
@@ -843,12 +843,21 @@ class _Coupling:
         v_max = last.v_leader_max = v if v > self._v_max else self._v_max  # (max)
         d = last.decision
         last.decision = None  # (the record keeps no decision: its rollout is large)
+        ro = d.kw.get("rollout")
+        near_pred = None
         for speed, rows in d.known:  # (`_predicted`'s rows it computed, inline)
             if speed == v_max:
                 last.pred = rows
                 break
         else:
-            last.pred = self._predicted(d, v_max)
+            if ro is not None:  # (`_predicted`'s rollout: its changes read once for the
+                # bounds, `Rollout.rows`, and the closest approaches, `Rollout.closest`)
+                w = ro.base.w_sch
+                ch = ro.changes(v_max, (w,))[0]
+                last.pred = ro.bounds(ch, w)
+                near_pred = [c[4] for c in ch]
+            else:
+                last.pred = self._predicted(d, v_max)
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the
         # decision's prediction (its rollout's at the same speed, else its estimates)
         if near and last.near:
@@ -856,16 +865,18 @@ class _Coupling:
             # map(min, ...) parses its arguments at every call and a comprehension is a
             # function call, ≈ 1.7x the instructions at n = 2)
             d_c = self._contact_cm
-            near_true, broke = [], []
+            near_true: list[float] = []
+            broke: list[bool] = []
             for a, b in zip(last.near, near):  # noqa: B905
                 x = b if b < a else a
                 near_true.append(x)
                 broke.append(x < d_c)
-            last.near_true = tuple(near_true)
-            last.viol_contact = tuple(broke)
-        ro = d.kw.get("rollout")
+            last.near_true = near_true  # (the lists as they are: made for the record)
+            last.viol_contact = broke
         # (the rollout's closest approaches: a list made for the call, kept as it is)
-        last.near_pred = ro.closest(v_max) if ro is not None else d.near
+        if near_pred is None:
+            near_pred = ro.closest(v_max) if ro is not None else d.near
+        last.near_pred = near_pred
 
     def violation_ratios(
         self,
@@ -940,11 +951,11 @@ class _Coupling:
         return dt
 
     def _on_send(self, job: Job, seg: Segment) -> None:
-        env, opened, send, offsets, n = self._send_with  # (bound once: `__init__`)
+        env, opened, send, offsets, n, loss = self._send_with  # (bound once: `__init__`)
         now = env._now
         i: int = seg.follower  # type: ignore[assignment]
         rec = opened[job.index]
-        if self._loss and self._uniform() < self._loss:  # type: ignore[misc]
+        if loss and self._uniform() < loss:  # type: ignore[misc]
             # lost: the follower keeps its previous command; the leader, missing the reply,
             # keeps it in its estimate too
             rec.radio_losses += 1

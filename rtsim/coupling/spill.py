@@ -85,8 +85,17 @@ class ValueSpill:
     def add_rows(self, rows: np.ndarray) -> None:
         """Append a block of rows (shape (m, width))."""
         self.flush()
-        self.buf = np.asarray(rows, dtype=np.float64).ravel().tolist()
-        self.flush()
+        # (the block as it is, a copy of its own: what `flush` makes of its rows as a list,
+        # without the round trip through Python floats)
+        block = np.array(rows, dtype=np.float64).ravel()
+        if not block.size:
+            return
+        self.rows += block.size // self.width
+        if self._fh is None:
+            self._kept.append(block)
+        else:
+            with naming(self.label):
+                self._fh.write(block.tobytes())
 
     def chunks(self, rows: int = SPILL_ROWS) -> Iterator[np.ndarray]:
         """Every row in order, ``rows`` at a time at most: arrays of shape (m, width)."""

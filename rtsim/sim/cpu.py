@@ -378,8 +378,7 @@ class CPU(ResourceProtocols, TimeSlices):
         return self.process
 
     def _dispatcher(self) -> Any:
-        """The one SimPy process: steps 1-4 of each instant, docs/cpu-events.md (by calls: the
-        cold paths, the top task's inline jobs)."""
+        """The one SimPy process: steps 1-4 of each instant (docs/cpu-events.md; by calls)."""
         env = self.env
         timers, ready, seqs, totals = self._timers, self._ready, self._seq, self._totals
         heappush, heappop, heapreplace = heapq.heappush, heapq.heappop, heapq.heapreplace
@@ -425,7 +424,7 @@ class CPU(ResourceProtocols, TimeSlices):
                 else:
                     running, run_end, run_lag = self._segment_ends(job, now, now_lag, work_lag)
             # 2. timers due (then t_next: the next timer)
-            while timers and (t_next := timers[0][0]) <= limit:
+            while (t_next := timers[0][0] if timers else _INF) <= limit:  # (t_next: kept)
                 entry = timers[0]  # (popped below: a release's successor replaces it)
                 st = entry[5]
                 if entry[4] != _RELEASE or not st.fast_release:  # (popped by _on_timer)
@@ -513,10 +512,11 @@ class CPU(ResourceProtocols, TimeSlices):
                 piece_start, last = work_start, running
                 if moved:
                     continue
+                t_next = timers[0][0] if timers else _INF  # (the booking moved timers)
             if sliced and running is not self._slice_job:  # a new slice (rtsim.sim.slices)
-                self._new_slice(running, now)
+                t_next = self._new_slice(running, now)
             target, now_lag = run_end, run_lag  # 4. wait (run_end: _INF when nothing runs)
-            if timers and (t_next := timers[0][0]) < target:
+            if t_next < target:  # (the next timer: timers move only in steps 1-2 and above)
                 target, now_lag = t_next, 0.0
             if target == _INF:
                 self._end_time = now

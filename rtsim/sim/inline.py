@@ -48,6 +48,7 @@ class Dispatcher(Protocol):
     _timers: list[tuple[Any, ...]]
     _ready: list[tuple[Any, Any, Job]]
     _totals: _Totals
+    _states: list[_TaskState]
     _last_release: float
     _tol: float
 
@@ -66,13 +67,14 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
     top_resp, top_bin, top_counts = math.nan, 0, dict[int, int]()  # the latest response, its bin
     env, timers, ready, totals, seqs = cpu.env, cpu._timers, cpu._ready, cpu._totals, cpu._seq
     last_release, inf = cpu._last_release, _INF  # (the run's constants, as closure cells)
+    tst = min(cpu._states, key=lambda x: x.priority)  # the one task booked (CPU's fast_top)
+    stats, first, period, rel_deadline = tst.stats, tst.first, tst.period, tst.deadline
 
     def book(top, running, now, now_lag, work_start, work_lag, t_next, tol, tol_next):
         """Book ``top``'s job if it can be (module doc): `Booked`; None if not: its Job is ready."""
         nonlocal top_resp, top_bin, top_counts
         st, k, r, seq = top
-        limit, stats, c = now + tol, st.stats, st.fast_start  # (due by limit: at now; the
-        first, period, rel_deadline = st.first, st.period, st.deadline  # run's constants)
+        limit, c = now + tol, st.fast_start  # (due by limit: at now)
         job, wins, nxt_job, from_ready = None, True, running, False  # (wins: always under fp;
         if ready:  # nxt_job: the first in the ready order after the top task's job, at f)
             h = ready[0]
@@ -80,7 +82,6 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                 h[0] <= running.key and (h[0] < running.key or h[1] < running.tie)
             ):
                 nxt_job, from_ready = h[2], True
-        t_next = t_next if timers else inf  # (the next timer)
         nxt_ok = nxt_job is None or nxt_job.rem is not None  # (it has started: no hook at f)
         unbooked = moved = due = held = rel_first = False  # (moved: the clock, to a release)
         kn, rn, live, ot, other = st.k, st.next_release, True, inf, None  # the top task's next

@@ -72,9 +72,10 @@ class TimeSlices:
         self._slice_end = 0.0
         self._slice_seq = -1  # its timer's sequence number (an older timer is stale)
 
-    def _new_slice(self, running: Job | None, now: float) -> None:
+    def _new_slice(self, running: Job | None, now: float) -> float:
         """``running`` got the CPU at ``now`` (or nothing runs): the job whose slice ran
-        keeps the rest of it if it was preempted; ``running``'s slice starts."""
+        keeps the rest of it if it was preempted; ``running``'s slice starts. Returns the
+        next timer's time (inf: none)."""
         old = self._slice_job
         if old is not None and old.finish is None and not old.aborted:
             self._slice_left[old] = self._slice_end - now
@@ -82,6 +83,7 @@ class TimeSlices:
         if running is not None:
             assert self.quantum is not None
             self._arm_slice(running, now + self._slice_left.pop(running, self.quantum))
+        return self._timers[0][0] if self._timers else math.inf
 
     def _arm_slice(self, running: Job, end: float) -> None:
         """``running``'s slice ends at ``end``: its timer (an older one becomes stale)."""

@@ -969,10 +969,10 @@ class World:
                 k, t_ms, ld.s, ld.speed, ld.target_speed, dt, nv, nw, arr.E, *run
             )
             moved()  # (the follower and its command in the array)
-            if held:
-                last[k] = (v, w)
-            else:  # (the row was full: held once it has grown)
-                arr.hold(k, t_ms, v, w)
+            if held:  # (the command held is the one returned: one tuple)
+                cmd = last[k] = (v, w)
+                return cmd
+            arr.hold(k, t_ms, v, w)  # (the row was full: held once it has grown)
             return v, w
 
         return send
