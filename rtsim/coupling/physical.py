@@ -33,13 +33,14 @@ from typing import Any
 import numpy as np
 
 from rtsim.coupling.spill import ValueSpill, p95_max_columns
-from rtsim.world.contact import closest_each, closest_into, contact_distance
-from rtsim.world.exactmath import cpython_hypot
-from rtsim.world.ftl import _PY_SUBS, TraceFollower, ftl_project, trace_point
-from rtsim.world.jit import build, kernel, specialise
-from rtsim.world.kernels import built_entry, follow_with
+from rtsim.world.contact import closest_each, contact_distance
+from rtsim.world.ftl import _PY_SUBS, TraceFollower
+from rtsim.world.jit import build, specialise
+from rtsim.world.kernels import built_entry
+from rtsim.world.scanstep import LOG_ROW, NEAR_ROW
+from rtsim.world.tracelog import trace_samples
 
-__all__ = ["PhysicalLog", "p95_max_rows"]
+__all__ = ["PhysicalLog", "p95_max_rows", "trace_samples"]
 
 Stats = dict[str, float] | None
 
@@ -68,43 +69,10 @@ def p95_max_rows(rows: Any) -> tuple[Stats, list[Stats]]:
     return _p95_max(every), [_p95_max(a) for a in arrs]
 
 
-@kernel
-def trace_samples(
-    G: Any,
-    sf: Any,
-    xs: Any,
-    ys: Any,
-    xl: float,
-    yl: float,
-    rho_d: Any,
-    guess: Any,
-    out: Any,
-    near: Any,
-) -> None:
-    """One scan's samples of every follower with a trace law (`PhysicalLog.add`): into
-    ``out``, follower k's separation error |ρ − ρ_d| at 2k and its cross-track distance at
-    2k + 1 (from its projection on the trace, `ftl_project`, started at its last, ``sf[k]``,
-    or at ``guess[k]`` before the first; ``sf[k]`` kept), and into ``near`` each one's
-    closest approach (`rtsim.world.contact.closest_into`). The law's geometry ``G``."""
-    for k in range(len(xs)):
-        x, y = xs[k], ys[k]
-        out[2 * k] = abs(cpython_hypot(x - xl, y - yl) - rho_d[k])
-        s = sf[k]
-        if s != s:
-            s = guess[k]
-        s = ftl_project(G, k, s, x, y)
-        sf[k] = s
-        px, py, _ = trace_point(G, k, s)
-        out[2 * k + 1] = cpython_hypot(x - px, y - py)
-    closest_into(xs, ys, xl, yl, near)
-
-
-#: `trace_samples` as Python (``math.hypot``, the law's Python twins)
+#: `trace_samples` as Python (``math.hypot``, the law's Python twins). (Compiled on its
+#: own only where the world's scan does not make the samples, `PhysicalLog.fuse`: not
+#: counted in the world's announcement of its compile.)
 _PY_SAMPLES = specialise(trace_samples, _PY_SUBS)
-#: about how long compiling `trace_samples` takes, CPU s (`bench_cold.py --kernels`, a 2-core
-#: machine at load 12: 0.47 s); said in the world's announcement (`follow_with`)
-COMPILE_S = 0.5
-follow_with((trace_samples,), COMPILE_S)
 
 
 class PhysicalLog:
@@ -138,17 +106,25 @@ class PhysicalLog:
 
     def _trace_run(self, law: TraceFollower, n: int) -> tuple[Any, ...]:
         """`trace_samples` and its arguments but the positions: compiled (one call per scan,
-        on arrays) when the law runs compiled, else its Python twin (on lists)."""
+        on arrays; built at its first use, `_compiled`: where the world's scan makes the
+        samples, `fuse`, never) when the law runs compiled, else its Python twin (on
+        lists)."""
         guess = [0.0] * n if self._guess is None else [float(g) for g in self._guess]
         if not getattr(law, "compiled", False):
             return _PY_SAMPLES, law._G, law._sf, self.rho_d, guess, [0.0] * (2 * n), [0.0] * n
         args = (law._G, law._sf, np.asarray(self.rho_d, dtype=float), np.asarray(guess))
-        out, near = np.zeros(2 * n), np.zeros(n)
-        x = np.zeros(n)  # (the positions' type: float arrays of n)
-        fn = built_entry(
-            build(trace_samples), (args[0], args[1], x, x, 0.0, 0.0, *args[2:], out, near)
-        )
-        return fn, *args, out, near
+        return None, *args, np.zeros(2 * n), np.zeros(n)
+
+    def _compiled(self) -> tuple[Any, ...]:
+        """`_trace_run`'s compiled call and its arguments, the call built (or loaded)
+        the first time."""
+        trace = self._trace
+        if trace[0] is None:
+            _, G, sf, rho_d, guess, out, near = trace
+            x = np.zeros(self.n)  # (the positions' type: float arrays of n)
+            fn = built_entry(build(trace_samples), (G, sf, x, x, 0.0, 0.0, rho_d, guess, out, near))
+            trace = self._trace = (fn, *trace[1:])
+        return trace  # type: ignore[no-any-return]
 
     def add(self, leader: tuple[float, float, float], xs: Any, ys: Any) -> Sequence[float]:
         """One scan: the leader's pose and the followers' true positions (cm: lists of
@@ -205,11 +181,14 @@ class PhysicalLog:
         trace = self._trace
         if trace is None or trace[0] is _PY_SAMPLES:
             return self.add
-        fn, G, sf, rho_d, guess, out, near_k = trace
+        fn, G, sf, rho_d, guess, out, near_k = trace  # (fn built at the first call)
         row, near_list, count = out.tolist, near_k.tolist, self.count
         log = self  # (its samples: `spill_to` replaces them)
 
         def add(leader: tuple[float, float, float], xs: Any, ys: Any) -> Sequence[float]:
+            nonlocal fn
+            if fn is None:
+                fn = log._compiled()[0]
             xl, yl, _ = leader
             if type(xs) is not np.ndarray:
                 xs, ys = np.array(xs, dtype=float), np.array(ys, dtype=float)
@@ -222,6 +201,36 @@ class PhysicalLog:
             return near
 
         return add
+
+    def fuse(self, world: Any) -> Callable[[Sequence[list[float]]], Sequence[float]] | None:
+        """`adder` made in ``world``'s scans (`rtsim.world.world.World.log_truth`: the
+        samples and closest approaches in the scan's compiled call, from the truth it has at
+        hand), for a caller that adds every scan from before the first: a function of the
+        scan's float rows (`World.scan_rows`) that adds them as `add` would and returns the
+        closest approaches; None where the world does not make them (the caller adds with
+        `adder`). Call it before ``world``'s first scan."""
+        trace, law = self._trace, self._law
+        if trace is None or trace[0] is _PY_SAMPLES:
+            return None
+        sf = world.log_truth(law, trace[3], trace[4])
+        if sf is None:
+            return None
+        law._sf = sf  # type: ignore[union-attr]  # (the scan's from now on)
+        self._trace = (trace[0], trace[1], sf, *trace[3:])
+        count = self.count
+        log = self  # (its samples: `spill_to` replaces them)
+
+        def put(rows: Sequence[list[float]]) -> Sequence[float]:
+            samples = log.samples
+            buf = samples.buf
+            buf += rows[LOG_ROW]  # (the samples in follower order over two rows)
+            buf += rows[LOG_ROW + 1]
+            samples.full()  # (a chunk's worth to the file)
+            near = rows[NEAR_ROW]
+            count(near)
+            return near
+
+        return put
 
     def spill_to(self, path: Any, label: Any = None) -> None:
         """Keep the samples in the scratch file ``path`` from now on (before the first

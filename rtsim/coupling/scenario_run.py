@@ -78,6 +78,7 @@ from rtsim.sim.run import build_cpu
 from rtsim.world.contact import closest_each, contact_distance
 from rtsim.world.localization import counted_time, search_time
 from rtsim.world.motionmodels import motion_model
+from rtsim.world.scanstep import TRUTH_ROW
 from rtsim.world.world import World
 
 __all__ = [
@@ -790,6 +791,9 @@ class _Coupling:
         now = self.env._now
         world = self.world
         rec = self._open[job.index]
+        if self._last_scanned is None:  # (before the first scan: the truth log's samples
+            # made in the scan's call where the world makes them, `PhysicalLog.fuse`)
+            self._phys_rows = self.phys.fuse(world)
         scan = world.scan_estimate(now)  # (scan, then estimate)
         # the scan's fields as its lists, read once (not a property call each: `Scan.fields`)
         raw = scan.fields()
@@ -820,11 +824,18 @@ class _Coupling:
         rec.neighbour = raw["neighbour"]
         lp = rec.leader = scan.leader_pose
         # the followers' truth now (the scan has just advanced every follower to now;
-        # copies, the poses zipped when read)
-        fol = world.followers
-        x, y, th, v = fol.truth()
-        rec.truth = StateRows(lp, zip(x, y, th), v)  # noqa: B905
-        near = rec.near = self._phys_add(lp, *fol.xy)
+        # copies, the poses zipped when read) and the truth log's samples
+        put = self._phys_rows
+        if put is not None:  # (both as the scan's call made them: its rows)
+            T: Any = world.scan_rows
+            i = TRUTH_ROW
+            rec.truth = StateRows(lp, zip(T[i], T[i + 1], T[i + 2]), T[i + 3])  # noqa: B905
+            near = rec.near = put(T)
+        else:
+            fol = world.followers
+            x, y, th, v = fol.truth()
+            rec.truth = StateRows(lp, zip(x, y, th), v)  # noqa: B905
+            near = rec.near = self._phys_add(lp, *fol.xy)
         if self._last_scanned is not None:
             self._close(scan, near, raw)
         self._last_scanned = rec

@@ -35,12 +35,17 @@ from rtsim.world.exactmath import HYPOT_SUBS, cpython_hypot, cpython_remainder
 from rtsim.world.hough import _dummy, locate_all, peak_fix
 from rtsim.world.jit import build, kernel, specialise
 from rtsim.world.kernels import built_entry
+from rtsim.world.motion import GTH, GV
 from rtsim.world.normals import standard_normals
 from rtsim.world.rangefinder import BEAM_COS, BEAM_SIN, scan_points
+from rtsim.world.tracelog import trace_samples
 
 __all__ = [
     "FLOAT_ROWS",
     "FLAG_ROWS",
+    "LOG_ROW",
+    "NEAR_ROW",
+    "TRUTH_ROW",
     "PY",
     "FusedFields",
     "FusedScan",
@@ -56,13 +61,20 @@ TWO_PI = 2 * math.pi
 
 Array = NDArray[np.float64]
 
-#: `scan_step`'s float columns (one row of ``T`` each, one entry per follower)
+#: `scan_step`'s float columns (one row of ``T`` each, one entry per follower): the scan's,
+#: then the followers' truth in the world's frame (x, y, heading, speed: copies of the
+#: state's rows), then the truth log's (`rtsim.world.tracelog.trace_samples`, when the
+#: world makes them, `FusedScan.log_truth`): its samples, 2 a follower in follower order
+#: over the two rows ``log`` and ``log_2`` read as one, and each follower's closest approach
 FLOAT_ROWS = (
     "tx", "ty", "cx", "cy", "mx", "my", "error",
     "rho", "beta", "displacement", "d_rho", "travel", "d_beta",
+    "x", "y", "th", "v", "log", "log_2", "near",
 )  # fmt: skip
 #: ``T``'s rows
 FLOAT_COUNT = len(FLOAT_ROWS)
+#: where the truth's rows begin (x, y, th, v), the log's samples' and the closest approaches'
+TRUTH_ROW, LOG_ROW, NEAR_ROW = (FLOAT_ROWS.index(r) for r in ("x", "log", "near"))
 #: its flag columns (``B``): in the window, lost, lost to a neighbour's points, no fix in
 #: the window (searched for in Python), then the four bound kinds' violations
 FLAG_ROWS = (
@@ -135,12 +147,17 @@ PY = {
 def buffer_views(FB: Any, IB: Any) -> tuple[Any, ...]:
     """`scan_step`'s buffers as views of one float array ``FB`` and one integer array ``IB``
     (`FusedScan`: numba unboxes two arrays at a call, not nineteen), ``IB`` beginning with
-    the lengths: the followers n, the ring's steps, the accumulator's word and its into.
-    From ``FB``: the normals z, the beams' cos and sin, px, py (`LASER_POINTS` each), ``P``
-    (5, n), the separation and travel limits (n each), ``T`` (`FLOAT_ROWS`, n), ``F`` (n, 3),
-    the ring's x and y steps; from ``IB``: the beams' owner, the counts (n), the
-    accumulator's word, tally (n), state (1) and into, ``N`` (2, n)."""
-    n, nr, nw, ni = IB[0], IB[1], IB[2], IB[3]
+    the lengths: the followers n, the ring's steps, the accumulator's word and its into,
+    the trace's arc lengths and segments, then whether the scan makes the truth log's
+    samples (1) or not (0). From ``FB``: the normals z, the beams' cos and sin, px, py
+    (`LASER_POINTS` each), ``P`` (5, n), the separation and travel limits (n each), ``T``
+    (`FLOAT_ROWS`, n), ``F`` (n, 3), the ring's x and y steps, then the truth log's: its
+    projections' arc lengths, ρ_d and first guesses (n each) and the law's geometry ``G``
+    (`rtsim.world.path.geometry_arrays`: the arc lengths, the segments, the lap, three a
+    follower); from ``IB``: the beams' owner, the counts (n), the accumulator's word, tally
+    (n), state (1) and into, ``N`` (2, n). The truth log's ``trace`` = (``G``, arc lengths,
+    ρ_d, guesses, samples: ``T``'s rows `LOG_ROW` and the next as one) and its flag last."""
+    n, nr, nw, ni, ns, ng = IB[0], IB[1], IB[2], IB[3], IB[4], IB[5]
     L = LASER_POINTS
     z, cos_b, sin_b = FB[:L], FB[L : 2 * L], FB[2 * L : 3 * L]
     px, py = FB[3 * L : 4 * L], FB[4 * L : 5 * L]
@@ -150,11 +167,18 @@ def buffer_views(FB: Any, IB: Any) -> tuple[Any, ...]:
     sep, trav = FB[o : o + n], FB[o + n : o + 2 * n]
     o += 2 * n
     T = FB[o : o + FLOAT_COUNT * n].reshape((FLOAT_COUNT, n))
+    log = FB[o + LOG_ROW * n : o + (LOG_ROW + 2) * n]  # (T's rows LOG_ROW and the next)
     o += FLOAT_COUNT * n
     F = FB[o : o + 3 * n].reshape((n, 3))
     o += 3 * n
     rx, ry = FB[o : o + nr], FB[o + nr : o + 2 * nr]
-    j = 4
+    o += 2 * nr
+    sf, rho_d, guess = FB[o : o + n], FB[o + n : o + 2 * n], FB[o + 2 * n : o + 3 * n]
+    o += 3 * n
+    s0, seg = FB[o : o + ns], FB[o + ns : o + ns + ng]
+    o += ns + ng
+    trace = ((s0, seg, FB[o], FB[o + 1 : o + 1 + 3 * n]), sf, rho_d, guess, log)
+    j = 7
     owner, counts = IB[j : j + L], IB[j + L : j + L + n]
     j += L + n
     word, tally, state = IB[j : j + nw], IB[j + nw : j + nw + n], IB[j + nw + n : j + nw + n + 1]
@@ -164,15 +188,16 @@ def buffer_views(FB: Any, IB: Any) -> tuple[Any, ...]:
     N = IB[j : j + 2 * n].reshape((2, n))
     return (
         z, cos_b, sin_b, px, py, P, sep, trav, T, F, rx, ry, owner, counts, word, tally,
-        state, into, N,
+        state, into, N, trace, IB[6],
     )  # fmt: skip
 
 
-def buffer_sizes(n: int, nr: int, nw: int, ni: int) -> tuple[int, int]:
+def buffer_sizes(n: int, nr: int, nw: int, ni: int, ns: int = 0, ng: int = 0) -> tuple[int, int]:
     """The lengths of `buffer_views`' ``FB`` and ``IB`` for n followers, a ring of ``nr``
-    steps, a word of ``nw`` and an into of ``ni``."""
-    floats = 5 * LASER_POINTS + (10 + FLOAT_COUNT) * n + 2 * nr
-    return floats, 4 + LASER_POINTS + 4 * n + nw + 1 + ni
+    steps, a word of ``nw``, an into of ``ni`` and a trace of ``ns`` arc lengths and ``ng``
+    segments' numbers."""
+    floats = 5 * LASER_POINTS + (16 + FLOAT_COUNT) * n + 2 * nr + ns + ng + 1
+    return floats, 7 + LASER_POINTS + 4 * n + nw + 1 + ni
 
 
 @kernel
@@ -182,15 +207,17 @@ def scan_step(
     G: Any, laser: Any, hough: Any, ekf: Any,
 ) -> float:  # fmt: skip
     """One scan (module docstring) of the followers whose truth is ``W`` (rows x, y,
-    odometer) seen by the leader at (``xl``, ``yl``, ``hl``), on the buffers of ``FB`` and
-    ``IB`` (`buffer_views`): ``laser`` = (r_F, max range, range σ, T_β) with the standard
-    normals z (drawn into it first from the PCG64 whose state is ``G``,
-    `rtsim.world.normals`, unless ``G`` is empty), into the beams' px, py, owner, counts;
+    odometer, heading, speed: the state's, `rtsim.world.motion.GROUP_ROWS`) seen by the
+    leader at (``xl``, ``yl``, ``hl``), on the buffers of ``FB`` and ``IB``
+    (`buffer_views`): ``laser`` = (r_F, max range, range σ, T_β) with the standard normals
+    z (drawn into it first from the PCG64 whose state is ``G``, `rtsim.world.normals`,
+    unless ``G`` is empty), into the beams' px, py, owner, counts;
     the window centres carried from the estimates ``E`` to ``t`` ms (acceleration limit
     ``a``) when ``predicted``, else ``T``'s rows cx, cy as given; ``hough`` = (r_H, cell,
     cells, min_points) with the accumulator's work into ``windows``; the previous scan's
     ``P`` (rows x, y, ρ, β, odometer; written with this scan's; ignored at the ``first``)
-    and the separation and travel limits per follower. Fills ``T`` (`FLOAT_ROWS`), ``B``
+    and the separation and travel limits per follower. Fills ``T`` (`FLOAT_ROWS`: the truth's
+    rows copied from ``W``; the truth log's samples when ``IB`` asks, `buffer_views`), ``B``
     (`FLAG_ROWS`), ``N`` (beams returned, points that voted) and ``F`` (per follower mx,
     my, 1 in its window else 0: `est_scan`'s fixes). ``mode`` 0: the scan alone, returns
     −1; 1: then, when every window has its fix, `World.estimate` with them (`est_scan` on
@@ -201,7 +228,7 @@ def scan_step(
     ea, sv2, sw2, qp2, qh2, r = ekf
     (
         z, cos_b, sin_b, px, py, P, sep, trav, T, F, rx, ry, owner, counts, word, tally,
-        state, into, N,
+        state, into, N, trace, logged,
     ) = buffer_views(FB, IB)  # fmt: skip
     if mode == 2:
         return est_scan(E, F, t, ea, sv2, sw2, qp2, qh2, r, xl, yl, hl, var, track)
@@ -247,6 +274,11 @@ def scan_step(
             disp, d_rho, travel, d_beta, r_H, sep[k], trav[k], T_beta
         )
         P[0, k], P[1, k], P[2, k], P[3, k], P[4, k] = tx, ty, rho, beta, odo
+        i = TRUTH_ROW
+        T[i, k], T[i + 1, k], T[i + 2, k], T[i + 3, k] = W[0, k], W[1, k], W[GTH, k], W[GV, k]
+    if logged:  # (the truth log's samples: `FusedScan.log_truth`)
+        geom, sf, rho_d, guess, log = trace
+        trace_samples(geom, sf, W[0], W[1], xl, yl, rho_d, guess, log, T[NEAR_ROW])
     if mode == 1:
         for k in range(n):
             if B[3, k]:
@@ -255,17 +287,19 @@ def scan_step(
     return -1.0
 
 
-def _arguments(n: int, E: Any, windows: Any, ring: int, word: int, into: int) -> Any:
+def _arguments(
+    n: int, E: Any, windows: Any, ring: int, word: int, into: int, ns: int = 0, ng: int = 0
+) -> Any:
     """Arguments of `scan_step`'s types at every call for ``n`` followers (zeros, but for
-    ``E``, ``windows`` and the lengths at the head of ``IB``): the ones that change per
-    call, then the fixed ones (``FB``, ``IB``, ``B``, ``windows``, ``G``, laser, hough,
-    ekf)."""
+    ``E``, ``windows`` and the lengths at the head of ``IB``, the trace's ``ns`` and ``ng``
+    included, `buffer_views`): the ones that change per call, then the fixed ones (``FB``,
+    ``IB``, ``B``, ``windows``, ``G``, laser, hough, ekf)."""
     x = 0.0
-    nf, ni = buffer_sizes(n, ring, word, into)
+    nf, ni = buffer_sizes(n, ring, word, into, ns, ng)
     IB = np.zeros(ni, dtype=np.int64)
-    IB[:4] = n, ring, word, into
+    IB[:6] = n, ring, word, into, ns, ng
     B = np.zeros((len(FLAG_ROWS), n), dtype=np.bool_)
-    each = (np.zeros((3, n)), x, x, x, E, x, x, True, True, 0, x, True)
+    each = (np.zeros((GV + 1, n)), x, x, x, E, x, x, True, True, 0, x, True)
     G = np.zeros(0, dtype=np.uint64)
     fixed = (np.zeros(nf), IB, B, windows, G, (x,) * 4, (x, x, 0, 0), (x,) * 6)
     return each, fixed
@@ -308,7 +342,9 @@ class FusedScan:
     rangefinder's and accumulator's buffers become views of the kernel's (`buffer_views`);
     ``limits``: the separation and travel limits per follower, lists; ``T_beta``; ``pcg``:
     the world's PCG64 state (`rtsim.world.normals`), from which the kernel draws each
-    scan's normals into `z` (None: the caller passes them)."""
+    scan's normals into `z` (None: the caller passes them); ``geometry``: the world's
+    follow-the-leader law's (`rtsim.world.path.geometry_arrays`; None: none), copied in for
+    the truth log's samples (`log_truth`)."""
 
     def __init__(
         self,
@@ -319,20 +355,26 @@ class FusedScan:
         limits: tuple[list[float], list[float]],
         T_beta: float,
         pcg: NDArray[np.uint64] | None = None,
+        geometry: tuple[Any, ...] | None = None,
     ) -> None:
         config = model.config
         rf, acc = model.rangefinder, model.accumulator
         r_H = config.thresholds.r_H
         nr, nw, ni = acc.ring_x.size, acc.word.size, acc.into.size
         self.windows = acc.out
-        each, fixed = _arguments(n, E, self.windows, nr, nw, ni)
+        s0, seg, lap, fol = geometry or (np.zeros(0), np.zeros(0), 0.0, np.zeros(3 * n))
+        each, fixed = _arguments(n, E, self.windows, nr, nw, ni, s0.size, seg.size)
         FB, IB = fixed[0], fixed[1]
         ring = (acc.ring_x, acc.ring_y)
         (
             self.z, cos_b, sin_b, rf.px, rf.py, self.P, sep, trav, self.T, self.F,
             acc.ring_x, acc.ring_y, rf.owner, rf.counts, acc.word, acc.tally, acc.state,
-            acc.into, self.N,
+            acc.into, self.N, trace, _,
         ) = buffer_views(FB, IB)  # fmt: skip
+        G, self._sf, self._rho_d, self._guess, _ = trace
+        G[0][:], G[1][:], G[3][:] = s0, seg, fol
+        FB[FB.size - 3 * n - 1] = lap  # (G's lap: between its segments and its last array)
+        self._geometry = geometry
         cos_b[:], sin_b[:] = BEAM_COS, BEAM_SIN
         acc.ring_x[:], acc.ring_y[:] = ring
         acc.work = (acc.ring_x, acc.ring_y, acc.word, acc.tally, acc.state, acc.into)
@@ -345,6 +387,18 @@ class FusedScan:
         self._step = built_entry(build(scan_step, motion.subs), (*each, *fixed))
         self._FB, self._IB = FB, IB
         self.ekf = fixed[-1]
+
+    def log_truth(self, geometry: Any, sf: Any, rho_d: Any, guess: Any) -> Any:
+        """Make the truth log's samples in every scan from now on (`scan_step`; ``T``'s
+        rows `LOG_ROW` on, `FLOAT_ROWS`) for a log whose law has ``geometry`` (the one this
+        scan was made with, the same object, else nothing is made: returns None) and the
+        projections' arc lengths ``sf`` (copied in), with ρ_d and the first guesses per
+        follower: returns the scan's arc lengths (a view: the log's state from now on)."""
+        if geometry is not self._geometry:
+            return None
+        self._sf[:], self._rho_d[:], self._guess[:] = sf, rho_d, guess
+        self._IB[6] = 1
+        return self._sf
 
     @property
     def ekf(self) -> tuple[float, ...]:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any, Literal
 
@@ -253,15 +253,12 @@ class World:
             and type(self.localization) is HoughModel
             and kernels().exact_hypot
         ):
-            limits = (self._sep_limit_l, self._travel_limit_l)
-            # (the scan's kernel draws its normals from the stream's state: `_draw`)
-            if type(rng.bit_generator) is np.random.PCG64:
-                self._pcg = state_of(rng.bit_generator)
-            self._fused = FusedScan(
-                self.localization, form.n, motion, self._arr.E, limits, thr.T_beta, self._pcg
-            )
-            self._fused.ekf = tuple(float(v) for v in self._arr.ekf_args)
+            self._fused = self._fused_scan(rng, motion)
         self._fixes_of: tuple[Scan, Array] | None = None  # the last fused scan's fixes
+        #: the last fused scan's float rows as lists (`rtsim.world.scanstep.FLOAT_ROWS`: the
+        #: followers' truth then, `TRUTH_ROW`, and the truth log's samples, `log_truth`);
+        #: None before it and where the scan does not fuse
+        self.scan_rows: list[list[float]] | None = None
         # the compiled backend's command with the compiled law: one call (`_fused_sender`;
         # not where the law stays Python, `CompiledTraceFollower.compiled`)
         self._ftl_fused = self._arr is not None and getattr(self._ftl, "compiled", False)
@@ -269,6 +266,23 @@ class World:
         if self._ftl_fused:
             self._arr.fuse_ftl(self._ftl, fp, self.followers, self._step_ms, self.leader)  # type: ignore[union-attr, arg-type]
             self._fused_send = self._fused_sender()
+
+    def _fused_scan(self, rng: np.random.Generator, motion: Any) -> FusedScan:
+        """The compiled backend's scan with the hough model (`FusedScan`), drawing its
+        normals from the stream's state where the stream is a PCG64 (`_draw`), with the
+        law's geometry where the law runs compiled (the truth log's samples: `log_truth`)."""
+        assert self._arr is not None
+        if type(rng.bit_generator) is np.random.PCG64:
+            self._pcg = state_of(rng.bit_generator)
+        law = self._ftl
+        geometry = law._G if getattr(law, "compiled", False) else None  # type: ignore[union-attr]
+        limits = (self._sep_limit_l, self._travel_limit_l)
+        fused = FusedScan(
+            self.localization, self._n, motion, self._arr.E, limits, self._T_beta, self._pcg,
+            geometry,
+        )  # fmt: skip
+        fused.ekf = tuple(float(v) for v in self._arr.ekf_args)
+        return fused
 
     def _advance_kernel(self) -> Any:
         """The compiled world's `advance`: the followers', the leader's travel and its pose in
@@ -621,6 +635,19 @@ class World:
         self.advance(t_ms)
         return self._scan_fused(t_ms, True)
 
+    def log_truth(self, law: Any, rho_d: Sequence[float], guess: Sequence[float]) -> Any:
+        """Make a truth log's samples in every scan from now on (the fused scan's call,
+        `rtsim.world.scanstep.FusedScan.log_truth`; read from `scan_rows`) for a log on
+        ``law`` — this world's follow-the-leader law or a clone of it (`TraceFollower.clone`:
+        its geometry the same object) — with ρ_d and the first guesses per follower: the
+        scan's arc lengths of the log's projections from now on (the law's ``_sf`` until
+        then, copied in), or None where the scan does not make them (no fused scan, no
+        compiled law, another law's geometry)."""
+        fused = self._fused
+        if fused is None or law is None:
+            return None
+        return fused.log_truth(getattr(law, "_G", None), law._sf, rho_d, guess)
+
     def _not_older(self, t_ms: float) -> None:
         """Refuse a scan at ``t_ms`` older than the estimates (`estimate`, `scan_estimate`)."""
         if t_ms < self._est_t:
@@ -641,12 +668,12 @@ class World:
         predicted = self._predicted
         if not predicted:
             fused.T[2:4] = np.array(self._centre).T
-        W = fol.W  # type: ignore[attr-defined]  # (the truth's rows x, y, odometer)
+        W = fol.S  # type: ignore[attr-defined]  # (the truth's rows, `GROUP_ROWS`)
         # (the model's draw: in the kernel from the stream's state, else here)
         z = None if self._pcg is not None else self._draw(LASER_POINTS)
         E, a, var = self._arr.E, self._accel, self.max_heading_var
         est = fused.run(W, lp, z, E, t_ms, a, predicted, 1 if estimate else 0, var, predicted)
-        T = fused.T.tolist()
+        T = self.scan_rows = fused.T.tolist()
         B = fused.B.tolist()
         pts, voted = fused.N.tolist()
         in_ws, losts, neighbours, unfixed, v_loc, v_sep, v_path, v_bear = B
@@ -689,7 +716,11 @@ class World:
             return scan
         if est < 0.0:  # (a window was searched for: its fix packed since)
             est = fused.run(W, lp, z, E, t_ms, a, predicted, 2, var, predicted)
-        self._estimated(scan, est)
+        # (`_estimated`, written out)
+        self.max_heading_var = est
+        self._est_t = t_ms
+        if not predicted:
+            self._centre = self._to_leader(lp, *self._estimated_xy())
         return scan
 
     def _scan_searched(
@@ -706,7 +737,7 @@ class World:
         does, its fix packed for the estimate (`FusedScan.F`)."""
         fused, model = self._fused, self.localization
         assert fused is not None and isinstance(model, HoughModel)
-        tx, ty, cx, cy, mx, my, errors, _, _, disps, d_rhos, travels, d_betas = T
+        tx, ty, cx, cy, mx, my, errors, _, _, disps, d_rhos, travels, d_betas = T[:13]
         in_ws, losts, neighbours, unfixed, v_loc, v_sep, v_path, v_bear = B
         truth_l = list(zip(tx, ty, strict=True))
         centre = list(zip(cx, cy, strict=True))

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from rtsim.coupling import run_scenario
 from rtsim.coupling.physical import PhysicalLog
 from rtsim.world import compiled
 from rtsim.world.contact import closest_each, closest_to
@@ -84,3 +85,35 @@ def test_closest_each_is_closest_to_per_follower() -> None:
             ys = rng.normal(0.0, 100.0, n).round(1).tolist()
             got = closest_each(xs, ys, 0.5, -1.0)
             assert _bits(got) == _bits([closest_to(xs, ys, i, 0.5, -1.0) for i in range(n)])
+
+
+@pytest.mark.parametrize("n", [2, 5])
+def test_samples_made_in_the_scan_are_the_logs_own(n: int, monkeypatch: Any) -> None:
+    """A run whose truth log's samples the world's scan makes (`PhysicalLog.fuse`:
+    `trace_samples` inside `rtsim.world.scanstep.scan_step`) and one whose log makes them by
+    its own compiled call: the same physical outcomes and windows (closest approaches
+    included), bit for bit."""
+    if not compiled.CompiledTraceFollower(
+        rounded_rectangle(800, 400, 120), [1.0], [0.0], 0.5, 40.0
+    ).compiled:
+        pytest.skip("this interpreter's hypot is not the kernels'")
+    made: list[bool] = []
+    fuse = PhysicalLog.fuse
+
+    def spy(self: PhysicalLog, world: Any) -> Any:
+        put = fuse(self, world)
+        made.append(put is not None)
+        return put
+
+    keys = (
+        "cross_track_cm", "separation_error_cm", "min_robot_distance_cm", "collisions",
+        "clearance_violations", "per_follower",
+    )  # fmt: skip
+    ov = {"formation.followers": n}
+    monkeypatch.setattr(PhysicalLog, "fuse", spy)
+    fused = run_scenario("test2", duration_s=40, overrides=ov, record_jobs=False)
+    monkeypatch.setattr(PhysicalLog, "fuse", lambda self, world: None)
+    own = run_scenario("test2", duration_s=40, overrides=ov, record_jobs=False)
+    assert made == [True]
+    assert repr({k: fused.summary[k] for k in keys}) == repr({k: own.summary[k] for k in keys})
+    assert fused.windows.equals(own.windows)
