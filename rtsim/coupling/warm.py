@@ -20,6 +20,8 @@ from rtsim.coupling.physical import trace_samples
 from rtsim.world.formation import follower_model
 from rtsim.world.jit import build
 from rtsim.world.kernels import built_entry
+from rtsim.world.kernels import kernels as world_kernels
+from rtsim.world.locmodels import HoughModel, localization_model
 
 __all__ = ["warm_world"]
 
@@ -28,15 +30,25 @@ def warm_world(scenarios: Iterable[Scenario]) -> bool:
     """Compile (or load) the kernels when any of ``scenarios`` runs on the compiled backend
     (`rtsim.world.config.WorldConfig.resolved_backend`); returns whether it did. The
     world's and the rollout's kernels (`rtsim.control.kernels.warm_all`) and the truth
-    log's (when a world follows the trace); the ``paper`` predictor's compiles lazily where
-    it is used."""
+    log's (when a world follows the trace and its scan does not make the log's samples:
+    `_scan_logs`); the ``paper`` predictor's compiles lazily where it is used."""
     compiled = [sc for sc in scenarios if sc.world.resolved_backend() == "compiled"]
     if not compiled:
         return False
     kernels.warm_all()
-    if any(follower_model(sc.world.formation.model).on_trace for sc in compiled):
+    on_trace = [sc for sc in compiled if follower_model(sc.world.formation.model).on_trace]
+    if any(not _scan_logs(sc) for sc in on_trace):
         _warm_truth_log()
     return True
+
+
+def _scan_logs(sc: Scenario) -> bool:
+    """Whether a world of ``sc`` (compiled, on the trace) makes its truth log's samples in
+    its scan's compiled call (`rtsim.world.world.World.log_truth`: the fused scan, with the
+    ``hough`` model, where the kernels' hypot is this interpreter's), so that its run never
+    calls `trace_samples`' own entry."""
+    model = localization_model(sc.world.localization.model)
+    return model is HoughModel and bool(world_kernels().exact_hypot)
 
 
 def _warm_truth_log() -> None:

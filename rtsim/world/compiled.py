@@ -385,9 +385,9 @@ class CompiledEstimates:
             f.bind(self, k)
         self.accel = accel
         self.ekf_args = (accel, *_squares(params), max(params.measurement_noise, 0.01) ** 2)
+        self._motion = motion  # (the kernels' namespace of `_Kernel`'s)
         ker = kernels(motion)
         x = 0.0
-        self._scan = entry(ker.est_scan, (E, np.zeros((n, 3)), *(x,) * 10, True))
         self._one, self._all = np.empty((1, 7)), np.empty((n, 7))  # (`est_carry`'s rows)
         self._carry = entry(ker.est_carry, (E, 0, x, x, self._all))
         self._ftl = ker.est_command_ftl
@@ -395,6 +395,9 @@ class CompiledEstimates:
     # (compiled at its first call: the law's fused command, `est_command_ftl`, holds its
     # commands inside its kernel, and the shipped scenarios' runs never call this one)
     _hold = _Kernel("est_hold", lambda self: (self.E, 0, 0.0, 0.0, 0.0))
+    # (compiled at its first call too: the fused scan runs `est_scan` inside its own kernel,
+    # `rtsim.world.scanstep`, so the shipped scenarios' runs never call this one)
+    _scan = _Kernel("est_scan", lambda self: (self.E, np.zeros((1, 3)), *(0.0,) * 11, True))
 
     def scan(
         self, t: float, lp: tuple[float, float, float], fixes: Any, var: float, track: bool

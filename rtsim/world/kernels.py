@@ -127,15 +127,16 @@ ENTRIES: dict[str, Any] = {
     "advance_world": world_advance,
     "hypot": cpython_hypot,
     "leader_travel": leader_travel,
-    "est_scan": est_scan,
     "est_carry": est_carry,
     "est_command_ftl": est_command_ftl,
 }
 
-#: the entries compiled (or loaded) only when first read from the namespace: the law's
-#: reference and trace point, which a world reads only while it is set up (by their Python
-#: twins: `rtsim.world.compiled.CompiledTraceFollower.initial`; inside the estimates' and
-#: the rollout's kernels they are compiled anyway); the EKF's
+#: the entries compiled (or loaded) only when first read from the namespace: the
+#: estimates' scan, which the fused scan runs inside its own kernel (`rtsim.world.scanstep`:
+#: only a world whose scan does not fuse calls it); the law's reference and trace point,
+#: which a world reads only while it is set up (by their Python twins:
+#: `rtsim.world.compiled.CompiledTraceFollower.initial`; inside the estimates' and the
+#: rollout's kernels they are compiled anyway); the EKF's
 #: predict without a command, which the shipped scenarios never run; the remainder, which
 #: only kernels call (`rtsim.control.kernels.warm_all` builds them too); one filter's
 #: steps, one piece of the belief, the law's command and the record of a held command,
@@ -147,6 +148,7 @@ ENTRIES: dict[str, Any] = {
 #: `rtsim.world.jit`)
 LAZY_ENTRIES: dict[str, Any] = {
     "advance_follower": follower_advance,
+    "est_scan": est_scan,
     "ftl_reference": ftl_reference,
     "trace_point": trace_point,
     "ekf_predict": ekf_predict,
@@ -160,7 +162,7 @@ LAZY_ENTRIES: dict[str, Any] = {
 }
 
 #: the lazy entries that run a motion model's parts (built with its substitutions)
-LAZY_MOTION = ("ekf_command", "belief_step", "advance_follower")
+LAZY_MOTION = ("ekf_command", "belief_step", "advance_follower", "est_scan")
 
 #: the entries that run a motion model's parts (built again for a model other than the
 #: unicycle: `kernels`)
@@ -168,7 +170,6 @@ MOTION_ENTRIES = (
     "advance_group",
     "advance_world",
     "leader_travel",
-    "est_scan",
     "est_carry",
     "est_command_ftl",
 )
@@ -295,7 +296,6 @@ def _warm(ns: Any) -> None:
     ns.leader_travel(1.0, 2.0, 10.0, 10.0, 0.02)
     E = new_estimates(1)
     E[0, 3] = E[0, 7] = E[0, 11] = E[0, 14] = 1.0
-    ns.est_scan(E, np.array([[1.0, 0.0, 1.0]]), 10.0, *([1.0] * 10), True)
     ns.est_carry(E, 0, 20.0, 1.0, np.empty((1, 7)))
     ns.est_command_ftl(
         0, 30.0, 0.0, 1.0, 2.0, 0.01, 0.0, 0.0, E, 1.0, G, nan1, nan1.copy(), 0.5, 10.0, 1.0,

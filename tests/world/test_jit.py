@@ -251,17 +251,25 @@ def test_compiled_kernels_carry_one_set_of_flags_kept_until_an_option_changes() 
 def test_warm_world_compiles_the_truth_log_only_for_a_trace_follower(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """A pool's parent compiles the truth log's kernel too (a world on the trace law logs
-    through it), so that its workers do not each compile it."""
+    """A pool's parent compiles the truth log's kernel too where a world on the trace law
+    logs through it (its scan does not make the samples: not the ``hough`` model's fused
+    scan), so that its workers do not each compile it; not where no run calls it."""
     from rtsim.config.scenario import load_scenario
     from rtsim.control import kernels as control_kernels
     from rtsim.coupling import warm
+    from rtsim.world.kernels import kernels
 
     calls: list[str] = []
     monkeypatch.setattr(control_kernels, "warm_all", lambda: calls.append("all"))
     monkeypatch.setattr(warm, "_warm_truth_log", lambda: calls.append("truth"))
-    trace = load_scenario("test2", {"world.backend": "compiled"})
+    fused = load_scenario("test2", {"world.backend": "compiled"})  # (the hough model)
+    fuses = kernels().exact_hypot  # (the scan fuses where the kernels' hypot is Python's)
+    assert warm.warm_world([fused]) and calls == (["all"] if fuses else ["all", "truth"])
+    calls.clear()
+    trace = load_scenario("test2", {"world.backend": "compiled", "localization.model": "gaussian"})
     assert warm.warm_world([trace]) and calls == ["all", "truth"]
+    calls.clear()
+    assert warm.warm_world([trace, fused]) and calls == ["all", "truth"]
     calls.clear()
     l_psi = load_scenario("test2", {"world.backend": "compiled", "formation.model": "l-psi"})
     assert warm.warm_world([l_psi]) and calls == ["all"]
