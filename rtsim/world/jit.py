@@ -348,7 +348,12 @@ def _custom() -> _Custom:
             return None
 
     global _TUNED
-    _TUNED = attempt(_tuned_library)
+    from numba.core import codegen
+
+    # (the tuning is of numba's new pass manager's pipelines, numba >= 0.61: an older
+    # numba's legacy passes run as they are, which is no missing internal to report)
+    new_passes = hasattr(codegen, "create_pass_builder")
+    _TUNED = attempt(_tuned_library) if new_passes else None
     entry = attempt(_entry_compiler)
     linked = attempt(_linked_only_compiler) if entry is not None else None  # (its subclass)
     cache = attempt(_keyed_cache_class)
