@@ -164,6 +164,35 @@ def _static(law: CompiledTraceFollower, state: Any) -> Any:
     return cached
 
 
+def _new_rollout(
+    ker: Any,
+    bufs: Any,
+    scalars: Any,
+    leader_s: float,
+    leader_speed: float,
+    t_now: float,
+    next_scan: float,
+    fol: Any,
+    pend: Any,
+    law: Any,
+) -> CompiledRollout:
+    """A `CompiledRollout` on the kernels ``ker`` and buffers ``bufs`` (`_static`'s) whose
+    pack is RolloutScalars ``scalars`` (the run's, copied) with a decision's four that
+    change, the followers' rows ``fol``, the pending sends ``pend`` and the law's geometry
+    and search starts (`CompiledRollout._packed`'s pack, for `direct` and `planner`)."""
+    fs = scalars.copy()
+    fs[0] = leader_s
+    fs[1] = leader_speed
+    fs[3] = t_now
+    fs[4] = next_scan
+    ro: CompiledRollout = object.__new__(CompiledRollout)
+    ro._ker = ker
+    ro._bufs = bufs
+    ro._pack = (fs, fol, pend, law._G, law._sr, law._sf)
+    ro.n = len(fol)
+    return ro
+
+
 class CompiledRollout:
     """`Rollout`'s arithmetic for one state in compiled calls:
     the state packed into arrays once (`RolloutScalars`, a row per
@@ -184,7 +213,7 @@ class CompiledRollout:
         `rtsim.control.rollout.rows_state` makes of ``base`` and these (the same arrays),
         from ``rows`` themselves, for a rollout that makes its state only when read."""
         cached = _static(law, base)
-        new, fromiter = object.__new__, np.fromiter
+        made, fromiter = _new_rollout, np.fromiter
         rho = base.rho_d
         ker, bufs, no_pend = cached[3], cached[5], cached[2]
         # RolloutScalars with the run's V_Ld: a decision writes the other four that change
@@ -214,28 +243,14 @@ class CompiledRollout:
                 for r, send, rho_d in zip(rows, sends, rho):  # noqa: B905
                     flat += _UNICYCLE(r)
                     flat += (send, rho_d)
-            fs = scalars.copy()
-            fs[0] = leader_s
-            fs[1] = leader_speed
-            fs[3] = t_now
-            fs[4] = next_scan
             n = len(rows)
             pend = no_pend.get(n) if not any(pending) else None
             if pend is None:
                 pend = _pending_pack(cached, n, pending)
-            ro: CompiledRollout = new(CompiledRollout)
-            ro._ker = ker
-            ro._bufs = bufs
-            ro._pack = (
-                fs,
-                fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS),
-                pend,
-                law._G,
-                law._sr,
-                law._sf,
+            fol = fromiter(flat, float, n * _COLUMNS).reshape(n, _COLUMNS)
+            return made(
+                ker, bufs, scalars, leader_s, leader_speed, t_now, next_scan, fol, pend, law
             )
-            ro.n = n
-            return ro
 
         return make
 
@@ -253,7 +268,7 @@ class CompiledRollout:
         and ρ_d columns copied from a template per ``sends``, ω the held command's for the
         unicycle)."""
         cached = _static(law, base)
-        new = object.__new__
+        made = _new_rollout
         ker, bufs, no_pend = cached[3], cached[5], cached[2]
         scalars = cached[1].copy()  # (RolloutScalars with the run's V_Ld, as `direct`'s)
         scalars[2] = base.v_ld
@@ -283,11 +298,6 @@ class CompiledRollout:
             next_scan: float,
             sends: tuple[float, ...],
         ) -> tuple[CompiledRollout, list[float], _Kept, list[list[float]]]:
-            fs = scalars.copy()
-            fs[0] = leader_s
-            fs[1] = leader_speed
-            fs[3] = t_now
-            fs[4] = next_scan
             fol = fixed.get(sends)
             if fol is None:
                 if len(fixed) >= 256:  # (bounded: a long run's offsets vary)
@@ -301,11 +311,8 @@ class CompiledRollout:
             pend = no_pend.get(n) if not any(pending) else None
             if pend is None:
                 pend = _pending_pack(cached, n, pending)
-            ro: CompiledRollout = new(CompiledRollout)
-            ro._ker = ker
-            ro._bufs = bufs
-            ro._pack = pack = (fs, fol, pend, law._G, law._sr, law._sf)
-            ro.n = n
+            ro = made(ker, bufs, scalars, leader_s, leader_speed, t_now, next_scan, fol, pend, law)
+            pack = ro._pack
             fb, ib = empty(size), empty(m2, int64)
             f = entry_of[0]
             if f is None:  # (the first call: `call` finds the entry for these types)

@@ -121,6 +121,19 @@ _STATE_DEFAULTS = {f.name: f.default for f in fields(RolloutState) if f.default 
 _STATE_REQUIRED = len([n for n in _STATE_FIELDS if n not in _STATE_DEFAULTS])
 
 
+def _made(cls: type[Rollout], lazy: tuple[Any, ...], compiled: Any) -> Rollout:
+    """A ``cls`` whose state is made when read (`Rollout.decided`, `Rollout.planned`):
+    ``lazy`` the base and `rows_state`'s values, ``compiled`` its `CompiledRollout`."""
+    ro: Rollout = object.__new__(cls)
+    ro._lazy = lazy
+    ro.base = lazy[0]
+    ro._count = 0
+    ro._memo = {}
+    ro._raw_d = {}
+    ro._compiled = compiled
+    return ro
+
+
 def rollout_state(*values: Any, turns: tuple[float, ...] = ()) -> RolloutState:
     """``RolloutState(*values, turns=turns)``, the same object built without the frozen
     dataclass's ``object.__setattr__`` per field (23 of them: ≈ 6 µs of every decision):
@@ -294,7 +307,7 @@ class Rollout:
 
             return plain
         comp = CompiledRollout.direct(base.law, base)
-        new = object.__new__
+        made = _made
 
         def make(
             t_now: float,
@@ -306,19 +319,12 @@ class Rollout:
             sends: tuple[float, ...],
             turned: bool,
         ) -> Rollout:
-            ro: Rollout = new(cls)
             # (the values written out, twice: no tuple of them unpacked)
-            ro._lazy = (
-                base, t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned,
-            )  # fmt: skip
-            ro.base = base
-            ro._count = 0
-            ro._memo = {}
-            ro._raw_d = {}
-            ro._compiled = comp(
-                t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned
+            return made(
+                cls,
+                (base, t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned),
+                comp(t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned),
             )
-            return ro
 
         return make
 
@@ -348,7 +354,7 @@ class Rollout:
             base.law, base, turned,
             False, keep, need, cap, v_floor, ROLLOUT_GRID, ROLLOUT_TOL, windows, w, contact,
         )  # fmt: skip
-        new = object.__new__
+        made = _made
 
         def step(
             carry: Any,
@@ -362,15 +368,11 @@ class Rollout:
             comp, out, kept, rows = inner(
                 carry, t_now, leader_s, leader_speed, pending, next_scan, sends
             )
-            ro: Rollout = new(cls)  # (`decided`'s make, its state made when read)
-            ro._lazy = (
-                base, t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned,
-            )  # fmt: skip
-            ro.base = base
-            ro._count = 0
-            ro._memo = {}
-            ro._raw_d = {}
-            ro._compiled = comp
+            ro = made(  # (`decided`'s make, its state made when read)
+                cls,
+                (base, t_now, leader_s, leader_speed, rows, pending, next_scan, sends, turned),
+                comp,
+            )
             return ro, ro._planned(out, kept, keep, need, windows, w, contact), rows
 
         return step
