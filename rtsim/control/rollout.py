@@ -432,6 +432,13 @@ class Rollout:
             )
         return out
 
+    def rows_closest(self, v: float) -> tuple[list[tuple[float, float, float, float]], list[float]]:
+        """`rows` and `closest` at ``v`` in the window of length w_sch, from one read of the
+        window's changes (the rollout's memo, or one rollout made now)."""
+        w = self.base.w_sch
+        changes = self.changes(v, (w,))[0]
+        return self.bounds(changes, w), [c[4] for c in changes]
+
     def closest(self, v: float, w: float | None = None) -> list[float]:
         """Every follower's predicted closest approach to any other robot (cm) in the window
         of length ``w`` (default w_sch) that the decision governs, with the leader's target

@@ -885,11 +885,8 @@ class _Coupling:
                 break
         else:
             if ro is not None:  # (`_predicted`'s rollout: its changes read once for the
-                # bounds, `Rollout.rows`, and the closest approaches, `Rollout.closest`)
-                w = ro.base.w_sch
-                ch = ro.changes(v_max, (w,))[0]
-                last.pred = ro.bounds(ch, w)
-                near_pred = [c[4] for c in ch]
+                # bounds and the closest approaches)
+                last.pred, near_pred = ro.rows_closest(v_max)
             else:
                 last.pred = self._predicted(d, v_max)
         # contact: the truth over the window's two scans against 2·r_F + clearance, and the

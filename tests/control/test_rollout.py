@@ -605,6 +605,26 @@ def test_kept_rollouts_read_as_put(pending: bool) -> None:
         assert lazy._raw.keys() == put._raw.keys()
 
 
+@pytest.mark.parametrize("backend", ["python", "compiled"])
+def test_rows_closest_is_rows_and_closest(backend: str) -> None:
+    """`Rollout.rows_closest` (the window close's `_pred` read) gives `rows` and `closest`
+    at a speed the decision did not evaluate, with one rollout made, not two."""
+    from rtsim.control.policy import PlanPolicy, PolicyInput
+
+    world, t, st = _mid_run(backend, False)
+    ctx = PolicyInput((), st.v_ld, st.w_sch, st.thresholds)
+    pol = PlanPolicy(windows=2, margin=0.4)
+    both, apart = Rollout(st), Rollout(st)
+    pol.decide(dataclasses.replace(ctx, rollout=both))
+    pol.decide(dataclasses.replace(ctx, rollout=apart))
+    v = 0.37 * st.v_ld  # (no speed of the search)
+    before = both.count
+    rows, near = both.rows_closest(v)
+    assert both.count == before + 1
+    assert rows == apart.rows(v) and near == apart.closest(v)
+    assert near == [c[4] for c in apart.changes(v, (st.w_sch,))[0]]
+
+
 def test_bearing_is_atan2_mod_two_pi() -> None:
     """The rollout's bearing of a sample (`_bearing`: no fmod) is ``math.atan2(y, x) % 2π``
     bit for bit, as plain Python and compiled: random points, the axes, zeros of either
