@@ -337,7 +337,8 @@ class CPU(ResourceProtocols, TimeSlices):
                 else None
                 for i in range(len(segs))
             ]
-        top = min(self._states, key=lambda x: x.priority, default=None)
+        # the highest-priority task: the one whose jobs may be booked inline (`top_jobs`)
+        top = self._top_state = min(self._states, key=lambda x: x.priority, default=None)
         for st in self._states:
             st.fast_top = (
                 st is top

@@ -48,7 +48,7 @@ class Dispatcher(Protocol):
     _timers: list[tuple[Any, ...]]
     _ready: list[tuple[Any, Any, Job]]
     _totals: _Totals
-    _states: list[_TaskState]
+    _top_state: _TaskState | None  # (the task whose jobs are booked: its fast_top)
     _last_release: float
     _tol: float
 
@@ -66,8 +66,8 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
     """The booking for a run of ``cpu`` (module doc; ``top_record`` None: no job records)."""
     top_resp, top_bin, top_counts = math.nan, 0, dict[int, int]()  # the latest response, its bin
     env, timers, ready, totals, seqs = cpu.env, cpu._timers, cpu._ready, cpu._totals, cpu._seq
-    last_release, inf = cpu._last_release, _INF  # (the run's constants, as closure cells)
-    tst = min(cpu._states, key=lambda x: x.priority)  # the one task booked (CPU's fast_top)
+    last_release, inf, tst = cpu._last_release, _INF, cpu._top_state  # (the run's constants,
+    assert tst is not None  # as closure cells; tst: the task booked, a CPU has one: `CPU.start`)
     stats, first, period, rel_deadline = tst.stats, tst.first, tst.period, tst.deadline
 
     def book(top, running, now, now_lag, work_start, work_lag, t_next, tol, tol_next):

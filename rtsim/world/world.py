@@ -716,11 +716,7 @@ class World:
             return scan
         if est < 0.0:  # (a window was searched for: its fix packed since)
             est = fused.run(W, lp, z, E, t_ms, a, predicted, 2, var, predicted)
-        # (`_estimated`, written out)
-        self.max_heading_var = est
-        self._est_t = t_ms
-        if not predicted:
-            self._centre = self._to_leader(lp, *self._estimated_xy())
+        self._estimated(scan, est)
         return scan
 
     def _scan_searched(
