@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, relative_states_of
 from rtsim.sim.records import EPS
 from rtsim.world.localization import LOST_CAUSES
+from rtsim.world.scanstep import FLOAT_ROWS
 
 _chain = chain.from_iterable
 
@@ -46,6 +47,7 @@ __all__ = [
     "WINDOW_COLUMNS",
     "FOLLOWER_FIELDS",
     "LOCALIZATION_COLUMNS",
+    "ScanChanges",
     "StateRows",
     "VIOLATION_FIELDS",
     "WindowRecord",
@@ -125,6 +127,9 @@ BOUND_FIELDS: tuple[str, ...] = (
 # displacement (r_H),
 #: |Δρ| (T_ρ·ρ_d), distance travelled (T_ε·ρ_d), |Δβ| (T_β).
 CHANGE_KEYS: tuple[str, ...] = ("displacement", "d_rho", "travel", "d_beta")
+#: Where `CHANGE_KEYS`' rows begin among the fused scan's float rows (`ScanChanges`).
+_CHANGE_AT = FLOAT_ROWS.index(CHANGE_KEYS[0])
+assert FLOAT_ROWS[_CHANGE_AT : _CHANGE_AT + len(CHANGE_KEYS)] == CHANGE_KEYS
 #: Per-follower violation columns, in order (``lost`` last).
 VIOLATION_FIELDS: tuple[str, ...] = (*(f"viol_{k}" for k in BOUND_KINDS), "lost")
 
@@ -181,7 +186,11 @@ class StateRows(Sequence[tuple[float, ...]]):
     them. Iterates and indexes as the tuple of rows it stands for.
 
     ``poses``: (x, y, θ) per follower, and ``speeds`` their V_F (iterables the caller no
-    longer changes, read once)."""
+    longer changes, read once); or ``poses`` a float array whose rows ``speeds`` (an int)
+    to ``speeds`` + 3 are the followers' x, y, θ and V_F (a copy of the scan's kernel rows,
+    `rtsim.world.scanstep.FLOAT_ROWS`: one object a record instead of the rows' lists); or
+    with ``speeds`` None, ``poses`` a row per follower whose first four values are x, y, θ
+    and V_F (the estimates' rows as the decision read them, kept as they are)."""
 
     __slots__ = ("_lp", "_poses", "_speeds", "_rows")
 
@@ -194,10 +203,16 @@ class StateRows(Sequence[tuple[float, ...]]):
         out = self._rows
         if out is None:
             lp = self._lp
+            poses, speeds = self._poses, self._speeds
+            if type(speeds) is int:  # (the array's rows: their floats, as lists)
+                x, y, th, speeds = poses[speeds : speeds + 4].tolist()
+                poses = zip(x, y, th, strict=True)
+            elif speeds is None:  # (rows of x, y, θ, V_F, ...)
+                poses, speeds = list(map(_POSE_OF, poses)), list(map(_SPEED_OF, poses))
             out = self._rows = tuple(
                 [
                     (*pose, *relative_state(lp, pose), v)
-                    for pose, v in zip(self._poses, self._speeds, strict=True)
+                    for pose, v in zip(poses, speeds, strict=True)
                 ]
             )
             self._poses = self._speeds = ()
@@ -221,6 +236,27 @@ class StateRows(Sequence[tuple[float, ...]]):
 
     def __repr__(self) -> str:
         return f"StateRows({self.rows()!r})"
+
+
+class ScanChanges(Mapping[str, Any]):
+    """A record's observed changes (`CHANGE_KEYS` → each follower's, as ``Scan.changes``)
+    read from a copy of the fused scan's float rows (`rtsim.world.scanstep.FLOAT_ROWS`,
+    ``rows``; each key's row a float array): one object a record instead of a dict of
+    lists, and the table reads every record's rows in one pass (`changes_array`)."""
+
+    __slots__ = ("rows",)
+
+    def __init__(self, rows: NDArray[np.float64]) -> None:
+        self.rows = rows
+
+    def __getitem__(self, key: str) -> NDArray[np.float64]:
+        return self.rows[_CHANGE_AT + CHANGE_KEYS.index(key)]  # (a ValueError: not a key)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(CHANGE_KEYS)
+
+    def __len__(self) -> int:
+        return len(CHANGE_KEYS)
 
 
 @dataclass(slots=True)
@@ -404,8 +440,20 @@ def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
     """The observed changes of complete records ``recs`` of ``n`` followers, one (records,
     `CHANGE_KEYS`, n) array (`WindowRecord.changes`)."""
     nb = len(CHANGE_KEYS)
-    rows = _each(recs, "changes", CHANGE_KEYS)
-    return _flat(rows, np.float64, len(recs) * nb * n).reshape(len(recs), nb, n)
+    m = len(recs)
+    chs = list(map(_CHANGES, recs))
+    fused = [type(c) is ScanChanges for c in chs]
+    if not any(fused):
+        rows = map(_CHANGE_VALUES, chs)
+        return _flat(rows, np.float64, m * nb * n).reshape(m, nb, n)
+    # (the records' copies of the scan's rows in one pass; any other, one by one)
+    lo = _CHANGE_AT
+    if all(fused):
+        return np.stack([c.rows for c in chs])[:, lo : lo + nb]  # type: ignore[union-attr]
+    out = np.empty((m, nb, n))
+    for i, c in enumerate(chs):
+        out[i] = c.rows[lo : lo + nb] if fused[i] else _CHANGE_VALUES(c)  # type: ignore[union-attr]
+    return out
 
 
 def records_columns(
@@ -539,6 +587,10 @@ def segments(recs: list[WindowRecord]) -> tuple[list[str], list[float]]:
     return kinds, kappas
 
 
+_POSE_OF = itemgetter(0, 1, 2)
+_SPEED_OF = itemgetter(3)
+_CHANGES = attrgetter("changes")
+_CHANGE_VALUES = itemgetter(*CHANGE_KEYS)
 _LP = attrgetter("_lp")
 _POSES = attrgetter("_poses")
 _SPEEDS = attrgetter("_speeds")
@@ -551,8 +603,15 @@ def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:
     gives."""
     objs = list(rows)
     k = len(FOLLOWER_FIELDS)
+    cols = _columns(objs, m, n)
+    if cols is None:
+        cols = _wide(objs, m, n)
+    if cols is not None:
+        return cols
     for o in objs:
         if type(o) is not StateRows or o._rows is not None:
+            break
+        if o._speeds is None:  # (rows of x, y, θ, V_F, ...: `_wide`)
             break
         p = o._poses
         if type(p) is not list:  # (kept for a later `rows`: poses may be an iterator)
@@ -563,15 +622,66 @@ def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:
         if m:
             mn = m * n
             pose = np.fromiter(_chain(_chain(map(_POSES, objs))), float, 3 * mn).reshape(mn, 3)
-            lead = np.fromiter(_chain(map(_LP, objs)), float, 3 * m).reshape(m, 3)
-            lead = np.repeat(lead, n, axis=0)
-            out = np.empty((mn, k))
-            out[:, :3] = pose
-            xl, yl, hl = lead.T
-            out[:, 3:6] = np.transpose(relative_states_of(xl, yl, hl, *pose.T))
-            out[:, 6] = np.fromiter(_chain(map(_SPEEDS, objs)), float, mn)
-            return out.reshape(m, n, k)
+            speeds = np.fromiter(_chain(map(_SPEEDS, objs)), float, mn)
+            return _state_table(objs, pose, speeds, m, n)
     return _flat(objs, float, m * n * k).reshape(m, n, k)
+
+
+def _state_table(
+    objs: list[Any], pose: NDArray[np.float64], speeds: NDArray[np.float64], m: int, n: int
+) -> NDArray[np.float64]:
+    """`_states`' (m, n, 7) array of ``m`` `StateRows` ``objs`` from their poses (an (m·n,
+    3) array, records' followers in order) and speeds (m·n), and their leaders' poses."""
+    lead = np.fromiter(_chain(map(_LP, objs)), float, 3 * m).reshape(m, 3)
+    lead = np.repeat(lead, n, axis=0)
+    k = len(FOLLOWER_FIELDS)
+    out = np.empty((m * n, k))
+    out[:, :3] = pose
+    xl, yl, hl = lead.T
+    out[:, 3:6] = np.transpose(relative_states_of(xl, yl, hl, *pose.T))
+    out[:, 6] = speeds
+    return out.reshape(m, n, k)
+
+
+def _columns(objs: list[Any], m: int, n: int) -> NDArray[np.float64] | None:
+    """`_states` of ``m`` `StateRows` not read yet in their array form, each of ``n``
+    followers at the same row, read in one pass; None for any other."""
+    at = objs[0]._speeds if m and type(objs[0]) is StateRows else None
+    if type(at) is not int:
+        return None
+    for o in objs:
+        if type(o) is not StateRows or o._rows is not None or o._speeds != at:
+            return None
+        if o._poses.shape[1] != n:
+            return None
+    cols = np.stack([o._poses[at : at + 4] for o in objs])  # (m, 4, n): x, y, θ, v
+    cols = cols.transpose(0, 2, 1).reshape(m * n, 4)  # (the records' followers in order)
+    return _state_table(objs, cols[:, :3], cols[:, 3], m, n)
+
+
+def _wide(objs: list[Any], m: int, n: int) -> NDArray[np.float64] | None:
+    """`_states` of ``m`` `StateRows` not read yet whose poses are rows of x, y, θ, V_F and
+    more (``speeds`` None), ``n`` rows each of one width, read in one pass; None for any
+    other."""
+    if not m or type(objs[0]) is not StateRows or objs[0]._speeds is not None:
+        return None
+    width = -1
+    for o in objs:
+        if type(o) is not StateRows or o._rows is not None or o._speeds is not None:
+            return None
+        p = o._poses
+        if type(p) is not list or len(p) != n:
+            return None
+        for r in p:
+            if len(r) != width:
+                if width >= 0:
+                    return None
+                width = len(r)
+    if width < 4:
+        return None
+    a = np.fromiter(_chain(_chain(map(_POSES, objs))), float, m * n * width)
+    a = a.reshape(m * n, width)
+    return _state_table(objs, a[:, :3], a[:, 3], m, n)
 
 
 def _follower_state(

@@ -48,9 +48,16 @@ def test_run_records_equal_eager_rows(monkeypatch: pytest.MonkeyPatch) -> None:
     real = scenario_run.StateRows
 
     def capture(lp, poses, speeds):  # type: ignore[no-untyped-def]
-        poses, speeds = list(poses), list(speeds)  # (the truth's poses come as a zip)
-        eager = tuple((*p, *relative_state(lp, p), v) for p, v in zip(poses, speeds, strict=True))
         out = real(lp, poses, speeds)
+        if type(speeds) is int:  # (a copy of the scan's float rows: x, y, θ, v at a row)
+            x, y, th, speeds = poses[speeds : speeds + 4].tolist()
+            poses = list(zip(x, y, th, strict=True))
+        elif speeds is None:  # (the estimates' rows: x, y, θ, v first)
+            poses, speeds = [tuple(r[:3]) for r in poses], [r[3] for r in poses]
+        else:
+            poses, speeds = list(poses), list(speeds)
+            out = real(lp, poses, speeds)  # (the truth's poses come as a zip)
+        eager = tuple((*p, *relative_state(lp, p), v) for p, v in zip(poses, speeds, strict=True))
         made.append((out, eager))
         return out
 
@@ -105,9 +112,22 @@ def test_table_states_are_the_rows() -> None:
     recs, n = held.recs, held.n
     for name in ("truth", "est"):
         objs = [getattr(r, name) for r in recs]
-        fresh = [StateRows(o._lp, list(o._poses), list(o._speeds)) for o in objs]
-        a = _states(iter(fresh), len(fresh), n)
-        assert all(o._rows is None for o in fresh)  # (not made: one pass over the poses)
-        b = _flat(iter(fresh), float, len(fresh) * n * 7).reshape(len(fresh), n, 7)
-        assert a.tobytes() == b.tobytes() and a.dtype == np.float64
-        assert _states(iter(fresh), len(fresh), n).tobytes() == b.tobytes()  # (rows made)
+        assert {type(o._speeds) for o in objs} == {int if name == "truth" else type(None)}
+        # (each form: as the run made them, and as poses and speeds)
+        forms = [[StateRows(o._lp, o._poses, o._speeds) for o in objs]]
+        forms.append([StateRows(o._lp, *_poses_speeds(o)) for o in objs])
+        for fresh in forms:
+            a = _states(iter(fresh), len(fresh), n)
+            assert all(o._rows is None for o in fresh)  # (not made: one pass over the poses)
+            b = _flat(iter(fresh), float, len(fresh) * n * 7).reshape(len(fresh), n, 7)
+            assert a.tobytes() == b.tobytes() and a.dtype == np.float64
+            assert _states(iter(fresh), len(fresh), n).tobytes() == b.tobytes()  # (rows made)
+
+
+def _poses_speeds(o: StateRows) -> tuple[list[tuple[float, ...]], list[float]]:
+    """A `StateRows`' poses and speeds as lists, from any of its forms."""
+    poses, speeds = o._poses, o._speeds
+    if type(speeds) is int:
+        x, y, th, v = poses[speeds : speeds + 4].tolist()
+        return list(zip(x, y, th, strict=True)), v
+    return [tuple(r[:3]) for r in poses], [r[3] for r in poses]
