@@ -448,8 +448,9 @@ def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
         return _flat(rows, np.float64, m * nb * n).reshape(m, nb, n)
     # (the records' copies of the scan's rows in one pass; any other, one by one)
     lo = _CHANGE_AT
-    if all(fused):
-        return np.stack([c.rows for c in chs])[:, lo : lo + nb]  # type: ignore[union-attr]
+    if all(fused):  # (concatenate: ≈ 2.5x np.stack's speed on small arrays)
+        rows = np.concatenate([c.rows for c in chs])  # type: ignore[union-attr]
+        return rows.reshape(m, -1, n)[:, lo : lo + nb]
     out = np.empty((m, nb, n))
     for i, c in enumerate(chs):
         out[i] = c.rows[lo : lo + nb] if fused[i] else _CHANGE_VALUES(c)  # type: ignore[union-attr]
@@ -592,6 +593,8 @@ _SPEED_OF = itemgetter(3)
 _CHANGES = attrgetter("changes")
 _CHANGE_VALUES = itemgetter(*CHANGE_KEYS)
 _LP = attrgetter("_lp")
+_ROWS = attrgetter("_rows")
+_SHAPE = attrgetter("shape")
 _POSES = attrgetter("_poses")
 _SPEEDS = attrgetter("_speeds")
 
@@ -644,44 +647,43 @@ def _state_table(
 
 
 def _columns(objs: list[Any], m: int, n: int) -> NDArray[np.float64] | None:
-    """`_states` of ``m`` `StateRows` not read yet in their array form, each of ``n``
-    followers at the same row, read in one pass; None for any other."""
-    at = objs[0]._speeds if m and type(objs[0]) is StateRows else None
-    if type(at) is not int:
+    """`_states` of ``m`` `StateRows` not read yet in their array form (arrays of one shape,
+    ``n`` followers, the same row), read in one pass; None for any other."""
+    if not _unread(objs):
         return None
-    for o in objs:
-        if type(o) is not StateRows or o._rows is not None or o._speeds != at:
-            return None
-        if o._poses.shape[1] != n:
-            return None
-    cols = np.stack([o._poses[at : at + 4] for o in objs])  # (m, 4, n): x, y, θ, v
+    speeds = list(map(_SPEEDS, objs))
+    if set(map(type, speeds)) != {int} or len(set(speeds)) != 1:
+        return None
+    at = speeds[0]
+    arrays = list(map(_POSES, objs))
+    if set(map(type, arrays)) != {np.ndarray}:
+        return None
+    shape = arrays[0].shape
+    if len(shape) != 2 or shape[1] != n or set(map(_SHAPE, arrays)) != {shape}:
+        return None
+    cols = np.concatenate(arrays).reshape(m, -1, n)[:, at : at + 4]  # (m, 4, n): x, y, θ, v
     cols = cols.transpose(0, 2, 1).reshape(m * n, 4)  # (the records' followers in order)
     return _state_table(objs, cols[:, :3], cols[:, 3], m, n)
 
 
 def _wide(objs: list[Any], m: int, n: int) -> NDArray[np.float64] | None:
-    """`_states` of ``m`` `StateRows` not read yet whose poses are rows of x, y, θ, V_F and
-    more (``speeds`` None), ``n`` rows each of one width, read in one pass; None for any
-    other."""
-    if not m or type(objs[0]) is not StateRows or objs[0]._speeds is not None:
+    """`_states` of ``m`` `StateRows` not read yet whose poses are lists of ``n`` rows of x,
+    y, θ, V_F and more (``speeds`` None), read in one pass; None for any other."""
+    if not _unread(objs) or set(map(type, map(_SPEEDS, objs))) != {type(None)}:
         return None
-    width = -1
-    for o in objs:
-        if type(o) is not StateRows or o._rows is not None or o._speeds is not None:
-            return None
-        p = o._poses
-        if type(p) is not list or len(p) != n:
-            return None
-        for r in p:
-            if len(r) != width:
-                if width >= 0:
-                    return None
-                width = len(r)
-    if width < 4:
+    rows = list(map(_POSES, objs))
+    if set(map(type, rows)) != {list} or set(map(len, rows)) != {n}:
         return None
-    a = np.fromiter(_chain(_chain(map(_POSES, objs))), float, m * n * width)
-    a = a.reshape(m * n, width)
+    width = len(rows[0][0]) if n else 4
+    if width < 4 or set(map(len, _chain(rows))) != {width}:
+        return None
+    a = np.fromiter(_chain(_chain(rows)), float, m * n * width).reshape(m * n, width)
     return _state_table(objs, a[:, :3], a[:, 3], m, n)
+
+
+def _unread(objs: list[Any]) -> bool:
+    """Every one of ``objs`` (at least one) a `StateRows` whose rows are not made yet."""
+    return bool(objs) and set(map(type, objs)) == {StateRows} and not any(map(_ROWS, objs))
 
 
 def _follower_state(

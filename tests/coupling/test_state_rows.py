@@ -131,3 +131,39 @@ def _poses_speeds(o: StateRows) -> tuple[list[tuple[float, ...]], list[float]]:
         x, y, th, v = poses[speeds : speeds + 4].tolist()
         return list(zip(x, y, th, strict=True)), v
     return [tuple(r[:3]) for r in poses], [r[3] for r in poses]
+
+
+def test_scan_changes_read_as_the_scans_lists(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A run's records keep their changes as `ScanChanges` over a copy of the fused scan's
+    float rows (one closed after the loop, as the scan's lists): each reads as
+    the scan's mapping (a run that keeps the lists), and `changes_array` gives the same
+    floats whichever form a record holds, all of one or mixed."""
+    import numpy as np
+
+    from rtsim.coupling.recorder import CHANGE_KEYS, ScanChanges, changes_array
+
+    def run() -> list[scenario_run.WindowRecord]:
+        res = scenario_run.run_scenario(
+            "test2", record_jobs=False, overrides={"formation.followers": 3}, duration_s=20.0
+        )
+        return res.__dict__["_windows"].recs  # type: ignore[no-any-return]
+
+    recs = run()
+    close = scenario_run._Coupling._close
+    monkeypatch.setattr(
+        scenario_run._Coupling, "_close", lambda self, *a: close(self, *a[:3])
+    )  # (no rows: the scan's lists)
+    plain = run()
+    assert len(recs) == len(plain) > 10
+    assert all(type(r.changes) is ScanChanges for r in recs[:-1])
+    assert not any(type(r.changes) is ScanChanges for r in plain)
+    for r, p in zip(recs, plain, strict=True):
+        assert list(r.changes) == list(CHANGE_KEYS) == list(p.changes) and len(r.changes) == 4
+        assert [list(map(float, r.changes[k])) for k in CHANGE_KEYS] == [
+            p.changes[k] for k in CHANGE_KEYS
+        ]
+    want = np.array([[p.changes[k] for k in CHANGE_KEYS] for p in plain], dtype=float)
+    mixed = [*recs[:-1], plain[-1]]  # (as a run closed after its loop holds them)
+    assert changes_array(mixed, 3).tobytes() == want.tobytes()
+    assert changes_array(recs[:-1], 3).tobytes() == want[:-1].tobytes()  # (all arrays)
+    assert changes_array(plain, 3).tobytes() == want.tobytes()  # (all lists)
