@@ -449,8 +449,8 @@ def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
     # (the records' copies of the scan's rows in one pass; any other, one by one)
     lo = _CHANGE_AT
     if all(fused):  # (concatenate: ≈ 2.5x np.stack's speed on small arrays)
-        rows = np.concatenate([c.rows for c in chs])  # type: ignore[union-attr]
-        return rows.reshape(m, -1, n)[:, lo : lo + nb]
+        every = np.concatenate([c.rows for c in chs])  # type: ignore[union-attr]
+        return every.reshape(m, -1, n)[:, lo : lo + nb]
     out = np.empty((m, nb, n))
     for i, c in enumerate(chs):
         out[i] = c.rows[lo : lo + nb] if fused[i] else _CHANGE_VALUES(c)  # type: ignore[union-attr]

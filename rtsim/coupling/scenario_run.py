@@ -793,7 +793,8 @@ class _Coupling:
             # made in the scan's call where the world makes them, `PhysicalLog.fuse`)
             self._phys_rows = self.phys.fuse(world)
             if self._phys_rows is not None:  # (the fused scan's float rows, `_on_scan`)
-                self._scan_T = world._fused.T  # (rewritten in place by each scan)
+                fused: Any = world._fused  # (its float rows, rewritten by each scan)
+                self._scan_T = fused.T
         scan = world.scan_estimate(now)  # (scan, then estimate)
         # the scan's fields as its lists, read once (not a property call each: `Scan.fields`)
         raw = scan.fields()
@@ -831,7 +832,8 @@ class _Coupling:
             # changes read from one array, no lists kept: `StateRows`, `ScanChanges`)
             rows = self._scan_T.copy()
             rec.truth = StateRows(lp, rows, TRUTH_ROW)
-            near = rec.near = put(world.scan_rows)
+            T: Any = world.scan_rows  # (the same rows as lists)
+            near = rec.near = put(T)
         else:
             fol = world.followers
             x, y, th, v = fol.truth()
