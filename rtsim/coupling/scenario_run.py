@@ -197,6 +197,9 @@ class _Decision(NamedTuple):
     near: tuple[float, ...] = ()
 
 
+#: an instance made without its ``__init__`` (its fields set by the caller)
+_BARE = object.__new__
+
 #: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
 _DECISION = _Decision._make
 
@@ -877,7 +880,11 @@ class _Coupling:
             raw = scan.fields()
         # (the scan's mappings are its own, made for it and never changed: kept, no copy)
         last.viol = raw["violations"]
-        last.changes = raw["changes"] if rows is None else ScanChanges(rows)
+        if rows is None:
+            last.changes = raw["changes"]
+        else:  # (`ScanChanges(rows)` without its Python __init__'s call)
+            ch = last.changes = _BARE(ScanChanges)
+            ch.rows = rows
         # the bounds the window's decision predicts at the highest speed the leader had in
         # the interval the changes span (the world has advanced to the scan)
         v = self.world.leader.speed  # (_v_actual)
