@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, relative_states_of
 from rtsim.sim.records import EPS
 from rtsim.world.localization import LOST_CAUSES
-from rtsim.world.scanstep import FLOAT_ROWS
+from rtsim.world.scanstep import FLAG_ROWS, FLOAT_ROWS
 
 _chain = chain.from_iterable
 
@@ -48,11 +48,14 @@ __all__ = [
     "FOLLOWER_FIELDS",
     "LOCALIZATION_COLUMNS",
     "ScanChanges",
+    "ScanRows",
+    "ScanViolations",
     "StateRows",
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
     "changes_array",
+    "violations_array",
     "contact_columns",
     "records_columns",
     "records_frame",
@@ -127,9 +130,6 @@ BOUND_FIELDS: tuple[str, ...] = (
 # displacement (r_H),
 #: |Δρ| (T_ρ·ρ_d), distance travelled (T_ε·ρ_d), |Δβ| (T_β).
 CHANGE_KEYS: tuple[str, ...] = ("displacement", "d_rho", "travel", "d_beta")
-#: Where `CHANGE_KEYS`' rows begin among the fused scan's float rows (`ScanChanges`).
-_CHANGE_AT = FLOAT_ROWS.index(CHANGE_KEYS[0])
-assert FLOAT_ROWS[_CHANGE_AT : _CHANGE_AT + len(CHANGE_KEYS)] == CHANGE_KEYS
 #: Per-follower violation columns, in order (``lost`` last).
 VIOLATION_FIELDS: tuple[str, ...] = (*(f"viol_{k}" for k in BOUND_KINDS), "lost")
 
@@ -238,25 +238,53 @@ class StateRows(Sequence[tuple[float, ...]]):
         return f"StateRows({self.rows()!r})"
 
 
-class ScanChanges(Mapping[str, Any]):
-    """A record's observed changes (`CHANGE_KEYS` → each follower's, as ``Scan.changes``)
-    read from a copy of the fused scan's float rows (`rtsim.world.scanstep.FLOAT_ROWS`,
-    ``rows``; each key's row a float array): one object a record instead of a dict of
-    lists, and the table reads every record's rows in one pass (`changes_array`)."""
+class ScanRows(Mapping[str, Any]):
+    """A record's per-follower values by key, read from a copy of the fused scan's rows
+    (``rows``: `KEYS`' rows from `AT` on, each key's row an array of one value per
+    follower): one object a record instead of a dict of lists, and the table reads every
+    record's rows in one pass (`changes_array`, `violations_array`)."""
 
     __slots__ = ("rows",)
+    #: the keys, in order, and where their rows begin
+    KEYS: tuple[str, ...] = ()
+    AT = 0
 
-    def __init__(self, rows: NDArray[np.float64]) -> None:
+    def __init__(self, rows: NDArray[Any]) -> None:
         self.rows = rows
 
-    def __getitem__(self, key: str) -> NDArray[np.float64]:
-        return self.rows[_CHANGE_AT + CHANGE_KEYS.index(key)]  # (a ValueError: not a key)
+    def __getitem__(self, key: str) -> NDArray[Any]:
+        try:
+            return self.rows[self.AT + self.KEYS.index(key)]
+        except ValueError:
+            raise KeyError(key) from None
 
     def __iter__(self) -> Iterator[str]:
-        return iter(CHANGE_KEYS)
+        return iter(self.KEYS)
 
     def __len__(self) -> int:
-        return len(CHANGE_KEYS)
+        return len(self.KEYS)
+
+
+class ScanChanges(ScanRows):
+    """A record's observed changes (`CHANGE_KEYS` → each follower's, as ``Scan.changes``)
+    in a copy of the fused scan's float rows (`rtsim.world.scanstep.FLOAT_ROWS`)."""
+
+    __slots__ = ()
+    KEYS = CHANGE_KEYS
+    AT = FLOAT_ROWS.index(CHANGE_KEYS[0])
+
+
+class ScanViolations(ScanRows):
+    """A record's violations (`BOUND_KINDS` → each follower's, as ``Scan.violations``) in a
+    copy of the fused scan's flag rows (`rtsim.world.scanstep.FLAG_ROWS`)."""
+
+    __slots__ = ()
+    KEYS = BOUND_KINDS
+    AT = FLAG_ROWS.index(BOUND_KINDS[0])
+
+
+assert FLOAT_ROWS[ScanChanges.AT :][: len(CHANGE_KEYS)] == CHANGE_KEYS
+assert FLAG_ROWS[ScanViolations.AT :][: len(BOUND_KINDS)] == BOUND_KINDS
 
 
 @dataclass(slots=True)
@@ -439,21 +467,31 @@ def _each(recs: list[WindowRecord], name: str, keys: tuple[str, ...] = ()) -> An
 def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
     """The observed changes of complete records ``recs`` of ``n`` followers, one (records,
     `CHANGE_KEYS`, n) array (`WindowRecord.changes`)."""
-    nb = len(CHANGE_KEYS)
-    m = len(recs)
-    chs = list(map(_CHANGES, recs))
-    fused = [type(c) is ScanChanges for c in chs]
+    return _keyed(list(map(_CHANGES, recs)), ScanChanges, np.float64, n)
+
+
+def violations_array(recs: list[WindowRecord], n: int) -> NDArray[np.bool_]:
+    """The violations of complete records ``recs`` of ``n`` followers, one (records,
+    `BOUND_KINDS`, n) bool array (`WindowRecord.viol`)."""
+    return _keyed(list(map(_VIOL, recs)), ScanViolations, np.bool_, n)
+
+
+def _keyed(maps: list[Any], kind: type[ScanRows], dtype: Any, n: int) -> NDArray[Any]:
+    """Each of ``maps`` (a mapping of ``kind.KEYS`` to ``n`` values) as one (len(maps),
+    keys, n) array of ``dtype``: copies of the scan's rows (``kind``) in one pass, any other
+    mapping read by its keys."""
+    nb, m = len(kind.KEYS), len(maps)
+    values = itemgetter(*kind.KEYS)
+    fused = [type(c) is kind for c in maps]
     if not any(fused):
-        rows = map(_CHANGE_VALUES, chs)
-        return _flat(rows, np.float64, m * nb * n).reshape(m, nb, n)
-    # (the records' copies of the scan's rows in one pass; any other, one by one)
-    lo = _CHANGE_AT
+        return _flat(map(values, maps), dtype, m * nb * n).reshape(m, nb, n)
+    lo = kind.AT
     if all(fused):  # (concatenate: ≈ 2.5x np.stack's speed on small arrays)
-        every = np.concatenate([c.rows for c in chs])  # type: ignore[union-attr]
-        return every.reshape(m, -1, n)[:, lo : lo + nb]
-    out = np.empty((m, nb, n))
-    for i, c in enumerate(chs):
-        out[i] = c.rows[lo : lo + nb] if fused[i] else _CHANGE_VALUES(c)  # type: ignore[union-attr]
+        every = np.concatenate([c.rows for c in maps])
+        return every.reshape(m, -1, n)[:, lo : lo + nb].astype(dtype, copy=False)
+    out = np.empty((m, nb, n), dtype=dtype)
+    for i, c in enumerate(maps):
+        out[i] = c.rows[lo : lo + nb] if fused[i] else values(c)
     return out
 
 
@@ -499,12 +537,7 @@ def records_columns(
         _window_rest(recs, t, w, w_sch, msb, finish, data)
     if state:
         _follower_state(recs, n, limits, w, data, changes)
-    nb = len(BOUND_KINDS)
-    viol = (
-        _flat(_each(recs, "viol", BOUND_KINDS), np.bool_, m * nb * n)
-        .reshape(m, nb, n)
-        .transpose(0, 2, 1)
-    )
+    viol = violations_array(recs, n).transpose(0, 2, 1)
     lost = None if summary and not state else _rows(_each(recs, "lost"), np.bool_, m, n)
     for i in range(n):
         for j, kind in enumerate(BOUND_KINDS):
@@ -591,7 +624,7 @@ def segments(recs: list[WindowRecord]) -> tuple[list[str], list[float]]:
 _POSE_OF = itemgetter(0, 1, 2)
 _SPEED_OF = itemgetter(3)
 _CHANGES = attrgetter("changes")
-_CHANGE_VALUES = itemgetter(*CHANGE_KEYS)
+_VIOL = attrgetter("viol")
 _LP = attrgetter("_lp")
 _ROWS = attrgetter("_rows")
 _SHAPE = attrgetter("shape")
