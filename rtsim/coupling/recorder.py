@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, relative_states_of
 from rtsim.sim.records import EPS
 from rtsim.world.localization import LOST_CAUSES
-from rtsim.world.scanstep import FLAG_ROWS, FLOAT_ROWS
+from rtsim.world.scanstep import FLOAT_ROWS
 
 _chain = chain.from_iterable
 
@@ -49,13 +49,11 @@ __all__ = [
     "LOCALIZATION_COLUMNS",
     "ScanChanges",
     "ScanRows",
-    "ScanViolations",
     "StateRows",
     "VIOLATION_FIELDS",
     "WindowRecord",
     "WindowRecorder",
     "changes_array",
-    "violations_array",
     "contact_columns",
     "records_columns",
     "records_frame",
@@ -242,7 +240,7 @@ class ScanRows(Mapping[str, Any]):
     """A record's per-follower values by key, read from a copy of the fused scan's rows
     (``rows``: `KEYS`' rows from `AT` on, each key's row an array of one value per
     follower): one object a record instead of a dict of lists, and the table reads every
-    record's rows in one pass (`changes_array`, `violations_array`)."""
+    record's rows in one pass (`changes_array`)."""
 
     __slots__ = ("rows",)
     #: the keys, in order, and where their rows begin
@@ -274,17 +272,7 @@ class ScanChanges(ScanRows):
     AT = FLOAT_ROWS.index(CHANGE_KEYS[0])
 
 
-class ScanViolations(ScanRows):
-    """A record's violations (`BOUND_KINDS` → each follower's, as ``Scan.violations``) in a
-    copy of the fused scan's flag rows (`rtsim.world.scanstep.FLAG_ROWS`)."""
-
-    __slots__ = ()
-    KEYS = BOUND_KINDS
-    AT = FLAG_ROWS.index(BOUND_KINDS[0])
-
-
 assert FLOAT_ROWS[ScanChanges.AT :][: len(CHANGE_KEYS)] == CHANGE_KEYS
-assert FLAG_ROWS[ScanViolations.AT :][: len(BOUND_KINDS)] == BOUND_KINDS
 
 
 @dataclass(slots=True)
@@ -298,12 +286,12 @@ class WindowRecord:
     BOUND_KINDS order) at ``v_leader_max``, the highest speed the leader had between this
     window's scan and the next; ``viol`` maps each of `BOUND_KINDS` to an (n,) bool array
     (``World.scan(...).violations``), ``changes`` the observed changes (``Scan.changes``;
-    a coupled run with the fused scan keeps both as `ScanViolations` and `ScanChanges`
-    over copies of the scan's rows, one object each instead of a dict of lists), ``lost``
-    is (n,) bool. ``segment`` and ``curvature`` are the leader's
-    segment kind and curvature, or (a coupled run's, until the table reads them) its path
-    and its arc length then (`segments`); ``fix_error`` and ``neighbour`` None: no fix and
-    no neighbour for any follower. ``decision``: the decision that governs the window, kept
+    a coupled run with the fused scan keeps them as `ScanChanges` over a copy of the
+    scan's rows, one object instead of a dict of lists), ``lost`` is (n,) bool.
+    ``segment`` and ``curvature`` are the leader's segment kind and curvature, or (a
+    coupled run's, until the table reads them) its path and its arc length then
+    (`segments`); ``fix_error`` and ``neighbour`` None: no fix and no neighbour for any
+    follower. ``decision``: the decision that governs the window, kept
     by a coupled run until the next scan has read it.
     """
 
@@ -472,12 +460,6 @@ def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
     return _keyed(list(map(_CHANGES, recs)), ScanChanges, np.float64, n)
 
 
-def violations_array(recs: list[WindowRecord], n: int) -> NDArray[np.bool_]:
-    """The violations of complete records ``recs`` of ``n`` followers, one (records,
-    `BOUND_KINDS`, n) bool array (`WindowRecord.viol`)."""
-    return _keyed(list(map(_VIOL, recs)), ScanViolations, np.bool_, n)
-
-
 def _keyed(maps: list[Any], kind: type[ScanRows], dtype: Any, n: int) -> NDArray[Any]:
     """Each of ``maps`` (a mapping of ``kind.KEYS`` to ``n`` values) as one (len(maps),
     keys, n) array of ``dtype``: copies of the scan's rows (``kind``) in one pass, any other
@@ -543,7 +525,12 @@ def records_columns(
         _window_rest(recs, t, w, w_sch, msb, finish, data)
     if state:
         _follower_state(recs, n, limits, w, data, changes)
-    viol = violations_array(recs, n).transpose(0, 2, 1)
+    nb = len(BOUND_KINDS)
+    viol = (
+        _flat(_each(recs, "viol", BOUND_KINDS), np.bool_, m * nb * n)
+        .reshape(m, nb, n)
+        .transpose(0, 2, 1)
+    )
     lost = None if summary and not state else _rows(_each(recs, "lost"), np.bool_, m, n)
     for i in range(n):
         for j, kind in enumerate(BOUND_KINDS):
@@ -630,7 +617,6 @@ def segments(recs: list[WindowRecord]) -> tuple[list[str], list[float]]:
 _POSE_OF = itemgetter(0, 1, 2)
 _SPEED_OF = itemgetter(3)
 _CHANGES = attrgetter("changes")
-_VIOL = attrgetter("viol")
 _LP = attrgetter("_lp")
 _ROWS = attrgetter("_rows")
 _SHAPE = attrgetter("shape")

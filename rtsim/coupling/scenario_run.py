@@ -53,7 +53,6 @@ from rtsim.coupling.prepared import run_constant, settled_speed, window_bound
 from rtsim.coupling.recorder import (
     CHANGE_KEYS,
     ScanChanges,
-    ScanViolations,
     StateRows,
     WindowRecord,
     WindowRecorder,
@@ -600,8 +599,6 @@ class _Coupling:
     #: the fused scan's float rows (`rtsim.world.scanstep.FLOAT_ROWS`), which each record's
     #: truth copies (`_on_scan`), or None
     _scan_T: Any = None
-    #: ... and its flag rows (`rtsim.world.scanstep.FLAG_ROWS`), which its violations copy
-    _scan_B: Any = None
 
     def _estimates(self, now: float, next_scan: float | None = None) -> _Decision:
         """Run the mode's decision on the leader's estimates at ``now``; ``next_scan``: when
@@ -800,7 +797,7 @@ class _Coupling:
             self._phys_rows = self.phys.fuse(world)
             if self._phys_rows is not None:  # (the fused scan's float rows, `_on_scan`)
                 fused: Any = world._fused  # (its float rows, rewritten by each scan)
-                self._scan_T, self._scan_B = fused.T, fused.B
+                self._scan_T = fused.T
         scan = world.scan_estimate(now)  # (scan, then estimate)
         # the scan's fields as its lists, read once (not a property call each: `Scan.fields`)
         raw = scan.fields()
@@ -837,7 +834,6 @@ class _Coupling:
             # (a copy of the scan's float rows: this record's truth and the previous one's
             # changes read from one array, no lists kept: `StateRows`, `ScanChanges`)
             rows = self._scan_T.copy()
-            flags = self._scan_B.copy()
             rec.truth = StateRows(lp, rows, TRUTH_ROW)
             T: Any = world.scan_rows  # (the same rows as lists)
             near = rec.near = put(T)
@@ -846,9 +842,9 @@ class _Coupling:
             x, y, th, v = fol.truth()
             rec.truth = StateRows(lp, zip(x, y, th), v)  # noqa: B905
             near = rec.near = self._phys_add(lp, *fol.xy)
-            rows = flags = None
+            rows = None
         if self._last_scanned is not None:
-            self._close(scan, near, raw, rows, flags)
+            self._close(scan, near, raw, rows)
         self._last_scanned = rec
         self._v_max = world.leader.speed  # (_v_actual)
 
@@ -871,18 +867,12 @@ class _Coupling:
         return got
 
     def _close(
-        self,
-        scan: Any,
-        near: Sequence[float] = (),
-        raw: Any = None,
-        rows: Any = None,
-        flags: Any = None,
+        self, scan: Any, near: Sequence[float] = (), raw: Any = None, rows: Any = None
     ) -> None:
         """Close the previous window's observation interval with ``scan``'s violations (and
         ``near``, each follower's closest approach at it; ``raw``: the scan's `Scan.fields`
-        when the caller has them; ``rows`` and ``flags``: copies of the fused scan's float
-        and flag rows, whose changes and violations the record keeps, `ScanChanges` and
-        `ScanViolations`)."""
+        when the caller has them; ``rows``: a copy of the fused scan's float rows, whose
+        changes the record keeps, `ScanChanges`)."""
         last = self._last_scanned
         if last is None:
             return
@@ -892,11 +882,10 @@ class _Coupling:
         if rows is None:
             last.viol = raw["violations"]
             last.changes = raw["changes"]
-        else:  # (`ScanChanges(rows)`, `ScanViolations(flags)` without their __init__'s call)
+        else:  # (`ScanChanges(rows)` without its __init__'s call)
+            last.viol = raw["violations"]
             ch = last.changes = _BARE(ScanChanges)
             ch.rows = rows
-            vi = last.viol = _BARE(ScanViolations)
-            vi.rows = flags
         # the bounds the window's decision predicts at the highest speed the leader had in
         # the interval the changes span (the world has advanced to the scan)
         v = self.world.leader.speed  # (_v_actual)

@@ -133,22 +133,14 @@ def _poses_speeds(o: StateRows) -> tuple[list[tuple[float, ...]], list[float]]:
     return [tuple(r[:3]) for r in poses], [r[3] for r in poses]
 
 
-def test_scan_rows_read_as_the_scans_lists(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A run's records keep their changes and violations as `ScanChanges` and
-    `ScanViolations` over copies of the fused scan's rows (one closed after the loop, as the
-    scan's lists): each reads as the scan's mapping (a run that keeps the lists), and
-    `changes_array` and `violations_array` give the same values whichever form a record
-    holds, all of one or mixed."""
+def test_scan_changes_read_as_the_scans_lists(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A run's records keep their changes as `ScanChanges` over a copy of the fused scan's
+    float rows (one closed after the loop, as the scan's lists): each reads as the scan's
+    mapping (a run that keeps the lists), and `changes_array` gives the same floats
+    whichever form a record holds, all of one or mixed."""
     import numpy as np
 
-    from rtsim.coupling.recorder import (
-        BOUND_KINDS,
-        CHANGE_KEYS,
-        ScanChanges,
-        ScanViolations,
-        changes_array,
-        violations_array,
-    )
+    from rtsim.coupling.recorder import CHANGE_KEYS, ScanChanges, changes_array
 
     def run() -> list[scenario_run.WindowRecord]:
         res = scenario_run.run_scenario(
@@ -164,19 +156,14 @@ def test_scan_rows_read_as_the_scans_lists(monkeypatch: pytest.MonkeyPatch) -> N
     plain = run()
     assert len(recs) == len(plain) > 10
     assert all(type(r.changes) is ScanChanges for r in recs[:-1])
-    assert all(type(r.viol) is ScanViolations for r in recs[:-1])
-    assert not any(type(r.changes) is ScanChanges or type(r.viol) is ScanViolations for r in plain)
-    for field, keys, kind, array, dtype in (
-        ("changes", CHANGE_KEYS, float, changes_array, np.float64),
-        ("viol", BOUND_KINDS, bool, violations_array, np.bool_),
-    ):
-        for r, p in zip(recs, plain, strict=True):
-            got, want_map = getattr(r, field), getattr(p, field)
-            assert list(got) == list(keys) == list(want_map) and len(got) == len(keys)
-            assert [list(map(kind, got[k])) for k in keys] == [want_map[k] for k in keys]
-            assert "other" not in got and got.get("other") is None
-        want = np.array([[getattr(p, field)[k] for k in keys] for p in plain], dtype=dtype)
-        mixed = [*recs[:-1], plain[-1]]  # (as a run closed after its loop holds them)
-        for part, w in ((mixed, want), (recs[:-1], want[:-1]), (plain, want)):
-            got_a = array(part, 3)
-            assert got_a.dtype == dtype and got_a.tobytes() == w.tobytes()
+    assert not any(type(r.changes) is ScanChanges for r in plain)
+    for r, p in zip(recs, plain, strict=True):
+        got, want_map = r.changes, p.changes
+        assert list(got) == list(CHANGE_KEYS) == list(want_map) and len(got) == 4
+        assert [list(map(float, got[k])) for k in CHANGE_KEYS] == [want_map[k] for k in CHANGE_KEYS]
+        assert "other" not in got and got.get("other") is None
+    want = np.array([[p.changes[k] for k in CHANGE_KEYS] for p in plain], dtype=float)
+    mixed = [*recs[:-1], plain[-1]]  # (as a run closed after its loop holds them)
+    for part, w in ((mixed, want), (recs[:-1], want[:-1]), (plain, want), ([], want[:0])):
+        got_a = changes_array(part, 3)
+        assert got_a.dtype == np.float64 and got_a.tobytes() == w.tobytes()
