@@ -639,8 +639,8 @@ def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:
     for o in objs:
         if type(o) is not StateRows or o._rows is not None:
             break
-        if o._speeds is None:  # (rows of x, y, θ, V_F, ...: `_wide`)
-            break
+        if o._speeds is None or type(o._speeds) is int:  # (the other forms: `_wide`,
+            break  # `_columns`; mixed, or of other shapes, read one by one below)
         p = o._poses
         if type(p) is not list:  # (kept for a later `rows`: poses may be an iterator)
             p = o._poses = list(p)

@@ -116,9 +116,16 @@ def test_table_states_are_the_rows() -> None:
         # (each form: as the run made them, and as poses and speeds)
         forms = [[StateRows(o._lp, o._poses, o._speeds) for o in objs]]
         forms.append([StateRows(o._lp, *_poses_speeds(o)) for o in objs])
-        for fresh in forms:
+        forms.append(  # (mixed: every other record as poses and speeds)
+            [
+                StateRows(o._lp, *(_poses_speeds(o) if k % 2 else (o._poses, o._speeds)))
+                for k, o in enumerate(objs)
+            ]
+        )
+        for k, fresh in enumerate(forms):
             a = _states(iter(fresh), len(fresh), n)
-            assert all(o._rows is None for o in fresh)  # (not made: one pass over the poses)
+            # (one form: not made, one pass over the poses; mixed: row by row)
+            assert all(o._rows is None for o in fresh) or k == 2
             b = _flat(iter(fresh), float, len(fresh) * n * 7).reshape(len(fresh), n, 7)
             assert a.tobytes() == b.tobytes() and a.dtype == np.float64
             assert _states(iter(fresh), len(fresh), n).tobytes() == b.tobytes()  # (rows made)
