@@ -15,6 +15,13 @@ from rtsim.model.window import WindowSpec
 __all__ = ["TaskSet"]
 
 
+#: `TaskSet.window_task`'s tasks kept per process (a sweep's points build their CPU from
+#: the same prepared task set): by the set (the object, alive while kept), w and the Hough
+#: time; a Task is immutable, so a CPU may share it
+WINDOW_TASKS_KEPT = 16
+_WINDOW_TASKS: dict[tuple[Any, ...], tuple[TaskSet, Task]] = {}
+
+
 @dataclass(frozen=True)
 class TaskSet:
     """A validated, immutable task set, tasks sorted by priority (highest first).
@@ -133,6 +140,19 @@ class TaskSet:
         the window's jitter and offset."""
         if self.window is None:
             raise TaskSetError(f"task set '{self.name}' has no [window]")
+        key = (id(self), type(w), w, type(e_hough_ms), e_hough_ms)
+        hit = _WINDOW_TASKS.get(key)
+        if hit is not None and hit[0] is self:
+            return hit[1]
+        task = self._window_task(w, e_hough_ms)
+        _WINDOW_TASKS[key] = (self, task)
+        while len(_WINDOW_TASKS) > WINDOW_TASKS_KEPT:
+            del _WINDOW_TASKS[next(iter(_WINDOW_TASKS))]
+        return task
+
+    def _window_task(self, w: float, e_hough_ms: float | None) -> Task:
+        """`window_task`, made."""
+        assert self.window is not None
         segs = self.window.segments(e_hough_ms)
         return Task(
             self.window.name,
