@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -20,6 +21,7 @@ __all__ = ["TaskSet"]
 #: time; a Task is immutable, so a CPU may share it
 WINDOW_TASKS_KEPT = 16
 _WINDOW_TASKS: dict[tuple[Any, ...], tuple[TaskSet, Task]] = {}
+_WINDOW_TASKS_LOCK = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -145,9 +147,10 @@ class TaskSet:
         if hit is not None and hit[0] is self:
             return hit[1]
         task = self._window_task(w, e_hough_ms)
-        _WINDOW_TASKS[key] = (self, task)
-        while len(_WINDOW_TASKS) > WINDOW_TASKS_KEPT:
-            del _WINDOW_TASKS[next(iter(_WINDOW_TASKS))]
+        with _WINDOW_TASKS_LOCK:  # (points may run in threads: a Dask worker's)
+            _WINDOW_TASKS[key] = (self, task)
+            while len(_WINDOW_TASKS) > WINDOW_TASKS_KEPT:
+                del _WINDOW_TASKS[next(iter(_WINDOW_TASKS))]
         return task
 
     def _window_task(self, w: float, e_hough_ms: float | None) -> Task:

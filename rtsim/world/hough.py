@@ -30,6 +30,7 @@ tests.
 from __future__ import annotations
 
 import math
+import threading
 from functools import lru_cache
 from typing import Any
 
@@ -118,15 +119,18 @@ def ring_steps(r_F: float, cell: float) -> tuple[NDArray[np.float64], NDArray[np
     kept = _RINGS.get(key)
     if kept is None:  # (made once per process for r_F and cell: a world copies them)
         c, s = ring(r_F, cell)
-        kept = _RINGS[key] = np.tile(r_F * c, TURNS), np.tile(r_F * s, TURNS)
-        while len(_RINGS) > RINGS_KEPT:
-            del _RINGS[next(iter(_RINGS))]
+        kept = np.tile(r_F * c, TURNS), np.tile(r_F * s, TURNS)
+        with _RINGS_LOCK:  # (worlds may be made in threads: a Dask worker's)
+            _RINGS[key] = kept
+            while len(_RINGS) > RINGS_KEPT:
+                del _RINGS[next(iter(_RINGS))]
     return kept[0].copy(), kept[1].copy()
 
 
 #: `ring_steps`' rings kept per process, by r_F and the cell
 RINGS_KEPT = 16
 _RINGS: dict[tuple[float, float], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+_RINGS_LOCK = threading.Lock()
 
 
 @lru_cache(maxsize=64)
