@@ -88,7 +88,11 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
         while True:  # the clock, to a release) one pass for the first job, then after each release
             if not top_first:  # (its key, a deadline, is compared with the others')
                 job = Job(st, k, r, r + rel_deadline, period, seq)
-                wins = wins and _wins(job, running, ready)
+                jk = job.key
+                ok = (running is None or jk < running.key) and (
+                    not ready or jk < ready[0][0] or (jk == ready[0][0] and job.tie < ready[0][1])
+                )
+                wins = wins and ok
             x = c + now_lag  # type: ignore[operator]
             f = now + x
             y = f - now
@@ -134,12 +138,11 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                 top_record(st, k, r, now, f, f > deadline + tol)
             now, work_start, work_lag = f, f, f_lag  # (env._now is set where the clock stops)
             run_end = f + (xr := jrem + f_lag) if nxt_job is not None else inf  # (the job after
-            # gets the CPU at f, its run_lag at the end) Next, as the loop would: 4. the wait; 1.
-            while not (t_next < run_end and (not queue or t_next < queue[0][0])):  # it ends (1, 3
+            while not (t_next < run_end and (not queue or t_next < queue[0][0])):  # gets the CPU)
                 if nxt_job is None or not (js := nxt_job._st).simple or js.job_end_hooks:
                     moved = False  # (not here, as `_job_ends` would find: to the wait)
-                    break
-                if held:  # here: nothing else due); 2. the top task's release (else on)
+                    break  # Next, as the loop would: 4. the wait; 1. the job after ends (1, 3
+                if held:  # here: nothing else due); else 2. the top task's release
                     heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
                 held = False  # (the heap whole again: CPU._complete may add a timer)
                 e = _job_ends(cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol_next)
@@ -164,13 +167,10 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                     held = True
                     if not released:  # the top task's next release (k, t) in locals while
                         kn, rn = st.k, st.next_release  # its timer is out of the heap (held)
-                    other = timers[0]  # other/ot: the first timer left in it (`CPU._timers`
-                    ot = other[0]  # is never empty)
-                k, r = kn, rn  # the release of step 2's fast path (stats.max_backlog is 1 already)
-                kn = k + 1
-                released += 1  # (its sequence number drawn at the end under fp)
-                if not top_first:
-                    seq = next(seqs)
+                    ot = (other := timers[0])[0]  # other/ot: the first timer left in it
+                k, r, kn, released = kn, rn, kn + 1, released + 1  # the release of step 2's fast
+                if not top_first:  # path (stats.max_backlog is 1 already; under fp its sequence
+                    seq = next(seqs)  # number is drawn at the end)
                 after = first + kn * period
                 if after < last_release:  # (first if earlier, or at once with a later entry)
                     if after < ot or (after == ot and _first(after, st, other)):
@@ -299,15 +299,6 @@ def _job_ends(
         t_next,
         nxt.executed,
         nxt.preemptions,
-    )
-
-
-def _wins(job: Job, running: Job | None, ready: list[tuple[Any, Any, Job]]) -> bool:
-    """Under a policy whose top task's jobs do not always come first (`edf`): whether the top
-    task's ``job`` preempts ``running`` and comes before the first ready job in the order."""
-    jk = job.key
-    return (running is None or jk < running.key) and (
-        not ready or jk < ready[0][0] or (jk == ready[0][0] and job.tie < ready[0][1])
     )
 
 
