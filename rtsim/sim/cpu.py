@@ -478,7 +478,7 @@ class CPU(ResourceProtocols, TimeSlices):
                     state = (running, last, piece_start, work_start, work_lag, run_end, run_lag)
                     state = self._res_dispatch(state, now, now_lag)
                     running, last, piece_start, work_start, work_lag, run_end, run_lag = state
-                if ready and not res:  # the switch, inline on purpose (folding it with the
+                elif ready:  # the switch, inline on purpose (folding it with the
                     key = ready[0][0]  # one above, by calls, costs 3-4 % in bench_sim)
                     if running is None or (key < running.key if by_key else preempts(key, running)):
                         if running is not None:
