@@ -50,7 +50,7 @@ from rtsim.coupling.inputs import fitted_taskset
 from rtsim.coupling.inputs import resolved as resolved
 from rtsim.coupling.inputs import scenario_inputs as scenario_inputs
 from rtsim.coupling.physical import PhysicalLog
-from rtsim.coupling.prepared import run_constant, settled_speed, window_bound
+from rtsim.coupling.prepared import run_constant, settled_world, window_bound
 from rtsim.coupling.recorder import (
     CHANGE_KEYS,
     StateRows,
@@ -253,7 +253,7 @@ class _Coupling:
         self.v_floor = adj.floor_frac * cfg.leader_speed
         if cfg.start_on == "straight" and cfg.start_speed is None:
             # settled: at the speed the bounds allow at the start (V_Ld unless less)
-            cfg = self.cfg = replace(cfg, start_speed=settled_speed(cfg, self.w_sch))
+            cfg = self.cfg = settled_world(cfg, self.w_sch)
         ss = np.random.SeedSequence(seed)
         world_ss, cpu_ss = ss.spawn(2)
         self.world = World(cfg, np.random.default_rng(world_ss))

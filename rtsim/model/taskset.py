@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -13,6 +14,14 @@ from rtsim.model.task import RESOURCE_PROTOCOLS, Task
 from rtsim.model.window import WindowSpec
 
 __all__ = ["TaskSet"]
+
+
+#: `TaskSet.window_task`'s tasks kept per process (a sweep's points build their CPU from
+#: the same prepared task set): by the set (the object, alive while kept), w and the Hough
+#: time; a Task is immutable, so a CPU may share it
+WINDOW_TASKS_KEPT = 16
+_WINDOW_TASKS: dict[tuple[Any, ...], tuple[TaskSet, Task]] = {}
+_WINDOW_TASKS_LOCK = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -133,6 +142,20 @@ class TaskSet:
         the window's jitter and offset."""
         if self.window is None:
             raise TaskSetError(f"task set '{self.name}' has no [window]")
+        key = (id(self), type(w), w, type(e_hough_ms), e_hough_ms)
+        hit = _WINDOW_TASKS.get(key)
+        if hit is not None and hit[0] is self:
+            return hit[1]
+        task = self._window_task(w, e_hough_ms)
+        with _WINDOW_TASKS_LOCK:  # (points may run in threads: a Dask worker's)
+            _WINDOW_TASKS[key] = (self, task)
+            while len(_WINDOW_TASKS) > WINDOW_TASKS_KEPT:
+                del _WINDOW_TASKS[next(iter(_WINDOW_TASKS))]
+        return task
+
+    def _window_task(self, w: float, e_hough_ms: float | None) -> Task:
+        """`window_task`, made."""
+        assert self.window is not None
         segs = self.window.segments(e_hough_ms)
         return Task(
             self.window.name,

@@ -72,13 +72,21 @@ def entry(fn: Any, args: tuple[Any, ...]) -> Any:
     if overloads is None:
         return fn
     key = _type_key(args)
+    if key is not None:
+        found = _BUILT.get((fn, key))
+        if found is not None:
+            return found
     typed = None if key is None else _TYPED.get((fn, key))
     if typed is None:
         typed = tuple(fn.typeof_pyval(a) for a in args)
         if key is not None:
             _TYPED[(fn, key)] = typed
     built = overloads.get(typed)
-    return fn if built is None else built.entry_point
+    if built is None:
+        return fn
+    if key is not None:
+        _BUILT[(fn, key)] = built.entry_point
+    return built.entry_point
 
 
 def built_entry(fn: Any, args: tuple[Any, ...]) -> Any:
@@ -89,6 +97,10 @@ def built_entry(fn: Any, args: tuple[Any, ...]) -> Any:
     overloads = getattr(fn, "overloads", None)
     if overloads is not None:
         key = _type_key(args)
+        if key is not None:
+            found = _BUILT.get((fn, key))
+            if found is not None:
+                return found
         typed = None if key is None else _TYPED.get((fn, key))
         if typed is None or typed not in overloads:
             fn.compile(tuple(map(fn.typeof_pyval, args)))
@@ -100,6 +112,10 @@ def built_entry(fn: Any, args: tuple[Any, ...]) -> Any:
 #: its arrays again (≈ 0.8 ms of a Test 2 lap's set-up); the build itself is looked up at
 #: every call, so a build compiled later is found
 _TYPED: dict[tuple[Any, Any], tuple[Any, ...]] = {}
+#: ... and the compiled function found for them, once there is one (a build, once made, is
+#: the dispatcher's for those types: looking it up again hashed numba's types, ≈ 20 per
+#: argument)
+_BUILT: dict[tuple[Any, Any], Any] = {}
 
 
 def _type_key(a: Any) -> Any:

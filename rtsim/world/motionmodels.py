@@ -34,6 +34,7 @@ from __future__ import annotations
 import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, fields
+from functools import cached_property
 from typing import Any
 
 from rtsim.analysis.kinematics import TurnError, unicycle_turn_error
@@ -96,10 +97,11 @@ class MotionModel:
             if want is not None and got != want:
                 raise InputError(f"{where} takes {got} arguments, not {want}")
 
-    @property
+    @cached_property
     def subs(self) -> Subs:
         """The substitutions that build a unicycle kernel for this model (`rtsim.world.jit`):
-        each unicycle part this model replaces, paired with its own."""
+        each unicycle part this model replaces, paired with its own (found once per model:
+        its parts are frozen; a world reads them five times)."""
         return tuple(
             (getattr(UNICYCLE, p), getattr(self, p))
             for p in PARTS

@@ -215,9 +215,14 @@ class LeaderPath:
         """The path as the kernels read it (`rtsim.world.ftl.path_pose`), Python tuples: the
         segments' starts (cm); per segment its start frame (x, y, heading, the heading's cosine
         and sine: `along`) and its curvature, six a segment, flat; the lap length (the head
-        of the follow-the-leader law's geometry, `rtsim.world.ftl.TraceFollower.geometry`)."""
-        frames = zip(self._poses, self._kappa, strict=True)
-        return (self._s0, tuple(c for f, kappa in frames for c in (*f, kappa)), self._lap)
+        of the follow-the-leader law's geometry, `rtsim.world.ftl.TraceFollower.geometry`;
+        made once per path: its segments are fixed)."""
+        got = self.__dict__.get("_geometry")
+        if got is None:
+            frames = zip(self._poses, self._kappa, strict=True)
+            got = (self._s0, tuple(c for f, kappa in frames for c in (*f, kappa)), self._lap)
+            self._geometry = got
+        return got  # type: ignore[no-any-return]
 
     def arrays(self) -> tuple[Any, ...]:
         """`geometry` as the kernels' arrays, in the shape of the law's (`geometry_arrays`:

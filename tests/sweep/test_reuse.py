@@ -102,6 +102,43 @@ def test_settled_speed_keyed_by_values_not_objects() -> None:
     assert len(prepared_mod._SETTLED) == prepared_mod.SETTLED_MAX
 
 
+def test_settled_world_kept_per_object_and_window() -> None:
+    """The settled start's world is the one `dataclasses.replace` makes, made once per
+    configuration object and w_sch (another object of equal values: another entry, the same
+    value), bounded; the window chain's task once per task set, w and Hough time."""
+    from dataclasses import replace
+
+    from rtsim.coupling.prepared import settled_world
+
+    prepared_mod.clear()
+    a = load_scenario(TEST2, overrides={"formation.followers": 6}).world
+    b = load_scenario(TEST2, overrides={"formation.followers": 6}).world
+    w = 1000.0
+    got = settled_world(a, w)
+    assert got == replace(a, start_speed=start_speed(a, w)) and got.start_speed < a.leader_speed
+    assert settled_world(a, w) is got and len(prepared_mod._WORLDS) == 1
+    other = settled_world(b, w)  # (its own path object: LeaderPath compares by identity)
+    assert other is not got and other.path is b.path and other.start_speed == got.start_speed
+    assert settled_world(a, 2 * w).start_speed == start_speed(a, 2 * w)
+    for k in range(prepared_mod.SETTLED_MAX + 5):  # bounded
+        settled_world(a, 100.0 + k)
+    assert len(prepared_mod._WORLDS) == prepared_mod.SETTLED_MAX
+    prepared_mod.clear()
+    assert not prepared_mod._WORLDS
+
+    import rtsim.model.taskset as taskset_mod
+    from rtsim.config.scenario import _read_taskset
+
+    ts = _read_taskset("barrel_robots", "test")
+    one = ts.window_task(1.0)
+    assert ts.window_task(1.0) is one and one == ts._window_task(1.0, None)
+    assert ts.window_task(1) == ts._window_task(1, None)
+    assert ts.window_task(2.0, 3.0) == ts._window_task(2.0, 3.0)
+    for k in range(taskset_mod.WINDOW_TASKS_KEPT + 5):  # bounded
+        ts.window_task(10.0 + k)
+    assert len(taskset_mod._WINDOW_TASKS) == taskset_mod.WINDOW_TASKS_KEPT
+
+
 def _metrics(recs: list[dict[str, object]]) -> bytes:
     by_index = sorted(recs, key=lambda r: int(r["index"]))  # type: ignore[call-overload]
     return json.dumps(

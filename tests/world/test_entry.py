@@ -70,7 +70,7 @@ def test_entry_types_a_changed_argument_again() -> None:
     numba's own typing of the same arguments, and an argument whose dtype, dimensions,
     layout, writability, int size or tuple shape changed is typed again, not served the kept
     types (`_type_key`)."""
-    from rtsim.world.kernels import _TYPED, _type_key
+    from rtsim.world.kernels import _BUILT, _TYPED, _type_key
 
     disp = kernels().hypot
     a = np.zeros(4)
@@ -94,10 +94,15 @@ def test_entry_types_a_changed_argument_again() -> None:
     for v in variants:
         entry(disp, v)
         entry(disp, v)  # (the second from the kept types)
-        assert _TYPED[(disp, _type_key(v))] == tuple(disp.typeof_pyval(x) for x in v)
+        typed = _TYPED[(disp, _type_key(v))]
+        assert typed == tuple(disp.typeof_pyval(x) for x in v)
+        # (a build found is kept: the same machine code as the dispatcher's for them)
+        built = disp.overloads.get(typed)
+        kept = _BUILT.get((disp, _type_key(v)))
+        assert kept is (None if built is None else built.entry_point)
     # a build looked up at every call: the kept types of an unbuilt signature find no build
     unbuilt = (np.float32(1.0), 0.0)
-    assert entry(disp, unbuilt) is disp
+    assert entry(disp, unbuilt) is disp and (disp, _type_key(unbuilt)) not in _BUILT
 
 
 def test_built_entry_compiles_only_a_signature_it_has_not_built(monkeypatch) -> None:

@@ -243,3 +243,18 @@ def test_the_epochs_running_out_change_no_record(fast: bool) -> None:
         a, b = old.locate(*args)[:n].copy(), new.locate(*args)[:n].copy()
         assert a.tobytes() == b.tobytes()
     assert old.state[0] < 4 * 400
+
+
+def test_rings_and_cells_kept_per_process_are_fresh_arrays() -> None:
+    """`ring_steps` kept per r_F and cell gives each caller its own writable copy of the
+    same numbers (a world's buffers), and `window_cells` the Gauss count it computes."""
+    from rtsim.world.hough import ring, ring_steps, window_cells
+
+    a, b = ring_steps(25.0, 1.0), ring_steps(25.0, 1.0)
+    assert a[0] is not b[0] and a[0].flags.writeable and np.array_equal(a[0], b[0])
+    c, s = ring(25.0, 1.0)
+    assert np.array_equal(a[0], np.tile(25.0 * c, 5)) and np.array_equal(a[1], np.tile(25.0 * s, 5))
+    a[0][:] = 0.0  # (a copy: the next caller's is untouched)
+    assert np.array_equal(ring_steps(25.0, 1.0)[0], b[0])
+    i = np.arange(-20, 21)
+    assert window_cells(20.0) == int(((i[:, None] ** 2 + i[None, :] ** 2) <= 400.0).sum())
