@@ -77,8 +77,6 @@ _INF = math.inf
 #: max(EPS, ULPS·ulp(t)): two instants closer than it are one, a finish within it after the
 #: deadline meets it. EPS is the larger up to t = 2^19 ms (8.7 minutes).
 ULPS = 16
-#: The timer heap's last entry, never due: its first timer is always ``timers[0]``.
-_NO_TIMER: tuple[Any, ...] = (_INF, _SLICE + 1, 0, -1, -1, None)
 
 
 def _end_of(start: float, rem: float, lag: float) -> tuple[float, float]:
@@ -170,7 +168,7 @@ class CPU(ResourceProtocols, TimeSlices):
         self._by_name: dict[str, _TaskState] = {}
         self._hooks: list[tuple[str, Callable[..., None], str | None, str | None, str | None]] = []
         self._overrides: dict[tuple[str, str], Callable[..., float]] = {}
-        self._timers: list[tuple[Any, ...]] = [_NO_TIMER]  # (never empty: the first is read)
+        self._timers: list[tuple[Any, ...]] = []
         self._ready: list[tuple[Any, Any, Job]] = []  # (job.key, job.tie, job)
         self._seq = itertools.count()
         self._job_rows = RowBuffer(jobs_frame, job_sink)
@@ -427,7 +425,7 @@ class CPU(ResourceProtocols, TimeSlices):
                 else:
                     running, run_end, run_lag = self._segment_ends(job, now, now_lag, work_lag)
             # 2. timers due (then t_next: the next timer)
-            while (t_next := timers[0][0]) <= limit:  # (t_next: kept; inf when none is left)
+            while (t_next := timers[0][0] if timers else _INF) <= limit:  # (t_next: kept)
                 entry = timers[0]  # (popped below: a release's successor replaces it)
                 st = entry[5]
                 if entry[4] != _RELEASE or not st.fast_release:  # (popped by _on_timer)
@@ -515,7 +513,7 @@ class CPU(ResourceProtocols, TimeSlices):
                 piece_start, last = work_start, running
                 if moved:
                     continue
-                t_next = timers[0][0]  # (the booking moved timers)
+                t_next = timers[0][0] if timers else _INF  # (the booking moved timers)
             if sliced and running is not self._slice_job:  # a new slice (rtsim.sim.slices)
                 t_next = self._new_slice(running, now)
             target, now_lag = run_end, run_lag  # 4. wait (run_end: _INF when nothing runs)

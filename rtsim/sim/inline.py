@@ -167,7 +167,7 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                     held = True
                     if not released:  # the top task's next release (k, t) in locals while
                         kn, rn = st.k, st.next_release  # its timer is out of the heap (held)
-                    ot = (other := timers[0])[0]  # other/ot: the first timer left in it
+                    other, ot = (timers[0], timers[0][0]) if timers else (None, inf)
                 k, r, kn, released = kn, rn, kn + 1, released + 1  # the release of step 2's fast
                 if not top_first:  # path (stats.max_backlog is 1 already; under fp its sequence
                     seq = next(seqs)  # number is drawn at the end)
@@ -271,7 +271,7 @@ def _job_ends(
     cpu.env._now = end
     cpu._complete(job, end)
     timers, ready = cpu._timers, cpu._ready
-    t_next = timers[0][0]  # (never empty)
+    t_next = timers[0][0] if timers else _INF
     nxt = ready[0][2] if ready else None  # (step 3: it gets the CPU; now + overhead 0.0 = now)
     if t_next <= end + tol or nxt is None:  # (the CPU idles if nothing is due)
         return t_next > end + tol, end, lag, 0, None, 0.0, 0.0, _INF, t_next, 0.0, 0

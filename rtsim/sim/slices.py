@@ -83,7 +83,7 @@ class TimeSlices:
         if running is not None:
             assert self.quantum is not None
             self._arm_slice(running, now + self._slice_left.pop(running, self.quantum))
-        return self._timers[0][0]  # (never empty: `CPU._timers`)
+        return self._timers[0][0] if self._timers else math.inf
 
     def _arm_slice(self, running: Job, end: float) -> None:
         """``running``'s slice ends at ``end``: its timer (an older one becomes stale)."""
