@@ -286,7 +286,7 @@ class CompiledRollout:
         size = bufs.get((n, windows))
         if size is None:
             size = bufs[n, windows] = K.decision_buffers(n, windows, _SEARCH_RUNS)[0].size
-        empty, int64, m2 = np.empty, np.int64, 2 * _SEARCH_RUNS
+        empty, int64, m2, head = np.empty, np.int64, 2 * _SEARCH_RUNS, K.decision_head(n)
         entry_of: list[Any] = [None]  # (the compiled entry, found at the first call: `call`)
 
         def step(
@@ -323,7 +323,7 @@ class CompiledRollout:
             )  # fmt: skip
             if entry_of[0] is None:
                 entry_of[0] = _ENTRIES.get(ker.roll_or_decide, f)
-            got, kept = ro._decided(runs, fb, ib, w, windows)
+            got, kept = ro._decided(runs, fb, ib, w, windows, head)
             return ro, got, kept, fol.tolist()
 
         return step
@@ -433,10 +433,14 @@ class CompiledRollout:
         )  # fmt: skip
         return self._decided(runs, fb, ib, w, windows)
 
-    def _decided(self, runs: int, fb: Any, ib: Any, w: float, windows: int) -> tuple[Any, Any]:
+    def _decided(
+        self, runs: int, fb: Any, ib: Any, w: float, windows: int, head: int = -1
+    ) -> tuple[Any, Any]:
         """`decide`'s answer from the kernel's ``runs`` and its buffers ``fb``, ``ib`` (a
-        decision of ``windows`` windows of ``w`` ms on this pack)."""
-        head = K.decision_head(self.n)
+        decision of ``windows`` windows of ``w`` ms on this pack; ``head``: `decision_head`
+        of its follower count when the caller has it)."""
+        if head < 0:
+            head = K.decision_head(self.n)
         got = fb[:head].tolist()
         RUNS[0] += runs + int(got[6])
         frozen: tuple[Any, ...] = ()
@@ -488,7 +492,7 @@ class _Kept(tuple):  # type: ignore[type-arg]
         """Rollout ``r``'s closest approaches in its first window, per follower: ``changes()
         [r, 0, :, 4]`` read without the views (`rtsim.control.kernels.decision_at`)."""
         fb, n = self[1], self[0].n
-        at = K.decision_at(n, self[2].shape[0] >> 1, self[5], r) + 4
+        at = K.decision_at(self[8], n, self[2].shape[0] >> 1, self[5], r) + 4
         return fb[at : at + 5 * n : 5].tolist()  # type: ignore[no-any-return]
 
     def put(self, raw: dict[tuple[float, tuple[float, ...]], Any], memo: Any) -> int:

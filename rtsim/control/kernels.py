@@ -956,11 +956,12 @@ def decision_head(n: int) -> int:
     return OUTS + 8 * n
 
 
-def decision_at(n: int, runs: int, windows: int, r: int) -> int:
+def decision_at(head: int, n: int, runs: int, windows: int, r: int) -> int:
     """Where rollout ``r``'s changes start in a decision's float buffer (``n`` followers,
-    room for ``runs`` rollouts of ``windows`` windows): after the speeds, as
-    `_roll_or_decide` lays them out, [window, follower, change] flat."""
-    return decision_head(n) + runs + r * windows * n * 5
+    its speeds at ``head``, `decision_head`'s; room for ``runs`` rollouts of ``windows``
+    windows): after the speeds, as `_roll_or_decide` lays them out, [window, follower,
+    change] flat."""
+    return head + runs + r * windows * n * 5
 
 
 def decision_buffers(n: int, windows: int, runs: int) -> tuple[Any, Any]:
@@ -979,7 +980,7 @@ def decision_views(fb: Any, ib: Any, n: int) -> tuple[Any, Any, Any, Any, Any, A
     return (
         fb[head : head + runs],
         ib[:runs],
-        fb[decision_at(n, runs, nw, 0) :].reshape(runs, nw, n, 5),
+        fb[decision_at(head, n, runs, nw, 0) :].reshape(runs, nw, n, 5),
         ib[runs:],
         fb[OUTS:head].reshape(2, n, 4),
         fb[:OUTS],

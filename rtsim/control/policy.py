@@ -7,6 +7,7 @@ and range once). The policies, their keys and how to add one: docs/adjustment.md
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
@@ -915,9 +916,9 @@ class PlanPolicy:
             d_c = float(getattr(base, "contact_cm", 0.0)) if contact else 0.0
             return keep, need, cap, v_floor, self.windows, d_c
 
-        def decision(hit: Any) -> Decision:
-            """The decision of a compiled plan's ``hit`` (`Rollout.plan`'s answer)."""
-            return _planned_decision(hit, ctx.v_ld)
+        # the decision of a compiled plan's ``hit`` (`Rollout.plan`'s answer): ``decision(hit)``
+        # (a partial: no Python frame of its own per decision)
+        decision = functools.partial(_planned_decision, ctx.v_ld)
 
         # (a coupled run whose rollout plans in one step reads these: `Rollout.planned`)
         if type(self)._planned is _PLANNED:  # (not a subclass's own `_planned`)
@@ -957,7 +958,7 @@ class PlanPolicy:
         )
         if hit is None:  # the same decision in Python
             return self._decide(ctx, ro, keep, need, cap, v_floor, d_c)
-        return _planned_decision(hit, ctx.v_ld)
+        return _planned_decision(ctx.v_ld, hit)
 
     def _decide(
         self,
@@ -1015,9 +1016,9 @@ def _contact_cm(ro: Any) -> float:
     return float(getattr(st, "contact_cm", 0.0))
 
 
-def _planned_decision(hit: Any, v_ld: float) -> Decision:
-    """The `Decision` of a compiled plan's ``hit`` (`rtsim.control.rollout.Rollout.plan`'s
-    numbers) at desired speed ``v_ld``."""
+def _planned_decision(v_ld: float, hit: Any) -> Decision:
+    """The `Decision` at desired speed ``v_ld`` of a compiled plan's ``hit``
+    (`rtsim.control.rollout.Rollout.plan`'s numbers)."""
     w, v_l, method, found, feasible, rows, after = hit
     m1, kind, who = min_bound_rows(rows)
     # (Decision's fields in order, through namedtuple's _make: no Python __new__)

@@ -225,7 +225,8 @@ class PhysicalLog:
             buf = samples.buf
             buf += rows[LOG_ROW]  # (the samples in follower order over two rows)
             buf += rows[LOG_ROW + 1]
-            samples.full()  # (a chunk's worth to the file)
+            if len(buf) >= samples.limit:  # (`ValueSpill.full`: a chunk's worth to the file)
+                samples.flush()
             near = rows[NEAR_ROW]
             count(near)
             return near

@@ -587,6 +587,7 @@ class _Coupling:
         same = (ctx.v_ld, ctx.w_sch) == (base.v_ld, base.w_sch)
         if args is not None and not self._fols and same:
             self._ro_step = Rollout.planned(base, self._turn_state, *args(base))
+            self._ro_decision = self._on_rollout.decision  # type: ignore[union-attr]
         return make
 
     def _pending(self, now: float) -> tuple[tuple[float, ...], ...]:
@@ -598,20 +599,22 @@ class _Coupling:
 
     #: the rollout and the policy's plan on it in one step (`_rollout_maker`), or None
     _ro_step: Any = None
+    #: with `_ro_step`, the policy's decision of its plan (`PlanPolicy.on_rollout`'s)
+    _ro_decision: Any = None
 
     def _estimates(self, now: float, next_scan: float | None = None) -> _Decision:
         """Run the mode's decision on the leader's estimates at ``now``; ``next_scan``: when
         the window it governs scans (for the rollout; default now)."""
         world = self.world
         world.advance(now)
-        lp = world.leader.pose  # (World.leader_pose)
+        ld = world.leader
+        lp = ld.path.pose(ld.s)  # (World.leader_pose, `Leader.pose`: its path's memo)
         if self._ro_make is None and self._rollout:  # (the first decision: the run's maker)
             self._rollout_maker()
         kw: dict[str, Any]
         step = self._ro_step
         if step is not None:  # the policy plans on the compiled rollout alone: the
             # estimates' rows, the rollout and its plan in one step (`Rollout.planned`)
-            ld = world.leader
             if next_scan is None or not next_scan > now:  # (max(now, next_scan))
                 next_scan = now
             ro, hit, rows = step(
@@ -623,7 +626,7 @@ class _Coupling:
                 next_scan,
                 tuple(self._send_offsets),
             )
-            adj = self._on_rollout.decision(hit)  # type: ignore[union-attr]
+            adj = self._ro_decision(hit)  # (the policy's `decision`, bound with the step)
             state = StateRows(lp, map(_POSE, rows), list(map(_SPEED, rows)))  # (as below)
             fols: tuple[Any, ...] = ()
             kw = {"rollout": ro}

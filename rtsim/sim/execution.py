@@ -29,7 +29,9 @@ task never reshuffles them, and the same seed gives the identical trace.
 
 from __future__ import annotations
 
+import itertools
 import math
+import operator
 import os
 import zlib
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -242,9 +244,11 @@ def uniforms(rng: np.random.Generator, block: int = UNIFORM_BLOCK) -> Iterator[f
     """``rng``'s uniforms on [0, 1) as floats, one per ``next``: the numbers one
     ``rng.random()`` call per draw gives, in the same order (a Generator's ``random(N)`` is
     its N single draws concatenated), taken ``block`` at a time, so that a draw costs a
-    ``next`` instead of a numpy call; ``rng`` itself runs ahead by up to a block."""
-    while True:
-        yield from rng.random(block).tolist()
+    ``next`` instead of a numpy call; ``rng`` itself runs ahead by up to a block. (An
+    iterator of C parts, each block's ``rng.random(block).tolist()`` chained: a ``next``
+    resumes no Python frame, as a generator's would.)"""
+    blocks = map(operator.methodcaller("random", block), itertools.repeat(rng))
+    return itertools.chain.from_iterable(map(np.ndarray.tolist, blocks))
 
 
 def task_rngs(

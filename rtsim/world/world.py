@@ -660,7 +660,8 @@ class World:
         (`scan_estimate`). When every window has its fix (the rule), the scan's fields are
         the kernel's columns as lists, the pairs (fixes, truth, centres) zipped when first
         read (`FusedFields`); else `_scan_searched`, then the estimate."""
-        lp = self.leader.pose
+        ld = self.leader
+        lp = ld.path.pose(ld.s)  # (`Leader.pose`: its path's memo, which `advance` set)
         fol = self.followers
         fused = self._fused
         model = self.localization
