@@ -429,9 +429,9 @@ class CPU(ResourceProtocols, TimeSlices):
                 entry = timers[0]  # (popped below: a release's successor replaces it)
                 st = entry[5]
                 if entry[4] != _RELEASE or not st.fast_release:  # (popped by _on_timer)
-                    if entry[4] == _RELEASE:  # (a release without the fast path: one call less)
-                        heappop(timers)
-                        self._release(st, now)
+                    if (kind := entry[4]) == _RELEASE or kind == _RESUME:  # (one call less: a
+                        heappop(timers)  # release without the fast path, a suspension's end)
+                        (self._release if kind == _RELEASE else self._resume)(st, now)
                     elif self._on_timer(
                         entry, running, now, now_lag, piece_start, work_start, work_lag
                     ):
@@ -476,7 +476,7 @@ class CPU(ResourceProtocols, TimeSlices):
                     state = (running, last, piece_start, work_start, work_lag, run_end, run_lag)
                     state = self._res_dispatch(state, now, now_lag)
                     running, last, piece_start, work_start, work_lag, run_end, run_lag = state
-                if ready and not res:  # the switch, inline on purpose (folding it with the
+                elif ready:  # the switch, inline on purpose (folding it with the
                     key = ready[0][0]  # one above, by calls, costs 3-4 % in bench_sim)
                     if running is None or (key < running.key if by_key else preempts(key, running)):
                         if running is not None:
@@ -601,18 +601,13 @@ class CPU(ResourceProtocols, TimeSlices):
         work_lag: float,
     ) -> bool:
         """A timer is due at ``now`` (step 2; popped here) that the dispatcher does not handle
-        itself: a release (not of a fixed period, finish-late, without hooks and jitter), an
-        idle suspension ends, a jittered job is released, a time slice ends or a job is
-        aborted at its deadline. True if ``running`` left the CPU."""
+        itself (releases and the ends of idle suspensions, `_release` and `_resume`, it calls):
+        a jittered job is released, a time slice ends or a job is aborted at its deadline. True
+        if ``running`` left the CPU."""
         heapq.heappop(self._timers)
         kind = entry[4]
         job = entry[5]
-        if kind == _RELEASE:
-            self._release(job, now)
-        elif kind == _RESUME:
-            if not job.aborted:
-                self._resume(job, now)
-        elif kind == _JREL:
+        if kind == _JREL:
             self._jittered_release(job, now)
         elif kind == _SLICE:  # (rtsim.sim.slices)
             return self._slice_ends(entry, running, now, now_lag, piece_start, work_start, work_lag)
@@ -750,7 +745,10 @@ class CPU(ResourceProtocols, TimeSlices):
         )
 
     def _resume(self, job: Job, now: float) -> None:
-        """An idle-mode suspension ends: trace it, then the job is eligible again."""
+        """An idle-mode suspension ends: trace it, then the job is eligible again (if it was not
+        aborted meanwhile)."""
+        if job.aborted:
+            return
         if self.record_trace and now > job.seg_start:  # type: ignore[operator]
             seg = job._st.segs[job.seg_index]
             self._trace_rows.append(

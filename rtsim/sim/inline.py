@@ -69,36 +69,35 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
     last_release, inf, tst = cpu._last_release, _INF, cpu._top_state  # (the run's constants,
     assert tst is not None  # as closure cells; tst: the task booked, a CPU has one: `CPU.start`)
     stats, first, period, rel_deadline = tst.stats, tst.first, tst.period, tst.deadline
+    c = tst.fast_start  # (a constant time: its jobs are booked)
 
     def book(top, running, now, now_lag, work_start, work_lag, t_next, tol, tol_next):
         """Book ``top``'s job if it can be (module doc): `Booked`; None if not: its Job is ready."""
         nonlocal top_resp, top_bin, top_counts
         st, k, r, seq = top
-        limit, c = now + tol, st.fast_start  # (due by limit: at now)
-        job, wins, nxt_job, from_ready = None, True, running, False  # (wins: always under fp;
-        if ready:  # nxt_job: the first in the ready order after the top task's job, at f)
-            h = ready[0]
+        limit, job, nxt_job, from_ready, rn = now + tol, None, running, False, r  # (due by
+        if ready:  # limit: at now) nxt_job: the first in the ready order after the top task's
+            h = ready[0]  # job, at f
             if running is None or (
                 h[0] <= running.key and (h[0] < running.key or h[1] < running.tie)
             ):
                 nxt_job, from_ready = h[2], True
-        nxt_ok = nxt_job is None or nxt_job.rem is not None  # (it has started: no hook at f)
-        unbooked = moved = due = held = rel_first = False  # (moved: the clock, to a release)
-        kn, rn, live, ot, other = st.k, st.next_release, True, inf, None  # the top task's next
-        top_n, released, sum_resp, switches, jpre = 0, 0, stats.sum_response, 0, 0  # release
-        busy = jrem = jex = xr = 0.0  # (k, t) in locals: its timer held out of the heap (live:
-        while True:  # (one pass for the first job, then after each release: the next)
+        wins = nxt_job is None or nxt_job.rem is not None  # (it has started: no hook at f; so
+        unbooked = moved = due = held = False  # has each job after it; wins: then always
+        top_n, released, sum_resp, switches = 0, 0, stats.sum_response, 0  # under fp) (moved:
+        while True:  # the clock, to a release) one pass for the first job, then after each release
             if not top_first:  # (its key, a deadline, is compared with the others')
                 job = Job(st, k, r, r + rel_deadline, period, seq)
                 jk = job.key
-                wins = (running is None or jk < running.key) and (
+                ok = (running is None or jk < running.key) and (
                     not ready or jk < ready[0][0] or (jk == ready[0][0] and job.tie < ready[0][1])
                 )
+                wins = wins and ok
             x = c + now_lag  # type: ignore[operator]
             f = now + x
             y = f - now
             f_lag = (now - (f - y)) + (x - y)
-            if not (wins and limit < f and f + tol < t_next and t_next < inf and nxt_ok) or (
+            if not (wins and limit < f and f + tol < t_next and t_next < inf) or (
                 queue and queue[0][0] <= f
             ):  # (nothing happens in (now, f], and no hook runs at f)
                 unbooked = True
@@ -108,18 +107,19 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                     running, nxt_job, now, now_lag, work_start, work_lag, cpu
                 )  # (its progress in locals while it runs)
                 running, now_lag, moved, switches = nxt_job, 0.0, True, 2
-            else:  # (in the horizon), ot/other: the first timer left in it; top_n: responses
-                if not moved:  # = top_resp not in its bin yet) the first: the job after, if
-                    busy, moved = totals.busy, True  # any, is the one running (it has started:
-                    if running is not None:  # nxt_ok); its progress in locals while it runs
+            else:  # (top_n: the responses = top_resp not in its bin yet) the first: the job
+                if not moved:  # after, if any, is the one running (it has started: wins);
+                    busy, moved = totals.busy, True  # its progress in locals while it runs
+                    if running is not None:
                         jrem, jex, jpre = running.rem, running.executed, running.preemptions
-                switches += 1  # the job after is preempted at now
-                if nxt_job is not None:
-                    jpre, switches = jpre + 1, switches + 1
+                if nxt_job is not None:  # the job after is preempted at now
+                    jpre, switches = jpre + 1, switches + 2
                     if now > work_start:  # (always, but at the first)
                         worked = now - work_start
                         jex, busy = jex + worked, busy + worked
                         jrem = jrem - worked - (now_lag - work_lag)
+                else:
+                    switches += 1
                 now_lag = 0.0
             busy += f - now  # its completion at f: step 1 and CPU._complete, no Job
             resp = f - r
@@ -138,12 +138,11 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                 top_record(st, k, r, now, f, f > deadline + tol)
             now, work_start, work_lag = f, f, f_lag  # (env._now is set where the clock stops)
             run_end = f + (xr := jrem + f_lag) if nxt_job is not None else inf  # (the job after
-            # gets the CPU at f, its run_lag at the end) Next, as the loop would: 4. the wait; 1.
-            while not (t_next < run_end and (not queue or t_next < queue[0][0])):  # it ends (1, 3
+            while not (t_next < run_end and (not queue or t_next < queue[0][0])):  # gets the CPU)
                 if nxt_job is None or not (js := nxt_job._st).simple or js.job_end_hooks:
                     moved = False  # (not here, as `_job_ends` would find: to the wait)
-                    break
-                if held and live:  # here: nothing else due); 2. the top task's release (else on)
+                    break  # Next, as the loop would: 4. the wait; 1. the job after ends (1, 3
+                if held:  # here: nothing else due); else 2. the top task's release
                     heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
                 held = False  # (the heap whole again: CPU._complete may add a timer)
                 e = _job_ends(cpu, nxt_job, work_start, run_end, xr, jex, jpre, t_next, tol_next)
@@ -166,46 +165,47 @@ def top_jobs(cpu: Dispatcher, queue: list[Any], top_first: bool, top_record: Rec
                         break
                     heappop(timers)
                     held = True
+                    if not released:  # the top task's next release (k, t) in locals while
+                        kn, rn = st.k, st.next_release  # its timer is out of the heap (held)
                     other, ot = (timers[0], timers[0][0]) if timers else (None, inf)
-                elif not rel_first:  # (the first timer is another one)
-                    break
-                k, r = kn, rn  # the release of step 2's fast path (stats.max_backlog is 1 already)
-                kn = k + 1
-                released += 1  # (its sequence number drawn at the end under fp)
-                if not top_first:
-                    seq = next(seqs)
+                k, r, kn, released = kn, rn, kn + 1, released + 1  # the release of step 2's fast
+                if not top_first:  # path (stats.max_backlog is 1 already; under fp its sequence
+                    seq = next(seqs)  # number is drawn at the end)
                 after = first + kn * period
                 if after < last_release:  # (first if earlier, or at once with a later entry)
                     if after < ot or (after == ot and _first(after, st, other)):
                         rn = t_next = after
-                        rel_first = True
-                    else:
-                        rn, t_next, rel_first = after, ot, False
-                else:
-                    live = rel_first = False
-                    t_next = ot
+                    else:  # (the first timer is another one: the release's back in the heap)
+                        rn, t_next, held = after, ot, False
+                        heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
+                else:  # (none in the horizon)
+                    t_next, held = ot, False
                 if t_next > limit:
                     continue  # (the next job: booked as the first was, or not)
                 due = True  # (another timer is due: step 2 goes on, then this job)
             break
-        if top_first and released:  # (the releases' sequence numbers, drawn in one call)
-            seq = next(seqs) if released == 1 else next(islice(seqs, released - 1, None))
+        if released:
+            if top_first:  # (the releases' sequence numbers, drawn in one call)
+                seq = next(seqs) if released == 1 else next(islice(seqs, released - 1, None))
+            if held:  # (its timer back in the heap)
+                heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
+            st.k, st.next_release = kn, rn
+            stats.released += released
         if unbooked:  # (the job released at now: not booked, ready; or booked at step 3)
             _enqueue(job, st, k, r, period, seq, ready)
             if not moved:  # (the first)
                 return None
-        if held and live:  # (its timer back in the heap)
-            heappush(timers, (rn, st.rank, st.priority, st.index, _RELEASE, st))
-        st.k, st.next_release, run_lag = kn, rn, 0.0
         if nxt_job is not None:  # (its progress, and the lag of its end)
             nxt_job.rem, nxt_job.executed, nxt_job.preemptions = jrem, jex, jpre
             y = run_end - work_start
             run_lag = (work_start - (run_end - y)) + (xr - y)
+        else:
+            run_lag = 0.0
         if top_n:
             top_counts[top_bin] += top_n
         totals.busy, totals.switches = busy, totals.switches + switches
         stats.completed += released if unbooked or due else released + 1  # (jobs booked)
-        stats.sum_response, stats.released = sum_resp, stats.released + released
+        stats.sum_response = sum_resp
         env._now = now
         nxt = (st, k, r, seq) if due else None
         return moved, nxt, running, now, now_lag, work_start, work_lag, run_end, run_lag
