@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from itertools import chain
+from itertools import chain, compress
 from operator import attrgetter, itemgetter
 from typing import Any
 
@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from rtsim.analysis.kinematics import BOUND_KINDS, relative_state, relative_states_of
 from rtsim.sim.records import EPS
 from rtsim.world.localization import LOST_CAUSES
+from rtsim.world.scanstep import FLOAT_ROWS
 
 _chain = chain.from_iterable
 
@@ -46,6 +47,8 @@ __all__ = [
     "WINDOW_COLUMNS",
     "FOLLOWER_FIELDS",
     "LOCALIZATION_COLUMNS",
+    "ScanChanges",
+    "ScanRows",
     "StateRows",
     "VIOLATION_FIELDS",
     "WindowRecord",
@@ -181,7 +184,11 @@ class StateRows(Sequence[tuple[float, ...]]):
     them. Iterates and indexes as the tuple of rows it stands for.
 
     ``poses``: (x, y, θ) per follower, and ``speeds`` their V_F (iterables the caller no
-    longer changes, read once)."""
+    longer changes, read once); or ``poses`` a float array whose rows ``speeds`` (an int)
+    to ``speeds`` + 3 are the followers' x, y, θ and V_F (a copy of the scan's kernel rows,
+    `rtsim.world.scanstep.FLOAT_ROWS`: one object a record instead of the rows' lists); or
+    with ``speeds`` None, ``poses`` a row per follower whose first four values are x, y, θ
+    and V_F (the estimates' rows as the decision read them, kept as they are)."""
 
     __slots__ = ("_lp", "_poses", "_speeds", "_rows")
 
@@ -194,10 +201,16 @@ class StateRows(Sequence[tuple[float, ...]]):
         out = self._rows
         if out is None:
             lp = self._lp
+            poses, speeds = self._poses, self._speeds
+            if type(speeds) is int:  # (the array's rows: their floats, as lists)
+                x, y, th, speeds = poses[speeds : speeds + 4].tolist()
+                poses = zip(x, y, th, strict=True)
+            elif speeds is None:  # (rows of x, y, θ, V_F, ...)
+                poses, speeds = list(map(_POSE_OF, poses)), list(map(_SPEED_OF, poses))
             out = self._rows = tuple(
                 [
                     (*pose, *relative_state(lp, pose), v)
-                    for pose, v in zip(self._poses, self._speeds, strict=True)
+                    for pose, v in zip(poses, speeds, strict=True)
                 ]
             )
             self._poses = self._speeds = ()
@@ -223,21 +236,62 @@ class StateRows(Sequence[tuple[float, ...]]):
         return f"StateRows({self.rows()!r})"
 
 
+class ScanRows(Mapping[str, Any]):
+    """A record's per-follower values by key, read from a copy of the fused scan's rows
+    (``rows``: `KEYS`' rows from `AT` on, each key's row an array of one value per
+    follower): one object a record instead of a dict of lists, and the table reads every
+    record's rows in one pass (`changes_array`)."""
+
+    __slots__ = ("rows",)
+    #: the keys, in order, and where their rows begin
+    KEYS: tuple[str, ...] = ()
+    AT = 0
+
+    def __init__(self, rows: NDArray[Any]) -> None:
+        self.rows = rows
+
+    def __getitem__(self, key: str) -> NDArray[Any]:
+        try:
+            return self.rows[self.AT + self.KEYS.index(key)]
+        except ValueError:
+            raise KeyError(key) from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.KEYS)
+
+    def __len__(self) -> int:
+        return len(self.KEYS)
+
+
+class ScanChanges(ScanRows):
+    """A record's observed changes (`CHANGE_KEYS` → each follower's, as ``Scan.changes``)
+    in a copy of the fused scan's float rows (`rtsim.world.scanstep.FLOAT_ROWS`)."""
+
+    __slots__ = ()
+    KEYS = CHANGE_KEYS
+    AT = FLOAT_ROWS.index(CHANGE_KEYS[0])
+
+
+assert FLOAT_ROWS[ScanChanges.AT :][: len(CHANGE_KEYS)] == CHANGE_KEYS
+
+
 @dataclass(slots=True)
 class WindowRecord:
     """One window, filled in stages: at its release (the decision that governs it), at its
     scan (truth, points, lost tracks), when the Hough time is known, at its completion
     (``finish``), and at the next scan (``viol``).
 
-    ``truth`` and ``est`` are n rows of 7 floats in `FOLLOWER_FIELDS` order (tuples
-    or an (n, 7) array); ``pred`` n rows of the decision's four bounds (ms, BOUND_KINDS
-    order) at ``v_leader_max``, the highest speed the leader had between this window's scan
-    and the next; ``viol`` maps each of `BOUND_KINDS`
-    to an (n,) bool array (``World.scan(...).violations``), ``changes`` the observed changes
-    (``Scan.changes``), ``lost`` is (n,) bool. ``segment`` and ``curvature`` are the leader's
-    segment kind and curvature, or (a coupled run's, until the table reads them) its path
-    and its arc length then (`segments`); ``fix_error`` and ``neighbour`` None: no fix and
-    no neighbour for any follower. ``decision``: the decision that governs the window, kept
+    ``truth`` and ``est`` are n rows of 7 floats in `FOLLOWER_FIELDS` order (tuples,
+    an (n, 7) array or `StateRows`); ``pred`` n rows of the decision's four bounds (ms,
+    BOUND_KINDS order) at ``v_leader_max``, the highest speed the leader had between this
+    window's scan and the next; ``viol`` maps each of `BOUND_KINDS` to an (n,) bool array
+    (``World.scan(...).violations``), ``changes`` the observed changes (``Scan.changes``;
+    a coupled run with the fused scan keeps them as `ScanChanges` over a copy of the
+    scan's rows, one object instead of a dict of lists), ``lost`` is (n,) bool.
+    ``segment`` and ``curvature`` are the leader's segment kind and curvature, or (a
+    coupled run's, until the table reads them) its path and its arc length then
+    (`segments`); ``fix_error`` and ``neighbour`` None: no fix and no neighbour for any
+    follower. ``decision``: the decision that governs the window, kept
     by a coupled run until the next scan has read it.
     """
 
@@ -403,9 +457,30 @@ def _each(recs: list[WindowRecord], name: str, keys: tuple[str, ...] = ()) -> An
 def changes_array(recs: list[WindowRecord], n: int) -> NDArray[np.float64]:
     """The observed changes of complete records ``recs`` of ``n`` followers, one (records,
     `CHANGE_KEYS`, n) array (`WindowRecord.changes`)."""
-    nb = len(CHANGE_KEYS)
-    rows = _each(recs, "changes", CHANGE_KEYS)
-    return _flat(rows, np.float64, len(recs) * nb * n).reshape(len(recs), nb, n)
+    return _keyed(list(map(_CHANGES, recs)), ScanChanges, np.float64, n)
+
+
+def _keyed(maps: list[Any], kind: type[ScanRows], dtype: Any, n: int) -> NDArray[Any]:
+    """Each of ``maps`` (a mapping of ``kind.KEYS`` to ``n`` values) as one (len(maps),
+    keys, n) array of ``dtype``: copies of the scan's rows (``kind``) in one pass, any other
+    mapping read by its keys."""
+    nb, m = len(kind.KEYS), len(maps)
+    values = itemgetter(*kind.KEYS)
+    fused = [type(c) is kind for c in maps]
+    if not any(fused):
+        return _flat(map(values, maps), dtype, m * nb * n).reshape(m, nb, n)
+    # (the copies in one pass, concatenated: ≈ 2.5x np.stack's speed on small arrays; a
+    # run closed after its loop holds its last record's as the scan's lists)
+    lo = kind.AT
+    copies = np.concatenate([c.rows for c in compress(maps, fused)])
+    every = copies.reshape(sum(fused), -1, n)[:, lo : lo + nb]
+    if len(every) == m:
+        return every.astype(dtype, copy=False)
+    out = np.empty((m, nb, n), dtype=dtype)
+    out[np.flatnonzero(fused)] = every
+    for i in np.flatnonzero(np.logical_not(fused)).tolist():
+        out[i] = values(maps[i])
+    return out
 
 
 def records_columns(
@@ -539,7 +614,12 @@ def segments(recs: list[WindowRecord]) -> tuple[list[str], list[float]]:
     return kinds, kappas
 
 
+_POSE_OF = itemgetter(0, 1, 2)
+_SPEED_OF = itemgetter(3)
+_CHANGES = attrgetter("changes")
 _LP = attrgetter("_lp")
+_ROWS = attrgetter("_rows")
+_SHAPE = attrgetter("shape")
 _POSES = attrgetter("_poses")
 _SPEEDS = attrgetter("_speeds")
 
@@ -551,9 +631,16 @@ def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:
     gives."""
     objs = list(rows)
     k = len(FOLLOWER_FIELDS)
+    cols = _columns(objs, m, n)
+    if cols is None:
+        cols = _wide(objs, m, n)
+    if cols is not None:
+        return cols
     for o in objs:
         if type(o) is not StateRows or o._rows is not None:
             break
+        if o._speeds is None or type(o._speeds) is int:  # (the other forms: `_wide`,
+            break  # `_columns`; mixed, or of other shapes, read one by one below)
         p = o._poses
         if type(p) is not list:  # (kept for a later `rows`: poses may be an iterator)
             p = o._poses = list(p)
@@ -563,15 +650,65 @@ def _states(rows: Any, m: int, n: int) -> NDArray[np.float64]:
         if m:
             mn = m * n
             pose = np.fromiter(_chain(_chain(map(_POSES, objs))), float, 3 * mn).reshape(mn, 3)
-            lead = np.fromiter(_chain(map(_LP, objs)), float, 3 * m).reshape(m, 3)
-            lead = np.repeat(lead, n, axis=0)
-            out = np.empty((mn, k))
-            out[:, :3] = pose
-            xl, yl, hl = lead.T
-            out[:, 3:6] = np.transpose(relative_states_of(xl, yl, hl, *pose.T))
-            out[:, 6] = np.fromiter(_chain(map(_SPEEDS, objs)), float, mn)
-            return out.reshape(m, n, k)
+            speeds = np.fromiter(_chain(map(_SPEEDS, objs)), float, mn)
+            return _state_table(objs, pose, speeds, m, n)
     return _flat(objs, float, m * n * k).reshape(m, n, k)
+
+
+def _state_table(
+    objs: list[Any], pose: NDArray[np.float64], speeds: NDArray[np.float64], m: int, n: int
+) -> NDArray[np.float64]:
+    """`_states`' (m, n, 7) array of ``m`` `StateRows` ``objs`` from their poses (an (m·n,
+    3) array, records' followers in order) and speeds (m·n), and their leaders' poses."""
+    lead = np.fromiter(_chain(map(_LP, objs)), float, 3 * m).reshape(m, 3)
+    lead = np.repeat(lead, n, axis=0)
+    k = len(FOLLOWER_FIELDS)
+    out = np.empty((m * n, k))
+    out[:, :3] = pose
+    xl, yl, hl = lead.T
+    out[:, 3:6] = np.transpose(relative_states_of(xl, yl, hl, *pose.T))
+    out[:, 6] = speeds
+    return out.reshape(m, n, k)
+
+
+def _columns(objs: list[Any], m: int, n: int) -> NDArray[np.float64] | None:
+    """`_states` of ``m`` `StateRows` not read yet in their array form (arrays of one shape,
+    ``n`` followers, the same row), read in one pass; None for any other."""
+    if not _unread(objs):
+        return None
+    speeds = list(map(_SPEEDS, objs))
+    if set(map(type, speeds)) != {int} or len(set(speeds)) != 1:
+        return None
+    at = speeds[0]
+    arrays = list(map(_POSES, objs))
+    if set(map(type, arrays)) != {np.ndarray}:
+        return None
+    shape = arrays[0].shape
+    if len(shape) != 2 or shape[1] != n or set(map(_SHAPE, arrays)) != {shape}:
+        return None
+    cols = np.concatenate(arrays).reshape(m, -1, n)[:, at : at + 4]  # (m, 4, n): x, y, θ, v
+    cols = cols.transpose(0, 2, 1).reshape(m * n, 4)  # (the records' followers in order)
+    return _state_table(objs, cols[:, :3], cols[:, 3], m, n)
+
+
+def _wide(objs: list[Any], m: int, n: int) -> NDArray[np.float64] | None:
+    """`_states` of ``m`` `StateRows` not read yet whose poses are lists of ``n`` rows of x,
+    y, θ, V_F and more (``speeds`` None), read in one pass; None for any other."""
+    if not _unread(objs) or set(map(type, map(_SPEEDS, objs))) != {type(None)}:
+        return None
+    rows = list(map(_POSES, objs))
+    if set(map(type, rows)) != {list} or set(map(len, rows)) != {n}:
+        return None
+    width = len(rows[0][0]) if n else 4
+    if width < 4 or set(map(len, _chain(rows))) != {width}:
+        return None
+    a = np.fromiter(_chain(_chain(rows)), float, m * n * width).reshape(m * n, width)
+    return _state_table(objs, a[:, :3], a[:, 3], m, n)
+
+
+def _unread(objs: list[Any]) -> bool:
+    """Every one of ``objs`` (at least one) a `StateRows` whose rows are not made yet."""
+    return bool(objs) and set(map(type, objs)) == {StateRows} and not any(map(_ROWS, objs))
 
 
 def _follower_state(

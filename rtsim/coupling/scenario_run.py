@@ -20,7 +20,6 @@ import secrets
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from operator import itemgetter
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -53,6 +52,7 @@ from rtsim.coupling.physical import PhysicalLog
 from rtsim.coupling.prepared import run_constant, settled_world, window_bound
 from rtsim.coupling.recorder import (
     CHANGE_KEYS,
+    ScanChanges,
     StateRows,
     WindowRecord,
     WindowRecorder,
@@ -197,13 +197,11 @@ class _Decision(NamedTuple):
     near: tuple[float, ...] = ()
 
 
+#: an instance made without its ``__init__`` (its fields set by the caller)
+_BARE = object.__new__
+
 #: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
 _DECISION = _Decision._make
-
-#: a `World.estimate_rows` row's pose (x, y, θ), as a tuple
-_POSE = itemgetter(0, 1, 2)
-#: ... and its speed V_F
-_SPEED = itemgetter(3)
 
 
 class _Coupling:
@@ -601,6 +599,9 @@ class _Coupling:
     _ro_step: Any = None
     #: with `_ro_step`, the policy's decision of its plan (`PlanPolicy.on_rollout`'s)
     _ro_decision: Any = None
+    #: the fused scan's float rows (`rtsim.world.scanstep.FLOAT_ROWS`), which each record's
+    #: truth copies (`_on_scan`), or None
+    _scan_T: Any = None
 
     def _estimates(self, now: float, next_scan: float | None = None) -> _Decision:
         """Run the mode's decision on the leader's estimates at ``now``; ``next_scan``: when
@@ -627,7 +628,7 @@ class _Coupling:
                 tuple(self._send_offsets),
             )
             adj = self._ro_decision(hit)  # (the policy's `decision`, bound with the step)
-            state = StateRows(lp, map(_POSE, rows), list(map(_SPEED, rows)))  # (as below)
+            state = StateRows(lp, rows, None)  # (as below)
             fols: tuple[Any, ...] = ()
             kw = {"rollout": ro}
         else:
@@ -636,9 +637,9 @@ class _Coupling:
             # World.relative(i, "estimate")[3]; World.estimate_rows)
             rows = world.estimate_rows(now)
             # per follower (x, y, θ, ρ, β, θ_L − θ_F, V_F), the window's est columns (the
-            # relative states made when read: StateRows; its poses read once, from the rows,
+            # relative states made when read: StateRows; its poses read from the rows,
             # which no one changes)
-            state = StateRows(lp, map(_POSE, rows), list(map(_SPEED, rows)))
+            state = StateRows(lp, rows, None)
             fols = self._followers(state) if self._fols else ()
             # the predictor's options: for the policy's input and the _pred columns of a
             # decision without a rollout (one decided on the rollout alone reads only the
@@ -797,6 +798,9 @@ class _Coupling:
         if self._last_scanned is None:  # (before the first scan: the truth log's samples
             # made in the scan's call where the world makes them, `PhysicalLog.fuse`)
             self._phys_rows = self.phys.fuse(world)
+            if self._phys_rows is not None:  # (the fused scan's float rows, `_on_scan`)
+                fused: Any = world._fused  # (its float rows, rewritten by each scan)
+                self._scan_T = fused.T
         scan = world.scan_estimate(now)  # (scan, then estimate)
         # the scan's fields as its lists, read once (not a property call each: `Scan.fields`)
         raw = scan.fields()
@@ -830,17 +834,20 @@ class _Coupling:
         # copies, the poses zipped when read) and the truth log's samples
         put = self._phys_rows
         if put is not None:  # (both as the scan's call made them: its rows)
-            T: Any = world.scan_rows
-            i = TRUTH_ROW
-            rec.truth = StateRows(lp, zip(T[i], T[i + 1], T[i + 2]), T[i + 3])  # noqa: B905
+            # (a copy of the scan's float rows: this record's truth and the previous one's
+            # changes read from one array, no lists kept: `StateRows`, `ScanChanges`)
+            rows = self._scan_T.copy()
+            rec.truth = StateRows(lp, rows, TRUTH_ROW)
+            T: Any = world.scan_rows  # (the same rows as lists)
             near = rec.near = put(T)
         else:
             fol = world.followers
             x, y, th, v = fol.truth()
             rec.truth = StateRows(lp, zip(x, y, th), v)  # noqa: B905
             near = rec.near = self._phys_add(lp, *fol.xy)
+            rows = None
         if self._last_scanned is not None:
-            self._close(scan, near, raw)
+            self._close(scan, near, raw, rows)
         self._last_scanned = rec
         self._v_max = world.leader.speed  # (_v_actual)
 
@@ -862,18 +869,26 @@ class _Coupling:
         got = memo[key] = (hough_ms, broken)
         return got
 
-    def _close(self, scan: Any, near: Sequence[float] = (), raw: Any = None) -> None:
+    def _close(
+        self, scan: Any, near: Sequence[float] = (), raw: Any = None, rows: Any = None
+    ) -> None:
         """Close the previous window's observation interval with ``scan``'s violations (and
         ``near``, each follower's closest approach at it; ``raw``: the scan's `Scan.fields`
-        when the caller has them)."""
+        when the caller has them; ``rows``: a copy of the fused scan's float rows, whose
+        changes the record keeps, `ScanChanges`)."""
         last = self._last_scanned
         if last is None:
             return
         if raw is None:
             raw = scan.fields()
         # (the scan's mappings are its own, made for it and never changed: kept, no copy)
-        last.viol = raw["violations"]
-        last.changes = raw["changes"]
+        if rows is None:
+            last.viol = raw["violations"]
+            last.changes = raw["changes"]
+        else:  # (`ScanChanges(rows)` without its __init__'s call)
+            last.viol = raw["violations"]
+            ch = last.changes = _BARE(ScanChanges)
+            ch.rows = rows
         # the bounds the window's decision predicts at the highest speed the leader had in
         # the interval the changes span (the world has advanced to the scan)
         v = self.world.leader.speed  # (_v_actual)

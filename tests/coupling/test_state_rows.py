@@ -48,9 +48,16 @@ def test_run_records_equal_eager_rows(monkeypatch: pytest.MonkeyPatch) -> None:
     real = scenario_run.StateRows
 
     def capture(lp, poses, speeds):  # type: ignore[no-untyped-def]
-        poses, speeds = list(poses), list(speeds)  # (the truth's poses come as a zip)
-        eager = tuple((*p, *relative_state(lp, p), v) for p, v in zip(poses, speeds, strict=True))
         out = real(lp, poses, speeds)
+        if type(speeds) is int:  # (a copy of the scan's float rows: x, y, θ, v at a row)
+            x, y, th, speeds = poses[speeds : speeds + 4].tolist()
+            poses = list(zip(x, y, th, strict=True))
+        elif speeds is None:  # (the estimates' rows: x, y, θ, v first)
+            poses, speeds = [tuple(r[:3]) for r in poses], [r[3] for r in poses]
+        else:
+            poses, speeds = list(poses), list(speeds)
+            out = real(lp, poses, speeds)  # (the truth's poses come as a zip)
+        eager = tuple((*p, *relative_state(lp, p), v) for p, v in zip(poses, speeds, strict=True))
         made.append((out, eager))
         return out
 
@@ -105,9 +112,65 @@ def test_table_states_are_the_rows() -> None:
     recs, n = held.recs, held.n
     for name in ("truth", "est"):
         objs = [getattr(r, name) for r in recs]
-        fresh = [StateRows(o._lp, list(o._poses), list(o._speeds)) for o in objs]
-        a = _states(iter(fresh), len(fresh), n)
-        assert all(o._rows is None for o in fresh)  # (not made: one pass over the poses)
-        b = _flat(iter(fresh), float, len(fresh) * n * 7).reshape(len(fresh), n, 7)
-        assert a.tobytes() == b.tobytes() and a.dtype == np.float64
-        assert _states(iter(fresh), len(fresh), n).tobytes() == b.tobytes()  # (rows made)
+        assert {type(o._speeds) for o in objs} == {int if name == "truth" else type(None)}
+        # (each form: as the run made them, and as poses and speeds)
+        forms = [[StateRows(o._lp, o._poses, o._speeds) for o in objs]]
+        forms.append([StateRows(o._lp, *_poses_speeds(o)) for o in objs])
+        forms.append(  # (mixed: every other record as poses and speeds)
+            [
+                StateRows(o._lp, *(_poses_speeds(o) if k % 2 else (o._poses, o._speeds)))
+                for k, o in enumerate(objs)
+            ]
+        )
+        for k, fresh in enumerate(forms):
+            a = _states(iter(fresh), len(fresh), n)
+            # (one form: not made, one pass over the poses; mixed: row by row)
+            assert all(o._rows is None for o in fresh) or k == 2
+            b = _flat(iter(fresh), float, len(fresh) * n * 7).reshape(len(fresh), n, 7)
+            assert a.tobytes() == b.tobytes() and a.dtype == np.float64
+            assert _states(iter(fresh), len(fresh), n).tobytes() == b.tobytes()  # (rows made)
+
+
+def _poses_speeds(o: StateRows) -> tuple[list[tuple[float, ...]], list[float]]:
+    """A `StateRows`' poses and speeds as lists, from any of its forms."""
+    poses, speeds = o._poses, o._speeds
+    if type(speeds) is int:
+        x, y, th, v = poses[speeds : speeds + 4].tolist()
+        return list(zip(x, y, th, strict=True)), v
+    return [tuple(r[:3]) for r in poses], [r[3] for r in poses]
+
+
+def test_scan_changes_read_as_the_scans_lists(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A run's records keep their changes as `ScanChanges` over a copy of the fused scan's
+    float rows (one closed after the loop, as the scan's lists): each reads as the scan's
+    mapping (a run that keeps the lists), and `changes_array` gives the same floats
+    whichever form a record holds, all of one or mixed."""
+    import numpy as np
+
+    from rtsim.coupling.recorder import CHANGE_KEYS, ScanChanges, changes_array
+
+    def run() -> list[scenario_run.WindowRecord]:
+        res = scenario_run.run_scenario(
+            "test2", record_jobs=False, overrides={"formation.followers": 3}, duration_s=20.0
+        )
+        return res.__dict__["_windows"].recs  # type: ignore[no-any-return]
+
+    recs = run()
+    close = scenario_run._Coupling._close
+    monkeypatch.setattr(
+        scenario_run._Coupling, "_close", lambda self, *a: close(self, *a[:3])
+    )  # (no rows: the scan's lists)
+    plain = run()
+    assert len(recs) == len(plain) > 10
+    assert all(type(r.changes) is ScanChanges for r in recs[:-1])
+    assert not any(type(r.changes) is ScanChanges for r in plain)
+    for r, p in zip(recs, plain, strict=True):
+        got, want_map = r.changes, p.changes
+        assert list(got) == list(CHANGE_KEYS) == list(want_map) and len(got) == 4
+        assert [list(map(float, got[k])) for k in CHANGE_KEYS] == [want_map[k] for k in CHANGE_KEYS]
+        assert "other" not in got and got.get("other") is None
+    want = np.array([[p.changes[k] for k in CHANGE_KEYS] for p in plain], dtype=float)
+    mixed = [*recs[:-1], plain[-1]]  # (as a run closed after its loop holds them)
+    for part, w in ((mixed, want), (recs[:-1], want[:-1]), (plain, want), ([], want[:0])):
+        got_a = changes_array(part, 3)
+        assert got_a.dtype == np.float64 and got_a.tobytes() == w.tobytes()
