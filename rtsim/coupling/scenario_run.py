@@ -799,8 +799,7 @@ class _Coupling:
             # made in the scan's call where the world makes them, `PhysicalLog.fuse`)
             self._phys_rows = self.phys.fuse(world)
             if self._phys_rows is not None:  # (the fused scan's float rows, `_on_scan`)
-                fused: Any = world._fused  # (its float rows, rewritten by each scan)
-                self._scan_T = fused.T
+                self._scan_T = world.scan_array
         scan = world.scan_estimate(now)  # (scan, then estimate)
         # the scan's fields as its lists, read once (not a property call each: `Scan.fields`)
         raw = scan.fields()
@@ -882,11 +881,10 @@ class _Coupling:
         if raw is None:
             raw = scan.fields()
         # (the scan's mappings are its own, made for it and never changed: kept, no copy)
+        last.viol = raw["violations"]
         if rows is None:
-            last.viol = raw["violations"]
             last.changes = raw["changes"]
         else:  # (`ScanChanges(rows)` without its __init__'s call)
-            last.viol = raw["violations"]
             ch = last.changes = _BARE(ScanChanges)
             ch.rows = rows
         # the bounds the window's decision predicts at the highest speed the leader had in

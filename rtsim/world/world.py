@@ -635,6 +635,14 @@ class World:
         self.advance(t_ms)
         return self._scan_fused(t_ms, True)
 
+    @property
+    def scan_array(self) -> Any:
+        """The fused scan's float rows as its kernel writes them (`FLOAT_ROWS`: rewritten by
+        every scan, so a reader that keeps them copies them), or None where the scan does
+        not fuse."""
+        fused = self._fused
+        return None if fused is None else fused.T
+
     def log_truth(self, law: Any, rho_d: Sequence[float], guess: Sequence[float]) -> Any:
         """Make a truth log's samples in every scan from now on (the fused scan's call,
         `rtsim.world.scanstep.FusedScan.log_truth`; read from `scan_rows`) for a log on
