@@ -108,18 +108,15 @@ def settled_world(cfg: WorldConfig, w_sch: float) -> WorldConfig:
     """``cfg`` with its leader's start speed `settled_speed` (a settled start), made once
     per process for that configuration object and w_sch: a sweep's next point of a prepared
     scenario shares its (frozen) world and skips its validation again (≈ 50 µs). Kept by
-    the object (alive while kept, so its id is its own) and w_sch; the value is
-    `dataclasses.replace` of it either way."""
-    key = (id(cfg), float(w_sch))
-    hit = _kept(
+    the object (alive while kept, so its id is its own) and w_sch."""
+    key = (id(cfg), float(w_sch))  # (``cfg`` kept beside its value: alive, its id its own)
+    kept = _kept(
         _WORLDS,
         SETTLED_MAX,
         key,
         lambda: (cfg, replace(cfg, start_speed=settled_speed(cfg, w_sch))),
     )
-    if hit[0] is not cfg:  # (never: an object kept is alive, its id not reused)
-        return replace(cfg, start_speed=settled_speed(cfg, w_sch))
-    return hit[1]  # type: ignore[no-any-return]
+    return kept[1]  # type: ignore[no-any-return]
 
 
 _WORLDS: OrderedDict[tuple[Any, ...], tuple[WorldConfig, WorldConfig]] = OrderedDict()

@@ -30,7 +30,6 @@ tests.
 from __future__ import annotations
 
 import math
-import threading
 from functools import lru_cache
 from typing import Any
 
@@ -115,22 +114,16 @@ def ring_steps(r_F: float, cell: float) -> tuple[NDArray[np.float64], NDArray[np
     `ring` (the products the walk would form at each step, formed once), `TURNS` turns
     over: direction a (any a in [−2·na, 3·na)) at index a + 2·na, so an arc is one run of
     indices."""
-    key = (r_F, cell)
-    kept = _RINGS.get(key)
-    if kept is None:  # (made once per process for r_F and cell: a world copies them)
-        c, s = ring(r_F, cell)
-        kept = np.tile(r_F * c, TURNS), np.tile(r_F * s, TURNS)
-        with _RINGS_LOCK:  # (worlds may be made in threads: a Dask worker's)
-            _RINGS[key] = kept
-            while len(_RINGS) > RINGS_KEPT:
-                del _RINGS[next(iter(_RINGS))]
-    return kept[0].copy(), kept[1].copy()
+    c, s = _ring_steps(r_F, cell)  # (made once per process for r_F and cell: copied)
+    return c.copy(), s.copy()
 
 
-#: `ring_steps`' rings kept per process, by r_F and the cell
-RINGS_KEPT = 16
-_RINGS: dict[tuple[float, float], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
-_RINGS_LOCK = threading.Lock()
+@lru_cache(maxsize=16)
+def _ring_steps(r_F: float, cell: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """`ring_steps`' arrays, kept per process by r_F and the cell (never written: a world
+    copies them into its buffers)."""
+    c, s = ring(r_F, cell)
+    return np.tile(r_F * c, TURNS), np.tile(r_F * s, TURNS)
 
 
 @lru_cache(maxsize=64)

@@ -96,11 +96,7 @@ def built_entry(fn: Any, args: tuple[Any, ...]) -> Any:
     its arguments again: ≈ 0.5 ms a call)."""
     overloads = getattr(fn, "overloads", None)
     if overloads is not None:
-        key = _type_key(args)
-        if key is not None:
-            found = _BUILT.get((fn, key))
-            if found is not None:
-                return found
+        key = _type_key(args)  # (a build found once is `entry`'s, from `_BUILT`)
         typed = None if key is None else _TYPED.get((fn, key))
         if typed is None or typed not in overloads:
             fn.compile(tuple(map(fn.typeof_pyval, args)))
