@@ -257,11 +257,12 @@ class CompiledRollout:
     @staticmethod
     def planner(
         law: Any, base: Any, turned: bool, *decision: Any
-    ) -> Callable[..., tuple[CompiledRollout, list[float], _Kept, list[list[float]]]]:
+    ) -> Callable[..., tuple[CompiledRollout, list[float], _Kept, Any]]:
         """`direct`'s state and `decide` on it (``decision``: `decide`'s arguments) in one
         step, for the decisions of a run (``turned``: `direct`'s): ``step(carry, t_now,
         leader_s, leader_speed, pending, next_scan, sends)`` → (the `CompiledRollout`,
-        `decide`'s two answers, the follower pack's rows as lists). ``carry(t_now, out)``
+        `decide`'s two answers, the follower pack's rows: its array, which no call changes
+        afterwards, not lists of its floats a record would keep). ``carry(t_now, out)``
         writes the estimates' rows (x, y, θ, v̂, ω̂, v_c, ω_c:
         `rtsim.world.world.World.estimate_rows`) into the first seven columns of the pack's
         rows ``out`` in place: the pack is made with no list of the rows between (its send
@@ -297,7 +298,7 @@ class CompiledRollout:
             pending: Any,
             next_scan: float,
             sends: tuple[float, ...],
-        ) -> tuple[CompiledRollout, list[float], _Kept, list[list[float]]]:
+        ) -> tuple[CompiledRollout, list[float], _Kept, Any]:
             fol = fixed.get(sends)
             if fol is None:
                 if len(fixed) >= 256:  # (bounded: a long run's offsets vary)
@@ -324,7 +325,7 @@ class CompiledRollout:
             if entry_of[0] is None:
                 entry_of[0] = _ENTRIES.get(ker.roll_or_decide, f)
             got, kept = ro._decided(runs, fb, ib, w, windows, head)
-            return ro, got, kept, fol.tolist()
+            return ro, got, kept, fol
 
         return step
 

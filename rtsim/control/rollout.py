@@ -181,16 +181,19 @@ def rows_state(
     t_now: float,
     leader_s: float,
     leader_speed: float,
-    rows: Sequence[Sequence[float]],
+    rows: Any,
     pending: tuple[tuple[float, ...], ...],
     next_scan: float,
     send_offsets: tuple[float, ...],
     turned: bool,
 ) -> RolloutState:
     """`decided_state` of ``base`` at a decision that read ``rows``
-    (`rtsim.world.world.World.estimate_rows`: per follower x, y, θ, v̂, ω̂, v_c, ω_c): the
-    poses, speeds and held commands (v_c, ω_c) are theirs, and the turns their ω̂ when
-    ``turned`` (the motion model keeps a turn rate: `RolloutState.turns`), else none."""
+    (`rtsim.world.world.World.estimate_rows`: per follower x, y, θ, v̂, ω̂, v_c, ω_c; or
+    `planned`'s float array of them, read as its lists): the poses, speeds and held commands
+    (v_c, ω_c) are theirs, and the turns their ω̂ when ``turned`` (the motion model keeps a
+    turn rate: `RolloutState.turns`), else none."""
+    if type(rows) is np.ndarray:  # (its floats, as the lists `estimate_rows` gives)
+        rows = rows.tolist()
     return decided_state(
         base,
         t_now,
@@ -339,12 +342,12 @@ class Rollout:
         v_floor: float,
         windows: int,
         contact: float,
-    ) -> Callable[..., tuple[Rollout, Any, list[list[float]]]] | None:
+    ) -> Callable[..., tuple[Rollout, Any, Any]] | None:
         """`decided`'s rollout and its `plan` (V_Ld and w_sch ``base``'s, the other numbers
         these) in one step, for the decisions of a run (``turned``: `decided`'s):
         ``step(carry, t_now, leader_s, leader_speed, pending, next_scan, sends)`` → (the
-        rollout, `plan`'s answer, the estimates' rows it read: per follower x, y, θ,
-        v̂, then more), ``carry(t_now, out)`` writing the estimates' rows into the pack's
+        rollout, `plan`'s answer, the estimates' rows it read: a float array, per follower
+        x, y, θ, v̂, then more), ``carry(t_now, out)`` writing the estimates' rows into the pack's
         rows ``out`` (`rtsim.control.compiled_rollout.CompiledRollout.planner`); None when
         the law does not roll out compiled (the caller makes the rollout and plans)."""
         if not compiles(base.law):
@@ -364,7 +367,7 @@ class Rollout:
             pending: tuple[tuple[float, ...], ...],
             next_scan: float,
             sends: tuple[float, ...],
-        ) -> tuple[Rollout, Any, list[list[float]]]:
+        ) -> tuple[Rollout, Any, Any]:
             comp, out, kept, rows = inner(
                 carry, t_now, leader_s, leader_speed, pending, next_scan, sends
             )

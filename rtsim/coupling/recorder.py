@@ -186,7 +186,8 @@ class StateRows(Sequence[tuple[float, ...]]):
     ``poses``: (x, y, θ) per follower, and ``speeds`` their V_F (iterables the caller no
     longer changes, read once); or ``poses`` a float array whose rows ``speeds`` (an int)
     to ``speeds`` + 3 are the followers' x, y, θ and V_F (a copy of the scan's kernel rows,
-    `rtsim.world.scanstep.FLOAT_ROWS`: one object a record instead of the rows' lists); or
+    `rtsim.world.scanstep.FLOAT_ROWS`, or the decision's pack transposed: one object a
+    record instead of the rows' lists); or
     with ``speeds`` None, ``poses`` a row per follower whose first four values are x, y, θ
     and V_F (the estimates' rows as the decision read them, kept as they are)."""
 

@@ -628,7 +628,9 @@ class _Coupling:
                 tuple(self._send_offsets),
             )
             adj = self._ro_decision(hit)  # (the policy's `decision`, bound with the step)
-            state = StateRows(lp, rows, None)  # (as below)
+            # (the est columns' rows: x, y, θ, V_F the first four rows of the pack's array
+            # transposed, read when the table is made; one object a record, not its lists)
+            state = StateRows(lp, rows.T, 0)
             fols: tuple[Any, ...] = ()
             kw = {"rollout": ro}
         else:

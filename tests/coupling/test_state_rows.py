@@ -112,10 +112,14 @@ def test_table_states_are_the_rows() -> None:
     recs, n = held.recs, held.n
     for name in ("truth", "est"):
         objs = [getattr(r, name) for r in recs]
-        assert {type(o._speeds) for o in objs} == {int if name == "truth" else type(None)}
-        # (each form: as the run made them, and as poses and speeds)
+        # (a copy of the scan's rows; the decision's pack transposed, x its first row)
+        assert {type(o._speeds) for o in objs} == {int}
+        assert {o._speeds for o in objs} == ({scenario_run.TRUTH_ROW} if name == "truth" else {0})
+        # (each form: as the run made them, as poses and speeds, and as rows of x, y, θ,
+        # V_F and more, a decision's rows read as lists)
         forms = [[StateRows(o._lp, o._poses, o._speeds) for o in objs]]
         forms.append([StateRows(o._lp, *_poses_speeds(o)) for o in objs])
+        forms.append([StateRows(o._lp, o._poses[o._speeds :].T.tolist(), None) for o in objs])
         forms.append(  # (mixed: every other record as poses and speeds)
             [
                 StateRows(o._lp, *(_poses_speeds(o) if k % 2 else (o._poses, o._speeds)))
@@ -125,7 +129,7 @@ def test_table_states_are_the_rows() -> None:
         for k, fresh in enumerate(forms):
             a = _states(iter(fresh), len(fresh), n)
             # (one form: not made, one pass over the poses; mixed: row by row)
-            assert all(o._rows is None for o in fresh) or k == 2
+            assert all(o._rows is None for o in fresh) or k == 3
             b = _flat(iter(fresh), float, len(fresh) * n * 7).reshape(len(fresh), n, 7)
             assert a.tobytes() == b.tobytes() and a.dtype == np.float64
             assert _states(iter(fresh), len(fresh), n).tobytes() == b.tobytes()  # (rows made)
