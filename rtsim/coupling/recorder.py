@@ -315,7 +315,7 @@ class WindowRecord:
     tracks_lost: int = 0
     leader: tuple[float, float, float] = (math.nan, math.nan, math.nan)
     truth: Any = None
-    lost: NDArray[np.bool_] | None = None
+    lost: Sequence[bool] | None = None
     viol: Mapping[str, Sequence[bool]] | None = None  # (the scan's lists, as they are)
     changes: Mapping[str, Sequence[float]] | None = None
     v_leader_max: float = math.nan

@@ -424,6 +424,9 @@ class _Coupling:
         self._folded: dict[str, tuple[float, int]] = {}  # changes of records handed over
         self._open: dict[int, WindowRecord] = {}
         self._last_scanned: WindowRecord | None = None
+        # n False, every record's lost and contact flags when none is set (one tuple for
+        # the run: a record keeps no list of its own for them, `_on_scan`, `_close`)
+        self._falses = (False,) * self.n
         self._hough_ms = 0.0
         self.horizon_ms = horizon_ms
         self._s0 = self.world.leader.s
@@ -822,12 +825,15 @@ class _Coupling:
             got = self._hough_of(key)
         self._hough_ms = rec.hough_ms = got[0]
         rec.assumption_broken = got[1]
-        lost = rec.lost = raw["lost"]
+        lost = raw["lost"]
         if True in lost:  # (else tracks_lost, searches, ... keep their 0)
+            rec.lost = lost
             rec.tracks_lost = sum(lost)  # (scan.n_lost)
             rec.lost_by_cause = tuple(scan.lost_by_cause().values())
             rec.searches = searched
             rec.reacquisitions = scan.n_reacquired
+        else:  # (none lost: the run's one tuple of n False, not the scan's list kept)
+            rec.lost = self._falses
         rec.fix_error = raw["fix_error"]
         rec.neighbour = raw["neighbour"]
         lp = rec.leader = scan.leader_pose
@@ -915,13 +921,15 @@ class _Coupling:
             # function call, ≈ 1.7x the instructions at n = 2)
             d_c = self._contact_cm
             near_true: list[float] = []
-            broke: list[bool] = []
+            broke = False
             for a, b in zip(last.near, near):  # noqa: B905
                 x = b if b < a else a
                 near_true.append(x)
-                broke.append(x < d_c)
-            last.near_true = near_true  # (the lists as they are: made for the record)
-            last.viol_contact = broke
+                if x < d_c:
+                    broke = True
+            last.near_true = near_true  # (the list as it is: made for the record)
+            # (no break, the rule: the run's one tuple of n False, no list a record)
+            last.viol_contact = [x < d_c for x in near_true] if broke else self._falses
         # (the rollout's closest approaches: a list made for the call, kept as it is)
         if near_pred is None:
             near_pred = ro.closest(v_max) if ro is not None else d.near

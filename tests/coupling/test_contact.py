@@ -101,3 +101,27 @@ def test_contact_is_plans_own_key() -> None:
         make_policy("plan", {"contact": 1})
     with pytest.raises(InputError, match="a key of policy 'plan'"):
         make_policy("adjust", {"contact": False})
+
+
+def test_breaks_flagged_per_follower_and_none_shared(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A record's contact flags are x < d_c of its true closest approaches; a record without
+    a break (and without a lost track) holds the run's one tuple of n False, no list of its
+    own, read as the same columns."""
+    import rtsim.coupling.scenario_run as sr
+
+    def records() -> list[WindowRecord]:
+        res = run_scenario("test2", seed=3, duration_s=20.0, record_jobs=False)
+        return res.__dict__["_windows"].recs  # type: ignore[no-any-return]
+
+    recs = records()
+    assert len({id(r.viol_contact) for r in recs} | {id(r.lost) for r in recs}) == 1
+    assert recs[0].viol_contact == (False, False)
+    d_c = float(np.median([x for r in recs for x in r.near_true]))  # (about half break)
+    monkeypatch.setattr(sr, "contact_distance", lambda r_f, clearance: d_c)
+    recs = records()
+    flags = [list(r.viol_contact) for r in recs]
+    assert flags == [[x < d_c for x in r.near_true] for r in recs]
+    assert any(True in f for f in flags) and any(True not in f for f in flags)
+    lim = ((25.0,) * 2, (1.0,) * 2, (1.0,) * 2, (0.1,) * 2)
+    df = pd.DataFrame(records_columns(recs, 2, lim))
+    assert df["f1_viol_contact"].tolist() == [f[0] for f in flags]
