@@ -151,14 +151,11 @@ class World:
         self._rho_d = np.asarray(form.rho_d)
         self._beta_d = np.asarray(form.beta_d)
         fp = config.follower
-        self._kappa_targets = self.leader.curvature
-        self._l_d, self._psi_d = control_targets(
-            self._rho_d, self._beta_d, fp.control_offset, self._kappa_targets
-        )
-        self._targets_l: tuple[list[float], list[float]] = (
-            self._l_d.tolist(),
-            self._psi_d.tolist(),
-        )
+        # the l-ψ law's control-point targets (`control_targets`), made at its first command
+        # for the leader's curvature then (`_lpsi`; NaN: none yet): a run on the trace
+        # follower never asks for them
+        self._kappa_targets = math.nan
+        self._targets_l: tuple[list[float], list[float]] = ([], [])
         xl, yl, hl = self.leader.pose
         v_l, w_l = self.leader.speed, self.leader.omega
         slots = form.xy()
@@ -996,12 +993,12 @@ class World:
         """Follower index k's l-ψ command (unsaturated) for its estimate (x, y, θ)."""
         ld = self.leader
         kappa = ld.curvature
-        if kappa != self._kappa_targets:
-            self._l_d, self._psi_d = control_targets(
+        if kappa != self._kappa_targets:  # (NaN at first: made then)
+            targets = control_targets(
                 self._rho_d, self._beta_d, self.config.follower.control_offset, kappa
             )
             self._kappa_targets = kappa
-            self._targets_l = (self._l_d.tolist(), self._psi_d.tolist())
+            self._targets_l = (targets[0].tolist(), targets[1].tolist())
         l_d, psi_d = self._targets_l
         return lpsi_command(  # type: ignore[no-any-return]
             ld.pose, ld.speed, kappa * ld.speed, x, y, th, l_d[k], psi_d[k], self.config.follower

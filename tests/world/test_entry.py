@@ -84,6 +84,7 @@ def test_entry_types_a_changed_argument_again() -> None:
         (np.zeros((4, 4))[:, 0], 0.0),  # strided: layout A
         (np.zeros((4, 4), order="F"), 0.0),
         (ro, 0.0),
+        (np.frombuffer(bytearray(40), dtype=np.float64, count=4, offset=1), 0.0),  # unaligned
         ((a, a), 1),
         ((a, a, a), 1),
         (True, 1),
@@ -91,6 +92,8 @@ def test_entry_types_a_changed_argument_again() -> None:
     keys = [_type_key(v) for v in variants]
     assert len(set(keys)) == len(keys) and None not in keys
     assert _type_key((2**40,)) is None and _type_key(([1.0],)) is None  # typed every time
+    # (whether it owns its data is not read: a C-contiguous view has its owner's key)
+    assert _type_key((np.zeros((2, 4))[1], 0.0)) == keys[1]
     for v in variants:
         entry(disp, v)
         entry(disp, v)  # (the second from the kept types)
