@@ -491,6 +491,7 @@ def records_columns(
     state: bool = True,
     changes: NDArray[np.float64] | None = None,
     summary: bool = False,
+    violations: NDArray[np.bool_] | None = None,
 ) -> dict[str, Any]:
     """The columns of windows.csv (name -> array or list, in order) for complete records
     ``recs``: what `records_frame` holds, without the DataFrame (a writer's
@@ -500,7 +501,9 @@ def records_columns(
     ``summary`` True (with ``state`` False) also the window-level and sensing columns it
     does not read (the points, round trips and neighbours' flags among them; the others of
     `rtsim.coupling.summary.summary_columns` are the same either way).
-    ``changes``: `changes_array` of ``recs`` when the caller has made it (else made here)."""
+    ``changes``: `changes_array` of ``recs`` when the caller has made it (else made here);
+    ``violations``: their flags as an (m, `BOUND_KINDS`, n) bool array when the caller has
+    them (`rtsim.world.world.World.violations_of` of their changes; else read from ``viol``)."""
     cols = window_columns(n)
     m = len(recs)
     data: dict[str, object] = {}
@@ -526,11 +529,9 @@ def records_columns(
     if state:
         _follower_state(recs, n, limits, w, data, changes)
     nb = len(BOUND_KINDS)
-    viol = (
-        _flat(_each(recs, "viol", BOUND_KINDS), np.bool_, m * nb * n)
-        .reshape(m, nb, n)
-        .transpose(0, 2, 1)
-    )
+    if violations is None:
+        violations = _flat(_each(recs, "viol", BOUND_KINDS), np.bool_, m * nb * n)
+    viol = violations.reshape(m, nb, n).transpose(0, 2, 1)
     lost = None if summary and not state else _rows(_each(recs, "lost"), np.bool_, m, n)
     for i in range(n):
         for j, kind in enumerate(BOUND_KINDS):

@@ -28,6 +28,11 @@ RUNS = [
 def run(request: pytest.FixtureRequest) -> tuple[Any, Any]:
     """(the run's _Coupling after its loop, a copy, and its ScenarioResult)."""
     name, kw = RUNS[request.param]
+    return _kept(name, kw)
+
+
+def _kept(name: str, kw: dict[str, Any]) -> tuple[Any, Any]:
+    """`run`'s pair for the scenario ``name`` run with ``kw``."""
     kept: list[Any] = []
     real = sr._Coupling.run
 
@@ -119,6 +124,57 @@ def test_violation_ratios_equal_per_kind_arrays(run: tuple[Any, Any]) -> None:
         ratio = np.array([r.changes[key] for r in recs], dtype=float).reshape(len(recs), -1) / lim
         assert ratios[kind] == float(ratio.max())
         assert beyond[kind] == int((ratio > 1.0 + sr.VIOLATION_TOLERANCE).sum())
+
+
+def _flags_read(recs: list[Any], n: int) -> np.ndarray:
+    """The records' violation flags as they hold them, an (m, kinds, n) array."""
+    from rtsim.analysis.kinematics import BOUND_KINDS
+
+    return np.array([[list(r.viol[k]) for k in BOUND_KINDS] for r in recs], dtype=bool).reshape(
+        len(recs), len(BOUND_KINDS), n
+    )
+
+
+def _check_flags(coupling: Any) -> None:
+    """The flags the world makes of the complete records' changes are the records' own, and
+    `_tables`' summary columns (made with them) the full table's."""
+    from rtsim.coupling.recorder import changes_array, records_columns
+
+    n = coupling.n
+    recs = [r for r in coupling.rec.records if r.complete]
+    flags = coupling.world.violations_of(changes_array(recs, n))
+    assert flags.dtype == np.bool_ and flags.shape == (len(recs), 4, n)
+    assert np.array_equal(flags, _flags_read(recs, n))
+    _, table, kept, changes = sr._tables(coupling, None, False)
+    assert kept == recs and changes.tobytes() == changes_array(recs, n).tobytes()
+    full = records_columns(recs, n, coupling.rec.limits)
+    for c, v in table.items():
+        if isinstance(v, list):
+            assert v == full[c]
+        else:
+            assert v.dtype == full[c].dtype and v.tobytes() == full[c].tobytes(), c
+
+
+def test_violation_flags_of_the_changes_are_the_scans(run: tuple[Any, Any]) -> None:
+    """The summary's violation flags, made from the records' changes with the world's
+    thresholds (`World.violations_of`), are the flags each scan set."""
+    _check_flags(run[0])
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        {"sensing.r_H": 4, "thresholds.T_beta_deg": 0.5},
+        {"world.backend": "python", "sensing.r_H": 6, "thresholds.T_beta_deg": 1},
+    ],
+    ids=["compiled", "python"],
+)
+def test_violation_flags_of_every_bound_kind(overrides: dict[str, Any]) -> None:
+    """The same with every bound kind broken (small r_H and T_β; the adjust policy lets
+    the separation and path bounds break), on both scan paths."""
+    coupling, res = _kept("test2", {"duration_s": 20, "policy": "adjust", "overrides": overrides})
+    assert all(res.summary["violations"][k] for k in ("localization", "separation", "bearing"))
+    _check_flags(coupling)
 
 
 def test_summary_columns_without_state_are_the_tables(run: tuple[Any, Any]) -> None:
