@@ -20,6 +20,8 @@ import secrets
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from itertools import repeat
+from operator import attrgetter, is_
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -199,6 +201,7 @@ class _Decision(NamedTuple):
 
 #: an instance made without its ``__init__`` (its fields set by the caller)
 _BARE = object.__new__
+_CHANGES = attrgetter("changes")
 
 #: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
 _DECISION = _Decision._make
@@ -1165,7 +1168,10 @@ class _Coupling:
         if last is not None and last.viol is None:  # close the last observation interval
             scan = self.world.scan(max(self.env.now, self.world.t_ms))
             fol, (xl, yl, _) = self.world.followers, scan.leader_pose
-            self._close(scan, closest_each(fol.x, fol.y, xl, yl))
+            # (with the fused scan, its changes kept as every other record's: a copy of the
+            # scan's float rows, so the tables read every record's in one pass)
+            rows = None if self._scan_T is None else self._scan_T.copy()
+            self._close(scan, closest_each(fol.x, fol.y, xl, yl), None, rows)
 
 
 class _Complete(list[WindowRecord]):
@@ -1179,6 +1185,8 @@ class _Complete(list[WindowRecord]):
 def _closed(records: list[WindowRecord]) -> list[WindowRecord]:
     """The complete ``records`` whose changes are known (those the violation ratios fold)."""
     if type(records) is _Complete:
+        if not any(map(is_, map(_CHANGES, records), repeat(None))):  # (a run's: the same)
+            return records
         return [r for r in records if r.changes is not None]
     return [r for r in records if r.complete and r.changes is not None]
 
