@@ -434,6 +434,17 @@ def _rows(rows: Any, dtype: Any, m: int, width: int) -> NDArray[Any]:
     return np.fromiter(_chain(rows), dtype, m * width).reshape(m, width)
 
 
+def _same_rows(vals: list[Any], dtype: Any, width: int) -> NDArray[Any]:
+    """`_rows` of ``vals`` (sequences of ``width`` numbers, one per record); when every one is
+    the same object (a run's records without a lost track share their zero counts), its
+    numbers converted once and repeated, without a pass over the values."""
+    m = len(vals)
+    if m and all(map(is_, vals, repeat(vals[0]))):
+        row = np.fromiter(vals[0], dtype, width)
+        return np.broadcast_to(row, (m, width)).copy()
+    return _rows(vals, dtype, m, width)
+
+
 def _filled(recs: list[WindowRecord], name: str, empty: Any, dtype: Any, n: int) -> NDArray[Any]:
     """Every record's field ``name`` (``n`` values each) as an (m, n) array of ``dtype``,
     ``n`` times ``empty`` for a record whose field is empty or None (``r.name or (empty,) *
@@ -563,7 +574,7 @@ def records_columns(
             data[f"f{i + 1}_lost"] = lost[:, i]
     data["assumption_broken"] = _column(recs, "assumption_broken", bool)
     nc = len(LOST_CAUSES)
-    causes = _rows(_each(recs, "lost_by_cause"), np.int64, m, nc)
+    causes = _same_rows(list(_each(recs, "lost_by_cause")), np.int64, nc)
     for j, col in enumerate(LOCALIZATION_COLUMNS[:nc]):
         data[col] = causes[:, j]
     data["searches"] = _column(recs, "searches", np.int64)

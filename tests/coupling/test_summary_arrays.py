@@ -229,3 +229,17 @@ def test_windows_frame_built_when_first_read(run: tuple[Any, Any]) -> None:
     recs = [r for r in coupling.rec.records if r.complete]
     ref = records_frame(recs, coupling.n, coupling.rec.limits)
     assert list(df.columns) == list(ref.columns) and df.to_csv() == ref.to_csv()
+
+
+def test_same_rows_repeat_one_object_and_read_any_other() -> None:
+    """`_same_rows` repeats the numbers of one object every record shares, and reads each
+    record's otherwise: the array `_rows` gives either way, writable."""
+    from rtsim.coupling.recorder import _rows, _same_rows
+
+    zero = (0, 0, 0, 0)
+    one = (0, 1, 0, 2)
+    for vals in ([zero] * 5, [zero, zero, one, zero], [one], [], [zero, (0, 0, 0, 0)]):
+        got = _same_rows(list(vals), np.int64, 4)
+        want = _rows(iter(vals), np.int64, len(vals), 4)
+        assert got.dtype == want.dtype and got.shape == want.shape
+        assert got.tobytes() == want.tobytes() and got.flags.writeable
