@@ -449,10 +449,14 @@ def _filled(recs: list[WindowRecord], name: str, empty: Any, dtype: Any, n: int)
     """Every record's field ``name`` (``n`` values each) as an (m, n) array of ``dtype``,
     ``n`` times ``empty`` for a record whose field is empty or None (``r.name or (empty,) *
     n``: a record made without a scan's sensing or contact); no Python per record when
-    every record has its values, or none has."""
+    every record has its values, or none has; flags (``dtype`` bool) every record holds
+    equal (a run's neighbours' and contacts' flags, mostly none set) converted once and
+    repeated (equal values are equal flags)."""
     vals = list(map(attrgetter(name), recs))
     m = len(vals)
     if all(vals):
+        if m and dtype is bool and vals.count(vals[0]) == m:  # (C-level compares)
+            return np.broadcast_to(np.fromiter(vals[0], dtype, n), (m, n)).copy()
         return _rows(vals, dtype, m, n)
     if not any(vals):
         return np.full((m, n), empty, dtype=dtype)

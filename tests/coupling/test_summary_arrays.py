@@ -243,3 +243,29 @@ def test_same_rows_repeat_one_object_and_read_any_other() -> None:
         want = _rows(iter(vals), np.int64, len(vals), 4)
         assert got.dtype == want.dtype and got.shape == want.shape
         assert got.tobytes() == want.tobytes() and got.flags.writeable
+
+
+def test_filled_flags_equal_in_every_record_are_the_rows() -> None:
+    """`_filled`'s flags every record holds equal are repeated from the first record's: the
+    array its rows give, whatever the flags' type (bools, numpy bools, 0 and 1)."""
+    from types import SimpleNamespace
+
+    from rtsim.coupling.recorder import _filled, _rows
+
+    def recs(*vals: Any) -> list[Any]:
+        return [SimpleNamespace(flags=v) for v in vals]
+
+    f, t = [False, False], [True, False]
+    cases = [
+        [f, list(f), [False, False]],
+        [t, list(t), [np.True_, np.False_], [1, 0]],
+        [f, t, f],
+        [[0, 0], [False, False]],
+        [t],
+        [],
+    ]
+    for vals in cases:
+        got = _filled(recs(*vals), "flags", False, bool, 2)  # type: ignore[arg-type]
+        want = _rows(iter(vals), bool, len(vals), 2)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+        assert got.flags.writeable and got.shape == (len(vals), 2)
