@@ -4,8 +4,11 @@
     python benchmarks/bench_hough_calls.py replay FILE [--rounds 10] [--chunk 25]
 
 ``capture`` runs one warm lap (``run_scenario(..., record_jobs=False)`` after a warm-up
-lap) and pickles every call of `rtsim.world.hough.Accumulator.locate` and ``.search`` (the
-scan, the window centres and radius, and the accumulator's r_F, cell, followers and r_max).
+lap) on the python world backend, and pickles every call of
+`rtsim.world.hough.Accumulator.locate` and ``.search`` (the scan, the window centres and
+radius, and the accumulator's r_F, cell, followers and r_max): the compiled backend votes
+inside its fused scan (`rtsim.world.scanstep`; `bench_world.py` times that) and makes none
+of these calls.
 ``replay`` builds a compiled `Accumulator` of this checkout for them and calls it: once to
 hash the `WINDOW_ROW` records, then ``--rounds`` times over chunks of ``--chunk`` calls,
 and prints the sum of each chunk's minimum (CPU) and the time per window: compare two
@@ -32,7 +35,8 @@ def capture(path: str, scenario: str, followers: int) -> int:
     from rtsim.coupling import run_scenario
     from rtsim.world.hough import Accumulator
 
-    ov = {"formation.followers": followers}
+    # (the python backend: the compiled one's fused scan makes no accumulator calls)
+    ov = {"formation.followers": followers, "world.backend": "python"}
     run_scenario(scenario, record_jobs=False, overrides=ov)  # warm-up: imports, compile
     got: list[tuple[Any, ...]] = []
     real = Accumulator.locate, Accumulator.search
@@ -56,6 +60,8 @@ def capture(path: str, scenario: str, followers: int) -> int:
         run_scenario(scenario, record_jobs=False, overrides=ov)
     finally:
         Accumulator.locate, Accumulator.search = real  # type: ignore[method-assign]
+    if not got:
+        raise SystemExit(f"bench_hough_calls: no accumulator call in a lap of {scenario}")
     with open(path, "wb") as f:
         pickle.dump(got, f)
     return len(got)

@@ -116,11 +116,12 @@ def lap_oracle(cfg: WorldConfig, w_sch: float) -> float | None:
         cfg.leader_decel_max,
         float(w_sch),
     )
-    if key not in _CACHE:
+    got = _CACHE.get(key)  # (the key hashed once on a hit: its segments' fields)
+    if got is None:
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = _oracle(cfg, float(w_sch))
-    return _CACHE[key]
+        got = _CACHE[key] = _oracle(cfg, float(w_sch))
+    return got
 
 
 _CACHE: dict[tuple[object, ...], float] = {}

@@ -20,6 +20,8 @@ import secrets
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from itertools import repeat
+from operator import attrgetter, is_
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -199,6 +201,7 @@ class _Decision(NamedTuple):
 
 #: an instance made without its ``__init__`` (its fields set by the caller)
 _BARE = object.__new__
+_CHANGES = attrgetter("changes")
 
 #: `_Decision` from its eleven fields in order (namedtuple's ``_make``: no Python ``__new__``)
 _DECISION = _Decision._make
@@ -939,14 +942,17 @@ class _Coupling:
         self,
         tolerance: float = VIOLATION_TOLERANCE,
         complete: list[WindowRecord] | None = None,
+        changes: np.ndarray | None = None,
     ) -> tuple[dict[str, float], dict[str, int]]:
         """Per bound kind over the kept windows: the largest observed change / its threshold,
         and the (window, follower) pairs whose change exceeds the threshold by more than
         ``tolerance`` (a violation count that leaves out overshoots of a few per cent).
-        ``complete``: the kept records that are complete, when the caller has them."""
+        ``complete``: the kept records that are complete, when the caller has them, and
+        ``changes`` their `changes_array` (every one of them closed, `_tables`)."""
         if self._folded and tolerance != VIOLATION_TOLERANCE:
             raise ValueError("records were handed over: only the default tolerance is known")
-        left = self._fold(self.rec.records if complete is None else complete, tolerance)
+        recs = self.rec.records if complete is None else complete
+        left = self._fold(recs, tolerance, None if complete is None else changes)
         ratios: dict[str, float] = {}
         beyond: dict[str, int] = {}
         for kind, _, _ in self._limits:
@@ -1083,11 +1089,12 @@ class _Coupling:
         horizon_ms: float,
         stop_s: float | None,
         complete: list[WindowRecord] | None = None,
+        changes: np.ndarray | None = None,
     ) -> dict[str, Any]:
         """summary.json's keys beyond the windows' (`summarize`): the lap, the policy and
         models, the violation ratios, the oracle's lap and the physical log; ``res``: the
         CPU's result; ``complete``: the kept records that are complete, if the caller has
-        them (`violation_ratios`)."""
+        them, and ``changes`` their `changes_array` (`violation_ratios`)."""
         cfg, world = self._given, self.world  # (the scenario's world, before a settled start)
         extra: dict[str, Any] = {
             "laps": (world.leader.s - self._s0) / cfg.path.lap_length,
@@ -1116,7 +1123,7 @@ class _Coupling:
                 f"completed its lap"
             )
         extra["max_violation_ratio"], extra["violations_beyond_5pct"] = self.violation_ratios(
-            complete=complete
+            complete=complete, changes=changes
         )
         # the fastest lap that keeps every bound, offline (rtsim.control.oracle; cached)
         oracle = lap_oracle(cfg, self.w_sch)
@@ -1171,7 +1178,10 @@ class _Coupling:
         if last is not None and last.viol is None:  # close the last observation interval
             scan = self.world.scan(max(self.env.now, self.world.t_ms))
             fol, (xl, yl, _) = self.world.followers, scan.leader_pose
-            self._close(scan, closest_each(fol.x, fol.y, xl, yl))
+            # (with the fused scan, its changes kept as every other record's: a copy of the
+            # scan's float rows, so the tables read every record's in one pass)
+            rows = None if self._scan_T is None else self._scan_T.copy()
+            self._close(scan, closest_each(fol.x, fol.y, xl, yl), None, rows)
 
 
 class _Complete(list[WindowRecord]):
@@ -1185,6 +1195,8 @@ class _Complete(list[WindowRecord]):
 def _closed(records: list[WindowRecord]) -> list[WindowRecord]:
     """The complete ``records`` whose changes are known (those the violation ratios fold)."""
     if type(records) is _Complete:
+        if not any(map(is_, map(_CHANGES, records), repeat(None))):  # (a run's: the same)
+            return records
         return [r for r in records if r.changes is not None]
     return [r for r in records if r.complete and r.changes is not None]
 
@@ -1335,7 +1347,7 @@ def run_scenario(
         if progress is not None:
             progress(1.0, float(run.env.now))
         t2, c2 = time.perf_counter(), time.process_time()
-        df, table, complete = _tables(run, window_sink, windows)
+        df, table, complete, changes = _tables(run, window_sink, windows)
         res = run.cpu.result()
         summary = summarize(
             table,
@@ -1345,7 +1357,7 @@ def run_scenario(
             seed=int(seed),
             scenario=inp.name,
             n=run.n,
-            extra=run.summary_extra(res, horizon_ms, stop_s, complete),
+            extra=run.summary_extra(res, horizon_ms, stop_s, complete, changes),
             scratch=None if scratch is None else f"{scratch}-fixes",
         )
     finally:
@@ -1397,16 +1409,26 @@ def _length(
 
 def _tables(
     run: _Coupling, window_sink: Any, windows: bool
-) -> tuple[_Records | None, Any, list[WindowRecord] | None]:
+) -> tuple[_Records | None, Any, list[WindowRecord] | None, np.ndarray | None]:
     """The windows' records for the result's frame (None: streamed or not asked for; the
     frame is built when first read, `_Frame`), the columns the summary reads (in memory,
     without the followers' state and bounds, or read back from the sink in chunks: memory
-    stays flat at any length and follower count) and the complete records kept (None:
-    streamed)."""
+    stays flat at any length and follower count), the complete records kept (None:
+    streamed) and their changes (`changes_array`, for the violation ratios; None: streamed
+    or none). The violation flags are those the world's scans made of the same changes
+    (`World.violations_of`): one array, not a pass over every record's flag lists
+    (≈ 0.3 ms of a Test 2 lap; tests/coupling/test_summary_arrays.py)."""
     if window_sink is None:
         recs = _Complete([r for r in run.rec.records if r.complete])
-        table = records_columns(recs, run.n, run.rec.limits, state=False, summary=True)
-        return (_Records(recs, run.n, run.rec.limits) if windows else None), table, recs
+        n, limits = run.n, run.rec.limits
+        closed = _closed(recs)
+        changes = changes_array(closed, n) if closed else None
+        flags = None
+        if changes is not None and len(closed) == len(recs):
+            flags = run.world.violations_of(changes)
+        table = records_columns(recs, n, limits, state=False, summary=True, violations=flags)
+        frame = _Records(recs, n, limits) if windows else None
+        return frame, table, recs, changes
     run.rec.flush()
     window_sink.close()
-    return None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS), None
+    return None, window_sink.iter_read(summary_columns(run.n), SUMMARY_READ_ROWS), None, None

@@ -233,7 +233,8 @@ def _direct(
         virtual = (count[t] - 1) * 0.95
         if count[t] and not nan[t] and virtual < count[t] - 1:
             k = math.floor(virtual)
-            v = np.concatenate([a for p in parts for u, a in p if u == t]) + 0.0
+            got = [a for p in parts for u, a in p if u == t]
+            v = (got[0] if len(got) == 1 else np.concatenate(got)) + 0.0  # (a copy)
             v.partition([k, k + 1])  # (in place)
             select = v.item
         stats.append(_stats(count[t], nan[t], top[t], select))
@@ -260,16 +261,18 @@ def p95_max_columns(
         yield from enumerate(cols)
         yield width, np.concatenate(cols) if cols else np.zeros(0)
 
-    kept: list[np.ndarray] | None = []  # pass 0's chunks, while within DIRECT_ROWS
+    # pass 0's chunks' values (`values`), while within DIRECT_ROWS
+    kept: list[list[tuple[int, np.ndarray]]] | None = []
     rows = 0
     for chunk in chunks():  # pass 0: counts, NaN, maxima
+        parts = list(values(chunk))
         if kept is not None:
             rows += len(chunk)
             if rows <= DIRECT_ROWS:
-                kept.append(chunk)
+                kept.append(parts)
             else:
                 kept = None
-        for t, v in values(chunk):
+        for t, v in parts:
             if not v.size:
                 continue
             count[t] += v.size
@@ -279,7 +282,7 @@ def p95_max_columns(
             elif m > top[t]:
                 top[t] = m
     if kept is not None:
-        return _direct([list(values(c)) for c in kept], count, nan, top, width)
+        return _direct(kept, count, nan, top, width)
     queries: dict[tuple[int, int], _Query] = {}
     for t in range(targets):
         if count[t] and not nan[t]:

@@ -152,11 +152,13 @@ def _reach(fn: Callable[..., Any], subs: Subs = ()) -> tuple[set[Callable[..., A
 
 def source_key(fn: Callable[..., Any], subs: Subs = ()) -> str:
     """A hash of the source text of ``fn`` and of every kernel source it reaches (with their
-    names; ``subs`` applied), and of the values of the other globals they read (module
-    docstring)."""
+    names; ``subs`` applied), of the values of the other globals they read (module
+    docstring) and of numba's options (`_OPTIONS`, `_INLINE`: numba's own cache index
+    ignores them, so a build made under other options would be loaded)."""
     seen, _ = _reach(fn, subs)
     h = hashlib.sha256(b"".join(sorted(map(_digest, seen))))
-    h.update(f"scheme {BUILD_SCHEME}".encode())
+    options = f"{sorted(_OPTIONS.items())} {sorted(_INLINE.items())}"
+    h.update(f"scheme {BUILD_SCHEME} {options}".encode())
     return h.hexdigest()[:24]
 
 
@@ -195,7 +197,7 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
     clone.__qualname__, clone.__module__ = _variant_name(fn, subs), fn.__module__
     out: Any
     if inline:
-        out = numba.njit(nogil=True, inline="always")(clone)
+        out = numba.njit(**_INLINE)(clone)
     else:
         njit: Any = numba.njit  # (numba's stubs omit no_cfunc_wrapper)
         pipeline = custom.entry if entry else custom.linked_only or custom.entry
@@ -220,8 +222,13 @@ def _build(fn: Callable[..., Any], subs: Subs, entry: bool) -> Any:
 #: numba's options of every kernel it compiles on its own, an entry or linked-only (the
 #: latter without numba's CPython wrapper: `_linked_only_compiler`): one set of flags, so
 #: that numba types its own helpers (``np.empty``, ``min``: compiled per signature *and*
-#: flags) once for both; no C-callable wrapper, which nothing here calls
-_OPTIONS: dict[str, Any] = {"nogil": True, "no_cfunc_wrapper": True}
+#: flags) once for both; no C-callable wrapper, which nothing here calls; numpy's error
+#: model: a division by zero gives IEEE's inf or nan where the Python reference (the same
+#: source uncompiled) raises ZeroDivisionError, so the two agree on every run that completes,
+#: and the divisions lose their test and raise path (-0.6 % of a Test 2 lap's instructions)
+_OPTIONS: dict[str, Any] = {"nogil": True, "no_cfunc_wrapper": True, "error_model": "numpy"}
+#: numba's options of an ``inline`` kernel (typed and lowered again in each caller)
+_INLINE: dict[str, Any] = {"nogil": True, "inline": "always", "error_model": "numpy"}
 
 
 def _variant_name(fn: Callable[..., Any], subs: Subs) -> str:

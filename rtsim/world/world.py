@@ -771,6 +771,19 @@ class World:
             t_ms, lp, truth_l, centre, pts, cols, errors, changes, violations, voted
         )
 
+    def violations_of(self, changes: Array) -> NDArray[np.bool_]:
+        """The violations scans with these ``changes`` flagged: ``changes`` an (m, 4, n) array
+        of each scan's displacement, |Δρ|, travel and |Δβ| per follower (`Scan.changes`,
+        `rtsim.coupling.recorder.changes_array`), the flags an (m, 4, n) bool array in
+        `rtsim.analysis.kinematics.BOUND_KINDS` order: `bound_violations` with this world's
+        thresholds, over every scan at once (the comparisons each scan made, to the bit)."""
+        disp, d_rho, travel, d_beta = changes.transpose(1, 0, 2)
+        flags = _VIOLATIONS(
+            disp, d_rho, travel, d_beta, self._r_H, self._sep_limit, self._travel_limit,
+            self._T_beta,
+        )  # fmt: skip
+        return np.stack(flags, axis=1)
+
     def _changes(
         self, truth_l: list[XY], odometer: list[float], fixes: list[Fix]
     ) -> tuple[

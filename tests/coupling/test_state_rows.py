@@ -146,9 +146,9 @@ def _poses_speeds(o: StateRows) -> tuple[list[tuple[float, ...]], list[float]]:
 
 def test_scan_changes_read_as_the_scans_lists(monkeypatch: pytest.MonkeyPatch) -> None:
     """A run's records keep their changes as `ScanChanges` over a copy of the fused scan's
-    float rows (one closed after the loop, as the scan's lists): each reads as the scan's
-    mapping (a run that keeps the lists), and `changes_array` gives the same floats
-    whichever form a record holds, all of one or mixed."""
+    float rows (the one closed after the loop too): each reads as the scan's mapping (a run
+    that keeps the lists), and `changes_array` gives the same floats whichever form a
+    record holds, all of one or mixed."""
     import numpy as np
 
     from rtsim.coupling.recorder import CHANGE_KEYS, ScanChanges, changes_array
@@ -166,7 +166,7 @@ def test_scan_changes_read_as_the_scans_lists(monkeypatch: pytest.MonkeyPatch) -
     )  # (no rows: the scan's lists)
     plain = run()
     assert len(recs) == len(plain) > 10
-    assert all(type(r.changes) is ScanChanges for r in recs[:-1])
+    assert all(type(r.changes) is ScanChanges for r in recs)
     assert not any(type(r.changes) is ScanChanges for r in plain)
     for r, p in zip(recs, plain, strict=True):
         got, want_map = r.changes, p.changes
@@ -174,7 +174,40 @@ def test_scan_changes_read_as_the_scans_lists(monkeypatch: pytest.MonkeyPatch) -
         assert [list(map(float, got[k])) for k in CHANGE_KEYS] == [want_map[k] for k in CHANGE_KEYS]
         assert "other" not in got and got.get("other") is None
     want = np.array([[p.changes[k] for k in CHANGE_KEYS] for p in plain], dtype=float)
-    mixed = [*recs[:-1], plain[-1]]  # (as a run closed after its loop holds them)
+    mixed = [*recs[:-1], plain[-1]]  # (a record holding the scan's lists among copies)
     for part, w in ((mixed, want), (recs[:-1], want[:-1]), (plain, want), ([], want[:0])):
         got_a = changes_array(part, 3)
         assert got_a.dtype == np.float64 and got_a.tobytes() == w.tobytes()
+
+
+def test_changes_array_of_copies_in_any_layout() -> None:
+    """`changes_array` joins the copies' bytes when they are C-contiguous float arrays, and
+    concatenates them otherwise (Fortran order, a strided view, another dtype): the same
+    values either way, as a writable array of its own."""
+    import numpy as np
+
+    from rtsim.coupling.recorder import CHANGE_KEYS, ScanChanges, changes_array
+    from rtsim.world.scanstep import FLOAT_COUNT
+
+    rng = np.random.default_rng(5)
+    n, m = 3, 7
+    base = [rng.random((FLOAT_COUNT, n)) for _ in range(m)]
+    at = ScanChanges.AT
+    want = np.array([b[at : at + len(CHANGE_KEYS)] for b in base])
+
+    def of(arrays: list[np.ndarray]) -> list[object]:
+        out = []
+        for a in arrays:
+            rec = scenario_run.WindowRecord.__new__(scenario_run.WindowRecord)
+            rec.changes = ScanChanges(a)
+            out.append(rec)
+        return out
+
+    wide = [np.repeat(b, 2, axis=1)[:, ::2] for b in base]  # (strided views, same values)
+    for arrays in (base, [np.asfortranarray(b) for b in base], wide, [*base[:3], *wide[3:]]):
+        got = changes_array(of(arrays), n)  # type: ignore[arg-type]
+        assert got.flags.writeable and got.tobytes() == want.tobytes()
+    as32 = [b.astype(np.float32) for b in base]
+    got = changes_array(of([*base[:2], *as32[2:]]), n)  # type: ignore[arg-type]
+    mixed = np.array([b[at : at + 4] for b in [*base[:2], *as32[2:]]], dtype=np.float64)
+    assert got.tobytes() == mixed.tobytes()

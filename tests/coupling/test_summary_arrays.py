@@ -28,6 +28,11 @@ RUNS = [
 def run(request: pytest.FixtureRequest) -> tuple[Any, Any]:
     """(the run's _Coupling after its loop, a copy, and its ScenarioResult)."""
     name, kw = RUNS[request.param]
+    return _kept(name, kw)
+
+
+def _kept(name: str, kw: dict[str, Any]) -> tuple[Any, Any]:
+    """`run`'s pair for the scenario ``name`` run with ``kw``."""
     kept: list[Any] = []
     real = sr._Coupling.run
 
@@ -121,6 +126,57 @@ def test_violation_ratios_equal_per_kind_arrays(run: tuple[Any, Any]) -> None:
         assert beyond[kind] == int((ratio > 1.0 + sr.VIOLATION_TOLERANCE).sum())
 
 
+def _flags_read(recs: list[Any], n: int) -> np.ndarray:
+    """The records' violation flags as they hold them, an (m, kinds, n) array."""
+    from rtsim.analysis.kinematics import BOUND_KINDS
+
+    return np.array([[list(r.viol[k]) for k in BOUND_KINDS] for r in recs], dtype=bool).reshape(
+        len(recs), len(BOUND_KINDS), n
+    )
+
+
+def _check_flags(coupling: Any) -> None:
+    """The flags the world makes of the complete records' changes are the records' own, and
+    `_tables`' summary columns (made with them) the full table's."""
+    from rtsim.coupling.recorder import changes_array, records_columns
+
+    n = coupling.n
+    recs = [r for r in coupling.rec.records if r.complete]
+    flags = coupling.world.violations_of(changes_array(recs, n))
+    assert flags.dtype == np.bool_ and flags.shape == (len(recs), 4, n)
+    assert np.array_equal(flags, _flags_read(recs, n))
+    _, table, kept, changes = sr._tables(coupling, None, False)
+    assert kept == recs and changes.tobytes() == changes_array(recs, n).tobytes()
+    full = records_columns(recs, n, coupling.rec.limits)
+    for c, v in table.items():
+        if isinstance(v, list):
+            assert v == full[c]
+        else:
+            assert v.dtype == full[c].dtype and v.tobytes() == full[c].tobytes(), c
+
+
+def test_violation_flags_of_the_changes_are_the_scans(run: tuple[Any, Any]) -> None:
+    """The summary's violation flags, made from the records' changes with the world's
+    thresholds (`World.violations_of`), are the flags each scan set."""
+    _check_flags(run[0])
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        {"sensing.r_H": 4, "thresholds.T_beta_deg": 0.5},
+        {"world.backend": "python", "sensing.r_H": 6, "thresholds.T_beta_deg": 1},
+    ],
+    ids=["compiled", "python"],
+)
+def test_violation_flags_of_every_bound_kind(overrides: dict[str, Any]) -> None:
+    """The same with every bound kind broken (small r_H and T_β; the adjust policy lets
+    the separation and path bounds break), on both scan paths."""
+    coupling, res = _kept("test2", {"duration_s": 20, "policy": "adjust", "overrides": overrides})
+    assert all(res.summary["violations"][k] for k in ("localization", "separation", "bearing"))
+    _check_flags(coupling)
+
+
 def test_summary_columns_without_state_are_the_tables(run: tuple[Any, Any]) -> None:
     """The summary reads columns built without the followers' state, estimates and bounds
     (`records_columns(state=False)`; with ``summary=True``, the run's, just the columns
@@ -173,3 +229,43 @@ def test_windows_frame_built_when_first_read(run: tuple[Any, Any]) -> None:
     recs = [r for r in coupling.rec.records if r.complete]
     ref = records_frame(recs, coupling.n, coupling.rec.limits)
     assert list(df.columns) == list(ref.columns) and df.to_csv() == ref.to_csv()
+
+
+def test_same_rows_repeat_one_object_and_read_any_other() -> None:
+    """`_same_rows` repeats the numbers of one object every record shares, and reads each
+    record's otherwise: the array `_rows` gives either way, writable."""
+    from rtsim.coupling.recorder import _rows, _same_rows
+
+    zero = (0, 0, 0, 0)
+    one = (0, 1, 0, 2)
+    for vals in ([zero] * 5, [zero, zero, one, zero], [one], [], [zero, (0, 0, 0, 0)]):
+        got = _same_rows(list(vals), np.int64, 4)
+        want = _rows(iter(vals), np.int64, len(vals), 4)
+        assert got.dtype == want.dtype and got.shape == want.shape
+        assert got.tobytes() == want.tobytes() and got.flags.writeable
+
+
+def test_filled_flags_equal_in_every_record_are_the_rows() -> None:
+    """`_filled`'s flags every record holds equal are repeated from the first record's: the
+    array its rows give, whatever the flags' type (bools, numpy bools, 0 and 1)."""
+    from types import SimpleNamespace
+
+    from rtsim.coupling.recorder import _filled, _rows
+
+    def recs(*vals: Any) -> list[Any]:
+        return [SimpleNamespace(flags=v) for v in vals]
+
+    f, t = [False, False], [True, False]
+    cases = [
+        [f, list(f), [False, False]],
+        [t, list(t), [np.True_, np.False_], [1, 0]],
+        [f, t, f],
+        [[0, 0], [False, False]],
+        [t],
+        [],
+    ]
+    for vals in cases:
+        got = _filled(recs(*vals), "flags", False, bool, 2)  # type: ignore[arg-type]
+        want = _rows(iter(vals), bool, len(vals), 2)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+        assert got.flags.writeable and got.shape == (len(vals), 2)

@@ -155,6 +155,15 @@ def test_the_build_scheme_is_in_the_key(isolated: pytest.MonkeyPatch) -> None:
     assert jit.source_key(motion.follower_advance) != before
 
 
+@pytest.mark.parametrize("name", ["_OPTIONS", "_INLINE"])
+def test_numbas_options_are_in_the_key(isolated: pytest.MonkeyPatch, name: str) -> None:
+    """A build cached under other numba options (numba's own index ignores them) is never
+    loaded: each option set is part of the key."""
+    before = jit.source_key(motion.follower_advance)
+    isolated.setattr(jit, name, {**getattr(jit, name), "error_model": "python"})
+    assert jit.source_key(motion.follower_advance) != before
+
+
 def test_a_control_kernel_keys_the_world_sources_it_calls(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
