@@ -435,12 +435,13 @@ def _rows(rows: Any, dtype: Any, m: int, width: int) -> NDArray[Any]:
     return np.fromiter(_chain(rows), dtype, m * width).reshape(m, width)
 
 
-def _same_rows(vals: list[Any], dtype: Any, width: int) -> NDArray[Any]:
+def _same_rows(vals: list[Any], dtype: Any, width: int, equal: bool = False) -> NDArray[Any]:
     """`_rows` of ``vals`` (sequences of ``width`` numbers, one per record); when every one is
-    the same object (a run's records without a lost track share their zero counts), its
+    the same object (a run's records without a lost track share their zero counts), or with
+    ``equal`` an equal one (flags: equal values are equal bools; C-level compares), its
     numbers converted once and repeated, without a pass over the values."""
     m = len(vals)
-    if m and all(map(is_, vals, repeat(vals[0]))):
+    if m and (vals.count(vals[0]) == m if equal else all(map(is_, vals, repeat(vals[0])))):
         row = np.fromiter(vals[0], dtype, width)
         return np.broadcast_to(row, (m, width)).copy()
     return _rows(vals, dtype, m, width)
@@ -452,13 +453,11 @@ def _filled(recs: list[WindowRecord], name: str, empty: Any, dtype: Any, n: int)
     n``: a record made without a scan's sensing or contact); no Python per record when
     every record has its values, or none has; flags (``dtype`` bool) every record holds
     equal (a run's neighbours' and contacts' flags, mostly none set) converted once and
-    repeated (equal values are equal flags)."""
+    repeated (`_same_rows`)."""
     vals = list(map(attrgetter(name), recs))
     m = len(vals)
     if all(vals):
-        if m and dtype is bool and vals.count(vals[0]) == m:  # (C-level compares)
-            return np.broadcast_to(np.fromiter(vals[0], dtype, n), (m, n)).copy()
-        return _rows(vals, dtype, m, n)
+        return _same_rows(vals, dtype, n, equal=dtype is bool)
     if not any(vals):
         return np.full((m, n), empty, dtype=dtype)
     none = (empty,) * n
